@@ -1,0 +1,43 @@
+# aion — the two commands: `make demo` and `make test`.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed-stamp
+DEMO := demo-out
+
+.PHONY: install test lint typecheck pytest demo bench sample clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+
+typecheck: $(STAMP)
+	$(BIN)/mypy
+
+pytest: $(STAMP)
+	$(BIN)/pytest
+
+## make test: create .venv, install, run ruff, mypy and pytest
+test: lint typecheck pytest
+
+## make demo: build a map from the bundled sample, predict, plan, export
+demo: $(STAMP)
+	bash samples/demo.sh $(BIN) $(DEMO)
+
+## make bench: speed and memory benchmarks (not part of make test)
+bench: $(STAMP)
+	$(BIN)/python -m benchmarks.run
+
+## make sample: regenerate samples/ from the simulator
+sample: $(STAMP)
+	bash samples/regenerate.sh $(BIN)
+
+clean:
+	rm -rf $(VENV) $(DEMO) .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,1 @@
+"""The aion model: pure numpy/scipy. No file I/O, no click, no rich."""

@@ -1,0 +1,78 @@
+"""Typed errors shared by every layer.
+
+Library code raises these; only ``aion_cli.cli`` turns them into a one-line ``error: ...`` with
+a hint. :class:`InputError` and its subclasses are the user's to fix (exit code 2); any other
+:class:`AionError` is an internal fault (exit code 1).
+"""
+
+from __future__ import annotations
+
+
+class AionError(Exception):
+    """Base of every error aion raises on purpose.
+
+    ``hint`` says what the user can do about it; the CLI prints it under the error line.
+    """
+
+    def __init__(self, message: str, hint: str | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.hint = hint
+
+
+class InputError(AionError):
+    """Bad input or usage: a file, an option, a value the user gave (CLI exit code 2)."""
+
+
+class ConfigError(InputError):
+    """A model parameter or configuration file is invalid."""
+
+
+class CoordinateRangeError(InputError):
+    """A coordinate cannot be packed into a spatial-hash key (too large or not finite)."""
+
+
+class LogFormatError(InputError):
+    """A log file cannot be opened or read (unknown format, corrupt, empty)."""
+
+
+class TopicNotFoundError(InputError):
+    """No usable topic, or the named topic is missing; ``candidates`` lists what the log has."""
+
+    def __init__(
+        self, message: str, candidates: list[str] | None = None, hint: str | None = None
+    ) -> None:
+        super().__init__(message, hint)
+        self.candidates = candidates or []
+
+
+class MessageDecodeError(InputError):
+    """A message payload cannot be decoded (wrong type, truncated, unknown version)."""
+
+
+class TransformError(InputError):
+    """A frame transform is missing or outside the recorded time range."""
+
+
+class MapFileError(InputError):
+    """A map file is invalid: not a map, corrupted, or from an unsupported version."""
+
+
+class MapCorruptError(MapFileError):
+    """A map member fails its checksum or cannot be parsed."""
+
+
+class MapVersionError(MapFileError):
+    """A map file was written by a newer, incompatible aion."""
+
+
+class MapLockedError(InputError):
+    """Another process is writing the same map file."""
+
+
+class UnknownNodeError(InputError):
+    """A node id given by the user does not exist in the map."""
+
+
+class NoPathError(InputError):
+    """Start and goal are not connected in the navigational graph."""

@@ -1,0 +1,1 @@
+"""aion_cli.evaluation package."""

@@ -1,0 +1,1 @@
+"""Benchmarks: speed and memory as ratios against in-process baselines (make bench)."""

@@ -1,0 +1,1 @@
+"""Everything that touches bytes: logs, messages, scene graphs, TF, tracks, map files, export."""
