@@ -1,0 +1,77 @@
+"""The one rich console (on stderr) and the progress-bar factory.
+
+Everything for humans (progress, summaries, notes) goes to stderr through :func:`console`;
+data (tables asked for with ``--format table``, JSON, CSV) goes to stdout through
+:func:`data_console` or plain ``click.echo``. Both consoles look up ``sys.stderr`` /
+``sys.stdout`` on every write, so click's test runner captures them.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import TYPE_CHECKING
+
+from rich.console import Console
+
+if TYPE_CHECKING:
+    from rich.progress import Progress
+
+_ERR: Console | None = None
+_OUT: Console | None = None
+
+
+def console() -> Console:
+    """The console on stderr for progress, notes and summaries."""
+    global _ERR
+    if _ERR is None:
+        _ERR = Console(stderr=True, highlight=False)
+    return _ERR
+
+
+def data_console() -> Console:
+    """A console on stdout for data rendered as a rich table (never wraps into nonsense:
+    width falls back to 200 columns when stdout is not a terminal)."""
+    global _OUT
+    if _OUT is None:
+        _OUT = Console(highlight=False, width=None if sys.stdout.isatty() else 200)
+    return _OUT
+
+
+def note(message: str) -> None:
+    """A one-line informational message on stderr (dimmed)."""
+    console().print(f"[dim]{message}[/dim]", soft_wrap=True)
+
+
+def warn(message: str) -> None:
+    """A one-line warning on stderr."""
+    console().print(f"[yellow]warning:[/yellow] {message}", soft_wrap=True, markup=True)
+
+
+def progress(quiet: bool = False) -> Progress:
+    """A progress bar on stderr with a real total, rate and ETA.
+
+    Disabled (a no-op object with the same interface) with ``quiet`` or when stderr is not a
+    terminal, so logs and test captures do not fill with redraws.
+    """
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    return Progress(
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TaskProgressColumn(),
+        TextColumn("msgs"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=console(),
+        transient=False,
+        disable=quiet or not sys.stderr.isatty(),
+    )

@@ -1,0 +1,104 @@
+"""The one place that turns exceptions into what the user sees.
+
+Every failure becomes exactly one ``error: ...`` line on stderr, usually followed by one
+``hint: ...`` line, and an exit code:
+
+* 2 — the user's to fix: :class:`~aion_cli.engine.errors.InputError` (bad file, option, value),
+  click usage errors (unknown option, missing argument), missing or unreadable files;
+* 1 — anything else (an internal fault): the hint asks to rerun with ``--debug``;
+* 130 — interrupted with Ctrl-C.
+
+No traceback is printed unless ``--debug`` was given (or ``AION_DEBUG=1`` is set).
+"""
+
+from __future__ import annotations
+
+import errno
+import sys
+import traceback
+
+import click
+
+from aion_cli.engine.errors import AionError, InputError, TopicNotFoundError
+
+EXIT_OK = 0
+EXIT_FAULT = 1
+EXIT_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+
+def one_line(text: str) -> str:
+    """Collapse a message to one line (multi-line library messages join with '; ')."""
+    parts = [p.strip() for p in str(text).splitlines() if p.strip()]
+    return "; ".join(parts) if parts else "(no message)"
+
+
+def _emit(message: str, hint: str | None) -> None:
+    err = sys.stderr
+    color = err.isatty()
+    click.echo(click.style("error:", fg="red", bold=True) if color else "error:", err=True, nl=False)
+    click.echo(" " + one_line(message), err=True)
+    if hint:
+        label = click.style("hint:", fg="cyan") if color else "hint:"
+        click.echo(f"{label} {one_line(hint)}", err=True)
+
+
+def _topic_hint(exc: TopicNotFoundError) -> str | None:
+    if exc.hint:
+        return exc.hint
+    if exc.candidates:
+        return "candidates: " + "  ".join(exc.candidates)
+    return None
+
+
+def _usage_hint(exc: click.ClickException) -> str:
+    ctx = getattr(exc, "ctx", None)
+    path = ctx.command_path if ctx is not None else "aion"
+    return f"see '{path} --help'"
+
+
+def report(exc: BaseException, debug: bool) -> int:
+    """Print ``exc`` for the user and return the exit code."""
+    if debug and not isinstance(exc, (click.exceptions.Exit, KeyboardInterrupt, click.Abort)):
+        traceback.print_exception(exc, file=sys.stderr)
+    if isinstance(exc, TopicNotFoundError):
+        _emit(exc.message, _topic_hint(exc))
+        return EXIT_INPUT
+    if isinstance(exc, InputError):
+        _emit(exc.message, exc.hint)
+        return EXIT_INPUT
+    if isinstance(exc, AionError):
+        _emit(exc.message, exc.hint or "rerun with --debug for the traceback and report it")
+        return EXIT_FAULT
+    if isinstance(exc, click.ClickException):
+        _emit(exc.format_message(), _usage_hint(exc))
+        return EXIT_INPUT
+    if isinstance(exc, (KeyboardInterrupt, click.Abort, EOFError)):
+        _emit("interrupted", "an existing map is left unchanged; rerun the command to finish")
+        return EXIT_INTERRUPTED
+    if isinstance(exc, OSError):
+        return _report_os_error(exc)
+    _emit(
+        f"internal error: {type(exc).__name__}: {exc}",
+        "this is a bug in aion; rerun with --debug for the traceback and report it",
+    )
+    return EXIT_FAULT
+
+
+def _report_os_error(exc: OSError) -> int:
+    if exc.errno == errno.EPIPE:  # stdout closed early (e.g. `| head`): not a failure
+        return EXIT_OK
+    what = exc.strerror or str(exc)
+    where = f": {exc.filename}" if exc.filename else ""
+    user_side = (
+        FileNotFoundError,
+        PermissionError,
+        IsADirectoryError,
+        NotADirectoryError,
+        FileExistsError,
+    )
+    if isinstance(exc, user_side):
+        _emit(f"{what}{where}", "check the path and its permissions")
+        return EXIT_INPUT
+    _emit(f"{what}{where}", "rerun with --debug for the traceback")
+    return EXIT_FAULT

@@ -1,0 +1,259 @@
+"""Times the user types on the command line -> int64 nanoseconds since the UNIX epoch.
+
+Accepted forms (case-insensitive), interpreted in the zone given by ``--tz`` (default: the
+machine's local zone) unless the text carries its own offset:
+
+* ISO 8601 with or without a zone: ``2026-11-23 08:30``, ``2026-11-23T08:30:00+01:00``,
+  ``2026-11-23T07:30Z``, ``2026-11-23`` (midnight);
+* UNIX time: ``1795420200``, ``@1795420200.5`` (seconds), ``1795420200000000000ns``;
+* relative to now: ``now``, ``+2h``, ``-30m``, ``+1d12h``, ``now+90s`` (units w, d, h, m, s);
+* a day word and an optional wall-clock time: ``today 17:00``, ``tomorrow 12:00``,
+  ``yesterday 08:15:30``, ``monday 08:30`` (the next Monday, today included), ``tomorrow``
+  (now + 1 day), ``monday`` (next Monday, 00:00);
+* a bare wall-clock time ``08:30`` (today).
+
+Nothing here depends on click: errors are :class:`TimeFormatError` (an ``InputError``).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+from datetime import UTC, date, datetime, time, timedelta, timezone, tzinfo
+from decimal import Decimal, InvalidOperation
+from pathlib import Path
+from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+from aion_cli.engine.errors import InputError
+
+EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+NS_PER_S = 1_000_000_000
+
+FORMS_HINT = (
+    'use ISO 8601 ("2026-11-23 08:30", "2026-11-23T08:30:00+01:00"), UNIX seconds '
+    '("1795420200"), a relative time ("now", "+2h", "-30m") or "tomorrow 12:00"'
+)
+ZONE_HINT = 'use an IANA zone name ("Europe/Berlin", "UTC"), an offset ("+01:00") or "local"'
+
+_UNITS_S = {"w": 604800, "d": 86400, "h": 3600, "m": 60, "min": 60, "s": 1, "sec": 1}
+_WEEKDAYS = {
+    name: i
+    for i, names in enumerate(
+        [
+            ("monday", "mon"),
+            ("tuesday", "tue"),
+            ("wednesday", "wed"),
+            ("thursday", "thu"),
+            ("friday", "fri"),
+            ("saturday", "sat"),
+            ("sunday", "sun"),
+        ]
+    )
+    for name in names
+}
+_CLOCK = r"(\d{1,2}):(\d{2})(?::(\d{2})(?:\.(\d{1,6}))?)?"
+_RE_CLOCK = re.compile(rf"^{_CLOCK}$")
+_RE_DAYWORD = re.compile(rf"^([a-z]+)(?:\s+{_CLOCK})?$")
+_RE_RELATIVE = re.compile(r"^(?:now\s*)?([+-])\s*((?:\d+(?:\.\d+)?\s*[a-z]+\s*)+)$")
+_RE_REL_PART = re.compile(r"(\d+(?:\.\d+)?)\s*([a-z]+)")
+_RE_UNIX = re.compile(r"^@?(-?\d+(?:\.\d+)?)\s*(s|ns)?$")
+_RE_OFFSET = re.compile(r"^(?:utc|gmt)?\s*([+-])(\d{1,2})(?::?(\d{2}))?$")
+
+
+class TimeFormatError(InputError):
+    """A time or time-zone string the user typed cannot be understood."""
+
+
+@dataclass(frozen=True)
+class Zone:
+    """A time zone and the name shown to the user."""
+
+    tz: tzinfo
+    name: str
+
+
+# -- zones -------------------------------------------------------------------------------------
+def local_zone() -> Zone:
+    """The machine's local zone: ``$TZ``, else /etc/localtime, else the C library's offset."""
+    env = os.environ.get("TZ", "").lstrip(":")
+    if env:
+        try:
+            return Zone(ZoneInfo(env), env)
+        except (ZoneInfoNotFoundError, ValueError):
+            pass  # a POSIX TZ string such as "CET-1CEST": fall through to the C library
+    if not env:
+        name = _zone_name_from_system()
+        if name:
+            try:
+                return Zone(ZoneInfo(name), name)
+            except (ZoneInfoNotFoundError, ValueError):
+                pass
+    tz = datetime.now().astimezone().tzinfo or UTC
+    return Zone(tz, datetime.now(tz).tzname() or "local")
+
+
+def _zone_name_from_system() -> str | None:
+    localtime = Path("/etc/localtime")
+    try:
+        target = str(localtime.resolve())
+    except OSError:
+        target = ""
+    if "zoneinfo/" in target:
+        return target.split("zoneinfo/", 1)[1]
+    try:
+        return Path("/etc/timezone").read_text().strip() or None
+    except OSError:
+        return None
+
+
+def resolve_zone(name: str | None) -> Zone:
+    """``--tz`` value -> zone. ``None`` or "local" is the machine's local zone."""
+    if name is None or name.strip().lower() in ("", "local"):
+        return local_zone()
+    text = name.strip()
+    if text.lower() in ("utc", "z", "gmt"):
+        return Zone(UTC, "UTC")
+    offset = _RE_OFFSET.match(text.lower())
+    if offset:
+        sign, hours, minutes = offset.groups()
+        delta = timedelta(hours=int(hours), minutes=int(minutes or 0))
+        if delta >= timedelta(hours=24):
+            raise TimeFormatError(f"time-zone offset out of range: {name!r}", ZONE_HINT)
+        tz = timezone(-delta if sign == "-" else delta)
+        return Zone(tz, f"UTC{sign}{int(hours):02d}:{int(minutes or 0):02d}")
+    try:
+        return Zone(ZoneInfo(text), text)
+    except (ZoneInfoNotFoundError, ValueError, IsADirectoryError) as exc:
+        raise TimeFormatError(f"unknown time zone {name!r}", ZONE_HINT) from exc
+
+
+# -- conversions -------------------------------------------------------------------------------
+def to_ns(moment: datetime) -> int:
+    """An aware datetime -> exact int nanoseconds since the UNIX epoch."""
+    delta = moment - EPOCH
+    return (delta.days * 86400 + delta.seconds) * NS_PER_S + delta.microseconds * 1000
+
+
+def from_ns(t_ns: int, zone: Zone) -> datetime:
+    """int nanoseconds -> aware datetime in ``zone`` (microsecond precision)."""
+    return (EPOCH + timedelta(microseconds=int(t_ns) // 1000)).astimezone(zone.tz)
+
+
+def format_ns(t_ns: int, zone: Zone) -> str:
+    """Readable ISO form with offset, e.g. ``2026-11-23 08:30:00+01:00``."""
+    return from_ns(t_ns, zone).isoformat(sep=" ", timespec="seconds")
+
+
+def _wall(day: date, clock: time, zone: Zone) -> datetime:
+    return datetime.combine(day, clock).replace(tzinfo=zone.tz)
+
+
+def _clock(groups: tuple[str | None, ...], text: str) -> time:
+    hour, minute, second, frac = groups
+    try:
+        return time(
+            int(hour or 0),
+            int(minute or 0),
+            int(second or 0),
+            int((frac or "0").ljust(6, "0")),
+        )
+    except ValueError as exc:
+        raise TimeFormatError(f"invalid clock time in {text!r}: {exc}", FORMS_HINT) from exc
+
+
+# -- parsing -----------------------------------------------------------------------------------
+def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
+    """Parse ``text`` (see the module docstring) -> int nanoseconds since the UNIX epoch.
+
+    ``now`` (aware) pins the reference for relative forms; default: the current time.
+    """
+    raw = text
+    text = " ".join(text.strip().lower().split())
+    if not text:
+        raise TimeFormatError("empty time", FORMS_HINT)
+    current = (now or datetime.now(UTC)).astimezone(zone.tz)
+    for parser in (_parse_relative, _parse_unix, _parse_dayword, _parse_clock, _parse_iso):
+        result = parser(text, zone, current)
+        if result is not None:
+            return result
+    raise TimeFormatError(f"cannot read the time {raw!r}", FORMS_HINT)
+
+
+def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:
+    match = _RE_UNIX.match(text)
+    if not match:
+        return None
+    number, unit = match.groups()
+    try:
+        value = Decimal(number)
+    except InvalidOperation:  # pragma: no cover - the regex admits only numbers
+        return None
+    if unit == "ns":
+        if value != value.to_integral_value():
+            raise TimeFormatError(f"nanoseconds must be an integer: {text!r}", FORMS_HINT)
+        return int(value)
+    if abs(value) > Decimal(10) ** 11:
+        raise TimeFormatError(
+            f"{text!r} is beyond year 5000 as UNIX seconds",
+            "append 'ns' for nanoseconds (e.g. 1795420200000000000ns)",
+        )
+    return int(value * NS_PER_S)
+
+
+def _parse_relative(text: str, zone: Zone, current: datetime) -> int | None:
+    if text == "now":
+        return to_ns(current)
+    match = _RE_RELATIVE.match(text)
+    if not match:
+        return None
+    sign, body = match.groups()
+    total = Decimal(0)
+    for amount, unit in _RE_REL_PART.findall(body):
+        if unit not in _UNITS_S:
+            raise TimeFormatError(
+                f"unknown unit {unit!r} in {text!r}", "units: w, d, h, m (or min), s"
+            )
+        total += Decimal(amount) * _UNITS_S[unit]
+    offset_ns = int(total * NS_PER_S)
+    return to_ns(current) + (-offset_ns if sign == "-" else offset_ns)
+
+
+def _parse_dayword(text: str, zone: Zone, current: datetime) -> int | None:
+    match = _RE_DAYWORD.match(text)
+    if not match:
+        return None
+    word, *clock_groups = match.groups()
+    has_clock = clock_groups[0] is not None
+    today = current.date()
+    if word in ("today", "tomorrow", "yesterday"):
+        shift = {"today": 0, "tomorrow": 1, "yesterday": -1}[word]
+        if not has_clock:  # GNU date semantics: "tomorrow" is now + 1 day
+            return to_ns(current + timedelta(days=shift))
+        day = today + timedelta(days=shift)
+    elif word in _WEEKDAYS:
+        day = today + timedelta(days=(_WEEKDAYS[word] - today.weekday()) % 7)
+    else:
+        return None
+    clock = _clock(tuple(clock_groups), text) if has_clock else time(0, 0)
+    return to_ns(_wall(day, clock, zone))
+
+
+def _parse_clock(text: str, zone: Zone, current: datetime) -> int | None:
+    match = _RE_CLOCK.match(text)
+    if not match:
+        return None
+    return to_ns(_wall(current.date(), _clock(match.groups(), text), zone))
+
+
+def _parse_iso(text: str, zone: Zone, current: datetime) -> int | None:
+    candidate = text.upper()
+    if candidate.endswith(" Z"):
+        candidate = candidate[:-2] + "Z"
+    try:
+        moment = datetime.fromisoformat(candidate)
+    except ValueError:
+        return None
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=zone.tz)
+    return to_ns(moment)

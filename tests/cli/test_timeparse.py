@@ -1,0 +1,144 @@
+"""Unit tests of the time and time-zone parser behind every ``--time`` / ``--tz`` option."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta, timezone
+
+import pytest
+
+from aion_cli.cli.timeparse import (
+    TimeFormatError,
+    Zone,
+    format_ns,
+    local_zone,
+    parse_time,
+    resolve_zone,
+    to_ns,
+)
+from aion_cli.engine.errors import InputError
+
+BERLIN = resolve_zone("Europe/Berlin")
+UTCZ = resolve_zone("UTC")
+# A fixed "now": Sunday 2026-11-22 10:15:00 UTC (11:15 in Berlin, CET = UTC+1).
+NOW = datetime(2026, 11, 22, 10, 15, 0, tzinfo=UTC)
+S = 1_000_000_000
+
+
+def ns(*args: int, tz: timezone | None = None) -> int:
+    return to_ns(datetime(*args, tzinfo=tz or UTC))
+
+
+def test_iso_naive_uses_the_given_zone() -> None:
+    # 08:30 in Berlin in November (CET, UTC+1) is 07:30 UTC.
+    assert parse_time("2026-11-23 08:30", BERLIN, NOW) == ns(2026, 11, 23, 7, 30)
+    assert parse_time("2026-11-23 08:30", UTCZ, NOW) == ns(2026, 11, 23, 8, 30)
+
+
+def test_iso_with_offset_ignores_the_given_zone() -> None:
+    expected = ns(2026, 11, 23, 7, 30)
+    assert parse_time("2026-11-23T08:30:00+01:00", UTCZ, NOW) == expected
+    assert parse_time("2026-11-23T07:30:00Z", BERLIN, NOW) == expected
+    assert parse_time("2026-11-23t07:30z", BERLIN, NOW) == expected
+
+
+def test_iso_date_only_is_midnight_and_summer_time_is_respected() -> None:
+    assert parse_time("2026-11-23", UTCZ, NOW) == ns(2026, 11, 23)
+    # July in Berlin is CEST = UTC+2.
+    assert parse_time("2026-07-01 12:00", BERLIN, NOW) == ns(2026, 7, 1, 10, 0)
+
+
+def test_iso_fractional_seconds_are_exact() -> None:
+    assert parse_time("2026-11-23T07:30:00.000250Z", UTCZ, NOW) == ns(2026, 11, 23, 7, 30) + 250_000
+
+
+def test_unix_seconds_and_nanoseconds() -> None:
+    assert parse_time("1795420200", BERLIN, NOW) == 1795420200 * S
+    assert parse_time("@1795420200.5", BERLIN, NOW) == 1795420200 * S + S // 2
+    assert parse_time("1795420200123456789ns", BERLIN, NOW) == 1795420200123456789
+
+
+def test_unix_nanoseconds_without_unit_are_refused_with_a_hint() -> None:
+    with pytest.raises(TimeFormatError) as info:
+        parse_time("1795420200123456789", UTCZ, NOW)
+    assert "ns" in (info.value.hint or "")
+
+
+@pytest.mark.parametrize(
+    ("text", "offset_s"),
+    [
+        ("now", 0),
+        ("+2h", 7200),
+        ("-30m", -1800),
+        ("+1d12h", 36 * 3600),
+        ("now+90s", 90),
+        ("now - 1w", -7 * 86400),
+        ("+1.5h", 5400),
+        ("-30s", -30),
+        ("+10min", 600),
+    ],
+)
+def test_relative_forms(text: str, offset_s: int) -> None:
+    assert parse_time(text, BERLIN, NOW) == to_ns(NOW) + offset_s * S
+
+
+def test_day_words_with_clock_use_the_zone_calendar() -> None:
+    # "tomorrow 12:00" in Berlin: Monday 2026-11-23 12:00 CET = 11:00 UTC.
+    assert parse_time("tomorrow 12:00", BERLIN, NOW) == ns(2026, 11, 23, 11, 0)
+    assert parse_time("Today 17:00:30", UTCZ, NOW) == ns(2026, 11, 22, 17, 0, 30)
+    assert parse_time("yesterday 08:15", UTCZ, NOW) == ns(2026, 11, 21, 8, 15)
+
+
+def test_day_words_alone_follow_gnu_date() -> None:
+    assert parse_time("tomorrow", UTCZ, NOW) == to_ns(NOW + timedelta(days=1))
+    assert parse_time("today", UTCZ, NOW) == to_ns(NOW)
+
+
+def test_weekdays_are_the_next_occurrence_today_included() -> None:
+    # NOW is a Sunday.
+    assert parse_time("monday 08:30", UTCZ, NOW) == ns(2026, 11, 23, 8, 30)
+    assert parse_time("sun 09:00", UTCZ, NOW) == ns(2026, 11, 22, 9, 0)
+    assert parse_time("saturday", UTCZ, NOW) == ns(2026, 11, 28)
+
+
+def test_bare_clock_is_today() -> None:
+    assert parse_time("08:30", UTCZ, NOW) == ns(2026, 11, 22, 8, 30)
+    # Near midnight the zone decides which day "today" is: 23:30 UTC is already the next
+    # day in Berlin.
+    late = datetime(2026, 11, 22, 23, 30, tzinfo=UTC)
+    assert parse_time("08:00", BERLIN, late) == ns(2026, 11, 23, 7, 0)
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["", "   ", "yesterday-ish", "2026-13-01", "25:00", "tomorrow 12:99", "+2 parsecs", "soon"],
+)
+def test_bad_times_raise_an_input_error_with_the_accepted_forms(text: str) -> None:
+    with pytest.raises(TimeFormatError) as info:
+        parse_time(text, UTCZ, NOW)
+    assert isinstance(info.value, InputError)
+    assert info.value.hint
+
+
+def test_zones_by_name_offset_and_local(monkeypatch: pytest.MonkeyPatch) -> None:
+    assert resolve_zone("UTC").name == "UTC"
+    plus_one = resolve_zone("+01:00")
+    assert plus_one.name == "UTC+01:00"
+    assert parse_time("2026-11-23 08:30", plus_one, NOW) == ns(2026, 11, 23, 7, 30)
+    minus = resolve_zone("UTC-0530")
+    assert parse_time("2026-11-23 00:00", minus, NOW) == ns(2026, 11, 23, 5, 30)
+    monkeypatch.setenv("TZ", "America/New_York")
+    assert local_zone().name == "America/New_York"
+    assert resolve_zone(None).name == "America/New_York"
+    assert resolve_zone("local").name == "America/New_York"
+
+
+@pytest.mark.parametrize("name", ["Mars/Olympus", "+25:00", "../../etc"])
+def test_unknown_zone_is_an_input_error(name: str) -> None:
+    with pytest.raises(TimeFormatError):
+        resolve_zone(name)
+
+
+def test_format_round_trip() -> None:
+    t = parse_time("2026-11-23 08:30", BERLIN, NOW)
+    assert format_ns(t, BERLIN) == "2026-11-23 08:30:00+01:00"
+    assert format_ns(t, Zone(UTC, "UTC")) == "2026-11-23 07:30:00+00:00"
