@@ -36,8 +36,8 @@ def one_line(text: str) -> str:
 def _emit(message: str, hint: str | None) -> None:
     err = sys.stderr
     color = err.isatty()
-    click.echo(click.style("error:", fg="red", bold=True) if color else "error:", err=True, nl=False)
-    click.echo(" " + one_line(message), err=True)
+    label = click.style("error:", fg="red", bold=True) if color else "error:"
+    click.echo(f"{label} {one_line(message)}", err=True)
     if hint:
         label = click.style("hint:", fg="cyan") if color else "hint:"
         click.echo(f"{label} {one_line(hint)}", err=True)

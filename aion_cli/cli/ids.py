@@ -1,0 +1,65 @@
+"""Node ids as users see them ("p12") and coordinates they type ("3.5,-1,0").
+
+Node ids are spark_dsg NodeSymbol values: ``(ord(category) << 56) | index``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from aion_cli.engine.errors import InputError
+
+_RE_SYMBOL = re.compile(r"^([A-Za-z])\(?(\d+)\)?$")
+_INDEX_MASK = (1 << 56) - 1
+
+
+def node_label(node_id: int) -> str:
+    """``(ord('p') << 56) | 12`` -> ``"p12"``; ids without a printable category stay numeric."""
+    value = int(node_id)
+    category = value >> 56
+    if 33 <= category < 127:
+        return f"{chr(category)}{value & _INDEX_MASK}"
+    return str(value)
+
+
+def parse_node_id(text: str) -> int:
+    """``"p12"`` / ``"p(12)"`` / a raw integer id -> the NodeSymbol value."""
+    token = text.strip()
+    match = _RE_SYMBOL.match(token)
+    if match:
+        index = int(match.group(2))
+        if index > _INDEX_MASK:
+            raise InputError(f"node index too large in {text!r}")
+        return (ord(match.group(1)) << 56) | index
+    if token.isdigit():
+        return int(token)
+    raise InputError(
+        f"not a node id: {text!r}", 'node ids look like "p12" (see `aion predict MAP`)'
+    )
+
+
+def parse_point(text: str) -> tuple[float, float, float] | None:
+    """``"x,y"`` or ``"x,y,z"`` -> a point (z = 0 when omitted); None if ``text`` is not one."""
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) not in (2, 3):
+        return None
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        return None
+    if not all(math.isfinite(v) for v in values):
+        raise InputError(f"coordinates must be finite numbers: {text!r}")
+    if len(values) == 2:
+        values.append(0.0)
+    return (values[0], values[1], values[2])
+
+
+def require_point(text: str, option: str) -> tuple[float, float, float]:
+    """Like :func:`parse_point` but an :class:`InputError` naming ``option`` when invalid."""
+    point = parse_point(text)
+    if point is None:
+        raise InputError(
+            f"{option} expects coordinates x,y[,z], got {text!r}", f'e.g. {option} "3.5,-1.0"'
+        )
+    return point

@@ -1,0 +1,145 @@
+"""Render rows of results as a rich table, JSON or CSV on stdout.
+
+Field names are stable (documented in each command's ``--help``); JSON has ``null`` where a
+value is unknown (NaN), CSV leaves the cell empty and flattens list fields into
+``name_0 .. name_{k-1}`` columns.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import click
+
+FORMATS = ("table", "json", "csv")
+
+
+def format_option(choices: Sequence[str] = FORMATS, default: str = "table") -> Any:
+    """The ``--format`` option shared by the query commands."""
+    return click.option(
+        "--format",
+        "fmt",
+        type=click.Choice(list(choices), case_sensitive=False),
+        default=default,
+        show_default=True,
+        help="Output on stdout: a table for people, JSON or CSV for scripts.",
+    )
+
+
+@dataclass(frozen=True)
+class Column:
+    """One output field: its key in the row dicts, table header and table cell formatter."""
+
+    key: str
+    header: str
+    fmt: Callable[[Any], str] = str
+    justify: str = "right"
+
+
+def clean(value: Any) -> Any:
+    """JSON-safe copy: NaN/inf -> None, numpy scalars/arrays -> Python, tuples -> lists."""
+    if isinstance(value, dict):
+        return {str(k): clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [clean(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        return clean(value.tolist())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def to_json(payload: Any) -> str:
+    """Indented, strict JSON (no NaN tokens)."""
+    return json.dumps(clean(payload), indent=2, allow_nan=False)
+
+
+def to_csv(rows: Sequence[dict[str, Any]], keys: Sequence[str]) -> str:
+    """CSV with a header; list values spread over ``key_i`` columns."""
+    cleaned = [clean(row) for row in rows]
+    header: list[str] = []
+    for key in keys:
+        width = max((len(r[key]) for r in cleaned if isinstance(r.get(key), list)), default=-1)
+        header.extend([f"{key}_{i}" for i in range(width)] if width >= 0 else [key])
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(header)
+    for row in cleaned:
+        out: list[Any] = []
+        for key in keys:
+            value = row.get(key)
+            if isinstance(value, list):
+                out.extend("" if v is None else _csv_value(v) for v in value)
+            else:
+                out.append("" if value is None else _csv_value(value))
+        writer.writerow(out)
+    return buf.getvalue()
+
+
+def _csv_value(value: Any) -> Any:
+    if isinstance(value, float):
+        return repr(round(value, 9))
+    return value
+
+
+def num(digits: int = 2) -> Callable[[Any], str]:
+    """Table formatter for a float with ``digits`` decimals; '-' when unknown."""
+
+    def render(value: Any) -> str:
+        if value is None or (isinstance(value, float) and not math.isfinite(value)):
+            return "-"
+        return f"{float(value):.{digits}f}"
+
+    return render
+
+
+def degrees(value: Any) -> str:
+    """Table formatter for an angle in radians shown in degrees; '-' when unknown."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
+    return f"{math.degrees(float(value)):+.0f}°"
+
+
+def render_table(
+    rows: Sequence[dict[str, Any]], columns: Sequence[Column], title: str | None = None
+) -> None:
+    """A rich table on stdout."""
+    from rich.table import Table
+
+    from aion_cli.cli.console import data_console
+
+    table = Table(title=title, show_lines=False, header_style="bold")
+    for col in columns:
+        table.add_column(col.header, justify=col.justify)  # type: ignore[arg-type]
+    for row in rows:
+        table.add_row(*(col.fmt(row.get(col.key)) for col in columns))
+    data_console().print(table)
+
+
+def emit(
+    fmt: str,
+    rows: Sequence[dict[str, Any]],
+    columns: Sequence[Column],
+    *,
+    json_payload: Any | None = None,
+    csv_keys: Sequence[str] | None = None,
+    title: str | None = None,
+) -> None:
+    """Write ``rows`` on stdout in ``fmt`` ("table", "json" or "csv").
+
+    ``json_payload`` replaces the plain row list as the JSON document (e.g. to add metadata);
+    ``csv_keys`` chooses the CSV columns (default: every table column's key).
+    """
+    fmt = fmt.lower()
+    if fmt == "json":
+        click.echo(to_json(rows if json_payload is None else json_payload))
+    elif fmt == "csv":
+        click.echo(to_csv(rows, csv_keys or [c.key for c in columns]), nl=False)
+    else:
+        render_table(rows, columns, title)
