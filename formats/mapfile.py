@@ -1,0 +1,543 @@
+"""The ``.aion`` map file: a zip of ``manifest.json`` plus one ``.npy`` member per array.
+
+The container is generic over arrays (it knows nothing of the engine's state layout): the caller
+hands over ``dict[str, ndarray]`` and a manifest dict of its own fields (config, provenance, time
+span, counts...). The format is specified in ``formats/MAPFILE.md``; in short:
+
+- members are stored uncompressed (fast to read, and no decompression bombs in our own files),
+  each with its sha256, size, dtype and shape in the manifest's ``members`` table;
+- arrays are written with ``allow_pickle=False`` and read with ``allow_pickle=False``: a map file
+  never executes code, and object arrays are refused on write;
+- writing goes to a temporary file in the same folder, is flushed and fsync'd, then atomically
+  renamed over the target, so an interrupted or failed write (full disk, Ctrl-C) leaves any
+  previous map intact; a ``<map>.lock`` file stops two writers of the same map;
+- reading is defensive: names with path traversal, unexpected or missing members, oversized
+  members, suspicious compression ratios, manifests that fail the hand-written schema check,
+  checksum mismatches and newer major versions are typed errors, never tracebacks.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import hashlib
+import io
+import json
+import os
+import re
+import socket
+import tempfile
+import time
+import zipfile
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli import __version__
+from aion_cli.engine.errors import (
+    AionError,
+    MapCorruptError,
+    MapFileError,
+    MapLockedError,
+    MapVersionError,
+)
+
+MAP_FORMAT = "aion-map"
+MAP_VERSION = (1, 0)
+MANIFEST_NAME = "manifest.json"
+MEMBER_SUFFIX = ".npy"
+
+DEFAULT_MAX_MEMBER_BYTES = 4 * 1024**3
+"""Largest uncompressed member accepted on read (declared and actual), 4 GiB."""
+DEFAULT_MAX_RATIO = 100.0
+"""Largest uncompressed/compressed ratio accepted for members above ``RATIO_MIN_BYTES``."""
+RATIO_MIN_BYTES = 1024**2
+MAX_MANIFEST_BYTES = 64 * 1024**2
+STALE_UNREADABLE_LOCK_S = 10.0
+"""A lock file with no readable pid older than this is treated as stale (crash mid-create)."""
+
+RESERVED_KEYS = ("format", "version", "creator", "created", "members")
+_NAME_RE = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*(/[A-Za-z0-9_][A-Za-z0-9_.\-]*)*$")
+_VERSION_RE = re.compile(r"^(\d+)\.(\d+)$")
+_SHA_RE = re.compile(r"^[0-9a-f]{64}$")
+
+Arrays = dict[str, npt.NDArray[Any]]
+
+
+class MapWriteError(MapFileError):
+    """The map file could not be written (disk full, permissions...); any old map is intact."""
+
+
+class MapContentError(AionError, ValueError):
+    """The arrays or manifest handed to :func:`write_map` cannot be stored (a caller bug)."""
+
+
+# -- names and versions ---------------------------------------------------------------------
+
+
+def is_valid_member_name(name: str) -> bool:
+    """True for array names that are safe as zip member stems.
+
+    Letters, digits, ``_ . -`` and ``/`` as a separator; no empty, ``.`` or ``..`` segments, no
+    leading slash, no backslash or drive letters: nothing a careless extractor could turn into a
+    path outside its folder.
+    """
+    if not isinstance(name, str) or not _NAME_RE.match(name) or len(name) > 255:
+        return False
+    return all(seg not in (".", "..") for seg in name.split("/"))
+
+
+def format_version(version: tuple[int, int] = MAP_VERSION) -> str:
+    """``(1, 0)`` -> ``"1.0"``."""
+    return f"{version[0]}.{version[1]}"
+
+
+def parse_version(text: object) -> tuple[int, int]:
+    """``"1.0"`` -> ``(1, 0)``; anything else is a :class:`MapFileError`."""
+    match = _VERSION_RE.match(text) if isinstance(text, str) else None
+    if match is None:
+        raise MapFileError(
+            f"map manifest has an invalid version {text!r} (expected 'MAJOR.MINOR')",
+            hint="the file is not a valid aion map; rebuild it with `aion build`",
+        )
+    return int(match.group(1)), int(match.group(2))
+
+
+def check_version(text: object) -> tuple[int, int]:
+    """Accept any minor of our major; a newer (or older) major is a :class:`MapVersionError`."""
+    major, minor = parse_version(text)
+    ours = MAP_VERSION[0]
+    if major > ours:
+        raise MapVersionError(
+            f"map format {major}.{minor} is newer than this aion supports ({ours}.x); upgrade aion",
+            hint="install a newer aion (pip install -U aion) to read this map",
+        )
+    if major < ours:
+        raise MapVersionError(
+            f"map format {major}.{minor} is older than this aion supports ({ours}.x)",
+            hint="rebuild the map from its logs with `aion build`",
+        )
+    return major, minor
+
+
+# -- writing --------------------------------------------------------------------------------
+
+
+class _HashingWriter:
+    """A write-only file object that feeds a zip member and a sha256 at once (no extra copy)."""
+
+    def __init__(self, sink: IO[bytes]) -> None:
+        self.sink = sink
+        self.sha = hashlib.sha256()
+        self.size = 0
+
+    def write(self, data: bytes | bytearray | memoryview) -> int:
+        self.sha.update(data)
+        self.sink.write(data)
+        self.size += len(data)
+        return len(data)
+
+
+def _check_arrays(arrays: Mapping[str, Any]) -> None:
+    if not isinstance(arrays, Mapping):
+        raise MapContentError(f"arrays must be a dict of name -> ndarray, got {type(arrays)}")
+    for name, arr in arrays.items():
+        if not is_valid_member_name(name):
+            raise MapContentError(
+                f"invalid array name {name!r}: use letters, digits, '_', '.', '-' and '/' "
+                "(no '..' or leading '/')"
+            )
+        if not isinstance(arr, np.ndarray):
+            raise MapContentError(f"array {name!r} is a {type(arr).__name__}, not an ndarray")
+        if arr.dtype.hasobject:
+            raise MapContentError(
+                f"array {name!r} has dtype {arr.dtype} holding Python objects; map files store "
+                "only plain numeric/bool/string arrays (no pickle)"
+            )
+
+
+def _manifest_text(manifest: Mapping[str, Any], members: dict[str, dict[str, Any]]) -> bytes:
+    if not isinstance(manifest, Mapping):
+        raise MapContentError(f"manifest must be a dict, got {type(manifest).__name__}")
+    clash = sorted(set(manifest) & set(RESERVED_KEYS))
+    if clash:
+        raise MapContentError(f"manifest keys {clash} are reserved for the map container")
+    created = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
+    full = {
+        "format": MAP_FORMAT,
+        "version": format_version(),
+        "creator": f"aion {__version__}",
+        "created": created,
+        **manifest,
+        "members": members,
+    }
+    try:
+        return json.dumps(full, indent=1, sort_keys=False, allow_nan=False).encode("utf-8")
+    except (TypeError, ValueError) as exc:
+        raise MapContentError(f"manifest is not JSON-serialisable (strict JSON): {exc}") from exc
+
+
+def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, npt.NDArray[Any]], manifest: Any) -> None:
+    members: dict[str, dict[str, Any]] = {}
+    with zipfile.ZipFile(fileobj, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for name, arr in arrays.items():
+            big = arr.nbytes > 1024**3
+            with zf.open(name + MEMBER_SUFFIX, "w", force_zip64=big) as member:
+                writer = _HashingWriter(member)
+                np.save(writer, arr, allow_pickle=False)
+            members[name] = {
+                "sha256": writer.sha.hexdigest(),
+                "size": writer.size,
+                "dtype": arr.dtype.str,
+                "shape": list(arr.shape),
+            }
+        zf.writestr(MANIFEST_NAME, _manifest_text(manifest, members))
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Make the rename durable; best effort (some filesystems refuse to open folders)."""
+    with contextlib.suppress(OSError):
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def write_map(
+    path: str | os.PathLike[str],
+    arrays: Mapping[str, npt.NDArray[Any]],
+    manifest: Mapping[str, Any],
+) -> None:
+    """Write ``arrays`` and the caller's ``manifest`` fields to the map file ``path``, atomically.
+
+    The container adds ``format``, ``version``, ``creator``, ``created`` and the ``members``
+    table (those keys are reserved). The file appears complete or not at all: on any exception,
+    KeyboardInterrupt included, the temporary file is removed and an existing map is untouched.
+    Raises :class:`MapLockedError` if another live process holds ``<path>.lock``,
+    :class:`MapContentError` for arrays/manifests that cannot be stored, :class:`MapWriteError`
+    for OS failures.
+    """
+    target = Path(path)
+    _check_arrays(arrays)
+    folder = target.parent if str(target.parent) else Path(".")
+    if not folder.is_dir():
+        raise MapWriteError(
+            f"cannot write map {target}: folder {folder} does not exist",
+            hint="create the folder first or choose another output path",
+        )
+    with map_lock(target):
+        tmp: Path | None = None
+        try:
+            fd, tmp_name = tempfile.mkstemp(dir=folder, prefix=f".{target.name}.", suffix=".tmp")
+            tmp = Path(tmp_name)
+            with os.fdopen(fd, "w+b") as fh:
+                _write_zip(fh, arrays, manifest)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, target)
+        except BaseException as exc:
+            if tmp is not None:
+                with contextlib.suppress(OSError):
+                    tmp.unlink()
+            if isinstance(exc, OSError):
+                raise MapWriteError(
+                    f"cannot write map {target}: {exc.strerror or exc}",
+                    hint="check free disk space and write permissions; the previous map (if "
+                    "any) is unchanged",
+                ) from exc
+            raise
+    _fsync_dir(folder)
+
+
+# -- locking --------------------------------------------------------------------------------
+
+
+def lock_path(path: str | os.PathLike[str]) -> Path:
+    """``office.aion`` -> ``office.aion.lock``."""
+    p = Path(path)
+    return p.with_name(p.name + ".lock")
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def _lock_is_stale(lock: Path) -> bool:
+    """A lock is stale if its pid (same host) is dead, or it has no pid and is old.
+
+    Locks from another host cannot be checked and count as live.
+    """
+    try:
+        text = lock.read_text(encoding="utf-8", errors="replace")
+        age = time.time() - lock.stat().st_mtime
+    except FileNotFoundError:
+        return True
+    lines = text.split()
+    if not lines or not lines[0].isdigit():
+        return age > STALE_UNREADABLE_LOCK_S
+    host = lines[1] if len(lines) > 1 else socket.gethostname()
+    if host != socket.gethostname():
+        return False
+    return not _pid_alive(int(lines[0]))
+
+
+def _try_create_lock(lock: Path) -> bool:
+    try:
+        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+    except FileExistsError:
+        return False
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        fh.write(f"{os.getpid()} {socket.gethostname()}\n")
+    return True
+
+
+@contextlib.contextmanager
+def map_lock(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Hold ``<path>.lock`` (O_CREAT|O_EXCL, content ``"<pid> <host>"``) for the block.
+
+    A stale lock (its process is dead) is removed and taken over once. Another live writer is a
+    :class:`MapLockedError`. Known limit: two processes recovering the same stale lock at the
+    same instant could both succeed; the window is the few microseconds between check and
+    unlink.
+    """
+    lock = lock_path(path)
+    try:
+        acquired = _try_create_lock(lock)
+        if not acquired and _lock_is_stale(lock):
+            with contextlib.suppress(FileNotFoundError):
+                lock.unlink()
+            acquired = _try_create_lock(lock)
+    except OSError as exc:
+        if isinstance(exc, FileExistsError):
+            acquired = False
+        else:
+            raise MapWriteError(
+                f"cannot create lock file {lock}: {exc.strerror or exc}",
+                hint="check write permissions on the map's folder",
+            ) from exc
+    if not acquired:
+        holder = ""
+        with contextlib.suppress(OSError):
+            holder = lock.read_text(encoding="utf-8", errors="replace").strip()
+        raise MapLockedError(
+            f"map {Path(path)} is being written by another process ({holder or 'unknown'})",
+            hint=f"wait for it to finish; if no aion is running, delete {lock}",
+        )
+    try:
+        yield lock
+    finally:
+        with contextlib.suppress(OSError):
+            lock.unlink()
+
+
+# -- reading --------------------------------------------------------------------------------
+
+
+def _not_a_map(path: Path, why: str) -> MapFileError:
+    return MapFileError(
+        f"{path} is not a readable aion map: {why}",
+        hint="pass a file written by `aion build` (a .aion map); if it was, it may be "
+        "truncated or damaged: rebuild it from the logs",
+    )
+
+
+def _require(cond: bool, path: Path, what: str) -> None:
+    if not cond:
+        raise MapFileError(
+            f"map {path} has an invalid manifest: {what}",
+            hint="the file was not written by aion or is damaged; rebuild it with `aion build`",
+        )
+
+
+def _is_int(v: object) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def validate_manifest(manifest: object, path: Path) -> dict[str, Any]:
+    """Hand-written schema check of a parsed manifest; returns it typed as a dict.
+
+    Checks the container keys (format, version, creator, created, members) and every member
+    record; the caller's own fields are passed through unchecked. The version is checked with
+    :func:`check_version` before the rest, so a newer-major map gets the version error.
+    """
+    _require(isinstance(manifest, dict), path, "top level is not a JSON object")
+    assert isinstance(manifest, dict)
+    _require(manifest.get("format") == MAP_FORMAT, path, f"format is not {MAP_FORMAT!r}")
+    check_version(manifest.get("version"))
+    for key in ("creator", "created"):
+        _require(isinstance(manifest.get(key), str), path, f"{key!r} missing or not a string")
+    members = manifest.get("members")
+    _require(isinstance(members, dict), path, "'members' missing or not an object")
+    assert isinstance(members, dict)
+    for name, rec in members.items():
+        _require(is_valid_member_name(name), path, f"unsafe member name {name!r}")
+        _require(isinstance(rec, dict), path, f"member {name!r} record is not an object")
+        sha, size, dtype, shape = (rec.get(k) for k in ("sha256", "size", "dtype", "shape"))
+        _require(isinstance(sha, str) and bool(_SHA_RE.match(sha)), path, f"{name}: sha256")
+        _require(_is_int(size) and size >= 0, path, f"{name}: size")
+        _require(isinstance(dtype, str), path, f"{name}: dtype")
+        _require(
+            isinstance(shape, list) and all(_is_int(s) and s >= 0 for s in shape),
+            path,
+            f"{name}: shape",
+        )
+    return manifest
+
+
+def _check_zip_names(zf: zipfile.ZipFile, path: Path) -> None:
+    names = [info.filename for info in zf.infolist()]
+    if len(names) != len(set(names)):
+        raise MapCorruptError(f"map {path} has duplicate zip members", hint="rebuild the map")
+    for info in zf.infolist():
+        name = info.filename
+        stem = name[: -len(MEMBER_SUFFIX)] if name.endswith(MEMBER_SUFFIX) else None
+        ok = name == MANIFEST_NAME or (stem is not None and is_valid_member_name(stem))
+        if not ok or info.is_dir():
+            raise MapFileError(
+                f"map {path} contains an unsafe or unexpected member name {name!r}",
+                hint="the file was not written by aion; do not trust it",
+            )
+
+
+def _read_member_bytes(
+    zf: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, limit: int, max_ratio: float
+) -> bytes:
+    """Read one member with size and ratio guards (the stream is capped at ``limit + 1``)."""
+    name = info.filename
+    if info.file_size > limit:
+        raise MapFileError(
+            f"map {path}: member {name} declares {info.file_size} bytes, over the "
+            f"{limit}-byte limit",
+            hint="raise the member size limit if this map is genuinely that large",
+        )
+    if info.file_size > RATIO_MIN_BYTES and info.file_size > max_ratio * max(info.compress_size, 1):
+        raise MapFileError(
+            f"map {path}: member {name} expands {info.file_size / max(info.compress_size, 1):.0f}"
+            f"x (limit {max_ratio:.0f}x): refusing a possible zip bomb",
+            hint="the file was not written by aion; do not trust it",
+        )
+    try:
+        with zf.open(info) as fh:
+            data = fh.read(limit + 1)
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
+        raise MapCorruptError(
+            f"map {path}: member {name} cannot be read ({exc})",
+            hint="the file is damaged; rebuild it with `aion build`",
+        ) from exc
+    if len(data) > limit:
+        raise MapFileError(
+            f"map {path}: member {name} holds more than the {limit}-byte limit",
+            hint="raise the member size limit if this map is genuinely that large",
+        )
+    return data
+
+
+def _corrupt(path: Path, name: str, what: str) -> MapCorruptError:
+    return MapCorruptError(
+        f"map {path} is corrupted: member {name} {what}",
+        hint="the file was damaged after writing; restore a backup or rebuild with `aion build`",
+    )
+
+
+def _load_member(data: bytes, name: str, rec: dict[str, Any], path: Path) -> npt.NDArray[Any]:
+    if len(data) != rec["size"]:
+        raise _corrupt(path, name, f"has {len(data)} bytes, manifest says {rec['size']}")
+    if hashlib.sha256(data).hexdigest() != rec["sha256"]:
+        raise _corrupt(path, name, "fails its sha256 checksum")
+    try:
+        arr = np.load(io.BytesIO(data), allow_pickle=False)
+    except (ValueError, OSError, EOFError) as exc:
+        raise _corrupt(path, name, f"is not a valid .npy array ({exc})") from exc
+    if not isinstance(arr, np.ndarray) or arr.dtype.str != rec["dtype"]:
+        raise _corrupt(path, name, f"has dtype {getattr(arr, 'dtype', '?')}, not {rec['dtype']}")
+    if list(arr.shape) != rec["shape"]:
+        raise _corrupt(path, name, f"has shape {arr.shape}, not {tuple(rec['shape'])}")
+    return arr
+
+
+def _open_zip(path: Path) -> zipfile.ZipFile:
+    if not path.exists():
+        raise MapFileError(f"map file {path} does not exist", hint="check the path")
+    if path.is_dir():
+        raise MapFileError(f"{path} is a folder, not a map file", hint="pass the .aion file")
+    try:
+        return zipfile.ZipFile(path, "r")
+    except (zipfile.BadZipFile, EOFError, ValueError) as exc:
+        raise _not_a_map(path, f"not a zip container ({exc})") from exc
+    except OSError as exc:
+        raise MapFileError(f"cannot open map {path}: {exc.strerror or exc}") from exc
+
+
+def _read_manifest(zf: zipfile.ZipFile, path: Path) -> dict[str, Any]:
+    try:
+        info = zf.getinfo(MANIFEST_NAME)
+    except KeyError:
+        raise _not_a_map(path, f"no {MANIFEST_NAME} inside") from None
+    raw = _read_member_bytes(zf, info, path, MAX_MANIFEST_BYTES, DEFAULT_MAX_RATIO)
+    try:
+        parsed = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise _not_a_map(path, f"{MANIFEST_NAME} is not valid JSON ({exc})") from exc
+    return validate_manifest(parsed, path)
+
+
+def read_manifest(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Only the validated manifest (cheap: no array is read or checksummed)."""
+    p = Path(path)
+    with _open_zip(p) as zf:
+        _check_zip_names(zf, p)
+        return _read_manifest(zf, p)
+
+
+def read_map(
+    path: str | os.PathLike[str],
+    *,
+    max_member_bytes: int = DEFAULT_MAX_MEMBER_BYTES,
+    max_ratio: float = DEFAULT_MAX_RATIO,
+) -> tuple[Arrays, dict[str, Any]]:
+    """Read and verify a map file: ``(arrays, manifest)``.
+
+    Every member listed in the manifest must be present, within ``max_member_bytes`` (declared
+    and actual), no more compressed than ``max_ratio`` (above 1 MiB), match its sha256, size,
+    dtype and shape, and load with ``allow_pickle=False``. Members not in the manifest are
+    refused. Errors: :class:`MapFileError` (not a map, unsafe content), :class:`MapVersionError`
+    (other major version), :class:`MapCorruptError` (a member fails its checks; names it).
+    """
+    p = Path(path)
+    with _open_zip(p) as zf:
+        _check_zip_names(zf, p)
+        manifest = _read_manifest(zf, p)
+        members: dict[str, dict[str, Any]] = manifest["members"]
+        present = {n[: -len(MEMBER_SUFFIX)] for n in zf.namelist() if n != MANIFEST_NAME}
+        unexpected = sorted(present - set(members))
+        if unexpected:
+            raise MapFileError(
+                f"map {p} contains members not listed in its manifest: {unexpected[:5]}",
+                hint="the file was modified outside aion; do not trust it",
+            )
+        arrays: Arrays = {}
+        for name, rec in members.items():
+            if name not in present:
+                raise _corrupt(p, name, "is missing from the file")
+            if rec["size"] > max_member_bytes:
+                raise MapFileError(
+                    f"map {p}: member {name} declares {rec['size']} bytes, over the "
+                    f"{max_member_bytes}-byte limit",
+                    hint="raise the member size limit if this map is genuinely that large",
+                )
+            info = zf.getinfo(name + MEMBER_SUFFIX)
+            data = _read_member_bytes(zf, info, p, max_member_bytes, max_ratio)
+            arrays[name] = _load_member(data, name, rec, p)
+    return arrays, manifest
