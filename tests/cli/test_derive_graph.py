@@ -1,0 +1,44 @@
+"""The navigational graph derived from where people walk (``aion build --derive-graph``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aion_cli.derive_graph import OccupancyGrid
+
+
+def test_occupied_cells_become_nodes_joined_to_their_8_neighbours() -> None:
+    grid = OccupancyGrid(spacing=1.0)
+    # a 2x2 block of busy cells at the origin, one busy cell far away, one cell below threshold
+    block = np.array([[0.5, 0.5, 0.0], [1.5, 0.5, 0.0], [0.5, 1.5, 0.0], [1.5, 1.5, 0.0]])
+    grid.add(np.repeat(block, 3, axis=0))  # batch 1: 3 each
+    grid.add(np.array([[10.2, 10.7, 1.0]] * 3))  # batch 2
+    grid.add(np.array([[5.5, 5.5, 0.0]] * 2 + [[np.nan, 0.0, 0.0]]))  # below 3, and a NaN row
+    assert grid.total == 12 + 3 + 2
+    snap = grid.graph(min_detections=3, t_ns=7)
+    assert snap.t_ns == 7
+    assert snap.layer_name == "derived"
+    assert len(snap.places) == 5
+    # ids are p0..p4 (NodeSymbol 'p')
+    assert [int(i) >> 56 for i in snap.places.ids] == [ord("p")] * 5
+    assert sorted(int(i) & ((1 << 56) - 1) for i in snap.places.ids) == [0, 1, 2, 3, 4]
+    # the block is fully connected (4 sides + 2 diagonals = 6 edges); the far cell is isolated
+    assert len(snap.edges) == 6
+    pairs = {tuple(sorted(e)) for e in snap.edges.tolist()}
+    far = int(np.argmin(np.abs(snap.places.xyz[:, 0] - 10.5)))
+    assert all(far not in p for p in pairs)
+    np.testing.assert_allclose(snap.places.xyz[far], [10.5, 10.5, 1.0])
+
+
+def test_floors_are_not_connected() -> None:
+    grid = OccupancyGrid(spacing=1.0)
+    grid.add(np.array([[0.5, 0.5, 0.0], [0.5, 0.5, 3.0]] * 4))
+    snap = grid.graph(min_detections=1, t_ns=0)
+    assert len(snap.places) == 2
+    assert len(snap.edges) == 0
+
+
+def test_empty_grid_gives_an_empty_graph() -> None:
+    snap = OccupancyGrid(0.5).graph(1, 0)
+    assert len(snap.places) == 0
+    assert snap.edges.shape == (0, 2)
