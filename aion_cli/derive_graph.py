@@ -48,7 +48,9 @@ class OccupancyGrid:
         inverse = inverse.reshape(-1)
         self._ijk = uniq
         self._count = np.bincount(inverse, weights=counts, minlength=len(uniq)).astype(np.int64)
-        self._zsum = np.bincount(inverse, weights=zsum, minlength=len(uniq))
+        self._zsum = np.asarray(
+            np.bincount(inverse, weights=zsum, minlength=len(uniq)), dtype=np.float64
+        )
 
     @property
     def total(self) -> int:
