@@ -1,0 +1,527 @@
+"""One vectorized FreMEn (Frequency Map Enhancement) over every temporal state of a map.
+
+A *row* is one modelled state: an entry's activity, or one of its direction-bin fractions. Rows
+are observed at their own times (window centres where the robot saw them), so each row keeps its
+own additive accumulators, in float64 seconds since :data:`EPOCH_NS`:
+
+* ``n`` observations, ``sum_s`` = Σ s, ``t_first`` / ``t_last`` (NaN before the first one);
+* per candidate period T_k (ω_k = 2π/T_k): ``sum_se`` = Σ s·e^{iω_k t} and ``sum_e`` = Σ e^{iω_k t}.
+
+The spectrum is γ_k = (Σ s e^{iωt} − μ Σ e^{iωt}) / n with μ = Σ s / n: the μ·Σe term (the
+"balance") removes the mean's leakage under irregular sampling, and keeping Σe instead of a
+rescaled balance makes the accumulators purely additive, so two maps covering disjoint time merge
+exactly (:func:`merge_states`). A period counts only once the row's observed span
+``t_last − t_first`` reaches ``span_factor · T`` (a shorter span cannot resolve it).
+
+Prediction of order m: p(t) = μ + Σ_{m strongest k} 2|γ_k| cos(ω_k t − φ_k), clamped to [0, 1].
+The order is chosen per row by prequential error: before each observation is absorbed it is
+predicted with every order 0..M from the state at that moment, and |s − p_m| is added to
+``order_err[row, m]``. The chosen order is the lowest order whose mean error is not beaten by a
+higher order by more than ``order_bias``. Ties in amplitude go to the lower period index.
+
+Everything runs on whole arrays: ``update`` absorbs W windows for r rows with two matrix
+products (values·E and observed·E with E = [cos ωt | sin ωt] of shape W×2K) and evaluates the
+prequential errors with exclusive cumulative sums along the window axis in row chunks (exact:
+predict-before-absorb in time order). ``predict`` is one matrix product of per-row coefficients
+with the basis at the query times.
+
+Fixed here (public FreMEn bugs, see ``notes-mod_anchors.md`` §1.6): the balance is exact across
+calls, the mean divides by the number of observations actually absorbed, the strongest (not
+weakest) components are used, the best order is a real argmin, predictions are floats, and
+times are float64 seconds from a recent epoch (float32 UNIX seconds break short periods).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import MapCorruptError
+
+if TYPE_CHECKING:
+    from aion_cli.engine.config import ModelConfig
+
+F64 = npt.NDArray[np.float64]
+C128 = npt.NDArray[np.complex128]
+I64 = npt.NDArray[np.int64]
+BoolA = npt.NDArray[np.bool_]
+
+EPOCH_NS: int = 1_578_268_800 * 1_000_000_000
+"""The map epoch, 2020-01-06T00:00:00Z (a Monday), in UNIX nanoseconds."""
+
+PRIOR: float = 0.5
+"""Prediction for a row that has never been observed (FreMEn's initial gain: no knowledge)."""
+
+_CHUNK_CELLS = 1 << 16
+"""Target size (row × window × period cells) of one chunk of the prequential evaluation."""
+
+_STATE_FIELDS = ("n", "sum_s", "sum_se", "sum_e", "t_first", "t_last", "order_err", "order_n")
+
+
+def to_model_seconds(t_ns: npt.ArrayLike) -> F64:
+    """UNIX nanoseconds -> float64 seconds since :data:`EPOCH_NS` (exact integer subtraction)."""
+    t = np.asarray(t_ns, dtype=np.int64)
+    return (t - np.int64(EPOCH_NS)).astype(np.float64) / 1e9
+
+
+def _exclusive_cumsum(x: F64) -> F64:
+    """Sum of the strictly earlier entries along axis 1 (the state *before* each window)."""
+    out = np.empty_like(x)
+    out[:, 0] = 0.0
+    if x.shape[1] > 1:
+        np.cumsum(x[:, :-1], axis=1, out=out[:, 1:])
+    return out
+
+
+@dataclass
+class FremenState:
+    """Accumulators of R rows over K periods (struct of arrays), orders 0..M.
+
+    ``sum_se`` / ``sum_e`` are complex128[R, K]; ``order_err`` is float64[R, M+1] (prequential
+    absolute-error sums) and ``order_n`` the number of scored observations per row.
+    """
+
+    n: F64
+    sum_s: F64
+    sum_se: C128
+    sum_e: C128
+    t_first: F64
+    t_last: F64
+    order_err: F64
+    order_n: F64
+
+    @classmethod
+    def empty(cls, n_rows: int, n_periods: int, max_order: int) -> FremenState:
+        """R rows with no observations."""
+        return cls(
+            n=np.zeros(n_rows),
+            sum_s=np.zeros(n_rows),
+            sum_se=np.zeros((n_rows, n_periods), np.complex128),
+            sum_e=np.zeros((n_rows, n_periods), np.complex128),
+            t_first=np.full(n_rows, np.nan),
+            t_last=np.full(n_rows, np.nan),
+            order_err=np.zeros((n_rows, max_order + 1)),
+            order_n=np.zeros(n_rows),
+        )
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.n.shape[0])
+
+    @property
+    def n_periods(self) -> int:
+        return int(self.sum_se.shape[1])
+
+    @property
+    def max_order(self) -> int:
+        return int(self.order_err.shape[1]) - 1
+
+    # -- row operations -------------------------------------------------------------------------
+    def add_rows(self, src: npt.ArrayLike, dst: npt.ArrayLike) -> None:
+        """``dst += src`` row by row: accumulators add, first = min, last = max.
+
+        Used when a hash cell's state moves into a node (or back). Repeated ``dst`` indices
+        accumulate; ``src`` values are read before any write, so overlap is safe.
+        """
+        s = np.asarray(src, dtype=np.int64).reshape(-1)
+        d = np.asarray(dst, dtype=np.int64).reshape(-1)
+        if s.shape != d.shape:
+            raise ValueError("src and dst must have the same length")
+        if s.size == 0:
+            return
+        vals = {name: getattr(self, name)[s].copy() for name in _STATE_FIELDS}
+        for name in ("n", "sum_s", "sum_se", "sum_e", "order_err", "order_n"):
+            np.add.at(getattr(self, name), d, vals[name])
+        np.fmin.at(self.t_first, d, vals["t_first"])
+        np.fmax.at(self.t_last, d, vals["t_last"])
+
+    def zero_rows(self, idx: npt.ArrayLike) -> None:
+        """Forget everything about rows ``idx`` (they become never-observed rows)."""
+        i = np.asarray(idx, dtype=np.int64).reshape(-1)
+        for name in ("n", "sum_s", "sum_se", "sum_e", "order_err", "order_n"):
+            getattr(self, name)[i] = 0
+        self.t_first[i] = np.nan
+        self.t_last[i] = np.nan
+
+    def take(self, idx: npt.ArrayLike) -> FremenState:
+        """A new state holding copies of rows ``idx`` (in that order)."""
+        i = np.asarray(idx, dtype=np.int64).reshape(-1)
+        return FremenState(**{name: getattr(self, name)[i].copy() for name in _STATE_FIELDS})
+
+    def resize(self, n_rows: int) -> None:
+        """Truncate to, or extend with empty rows up to, ``n_rows`` rows (in place)."""
+        if n_rows < 0:
+            raise ValueError("n_rows must be >= 0")
+        keep = min(n_rows, self.n_rows)
+        new = FremenState.empty(n_rows, self.n_periods, self.max_order)
+        for name in _STATE_FIELDS:
+            getattr(new, name)[:keep] = getattr(self, name)[:keep]
+            setattr(self, name, getattr(new, name))
+
+    def copy(self) -> FremenState:
+        return FremenState(**{name: getattr(self, name).copy() for name in _STATE_FIELDS})
+
+    @classmethod
+    def concat(cls, states: list[FremenState]) -> FremenState:
+        """Rows of every state, in order (all must share K and M)."""
+        if not states:
+            raise ValueError("concat needs at least one state")
+        shapes = {(s.n_periods, s.max_order) for s in states}
+        if len(shapes) != 1:
+            raise ValueError(f"states differ in periods/orders: {sorted(shapes)}")
+        return cls(
+            **{name: np.concatenate([getattr(s, name) for s in states]) for name in _STATE_FIELDS}
+        )
+
+    # -- persistence ----------------------------------------------------------------------------
+    def to_arrays(self, prefix: str) -> dict[str, np.ndarray]:
+        """Plain arrays keyed ``prefix + field`` (complex accumulators stay complex128)."""
+        return {prefix + name: getattr(self, name) for name in _STATE_FIELDS}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray], prefix: str) -> FremenState:
+        """Inverse of :meth:`to_arrays`; raises :class:`MapCorruptError` on missing or
+        inconsistent members."""
+        missing = [prefix + f for f in _STATE_FIELDS if prefix + f not in arrays]
+        if missing:
+            raise MapCorruptError(f"FreMEn state incomplete, missing: {', '.join(missing)}")
+        kinds = {
+            "n": np.float64,
+            "sum_s": np.float64,
+            "sum_se": np.complex128,
+            "sum_e": np.complex128,
+            "t_first": np.float64,
+            "t_last": np.float64,
+            "order_err": np.float64,
+            "order_n": np.float64,
+        }
+        try:
+            vals: dict[str, np.ndarray] = {
+                f: np.array(arrays[prefix + f], dtype=kinds[f]) for f in _STATE_FIELDS
+            }
+        except (TypeError, ValueError) as exc:
+            raise MapCorruptError(f"FreMEn state has invalid arrays: {exc}") from exc
+        r = vals["n"].shape
+        ok = (
+            len(r) == 1
+            and all(vals[f].shape == r for f in ("sum_s", "t_first", "t_last", "order_n"))
+            and vals["sum_se"].ndim == 2
+            and vals["sum_se"].shape[0] == r[0]
+            and vals["sum_e"].shape == vals["sum_se"].shape
+            and vals["order_err"].ndim == 2
+            and vals["order_err"].shape[0] == r[0]
+            and vals["order_err"].shape[1] >= 1
+        )
+        if not ok:
+            shapes = {f: vals[f].shape for f in _STATE_FIELDS}
+            raise MapCorruptError(f"FreMEn state arrays have inconsistent shapes: {shapes}")
+        return cls(**vals)
+
+
+def merge_states(a: FremenState, b: FremenState) -> FremenState:
+    """One state as if fed the observations of ``a`` and of ``b`` (same rows, disjoint time).
+
+    Accumulators and order errors add; first = min, last = max. The spectrum and predictions
+    of the result equal those of a single state fed both streams.
+    """
+    if (a.n_rows, a.n_periods, a.max_order) != (b.n_rows, b.n_periods, b.max_order):
+        raise ValueError("merge_states needs states with the same rows, periods and orders")
+    out = a.copy()
+    for name in ("n", "sum_s", "sum_se", "sum_e", "order_err", "order_n"):
+        getattr(out, name)[...] += getattr(b, name)
+    out.t_first = np.fmin(a.t_first, b.t_first)
+    out.t_last = np.fmax(a.t_last, b.t_last)
+    return out
+
+
+@dataclass(frozen=True)
+class FremenModel:
+    """The model parameters shared by every row: candidate periods (s), the highest order, the
+    span gate factor and the bias towards lower orders (mean absolute error)."""
+
+    periods: tuple[float, ...]
+    max_order: int = 4
+    span_factor: float = 1.5
+    order_bias: float = 0.002
+    omega: F64 = field(init=False, repr=False, compare=False)
+    min_span: F64 = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        periods = np.asarray(self.periods, dtype=np.float64)
+        if periods.ndim != 1 or periods.size == 0 or not np.all(np.isfinite(periods)):
+            raise ValueError("periods must be a non-empty list of finite seconds")
+        if np.any(periods <= 0):
+            raise ValueError("periods must be positive")
+        if self.max_order < 0:
+            raise ValueError("max_order must be >= 0")
+        object.__setattr__(self, "periods", tuple(float(p) for p in periods))
+        object.__setattr__(self, "omega", 2.0 * np.pi / periods)
+        object.__setattr__(self, "min_span", self.span_factor * periods)
+
+    @classmethod
+    def from_config(cls, config: ModelConfig) -> FremenModel:
+        return cls(config.periods, config.max_order, config.span_factor, config.order_bias)
+
+    @property
+    def n_periods(self) -> int:
+        return len(self.periods)
+
+    def empty(self, n_rows: int) -> FremenState:
+        return FremenState.empty(n_rows, self.n_periods, self.max_order)
+
+    def basis(self, t_s: npt.ArrayLike) -> tuple[F64, F64]:
+        """cos(ω_k t) and sin(ω_k t) as float64[T, K]."""
+        phase = np.multiply.outer(np.asarray(t_s, dtype=np.float64), self.omega)
+        return np.cos(phase), np.sin(phase)
+
+    def _check(self, state: FremenState) -> None:
+        if state.n_periods != self.n_periods or state.max_order != self.max_order:
+            raise ValueError(
+                f"state has {state.n_periods} periods / order {state.max_order}, model has "
+                f"{self.n_periods} / {self.max_order}"
+            )
+
+    # -- learning -------------------------------------------------------------------------------
+    def update(
+        self,
+        state: FremenState,
+        rows: npt.ArrayLike,
+        t_s: npt.ArrayLike,
+        values: npt.ArrayLike,
+        observed: npt.ArrayLike,
+    ) -> None:
+        """Absorb W windows (times ``t_s``, non-decreasing) for ``rows`` (unique), in place.
+
+        ``values[i, w]`` is row ``rows[i]``'s state in window w, used only where
+        ``observed[i, w]``. Each observation is first predicted with orders 0..M from the
+        row's state just before it (the prequential order errors), then absorbed.
+        """
+        self._check(state)
+        r = np.asarray(rows, dtype=np.int64).reshape(-1)
+        t = np.asarray(t_s, dtype=np.float64).reshape(-1)
+        obs = np.asarray(observed, dtype=bool)
+        v = np.asarray(values, dtype=np.float64)
+        if v.shape != (r.size, t.size) or obs.shape != v.shape:
+            raise ValueError(
+                f"values/observed must have shape ({r.size}, {t.size}), got {v.shape} and "
+                f"{obs.shape}"
+            )
+        if r.size == 0 or t.size == 0:
+            return
+        if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
+            raise ValueError("t_s must be finite and non-decreasing (windows in time order)")
+        if r.min() < 0 or r.max() >= state.n_rows:
+            raise IndexError("rows out of range")
+        if np.bincount(r, minlength=state.n_rows).max() > 1:
+            raise ValueError("rows must be unique within one update")
+        vz = np.where(obs, v, 0.0)
+        if not np.all(np.isfinite(vz)):
+            raise ValueError("observed values must be finite")
+        cos_t, sin_t = self.basis(t)
+        self._score_orders(state, r, t, vz, obs, cos_t, sin_t)
+        self._absorb(state, r, t, vz, obs, cos_t, sin_t)
+
+    def _absorb(
+        self, state: FremenState, r: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
+    ) -> None:
+        """Add the windows to the accumulators: two matrix products with E = [cos | sin]."""
+        k = self.n_periods
+        of = obs.astype(np.float64)
+        basis = np.concatenate([cos_t, sin_t], axis=1)  # (W, 2K)
+        ve = vz @ basis
+        oe = of @ basis
+        state.sum_se[r] += ve[:, :k] + 1j * ve[:, k:]
+        state.sum_e[r] += oe[:, :k] + 1j * oe[:, k:]
+        state.n[r] += of.sum(axis=1)
+        state.sum_s[r] += vz.sum(axis=1)
+        seen = obs.any(axis=1)
+        first = np.where(seen, t[np.argmax(obs, axis=1)], np.nan)
+        last = np.where(seen, t[t.size - 1 - np.argmax(obs[:, ::-1], axis=1)], np.nan)
+        state.t_first[r] = np.fmin(state.t_first[r], first)
+        state.t_last[r] = np.fmax(state.t_last[r], last)
+
+    def _score_orders(
+        self, state: FremenState, rows: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
+    ) -> None:
+        """Prequential errors: predict every observation with orders 0..M before absorbing it.
+
+        Row chunks of (rows × W × K) cells; the state before window w is the stored state plus
+        an exclusive cumulative sum over windows < w.
+        """
+        w_count = t.size
+        m_max = self.max_order
+        m_eff = min(m_max, self.n_periods)  # orders above K use every period
+        chunk = max(1, _CHUNK_CELLS // (w_count * self.n_periods))
+        t_obs_all = np.where(obs, t[None, :], np.nan)
+        for start in range(0, rows.size, chunk):
+            sl = slice(start, start + chunk)
+            rr = rows[sl]
+            v = vz[sl]
+            ob = obs[sl]
+            of = ob.astype(np.float64)
+            n_pre = state.n[rr, None] + _exclusive_cumsum(of)
+            has = n_pre > 0
+            n_safe = np.where(has, n_pre, 1.0)
+            mu = (state.sum_s[rr, None] + _exclusive_cumsum(v)) / n_safe
+            scored = ob & has
+            err = np.empty((rr.size, m_max + 1))
+            p = mu
+            err[:, 0] = np.where(scored, np.abs(v - np.clip(p, 0.0, 1.0)), 0.0).sum(axis=1)
+            if m_eff > 0:
+                gr, gi = self._prefix_spectrum(
+                    state, rr, t_obs_all[sl], v, of, mu, n_safe, has, cos_t, sin_t
+                )
+                a2 = gr * gr + gi * gi
+                contrib = 2.0 * (gr * cos_t[None] + gi * sin_t[None])
+                for m in range(1, m_eff + 1):
+                    top = np.argmax(a2, axis=2)[..., None]
+                    p = p + np.take_along_axis(contrib, top, axis=2)[..., 0]
+                    np.put_along_axis(a2, top, -1.0, axis=2)
+                    err[:, m] = np.where(scored, np.abs(v - np.clip(p, 0.0, 1.0)), 0.0).sum(axis=1)
+            err[:, m_eff + 1 :] = err[:, m_eff : m_eff + 1]
+            state.order_err[rr] += err
+            state.order_n[rr] += scored.sum(axis=1)
+
+    def _prefix_spectrum(
+        self,
+        state: FremenState,
+        rr: I64,
+        t_obs: F64,
+        v: F64,
+        of: F64,
+        mu: F64,
+        n_safe: F64,
+        has: BoolA,
+        cos_t: F64,
+        sin_t: F64,
+    ) -> tuple[F64, F64]:
+        """γ (real, imaginary) of each row before each window, gated, as float64[c, W, K]."""
+        first = np.fmin.accumulate(t_obs, axis=1)
+        last = np.fmax.accumulate(t_obs, axis=1)
+        first_pre = np.empty_like(first)
+        last_pre = np.empty_like(last)
+        first_pre[:, 0] = np.nan
+        last_pre[:, 0] = np.nan
+        first_pre[:, 1:] = first[:, :-1]
+        last_pre[:, 1:] = last[:, :-1]
+        first_pre = np.fmin(first_pre, state.t_first[rr, None])
+        last_pre = np.fmax(last_pre, state.t_last[rr, None])
+        with np.errstate(invalid="ignore"):
+            gate = (last_pre - first_pre)[..., None] >= self.min_span
+        gate &= has[..., None]
+        se = state.sum_se[rr]
+        e = state.sum_e[rr]
+        sr = _exclusive_cumsum(v[..., None] * cos_t[None])
+        sr += se.real[:, None, :]
+        si = _exclusive_cumsum(v[..., None] * sin_t[None])
+        si += se.imag[:, None, :]
+        er = _exclusive_cumsum(of[..., None] * cos_t[None])
+        er += e.real[:, None, :]
+        ei = _exclusive_cumsum(of[..., None] * sin_t[None])
+        ei += e.imag[:, None, :]
+        mu3 = mu[..., None]
+        inv_n = (1.0 / n_safe)[..., None]
+        gr = np.where(gate, (sr - mu3 * er) * inv_n, 0.0)
+        gi = np.where(gate, (si - mu3 * ei) * inv_n, 0.0)
+        return gr, gi
+
+    # -- reading --------------------------------------------------------------------------------
+    def _rows(self, state: FremenState, rows: npt.ArrayLike | None) -> I64:
+        if rows is None:
+            return np.arange(state.n_rows, dtype=np.int64)
+        return np.asarray(rows, dtype=np.int64).reshape(-1)
+
+    def _gamma(self, state: FremenState, r: I64) -> tuple[F64, C128]:
+        """Mean μ (PRIOR for unobserved rows) and the gated spectrum γ for rows ``r``."""
+        n = state.n[r]
+        has = n > 0
+        n_safe = np.where(has, n, 1.0)
+        mu = np.where(has, state.sum_s[r] / n_safe, PRIOR)
+        gamma = (state.sum_se[r] - mu[:, None] * state.sum_e[r]) / n_safe[:, None]
+        with np.errstate(invalid="ignore"):
+            gate = (state.t_last[r] - state.t_first[r])[:, None] >= self.min_span
+        gamma[~(gate & has[:, None])] = 0.0
+        return mu, gamma
+
+    def spectrum(self, state: FremenState, rows: npt.ArrayLike | None = None) -> tuple[F64, F64]:
+        """(amplitude |γ|, phase arg γ) as float64[r, K]; 0 for periods the span gate rejects."""
+        self._check(state)
+        _, gamma = self._gamma(state, self._rows(state, rows))
+        return np.abs(gamma), np.angle(gamma)
+
+    def chosen_order(self, state: FremenState) -> I64:
+        """Per row, the order 0..M with the lowest mean prequential error (lower-order bias).
+
+        Order m replaces the best lower order only if its mean error is lower by more than
+        ``order_bias``; rows with no scored observation use order 0.
+        """
+        self._check(state)
+        mean = state.order_err / np.maximum(state.order_n, 1.0)[:, None]
+        best = np.zeros(state.n_rows, dtype=np.int64)
+        best_err = mean[:, 0].copy()
+        for m in range(1, self.max_order + 1):
+            better = mean[:, m] < best_err - self.order_bias
+            best[better] = m
+            best_err[better] = mean[better, m]
+        return best
+
+    def predict(
+        self,
+        state: FremenState,
+        t_s: npt.ArrayLike,
+        rows: npt.ArrayLike | None = None,
+        order: int | None = None,
+    ) -> F64:
+        """Predicted states float64[r, T] in [0, 1] at times ``t_s`` (model seconds).
+
+        ``order=None`` uses each row's chosen order; an int uses that order for every row.
+        Rows never observed predict :data:`PRIOR`.
+        """
+        self._check(state)
+        r = self._rows(state, rows)
+        t = np.asarray(t_s, dtype=np.float64).reshape(-1)
+        if order is None:
+            orders = self.chosen_order(state)[r]
+        else:
+            if order < 0:
+                raise ValueError("order must be >= 0")
+            orders = np.full(r.size, min(int(order), self.n_periods), dtype=np.int64)
+        mu, gamma = self._gamma(state, r)
+        out = np.empty((r.size, t.size))
+        out[...] = mu[:, None]
+        top_m = int(orders.max()) if r.size else 0
+        if top_m > 0 and t.size > 0:
+            k = self.n_periods
+            a2 = gamma.real**2 + gamma.imag**2
+            rank = np.argsort(-a2, axis=1, kind="stable")[:, :top_m]
+            keep = np.arange(top_m)[None, :] < orders[:, None]
+            picked = np.where(keep, np.take_along_axis(gamma, rank, axis=1), 0.0)
+            coef = np.zeros((r.size, 2 * k))
+            np.put_along_axis(coef[:, :k], rank, 2.0 * picked.real, axis=1)
+            np.put_along_axis(coef[:, k:], rank, 2.0 * picked.imag, axis=1)
+            cos_t, sin_t = self.basis(t)
+            out += coef @ np.concatenate([cos_t, sin_t], axis=1).T
+        np.clip(out, 0.0, 1.0, out=out)
+        return out
+
+
+def predict_directions(
+    model: FremenModel,
+    state: FremenState,
+    dir_rows: npt.ArrayLike,
+    t_s: npt.ArrayLike,
+    floor: float,
+) -> F64:
+    """Direction distributions float64[E, B, T]: each bin's predicted fraction floored at
+    ``floor`` (never a zero probability) and renormalised to sum 1 over the B bins."""
+    d = np.asarray(dir_rows, dtype=np.int64)
+    if d.ndim != 2:
+        raise ValueError("dir_rows must have shape (E, B)")
+    t = np.asarray(t_s, dtype=np.float64).reshape(-1)
+    p = model.predict(state, t, rows=d.reshape(-1)).reshape(d.shape[0], d.shape[1], t.size)
+    np.maximum(p, floor, out=p)
+    p /= p.sum(axis=1, keepdims=True)
+    return p
