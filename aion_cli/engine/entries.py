@@ -1,0 +1,260 @@
+"""The entry store: one row per dynamics holder (an unbound hash cell or a navigational node).
+
+A struct of arrays with amortized capacity (doubling). Rows never move: entry row ``e`` owns
+FreMEn rows ``e·(B+1)`` (activity) and ``e·(B+1)+1+b`` (direction bin b), see
+:func:`fremen_rows`, so deleting an entry just marks its row ``FREE`` (zeroed, put on a free
+list and reused by the next new entry) and the FreMEn row mapping never needs a permutation.
+Exports use :meth:`EntryStore.canonical_order` (cells by key, then nodes by id), so two maps with
+the same entries give the same arrays whatever their internal row layout.
+
+Per entry, cumulative (including the open window) and for the open window only:
+``counts[E,B]`` detections per direction bin, ``nodir[E]`` detections without a heading (they
+count for activity but not for a direction), ``speed_sum[E,B]`` / ``speed_n[E,B]`` (the motion
+descriptor λ: speed samples per bin), and ``windows_observed[E]`` closed windows in which the
+entry was observed. Accumulation uses ``np.bincount`` on combined ``row·B + bin`` indices: no
+Python loop per detection.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.types import F64, I64, U64
+
+FREE = -1
+CELL = 0
+NODE = 1
+
+_PER_BIN = ("counts", "window_counts", "speed_sum", "speed_n")
+_SCALAR = ("nodir", "window_nodir", "windows_observed")
+
+
+def fremen_rows(entry_rows: npt.ArrayLike, bins: int) -> I64:
+    """FreMEn rows owned by entries: int64[r, 1+B]; column 0 activity, 1+b direction bin b."""
+    e = np.asarray(entry_rows, dtype=np.int64).reshape(-1)
+    out: I64 = e[:, None] * (bins + 1) + np.arange(bins + 1, dtype=np.int64)[None, :]
+    return out
+
+
+def direction_bins(heading: npt.ArrayLike, bins: int) -> I64:
+    """Paper convention ``floor((θ+π)/(2π/B)) mod B``; -1 where the heading is not finite."""
+    theta = np.asarray(heading, dtype=np.float64)
+    finite = np.isfinite(theta)
+    safe = np.where(finite, theta, 0.0)
+    b = np.floor((safe + np.pi) / (2.0 * np.pi / bins)).astype(np.int64) % bins
+    out: I64 = np.where(finite, b, -1)
+    return out
+
+
+@dataclass
+class EntryStore:
+    """Struct of arrays over entries: ``n`` row slots in use (live or ``FREE``) of ``capacity``.
+
+    ``free`` lists freed slots below ``n`` (ascending).
+    """
+
+    bins: int
+    n: int
+    free: I64
+    kind: npt.NDArray[np.int8]
+    key: I64
+    node_id: U64
+    xyz: F64
+    counts: F64
+    window_counts: F64
+    speed_sum: F64
+    speed_n: F64
+    nodir: F64
+    window_nodir: F64
+    windows_observed: F64
+
+    @classmethod
+    def empty(cls, bins: int, capacity: int = 64) -> EntryStore:
+        cap = max(int(capacity), 1)
+        return cls(
+            bins=bins,
+            n=0,
+            free=np.zeros(0, np.int64),
+            kind=np.full(cap, FREE, np.int8),
+            key=np.full(cap, -1, np.int64),
+            node_id=np.zeros(cap, np.uint64),
+            xyz=np.zeros((cap, 3)),
+            counts=np.zeros((cap, bins)),
+            window_counts=np.zeros((cap, bins)),
+            speed_sum=np.zeros((cap, bins)),
+            speed_n=np.zeros((cap, bins)),
+            nodir=np.zeros(cap),
+            window_nodir=np.zeros(cap),
+            windows_observed=np.zeros(cap),
+        )
+
+    @property
+    def capacity(self) -> int:
+        return len(self.kind)
+
+    # -- growth, creation, deletion ---------------------------------------------------------
+    def reserve(self, n_total: int) -> bool:
+        """Make room for ``n_total`` row slots (doubling); True if the capacity changed."""
+        if n_total <= self.capacity:
+            return False
+        cap = self.capacity
+        while cap < n_total:
+            cap *= 2
+        for name in self._array_names():
+            old = getattr(self, name)
+            new = np.zeros((cap, *old.shape[1:]), dtype=old.dtype)
+            new[: self.n] = old[: self.n]
+            setattr(self, name, new)
+        self.kind[self.n :] = FREE
+        self.key[self.n :] = -1
+        return True
+
+    def allocate(self, kind: int, key: I64, node_id: U64, xyz: F64) -> I64:
+        """Create empty entries, reusing freed rows first (lowest first); returns their rows.
+
+        The capacity grows as needed: compare :attr:`capacity` before and after to resize the
+        FreMEn state.
+        """
+        k = len(key)
+        reuse = self.free[:k]
+        self.free = self.free[k:]
+        fresh = k - len(reuse)
+        self.reserve(self.n + fresh)
+        rows = np.concatenate([reuse, np.arange(self.n, self.n + fresh, dtype=np.int64)])
+        self.n += fresh
+        self.kind[rows] = kind
+        self.key[rows] = key
+        self.node_id[rows] = node_id
+        self.xyz[rows] = xyz
+        for name in (*_PER_BIN, *_SCALAR):
+            getattr(self, name)[rows] = 0.0
+        return rows
+
+    def delete(self, rows: I64) -> None:
+        """Free entries: their rows are zeroed and reused by later :meth:`allocate` calls.
+
+        The owner must also clear the entries' FreMEn rows (``FremenState.zero_rows``).
+        """
+        if len(rows) == 0:
+            return
+        for name in self._array_names():
+            getattr(self, name)[rows] = 0
+        self.kind[rows] = FREE
+        self.key[rows] = -1
+        self.free = np.union1d(self.free, rows).astype(np.int64)
+
+    def live_rows(self) -> I64:
+        """Rows holding an entry (cell or node), ascending."""
+        return np.flatnonzero(self.kind[: self.n] != FREE).astype(np.int64)
+
+    def cell_rows(self) -> I64:
+        return np.flatnonzero(self.kind[: self.n] == CELL).astype(np.int64)
+
+    def node_rows(self) -> I64:
+        return np.flatnonzero(self.kind[: self.n] == NODE).astype(np.int64)
+
+    def canonical_order(self) -> I64:
+        """Live rows ordered cells by key, then nodes by node id (layout-independent)."""
+        cells = self.cell_rows()
+        nodes = self.node_rows()
+        cells = cells[np.argsort(self.key[cells], kind="stable")]
+        nodes = nodes[np.argsort(self.node_id[nodes], kind="stable")]
+        return np.concatenate([cells, nodes])
+
+    # -- accumulation (hot path) ------------------------------------------------------------
+    def accumulate(self, rows: I64, bins: I64, speed: F64) -> None:
+        """Add one detection per element: entry ``rows``, direction ``bins`` (-1 = no heading).
+
+        Directed detections go to ``counts``; undirected to ``nodir``. Speeds count only for
+        directed detections with a finite speed. Both the cumulative and open-window arrays are
+        updated. Vectorized with ``np.bincount`` over compressed row indices.
+        """
+        if len(rows) == 0:
+            return
+        b = self.bins
+        target: slice | I64
+        if self.n * b <= 4 * len(rows):  # dense: histogram over every row slot
+            target, local, m = slice(0, self.n), rows, self.n
+        else:  # sparse: histogram over the rows this batch touches
+            target, local = np.unique(rows, return_inverse=True)
+            m = len(target)
+        directed = bins >= 0
+        flat_dir = local[directed] * b + bins[directed]
+        hist = np.bincount(flat_dir, minlength=m * b).reshape(m, b).astype(np.float64)
+        undirected = np.bincount(local[~directed], minlength=m).astype(np.float64)
+        self.counts[target] += hist
+        self.window_counts[target] += hist
+        self.nodir[target] += undirected
+        self.window_nodir[target] += undirected
+        sp = speed[directed]
+        has_speed = np.isfinite(sp)
+        if has_speed.any():
+            idx = flat_dir[has_speed]
+            self.speed_sum[target] += np.bincount(
+                idx, weights=sp[has_speed], minlength=m * b
+            ).reshape(m, b)
+            self.speed_n[target] += np.bincount(idx, minlength=m * b).reshape(m, b)
+
+    def window_totals(self, rows: I64) -> F64:
+        """Detections of ``rows`` in the open window (directed + undirected)."""
+        out: F64 = self.window_counts[rows].sum(axis=1) + self.window_nodir[rows]
+        return out
+
+    def clear_window(self) -> None:
+        """Forget the open window's counts (the cumulative arrays already hold them)."""
+        self.window_counts[: self.n] = 0.0
+        self.window_nodir[: self.n] = 0.0
+
+    # -- moving state between entries (bind / release) --------------------------------------
+    def add_into(self, src: I64, dst: I64) -> None:
+        """dst += src for every per-entry quantity (``dst`` may repeat).
+
+        ``windows_observed`` takes the maximum, not the sum: entries merged by ownership
+        transfer were observed over the same time span, and a sum would divide the node's flow
+        per window by the number of cells it absorbed.
+        """
+        for name in (*_PER_BIN, "nodir", "window_nodir"):
+            arr = getattr(self, name)
+            np.add.at(arr, dst, arr[src])
+        np.maximum.at(self.windows_observed, dst, self.windows_observed[src])
+
+    # -- views and export -------------------------------------------------------------------
+    def total_count(self) -> float:
+        """Sum of every detection count over live entries (directed + undirected)."""
+        return float(self.counts[: self.n].sum() + self.nodir[: self.n].sum())
+
+    def to_arrays(self, order: I64, prefix: str = "entry_") -> dict[str, np.ndarray]:
+        """Plain arrays of the given live rows, in that order."""
+        names = self._array_names()
+        return {f"{prefix}{name}": getattr(self, name)[order].copy() for name in names}
+
+    @classmethod
+    def from_arrays(
+        cls, arrays: dict[str, np.ndarray], bins: int, prefix: str = "entry_"
+    ) -> EntryStore:
+        """Rebuild from :meth:`to_arrays` output; :class:`MapCorruptError` on bad members."""
+        try:
+            n = len(arrays[f"{prefix}kind"])
+            store = cls.empty(bins, capacity=max(n, 64))
+            for name in store._array_names():
+                src = np.asarray(arrays[f"{prefix}{name}"])
+                dst = getattr(store, name)
+                if src.shape != (n, *dst.shape[1:]):
+                    raise MapCorruptError(
+                        f"entry array {name} has shape {src.shape}, expected {(n, *dst.shape[1:])}"
+                    )
+                dst[:n] = src.astype(dst.dtype, copy=False)
+        except KeyError as exc:
+            raise MapCorruptError(f"map state is missing the entry array {exc}") from exc
+        if np.any((store.kind[:n] != CELL) & (store.kind[:n] != NODE)):
+            raise MapCorruptError("map state has entries of unknown kind")
+        store.n = n
+        return store
+
+    @staticmethod
+    def _array_names() -> tuple[str, ...]:
+        return ("kind", "key", "node_id", "xyz", *_PER_BIN, *_SCALAR)

@@ -1,0 +1,101 @@
+"""Which entries a sensor observed in a time window.
+
+Two sources: the robot trajectory (an entry is observed in a window if it lies within
+``sensor_range`` metres, horizontally, of any robot pose inside that window) and fixed-sensor
+intervals (every entry is observed in any window that overlaps the interval). Observed-but-empty
+windows become real zeros for FreMEn's activity; windows no source covers teach nothing.
+
+Poses are kept until the windows they fall in are closed (:meth:`prune`), so a trajectory may be
+given before, with or after the detections of the open window.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from aion_cli.engine.errors import InputError
+from aion_cli.engine.types import F64, I64, BoolA, Trajectory
+from aion_cli.engine.windows import window_index
+
+
+@dataclass
+class ObservationSource:
+    """Pending robot poses (sorted by time) and fixed-sensor intervals ``[start, end)`` in ns."""
+
+    pose_t: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
+    pose_xy: F64 = field(default_factory=lambda: np.zeros((0, 2)))
+    fixed_start: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
+    fixed_end: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
+
+    def add_trajectory(self, trajectory: Trajectory) -> None:
+        """Add robot poses; non-finite poses are ignored (they cannot say what was seen)."""
+        t = np.asarray(trajectory.t_ns, dtype=np.int64).reshape(-1)
+        xyz = np.asarray(trajectory.xyz, dtype=np.float64).reshape(-1, 3)
+        if len(t) != len(xyz):
+            raise InputError(f"trajectory has {len(t)} times but {len(xyz)} positions")
+        ok = np.isfinite(xyz[:, :2]).all(axis=1)
+        t_all = np.concatenate([self.pose_t, t[ok]])
+        xy_all = np.concatenate([self.pose_xy, xyz[ok, :2]])
+        order = np.argsort(t_all, kind="stable")
+        self.pose_t, self.pose_xy = t_all[order], xy_all[order]
+
+    def set_fixed_sensor(self, start_ns: int, end_ns: int) -> None:
+        """Declare ``[start_ns, end_ns)`` observed everywhere (a fixed sensor, or no trajectory)."""
+        if int(end_ns) < int(start_ns):
+            raise InputError(f"fixed-sensor interval ends before it starts ({start_ns}, {end_ns})")
+        self.fixed_start = np.append(self.fixed_start, np.int64(start_ns))
+        self.fixed_end = np.append(self.fixed_end, np.int64(end_ns))
+
+    def prune(self, before_ns: int) -> None:
+        """Forget poses before ``before_ns`` (their windows are closed)."""
+        keep = self.pose_t >= before_ns
+        self.pose_t, self.pose_xy = self.pose_t[keep], self.pose_xy[keep]
+
+    def covered_windows(self, first: int, stop: int, delta_ns: int) -> I64:
+        """Sorted windows in ``[first, stop)`` covered by a pose or a fixed-sensor interval."""
+        lo, hi = first * delta_ns, stop * delta_ns
+        in_range = (self.pose_t >= lo) & (self.pose_t < hi)
+        parts = [np.unique(window_index(self.pose_t[in_range], delta_ns))]
+        for s, e in zip(self.fixed_start.tolist(), self.fixed_end.tolist(), strict=True):
+            if e <= s:
+                continue
+            w0 = max(first, s // delta_ns)
+            w1 = min(stop, -((-e) // delta_ns))  # ceil(e / Δ): windows overlapping [s, e)
+            if w1 > w0:
+                parts.append(np.arange(w0, w1, dtype=np.int64))
+        return np.unique(np.concatenate(parts)).astype(np.int64)
+
+    def observed(self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float) -> BoolA:
+        """Mask of entries observed in one window."""
+        n = len(entry_xy)
+        lo, hi = window * delta_ns, (window + 1) * delta_ns
+        start, end = self.fixed_start, self.fixed_end
+        if np.any((start < hi) & (end > lo) & (end > start)):
+            return np.ones(n, dtype=bool)
+        i0, i1 = np.searchsorted(self.pose_t, [lo, hi])
+        if i1 <= i0 or n == 0:
+            return np.zeros(n, dtype=bool)
+        poses = np.unique(self.pose_xy[i0:i1], axis=0)
+        dist, _ = cKDTree(poses).query(entry_xy, k=1, distance_upper_bound=sensor_range)
+        mask: BoolA = dist <= sensor_range
+        return mask
+
+    def to_arrays(self, prefix: str = "obs_") -> dict[str, np.ndarray]:
+        return {
+            f"{prefix}pose_t": self.pose_t.copy(),
+            f"{prefix}pose_xy": self.pose_xy.copy(),
+            f"{prefix}fixed_start": self.fixed_start.copy(),
+            f"{prefix}fixed_end": self.fixed_end.copy(),
+        }
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray], prefix: str = "obs_") -> ObservationSource:
+        return cls(
+            np.asarray(arrays[f"{prefix}pose_t"], dtype=np.int64),
+            np.asarray(arrays[f"{prefix}pose_xy"], dtype=np.float64).reshape(-1, 2),
+            np.asarray(arrays[f"{prefix}fixed_start"], dtype=np.int64),
+            np.asarray(arrays[f"{prefix}fixed_end"], dtype=np.int64),
+        )

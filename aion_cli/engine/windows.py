@@ -1,0 +1,40 @@
+"""Time windows of Δ seconds aligned to the UNIX epoch.
+
+Window ``w`` covers ``[w·Δ, (w+1)·Δ)`` in integer nanoseconds, so every map built with the same
+Δ uses the same windows whatever log it started from (needed to continue and merge maps). A
+window is fed to FreMEn at its centre time, in model seconds (``fremen.to_model_seconds``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import ConfigError
+from aion_cli.engine.types import I64
+
+
+def window_ns(window_s: float) -> int:
+    """Δ in integer nanoseconds (rounded); :class:`ConfigError` if not at least 1 ns."""
+    delta = round(float(window_s) * 1e9)
+    if delta < 1:
+        raise ConfigError(f"window_s must be at least 1 ns, got {window_s!r}")
+    return int(delta)
+
+
+def window_index(t_ns: npt.ArrayLike, delta_ns: int) -> I64:
+    """``floor(t_ns / Δ)`` for int64 nanosecond times (exact integer floor division)."""
+    out: I64 = np.floor_divide(np.asarray(t_ns, dtype=np.int64), np.int64(delta_ns))
+    return out
+
+
+def window_start_ns(window: npt.ArrayLike, delta_ns: int) -> I64:
+    """Start time of each window (inclusive) in ns."""
+    out: I64 = np.asarray(window, dtype=np.int64) * np.int64(delta_ns)
+    return out
+
+
+def window_centre_ns(window: npt.ArrayLike, delta_ns: int) -> I64:
+    """Centre time of each window in ns (the time FreMEn sees the window at)."""
+    out: I64 = window_start_ns(window, delta_ns) + np.int64(delta_ns // 2)
+    return out
