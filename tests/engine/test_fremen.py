@@ -1,0 +1,354 @@
+"""engine.fremen against independently known answers.
+
+The reference is a plain per-state Python loop written here from the definition (complex sums per
+observation, the 1.5 T span gate, prediction 2|γ|cos(ωt − φ) over the strongest components, the
+prequential order errors and the biased argmin), not from the vectorized code.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.config import DAY_S, WEEK_S, ModelConfig, default_periods
+from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.fremen import (
+    EPOCH_NS,
+    PRIOR,
+    FremenModel,
+    FremenState,
+    merge_states,
+    predict_directions,
+    to_model_seconds,
+)
+
+PERIODS = default_periods()
+
+
+class LoopState:
+    """One FreMEn state, updated one observation at a time with Python complex numbers."""
+
+    def __init__(self, periods: tuple[float, ...], max_order: int, span_factor: float) -> None:
+        self.periods = periods
+        self.omega = [2 * math.pi / p for p in periods]
+        self.max_order = max_order
+        self.span_factor = span_factor
+        self.n = 0
+        self.sum_s = 0.0
+        self.se = [0j] * len(periods)
+        self.e = [0j] * len(periods)
+        self.first = math.inf
+        self.last = -math.inf
+        self.err = [0.0] * (max_order + 1)
+        self.err_n = 0
+
+    def gammas(self) -> list[complex]:
+        mu = self.sum_s / self.n
+        span = self.last - self.first
+        return [
+            (self.se[k] - mu * self.e[k]) / self.n
+            if span >= self.span_factor * self.periods[k]
+            else 0j
+            for k in range(len(self.periods))
+        ]
+
+    def predict(self, t: float, order: int) -> float:
+        if self.n == 0:
+            return 0.5
+        g = self.gammas()
+        strongest = sorted(range(len(g)), key=lambda k: -abs(g[k]))[:order]
+        p = self.sum_s / self.n
+        for k in strongest:
+            p += 2 * abs(g[k]) * math.cos(self.omega[k] * t - cmath.phase(g[k]))
+        return min(1.0, max(0.0, p))
+
+    def add(self, t: float, s: float) -> None:
+        if self.n > 0:
+            for m in range(self.max_order + 1):
+                self.err[m] += abs(s - self.predict(t, m))
+            self.err_n += 1
+        self.n += 1
+        self.sum_s += s
+        for k, w in enumerate(self.omega):
+            self.se[k] += s * cmath.exp(1j * w * t)
+            self.e[k] += cmath.exp(1j * w * t)
+        self.first = min(self.first, t)
+        self.last = max(self.last, t)
+
+    def chosen(self, bias: float) -> int:
+        if self.err_n == 0:
+            return 0
+        mean = [e / self.err_n for e in self.err]
+        best = 0
+        for m in range(1, self.max_order + 1):
+            if mean[m] < mean[best] - bias:
+                best = m
+        return best
+
+
+def _signal(rng: np.random.Generator, t: np.ndarray, kind: int) -> np.ndarray:
+    """Row signals in [0, 1]: noise, daily, daily + half-daily, weekly-ish."""
+    noise = rng.normal(0, 0.08, t.size)
+    base = [
+        0.3 + 0 * t,
+        0.4 + 0.35 * np.cos(2 * np.pi * t / DAY_S - 0.7),
+        0.3 + 0.25 * np.cos(2 * np.pi * t / DAY_S + 2.0) + 0.2 * np.cos(4 * np.pi * t / DAY_S),
+        0.5 + 0.3 * np.cos(2 * np.pi * t / (WEEK_S / 4) + 1.0),
+    ][kind % 4]
+    return np.clip(base + noise, 0.0, 1.0)
+
+
+def test_vectorized_model_equals_plain_loop_on_irregular_data() -> None:
+    rng = np.random.default_rng(7)
+    model = FremenModel(PERIODS, max_order=4, span_factor=1.5, order_bias=0.002)
+    n_rows = 8
+    # irregular window times over 12 days, fed in batches of varying size
+    t_all = np.sort(rng.uniform(0, 12 * DAY_S, 420)) + 3 * WEEK_S
+    values = np.stack([_signal(rng, t_all, kind) for kind in range(n_rows)])
+    observed = rng.random(values.shape) < 0.7
+    observed[5, :200] = False  # a row that starts late
+    observed[6] = False  # a row never observed
+    state = model.empty(n_rows + 2)  # two rows never touched by update
+    rows = np.arange(n_rows)
+    cuts = [0, 1, 7, 50, 51, 180, 300, 420]
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        model.update(state, rows, t_all[a:b], values[:, a:b], observed[:, a:b])
+
+    loops = [LoopState(PERIODS, 4, 1.5) for _ in range(n_rows + 2)]
+    for i in range(n_rows):
+        for w in np.flatnonzero(observed[i]):
+            loops[i].add(float(t_all[w]), float(values[i, w]))
+
+    np.testing.assert_allclose(state.order_err, [lp.err for lp in loops], rtol=1e-9, atol=1e-9)
+    np.testing.assert_array_equal(state.order_n, [lp.err_n for lp in loops])
+    assert model.chosen_order(state).tolist() == [lp.chosen(0.002) for lp in loops]
+    assert set(model.chosen_order(state).tolist()) >= {0, 2}  # the data exercise the choice
+
+    amp, phase = model.spectrum(state)
+    for i, lp in enumerate(loops):
+        if lp.n:
+            g = lp.gammas()
+            np.testing.assert_allclose(amp[i], [abs(x) for x in g], atol=1e-9)
+            big = amp[i] > 1e-6
+            ref_phase = np.array([cmath.phase(x) for x in g])
+            np.testing.assert_allclose(
+                np.exp(1j * phase[i][big]), np.exp(1j * ref_phase[big]), atol=1e-9
+            )
+        else:
+            assert np.all(amp[i] == 0)
+
+    t_query = 3 * WEEK_S + 12 * DAY_S + rng.uniform(0, 5 * DAY_S, 30)
+    chosen = model.chosen_order(state)
+    pred = model.predict(state, t_query)
+    for i, lp in enumerate(loops):
+        ref = [lp.predict(float(t), int(chosen[i])) for t in t_query]
+        np.testing.assert_allclose(pred[i], ref, atol=1e-9)
+    for order in (0, 1, 3, 31):
+        pred = model.predict(state, t_query, rows=[1, 2, 3], order=order)
+        ref = [[loops[i].predict(float(t), order) for t in t_query] for i in (1, 2, 3)]
+        np.testing.assert_allclose(pred, ref, atol=1e-9)
+    assert np.all(model.predict(state, t_query, rows=[6, 8]) == PRIOR)
+
+
+def test_known_daily_period_is_found_with_amplitude_and_phase() -> None:
+    model = FremenModel(PERIODS)
+    t = 2 * WEEK_S + np.arange(7 * 144) * 600.0  # one week of 10-minute windows
+    phi = 1.0
+    s = 0.5 + 0.3 * np.cos(2 * np.pi * t / DAY_S - phi)
+    state = model.empty(1)
+    model.update(state, [0], t, s[None], np.ones((1, t.size), bool))
+    amp, phase = model.spectrum(state)
+    k_day = PERIODS.index(DAY_S)
+    assert int(np.argmax(amp[0])) == k_day
+    assert amp[0, k_day] == pytest.approx(0.15, abs=1e-9)
+    assert phase[0, k_day] == pytest.approx(phi, abs=1e-9)
+    others = np.delete(amp[0], k_day)
+    assert np.all(others < 1e-9)
+    assert model.chosen_order(state)[0] >= 1
+    t_future = 5 * WEEK_S + np.arange(0, DAY_S, 900.0)
+    np.testing.assert_allclose(
+        model.predict(state, t_future)[0],
+        0.5 + 0.3 * np.cos(2 * np.pi * t_future / DAY_S - phi),
+        atol=1e-9,
+    )
+
+
+def _random_stream(seed: int, n_rows: int, n_win: int) -> tuple[np.ndarray, ...]:
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0, 9 * DAY_S, n_win))
+    values = rng.random((n_rows, n_win))
+    observed = rng.random((n_rows, n_win)) < 0.6
+    return t, values, observed
+
+
+def _assert_states_equal(a: FremenState, b: FremenState, orders: bool = True) -> None:
+    fields = ["n", "sum_s", "sum_se", "sum_e", "t_first", "t_last"]
+    fields += ["order_err", "order_n"] if orders else []
+    for name in fields:
+        np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-11, atol=1e-9)
+
+
+def test_one_batch_of_windows_equals_single_window_updates() -> None:
+    model = FremenModel(PERIODS, max_order=3)
+    t, values, observed = _random_stream(3, 40, 90)
+    rows = np.arange(40)
+    batch, single = model.empty(40), model.empty(40)
+    model.update(batch, rows, t, values, observed)
+    for w in range(t.size):
+        model.update(single, rows, t[w : w + 1], values[:, w : w + 1], observed[:, w : w + 1])
+    _assert_states_equal(batch, single)
+    assert batch.order_n.sum() > 0
+
+
+def test_update_of_a_row_subset_leaves_other_rows_untouched() -> None:
+    model = FremenModel(PERIODS)
+    t, values, observed = _random_stream(4, 6, 30)
+    state = model.empty(10)
+    model.update(state, [7, 2, 9], t, values[:3], observed[:3])
+    ref = model.empty(3)
+    model.update(ref, [0, 1, 2], t, values[:3], observed[:3])
+    _assert_states_equal(state.take([7, 2, 9]), ref)
+    assert np.all(state.take([0, 1, 3, 4, 5, 6, 8]).n == 0)
+
+
+def test_merge_of_disjoint_time_states_equals_one_state_fed_both() -> None:
+    model = FremenModel(PERIODS)
+    t, values, observed = _random_stream(5, 12, 120)
+    rows = np.arange(12)
+    early, late, both = model.empty(12), model.empty(12), model.empty(12)
+    model.update(early, rows, t[:70], values[:, :70], observed[:, :70])
+    model.update(late, rows, t[70:], values[:, 70:], observed[:, 70:])
+    model.update(both, rows, t, values, observed)
+    merged = merge_states(early, late)
+    _assert_states_equal(merged, both, orders=False)
+    np.testing.assert_allclose(merged.order_err, early.order_err + late.order_err)
+    tq = np.linspace(9 * DAY_S, 11 * DAY_S, 17)
+    for order in (0, 2, 4):
+        np.testing.assert_allclose(
+            model.predict(merged, tq, order=order), model.predict(both, tq, order=order), atol=1e-9
+        )
+    # add_rows is the same merge, row by row
+    stacked = FremenState.concat([early, late])
+    stacked.add_rows(np.arange(12, 24), np.arange(12))
+    _assert_states_equal(stacked.take(rows), merged)
+
+
+def test_span_gate_ignores_weekly_period_until_one_and_a_half_weeks() -> None:
+    model = FremenModel(PERIODS)
+    t = np.arange(3 * 144) * 600.0  # three days
+    s = 0.5 + 0.4 * np.cos(2 * np.pi * t / WEEK_S)
+    state = model.empty(1)
+    model.update(state, [0], t, s[None], np.ones((1, t.size), bool))
+    amp, _ = model.spectrum(state)
+    span = t[-1] - t[0]
+    for k, period in enumerate(PERIODS):
+        if 1.5 * period > span:
+            assert amp[0, k] == 0.0, period
+    assert amp[0, PERIODS.index(DAY_S)] > 0
+    # with every order, the prediction is the mean plus the admitted components only
+    loop = LoopState(PERIODS, 0, 1.5)
+    for ti, si in zip(t, s, strict=True):
+        loop.add(float(ti), float(si))
+    tq = np.array([4 * DAY_S, 5.3 * DAY_S])
+    np.testing.assert_allclose(
+        model.predict(state, tq, order=31)[0], [loop.predict(x, 31) for x in tq], atol=1e-9
+    )
+    # after 11 days the weekly period is admitted and is the strongest
+    t2 = np.arange(3 * 144, 11 * 144) * 600.0
+    s2 = 0.5 + 0.4 * np.cos(2 * np.pi * t2 / WEEK_S)
+    model.update(state, [0], t2, s2[None], np.ones((1, t2.size), bool))
+    amp, _ = model.spectrum(state)
+    assert int(np.argmax(amp[0])) == PERIODS.index(WEEK_S)
+
+
+def test_predictions_are_clamped_to_unit_interval() -> None:
+    model = FremenModel(PERIODS, max_order=1)
+    t = np.arange(4 * 144) * 600.0
+    s = 0.5 + 0.8 * np.cos(2 * np.pi * t / DAY_S)  # the true signal leaves [0, 1]
+    state = model.empty(1)
+    model.update(state, [0], t, s[None], np.ones((1, t.size), bool))
+    tq = np.arange(0, DAY_S, 300.0) + 10 * DAY_S
+    p = model.predict(state, tq, order=1)[0]
+    np.testing.assert_allclose(p, np.clip(0.5 + 0.8 * np.cos(2 * np.pi * tq / DAY_S), 0, 1), 1e-9)
+    assert p.min() == 0.0 and p.max() == 1.0
+
+
+def test_chosen_order_prefers_lower_order_within_bias() -> None:
+    model = FremenModel(PERIODS, max_order=3, order_bias=0.01)
+    state = model.empty(4)
+    state.order_n[:] = 10
+    state.order_err[:] = np.array(
+        [
+            [1.0, 0.95, 0.5, 0.4],  # 2 beats 0 by 0.05, 3 beats 2 by only 0.01 -> 2
+            [1.0, 0.95, 0.92, 0.91],  # 1 beats 0 by 0.005 (no), 2 by 0.008 (no), 3 by 0.009
+            [1.0, 1.2, 1.1, 0.85],  # 3 beats 0 by 0.015 -> 3
+            [0.0, 0.0, 0.0, 0.0],
+        ]
+    )
+    assert model.chosen_order(state).tolist() == [2, 0, 3, 0]
+
+
+def test_row_ops_and_array_round_trip() -> None:
+    model = FremenModel(PERIODS)
+    t, values, observed = _random_stream(6, 5, 60)
+    state = model.empty(5)
+    model.update(state, np.arange(5), t, values, observed)
+    again = FremenState.from_arrays(state.to_arrays("fremen/"), "fremen/")
+    _assert_states_equal(again, state)
+    grown = state.copy()
+    grown.resize(8)
+    assert grown.n_rows == 8 and np.all(grown.take([5, 6, 7]).n == 0)
+    _assert_states_equal(grown.take(np.arange(5)), state)
+    grown.resize(2)
+    _assert_states_equal(grown, state.take([0, 1]))
+    state.zero_rows([1])
+    assert model.predict(state, [0.0, 5.0], rows=[1]).tolist() == [[PRIOR, PRIOR]]
+    arrays = state.to_arrays("f/")
+    del arrays["f/sum_e"]
+    with pytest.raises(MapCorruptError):
+        FremenState.from_arrays(arrays, "f/")
+    arrays = state.to_arrays("f/")
+    arrays["f/t_last"] = np.zeros(3)
+    with pytest.raises(MapCorruptError):
+        FremenState.from_arrays(arrays, "f/")
+
+
+def test_update_rejects_bad_input() -> None:
+    model = FremenModel(PERIODS)
+    state = model.empty(3)
+    ones = np.ones((2, 2), bool)
+    with pytest.raises(ValueError, match="non-decreasing"):
+        model.update(state, [0, 1], [10.0, 5.0], np.zeros((2, 2)), ones)
+    with pytest.raises(ValueError, match="unique"):
+        model.update(state, [1, 1], [1.0, 2.0], np.zeros((2, 2)), ones)
+    with pytest.raises(ValueError, match="shape"):
+        model.update(state, [0, 1], [1.0, 2.0], np.zeros((2, 3)), ones)
+    with pytest.raises(ValueError, match="finite"):
+        model.update(state, [0, 1], [1.0, 2.0], np.full((2, 2), np.nan), ones)
+    # NaN in an unobserved cell is ignored
+    model.update(state, [0, 1], [1.0, 2.0], np.full((2, 2), np.nan), ~ones)
+    assert np.all(state.n == 0)
+
+
+def test_predict_directions_floors_and_renormalises() -> None:
+    model = FremenModel(PERIODS, max_order=0)
+    state = model.empty(4)
+    t = np.arange(10) * 600.0
+    fractions = np.array([0.7, 0.3, 0.0, 0.0])
+    model.update(state, np.arange(4), t, np.repeat(fractions[:, None], 10, 1), np.ones((4, 10)))
+    p = predict_directions(model, state, np.array([[0, 1, 2, 3]]), [1e6, 2e6], floor=0.01)
+    expected = np.maximum(fractions, 0.01) / np.maximum(fractions, 0.01).sum()
+    np.testing.assert_allclose(p[0, :, 0], expected)
+    np.testing.assert_allclose(p.sum(axis=1), 1.0)
+    assert p.shape == (1, 4, 2)
+
+
+def test_model_seconds_are_relative_to_monday_2020_01_06() -> None:
+    assert EPOCH_NS == 1_578_268_800 * 10**9
+    ns = np.array([EPOCH_NS, EPOCH_NS + 1, EPOCH_NS + 86_400 * 10**9 + 500], np.int64)
+    np.testing.assert_allclose(to_model_seconds(ns), [0.0, 1e-9, 86_400 + 5e-7], rtol=0, atol=1e-12)
+    model = FremenModel.from_config(ModelConfig())
+    assert model.n_periods == 31 and model.max_order == 4
