@@ -8,6 +8,7 @@ prequential order errors and the biased argmin), not from the vectorized code.
 from __future__ import annotations
 
 import cmath
+import itertools
 import math
 
 import numpy as np
@@ -114,7 +115,7 @@ def test_vectorized_model_equals_plain_loop_on_irregular_data() -> None:
     state = model.empty(n_rows + 2)  # two rows never touched by update
     rows = np.arange(n_rows)
     cuts = [0, 1, 7, 50, 51, 180, 300, 420]
-    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+    for a, b in itertools.pairwise(cuts):
         model.update(state, rows, t_all[a:b], values[:, a:b], observed[:, a:b])
 
     loops = [LoopState(PERIODS, 4, 1.5) for _ in range(n_rows + 2)]
@@ -273,7 +274,8 @@ def test_predictions_are_clamped_to_unit_interval() -> None:
     tq = np.arange(0, DAY_S, 300.0) + 10 * DAY_S
     p = model.predict(state, tq, order=1)[0]
     np.testing.assert_allclose(p, np.clip(0.5 + 0.8 * np.cos(2 * np.pi * tq / DAY_S), 0, 1), 1e-9)
-    assert p.min() == 0.0 and p.max() == 1.0
+    assert p.min() == 0.0
+    assert p.max() == 1.0
 
 
 def test_chosen_order_prefers_lower_order_within_bias() -> None:
@@ -300,7 +302,8 @@ def test_row_ops_and_array_round_trip() -> None:
     _assert_states_equal(again, state)
     grown = state.copy()
     grown.resize(8)
-    assert grown.n_rows == 8 and np.all(grown.take([5, 6, 7]).n == 0)
+    assert grown.n_rows == 8
+    assert np.all(grown.take([5, 6, 7]).n == 0)
     _assert_states_equal(grown.take(np.arange(5)), state)
     grown.resize(2)
     _assert_states_equal(grown, state.take([0, 1]))
@@ -351,4 +354,5 @@ def test_model_seconds_are_relative_to_monday_2020_01_06() -> None:
     ns = np.array([EPOCH_NS, EPOCH_NS + 1, EPOCH_NS + 86_400 * 10**9 + 500], np.int64)
     np.testing.assert_allclose(to_model_seconds(ns), [0.0, 1e-9, 86_400 + 5e-7], rtol=0, atol=1e-12)
     model = FremenModel.from_config(ModelConfig())
-    assert model.n_periods == 31 and model.max_order == 4
+    assert model.n_periods == 31
+    assert model.max_order == 4
