@@ -1,0 +1,362 @@
+"""A small tf2-style transform buffer built from ``/tf`` and ``/tf_static``.
+
+No maintained PyPI package offers a ROS-free tf2 buffer (``../shared/reference/notes-formats.md``
+§5), so this is our own: per frame edge (``parent_T_child``) sorted arrays of stamp, translation
+and quaternion (x, y, z, w); static edges separately. A lookup finds the chain between two frames
+by BFS over the undirected frame tree, interpolates every dynamic edge between its bracketing
+samples exactly like tf2's ``TimeCache::interpolate`` (linear translation, quaternion slerp) and
+composes the chain, all vectorized over the query times.
+
+Query times outside an edge's recorded range (plus a tolerance, 0.1 s by default) are flagged
+``ok = False`` and their outputs are NaN: the caller counts the drops, nothing returns made-up
+poses. Unknown frames or frames without a chain raise :class:`TransformError`.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections import deque
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import TransformError
+from aion_cli.engine.types import F64, I64, BoolA, Trajectory
+
+_DOT_NLERP = 0.9995  # above this cosine, slerp's sin(θ) is ill-conditioned: normalised lerp
+
+
+def normalize_frame(frame_id: str) -> str:
+    """Frame ids without the leading slash ROS 1 tools sometimes add."""
+    return frame_id.strip().lstrip("/")
+
+
+def quat_to_matrix(q: F64) -> F64:
+    """Rotation matrices float64[n,3,3] of unit quaternions float64[n,4] (x, y, z, w)."""
+    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    out = np.empty((len(q), 3, 3))
+    out[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    out[:, 0, 1] = 2 * (x * y - z * w)
+    out[:, 0, 2] = 2 * (x * z + y * w)
+    out[:, 1, 0] = 2 * (x * y + z * w)
+    out[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    out[:, 1, 2] = 2 * (y * z - x * w)
+    out[:, 2, 0] = 2 * (x * z - y * w)
+    out[:, 2, 1] = 2 * (y * z + x * w)
+    out[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return out
+
+
+def slerp(q0: F64, q1: F64, alpha: F64) -> F64:
+    """Shortest-arc spherical interpolation of unit quaternions, row by row (tf2 semantics)."""
+    dot = np.einsum("ij,ij->i", q0, q1)
+    q1 = np.where((dot < 0)[:, None], -q1, q1)
+    dot = np.abs(dot)
+    theta = np.arccos(np.clip(dot, -1.0, 1.0))
+    sin_t = np.sin(theta)
+    near = dot > _DOT_NLERP
+    safe = np.where(near, 1.0, sin_t)
+    w0 = np.where(near, 1 - alpha, np.sin((1 - alpha) * theta) / safe)
+    w1 = np.where(near, alpha, np.sin(alpha * theta) / safe)
+    out = w0[:, None] * q0 + w1[:, None] * q1
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+class _EdgeSeries:
+    """Growable, lazily sorted samples of one dynamic edge (amortised O(1) in-order appends)."""
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.stamps = np.empty(16, dtype=np.int64)
+        self.trans = np.empty((16, 3))
+        self.quats = np.empty((16, 4))
+        self.sorted = True
+
+    def append(self, t: I64, trans: F64, quats: F64) -> None:
+        k = len(t)
+        if self.n + k > len(self.stamps):
+            cap = max(2 * len(self.stamps), self.n + k)
+            self.stamps = np.resize(self.stamps, cap)
+            self.trans = np.resize(self.trans, (cap, 3))
+            self.quats = np.resize(self.quats, (cap, 4))
+        last = self.stamps[self.n - 1] if self.n else np.iinfo(np.int64).min
+        if t[0] < last or (k > 1 and bool((np.diff(t) < 0).any())):
+            self.sorted = False
+        self.stamps[self.n : self.n + k] = t
+        self.trans[self.n : self.n + k] = trans
+        self.quats[self.n : self.n + k] = quats
+        self.n += k
+
+    def arrays(self) -> tuple[I64, F64, F64]:
+        if not self.sorted:
+            order = np.argsort(self.stamps[: self.n], kind="stable")
+            self.stamps[: self.n] = self.stamps[: self.n][order]
+            self.trans[: self.n] = self.trans[: self.n][order]
+            self.quats[: self.n] = self.quats[: self.n][order]
+            self.sorted = True
+        return self.stamps[: self.n], self.trans[: self.n], self.quats[: self.n]
+
+
+def _stamp_ns(stamp: Any) -> int:
+    """ns of a ROS time: ``sec/nanosec`` (ROS 2, rosbags) or ``secs/nsecs`` (genpy)."""
+    if hasattr(stamp, "nanosec"):
+        return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    return int(stamp.secs) * 1_000_000_000 + int(stamp.nsecs)
+
+
+class TfBuffer:
+    """Frame transforms over time; see the module docstring.
+
+    ``tolerance_s``: how far outside an edge's recorded time range a lookup still succeeds
+    (using the nearest sample), like a short hold; beyond it, ``ok`` is False.
+    """
+
+    def __init__(self, tolerance_s: float = 0.1) -> None:
+        if not np.isfinite(tolerance_s) or tolerance_s < 0:
+            raise TransformError(f"TF tolerance must be >= 0 s, got {tolerance_s}")
+        self.tolerance_ns = round(tolerance_s * 1e9)
+        self._dynamic: dict[tuple[str, str], _EdgeSeries] = {}
+        self._static: dict[tuple[str, str], tuple[F64, F64]] = {}
+        self._neighbours: dict[str, set[str]] = {}
+        self._paths: dict[tuple[str, str], list[str]] = {}
+        #: samples dropped at ingest because their translation or quaternion was unusable
+        self.invalid_samples = 0
+
+    # ------------------------------------------------------------------ ingest
+
+    @classmethod
+    def from_messages(
+        cls, messages: Iterable[tuple[Any, bool]], tolerance_s: float = 0.1
+    ) -> TfBuffer:
+        """A buffer from decoded ``tf2_msgs/TFMessage`` objects paired with ``is_static``."""
+        buf = cls(tolerance_s)
+        for msg, static in messages:
+            buf.add_message(msg, static)
+        return buf
+
+    def add_message(self, msg: Any, static: bool = False) -> None:
+        """Ingest one decoded TFMessage (rosbags, mcap_ros2 or genpy object)."""
+        tfs = list(msg.transforms)
+        if not tfs:
+            return
+        trans = [tf.transform.translation for tf in tfs]
+        rots = [tf.transform.rotation for tf in tfs]
+        self.add_transforms(
+            [tf.header.frame_id for tf in tfs],
+            [tf.child_frame_id for tf in tfs],
+            np.array([_stamp_ns(tf.header.stamp) for tf in tfs], dtype=np.int64),
+            np.array([(v.x, v.y, v.z) for v in trans], dtype=np.float64),
+            np.array([(r.x, r.y, r.z, r.w) for r in rots], dtype=np.float64),
+            static,
+        )
+
+    def add_transforms(
+        self,
+        parent: Sequence[str] | npt.NDArray[Any] | str,
+        child: Sequence[str] | npt.NDArray[Any] | str,
+        t_ns: npt.ArrayLike,
+        translation: npt.ArrayLike,
+        quat_xyzw: npt.ArrayLike,
+        static: bool = False,
+    ) -> None:
+        """Add n transforms ``parent_T_child`` at once (a str parent/child applies to all rows).
+
+        Rows with a non-finite translation or a zero / non-finite quaternion are dropped and
+        counted in ``invalid_samples``; static rows ignore ``t_ns`` (the last one per edge wins).
+        """
+        t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
+        n = len(t)
+        tr = np.asarray(translation, dtype=np.float64).reshape(n, 3)
+        q = np.asarray(quat_xyzw, dtype=np.float64).reshape(n, 4)
+        parents = self._frames_column(parent, n, "parent")
+        children = self._frames_column(child, n, "child")
+        norm = np.linalg.norm(q, axis=1)
+        good = np.isfinite(tr).all(axis=1) & np.isfinite(norm) & (norm > 1e-9)
+        self.invalid_samples += int(n - good.sum())
+        q = q / np.where(good, norm, 1.0)[:, None]
+        groups: dict[tuple[str, str], list[int]] = {}
+        for i in np.flatnonzero(good).tolist():
+            groups.setdefault((parents[i], children[i]), []).append(i)
+        for (p, c), rows in groups.items():
+            self._add_edge(p, c, t[rows], tr[rows], q[rows], static)
+
+    add = add_transforms  # the name docs/CONTRACTS.md uses
+
+    @staticmethod
+    def _frames_column(
+        frames: Sequence[str] | npt.NDArray[Any] | str, n: int, what: str
+    ) -> list[str]:
+        if isinstance(frames, str):
+            frames = [frames] * n
+        names = [normalize_frame(str(f)) for f in frames]
+        if len(names) != n:
+            raise TransformError(f"{what} frames: expected {n} names, got {len(names)}")
+        if any(not f for f in names):
+            raise TransformError(f"empty {what} frame id in TF data")
+        return names
+
+    def _add_edge(self, parent: str, child: str, t: I64, tr: F64, q: F64, static: bool) -> None:
+        if parent == child:
+            raise TransformError(f"TF edge from frame {parent!r} to itself")
+        key = (parent, child)
+        if key not in self._static and key not in self._dynamic:
+            self._neighbours.setdefault(parent, set()).add(child)
+            self._neighbours.setdefault(child, set()).add(parent)
+            self._paths.clear()
+        if static:
+            self._static[key] = (tr[-1].copy(), q[-1].copy())
+        else:
+            self._dynamic.setdefault(key, _EdgeSeries()).append(t, tr, q)
+
+    # ------------------------------------------------------------------ queries
+
+    @property
+    def frames(self) -> list[str]:
+        """Every frame name seen, sorted."""
+        return sorted(self._neighbours)
+
+    def time_range(self, parent: str, child: str) -> tuple[int, int] | None:
+        """First and last stamp of a dynamic edge, None for static or unknown edges."""
+        series = self._dynamic.get((normalize_frame(parent), normalize_frame(child)))
+        if series is None or series.n == 0:
+            return None
+        stamps, _, _ = series.arrays()
+        return int(stamps[0]), int(stamps[-1])
+
+    def _path(self, target: str, source: str) -> list[str]:
+        """Frames from target to source (inclusive), by BFS over the undirected frame tree."""
+        cached = self._paths.get((target, source))
+        if cached is not None:
+            return cached
+        for f in (target, source):
+            if f not in self._neighbours:
+                raise TransformError(
+                    f"unknown frame {f!r}; frames known: {', '.join(self.frames) or '(none)'}",
+                    hint="check --map-frame / the detections' frame_id, and that the log has /tf",
+                )
+        prev: dict[str, str | None] = {target: None}
+        queue = deque([target])
+        while queue and source not in prev:
+            frame = queue.popleft()
+            for nxt in sorted(self._neighbours[frame]):
+                if nxt not in prev:
+                    prev[nxt] = frame
+                    queue.append(nxt)
+        if source not in prev:
+            raise TransformError(
+                f"no transform chain between {target!r} and {source!r}; frames connected to "
+                f"{target!r}: {', '.join(sorted(prev))}; frames known: {', '.join(self.frames)}",
+                hint="the log's TF tree is split; is map->odom (or odom->base) missing?",
+            )
+        path = [source]
+        while path[-1] != target:
+            step = prev[path[-1]]
+            assert step is not None
+            path.append(step)
+        path.reverse()
+        self._paths[(target, source)] = path
+        return path
+
+    def _edge(self, parent: str, child: str, t: I64) -> tuple[F64, F64, BoolA]:
+        """``parent_T_child`` at times ``t``: (R[n,3,3], trans[n,3], ok[n])."""
+        n = len(t)
+        series = self._dynamic.get((parent, child))
+        if series is None or series.n == 0:
+            tr, q = self._static[(parent, child)]
+            R = np.broadcast_to(quat_to_matrix(q[None, :]), (n, 3, 3))
+            return R, np.broadcast_to(tr, (n, 3)), np.ones(n, dtype=bool)
+        stamps, trans, quats = series.arrays()
+        ok = (t >= stamps[0] - self.tolerance_ns) & (t <= stamps[-1] + self.tolerance_ns)
+        tc = np.clip(t, stamps[0], stamps[-1])
+        hi = np.searchsorted(stamps, tc, side="left").clip(0, len(stamps) - 1)
+        lo = np.where(stamps[hi] == tc, hi, hi - 1).clip(0, None)
+        span = (stamps[hi] - stamps[lo]).astype(np.float64)
+        alpha = np.where(
+            span > 0, (tc - stamps[lo]).astype(np.float64) / np.where(span > 0, span, 1), 0.0
+        )
+        tr_out = trans[lo] + alpha[:, None] * (trans[hi] - trans[lo])
+        R = quat_to_matrix(slerp(quats[lo], quats[hi], alpha))
+        return R, tr_out, ok
+
+    def lookup(self, target: str, source: str, t_ns: npt.ArrayLike) -> tuple[F64, F64, BoolA]:
+        """``target_T_source`` at each time: (R f64[n,3,3], t f64[n,3], ok bool[n]).
+
+        ``p_target = R @ p_source + t``. Rows with ``ok == False`` (outside a dynamic edge's
+        recorded range plus tolerance) are NaN.
+        """
+        t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
+        n = len(t)
+        path = self._path(normalize_frame(target), normalize_frame(source))
+        R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+        tr = np.zeros((n, 3))
+        ok = np.ones(n, dtype=bool)
+        for a, b in itertools.pairwise(path):
+            if (a, b) in self._dynamic or (a, b) in self._static:
+                Re, te, oke = self._edge(a, b, t)
+            else:  # b is a's parent: a_T_b = inverse(b_T_a)
+                Rb, tb, oke = self._edge(b, a, t)
+                Re = np.transpose(Rb, (0, 2, 1))
+                te = -np.einsum("nij,nj->ni", Re, tb)
+            tr = tr + np.einsum("nij,nj->ni", R, te)
+            R = R @ Re
+            ok &= oke
+        R[~ok] = np.nan
+        tr[~ok] = np.nan
+        return R, tr, ok
+
+    def _lookup_rows(
+        self, target: str, source: str, t_ns: npt.ArrayLike, n: int
+    ) -> tuple[F64, F64, BoolA]:
+        """Lookup for n rows; one scalar time is looked up once and broadcast."""
+        t = np.asarray(t_ns, dtype=np.int64)
+        if t.ndim == 0 or len(t) == 1:
+            R, tr, ok = self.lookup(target, source, t.reshape(1))
+            ok_n = np.broadcast_to(ok, (n,))
+            return np.broadcast_to(R, (n, 3, 3)), np.broadcast_to(tr, (n, 3)), ok_n
+        if len(t) != n:
+            raise TransformError(f"got {len(t)} times for {n} rows")
+        return self.lookup(target, source, t)
+
+    def transform_points(
+        self, target: str, source: str, t_ns: npt.ArrayLike, xyz: npt.ArrayLike
+    ) -> tuple[F64, BoolA]:
+        """Points float64[n,3] from ``source`` into ``target`` at their times; NaN where not ok."""
+        p = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+        R, tr, ok = self._lookup_rows(target, source, t_ns, len(p))
+        return np.einsum("nij,nj->ni", R, p) + tr, np.array(ok)
+
+    def transform_vectors(
+        self, target: str, source: str, t_ns: npt.ArrayLike, vec: npt.ArrayLike
+    ) -> tuple[F64, BoolA]:
+        """Free vectors (e.g. velocities) rotated from ``source`` into ``target``."""
+        v = np.asarray(vec, dtype=np.float64).reshape(-1, 3)
+        R, _, ok = self._lookup_rows(target, source, t_ns, len(v))
+        return np.einsum("nij,nj->ni", R, v), np.array(ok)
+
+    def trajectory(
+        self, map_frame: str, base_frame: str, t_ns: npt.ArrayLike | None = None
+    ) -> Trajectory:
+        """Positions of ``base_frame``'s origin in ``map_frame``.
+
+        Times: ``t_ns`` if given, else every sample stamp of the dynamic edges on the chain
+        (empty for an all-static chain). Times that cannot be transformed are left out.
+        """
+        target, source = normalize_frame(map_frame), normalize_frame(base_frame)
+        if t_ns is None:
+            path = self._path(target, source)
+            stamps = [
+                self._dynamic[key].arrays()[0]
+                for a, b in itertools.pairwise(path)
+                for key in ((a, b), (b, a))
+                if key in self._dynamic
+            ]
+            times = np.unique(np.concatenate(stamps)) if stamps else np.zeros(0, np.int64)
+        else:
+            times = np.unique(np.asarray(t_ns, dtype=np.int64).reshape(-1))
+        if len(times) == 0:
+            self._path(target, source)  # still report unknown frames
+            return Trajectory.empty()
+        _, tr, ok = self.lookup(target, source, times)
+        return Trajectory(times[ok], np.ascontiguousarray(tr[ok]))
