@@ -140,26 +140,67 @@ class _Converters:
                 hint="see formats.msgdefs.SUPPORTED_MSGTYPES for the shipped definitions",
             )
         cls = self.store.types[msgtype]
-        fields = [(name, self._field(desc)) for name, desc in self.store.fielddefs[msgtype][1]]
+        fielddefs: list[tuple[str, Any]] = list(self.store.fielddefs[msgtype][1])
+        fields = [(name, self._field(desc)) for name, desc in fielddefs]
         names = frozenset(name for name, _ in fields)
         default: list[Any] = []
 
-        def convert(value: Any) -> Any:
-            if value is None:
-                if not default:
-                    default.append(cls(*[c(None) for _, c in fields]))
-                return default[0]
+        def make_default() -> Any:
+            if not default:
+                default.append(cls(*[c(None) for _, c in fields]))
+            return default[0]
+
+        def slow(value: Any) -> Any:
             if isinstance(value, cls):
                 return value
-            if not isinstance(value, Mapping):
-                raise TypeError(f"{msgtype}: expected a dict, got {type(value).__name__}")
-            if not names.issuperset(value):
-                unknown = sorted(set(value) - names)
-                raise KeyError(f"{msgtype} has no field(s) {unknown}; fields: {sorted(names)}")
-            get = value.get
-            return cls(*[c(get(n)) for n, c in fields])
+            if isinstance(value, Mapping):
+                return convert(dict(value))
+            raise TypeError(f"{msgtype}: expected a dict, got {type(value).__name__}")
 
+        def unknown(value: dict[str, Any]) -> None:
+            extra = sorted(set(value) - names)
+            raise KeyError(f"{msgtype} has no field(s) {extra}; fields: {sorted(names)}")
+
+        # One generated function per type: scalar conversions inline, one call per nested
+        # field. About twice as fast as looping over per-field closures.
+        namespace: dict[str, Any] = {
+            "cls": cls,
+            "names": names,
+            "make_default": make_default,
+            "slow": slow,
+            "unknown": unknown,
+        }
+        args = []
+        for i, ((name, desc), (_, conv)) in enumerate(zip(fielddefs, fields, strict=True)):
+            if desc[0] == _BASE and not desc[1][0].startswith("string"):
+                zero, cast = _scalar_source(desc[1][0])
+                args.append(f"{zero} if (v := get({name!r})) is None else {cast}(v)")
+            else:
+                namespace[f"c{i}"] = conv
+                args.append(f"c{i}(get({name!r}))")
+        source = (
+            "def convert(value):\n"
+            "    if value is None:\n"
+            "        return make_default()\n"
+            "    if value.__class__ is not dict:\n"
+            "        return slow(value)\n"
+            "    if not names.issuperset(value):\n"
+            "        unknown(value)\n"
+            "    get = value.get\n"
+            f"    return cls({', '.join(args)})\n"
+        )
+        exec(compile(source, f"<aion converter {msgtype}>", "exec"), namespace)
+        convert: Converter = namespace["convert"]
         return convert
+
+
+def _scalar_source(basetype: str) -> tuple[str, str]:
+    """Zero literal and cast function name of a numeric or bool field, for generated code."""
+    if basetype == "bool":
+        return "False", "bool"
+    if basetype.startswith("float"):
+        return "0.0", "float"
+    return "0", "int"
 
 
 @cache
