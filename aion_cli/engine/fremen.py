@@ -320,9 +320,12 @@ class FremenModel:
         vz = np.where(obs, v, 0.0)
         if not np.all(np.isfinite(vz)):
             raise ValueError("observed values must be finite")
-        cos_t, sin_t = self.basis(t)
-        self._score_orders(state, r, t, vz, obs, cos_t, sin_t)
-        self._absorb(state, r, t, vz, obs, cos_t, sin_t)
+        step = max(1, _CHUNK_CELLS // self.n_periods)  # long calls: blocks of windows in order
+        for a in range(0, t.size, step):
+            b = min(a + step, t.size)
+            cos_t, sin_t = self.basis(t[a:b])
+            self._score_orders(state, r, t[a:b], vz[:, a:b], obs[:, a:b], cos_t, sin_t)
+            self._absorb(state, r, t[a:b], vz[:, a:b], obs[:, a:b], cos_t, sin_t)
 
     def _absorb(
         self, state: FremenState, r: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
