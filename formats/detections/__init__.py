@@ -1,0 +1,24 @@
+"""People detections from robot-log messages, as arrays.
+
+``adapter_for(msgtype)`` returns a :class:`DetectionAdapter` for every type of
+``SUPPORTED_TYPES``; ``adapter.decode(raw_messages)`` gives :class:`FrameDetections` (message
+frames). The common types are decoded with numpy straight from the bytes (:mod:`.fast`), the
+rest through rosbags objects (:mod:`.builtin`, :mod:`.generic`); :mod:`.mapping` reads any other
+type from a TOML field mapping. :class:`HeadingEstimator` turns map-frame detections into the
+engine's :class:`~aion_cli.engine.types.DetectionBatch`.
+"""
+
+from formats.detections.adapter import DetectionAdapter
+from formats.detections.builtin import AdapterOptions
+from formats.detections.frame import FrameDetections, hash_id
+from formats.detections.registry import FAST_TYPES, SUPPORTED_TYPES, adapter_for
+
+__all__ = [
+    "FAST_TYPES",
+    "SUPPORTED_TYPES",
+    "AdapterOptions",
+    "DetectionAdapter",
+    "FrameDetections",
+    "adapter_for",
+    "hash_id",
+]

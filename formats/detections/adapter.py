@@ -1,0 +1,225 @@
+""":class:`DetectionAdapter`: decodes a list of raw messages of one type into
+:class:`FrameDetections`, through the fast numpy decoder where there is one and the wire layout
+matches, else through rosbags deserialization plus a field extractor.
+
+Messages are grouped by encoding (ROS 2 little-endian CDR, ROS 1, anything else), each group is
+decoded in one go, and rows come back in message order. A fast decode that fails (a fork with
+a different layout under the same name, or a damaged payload) is retried with the generic
+decoder; if that fails too the error is a :class:`MessageDecodeError` (or, with
+``on_error="skip"``, the bad messages are dropped one by one and counted).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from aion_cli.engine.errors import ConfigError, MessageDecodeError
+from formats.detections.fast import Decoded
+from formats.detections.frame import FrameDetections, FrameTable, quat_yaw, stamps_or_log_time
+from formats.detections.generic import Rows
+from formats.detections.wire import CDR_LE, Joined, join_payloads
+from formats.raw import RawMessage
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
+
+FastDecoder = Callable[[Joined], Decoded]
+#: Appends the detections of one deserialized message (index ``owner``) to ``rows``.
+Extractor = Callable[[Any, int, Rows], None]
+OnError = Literal["raise", "skip"]
+
+
+def default_typestore(ros_version: Literal[1, 2]) -> Typestore:
+    """aion's shipped definitions (:func:`formats.msgdefs.typestore`)."""
+    from formats import msgdefs
+
+    return msgdefs.typestore(ros_version)
+
+
+class DetectionAdapter:
+    """Decoder for one message type.
+
+    ``fast`` is the numpy decoder (or None); ``extract`` the generic extractor on rosbags
+    objects; ``typestore`` a rosbags typestore to deserialize with (e.g. built from a log's
+    embedded definitions) -- None uses aion's shipped definitions for the message's ROS
+    version. ``strict_fields``: a missing field is a :class:`ConfigError` (user mappings)
+    rather than a :class:`MessageDecodeError` (built-in adapters on an unexpected layout).
+    """
+
+    def __init__(
+        self,
+        msgtype: str,
+        extract: Extractor,
+        fast: FastDecoder | None = None,
+        typestore: Typestore | None = None,
+        strict_fields: bool = False,
+    ) -> None:
+        self.msgtype = msgtype
+        self.extract = extract
+        self.fast = fast
+        self.typestore = typestore
+        self.strict_fields = strict_fields
+
+    def __repr__(self) -> str:
+        kind = "fast" if self.fast else "generic"
+        return f"DetectionAdapter({self.msgtype!r}, {kind})"
+
+    # --- public --------------------------------------------------------------------------------
+    def decode(
+        self, messages: Sequence[RawMessage], on_error: OnError = "raise"
+    ) -> FrameDetections:
+        """Detections of ``messages`` (all of this adapter's type), rows in message order."""
+        if not messages:
+            return FrameDetections.empty()
+        groups: dict[str, list[int]] = {}
+        for i, m in enumerate(messages):
+            if m.encoding == "ros1":
+                key = "ros1"
+            elif m.encoding == "cdr" and bytes(m.data[:2]) == CDR_LE:
+                key = "cdr"
+            else:
+                key = "other"
+            groups.setdefault(key, []).append(i)
+        parts = []
+        for key, idx in groups.items():
+            group = [messages[i] for i in idx]
+            part = self._decode_group(group, key, on_error)
+            parts.append(_reindex(part, np.asarray(idx, np.int64)))
+        out = FrameDetections.concat(parts) if len(parts) > 1 else parts[0]
+        out = _with_n_messages(out, len(messages))
+        if len(parts) > 1:
+            out = out.select(np.argsort(out.msg_index, kind="stable"))
+        return out
+
+    def decode_generic(self, messages: Sequence[RawMessage]) -> FrameDetections:
+        """Decode through rosbags objects only (the reference the fast path is tested
+        against, and the fallback)."""
+        rows = Rows()
+        for i, m in enumerate(messages):
+            self.extract(self.deserialize(m, i), i, rows)
+        return _from_rows(rows, messages)
+
+    def deserialize(self, m: RawMessage, index: int = 0) -> Any:
+        """The rosbags object of one message; :class:`MessageDecodeError` if it fails."""
+        store = self.typestore or default_typestore(1 if m.encoding == "ros1" else 2)
+        try:
+            if m.encoding == "ros1":
+                return store.deserialize_ros1(m.data, self.msgtype)
+            return store.deserialize_cdr(m.data, self.msgtype)
+        except Exception as exc:  # rosbags raises many kinds (struct.error, KeyError, ...)
+            raise MessageDecodeError(
+                f"cannot decode {self.msgtype} message {index} on {m.topic!r}: "
+                f"{type(exc).__name__}: {exc}",
+                hint="the payload is truncated or corrupt, or the log's definition differs",
+            ) from exc
+
+    # --- internals -----------------------------------------------------------------------------
+    def _decode_group(
+        self, group: list[RawMessage], key: str, on_error: OnError
+    ) -> FrameDetections:
+        try:
+            return self._decode_once(group, key)
+        except MessageDecodeError:
+            if on_error == "raise":
+                raise
+        # Skip mode: decode one by one so a single bad message costs only itself.
+        parts = []
+        for m in group:
+            try:
+                parts.append(self._decode_once([m], key))
+            except MessageDecodeError:
+                parts.append(_skipped(1))
+        return FrameDetections.concat(parts)
+
+    def _decode_once(self, group: list[RawMessage], key: str) -> FrameDetections:
+        if self.fast is not None and key != "other":
+            try:
+                return _from_decoded(self.fast(join_payloads(group, key == "cdr")), group)
+            except MessageDecodeError as fast_error:
+                try:
+                    return self._generic(group)
+                except MessageDecodeError:
+                    raise fast_error from None
+        return self._generic(group)
+
+    def _generic(self, group: list[RawMessage]) -> FrameDetections:
+        try:
+            return self.decode_generic(group)
+        except ConfigError as exc:
+            if self.strict_fields:
+                raise
+            raise MessageDecodeError(
+                f"cannot read {self.msgtype}: {exc.message}",
+                hint="the log's definition of this type differs from the known layouts",
+            ) from exc
+
+
+def _skipped(n: int) -> FrameDetections:
+    e = FrameDetections.empty(n)
+    return FrameDetections(
+        e.t_ns, e.xyz, e.velocity, e.yaw, e.track_id, e.frame_id, e.frames, e.msg_index, n, 0,
+        {"undecodable": n},
+    )
+
+
+def _with_n_messages(d: FrameDetections, n: int) -> FrameDetections:
+    return FrameDetections(
+        d.t_ns, d.xyz, d.velocity, d.yaw, d.track_id, d.frame_id, d.frames, d.msg_index, n,
+        d.stamp_fallbacks, d.filtered,
+    )
+
+
+def _reindex(d: FrameDetections, idx: np.ndarray) -> FrameDetections:
+    return FrameDetections(
+        d.t_ns, d.xyz, d.velocity, d.yaw, d.track_id, d.frame_id, d.frames,
+        idx[d.msg_index] if len(d) else d.msg_index, d.n_messages, d.stamp_fallbacks,
+        d.filtered,
+    )
+
+
+def _log_times(messages: Sequence[RawMessage]) -> np.ndarray:
+    return np.fromiter((m.log_time_ns for m in messages), dtype=np.int64, count=len(messages))
+
+
+def _from_decoded(d: Decoded, messages: Sequence[RawMessage]) -> FrameDetections:
+    t, fallbacks = stamps_or_log_time(d.sec, d.nsec, _log_times(messages)[d.owner])
+    # Name table in order of first use, listing only frames that rows refer to.
+    uniq, first = np.unique(d.frame_code, return_index=True)
+    order = uniq[np.argsort(first)]
+    table = FrameTable()
+    remap = np.zeros(len(d.frame_names), np.int64)
+    remap[order] = table.indices(d.frame_names[c] for c in order.tolist())
+    return FrameDetections(
+        t, np.ascontiguousarray(d.xyz, np.float64).reshape(-1, 3),
+        np.ascontiguousarray(d.velocity, np.float64).reshape(-1, 3),
+        np.asarray(d.yaw, np.float64), np.asarray(d.track_id, np.int64),
+        remap[d.frame_code],
+        tuple(table.names), np.asarray(d.owner, np.int64), len(messages), fallbacks,
+        dict(d.filtered),
+    )
+
+
+def _from_rows(rows: Rows, messages: Sequence[RawMessage]) -> FrameDetections:
+    n = len(rows.owner)
+    if n == 0:
+        e = FrameDetections.empty(len(messages))
+        return FrameDetections(
+            e.t_ns, e.xyz, e.velocity, e.yaw, e.track_id, e.frame_id, e.frames, e.msg_index,
+            len(messages), 0, dict(rows.filtered),
+        )
+    owner = np.asarray(rows.owner, np.int64)
+    stamp = np.asarray(rows.stamp, np.int64)
+    t, fallbacks = stamps_or_log_time(
+        np.zeros(n, np.int64), stamp, _log_times(messages)[owner]
+    )
+    table = FrameTable()
+    return FrameDetections(
+        t, np.asarray(rows.xyz, np.float64).reshape(n, 3),
+        np.asarray(rows.vel, np.float64).reshape(n, 3),
+        quat_yaw(np.asarray(rows.quat, np.float64).reshape(n, 4)),
+        np.asarray(rows.track, np.int64), table.indices(rows.frame), tuple(table.names), owner,
+        len(messages), fallbacks, dict(rows.filtered),
+    )

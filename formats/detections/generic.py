@@ -1,0 +1,165 @@
+"""Generic detection extraction from deserialized (rosbags) message objects.
+
+One :class:`ItemSpec` describes a message type by field paths: where the array of people is,
+and per item where position, velocity, orientation, id, stamp and frame are. The built-in
+adapters for the less common types and the user's TOML mapping (:mod:`.mapping`) both use it.
+This path loops in Python per item; it is the fallback, the fast path is :mod:`.fast`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from aion_cli.engine.errors import ConfigError
+from formats.detections.frame import hash_id
+from formats.detections.paths import FieldPath, quat4, stamp_ns, vec3
+
+NAN_Q = (math.nan, math.nan, math.nan, math.nan)
+NAN_V = (math.nan, math.nan, math.nan)
+
+
+def track_id_of(value: Any) -> int:
+    """An int64 track id (>= 0, or -1 for none) from an id field of any kind: integers are
+    masked to 63 bits, strings and byte arrays (UUIDs) hashed with :func:`hash_id`; empty
+    strings and all-zero UUIDs mean "no id"."""
+    if hasattr(value, "uuid"):
+        value = value.uuid
+    if isinstance(value, bool):
+        return int(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value) & 0x7FFF_FFFF_FFFF_FFFF
+    if isinstance(value, str):
+        return hash_id(value)
+    arr = np.asarray(value)
+    if arr.dtype.kind in "ui" and arr.ndim == 1:
+        raw = arr.astype(np.uint8).tobytes()
+        return -1 if not any(raw) else hash_id(raw)
+    raise ConfigError(f"cannot use a {type(value).__name__} as a track id")
+
+
+@dataclass
+class Rows:
+    """Accumulated rows of the generic path (Python lists, turned into arrays at the end)."""
+
+    owner: list[int] = field(default_factory=list)
+    stamp: list[int] = field(default_factory=list)
+    frame: list[str] = field(default_factory=list)
+    xyz: list[tuple[float, float, float]] = field(default_factory=list)
+    vel: list[tuple[float, float, float]] = field(default_factory=list)
+    quat: list[tuple[float, float, float, float]] = field(default_factory=list)
+    track: list[int] = field(default_factory=list)
+    filtered: dict[str, int] = field(default_factory=dict)
+
+    def add(
+        self,
+        owner: int,
+        stamp: int,
+        frame: str,
+        xyz: tuple[float, float, float],
+        vel: tuple[float, float, float] = NAN_V,
+        quat: tuple[float, float, float, float] = NAN_Q,
+        track: int = -1,
+    ) -> None:
+        self.owner.append(owner)
+        self.stamp.append(stamp)
+        self.frame.append(frame)
+        self.xyz.append(xyz)
+        self.vel.append(vel)
+        self.quat.append(quat)
+        self.track.append(track)
+
+    def drop(self, reason: str, n: int = 1) -> None:
+        self.filtered[reason] = self.filtered.get(reason, 0) + n
+
+
+Item = Any
+#: A filter returns the reason to drop an item, or None to keep it.
+Keep = Callable[[Item], str | None]
+#: Post-processing of one row: (item, velocity, quaternion) -> (velocity, quaternion).
+Adjust = Callable[
+    [Item, tuple[float, float, float], tuple[float, float, float, float]],
+    tuple[tuple[float, float, float], tuple[float, float, float, float]],
+]
+
+
+def _opt(path: str | None) -> FieldPath | None:
+    return None if path is None else FieldPath.parse(path)
+
+
+@dataclass(frozen=True)
+class ItemSpec:
+    """Field paths describing where detections live in a message type.
+
+    ``array`` is the sequence of people (None: the message itself is one detection);
+    ``position``/``velocity``/``orientation``/``track_id`` are relative to an item; ``stamp``
+    and ``frame`` to the message; ``item_stamp``/``item_frame`` (per-item header) override
+    them where set (non-zero stamp, non-empty frame)."""
+
+    array: FieldPath | None
+    position: FieldPath
+    velocity: FieldPath | None = None
+    orientation: FieldPath | None = None
+    track_id: FieldPath | None = None
+    stamp: FieldPath | None = field(default_factory=lambda: FieldPath.parse("header.stamp"))
+    frame: FieldPath | None = field(default_factory=lambda: FieldPath.parse("header.frame_id"))
+    item_stamp: FieldPath | None = None
+    item_frame: FieldPath | None = None
+    keep: Keep | None = None
+    adjust: Adjust | None = None
+
+    @classmethod
+    def of(
+        cls,
+        array: str | None,
+        position: str,
+        velocity: str | None = None,
+        orientation: str | None = None,
+        track_id: str | None = None,
+        stamp: str | None = "header.stamp",
+        frame: str | None = "header.frame_id",
+        item_header: str | None = None,
+        keep: Keep | None = None,
+        adjust: Adjust | None = None,
+    ) -> ItemSpec:
+        """Build a spec from path strings (``item_header`` sets both item paths)."""
+        return cls(
+            _opt(array), FieldPath.parse(position), _opt(velocity), _opt(orientation),
+            _opt(track_id), _opt(stamp), _opt(frame),
+            _opt(f"{item_header}.stamp" if item_header else None),
+            _opt(f"{item_header}.frame_id" if item_header else None),
+            keep, adjust,
+        )
+
+    def extract(self, msg: Any, owner: int, rows: Rows) -> None:
+        """Append the detections of one message to ``rows``."""
+        stamp = stamp_ns(self.stamp.get(msg)) if self.stamp else 0
+        frame = str(self.frame.get(msg)) if self.frame else ""
+        items = self.array.get(msg) if self.array else [msg]
+        for it in items:
+            if self.keep is not None and (reason := self.keep(it)) is not None:
+                rows.drop(reason)
+                continue
+            t = stamp_ns(self.item_stamp.get(it)) if self.item_stamp else 0
+            f = str(self.item_frame.get(it)) if self.item_frame else ""
+            vel = vec3(self.velocity.get(it), self.velocity.text) if self.velocity else NAN_V
+            o = self.orientation
+            q = quat4(o.get(it), o.text) if o else NAN_Q
+            if self.adjust is not None:
+                vel, q = self.adjust(it, vel, q)
+            rows.add(
+                owner,
+                t or stamp,
+                f or frame,
+                vec3(self.position.get(it), self.position.text),
+                vel,
+                q,
+                track_id_of(self.track_id.get(it)) if self.track_id else -1,
+            )
+
+
+Extractor = Callable[[Any, int, Rows], None]
