@@ -1,0 +1,149 @@
+"""Flow descriptors per entry: how much flow, in which direction, how ordered, how fast.
+
+Two sources give the same :class:`Descriptors`:
+
+* :func:`historical` — from the cumulative per-bin counts of an entry over the windows in which
+  it was observed (what happened);
+* :func:`predicted` — from a FreMEn activity prediction a ∈ [0, 1] and predicted direction
+  fractions (what is expected at a time). Activity is ``1 − exp(−n / activity_scale)`` for a
+  window with n detections, so the expected count is its inverse ``−activity_scale·ln(1 − a)``.
+
+Direction bins follow the paper: ``bin(θ) = floor((θ + π) / (2π/B)) mod B``; bin b covers
+``[−π + b·2π/B, −π + (b+1)·2π/B)`` and is reported by its centre ``−π + (b + 0.5)·2π/B``. The
+dominant angle is the circular mean of the histogram placed on the bin centres, the
+concentration its mean resultant length (1 = all flow in one bin, 0 = balanced), the entropy the
+Shannon entropy divided by ln B (0 = one direction, 1 = uniform).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
+
+_ACTIVITY_MAX = 1.0 - 1e-9
+"""Activity is clamped below 1 so the expected count stays finite (≈ 20.7·activity_scale)."""
+
+
+@dataclass(frozen=True)
+class Descriptors:
+    """Per entry (E rows, B bins). "No flow" rows (no count, or zero expected count) have
+    ``dominant_bin`` −1, ``dominant_angle`` and ``entropy`` NaN, zero probabilities and zero
+    concentration. ``flow_per_window`` is NaN for an entry never observed (historical only)."""
+
+    flow_per_window: F64
+    flow_per_hour: F64
+    probabilities: F64
+    dominant_bin: I64
+    dominant_angle: F64
+    concentration: F64
+    entropy: F64
+    mean_speed: F64
+
+    def __len__(self) -> int:
+        return int(self.flow_per_window.shape[0])
+
+
+def bin_centres(bins: int) -> F64:
+    """Centres ``−π + (b + 0.5)·2π/B`` of the B direction bins."""
+    return np.asarray(-np.pi + (np.arange(bins) + 0.5) * (2.0 * np.pi / bins), dtype=np.float64)
+
+
+def bin_of(theta: npt.ArrayLike, bins: int) -> I64:
+    """Direction bin of each angle (rad), any real angle; −1 for a non-finite angle.
+
+    Angles in [−π, π) never round into a neighbouring half-open interval's wrap: θ just below π
+    is bin B−1 even when θ + π rounds to 2π, and θ = π is bin 0 (the mod B of the formula).
+    """
+    th = np.asarray(theta, dtype=np.float64)
+    finite = np.isfinite(th)
+    safe = np.where(finite, th, 0.0)
+    raw = np.floor((safe + np.pi) / (2.0 * np.pi / bins))
+    inside = (safe >= -np.pi) & (safe < np.pi)
+    b = np.where(inside, np.clip(raw, 0, bins - 1), np.mod(raw, bins)).astype(np.int64)
+    return np.where(finite, b, -1)
+
+
+def _from_distribution(
+    flow_per_window: F64, weights: F64, window_s: float, mean_speed: F64
+) -> Descriptors:
+    """Descriptors from a flow magnitude and non-negative per-bin weights (any scale)."""
+    e, b = weights.shape
+    total = weights.sum(axis=1)
+    flowing = (total > 0) & (np.nan_to_num(flow_per_window) > 0)
+    probs = np.zeros((e, b))
+    np.divide(weights, total[:, None], out=probs, where=flowing[:, None])
+    centres = bin_centres(b)
+    c = probs @ np.cos(centres)
+    s = probs @ np.sin(centres)
+    concentration = np.where(flowing, np.hypot(c, s), 0.0)
+    angle = np.where(flowing, np.arctan2(s, c), np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        plogp = np.where(probs > 0, probs * np.log(probs), 0.0)
+    entropy = np.where(flowing, np.clip(-plogp.sum(axis=1) / np.log(b), 0.0, 1.0), np.nan)
+    dominant = np.where(flowing, np.argmax(probs, axis=1), -1).astype(np.int64)
+    return Descriptors(
+        flow_per_window=flow_per_window,
+        flow_per_hour=flow_per_window * (3600.0 / window_s),
+        probabilities=probs,
+        dominant_bin=dominant,
+        dominant_angle=angle,
+        concentration=concentration,
+        entropy=entropy,
+        mean_speed=mean_speed,
+    )
+
+
+def historical(
+    counts: npt.ArrayLike,
+    speed_sum: npt.ArrayLike,
+    speed_n: npt.ArrayLike,
+    windows_observed: npt.ArrayLike,
+    window_s: float,
+) -> Descriptors:
+    """Descriptors of what was seen: ``counts[E, B]`` detections per bin accumulated over
+    ``windows_observed[E]`` observed windows of ``window_s`` seconds; mean speed per bin =
+    ``speed_sum / speed_n`` where ``speed_n > 0``."""
+    cnt = np.asarray(counts, dtype=np.float64)
+    if cnt.ndim != 2:
+        raise ValueError("counts must have shape (E, B)")
+    ssum = np.asarray(speed_sum, dtype=np.float64)
+    sn = np.asarray(speed_n, dtype=np.float64)
+    obs = np.asarray(windows_observed, dtype=np.float64).reshape(-1)
+    if ssum.shape != cnt.shape or sn.shape != cnt.shape or obs.shape != cnt.shape[:1]:
+        raise ValueError("counts, speed_sum, speed_n must be (E, B) and windows_observed (E,)")
+    flow = np.full(obs.shape, np.nan)
+    np.divide(cnt.sum(axis=1), obs, out=flow, where=obs > 0)
+    speed = np.full(cnt.shape, np.nan)
+    np.divide(ssum, sn, out=speed, where=sn > 0)
+    return _from_distribution(flow, cnt, window_s, speed)
+
+
+def expected_count(activity: npt.ArrayLike, activity_scale: float) -> F64:
+    """Inverse of the activity transform: ``−activity_scale·ln(1 − a)``, a clamped to
+    [0, 1 − 1e-9]."""
+    a = np.clip(np.asarray(activity, dtype=np.float64), 0.0, _ACTIVITY_MAX)
+    return -activity_scale * np.log1p(-a)
+
+
+def predicted(
+    activity: npt.ArrayLike,
+    directions: npt.ArrayLike,
+    activity_scale: float,
+    window_s: float,
+    speed_mean: npt.ArrayLike,
+) -> Descriptors:
+    """Descriptors of what is expected: FreMEn ``activity[E]`` and direction fractions
+    ``directions[E, B]`` (renormalised here), with the historical mean speed per bin."""
+    act = np.asarray(activity, dtype=np.float64).reshape(-1)
+    dirs = np.asarray(directions, dtype=np.float64)
+    speed = np.array(speed_mean, dtype=np.float64)
+    if dirs.shape[:1] != act.shape or dirs.ndim != 2 or speed.shape != dirs.shape:
+        raise ValueError("directions and speed_mean must be (E, B) with activity (E,)")
+    return _from_distribution(
+        expected_count(act, activity_scale), np.maximum(dirs, 0.0), window_s, speed
+    )

@@ -1,0 +1,110 @@
+"""engine.descriptors against hand-computed values (paper's bin convention, B = 8)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.descriptors import (
+    Descriptors,
+    bin_centres,
+    bin_of,
+    expected_count,
+    historical,
+    predicted,
+)
+
+B = 8
+W = math.pi / 4  # bin width for B = 8
+
+
+def _hist(counts: list[list[float]], windows: list[float] | None = None) -> Descriptors:
+    c = np.array(counts, dtype=float)
+    zeros = np.zeros_like(c)
+    obs = np.ones(len(c)) if windows is None else np.array(windows, dtype=float)
+    return historical(c, zeros, zeros, obs, 600.0)
+
+
+def test_bin_centres_and_edges() -> None:
+    np.testing.assert_allclose(bin_centres(B), -math.pi + (np.arange(B) + 0.5) * W)
+    assert bin_of(bin_centres(B), B).tolist() == list(range(B))
+    below_pi = np.nextafter(math.pi, 0.0)
+    above_minus_pi = np.nextafter(-math.pi, 0.0)
+    edges = [-math.pi, above_minus_pi, below_pi, math.pi, 0.0, -1e-12, 3 * math.pi, -3.2, 7.0]
+    # 7.0 rad = 7 - 2π = 0.7168 rad -> floor((0.7168 + π)/W) = 4
+    assert bin_of(edges, B).tolist() == [0, 0, B - 1, 0, 4, 3, 0, B - 1, 4]
+    assert bin_of([np.nan, np.inf], B).tolist() == [-1, -1]
+    assert bin_of([math.pi / 2 + 1e-9, math.pi / 2 - 1e-9], 4).tolist() == [3, 2]
+
+
+def test_uniform_histogram_has_entropy_one_and_no_concentration() -> None:
+    d = _hist([[3.0] * B], windows=[4.0])
+    assert d.entropy[0] == pytest.approx(1.0, abs=1e-12)
+    assert d.concentration[0] == pytest.approx(0.0, abs=1e-12)
+    assert d.flow_per_window[0] == pytest.approx(24 / 4)
+    assert d.flow_per_hour[0] == pytest.approx(6 * 6.0)
+    np.testing.assert_allclose(d.probabilities[0], 1 / B)
+
+
+def test_one_bin_has_entropy_zero_and_its_centre_as_direction() -> None:
+    counts = np.zeros((1, B))
+    counts[0, 2] = 5.0
+    d = _hist(counts.tolist())
+    assert d.entropy[0] == pytest.approx(0.0, abs=1e-12)
+    assert d.dominant_bin[0] == 2
+    assert d.dominant_angle[0] == pytest.approx(-3 * math.pi / 8)  # -π + 2.5·π/4
+    assert d.concentration[0] == pytest.approx(1.0)
+
+
+def test_circular_mean_wraps_at_plus_minus_pi() -> None:
+    counts = np.zeros((2, B))
+    counts[0, [0, B - 1]] = 1.0  # centres -7π/8 and +7π/8: the mean points at ±π
+    counts[1, 0], counts[1, B - 1] = 3.0, 1.0  # weighted towards -7π/8
+    d = _hist(counts.tolist())
+    assert math.cos(d.dominant_angle[0]) == pytest.approx(-1.0)
+    assert math.sin(d.dominant_angle[0]) == pytest.approx(0.0, abs=1e-12)
+    assert d.concentration[0] == pytest.approx(math.cos(math.pi / 8))
+    assert d.entropy[0] == pytest.approx(math.log(2) / math.log(B))
+    # hand: c = cos(7π/8), s = -sin(π/8)/2 -> atan2(s, c) = -π + atan(tan(π/8)/2)
+    assert d.dominant_angle[1] == pytest.approx(-math.pi + math.atan(math.tan(math.pi / 8) / 2))
+    assert d.dominant_bin[1] == 0
+    c, s = math.cos(7 * math.pi / 8), -math.sin(math.pi / 8) / 2
+    assert d.concentration[1] == pytest.approx(math.hypot(c, s))
+
+
+def test_no_flow_and_unobserved_entries() -> None:
+    d = _hist([[0.0] * B, [1.0] + [0.0] * (B - 1)], windows=[5.0, 0.0])
+    assert d.dominant_bin[0] == -1
+    assert math.isnan(d.dominant_angle[0])
+    assert math.isnan(d.entropy[0])
+    assert d.concentration[0] == 0.0
+    assert d.flow_per_window[0] == 0.0
+    assert math.isnan(d.flow_per_window[1])  # counts but no observed window: unknown rate
+
+
+def test_mean_speed_only_where_known() -> None:
+    counts = np.array([[2.0, 1.0, 0, 0, 0, 0, 0, 0]])
+    speed_sum = np.array([[2.6, 0, 0, 0, 0, 0, 0, 0]])
+    speed_n = np.array([[2.0, 0, 0, 0, 0, 0, 0, 0]])
+    d = historical(counts, speed_sum, speed_n, np.array([1.0]), 600.0)
+    assert d.mean_speed[0, 0] == pytest.approx(1.3)
+    assert np.all(np.isnan(d.mean_speed[0, 1:]))
+
+
+def test_predicted_flow_inverts_the_activity_transform() -> None:
+    scale = 5.0
+    n = np.array([10.0, 0.5, 0.0])
+    activity = 1.0 - np.exp(-n / scale)
+    np.testing.assert_allclose(expected_count(activity, scale), n, rtol=1e-12, atol=1e-15)
+    assert np.isfinite(expected_count([1.0], scale)[0])
+    dirs = np.zeros((3, B))
+    dirs[:, 5] = 2.0  # unnormalised: renormalised to one bin
+    d = predicted(activity, dirs, scale, 600.0, np.full((3, B), np.nan))
+    np.testing.assert_allclose(d.flow_per_hour, n * 6)
+    assert d.dominant_bin.tolist() == [5, 5, -1]  # zero activity = no flow
+    np.testing.assert_allclose(d.probabilities[0], np.eye(B)[5])
+    assert d.entropy[0] == pytest.approx(0.0)
+    assert math.isnan(d.entropy[2])
+    assert d.dominant_angle[0] == pytest.approx(-math.pi + 5.5 * W)
