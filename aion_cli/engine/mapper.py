@@ -1,0 +1,162 @@
+"""The Mapper: builds a map state from detections, scene graphs and robot poses.
+
+Data flow (all numpy arrays; a Python loop runs per window or per graph update, never per
+detection or per entry)::
+
+    DetectionBatch --drop non-finite ("nan") / unhashable ("out_of_range") / already-closed
+                     window ("before_window")--> group by window (epoch-aligned, Δ = window_s)
+      -> a later window closes the open one (closing.close_windows)
+      -> hash key floor(p/δ) (spatial_hash) -> RouteTable: live cell or redirect φ -> entry row
+         (one searchsorted; unseen keys become new cell entries in one np.unique)
+      -> direction bin floor((θ+π)/(2π/B)) mod B -> np.bincount on row·B+bin (entries)
+    GraphSnapshot --> node table / stability timers, node entries follow their nodes, vanished
+                      nodes release their state to hash cells (ownership) -> bind check
+    Trajectory / set_fixed_sensor --> observation masks when windows close (observation)
+
+Choices:
+
+* **NaN headings** count for activity (``nodir``) but not for a direction bin or the speed
+  descriptor; NaN speeds only skip the speed descriptor. Non-finite positions are dropped and
+  counted as ``"nan"``, positions outside the hashable range as ``"out_of_range"``.
+* **Empty windows**: when time jumps over windows with no detections, the whole run is closed
+  at once — one FreMEn update of the activity rows (values 0, an observation mask per window;
+  an observed empty window is a real zero, an unobserved one teaches nothing); direction rows
+  learn only from windows with detections. An entry with detections in a window counts as
+  observed in it.
+* **Binding and FreMEn rows**: entry ``e`` owns FreMEn rows ``e·(B+1)`` (activity) and
+  ``e·(B+1)+1+b`` (direction b). Binding adds the cell's rows into the node's rows with
+  ``FremenState.add_rows`` (accumulators add, first = min, last = max), then zeroes and frees
+  the cell's rows; releasing does the same in the other direction. When several cells observed
+  the same window, the node's row holds one observation per cell for that window (the mean is
+  the mean of their activities); from then on the node is observed as one entry.
+* **When binding is checked**: on ``add_graph`` (at the graph's time), when a window closes
+  (at its end, before its FreMEn update) and on ``advance``.
+* **Continuing a build**: the open window stays open at the end of a log and is persisted, so
+  building from log A, saving, loading and continuing with log B gives the same state as
+  building from A+B at once, provided the same calls are made (calling ``advance`` at the end
+  of A closes windows and checks bindings earlier than a single pass over A+B would).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aion_cli.engine.closing import close_windows
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.entries import CELL, direction_bins
+from aion_cli.engine.errors import ConfigError
+from aion_cli.engine.ownership import apply_graph, bind_cells
+from aion_cli.engine.spatial_hash import cell_centres, pack_keys, packable_mask
+from aion_cli.engine.state import DROP_REASONS, MapState
+from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot, Trajectory
+from aion_cli.engine.windows import window_index, window_ns
+
+
+class Mapper:
+    """Incremental map builder over one :class:`MapState` (new, or loaded to continue)."""
+
+    def __init__(self, config: ModelConfig, state: MapState | None = None) -> None:
+        if state is not None and state.config != config:
+            raise ConfigError(
+                "the map was built with different model parameters",
+                hint="build with the map's own config (stored in its manifest)",
+            )
+        self._state = state if state is not None else MapState.empty(config)
+        self._delta = window_ns(config.window_s)
+
+    @property
+    def state(self) -> MapState:
+        return self._state
+
+    # -- inputs -----------------------------------------------------------------------------
+    def add_detections(self, batch: DetectionBatch) -> dict[str, int]:
+        """Accumulate a batch; returns how many detections were dropped, per reason."""
+        st = self._state
+        drops = dict.fromkeys(DROP_REASONS, 0)
+        if len(batch) == 0:
+            return drops
+        finite = np.isfinite(batch.xyz).all(axis=1)
+        hashable = packable_mask(batch.xyz, st.config.cell_size)
+        window = window_index(batch.t_ns, self._delta)
+        valid = finite & hashable
+        if st.open_window is None and valid.any():
+            st.open_window = int(window[valid].min())
+        late = valid & (window < (st.open_window if st.open_window is not None else 0))
+        keep = valid & ~late
+        drops["nan"] = int((~finite).sum())
+        drops["out_of_range"] = int((finite & ~hashable).sum())
+        drops["before_window"] = int(late.sum())
+        for reason, count in drops.items():
+            st.dropped[reason] = st.dropped.get(reason, 0) + count
+        if keep.any():
+            self._accumulate_by_window(batch.select(keep), window[keep])
+        return drops
+
+    def add_graph(self, snapshot: GraphSnapshot) -> None:
+        """A new scene graph: node timers, moves and releases, then a bind check at its time."""
+        st = self._state
+        apply_graph(st, snapshot)
+        st.log_time_ns = _later(st.log_time_ns, int(snapshot.t_ns))
+        bind_cells(st, st.log_time_ns)
+
+    def add_trajectory(self, trajectory: Trajectory) -> None:
+        """Robot poses for the observation masks (any time order, before windows close)."""
+        self._state.observation.add_trajectory(trajectory)
+
+    def set_fixed_sensor(self, start_ns: int, end_ns: int) -> None:
+        """Everything is observed in windows overlapping ``[start_ns, end_ns)``."""
+        self._state.observation.set_fixed_sensor(int(start_ns), int(end_ns))
+
+    def advance(self, t_ns: int) -> None:
+        """Log time reached ``t_ns``: close every window ending at or before it, check binds."""
+        st = self._state
+        target = int(window_index(np.int64(t_ns), self._delta))
+        if st.open_window is None:
+            st.open_window = target
+        close_windows(st, target)
+        st.log_time_ns = _later(st.log_time_ns, int(t_ns))
+        bind_cells(st, st.log_time_ns)
+
+    # -- internals --------------------------------------------------------------------------
+    def _accumulate_by_window(self, batch: DetectionBatch, window: I64) -> None:
+        st = self._state
+        if window.min() == window.max():
+            groups = [(int(window[0]), batch)]
+        else:
+            order = np.argsort(window, kind="stable")
+            ws = window[order]
+            cuts = np.flatnonzero(np.diff(ws)) + 1
+            groups = [
+                (int(ws[idx[0]]), batch.select(order[idx]))
+                for idx in np.split(np.arange(len(ws)), cuts)
+            ]
+        for w, group in groups:
+            close_windows(st, w)
+            self._accumulate(group)
+            st.log_time_ns = _later(st.log_time_ns, int(group.t_ns.max()))
+
+    def _accumulate(self, batch: DetectionBatch) -> None:
+        st = self._state
+        cfg = st.config
+        ijk = np.floor(batch.xyz / cfg.cell_size).astype(np.int64)
+        rows = self._route(pack_keys(ijk))
+        bins = direction_bins(batch.heading, cfg.bins)
+        st.entries.accumulate(rows, bins, batch.speed)
+        st.accepted += len(batch)
+
+    def _route(self, keys: I64) -> I64:
+        """Entry rows for hash keys, creating cell entries for keys never seen."""
+        st = self._state
+        rows, found = st.routes.lookup(keys)
+        if found.all():
+            return rows
+        new_keys, inverse = np.unique(keys[~found], return_inverse=True)
+        centres = cell_centres(new_keys, st.config.cell_size)
+        new_rows = st.allocate(CELL, new_keys, np.zeros(len(new_keys), np.uint64), centres)
+        st.routes.insert(new_keys, new_rows)
+        rows[~found] = new_rows[inverse]
+        return rows
+
+
+def _later(current: int | None, t_ns: int) -> int:
+    return t_ns if current is None else max(current, t_ns)

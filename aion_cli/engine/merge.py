@@ -1,0 +1,142 @@
+"""Merging two maps of disjoint time (e.g. built from two logs on different days).
+
+The earlier map's open window is closed first (as the later map's first detection would have
+done in a single pass). Then the later map is the base (its graph, node table, redirects, open
+window and pending poses are the newest) and every entry of the earlier map is added to where
+its state belongs there: a cell goes to the later map's cell at the same key, or follows the
+later map's redirect; a node goes to the node's entry (created if the node lives in the later
+graph) or, if the node is gone, is released to the cell at its position. Counts, speed sums and
+FreMEn accumulators add (exact for disjoint time: ``n``, ``Σs``, ``Σs·e^{iωt}``, ``Σe^{iωt}``,
+first = min, last = max); ``windows_observed`` of the two maps add. Finally the earlier map's
+redirects to nodes alive in the later graph are kept, moving any later cell at such a key into
+the node.
+
+Approximated: the prequential order errors add (each map scored its own observations with its
+own history, not with the other map's), and a node's stability timer keeps the earlier start
+only when the later map's reference position is within ``stable_move_tolerance`` of the earlier
+one. Maps whose times overlap merge without error but double-count shared windows in FreMEn.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from aion_cli.engine.closing import close_windows
+from aion_cli.engine.entries import CELL, NODE, fremen_rows
+from aion_cli.engine.errors import ConfigError
+from aion_cli.engine.ownership import node_rows_creating, rows_for_keys
+from aion_cli.engine.spatial_hash import keys_for_points
+
+if TYPE_CHECKING:
+    from aion_cli.engine.state import MapState
+
+
+def merge_maps(a: MapState, b: MapState) -> MapState:
+    """A new map holding both maps' dynamics (inputs are not modified)."""
+    if a.config != b.config:
+        raise ConfigError(
+            "cannot merge maps built with different model parameters",
+            hint="rebuild one of them with the other's config",
+        )
+    earlier, later = sorted((a, b), key=_start_order)
+    early = _copy(earlier)
+    if early.open_window is not None:
+        close_windows(early, early.open_window + 1)
+    out = _copy(later)
+    _merge_timers(out, early)
+    src_rows = early.entries.canonical_order()
+    dst = _destinations(out, early, src_rows)
+    _add_entries(out, early, src_rows, dst)
+    _adopt_redirects(out, early)
+    out.accepted += early.accepted
+    for reason, count in early.dropped.items():
+        out.dropped[reason] = out.dropped.get(reason, 0) + count
+    if early.log_time_ns is not None:
+        out.log_time_ns = max(out.log_time_ns or early.log_time_ns, early.log_time_ns)
+    out.rebuild_routes()
+    return out
+
+
+def _start_order(state: MapState) -> tuple[int, int]:
+    """Sort key: maps that never saw a window first, then by open window."""
+    w = state.open_window
+    return (0, 0) if w is None else (1, w)
+
+
+def _copy(state: MapState) -> MapState:
+    arrays, meta = state.to_arrays()
+    return type(state).from_arrays(arrays, meta)
+
+
+def _destinations(out: MapState, early: MapState, rows: np.ndarray) -> np.ndarray:
+    """Rows of ``out`` receiving each of ``early``'s entries (created where needed)."""
+    dst = np.full(len(rows), -1, np.int64)
+    kind = early.entries.kind[rows]
+    node_ids = early.entries.node_id[rows]
+    alive = np.isin(node_ids, out.nodes.ids) & (kind == NODE)
+    if alive.any():
+        at = np.searchsorted(out.nodes.ids, node_ids[alive])
+        dst[alive] = node_rows_creating(out, node_ids[alive], out.nodes.xyz[at])
+    cellish = ~alive
+    if cellish.any():
+        keys = np.where(
+            kind[cellish] == CELL,
+            early.entries.key[rows[cellish]],
+            keys_for_points(early.entries.xyz[rows[cellish]], out.config.cell_size),
+        )
+        dst[cellish] = rows_for_keys(out, keys)
+    return dst
+
+
+def _add_entries(out: MapState, early: MapState, src: np.ndarray, dst: np.ndarray) -> None:
+    """out[dst] += early[src] for every quantity; windows observed add across the maps."""
+    e, o = early.entries, out.entries
+    for name in ("counts", "window_counts", "speed_sum", "speed_n", "nodir", "window_nodir"):
+        np.add.at(getattr(o, name), dst, getattr(e, name)[src])
+    early_windows = np.zeros(o.capacity)
+    np.maximum.at(early_windows, dst, e.windows_observed[src])
+    o.windows_observed += early_windows
+    bins, n_rows = out.bins, out.fremen.n_rows
+    part = early.fremen.take(fremen_rows(src, bins).ravel())
+    joined = type(out.fremen).concat([out.fremen, part])
+    joined.add_rows(n_rows + np.arange(part.n_rows, dtype=np.int64), fremen_rows(dst, bins).ravel())
+    joined.resize(n_rows)
+    out.fremen = joined
+
+
+def _adopt_redirects(out: MapState, early: MapState) -> None:
+    """Keep the earlier map's redirects to nodes that live (with an entry) in ``out``."""
+    keys, nodes = early.redirects.keys, early.redirects.nodes
+    rows = out.node_entry_rows(nodes)
+    _, redirected = out.redirects.lookup(keys)
+    keep = (rows >= 0) & ~redirected
+    if not keep.any():
+        return
+    keys, nodes, rows = keys[keep], nodes[keep], rows[keep]
+    out.rebuild_routes()
+    cell_rows, has_cell = out.routes.lookup(keys)
+    is_cell = has_cell & (out.entries.kind[np.maximum(cell_rows, 0)] == CELL)
+    if is_cell.any():
+        out.move(cell_rows[is_cell], rows[is_cell])
+    out.redirects.add(keys, nodes)
+
+
+def _merge_timers(out: MapState, early: MapState) -> None:
+    """Nodes in both tables that have not moved keep the earlier stability start."""
+    ids = out.nodes.ids
+    at = np.searchsorted(early.nodes.ids, ids)
+    at_c = np.minimum(at, max(len(early.nodes) - 1, 0))
+    if len(early.nodes) == 0:
+        return
+    both = early.nodes.ids[at_c] == ids
+    near = (
+        np.linalg.norm(out.nodes.ref_xyz - early.nodes.ref_xyz[at_c], axis=1)
+        <= out.config.stable_move_tolerance
+    )
+    keep = both & near
+    out.nodes.stable_since_ns[keep] = np.minimum(
+        out.nodes.stable_since_ns[keep], early.nodes.stable_since_ns[at_c[keep]]
+    )
+    out.nodes.ref_xyz[keep] = early.nodes.ref_xyz[at_c[keep]]

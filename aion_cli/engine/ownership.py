@@ -1,0 +1,125 @@
+"""Temporal ownership transfer (paper §III-D, DESIGN.md §4), with the reference code's bugs fixed.
+
+* **Bind** (:func:`bind_cells`): every live cell entry whose centre has a *stable* node (present
+  and within ``stable_move_tolerance`` of its reference position for ``stability_s`` of log time)
+  within ``bind_radius`` horizontally and ``bind_vertical_tolerance`` vertically moves into the
+  nearest such node's entry: counts, open-window counts, speed sums, FreMEn rows (``add_rows``:
+  accumulators add, first = min, last = max) are ADDED to what the node has (never overwritten),
+  ``windows_observed`` takes the maximum (same time span); the cell entry is deleted and
+  φ(cell key) = node id is recorded, so later detections there go to the node.
+* **Move** (:func:`apply_graph`): a node present in the new snapshot keeps its entry; the
+  entry's position follows the node (a loop closure carries the dynamics along).
+* **Release** (:func:`release_nodes`): the entry of a node absent from the new snapshot goes
+  back to the hash cell at its last position — added to the live cell entry there, or a new one;
+  if that cell is redirected to another (live) node, the state follows the redirect like a
+  detection would — and every redirect to the released node is dropped.
+
+Pairs are applied in a canonical order (cells by key, nodes by id) so floating-point sums do not
+depend on the internal row layout. Uses 2D (horizontal) distances plus a vertical tolerance
+throughout, a real per-cell redirect table, and a per-node stability timer.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from aion_cli.engine.entries import CELL, NODE
+from aion_cli.engine.errors import CoordinateRangeError
+from aion_cli.engine.nodes import nearest_nodes
+from aion_cli.engine.spatial_hash import cell_centres, keys_for_points, packable_mask
+from aion_cli.engine.types import I64, U64, GraphSnapshot
+
+if TYPE_CHECKING:
+    from aion_cli.engine.state import MapState
+
+
+def check_graph(snapshot: GraphSnapshot, cell_size: float) -> None:
+    """Node positions must be finite and hashable (a node may be released into a cell)."""
+    xyz = np.asarray(snapshot.places.xyz, dtype=np.float64).reshape(-1, 3)
+    bad = ~packable_mask(xyz, cell_size)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        keys_for_points(xyz[row : row + 1], cell_size)  # raises with the coordinate named
+        raise CoordinateRangeError(f"place node {snapshot.places.ids[row]} has an invalid position")
+
+
+def apply_graph(state: MapState, snapshot: GraphSnapshot) -> None:
+    """Take a new graph snapshot: update timers, move node entries, release vanished nodes."""
+    cfg = state.config
+    check_graph(snapshot, cfg.cell_size)
+    table, _gone = state.nodes.updated(
+        snapshot.places.ids, snapshot.places.xyz, int(snapshot.t_ns), cfg.stable_move_tolerance
+    )
+    state.nodes = table
+    state.graph = snapshot
+    rows = state.entries.node_rows()
+    ids = state.entries.node_id[rows]
+    pos = np.minimum(np.searchsorted(table.ids, ids), max(len(table) - 1, 0))
+    present = (table.ids[pos] == ids) if len(table) else np.zeros(len(ids), bool)
+    state.entries.xyz[rows[present]] = table.xyz[pos[present]]
+    release_nodes(state, rows[~present])
+
+
+def release_nodes(state: MapState, rows: I64) -> None:
+    """Release node entries ``rows`` into the hash cells at their last positions."""
+    if len(rows) == 0:
+        return
+    rows = rows[np.argsort(state.entries.node_id[rows], kind="stable")]
+    state.redirects.drop_nodes(state.entries.node_id[rows])
+    keys = keys_for_points(state.entries.xyz[rows], state.config.cell_size)
+    dst = rows_for_keys(state, keys)
+    state.move(rows, dst)
+    state.rebuild_routes()
+
+
+def bind_cells(state: MapState, t_ns: int) -> int:
+    """Bind every cell that has a stable node nearby at log time ``t_ns``; returns how many."""
+    cfg = state.config
+    stable = state.nodes.stable_mask(t_ns, round(cfg.stability_s * 1e9))
+    cells = state.entries.cell_rows()
+    if not stable.any() or len(cells) == 0:
+        return 0
+    cells = cells[np.argsort(state.entries.key[cells], kind="stable")]
+    ids, xyz = state.nodes.ids[stable], state.nodes.xyz[stable]
+    hit = nearest_nodes(
+        state.entries.xyz[cells], xyz, cfg.bind_radius, cfg.bind_vertical_tolerance
+    )
+    bound = hit >= 0
+    if not bound.any():
+        return 0
+    src = cells[bound]
+    node_ids = ids[hit[bound]]
+    dst = node_rows_creating(state, node_ids, xyz[hit[bound]])
+    keys = state.entries.key[src].copy()
+    state.move(src, dst)
+    state.redirects.add(keys, node_ids)
+    state.rebuild_routes()
+    return int(bound.sum())
+
+
+def node_rows_creating(state: MapState, node_ids: U64, xyz: np.ndarray) -> I64:
+    """Entry rows of nodes, creating empty node entries for nodes that have none."""
+    rows = state.node_entry_rows(node_ids)
+    missing = rows < 0
+    if missing.any():
+        new_ids, first = np.unique(node_ids[missing], return_index=True)
+        new_xyz = xyz[missing][first]
+        state.allocate(NODE, np.full(len(new_ids), -1, np.int64), new_ids, new_xyz)
+        rows = state.node_entry_rows(node_ids)
+    return rows
+
+
+def rows_for_keys(state: MapState, keys: I64) -> I64:
+    """Where state arriving at cell ``keys`` belongs: a redirect's node entry, the live cell
+    entry, or a new cell entry (created here)."""
+    state.rebuild_routes()
+    rows, found = state.routes.lookup(keys)
+    if not found.all():
+        new_keys = np.unique(keys[~found])
+        centres = cell_centres(new_keys, state.config.cell_size)
+        new_rows = state.allocate(CELL, new_keys, np.zeros(len(new_keys), np.uint64), centres)
+        state.routes.insert(new_keys, new_rows)
+        rows, found = state.routes.lookup(keys)
+    return rows

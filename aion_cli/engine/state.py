@@ -1,0 +1,183 @@
+"""The map state: everything needed to continue a build and to answer queries.
+
+:class:`MapState` bundles the entry store, the FreMEn state (entry row ``e`` owns FreMEn rows
+``e·(B+1) .. e·(B+1)+B``), the node table with its stability timers, the redirect table φ, the
+latest graph, the open window, pending robot poses and fixed-sensor intervals, and the drop
+counters. :meth:`MapState.to_arrays` turns it into plain numpy arrays plus a JSON-serialisable
+``meta`` dict (no objects, no pickle); entries are exported in canonical order (cells by key,
+then nodes by id), so equal maps give equal arrays whatever their in-memory row layout.
+:func:`merge_states` combines two maps of disjoint time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.entries import CELL, NODE, EntryStore, fremen_rows
+from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.fremen import FremenModel, FremenState
+from aion_cli.engine.graph_arrays import graph_from_arrays, graph_to_arrays
+from aion_cli.engine.merge import merge_maps
+from aion_cli.engine.nodes import NodeTable, Redirects
+from aion_cli.engine.observation import ObservationSource
+from aion_cli.engine.routing import RouteTable
+from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
+
+STATE_VERSION = 1
+DROP_REASONS = ("nan", "out_of_range", "before_window")
+
+
+@dataclass
+class MapState:
+    """A map under construction or loaded from a file (see the module docstring)."""
+
+    config: ModelConfig
+    entries: EntryStore
+    fremen: FremenState
+    nodes: NodeTable = field(default_factory=NodeTable)
+    redirects: Redirects = field(default_factory=Redirects)
+    observation: ObservationSource = field(default_factory=ObservationSource)
+    graph: GraphSnapshot | None = None
+    open_window: int | None = None
+    log_time_ns: int | None = None
+    accepted: int = 0
+    dropped: dict[str, int] = field(default_factory=lambda: dict.fromkeys(DROP_REASONS, 0))
+    routes: RouteTable = field(default_factory=RouteTable)
+
+    @classmethod
+    def empty(cls, config: ModelConfig) -> MapState:
+        entries = EntryStore.empty(config.bins)
+        model = FremenModel.from_config(config)
+        return cls(config, entries, model.empty(entries.capacity * (config.bins + 1)))
+
+    @property
+    def bins(self) -> int:
+        return self.config.bins
+
+    @property
+    def model(self) -> FremenModel:
+        return FremenModel.from_config(self.config)
+
+    # -- entry lifecycle (keeps the FreMEn rows in step) ------------------------------------
+    def allocate(self, kind: int, keys: I64, node_ids: U64, xyz: F64) -> I64:
+        """New empty entries (and empty FreMEn rows); returns their rows."""
+        rows = self.entries.allocate(kind, keys, node_ids, xyz)
+        needed = self.entries.capacity * (self.bins + 1)
+        if self.fremen.n_rows < needed:
+            self.fremen.resize(needed)
+        return rows
+
+    def move(self, src: I64, dst: I64) -> None:
+        """Move entries ``src`` into ``dst`` (adding; ``dst`` may repeat) and delete ``src``.
+
+        Every count, open-window count, speed sum and FreMEn accumulator of ``src`` is added
+        to ``dst``; pairs are applied in the caller's order, which callers make canonical so
+        the floating-point result does not depend on the row layout.
+        """
+        if len(src) == 0:
+            return
+        self.entries.add_into(src, dst)
+        b = self.bins
+        self.fremen.add_rows(fremen_rows(src, b).ravel(), fremen_rows(dst, b).ravel())
+        self.delete(src)
+
+    def delete(self, rows: I64) -> None:
+        self.fremen.zero_rows(fremen_rows(rows, self.bins).ravel())
+        self.entries.delete(rows)
+
+    def node_entry_rows(self, node_ids: U64) -> I64:
+        """Entry rows of the given node ids (-1 where the node has no entry)."""
+        rows = self.entries.node_rows()
+        ids = self.entries.node_id[rows]
+        order = np.argsort(ids)
+        ids, rows = ids[order], rows[order]
+        if len(ids) == 0:
+            return np.full(len(node_ids), -1, np.int64)
+        pos = np.minimum(np.searchsorted(ids, node_ids), len(ids) - 1)
+        return np.where(ids[pos] == node_ids, rows[pos], -1).astype(np.int64)
+
+    def rebuild_routes(self) -> None:
+        """Rebuild the key -> row index from live cells and redirects (after ownership changes)."""
+        cells = self.entries.cell_rows()
+        red_rows = self.node_entry_rows(self.redirects.nodes)
+        keys = np.concatenate([self.entries.key[cells], self.redirects.keys])
+        rows = np.concatenate([cells, red_rows])
+        self.routes = RouteTable.build(keys, rows)
+
+    # -- persistence ------------------------------------------------------------------------
+    def to_arrays(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Plain arrays and a JSON-serialisable meta dict (config, counters, window, graph)."""
+        order = self.entries.canonical_order()
+        arrays = self.entries.to_arrays(order)
+        arrays.update(self.fremen.take(fremen_rows(order, self.bins).ravel()).to_arrays("fremen_"))
+        arrays.update(self.nodes.to_arrays())
+        arrays.update(self.redirects.to_arrays())
+        arrays.update(self.observation.to_arrays())
+        graph_arrays, graph_meta = graph_to_arrays(self.graph)
+        arrays.update(graph_arrays)
+        meta: dict[str, Any] = {
+            "state_version": STATE_VERSION,
+            "config": self.config.to_dict(),
+            "open_window": self.open_window,
+            "log_time_ns": self.log_time_ns,
+            "accepted": int(self.accepted),
+            "dropped": {k: int(v) for k, v in self.dropped.items()},
+            "graph": graph_meta,
+        }
+        return arrays, meta
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> MapState:
+        """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` for inconsistent input."""
+        try:
+            version = int(meta["state_version"])
+            config = ModelConfig.from_dict(meta["config"])
+            open_window = meta["open_window"]
+            log_time = meta["log_time_ns"]
+            accepted = int(meta["accepted"])
+            dropped = {str(k): int(v) for k, v in meta["dropped"].items()}
+            graph_meta = meta["graph"]
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
+        if version > STATE_VERSION:
+            raise MapCorruptError(f"map state version {version} is newer than {STATE_VERSION}")
+        entries = EntryStore.from_arrays(arrays, config.bins)
+        fremen = FremenState.from_arrays(arrays, "fremen_")
+        if fremen.n_rows != entries.n * (config.bins + 1):
+            raise MapCorruptError(
+                f"FreMEn state has {fremen.n_rows} rows, expected {entries.n * (config.bins + 1)}"
+            )
+        fremen.resize(entries.capacity * (config.bins + 1))
+        try:
+            state = cls(
+                config=config,
+                entries=entries,
+                fremen=fremen,
+                nodes=NodeTable.from_arrays(arrays),
+                redirects=Redirects.from_arrays(arrays),
+                observation=ObservationSource.from_arrays(arrays),
+                graph=graph_from_arrays(arrays, graph_meta),
+                open_window=None if open_window is None else int(open_window),
+                log_time_ns=None if log_time is None else int(log_time),
+                accepted=accepted,
+                dropped={**dict.fromkeys(DROP_REASONS, 0), **dropped},
+            )
+        except (KeyError, ValueError) as exc:
+            raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
+        state.rebuild_routes()
+        return state
+
+
+def merge_states(a: MapState, b: MapState) -> MapState:
+    """One map from two maps of disjoint time built with the same config.
+
+    See :mod:`aion_cli.engine.merge` for what is exact and what is approximated.
+    """
+    return merge_maps(a, b)
+
+
+__all__ = ["CELL", "DROP_REASONS", "NODE", "MapState", "merge_states"]
