@@ -1,0 +1,89 @@
+"""The STeF-style grid baseline on scenes whose flow is known."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.descriptors import bin_of
+from aion_cli.engine.fremen import EPOCH_NS
+from aion_cli.engine.types import DetectionBatch
+from aion_cli.evaluation.baselines import StaticHistogram, TimeOfDayHistogram
+from aion_cli.evaluation.grid import GridMoD, GridSpec
+
+HOUR = 3_600_000_000_000
+
+
+def corridor_flow(hours: int, seed: int = 0) -> DetectionBatch:
+    """People walk +x along y = 0.5 in the morning hours and -x in the afternoon hours."""
+    rng = np.random.default_rng(seed)
+    t, x, h = [], [], []
+    for hour in range(hours):
+        n = 40
+        t.append(EPOCH_NS + hour * HOUR + rng.integers(0, HOUR, n))
+        x.append(rng.uniform(0.0, 10.0, n))
+        h.append(np.full(n, 0.0 if (hour % 24) < 12 else math.pi - 1e-9))
+    tt = np.concatenate(t)
+    xyz = np.column_stack([np.concatenate(x), np.full(len(tt), 0.5), np.zeros(len(tt))])
+    return DetectionBatch.from_arrays(tt, xyz, np.concatenate(h))
+
+
+def test_grid_spec_covers_points_and_indexes_cells() -> None:
+    spec = GridSpec.covering(np.array([[0.2, 0.3], [4.7, 2.1]]), cell_size=1.0, margin=0.0)
+    assert spec.origin == (0.0, 0.0)
+    assert (spec.nx, spec.ny) == (6, 4)
+    cells = spec.cell_of(np.array([[0.5, 0.5], [4.7, 2.1], [-3.0, 0.0]]))
+    assert cells.tolist() == [0, 2 * 6 + 4, -1]
+    assert spec.centres()[cells[1]].tolist() == [4.5, 2.5]
+
+
+def test_grid_learns_the_dominant_direction_per_cell() -> None:
+    batch = corridor_flow(6)
+    grid = GridMoD(GridSpec.covering(batch.xyz[:, :2], 1.0), ModelConfig(window_s=600.0))
+    grid.fit(batch)
+    hist = grid.historical()
+    occupied = hist.sum(axis=1) > 0
+    assert hist.sum() == len(batch)
+    assert np.all(hist[occupied].argmax(axis=1) == bin_of(np.array([0.0]), 8)[0])
+    # Max-normalised windows: a window with any detection in the cell gives its dominant bin 1,
+    # an observed empty window gives 0, so the static prediction is the fraction of windows
+    # in which the cell saw someone.
+    dominant = bin_of(np.array([0.0]), 8)[0]
+    cells = grid.spec.cell_of(batch.xyz[:, :2])
+    windows = batch.t_ns // 600_000_000_000
+    n_windows = windows.max() - windows.min() + 1
+    for cell in np.flatnonzero(occupied):
+        busy = len(np.unique(windows[cells == cell]))
+        static = grid.predict(int(batch.t_ns.mean()), order=0)
+        assert static[cell, dominant] == pytest.approx(busy / n_windows)
+    pred = grid.predict(int(batch.t_ns.mean()))
+    others = np.delete(pred[occupied], dominant, axis=1)
+    assert np.all(others == 0.0)
+    assert pred[occupied, dominant].mean() > 0.2
+    assert np.all(pred[~occupied] == 0.0)
+
+
+def test_grid_memory_is_dense() -> None:
+    small = GridMoD(GridSpec((0.0, 0.0), 1.0, 10, 10))
+    large = GridMoD(GridSpec((0.0, 0.0), 1.0, 100, 10))
+    assert large.stored_bytes() == pytest.approx(10 * small.stored_bytes(), rel=0.01)
+
+
+def test_time_of_day_histogram_separates_morning_and_afternoon() -> None:
+    batch = corridor_flow(48, seed=1)
+    spec = GridSpec.covering(batch.xyz[:, :2], 1.0)
+    model = TimeOfDayHistogram(spec)
+    model.fit(batch)
+    query = np.array([[5.0, 0.5, 0.0], [5.0, 0.5, 0.0], [-50.0, 0.0, 0.0]])
+    times = np.array([EPOCH_NS + 9 * HOUR, EPOCH_NS + 15 * HOUR, EPOCH_NS], dtype=np.int64)
+    hist, matched = model.probabilities(query, times)
+    assert matched.tolist() == [True, True, False]
+    assert hist[0].argmax() == bin_of(np.array([0.0]), 8)[0]
+    assert hist[1].argmax() == bin_of(np.array([math.pi - 1e-9]), 8)[0]
+    static = StaticHistogram(spec)
+    static.fit(batch)
+    s_hist, _ = static.probabilities(query[:2], times[:2])
+    assert np.allclose(s_hist[0], s_hist[1])
