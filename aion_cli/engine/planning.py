@@ -1,0 +1,475 @@
+"""A* over the navigational layer with the Aion temporal traversal cost.
+
+Cost (the paper, section IV "Planning"), for travelling the edge from node i to node j::
+
+    cost(i, j) = d + (c̄_t + c_d(i, j)) · d
+
+- ``d`` is the Euclidean (3-D) distance between the nodes.
+- ``c_t(n) = plan_w_entropy · H_n + plan_w_flow · f_n`` per node, with ``H_n`` the normalised
+  directional entropy (0..1) and ``f_n = min(F_n / plan_flow_scale, 1)`` the busy-ness, ``F_n``
+  the predicted flow in expected detections per window. ``c̄_t`` is the mean over i and j.
+- ``c_d(i, j)`` is the mean over i and j of the per-node directional penalty
+  ``plan_w_direction · (1 − cos(α − θ_n)) / 2 · κ_n · f_n``, with ``α`` the horizontal travel
+  direction of the edge (i -> j), ``θ_n`` the node's dominant flow direction and ``κ_n`` its
+  concentration (mean resultant length, 0..1). Walking against a concentrated busy flow costs
+  the most (``w_direction``), walking with it costs nothing, crossing it half. A node without
+  flow (NaN angle / entropy) contributes no penalty; a purely vertical edge has no direction.
+
+Every term is >= 0, so ``cost(i, j) >= d(i, j)``: the Euclidean heuristic is admissible and
+consistent, and the distance-only plan is the special case with every penalty zero. The cost
+never uses a probability directly (no zero-probability infinities: entropy and concentration are
+already floored/bounded by the descriptors). Unlike the reference implementation we use no hidden
+factors (its ×3, caps at 10 and 5, 0.7/0.3 node weights, extra ``2H`` terms): the three weights
+and the flow scale are the config's ``plan_*`` parameters.
+
+Beyond the paper, costs are time-dependent: a node's costs come from ``node_cost(t_s)`` evaluated
+at its estimated arrival time ``depart_s + g_distance / speed`` (``g_distance`` = path length
+from the start along the best-cost path found so far). ``node_cost`` is evaluated once per time
+bucket (default the model window ``config.window_s``; a bucket is evaluated at its start, or at
+the departure time for the departure bucket), and the per-edge cost terms of a bucket are
+computed for the whole graph with numpy, so the Python A* loop only adds numbers. A node is
+settled once, with the arrival time of its best-cost path (label-setting; exact for static
+costs, a standard approximation of the time-dependent shortest path otherwise).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import numpy.typing as npt
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.errors import AionError, InputError, NoPathError, UnknownNodeError
+from aion_cli.engine.types import GraphSnapshot
+
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
+U64 = npt.NDArray[np.uint64]
+
+_INDEX_MASK = (1 << 56) - 1
+
+
+class NodeCostError(AionError):
+    """``node_cost`` returned arrays of the wrong shape (a caller bug, not a user error)."""
+
+
+def node_label(node_id: int) -> str:
+    """``(ord('p') << 56) | 12`` -> ``"p12"`` (numeric when the category is not printable)."""
+    value = int(node_id)
+    category = value >> 56
+    return f"{chr(category)}{value & _INDEX_MASK}" if 33 <= category < 127 else str(value)
+
+
+@dataclass(frozen=True)
+class NodeCosts:
+    """Per-node dynamics at one time, the inputs of the temporal cost (all float64[m]).
+
+    ``entropy`` normalised directional entropy 0..1 (NaN = no flow), ``flow_per_window``
+    expected detections per window (raw: the planner normalises by ``plan_flow_scale``),
+    ``dominant_angle`` radians (NaN = no flow), ``concentration`` mean resultant length 0..1.
+    These are the fields of the engine's ``Descriptors`` with the same meaning.
+    """
+
+    entropy: F64
+    flow_per_window: F64
+    dominant_angle: F64
+    concentration: F64
+
+    @classmethod
+    def zeros(cls, m: int) -> NodeCosts:
+        """No flow anywhere: every penalty is zero (the distance-only costs)."""
+        nan = np.full(m, np.nan)
+        return cls(nan, np.zeros(m), nan.copy(), np.zeros(m))
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """A planned path. ``path`` are row indices into the graph, ``path_ids`` their node ids,
+    ``arrival_s`` the estimated arrival time at each path node (model seconds), ``cost`` the
+    total traversal cost (metres-equivalent; equals ``length_m`` for a distance-only plan),
+    ``expanded`` the number of nodes A* settled."""
+
+    path: I64
+    path_ids: U64
+    arrival_s: F64
+    length_m: float
+    duration_s: float
+    cost: float
+    expanded: int
+
+
+@dataclass(frozen=True)
+class _Arcs:
+    """Both directions of every edge, sorted by source (CSR): ``indptr`` over nodes."""
+
+    src: I64
+    dst: I64
+    length: F64
+    alpha: F64  # horizontal travel direction, NaN for vertical arcs
+    indptr: I64
+
+
+@dataclass(frozen=True)
+class NavGraph:
+    """The navigational graph: node ``ids`` uint64[m], ``xyz`` float64[m,3], undirected
+    ``edges`` int64[k,2] of row indices (each pair once, no self loops after construction)."""
+
+    ids: U64
+    xyz: F64
+    edges: I64
+
+    def __post_init__(self) -> None:
+        m = len(self.ids)
+        if self.xyz.shape != (m, 3):
+            raise ValueError(f"xyz must have shape ({m}, 3), got {self.xyz.shape}")
+        if self.edges.ndim != 2 or self.edges.shape[1] != 2:
+            raise ValueError(f"edges must have shape (k, 2), got {self.edges.shape}")
+        if len(self.edges) and (self.edges.min() < 0 or self.edges.max() >= m):
+            raise ValueError("edges refer to rows outside the node table")
+        if not np.isfinite(self.xyz).all():
+            raise ValueError("node positions must be finite")
+
+    @classmethod
+    def build(cls, ids: npt.ArrayLike, xyz: npt.ArrayLike, edges: npt.ArrayLike) -> NavGraph:
+        """Coerce dtypes, drop self loops and duplicate (either-direction) edges."""
+        node_ids = np.ascontiguousarray(ids, dtype=np.uint64).reshape(-1)
+        pos = np.ascontiguousarray(xyz, dtype=np.float64).reshape(-1, 3)
+        e = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+        e = np.sort(e, axis=1)
+        e = e[e[:, 0] != e[:, 1]]
+        if len(e):  # unique pairs via one int64 key (much faster than unique(axis=0))
+            key = np.sort(e[:, 0] * np.int64(len(node_ids)) + e[:, 1])
+            key = key[np.r_[True, key[1:] != key[:-1]]]
+            e = np.stack([key // len(node_ids), key % len(node_ids)], axis=1)
+        return cls(node_ids, pos, np.ascontiguousarray(e))
+
+    @classmethod
+    def from_snapshot(cls, snapshot: GraphSnapshot, connect_radius: float) -> NavGraph:
+        """The places and place edges of a scene graph; a graph with no edges at all is
+        connected by :meth:`connect_within` (``config.plan_connect_radius``)."""
+        graph = cls.build(snapshot.places.ids, snapshot.places.xyz, snapshot.edges)
+        if len(graph.edges) == 0 and len(graph.ids) > 1:
+            graph = graph.connect_within(connect_radius)
+        return graph
+
+    def connect_within(self, radius: float) -> NavGraph:
+        """A copy with an edge between every pair of nodes closer than ``radius`` (3-D),
+        replacing the existing edges."""
+        if not (math.isfinite(radius) and radius > 0):
+            raise ValueError(f"radius must be positive, got {radius!r}")
+        pairs = cKDTree(self.xyz).query_pairs(radius, output_type="ndarray")
+        return NavGraph.build(self.ids, self.xyz, pairs.astype(np.int64).reshape(-1, 2))
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def index_of(self, node_id: int) -> int:
+        """Row of ``node_id``; :class:`UnknownNodeError` with examples when absent."""
+        hits = np.flatnonzero(self.ids == np.uint64(node_id))
+        if len(hits) == 0:
+            examples = ", ".join(node_label(int(i)) for i in self.ids[:5])
+            raise UnknownNodeError(
+                f"node {node_label(node_id)} is not in the navigational graph",
+                hint=f"nodes include {examples or '(none: the graph is empty)'}",
+            )
+        return int(hits[0])
+
+    def nearest(self, point: npt.ArrayLike) -> int:
+        """Row of the node nearest to ``point`` (x, y, z)."""
+        if len(self.ids) == 0:
+            raise UnknownNodeError("the navigational graph has no nodes")
+        d2 = ((self.xyz - np.asarray(point, dtype=np.float64).reshape(1, 3)) ** 2).sum(axis=1)
+        return int(np.argmin(d2))
+
+    @cached_property
+    def arcs(self) -> _Arcs:
+        """Directed arcs (both directions of each edge), sorted by source row."""
+        src = np.concatenate([self.edges[:, 0], self.edges[:, 1]])
+        dst = np.concatenate([self.edges[:, 1], self.edges[:, 0]])
+        order = np.argsort(src, kind="stable")
+        src, dst = src[order], dst[order]
+        delta = self.xyz[dst] - self.xyz[src]
+        length = np.sqrt((delta**2).sum(axis=1))
+        horizontal = np.hypot(delta[:, 0], delta[:, 1])
+        alpha = np.where(horizontal > 1e-9, np.arctan2(delta[:, 1], delta[:, 0]), np.nan)
+        indptr = np.zeros(len(self.ids) + 1, dtype=np.int64)
+        np.cumsum(np.bincount(src, minlength=len(self.ids)), out=indptr[1:])
+        return _Arcs(src, dst, length, alpha, indptr)
+
+
+# -- cost terms ------------------------------------------------------------------------------
+
+
+def _checked(costs: NodeCosts, m: int) -> tuple[F64, F64, F64, F64]:
+    """Validated copies with NaN -> no flow, bounded to their ranges."""
+    arrays = (costs.entropy, costs.flow_per_window, costs.dominant_angle, costs.concentration)
+    out = []
+    for name, a in zip(("entropy", "flow", "angle", "concentration"), arrays, strict=True):
+        arr = np.asarray(a, dtype=np.float64)
+        if arr.shape != (m,):
+            raise NodeCostError(f"node_cost {name} must have shape ({m},), got {arr.shape}")
+        out.append(arr)
+    entropy = np.clip(np.nan_to_num(out[0], nan=0.0), 0.0, 1.0)
+    flow = np.nan_to_num(out[1], nan=0.0, posinf=0.0, neginf=0.0).clip(min=0.0)
+    conc = np.clip(np.nan_to_num(out[3], nan=0.0), 0.0, 1.0)
+    return entropy, flow, out[2], conc
+
+
+def node_terms(costs: NodeCosts, m: int, config: ModelConfig) -> tuple[F64, F64, F64]:
+    """Per node: ``c_t``, the directional weight ``w_d · κ · f`` and the dominant angle."""
+    entropy, flow, angle, conc = _checked(costs, m)
+    busy = np.minimum(flow / config.plan_flow_scale, 1.0)
+    c_t = config.plan_w_entropy * entropy + config.plan_w_flow * busy
+    dir_weight = config.plan_w_direction * conc * busy
+    return c_t, dir_weight, angle
+
+
+def arc_halves(graph: NavGraph, costs: NodeCosts, config: ModelConfig) -> tuple[F64, F64]:
+    """Per arc, the source node's and the destination node's half of the cost multiplier.
+
+    ``cost(arc) = length · (1 + src_half[arc] + dst_half[arc])`` where ``src_half`` uses the
+    source node's costs and ``dst_half`` the destination's (they may come from different time
+    buckets). Each half is ``(c_t(n) + pen(n, α)) / 2``.
+    """
+    arcs = graph.arcs
+    c_t, dir_weight, angle = node_terms(costs, len(graph), config)
+
+    def half(nodes: I64) -> F64:
+        theta = angle[nodes]
+        opposed = (1.0 - np.cos(arcs.alpha - theta)) / 2.0
+        pen = np.where(np.isfinite(opposed), opposed * dir_weight[nodes], 0.0)
+        return 0.5 * (c_t[nodes] + pen)
+
+    return half(arcs.src), half(arcs.dst)
+
+
+def arc_costs(graph: NavGraph, costs: NodeCosts | None, config: ModelConfig) -> F64:
+    """Static cost of every arc (``graph.arcs`` order) with one set of node costs."""
+    if costs is None:
+        return graph.arcs.length.copy()
+    src_half, dst_half = arc_halves(graph, costs, config)
+    return graph.arcs.length * (1.0 + src_half + dst_half)
+
+
+NodeCostFn = Callable[[float], NodeCosts]
+
+
+class _BucketTables:
+    """``node_cost`` evaluated once per time bucket, turned into per-arc halves (lists)."""
+
+    def __init__(
+        self,
+        graph: NavGraph,
+        node_cost: NodeCostFn,
+        config: ModelConfig,
+        depart_s: float,
+        speed: float,
+        bucket_s: float,
+    ) -> None:
+        self.graph, self.node_cost, self.config = graph, node_cost, config
+        self.depart_s, self.speed, self.bucket_s = depart_s, speed, bucket_s
+        self.tables: dict[int, tuple[list[float], list[float]]] = {}
+
+    def bucket(self, distance: float) -> int:
+        return math.floor((self.depart_s + distance / self.speed) / self.bucket_s)
+
+    def eval_time(self, bucket: int) -> float:
+        return max(bucket * self.bucket_s, self.depart_s)
+
+    def get(self, bucket: int) -> tuple[list[float], list[float]]:
+        table = self.tables.get(bucket)
+        if table is None:
+            costs = self.node_cost(self.eval_time(bucket))
+            src_half, dst_half = arc_halves(self.graph, costs, self.config)
+            table = (src_half.tolist(), dst_half.tolist())
+            self.tables[bucket] = table
+        return table
+
+
+def _check_motion(speed: float, depart_s: float, bucket_s: float) -> None:
+    if not (math.isfinite(speed) and speed > 0):
+        raise InputError(f"speed must be a positive number of m/s, got {speed!r}")
+    if not math.isfinite(depart_s):
+        raise InputError(f"departure time must be finite, got {depart_s!r}")
+    if not (math.isfinite(bucket_s) and bucket_s > 0):
+        raise InputError(f"time bucket must be positive seconds, got {bucket_s!r}")
+
+
+# -- search ----------------------------------------------------------------------------------
+
+
+def _no_path(graph: NavGraph, start: int, goal: int) -> NoPathError:
+    m = len(graph)
+    e = graph.edges
+    adj = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(m, m))
+    n_comp, labels = connected_components(adj, directed=False)
+    sizes = np.bincount(labels, minlength=n_comp)
+
+    def describe(row: int) -> str:
+        comp = labels[row]
+        return f"{node_label(int(graph.ids[row]))} is in a component of {sizes[comp]} node(s)"
+
+    return NoPathError(
+        f"no path from {node_label(int(graph.ids[start]))} to {node_label(int(graph.ids[goal]))}:"
+        f" the graph has {n_comp} disconnected components; {describe(start)}, {describe(goal)}",
+        hint="pick a goal in the start's component, or give the graph a larger "
+        "plan_connect_radius if it has no edges",
+    )
+
+
+_Search = tuple[list[float], list[float], list[int], bytearray, int]
+
+
+def _astar(arcs: _Arcs, h: list[float], s: int, goal: int, tables: _BucketTables | None) -> _Search:
+    """Label-setting A* on plain Python lists (the hot loop: no numpy per step).
+
+    Returns per node the best cost, the path distance of that label, the parent row, the
+    settled flags and the number of settled nodes. With ``tables`` the arc cost is
+    ``length · (1 + src_half[bucket(i)] + dst_half[bucket(j)])``, else the length.
+    """
+    indptr, dst, length = arcs.indptr.tolist(), arcs.dst.tolist(), arcs.length.tolist()
+    m = len(h)
+    best, dist, parent, closed = [math.inf] * m, [0.0] * m, [-1] * m, bytearray(m)
+    best[s] = 0.0
+    heap: list[tuple[float, int]] = [(h[s], s)]
+    pop, push, floor = heapq.heappop, heapq.heappush, math.floor
+    expanded = 0
+    zeros = [0.0] * len(dst)
+    src_half = dst_half = zeros
+    t0 = k = 0.0
+    if tables is not None:
+        t0 = tables.depart_s / tables.bucket_s
+        k = 1.0 / (tables.speed * tables.bucket_s)
+    b_src = b_last = None
+    while heap:
+        i = pop(heap)[1]
+        if closed[i]:
+            continue
+        closed[i] = 1
+        expanded += 1
+        if i == goal:
+            break
+        g_i, d_i = best[i], dist[i]
+        if tables is not None:
+            b_i = floor(t0 + d_i * k)
+            if b_i != b_src:
+                b_src, src_half = b_i, tables.get(b_i)[0]
+            if b_i != b_last:
+                b_last, dst_half = b_i, tables.get(b_i)[1]
+        for a in range(indptr[i], indptr[i + 1]):
+            j = dst[a]
+            if closed[j]:
+                continue
+            d_a = length[a]
+            d_j = d_i + d_a
+            if tables is not None:
+                b_j = floor(t0 + d_j * k)
+                if b_j != b_last:
+                    b_last, dst_half = b_j, tables.get(b_j)[1]
+            c = g_i + d_a * (1.0 + src_half[a] + dst_half[a])
+            if c < best[j]:
+                best[j], dist[j], parent[j] = c, d_j, i
+                push(heap, (c + h[j], j))
+    return best, dist, parent, closed, expanded
+
+
+def _reconstruct(parent: list[int], goal: int) -> I64:
+    path = [goal]
+    while parent[path[-1]] >= 0:
+        path.append(parent[path[-1]])
+    return np.asarray(path[::-1], dtype=np.int64)
+
+
+def plan(
+    graph: NavGraph,
+    start: int,
+    goal: int,
+    depart_s: float,
+    speed: float,
+    node_cost: NodeCostFn | None,
+    config: ModelConfig,
+    *,
+    time_bucket_s: float | None = None,
+) -> PlanResult:
+    """Least-cost path from node id ``start`` to node id ``goal`` (A*, Euclidean heuristic).
+
+    ``depart_s`` and the times passed to ``node_cost`` are model seconds; ``speed`` m/s.
+    ``node_cost=None`` plans by distance only. ``time_bucket_s`` (default ``config.window_s``)
+    is the granularity at which ``node_cost`` is re-evaluated. Raises
+    :class:`UnknownNodeError` for ids not in the graph and :class:`NoPathError` (naming the
+    components) when start and goal are not connected.
+    """
+    bucket_s = config.window_s if time_bucket_s is None else float(time_bucket_s)
+    _check_motion(speed, depart_s, bucket_s)
+    s, g_row = graph.index_of(start), graph.index_of(goal)
+    arcs = graph.arcs
+    h = np.sqrt(((graph.xyz - graph.xyz[g_row]) ** 2).sum(axis=1)).tolist()
+    tables = (
+        None
+        if node_cost is None
+        else _BucketTables(graph, node_cost, config, depart_s, speed, bucket_s)
+    )
+    best, dist, parent, closed, expanded = _astar(arcs, h, s, g_row, tables)
+    if not closed[g_row]:
+        raise _no_path(graph, s, g_row)
+    path = _reconstruct(parent, g_row)
+    arrival = depart_s + np.asarray([dist[r] for r in path.tolist()]) / speed
+    return PlanResult(
+        path=path,
+        path_ids=graph.ids[path],
+        arrival_s=arrival,
+        length_m=dist[g_row],
+        duration_s=dist[g_row] / speed,
+        cost=best[g_row],
+        expanded=expanded,
+    )
+
+
+def evaluate_path_cost(
+    graph: NavGraph,
+    path: npt.ArrayLike,
+    depart_s: float,
+    speed: float,
+    node_cost: NodeCostFn | None,
+    config: ModelConfig,
+    *,
+    time_bucket_s: float | None = None,
+) -> float:
+    """The temporal cost of walking ``path`` (row indices) as :func:`plan` would count it.
+
+    Used to report the distance-only path's temporal cost beside the temporal plan. Raises
+    ``ValueError`` if consecutive path nodes are not joined by an edge.
+    """
+    bucket_s = config.window_s if time_bucket_s is None else float(time_bucket_s)
+    _check_motion(speed, depart_s, bucket_s)
+    rows = np.asarray(path, dtype=np.int64).reshape(-1)
+    arcs = graph.arcs
+    total, walked = 0.0, 0.0
+    tables = (
+        None
+        if node_cost is None
+        else _BucketTables(graph, node_cost, config, depart_s, speed, bucket_s)
+    )
+    for i, j in zip(rows[:-1].tolist(), rows[1:].tolist(), strict=True):
+        lo, hi = int(arcs.indptr[i]), int(arcs.indptr[i + 1])
+        hits = np.flatnonzero(arcs.dst[lo:hi] == j)
+        if len(hits) == 0:
+            raise ValueError(f"path step {i} -> {j} is not an edge of the graph")
+        a = lo + int(hits[0])
+        d = float(arcs.length[a])
+        factor = 1.0
+        if tables is not None:
+            src_half = tables.get(tables.bucket(walked))[0][a]
+            dst_half = tables.get(tables.bucket(walked + d))[1][a]
+            factor += src_half + dst_half
+        total += d * factor
+        walked += d
+    return total
