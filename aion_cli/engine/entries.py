@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.descriptors import bin_of
 from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.types import F64, I64, U64
 
@@ -41,13 +42,12 @@ def fremen_rows(entry_rows: npt.ArrayLike, bins: int) -> I64:
 
 
 def direction_bins(heading: npt.ArrayLike, bins: int) -> I64:
-    """Paper convention ``floor((θ+π)/(2π/B)) mod B``; -1 where the heading is not finite."""
-    theta = np.asarray(heading, dtype=np.float64)
-    finite = np.isfinite(theta)
-    safe = np.where(finite, theta, 0.0)
-    b = np.floor((safe + np.pi) / (2.0 * np.pi / bins)).astype(np.int64) % bins
-    out: I64 = np.where(finite, b, -1)
-    return out
+    """Paper convention ``floor((θ+π)/(2π/B)) mod B``; -1 where the heading is not finite.
+
+    Delegates to :func:`descriptors.bin_of`, which also keeps θ just below π in bin B-1 when
+    ``θ + π`` rounds up to 2π.
+    """
+    return bin_of(heading, bins)
 
 
 @dataclass

@@ -1,0 +1,187 @@
+"""Answering questions about a map: per-entry tables of flow descriptors.
+
+* :func:`historical_table` — what was seen: descriptors from cumulative counts (the open
+  window included; it counts as an observed window for entries with detections in it).
+* :func:`predict_table` — what is expected at a time: FreMEn activity -> expected detections per
+  window (``descriptors.predicted``), FreMEn direction fractions floored and renormalised.
+* :func:`aggregate_table` — places summed into rooms or buildings with the latest graph's
+  parents (``hierarchy.aggregate``); per-bin rates, flows and speed sums add.
+
+Rows: every live entry (unbound cells, then node entries, in canonical order), plus every place
+of the latest graph that has no entry yet (zero flow). Ids print as spark_dsg NodeSymbols
+(``p12`` = ``(ord('p') << 56) | 12``) for nodes and ``c<key>`` for hash cells. Flow quantities
+per entry are additive: ``rate[E, B]`` expected directed detections per window per bin,
+``flow[E]`` all expected detections per window (detections without a heading included).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine import descriptors
+from aion_cli.engine.descriptors import Descriptors
+from aion_cli.engine.entries import CELL, NODE, fremen_rows
+from aion_cli.engine.fremen import predict_directions, to_model_seconds
+from aion_cli.engine.hierarchy import aggregate
+from aion_cli.engine.state import MapState
+from aion_cli.engine.types import F64, U64, GraphSnapshot
+
+ROOM = 2
+BUILDING = 3
+StrA = npt.NDArray[np.str_]
+
+
+@dataclass(frozen=True)
+class EntryTable:
+    """One row per entry. ``kind`` 0 cell, 1 node, 2 room, 3 building; ``layer`` names the
+    layer ("cells", the graph's place layer name, "rooms", "buildings"); ``node_id`` is 0 for
+    cells; ``rate``/``flow``/``speed_sum``/``speed_n`` are the additive quantities the
+    descriptors were computed from."""
+
+    ids: StrA
+    node_id: U64
+    kind: npt.NDArray[np.int8]
+    layer: StrA
+    xyz: F64
+    descriptors: Descriptors
+    rate: F64
+    flow: F64
+    speed_sum: F64
+    speed_n: F64
+    window_s: float
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+def node_symbol(node_ids: npt.ArrayLike) -> StrA:
+    """spark_dsg NodeSymbol strings: category character + index (``p12``)."""
+    ids = np.asarray(node_ids, dtype=np.uint64).reshape(-1)
+    cat = (ids >> np.uint64(56)).astype(np.uint8)
+    cat = np.where((cat > 32) & (cat < 127), cat, ord("?")).astype(np.uint8)
+    chars = np.frombuffer(cat.tobytes(), dtype="S1").astype(str)
+    idx = (ids & np.uint64((1 << 56) - 1)).astype(str)
+    out: StrA = np.char.add(chars, idx)
+    return out
+
+
+def historical_table(state: MapState) -> EntryTable:
+    """Descriptors of what the map has seen, per entry."""
+    ent = state.entries
+    rows = ent.canonical_order()
+    open_seen = ent.window_totals(rows) > 0
+    windows = ent.windows_observed[rows] + open_seen
+    counts = ent.counts[rows]
+    total = counts.sum(axis=1) + ent.nodir[rows]
+    flow = np.full(len(rows), np.nan)
+    np.divide(total, windows, out=flow, where=windows > 0)
+    rate = np.zeros_like(counts)
+    np.divide(counts, windows[:, None], out=rate, where=windows[:, None] > 0)
+    return _table(state, rows, rate, flow, ent.speed_sum[rows], ent.speed_n[rows])
+
+
+def predict_table(state: MapState, t_ns: int) -> EntryTable:
+    """Descriptors expected at ``t_ns`` (UNIX ns) from the FreMEn models, per entry."""
+    cfg = state.config
+    rows = state.entries.canonical_order()
+    t_s = to_model_seconds(np.array([t_ns], np.int64))
+    fr = fremen_rows(rows, cfg.bins)
+    activity = state.model.predict(state.fremen, t_s, rows=fr[:, 0])[:, 0]
+    dirs = predict_directions(state.model, state.fremen, fr[:, 1:], t_s, cfg.direction_floor)
+    flow = descriptors.expected_count(activity, cfg.activity_scale)
+    rate = flow[:, None] * dirs[:, :, 0]
+    ent = state.entries
+    return _table(state, rows, rate, flow, ent.speed_sum[rows], ent.speed_n[rows])
+
+
+def aggregate_table(
+    table: EntryTable, graph: GraphSnapshot, level: Literal["rooms", "buildings"]
+) -> EntryTable:
+    """Sum the node rows of ``table`` into the graph's rooms (or buildings, via rooms)."""
+    if level not in ("rooms", "buildings"):
+        raise ValueError(f"level must be 'rooms' or 'buildings', got {level!r}")
+    parent = _parents(graph.places.ids, graph.places.parent, table.node_id)
+    parent[table.kind != NODE] = 0
+    if level == "buildings":
+        parent = _parents(graph.rooms.ids, graph.rooms.parent, parent)
+    target = graph.rooms if level == "rooms" else graph.buildings
+    b = table.rate.shape[1]
+    stacked = np.concatenate(
+        [table.rate, table.flow[:, None], table.speed_sum, table.speed_n], axis=1
+    )
+    ids, sums = aggregate(parent, np.nan_to_num(stacked))
+    rate, flow = sums[:, :b], sums[:, b]
+    speed_sum, speed_n = sums[:, b + 1 : 2 * b + 1], sums[:, 2 * b + 1 :]
+    at = np.searchsorted(target.ids, ids) if len(target) else np.zeros(len(ids), np.int64)
+    at_c = np.minimum(at, max(len(target) - 1, 0))
+    known = (target.ids[at_c] == ids) if len(target) else np.zeros(len(ids), bool)
+    xyz = np.where(known[:, None], target.xyz[at_c] if len(target) else 0.0, np.nan)
+    kind = ROOM if level == "rooms" else BUILDING
+    desc = _descriptors(rate, flow, speed_sum, speed_n, table.window_s)
+    return EntryTable(
+        ids=node_symbol(ids),
+        node_id=ids,
+        kind=np.full(len(ids), kind, np.int8),
+        layer=np.full(len(ids), level),
+        xyz=xyz,
+        descriptors=desc,
+        rate=rate,
+        flow=flow,
+        speed_sum=speed_sum,
+        speed_n=speed_n,
+        window_s=table.window_s,
+    )
+
+
+def _parents(ids: U64, parent: U64, children: U64) -> U64:
+    """Parent id of each child (0 if the child is unknown or has none)."""
+    if len(ids) == 0:
+        return np.zeros(len(children), np.uint64)
+    order = np.argsort(ids)
+    sid, spar = ids[order], parent[order]
+    pos = np.minimum(np.searchsorted(sid, children), len(sid) - 1)
+    return np.where(sid[pos] == children, spar[pos], np.uint64(0)).astype(np.uint64)
+
+
+def _descriptors(
+    rate: F64, flow: F64, speed_sum: F64, speed_n: F64, window_s: float
+) -> Descriptors:
+    """Descriptors from additive per-window rates; the flow includes undirected detections."""
+    windows = np.where(np.isfinite(flow), 1.0, 0.0)
+    desc = descriptors.historical(rate, speed_sum, speed_n, windows, window_s)
+    return replace(desc, flow_per_window=flow, flow_per_hour=flow * (3600.0 / window_s))
+
+
+def _table(
+    state: MapState, rows: np.ndarray, rate: F64, flow: F64, speed_sum: F64, speed_n: F64
+) -> EntryTable:
+    """Entries ``rows`` plus the latest graph's places without an entry (zero flow)."""
+    ent, b = state.entries, state.bins
+    node_id = ent.node_id[rows]
+    kind = ent.kind[rows]
+    xyz = ent.xyz[rows]
+    graph = state.graph
+    place_layer = graph.layer_name if graph is not None else "places"
+    if graph is not None and len(graph.places):
+        missing = ~np.isin(graph.places.ids, node_id)
+        k = int(missing.sum())
+        node_id = np.concatenate([node_id, graph.places.ids[missing]])
+        kind = np.concatenate([kind, np.full(k, NODE, np.int8)])
+        xyz = np.concatenate([xyz, graph.places.xyz[missing]])
+        rate = np.concatenate([rate, np.zeros((k, b))])
+        flow = np.concatenate([flow, np.zeros(k)])
+        speed_sum = np.concatenate([speed_sum, np.zeros((k, b))])
+        speed_n = np.concatenate([speed_n, np.zeros((k, b))])
+    is_cell = kind == CELL
+    keys = np.concatenate([ent.key[rows], np.full(len(kind) - len(rows), -1, np.int64)])
+    ids = np.where(is_cell, np.char.add("c", keys.astype(str)), node_symbol(node_id))
+    layer = np.where(is_cell, "cells", place_layer)
+    window_s = state.config.window_s
+    desc = _descriptors(rate, flow, speed_sum, speed_n, window_s)
+    return EntryTable(
+        ids, node_id, kind, layer, xyz, desc, rate, flow, speed_sum, speed_n, window_s
+    )
