@@ -90,10 +90,14 @@ def spark_header(version: str) -> bytes:
     """
     major, minor, patch = _parse_version(version)
     return (
-        b"\xdd" + (9).to_bytes(4, "little") + b"SPARK_DSG"
-        + b"\xdd" + (4).to_bytes(4, "little") + b"main"
+        b"\xdd"
+        + (9).to_bytes(4, "little")
+        + b"SPARK_DSG"
+        + b"\xdd"
+        + (4).to_bytes(4, "little")
+        + b"main"
         + bytes((0xCC, major, 0xCC, minor, 0xCC, patch))
-    )  # fmt: skip
+    )
 
 
 def _parse_version(version: str) -> tuple[int, int, int]:
@@ -315,8 +319,9 @@ def _keep_parents_in(layer: Layer, parents: Layer) -> Layer:
     valid = np.isin(layer.parent, parents.ids)
     if valid.all():
         return layer
-    return Layer(layer.ids, layer.xyz, np.where(valid, layer.parent, 0).astype(np.uint64),
-                 layer.labels)  # fmt: skip
+    return Layer(
+        layer.ids, layer.xyz, np.where(valid, layer.parent, 0).astype(np.uint64), layer.labels
+    )
 
 
 def _edges(view: Any | None, ids: npt.NDArray[np.uint64]) -> npt.NDArray[np.int64]:

@@ -98,8 +98,9 @@ def test_slerp_takes_shortest_arc_across_sign_flip() -> None:
     q2 = -yaw_q(-170)  # same rotation as yaw -170°, opposite hemisphere of the quaternion
     buf.add_transforms("a", "b", [0, 2 * S], [[0, 0, 0]] * 2, [q1, q2])
     R, _, _ = buf.lookup("a", "b", [S])
-    np.testing.assert_allclose(R[0], Rotation.from_euler("z", 180, degrees=True).as_matrix(),
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        R[0], Rotation.from_euler("z", 180, degrees=True).as_matrix(), atol=1e-12
+    )
 
 
 def test_statics_hold_at_any_time_and_dynamic_edge_limits_ok() -> None:
@@ -206,8 +207,9 @@ def test_vectors_rotate_only() -> None:
 def test_trajectory_at_dynamic_sample_times() -> None:
     buf = TfBuffer()
     buf.add_transforms("map", "odom", [0], [[1, 2, 0]], [yaw_q(90)], static=True)
-    buf.add_transforms("odom", "base", [0, S, 2 * S], [[0, 0, 0], [1, 0, 0], [2, 0, 0]],
-                       [yaw_q(0)] * 3)  # fmt: skip
+    buf.add_transforms(
+        "odom", "base", [0, S, 2 * S], [[0, 0, 0], [1, 0, 0], [2, 0, 0]], [yaw_q(0)] * 3
+    )
     traj = buf.trajectory("map", "base")
     assert traj.t_ns.tolist() == [0, S, 2 * S]
     np.testing.assert_allclose(traj.xyz, [[1, 2, 0], [1, 3, 0], [1, 4, 0]], atol=1e-12)

@@ -1,0 +1,287 @@
+"""Track files (canonical, ATC, THÖR, ETH/UCY) and tracks -> log conversion."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.errors import InputError
+from aion_cli.engine.types import DetectionBatch
+from formats import tracks as ft
+
+DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
+ATC = DATA / "atc" / "atc-1024-9_test.csv"
+THOR = DATA / "thor" / "thor1-exp-1-run-2.csv"
+THOR3 = DATA / "thor" / "thor3-exp-3-run-2.csv"
+S = 1_000_000_000
+
+
+def _csv_rows(path: Path) -> list[list[str]]:
+    with path.open() as fh:
+        return [row for row in csv.reader(fh) if row]
+
+
+# ----------------------------------------------------------------------------- real files
+
+
+def test_atc_real_file() -> None:
+    rows = _csv_rows(ATC)
+    batch = ft.read_tracks(ATC, "atc")
+    assert len(batch) == len(rows) == 2504
+    times = [float(r[0]) for r in rows]
+    assert batch.t_ns[0] == round(min(times) * 1000) * 1_000_000
+    assert batch.t_ns[-1] == round(max(times) * 1000) * 1_000_000
+    assert (np.diff(batch.t_ns) >= 0).all()
+    assert batch.t_ns[0] == 1351038020969 * 1_000_000  # 2012-10-24 00:20:20.969 UTC
+    assert (np.abs(batch.heading) <= np.pi).all()
+    assert set(batch.track_id.tolist()) == {int(r[1]) for r in rows}
+    np.testing.assert_array_equal(batch.xyz[:, 2], 0)
+    # every file row is in the batch with its own values (order-independent)
+    want = sorted((round(float(r[0]) * 1000), int(r[1]), float(r[2]), float(r[3])) for r in rows)
+    got = sorted(
+        zip(
+            (batch.t_ns // 1_000_000).tolist(),
+            batch.track_id.tolist(),
+            batch.xyz[:, 0].tolist(),
+            batch.xyz[:, 1].tolist(),
+            strict=True,
+        )
+    )
+    assert got == want
+
+
+@pytest.mark.parametrize("path", [THOR, THOR3])
+def test_thor_real_files_with_start_offset(path: Path) -> None:
+    rows = _csv_rows(path)
+    start = 1_600_000_000 * S
+    batch = ft.read_tracks(path, "thor", start_ns=start)
+    assert len(batch) == len(rows)
+    assert batch.t_ns[0] == start + round(min(float(r[0]) for r in rows) * 1e6) * 1000
+    assert batch.t_ns[-1] - batch.t_ns[0] < 300 * S  # a ~4 minute run
+    assert (np.abs(batch.heading) <= np.pi).all()
+    assert np.isclose(batch.speed.sum(), sum(float(r[4]) for r in rows))
+
+
+# ----------------------------------------------------------------------------- canonical
+
+
+def test_canonical_round_trip(tmp_path: Path) -> None:
+    batch = DetectionBatch.from_arrays(
+        t_ns=[1_700_000_000_123_456_789, 1_700_000_000_000_000_001, 5],
+        xyz=[[1.25, -2.5, 0.0], [1e4, 3.000001, 1.5], [0, 0, 0]],
+        heading=[0.5, np.nan, -3.1],
+        speed=[1.2, np.nan, 0.0],
+        track_id=[7, -1, 2**40],
+    )
+    path = tmp_path / "tracks.csv"
+    ft.write_canonical_csv(batch, path)
+    assert path.read_text().splitlines()[0] == ft.CANONICAL_HEADER
+    back = ft.read_tracks(path)
+    order = np.argsort(batch.t_ns)
+    np.testing.assert_array_equal(back.t_ns, batch.t_ns[order])  # exact int64 ns
+    np.testing.assert_array_equal(back.track_id, batch.track_id[order])
+    np.testing.assert_allclose(back.xyz, batch.xyz[order], atol=1e-6)
+    np.testing.assert_allclose(back.heading, batch.heading[order], atol=1e-9)
+    np.testing.assert_allclose(back.speed, batch.speed[order], atol=1e-6)
+    assert np.isnan(back.heading[1])
+
+
+# ----------------------------------------------------------------------------- ETH / UCY
+
+
+def test_eth_straight_walk_heading_and_speed(tmp_path: Path) -> None:
+    lines = []
+    h1 = math.radians(30)
+    for k in range(6):  # ped 1: 1.2 m/s at 30°, sampled every 10 frames (0.4 s)
+        d = 1.2 * 0.4 * k
+        lines.append(
+            f"{100 + 10 * k:.1f}\t1.0\t{2 + d * math.cos(h1):.6f}\t{1 + d * math.sin(h1):.6f}"
+        )
+    for k in range(4):  # ped 2: 0.5 m/s due west (heading π), interleaved frames
+        lines.append(f"{120 + 10 * k:.1f}\t2.0\t{-0.2 * k:.6f}\t5.000000")
+    lines.append("300.0\t3.0\t0.0\t0.0")  # ped 3: one sample, heading unknown
+    path = tmp_path / "eth.txt"
+    path.write_text("\n".join(lines) + "\n")
+    batch = ft.read_tracks(path, "eth", start_ns=10 * S)
+    assert len(batch) == 11
+    one = batch.track_id == 1
+    assert batch.t_ns[one].tolist() == [10 * S + (100 + 10 * k) * 40_000_000 for k in range(6)]
+    np.testing.assert_allclose(batch.heading[one], h1, atol=1e-5)
+    np.testing.assert_allclose(batch.speed[one], 1.2, atol=1e-5)
+    two = batch.track_id == 2
+    np.testing.assert_allclose(np.abs(batch.heading[two]), np.pi, atol=1e-9)
+    np.testing.assert_allclose(batch.speed[two], 0.5, atol=1e-9)
+    three = batch.track_id == 3
+    assert np.isnan(batch.heading[three]).all()
+    assert np.isnan(batch.speed[three]).all()
+
+
+def test_finite_difference_central_on_curve() -> None:
+    # a quarter circle at constant speed: central differences give the chord direction
+    t = np.arange(3, dtype=np.int64) * S
+    xy = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
+    heading, speed = ft.finite_difference(t, np.zeros(3, np.int64), xy)
+    np.testing.assert_allclose(heading, [3 * np.pi / 4, np.pi, -3 * np.pi / 4])
+    np.testing.assert_allclose(speed, [math.sqrt(2), 1.0, math.sqrt(2)])
+
+
+# ----------------------------------------------------------------------------- bad files
+
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_bad_files_name_the_line(tmp_path: Path) -> None:
+    good = "1.0,5,0.1,0.2,0.3,0.4\n"
+    cols = _write(tmp_path, "cols.csv", good * 3 + "2.0,5,0.1,0.2,0.3\n")
+    with pytest.raises(ft.TracksFormatError, match=r"line 4: expected 6 columns .* got 5"):
+        ft.read_tracks(cols, "atc")
+    text = _write(tmp_path, "text.csv", good + "\n" + "2.0,5,abc,0.2,0.3,0.4\n")
+    with pytest.raises(ft.TracksFormatError, match=r"line 3, column 3 \(x_m\): 'abc'"):
+        ft.read_tracks(text, "atc")
+    frac = _write(tmp_path, "frac.csv", good + "2.0,5.5,0,0,0,0\n")
+    with pytest.raises(ft.TracksFormatError, match=r"line 2, column 2 \(person_id\).*integer"):
+        ft.read_tracks(frac, "thor")
+    nan_t = _write(tmp_path, "nan.csv", "nan,5,0,0,0,0\n")
+    with pytest.raises(ft.TracksFormatError, match=r"line 1, column 1 \(time_s\).*finite"):
+        ft.read_tracks(nan_t, "atc")
+    eth = _write(tmp_path, "eth.txt", "10 1 0.5 0.5\n20 1 0.5\n")
+    with pytest.raises(ft.TracksFormatError, match=r"line 2: expected 4 columns"):
+        ft.read_tracks(eth, "eth")
+
+
+def test_empty_missing_and_wrong_layout(tmp_path: Path) -> None:
+    with pytest.raises(ft.TracksFormatError, match="no track rows"):
+        ft.read_tracks(_write(tmp_path, "empty.csv", ""), "atc")
+    with pytest.raises(ft.TracksFormatError, match="no track rows"):
+        ft.read_tracks(_write(tmp_path, "hdr.csv", ft.CANONICAL_HEADER + "\n"))
+    with pytest.raises(ft.TracksFormatError, match="not found"):
+        ft.read_tracks(tmp_path / "missing.csv", "atc")
+    with pytest.raises(ft.TracksFormatError, match="header"):
+        ft.read_tracks(ATC)  # an ATC file read as canonical
+    bad_canon = _write(tmp_path, "c.csv", ft.CANONICAL_HEADER + "\n1.5,1,0,0,0,0,0\n")
+    with pytest.raises(ft.TracksFormatError, match=r"line 2, column 1 \(t_ns\).*integer"):
+        ft.read_tracks(bad_canon)
+    with pytest.raises(ft.TracksFormatError, match="unknown tracks layout"):
+        ft.read_tracks(ATC, "csv")
+    assert issubclass(ft.TracksFormatError, InputError)
+
+
+# ----------------------------------------------------------------------------- logs
+
+
+def _read_log(path: Path) -> list[tuple[str, int, object]]:
+    from rosbags.highlevel import AnyReader
+
+    out = []
+    with AnyReader([path]) as reader:
+        for conn, t, raw in reader.messages():
+            out.append((conn.topic, t, reader.deserialize(raw, conn.msgtype)))
+    return out
+
+
+def test_tracks_to_log_round_trip_with_graph(tmp_path: Path) -> None:
+    batch = ft.read_tracks(THOR, "thor", start_ns=1_600_000_000 * S)
+    out = tmp_path / "thor.mcap"
+    graph = DATA / "dsg" / "apartment_dsg.json"
+    summary = ft.tracks_to_log(batch, out, graph_file=graph, graph_period_s=60.0)
+    distinct = np.unique(batch.t_ns)
+    assert summary.detection_messages == len(distinct)
+    span_s = (batch.t_ns[-1] - batch.t_ns[0]) / 1e9
+    assert summary.graph_messages == math.floor(span_s / 60.0) + 1
+    msgs = _read_log(out)
+    people = [(t, m) for topic, t, m in msgs if topic == "/people_tracker/tracked_persons"]
+    graphs = [(t, m) for topic, t, m in msgs if topic == "/hydra/backend/dsg"]
+    assert len(people) == len(distinct)
+    assert len(graphs) == summary.graph_messages
+    assert graphs[0][0] == batch.t_ns[0]  # the graph comes first
+    assert msgs[0][0] == "/hydra/backend/dsg"
+    rows_t, rows_xyz, rows_v, rows_id = [], [], [], []
+    for t, m in people:
+        stamp = m.header.stamp.sec * S + m.header.stamp.nanosec
+        assert stamp == t
+        assert m.header.frame_id == "map"
+        for tr in m.tracks:
+            p = tr.pose.pose.position
+            v = tr.twist.twist.linear
+            rows_t.append(t)
+            rows_xyz.append((p.x, p.y, p.z))
+            rows_v.append((v.x, v.y))
+            rows_id.append(tr.track_id)
+    order = np.lexsort((batch.track_id, batch.t_ns))
+    got = np.lexsort((np.array(rows_id), np.array(rows_t)))
+    assert np.array(rows_t)[got].tolist() == batch.t_ns[order].tolist()
+    assert np.array(rows_id)[got].tolist() == batch.track_id[order].tolist()
+    np.testing.assert_allclose(np.array(rows_xyz)[got], batch.xyz[order])
+    vel = np.stack([np.cos(batch.heading), np.sin(batch.heading)], 1) * batch.speed[:, None]
+    np.testing.assert_allclose(np.array(rows_v)[got], vel[order], atol=1e-12)
+
+    from formats.dsg import decode_dsg_update
+
+    payload = graphs[0][1].layer_contents
+    snap = decode_dsg_update(np.asarray(payload, dtype=np.uint8), int(graphs[0][0]))
+    assert len(snap.places) == 185
+    assert len(snap.edges) == 396
+
+
+def test_tracks_to_log_pose_array_grouped_and_unknown_heading(tmp_path: Path) -> None:
+    batch = DetectionBatch.from_arrays(
+        t_ns=[0, 30_000_000, 120_000_000, 130_000_000],
+        xyz=[[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]],
+        heading=[np.pi / 2, np.nan, 0.0, -np.pi / 2],
+        speed=[1.0, np.nan, 0.5, 0.5],
+    )
+    out = tmp_path / "p.bag"
+    summary = ft.tracks_to_log(
+        batch, out, container="bag", msgtype="geometry_msgs/PoseArray", group_ns=100_000_000
+    )
+    assert summary.detection_messages == 2
+    assert summary.graph_messages == 0
+    msgs = _read_log(out)
+    assert [t for _, t, _ in msgs] == [0, 120_000_000]
+    first = msgs[0][2]
+    assert [p.position.x for p in first.poses] == [0.0, 1.0]
+    q = first.poses[0].orientation
+    assert math.isclose(2 * math.atan2(q.z, q.w), np.pi / 2)
+    assert (first.poses[1].orientation.z, first.poses[1].orientation.w) == (0.0, 1.0)
+
+
+def test_tracks_to_log_spencer_marks_unknown_velocity(tmp_path: Path) -> None:
+    batch = DetectionBatch.from_arrays(
+        t_ns=[5, 5],
+        xyz=[[0, 0, 0], [1, 1, 0]],
+        heading=[np.nan, 1.0],
+        speed=[np.nan, 2.0],
+        track_id=[1, 2],
+    )
+    out = tmp_path / "s.mcap"
+    ft.tracks_to_log(batch, out)
+    ((_, _, msg),) = _read_log(out)
+    unknown, known = sorted(msg.tracks, key=lambda tr: tr.track_id)
+    assert unknown.twist.covariance[0] > 99999
+    assert unknown.pose.covariance[35] > 99999
+    assert known.twist.covariance[0] == 0
+    assert math.isclose(known.twist.twist.linear.x, 2 * math.cos(1.0))
+
+
+def test_tracks_to_log_errors(tmp_path: Path) -> None:
+    no_ids = DetectionBatch.from_arrays([1], [[0, 0, 0]])
+    with pytest.raises(InputError, match="track ids"):
+        ft.tracks_to_log(no_ids, tmp_path / "a.mcap")
+    with pytest.raises(InputError, match="no detections"):
+        ft.tracks_to_log(DetectionBatch.empty(), tmp_path / "b.mcap")
+    with pytest.raises(InputError, match="cannot write tracks"):
+        ft.tracks_to_log(no_ids, tmp_path / "c.mcap", msgtype="people_msgs/People")
+    with pytest.raises(InputError, match="scene-graph file not found"):
+        ft.tracks_to_log(
+            DetectionBatch.from_arrays([1], [[0, 0, 0]], track_id=[1]),
+            tmp_path / "d.mcap",
+            graph_file=tmp_path / "nope.json",
+        )
