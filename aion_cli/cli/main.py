@@ -1,17 +1,108 @@
-"""Entry point of the ``aion`` console script."""
+"""Entry point of the ``aion`` console script: the click group and its error handling.
+
+Each subcommand lives in its own module under ``aion_cli.cli`` and is registered below. The
+group runs click in non-standalone mode so that :mod:`aion_cli.cli.errors` alone decides what a
+failure looks like (one ``error:`` line, a ``hint:`` line, exit code 2 for input errors).
+"""
 
 from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Sequence
+from typing import Any
 
 import click
 
 from aion_cli import __version__
+from aion_cli.cli import build, convert, export, info, plan, predict
+from aion_cli.cli.errors import EXIT_OK, report
+
+EPILOG = """\b
+Examples:
+  aion info run.mcap                                 what is in a log, what aion will use
+  aion build run1.mcap run2.bag -o office.aion       learn a map (incremental with --map)
+  aion predict office.aion --time "2026-11-23 08:30" flows per node at a time
+  aion plan office.aion --from p12 --to p87 --time "tomorrow 12:00"
+  aion export office.aion --time "+2h" -o out/       PLY/PCD scenes, CSV/JSON tables
+  aion simulate -o office.mcap                       a synthetic log to try it all
+  aion convert atc.csv --layout atc -o atc.mcap      pedestrian datasets -> logs
+
+Run 'aion COMMAND --help' for the options and a worked example of each command.
+"""
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(__version__, prog_name="aion")
-def cli() -> None:
-    """aion: 4D scene graphs (scene graphs with temporal flow dynamics) from robot logs."""
+def _debug_requested(args: Sequence[str]) -> bool:
+    """``--debug`` anywhere before the subcommand's own options, or AION_DEBUG=1."""
+    return "--debug" in args or os.environ.get("AION_DEBUG", "") not in ("", "0")
+
+
+class AionGroup(click.Group):
+    """A click group whose every failure goes through :func:`aion_cli.cli.errors.report`."""
+
+    def main(
+        self,
+        args: Sequence[str] | None = None,
+        prog_name: str | None = None,
+        complete_var: str | None = None,
+        standalone_mode: bool = True,
+        **extra: Any,
+    ) -> Any:
+        argv = list(sys.argv[1:] if args is None else args)
+        try:
+            rv = super().main(
+                argv, prog_name or "aion", complete_var, standalone_mode=False, **extra
+            )
+            code = rv if isinstance(rv, int) else EXIT_OK
+        except click.exceptions.Exit as exc:
+            code = exc.exit_code
+        except BaseException as exc:  # the single top-level handler
+            if isinstance(exc, SystemExit):
+                raise
+            code = report(exc, _debug_requested(argv))
+        if not standalone_mode:
+            return code
+        sys.exit(code)
+
+
+@click.group(
+    cls=AionGroup,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+    epilog=EPILOG,
+)
+@click.version_option(__version__, "-V", "--version", prog_name="aion")
+@click.option("--debug", is_flag=True, help="Show the full traceback when something fails.")
+def cli(debug: bool) -> None:
+    """aion: 4D scene graphs (scene graphs with temporal flow dynamics) from robot logs.
+
+    Reads MCAP, ROS 1 bag and rosbag2 logs of Hydra scene graphs and people detections,
+    learns where and when people walk in which direction, and predicts, plans and exports from
+    the map file it writes.
+    """
+
+
+for _module in (info, build, predict, plan, export, convert):
+    cli.add_command(_module.command)
+
+
+def _register_optional() -> None:
+    """``simulate`` and ``evaluate`` come from their own engineers' modules."""
+    import importlib
+
+    for name in ("simulate", "evaluate"):
+        try:
+            module = importlib.import_module(f"aion_cli.cli.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"aion_cli.cli.{name}":
+                raise
+            continue
+        command = getattr(module, "command", None) or getattr(module, name)
+        cli.add_command(command, name)
+
+
+_register_optional()
 
 
 def main() -> None:
+    """Console-script entry point."""
     cli()

@@ -94,7 +94,8 @@ def num(digits: int = 2) -> Callable[[Any], str]:
     def render(value: Any) -> str:
         if value is None or (isinstance(value, float) and not math.isfinite(value)):
             return "-"
-        return f"{float(value):.{digits}f}"
+        text = f"{float(value):.{digits}f}"
+        return text[1:] if text.startswith("-") and not text.strip("-0.") else text
 
     return render
 

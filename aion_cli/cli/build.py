@@ -1,0 +1,162 @@
+"""``aion build``: learn (or extend) a 4D scene-graph map from logs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import click
+
+from aion_cli.cli.output import format_option, to_json
+
+EPILOG = """\b
+Examples:
+  aion build run.mcap                          writes run.aion next to the log
+  aion build run1.mcap run2.bag -o office.aion several logs, merged in time order
+  aion build run3.mcap --map office.aion       continue a map with a new log
+  aion build tracks.mcap --derive-graph        no scene graph: derive one from walking people
+  aion build run.mcap --graph dsg.json         use a scene graph saved by Hydra
+  aion build --print-config > model.toml       dump every model parameter, edit, then
+  aion build run.mcap --config model.toml      build with it
+
+\b
+Topics are found by message type. All topics with a supported people-detection type are
+used; name the ones you want with --detections-topic (repeatable) when a tracker publishes
+the same people twice. Without a robot trajectory (TF map->base_link or the scene graph's
+agent layer) the log is treated as a fixed sensor over its time span; the summary says so.
+"""
+
+
+class _RichProgress:
+    """Adapts a rich progress bar to :class:`aion_cli.pipeline.ProgressSink`."""
+
+    def __init__(self, quiet: bool) -> None:
+        from aion_cli.cli.console import progress
+
+        self._progress = progress(quiet)
+        self._task: Any = None
+
+    def __enter__(self) -> _RichProgress:
+        self._progress.__enter__()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self._progress.__exit__(exc_type, exc, tb)
+
+    def start(self, description: str, total: int) -> None:
+        if self._task is not None:
+            self._progress.update(self._task, completed=self._progress.tasks[-1].total)
+        self._task = self._progress.add_task(description, total=max(int(total), 1))
+
+    def advance(self, n: int) -> None:
+        if self._task is not None:
+            self._progress.advance(self._task, n)
+
+
+def _load_config(path: Path | None) -> Any:
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.errors import ConfigError
+
+    if path is None:
+        return None
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot read config file {path}: {exc.strerror}") from exc
+    return ModelConfig.from_toml_text(text)
+
+
+@click.command("build", epilog=EPILOG)
+@click.argument("logs", nargs=-1, type=click.Path(path_type=Path))
+@click.option("-o", "--output", type=click.Path(path_type=Path, dir_okay=False),
+              help="Map file to write [default: the first log's name with .aion, or --map].")
+@click.option("--map", "continue_from", type=click.Path(path_type=Path, dir_okay=False),
+              help="Continue this existing map with the logs (equals building from all logs).")
+@click.option("--detections-topic", "detection_topics", multiple=True, metavar="TOPIC",
+              help="People-detection topic to use (repeatable) [default: all supported].")
+@click.option("--graph-topic", metavar="TOPIC",
+              help="Scene-graph (hydra_msgs/DsgUpdate) topic [default: found by type].")
+@click.option("--graph", "graph_file", type=click.Path(path_type=Path, dir_okay=False),
+              help="Scene graph saved by Hydra (dsg.json, .sparkdsg) instead of the log's.")
+@click.option("--derive-graph", is_flag=True,
+              help="Without any scene graph, derive places from where people walk.")
+@click.option("--map-frame", default="map", show_default=True,
+              help="Fixed frame of the map; detections are transformed into it with TF.")
+@click.option("--base-frame", default="base_link", show_default=True,
+              help="Robot frame whose TF trajectory gives what the sensor observed.")
+@click.option("--config", "config_file", type=click.Path(path_type=Path, dir_okay=False),
+              help="TOML file of model parameters (see --print-config).")
+@click.option("--print-config", is_flag=True,
+              help="Print the default model parameters as TOML and exit.")
+@click.option("--dsg-version", metavar="X.Y.Z",
+              help="spark_dsg payload version of the scene graphs [default: detected].")
+@click.option("--log-format", type=click.Choice(["mcap", "bag", "rosbag2"]),
+              help="Container format [default: guessed from the path].")
+@click.option("--batch-size", default=4000, show_default=True, type=click.IntRange(min=1),
+              help="Detection messages decoded per chunk.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary table.")
+@format_option(choices=("table", "json"))
+def command(
+    logs: tuple[Path, ...],
+    output: Path | None,
+    continue_from: Path | None,
+    detection_topics: tuple[str, ...],
+    graph_topic: str | None,
+    graph_file: Path | None,
+    derive_graph: bool,
+    map_frame: str,
+    base_frame: str,
+    config_file: Path | None,
+    print_config: bool,
+    dsg_version: str | None,
+    log_format: str | None,
+    batch_size: int,
+    quiet: bool,
+    fmt: str,
+) -> None:
+    """Learn a 4D scene-graph map from LOGS (MCAP, ROS 1 .bag, rosbag2 folders).
+
+    Reads the people detections, the Hydra scene graphs and TF of the logs in one time-ordered
+    stream, learns per place and hash cell how many people walk in which direction and how
+    that changes over the day and week, and writes everything to a single map file.
+    """
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.errors import InputError
+    from aion_cli.pipeline import BuildOptions, build_map
+
+    config = _load_config(config_file)
+    if print_config:
+        click.echo((config or ModelConfig()).to_toml(), nl=False)
+        return
+    if not logs:
+        raise InputError("no log given", hint="aion build LOG... [-o MAP]; see aion build --help")
+    options = BuildOptions(
+        logs=logs,
+        output=output,
+        config=config,
+        log_format=log_format,
+        detection_topics=detection_topics,
+        graph_topic=graph_topic,
+        map_frame=map_frame,
+        base_frame=base_frame,
+        graph_file=graph_file,
+        derive_graph=derive_graph,
+        continue_from=continue_from,
+        dsg_version=dsg_version,
+        batch_size=batch_size,
+    )
+    with _RichProgress(quiet or fmt == "json") as progress:
+        report = build_map(options, progress)
+    summary = report.to_dict()
+    if fmt == "json":
+        click.echo(to_json(summary))
+    elif not quiet:
+        from aion_cli.cli.build_summary import print_summary
+
+        print_summary(summary)

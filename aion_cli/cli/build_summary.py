@@ -1,0 +1,52 @@
+"""The closing table of ``aion build`` (on stderr: it is for people, not for scripts)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from aion_cli.cli.console import console
+
+
+def _size(n: int) -> str:
+    value = float(n)
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if value < 1024 or unit == "GiB":
+            return f"{value:.0f} {unit}" if unit == "B" else f"{value:.1f} {unit}"
+        value /= 1024
+    return f"{n} B"  # pragma: no cover
+
+
+def _span(seconds: float | None) -> str:
+    if seconds is None:
+        return "-"
+    whole = round(seconds)
+    hours, rest = divmod(whole, 3600)
+    minutes, secs = divmod(rest, 60)
+    return f"{hours}h{minutes:02d}m{secs:02d}s" if hours else f"{minutes}m{secs:02d}s"
+
+
+def print_summary(summary: dict[str, Any]) -> None:
+    """Render the build report dict (``BuildReport.to_dict``) as a two-column table."""
+    from rich.table import Table
+
+    det = summary["detections"]
+    table = Table(title=f"map {summary['map']}", show_header=False, title_justify="left")
+    table.add_column("what", style="bold")
+    table.add_column("value", justify="right")
+    table.add_row("detections read", f"{det['read']:,}")
+    table.add_row("detections used", f"{det['used']:,}")
+    for reason, count in det["dropped"].items():
+        if count:
+            table.add_row(f"  dropped: {reason}", f"{count:,}")
+    table.add_row("graph", f"{summary['graph']['source']}")
+    table.add_row("nodes", f"{summary['nodes']:,}")
+    table.add_row("hash cells", f"{summary['cells']:,}")
+    table.add_row("bound cells", f"{summary['bound_cells']:,}")
+    table.add_row("windows observed", f"{summary['windows']:,}")
+    table.add_row("time span", _span(summary["time_span"]["seconds"]))
+    table.add_row("observation", summary["observation"])
+    table.add_row("map size", _size(summary["map_bytes"]))
+    out = console()
+    out.print(table)
+    for note in summary.get("notes", []):
+        out.print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)

@@ -1,0 +1,112 @@
+"""Entry tables (per node / cell / room flow descriptors) as rows for table, JSON and CSV.
+
+Field names (stable, documented in ``aion predict --help``):
+
+``id`` ("p12", "R3", or "c<key>" for a hash cell), ``kind`` (node, cell, room, building), ``layer``,
+``x``/``y``/``z`` (m), ``flow`` (expected detections per window), ``flow_per_hour``,
+``direction_deg`` (dominant direction, circular mean, degrees from +x counter-clockwise; null
+without flow), ``direction_bin`` (argmax bin, -1 without flow), ``concentration`` (0..1),
+``entropy`` (normalised directional entropy 0..1, null without flow), ``mean_speed`` (m/s
+over bins with known speed, null if unknown), ``histogram`` (B direction probabilities, bin b
+centred at -180 + (b + 0.5)·360/B degrees), ``speed_per_bin`` (m/s per bin, JSON only).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from aion_cli.cli.output import Column, degrees, num
+
+KINDS = {0: "cell", 1: "node", 2: "room", 3: "building"}
+
+COLUMNS = [
+    Column("id", "id", justify="left"),
+    Column("kind", "kind", justify="left"),
+    Column("x", "x", num(2)),
+    Column("y", "y", num(2)),
+    Column("z", "z", num(2)),
+    Column("flow", "flow/win", num(2)),
+    Column("direction_deg", "dir", lambda v: degrees(math.radians(v)) if v is not None else "-"),
+    Column("entropy", "entropy", num(2)),
+    Column("concentration", "conc.", num(2)),
+    Column("mean_speed", "m/s", num(2)),
+    Column("histogram", "histogram", lambda h: _spark(h), justify="left"),
+]
+CSV_KEYS = [
+    "id", "kind", "layer", "x", "y", "z", "flow", "flow_per_hour", "direction_deg",
+    "direction_bin", "concentration", "entropy", "mean_speed", "histogram",
+]
+
+_BARS = " ▁▂▃▄▅▆▇█"
+
+
+def _spark(hist: Any) -> str:
+    if not hist:
+        return ""
+    values = [0.0 if v is None else float(v) for v in hist]
+    top = max(values) or 1.0
+    return "".join(_BARS[min(round(v / top * 8), 8)] for v in values)
+
+
+def _finite(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def rows_from_table(table: Any) -> list[dict[str, Any]]:
+    """One dict per entry of an engine ``EntryTable``."""
+    d = table.descriptors
+    rows = []
+    for e in range(len(table.xyz)):
+        kind = _kind(table, e)
+        probabilities = d.probabilities[e]
+        speeds = d.mean_speed[e]
+        known = np.isfinite(speeds) & (probabilities > 0)
+        mean_speed = (
+            float((speeds[known] * probabilities[known]).sum() / probabilities[known].sum())
+            if known.any()
+            else None
+        )
+        angle = _finite(float(d.dominant_angle[e]))
+        rows.append(
+            {
+                "id": _label(table, e, kind),
+                "kind": kind,
+                "layer": _layer(table, e, kind),
+                "x": float(table.xyz[e, 0]),
+                "y": float(table.xyz[e, 1]),
+                "z": float(table.xyz[e, 2]),
+                "flow": _finite(float(d.flow_per_window[e])),
+                "flow_per_hour": _finite(float(d.flow_per_hour[e])),
+                "direction_deg": None if angle is None else math.degrees(angle),
+                "direction_bin": int(d.dominant_bin[e]),
+                "concentration": _finite(float(d.concentration[e])),
+                "entropy": _finite(float(d.entropy[e])),
+                "mean_speed": mean_speed,
+                "histogram": [float(p) for p in probabilities],
+                "speed_per_bin": [_finite(float(s)) for s in speeds],
+            }
+        )
+    return rows
+
+
+def _kind(table: Any, e: int) -> str:
+    kind = table.kind[e]
+    if isinstance(kind, str):
+        return kind
+    return KINDS.get(int(kind), str(kind))
+
+
+def _layer(table: Any, e: int, kind: str) -> str:
+    return str(table.layer[e])
+
+
+def _label(table: Any, e: int, kind: str) -> str:
+    return str(table.ids[e])
+
+
+def sort_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Busiest first; entries without a known flow last; ties by id for a stable order."""
+    return sorted(rows, key=lambda r: (r["flow"] is None, -(r["flow"] or 0.0), r["id"]))

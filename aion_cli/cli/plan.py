@@ -1,0 +1,156 @@
+"""``aion plan``: a path that avoids crowded and opposing flows, beside the shortest one."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from aion_cli.cli.common import TIME_HELP, map_argument, resolve_time, tz_option
+from aion_cli.cli.output import format_option, to_json
+
+EPILOG = """\b
+Examples:
+  aion plan office.aion --from p12 --to p87 --time "tomorrow 12:00"
+  aion plan office.aion --from 0,0 --to 12.5,3 --time "2026-11-23 08:30" --speed 1.2
+  aion plan office.aion --from p12 --to p87 --format json
+  aion plan office.aion --from p12 --to p87 --export path.ply   the scene with the path
+
+\b
+--from/--to take node ids ("p12") or coordinates "x,y[,z]" snapped to the nearest node.
+The temporal cost of each node is predicted at the time the walker is expected to arrive
+there (departure + distance / speed). The distance-only path is always shown beside it,
+with the temporal cost it would have. JSON keys: from, to, depart, zone, speed_mps,
+temporal{path, length_m, duration_s, cost, arrival}, distance_only{path, length_m,
+duration_s, cost}, snapped.
+"""
+
+
+def _endpoint(text: str, nav: Any, option: str) -> tuple[int, dict[str, Any] | None]:
+    """Node id for ``--from``/``--to``: an id, or the node nearest to coordinates."""
+    import math
+
+    from aion_cli.cli.ids import node_label, parse_node_id, parse_point
+
+    point = parse_point(text)
+    if point is None:
+        node_id = parse_node_id(text)
+        nav.index_of(node_id)  # UnknownNodeError with examples
+        return node_id, None
+    row = nav.nearest(point)
+    node_id = int(nav.ids[row])
+    distance = math.dist(point, tuple(float(v) for v in nav.xyz[row]))
+    return node_id, {
+        "option": option,
+        "point": list(point),
+        "node": node_label(node_id),
+        "distance_m": distance,
+    }
+
+
+@click.command("plan", epilog=EPILOG)
+@map_argument
+@click.option("--from", "start", required=True, metavar="A", help="Start: node id or x,y[,z].")
+@click.option("--to", "goal", required=True, metavar="B", help="Goal: node id or x,y[,z].")
+@click.option("-t", "--time", "time_text", default="now", show_default=True,
+              help="Departure time. " + TIME_HELP)
+@tz_option
+@click.option("--speed", type=click.FloatRange(min=0.01, max=20.0),
+              help="Walking speed in m/s [default: the map's plan_speed].")
+@click.option("--export", "export_path", type=click.Path(path_type=Path, dir_okay=False),
+              help="Also write the scene with both paths to this .ply file.")
+@format_option(choices=("table", "json"))
+def command(
+    map_path: Path,
+    start: str,
+    goal: str,
+    time_text: str,
+    tz: str | None,
+    speed: float | None,
+    export_path: Path | None,
+    fmt: str,
+) -> None:
+    """Plan a path on the navigational graph of MAP from A to B, departing at a time."""
+    from aion_cli.cli.common import load
+    from aion_cli.cli.ids import node_label
+    from aion_cli.cli.timeparse import format_ns
+    from aion_cli.engine.fremen import to_model_seconds
+    from aion_cli.engine.planning import evaluate_path_cost, plan
+    from aion_cli.pipeline import nav_graph, node_cost_fn
+
+    loaded = load(map_path)
+    t_ns, zone = resolve_time(time_text, tz)
+    nav = nav_graph(loaded)
+    config = loaded.config
+    v = float(speed if speed is not None else config.plan_speed)
+    start_id, snap_a = _endpoint(start, nav, "--from")
+    goal_id, snap_b = _endpoint(goal, nav, "--to")
+    depart_s = float(to_model_seconds(t_ns))
+    cost_fn = node_cost_fn(loaded, nav.ids)
+    temporal = plan(nav, start_id, goal_id, depart_s, v, cost_fn, config)
+    shortest = plan(nav, start_id, goal_id, depart_s, v, None, config)
+    shortest_cost = evaluate_path_cost(nav, shortest.path, depart_s, v, cost_fn, config)
+
+    def describe(result: Any, cost: float) -> dict[str, Any]:
+        return {
+            "path": [node_label(int(i)) for i in result.path_ids],
+            "length_m": float(result.length_m),
+            "duration_s": float(result.duration_s),
+            "cost": float(cost),
+            "arrival": [
+                format_ns(t_ns + round((a - depart_s) * 1e9), zone) for a in result.arrival_s
+            ],
+        }
+
+    report = {
+        "map": str(map_path),
+        "from": node_label(start_id),
+        "to": node_label(goal_id),
+        "depart": format_ns(t_ns, zone),
+        "depart_ns": t_ns,
+        "zone": zone.name,
+        "speed_mps": v,
+        "temporal": describe(temporal, temporal.cost),
+        "distance_only": describe(shortest, shortest_cost),
+        "snapped": [s for s in (snap_a, snap_b) if s is not None],
+    }
+    if export_path is not None:
+        from aion_cli.cli.export import export_plan_scene
+
+        export_plan_scene(loaded, t_ns, nav, temporal.path, export_path)
+        report["export"] = str(export_path)
+    if fmt == "json":
+        click.echo(to_json(report))
+    else:
+        _print(report)
+
+
+def _print(report: dict[str, Any]) -> None:
+    from rich.table import Table
+
+    from aion_cli.cli.console import console, data_console
+
+    for snap in report["snapped"]:
+        console().print(
+            f"[dim]{snap['option']} {snap['point']} snapped to {snap['node']} "
+            f"({snap['distance_m']:.2f} m away)[/dim]"
+        )
+    table = Table(title=f"{report['from']} -> {report['to']}, departing {report['depart']}")
+    table.add_column("plan", style="bold")
+    table.add_column("length", justify="right")
+    table.add_column("time", justify="right")
+    table.add_column("cost", justify="right")
+    table.add_column("path")
+    for name, key in (("temporal", "temporal"), ("distance only", "distance_only")):
+        part = report[key]
+        table.add_row(
+            name,
+            f"{part['length_m']:.1f} m",
+            f"{part['duration_s']:.0f} s",
+            f"{part['cost']:.1f}",
+            " > ".join(part["path"]),
+        )
+    data_console().print(table)
+    if "export" in report:
+        console().print(f"wrote {report['export']}")

@@ -1,0 +1,146 @@
+"""``aion predict``: flows per place (or cell, room, building) at a time, from a map."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+import click
+
+from aion_cli.cli.common import TIME_HELP, map_argument, resolve_time, tz_option
+from aion_cli.cli.entries import COLUMNS, CSV_KEYS, rows_from_table, sort_rows
+from aion_cli.cli.output import emit, format_option
+
+EPILOG = """\b
+Examples:
+  aion predict office.aion --time "2026-11-23 08:30"          every place and cell
+  aion predict office.aion --time "tomorrow 12:00" --top 10    the ten busiest
+  aion predict office.aion --time now --node p12 --format json
+  aion predict office.aion --time "+2h" --at 3.5,-1.0          the entry nearest a point
+  aion predict office.aion --time "monday 08:30" --layer rooms
+  aion predict office.aion --historical --format csv > hist.csv  what was observed
+
+\b
+Fields (JSON keys, CSV columns): id, kind (node/cell/room/building), layer, x, y, z,
+flow (expected detections per window), flow_per_hour, direction_deg (dominant direction,
+degrees counter-clockwise from +x), direction_bin, concentration (0..1), entropy (0..1,
+1 = people walk every way), mean_speed (m/s), histogram (B direction probabilities; bin b
+is centred at -180 + (b + 0.5)*360/B degrees), speed_per_bin (JSON only).
+"""
+
+LAYERS = ("all", "places", "cells", "rooms", "buildings")
+
+
+@click.command("predict", epilog=EPILOG)
+@map_argument
+@click.option("-t", "--time", "time_text", default="now", show_default=True, help=TIME_HELP)
+@tz_option
+@click.option("--historical", is_flag=True,
+              help="What was observed (cumulative counts) instead of a prediction.")
+@click.option("--node", "nodes", multiple=True, metavar="ID",
+              help="Only this node (e.g. p12); repeatable.")
+@click.option("--at", "at", metavar="X,Y[,Z]", help="Only the entry nearest to this point.")
+@click.option("--layer", type=click.Choice(LAYERS), default="all", show_default=True,
+              help="Places (nodes), hash cells, or aggregated rooms / buildings.")
+@click.option("--top", type=click.IntRange(min=1), help="Only the N busiest entries.")
+@format_option()
+def command(
+    map_path: Path,
+    time_text: str,
+    tz: str | None,
+    historical: bool,
+    nodes: tuple[str, ...],
+    at: str | None,
+    layer: str,
+    top: int | None,
+    fmt: str,
+) -> None:
+    """Predict the flow dynamics of every place of MAP at a time.
+
+    For each entry: how many people are expected per time window, their dominant walking
+    direction, how ordered the flow is (entropy, concentration), their speed, and the
+    histogram of directions.
+    """
+    from aion_cli.cli.common import load
+    from aion_cli.cli.timeparse import format_ns
+
+    loaded = load(map_path)
+    t_ns: int | None = None
+    zone = None
+    if not historical:
+        t_ns, zone = resolve_time(time_text, tz)
+    table = _table(loaded, t_ns, layer)
+    rows = rows_from_table(table)
+    rows = _select(rows, table, layer, nodes, at)
+    rows = sort_rows(rows)[: top or None]
+    payload = {
+        "map": str(map_path),
+        "mode": "historical" if historical else "predicted",
+        "time": None if t_ns is None or zone is None else format_ns(t_ns, zone),
+        "time_ns": t_ns,
+        "zone": None if zone is None else zone.name,
+        "bins": int(loaded.config.bins),
+        "bin_centres_deg": [
+            -180.0 + (b + 0.5) * 360.0 / loaded.config.bins for b in range(loaded.config.bins)
+        ],
+        "entries": rows,
+    }
+    title = "historical flows" if t_ns is None or zone is None else (
+        f"predicted flows at {format_ns(t_ns, zone)}"
+    )
+    emit(fmt, rows, COLUMNS, json_payload=payload, csv_keys=CSV_KEYS, title=title)
+
+
+def _table(loaded: Any, t_ns: int | None, layer: str) -> Any:
+    from aion_cli.engine import query
+    from aion_cli.engine.errors import InputError
+
+    table = (
+        query.historical_table(loaded.state)
+        if t_ns is None
+        else query.predict_table(loaded.state, t_ns)
+    )
+    if layer in ("rooms", "buildings"):
+        if loaded.graph is None:
+            raise InputError(
+                f"the map has no scene graph, so no {layer}",
+                hint="build with a Hydra scene graph (--graph FILE) to get rooms and buildings",
+            )
+        level: Literal["rooms", "buildings"] = "rooms" if layer == "rooms" else "buildings"
+        table = query.aggregate_table(table, loaded.graph, level)
+    return table
+
+
+def _select(
+    rows: list[dict[str, Any]],
+    table: Any,
+    layer: str,
+    nodes: tuple[str, ...],
+    at: str | None,
+) -> list[dict[str, Any]]:
+    from aion_cli.cli.ids import node_label, parse_node_id, require_point
+    from aion_cli.engine.errors import UnknownNodeError
+
+    if layer == "places":
+        rows = [r for r in rows if r["kind"] == "node"]
+    elif layer == "cells":
+        rows = [r for r in rows if r["kind"] == "cell"]
+    if nodes:
+        wanted = [node_label(parse_node_id(text)) for text in nodes]
+        by_id = {r["id"]: r for r in rows}
+        missing = [w for w in wanted if w not in by_id]
+        if missing:
+            examples = ", ".join(r["id"] for r in rows if r["kind"] != "cell")[:60]
+            raise UnknownNodeError(
+                f"node {', '.join(missing)} is not in the map",
+                hint=f"nodes include {examples}" if examples else "the map has no nodes",
+            )
+        rows = [by_id[w] for w in wanted]
+    if at is not None:
+        x, y, z = require_point(at, "--at")
+        if not rows:
+            return rows
+        best = min(rows, key=lambda r: math.dist((r["x"], r["y"], r["z"]), (x, y, z)))
+        rows = [best]
+    return rows

@@ -1,0 +1,697 @@
+"""The build orchestration: logs -> scene graphs, detections and TF -> Mapper -> map file.
+
+No click here: the CLI hands over :class:`BuildOptions` and a :class:`ProgressSink`, and gets a
+:class:`BuildReport` back. Steps of :func:`build_map`:
+
+1. open the logs (``formats.logs.open_logs``) and pick topics by type (:func:`select_topics`):
+   detection topics with a supported adapter (all of them, or those named), the scene-graph
+   topic(s) (``hydra_msgs/DsgUpdate``), ``/tf`` and ``/tf_static``;
+2. read TF first (small) into a ``TfBuffer``; the observation mask comes from the robot
+   trajectory ``map -> base_link``, else from the scene graph's agent layer, else the log is
+   treated as a fixed sensor over its time span (the report says which);
+3. with ``--derive-graph`` and no scene graph, one extra pass counts where people walk and
+   :mod:`aion_cli.derive_graph` turns that into a navigational graph;
+4. stream detection and scene-graph messages in log-time order: detection messages are
+   collected into chunks of ``batch_size`` (flushed before every scene graph, so the Mapper sees
+   everything in time order), decoded per type with numpy, transformed to the map frame,
+   given headings, and fed to the Mapper;
+5. write the map atomically (``formats.mapfile.write_map``) with a manifest recording the
+   config, the inputs' provenance (path, size, sha256), the time span and the counts.
+
+:func:`load_map` reads a map back for ``predict``, ``plan`` and ``export``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from collections import Counter
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.errors import (
+    ConfigError,
+    InputError,
+    MapFileError,
+    TopicNotFoundError,
+    TransformError,
+)
+from aion_cli.engine.types import DetectionBatch, GraphSnapshot, Trajectory
+
+if TYPE_CHECKING:
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.state import MapState
+    from formats.raw import RawMessage, TopicInfo
+    from formats.tf import TfBuffer
+
+DSG_TYPES = frozenset({"hydra_msgs/msg/DsgUpdate"})
+TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"})
+MAP_SUFFIX = ".aion"
+
+
+class ProgressSink(Protocol):
+    """Where the build reports progress (the CLI adapts a rich progress bar)."""
+
+    def start(self, description: str, total: int) -> None:
+        """A new phase with ``total`` messages to go."""
+
+    def advance(self, n: int) -> None:
+        """``n`` more messages of the current phase are done."""
+
+
+class _NoProgress:
+    def start(self, description: str, total: int) -> None:
+        return None
+
+    def advance(self, n: int) -> None:
+        return None
+
+
+@dataclass(frozen=True)
+class BuildOptions:
+    """Everything ``aion build`` can be told. Empty / None fields mean "choose for me"."""
+
+    logs: tuple[Path, ...]
+    output: Path | None = None
+    config: ModelConfig | None = None
+    log_format: str | None = None
+    detection_topics: tuple[str, ...] = ()
+    graph_topic: str | None = None
+    map_frame: str = "map"
+    base_frame: str = "base_link"
+    graph_file: Path | None = None
+    derive_graph: bool = False
+    continue_from: Path | None = None
+    dsg_version: str | None = None
+    batch_size: int = 4000
+
+    def output_path(self) -> Path:
+        """``-o``, else the continued map, else the first log's name with ``.aion``."""
+        if self.output is not None:
+            return self.output
+        if self.continue_from is not None:
+            return self.continue_from
+        first = self.logs[0]
+        base = first.parent / (first.name.rstrip("/") if first.is_dir() else first.stem)
+        return base.with_name(base.name + MAP_SUFFIX)
+
+
+@dataclass
+class TopicPlan:
+    """The topics a build reads, by role."""
+
+    detections: list[TopicInfo] = field(default_factory=list)
+    graph: list[TopicInfo] = field(default_factory=list)
+    tf: list[TopicInfo] = field(default_factory=list)
+    ignored: list[TopicInfo] = field(default_factory=list)
+
+    def names(self, role: str) -> set[str]:
+        return {t.topic for t in getattr(self, role)}
+
+
+@dataclass
+class BuildReport:
+    """What a build did; ``to_dict`` is the JSON printed by ``aion build --format json``."""
+
+    output: Path
+    detections_read: int = 0
+    detections_used: int = 0
+    dropped: dict[str, int] = field(default_factory=dict)
+    cells: int = 0
+    nodes: int = 0
+    bound_cells: int = 0
+    windows: int = 0
+    start_ns: int | None = None
+    end_ns: int | None = None
+    map_bytes: int = 0
+    observation: str = "fixed"
+    graph_source: str = "none"
+    graph_messages: int = 0
+    dsg_version: str | None = None
+    detection_topics: list[str] = field(default_factory=list)
+    graph_topics: list[str] = field(default_factory=list)
+    inputs: list[dict[str, Any]] = field(default_factory=list)
+    continued: bool = False
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        span = (
+            None
+            if self.start_ns is None or self.end_ns is None
+            else (self.end_ns - self.start_ns) / 1e9
+        )
+        return {
+            "map": str(self.output),
+            "map_bytes": self.map_bytes,
+            "continued": self.continued,
+            "detections": {
+                "read": self.detections_read,
+                "used": self.detections_used,
+                "dropped": dict(sorted(self.dropped.items())),
+            },
+            "cells": self.cells,
+            "nodes": self.nodes,
+            "bound_cells": self.bound_cells,
+            "windows": self.windows,
+            "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns, "seconds": span},
+            "observation": self.observation,
+            "graph": {
+                "source": self.graph_source,
+                "messages": self.graph_messages,
+                "dsg_version": self.dsg_version,
+                "topics": self.graph_topics,
+            },
+            "detection_topics": self.detection_topics,
+            "inputs": self.inputs,
+            "notes": self.notes,
+        }
+
+
+# -- topics ------------------------------------------------------------------------------------
+def select_topics(
+    topics: Iterable[TopicInfo],
+    detection_topics: tuple[str, ...] = (),
+    graph_topic: str | None = None,
+) -> TopicPlan:
+    """Pick topics by message type; named topics must exist and have a usable type.
+
+    Several detection topics are all used unless ``detection_topics`` names some: people
+    trackers often publish the same people on more than one topic, so the report lists them
+    and ``--detections-topic`` narrows the choice.
+    """
+    from formats.detections import adapter_for
+
+    topics = list(topics)
+    by_name = {t.topic: t for t in topics}
+    plan = TopicPlan()
+    supported = [t for t in topics if adapter_for(t.msgtype) is not None]
+    if detection_topics:
+        for name in detection_topics:
+            info = by_name.get(name)
+            if info is None or adapter_for(info.msgtype) is None:
+                raise TopicNotFoundError(
+                    f"no people-detection topic {name!r} in the log"
+                    + (f" (it has type {info.msgtype})" if info else ""),
+                    candidates=[f"--detections-topic {t.topic}" for t in supported],
+                    hint=_candidate_hint("--detections-topic", supported, "people detections"),
+                )
+            plan.detections.append(info)
+    else:
+        plan.detections = supported
+    dsg = [t for t in topics if t.msgtype in DSG_TYPES]
+    if graph_topic is not None:
+        info = by_name.get(graph_topic)
+        if info is None or info.msgtype not in DSG_TYPES:
+            raise TopicNotFoundError(
+                f"no scene-graph topic {graph_topic!r} in the log",
+                candidates=[f"--graph-topic {t.topic}" for t in dsg],
+                hint=_candidate_hint("--graph-topic", dsg, "hydra_msgs/DsgUpdate scene graphs"),
+            )
+        dsg = [info]
+    plan.graph = dsg
+    plan.tf = [t for t in topics if t.msgtype in TF_TYPES]
+    used = plan.names("detections") | plan.names("graph") | plan.names("tf")
+    plan.ignored = [t for t in topics if t.topic not in used]
+    return plan
+
+
+def _candidate_hint(option: str, infos: list[TopicInfo], what: str) -> str:
+    if not infos:
+        return f"the log has no {what}; run `aion info LOG` to see its topics"
+    return "use one of: " + "  ".join(f"{option} {t.topic}" for t in infos)
+
+
+# -- provenance --------------------------------------------------------------------------------
+def _files_of(path: Path) -> list[Path]:
+    if path.is_dir():
+        return sorted(p for p in path.rglob("*") if p.is_file())
+    return [path]
+
+
+def provenance(path: Path) -> dict[str, Any]:
+    """Path, size and sha256 of one log (a rosbag2 folder: over its files' names and bytes)."""
+    digest = hashlib.sha256()
+    size = 0
+    for file in _files_of(path):
+        if path.is_dir():
+            digest.update(str(file.relative_to(path)).encode() + b"\0")
+        with file.open("rb") as fh:
+            while block := fh.read(1 << 20):
+                digest.update(block)
+                size += len(block)
+    return {"path": str(path.resolve()), "name": path.name, "size": size,
+            "sha256": digest.hexdigest()}
+
+
+# -- map files ---------------------------------------------------------------------------------
+@dataclass
+class LoadedMap:
+    """A map read back: its state, navigational graph (None: hash cells only) and manifest."""
+
+    state: MapState
+    graph: GraphSnapshot | None
+    manifest: dict[str, Any]
+
+    @property
+    def config(self) -> ModelConfig:
+        return self.state.config
+
+
+def load_map(path: Path) -> LoadedMap:
+    """Read ``path`` (checksums and version checked) into a :class:`LoadedMap`."""
+    from aion_cli.engine.state import MapState
+    from formats.mapfile import read_map
+
+    if not path.exists():
+        raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
+    if path.is_dir():
+        raise MapFileError(f"{path} is a folder, not a map file")
+    arrays, manifest = read_map(path)
+    meta = manifest.get("state")
+    if not isinstance(meta, dict):
+        raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
+    state = MapState.from_arrays(arrays, meta)
+    return LoadedMap(state, _latest_graph(state), manifest)
+
+
+def _latest_graph(state: MapState) -> GraphSnapshot | None:
+    graph = getattr(state, "graph", None)
+    if graph is None or len(graph.places) == 0:
+        return None
+    return graph
+
+
+# -- detections --------------------------------------------------------------------------------
+@dataclass
+class _Counts:
+    read: int = 0
+    used: int = 0
+    dropped: Counter[str] = field(default_factory=Counter)
+
+
+class _DetectionFeeder:
+    """Decodes chunks of raw detection messages into map-frame DetectionBatches."""
+
+    def __init__(self, tf: TfBuffer | None, map_frame: str, counts: _Counts) -> None:
+        from formats.detections import HeadingEstimator, adapter_for
+
+        self._adapter_for = adapter_for
+        self.tf = tf
+        self.map_frame = map_frame
+        self.counts = counts
+        self.headings = HeadingEstimator()
+
+    def decode(self, messages: list[RawMessage]) -> DetectionBatch:
+        """Decode, transform and give headings to ``messages`` (any detection types)."""
+        from formats.detections.frame import FrameDetections
+
+        by_type: dict[str, list[RawMessage]] = {}
+        for msg in messages:
+            by_type.setdefault(msg.msgtype, []).append(msg)
+        parts = []
+        for msgtype, msgs in by_type.items():
+            adapter = self._adapter_for(msgtype)
+            assert adapter is not None  # topics were selected by adapter
+            frames = adapter.decode(msgs)
+            self.counts.read += len(frames)
+            for reason, n in frames.filtered.items():
+                self.counts.dropped[reason] += n
+            parts.append(self._to_map_frame(frames))
+        if not parts:
+            return DetectionBatch.empty()
+        merged = FrameDetections.concat(parts)
+        order = np.argsort(merged.t_ns, kind="stable")
+        return self.headings.to_batch(merged.select(order))
+
+    def _to_map_frame(self, frames: Any) -> Any:
+        """Rows moved into the map frame; rows without a transform are counted and dropped."""
+        if len(frames) == 0:
+            return frames
+        target = self.map_frame
+        xyz = frames.xyz.copy()
+        vel = frames.velocity.copy()
+        yaw = frames.yaw.copy()
+        ok = np.ones(len(frames), dtype=bool)
+        for index, name in enumerate(frames.frames):
+            rows = np.flatnonzero(frames.frame_id == index)
+            if len(rows) == 0 or name in ("", target):
+                continue  # Hydra's ROS 1 sender leaves frame ids empty: taken as the map frame
+            if self.tf is None:
+                raise TransformError(
+                    f"detections are in frame {name!r} but the log has no TF to {target!r}",
+                    hint=f"if {name!r} is a fixed frame, build with --map-frame {name}",
+                )
+            R, t, good = self.tf.lookup(target, name, frames.t_ns[rows])
+            xyz[rows] = np.einsum("nij,nj->ni", R, frames.xyz[rows]) + t
+            vel[rows] = np.einsum("nij,nj->ni", R, frames.velocity[rows])
+            yaw[rows] = yaw[rows] + np.arctan2(R[:, 1, 0], R[:, 0, 0])
+            ok[rows] = good
+        n_bad = int((~ok).sum())
+        if n_bad:
+            self.counts.dropped["no_transform"] += n_bad
+        moved = dataclasses.replace(
+            frames,
+            xyz=xyz,
+            velocity=vel,
+            yaw=yaw,
+            frame_id=np.zeros(len(frames), np.int64),
+            frames=(target,),
+        )
+        return moved.select(ok) if n_bad else moved
+
+
+# -- the build ---------------------------------------------------------------------------------
+def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer | None:
+    from formats.tf import TfBuffer
+
+    if not plan.tf:
+        return None
+    topics = plan.names("tf")
+    progress.start("reading TF", logset.total(topics))
+    buffer = TfBuffer()
+    for msg in logset.messages(topics):
+        buffer.add_message(logset.decode(msg), static=msg.topic.endswith("_static"))
+        progress.advance(1)
+    return buffer
+
+
+def _robot_trajectory(tf: TfBuffer | None, opts: BuildOptions) -> Trajectory | None:
+    if tf is None:
+        return None
+    try:
+        traj = tf.trajectory(opts.map_frame, opts.base_frame)
+    except TransformError:
+        return None
+    return traj if len(traj) else None
+
+
+def _chunks(
+    messages: Iterator[RawMessage], graph_topics: set[str], size: int
+) -> Iterator[tuple[list[RawMessage], RawMessage | None]]:
+    """(detection chunk, graph message or None): chunks end at a graph message or ``size``."""
+    chunk: list[RawMessage] = []
+    for msg in messages:
+        if msg.topic in graph_topics:
+            yield chunk, msg
+            chunk = []
+        else:
+            chunk.append(msg)
+            if len(chunk) >= size:
+                yield chunk, None
+                chunk = []
+    if chunk:
+        yield chunk, None
+
+
+class _Build:
+    """One run of ``aion build`` (state shared by the phases)."""
+
+    def __init__(self, opts: BuildOptions, progress: ProgressSink) -> None:
+        self.opts = opts
+        self.progress = progress
+        self.counts = _Counts()
+        self.report = BuildReport(output=opts.output_path())
+        self.previous: LoadedMap | None = None
+        self.dsg_version = opts.dsg_version
+
+    def config(self) -> ModelConfig:
+        given = self.opts.config
+        if self.previous is None:
+            return given or ModelConfig()
+        old = self.previous.config
+        if given is not None and given != old:
+            raise ConfigError(
+                "--config differs from the config the map was built with",
+                hint="a map keeps its model parameters; build a new map to change them",
+            )
+        return old
+
+    def run(self) -> BuildReport:
+        from aion_cli.engine.mapper import Mapper
+        from formats.logs import open_logs
+
+        opts = self.opts
+        if opts.continue_from is not None:
+            self.previous = load_map(opts.continue_from)
+            self.report.continued = True
+        config = self.config()
+        inputs = self._inputs()
+        with open_logs(list(opts.logs), opts.log_format) as logset:
+            plan = select_topics(logset.topics, opts.detection_topics, opts.graph_topic)
+            if not plan.detections:
+                raise TopicNotFoundError(
+                    "the log has no people-detection topic of a supported type",
+                    hint="run `aion info LOG` to see its topics and which types aion reads",
+                )
+            self.report.detection_topics = sorted(plan.names("detections"))
+            self.report.notes.extend(getattr(logset, "warnings", []))
+            mapper = Mapper(config, self.previous.state if self.previous else None)
+            tf = _load_tf(logset, plan, self.progress)
+            self._observation(mapper, tf, plan, logset)
+            fixed_graph = self._fixed_graph(logset, plan, tf, config)
+            if fixed_graph is not None:
+                mapper.add_graph(fixed_graph)
+            self._stream(logset, plan, tf, mapper, fixed_graph is not None)
+            mapper.advance(int(logset.end_ns))
+            self._span(logset)
+        self._write(mapper, config, inputs)
+        return self.report
+
+    def _inputs(self) -> list[dict[str, Any]]:
+        for path in self.opts.logs:
+            if not path.exists():
+                raise InputError(f"log not found: {path}", hint="check the path")
+        new = [provenance(p) for p in self.opts.logs]
+        old = list(self.previous.manifest.get("inputs", [])) if self.previous else []
+        known = {entry.get("sha256") for entry in old}
+        for entry in new:
+            if entry["sha256"] in known:
+                raise InputError(
+                    f"{entry['name']} is already in the map (same sha256)",
+                    hint="each log may be added to a map only once",
+                )
+        self.report.inputs = new
+        return old + new
+
+    def _observation(
+        self, mapper: Mapper, tf: TfBuffer | None, plan: TopicPlan, logset: Any
+    ) -> None:
+        traj = _robot_trajectory(tf, self.opts)
+        if traj is not None:
+            mapper.add_trajectory(traj)
+            self.report.observation = f"tf {self.opts.map_frame}->{self.opts.base_frame}"
+        elif plan.graph and self.opts.graph_file is None:
+            self.report.observation = "scene-graph agent layer"  # fed per snapshot
+        else:
+            mapper.set_fixed_sensor(int(logset.start_ns), int(logset.end_ns))
+            self.report.observation = "fixed sensor over the log's time span"
+            self.report.notes.append(
+                "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
+                "treated as a fixed sensor that saw everything over its time span"
+            )
+
+    def _fixed_graph(
+        self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig
+    ) -> GraphSnapshot | None:
+        """The graph from ``--graph FILE`` or ``--derive-graph`` (added once, at the start)."""
+        opts = self.opts
+        start = int(logset.start_ns)
+        if opts.graph_file is not None:
+            from formats.dsg import load_graph_file
+
+            if plan.graph:
+                self.report.notes.append("--graph given: scene graphs in the log are ignored")
+                plan.graph = []
+            self.report.graph_source = f"file {opts.graph_file.name}"
+            return load_graph_file(opts.graph_file, start)
+        if plan.graph:
+            self.report.graph_source = "log"
+            self.report.graph_topics = sorted(plan.names("graph"))
+            return None
+        if self.previous is not None and self.previous.graph is not None:
+            self.report.graph_source = "continued map"
+            return None
+        if not opts.derive_graph:
+            self.report.notes.append(
+                "no scene graph: flows are kept on hash cells (try --graph FILE or --derive-graph)"
+            )
+            return None
+        self.report.graph_source = "derived from walking people"
+        return self._derive(logset, plan, tf, config, start)
+
+    def _derive(
+        self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig, start: int
+    ) -> GraphSnapshot:
+        from aion_cli.derive_graph import OccupancyGrid
+
+        grid = OccupancyGrid(config.derive_spacing)
+        scratch = _Counts()
+        feeder = _DetectionFeeder(tf, self.opts.map_frame, scratch)
+        topics = plan.names("detections")
+        self.progress.start("deriving graph", logset.total(topics))
+        for chunk, _ in _chunks(logset.messages(topics), set(), self.opts.batch_size):
+            grid.add(feeder.decode(chunk).xyz)
+            self.progress.advance(len(chunk))
+        graph = grid.graph(config.derive_min_detections, start)
+        if len(graph.places) == 0:
+            self.report.notes.append(
+                "--derive-graph: no grid cell reached derive_min_detections; no graph derived"
+            )
+        return graph
+
+    def _stream(
+        self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper, fixed: bool
+    ) -> None:
+        feeder = _DetectionFeeder(tf, self.opts.map_frame, self.counts)
+        graph_topics = plan.names("graph")
+        topics = plan.names("detections") | graph_topics
+        self.progress.start("building map", logset.total(topics))
+        use_agents = self.report.observation.startswith("scene-graph")
+        chunks = _chunks(logset.messages(topics), graph_topics, self.opts.batch_size)
+        for chunk, graph_msg in chunks:
+            if chunk:
+                self._feed(mapper, feeder.decode(chunk))
+                self.progress.advance(len(chunk))
+            if graph_msg is not None:
+                snapshot = self._decode_graph(logset, graph_msg)
+                mapper.add_graph(snapshot)
+                if use_agents and snapshot.agents is not None and len(snapshot.agents):
+                    mapper.add_trajectory(snapshot.agents)
+                self.report.graph_messages += 1
+                self.progress.advance(1)
+        c = self.counts
+        self.report.detections_read = c.read
+        self.report.detections_used = c.used
+        self.report.dropped = dict(c.dropped)
+        if use_agents and self.report.graph_messages == 0:
+            mapper.set_fixed_sensor(int(logset.start_ns), int(logset.end_ns))
+            self.report.observation = "fixed sensor over the log's time span"
+
+    def _feed(self, mapper: Mapper, batch: DetectionBatch) -> None:
+        if len(batch) == 0:
+            return
+        drops = mapper.add_detections(batch)
+        dropped = sum(int(v) for v in drops.values())
+        for reason, n in drops.items():
+            if n:
+                self.counts.dropped[reason] += int(n)
+        self.counts.used += len(batch) - dropped
+
+    def _decode_graph(self, logset: Any, msg: RawMessage) -> GraphSnapshot:
+        from formats.dsg import decode_dsg
+
+        decoded = logset.decode(msg)
+        payload = np.asarray(decoded.layer_contents, dtype=np.uint8)
+        stamp = decoded.header.stamp
+        t_ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+        result = decode_dsg(payload, t_ns or msg.log_time_ns, self.dsg_version)
+        if self.dsg_version is None:  # pin the version that worked for the rest of the log
+            self.dsg_version = result.version
+        self.report.dsg_version = result.version
+        return result.snapshot
+
+    def _span(self, logset: Any) -> None:
+        start, end = int(logset.start_ns), int(logset.end_ns)
+        if self.previous is not None:
+            old = self.previous.manifest.get("time_span", {})
+            start = min(start, int(old.get("start_ns", start)))
+            end = max(end, int(old.get("end_ns", end)))
+        self.report.start_ns, self.report.end_ns = start, end
+
+    def _write(self, mapper: Mapper, config: ModelConfig, inputs: list[dict[str, Any]]) -> None:
+        from formats.mapfile import write_map
+
+        state = mapper.state
+        arrays, meta = state.to_arrays()
+        stats = state_counts(state)
+        self.report.cells = stats["cells"]
+        self.report.nodes = stats["nodes"]
+        self.report.bound_cells = stats["bound_cells"]
+        self.report.windows = stats["windows"]
+        manifest = {
+            "state": meta,
+            "config": config.to_dict(),
+            "inputs": inputs,
+            "time_span": {"start_ns": self.report.start_ns, "end_ns": self.report.end_ns},
+            "counts": self.report.to_dict()["detections"] | stats,
+            "graph_source": self.report.graph_source,
+            "observation": self.report.observation,
+        }
+        out = self.report.output
+        write_map(out, arrays, manifest)
+        self.report.map_bytes = out.stat().st_size
+
+
+def state_counts(state: MapState) -> dict[str, int]:
+    """Cells, nodes, bound cells and windows observed of a state (summaries and info)."""
+    entries = state.entries
+    live = entries.live_rows()
+    observed = entries.windows_observed[live]
+    return {
+        "cells": len(entries.cell_rows()),
+        "nodes": len(entries.node_rows()),
+        "bound_cells": len(state.redirects),
+        "windows": int(observed.max()) if len(observed) else 0,
+    }
+
+
+def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> BuildReport:
+    """Run a build (see the module docstring) and return its report."""
+    if not opts.logs:
+        raise InputError("no log given", hint="aion build LOG... -o MAP")
+    if opts.batch_size < 1:
+        raise InputError("batch size must be >= 1")
+    return _Build(opts, progress or _NoProgress()).run()
+
+
+# -- queries on a loaded map -------------------------------------------------------------------
+def nav_graph(loaded: LoadedMap) -> Any:
+    """The planning graph of a map (``engine.planning.NavGraph``)."""
+    from aion_cli.engine.planning import NavGraph
+
+    if loaded.graph is None:
+        raise InputError(
+            "the map has no navigational graph to plan on",
+            hint="build it with a scene graph (from the log or --graph FILE) or --derive-graph",
+        )
+    return NavGraph.from_snapshot(loaded.graph, loaded.config.plan_connect_radius)
+
+
+def node_rows(table: Any, node_ids: np.ndarray) -> np.ndarray:
+    """Row of each node id in an entry table (-1 where the node has no entry)."""
+    rows = np.flatnonzero(np.asarray(table.kind) == 1)
+    ids = np.asarray(table.node_id, dtype=np.uint64)[rows]
+    order = np.argsort(ids)
+    ids, rows = ids[order], rows[order]
+    wanted = np.asarray(node_ids, dtype=np.uint64)
+    if len(ids) == 0:
+        return np.full(len(wanted), -1, np.int64)
+    pos = np.minimum(np.searchsorted(ids, wanted), len(ids) - 1)
+    return np.where(ids[pos] == wanted, rows[pos], -1).astype(np.int64)
+
+
+def node_cost_fn(loaded: LoadedMap, node_ids: np.ndarray) -> Any:
+    """``node_cost(t_s)`` for ``engine.planning.plan``: predicted descriptors of the nodes at
+    model time ``t_s`` (nodes without an entry have no flow)."""
+    from aion_cli.engine.fremen import EPOCH_NS
+    from aion_cli.engine.planning import NodeCosts
+    from aion_cli.engine.query import predict_table
+
+    def cost(t_s: float) -> NodeCosts:
+        table = predict_table(loaded.state, EPOCH_NS + round(t_s * 1e9))
+        rows = node_rows(table, node_ids)
+        have = rows >= 0
+        d = table.descriptors
+        costs = NodeCosts.zeros(len(node_ids))
+        for name in ("entropy", "flow_per_window", "dominant_angle", "concentration"):
+            getattr(costs, name)[have] = np.asarray(getattr(d, name))[rows[have]]
+        flow = costs.flow_per_window
+        flow[~np.isfinite(flow)] = 0.0
+        return costs
+
+    return cost

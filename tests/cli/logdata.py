@@ -1,0 +1,207 @@
+"""A small synthetic office log with known contents, written with ``formats.writers.LogWriter``.
+
+Layout (map frame, metres)::
+
+    p0 (0,0) -- p1 (2,0) -- p2 (4,0) -- p3 (6,0)          p5 (20,0) -- p6 (22,0)
+                             |                           (a second, disconnected part)
+                            p4 (4,2)
+
+Rooms: R0 = {p0, p1}, R1 = {p2, p3, p4}, R2 = {p5, p6}; building B0 above them.
+
+People (``spencer_tracking_msgs/TrackedPersons`` on ``/tracks``, frame ``map``), one message
+every 10 s from T0 + 5 s for 20 minutes (two 600-s windows):
+
+* track 1 stands at (2.1, 0.1) near p1, velocity (+1, 0): heading 0 -> bin 4 (of 8);
+* track 2 at (4.1, 1.9) near p4, velocity (0, -1): heading -pi/2 -> bin 2;
+* track 3 at (6.1, -0.1) near p3, velocity (-1, 0): heading pi -> bin 0, first window only.
+
+The robot (``/tf`` map -> base_link, every 5 s) stays at (3, 0, 0), so p5/p6 are out of its
+8-m sensor range. A ``DsgUpdate`` with the whole graph is on ``/hydra/backend/dsg`` every 60 s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+S = 1_000_000_000
+# Monday 2026-11-23 08:00:00 UTC, aligned to 600-s windows.
+T0 = int(datetime(2026, 11, 23, 8, 0, tzinfo=UTC).timestamp()) * S
+DURATION_S = 1200
+MSG_PERIOD_S = 10
+
+PLACES = {
+    0: (0.0, 0.0, 0.0),
+    1: (2.0, 0.0, 0.0),
+    2: (4.0, 0.0, 0.0),
+    3: (6.0, 0.0, 0.0),
+    4: (4.0, 2.0, 0.0),
+    5: (20.0, 0.0, 0.0),
+    6: (22.0, 0.0, 0.0),
+}
+EDGES = [(0, 1), (1, 2), (2, 3), (2, 4), (5, 6)]
+ROOMS = {0: (0, 1), 1: (2, 3, 4), 2: (5, 6)}
+TRACKS = {
+    1: {"xyz": (2.1, 0.1, 0.0), "vel": (1.0, 0.0), "until_s": DURATION_S},
+    2: {"xyz": (4.1, 1.9, 0.0), "vel": (0.0, -1.0), "until_s": DURATION_S},
+    3: {"xyz": (6.1, -0.1, 0.0), "vel": (-1.0, 0.0), "until_s": 600},
+}
+ROBOT_XYZ = (3.0, 0.0, 0.0)
+
+
+def sym(category: str, index: int) -> int:
+    """spark_dsg NodeSymbol value."""
+    return (ord(category) << 56) | index
+
+
+@dataclass(frozen=True)
+class Expected:
+    """What the log holds, for the tests' assertions."""
+
+    detections: int
+    per_track: dict[int, int]
+    track_messages: int
+    graph_messages: int
+    tf_messages: int
+    start_ns: int
+    end_ns: int
+
+
+def detection_times(track: int) -> list[int]:
+    until = int(TRACKS[track]["until_s"])  # type: ignore[call-overload]
+    return [
+        T0 + (5 + k * MSG_PERIOD_S) * S
+        for k in range(DURATION_S // MSG_PERIOD_S)
+        if 5 + k * MSG_PERIOD_S < until
+    ]
+
+
+def build_graph() -> Any:
+    """The spark_dsg graph of the office."""
+    import spark_dsg
+
+    G = spark_dsg.DynamicSceneGraph()
+    for i, xyz in PLACES.items():
+        attrs = spark_dsg.PlaceNodeAttributes()
+        attrs.position = np.array(xyz)
+        attrs.real_place = True
+        G.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", i), attrs)
+    for r, members in ROOMS.items():
+        room = spark_dsg.RoomNodeAttributes()
+        room.position = np.mean([PLACES[m] for m in members], axis=0)
+        room.name = f"room{r}"
+        G.add_node(spark_dsg.DsgLayers.ROOMS, spark_dsg.NodeSymbol("R", r), room)
+        for m in members:
+            G.insert_edge(spark_dsg.NodeSymbol("p", m), spark_dsg.NodeSymbol("R", r))
+    building = spark_dsg.SemanticNodeAttributes()
+    building.position = np.array([10.0, 0.0, 3.0])
+    G.add_node(spark_dsg.DsgLayers.BUILDINGS, spark_dsg.NodeSymbol("B", 0), building)
+    for r in ROOMS:
+        G.insert_edge(spark_dsg.NodeSymbol("R", r), spark_dsg.NodeSymbol("B", 0))
+    for a, b in EDGES:
+        G.insert_edge(spark_dsg.NodeSymbol("p", a), spark_dsg.NodeSymbol("p", b))
+    return G
+
+
+def save_graph_file(path: Path) -> Path:
+    """The office graph as a Hydra ``dsg.json`` file."""
+    build_graph().save(str(path), include_mesh=False)
+    return path
+
+
+def _stamp(t_ns: int) -> dict[str, int]:
+    return {"sec": t_ns // S, "nanosec": t_ns % S}
+
+
+def _tracked_persons(t_ns: int, frame: str) -> dict[str, Any]:
+    tracks = []
+    for track, spec in TRACKS.items():
+        if t_ns - T0 >= int(spec["until_s"]) * S:  # type: ignore[call-overload]
+            continue
+        x, y, z = spec["xyz"]  # type: ignore[misc]
+        vx, vy = spec["vel"]  # type: ignore[misc]
+        tracks.append(
+            {
+                "track_id": track,
+                "is_matched": True,
+                "pose": {"pose": {"position": {"x": x, "y": y, "z": z}, "orientation": {"w": 1.0}}},
+                "twist": {"twist": {"linear": {"x": vx, "y": vy, "z": 0.0}}},
+            }
+        )
+    return {"header": {"stamp": _stamp(t_ns), "frame_id": frame}, "tracks": tracks}
+
+
+def write_office_log(
+    path: Path,
+    container: str = "mcap",
+    *,
+    graph: bool = True,
+    tf: bool = True,
+    frame: str = "map",
+) -> Expected:
+    """Write the office log to ``path`` and return what it holds."""
+    from formats.writers import LogWriter
+
+    payload = np.frombuffer(build_graph().to_binary(False), dtype=np.uint8) if graph else None
+    n_tracks = n_graph = n_tf = 0
+    end = T0 + DURATION_S * S
+    written: list[int] = []
+    with LogWriter(path, container) as writer:
+        for t in range(T0, end, S):  # one pass over every second, in time order
+            if graph and (t - T0) % (60 * S) == 0:
+                writer.write(
+                    "/hydra/backend/dsg",
+                    "hydra_msgs/msg/DsgUpdate",
+                    {
+                        "header": {"stamp": _stamp(t), "frame_id": "map"},
+                        "layer_contents": payload,
+                        "full_update": True,
+                    },
+                    t,
+                )
+                n_graph += 1
+                written.append(t)
+            if tf and (t - T0) % (5 * S) == 0:
+                x, y, z = ROBOT_XYZ
+                writer.write(
+                    "/tf",
+                    "tf2_msgs/msg/TFMessage",
+                    {
+                        "transforms": [
+                            {
+                                "header": {"stamp": _stamp(t), "frame_id": "map"},
+                                "child_frame_id": "base_link",
+                                "transform": {
+                                    "translation": {"x": x, "y": y, "z": z},
+                                    "rotation": {"w": 1.0},
+                                },
+                            }
+                        ]
+                    },
+                    t,
+                )
+                n_tf += 1
+                written.append(t)
+            if (t - T0) % (MSG_PERIOD_S * S) == 5 * S:
+                writer.write(
+                    "/tracks",
+                    "spencer_tracking_msgs/msg/TrackedPersons",
+                    _tracked_persons(t, frame),
+                    t,
+                )
+                n_tracks += 1
+                written.append(t)
+    per_track = {k: len(detection_times(k)) for k in TRACKS}
+    return Expected(
+        detections=sum(per_track.values()),
+        per_track=per_track,
+        track_messages=n_tracks,
+        graph_messages=n_graph,
+        tf_messages=n_tf,
+        start_ns=min(written),
+        end_ns=max(written),
+    )
