@@ -119,6 +119,8 @@ def _fail(path: Path, spec: _Spec, layout: str, detail: str | None = None) -> Tr
 def _check_file(path: Path, spec: _Spec, layout: str) -> None:
     if not path.is_file():
         raise TracksFormatError(f"tracks file not found: {path}")
+    if path.stat().st_size == 0:
+        raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
     if spec.header is None:
         return
     with path.open(encoding="utf-8", errors="replace") as fh:
@@ -130,7 +132,7 @@ def _check_file(path: Path, spec: _Spec, layout: str) -> None:
         )
 
 
-def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike) -> Any:
+def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Literal[1, 2]) -> Any:
     """``np.loadtxt`` with our errors: bad lines named by number, empty files refused."""
     _check_file(path, spec, layout)
     try:
@@ -141,7 +143,7 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike) -> Any:
                 dtype=dtype,
                 delimiter=spec.delimiter,
                 skiprows=1 if spec.header else 0,
-                ndmin=1,
+                ndmin=ndmin,
                 encoding="utf-8",
             )
     except (ValueError, UnicodeDecodeError, OverflowError) as exc:
@@ -152,9 +154,7 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike) -> Any:
 
 
 def _plain_columns(path: Path, spec: _Spec, layout: str) -> F64:
-    data = _load(path, spec, layout, np.float64)
-    if data.ndim == 1:  # one column count mismatch cannot happen here; one row gives 1-D
-        data = data.reshape(1, -1)
+    data = _load(path, spec, layout, np.float64, ndmin=2)
     if data.shape[1] != len(spec.columns):
         raise _fail(path, spec, layout, f"expected {len(spec.columns)} columns")
     arr: F64 = data
@@ -178,7 +178,7 @@ def read_canonical(path: str | Path) -> DetectionBatch:
     p = Path(path)
     spec = _SPECS["canonical"]
     dtype = np.dtype([(name, "i8" if k in (0, 1) else "f8") for k, name in enumerate(spec.columns)])
-    rec = _load(p, spec, "canonical", dtype)
+    rec = _load(p, spec, "canonical", dtype, ndmin=1)
     xyz = np.stack([rec["x"], rec["y"], rec["z"]], axis=1)
     if not np.isfinite(xyz).all():
         raise _fail(p, spec, "canonical")

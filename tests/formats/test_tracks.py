@@ -161,7 +161,17 @@ def test_empty_missing_and_wrong_layout(tmp_path: Path) -> None:
     with pytest.raises(ft.TracksFormatError, match="no track rows"):
         ft.read_tracks(_write(tmp_path, "empty.csv", ""), "atc")
     with pytest.raises(ft.TracksFormatError, match="no track rows"):
+        ft.read_tracks(_write(tmp_path, "empty2.csv", ""))
+    with pytest.raises(ft.TracksFormatError, match="no track rows"):
         ft.read_tracks(_write(tmp_path, "hdr.csv", ft.CANONICAL_HEADER + "\n"))
+    with pytest.raises(ft.TracksFormatError, match="no track rows"):
+        ft.read_tracks(_write(tmp_path, "blank.csv", "\n\n# comment only\n"), "atc")
+    one_col = _write(tmp_path, "one.csv", "1\n2\n3\n4\n5\n6\n")
+    with pytest.raises(ft.TracksFormatError, match=r"line 1: expected 6 columns .* got 1"):
+        ft.read_tracks(one_col, "atc")
+    single = ft.read_tracks(_write(tmp_path, "single.csv", "1.5,3,0.1,0.2,0.3,0.4\n"), "atc")
+    assert single.t_ns.tolist() == [1_500_000_000]
+    assert single.track_id.tolist() == [3]
     with pytest.raises(ft.TracksFormatError, match="not found"):
         ft.read_tracks(tmp_path / "missing.csv", "atc")
     with pytest.raises(ft.TracksFormatError, match="header"):
