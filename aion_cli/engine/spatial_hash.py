@@ -72,7 +72,7 @@ def cell_indices(xyz: npt.ArrayLike, cell_size: float) -> I64:
         row, axis = np.argwhere(bad)[0]
         lo, hi = INDEX_MIN * cell_size, (INDEX_MAX + 1) * cell_size
         raise CoordinateRangeError(
-            f"coordinate {_AXES[axis]}={p[row, axis]!r} (row {row}) cannot be hashed: "
+            f"coordinate {_AXES[axis]}={float(p[row, axis])!r} (row {row}) cannot be hashed: "
             f"the packable range is [{lo:.6g}, {hi:.6g}) m for cell size {cell_size} m",
             hint="check the map frame and units of the input, or use a larger cell_size",
         )

@@ -1,0 +1,133 @@
+"""Entry store: paper bins, vectorized accumulation, free-row reuse, routing table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aion_cli.engine.entries import CELL, FREE, NODE, EntryStore, direction_bins, fremen_rows
+from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.routing import RouteTable
+
+
+def _store(n: int, bins: int = 8) -> EntryStore:
+    store = EntryStore.empty(bins, capacity=2)
+    keys = np.arange(n, dtype=np.int64) * 10
+    store.allocate(CELL, keys, np.zeros(n, np.uint64), np.zeros((n, 3)))
+    return store
+
+
+def test_direction_bins_follow_the_paper_convention() -> None:
+    theta = np.array([-np.pi, -np.pi + 1e-9, -3 * np.pi / 4, 0.0, np.pi / 4 - 1e-9, np.pi - 1e-12])
+    np.testing.assert_array_equal(direction_bins(theta, 8), [0, 0, 1, 4, 4, 7])
+    np.testing.assert_array_equal(direction_bins(np.array([np.pi, np.nan]), 8), [0, -1])
+    np.testing.assert_array_equal(direction_bins(np.array([0.1, -0.1]), 2), [1, 0])
+
+
+def test_fremen_rows_layout() -> None:
+    np.testing.assert_array_equal(fremen_rows(np.array([0, 2]), 3), [[0, 1, 2, 3], [8, 9, 10, 11]])
+
+
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 29), st.integers(-1, 7), st.floats(0, 3) | st.just(np.nan)),
+        min_size=1,
+        max_size=200,
+    )
+)
+@settings(max_examples=60, deadline=None)
+def test_accumulate_matches_a_per_detection_reference(det: list[tuple[int, int, float]]) -> None:
+    rows = np.array([d[0] for d in det], np.int64)
+    bins = np.array([d[1] for d in det], np.int64)
+    speed = np.array([d[2] for d in det])
+    for n_entries in (30, 3000):  # dense and sparse histogram paths
+        store = _store(n_entries)
+        store.accumulate(rows, bins, speed)
+        counts = np.zeros((n_entries, 8))
+        nodir = np.zeros(n_entries)
+        ssum = np.zeros((n_entries, 8))
+        sn = np.zeros((n_entries, 8))
+        for r, b, s in det:
+            if b < 0:
+                nodir[r] += 1
+                continue
+            counts[r, b] += 1
+            if np.isfinite(s):
+                ssum[r, b] += s
+                sn[r, b] += 1
+        np.testing.assert_array_equal(store.counts[:n_entries], counts)
+        np.testing.assert_array_equal(store.window_counts[:n_entries], counts)
+        np.testing.assert_array_equal(store.nodir[:n_entries], nodir)
+        np.testing.assert_allclose(store.speed_sum[:n_entries], ssum)
+        np.testing.assert_array_equal(store.speed_n[:n_entries], sn)
+        assert store.total_count() == len(det)
+
+
+def test_clear_window_keeps_cumulative_counts() -> None:
+    store = _store(2)
+    store.accumulate(np.array([0, 1, 1]), np.array([3, -1, 5]), np.full(3, 1.0))
+    np.testing.assert_array_equal(store.window_totals(np.array([0, 1])), [1, 2])
+    store.clear_window()
+    np.testing.assert_array_equal(store.window_totals(np.array([0, 1])), [0, 0])
+    assert store.total_count() == 3
+
+
+def test_delete_frees_rows_for_reuse_and_grows_by_doubling() -> None:
+    store = _store(5)
+    assert store.capacity == 8
+    store.accumulate(np.array([1, 3]), np.array([0, 0]), np.array([1.0, 1.0]))
+    store.delete(np.array([3, 1]))
+    np.testing.assert_array_equal(store.live_rows(), [0, 2, 4])
+    assert store.kind[1] == FREE
+    assert store.counts[1].sum() == 0
+    ids = np.arange(1, 5, dtype=np.uint64)
+    rows = store.allocate(NODE, np.full(4, -1, np.int64), ids, np.zeros((4, 3)))
+    np.testing.assert_array_equal(rows, [1, 3, 5, 6])
+    assert store.counts[rows].sum() == 0
+    assert store.n == 7
+    assert store.capacity == 8
+
+
+def test_add_into_adds_counts_and_takes_max_windows() -> None:
+    store = _store(3)
+    store.accumulate(np.array([0, 0, 1, 2]), np.array([1, 2, 1, -1]), np.full(4, 2.0))
+    store.windows_observed[:3] = [4, 6, 5]
+    store.add_into(np.array([0, 1]), np.array([2, 2]))
+    np.testing.assert_array_equal(store.counts[2, :3], [0, 2, 1])
+    assert store.nodir[2] == 1
+    assert store.windows_observed[2] == 6
+
+
+def test_canonical_order_and_array_round_trip() -> None:
+    store = EntryStore.empty(4)
+    store.allocate(NODE, np.array([-1, -1]), np.array([9, 3], np.uint64), np.ones((2, 3)))
+    store.allocate(CELL, np.array([50, 7]), np.zeros(2, np.uint64), np.zeros((2, 3)))
+    order = store.canonical_order()
+    np.testing.assert_array_equal(order, [3, 2, 1, 0])
+    again = EntryStore.from_arrays(store.to_arrays(order), 4)
+    np.testing.assert_array_equal(again.key[: again.n], [7, 50, -1, -1])
+    np.testing.assert_array_equal(again.node_id[: again.n], [0, 0, 3, 9])
+
+
+def test_from_arrays_rejects_inconsistent_members() -> None:
+    store = _store(3)
+    arrays = store.to_arrays(store.canonical_order())
+    arrays["entry_counts"] = arrays["entry_counts"][:, :2]
+    with pytest.raises(MapCorruptError, match="counts"):
+        EntryStore.from_arrays(arrays, 8)
+    del arrays["entry_kind"]
+    with pytest.raises(MapCorruptError):
+        EntryStore.from_arrays(arrays, 8)
+
+
+def test_route_table_lookup_and_insert() -> None:
+    table = RouteTable.build(np.array([30, 10, 20]), np.array([3, 1, 2]))
+    rows, found = table.lookup(np.array([20, 25, 10, 99]))
+    np.testing.assert_array_equal(found, [True, False, True, False])
+    np.testing.assert_array_equal(rows, [2, -1, 1, -1])
+    table.insert(np.array([5, 25]), np.array([7, 8]))
+    np.testing.assert_array_equal(table.keys, [5, 10, 20, 25, 30])
+    np.testing.assert_array_equal(table.lookup(np.array([25, 5]))[0], [8, 7])
+    assert RouteTable().lookup(np.array([1]))[1].tolist() == [False]
