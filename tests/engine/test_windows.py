@@ -1,0 +1,79 @@
+"""Epoch-aligned windows and observation masks (trajectory and fixed sensor)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.errors import ConfigError, InputError
+from aion_cli.engine.observation import ObservationSource
+from aion_cli.engine.types import Trajectory
+from aion_cli.engine.windows import window_centre_ns, window_index, window_ns, window_start_ns
+
+S = 1_000_000_000
+DELTA = window_ns(600.0)
+
+
+def test_windows_are_aligned_to_the_unix_epoch() -> None:
+    t = np.array([0, 599 * S, 600 * S, 1_700_000_123 * S, -1])
+    np.testing.assert_array_equal(window_index(t, DELTA), [0, 0, 1, 2_833_333, -1])
+    assert window_start_ns(2_833_333, DELTA) == 1_699_999_800 * S
+    assert window_centre_ns(1, DELTA) == 900 * S
+
+
+def test_window_length_must_be_positive() -> None:
+    with pytest.raises(ConfigError):
+        window_ns(1e-12)
+
+
+def _poses(t_s: list[float], xy: list[tuple[float, float]]) -> Trajectory:
+    xyz = np.array([[x, y, 5.0] for x, y in xy])
+    return Trajectory(np.array(t_s, dtype=np.float64).astype(np.int64) * S, xyz)
+
+
+def test_trajectory_observes_entries_within_sensor_range_horizontally() -> None:
+    obs = ObservationSource()
+    obs.add_trajectory(_poses([10.0, 20.0], [(0.0, 0.0), (100.0, 0.0)]))
+    entries = np.array([[7.9, 0.0], [0.0, -8.1], [95.0, 3.0], [50.0, 0.0]])
+    np.testing.assert_array_equal(obs.observed(entries, 0, DELTA, 8.0), [True, False, True, False])
+    # the next window has no poses: nothing observed there
+    np.testing.assert_array_equal(obs.observed(entries, 1, DELTA, 8.0), [False] * 4)
+
+
+def test_poses_count_only_in_their_own_window() -> None:
+    obs = ObservationSource()
+    obs.add_trajectory(_poses([1300.0], [(0.0, 0.0)]))  # window 2
+    entries = np.zeros((1, 2))
+    assert not obs.observed(entries, 1, DELTA, 8.0)[0]
+    assert obs.observed(entries, 2, DELTA, 8.0)[0]
+    np.testing.assert_array_equal(obs.covered_windows(0, 10, DELTA), [2])
+    obs.prune(3 * DELTA)
+    assert len(obs.pose_t) == 0
+
+
+def test_non_finite_poses_are_ignored_and_order_is_restored() -> None:
+    obs = ObservationSource()
+    xyz = np.array([[0, 0, 0], [np.nan, 0, 0], [1, 1, 1.0]])
+    obs.add_trajectory(Trajectory(np.array([5 * S, 1 * S, 3 * S]), xyz))
+    np.testing.assert_array_equal(obs.pose_t, [3 * S, 5 * S])
+
+
+def test_fixed_sensor_covers_every_overlapping_window() -> None:
+    obs = ObservationSource()
+    obs.set_fixed_sensor(700 * S, 1900 * S)  # windows 1, 2, 3
+    np.testing.assert_array_equal(obs.covered_windows(0, 10, DELTA), [1, 2, 3])
+    np.testing.assert_array_equal(obs.covered_windows(2, 3, DELTA), [2])
+    entries = np.array([[1e4, 1e4]])
+    assert obs.observed(entries, 3, DELTA, 8.0)[0]
+    assert not obs.observed(entries, 4, DELTA, 8.0)[0]
+    with pytest.raises(InputError):
+        obs.set_fixed_sensor(10, 5)
+
+
+def test_observation_arrays_round_trip() -> None:
+    obs = ObservationSource()
+    obs.add_trajectory(_poses([1.0, 2.0], [(0.0, 1.0), (2.0, 3.0)]))
+    obs.set_fixed_sensor(0, 10)
+    again = ObservationSource.from_arrays(obs.to_arrays())
+    for name, value in obs.to_arrays().items():
+        np.testing.assert_array_equal(again.to_arrays()[name], value)
