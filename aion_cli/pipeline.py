@@ -695,3 +695,44 @@ def node_cost_fn(loaded: LoadedMap, node_ids: np.ndarray) -> Any:
         return costs
 
     return cost
+
+
+def export_map(
+    loaded: LoadedMap,
+    table: Any,
+    out_dir: Path,
+    fmt: str = "ply",
+    path_xyz: np.ndarray | None = None,
+    prefix: str = "",
+) -> list[Path]:
+    """Write the scene of an entry table (nodes, cells, edges, mesh, a path) with
+    ``formats.export.export_scene``; returns the files written."""
+    from formats.export import export_scene
+
+    kind = np.asarray(table.kind)
+    nodes, cells = kind == 1, kind == 0
+    d = table.descriptors
+    flow = np.nan_to_num(np.asarray(d.flow_per_window, dtype=np.float64), nan=0.0)
+    graph = loaded.graph
+    edges = None
+    mesh = None
+    if graph is not None:
+        edges = graph.places.xyz[graph.edges] if len(graph.edges) else None
+        mesh = graph.mesh
+    return export_scene(
+        out_dir,
+        table.xyz[nodes],
+        flow[nodes],
+        d.entropy[nodes],
+        d.dominant_angle[nodes],
+        cells_xyz=table.xyz[cells],
+        cells_flow=flow[cells],
+        cells_entropy=d.entropy[cells],
+        edges_xyz_pairs=edges,
+        mesh=mesh,
+        path_xyz=path_xyz,
+        fmt="pcd" if fmt == "pcd" else "ply",
+        cell_size=loaded.config.cell_size,
+        prefix=prefix,
+        node_concentration=d.concentration[nodes],
+    )

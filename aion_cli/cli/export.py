@@ -174,10 +174,26 @@ def _plan_rows(loaded: Any, t_ns: int | None, path_from: str, path_to: str) -> A
 def write_scene(
     loaded: Any, table: Any, folder: Path, fmt: str, path_xyz: Any | None
 ) -> list[Path]:
-    """The scene files for one time (formats.export)."""
-    raise NotImplementedError  # replaced once formats/export.py lands
+    """The scene files for one time (``formats.export`` via ``pipeline.export_map``)."""
+    from aion_cli.pipeline import export_map
+
+    return export_map(loaded, table, folder, fmt, path_xyz)
 
 
 def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) -> None:
-    """The scene with a planned path as one PLY (``aion plan --export``)."""
-    raise NotImplementedError  # replaced once formats/export.py lands
+    """The whole scene at ``t_ns`` with a planned path, as the one PLY file ``out``
+    (``aion plan --export``)."""
+    import shutil
+    import tempfile
+
+    from aion_cli.engine import query
+    from aion_cli.engine.errors import InputError
+
+    if out.suffix.lower() != ".ply":
+        raise InputError(f"--export writes a .ply file, got {out.name!r}")
+    table = query.predict_table(loaded.state, t_ns)
+    with tempfile.TemporaryDirectory(prefix="aion-plan-") as tmp:
+        files = write_scene(loaded, table, Path(tmp), "ply", nav.xyz[path])
+        scene = next(f for f in files if f.name == "scene.ply")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(scene), out)

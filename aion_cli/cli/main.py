@@ -66,6 +66,7 @@ class AionGroup(click.Group):
 
 
 @click.group(
+    "aion",
     cls=AionGroup,
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
     epilog=EPILOG,

@@ -117,12 +117,14 @@ def _stamp(t_ns: int) -> dict[str, int]:
     return {"sec": t_ns // S, "nanosec": t_ns % S}
 
 
-def _tracked_persons(t_ns: int, frame: str) -> dict[str, Any]:
+def _tracked_persons(t_ns: int, t0: int, frame: str) -> dict[str, Any]:
     tracks = []
     for track, spec in TRACKS.items():
-        if t_ns - T0 >= int(spec["until_s"]) * S:  # type: ignore[call-overload]
+        if t_ns - t0 >= int(spec["until_s"]) * S:  # type: ignore[call-overload]
             continue
         x, y, z = spec["xyz"]  # type: ignore[misc]
+        if frame != "map":  # the robot's frame: same map positions seen from the robot
+            x, y, z = x - ROBOT_XYZ[0], y - ROBOT_XYZ[1], z - ROBOT_XYZ[2]
         vx, vy = spec["vel"]  # type: ignore[misc]
         tracks.append(
             {
@@ -142,17 +144,20 @@ def write_office_log(
     graph: bool = True,
     tf: bool = True,
     frame: str = "map",
+    shift_s: int = 0,
 ) -> Expected:
-    """Write the office log to ``path`` and return what it holds."""
+    """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
+    holds."""
     from formats.writers import LogWriter
 
     payload = np.frombuffer(build_graph().to_binary(False), dtype=np.uint8) if graph else None
     n_tracks = n_graph = n_tf = 0
-    end = T0 + DURATION_S * S
+    t0 = T0 + shift_s * S
+    end = t0 + DURATION_S * S
     written: list[int] = []
     with LogWriter(path, container) as writer:
-        for t in range(T0, end, S):  # one pass over every second, in time order
-            if graph and (t - T0) % (60 * S) == 0:
+        for t in range(t0, end, S):  # one pass over every second, in time order
+            if graph and (t - t0) % (60 * S) == 0:
                 writer.write(
                     "/hydra/backend/dsg",
                     "hydra_msgs/msg/DsgUpdate",
@@ -165,7 +170,7 @@ def write_office_log(
                 )
                 n_graph += 1
                 written.append(t)
-            if tf and (t - T0) % (5 * S) == 0:
+            if tf and (t - t0) % (5 * S) == 0:
                 x, y, z = ROBOT_XYZ
                 writer.write(
                     "/tf",
@@ -186,11 +191,11 @@ def write_office_log(
                 )
                 n_tf += 1
                 written.append(t)
-            if (t - T0) % (MSG_PERIOD_S * S) == 5 * S:
+            if (t - t0) % (MSG_PERIOD_S * S) == 5 * S:
                 writer.write(
                     "/tracks",
                     "spencer_tracking_msgs/msg/TrackedPersons",
-                    _tracked_persons(t, frame),
+                    _tracked_persons(t, t0, frame),
                     t,
                 )
                 n_tracks += 1

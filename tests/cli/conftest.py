@@ -1,0 +1,86 @@
+"""Fixtures of the CLI tests: the office log (tests/cli/logdata.py) and maps built from it.
+
+The expensive artefacts (logs, maps) are built once per session in a temporary folder; tests
+that modify files copy them first.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pytest
+from click.testing import CliRunner, Result
+
+from aion_cli.cli.main import cli
+from tests.cli.logdata import Expected, write_office_log
+
+AION = Path(sys.executable).with_name("aion")
+
+
+@dataclass(frozen=True)
+class Office:
+    """The office log and the map built from it."""
+
+    log: Path
+    expected: Expected
+    map: Path
+    build: dict[str, Any]
+
+
+def run(*args: str | Path) -> Result:
+    """Invoke the CLI in-process (click's runner; stdout and stderr kept apart)."""
+    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+
+
+def run_json(*args: str | Path) -> Any:
+    """Invoke the CLI and parse its stdout as JSON (asserting success)."""
+    result = run(*args)
+    assert result.exit_code == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+def run_process(*args: str | Path, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    """Run the installed ``aion`` console script in a subprocess."""
+    env = {**os.environ, "TZ": "UTC", "COLUMNS": "200"}
+    return subprocess.run(
+        [str(AION), *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=cwd,
+        timeout=120,
+        check=False,
+    )
+
+
+def assert_one_line_error(stderr: str, *fragments: str) -> None:
+    """``error: ...`` on the first line, at most a ``hint:`` after it, no traceback."""
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    errors = [line for line in lines if line.startswith("error: ")]
+    assert len(errors) == 1, stderr
+    assert "Traceback" not in stderr, stderr
+    assert all(line.startswith(("error: ", "hint: ")) for line in lines), stderr
+    for fragment in fragments:
+        assert fragment in errors[0], (fragment, stderr)
+
+
+@pytest.fixture(scope="session")
+def office(tmp_path_factory: pytest.TempPathFactory) -> Office:
+    folder = tmp_path_factory.mktemp("office")
+    log = folder / "office.mcap"
+    expected = write_office_log(log)
+    out = folder / "office.aion"
+    build = run_json("build", log, "-o", out, "--format", "json")
+    return Office(log, expected, out, build)
+
+
+@pytest.fixture(autouse=True)
+def _utc(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Times without a zone are read in UTC unless a test says otherwise."""
+    monkeypatch.setenv("TZ", "UTC")
