@@ -1,0 +1,491 @@
+"""PLY / PCD scene export with open3d, from plain arrays (no engine objects).
+
+What is drawn (DESIGN.md §7):
+
+- **nodes**: a sphere per navigational node, radius growing with the flow magnitude from
+  ``0.2·δ`` (no flow) to ``δ`` (flow >= ``flow_scale``), coloured by directional entropy
+  ``H`` (0..1): ``(r, g, b) = (H, 0, 1 − H)``, blue = one direction, red = every direction;
+  grey when ``H`` is NaN (no flow).
+- **arrows**: one per node with flow and a dominant direction, from the node centre along it in
+  the horizontal plane, length ``r + δ·(0.3 + 2·busy·κ)`` (r the sphere radius, so it always
+  sticks out; busy = ``min(flow/flow_scale, 1)``, κ the concentration, 1 if not given),
+  coloured like the node.
+- **cells**: a flat horizontal δ×δ square per unbound hash cell centre, coloured by entropy
+  (grey when the cell has no flow).
+- **edges**: the place edges as a line set (grey); **path**: the planned path as a line set
+  (green); **mesh**: the scene graph's mesh with its vertex colours.
+
+PLY: one file per part (``nodes.ply``, ``arrows.ply``, ``cells.ply``, ``edges.ply``,
+``mesh.ply``, ``path.ply``; edges and path are open3d LineSets, the others triangle meshes)
+plus ``scene.ply``, one triangle mesh with everything (edges and path drawn as thin tubes, since
+a triangle mesh cannot hold lines). PCD: a PCD file holds points only, no triangles or lines, so
+the PCD export writes coloured point clouds: ``nodes.pcd`` (node centres, entropy colours,
+normals = unit dominant direction or 0), ``cells.pcd`` (cell centres), ``mesh.pcd`` (mesh
+vertices), ``path.pcd`` (path points) and ``scene.pcd`` (all of them); arrows and edges have no
+PCD form. Parts with nothing in them are not written. Files are binary; every name gets
+``prefix`` in front (e.g. ``t0830_nodes.ply`` for a time series).
+
+Geometry is instanced with numpy (one template sphere / arrow / tube transformed for every item),
+so exporting 10^4 nodes does not build 10^4 open3d objects.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import AionError, InputError
+from aion_cli.engine.types import Mesh
+
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
+
+SPHERE_RESOLUTION = 8
+ARROW_RESOLUTION = 8
+TUBE_RESOLUTION = 6
+NO_FLOW_GREY = (0.5, 0.5, 0.5)
+EDGE_GREY = (0.6, 0.6, 0.6)
+PATH_GREEN = (0.1, 0.8, 0.2)
+RADIUS_MIN_FACTOR = 0.2
+RADIUS_MAX_FACTOR = 1.0
+
+
+class ExportError(AionError, ValueError):
+    """Arrays handed to the exporter are inconsistent (a caller bug)."""
+
+
+class ExportWriteError(InputError):
+    """An export file could not be written (folder not writable, disk full...)."""
+
+
+@dataclass(frozen=True)
+class TriMesh:
+    """A plain triangle mesh: vertices f64[v,3], faces i64[f,3], vertex colours f64[v,3]."""
+
+    vertices: F64
+    faces: I64
+    colors: F64
+
+    @classmethod
+    def empty(cls) -> TriMesh:
+        return cls(np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3)))
+
+    @classmethod
+    def concat(cls, parts: list[TriMesh]) -> TriMesh:
+        parts = [p for p in parts if len(p.vertices)]
+        if not parts:
+            return cls.empty()
+        offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+        return cls(
+            np.concatenate([p.vertices for p in parts]),
+            np.concatenate([p.faces + off for p, off in zip(parts, offsets, strict=True)]),
+            np.concatenate([p.colors for p in parts]),
+        )
+
+
+# -- colours and sizes -----------------------------------------------------------------------
+
+
+def entropy_colors(entropy: npt.ArrayLike) -> F64:
+    """``(H, 0, 1 − H)`` per row (H clipped to 0..1); grey for NaN (no flow)."""
+    h = np.asarray(entropy, dtype=np.float64).reshape(-1)
+    out = np.empty((len(h), 3))
+    known = np.isfinite(h)
+    hc = np.clip(h[known], 0.0, 1.0)
+    out[known] = np.stack([hc, np.zeros_like(hc), 1.0 - hc], axis=1)
+    out[~known] = NO_FLOW_GREY
+    return out
+
+
+def busy_fraction(flow: npt.ArrayLike, flow_scale: float) -> F64:
+    """``min(flow / flow_scale, 1)``, NaN and negative flow count as 0."""
+    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
+    return np.clip(f / flow_scale, 0.0, 1.0)
+
+
+def sphere_radii(flow: npt.ArrayLike, flow_scale: float, cell_size: float) -> F64:
+    """Radius per node: ``δ·(0.2 + 0.8·busy)``."""
+    busy = busy_fraction(flow, flow_scale)
+    lo, hi = RADIUS_MIN_FACTOR * cell_size, RADIUS_MAX_FACTOR * cell_size
+    return lo + (hi - lo) * busy
+
+
+# -- instancing ------------------------------------------------------------------------------
+
+
+def _template(kind: str) -> tuple[F64, I64]:
+    """Unit template geometry from open3d: sphere (r = 1), arrow (shaft radius 1, length 1
+    along +z from the origin), tube (radius 1, height 1 along +z centred on the origin)."""
+    import open3d as o3d
+
+    tm = o3d.geometry.TriangleMesh
+    if kind == "sphere":
+        mesh = tm.create_sphere(radius=1.0, resolution=SPHERE_RESOLUTION)
+    elif kind == "arrow":
+        mesh = tm.create_arrow(
+            cylinder_radius=1.0,
+            cone_radius=2.0,
+            cylinder_height=0.75,
+            cone_height=0.25,
+            resolution=ARROW_RESOLUTION,
+            cylinder_split=1,
+            cone_split=1,
+        )
+    else:
+        mesh = tm.create_cylinder(radius=1.0, height=1.0, resolution=TUBE_RESOLUTION, split=1)
+    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.triangles, np.int64)
+
+
+def _rotations_from_z(direction: F64) -> F64:
+    """Rotation matrices [n,3,3] taking +z onto each unit ``direction`` (Rodrigues)."""
+    d = direction / np.linalg.norm(direction, axis=1, keepdims=True)
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, d)
+    s = np.linalg.norm(axis, axis=1)
+    c = d[:, 2]
+    k = np.zeros((len(d), 3, 3))
+    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+    k[:, 1, 0], k[:, 2, 0], k[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
+    eye = np.broadcast_to(np.eye(3), k.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        factor = np.where(s > 1e-12, (1.0 - c) / np.maximum(s, 1e-300) ** 2, 0.0)
+    rot = eye + k + (k @ k) * factor[:, None, None]
+    flip = (s <= 1e-12) & (c < 0)  # pointing straight down: rotate pi about x
+    rot[flip] = np.diag([1.0, -1.0, -1.0])
+    return np.asarray(rot)
+
+
+def _instances(
+    verts: F64, faces: I64, scale: F64, rot: F64 | None, centre: F64, colors: F64
+) -> TriMesh:
+    """Template scaled per axis (scale [n,3]), rotated (rot [n,3,3] or None), translated."""
+    n, v = len(centre), len(verts)
+    if n == 0:
+        return TriMesh.empty()
+    local = verts[None, :, :] * scale[:, None, :]
+    if rot is not None:
+        local = np.einsum("nij,nvj->nvi", rot, local)
+    world = (local + centre[:, None, :]).reshape(-1, 3)
+    all_faces = (faces[None, :, :] + (np.arange(n) * v)[:, None, None]).reshape(-1, 3)
+    return TriMesh(world, all_faces, np.repeat(colors, v, axis=0))
+
+
+def node_spheres(xyz: F64, radii: F64, colors: F64) -> TriMesh:
+    """One sphere per node."""
+    verts, faces = _template("sphere")
+    return _instances(verts, faces, np.repeat(radii[:, None], 3, axis=1), None, xyz, colors)
+
+
+def direction_arrows(xyz: F64, angle: F64, length: F64, width: float, colors: F64) -> TriMesh:
+    """Horizontal arrows from each ``xyz`` along ``angle`` (rad); rows with NaN angle or zero
+    length are skipped."""
+    keep = np.isfinite(angle) & (length > 0)
+    direction = np.stack([np.cos(angle[keep]), np.sin(angle[keep]), np.zeros(keep.sum())], 1)
+    verts, faces = _template("arrow")
+    scale = np.stack([np.full(keep.sum(), width), np.full(keep.sum(), width), length[keep]], 1)
+    return _instances(verts, faces, scale, _rotations_from_z(direction), xyz[keep], colors[keep])
+
+
+def tubes(p0: F64, p1: F64, radius: float, color: tuple[float, float, float]) -> TriMesh:
+    """A thin cylinder per segment (zero-length segments skipped)."""
+    delta = p1 - p0
+    length = np.linalg.norm(delta, axis=1)
+    keep = length > 1e-12
+    verts, faces = _template("tube")
+    n = int(keep.sum())
+    scale = np.stack([np.full(n, radius), np.full(n, radius), length[keep]], 1)
+    centre = 0.5 * (p0[keep] + p1[keep])
+    colors = np.tile(np.asarray(color, dtype=np.float64), (n, 1))
+    return _instances(verts, faces, scale, _rotations_from_z(delta[keep]), centre, colors)
+
+
+def cell_squares(xyz: F64, cell_size: float, colors: F64) -> TriMesh:
+    """A flat δ×δ horizontal square (2 triangles) centred on each cell centre."""
+    n = len(xyz)
+    h = cell_size / 2.0
+    corners = np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])
+    verts = (xyz[:, None, :] + corners[None, :, :]).reshape(-1, 3)
+    quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int64)
+    faces = (quad[None] + (np.arange(n) * 4)[:, None, None]).reshape(-1, 3)
+    return TriMesh(verts, faces, np.repeat(colors, 4, axis=0))
+
+
+# -- writing ---------------------------------------------------------------------------------
+
+
+def _o3d_mesh(mesh: TriMesh) -> Any:
+    import open3d as o3d
+
+    out = o3d.geometry.TriangleMesh()
+    out.vertices = o3d.utility.Vector3dVector(np.ascontiguousarray(mesh.vertices))
+    out.triangles = o3d.utility.Vector3iVector(np.ascontiguousarray(mesh.faces, dtype=np.int32))
+    if len(mesh.colors) == len(mesh.vertices):
+        out.vertex_colors = o3d.utility.Vector3dVector(
+            np.ascontiguousarray(np.clip(mesh.colors, 0.0, 1.0))
+        )
+    return out
+
+
+def _o3d_lines(points: F64, lines: I64, color: tuple[float, float, float]) -> Any:
+    import open3d as o3d
+
+    ls = o3d.geometry.LineSet()
+    ls.points = o3d.utility.Vector3dVector(np.ascontiguousarray(points))
+    ls.lines = o3d.utility.Vector2iVector(np.ascontiguousarray(lines, dtype=np.int32))
+    ls.colors = o3d.utility.Vector3dVector(np.tile(np.asarray(color, np.float64), (len(lines), 1)))
+    return ls
+
+
+def _o3d_points(xyz: F64, colors: F64, normals: F64 | None = None) -> Any:
+    import open3d as o3d
+
+    pc = o3d.geometry.PointCloud()
+    pc.points = o3d.utility.Vector3dVector(np.ascontiguousarray(xyz))
+    pc.colors = o3d.utility.Vector3dVector(np.ascontiguousarray(np.clip(colors, 0.0, 1.0)))
+    if normals is not None:
+        pc.normals = o3d.utility.Vector3dVector(np.ascontiguousarray(normals))
+    return pc
+
+
+def _write(path: Path, kind: str, geometry: Any) -> Path:
+    import open3d as o3d
+
+    writers: dict[str, Any] = {
+        "mesh": o3d.io.write_triangle_mesh,
+        "lines": o3d.io.write_line_set,
+        "points": o3d.io.write_point_cloud,
+    }
+    ok = writers[kind](str(path), geometry, write_ascii=False)
+    if not ok:
+        raise ExportWriteError(
+            f"cannot write {path}", hint="check that the output folder is writable"
+        )
+    return path
+
+
+# -- inputs ----------------------------------------------------------------------------------
+
+
+def _rows(name: str, a: npt.ArrayLike | None, n: int | None, tail: tuple[int, ...]) -> F64:
+    arr = np.zeros((0, *tail)) if a is None else np.asarray(a, dtype=np.float64)
+    if arr.size == 0:
+        arr = arr.reshape((0, *tail))
+    if arr.shape[1:] != tail or (n is not None and len(arr) != n):
+        want = f"({n if n is not None else 'n'}{''.join(', ' + str(t) for t in tail)})"
+        raise ExportError(f"{name} must have shape {want}, got {arr.shape}")
+    return arr
+
+
+def _edge_pairs(edges_xyz_pairs: npt.ArrayLike | None) -> F64:
+    if edges_xyz_pairs is None:
+        return np.zeros((0, 2, 3))
+    arr = np.asarray(edges_xyz_pairs, dtype=np.float64)
+    if arr.size == 0:
+        return np.zeros((0, 2, 3))
+    if arr.ndim == 2 and arr.shape[1] == 6:
+        arr = arr.reshape(-1, 2, 3)
+    if arr.ndim != 3 or arr.shape[1:] != (2, 3):
+        raise ExportError(f"edges_xyz_pairs must have shape (k, 2, 3), got {arr.shape}")
+    return arr
+
+
+# -- the scene -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Scene:
+    nodes: TriMesh
+    arrows: TriMesh
+    cells: TriMesh
+    mesh: TriMesh
+    edges: F64  # [k,2,3]
+    path: F64  # [p,3]
+
+
+def export_scene(
+    out_dir: str | os.PathLike[str],
+    nodes_xyz: npt.ArrayLike,
+    node_flow: npt.ArrayLike,
+    node_entropy: npt.ArrayLike,
+    node_dominant_angle: npt.ArrayLike,
+    cells_xyz: npt.ArrayLike | None = None,
+    cells_flow: npt.ArrayLike | None = None,
+    cells_entropy: npt.ArrayLike | None = None,
+    edges_xyz_pairs: npt.ArrayLike | None = None,
+    mesh: Mesh | None = None,
+    path_xyz: npt.ArrayLike | None = None,
+    fmt: Literal["ply", "pcd"] = "ply",
+    cell_size: float = 0.5,
+    prefix: str = "",
+    *,
+    node_concentration: npt.ArrayLike | None = None,
+    flow_scale: float | None = None,
+) -> list[Path]:
+    """Write the scene's parts (and a combined scene) to ``out_dir``; returns the files written.
+
+    Per node: ``nodes_xyz`` f64[n,3], ``node_flow`` (expected detections per window),
+    ``node_entropy`` (0..1, NaN = no flow), ``node_dominant_angle`` (rad, NaN = none) and
+    optionally ``node_concentration`` (0..1). Per unbound cell: ``cells_xyz`` (centres),
+    ``cells_flow`` (cells without flow are drawn grey) and ``cells_entropy``.
+    ``edges_xyz_pairs`` f64[k,2,3] (or [k,6]) segment end points, ``path_xyz`` f64[p,3] a
+    planned path. ``flow_scale`` is the flow drawn at full size
+    (default: the largest node flow, so the busiest node has radius δ). ``out_dir`` is created.
+    """
+    if fmt not in ("ply", "pcd"):
+        raise ExportError(f"export format must be 'ply' or 'pcd', got {fmt!r}")
+    if not (np.isfinite(cell_size) and cell_size > 0):
+        raise ExportError(f"cell_size must be positive, got {cell_size!r}")
+    xyz = _rows("nodes_xyz", nodes_xyz, None, (3,))
+    n = len(xyz)
+    flow = _rows("node_flow", node_flow, n, ())
+    entropy = _rows("node_entropy", node_entropy, n, ())
+    angle = _rows("node_dominant_angle", node_dominant_angle, n, ())
+    conc = (
+        np.ones(n)
+        if node_concentration is None
+        else np.clip(np.nan_to_num(_rows("node_concentration", node_concentration, n, ())), 0, 1)
+    )
+    c_xyz = _rows("cells_xyz", cells_xyz, None, (3,))
+    c_flow = _rows(
+        "cells_flow",
+        cells_flow if cells_flow is not None else np.ones(len(c_xyz)),
+        len(c_xyz),
+        (),
+    )
+    c_ent = _rows(
+        "cells_entropy",
+        cells_entropy if cells_entropy is not None else np.full(len(c_xyz), np.nan),
+        len(c_xyz),
+        (),
+    )
+    c_ent = np.where(np.nan_to_num(c_flow, nan=0.0) > 0, c_ent, np.nan)  # no flow: grey
+    scale = _flow_scale(flow, flow_scale)
+    colors = entropy_colors(entropy)
+    busy = busy_fraction(flow, scale)
+    radii = sphere_radii(flow, scale, cell_size)
+    scene = _Scene(
+        nodes=node_spheres(xyz, radii, colors),
+        arrows=direction_arrows(
+            xyz,
+            np.where(busy > 0, angle, np.nan),
+            radii + cell_size * (0.3 + 2.0 * busy * conc),
+            0.08 * cell_size,
+            colors,
+        ),
+        cells=cell_squares(c_xyz, cell_size, entropy_colors(c_ent)),
+        mesh=_mesh_part(mesh),
+        edges=_edge_pairs(edges_xyz_pairs),
+        path=_rows("path_xyz", path_xyz, None, (3,)),
+    )
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ExportWriteError(
+            f"cannot create output folder {out}: {exc.strerror or exc}",
+            hint="choose a writable output folder",
+        ) from exc
+    if fmt == "ply":
+        return _write_ply(out, prefix, scene, cell_size)
+    return _write_pcd(out, prefix, scene, xyz, colors, angle, c_xyz, entropy_colors(c_ent))
+
+
+def _flow_scale(flow: F64, flow_scale: float | None) -> float:
+    if flow_scale is not None:
+        if not (np.isfinite(flow_scale) and flow_scale > 0):
+            raise ExportError(f"flow_scale must be positive, got {flow_scale!r}")
+        return float(flow_scale)
+    finite = flow[np.isfinite(flow)]
+    top = float(finite.max()) if len(finite) else 0.0
+    return top if top > 0 else 1.0
+
+
+def _mesh_part(mesh: Mesh | None) -> TriMesh:
+    if mesh is None or len(mesh.vertices) == 0:
+        return TriMesh.empty()
+    v = _rows("mesh.vertices", mesh.vertices, None, (3,))
+    f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    if len(f) and (f.min() < 0 or f.max() >= len(v)):
+        raise ExportError("mesh faces refer to vertices that do not exist")
+    c = np.asarray(mesh.colors, dtype=np.float64)
+    if c.shape != v.shape:
+        c = np.tile(np.asarray(NO_FLOW_GREY), (len(v), 1))
+    return TriMesh(v, f, c)
+
+
+def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[Path]:
+    written: list[Path] = []
+    for part, tri in (
+        ("nodes", scene.nodes),
+        ("arrows", scene.arrows),
+        ("cells", scene.cells),
+        ("mesh", scene.mesh),
+    ):
+        if len(tri.vertices):
+            written.append(_write(out / f"{prefix}{part}.ply", "mesh", _o3d_mesh(tri)))
+    k = len(scene.edges)
+    if k:
+        pts = scene.edges.reshape(-1, 3)
+        lines = np.arange(2 * k, dtype=np.int64).reshape(k, 2)
+        written.append(
+            _write(out / f"{prefix}edges.ply", "lines", _o3d_lines(pts, lines, EDGE_GREY))
+        )
+    p = len(scene.path)
+    if p >= 2:
+        lines = np.stack([np.arange(p - 1), np.arange(1, p)], axis=1)
+        written.append(
+            _write(out / f"{prefix}path.ply", "lines", _o3d_lines(scene.path, lines, PATH_GREEN))
+        )
+    combined = TriMesh.concat(
+        [
+            scene.mesh,
+            scene.cells,
+            scene.nodes,
+            scene.arrows,
+            tubes(scene.edges[:, 0], scene.edges[:, 1], 0.03 * cell_size, EDGE_GREY),
+            tubes(scene.path[:-1], scene.path[1:], 0.12 * cell_size, PATH_GREEN)
+            if p >= 2
+            else TriMesh.empty(),
+        ]
+    )
+    if len(combined.vertices):
+        written.append(_write(out / f"{prefix}scene.ply", "mesh", _o3d_mesh(combined)))
+    return written
+
+
+def _write_pcd(
+    out: Path,
+    prefix: str,
+    scene: _Scene,
+    xyz: F64,
+    colors: F64,
+    angle: F64,
+    c_xyz: F64,
+    c_colors: F64,
+) -> list[Path]:
+    finite = np.isfinite(angle)
+    normals = np.zeros((len(xyz), 3))
+    normals[finite] = np.c_[np.cos(angle[finite]), np.sin(angle[finite]), np.zeros(finite.sum())]
+    path_colors = np.tile(np.asarray(PATH_GREEN), (len(scene.path), 1))
+    clouds = [
+        ("nodes", xyz, colors, normals),
+        ("cells", c_xyz, c_colors, None),
+        ("mesh", scene.mesh.vertices, scene.mesh.colors, None),
+        ("path", scene.path, path_colors, None),
+    ]
+    written: list[Path] = []
+    for part, pts, cols, nrm in clouds:
+        if len(pts):
+            written.append(
+                _write(out / f"{prefix}{part}.pcd", "points", _o3d_points(pts, cols, nrm))
+            )
+    all_pts = np.concatenate([c[1] for c in clouds])
+    if len(all_pts):
+        all_cols = np.concatenate([c[2] for c in clouds])
+        written.append(_write(out / f"{prefix}scene.pcd", "points", _o3d_points(all_pts, all_cols)))
+    return written
