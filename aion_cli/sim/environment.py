@@ -1,0 +1,250 @@
+"""Where simulated people walk: a navigational graph of places with rooms, walls and roles.
+
+An :class:`Environment` holds the same fields as a :class:`GraphSnapshot` (place ids, positions,
+edges, room parents, rooms, building) as numpy arrays, plus what the simulator needs on top: wall
+segments for occlusion, a simple mesh for export, each place's clearance, and named *roles*
+(entrance, kitchen, meeting room, robot dock, desks) that the daily schedule refers to.
+
+Two sources: the paper's office (:func:`aion_cli.sim.office.office_environment`) and any real
+spark_dsg scene graph file (:func:`load_graph_environment`), whose largest connected component of
+real places becomes the walkable graph.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from aion_cli.engine.errors import InputError, NoPathError
+from aion_cli.engine.types import F64, I64, U64, BoolA, Mesh
+from aion_cli.sim.geometry import segments_blocked
+
+PLACE_CHAR = "p"
+ROOM_CHAR = "R"
+BUILDING_CHAR = "B"
+
+
+def symbol(char: str, index: int | I64) -> U64:
+    """spark_dsg NodeSymbol values ``(ord(char) << 56) | index`` for one or many indices."""
+    return (np.uint64(ord(char)) << np.uint64(56)) | np.asarray(index, dtype=np.uint64)
+
+
+@dataclass(frozen=True)
+class Roles:
+    """Place indices (rows of :attr:`Environment.xyz`) that the schedule and robot use."""
+
+    entrance: int
+    kitchen: int
+    meeting: int
+    dock: int
+    desks: I64
+    patrol: I64  # waypoints of the robot's tour, starting and ending at the dock
+
+
+@dataclass(frozen=True)
+class Environment:
+    """A walkable place graph with its hierarchy; arrays, one row per place / room."""
+
+    name: str
+    place_ids: U64
+    xyz: F64
+    edges: I64
+    place_room: U64
+    clearance: F64
+    room_ids: U64
+    room_xyz: F64
+    room_labels: tuple[str, ...]
+    building_id: int
+    roles: Roles
+    walls: F64 = field(default_factory=lambda: np.zeros((0, 4)))
+    mesh: Mesh | None = None
+
+    @property
+    def n_places(self) -> int:
+        return len(self.place_ids)
+
+    @cached_property
+    def _predecessors(self) -> I64:
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import dijkstra
+
+        a, b = self.edges[:, 0], self.edges[:, 1]
+        w = np.linalg.norm(self.xyz[a] - self.xyz[b], axis=1)
+        m = self.n_places
+        graph = coo_matrix(
+            (np.concatenate([w, w]), (np.concatenate([a, b]), np.concatenate([b, a]))),
+            shape=(m, m),
+        ).tocsr()
+        _, pred = dijkstra(graph, directed=True, return_predecessors=True)
+        return np.asarray(pred, dtype=np.int64)
+
+    def path(self, src: int, dst: int) -> I64:
+        """Place indices of a shortest path src → dst over the place edges (both ends included)."""
+        if src == dst:
+            return np.array([src], dtype=np.int64)
+        pred = self._predecessors[src]
+        if pred[dst] < 0:
+            raise NoPathError(
+                f"places {src} and {dst} of environment {self.name!r} are not connected"
+            )
+        out = [dst]
+        while out[-1] != src:
+            out.append(int(pred[out[-1]]))
+        return np.asarray(out[::-1], dtype=np.int64)
+
+    def polyline(self, places: I64) -> F64:
+        """Concatenated shortest paths through the given place sequence, as positions."""
+        pieces: list[I64] = [places[:1]]
+        for a, b in itertools.pairwise(places):
+            pieces.append(self.path(int(a), int(b))[1:])
+        return self.xyz[np.concatenate(pieces)]
+
+    def visible(self, p: F64, q: F64) -> BoolA:
+        """True where no wall blocks the sight line p[i]→q[i]."""
+        return ~segments_blocked(p, q, self.walls)
+
+    def visibility_matrix(self, sensor_range: float, line_of_sight: bool) -> BoolA:
+        """V[i, j]: a sensor at place i sees place j (within range, and unblocked if asked)."""
+        d = np.linalg.norm(self.xyz[:, None, :2] - self.xyz[None, :, :2], axis=-1)
+        vis = d <= sensor_range
+        if line_of_sight and len(self.walls):
+            i, j = np.nonzero(vis)
+            ok = self.visible(self.xyz[i], self.xyz[j])
+            vis[i[~ok], j[~ok]] = False
+        return vis
+
+
+def largest_component(n: int, edges: I64) -> I64:
+    """Indices of the nodes in the largest connected component of an undirected graph."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    g = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    _, labels = connected_components(g, directed=False)
+    biggest = np.bincount(labels).argmax()
+    return np.flatnonzero(labels == biggest).astype(np.int64)
+
+
+def spread_places(xyz: F64, count: int, first: int) -> I64:
+    """``count`` well-separated place indices by farthest-point sampling from ``first``."""
+    chosen = [first]
+    dist = np.linalg.norm(xyz - xyz[first], axis=1)
+    for _ in range(count - 1):
+        nxt = int(np.argmax(dist))
+        chosen.append(nxt)
+        dist = np.minimum(dist, np.linalg.norm(xyz - xyz[nxt], axis=1))
+    return np.asarray(chosen, dtype=np.int64)
+
+
+def roles_for_graph(xyz: F64, n_desks: int, n_patrol: int = 6) -> Roles:
+    """Roles for a graph without semantic labels: spread out over the places.
+
+    The entrance is the place farthest from the centroid, the rest follow by farthest-point
+    sampling so that trips cross the whole graph; the dock is the place nearest the centroid.
+    """
+    centroid = xyz.mean(axis=0)
+    entrance = int(np.argmax(np.linalg.norm(xyz - centroid, axis=1)))
+    dock = int(np.argmin(np.linalg.norm(xyz - centroid, axis=1)))
+    spread = spread_places(xyz, min(len(xyz), 3 + max(n_desks, 1)), entrance)
+    desks = np.resize(spread[3:], n_desks) if len(spread) > 3 else np.resize(spread, n_desks)
+    tour = spread_places(xyz, min(len(xyz), n_patrol), dock)
+    return Roles(
+        entrance=entrance,
+        kitchen=int(spread[min(1, len(spread) - 1)]),
+        meeting=int(spread[min(2, len(spread) - 1)]),
+        dock=dock,
+        desks=np.asarray(desks, dtype=np.int64),
+        patrol=np.concatenate([tour, [dock]]).astype(np.int64),
+    )
+
+
+def load_graph_environment(path: Path, n_desks: int) -> Environment:
+    """An environment from a spark_dsg scene graph file (Hydra dsg.json, .sparkdsg, legacy JSON).
+
+    Keeps the real places (``real_place`` true) of the places layer that lie in the largest
+    connected component of the place edges, their room parents, and the rooms' building.
+    """
+    import spark_dsg as dsg
+
+    if not path.exists():
+        raise InputError(f"scene graph file not found: {path}")
+    try:
+        graph = dsg.DynamicSceneGraph.load(str(path))
+    except Exception as exc:  # spark_dsg raises plain RuntimeError/ValueError
+        raise InputError(
+            f"cannot load scene graph {path}: {exc}",
+            hint="give a spark_dsg file (dsg.json, dsg_with_mesh.json or .sparkdsg)",
+        ) from exc
+    if not graph.has_layer(dsg.DsgLayers.PLACES):
+        raise InputError(f"scene graph {path} has no places layer")
+    layer = graph.get_layer(dsg.DsgLayers.PLACES)
+    ids, pos, parents, clear = [], [], [], []
+    for node in layer.nodes:
+        attrs = node.attributes
+        if not getattr(attrs, "real_place", True):
+            continue
+        ids.append(node.id.value)
+        pos.append(np.asarray(attrs.position, dtype=np.float64).reshape(3))
+        parents.append(node.get_parent() if node.has_parent() else 0)
+        clear.append(float(getattr(attrs, "distance", 0.0)))
+    if len(ids) < 2:
+        raise InputError(f"scene graph {path} has fewer than two places")
+    id_arr = np.asarray(ids, dtype=np.uint64)
+    row = {int(v): i for i, v in enumerate(ids)}
+    edge_list = [
+        (row[e.source], row[e.target])
+        for e in layer.edges
+        if e.source in row and e.target in row and e.source != e.target
+    ]
+    if not edge_list:
+        raise InputError(f"scene graph {path} has no place edges to walk on")
+    edges = np.asarray(edge_list, dtype=np.int64)
+    keep = largest_component(len(ids), edges)
+    remap = np.full(len(ids), -1, dtype=np.int64)
+    remap[keep] = np.arange(len(keep))
+    edges = remap[edges]
+    edges = edges[(edges >= 0).all(axis=1)]
+    edges = np.unique(np.sort(edges, axis=1), axis=0)
+    xyz = np.asarray(pos)[keep]
+    place_room = np.asarray(parents, dtype=np.uint64)[keep]
+    room_ids, room_xyz, labels, building = _rooms_of(graph, place_room)
+    return Environment(
+        name=path.name,
+        place_ids=id_arr[keep],
+        xyz=xyz,
+        edges=edges,
+        place_room=place_room,
+        clearance=np.asarray(clear)[keep],
+        room_ids=room_ids,
+        room_xyz=room_xyz,
+        room_labels=labels,
+        building_id=building,
+        roles=roles_for_graph(xyz, n_desks),
+    )
+
+
+def _rooms_of(graph: object, place_room: U64) -> tuple[U64, F64, tuple[str, ...], int]:
+    """The rooms that parent the kept places, and their building (B0 when the file has none)."""
+    used = np.unique(place_room[place_room != 0])
+    xyz, labels, buildings = [], [], []
+    for rid in used:
+        node = graph.find_node(int(rid))  # type: ignore[attr-defined]
+        if node is None:
+            xyz.append(np.zeros(3))
+            labels.append("")
+            continue
+        xyz.append(np.asarray(node.attributes.position, dtype=np.float64).reshape(3))
+        labels.append(str(getattr(node.attributes, "name", "")))
+        if node.has_parent():
+            buildings.append(int(node.get_parent()))
+    building = buildings[0] if buildings else int(symbol(BUILDING_CHAR, 0))
+    return (
+        used.astype(np.uint64),
+        np.asarray(xyz, dtype=np.float64).reshape(-1, 3),
+        tuple(labels),
+        building,
+    )

@@ -1,0 +1,236 @@
+"""One simulation run, end to end: environment → people → robot → graph stream → log + truth.
+
+:func:`simulate` is the library entry point behind ``aion simulate``. Everything random is drawn
+from ``numpy.random.SeedSequence([seed, scene])`` split into independent streams per component
+(schedule, walking, robot, scene graph, sensor noise), and every timestamp derives from the start
+date and the tick grid — never the wall clock — so a seed gives byte-identical logs.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aion_cli.engine.errors import InputError
+from aion_cli.sim.agents import agent_speeds, simulate_agents
+from aion_cli.sim.environment import Environment, load_graph_environment
+from aion_cli.sim.graphstream import StreamConfig, build_frames
+from aion_cli.sim.ground_truth import WindowGrid, truth_arrays, write_truth
+from aion_cli.sim.messages import detection_msgtype
+from aion_cli.sim.office import office_environment
+from aion_cli.sim.robot import PatrolConfig, RobotTrack, simulate_robot
+from aion_cli.sim.schedule import Rhythm, plan_moves
+from aion_cli.sim.sensing import observe
+from aion_cli.sim.writer import write_scene_log
+
+FORMATS: dict[str, tuple[str, str]] = {  # --format -> (LogWriter container, file suffix)
+    "mcap": ("mcap", ".mcap"),
+    "mcap-ros1": ("mcap-ros1", ".mcap"),
+    "bag": ("bag", ".bag"),
+    "rosbag2": ("rosbag2-mcap", ""),
+    "rosbag2-sqlite3": ("rosbag2-sqlite3", ""),
+}
+
+Progress = Callable[[str, int, int], None]
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """Every option of a simulation run (the CLI maps its flags onto these fields)."""
+
+    environment: str = "office"  # "office" or a spark_dsg scene-graph file
+    days: float = 1.0
+    seed: int = 0
+    agents: int = 6
+    scenes: int = 1
+    robot: str = "patrol"  # "patrol" or "fixed"
+    frame: str | None = None  # "base_link" | "map"; None: base_link for patrol, map for fixed
+    format: str = "mcap"
+    detection_type: str = "tracked_persons"
+    start: str = "2026-01-05"  # local date of the first midnight (a Monday)
+    utc_offset_h: float = 0.0
+    rate_hz: float = 2.0
+    noise: float = 0.05
+    window_s: float = 600.0
+    bins: int = 8
+    tf_idle_s: float = 10.0
+    patrol: PatrolConfig = field(default_factory=PatrolConfig)
+    stream: StreamConfig = field(default_factory=StreamConfig)
+    rhythm: Rhythm = field(default_factory=Rhythm)
+
+    def resolved_frame(self) -> str:
+        return self.frame or ("map" if self.robot == "fixed" else "base_link")
+
+    def validate(self) -> None:
+        """Raise :class:`InputError` for impossible combinations (before any work is done)."""
+        checks = [
+            (self.days > 0, "--days must be positive"),
+            (self.agents >= 0, "--agents must be zero or more"),
+            (self.scenes >= 1, "--scenes must be at least 1"),
+            (self.rate_hz > 0, "--rate must be positive"),
+            (self.noise >= 0, "--noise must be zero or more"),
+            (self.robot in ("patrol", "fixed"), "--robot must be patrol or fixed"),
+            (self.resolved_frame() in ("base_link", "map"), "--frame must be base_link or map"),
+            (self.format in FORMATS, f"--format must be one of {', '.join(FORMATS)}"),
+            (self.window_s > 0 and self.bins >= 1, "window and bins must be positive"),
+            (self.stream.period_s > 0 and self.stream.idle_period_s > 0,
+             "scene-graph periods must be positive"),
+            (self.patrol.tour_every_s > 0, "the patrol interval must be positive"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise InputError(message)
+        if self.robot == "fixed" and self.resolved_frame() == "base_link":
+            raise InputError(
+                "a fixed sensor publishes in the map frame",
+                hint="drop --frame base_link or use --robot patrol",
+            )
+        detection_msgtype(self.detection_type)
+        start_ns(self.start, self.utc_offset_h)
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    """Paths and figures of one written scene."""
+
+    log: Path
+    truth_npz: Path
+    truth_json: Path
+    meta: dict[str, Any]
+
+
+def start_ns(start: str, utc_offset_h: float) -> int:
+    """UNIX ns of local midnight of the ``start`` date (ISO date or datetime)."""
+    try:
+        day = _dt.date.fromisoformat(start[:10])
+    except ValueError as exc:
+        raise InputError(f"bad --start date {start!r}", hint="give an ISO date, e.g. 2026-01-05"
+                         ) from exc
+    midnight = _dt.datetime(day.year, day.month, day.day, tzinfo=_dt.UTC)
+    return int(midnight.timestamp()) * 1_000_000_000 - round(utc_offset_h * 3600e9)
+
+
+def load_environment(config: ScenarioConfig) -> Environment:
+    """The office, or the walkable part of a scene-graph file."""
+    if config.environment == "office":
+        return office_environment(max(config.agents, 1))
+    return load_graph_environment(Path(config.environment), max(config.agents, 1))
+
+
+def scene_paths(output: Path, config: ScenarioConfig) -> list[Path]:
+    """Log path of every scene: ``output`` itself for one scene, else ``output/scene_XX``."""
+    suffix = FORMATS[config.format][1]
+    if config.scenes == 1:
+        if suffix and output.suffix != suffix:
+            output = output.with_name(output.name + suffix)
+        return [output]
+    return [output / f"scene_{i:02d}{suffix}" for i in range(config.scenes)]
+
+
+def run_scene(
+    config: ScenarioConfig, env: Environment, scene: int, log_path: Path,
+    progress: Progress | None = None,
+) -> SceneResult:
+    """Simulate one scene and write its log and ground truth."""
+    rng_sched, rng_walk, rng_robot, rng_graph, rng_noise = (
+        np.random.default_rng(s)
+        for s in np.random.SeedSequence([config.seed, scene]).spawn(5)
+    )
+    t0 = start_ns(config.start, config.utc_offset_h)
+    dt_ns = round(1e9 / config.rate_hz)
+    dt_s = dt_ns / 1e9
+    n_ticks = int(config.days * 86400.0 / dt_s) + 1
+    weekday = _dt.date.fromisoformat(config.start[:10]).weekday()
+
+    def step(stage: str, done: int = 0, total: int = 0) -> None:
+        if progress is not None:
+            progress(stage, done, total)
+
+    step("schedule")
+    moves = plan_moves(rng_sched, config.agents, config.days, weekday, env.roles,
+                       env.n_places, config.rhythm)
+    step("people")
+    samples = simulate_agents(env, moves, agent_speeds(rng_walk, config.agents), rng_walk,
+                              dt_s, n_ticks)
+    robot: RobotTrack | None = None
+    if config.robot == "patrol":
+        step("robot")
+        robot = simulate_robot(env, config.patrol, rng_robot, dt_s, n_ticks, config.days)
+    step("scene graph")
+    frames = build_frames(env, robot, config.stream, rng_graph, t0, dt_ns, n_ticks)
+    obs = observe(env, samples, robot, config.resolved_frame(), config.noise, rng_noise, dt_ns)
+    msgtype = detection_msgtype(config.detection_type)
+    container = FORMATS[config.format][0]
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    counts = write_scene_log(
+        log_path, container, env, frames, obs, robot, msgtype, t0, dt_ns, config.tf_idle_s,
+        config.stream.include_mesh, config.noise,
+        progress=lambda d, t: step("writing", d, t),
+    )
+    step("ground truth")
+    end_ns = t0 + (n_ticks - 1) * dt_ns
+    grid = WindowGrid.covering(t0, end_ns, config.window_s)
+    seen = np.zeros(len(samples), dtype=bool)
+    seen[obs.sample] = True
+    arrays = truth_arrays(env, samples, seen, robot, frames, grid, config.bins, t0, dt_ns)
+    meta = {
+        "scene": scene,
+        "log": log_path.name,
+        "config": _jsonable(asdict(replace(config, scenes=1))),
+        "environment": env.name,
+        "places": env.n_places,
+        "start_ns": t0,
+        "end_ns": end_ns,
+        "tick_ns": dt_ns,
+        "frame": config.resolved_frame(),
+        "window_s": config.window_s,
+        "bins": config.bins,
+        "bin_convention": "bin(theta) = floor((theta + pi) / (2 pi / B)) mod B",
+        "topics": counts.topics,
+        "messages": {"tf": counts.tf, "scene_graph": counts.dsg,
+                     "detections": counts.detections},
+        "detections": counts.detection_rows,
+    }
+    npz, js = write_truth(log_path, arrays, meta)
+    return SceneResult(log_path, npz, js, meta)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def simulate(config: ScenarioConfig, output: Path, progress: Progress | None = None,
+             overwrite: bool = False) -> list[SceneResult]:
+    """Simulate ``config.scenes`` scenes into ``output`` (a log path, or a folder of scenes)."""
+    config.validate()
+    paths = scene_paths(output, config)
+    existing = [p for p in paths if p.exists()]
+    if existing and not overwrite:
+        raise InputError(f"{existing[0]} exists already", hint="remove it or pass --overwrite")
+    for p in existing:
+        _remove(p)
+    env = load_environment(config)
+    results = []
+    for scene, path in enumerate(paths):
+        if progress is not None:
+            progress(f"scene {scene + 1}/{len(paths)}", 0, 0)
+        results.append(run_scene(config, env, scene, path, progress))
+    return results
+
+
+def _remove(path: Path) -> None:
+    import shutil
+
+    if path.is_dir():
+        shutil.rmtree(path)
+    else:
+        path.unlink()

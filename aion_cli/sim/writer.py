@@ -1,0 +1,130 @@
+"""Write one simulated scene as a ROS log: scene graphs, detections and TF in log-time order.
+
+The three streams are merged by tick (TF before scene graph before detections at equal stamps, so
+a reader always has the transform when a detection arrives). Log time equals header stamp. TF is
+published at every tick the robot moves or a detection is published, at loop closures (and the
+tick before, so the ``map→odom`` jump is sharp) and as a heartbeat while parked; a fixed sensor
+publishes no TF at all (its detections are in ``map``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aion_cli.engine.types import I64
+from aion_cli.sim.environment import Environment
+from aion_cli.sim.graphstream import GraphFrames, PayloadBuilder
+from aion_cli.sim.messages import (
+    DETECTION_TOPICS,
+    DSG_UPDATE,
+    TF_MESSAGE,
+    detection_message,
+    dsg_message,
+    tf_message,
+)
+from aion_cli.sim.robot import RobotTrack
+from aion_cli.sim.sensing import Observations
+
+Progress = Callable[[int, int], None]
+
+DSG_TOPIC_ROS2 = "/hydra/backend/dsg"
+DSG_TOPIC_ROS1 = "/hydra_ros_node/backend/dsg"
+TF_TOPIC = "/tf"
+TF, DSG, DET = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class LogCounts:
+    """Messages written per stream, and the topics used."""
+
+    tf: int
+    dsg: int
+    detections: int
+    detection_rows: int
+    topics: dict[str, str]
+
+
+def tf_ticks(robot: RobotTrack, obs_ticks: I64, idle_ticks: int) -> I64:
+    """Ticks at which /tf is published (see the module docstring)."""
+    n = len(robot.pose)
+    lc = robot.loop_closures
+    parts = [
+        np.flatnonzero(robot.moving),
+        obs_ticks,
+        lc,
+        lc[lc > 0] - 1,
+        np.arange(0, n, max(idle_ticks, 1)),
+        np.array([n - 1]),
+    ]
+    return np.unique(np.concatenate(parts)).astype(np.int64)
+
+
+def dsg_topic(container: str) -> str:
+    """Hydra's backend topic name in ROS 1 or ROS 2 naming."""
+    return DSG_TOPIC_ROS1 if container in ("bag", "mcap-ros1") else DSG_TOPIC_ROS2
+
+
+def write_scene_log(
+    path: Path,
+    container: str,
+    env: Environment,
+    frames: GraphFrames,
+    obs: Observations,
+    robot: RobotTrack | None,
+    msgtype: str,
+    t0_ns: int,
+    dt_ns: int,
+    tf_idle_s: float,
+    include_mesh: bool,
+    noise: float,
+    progress: Progress | None = None,
+) -> LogCounts:
+    """Write the merged streams to ``path`` with :class:`formats.writers.LogWriter`."""
+    from formats.writers import LogWriter
+
+    det_ticks, det_start = np.unique(obs.tick, return_index=True)
+    det_end = np.append(det_start[1:], len(obs.tick))
+    tf_t = (np.zeros(0, dtype=np.int64) if robot is None
+            else tf_ticks(robot, det_ticks, round(tf_idle_s * 1e9 / dt_ns)))
+    tick = np.concatenate([tf_t, frames.tick, det_ticks])
+    kind = np.concatenate([np.full(len(tf_t), TF), np.full(len(frames), DSG),
+                           np.full(len(det_ticks), DET)])
+    index = np.concatenate([np.arange(len(tf_t)), np.arange(len(frames)),
+                            np.arange(len(det_ticks))])
+    order = np.lexsort((kind, tick))
+    if robot is not None:
+        map_odom = robot.correction(tf_t)
+        odom_base = robot.odom_pose(tf_t)
+    det_topic = DETECTION_TOPICS[msgtype]
+    graph_topic = dsg_topic(container)
+    total = len(order)
+    builder = PayloadBuilder(env, frames, include_mesh)
+    with LogWriter(path, container) as log:
+        for n, o in enumerate(order):
+            k, i = int(tick[o]), int(index[o])
+            t_ns = t0_ns + k * dt_ns
+            if kind[o] == TF:
+                log.write(TF_TOPIC, TF_MESSAGE, tf_message(t_ns, map_odom[i], odom_base[i]), t_ns)
+            elif kind[o] == DSG:
+                payload = builder.payload(i)
+                log.write(graph_topic, DSG_UPDATE, dsg_message(t_ns, payload, i), t_ns)
+            else:
+                rows = slice(int(det_start[i]), int(det_end[i]))
+                msg = detection_message(
+                    msgtype, t_ns, obs.frame, obs.xyz[rows], obs.velocity[rows],
+                    obs.track_id[rows], obs.age_ns[rows], int(det_start[i]), noise,
+                )
+                log.write(det_topic, msgtype, msg, t_ns)
+            if progress is not None and (n % 2000 == 0 or n == total - 1):
+                progress(n + 1, total)
+    topics = {det_topic: msgtype, graph_topic: DSG_UPDATE}
+    if robot is not None:
+        topics[TF_TOPIC] = TF_MESSAGE
+    return LogCounts(
+        tf=len(tf_t), dsg=len(frames), detections=len(det_ticks),
+        detection_rows=len(obs), topics=topics,
+    )
