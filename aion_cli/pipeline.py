@@ -124,6 +124,7 @@ class BuildReport:
     dropped: dict[str, int] = field(default_factory=dict)
     cells: int = 0
     nodes: int = 0
+    nodes_with_flow: int = 0
     bound_cells: int = 0
     windows: int = 0
     start_ns: int | None = None
@@ -156,6 +157,7 @@ class BuildReport:
             },
             "cells": self.cells,
             "nodes": self.nodes,
+            "nodes_with_flow": self.nodes_with_flow,
             "bound_cells": self.bound_cells,
             "windows": self.windows,
             "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns, "seconds": span},
@@ -611,6 +613,7 @@ class _Build:
         stats = state_counts(state)
         self.report.cells = stats["cells"]
         self.report.nodes = stats["nodes"]
+        self.report.nodes_with_flow = stats["nodes_with_flow"]
         self.report.bound_cells = stats["bound_cells"]
         self.report.windows = stats["windows"]
         manifest = {
@@ -628,13 +631,15 @@ class _Build:
 
 
 def state_counts(state: MapState) -> dict[str, int]:
-    """Cells, nodes, bound cells and windows observed of a state (summaries and info)."""
+    """Unbound cells, graph nodes (and those holding flow), bound cells and windows observed
+    (the most any entry has seen) of a state, for summaries."""
     entries = state.entries
     live = entries.live_rows()
     observed = entries.windows_observed[live]
     return {
         "cells": len(entries.cell_rows()),
-        "nodes": len(entries.node_rows()),
+        "nodes": 0 if state.graph is None else len(state.graph.places),
+        "nodes_with_flow": len(entries.node_rows()),
         "bound_cells": len(state.redirects),
         "windows": int(observed.max()) if len(observed) else 0,
     }

@@ -39,7 +39,7 @@ def print_summary(summary: dict[str, Any]) -> None:
         if count:
             table.add_row(f"  dropped: {reason}", f"{count:,}")
     table.add_row("graph", f"{summary['graph']['source']}")
-    table.add_row("nodes", f"{summary['nodes']:,}")
+    table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
     table.add_row("hash cells", f"{summary['cells']:,}")
     table.add_row("bound cells", f"{summary['bound_cells']:,}")
     table.add_row("windows observed", f"{summary['windows']:,}")

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from aion_cli import __version__
+from aion_cli.cli.errors import report
+from aion_cli.engine.errors import AionError, InputError
 from tests.cli.conftest import assert_one_line_error, run, run_process
 
 COMMANDS = ("info", "build", "predict", "plan", "export", "convert", "simulate")
@@ -47,21 +51,31 @@ def test_missing_required_option() -> None:
     assert_one_line_error(result.stderr, "--to")
 
 
-def test_internal_errors_exit_1_and_debug_shows_the_traceback(tmp_path: Path) -> None:
-    """A fault that is not the user's (here: a map whose state was tampered with into an
-    inconsistent shape is reported by the engine as corrupt, exit 2) — and an unexpected
-    exception from a library is exit 1 with a hint to use --debug."""
-    from click.testing import CliRunner
+def test_internal_faults_exit_1_with_a_debug_hint(capsys: pytest.CaptureFixture[str]) -> None:
+    """An unexpected exception (a bug) is one line, exit 1, and points at --debug."""
 
-    import aion_cli.cli.main as main_module
-    from aion_cli.cli.errors import report
-
-    class Boom(RuntimeError):
+    class KaputError(RuntimeError):
         pass
 
-    assert report(Boom("kaput"), debug=False) == 1
-    runner = CliRunner()
-    result = runner.invoke(main_module.cli, ["--debug", "frobnicate"])
+    assert report(KaputError("gears stuck"), debug=False) == 1
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "internal error", "KaputError", "gears stuck")
+    assert "--debug" in err
+    assert report(AionError("engine fault"), debug=False) == 1
+    assert report(InputError("bad value", hint="fix it"), debug=False) == 2
+    err = capsys.readouterr().err
+    assert "error: bad value\nhint: fix it" in err
+
+
+def test_debug_prints_the_traceback(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(InputError) as info:
+        raise InputError("bad value")
+    code = report(info.value, debug=True)
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" in err
+    assert err.rstrip().endswith("error: bad value")
+    result = run("--debug", "frobnicate")
     assert result.exit_code == 2
     assert "Traceback" in result.stderr
 

@@ -1,0 +1,169 @@
+"""``aion build``: counts, provenance, topics, graphs, observation, config and continuation,
+checked against what the generated office log is known to hold."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import tomllib
+from pathlib import Path
+
+from aion_cli.engine.config import ModelConfig
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+from tests.cli.logdata import (
+    DURATION_S,
+    PLACES,
+    save_graph_file,
+    write_office_log,
+)
+
+
+def test_counts_and_provenance(office: Office) -> None:
+    report = office.build
+    expected = office.expected
+    assert report["detections"] == {"read": 300, "used": 300, "dropped": {}}
+    assert expected.detections == 300
+    assert report["nodes"] == len(PLACES)
+    assert report["nodes_with_flow"] == 3  # p1, p3, p4: where the three people stand
+    assert report["graph"]["source"] == "log"
+    assert report["graph"]["messages"] == expected.graph_messages
+    assert report["graph"]["topics"] == ["/hydra/backend/dsg"]
+    assert report["detection_topics"] == ["/tracks"]
+    assert report["observation"] == "tf map->base_link"
+    span = report["time_span"]
+    assert span["start_ns"] == expected.start_ns
+    assert span["end_ns"] == expected.end_ns
+    assert span["seconds"] == (expected.end_ns - expected.start_ns) / 1e9
+    (entry,) = report["inputs"]
+    assert entry["sha256"] == hashlib.sha256(office.log.read_bytes()).hexdigest()
+    assert entry["size"] == office.log.stat().st_size
+    assert report["map_bytes"] == office.map.stat().st_size
+    # every detection stands within 1 m of a place: all cells end up bound to nodes
+    assert report["cells"] == 0
+    assert report["bound_cells"] == 3
+    assert report["windows"] == 1  # 20 minutes: one closed 600-s window, one still open
+
+
+def test_default_output_is_the_first_log_name(office: Office, tmp_path: Path) -> None:
+    log = tmp_path / "run7.mcap"
+    shutil.copy(office.log, log)
+    result = run("build", log, "-q")
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "run7.aion").is_file()
+    assert result.stdout == ""
+
+
+def test_summary_table_goes_to_stderr(office: Office, tmp_path: Path) -> None:
+    result = run("build", office.log, "-o", tmp_path / "m.aion")
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout == ""
+    assert "detections read" in result.stderr
+    assert "300" in result.stderr
+
+
+def test_ros1_bag_gives_the_same_counts_and_frames_go_through_tf(tmp_path: Path) -> None:
+    bag = tmp_path / "office.bag"
+    write_office_log(bag, "bag", frame="base_link")
+    report = run_json("build", bag, "--format", "json")
+    assert report["detections"]["used"] == 300
+    assert report["bound_cells"] == 3  # positions moved back into the map frame by TF
+
+
+def test_named_detection_topic_that_does_not_exist(office: Office, tmp_path: Path) -> None:
+    result = run("build", office.log, "--detections-topic", "/people", "-o", tmp_path / "x.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "/people")
+    assert "--detections-topic /tracks" in result.stderr  # ready to paste
+    assert not (tmp_path / "x.aion").exists()
+
+
+def test_missing_and_unreadable_logs(tmp_path: Path) -> None:
+    result = run("build", tmp_path / "missing.mcap")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "missing.mcap")
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"not a log at all")
+    result = run("build", junk)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr)
+    assert not (tmp_path / "junk.aion").exists()
+
+
+def test_print_config_round_trips_and_a_bad_config_is_refused(tmp_path: Path) -> None:
+    result = run("build", "--print-config")
+    assert result.exit_code == 0
+    parsed = tomllib.loads(result.stdout)["model"]
+    assert ModelConfig.from_dict(parsed) == ModelConfig()
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[model]\ncell_size = -1\n")
+    result = run("build", "x.mcap", "--config", bad)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "cell_size")
+    unknown = tmp_path / "unknown.toml"
+    unknown.write_text("[model]\ncel_size = 1\n")
+    result = run("build", "x.mcap", "--config", unknown)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "cel_size")
+
+
+def test_config_file_is_used_and_recorded(office: Office, tmp_path: Path) -> None:
+    config = tmp_path / "model.toml"
+    config.write_text(ModelConfig(cell_size=0.25, bind_radius=0.1).to_toml())
+    out = tmp_path / "fine.aion"
+    report = run_json("build", office.log, "-o", out, "--config", config, "--format", "json")
+    # a 0.1-m bind radius binds nothing: the detections stay on 0.25-m hash cells
+    assert report["cells"] == 3
+    assert report["bound_cells"] == 0
+    predicted = run_json("predict", out, "--historical", "--layer", "cells", "--format", "json")
+    assert {e["id"] for e in predicted["entries"]} == {e["id"] for e in predicted["entries"]}
+    assert len(predicted["entries"]) == 3
+
+
+def test_graph_file_and_derived_graph_without_tf(tmp_path: Path) -> None:
+    log = tmp_path / "bare.mcap"
+    write_office_log(log, graph=False, tf=False)
+    graph = save_graph_file(tmp_path / "dsg.json")
+    report = run_json("build", log, "--graph", graph, "--format", "json")
+    assert report["graph"]["source"] == "file dsg.json"
+    assert report["nodes"] == len(PLACES)
+    assert report["observation"] == "fixed sensor over the log's time span"
+    assert any("fixed sensor" in note for note in report["notes"])
+
+    out = tmp_path / "derived.aion"
+    report = run_json("build", log, "--derive-graph", "-o", out, "--format", "json")
+    assert report["graph"]["source"] == "derived from walking people"
+    # three standing people -> three occupied 1.5-m grid cells -> three derived places
+    assert report["nodes"] == 3
+    assert report["detections"]["used"] == 300
+
+    report = run_json("build", log, "-o", tmp_path / "cells.aion", "--format", "json")
+    assert report["graph"]["source"] == "none"
+    assert report["nodes"] == 0
+    assert report["cells"] == 3
+
+
+def test_continuing_a_map_equals_building_at_once(tmp_path: Path) -> None:
+    day1, day2 = tmp_path / "day1.mcap", tmp_path / "day2.mcap"
+    write_office_log(day1)
+    write_office_log(day2, shift_s=86400)
+    both = tmp_path / "both.aion"
+    once = run_json("build", day1, day2, "-o", both, "--format", "json")
+    assert once["detections"]["used"] == 600
+    step = tmp_path / "step.aion"
+    run_json("build", day1, "-o", step, "--format", "json")
+    cont = run_json("build", day2, "--map", step, "--format", "json")
+    assert cont["continued"] is True
+    assert cont["map"] == str(step)
+    assert cont["time_span"] == once["time_span"]
+    at = "2026-11-24 08:05"
+    a = run_json("predict", both, "--time", at, "--format", "json")["entries"]
+    b = run_json("predict", step, "--time", at, "--format", "json")["entries"]
+    assert a == b
+    # the same log cannot be added twice
+    result = run("build", day2, "--map", step)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "already in the map")
+
+
+def test_duration_constant_matches_the_log(office: Office) -> None:
+    assert office.expected.end_ns - office.expected.start_ns < DURATION_S * 1_000_000_000
