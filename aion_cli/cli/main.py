@@ -17,6 +17,7 @@ import click
 from aion_cli import __version__
 from aion_cli.cli import build, convert, export, info, plan, predict
 from aion_cli.cli.errors import EXIT_OK, report
+from aion_cli.cli.simulate import simulate as simulate_command
 
 EPILOG = """\b
 Examples:
@@ -84,24 +85,10 @@ def cli(debug: bool) -> None:
 
 for _module in (info, build, predict, plan, export, convert):
     cli.add_command(_module.command)
-
-
-def _register_optional() -> None:
-    """``simulate`` and ``evaluate`` come from their own engineers' modules."""
-    import importlib
-
-    for name in ("simulate", "evaluate"):
-        try:
-            module = importlib.import_module(f"aion_cli.cli.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"aion_cli.cli.{name}":
-                raise
-            continue
-        command = getattr(module, "command", None) or getattr(module, name)
-        cli.add_command(command, name)
-
-
-_register_optional()
+cli.add_command(simulate_command, "simulate")
+# `evaluate` (aion_cli/cli/evaluate.py, a click group) is registered here the same way when it
+# lands: from aion_cli.cli.evaluate import evaluate as evaluate_group;
+# cli.add_command(evaluate_group, "evaluate")
 
 
 def main() -> None:
