@@ -222,8 +222,10 @@ def build_frames(
             s.observe(t_ns, np.ones(m, dtype=bool), None)
         else:
             seen = np.asarray(vis[np.unique(near[prev + 1 : k + 1])].any(axis=0), dtype=bool)
-            s.observe(t_ns, seen, robot.error(np.array([k]))[0])
-            if int(k) in lc:
+            closing = int(k) in lc
+            # at a loop closure the measurements still carry the drift of the tick before
+            s.observe(t_ns, seen, robot.error(np.array([max(int(k) - closing, 0)]))[0])
+            if closing:
                 s.close_loop(t_ns)
                 closed.append(int(k))
         state[f], ids[f], xyz[f], rep[f], updated[f] = s.state, s.ids, s.xyz, s.rep, s.updated

@@ -215,7 +215,7 @@ def simulate(config: ScenarioConfig, output: Path, progress: Progress | None = N
     paths = scene_paths(output, config)
     existing = [p for p in paths if p.exists()]
     if existing and not overwrite:
-        raise InputError(f"{existing[0]} exists already", hint="remove it or pass --overwrite")
+        raise InputError(f"{existing[0]} exists already", hint="remove it or pass --force")
     for p in existing:
         _remove(p)
     env = load_environment(config)
