@@ -88,7 +88,7 @@ class DetectionAdapter:
             group = [messages[i] for i in idx]
             part = self._decode_group(group, key, on_error)
             parts.append(_reindex(part, np.asarray(idx, np.int64)))
-        out = FrameDetections.concat(parts) if len(parts) > 1 else parts[0]
+        out = FrameDetections.concat(parts, offset_messages=False) if len(parts) > 1 else parts[0]
         out = _with_n_messages(out, len(messages))
         if len(parts) > 1:
             out = out.select(np.argsort(out.msg_index, kind="stable"))

@@ -136,9 +136,12 @@ class FrameDetections:
         )
 
     @classmethod
-    def concat(cls, parts: Sequence[FrameDetections]) -> FrameDetections:
-        """Rows of every part in order; frame tables merged, message indices offset so they
-        stay unique (part k's indices are shifted by the messages of parts before it)."""
+    def concat(
+        cls, parts: Sequence[FrameDetections], offset_messages: bool = True
+    ) -> FrameDetections:
+        """Rows of every part in order; frame tables merged. With ``offset_messages`` message
+        indices are shifted so they stay unique (part k's by the messages of the parts before
+        it); without, they are kept (parts that index one shared message list)."""
         if not parts:
             return cls.empty()
         table = FrameTable()
@@ -149,7 +152,7 @@ class FrameDetections:
         for p in parts:
             remap = table.indices(p.frames) if p.frames else np.zeros(0, np.int64)
             frame_ids.append(remap[p.frame_id] if len(p) else p.frame_id)
-            msg_ids.append(p.msg_index + offset)
+            msg_ids.append(p.msg_index + offset if offset_messages else p.msg_index)
             offset += p.n_messages
             for k, v in p.filtered.items():
                 filtered[k] = filtered.get(k, 0) + v
