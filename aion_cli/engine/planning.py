@@ -276,7 +276,7 @@ class _BucketTables:
     ) -> None:
         self.graph, self.node_cost, self.config = graph, node_cost, config
         self.depart_s, self.speed, self.bucket_s = depart_s, speed, bucket_s
-        self.tables: dict[int, tuple[list[float], list[float]]] = {}
+        self.tables: dict[int, tuple[list[float], list[float], list[float]]] = {}
 
     def bucket(self, distance: float) -> int:
         return math.floor((self.depart_s + distance / self.speed) / self.bucket_s)
@@ -284,12 +284,15 @@ class _BucketTables:
     def eval_time(self, bucket: int) -> float:
         return max(bucket * self.bucket_s, self.depart_s)
 
-    def get(self, bucket: int) -> tuple[list[float], list[float]]:
+    def get(self, bucket: int) -> tuple[list[float], list[float], list[float]]:
+        """``(src_half, dst_half, full)`` per arc for ``bucket``; ``full`` is the arc cost
+        when both ends fall in this bucket (the common case, one lookup in the hot loop)."""
         table = self.tables.get(bucket)
         if table is None:
             costs = self.node_cost(self.eval_time(bucket))
             src_half, dst_half = arc_halves(self.graph, costs, self.config)
-            table = (src_half.tolist(), dst_half.tolist())
+            full = self.graph.arcs.length * (1.0 + src_half + dst_half)
+            table = (src_half.tolist(), dst_half.tolist(), full.tolist())
             self.tables[bucket] = table
         return table
 
@@ -342,13 +345,13 @@ def _astar(arcs: _Arcs, h: list[float], s: int, goal: int, tables: _BucketTables
     heap: list[tuple[float, int]] = [(h[s], s)]
     pop, push, floor = heapq.heappop, heapq.heappush, math.floor
     expanded = 0
-    zeros = [0.0] * len(dst)
-    src_half = dst_half = zeros
+    # Distance-only: one "bucket" that never ends, whose full arc cost is the length.
+    src_half, full, d_next = length, length, math.inf
     t0 = k = 0.0
     if tables is not None:
         t0 = tables.depart_s / tables.bucket_s
         k = 1.0 / (tables.speed * tables.bucket_s)
-    b_src = b_last = None
+    b_cur = None
     while heap:
         i = pop(heap)[1]
         if closed[i]:
@@ -360,21 +363,21 @@ def _astar(arcs: _Arcs, h: list[float], s: int, goal: int, tables: _BucketTables
         g_i, d_i = best[i], dist[i]
         if tables is not None:
             b_i = floor(t0 + d_i * k)
-            if b_i != b_src:
-                b_src, src_half = b_i, tables.get(b_i)[0]
-            if b_i != b_last:
-                b_last, dst_half = b_i, tables.get(b_i)[1]
+            if b_i != b_cur:
+                b_cur = b_i
+                src_half, _, full = tables.get(b_i)
+                d_next = (b_i + 1 - t0) / k  # path distance at which the next bucket starts
         for a in range(indptr[i], indptr[i + 1]):
             j = dst[a]
             if closed[j]:
                 continue
-            d_a = length[a]
-            d_j = d_i + d_a
-            if tables is not None:
-                b_j = floor(t0 + d_j * k)
-                if b_j != b_last:
-                    b_last, dst_half = b_j, tables.get(b_j)[1]
-            c = g_i + d_a * (1.0 + src_half[a] + dst_half[a])
+            d_j = d_i + length[a]
+            if d_j < d_next:
+                c = g_i + full[a]
+            else:  # the arc ends in a later bucket: mix the two buckets' halves
+                assert tables is not None
+                dst_half = tables.get(floor(t0 + d_j * k))[1]
+                c = g_i + length[a] * (1.0 + src_half[a] + dst_half[a])
             if c < best[j]:
                 best[j], dist[j], parent[j] = c, d_j, i
                 push(heap, (c + h[j], j))
