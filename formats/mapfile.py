@@ -207,6 +207,16 @@ def _fsync_dir(folder: Path) -> None:
             os.close(fd)
 
 
+def _new_file_mode(target: Path) -> int:
+    """The replaced map's permissions, else what ``open()`` would give (0666 minus umask)."""
+    try:
+        return target.stat().st_mode & 0o777
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
 def write_map(
     path: str | os.PathLike[str],
     arrays: Mapping[str, npt.NDArray[Any]],
@@ -234,6 +244,7 @@ def write_map(
         try:
             fd, tmp_name = tempfile.mkstemp(dir=folder, prefix=f".{target.name}.", suffix=".tmp")
             tmp = Path(tmp_name)
+            os.chmod(tmp, _new_file_mode(target))  # mkstemp makes 0600; maps are shareable
             with os.fdopen(fd, "w+b") as fh:
                 _write_zip(fh, arrays, manifest)
                 fh.flush()

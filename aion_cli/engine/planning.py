@@ -61,6 +61,10 @@ class NodeCostError(AionError):
     """``node_cost`` returned arrays of the wrong shape (a caller bug, not a user error)."""
 
 
+class NavGraphError(AionError, ValueError):
+    """Graph arrays or a path are inconsistent (a caller bug, not a user error)."""
+
+
 def node_label(node_id: int) -> str:
     """``(ord('p') << 56) | 12`` -> ``"p12"`` (numeric when the category is not printable)."""
     value = int(node_id)
@@ -129,13 +133,13 @@ class NavGraph:
     def __post_init__(self) -> None:
         m = len(self.ids)
         if self.xyz.shape != (m, 3):
-            raise ValueError(f"xyz must have shape ({m}, 3), got {self.xyz.shape}")
+            raise NavGraphError(f"xyz must have shape ({m}, 3), got {self.xyz.shape}")
         if self.edges.ndim != 2 or self.edges.shape[1] != 2:
-            raise ValueError(f"edges must have shape (k, 2), got {self.edges.shape}")
+            raise NavGraphError(f"edges must have shape (k, 2), got {self.edges.shape}")
         if len(self.edges) and (self.edges.min() < 0 or self.edges.max() >= m):
-            raise ValueError("edges refer to rows outside the node table")
+            raise NavGraphError("edges refer to rows outside the node table")
         if not np.isfinite(self.xyz).all():
-            raise ValueError("node positions must be finite")
+            raise NavGraphError("node positions must be finite")
 
     @classmethod
     def build(cls, ids: npt.ArrayLike, xyz: npt.ArrayLike, edges: npt.ArrayLike) -> NavGraph:
@@ -164,7 +168,7 @@ class NavGraph:
         """A copy with an edge between every pair of nodes closer than ``radius`` (3-D),
         replacing the existing edges."""
         if not (math.isfinite(radius) and radius > 0):
-            raise ValueError(f"radius must be positive, got {radius!r}")
+            raise NavGraphError(f"radius must be positive, got {radius!r}")
         pairs = cKDTree(self.xyz).query_pairs(radius, output_type="ndarray")
         return NavGraph.build(self.ids, self.xyz, pairs.astype(np.int64).reshape(-1, 2))
 
@@ -449,7 +453,7 @@ def evaluate_path_cost(
     """The temporal cost of walking ``path`` (row indices) as :func:`plan` would count it.
 
     Used to report the distance-only path's temporal cost beside the temporal plan. Raises
-    ``ValueError`` if consecutive path nodes are not joined by an edge.
+    :class:`NavGraphError` if consecutive path nodes are not joined by an edge.
     """
     bucket_s = config.window_s if time_bucket_s is None else float(time_bucket_s)
     _check_motion(speed, depart_s, bucket_s)
@@ -465,7 +469,7 @@ def evaluate_path_cost(
         lo, hi = int(arcs.indptr[i]), int(arcs.indptr[i + 1])
         hits = np.flatnonzero(arcs.dst[lo:hi] == j)
         if len(hits) == 0:
-            raise ValueError(f"path step {i} -> {j} is not an edge of the graph")
+            raise NavGraphError(f"path step {i} -> {j} is not an edge of the graph")
         a = lo + int(hits[0])
         d = float(arcs.length[a])
         factor = 1.0

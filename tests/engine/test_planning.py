@@ -17,6 +17,7 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.errors import InputError, NoPathError, UnknownNodeError
 from aion_cli.engine.planning import (
     NavGraph,
+    NavGraphError,
     NodeCosts,
     PlanResult,
     arc_costs,
@@ -223,7 +224,7 @@ def test_node_cost_of_wrong_shape_is_reported() -> None:
 
 def test_evaluate_path_cost_rejects_non_edges() -> None:
     g = graph_of(CORRIDOR_XYZ, CORRIDOR_EDGES)
-    with pytest.raises(ValueError, match="not an edge"):
+    with pytest.raises(NavGraphError, match="not an edge"):
         evaluate_path_cost(g, [0, 2], 0.0, 1.0, None, CFG)
 
 
@@ -244,6 +245,10 @@ def test_graph_build_dedupes_and_connects_when_edgeless() -> None:
     assert nav.index_of(pid(3)) == 3
     assert nav.nearest([4.2, 8.0, 0.0]) == 3
     assert node_label(pid(12)) == "p12"
+    with pytest.raises(NavGraphError, match="outside"):
+        NavGraph.build([pid(0)], [[0.0, 0.0, 0.0]], [[0, 3]])
+    with pytest.raises(NavGraphError, match="finite"):
+        NavGraph.build([pid(0), pid(1)], [[0.0, 0.0, 0.0], [np.nan, 0, 0]], [[0, 1]])
 
 
 def test_static_costs_are_at_least_the_distance() -> None:

@@ -139,6 +139,19 @@ def test_rewrite_replaces_previous_map_and_leaves_no_temp_or_lock(written: Path)
     assert sorted(p.name for p in written.parent.iterdir()) == ["office.aion"]
 
 
+def test_new_map_gets_umask_permissions_rewrite_keeps_them(tmp_path: Path) -> None:
+    path = tmp_path / "m.aion"
+    old = os.umask(0o022)
+    try:
+        write_map(path, {"a": np.zeros(1)}, {})
+    finally:
+        os.umask(old)
+    assert path.stat().st_mode & 0o777 == 0o644
+    path.chmod(0o640)
+    write_map(path, {"a": np.ones(1)}, {})
+    assert path.stat().st_mode & 0o777 == 0o640
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     arr=hnp.arrays(
