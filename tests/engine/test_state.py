@@ -1,0 +1,159 @@
+"""MapState persistence: round trip, continuing a build, merging maps of disjoint time."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.mapper import Mapper
+from aion_cli.engine.state import MapState, merge_states
+from aion_cli.engine.types import Mesh, Trajectory
+from tests.engine.engine_builders import T0, S, check_invariants, detections, graph
+
+CFG = ModelConfig(window_s=600.0, stability_s=30.0)
+W = 600 * S
+DAY = 86400 * S
+NODES = [[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]]
+
+Step = Callable[[Mapper], None]
+
+
+def _log(
+    start: int, seed: int, windows: int = 6, move: float = 0.0, spots: np.ndarray | None = None
+) -> list[Step]:
+    """One "log": a graph, a fixed sensor over its span, detections in several windows.
+
+    With ``spots`` every detection is at one of those positions and the first window visits
+    all of them (so every entry exists from the log's first window on).
+    """
+    rng = np.random.default_rng(seed)
+    steps: list[Step] = []
+    end = start + windows * W
+    steps.append(lambda m: m.set_fixed_sensor(start, end))
+    steps.append(lambda m: m.add_graph(graph(start, list(range(5)), np.array(NODES))))
+    for w in range(windows):
+        n = int(rng.integers(5, 60)) if spots is None else int(rng.integers(len(spots), 90))
+        t = start + w * W + np.sort(rng.integers(0, W, n))
+        if spots is None:
+            xyz = np.c_[rng.uniform(-1, 8, (n, 2)), np.zeros(n)]
+        else:
+            pick = rng.integers(0, len(spots), n)
+            if w == 0:
+                pick[: len(spots)] = np.arange(len(spots))
+            xyz = spots[pick]
+        heading = np.where(rng.random(n) < 0.1, np.nan, rng.uniform(-np.pi, np.pi, n))
+        batch = detections(t, xyz, heading, rng.uniform(0.2, 2, n))
+        steps.append(lambda m, b=batch: m.add_detections(b))
+        if w == windows // 2 and move:
+            moved = np.array(NODES) + np.array([move, 0, 0])
+            g_moved = graph(start + w * W + W // 2, [0, 1, 2, 3], moved[:4])
+            steps.append(lambda m, g=g_moved: m.add_graph(g))
+    return steps
+
+
+def _run(steps: list[Step], m: Mapper | None = None) -> Mapper:
+    m = m if m is not None else Mapper(CFG)
+    for step in steps:
+        step(m)
+    return m
+
+
+def _reload(m: Mapper) -> Mapper:
+    arrays, meta = m.state.to_arrays()
+    meta = json.loads(json.dumps(meta))  # meta must survive JSON
+    return Mapper(CFG, MapState.from_arrays(arrays, meta))
+
+
+def _assert_same(a: MapState, b: MapState, rtol: float = 1e-12) -> None:
+    xa, ma = a.to_arrays()
+    xb, mb = b.to_arrays()
+    assert ma == mb
+    assert sorted(xa) == sorted(xb)
+    for name in xa:
+        assert xa[name].dtype == xb[name].dtype, name
+        np.testing.assert_allclose(xa[name], xb[name], rtol=rtol, atol=1e-9, err_msg=name)
+
+
+def test_round_trip_is_exact_and_plain() -> None:
+    m = _run(_log(T0, seed=1, move=0.6))
+    m.add_trajectory(Trajectory(np.array([T0 + 10 * W]), np.array([[1.0, 2.0, 0.0]])))
+    g = graph(T0 + 7 * W, [0, 1], [[0, 0, 0], [1, 1, 1.0]])
+    mesh = Mesh(np.zeros((3, 3)), np.array([[0, 1, 2]], np.int32), np.ones((3, 3)))
+    m.add_graph(type(g)(g.t_ns, g.places, np.array([[0, 1]]), mesh=mesh, layer_name="mesh_places"))
+    arrays, meta = m.state.to_arrays()
+    json.dumps(meta)
+    for name, value in arrays.items():
+        assert isinstance(value, np.ndarray), name
+        assert value.dtype != object, name
+    again = MapState.from_arrays(arrays, json.loads(json.dumps(meta)))
+    arrays2, meta2 = again.to_arrays()
+    assert meta2 == meta
+    assert sorted(arrays2) == sorted(arrays)
+    for name in arrays:
+        np.testing.assert_array_equal(arrays2[name], arrays[name], err_msg=name)
+    assert again.graph is not None
+    assert again.graph.layer_name == "mesh_places"
+    check_invariants(again)
+
+
+@pytest.mark.parametrize("cut", [3, 6, 9])
+def test_building_a_then_b_equals_building_both_at_once(cut: int) -> None:
+    steps = _log(T0, seed=2, move=0.6) + _log(T0 + 8 * W, seed=3)
+    whole = _run(steps)
+    first = _run(steps[:cut])
+    continued = _run(steps[cut:], _reload(first))
+    _assert_same(whole.state, continued.state)
+    check_invariants(continued.state)
+
+
+def test_merging_disjoint_maps_equals_building_from_both() -> None:
+    # Exact when both logs touch the same places from their first window on: a map built from
+    # one log alone cannot know the observed-empty windows of entries only the other log made.
+    spots = np.c_[np.random.default_rng(9).uniform(-1, 8, (40, 2)), np.zeros(40)]
+    a_steps = _log(T0, seed=4, spots=spots)
+    b_steps = _log(T0 + 2 * DAY, seed=5, spots=spots)
+    both = _run(a_steps + b_steps).state
+    merged = merge_states(_run(b_steps).state, _run(a_steps).state)  # order does not matter
+    check_invariants(merged)
+    xa, ma = both.to_arrays()
+    xm, mm = merged.to_arrays()
+    assert ma["accepted"] == mm["accepted"]
+    assert ma["open_window"] == mm["open_window"]
+    exact = ["entry_key", "entry_node_id", "entry_kind", "entry_counts", "entry_nodir",
+             "entry_window_counts", "entry_speed_n", "entry_windows_observed",
+             "redirect_keys", "redirect_nodes", "fremen_n"]
+    for name in exact:
+        np.testing.assert_array_equal(xm[name], xa[name], err_msg=name)
+    for name in ["entry_speed_sum", "fremen_sum_s", "fremen_sum_se", "fremen_sum_e",
+                 "fremen_t_first", "fremen_t_last"]:
+        np.testing.assert_allclose(xm[name], xa[name], rtol=1e-9, atol=1e-9, err_msg=name)
+    assert np.any(xa["fremen_n"] > 0)
+    assert len(xa["redirect_keys"]) > 0  # ownership transfer happened in both builds
+    assert np.any(xa["entry_kind"] == 0)  # and some cells stayed unbound
+
+
+def test_merge_rejects_different_configs() -> None:
+    a = MapState.empty(CFG)
+    b = MapState.empty(CFG.replace(cell_size=0.3))
+    with pytest.raises(Exception, match="different model parameters"):
+        merge_states(a, b)
+
+
+def test_from_arrays_rejects_corrupt_input() -> None:
+    arrays, meta = _run(_log(T0, seed=6, windows=2)).state.to_arrays()
+    broken = dict(arrays)
+    broken["fremen_n"] = broken["fremen_n"][:-1]
+    with pytest.raises(MapCorruptError):
+        MapState.from_arrays(broken, meta)
+    missing = {k: v for k, v in arrays.items() if k != "node_ids"}
+    with pytest.raises(MapCorruptError):
+        MapState.from_arrays(missing, meta)
+    with pytest.raises(MapCorruptError):
+        MapState.from_arrays(arrays, {k: v for k, v in meta.items() if k != "config"})
+    with pytest.raises(MapCorruptError, match="newer"):
+        MapState.from_arrays(arrays, {**meta, "state_version": 99})
