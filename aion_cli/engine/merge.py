@@ -11,10 +11,14 @@ first = min, last = max); ``windows_observed`` of the two maps add. Finally the 
 redirects to nodes alive in the later graph are kept, moving any later cell at such a key into
 the node.
 
-Approximated: the prequential order errors add (each map scored its own observations with its
-own history, not with the other map's), and a node's stability timer keeps the earlier start
-only when the later map's reference position is within ``stable_move_tolerance`` of the earlier
-one. Maps whose times overlap merge without error but double-count shared windows in FreMEn.
+Approximated: (1) a map built from one log alone cannot know the observed-but-empty windows of
+entries that only the other log created (a single pass would record real zeros for them), nor
+windows in which one map's cells were still unbound while the other's node owned them — so the
+merge equals a single pass exactly only when both logs touch the same places from their first
+window on; (2) the prequential order errors add (each map scored its observations against its
+own history); (3) a node's stability timer keeps the earlier start only when the later map's
+reference position is within ``stable_move_tolerance`` of the earlier one. Maps whose times
+overlap merge without error but count shared windows twice in FreMEn.
 """
 
 from __future__ import annotations
