@@ -33,15 +33,18 @@ def tz_option(func: F) -> F:
     )(func)
 
 
-def resolve_time(text: str, tz: str | None, *, quiet: bool = False) -> tuple[int, Zone]:
-    """Parse ``text`` in zone ``tz``; say on stderr which time and zone were used."""
+def resolve_time(text: str, tz: str | None) -> tuple[int, Zone]:
+    """Parse ``text`` in zone ``tz`` (see :mod:`aion_cli.cli.timeparse`)."""
     zone = resolve_zone(tz)
-    t_ns = parse_time(text, zone)
-    if not quiet:
-        from aion_cli.cli.console import note
+    return parse_time(text, zone), zone
 
-        note(f"time: {format_ns(t_ns, zone)} ({zone.name})")
-    return t_ns, zone
+
+def announce_time(t_ns: int, zone: Zone, label: str = "time") -> None:
+    """Say on stderr which time and zone were used (after the command succeeded, so an error
+    stays the only output of a failed command)."""
+    from aion_cli.cli.console import note
+
+    note(f"{label}: {format_ns(t_ns, zone)} ({zone.name})")
 
 
 def load(map_path: Path) -> Any:

@@ -7,7 +7,13 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import TIME_HELP, map_argument, resolve_time, tz_option
+from aion_cli.cli.common import (
+    TIME_HELP,
+    announce_time,
+    map_argument,
+    resolve_time,
+    tz_option,
+)
 
 EPILOG = """\b
 Examples:
@@ -93,7 +99,9 @@ def command(
     elif t_from is not None and t_to is not None:
         times = _series(t_from, t_to, step, tz)
     else:
-        times = [resolve_time(time_text or "now", tz)[0]]
+        t_ns, zone = resolve_time(time_text or "now", tz)
+        announce_time(t_ns, zone)
+        times = [t_ns]
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     for t_ns in times:
@@ -105,14 +113,15 @@ def command(
 def _series(t_from: str, t_to: str, step: str, tz: str | None) -> list[int | None]:
     from aion_cli.engine.errors import InputError
 
-    start, _ = resolve_time(t_from, tz)
-    end, _ = resolve_time(t_to, tz, quiet=True)
+    start, zone = resolve_time(t_from, tz)
+    end, _ = resolve_time(t_to, tz)
     step_ns = int(_step_seconds(step) * 1e9)
     if end < start:
         raise InputError("--to is before --from")
     count = (end - start) // step_ns + 1
     if count > 1000:
         raise InputError(f"the series would have {count} frames", hint="use a larger --step")
+    announce_time(start, zone, f"series of {count} from")
     return [start + k * step_ns for k in range(int(count))]
 
 

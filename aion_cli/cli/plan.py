@@ -7,7 +7,13 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import TIME_HELP, map_argument, resolve_time, tz_option
+from aion_cli.cli.common import (
+    TIME_HELP,
+    announce_time,
+    map_argument,
+    resolve_time,
+    tz_option,
+)
 from aion_cli.cli.output import format_option, to_json
 
 EPILOG = """\b
@@ -120,6 +126,7 @@ def command(
 
         export_plan_scene(loaded, t_ns, nav, temporal.path, export_path)
         report["export"] = str(export_path)
+    announce_time(t_ns, zone, "departure")
     if fmt == "json":
         click.echo(to_json(report))
     else:

@@ -8,7 +8,13 @@ from typing import Any, Literal
 
 import click
 
-from aion_cli.cli.common import TIME_HELP, map_argument, resolve_time, tz_option
+from aion_cli.cli.common import (
+    TIME_HELP,
+    announce_time,
+    map_argument,
+    resolve_time,
+    tz_option,
+)
 from aion_cli.cli.entries import COLUMNS, CSV_KEYS, rows_from_table, sort_rows
 from aion_cli.cli.output import emit, format_option
 
@@ -86,6 +92,8 @@ def command(
         ],
         "entries": rows,
     }
+    if t_ns is not None and zone is not None:
+        announce_time(t_ns, zone)
     title = "historical flows" if t_ns is None or zone is None else (
         f"predicted flows at {format_ns(t_ns, zone)}"
     )
