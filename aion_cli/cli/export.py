@@ -99,9 +99,9 @@ def command(
     elif t_from is not None and t_to is not None:
         times = _series(t_from, t_to, step, tz)
     else:
-        t_ns, zone = resolve_time(time_text or "now", tz)
-        announce_time(t_ns, zone)
-        times = [t_ns]
+        when, zone = resolve_time(time_text or "now", tz)
+        announce_time(when, zone)
+        times = [when]
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     for t_ns in times:
