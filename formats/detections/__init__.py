@@ -11,6 +11,7 @@ engine's :class:`~aion_cli.engine.types.DetectionBatch`.
 from formats.detections.adapter import DetectionAdapter
 from formats.detections.builtin import AdapterOptions
 from formats.detections.frame import FrameDetections, hash_id
+from formats.detections.heading import HeadingEstimator
 from formats.detections.registry import FAST_TYPES, SUPPORTED_TYPES, adapter_for
 
 __all__ = [
@@ -19,6 +20,7 @@ __all__ = [
     "AdapterOptions",
     "DetectionAdapter",
     "FrameDetections",
+    "HeadingEstimator",
     "adapter_for",
     "hash_id",
 ]

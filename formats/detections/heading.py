@@ -1,0 +1,154 @@
+"""Walking direction (heading) and speed of each detection, in the map frame.
+
+The rule (DESIGN.md §4 "Direction bins"), per detection, first that applies:
+
+1. **Velocity.** The message carries a velocity whose horizontal part is finite and non-zero:
+   ``heading = atan2(vy, vx)``, ``speed = hypot(vx, vy)``.
+2. **Differencing the track.** The detection has a track id (>= 0) seen before, at most
+   ``max_gap_s`` earlier, in this call or an earlier one: with ``d`` the horizontal displacement
+   from the track's reference point and ``dt`` the time since it, ``speed = |d| / dt``; if
+   ``|d| >= min_displacement`` then ``heading = atan2(dy, dx)`` and the detection becomes the
+   new reference point, else the track's previous heading is kept (NaN if it has none) and the
+   reference stays, so slow walkers accumulate displacement instead of producing noise.
+3. **Pose yaw.** Otherwise the yaw of the pose orientation (NaN if the message has none); speed
+   is NaN.
+
+A track's reference resets when it has not been seen for ``max_gap_s`` (ids get reused).
+Everything is in the MAP frame: the caller rotates positions, velocity vectors and yaws with TF
+before calling (a heading in a moving robot frame means nothing). Speeds are horizontal (m/s),
+headings in radians in (-π, π].
+
+State between calls is a struct of arrays sorted by track id (id, reference time and position,
+last heading), looked up with ``np.searchsorted``. Within one call the rows of each track are
+processed in time order, one round per occurrence index, vectorized over all tracks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import ConfigError
+from aion_cli.engine.types import DetectionBatch
+from formats.detections.frame import F64, I64, FrameDetections
+
+
+class HeadingEstimator:
+    """Stateful heading/speed estimation over successive calls (see the module docstring)."""
+
+    def __init__(self, min_displacement: float = 0.05, max_gap_s: float = 5.0) -> None:
+        if not min_displacement >= 0.0 or not max_gap_s > 0.0:
+            raise ConfigError(
+                f"heading estimation needs min_displacement >= 0 and max_gap_s > 0, got "
+                f"{min_displacement} and {max_gap_s}"
+            )
+        self.min_displacement = float(min_displacement)
+        self.max_gap_ns = int(max_gap_s * 1e9)
+        self.ids: I64 = np.zeros(0, np.int64)
+        self.ref_t: I64 = np.zeros(0, np.int64)
+        self.ref_xy: F64 = np.zeros((0, 2))
+        self.heading: F64 = np.zeros(0)
+
+    def __len__(self) -> int:
+        """Number of tracks remembered."""
+        return len(self.ids)
+
+    def to_batch(self, det: FrameDetections) -> DetectionBatch:
+        """The engine batch of detections already transformed into the map frame."""
+        return self.estimate(det.t_ns, det.xyz, det.velocity, det.yaw, det.track_id)
+
+    def estimate(
+        self,
+        t_ns: npt.ArrayLike,
+        xyz: npt.ArrayLike,
+        velocity: npt.ArrayLike | None = None,
+        yaw: npt.ArrayLike | None = None,
+        track_id: npt.ArrayLike | None = None,
+    ) -> DetectionBatch:
+        """Headings and speeds for map-frame arrays; rows keep their order."""
+        t = np.asarray(t_ns, np.int64).reshape(-1)
+        n = len(t)
+        p = np.asarray(xyz, np.float64).reshape(n, 3)
+        v = np.full((n, 3), np.nan) if velocity is None else np.asarray(velocity, np.float64)
+        v = v.reshape(n, 3)
+        y = np.full(n, np.nan) if yaw is None else np.asarray(yaw, np.float64).reshape(n)
+        k = np.full(n, -1, np.int64) if track_id is None else np.asarray(track_id, np.int64)
+        k = k.reshape(n)
+
+        vxy = v[:, :2]
+        vspeed = np.hypot(vxy[:, 0], vxy[:, 1])
+        has_vel = np.isfinite(vspeed) & (vspeed > 0.0)
+        heading = np.where(has_vel, np.arctan2(vxy[:, 1], vxy[:, 0]), np.nan)
+        speed = np.where(has_vel, vspeed, np.nan)
+
+        tracked = np.flatnonzero(k >= 0)
+        if len(tracked):
+            self._difference(tracked, t, p[:, :2], k, has_vel, heading, speed)
+        heading = np.where(np.isnan(heading), y, heading)
+        return DetectionBatch(t, np.ascontiguousarray(p), heading, speed, k)
+
+    # --- internals -------------------------------------------------------------------------------
+    def _slots(self, ids: I64) -> I64:
+        """Slots of ``ids`` in the state arrays, adding unseen ids (kept sorted)."""
+        new = np.setdiff1d(ids, self.ids)
+        if len(new):
+            merged = np.union1d(self.ids, new)
+            old = np.searchsorted(merged, self.ids)
+            ref_t = np.full(len(merged), np.iinfo(np.int64).min)
+            ref_xy = np.full((len(merged), 2), np.nan)
+            head = np.full(len(merged), np.nan)
+            ref_t[old], ref_xy[old], head[old] = self.ref_t, self.ref_xy, self.heading
+            self.ids, self.ref_t, self.ref_xy, self.heading = merged, ref_t, ref_xy, head
+        return np.searchsorted(self.ids, ids)
+
+    def _difference(
+        self,
+        rows: I64,
+        t: I64,
+        xy: F64,
+        k: I64,
+        has_vel: npt.NDArray[np.bool_],
+        heading: F64,
+        speed: F64,
+    ) -> None:
+        """Rule 2 for the tracked ``rows`` (updates ``heading``/``speed`` in place)."""
+        slot = self._slots(k[rows])
+        order = np.lexsort((t[rows], slot))
+        rows, slot = rows[order], slot[order]
+        start = np.r_[True, slot[1:] != slot[:-1]]
+        group_start = np.maximum.accumulate(np.where(start, np.arange(len(rows)), 0))
+        rank = np.arange(len(rows)) - group_start
+        for r in range(int(rank.max()) + 1):
+            sel = rank == r
+            self._round(rows[sel], slot[sel], t, xy, has_vel, heading, speed)
+
+    def _round(
+        self,
+        rows: I64,
+        slot: I64,
+        t: I64,
+        xy: F64,
+        has_vel: npt.NDArray[np.bool_],
+        heading: F64,
+        speed: F64,
+    ) -> None:
+        """One detection per track (distinct slots): difference against the reference."""
+        ref_t = self.ref_t[slot]
+        dt = t[rows] - ref_t
+        known = ref_t != np.iinfo(np.int64).min
+        fresh = known & (dt > 0) & (dt <= self.max_gap_ns)
+        stale = ~fresh & ~(known & (dt == 0))
+        d = xy[rows] - self.ref_xy[slot]
+        dist = np.hypot(d[:, 0], d[:, 1])
+        moved = fresh & (dist >= self.min_displacement)
+        prev = np.where(stale, np.nan, self.heading[slot])
+        diff_heading = np.where(moved, np.arctan2(d[:, 1], d[:, 0]), prev)
+        vel = has_vel[rows]
+        use = ~vel & fresh
+        heading[rows[use]] = diff_heading[use]
+        speed[rows[use]] = dist[use] / (dt[use] * 1e-9)
+        # State: velocity headings and new differenced headings become "previous".
+        self.heading[slot] = np.where(vel, heading[rows], diff_heading)
+        reset = stale | moved
+        self.ref_t[slot] = np.where(reset, t[rows], ref_t)
+        self.ref_xy[slot] = np.where(reset[:, None], xy[rows], self.ref_xy[slot])
