@@ -300,3 +300,37 @@ def test_astar_equals_dijkstra_on_static_costs(n: int, seed: int, density: float
         assert evaluate_path_cost(g, res.path, 0.0, 1.0, fn, CFG) == pytest.approx(res.cost)
         assert res.path[0] == 0
         assert res.path[-1] == n - 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(min_value=2, max_value=20),
+    seed=st.integers(min_value=0, max_value=2**31 - 1),
+    bucket=st.floats(min_value=0.3, max_value=5.0),
+)
+def test_time_dependent_plan_cost_matches_its_path_evaluation(
+    n: int, seed: int, bucket: float
+) -> None:
+    """With costs changing every ``bucket`` seconds the search mixes buckets along arcs; the
+    cost it reports must be what evaluate_path_cost charges for the same path, and never
+    less than the path's length."""
+    rng = np.random.default_rng(seed)
+    xyz = rng.uniform(-5, 5, size=(n, 3))
+    pairs = np.array([(i, j) for i in range(n) for j in range(i + 1, n)])
+    edges = pairs[rng.random(len(pairs)) < 0.4]
+    g = NavGraph.build(np.arange(n, dtype=np.uint64) + P, xyz, edges.reshape(-1, 2))
+
+    def fn(t_s: float) -> NodeCosts:
+        r = np.random.default_rng(round(t_s * 1000) % 2**31)
+        return NodeCosts(r.random(n), r.random(n) * 20, r.uniform(-4, 4, n), r.random(n))
+
+    try:
+        res = plan(g, pid(0), pid(n - 1), 3.7, 1.3, fn, CFG, time_bucket_s=bucket)
+    except NoPathError:
+        return
+    again = evaluate_path_cost(g, res.path, 3.7, 1.3, fn, CFG, time_bucket_s=bucket)
+    assert again == pytest.approx(res.cost, rel=1e-9)
+    assert res.cost >= res.length_m - 1e-9
+    np.testing.assert_allclose(
+        np.diff(res.arrival_s) * 1.3, np.linalg.norm(np.diff(xyz[res.path], axis=0), axis=1)
+    )
