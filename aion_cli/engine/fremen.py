@@ -33,6 +33,8 @@ times are float64 seconds from a recent epoch (float32 UNIX seconds break short 
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -55,8 +57,11 @@ EPOCH_NS: int = 1_578_268_800 * 1_000_000_000
 PRIOR: float = 0.5
 """Prediction for a row that has never been observed (FreMEn's initial gain: no knowledge)."""
 
-_CHUNK_CELLS = 1 << 16
-"""Target size (row × window × period cells) of one chunk of the prequential evaluation."""
+_ROW_CHUNK = 1024
+"""Rows per chunk of the prequential replay: a few (rows × K) float64 arrays stay in cache."""
+
+_WORKERS = max(1, min(4, os.cpu_count() or 1))
+"""Threads for the prequential replay of row chunks."""
 
 _STATE_FIELDS = ("n", "sum_s", "sum_se", "sum_e", "t_first", "t_last", "order_err", "order_n")
 
@@ -65,15 +70,6 @@ def to_model_seconds(t_ns: npt.ArrayLike) -> F64:
     """UNIX nanoseconds -> float64 seconds since :data:`EPOCH_NS` (exact integer subtraction)."""
     t = np.asarray(t_ns, dtype=np.int64)
     return (t - np.int64(EPOCH_NS)).astype(np.float64) / 1e9
-
-
-def _exclusive_cumsum(x: F64) -> F64:
-    """Sum of the strictly earlier entries along axis 1 (the state *before* each window)."""
-    out = np.empty_like(x)
-    out[:, 0] = 0.0
-    if x.shape[1] > 1:
-        np.cumsum(x[:, :-1], axis=1, out=out[:, 1:])
-    return out
 
 
 @dataclass
@@ -320,12 +316,9 @@ class FremenModel:
         vz = np.where(obs, v, 0.0)
         if not np.all(np.isfinite(vz)):
             raise ValueError("observed values must be finite")
-        step = max(1, _CHUNK_CELLS // self.n_periods)  # long calls: blocks of windows in order
-        for a in range(0, t.size, step):
-            b = min(a + step, t.size)
-            cos_t, sin_t = self.basis(t[a:b])
-            self._score_orders(state, r, t[a:b], vz[:, a:b], obs[:, a:b], cos_t, sin_t)
-            self._absorb(state, r, t[a:b], vz[:, a:b], obs[:, a:b], cos_t, sin_t)
+        cos_t, sin_t = self.basis(t)
+        self._score_orders(state, r, t, vz, obs, cos_t, sin_t)
+        self._absorb(state, r, t, vz, obs, cos_t, sin_t)
 
     def _absorb(
         self, state: FremenState, r: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
@@ -351,85 +344,111 @@ class FremenModel:
     ) -> None:
         """Prequential errors: predict every observation with orders 0..M before absorbing it.
 
-        Row chunks of (rows × W × K) cells; the state before window w is the stored state plus
-        an exclusive cumulative sum over windows < w.
+        Rows are split into chunks small enough for the CPU cache; each chunk replays the
+        windows in time order on a private copy of its accumulators (vectorized over rows and
+        periods) and only writes its rows' ``order_err`` / ``order_n``. Chunks run on a small
+        thread pool (numpy releases the GIL inside its loops).
         """
-        w_count = t.size
-        m_max = self.max_order
-        m_eff = min(m_max, self.n_periods)  # orders above K use every period
-        chunk = max(1, _CHUNK_CELLS // (w_count * self.n_periods))
-        t_obs_all = np.where(obs, t[None, :], np.nan)
-        for start in range(0, rows.size, chunk):
-            sl = slice(start, start + chunk)
-            rr = rows[sl]
-            v = vz[sl]
-            ob = obs[sl]
-            of = ob.astype(np.float64)
-            n_pre = state.n[rr, None] + _exclusive_cumsum(of)
-            has = n_pre > 0
-            n_safe = np.where(has, n_pre, 1.0)
-            mu = (state.sum_s[rr, None] + _exclusive_cumsum(v)) / n_safe
-            scored = ob & has
-            err = np.empty((rr.size, m_max + 1))
-            p = mu
-            err[:, 0] = np.where(scored, np.abs(v - np.clip(p, 0.0, 1.0)), 0.0).sum(axis=1)
-            if m_eff > 0:
-                gr, gi = self._prefix_spectrum(
-                    state, rr, t_obs_all[sl], v, of, mu, n_safe, has, cos_t, sin_t
-                )
-                a2 = gr * gr + gi * gi
-                contrib = 2.0 * (gr * cos_t[None] + gi * sin_t[None])
-                for m in range(1, m_eff + 1):
-                    top = np.argmax(a2, axis=2)[..., None]
-                    p = p + np.take_along_axis(contrib, top, axis=2)[..., 0]
-                    np.put_along_axis(a2, top, -1.0, axis=2)
-                    err[:, m] = np.where(scored, np.abs(v - np.clip(p, 0.0, 1.0)), 0.0).sum(axis=1)
-            err[:, m_eff + 1 :] = err[:, m_eff : m_eff + 1]
-            state.order_err[rr] += err
-            state.order_n[rr] += scored.sum(axis=1)
+        chunks = [slice(a, min(a + _ROW_CHUNK, rows.size)) for a in range(0, rows.size, _ROW_CHUNK)]
 
-    def _prefix_spectrum(
-        self,
-        state: FremenState,
-        rr: I64,
-        t_obs: F64,
-        v: F64,
-        of: F64,
-        mu: F64,
-        n_safe: F64,
-        has: BoolA,
-        cos_t: F64,
-        sin_t: F64,
-    ) -> tuple[F64, F64]:
-        """γ (real, imaginary) of each row before each window, gated, as float64[c, W, K]."""
-        first = np.fmin.accumulate(t_obs, axis=1)
-        last = np.fmax.accumulate(t_obs, axis=1)
-        first_pre = np.empty_like(first)
-        last_pre = np.empty_like(last)
-        first_pre[:, 0] = np.nan
-        last_pre[:, 0] = np.nan
-        first_pre[:, 1:] = first[:, :-1]
-        last_pre[:, 1:] = last[:, :-1]
-        first_pre = np.fmin(first_pre, state.t_first[rr, None])
-        last_pre = np.fmax(last_pre, state.t_last[rr, None])
-        with np.errstate(invalid="ignore"):
-            gate = (last_pre - first_pre)[..., None] >= self.min_span
-        gate &= has[..., None]
-        se = state.sum_se[rr]
-        e = state.sum_e[rr]
-        sr = _exclusive_cumsum(v[..., None] * cos_t[None])
-        sr += se.real[:, None, :]
-        si = _exclusive_cumsum(v[..., None] * sin_t[None])
-        si += se.imag[:, None, :]
-        er = _exclusive_cumsum(of[..., None] * cos_t[None])
-        er += e.real[:, None, :]
-        ei = _exclusive_cumsum(of[..., None] * sin_t[None])
-        ei += e.imag[:, None, :]
-        mu3 = mu[..., None]
-        inv_n = (1.0 / n_safe)[..., None]
-        gr = np.where(gate, (sr - mu3 * er) * inv_n, 0.0)
-        gi = np.where(gate, (si - mu3 * ei) * inv_n, 0.0)
-        return gr, gi
+        def run(sl: slice) -> None:
+            self._score_chunk(state, rows[sl], t, vz[sl], obs[sl], cos_t, sin_t)
+
+        if len(chunks) > 1 and _WORKERS > 1:
+            with ThreadPoolExecutor(max_workers=_WORKERS) as pool:
+                list(pool.map(run, chunks))
+        else:
+            for sl in chunks:
+                run(sl)
+
+    def _score_chunk(
+        self, state: FremenState, rr: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
+    ) -> None:
+        """The prequential replay for one chunk of rows (see :meth:`_score_orders`).
+
+        Ranking uses |S − μ·Σe|² = n²|γ|² (same order as |γ|); components the span gate
+        rejects are marked −1 and contribute nothing even when fewer than m are admitted.
+        """
+        c, k = rr.size, self.n_periods
+        m_all = self.max_order
+        m_eff = min(m_all, k)  # orders above K use every period
+        n = state.n[rr].copy()
+        ss = state.sum_s[rr].copy()
+        first = state.t_first[rr].copy()
+        last = state.t_last[rr].copy()
+        sr = np.ascontiguousarray(state.sum_se[rr].real)
+        si = np.ascontiguousarray(state.sum_se[rr].imag)
+        er = np.ascontiguousarray(state.sum_e[rr].real)
+        ei = np.ascontiguousarray(state.sum_e[rr].imag)
+        err = np.zeros((c, m_all + 1))
+        scored_n = np.zeros(c)
+        xr, xi, a2, tmp = (np.empty((c, k)) for _ in range(4))
+        min_span = self.min_span[None, :]
+        max_span = float(self.min_span.max())
+        for w in range(t.size):
+            ob = obs[:, w]
+            seen = np.flatnonzero(ob)
+            if seen.size == 0:
+                continue
+            s_seen = vz[seen, w]
+            sc = seen[n[seen] > 0]
+            if sc.size:
+                q = sc.size
+                if q == c:
+                    g_sr, g_si, g_er, g_ei = sr, si, er, ei
+                else:
+                    g_sr, g_si, g_er, g_ei = sr[sc], si[sc], er[sc], ei[sc]
+                bx, by, ba, bt = xr[:q], xi[:q], a2[:q], tmp[:q]
+                nn = n[sc]
+                mu = ss[sc] / nn
+                np.multiply(g_er, mu[:, None], out=bx)
+                np.subtract(g_sr, bx, out=bx)
+                np.multiply(g_ei, mu[:, None], out=by)
+                np.subtract(g_si, by, out=by)
+                np.multiply(bx, bx, out=ba)
+                np.multiply(by, by, out=bt)
+                ba += bt
+                span = last[sc] - first[sc]
+                if span.min() < max_span:  # some period not yet admitted for some row
+                    np.putmask(ba, min_span > span[:, None], -1.0)
+                s = vz[sc, w]
+                p = mu.copy()
+                e_row = err[sc]
+                e_row[:, 0] += np.abs(s - np.clip(p, 0.0, 1.0))
+                if m_eff:
+                    ar = np.arange(q)
+                    scale = 2.0 / nn
+                    cw, sw = cos_t[w], sin_t[w]
+                    for m in range(1, m_eff + 1):
+                        j = np.argmax(ba, axis=1)
+                        admitted = ba[ar, j] >= 0.0
+                        contrib = (bx[ar, j] * cw[j] + by[ar, j] * sw[j]) * scale
+                        p += np.where(admitted, contrib, 0.0)
+                        ba[ar, j] = -2.0
+                        e_row[:, m] += np.abs(s - np.clip(p, 0.0, 1.0))
+                    e_row[:, m_eff + 1 :] += (
+                        e_row[:, m_eff : m_eff + 1] - err[sc, m_eff : m_eff + 1]
+                    )
+                err[sc] = e_row
+                scored_n[sc] += 1.0
+            # absorb window w into the chunk's private accumulators
+            cw, sw = cos_t[w], sin_t[w]
+            if seen.size == c:
+                sr += np.multiply.outer(s_seen, cw)
+                si += np.multiply.outer(s_seen, sw)
+                er += cw
+                ei += sw
+            else:
+                sr[seen] += np.multiply.outer(s_seen, cw)
+                si[seen] += np.multiply.outer(s_seen, sw)
+                er[seen] += cw
+                ei[seen] += sw
+            n[seen] += 1.0
+            ss[seen] += s_seen
+            first[seen] = np.fmin(first[seen], t[w])
+            last[seen] = np.fmax(last[seen], t[w])
+        state.order_err[rr] += err
+        state.order_n[rr] += scored_n
 
     # -- reading --------------------------------------------------------------------------------
     def _rows(self, state: FremenState, rows: npt.ArrayLike | None) -> I64:
