@@ -80,19 +80,25 @@ def detection_times(track: int) -> list[int]:
     ]
 
 
-def build_graph() -> Any:
-    """The spark_dsg graph of the office."""
+def build_graph(
+    places: dict[int, tuple[float, float, float]] | None = None,
+    edges: list[tuple[int, int]] | None = None,
+    rooms: dict[int, tuple[int, ...]] | None = None,
+) -> Any:
+    """The spark_dsg graph of the office (or of the given places, edges and rooms)."""
     import spark_dsg
 
+    if places is None:
+        places, edges, rooms = PLACES, EDGES, ROOMS
     G = spark_dsg.DynamicSceneGraph()
-    for i, xyz in PLACES.items():
+    for i, xyz in places.items():
         attrs = spark_dsg.PlaceNodeAttributes()
         attrs.position = np.array(xyz)
         attrs.real_place = True
         G.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", i), attrs)
-    for r, members in ROOMS.items():
+    for r, members in (rooms or {}).items():
         room = spark_dsg.RoomNodeAttributes()
-        room.position = np.mean([PLACES[m] for m in members], axis=0)
+        room.position = np.mean([places[m] for m in members], axis=0)
         room.name = f"room{r}"
         G.add_node(spark_dsg.DsgLayers.ROOMS, spark_dsg.NodeSymbol("R", r), room)
         for m in members:
@@ -100,16 +106,20 @@ def build_graph() -> Any:
     building = spark_dsg.SemanticNodeAttributes()
     building.position = np.array([10.0, 0.0, 3.0])
     G.add_node(spark_dsg.DsgLayers.BUILDINGS, spark_dsg.NodeSymbol("B", 0), building)
-    for r in ROOMS:
+    for r in rooms or {}:
         G.insert_edge(spark_dsg.NodeSymbol("R", r), spark_dsg.NodeSymbol("B", 0))
-    for a, b in EDGES:
+    for a, b in edges or []:
         G.insert_edge(spark_dsg.NodeSymbol("p", a), spark_dsg.NodeSymbol("p", b))
     return G
 
 
-def save_graph_file(path: Path) -> Path:
-    """The office graph as a Hydra ``dsg.json`` file."""
-    build_graph().save(str(path), include_mesh=False)
+def save_graph_file(
+    path: Path,
+    places: dict[int, tuple[float, float, float]] | None = None,
+    edges: list[tuple[int, int]] | None = None,
+) -> Path:
+    """The office graph (or the given places and edges) as a Hydra ``dsg.json`` file."""
+    build_graph(places, edges).save(str(path), include_mesh=False)
     return path
 
 

@@ -1,0 +1,102 @@
+"""``aion plan``: paths, costs, snapping and failures on the office map."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
+from tests.cli.logdata import save_graph_file, write_office_log
+
+AT = "2026-11-23 08:30"
+
+
+def test_path_length_and_costs(office: Office) -> None:
+    doc = run_json("plan", office.map, "--from", "p0", "--to", "p3", "--time", AT,
+                   "--format", "json")
+    temporal, shortest = doc["temporal"], doc["distance_only"]
+    assert shortest["path"] == ["p0", "p1", "p2", "p3"]
+    assert shortest["length_m"] == pytest.approx(6.0)
+    assert temporal["path"] == shortest["path"]  # the only way
+    assert temporal["length_m"] == pytest.approx(6.0)
+    assert shortest["duration_s"] == pytest.approx(6.0 / doc["speed_mps"])
+    # people stand at p1 and p3: walking through them costs more than the distance
+    assert temporal["cost"] > temporal["length_m"]
+    assert temporal["cost"] == pytest.approx(shortest["cost"])
+    assert doc["depart"] == "2026-11-23 08:30:00+00:00"
+    assert len(temporal["arrival"]) == 4
+    assert temporal["arrival"][0] == doc["depart"]
+
+
+def test_coordinates_snap_to_the_nearest_node_and_speed(office: Office) -> None:
+    doc = run_json("plan", office.map, "--from", "0.2,-0.1", "--to", "3.9,1.7", "--time", AT,
+                   "--speed", "0.5", "--format", "json")
+    assert doc["from"] == "p0"
+    assert doc["to"] == "p4"
+    assert doc["distance_only"]["path"] == ["p0", "p1", "p2", "p4"]
+    assert doc["distance_only"]["duration_s"] == pytest.approx(6.0 / 0.5)
+    assert [s["node"] for s in doc["snapped"]] == ["p0", "p4"]
+
+
+def test_temporal_path_avoids_the_crowd(tmp_path: Path) -> None:
+    """A square A-B-C / A-D-C: B (on the short way) is where a person stands."""
+    log = tmp_path / "square.mcap"
+    write_office_log(log, graph=False)
+    places = {0: (0.0, 0.0, 0.0), 1: (2.0, 0.0, 0.0), 2: (4.0, 0.0, 0.0), 3: (2.0, -2.0, 0.0)}
+    graph = save_graph_file(tmp_path / "square.json", places, [(0, 1), (1, 2), (0, 3), (3, 2)])
+    out = tmp_path / "square.aion"
+    run_json("build", log, "--graph", graph, "-o", out, "--format", "json")
+    doc = run_json("plan", out, "--from", "p0", "--to", "p2", "--time", AT, "--format", "json")
+    assert doc["distance_only"]["path"] == ["p0", "p1", "p2"]
+    assert doc["distance_only"]["length_m"] == pytest.approx(4.0)
+    assert doc["temporal"]["path"] == ["p0", "p3", "p2"]
+    assert doc["temporal"]["length_m"] == pytest.approx(2 * 8**0.5)
+    assert doc["temporal"]["cost"] < doc["distance_only"]["cost"]
+    table = run("plan", out, "--from", "p0", "--to", "p2", "--time", AT)
+    assert table.exit_code == 0, table.stderr
+    assert "p0 > p3 > p2" in table.stdout
+    assert "p0 > p1 > p2" in table.stdout
+
+
+def test_no_path_names_the_disconnected_parts(office: Office) -> None:
+    result = run("plan", office.map, "--from", "p0", "--to", "p6", "--time", AT)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no path", "p0", "p6", "component")
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--from", "p42", "--to", "p1"], "p42"),
+        (["--from", "lobby", "--to", "p1"], "lobby"),
+        (["--from", "p0", "--to", "p1", "--time", "yesterday-ish"], "yesterday-ish"),
+        (["--from", "p0", "--to", "p1", "--speed", "-1"], "--speed"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(office: Office, args: list[str], fragment: str) -> None:
+    result = run("plan", office.map, *args)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, fragment)
+
+
+def test_plan_on_a_map_without_graph(tmp_path: Path) -> None:
+    log = tmp_path / "cells.mcap"
+    write_office_log(log, graph=False, tf=False)
+    out = tmp_path / "cells.aion"
+    run_json("build", log, "-o", out, "--format", "json")
+    result = run("plan", out, "--from", "p0", "--to", "p1")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no navigational graph")
+
+
+def test_subprocess_plan_with_export(office: Office, tmp_path: Path) -> None:
+    ply = tmp_path / "route.ply"
+    proc = run_process("plan", office.map, "--from", "p0", "--to", "p4", "--time", AT,
+                       "--export", ply, "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads(proc.stdout)
+    assert doc["temporal"]["path"] == ["p0", "p1", "p2", "p4"]
+    assert ply.read_bytes().startswith(b"ply\n")
+    assert b"element vertex" in ply.read_bytes()[:400]
