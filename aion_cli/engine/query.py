@@ -116,10 +116,12 @@ def aggregate_table(
     ids, sums = aggregate(parent, np.nan_to_num(stacked))
     rate, flow = sums[:, :b], sums[:, b]
     speed_sum, speed_n = sums[:, b + 1 : 2 * b + 1], sums[:, 2 * b + 1 :]
-    at = np.searchsorted(target.ids, ids) if len(target) else np.zeros(len(ids), np.int64)
-    at_c = np.minimum(at, max(len(target) - 1, 0))
-    known = (target.ids[at_c] == ids) if len(target) else np.zeros(len(ids), bool)
-    xyz = np.where(known[:, None], target.xyz[at_c] if len(target) else 0.0, np.nan)
+    xyz = np.full((len(ids), 3), np.nan)
+    if len(target):  # graph layers need not be sorted by id
+        order = np.argsort(target.ids)
+        at = order[np.minimum(np.searchsorted(target.ids[order], ids), len(target) - 1)]
+        known = target.ids[at] == ids
+        xyz[known] = target.xyz[at[known]]
     kind = ROOM if level == "rooms" else BUILDING
     desc = _descriptors(rate, flow, speed_sum, speed_n, table.window_s)
     return EntryTable(
