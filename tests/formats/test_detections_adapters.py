@@ -1,0 +1,278 @@
+"""Every built-in adapter on hand-made messages with known answers, in both ROS versions:
+positions, velocities, yaws, track ids, stamps (with the log-time fallback), frames, filters."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+from formats.detections import SUPPORTED_TYPES, AdapterOptions, adapter_for, hash_id
+from formats.raw import RawMessage
+from tests.formats.test_detections_support import header, pose, raw
+
+S = 1_000_000_000
+Q90 = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))
+ROS = pytest.mark.parametrize("ros", [1, 2])
+
+
+def decode(msgtype: str, msg: dict[str, Any], ros: int, log_time: int = 999, **opts: Any) -> Any:
+    adapter = adapter_for(msgtype, options=AdapterOptions(**opts) if opts else None)
+    assert adapter is not None
+    return adapter.decode([raw(msgtype, msg, ros, log_time_ns=log_time)])
+
+
+def test_supported_types_all_have_adapters() -> None:
+    assert set(SUPPORTED_TYPES) == {
+        "spencer_tracking_msgs/msg/TrackedPersons", "spencer_tracking_msgs/msg/DetectedPersons",
+        "people_msgs/msg/People", "people_msgs/msg/PositionMeasurementArray",
+        "leg_tracker/msg/PersonArray", "vision_msgs/msg/Detection3DArray",
+        "geometry_msgs/msg/PoseArray", "geometry_msgs/msg/PoseStamped",
+        "visualization_msgs/msg/MarkerArray", "pedsim_msgs/msg/AgentStates",
+        "zed_interfaces/msg/ObjectsStamped", "zed_msgs/msg/ObjectsStamped",
+        "nav2_dynamic_msgs/msg/ObstacleArray",
+    }
+    for name in SUPPORTED_TYPES:
+        adapter = adapter_for(name)
+        assert adapter is not None
+        assert adapter.msgtype == name
+    assert adapter_for("spencer_tracking_msgs/TrackedPersons") is not None  # ROS 1 spelling
+    assert adapter_for("sensor_msgs/msg/LaserScan") is None
+    assert adapter_for("geometry_msgs/msg/PoseArray").fast is not None  # type: ignore[union-attr]
+    assert adapter_for("leg_tracker/msg/PersonArray").fast is None  # type: ignore[union-attr]
+
+
+def test_empty_list_gives_no_rows() -> None:
+    adapter = adapter_for("people_msgs/msg/People")
+    assert adapter is not None
+    assert len(adapter.decode([])) == 0
+
+
+@ROS
+def test_pose_stamped(ros: int) -> None:
+    d = decode(
+        "geometry_msgs/msg/PoseStamped",
+        {"header": header(3, 5, "/map"), "pose": pose(1, 2, 3, Q90)},
+        ros,
+    )
+    np.testing.assert_array_equal(d.xyz, [[1, 2, 3]])
+    assert d.yaw[0] == pytest.approx(math.pi / 2)
+    assert d.frame_names() == ["map"]
+    np.testing.assert_array_equal(d.t_ns, [3 * S + 5])
+    np.testing.assert_array_equal(d.track_id, [-1])
+
+
+@ROS
+def test_detected_persons_yaw_unset_by_covariance(ros: int) -> None:
+    cov = np.zeros(36)
+    cov[35] = 1e6
+    det = [
+        {"detection_id": 5, "pose": {"pose": pose(1, 1, 0, Q90)}},
+        {"detection_id": 6, "pose": {"pose": pose(2, 2, 0, Q90), "covariance": cov}},
+    ]
+    d = decode(
+        "spencer_tracking_msgs/msg/DetectedPersons",
+        {"header": header(1, 0, "odom"), "detections": det},
+        ros,
+    )
+    np.testing.assert_array_equal(d.xyz, [[1, 1, 0], [2, 2, 0]])
+    assert d.yaw[0] == pytest.approx(math.pi / 2)
+    assert np.isnan(d.yaw[1])
+    np.testing.assert_array_equal(d.track_id, [-1, -1])  # detection ids are not tracks
+    assert np.isnan(d.velocity).all()
+
+
+@ROS
+def test_position_measurement_array_item_headers_and_log_time(ros: int) -> None:
+    people = [
+        {"header": header(7, 0, "laser"), "object_id": "leg_3", "pos": {"x": 1.0, "y": 2.0}},
+        {"header": header(0, 0, ""), "object_id": "", "pos": {"x": -1.0, "z": 0.5}},
+    ]
+    d = decode(
+        "people_msgs/msg/PositionMeasurementArray",
+        {"header": header(0, 0, "/odom"), "people": people},
+        ros,
+        log_time=123,
+    )
+    np.testing.assert_array_equal(d.xyz, [[1, 2, 0], [-1, 0, 0.5]])
+    np.testing.assert_array_equal(d.t_ns, [7 * S, 123])
+    assert d.stamp_fallbacks == 1
+    assert d.frame_names() == ["laser", "odom"]
+    np.testing.assert_array_equal(d.track_id, [hash_id("leg_3"), -1])
+
+
+@ROS
+def test_leg_tracker_person_array(ros: int) -> None:
+    people = [{"pose": pose(1, 2, 0, Q90), "id": 17}, {"pose": pose(3, 4, 0, Q90), "id": 0}]
+    d = decode(
+        "leg_tracker/msg/PersonArray", {"header": header(2, 0, "/base_link"), "people": people}, ros
+    )
+    np.testing.assert_array_equal(d.track_id, [17, 0])
+    assert d.frame_names() == ["base_link", "base_link"]
+    np.testing.assert_allclose(d.yaw, [math.pi / 2] * 2)
+
+
+@ROS
+def test_pedsim_agent_states(ros: int) -> None:
+    agents = [
+        {
+            "header": header(0, 0, ""),
+            "id": 2**64 - 1,
+            "pose": pose(4, 5, 0, (0, 0, 0, 1)),
+            "twist": {"linear": {"x": 0.5, "y": -0.5}},
+        }
+    ]
+    d = decode(
+        "pedsim_msgs/msg/AgentStates",
+        {"header": header(9, 1, "world"), "agent_states": agents},
+        ros,
+    )
+    np.testing.assert_array_equal(d.velocity, [[0.5, -0.5, 0.0]])
+    np.testing.assert_array_equal(d.track_id, [2**63 - 1])  # uint64 masked to int64 >= 0
+    np.testing.assert_array_equal(d.t_ns, [9 * S + 1])
+    assert d.frame_names() == ["world"]
+
+
+@ROS
+def test_nav2_obstacles_uuid_ids(ros: int) -> None:
+    uuid = np.arange(16, dtype=np.uint8)
+    obstacles = [
+        {"uuid": {"uuid": uuid}, "position": {"x": 1.0}, "velocity": {"y": 1.0}},
+        {"uuid": {"uuid": np.zeros(16, np.uint8)}, "position": {"x": 2.0}},
+    ]
+    d = decode(
+        "nav2_dynamic_msgs/msg/ObstacleArray",
+        {"header": header(1, 0, "map"), "obstacles": obstacles},
+        ros,
+    )
+    np.testing.assert_array_equal(d.track_id, [hash_id(uuid.tobytes()), -1])
+    np.testing.assert_array_equal(d.velocity, [[0, 1, 0], [0, 0, 0]])
+
+
+@ROS
+def test_markers_skip_deletes_filter_ns_and_expand_lists(ros: int) -> None:
+    def marker(ns: str, mid: int, action: int = 0, mtype: int = 2, **kw: Any) -> dict[str, Any]:
+        return {
+            "header": header(4, 0, "/map"), "ns": ns, "id": mid, "type": mtype,
+            "action": action, **kw,
+        }
+
+    markers = [
+        marker("people", 1, pose=pose(1, 2, 0, Q90)),
+        marker("people", 2, action=2),  # DELETE
+        marker("", 0, action=3),  # DELETEALL
+        marker("labels", 1, mtype=9, pose=pose(1, 2, 2, Q90)),  # TEXT: other namespace
+        marker(
+            "people_list", 5, mtype=7, pose=pose(10, 0, 0, Q90),
+            points=[{"x": 1.0, "y": 0.0}, {"x": 0.0, "y": 2.0}],
+        ),
+    ]
+    d = decode(
+        "visualization_msgs/msg/MarkerArray", {"markers": markers}, ros, marker_ns="^people"
+    )
+    np.testing.assert_allclose(d.xyz, [[1, 2, 0], [10, 1, 0], [8, 0, 0]], atol=1e-12)
+    np.testing.assert_array_equal(d.track_id, [hash_id("people/1"), -1, -1])
+    assert d.filtered == {"marker_delete": 2, "marker_ns": 1}
+    assert d.yaw[0] == pytest.approx(math.pi / 2)
+    everything = decode("visualization_msgs/msg/MarkerArray", {"markers": markers}, ros)
+    assert len(everything) == 4
+
+
+@pytest.mark.parametrize(
+    ("msgtype", "ros"),
+    [
+        ("zed_interfaces/msg/ObjectsStamped", 1),
+        ("zed_interfaces/msg/ObjectsStamped", 2),
+        ("zed_msgs/msg/ObjectsStamped", 2),
+    ],
+)
+def test_zed_objects(msgtype: str, ros: int) -> None:
+    person: dict[str, Any] = {
+        "label": "Person", "label_id": 12, "position": [1.5, -0.5, 0.25],
+        "velocity": [0.25, 0.0, 0.0], "tracking_available": True, "tracking_state": 1,
+    }
+    if ros == 1:
+        person["instance_id"] = 4
+    car = {**person, "label": "Vehicle"}
+    untracked = {**person, "tracking_available": False}
+    objects = [person, car, untracked]
+    d = decode(msgtype, {"header": header(6, 0, "zed_left"), "objects": objects}, ros)
+    np.testing.assert_array_equal(d.xyz, [[1.5, -0.5, 0.25]] * 2)
+    np.testing.assert_array_equal(d.velocity, [[0.25, 0.0, 0.0]] * 2)
+    np.testing.assert_array_equal(d.track_id, [4 if ros == 1 else 12, -1])
+    assert d.filtered == {"class": 1}
+
+
+@ROS
+def test_detection3d_class_options(ros: int) -> None:
+    def det(x: float, cls: Any) -> dict[str, Any]:
+        result = {"id": cls} if ros == 1 else {"hypothesis": {"class_id": cls}}
+        out: dict[str, Any] = {
+            "header": header(0, 0, ""), "results": [result],
+            "bbox": {"center": pose(x, 0, 0, (0, 0, 0, 1))},
+        }
+        if ros == 2:
+            out["id"] = f"t{x}"
+        return out
+
+    person, other = (1, 3) if ros == 1 else ("person", "bicycle")
+    msg = {"header": header(1, 0, "cam"), "detections": [det(1, person), det(2, other)]}
+    t = "vision_msgs/msg/Detection3DArray"
+    default = decode(t, msg, ros)
+    assert len(default) == (2 if ros == 1 else 1)  # ROS 1 ids have no default meaning
+    everything = decode(t, msg, ros, class_names=None)
+    assert len(everything) == 2
+    chosen = decode(t, msg, ros, class_ids=(3,), class_names=("bicycle",))
+    np.testing.assert_array_equal(chosen.xyz[:, 0], [2.0])
+    expected_track = -1 if ros == 1 else hash_id("t2")
+    np.testing.assert_array_equal(chosen.track_id, [expected_track])
+
+
+def test_detection3d_foxy_layout_falls_back_to_the_given_typestore() -> None:
+    """A log with vision_msgs 2.x (foxy) definitions: the fast decoder rejects the layout and
+    the adapter decodes with the typestore built from the log's own definitions."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    defs = {
+        "vision_msgs/msg/ObjectHypothesisWithPose": "string id\nfloat64 score\n"
+        "geometry_msgs/PoseWithCovariance pose\n",
+        "vision_msgs/msg/BoundingBox3D": "geometry_msgs/Pose center\ngeometry_msgs/Vector3 size\n",
+        "vision_msgs/msg/Detection3D": "std_msgs/Header header\n"
+        "vision_msgs/ObjectHypothesisWithPose[] results\nvision_msgs/BoundingBox3D bbox\n"
+        "sensor_msgs/PointCloud2 source_cloud\nbool is_tracking\nstring tracking_id\n",
+        "vision_msgs/msg/Detection3DArray": "std_msgs/Header header\n"
+        "vision_msgs/Detection3D[] detections\n",
+    }
+    for name, text in defs.items():
+        store.register(get_types_from_msg(text, name))
+    T = store.types
+    Time = T["builtin_interfaces/msg/Time"]
+    hdr = T["std_msgs/msg/Header"](stamp=Time(sec=2, nanosec=0), frame_id="cam")
+    p = T["geometry_msgs/msg/Pose"](
+        position=T["geometry_msgs/msg/Point"](x=1.0, y=2.0, z=3.0),
+        orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+    )
+    pwc = T["geometry_msgs/msg/PoseWithCovariance"](pose=p, covariance=np.zeros(36))
+    cloud = T["sensor_msgs/msg/PointCloud2"](
+        header=hdr, height=0, width=0, fields=[], is_bigendian=False, point_step=0,
+        row_step=0, data=np.zeros(0, np.uint8), is_dense=True,
+    )
+    det = T["vision_msgs/msg/Detection3D"](
+        header=hdr,
+        results=[T["vision_msgs/msg/ObjectHypothesisWithPose"](id="person", score=1.0, pose=pwc)],
+        bbox=T["vision_msgs/msg/BoundingBox3D"](
+            center=p, size=T["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0)
+        ),
+        source_cloud=cloud, is_tracking=True, tracking_id="walker",
+    )
+    msgtype = "vision_msgs/msg/Detection3DArray"
+    data = bytes(store.serialize_cdr(T[msgtype](header=hdr, detections=[det]), msgtype))
+    m = RawMessage("/d", msgtype, 0, data, "cdr")
+    adapter = adapter_for(msgtype, typestore=store)
+    assert adapter is not None
+    got = adapter.decode([m])
+    np.testing.assert_array_equal(got.xyz, [[1, 2, 3]])
+    np.testing.assert_array_equal(got.track_id, [hash_id("walker")])
