@@ -1,0 +1,75 @@
+"""``aion info``: topics, counts and roles of the office log."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
+
+
+def test_json_lists_topics_roles_and_counts(office: Office) -> None:
+    doc = run_json("info", office.log, "--format", "json")
+    expected = office.expected
+    topics = {t["topic"]: t for t in doc["topics"]}
+    assert topics["/tracks"]["count"] == expected.track_messages
+    assert topics["/tracks"]["role"] == "detections"
+    assert topics["/tracks"]["type"] == "spencer_tracking_msgs/msg/TrackedPersons"
+    assert topics["/hydra/backend/dsg"]["role"] == "scene_graph"
+    assert topics["/hydra/backend/dsg"]["count"] == expected.graph_messages
+    assert topics["/tf"]["role"] == "tf"
+    assert topics["/tf"]["count"] == expected.tf_messages
+    total = expected.track_messages + expected.graph_messages + expected.tf_messages
+    assert doc["messages"] == total
+    assert doc["start_ns"] == expected.start_ns
+    assert doc["end_ns"] == expected.end_ns
+    assert doc["duration_s"] == (expected.end_ns - expected.start_ns) / 1e9
+    assert doc["will_use"] == {
+        "detections": ["/tracks"],
+        "scene_graph": ["/hydra/backend/dsg"],
+        "tf": ["/tf"],
+    }
+    assert doc["cannot_read"] == []
+
+
+def test_unsupported_topics_are_listed(tmp_path: Path) -> None:
+    from formats.writers import LogWriter
+
+    log = tmp_path / "odd.mcap"
+    with LogWriter(log, "mcap") as writer:
+        writer.write("/chatter", "std_msgs/msg/String", {"data": "hi"}, 1_000_000_000)
+    doc = run_json("info", log, "--format", "json")
+    assert doc["cannot_read"] == ["/chatter (std_msgs/msg/String)"]
+    assert doc["will_use"]["detections"] == []
+    table = run("info", log)
+    assert table.exit_code == 0
+    assert "/chatter" in table.stdout
+    assert "no people-detection topic" in table.stderr
+
+
+def test_table_for_people(office: Office) -> None:
+    result = run("info", office.log)
+    assert result.exit_code == 0, result.stderr
+    assert "/tracks" in result.stdout
+    assert "detections" in result.stdout
+    assert "scene_graph" in result.stdout
+
+
+def test_bad_logs(tmp_path: Path) -> None:
+    result = run("info", tmp_path / "nope.bag")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "nope.bag")
+    text = tmp_path / "notes.txt"
+    text.write_text("hello")
+    result = run("info", text)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr)
+    result = run("info")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "LOGS")
+
+
+def test_subprocess_info(office: Office) -> None:
+    proc = run_process("info", office.log, "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["will_use"]["detections"] == ["/tracks"]
