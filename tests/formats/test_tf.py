@@ -275,3 +275,32 @@ def test_property_lookup_inverse_is_identity(seed: int, n_edges: int, frac: list
     np.testing.assert_allclose(tt, 0, atol=1e-9)
     # rotations stay orthonormal after slerp and composition
     np.testing.assert_allclose(R1 @ np.transpose(R1, (0, 2, 1)), R, atol=1e-9)
+
+
+def test_single_edge_call_drops_only_invalid_rows() -> None:
+    buf = TfBuffer()
+    buf.add_transforms(
+        "odom",
+        "base",
+        [0, S, 2 * S],
+        [[0, 0, 0], [np.inf, 0, 0], [2, 0, 0]],
+        [[0, 0, 0, 1], [0, 0, 0, 1], [0, 0, 0, 1]],
+    )
+    assert buf.invalid_samples == 1
+    _, t, ok = buf.lookup("odom", "base", [S])
+    assert ok.all()
+    np.testing.assert_allclose(t[0], [1, 0, 0])  # interpolated across the dropped sample
+    buf.add_transforms("a", "b", [0], [[0, 0, 0]], [[np.nan, 0, 0, 1]])
+    assert "a" not in buf.frames  # an edge with no usable sample is not created
+
+
+def test_add_messages_batches_many() -> None:
+    msgs = [
+        _tf_msg(SimpleNamespace(sec=k, nanosec=0), "odom", "base", (float(k), 0, 0))
+        for k in (3, 1, 2)
+    ]
+    buf = TfBuffer()
+    buf.add_messages(msgs)
+    assert buf.time_range("odom", "base") == (S, 3 * S)
+    _, t, _ = buf.lookup("odom", "base", [S + S // 4, 3 * S])
+    np.testing.assert_allclose(t, [[1.25, 0, 0], [3, 0, 0]])
