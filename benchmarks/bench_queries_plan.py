@@ -27,12 +27,21 @@ GRID_SIDE = 317  # 317^2 = 100 489 nodes
 
 
 def _best_of(fn: Callable[[], Any], repeat: int = 3) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    """Best wall time of ``repeat`` runs (seconds)."""
+    return min(_timed(fn) for _ in range(repeat))
+
+
+def _timed(fn: Callable[[], Any]) -> float:
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
+def _cpu_of(fn: Callable[[], Any]) -> float:
+    """Process CPU time of one run: less sensitive than wall time to other loads."""
+    t0 = time.process_time()
+    fn()
+    return time.process_time() - t0
 
 
 def grid_graph(side: int = GRID_SIDE, spacing: float = 1.0) -> NavGraph:
@@ -75,16 +84,33 @@ def bench_plan() -> list[dict[str, Any]]:
     matrix = csr_matrix((weights, (graph.arcs.src, graph.arcs.dst)), shape=(m, m))
     scipy_s = _best_of(lambda: dijkstra(matrix, directed=True, indices=0))
     result = plan(graph, start, goal, 0.0, 1.0, fn, config)
+    rng = np.random.default_rng(1)
+    pairs = rng.integers(0, m, size=(10, 2))
+    t0 = time.perf_counter()
+    expanded = 0
+    for a, b in pairs:
+        expanded += plan(graph, int(graph.ids[a]), int(graph.ids[b]), 0.0, 1.0, fn, config).expanded
+    random_s = (time.perf_counter() - t0) / len(pairs)
     return [
         {"name": "navgraph build (10^5 nodes)", "seconds": build_s, "nodes": m},
         {
-            "name": "plan temporal (10^5 nodes)",
+            "name": "plan temporal corner-corner",
             "seconds": temporal,
+            "cpu_s": _cpu_of(lambda: plan(graph, start, goal, 0.0, 1.0, fn, config)),
             "expanded": result.expanded,
             "vs_scipy_dijkstra": temporal / scipy_s,
         },
-        {"name": "plan distance-only (10^5 nodes)", "seconds": distance},
-        {"name": "scipy dijkstra baseline", "seconds": scipy_s},
+        {
+            "name": "plan temporal random pairs (mean)",
+            "seconds": random_s,
+            "mean_expanded": expanded / len(pairs),
+        },
+        {
+            "name": "plan distance-only corner-corner",
+            "seconds": distance,
+            "cpu_s": _cpu_of(lambda: plan(graph, start, goal, 0.0, 1.0, None, config)),
+        },
+        {"name": "scipy dijkstra baseline (static)", "seconds": scipy_s},
     ]
 
 
@@ -111,6 +137,7 @@ def bench_mapfile(n_rows: int = 200_000, bins: int = 8) -> list[dict[str, Any]]:
         path = Path(tmp) / "bench.aion"
         write_s = _best_of(lambda: write_map(path, arrays, {"bench": True}))
         read_s = _best_of(lambda: read_map(path))
+        read_cpu = _cpu_of(lambda: read_map(path))
         raw_s = _best_of(raw_roundtrip)
         size = path.stat().st_size
     return [
@@ -123,6 +150,7 @@ def bench_mapfile(n_rows: int = 200_000, bins: int = 8) -> list[dict[str, Any]]:
         {
             "name": "map read",
             "seconds": read_s,
+            "cpu_s": read_cpu,
             "mb": total / 1e6,
             "mb_per_s": total / 1e6 / read_s,
         },

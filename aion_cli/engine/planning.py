@@ -120,6 +120,11 @@ class _Arcs:
     alpha: F64  # horizontal travel direction, NaN for vertical arcs
     indptr: I64
 
+    @cached_property
+    def lists(self) -> tuple[list[int], list[int], list[float]]:
+        """``indptr``, ``dst``, ``length`` as Python lists for the A* loop (made once)."""
+        return self.indptr.tolist(), self.dst.tolist(), self.length.tolist()
+
 
 @dataclass(frozen=True)
 class NavGraph:
@@ -280,7 +285,7 @@ class _BucketTables:
     ) -> None:
         self.graph, self.node_cost, self.config = graph, node_cost, config
         self.depart_s, self.speed, self.bucket_s = depart_s, speed, bucket_s
-        self.tables: dict[int, tuple[list[float], list[float], list[float]]] = {}
+        self.tables: dict[int, tuple[F64, F64, list[float]]] = {}
 
     def bucket(self, distance: float) -> int:
         return math.floor((self.depart_s + distance / self.speed) / self.bucket_s)
@@ -288,15 +293,16 @@ class _BucketTables:
     def eval_time(self, bucket: int) -> float:
         return max(bucket * self.bucket_s, self.depart_s)
 
-    def get(self, bucket: int) -> tuple[list[float], list[float], list[float]]:
-        """``(src_half, dst_half, full)`` per arc for ``bucket``; ``full`` is the arc cost
-        when both ends fall in this bucket (the common case, one lookup in the hot loop)."""
+    def get(self, bucket: int) -> tuple[F64, F64, list[float]]:
+        """``(src_half, dst_half, full)`` per arc for ``bucket``; ``full`` (a list, for the hot
+        loop) is the arc cost when both ends fall in this bucket, the common case; the halves
+        stay arrays, read only for arcs that cross into the next bucket."""
         table = self.tables.get(bucket)
         if table is None:
             costs = self.node_cost(self.eval_time(bucket))
             src_half, dst_half = arc_halves(self.graph, costs, self.config)
             full = self.graph.arcs.length * (1.0 + src_half + dst_half)
-            table = (src_half.tolist(), dst_half.tolist(), full.tolist())
+            table = (src_half, dst_half, full.tolist())
             self.tables[bucket] = table
         return table
 
@@ -342,7 +348,7 @@ def _astar(arcs: _Arcs, h: list[float], s: int, goal: int, tables: _BucketTables
     settled flags and the number of settled nodes. With ``tables`` the arc cost is
     ``length · (1 + src_half[bucket(i)] + dst_half[bucket(j)])``, else the length.
     """
-    indptr, dst, length = arcs.indptr.tolist(), arcs.dst.tolist(), arcs.length.tolist()
+    indptr, dst, length = arcs.lists
     m = len(h)
     best, dist, parent, closed = [math.inf] * m, [0.0] * m, [-1] * m, bytearray(m)
     best[s] = 0.0
@@ -350,7 +356,7 @@ def _astar(arcs: _Arcs, h: list[float], s: int, goal: int, tables: _BucketTables
     pop, push, floor = heapq.heappop, heapq.heappush, math.floor
     expanded = 0
     # Distance-only: one "bucket" that never ends, whose full arc cost is the length.
-    src_half, full, d_next = length, length, math.inf
+    src_half, full, d_next = arcs.length, length, math.inf
     t0 = k = 0.0
     if tables is not None:
         t0 = tables.depart_s / tables.bucket_s
@@ -381,7 +387,7 @@ def _astar(arcs: _Arcs, h: list[float], s: int, goal: int, tables: _BucketTables
             else:  # the arc ends in a later bucket: mix the two buckets' halves
                 assert tables is not None
                 dst_half = tables.get(floor(t0 + d_j * k))[1]
-                c = g_i + length[a] * (1.0 + src_half[a] + dst_half[a])
+                c = g_i + length[a] * (1.0 + float(src_half[a]) + float(dst_half[a]))
             if c < best[j]:
                 best[j], dist[j], parent[j] = c, d_j, i
                 push(heap, (c + h[j], j))
@@ -474,8 +480,8 @@ def evaluate_path_cost(
         d = float(arcs.length[a])
         factor = 1.0
         if tables is not None:
-            src_half = tables.get(tables.bucket(walked))[0][a]
-            dst_half = tables.get(tables.bucket(walked + d))[1][a]
+            src_half = float(tables.get(tables.bucket(walked))[0][a])
+            dst_half = float(tables.get(tables.bucket(walked + d))[1][a])
             factor += src_half + dst_half
         total += d * factor
         walked += d
