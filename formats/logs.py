@@ -244,8 +244,7 @@ class _McapSource(_Source):
         """Time order by chunk: chunk indexes sorted by start time do not overlap, so each
         chunk's messages sorted by log time continue the stream."""
         from mcap.data_stream import ReadDataStream
-        from mcap.records import Chunk, Message
-        from mcap.stream_reader import breakup_chunk
+        from mcap.records import Chunk
 
         channels = self._channels
         stream = self._stream
@@ -255,18 +254,16 @@ class _McapSource(_Source):
                 continue
             try:
                 stream.seek(index.chunk_start_offset + 1 + 8, io.SEEK_SET)
-                records = breakup_chunk(Chunk.read(ReadDataStream(stream)))
+                selected = _chunk_messages(Chunk.read(ReadDataStream(stream)), wanted)
             except self._errors as exc:
                 self.warnings.append(
                     f"{self.path.name}: corrupt chunk at byte {index.chunk_start_offset} "
                     f"({exc}); the rest of the file is ignored"
                 )
                 return
-            selected = [r for r in records if type(r) is Message and r.channel_id in wanted]
-            selected.sort(key=_log_time)
-            for r in selected:
-                topic, msgtype, encoding = channels[r.channel_id]
-                yield RawMessage(topic, msgtype, r.log_time, r.data, encoding)
+            for log_time, channel_id, data in selected:
+                topic, msgtype, encoding = channels[channel_id]
+                yield RawMessage(topic, msgtype, log_time, data, encoding)
 
     def _messages_library(self, wanted: set[int]) -> Iterator[RawMessage]:
         """Overlapping chunks: let the mcap reader interleave them in log-time order."""
@@ -291,8 +288,52 @@ class _McapSource(_Source):
         self._stream.close()
 
 
-def _log_time(record: Any) -> int:
-    return int(record.log_time)
+_MESSAGE_OPCODE = 0x05
+_RECORD_HEAD = struct.Struct("<BQ")
+_MESSAGE_HEAD = struct.Struct("<HIQ")  # channel id, sequence, log time (publish time follows)
+_MESSAGE_PREFIX = 2 + 4 + 8 + 8
+
+
+def _decompress(chunk: Any) -> bytes:
+    """The records section of an MCAP chunk (zstd, lz4 or uncompressed)."""
+    if chunk.compression == "zstd":
+        import zstandard
+
+        return bytes(zstandard.decompress(chunk.data, chunk.uncompressed_size))
+    if chunk.compression == "lz4":
+        import lz4.frame  # type: ignore[import-untyped]
+
+        return bytes(lz4.frame.decompress(chunk.data))
+    if chunk.compression:
+        raise ValueError(f"unsupported MCAP chunk compression {chunk.compression!r}")
+    return bytes(chunk.data)
+
+
+def _chunk_messages(chunk: Any, wanted: set[int]) -> list[tuple[int, int, bytes]]:
+    """``(log_time, channel_id, data)`` of the chunk's messages on ``wanted`` channels, sorted
+    by log time. Parses the record headers with struct and slices only the wanted payloads:
+    several times faster than building an mcap ``Message`` object per record."""
+    buf = _decompress(chunk)
+    out: list[tuple[int, int, bytes]] = []
+    unpack_record = _RECORD_HEAD.unpack_from
+    unpack_message = _MESSAGE_HEAD.unpack_from
+    pos, end = 0, len(buf)
+    while pos < end:
+        opcode, length = unpack_record(buf, pos)
+        body = pos + 9
+        pos = body + length
+        if opcode == _MESSAGE_OPCODE:
+            channel_id, _, log_time = unpack_message(buf, body)
+            if channel_id in wanted:
+                out.append((log_time, channel_id, buf[body + _MESSAGE_PREFIX : pos]))
+    if pos != end:
+        raise ValueError("chunk records overrun the chunk")
+    out.sort(key=_first)
+    return out
+
+
+def _first(item: tuple[int, int, bytes]) -> int:
+    return item[0]
 
 
 def _record_sort_key(record: Any) -> tuple[int, int]:

@@ -383,3 +383,56 @@ def test_logset_closes_its_files(tmp_path: Path) -> None:
         assert logs.total() == 7
     with pytest.raises(ValueError, match="closed"):
         list(logs.messages())
+
+
+def _write_plain_mcap(path: Path, compression: str, n: int = 30, chunk_size: int = 2048) -> None:
+    """n std_msgs/Empty-typed messages whose payload carries their index; two channels."""
+    from mcap.writer import CompressionType, Writer
+
+    with path.open("wb") as f:
+        w = Writer(f, chunk_size=chunk_size, compression=CompressionType[compression])
+        w.start(profile="ros2")
+        schema = w.register_schema("std_msgs/msg/Empty", "ros2msg", b"")
+        even = w.register_channel("/even", "cdr", schema)
+        odd = w.register_channel("/odd", "cdr", schema)
+        for k in range(n):
+            payload = b"\x00\x01\x00\x00" + k.to_bytes(4, "little") * 64
+            w.add_message(odd if k % 2 else even, T0 + k, payload, T0 + k)
+        w.finish()
+
+
+@pytest.mark.parametrize("compression", ["NONE", "LZ4", "ZSTD"])
+def test_chunk_compressions(compression: str, tmp_path: Path) -> None:
+    path = tmp_path / "c.mcap"
+    _write_plain_mcap(path, compression)
+    with open_logs([path]) as logs:
+        odd = list(logs.messages(["/odd"]))
+        assert [m.log_time_ns - T0 for m in odd] == list(range(1, 30, 2))
+        assert [int.from_bytes(m.data[4:8], "little") for m in odd] == list(range(1, 30, 2))
+        assert all(len(m.data) == 4 + 256 for m in odd)
+        assert {m.topic for m in odd} == {"/odd"}
+        assert len(list(logs.messages())) == 30
+
+
+def test_corrupt_chunk_in_an_indexed_mcap_stops_with_a_warning(tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+
+    path = tmp_path / "c.mcap"
+    _write_plain_mcap(path, "NONE")
+    with path.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    chunks = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    assert len(chunks) >= 3
+    bad = chunks[1]
+    data = bytearray(path.read_bytes())
+    # overwrite the records inside the second chunk: the record lengths become nonsense
+    start = bad.chunk_start_offset + bad.chunk_length - bad.compressed_size
+    data[start : start + bad.compressed_size] = b"\xff" * bad.compressed_size
+    path.write_bytes(bytes(data))
+    with open_logs([path]) as logs:
+        msgs = list(logs.messages())
+        assert 0 < len(msgs) < 30
+        assert [m.log_time_ns - T0 for m in msgs] == list(range(len(msgs)))
+        (warning,) = logs.warnings
+        assert f"corrupt chunk at byte {bad.chunk_start_offset}" in warning
