@@ -79,7 +79,7 @@ def simulate_agents(
     for a in np.unique(moves.agent):
         rows = np.flatnonzero(moves.agent == a)
         cur = env.roles.entrance
-        free_s = 0.0
+        free_s = -np.inf
         for r in rows:
             dst = int(moves.dst[r])
             depart = max(float(moves.t_s[r]), free_s)

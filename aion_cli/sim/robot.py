@@ -73,20 +73,26 @@ class RobotTrack:
         return ok
 
 
-def _tour_starts(cfg: PatrolConfig, days: float) -> F64:
-    """Planned tour start times (s since local midnight of day 0) inside the patrol hours."""
-    t = np.arange(60.0, days * 86400.0, cfg.tour_every_s)
+def _tour_starts(cfg: PatrolConfig, days: float, offset_s: float) -> F64:
+    """Planned tour start times (s since the scene start, ``offset_s`` after local midnight)
+    inside the patrol hours; tours start on a fixed grid from one minute past midnight."""
+    t = np.arange(60.0, offset_s + days * 86400.0, cfg.tour_every_s)
     hour = (t % 86400.0) / 3600.0
     lo, hi = cfg.hours
     inside = (hour >= lo) & (hour < hi) if lo <= hi else (hour >= lo) | (hour < hi)
-    return t[inside]
+    t = t[inside & (t >= offset_s)]
+    return t - offset_s
 
 
 def simulate_robot(
     env: Environment, cfg: PatrolConfig, rng: np.random.Generator, dt_s: float, n_ticks: int,
     days: float,
+    offset_s: float = 0.0,
 ) -> RobotTrack:
-    """Drive the patrol tours, integrate drift, close loops at the dock."""
+    """Drive the patrol tours, integrate drift, close loops at the dock.
+
+    Tick 0 is ``offset_s`` seconds after local midnight (a scene may start at any time of day).
+    """
     route = env.polyline(env.roles.patrol)
     route = route.copy()
     route[:, 2] = 0.0  # the robot base drives on the floor
@@ -99,7 +105,7 @@ def simulate_robot(
     closures: list[int] = []
     starts: list[int] = []
     free = 0.0
-    for t in _tour_starts(cfg, days):
+    for t in _tour_starts(cfg, days, offset_s):
         if t < free:
             continue
         ticks, xyz, heading = walk_path(route, float(t), cfg.speed, dt_s, n_ticks)

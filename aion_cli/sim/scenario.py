@@ -17,15 +17,15 @@ from typing import Any
 import numpy as np
 
 from aion_cli.engine.errors import InputError
-from aion_cli.sim.agents import agent_speeds, simulate_agents
+from aion_cli.sim.agents import AgentSamples, agent_speeds, simulate_agents
 from aion_cli.sim.environment import Environment, load_graph_environment
-from aion_cli.sim.graphstream import StreamConfig, build_frames
+from aion_cli.sim.graphstream import GraphFrames, StreamConfig, build_frames
 from aion_cli.sim.ground_truth import WindowGrid, truth_arrays, write_truth
 from aion_cli.sim.messages import detection_msgtype
 from aion_cli.sim.office import office_environment
 from aion_cli.sim.robot import PatrolConfig, RobotTrack, simulate_robot
 from aion_cli.sim.schedule import Rhythm, plan_moves
-from aion_cli.sim.sensing import observe
+from aion_cli.sim.sensing import Observations, observe
 from aion_cli.sim.writer import write_scene_log
 
 FORMATS: dict[str, tuple[str, str]] = {  # --format -> (LogWriter container, file suffix)
@@ -52,7 +52,7 @@ class ScenarioConfig:
     frame: str | None = None  # "base_link" | "map"; None: base_link for patrol, map for fixed
     format: str = "mcap"
     detection_type: str = "tracked_persons"
-    start: str = "2026-01-05"  # local date of the first midnight (a Monday)
+    start: str = "2026-01-05"  # local date (or date and time) the scene starts; a Monday
     utc_offset_h: float = 0.0
     rate_hz: float = 2.0
     noise: float = 0.05
@@ -104,15 +104,27 @@ class SceneResult:
     meta: dict[str, Any]
 
 
-def start_ns(start: str, utc_offset_h: float) -> int:
-    """UNIX ns of local midnight of the ``start`` date (ISO date or datetime)."""
+def parse_start(start: str) -> tuple[_dt.date, float]:
+    """The local date and the seconds after its midnight of ``start`` (ISO date or datetime)."""
     try:
-        day = _dt.date.fromisoformat(start[:10])
+        when = _dt.datetime.fromisoformat(start)
     except ValueError as exc:
-        raise InputError(f"bad --start date {start!r}", hint="give an ISO date, e.g. 2026-01-05"
-                         ) from exc
+        raise InputError(
+            f"bad --start {start!r}", hint="give an ISO date or time, e.g. 2026-01-05T08:00"
+        ) from exc
+    if when.tzinfo is not None:
+        raise InputError(f"bad --start {start!r}: give local time without a zone",
+                         hint="use --utc-offset for the zone")
+    seconds = when.hour * 3600.0 + when.minute * 60.0 + when.second
+    return when.date(), seconds
+
+
+def start_ns(start: str, utc_offset_h: float) -> int:
+    """UNIX ns of the ``start`` instant (local time, ``utc_offset_h`` hours ahead of UTC)."""
+    day, seconds = parse_start(start)
     midnight = _dt.datetime(day.year, day.month, day.day, tzinfo=_dt.UTC)
-    return int(midnight.timestamp()) * 1_000_000_000 - round(utc_offset_h * 3600e9)
+    local = int(midnight.timestamp()) * 1_000_000_000 + round(seconds * 1e9)
+    return local - round(utc_offset_h * 3600e9)
 
 
 def load_environment(config: ScenarioConfig) -> Environment:
@@ -132,61 +144,87 @@ def scene_paths(output: Path, config: ScenarioConfig) -> list[Path]:
     return [output / f"scene_{i:02d}{suffix}" for i in range(config.scenes)]
 
 
+@dataclass(frozen=True)
+class SceneData:
+    """Everything one scene simulates, before anything is written (arrays only)."""
+
+    env: Environment
+    samples: AgentSamples
+    robot: RobotTrack | None
+    frames: GraphFrames
+    obs: Observations
+    t0_ns: int
+    dt_ns: int
+    n_ticks: int
+
+    @property
+    def end_ns(self) -> int:
+        return self.t0_ns + (self.n_ticks - 1) * self.dt_ns
+
+
+def build_scene(config: ScenarioConfig, env: Environment, scene: int,
+                progress: Progress | None = None) -> SceneData:
+    """Simulate one scene's people, robot, scene-graph stream and detections."""
+    rng_sched, rng_walk, rng_robot, rng_graph, rng_noise = (
+        np.random.default_rng(s)
+        for s in np.random.SeedSequence([config.seed, scene]).spawn(5)
+    )
+    day, offset_s = parse_start(config.start)
+    t0 = start_ns(config.start, config.utc_offset_h)
+    dt_ns = round(1e9 / config.rate_hz)
+    dt_s = dt_ns / 1e9
+    n_ticks = int(config.days * 86400.0 / dt_s) + 1
+    if progress is not None:
+        progress("people", 0, 0)
+    days_planned = float(np.ceil((offset_s + config.days * 86400.0) / 86400.0))
+    moves = plan_moves(rng_sched, config.agents, days_planned, day.weekday(), env.roles,
+                       env.n_places, config.rhythm)
+    moves = replace(moves, t_s=moves.t_s - offset_s)
+    samples = simulate_agents(env, moves, agent_speeds(rng_walk, config.agents), rng_walk,
+                              dt_s, n_ticks)
+    robot: RobotTrack | None = None
+    if config.robot == "patrol":
+        if progress is not None:
+            progress("robot", 0, 0)
+        robot = simulate_robot(env, config.patrol, rng_robot, dt_s, n_ticks, config.days,
+                               offset_s)
+    if progress is not None:
+        progress("scene graph", 0, 0)
+    frames = build_frames(env, robot, config.stream, rng_graph, t0, dt_ns, n_ticks)
+    obs = observe(env, samples, robot, config.resolved_frame(), config.noise, rng_noise, dt_ns)
+    return SceneData(env, samples, robot, frames, obs, t0, dt_ns, n_ticks)
+
+
 def run_scene(
     config: ScenarioConfig, env: Environment, scene: int, log_path: Path,
     progress: Progress | None = None,
 ) -> SceneResult:
     """Simulate one scene and write its log and ground truth."""
-    rng_sched, rng_walk, rng_robot, rng_graph, rng_noise = (
-        np.random.default_rng(s)
-        for s in np.random.SeedSequence([config.seed, scene]).spawn(5)
-    )
-    t0 = start_ns(config.start, config.utc_offset_h)
-    dt_ns = round(1e9 / config.rate_hz)
-    dt_s = dt_ns / 1e9
-    n_ticks = int(config.days * 86400.0 / dt_s) + 1
-    weekday = _dt.date.fromisoformat(config.start[:10]).weekday()
-
-    def step(stage: str, done: int = 0, total: int = 0) -> None:
-        if progress is not None:
-            progress(stage, done, total)
-
-    step("schedule")
-    moves = plan_moves(rng_sched, config.agents, config.days, weekday, env.roles,
-                       env.n_places, config.rhythm)
-    step("people")
-    samples = simulate_agents(env, moves, agent_speeds(rng_walk, config.agents), rng_walk,
-                              dt_s, n_ticks)
-    robot: RobotTrack | None = None
-    if config.robot == "patrol":
-        step("robot")
-        robot = simulate_robot(env, config.patrol, rng_robot, dt_s, n_ticks, config.days)
-    step("scene graph")
-    frames = build_frames(env, robot, config.stream, rng_graph, t0, dt_ns, n_ticks)
-    obs = observe(env, samples, robot, config.resolved_frame(), config.noise, rng_noise, dt_ns)
+    data = build_scene(config, env, scene, progress)
     msgtype = detection_msgtype(config.detection_type)
     container = FORMATS[config.format][0]
     log_path.parent.mkdir(parents=True, exist_ok=True)
+    report = None if progress is None else (lambda d, t: progress("writing", d, t))
     counts = write_scene_log(
-        log_path, container, env, frames, obs, robot, msgtype, t0, dt_ns, config.tf_idle_s,
-        config.stream.include_mesh, config.noise,
-        progress=lambda d, t: step("writing", d, t),
+        log_path, container, env, data.frames, data.obs, data.robot, msgtype, data.t0_ns,
+        data.dt_ns, config.tf_idle_s, config.stream.include_mesh, config.noise, progress=report,
     )
-    step("ground truth")
-    end_ns = t0 + (n_ticks - 1) * dt_ns
-    grid = WindowGrid.covering(t0, end_ns, config.window_s)
-    seen = np.zeros(len(samples), dtype=bool)
-    seen[obs.sample] = True
-    arrays = truth_arrays(env, samples, seen, robot, frames, grid, config.bins, t0, dt_ns)
+    if progress is not None:
+        progress("ground truth", 0, 0)
+    grid = WindowGrid.covering(data.t0_ns, data.end_ns, config.window_s)
+    seen = np.zeros(len(data.samples), dtype=bool)
+    seen[data.obs.sample] = True
+    arrays = truth_arrays(env, data.samples, seen, data.robot, data.frames, grid, config.bins,
+                          data.t0_ns, data.dt_ns)
     meta = {
         "scene": scene,
         "log": log_path.name,
         "config": _jsonable(asdict(replace(config, scenes=1))),
         "environment": env.name,
         "places": env.n_places,
-        "start_ns": t0,
-        "end_ns": end_ns,
-        "tick_ns": dt_ns,
+        "start_ns": data.t0_ns,
+        "end_ns": data.end_ns,
+        "tick_ns": data.dt_ns,
         "frame": config.resolved_frame(),
         "window_s": config.window_s,
         "bins": config.bins,

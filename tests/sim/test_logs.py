@@ -1,0 +1,139 @@
+"""Simulated logs read back with the project's reader and with rosbags: types, topics, frames,
+counts, and a TF chain that really maps robot-frame detections onto map-frame ones."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.sim.scenario import SceneResult, simulate
+from formats.logs import open_logs
+from formats.tf import TfBuffer
+from tests.sim.conftest import PATROL
+
+DET = "/spencer/perception/tracked_persons"
+
+
+def _detections(result: SceneResult) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """(t_ns, xyz, velocity, frame per message) of every TrackedPerson in the log."""
+    t, xyz, vel, frames = [], [], [], []
+    with open_logs([result.log]) as logs:
+        for raw in logs.messages({DET}):
+            msg = logs.decode(raw)
+            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            assert stamp == raw.log_time_ns
+            frames.append(msg.header.frame_id)
+            for tr in msg.tracks:
+                p, v = tr.pose.pose.position, tr.twist.twist.linear
+                t.append(stamp)
+                xyz.append((p.x, p.y, p.z))
+                vel.append((v.x, v.y, v.z))
+    return np.array(t, dtype=np.int64), np.array(xyz), np.array(vel), frames
+
+
+def test_mcap_topics_types_and_counts(patrol_scene: SceneResult) -> None:
+    meta = patrol_scene.meta
+    with open_logs([patrol_scene.log]) as logs:
+        topics = {t.topic: (t.msgtype, t.count, t.encoding) for t in logs.topics}
+    assert topics == {
+        "/hydra/backend/dsg": ("hydra_msgs/msg/DsgUpdate", meta["messages"]["scene_graph"], "cdr"),
+        DET: ("spencer_tracking_msgs/msg/TrackedPersons", meta["messages"]["detections"], "cdr"),
+        "/tf": ("tf2_msgs/msg/TFMessage", meta["messages"]["tf"], "cdr"),
+    }
+    assert meta["messages"]["detections"] > 20
+    assert meta["messages"]["scene_graph"] > 20
+
+
+def test_frames_and_rows(patrol_scene: SceneResult) -> None:
+    t, _, _, frames = _detections(patrol_scene)
+    assert set(frames) == {"base_link"}
+    assert len(t) == patrol_scene.meta["detections"]
+    assert np.all(np.diff(t) >= 0)
+    with open_logs([patrol_scene.log]) as logs:
+        chains = set()
+        for raw in logs.messages({"/tf"}):
+            msg = logs.decode(raw)
+            chains.add(tuple((x.header.frame_id, x.child_frame_id) for x in msg.transforms))
+        dsg_frames = {logs.decode(r).header.frame_id for r in logs.messages({"/hydra/backend/dsg"})}
+    assert chains == {(("map", "odom"), ("odom", "base_link"))}
+    assert dsg_frames == {"map"}
+
+
+def _tf_buffer(result: SceneResult) -> TfBuffer:
+    with open_logs([result.log]) as logs:
+        msgs = [(logs.decode(r), False) for r in logs.messages({"/tf"})]
+    return TfBuffer.from_messages(msgs, tolerance_s=0.0)
+
+
+def test_base_link_detections_through_tf_equal_map_frame_ones(
+    patrol_scene: SceneResult, patrol_map_scene: SceneResult
+) -> None:
+    """Same seed, two frames: base_link rows transformed by the logged TF are the map rows."""
+    t_b, xyz_b, vel_b, _ = _detections(patrol_scene)
+    t_m, xyz_m, vel_m, frames = _detections(patrol_map_scene)
+    assert set(frames) == {"map"}
+    np.testing.assert_array_equal(t_b, t_m)
+    tf = _tf_buffer(patrol_scene)
+    mapped, ok = tf.transform_points("map", "base_link", t_b, xyz_b)
+    assert ok.all()
+    np.testing.assert_allclose(mapped, xyz_m, atol=1e-6)
+    rotated, _ = tf.transform_vectors("map", "base_link", t_b, vel_b)
+    np.testing.assert_allclose(rotated, vel_m, atol=1e-6)
+    # and they are close to (but, with drift, not exactly) the true positions
+    truth = np.load(patrol_scene.truth_npz)
+    seen = truth["agent_seen"]
+    err = np.linalg.norm(mapped[:, :2] - truth["agent_xyz"][seen][:, :2], axis=1)
+    assert err.max() < 1.5
+    assert np.median(err) < 0.5
+
+
+def test_map_odom_jumps_at_loop_closures(patrol_scene: SceneResult) -> None:
+    """map→odom is constant between loop closures and changes exactly at them."""
+    truth = np.load(patrol_scene.truth_npz)
+    closures = truth["loop_closure_t_ns"]
+    assert len(closures) >= 3
+    with open_logs([patrol_scene.log]) as logs:
+        rows = []
+        for raw in logs.messages({"/tf"}):
+            tr = logs.decode(raw).transforms[0].transform
+            rows.append((raw.log_time_ns, tr.translation.x, tr.translation.y, tr.rotation.z))
+    arr = np.array(rows)
+    change = np.flatnonzero(np.any(np.abs(np.diff(arr[:, 1:], axis=0)) > 1e-12, axis=1)) + 1
+    np.testing.assert_array_equal(arr[change, 0].astype(np.int64), closures[: len(change)])
+    assert len(change) == len(closures)
+
+
+@pytest.mark.parametrize(
+    ("fmt", "dsg_topic", "suffix"),
+    [("bag", "/hydra_ros_node/backend/dsg", ".bag"), ("rosbag2", "/hydra/backend/dsg", "")],
+)
+def test_bag_and_rosbag2_read_with_rosbags(
+    tmp_path: Path, fmt: str, dsg_topic: str, suffix: str
+) -> None:
+    from rosbags.highlevel import AnyReader
+
+    config = replace(PATROL, days=0.75 / 24, format=fmt, detection_type="people",
+                     start="2026-01-05T12:00")
+    result = simulate(config, tmp_path / "scene")[0]
+    assert result.log == tmp_path / f"scene{suffix}"
+    counts: dict[tuple[str, str], int] = {}
+    names: set[str] = set()
+    with AnyReader([result.log]) as reader:
+        for conn, _, raw in reader.messages():
+            key = (conn.topic, conn.msgtype)
+            counts[key] = counts.get(key, 0) + 1
+            if conn.topic == "/people":
+                msg = reader.deserialize(raw, conn.msgtype)
+                assert msg.header.frame_id == "base_link"
+                names |= {p.name for p in msg.people}
+    m = result.meta["messages"]
+    assert counts == {
+        (dsg_topic, "hydra_msgs/msg/DsgUpdate"): m["scene_graph"],
+        ("/people", "people_msgs/msg/People"): m["detections"],
+        ("/tf", "tf2_msgs/msg/TFMessage"): m["tf"],
+    }
+    assert m["detections"] > 0
+    assert all(n.isdigit() for n in names)
