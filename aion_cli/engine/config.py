@@ -59,7 +59,7 @@ class ModelConfig:
     span_factor: float = 1.5
     max_order: int = 4
     order_bias: float = 0.002
-    direction_floor: float = 1e-3
+    direction_floor: float = 0.01
     plan_speed: float = 1.0
     plan_w_entropy: float = 0.5
     plan_w_flow: float = 1.0

@@ -4,8 +4,9 @@ Every model answers ``probabilities(xyz, t_ns) -> (hist[n, B], matched[n])``: fo
 detection a B-bin direction histogram (any non-negative scale) and whether the model had data
 near it. Scores, all documented in ``docs/EVALUATION.md``:
 
-- **heading NLL**: ``-(log P(bin) + log(B / 2π))`` per matched detection (probabilities floored
-  at 1e-9 and renormalised; :func:`aion_cli.evaluation.metrics.heading_nll`), reported as the
+- **heading NLL**: ``-(log P(bin) + log(B / 2π))`` per matched detection (every model's
+  histogram normalised, floored at aion's ``direction_floor`` and renormalised;
+  :func:`aion_cli.evaluation.metrics.heading_nll`), reported as the
   mean over matched detections, together with the unmatched count and the mean over *all*
   detections where an unmatched one scores the uniform density ``log(2π)`` — the fair number
   when models cover different areas.
@@ -141,16 +142,26 @@ class GridHeadingModel:
 
 
 def score_headings(
-    model: HeadingModel, test: DetectionBatch, bins: int, chi_grid: float = 1.0,
+    model: HeadingModel,
+    test: DetectionBatch,
+    bins: int,
+    chi_grid: float = 1.0,
     window_s: float = 600.0,
+    floor: float = 0.01,
 ) -> HeadingScore:
-    """Heading NLL and chi-square of ``model`` on the test detections that have a heading."""
+    """Heading NLL and chi-square of ``model`` on the test detections that have a heading.
+
+    Every model's histogram is normalised, floored at ``floor`` (aion's ``direction_floor``)
+    and renormalised before scoring, so sparse count histograms are not punished with 1e-9
+    probabilities that aion's own predictions never produce.
+    """
     keep = np.isfinite(test.heading) & np.all(np.isfinite(test.xyz), axis=1)
     batch = test.select(keep)
     n = len(batch)
     if n == 0:
         return HeadingScore(model.name, 0, 0, 0, math.nan, math.nan, math.nan)
     hist, matched = model.probabilities(batch.xyz, batch.t_ns)
+    hist = np.maximum(normalize(hist), floor)
     observed_bins = bin_of(batch.heading, bins)
     nll = np.full(n, UNIFORM_NLL)
     if np.any(matched):
