@@ -372,6 +372,9 @@ class FremenModel:
         c, k = rr.size, self.n_periods
         m_all = self.max_order
         m_eff = min(m_all, k)  # orders above K use every period
+        if m_eff == 0:
+            self._score_mean_only(state, rr, vz, obs)
+            return
         n = state.n[rr].copy()
         ss = state.sum_s[rr].copy()
         first = state.t_first[rr].copy()
@@ -449,6 +452,18 @@ class FremenModel:
             last[seen] = np.fmax(last[seen], t[w])
         state.order_err[rr] += err
         state.order_n[rr] += scored_n
+
+    @staticmethod
+    def _score_mean_only(state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:
+        """Order 0 only: the prequential mean before each window, from cumulative sums."""
+        of = obs.astype(np.float64)
+        n_pre = state.n[rr, None] + np.cumsum(of, axis=1) - of
+        s_pre = state.sum_s[rr, None] + np.cumsum(vz, axis=1) - vz
+        scored = obs & (n_pre > 0)
+        mu = np.divide(s_pre, n_pre, out=np.zeros_like(s_pre), where=scored)
+        err = np.where(scored, np.abs(vz - np.clip(mu, 0.0, 1.0)), 0.0).sum(axis=1)
+        state.order_err[rr] += err[:, None]
+        state.order_n[rr] += scored.sum(axis=1)
 
     # -- reading --------------------------------------------------------------------------------
     def _rows(self, state: FremenState, rows: npt.ArrayLike | None) -> I64:

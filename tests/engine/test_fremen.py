@@ -356,3 +356,18 @@ def test_model_seconds_are_relative_to_monday_2020_01_06() -> None:
     model = FremenModel.from_config(ModelConfig())
     assert model.n_periods == 31
     assert model.max_order == 4
+
+
+def test_mean_only_model_scores_order_zero_like_the_loop() -> None:
+    model = FremenModel(PERIODS, max_order=0)
+    t, values, observed = _random_stream(8, 5, 70)
+    state = model.empty(5)
+    model.update(state, np.arange(5), t[:30], values[:, :30], observed[:, :30])
+    model.update(state, np.arange(5), t[30:], values[:, 30:], observed[:, 30:])
+    loops = [LoopState(PERIODS, 0, 1.5) for _ in range(5)]
+    for i, lp in enumerate(loops):
+        for w in np.flatnonzero(observed[i]):
+            lp.add(float(t[w]), float(values[i, w]))
+    np.testing.assert_allclose(state.order_err[:, 0], [lp.err[0] for lp in loops], rtol=1e-9)
+    np.testing.assert_array_equal(state.order_n, [lp.err_n for lp in loops])
+    assert model.chosen_order(state).tolist() == [0] * 5
