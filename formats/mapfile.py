@@ -499,8 +499,9 @@ def _read_manifest(zf: zipfile.ZipFile, path: Path) -> dict[str, Any]:
     raw = _read_member_bytes(zf, info, path, MAX_MANIFEST_BYTES, DEFAULT_MAX_RATIO)
     try:
         parsed = json.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise _not_a_map(path, f"{MANIFEST_NAME} is not valid JSON ({exc})") from exc
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        # RecursionError: absurdly nested JSON, a hostile file rather than a map.
+        raise _not_a_map(path, f"{MANIFEST_NAME} is not valid JSON ({type(exc).__name__})") from exc
     return validate_manifest(parsed, path)
 
 

@@ -400,6 +400,9 @@ def test_manifest_not_json_or_not_object(written: Path, tmp_path: Path) -> None:
     rewrite(written, bad, {"manifest.json": b"{not json"})
     with pytest.raises(MapFileError, match="not valid JSON"):
         read_map(bad)
+    rewrite(written, bad, {"manifest.json": b"[" * 100_000 + b"]" * 100_000})
+    with pytest.raises(MapFileError, match="not valid JSON"):
+        read_map(bad)
     rewrite(written, bad, {"manifest.json": b"[1, 2]"})
     with pytest.raises(MapFileError, match="not a JSON object"):
         read_map(bad)
