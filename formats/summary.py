@@ -1,0 +1,196 @@
+"""What ``aion info`` reports about a set of logs: files, time range and every topic's role.
+
+A topic's role says what ``aion build`` does with it: ``scene_graph`` (Hydra ``DsgUpdate``),
+``detections`` (a type with a detection adapter), ``tf`` / ``tf_static`` (transforms) or
+``unsupported``. Everything comes from the logs' indexes, no message is read; the spark_dsg payload
+versions seen on scene-graph topics need the DSG decoder, so the CLI fills
+:attr:`LogSummary.dsg_versions` itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from typing import TYPE_CHECKING, Any, Literal
+
+from formats.raw import normalize_msgtype
+
+if TYPE_CHECKING:
+    from formats.logs import LogSet
+
+Role = Literal["scene_graph", "detections", "tf", "tf_static", "unsupported"]
+ROLES: tuple[Role, ...] = ("scene_graph", "detections", "tf", "tf_static", "unsupported")
+
+TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"})
+
+# DESIGN.md §6, used when the detections package cannot be imported.
+_FALLBACK_DETECTION_TYPES = (
+    "spencer_tracking_msgs/msg/TrackedPersons",
+    "spencer_tracking_msgs/msg/DetectedPersons",
+    "people_msgs/msg/People",
+    "people_msgs/msg/PositionMeasurementArray",
+    "leg_tracker/msg/PersonArray",
+    "vision_msgs/msg/Detection3DArray",
+    "geometry_msgs/msg/PoseArray",
+    "geometry_msgs/msg/PoseStamped",
+    "visualization_msgs/msg/MarkerArray",
+    "pedsim_msgs/msg/AgentStates",
+    "zed_interfaces/msg/ObjectsStamped",
+    "zed_msgs/msg/ObjectsStamped",
+    "nav2_dynamic_msgs/msg/ObstacleArray",
+)
+
+
+def detection_types() -> frozenset[str]:
+    """Message types with a detection adapter: ``formats.detections.SUPPORTED_TYPES`` when that
+    package is importable, else the DESIGN.md §6 list."""
+    try:
+        from formats.detections import SUPPORTED_TYPES
+    except ImportError:
+        return frozenset(_FALLBACK_DETECTION_TYPES)
+    return frozenset(normalize_msgtype(t) for t in SUPPORTED_TYPES)
+
+
+def role_of(topic: str, msgtype: str, detections: Iterable[str] | None = None) -> Role:
+    """The role of ``topic`` carrying ``msgtype``. ``detections``: the types counted as
+    detections (default :func:`detection_types`; add types a TOML mapping covers)."""
+    msgtype = normalize_msgtype(msgtype)
+    if msgtype.endswith("/DsgUpdate"):
+        return "scene_graph"
+    if msgtype in TF_TYPES:
+        return "tf_static" if topic.rstrip("/").endswith("tf_static") else "tf"
+    known = detection_types() if detections is None else frozenset(detections)
+    if msgtype in known:
+        return "detections"
+    return "unsupported"
+
+
+@dataclass(frozen=True)
+class TopicSummary:
+    """One topic: type, message count, mean rate over the log's span, role, wire encoding."""
+
+    topic: str
+    msgtype: str
+    count: int
+    role: Role
+    encoding: str
+    rate_hz: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "topic": self.topic,
+            "type": self.msgtype,
+            "count": self.count,
+            "role": self.role,
+            "encoding": self.encoding,
+            "rate_hz": None if self.rate_hz is None else round(self.rate_hz, 3),
+        }
+
+
+@dataclass(frozen=True)
+class FileSummary:
+    """One opened file or rosbag2 folder."""
+
+    path: str
+    format: str
+    size_bytes: int
+    message_count: int
+    start_ns: int
+    end_ns: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "path": self.path,
+            "format": self.format,
+            "size_bytes": self.size_bytes,
+            "messages": self.message_count,
+            "start_ns": self.start_ns,
+            "end_ns": self.end_ns,
+        }
+
+
+@dataclass
+class LogSummary:
+    """Everything ``aion info`` prints; :meth:`to_dict` is the ``--json`` form."""
+
+    files: list[FileSummary]
+    topics: list[TopicSummary]
+    start_ns: int
+    end_ns: int
+    warnings: list[str] = field(default_factory=list)
+    dsg_versions: dict[str, list[str]] = field(default_factory=dict)
+    """Scene-graph topic -> spark_dsg payload versions seen (filled by the CLI)."""
+
+    @property
+    def formats(self) -> list[str]:
+        """Container formats of the files, each once, in file order."""
+        return list(dict.fromkeys(f.format for f in self.files))
+
+    @property
+    def duration_s(self) -> float:
+        return max(self.end_ns - self.start_ns, 0) / 1e9
+
+    @property
+    def message_count(self) -> int:
+        return sum(t.count for t in self.topics)
+
+    @property
+    def size_bytes(self) -> int:
+        return sum(f.size_bytes for f in self.files)
+
+    def by_role(self, role: Role) -> list[TopicSummary]:
+        """Topics with ``role``, in topic order."""
+        return [t for t in self.topics if t.role == role]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: plain str/int/float/list/dict values only."""
+        return {
+            "formats": self.formats,
+            "files": [f.to_dict() for f in self.files],
+            "size_bytes": self.size_bytes,
+            "start_ns": self.start_ns,
+            "end_ns": self.end_ns,
+            "start": _iso(self.start_ns),
+            "end": _iso(self.end_ns),
+            "duration_s": round(self.duration_s, 6),
+            "messages": self.message_count,
+            "topics": [t.to_dict() for t in self.topics],
+            "roles": {role: [t.topic for t in self.by_role(role)] for role in ROLES},
+            "dsg_versions": {k: list(v) for k, v in self.dsg_versions.items()},
+            "warnings": list(self.warnings),
+        }
+
+
+def _iso(t_ns: int) -> str:
+    """UTC ISO 8601 time with microseconds (``2023-11-14T22:13:20.000000Z``)."""
+    return datetime.fromtimestamp(t_ns / 1e9, tz=UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSummary:
+    """Summary of ``logset`` from its indexes (reads no message). ``detections``: extra
+    message types to count as detections (e.g. those a TOML mapping covers)."""
+    known = detection_types() | frozenset(normalize_msgtype(t) for t in detections or ())
+    span_s = max(logset.end_ns - logset.start_ns, 0) / 1e9
+    topics = [
+        TopicSummary(
+            topic=t.topic,
+            msgtype=t.msgtype,
+            count=t.count,
+            role=role_of(t.topic, t.msgtype, known),
+            encoding=t.encoding,
+            rate_hz=t.count / span_s if span_s > 0 else None,
+        )
+        for t in logset.topics
+    ]
+    files = [
+        FileSummary(str(f.path), f.format, f.size_bytes, f.message_count, f.start_ns, f.end_ns)
+        for f in logset.files
+    ]
+    return LogSummary(
+        files=files,
+        topics=topics,
+        start_ns=logset.start_ns,
+        end_ns=logset.end_ns,
+        warnings=list(logset.warnings),
+    )
