@@ -286,9 +286,13 @@ class _BucketTables:
         self.graph, self.node_cost, self.config = graph, node_cost, config
         self.depart_s, self.speed, self.bucket_s = depart_s, speed, bucket_s
         self.tables: dict[int, tuple[F64, F64, list[float]]] = {}
+        # bucket(d) = floor(t0 + d·k): the A* loop inlines this exact formula.
+        self.t0 = depart_s / bucket_s
+        self.k = 1.0 / (speed * bucket_s)
 
     def bucket(self, distance: float) -> int:
-        return math.floor((self.depart_s + distance / self.speed) / self.bucket_s)
+        """Time bucket of arrival after walking ``distance`` metres from the start."""
+        return math.floor(self.t0 + distance * self.k)
 
     def eval_time(self, bucket: int) -> float:
         return max(bucket * self.bucket_s, self.depart_s)
@@ -359,8 +363,7 @@ def _astar(arcs: _Arcs, h: list[float], s: int, goal: int, tables: _BucketTables
     src_half, full, d_next = arcs.length, length, math.inf
     t0 = k = 0.0
     if tables is not None:
-        t0 = tables.depart_s / tables.bucket_s
-        k = 1.0 / (tables.speed * tables.bucket_s)
+        t0, k = tables.t0, tables.k
     b_cur = None
     while heap:
         i = pop(heap)[1]
