@@ -98,7 +98,7 @@ class ItemSpec:
     ``array`` is the sequence of people (None: the message itself is one detection);
     ``position``/``velocity``/``orientation``/``track_id`` are relative to an item; ``stamp``
     and ``frame`` to the message; ``item_stamp``/``item_frame`` (per-item header) override
-    them where set (non-zero stamp, non-empty frame)."""
+    them where set (non-zero stamp, non-empty frame); ``fixed_frame`` replaces both."""
 
     array: FieldPath | None
     position: FieldPath
@@ -111,6 +111,7 @@ class ItemSpec:
     item_frame: FieldPath | None = None
     keep: Keep | None = None
     adjust: Adjust | None = None
+    fixed_frame: str | None = None
 
     @classmethod
     def of(
@@ -139,6 +140,8 @@ class ItemSpec:
         """Append the detections of one message to ``rows``."""
         stamp = stamp_ns(self.stamp.get(msg)) if self.stamp else 0
         frame = str(self.frame.get(msg)) if self.frame else ""
+        if self.fixed_frame is not None:
+            frame = self.fixed_frame
         items = self.array.get(msg) if self.array else [msg]
         for it in items:
             if self.keep is not None and (reason := self.keep(it)) is not None:
@@ -146,6 +149,8 @@ class ItemSpec:
                 continue
             t = stamp_ns(self.item_stamp.get(it)) if self.item_stamp else 0
             f = str(self.item_frame.get(it)) if self.item_frame else ""
+            if self.fixed_frame is not None:
+                f = self.fixed_frame
             vel = vec3(self.velocity.get(it), self.velocity.text) if self.velocity else NAN_V
             o = self.orientation
             q = quat4(o.get(it), o.text) if o else NAN_Q

@@ -16,6 +16,7 @@ import numpy as np
 from aion_cli.engine.errors import ConfigError
 
 _STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+(?:\.\.\d+)?\])*)")
+_DOT = re.compile(r"\.(?![^\[]*\])")  # a dot outside [..] brackets
 _INDEX = re.compile(r"\[(\d+)(?:\.\.(\d+))?\]")
 
 
@@ -32,7 +33,7 @@ class FieldPath:
         steps: list[str | int | tuple[int, int]] = []
         if not text or not text.strip():
             raise ConfigError("empty field path")
-        for part in text.strip().split("."):
+        for part in _DOT.split(text.strip()):
             m = _STEP.fullmatch(part)
             if m is None:
                 raise ConfigError(

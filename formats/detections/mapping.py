@@ -1,0 +1,224 @@
+"""A small TOML mapping that lets aion read people from any other message type.
+
+Example (one ``[[topic]]`` table per topic)::
+
+    [[topic]]
+    topic = "/tracker/people"
+    msgtype = "my_tracker/msg/Tracks"       # pkg/Type or pkg/msg/Type
+    array = "tracks"                        # the sequence of people; omit: one per message
+    position = "pose.pose.position"         # Point-like, or 3 numbers: "position[0..2]"
+    velocity = "twist.twist.linear"         # optional
+    orientation = "pose.pose.orientation"   # optional (x, y, z, w)
+    id = "track_id"                         # optional: integer, string or UUID bytes
+    stamp = "header.stamp"                  # default, relative to the message; "" = log time
+    frame = "header.frame_id"               # default, relative to the message; "" = none
+    item_header = "header"                  # optional per-item header (overrides when set)
+    frame_override = "map"                  # optional: ignore the message's frame
+    filter = { field = "label", equals = ["person", "pedestrian"] }   # optional, per item
+
+Paths are dotted field names with ``[i]`` indices and inclusive ``[i..j]`` ranges. Item paths
+(position, velocity, orientation, id, item_header, filter.field) are relative to one element of
+``array``. :meth:`TopicMapping.check` validates every path against a typestore's definition
+before any message is read, and names the path and the fields that exist when one is wrong.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aion_cli.engine.errors import ConfigError
+from formats.detections.adapter import DetectionAdapter
+from formats.detections.generic import ItemSpec, Keep
+from formats.detections.paths import FieldPath
+from formats.raw import normalize_msgtype
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
+
+_KEYS = {
+    "topic", "msgtype", "array", "position", "velocity", "orientation", "id", "stamp", "frame",
+    "item_header", "frame_override", "filter",
+}
+# rosbags field-definition node types.
+_BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4
+
+
+@dataclass(frozen=True)
+class TopicMapping:
+    """One topic's mapping: where its detections live (an :class:`ItemSpec`)."""
+
+    topic: str
+    msgtype: str
+    spec: ItemSpec
+    raw: dict[str, Any]
+
+    def adapter(self, typestore: Typestore | None = None) -> DetectionAdapter:
+        """A generic adapter decoding this topic's messages with the mapping; missing fields
+        at decode time raise :class:`ConfigError` naming the path."""
+        return DetectionAdapter(
+            self.msgtype, self.spec.extract, None, typestore, strict_fields=True
+        )
+
+    def check(self, typestore: Typestore) -> None:
+        """Validate every path against ``typestore``'s definition of ``msgtype``."""
+        if self.msgtype not in typestore.fielddefs:
+            raise ConfigError(
+                f"mapping for {self.topic!r}: message type {self.msgtype!r} is not known",
+                hint="use the type name the log lists (aion inspect), e.g. pkg/msg/Type",
+            )
+        root = (_NAME, self.msgtype)
+        item = root
+        r = self.raw
+        if "array" in r:
+            item = _element(typestore, _walk(typestore, root, r["array"], "array"), r["array"])
+        _vector(typestore, _walk(typestore, item, r["position"], "position"), 3, "position")
+        if "velocity" in r:
+            _vector(typestore, _walk(typestore, item, r["velocity"], "velocity"), 3, "velocity")
+        if "orientation" in r:
+            node = _walk(typestore, item, r["orientation"], "orientation")
+            _vector(typestore, node, 4, "orientation")
+        if "id" in r:
+            _walk(typestore, item, r["id"], "id")
+        for key, default in (("stamp", "header.stamp"), ("frame", "header.frame_id")):
+            if r.get(key, default):
+                _walk(typestore, root, r.get(key, default), key)
+        if "item_header" in r:
+            _walk(typestore, item, r["item_header"] + ".stamp", "item_header")
+        if "filter" in r:
+            _walk(typestore, item, r["filter"]["field"], "filter.field")
+
+
+def load_mapping(source: str | Path) -> list[TopicMapping]:
+    """Parse a mapping file (a path) or TOML text; :class:`ConfigError` on any problem."""
+    if isinstance(source, Path):
+        try:
+            text = source.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ConfigError(f"cannot read mapping file {source}: {exc.strerror}") from exc
+        where = str(source)
+    else:
+        text, where = source, "mapping"
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where} is not valid TOML: {exc}") from exc
+    tables = doc.get("topic")
+    if not isinstance(tables, list) or not tables:
+        raise ConfigError(
+            f"{where} has no [[topic]] tables", hint="start each mapping with [[topic]]"
+        )
+    unknown_top = set(doc) - {"topic"}
+    if unknown_top:
+        raise ConfigError(f"{where}: unknown top-level keys {sorted(unknown_top)}")
+    return [_parse_topic(t, f"{where} [[topic]] #{i + 1}") for i, t in enumerate(tables)]
+
+
+def _parse_topic(t: dict[str, Any], where: str) -> TopicMapping:
+    unknown = set(t) - _KEYS
+    if unknown:
+        raise ConfigError(f"{where}: unknown keys {sorted(unknown)}; known: {sorted(_KEYS)}")
+    for key in ("topic", "msgtype", "position"):
+        if not isinstance(t.get(key), str) or not t[key]:
+            raise ConfigError(f"{where}: {key!r} is required (a string)")
+    for key in _KEYS - {"filter"}:
+        if key in t and not isinstance(t[key], str):
+            raise ConfigError(f"{where}: {key!r} must be a string")
+    keep = _filter(t["filter"], where) if "filter" in t else None
+    spec = ItemSpec.of(
+        t.get("array"), t["position"], t.get("velocity"), t.get("orientation"), t.get("id"),
+        t.get("stamp", "header.stamp") or None, t.get("frame", "header.frame_id") or None,
+        t.get("item_header"), keep,
+    )
+    if "frame_override" in t:
+        spec = replace(spec, fixed_frame=t["frame_override"])
+    return TopicMapping(t["topic"], normalize_msgtype(t["msgtype"]), spec, dict(t))
+
+
+def _filter(f: Any, where: str) -> Keep:
+    if not isinstance(f, dict) or set(f) != {"field", "equals"}:
+        raise ConfigError(f"{where}: filter must be {{ field = \"...\", equals = ... }}")
+    path = FieldPath.parse(f["field"])
+    raw = f["equals"]
+    wanted = tuple(raw) if isinstance(raw, list) else (raw,)
+
+    def keep(item: Any) -> str | None:
+        return None if path.get(item) in wanted else "filter"
+
+    return keep
+
+
+# --- static path checks against rosbags field definitions -----------------------------------
+
+Node = tuple[int, Any]
+
+
+def _fields(store: Typestore, typename: str) -> list[tuple[str, Node]]:
+    return list(store.fielddefs[typename][1])
+
+
+def _walk(store: Typestore, node: Node, text: str, what: str) -> Node:
+    """The definition node at ``text`` from ``node``; ConfigError naming the missing field."""
+    path = FieldPath.parse(text)
+    cur = node
+    for step in path.steps:
+        kind, detail = cur[0], cur[1]
+        if isinstance(step, str):
+            if kind != _NAME:
+                raise ConfigError(f"{what} path {text!r}: cannot take field {step!r} of a "
+                                  f"{_describe(cur)}")
+            fields = dict(_fields(store, detail))
+            if step not in fields:
+                raise ConfigError(
+                    f"{what} path {text!r}: {detail} has no field {step!r}; available: "
+                    f"{', '.join(fields)}"
+                )
+            cur = fields[step]
+            cur = (int(cur[0]), cur[1])
+        else:
+            if kind not in (_ARRAY, _SEQUENCE):
+                raise ConfigError(f"{what} path {text!r}: {_describe(cur)} is not an array")
+            last = step if isinstance(step, int) else step[1]
+            length = detail[1]
+            if kind == _ARRAY and last >= length:
+                raise ConfigError(
+                    f"{what} path {text!r}: index {last} out of range (length {length})"
+                )
+            if isinstance(step, int):
+                cur = (int(detail[0][0]), detail[0][1])
+            else:
+                cur = (_ARRAY, (detail[0], step[1] - step[0] + 1))
+    return cur
+
+
+def _element(store: Typestore, node: Node, text: str) -> Node:
+    if node[0] not in (_ARRAY, _SEQUENCE):
+        raise ConfigError(f"array path {text!r} is a {_describe(node)}, not an array")
+    elem = node[1][0]
+    return (int(elem[0]), elem[1])
+
+
+def _vector(store: Typestore, node: Node, size: int, what: str) -> None:
+    names = "xyz" if size == 3 else "xyzw"
+    if node[0] == _NAME:
+        fields = dict(_fields(store, node[1]))
+        if all(c in fields for c in names):
+            return
+        raise ConfigError(
+            f"{what} must be a {'Point/Vector3' if size == 3 else 'Quaternion'}; {node[1]} has "
+            f"fields {', '.join(fields)}"
+        )
+    if node[0] in (_ARRAY, _SEQUENCE) and node[1][0][0] == _BASE and node[1][1] == size:
+        return
+    raise ConfigError(f"{what} must point to {size} numbers or a message, not a {_describe(node)}")
+
+
+def _describe(node: Node) -> str:
+    kind, detail = node
+    if kind == _NAME:
+        return f"message {detail}"
+    if kind == _BASE:
+        return f"{detail[0]} value"
+    return "array"

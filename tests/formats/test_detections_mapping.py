@@ -1,0 +1,185 @@
+"""TOML mappings: reading a custom message type with known answers, filters, overrides, and
+clear ConfigErrors for bad files and bad paths (naming the path and the available fields)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.errors import ConfigError
+from formats import msgdefs
+from formats.detections import adapter_for, hash_id
+from formats.detections.mapping import load_mapping
+from formats.raw import RawMessage
+from tests.formats.test_detections_support import header, pose, raw
+
+MSGTYPE = "my_tracker/msg/Tracks"
+
+
+@pytest.fixture(scope="module")
+def store() -> Any:
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    ts.register(
+        get_types_from_msg(
+            "string label\nfloat32[3] position\ngeometry_msgs/Vector3 vel\nstring uid\n"
+            "std_msgs/Header header\n",
+            "my_tracker/msg/Track",
+        )
+    )
+    ts.register(
+        get_types_from_msg("std_msgs/Header header\nmy_tracker/Track[] tracks\n", MSGTYPE)
+    )
+    return ts
+
+
+def _message(store: Any, frame: str = "/odom") -> RawMessage:
+    T = store.types
+    Time = T["builtin_interfaces/msg/Time"]
+
+    def track(label: str, xyz: list[float], uid: str, sec: int) -> Any:
+        return T["my_tracker/msg/Track"](
+            label=label,
+            position=np.asarray(xyz, np.float32),
+            vel=T["geometry_msgs/msg/Vector3"](x=0.5, y=0.0, z=0.0),
+            uid=uid,
+            header=T["std_msgs/msg/Header"](stamp=Time(sec=sec, nanosec=0), frame_id=""),
+        )
+
+    msg = T[MSGTYPE](
+        header=T["std_msgs/msg/Header"](stamp=Time(sec=10, nanosec=5), frame_id=frame),
+        tracks=[
+            track("person", [1.0, 2.0, 0.5], "a", 0),
+            track("dog", [9.0, 9.0, 0.0], "b", 0),
+            track("person", [-1.5, 0.25, 0.0], "c", 11),
+        ],
+    )
+    return RawMessage("/tracks", MSGTYPE, 77, bytes(store.serialize_cdr(msg, MSGTYPE)), "cdr")
+
+
+MAPPING = """
+[[topic]]
+topic = "/tracks"
+msgtype = "my_tracker/Tracks"
+array = "tracks"
+position = "position[0..2]"
+velocity = "vel"
+id = "uid"
+item_header = "header"
+filter = { field = "label", equals = ["person", "pedestrian"] }
+"""
+
+
+def test_custom_type_known_answers(store: Any) -> None:
+    (m,) = load_mapping(MAPPING)
+    assert m.topic == "/tracks"
+    assert m.msgtype == MSGTYPE
+    m.check(store)
+    got = m.adapter(store).decode([_message(store)])
+    np.testing.assert_array_equal(got.xyz, [[1.0, 2.0, 0.5], [-1.5, 0.25, 0.0]])
+    np.testing.assert_array_equal(got.velocity, [[0.5, 0, 0]] * 2)
+    assert np.isnan(got.yaw).all()
+    np.testing.assert_array_equal(got.track_id, [hash_id("a"), hash_id("c")])
+    np.testing.assert_array_equal(got.t_ns, [10_000_000_005, 11_000_000_000])
+    assert got.frame_names() == ["odom", "odom"]
+    assert got.filtered == {"filter": 1}
+
+
+def test_frame_override_and_log_time_stamps(store: Any, tmp_path: Path) -> None:
+    text = MAPPING.replace('item_header = "header"\n', 'stamp = ""\nframe_override = "map"\n')
+    path = tmp_path / "m.toml"
+    path.write_text(text)
+    (m,) = load_mapping(path)
+    m.check(store)
+    got = m.adapter(store).decode([_message(store)])
+    np.testing.assert_array_equal(got.t_ns, [77, 77])
+    assert got.stamp_fallbacks == 2
+    assert got.frame_names() == ["map", "map"]
+
+
+def test_mapping_of_a_known_type_matches_the_builtin_adapter() -> None:
+    text = """
+[[topic]]
+topic = "/spencer"
+msgtype = "spencer_tracking_msgs/msg/TrackedPersons"
+array = "tracks"
+position = "pose.pose.position"
+velocity = "twist.twist.linear"
+orientation = "pose.pose.orientation"
+id = "track_id"
+"""
+    (m,) = load_mapping(text)
+    m.check(msgdefs.typestore(1))
+    tracks = [
+        {"track_id": 3, "pose": {"pose": pose(1, 2, 3, (0, 0, 1, 0))},
+         "twist": {"twist": {"linear": {"x": 1.0, "y": -1.0}}}},
+        {"track_id": 8, "pose": {"pose": pose(-4, 5, 0, (0, 0, 0, 1))}},
+    ]
+    msg = raw(m.msgtype, {"header": header(2, 3, "odom"), "tracks": tracks}, 1, 1)
+    mine = m.adapter().decode([msg])
+    builtin = adapter_for(m.msgtype)
+    assert builtin is not None
+    ref = builtin.decode([msg])
+    for field in ("t_ns", "xyz", "velocity", "yaw", "track_id"):
+        np.testing.assert_array_equal(getattr(mine, field), getattr(ref, field))
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (('position = "position[0..2]"', 'position = "pos"'),
+         r"my_tracker/msg/Track has no field 'pos'; available: label, position, vel, uid"),
+        (('position = "position[0..2]"', 'position = "position[1..3]"'),
+         "index 3 out of range"),
+        (('position = "position[0..2]"', 'position = "label"'),
+         "position must point to 3 numbers"),
+        (('array = "tracks"', 'array = "header"'), "not an array"),
+        (('velocity = "vel"', 'velocity = "header.stamp"'), "must be a Point/Vector3"),
+        (('id = "uid"', 'id = "header.seq"'), "std_msgs/msg/Header has no field 'seq'"),
+        (('field = "label"', 'field = "kind"'), "filter.field path 'kind'"),
+    ],
+)
+def test_check_names_bad_paths(store: Any, change: tuple[str, str], message: str) -> None:
+    assert change[0] in MAPPING
+    (m,) = load_mapping(MAPPING.replace(*change))
+    with pytest.raises(ConfigError, match=message):
+        m.check(store)
+
+
+def test_check_unknown_message_type(store: Any) -> None:
+    (m,) = load_mapping(MAPPING.replace("my_tracker/Tracks", "nobody/Nothing"))
+    with pytest.raises(ConfigError, match="'nobody/msg/Nothing' is not known"):
+        m.check(store)
+
+
+def test_bad_path_at_decode_time_names_the_fields(store: Any) -> None:
+    (m,) = load_mapping(MAPPING.replace('id = "uid"', 'id = "track_id"'))
+    with pytest.raises(ConfigError, match="has no field 'track_id'; available: label, position"):
+        m.adapter(store).decode([_message(store)])
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[[topic]\n", "not valid TOML"),
+        ("x = 1\n", "no \\[\\[topic\\]\\] tables"),
+        ('[[topic]]\ntopic = "/a"\nmsgtype = "a/B"\n', "'position' is required"),
+        (MAPPING + "colour = 'red'\n", "unknown keys \\['colour'\\]"),
+        (MAPPING.replace('"position[0..2]"', '"position[2..0]"'), "range \\[2..0\\] is empty"),
+        (MAPPING.replace('"position[0..2]"', '"position..x"'), "cannot parse ''"),
+        (MAPPING.replace('id = "uid"', "id = 3"), "'id' must be a string"),
+        (MAPPING.replace("equals = ", "is = "), "filter must be"),
+    ],
+)
+def test_bad_mapping_files(text: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        load_mapping(text)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="cannot read mapping file"):
+        load_mapping(tmp_path / "absent.toml")
