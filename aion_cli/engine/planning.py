@@ -272,7 +272,7 @@ NodeCostFn = Callable[[float], NodeCosts]
 
 
 class _BucketTables:
-    """``node_cost`` evaluated once per time bucket, turned into per-arc halves (lists)."""
+    """``node_cost`` evaluated once per time bucket, turned into per-arc cost terms."""
 
     def __init__(
         self,
