@@ -74,7 +74,7 @@ class _Source:
     """One log file or rosbag2 folder behind :class:`LogSet`."""
 
     file: LogFile
-    topics: dict[str, _Topic]
+    topics: dict[tuple[str, str], _Topic]  # by (topic, msgtype)
     warnings: list[str]
 
     def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
@@ -123,10 +123,10 @@ class _McapSource(_Source):
                 )
                 continue
             msgtype = normalize_msgtype(schema.name)
-            info = self.topics.get(channel.topic)
+            info = self.topics.get((channel.topic, msgtype))
             if info is None:
                 definition = schema.data.decode("utf-8", "replace")
-                info = self.topics[channel.topic] = _Topic(
+                info = self.topics[channel.topic, msgtype] = _Topic(
                     channel.topic, msgtype, encoding, definition, schema.encoding == "ros2idl"
                 )
             info.count += counts.get(cid, 0)
@@ -351,7 +351,7 @@ def _chunks_overlap(indexes: list[Any]) -> bool:
     return False
 
 
-def _all_ros1(topics: dict[str, _Topic]) -> bool:
+def _all_ros1(topics: dict[tuple[str, str], _Topic]) -> bool:
     return bool(topics) and all(t.encoding == "ros1" for t in topics.values())
 
 
@@ -377,11 +377,11 @@ class _RosbagsSource(_Source):
                     continue
                 encoding = _MESSAGE_ENCODINGS[fmt]
             msgtype = normalize_msgtype(conn.msgtype)
-            info = self.topics.get(conn.topic)
+            info = self.topics.get((conn.topic, msgtype))
             if info is None:
                 definition = conn.msgdef.data if conn.msgdef is not None else ""
                 idl = conn.msgdef is not None and conn.msgdef.format.name == "IDL"
-                info = self.topics[conn.topic] = _Topic(
+                info = self.topics[conn.topic, msgtype] = _Topic(
                     conn.topic, msgtype, encoding, definition or "", idl
                 )
             info.count += conn.msgcount
@@ -412,8 +412,10 @@ class _RosbagsSource(_Source):
 
     def _messages(self, conns: list[Any]) -> Iterator[RawMessage]:
         meta = {
-            conn.id: (conn.topic, self.topics[conn.topic].msgtype, self.topics[conn.topic].encoding)
-            for conn in conns
+            conn.id: (info.topic, info.msgtype, info.encoding)
+            for info in self.topics.values()
+            for conn in info.keys
+            if conn in conns
         }
         try:
             for conn, t_ns, data in self._reader.messages(connections=conns):

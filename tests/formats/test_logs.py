@@ -436,3 +436,18 @@ def test_corrupt_chunk_in_an_indexed_mcap_stops_with_a_warning(tmp_path: Path) -
         assert [m.log_time_ns - T0 for m in msgs] == list(range(len(msgs)))
         (warning,) = logs.warnings
         assert f"corrupt chunk at byte {bad.chunk_start_offset}" in warning
+
+
+def test_one_topic_with_two_types_is_listed_twice(tmp_path: Path) -> None:
+    path = tmp_path / "two.mcap"
+    with LogWriter(path, "mcap") as w:
+        w.write("/x", "std_msgs/String", {"data": "a"}, T0)
+        w.write("/x", "std_msgs/Int32", {"data": 5}, T0 + 1)
+        w.write("/x", "std_msgs/Int32", {"data": 6}, T0 + 2)
+    with open_logs([path]) as logs:
+        assert [(t.msgtype, t.count) for t in logs.topics] == [
+            ("std_msgs/msg/String", 1),
+            ("std_msgs/msg/Int32", 2),
+        ]
+        values = [logs.decode(m).data for m in logs.messages(["/x"])]
+        assert values == ["a", 5, 6]
