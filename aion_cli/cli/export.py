@@ -14,6 +14,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
+from aion_cli.cli.timeparse import Zone
 
 EPILOG = """\b
 Examples:
@@ -94,23 +95,31 @@ def command(
         raise InputError("a path needs both --path-from and --path-to")
     loaded = load(map_path)
     times: list[int | None]
+    zone = None
     if historical:
         times = [None]
     elif t_from is not None and t_to is not None:
-        times = _series(t_from, t_to, step, tz)
+        times, zone = _series(t_from, t_to, step, tz)
     else:
         when, zone = resolve_time(time_text or "now", tz)
-        announce_time(when, zone)
         times = [when]
+    ends = None
+    if path_from is not None and path_to is not None:
+        ends = _path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     for t_ns in times:
         folder = out_dir if len(times) == 1 else out_dir / _stamp(t_ns)
-        written.extend(_export_one(loaded, t_ns, folder, fmt, path_from, path_to))
+        written.extend(_export_one(loaded, t_ns, folder, fmt, ends))
+    if zone is not None and times[0] is not None:
+        label = "time" if len(times) == 1 else f"series of {len(times)} from"
+        announce_time(times[0], zone, label)
     console().print(f"wrote {len(written)} file(s) to {out_dir}")
 
 
-def _series(t_from: str, t_to: str, step: str, tz: str | None) -> list[int | None]:
+def _series(
+    t_from: str, t_to: str, step: str, tz: str | None
+) -> tuple[list[int | None], Zone]:
     from aion_cli.engine.errors import InputError
 
     start, zone = resolve_time(t_from, tz)
@@ -121,8 +130,7 @@ def _series(t_from: str, t_to: str, step: str, tz: str | None) -> list[int | Non
     count = (end - start) // step_ns + 1
     if count > 1000:
         raise InputError(f"the series would have {count} frames", hint="use a larger --step")
-    announce_time(start, zone, f"series of {count} from")
-    return [start + k * step_ns for k in range(int(count))]
+    return [start + k * step_ns for k in range(int(count))], zone
 
 
 def _stamp(t_ns: int | None) -> str:
@@ -134,12 +142,7 @@ def _stamp(t_ns: int | None) -> str:
 
 
 def _export_one(
-    loaded: Any,
-    t_ns: int | None,
-    folder: Path,
-    fmt: str,
-    path_from: str | None,
-    path_to: str | None,
+    loaded: Any, t_ns: int | None, folder: Path, fmt: str, ends: tuple[Any, int, int] | None
 ) -> list[Path]:
     from aion_cli.cli.entries import CSV_KEYS, rows_from_table
     from aion_cli.cli.output import to_csv, to_json
@@ -152,31 +155,40 @@ def _export_one(
         else query.predict_table(loaded.state, t_ns)
     )
     rows = rows_from_table(table)
-    path_rows = None
-    if path_from is not None and path_to is not None:
-        path_rows = _plan_rows(loaded, t_ns, path_from, path_to)
+    path_rows = None if ends is None else _plan_rows(loaded, t_ns, ends)
     files = write_scene(loaded, table, folder, fmt, path_rows)
     (folder / "entries.csv").write_text(to_csv(rows, CSV_KEYS))
     (folder / "entries.json").write_text(to_json({"time_ns": t_ns, "entries": rows}))
     return [*files, folder / "entries.csv", folder / "entries.json"]
 
 
-def _plan_rows(loaded: Any, t_ns: int | None, path_from: str, path_to: str) -> Any:
+def _path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int]:
+    """The planning graph and the node ids of ``--path-from`` / ``--path-to``."""
     from aion_cli.cli.plan import _endpoint
-    from aion_cli.engine.fremen import to_model_seconds
     from aion_cli.engine.planning import plan
-    from aion_cli.pipeline import nav_graph, node_cost_fn
+    from aion_cli.pipeline import nav_graph
 
     nav = nav_graph(loaded)
     a, _ = _endpoint(path_from, nav, "--path-from")
     b, _ = _endpoint(path_to, nav, "--path-to")
+    plan(nav, a, b, 0.0, loaded.config.plan_speed, None, loaded.config)  # NoPathError now
+    return nav, a, b
+
+
+def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:
+    """Positions of the path planned at ``t_ns`` (distance only for a historical export)."""
+    from aion_cli.engine.fremen import to_model_seconds
+    from aion_cli.engine.planning import plan
+    from aion_cli.pipeline import node_cost_fn
+
+    nav, a, b = ends
+    config = loaded.config
     if t_ns is None:
-        result = plan(nav, a, b, 0.0, loaded.config.plan_speed, None, loaded.config)
+        result = plan(nav, a, b, 0.0, config.plan_speed, None, config)
     else:
-        result = plan(
-            nav, a, b, float(to_model_seconds(t_ns)), loaded.config.plan_speed,
-            node_cost_fn(loaded, nav.ids), loaded.config,
-        )
+        depart = float(to_model_seconds(t_ns))
+        cost = node_cost_fn(loaded, nav.ids)
+        result = plan(nav, a, b, depart, config.plan_speed, cost, config)
     return nav.xyz[result.path]
 
 

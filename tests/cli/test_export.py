@@ -1,0 +1,68 @@
+"""``aion export``: scene files and tables, time series, paths, and bad option mixes."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+
+AT = "2026-11-23 08:30"
+
+
+def test_ply_scene_and_tables_match_predict(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    result = run("export", office.map, "--time", AT, "-o", out)
+    assert result.exit_code == 0, result.stderr
+    names = {p.name for p in out.iterdir()}
+    assert {"nodes.ply", "arrows.ply", "edges.ply", "scene.ply"} <= names
+    assert {"entries.csv", "entries.json"} <= names
+    assert (out / "scene.ply").read_bytes().startswith(b"ply\n")
+    exported = json.loads((out / "entries.json").read_text())["entries"]
+    predicted = run_json("predict", office.map, "--time", AT, "--format", "json")["entries"]
+    assert sorted(exported, key=lambda e: e["id"]) == sorted(predicted, key=lambda e: e["id"])
+    rows = {r["id"]: r for r in csv.DictReader((out / "entries.csv").open())}
+    assert rows["p1"]["direction_bin"] == "4"
+
+
+def test_historical_pcd(office: Office, tmp_path: Path) -> None:
+    result = run("export", office.map, "--historical", "--format", "pcd", "-o", tmp_path)
+    assert result.exit_code == 0, result.stderr
+    nodes = tmp_path / "nodes.pcd"
+    assert nodes.is_file()
+    assert b"POINTS 7" in nodes.read_bytes()[:400]
+    assert json.loads((tmp_path / "entries.json").read_text())["time_ns"] is None
+
+
+def test_time_series_and_path(office: Office, tmp_path: Path) -> None:
+    result = run("export", office.map, "--from", "2026-11-23 08:00", "--to", "2026-11-23 09:00",
+                 "--step", "30m", "-o", tmp_path, "--path-from", "p0", "--path-to", "p4")
+    assert result.exit_code == 0, result.stderr
+    folders = sorted(p.name for p in tmp_path.iterdir())
+    assert folders == ["20261123T080000Z", "20261123T083000Z", "20261123T090000Z"]
+    for folder in folders:
+        assert (tmp_path / folder / "path.ply").is_file()
+        assert (tmp_path / folder / "entries.csv").is_file()
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--time", AT, "--historical"], "choose one"),
+        (["--from", AT], "--to"),
+        (["--from", AT, "--to", "2026-11-23 07:00"], "before"),
+        (["--from", AT, "--to", "2026-11-24 08:30", "--step", "fortnight"], "fortnight"),
+        (["--time", AT, "--path-from", "p0"], "--path-to"),
+        (["--time", AT, "--path-from", "p0", "--path-to", "p77"], "p77"),
+        (["--time", AT, "--path-from", "p0", "--path-to", "p6"], "no path"),
+        (["--time", AT, "--format", "obj"], "obj"),
+    ],
+)
+def test_bad_option_mixes(office: Office, tmp_path: Path, args: list[str], fragment: str) -> None:
+    result = run("export", office.map, "-o", tmp_path / "out", *args)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, fragment)
+    assert not (tmp_path / "out").exists()  # nothing half-written
