@@ -57,7 +57,7 @@ def run_door(data_dir: Path, weeks: range = range(1, 10)) -> dict[str, Any]:
         rows.append(
             {
                 "week": k,
-                "samples": int(len(truth)),
+                "samples": len(truth),
                 "mae_fremen": float(np.mean(np.abs(fremen - truth))),
                 "mae_static": float(np.mean(np.abs(static - truth))),
             }
