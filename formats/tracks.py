@@ -20,6 +20,7 @@ when that fails is the file re-scanned line by line, to name the first bad line 
 from __future__ import annotations
 
 import math
+import struct
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -30,7 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.errors import InputError
-from aion_cli.engine.types import F64, I64, DetectionBatch
+from aion_cli.engine.types import F64, I64, BoolA, DetectionBatch
 
 CANONICAL_HEADER = "t_ns,track_id,x,y,z,heading_rad,speed_mps"
 Layout = Literal["canonical", "atc", "thor", "eth", "ucy"]
@@ -309,79 +310,109 @@ def _group_bounds(t_ns: I64, group_ns: int) -> tuple[I64, I64]:
     return t_ns[first], first[1:]
 
 
-def _row_fields(batch: DetectionBatch) -> dict[str, list[Any]]:
-    """Per-row message pieces as Python lists, computed vectorized once."""
-    h = batch.heading
-    known_h = np.isfinite(h)
-    half = np.where(known_h, h, 0.0) / 2
-    quat = np.stack([np.zeros_like(half), np.zeros_like(half), np.sin(half), np.cos(half)], 1)
+def _orientation_velocity(batch: DetectionBatch) -> tuple[F64, F64, BoolA, BoolA]:
+    """Yaw quaternions (x, y, z, w) from the headings and planar velocities from heading and
+    speed, with masks of which are known (unknown: identity / zero, flagged by the caller)."""
+    known_h = np.isfinite(batch.heading)
     known_v = known_h & np.isfinite(batch.speed)
+    h = np.where(known_h, batch.heading, 0.0)
+    quat = np.zeros((len(batch), 4))
+    quat[:, 2], quat[:, 3] = np.sin(h / 2), np.cos(h / 2)
     s = np.where(known_v, batch.speed, 0.0)
-    vel = np.stack(
-        [s * np.cos(np.where(known_h, h, 0.0)), s * np.sin(np.where(known_h, h, 0.0))], 1
+    vel = np.zeros((len(batch), 3))
+    vel[:, 0], vel[:, 1] = s * np.cos(h), s * np.sin(h)
+    return quat, vel, known_h, known_v
+
+
+# spencer_tracking_msgs/TrackedPerson on the wire: uint64 track_id, bool is_occluded, bool
+# is_matched, uint64 detection_id, duration age, PoseWithCovariance, TwistWithCovariance.
+# CDR aligns the uint64s to 8 (record 712 bytes, a multiple of 8); ROS 1 packs (706 bytes).
+# The same offsets are what formats.detections.fast reads.
+_TP_NAMES = (
+    "track_id",
+    "is_occluded",
+    "is_matched",
+    "detection_id",
+    "age_sec",
+    "age_nsec",
+    "pose",
+    "pose_cov",
+    "twist",
+    "twist_cov",
+)
+_TP_LAYOUT = {
+    True: ((0, 8, 9, 16, 24, 28, 32, 88, 376, 424), 712, "<u4"),
+    False: ((0, 8, 9, 10, 18, 22, 26, 82, 370, 418), 706, "<i4"),
+}
+_CDR_LE = b"\x00\x01\x00\x00"  # CDR little-endian encapsulation header
+
+
+def _tracked_person_records(batch: DetectionBatch, cdr: bool) -> npt.NDArray[np.void]:
+    """Every row's serialized TrackedPerson, built in one go as a structured array."""
+    offsets, itemsize, nsec_type = _TP_LAYOUT[cdr]
+    formats = [
+        "<u8",
+        "u1",
+        "u1",
+        "<u8",
+        "<i4",
+        nsec_type,
+        ("<f8", (7,)),
+        ("<f8", (36,)),
+        ("<f8", (6,)),
+        ("<f8", (36,)),
+    ]
+    dtype = np.dtype(
+        {"names": _TP_NAMES, "formats": formats, "offsets": offsets, "itemsize": itemsize}
     )
-    return {
-        "xyz": batch.xyz.tolist(),
-        "quat": quat.tolist(),
-        "vel": vel.tolist(),
-        "known_h": known_h.tolist(),
-        "known_v": known_v.tolist(),
-        "track": batch.track_id.tolist(),
-    }
+    quat, vel, known_h, known_v = _orientation_velocity(batch)
+    rec = np.zeros(len(batch), dtype=dtype)
+    rec["track_id"] = batch.track_id.astype(np.uint64)
+    rec["is_matched"] = 1
+    rec["detection_id"] = np.arange(len(batch), dtype=np.uint64)
+    rec["pose"][:, :3] = batch.xyz
+    rec["pose"][:, 3:] = quat
+    rec["pose_cov"][~known_h, 35] = UNSET_VARIANCE
+    rec["twist"][:, :3] = vel
+    unset_v = np.flatnonzero(~known_v)
+    for k in (0, 7, 14):  # the x, y, z velocity variances
+        rec["twist_cov"][unset_v, k] = UNSET_VARIANCE
+    return rec
 
 
-def _covariances() -> dict[str, npt.NDArray[np.float64]]:
-    zero = np.zeros(36)
-    unset_yaw = zero.copy()
-    unset_yaw[35] = UNSET_VARIANCE
-    unset_vel = zero.copy()
-    unset_vel[[0, 7, 14]] = UNSET_VARIANCE
-    return {"zero": zero, "unset_yaw": unset_yaw, "unset_vel": unset_vel}
+def _tracked_persons_bytes(
+    records: npt.NDArray[np.void], t_ns: int, frame_id: str, cdr: bool, seq: int
+) -> bytes:
+    """A whole serialized TrackedPersons message: header, count, then the records' bytes."""
+    sec, nsec = divmod(int(t_ns), 1_000_000_000)
+    frame = frame_id.encode()
+    count = struct.pack("<I", len(records))
+    if not cdr:  # ROS 1: seq, time, string without terminator, packed
+        head = struct.pack("<IIII", seq, sec, nsec, len(frame)) + frame
+        return head + count + records.tobytes()
+    frame += b"\x00"
+    head = struct.pack("<iII", sec, nsec, len(frame)) + frame
+    head += b"\x00" * (-len(head) % 4) + count
+    head += b"\x00" * (-len(head) % 8 if len(records) else 0)  # first uint64 aligned to 8
+    return _CDR_LE + head + records.tobytes()
 
 
-def _message(
-    msgtype: str,
-    t_ns: int,
-    rows: range,
-    f: dict[str, list[Any]],
-    frame_id: str,
-    cov: dict[str, npt.NDArray[np.float64]],
+def _pose_array_message(
+    t_ns: int, xyz: list[list[float]], quat: list[list[float]], frame_id: str
 ) -> dict[str, Any]:
-    """One detections message (dict in ROS 2 naming) for the rows of one stamp."""
-    from formats.writers import stamp
-
-    header = {"stamp": stamp(t_ns), "frame_id": frame_id}
-    xyz, quat = f["xyz"], f["quat"]
-
-    def pose(i: int) -> dict[str, Any]:
-        x, y, z = xyz[i]
-        qx, qy, qz, qw = quat[i]
-        return {
-            "position": {"x": x, "y": y, "z": z},
-            "orientation": {"x": qx, "y": qy, "z": qz, "w": qw},
+    """A geometry_msgs/PoseArray dict (ROS 2 naming) for one stamp's rows."""
+    sec, nsec = divmod(int(t_ns), 1_000_000_000)
+    poses = [
+        {
+            "position": {"x": p[0], "y": p[1], "z": p[2]},
+            "orientation": {"x": q[0], "y": q[1], "z": q[2], "w": q[3]},
         }
-
-    if msgtype == POSE_ARRAY:
-        return {"header": header, "poses": [pose(i) for i in rows]}
-    tracks = []
-    for i in rows:
-        vx, vy = f["vel"][i]
-        tracks.append(
-            {
-                "track_id": f["track"][i],
-                "is_matched": True,
-                "detection_id": i,
-                "pose": {
-                    "pose": pose(i),
-                    "covariance": cov["zero"] if f["known_h"][i] else cov["unset_yaw"],
-                },
-                "twist": {
-                    "twist": {"linear": {"x": vx, "y": vy, "z": 0.0}},
-                    "covariance": cov["zero"] if f["known_v"][i] else cov["unset_vel"],
-                },
-            }
-        )
-    return {"header": header, "tracks": tracks}
+        for p, q in zip(xyz, quat, strict=True)
+    ]
+    return {
+        "header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": frame_id},
+        "poses": poses,
+    }
 
 
 def _graph_payload(graph_file: str | Path) -> bytes:
@@ -440,11 +471,15 @@ def tracks_to_log(
     if payload is not None:
         period = round(graph_period_s * 1e9)
         graph_times = list(range(int(stamps[0]), int(stamps[-1]) + 1, period))
-    fields = _row_fields(data)
-    cov = _covariances()
     with LogWriter(out_path, container, overwrite=overwrite) as writer:
+        cdr = writer.ros_version == 2
+        if kind == SPENCER_TRACKED:
+            records = _tracked_person_records(data, cdr)
+        else:
+            quat = _orientation_velocity(data)[0].tolist()
+            xyz = data.xyz.tolist()
         g = 0
-        for t, a, b in zip(stamps.tolist(), starts, ends, strict=True):
+        for k, (t, a, b) in enumerate(zip(stamps.tolist(), starts, ends, strict=True)):
             while g < len(graph_times) and graph_times[g] <= t:
                 writer.write(
                     graph_topic,
@@ -458,7 +493,11 @@ def tracks_to_log(
                     graph_times[g],
                 )
                 g += 1
-            writer.write(topic, kind, _message(kind, t, range(a, b), fields, frame_id, cov), t)
+            if kind == SPENCER_TRACKED:
+                raw = _tracked_persons_bytes(records[a:b], t, frame_id, cdr, k)
+                writer.write_raw(topic, kind, raw, t)
+            else:
+                writer.write(topic, kind, _pose_array_message(t, xyz[a:b], quat[a:b], frame_id), t)
     return TracksLogSummary(
         Path(out_path), len(stamps), len(data), len(graph_times), int(stamps[0]), int(stamps[-1])
     )

@@ -295,3 +295,72 @@ def test_tracks_to_log_errors(tmp_path: Path) -> None:
             tmp_path / "d.mcap",
             graph_file=tmp_path / "nope.json",
         )
+
+
+def _cov(unset_idx: list[int]) -> list[float]:
+    return [1e6 if k in unset_idx else 0.0 for k in range(36)]
+
+
+@pytest.mark.parametrize("container", ["mcap", "bag"])
+def test_vectorized_tracked_persons_bytes_equal_writer_serialization(
+    tmp_path: Path, container: str
+) -> None:
+    """The numpy-built wire bytes equal what rosbags serializes from the equivalent dict."""
+    from formats.writers import LogWriter
+
+    batch = DetectionBatch.from_arrays(
+        t_ns=[7 * S + 5, 7 * S + 5, 7 * S + 5],
+        xyz=[[1.5, -2.0, 0.25], [3.0, 4.0, 0.0], [0.0, 0.0, 1.0]],
+        heading=[0.3, np.nan, -2.0],
+        speed=[1.1, 0.0, np.nan],
+        track_id=[11, 2**40, 0],
+    )
+    for frame in ("map", "odom_x"):  # two string lengths: different CDR padding
+        with LogWriter(tmp_path / f"w-{frame}.{container}", container) as writer:
+            cdr = writer.ros_version == 2
+            raw = ft._tracked_persons_bytes(
+                ft._tracked_person_records(batch, cdr), int(batch.t_ns[0]), frame, cdr, seq=4
+            )
+            tracks = []
+            for i in range(3):
+                h, s = batch.heading[i], batch.speed[i]
+                known_h, known_v = not np.isnan(h), not (np.isnan(h) or np.isnan(s))
+                hh = h if known_h else 0.0
+                ss = s if known_v else 0.0
+                x, y, z = batch.xyz[i]
+                tracks.append(
+                    {
+                        "track_id": int(batch.track_id[i]),
+                        "is_matched": True,
+                        "detection_id": i,
+                        "pose": {
+                            "pose": {
+                                "position": {"x": x, "y": y, "z": z},
+                                "orientation": {"z": math.sin(hh / 2), "w": math.cos(hh / 2)},
+                            },
+                            "covariance": _cov([] if known_h else [35]),
+                        },
+                        "twist": {
+                            "twist": {"linear": {"x": ss * math.cos(hh), "y": ss * math.sin(hh)}},
+                            "covariance": _cov([] if known_v else [0, 7, 14]),
+                        },
+                    }
+                )
+            header = {"stamp": {"sec": 7, "nanosec": 5}, "frame_id": frame, "seq": 4}
+            if cdr:
+                del header["seq"]
+            want = writer.serialize(ft.SPENCER_TRACKED, {"header": header, "tracks": tracks})
+            assert raw == want
+
+
+def test_tracks_to_log_ros1_bag_spencer(tmp_path: Path) -> None:
+    batch = ft.read_tracks(THOR3, "thor")
+    out = tmp_path / "t.bag"
+    summary = ft.tracks_to_log(batch, out, container="bag")
+    msgs = _read_log(out)
+    assert len(msgs) == summary.detection_messages == len(np.unique(batch.t_ns))
+    xyz = np.array(
+        [(tr.pose.pose.position.x, tr.pose.pose.position.y) for _, _, m in msgs for tr in m.tracks]
+    )
+    np.testing.assert_allclose(np.sort(xyz[:, 0]), np.sort(batch.xyz[:, 0]))
+    assert [m.header.seq for _, _, m in msgs[:3]] == [0, 1, 2]
