@@ -188,7 +188,7 @@ def load_graph_environment(path: Path, n_desks: int) -> Environment:
         if not getattr(attrs, "real_place", True):
             continue
         ids.append(node.id.value)
-        pos.append(np.asarray(attrs.position, dtype=np.float64).reshape(3))
+        pos.append(np.array(attrs.position, dtype=np.float64).reshape(3))  # a copy: views dangle
         parents.append(node.get_parent() if node.has_parent() else 0)
         clear.append(float(getattr(attrs, "distance", 0.0)))
     if len(ids) < 2:
@@ -237,7 +237,7 @@ def _rooms_of(graph: object, place_room: U64) -> tuple[U64, F64, tuple[str, ...]
             xyz.append(np.zeros(3))
             labels.append("")
             continue
-        xyz.append(np.asarray(node.attributes.position, dtype=np.float64).reshape(3))
+        xyz.append(np.array(node.attributes.position, dtype=np.float64).reshape(3))
         labels.append(str(getattr(node.attributes, "name", "")))
         if node.has_parent():
             buildings.append(int(node.get_parent()))

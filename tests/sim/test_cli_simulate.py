@@ -1,0 +1,52 @@
+"""``aion simulate`` through the real command group: files, summary, input errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from aion_cli.cli.main import cli
+
+
+def _run(*args: str | Path) -> tuple[int, str]:
+    result = CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+    return result.exit_code, result.output
+
+
+def test_simulate_writes_log_and_truth(tmp_path: Path) -> None:
+    out = tmp_path / "office"
+    code, output = _run("simulate", "-o", out, "--days", "0.02", "--start", "2026-01-06T12:00",
+                        "--detection-type", "pose_array", "--tour-every", "10", "--quiet")
+    assert code == 0, output
+    log = tmp_path / "office.mcap"  # the suffix of the format is added
+    assert log.exists()
+    meta = json.loads((tmp_path / "office.mcap.truth.json").read_text())
+    assert meta["topics"]["/people_tracker/pose_array"] == "geometry_msgs/msg/PoseArray"
+    assert meta["config"]["start"] == "2026-01-06T12:00"
+    assert "wrote" in output
+    assert "loop closures" in output
+    # a second run refuses to overwrite, --force allows it
+    code, output = _run("simulate", "-o", log, "--days", "0.01", "--quiet")
+    assert code == 2
+    assert "exists already" in output
+    code, _ = _run("simulate", "-o", log, "--days", "0.01", "--quiet", "--force")
+    assert code == 0
+
+
+def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
+    cases = [
+        ("--robot", "fixed", "--frame", "base_link"),
+        ("--detection-type", "sensor_msgs/Image"),
+        ("--start", "monday"),
+        ("--days", "0"),
+        ("--environment", str(tmp_path / "missing.json")),
+        ("--patrol-hours", "7to20"),
+    ]
+    for extra in cases:
+        code, output = _run("simulate", "-o", tmp_path / "x.mcap", "--quiet", *extra)
+        assert code == 2, (extra, output)
+        assert "error:" in output
+        assert "Traceback" not in output
+    assert not (tmp_path / "x.mcap").exists()
