@@ -44,10 +44,15 @@ def fremen_rows(entry_rows: npt.ArrayLike, bins: int) -> I64:
 def direction_bins(heading: npt.ArrayLike, bins: int) -> I64:
     """Paper convention ``floor((θ+π)/(2π/B)) mod B``; -1 where the heading is not finite.
 
-    Delegates to :func:`descriptors.bin_of`, which also keeps θ just below π in bin B-1 when
-    ``θ + π`` rounds up to 2π.
+    Fast path for the usual batch of finite headings in [-π, π); anything else (NaN, wrapped
+    angles, θ just below π where ``θ + π`` rounds up to 2π) goes through
+    :func:`descriptors.bin_of`, which handles every case.
     """
-    return bin_of(heading, bins)
+    theta = np.asarray(heading, dtype=np.float64)
+    x = (theta + np.pi) * (bins / (2.0 * np.pi))
+    if x.size and x.min() >= 0.0 and x.max() < bins:  # NaN fails both comparisons
+        return x.astype(np.int64)  # truncation == floor for x >= 0
+    return bin_of(theta, bins)
 
 
 @dataclass

@@ -46,7 +46,7 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, direction_bins
 from aion_cli.engine.errors import ConfigError
 from aion_cli.engine.ownership import apply_graph, bind_cells
-from aion_cli.engine.spatial_hash import cell_centres, pack_keys, packable_mask
+from aion_cli.engine.spatial_hash import cell_centres, hashable_indices, pack_keys_unchecked
 from aion_cli.engine.state import DROP_REASONS, MapState
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot, Trajectory
 from aion_cli.engine.windows import window_index, window_ns
@@ -75,21 +75,22 @@ class Mapper:
         drops = dict.fromkeys(DROP_REASONS, 0)
         if len(batch) == 0:
             return drops
-        finite = np.isfinite(batch.xyz).all(axis=1)
-        hashable = packable_mask(batch.xyz, st.config.cell_size)
+        ijk, finite, hashable = hashable_indices(batch.xyz, st.config.cell_size)
         window = window_index(batch.t_ns, self._delta)
-        valid = finite & hashable
-        if st.open_window is None and valid.any():
-            st.open_window = int(window[valid].min())
-        late = valid & (window < (st.open_window if st.open_window is not None else 0))
-        keep = valid & ~late
-        drops["nan"] = int((~finite).sum())
-        drops["out_of_range"] = int((finite & ~hashable).sum())
-        drops["before_window"] = int(late.sum())
+        if st.open_window is None and hashable.any():
+            st.open_window = int(window[hashable].min())
+        opened = st.open_window if st.open_window is not None else 0
+        late = hashable & (window < opened)
+        keep = hashable & ~late
+        drops["nan"] = int(len(batch) - np.count_nonzero(finite))
+        drops["out_of_range"] = int(np.count_nonzero(finite) - np.count_nonzero(hashable))
+        drops["before_window"] = int(np.count_nonzero(late))
         for reason, count in drops.items():
             st.dropped[reason] = st.dropped.get(reason, 0) + count
-        if keep.any():
-            self._accumulate_by_window(batch.select(keep), window[keep])
+        if keep.all():
+            self._accumulate_by_window(batch, ijk, window)
+        elif keep.any():
+            self._accumulate_by_window(batch.select(keep), ijk[keep], window[keep])
         return drops
 
     def add_graph(self, snapshot: GraphSnapshot) -> None:
@@ -118,36 +119,33 @@ class Mapper:
         bind_cells(st, st.log_time_ns)
 
     # -- internals --------------------------------------------------------------------------
-    def _accumulate_by_window(self, batch: DetectionBatch, window: I64) -> None:
+    def _accumulate_by_window(self, batch: DetectionBatch, ijk: I64, window: I64) -> None:
+        """Accumulate window by window, closing the open window before a later one starts."""
         st = self._state
-        if window.min() == window.max():
-            groups = [(int(window[0]), batch)]
+        if window[0] == window[-1] and window.min() == window.max():
+            groups = [(int(window[0]), np.arange(len(window)))]
         else:
             order = np.argsort(window, kind="stable")
-            ws = window[order]
-            cuts = np.flatnonzero(np.diff(ws)) + 1
-            groups = [
-                (int(ws[idx[0]]), batch.select(order[idx]))
-                for idx in np.split(np.arange(len(ws)), cuts)
-            ]
-        for w, group in groups:
+            cuts = np.flatnonzero(np.diff(window[order])) + 1
+            groups = [(int(window[idx[0]]), idx) for idx in np.split(order, cuts)]
+        whole = len(groups) == 1
+        for w, idx in groups:
             close_windows(st, w)
-            self._accumulate(group)
-            st.log_time_ns = _later(st.log_time_ns, int(group.t_ns.max()))
+            part = batch if whole else batch.select(idx)
+            self._accumulate(part, ijk if whole else ijk[idx])
+            st.log_time_ns = _later(st.log_time_ns, int(part.t_ns.max()))
 
-    def _accumulate(self, batch: DetectionBatch) -> None:
+    def _accumulate(self, batch: DetectionBatch, ijk: I64) -> None:
         st = self._state
-        cfg = st.config
-        ijk = np.floor(batch.xyz / cfg.cell_size).astype(np.int64)
-        rows = self._route(pack_keys(ijk))
-        bins = direction_bins(batch.heading, cfg.bins)
+        rows = self._route(pack_keys_unchecked(ijk), ijk)
+        bins = direction_bins(batch.heading, st.config.bins)
         st.entries.accumulate(rows, bins, batch.speed)
         st.accepted += len(batch)
 
-    def _route(self, keys: I64) -> I64:
+    def _route(self, keys: I64, ijk: I64) -> I64:
         """Entry rows for hash keys, creating cell entries for keys never seen."""
         st = self._state
-        rows, found = st.routes.lookup(keys)
+        rows, found = st.routes.lookup(keys, ijk)
         if found.all():
             return rows
         new_keys, inverse = np.unique(keys[~found], return_inverse=True)

@@ -36,8 +36,14 @@ def pack_keys(ijk: npt.ArrayLike) -> I64:
         raise CoordinateRangeError("cell indices must be integers", hint="use cell_indices()")
     idx = idx.astype(np.int64, copy=False)
     _check_index_range(idx)
-    biased = idx + BIAS
-    return (biased[:, 2] << (2 * BITS)) | (biased[:, 1] << BITS) | biased[:, 0]
+    return pack_keys_unchecked(idx)
+
+
+def pack_keys_unchecked(ijk: I64) -> I64:
+    """:func:`pack_keys` for int64[n,3] indices the caller already knows are in range."""
+    biased = ijk + BIAS
+    out: I64 = (biased[:, 2] << (2 * BITS)) | (biased[:, 1] << BITS) | biased[:, 0]
+    return out
 
 
 def unpack_keys(keys: npt.ArrayLike) -> I64:
@@ -59,6 +65,29 @@ def packable_mask(xyz: npt.ArrayLike, cell_size: float) -> BoolA:
         scaled = np.floor(p / cell_size)
         ok = np.isfinite(scaled) & (scaled >= INDEX_MIN) & (scaled <= INDEX_MAX)
     return np.asarray(ok.all(axis=1), dtype=bool)
+
+
+def hashable_indices(xyz: npt.ArrayLike, cell_size: float) -> tuple[I64, BoolA, BoolA]:
+    """Cell indices of many points without raising: ``(ijk, finite, in_range)``.
+
+    ``ijk`` is ``floor(p / δ)`` where both masks hold and 0 elsewhere; ``finite`` flags rows
+    with three finite coordinates, ``in_range`` finite rows inside the packable range. One
+    pass with a fast path for the usual batch where every row is fine.
+    """
+    _check_cell_size(cell_size)
+    p = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    with np.errstate(invalid="ignore", over="ignore"):
+        scaled = np.floor(p / cell_size)
+    n = len(p)
+    if n and scaled.min() >= INDEX_MIN and scaled.max() <= INDEX_MAX:  # NaN fails both
+        ok = np.ones(n, dtype=bool)
+        return scaled.astype(np.int64), ok, ok
+    finite: BoolA = np.asarray(np.isfinite(p).all(axis=1), dtype=bool)
+    with np.errstate(invalid="ignore"):
+        inside = ((scaled >= INDEX_MIN) & (scaled <= INDEX_MAX)).all(axis=1)
+    in_range: BoolA = finite & np.asarray(inside, dtype=bool)
+    ijk = np.where(in_range[:, None], scaled, 0.0).astype(np.int64)
+    return ijk, finite, in_range
 
 
 def cell_indices(xyz: npt.ArrayLike, cell_size: float) -> I64:

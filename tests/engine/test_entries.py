@@ -7,9 +7,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from aion_cli.engine.descriptors import bin_of
 from aion_cli.engine.entries import CELL, FREE, NODE, EntryStore, direction_bins, fremen_rows
 from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.routing import RouteTable
+from aion_cli.engine.spatial_hash import pack_keys
 
 
 def _store(n: int, bins: int = 8) -> EntryStore:
@@ -131,3 +133,36 @@ def test_route_table_lookup_and_insert() -> None:
     np.testing.assert_array_equal(table.keys, [5, 10, 20, 25, 30])
     np.testing.assert_array_equal(table.lookup(np.array([25, 5]))[0], [8, 7])
     assert RouteTable().lookup(np.array([1]))[1].tolist() == [False]
+
+
+@given(st.lists(st.floats(-10, 10) | st.just(np.pi) | st.just(np.nan), min_size=1, max_size=50))
+@settings(max_examples=100)
+def test_direction_bins_fast_path_agrees_with_the_general_rule(theta: list[float]) -> None:
+    th = np.array(theta)
+    finite_in_range = th[np.isfinite(th) & (th >= -np.pi) & (th < np.pi)]
+    expected = np.floor((finite_in_range + np.pi) / (2 * np.pi / 8)).astype(np.int64) % 8
+    np.testing.assert_array_equal(direction_bins(finite_in_range, 8), expected)
+    np.testing.assert_array_equal(direction_bins(th, 8), bin_of(th, 8))
+
+
+@given(
+    st.lists(st.tuples(st.integers(-30, 30), st.integers(-30, 30), st.integers(-2, 2)),
+             min_size=1, max_size=300, unique=True),
+    st.integers(0, 2**31),
+)
+@settings(max_examples=40, deadline=None)
+def test_dense_route_lookup_equals_binary_search(
+    cells: list[tuple[int, int, int]], seed: int
+) -> None:
+    rng = np.random.default_rng(seed)
+    table_ijk = np.array(cells, np.int64)
+    table = RouteTable.build(pack_keys(table_ijk), np.arange(len(cells), dtype=np.int64))
+    query = rng.integers(-35, 35, (5000, 3))
+    query[:, 2] = rng.integers(-3, 3, 5000)
+    query[: len(cells)] = table_ijk
+    keys = pack_keys(query)
+    dense_rows, dense_found = table.lookup(keys, query)
+    rows, found = table.lookup(keys)
+    np.testing.assert_array_equal(dense_found, found)
+    np.testing.assert_array_equal(dense_rows, rows)
+    assert found[: len(cells)].all()

@@ -14,6 +14,7 @@ from aion_cli.engine.spatial_hash import (
     INDEX_MIN,
     cell_centres,
     cell_indices,
+    hashable_indices,
     keys_for_points,
     pack_keys,
     packable_mask,
@@ -100,3 +101,16 @@ def test_bad_shapes_and_cell_size() -> None:
         pack_keys(np.zeros((2, 2), np.int64))
     with pytest.raises(CoordinateRangeError, match="cell size"):
         cell_indices(np.zeros((1, 3)), 0.0)
+
+
+def test_hashable_indices_masks_bad_rows_and_matches_cell_indices() -> None:
+    good = np.array([[0.2, -0.7, 3.0], [1e5, 2.0, -1e5]])
+    ijk, finite, ok = hashable_indices(good, 0.5)  # fast path
+    np.testing.assert_array_equal(ijk, cell_indices(good, 0.5))
+    assert finite.all()
+    assert ok.all()
+    mixed = np.array([[0.2, -0.7, 3.0], [np.nan, 0, 0], [1e9, 0, 0], [1e5, 2.0, -1e5]])
+    ijk, finite, ok = hashable_indices(mixed, 0.5)
+    np.testing.assert_array_equal(finite, [True, False, True, True])
+    np.testing.assert_array_equal(ok, [True, False, False, True])
+    np.testing.assert_array_equal(ijk[ok], cell_indices(good, 0.5))
