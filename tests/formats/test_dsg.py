@@ -347,3 +347,14 @@ def test_bad_files(tmp_path: Path) -> None:
     other.write_text("ply")
     with pytest.raises(fdsg.GraphFileError, match="extension"):
         fdsg.load_graph_file(other)
+
+
+def test_version_sniff_orders_candidates() -> None:
+    """Byte 5 tells layer keys (>= 1.1.2, 0xdd) from layer ids (<= 1.1.1, 0xd3): the likely
+    family is tried first, the other still tried after it."""
+    new_style = fdsg._candidate_versions(b"\xdd\x04\x00\x00\x00\xdd" + b"\x00" * 8)
+    assert new_style[:2] == [fdsg.installed_version(), "1.1.2"]
+    old_style = fdsg._candidate_versions(b"\xdd\x04\x00\x00\x00\xd3" + b"\x00" * 8)
+    assert old_style[0] == "1.1.1"
+    assert old_style[-2:] == [fdsg.installed_version(), "1.1.2"]
+    assert sorted(old_style) == sorted(new_style)
