@@ -16,8 +16,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
-
 from aion_cli.cli.output import Column, degrees, num
 
 KINDS = {0: "cell", 1: "node", 2: "room", 3: "building"}
@@ -57,6 +55,8 @@ def _finite(value: float) -> float | None:
 
 def rows_from_table(table: Any) -> list[dict[str, Any]]:
     """One dict per entry of an engine ``EntryTable``."""
+    import numpy as np
+
     d = table.descriptors
     rows = []
     for e in range(len(table.xyz)):
