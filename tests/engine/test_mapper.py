@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -10,7 +12,7 @@ from aion_cli.engine.entries import fremen_rows
 from aion_cli.engine.errors import ConfigError, CoordinateRangeError
 from aion_cli.engine.fremen import to_model_seconds
 from aion_cli.engine.mapper import Mapper
-from aion_cli.engine.spatial_hash import keys_for_points
+from aion_cli.engine.spatial_hash import keys_for_points, unpack_keys
 from aion_cli.engine.state import MapState
 from aion_cli.engine.types import DetectionBatch, Trajectory
 from tests.engine.engine_builders import T0, S, check_invariants, detections, graph
@@ -146,3 +148,40 @@ def test_bad_inputs() -> None:
         m.add_graph(graph(T0, [0], [[np.nan, 0, 0]]))
     with pytest.raises(ConfigError):
         Mapper(CFG, MapState.empty(CFG.replace(bins=4)))
+
+
+ATC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "atc"
+
+
+def _atc_batch(hour: int) -> DetectionBatch:
+    raw = np.loadtxt(ATC / f"atc-1024-{hour}_train.csv", delimiter=",")
+    t_ns = np.round(raw[:, 0] * 1e9).astype(np.int64)
+    xyz = np.c_[raw[:, 2], raw[:, 3], np.zeros(len(raw))]
+    return DetectionBatch.from_arrays(t_ns, xyz, raw[:, 5], raw[:, 4], raw[:, 1].astype(np.int64))
+
+
+def test_real_atc_hour_counts_match_an_independent_histogram() -> None:
+    batch = _atc_batch(10)
+    cfg = ModelConfig(cell_size=1.0, window_s=600.0)
+    m = Mapper(cfg)
+    m.set_fixed_sensor(int(batch.t_ns.min()), int(batch.t_ns.max()) + 1)
+    m.add_detections(batch)
+    st_ = m.state
+    assert st_.accepted == len(batch)
+    # reference: per (ix, iy) cell and paper bin, counted without the hash or the mapper
+    cells = np.floor(batch.xyz[:, :2]).astype(np.int64)
+    bins = np.floor((batch.heading + np.pi) / (np.pi / 4)).astype(np.int64) % 8
+    uniq, inverse = np.unique(cells, axis=0, return_inverse=True)
+    expected = np.zeros((len(uniq), 8))
+    np.add.at(expected, (inverse.ravel(), bins), 1)
+    rows = st_.entries.cell_rows()
+    got_cells = unpack_keys(st_.entries.key[rows])
+    assert np.all(got_cells[:, 2] == 0)
+    order = np.lexsort((got_cells[:, 1], got_cells[:, 0]))
+    np.testing.assert_array_equal(got_cells[order, :2], uniq)
+    np.testing.assert_array_equal(st_.entries.counts[rows[order]], expected)
+    assert st_.open_window is not None
+    assert len(np.unique(batch.t_ns // (600 * S))) - 1 == int(
+        st_.open_window - batch.t_ns.min() // (600 * S)
+    )
+    check_invariants(st_)
