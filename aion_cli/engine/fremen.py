@@ -314,7 +314,7 @@ class FremenModel:
         if np.bincount(r, minlength=state.n_rows).max() > 1:
             raise ValueError("rows must be unique within one update")
         vz = np.where(obs, v, 0.0)
-        if not np.all(np.isfinite(vz)):
+        if not np.isfinite(vz.sum()):  # one pass; also rejects values near the float limit
             raise ValueError("observed values must be finite")
         cos_t, sin_t = self.basis(t)
         self._score_orders(state, r, t, vz, obs, cos_t, sin_t)
@@ -323,21 +323,37 @@ class FremenModel:
     def _absorb(
         self, state: FremenState, r: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
     ) -> None:
-        """Add the windows to the accumulators: two matrix products with E = [cos | sin]."""
+        """Add the windows to the accumulators: two matrix products with E = [cos | sin].
+
+        A contiguous ascending block of rows is written through slices (no gather/scatter);
+        when every cell is observed, observed·E is the column sum of E.
+        """
         k = self.n_periods
-        of = obs.astype(np.float64)
         basis = np.concatenate([cos_t, sin_t], axis=1)  # (W, 2K)
         ve = vz @ basis
-        oe = of @ basis
-        state.sum_se[r] += ve[:, :k] + 1j * ve[:, k:]
-        state.sum_e[r] += oe[:, :k] + 1j * oe[:, k:]
-        state.n[r] += of.sum(axis=1)
-        state.sum_s[r] += vz.sum(axis=1)
-        seen = obs.any(axis=1)
-        first = np.where(seen, t[np.argmax(obs, axis=1)], np.nan)
-        last = np.where(seen, t[t.size - 1 - np.argmax(obs[:, ::-1], axis=1)], np.nan)
-        state.t_first[r] = np.fmin(state.t_first[r], first)
-        state.t_last[r] = np.fmax(state.t_last[r], last)
+        dense = bool(obs.all())
+        if dense:
+            oe = np.broadcast_to(basis.sum(axis=0), ve.shape)
+            n_add = np.full(r.size, float(t.size))
+            first = np.full(r.size, t[0])
+            last = np.full(r.size, t[-1])
+        else:
+            oe = obs.astype(np.float64) @ basis
+            n_add = obs.sum(axis=1, dtype=np.float64)
+            seen = obs.any(axis=1)
+            first = np.where(seen, t[np.argmax(obs, axis=1)], np.nan)
+            last = np.where(seen, t[t.size - 1 - np.argmax(obs[:, ::-1], axis=1)], np.nan)
+        idx: slice | I64 = r
+        if r[-1] - r[0] == r.size - 1 and (r.size == 1 or bool(np.all(np.diff(r) == 1))):
+            idx = slice(int(r[0]), int(r[-1]) + 1)
+        state.sum_se.real[idx] += ve[:, :k]
+        state.sum_se.imag[idx] += ve[:, k:]
+        state.sum_e.real[idx] += oe[:, :k]
+        state.sum_e.imag[idx] += oe[:, k:]
+        state.n[idx] += n_add
+        state.sum_s[idx] += vz.sum(axis=1)
+        state.t_first[idx] = np.fmin(state.t_first[idx], first)
+        state.t_last[idx] = np.fmax(state.t_last[idx], last)
 
     def _score_orders(
         self, state: FremenState, rows: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
@@ -349,7 +365,8 @@ class FremenModel:
         periods) and only writes its rows' ``order_err`` / ``order_n``. Chunks run on a small
         thread pool (numpy releases the GIL inside its loops).
         """
-        chunks = [slice(a, min(a + _ROW_CHUNK, rows.size)) for a in range(0, rows.size, _ROW_CHUNK)]
+        size = _ROW_CHUNK if self.max_order > 0 else _ROW_CHUNK * 32  # order 0: no K axis
+        chunks = [slice(a, min(a + size, rows.size)) for a in range(0, rows.size, size)]
 
         def run(sl: slice) -> None:
             self._score_chunk(state, rows[sl], t, vz[sl], obs[sl], cos_t, sin_t)
