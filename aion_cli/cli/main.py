@@ -17,6 +17,7 @@ import click
 from aion_cli import __version__
 from aion_cli.cli import build, convert, export, info, plan, predict
 from aion_cli.cli.errors import EXIT_OK, report
+from aion_cli.cli.evaluate import evaluate as evaluate_group
 from aion_cli.cli.simulate import simulate as simulate_command
 
 EPILOG = """\b
@@ -86,9 +87,7 @@ def cli(debug: bool) -> None:
 for _module in (info, build, predict, plan, export, convert):
     cli.add_command(_module.command)
 cli.add_command(simulate_command, "simulate")
-# `evaluate` (aion_cli/cli/evaluate.py, a click group) is registered here the same way when it
-# lands: from aion_cli.cli.evaluate import evaluate as evaluate_group;
-# cli.add_command(evaluate_group, "evaluate")
+cli.add_command(evaluate_group, "evaluate")
 
 
 def main() -> None:
