@@ -28,6 +28,7 @@ import numpy.typing as npt
 from aion_cli.engine.errors import TransformError
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 
+_PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
 _DOT_NLERP = 0.9995  # above this cosine, slerp's sin(θ) is ill-conditioned: normalised lerp
 
 
@@ -169,8 +170,15 @@ class TfBuffer:
         self._static: dict[tuple[str, str], tuple[F64, F64]] = {}  # (R[3,3], t[3])
         self._neighbours: dict[str, set[str]] = {}
         self._paths: dict[tuple[str, str], list[str]] = {}
-        #: samples dropped at ingest because their translation or quaternion was unusable
-        self.invalid_samples = 0
+        self._pending: list[tuple[Any, bool]] = []  # messages not yet ingested (batched)
+        self._invalid = 0
+
+    @property
+    def invalid_samples(self) -> int:
+        """Samples dropped at ingest: unusable translation or quaternion, or (from messages) a
+        frame that is empty or its own parent."""
+        self._flush()
+        return self._invalid
 
     # ------------------------------------------------------------------ ingest
 
@@ -188,8 +196,21 @@ class TfBuffer:
         return buf
 
     def add_message(self, msg: Any, static: bool = False) -> None:
-        """Ingest one decoded TFMessage (rosbags, mcap_ros2 or genpy object)."""
-        self.add_messages([msg], static)
+        """Queue one decoded TFMessage (rosbags, mcap_ros2 or genpy object).
+
+        Messages are ingested in batches (one vectorized call per :data:`_PENDING_MAX`
+        messages, or at the next query): per-message numpy work would cost ~10x more.
+        """
+        self._pending.append((msg, static))
+        if len(self._pending) >= _PENDING_MAX:
+            self._flush()
+
+    def _flush(self) -> None:
+        if not self._pending:
+            return
+        pending, self._pending = self._pending, []
+        self._ingest([m for m, st in pending if st], static=True)
+        self._ingest([m for m, st in pending if not st], static=False)
 
     def add_transforms(
         self,
@@ -205,6 +226,7 @@ class TfBuffer:
         Rows with a non-finite translation or a zero / non-finite quaternion are dropped and
         counted in ``invalid_samples``; static rows ignore ``t_ns`` (the last one per edge wins).
         """
+        self._flush()  # keep arrival order (static: the last one wins)
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
         n = len(t)
         tr = np.asarray(translation, dtype=np.float64).reshape(n, 3)
@@ -212,7 +234,7 @@ class TfBuffer:
         norm = np.sqrt(np.einsum("ij,ij->i", q, q))
         good = np.isfinite(tr).all(axis=1) & np.isfinite(norm) & (norm > 1e-9)
         n_good = int(np.count_nonzero(good))
-        self.invalid_samples += n - n_good
+        self._invalid += n - n_good
         q = q / np.where(good, norm, 1.0)[:, None]
         if isinstance(parent, str) and isinstance(child, str):  # one edge: no grouping
             rows: Any = slice(None) if n_good == n else good
@@ -233,7 +255,21 @@ class TfBuffer:
 
     def add_messages(self, messages: Iterable[Any], static: bool = False) -> None:
         """Ingest many decoded TFMessages with one vectorized :meth:`add_transforms` call."""
-        tfs = [tf for msg in messages for tf in msg.transforms]
+        self._flush()
+        self._ingest(list(messages), static)
+
+    def _ingest(self, messages: list[Any], static: bool) -> None:
+        """TFMessages -> arrays; transforms with an empty or self-referencing frame are counted
+        as invalid (a log's bad transform must not stop a build)."""
+        tfs = [
+            tf
+            for msg in messages
+            for tf in msg.transforms
+            if normalize_frame(tf.header.frame_id)
+            and normalize_frame(tf.child_frame_id)
+            and normalize_frame(tf.header.frame_id) != normalize_frame(tf.child_frame_id)
+        ]
+        self._invalid += sum(len(msg.transforms) for msg in messages) - len(tfs)
         if not tfs:
             return
         trans = [tf.transform.translation for tf in tfs]
@@ -280,10 +316,12 @@ class TfBuffer:
     @property
     def frames(self) -> list[str]:
         """Every frame name seen, sorted."""
+        self._flush()
         return sorted(self._neighbours)
 
     def time_range(self, parent: str, child: str) -> tuple[int, int] | None:
         """First and last stamp of a dynamic edge, None for static or unknown edges."""
+        self._flush()
         series = self._dynamic.get((normalize_frame(parent), normalize_frame(child)))
         if series is None or series.n == 0:
             return None
@@ -292,6 +330,7 @@ class TfBuffer:
 
     def _path(self, target: str, source: str) -> list[str]:
         """Frames from target to source (inclusive), by BFS over the undirected frame tree."""
+        self._flush()
         cached = self._paths.get((target, source))
         if cached is not None:
             return cached

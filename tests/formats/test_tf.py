@@ -304,3 +304,21 @@ def test_add_messages_batches_many() -> None:
     assert buf.time_range("odom", "base") == (S, 3 * S)
     _, t, _ = buf.lookup("odom", "base", [S + S // 4, 3 * S])
     np.testing.assert_allclose(t, [[1.25, 0, 0], [3, 0, 0]])
+
+
+def test_queued_messages_are_visible_to_queries_and_bad_frames_counted() -> None:
+    buf = TfBuffer()
+    buf.add_message(_tf_msg(SimpleNamespace(sec=0, nanosec=0), "map", "odom", (1, 0, 0)), True)
+    for k in (0, 2):
+        buf.add_message(_tf_msg(SimpleNamespace(sec=k, nanosec=0), "odom", "base", (k, 0, 0)))
+    buf.add_message(_tf_msg(SimpleNamespace(sec=1, nanosec=0), "/base", "base", (0, 0, 0)))
+    buf.add_message(_tf_msg(SimpleNamespace(sec=1, nanosec=0), "", "x", (0, 0, 0)))
+    assert buf.frames == ["base", "map", "odom"]
+    assert buf.invalid_samples == 2
+    _, t, ok = buf.lookup("map", "base", [S])
+    assert ok.all()
+    np.testing.assert_allclose(t[0], [2, 0, 0])
+    # a queued static followed by a direct one: arrival order kept, the last one wins
+    buf.add_message(_tf_msg(SimpleNamespace(sec=0, nanosec=0), "map", "odom", (5, 0, 0)), True)
+    buf.add_transforms("map", "odom", [0], [[7, 0, 0]], [[0, 0, 0, 1]], static=True)
+    np.testing.assert_allclose(buf.lookup("map", "odom", [0])[1][0], [7, 0, 0])
