@@ -168,8 +168,26 @@ class MapState:
             )
         except (KeyError, ValueError) as exc:
             raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
+        state.check_ownership()
         state.rebuild_routes()
         return state
+
+    def check_ownership(self) -> None:
+        """:class:`MapCorruptError` unless every key and node has exactly one owner."""
+        ent = self.entries
+        cell_keys = ent.key[ent.cell_rows()]
+        node_ids = ent.node_id[ent.node_rows()]
+        problems = []
+        if len(np.unique(cell_keys)) != len(cell_keys):
+            problems.append("two cell entries share a key")
+        if len(np.unique(node_ids)) != len(node_ids):
+            problems.append("two node entries share a node id")
+        if np.isin(self.redirects.keys, cell_keys).any():
+            problems.append("a redirected cell also has an entry")
+        if not np.isin(self.redirects.nodes, node_ids).all():
+            problems.append("a redirect points at a node without an entry")
+        if problems:
+            raise MapCorruptError(f"map state is inconsistent: {'; '.join(problems)}")
 
 
 def merge_states(a: MapState, b: MapState) -> MapState:

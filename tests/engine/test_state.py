@@ -11,6 +11,7 @@ import pytest
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.mapper import Mapper
+from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.state import MapState, merge_states
 from aion_cli.engine.types import Mesh, Trajectory
 from tests.engine.engine_builders import T0, S, check_invariants, detections, graph
@@ -157,3 +158,25 @@ def test_from_arrays_rejects_corrupt_input() -> None:
         MapState.from_arrays(arrays, {k: v for k, v in meta.items() if k != "config"})
     with pytest.raises(MapCorruptError, match="newer"):
         MapState.from_arrays(arrays, {**meta, "state_version": 99})
+
+
+def test_from_arrays_rejects_broken_ownership() -> None:
+    arrays, meta = _run(_log(T0, seed=7, windows=2)).state.to_arrays()
+    assert len(arrays["redirect_keys"]) > 0
+    dangling = {**arrays, "redirect_nodes": arrays["redirect_nodes"] + np.uint64(1000)}
+    with pytest.raises(MapCorruptError, match="without an entry"):
+        MapState.from_arrays(dangling, meta)
+    cells = np.flatnonzero(arrays["entry_kind"] == 0)
+    twin_key = arrays["entry_key"].copy()
+    twin_key[cells[1]] = twin_key[cells[0]]
+    with pytest.raises(MapCorruptError, match="share a key"):
+        MapState.from_arrays({**arrays, "entry_key": twin_key}, meta)
+
+
+def test_empty_state_round_trips_and_answers_queries() -> None:
+    state = MapState.empty(CFG)
+    arrays, meta = state.to_arrays()
+    again = MapState.from_arrays(arrays, json.loads(json.dumps(meta)))
+    assert again.open_window is None
+    assert len(historical_table(again)) == 0
+    assert len(predict_table(again, T0)) == 0
