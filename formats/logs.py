@@ -198,12 +198,20 @@ class _McapSource(_Source):
     def _linear_records(self, *, scanning: bool = False) -> Iterator[Any]:
         """Every record of the file in file order, chunks broken up with their messages sorted
         by log time; stops quietly at the first unreadable record (remembered when scanning)."""
-        from mcap.records import Chunk, Message
-        from mcap.stream_reader import StreamReader, breakup_chunk
+        from mcap.stream_reader import StreamReader
 
-        self._stream.seek(0)
-        reader = StreamReader(self._stream, skip_magic=False, emit_chunks=True)
-        records = reader.records
+        with self.path.open("rb") as stream:  # own handle: iterations may interleave
+            reader = StreamReader(stream, skip_magic=False, emit_chunks=True)
+            yield from self._split_records(reader.records, stream, scanning)
+
+    def _split_records(
+        self, records: Iterator[Any], stream: IO[bytes], scanning: bool
+    ) -> Iterator[Any]:
+        """Records of ``records`` with chunks broken up; ``stream`` gives the byte offset of the
+        last good record when reading fails."""
+        from mcap.records import Chunk, Message
+        from mcap.stream_reader import breakup_chunk
+
         good = 0
         while True:
             try:
@@ -219,7 +227,7 @@ class _McapSource(_Source):
                 if scanning:
                     self._stop_offset = good
                 return
-            good = self._stream.tell()
+            good = stream.tell()
             for part in parts:
                 if scanning or isinstance(part, Message):
                     yield part

@@ -451,3 +451,25 @@ def test_one_topic_with_two_types_is_listed_twice(tmp_path: Path) -> None:
         ]
         values = [logs.decode(m).data for m in logs.messages(["/x"])]
         assert values == ["a", 5, 6]
+
+
+@pytest.mark.parametrize("chunked", [True, False])
+def test_interleaved_iterations_do_not_disturb_each_other(chunked: bool, tmp_path: Path) -> None:
+    from mcap.writer import Writer
+
+    path = tmp_path / "i.mcap"
+    with path.open("wb") as f:
+        w = Writer(f, chunk_size=300, use_chunking=chunked, use_statistics=chunked)
+        w.start(profile="ros2")
+        schema = w.register_schema("std_msgs/msg/Empty", "ros2msg", b"")
+        channel = w.register_channel("/e", "cdr", schema)
+        for k in range(20):
+            w.add_message(channel, T0 + k, b"\x00\x01\x00\x00" + bytes([k]) * 100, T0 + k)
+        w.finish()
+    with open_logs([path]) as logs:
+        first = logs.messages()
+        head = [next(first) for _ in range(3)]
+        second = list(logs.messages())
+        rest = list(first)
+        assert [m.data[4] for m in head + rest] == list(range(20))
+        assert [m.data[4] for m in second] == list(range(20))
