@@ -122,7 +122,7 @@ class Mapper:
     def _accumulate_by_window(self, batch: DetectionBatch, ijk: I64, window: I64) -> None:
         """Accumulate window by window, closing the open window before a later one starts."""
         st = self._state
-        if window[0] == window[-1] and window.min() == window.max():
+        if window.min() == window.max():
             groups = [(int(window[0]), np.arange(len(window)))]
         else:
             order = np.argsort(window, kind="stable")
