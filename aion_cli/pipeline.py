@@ -420,6 +420,7 @@ class _Build:
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
         self.dsg_version = opts.dsg_version
+        self._agents_until = np.iinfo(np.int64).min
 
     def config(self) -> ModelConfig:
         given = self.opts.config
@@ -487,7 +488,7 @@ class _Build:
         if traj is not None:
             mapper.add_trajectory(traj)
             self.report.observation = f"tf {self.opts.map_frame}->{self.opts.base_frame}"
-        elif plan.graph and self.opts.graph_file is None:
+        elif plan.graph and self.opts.graph_file is None and self._graph_has_agents(logset, plan):
             self.report.observation = "scene-graph agent layer"  # fed per snapshot
         else:
             mapper.set_fixed_sensor(int(logset.start_ns), int(logset.end_ns))
@@ -496,6 +497,14 @@ class _Build:
                 "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
                 "treated as a fixed sensor that saw everything over its time span"
             )
+
+    def _graph_has_agents(self, logset: Any, plan: TopicPlan) -> bool:
+        """Whether the first scene graph of the log carries robot poses (its agent layer)."""
+        first = next(iter(logset.messages(plan.names("graph"))), None)
+        if first is None:
+            return False
+        agents = self._decode_graph(logset, first).agents
+        return agents is not None and len(agents) > 0
 
     def _fixed_graph(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig
@@ -562,8 +571,8 @@ class _Build:
             if graph_msg is not None:
                 snapshot = self._decode_graph(logset, graph_msg)
                 mapper.add_graph(snapshot)
-                if use_agents and snapshot.agents is not None and len(snapshot.agents):
-                    mapper.add_trajectory(snapshot.agents)
+                if use_agents:
+                    self._add_agent_poses(mapper, snapshot.agents)
                 self.report.graph_messages += 1
                 self.progress.advance(1)
         c = self.counts
@@ -573,6 +582,17 @@ class _Build:
         if use_agents and self.report.graph_messages == 0:
             mapper.set_fixed_sensor(int(logset.start_ns), int(logset.end_ns))
             self.report.observation = "fixed sensor over the log's time span"
+
+    def _add_agent_poses(self, mapper: Mapper, agents: Trajectory | None) -> None:
+        """Feed the robot poses of a snapshot's agent layer that are newer than those fed
+        before (every Hydra snapshot repeats the whole trajectory)."""
+        if agents is None or len(agents) == 0:
+            return
+        t = np.asarray(agents.t_ns, dtype=np.int64)
+        new = t > self._agents_until
+        if new.any():
+            mapper.add_trajectory(Trajectory(t[new], np.asarray(agents.xyz)[new]))
+            self._agents_until = int(t[new].max())
 
     def _feed(self, mapper: Mapper, batch: DetectionBatch) -> None:
         if len(batch) == 0:

@@ -46,8 +46,8 @@ PLACES = {
 EDGES = [(0, 1), (1, 2), (2, 3), (2, 4), (5, 6)]
 ROOMS = {0: (0, 1), 1: (2, 3, 4), 2: (5, 6)}
 TRACKS = {
-    1: {"xyz": (2.1, 0.1, 0.0), "vel": (1.0, 0.0), "until_s": DURATION_S},
-    2: {"xyz": (4.1, 1.9, 0.0), "vel": (0.0, -1.0), "until_s": DURATION_S},
+    1: {"xyz": (2.1, 0.1, 0.0), "vel": (1.0, 0.0), "until_s": 10**9},
+    2: {"xyz": (4.1, 1.9, 0.0), "vel": (0.0, -1.0), "until_s": 10**9},
     3: {"xyz": (6.1, -0.1, 0.0), "vel": (-1.0, 0.0), "until_s": 600},
 }
 ROBOT_XYZ = (3.0, 0.0, 0.0)
@@ -71,11 +71,11 @@ class Expected:
     end_ns: int
 
 
-def detection_times(track: int) -> list[int]:
+def detection_times(track: int, duration_s: int = DURATION_S) -> list[int]:
     until = int(TRACKS[track]["until_s"])  # type: ignore[call-overload]
     return [
         T0 + (5 + k * MSG_PERIOD_S) * S
-        for k in range(DURATION_S // MSG_PERIOD_S)
+        for k in range(duration_s // MSG_PERIOD_S)
         if 5 + k * MSG_PERIOD_S < until
     ]
 
@@ -84,8 +84,12 @@ def build_graph(
     places: dict[int, tuple[float, float, float]] | None = None,
     edges: list[tuple[int, int]] | None = None,
     rooms: dict[int, tuple[int, ...]] | None = None,
+    agents: list[tuple[int, tuple[float, float, float]]] | None = None,
 ) -> Any:
-    """The spark_dsg graph of the office (or of the given places, edges and rooms)."""
+    """The spark_dsg graph of the office (or of the given places, edges and rooms), with an
+    agent layer of robot poses ``agents`` ((t_ns, xyz) pairs)."""
+    import datetime
+
     import spark_dsg
 
     if places is None:
@@ -110,6 +114,11 @@ def build_graph(
         G.insert_edge(spark_dsg.NodeSymbol("R", r), spark_dsg.NodeSymbol("B", 0))
     for a, b in edges or []:
         G.insert_edge(spark_dsg.NodeSymbol("p", a), spark_dsg.NodeSymbol("p", b))
+    for k, (t_ns, xyz) in enumerate(agents or []):
+        agent = spark_dsg.AgentNodeAttributes()
+        agent.position = np.array(xyz)
+        agent.timestamp = datetime.timedelta(microseconds=t_ns // 1000)
+        G.add_node(2, spark_dsg.NodeSymbol("a", k), agent, ord("a"))
     return G
 
 
@@ -155,15 +164,23 @@ def write_office_log(
     tf: bool = True,
     frame: str = "map",
     shift_s: int = 0,
+    agents: bool = False,
+    duration_s: int = DURATION_S,
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
     holds."""
     from formats.writers import LogWriter
 
-    payload = np.frombuffer(build_graph().to_binary(False), dtype=np.uint8) if graph else None
     n_tracks = n_graph = n_tf = 0
     t0 = T0 + shift_s * S
-    end = t0 + DURATION_S * S
+    end = t0 + duration_s * S
+    # agent-layer poses: the robot stands at ROBOT_XYZ for the first window, then far away
+    poses = [
+        (t, ROBOT_XYZ if t - t0 < 600 * S else (30.0, 0.0, 0.0))
+        for t in range(t0, end + 60 * S, 5 * S)
+    ] if agents else None
+    graph_obj = build_graph(PLACES, EDGES, ROOMS, poses) if graph else None
+    payload = np.frombuffer(graph_obj.to_binary(False), dtype=np.uint8) if graph else None
     written: list[int] = []
     with LogWriter(path, container) as writer:
         for t in range(t0, end, S):  # one pass over every second, in time order
@@ -210,7 +227,7 @@ def write_office_log(
                 )
                 n_tracks += 1
                 written.append(t)
-    per_track = {k: len(detection_times(k)) for k in TRACKS}
+    per_track = {k: len(detection_times(k, duration_s)) for k in TRACKS}
     return Expected(
         detections=sum(per_track.values()),
         per_track=per_track,

@@ -167,3 +167,29 @@ def test_continuing_a_map_equals_building_at_once(tmp_path: Path) -> None:
 
 def test_duration_constant_matches_the_log(office: Office) -> None:
     assert office.expected.end_ns - office.expected.start_ns < DURATION_S * 1_000_000_000
+
+
+def test_observation_from_the_scene_graph_agents_or_fixed(tmp_path: Path) -> None:
+    """Without TF, robot poses come from the scene graph's agent layer; a graph without
+    agents (the office's) means a fixed sensor, and the summary says so.
+
+    30 minutes (windows 1-2 closed, 3 open); the person at p3 leaves after window 1. The
+    agent-layer robot stands near p3 in window 1 only, so window 2 is unobserved at p3 and
+    teaches nothing (60 detections in 1 window); a fixed sensor saw p3 empty in window 2
+    (60 detections in 2 windows)."""
+    fixed_log = tmp_path / "fixed.mcap"
+    write_office_log(fixed_log, tf=False, duration_s=1800)
+    report = run_json("build", fixed_log, "--format", "json")
+    assert report["observation"] == "fixed sensor over the log's time span"
+    assert report["detections"]["used"] == 180 + 180 + 60
+    fixed = run_json("predict", tmp_path / "fixed.aion", "--historical", "--node", "p3",
+                     "--format", "json")
+    assert fixed["entries"][0]["flow"] == 30.0
+
+    agents_log = tmp_path / "agents.mcap"
+    write_office_log(agents_log, tf=False, agents=True, duration_s=1800)
+    report = run_json("build", agents_log, "--format", "json")
+    assert report["observation"] == "scene-graph agent layer"
+    seen = run_json("predict", tmp_path / "agents.aion", "--historical", "--node", "p3",
+                    "--format", "json")
+    assert seen["entries"][0]["flow"] == 60.0
