@@ -473,3 +473,16 @@ def test_interleaved_iterations_do_not_disturb_each_other(chunked: bool, tmp_pat
         rest = list(first)
         assert [m.data[4] for m in head + rest] == list(range(20))
         assert [m.data[4] for m in second] == list(range(20))
+
+
+def test_rosbag2_storage_file_without_metadata(tmp_path: Path) -> None:
+    folder = _write(tmp_path / "bag2", "rosbag2-sqlite3")
+    (db3,) = folder.glob("*.db3")
+    with open_logs([db3]) as logs:  # next to its metadata.yaml: the folder is opened
+        assert logs.files[0].format == "rosbag2-sqlite3"
+    (folder / "metadata.yaml").unlink()
+    with pytest.raises(LogFormatError, match=r"without a rosbag2 metadata\.yaml") as info:
+        open_logs([db3])
+    assert "metadata.yaml" in (info.value.hint or "")
+    with pytest.raises(LogFormatError, match="not a rosbag2 bag"):
+        open_logs([folder])
