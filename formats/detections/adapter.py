@@ -2,11 +2,11 @@
 :class:`FrameDetections`, through the fast numpy decoder where there is one and the wire layout
 matches, else through rosbags deserialization plus a field extractor.
 
-Messages are grouped by encoding (ROS 2 little-endian CDR, ROS 1, anything else), each group is
-decoded in one go, and rows come back in message order. A fast decode that fails (a fork with
-a different layout under the same name, or a damaged payload) is retried with the generic
-decoder; if that fails too the error is a :class:`MessageDecodeError` (or, with
-``on_error="skip"``, the bad messages are dropped one by one and counted).
+Messages are grouped by encoding (ROS 2 CDR, ROS 1), each group is decoded in one go, and rows
+come back in message order. A fast decode that fails (big-endian CDR, a fork with a different
+layout under the same name, a damaged payload) is retried with the generic decoder; if that
+fails too the error is a :class:`MessageDecodeError` (or, with ``on_error="skip"``, the bad
+messages are dropped one by one and counted).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from aion_cli.engine.errors import ConfigError, MessageDecodeError
 from formats.detections.fast import Decoded
 from formats.detections.frame import FrameDetections, FrameTable, quat_yaw, stamps_or_log_time
 from formats.detections.generic import Rows
-from formats.detections.wire import CDR_LE, Joined, join_payloads
+from formats.detections.wire import Joined, join_payloads
 from formats.raw import RawMessage
 
 if TYPE_CHECKING:
@@ -74,15 +74,11 @@ class DetectionAdapter:
         """Detections of ``messages`` (all of this adapter's type), rows in message order."""
         if not messages:
             return FrameDetections.empty()
-        groups: dict[str, list[int]] = {}
-        for i, m in enumerate(messages):
-            if m.encoding == "ros1":
-                key = "ros1"
-            elif m.encoding == "cdr" and bytes(m.data[:2]) == CDR_LE:
-                key = "cdr"
-            else:
-                key = "other"
-            groups.setdefault(key, []).append(i)
+        groups = _groups(messages)
+        if len(groups) == 1:
+            ((key, _),) = groups.items()
+            out = self._decode_group(list(messages), key, on_error)
+            return _with_n_messages(out, len(messages))
         parts = []
         for key, idx in groups.items():
             group = [messages[i] for i in idx]
@@ -157,6 +153,21 @@ class DetectionAdapter:
             ) from exc
 
 
+def _groups(messages: Sequence[RawMessage]) -> dict[str, list[int]]:
+    """Message indices by encoding ("cdr", "ros1"; anything else: "other", generic decoder
+    only). Big-endian CDR needs no special case: the fast decoder rejects its header and the
+    group falls back to rosbags, which reads both byte orders."""
+    encodings = {m.encoding for m in messages}
+    if len(encodings) == 1:
+        (enc,) = encodings
+        return {enc if enc in ("cdr", "ros1") else "other": list(range(len(messages)))}
+    groups: dict[str, list[int]] = {}
+    for i, m in enumerate(messages):
+        key = m.encoding if m.encoding in ("cdr", "ros1") else "other"
+        groups.setdefault(key, []).append(i)
+    return groups
+
+
 def _skipped(n: int) -> FrameDetections:
     e = FrameDetections.empty(n)
     return FrameDetections(
@@ -181,7 +192,7 @@ def _reindex(d: FrameDetections, idx: np.ndarray) -> FrameDetections:
 
 
 def _log_times(messages: Sequence[RawMessage]) -> np.ndarray:
-    return np.fromiter((m.log_time_ns for m in messages), dtype=np.int64, count=len(messages))
+    return np.array([m.log_time_ns for m in messages], dtype=np.int64)
 
 
 def _from_decoded(d: Decoded, messages: Sequence[RawMessage]) -> FrameDetections:

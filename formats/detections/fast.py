@@ -24,6 +24,7 @@ from formats.detections.wire import (
     Joined,
     equals_any,
     gather,
+    gather_f64,
     hashed_strings,
     string_codes,
 )
@@ -83,8 +84,7 @@ def _fixed_elements(c: Cursors, stride: int, align: int) -> tuple[Cursors, I64]:
 
 
 def _f64_at(e: Cursors, offset: int, k: int) -> F64:
-    off = e.pos[:, None] + (offset + 8 * np.arange(k))
-    return gather(e.j.buf, off, np.float64).astype(np.float64).reshape(len(e), k)
+    return gather_f64(e.j.buf, e.pos + offset, k)
 
 
 def _rows(h: Header, n: I64) -> tuple[I64, I64, I64, I64]:

@@ -10,8 +10,8 @@ holds one read position per message (or per array element) and every read (``u32
   counts its NUL terminator, then the bytes.
 - ROS 1: no header, no alignment, little-endian, uint32 lengths, strings without a NUL.
 
-Payloads are placed in the joined buffer so that every CDR payload starts on an 8-byte
-boundary, which keeps all aligned reads in one gather. Every read is bounds-checked against its
+Reads use a sliding-window view of the joined buffer, so a gather of fixed-width fields at
+arbitrary (unaligned) offsets is one numpy fancy index. Every read is bounds-checked against its
 own message's end, so truncated or garbage input raises :class:`MessageDecodeError` rather than
 ``IndexError`` or values from the neighbouring message.
 """
@@ -47,58 +47,54 @@ class Joined:
 
 
 def join_payloads(messages: Sequence[RawMessage], cdr: bool) -> Joined:
-    """Join the payloads; CDR payloads are placed 8-byte aligned in the buffer.
+    """Join the payloads of ``messages`` into one buffer (one ``bytes.join``).
 
     Raises :class:`MessageDecodeError` for a CDR message without a little-endian CDR header
     (callers route big-endian messages elsewhere before calling this)."""
-    parts: list[bytes] = []
-    starts = np.empty(len(messages), np.int64)
-    ends = np.empty(len(messages), np.int64)
-    pos = 0
-    skip = 4 if cdr else 0
-    for i, m in enumerate(messages):
-        data = m.data
-        if cdr and data[:2] != CDR_LE:
-            raise MessageDecodeError(
-                f"message {i} on {m.topic!r} has no little-endian CDR header "
-                f"(starts with {bytes(data[:4]).hex() or 'nothing'})"
-            )
-        pad = (-(pos + skip)) % 8 if cdr else 0
-        if pad:
-            parts.append(b"\0" * pad)
-        parts.append(data)
-        starts[i] = pos + pad + skip
-        pos += pad + len(data)
-        ends[i] = pos
-    # Trailing zeros keep the aligned views of gather() in range for the last message.
-    parts.append(b"\0" * 8)
-    buf = np.frombuffer(b"".join(parts), dtype=np.uint8)
-    return Joined(buf, starts, ends, cdr)
+    datas = [m.data for m in messages]
+    lens = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
+    data_start = np.cumsum(lens) - lens
+    # Trailing zeros: the sliding windows of gather() may start at any byte of a payload.
+    buf = np.frombuffer(b"".join([*datas, bytes(_TAIL)]), dtype=np.uint8)
+    end = data_start + lens
+    if not cdr:
+        return Joined(buf, data_start, end, cdr)
+    bad = (lens < 4) | (buf[data_start] != 0) | (buf[data_start + 1] != 1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise MessageDecodeError(
+            f"message {i} on {messages[i].topic!r} has no little-endian CDR header "
+            f"(starts with {bytes(datas[i][:4]).hex() or 'nothing'})"
+        )
+    return Joined(buf, data_start + 4, end, cdr)
+
+
+#: Bytes appended to the joined buffer; the widest block read at once is _TAIL + 1 bytes.
+_TAIL = 512
+
+
+def block(buf: U8, off: I64, nbytes: int) -> U8:
+    """``nbytes`` bytes at each absolute offset, as a contiguous uint8[len(off), nbytes] array.
+
+    A sliding-window view of the buffer turns the gather into one fancy index over rows, for
+    any alignment (ROS 1 fields are unaligned); callers check bounds first."""
+    if nbytes > _TAIL + 1:
+        raise ValueError(f"block reads are limited to {_TAIL + 1} bytes")
+    windows = np.lib.stride_tricks.sliding_window_view(buf, nbytes)
+    return windows[np.asarray(off, np.int64)].reshape(-1, nbytes)
 
 
 def gather(buf: U8, off: I64, dtype: npt.DTypeLike) -> npt.NDArray[np.generic]:
-    """Values of ``dtype`` (little-endian) at absolute byte offsets ``off`` (any alignment).
-
-    Offsets are grouped by their residue modulo the item size; each group is read from an
-    item-aligned view of the buffer, so the work is a handful of vectorized gathers."""
+    """Values of ``dtype`` (little-endian) at absolute byte offsets ``off`` (any alignment,
+    any shape of ``off``)."""
     dt = np.dtype(dtype).newbyteorder("<")
-    w = dt.itemsize
     off = np.asarray(off, np.int64)
-    if w == 1:
-        return buf[off].view(dt)
-    if len(off) == 0:
-        return np.zeros(0, dt)
-    res = off % w
-    out = np.empty(off.shape, dt)
-    counts = np.bincount(res.ravel(), minlength=w)
-    for r in np.flatnonzero(counts).tolist():
-        n = (len(buf) - r) // w
-        view = buf[r : r + n * w].view(dt)
-        if counts[r] == off.size:
-            return view[(off - r) // w]
-        m = res == r
-        out[m] = view[(off[m] - r) // w]
-    return out
+    return block(buf, off.ravel(), dt.itemsize).view(dt).reshape(off.shape)
+
+
+def gather_f64(buf: U8, off: I64, k: int) -> npt.NDArray[np.float64]:
+    """``k`` consecutive little-endian float64 at each offset: float64[len(off), k]."""
+    return block(buf, off, 8 * k).view("<f8").reshape(-1, k).astype(np.float64)
 
 
 class Cursors:
@@ -185,8 +181,7 @@ class Cursors:
         """``k`` consecutive float64 per cursor, shape (n, k)."""
         self.align(8)
         self.need(8 * k)
-        off = self.pos[:, None] + 8 * np.arange(k)
-        out = gather(self.j.buf, off, np.float64).astype(np.float64)
+        out = gather_f64(self.j.buf, self.pos, k)
         self.pos = self.pos + 8 * k
         return out
 
