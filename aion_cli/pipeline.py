@@ -246,8 +246,12 @@ def provenance(path: Path) -> dict[str, Any]:
             while block := fh.read(1 << 20):
                 digest.update(block)
                 size += len(block)
-    return {"path": str(path.resolve()), "name": path.name, "size": size,
-            "sha256": digest.hexdigest()}
+    return {
+        "path": str(path.resolve()),
+        "name": path.name,
+        "size": size,
+        "sha256": digest.hexdigest(),
+    }
 
 
 # -- map files ---------------------------------------------------------------------------------

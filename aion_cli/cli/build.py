@@ -74,32 +74,79 @@ def _load_config(path: Path | None) -> Any:
 
 @click.command("build", epilog=EPILOG)
 @click.argument("logs", nargs=-1, type=click.Path(path_type=Path))
-@click.option("-o", "--output", type=click.Path(path_type=Path, dir_okay=False),
-              help="Map file to write [default: the first log's name with .aion, or --map].")
-@click.option("--map", "continue_from", type=click.Path(path_type=Path, dir_okay=False),
-              help="Continue this existing map with the logs (equals building from all logs).")
-@click.option("--detections-topic", "detection_topics", multiple=True, metavar="TOPIC",
-              help="People-detection topic to use (repeatable) [default: all supported].")
-@click.option("--graph-topic", metavar="TOPIC",
-              help="Scene-graph (hydra_msgs/DsgUpdate) topic [default: found by type].")
-@click.option("--graph", "graph_file", type=click.Path(path_type=Path, dir_okay=False),
-              help="Scene graph saved by Hydra (dsg.json, .sparkdsg) instead of the log's.")
-@click.option("--derive-graph", is_flag=True,
-              help="Without any scene graph, derive places from where people walk.")
-@click.option("--map-frame", default="map", show_default=True,
-              help="Fixed frame of the map; detections are transformed into it with TF.")
-@click.option("--base-frame", default="base_link", show_default=True,
-              help="Robot frame whose TF trajectory gives what the sensor observed.")
-@click.option("--config", "config_file", type=click.Path(path_type=Path, dir_okay=False),
-              help="TOML file of model parameters (see --print-config).")
-@click.option("--print-config", is_flag=True,
-              help="Print the default model parameters as TOML and exit.")
-@click.option("--dsg-version", metavar="X.Y.Z",
-              help="spark_dsg payload version of the scene graphs [default: detected].")
-@click.option("--log-format", type=click.Choice(["mcap", "bag", "rosbag2"]),
-              help="Container format [default: guessed from the path].")
-@click.option("--batch-size", default=4000, show_default=True, type=click.IntRange(min=1),
-              help="Detection messages decoded per chunk.")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="Map file to write [default: the first log's name with .aion, or --map].",
+)
+@click.option(
+    "--map",
+    "continue_from",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="Continue this existing map with the logs (equals building from all logs).",
+)
+@click.option(
+    "--detections-topic",
+    "detection_topics",
+    multiple=True,
+    metavar="TOPIC",
+    help="People-detection topic to use (repeatable) [default: all supported].",
+)
+@click.option(
+    "--graph-topic",
+    metavar="TOPIC",
+    help="Scene-graph (hydra_msgs/DsgUpdate) topic [default: found by type].",
+)
+@click.option(
+    "--graph",
+    "graph_file",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="Scene graph saved by Hydra (dsg.json, .sparkdsg) instead of the log's.",
+)
+@click.option(
+    "--derive-graph",
+    is_flag=True,
+    help="Without any scene graph, derive places from where people walk.",
+)
+@click.option(
+    "--map-frame",
+    default="map",
+    show_default=True,
+    help="Fixed frame of the map; detections are transformed into it with TF.",
+)
+@click.option(
+    "--base-frame",
+    default="base_link",
+    show_default=True,
+    help="Robot frame whose TF trajectory gives what the sensor observed.",
+)
+@click.option(
+    "--config",
+    "config_file",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="TOML file of model parameters (see --print-config).",
+)
+@click.option(
+    "--print-config", is_flag=True, help="Print the default model parameters as TOML and exit."
+)
+@click.option(
+    "--dsg-version",
+    metavar="X.Y.Z",
+    help="spark_dsg payload version of the scene graphs [default: detected].",
+)
+@click.option(
+    "--log-format",
+    type=click.Choice(["mcap", "bag", "rosbag2"]),
+    help="Container format [default: guessed from the path].",
+)
+@click.option(
+    "--batch-size",
+    default=4000,
+    show_default=True,
+    type=click.IntRange(min=1),
+    help="Detection messages decoded per chunk.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary table.")
 @format_option(choices=("table", "json"))
 def command(

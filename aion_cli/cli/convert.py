@@ -45,21 +45,45 @@ def _container_for(output: Path, container: str | None) -> str:
 
 @click.command("convert", epilog=EPILOG)
 @click.argument("tracks", type=click.Path(path_type=Path))
-@click.option("-o", "--output", required=True, type=click.Path(path_type=Path),
-              help="Log to write: .mcap, .bag, or a rosbag2 folder (no suffix).")
-@click.option("--layout", type=click.Choice(["canonical", "atc", "thor", "eth"]),
-              default="canonical", show_default=True, help="Column layout of the CSV.")
-@click.option("--graph", "graph_file", type=click.Path(path_type=Path, dir_okay=False),
-              help="Scene graph (dsg.json, .sparkdsg) to publish in the log as well.")
-@click.option("--container", type=click.Choice(CONTAINERS),
-              help="Log container [default: from the output's suffix].")
-@click.option("--message-type", "msgtype",
-              type=click.Choice(["spencer_tracking_msgs/msg/TrackedPersons",
-                                 "geometry_msgs/msg/PoseArray"]),
-              default="spencer_tracking_msgs/msg/TrackedPersons", show_default=True,
-              help="Message type the detections are written as.")
-@click.option("--start", "start_text", metavar="T",
-              help="Shift dataset times (ATC/THÖR/ETH seconds) to start at this time.")
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Log to write: .mcap, .bag, or a rosbag2 folder (no suffix).",
+)
+@click.option(
+    "--layout",
+    type=click.Choice(["canonical", "atc", "thor", "eth"]),
+    default="canonical",
+    show_default=True,
+    help="Column layout of the CSV.",
+)
+@click.option(
+    "--graph",
+    "graph_file",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="Scene graph (dsg.json, .sparkdsg) to publish in the log as well.",
+)
+@click.option(
+    "--container",
+    type=click.Choice(CONTAINERS),
+    help="Log container [default: from the output's suffix].",
+)
+@click.option(
+    "--message-type",
+    "msgtype",
+    type=click.Choice(["spencer_tracking_msgs/msg/TrackedPersons", "geometry_msgs/msg/PoseArray"]),
+    default="spencer_tracking_msgs/msg/TrackedPersons",
+    show_default=True,
+    help="Message type the detections are written as.",
+)
+@click.option(
+    "--start",
+    "start_text",
+    metavar="T",
+    help="Shift dataset times (ATC/THÖR/ETH seconds) to start at this time.",
+)
 @click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
 def command(
     tracks: Path,

@@ -34,8 +34,20 @@ COLUMNS = [
     Column("histogram", "histogram", lambda h: _spark(h), justify="left"),
 ]
 CSV_KEYS = [
-    "id", "kind", "layer", "x", "y", "z", "flow", "flow_per_hour", "direction_deg",
-    "direction_bin", "concentration", "entropy", "mean_speed", "histogram",
+    "id",
+    "kind",
+    "layer",
+    "x",
+    "y",
+    "z",
+    "flow",
+    "flow_per_hour",
+    "direction_deg",
+    "direction_bin",
+    "concentration",
+    "entropy",
+    "mean_speed",
+    "histogram",
 ]
 
 _BARS = " ▁▂▃▄▅▆▇█"

@@ -42,7 +42,7 @@ def _step_seconds(text: str) -> float:
     else:
         parts = _RE_REL_PART.findall(token)
         if not parts or "".join(a + u for a, u in parts) != token.replace(" ", ""):
-            raise TimeFormatError(f"cannot read the step {text!r}", 'e.g. --step 1h or 30m')
+            raise TimeFormatError(f"cannot read the step {text!r}", "e.g. --step 1h or 30m")
         value = 0.0
         for amount, unit in parts:
             if unit not in _UNITS_S:
@@ -55,17 +55,34 @@ def _step_seconds(text: str) -> float:
 
 @click.command("export", epilog=EPILOG)
 @map_argument
-@click.option("-o", "--output", "out_dir", required=True, type=click.Path(path_type=Path),
-              help="Folder to write into (created if missing).")
+@click.option(
+    "-o",
+    "--output",
+    "out_dir",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Folder to write into (created if missing).",
+)
 @click.option("-t", "--time", "time_text", help="Prediction time. " + TIME_HELP)
 @click.option("--historical", is_flag=True, help="Export what was observed instead.")
 @click.option("--from", "t_from", metavar="T", help="Start of a time series.")
 @click.option("--to", "t_to", metavar="T", help="End of a time series (inclusive).")
-@click.option("--step", metavar="DURATION", default="1h", show_default=True,
-              help="Time-series step: 1h, 30m, 600s.")
+@click.option(
+    "--step",
+    metavar="DURATION",
+    default="1h",
+    show_default=True,
+    help="Time-series step: 1h, 30m, 600s.",
+)
 @tz_option
-@click.option("--format", "fmt", type=click.Choice(["ply", "pcd"]), default="ply",
-              show_default=True, help="Point-cloud / scene format.")
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["ply", "pcd"]),
+    default="ply",
+    show_default=True,
+    help="Point-cloud / scene format.",
+)
 @click.option("--path-from", metavar="A", help="Also plan and draw a path from A (id or x,y).")
 @click.option("--path-to", metavar="B", help="... to B.")
 def command(
@@ -117,9 +134,7 @@ def command(
     console().print(f"wrote {len(written)} file(s) to {out_dir}")
 
 
-def _series(
-    t_from: str, t_to: str, step: str, tz: str | None
-) -> tuple[list[int | None], Zone]:
+def _series(t_from: str, t_to: str, step: str, tz: str | None) -> tuple[list[int | None], Zone]:
     from aion_cli.engine.errors import InputError
 
     start, zone = resolve_time(t_from, tz)

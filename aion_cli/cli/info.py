@@ -71,8 +71,11 @@ def describe(paths: list[Path], log_format: str | None) -> dict[str, Any]:
 
 @click.command("info", epilog=EPILOG)
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--log-format", type=click.Choice(["mcap", "bag", "rosbag2"]),
-              help="Container format [default: guessed from the path].")
+@click.option(
+    "--log-format",
+    type=click.Choice(["mcap", "bag", "rosbag2"]),
+    help="Container format [default: guessed from the path].",
+)
 @format_option(choices=("table", "json"))
 def command(logs: tuple[Path, ...], log_format: str | None, fmt: str) -> None:
     """Show the format, duration and topics of LOGS and what aion will use from them."""
@@ -100,8 +103,12 @@ def _print(report: dict[str, Any]) -> None:
         f"duration: {report['duration_s']:.1f} s  messages: {report['messages']:,}"
     )
     table = Table(show_lines=False, header_style="bold")
-    for name, justify in (("topic", "left"), ("type", "left"), ("count", "right"),
-                          ("aion uses it as", "left")):
+    for name, justify in (
+        ("topic", "left"),
+        ("type", "left"),
+        ("count", "right"),
+        ("aion uses it as", "left"),
+    ):
         table.add_column(name, justify=justify)  # type: ignore[arg-type]
     for t in report["topics"]:
         role = t["role"] if t["used"] else "[dim]- (not a type aion reads)[/dim]"

@@ -59,13 +59,26 @@ def _endpoint(text: str, nav: Any, option: str) -> tuple[int, dict[str, Any] | N
 @map_argument
 @click.option("--from", "start", required=True, metavar="A", help="Start: node id or x,y[,z].")
 @click.option("--to", "goal", required=True, metavar="B", help="Goal: node id or x,y[,z].")
-@click.option("-t", "--time", "time_text", default="now", show_default=True,
-              help="Departure time. " + TIME_HELP)
+@click.option(
+    "-t",
+    "--time",
+    "time_text",
+    default="now",
+    show_default=True,
+    help="Departure time. " + TIME_HELP,
+)
 @tz_option
-@click.option("--speed", type=click.FloatRange(min=0.01, max=20.0),
-              help="Walking speed in m/s [default: the map's plan_speed].")
-@click.option("--export", "export_path", type=click.Path(path_type=Path, dir_okay=False),
-              help="Also write the scene with both paths to this .ply file.")
+@click.option(
+    "--speed",
+    type=click.FloatRange(min=0.01, max=20.0),
+    help="Walking speed in m/s [default: the map's plan_speed].",
+)
+@click.option(
+    "--export",
+    "export_path",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="Also write the scene with both paths to this .ply file.",
+)
 @format_option(choices=("table", "json"))
 def command(
     map_path: Path,

@@ -42,13 +42,22 @@ LAYERS = ("all", "places", "cells", "rooms", "buildings")
 @map_argument
 @click.option("-t", "--time", "time_text", default="now", show_default=True, help=TIME_HELP)
 @tz_option
-@click.option("--historical", is_flag=True,
-              help="What was observed (cumulative counts) instead of a prediction.")
-@click.option("--node", "nodes", multiple=True, metavar="ID",
-              help="Only this node (e.g. p12); repeatable.")
+@click.option(
+    "--historical",
+    is_flag=True,
+    help="What was observed (cumulative counts) instead of a prediction.",
+)
+@click.option(
+    "--node", "nodes", multiple=True, metavar="ID", help="Only this node (e.g. p12); repeatable."
+)
 @click.option("--at", "at", metavar="X,Y[,Z]", help="Only the entry nearest to this point.")
-@click.option("--layer", type=click.Choice(LAYERS), default="all", show_default=True,
-              help="Places (nodes), hash cells, or aggregated rooms / buildings.")
+@click.option(
+    "--layer",
+    type=click.Choice(LAYERS),
+    default="all",
+    show_default=True,
+    help="Places (nodes), hash cells, or aggregated rooms / buildings.",
+)
 @click.option("--top", type=click.IntRange(min=1), help="Only the N busiest entries.")
 @format_option()
 def command(
@@ -94,8 +103,10 @@ def command(
     }
     if t_ns is not None and zone is not None:
         announce_time(t_ns, zone)
-    title = "historical flows" if t_ns is None or zone is None else (
-        f"predicted flows at {format_ns(t_ns, zone)}"
+    title = (
+        "historical flows"
+        if t_ns is None or zone is None
+        else (f"predicted flows at {format_ns(t_ns, zone)}")
     )
     emit(fmt, rows, COLUMNS, json_payload=payload, csv_keys=CSV_KEYS, title=title)
 

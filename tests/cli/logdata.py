@@ -175,10 +175,14 @@ def write_office_log(
     t0 = T0 + shift_s * S
     end = t0 + duration_s * S
     # agent-layer poses: the robot stands at ROBOT_XYZ for the first window, then far away
-    poses = [
-        (t, ROBOT_XYZ if t - t0 < 600 * S else (30.0, 0.0, 0.0))
-        for t in range(t0, end + 60 * S, 5 * S)
-    ] if agents else None
+    poses = (
+        [
+            (t, ROBOT_XYZ if t - t0 < 600 * S else (30.0, 0.0, 0.0))
+            for t in range(t0, end + 60 * S, 5 * S)
+        ]
+        if agents
+        else None
+    )
     graph_obj = build_graph(PLACES, EDGES, ROOMS, poses) if graph else None
     payload = np.frombuffer(graph_obj.to_binary(False), dtype=np.uint8) if graph else None
     written: list[int] = []

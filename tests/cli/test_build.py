@@ -182,14 +182,16 @@ def test_observation_from_the_scene_graph_agents_or_fixed(tmp_path: Path) -> Non
     report = run_json("build", fixed_log, "--format", "json")
     assert report["observation"] == "fixed sensor over the log's time span"
     assert report["detections"]["used"] == 180 + 180 + 60
-    fixed = run_json("predict", tmp_path / "fixed.aion", "--historical", "--node", "p3",
-                     "--format", "json")
+    fixed = run_json(
+        "predict", tmp_path / "fixed.aion", "--historical", "--node", "p3", "--format", "json"
+    )
     assert fixed["entries"][0]["flow"] == 30.0
 
     agents_log = tmp_path / "agents.mcap"
     write_office_log(agents_log, tf=False, agents=True, duration_s=1800)
     report = run_json("build", agents_log, "--format", "json")
     assert report["observation"] == "scene-graph agent layer"
-    seen = run_json("predict", tmp_path / "agents.aion", "--historical", "--node", "p3",
-                    "--format", "json")
+    seen = run_json(
+        "predict", tmp_path / "agents.aion", "--historical", "--node", "p3", "--format", "json"
+    )
     assert seen["entries"][0]["flow"] == 60.0

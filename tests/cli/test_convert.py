@@ -35,8 +35,9 @@ def test_convert_then_build_and_predict(tmp_path: Path) -> None:
     assert report["detections"]["used"] == n
     assert report["observation"] == "fixed sensor over the log's time span"
     assert report["nodes"] >= 1
-    doc = run_json("predict", tmp_path / "tracks.aion", "--historical", "--layer", "places",
-                   "--format", "json")
+    doc = run_json(
+        "predict", tmp_path / "tracks.aion", "--historical", "--layer", "places", "--format", "json"
+    )
     busiest = doc["entries"][0]
     assert busiest["direction_bin"] == 4  # heading 0 rad: bin [0, 45) degrees
     assert busiest["direction_deg"] == pytest.approx(22.5, abs=1.0)

@@ -38,8 +38,22 @@ def test_historical_pcd(office: Office, tmp_path: Path) -> None:
 
 
 def test_time_series_and_path(office: Office, tmp_path: Path) -> None:
-    result = run("export", office.map, "--from", "2026-11-23 08:00", "--to", "2026-11-23 09:00",
-                 "--step", "30m", "-o", tmp_path, "--path-from", "p0", "--path-to", "p4")
+    result = run(
+        "export",
+        office.map,
+        "--from",
+        "2026-11-23 08:00",
+        "--to",
+        "2026-11-23 09:00",
+        "--step",
+        "30m",
+        "-o",
+        tmp_path,
+        "--path-from",
+        "p0",
+        "--path-to",
+        "p4",
+    )
     assert result.exit_code == 0, result.stderr
     folders = sorted(p.name for p in tmp_path.iterdir())
     assert folders == ["20261123T080000Z", "20261123T083000Z", "20261123T090000Z"]

@@ -14,8 +14,9 @@ AT = "2026-11-23 08:30"
 
 
 def test_path_length_and_costs(office: Office) -> None:
-    doc = run_json("plan", office.map, "--from", "p0", "--to", "p3", "--time", AT,
-                   "--format", "json")
+    doc = run_json(
+        "plan", office.map, "--from", "p0", "--to", "p3", "--time", AT, "--format", "json"
+    )
     temporal, shortest = doc["temporal"], doc["distance_only"]
     assert shortest["path"] == ["p0", "p1", "p2", "p3"]
     assert shortest["length_m"] == pytest.approx(6.0)
@@ -31,8 +32,20 @@ def test_path_length_and_costs(office: Office) -> None:
 
 
 def test_coordinates_snap_to_the_nearest_node_and_speed(office: Office) -> None:
-    doc = run_json("plan", office.map, "--from", "0.2,-0.1", "--to", "3.9,1.7", "--time", AT,
-                   "--speed", "0.5", "--format", "json")
+    doc = run_json(
+        "plan",
+        office.map,
+        "--from",
+        "0.2,-0.1",
+        "--to",
+        "3.9,1.7",
+        "--time",
+        AT,
+        "--speed",
+        "0.5",
+        "--format",
+        "json",
+    )
     assert doc["from"] == "p0"
     assert doc["to"] == "p4"
     assert doc["distance_only"]["path"] == ["p0", "p1", "p2", "p4"]
@@ -93,8 +106,20 @@ def test_plan_on_a_map_without_graph(tmp_path: Path) -> None:
 
 def test_subprocess_plan_with_export(office: Office, tmp_path: Path) -> None:
     ply = tmp_path / "route.ply"
-    proc = run_process("plan", office.map, "--from", "p0", "--to", "p4", "--time", AT,
-                       "--export", ply, "--format", "json")
+    proc = run_process(
+        "plan",
+        office.map,
+        "--from",
+        "p0",
+        "--to",
+        "p4",
+        "--time",
+        AT,
+        "--export",
+        ply,
+        "--format",
+        "json",
+    )
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)
     assert doc["temporal"]["path"] == ["p0", "p1", "p2", "p4"]
