@@ -100,6 +100,8 @@ def _event_counts(r: SceneResult) -> str:
               help="Seconds between scene graphs while the robot drives.")
 @click.option("--dsg-idle-period", type=float, default=600.0, show_default=True,
               help="Seconds between scene graphs while it is parked (or fixed).")
+@click.option("--tf-idle-period", type=float, default=10.0, show_default=True,
+              help="Seconds between /tf messages while the robot is parked.")
 @click.option("--no-mesh", is_flag=True, help="Leave the mesh out of the scene graphs.")
 @click.option("--window", type=float, default=600.0, show_default=True,
               help="Ground-truth window length in seconds.")
@@ -110,7 +112,7 @@ def simulate(
     robot: str, frame: str | None, fmt: str, detection_type: str, start: str,
     utc_offset: float, rate: float, noise: float, sensor_range: float, no_line_of_sight: bool,
     tour_every: float, patrol_hours: str, dsg_period: float, dsg_idle_period: float,
-    no_mesh: bool, window: float, force: bool, quiet: bool,
+    tf_idle_period: float, no_mesh: bool, window: float, force: bool, quiet: bool,
 ) -> None:
     """Simulate people in an office (or any scene graph) seen by a patrolling robot.
 
@@ -127,6 +129,7 @@ def simulate(
         environment=environment, days=days, seed=seed, agents=agents, scenes=scenes,
         robot=robot, frame=frame, format=fmt, detection_type=detection_type, start=start,
         utc_offset_h=utc_offset, rate_hz=rate, noise=noise, window_s=window,
+        tf_idle_s=tf_idle_period,
         patrol=PatrolConfig(tour_every_s=tour_every * 60.0, hours=_hours(patrol_hours),
                             sensor_range=sensor_range, line_of_sight=not no_line_of_sight),
         stream=StreamConfig(period_s=dsg_period, idle_period_s=dsg_idle_period,

@@ -81,6 +81,8 @@ class ScenarioConfig:
             (self.stream.period_s > 0 and self.stream.idle_period_s > 0,
              "scene-graph periods must be positive"),
             (self.patrol.tour_every_s > 0, "the patrol interval must be positive"),
+            (self.tf_idle_s > 0, "the TF period must be positive"),
+            (self.patrol.sensor_range > 0, "the sensor range must be positive"),
         ]
         for ok, message in checks:
             if not ok:
