@@ -313,7 +313,7 @@ class FremenModel:
             raise IndexError("rows out of range")
         if np.bincount(r, minlength=state.n_rows).max() > 1:
             raise ValueError("rows must be unique within one update")
-        vz = np.where(obs, v, 0.0)
+        vz = v if obs.all() else np.where(obs, v, 0.0)  # never written to
         if not np.isfinite(vz.sum()):  # one pass; also rejects values near the float limit
             raise ValueError("observed values must be finite")
         cos_t, sin_t = self.basis(t)
@@ -473,14 +473,31 @@ class FremenModel:
     @staticmethod
     def _score_mean_only(state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:
         """Order 0 only: the prequential mean before each window, from cumulative sums."""
-        of = obs.astype(np.float64)
-        n_pre = state.n[rr, None] + np.cumsum(of, axis=1) - of
-        s_pre = state.sum_s[rr, None] + np.cumsum(vz, axis=1) - vz
-        scored = obs & (n_pre > 0)
-        mu = np.divide(s_pre, n_pre, out=np.zeros_like(s_pre), where=scored)
-        err = np.where(scored, np.abs(vz - np.clip(mu, 0.0, 1.0)), 0.0).sum(axis=1)
-        state.order_err[rr] += err[:, None]
-        state.order_n[rr] += scored.sum(axis=1)
+        n0 = state.n[rr]
+        if obs.all():  # dense: n before window w is n0 + w, no cumulative count needed
+            n_pre = n0[:, None] + np.arange(vz.shape[1], dtype=np.float64)[None, :]
+            scored = None
+        else:
+            of = obs.astype(np.float64)
+            n_pre = n0[:, None] + np.cumsum(of, axis=1) - of
+            scored = obs & (n_pre > 0)
+        diff = np.cumsum(vz, axis=1)
+        diff -= vz
+        diff += state.sum_s[rr, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            diff /= n_pre
+        np.clip(diff, 0.0, 1.0, out=diff)
+        diff -= vz
+        np.abs(diff, out=diff)
+        if scored is None:
+            fresh = n0 == 0  # the first window of a never-observed row is not scored
+            diff[fresh, 0] = 0.0
+            count = vz.shape[1] - fresh.astype(np.float64)
+        else:
+            diff[~scored] = 0.0
+            count = scored.sum(axis=1, dtype=np.float64)
+        state.order_err[rr] += diff.sum(axis=1)[:, None]
+        state.order_n[rr] += count
 
     # -- reading --------------------------------------------------------------------------------
     def _rows(self, state: FremenState, rows: npt.ArrayLike | None) -> I64:

@@ -371,3 +371,19 @@ def test_mean_only_model_scores_order_zero_like_the_loop() -> None:
     np.testing.assert_allclose(state.order_err[:, 0], [lp.err[0] for lp in loops], rtol=1e-9)
     np.testing.assert_array_equal(state.order_n, [lp.err_n for lp in loops])
     assert model.chosen_order(state).tolist() == [0] * 5
+
+
+def test_mean_only_dense_updates_score_like_sparse_ones() -> None:
+    model = FremenModel(PERIODS, max_order=0)
+    t, values, _ = _random_stream(9, 4, 40)
+    dense, sparse = model.empty(4), model.empty(4)
+    every = np.ones(values.shape, bool)
+    model.update(dense, np.arange(4), t[:20], values[:, :20], every[:, :20])
+    model.update(dense, np.arange(4), t[20:], values[:, 20:], every[:, 20:])
+    almost = every.copy()
+    almost[:, 0] = False  # sparse path: first window unobserved, fed on its own
+    model.update(sparse, np.arange(4), t[:1], values[:, :1], every[:, :1])
+    model.update(sparse, np.arange(4), t[:20], values[:, :20], almost[:, :20])
+    model.update(sparse, np.arange(4), t[20:], values[:, 20:], every[:, 20:])
+    _assert_states_equal(dense, sparse)
+    assert dense.order_n.tolist() == [39.0] * 4
