@@ -76,7 +76,7 @@ def _split(line: str, delimiter: str | None) -> list[str]:
 
 def _data_lines(path: Path, spec: _Spec) -> Iterator[tuple[int, list[str]]]:
     """(line number, fields) of every data line, as np.loadtxt sees them."""
-    with path.open(encoding="utf-8", errors="replace") as fh:
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
         for lineno, raw in enumerate(fh, start=1):
             if spec.header is not None and lineno == 1:
                 continue
@@ -124,7 +124,7 @@ def _check_file(path: Path, spec: _Spec, layout: str) -> None:
         raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
     if spec.header is None:
         return
-    with path.open(encoding="utf-8", errors="replace") as fh:
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
         first = fh.readline().strip().replace(" ", "")
     if first != spec.header:
         raise TracksFormatError(
@@ -145,7 +145,7 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Lit
                 delimiter=spec.delimiter,
                 skiprows=1 if spec.header else 0,
                 ndmin=ndmin,
-                encoding="utf-8",
+                encoding="utf-8-sig",
             )
     except (ValueError, UnicodeDecodeError, OverflowError) as exc:
         raise _fail(path, spec, layout, str(exc)) from exc

@@ -88,6 +88,13 @@ def test_canonical_round_trip(tmp_path: Path) -> None:
     np.testing.assert_allclose(back.heading, batch.heading[order], atol=1e-9)
     np.testing.assert_allclose(back.speed, batch.speed[order], atol=1e-6)
     assert np.isnan(back.heading[1])
+    # a spreadsheet's UTF-8 byte-order mark and CRLF line ends are accepted
+    bom = tmp_path / "bom.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + path.read_bytes().replace(b"\n", b"\r\n"))
+    np.testing.assert_array_equal(ft.read_tracks(bom).t_ns, back.t_ns)
+    atc_bom = tmp_path / "atc_bom.csv"
+    atc_bom.write_bytes(b"\xef\xbb\xbf1.5,3,0.1,0.2,0.3,0.4\r\n")
+    assert ft.read_tracks(atc_bom, "atc").t_ns.tolist() == [1_500_000_000]
 
 
 # ----------------------------------------------------------------------------- ETH / UCY
