@@ -29,12 +29,17 @@ Choices:
   the cell's rows; releasing does the same in the other direction. When several cells observed
   the same window, the node's row holds one observation per cell for that window (the mean is
   the mean of their activities); from then on the node is observed as one entry.
-* **When binding is checked**: on ``add_graph`` (at the graph's time), when a window closes
-  (at its end, before its FreMEn update) and on ``advance``.
+* **Graphs close windows**: a graph at time t means log time reached t, so ``add_graph`` first
+  closes the windows ending at or before t (as ``advance`` does); detections stamped in a
+  closed window that arrive later are dropped as ``"before_window"``.
+* **When binding is checked**: on ``add_graph`` (at the graph's time) and at the end of every
+  window that is recorded when windows close (one with detections or covered by an
+  observation source; before that window's FreMEn update) — on ``advance`` or when a later
+  detection arrives. Never at an arbitrary ``advance`` time.
 * **Continuing a build**: the open window stays open at the end of a log and is persisted, so
-  building from log A, saving, loading and continuing with log B gives the same state as
-  building from A+B at once, provided the same calls are made (calling ``advance`` at the end
-  of A closes windows and checks bindings earlier than a single pass over A+B would).
+  building from log A (``advance`` to its end or not), saving, loading and continuing with log
+  B gives the same state as building from A+B at once with the same graphs, detections and
+  observation sources.
 """
 
 from __future__ import annotations
@@ -94,8 +99,11 @@ class Mapper:
         return drops
 
     def add_graph(self, snapshot: GraphSnapshot) -> None:
-        """A new scene graph: node timers, moves and releases, then a bind check at its time."""
+        """A new scene graph at log time ``t``: windows ending at or before ``t`` close first
+        (they are over), then node timers, moves and releases, then a bind check at ``t``."""
         st = self._state
+        if st.open_window is not None:
+            close_windows(st, int(window_index(np.int64(snapshot.t_ns), self._delta)))
         apply_graph(st, snapshot)
         st.log_time_ns = _later(st.log_time_ns, int(snapshot.t_ns))
         bind_cells(st, st.log_time_ns)
@@ -109,14 +117,18 @@ class Mapper:
         self._state.observation.set_fixed_sensor(int(start_ns), int(end_ns))
 
     def advance(self, t_ns: int) -> None:
-        """Log time reached ``t_ns``: close every window ending at or before it, check binds."""
+        """Log time reached ``t_ns``: close every window ending at or before it.
+
+        Ownership is checked at the end of each recorded window being closed (not at ``t_ns``
+        itself), so calling ``advance`` at the end of a log and continuing later gives the same
+        state as one pass over both logs.
+        """
         st = self._state
         target = int(window_index(np.int64(t_ns), self._delta))
         if st.open_window is None:
             st.open_window = target
         close_windows(st, target)
         st.log_time_ns = _later(st.log_time_ns, int(t_ns))
-        bind_cells(st, st.log_time_ns)
 
     # -- internals --------------------------------------------------------------------------
     def _accumulate_by_window(self, batch: DetectionBatch, ijk: I64, window: I64) -> None:

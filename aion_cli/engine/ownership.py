@@ -21,6 +21,7 @@ throughout, a real per-cell redirect table, and a per-node stability timer.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -29,7 +30,7 @@ from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.errors import CoordinateRangeError
 from aion_cli.engine.nodes import nearest_nodes
 from aion_cli.engine.spatial_hash import cell_centres, keys_for_points, packable_mask
-from aion_cli.engine.types import I64, U64, GraphSnapshot
+from aion_cli.engine.types import F64, I64, U64, BoolA, GraphSnapshot
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
@@ -74,13 +75,22 @@ def release_nodes(state: MapState, rows: I64) -> None:
     state.rebuild_routes()
 
 
-def bind_cells(state: MapState, t_ns: int) -> int:
-    """Bind every cell that has a stable node nearby at log time ``t_ns``; returns how many."""
+@dataclass(frozen=True)
+class BindPlan:
+    """Cells to bind (rows in key order) and the nodes they go to (ids and positions)."""
+
+    cells: I64
+    node_ids: U64
+    node_xyz: F64
+
+
+def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
+    """The binds a check at log time ``t_ns`` would make (None if none); no state changes."""
     cfg = state.config
-    stable = state.nodes.stable_mask(t_ns, round(cfg.stability_s * 1e9))
+    stable = stable_nodes(state, t_ns)
     cells = state.entries.cell_rows()
     if not stable.any() or len(cells) == 0:
-        return 0
+        return None
     cells = cells[np.argsort(state.entries.key[cells], kind="stable")]
     ids, xyz = state.nodes.ids[stable], state.nodes.xyz[stable]
     hit = nearest_nodes(
@@ -88,15 +98,31 @@ def bind_cells(state: MapState, t_ns: int) -> int:
     )
     bound = hit >= 0
     if not bound.any():
-        return 0
-    src = cells[bound]
-    node_ids = ids[hit[bound]]
-    dst = node_rows_creating(state, node_ids, xyz[hit[bound]])
-    keys = state.entries.key[src].copy()
-    state.move(src, dst)
-    state.redirects.add(keys, node_ids)
+        return None
+    return BindPlan(cells[bound], ids[hit[bound]], xyz[hit[bound]])
+
+
+def apply_binds(state: MapState, plan: BindPlan) -> None:
+    """Move the planned cells into their nodes' entries and record the redirects."""
+    dst = node_rows_creating(state, plan.node_ids, plan.node_xyz)
+    keys = state.entries.key[plan.cells].copy()
+    state.move(plan.cells, dst)
+    state.redirects.add(keys, plan.node_ids)
     state.rebuild_routes()
-    return int(bound.sum())
+
+
+def bind_cells(state: MapState, t_ns: int) -> int:
+    """Bind every cell that has a stable node nearby at log time ``t_ns``; returns how many."""
+    plan = plan_binds(state, t_ns)
+    if plan is None:
+        return 0
+    apply_binds(state, plan)
+    return len(plan.cells)
+
+
+def stable_nodes(state: MapState, t_ns: int) -> BoolA:
+    """Mask over the node table: nodes stable for ``stability_s`` at log time ``t_ns``."""
+    return state.nodes.stable_mask(t_ns, round(state.config.stability_s * 1e9))
 
 
 def node_rows_creating(state: MapState, node_ids: U64, xyz: np.ndarray) -> I64:

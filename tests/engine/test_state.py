@@ -180,3 +180,15 @@ def test_empty_state_round_trips_and_answers_queries() -> None:
     assert again.open_window is None
     assert len(historical_table(again)) == 0
     assert len(predict_table(again, T0)) == 0
+
+
+def test_advancing_to_the_end_of_a_then_continuing_equals_one_pass() -> None:
+    a_steps = _log(T0, seed=8, move=0.6)
+    b_steps = _log(T0 + 9 * W, seed=9)
+    whole = _run(a_steps + b_steps)
+    first = _run(a_steps)
+    first.advance(T0 + 6 * W + W // 3)  # what a build does at the end of a log
+    assert first.state.open_window == (T0 + 6 * W) // W
+    continued = _run(b_steps, _reload(first))
+    _assert_same(whole.state, continued.state)
+    assert len(whole.state.redirects) > 0
