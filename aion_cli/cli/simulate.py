@@ -59,60 +59,162 @@ def _event_counts(r: SceneResult) -> str:
 
     meta = json.loads(r.truth_json.read_text())
     c = meta["event_counts"]
-    return (f"{meta['loop_closures']} loop closures ({c['move']:,} moves, {c['merge']} merges, "
-            f"{c['remove']} removals)")
+    return (
+        f"{meta['loop_closures']} loop closures ({c['move']:,} moves, {c['merge']} merges, "
+        f"{c['remove']} removals)"
+    )
 
 
 @click.command("simulate", epilog=EPILOG)
-@click.option("-o", "--output", required=True, type=click.Path(path_type=Path),
-              help="Log to write (.mcap, .bag, rosbag2 folder); a folder with --scenes > 1.")
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Log to write (.mcap, .bag, rosbag2 folder); a folder with --scenes > 1.",
+)
 @click.option("--days", type=float, default=1.0, show_default=True, help="Simulated days.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
 @click.option("--agents", type=int, default=6, show_default=True, help="People per scene.")
-@click.option("--scenes", type=int, default=1, show_default=True,
-              help="Independent scenes, each its own log and ground truth.")
-@click.option("--environment", default="office", show_default=True,
-              help="'office' (the paper's) or a spark_dsg scene graph file to walk in.")
-@click.option("--robot", type=click.Choice(["patrol", "fixed"]), default="patrol",
-              show_default=True, help="A patrolling robot, or a fixed sensor that sees all.")
-@click.option("--frame", type=click.Choice(["base_link", "map"]), default=None,
-              help="Frame of the detections [default: base_link; map for --robot fixed].")
-@click.option("--format", "fmt", default="mcap", show_default=True,
-              type=click.Choice(["mcap", "mcap-ros1", "bag", "rosbag2", "rosbag2-sqlite3"]),
-              help="Log container.")
-@click.option("--detection-type", default="tracked_persons", show_default=True,
-              help="tracked_persons (spencer), pose_array, people (people_msgs).")
-@click.option("--start", default="2026-01-05", show_default=True,
-              help="Local date of the first day (ISO; the default is a Monday).")
-@click.option("--utc-offset", type=float, default=0.0, show_default=True,
-              help="Local time minus UTC, in hours.")
-@click.option("--rate", type=float, default=2.0, show_default=True,
-              help="Sensor rate in Hz (people are sampled at it).")
-@click.option("--noise", type=float, default=0.05, show_default=True,
-              help="Detection position noise (std dev, m).")
+@click.option(
+    "--scenes",
+    type=int,
+    default=1,
+    show_default=True,
+    help="Independent scenes, each its own log and ground truth.",
+)
+@click.option(
+    "--environment",
+    default="office",
+    show_default=True,
+    help="'office' (the paper's) or a spark_dsg scene graph file to walk in.",
+)
+@click.option(
+    "--robot",
+    type=click.Choice(["patrol", "fixed"]),
+    default="patrol",
+    show_default=True,
+    help="A patrolling robot, or a fixed sensor that sees all.",
+)
+@click.option(
+    "--frame",
+    type=click.Choice(["base_link", "map"]),
+    default=None,
+    help="Frame of the detections [default: base_link; map for --robot fixed].",
+)
+@click.option(
+    "--format",
+    "fmt",
+    default="mcap",
+    show_default=True,
+    type=click.Choice(["mcap", "mcap-ros1", "bag", "rosbag2", "rosbag2-sqlite3"]),
+    help="Log container.",
+)
+@click.option(
+    "--detection-type",
+    default="tracked_persons",
+    show_default=True,
+    help="tracked_persons (spencer), pose_array, people (people_msgs).",
+)
+@click.option(
+    "--start",
+    default="2026-01-05",
+    show_default=True,
+    help="Local date of the first day (ISO; the default is a Monday).",
+)
+@click.option(
+    "--utc-offset",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Local time minus UTC, in hours.",
+)
+@click.option(
+    "--rate",
+    type=float,
+    default=2.0,
+    show_default=True,
+    help="Sensor rate in Hz (people are sampled at it).",
+)
+@click.option(
+    "--noise",
+    type=float,
+    default=0.05,
+    show_default=True,
+    help="Detection position noise (std dev, m).",
+)
 @click.option("--sensor-range", type=float, default=8.0, show_default=True, help="Metres.")
 @click.option("--no-line-of-sight", is_flag=True, help="Let the robot see through walls.")
-@click.option("--tour-every", type=float, default=30.0, show_default=True,
-              help="Minutes between the starts of patrol tours.")
-@click.option("--patrol-hours", default="0-24", show_default=True,
-              help="Local hours START-END in which tours start.")
-@click.option("--dsg-period", type=float, default=10.0, show_default=True,
-              help="Seconds between scene graphs while the robot drives.")
-@click.option("--dsg-idle-period", type=float, default=600.0, show_default=True,
-              help="Seconds between scene graphs while it is parked (or fixed).")
-@click.option("--tf-idle-period", type=float, default=10.0, show_default=True,
-              help="Seconds between /tf messages while the robot is parked.")
+@click.option(
+    "--tour-every",
+    type=float,
+    default=30.0,
+    show_default=True,
+    help="Minutes between the starts of patrol tours.",
+)
+@click.option(
+    "--patrol-hours",
+    default="0-24",
+    show_default=True,
+    help="Local hours START-END in which tours start.",
+)
+@click.option(
+    "--dsg-period",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="Seconds between scene graphs while the robot drives.",
+)
+@click.option(
+    "--dsg-idle-period",
+    type=float,
+    default=600.0,
+    show_default=True,
+    help="Seconds between scene graphs while it is parked (or fixed).",
+)
+@click.option(
+    "--tf-idle-period",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="Seconds between /tf messages while the robot is parked.",
+)
 @click.option("--no-mesh", is_flag=True, help="Leave the mesh out of the scene graphs.")
-@click.option("--window", type=float, default=600.0, show_default=True,
-              help="Ground-truth window length in seconds.")
+@click.option(
+    "--window",
+    type=float,
+    default=600.0,
+    show_default=True,
+    help="Ground-truth window length in seconds.",
+)
 @click.option("--force", is_flag=True, help="Overwrite existing outputs.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 def simulate(
-    output: Path, days: float, seed: int, agents: int, scenes: int, environment: str,
-    robot: str, frame: str | None, fmt: str, detection_type: str, start: str,
-    utc_offset: float, rate: float, noise: float, sensor_range: float, no_line_of_sight: bool,
-    tour_every: float, patrol_hours: str, dsg_period: float, dsg_idle_period: float,
-    tf_idle_period: float, no_mesh: bool, window: float, force: bool, quiet: bool,
+    output: Path,
+    days: float,
+    seed: int,
+    agents: int,
+    scenes: int,
+    environment: str,
+    robot: str,
+    frame: str | None,
+    fmt: str,
+    detection_type: str,
+    start: str,
+    utc_offset: float,
+    rate: float,
+    noise: float,
+    sensor_range: float,
+    no_line_of_sight: bool,
+    tour_every: float,
+    patrol_hours: str,
+    dsg_period: float,
+    dsg_idle_period: float,
+    tf_idle_period: float,
+    no_mesh: bool,
+    window: float,
+    force: bool,
+    quiet: bool,
 ) -> None:
     """Simulate people in an office (or any scene graph) seen by a patrolling robot.
 
@@ -126,14 +228,30 @@ def simulate(
     from aion_cli.sim.scenario import simulate as run
 
     config = ScenarioConfig(
-        environment=environment, days=days, seed=seed, agents=agents, scenes=scenes,
-        robot=robot, frame=frame, format=fmt, detection_type=detection_type, start=start,
-        utc_offset_h=utc_offset, rate_hz=rate, noise=noise, window_s=window,
+        environment=environment,
+        days=days,
+        seed=seed,
+        agents=agents,
+        scenes=scenes,
+        robot=robot,
+        frame=frame,
+        format=fmt,
+        detection_type=detection_type,
+        start=start,
+        utc_offset_h=utc_offset,
+        rate_hz=rate,
+        noise=noise,
+        window_s=window,
         tf_idle_s=tf_idle_period,
-        patrol=PatrolConfig(tour_every_s=tour_every * 60.0, hours=_hours(patrol_hours),
-                            sensor_range=sensor_range, line_of_sight=not no_line_of_sight),
-        stream=StreamConfig(period_s=dsg_period, idle_period_s=dsg_idle_period,
-                            include_mesh=not no_mesh),
+        patrol=PatrolConfig(
+            tour_every_s=tour_every * 60.0,
+            hours=_hours(patrol_hours),
+            sensor_range=sensor_range,
+            line_of_sight=not no_line_of_sight,
+        ),
+        stream=StreamConfig(
+            period_s=dsg_period, idle_period_s=dsg_idle_period, include_mesh=not no_mesh
+        ),
     )
     with progress(quiet) as bar:
         task = bar.add_task("simulating", total=None)

@@ -38,8 +38,11 @@ class AgentSamples:
     def velocity(self) -> F64:
         """Velocity vectors (map frame) from heading and speed, z = 0."""
         return np.column_stack(
-            [self.speed * np.cos(self.heading), self.speed * np.sin(self.heading),
-             np.zeros(len(self))]
+            [
+                self.speed * np.cos(self.heading),
+                self.speed * np.sin(self.heading),
+                np.zeros(len(self)),
+            ]
         )
 
 
@@ -48,8 +51,9 @@ def agent_speeds(rng: np.random.Generator, n_agents: int) -> F64:
     return rng.uniform(1.0, 1.5, size=n_agents)
 
 
-def walk_path(points: F64, depart_s: float, speed: float, dt_s: float, n_ticks: int
-              ) -> tuple[I64, F64, F64]:
+def walk_path(
+    points: F64, depart_s: float, speed: float, dt_s: float, n_ticks: int
+) -> tuple[I64, F64, F64]:
     """Ticks, positions and headings of one walk along a polyline at constant speed."""
     seg = np.diff(points, axis=0)
     seg_len = np.linalg.norm(seg, axis=1)
@@ -93,8 +97,7 @@ def simulate_agents(
             cur = dst
             if len(ticks):
                 n = len(ticks)
-                parts.append((ticks, np.full(n, a), np.full(n, trip), xyz, heading,
-                              np.full(n, v)))
+                parts.append((ticks, np.full(n, a), np.full(n, trip), xyz, heading, np.full(n, v)))
             trip += 1
     if not parts:
         z = np.zeros(0, dtype=np.int64)

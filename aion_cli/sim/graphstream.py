@@ -153,8 +153,7 @@ class _Stream:
         a, b = pairs[self.rng.integers(len(pairs))]
         self.state[a] = MERGED
         self.rep[a] = b
-        self.events.append((t_ns, 2, int(self.ids[a]), int(self.ids[b]), self.xyz[a],
-                            self.xyz[b]))
+        self.events.append((t_ns, 2, int(self.ids[a]), int(self.ids[b]), self.xyz[a], self.xyz[b]))
 
     def _remove(self, t_ns: int) -> None:
         cand = np.flatnonzero(self.state == ALIVE)

@@ -96,20 +96,30 @@ class WindowGrid:
 
 
 def flow_counts(
-    grid: WindowGrid, n_places: int, bins: int, t_ns: I64, place: I64, heading: F64,
+    grid: WindowGrid,
+    n_places: int,
+    bins: int,
+    t_ns: I64,
+    place: I64,
+    heading: F64,
     weights: F64 | None = None,
 ) -> npt.NDArray[Any]:
     """Counts (or weight sums) per window, place and direction bin."""
-    out = np.zeros((grid.count, n_places, bins), dtype=np.float64 if weights is not None
-                   else np.uint32)
+    out = np.zeros(
+        (grid.count, n_places, bins), dtype=np.float64 if weights is not None else np.uint32
+    )
     w = np.ones(len(t_ns)) if weights is None else weights
-    np.add.at(out, (grid.index(t_ns), place, direction_bin(heading, bins)),
-              w if weights is not None else 1)
+    np.add.at(
+        out,
+        (grid.index(t_ns), place, direction_bin(heading, bins)),
+        w if weights is not None else 1,
+    )
     return out
 
 
-def observed_mask(env: Environment, robot: RobotTrack | None, grid: WindowGrid, t0_ns: int,
-                  dt_ns: int) -> BoolA:
+def observed_mask(
+    env: Environment, robot: RobotTrack | None, grid: WindowGrid, t0_ns: int, dt_ns: int
+) -> BoolA:
     """observed[w, i]: the sensor covered place i at some tick of window w."""
     if robot is None:
         return np.ones((grid.count, env.n_places), dtype=bool)
@@ -145,8 +155,7 @@ def truth_arrays(
         "edges": env.edges,
         "window_start_ns": grid.starts(),
         "flow_counts": flow_counts(grid, m, bins, t_ns, place, samples.heading),
-        "seen_counts": flow_counts(grid, m, bins, t_ns[seen], place[seen],
-                                   samples.heading[seen]),
+        "seen_counts": flow_counts(grid, m, bins, t_ns[seen], place[seen], samples.heading[seen]),
         "speed_sums": flow_counts(grid, m, bins, t_ns, place, samples.heading, samples.speed),
         "observed": observed_mask(env, robot, grid, t0_ns, dt_ns),
         "event_t_ns": ev.t_ns,
@@ -181,12 +190,12 @@ def save_npz(path: Path, arrays: dict[str, npt.NDArray[Any]]) -> None:
             info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
             with zf.open(info, "w", force_zip64=True) as member:
-                np.lib.format.write_array(member, np.asanyarray(arrays[name]),
-                                          allow_pickle=False)
+                np.lib.format.write_array(member, np.asanyarray(arrays[name]), allow_pickle=False)
 
 
-def write_truth(log_path: Path, arrays: dict[str, npt.NDArray[Any]], meta: dict[str, Any]
-                ) -> tuple[Path, Path]:
+def write_truth(
+    log_path: Path, arrays: dict[str, npt.NDArray[Any]], meta: dict[str, Any]
+) -> tuple[Path, Path]:
     """Write the arrays (compressed npz) and the JSON sidecar; returns both paths."""
     npz, js = truth_paths(log_path)
     save_npz(npz, arrays)

@@ -50,8 +50,10 @@ def detection_msgtype(name: str) -> str:
 
 def header(t_ns: int, frame: str) -> Message:
     """std_msgs/Header in ROS 2 naming."""
-    return {"stamp": {"sec": t_ns // 1_000_000_000, "nanosec": t_ns % 1_000_000_000},
-            "frame_id": frame}
+    return {
+        "stamp": {"sec": t_ns // 1_000_000_000, "nanosec": t_ns % 1_000_000_000},
+        "frame_id": frame,
+    }
 
 
 def _point(p: F64) -> Message:
@@ -84,32 +86,53 @@ def detection_message(
     yaw = np.arctan2(velocity[:, 1], velocity[:, 0])
     hdr = header(t_ns, frame)
     if msgtype == POSE_ARRAY:
-        return {"header": hdr, "poses": [
-            {"position": _point(p), "orientation": _quat(y)} for p, y in zip(xyz, yaw, strict=True)
-        ]}
+        return {
+            "header": hdr,
+            "poses": [
+                {"position": _point(p), "orientation": _quat(y)}
+                for p, y in zip(xyz, yaw, strict=True)
+            ],
+        }
     if msgtype == PEOPLE:
-        return {"header": hdr, "people": [
-            {"name": str(int(k)), "position": _point(p), "velocity": _point(v),
-             "reliability": 1.0, "tagnames": [], "tags": []}
-            for p, v, k in zip(xyz, velocity, track_id, strict=True)
-        ]}
+        return {
+            "header": hdr,
+            "people": [
+                {
+                    "name": str(int(k)),
+                    "position": _point(p),
+                    "velocity": _point(v),
+                    "reliability": 1.0,
+                    "tagnames": [],
+                    "tags": [],
+                }
+                for p, v, k in zip(xyz, velocity, track_id, strict=True)
+            ],
+        }
     pose_cov = _covariance(max(noise, 0.01) ** 2, 0.1)
     twist_cov = _covariance(0.05**2, UNKNOWN_COV * 10)
-    return {"header": hdr, "tracks": [
-        {
-            "track_id": int(k),
-            "is_occluded": False,
-            "is_matched": True,
-            "detection_id": first_detection_id + i,
-            "age": {"sec": int(a) // 1_000_000_000, "nanosec": int(a) % 1_000_000_000},
-            "pose": {"pose": {"position": _point(p), "orientation": _quat(y)},
-                     "covariance": pose_cov},
-            "twist": {"twist": {"linear": _point(v), "angular": _point(np.zeros(3))},
-                      "covariance": twist_cov},
-        }
-        for i, (p, v, k, a, y) in enumerate(zip(xyz, velocity, track_id, age_ns, yaw,
-                                                strict=True))
-    ]}
+    return {
+        "header": hdr,
+        "tracks": [
+            {
+                "track_id": int(k),
+                "is_occluded": False,
+                "is_matched": True,
+                "detection_id": first_detection_id + i,
+                "age": {"sec": int(a) // 1_000_000_000, "nanosec": int(a) % 1_000_000_000},
+                "pose": {
+                    "pose": {"position": _point(p), "orientation": _quat(y)},
+                    "covariance": pose_cov,
+                },
+                "twist": {
+                    "twist": {"linear": _point(v), "angular": _point(np.zeros(3))},
+                    "covariance": twist_cov,
+                },
+            }
+            for i, (p, v, k, a, y) in enumerate(
+                zip(xyz, velocity, track_id, age_ns, yaw, strict=True)
+            )
+        ],
+    }
 
 
 def _transform(t_ns: int, parent: str, child: str, pose: F64) -> Message:
@@ -125,10 +148,12 @@ def _transform(t_ns: int, parent: str, child: str, pose: F64) -> Message:
 
 def tf_message(t_ns: int, map_odom: F64, odom_base: F64) -> Message:
     """/tf with map→odom (loop-closure correction) and odom→base_link (drifting odometry)."""
-    return {"transforms": [
-        _transform(t_ns, "map", "odom", map_odom),
-        _transform(t_ns, "odom", "base_link", odom_base),
-    ]}
+    return {
+        "transforms": [
+            _transform(t_ns, "map", "odom", map_odom),
+            _transform(t_ns, "odom", "base_link", odom_base),
+        ]
+    }
 
 
 def dsg_message(t_ns: int, payload: bytes, sequence: int) -> Message:

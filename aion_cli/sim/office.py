@@ -49,8 +49,9 @@ ROOM_DOORS = (4.0, 13.0, 21.0, 27.0)  # on y = 17
 ENTRANCE_Y = 15.5  # gap in the east wall x = 40
 
 
-def _wall_with_gaps(fixed: float, lo: float, hi: float, gaps: tuple[float, ...], horizontal: bool
-                    ) -> list[tuple[float, float, float, float]]:
+def _wall_with_gaps(
+    fixed: float, lo: float, hi: float, gaps: tuple[float, ...], horizontal: bool
+) -> list[tuple[float, float, float, float]]:
     """Segments of a straight wall from lo to hi with door gaps of width 2·DOOR_HALF."""
     cuts = [lo]
     for g in sorted(gaps):
@@ -124,8 +125,20 @@ def office_mesh(walls: F64) -> Mesh:
     faces: list[I64] = []
     colors: list[F64] = []
     box_faces = np.array(
-        [[0, 1, 2], [0, 2, 3], [4, 6, 5], [4, 7, 6], [0, 4, 5], [0, 5, 1],
-         [1, 5, 6], [1, 6, 2], [2, 6, 7], [2, 7, 3], [3, 7, 4], [3, 4, 0]]
+        [
+            [0, 1, 2],
+            [0, 2, 3],
+            [4, 6, 5],
+            [4, 7, 6],
+            [0, 4, 5],
+            [0, 5, 1],
+            [1, 5, 6],
+            [1, 6, 2],
+            [2, 6, 7],
+            [2, 7, 3],
+            [3, 7, 4],
+            [3, 4, 0],
+        ]
     )
     for k, (_, x0, y0, x1, y1) in enumerate(ROOMS):
         base = sum(len(v) for v in verts)
@@ -160,8 +173,19 @@ def office_environment(n_desks: int = 6) -> Environment:
     room_xyz = np.array([[(r[1] + r[3]) / 2, (r[2] + r[4]) / 2, PLACE_Z] for r in ROOMS])
     desk_xy = [(3, 5), (7, 5), (11, 9), (15, 5), (19, 9), (21, 20.5), (27, 20.5), (3, 11)]
     desks = np.array([_nearest(xy, x, y) for x, y in desk_xy], dtype=np.int64)
-    patrol_xy = [(21.75, 15.5), (19, 13), (23, 1), (1, 1), (1, 13), (5, 20.5), (13, 20.5),
-                 (21, 20.5), (27, 20.5), (39.75, 15.5), (21.75, 15.5)]
+    patrol_xy = [
+        (21.75, 15.5),
+        (19, 13),
+        (23, 1),
+        (1, 1),
+        (1, 13),
+        (5, 20.5),
+        (13, 20.5),
+        (21, 20.5),
+        (27, 20.5),
+        (39.75, 15.5),
+        (21.75, 15.5),
+    ]
     roles = Roles(
         entrance=_nearest(xy, 39.75, 15.5),
         kitchen=_nearest(xy, 5.0, 20.5),

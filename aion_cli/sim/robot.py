@@ -85,7 +85,11 @@ def _tour_starts(cfg: PatrolConfig, days: float, offset_s: float) -> F64:
 
 
 def simulate_robot(
-    env: Environment, cfg: PatrolConfig, rng: np.random.Generator, dt_s: float, n_ticks: int,
+    env: Environment,
+    cfg: PatrolConfig,
+    rng: np.random.Generator,
+    dt_s: float,
+    n_ticks: int,
     days: float,
     offset_s: float = 0.0,
 ) -> RobotTrack:
@@ -125,8 +129,9 @@ def simulate_robot(
     pose[:, 2] = yaw[filled]
     step = np.linalg.norm(np.diff(pose[:, :2], axis=0), axis=1)
     scale = np.sqrt(np.concatenate([[0.0], step]))[:, None]
-    noise = rng.standard_normal((n_ticks, 3)) * np.array([cfg.drift_xy, cfg.drift_xy,
-                                                          cfg.drift_yaw])
+    noise = rng.standard_normal((n_ticks, 3)) * np.array(
+        [cfg.drift_xy, cfg.drift_xy, cfg.drift_yaw]
+    )
     drift = np.cumsum(noise * scale, axis=0)
     return RobotTrack(
         pose=pose,

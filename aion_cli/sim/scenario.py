@@ -78,8 +78,10 @@ class ScenarioConfig:
             (self.resolved_frame() in ("base_link", "map"), "--frame must be base_link or map"),
             (self.format in FORMATS, f"--format must be one of {', '.join(FORMATS)}"),
             (self.window_s > 0 and self.bins >= 1, "window and bins must be positive"),
-            (self.stream.period_s > 0 and self.stream.idle_period_s > 0,
-             "scene-graph periods must be positive"),
+            (
+                self.stream.period_s > 0 and self.stream.idle_period_s > 0,
+                "scene-graph periods must be positive",
+            ),
             (self.patrol.tour_every_s > 0, "the patrol interval must be positive"),
             (self.tf_idle_s > 0, "the TF period must be positive"),
             (self.patrol.sensor_range > 0, "the sensor range must be positive"),
@@ -115,8 +117,10 @@ def parse_start(start: str) -> tuple[_dt.date, float]:
             f"bad --start {start!r}", hint="give an ISO date or time, e.g. 2026-01-05T08:00"
         ) from exc
     if when.tzinfo is not None:
-        raise InputError(f"bad --start {start!r}: give local time without a zone",
-                         hint="use --utc-offset for the zone")
+        raise InputError(
+            f"bad --start {start!r}: give local time without a zone",
+            hint="use --utc-offset for the zone",
+        )
     seconds = when.hour * 3600.0 + when.minute * 60.0 + when.second
     return when.date(), seconds
 
@@ -164,12 +168,12 @@ class SceneData:
         return self.t0_ns + (self.n_ticks - 1) * self.dt_ns
 
 
-def build_scene(config: ScenarioConfig, env: Environment, scene: int,
-                progress: Progress | None = None) -> SceneData:
+def build_scene(
+    config: ScenarioConfig, env: Environment, scene: int, progress: Progress | None = None
+) -> SceneData:
     """Simulate one scene's people, robot, scene-graph stream and detections."""
     rng_sched, rng_walk, rng_robot, rng_graph, rng_noise = (
-        np.random.default_rng(s)
-        for s in np.random.SeedSequence([config.seed, scene]).spawn(5)
+        np.random.default_rng(s) for s in np.random.SeedSequence([config.seed, scene]).spawn(5)
     )
     day, offset_s = parse_start(config.start)
     t0 = start_ns(config.start, config.utc_offset_h)
@@ -179,17 +183,24 @@ def build_scene(config: ScenarioConfig, env: Environment, scene: int,
     if progress is not None:
         progress("people", 0, 0)
     days_planned = float(np.ceil((offset_s + config.days * 86400.0) / 86400.0))
-    moves = plan_moves(rng_sched, config.agents, days_planned, day.weekday(), env.roles,
-                       env.n_places, config.rhythm)
+    moves = plan_moves(
+        rng_sched,
+        config.agents,
+        days_planned,
+        day.weekday(),
+        env.roles,
+        env.n_places,
+        config.rhythm,
+    )
     moves = replace(moves, t_s=moves.t_s - offset_s)
-    samples = simulate_agents(env, moves, agent_speeds(rng_walk, config.agents), rng_walk,
-                              dt_s, n_ticks)
+    samples = simulate_agents(
+        env, moves, agent_speeds(rng_walk, config.agents), rng_walk, dt_s, n_ticks
+    )
     robot: RobotTrack | None = None
     if config.robot == "patrol":
         if progress is not None:
             progress("robot", 0, 0)
-        robot = simulate_robot(env, config.patrol, rng_robot, dt_s, n_ticks, config.days,
-                               offset_s)
+        robot = simulate_robot(env, config.patrol, rng_robot, dt_s, n_ticks, config.days, offset_s)
     if progress is not None:
         progress("scene graph", 0, 0)
     frames = build_frames(env, robot, config.stream, rng_graph, t0, dt_ns, n_ticks)
@@ -198,7 +209,10 @@ def build_scene(config: ScenarioConfig, env: Environment, scene: int,
 
 
 def run_scene(
-    config: ScenarioConfig, env: Environment, scene: int, log_path: Path,
+    config: ScenarioConfig,
+    env: Environment,
+    scene: int,
+    log_path: Path,
     progress: Progress | None = None,
 ) -> SceneResult:
     """Simulate one scene and write its log and ground truth."""
@@ -208,16 +222,29 @@ def run_scene(
     log_path.parent.mkdir(parents=True, exist_ok=True)
     report = None if progress is None else (lambda d, t: progress("writing", d, t))
     counts = write_scene_log(
-        log_path, container, env, data.frames, data.obs, data.robot, msgtype, data.t0_ns,
-        data.dt_ns, config.tf_idle_s, config.stream.include_mesh, config.noise, progress=report,
+        log_path,
+        container,
+        env,
+        data.frames,
+        data.obs,
+        data.robot,
+        msgtype,
+        data.t0_ns,
+        data.dt_ns,
+        data.n_ticks,
+        config.tf_idle_s,
+        config.stream.include_mesh,
+        config.noise,
+        progress=report,
     )
     if progress is not None:
         progress("ground truth", 0, 0)
     grid = WindowGrid.covering(data.t0_ns, data.end_ns, config.window_s)
     seen = np.zeros(len(data.samples), dtype=bool)
     seen[data.obs.sample] = True
-    arrays = truth_arrays(env, data.samples, seen, data.robot, data.frames, grid, config.bins,
-                          data.t0_ns, data.dt_ns)
+    arrays = truth_arrays(
+        env, data.samples, seen, data.robot, data.frames, grid, config.bins, data.t0_ns, data.dt_ns
+    )
     meta = {
         "scene": scene,
         "log": log_path.name,
@@ -232,8 +259,7 @@ def run_scene(
         "bins": config.bins,
         "bin_convention": "bin(theta) = floor((theta + pi) / (2 pi / B)) mod B",
         "topics": counts.topics,
-        "messages": {"tf": counts.tf, "scene_graph": counts.dsg,
-                     "detections": counts.detections},
+        "messages": {"tf": counts.tf, "scene_graph": counts.dsg, "detections": counts.detections},
         "detections": counts.detection_rows,
     }
     npz, js = write_truth(log_path, arrays, meta)
@@ -248,8 +274,9 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def simulate(config: ScenarioConfig, output: Path, progress: Progress | None = None,
-             overwrite: bool = False) -> list[SceneResult]:
+def simulate(
+    config: ScenarioConfig, output: Path, progress: Progress | None = None, overwrite: bool = False
+) -> list[SceneResult]:
     """Simulate ``config.scenes`` scenes into ``output`` (a log path, or a folder of scenes)."""
     config.validate()
     paths = scene_paths(output, config)

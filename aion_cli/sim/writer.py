@@ -2,9 +2,11 @@
 
 The three streams are merged by tick (TF before scene graph before detections at equal stamps, so
 a reader always has the transform when a detection arrives). Log time equals header stamp. TF is
-published at every tick the robot moves or a detection is published, at loop closures (and the
-tick before, so the ``map→odom`` jump is sharp) and as a heartbeat while parked; a fixed sensor
-publishes no TF at all (its detections are in ``map``).
+published at every tick the robot moves or a detection message is published, at loop closures
+(and the tick before, so the ``map→odom`` jump is sharp) and as a heartbeat while parked; a fixed
+sensor publishes no TF at all (its detections are in ``map``). The tracker publishes a message at
+every tick with detections and, like a live tracker, an empty one every ``tf_idle_s`` seconds
+otherwise, so the topic exists even in a log in which nobody walks.
 """
 
 from __future__ import annotations
@@ -78,6 +80,7 @@ def write_scene_log(
     msgtype: str,
     t0_ns: int,
     dt_ns: int,
+    n_ticks: int,
     tf_idle_s: float,
     include_mesh: bool,
     noise: float,
@@ -86,15 +89,18 @@ def write_scene_log(
     """Write the merged streams to ``path`` with :class:`formats.writers.LogWriter`."""
     from formats.writers import LogWriter
 
-    det_ticks, det_start = np.unique(obs.tick, return_index=True)
-    det_end = np.append(det_start[1:], len(obs.tick))
-    tf_t = (np.zeros(0, dtype=np.int64) if robot is None
-            else tf_ticks(robot, det_ticks, round(tf_idle_s * 1e9 / dt_ns)))
+    idle_ticks = max(round(tf_idle_s * 1e9 / dt_ns), 1)
+    det_ticks = np.union1d(obs.tick, np.arange(0, n_ticks, idle_ticks)).astype(np.int64)
+    det_start = np.searchsorted(obs.tick, det_ticks, side="left")
+    det_end = np.searchsorted(obs.tick, det_ticks, side="right")
+    tf_t = np.zeros(0, dtype=np.int64) if robot is None else tf_ticks(robot, det_ticks, idle_ticks)
     tick = np.concatenate([tf_t, frames.tick, det_ticks])
-    kind = np.concatenate([np.full(len(tf_t), TF), np.full(len(frames), DSG),
-                           np.full(len(det_ticks), DET)])
-    index = np.concatenate([np.arange(len(tf_t)), np.arange(len(frames)),
-                            np.arange(len(det_ticks))])
+    kind = np.concatenate(
+        [np.full(len(tf_t), TF), np.full(len(frames), DSG), np.full(len(det_ticks), DET)]
+    )
+    index = np.concatenate(
+        [np.arange(len(tf_t)), np.arange(len(frames)), np.arange(len(det_ticks))]
+    )
     order = np.lexsort((kind, tick))
     if robot is not None:
         map_odom = robot.correction(tf_t)
@@ -115,8 +121,15 @@ def write_scene_log(
             else:
                 rows = slice(int(det_start[i]), int(det_end[i]))
                 msg = detection_message(
-                    msgtype, t_ns, obs.frame, obs.xyz[rows], obs.velocity[rows],
-                    obs.track_id[rows], obs.age_ns[rows], int(det_start[i]), noise,
+                    msgtype,
+                    t_ns,
+                    obs.frame,
+                    obs.xyz[rows],
+                    obs.velocity[rows],
+                    obs.track_id[rows],
+                    obs.age_ns[rows],
+                    int(det_start[i]),
+                    noise,
                 )
                 log.write(det_topic, msgtype, msg, t_ns)
             if progress is not None and (n % 2000 == 0 or n == total - 1):
@@ -125,6 +138,9 @@ def write_scene_log(
     if robot is not None:
         topics[TF_TOPIC] = TF_MESSAGE
     return LogCounts(
-        tf=len(tf_t), dsg=len(frames), detections=len(det_ticks),
-        detection_rows=len(obs), topics=topics,
+        tf=len(tf_t),
+        dsg=len(frames),
+        detections=len(det_ticks),
+        detection_rows=len(obs),
+        topics=topics,
     )

@@ -26,7 +26,11 @@ PATROL = ScenarioConfig(
 )
 # A fixed sensor in the map frame without noise: detections are the truth.
 FIXED = ScenarioConfig(
-    days=1.5 / 24, seed=5, start="2026-01-05T12:00", robot="fixed", noise=0.0,
+    days=1.5 / 24,
+    seed=5,
+    start="2026-01-05T12:00",
+    robot="fixed",
+    noise=0.0,
 )
 
 

@@ -17,8 +17,20 @@ def _run(*args: str | Path) -> tuple[int, str]:
 
 def test_simulate_writes_log_and_truth(tmp_path: Path) -> None:
     out = tmp_path / "office"
-    code, output = _run("simulate", "-o", out, "--days", "0.02", "--start", "2026-01-06T12:00",
-                        "--detection-type", "pose_array", "--tour-every", "10", "--quiet")
+    code, output = _run(
+        "simulate",
+        "-o",
+        out,
+        "--days",
+        "0.02",
+        "--start",
+        "2026-01-06T12:00",
+        "--detection-type",
+        "pose_array",
+        "--tour-every",
+        "10",
+        "--quiet",
+    )
     assert code == 0, output
     log = tmp_path / "office.mcap"  # the suffix of the format is added
     assert log.exists()

@@ -34,7 +34,8 @@ def test_se2_inverse_and_compose() -> None:
     # a quarter turn about z moves +x to +y and keeps z
     np.testing.assert_allclose(
         se2_apply(np.array([[1.0, 0.0, np.pi / 2]]), np.array([[1.0, 0.0, 7.0]])),
-        [[1.0, 1.0, 7.0]], atol=1e-12,
+        [[1.0, 1.0, 7.0]],
+        atol=1e-12,
     )
 
 
@@ -46,8 +47,9 @@ def test_office_place_graph_is_hydra_like() -> None:
     length = np.linalg.norm(env.xyz[env.edges[:, 0]] - env.xyz[env.edges[:, 1]], axis=1)
     assert length.min() >= 1.0
     assert length.max() <= 2.9
-    assert not segments_blocked(env.xyz[env.edges[:, 0]], env.xyz[env.edges[:, 1]],
-                                office_walls()).any()
+    assert not segments_blocked(
+        env.xyz[env.edges[:, 0]], env.xyz[env.edges[:, 1]], office_walls()
+    ).any()
     # every place lies inside the rectangle of its room
     room_of = {int(r): ROOMS[k] for k, r in enumerate(env.room_ids)}
     for xyz, rid in zip(env.xyz, env.place_room, strict=True):

@@ -129,9 +129,7 @@ def test_removed_places_vanish_and_return_under_new_ids(stream: tuple[list[Frame
     readded = np.flatnonzero((kind == EVENT_KINDS.index("add")) & (index >= m))
     assert len(readded) >= 1
     for i in readded:
-        assert int(node[i]) in frames[-1].pos or any(
-            int(node[i]) == int(n) for n in node[removes]
-        )
+        assert int(node[i]) in frames[-1].pos or any(int(node[i]) == int(n) for n in node[removes])
 
 
 def test_payloads_decode_with_hierarchy_and_mesh(stream: tuple[list[Frame], dict]) -> None:

@@ -115,8 +115,9 @@ def test_bag_and_rosbag2_read_with_rosbags(
 ) -> None:
     from rosbags.highlevel import AnyReader
 
-    config = replace(PATROL, days=0.75 / 24, format=fmt, detection_type="people",
-                     start="2026-01-05T12:00")
+    config = replace(
+        PATROL, days=0.75 / 24, format=fmt, detection_type="people", start="2026-01-05T12:00"
+    )
     result = simulate(config, tmp_path / "scene")[0]
     assert result.log == tmp_path / f"scene{suffix}"
     counts: dict[tuple[str, str], int] = {}
@@ -137,3 +138,14 @@ def test_bag_and_rosbag2_read_with_rosbags(
     }
     assert m["detections"] > 0
     assert all(n.isdigit() for n in names)
+
+
+def test_detection_topic_exists_even_when_nobody_walks(tmp_path: Path) -> None:
+    """Like a live tracker, the simulator publishes empty messages while nobody is seen."""
+    config = replace(PATROL, agents=0, days=0.25 / 24, start="2026-01-05T03:00")
+    result = simulate(config, tmp_path / "night.mcap")[0]
+    with open_logs([result.log]) as logs:
+        topics = {t.topic: t.count for t in logs.topics}
+        sizes = {len(logs.decode(r).tracks) for r in logs.messages({DET})}
+    assert topics[DET] == result.meta["messages"]["detections"] >= 15 * 60 // 10
+    assert sizes == {0}

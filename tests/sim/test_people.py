@@ -75,8 +75,9 @@ def test_agents_walk_at_their_speed_with_heading_along_motion() -> None:
 @pytest.mark.parametrize("name", ["apartment_dsg.json", "mp3d_x8F5xyUWy9e_dsg.json"])
 def test_people_stay_on_the_place_graph_of_a_real_scene_graph(name: str) -> None:
     path = DSG_DIR / name
-    config = replace(FIXED, environment=str(path), noise=0.05, days=3 / 24,
-                     start="2026-01-05T11:30")
+    config = replace(
+        FIXED, environment=str(path), noise=0.05, days=3 / 24, start="2026-01-05T11:30"
+    )
     env = load_environment(config)
     data = build_scene(config, env, 0)
     assert len(data.samples) > 200

@@ -16,8 +16,9 @@ from tests.sim.test_logs import _detections
 
 def test_direction_bin_convention() -> None:
     """bin(θ) = floor((θ+π)/(2π/B)) mod B: -π opens bin 0, +π wraps to 0, east is bin B/2."""
-    theta = np.array([-np.pi, -np.pi + 1e-9, -np.pi / 2, 0.0, np.pi / 2 - 1e-9, np.pi - 1e-9,
-                      np.pi])
+    theta = np.array(
+        [-np.pi, -np.pi + 1e-9, -np.pi / 2, 0.0, np.pi / 2 - 1e-9, np.pi - 1e-9, np.pi]
+    )
     np.testing.assert_array_equal(direction_bin(theta, 8), [0, 0, 2, 4, 5, 7, 0])
     np.testing.assert_array_equal(direction_bin(theta, 4), [0, 0, 1, 2, 2, 3, 0])
 
