@@ -84,7 +84,7 @@ def _fixed_elements(c: Cursors, stride: int, align: int) -> tuple[Cursors, I64]:
 
 
 def _f64_at(e: Cursors, offset: int, k: int) -> F64:
-    return gather_f64(e.j.buf, e.pos + offset, k)
+    return gather_f64(e.j, e.pos + offset, k)
 
 
 def _rows(h: Header, n: I64) -> tuple[I64, I64, I64, I64]:
@@ -126,7 +126,7 @@ def decode_tracked_persons(j: Joined) -> Decoded:
     c = Cursors.over_messages(j, "spencer_tracking_msgs/msg/TrackedPersons")
     h = read_header(c)
     e, n = _fixed_elements(c, lay["stride"], 8)
-    track = unsigned_ids(gather(j.buf, e.pos, np.uint64).astype(np.uint64))
+    track = unsigned_ids(gather(j, e.pos, np.uint64).astype(np.uint64))
     pose = _f64_at(e, pose_off, 7)
     yaw_var = _f64_at(e, pose_cov + 35 * 8, 1)[:, 0]
     vel = _f64_at(e, twist_off, 3)

@@ -19,7 +19,7 @@ own message's end, so truncated or garbage input raises :class:`MessageDecodeErr
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -44,6 +44,19 @@ class Joined:
     start: I64
     end: I64
     cdr: bool
+    _windows: dict[int, U8] = field(default_factory=dict, repr=False)
+
+    def windows(self, nbytes: int) -> U8:
+        """Read-only view uint8[len(buf) - nbytes + 1, nbytes]: row i = bytes i..i+nbytes."""
+        w = self._windows.get(nbytes)
+        if w is None:
+            if nbytes > _TAIL + 1:
+                raise ValueError(f"block reads are limited to {_TAIL + 1} bytes")
+            w = np.lib.stride_tricks.as_strided(
+                self.buf, (len(self.buf) - nbytes + 1, nbytes), (1, 1), writeable=False
+            )
+            self._windows[nbytes] = w
+        return w
 
 
 def join_payloads(messages: Sequence[RawMessage], cdr: bool) -> Joined:
@@ -73,28 +86,25 @@ def join_payloads(messages: Sequence[RawMessage], cdr: bool) -> Joined:
 _TAIL = 512
 
 
-def block(buf: U8, off: I64, nbytes: int) -> U8:
+def block(j: Joined, off: I64, nbytes: int) -> U8:
     """``nbytes`` bytes at each absolute offset, as a contiguous uint8[len(off), nbytes] array.
 
     A sliding-window view of the buffer turns the gather into one fancy index over rows, for
     any alignment (ROS 1 fields are unaligned); callers check bounds first."""
-    if nbytes > _TAIL + 1:
-        raise ValueError(f"block reads are limited to {_TAIL + 1} bytes")
-    windows = np.lib.stride_tricks.sliding_window_view(buf, nbytes)
-    return windows[np.asarray(off, np.int64)].reshape(-1, nbytes)
+    return j.windows(nbytes)[np.asarray(off, np.int64)].reshape(-1, nbytes)
 
 
-def gather(buf: U8, off: I64, dtype: npt.DTypeLike) -> npt.NDArray[np.generic]:
+def gather(j: Joined, off: I64, dtype: npt.DTypeLike) -> npt.NDArray[np.generic]:
     """Values of ``dtype`` (little-endian) at absolute byte offsets ``off`` (any alignment,
     any shape of ``off``)."""
     dt = np.dtype(dtype).newbyteorder("<")
     off = np.asarray(off, np.int64)
-    return block(buf, off.ravel(), dt.itemsize).view(dt).reshape(off.shape)
+    return block(j, off.ravel(), dt.itemsize).view(dt).reshape(off.shape)
 
 
-def gather_f64(buf: U8, off: I64, k: int) -> npt.NDArray[np.float64]:
+def gather_f64(j: Joined, off: I64, k: int) -> npt.NDArray[np.float64]:
     """``k`` consecutive little-endian float64 at each offset: float64[len(off), k]."""
-    return block(buf, off, 8 * k).view("<f8").reshape(-1, k).astype(np.float64)
+    return block(j, off, 8 * k).view("<f8").reshape(-1, k).astype(np.float64)
 
 
 class Cursors:
@@ -170,7 +180,7 @@ class Cursors:
         dt = np.dtype(dtype)
         self.align(dt.itemsize)
         self.need(dt.itemsize)
-        out = gather(self.j.buf, self.pos, dt)
+        out = gather(self.j, self.pos, dt)
         self.pos = self.pos + dt.itemsize
         return out
 
@@ -181,7 +191,7 @@ class Cursors:
         """``k`` consecutive float64 per cursor, shape (n, k)."""
         self.align(8)
         self.need(8 * k)
-        out = gather_f64(self.j.buf, self.pos, k)
+        out = gather_f64(self.j, self.pos, k)
         self.pos = self.pos + 8 * k
         return out
 
