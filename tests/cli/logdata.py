@@ -166,6 +166,7 @@ def write_office_log(
     shift_s: int = 0,
     agents: bool = False,
     duration_s: int = DURATION_S,
+    second_topic: str | None = None,
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
     holds."""
@@ -223,12 +224,14 @@ def write_office_log(
                 n_tf += 1
                 written.append(t)
             if (t - t0) % (MSG_PERIOD_S * S) == 5 * S:
-                writer.write(
-                    "/tracks",
-                    "spencer_tracking_msgs/msg/TrackedPersons",
-                    _tracked_persons(t, t0, frame),
-                    t,
-                )
+                for topic in ("/tracks", second_topic):
+                    if topic is not None:  # a second tracker publishing the same people
+                        writer.write(
+                            topic,
+                            "spencer_tracking_msgs/msg/TrackedPersons",
+                            _tracked_persons(t, t0, frame),
+                            t,
+                        )
                 n_tracks += 1
                 written.append(t)
     per_track = {k: len(detection_times(k, duration_s)) for k in TRACKS}

@@ -195,3 +195,48 @@ def test_observation_from_the_scene_graph_agents_or_fixed(tmp_path: Path) -> Non
         "predict", tmp_path / "agents.aion", "--historical", "--node", "p3", "--format", "json"
     )
     assert seen["entries"][0]["flow"] == 60.0
+
+
+def test_several_detection_topics_are_all_used_unless_named(tmp_path: Path) -> None:
+    log = tmp_path / "two.mcap"
+    write_office_log(log, second_topic="/tracks_fused")
+    report = run_json("build", log, "--format", "json")
+    assert report["detection_topics"] == ["/tracks", "/tracks_fused"]
+    assert report["detections"]["used"] == 600
+    report = run_json(
+        "build",
+        log,
+        "--detections-topic",
+        "/tracks_fused",
+        "-o",
+        tmp_path / "one.aion",
+        "--format",
+        "json",
+    )
+    assert report["detection_topics"] == ["/tracks_fused"]
+    assert report["detections"]["used"] == 300
+
+
+def test_frames_without_tf_and_map_frame_option(tmp_path: Path) -> None:
+    log = tmp_path / "odom.mcap"
+    write_office_log(log, tf=False, frame="odom")
+    result = run("build", log)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "'odom'")
+    assert "--map-frame odom" in result.stderr
+    assert not (tmp_path / "odom.aion").exists()
+    report = run_json("build", log, "--map-frame", "odom", "--format", "json")
+    assert report["detections"]["used"] == 300
+
+
+def test_dsg_version_pin(office: Office, tmp_path: Path) -> None:
+    from formats.dsg import installed_version
+
+    version = installed_version()
+    report = run_json(
+        "build", office.log, "--dsg-version", version, "-o", tmp_path / "v.aion", "--format", "json"
+    )
+    assert report["graph"]["dsg_version"] == version
+    result = run("build", office.log, "--dsg-version", "0.0.1", "-o", tmp_path / "w.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr)
