@@ -82,8 +82,8 @@ class FrameTable:
 class FrameDetections:
     """Detections decoded from a list of messages, one row per detection, in message frames.
 
-    - ``t_ns``: header stamp (or log time when the stamp is zero, counted in
-      ``stamp_fallbacks``), ``xyz``: position in the message's frame,
+    - ``t_ns``: header stamp (or, where the stamp is zero, the log time; ``stamp_fallbacks``
+      counts those rows), ``xyz``: position in the message's frame,
     - ``velocity``: float64[n,3], NaN where the message has none,
     - ``yaw``: orientation yaw (rad) from the pose quaternion, NaN where there is none,
     - ``track_id``: int64, -1 where the source has no ids (string ids hashed by

@@ -276,3 +276,31 @@ def test_detection3d_foxy_layout_falls_back_to_the_given_typestore() -> None:
     got = adapter.decode([m])
     np.testing.assert_array_equal(got.xyz, [[1, 2, 3]])
     np.testing.assert_array_equal(got.track_id, [hash_id("walker")])
+
+
+def test_hash_id_is_stable_and_non_negative() -> None:
+    # Pinned value: track ids must not change between runs, machines or releases.
+    assert hash_id("person_1") == 4828200379796912770
+    assert hash_id(b"person_1") == hash_id("person_1")
+    assert hash_id("") == -1
+    assert all(hash_id(f"p{i}") >= 0 for i in range(200))
+
+
+def test_frame_detections_concat_merges_frames_and_offsets_messages() -> None:
+    from formats.detections import FrameDetections
+
+    def part(frames: tuple[str, ...], frame_id: list[int], msg: list[int], n_msg: int) -> Any:
+        n = len(frame_id)
+        return FrameDetections(
+            np.arange(n, dtype=np.int64), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n),
+            np.full(n, -1, np.int64), np.asarray(frame_id, np.int64), frames,
+            np.asarray(msg, np.int64), n_msg, 1, {"class": 1},
+        )
+
+    a = part(("map", "odom"), [1, 0], [0, 1], 2)
+    b = part(("odom", "cam"), [1, 0, 0], [0, 0, 2], 3)
+    c = FrameDetections.concat([a, b])
+    assert c.frame_names() == ["odom", "map", "cam", "odom", "odom"]
+    np.testing.assert_array_equal(c.msg_index, [0, 1, 2, 2, 4])
+    assert (c.n_messages, c.stamp_fallbacks, c.filtered) == (5, 2, {"class": 2})
+    assert c.select(c.msg_index == 2).frame_names() == ["cam", "odom"]
