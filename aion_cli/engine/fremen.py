@@ -454,8 +454,10 @@ class FremenModel:
             # absorb window w into the chunk's private accumulators
             cw, sw = cos_t[w], sin_t[w]
             if seen.size == c:
-                sr += np.multiply.outer(s_seen, cw)
-                si += np.multiply.outer(s_seen, sw)
+                np.multiply(s_seen[:, None], cw, out=tmp)
+                sr += tmp
+                np.multiply(s_seen[:, None], sw, out=tmp)
+                si += tmp
                 er += cw
                 ei += sw
             else:
@@ -530,8 +532,12 @@ class FremenModel:
         ``order_bias``; rows with no scored observation use order 0.
         """
         self._check(state)
-        mean = state.order_err / np.maximum(state.order_n, 1.0)[:, None]
-        best = np.zeros(state.n_rows, dtype=np.int64)
+        return self._choose(state.order_err, state.order_n)
+
+    def _choose(self, order_err: F64, order_n: F64) -> I64:
+        """The biased argmin of mean prequential errors (see :meth:`chosen_order`)."""
+        mean = order_err / np.maximum(order_n, 1.0)[:, None]
+        best = np.zeros(order_n.shape[0], dtype=np.int64)
         best_err = mean[:, 0].copy()
         for m in range(1, self.max_order + 1):
             better = mean[:, m] < best_err - self.order_bias
@@ -555,7 +561,7 @@ class FremenModel:
         r = self._rows(state, rows)
         t = np.asarray(t_s, dtype=np.float64).reshape(-1)
         if order is None:
-            orders = self.chosen_order(state)[r]
+            orders = self._choose(state.order_err[r], state.order_n[r])
         else:
             if order < 0:
                 raise ValueError("order must be >= 0")
