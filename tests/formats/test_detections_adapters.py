@@ -3,6 +3,7 @@ positions, velocities, yaws, track ids, stamps (with the log-time fallback), fra
 
 from __future__ import annotations
 
+import contextlib
 import math
 from typing import Any
 
@@ -304,3 +305,21 @@ def test_frame_detections_concat_merges_frames_and_offsets_messages() -> None:
     np.testing.assert_array_equal(c.msg_index, [0, 1, 2, 2, 4])
     assert (c.n_messages, c.stamp_fallbacks, c.filtered) == (5, 2, {"class": 2})
     assert c.select(c.msg_index == 2).frame_names() == ["cam", "odom"]
+
+
+@pytest.mark.parametrize("msgtype", SUPPORTED_TYPES)
+def test_garbage_gives_message_decode_error_for_every_type(msgtype: str) -> None:
+    """Random bytes, truncated and empty payloads: MessageDecodeError (or a clean decode),
+    never another exception, for every adapter and both encodings."""
+    from aion_cli.engine.errors import MessageDecodeError
+
+    rng = np.random.default_rng(abs(hash_id(msgtype)) % 2**32)
+    adapter = adapter_for(msgtype)
+    assert adapter is not None
+    for encoding in ("cdr", "ros1"):
+        payloads = [b"", b"\x00\x01\x00\x00", b"\x00\x01\x00\x00" + b"\xff" * 40]
+        payloads += [rng.bytes(int(rng.integers(1, 300))) for _ in range(12)]
+        for data in payloads:
+            m = RawMessage("/t", msgtype, 0, data, encoding)  # type: ignore[arg-type]
+            with contextlib.suppress(MessageDecodeError):
+                adapter.decode([m])
