@@ -11,7 +11,7 @@ from aion_cli.cli.errors import report
 from aion_cli.engine.errors import AionError, InputError
 from tests.cli.conftest import assert_one_line_error, run, run_process
 
-COMMANDS = ("info", "build", "predict", "plan", "export", "convert", "simulate")
+COMMANDS = ("info", "build", "predict", "plan", "export", "convert", "simulate", "evaluate")
 
 
 def test_help_lists_every_command_with_examples() -> None:
