@@ -317,6 +317,18 @@ class _Rosbag2Backend(_Backend):
         self.writer.close()
 
 
+class _Channel:
+    """A written topic: the container's handle, normalised type, converter, next sequence."""
+
+    __slots__ = ("convert", "handle", "msgtype", "seq")
+
+    def __init__(self, handle: Any, msgtype: str, convert: Converter) -> None:
+        self.handle = handle
+        self.msgtype = msgtype
+        self.convert = convert
+        self.seq = 0
+
+
 class LogWriter:
     """Writes one log file (or rosbag2 folder) in ``container`` format; use as a context manager.
 
@@ -347,8 +359,7 @@ class LogWriter:
         self._serialize = (
             self._store.serialize_ros1 if self.ros_version == 1 else self._store.serialize_cdr
         )
-        self._channels: dict[tuple[str, str], Any] = {}
-        self._sequence: dict[tuple[str, str], int] = {}
+        self._channels: dict[tuple[str, str], _Channel] = {}
         self._backend: _Backend | None = self._open()
         self.count = 0
 
@@ -359,20 +370,20 @@ class LogWriter:
             return _Rosbag1Backend(self.path)
         return _Rosbag2Backend(self.path, self.container.removeprefix("rosbag2-"))
 
-    def _channel(self, topic: str, msgtype: str) -> tuple[Any, int]:
-        key = (topic, msgtype)
-        channel = self._channels.get(key)
-        if channel is None:
+    def _channel(self, topic: str, msgtype: str) -> _Channel:
+        """The cached channel of ``(topic, msgtype)`` as the caller spells the type."""
+        entry = self._channels.get((topic, msgtype))
+        if entry is None:
             if self._backend is None:
                 raise LogWriteError(f"{self.path} is closed", hint="write inside the with block")
-            if msgtype not in self._store.fielddefs:
-                _converters_for(self.ros_version).get(msgtype)  # raises UnknownMessageTypeError
-            channel = self._backend.channel(topic, msgtype)
-            self._channels[key] = channel
-            self._sequence[key] = 0
-        seq = self._sequence[key]
-        self._sequence[key] = seq + 1
-        return channel, seq
+            name = normalize_msgtype(msgtype)
+            entry = self._channels.get((topic, name))  # same type, other spelling
+            if entry is None:
+                convert = _converters_for(self.ros_version).get(name)  # UnknownMessageTypeError
+                entry = _Channel(self._backend.channel(topic, name), name, convert)
+                self._channels[topic, name] = entry
+            self._channels[topic, msgtype] = entry
+        return entry
 
     def message(self, msgtype: str, message: Mapping[str, Any] | Any) -> Any:
         """The rosbags message object for ``message`` (a dict, or already a message object)."""
@@ -382,25 +393,32 @@ class LogWriter:
         """Write ``message`` (nested dict in ROS 2 naming, or a rosbags message object) on
         ``topic`` at log time ``t_ns``. ROS 1 containers number the headers (``seq``) per topic
         unless the dict gives one."""
-        msgtype = normalize_msgtype(msgtype)
-        channel, seq = self._channel(topic, msgtype)
+        entry = self._channel(topic, msgtype)
+        seq = entry.seq
         if self.ros_version == 1 and isinstance(message, Mapping):
             header = message.get("header")
             if isinstance(header, Mapping) and "seq" not in header:
                 message = {**message, "header": {**header, "seq": seq}}
-        obj = self.message(msgtype, message)
-        data = self._serialize(obj, msgtype)
-        assert self._backend is not None
-        self._backend.write(channel, int(t_ns), data, seq)
-        self.count += 1
+        try:
+            obj = entry.convert(message)
+        except (TypeError, ValueError, KeyError, OverflowError) as exc:
+            raise MessageEncodeError(
+                f"cannot encode a {entry.msgtype} message: {exc}",
+                hint="give fields in ROS 2 naming (header.stamp.sec/nanosec); omit fields to zero",
+            ) from exc
+        data = self._serialize(obj, entry.msgtype)
+        self._write(entry, t_ns, data)
 
     def write_raw(self, topic: str, msgtype: str, data: bytes | memoryview, t_ns: int) -> None:
         """Write an already serialized payload (CDR for ROS 2 containers, ROS 1 serialization for
         ``mcap-ros1`` and ``bag``) on ``topic`` at log time ``t_ns``."""
-        msgtype = normalize_msgtype(msgtype)
-        channel, seq = self._channel(topic, msgtype)
-        assert self._backend is not None
-        self._backend.write(channel, int(t_ns), data, seq)
+        self._write(self._channel(topic, msgtype), t_ns, data)
+
+    def _write(self, entry: _Channel, t_ns: int, data: bytes | memoryview) -> None:
+        if self._backend is None:
+            raise LogWriteError(f"{self.path} is closed", hint="write inside the with block")
+        self._backend.write(entry.handle, int(t_ns), data, entry.seq)
+        entry.seq += 1
         self.count += 1
 
     def serialize(self, msgtype: str, message: Mapping[str, Any] | Any) -> bytes:

@@ -273,3 +273,18 @@ def test_every_shipped_schema_is_accepted_by_the_mcap_decoders(
     for k in range(len(types)):
         ((t, _),) = decoded[f"/t{k}"]
         assert t == T0 + k
+
+
+def test_type_spellings_share_one_connection(tmp_path: Path) -> None:
+    path = tmp_path / "b2"
+    with LogWriter(path, "rosbag2-sqlite3") as w:
+        w.write("/p", "geometry_msgs/Point", {"x": 1}, T0)
+        w.write("/p", "geometry_msgs/msg/Point", {"x": 2}, T0 + 1)
+        w.write_raw(
+            "/p", "geometry_msgs/Point", w.serialize("geometry_msgs/Point", {"x": 3}), T0 + 2
+        )
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([path]) as reader:
+        assert len(reader.connections) == 1
+    assert [m.x for _, m in _read_anyreader(path)["/p"]] == [1.0, 2.0, 3.0]
