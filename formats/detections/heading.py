@@ -85,6 +85,7 @@ class HeadingEstimator:
         if len(tracked):
             self._difference(tracked, t, p[:, :2], k, has_vel, heading, speed)
         heading = np.where(np.isnan(heading), y, heading)
+        heading = np.arctan2(np.sin(heading), np.cos(heading))  # wrap yaws moved by TF
         return DetectionBatch(t, np.ascontiguousarray(p), heading, speed, k)
 
     # --- internals -------------------------------------------------------------------------------

@@ -32,7 +32,6 @@ I64 = npt.NDArray[np.int64]
 F64 = npt.NDArray[np.float64]
 
 CDR_LE = b"\x00\x01"
-CDR_BE = b"\x00\x00"
 
 
 @dataclass
@@ -63,7 +62,7 @@ def join_payloads(messages: Sequence[RawMessage], cdr: bool) -> Joined:
     """Join the payloads of ``messages`` into one buffer (one ``bytes.join``).
 
     Raises :class:`MessageDecodeError` for a CDR message without a little-endian CDR header
-    (callers route big-endian messages elsewhere before calling this)."""
+    (the adapter then decodes the group with rosbags, which reads big-endian CDR too)."""
     datas = [m.data for m in messages]
     lens = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
     data_start = np.cumsum(lens) - lens
