@@ -13,7 +13,8 @@ The rule (DESIGN.md §4 "Direction bins"), per detection, first that applies:
 3. **Pose yaw.** Otherwise the yaw of the pose orientation (NaN if the message has none); speed
    is NaN.
 
-A track's reference resets when it has not been seen for ``max_gap_s`` (ids get reused).
+A track's reference resets when it has not been seen for ``max_gap_s`` (ids get reused); such
+tracks are dropped from the state once it holds more than ``prune_above`` tracks.
 Everything is in the MAP frame: the caller rotates positions, velocity vectors and yaws with TF
 before calling (a heading in a moving robot frame means nothing). Speeds are horizontal (m/s),
 headings in radians in (-π, π].
@@ -36,7 +37,9 @@ from formats.detections.frame import F64, I64, FrameDetections
 class HeadingEstimator:
     """Stateful heading/speed estimation over successive calls (see the module docstring)."""
 
-    def __init__(self, min_displacement: float = 0.05, max_gap_s: float = 5.0) -> None:
+    def __init__(
+        self, min_displacement: float = 0.05, max_gap_s: float = 5.0, prune_above: int = 4096
+    ) -> None:
         if not min_displacement >= 0.0 or not max_gap_s > 0.0:
             raise ConfigError(
                 f"heading estimation needs min_displacement >= 0 and max_gap_s > 0, got "
@@ -44,6 +47,7 @@ class HeadingEstimator:
             )
         self.min_displacement = float(min_displacement)
         self.max_gap_ns = int(max_gap_s * 1e9)
+        self.prune_above = int(prune_above)
         self.ids: I64 = np.zeros(0, np.int64)
         self.ref_t: I64 = np.zeros(0, np.int64)
         self.ref_xy: F64 = np.zeros((0, 2))
@@ -84,11 +88,20 @@ class HeadingEstimator:
         tracked = np.flatnonzero(k >= 0)
         if len(tracked):
             self._difference(tracked, t, p[:, :2], k, has_vel, heading, speed)
+            if len(self.ids) > self.prune_above:
+                self._prune(int(t[tracked].max()))
         heading = np.where(np.isnan(heading), y, heading)
         heading = np.arctan2(np.sin(heading), np.cos(heading))  # wrap yaws moved by TF
         return DetectionBatch(t, np.ascontiguousarray(p), heading, speed, k)
 
     # --- internals -------------------------------------------------------------------------------
+    def _prune(self, t_now: int) -> None:
+        """Forget tracks not seen for ``max_gap_s`` (they would start over anyway), so the state
+        stays the size of the recently active tracks over a long log."""
+        keep = self.ref_t >= t_now - self.max_gap_ns
+        self.ids, self.ref_t = self.ids[keep], self.ref_t[keep]
+        self.ref_xy, self.heading = self.ref_xy[keep], self.heading[keep]
+
     def _slots(self, ids: I64) -> I64:
         """Slots of ``ids`` in the state arrays, adding unseen ids (kept sorted)."""
         new = np.setdiff1d(ids, self.ids)

@@ -131,3 +131,21 @@ def test_to_batch_from_frame_detections() -> None:
 def test_bad_parameters() -> None:
     with pytest.raises(ConfigError, match="min_displacement"):
         HeadingEstimator(min_displacement=-1.0)
+
+
+def test_stale_tracks_are_pruned_without_changing_results() -> None:
+    pruned = HeadingEstimator(max_gap_s=5.0, prune_above=1)
+    kept = HeadingEstimator(max_gap_s=5.0)
+    calls = [
+        ([0, 0], [[0, 0, 0], [5, 5, 0]], [1, 2]),
+        ([S, S], [[1, 0, 0], [5, 6, 0]], [1, 2]),
+        ([10 * S], [[2, 0, 0]], [3]),  # tracks 1 and 2 are now stale
+        ([11 * S, 11 * S], [[1, 1, 0], [3, 0, 0]], [1, 3]),
+    ]
+    for t, xyz, k in calls:
+        a = pruned.estimate(t, xyz, None, None, k)
+        b = kept.estimate(t, xyz, None, None, k)
+        np.testing.assert_array_equal(a.heading, b.heading)
+        np.testing.assert_array_equal(a.speed, b.speed)
+    assert len(kept) == 3
+    assert len(pruned) == 2  # track 2 forgotten
