@@ -1,6 +1,7 @@
 """Detection decoding speed: the numpy fast path against rosbags' generic deserializer.
 
-For geometry_msgs/PoseArray and spencer TrackedPersons, in ROS 2 CDR and ROS 1 encoding,
+For geometry_msgs/PoseArray and spencer TrackedPersons (fixed-size elements) and
+people_msgs/People (variable-size elements), in ROS 2 CDR and ROS 1 encoding,
 ``n`` messages (default 20 000) with 5-10 people each (random positions, velocities, ids,
 frame ids of varying length so the CDR alignment varies) are decoded three ways, each timed as
 the best of ``repeats`` runs in this process:
@@ -29,7 +30,11 @@ from formats import msgdefs
 from formats.detections import adapter_for
 from formats.raw import RawMessage
 
-TYPES = ("geometry_msgs/msg/PoseArray", "spencer_tracking_msgs/msg/TrackedPersons")
+TYPES = (
+    "geometry_msgs/msg/PoseArray",
+    "spencer_tracking_msgs/msg/TrackedPersons",
+    "people_msgs/msg/People",  # variable-size elements: the per-element-index walk
+)
 
 
 def _messages(msgtype: str, ros: int, n: int, seed: int = 0) -> list[RawMessage]:
@@ -63,6 +68,19 @@ def _messages(msgtype: str, ros: int, n: int, seed: int = 0) -> list[RawMessage]
         ]
         if msgtype.endswith("PoseArray"):
             msg = T[msgtype](header=head, poses=poses)
+        elif msgtype.endswith("People"):
+            people = [
+                T["people_msgs/msg/Person"](
+                    name=f"person_{j}",
+                    position=Point(x=p[0], y=p[1], z=p[2]),
+                    velocity=Point(x=1.0, y=0.0, z=0.0),
+                    reliability=0.9,
+                    tagnames=[],
+                    tags=[],
+                )
+                for j, p in enumerate(xyz.tolist())
+            ]
+            msg = T[msgtype](header=head, people=people)
         else:
             tracks = [_track(T, j, p, Vec) for j, p in enumerate(poses)]
             msg = T[msgtype](header=head, tracks=tracks)
