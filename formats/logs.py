@@ -97,7 +97,7 @@ class _McapSource(_Source):
     linearly, up to the first unreadable record.
     """
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, fmt_name: str | None = None) -> None:
         from mcap.exceptions import McapError
 
         self.path = path
@@ -132,7 +132,9 @@ class _McapSource(_Source):
             info.count += counts.get(cid, 0)
             info.keys.append(cid)
             self._channels[cid] = (channel.topic, msgtype, encoding)
-        if self._profile == "ros1" or (not self._profile and _all_ros1(self.topics)):
+        if fmt_name is not None:
+            fmt = fmt_name
+        elif self._profile == "ros1" or (not self._profile and _all_ros1(self.topics)):
             fmt = "mcap-ros1"
         else:
             fmt = "mcap-ros2"
@@ -407,6 +409,16 @@ class _RosbagsSource(_Source):
         end = max(reader.end_time - 1, start) if total else 0  # rosbags' end is exclusive
         self.file = LogFile(path, fmt_name, size, start, end, total)
 
+    def plain_mcap_files(self) -> list[Path]:
+        """The storage files of an uncompressed rosbag2 folder with mcap storage, else []."""
+        if self.file.format != "rosbag2-mcap" or self._reader.compression_format:
+            return []
+        storages = getattr(self._reader.storage, "storages", [])
+        paths = [getattr(x, "path", None) for x in storages]
+        if not paths or not all(isinstance(p, Path) and p.suffix == ".mcap" for p in paths):
+            return []
+        return [p for p in paths if isinstance(p, Path)]
+
     def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
         conns = [
             conn
@@ -507,15 +519,14 @@ def guess_format(path: Path) -> tuple[str, Path]:
     )
 
 
-def _open_source(path: Path, fmt: str | None) -> _Source:
+def _open_sources(path: Path, fmt: str | None) -> list[_Source]:
+    """The sources of one path: one file, or the storage files of a rosbag2 folder."""
     if fmt is not None and fmt not in FORMATS:
         raise LogFormatError(
             f"unknown log format {fmt!r}", hint=f"use one of: {', '.join(FORMATS)}"
         )
     guessed, target = guess_format(path)
     kind = fmt or guessed
-    if kind == "rosbag2" and target.is_file():
-        target = target.parent
     if kind == "mcap":
         if target.is_dir():
             files = sorted(target.glob("*.mcap"))
@@ -524,11 +535,28 @@ def _open_source(path: Path, fmt: str | None) -> _Source:
                     f"{target} holds {len(files)} .mcap files", hint="pass one .mcap file"
                 )
             target = files[0]
-        return _open_mcap(target)
-    return _RosbagsSource(target, kind)
+        return [_open_mcap(target)]
+    if kind == "bag":
+        return [_RosbagsSource(target, "bag")]
+    folder = target.parent if target.is_file() else target
+    try:
+        source = _RosbagsSource(folder, "rosbag2")
+    except LogFormatError:
+        # A recording killed before it finished leaves mcap storage files without a summary,
+        # which rosbags refuses; the mcap reader recovers what was written.
+        storage = sorted(folder.glob("*.mcap"))
+        if not storage:
+            raise
+        return [_open_mcap(f, fmt_name="rosbag2-mcap") for f in storage]
+    files = source.plain_mcap_files()
+    if files:
+        # rosbag2 with mcap storage: the mcap reader is faster than rosbags' mcap plugin.
+        source.close()
+        return [_open_mcap(f, fmt_name="rosbag2-mcap") for f in files]
+    return [source]
 
 
-def _open_mcap(path: Path) -> _McapSource:
+def _open_mcap(path: Path, fmt_name: str | None = None) -> _McapSource:
     size = path.stat().st_size
     if size == 0:
         raise LogFormatError(f"{path} is empty (0 bytes)", hint="the recording was not written")
@@ -539,7 +567,7 @@ def _open_mcap(path: Path) -> _McapSource:
             f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)",
             hint="check the file, or pass --format bag|rosbag2 if it is another log type",
         )
-    return _McapSource(path)
+    return _McapSource(path, fmt_name)
 
 
 # --- the merged set -------------------------------------------------------------------------
@@ -729,7 +757,7 @@ def open_logs(paths: Iterable[Path | str], fmt: str | None = None) -> LogSet:
     sources: list[_Source] = []
     try:
         for p in paths:
-            sources.append(_open_source(Path(p), fmt))
+            sources.extend(_open_sources(Path(p), fmt))
         if not sources:
             raise LogFormatError("no log given", hint="pass at least one log file or folder")
         logset = LogSet(sources)

@@ -486,3 +486,26 @@ def test_rosbag2_storage_file_without_metadata(tmp_path: Path) -> None:
     assert "metadata.yaml" in (info.value.hint or "")
     with pytest.raises(LogFormatError, match="not a rosbag2 bag"):
         open_logs([folder])
+
+
+def test_rosbag2_mcap_folder_is_read_with_the_mcap_reader_even_when_truncated(
+    tmp_path: Path,
+) -> None:
+    folder = _write(tmp_path / "rec", "rosbag2-mcap")
+    with open_logs([folder]) as logs:
+        (f,) = logs.files
+        assert f.format == "rosbag2-mcap"
+        assert f.path == folder / "rec.mcap"
+        assert logs.total() == 7
+    # a recording killed mid-way: the storage file lacks its end; rosbags refuses it
+    (storage,) = folder.glob("*.mcap")
+    _write_plain_mcap(storage.with_name("full.mcap"), "ZSTD", n=40, chunk_size=512)
+    whole = storage.with_name("full.mcap").read_bytes()
+    storage.with_name("full.mcap").unlink()
+    storage.write_bytes(whole[: len(whole) // 2])
+    with open_logs([folder]) as logs:
+        assert logs.files[0].format == "rosbag2-mcap"
+        n = logs.total()
+        assert 0 < n < 40
+        assert "truncated or corrupt MCAP" in logs.warnings[0]
+        assert [m.log_time_ns - T0 for m in logs.messages()] == list(range(n))
