@@ -10,8 +10,9 @@ log itself embeds.
 MCAP files are read with the ``mcap`` library directly (rosbags refuses ROS 1-profile MCAP, and the
 raw bytes are what the numpy adapters want): chunks that hold no requested topic are skipped
 without decompressing them. A truncated or partly corrupt MCAP is read linearly up to the break,
-and :attr:`LogSet.warnings` says where reading stopped. Bags and rosbag2 folders are read with the
-rosbags readers.
+and :attr:`LogSet.warnings` says where reading stopped. The storage files of rosbag2 folders with
+(uncompressed) mcap storage go the same way; ROS 1 bags and sqlite3 or compressed rosbag2 folders
+are read with the rosbags readers.
 """
 
 from __future__ import annotations
