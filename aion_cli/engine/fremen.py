@@ -435,20 +435,17 @@ class FremenModel:
                 p = mu.copy()
                 e_row = err[sc]
                 e_row[:, 0] += np.abs(s - np.clip(p, 0.0, 1.0))
-                if m_eff:
-                    ar = np.arange(q)
-                    scale = 2.0 / nn
-                    cw, sw = cos_t[w], sin_t[w]
-                    for m in range(1, m_eff + 1):
-                        j = np.argmax(ba, axis=1)
-                        admitted = ba[ar, j] >= 0.0
-                        contrib = (bx[ar, j] * cw[j] + by[ar, j] * sw[j]) * scale
-                        p += np.where(admitted, contrib, 0.0)
-                        ba[ar, j] = -2.0
-                        e_row[:, m] += np.abs(s - np.clip(p, 0.0, 1.0))
-                    e_row[:, m_eff + 1 :] += (
-                        e_row[:, m_eff : m_eff + 1] - err[sc, m_eff : m_eff + 1]
-                    )
+                ar = np.arange(q)
+                scale = 2.0 / nn
+                cw, sw = cos_t[w], sin_t[w]
+                for m in range(1, m_eff + 1):
+                    j = np.argmax(ba, axis=1)
+                    admitted = ba[ar, j] >= 0.0
+                    contrib = (bx[ar, j] * cw[j] + by[ar, j] * sw[j]) * scale
+                    p += np.where(admitted, contrib, 0.0)
+                    ba[ar, j] = -2.0
+                    e_row[:, m] += np.abs(s - np.clip(p, 0.0, 1.0))
+                e_row[:, m_eff + 1 :] += e_row[:, m_eff : m_eff + 1] - err[sc, m_eff : m_eff + 1]
                 err[sc] = e_row
                 scored_n[sc] += 1.0
             # absorb window w into the chunk's private accumulators

@@ -387,3 +387,21 @@ def test_mean_only_dense_updates_score_like_sparse_ones() -> None:
     model.update(sparse, np.arange(4), t[20:], values[:, 20:], every[:, 20:])
     _assert_states_equal(dense, sparse)
     assert dense.order_n.tolist() == [39.0] * 4
+
+
+def test_orders_above_the_number_of_periods_use_every_period() -> None:
+    periods = (DAY_S, DAY_S / 2)
+    model = FremenModel(periods, max_order=4)
+    t, values, observed = _random_stream(10, 3, 120)
+    state = model.empty(3)
+    model.update(state, np.arange(3), t, values, observed)
+    loops = [LoopState(periods, 4, 1.5) for _ in range(3)]
+    for i, lp in enumerate(loops):
+        for w in np.flatnonzero(observed[i]):
+            lp.add(float(t[w]), float(values[i, w]))
+    np.testing.assert_allclose(state.order_err, [lp.err for lp in loops], rtol=1e-9)
+    np.testing.assert_allclose(state.order_err[:, 3], state.order_err[:, 2])
+    tq = np.array([10 * DAY_S, 10.3 * DAY_S])
+    np.testing.assert_allclose(
+        model.predict(state, tq, order=4), model.predict(state, tq, order=2), atol=0
+    )
