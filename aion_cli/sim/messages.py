@@ -8,6 +8,7 @@ The arrays come in already transformed into the message frame; these functions o
 
 from __future__ import annotations
 
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -64,11 +65,15 @@ def _quat(yaw: float) -> Message:
     return {"x": 0.0, "y": 0.0, "z": float(np.sin(yaw / 2)), "w": float(np.cos(yaw / 2))}
 
 
-def _covariance(position_var: float, rotation_var: float) -> list[float]:
+@cache
+def _covariance(position_var: float, rotation_var: float) -> F64:
+    """A 6×6 diagonal covariance (row-major, 36 values); cached: every track shares it."""
     cov = np.zeros((6, 6))
     cov[np.arange(3), np.arange(3)] = position_var
     cov[np.arange(3, 6), np.arange(3, 6)] = rotation_var
-    return [float(v) for v in cov.ravel()]
+    flat = cov.ravel()
+    flat.flags.writeable = False
+    return flat
 
 
 def detection_message(

@@ -26,10 +26,10 @@ from aion_cli.sim.messages import (
     TF_MESSAGE,
     detection_message,
     dsg_message,
-    tf_message,
 )
 from aion_cli.sim.robot import RobotTrack
 from aion_cli.sim.sensing import Observations
+from aion_cli.sim.tfcodec import TfEncoder
 
 Progress = Callable[[int, int], None]
 
@@ -102,19 +102,19 @@ def write_scene_log(
         [np.arange(len(tf_t)), np.arange(len(frames)), np.arange(len(det_ticks))]
     )
     order = np.lexsort((kind, tick))
-    if robot is not None:
-        map_odom = robot.correction(tf_t)
-        odom_base = robot.odom_pose(tf_t)
+    map_odom = np.zeros((len(tf_t), 3)) if robot is None else robot.correction(tf_t)
+    odom_base = np.zeros((len(tf_t), 3)) if robot is None else robot.odom_pose(tf_t)
     det_topic = DETECTION_TOPICS[msgtype]
     graph_topic = dsg_topic(container)
     total = len(order)
     builder = PayloadBuilder(env, frames, include_mesh)
     with LogWriter(path, container) as log:
+        tf_bytes = TfEncoder(log).encode(t0_ns + tf_t * dt_ns, map_odom, odom_base)
         for n, o in enumerate(order):
             k, i = int(tick[o]), int(index[o])
             t_ns = t0_ns + k * dt_ns
             if kind[o] == TF:
-                log.write(TF_TOPIC, TF_MESSAGE, tf_message(t_ns, map_odom[i], odom_base[i]), t_ns)
+                log.write_raw(TF_TOPIC, TF_MESSAGE, tf_bytes[i].tobytes(), t_ns)
             elif kind[o] == DSG:
                 payload = builder.payload(i)
                 log.write(graph_topic, DSG_UPDATE, dsg_message(t_ns, payload, i), t_ns)
