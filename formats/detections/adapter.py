@@ -197,9 +197,8 @@ def _log_times(messages: Sequence[RawMessage]) -> np.ndarray:
 
 def _from_decoded(d: Decoded, messages: Sequence[RawMessage]) -> FrameDetections:
     t, fallbacks = stamps_or_log_time(d.sec, d.nsec, _log_times(messages)[d.owner])
-    # Name table in order of first use, listing only frames that rows refer to.
-    uniq, first = np.unique(d.frame_code, return_index=True)
-    order = uniq[np.argsort(first)]
+    # Name table listing only the frames that rows refer to (O(n), no sort).
+    order = np.flatnonzero(np.bincount(d.frame_code, minlength=len(d.frame_names)))
     table = FrameTable()
     remap = np.zeros(len(d.frame_names), np.int64)
     remap[order] = table.indices(d.frame_names[c] for c in order.tolist())

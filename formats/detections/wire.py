@@ -103,7 +103,7 @@ def gather(j: Joined, off: I64, dtype: npt.DTypeLike) -> npt.NDArray[np.generic]
 
 def gather_f64(j: Joined, off: I64, k: int) -> npt.NDArray[np.float64]:
     """``k`` consecutive little-endian float64 at each offset: float64[len(off), k]."""
-    return block(j, off, 8 * k).view("<f8").reshape(-1, k).astype(np.float64)
+    return block(j, off, 8 * k).view("<f8").reshape(-1, k).astype(np.float64, copy=False)
 
 
 class Cursors:
