@@ -5,15 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from aion_cli.cli.console import console
-
-
-def _size(n: int) -> str:
-    value = float(n)
-    for unit in ("B", "KiB", "MiB", "GiB"):
-        if value < 1024 or unit == "GiB":
-            return f"{value:.0f} {unit}" if unit == "B" else f"{value:.1f} {unit}"
-        value /= 1024
-    return f"{n} B"  # pragma: no cover
+from aion_cli.cli.output import human_size
 
 
 def _span(seconds: float | None) -> str:
@@ -45,7 +37,7 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row("windows observed", f"{summary['windows']:,}")
     table.add_row("time span", _span(summary["time_span"]["seconds"]))
     table.add_row("observation", summary["observation"])
-    table.add_row("map size", _size(summary["map_bytes"]))
+    table.add_row("map size", human_size(summary["map_bytes"]))
     out = console()
     out.print(table)
     for note in summary.get("notes", []):

@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.output import format_option, to_json
+from aion_cli.cli.output import format_option, human_size, to_json
 
 EPILOG = """\b
 Examples:
@@ -18,55 +18,54 @@ Examples:
 \b
 Roles: scene_graph (hydra_msgs/DsgUpdate, used by build), detections (a supported people
 type, used by build), tf / tf_static (frames and the robot trajectory), unsupported (ignored).
-JSON keys: files, format, start_ns, end_ns, duration_s, messages, topics[{topic, type, count,
-role, encoding, used}], will_use{detections, scene_graph, tf}, cannot_read, warnings.
+JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
+size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
+role, encoding, rate_hz, used}], roles, dsg_versions, will_use{detections, scene_graph, tf},
+cannot_read, warnings.
 """
 
 
 def describe(paths: list[Path], log_format: str | None) -> dict[str, Any]:
-    """The info report of ``paths`` as a plain dict (also the JSON document)."""
+    """The info report of ``paths`` as a plain dict (also the JSON document):
+    ``formats.summary`` plus what ``aion build`` will use and the scene-graph payload version."""
     from aion_cli.pipeline import select_topics
     from formats.logs import open_logs
+    from formats.summary import summarize
 
     with open_logs(paths, log_format) as logset:
+        summary = summarize(logset)
         plan = select_topics(logset.topics)
-        roles = {t.topic: "detections" for t in plan.detections}
-        roles.update({t.topic: "scene_graph" for t in plan.graph})
-        for t in plan.tf:
-            roles[t.topic] = "tf_static" if t.topic.endswith("_static") else "tf"
-        topics = [
-            {
-                "topic": t.topic,
-                "type": t.msgtype,
-                "count": int(t.count),
-                "encoding": t.encoding,
-                "role": roles.get(t.topic, "unsupported"),
-                "used": t.topic in roles,
-            }
-            for t in logset.topics
-        ]
-        files = [
-            {"path": str(f.path), "format": getattr(f, "format", None)}
-            for f in getattr(logset, "files", [])
-        ]
-        formats = sorted({str(f["format"]) for f in files if f["format"]})
-        start, end = int(logset.start_ns), int(logset.end_ns)
-        return {
-            "files": files,
-            "format": ", ".join(formats) if formats else None,
-            "start_ns": start,
-            "end_ns": end,
-            "duration_s": max(end - start, 0) / 1e9,
-            "messages": sum(t["count"] for t in topics),
-            "topics": topics,
-            "will_use": {
-                "detections": sorted(plan.names("detections")),
-                "scene_graph": sorted(plan.names("graph")),
-                "tf": sorted(plan.names("tf")),
-            },
-            "cannot_read": [f"{t.topic} ({t.msgtype})" for t in plan.ignored],
-            "warnings": list(logset.warnings),
-        }
+        for info in plan.graph:
+            summary.dsg_versions[info.topic] = _dsg_versions(logset, info.topic)
+        report = summary.to_dict()
+    used = plan.names("detections") | plan.names("graph") | plan.names("tf")
+    for topic in report["topics"]:
+        topic["used"] = topic["topic"] in used
+    report["format"] = ", ".join(report["formats"]) or None
+    report["will_use"] = {
+        "detections": sorted(plan.names("detections")),
+        "scene_graph": sorted(plan.names("graph")),
+        "tf": sorted(plan.names("tf")),
+    }
+    report["cannot_read"] = [f"{t.topic} ({t.msgtype})" for t in plan.ignored]
+    return report
+
+
+def _dsg_versions(logset: Any, topic: str) -> list[str]:
+    """spark_dsg payload version of the topic's first scene graph (decoding one message)."""
+    import numpy as np
+
+    from aion_cli.engine.errors import InputError
+    from formats.dsg import decode_dsg
+
+    first = next(iter(logset.messages({topic})), None)
+    if first is None:
+        return []
+    try:
+        payload = np.asarray(logset.decode(first).layer_contents, dtype=np.uint8)
+        return [decode_dsg(payload, first.log_time_ns).version]
+    except InputError as exc:
+        return [f"unreadable: {exc.message}"]
 
 
 @click.command("info", epilog=EPILOG)
@@ -100,19 +99,26 @@ def _print(report: dict[str, Any]) -> None:
     names = ", ".join(Path(f["path"]).name for f in report["files"])
     out.print(
         f"[bold]{names}[/bold]  format: {report['format'] or '?'}  "
-        f"duration: {report['duration_s']:.1f} s  messages: {report['messages']:,}"
+        f"size: {human_size(report['size_bytes'])}  "
+        f"duration: {report['duration_s']:,.1f} s ({report['start']} .. {report['end']})  "
+        f"messages: {report['messages']:,}",
+        soft_wrap=True,
     )
     table = Table(show_lines=False, header_style="bold")
     for name, justify in (
         ("topic", "left"),
         ("type", "left"),
         ("count", "right"),
+        ("Hz", "right"),
         ("aion uses it as", "left"),
     ):
         table.add_column(name, justify=justify)  # type: ignore[arg-type]
     for t in report["topics"]:
         role = t["role"] if t["used"] else "[dim]- (not a type aion reads)[/dim]"
-        table.add_row(t["topic"], t["type"], f"{t['count']:,}", role)
+        if t["topic"] in report["dsg_versions"]:
+            role += f" (spark_dsg {', '.join(report['dsg_versions'][t['topic']])})"
+        rate = "-" if t["rate_hz"] is None else f"{t['rate_hz']:.2f}"
+        table.add_row(t["topic"], t["type"], f"{t['count']:,}", rate, role)
     out.print(table)
     use = report["will_use"]
     if not use["detections"]:

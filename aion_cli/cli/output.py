@@ -144,3 +144,13 @@ def emit(
         click.echo(to_csv(rows, csv_keys or [c.key for c in columns]), nl=False)
     else:
         render_table(rows, columns, title)
+
+
+def human_size(n: int) -> str:
+    """Bytes as B / KiB / MiB / GiB."""
+    value = float(n)
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if value < 1024 or unit == "GiB":
+            return f"{value:.0f} {unit}" if unit == "B" else f"{value:.1f} {unit}"
+        value /= 1024
+    return f"{n} B"  # pragma: no cover

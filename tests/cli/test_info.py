@@ -30,6 +30,10 @@ def test_json_lists_topics_roles_and_counts(office: Office) -> None:
         "tf": ["/tf"],
     }
     assert doc["cannot_read"] == []
+    from formats.dsg import installed_version
+
+    assert doc["dsg_versions"] == {"/hydra/backend/dsg": [installed_version()]}
+    assert doc["files"][0]["size_bytes"] == office.log.stat().st_size
 
 
 def test_unsupported_topics_are_listed(tmp_path: Path) -> None:
