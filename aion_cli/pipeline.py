@@ -18,39 +18,42 @@ No click here: the CLI hands over :class:`BuildOptions` and a :class:`ProgressSi
 5. write the map atomically (``formats.mapfile.write_map``) with a manifest recording the
    config, the inputs' provenance (path, size, sha256), the time span and the counts.
 
-:func:`load_map` reads a map back for ``predict``, ``plan`` and ``export``.
+:func:`load_map` (from :mod:`aion_cli.mapquery`) reads a map back for ``predict``, ``plan``
+and ``export``; :mod:`aion_cli.topics`, :mod:`aion_cli.detection_feed` and
+:mod:`aion_cli.provenance` hold the steps' parts.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-from collections import Counter
-from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
+from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import (
-    ConfigError,
-    InputError,
-    MapFileError,
-    TopicNotFoundError,
-    TransformError,
-)
+from aion_cli.engine.errors import ConfigError, InputError, TopicNotFoundError, TransformError
 from aion_cli.engine.types import DetectionBatch, GraphSnapshot, Trajectory
+from aion_cli.mapquery import LoadedMap, load_map, state_counts
+from aion_cli.provenance import provenance
+from aion_cli.topics import TopicPlan, select_topics
 
 if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
-    from aion_cli.engine.state import MapState
-    from formats.raw import RawMessage, TopicInfo
+    from formats.raw import RawMessage
     from formats.tf import TfBuffer
 
-DSG_TYPES = frozenset({"hydra_msgs/msg/DsgUpdate"})
-TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"})
+__all__ = [
+    "BuildOptions",
+    "BuildReport",
+    "LoadedMap",
+    "ProgressSink",
+    "build_map",
+    "load_map",
+    "select_topics",
+]
+
 MAP_SUFFIX = ".aion"
 
 
@@ -99,19 +102,6 @@ class BuildOptions:
         first = self.logs[0]
         base = first.parent / (first.name.rstrip("/") if first.is_dir() else first.stem)
         return base.with_name(base.name + MAP_SUFFIX)
-
-
-@dataclass
-class TopicPlan:
-    """The topics a build reads, by role."""
-
-    detections: list[TopicInfo] = field(default_factory=list)
-    graph: list[TopicInfo] = field(default_factory=list)
-    tf: list[TopicInfo] = field(default_factory=list)
-    ignored: list[TopicInfo] = field(default_factory=list)
-
-    def names(self, role: str) -> set[str]:
-        return {t.topic for t in getattr(self, role)}
 
 
 @dataclass
@@ -174,203 +164,6 @@ class BuildReport:
         }
 
 
-# -- topics ------------------------------------------------------------------------------------
-def select_topics(
-    topics: Iterable[TopicInfo],
-    detection_topics: tuple[str, ...] = (),
-    graph_topic: str | None = None,
-) -> TopicPlan:
-    """Pick topics by message type; named topics must exist and have a usable type.
-
-    Several detection topics are all used unless ``detection_topics`` names some: people
-    trackers often publish the same people on more than one topic, so the report lists them
-    and ``--detections-topic`` narrows the choice.
-    """
-    from formats.detections import adapter_for
-
-    topics = list(topics)
-    by_name = {t.topic: t for t in topics}
-    plan = TopicPlan()
-    supported = [t for t in topics if adapter_for(t.msgtype) is not None]
-    if detection_topics:
-        for name in detection_topics:
-            info = by_name.get(name)
-            if info is None or adapter_for(info.msgtype) is None:
-                raise TopicNotFoundError(
-                    f"no people-detection topic {name!r} in the log"
-                    + (f" (it has type {info.msgtype})" if info else ""),
-                    candidates=[f"--detections-topic {t.topic}" for t in supported],
-                    hint=_candidate_hint("--detections-topic", supported, "people detections"),
-                )
-            plan.detections.append(info)
-    else:
-        plan.detections = supported
-    dsg = [t for t in topics if t.msgtype in DSG_TYPES]
-    if graph_topic is not None:
-        info = by_name.get(graph_topic)
-        if info is None or info.msgtype not in DSG_TYPES:
-            raise TopicNotFoundError(
-                f"no scene-graph topic {graph_topic!r} in the log",
-                candidates=[f"--graph-topic {t.topic}" for t in dsg],
-                hint=_candidate_hint("--graph-topic", dsg, "hydra_msgs/DsgUpdate scene graphs"),
-            )
-        dsg = [info]
-    plan.graph = dsg
-    plan.tf = [t for t in topics if t.msgtype in TF_TYPES]
-    used = plan.names("detections") | plan.names("graph") | plan.names("tf")
-    plan.ignored = [t for t in topics if t.topic not in used]
-    return plan
-
-
-def _candidate_hint(option: str, infos: list[TopicInfo], what: str) -> str:
-    if not infos:
-        return f"the log has no {what}; run `aion info LOG` to see its topics"
-    return "use one of: " + "  ".join(f"{option} {t.topic}" for t in infos)
-
-
-# -- provenance --------------------------------------------------------------------------------
-def _files_of(path: Path) -> list[Path]:
-    if path.is_dir():
-        return sorted(p for p in path.rglob("*") if p.is_file())
-    return [path]
-
-
-def provenance(path: Path) -> dict[str, Any]:
-    """Path, size and sha256 of one log (a rosbag2 folder: over its files' names and bytes)."""
-    digest = hashlib.sha256()
-    size = 0
-    for file in _files_of(path):
-        if path.is_dir():
-            digest.update(str(file.relative_to(path)).encode() + b"\0")
-        with file.open("rb") as fh:
-            while block := fh.read(1 << 20):
-                digest.update(block)
-                size += len(block)
-    return {
-        "path": str(path.resolve()),
-        "name": path.name,
-        "size": size,
-        "sha256": digest.hexdigest(),
-    }
-
-
-# -- map files ---------------------------------------------------------------------------------
-@dataclass
-class LoadedMap:
-    """A map read back: its state, navigational graph (None: hash cells only) and manifest."""
-
-    state: MapState
-    graph: GraphSnapshot | None
-    manifest: dict[str, Any]
-
-    @property
-    def config(self) -> ModelConfig:
-        return self.state.config
-
-
-def load_map(path: Path) -> LoadedMap:
-    """Read ``path`` (checksums and version checked) into a :class:`LoadedMap`."""
-    from aion_cli.engine.state import MapState
-    from formats.mapfile import read_map
-
-    if not path.exists():
-        raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
-    if path.is_dir():
-        raise MapFileError(f"{path} is a folder, not a map file")
-    arrays, manifest = read_map(path)
-    meta = manifest.get("state")
-    if not isinstance(meta, dict):
-        raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
-    state = MapState.from_arrays(arrays, meta)
-    return LoadedMap(state, _latest_graph(state), manifest)
-
-
-def _latest_graph(state: MapState) -> GraphSnapshot | None:
-    graph = getattr(state, "graph", None)
-    if graph is None or len(graph.places) == 0:
-        return None
-    return graph
-
-
-# -- detections --------------------------------------------------------------------------------
-@dataclass
-class _Counts:
-    read: int = 0
-    used: int = 0
-    dropped: Counter[str] = field(default_factory=Counter)
-
-
-class _DetectionFeeder:
-    """Decodes chunks of raw detection messages into map-frame DetectionBatches."""
-
-    def __init__(self, tf: TfBuffer | None, map_frame: str, counts: _Counts) -> None:
-        from formats.detections import HeadingEstimator, adapter_for
-
-        self._adapter_for = adapter_for
-        self.tf = tf
-        self.map_frame = map_frame
-        self.counts = counts
-        self.headings = HeadingEstimator()
-
-    def decode(self, messages: list[RawMessage]) -> DetectionBatch:
-        """Decode, transform and give headings to ``messages`` (any detection types)."""
-        from formats.detections.frame import FrameDetections
-
-        by_type: dict[str, list[RawMessage]] = {}
-        for msg in messages:
-            by_type.setdefault(msg.msgtype, []).append(msg)
-        parts = []
-        for msgtype, msgs in by_type.items():
-            adapter = self._adapter_for(msgtype)
-            assert adapter is not None  # topics were selected by adapter
-            frames = adapter.decode(msgs)
-            self.counts.read += len(frames)
-            for reason, n in frames.filtered.items():
-                self.counts.dropped[reason] += n
-            parts.append(self._to_map_frame(frames))
-        if not parts:
-            return DetectionBatch.empty()
-        merged = FrameDetections.concat(parts)
-        order = np.argsort(merged.t_ns, kind="stable")
-        return self.headings.to_batch(merged.select(order))
-
-    def _to_map_frame(self, frames: Any) -> Any:
-        """Rows moved into the map frame; rows without a transform are counted and dropped."""
-        if len(frames) == 0:
-            return frames
-        target = self.map_frame
-        xyz = frames.xyz.copy()
-        vel = frames.velocity.copy()
-        yaw = frames.yaw.copy()
-        ok = np.ones(len(frames), dtype=bool)
-        for index, name in enumerate(frames.frames):
-            rows = np.flatnonzero(frames.frame_id == index)
-            if len(rows) == 0 or name in ("", target):
-                continue  # Hydra's ROS 1 sender leaves frame ids empty: taken as the map frame
-            if self.tf is None:
-                raise TransformError(
-                    f"detections are in frame {name!r} but the log has no TF to {target!r}",
-                    hint=f"if {name!r} is a fixed frame, build with --map-frame {name}",
-                )
-            R, t, good = self.tf.lookup(target, name, frames.t_ns[rows])
-            xyz[rows] = np.einsum("nij,nj->ni", R, frames.xyz[rows]) + t
-            vel[rows] = np.einsum("nij,nj->ni", R, frames.velocity[rows])
-            yaw[rows] = yaw[rows] + np.arctan2(R[:, 1, 0], R[:, 0, 0])
-            ok[rows] = good
-        n_bad = int((~ok).sum())
-        if n_bad:
-            self.counts.dropped["no_transform"] += n_bad
-        moved = dataclasses.replace(
-            frames,
-            xyz=xyz,
-            velocity=vel,
-            yaw=yaw,
-            frame_id=np.zeros(len(frames), np.int64),
-            frames=(target,),
-        )
-        return moved.select(ok) if n_bad else moved
-
-
 # -- the build ---------------------------------------------------------------------------------
 def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer | None:
     from formats.tf import TfBuffer
@@ -396,31 +189,13 @@ def _robot_trajectory(tf: TfBuffer | None, opts: BuildOptions) -> Trajectory | N
     return traj if len(traj) else None
 
 
-def _chunks(
-    messages: Iterator[RawMessage], graph_topics: set[str], size: int
-) -> Iterator[tuple[list[RawMessage], RawMessage | None]]:
-    """(detection chunk, graph message or None): chunks end at a graph message or ``size``."""
-    chunk: list[RawMessage] = []
-    for msg in messages:
-        if msg.topic in graph_topics:
-            yield chunk, msg
-            chunk = []
-        else:
-            chunk.append(msg)
-            if len(chunk) >= size:
-                yield chunk, None
-                chunk = []
-    if chunk:
-        yield chunk, None
-
-
 class _Build:
     """One run of ``aion build`` (state shared by the phases)."""
 
     def __init__(self, opts: BuildOptions, progress: ProgressSink) -> None:
         self.opts = opts
         self.progress = progress
-        self.counts = _Counts()
+        self.counts = DetectionCounts()
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
         self.dsg_version = opts.dsg_version
@@ -545,11 +320,11 @@ class _Build:
         from aion_cli.derive_graph import OccupancyGrid
 
         grid = OccupancyGrid(config.derive_spacing)
-        scratch = _Counts()
-        feeder = _DetectionFeeder(tf, self.opts.map_frame, scratch)
+        scratch = DetectionCounts()
+        feeder = DetectionFeeder(tf, self.opts.map_frame, scratch)
         topics = plan.names("detections")
         self.progress.start("deriving graph", logset.total(topics))
-        for chunk, _ in _chunks(logset.messages(topics), set(), self.opts.batch_size):
+        for chunk, _ in chunks(logset.messages(topics), set(), self.opts.batch_size):
             grid.add(feeder.decode(chunk).xyz)
             self.progress.advance(len(chunk))
         graph = grid.graph(config.derive_min_detections, start)
@@ -562,13 +337,13 @@ class _Build:
     def _stream(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper, fixed: bool
     ) -> None:
-        feeder = _DetectionFeeder(tf, self.opts.map_frame, self.counts)
+        feeder = DetectionFeeder(tf, self.opts.map_frame, self.counts)
         graph_topics = plan.names("graph")
         topics = plan.names("detections") | graph_topics
         self.progress.start("building map", logset.total(topics))
         use_agents = self.report.observation.startswith("scene-graph")
-        chunks = _chunks(logset.messages(topics), graph_topics, self.opts.batch_size)
-        for chunk, graph_msg in chunks:
+        stream = chunks(logset.messages(topics), graph_topics, self.opts.batch_size)
+        for chunk, graph_msg in stream:
             if chunk:
                 self._feed(mapper, feeder.decode(chunk))
                 self.progress.advance(len(chunk))
@@ -654,21 +429,6 @@ class _Build:
         self.report.map_bytes = out.stat().st_size
 
 
-def state_counts(state: MapState) -> dict[str, int]:
-    """Unbound cells, graph nodes (and those holding flow), bound cells and windows observed
-    (the most any entry has seen) of a state, for summaries."""
-    entries = state.entries
-    live = entries.live_rows()
-    observed = entries.windows_observed[live]
-    return {
-        "cells": len(entries.cell_rows()),
-        "nodes": 0 if state.graph is None else len(state.graph.places),
-        "nodes_with_flow": len(entries.node_rows()),
-        "bound_cells": len(state.redirects),
-        "windows": int(observed.max()) if len(observed) else 0,
-    }
-
-
 def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> BuildReport:
     """Run a build (see the module docstring) and return its report."""
     if not opts.logs:
@@ -676,92 +436,3 @@ def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> Build
     if opts.batch_size < 1:
         raise InputError("batch size must be >= 1")
     return _Build(opts, progress or _NoProgress()).run()
-
-
-# -- queries on a loaded map -------------------------------------------------------------------
-def nav_graph(loaded: LoadedMap) -> Any:
-    """The planning graph of a map (``engine.planning.NavGraph``)."""
-    from aion_cli.engine.planning import NavGraph
-
-    if loaded.graph is None:
-        raise InputError(
-            "the map has no navigational graph to plan on",
-            hint="build it with a scene graph (from the log or --graph FILE) or --derive-graph",
-        )
-    return NavGraph.from_snapshot(loaded.graph, loaded.config.plan_connect_radius)
-
-
-def node_rows(table: Any, node_ids: np.ndarray) -> np.ndarray:
-    """Row of each node id in an entry table (-1 where the node has no entry)."""
-    rows = np.flatnonzero(np.asarray(table.kind) == 1)
-    ids = np.asarray(table.node_id, dtype=np.uint64)[rows]
-    order = np.argsort(ids)
-    ids, rows = ids[order], rows[order]
-    wanted = np.asarray(node_ids, dtype=np.uint64)
-    if len(ids) == 0:
-        return np.full(len(wanted), -1, np.int64)
-    pos = np.minimum(np.searchsorted(ids, wanted), len(ids) - 1)
-    return np.where(ids[pos] == wanted, rows[pos], -1).astype(np.int64)
-
-
-def node_cost_fn(loaded: LoadedMap, node_ids: np.ndarray) -> Any:
-    """``node_cost(t_s)`` for ``engine.planning.plan``: predicted descriptors of the nodes at
-    model time ``t_s`` (nodes without an entry have no flow)."""
-    from aion_cli.engine.fremen import EPOCH_NS
-    from aion_cli.engine.planning import NodeCosts
-    from aion_cli.engine.query import predict_table
-
-    def cost(t_s: float) -> NodeCosts:
-        table = predict_table(loaded.state, EPOCH_NS + round(t_s * 1e9))
-        rows = node_rows(table, node_ids)
-        have = rows >= 0
-        d = table.descriptors
-        costs = NodeCosts.zeros(len(node_ids))
-        for name in ("entropy", "flow_per_window", "dominant_angle", "concentration"):
-            getattr(costs, name)[have] = np.asarray(getattr(d, name))[rows[have]]
-        flow = costs.flow_per_window
-        flow[~np.isfinite(flow)] = 0.0
-        return costs
-
-    return cost
-
-
-def export_map(
-    loaded: LoadedMap,
-    table: Any,
-    out_dir: Path,
-    fmt: str = "ply",
-    path_xyz: np.ndarray | None = None,
-    prefix: str = "",
-) -> list[Path]:
-    """Write the scene of an entry table (nodes, cells, edges, mesh, a path) with
-    ``formats.export.export_scene``; returns the files written."""
-    from formats.export import export_scene
-
-    kind = np.asarray(table.kind)
-    nodes, cells = kind == 1, kind == 0
-    d = table.descriptors
-    flow = np.nan_to_num(np.asarray(d.flow_per_window, dtype=np.float64), nan=0.0)
-    graph = loaded.graph
-    edges = None
-    mesh = None
-    if graph is not None:
-        edges = graph.places.xyz[graph.edges] if len(graph.edges) else None
-        mesh = graph.mesh
-    return export_scene(
-        out_dir,
-        table.xyz[nodes],
-        flow[nodes],
-        d.entropy[nodes],
-        d.dominant_angle[nodes],
-        cells_xyz=table.xyz[cells],
-        cells_flow=flow[cells],
-        cells_entropy=d.entropy[cells],
-        edges_xyz_pairs=edges,
-        mesh=mesh,
-        path_xyz=path_xyz,
-        fmt="pcd" if fmt == "pcd" else "ply",
-        cell_size=loaded.config.cell_size,
-        prefix=prefix,
-        node_concentration=d.concentration[nodes],
-    )

@@ -48,7 +48,7 @@ def announce_time(t_ns: int, zone: Zone, label: str = "time") -> None:
 
 
 def load(map_path: Path) -> Any:
-    """Read a map (``aion_cli.pipeline.load_map``)."""
-    from aion_cli.pipeline import load_map
+    """Read a map (``aion_cli.mapquery.load_map``)."""
+    from aion_cli.mapquery import load_map
 
     return load_map(map_path)

@@ -181,7 +181,7 @@ def _path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int
     """The planning graph and the node ids of ``--path-from`` / ``--path-to``."""
     from aion_cli.cli.plan import _endpoint
     from aion_cli.engine.planning import plan
-    from aion_cli.pipeline import nav_graph
+    from aion_cli.mapquery import nav_graph
 
     nav = nav_graph(loaded)
     a, _ = _endpoint(path_from, nav, "--path-from")
@@ -194,7 +194,7 @@ def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any
     """Positions of the path planned at ``t_ns`` (distance only for a historical export)."""
     from aion_cli.engine.fremen import to_model_seconds
     from aion_cli.engine.planning import plan
-    from aion_cli.pipeline import node_cost_fn
+    from aion_cli.mapquery import node_cost_fn
 
     nav, a, b = ends
     config = loaded.config
@@ -210,8 +210,8 @@ def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any
 def write_scene(
     loaded: Any, table: Any, folder: Path, fmt: str, path_xyz: Any | None
 ) -> list[Path]:
-    """The scene files for one time (``formats.export`` via ``pipeline.export_map``)."""
-    from aion_cli.pipeline import export_map
+    """The scene files for one time (``formats.export`` via ``mapquery.export_map``)."""
+    from aion_cli.mapquery import export_map
 
     return export_map(loaded, table, folder, fmt, path_xyz)
 

@@ -28,7 +28,7 @@ cannot_read, warnings.
 def describe(paths: list[Path], log_format: str | None) -> dict[str, Any]:
     """The info report of ``paths`` as a plain dict (also the JSON document):
     ``formats.summary`` plus what ``aion build`` will use and the scene-graph payload version."""
-    from aion_cli.pipeline import select_topics
+    from aion_cli.topics import select_topics
     from formats.logs import open_logs
     from formats.summary import summarize
 

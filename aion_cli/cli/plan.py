@@ -96,7 +96,7 @@ def command(
     from aion_cli.cli.timeparse import format_ns
     from aion_cli.engine.fremen import to_model_seconds
     from aion_cli.engine.planning import evaluate_path_cost, plan
-    from aion_cli.pipeline import nav_graph, node_cost_fn
+    from aion_cli.mapquery import nav_graph, node_cost_fn
 
     loaded = load(map_path)
     t_ns, zone = resolve_time(time_text, tz)

@@ -1,0 +1,161 @@
+"""Reading a map back and the queries predict / plan / export share (no click).
+
+:func:`load_map` gives the model state, its navigational graph (None for a map of hash cells
+only) and the manifest; :func:`nav_graph` and :func:`node_cost_fn` feed ``engine.planning``;
+:func:`export_map` hands an entry table to ``formats.export``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.errors import InputError, MapFileError
+from aion_cli.engine.types import GraphSnapshot
+
+if TYPE_CHECKING:
+    from aion_cli.engine.state import MapState
+
+
+@dataclass
+class LoadedMap:
+    """A map read back: its state, navigational graph (None: hash cells only) and manifest."""
+
+    state: MapState
+    graph: GraphSnapshot | None
+    manifest: dict[str, Any]
+
+    @property
+    def config(self) -> ModelConfig:
+        return self.state.config
+
+
+def load_map(path: Path) -> LoadedMap:
+    """Read ``path`` (checksums and version checked) into a :class:`LoadedMap`."""
+    from aion_cli.engine.state import MapState
+    from formats.mapfile import read_map
+
+    if not path.exists():
+        raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
+    if path.is_dir():
+        raise MapFileError(f"{path} is a folder, not a map file")
+    arrays, manifest = read_map(path)
+    meta = manifest.get("state")
+    if not isinstance(meta, dict):
+        raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
+    state = MapState.from_arrays(arrays, meta)
+    return LoadedMap(state, _latest_graph(state), manifest)
+
+
+def _latest_graph(state: MapState) -> GraphSnapshot | None:
+    graph = getattr(state, "graph", None)
+    if graph is None or len(graph.places) == 0:
+        return None
+    return graph
+
+
+def state_counts(state: MapState) -> dict[str, int]:
+    """Unbound cells, graph nodes (and those holding flow), bound cells and windows observed
+    (the most any entry has seen) of a state, for summaries."""
+    entries = state.entries
+    live = entries.live_rows()
+    observed = entries.windows_observed[live]
+    return {
+        "cells": len(entries.cell_rows()),
+        "nodes": 0 if state.graph is None else len(state.graph.places),
+        "nodes_with_flow": len(entries.node_rows()),
+        "bound_cells": len(state.redirects),
+        "windows": int(observed.max()) if len(observed) else 0,
+    }
+
+
+def nav_graph(loaded: LoadedMap) -> Any:
+    """The planning graph of a map (``engine.planning.NavGraph``)."""
+    from aion_cli.engine.planning import NavGraph
+
+    if loaded.graph is None:
+        raise InputError(
+            "the map has no navigational graph to plan on",
+            hint="build it with a scene graph (from the log or --graph FILE) or --derive-graph",
+        )
+    return NavGraph.from_snapshot(loaded.graph, loaded.config.plan_connect_radius)
+
+
+def node_rows(table: Any, node_ids: np.ndarray) -> np.ndarray:
+    """Row of each node id in an entry table (-1 where the node has no entry)."""
+    rows = np.flatnonzero(np.asarray(table.kind) == 1)
+    ids = np.asarray(table.node_id, dtype=np.uint64)[rows]
+    order = np.argsort(ids)
+    ids, rows = ids[order], rows[order]
+    wanted = np.asarray(node_ids, dtype=np.uint64)
+    if len(ids) == 0:
+        return np.full(len(wanted), -1, np.int64)
+    pos = np.minimum(np.searchsorted(ids, wanted), len(ids) - 1)
+    return np.where(ids[pos] == wanted, rows[pos], -1).astype(np.int64)
+
+
+def node_cost_fn(loaded: LoadedMap, node_ids: np.ndarray) -> Any:
+    """``node_cost(t_s)`` for ``engine.planning.plan``: predicted descriptors of the nodes at
+    model time ``t_s`` (nodes without an entry have no flow)."""
+    from aion_cli.engine.fremen import EPOCH_NS
+    from aion_cli.engine.planning import NodeCosts
+    from aion_cli.engine.query import predict_table
+
+    def cost(t_s: float) -> NodeCosts:
+        table = predict_table(loaded.state, EPOCH_NS + round(t_s * 1e9))
+        rows = node_rows(table, node_ids)
+        have = rows >= 0
+        d = table.descriptors
+        costs = NodeCosts.zeros(len(node_ids))
+        for name in ("entropy", "flow_per_window", "dominant_angle", "concentration"):
+            getattr(costs, name)[have] = np.asarray(getattr(d, name))[rows[have]]
+        flow = costs.flow_per_window
+        flow[~np.isfinite(flow)] = 0.0
+        return costs
+
+    return cost
+
+
+def export_map(
+    loaded: LoadedMap,
+    table: Any,
+    out_dir: Path,
+    fmt: str = "ply",
+    path_xyz: np.ndarray | None = None,
+    prefix: str = "",
+) -> list[Path]:
+    """Write the scene of an entry table (nodes, cells, edges, mesh, a path) with
+    ``formats.export.export_scene``; returns the files written."""
+    from formats.export import export_scene
+
+    kind = np.asarray(table.kind)
+    nodes, cells = kind == 1, kind == 0
+    d = table.descriptors
+    flow = np.nan_to_num(np.asarray(d.flow_per_window, dtype=np.float64), nan=0.0)
+    graph = loaded.graph
+    edges = None
+    mesh = None
+    if graph is not None:
+        edges = graph.places.xyz[graph.edges] if len(graph.edges) else None
+        mesh = graph.mesh
+    return export_scene(
+        out_dir,
+        table.xyz[nodes],
+        flow[nodes],
+        d.entropy[nodes],
+        d.dominant_angle[nodes],
+        cells_xyz=table.xyz[cells],
+        cells_flow=flow[cells],
+        cells_entropy=d.entropy[cells],
+        edges_xyz_pairs=edges,
+        mesh=mesh,
+        path_xyz=path_xyz,
+        fmt="pcd" if fmt == "pcd" else "ply",
+        cell_size=loaded.config.cell_size,
+        prefix=prefix,
+        node_concentration=d.concentration[nodes],
+    )

@@ -1,0 +1,32 @@
+"""Provenance of an input log for the map manifest: path, size and sha256."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+
+def _files_of(path: Path) -> list[Path]:
+    if path.is_dir():
+        return sorted(p for p in path.rglob("*") if p.is_file())
+    return [path]
+
+
+def provenance(path: Path) -> dict[str, Any]:
+    """Path, size and sha256 of one log (a rosbag2 folder: over its files' names and bytes)."""
+    digest = hashlib.sha256()
+    size = 0
+    for file in _files_of(path):
+        if path.is_dir():
+            digest.update(str(file.relative_to(path)).encode() + b"\0")
+        with file.open("rb") as fh:
+            while block := fh.read(1 << 20):
+                digest.update(block)
+                size += len(block)
+    return {
+        "path": str(path.resolve()),
+        "name": path.name,
+        "size": size,
+        "sha256": digest.hexdigest(),
+    }
