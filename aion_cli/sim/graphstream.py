@@ -102,6 +102,7 @@ class _Stream:
         self.xyz = env.xyz + self.offset
         self.updated = np.zeros(m, dtype=np.int64)
         self.next_index = int(m)
+        # (t_ns, kind, node, target, src_xyz, dst_xyz); positions are copies, never row views
         self.events: list[tuple[int, int, int, int, F64, F64]] = []
 
     def observe(self, t_ns: int, seen: BoolA, error: F64 | None) -> None:
@@ -120,7 +121,9 @@ class _Stream:
         self.xyz[upd] = est[upd]
         self.updated[upd] = t_ns
         for i in np.flatnonzero(new):
-            self.events.append((t_ns, 0, int(self.ids[i]), 0, self.xyz[i], self.xyz[i]))
+            self.events.append(
+                (t_ns, 0, int(self.ids[i]), 0, self.xyz[i].copy(), self.xyz[i].copy())
+            )
 
     def close_loop(self, t_ns: int) -> None:
         """Correct every alive place to its true position; maybe merge or remove one."""
@@ -128,7 +131,7 @@ class _Stream:
         corrected = self.env.xyz + self.offset
         shift = np.linalg.norm(corrected - self.xyz, axis=1)
         for i in np.flatnonzero(alive & (shift > self.cfg.move_threshold)):
-            self.events.append((t_ns, 1, int(self.ids[i]), 0, self.xyz[i], corrected[i]))
+            self.events.append((t_ns, 1, int(self.ids[i]), 0, self.xyz[i].copy(), corrected[i]))
         self.xyz[alive] = corrected[alive]
         self.updated[alive] = t_ns
         if self.rng.random() < self.cfg.merge_p:
@@ -153,7 +156,8 @@ class _Stream:
         a, b = pairs[self.rng.integers(len(pairs))]
         self.state[a] = MERGED
         self.rep[a] = b
-        self.events.append((t_ns, 2, int(self.ids[a]), int(self.ids[b]), self.xyz[a], self.xyz[b]))
+        src, dst = self.xyz[a].copy(), self.xyz[b].copy()
+        self.events.append((t_ns, 2, int(self.ids[a]), int(self.ids[b]), src, dst))
 
     def _remove(self, t_ns: int) -> None:
         cand = np.flatnonzero(self.state == ALIVE)
@@ -162,7 +166,7 @@ class _Stream:
             return
         i = int(cand[self.rng.integers(len(cand))])
         self.state[i] = REMOVED
-        self.events.append((t_ns, 3, int(self.ids[i]), 0, self.xyz[i], self.xyz[i]))
+        self.events.append((t_ns, 3, int(self.ids[i]), 0, self.xyz[i].copy(), self.xyz[i].copy()))
 
     def event_arrays(self) -> GraphEvents:
         ev = self.events

@@ -86,6 +86,17 @@ def test_loop_closures_move_places_back_to_the_truth(stream: tuple[list[Frame], 
     kind = truth["event_kind"]
     moves = np.flatnonzero(kind == EVENT_KINDS.index("move"))
     assert len(moves) > 0
+    shift = np.linalg.norm(truth["event_dst_xyz"][moves] - truth["event_src_xyz"][moves], axis=1)
+    assert shift.min() > 0.01  # the stream's move threshold
+    # a move starts where the place was in the frame before the closure (for places the robot
+    # did not re-measure in the closing interval, which is most of them)
+    starts_there = 0
+    for i in moves:
+        before, _ = _around(frames, int(truth["event_t_ns"][i]))
+        node = int(truth["event_node"][i])
+        if node in before.pos:
+            starts_there += np.allclose(before.pos[node], truth["event_src_xyz"][i], atol=1e-9)
+    assert starts_there > len(moves) // 2
     times = np.array([f.t_ns for f in frames])
     for i in moves[:: max(len(moves) // 50, 1)]:
         frame = frames[int(np.searchsorted(times, truth["event_t_ns"][i]))]
