@@ -60,6 +60,13 @@ PRIOR: float = 0.5
 _ROW_CHUNK = 1024
 """Rows per chunk of the prequential replay: a few (rows × K) float64 arrays stay in cache."""
 
+_FEW_ROWS = 96
+"""Chunks with fewer rows replay with cumulative sums along the window axis instead of a
+Python loop over windows (whose per-window overhead dominates for few rows)."""
+
+_BLOCK_CELLS = 1 << 16
+"""Rows × windows × periods per block of the cumulative-sum replay."""
+
 _WORKERS = max(1, min(4, os.cpu_count() or 1))
 """Threads for the prequential replay of row chunks."""
 
@@ -70,6 +77,15 @@ def to_model_seconds(t_ns: npt.ArrayLike) -> F64:
     """UNIX nanoseconds -> float64 seconds since :data:`EPOCH_NS` (exact integer subtraction)."""
     t = np.asarray(t_ns, dtype=np.int64)
     return (t - np.int64(EPOCH_NS)).astype(np.float64) / 1e9
+
+
+def _exclusive_cumsum(x: F64) -> F64:
+    """Sum of the strictly earlier entries along axis 1 (the state *before* each window)."""
+    out = np.empty_like(x)
+    out[:, 0] = 0.0
+    if x.shape[1] > 1:
+        np.cumsum(x[:, :-1], axis=1, out=out[:, 1:])
+    return out
 
 
 @dataclass
@@ -392,6 +408,9 @@ class FremenModel:
         if m_eff == 0:
             self._score_mean_only(state, rr, vz, obs)
             return
+        if c < _FEW_ROWS:
+            self._score_few_rows(state, rr, t, vz, obs, cos_t, sin_t)
+            return
         n = state.n[rr].copy()
         ss = state.sum_s[rr].copy()
         first = state.t_first[rr].copy()
@@ -468,6 +487,70 @@ class FremenModel:
             last[seen] = np.fmax(last[seen], t[w])
         state.order_err[rr] += err
         state.order_n[rr] += scored_n
+
+    def _score_few_rows(
+        self, state: FremenState, rr: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
+    ) -> None:
+        """The prequential replay for a few rows: blocks of windows, each evaluated at once
+        from exclusive cumulative sums (rows × windows × periods), then absorbed into a
+        private copy of the rows' accumulators."""
+        c, k = rr.size, self.n_periods
+        acc = state.take(rr)
+        local = np.arange(c, dtype=np.int64)
+        err = np.zeros((c, self.max_order + 1))
+        scored_n = np.zeros(c)
+        step = max(1, _BLOCK_CELLS // (c * k))
+        for a in range(0, t.size, step):
+            b = min(a + step, t.size)
+            e_blk, n_blk = self._score_block(
+                acc, t[a:b], vz[:, a:b], obs[:, a:b], cos_t[a:b], sin_t[a:b]
+            )
+            err += e_blk
+            scored_n += n_blk
+            self._absorb(acc, local, t[a:b], vz[:, a:b], obs[:, a:b], cos_t[a:b], sin_t[a:b])
+        state.order_err[rr] += err
+        state.order_n[rr] += scored_n
+
+    def _score_block(
+        self, acc: FremenState, t: F64, v: F64, ob: BoolA, cos_t: F64, sin_t: F64
+    ) -> tuple[F64, F64]:
+        """Order errors (rows × orders) and scored counts of one block of windows for the rows
+        of ``acc`` (its state before the block)."""
+        m_eff = min(self.max_order, self.n_periods)
+        of = ob.astype(np.float64)
+        n_pre = acc.n[:, None] + _exclusive_cumsum(of)
+        has = n_pre > 0
+        n_safe = np.where(has, n_pre, 1.0)
+        mu = (acc.sum_s[:, None] + _exclusive_cumsum(v)) / n_safe
+        scored = ob & has
+        # span before each window: running first / last observed time, from the stored ones
+        t_obs = np.where(ob, t[None, :], np.nan)
+        first = np.fmin(np.fmin.accumulate(t_obs, axis=1), acc.t_first[:, None])
+        last = np.fmax(np.fmax.accumulate(t_obs, axis=1), acc.t_last[:, None])
+        span = np.full(first.shape, np.nan)
+        span[:, 1:] = last[:, :-1] - first[:, :-1]
+        span[:, 0] = acc.t_last - acc.t_first
+        with np.errstate(invalid="ignore"):
+            gate = (span[..., None] >= self.min_span) & has[..., None]
+        sr = _exclusive_cumsum(v[..., None] * cos_t[None]) + acc.sum_se.real[:, None, :]
+        si = _exclusive_cumsum(v[..., None] * sin_t[None]) + acc.sum_se.imag[:, None, :]
+        er = _exclusive_cumsum(of[..., None] * cos_t[None]) + acc.sum_e.real[:, None, :]
+        ei = _exclusive_cumsum(of[..., None] * sin_t[None]) + acc.sum_e.imag[:, None, :]
+        xr = sr - mu[..., None] * er
+        xi = si - mu[..., None] * ei
+        a2 = np.where(gate, xr * xr + xi * xi, -1.0)  # n²|γ|², −1 when not admitted
+        contrib = np.where(gate, 2.0 * (xr * cos_t[None] + xi * sin_t[None]), 0.0)
+        contrib /= n_safe[..., None]
+        err = np.zeros((v.shape[0], self.max_order + 1))
+        p = mu
+        err[:, 0] = np.where(scored, np.abs(v - np.clip(p, 0.0, 1.0)), 0.0).sum(axis=1)
+        for m in range(1, m_eff + 1):
+            top = np.argmax(a2, axis=2)[..., None]
+            p = p + np.take_along_axis(contrib, top, axis=2)[..., 0]
+            np.put_along_axis(a2, top, -2.0, axis=2)
+            err[:, m] = np.where(scored, np.abs(v - np.clip(p, 0.0, 1.0)), 0.0).sum(axis=1)
+        err[:, m_eff + 1 :] = err[:, m_eff : m_eff + 1]
+        return err, scored.sum(axis=1, dtype=np.float64)
 
     @staticmethod
     def _score_mean_only(state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:

@@ -14,6 +14,7 @@ import math
 import numpy as np
 import pytest
 
+from aion_cli.engine import fremen
 from aion_cli.engine.config import DAY_S, WEEK_S, ModelConfig, default_periods
 from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.fremen import (
@@ -27,6 +28,22 @@ from aion_cli.engine.fremen import (
 )
 
 PERIODS = default_periods()
+
+
+@pytest.fixture(
+    autouse=True,
+    params=[(0, 1 << 16, 1024), (10**9, 1 << 16, 1024), (10**9, 500, 1024), (12, 1 << 16, 16)],
+    ids=["window-loop", "cumsum", "cumsum-small-blocks", "threaded-mixed-chunks"],
+)
+def replay_path(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Run every test with each exact formulation of the prequential replay: the loop over
+    windows (many rows), the cumulative sums along windows (few rows) in large and tiny
+    blocks of windows, and row chunks of 16 on the thread pool (a last chunk of fewer than 12
+    rows takes the cumulative-sum path)."""
+    few_rows, block_cells, row_chunk = request.param
+    monkeypatch.setattr(fremen, "_FEW_ROWS", few_rows)
+    monkeypatch.setattr(fremen, "_BLOCK_CELLS", block_cells)
+    monkeypatch.setattr(fremen, "_ROW_CHUNK", row_chunk)
 
 
 class LoopState:
