@@ -21,6 +21,7 @@ spark_dsg is imported inside the functions (heavy import, see docs/CONTRACTS.md)
 from __future__ import annotations
 
 import datetime
+import functools
 import os
 import tempfile
 from dataclasses import dataclass
@@ -77,8 +78,10 @@ class DecodedGraph:
     version: str
 
 
+@functools.cache
 def installed_version() -> str:
-    """The spark_dsg version whose binary format ``from_binary`` reads natively."""
+    """The spark_dsg version whose binary format ``from_binary`` reads natively (cached: the
+    package metadata lookup costs milliseconds and runs once per scene-graph message)."""
     return metadata.version("spark-dsg")
 
 
