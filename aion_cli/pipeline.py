@@ -223,6 +223,11 @@ class _Build:
             self.report.continued = True
         config = self.config()
         inputs = self._inputs()
+        out = self.report.output
+        if out.exists() and self.previous is None:
+            self.report.notes.append(
+                f"{out.name} existed and is replaced (use --map {out.name} to extend a map)"
+            )
         with open_logs(list(opts.logs), opts.log_format) as logset:
             plan = select_topics(logset.topics, opts.detection_topics, opts.graph_topic)
             if not plan.detections:
