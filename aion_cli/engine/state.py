@@ -147,6 +147,11 @@ class MapState:
             raise MapCorruptError(f"map state version {version} is newer than {STATE_VERSION}")
         entries = EntryStore.from_arrays(arrays, config.bins)
         fremen = FremenState.from_arrays(arrays, "fremen_")
+        if (fremen.n_periods, fremen.max_order) != (len(config.periods), config.max_order):
+            raise MapCorruptError(
+                f"FreMEn state has {fremen.n_periods} periods and order {fremen.max_order}, "
+                f"the config says {len(config.periods)} and {config.max_order}"
+            )
         if fremen.n_rows != entries.n * (config.bins + 1):
             raise MapCorruptError(
                 f"FreMEn state has {fremen.n_rows} rows, expected {entries.n * (config.bins + 1)}"

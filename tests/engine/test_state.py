@@ -14,7 +14,7 @@ from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.state import MapState, merge_states
 from aion_cli.engine.types import Mesh, Trajectory
-from tests.engine.engine_builders import T0, S, check_invariants, detections, graph
+from tests.engine.engine_builders import T0, S, check_invariants, detections, graph, pid
 
 CFG = ModelConfig(window_s=600.0, stability_s=30.0)
 W = 600 * S
@@ -192,3 +192,31 @@ def test_advancing_to_the_end_of_a_then_continuing_equals_one_pass() -> None:
     continued = _run(b_steps, _reload(first))
     _assert_same(whole.state, continued.state)
     assert len(whole.state.redirects) > 0
+
+
+def test_merge_releases_nodes_the_later_graph_no_longer_has() -> None:
+    cfg = CFG.replace(stability_s=0.0)
+
+    def build(start: int, nodes: list[int]) -> MapState:
+        m = Mapper(cfg)
+        m.set_fixed_sensor(start, start + 2 * W)
+        m.add_graph(graph(start, nodes, np.array(NODES)[nodes]))
+        m.add_detections(detections(start + S, [[0.2, 0.2, 0], [3.2, 0.2, 0], [3.3, 0.1, 0]]))
+        m.advance(start + W)
+        return m.state
+
+    early, late = build(T0, [0, 1]), build(T0 + DAY, [0])
+    assert len(early.entries.node_rows()) == 2
+    merged = merge_states(early, late)
+    check_invariants(merged)
+    assert merged.accepted == 6
+    np.testing.assert_array_equal(merged.entries.node_id[merged.entries.node_rows()], pid([0]))
+    p0 = merged.node_entry_rows(pid([0]))[0]
+    assert merged.entries.counts[p0].sum() == 2
+    cells = merged.entries.cell_rows()
+    assert merged.entries.counts[cells].sum() == 4  # p1's 2 released + the later map's 2 there
+    np.testing.assert_array_equal(np.unique(merged.entries.key[cells]).size, cells.size)
+    arrays, meta = merged.to_arrays()
+    other = {**meta, "config": cfg.replace(periods=[3600.0]).to_dict()}
+    with pytest.raises(MapCorruptError, match="periods"):
+        MapState.from_arrays(arrays, other)
