@@ -21,6 +21,7 @@ import numpy.typing as npt
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.descriptors import bin_of
 from aion_cli.engine.fremen import FremenModel, FremenState, to_model_seconds
+from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.types import DetectionBatch
 
 F64 = npt.NDArray[np.float64]
@@ -84,15 +85,21 @@ class GridMoD:
         self.state: FremenState = self.model.empty(spec.n_cells * self.bins)
         self.counts = np.zeros((spec.n_cells, self.bins))
         self.windows_observed = 0
+        self.windows_observed_per_cell = np.zeros(spec.n_cells)
 
     def fit(
-        self, batch: DetectionBatch, start_ns: int | None = None, end_ns: int | None = None
+        self,
+        batch: DetectionBatch,
+        start_ns: int | None = None,
+        end_ns: int | None = None,
+        observation: ObservationSource | None = None,
     ) -> None:
-        """Learn from detections seen by a fixed sensor over [start_ns, end_ns).
+        """Learn from detections over the windows overlapping [start_ns, end_ns).
 
-        Every window that overlaps the interval is observed for every cell (the grid has no
-        robot: datasets such as ATC come from fixed sensors); detections without heading or
-        outside the grid are ignored.
+        Without ``observation`` every cell is observed in every window (a fixed sensor, as for
+        ATC); with it, a cell is observed in a window when the source says so for the cell's
+        centre (a robot's sensor range, as aion uses), and unobserved cells teach nothing.
+        Detections without heading or outside the grid are ignored.
         """
         keep = np.isfinite(batch.heading) & np.all(np.isfinite(batch.xyz[:, :2]), axis=1)
         cells = self.spec.cell_of(batch.xyz[:, :2])
@@ -121,8 +128,25 @@ class GridMoD:
         centres_ns = (np.arange(first, last + 1) * window_ns + window_ns // 2).astype(np.int64)
         t_s = to_model_seconds(centres_ns)
         values = normalised.reshape(n_windows, -1).T
+        observed = self._observed(first, n_windows, window_ns, observation)
+        self.windows_observed_per_cell += observed.sum(axis=0)
         rows = np.arange(self.spec.n_cells * self.bins, dtype=np.int64)
-        self.model.update(self.state, rows, t_s, values, np.ones_like(values, dtype=bool))
+        mask = np.repeat(observed.T, self.bins, axis=0)
+        self.model.update(self.state, rows, t_s, values, mask | (values > 0))
+
+    def _observed(
+        self, first: int, n_windows: int, window_ns: int, observation: ObservationSource | None
+    ) -> npt.NDArray[np.bool_]:
+        """Observed mask float[n_windows, n_cells] (every cell when no source is given)."""
+        if observation is None:
+            return np.ones((n_windows, self.spec.n_cells), dtype=bool)
+        centres = self.spec.centres()
+        return np.stack(
+            [
+                observation.observed(centres, first + k, window_ns, self.config.sensor_range)
+                for k in range(n_windows)
+            ]
+        )
 
     def predict(self, t_ns: int, order: int | None = None) -> F64:
         """Predicted max-normalised bin values per cell at ``t_ns``: float64[n_cells, B].
@@ -145,7 +169,8 @@ class GridMoD:
 
 def expected_counts_per_window(grid: GridMoD) -> F64:
     """Historical mean detections per observed window per cell (the grid's flow magnitude)."""
-    if grid.windows_observed == 0:
-        return np.zeros(grid.spec.n_cells)
-    return grid.counts.sum(axis=1) / grid.windows_observed
+    windows = grid.windows_observed_per_cell
+    out = np.zeros(grid.spec.n_cells)
+    np.divide(grid.counts.sum(axis=1), windows, out=out, where=windows > 0)
+    return out
 

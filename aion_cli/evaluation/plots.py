@@ -1,0 +1,96 @@
+"""PNG plots for the evaluation report (matplotlib with the non-interactive Agg backend).
+
+matplotlib is imported inside each function so importing aion stays fast and headless
+machines never need a display.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+F64 = npt.NDArray[np.float64]
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def nll_per_hour(rows: list[dict[str, Any]], path: Path, title: str) -> Path:
+    """One line per model: mean heading NLL (all detections) against the local hour."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for model in dict.fromkeys(r["model"] for r in rows):
+        mine = sorted((r for r in rows if r["model"] == model), key=lambda r: r["hour"])
+        ax.plot([r["hour"] for r in mine], [r["nll_all"] for r in mine], marker="o", label=model)
+    ax.axhline(np.log(2 * np.pi), color="grey", linestyle="--", label="uniform (log 2π)")
+    ax.set_xlabel("local hour (JST)")
+    ax.set_ylabel("heading NLL (nats, lower is better)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def flow_maps_side_by_side(
+    grid_xy: F64,
+    grid_angle: F64,
+    grid_flow: F64,
+    aion_xy: F64,
+    aion_angle: F64,
+    aion_flow: F64,
+    path: Path,
+    title: str,
+) -> Path:
+    """The paper's Fig. 4: dominant directions as arrows, grid (left) and aion (right).
+
+    Arrow length follows the flow magnitude normalised by each map's maximum.
+    """
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5), sharex=True, sharey=True)
+    for ax, xy, angle, flow, name in (
+        (axes[0], grid_xy, grid_angle, grid_flow, "grid (STeF-style, 1 m)"),
+        (axes[1], aion_xy, aion_angle, aion_flow, "aion (nodes and unbound cells)"),
+    ):
+        ok = np.isfinite(angle) & (flow > 0)
+        scale = flow[ok] / max(float(flow[ok].max()), 1e-9) if np.any(ok) else flow[ok]
+        ax.quiver(
+            xy[ok, 0], xy[ok, 1], np.cos(angle[ok]) * scale, np.sin(angle[ok]) * scale,
+            scale, cmap="viridis", angles="xy", scale_units="xy", scale=1.0, width=0.004,
+        )
+        ax.set_title(name)
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.2)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def door_weeks(weeks: list[dict[str, Any]], path: Path) -> Path:
+    """Bars: MAE of FreMEn and of the static mean per test week."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    k = np.array([w["week"] for w in weeks])
+    ax.bar(k - 0.2, [w["mae_fremen"] for w in weeks], width=0.4, label="FreMEn")
+    ax.bar(k + 0.2, [w["mae_static"] for w in weeks], width=0.4, label="static mean")
+    ax.set_xlabel("test week")
+    ax.set_ylabel("mean absolute error")
+    ax.set_title("FreMEn on the door signal")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,56 @@
+"""The paper's comparison protocol: metric plumbing on known views, then one small scene."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from aion_cli.evaluation.office import PAPER_TABLE, MapView, compare_views, run_office
+
+
+def view(seed: int = 0, n: int = 50) -> MapView:
+    rng = np.random.default_rng(seed)
+    return MapView(rng.uniform(0.1, 1.0, n), rng.uniform(1.0, 5.0, n), rng.uniform(-3, 3, n))
+
+
+def test_identical_views_compare_as_identical() -> None:
+    v = view()
+    rows = compare_views(v, v)
+    assert rows["Entropy"]["js"] == pytest.approx(0.0, abs=1e-12)
+    assert rows["Flow"]["bhattacharyya"] == pytest.approx(0.0, abs=1e-12)
+    assert rows["Flow"]["wasserstein"] == pytest.approx(0.0, abs=1e-12)
+    assert rows["Direction"]["wasserstein"] == pytest.approx(0.0, abs=1e-9)
+    assert rows["Direction"]["circular_correlation"] == pytest.approx(1.0)
+
+
+def test_rotated_directions_give_the_rotation_angle() -> None:
+    v = view(1)
+    turned = MapView(v.entropy, v.flow, v.angle + math.radians(40))
+    rows = compare_views(v, turned)
+    assert rows["Direction"]["wasserstein"] == pytest.approx(40.0)
+    assert rows["Direction"]["circular_correlation"] == pytest.approx(1.0)
+
+
+def test_cells_without_flow_are_left_out() -> None:
+    v = view(2)
+    empty = MapView(v.entropy, np.where(np.arange(50) < 25, v.flow, 0.0), v.angle)
+    assert compare_views(v, empty)["Direction"]["cells"] == 25
+
+
+@pytest.mark.slow
+def test_one_small_office_scene_end_to_end() -> None:
+    result = run_office(scenes=1, days=0.5, eval_hours=4)
+    table = {(r["map_type"], r["data_type"]): r for r in result.table()}
+    assert set(table) == set(PAPER_TABLE)
+    js, _std = table[("Flow", "Historical")]["js"]
+    assert 0.0 <= js <= 1.0
+    assert table[("Direction", "Historical")]["js"] is None
+    disp, _ = table[("Direction", "Historical")]["wasserstein"]
+    assert 0.0 <= disp <= 180.0
+    scene = result.scenes[0]
+    assert scene["detections"] > 0
+    assert scene["truth"]["places_compared"] > 0
+    assert scene["grid_bytes"] > 0
+    assert result.figure is not None
