@@ -101,7 +101,9 @@ class _Stream:
         self.offset = rng.normal(0.0, cfg.place_noise, size=(m, 3)) * np.array([1, 1, 0.3])
         self.xyz = env.xyz + self.offset
         self.updated = np.zeros(m, dtype=np.int64)
-        self.next_index = int(m)
+        # fresh ids for re-added places continue after the largest index in use
+        index = env.place_ids & np.uint64((1 << 56) - 1)
+        self.next_index = int(index.max()) + 1 if m else 0
         # (t_ns, kind, node, target, src_xyz, dst_xyz); positions are copies, never row views
         self.events: list[tuple[int, int, int, int, F64, F64]] = []
 

@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
 
 from aion_cli.sim.graphstream import EVENT_KINDS
-from aion_cli.sim.scenario import SceneResult
+from aion_cli.sim.scenario import SceneResult, build_scene, load_environment
 from formats.dsg import decode_dsg_update
 from formats.logs import open_logs
-from tests.sim.conftest import load_truth
+from tests.sim.conftest import DSG_DIR, PATROL, load_truth
 
 PLACES = 3
 
@@ -135,12 +135,31 @@ def test_removed_places_vanish_and_return_under_new_ids(stream: tuple[list[Frame
         assert int(node[i]) not in after.pos
         later = [f for f in frames if f.t_ns > truth["event_t_ns"][i]]
         assert all(int(node[i]) not in f.pos for f in later)  # ids are never reused
-    m = len(truth["place_ids"])
-    index = node & np.uint64((1 << 56) - 1)
-    readded = np.flatnonzero((kind == EVENT_KINDS.index("add")) & (index >= m))
+    readded = np.flatnonzero(
+        (kind == EVENT_KINDS.index("add")) & ~np.isin(node, truth["place_ids"])
+    )
     assert len(readded) >= 1
     for i in readded:
-        assert int(node[i]) in frames[-1].pos or any(int(node[i]) == int(n) for n in node[removes])
+        assert int(node[i]) in frames[-1].pos or int(node[i]) in set(node[removes].tolist())
+
+
+def test_new_ids_never_collide_with_a_real_graphs_ids() -> None:
+    """Real files number places sparsely; ids issued for re-added places must be fresh."""
+    config = replace(
+        PATROL, environment=str(DSG_DIR / "mp3d_x8F5xyUWy9e_dsg.json"), days=3 / 24, agents=0
+    )
+    env = load_environment(config)
+    index = env.place_ids & np.uint64((1 << 56) - 1)
+    assert int(index.max()) >= env.n_places  # the file's ids are not 0..m-1
+    frames = build_scene(config, env, 0).frames
+    kind, node = frames.events.kind, frames.events.node
+    added = node[kind == EVENT_KINDS.index("add")]
+    fresh = added[~np.isin(added, env.place_ids)]
+    assert len(fresh) >= 1
+    assert len(np.unique(added)) == len(added)
+    for f in range(len(frames)):
+        alive = frames.ids[f][frames.state[f] == 1]
+        assert len(np.unique(alive)) == len(alive)
 
 
 def test_payloads_decode_with_hierarchy_and_mesh(stream: tuple[list[Frame], dict]) -> None:
