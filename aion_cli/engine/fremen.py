@@ -450,22 +450,27 @@ class FremenModel:
                 span = last[sc] - first[sc]
                 if span.min() < max_span:  # some period not yet admitted for some row
                     np.putmask(ba, min_span > span[:, None], -1.0)
-                s = vz[sc, w]
-                p = mu.copy()
-                e_row = err[sc]
-                e_row[:, 0] += np.abs(s - np.clip(p, 0.0, 1.0))
+                # the m_eff strongest components, strongest first (ties: lowest index)
                 ar = np.arange(q)
-                scale = 2.0 / nn
-                cw, sw = cos_t[w], sin_t[w]
-                for m in range(1, m_eff + 1):
+                picks = np.empty((q, m_eff), dtype=np.int64)
+                values = np.empty((q, m_eff))
+                for m in range(m_eff):
                     j = np.argmax(ba, axis=1)
-                    admitted = ba[ar, j] >= 0.0
-                    contrib = (bx[ar, j] * cw[j] + by[ar, j] * sw[j]) * scale
-                    p += np.where(admitted, contrib, 0.0)
+                    picks[:, m] = j
+                    values[:, m] = ba[ar, j]
                     ba[ar, j] = -2.0
-                    e_row[:, m] += np.abs(s - np.clip(p, 0.0, 1.0))
-                e_row[:, m_eff + 1 :] += e_row[:, m_eff : m_eff + 1] - err[sc, m_eff : m_eff + 1]
-                err[sc] = e_row
+                rows2 = ar[:, None]
+                terms = bx[rows2, picks] * cos_t[w, picks] + by[rows2, picks] * sin_t[w, picks]
+                terms *= (2.0 / nn)[:, None]
+                terms[values < 0.0] = 0.0  # not admitted by the span gate
+                p = np.empty((q, m_all + 1))
+                p[:, 0] = mu
+                np.cumsum(terms, axis=1, out=p[:, 1 : m_eff + 1])
+                p[:, 1 : m_eff + 1] += mu[:, None]
+                p[:, m_eff + 1 :] = p[:, m_eff : m_eff + 1]
+                np.clip(p, 0.0, 1.0, out=p)
+                p -= vz[sc, w][:, None]
+                err[sc] += np.abs(p)
                 scored_n[sc] += 1.0
             # absorb window w into the chunk's private accumulators
             cw, sw = cos_t[w], sin_t[w]
