@@ -1,0 +1,229 @@
+"""The benchmark runner (``make bench`` = ``python -m benchmarks.run``).
+
+Runs the sections below, prints one table (figure, value, ratio to an in-process baseline,
+target, met/missed) and writes every raw result plus the machine (CPU, cores, RAM, Python,
+numpy, load average, date) to ``benchmarks/results.json``.
+
+Sections (``--only NAME``, repeatable): ``ingest`` (bench_ingest: ``aion build`` on a 5 M
+detection log vs raw iteration and rosbags decoding), ``fremen`` (bench_fremen), ``engine``
+(bench_engine: ``Mapper.add_detections``), ``memory`` (bench_memory: aion vs dense grid),
+``queries`` (bench_engine.run_queries: load, predict, plan, export), ``scaling``
+(bench_scaling, writes ``scaling.png``).
+
+``--quick`` uses small sizes (seconds, for the smoke test and a fast look) and writes to
+``benchmarks/_work/results-quick.json`` unless ``--out`` says otherwise, so it never replaces
+the committed full results. Speed is never asserted here or in tests: targets are reported.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from benchmarks.common import ROOT, WORK, fmt_si, machine_info
+
+SECTIONS = ("ingest", "fremen", "engine", "memory", "queries", "scaling")
+RESULTS = ROOT / "benchmarks" / "results.json"
+
+
+def _ingest(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_ingest
+
+    if quick:
+        return bench_ingest.run(detections=20_000, repeats=1, rosbags_messages=200)
+    return bench_ingest.run(detections=5_000_000, repeats=1, rosbags_messages=40_000)
+
+
+def _fremen(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_fremen
+
+    return bench_fremen.run(sizes=(10**3,) if quick else (10**3, 10**4, 10**5, 10**6))
+
+
+def _engine(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_engine
+
+    if quick:
+        return [bench_engine.measure(20_000, 1, 1) | {"name": "engine ingest quick, 1 window"}]
+    return bench_engine.run(sizes=(10**6, 10**7), repeats=2)
+
+
+def _memory(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_memory
+
+    return bench_memory.run(scale=0.005 if quick else 1.0)
+
+
+def _queries(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_engine
+
+    if quick:
+        return bench_engine.run_queries(n_entries=1000, export_nodes=200, plan=False,
+                                        repeats=1, times=3)
+    return bench_engine.run_queries(n_entries=100_000, export_nodes=10_000, plan=True,
+                                    repeats=3, times=100)
+
+
+def _scaling(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_scaling
+
+    if quick:
+        return bench_scaling.run(det_sizes=(10**4, 3 * 10**4), entry_sizes=(100, 400),
+                                 entry_detections=10_000, png=WORK / "scaling-quick.png")
+    return bench_scaling.run()
+
+
+RUNNERS: dict[str, Callable[[bool], list[dict[str, Any]]]] = {
+    "ingest": _ingest, "fremen": _fremen, "engine": _engine, "memory": _memory,
+    "queries": _queries, "scaling": _scaling,
+}
+
+
+# -- the table ---------------------------------------------------------------------------------
+def _find(rows: list[dict[str, Any]], prefix: str) -> dict[str, Any] | None:
+    return next((r for r in rows if str(r.get("name", "")).startswith(prefix)), None)
+
+
+def summary(results: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
+    """Headline figures: ``{section, figure, value, vs, target, met}`` (met None = no target)."""
+    out: list[dict[str, Any]] = []
+
+    def add(section: str, figure: str, value: str, vs: str = "", target: str = "",
+            met: bool | None = None) -> None:
+        out.append({"section": section, "figure": figure, "value": value, "vs": vs,
+                    "target": target, "met": met})
+
+    for r in results.get("ingest", []):
+        add("ingest", f"aion build, {r['detections']:,} detections",
+            f"{fmt_si(r['build_detections_per_s'], 'det/s')} ({r['build_s']:.1f} s)",
+            f"{r['build_vs_raw']:.1f}x raw iteration", "<= 2x raw iteration",
+            r["build_vs_raw"] <= 2.0)
+        add("ingest", "raw message iteration", fmt_si(r["raw_detections_per_s"], "det/s"),
+            f"{r['raw_iteration_s']:.1f} s")
+        add("ingest", "rosbags generic decode (extrapolated)",
+            fmt_si(r["rosbags_detections_per_s"], "det/s"),
+            f"{r['rosbags_vs_build']:.2f}x build time")
+    fremen = results.get("fremen", [])
+    if fremen:
+        top = max(fremen, key=lambda r: r["states"])
+        add("fremen", f"updates/s, {top['states']:,} states",
+            fmt_si(top["updates_per_s"]), f"{top['update_vs_loop']:.0f}x loop",
+            ">= 20 M/s", top["updates_per_s"] >= 20e6)
+        add("fremen", f"predictions/s, {top['states']:,} states",
+            fmt_si(top["predictions_per_s"]), f"{top['predict_vs_loop']:.0f}x loop",
+            ">= 20 M/s", top["predictions_per_s"] >= 20e6)
+    for r in results.get("engine", []):
+        target = r["windows"] == 1
+        add("engine", str(r["name"]).replace("engine ingest ", "add_detections "),
+            fmt_si(r["detections_per_s"], "det/s"),
+            f"{r['vs_bincount']:.1f}x bincount time, {r['vs_dict_loop']:.0f}x dict loop",
+            ">= 2 M det/s" if target else "", (r["detections_per_s"] >= 2e6) if target else None)
+    for r in results.get("memory", []):
+        if "dense_cells" not in r:
+            add("memory", "dense grid check: bytes/cell measured vs analytic",
+                f"{r['measured_peak_bytes_per_cell']:.0f} B",
+                f"analytic {r['analytic_bytes_per_cell']:.0f} B", "")
+            continue
+        campus_graph = r["env"] == "campus" and r["graph"]
+        add("memory", str(r["name"]),
+            f"{r['aion_peak_bytes'] / 1e6:.0f} MB peak, map {r.get('map_file_bytes', 0) / 1e6:.0f}"
+            f" MB",
+            f"dense {r['dense_bytes_analytic'] / 1e9:.1f} GB = "
+            f"{r['ratio_dense_over_aion_peak']:.0f}x",
+            "<= 1/20 dense" if campus_graph else "",
+            (r["ratio_dense_over_aion_peak"] >= 20) if campus_graph else None)
+    q = results.get("queries", [])
+    for prefix, target, limit in (("map load", "", None),
+                                  ("predict_table, 1 time", "< 50 ms", 0.05),
+                                  ("predict_table x", "", None),
+                                  ("batched FreMEn", "", None),
+                                  ("plan temporal corner-corner", "< 1 s", 1.0),
+                                  ("plan distance-only", "", None),
+                                  ("export", "", None)):
+        found = _find(q, prefix)
+        if found is None:
+            continue
+        vs = ", ".join(f"{k}={v:.3g}" for k, v in found.items()
+                       if k.startswith("vs_") and isinstance(v, float))
+        size = found.get("entries", found.get("nodes", found.get("expanded", "")))
+        add("queries", f"{found['name']} ({size})", f"{found['seconds'] * 1e3:.1f} ms", vs,
+            target, (found["seconds"] < limit) if limit is not None else None)
+    for r in results.get("scaling", []):
+        if str(r["name"]).endswith("slopes"):
+            add("scaling", f"log-log slope vs {r['series']}",
+                f"time {r['time_slope']:.2f}, memory {r['memory_slope']:.2f}", "",
+                "~1 (linear)" if r["series"] == "detections" else "")
+    return out
+
+
+def print_table(rows: list[dict[str, Any]]) -> None:
+    """The summary as an aligned text table."""
+    head = ("section", "figure", "value", "vs baseline", "target", "status")
+    cells = [[r["section"], r["figure"], r["value"], r["vs"], r["target"],
+              "" if r["met"] is None else ("met" if r["met"] else "MISSED")] for r in rows]
+    widths = [max(len(h), *(len(c[i]) for c in cells)) if cells else len(h)
+              for i, h in enumerate(head)]
+    line = "  ".join(h.ljust(w) for h, w in zip(head, widths, strict=True))
+    print(line)
+    print("-" * len(line))
+    for c in cells:
+        print("  ".join(v.ljust(w) for v, w in zip(c, widths, strict=True)))
+
+
+def _clean(x: Any) -> Any:
+    """JSON-safe copy (NaN/inf -> None, numpy scalars -> Python)."""
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if hasattr(x, "item") and not isinstance(x, (str, bytes)):
+        x = x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.run", description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="small sizes (seconds)")
+    parser.add_argument("--only", action="append", choices=SECTIONS, metavar="NAME",
+                        help=f"run only this section (repeatable): {', '.join(SECTIONS)}")
+    parser.add_argument("--out", type=Path, default=None, help="results JSON path")
+    args = parser.parse_args(argv)
+    sections = args.only or list(SECTIONS)
+    out = args.out or (WORK / "results-quick.json" if args.quick else RESULTS)
+    WORK.mkdir(parents=True, exist_ok=True)
+    machine = machine_info()
+    print(f"machine: {machine['cpu_model']}, {machine['cores']} cores, {machine['ram_gb']} GB, "
+          f"Python {machine['python']}, numpy {machine['numpy']}, load "
+          f"{machine['load_average_1_5_15']}", flush=True)
+    results: dict[str, list[dict[str, Any]]] = {}
+    seconds: dict[str, float] = {}
+    for name in sections:
+        t0 = time.perf_counter()
+        print(f"[{name}] running ...", flush=True)
+        results[name] = RUNNERS[name](args.quick)
+        seconds[name] = time.perf_counter() - t0
+        print(f"[{name}] done in {seconds[name]:.0f} s", flush=True)
+    table = summary(results)
+    print()
+    print_table(table)
+    machine["load_average_after"] = [round(x, 2) for x in __import__("os").getloadavg()]
+    payload = {"command": "python -m benchmarks.run" + (" --quick" if args.quick else "")
+               + "".join(f" --only {s}" for s in args.only or []),
+               "machine": machine, "section_seconds": seconds, "summary": table,
+               "results": results}
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(_clean(payload), indent=1) + "\n")
+    print(f"\nwrote {out.relative_to(ROOT) if out.is_relative_to(ROOT) else out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
