@@ -409,6 +409,13 @@ class _Build:
             end = max(end, int(old.get("end_ns", end)))
         self.report.start_ns, self.report.end_ns = start, end
 
+    def _cumulative_counts(self) -> dict[str, Any]:
+        """Detections read / used / dropped over every build of the map."""
+        new = self.report.to_dict()["detections"]
+        if self.previous is None:
+            return new
+        return _add_counts(self.previous.manifest.get("counts", {}), new)
+
     def _write(self, mapper: Mapper, config: ModelConfig, inputs: list[dict[str, Any]]) -> None:
         from formats.mapfile import write_map
 
@@ -425,13 +432,25 @@ class _Build:
             "config": config.to_dict(),
             "inputs": inputs,
             "time_span": {"start_ns": self.report.start_ns, "end_ns": self.report.end_ns},
-            "counts": self.report.to_dict()["detections"] | stats,
+            "counts": self._cumulative_counts() | stats,
+            "last_build": self.report.to_dict()["detections"],
             "graph_source": self.report.graph_source,
             "observation": self.report.observation,
         }
         out = self.report.output
         write_map(out, arrays, manifest)
         self.report.map_bytes = out.stat().st_size
+
+
+def _add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+    dropped = dict(old.get("dropped", {}))
+    for reason, n in new["dropped"].items():
+        dropped[reason] = int(dropped.get(reason, 0)) + int(n)
+    return {
+        "read": int(old.get("read", 0)) + new["read"],
+        "used": int(old.get("used", 0)) + new["used"],
+        "dropped": dict(sorted(dropped.items())),
+    }
 
 
 def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> BuildReport:

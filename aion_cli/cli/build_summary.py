@@ -8,7 +8,7 @@ from aion_cli.cli.console import console
 from aion_cli.cli.output import human_size
 
 
-def _span(seconds: float | None) -> str:
+def span_text(seconds: float | None) -> str:
     if seconds is None:
         return "-"
     whole = round(seconds)
@@ -35,7 +35,7 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row("hash cells", f"{summary['cells']:,}")
     table.add_row("bound cells", f"{summary['bound_cells']:,}")
     table.add_row("windows observed", f"{summary['windows']:,}")
-    table.add_row("time span", _span(summary["time_span"]["seconds"]))
+    table.add_row("time span", span_text(summary["time_span"]["seconds"]))
     table.add_row("observation", summary["observation"])
     table.add_row("map size", human_size(summary["map_bytes"]))
     out = console()

@@ -13,6 +13,7 @@ EPILOG = """\b
 Examples:
   aion info run.mcap
   aion info run1.mcap run2.bag rosbag2_folder/      several logs, seen as one
+  aion info office.aion                              a map: inputs, time span, counts, config
   aion info run.mcap --format json | jq '.topics[] | select(.role == "detections")'
 
 \b
@@ -21,8 +22,19 @@ type, used by build), tf / tf_static (frames and the robot trajectory), unsuppor
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
 size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
 role, encoding, rate_hz, used}], roles, dsg_versions, will_use{detections, scene_graph, tf},
-cannot_read, warnings.
+cannot_read, warnings. For a map (.aion): format, version, creator, created, inputs,
+time_span, counts (all builds), last_build, graph_source, observation, config.
 """
+
+MAP_SUFFIX = ".aion"
+
+
+def describe_map(path: Path) -> dict[str, Any]:
+    """The manifest of a map file (cheap: no array is read), without the internal tables."""
+    from formats.mapfile import read_manifest
+
+    manifest = read_manifest(path)
+    return {"map": str(path)} | {k: v for k, v in manifest.items() if k not in ("members", "state")}
 
 
 def describe(paths: list[Path], log_format: str | None) -> dict[str, Any]:
@@ -77,12 +89,26 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
 )
 @format_option(choices=("table", "json"))
 def command(logs: tuple[Path, ...], log_format: str | None, fmt: str) -> None:
-    """Show the format, duration and topics of LOGS and what aion will use from them."""
+    """Show the format, duration and topics of LOGS and what aion will use from them.
+
+    Given a map (.aion) instead, show what it was built from and with.
+    """
     from aion_cli.engine.errors import InputError
 
     for path in logs:
         if not path.exists():
-            raise InputError(f"log not found: {path}", hint="check the path")
+            raise InputError(f"not found: {path}", hint="check the path")
+    maps = [p for p in logs if p.suffix == MAP_SUFFIX and p.is_file()]
+    if maps and len(maps) != len(logs):
+        raise InputError("give either logs or maps, not both")
+    if maps:
+        reports = [describe_map(p) for p in maps]
+        if fmt == "json":
+            click.echo(to_json(reports[0] if len(reports) == 1 else reports))
+        else:
+            for report in reports:
+                _print_map(report)
+        return
     report = describe(list(logs), log_format)
     if fmt == "json":
         click.echo(to_json(report))
@@ -132,3 +158,34 @@ def _print(report: dict[str, Any]) -> None:
         )
     for warning in report["warnings"]:
         console().print(f"[yellow]warning:[/yellow] {warning}", soft_wrap=True)
+
+
+def _print_map(report: dict[str, Any]) -> None:
+    from rich.table import Table
+
+    from aion_cli.cli.build_summary import span_text
+    from aion_cli.cli.console import data_console
+    from aion_cli.engine.config import ModelConfig
+
+    span = report.get("time_span", {})
+    start, end = span.get("start_ns"), span.get("end_ns")
+    seconds = None if start is None or end is None else (end - start) / 1e9
+    counts = report.get("counts", {})
+    table = Table(title=f"map {report['map']}", show_header=False, title_justify="left")
+    table.add_column("what", style="bold")
+    table.add_column("value")
+    table.add_row("format", f"{report.get('format')} {report.get('version')}")
+    table.add_row("created", f"{report.get('created')} by {report.get('creator')}")
+    table.add_row("time span", span_text(seconds))
+    table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
+    table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
+    table.add_row("graph", str(report.get("graph_source")))
+    table.add_row("observation", str(report.get("observation")))
+    defaults = ModelConfig().to_dict()
+    changed = {k: v for k, v in report.get("config", {}).items() if defaults.get(k) != v}
+    table.add_row("config", ", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults")
+    for entry in report.get("inputs", []):
+        table.add_row(
+            "input", f"{entry['name']}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"
+        )
+    data_console().print(table)

@@ -159,6 +159,10 @@ def test_continuing_a_map_equals_building_at_once(tmp_path: Path) -> None:
     a = run_json("predict", both, "--time", at, "--format", "json")["entries"]
     b = run_json("predict", step, "--time", at, "--format", "json")["entries"]
     assert a == b
+    manifest = run_json("info", step, "--format", "json")
+    assert manifest["counts"]["used"] == 600  # over both builds
+    assert manifest["last_build"]["used"] == 300
+    assert [i["name"] for i in manifest["inputs"]] == ["day1.mcap", "day2.mcap"]
     # the same log cannot be added twice
     result = run("build", day2, "--map", step)
     assert result.exit_code == 2

@@ -77,3 +77,21 @@ def test_subprocess_info(office: Office) -> None:
     proc = run_process("info", office.log, "--format", "json")
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["will_use"]["detections"] == ["/tracks"]
+
+
+def test_info_on_a_map(office: Office) -> None:
+    doc = run_json("info", office.map, "--format", "json")
+    assert doc["format"] == "aion-map"
+    assert doc["counts"]["used"] == 300
+    assert doc["inputs"][0]["name"] == "office.mcap"
+    assert doc["time_span"] == {
+        "start_ns": office.expected.start_ns,
+        "end_ns": office.expected.end_ns,
+    }
+    assert "members" not in doc
+    table = run("info", office.map)
+    assert table.exit_code == 0
+    assert "office.mcap" in table.stdout
+    mixed = run("info", office.map, office.log)
+    assert mixed.exit_code == 2
+    assert_one_line_error(mixed.stderr, "not both")
