@@ -137,3 +137,83 @@ def door(data_dir: Path, fmt: str) -> None:
         Column("mae_static", "MAE static", num(4)),
     )
     emit(fmt, result["weeks"], columns, json_payload=result, title="FreMEn door check")
+
+
+def _pair(value: Any) -> str:
+    if value is None:
+        return "--"
+    mean, std = value
+    return f"{mean:.2f} ± {std:.2f}"
+
+
+TABLE_I_COLUMNS = (
+    Column("map_type", "map type", justify="left"),
+    Column("data_type", "data type", justify="left"),
+    Column("js", "JS (ours)", _pair),
+    Column("paper_js", "JS (paper)", _pair),
+    Column("bhattacharyya", "Bhatt. (ours)", _pair),
+    Column("paper_bhattacharyya", "Bhatt. (paper)", _pair),
+    Column("wasserstein", "Wass. (ours)", _pair),
+    Column("paper_wasserstein", "Wass. (paper)", _pair),
+    Column("circular_correlation", "circ. r (ours)", _pair),
+    Column("paper_circular_correlation", "circ. r (paper)", _pair),
+)
+
+
+@evaluate.command("office")
+@click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True,
+              help="Simulated office scenes (the paper used 20).")
+@click.option("--agents", type=click.IntRange(1, 100), default=6, show_default=True,
+              help="People per scene (the paper used 6).")
+@click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True,
+              help="Simulated days per scene.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--radius", type=float, default=1.0, show_default=True,
+              help="A grid cell takes the nearest aion entry within this radius (m).")
+@click.option("--config", "config_path", type=click.Path(exists=True, path_type=Path),
+              help="TOML model parameters (see aion build --print-config).")
+@click.option("--keep", "work_dir", type=click.Path(path_type=Path),
+              help="Keep the simulated logs and maps in this folder.")
+@format_option(("table", "json"))
+def office(
+    scenes: int, agents: int, days: float, seed: int, radius: float, config_path: Path | None,
+    work_dir: Path | None, fmt: str,
+) -> None:
+    """The paper's Table I: aion against a STeF-style grid on simulated office scenes, with the
+    paper's numbers beside ours.
+
+    \b
+    Example:
+      aion evaluate office --scenes 20 --days 2 --format json > table1.json
+    """
+    from aion_cli.cli.console import note
+    from aion_cli.evaluation.office import run_office
+
+    result = run_office(scenes, days, agents, seed, _config(config_path), radius,
+                        work_dir=work_dir, progress=note)
+    emit(fmt, result.table(), TABLE_I_COLUMNS, json_payload=result.to_dict(),
+         title=f"aion vs grid, {scenes} office scenes x {agents} people, {days:g} days each")
+
+
+@evaluate.command("report")
+@click.option("-o", "--output", "out_dir", type=click.Path(path_type=Path), required=True,
+              help="Folder for report.md and its PNG plots.")
+@click.option("--data", "data_dir", type=click.Path(path_type=Path), default=DEFAULT_DATA,
+              show_default=True, help="The shared data folder (atc/, fremen_door/).")
+@click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True)
+@click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True)
+@click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "door"]),
+              help="Leave a section out (repeatable).")
+def report(out_dir: Path, data_dir: Path, scenes: int, days: float, skip: tuple[str, ...]) -> None:
+    """Run every protocol and write a markdown report with PNG plots.
+
+    \b
+    Example:
+      aion evaluate report -o report/ --scenes 20 --days 2
+    """
+    from aion_cli.cli.console import note
+    from aion_cli.evaluation.report import write_report
+
+    path = write_report(out_dir, data_dir, scenes=scenes, days=days, skip=set(skip),
+                        progress=note)
+    note(f"wrote {path}")

@@ -1,0 +1,37 @@
+"""`aion evaluate` through click's runner and a real subprocess."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from aion_cli.cli.main import cli
+
+DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+AION = Path(sys.executable).parent / "aion"
+
+
+def test_door_json_reports_every_test_week() -> None:
+    result = CliRunner().invoke(
+        cli, ["evaluate", "door", "--data", str(DATA / "fremen_door"), "--format", "json"],
+        standalone_mode=False,
+    )
+    assert result.return_value == 0
+    payload = json.loads(result.stdout)
+    assert [w["week"] for w in payload["weeks"]] == list(range(1, 10))
+    assert payload["fremen_wins"] == 9
+    assert 24.0 in payload["strongest_periods_h"]
+
+
+def test_missing_data_folder_is_a_one_line_error(tmp_path: Path) -> None:
+    proc = subprocess.run(
+        [str(AION), "evaluate", "atc", "--data", str(tmp_path / "nope")],
+        capture_output=True, text=True, check=False,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("error: ATC data folder not found")
+    assert "Traceback" not in proc.stderr

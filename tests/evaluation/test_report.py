@@ -1,0 +1,31 @@
+"""The markdown report: sections, tables and PNG plots are written."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from aion_cli.evaluation.atc import AtcResult
+from aion_cli.evaluation.report import atc_section, write_report
+
+DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+
+
+def test_door_only_report_has_table_and_plot(tmp_path: Path) -> None:
+    path = write_report(tmp_path, DATA, skip={"office", "atc"})
+    text = path.read_text()
+    assert "## FreMEn on the real door signal" in text
+    assert text.count("\n| ") >= 9
+    assert (tmp_path / "door.png").stat().st_size > 1000
+    assert (tmp_path / "results.json").exists()
+
+
+def test_atc_section_plots_nll_per_hour(tmp_path: Path) -> None:
+    result = AtcResult("random", 1.0, 100)
+    for hour in (9, 10):
+        for model, nll in (("aion", 1.4), ("grid", 1.6)):
+            result.rows.append({"hour": hour, "model": model, "detections": 10, "matched": 9,
+                                "unmatched": 1, "nll_matched": nll, "nll_all": nll + 0.01,
+                                "chi_square": 0.5})
+    lines = atc_section({"random": result}, tmp_path)
+    assert any(line.startswith("| aion |") for line in lines)
+    assert (tmp_path / "atc_random_nll.png").stat().st_size > 1000
