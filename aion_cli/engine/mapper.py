@@ -155,15 +155,12 @@ class Mapper:
     def _route(self, keys: I64, ijk: I64) -> I64:
         """Entry rows for hash keys, creating cell entries for keys never seen."""
         st = self._state
-        rows, found = st.routes.lookup(keys, ijk)
-        if found.all():
-            return rows
-        new_keys, inverse = np.unique(keys[~found], return_inverse=True)
-        centres = cell_centres(new_keys, st.config.cell_size)
-        new_rows = st.allocate(CELL, new_keys, np.zeros(len(new_keys), np.uint64), centres)
-        st.routes.insert(new_keys, new_rows)
-        rows[~found] = new_rows[inverse]
-        return rows
+
+        def create(new_keys: I64) -> I64:
+            centres = cell_centres(new_keys, st.config.cell_size)
+            return st.allocate(CELL, new_keys, np.zeros(len(new_keys), np.uint64), centres)
+
+        return st.routes.route(keys, ijk, create)
 
 
 def _later(current: int | None, t_ns: int) -> int:

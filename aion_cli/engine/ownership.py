@@ -29,7 +29,12 @@ import numpy as np
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.errors import CoordinateRangeError
 from aion_cli.engine.nodes import nearest_nodes
-from aion_cli.engine.spatial_hash import cell_centres, keys_for_points, packable_mask
+from aion_cli.engine.spatial_hash import (
+    cell_centres,
+    keys_for_points,
+    packable_mask,
+    unpack_keys,
+)
 from aion_cli.engine.types import F64, I64, U64, BoolA, GraphSnapshot
 
 if TYPE_CHECKING:
@@ -141,11 +146,9 @@ def rows_for_keys(state: MapState, keys: I64) -> I64:
     """Where state arriving at cell ``keys`` belongs: a redirect's node entry, the live cell
     entry, or a new cell entry (created here)."""
     state.rebuild_routes()
-    rows, found = state.routes.lookup(keys)
-    if not found.all():
-        new_keys = np.unique(keys[~found])
+
+    def create(new_keys: I64) -> I64:
         centres = cell_centres(new_keys, state.config.cell_size)
-        new_rows = state.allocate(CELL, new_keys, np.zeros(len(new_keys), np.uint64), centres)
-        state.routes.insert(new_keys, new_rows)
-        rows, found = state.routes.lookup(keys)
-    return rows
+        return state.allocate(CELL, new_keys, np.zeros(len(new_keys), np.uint64), centres)
+
+    return state.routes.route(keys, unpack_keys(keys), create)

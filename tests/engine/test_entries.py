@@ -149,20 +149,36 @@ def test_direction_bins_fast_path_agrees_with_the_general_rule(theta: list[float
     st.lists(st.tuples(st.integers(-30, 30), st.integers(-30, 30), st.integers(-2, 2)),
              min_size=1, max_size=300, unique=True),
     st.integers(0, 2**31),
+    st.sampled_from([5000, 300]),  # dense-grid path and binary-search path
 )
 @settings(max_examples=40, deadline=None)
-def test_dense_route_lookup_equals_binary_search(
-    cells: list[tuple[int, int, int]], seed: int
+def test_route_finds_known_cells_and_creates_each_new_cell_once(
+    cells: list[tuple[int, int, int]], seed: int, n: int
 ) -> None:
     rng = np.random.default_rng(seed)
     table_ijk = np.array(cells, np.int64)
-    table = RouteTable.build(pack_keys(table_ijk), np.arange(len(cells), dtype=np.int64))
-    query = rng.integers(-35, 35, (5000, 3))
-    query[:, 2] = rng.integers(-3, 3, 5000)
-    query[: len(cells)] = table_ijk
+    known = pack_keys(table_ijk)
+    table = RouteTable.build(known, np.arange(len(cells), dtype=np.int64))
+    query = np.c_[rng.integers(-35, 35, (n, 2)), rng.integers(-3, 3, n)]
+    query[: min(n, len(cells))] = table_ijk[: min(n, len(cells))]
     keys = pack_keys(query)
-    dense_rows, dense_found = table.lookup(keys, query)
-    rows, found = table.lookup(keys)
-    np.testing.assert_array_equal(dense_found, found)
-    np.testing.assert_array_equal(dense_rows, rows)
-    assert found[: len(cells)].all()
+    created: list[np.ndarray] = []
+
+    def create(new_keys: np.ndarray) -> np.ndarray:
+        assert np.all(np.diff(new_keys) > 0)  # sorted and distinct
+        assert not np.isin(new_keys, known).any()
+        created.append(new_keys)
+        return 1000 + np.arange(len(new_keys), dtype=np.int64)
+
+    rows = table.route(keys, query, create)
+    assert len(created) <= 1
+    new_keys = created[0] if created else np.zeros(0, np.int64)
+    np.testing.assert_array_equal(new_keys, np.setdiff1d(keys, known))
+    order = np.argsort(known)  # a known key's row is its position in ``cells``
+    pos = np.searchsorted(known[order], keys).clip(0, len(known) - 1)
+    is_known = known[order][pos] == keys
+    expected = np.where(is_known, order[pos], 1000 + np.searchsorted(new_keys, keys))
+    np.testing.assert_array_equal(rows, expected)
+    again, found = table.lookup(keys)
+    assert found.all()
+    np.testing.assert_array_equal(again, rows)
