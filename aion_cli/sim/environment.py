@@ -68,25 +68,34 @@ class Environment:
         return len(self.place_ids)
 
     @cached_property
-    def _predecessors(self) -> I64:
+    def _graph(self) -> object:
+        """The place edges as a symmetric sparse matrix of edge lengths."""
         from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import dijkstra
 
         a, b = self.edges[:, 0], self.edges[:, 1]
         w = np.linalg.norm(self.xyz[a] - self.xyz[b], axis=1)
         m = self.n_places
-        graph = coo_matrix(
+        return coo_matrix(
             (np.concatenate([w, w]), (np.concatenate([a, b]), np.concatenate([b, a]))),
             shape=(m, m),
         ).tocsr()
-        _, pred = dijkstra(graph, directed=True, return_predecessors=True)
-        return np.asarray(pred, dtype=np.int64)
+
+    @cached_property
+    def _trees(self) -> dict[int, I64]:
+        """Shortest-path predecessor arrays, computed per source on first use (memory grows
+        with the few sources the schedule uses, not with the square of the graph)."""
+        return {}
 
     def path(self, src: int, dst: int) -> I64:
         """Place indices of a shortest path src → dst over the place edges (both ends included)."""
         if src == dst:
             return np.array([src], dtype=np.int64)
-        pred = self._predecessors[src]
+        pred = self._trees.get(src)
+        if pred is None:
+            from scipy.sparse.csgraph import dijkstra
+
+            _, p = dijkstra(self._graph, directed=True, indices=src, return_predecessors=True)
+            pred = self._trees[src] = np.asarray(p, dtype=np.int64)
         if pred[dst] < 0:
             raise NoPathError(
                 f"places {src} and {dst} of environment {self.name!r} are not connected"
