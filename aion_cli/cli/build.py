@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.output import format_option, to_json
+from aion_cli.cli.output import AionCommand, format_option, to_json
 
 EPILOG = """\b
 Examples:
@@ -72,7 +72,19 @@ def _load_config(path: Path | None) -> Any:
     return ModelConfig.from_toml_text(text)
 
 
-@click.command("build", epilog=EPILOG)
+@click.command(
+    "build",
+    cls=AionCommand,
+    epilog=EPILOG,
+    advanced=(
+        "graph_topic",
+        "map_frame",
+        "base_frame",
+        "dsg_version",
+        "log_format",
+        "batch_size",
+    ),
+)
 @click.argument("logs", nargs=-1, type=click.Path(path_type=Path))
 @click.option(
     "-o",

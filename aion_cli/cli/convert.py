@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from aion_cli.cli.output import AionCommand
+
 EPILOG = """\b
 Examples:
   aion convert atc-20121024.csv --layout atc -o atc.mcap
@@ -43,7 +45,9 @@ def _container_for(output: Path, container: str | None) -> str:
     )
 
 
-@click.command("convert", epilog=EPILOG)
+@click.command(
+    "convert", cls=AionCommand, epilog=EPILOG, advanced=("container", "msgtype", "start_text")
+)
 @click.argument("tracks", type=click.Path(path_type=Path))
 @click.option(
     "-o",

@@ -14,6 +14,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
+from aion_cli.cli.output import AionCommand
 from aion_cli.cli.timeparse import Zone
 
 EPILOG = """\b
@@ -53,7 +54,7 @@ def _step_seconds(text: str) -> float:
     return value
 
 
-@click.command("export", epilog=EPILOG)
+@click.command("export", cls=AionCommand, epilog=EPILOG, advanced=("tz",))
 @map_argument
 @click.option(
     "-o",
@@ -63,7 +64,7 @@ def _step_seconds(text: str) -> float:
     type=click.Path(path_type=Path),
     help="Folder to write into (created if missing).",
 )
-@click.option("-t", "--time", "time_text", help="Prediction time. " + TIME_HELP)
+@click.option("-t", "--time", "time_text", metavar="T", help="Prediction time. " + TIME_HELP)
 @click.option("--historical", is_flag=True, help="Export what was observed instead.")
 @click.option("--from", "t_from", metavar="T", help="Start of a time series.")
 @click.option("--to", "t_to", metavar="T", help="End of a time series (inclusive).")

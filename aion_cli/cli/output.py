@@ -22,14 +22,40 @@ FORMATS = ("table", "json", "csv")
 
 def format_option(choices: Sequence[str] = FORMATS, default: str = "table") -> Any:
     """The ``--format`` option shared by the query commands."""
+    machine = " or ".join(c.upper() for c in choices if c != "table")
     return click.option(
         "--format",
         "fmt",
         type=click.Choice(list(choices), case_sensitive=False),
         default=default,
         show_default=True,
-        help="Output on stdout: a table for people, JSON or CSV for scripts.",
+        help=f"A table for people, or {machine} on stdout for scripts.",
     )
+
+
+class AionCommand(click.Command):
+    """A click command whose rarely used options get their own "Advanced options" section
+    in ``--help`` (``advanced=`` names them by parameter name)."""
+
+    def __init__(self, *args: Any, advanced: Sequence[str] = (), **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.advanced = frozenset(advanced)
+
+    def format_options(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        basic: list[tuple[str, str]] = []
+        extra: list[tuple[str, str]] = []
+        for param in self.get_params(ctx):
+            if not isinstance(param, click.Option):
+                continue  # arguments are in the usage line and the description
+            record = param.get_help_record(ctx)
+            if record is not None:
+                (extra if param.name in self.advanced else basic).append(record)
+        if basic:
+            with formatter.section("Options"):
+                formatter.write_dl(basic)
+        if extra:
+            with formatter.section("Advanced options"):
+                formatter.write_dl(extra)
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
-from aion_cli.cli.output import format_option, to_json
+from aion_cli.cli.output import AionCommand, format_option, to_json
 
 EPILOG = """\b
 Examples:
@@ -55,7 +55,7 @@ def _endpoint(text: str, nav: Any, option: str) -> tuple[int, dict[str, Any] | N
     }
 
 
-@click.command("plan", epilog=EPILOG)
+@click.command("plan", cls=AionCommand, epilog=EPILOG, advanced=("tz",))
 @map_argument
 @click.option("--from", "start", required=True, metavar="A", help="Start: node id or x,y[,z].")
 @click.option("--to", "goal", required=True, metavar="B", help="Goal: node id or x,y[,z].")
@@ -63,6 +63,7 @@ def _endpoint(text: str, nav: Any, option: str) -> tuple[int, dict[str, Any] | N
     "-t",
     "--time",
     "time_text",
+    metavar="T",
     default="now",
     show_default=True,
     help="Departure time. " + TIME_HELP,
@@ -77,7 +78,7 @@ def _endpoint(text: str, nav: Any, option: str) -> tuple[int, dict[str, Any] | N
     "--export",
     "export_path",
     type=click.Path(path_type=Path, dir_okay=False),
-    help="Also write the scene with both paths to this .ply file.",
+    help="Also write the scene with the planned (temporal) path to this .ply file.",
 )
 @format_option(choices=("table", "json"))
 def command(

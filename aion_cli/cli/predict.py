@@ -16,7 +16,7 @@ from aion_cli.cli.common import (
     tz_option,
 )
 from aion_cli.cli.entries import COLUMNS, CSV_KEYS, rows_from_table, sort_rows
-from aion_cli.cli.output import emit, format_option
+from aion_cli.cli.output import AionCommand, emit, format_option
 
 EPILOG = """\b
 Examples:
@@ -38,9 +38,11 @@ is centred at -180 + (b + 0.5)*360/B degrees), speed_per_bin (JSON only).
 LAYERS = ("all", "places", "cells", "rooms", "buildings")
 
 
-@click.command("predict", epilog=EPILOG)
+@click.command("predict", cls=AionCommand, epilog=EPILOG, advanced=("tz",))
 @map_argument
-@click.option("-t", "--time", "time_text", default="now", show_default=True, help=TIME_HELP)
+@click.option(
+    "-t", "--time", "time_text", metavar="T", default="now", show_default=True, help=TIME_HELP
+)
 @tz_option
 @click.option(
     "--historical",
