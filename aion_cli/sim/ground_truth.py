@@ -8,7 +8,8 @@
   ``window_s`` seconds aligned to the UNIX epoch, per direction bin of the true walking direction
   with the paper's convention ``bin(θ) = floor((θ+π)/(2π/B)) mod B``.
 - ``seen_counts[W, m, B]``: the same for the positions the sensor saw (true positions, no noise).
-- ``observed[W, m]``: the sensor covered the place at some tick of the window.
+- ``observed[W, m]``: the sensor covered the place at some tick of the window (judged from the
+  place nearest the robot: places within range and sight of it), all true for a fixed sensor.
 - ``event_*``: scene-graph node events (add / move at a loop closure / merge / remove) with ids
   as published, and ``loop_closure_t_ns``.
 - ``agent_*``: the true samples themselves.
