@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING
 
 import click
 
+from aion_cli.cli.output import AionCommand
+
 if TYPE_CHECKING:
     from aion_cli.sim.scenario import SceneResult
 
@@ -65,7 +67,25 @@ def _event_counts(r: SceneResult) -> str:
     )
 
 
-@click.command("simulate", epilog=EPILOG)
+@click.command(
+    "simulate",
+    cls=AionCommand,
+    epilog=EPILOG,
+    advanced=(
+        "utc_offset",
+        "rate",
+        "noise",
+        "sensor_range",
+        "no_line_of_sight",
+        "tour_every",
+        "patrol_hours",
+        "dsg_period",
+        "dsg_idle_period",
+        "tf_idle_period",
+        "no_mesh",
+        "window",
+    ),
+)
 @click.option(
     "-o",
     "--output",
@@ -85,6 +105,7 @@ def _event_counts(r: SceneResult) -> str:
 )
 @click.option(
     "--environment",
+    metavar="office|FILE",
     default="office",
     show_default=True,
     help="'office' (the paper's) or a spark_dsg scene graph file to walk in.",
@@ -112,15 +133,17 @@ def _event_counts(r: SceneResult) -> str:
 )
 @click.option(
     "--detection-type",
+    metavar="TYPE",
     default="tracked_persons",
     show_default=True,
     help="tracked_persons (spencer), pose_array, people (people_msgs).",
 )
 @click.option(
     "--start",
+    metavar="DATE[THH:MM]",
     default="2026-01-05",
     show_default=True,
-    help="Local date of the first day (ISO; the default is a Monday).",
+    help="Local date (and time) the scene starts; the default is a Monday midnight.",
 )
 @click.option(
     "--utc-offset",
@@ -154,6 +177,7 @@ def _event_counts(r: SceneResult) -> str:
 )
 @click.option(
     "--patrol-hours",
+    metavar="START-END",
     default="0-24",
     show_default=True,
     help="Local hours START-END in which tours start.",
@@ -177,7 +201,7 @@ def _event_counts(r: SceneResult) -> str:
     type=float,
     default=10.0,
     show_default=True,
-    help="Seconds between /tf messages while the robot is parked.",
+    help="Seconds between /tf (and empty detection) messages while nothing moves.",
 )
 @click.option("--no-mesh", is_flag=True, help="Leave the mesh out of the scene graphs.")
 @click.option(
