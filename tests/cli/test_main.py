@@ -85,3 +85,13 @@ def test_subprocess_missing_map_is_one_line_exit_2(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert_one_line_error(proc.stderr, "nope.aion")
     assert proc.stdout == ""
+
+
+def test_interrupt_is_exit_130_and_broken_pipe_is_quiet(capsys: pytest.CaptureFixture[str]) -> None:
+    assert report(KeyboardInterrupt(), debug=False) == 130
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "interrupted")
+    assert report(BrokenPipeError(32, "Broken pipe"), debug=False) == 0
+    assert capsys.readouterr().err == ""
+    assert report(PermissionError(13, "Permission denied", "/root/x.aion"), debug=False) == 2
+    assert_one_line_error(capsys.readouterr().err, "Permission denied", "/root/x.aion")
