@@ -38,6 +38,8 @@ FORMATS: dict[str, tuple[str, str]] = {  # --format -> (LogWriter container, fil
 
 Progress = Callable[[str, int, int], None]
 
+MAX_TICKS = 6_000_000  # ~35 days at 2 Hz: per-tick robot arrays stay below ~300 MB
+
 
 @dataclass(frozen=True)
 class ScenarioConfig:
@@ -89,6 +91,12 @@ class ScenarioConfig:
         for ok, message in checks:
             if not ok:
                 raise InputError(message)
+        if self.days * 86400.0 * self.rate_hz > MAX_TICKS:
+            raise InputError(
+                f"{self.days:g} days at {self.rate_hz:g} Hz is more than one scene holds "
+                f"({MAX_TICKS:,} sensor ticks; the robot is simulated per tick in memory)",
+                hint="simulate several scenes (--scenes) or lower --rate",
+            )
         if self.robot == "fixed" and self.resolved_frame() == "base_link":
             raise InputError(
                 "a fixed sensor publishes in the map frame",

@@ -55,6 +55,7 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
         ("--days", "0"),
         ("--environment", str(tmp_path / "missing.json")),
         ("--patrol-hours", "7to20"),
+        ("--days", "400"),
     ]
     for extra in cases:
         code, output = _run("simulate", "-o", tmp_path / "x.mcap", "--quiet", *extra)
