@@ -14,6 +14,7 @@ No traceback is printed unless ``--debug`` was given (or ``AION_DEBUG=1`` is set
 from __future__ import annotations
 
 import errno
+import os
 import sys
 import traceback
 
@@ -85,8 +86,18 @@ def report(exc: BaseException, debug: bool) -> int:
     return EXIT_FAULT
 
 
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # no real file descriptor (e.g. a test runner's buffer)
+        pass
+
+
 def _report_os_error(exc: OSError) -> int:
     if exc.errno == errno.EPIPE:  # stdout closed early (e.g. `| head`): not a failure
+        _silence_stdout()
         return EXIT_OK
     what = exc.strerror or str(exc)
     where = f": {exc.filename}" if exc.filename else ""
