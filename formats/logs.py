@@ -21,6 +21,7 @@ import heapq
 import io
 import re
 import struct
+import zlib
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from operator import attrgetter
@@ -100,11 +101,18 @@ class _McapSource(_Source):
 
     def __init__(self, path: Path, fmt_name: str | None = None) -> None:
         from mcap.exceptions import McapError
+        from zstandard import ZstdError
 
         self.path = path
         self.warnings = []
         self._stream: IO[bytes] = path.open("rb")
-        self._errors: tuple[type[BaseException], ...] = (McapError, *_MCAP_READ_ERRORS)
+        # RuntimeError: what lz4 raises on a damaged frame
+        self._errors: tuple[type[BaseException], ...] = (
+            McapError,
+            ZstdError,
+            RuntimeError,
+            *_MCAP_READ_ERRORS,
+        )
         self._chunk_indexes: list[Any] | None = None
         self._stop_offset: int | None = None
         self._profile = ""
@@ -220,7 +228,7 @@ class _McapSource(_Source):
             try:
                 record = next(records)
                 if isinstance(record, Chunk):
-                    parts = breakup_chunk(record)
+                    parts = breakup_chunk(record, validate_crc=True)
                     parts.sort(key=_record_sort_key)
                 else:
                     parts = [record]
@@ -282,11 +290,16 @@ class _McapSource(_Source):
 
         topics = {self._channels[cid][0] for cid in wanted}
         channels = self._channels
-        reader = SeekingReader(self._stream)
-        for _, channel, r in reader.iter_messages(topics=topics, log_time_order=True):
-            if channel.id in wanted:
-                topic, msgtype, encoding = channels[channel.id]
-                yield RawMessage(topic, msgtype, r.log_time, r.data, encoding)
+        reader = SeekingReader(self._stream, validate_crcs=True)
+        try:
+            for _, channel, r in reader.iter_messages(topics=topics, log_time_order=True):
+                if channel.id in wanted:
+                    topic, msgtype, encoding = channels[channel.id]
+                    yield RawMessage(topic, msgtype, r.log_time, r.data, encoding)
+        except self._errors as exc:
+            self.warnings.append(
+                f"{self.path.name}: corrupt chunk ({exc}); the rest of the file is ignored"
+            )
 
     def _messages_linear(self, wanted: set[int]) -> Iterator[RawMessage]:
         channels = self._channels
@@ -307,14 +320,17 @@ _MESSAGE_PREFIX = 2 + 4 + 8 + 8
 
 def _decompress(chunk: Any) -> bytes:
     """The records section of an MCAP chunk (zstd, lz4 or uncompressed)."""
-    if chunk.compression == "zstd":
-        import zstandard
+    if chunk.compression in ("zstd", "lz4"):
+        try:
+            if chunk.compression == "zstd":
+                import zstandard
 
-        return bytes(zstandard.decompress(chunk.data, chunk.uncompressed_size))
-    if chunk.compression == "lz4":
-        import lz4.frame  # type: ignore[import-untyped]
+                return bytes(zstandard.decompress(chunk.data, chunk.uncompressed_size))
+            import lz4.frame  # type: ignore[import-untyped]
 
-        return bytes(lz4.frame.decompress(chunk.data))
+            return bytes(lz4.frame.decompress(chunk.data))
+        except Exception as exc:  # zstandard.ZstdError, lz4's RuntimeError: a damaged chunk
+            raise ValueError(f"cannot decompress the {chunk.compression} chunk: {exc}") from exc
     if chunk.compression:
         raise ValueError(f"unsupported MCAP chunk compression {chunk.compression!r}")
     return bytes(chunk.data)
@@ -325,6 +341,9 @@ def _chunk_messages(chunk: Any, wanted: set[int]) -> list[tuple[int, int, bytes]
     by log time. Parses the record headers with struct and slices only the wanted payloads:
     several times faster than building an mcap ``Message`` object per record."""
     buf = _decompress(chunk)
+    if chunk.uncompressed_crc and zlib.crc32(buf) != chunk.uncompressed_crc:
+        # a flipped bit in compressed data often still decompresses: into garbage
+        raise ValueError("chunk records fail their CRC-32 check")
     out: list[tuple[int, int, bytes]] = []
     unpack_record = _RECORD_HEAD.unpack_from
     unpack_message = _MESSAGE_HEAD.unpack_from
