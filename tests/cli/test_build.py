@@ -244,3 +244,13 @@ def test_dsg_version_pin(office: Office, tmp_path: Path) -> None:
     result = run("build", office.log, "--dsg-version", "0.0.1", "-o", tmp_path / "w.aion")
     assert result.exit_code == 2
     assert_one_line_error(result.stderr)
+
+
+def test_rosbag2_folder_map_is_named_after_the_folder(tmp_path: Path) -> None:
+    folder = tmp_path / "run3"
+    write_office_log(folder, "rosbag2-sqlite3")
+    result = run("build", f"{folder}/", "-q")
+    assert result.exit_code == 0, result.stderr
+    assert (tmp_path / "run3.aion").is_file()
+    doc = run_json("info", tmp_path / "run3.aion", "--format", "json")
+    assert doc["counts"]["used"] == 300
