@@ -92,6 +92,7 @@ class BuildOptions:
     continue_from: Path | None = None
     dsg_version: str | None = None
     batch_size: int = 4000
+    timezone: str | None = None
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""
@@ -246,6 +247,8 @@ class _Build:
             self._stream(logset, plan, tf, mapper, fixed_graph is not None)
             mapper.advance(int(logset.end_ns))
             self._span(logset)
+            # readers also warn while streaming (a corrupt chunk ends a file early)
+            self.report.notes.extend(w for w in logset.warnings if w not in self.report.notes)
         self._write(mapper, config, inputs)
         return self.report
 
@@ -437,6 +440,11 @@ class _Build:
             "graph_source": self.report.graph_source,
             "observation": self.report.observation,
         }
+        zone = self.opts.timezone or (
+            self.previous.manifest.get("timezone") if self.previous is not None else None
+        )
+        if zone:
+            manifest["timezone"] = zone  # the default zone of predict / plan / export
         out = self.report.output
         write_map(out, arrays, manifest)
         self.report.map_bytes = out.stat().st_size
