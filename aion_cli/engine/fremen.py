@@ -20,10 +20,14 @@ predicted with every order 0..M from the state at that moment, and |s − p_m| i
 higher order by more than ``order_bias``. Ties in amplitude go to the lower period index.
 
 Everything runs on whole arrays: ``update`` absorbs W windows for r rows with two matrix
-products (values·E and observed·E with E = [cos ωt | sin ωt] of shape W×2K) and evaluates the
-prequential errors with exclusive cumulative sums along the window axis in row chunks (exact:
-predict-before-absorb in time order). ``predict`` is one matrix product of per-row coefficients
-with the basis at the query times.
+products (values·E and observed·E with E = [cos ωt | sin ωt] of shape W×2K). The prequential
+errors are exact (predict-before-absorb in time order) and computed in row chunks: many rows
+replay the windows in order on a private copy of the chunk's accumulators, vectorized over rows
+and periods (a few cache-sized rows × K arrays per window, chunks on a small thread pool); a few
+rows instead evaluate blocks of windows at once from exclusive cumulative sums along the window
+axis. Both give the same numbers. Ranking the K amplitudes before every observation is the
+dominant cost (see ``benchmarks/bench_fremen.py``); a mean-only model skips it.
+``predict`` is one matrix product of per-row coefficients with the basis at the query times.
 
 Fixed here (public FreMEn bugs, see ``notes-mod_anchors.md`` §1.6): the balance is exact across
 calls, the mean divides by the number of observations actually absorbed, the strongest (not
