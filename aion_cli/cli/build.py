@@ -83,6 +83,7 @@ def _load_config(path: Path | None) -> Any:
         "dsg_version",
         "log_format",
         "batch_size",
+        "timezone",
     ),
 )
 @click.argument("logs", nargs=-1, type=click.Path(path_type=Path))
@@ -159,6 +160,12 @@ def _load_config(path: Path | None) -> Any:
     type=click.IntRange(min=1),
     help="Detection messages decoded per chunk.",
 )
+@click.option(
+    "--tz",
+    "timezone",
+    metavar="ZONE",
+    help="Time zone of the place mapped (IANA name): the default of predict / plan / export.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary table.")
 @format_option(choices=("table", "json"))
 def command(
@@ -176,6 +183,7 @@ def command(
     dsg_version: str | None,
     log_format: str | None,
     batch_size: int,
+    timezone: str | None,
     quiet: bool,
     fmt: str,
 ) -> None:
@@ -185,6 +193,7 @@ def command(
     stream, learns per place and hash cell how many people walk in which direction and how
     that changes over the day and week, and writes everything to a single map file.
     """
+    from aion_cli.cli.timeparse import resolve_zone
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.errors import InputError
     from aion_cli.pipeline import BuildOptions, build_map
@@ -209,6 +218,7 @@ def command(
         continue_from=continue_from,
         dsg_version=dsg_version,
         batch_size=batch_size,
+        timezone=None if timezone is None else resolve_zone(timezone).name,
     )
     with _RichProgress(quiet or fmt == "json") as progress:
         report = build_map(options, progress)

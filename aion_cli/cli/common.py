@@ -29,12 +29,16 @@ def tz_option(func: F) -> F:
         "--tz",
         metavar="ZONE",
         help="Time zone for times without an offset: IANA name, UTC, +01:00 "
-        "[default: the machine's local zone].",
+        "[default: the map's zone (aion build --tz), else the machine's local zone].",
     )(func)
 
 
-def resolve_time(text: str, tz: str | None) -> tuple[int, Zone]:
-    """Parse ``text`` in zone ``tz`` (see :mod:`aion_cli.cli.timeparse`)."""
+def resolve_time(text: str, tz: str | None, loaded: Any = None) -> tuple[int, Zone]:
+    """Parse ``text`` in zone ``tz``; without ``tz``, the zone the map was built for (if
+    any), else the machine's local zone (see :mod:`aion_cli.cli.timeparse`)."""
+    if tz is None and loaded is not None:
+        stored = loaded.manifest.get("timezone")
+        tz = stored if isinstance(stored, str) else None
     zone = resolve_zone(tz)
     return parse_time(text, zone), zone
 

@@ -117,9 +117,9 @@ def command(
     if historical:
         times = [None]
     elif t_from is not None and t_to is not None:
-        times, zone = _series(t_from, t_to, step, tz)
+        times, zone = _series(t_from, t_to, step, tz, loaded)
     else:
-        when, zone = resolve_time(time_text or "now", tz)
+        when, zone = resolve_time(time_text or "now", tz, loaded)
         times = [when]
     ends = None
     if path_from is not None and path_to is not None:
@@ -135,11 +135,13 @@ def command(
     console().print(f"wrote {len(written)} file(s) to {out_dir}")
 
 
-def _series(t_from: str, t_to: str, step: str, tz: str | None) -> tuple[list[int | None], Zone]:
+def _series(
+    t_from: str, t_to: str, step: str, tz: str | None, loaded: Any
+) -> tuple[list[int | None], Zone]:
     from aion_cli.engine.errors import InputError
 
-    start, zone = resolve_time(t_from, tz)
-    end, _ = resolve_time(t_to, tz)
+    start, zone = resolve_time(t_from, tz, loaded)
+    end, _ = resolve_time(t_to, tz, loaded)
     step_ns = int(_step_seconds(step) * 1e9)
     if end < start:
         raise InputError("--to is before --from")

@@ -100,7 +100,7 @@ def command(
     from aion_cli.mapquery import nav_graph, node_cost_fn
 
     loaded = load(map_path)
-    t_ns, zone = resolve_time(time_text, tz)
+    t_ns, zone = resolve_time(time_text, tz, loaded)
     nav = nav_graph(loaded)
     config = loaded.config
     v = float(speed if speed is not None else config.plan_speed)

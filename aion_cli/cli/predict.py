@@ -86,7 +86,7 @@ def command(
     t_ns: int | None = None
     zone = None
     if not historical:
-        t_ns, zone = resolve_time(time_text, tz)
+        t_ns, zone = resolve_time(time_text, tz, loaded)
     table = _table(loaded, t_ns, layer)
     rows = rows_from_table(table)
     rows = _select(rows, table, layer, nodes, at)

@@ -151,3 +151,16 @@ def test_subprocess_predict_json(office: Office) -> None:
     (row,) = json.loads(proc.stdout)["entries"]
     assert row["direction_bin"] == 4
     assert "time: 2026-11-23 08:30:00+00:00" in proc.stderr
+
+
+def test_the_map_zone_is_the_default_zone(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "berlin.aion"
+    run_json("build", office.log, "-o", out, "--tz", "Europe/Berlin", "--format", "json")
+    doc = run_json("predict", out, "--time", AT, "--format", "json")
+    assert doc["zone"] == "Europe/Berlin"
+    assert doc["time_ns"] == 1795419000 * 1_000_000_000  # 08:30 CET = 07:30 UTC
+    doc = run_json("predict", out, "--time", AT, "--tz", "UTC", "--format", "json")
+    assert doc["zone"] == "UTC"
+    result = run("build", office.log, "-o", tmp_path / "x.aion", "--tz", "Atlantis/Capital")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "Atlantis/Capital")
