@@ -36,6 +36,8 @@ is centred at -180 + (b + 0.5)*360/B degrees), speed_per_bin (JSON only).
 """
 
 LAYERS = ("all", "places", "cells", "rooms", "buildings")
+TABLE_LIMIT = 100
+"""Rows a terminal table shows without --top (JSON and CSV always have every entry)."""
 
 
 @click.command("predict", cls=AionCommand, epilog=EPILOG, advanced=("tz",))
@@ -110,7 +112,16 @@ def command(
         if t_ns is None or zone is None
         else (f"predicted flows at {format_ns(t_ns, zone)}")
     )
-    emit(fmt, rows, COLUMNS, json_payload=payload, csv_keys=CSV_KEYS, title=title)
+    shown = rows
+    if fmt == "table" and top is None and len(rows) > TABLE_LIMIT:
+        shown = rows[:TABLE_LIMIT]
+        from aion_cli.cli.console import note
+
+        note(
+            f"showing the {TABLE_LIMIT} busiest of {len(rows):,} entries: use --top N, "
+            "--format csv or --format json for all"
+        )
+    emit(fmt, shown, COLUMNS, json_payload=payload, csv_keys=CSV_KEYS, title=title)
 
 
 def _table(loaded: Any, t_ns: int | None, layer: str) -> Any:

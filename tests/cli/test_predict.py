@@ -164,3 +164,16 @@ def test_the_map_zone_is_the_default_zone(office: Office, tmp_path: Path) -> Non
     result = run("build", office.log, "-o", tmp_path / "x.aion", "--tz", "Atlantis/Capital")
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "Atlantis/Capital")
+
+
+def test_terminal_table_is_limited_but_json_is_not(
+    office: Office, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import aion_cli.cli.predict as predict_module
+
+    monkeypatch.setattr(predict_module, "TABLE_LIMIT", 2)
+    result = run("predict", office.map, "--time", AT)
+    assert result.exit_code == 0
+    assert "showing the 2 busiest of 7 entries" in result.stderr
+    assert "p0" not in result.stdout
+    assert len(entries(office, "--time", AT)) == 7
