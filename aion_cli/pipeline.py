@@ -256,6 +256,12 @@ class _Build:
         for path in self.opts.logs:
             if not path.exists():
                 raise InputError(f"log not found: {path}", hint="check the path")
+        out = self.report.output.resolve()
+        if any(out == p.resolve() for p in self.opts.logs):
+            raise InputError(
+                f"the map would overwrite the log {self.report.output}",
+                hint="choose another output with -o (maps end in .aion)",
+            )
         new = [provenance(p) for p in self.opts.logs]
         old = list(self.previous.manifest.get("inputs", [])) if self.previous else []
         known = {entry.get("sha256") for entry in old}

@@ -77,6 +77,14 @@ def test_named_detection_topic_that_does_not_exist(office: Office, tmp_path: Pat
     assert not (tmp_path / "x.aion").exists()
 
 
+def test_the_map_never_overwrites_a_log(office: Office) -> None:
+    before = office.log.read_bytes()
+    result = run("build", office.log, "-o", office.log)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "overwrite the log")
+    assert office.log.read_bytes() == before
+
+
 def test_missing_and_unreadable_logs(tmp_path: Path) -> None:
     result = run("build", tmp_path / "missing.mcap")
     assert result.exit_code == 2
