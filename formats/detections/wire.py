@@ -43,16 +43,17 @@ class Joined:
     start: I64
     end: I64
     cdr: bool
-    _windows: dict[int, U8] = field(default_factory=dict, repr=False)
+    _windows: dict[int, npt.NDArray[np.void]] = field(default_factory=dict, repr=False)
 
-    def windows(self, nbytes: int) -> U8:
-        """Read-only view uint8[len(buf) - nbytes + 1, nbytes]: row i = bytes i..i+nbytes."""
+    def windows(self, nbytes: int) -> npt.NDArray[np.void]:
+        """Read-only view of ``nbytes``-byte items starting at every byte: item i = bytes
+        i..i+nbytes (void dtype, stride 1), so a fancy index copies whole items."""
         w = self._windows.get(nbytes)
         if w is None:
             if nbytes > _TAIL + 1:
                 raise ValueError(f"block reads are limited to {_TAIL + 1} bytes")
-            w = np.lib.stride_tricks.as_strided(
-                self.buf, (len(self.buf) - nbytes + 1, nbytes), (1, 1), writeable=False
+            w = np.ndarray(
+                (len(self.buf) - nbytes + 1,), np.dtype((np.void, nbytes)), self.buf, 0, (1,)
             )
             self._windows[nbytes] = w
         return w
@@ -90,7 +91,7 @@ def block(j: Joined, off: I64, nbytes: int) -> U8:
 
     A sliding-window view of the buffer turns the gather into one fancy index over rows, for
     any alignment (ROS 1 fields are unaligned); callers check bounds first."""
-    return j.windows(nbytes)[np.asarray(off, np.int64)].reshape(-1, nbytes)
+    return j.windows(nbytes)[np.asarray(off, np.int64).ravel()].view(np.uint8).reshape(-1, nbytes)
 
 
 def gather(j: Joined, off: I64, dtype: npt.DTypeLike) -> npt.NDArray[np.generic]:
@@ -245,6 +246,31 @@ class Cursors:
         self.fail((left < 0) | (left > slack), f"{int(left.max())} unread bytes left over")
 
 
+_MIX = np.uint64(0x100000001B3)  # FNV-1a 64-bit prime
+
+
+def unique_rows(raw: U8) -> tuple[I64, I64]:
+    """Distinct rows of a uint8[n, w] array: (index of one row per distinct value, inverse).
+
+    Rows are hashed to uint64 (FNV-style over 8-byte words) and the hashes de-duplicated with a
+    plain integer sort; equality with the representative row is then verified, and only on a
+    hash collision does it fall back to sorting the rows as bytes (slow void comparisons)."""
+    n, w = raw.shape
+    words = np.zeros((n, (w + 7) // 8 * 8), np.uint8)
+    words[:, :w] = raw
+    h = np.full(n, np.uint64(0xCBF29CE484222325))
+    for col in words.view("<u8").T:
+        h = (h ^ col) * _MIX
+    _, first, inv = np.unique(h, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    if (raw == raw[first[inv]]).all():
+        return first.astype(np.int64), inv.astype(np.int64)
+    _, first, inv = np.unique(
+        np.ascontiguousarray(raw).view(f"V{w}").ravel(), return_index=True, return_inverse=True
+    )
+    return first.astype(np.int64), inv.ravel().astype(np.int64)
+
+
 def string_codes(j: Joined, start: I64, length: I64, what: str) -> tuple[list[str], I64]:
     """Decode strings given by absolute (start, length) pairs as (distinct values, code per
     string). Vectorized per distinct length: equal-length strings are gathered into one
@@ -256,13 +282,13 @@ def string_codes(j: Joined, start: I64, length: I64, what: str) -> tuple[list[st
         if n == 0:
             continue
         sel = np.flatnonzero(length == n)
-        raw = np.ascontiguousarray(j.buf[start[sel][:, None] + np.arange(n)])
-        uniq, inv = np.unique(raw.view(f"V{n}").ravel(), return_inverse=True)
+        raw = j.buf[start[sel][:, None] + np.arange(n)]
+        first, inv = unique_rows(raw)
         try:
-            texts = [u.tobytes().decode("utf-8") for u in uniq]
+            texts = [raw[i].tobytes().decode("utf-8") for i in first.tolist()]
         except UnicodeDecodeError as exc:
             raise MessageDecodeError(f"cannot decode {what}: a string is not UTF-8") from exc
-        codes[sel] = len(names) + inv.ravel()
+        codes[sel] = len(names) + inv
         names.extend(texts)
     return names, codes
 
@@ -277,10 +303,10 @@ def hashed_strings(j: Joined, start: I64, length: I64) -> I64:
         if n == 0:
             continue
         sel = np.flatnonzero(length == n)
-        raw = np.ascontiguousarray(j.buf[start[sel][:, None] + np.arange(n)])
-        uniq, inv = np.unique(raw.view(f"V{n}").ravel(), return_inverse=True)
-        hashes = np.array([hash_id(u.tobytes()) for u in uniq], dtype=np.int64)
-        out[sel] = hashes[inv.ravel()]
+        raw = j.buf[start[sel][:, None] + np.arange(n)]
+        first, inv = unique_rows(raw)
+        hashes = np.array([hash_id(raw[i].tobytes()) for i in first.tolist()], dtype=np.int64)
+        out[sel] = hashes[inv]
     return out
 
 

@@ -426,3 +426,21 @@ def test_skip_mode_drops_only_the_bad_message() -> None:
     np.testing.assert_array_equal(got.msg_index, [0, 0, 2, 2])
     assert got.filtered == {"undecodable": 1}
     assert got.n_messages == 3
+
+
+@pytest.mark.parametrize("collide", [False, True])
+def test_unique_rows_groups_equal_rows_even_when_hashes_collide(
+    collide: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from formats.detections import wire
+
+    if collide:  # every row hashes to 0: the byte-wise fallback must take over
+        monkeypatch.setattr(wire, "_MIX", np.uint64(0))
+    rng = np.random.default_rng(3)
+    for width in (1, 7, 8, 13):
+        base = rng.integers(0, 3, size=(5, width), dtype=np.uint8)
+        rows = base[rng.integers(0, 5, size=200)]
+        first, inv = wire.unique_rows(rows)
+        np.testing.assert_array_equal(rows, rows[first][inv])  # every row maps to its equal
+        distinct = {r.tobytes() for r in rows}
+        assert len(first) == len(distinct)
