@@ -20,10 +20,14 @@ spark_dsg is imported inside the functions (heavy import, see docs/CONTRACTS.md)
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import datetime
 import functools
 import os
+import sys
 import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -141,6 +145,38 @@ def _candidate_versions(payload: bytes) -> list[str]:
     return ordered
 
 
+@contextlib.contextmanager
+def _native_output_silenced() -> Iterator[None]:
+    """Send file descriptors 1 and 2 to /dev/null for the block.
+
+    spark_dsg's C++ logger prints "Loading file with outdated encoding" on *stdout* for every
+    load of an older version, which would corrupt ``--format json`` output (and flood the
+    terminal: one line per scene-graph message). aion reports the version it used instead.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+    except OSError:
+        yield
+        return
+    saved: list[tuple[int, int]] = []
+    try:
+        for fd in (1, 2):
+            with contextlib.suppress(OSError):
+                saved.append((fd, os.dup(fd)))
+                os.dup2(devnull, fd)
+        yield
+    finally:
+        with contextlib.suppress(Exception):
+            ctypes.CDLL(None).fflush(None)  # C stdio buffers still hold the C++ output
+        for fd, copy in saved:
+            os.dup2(copy, fd)
+            os.close(copy)
+        os.close(devnull)
+
+
 def _load_with_header(payload: bytes, version: str) -> Any:
     """``DynamicSceneGraph.load`` of ``header(version) + payload`` via a temporary file."""
     import spark_dsg
@@ -150,7 +186,8 @@ def _load_with_header(payload: bytes, version: str) -> Any:
         with os.fdopen(fd, "wb") as fh:
             fh.write(spark_header(version))
             fh.write(payload)
-        return spark_dsg.DynamicSceneGraph.load(name)
+        with _native_output_silenced():
+            return spark_dsg.DynamicSceneGraph.load(name)
     finally:
         os.unlink(name)
 
@@ -227,7 +264,8 @@ def load_dsg_file(path: str | Path) -> Any:
     if p.stat().st_size == 0:
         raise GraphFileError(f"scene-graph file is empty: {p}")
     try:
-        return spark_dsg.DynamicSceneGraph.load(str(p))
+        with _native_output_silenced():  # legacy (header-less) JSON files warn on stdout
+            return spark_dsg.DynamicSceneGraph.load(str(p))
     except (RuntimeError, ValueError, IndexError, TypeError) as exc:
         raise GraphFileError(
             f"cannot read scene-graph file {p}: {_short(exc)}",
