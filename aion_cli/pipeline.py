@@ -36,7 +36,7 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.errors import ConfigError, InputError, TopicNotFoundError, TransformError
 from aion_cli.engine.types import DetectionBatch, GraphSnapshot, Trajectory
 from aion_cli.mapquery import LoadedMap, load_map, state_counts
-from aion_cli.provenance import provenance
+from aion_cli.provenance import provenance, provenance_size
 from aion_cli.topics import TopicPlan, select_topics
 
 if TYPE_CHECKING:
@@ -60,15 +60,15 @@ MAP_SUFFIX = ".aion"
 class ProgressSink(Protocol):
     """Where the build reports progress (the CLI adapts a rich progress bar)."""
 
-    def start(self, description: str, total: int) -> None:
-        """A new phase with ``total`` messages to go."""
+    def start(self, description: str, total: int, unit: str = "msgs") -> None:
+        """A new phase with ``total`` ``unit`` (messages, MiB) to go."""
 
     def advance(self, n: int) -> None:
-        """``n`` more messages of the current phase are done."""
+        """``n`` more units of the current phase are done."""
 
 
 class _NoProgress:
-    def start(self, description: str, total: int) -> None:
+    def start(self, description: str, total: int, unit: str = "msgs") -> None:
         return None
 
     def advance(self, n: int) -> None:
@@ -262,7 +262,12 @@ class _Build:
                 f"the map would overwrite the log {self.report.output}",
                 hint="choose another output with -o (maps end in .aion)",
             )
-        new = [provenance(p) for p in self.opts.logs]
+        sizes = [provenance_size(p) for p in self.opts.logs]
+        self.progress.start("hashing logs", max(sum(sizes) >> 20, 1), "MiB")
+        new = []
+        for path, size in zip(self.opts.logs, sizes, strict=True):
+            new.append(provenance(path))
+            self.progress.advance(size >> 20)
         old = list(self.previous.manifest.get("inputs", [])) if self.previous else []
         known = {entry.get("sha256") for entry in old}
         for entry in new:

@@ -30,3 +30,8 @@ def provenance(path: Path) -> dict[str, Any]:
         "size": size,
         "sha256": digest.hexdigest(),
     }
+
+
+def provenance_size(path: Path) -> int:
+    """Bytes :func:`provenance` will hash for ``path``."""
+    return sum(f.stat().st_size for f in _files_of(path))

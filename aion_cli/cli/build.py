@@ -49,10 +49,10 @@ class _RichProgress:
     ) -> None:
         self._progress.__exit__(exc_type, exc, tb)
 
-    def start(self, description: str, total: int) -> None:
+    def start(self, description: str, total: int, unit: str = "msgs") -> None:
         if self._task is not None:
             self._progress.update(self._task, completed=self._progress.tasks[-1].total)
-        self._task = self._progress.add_task(description, total=max(int(total), 1))
+        self._task = self._progress.add_task(description, total=max(int(total), 1), unit=unit)
 
     def advance(self, n: int) -> None:
         if self._task is not None:
