@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# The main job on the bundled sample: build a map, predict at two times of day, plan, export.
+#   usage: samples/demo.sh VENV_BIN OUT_DIR     (make demo runs it with .venv/bin demo-out)
+set -euo pipefail
+BIN="${1:?usage: samples/demo.sh VENV_BIN OUT_DIR}"
+OUT="${2:?usage: samples/demo.sh VENV_BIN OUT_DIR}"
+HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+LOG="$HERE/office.mcap"
+MAP="$OUT/office.aion"
+mkdir -p "$OUT"
+rm -f "$MAP"
+
+step() { printf '\n\033[1m$ %s\033[0m\n' "$*"; "$@"; }
+
+# The sample covers Mon 2026-01-05 .. Fri 2026-01-09 (UTC); predict the following Monday.
+step "$BIN/aion" info "$LOG"
+step "$BIN/aion" build "$LOG" -o "$MAP"
+step "$BIN/aion" predict "$MAP" --time "2026-01-12 08:40" --tz UTC --top 8
+step "$BIN/aion" predict "$MAP" --time "2026-01-12 17:30" --tz UTC --layer rooms
+step "$BIN/aion" plan "$MAP" --from p103 --to p2 --time "2026-01-12 08:40" --tz UTC
+step "$BIN/aion" export "$MAP" --time "2026-01-12 08:40" --tz UTC -o "$OUT/export" \
+    --path-from p103 --path-to p2
+printf '\nDone. Open the PLY files in %s/export with any viewer (MeshLab, CloudCompare, Open3D).\n' "$OUT"
