@@ -163,11 +163,12 @@ def _select(
         by_id = {r["id"]: r for r in rows}
         missing = [w for w in wanted if w not in by_id]
         if missing:
-            examples = ", ".join(r["id"] for r in rows if r["kind"] != "cell")[:60]
-            raise UnknownNodeError(
-                f"node {', '.join(missing)} is not in the map",
-                hint=f"nodes include {examples}" if examples else "the map has no nodes",
-            )
+            if layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
+                hint = "rooms and buildings are answered with --layer rooms / --layer buildings"
+            else:
+                ids = [r["id"] for r in rows if r["kind"] != "cell"][:8]
+                hint = f"ids include {', '.join(ids)}" if ids else "the map has no nodes"
+            raise UnknownNodeError(f"node {', '.join(missing)} is not in the map", hint=hint)
         rows = [by_id[w] for w in wanted]
     if at is not None:
         x, y, z = require_point(at, "--at")

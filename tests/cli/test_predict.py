@@ -69,6 +69,11 @@ def test_json_document_metadata_and_sorting(office: Office) -> None:
 def test_node_at_top_and_layer_selection(office: Office) -> None:
     (row,) = entries(office, "--time", AT, "--node", "p4").values()
     assert row["id"] == "p4"
+    (row,) = entries(office, "--time", AT, "--layer", "rooms", "--node", "R1").values()
+    assert row["kind"] == "room"
+    result = run("predict", office.map, "--time", AT, "--node", "R1")
+    assert result.exit_code == 2
+    assert "--layer rooms" in result.stderr
     (row,) = entries(office, "--time", AT, "--at", "5.8,0.3").values()
     assert row["id"] == "p3"
     top = entries(office, "--time", AT, "--top", "2")
