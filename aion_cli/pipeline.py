@@ -174,9 +174,12 @@ def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer |
     topics = plan.names("tf")
     progress.start("reading TF", logset.total(topics))
     buffer = TfBuffer()
-    for msg in logset.messages(topics):
+    done = 0
+    for done, msg in enumerate(logset.messages(topics), start=1):
         buffer.add_message(logset.decode(msg), static=msg.topic.endswith("_static"))
-        progress.advance(1)
+        if done % 256 == 0:
+            progress.advance(256)
+    progress.advance(done % 256)
     return buffer
 
 
