@@ -17,6 +17,7 @@ import math
 from typing import Any
 
 from aion_cli.cli.output import Column, degrees, num
+from aion_cli.cli.timeparse import Zone
 
 KINDS = {0: "cell", 1: "node", 2: "room", 3: "building"}
 
@@ -122,3 +123,23 @@ def _label(table: Any, e: int, kind: str) -> str:
 def sort_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Busiest first; entries without a known flow last; ties by id for a stable order."""
     return sorted(rows, key=lambda r: (r["flow"] is None, -(r["flow"] or 0.0), r["id"]))
+
+
+def document(
+    map_path: Any, bins: int, rows: list[dict[str, Any]], t_ns: int | None, zone: Zone | None
+) -> dict[str, Any]:
+    """The JSON document of ``predict`` and of ``export``'s entries.json: metadata and rows.
+    ``t_ns`` None means historical (what was observed)."""
+    from aion_cli.cli.timeparse import format_ns
+
+    when = None if t_ns is None or zone is None else (format_ns(t_ns, zone), zone.name)
+    return {
+        "map": str(map_path),
+        "mode": "historical" if when is None else "predicted",
+        "time": None if when is None else when[0],
+        "time_ns": t_ns,
+        "zone": None if when is None else when[1],
+        "bins": int(bins),
+        "bin_centres_deg": [-180.0 + (b + 0.5) * 360.0 / bins for b in range(bins)],
+        "entries": rows,
+    }

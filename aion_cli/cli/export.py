@@ -128,7 +128,7 @@ def command(
     written: list[Path] = []
     for t_ns in times:
         folder = out_dir if len(times) == 1 else out_dir / _stamp(t_ns)
-        written.extend(_export_one(loaded, t_ns, folder, fmt, ends))
+        written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
     if zone is not None and times[0] is not None:
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
         announce_time(times[0], zone, label)
@@ -160,9 +160,15 @@ def _stamp(t_ns: int | None) -> str:
 
 
 def _export_one(
-    loaded: Any, t_ns: int | None, folder: Path, fmt: str, ends: tuple[Any, int, int] | None
+    loaded: Any,
+    t_ns: int | None,
+    zone: Zone | None,
+    folder: Path,
+    fmt: str,
+    ends: tuple[Any, int, int] | None,
+    map_path: Path,
 ) -> list[Path]:
-    from aion_cli.cli.entries import CSV_KEYS, rows_from_table
+    from aion_cli.cli.entries import CSV_KEYS, document, rows_from_table
     from aion_cli.cli.output import to_csv, to_json
     from aion_cli.engine import query
 
@@ -176,7 +182,8 @@ def _export_one(
     path_rows = None if ends is None else _plan_rows(loaded, t_ns, ends)
     files = write_scene(loaded, table, folder, fmt, path_rows)
     (folder / "entries.csv").write_text(to_csv(rows, CSV_KEYS))
-    (folder / "entries.json").write_text(to_json({"time_ns": t_ns, "entries": rows}))
+    doc = document(map_path, loaded.config.bins, rows, t_ns, zone)
+    (folder / "entries.json").write_text(to_json(doc))
     return [*files, folder / "entries.csv", folder / "entries.json"]
 
 

@@ -15,7 +15,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
-from aion_cli.cli.entries import COLUMNS, CSV_KEYS, rows_from_table, sort_rows
+from aion_cli.cli.entries import COLUMNS, CSV_KEYS, document, rows_from_table, sort_rows
 from aion_cli.cli.output import AionCommand, emit, format_option
 
 EPILOG = """\b
@@ -93,18 +93,7 @@ def command(
     rows = rows_from_table(table)
     rows = _select(rows, table, layer, nodes, at)
     rows = sort_rows(rows)[: top or None]
-    payload = {
-        "map": str(map_path),
-        "mode": "historical" if historical else "predicted",
-        "time": None if t_ns is None or zone is None else format_ns(t_ns, zone),
-        "time_ns": t_ns,
-        "zone": None if zone is None else zone.name,
-        "bins": int(loaded.config.bins),
-        "bin_centres_deg": [
-            -180.0 + (b + 0.5) * 360.0 / loaded.config.bins for b in range(loaded.config.bins)
-        ],
-        "entries": rows,
-    }
+    payload = document(map_path, loaded.config.bins, rows, t_ns, zone)
     if t_ns is not None and zone is not None:
         announce_time(t_ns, zone)
     title = (

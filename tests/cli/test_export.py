@@ -21,9 +21,12 @@ def test_ply_scene_and_tables_match_predict(office: Office, tmp_path: Path) -> N
     assert {"nodes.ply", "arrows.ply", "edges.ply", "scene.ply"} <= names
     assert {"entries.csv", "entries.json"} <= names
     assert (out / "scene.ply").read_bytes().startswith(b"ply\n")
-    exported = json.loads((out / "entries.json").read_text())["entries"]
-    predicted = run_json("predict", office.map, "--time", AT, "--format", "json")["entries"]
-    assert sorted(exported, key=lambda e: e["id"]) == sorted(predicted, key=lambda e: e["id"])
+    exported = json.loads((out / "entries.json").read_text())
+    predicted = run_json("predict", office.map, "--time", AT, "--format", "json")
+    assert exported["time_ns"] == predicted["time_ns"]
+    assert exported["zone"] == predicted["zone"] == "UTC"
+    by_id = sorted(exported["entries"], key=lambda e: e["id"])
+    assert by_id == sorted(predicted["entries"], key=lambda e: e["id"])
     rows = {r["id"]: r for r in csv.DictReader((out / "entries.csv").open())}
     assert rows["p1"]["direction_bin"] == "4"
 
