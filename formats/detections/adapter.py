@@ -12,6 +12,7 @@ messages are dropped one by one and counted).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -157,7 +158,7 @@ def _groups(messages: Sequence[RawMessage]) -> dict[str, list[int]]:
     """Message indices by encoding ("cdr", "ros1"; anything else: "other", generic decoder
     only). Big-endian CDR needs no special case: the fast decoder rejects its header and the
     group falls back to rosbags, which reads both byte orders."""
-    encodings = {m.encoding for m in messages}
+    encodings = set(map(attrgetter("encoding"), messages))
     if len(encodings) == 1:
         (enc,) = encodings
         return {enc if enc in ("cdr", "ros1") else "other": list(range(len(messages)))}
@@ -192,7 +193,7 @@ def _reindex(d: FrameDetections, idx: np.ndarray) -> FrameDetections:
 
 
 def _log_times(messages: Sequence[RawMessage]) -> np.ndarray:
-    return np.array([m.log_time_ns for m in messages], dtype=np.int64)
+    return np.fromiter(map(attrgetter("log_time_ns"), messages), np.int64, len(messages))
 
 
 def _from_decoded(d: Decoded, messages: Sequence[RawMessage]) -> FrameDetections:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter
 
 import numpy as np
 import numpy.typing as npt
@@ -64,7 +65,7 @@ def join_payloads(messages: Sequence[RawMessage], cdr: bool) -> Joined:
 
     Raises :class:`MessageDecodeError` for a CDR message without a little-endian CDR header
     (the adapter then decodes the group with rosbags, which reads big-endian CDR too)."""
-    datas = [m.data for m in messages]
+    datas = list(map(attrgetter("data"), messages))
     lens = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
     data_start = np.cumsum(lens) - lens
     # Trailing zeros: the sliding windows of gather() may start at any byte of a payload.
