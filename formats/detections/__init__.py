@@ -12,6 +12,7 @@ from formats.detections.adapter import DetectionAdapter
 from formats.detections.builtin import AdapterOptions
 from formats.detections.frame import FrameDetections, hash_id
 from formats.detections.heading import HeadingEstimator
+from formats.detections.mapping import TopicMapping, load_mapping
 from formats.detections.registry import FAST_TYPES, SUPPORTED_TYPES, adapter_for
 
 __all__ = [
@@ -21,6 +22,8 @@ __all__ = [
     "DetectionAdapter",
     "FrameDetections",
     "HeadingEstimator",
+    "TopicMapping",
     "adapter_for",
     "hash_id",
+    "load_mapping",
 ]
