@@ -469,7 +469,7 @@ def _load_member(data: bytes, name: str, rec: dict[str, Any], path: Path) -> npt
         raise _corrupt(path, name, "fails its sha256 checksum")
     try:
         arr = np.load(io.BytesIO(data), allow_pickle=False)
-    except (ValueError, OSError, EOFError) as exc:
+    except Exception as exc:  # a damaged .npy header also raises tokenize/syntax errors
         raise _corrupt(path, name, f"is not a valid .npy array ({exc})") from exc
     if not isinstance(arr, np.ndarray) or arr.dtype.str != rec["dtype"]:
         raise _corrupt(path, name, f"has dtype {getattr(arr, 'dtype', '?')}, not {rec['dtype']}")
@@ -485,10 +485,10 @@ def _open_zip(path: Path) -> zipfile.ZipFile:
         raise MapFileError(f"{path} is a folder, not a map file", hint="pass the .aion file")
     try:
         return zipfile.ZipFile(path, "r")
-    except (zipfile.BadZipFile, EOFError, ValueError) as exc:
-        raise _not_a_map(path, f"not a zip container ({exc})") from exc
     except OSError as exc:
         raise MapFileError(f"cannot open map {path}: {exc.strerror or exc}") from exc
+    except Exception as exc:  # BadZipFile, and e.g. NotImplementedError for a damaged version
+        raise _not_a_map(path, f"not a zip container ({exc})") from exc
 
 
 def _read_manifest(zf: zipfile.ZipFile, path: Path) -> dict[str, Any]:
