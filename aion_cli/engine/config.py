@@ -40,8 +40,10 @@ class ModelConfig:
     Activity: a window with n detections has activity ``1 - exp(-n / activity_scale)``.
     FreMEn: ``periods``, a period counts once the row's observed span >= ``span_factor`` * T;
     orders 0..``max_order`` chosen per row by prequential error, a higher order only when it
-    beats the lower one by ``order_bias`` (mean absolute error); direction predictions are
-    floored at ``direction_floor`` and renormalised.
+    beats the lower one by ``order_bias`` (mean absolute error); the prequential errors score
+    every ``score_stride``-th observation of each row (those made when the row's count of earlier
+    observations is a multiple of it; 1 scores every one); direction predictions are floored at
+    ``direction_floor`` and renormalised.
     Planning: edge cost ``d * (1 + w_entropy*H + w_flow*F + w_direction*c_d)`` (see
     ``engine.planning``), flow normalised by ``flow_scale`` detections per window.
     """
@@ -59,6 +61,7 @@ class ModelConfig:
     span_factor: float = 1.5
     max_order: int = 4
     order_bias: float = 0.002
+    score_stride: int = 8
     direction_floor: float = 0.01
     plan_speed: float = 1.0
     plan_w_entropy: float = 0.5
@@ -107,6 +110,9 @@ class ModelConfig:
             raise ConfigError(f"bins must be an integer in 2..64, got {self.bins!r}")
         if not (isinstance(self.max_order, int) and 0 <= self.max_order <= 16):
             raise ConfigError(f"max_order must be an integer in 0..16, got {self.max_order!r}")
+        stride = self.score_stride
+        if not (isinstance(stride, int) and not isinstance(stride, bool) and 1 <= stride <= 1024):
+            raise ConfigError(f"score_stride must be an integer in 1..1024, got {stride!r}")
         if not (0 < self.direction_floor < 1.0 / self.bins):
             raise ConfigError(
                 f"direction_floor must be in (0, 1/bins), got {self.direction_floor!r}"

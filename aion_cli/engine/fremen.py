@@ -256,12 +256,15 @@ def merge_states(a: FremenState, b: FremenState) -> FremenState:
 @dataclass(frozen=True)
 class FremenModel:
     """The model parameters shared by every row: candidate periods (s), the highest order, the
-    span gate factor and the bias towards lower orders (mean absolute error)."""
+    span gate factor, the bias towards lower orders (mean absolute error) and the scoring
+    stride k: the prequential order errors score an observation iff the row's number of earlier
+    observations is a positive multiple of k (k = 1: every observation after the first)."""
 
     periods: tuple[float, ...]
     max_order: int = 4
     span_factor: float = 1.5
     order_bias: float = 0.002
+    score_stride: int = 1
     omega: F64 = field(init=False, repr=False, compare=False)
     min_span: F64 = field(init=False, repr=False, compare=False)
 
@@ -273,13 +276,22 @@ class FremenModel:
             raise ValueError("periods must be positive")
         if self.max_order < 0:
             raise ValueError("max_order must be >= 0")
+        if not (isinstance(self.score_stride, (int, np.integer)) and self.score_stride >= 1):
+            raise ValueError(f"score_stride must be an integer >= 1, got {self.score_stride!r}")
+        object.__setattr__(self, "score_stride", int(self.score_stride))
         object.__setattr__(self, "periods", tuple(float(p) for p in periods))
         object.__setattr__(self, "omega", 2.0 * np.pi / periods)
         object.__setattr__(self, "min_span", self.span_factor * periods)
 
     @classmethod
     def from_config(cls, config: ModelConfig) -> FremenModel:
-        return cls(config.periods, config.max_order, config.span_factor, config.order_bias)
+        return cls(
+            config.periods,
+            config.max_order,
+            config.span_factor,
+            config.order_bias,
+            score_stride=config.score_stride,
+        )
 
     @property
     def n_periods(self) -> int:
@@ -312,8 +324,9 @@ class FremenModel:
         """Absorb W windows (times ``t_s``, non-decreasing) for ``rows`` (unique), in place.
 
         ``values[i, w]`` is row ``rows[i]``'s state in window w, used only where
-        ``observed[i, w]``. Each observation is first predicted with orders 0..M from the
-        row's state just before it (the prequential order errors), then absorbed.
+        ``observed[i, w]``. Each scored observation (see ``score_stride``) is first predicted
+        with orders 0..M from the row's state just before it (the prequential order errors);
+        every observation is absorbed.
         """
         self._check(state)
         r = np.asarray(rows, dtype=np.int64).reshape(-1)
@@ -375,10 +388,19 @@ class FremenModel:
         state.t_first[idx] = np.fmin(state.t_first[idx], first)
         state.t_last[idx] = np.fmax(state.t_last[idx], last)
 
+    def _scored(self, n_pre: F64, obs: BoolA) -> BoolA:
+        """Which observations are scored, given each one's count of earlier observations of its
+        row: those with ``n_pre`` > 0 and a multiple of ``score_stride``."""
+        scored = obs & (n_pre > 0)
+        if self.score_stride > 1:
+            scored &= np.fmod(n_pre, float(self.score_stride)) == 0.0
+        return scored
+
     def _score_orders(
         self, state: FremenState, rows: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
     ) -> None:
-        """Prequential errors: predict every observation with orders 0..M before absorbing it.
+        """Prequential errors: predict the scored observations with orders 0..M from the row's
+        state just before each of them (see :meth:`_scored`).
 
         Rows are split into chunks small enough for the CPU cache; each chunk replays the
         windows in time order on a private copy of its accumulators (vectorized over rows and
@@ -398,18 +420,72 @@ class FremenModel:
             for sl in chunks:
                 run(sl)
 
+    def _pair_errors(
+        self,
+        s_se: F64,
+        s_e: F64,
+        n_p: F64,
+        ss_p: F64,
+        span_p: F64,
+        wi: I64,
+        v_p: F64,
+        cos_t: F64,
+        sin_t: F64,
+    ) -> F64:
+        """|s − p_m| for orders 0..M (float64[q, M+1]) of q scored observations, each from
+        the state just before it: ``s_se`` / ``s_e`` = [Re | Im] of Σs·e^{iωt} / Σe^{iωt}
+        (float64[q, 2K]), count, Σs and span, at window ``wi`` with value ``v_p``.
+
+        Ranking uses |S − μ·Σe|² = n²|γ|² (same order as |γ|); components the span gate
+        rejects are marked −1 and contribute nothing even when fewer than m are admitted.
+        """
+        k, m_all = self.n_periods, self.max_order
+        m_eff = min(m_all, k)  # orders above K use every period
+        q = n_p.size
+        mu = ss_p / n_p
+        x = np.multiply(s_e, mu[:, None])
+        np.subtract(s_se, x, out=x)
+        xr, xi = x[:, :k], x[:, k:]
+        a2 = np.multiply(xr, xr)
+        a2 += np.square(xi)
+        if span_p.min() < float(self.min_span.max()):  # some period not yet admitted
+            np.putmask(a2, self.min_span[None, :] > span_p[:, None], -1.0)
+        # the m_eff strongest components, strongest first (ties: lowest index)
+        ar = np.arange(q)
+        picks = np.empty((q, m_eff), dtype=np.int64)
+        values = np.empty((q, m_eff))
+        for m in range(m_eff):
+            j = np.argmax(a2, axis=1)
+            picks[:, m] = j
+            values[:, m] = a2[ar, j]
+            a2[ar, j] = -2.0
+        rows2, w2 = ar[:, None], wi[:, None]
+        terms = xr[rows2, picks] * cos_t[w2, picks] + xi[rows2, picks] * sin_t[w2, picks]
+        terms *= (2.0 / n_p)[:, None]
+        terms[values < 0.0] = 0.0  # not admitted by the span gate
+        p = np.empty((q, m_all + 1))
+        p[:, 0] = mu
+        np.cumsum(terms, axis=1, out=p[:, 1 : m_eff + 1])
+        p[:, 1 : m_eff + 1] += mu[:, None]
+        p[:, m_eff + 1 :] = p[:, m_eff : m_eff + 1]
+        np.clip(p, 0.0, 1.0, out=p)
+        p -= v_p[:, None]
+        return np.abs(p, out=p)
+
     def _score_chunk(
         self, state: FremenState, rr: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
     ) -> None:
         """The prequential replay for one chunk of rows (see :meth:`_score_orders`).
 
-        Ranking uses |S − μ·Σe|² = n²|γ|² (same order as |γ|); components the span gate
-        rejects are marked −1 and contribute nothing even when fewer than m are admitted.
+        Windows go in blocks of B = ``score_stride`` (B consecutive counts hold at most one
+        multiple of the stride, so each row has at most one scored observation per block).
+        The scored observations of a block are ranked from the block's starting accumulators
+        plus the earlier windows of the block (one small matrix product); then the whole block
+        is absorbed with one matrix product, as :meth:`_absorb` does. Un-scored observations
+        cost only that absorb.
         """
         c, k = rr.size, self.n_periods
-        m_all = self.max_order
-        m_eff = min(m_all, k)  # orders above K use every period
-        if m_eff == 0:
+        if min(self.max_order, k) == 0:
             self._score_mean_only(state, rr, vz, obs)
             return
         if c < _FEW_ROWS:
@@ -419,81 +495,63 @@ class FremenModel:
         ss = state.sum_s[rr].copy()
         first = state.t_first[rr].copy()
         last = state.t_last[rr].copy()
-        sr = np.ascontiguousarray(state.sum_se[rr].real)
-        si = np.ascontiguousarray(state.sum_se[rr].imag)
-        er = np.ascontiguousarray(state.sum_e[rr].real)
-        ei = np.ascontiguousarray(state.sum_e[rr].imag)
-        err = np.zeros((c, m_all + 1))
+        acc_se = np.concatenate([state.sum_se[rr].real, state.sum_se[rr].imag], axis=1)
+        acc_e = np.concatenate([state.sum_e[rr].real, state.sum_e[rr].imag], axis=1)
+        basis = np.concatenate([cos_t, sin_t], axis=1)  # (W, 2K)
+        err = np.zeros((c, self.max_order + 1))
         scored_n = np.zeros(c)
-        xr, xi, a2, tmp = (np.empty((c, k)) for _ in range(4))
-        min_span = self.min_span[None, :]
-        max_span = float(self.min_span.max())
-        for w in range(t.size):
-            ob = obs[:, w]
-            seen = np.flatnonzero(ob)
-            if seen.size == 0:
-                continue
-            s_seen = vz[seen, w]
-            sc = seen[n[seen] > 0]
-            if sc.size:
-                q = sc.size
-                if q == c:
-                    g_sr, g_si, g_er, g_ei = sr, si, er, ei
-                else:
-                    g_sr, g_si, g_er, g_ei = sr[sc], si[sc], er[sc], ei[sc]
-                bx, by, ba, bt = xr[:q], xi[:q], a2[:q], tmp[:q]
-                nn = n[sc]
-                mu = ss[sc] / nn
-                np.multiply(g_er, mu[:, None], out=bx)
-                np.subtract(g_sr, bx, out=bx)
-                np.multiply(g_ei, mu[:, None], out=by)
-                np.subtract(g_si, by, out=by)
-                np.multiply(bx, bx, out=ba)
-                np.multiply(by, by, out=bt)
-                ba += bt
-                span = last[sc] - first[sc]
-                if span.min() < max_span:  # some period not yet admitted for some row
-                    np.putmask(ba, min_span > span[:, None], -1.0)
-                # the m_eff strongest components, strongest first (ties: lowest index)
-                ar = np.arange(q)
-                picks = np.empty((q, m_eff), dtype=np.int64)
-                values = np.empty((q, m_eff))
-                for m in range(m_eff):
-                    j = np.argmax(ba, axis=1)
-                    picks[:, m] = j
-                    values[:, m] = ba[ar, j]
-                    ba[ar, j] = -2.0
-                rows2 = ar[:, None]
-                terms = bx[rows2, picks] * cos_t[w, picks] + by[rows2, picks] * sin_t[w, picks]
-                terms *= (2.0 / nn)[:, None]
-                terms[values < 0.0] = 0.0  # not admitted by the span gate
-                p = np.empty((q, m_all + 1))
-                p[:, 0] = mu
-                np.cumsum(terms, axis=1, out=p[:, 1 : m_eff + 1])
-                p[:, 1 : m_eff + 1] += mu[:, None]
-                p[:, m_eff + 1 :] = p[:, m_eff : m_eff + 1]
-                np.clip(p, 0.0, 1.0, out=p)
-                p -= vz[sc, w][:, None]
-                err[sc] += np.abs(p)
-                scored_n[sc] += 1.0
-            # absorb window w into the chunk's private accumulators
-            cw, sw = cos_t[w], sin_t[w]
-            if seen.size == c:
-                np.multiply(s_seen[:, None], cw, out=tmp)
-                sr += tmp
-                np.multiply(s_seen[:, None], sw, out=tmp)
-                si += tmp
-                er += cw
-                ei += sw
+        step = self.score_stride
+        for a in range(0, t.size, step):
+            b = min(a + step, t.size)
+            ob, v, e_blk = obs[:, a:b], vz[:, a:b], basis[a:b]
+            dense = bool(ob.all())
+            of = ob.astype(np.float64)
+            if dense:
+                n_pre = n[:, None] + np.arange(b - a, dtype=np.float64)[None, :]
             else:
-                sr[seen] += np.multiply.outer(s_seen, cw)
-                si[seen] += np.multiply.outer(s_seen, sw)
-                er[seen] += cw
-                ei[seen] += sw
-            n[seen] += 1.0
-            ss[seen] += s_seen
-            first[seen] = np.fmin(first[seen], t[w])
-            last[seen] = np.fmax(last[seen], t[w])
+                n_pre = n[:, None] + _exclusive_cumsum(of)
+            i, j = np.nonzero(self._scored(n_pre, ob))  # at most one per row
+            if i.size:
+                s_se, s_e = acc_se[i], acc_e[i]
+                ss_p = ss[i]
+                f_p, l_p = first[i], last[i]
+                if j.max() > 0:  # add the block's windows before each scored one
+                    before = np.arange(b - a)[None, :] < j[:, None]
+                    v_before = np.where(before, v[i], 0.0)
+                    s_se += v_before @ e_blk
+                    ss_p = ss_p + v_before.sum(axis=1)
+                    if dense:
+                        s_e += _exclusive_cumsum(e_blk.T).T[j]
+                        t_in = np.where(j > 0, t[a], np.nan)
+                        l_in = np.where(j > 0, t[np.maximum(a + j - 1, a)], np.nan)
+                    else:
+                        o_before = ob[i] & before
+                        s_e += o_before.astype(np.float64) @ e_blk
+                        seen = o_before.any(axis=1)
+                        t_in = np.where(seen, t[a + np.argmax(o_before, axis=1)], np.nan)
+                        back = np.argmax(o_before[:, ::-1], axis=1)
+                        l_in = np.where(seen, t[b - 1 - back], np.nan)
+                    f_p = np.fmin(f_p, t_in)
+                    l_p = np.fmax(l_p, l_in)
+                err[i] += self._pair_errors(
+                    s_se, s_e, n_pre[i, j], ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t
+                )
+                scored_n[i] += 1.0
+            # absorb the block into the chunk's private accumulators
+            acc_se += v @ e_blk
+            ss += v.sum(axis=1)
+            if dense:
+                acc_e += e_blk.sum(axis=0)
+                n += float(b - a)
+                first = np.fmin(first, t[a])
+                last = np.fmax(last, t[b - 1])
+            else:
+                acc_e += of @ e_blk
+                n += of.sum(axis=1)
+                seen = ob.any(axis=1)
+                first = np.fmin(first, np.where(seen, t[a + np.argmax(ob, axis=1)], np.nan))
+                back = np.argmax(ob[:, ::-1], axis=1)
+                last = np.fmax(last, np.where(seen, t[b - 1 - back], np.nan))
         state.order_err[rr] += err
         state.order_n[rr] += scored_n
 
@@ -501,8 +559,8 @@ class FremenModel:
         self, state: FremenState, rr: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
     ) -> None:
         """The prequential replay for a few rows: blocks of windows, each evaluated at once
-        from exclusive cumulative sums (rows × windows × periods), then absorbed into a
-        private copy of the rows' accumulators."""
+        from exclusive cumulative sums (rows × windows × periods) at its scored observations,
+        then absorbed into a private copy of the rows' accumulators."""
         c, k = rr.size, self.n_periods
         acc = state.take(rr)
         local = np.arange(c, dtype=np.int64)
@@ -511,67 +569,70 @@ class FremenModel:
         step = max(1, _BLOCK_CELLS // (c * k))
         for a in range(0, t.size, step):
             b = min(a + step, t.size)
-            e_blk, n_blk = self._score_block(
-                acc, t[a:b], vz[:, a:b], obs[:, a:b], cos_t[a:b], sin_t[a:b]
-            )
-            err += e_blk
-            scored_n += n_blk
+            self._score_block(acc, t[a:b], a, vz[:, a:b], obs[:, a:b], cos_t, sin_t, err, scored_n)
             self._absorb(acc, local, t[a:b], vz[:, a:b], obs[:, a:b], cos_t[a:b], sin_t[a:b])
         state.order_err[rr] += err
         state.order_n[rr] += scored_n
 
     def _score_block(
-        self, acc: FremenState, t: F64, v: F64, ob: BoolA, cos_t: F64, sin_t: F64
-    ) -> tuple[F64, F64]:
-        """Order errors (rows × orders) and scored counts of one block of windows for the rows
-        of ``acc`` (its state before the block)."""
-        m_eff = min(self.max_order, self.n_periods)
+        self,
+        acc: FremenState,
+        t: F64,
+        a: int,
+        v: F64,
+        ob: BoolA,
+        cos_t: F64,
+        sin_t: F64,
+        err: F64,
+        scored_n: F64,
+    ) -> None:
+        """Add the order errors and scored counts of one block of windows (``t`` = windows
+        a.. of ``cos_t`` / ``sin_t``) for the rows of ``acc`` (its state before the block)."""
         of = ob.astype(np.float64)
         n_pre = acc.n[:, None] + _exclusive_cumsum(of)
-        has = n_pre > 0
-        n_safe = np.where(has, n_pre, 1.0)
-        mu = (acc.sum_s[:, None] + _exclusive_cumsum(v)) / n_safe
-        scored = ob & has
+        i, j = np.nonzero(self._scored(n_pre, ob))
+        if i.size == 0:
+            return
+        ss_p = acc.sum_s[i] + _exclusive_cumsum(v)[i, j]
         # span before each window: running first / last observed time, from the stored ones
         t_obs = np.where(ob, t[None, :], np.nan)
-        first = np.fmin(np.fmin.accumulate(t_obs, axis=1), acc.t_first[:, None])
-        last = np.fmax(np.fmax.accumulate(t_obs, axis=1), acc.t_last[:, None])
-        span = np.full(first.shape, np.nan)
-        span[:, 1:] = last[:, :-1] - first[:, :-1]
-        span[:, 0] = acc.t_last - acc.t_first
-        with np.errstate(invalid="ignore"):
-            gate = (span[..., None] >= self.min_span) & has[..., None]
-        sr = _exclusive_cumsum(v[..., None] * cos_t[None]) + acc.sum_se.real[:, None, :]
-        si = _exclusive_cumsum(v[..., None] * sin_t[None]) + acc.sum_se.imag[:, None, :]
-        er = _exclusive_cumsum(of[..., None] * cos_t[None]) + acc.sum_e.real[:, None, :]
-        ei = _exclusive_cumsum(of[..., None] * sin_t[None]) + acc.sum_e.imag[:, None, :]
-        xr = sr - mu[..., None] * er
-        xi = si - mu[..., None] * ei
-        a2 = np.where(gate, xr * xr + xi * xi, -1.0)  # n²|γ|², −1 when not admitted
-        contrib = np.where(gate, 2.0 * (xr * cos_t[None] + xi * sin_t[None]), 0.0)
-        contrib /= n_safe[..., None]
-        err = np.zeros((v.shape[0], self.max_order + 1))
-        p = mu
-        err[:, 0] = np.where(scored, np.abs(v - np.clip(p, 0.0, 1.0)), 0.0).sum(axis=1)
-        for m in range(1, m_eff + 1):
-            top = np.argmax(a2, axis=2)[..., None]
-            p = p + np.take_along_axis(contrib, top, axis=2)[..., 0]
-            np.put_along_axis(a2, top, -2.0, axis=2)
-            err[:, m] = np.where(scored, np.abs(v - np.clip(p, 0.0, 1.0)), 0.0).sum(axis=1)
-        err[:, m_eff + 1 :] = err[:, m_eff : m_eff + 1]
-        return err, scored.sum(axis=1, dtype=np.float64)
+        run_first = np.fmin.accumulate(t_obs, axis=1)
+        run_last = np.fmax.accumulate(t_obs, axis=1)
+        jm = np.maximum(j - 1, 0)
+        prior = j > 0
+        f_p = np.fmin(acc.t_first[i], np.where(prior, run_first[i, jm], np.nan))
+        l_p = np.fmax(acc.t_last[i], np.where(prior, run_last[i, jm], np.nan))
+        # accumulators before each scored window: inclusive cumsums read one window earlier
+        w = t.size
+        basis = np.concatenate([cos_t[a : a + w], sin_t[a : a + w]], axis=1)  # (w, 2K)
+        s_se = np.concatenate([acc.sum_se.real, acc.sum_se.imag], axis=1)[i]
+        s_e = np.concatenate([acc.sum_e.real, acc.sum_e.imag], axis=1)[i]
+        if prior.any():
+            rows = np.unique(i[prior])  # only rows scored after their block's first window
+            local = np.searchsorted(rows, i[prior])
+            wmax = int(jm[prior].max()) + 1  # later windows are never read
+            cs = np.cumsum(v[rows, :wmax, None] * basis[None, :wmax], axis=1)
+            s_se[prior] += cs[local, jm[prior]]
+            if ob[rows, :wmax].all():
+                s_e[prior] += np.cumsum(basis[:wmax], axis=0)[jm[prior]]
+            else:
+                cs = np.cumsum(of[rows, :wmax, None] * basis[None, :wmax], axis=1)
+                s_e[prior] += cs[local, jm[prior]]
+        errs = self._pair_errors(
+            s_se, s_e, n_pre[i, j], ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t
+        )
+        np.add.at(err, i, errs)  # a row may have several scored windows in a block
+        np.add.at(scored_n, i, 1.0)
 
-    @staticmethod
-    def _score_mean_only(state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:
+    def _score_mean_only(self, state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:
         """Order 0 only: the prequential mean before each window, from cumulative sums."""
         n0 = state.n[rr]
         if obs.all():  # dense: n before window w is n0 + w, no cumulative count needed
             n_pre = n0[:, None] + np.arange(vz.shape[1], dtype=np.float64)[None, :]
-            scored = None
         else:
             of = obs.astype(np.float64)
             n_pre = n0[:, None] + np.cumsum(of, axis=1) - of
-            scored = obs & (n_pre > 0)
+        scored = self._scored(n_pre, obs)
         diff = np.cumsum(vz, axis=1)
         diff -= vz
         diff += state.sum_s[rr, None]
@@ -580,15 +641,9 @@ class FremenModel:
         np.clip(diff, 0.0, 1.0, out=diff)
         diff -= vz
         np.abs(diff, out=diff)
-        if scored is None:
-            fresh = n0 == 0  # the first window of a never-observed row is not scored
-            diff[fresh, 0] = 0.0
-            count = vz.shape[1] - fresh.astype(np.float64)
-        else:
-            diff[~scored] = 0.0
-            count = scored.sum(axis=1, dtype=np.float64)
+        diff[~scored] = 0.0
         state.order_err[rr] += diff.sum(axis=1)[:, None]
-        state.order_n[rr] += count
+        state.order_n[rr] += scored.sum(axis=1, dtype=np.float64)
 
     # -- reading --------------------------------------------------------------------------------
     def _rows(self, state: FremenState, rows: npt.ArrayLike | None) -> I64:

@@ -16,7 +16,7 @@ import pytest
 
 from aion_cli.engine import fremen
 from aion_cli.engine.config import DAY_S, WEEK_S, ModelConfig, default_periods
-from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.errors import ConfigError, MapCorruptError
 from aion_cli.engine.fremen import (
     EPOCH_NS,
     PRIOR,
@@ -49,8 +49,11 @@ def replay_path(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch)
 class LoopState:
     """One FreMEn state, updated one observation at a time with Python complex numbers."""
 
-    def __init__(self, periods: tuple[float, ...], max_order: int, span_factor: float) -> None:
+    def __init__(
+        self, periods: tuple[float, ...], max_order: int, span_factor: float, stride: int = 1
+    ) -> None:
         self.periods = periods
+        self.stride = stride
         self.omega = [2 * math.pi / p for p in periods]
         self.max_order = max_order
         self.span_factor = span_factor
@@ -84,7 +87,7 @@ class LoopState:
         return min(1.0, max(0.0, p))
 
     def add(self, t: float, s: float) -> None:
-        if self.n > 0:
+        if self.n > 0 and self.n % self.stride == 0:  # scored: a multiple of the stride
             for m in range(self.max_order + 1):
                 self.err[m] += abs(s - self.predict(t, m))
             self.err_n += 1
@@ -119,9 +122,12 @@ def _signal(rng: np.random.Generator, t: np.ndarray, kind: int) -> np.ndarray:
     return np.clip(base + noise, 0.0, 1.0)
 
 
-def test_vectorized_model_equals_plain_loop_on_irregular_data() -> None:
+@pytest.mark.parametrize("stride", [1, 3, 8])
+def test_vectorized_model_equals_plain_loop_on_irregular_data(stride: int) -> None:
     rng = np.random.default_rng(7)
-    model = FremenModel(PERIODS, max_order=4, span_factor=1.5, order_bias=0.002)
+    model = FremenModel(
+        PERIODS, max_order=4, span_factor=1.5, order_bias=0.002, score_stride=stride
+    )
     n_rows = 8
     # irregular window times over 12 days, fed in batches of varying size
     t_all = np.sort(rng.uniform(0, 12 * DAY_S, 420)) + 3 * WEEK_S
@@ -135,7 +141,7 @@ def test_vectorized_model_equals_plain_loop_on_irregular_data() -> None:
     for a, b in itertools.pairwise(cuts):
         model.update(state, rows, t_all[a:b], values[:, a:b], observed[:, a:b])
 
-    loops = [LoopState(PERIODS, 4, 1.5) for _ in range(n_rows + 2)]
+    loops = [LoopState(PERIODS, 4, 1.5, stride) for _ in range(n_rows + 2)]
     for i in range(n_rows):
         for w in np.flatnonzero(observed[i]):
             loops[i].add(float(t_all[w]), float(values[i, w]))
@@ -144,6 +150,8 @@ def test_vectorized_model_equals_plain_loop_on_irregular_data() -> None:
     np.testing.assert_array_equal(state.order_n, [lp.err_n for lp in loops])
     assert model.chosen_order(state).tolist() == [lp.chosen(0.002) for lp in loops]
     assert set(model.chosen_order(state).tolist()) >= {0, 2}  # the data exercise the choice
+    n_obs = observed.sum(axis=1)
+    np.testing.assert_array_equal(state.order_n[:n_rows], np.maximum(n_obs - 1, 0) // stride)
 
     amp, phase = model.spectrum(state)
     for i, lp in enumerate(loops):
@@ -166,8 +174,8 @@ def test_vectorized_model_equals_plain_loop_on_irregular_data() -> None:
         np.testing.assert_allclose(pred[i], ref, atol=1e-9)
     for order in (0, 1, 3, 31):
         pred = model.predict(state, t_query, rows=[1, 2, 3], order=order)
-        ref = [[loops[i].predict(float(t), order) for t in t_query] for i in (1, 2, 3)]
-        np.testing.assert_allclose(pred, ref, atol=1e-9)
+        refs = [[loops[i].predict(float(t), order) for t in t_query] for i in (1, 2, 3)]
+        np.testing.assert_allclose(pred, refs, atol=1e-9)
     assert np.all(model.predict(state, t_query, rows=[6, 8]) == PRIOR)
 
 
@@ -209,8 +217,9 @@ def _assert_states_equal(a: FremenState, b: FremenState, orders: bool = True) ->
         np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-11, atol=1e-9)
 
 
-def test_one_batch_of_windows_equals_single_window_updates() -> None:
-    model = FremenModel(PERIODS, max_order=3)
+@pytest.mark.parametrize("stride", [1, 8])
+def test_one_batch_of_windows_equals_single_window_updates(stride: int) -> None:
+    model = FremenModel(PERIODS, max_order=3, score_stride=stride)
     t, values, observed = _random_stream(3, 40, 90)
     rows = np.arange(40)
     batch, single = model.empty(40), model.empty(40)
@@ -375,13 +384,14 @@ def test_model_seconds_are_relative_to_monday_2020_01_06() -> None:
     assert model.max_order == 4
 
 
-def test_mean_only_model_scores_order_zero_like_the_loop() -> None:
-    model = FremenModel(PERIODS, max_order=0)
+@pytest.mark.parametrize("stride", [1, 3, 8])
+def test_mean_only_model_scores_order_zero_like_the_loop(stride: int) -> None:
+    model = FremenModel(PERIODS, max_order=0, score_stride=stride)
     t, values, observed = _random_stream(8, 5, 70)
     state = model.empty(5)
     model.update(state, np.arange(5), t[:30], values[:, :30], observed[:, :30])
     model.update(state, np.arange(5), t[30:], values[:, 30:], observed[:, 30:])
-    loops = [LoopState(PERIODS, 0, 1.5) for _ in range(5)]
+    loops = [LoopState(PERIODS, 0, 1.5, stride) for _ in range(5)]
     for i, lp in enumerate(loops):
         for w in np.flatnonzero(observed[i]):
             lp.add(float(t[w]), float(values[i, w]))
@@ -390,8 +400,9 @@ def test_mean_only_model_scores_order_zero_like_the_loop() -> None:
     assert model.chosen_order(state).tolist() == [0] * 5
 
 
-def test_mean_only_dense_updates_score_like_sparse_ones() -> None:
-    model = FremenModel(PERIODS, max_order=0)
+@pytest.mark.parametrize("stride", [1, 3])
+def test_mean_only_dense_updates_score_like_sparse_ones(stride: int) -> None:
+    model = FremenModel(PERIODS, max_order=0, score_stride=stride)
     t, values, _ = _random_stream(9, 4, 40)
     dense, sparse = model.empty(4), model.empty(4)
     every = np.ones(values.shape, bool)
@@ -403,16 +414,17 @@ def test_mean_only_dense_updates_score_like_sparse_ones() -> None:
     model.update(sparse, np.arange(4), t[:20], values[:, :20], almost[:, :20])
     model.update(sparse, np.arange(4), t[20:], values[:, 20:], every[:, 20:])
     _assert_states_equal(dense, sparse)
-    assert dense.order_n.tolist() == [39.0] * 4
+    assert dense.order_n.tolist() == [39.0 // stride] * 4
 
 
-def test_orders_above_the_number_of_periods_use_every_period() -> None:
+@pytest.mark.parametrize("stride", [1, 3])
+def test_orders_above_the_number_of_periods_use_every_period(stride: int) -> None:
     periods = (DAY_S, DAY_S / 2)
-    model = FremenModel(periods, max_order=4)
+    model = FremenModel(periods, max_order=4, score_stride=stride)
     t, values, observed = _random_stream(10, 3, 120)
     state = model.empty(3)
     model.update(state, np.arange(3), t, values, observed)
-    loops = [LoopState(periods, 4, 1.5) for _ in range(3)]
+    loops = [LoopState(periods, 4, 1.5, stride) for _ in range(3)]
     for i, lp in enumerate(loops):
         for w in np.flatnonzero(observed[i]):
             lp.add(float(t[w]), float(values[i, w]))
@@ -422,3 +434,41 @@ def test_orders_above_the_number_of_periods_use_every_period() -> None:
     np.testing.assert_allclose(
         model.predict(state, tq, order=4), model.predict(state, tq, order=2), atol=0
     )
+
+
+@pytest.mark.parametrize("stride", [3, 8])
+def test_stride_on_dense_windows_with_rows_at_every_phase(stride: int) -> None:
+    """Dense blocks where the rows' counts sit at every phase modulo the stride (each row
+    scores at a different window of a block), after a sparse start, against the loop."""
+    model = FremenModel(PERIODS, max_order=4, score_stride=stride)
+    rng = np.random.default_rng(11)
+    n_rows = 20
+    t = np.sort(rng.uniform(0, 10 * DAY_S, 160))
+    values = np.stack([_signal(rng, t, kind) for kind in range(n_rows)])
+    observed = np.ones(values.shape, bool)
+    for i in range(n_rows):
+        observed[i, : i % 11] = False  # rows start late by 0..10 windows
+    state = model.empty(n_rows)
+    rows = np.arange(n_rows)
+    for a, b in itertools.pairwise([0, 13, 14, 90, 160]):
+        model.update(state, rows, t[a:b], values[:, a:b], observed[:, a:b])
+    loops = [LoopState(PERIODS, 4, 1.5, stride) for _ in range(n_rows)]
+    for i, lp in enumerate(loops):
+        for w in np.flatnonzero(observed[i]):
+            lp.add(float(t[w]), float(values[i, w]))
+    np.testing.assert_allclose(state.order_err, [lp.err for lp in loops], rtol=1e-9, atol=1e-9)
+    np.testing.assert_array_equal(state.order_n, [lp.err_n for lp in loops])
+    assert model.chosen_order(state).tolist() == [lp.chosen(0.002) for lp in loops]
+
+
+def test_score_stride_defaults_and_config() -> None:
+    assert FremenModel(PERIODS).score_stride == 1  # direct callers keep every observation
+    config = ModelConfig()
+    assert config.score_stride == 8
+    assert FremenModel.from_config(config).score_stride == 8
+    assert FremenModel.from_config(config.replace(score_stride=1)).score_stride == 1
+    for bad in (0, 1025, 2.0, True):
+        with pytest.raises(ConfigError, match="score_stride"):
+            ModelConfig(score_stride=bad)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="score_stride"):
+        FremenModel(PERIODS, score_stride=0)

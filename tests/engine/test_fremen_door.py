@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aion_cli.engine.config import DAY_S, default_periods
+from aion_cli.engine.config import DAY_S, ModelConfig, default_periods
 from aion_cli.engine.fremen import FremenModel, FremenState, to_model_seconds
 
 DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "fremen_door"
@@ -23,10 +23,11 @@ def _seconds(unix_s: np.ndarray) -> np.ndarray:
     return to_model_seconds(unix_s.astype(np.int64) * 1_000_000_000)
 
 
-@pytest.fixture(scope="module")
-def trained() -> tuple[FremenModel, FremenState]:
+@pytest.fixture(scope="module", params=[1, ModelConfig().score_stride], ids=lambda k: f"stride{k}")
+def trained(request: pytest.FixtureRequest) -> tuple[FremenModel, FremenState]:
+    """Trained with every observation scored, and with the mapper's default scoring stride."""
     train = np.loadtxt(DATA / "training_data.txt")
-    model = FremenModel(default_periods())
+    model = FremenModel(default_periods(), score_stride=request.param)
     state = model.empty(1)
     t = _seconds(train[:, 0])
     day = 1440
@@ -37,10 +38,10 @@ def trained() -> tuple[FremenModel, FremenState]:
 
 
 def test_training_absorbs_every_sample(trained: tuple[FremenModel, FremenState]) -> None:
-    _, state = trained
+    model, state = trained
     assert state.n[0] == 96_480
     assert state.sum_s[0] / state.n[0] == pytest.approx(0.118, abs=5e-4)
-    assert state.order_n[0] == 96_479
+    assert state.order_n[0] == 96_479 // model.score_stride  # counts k, 2k, .. before them
 
 
 def test_daily_period_is_among_the_three_strongest(
@@ -61,7 +62,7 @@ def test_fremen_beats_static_mean_on_each_test_week(
 ) -> None:
     model, state = trained
     chosen = int(model.chosen_order(state)[0])
-    print(f"\nchosen order {chosen}; week: MAE FreMEn vs static")
+    print(f"\nstride {model.score_stride}, chosen order {chosen}; week: MAE FreMEn vs static")
     assert chosen >= 1
     for k in range(1, 10):
         t = _seconds(np.loadtxt(DATA / f"test_times_{k}.txt"))
