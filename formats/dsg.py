@@ -212,7 +212,8 @@ def read_dsg_payload(payload: PayloadLike, version: str | None = None) -> tuple[
                 graph = spark_dsg.DynamicSceneGraph.from_binary(data)
             else:
                 graph = _load_with_header(data, v)
-        except (ValueError, RuntimeError, IndexError, TypeError) as exc:
+        except (ValueError, RuntimeError, IndexError, TypeError, MemoryError) as exc:
+            # MemoryError: std::bad_alloc when a damaged length field asks for gigabytes
             failures.append(f"{v}: {_short(exc)}")
             continue
         return graph, v
