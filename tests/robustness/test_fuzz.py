@@ -1,0 +1,145 @@
+"""Mutation fuzzing of the log readers, the detection decoders, the scene-graph decoder and the
+map loader: truncated and bit-flipped valid inputs must give a result or a typed aion error
+(an ``AionError`` subclass), never another exception and never a hang.
+
+The cases run in ``tests/robustness/fuzz_worker.py`` subprocesses (an address-space limit turns
+a runaway allocation into a MemoryError; a per-case timer catches hangs). The default run tries
+a few hundred inputs in all; ``AION_FUZZ_LONG=1`` adds the long run (thousands). Each test
+prints the number of inputs tried (``pytest -s`` shows them).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.robustness.conftest import (
+    T0,
+    S,
+    build_json,
+    graph_payload,
+    robot_tf,
+    scene_graph,
+    walk,
+    write_log,
+)
+
+LONG = os.environ.get("AION_FUZZ_LONG", "") not in ("", "0")
+CASE_TIMEOUT_S = 10.0
+LOG_CONTAINERS = {
+    "a.mcap": "mcap",
+    "b.mcap": "mcap-ros1",
+    "c.bag": "bag",
+    "d_r2": "rosbag2-sqlite3",
+    "e_r2": "rosbag2-mcap",
+}
+
+# target -> (cases in the default run, cases in the long run)
+BUDGET = {
+    "logs": (60, 3000),
+    "detections": (80, 5000),
+    "dsg": (30, 1000),
+    "read_map": (40, 3000),
+    "load_map": (40, 3000),
+}
+
+
+@pytest.fixture(scope="module")
+def seeds(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[Path]]:
+    """Small valid inputs: one log per container (people, TF, a scene graph) and a map."""
+    folder = tmp_path_factory.mktemp("fuzz_seeds")
+    msgs = sorted(
+        [
+            *walk(40),
+            *[robot_tf(T0 + 5 * k * S) for k in range(8)],
+            scene_graph(T0 + 1, graph_payload()),
+        ],
+        key=lambda m: m[3],
+    )
+    logs = [write_log(folder / name, msgs, c) for name, c in LOG_CONTAINERS.items()]
+    build_json(logs[0], "-o", folder / "m.aion")
+    return {"logs": logs, "maps": [folder / "m.aion"]}
+
+
+def fuzz(target: str, seed: int, cases: int, files: list[Path]) -> dict[str, Any]:
+    """Run the worker; fail on any untyped exception or hang; return its summary."""
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "tests.robustness.fuzz_worker",
+            target,
+            str(seed),
+            str(cases),
+            str(CASE_TIMEOUT_S),
+            *map(str, files),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60 + cases * CASE_TIMEOUT_S,
+        check=False,
+        cwd=Path(__file__).resolve().parents[2],
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    summary: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
+    print(
+        f"fuzz {target}: {summary['cases']} inputs tried, {summary['accepted']} read, "
+        f"{summary['typed_errors']} typed errors, {len(summary['failures'])} failures"
+    )
+    assert summary["failures"] == [], "\n".join(summary["failures"][:10])
+    assert summary["accepted"] + summary["typed_errors"] == cases
+    return summary
+
+
+def _files(target: str, seeds: dict[str, list[Path]]) -> list[Path]:
+    if target == "logs":
+        return seeds["logs"]
+    if target in ("read_map", "load_map"):
+        return seeds["maps"]
+    return []
+
+
+@pytest.mark.parametrize("target", sorted(BUDGET))
+def test_fuzz_short(target: str, seeds: dict[str, list[Path]]) -> None:
+    summary = fuzz(target, 20261122, BUDGET[target][0], _files(target, seeds))
+    # the mutants reach both outcomes: the fuzzer is not only feeding hopeless garbage
+    assert summary["typed_errors"] > 0
+    if target != "read_map":
+        assert summary["accepted"] > 0
+
+
+@pytest.mark.fuzz_long
+@pytest.mark.skipif(not LONG, reason="the long fuzz run: set AION_FUZZ_LONG=1")
+@pytest.mark.parametrize("target", sorted(BUDGET))
+def test_fuzz_long(target: str, seeds: dict[str, list[Path]]) -> None:
+    fuzz(target, 7, BUDGET[target][1], _files(target, seeds))
+
+
+def test_the_worker_reports_untyped_exceptions(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The harness can fail: a reader that raises a plain exception is reported as a failure."""
+    import signal
+
+    from tests.robustness import fuzz_worker
+
+    bad = tmp_path / "x.mcap"
+    bad.write_bytes(b"\x89MCAP0\r\n")
+
+    def broken(path: Path) -> int:
+        raise RuntimeError("untyped")
+
+    monkeypatch.setattr(fuzz_worker, "_read_log", broken)
+    handler = signal.getsignal(signal.SIGALRM)
+    try:
+        summary = fuzz_worker.run_cases("logs", 1, 3, 5.0, [bad])
+    finally:
+        signal.signal(signal.SIGALRM, handler)
+    assert len(summary["failures"]) == 3
+    assert "RuntimeError: untyped" in summary["failures"][0]
