@@ -8,8 +8,10 @@ failure looks like (one ``error:`` line, a ``hint:`` line, exit code 2 for input
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from collections.abc import Sequence
+from types import FrameType
 from typing import Any
 
 import click
@@ -90,6 +92,13 @@ cli.add_command(simulate_command, "simulate")
 cli.add_command(evaluate_group, "evaluate")
 
 
+def _terminated(signum: int, frame: FrameType | None) -> None:
+    """SIGTERM unwinds like Ctrl-C, so a map being written loses only its temporary file and
+    its lock (the default action killed the process and left both behind)."""
+    raise KeyboardInterrupt
+
+
 def main() -> None:
     """Console-script entry point."""
+    signal.signal(signal.SIGTERM, _terminated)
     cli()
