@@ -25,6 +25,14 @@ Topics are found by message type. All topics with a supported people-detection t
 used; name the ones you want with --detections-topic (repeatable) when a tracker publishes
 the same people twice. Without a robot trajectory (TF map->base_link or the scene graph's
 agent layer) the log is treated as a fixed sensor over its time span; the summary says so.
+An interrupted or failed build leaves an existing map untouched.
+
+\b
+JSON keys (--format json): map, map_bytes, continued, detections{read, used,
+dropped{reason: n}}, cells (unbound hash cells), nodes, nodes_with_flow, bound_cells,
+windows (most windows any entry observed), time_span{start_ns, end_ns, seconds},
+observation, graph{source, messages, dsg_version, topics}, detection_topics,
+inputs[{path, name, size, sha256}], notes.
 """
 
 
