@@ -324,6 +324,8 @@ class _Build:
         if plan.graph:
             self.report.graph_source = "log"
             self.report.graph_topics = sorted(plan.names("graph"))
+            if opts.derive_graph:
+                self.report.notes.append("--derive-graph ignored: the log has scene graphs")
             return None
         if self.previous is not None and self.previous.graph is not None:
             self.report.graph_source = "continued map"
