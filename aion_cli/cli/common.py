@@ -13,8 +13,8 @@ from aion_cli.cli.timeparse import Zone, format_ns, parse_time, resolve_zone
 F = TypeVar("F", bound=Callable[..., Any])
 
 TIME_HELP = (
-    'When: "2026-11-23 08:30", "2026-11-23T08:30:00+01:00", UNIX seconds, "now", "+2h", '
-    '"-30m", "tomorrow 12:00", "monday 08:30".'
+    'When: "2026-11-23 08:30", "2026-11-23T08:30:00+01:00", "2026-11-23 08:30 Europe/Berlin", '
+    'UNIX seconds, "now", "+2h", "-30m", "tomorrow 12:00", "monday 08:30".'
 )
 
 

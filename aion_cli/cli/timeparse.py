@@ -3,8 +3,9 @@
 Accepted forms (case-insensitive), interpreted in the zone given by ``--tz`` (default: the
 machine's local zone) unless the text carries its own offset:
 
-* ISO 8601 with or without a zone: ``2026-11-23 08:30``, ``2026-11-23T08:30:00+01:00``,
-  ``2026-11-23T07:30Z``, ``2026-11-23`` (midnight);
+* ISO 8601 with or without a zone: ``2026-11-23 08:30`` (or ``8:30``),
+  ``2026-11-23T08:30:00+01:00``, ``2026-11-23T07:30Z``, ``2026-11-23`` (midnight), and any
+  form followed by a zone name: ``2026-11-23 08:30 Europe/Berlin``, ``tomorrow 12:00 UTC``;
 * UNIX time: ``1795420200``, ``@1795420200.5`` (seconds), ``1795420200000000000ns``;
 * relative to now: ``now``, ``+2h``, ``-30m``, ``+1d12h``, ``now+90s`` (units w, d, h, m, s);
 * a day word and an optional wall-clock time: ``today 17:00``, ``tomorrow 12:00``,
@@ -58,6 +59,7 @@ _RE_DAYWORD = re.compile(rf"^([a-z]+)(?:\s+{_CLOCK})?$")
 _RE_RELATIVE = re.compile(r"^(?:now\s*)?([+-])\s*((?:\d+(?:\.\d+)?\s*[a-z]+\s*)+)$")
 _RE_REL_PART = re.compile(r"(\d+(?:\.\d+)?)\s*([a-z]+)")
 _RE_UNIX = re.compile(r"^@?(-?\d+(?:\.\d+)?)\s*(s|ns)?$")
+_RE_ONE_DIGIT_HOUR = re.compile(r"^(\d{4}-\d{2}-\d{2}[ T])(\d:)")
 _RE_OFFSET = re.compile(r"^(?:utc|gmt)?\s*([+-])(\d{1,2})(?::?(\d{2}))?$")
 
 
@@ -169,7 +171,8 @@ def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
     ``now`` (aware) pins the reference for relative forms; default: the current time.
     """
     raw = text
-    text = " ".join(text.strip().lower().split())
+    text, zone = _split_zone(" ".join(text.strip().split()), zone)
+    text = text.lower()
     if not text:
         raise TimeFormatError("empty time", FORMS_HINT)
     current = (now or datetime.now(UTC)).astimezone(zone.tz)
@@ -178,6 +181,14 @@ def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
         if result is not None:
             return result
     raise TimeFormatError(f"cannot read the time {raw!r}", FORMS_HINT)
+
+
+def _split_zone(text: str, zone: Zone) -> tuple[str, Zone]:
+    """A trailing zone name overrides ``zone``: ``2026-11-23 08:30 Europe/Berlin``, ``... UTC``."""
+    head, _, last = text.rpartition(" ")
+    if head and ("/" in last or last.lower() in ("utc", "gmt")):
+        return head, resolve_zone(last)
+    return text, zone
 
 
 def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:
@@ -247,7 +258,7 @@ def _parse_clock(text: str, zone: Zone, current: datetime) -> int | None:
 
 
 def _parse_iso(text: str, zone: Zone, current: datetime) -> int | None:
-    candidate = text.upper()
+    candidate = _RE_ONE_DIGIT_HOUR.sub(r"\g<1>0\g<2>", text.upper())
     if candidate.endswith(" Z"):
         candidate = candidate[:-2] + "Z"
     try:

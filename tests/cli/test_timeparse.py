@@ -142,3 +142,11 @@ def test_format_round_trip() -> None:
     t = parse_time("2026-11-23 08:30", BERLIN, NOW)
     assert format_ns(t, BERLIN) == "2026-11-23 08:30:00+01:00"
     assert format_ns(t, Zone(UTC, "UTC")) == "2026-11-23 07:30:00+00:00"
+
+
+def test_one_digit_hour_and_a_trailing_zone_name() -> None:
+    assert parse_time("2026-11-23 8:30", UTCZ, NOW) == ns(2026, 11, 23, 8, 30)
+    assert parse_time("2026-11-23 08:30 Europe/Berlin", UTCZ, NOW) == ns(2026, 11, 23, 7, 30)
+    assert parse_time("tomorrow 12:00 UTC", BERLIN, NOW) == ns(2026, 11, 23, 12, 0)
+    with pytest.raises(TimeFormatError):
+        parse_time("2026-11-23 08:30 Mars/Olympus", UTCZ, NOW)
