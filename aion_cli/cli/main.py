@@ -37,8 +37,18 @@ Run 'aion COMMAND --help' for the options and a worked example of each command.
 
 
 def _debug_requested(args: Sequence[str]) -> bool:
-    """``--debug`` anywhere before the subcommand's own options, or AION_DEBUG=1."""
+    """``--debug`` anywhere on the command line, or AION_DEBUG=1."""
     return "--debug" in args or os.environ.get("AION_DEBUG", "") not in ("", "0")
+
+
+def _hoist_debug(args: list[str]) -> list[str]:
+    """``aion predict MAP --debug`` works like ``aion --debug predict MAP``: the flag is moved
+    in front of the subcommand (only before a ``--`` separator)."""
+    end = args.index("--") if "--" in args else len(args)
+    if "--debug" not in args[:end]:
+        return args
+    rest = [a for a in args[:end] if a != "--debug"] + args[end:]
+    return ["--debug", *rest]
 
 
 class AionGroup(click.Group):
@@ -52,7 +62,7 @@ class AionGroup(click.Group):
         standalone_mode: bool = True,
         **extra: Any,
     ) -> Any:
-        argv = list(sys.argv[1:] if args is None else args)
+        argv = _hoist_debug(list(sys.argv[1:] if args is None else args))
         try:
             rv = super().main(
                 argv, prog_name or "aion", complete_var, standalone_mode=False, **extra
@@ -76,7 +86,9 @@ class AionGroup(click.Group):
     epilog=EPILOG,
 )
 @click.version_option(__version__, "-V", "--version", prog_name="aion")
-@click.option("--debug", is_flag=True, help="Show the full traceback when something fails.")
+@click.option(
+    "--debug", is_flag=True, help="Show the full traceback when something fails (anywhere)."
+)
 def cli(debug: bool) -> None:
     """aion: 4D scene graphs (scene graphs with temporal flow dynamics) from robot logs.
 

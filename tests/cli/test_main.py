@@ -78,6 +78,10 @@ def test_debug_prints_the_traceback(capsys: pytest.CaptureFixture[str]) -> None:
     result = run("--debug", "frobnicate")
     assert result.exit_code == 2
     assert "Traceback" in result.stderr
+    result = run("predict", "missing.aion", "--debug")  # the flag works after the command too
+    assert result.exit_code == 2
+    assert "Traceback" in result.stderr
+    assert result.stderr.rstrip().splitlines()[-2].startswith("error: map file not found")
 
 
 def test_subprocess_missing_map_is_one_line_exit_2(tmp_path: Path) -> None:
