@@ -101,7 +101,7 @@ def command(
 ) -> None:
     """Export MAP as 3D scenes (PLY/PCD) and tables (CSV/JSON) for viewers and scripts."""
     from aion_cli.cli.common import load
-    from aion_cli.cli.console import console
+    from aion_cli.cli.console import console, progress
     from aion_cli.engine.errors import InputError
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
@@ -126,9 +126,12 @@ def command(
         ends = _path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
-    for t_ns in times:
-        folder = out_dir if len(times) == 1 else out_dir / _stamp(t_ns)
-        written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
+    with progress(quiet=len(times) == 1) as bar:
+        task = bar.add_task("exporting", total=len(times), unit="times")
+        for t_ns in times:
+            folder = out_dir if len(times) == 1 else out_dir / _stamp(t_ns)
+            written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
+            bar.advance(task)
     if zone is not None and times[0] is not None:
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
         announce_time(times[0], zone, label)
