@@ -1,7 +1,8 @@
 """FreMEn speed: state-updates/s and state-predictions/s with 31 periods, 10^3..10^6 states.
 
 * **updates** = (row, window) observations absorbed per second by ``FremenModel.update`` with
-  the prequential order selection (orders 0..4), one call per day of 10-minute windows
+  the prequential order selection (orders 0..4, every k-th observation of a row scored, k =
+  ``score_stride``: the config default unless ``--stride``), one call per day of 10-minute windows
   (W = 144, every row observed in every window: the dense worst case), as the mapper calls it.
   Large sizes are timed on an evenly spaced subset of the rows of the full-size state (at most
   ``UPDATE_CAP`` observations per call); the per-observation cost does not depend on the rows
@@ -10,16 +11,17 @@
 * **predictions** = rows × times per second of ``FremenModel.predict`` (chosen orders, 144
   times), in row blocks of 10^5 so the output fits in memory.
 * **vs loop**: ratio to a straightforward per-state Python loop (complex sums per observation,
-  sort of the amplitudes per prediction) run in the same process on a few rows and extrapolated
-  per state.
+  sort of the amplitudes per prediction, the same stride rule) run in the same process on a few
+  rows and extrapolated per state.
 
 States start from two weeks of 10-minute history (every period admitted by the span gate),
 built from 64 synthetic activity rows and tiled. Prints a table; no assertions (speed is measured
-here, never in timed tests). Run: ``python -m benchmarks.bench_fremen``.
+here, never in timed tests). Run: ``python -m benchmarks.bench_fremen [--stride K] [--sizes N ..]``.
 """
 
 from __future__ import annotations
 
+import argparse
 import cmath
 import math
 import os
@@ -29,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.config import DAY_S, default_periods
+from aion_cli.engine.config import DAY_S, ModelConfig, default_periods
 from aion_cli.engine.fremen import FremenModel, FremenState
 
 WINDOW_S = 600.0
@@ -71,6 +73,7 @@ class LoopFremen:
         self.omega = [2 * math.pi / p for p in model.periods]
         self.span_factor = model.span_factor
         self.max_order = model.max_order
+        self.stride = model.score_stride
         self.n = float(state.n[row])
         self.sum_s = float(state.sum_s[row])
         self.se = [complex(x) for x in state.sum_se[row]]
@@ -97,15 +100,16 @@ class LoopFremen:
         return min(1.0, max(0.0, p))
 
     def add(self, t: float, s: float) -> None:
-        mu, terms = self._terms()
-        p = mu
-        self.err[0] += abs(s - min(1.0, max(0.0, p)))
-        for m in range(1, self.max_order + 1):
-            if m <= len(terms):
-                a, w, ph = terms[m - 1]
-                p += 2 * a * math.cos(w * t - ph)
-            self.err[m] += abs(s - min(1.0, max(0.0, p)))
-        self.err_n += 1
+        if self.n > 0 and self.n % self.stride == 0:  # a scored observation
+            mu, terms = self._terms()
+            p = mu
+            self.err[0] += abs(s - min(1.0, max(0.0, p)))
+            for m in range(1, self.max_order + 1):
+                if m <= len(terms):
+                    a, w, ph = terms[m - 1]
+                    p += 2 * a * math.cos(w * t - ph)
+                self.err[m] += abs(s - min(1.0, max(0.0, p)))
+            self.err_n += 1
         self.n += 1
         self.sum_s += s
         for k, w in enumerate(self.omega):
@@ -168,7 +172,7 @@ def _accumulator_times(
 def measure(model: FremenModel, size: int) -> dict[str, Any]:
     """Update, accumulator-only update and prediction rates for one size (per wall second and
     per CPU second: the machine is shared, so wall rates understate an idle machine)."""
-    mean_only = FremenModel(model.periods, max_order=0)
+    mean_only = FremenModel(model.periods, max_order=0, score_stride=model.score_stride)
     state, t_next = history_state(model, size)
     rng = np.random.default_rng(2)
     t = t_next + (np.arange(WINDOWS) + 0.5) * WINDOW_S
@@ -190,6 +194,7 @@ def measure(model: FremenModel, size: int) -> dict[str, Any]:
     n_upd, n_pred = n_timed * WINDOWS, size * TIMES
     return {
         "states": size,
+        "stride": model.score_stride,
         "timed_rows": n_timed,
         "windows": WINDOWS,
         "updates_per_s": n_upd / upd_wall,
@@ -202,10 +207,14 @@ def measure(model: FremenModel, size: int) -> dict[str, Any]:
     }
 
 
-def run(sizes: tuple[int, ...] = (10**3, 10**4, 10**5, 10**6)) -> list[dict[str, Any]]:
+def run(
+    sizes: tuple[int, ...] = (10**3, 10**4, 10**5, 10**6), stride: int | None = None
+) -> list[dict[str, Any]]:
     """Measure every size; one dict per size (rates in observations or predictions per s,
-    ratios to the per-state loop measured once in the same process)."""
-    model = FremenModel(default_periods(), max_order=4)
+    ratios to the per-state loop measured once in the same process). ``stride``: the scoring
+    stride (default: the config's)."""
+    k = ModelConfig().score_stride if stride is None else stride
+    model = FremenModel(default_periods(), max_order=4, score_stride=k)
     small, t_next = history_state(model, TEMPLATES)
     loop_upd, loop_pred = loop_rates(model, small, t_next)
     results = []
@@ -220,28 +229,35 @@ def run(sizes: tuple[int, ...] = (10**3, 10**4, 10**5, 10**6)) -> list[dict[str,
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--stride", type=int, default=None, help="score_stride (config default)")
+    parser.add_argument("--sizes", type=int, nargs="+", default=[10**3, 10**4, 10**5, 10**6])
+    args = parser.parse_args()
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(
         f"FreMEn, {len(default_periods())} periods, orders 0..4, {WINDOWS} windows per update "
         f"call, {TIMES} prediction times; cpus={os.cpu_count()}, load average {load:.1f}"
     )
     print("rates per wall second (per CPU second in brackets); vs loop = wall rate / loop rate")
-    rows = run()
+    rows = run(tuple(args.sizes), args.stride)
     print(
-        f"{'states':>9} {'timed':>7} {'updates/s':>21} {'vs loop':>7} "
+        f"{'states':>9} {'timed':>7} {'k':>4} {'updates/s':>21} {'vs loop':>7} "
         f"{'accum-only updates/s':>21} {'predictions/s':>21} {'vs loop':>7}"
     )
     for r in rows:
         print(
-            f"{r['states']:>9,} {r['timed_rows']:>7,} "
+            f"{r['states']:>9,} {r['timed_rows']:>7,} {r['stride']:>4} "
             f"{r['updates_per_s']:>9.3g} ({r['updates_per_cpu_s']:>9.3g}) "
             f"{r['update_vs_loop']:>6.0f}x "
             f"{r['accumulator_updates_per_s']:>9.3g} ({r['accumulator_updates_per_cpu_s']:>9.3g}) "
             f"{r['predictions_per_s']:>9.3g} ({r['predictions_per_cpu_s']:>9.3g}) "
             f"{r['predict_vs_loop']:>6.0f}x"
         )
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(
-        f"per-state Python loop: {rows[0]['loop_updates_per_s']:.3g} updates/s, "
+        f"load average at the end {load:.1f}; "
+        f"per-state Python loop (k = {rows[0]['stride']}): "
+        f"{rows[0]['loop_updates_per_s']:.3g} updates/s, "
         f"{rows[0]['loop_predictions_per_s']:.3g} predictions/s; chosen orders 0..4 of the "
         f"timed states: {rows[-1]['chosen_orders']}"
     )

@@ -74,7 +74,24 @@ _BLOCK_CELLS = 1 << 16
 _WORKERS = max(1, min(4, os.cpu_count() or 1))
 """Threads for the prequential replay of row chunks."""
 
+_FULL_SCORING = 64
+"""With a scoring stride k > 1, a row's first observations are all scored, up to this count
+rounded up to a multiple of k; after that every k-th, weighted k (see ``FremenModel``)."""
+
 _STATE_FIELDS = ("n", "sum_s", "sum_se", "sum_e", "t_first", "t_last", "order_err", "order_n")
+
+
+def _add_weighted(err: F64, count: F64, i: I64, errs: F64, weight: F64) -> None:
+    """``err[i] += weight·errs`` and ``count[i] += weight`` for scored observations sorted by
+    row ``i`` (a row may repeat: several scored observations in one block)."""
+    if weight.max() != 1.0:  # weights are 1 or the stride
+        errs *= weight[:, None]
+    if i.size > 1 and not bool(np.all(i[1:] != i[:-1])):
+        np.add.at(err, i, errs)
+        np.add.at(count, i, weight)
+    else:
+        err[i] += errs
+        count[i] += weight
 
 
 def to_model_seconds(t_ns: npt.ArrayLike) -> F64:
@@ -97,7 +114,8 @@ class FremenState:
     """Accumulators of R rows over K periods (struct of arrays), orders 0..M.
 
     ``sum_se`` / ``sum_e`` are complex128[R, K]; ``order_err`` is float64[R, M+1] (prequential
-    absolute-error sums) and ``order_n`` the number of scored observations per row.
+    absolute-error sums) and ``order_n`` the number of observations they stand for per row
+    (scored observations, weighted by the scoring stride after a row's first ones).
     """
 
     n: F64
@@ -257,14 +275,22 @@ def merge_states(a: FremenState, b: FremenState) -> FremenState:
 class FremenModel:
     """The model parameters shared by every row: candidate periods (s), the highest order, the
     span gate factor, the bias towards lower orders (mean absolute error) and the scoring
-    stride k: the prequential order errors score an observation iff the row's number of earlier
-    observations is a positive multiple of k (k = 1: every observation after the first)."""
+    stride k for the prequential order errors.
+
+    With n the row's number of earlier observations, an observation is scored iff n > 0 and
+    either n < F (F = :data:`_FULL_SCORING` rounded up to a multiple of k: a young row scores
+    every observation, so its order choice is not left to a handful of samples) or n is a
+    multiple of k, then weighted k (it stands for itself and the next k − 1). The weighted sums
+    are thus an unbiased, deterministic subsample of the full prequential sums, depending only
+    on each row's own count (independent of how windows are batched). k = 1 scores every
+    observation after the first, weight 1."""
 
     periods: tuple[float, ...]
     max_order: int = 4
     span_factor: float = 1.5
     order_bias: float = 0.002
     score_stride: int = 1
+    full_scoring: int = field(init=False, repr=False, compare=False)
     omega: F64 = field(init=False, repr=False, compare=False)
     min_span: F64 = field(init=False, repr=False, compare=False)
 
@@ -279,6 +305,8 @@ class FremenModel:
         if not (isinstance(self.score_stride, (int, np.integer)) and self.score_stride >= 1):
             raise ValueError(f"score_stride must be an integer >= 1, got {self.score_stride!r}")
         object.__setattr__(self, "score_stride", int(self.score_stride))
+        k = self.score_stride
+        object.__setattr__(self, "full_scoring", -(-_FULL_SCORING // k) * k if k > 1 else 0)
         object.__setattr__(self, "periods", tuple(float(p) for p in periods))
         object.__setattr__(self, "omega", 2.0 * np.pi / periods)
         object.__setattr__(self, "min_span", self.span_factor * periods)
@@ -390,11 +418,15 @@ class FremenModel:
 
     def _scored(self, n_pre: F64, obs: BoolA) -> BoolA:
         """Which observations are scored, given each one's count of earlier observations of its
-        row: those with ``n_pre`` > 0 and a multiple of ``score_stride``."""
+        row (see the class docstring)."""
         scored = obs & (n_pre > 0)
         if self.score_stride > 1:
-            scored &= np.fmod(n_pre, float(self.score_stride)) == 0.0
+            scored &= (n_pre < self.full_scoring) | (np.fmod(n_pre, self.score_stride) == 0.0)
         return scored
+
+    def _weights(self, n_pre: F64) -> F64:
+        """Weights of scored observations: 1 while the row is young, else the stride."""
+        return np.where(n_pre < self.full_scoring, 1.0, float(self.score_stride))
 
     def _score_orders(
         self, state: FremenState, rows: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
@@ -477,12 +509,12 @@ class FremenModel:
     ) -> None:
         """The prequential replay for one chunk of rows (see :meth:`_score_orders`).
 
-        Windows go in blocks of B = ``score_stride`` (B consecutive counts hold at most one
-        multiple of the stride, so each row has at most one scored observation per block).
-        The scored observations of a block are ranked from the block's starting accumulators
-        plus the earlier windows of the block (one small matrix product); then the whole block
-        is absorbed with one matrix product, as :meth:`_absorb` does. Un-scored observations
-        cost only that absorb.
+        Windows go in blocks of B = ``score_stride`` (B consecutive counts hold one multiple of
+        the stride, so a row past its fully scored start has at most one scored observation
+        per block). The scored observations of a block are ranked from the block's starting
+        accumulators plus the earlier windows of the block (one small matrix product); then
+        the whole block is absorbed with one matrix product, as :meth:`_absorb` does.
+        Un-scored observations cost only that absorb.
         """
         c, k = rr.size, self.n_periods
         if min(self.max_order, k) == 0:
@@ -510,7 +542,7 @@ class FremenModel:
                 n_pre = n[:, None] + np.arange(b - a, dtype=np.float64)[None, :]
             else:
                 n_pre = n[:, None] + _exclusive_cumsum(of)
-            i, j = np.nonzero(self._scored(n_pre, ob))  # at most one per row
+            i, j = np.nonzero(self._scored(n_pre, ob))  # sorted by row
             if i.size:
                 s_se, s_e = acc_se[i], acc_e[i]
                 ss_p = ss[i]
@@ -533,10 +565,11 @@ class FremenModel:
                         l_in = np.where(seen, t[b - 1 - back], np.nan)
                     f_p = np.fmin(f_p, t_in)
                     l_p = np.fmax(l_p, l_in)
-                err[i] += self._pair_errors(
-                    s_se, s_e, n_pre[i, j], ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t
+                n_p = n_pre[i, j]
+                errs = self._pair_errors(
+                    s_se, s_e, n_p, ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t
                 )
-                scored_n[i] += 1.0
+                _add_weighted(err, scored_n, i, errs, self._weights(n_p))
             # absorb the block into the chunk's private accumulators
             acc_se += v @ e_blk
             ss += v.sum(axis=1)
@@ -618,11 +651,9 @@ class FremenModel:
             else:
                 cs = np.cumsum(of[rows, :wmax, None] * basis[None, :wmax], axis=1)
                 s_e[prior] += cs[local, jm[prior]]
-        errs = self._pair_errors(
-            s_se, s_e, n_pre[i, j], ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t
-        )
-        np.add.at(err, i, errs)  # a row may have several scored windows in a block
-        np.add.at(scored_n, i, 1.0)
+        n_p = n_pre[i, j]
+        errs = self._pair_errors(s_se, s_e, n_p, ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t)
+        _add_weighted(err, scored_n, i, errs, self._weights(n_p))
 
     def _score_mean_only(self, state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:
         """Order 0 only: the prequential mean before each window, from cumulative sums."""
@@ -641,6 +672,13 @@ class FremenModel:
         np.clip(diff, 0.0, 1.0, out=diff)
         diff -= vz
         np.abs(diff, out=diff)
+        if self.score_stride > 1:
+            weight = np.where(scored, self._weights(n_pre), 0.0)
+            diff *= weight
+            diff[~scored] = 0.0  # the row's first observation: NaN from 0 / 0
+            state.order_err[rr] += diff.sum(axis=1)[:, None]
+            state.order_n[rr] += weight.sum(axis=1)
+            return
         diff[~scored] = 0.0
         state.order_err[rr] += diff.sum(axis=1)[:, None]
         state.order_n[rr] += scored.sum(axis=1, dtype=np.float64)
