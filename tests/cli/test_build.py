@@ -4,12 +4,13 @@ checked against what the generated office log is known to hold."""
 from __future__ import annotations
 
 import hashlib
+import json
 import shutil
 import tomllib
 from pathlib import Path
 
 from aion_cli.engine.config import ModelConfig
-from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
 from tests.cli.logdata import (
     DURATION_S,
     PLACES,
@@ -262,3 +263,13 @@ def test_rosbag2_folder_map_is_named_after_the_folder(tmp_path: Path) -> None:
     assert (tmp_path / "run3.aion").is_file()
     doc = run_json("info", tmp_path / "run3.aion", "--format", "json")
     assert doc["counts"]["used"] == 300
+
+
+def test_subprocess_build_json_on_stdout_and_nothing_else(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "sub.aion"
+    proc = run_process("build", office.log, "-o", out, "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(proc.stdout)
+    assert report["detections"]["used"] == 300
+    assert report["map_bytes"] == out.stat().st_size
+    assert proc.stderr == ""  # no progress bar when stderr is not a terminal, no table with json
