@@ -52,7 +52,8 @@ def load_map(path: Path) -> LoadedMap:
 
 
 def _latest_graph(state: MapState) -> GraphSnapshot | None:
-    graph = getattr(state, "graph", None)
+    """The map's latest scene graph, None when it has no places (a map of hash cells)."""
+    graph = state.graph
     if graph is None or len(graph.places) == 0:
         return None
     return graph
