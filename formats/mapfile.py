@@ -25,6 +25,7 @@ import io
 import json
 import os
 import re
+import signal
 import socket
 import tempfile
 import time
@@ -217,6 +218,24 @@ def _new_file_mode(target: Path) -> int:
         return 0o666 & ~umask
 
 
+@contextlib.contextmanager
+def _interrupts_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back for the block; they are delivered (and raise) right after.
+
+    Creating the temporary file and learning its name are two steps; an interrupt between them
+    would leave a temporary map nobody removes.
+    """
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    except (AttributeError, OSError, ValueError):  # no pthread_sigmask on this platform
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 def write_map(
     path: str | os.PathLike[str],
     arrays: Mapping[str, npt.NDArray[Any]],
@@ -242,8 +261,11 @@ def write_map(
     with map_lock(target):
         tmp: Path | None = None
         try:
-            fd, tmp_name = tempfile.mkstemp(dir=folder, prefix=f".{target.name}.", suffix=".tmp")
-            tmp = Path(tmp_name)
+            with _interrupts_held():  # else Ctrl-C right after mkstemp leaves the file behind
+                fd, tmp_name = tempfile.mkstemp(
+                    dir=folder, prefix=f".{target.name}.", suffix=".tmp"
+                )
+                tmp = Path(tmp_name)
             os.chmod(tmp, _new_file_mode(target))  # mkstemp makes 0600; maps are shareable
             with os.fdopen(fd, "w+b") as fh:
                 _write_zip(fh, arrays, manifest)
