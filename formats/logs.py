@@ -43,7 +43,15 @@ _BAG_MAGIC = b"#ROSBAG V2.0"
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 _SEPARATOR = re.compile(r"^={3,}[ \t]*$", re.MULTILINE)
 _MESSAGE_ENCODINGS: dict[str, Encoding] = {"cdr": "cdr", "ros1": "ros1"}
-_MCAP_READ_ERRORS = (EOFError, ValueError, KeyError, struct.error, OSError, MemoryError)
+_MCAP_READ_ERRORS = (
+    EOFError,
+    ValueError,
+    KeyError,
+    struct.error,
+    OSError,
+    MemoryError,
+    OverflowError,  # a damaged record length too large to read
+)
 
 
 @dataclass(frozen=True)
