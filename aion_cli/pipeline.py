@@ -167,19 +167,53 @@ class BuildReport:
 
 # -- the build ---------------------------------------------------------------------------------
 def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer | None:
+    """All TF into one buffer. Messages are decoded with numpy 4096 at a time
+    (:mod:`formats.tf_fast`, ~50x faster than rosbags); a chunk the fast decoder rejects (e.g.
+    big-endian CDR, another layout under the type name, a corrupt payload) is decoded message by
+    message with the log's generic decoder, which reports a corrupt payload as before."""
+    import logging
+
+    from aion_cli.engine.errors import MessageDecodeError
     from formats.tf import TfBuffer
+    from formats.tf_fast import decode_tf_messages
 
     if not plan.tf:
         return None
     topics = plan.names("tf")
     progress.start("reading TF", logset.total(topics))
     buffer = TfBuffer()
-    done = 0
-    for done, msg in enumerate(logset.messages(topics), start=1):
-        buffer.add_message(logset.decode(msg), static=msg.topic.endswith("_static"))
-        if done % 256 == 0:
-            progress.advance(256)
-    progress.advance(done % 256)
+    generic = 0
+
+    def add(chunk: list[RawMessage]) -> None:
+        nonlocal generic
+        static = np.fromiter((m.topic.endswith("_static") for m in chunk), bool, len(chunk))
+        try:
+            arrays = decode_tf_messages(chunk)
+        except MessageDecodeError:
+            generic += 1
+            for m, st in zip(chunk, static.tolist(), strict=True):
+                buffer.add_message(logset.decode(m), static=st)
+        else:
+            rows_static = static[arrays.msg_index]
+            for flag in (True, False):  # like TfBuffer's own batches: static rows first
+                for parent, child, rows in arrays.select(
+                    arrays.usable() & (rows_static == flag)
+                ).by_edge():
+                    buffer.add_transforms(
+                        parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
+                    )
+        progress.advance(len(chunk))
+
+    chunk: list[RawMessage] = []
+    for msg in logset.messages(topics):
+        chunk.append(msg)
+        if len(chunk) == 4096:
+            add(chunk)
+            chunk = []
+    if chunk:
+        add(chunk)
+    if generic:
+        logging.getLogger(__name__).info("TF: %d chunk(s) read by the generic decoder", generic)
     return buffer
 
 

@@ -26,7 +26,7 @@ stripped).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,6 +86,26 @@ class TfArrays:
         return (
             (self.parent_code != 0) & (self.child_code != 0) & (self.parent_code != self.child_code)
         )
+
+    def by_edge(self) -> Iterator[tuple[str, str, TfArrays]]:
+        """``(parent, child, rows)`` per distinct frame pair, in order of first appearance, rows
+        in their original order: one :meth:`formats.tf.TfBuffer.add_transforms` call per edge
+        with plain ``str`` frames takes its ungrouped fast path (no per-row Python work)."""
+        if len(self) == 0:
+            return
+        pair = self.parent_code * len(self.names) + self.child_code
+        _, first, inv = np.unique(pair, return_index=True, return_inverse=True)
+        inv = inv.ravel()
+        if len(first) == 1:
+            yield self.names[int(self.parent_code[0])], self.names[int(self.child_code[0])], self
+            return
+        order = np.argsort(inv, kind="stable")
+        bounds = np.searchsorted(inv[order], np.arange(len(first) + 1))
+        for g in np.argsort(first, kind="stable").tolist():
+            rows = order[bounds[g] : bounds[g + 1]]
+            i = int(rows[0])
+            sub = self.select(rows)
+            yield self.names[int(self.parent_code[i])], self.names[int(self.child_code[i])], sub
 
     def select(self, rows: I64 | BoolA) -> TfArrays:
         """A subset of rows (``counts`` and ``msg_index`` are kept as given)."""
