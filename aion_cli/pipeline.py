@@ -320,6 +320,12 @@ class _Build:
         self, mapper: Mapper, tf: TfBuffer | None, plan: TopicPlan, logset: Any
     ) -> None:
         traj = _robot_trajectory(tf, self.opts)
+        if tf is not None and traj is None:
+            frames = ", ".join(sorted(tf.frames)[:12])
+            self.report.notes.append(
+                f"TF has no {self.opts.map_frame}->{self.opts.base_frame} chain for the robot "
+                f"trajectory (frames: {frames}); see --map-frame / --base-frame"
+            )
         if traj is not None:
             mapper.add_trajectory(traj)
             self.report.observation = f"tf {self.opts.map_frame}->{self.opts.base_frame}"

@@ -273,3 +273,11 @@ def test_subprocess_build_json_on_stdout_and_nothing_else(office: Office, tmp_pa
     assert report["detections"]["used"] == 300
     assert report["map_bytes"] == out.stat().st_size
     assert proc.stderr == ""  # no progress bar when stderr is not a terminal, no table with json
+
+
+def test_a_missing_robot_frame_is_noted(office: Office, tmp_path: Path) -> None:
+    report = run_json(
+        "build", office.log, "--base-frame", "robot", "-o", tmp_path / "r.aion", "--format", "json"
+    )
+    assert report["observation"] == "fixed sensor over the log's time span"
+    assert any("no map->robot chain" in note and "base_link" in note for note in report["notes"])
