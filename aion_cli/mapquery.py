@@ -7,6 +7,7 @@ only) and the manifest; :func:`nav_graph` and :func:`node_cost_fn` feed ``engine
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,6 +33,10 @@ class LoadedMap:
     @property
     def config(self) -> ModelConfig:
         return self.state.config
+
+    def __iter__(self) -> Iterator[Any]:
+        """``state, graph, manifest = load_map(path)`` (the contract's tuple form)."""
+        return iter((self.state, self.graph, self.manifest))
 
 
 def load_map(path: Path) -> LoadedMap:

@@ -182,3 +182,13 @@ def test_terminal_table_is_limited_but_json_is_not(
     assert "showing the 2 busiest of 7 entries" in result.stderr
     assert "p0" not in result.stdout
     assert len(entries(office, "--time", AT)) == 7
+
+
+def test_load_map_gives_state_graph_and_manifest(office: Office) -> None:
+    from aion_cli.pipeline import load_map
+
+    state, graph, manifest = load_map(office.map)
+    assert graph is not None
+    assert len(graph.places) == 7
+    assert manifest["counts"]["used"] == 300
+    assert state.config.bins == 8
