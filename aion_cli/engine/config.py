@@ -40,10 +40,10 @@ class ModelConfig:
     Activity: a window with n detections has activity ``1 - exp(-n / activity_scale)``.
     FreMEn: ``periods``, a period counts once the row's observed span >= ``span_factor`` * T;
     orders 0..``max_order`` chosen per row by prequential error, a higher order only when it
-    beats the lower one by ``order_bias`` (mean absolute error); the prequential errors score
-    every ``score_stride``-th observation of each row (those made when the row's count of earlier
-    observations is a multiple of it; 1 scores every one); direction predictions are floored at
-    ``direction_floor`` and renormalised.
+    beats the lower one by ``order_bias`` (mean absolute error); once a row has 64 observations
+    the prequential errors score only every ``score_stride``-th of them, weighted by it (1 scores
+    every observation); direction predictions are floored at ``direction_floor`` and
+    renormalised.
     Planning: edge cost ``d * (1 + w_entropy*H + w_flow*F + w_direction*c_d)`` (see
     ``engine.planning``), flow normalised by ``flow_scale`` detections per window.
     """

@@ -14,19 +14,23 @@ exactly (:func:`merge_states`). A period counts only once the row's observed spa
 ``t_last − t_first`` reaches ``span_factor · T`` (a shorter span cannot resolve it).
 
 Prediction of order m: p(t) = μ + Σ_{m strongest k} 2|γ_k| cos(ω_k t − φ_k), clamped to [0, 1].
-The order is chosen per row by prequential error: before each observation is absorbed it is
+The order is chosen per row by prequential error: before a scored observation is absorbed it is
 predicted with every order 0..M from the state at that moment, and |s − p_m| is added to
-``order_err[row, m]``. The chosen order is the lowest order whose mean error is not beaten by a
-higher order by more than ``order_bias``. Ties in amplitude go to the lower period index.
+``order_err[row, m]``. With scoring stride k (``FremenModel.score_stride``) a row scores all of
+its first observations, then only those whose count of earlier observations is a multiple of k,
+weighted k (an unbiased, deterministic subsample that depends only on the row's own count). The
+chosen order is the lowest order whose mean error is not beaten by a higher order by more than
+``order_bias``. Ties in amplitude go to the lower period index.
 
 Everything runs on whole arrays: ``update`` absorbs W windows for r rows with two matrix
 products (values·E and observed·E with E = [cos ωt | sin ωt] of shape W×2K). The prequential
 errors are exact (predict-before-absorb in time order) and computed in row chunks: many rows
-replay the windows in order on a private copy of the chunk's accumulators, vectorized over rows
-and periods (a few cache-sized rows × K arrays per window, chunks on a small thread pool); a few
-rows instead evaluate blocks of windows at once from exclusive cumulative sums along the window
-axis. Both give the same numbers. Ranking the K amplitudes before every observation is the
-dominant cost (see ``benchmarks/bench_fremen.py``); a mean-only model skips it.
+replay blocks of k windows in order on a private copy of the chunk's accumulators (one small
+matrix product per block, the scored observations ranked from the block's start plus its earlier
+windows; cache-sized chunks on a small thread pool); a few rows instead evaluate blocks of
+windows at once from cumulative sums along the window axis, at the scored observations only.
+Both give the same numbers. Ranking the K amplitudes of a scored observation is the dominant
+cost (see ``benchmarks/bench_fremen.py``); a mean-only model skips it.
 ``predict`` is one matrix product of per-row coefficients with the basis at the query times.
 
 Fixed here (public FreMEn bugs, see ``notes-mod_anchors.md`` §1.6): the balance is exact across
@@ -416,12 +420,23 @@ class FremenModel:
         state.t_first[idx] = np.fmin(state.t_first[idx], first)
         state.t_last[idx] = np.fmax(state.t_last[idx], last)
 
-    def _scored(self, n_pre: F64, obs: BoolA) -> BoolA:
+    def _scored(self, n_pre: F64, obs: BoolA, n0: F64 | None = None) -> BoolA:
         """Which observations are scored, given each one's count of earlier observations of its
-        row (see the class docstring)."""
-        scored = obs & (n_pre > 0)
-        if self.score_stride > 1:
-            scored &= (n_pre < self.full_scoring) | (np.fmod(n_pre, self.score_stride) == 0.0)
+        row (see the class docstring). ``n0``: the rows' counts when every window is observed
+        (``n_pre = n0 + w``), which replaces the modulo of every count by one per row."""
+        k = self.score_stride
+        if k == 1:
+            return obs & (n_pre > 0)
+        if n0 is None:
+            scored = (n_pre < self.full_scoring) | (np.fmod(n_pre, k) == 0.0)
+            scored &= obs
+        else:  # window w is scored iff w = -n0 (mod k), or the row is still young
+            phase = np.fmod(k - np.fmod(n0, k), k).astype(np.int64)
+            scored = (np.arange(n_pre.shape[1]) % k)[None, :] == phase[:, None]
+            if n0.min() < self.full_scoring:
+                scored |= n_pre < self.full_scoring
+        if n0 is None or n0.min() <= 0:
+            scored &= n_pre > 0
         return scored
 
     def _weights(self, n_pre: F64) -> F64:
@@ -459,7 +474,7 @@ class FremenModel:
         n_p: F64,
         ss_p: F64,
         span_p: F64,
-        wi: I64,
+        wi: I64 | int,
         v_p: F64,
         cos_t: F64,
         sin_t: F64,
@@ -476,33 +491,43 @@ class FremenModel:
         q = n_p.size
         mu = ss_p / n_p
         x = np.multiply(s_e, mu[:, None])
-        np.subtract(s_se, x, out=x)
+        np.subtract(s_se, x, out=x)  # [Re | Im] of n·γ, contiguous (q, 2K)
         xr, xi = x[:, :k], x[:, k:]
         a2 = np.multiply(xr, xr)
         a2 += np.square(xi)
         if span_p.min() < float(self.min_span.max()):  # some period not yet admitted
             np.putmask(a2, self.min_span[None, :] > span_p[:, None], -1.0)
-        # the m_eff strongest components, strongest first (ties: lowest index)
-        ar = np.arange(q)
-        picks = np.empty((q, m_eff), dtype=np.int64)
-        values = np.empty((q, m_eff))
+        # the m_eff strongest components, strongest first (ties: lowest index), through flat
+        # indices (much cheaper than 2-d fancy indexing)
+        a2_flat, x_flat = a2.reshape(-1), x.reshape(-1)
+        row_a2 = np.arange(0, q * k, k)
+        row_x = np.arange(0, q * 2 * k, 2 * k)
+        terms = np.empty((m_eff, q))
+        gated = np.empty((m_eff, q), dtype=bool)
         for m in range(m_eff):
-            j = np.argmax(a2, axis=1)
-            picks[:, m] = j
-            values[:, m] = a2[ar, j]
-            a2[ar, j] = -2.0
-        rows2, w2 = ar[:, None], wi[:, None]
-        terms = xr[rows2, picks] * cos_t[w2, picks] + xi[rows2, picks] * sin_t[w2, picks]
-        terms *= (2.0 / n_p)[:, None]
-        terms[values < 0.0] = 0.0  # not admitted by the span gate
-        p = np.empty((q, m_all + 1))
-        p[:, 0] = mu
-        np.cumsum(terms, axis=1, out=p[:, 1 : m_eff + 1])
-        p[:, 1 : m_eff + 1] += mu[:, None]
-        p[:, m_eff + 1 :] = p[:, m_eff : m_eff + 1]
+            j = a2.argmax(axis=1)
+            at = row_a2 + j
+            gated[m] = a2_flat.take(at) < 0.0  # not admitted by the span gate
+            a2_flat[at] = -2.0
+            at = row_x + j
+            if isinstance(wi, np.ndarray):
+                cw, sw = cos_t.take(wi * k + j), sin_t.take(wi * k + j)
+            else:
+                cw, sw = cos_t[wi].take(j), sin_t[wi].take(j)
+            np.multiply(x_flat.take(at), cw, out=terms[m])
+            terms[m] += x_flat.take(at + k) * sw
+        terms *= 2.0 / n_p
+        terms[gated] = 0.0
+        p = np.empty((m_all + 1, q))
+        p[0] = mu
+        p[1] = terms[0]
+        for m in range(1, m_eff):  # the running sum of terms, as np.cumsum (cheaper here)
+            np.add(p[m], terms[m], out=p[m + 1])
+        p[1 : m_eff + 1] += mu
+        p[m_eff + 1 :] = p[m_eff]
         np.clip(p, 0.0, 1.0, out=p)
-        p -= v_p[:, None]
-        return np.abs(p, out=p)
+        p -= v_p
+        return np.abs(p, out=p).T
 
     def _score_chunk(
         self, state: FremenState, rr: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
@@ -532,17 +557,35 @@ class FremenModel:
         basis = np.concatenate([cos_t, sin_t], axis=1)  # (W, 2K)
         err = np.zeros((c, self.max_order + 1))
         scored_n = np.zeros(c)
-        step = self.score_stride
+        step = stride = self.score_stride
+        mature = max(self.full_scoring, 1)  # rows from here on score once per block, weight k
         for a in range(0, t.size, step):
             b = min(a + step, t.size)
             ob, v, e_blk = obs[:, a:b], vz[:, a:b], basis[a:b]
             dense = bool(ob.all())
             of = ob.astype(np.float64)
-            if dense:
-                n_pre = n[:, None] + np.arange(b - a, dtype=np.float64)[None, :]
+            if dense and n.min() >= mature:  # row r scores window j_r = (-n_r) mod k, if any
+                jf = np.fmod(stride - np.fmod(n, stride), stride) if stride > 1 else None
+                if jf is None or not jf.any():  # every row scores the block's first window
+                    errs = self._pair_errors(
+                        acc_se, acc_e, n, ss, last - first, a, v[:, 0], cos_t, sin_t
+                    )
+                    if stride > 1:
+                        errs *= float(stride)
+                    err += errs
+                    scored_n += float(stride)
+                    i = np.empty(0, dtype=np.int64)
+                else:
+                    i = np.flatnonzero(jf < b - a)
+                    j = jf[i].astype(np.int64)
+                    n_p = n[i] + jf[i]
             else:
-                n_pre = n[:, None] + _exclusive_cumsum(of)
-            i, j = np.nonzero(self._scored(n_pre, ob))  # sorted by row
+                if dense:
+                    n_pre = n[:, None] + np.arange(b - a, dtype=np.float64)[None, :]
+                else:
+                    n_pre = n[:, None] + _exclusive_cumsum(of)
+                i, j = np.nonzero(self._scored(n_pre, ob, n if dense else None))  # by row
+                n_p = n_pre[i, j]
             if i.size:
                 s_se, s_e = acc_se[i], acc_e[i]
                 ss_p = ss[i]
@@ -565,7 +608,6 @@ class FremenModel:
                         l_in = np.where(seen, t[b - 1 - back], np.nan)
                     f_p = np.fmin(f_p, t_in)
                     l_p = np.fmax(l_p, l_in)
-                n_p = n_pre[i, j]
                 errs = self._pair_errors(
                     s_se, s_e, n_p, ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t
                 )
@@ -658,27 +700,35 @@ class FremenModel:
     def _score_mean_only(self, state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:
         """Order 0 only: the prequential mean before each window, from cumulative sums."""
         n0 = state.n[rr]
-        if obs.all():  # dense: n before window w is n0 + w, no cumulative count needed
+        dense = bool(obs.all())
+        if dense:  # n before window w is n0 + w, no cumulative count needed
             n_pre = n0[:, None] + np.arange(vz.shape[1], dtype=np.float64)[None, :]
         else:
             of = obs.astype(np.float64)
             n_pre = n0[:, None] + np.cumsum(of, axis=1) - of
-        scored = self._scored(n_pre, obs)
+        scored = self._scored(n_pre, obs, n0 if dense else None)
         diff = np.cumsum(vz, axis=1)
         diff -= vz
+        if self.score_stride > 1:  # evaluate the scored observations only
+            at = np.flatnonzero(scored)
+            i = at // vz.shape[1]
+            n_p = n_pre.reshape(-1).take(at)
+            mean = diff.reshape(-1).take(at)
+            mean += state.sum_s[rr].take(i)
+            mean /= n_p
+            np.clip(mean, 0.0, 1.0, out=mean)
+            mean -= vz.reshape(-1).take(at)
+            weight = self._weights(n_p)
+            mean = np.abs(mean, out=mean) * weight
+            state.order_err[rr] += np.bincount(i, mean, minlength=rr.size)[:, None]
+            state.order_n[rr] += np.bincount(i, weight, minlength=rr.size)
+            return
         diff += state.sum_s[rr, None]
         with np.errstate(divide="ignore", invalid="ignore"):
             diff /= n_pre
         np.clip(diff, 0.0, 1.0, out=diff)
         diff -= vz
         np.abs(diff, out=diff)
-        if self.score_stride > 1:
-            weight = np.where(scored, self._weights(n_pre), 0.0)
-            diff *= weight
-            diff[~scored] = 0.0  # the row's first observation: NaN from 0 / 0
-            state.order_err[rr] += diff.sum(axis=1)[:, None]
-            state.order_n[rr] += weight.sum(axis=1)
-            return
         diff[~scored] = 0.0
         state.order_err[rr] += diff.sum(axis=1)[:, None]
         state.order_n[rr] += scored.sum(axis=1, dtype=np.float64)

@@ -445,17 +445,19 @@ def test_orders_above_the_number_of_periods_use_every_period(stride: int) -> Non
     )
 
 
+@pytest.mark.parametrize("late", [True, False], ids=["phases", "aligned"])
 @pytest.mark.parametrize("stride", [3, 8])
-def test_stride_on_dense_windows_with_rows_at_every_phase(stride: int) -> None:
+def test_stride_on_dense_windows_with_rows_at_every_phase(stride: int, late: bool) -> None:
     """Dense blocks where the rows' counts sit at every phase modulo the stride (each row
-    scores at a different window of a block), after a sparse start, against the loop."""
+    scores at a different window of a block), after a sparse start, or all at the same phase,
+    against the loop."""
     model = FremenModel(PERIODS, max_order=4, score_stride=stride)
     rng = np.random.default_rng(11)
     n_rows = 20
     t = np.sort(rng.uniform(0, 10 * DAY_S, 160))
     values = np.stack([_signal(rng, t, kind) for kind in range(n_rows)])
     observed = np.ones(values.shape, bool)
-    for i in range(n_rows):
+    for i in range(n_rows if late else 0):
         observed[i, : i % 11] = False  # rows start late by 0..10 windows
     state = model.empty(n_rows)
     rows = np.arange(n_rows)
