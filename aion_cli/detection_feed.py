@@ -104,19 +104,33 @@ class DetectionFeeder:
         return moved.select(ok) if n_bad else moved
 
 
+MAX_CHUNK_BYTES = 32 * 1024**2
+"""Payload bytes after which a chunk ends whatever its message count: with large messages
+(many people each, or point clouds inside detections) ``size`` messages alone could hold
+gigabytes, and the decoders copy the payloads once more."""
+
+
 def chunks(
-    messages: Iterator[RawMessage], graph_topics: set[str], size: int
+    messages: Iterator[RawMessage],
+    graph_topics: set[str],
+    size: int,
+    max_bytes: int = MAX_CHUNK_BYTES,
 ) -> Iterator[tuple[list[RawMessage], RawMessage | None]]:
-    """(detection chunk, graph message or None): chunks end at a graph message or ``size``."""
+    """(detection chunk, graph message or None): chunks end at a graph message, at ``size``
+    messages or at ``max_bytes`` of payload."""
     chunk: list[RawMessage] = []
+    nbytes = 0
     for msg in messages:
         if msg.topic in graph_topics:
             yield chunk, msg
             chunk = []
+            nbytes = 0
         else:
             chunk.append(msg)
-            if len(chunk) >= size:
+            nbytes += len(msg.data)
+            if len(chunk) >= size or nbytes >= max_bytes:
                 yield chunk, None
                 chunk = []
+                nbytes = 0
     if chunk:
         yield chunk, None
