@@ -24,6 +24,7 @@ import contextlib
 import ctypes
 import datetime
 import functools
+import itertools
 import os
 import sys
 import tempfile
@@ -327,33 +328,49 @@ def _label(symbol: Any, attrs: Any) -> str:
     """
     short = symbol.str()
     name = getattr(attrs, "name", "") or ""
-    return short if name in ("", short, str(symbol)) else name
+    return short if (not name or name == short or name == str(symbol)) else name
+
+
+@dataclass
+class _LayerScan:
+    """One pass over a layer's nodes: the layer and, per kept node, its in-layer neighbours
+    (``siblings``, which hold the layer's edges seen from each end)."""
+
+    layer: Layer
+    neighbours: list[set[int]]
+
+
+def _scan(view: Any | None, skip_frontiers: bool = False, edges: bool = False) -> _LayerScan:
+    """Collect ids, positions, parents, labels (and neighbour sets) of a layer in one pass.
+
+    Each node's attributes object is fetched once; positions (views into graph memory) are
+    copied into one array right away.
+    """
+    if view is None:
+        return _LayerScan(Layer.empty(), [])
+    nodes = list(view.nodes)
+    attrs = [node.attributes for node in nodes]
+    if skip_frontiers:
+        keep = [getattr(a, "real_place", True) for a in attrs]
+        if not all(keep):
+            nodes = [n for n, k in zip(nodes, keep, strict=True) if k]
+            attrs = [a for a, k in zip(attrs, keep, strict=True) if k]
+    if not nodes:
+        return _LayerScan(Layer.empty(), [])
+    n = len(nodes)
+    symbols = [node.id for node in nodes]
+    ids = np.fromiter((s.value for s in symbols), dtype=np.uint64, count=n)
+    xyz = np.concatenate([a.position for a in attrs]).astype(np.float64).reshape(-1, 3)
+    parents = [node.get_parent() for node in nodes]  # None without a parent
+    parent = np.fromiter((0 if p is None else p for p in parents), dtype=np.uint64, count=n)
+    labels = tuple(map(_label, symbols, attrs))
+    neighbours = [node.siblings() for node in nodes] if edges else []
+    return _LayerScan(Layer(ids, xyz, parent, labels), neighbours)
 
 
 def _nodes(view: Any | None, skip_frontiers: bool = False) -> Layer:
     """Collect ids, positions, parents and labels of a layer in one pass."""
-    if view is None:
-        return Layer.empty()
-    ids: list[int] = []
-    xyz: list[Any] = []
-    parent: list[int] = []
-    labels: list[str] = []
-    for node in view.nodes:
-        attrs = node.attributes
-        if skip_frontiers and not getattr(attrs, "real_place", True):
-            continue
-        ids.append(node.id.value)
-        xyz.append(attrs.position)
-        parent.append(node.get_parent() if node.has_parent() else 0)
-        labels.append(_label(node.id, attrs))
-    if not ids:
-        return Layer.empty()
-    return Layer(
-        np.array(ids, dtype=np.uint64),
-        np.array(xyz, dtype=np.float64).reshape(-1, 3),
-        np.array(parent, dtype=np.uint64),
-        tuple(labels),
-    )
+    return _scan(view, skip_frontiers).layer
 
 
 def _keep_parents_in(layer: Layer, parents: Layer) -> Layer:
@@ -366,19 +383,27 @@ def _keep_parents_in(layer: Layer, parents: Layer) -> Layer:
     )
 
 
-def _edges(view: Any | None, ids: npt.NDArray[np.uint64]) -> npt.NDArray[np.int64]:
-    """Intralayer edges as unique sorted row-index pairs; edges to dropped nodes are left out."""
-    if view is None or len(ids) == 0:
+def _edges(ids: npt.NDArray[np.uint64], neighbours: list[set[int]]) -> npt.NDArray[np.int64]:
+    """Intralayer edges as unique sorted row-index pairs from each node's neighbour set (every
+    edge appears from both ends); edges to dropped nodes are left out. Ids map to rows with
+    ``searchsorted`` over the sorted ids."""
+    if len(ids) == 0:
         return np.zeros((0, 2), dtype=np.int64)
-    pairs = np.array([(e.source, e.target) for e in view.edges], dtype=np.uint64).reshape(-1, 2)
+    counts = np.fromiter(map(len, neighbours), dtype=np.int64, count=len(neighbours))
+    other = np.fromiter(
+        itertools.chain.from_iterable(neighbours), dtype=np.uint64, count=int(counts.sum())
+    )
+    src = np.repeat(np.arange(len(ids), dtype=np.int64), counts)
     order = np.argsort(ids)
     sorted_ids = ids[order]
-    pos = np.searchsorted(sorted_ids, pairs).clip(0, len(ids) - 1)
-    found = (sorted_ids[pos] == pairs).all(axis=1)
-    rows = order[pos[found]].astype(np.int64)
-    rows = np.sort(rows, axis=1)
-    rows = rows[rows[:, 0] != rows[:, 1]]
-    return np.unique(rows, axis=0).reshape(-1, 2)
+    pos = np.searchsorted(sorted_ids, other).clip(0, len(ids) - 1)
+    found = sorted_ids[pos] == other
+    dst = order[pos[found]].astype(np.int64)
+    src = src[found]
+    lo, hi = np.minimum(src, dst), np.maximum(src, dst)
+    keep = lo != hi
+    key = np.unique(lo[keep] * len(ids) + hi[keep])
+    return np.column_stack([key // len(ids), key % len(ids)]).astype(np.int64).reshape(-1, 2)
 
 
 def _mesh(G: Any) -> Mesh | None:
@@ -412,16 +437,19 @@ def _agents(G: Any) -> Trajectory | None:
     views = [v for v in views if v.num_nodes() > 0]
     if not views:
         return None
-    t: list[int] = []
-    xyz: list[Any] = []
-    for node in views[0].nodes:
-        attrs = node.attributes
-        stamp = attrs.timestamp
-        t.append(_timedelta_ns(stamp) if isinstance(stamp, datetime.timedelta) else int(stamp))
-        xyz.append(attrs.position)
-    t_arr = np.array(t, dtype=np.int64)
+    attrs = [node.attributes for node in views[0].nodes]
+    stamps = [a.timestamp for a in attrs]
+    if all(type(st) is datetime.timedelta for st in stamps):
+        # timedelta has microsecond resolution: timedelta64[us] holds it exactly
+        t_arr = np.array(stamps, dtype="timedelta64[us]").astype(np.int64) * 1000
+    else:
+        t_arr = np.array(
+            [_timedelta_ns(st) if isinstance(st, datetime.timedelta) else int(st) for st in stamps],
+            dtype=np.int64,
+        )
+    xyz = np.concatenate([a.position for a in attrs]).astype(np.float64).reshape(-1, 3)
     order = np.argsort(t_arr, kind="stable")
-    return Trajectory(t_arr[order], np.array(xyz, dtype=np.float64).reshape(-1, 3)[order])
+    return Trajectory(t_arr[order], xyz[order])
 
 
 def snapshot_from_dsg(G: Any, t_ns: int, layer: str | int | None = None) -> GraphSnapshot:
@@ -436,11 +464,12 @@ def snapshot_from_dsg(G: Any, t_ns: int, layer: str | int | None = None) -> Grap
     rooms = _keep_parents_in(
         _nodes(_layer_view(G, *_named_key(G, "ROOMS", (ROOMS_LAYER, 0)))), buildings
     )
-    places = _keep_parents_in(_nodes(view, skip_frontiers=True), rooms)
+    scan = _scan(view, skip_frontiers=True, edges=True)
+    places = _keep_parents_in(scan.layer, rooms)
     return GraphSnapshot(
         t_ns=int(t_ns),
         places=places,
-        edges=_edges(view, places.ids),
+        edges=_edges(places.ids, scan.neighbours),
         rooms=rooms,
         buildings=buildings,
         mesh=_mesh(G),
