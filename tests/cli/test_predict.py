@@ -192,3 +192,22 @@ def test_load_map_gives_state_graph_and_manifest(office: Office) -> None:
     assert len(graph.places) == 7
     assert manifest["counts"]["used"] == 300
     assert state.config.bins == 8
+
+
+def test_subprocess_bad_inputs_are_one_line_exit_2(office: Office, tmp_path: Path) -> None:
+    """The installed script on a mistyped time and a map from a newer aion (the CliRunner
+    tests above cover every other mistake; tests/robustness runs more through subprocesses)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    newer = tmp_path / "newer.aion"
+    _rewrite_manifest(office.map, newer, version="2.0")
+    cases = {
+        "25:99": ["predict", office.map, "--time", "25:99"],
+        "2.0": ["predict", newer],
+    }
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        procs = dict(zip(cases, pool.map(lambda a: run_process(*a), cases.values()), strict=True))
+    for fragment, proc in procs.items():
+        assert proc.returncode == 2, (fragment, proc.stderr)
+        assert_one_line_error(proc.stderr, fragment)
+        assert proc.stdout == ""
