@@ -82,6 +82,7 @@ def _load_config(path: Path | None) -> Any:
 
 @click.command(
     "build",
+    short_help="Learn (or extend) a map from logs.",
     cls=AionCommand,
     epilog=EPILOG,
     advanced=(

@@ -46,7 +46,11 @@ def _container_for(output: Path, container: str | None) -> str:
 
 
 @click.command(
-    "convert", cls=AionCommand, epilog=EPILOG, advanced=("container", "msgtype", "start_text")
+    "convert",
+    short_help="Turn pedestrian-track CSVs into logs.",
+    cls=AionCommand,
+    epilog=EPILOG,
+    advanced=("container", "msgtype", "start_text"),
 )
 @click.argument("tracks", type=click.Path(path_type=Path))
 @click.option(

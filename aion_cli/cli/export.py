@@ -54,7 +54,13 @@ def _step_seconds(text: str) -> float:
     return value
 
 
-@click.command("export", cls=AionCommand, epilog=EPILOG, advanced=("tz",))
+@click.command(
+    "export",
+    short_help="Write PLY/PCD scenes and CSV/JSON tables.",
+    cls=AionCommand,
+    epilog=EPILOG,
+    advanced=("tz",),
+)
 @map_argument
 @click.option(
     "-o",

@@ -80,7 +80,7 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
         return [f"unreadable: {exc.message}"]
 
 
-@click.command("info", epilog=EPILOG)
+@click.command("info", short_help="What is in logs (or a map), what aion uses.", epilog=EPILOG)
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option(
     "--log-format",

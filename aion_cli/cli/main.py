@@ -31,6 +31,7 @@ Examples:
   aion export office.aion --time "+2h" -o out/       PLY/PCD scenes, CSV/JSON tables
   aion simulate -o office.mcap                       a synthetic log to try it all
   aion convert atc.csv --layout atc -o atc.mcap      pedestrian datasets -> logs
+  aion evaluate office --scenes 20                   the paper's comparison, predictive metrics
 
 Run 'aion COMMAND --help' for the options and a worked example of each command.
 """

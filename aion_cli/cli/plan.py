@@ -55,7 +55,13 @@ def _endpoint(text: str, nav: Any, option: str) -> tuple[int, dict[str, Any] | N
     }
 
 
-@click.command("plan", cls=AionCommand, epilog=EPILOG, advanced=("tz",))
+@click.command(
+    "plan",
+    short_help="A path that avoids busy, opposing flows.",
+    cls=AionCommand,
+    epilog=EPILOG,
+    advanced=("tz",),
+)
 @map_argument
 @click.option("--from", "start", required=True, metavar="A", help="Start: node id or x,y[,z].")
 @click.option("--to", "goal", required=True, metavar="B", help="Goal: node id or x,y[,z].")

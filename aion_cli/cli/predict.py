@@ -40,7 +40,13 @@ TABLE_LIMIT = 100
 """Rows a terminal table shows without --top (JSON and CSV always have every entry)."""
 
 
-@click.command("predict", cls=AionCommand, epilog=EPILOG, advanced=("tz",))
+@click.command(
+    "predict",
+    short_help="Flows per place at a time, or as observed.",
+    cls=AionCommand,
+    epilog=EPILOG,
+    advanced=("tz",),
+)
 @map_argument
 @click.option(
     "-t", "--time", "time_text", metavar="T", default="now", show_default=True, help=TIME_HELP
