@@ -26,11 +26,13 @@ if TYPE_CHECKING:
 
 @dataclass
 class DetectionCounts:
-    """Detections decoded (``read``), accepted by the Mapper (``used``), dropped by reason."""
+    """Detections decoded (``read``), accepted by the Mapper (``used``), dropped by reason, and
+    how many had a zero header stamp and took their message's log time (``stamp_fallbacks``)."""
 
     read: int = 0
     used: int = 0
     dropped: Counter[str] = field(default_factory=Counter)
+    stamp_fallbacks: int = 0
 
 
 class DetectionFeeder:
@@ -58,6 +60,7 @@ class DetectionFeeder:
             assert adapter is not None  # topics were selected by adapter
             frames = adapter.decode(msgs)
             self.counts.read += len(frames)
+            self.counts.stamp_fallbacks += int(frames.stamp_fallbacks)
             for reason, n in frames.filtered.items():
                 self.counts.dropped[reason] += n
             parts.append(self._to_map_frame(frames))
