@@ -269,9 +269,13 @@ class _Build:
         with open_logs(list(opts.logs), opts.log_format) as logset:
             plan = select_topics(logset.topics, opts.detection_topics, opts.graph_topic)
             if not plan.detections:
+                found = [f"{t.topic} ({t.msgtype})" for t in logset.topics]
                 raise TopicNotFoundError(
                     "the log has no people-detection topic of a supported type",
-                    hint="run `aion info LOG` to see its topics and which types aion reads",
+                    candidates=found,
+                    hint="the log has: "
+                    + ", ".join(found[:8] + (["..."] if len(found) > 8 else []))
+                    + "; `aion info LOG` lists the types aion reads",
                 )
             self.report.detection_topics = sorted(plan.names("detections"))
             self.report.notes.extend(getattr(logset, "warnings", []))
@@ -422,6 +426,11 @@ class _Build:
         self.report.detections_read = c.read
         self.report.detections_used = c.used
         self.report.dropped = dict(c.dropped)
+        if c.stamp_fallbacks:
+            self.report.notes.append(
+                f"{c.stamp_fallbacks:,} detections had a zero header stamp: their messages' "
+                "log times were used"
+            )
         if use_agents and self.report.graph_messages == 0:
             mapper.set_fixed_sensor(int(logset.start_ns), int(logset.end_ns))
             self.report.observation = "fixed sensor over the log's time span"
