@@ -174,7 +174,10 @@ def test_log_with_no_usable_topic_is_an_error_naming_the_way_out(tmp_path: Path)
     log = write_log(tmp_path / "chatter.mcap", [*chatter, robot_tf(T0)])
     result = run("build", log, "-o", tmp_path / "c.aion")
     fails(result, "no people-detection topic")
-    assert "aion info" in result.stderr
+    hint = result.stderr.splitlines()[1]
+    assert "/chatter (std_msgs/msg/String)" in hint  # what the log has instead
+    assert "/tf (tf2_msgs/msg/TFMessage)" in hint
+    assert "aion info" in hint
     # naming a topic that is not a detection topic: the error lists the candidates
     log2 = write_log(tmp_path / "both.mcap", [*chatter, *walk(5)])
     result = run("build", log2, "--detections-topic", "/chatter", "-o", tmp_path / "c.aion")
@@ -237,14 +240,16 @@ def test_duplicate_messages_are_counted_as_detections(tmp_path: Path) -> None:
 
 
 def test_zero_header_stamps_fall_back_to_log_time(tmp_path: Path) -> None:
-    """Stamps of 0 (an unset header): the log time is used, so the map equals the map of the
-    same log with proper stamps."""
+    """Stamps of 0 (an unset header): the log time is used (and counted in a note), so the map
+    equals the map of the same log with proper stamps."""
     stamped = [person(T0 + k * S, (2.1, 0.1, 0.0)) for k in range(1300)]
     zero = [person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=0) for k in range(1300)]
     a = build_json(write_log(tmp_path / "zero.mcap", zero), "-o", tmp_path / "z.aion")
     b = build_json(write_log(tmp_path / "ok.mcap", stamped), "-o", tmp_path / "k.aion")
     assert a["detections"] == b["detections"] == {"read": 1300, "used": 1300, "dropped": {}}
     assert a["windows"] == b["windows"] == 2
+    assert "1,300 detections had a zero header stamp" in " ".join(a["notes"])
+    assert "zero header stamp" not in " ".join(b["notes"])
     assert_same_arrays(map_arrays(tmp_path / "z.aion"), map_arrays(tmp_path / "k.aion"))
 
 
