@@ -240,6 +240,8 @@ def write_map(
     path: str | os.PathLike[str],
     arrays: Mapping[str, npt.NDArray[Any]],
     manifest: Mapping[str, Any],
+    *,
+    lock: bool = True,
 ) -> None:
     """Write ``arrays`` and the caller's ``manifest`` fields to the map file ``path``, atomically.
 
@@ -248,7 +250,8 @@ def write_map(
     KeyboardInterrupt included, the temporary file is removed and an existing map is untouched.
     Raises :class:`MapLockedError` if another live process holds ``<path>.lock``,
     :class:`MapContentError` for arrays/manifests that cannot be stored, :class:`MapWriteError`
-    for OS failures.
+    for OS failures. ``lock=False``: the caller already holds :func:`map_lock` for ``path``
+    (a read-modify-write such as continuing a map holds it from the read to the write).
     """
     target = Path(path)
     _check_arrays(arrays)
@@ -258,7 +261,7 @@ def write_map(
             f"cannot write map {target}: folder {folder} does not exist",
             hint="create the folder first or choose another output path",
         )
-    with map_lock(target):
+    with map_lock(target) if lock else contextlib.nullcontext(target):
         tmp: Path | None = None
         try:
             with _interrupts_held():  # else Ctrl-C right after mkstemp leaves the file behind
