@@ -252,6 +252,23 @@ class _Build:
         return old
 
     def run(self) -> BuildReport:
+        """The build, holding the output map's lock from start to end."""
+        from formats.mapfile import MapWriteError, map_lock
+
+        out = self.report.output
+        folder = out.parent if str(out.parent) else Path(".")
+        if not folder.is_dir():
+            raise MapWriteError(
+                f"cannot write map {out}: folder {folder} does not exist",
+                hint="create the folder first or choose another output path",
+            )
+        # Held from reading a continued map to writing the result: two builds extending the
+        # same map would otherwise both start from the old map, and the later write would
+        # silently drop the other build's logs.
+        with map_lock(out):
+            return self._run()
+
+    def _run(self) -> BuildReport:
         from aion_cli.engine.mapper import Mapper
         from formats.logs import open_logs
 
@@ -511,7 +528,7 @@ class _Build:
         if zone:
             manifest["timezone"] = zone  # the default zone of predict / plan / export
         out = self.report.output
-        write_map(out, arrays, manifest)
+        write_map(out, arrays, manifest, lock=False)  # run() holds the lock
         self.report.map_bytes = out.stat().st_size
 
 
