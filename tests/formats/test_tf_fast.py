@@ -199,3 +199,33 @@ def test_arrays_feed_tfbuffer_like_generic_path() -> None:
         fast.lookup("map", "base_link_x", t), slow.lookup("map", "base_link_x", t), strict=True
     ):
         assert np.array_equal(a, b)
+
+
+@SETTINGS
+@given(data=st.data())
+def test_by_edge_groups_rows_in_order(data: st.DataObject) -> None:
+    pairs = st.sampled_from([("map", "odom"), ("/odom", "base"), ("map", "base"), ("a", "")])
+    msgs = []
+    for _ in range(data.draw(st.integers(1, 6))):
+        tfs = []
+        for p, c in data.draw(st.lists(pairs, max_size=4)):
+            tf = data.draw(transforms(2))
+            tf["header"]["frame_id"], tf["child_frame_id"] = p, c
+            tfs.append(tf)
+        msgs.append(raw(TF, {"transforms": tfs}, 2))
+    got = decode_tf_messages(msgs)
+    seen: list[tuple[str, str]] = []
+    rows: list[int] = []
+    for parent, child, sub in got.by_edge():
+        seen.append((parent, child))
+        idx = [
+            i
+            for i, (p, c) in enumerate(zip(got.parent, got.child, strict=True))
+            if (p, c) == (parent, child)
+        ]
+        assert np.array_equal(sub.t_ns, got.t_ns[idx])
+        assert np.array_equal(sub.msg_index, got.msg_index[idx])
+        rows.extend(idx)
+    assert sorted(rows) == list(range(len(got)))
+    firsts = list(dict.fromkeys(zip(got.parent, got.child, strict=True)))
+    assert seen == firsts
