@@ -172,7 +172,7 @@ def _accumulator_times(
 def measure(model: FremenModel, size: int) -> dict[str, Any]:
     """Update, accumulator-only update and prediction rates for one size (per wall second and
     per CPU second: the machine is shared, so wall rates understate an idle machine)."""
-    mean_only = FremenModel(model.periods, max_order=0, score_stride=model.score_stride)
+    mean_only = FremenModel(model.periods, max_order=0)  # the accumulators: stride-independent
     state, t_next = history_state(model, size)
     rng = np.random.default_rng(2)
     t = t_next + (np.arange(WINDOWS) + 0.5) * WINDOW_S

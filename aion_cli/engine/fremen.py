@@ -700,18 +700,23 @@ class FremenModel:
     def _score_mean_only(self, state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:
         """Order 0 only: the prequential mean before each window, from cumulative sums."""
         n0 = state.n[rr]
+        w = vz.shape[1]
+        k = self.score_stride
         dense = bool(obs.all())
+        diff = np.cumsum(vz, axis=1)
+        diff -= vz
+        if dense and k > 1:
+            self._score_mean_only_dense(state, rr, vz, diff)
+            return
         if dense:  # n before window w is n0 + w, no cumulative count needed
-            n_pre = n0[:, None] + np.arange(vz.shape[1], dtype=np.float64)[None, :]
+            n_pre = n0[:, None] + np.arange(w, dtype=np.float64)[None, :]
         else:
             of = obs.astype(np.float64)
             n_pre = n0[:, None] + np.cumsum(of, axis=1) - of
         scored = self._scored(n_pre, obs, n0 if dense else None)
-        diff = np.cumsum(vz, axis=1)
-        diff -= vz
-        if self.score_stride > 1:  # evaluate the scored observations only
-            at = np.flatnonzero(scored)
-            i = at // vz.shape[1]
+        at = np.flatnonzero(scored) if self.score_stride > 1 else None
+        if at is not None and at.size < scored.size // 4:  # few scored (rows past their start)
+            i = at // w
             n_p = n_pre.reshape(-1).take(at)
             mean = diff.reshape(-1).take(at)
             mean += state.sum_s[rr].take(i)
@@ -730,8 +735,54 @@ class FremenModel:
         diff -= vz
         np.abs(diff, out=diff)
         diff[~scored] = 0.0
+        if at is None:
+            state.order_err[rr] += diff.sum(axis=1)[:, None]
+            state.order_n[rr] += scored.sum(axis=1, dtype=np.float64)
+            return
+        weight = np.where(scored, self._weights(n_pre), 0.0)
+        diff *= weight
         state.order_err[rr] += diff.sum(axis=1)[:, None]
-        state.order_n[rr] += scored.sum(axis=1, dtype=np.float64)
+        state.order_n[rr] += weight.sum(axis=1)
+
+    def _score_mean_only_dense(self, state: FremenState, rr: I64, vz: F64, diff: F64) -> None:
+        """:meth:`_score_mean_only` for every window observed and a stride k > 1. ``diff``:
+        Σ s of the call's earlier windows. Row r is young in windows j < Y_r (F − n0_r: all
+        scored, weight 1), then scores windows start_r + k·m (weight k), start_r ≡ −n0_r."""
+        c, w = vz.shape
+        k, full = self.score_stride, self.full_scoring
+        n0, s0 = state.n[rr], state.sum_s[rr]
+        young = np.clip(full - n0, 0, w).astype(np.int64)
+        phase = np.fmod(k - np.fmod(n0, k), k).astype(np.int64)
+        start = np.maximum(young, phase)  # young > 0 is ≡ phase (F is a multiple of k)
+        cols = start[:, None] + np.arange(0, w, k)[None, :]
+        inside = cols < w
+        np.minimum(cols, w - 1, out=cols)
+        at = (np.arange(c) * w)[:, None] + cols
+        mean = diff.reshape(-1).take(at)
+        mean += s0[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):  # cells outside: 0 / 0
+            mean /= n0[:, None] + cols
+        np.clip(mean, 0.0, 1.0, out=mean)
+        mean -= vz.reshape(-1).take(at)
+        np.abs(mean, out=mean)
+        mean[~inside] = 0.0
+        err = float(k) * mean.sum(axis=1)
+        count = float(k) * inside.sum(axis=1)
+        y = int(young.max())
+        if y > 0:  # the young windows: every one scored but a row's very first
+            d = diff[:, :y] + s0[:, None]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                d /= n0[:, None] + np.arange(y, dtype=np.float64)[None, :]
+            np.clip(d, 0.0, 1.0, out=d)
+            d -= vz[:, :y]
+            np.abs(d, out=d)
+            d[np.arange(y)[None, :] >= young[:, None]] = 0.0
+            fresh = n0 == 0
+            d[fresh, 0] = 0.0
+            err += d.sum(axis=1)
+            count += young - fresh
+        state.order_err[rr] += err[:, None]
+        state.order_n[rr] += count
 
     # -- reading --------------------------------------------------------------------------------
     def _rows(self, state: FremenState, rows: npt.ArrayLike | None) -> I64:

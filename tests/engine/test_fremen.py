@@ -408,22 +408,30 @@ def test_mean_only_model_scores_order_zero_like_the_loop(stride: int) -> None:
     assert model.chosen_order(state).tolist() == [0] * 5
 
 
-@pytest.mark.parametrize("stride", [1, 3])
+@pytest.mark.parametrize("stride", [1, 3, 8])
 def test_mean_only_dense_updates_score_like_sparse_ones(stride: int) -> None:
     model = FremenModel(PERIODS, max_order=0, score_stride=stride)
     t, values, _ = _random_stream(9, 4, 200)
     dense, sparse = model.empty(4), model.empty(4)
     every = np.ones(values.shape, bool)
     model.update(dense, np.arange(4), t[:20], values[:, :20], every[:, :20])
-    model.update(dense, np.arange(4), t[20:], values[:, 20:], every[:, 20:])
+    model.update(dense, np.arange(4), t[20:100], values[:, 20:100], every[:, 20:100])
+    model.update(dense, np.arange(4), t[100:], values[:, 100:], every[:, 100:])  # past start
     almost = every.copy()
     almost[:, 0] = False  # sparse path: first window unobserved, fed on its own
-    model.update(sparse, np.arange(4), t[:1], values[:, :1], every[:, :1])
-    model.update(sparse, np.arange(4), t[:20], values[:, :20], almost[:, :20])
-    model.update(sparse, np.arange(4), t[20:], values[:, 20:], every[:, 20:])
+    almost[:, 150] = False  # and one unobserved window after the start, fed on its own
+    for a, b in ((0, 1), (0, 20), (20, 150), (150, 151), (150, 200)):
+        observed = every if (a, b) in ((0, 1), (150, 151)) else almost
+        model.update(sparse, np.arange(4), t[a:b], values[:, a:b], observed[:, a:b])
     _assert_states_equal(dense, sparse)
-    n_after_first = 199 if stride == 1 else 65 + 3 * len(range(66, 200, 3))  # young: all
+    full = 64 if stride == 1 else stride * math.ceil(64 / stride)  # young: all scored
+    n_after_first = 199 if stride == 1 else full - 1 + stride * len(range(full, 200, stride))
     assert dense.order_n.tolist() == [n_after_first] * 4
+    loops = [LoopState(PERIODS, 0, 1.5, stride) for _ in range(4)]
+    for i, lp in enumerate(loops):
+        for w in range(t.size):
+            lp.add(float(t[w]), float(values[i, w]))
+    np.testing.assert_allclose(dense.order_err[:, 0], [lp.err[0] for lp in loops], rtol=1e-9)
 
 
 @pytest.mark.parametrize("stride", [1, 3])
