@@ -218,6 +218,47 @@ def test_a_held_lock_stops_a_second_build(office: Office, tmp_path: Path) -> Non
     assert leftovers(tmp_path, "m.aion") == []  # ours is released, theirs never taken
 
 
+def test_two_builds_extending_one_map_never_lose_a_log(
+    crowd_log: Path, office: Office, tmp_path: Path
+) -> None:
+    """Build A (a long log) extends the map in a subprocess; build B starts meanwhile: B is
+    refused (it would have started from the old map and its write, or A's, would silently
+    drop the other's log). Once A is done, B runs and the map holds all three logs."""
+    from formats.mapfile import read_manifest
+
+    target = office.copy_map(tmp_path / "m.aion")
+    lock = target.with_name("m.aion.lock")
+    small = write_log(tmp_path / "small.mcap", walk(30))
+    proc = subprocess.Popen(
+        [str(AION), "build", str(crowd_log), "--map", str(target), "-q"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=aion_env(),
+    )
+    try:
+        deadline = time.monotonic() + 3  # A takes the lock first thing (its build lasts longer)
+        while not lock.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.005)
+        second = run("build", small, "--map", target)  # while A is still busy
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    names = [i["name"] for i in read_manifest(target)["inputs"]]
+    if second.exit_code == 0:  # whatever happened, a build that succeeded kept its log
+        assert "small.mcap" in names, names
+    assert second.exit_code == 2, second.stderr
+    assert_one_error(second.stderr, "being written by another process")
+    assert names == ["office.mcap", "crowd.mcap"]
+    third = run("build", small, "--map", target)
+    assert third.exit_code == 0, third.stderr
+    names = [i["name"] for i in read_manifest(target)["inputs"]]
+    assert names == ["office.mcap", "crowd.mcap", "small.mcap"]
+
+
 # -- reading: checksums, no code execution, hostile containers -------------------------------
 
 
