@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 from tests.robustness.conftest import (
-    DSG_TOPIC,
     T0,
     Message,
     S,
@@ -256,7 +255,11 @@ def test_zero_header_stamps_fall_back_to_log_time(tmp_path: Path) -> None:
 @pytest.mark.parametrize("jump_s", [3 * 86400, (2**31 - 1) - T0 // S])  # 3 days; to 2038
 def test_clock_jump_is_survived_with_bounded_memory(jump_s: int, tmp_path: Path) -> None:
     """One detection stamped days (or years) ahead of the log: the build finishes, every
-    detection is used or counted, memory stays small (no dense allocation over the gap)."""
+    detection is used or counted, memory stays small (no dense allocation over the gap).
+
+    Known weakness (docs/ROBUSTNESS.md): the bad stamp opens a far-future window, so later
+    detections in other chunks are dropped as ``before_window`` (counted, not lost silently).
+    """
     before = walk(300)
     jumped = person(T0 + 300 * S, (2.1, 0.1, 0.0), header_ns=T0 + jump_s * S)
     after = walk(300, start_s=301)
@@ -427,9 +430,9 @@ def test_detections_before_the_first_scene_graph_bind_to_its_nodes(tmp_path: Pat
     assert entries.total_count() == pytest.approx(1800)
 
 
-def test_scene_graph_topic_without_messages_before_detections_is_fine(tmp_path: Path) -> None:
-    """Only detections (the graph topic exists in another file, later): hash cells, no error."""
+def test_log_without_any_scene_graph_keeps_flows_on_hash_cells(tmp_path: Path) -> None:
+    """Only detections, no scene graph anywhere: flows stay on hash cells, with a note."""
     report = build_json(write_log(tmp_path / "only.mcap", walk(100)), "-o", tmp_path / "o.aion")
     assert report["cells"] == 1
     assert report["graph"]["source"] == "none"
-    assert DSG_TOPIC not in report["detection_topics"]
+    assert any("no scene graph" in n for n in report["notes"])
