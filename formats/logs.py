@@ -543,7 +543,7 @@ def guess_format(path: Path) -> tuple[str, Path]:
         )
     raise LogFormatError(
         f"cannot tell the log format of {path}",
-        hint="aion reads .mcap, ROS 1 .bag and rosbag2 folders; use --format mcap|bag|rosbag2",
+        hint="aion reads .mcap, ROS 1 .bag and rosbag2 folders; use --log-format mcap|bag|rosbag2",
     )
 
 
