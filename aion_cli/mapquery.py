@@ -104,6 +104,24 @@ def node_rows(table: Any, node_ids: np.ndarray) -> np.ndarray:
     return np.where(ids[pos] == wanted, rows[pos], -1).astype(np.int64)
 
 
+def planning_config(loaded: LoadedMap) -> ModelConfig:
+    """The map's config for planning: with ``plan_flow_auto``, ``plan_flow_scale`` becomes the
+    90th percentile of the observed flow per window of the places that saw anyone, so "busy"
+    means busy for this map whatever the tracker's rate or the robot's coverage."""
+    config = loaded.config
+    if not config.plan_flow_auto:
+        return config
+    from aion_cli.engine.entries import NODE
+    from aion_cli.engine.query import historical_table
+
+    table = historical_table(loaded.state)
+    flow = table.descriptors.flow_per_window[table.kind == NODE]
+    flow = flow[np.isfinite(flow) & (flow > 0)]
+    if len(flow) == 0:
+        return config
+    return config.replace(plan_flow_scale=float(np.percentile(flow, 90.0)))
+
+
 def node_cost_fn(loaded: LoadedMap, node_ids: np.ndarray) -> Any:
     """``node_cost(t_s)`` for ``engine.planning.plan``: predicted descriptors of the nodes at
     model time ``t_s`` (nodes without an entry have no flow)."""

@@ -213,10 +213,10 @@ def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any
     """Positions of the path planned at ``t_ns`` (distance only for a historical export)."""
     from aion_cli.engine.fremen import to_model_seconds
     from aion_cli.engine.planning import plan
-    from aion_cli.mapquery import node_cost_fn
+    from aion_cli.mapquery import node_cost_fn, planning_config
 
     nav, a, b = ends
-    config = loaded.config
+    config = planning_config(loaded)
     if t_ns is None:
         result = plan(nav, a, b, 0.0, config.plan_speed, None, config)
     else:

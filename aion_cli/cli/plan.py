@@ -103,12 +103,12 @@ def command(
     from aion_cli.cli.timeparse import format_ns
     from aion_cli.engine.fremen import to_model_seconds
     from aion_cli.engine.planning import evaluate_path_cost, plan
-    from aion_cli.mapquery import nav_graph, node_cost_fn
+    from aion_cli.mapquery import nav_graph, node_cost_fn, planning_config
 
     loaded = load(map_path)
     t_ns, zone = resolve_time(time_text, tz, loaded)
     nav = nav_graph(loaded)
-    config = loaded.config
+    config = planning_config(loaded)
     v = float(speed if speed is not None else config.plan_speed)
     start_id, snap_a = _endpoint(start, nav, "--from")
     goal_id, snap_b = _endpoint(goal, nav, "--to")

@@ -45,7 +45,9 @@ class ModelConfig:
     every observation); direction predictions are floored at ``direction_floor`` and
     renormalised.
     Planning: edge cost ``d * (1 + w_entropy*H + w_flow*F + w_direction*c_d)`` (see
-    ``engine.planning``), flow normalised by ``flow_scale`` detections per window.
+    ``engine.planning``), flow normalised by ``plan_flow_scale`` detections per window, or, with
+    ``plan_flow_auto``, by the map's own busy level (the 90th percentile of its places'
+    observed flow), since detection counts depend on the tracker's rate and the robot's route.
     """
 
     cell_size: float = 0.5
@@ -68,6 +70,7 @@ class ModelConfig:
     plan_w_flow: float = 1.0
     plan_w_direction: float = 2.0
     plan_flow_scale: float = 10.0
+    plan_flow_auto: bool = True
     plan_connect_radius: float = 2.5
     derive_spacing: float = 1.5
     derive_min_detections: int = 3
@@ -119,6 +122,8 @@ class ModelConfig:
             )
         if not self.periods or any(not (math.isfinite(p) and p > 0) for p in self.periods):
             raise ConfigError("periods must be a non-empty list of positive seconds")
+        if not isinstance(self.plan_flow_auto, bool):
+            raise ConfigError(f"plan_flow_auto must be true or false, got {self.plan_flow_auto!r}")
         if self.derive_min_detections < 1:
             raise ConfigError("derive_min_detections must be >= 1")
 
