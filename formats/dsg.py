@@ -439,10 +439,14 @@ def _agents(G: Any) -> Trajectory | None:
         return None
     attrs = [node.attributes for node in views[0].nodes]
     stamps = [a.timestamp for a in attrs]
+    us = None
     if all(type(st) is datetime.timedelta for st in stamps):
         # timedelta has microsecond resolution: timedelta64[us] holds it exactly
-        t_arr = np.array(stamps, dtype="timedelta64[us]").astype(np.int64) * 1000
-    else:
+        us = np.array(stamps, dtype="timedelta64[us]").astype(np.int64)
+    lim = np.iinfo(np.int64).max // 1000
+    if us is not None and (len(us) == 0 or (-lim <= us.min() and us.max() <= lim)):
+        t_arr = us * 1000
+    else:  # other stamp types, or ns outside int64 (raises like a Python int would)
         t_arr = np.array(
             [_timedelta_ns(st) if isinstance(st, datetime.timedelta) else int(st) for st in stamps],
             dtype=np.int64,
