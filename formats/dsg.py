@@ -236,7 +236,15 @@ def decode_dsg(
 ) -> DecodedGraph:
     """Decode a payload to a snapshot at ``t_ns`` and say which format version read it."""
     graph, used = read_dsg_payload(payload, version)
-    return DecodedGraph(snapshot_from_dsg(graph, t_ns, layer), used)
+    try:
+        snapshot = snapshot_from_dsg(graph, t_ns, layer)
+    except UnicodeDecodeError as exc:  # spark_dsg reads a damaged node name without checking
+        raise MessageDecodeError(
+            f"scene-graph payload ({len(_as_bytes(payload))} bytes) holds a node name that is "
+            f"not UTF-8 ({exc.reason} at byte {exc.start})",
+            hint="the payload is damaged",
+        ) from exc
+    return DecodedGraph(snapshot, used)
 
 
 def decode_dsg_update(
