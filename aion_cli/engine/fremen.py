@@ -473,7 +473,7 @@ class FremenModel:
         s_e: F64,
         n_p: F64,
         ss_p: F64,
-        span_p: F64,
+        span_p: F64 | None,
         wi: I64 | int,
         v_p: F64,
         cos_t: F64,
@@ -481,7 +481,8 @@ class FremenModel:
     ) -> F64:
         """|s − p_m| for orders 0..M (float64[q, M+1]) of q scored observations, each from
         the state just before it: ``s_se`` / ``s_e`` = [Re | Im] of Σs·e^{iωt} / Σe^{iωt}
-        (float64[q, 2K]), count, Σs and span, at window ``wi`` with value ``v_p``.
+        (float64[q, 2K]), count, Σs and span (None: every period admitted), at window ``wi``
+        with value ``v_p``.
 
         Ranking uses |S − μ·Σe|² = n²|γ|² (same order as |γ|); components the span gate
         rejects are marked −1 and contribute nothing even when fewer than m are admitted.
@@ -495,7 +496,7 @@ class FremenModel:
         xr, xi = x[:, :k], x[:, k:]
         a2 = np.multiply(xr, xr)
         a2 += np.square(xi)
-        if span_p.min() < float(self.min_span.max()):  # some period not yet admitted
+        if span_p is not None and span_p.min() < float(self.min_span.max()):  # gate binds
             np.putmask(a2, self.min_span[None, :] > span_p[:, None], -1.0)
         # the m_eff strongest components, strongest first (ties: lowest index), through flat
         # indices (much cheaper than 2-d fancy indexing)
@@ -558,6 +559,10 @@ class FremenModel:
         err = np.zeros((c, self.max_order + 1))
         scored_n = np.zeros(c)
         step = stride = self.score_stride
+        # spans only grow: when every row's span already admits every period, the span gate
+        # cannot bind and first / last need no tracking (NaN: a row never observed)
+        with np.errstate(invalid="ignore"):
+            gated = not bool(np.all(last - first >= self.min_span.max()))
         mature = max(self.full_scoring, 1)  # rows from here on score once per block, weight k
         for a in range(0, t.size, step):
             b = min(a + step, t.size)
@@ -568,7 +573,15 @@ class FremenModel:
                 jf = np.fmod(stride - np.fmod(n, stride), stride) if stride > 1 else None
                 if jf is None or not jf.any():  # every row scores the block's first window
                     errs = self._pair_errors(
-                        acc_se, acc_e, n, ss, last - first, a, v[:, 0], cos_t, sin_t
+                        acc_se,
+                        acc_e,
+                        n,
+                        ss,
+                        last - first if gated else None,
+                        a,
+                        v[:, 0],
+                        cos_t,
+                        sin_t,
                     )
                     if stride > 1:
                         errs *= float(stride)
@@ -602,15 +615,16 @@ class FremenModel:
                     else:
                         o_before = ob[i] & before
                         s_e += o_before.astype(np.float64) @ e_blk
-                        seen = o_before.any(axis=1)
-                        t_in = np.where(seen, t[a + np.argmax(o_before, axis=1)], np.nan)
-                        back = np.argmax(o_before[:, ::-1], axis=1)
-                        l_in = np.where(seen, t[b - 1 - back], np.nan)
-                    f_p = np.fmin(f_p, t_in)
-                    l_p = np.fmax(l_p, l_in)
-                errs = self._pair_errors(
-                    s_se, s_e, n_p, ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t
-                )
+                        if gated:
+                            seen = o_before.any(axis=1)
+                            t_in = np.where(seen, t[a + np.argmax(o_before, axis=1)], np.nan)
+                            back = np.argmax(o_before[:, ::-1], axis=1)
+                            l_in = np.where(seen, t[b - 1 - back], np.nan)
+                    if gated:
+                        f_p = np.fmin(f_p, t_in)
+                        l_p = np.fmax(l_p, l_in)
+                span_p = l_p - f_p if gated else None
+                errs = self._pair_errors(s_se, s_e, n_p, ss_p, span_p, a + j, v[i, j], cos_t, sin_t)
                 _add_weighted(err, scored_n, i, errs, self._weights(n_p))
             # absorb the block into the chunk's private accumulators
             acc_se += v @ e_blk
@@ -623,10 +637,12 @@ class FremenModel:
             else:
                 acc_e += of @ e_blk
                 n += of.sum(axis=1)
-                seen = ob.any(axis=1)
-                first = np.fmin(first, np.where(seen, t[a + np.argmax(ob, axis=1)], np.nan))
-                back = np.argmax(ob[:, ::-1], axis=1)
-                last = np.fmax(last, np.where(seen, t[b - 1 - back], np.nan))
+                if gated:
+                    seen = ob.any(axis=1)
+                    t_in = np.where(seen, t[a + np.argmax(ob, axis=1)], np.nan)
+                    first = np.fmin(first, t_in)
+                    back = np.argmax(ob[:, ::-1], axis=1)
+                    last = np.fmax(last, np.where(seen, t[b - 1 - back], np.nan))
         state.order_err[rr] += err
         state.order_n[rr] += scored_n
 

@@ -453,23 +453,26 @@ def test_orders_above_the_number_of_periods_use_every_period(stride: int) -> Non
     )
 
 
-@pytest.mark.parametrize("late", [True, False], ids=["phases", "aligned"])
+@pytest.mark.parametrize("kind", ["phases", "aligned", "sparse-tail"])
 @pytest.mark.parametrize("stride", [3, 8])
-def test_stride_on_dense_windows_with_rows_at_every_phase(stride: int, late: bool) -> None:
+def test_stride_on_dense_windows_with_rows_at_every_phase(stride: int, kind: str) -> None:
     """Dense blocks where the rows' counts sit at every phase modulo the stride (each row
     scores at a different window of a block), after a sparse start, or all at the same phase,
-    against the loop."""
+    or sparse windows again at the end; 16 days, so the last updates start with every period
+    admitted by the span gate (first / last no longer tracked). Against the loop."""
     model = FremenModel(PERIODS, max_order=4, score_stride=stride)
     rng = np.random.default_rng(11)
     n_rows = 20
-    t = np.sort(rng.uniform(0, 10 * DAY_S, 160))
+    t = np.sort(rng.uniform(0, 16 * DAY_S, 200))
     values = np.stack([_signal(rng, t, kind) for kind in range(n_rows)])
     observed = np.ones(values.shape, bool)
-    for i in range(n_rows if late else 0):
+    for i in range(0 if kind == "aligned" else n_rows):
         observed[i, : i % 11] = False  # rows start late by 0..10 windows
+    if kind == "sparse-tail":
+        observed[:, 150:] = rng.random((n_rows, 50)) < 0.7
     state = model.empty(n_rows)
     rows = np.arange(n_rows)
-    for a, b in itertools.pairwise([0, 13, 14, 90, 160]):
+    for a, b in itertools.pairwise([0, 13, 14, 90, 150, 200]):
         model.update(state, rows, t[a:b], values[:, a:b], observed[:, a:b])
     loops = [LoopState(PERIODS, 4, 1.5, stride) for _ in range(n_rows)]
     for i, lp in enumerate(loops):
