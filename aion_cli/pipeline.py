@@ -353,7 +353,7 @@ class _Build:
         elif plan.graph and self.opts.graph_file is None and self._graph_has_agents(logset, plan):
             self.report.observation = "scene-graph agent layer"  # fed per snapshot
         else:
-            mapper.set_fixed_sensor(int(logset.start_ns), int(logset.end_ns))
+            _fixed_sensor_per_file(mapper, logset)
             self.report.observation = "fixed sensor over the log's time span"
             self.report.notes.append(
                 "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
@@ -449,7 +449,7 @@ class _Build:
                 "log times were used"
             )
         if use_agents and self.report.graph_messages == 0:
-            mapper.set_fixed_sensor(int(logset.start_ns), int(logset.end_ns))
+            _fixed_sensor_per_file(mapper, logset)
             self.report.observation = "fixed sensor over the log's time span"
 
     def _add_agent_poses(self, mapper: Mapper, agents: Trajectory | None) -> None:
@@ -550,3 +550,11 @@ def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> Build
     if opts.batch_size < 1:
         raise InputError("batch size must be >= 1")
     return _Build(opts, progress or _NoProgress()).run()
+
+
+def _fixed_sensor_per_file(mapper: Mapper, logset: Any) -> None:
+    """A fixed sensor observes each file's own time span, not the gaps between files, so
+    ``build A B`` records the same empty windows as ``build A`` then ``build --map B``."""
+    for file in logset.files:
+        if file.end_ns >= file.start_ns and file.message_count > 0:
+            mapper.set_fixed_sensor(int(file.start_ns), int(file.end_ns) + 1)

@@ -281,3 +281,22 @@ def test_a_missing_robot_frame_is_noted(office: Office, tmp_path: Path) -> None:
     )
     assert report["observation"] == "fixed sensor over the log's time span"
     assert any("no map->robot chain" in note and "base_link" in note for note in report["notes"])
+
+
+def test_fixed_sensor_logs_continue_like_building_at_once(tmp_path: Path) -> None:
+    """Without a robot trajectory each file is observed over its own span, not the gap
+    between files, so continuing a map equals building from both logs at once."""
+    day1, day2 = tmp_path / "day1.mcap", tmp_path / "day2.mcap"
+    write_office_log(day1, tf=False)
+    write_office_log(day2, tf=False, shift_s=86400)
+    both = tmp_path / "both.aion"
+    once = run_json("build", day1, day2, "-o", both, "--format", "json")
+    assert once["observation"].startswith("fixed sensor")
+    step = tmp_path / "step.aion"
+    run_json("build", day1, "-o", step, "--format", "json")
+    cont = run_json("build", day2, "--map", step, "--format", "json")
+    assert cont["windows"] == once["windows"]
+    at = "2026-11-24 08:05"
+    a = run_json("predict", both, "--time", at, "--format", "json")["entries"]
+    b = run_json("predict", step, "--time", at, "--format", "json")["entries"]
+    assert a == b
