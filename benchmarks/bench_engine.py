@@ -33,7 +33,7 @@ Timed (best of k, same process):
   ratio to a plain ``np.load`` of the same arrays from an uncompressed ``.npz``;
 * **predict, one time**: ``engine.query.predict_table`` over the whole map, ratio to the bare
   FreMEn predictions it contains (activity rows + ``predict_directions``);
-* **predict, 100 times**: ``predict_table`` (one time per call: 5 calls timed, extrapolated to
+* **predict, 100 times**: ``predict_table`` (one time per call: 3 calls timed, extrapolated to
   100), and the batched FreMEn predictions of every row at 100 times in one call per
   10^4-entry block;
 * **plan** on a 10^5-node grid: ``bench_queries_plan.bench_plan`` (ratio to scipy Dijkstra);
@@ -171,7 +171,7 @@ def run(sizes: tuple[int, ...] = (10**6, 10**7), repeats: int = 2,
     out = []
     for n in sizes:
         for windows in (1, 24) if n <= windowed_max else (1,):
-            r = measure(n, windows, repeats if n < 10**7 else 1)
+            r = measure(n, windows, repeats if n < 10**7 and windows == 1 else 1)
             r["name"] = f"engine ingest {n:.0e} det, {windows} window(s)"
             out.append(r)
     return out
@@ -224,7 +224,7 @@ def _write(state: Any, path: Path) -> None:
 
 
 def bench_load_predict(n_entries: int, repeats: int, n_times: int = 100,
-                       table_calls: int = 5) -> list[dict[str, Any]]:
+                       table_calls: int = 3) -> list[dict[str, Any]]:
     """Map load and whole-map predictions (at one and at ``n_times`` times) on a
     ~``n_entries`` map. ``predict_table`` takes one time per call: it is called
     ``table_calls`` times and the cost of ``n_times`` calls extrapolated (each call does the
@@ -246,7 +246,7 @@ def bench_load_predict(n_entries: int, repeats: int, n_times: int = 100,
     del arrays
     load_map = map_loader()
     load_s = best_of(lambda: load_map(path), min(repeats, 2))
-    npz_s = best_of(lambda: dict(np.load(npz)), min(repeats, 2))
+    npz_s = best_of(lambda: dict(np.load(npz)), 1)
     loaded = load_map(path)
     st = loaded.state
     entries = len(st.entries.live_rows())
