@@ -168,11 +168,10 @@ def test_user_mistake_is_one_error_line_exit_2(case: str, mistakes: dict[str, An
     assert debug.stderr.count("error: ") == 1
 
 
-# One mistake of each kind (log, option, map, config, lock): each subprocess pays aion's ~1 s
+# One mistake of each kind (log, map, config, lock): each subprocess pays aion's ~1 s
 # start-up, and the in-process test above already runs every case.
 SUBPROCESS_CASES = (
     "garbage .mcap",
-    "unknown --log-format",
     "corrupted map",
     "config with an unknown key",
     "locked map",

@@ -42,7 +42,7 @@ LOG_CONTAINERS = {
 
 # target -> (cases in the default run, cases in the long run)
 BUDGET = {
-    "logs": (60, 3000),
+    "logs": (40, 3000),
     "detections": (80, 5000),
     "dsg": (30, 1000),
     "read_map": (40, 3000),

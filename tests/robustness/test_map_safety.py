@@ -43,7 +43,7 @@ from tests.robustness.conftest import (
 
 
 def crowd(k: int) -> Message:
-    """Message ``k``: eight people on a 40 x 50 m grid of 4000 cells (a map of ~40 MB)."""
+    """Message ``k``: eight people on a 40 x 50 m grid of 4000 cells (~8 KB per cell)."""
     t = T0 + k * S
     tracks = []
     for j in range(8):
@@ -71,7 +71,7 @@ def crowd(k: int) -> Message:
 def crowd_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A log whose map takes a while to write (many cells)."""
     return write_log(
-        tmp_path_factory.mktemp("crowd") / "crowd.mcap", [crowd(k) for k in range(1500)]
+        tmp_path_factory.mktemp("crowd") / "crowd.mcap", [crowd(k) for k in range(1000)]
     )
 
 
