@@ -76,12 +76,7 @@ class GridMoD:
         self.spec = spec
         self.config = config or ModelConfig()
         self.bins = self.config.bins
-        self.model = FremenModel(
-            self.config.periods,
-            self.config.max_order,
-            self.config.span_factor,
-            self.config.order_bias,
-        )
+        self.model = FremenModel.from_config(self.config)
         self.state: FremenState = self.model.empty(spec.n_cells * self.bins)
         self.counts = np.zeros((spec.n_cells, self.bins))
         self.windows_observed = 0
