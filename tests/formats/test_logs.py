@@ -315,7 +315,7 @@ def test_non_log_files(tmp_path: Path) -> None:
     text.write_text("not a log\n" * 10)
     with pytest.raises(LogFormatError, match="cannot tell the log format") as info:
         open_logs([text])
-    assert "--format" in (info.value.hint or "")
+    assert "--log-format" in (info.value.hint or "")
     fake = tmp_path / "fake.mcap"
     fake.write_text("not a log either\n")
     with pytest.raises(LogFormatError, match="not an MCAP file"):
