@@ -12,7 +12,8 @@ def test_default_periods_are_31_daily_and_weekly_harmonics() -> None:
     periods = default_periods()
     assert len(periods) == 31
     assert periods[0] == 604800.0
-    assert 86400.0 in periods and 3600.0 in periods
+    assert 86400.0 in periods
+    assert 3600.0 in periods
     assert len(set(periods)) == len(periods)
 
 
@@ -26,7 +27,8 @@ def test_unknown_parameter_lists_valid_ones() -> None:
     with pytest.raises(ConfigError) as err:
         ModelConfig.from_dict({"cel_size": 1.0})
     assert "cel_size" in str(err.value)
-    assert err.value.hint is not None and "cell_size" in err.value.hint
+    assert err.value.hint is not None
+    assert "cell_size" in err.value.hint
 
 
 @pytest.mark.parametrize(
