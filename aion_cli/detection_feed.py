@@ -58,11 +58,13 @@ class DetectionFeeder:
         for msgtype, msgs in by_type.items():
             adapter = self._adapter_for(msgtype)
             assert adapter is not None  # topics were selected by adapter
-            frames = adapter.decode(msgs)
+            frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
             self.counts.read += len(frames)
             self.counts.stamp_fallbacks += int(frames.stamp_fallbacks)
             for reason, n in frames.filtered.items():
-                self.counts.dropped[reason] += n
+                # damaged payloads are counted per message: their detections are unknown
+                key = "undecodable_messages" if reason == "undecodable" else reason
+                self.counts.dropped[key] += n
             parts.append(self._to_map_frame(frames))
         if not parts:
             return DetectionBatch.empty()

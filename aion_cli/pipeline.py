@@ -33,7 +33,13 @@ import numpy as np
 
 from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import ConfigError, InputError, TopicNotFoundError, TransformError
+from aion_cli.engine.errors import (
+    ConfigError,
+    InputError,
+    MessageDecodeError,
+    TopicNotFoundError,
+    TransformError,
+)
 from aion_cli.engine.types import DetectionBatch, GraphSnapshot, Trajectory
 from aion_cli.mapquery import LoadedMap, load_map, state_counts
 from aion_cli.provenance import provenance, provenance_size
@@ -124,6 +130,7 @@ class BuildReport:
     observation: str = "fixed"
     graph_source: str = "none"
     graph_messages: int = 0
+    graph_skipped: int = 0
     dsg_version: str | None = None
     detection_topics: list[str] = field(default_factory=list)
     graph_topics: list[str] = field(default_factory=list)
@@ -156,6 +163,7 @@ class BuildReport:
             "graph": {
                 "source": self.graph_source,
                 "messages": self.graph_messages,
+                "skipped": self.graph_skipped,
                 "dsg_version": self.dsg_version,
                 "topics": self.graph_topics,
             },
@@ -173,7 +181,6 @@ def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer |
     message with the log's generic decoder, which reports a corrupt payload as before."""
     import logging
 
-    from aion_cli.engine.errors import MessageDecodeError
     from formats.tf import TfBuffer
     from formats.tf_fast import decode_tf_messages
 
@@ -238,6 +245,7 @@ class _Build:
         self.previous: LoadedMap | None = None
         self.dsg_version = opts.dsg_version
         self._agents_until = np.iinfo(np.int64).min
+        self._first_graph_error: MessageDecodeError | None = None
 
     def config(self) -> ModelConfig:
         given = self.opts.config
@@ -433,12 +441,15 @@ class _Build:
                 self._feed(mapper, feeder.decode(chunk))
                 self.progress.advance(len(chunk))
             if graph_msg is not None:
-                snapshot = self._decode_graph(logset, graph_msg)
+                snapshot = self._decode_graph_or_skip(logset, graph_msg)
+                self.progress.advance(1)
+                if snapshot is None:
+                    continue
                 mapper.add_graph(snapshot)
                 if use_agents:
                     self._add_agent_poses(mapper, snapshot.agents)
                 self.report.graph_messages += 1
-                self.progress.advance(1)
+        self._check_graph_skips()
         c = self.counts
         self.report.detections_read = c.read
         self.report.detections_used = c.used
@@ -472,6 +483,32 @@ class _Build:
             if n:
                 self.counts.dropped[reason] += int(n)
         self.counts.used += len(batch) - dropped
+
+    def _decode_graph_or_skip(self, logset: Any, msg: RawMessage) -> GraphSnapshot | None:
+        """A damaged scene-graph message is skipped and counted (the graph stays as it was
+        until the next full graph, which Hydra repeats every few seconds); with the version
+        pinned by ``--dsg-version`` a failure is the user's to fix and stops the build."""
+        try:
+            return self._decode_graph(logset, msg)
+        except MessageDecodeError as exc:
+            if self.opts.dsg_version is not None:
+                raise
+            self.report.graph_skipped += 1
+            if self._first_graph_error is None:
+                self._first_graph_error = exc
+            return None
+
+    def _check_graph_skips(self) -> None:
+        """Skipped graphs are a note; when no scene graph at all could be decoded the first
+        failure is the build's error (a map without the log's graph would mislead)."""
+        if self.report.graph_skipped == 0 or self._first_graph_error is None:
+            return
+        if self.report.graph_messages == 0:
+            raise self._first_graph_error
+        self.report.notes.append(
+            f"{self.report.graph_skipped:,} damaged scene-graph message(s) skipped (first: "
+            f"{self._first_graph_error.message})"
+        )
 
     def _decode_graph(self, logset: Any, msg: RawMessage) -> GraphSnapshot:
         from formats.dsg import decode_dsg

@@ -409,17 +409,49 @@ def test_older_scene_graph_version_keeps_stdout_clean(
     assert report["nodes"] == 5
 
 
-def test_truncated_scene_graph_after_a_good_one_is_a_clear_error(tmp_path: Path) -> None:
+def test_damaged_scene_graph_after_a_good_one_is_skipped_and_counted(tmp_path: Path) -> None:
+    """A truncated DsgUpdate between good ones: the build keeps the graph it has, skips the
+    damaged message, counts it and says so; every detection is still used."""
     payload = graph_payload()
     msgs = [
         scene_graph(T0, payload),
         *walk(40, 1),
         scene_graph(T0 + 41 * S, payload[: len(payload) // 2]),
         *walk(40, 42),
+        scene_graph(T0 + 90 * S, payload),
     ]
-    result = run("build", write_log(tmp_path / "t.mcap", msgs), "-o", tmp_path / "t.aion")
+    report = build_json(write_log(tmp_path / "t.mcap", msgs), "-o", tmp_path / "t.aion")
+    assert report["graph"]["messages"] == 2
+    assert report["graph"]["skipped"] == 1
+    assert report["detections"]["used"] == 80
+    assert any("damaged scene-graph message(s) skipped" in n for n in report["notes"])
+
+
+def test_damaged_scene_graph_with_a_pinned_version_is_a_clear_error(tmp_path: Path) -> None:
+    """With --dsg-version the user said how to read the graphs: a failure stops the build."""
+    payload = graph_payload()
+    msgs = [scene_graph(T0, payload), *walk(40, 1),
+            scene_graph(T0 + 41 * S, payload[: len(payload) // 2])]
+    log = write_log(tmp_path / "p.mcap", msgs)
+    result = run("build", log, "-o", tmp_path / "p.aion", "--dsg-version", "1.1.3")
     fails(result, "cannot decode scene-graph payload")
-    assert not (tmp_path / "t.aion").exists()
+    assert not (tmp_path / "p.aion").exists()
+
+
+def test_damaged_detection_message_is_skipped_and_counted(tmp_path: Path) -> None:
+    """One TrackedPersons payload cut short among good ones: dropped as an undecodable
+    message, the others are used."""
+    from formats.writers import LogWriter
+
+    path = tmp_path / "d.mcap"
+    good = walk(30)
+    with LogWriter(path, "mcap") as writer:
+        for k, (topic, msgtype, msg, t_ns) in enumerate(good):
+            data = writer.serialize(msgtype, msg)
+            writer.write_raw(topic, msgtype, data[: len(data) // 2] if k == 10 else data, t_ns)
+    report = build_json(path, "-o", tmp_path / "d.aion")
+    assert report["detections"]["dropped"]["undecodable_messages"] == 1
+    assert report["detections"]["used"] == 29
 
 
 def test_scene_graph_with_a_damaged_node_name_is_a_clear_error(tmp_path: Path) -> None:
