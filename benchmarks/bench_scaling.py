@@ -106,8 +106,9 @@ def plot(det: list[dict[str, Any]], ent: list[dict[str, Any]], path: Path = PNG)
         ax.set_ylabel("seconds", color="tab:blue")
         ax.grid(True, which="both", alpha=0.3)
         ax2 = ax.twinx()
-        ax2.loglog(x, [r["peak_above_base_bytes"] / 1e6 for r in rows], "s--", color="tab:red",
-                   label="peak memory")
+        mem = [r["peak_above_base_bytes"] / 1e6 for r in rows]
+        ax2.loglog(x, mem, "s--", color="tab:red", label="peak memory")
+        ax2.set_ylim(min(mem) / 2, max(mem) * 2)  # a flat series must look flat, not noisy
         ax2.set_ylabel("peak RSS above baseline (MB)", color="tab:red")
         ax.set_title(f"{title}: time slope {slope(x, [r['seconds'] for r in rows]):.2f}, "
                      f"memory slope {slope(x, [r['peak_above_base_bytes'] for r in rows]):.2f}",
