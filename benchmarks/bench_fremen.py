@@ -1,17 +1,18 @@
 """FreMEn speed: state-updates/s and state-predictions/s with 31 periods, 10^3..10^6 states.
 
 * **updates** = (row, window) observations absorbed per second by ``FremenModel.update`` with
-  the prequential order selection (orders 0..4, every k-th observation of a row scored, k =
-  ``score_stride``: the config default unless ``--stride``), one call per day of 10-minute windows
+  the prequential order selection (orders 0..4, every k-th observation of a row scored by the
+  row's model frozen at the start of the day, k = ``score_stride``: the config default unless
+  ``--stride``), one call per day of 10-minute windows
   (W = 144, every row observed in every window: the dense worst case), as the mapper calls it.
   Large sizes are timed on an evenly spaced subset of the rows of the full-size state (at most
   ``UPDATE_CAP`` observations per call); the per-observation cost does not depend on the rows
   left out. The column "accumulators only" is the same call for a mean-only model (max_order
-  0): the two matrix products and cumulative sums without the per-window order replay.
+  0): the two matrix products without the top-M selection and the order errors.
 * **predictions** = rows × times per second of ``FremenModel.predict`` (chosen orders, 144
   times), in row blocks of 10^5 so the output fits in memory.
 * **vs loop**: ratio to a straightforward per-state Python loop (complex sums per observation,
-  sort of the amplitudes per prediction, the same stride rule) run in the same process on a few
+  sort of the amplitudes once per day, the same stride rule) run in the same process on a few
   rows and extrapolated per state.
 
 States start from two weeks of 10-minute history (every period admitted by the span gate),
@@ -44,9 +45,11 @@ HISTORY_DAYS = 14
 
 
 def _activity(rng: np.random.Generator, t: np.ndarray, n_rows: int) -> np.ndarray:
-    """Activity-like rows in [0, 1): daily rhythm, row-specific level and phase, Poisson noise."""
-    level = rng.uniform(0.2, 3.0, (n_rows, 1))
-    phase = rng.uniform(0, 2 * np.pi, (n_rows, 1))
+    """Activity-like rows in [0, 1): daily rhythm, row-specific level and phase (the same on
+    every call: row i keeps its rhythm from day to day), Poisson noise from ``rng``."""
+    rows = np.random.default_rng(99)
+    level = rows.uniform(0.2, 3.0, (n_rows, 1))
+    phase = rows.uniform(0, 2 * np.pi, (n_rows, 1))
     rate = level * (1 + 0.8 * np.cos(2 * np.pi * t[None, :] / DAY_S - phase))
     return 1.0 - np.exp(-rng.poisson(rate) / 5.0)
 
@@ -82,6 +85,9 @@ class LoopFremen:
         self.last = float(state.t_last[row])
         self.err = [float(x) for x in state.order_err[row]]
         self.err_n = float(state.order_n[row])
+        self.rank_period = model.rank_period
+        self.frozen_epoch: int | None = None
+        self.frozen: tuple[float, list[tuple[float, float, float]]] | None = None
 
     def _terms(self) -> tuple[float, list[tuple[float, float, float]]]:
         mu = self.sum_s / self.n
@@ -100,8 +106,12 @@ class LoopFremen:
         return min(1.0, max(0.0, p))
 
     def add(self, t: float, s: float) -> None:
-        if self.n > 0 and self.n % self.stride == 0:  # a scored observation
-            mu, terms = self._terms()
+        epoch = math.floor(t / self.rank_period)
+        if epoch != self.frozen_epoch:  # freeze the model that forecasts this epoch
+            self.frozen_epoch = epoch
+            self.frozen = self._terms() if self.n > 0 else None
+        if self.frozen is not None and self.n % self.stride == 0:  # a scored observation
+            mu, terms = self.frozen
             p = mu
             self.err[0] += abs(s - min(1.0, max(0.0, p)))
             for m in range(1, self.max_order + 1):

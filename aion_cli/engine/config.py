@@ -42,8 +42,9 @@ class ModelConfig:
     orders 0..``max_order`` chosen per row by prequential error, a higher order only when it
     beats the lower one by ``order_bias`` (mean absolute error); once a row has 64 observations
     the prequential errors score only every ``score_stride``-th of them, weighted by it (1 scores
-    every observation); direction predictions are floored at ``direction_floor`` and
-    renormalised.
+    every observation), each predicted by the row's model frozen at the start of its rank epoch
+    of ``rank_period_s`` (a day: the error of forecasting the day ahead); direction
+    predictions are floored at ``direction_floor`` and renormalised.
     Planning: edge cost ``d * (1 + w_entropy*H + w_flow*F + w_direction*c_d)`` (see
     ``engine.planning``), flow normalised by ``plan_flow_scale`` detections per window, or, with
     ``plan_flow_auto``, by the map's own busy level (the 90th percentile of its places'
@@ -64,6 +65,7 @@ class ModelConfig:
     max_order: int = 4
     order_bias: float = 0.002
     score_stride: int = 8
+    rank_period_s: float = 86_400.0
     direction_floor: float = 0.01
     plan_speed: float = 1.0
     plan_w_entropy: float = 0.5
@@ -87,6 +89,7 @@ class ModelConfig:
             "sensor_range",
             "activity_scale",
             "span_factor",
+            "rank_period_s",
             "plan_speed",
             "plan_flow_scale",
             "plan_connect_radius",

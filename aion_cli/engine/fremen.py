@@ -14,24 +14,25 @@ exactly (:func:`merge_states`). A period counts only once the row's observed spa
 ``t_last − t_first`` reaches ``span_factor · T`` (a shorter span cannot resolve it).
 
 Prediction of order m: p(t) = μ + Σ_{m strongest k} 2|γ_k| cos(ω_k t − φ_k), clamped to [0, 1].
-The order is chosen per row by prequential error: before a scored observation is absorbed it is
-predicted with every order 0..M from the state at that moment, and |s − p_m| is added to
-``order_err[row, m]``. With scoring stride k (``FremenModel.score_stride``) a row scores all of
-its first observations, then only those whose count of earlier observations is a multiple of k,
-weighted k (an unbiased, deterministic subsample that depends only on the row's own count). The
-chosen order is the lowest order whose mean error is not beaten by a higher order by more than
-``order_bias``. Ties in amplitude go to the lower period index.
+
+The order is chosen per row by its *forecast* error, prequentially: time is cut into rank
+epochs of ``rank_period`` seconds (a UTC day by default, aligned to :data:`EPOCH_NS`). When a
+row is first updated in an epoch, its model is frozen from its state at that moment — the mean
+and the M strongest admitted components — in ``rank_*`` arrays; each scored observation of the
+epoch is predicted by that frozen model with every order 0..M, and |s − p_m| is added to
+``order_err[row, m]``. This is the error of forecasting the day ahead, which is what the map is
+used for; a row's first epoch has no earlier model and is not scored. With scoring stride k a
+row scores all of its first observations, then only those whose count of earlier observations is
+a multiple of k, weighted k (a deterministic subsample depending only on the row's own count).
+The chosen order is the lowest order whose mean error is not beaten by a higher order by more
+than ``order_bias``. Ties in amplitude go to the lower period index.
 
 Everything runs on whole arrays: ``update`` absorbs W windows for r rows with two matrix
-products (values·E and observed·E with E = [cos ωt | sin ωt] of shape W×2K). The prequential
-errors are exact (predict-before-absorb in time order) and computed in row chunks: many rows
-replay blocks of k windows in order on a private copy of the chunk's accumulators (one small
-matrix product per block, the scored observations ranked from the block's start plus its earlier
-windows; cache-sized chunks on a small thread pool); a few rows instead evaluate blocks of
-windows at once from cumulative sums along the window axis, at the scored observations only.
-Both give the same numbers. Ranking the K amplitudes of a scored observation is the dominant
-cost (see ``benchmarks/bench_fremen.py``); a mean-only model skips it.
-``predict`` is one matrix product of per-row coefficients with the basis at the query times.
+products per epoch (values·E and observed·E with E = [cos ωt | sin ωt] of shape W×2K); ranking
+is one top-M selection per row and epoch; a scored observation costs M basis lookups. Results do
+not depend on how windows are batched into calls, because the frozen models are part of the
+state (and of the map file). ``predict`` is one matrix product of per-row coefficients with the
+basis at the query times.
 
 Fixed here (public FreMEn bugs, see ``notes-mod_anchors.md`` §1.6): the balance is exact across
 calls, the mean divides by the number of observations actually absorbed, the strongest (not
@@ -41,9 +42,8 @@ times are float64 seconds from a recent epoch (float32 UNIX seconds break short 
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -65,37 +65,25 @@ EPOCH_NS: int = 1_578_268_800 * 1_000_000_000
 PRIOR: float = 0.5
 """Prediction for a row that has never been observed (FreMEn's initial gain: no knowledge)."""
 
-_ROW_CHUNK = 1024
-"""Rows per chunk of the prequential replay: a few (rows × K) float64 arrays stay in cache."""
+RANK_PERIOD_S: float = 86_400.0
+"""Default rank epoch: a row's forecasting model for the order errors is refrozen daily."""
 
-_FEW_ROWS = 96
-"""Chunks with fewer rows replay with cumulative sums along the window axis instead of a
-Python loop over windows (whose per-window overhead dominates for few rows)."""
-
-_BLOCK_CELLS = 1 << 16
-"""Rows × windows × periods per block of the cumulative-sum replay."""
-
-_WORKERS = max(1, min(4, os.cpu_count() or 1))
-"""Threads for the prequential replay of row chunks."""
+STALE: int = int(np.iinfo(np.int64).min)
+"""``rank_epoch`` of a row whose frozen model must be recomputed before it is scored again."""
 
 _FULL_SCORING = 64
 """With a scoring stride k > 1, a row's first observations are all scored, up to this count
 rounded up to a multiple of k; after that every k-th, weighted k (see ``FremenModel``)."""
 
-_STATE_FIELDS = ("n", "sum_s", "sum_se", "sum_e", "t_first", "t_last", "order_err", "order_n")
+_SCORE_CELLS = 1 << 21
+"""Rows × windows per block of the scoring pass (bounds its temporary arrays to tens of MB)."""
 
+_RANK_ROWS = 1 << 16
+"""Rows per block of the top-M selection (rows × K complex temporaries)."""
 
-def _add_weighted(err: F64, count: F64, i: I64, errs: F64, weight: F64) -> None:
-    """``err[i] += weight·errs`` and ``count[i] += weight`` for scored observations sorted by
-    row ``i`` (a row may repeat: several scored observations in one block)."""
-    if weight.max() != 1.0:  # weights are 1 or the stride
-        errs *= weight[:, None]
-    if i.size > 1 and not bool(np.all(i[1:] != i[:-1])):
-        np.add.at(err, i, errs)
-        np.add.at(count, i, weight)
-    else:
-        err[i] += errs
-        count[i] += weight
+_ADDITIVE = ("n", "sum_s", "sum_se", "sum_e", "order_err", "order_n")
+_RANK_FIELDS = ("rank_epoch", "rank_mu", "rank_idx", "rank_coef")
+_STATE_FIELDS = ("t_first", "t_last", *_ADDITIVE, *_RANK_FIELDS)
 
 
 def to_model_seconds(t_ns: npt.ArrayLike) -> F64:
@@ -120,6 +108,12 @@ class FremenState:
     ``sum_se`` / ``sum_e`` are complex128[R, K]; ``order_err`` is float64[R, M+1] (prequential
     absolute-error sums) and ``order_n`` the number of observations they stand for per row
     (scored observations, weighted by the scoring stride after a row's first ones).
+
+    The frozen forecasting model of the current rank epoch (M' = min(M, K)): ``rank_epoch``
+    int64[R] (:data:`STALE`: recompute), ``rank_mu`` float64[R] (NaN: nothing was known, the
+    epoch is not scored), ``rank_idx`` int16[R, M'] (period indices, strongest first) and
+    ``rank_coef`` float64[R, 2M'] ([2 Re γ | 2 Im γ] of those periods; 0 where the span gate
+    rejected the period), so a term is ``coef_re·cos ωt + coef_im·sin ωt``.
     """
 
     n: F64
@@ -130,10 +124,15 @@ class FremenState:
     t_last: F64
     order_err: F64
     order_n: F64
+    rank_epoch: I64
+    rank_mu: F64
+    rank_idx: npt.NDArray[np.int16]
+    rank_coef: F64
 
     @classmethod
     def empty(cls, n_rows: int, n_periods: int, max_order: int) -> FremenState:
         """R rows with no observations."""
+        m = min(max_order, n_periods)
         return cls(
             n=np.zeros(n_rows),
             sum_s=np.zeros(n_rows),
@@ -143,6 +142,10 @@ class FremenState:
             t_last=np.full(n_rows, np.nan),
             order_err=np.zeros((n_rows, max_order + 1)),
             order_n=np.zeros(n_rows),
+            rank_epoch=np.full(n_rows, STALE, np.int64),
+            rank_mu=np.full(n_rows, np.nan),
+            rank_idx=np.zeros((n_rows, m), np.int16),
+            rank_coef=np.zeros((n_rows, 2 * m)),
         )
 
     @property
@@ -162,7 +165,8 @@ class FremenState:
         """``dst += src`` row by row: accumulators add, first = min, last = max.
 
         Used when a hash cell's state moves into a node (or back). Repeated ``dst`` indices
-        accumulate; ``src`` values are read before any write, so overlap is safe.
+        accumulate; ``src`` values are read before any write, so overlap is safe. The frozen
+        models of ``dst`` go stale (refrozen from the combined state at its next update).
         """
         s = np.asarray(src, dtype=np.int64).reshape(-1)
         d = np.asarray(dst, dtype=np.int64).reshape(-1)
@@ -170,19 +174,25 @@ class FremenState:
             raise ValueError("src and dst must have the same length")
         if s.size == 0:
             return
-        vals = {name: getattr(self, name)[s].copy() for name in _STATE_FIELDS}
-        for name in ("n", "sum_s", "sum_se", "sum_e", "order_err", "order_n"):
+        vals = {name: getattr(self, name)[s].copy() for name in (*_ADDITIVE, "t_first", "t_last")}
+        for name in _ADDITIVE:
             np.add.at(getattr(self, name), d, vals[name])
         np.fmin.at(self.t_first, d, vals["t_first"])
         np.fmax.at(self.t_last, d, vals["t_last"])
+        self.rank_epoch[d] = STALE
 
     def zero_rows(self, idx: npt.ArrayLike) -> None:
-        """Forget everything about rows ``idx`` (they become never-observed rows)."""
+        """Forget everything about rows ``idx`` (they become never-observed rows, equal to the
+        rows of :meth:`empty`)."""
         i = np.asarray(idx, dtype=np.int64).reshape(-1)
-        for name in ("n", "sum_s", "sum_se", "sum_e", "order_err", "order_n"):
+        for name in _ADDITIVE:
             getattr(self, name)[i] = 0
         self.t_first[i] = np.nan
         self.t_last[i] = np.nan
+        self.rank_epoch[i] = STALE
+        self.rank_mu[i] = np.nan
+        self.rank_idx[i] = 0
+        self.rank_coef[i] = 0.0
 
     def take(self, idx: npt.ArrayLike) -> FremenState:
         """A new state holding copies of rows ``idx`` (in that order)."""
@@ -222,8 +232,13 @@ class FremenState:
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], prefix: str) -> FremenState:
         """Inverse of :meth:`to_arrays`; raises :class:`MapCorruptError` on missing or
-        inconsistent members."""
-        missing = [prefix + f for f in _STATE_FIELDS if prefix + f not in arrays]
+        inconsistent members. Maps written before frozen models were stored (no ``rank_*``
+        members) load with every frozen model stale."""
+        required = tuple(f for f in _STATE_FIELDS if f not in _RANK_FIELDS)
+        missing = [prefix + f for f in required if prefix + f not in arrays]
+        has_rank = [prefix + f in arrays for f in _RANK_FIELDS]
+        if any(has_rank) and not all(has_rank):
+            missing += [prefix + f for f, ok in zip(_RANK_FIELDS, has_rank, strict=True) if not ok]
         if missing:
             raise MapCorruptError(f"FreMEn state incomplete, missing: {', '.join(missing)}")
         kinds = {
@@ -235,11 +250,20 @@ class FremenState:
             "t_last": np.float64,
             "order_err": np.float64,
             "order_n": np.float64,
+            "rank_epoch": np.int64,
+            "rank_mu": np.float64,
+            "rank_idx": np.int16,
+            "rank_coef": np.float64,
         }
+        present = [f for f in _STATE_FIELDS if prefix + f in arrays]
         try:
-            vals: dict[str, np.ndarray] = {
-                f: np.array(arrays[prefix + f], dtype=kinds[f]) for f in _STATE_FIELDS
-            }
+            vals: dict[str, np.ndarray] = {f: np.array(arrays[prefix + f]) for f in present}
+            for f in present:
+                if vals[f].dtype.kind not in "fcib" or (
+                    vals[f].dtype.kind == "c" and kinds[f] is not np.complex128
+                ):
+                    raise ValueError(f"{f} has dtype {vals[f].dtype}")
+                vals[f] = vals[f].astype(kinds[f], casting="unsafe")
         except (TypeError, ValueError) as exc:
             raise MapCorruptError(f"FreMEn state has invalid arrays: {exc}") from exc
         r = vals["n"].shape
@@ -254,8 +278,23 @@ class FremenState:
             and vals["order_err"].shape[1] >= 1
         )
         if not ok:
-            shapes = {f: vals[f].shape for f in _STATE_FIELDS}
+            shapes = {f: vals[f].shape for f in present}
             raise MapCorruptError(f"FreMEn state arrays have inconsistent shapes: {shapes}")
+        k, m_all = vals["sum_se"].shape[1], vals["order_err"].shape[1] - 1
+        if "rank_epoch" not in vals:
+            fresh = cls.empty(r[0], k, m_all)
+            vals.update({f: getattr(fresh, f) for f in _RANK_FIELDS})
+        m = min(m_all, k)
+        rank_ok = (
+            vals["rank_epoch"].shape == r
+            and vals["rank_mu"].shape == r
+            and vals["rank_idx"].shape == (r[0], m)
+            and vals["rank_coef"].shape == (r[0], 2 * m)
+            and bool(np.all((vals["rank_idx"] >= 0) & (vals["rank_idx"] < k)))
+        )
+        if not rank_ok:
+            shapes = {f: vals[f].shape for f in _RANK_FIELDS}
+            raise MapCorruptError(f"FreMEn frozen models are inconsistent: {shapes}")
         return cls(**vals)
 
 
@@ -263,37 +302,45 @@ def merge_states(a: FremenState, b: FremenState) -> FremenState:
     """One state as if fed the observations of ``a`` and of ``b`` (same rows, disjoint time).
 
     Accumulators and order errors add; first = min, last = max. The spectrum and predictions
-    of the result equal those of a single state fed both streams.
+    of the result equal those of a single state fed both streams. Frozen models go stale.
     """
     if (a.n_rows, a.n_periods, a.max_order) != (b.n_rows, b.n_periods, b.max_order):
         raise ValueError("merge_states needs states with the same rows, periods and orders")
     out = a.copy()
-    for name in ("n", "sum_s", "sum_se", "sum_e", "order_err", "order_n"):
+    for name in _ADDITIVE:
         getattr(out, name)[...] += getattr(b, name)
     out.t_first = np.fmin(a.t_first, b.t_first)
     out.t_last = np.fmax(a.t_last, b.t_last)
+    out.rank_epoch[...] = STALE
     return out
+
+
+def _as_slice(r: I64) -> slice | I64:
+    """A contiguous ascending run of row indices as a slice (no gather/scatter), else ``r``."""
+    if r[-1] - r[0] == r.size - 1 and (r.size == 1 or bool(np.all(np.diff(r) == 1))):
+        return slice(int(r[0]), int(r[-1]) + 1)
+    return r
 
 
 @dataclass(frozen=True)
 class FremenModel:
     """The model parameters shared by every row: candidate periods (s), the highest order, the
-    span gate factor, the bias towards lower orders (mean absolute error) and the scoring
-    stride k for the prequential order errors.
+    span gate factor, the bias towards lower orders (mean absolute error), the scoring stride k
+    and the rank epoch (s) of the prequential order errors.
 
-    With n the row's number of earlier observations, an observation is scored iff n > 0 and
-    either n < F (F = :data:`_FULL_SCORING` rounded up to a multiple of k: a young row scores
-    every observation, so its order choice is not left to a handful of samples) or n is a
-    multiple of k, then weighted k (it stands for itself and the next k − 1). The weighted sums
-    are thus an unbiased, deterministic subsample of the full prequential sums, depending only
-    on each row's own count (independent of how windows are batched). k = 1 scores every
-    observation after the first, weight 1."""
+    With n the row's number of earlier observations, an observation is scored iff its row had
+    observations before the current rank epoch and either n < F (F = :data:`_FULL_SCORING`
+    rounded up to a multiple of k: a young row scores every observation, so its order choice is
+    not left to a handful of samples) or n is a multiple of k, then weighted k (it stands for
+    itself and the next k − 1). This depends only on each row's own count and on time, never
+    on how windows are batched. k = 1 scores every such observation, weight 1."""
 
     periods: tuple[float, ...]
     max_order: int = 4
     span_factor: float = 1.5
     order_bias: float = 0.002
     score_stride: int = 1
+    rank_period: float = RANK_PERIOD_S
     full_scoring: int = field(init=False, repr=False, compare=False)
     omega: F64 = field(init=False, repr=False, compare=False)
     min_span: F64 = field(init=False, repr=False, compare=False)
@@ -308,7 +355,10 @@ class FremenModel:
             raise ValueError("max_order must be >= 0")
         if not (isinstance(self.score_stride, (int, np.integer)) and self.score_stride >= 1):
             raise ValueError(f"score_stride must be an integer >= 1, got {self.score_stride!r}")
+        if not (np.isfinite(self.rank_period) and self.rank_period > 0):
+            raise ValueError(f"rank_period must be a positive number, got {self.rank_period!r}")
         object.__setattr__(self, "score_stride", int(self.score_stride))
+        object.__setattr__(self, "rank_period", float(self.rank_period))
         k = self.score_stride
         object.__setattr__(self, "full_scoring", -(-_FULL_SCORING // k) * k if k > 1 else 0)
         object.__setattr__(self, "periods", tuple(float(p) for p in periods))
@@ -323,11 +373,17 @@ class FremenModel:
             config.span_factor,
             config.order_bias,
             score_stride=config.score_stride,
+            rank_period=config.rank_period_s,
         )
 
     @property
     def n_periods(self) -> int:
         return len(self.periods)
+
+    @property
+    def n_ranked(self) -> int:
+        """M' = min(M, K): components in a frozen model (orders above K use every period)."""
+        return min(self.max_order, self.n_periods)
 
     def empty(self, n_rows: int) -> FremenState:
         return FremenState.empty(n_rows, self.n_periods, self.max_order)
@@ -344,6 +400,10 @@ class FremenModel:
                 f"{self.n_periods} / {self.max_order}"
             )
 
+    def rank_epochs(self, t_s: npt.ArrayLike) -> I64:
+        """The rank epoch of each time (model seconds): floor(t / rank_period)."""
+        return np.floor(np.asarray(t_s, dtype=np.float64) / self.rank_period).astype(np.int64)
+
     # -- learning -------------------------------------------------------------------------------
     def update(
         self,
@@ -356,9 +416,10 @@ class FremenModel:
         """Absorb W windows (times ``t_s``, non-decreasing) for ``rows`` (unique), in place.
 
         ``values[i, w]`` is row ``rows[i]``'s state in window w, used only where
-        ``observed[i, w]``. Each scored observation (see ``score_stride``) is first predicted
-        with orders 0..M from the row's state just before it (the prequential order errors);
-        every observation is absorbed.
+        ``observed[i, w]``. Per rank epoch spanned by the windows: the rows' stale frozen
+        models are refrozen from their current state, the scored observations (see the class
+        docstring) are predicted by them with orders 0..M (the prequential order errors), and
+        the epoch's windows are absorbed.
         """
         self._check(state)
         r = np.asarray(rows, dtype=np.int64).reshape(-1)
@@ -382,8 +443,13 @@ class FremenModel:
         if not np.isfinite(vz.sum()):  # one pass; also rejects values near the float limit
             raise ValueError("observed values must be finite")
         cos_t, sin_t = self.basis(t)
-        self._score_orders(state, r, t, vz, obs, cos_t, sin_t)
-        self._absorb(state, r, t, vz, obs, cos_t, sin_t)
+        epochs = self.rank_epochs(t)
+        cuts = [0, *(np.flatnonzero(np.diff(epochs)) + 1).tolist(), t.size]
+        for a, b in pairwise(cuts):
+            seg = slice(a, b)
+            self._freeze(state, r, int(epochs[a]))
+            self._score(state, r, vz[:, seg], obs[:, seg], cos_t[seg], sin_t[seg])
+            self._absorb(state, r, t[seg], vz[:, seg], obs[:, seg], cos_t[seg], sin_t[seg])
 
     def _absorb(
         self, state: FremenState, r: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
@@ -408,9 +474,7 @@ class FremenModel:
             seen = obs.any(axis=1)
             first = np.where(seen, t[np.argmax(obs, axis=1)], np.nan)
             last = np.where(seen, t[t.size - 1 - np.argmax(obs[:, ::-1], axis=1)], np.nan)
-        idx: slice | I64 = r
-        if r[-1] - r[0] == r.size - 1 and (r.size == 1 or bool(np.all(np.diff(r) == 1))):
-            idx = slice(int(r[0]), int(r[-1]) + 1)
+        idx = _as_slice(r)
         state.sum_se.real[idx] += ve[:, :k]
         state.sum_se.imag[idx] += ve[:, k:]
         state.sum_e.real[idx] += oe[:, :k]
@@ -420,10 +484,49 @@ class FremenModel:
         state.t_first[idx] = np.fmin(state.t_first[idx], first)
         state.t_last[idx] = np.fmax(state.t_last[idx], last)
 
+    def _freeze(self, state: FremenState, r: I64, epoch: int) -> None:
+        """Freeze the forecasting model of epoch ``epoch`` for the rows of ``r`` whose frozen
+        model belongs to another epoch (or went stale): the mean (NaN for a row never observed)
+        and the M' strongest components the span gate admits, strongest first (ties: lowest
+        period index); components past the admitted ones get coefficient 0."""
+        todo = r[state.rank_epoch[r] != epoch]
+        m, k = self.n_ranked, self.n_periods
+        for a in range(0, todo.size, _RANK_ROWS):
+            rows = todo[a : a + _RANK_ROWS]
+            n = state.n[rows]
+            has = n > 0
+            n_safe = np.where(has, n, 1.0)
+            mu = state.sum_s[rows] / n_safe
+            state.rank_mu[rows] = np.where(has, mu, np.nan)
+            state.rank_epoch[rows] = epoch
+            if m == 0:
+                continue
+            gamma = state.sum_se[rows] - mu[:, None] * state.sum_e[rows]
+            gamma /= n_safe[:, None]
+            a2 = gamma.real**2 + gamma.imag**2
+            with np.errstate(invalid="ignore"):  # NaN span (never observed): nothing admitted
+                admitted = (state.t_last[rows] - state.t_first[rows])[:, None] >= self.min_span
+            np.putmask(a2, ~admitted, -1.0)
+            c = rows.size
+            idx = np.empty((c, m), dtype=np.int64)
+            valid = np.empty((c, m), dtype=bool)
+            flat = a2.reshape(-1)
+            base = np.arange(0, c * k, k)
+            for j in range(m):
+                pick = a2.argmax(axis=1)
+                idx[:, j] = pick
+                valid[:, j] = flat.take(base + pick) >= 0.0
+                flat[base + pick] = -2.0
+            g = np.take_along_axis(gamma, idx, axis=1)
+            g[~valid] = 0.0
+            state.rank_idx[rows] = idx.astype(np.int16)
+            state.rank_coef[rows] = np.concatenate([2.0 * g.real, 2.0 * g.imag], axis=1)
+
     def _scored(self, n_pre: F64, obs: BoolA, n0: F64 | None = None) -> BoolA:
-        """Which observations are scored, given each one's count of earlier observations of its
-        row (see the class docstring). ``n0``: the rows' counts when every window is observed
-        (``n_pre = n0 + w``), which replaces the modulo of every count by one per row."""
+        """Which observations pass the stride rule, given each one's count of earlier
+        observations of its row (see the class docstring). ``n0``: the rows' counts when every
+        window is observed (``n_pre = n0 + w``), which replaces the modulo of every count by
+        one per row."""
         k = self.score_stride
         if k == 1:
             return obs & (n_pre > 0)
@@ -443,362 +546,107 @@ class FremenModel:
         """Weights of scored observations: 1 while the row is young, else the stride."""
         return np.where(n_pre < self.full_scoring, 1.0, float(self.score_stride))
 
-    def _score_orders(
-        self, state: FremenState, rows: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
+    def _score(
+        self, state: FremenState, r: I64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
     ) -> None:
-        """Prequential errors: predict the scored observations with orders 0..M from the row's
-        state just before each of them (see :meth:`_scored`).
-
-        Rows are split into chunks small enough for the CPU cache; each chunk replays the
-        windows in time order on a private copy of its accumulators (vectorized over rows and
-        periods) and only writes its rows' ``order_err`` / ``order_n``. Chunks run on a small
-        thread pool (numpy releases the GIL inside its loops).
-        """
-        size = _ROW_CHUNK if self.max_order > 0 else _ROW_CHUNK * 32  # order 0: no K axis
-        chunks = [slice(a, min(a + size, rows.size)) for a in range(0, rows.size, size)]
-
-        def run(sl: slice) -> None:
-            self._score_chunk(state, rows[sl], t, vz[sl], obs[sl], cos_t, sin_t)
-
-        if len(chunks) > 1 and _WORKERS > 1:
-            with ThreadPoolExecutor(max_workers=_WORKERS) as pool:
-                list(pool.map(run, chunks))
-        else:
-            for sl in chunks:
-                run(sl)
-
-    def _pair_errors(
-        self,
-        s_se: F64,
-        s_e: F64,
-        n_p: F64,
-        ss_p: F64,
-        span_p: F64 | None,
-        wi: I64 | int,
-        v_p: F64,
-        cos_t: F64,
-        sin_t: F64,
-    ) -> F64:
-        """|s − p_m| for orders 0..M (float64[q, M+1]) of q scored observations, each from
-        the state just before it: ``s_se`` / ``s_e`` = [Re | Im] of Σs·e^{iωt} / Σe^{iωt}
-        (float64[q, 2K]), count, Σs and span (None: every period admitted), at window ``wi``
-        with value ``v_p``.
-
-        Ranking uses |S − μ·Σe|² = n²|γ|² (same order as |γ|); components the span gate
-        rejects are marked −1 and contribute nothing even when fewer than m are admitted.
-        """
-        k, m_all = self.n_periods, self.max_order
-        m_eff = min(m_all, k)  # orders above K use every period
-        q = n_p.size
-        mu = ss_p / n_p
-        x = np.multiply(s_e, mu[:, None])
-        np.subtract(s_se, x, out=x)  # [Re | Im] of n·γ, contiguous (q, 2K)
-        xr, xi = x[:, :k], x[:, k:]
-        a2 = np.multiply(xr, xr)
-        a2 += np.square(xi)
-        if span_p is not None and span_p.min() < float(self.min_span.max()):  # gate binds
-            np.putmask(a2, self.min_span[None, :] > span_p[:, None], -1.0)
-        # the m_eff strongest components, strongest first (ties: lowest index), through flat
-        # indices (much cheaper than 2-d fancy indexing)
-        a2_flat, x_flat = a2.reshape(-1), x.reshape(-1)
-        row_a2 = np.arange(0, q * k, k)
-        row_x = np.arange(0, q * 2 * k, 2 * k)
-        terms = np.empty((m_eff, q))
-        gated = np.empty((m_eff, q), dtype=bool)
-        for m in range(m_eff):
-            j = a2.argmax(axis=1)
-            at = row_a2 + j
-            gated[m] = a2_flat.take(at) < 0.0  # not admitted by the span gate
-            a2_flat[at] = -2.0
-            at = row_x + j
-            if isinstance(wi, np.ndarray):
-                cw, sw = cos_t.take(wi * k + j), sin_t.take(wi * k + j)
-            else:
-                cw, sw = cos_t[wi].take(j), sin_t[wi].take(j)
-            np.multiply(x_flat.take(at), cw, out=terms[m])
-            terms[m] += x_flat.take(at + k) * sw
-        terms *= 2.0 / n_p
-        terms[gated] = 0.0
-        p = np.empty((m_all + 1, q))
-        p[0] = mu
-        p[1] = terms[0]
-        for m in range(1, m_eff):  # the running sum of terms, as np.cumsum (cheaper here)
-            np.add(p[m], terms[m], out=p[m + 1])
-        p[1 : m_eff + 1] += mu
-        p[m_eff + 1 :] = p[m_eff]
-        np.clip(p, 0.0, 1.0, out=p)
-        p -= v_p
-        return np.abs(p, out=p).T
-
-    def _score_chunk(
-        self, state: FremenState, rr: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
-    ) -> None:
-        """The prequential replay for one chunk of rows (see :meth:`_score_orders`).
-
-        Windows go in blocks of B = ``score_stride`` (B consecutive counts hold one multiple of
-        the stride, so a row past its fully scored start has at most one scored observation
-        per block). The scored observations of a block are ranked from the block's starting
-        accumulators plus the earlier windows of the block (one small matrix product); then
-        the whole block is absorbed with one matrix product, as :meth:`_absorb` does.
-        Un-scored observations cost only that absorb.
-        """
-        c, k = rr.size, self.n_periods
-        if min(self.max_order, k) == 0:
-            self._score_mean_only(state, rr, vz, obs)
+        """Add the prequential errors of one epoch's windows (before they are absorbed): each
+        scored observation predicted by its row's frozen model with orders 0..M."""
+        known = np.flatnonzero(np.isfinite(state.rank_mu[r]))
+        if known.size == 0:
             return
-        if c < _FEW_ROWS:
-            self._score_few_rows(state, rr, t, vz, obs, cos_t, sin_t)
-            return
-        n = state.n[rr].copy()
-        ss = state.sum_s[rr].copy()
-        first = state.t_first[rr].copy()
-        last = state.t_last[rr].copy()
-        acc_se = np.concatenate([state.sum_se[rr].real, state.sum_se[rr].imag], axis=1)
-        acc_e = np.concatenate([state.sum_e[rr].real, state.sum_e[rr].imag], axis=1)
-        basis = np.concatenate([cos_t, sin_t], axis=1)  # (W, 2K)
-        err = np.zeros((c, self.max_order + 1))
-        scored_n = np.zeros(c)
-        step = stride = self.score_stride
-        # spans only grow: when every row's span already admits every period, the span gate
-        # cannot bind and first / last need no tracking (NaN: a row never observed)
-        with np.errstate(invalid="ignore"):
-            gated = not bool(np.all(last - first >= self.min_span.max()))
-        mature = max(self.full_scoring, 1)  # rows from here on score once per block, weight k
-        for a in range(0, t.size, step):
-            b = min(a + step, t.size)
-            ob, v, e_blk = obs[:, a:b], vz[:, a:b], basis[a:b]
-            dense = bool(ob.all())
-            of = ob.astype(np.float64)
-            if dense and n.min() >= mature:  # row r scores window j_r = (-n_r) mod k, if any
-                jf = np.fmod(stride - np.fmod(n, stride), stride) if stride > 1 else None
-                if jf is None or not jf.any():  # every row scores the block's first window
-                    errs = self._pair_errors(
-                        acc_se,
-                        acc_e,
-                        n,
-                        ss,
-                        last - first if gated else None,
-                        a,
-                        v[:, 0],
-                        cos_t,
-                        sin_t,
-                    )
-                    if stride > 1:
-                        errs *= float(stride)
-                    err += errs
-                    scored_n += float(stride)
-                    i = np.empty(0, dtype=np.int64)
-                else:
-                    i = np.flatnonzero(jf < b - a)
-                    j = jf[i].astype(np.int64)
-                    n_p = n[i] + jf[i]
-            else:
-                if dense:
-                    n_pre = n[:, None] + np.arange(b - a, dtype=np.float64)[None, :]
-                else:
-                    n_pre = n[:, None] + _exclusive_cumsum(of)
-                i, j = np.nonzero(self._scored(n_pre, ob, n if dense else None))  # by row
-                n_p = n_pre[i, j]
-            if i.size:
-                s_se, s_e = acc_se[i], acc_e[i]
-                ss_p = ss[i]
-                f_p, l_p = first[i], last[i]
-                if j.max() > 0:  # add the block's windows before each scored one
-                    before = np.arange(b - a)[None, :] < j[:, None]
-                    v_before = np.where(before, v[i], 0.0)
-                    s_se += v_before @ e_blk
-                    ss_p = ss_p + v_before.sum(axis=1)
-                    if dense:
-                        s_e += _exclusive_cumsum(e_blk.T).T[j]
-                        t_in = np.where(j > 0, t[a], np.nan)
-                        l_in = np.where(j > 0, t[np.maximum(a + j - 1, a)], np.nan)
-                    else:
-                        o_before = ob[i] & before
-                        s_e += o_before.astype(np.float64) @ e_blk
-                        if gated:
-                            seen = o_before.any(axis=1)
-                            t_in = np.where(seen, t[a + np.argmax(o_before, axis=1)], np.nan)
-                            back = np.argmax(o_before[:, ::-1], axis=1)
-                            l_in = np.where(seen, t[b - 1 - back], np.nan)
-                    if gated:
-                        f_p = np.fmin(f_p, t_in)
-                        l_p = np.fmax(l_p, l_in)
-                span_p = l_p - f_p if gated else None
-                errs = self._pair_errors(s_se, s_e, n_p, ss_p, span_p, a + j, v[i, j], cos_t, sin_t)
-                _add_weighted(err, scored_n, i, errs, self._weights(n_p))
-            # absorb the block into the chunk's private accumulators
-            acc_se += v @ e_blk
-            ss += v.sum(axis=1)
-            if dense:
-                acc_e += e_blk.sum(axis=0)
-                n += float(b - a)
-                first = np.fmin(first, t[a])
-                last = np.fmax(last, t[b - 1])
-            else:
-                acc_e += of @ e_blk
-                n += of.sum(axis=1)
-                if gated:
-                    seen = ob.any(axis=1)
-                    t_in = np.where(seen, t[a + np.argmax(ob, axis=1)], np.nan)
-                    first = np.fmin(first, t_in)
-                    back = np.argmax(ob[:, ::-1], axis=1)
-                    last = np.fmax(last, np.where(seen, t[b - 1 - back], np.nan))
-        state.order_err[rr] += err
-        state.order_n[rr] += scored_n
-
-    def _score_few_rows(
-        self, state: FremenState, rr: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
-    ) -> None:
-        """The prequential replay for a few rows: blocks of windows, each evaluated at once
-        from exclusive cumulative sums (rows × windows × periods) at its scored observations,
-        then absorbed into a private copy of the rows' accumulators."""
-        c, k = rr.size, self.n_periods
-        acc = state.take(rr)
-        local = np.arange(c, dtype=np.int64)
-        err = np.zeros((c, self.max_order + 1))
-        scored_n = np.zeros(c)
-        step = max(1, _BLOCK_CELLS // (c * k))
-        for a in range(0, t.size, step):
-            b = min(a + step, t.size)
-            self._score_block(acc, t[a:b], a, vz[:, a:b], obs[:, a:b], cos_t, sin_t, err, scored_n)
-            self._absorb(acc, local, t[a:b], vz[:, a:b], obs[:, a:b], cos_t[a:b], sin_t[a:b])
-        state.order_err[rr] += err
-        state.order_n[rr] += scored_n
-
-    def _score_block(
-        self,
-        acc: FremenState,
-        t: F64,
-        a: int,
-        v: F64,
-        ob: BoolA,
-        cos_t: F64,
-        sin_t: F64,
-        err: F64,
-        scored_n: F64,
-    ) -> None:
-        """Add the order errors and scored counts of one block of windows (``t`` = windows
-        a.. of ``cos_t`` / ``sin_t``) for the rows of ``acc`` (its state before the block)."""
-        of = ob.astype(np.float64)
-        n_pre = acc.n[:, None] + _exclusive_cumsum(of)
-        i, j = np.nonzero(self._scored(n_pre, ob))
-        if i.size == 0:
-            return
-        ss_p = acc.sum_s[i] + _exclusive_cumsum(v)[i, j]
-        # span before each window: running first / last observed time, from the stored ones
-        t_obs = np.where(ob, t[None, :], np.nan)
-        run_first = np.fmin.accumulate(t_obs, axis=1)
-        run_last = np.fmax.accumulate(t_obs, axis=1)
-        jm = np.maximum(j - 1, 0)
-        prior = j > 0
-        f_p = np.fmin(acc.t_first[i], np.where(prior, run_first[i, jm], np.nan))
-        l_p = np.fmax(acc.t_last[i], np.where(prior, run_last[i, jm], np.nan))
-        # accumulators before each scored window: inclusive cumsums read one window earlier
-        w = t.size
-        basis = np.concatenate([cos_t[a : a + w], sin_t[a : a + w]], axis=1)  # (w, 2K)
-        s_se = np.concatenate([acc.sum_se.real, acc.sum_se.imag], axis=1)[i]
-        s_e = np.concatenate([acc.sum_e.real, acc.sum_e.imag], axis=1)[i]
-        if prior.any():
-            rows = np.unique(i[prior])  # only rows scored after their block's first window
-            local = np.searchsorted(rows, i[prior])
-            wmax = int(jm[prior].max()) + 1  # later windows are never read
-            cs = np.cumsum(v[rows, :wmax, None] * basis[None, :wmax], axis=1)
-            s_se[prior] += cs[local, jm[prior]]
-            if ob[rows, :wmax].all():
-                s_e[prior] += np.cumsum(basis[:wmax], axis=0)[jm[prior]]
-            else:
-                cs = np.cumsum(of[rows, :wmax, None] * basis[None, :wmax], axis=1)
-                s_e[prior] += cs[local, jm[prior]]
-        n_p = n_pre[i, j]
-        errs = self._pair_errors(s_se, s_e, n_p, ss_p, l_p - f_p, a + j, v[i, j], cos_t, sin_t)
-        _add_weighted(err, scored_n, i, errs, self._weights(n_p))
-
-    def _score_mean_only(self, state: FremenState, rr: I64, vz: F64, obs: BoolA) -> None:
-        """Order 0 only: the prequential mean before each window, from cumulative sums."""
-        n0 = state.n[rr]
+        if known.size < r.size:
+            r, vz, obs = r[known], vz[known], obs[known]
         w = vz.shape[1]
-        k = self.score_stride
-        dense = bool(obs.all())
-        diff = np.cumsum(vz, axis=1)
-        diff -= vz
-        if dense and k > 1:
-            self._score_mean_only_dense(state, rr, vz, diff)
-            return
-        if dense:  # n before window w is n0 + w, no cumulative count needed
-            n_pre = n0[:, None] + np.arange(w, dtype=np.float64)[None, :]
-        else:
-            of = obs.astype(np.float64)
-            n_pre = n0[:, None] + np.cumsum(of, axis=1) - of
-        scored = self._scored(n_pre, obs, n0 if dense else None)
-        at = np.flatnonzero(scored) if self.score_stride > 1 else None
-        if at is not None and at.size < scored.size // 4:  # few scored (rows past their start)
-            i = at // w
-            n_p = n_pre.reshape(-1).take(at)
-            mean = diff.reshape(-1).take(at)
-            mean += state.sum_s[rr].take(i)
-            mean /= n_p
-            np.clip(mean, 0.0, 1.0, out=mean)
-            mean -= vz.reshape(-1).take(at)
-            weight = self._weights(n_p)
-            mean = np.abs(mean, out=mean) * weight
-            state.order_err[rr] += np.bincount(i, mean, minlength=rr.size)[:, None]
-            state.order_n[rr] += np.bincount(i, weight, minlength=rr.size)
-            return
-        diff += state.sum_s[rr, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            diff /= n_pre
-        np.clip(diff, 0.0, 1.0, out=diff)
-        diff -= vz
-        np.abs(diff, out=diff)
-        diff[~scored] = 0.0
-        if at is None:
-            state.order_err[rr] += diff.sum(axis=1)[:, None]
-            state.order_n[rr] += scored.sum(axis=1, dtype=np.float64)
-            return
-        weight = np.where(scored, self._weights(n_pre), 0.0)
-        diff *= weight
-        state.order_err[rr] += diff.sum(axis=1)[:, None]
-        state.order_n[rr] += weight.sum(axis=1)
+        step = max(1, _SCORE_CELLS // w)
+        for a in range(0, r.size, step):
+            sl = slice(a, a + step)
+            self._score_rows(state, r[sl], vz[sl], obs[sl], cos_t, sin_t)
 
-    def _score_mean_only_dense(self, state: FremenState, rr: I64, vz: F64, diff: F64) -> None:
-        """:meth:`_score_mean_only` for every window observed and a stride k > 1. ``diff``:
-        Σ s of the call's earlier windows. Row r is young in windows j < Y_r (F − n0_r: all
-        scored, weight 1), then scores windows start_r + k·m (weight k), start_r ≡ −n0_r."""
+    def _score_rows(
+        self, state: FremenState, r: I64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
+    ) -> None:
+        """:meth:`_score` for one block of rows that all have a frozen model."""
         c, w = vz.shape
-        k, full = self.score_stride, self.full_scoring
-        n0, s0 = state.n[rr], state.sum_s[rr]
-        young = np.clip(full - n0, 0, w).astype(np.int64)
-        phase = np.fmod(k - np.fmod(n0, k), k).astype(np.int64)
-        start = np.maximum(young, phase)  # young > 0 is ≡ phase (F is a multiple of k)
-        cols = start[:, None] + np.arange(0, w, k)[None, :]
-        inside = cols < w
-        np.minimum(cols, w - 1, out=cols)
-        at = (np.arange(c) * w)[:, None] + cols
-        mean = diff.reshape(-1).take(at)
-        mean += s0[:, None]
-        with np.errstate(divide="ignore", invalid="ignore"):  # cells outside: 0 / 0
-            mean /= n0[:, None] + cols
-        np.clip(mean, 0.0, 1.0, out=mean)
-        mean -= vz.reshape(-1).take(at)
-        np.abs(mean, out=mean)
-        mean[~inside] = 0.0
-        err = float(k) * mean.sum(axis=1)
-        count = float(k) * inside.sum(axis=1)
-        y = int(young.max())
-        if y > 0:  # the young windows: every one scored but a row's very first
-            d = diff[:, :y] + s0[:, None]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                d /= n0[:, None] + np.arange(y, dtype=np.float64)[None, :]
-            np.clip(d, 0.0, 1.0, out=d)
-            d -= vz[:, :y]
-            np.abs(d, out=d)
-            d[np.arange(y)[None, :] >= young[:, None]] = 0.0
-            fresh = n0 == 0
-            d[fresh, 0] = 0.0
-            err += d.sum(axis=1)
-            count += young - fresh
-        state.order_err[rr] += err[:, None]
-        state.order_n[rr] += count
+        m, m_all, k = self.n_ranked, self.max_order, self.n_periods
+        n0 = state.n[r]
+        dense = bool(obs.all())
+        if dense:
+            mature = n0 >= self.full_scoring
+            if mature.all():
+                self._score_dense_mature(state, r, vz, cos_t, sin_t)
+                return
+            if mature.any():
+                self._score_dense_mature(state, r[mature], vz[mature], cos_t, sin_t)
+                r, vz, obs, n0 = r[~mature], vz[~mature], obs[~mature], n0[~mature]
+                c = r.size
+        if dense:
+            n_pre = n0[:, None] + np.arange(w, dtype=np.float64)[None, :]
+            scored = self._scored(n_pre, obs, n0)
+        else:
+            n_pre = n0[:, None] + _exclusive_cumsum(obs.astype(np.float64))
+            scored = self._scored(n_pre, obs)
+        at = np.flatnonzero(scored)  # row-major: row = at // w, window = at % w
+        if at.size == 0:
+            return
+        i, j = np.divmod(at, w)
+        weight = self._weights(n_pre.reshape(-1).take(at))
+        mu = state.rank_mu[r].take(i)
+        p = np.empty((m_all + 1, at.size))
+        p[0] = mu
+        if m > 0:
+            comp = state.rank_idx[r].astype(np.int64)  # (c, m)
+            coef = state.rank_coef[r]  # (c, 2m)
+            cell = (j * k)[:, None] + comp[i]  # flat index into the (w, K) basis
+            terms = coef[i, :m] * cos_t.reshape(-1).take(cell)
+            terms += coef[i, m:] * sin_t.reshape(-1).take(cell)
+            np.cumsum(terms, axis=1, out=terms)
+            p[1 : m + 1] = terms.T
+            p[1 : m + 1] += mu
+            p[m + 1 :] = p[m]
+        np.clip(p, 0.0, 1.0, out=p)
+        p -= vz.reshape(-1).take(at)
+        np.abs(p, out=p)
+        p *= weight
+        err = np.empty((c, m_all + 1))
+        for o in range(m_all + 1):
+            err[:, o] = np.bincount(i, p[o], minlength=c)
+        state.order_err[r] += err
+        state.order_n[r] += np.bincount(i, weight, minlength=c)
+
+    def _score_dense_mature(
+        self, state: FremenState, r: I64, vz: F64, cos_t: F64, sin_t: F64
+    ) -> None:
+        """:meth:`_score_rows` for rows observed in every window and past their young
+        observations: row i scores windows j ≡ −n_i (mod k), each weighted k, so the scored
+        observations form a regular (rows × ⌈W/k⌉) grid and need no index search."""
+        c, w = vz.shape
+        m, m_all, k, stride = self.n_ranked, self.max_order, self.n_periods, self.score_stride
+        slots = -(-w // stride)
+        n0 = state.n[r]
+        phase = np.fmod(stride - np.fmod(n0, stride), stride).astype(np.int64)
+        j = phase[:, None] + stride * np.arange(slots, dtype=np.int64)[None, :]
+        outside = j >= w
+        np.minimum(j, w - 1, out=j)
+        v = np.take_along_axis(vz, j, axis=1)
+        mu = state.rank_mu[r][:, None]
+        err = np.empty((c, m_all + 1))
+        p = np.broadcast_to(mu, v.shape).copy()
+        e = np.empty_like(p)
+        for o in range(m + 1):
+            if o > 0:
+                cell = j * k
+                cell += state.rank_idx[r, o - 1].astype(np.int64)[:, None]
+                p += state.rank_coef[r, o - 1][:, None] * cos_t.reshape(-1).take(cell)
+                p += state.rank_coef[r, m + o - 1][:, None] * sin_t.reshape(-1).take(cell)
+            np.clip(p, 0.0, 1.0, out=e)
+            e -= v
+            np.abs(e, out=e)
+            e[outside] = 0.0
+            err[:, o] = e.sum(axis=1)
+        err[:, m + 1 :] = err[:, m : m + 1]
+        err *= float(stride)
+        state.order_err[r] += err
+        state.order_n[r] += float(stride) * (slots - outside.sum(axis=1))
 
     # -- reading --------------------------------------------------------------------------------
     def _rows(self, state: FremenState, rows: npt.ArrayLike | None) -> I64:

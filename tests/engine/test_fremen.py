@@ -30,30 +30,31 @@ from aion_cli.engine.fremen import (
 PERIODS = default_periods()
 
 
-@pytest.fixture(
-    autouse=True,
-    params=[(0, 1 << 16, 1024), (10**9, 1 << 16, 1024), (10**9, 500, 1024), (12, 1 << 16, 16)],
-    ids=["window-loop", "cumsum", "cumsum-small-blocks", "threaded-mixed-chunks"],
-)
-def replay_path(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Run every test with each exact formulation of the prequential replay: the loop over
-    windows (many rows), the cumulative sums along windows (few rows) in large and tiny
-    blocks of windows, and row chunks of 16 on the thread pool (a last chunk of fewer than 12
-    rows takes the cumulative-sum path)."""
-    few_rows, block_cells, row_chunk = request.param
-    monkeypatch.setattr(fremen, "_FEW_ROWS", few_rows)
-    monkeypatch.setattr(fremen, "_BLOCK_CELLS", block_cells)
-    monkeypatch.setattr(fremen, "_ROW_CHUNK", row_chunk)
+@pytest.fixture(autouse=True, params=[(1 << 21, 1 << 16), (7, 3)], ids=["blocks", "tiny-blocks"])
+def block_sizes(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Run every test with the default row blocks of scoring and freezing, and with tiny ones
+    (one row per scoring block, three rows per freezing block)."""
+    score_cells, rank_rows = request.param
+    monkeypatch.setattr(fremen, "_SCORE_CELLS", score_cells)
+    monkeypatch.setattr(fremen, "_RANK_ROWS", rank_rows)
 
 
 class LoopState:
     """One FreMEn state, updated one observation at a time with Python complex numbers."""
 
     def __init__(
-        self, periods: tuple[float, ...], max_order: int, span_factor: float, stride: int = 1
+        self,
+        periods: tuple[float, ...],
+        max_order: int,
+        span_factor: float,
+        stride: int = 1,
+        rank_period: float = DAY_S,
     ) -> None:
         self.periods = periods
         self.stride = stride
+        self.rank_period = rank_period
+        self.frozen_epoch: int | None = None
+        self.frozen: tuple[float, list[complex]] | None = None  # (mean, gammas) at epoch start
         self.omega = [2 * math.pi / p for p in periods]
         self.max_order = max_order
         self.span_factor = span_factor
@@ -79,20 +80,27 @@ class LoopState:
     def predict(self, t: float, order: int) -> float:
         if self.n == 0:
             return 0.5
-        g = self.gammas()
+        return self._predict(self.sum_s / self.n, self.gammas(), t, order)
+
+    def _predict(self, mu: float, g: list[complex], t: float, order: int) -> float:
         strongest = sorted(range(len(g)), key=lambda k: -abs(g[k]))[:order]
-        p = self.sum_s / self.n
+        p = mu
         for k in strongest:
             p += 2 * abs(g[k]) * math.cos(self.omega[k] * t - cmath.phase(g[k]))
         return min(1.0, max(0.0, p))
 
     def add(self, t: float, s: float) -> None:
+        epoch = math.floor(t / self.rank_period)
+        if epoch != self.frozen_epoch:  # the model that forecasts this epoch: its start state
+            self.frozen_epoch = epoch
+            self.frozen = (self.sum_s / self.n, self.gammas()) if self.n else None
         k = self.stride
         full = 64 if k == 1 else k * math.ceil(64 / k)  # a young row scores every observation
-        if self.n > 0 and (self.n < full or self.n % k == 0):
+        if self.frozen is not None and (self.n < full or self.n % k == 0):
             weight = 1 if self.n < full else k  # then every k-th, standing for k observations
+            mu, g = self.frozen
             for m in range(self.max_order + 1):
-                self.err[m] += weight * abs(s - self.predict(t, m))
+                self.err[m] += weight * abs(s - self._predict(mu, g, t, m))
             self.err_n += weight
         self.n += 1
         self.sum_s += s
@@ -155,11 +163,14 @@ def test_vectorized_model_equals_plain_loop_on_irregular_data(stride: int) -> No
     chosen_set = set(model.chosen_order(state).tolist())
     assert 0 in chosen_set  # the data exercise the choice
     assert max(chosen_set) >= 2
-    # the weighted count stands for every observation after the first (the last scored one
-    # also for up to stride - 1 later ones)
-    after_first = np.maximum(observed.sum(axis=1) - 1, 0)
-    assert np.all(state.order_n[:n_rows] >= after_first)
-    assert np.all(state.order_n[:n_rows] <= after_first + stride - 1)
+    # the weighted count stands for every observation after the row's first day (a day has no
+    # earlier model to forecast it), give or take stride - 1 at either end
+    day = np.floor(t_all / DAY_S)
+    first_day = np.array([day[o].min() if o.any() else np.inf for o in observed])
+    later = (observed & (day[None, :] > first_day[:, None])).sum(axis=1)
+    assert np.all(state.order_n[:n_rows] >= later - (stride - 1))
+    assert np.all(state.order_n[:n_rows] <= later + stride - 1)
+    assert np.all(later[:6] > 100)  # the bound is not vacuous
 
     amp, phase = model.spectrum(state)
     for i, lp in enumerate(loops):
@@ -424,13 +435,12 @@ def test_mean_only_dense_updates_score_like_sparse_ones(stride: int) -> None:
         observed = every if (a, b) in ((0, 1), (150, 151)) else almost
         model.update(sparse, np.arange(4), t[a:b], values[:, a:b], observed[:, a:b])
     _assert_states_equal(dense, sparse)
-    full = 64 if stride == 1 else stride * math.ceil(64 / stride)  # young: all scored
-    n_after_first = 199 if stride == 1 else full - 1 + stride * len(range(full, 200, stride))
-    assert dense.order_n.tolist() == [n_after_first] * 4
     loops = [LoopState(PERIODS, 0, 1.5, stride) for _ in range(4)]
     for i, lp in enumerate(loops):
         for w in range(t.size):
             lp.add(float(t[w]), float(values[i, w]))
+    assert dense.order_n.tolist() == [lp.err_n for lp in loops]
+    assert dense.order_n.min() > 100  # most windows lie after the first day: scored
     np.testing.assert_allclose(dense.order_err[:, 0], [lp.err[0] for lp in loops], rtol=1e-9)
 
 

@@ -41,8 +41,9 @@ def test_training_absorbs_every_sample(trained: tuple[FremenModel, FremenState])
     _, state = trained
     assert state.n[0] == 96_480
     assert state.sum_s[0] / state.n[0] == pytest.approx(0.118, abs=5e-4)
-    # every observation after the first: scored, or stood for by a scored one (weight k)
-    assert state.order_n[0] == 96_479
+    # every observation after the first day (1,440 samples with no earlier model to forecast
+    # them): scored, or stood for by a scored one (weight k)
+    assert state.order_n[0] == 96_480 - 1_440
 
 
 def test_daily_period_is_among_the_three_strongest(
