@@ -128,6 +128,13 @@ class FremenState:
     rank_mu: F64
     rank_idx: npt.NDArray[np.int16]
     rank_coef: F64
+    generation: int = field(default=0, init=False, compare=False, repr=False)
+    """Bumped by every change of the accumulators (it invalidates the cached predictor)."""
+    predictor_cache: tuple[int, FremenModel, Predictor] | None = field(
+        default=None, init=False, compare=False, repr=False
+    )
+    """(generation, model, predictor) of :meth:`FremenModel.predictor`, valid while the
+    generation and the model match."""
 
     @classmethod
     def empty(cls, n_rows: int, n_periods: int, max_order: int) -> FremenState:
@@ -180,6 +187,7 @@ class FremenState:
         np.fmin.at(self.t_first, d, vals["t_first"])
         np.fmax.at(self.t_last, d, vals["t_last"])
         self.rank_epoch[d] = STALE
+        self.generation += 1
 
     def zero_rows(self, idx: npt.ArrayLike) -> None:
         """Forget everything about rows ``idx`` (they become never-observed rows, equal to the
@@ -193,6 +201,7 @@ class FremenState:
         self.rank_mu[i] = np.nan
         self.rank_idx[i] = 0
         self.rank_coef[i] = 0.0
+        self.generation += 1
 
     def take(self, idx: npt.ArrayLike) -> FremenState:
         """A new state holding copies of rows ``idx`` (in that order)."""
@@ -208,6 +217,7 @@ class FremenState:
         for name in _STATE_FIELDS:
             getattr(new, name)[:keep] = getattr(self, name)[:keep]
             setattr(self, name, getattr(new, name))
+        self.generation += 1
 
     def copy(self) -> FremenState:
         return FremenState(**{name: getattr(self, name).copy() for name in _STATE_FIELDS})
@@ -320,6 +330,65 @@ def _as_slice(r: I64) -> slice | I64:
     if r[-1] - r[0] == r.size - 1 and (r.size == 1 or bool(np.all(np.diff(r) == 1))):
         return slice(int(r[0]), int(r[-1]) + 1)
     return r
+
+
+@dataclass
+class Predictor:
+    """What :meth:`FremenModel.predict` needs per row, precomputed from a state: the mean
+    (NaN: never observed, predicts :data:`PRIOR`), the chosen order, and the M' strongest
+    admitted components (``idx`` int16[R, M'], ``coef`` = [2 Re γ | 2 Im γ], 0 where not
+    admitted). Predicting is then M' basis lookups per row and time, with no ranking."""
+
+    mu: F64
+    order: npt.NDArray[np.int8]
+    idx: npt.NDArray[np.int16]
+    coef: F64
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.mu.shape[0])
+
+    def take(self, rows: I64) -> Predictor:
+        return Predictor(self.mu[rows], self.order[rows], self.idx[rows], self.coef[rows])
+
+    def to_arrays(self, prefix: str) -> dict[str, np.ndarray]:
+        return {prefix + f: getattr(self, f) for f in ("mu", "order", "idx", "coef")}
+
+    @classmethod
+    def from_arrays(
+        cls, arrays: dict[str, np.ndarray], prefix: str, n_rows: int, model: FremenModel
+    ) -> Predictor | None:
+        """The stored predictor, or None when the map has none (written before predictors
+        were stored); :class:`MapCorruptError` when it does not fit ``n_rows`` and ``model``."""
+        names = [prefix + f for f in ("mu", "order", "idx", "coef")]
+        present = [n in arrays for n in names]
+        if not any(present):
+            return None
+        m = model.n_ranked
+        try:
+            if not all(present):
+                raise ValueError("some members are missing")
+            mu = np.asarray(arrays[names[0]])
+            order = np.asarray(arrays[names[1]])
+            idx = np.asarray(arrays[names[2]])
+            coef = np.asarray(arrays[names[3]])
+            ok = (
+                mu.dtype == np.float64
+                and order.dtype == np.int8
+                and idx.dtype == np.int16
+                and coef.dtype == np.float64
+                and mu.shape == (n_rows,)
+                and order.shape == (n_rows,)
+                and idx.shape == (n_rows, m)
+                and coef.shape == (n_rows, 2 * m)
+                and bool(np.all((order >= 0) & (order <= model.max_order)))
+                and bool(np.all((idx >= 0) & (idx < model.n_periods)))
+            )
+            if not ok:
+                raise ValueError("dtypes, shapes or values do not fit the model")
+        except ValueError as exc:
+            raise MapCorruptError(f"stored FreMEn predictor is invalid: {exc}") from exc
+        return cls(mu, order, idx, coef)
 
 
 @dataclass(frozen=True)
@@ -442,6 +511,7 @@ class FremenModel:
         vz = v if obs.all() else np.where(obs, v, 0.0)  # never written to
         if not np.isfinite(vz.sum()):  # one pass; also rejects values near the float limit
             raise ValueError("observed values must be finite")
+        state.generation += 1
         cos_t, sin_t = self.basis(t)
         epochs = self.rank_epochs(t)
         cuts = [0, *(np.flatnonzero(np.diff(epochs)) + 1).tolist(), t.size]
@@ -486,29 +556,38 @@ class FremenModel:
 
     def _freeze(self, state: FremenState, r: I64, epoch: int) -> None:
         """Freeze the forecasting model of epoch ``epoch`` for the rows of ``r`` whose frozen
-        model belongs to another epoch (or went stale): the mean (NaN for a row never observed)
-        and the M' strongest components the span gate admits, strongest first (ties: lowest
-        period index); components past the admitted ones get coefficient 0."""
+        model belongs to another epoch (or went stale): see :meth:`_top_components`."""
         todo = r[state.rank_epoch[r] != epoch]
-        m, k = self.n_ranked, self.n_periods
         for a in range(0, todo.size, _RANK_ROWS):
             rows = todo[a : a + _RANK_ROWS]
-            n = state.n[rows]
-            has = n > 0
-            n_safe = np.where(has, n, 1.0)
-            mu = state.sum_s[rows] / n_safe
-            state.rank_mu[rows] = np.where(has, mu, np.nan)
+            mu, idx, coef = self._top_components(state, rows)
+            state.rank_mu[rows] = mu
             state.rank_epoch[rows] = epoch
-            if m == 0:
-                continue
+            state.rank_idx[rows] = idx
+            state.rank_coef[rows] = coef
+
+    def _top_components(
+        self, state: FremenState, rows: I64
+    ) -> tuple[F64, npt.NDArray[np.int16], F64]:
+        """The rows' current mean (NaN for a row never observed) and their M' strongest
+        components the span gate admits, strongest first (ties: lowest period index), as
+        period indices and [2 Re γ | 2 Im γ] coefficients; components past the admitted ones
+        get coefficient 0."""
+        m, k = self.n_ranked, self.n_periods
+        n = state.n[rows]
+        has = n > 0
+        n_safe = np.where(has, n, 1.0)
+        mu = state.sum_s[rows] / n_safe
+        c = rows.size
+        idx = np.zeros((c, m), dtype=np.int64)
+        coef = np.zeros((c, 2 * m))
+        if m > 0 and c > 0:
             gamma = state.sum_se[rows] - mu[:, None] * state.sum_e[rows]
             gamma /= n_safe[:, None]
             a2 = gamma.real**2 + gamma.imag**2
             with np.errstate(invalid="ignore"):  # NaN span (never observed): nothing admitted
                 admitted = (state.t_last[rows] - state.t_first[rows])[:, None] >= self.min_span
             np.putmask(a2, ~admitted, -1.0)
-            c = rows.size
-            idx = np.empty((c, m), dtype=np.int64)
             valid = np.empty((c, m), dtype=bool)
             flat = a2.reshape(-1)
             base = np.arange(0, c * k, k)
@@ -519,8 +598,9 @@ class FremenModel:
                 flat[base + pick] = -2.0
             g = np.take_along_axis(gamma, idx, axis=1)
             g[~valid] = 0.0
-            state.rank_idx[rows] = idx.astype(np.int16)
-            state.rank_coef[rows] = np.concatenate([2.0 * g.real, 2.0 * g.imag], axis=1)
+            coef[:, :m] = 2.0 * g.real
+            coef[:, m:] = 2.0 * g.imag
+        return np.where(has, mu, np.nan), idx.astype(np.int16), coef
 
     def _scored(self, n_pre: F64, obs: BoolA, n0: F64 | None = None) -> BoolA:
         """Which observations pass the stride rule, given each one's count of earlier
@@ -692,6 +772,64 @@ class FremenModel:
             best_err[better] = mean[better, m]
         return best
 
+    def predictor(self, state: FremenState, rows: npt.ArrayLike | None = None) -> Predictor:
+        """Per-row prediction coefficients (:class:`Predictor`) of ``rows`` (all: None).
+
+        Cached on the state while it is unchanged: a request for at least a quarter of the
+        rows computes and caches every row's, so repeated whole-map predictions rank the
+        components once; a map file stores the predictor of its state (see
+        :meth:`attach_predictor`), so a loaded map predicts without ranking at all."""
+        self._check(state)
+        r = None if rows is None else np.asarray(rows, dtype=np.int64).reshape(-1)
+        cache = state.predictor_cache
+        if cache is not None and cache[0] == state.generation and cache[1] == self:
+            pred = cache[2]
+            if r is None and pred.n_rows == state.n_rows:
+                return pred
+            if r is not None and (r.size == 0 or int(r.max()) < pred.n_rows):
+                return pred.take(r)
+        if r is not None and 4 * r.size < state.n_rows:
+            return self._compute_predictor(state, r)
+        pred = self._compute_predictor(state, np.arange(state.n_rows, dtype=np.int64))
+        state.predictor_cache = (state.generation, self, pred)
+        return pred if r is None else pred.take(r)
+
+    def attach_predictor(self, state: FremenState, pred: Predictor) -> None:
+        """Cache ``pred`` (e.g. read from a map file) as the predictor of ``state``'s first
+        ``pred.n_rows`` rows, valid until the state changes."""
+        self._check(state)
+        if pred.n_rows > state.n_rows or pred.idx.shape[1] != self.n_ranked:
+            raise ValueError("predictor does not fit the state")
+        state.predictor_cache = (state.generation, self, pred)
+
+    def _compute_predictor(self, state: FremenState, r: I64) -> Predictor:
+        order = self._choose(state.order_err[r], state.order_n[r]).astype(np.int8)
+        mu = np.empty(r.size)
+        idx = np.empty((r.size, self.n_ranked), np.int16)
+        coef = np.empty((r.size, 2 * self.n_ranked))
+        for a in range(0, r.size, _RANK_ROWS):
+            sl = slice(a, a + _RANK_ROWS)
+            mu[sl], idx[sl], coef[sl] = self._top_components(state, r[sl])
+        return Predictor(mu, order, idx, coef)
+
+    def _predict_with(self, pred: Predictor, t: F64) -> F64:
+        """Predictions float64[r, T] from precomputed coefficients (chosen orders)."""
+        out = np.empty((pred.n_rows, t.size))
+        out[...] = np.where(np.isnan(pred.mu), PRIOR, pred.mu)[:, None]
+        m = pred.idx.shape[1]
+        top = min(int(pred.order.max()), m) if pred.n_rows else 0
+        if top > 0 and t.size > 0:
+            cos_t, sin_t = self.basis(t)  # (T, K)
+            for o in range(top):
+                use = pred.order > o
+                k = pred.idx[:, o].astype(np.int64)
+                cr = np.where(use, pred.coef[:, o], 0.0)
+                ci = np.where(use, pred.coef[:, m + o], 0.0)
+                out += cr[:, None] * cos_t.T.take(k, axis=0)
+                out += ci[:, None] * sin_t.T.take(k, axis=0)
+        np.clip(out, 0.0, 1.0, out=out)
+        return out
+
     def predict(
         self,
         state: FremenState,
@@ -708,11 +846,10 @@ class FremenModel:
         r = self._rows(state, rows)
         t = np.asarray(t_s, dtype=np.float64).reshape(-1)
         if order is None:
-            orders = self._choose(state.order_err[r], state.order_n[r])
-        else:
-            if order < 0:
-                raise ValueError("order must be >= 0")
-            orders = np.full(r.size, min(int(order), self.n_periods), dtype=np.int64)
+            return self._predict_with(self.predictor(state, r), t)
+        if order < 0:
+            raise ValueError("order must be >= 0")
+        orders = np.full(r.size, min(int(order), self.n_periods), dtype=np.int64)
         mu, gamma = self._gamma(state, r)
         out = np.empty((r.size, t.size))
         out[...] = mu[:, None]

@@ -19,7 +19,7 @@ import numpy as np
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, NODE, EntryStore, fremen_rows
 from aion_cli.engine.errors import MapCorruptError
-from aion_cli.engine.fremen import FremenModel, FremenState
+from aion_cli.engine.fremen import FremenModel, FremenState, Predictor
 from aion_cli.engine.graph_arrays import graph_from_arrays, graph_to_arrays
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
@@ -113,7 +113,10 @@ class MapState:
         """Plain arrays and a JSON-serialisable meta dict (config, counters, window, graph)."""
         order = self.entries.canonical_order()
         arrays = self.entries.to_arrays(order)
-        arrays.update(self.fremen.take(fremen_rows(order, self.bins).ravel()).to_arrays("fremen_"))
+        fr = fremen_rows(order, self.bins).ravel()
+        arrays.update(self.fremen.take(fr).to_arrays("fremen_"))
+        # the prediction coefficients, so a loaded map predicts without ranking components
+        arrays.update(self.model.predictor(self.fremen, fr).to_arrays("fremen_pred_"))
         arrays.update(self.nodes.to_arrays())
         arrays.update(self.redirects.to_arrays())
         arrays.update(self.observation.to_arrays())
@@ -156,7 +159,11 @@ class MapState:
             raise MapCorruptError(
                 f"FreMEn state has {fremen.n_rows} rows, expected {entries.n * (config.bins + 1)}"
             )
+        model = FremenModel.from_config(config)
+        predictor = Predictor.from_arrays(arrays, "fremen_pred_", fremen.n_rows, model)
         fremen.resize(entries.capacity * (config.bins + 1))
+        if predictor is not None:
+            model.attach_predictor(fremen, predictor)
         try:
             state = cls(
                 config=config,

@@ -504,3 +504,47 @@ def test_score_stride_defaults_and_config() -> None:
             ModelConfig(score_stride=bad)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="score_stride"):
         FremenModel(PERIODS, score_stride=0)
+
+
+def test_cached_predictor_follows_every_change_of_the_state() -> None:
+    """Whole-state predictions rank the components once and cache them; any update, row
+    operation or resize must invalidate that cache (predictions equal a fresh state's)."""
+    model = FremenModel(PERIODS, max_order=4, score_stride=3)
+    t, values, observed = _random_stream(21, 6, 300)
+    state = model.empty(6)
+    model.update(state, np.arange(6), t[:200], values[:, :200], observed[:, :200])
+    tq = np.array([9.5 * DAY_S, 10.1 * DAY_S])
+
+    def fresh() -> np.ndarray:  # the same state without any cache
+        return model.predict(state.copy(), tq)
+
+    first = model.predict(state, tq)
+    assert state.predictor_cache is not None  # whole-state request: cached
+    np.testing.assert_array_equal(first, fresh())
+    model.update(state, np.arange(6), t[200:], values[:, 200:], observed[:, 200:])
+    after = model.predict(state, tq)
+    assert not np.array_equal(after, first)
+    np.testing.assert_array_equal(after, fresh())
+    state.add_rows([0], [1])
+    np.testing.assert_array_equal(model.predict(state, tq, rows=[1, 2]), fresh()[[1, 2]])
+    state.zero_rows([2])
+    assert np.all(model.predict(state, tq, rows=[2]) == PRIOR)
+    state.resize(8)
+    np.testing.assert_array_equal(model.predict(state, tq), fresh())
+    other = FremenModel(PERIODS, max_order=4, order_bias=0.5)  # a model choosing other orders
+    np.testing.assert_array_equal(other.predict(state, tq), other.predict(state.copy(), tq))
+
+
+def test_attached_predictor_predicts_like_the_state() -> None:
+    model = FremenModel(PERIODS, max_order=4)
+    t, values, observed = _random_stream(22, 5, 250)
+    state = model.empty(5)
+    model.update(state, np.arange(5), t, values, observed)
+    tq = np.linspace(9 * DAY_S, 11 * DAY_S, 7)
+    pred = model.predictor(state, [3, 4])  # a few rows: computed, not cached
+    assert pred.n_rows == 2
+    loaded = state.copy()
+    model.attach_predictor(loaded, model.predictor(state))
+    np.testing.assert_array_equal(model.predict(loaded, tq), model.predict(state.copy(), tq))
+    with pytest.raises(ValueError, match="does not fit"):
+        model.attach_predictor(model.empty(2), model.predictor(state))

@@ -158,6 +158,30 @@ def test_from_arrays_rejects_corrupt_input() -> None:
         MapState.from_arrays(arrays, {k: v for k, v in meta.items() if k != "config"})
     with pytest.raises(MapCorruptError, match="newer"):
         MapState.from_arrays(arrays, {**meta, "state_version": 99})
+    bad_order = dict(arrays)
+    bad_order["fremen_pred_order"] = np.full_like(arrays["fremen_pred_order"], 9)
+    with pytest.raises(MapCorruptError, match="predictor"):
+        MapState.from_arrays(bad_order, meta)
+    partial = {k: v for k, v in arrays.items() if k != "fremen_pred_coef"}
+    with pytest.raises(MapCorruptError, match="predictor"):
+        MapState.from_arrays(partial, meta)
+
+
+def test_loaded_map_predicts_from_its_stored_predictor_like_the_built_one() -> None:
+    m = _run(_log(T0, seed=7, windows=8, move=0.6) + _log(T0 + 2 * DAY, seed=8))
+    arrays, meta = m.state.to_arrays()
+    loaded = MapState.from_arrays(arrays, json.loads(json.dumps(meta)))
+    assert loaded.fremen.predictor_cache is not None  # no ranking needed after a load
+    for t in (T0 + 3 * DAY, T0 + 3 * DAY + 7 * 3600 * S):
+        a, b = predict_table(m.state, t), predict_table(loaded, t)
+        np.testing.assert_array_equal(a.flow, b.flow)
+        np.testing.assert_array_equal(a.rate, b.rate)
+    # a map written before predictors were stored loads and computes them on demand
+    old = {k: v for k, v in arrays.items() if not k.startswith(("fremen_pred_", "fremen_rank_"))}
+    again = MapState.from_arrays(old, meta)
+    assert again.fremen.predictor_cache is None
+    t = T0 + 3 * DAY
+    np.testing.assert_array_equal(predict_table(again, t).flow, predict_table(m.state, t).flow)
 
 
 def test_from_arrays_rejects_broken_ownership() -> None:
