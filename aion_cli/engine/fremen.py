@@ -343,10 +343,40 @@ class Predictor:
     order: npt.NDArray[np.int8]
     idx: npt.NDArray[np.int16]
     coef: F64
+    _base: F64 = field(init=False, repr=False, compare=False)
+    _terms: C128 = field(init=False, repr=False, compare=False)
+    _idx: I64 = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        """The evaluation form: the base (mean, or PRIOR) and complex coefficients c = 2γ,
+        zero past each row's order, so p(t) = base + Re Σ c·e^{−iωt} needs no order test."""
+        m = self.idx.shape[1]
+        self._base = np.where(np.isnan(self.mu), PRIOR, self.mu)
+        terms = self.coef[:, :m] + 1j * self.coef[:, m:]
+        terms[np.arange(m)[None, :] >= self.order[:, None]] = 0.0
+        self._terms = terms
+        self._idx = self.idx.astype(np.int64)
 
     @property
     def n_rows(self) -> int:
         return int(self.mu.shape[0])
+
+    def evaluate(self, omega: F64, t: F64, rows: I64 | None = None) -> F64:
+        """Predictions float64[r, T] at times ``t`` of rows ``rows`` (all: None)."""
+        base, terms, idx = self._base, self._terms, self._idx
+        if rows is not None:
+            base, terms, idx = base[rows], terms[rows], idx[rows]
+        out = np.empty((base.size, t.size))
+        out[...] = base[:, None]
+        if idx.shape[1] and t.size and base.size:
+            rot = np.exp(-1j * np.multiply.outer(omega, t))  # (K, T): e^{−iω_k t}
+            if t.size == 1:
+                out[:, 0] += np.einsum("rm,rm->r", terms, rot[:, 0].take(idx)).real
+            else:
+                for o in range(idx.shape[1]):
+                    out += (terms[:, o, None] * rot.take(idx[:, o], axis=0)).real
+        np.clip(out, 0.0, 1.0, out=out)
+        return out
 
     def take(self, rows: I64) -> Predictor:
         return Predictor(self.mu[rows], self.order[rows], self.idx[rows], self.coef[rows])
@@ -781,9 +811,8 @@ class FremenModel:
         :meth:`attach_predictor`), so a loaded map predicts without ranking at all."""
         self._check(state)
         r = None if rows is None else np.asarray(rows, dtype=np.int64).reshape(-1)
-        cache = state.predictor_cache
-        if cache is not None and cache[0] == state.generation and cache[1] == self:
-            pred = cache[2]
+        pred = self._cached(state)
+        if pred is not None:
             if r is None and pred.n_rows == state.n_rows:
                 return pred
             if r is not None and (r.size == 0 or int(r.max()) < pred.n_rows):
@@ -793,6 +822,13 @@ class FremenModel:
         pred = self._compute_predictor(state, np.arange(state.n_rows, dtype=np.int64))
         state.predictor_cache = (state.generation, self, pred)
         return pred if r is None else pred.take(r)
+
+    def _cached(self, state: FremenState) -> Predictor | None:
+        """The state's cached predictor if it is still valid for this model."""
+        cache = state.predictor_cache
+        if cache is not None and cache[0] == state.generation and cache[1] == self:
+            return cache[2]
+        return None
 
     def attach_predictor(self, state: FremenState, pred: Predictor) -> None:
         """Cache ``pred`` (e.g. read from a map file) as the predictor of ``state``'s first
@@ -812,24 +848,6 @@ class FremenModel:
             mu[sl], idx[sl], coef[sl] = self._top_components(state, r[sl])
         return Predictor(mu, order, idx, coef)
 
-    def _predict_with(self, pred: Predictor, t: F64) -> F64:
-        """Predictions float64[r, T] from precomputed coefficients (chosen orders)."""
-        out = np.empty((pred.n_rows, t.size))
-        out[...] = np.where(np.isnan(pred.mu), PRIOR, pred.mu)[:, None]
-        m = pred.idx.shape[1]
-        top = min(int(pred.order.max()), m) if pred.n_rows else 0
-        if top > 0 and t.size > 0:
-            cos_t, sin_t = self.basis(t)  # (T, K)
-            for o in range(top):
-                use = pred.order > o
-                k = pred.idx[:, o].astype(np.int64)
-                cr = np.where(use, pred.coef[:, o], 0.0)
-                ci = np.where(use, pred.coef[:, m + o], 0.0)
-                out += cr[:, None] * cos_t.T.take(k, axis=0)
-                out += ci[:, None] * sin_t.T.take(k, axis=0)
-        np.clip(out, 0.0, 1.0, out=out)
-        return out
-
     def predict(
         self,
         state: FremenState,
@@ -846,7 +864,14 @@ class FremenModel:
         r = self._rows(state, rows)
         t = np.asarray(t_s, dtype=np.float64).reshape(-1)
         if order is None:
-            return self._predict_with(self.predictor(state, r), t)
+            pred = self._cached(state)
+            if pred is None or (r.size > 0 and int(r.max()) >= pred.n_rows):
+                if 4 * r.size < state.n_rows:  # a few rows: rank just those
+                    return self.predictor(state, r).evaluate(self.omega, t)
+                pred = self.predictor(state)  # every row's, cached for the next call
+            if t.size <= 4 and 2 * r.size >= pred.n_rows:  # outputs are cheaper to gather
+                return pred.evaluate(self.omega, t)[r]
+            return pred.evaluate(self.omega, t, r)
         if order < 0:
             raise ValueError("order must be >= 0")
         orders = np.full(r.size, min(int(order), self.n_periods), dtype=np.int64)

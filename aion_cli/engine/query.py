@@ -17,6 +17,7 @@ per entry are additive: ``rate[E, B]`` expected directed detections per window p
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -40,9 +41,11 @@ class EntryTable:
     """One row per entry. ``kind`` 0 cell, 1 node, 2 room, 3 building; ``layer`` names the
     layer ("cells", the graph's place layer name, "rooms", "buildings"); ``node_id`` is 0 for
     cells; ``rate``/``flow``/``speed_sum``/``speed_n`` are the additive quantities the
-    descriptors were computed from."""
+    descriptors were computed from. ``key`` is a cell's spatial-hash key (−1 for other rows);
+    ``ids`` (``c<key>`` for cells, spark_dsg symbols such as ``p12`` otherwise) are formatted
+    on first use, since turning 10^5 integers into strings costs more than the prediction."""
 
-    ids: StrA
+    key: npt.NDArray[np.int64]
     node_id: U64
     kind: npt.NDArray[np.int8]
     layer: StrA
@@ -55,7 +58,19 @@ class EntryTable:
     window_s: float
 
     def __len__(self) -> int:
-        return len(self.ids)
+        return len(self.kind)
+
+    @cached_property
+    def ids(self) -> StrA:
+        """Display ids: ``c<key>`` for cells, the node symbol otherwise."""
+        is_cell = self.kind == CELL
+        cells = np.char.add("c", self.key[is_cell].astype(str))
+        nodes = node_symbol(self.node_id[~is_cell])
+        width = max((a.dtype.itemsize // 4 for a in (cells, nodes) if a.size), default=1)
+        out: StrA = np.empty(len(self.kind), dtype=f"<U{width}")
+        out[is_cell] = cells
+        out[~is_cell] = nodes
+        return out
 
 
 def node_symbol(node_ids: npt.ArrayLike) -> StrA:
@@ -125,7 +140,7 @@ def aggregate_table(
     kind = ROOM if level == "rooms" else BUILDING
     desc = _descriptors(rate, flow, speed_sum, speed_n, table.window_s)
     return EntryTable(
-        ids=node_symbol(ids),
+        key=np.full(len(ids), -1, np.int64),
         node_id=ids,
         kind=np.full(len(ids), kind, np.int8),
         layer=np.full(len(ids), level),
@@ -180,10 +195,10 @@ def _table(
         speed_n = np.concatenate([speed_n, np.zeros((k, b))])
     is_cell = kind == CELL
     keys = np.concatenate([ent.key[rows], np.full(len(kind) - len(rows), -1, np.int64)])
-    ids = np.where(is_cell, np.char.add("c", keys.astype(str)), node_symbol(node_id))
+    keys[~is_cell] = -1
     layer = np.where(is_cell, "cells", place_layer)
     window_s = state.config.window_s
     desc = _descriptors(rate, flow, speed_sum, speed_n, window_s)
     return EntryTable(
-        ids, node_id, kind, layer, xyz, desc, rate, flow, speed_sum, speed_n, window_s
+        keys, node_id, kind, layer, xyz, desc, rate, flow, speed_sum, speed_n, window_s
     )

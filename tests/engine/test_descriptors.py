@@ -6,7 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from aion_cli.engine import descriptors
 from aion_cli.engine.descriptors import (
     Descriptors,
     bin_centres,
@@ -108,3 +111,11 @@ def test_predicted_flow_inverts_the_activity_transform() -> None:
     assert d.entropy[0] == pytest.approx(0.0)
     assert math.isnan(d.entropy[2])
     assert d.dominant_angle[0] == pytest.approx(-math.pi + 5.5 * W)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 9), st.integers(0, 2**32 - 1))
+def test_argmax_columns_equals_numpy_argmax_with_ties(rows: int, cols: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    x = rng.integers(0, 3, (rows, cols)).astype(np.float64)  # many ties: the first one wins
+    np.testing.assert_array_equal(descriptors._argmax_columns(x), np.argmax(x, axis=1))
