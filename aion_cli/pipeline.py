@@ -542,7 +542,7 @@ class _Build:
         from formats.mapfile import write_map
 
         state = mapper.state
-        arrays, meta = state.to_arrays()
+        arrays, meta = state.to_arrays(lazy=True)
         stats = state_counts(state)
         self.report.cells = stats["cells"]
         self.report.nodes = stats["nodes"]

@@ -76,7 +76,7 @@ def aion_child(env: str, detections: int, graph: bool, write: bool = True) -> di
     ingest_s = time.perf_counter() - t0
     del t_all
     st = mapper.state
-    arrays, meta = st.to_arrays()
+    arrays, meta = st.to_arrays(lazy=True)
     out: dict[str, Any] = {
         "env": env,
         "graph": graph,

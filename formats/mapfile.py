@@ -142,6 +142,16 @@ class _HashingWriter:
         return len(data)
 
 
+def _is_blocks(arr: Any) -> bool:
+    """A streamed member: ``shape``, ``dtype`` and ``blocks()`` yielding C-contiguous arrays
+    of consecutive rows (e.g. ``aion_cli.engine.types.RowTake``)."""
+    return (
+        callable(getattr(arr, "blocks", None))
+        and isinstance(getattr(arr, "dtype", None), np.dtype)
+        and isinstance(getattr(arr, "shape", None), tuple)
+    )
+
+
 def _check_arrays(arrays: Mapping[str, Any]) -> None:
     if not isinstance(arrays, Mapping):
         raise MapContentError(f"arrays must be a dict of name -> ndarray, got {type(arrays)}")
@@ -151,7 +161,7 @@ def _check_arrays(arrays: Mapping[str, Any]) -> None:
                 f"invalid array name {name!r}: use letters, digits, '_', '.', '-' and '/' "
                 "(no '..' or leading '/')"
             )
-        if not isinstance(arr, np.ndarray):
+        if not isinstance(arr, np.ndarray) and not _is_blocks(arr):
             raise MapContentError(f"array {name!r} is a {type(arr).__name__}, not an ndarray")
         if arr.dtype.hasobject:
             raise MapContentError(
@@ -181,14 +191,24 @@ def _manifest_text(manifest: Mapping[str, Any], members: dict[str, dict[str, Any
         raise MapContentError(f"manifest is not JSON-serialisable (strict JSON): {exc}") from exc
 
 
-def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, npt.NDArray[Any]], manifest: Any) -> None:
+def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, Any], manifest: Any) -> None:
     members: dict[str, dict[str, Any]] = {}
     with zipfile.ZipFile(fileobj, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
         for name, arr in arrays.items():
             big = arr.nbytes > 1024**3
             with zf.open(name + MEMBER_SUFFIX, "w", force_zip64=big) as member:
                 writer = _HashingWriter(member)
-                np.save(writer, arr, allow_pickle=False)
+                if isinstance(arr, np.ndarray):
+                    np.save(writer, arr, allow_pickle=False)
+                else:  # streamed: the same .npy bytes np.save writes, block by block
+                    header = {
+                        "descr": np.lib.format.dtype_to_descr(arr.dtype),
+                        "fortran_order": False,
+                        "shape": tuple(arr.shape),
+                    }
+                    np.lib.format.write_array_header_1_0(writer, header)
+                    for block in arr.blocks():
+                        writer.write(block.tobytes())
             members[name] = {
                 "sha256": writer.sha.hexdigest(),
                 "size": writer.size,
@@ -238,7 +258,7 @@ def _interrupts_held() -> Iterator[None]:
 
 def write_map(
     path: str | os.PathLike[str],
-    arrays: Mapping[str, npt.NDArray[Any]],
+    arrays: Mapping[str, Any],
     manifest: Mapping[str, Any],
     *,
     lock: bool = True,

@@ -50,6 +50,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.types import RowTake
 
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
@@ -80,6 +81,9 @@ _SCORE_CELLS = 1 << 21
 
 _RANK_ROWS = 1 << 16
 """Rows per block of the top-M selection (rows × K complex temporaries)."""
+
+_ABSORB_ROWS = 1 << 15
+"""Rows per block of the accumulator update (its (rows × 2K) temporaries stay ~16 MB)."""
 
 _ADDITIVE = ("n", "sum_s", "sum_se", "sum_e", "order_err", "order_n")
 _RANK_FIELDS = ("rank_epoch", "rank_mu", "rank_idx", "rank_coef")
@@ -128,6 +132,9 @@ class FremenState:
     rank_mu: F64
     rank_idx: npt.NDArray[np.int16]
     rank_coef: F64
+    high_water: int = field(default=-1, init=False, compare=False, repr=False)
+    """Rows from here on have never been written (empty): :meth:`resize` does not copy them.
+    −1 at construction means every row (set in ``__post_init__``); :meth:`empty` sets 0."""
     generation: int = field(default=0, init=False, compare=False, repr=False)
     """Bumped by every change of the accumulators (it invalidates the cached predictor)."""
     predictor_cache: tuple[int, FremenModel, Predictor] | None = field(
@@ -136,9 +143,24 @@ class FremenState:
     """(generation, model, predictor) of :meth:`FremenModel.predictor`, valid while the
     generation and the model match."""
 
+    def __post_init__(self) -> None:
+        if self.high_water < 0:
+            self.high_water = self.n_rows
+
+    def _written(self, rows: I64) -> None:
+        """Note that ``rows`` are about to be written (raises the high-water mark)."""
+        if rows.size:
+            self.high_water = max(self.high_water, int(rows.max()) + 1)
+
     @classmethod
     def empty(cls, n_rows: int, n_periods: int, max_order: int) -> FremenState:
         """R rows with no observations."""
+        out = cls._empty_arrays(n_rows, n_periods, max_order)
+        out.high_water = 0
+        return out
+
+    @classmethod
+    def _empty_arrays(cls, n_rows: int, n_periods: int, max_order: int) -> FremenState:
         m = min(max_order, n_periods)
         return cls(
             n=np.zeros(n_rows),
@@ -179,20 +201,27 @@ class FremenState:
         d = np.asarray(dst, dtype=np.int64).reshape(-1)
         if s.shape != d.shape:
             raise ValueError("src and dst must have the same length")
+        written = s < self.high_water  # rows never written are empty: adding them is a no-op
+        s, d = s[written], d[written]
         if s.size == 0:
             return
-        vals = {name: getattr(self, name)[s].copy() for name in (*_ADDITIVE, "t_first", "t_last")}
-        for name in _ADDITIVE:
-            np.add.at(getattr(self, name), d, vals[name])
-        np.fmin.at(self.t_first, d, vals["t_first"])
-        np.fmax.at(self.t_last, d, vals["t_last"])
-        self.rank_epoch[d] = STALE
+        self._written(d)
         self.generation += 1
+        step = s.size if np.intersect1d(s, d).size else _ABSORB_ROWS  # overlap: one pass
+        for a in range(0, s.size, step):
+            sb, db = s[a : a + step], d[a : a + step]
+            vals = {n: getattr(self, n)[sb] for n in (*_ADDITIVE, "t_first", "t_last")}
+            for name in _ADDITIVE:
+                np.add.at(getattr(self, name), db, vals[name])
+            np.fmin.at(self.t_first, db, vals["t_first"])
+            np.fmax.at(self.t_last, db, vals["t_last"])
+            self.rank_epoch[db] = STALE
 
     def zero_rows(self, idx: npt.ArrayLike) -> None:
         """Forget everything about rows ``idx`` (they become never-observed rows, equal to the
         rows of :meth:`empty`)."""
         i = np.asarray(idx, dtype=np.int64).reshape(-1)
+        i = i[i < self.high_water]  # rows never written are empty already (and stay unbacked)
         for name in _ADDITIVE:
             getattr(self, name)[i] = 0
         self.t_first[i] = np.nan
@@ -209,14 +238,19 @@ class FremenState:
         return FremenState(**{name: getattr(self, name)[i].copy() for name in _STATE_FIELDS})
 
     def resize(self, n_rows: int) -> None:
-        """Truncate to, or extend with empty rows up to, ``n_rows`` rows (in place)."""
+        """Truncate to, or extend with empty rows up to, ``n_rows`` rows (in place).
+
+        Rows past the high-water mark were never written and are not copied, so capacity
+        that was reserved but never used stays unbacked by memory (copying its zeros would
+        touch every page of the new arrays)."""
         if n_rows < 0:
             raise ValueError("n_rows must be >= 0")
-        keep = min(n_rows, self.n_rows)
-        new = FremenState.empty(n_rows, self.n_periods, self.max_order)
+        keep = min(n_rows, self.high_water)
+        new = FremenState._empty_arrays(n_rows, self.n_periods, self.max_order)
         for name in _STATE_FIELDS:
             getattr(new, name)[:keep] = getattr(self, name)[:keep]
             setattr(self, name, getattr(new, name))
+        self.high_water = keep
         self.generation += 1
 
     def copy(self) -> FremenState:
@@ -238,6 +272,10 @@ class FremenState:
     def to_arrays(self, prefix: str) -> dict[str, np.ndarray]:
         """Plain arrays keyed ``prefix + field`` (complex accumulators stay complex128)."""
         return {prefix + name: getattr(self, name) for name in _STATE_FIELDS}
+
+    def rows_to_arrays(self, prefix: str, rows: I64) -> dict[str, RowTake]:
+        """:meth:`to_arrays` of ``take(rows)``, each member gathered only when written."""
+        return {prefix + name: RowTake(getattr(self, name), rows) for name in _STATE_FIELDS}
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], prefix: str) -> FremenState:
@@ -343,19 +381,19 @@ class Predictor:
     order: npt.NDArray[np.int8]
     idx: npt.NDArray[np.int16]
     coef: F64
-    _base: F64 = field(init=False, repr=False, compare=False)
-    _terms: C128 = field(init=False, repr=False, compare=False)
-    _idx: I64 = field(init=False, repr=False, compare=False)
+    _form: tuple[F64, C128, I64] | None = field(default=None, init=False, repr=False)
 
-    def __post_init__(self) -> None:
-        """The evaluation form: the base (mean, or PRIOR) and complex coefficients c = 2γ,
-        zero past each row's order, so p(t) = base + Re Σ c·e^{−iωt} needs no order test."""
-        m = self.idx.shape[1]
-        self._base = np.where(np.isnan(self.mu), PRIOR, self.mu)
-        terms = self.coef[:, :m] + 1j * self.coef[:, m:]
-        terms[np.arange(m)[None, :] >= self.order[:, None]] = 0.0
-        self._terms = terms
-        self._idx = self.idx.astype(np.int64)
+    def _evaluation_form(self) -> tuple[F64, C128, I64]:
+        """(base, terms, idx), built on first use: the base (mean, or PRIOR) and complex
+        coefficients c = 2γ, zero past each row's order, so p(t) = base + Re Σ c·e^{−iωt}
+        needs no order test."""
+        if self._form is None:
+            m = self.idx.shape[1]
+            base = np.where(np.isnan(self.mu), PRIOR, self.mu)
+            terms = self.coef[:, :m] + 1j * self.coef[:, m:]
+            terms[np.arange(m)[None, :] >= self.order[:, None]] = 0.0
+            self._form = (base, terms, self.idx.astype(np.int64))
+        return self._form
 
     @property
     def n_rows(self) -> int:
@@ -363,7 +401,7 @@ class Predictor:
 
     def evaluate(self, omega: F64, t: F64, rows: I64 | None = None) -> F64:
         """Predictions float64[r, T] at times ``t`` of rows ``rows`` (all: None)."""
-        base, terms, idx = self._base, self._terms, self._idx
+        base, terms, idx = self._evaluation_form()
         if rows is not None:
             base, terms, idx = base[rows], terms[rows], idx[rows]
         out = np.empty((base.size, t.size))
@@ -542,6 +580,7 @@ class FremenModel:
         if not np.isfinite(vz.sum()):  # one pass; also rejects values near the float limit
             raise ValueError("observed values must be finite")
         state.generation += 1
+        state._written(r)
         cos_t, sin_t = self.basis(t)
         epochs = self.rank_epochs(t)
         cuts = [0, *(np.flatnonzero(np.diff(epochs)) + 1).tolist(), t.size]
@@ -554,7 +593,15 @@ class FremenModel:
     def _absorb(
         self, state: FremenState, r: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
     ) -> None:
-        """Add the windows to the accumulators: two matrix products with E = [cos | sin].
+        """Add the windows to the accumulators, in blocks of rows (bounded temporaries)."""
+        for a in range(0, r.size, _ABSORB_ROWS):
+            sl = slice(a, a + _ABSORB_ROWS)
+            self._absorb_rows(state, r[sl], t, vz[sl], obs[sl], cos_t, sin_t)
+
+    def _absorb_rows(
+        self, state: FremenState, r: I64, t: F64, vz: F64, obs: BoolA, cos_t: F64, sin_t: F64
+    ) -> None:
+        """:meth:`_absorb` for one block: two matrix products with E = [cos | sin].
 
         A contiguous ascending block of rows is written through slices (no gather/scatter);
         when every cell is observed, observed·E is the column sum of E.
@@ -575,10 +622,16 @@ class FremenModel:
             first = np.where(seen, t[np.argmax(obs, axis=1)], np.nan)
             last = np.where(seen, t[t.size - 1 - np.argmax(obs[:, ::-1], axis=1)], np.nan)
         idx = _as_slice(r)
-        state.sum_se.real[idx] += ve[:, :k]
-        state.sum_se.imag[idx] += ve[:, k:]
-        state.sum_e.real[idx] += oe[:, :k]
-        state.sum_e.imag[idx] += oe[:, k:]
+        if isinstance(idx, slice):  # in place through the real / imaginary views
+            state.sum_se.real[idx] += ve[:, :k]
+            state.sum_se.imag[idx] += ve[:, k:]
+            state.sum_e.real[idx] += oe[:, :k]
+            state.sum_e.imag[idx] += oe[:, k:]
+        else:  # scattered rows: one gather / scatter of whole complex rows per array
+            add = ve[:, :k] + 1j * ve[:, k:]
+            state.sum_se[idx] += add
+            add = oe[:, :k] + 1j * oe[:, k:]
+            state.sum_e[idx] += add
         state.n[idx] += n_add
         state.sum_s[idx] += vz.sum(axis=1)
         state.t_first[idx] = np.fmin(state.t_first[idx], first)
@@ -802,13 +855,15 @@ class FremenModel:
             best_err[better] = mean[better, m]
         return best
 
-    def predictor(self, state: FremenState, rows: npt.ArrayLike | None = None) -> Predictor:
+    def predictor(
+        self, state: FremenState, rows: npt.ArrayLike | None = None, cache: bool = True
+    ) -> Predictor:
         """Per-row prediction coefficients (:class:`Predictor`) of ``rows`` (all: None).
 
         Cached on the state while it is unchanged: a request for at least a quarter of the
-        rows computes and caches every row's, so repeated whole-map predictions rank the
-        components once; a map file stores the predictor of its state (see
-        :meth:`attach_predictor`), so a loaded map predicts without ranking at all."""
+        rows computes and caches every row's (unless ``cache`` is False), so repeated
+        whole-map predictions rank the components once; a map file stores the predictor of
+        its state (see :meth:`attach_predictor`), so a loaded map predicts without ranking."""
         self._check(state)
         r = None if rows is None else np.asarray(rows, dtype=np.int64).reshape(-1)
         pred = self._cached(state)
@@ -817,7 +872,7 @@ class FremenModel:
                 return pred
             if r is not None and (r.size == 0 or int(r.max()) < pred.n_rows):
                 return pred.take(r)
-        if r is not None and 4 * r.size < state.n_rows:
+        if r is not None and (4 * r.size < state.n_rows or not cache):
             return self._compute_predictor(state, r)
         pred = self._compute_predictor(state, np.arange(state.n_rows, dtype=np.int64))
         state.predictor_cache = (state.generation, self, pred)

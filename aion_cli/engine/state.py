@@ -109,14 +109,21 @@ class MapState:
         self.routes = RouteTable.build(keys, rows)
 
     # -- persistence ------------------------------------------------------------------------
-    def to_arrays(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Plain arrays and a JSON-serialisable meta dict (config, counters, window, graph)."""
+    def to_arrays(self, lazy: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Plain arrays and a JSON-serialisable meta dict (config, counters, window, graph).
+
+        ``lazy``: the FreMEn members are :class:`RowTake` (gathered block by block when
+        :func:`formats.mapfile.write_map` writes them), so writing needs no second copy of the
+        largest part of the state."""
         order = self.entries.canonical_order()
-        arrays = self.entries.to_arrays(order)
+        arrays: dict[str, Any] = self.entries.to_arrays(order)
         fr = fremen_rows(order, self.bins).ravel()
-        arrays.update(self.fremen.take(fr).to_arrays("fremen_"))
+        if lazy:
+            arrays.update(self.fremen.rows_to_arrays("fremen_", fr))
+        else:
+            arrays.update(self.fremen.take(fr).to_arrays("fremen_"))
         # the prediction coefficients, so a loaded map predicts without ranking components
-        arrays.update(self.model.predictor(self.fremen, fr).to_arrays("fremen_pred_"))
+        arrays.update(self.model.predictor(self.fremen, fr, cache=False).to_arrays("fremen_pred_"))
         arrays.update(self.nodes.to_arrays())
         arrays.update(self.redirects.to_arrays())
         arrays.update(self.observation.to_arrays())

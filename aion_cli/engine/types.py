@@ -6,7 +6,9 @@ the map frame unless a docstring says otherwise.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -167,3 +169,37 @@ class GraphSnapshot:
     agents: Trajectory | None = None
     layer_name: str = "places"
     frame_id: str = "map"
+
+
+@dataclass(frozen=True)
+class RowTake:
+    """Rows ``rows`` of ``source`` (along axis 0), gathered block by block when written: a map
+    member that never exists as one whole copy in memory (writing a map of 10^6 FreMEn rows
+    would otherwise hold the state and a reordered copy of it at once).
+
+    :func:`formats.mapfile.write_map` streams it; ``np.asarray`` materialises it."""
+
+    source: np.ndarray
+    rows: I64
+    block_rows: int = 1 << 15
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (int(self.rows.size), *self.source.shape[1:])
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        return self.source.dtype
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.rows.size) * int(self.source[:1].nbytes if len(self.source) else 0)
+
+    def blocks(self) -> Iterator[np.ndarray]:
+        """C-contiguous blocks of consecutive output rows, in order."""
+        for a in range(0, int(self.rows.size), self.block_rows):
+            yield np.ascontiguousarray(self.source[self.rows[a : a + self.block_rows]])
+
+    def __array__(self, dtype: npt.DTypeLike | None = None, copy: bool | None = None) -> np.ndarray:
+        out = self.source[self.rows]
+        return out if dtype is None else out.astype(dtype)

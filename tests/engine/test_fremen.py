@@ -548,3 +548,18 @@ def test_attached_predictor_predicts_like_the_state() -> None:
     np.testing.assert_array_equal(model.predict(loaded, tq), model.predict(state.copy(), tq))
     with pytest.raises(ValueError, match="does not fit"):
         model.attach_predictor(model.empty(2), model.predictor(state))
+
+
+def test_resize_copies_only_the_used_rows() -> None:
+    model = FremenModel(PERIODS, max_order=2)
+    t, values, observed = _random_stream(23, 4, 60)
+    state = model.empty(6)
+    model.update(state, np.arange(4), t, values, observed)
+    before = state.copy()
+    assert state.high_water == 4  # rows 4, 5 were never written
+    state.resize(40)
+    _assert_states_equal(state.take(np.arange(4)), before.take(np.arange(4)))
+    empty = model.empty(36)
+    _assert_states_equal(state.take(np.arange(4, 40)), empty)
+    assert np.all(state.rank_epoch[4:] == fremen.STALE)
+    assert np.isnan(state.t_first[4:]).all()

@@ -517,3 +517,30 @@ def test_pickled_member_never_loads(written: Path, tmp_path: Path) -> None:
     rewrite(written, bad, {"i8.npy": data}, manifest_edit=declare)
     with pytest.raises(MapCorruptError, match=r"not a valid \.npy"):
         read_map(bad)
+
+
+def test_streamed_row_takes_write_the_bytes_np_save_writes(tmp_path: Path) -> None:
+    """A RowTake member (gathered block by block while writing) is stored exactly like the
+    array it stands for: same checksums, dtypes, shapes and values after reading."""
+    from aion_cli.engine.types import RowTake
+
+    rng = np.random.default_rng(3)
+    sources = {
+        "c": rng.normal(size=(50, 7)) + 1j * rng.normal(size=(50, 7)),
+        "i": rng.integers(-5, 5, (50, 4)).astype(np.int16),
+        "f": rng.normal(size=50),
+        "none": rng.normal(size=(50, 0)),
+    }
+    rows = rng.permutation(50)[:37]
+    lazy = {k: RowTake(v, rows, block_rows=3) for k, v in sources.items()}
+    lazy["empty"] = RowTake(sources["f"], rows[:0])
+    eager = {k: np.asarray(v) for k, v in lazy.items()}
+    write_map(tmp_path / "lazy.aion", lazy, {"x": 1})
+    write_map(tmp_path / "eager.aion", eager, {"x": 1})
+    a_arrays, a_manifest = read_map(tmp_path / "lazy.aion")
+    b_arrays, b_manifest = read_map(tmp_path / "eager.aion")
+    assert a_manifest["members"] == b_manifest["members"]
+    for name, value in eager.items():
+        assert a_arrays[name].dtype == value.dtype
+        np.testing.assert_array_equal(a_arrays[name], value)
+    np.testing.assert_array_equal(a_arrays["c"], sources["c"][rows])
