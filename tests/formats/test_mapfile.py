@@ -539,6 +539,7 @@ def test_streamed_row_takes_write_the_bytes_np_save_writes(tmp_path: Path) -> No
     write_map(tmp_path / "eager.aion", eager, {"x": 1})
     a_arrays, a_manifest = read_map(tmp_path / "lazy.aion")
     b_arrays, b_manifest = read_map(tmp_path / "eager.aion")
+    assert sorted(b_arrays) == sorted(a_arrays)
     assert a_manifest["members"] == b_manifest["members"]
     for name, value in eager.items():
         assert a_arrays[name].dtype == value.dtype
