@@ -130,8 +130,9 @@ def test_interrupted_build_leaves_the_old_map_or_a_complete_new_one(
     arrays = map_arrays(target)  # loads, every checksum verified
     if target.read_bytes() == old:
         assert code != 0
-    else:  # the signal came after the rename: the new map is complete
-        assert code == 0
+    else:  # the signal came after the rename: the new map is complete (the process may still
+        # have been killed on its way out, after the map was in place)
+        assert code in (0, 130, -sig)
         assert len(arrays["entry_key"]) > len(map_arrays(office.map)["entry_key"])
     # Ctrl-C and SIGTERM unwind: no temporary file, no lock left (a SIGTERM during start-up,
     # before any file exists, is the default kill)
