@@ -110,7 +110,7 @@ def _update_activity(
         values[:, 0] = activity_values(totals, state.config.activity_scale)
     t_s = to_model_seconds(window_centre_ns(windows, delta))
     act_rows = fremen_rows(rows, state.bins)[:, 0]
-    state.model.update(state.fremen, act_rows, t_s, values, observed)
+    state.defer_update(act_rows, t_s, values, observed)
     state.entries.windows_observed[rows] += observed.sum(axis=1)
 
 
@@ -124,4 +124,4 @@ def _update_directions(state: MapState, rows: I64, w0: int, delta: int) -> None:
     dir_rows = fremen_rows(rows[has], state.bins)[:, 1:].reshape(-1)
     t_s = to_model_seconds(window_centre_ns(np.array([w0]), delta))
     values = fractions.reshape(-1, 1)
-    state.model.update(state.fremen, dir_rows, t_s, values, np.ones(values.shape, bool))
+    state.defer_update(dir_rows, t_s, values, np.ones(values.shape, bool))

@@ -627,11 +627,16 @@ class FremenModel:
             state.sum_se.imag[idx] += ve[:, k:]
             state.sum_e.real[idx] += oe[:, :k]
             state.sum_e.imag[idx] += oe[:, k:]
-        else:  # scattered rows: one gather / scatter of whole complex rows per array
-            add = ve[:, :k] + 1j * ve[:, k:]
-            state.sum_se[idx] += add
-            add = oe[:, :k] + 1j * oe[:, k:]
-            state.sum_e[idx] += add
+        else:  # scattered rows: gather whole complex rows, add, scatter (numpy's take and
+            # plain assignment are several times faster than an in-place fancy ``+=``)
+            acc = np.take(state.sum_se, idx, axis=0)
+            acc.real += ve[:, :k]
+            acc.imag += ve[:, k:]
+            state.sum_se[idx] = acc
+            acc = np.take(state.sum_e, idx, axis=0)
+            acc.real += oe[:, :k]
+            acc.imag += oe[:, k:]
+            state.sum_e[idx] = acc
         state.n[idx] += n_add
         state.sum_s[idx] += vz.sum(axis=1)
         state.t_first[idx] = np.fmin(state.t_first[idx], first)
@@ -665,7 +670,9 @@ class FremenModel:
         idx = np.zeros((c, m), dtype=np.int64)
         coef = np.zeros((c, 2 * m))
         if m > 0 and c > 0:
-            gamma = state.sum_se[rows] - mu[:, None] * state.sum_e[rows]
+            gamma = np.take(state.sum_e, rows, axis=0)
+            gamma *= -mu[:, None]
+            gamma += np.take(state.sum_se, rows, axis=0)
             gamma /= n_safe[:, None]
             a2 = gamma.real**2 + gamma.imag**2
             with np.errstate(invalid="ignore"):  # NaN span (never observed): nothing admitted

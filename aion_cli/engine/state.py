@@ -24,8 +24,9 @@ from aion_cli.engine.graph_arrays import graph_from_arrays, graph_to_arrays
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
 from aion_cli.engine.observation import ObservationSource
+from aion_cli.engine.pending import PendingUpdates, combine
 from aion_cli.engine.routing import RouteTable
-from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
+from aion_cli.engine.types import F64, I64, U64, BoolA, GraphSnapshot
 
 STATE_VERSION = 1
 DROP_REASONS = ("nan", "out_of_range", "before_window")
@@ -37,7 +38,7 @@ class MapState:
 
     config: ModelConfig
     entries: EntryStore
-    fremen: FremenState
+    fremen_store: FremenState
     nodes: NodeTable = field(default_factory=NodeTable)
     redirects: Redirects = field(default_factory=Redirects)
     observation: ObservationSource = field(default_factory=ObservationSource)
@@ -47,6 +48,36 @@ class MapState:
     accepted: int = 0
     dropped: dict[str, int] = field(default_factory=lambda: dict.fromkeys(DROP_REASONS, 0))
     routes: RouteTable = field(default_factory=RouteTable)
+    pending: PendingUpdates = field(default_factory=PendingUpdates)
+
+    @property
+    def fremen(self) -> FremenState:
+        """The FreMEn state with every deferred window absorbed (see :meth:`defer_update`)."""
+        if self.pending:
+            self.flush_fremen()
+        return self.fremen_store
+
+    @fremen.setter
+    def fremen(self, value: FremenState) -> None:
+        if self.pending:
+            self.flush_fremen()
+        self.fremen_store = value
+
+    def defer_update(self, rows: I64, t_s: F64, values: F64, observed: BoolA) -> None:
+        """``model.update(fremen, rows, t_s, values, observed)``, absorbed together with the
+        next windows' (one pass over the accumulators for many windows); flushed when enough
+        is pending and before anything reads or moves FreMEn rows."""
+        if not self.pending.accepts(rows, t_s):
+            self.flush_fremen()
+        self.pending.add(rows, t_s, values, observed)
+        if self.pending.full():
+            self.flush_fremen()
+
+    def flush_fremen(self) -> None:
+        """Absorb the deferred windows now."""
+        calls = self.pending.take()
+        if calls:
+            self.model.update(self.fremen_store, *combine(calls))
 
     @classmethod
     def empty(cls, config: ModelConfig) -> MapState:
@@ -67,8 +98,8 @@ class MapState:
         """New empty entries (and empty FreMEn rows); returns their rows."""
         rows = self.entries.allocate(kind, keys, node_ids, xyz)
         needed = self.entries.capacity * (self.bins + 1)
-        if self.fremen.n_rows < needed:
-            self.fremen.resize(needed)
+        if self.fremen_store.n_rows < needed:  # pending row indices stay valid
+            self.fremen_store.resize(needed)
         return rows
 
     def move(self, src: I64, dst: I64) -> None:
@@ -175,7 +206,7 @@ class MapState:
             state = cls(
                 config=config,
                 entries=entries,
-                fremen=fremen,
+                fremen_store=fremen,
                 nodes=NodeTable.from_arrays(arrays),
                 redirects=Redirects.from_arrays(arrays),
                 observation=ObservationSource.from_arrays(arrays),

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.entries import fremen_rows
 from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.query import historical_table, predict_table
@@ -244,3 +245,56 @@ def test_merge_releases_nodes_the_later_graph_no_longer_has() -> None:
     other = {**meta, "config": cfg.replace(periods=[3600.0]).to_dict()}
     with pytest.raises(MapCorruptError, match="periods"):
         MapState.from_arrays(arrays, other)
+
+
+@pytest.mark.parametrize("limit", [1, 3, 10_000])
+def test_deferred_fremen_windows_give_the_state_of_immediate_updates(
+    limit: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Closed windows wait in ``MapState.pending`` and are absorbed together; flushing after
+    every window (limit 1), every few, or only when something reads the state must give the
+    same map, and a reader never sees a window missing."""
+    from aion_cli.engine import pending
+
+    steps = _log(T0, seed=12, windows=9, move=0.6) + _log(T0 + DAY + 5 * W, seed=13)
+    monkeypatch.setattr(pending, "MAX_PENDING_WINDOWS", 1)
+    immediate = _run(steps).state
+    midway = _run(steps[:8]).state
+    monkeypatch.setattr(pending, "MAX_PENDING_WINDOWS", limit)
+    m = Mapper(CFG)
+    waited = False
+    for step in steps[:8]:
+        step(m)
+        waited |= bool(m.state.pending)  # (reading ``pending`` does not flush)
+    rows = fremen_rows(m.state.entries.live_rows(), CFG.bins).ravel()
+    np.testing.assert_array_equal(m.state.fremen.n[rows], midway.fremen.n[rows])
+    assert not m.state.pending  # reading the state absorbed every waiting window
+    assert midway.fremen.n[rows].sum() > 0
+    for step in steps[8:]:
+        step(m)
+        waited |= bool(m.state.pending)
+    assert waited == (limit > 1)
+    deferred = m.state
+    _assert_same(immediate, deferred)
+
+
+def test_pending_updates_refuse_a_window_given_twice_for_the_same_rows() -> None:
+    from aion_cli.engine.pending import PendingUpdates, combine
+
+    p = PendingUpdates()
+    t = np.array([10.0])
+    one = np.ones((3, 1))
+    p.add(np.array([0, 9, 18]), t, one, one > 0)
+    assert p.accepts(np.array([1, 2, 10]), t)  # other rows, same window: joins
+    assert not p.accepts(np.array([5, 18]), t)  # row 18 again in window 10: flush first
+    assert not p.accepts(np.array([4]), np.array([5.0]))  # an earlier window: flush first
+    p.add(np.array([10, 2, 1]), t, 2 * one, one > 0)  # unsorted rows are fine
+    p.add(np.array([0]), np.array([20.0, 30.0]), np.array([[3.0, 4.0]]), np.array([[True, False]]))
+    rows, times, values, observed = combine(p.take())
+    assert rows.tolist() == [0, 1, 2, 9, 10, 18]
+    assert times.tolist() == [10.0, 20.0, 30.0]
+    assert values[:, 0].tolist() == [1, 2, 2, 1, 2, 1]
+    assert values[0].tolist() == [1, 3, 4]
+    assert observed[0].tolist() == [True, True, False]
+    assert observed[1:, 1:].sum() == 0
+    assert not p
