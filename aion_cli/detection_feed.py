@@ -68,23 +68,33 @@ class DetectionFeeder:
             parts.append(self._to_map_frame(frames))
         if not parts:
             return DetectionBatch.empty()
-        merged = FrameDetections.concat(parts)
-        order = np.argsort(merged.t_ns, kind="stable")
-        return self.headings.to_batch(merged.select(order))
+        merged = parts[0] if len(parts) == 1 else FrameDetections.concat(parts)
+        t = merged.t_ns
+        if t.size > 1 and not bool(np.all(t[1:] >= t[:-1])):  # usually in order already
+            merged = merged.select(np.argsort(t, kind="stable"))
+        return self.headings.to_batch(merged)
 
     def _to_map_frame(self, frames: Any) -> Any:
         """Rows moved into the map frame; rows without a transform are counted and dropped."""
         if len(frames) == 0:
             return frames
         target = self.map_frame
+        if all(name in ("", target) for name in frames.frames):  # nothing to move
+            if frames.frames == (target,):
+                return frames
+            return dataclasses.replace(
+                frames, frame_id=np.zeros(len(frames), np.int64), frames=(target,)
+            )
         xyz = frames.xyz.copy()
         vel = frames.velocity.copy()
         yaw = frames.yaw.copy()
         ok = np.ones(len(frames), dtype=bool)
         for index, name in enumerate(frames.frames):
-            rows = np.flatnonzero(frames.frame_id == index)
-            if len(rows) == 0 or name in ("", target):
+            if name in ("", target):
                 continue  # Hydra's ROS 1 sender leaves frame ids empty: taken as the map frame
+            rows = np.flatnonzero(frames.frame_id == index)
+            if len(rows) == 0:
+                continue
             if self.tf is None:
                 raise TransformError(
                     f"detections are in frame {name!r} but the log has no TF to {target!r}",

@@ -106,6 +106,10 @@ def summary(results: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
             r["build_vs_raw"] <= 2.0)
         add("ingest", "raw message iteration", fmt_si(r["raw_detections_per_s"], "det/s"),
             f"{r['raw_iteration_s']:.1f} s")
+        if "decode_s" in r:
+            add("ingest", "read + decode + map frame (no Mapper)", f"{r['decode_s']:.1f} s",
+                f"{r['decode_vs_raw']:.2f}x raw iteration", "<= 2x raw iteration",
+                r["decode_vs_raw"] <= 2.0)
         add("ingest", "rosbags generic decode (extrapolated)",
             fmt_si(r["rosbags_detections_per_s"], "det/s"),
             f"{r['rosbags_vs_build']:.2f}x build time")

@@ -82,7 +82,10 @@ class HeadingEstimator:
         vxy = v[:, :2]
         vspeed = np.hypot(vxy[:, 0], vxy[:, 1])
         has_vel = np.isfinite(vspeed) & (vspeed > 0.0)
-        heading = np.where(has_vel, np.arctan2(vxy[:, 1], vxy[:, 0]), np.nan)
+        heading = np.full(n, np.nan)
+        moving = np.flatnonzero(has_vel)
+        if moving.size:  # (logs without velocities skip the arctan2 entirely)
+            heading[moving] = np.arctan2(vxy[moving, 1], vxy[moving, 0])
         speed = np.where(has_vel, vspeed, np.nan)
 
         tracked = np.flatnonzero(k >= 0)
@@ -91,7 +94,10 @@ class HeadingEstimator:
             if len(self.ids) > self.prune_above:
                 self._prune(int(t[tracked].max()))
         heading = np.where(np.isnan(heading), y, heading)
-        heading = np.arctan2(np.sin(heading), np.cos(heading))  # wrap yaws moved by TF
+        outside = np.flatnonzero(np.abs(heading) > np.pi)  # yaws moved by TF: wrap them
+        if outside.size:
+            h = heading[outside]
+            heading[outside] = np.arctan2(np.sin(h), np.cos(h))
         return DetectionBatch(t, np.ascontiguousarray(p), heading, speed, k)
 
     # --- internals -------------------------------------------------------------------------------
