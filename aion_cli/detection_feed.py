@@ -149,3 +149,42 @@ def chunks(
                 nbytes = 0
     if chunk:
         yield chunk, None
+
+
+def decoded_chunks(
+    stream: Iterator[tuple[list[RawMessage], RawMessage | None]],
+    feeder: DetectionFeeder,
+    ahead: int = 2,
+) -> Iterator[tuple[DetectionBatch | None, int, RawMessage | None]]:
+    """(decoded batch or None, messages in it, graph message or None) for every item of
+    ``stream`` (see :func:`chunks`), in order, decoding up to ``ahead`` chunks in a worker
+    thread while the caller reads the next messages and feeds the Mapper.
+
+    Decoding is numpy work that mostly releases the GIL, so on two cores reading and decoding
+    overlap. One worker keeps the chunks' order (the heading estimator and the counters are
+    stateful); an error in a chunk is raised here, when its turn comes."""
+    from collections import deque
+    from concurrent.futures import Future, ThreadPoolExecutor
+
+    queue: deque[tuple[Future[DetectionBatch] | None, int, RawMessage | None]] = deque()
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="aion-decode") as pool:
+        try:
+            for chunk, graph_msg in stream:
+                job = pool.submit(feeder.decode, chunk) if chunk else None
+                queue.append((job, len(chunk), graph_msg))
+                while len(queue) > ahead or (queue and queue[0][2] is not None):
+                    # a graph message waits for the detections before it
+                    yield _ready(queue.popleft())
+            while queue:
+                yield _ready(queue.popleft())
+        finally:
+            for job, _, _ in queue:
+                if job is not None:
+                    job.cancel()
+
+
+def _ready(
+    item: tuple[Any, int, RawMessage | None],
+) -> tuple[DetectionBatch | None, int, RawMessage | None]:
+    job, n, graph_msg = item
+    return (None if job is None else job.result()), n, graph_msg

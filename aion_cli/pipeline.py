@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks
+from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks, decoded_chunks
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.errors import (
     ConfigError,
@@ -436,10 +436,10 @@ class _Build:
         self.progress.start("building map", logset.total(topics))
         use_agents = self.report.observation.startswith("scene-graph")
         stream = chunks(logset.messages(topics), graph_topics, self.opts.batch_size)
-        for chunk, graph_msg in stream:
-            if chunk:
-                self._feed(mapper, feeder.decode(chunk))
-                self.progress.advance(len(chunk))
+        for batch, n_messages, graph_msg in decoded_chunks(stream, feeder):
+            if batch is not None:
+                self._feed(mapper, batch)
+                self.progress.advance(n_messages)
             if graph_msg is not None:
                 snapshot = self._decode_graph_or_skip(logset, graph_msg)
                 self.progress.advance(1)

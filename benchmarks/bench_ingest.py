@@ -115,17 +115,17 @@ def _rosbags_decode(path: Path, limit: int | None) -> int:
 
 def _decode(path: Path, chunk: int = 2_000) -> int:
     """Read, decode and move into the map frame every detection, as ``aion build`` does (the
-    production ``DetectionFeeder`` on chunks of raw messages), without the Mapper; returns the
-    detections decoded."""
-    from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks
+    production ``decoded_chunks``: chunks of raw messages decoded by ``DetectionFeeder`` one
+    chunk ahead in a worker thread), without the Mapper; returns the detections decoded."""
+    from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks, decoded_chunks
     from formats.logs import open_logs
 
     n = 0
     with open_logs([path]) as logs:
         feeder = DetectionFeeder(None, "map", DetectionCounts())
-        for msgs, _ in chunks(logs.messages(), set(), chunk):
-            if msgs:
-                n += len(feeder.decode(msgs).t_ns)
+        for batch, _, _ in decoded_chunks(chunks(logs.messages(), set(), chunk), feeder):
+            if batch is not None:
+                n += len(batch.t_ns)
     return n
 
 
