@@ -410,9 +410,16 @@ class Predictor:
             rot = np.exp(-1j * np.multiply.outer(omega, t))  # (K, T): e^{−iω_k t}
             if t.size == 1:
                 out[:, 0] += np.einsum("rm,rm->r", terms, rot[:, 0].take(idx)).real
-            else:
+            elif t.size <= 4:
                 for o in range(idx.shape[1]):
                     out += (terms[:, o, None] * rot.take(idx[:, o], axis=0)).real
+            else:  # many times: scatter the terms into (r, K) and let BLAS do the rest
+                k = rot.shape[0]
+                dense = np.zeros((base.size, k), np.complex128)
+                np.put_along_axis(dense, idx, terms, axis=1)  # a row's periods are distinct
+                out += np.concatenate([dense.real, -dense.imag], axis=1) @ np.concatenate(
+                    [rot.real, rot.imag], axis=0
+                )
         np.clip(out, 0.0, 1.0, out=out)
         return out
 

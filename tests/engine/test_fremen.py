@@ -191,6 +191,8 @@ def test_vectorized_model_equals_plain_loop_on_irregular_data(stride: int) -> No
     for i, lp in enumerate(loops):
         ref = [lp.predict(float(t), int(chosen[i])) for t in t_query]
         np.testing.assert_allclose(pred[i], ref, atol=1e-9)
+    for times in (t_query[:1], t_query[:3]):  # the few-times evaluation paths
+        np.testing.assert_allclose(model.predict(state, times), pred[:, : times.size], atol=1e-12)
     for order in (0, 1, 3, 31):
         pred = model.predict(state, t_query, rows=[1, 2, 3], order=order)
         refs = [[loops[i].predict(float(t), order) for t in t_query] for i in (1, 2, 3)]
