@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy.special import entr
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
@@ -95,9 +96,8 @@ def _from_distribution(
     s = probs @ np.sin(centres)
     concentration = np.where(flowing, np.hypot(c, s), 0.0)
     angle = np.where(flowing, np.arctan2(s, c), np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        plogp = np.where(probs > 0, probs * np.log(probs), 0.0)
-    entropy = np.where(flowing, np.clip(-plogp.sum(axis=1) / np.log(b), 0.0, 1.0), np.nan)
+    h = entr(probs).sum(axis=1)  # −Σ p ln p, with 0 ln 0 = 0, in one pass
+    entropy = np.where(flowing, np.clip(h / np.log(b), 0.0, 1.0), np.nan)
     dominant = np.where(flowing, _argmax_columns(probs), -1).astype(np.int64)
     return Descriptors(
         flow_per_window=flow_per_window,

@@ -939,7 +939,10 @@ class FremenModel:
                     return self.predictor(state, r).evaluate(self.omega, t)
                 pred = self.predictor(state)  # every row's, cached for the next call
             if t.size <= 4 and 2 * r.size >= pred.n_rows:  # outputs are cheaper to gather
-                return pred.evaluate(self.omega, t)[r]
+                out = pred.evaluate(self.omega, t)
+                if r.size == pred.n_rows and bool(np.all(r == np.arange(r.size))):
+                    return out  # every row in order (a loaded map's whole table)
+                return out[r]
             return pred.evaluate(self.omega, t, r)
         if order < 0:
             raise ValueError("order must be >= 0")
@@ -977,6 +980,12 @@ def predict_directions(
         raise ValueError("dir_rows must have shape (E, B)")
     t = np.asarray(t_s, dtype=np.float64).reshape(-1)
     p = model.predict(state, t, rows=d.reshape(-1)).reshape(d.shape[0], d.shape[1], t.size)
+    return normalise_directions(p, floor)
+
+
+def normalise_directions(p: F64, floor: float) -> F64:
+    """Predicted direction fractions float64[E, B, T], in place: floored at ``floor`` and
+    renormalised to sum 1 over the B bins."""
     np.maximum(p, floor, out=p)
     p /= p.sum(axis=1, keepdims=True)
     return p

@@ -26,7 +26,7 @@ import numpy.typing as npt
 from aion_cli.engine import descriptors
 from aion_cli.engine.descriptors import Descriptors
 from aion_cli.engine.entries import CELL, NODE, fremen_rows
-from aion_cli.engine.fremen import predict_directions, to_model_seconds
+from aion_cli.engine.fremen import normalise_directions, to_model_seconds
 from aion_cli.engine.hierarchy import aggregate
 from aion_cli.engine.state import MapState
 from aion_cli.engine.types import F64, U64, GraphSnapshot
@@ -105,8 +105,10 @@ def predict_table(state: MapState, t_ns: int) -> EntryTable:
     rows = state.entries.canonical_order()
     t_s = to_model_seconds(np.array([t_ns], np.int64))
     fr = fremen_rows(rows, cfg.bins)
-    activity = state.model.predict(state.fremen, t_s, rows=fr[:, 0])[:, 0]
-    dirs = predict_directions(state.model, state.fremen, fr[:, 1:], t_s, cfg.direction_floor)
+    b = cfg.bins  # one FreMEn evaluation for the B+1 rows of every entry, then split
+    both = state.model.predict(state.fremen, t_s, rows=fr.ravel()).reshape(len(rows), b + 1, 1)
+    activity = both[:, 0, 0]
+    dirs = normalise_directions(both[:, 1:, :].copy(), cfg.direction_floor)
     flow = descriptors.expected_count(activity, cfg.activity_scale)
     rate = flow[:, None] * dirs[:, :, 0]
     ent = state.entries
