@@ -746,16 +746,21 @@ class FremenModel:
         c, w = vz.shape
         m, m_all, k = self.n_ranked, self.max_order, self.n_periods
         n0 = state.n[r]
+        # rows observed in every window and past their young observations score on a regular
+        # grid (the fast path), whatever the other rows of the block do
+        full = obs.all(axis=1)
+        mature = full & (n0 >= self.full_scoring)
+        young = full & (n0 + w <= self.full_scoring)  # every window scored, weight 1
+        for rows, stride in ((mature, self.score_stride), (young, 1)):
+            if rows.any():
+                self._score_dense_grid(state, r[rows], vz[rows], cos_t, sin_t, stride)
+        rest = ~(mature | young)
+        if not rest.any():
+            return
+        if not rest.all():
+            r, vz, obs, n0 = r[rest], vz[rest], obs[rest], n0[rest]
+            c = r.size
         dense = bool(obs.all())
-        if dense:
-            mature = n0 >= self.full_scoring
-            if mature.all():
-                self._score_dense_mature(state, r, vz, cos_t, sin_t)
-                return
-            if mature.any():
-                self._score_dense_mature(state, r[mature], vz[mature], cos_t, sin_t)
-                r, vz, obs, n0 = r[~mature], vz[~mature], obs[~mature], n0[~mature]
-                c = r.size
         if dense:
             n_pre = n0[:, None] + np.arange(w, dtype=np.float64)[None, :]
             scored = self._scored(n_pre, obs, n0)
@@ -790,14 +795,15 @@ class FremenModel:
         state.order_err[r] += err
         state.order_n[r] += np.bincount(i, weight, minlength=c)
 
-    def _score_dense_mature(
-        self, state: FremenState, r: I64, vz: F64, cos_t: F64, sin_t: F64
+    def _score_dense_grid(
+        self, state: FremenState, r: I64, vz: F64, cos_t: F64, sin_t: F64, stride: int
     ) -> None:
-        """:meth:`_score_rows` for rows observed in every window and past their young
-        observations: row i scores windows j ≡ −n_i (mod k), each weighted k, so the scored
-        observations form a regular (rows × ⌈W/k⌉) grid and need no index search."""
+        """:meth:`_score_rows` for rows observed in every window that are either past their
+        young observations (``stride`` = k: row i scores windows j ≡ −n_i (mod k), each
+        weighted k) or young in every window of the call (``stride`` = 1: all scored, weight
+        1). The scored observations form a regular (rows × ⌈W/stride⌉) grid: no index search."""
         c, w = vz.shape
-        m, m_all, k, stride = self.n_ranked, self.max_order, self.n_periods, self.score_stride
+        m, m_all, k = self.n_ranked, self.max_order, self.n_periods
         slots = -(-w // stride)
         n0 = state.n[r]
         phase = np.fmod(stride - np.fmod(n0, stride), stride).astype(np.int64)

@@ -88,11 +88,12 @@ def combine(calls: list[tuple[I64, F64, F64, BoolA]]) -> tuple[I64, F64, F64, Bo
     for r, _, _, _ in calls:  # a mask over the row space: no sort or hash of every call's rows
         seen[r] = True
     rows = np.flatnonzero(seen)
+    slot = np.cumsum(seen) - 1  # row index -> its position in ``rows`` (no binary search)
     t = np.unique(np.concatenate([c[1] for c in calls]))
     values = np.zeros((rows.size, t.size))
     observed = np.zeros((rows.size, t.size), dtype=bool)
     for r, ts, v, o in calls:
-        ri = np.searchsorted(rows, r)
+        ri = slot[r]
         ti = np.searchsorted(t, ts)
         if ti.size == 1:
             values[ri, ti[0]] = v[:, 0]
