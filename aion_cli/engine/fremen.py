@@ -669,21 +669,13 @@ class FremenModel:
         period indices and [2 Re γ | 2 Im γ] coefficients; components past the admitted ones
         get coefficient 0."""
         m, k = self.n_ranked, self.n_periods
-        n = state.n[rows]
-        has = n > 0
-        n_safe = np.where(has, n, 1.0)
-        mu = state.sum_s[rows] / n_safe
         c = rows.size
         idx = np.zeros((c, m), dtype=np.int64)
         coef = np.zeros((c, 2 * m))
+        has, mu = self._mean(state, rows)
         if m > 0 and c > 0:
-            gamma = np.take(state.sum_e, rows, axis=0)
-            gamma *= -mu[:, None]
-            gamma += np.take(state.sum_se, rows, axis=0)
-            gamma /= n_safe[:, None]
+            gamma, admitted = self._raw_spectrum(state, rows, mu)
             a2 = gamma.real**2 + gamma.imag**2
-            with np.errstate(invalid="ignore"):  # NaN span (never observed): nothing admitted
-                admitted = (state.t_last[rows] - state.t_first[rows])[:, None] >= self.min_span
             np.putmask(a2, ~admitted, -1.0)
             valid = np.empty((c, m), dtype=bool)
             flat = a2.reshape(-1)
@@ -837,17 +829,29 @@ class FremenModel:
             return np.arange(state.n_rows, dtype=np.int64)
         return np.asarray(rows, dtype=np.int64).reshape(-1)
 
-    def _gamma(self, state: FremenState, r: I64) -> tuple[F64, C128]:
-        """Mean μ (PRIOR for unobserved rows) and the gated spectrum γ for rows ``r``."""
+    def _mean(self, state: FremenState, r: I64) -> tuple[BoolA, F64]:
+        """For rows ``r``: observed at all, and the mean Σs/n (0 for a row never observed)."""
         n = state.n[r]
         has = n > 0
-        n_safe = np.where(has, n, 1.0)
-        mu = np.where(has, state.sum_s[r] / n_safe, PRIOR)
-        gamma = (state.sum_se[r] - mu[:, None] * state.sum_e[r]) / n_safe[:, None]
-        with np.errstate(invalid="ignore"):
-            gate = (state.t_last[r] - state.t_first[r])[:, None] >= self.min_span
-        gamma[~(gate & has[:, None])] = 0.0
-        return mu, gamma
+        return has, state.sum_s[r] / np.where(has, n, 1.0)
+
+    def _raw_spectrum(self, state: FremenState, r: I64, mu: F64) -> tuple[C128, BoolA]:
+        """For rows ``r`` with means ``mu`` (see :meth:`_mean`): the spectrum γ before the
+        span gate and the gate's admitted mask (rows × K; nothing for a row never observed)."""
+        gamma = np.take(state.sum_e, r, axis=0)
+        gamma *= -mu[:, None]
+        gamma += np.take(state.sum_se, r, axis=0)
+        gamma /= np.maximum(state.n[r], 1.0)[:, None]
+        with np.errstate(invalid="ignore"):  # NaN span (never observed): nothing admitted
+            admitted = (state.t_last[r] - state.t_first[r])[:, None] >= self.min_span
+        return gamma, admitted
+
+    def _gamma(self, state: FremenState, r: I64) -> tuple[F64, C128]:
+        """Mean μ (PRIOR for unobserved rows) and the gated spectrum γ for rows ``r``."""
+        has, mu = self._mean(state, r)
+        gamma, admitted = self._raw_spectrum(state, r, mu)
+        gamma[~admitted] = 0.0
+        return np.where(has, mu, PRIOR), gamma
 
     def spectrum(self, state: FremenState, rows: npt.ArrayLike | None = None) -> tuple[F64, F64]:
         """(amplitude |γ|, phase arg γ) as float64[r, K]; 0 for periods the span gate rejects."""
