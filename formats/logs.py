@@ -13,6 +13,10 @@ without decompressing them. A truncated or partly corrupt MCAP is read linearly 
 and :attr:`LogSet.warnings` says where reading stopped. The storage files of rosbag2 folders with
 (uncompressed) mcap storage go the same way; ROS 1 bags and sqlite3 or compressed rosbag2 folders
 are read with the rosbags readers.
+
+:meth:`LogSet.recorded_windows` says which time windows the logs recorded anything in, from the
+same indexes (:mod:`formats.recorded`), without reading message payloads where a container
+indexes its messages.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import io
 import re
 import struct
 import zlib
+from array import array
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from operator import attrgetter
@@ -29,11 +34,17 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, TYPE_CHECKING, Any
 
+import numpy as np
+
 from aion_cli.engine.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
+from formats import recorded
 from formats.raw import Encoding, RawMessage, TopicInfo, normalize_msgtype
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
     from rosbags.typesys.store import Typestore
+
+    from formats.recorded import Windows
 
 FORMATS: tuple[str, ...] = ("mcap", "bag", "rosbag2")
 """Values of ``fmt`` / ``--format``."""
@@ -91,6 +102,12 @@ class _Source:
         """This source's messages on ``topics`` (all when None), in log-time order."""
         raise NotImplementedError
 
+    def recorded_windows(self, window_ns: int) -> Windows:
+        """Sorted unique windows ``floor(t / window_ns)`` (``window_ns`` already checked) that
+        hold at least one message of this source, any topic, from its indexes where it has
+        them."""
+        raise NotImplementedError
+
     def close(self) -> None:
         """Release the file handles."""
 
@@ -123,6 +140,9 @@ class _McapSource(_Source):
         )
         self._chunk_indexes: list[Any] | None = None
         self._stop_offset: int | None = None
+        # log times of every message, kept by the linear scan of a file without a usable
+        # summary: recorded_windows then needs no second read (8 bytes per message)
+        self._scanned_times: npt.NDArray[np.int64] | None = None
         self._profile = ""
         channels, schemas, counts, start, end = self._read_summary()
         if channels is None:
@@ -186,17 +206,20 @@ class _McapSource(_Source):
         )
 
     def _scan(self) -> tuple[Any, Any, dict[int, int], int, int]:
-        """Read the whole file linearly to count messages; note where an unreadable record
-        stops the read (truncated or corrupt file)."""
+        """Read the whole file linearly to count messages and keep their log times (for
+        :meth:`recorded_windows`); note where an unreadable record stops the read (truncated
+        or corrupt file)."""
         from mcap.records import Channel, Header, Message, Schema
 
         channels: dict[int, Any] = {}
         schemas: dict[int, Any] = {}
         counts: dict[int, int] = {}
+        times = array("Q")
         start, end, n = 2**63 - 1, 0, 0
         for record in self._linear_records(scanning=True):
             if isinstance(record, Message):
                 counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
+                times.append(record.log_time)
                 start = min(start, record.log_time)
                 end = max(end, record.log_time)
                 n += 1
@@ -206,6 +229,7 @@ class _McapSource(_Source):
                 schemas[record.id] = record
             elif isinstance(record, Header):
                 self._profile = record.profile
+        self._scanned_times = np.frombuffer(times, dtype=np.uint64).astype(np.int64)
         if self._stop_offset is not None:
             self.warnings.append(
                 f"{self.path.name}: truncated or corrupt MCAP: read stopped at byte "
@@ -315,6 +339,72 @@ class _McapSource(_Source):
             if r.channel_id in wanted:
                 topic, msgtype, encoding = channels[r.channel_id]
                 yield RawMessage(topic, msgtype, r.log_time, r.data, encoding)
+
+    # -- recorded windows ------------------------------------------------------------------
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        """From the chunk indexes when the file has a summary: a chunk within one window or
+        two adjacent ones records the windows of its first and last message; only wider chunks
+        need their message times, from their MessageIndex records (a few bytes each; the chunk
+        is decompressed only when it has none or they are damaged). Without a summary, the log
+        times the opening scan kept (read up to the first unreadable record)."""
+        if self._chunk_indexes is None:
+            times = self._scanned_times
+            return recorded.windows_of(times if times is not None else [], window_ns)
+        indexes = self._chunk_indexes
+        n = len(indexes)
+        # uint64 in the file: as int64, like every time in aion
+        starts = np.fromiter((c.message_start_time for c in indexes), np.uint64, n).astype(np.int64)
+        ends = np.fromiter((c.message_end_time for c in indexes), np.uint64, n).astype(np.int64)
+        indexed = np.fromiter((bool(c.message_index_offsets) for c in indexes), np.bool_, n)
+        empty = starts > ends  # some writers mark a chunk without messages so
+        # 0..0 without message indexes: a chunk without messages, or one message at t = 0
+        unsure = ~indexed & (starts == 0) & (ends == 0)
+        read = (recorded.wide_spans(starts, ends, window_ns) | unsure) & ~empty
+        parts = []
+        stop = n
+        with self.path.open("rb") as stream:  # own handle: message iterations may be running
+            for k in np.flatnonzero(read):
+                times = self._chunk_times(stream, indexes[k])
+                if times is None:  # unreadable chunk: like messages(), stop here
+                    stop = int(k)
+                    break
+                parts.append(recorded.windows_of(times, window_ns))
+        ends_only = ~read & ~empty
+        ends_only[stop:] = False
+        parts.append(recorded.end_windows(starts[ends_only], ends[ends_only], window_ns))
+        return recorded.union(parts)
+
+    def _chunk_times(self, stream: IO[bytes], index: Any) -> npt.NDArray[np.int64] | None:
+        """Log times of one chunk's messages: from its MessageIndex records, else from the
+        decompressed chunk; ``None`` (and a warning) when the chunk itself is unreadable."""
+        from mcap.data_stream import ReadDataStream
+        from mcap.records import Chunk
+
+        if index.message_index_offsets and index.message_index_length > 0:
+            base = index.chunk_start_offset + index.chunk_length
+            try:
+                stream.seek(base, io.SEEK_SET)
+                block = stream.read(index.message_index_length)
+                offsets = [off - base for off in index.message_index_offsets.values()]
+                return recorded.message_index_times(block, offsets)
+            except self._errors:
+                pass  # a damaged index does not mean a damaged chunk: read the chunk
+        try:
+            stream.seek(index.chunk_start_offset + 1 + 8, io.SEEK_SET)
+            chunk = Chunk.read(ReadDataStream(stream))
+            buf = _decompress(chunk)
+            if chunk.uncompressed_crc and zlib.crc32(buf) != chunk.uncompressed_crc:
+                raise ValueError("chunk records fail their CRC-32 check")
+            return recorded.record_log_times(buf)
+        except self._errors as exc:
+            warning = (
+                f"{self.path.name}: corrupt chunk at byte {index.chunk_start_offset} ({exc}); "
+                "no recorded window is taken from it or from later chunks"
+            )
+            if warning not in self.warnings:  # once, however often windows are asked for
+                self.warnings.append(warning)
+            return None
 
     def close(self) -> None:
         self._stream.close()
@@ -476,6 +566,48 @@ class _RosbagsSource(_Source):
                 f"{self.path}: cannot read messages ({exc})",
                 hint="the log may be corrupt; for ROS 1 bags try `rosbag reindex`",
             ) from exc
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        """ROS 1 bags: the message times of the index rosbags loaded at open (no chunk is
+        read). rosbag2 folders: per storage file, SQLite computes the windows over the indexed
+        ``timestamp`` column; mcap storage files read here (compressed bags) give their times
+        through the rosbags storage reader, which never decompresses message payloads."""
+        try:
+            if self.file.format == "bag":
+                return self._bag_windows(window_ns)
+            return self._rosbag2_windows(window_ns)
+        except LogFormatError:
+            raise
+        except Exception as exc:  # rosbags, apsw / sqlite3 and struct errors
+            raise LogFormatError(
+                f"{self.path}: cannot read message times ({exc})",
+                hint="the log may be corrupt; for ROS 1 bags try `rosbag reindex`",
+            ) from exc
+
+    def _bag_windows(self, window_ns: int) -> Windows:
+        indexes = getattr(self._reader, "indexes", None)
+        if isinstance(indexes, dict):
+            return recorded.windows_of(recorded.rosbag1_index_times(indexes), window_ns)
+        # a rosbags version without the loaded index: read the messages for their times
+        return recorded.windows_of(recorded.times_of(self._reader.messages()), window_ns)
+
+    def _rosbag2_windows(self, window_ns: int) -> Windows:
+        storages = getattr(self._reader.storage, "storages", None)
+        if not isinstance(storages, list):
+            return recorded.windows_of(
+                recorded.times_of(self._reader.messages(self._reader.connections)), window_ns
+            )
+        parts = []
+        for storage in storages:
+            # rosbags decompressed file-compressed storage at open, and message compression
+            # leaves the timestamps alone: the sqlite3 query holds for every bag
+            db = getattr(storage, "dbconn", None)
+            if db is not None:
+                parts.append(recorded.sqlite_windows(db, window_ns))
+            else:
+                times = recorded.times_of(storage.messages(storage.connections))
+                parts.append(recorded.windows_of(times, window_ns))
+        return recorded.union(parts)
 
     def close(self) -> None:
         self._reader.close()
@@ -676,6 +808,26 @@ class LogSet:
         if len(streams) == 1:
             return streams[0]
         return heapq.merge(*streams, key=attrgetter("log_time_ns"))
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        """Sorted unique window indices ``floor(t / window_ns)`` holding at least one message
+        (any topic, any file of the set, log time).
+
+        What a fixed sensor observed: the windows in which it recorded something, never the
+        time between two recordings within a file or between files. Read from the containers'
+        indexes without message payloads where they have them (MCAP summaries, ROS 1 bag
+        indexes, rosbag2 sqlite3); :class:`ConfigError` for a window that is not a positive
+        number of nanoseconds.
+        """
+        return recorded.union(w for _, w in self.recorded_windows_by_file(window_ns))
+
+    def recorded_windows_by_file(self, window_ns: int) -> list[tuple[LogFile, Windows]]:
+        """:meth:`recorded_windows` of each entry of :attr:`files`, in the same order (a rosbag2
+        folder is one entry; its mcap storage files are one entry each)."""
+        if self._closed:
+            raise ValueError("recorded_windows() on a closed LogSet")
+        size = recorded.window_size(window_ns)
+        return [(s.file, s.recorded_windows(size)) for s in self._sources]
 
     def decode(self, msg: RawMessage) -> Any:
         """``msg`` as a rosbags message object, decoded with the definition the log embeds for
