@@ -39,8 +39,11 @@ class LoadedMap:
         return iter((self.state, self.graph, self.manifest))
 
 
-def load_map(path: Path) -> LoadedMap:
-    """Read ``path`` (checksums and version checked) into a :class:`LoadedMap`."""
+def load_map(path: Path, writable: bool = False) -> LoadedMap:
+    """Read ``path`` (checksums and version checked) into a :class:`LoadedMap`.
+
+    ``writable``: the state will be continued and saved (``aion build --map``); otherwise
+    queries may fold the map's pending day into its accumulators in place."""
     from aion_cli.engine.state import MapState
     from formats.mapfile import read_map
 
@@ -52,7 +55,7 @@ def load_map(path: Path) -> LoadedMap:
     meta = manifest.get("state")
     if not isinstance(meta, dict):
         raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
-    state = MapState.from_arrays(arrays, meta)
+    state = MapState.from_arrays(arrays, meta, writable=writable)
     return LoadedMap(state, _latest_graph(state), manifest)
 
 
@@ -69,7 +72,7 @@ def state_counts(state: MapState) -> dict[str, int]:
     (the most any entry has seen) of a state, for summaries."""
     entries = state.entries
     live = entries.live_rows()
-    observed = entries.windows_observed[live]
+    observed = state.windows_observed(live)
     return {
         "cells": len(entries.cell_rows()),
         "nodes": 0 if state.graph is None else len(state.graph.places),
@@ -125,9 +128,9 @@ def planning_config(loaded: LoadedMap) -> ModelConfig:
 def node_cost_fn(loaded: LoadedMap, node_ids: np.ndarray) -> Any:
     """``node_cost(t_s)`` for ``engine.planning.plan``: predicted descriptors of the nodes at
     model time ``t_s`` (nodes without an entry have no flow)."""
-    from aion_cli.engine.fremen import EPOCH_NS
     from aion_cli.engine.planning import NodeCosts
     from aion_cli.engine.query import predict_table
+    from aion_cli.engine.windows import EPOCH_NS
 
     def cost(t_s: float) -> NodeCosts:
         table = predict_table(loaded.state, EPOCH_NS + round(t_s * 1e9))

@@ -8,7 +8,8 @@ No click here: the CLI hands over :class:`BuildOptions` and a :class:`ProgressSi
    topic(s) (``hydra_msgs/DsgUpdate``), ``/tf`` and ``/tf_static``;
 2. read TF first (small) into a ``TfBuffer``; the observation mask comes from the robot
    trajectory ``map -> base_link``, else from the scene graph's agent layer, else the log is
-   treated as a fixed sensor over its time span (the report says which);
+   treated as a fixed sensor over the windows in which it recorded any message (the report
+   says which);
 3. with ``--derive-graph`` and no scene graph, one extra pass counts where people walk and
    :mod:`aion_cli.derive_graph` turns that into a navigational graph;
 4. stream detection and scene-graph messages in log-time order: detection messages are
@@ -248,14 +249,31 @@ class _Build:
         self._first_graph_error: MessageDecodeError | None = None
 
     def config(self) -> ModelConfig:
+        """The model config: ``--config`` (or the defaults) with ``--tz`` as its time zone
+        for a new map; the map's own for a continued one (which neither may change)."""
         given = self.opts.config
+        zone = self.opts.timezone
         if self.previous is None:
-            return given or ModelConfig()
+            config = given or ModelConfig()
+            if zone is None or zone == config.timezone:
+                return config
+            if given is not None and given.timezone != ModelConfig().timezone:
+                raise ConfigError(
+                    f"--tz {zone} differs from the config's timezone {given.timezone}",
+                    hint="give the zone once, with --tz or in the config file",
+                )
+            return config.replace(timezone=zone)
         old = self.previous.config
         if given is not None and given != old:
             raise ConfigError(
                 "--config differs from the config the map was built with",
                 hint="a map keeps its model parameters; build a new map to change them",
+            )
+        if zone is not None and zone != old.timezone:
+            raise ConfigError(
+                f"the map's days and profiles follow the time zone {old.timezone}; "
+                f"--tz {zone} differs",
+                hint="a map keeps its time zone; build a new map to change it",
             )
         return old
 
@@ -282,7 +300,7 @@ class _Build:
 
         opts = self.opts
         if opts.continue_from is not None:
-            self.previous = load_map(opts.continue_from)
+            self.previous = load_map(opts.continue_from, writable=True)
             self.report.continued = True
         config = self.config()
         inputs = self._inputs()
@@ -361,11 +379,11 @@ class _Build:
         elif plan.graph and self.opts.graph_file is None and self._graph_has_agents(logset, plan):
             self.report.observation = "scene-graph agent layer"  # fed per snapshot
         else:
-            _fixed_sensor_per_file(mapper, logset)
-            self.report.observation = "fixed sensor over the log's time span"
+            self.report.observation = _fixed_sensor_windows(mapper, logset)
             self.report.notes.append(
                 "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
-                "treated as a fixed sensor that saw everything over its time span"
+                "treated as a fixed sensor that saw everything in the windows in which it "
+                "recorded any message"
             )
 
     def _graph_has_agents(self, logset: Any, plan: TopicPlan) -> bool:
@@ -460,8 +478,7 @@ class _Build:
                 "log times were used"
             )
         if use_agents and self.report.graph_messages == 0:
-            _fixed_sensor_per_file(mapper, logset)
-            self.report.observation = "fixed sensor over the log's time span"
+            self.report.observation = _fixed_sensor_windows(mapper, logset)
 
     def _add_agent_poses(self, mapper: Mapper, agents: Trajectory | None) -> None:
         """Feed the robot poses of a snapshot's agent layer that are newer than those fed
@@ -559,11 +576,8 @@ class _Build:
             "graph_source": self.report.graph_source,
             "observation": self.report.observation,
         }
-        zone = self.opts.timezone or (
-            self.previous.manifest.get("timezone") if self.previous is not None else None
-        )
-        if zone:
-            manifest["timezone"] = zone  # the default zone of predict / plan / export
+        manifest["timezone"] = config.timezone  # the default zone of predict / plan / export
+        manifest["families"] = state.family_summary()
         out = self.report.output
         write_map(out, arrays, manifest, lock=False)  # run() holds the lock
         self.report.map_bytes = out.stat().st_size
@@ -589,9 +603,20 @@ def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> Build
     return _Build(opts, progress or _NoProgress()).run()
 
 
-def _fixed_sensor_per_file(mapper: Mapper, logset: Any) -> None:
-    """A fixed sensor observes each file's own time span, not the gaps between files, so
-    ``build A B`` records the same empty windows as ``build A`` then ``build --map B``."""
-    for file in logset.files:
-        if file.end_ns >= file.start_ns and file.message_count > 0:
-            mapper.set_fixed_sensor(int(file.start_ns), int(file.end_ns) + 1)
+def _fixed_sensor_windows(mapper: Mapper, logset: Any) -> str:
+    """A fixed sensor observes exactly the windows in which the logs recorded something (any
+    message on any topic) — never the time between two recordings, within one file or across
+    files — so ``build A B`` records the same empty windows as ``build A`` then ``--map B``.
+    Returns the report's description of the observation."""
+    from aion_cli.engine.windows import window_ns
+
+    delta = window_ns(mapper.state.config.window_s)
+    windows = logset.recorded_windows(delta)
+    mapper.set_fixed_windows(windows)
+    if len(windows) == 0:
+        return "fixed sensor (no message recorded)"
+    span = int(windows[-1] - windows[0] + 1)
+    return (
+        f"fixed sensor over the {len(windows):,} windows with messages "
+        f"({len(windows) * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
+    )

@@ -12,8 +12,11 @@ Two regimes, in batches of 10^5 detections (what the build hands over):
 * **one window** (10^6 and 10^7 detections): all timed detections fall into the open window:
   the pure hot path;
 * **24 windows** (10^6 detections): the detections span 4 h, so a window closes every ~4·10^4
-  detections (bind check, FreMEn update of every entry's activity and direction rows): the
-  real build loop, whose time is dominated by the window closes.
+  detections (bind check, the window's observation and counts recorded into the pending day;
+  the 4 h cross midnight UTC, so a day is closed: scored against the model before it and
+  absorbed by the temporal model): the real build loop, whose time is dominated by the window
+  closes. The pending day left at the end is closed inside the timing too
+  (``MapState.close_day``), so no recorded window escapes it.
 
 Baselines in the same process: ``np.bincount`` over the precomputed flat ``row·B + bin``
 indices (the accumulation alone, the floor) and a per-detection Python dict loop (floor, bin,
@@ -22,20 +25,24 @@ dict lookup of the cell, counter increment) timed on 10^5 detections and extrapo
 Queries (:func:`run_queries`), on a built map.
 
 The map has ~10^5 entries: one window of detections spread uniformly over a 165 m x 165 m
-square (~1.1·10^5 cells of 0.5 m, ~99 % hit) gives the entries; their FreMEn rows are then
-replaced by two weeks of 10-minute history (``bench_fremen.history_state``: 64 activity-like
-template rows tiled), so every period is admitted and chosen orders go up to 4, as in a
-mature map. The map is written with ``formats.mapfile.write_map`` to ``benchmarks/_work``.
+square (~1.1·10^5 cells of 0.5 m, ~99 % hit) gives the entries; their temporal accumulators
+are then given two weeks of 10-minute fixed-sensor history before that window
+(``bench_temporal.history_state``: 64 template entries learned day by day, with counts in
+~20 % of the windows, tiled), so every period of a week or shorter is admitted and the
+families have day-ahead scores, as in a mature map. The map is written with
+``formats.mapfile.write_map`` to ``benchmarks/_work``.
 
 Timed (best of k, same process):
 
 * **map load**: ``pipeline.load_map`` (read_map with checksums + ``MapState.from_arrays``),
   ratio to a plain ``np.load`` of the same arrays from an uncompressed ``.npz``;
-* **predict, one time**: ``engine.query.predict_table`` over the whole map, ratio to the bare
-  FreMEn predictions it contains (activity rows + ``predict_directions``);
+* **predict, one time**: the first ``engine.query.predict_table`` after loading (it prepares
+  the forecasts: the pending day absorbed, ``Predictor.of``), then ``predict_table`` with the
+  forecasts prepared (best of k), ratio to the bare model evaluation it contains
+  (``Predictor.at``);
 * **predict, 100 times**: ``predict_table`` (one time per call: 3 calls timed, extrapolated to
-  100), and the batched FreMEn predictions of every row at 100 times in one call per
-  10^4-entry block;
+  100), and the batched predictions of every entry at 100 times (``Predictor.pairs``, all
+  entries x 10 times per call);
 * **plan** on a 10^5-node grid: ``bench_queries_plan.bench_plan`` (ratio to scipy Dijkstra);
 * **export** of 10^4 nodes (+ edges) with ``formats.export.export_scene`` (PLY).
 """
@@ -92,7 +99,7 @@ def warm_mapper(config: ModelConfig, extent: float = EXTENT, spacing: float = SP
     if graph:
         mapper.add_graph(campus_graph(T0_NS - WINDOW_NS + 60 * 10**9, extent, spacing))
     mapper.advance(T0_NS)
-    mapper.state.flush_fremen()  # the warm-up window's FreMEn update is not measured
+    mapper.state.close_day()  # the warm-up window's day is learned outside the timing
     return mapper
 
 
@@ -134,7 +141,7 @@ def measure(n: int, windows: int, repeats: int) -> dict[str, Any]:
         t0 = time.perf_counter()
         for b in data:
             mapper.add_detections(b)
-        mapper.state.flush_fremen()  # closed windows waiting for FreMEn count too
+        mapper.state.close_day()  # the closed windows of the pending day are learned too
         best = min(best, time.perf_counter() - t0)
     assert mapper is not None
     st = mapper.state
@@ -182,11 +189,12 @@ def run(sizes: tuple[int, ...] = (10**6, 10**7), repeats: int = 2,
 # -- queries on a built map ----------------------------------------------------------------------
 
 def build_state(n_entries: int) -> Any:
-    """A MapState with ~``n_entries`` cell entries and two weeks of FreMEn history."""
+    """A MapState with ~``n_entries`` cell entries, two weeks of temporal history before its
+    one window (which stays in the pending day, as at the end of a build)."""
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.mapper import Mapper
     from aion_cli.engine.types import DetectionBatch
-    from benchmarks.bench_fremen import history_state
+    from benchmarks.bench_temporal import HISTORY_DAYS, Traffic, history_state
 
     config = ModelConfig()
     side = float(np.sqrt(n_entries / 0.99)) * config.cell_size
@@ -200,8 +208,11 @@ def build_state(n_entries: int) -> Any:
                                          np.full(n, 1.2), np.full(n, -1, np.int64)))
     mapper.advance(T0_NS + 600 * 10**9)
     state = mapper.state
-    hist, _ = history_state(state.model, 64)
-    state.fremen = hist.take(np.arange(state.fremen.n_rows) % 64)
+    day_ns = 86_400 * 10**9
+    start = T0_NS // day_ns * day_ns - HISTORY_DAYS * day_ns  # the 14 days before T0's day
+    live = state.entries.live_rows()
+    state.temporal = history_state(state.params, Traffic.make(config.bins),
+                                   state.temporal.n_rows, live, start)
     return state
 
 
@@ -231,8 +242,6 @@ def bench_load_predict(n_entries: int, repeats: int, n_times: int = 100,
     ~``n_entries`` map. ``predict_table`` takes one time per call: it is called
     ``table_calls`` times and the cost of ``n_times`` calls extrapolated (each call does the
     same work), which keeps ``make bench`` within its time budget."""
-    from aion_cli.engine.entries import fremen_rows
-    from aion_cli.engine.fremen import predict_directions, to_model_seconds
     from aion_cli.engine.query import predict_table
     from formats.mapfile import read_map
 
@@ -253,30 +262,26 @@ def bench_load_predict(n_entries: int, repeats: int, n_times: int = 100,
     st = loaded.state
     entries = len(st.entries.live_rows())
     t_ns = T0_NS + 15 * 86400 * 10**9
+    t0 = time.perf_counter()
+    predict_table(st, t_ns)  # prepares the forecasts (pending day, Predictor.of), cached
+    first_s = time.perf_counter() - t0
     table_s = best_of(lambda: predict_table(st, t_ns), repeats)
-    model, cfg = st.model, st.config
-    rows = st.entries.canonical_order()
-    fr = fremen_rows(rows, cfg.bins)
-    t1 = to_model_seconds(np.array([t_ns], np.int64))
-
-    def bare() -> None:
-        model.predict(st.fremen, t1, rows=fr[:, 0])
-        predict_directions(model, st.fremen, fr[:, 1:], t1, cfg.direction_floor)
-
-    bare_s = best_of(bare, repeats)
+    rows, predictor = st.predictor()
+    bare_s = best_of(lambda: predictor.at(t_ns), repeats)
     times = t_ns + np.arange(n_times, dtype=np.int64) * 600 * 10**9
     calls = min(n_times, table_calls)
     t0 = time.perf_counter()
     for tq in times[:calls].tolist():
         predict_table(st, tq)
     loop100_s = (time.perf_counter() - t0) * n_times / calls  # extrapolated to n_times calls
-    t100 = to_model_seconds(times)
+    n = len(rows)
+    everyone = np.arange(n, dtype=np.int64)
+    per_call = 10
 
     def batched() -> None:
-        for a in range(0, len(rows), 10_000):
-            f = fr[a : a + 10_000]
-            model.predict(st.fremen, t100, rows=f[:, 0])
-            predict_directions(model, st.fremen, f[:, 1:], t100, cfg.direction_floor)
+        for a in range(0, n_times, per_call):
+            chunk = times[a : a + per_call]
+            predictor.pairs(np.tile(everyone, chunk.size), np.repeat(chunk, n))
 
     batch_s = best_of(batched, 1)
     size = path.stat().st_size
@@ -285,12 +290,14 @@ def bench_load_predict(n_entries: int, repeats: int, n_times: int = 100,
     return [
         {"name": "map load", "seconds": load_s, "entries": entries, "map_file_bytes": size,
          "vs_npz_load": load_s / npz_s},
+        {"name": "first predict_table (prepares forecasts)", "seconds": first_s,
+         "entries": entries, "vs_prepared_table": first_s / table_s},
         {"name": "predict_table, 1 time", "seconds": table_s, "entries": entries,
-         "vs_bare_fremen": table_s / bare_s, "bare_fremen_s": bare_s},
+         "vs_bare_predictor": table_s / bare_s, "bare_predictor_s": bare_s},
         {"name": f"predict_table x {n_times} times", "seconds": loop100_s, "entries": entries,
          "per_time_s": loop100_s / n_times, "calls_timed": calls, "extrapolated": calls < n_times},
-        {"name": f"batched FreMEn, {n_times} times", "seconds": batch_s, "entries": entries,
-         "predictions_per_s": len(rows) * (cfg.bins + 1) * n_times / batch_s,
+        {"name": f"batched Predictor.pairs, {n_times} times", "seconds": batch_s,
+         "entries": entries, "predictions_per_s": n * n_times / batch_s,
          "vs_table_loop": loop100_s / batch_s},
     ]
 

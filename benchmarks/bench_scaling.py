@@ -9,12 +9,13 @@ other's high-water marks.
   window: time should be linear (slope ~1) and memory flat (entries do not grow; batches are
   streamed).
 * **entries** (10^3 .. 3·10^5): 10^6 detections uniform over a square sized for that many 0.5 m
-  cells, over two windows, so one window close (a FreMEn update of every entry's B+1 rows) is
-  included: memory should be linear in entries (~10 KB each: B+1 FreMEn rows of 31 complex
-  pairs), time ~flat until the per-entry window close dominates. 10^6 entries would need
-  ~10 GB for FreMEn state alone (and ~100 s of first-touch page faults on this VM), which does
-  not fit next to the other engineers' jobs on this 23 GB machine: the slope is fitted on the
-  measured points and the 10^6 point extrapolated from it.
+  cells, over two windows, so one window close is included, and the pending day it joins is
+  closed too (``MapState.close_day``: the temporal model absorbs it; there is no earlier day to
+  score it against): memory should be linear in entries (~8 KB each of temporal accumulators:
+  V = B + 1 value bins x 31 complex Fourier sums and x 48 profile bins), time ~flat until the
+  per-entry work dominates. 10^6 entries would need ~8 GB for the accumulators alone (and ~80 s
+  of first-touch page faults on this VM), which does not fit next to the other engineers' jobs
+  on this 23 GB machine: the slope is fitted on the measured points.
 
 The log-log slope of each series is fitted with ``np.polyfit``; a PNG with both panels is
 written (matplotlib, Agg backend).
@@ -78,7 +79,7 @@ def entries_child(entries: int, n: int) -> dict[str, Any]:
         seconds += time.perf_counter() - t0
     t0 = time.perf_counter()
     mapper.advance(T0_NS + 2 * WINDOW_NS)
-    mapper.state.flush_fremen()  # the closed window's FreMEn update (deferred until read)
+    mapper.state.close_day()  # the pending day holding the closed windows is learned too
     seconds += time.perf_counter() - t0
     return {"entries": len(mapper.state.entries.live_rows()), "detections": n,
             "seconds": seconds}

@@ -5,8 +5,9 @@ target, met/missed) and writes every raw result plus the machine (CPU, cores, RA
 numpy, load average, date) to ``benchmarks/results.json``.
 
 Sections (``--only NAME``, repeatable): ``ingest`` (bench_ingest: ``aion build`` on a 5 M
-detection log vs raw iteration and rosbags decoding), ``fremen`` (bench_fremen), ``engine``
-(bench_engine: ``Mapper.add_detections``), ``memory`` (bench_memory: aion vs dense grid),
+detection log vs raw iteration and rosbags decoding), ``temporal`` (bench_temporal: the
+temporal model's learning and prediction throughput), ``engine`` (bench_engine:
+``Mapper.add_detections``), ``memory`` (bench_memory: aion vs dense grid),
 ``queries`` (bench_engine.run_queries: load, predict, plan, export), ``scaling``
 (bench_scaling, writes ``scaling.png``).
 
@@ -28,7 +29,7 @@ from typing import Any
 
 from benchmarks.common import ROOT, WORK, fmt_si, machine_info
 
-SECTIONS = ("ingest", "fremen", "engine", "memory", "queries", "scaling")
+SECTIONS = ("ingest", "temporal", "engine", "memory", "queries", "scaling")
 RESULTS = ROOT / "benchmarks" / "results.json"
 
 
@@ -40,10 +41,10 @@ def _ingest(quick: bool) -> list[dict[str, Any]]:
     return bench_ingest.run(detections=5_000_000, repeats=1, rosbags_messages=20_000)
 
 
-def _fremen(quick: bool) -> list[dict[str, Any]]:
-    from benchmarks import bench_fremen
+def _temporal(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_temporal
 
-    return bench_fremen.run(sizes=(10**3,) if quick else (10**3, 10**4, 10**5, 10**6))
+    return bench_temporal.run(sizes=(10**3,) if quick else (10**3, 10**4, 10**5, 10**6))
 
 
 def _engine(quick: bool) -> list[dict[str, Any]]:
@@ -80,7 +81,7 @@ def _scaling(quick: bool) -> list[dict[str, Any]]:
 
 
 RUNNERS: dict[str, Callable[[bool], list[dict[str, Any]]]] = {
-    "ingest": _ingest, "fremen": _fremen, "engine": _engine, "memory": _memory,
+    "ingest": _ingest, "temporal": _temporal, "engine": _engine, "memory": _memory,
     "queries": _queries, "scaling": _scaling,
 }
 
@@ -113,14 +114,19 @@ def summary(results: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
         add("ingest", "rosbags generic decode (extrapolated)",
             fmt_si(r["rosbags_detections_per_s"], "det/s"),
             f"{r['rosbags_vs_build']:.2f}x build time")
-    fremen = results.get("fremen", [])
-    if fremen:
-        top = max(fremen, key=lambda r: r["states"])
-        add("fremen", f"updates/s, {top['states']:,} states",
-            fmt_si(top["updates_per_s"]), f"{top['update_vs_loop']:.0f}x loop",
-            ">= 20 M/s", top["updates_per_s"] >= 20e6)
-        add("fremen", f"predictions/s, {top['states']:,} states",
-            fmt_si(top["predictions_per_s"]), f"{top['predict_vs_loop']:.0f}x loop",
+    temporal = results.get("temporal", [])
+    if temporal:
+        top = max(temporal, key=lambda r: r["entries"])
+        size = f"{top['entries']:,} entries ({top['timed_entries']:,} timed)"
+        add("temporal", f"learn updates/s (entry·value-bin, window), {size}",
+            fmt_si(top["updates_per_s"]),
+            f"{top['learn_vs_loop']:.1f}x absorb loop", ">= 20 M/s",
+            top["updates_per_s"] >= 20e6)
+        add("temporal", f"absorb-only updates/s, {size}",
+            fmt_si(top["absorb_updates_per_s"]), f"{top['absorb_vs_loop']:.1f}x absorb loop")
+        add("temporal", f"Predictor.at predictions/s, {size}",
+            fmt_si(top["predictions_per_s"]),
+            f"{top['predict_vs_loop']:.1f}x flow loop; Predictor.of {top['predictor_of_s']:.2f} s",
             ">= 20 M/s", top["predictions_per_s"] >= 20e6)
     for r in results.get("engine", []):
         target = r["windows"] == 1
@@ -145,9 +151,10 @@ def summary(results: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
             (r["ratio_dense_over_aion_peak"] >= 20) if campus_graph else None)
     q = results.get("queries", [])
     for prefix, target, limit in (("map load", "", None),
+                                  ("first predict_table", "", None),
                                   ("predict_table, 1 time", "< 50 ms", 0.05),
                                   ("predict_table x", "", None),
-                                  ("batched FreMEn", "", None),
+                                  ("batched Predictor.pairs", "", None),
                                   ("plan temporal corner-corner", "< 1 s", 1.0),
                                   ("plan distance-only", "", None),
                                   ("export", "", None)):

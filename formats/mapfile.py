@@ -47,7 +47,7 @@ from aion_cli.engine.errors import (
 )
 
 MAP_FORMAT = "aion-map"
-MAP_VERSION = (1, 0)
+MAP_VERSION = (2, 0)
 MANIFEST_NAME = "manifest.json"
 MEMBER_SUFFIX = ".npy"
 

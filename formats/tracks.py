@@ -10,11 +10,17 @@ Layouts (``../shared/data/README.md``):
 - ``eth`` / ``ucy``: whitespace-separated ``frame ped_id x y`` (the common ETH/UCY text format:
   25 fps frame numbers, a sample every 10 frames = 2.5 Hz); heading and speed are estimated by
   differencing each track (central where possible).
+- ``lincoln``: the L-CAS corridor detections (UNIX seconds, no ids), every variant of the
+  files told apart by content (:func:`read_lincoln`); the detections are linked into tracks by
+  :mod:`aion_cli.engine.tracking` (pure numpy, like the differencing the ETH reader uses).
 
 Files are parsed with ``np.loadtxt`` (C speed: ATC's ~500k rows in well under a second). Only
 when that fails is the file re-scanned line by line, to name the first bad line exactly.
-:func:`tracks_to_log` turns a batch (plus optionally a Hydra graph) into an MCAP or bag that
-``aion build`` reads like any robot log.
+:func:`read_track_data` also returns when the sensor was recording (:class:`TrackData`: the
+spans a file declares); :func:`sessions` finds recording sessions in header-less files.
+:func:`tracks_to_log` turns a batch (plus optionally a Hydra graph and the observed spans,
+written as empty detection messages) into an MCAP or bag that ``aion build`` reads like any
+robot log.
 """
 
 from __future__ import annotations
@@ -22,20 +28,25 @@ from __future__ import annotations
 import math
 import struct
 import warnings
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.errors import InputError
+from aion_cli.engine.tracking import difference_tracks
 from aion_cli.engine.types import F64, I64, BoolA, DetectionBatch
 
+if TYPE_CHECKING:
+    from aion_cli.engine.tracking import LinkerConfig
+
 CANONICAL_HEADER = "t_ns,track_id,x,y,z,heading_rad,speed_mps"
-Layout = Literal["canonical", "atc", "thor", "eth", "ucy"]
-LAYOUTS: tuple[str, ...] = ("canonical", "atc", "thor", "eth", "ucy")
+Layout = Literal["canonical", "atc", "thor", "eth", "ucy", "lincoln"]
+LAYOUTS: tuple[str, ...] = ("canonical", "atc", "thor", "eth", "ucy", "lincoln")
 
 #: columns of the header-less ATC / THÖR files
 ATC_COLUMNS = ("time_s", "person_id", "x_m", "y_m", "speed_mps", "motion_angle_rad")
@@ -49,13 +60,27 @@ class TracksFormatError(InputError):
 
 @dataclass(frozen=True)
 class _Spec:
-    """How to parse one layout: column names, which must be integers or finite, delimiter."""
+    """How to parse one layout: column names, which must be integers or finite, delimiter,
+    a fixed header line or a number of header lines to skip, and columns that are not read
+    (undocumented or constant ones, which may even be text)."""
 
     columns: tuple[str, ...]
     int_columns: frozenset[int]
     finite_columns: frozenset[int]
     delimiter: str | None
     header: str | None
+    header_lines: int = 0
+    ignored_columns: frozenset[int] = frozenset()
+
+    @property
+    def skip(self) -> int:
+        """Lines before the data."""
+        return 1 if self.header is not None else self.header_lines
+
+    @property
+    def used(self) -> tuple[int, ...]:
+        """Columns that are read."""
+        return tuple(k for k in range(len(self.columns)) if k not in self.ignored_columns)
 
 
 _SPECS: dict[str, _Spec] = {
@@ -78,7 +103,7 @@ def _data_lines(path: Path, spec: _Spec) -> Iterator[tuple[int, list[str]]]:
     """(line number, fields) of every data line, as np.loadtxt sees them."""
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
         for lineno, raw in enumerate(fh, start=1):
-            if spec.header is not None and lineno == 1:
+            if lineno <= spec.skip:
                 continue
             line = raw.split("#", 1)[0].strip()
             if line:
@@ -94,6 +119,8 @@ def _first_problem(path: Path, spec: _Spec) -> str | None:
                 f"({', '.join(spec.columns)}), got {len(fields)}"
             )
         for k, text in enumerate(fields):
+            if k in spec.ignored_columns:
+                continue
             try:
                 value = float(text)
             except ValueError:
@@ -143,7 +170,8 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Lit
                 path,
                 dtype=dtype,
                 delimiter=spec.delimiter,
-                skiprows=1 if spec.header else 0,
+                skiprows=spec.skip,
+                usecols=spec.used if spec.ignored_columns else None,
                 ndmin=ndmin,
                 encoding="utf-8-sig",
             )
@@ -155,10 +183,14 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Lit
 
 
 def _plain_columns(path: Path, spec: _Spec, layout: str) -> F64:
+    """The read columns (``spec.used``) of a header-less numeric layout, checked."""
     data = _load(path, spec, layout, np.float64, ndmin=2)
-    if data.shape[1] != len(spec.columns):
+    if data.shape[1] != len(spec.used):
         raise _fail(path, spec, layout, f"expected {len(spec.columns)} columns")
     arr: F64 = data
+    if spec.ignored_columns:
+        arr = np.zeros((len(data), len(spec.columns)))
+        arr[:, list(spec.used)] = data  # ignored columns stay 0
     bad = ~np.isfinite(arr[:, sorted(spec.finite_columns)]).all(axis=1)
     ints = arr[:, sorted(spec.int_columns)]
     if bad.any() or (ints != np.round(ints)).any():
@@ -209,28 +241,9 @@ def finite_difference(t_ns: I64, track_id: I64, xy: F64) -> tuple[F64, F64]:
 
     Central difference between the previous and next sample of the same track, one-sided at a
     track's ends; NaN for single-sample tracks or zero time steps. Vectorized over all rows.
+    (:func:`aion_cli.engine.tracking.difference_tracks` with ``min_step = 0``.)
     """
-    n = len(t_ns)
-    order = np.lexsort((t_ns, track_id))
-    tid = track_id[order]
-    same_prev = np.zeros(n, dtype=bool)
-    same_prev[1:] = tid[1:] == tid[:-1]
-    same_next = np.zeros(n, dtype=bool)
-    same_next[:-1] = same_prev[1:]
-    idx = np.arange(n)
-    prev = np.where(same_prev, idx - 1, idx)
-    nxt = np.where(same_next, idx + 1, idx)
-    ts = t_ns[order]
-    p = xy[order]
-    dt = (ts[nxt] - ts[prev]).astype(np.float64) * 1e-9
-    with np.errstate(invalid="ignore", divide="ignore"):
-        v = (p[nxt] - p[prev]) / dt[:, None]
-    v[dt <= 0] = np.nan
-    heading = np.empty(n)
-    speed = np.empty(n)
-    heading[order] = np.arctan2(v[:, 1], v[:, 0])
-    speed[order] = np.hypot(v[:, 0], v[:, 1])
-    return heading, speed
+    return difference_tracks(t_ns, track_id, xy)
 
 
 def read_eth(path: str | Path, fps: float = 25.0, start_ns: int = 0) -> DetectionBatch:
@@ -247,12 +260,220 @@ def read_eth(path: str | Path, fps: float = 25.0, start_ns: int = 0) -> Detectio
     return DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
 
 
+# ----------------------------------------------------------------------------- Lincoln
+
+#: how long a sentinel row (x = y = 0: "the sensor was running") marks as observed
+SENTINEL_SPAN_NS = 1_000_000_000
+#: a declared recording span reaching further than this beyond the detections gets a note
+DECLARED_SLACK_NS = 86_400 * 1_000_000_000
+
+_LINCOLN_XY = ("time_s", "x_m", "y_m")
+_LINCOLN_SPECS: dict[str, _Spec] = {
+    # 2017-06-09.txt: `t_start t_end`, `x_min x_max`, `y_min y_max`, then `t x y`
+    "header": _Spec(_LINCOLN_XY, frozenset(), frozenset({0, 1, 2}), None, None, header_lines=3),
+    "xy": _Spec(_LINCOLN_XY, frozenset(), frozenset({0, 1, 2}), None, None),
+    # 2017-05-24_25.txt: `t x y 1.0`
+    "xy1": _Spec(
+        (*_LINCOLN_XY, "one"),
+        frozenset(),
+        frozenset({0, 1, 2}),
+        None,
+        None,
+        ignored_columns=frozenset({3}),
+    ),
+    # 2017-05-25.txt, 2017-05-26.txt: `t x y a b WPn` (a, b undocumented; WPn: robot waypoint)
+    "waypoint": _Spec(
+        (*_LINCOLN_XY, "a", "b", "waypoint"),
+        frozenset(),
+        frozenset({0, 1, 2}),
+        None,
+        None,
+        ignored_columns=frozenset({3, 4, 5}),
+    ),
+    # 2017-05-31_heading.csv: `t, id, x, y, z, heading_rad` (id always 0)
+    "heading": _Spec(
+        ("time_s", "id", "x_m", "y_m", "z_m", "heading_rad"),
+        frozenset(),
+        frozenset({0, 2, 3}),
+        ",",
+        None,
+        ignored_columns=frozenset({1}),
+    ),
+}
+_LINCOLN_BY_FIELDS = {3: "xy", 4: "xy1", 6: "waypoint"}
+
+
+@dataclass(frozen=True)
+class TrackData:
+    """A tracks file read whole: its detections and when the sensor was recording.
+
+    ``observed`` lists sorted, disjoint, half-open ``[start, end)`` UNIX-ns spans in which the
+    sensor ran (empty: the file does not say; do not take its time span as observed).
+    ``notes`` are one-line remarks about the file for the user. ``detector_heading`` is a
+    heading column the file itself carries (rad, aligned with ``batch`` rows), else None.
+    """
+
+    batch: DetectionBatch
+    observed: list[tuple[int, int]] = field(default_factory=list)
+    notes: tuple[str, ...] = ()
+    detector_heading: F64 | None = None
+
+
+def merge_spans(spans: Iterable[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Sorted union of half-open ``[start, end)`` spans (overlapping or touching ones joined).
+
+    Raises :class:`InputError` for a span whose end is not after its start.
+    """
+    items = sorted((int(a), int(b)) for a, b in spans)
+    for a, b in items:
+        if b <= a:
+            raise InputError(
+                f"observed span {a}..{b} ns ends before it starts",
+                hint="give each span as START..END with END after START",
+            )
+    merged: list[tuple[int, int]] = []
+    for a, b in items:
+        if merged and a <= merged[-1][1]:
+            merged[-1] = (merged[-1][0], max(merged[-1][1], b))
+        else:
+            merged.append((a, b))
+    return merged
+
+
+def sessions(t_ns: npt.ArrayLike, gap_ns: int) -> list[tuple[int, int]]:
+    """Recording sessions of a set of detection times: the times split wherever two successive
+    detections are more than ``gap_ns`` apart, each session spanning ``[first, last + 1 ns)``
+    (half-open, so its last detection is inside).
+
+    Used to declare what a header-less dataset observed: a corridor dataset recorded on
+    several days has sessions of hours separated by nights. Empty input: no sessions.
+    """
+    if not gap_ns > 0:
+        raise InputError(f"the session gap must be > 0 ns, got {gap_ns}")
+    t = np.unique(np.asarray(t_ns, dtype=np.int64))
+    if t.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(t) > gap_ns)
+    starts = np.concatenate([[0], cut + 1])
+    ends = np.concatenate([cut, [len(t) - 1]])
+    return [(int(a), int(b) + 1) for a, b in zip(t[starts], t[ends], strict=True)]
+
+
+def _first_data_line(path: Path) -> tuple[int, str]:
+    """Line number and text of the first line that is neither blank nor a comment."""
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
+        for lineno, raw in enumerate(fh, start=1):
+            line = raw.split("#", 1)[0].strip()
+            if line:
+                return lineno, line
+    raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
+
+
+def _lincoln_variant(path: Path) -> str:
+    """Which Lincoln variant ``path`` is, from its first line: commas -> the heading CSV, two
+    numbers -> the header of declared spans, else by the number of columns (3, 4 or 6)."""
+    lineno, line = _first_data_line(path)
+    if lineno != 1:  # header lines are counted from the top: no blank lines or comments first
+        raise TracksFormatError(
+            f"{path}: line {lineno}: Lincoln files start with data or the header on line 1"
+        )
+    if "," in line:
+        return "heading"
+    fields = line.split()
+    if len(fields) == 2:
+        return "header"
+    if len(fields) in _LINCOLN_BY_FIELDS:
+        return _LINCOLN_BY_FIELDS[len(fields)]
+    raise TracksFormatError(
+        f"{path}: line 1 has {len(fields)} columns: not a Lincoln corridor file",
+        hint="Lincoln rows are `t x y`, `t x y 1.0`, `t x y a b WPn` or `t, id, x, y, z, heading`"
+        ", optionally after a 3-line header `t_start t_end` / `x_min x_max` / `y_min y_max`",
+    )
+
+
+def _lincoln_header(path: Path) -> tuple[int, int]:
+    """The declared recorded span ``[t_start, t_end)`` (ns) of a 3-line Lincoln header."""
+    names = ("t_start t_end", "x_min x_max", "y_min y_max")
+    pairs: list[tuple[float, float]] = []
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
+        for lineno, name in enumerate(names, start=1):
+            text = fh.readline().strip()
+            try:
+                lo, hi = (float(v) for v in text.split())
+            except ValueError:
+                lo = hi = math.nan
+            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+                raise TracksFormatError(
+                    f"{path}: line {lineno}: expected the header `{name}` (two numbers, the "
+                    f"second larger), got {text[:80]!r}"
+                )
+            pairs.append((lo, hi))
+    (t0, t1) = pairs[0]
+    return round(t0 * 1e6) * 1000, round(t1 * 1e6) * 1000
+
+
+def _utc(t_ns: int) -> str:
+    return datetime.fromtimestamp(t_ns / 1e9, UTC).strftime("%Y-%m-%d %H:%M:%S")
+
+
+def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackData:
+    """A Lincoln (L-CAS) corridor file, any of its variants (``../shared/data/README.md``).
+
+    The variant is told by content (:func:`_lincoln_variant`); only ``t x y`` (UNIX seconds,
+    metres) are read from the 4- and 6-column files. The detections have no ids: they are
+    linked into tracks (:func:`aion_cli.engine.tracking.link_tracks` with ``linker``), which
+    gives the track ids, headings and speeds. The 2017-05-31 CSV's own heading column is kept
+    as ``detector_heading`` but not used: on that file it points opposite (π off) to the
+    direction the linked tracks move for most walking detections, so it is not a walking
+    direction in the map's convention.
+
+    Observed spans: the declared header span ``[t_start, t_end)`` (used as declared, with a
+    note when it reaches more than a day beyond the detections, as 2017-06-09.txt's does),
+    and ``[t, t + 1 s)`` around every sentinel row (x = y = 0, "the sensor was running"),
+    which is not a detection. A file with neither gives no observed spans.
+    """
+    from aion_cli.engine.tracking import link_tracks
+
+    p = Path(path)
+    _check_file(p, _LINCOLN_SPECS["xy"], "lincoln")
+    variant = _lincoln_variant(p)
+    spec = _LINCOLN_SPECS[variant]
+    declared = _lincoln_header(p) if variant == "header" else None
+    a = _plain_columns(p, spec, "lincoln")
+    if variant == "heading":
+        t_s, xyz, own = a[:, 0], a[:, 2:5], np.mod(a[:, 5] + np.pi, 2 * np.pi) - np.pi
+    else:
+        t_s, xyz, own = a[:, 0], np.c_[a[:, 1:3], np.zeros(len(a))], None
+    t_ns = _seconds_to_ns(t_s)
+    sentinel = (xyz[:, 0] == 0) & (xyz[:, 1] == 0)
+    spans = [(t, t + SENTINEL_SPAN_NS) for t in np.unique(t_ns[sentinel]).tolist()]
+    people = ~sentinel
+    order = np.flatnonzero(people)[np.argsort(t_ns[people], kind="stable")]
+    t_ns, xyz = t_ns[order], xyz[order]
+    links = link_tracks(t_ns, xyz, linker)
+    batch = DetectionBatch(t_ns, xyz, links.heading, links.speed, links.track_id)
+    notes: list[str] = []
+    if declared is not None:
+        start, end = declared
+        spans.append((start, end))
+        if len(t_ns) and (
+            t_ns[0] - start > DECLARED_SLACK_NS or end - t_ns[-1] > DECLARED_SLACK_NS
+        ):
+            notes.append(
+                f"{p.name}: the header declares recording from {_utc(start)} to {_utc(end)} UTC"
+                f" but the detections run from {_utc(int(t_ns[0]))} to {_utc(int(t_ns[-1]))};"
+                " the declared span is used as observed"
+            )
+    return TrackData(batch, merge_spans(spans), tuple(notes), None if own is None else own[order])
+
+
 def read_tracks(
     path: str | Path, layout: str = "canonical", start_ns: int = 0, fps: float = 25.0
 ) -> DetectionBatch:
     """Read a tracks file of ``layout`` into a time-sorted :class:`DetectionBatch`.
 
-    ``start_ns`` shifts THÖR / ETH / ATC times; ``fps`` is the ETH/UCY frame rate.
+    ``start_ns`` shifts THÖR / ETH / ATC times (Lincoln times are UNIX already and are not
+    shifted); ``fps`` is the ETH/UCY frame rate.
     """
     key = layout.lower()
     if key == "canonical":
@@ -261,7 +482,24 @@ def read_tracks(
         return read_atc(path, start_ns, key)
     if key in ("eth", "ucy"):
         return read_eth(path, fps, start_ns)
+    if key == "lincoln":
+        return read_lincoln(path).batch
     raise TracksFormatError(f"unknown tracks layout {layout!r}", hint=f"use {', '.join(LAYOUTS)}")
+
+
+def read_track_data(
+    path: str | Path,
+    layout: str = "canonical",
+    start_ns: int = 0,
+    fps: float = 25.0,
+    linker: LinkerConfig | None = None,
+) -> TrackData:
+    """:func:`read_tracks` plus what the file says about when the sensor was recording: the
+    Lincoln layout's declared and sentinel spans (:func:`read_lincoln`, linked with
+    ``linker``); the other layouts declare nothing (``observed`` empty)."""
+    if layout.lower() == "lincoln":
+        return read_lincoln(path, linker)
+    return TrackData(read_tracks(path, layout, start_ns, fps))
 
 
 def write_canonical_csv(batch: DetectionBatch, path: str | Path) -> None:
@@ -292,7 +530,9 @@ UNSET_VARIANCE = 1e6
 
 @dataclass(frozen=True)
 class TracksLogSummary:
-    """What :func:`tracks_to_log` wrote."""
+    """What :func:`tracks_to_log` wrote: messages with detections, empty "still observing"
+    messages over the ``observed`` spans, scene-graph messages, and the time span of all
+    messages (``start_ns``..``end_ns``, inclusive)."""
 
     path: Path
     detection_messages: int
@@ -300,6 +540,30 @@ class TracksLogSummary:
     graph_messages: int
     start_ns: int
     end_ns: int
+    observed_messages: int = 0
+    observed_spans: int = 0
+    observed_ns: int = 0
+
+
+#: interval of the empty detection messages over an observed span: far below any sane
+#: observation window (aion's default is 600 s), so every window the span touches holds one
+OBSERVED_INTERVAL_NS = 30 * 1_000_000_000
+
+
+def observed_stamps(
+    spans: Iterable[tuple[int, int]], interval_ns: int = OBSERVED_INTERVAL_NS
+) -> I64:
+    """Stamps of the empty detection messages that mark ``spans`` (half-open ``[start, end)``
+    ns, merged first) as observed: ``start, start + interval, ...`` while before ``end``, and
+    the span's last instant ``end - 1 ns``, so a window that overlaps a span only briefly at
+    either end still gets a message. Sorted, unique."""
+    if not interval_ns > 0:
+        raise InputError(f"the observed-message interval must be > 0 ns, got {interval_ns}")
+    parts = [
+        np.append(np.arange(a, b, interval_ns, dtype=np.int64), np.int64(b - 1))
+        for a, b in merge_spans(spans)
+    ]
+    return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
 
 
 def _group_bounds(t_ns: I64, group_ns: int) -> tuple[I64, I64]:
@@ -435,6 +699,7 @@ def tracks_to_log(
     graph_topic: str = "/hydra/backend/dsg",
     graph_period_s: float = 60.0,
     overwrite: bool = False,
+    observed: Iterable[tuple[int, int]] = (),
 ) -> TracksLogSummary:
     """Write ``batch`` as a people-tracking log that ``aion build`` reads like a robot's.
 
@@ -444,6 +709,14 @@ def tracks_to_log(
     ``hydra_msgs/DsgUpdate`` carrying the whole graph (mesh included) is written at the first
     stamp and again every ``graph_period_s`` so a reader joining late still gets it.
     Unknown headings / speeds are marked with the spencer "unset" variance.
+
+    ``observed`` lists the half-open ``[start, end)`` ns spans in which the sensor was
+    recording. A fixed sensor's log counts as observed only in the windows in which it holds
+    a message, so over these spans empty messages (same topic and type, no people) are
+    written as a running tracker publishes them, at :func:`observed_stamps` (every
+    :data:`OBSERVED_INTERVAL_NS`), merged in time order with the detection messages.
+    Without spans only the detections are written: windows without one count as unobserved.
+    The batch may be empty when spans are given (the sensor ran, nobody came).
     """
     from formats.raw import normalize_msgtype
     from formats.writers import LogWriter, stamp
@@ -453,7 +726,8 @@ def tracks_to_log(
         raise InputError(
             f"cannot write tracks as {msgtype!r}", hint=f"use {SPENCER_TRACKED} or {POSE_ARRAY}"
         )
-    if len(batch) == 0:
+    spans = merge_spans(observed)
+    if len(batch) == 0 and not spans:
         raise InputError("no detections to write", hint="the tracks file has no rows")
     if kind == SPENCER_TRACKED and (batch.track_id < 0).any():
         raise InputError(
@@ -463,14 +737,22 @@ def tracks_to_log(
     if not graph_period_s > 0:
         raise InputError(f"graph period must be > 0 s, got {graph_period_s}")
     data = batch.sorted_by_time()
-    stamps, splits = _group_bounds(data.t_ns, group_ns)
-    starts = np.concatenate([[0], splits]).tolist()
-    ends = np.concatenate([splits, [len(data)]]).tolist()
+    empty = np.zeros(0, np.int64)
+    stamps, splits = _group_bounds(data.t_ns, group_ns) if len(data) else (empty, empty)
+    marks = observed_stamps(spans)
+    # one time-ordered list of (stamp, first row, end row); the empty messages have no rows
+    none = np.zeros(len(marks), np.int64)
+    times = np.concatenate([stamps, marks])
+    starts = np.concatenate([[0], splits])[: len(stamps)]
+    ends = np.concatenate([splits, [len(data)]])[: len(stamps)]
+    starts, ends = np.concatenate([starts, none]), np.concatenate([ends, none])
+    order = np.argsort(times, kind="stable")
+    times, starts, ends = times[order], starts[order], ends[order]
     payload = _graph_payload(graph_file) if graph_file is not None else None
     graph_times: list[int] = []
     if payload is not None:
         period = round(graph_period_s * 1e9)
-        graph_times = list(range(int(stamps[0]), int(stamps[-1]) + 1, period))
+        graph_times = list(range(int(times[0]), int(times[-1]) + 1, period))
     with LogWriter(out_path, container, overwrite=overwrite) as writer:
         cdr = writer.ros_version == 2
         if kind == SPENCER_TRACKED:
@@ -479,7 +761,9 @@ def tracks_to_log(
             quat = _orientation_velocity(data)[0].tolist()
             xyz = data.xyz.tolist()
         g = 0
-        for k, (t, a, b) in enumerate(zip(stamps.tolist(), starts, ends, strict=True)):
+        for k, (t, a, b) in enumerate(
+            zip(times.tolist(), starts.tolist(), ends.tolist(), strict=True)
+        ):
             while g < len(graph_times) and graph_times[g] <= t:
                 writer.write(
                     graph_topic,
@@ -499,5 +783,13 @@ def tracks_to_log(
             else:
                 writer.write(topic, kind, _pose_array_message(t, xyz[a:b], quat[a:b], frame_id), t)
     return TracksLogSummary(
-        Path(out_path), len(stamps), len(data), len(graph_times), int(stamps[0]), int(stamps[-1])
+        Path(out_path),
+        len(stamps),
+        len(data),
+        len(graph_times),
+        int(times[0]),
+        int(times[-1]),
+        observed_messages=len(marks),
+        observed_spans=len(spans),
+        observed_ns=sum(b - a for a, b in spans),
     )

@@ -31,10 +31,32 @@ def test_ingest_small() -> None:
     assert rows[0]["build_vs_raw"] > 0
 
 
-def test_fremen_small() -> None:
-    from benchmarks import bench_fremen
+def test_temporal_small() -> None:
+    """Both sizes run; the per-entry loops compute what the vectorised model computes (the
+    baselines measure the same work), and the counts are as sparse as documented."""
+    from benchmarks import bench_temporal
 
-    _rows_ok(bench_fremen.run(sizes=(100,)))
+    rows = bench_temporal.run(sizes=(100, 300), days=2)
+    _rows_ok(rows)
+    for row, size in zip(rows, (100, 300), strict=True):
+        assert row["entries"] == row["timed_entries"] == size
+        assert row["windows"] == 2 * 144
+        assert row["updates"] == size * row["values"] * row["windows"]
+        assert 0.1 < row["count_fraction"] < 0.3
+        assert row["loop_max_abs_error"] < 1e-6
+        assert row["loop_predict_max_abs_error"] < 1e-9
+        assert sum(row["flow_families"].values()) == size
+        assert row["updates_per_s"] > 0
+        assert row["predictions_per_s"] > 0
+
+
+def test_temporal_large_size_times_a_subset(monkeypatch: pytest.MonkeyPatch) -> None:
+    from benchmarks import bench_temporal
+
+    monkeypatch.setattr(bench_temporal, "POPULATION_CAP", 50)
+    (row,) = bench_temporal.run(sizes=(1000,), days=1)
+    assert (row["entries"], row["timed_entries"]) == (1000, 50)
+    assert row["updates"] == 50 * row["values"] * 144
 
 
 def test_engine_and_queries_small() -> None:
@@ -43,8 +65,27 @@ def test_engine_and_queries_small() -> None:
     row = bench_engine.measure(5000, windows=2, repeats=1)
     assert row["detections"] == 5000
     assert row["bound_cells"] > 0  # the warm-up graph binds cells
-    _rows_ok(bench_engine.run_queries(n_entries=300, export_nodes=50, plan=False, repeats=1,
-                                      times=2))
+    queries = bench_engine.run_queries(n_entries=300, export_nodes=50, plan=False, repeats=1,
+                                       times=2)
+    _rows_ok(queries)
+    names = [str(r["name"]) for r in queries]
+    assert any(n.startswith("first predict_table") for n in names)
+    assert any(n.startswith("batched Predictor.pairs") for n in names)
+
+
+def test_query_map_has_a_mature_temporal_state() -> None:
+    """The query benchmark's map: two weeks of history before its window, so forecasts use
+    scored families and admitted periods (not a map of one window)."""
+    from benchmarks import bench_engine
+
+    state = bench_engine.build_state(300)
+    live = state.entries.live_rows()
+    assert state.pending  # its own window waits in the pending day, as after a build
+    assert state.temporal.glob.n[0] == 14 * 144  # fixed-sensor history windows
+    assert (state.temporal.flow_scored[live] > 0).all()
+    rows, predictor = state.predictor()
+    assert rows.size == live.size
+    assert predictor.forecaster.observed.all()
 
 
 def test_memory_small() -> None:
@@ -73,8 +114,10 @@ def test_runner_quick_only(tmp_path: Path) -> None:
     from benchmarks import run
 
     out = tmp_path / "r.json"
-    assert run.main(["--quick", "--only", "fremen", "--out", str(out)]) == 0
+    assert run.main(["--quick", "--only", "temporal", "--out", str(out)]) == 0
     data = json.loads(out.read_text())
     assert data["machine"]["cores"] >= 1
-    assert data["summary"]
-    assert "fremen" in data["results"]
+    assert {r["section"] for r in data["summary"]} == {"temporal"}
+    assert len(data["summary"]) == 3
+    (row,) = data["results"]["temporal"]
+    assert row["entries"] == 1000

@@ -173,7 +173,9 @@ def _load_config(path: Path | None) -> Any:
     "--tz",
     "timezone",
     metavar="ZONE",
-    help="Time zone of the place mapped (IANA name): the default of predict / plan / export.",
+    help="Time zone of the place mapped (IANA name, UTC or an offset such as +09:00): the "
+    "local clock of the map's days and daily profiles, and the default of predict / plan / "
+    "export [default: UTC; a continued map keeps its own].",
 )
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary table.")
 @format_option(choices=("table", "json"))

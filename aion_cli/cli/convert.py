@@ -3,22 +3,36 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from aion_cli.cli.output import AionCommand
 
+if TYPE_CHECKING:
+    from aion_cli.cli.timeparse import Zone
+
 EPILOG = """\b
 Examples:
-  aion convert atc-20121024.csv --layout atc -o atc.mcap
+  aion convert atc-20121024.csv --layout atc -o atc.mcap \\
+      --observed "2012-10-24 09:00..2012-10-24 21:00" --tz Asia/Tokyo
   aion convert thor_run1.csv --layout thor -o thor.mcap --graph dsg.json
+  aion convert 2017-06-09.txt --layout lincoln -o lincoln.mcap
   aion convert tracks.csv -o tracks.mcap            canonical columns (the default)
   aion build atc.mcap --derive-graph                then learn a map from it
 
 \b
 Layouts: canonical (t_ns, track_id, x, y, z, heading_rad, speed_mps), atc (ATC shopping
-centre), thor (THÖR), eth (ETH/UCY obsmat). The tracks become people-detection messages; a
-dataset has no robot, so the build treats it as a fixed sensor over its time span.
+centre), thor (THÖR), eth (ETH/UCY obsmat), lincoln (L-CAS corridor detections without ids:
+linked into tracks; every variant is recognised by its content).
+
+\b
+The tracks become people-detection messages. A dataset has no robot, so the build treats
+it as a fixed sensor that observed only the 10-minute windows in which the log holds a
+message: give the spans the sensor was recording with --observed START..END (repeatable)
+and empty detection messages are written over them every 30 s, as a running tracker would
+publish them. The lincoln layout adds the spans its files declare. Without any span,
+windows without a detection count as not observed.
 """
 
 
@@ -50,7 +64,7 @@ def _container_for(output: Path, container: str | None) -> str:
     short_help="Turn pedestrian-track CSVs into logs.",
     cls=AionCommand,
     epilog=EPILOG,
-    advanced=("container", "msgtype", "start_text"),
+    advanced=("container", "msgtype", "start_text", "tz"),
 )
 @click.argument("tracks", type=click.Path(path_type=Path))
 @click.option(
@@ -62,7 +76,7 @@ def _container_for(output: Path, container: str | None) -> str:
 )
 @click.option(
     "--layout",
-    type=click.Choice(["canonical", "atc", "thor", "eth"]),
+    type=click.Choice(["canonical", "atc", "thor", "eth", "lincoln"]),
     default="canonical",
     show_default=True,
     help="Column layout of the CSV.",
@@ -92,6 +106,21 @@ def _container_for(output: Path, container: str | None) -> str:
     metavar="T",
     help="Shift dataset times (ATC/THÖR/ETH seconds) to start at this time.",
 )
+@click.option(
+    "--observed",
+    "observed_text",
+    metavar="START..END",
+    multiple=True,
+    help="A span the sensor was recording (repeatable), e.g. "
+    '"2017-06-09 09:00..2017-06-09 18:30" or "1496999627..1497032025": written as empty '
+    "detection messages every 30 s so the build counts it as observed.",
+)
+@click.option(
+    "--tz",
+    metavar="ZONE",
+    help="Time zone for --observed / --start times without an offset: IANA name, UTC, "
+    "+01:00 [default: the machine's local zone].",
+)
 @click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
 def command(
     tracks: Path,
@@ -101,29 +130,47 @@ def command(
     container: str | None,
     msgtype: str,
     start_text: str | None,
+    observed_text: tuple[str, ...],
+    tz: str | None,
     force: bool,
 ) -> None:
     """Convert the pedestrian tracks in TRACKS (CSV) into a log with people detections."""
-    from aion_cli.cli.console import console
+    from aion_cli.cli.console import console, note
+    from aion_cli.cli.timeparse import parse_time, resolve_zone
     from aion_cli.engine.errors import InputError
-    from formats.tracks import read_tracks, tracks_to_log
+    from formats.tracks import merge_spans, read_track_data, tracks_to_log
 
     if not tracks.is_file():
         raise InputError(f"tracks file not found: {tracks}", hint="check the path")
     kind = _container_for(output, container)
     if output.exists() and not force:
         raise InputError(f"{output} exists already", hint="choose another -o or add --force")
+    zone = resolve_zone(tz)
+    spans = [_span(text, zone) for text in observed_text]  # bad spans fail before reading
     start_ns = 0
     if start_text is not None:
-        from aion_cli.cli.common import resolve_time
-
-        start_ns, _ = resolve_time(start_text, None)
-    batch = read_tracks(tracks, layout, start_ns=start_ns)
+        if layout == "lincoln":
+            raise InputError(
+                "--start does not apply to the lincoln layout",
+                hint="Lincoln times are UNIX seconds already; drop --start",
+            )
+        start_ns = parse_time(start_text, zone)
+    data = read_track_data(tracks, layout, start_ns=start_ns)
+    batch = data.batch
+    observed = merge_spans([*data.observed, *spans])
     if len(batch) == 0:
         raise InputError(f"no tracks in {tracks}", hint=f"is it really the {layout!r} layout?")
     summary = tracks_to_log(
-        batch, output, graph_file=graph_file, container=kind, msgtype=msgtype, overwrite=force
+        batch,
+        output,
+        graph_file=graph_file,
+        container=kind,
+        msgtype=msgtype,
+        overwrite=force,
+        observed=observed,
     )
+    for line in data.notes:
+        note(line)
     n_tracks = len(set(batch.track_id.tolist()))
     span = (summary.end_ns - summary.start_ns) / 1e9
     console().print(
@@ -132,3 +179,38 @@ def command(
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,
     )
+    if summary.observed_spans:
+        console().print(
+            f"observed: {summary.observed_spans} span(s), {summary.observed_ns / 3.6e12:,.2f} h, "
+            f"marked by {summary.observed_messages:,} empty detection messages (every 30 s)",
+            soft_wrap=True,
+        )
+    else:
+        note(
+            "no observed spans: the build counts only windows with a detection as observed; "
+            "give the spans the sensor was recording with --observed START..END"
+        )
+
+
+def _span(text: str, zone: Zone) -> tuple[int, int]:
+    """``START..END`` -> ``(start_ns, end_ns)``; each side is any form ``aion_cli.cli.timeparse``
+    reads (ISO with or without zone, UNIX seconds, ...), in ``zone`` unless it names one."""
+    from aion_cli.cli.timeparse import FORMS_HINT, TimeFormatError, parse_time
+    from aion_cli.engine.errors import InputError
+
+    parts = text.split("..")
+    if len(parts) != 2 or not all(p.strip() for p in parts):
+        raise InputError(
+            f"--observed {text!r}: expected START..END",
+            hint='e.g. --observed "2017-06-09 09:00..2017-06-09 18:30" (times: ' + FORMS_HINT + ")",
+        )
+    try:
+        start, end = (parse_time(p, zone) for p in parts)
+    except TimeFormatError as exc:
+        raise InputError(f"--observed {text!r}: {exc.message}", hint=exc.hint) from exc
+    if end <= start:
+        raise InputError(
+            f"--observed {text!r}: the end is not after the start",
+            hint="give the span as START..END with END later than START",
+        )
+    return start, end

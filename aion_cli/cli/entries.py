@@ -8,7 +8,12 @@ Field names (stable, documented in ``aion predict --help``):
 without flow), ``direction_bin`` (argmax bin, -1 without flow), ``concentration`` (0..1),
 ``entropy`` (normalised directional entropy 0..1, null without flow), ``mean_speed`` (m/s
 over bins with known speed, null if unknown), ``histogram`` (B direction probabilities, bin b
-centred at -180 + (b + 0.5)·360/B degrees), ``speed_per_bin`` (m/s per bin, JSON only).
+centred at -180 + (b + 0.5)·360/B degrees), ``speed_per_bin`` (m/s per bin, JSON only),
+``family`` / ``direction_family`` (the temporal model that forecast the flow and the
+directions: static, shape, profile, fremen1..4; "historical" for what was observed, "none" for
+a place without data, "aggregate" for rooms), ``flow_p10`` / ``flow_p90`` (10th and 90th
+percentile of the number of detections in a window, from the predictive negative binomial;
+null historically).
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ COLUMNS = [
     Column("concentration", "conc.", num(2)),
     Column("mean_speed", "m/s", num(2)),
     Column("histogram", "histogram", lambda h: _spark(h), justify="left"),
+    Column("family", "model", justify="left"),
 ]
 CSV_KEYS = [
     "id",
@@ -43,12 +49,16 @@ CSV_KEYS = [
     "z",
     "flow",
     "flow_per_hour",
+    "flow_p10",
+    "flow_p90",
     "direction_deg",
     "direction_bin",
     "concentration",
     "entropy",
     "mean_speed",
     "histogram",
+    "family",
+    "direction_family",
 ]
 
 _BARS = " ▁▂▃▄▅▆▇█"
@@ -71,6 +81,7 @@ def rows_from_table(table: Any) -> list[dict[str, Any]]:
     import numpy as np
 
     d = table.descriptors
+    p10, p90 = table.flow_quantile(0.1), table.flow_quantile(0.9)
     rows = []
     for e in range(len(table.xyz)):
         kind = _kind(table, e)
@@ -93,6 +104,8 @@ def rows_from_table(table: Any) -> list[dict[str, Any]]:
                 "z": float(table.xyz[e, 2]),
                 "flow": _finite(float(d.flow_per_window[e])),
                 "flow_per_hour": _finite(float(d.flow_per_hour[e])),
+                "flow_p10": _finite(float(p10[e])),
+                "flow_p90": _finite(float(p90[e])),
                 "direction_deg": None if angle is None else math.degrees(angle),
                 "direction_bin": int(d.dominant_bin[e]),
                 "concentration": _finite(float(d.concentration[e])),
@@ -100,6 +113,8 @@ def rows_from_table(table: Any) -> list[dict[str, Any]]:
                 "mean_speed": mean_speed,
                 "histogram": [float(p) for p in probabilities],
                 "speed_per_bin": [_finite(float(s)) for s in speeds],
+                "family": str(table.flow_family[e]),
+                "direction_family": str(table.direction_family[e]),
             }
         )
     return rows

@@ -44,6 +44,7 @@ def evaluate() -> None:
     Examples:
       aion evaluate office --scenes 20            the paper's Table I on the simulated office
       aion evaluate atc --protocol chronological  heading NLL on the real ATC mall tracks
+      aion evaluate lincoln                       forecasts on a real multi-day corridor
       aion evaluate door                          FreMEn on a real periodic door signal
       aion evaluate report -o report/             all of it as markdown with PNG plots
     """
@@ -127,7 +128,8 @@ def door(data_dir: Path, fmt: str) -> None:
 
     result = run_door(_existing_dir(data_dir, "door data"))
     note(
-        f"chosen order {result['chosen_order']}; strongest periods (h): "
+        f"FreMEn order {result['fremen_order']} (best day-ahead score); the model itself "
+        f"chooses {result['chosen_family']}; strongest periods (h): "
         f"{', '.join(str(p) for p in result['strongest_periods_h'])}"
     )
     columns = (
@@ -135,8 +137,59 @@ def door(data_dir: Path, fmt: str) -> None:
         Column("samples", "samples", lambda v: f"{v:,}"),
         Column("mae_fremen", "MAE FreMEn", num(4)),
         Column("mae_static", "MAE static", num(4)),
+        Column("mae_profile", "MAE profile", num(4)),
+        Column("mae_chosen", "MAE chosen", num(4)),
     )
     emit(fmt, result["weeks"], columns, json_payload=result, title="FreMEn door check")
+
+
+ACTIVITY_COLUMNS = (
+    Column("model", "model", justify="left"),
+    Column("spearman", "Spearman", num(3)),
+    Column("poisson_deviance", "Poisson dev.", num(0)),
+    Column("mae", "MAE / hour", num(0)),
+)
+
+
+@evaluate.command("lincoln")
+@click.option(
+    "--data",
+    "data_dir",
+    type=click.Path(path_type=Path),
+    default=_default_dir("lincoln"),
+    show_default=True,
+    help="Folder with the Lincoln corridor files (2017-*.txt, 2017-05-31_heading.csv).",
+)
+@click.option("--radius", type=float, default=1.0, show_default=True,
+              help="Association radius (m) between a test detection and an aion entry.")
+@click.option("--config", "config_path", type=click.Path(exists=True, path_type=Path),
+              help="TOML model parameters (see aion build --print-config) [default: the "
+              "defaults with timezone Europe/London].")
+@format_option(("table", "json"))
+def lincoln(data_dir: Path, radius: float, config_path: Path | None, fmt: str) -> None:
+    """Forecast a real multi-day corridor: train on four days of May 2017, predict June 9 —
+    heading NLL and hourly activity (Spearman, Poisson deviance, MAE) of aion against static,
+    hour-of-day and STeF-style grid baselines.
+
+    \b
+    Example:
+      aion evaluate lincoln --format json > lincoln.json
+    """
+    from aion_cli.cli.console import note
+    from aion_cli.evaluation.lincoln import ZONE, run_lincoln
+
+    config = None if config_path is None else _config(config_path)
+    result = run_lincoln(_existing_dir(data_dir, "Lincoln data"), config, radius, progress=note)
+    flows = ", ".join(f"{k} {v:,}" for k, v in sorted(result.families["flow"].items()))
+    note(f"aion's flow models: {flows}")
+    if fmt == "json":
+        emit(fmt, [], (), json_payload=result.to_dict())
+        return
+    emit(fmt, result.headings, SCORE_COLUMNS,
+         title=f"Lincoln, heading NLL on {result.data['2017-06-09']['detections']:,} test "
+         f"detections (zone {ZONE})")
+    emit(fmt, result.activity, ACTIVITY_COLUMNS,
+         title="Lincoln, hourly activity of the test day")
 
 
 def _pair(value: Any) -> str:
@@ -199,10 +252,10 @@ def office(
 @click.option("-o", "--output", "out_dir", type=click.Path(path_type=Path), required=True,
               help="Folder for report.md and its PNG plots.")
 @click.option("--data", "data_dir", type=click.Path(path_type=Path), default=DEFAULT_DATA,
-              show_default=True, help="The shared data folder (atc/, fremen_door/).")
+              show_default=True, help="The shared data folder (atc/, lincoln/, fremen_door/).")
 @click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True)
 @click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True)
-@click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "door"]),
+@click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "lincoln", "door"]),
               help="Leave a section out (repeatable).")
 def report(out_dir: Path, data_dir: Path, scenes: int, days: float, skip: tuple[str, ...]) -> None:
     """Run every protocol and write a markdown report with PNG plots.

@@ -211,8 +211,8 @@ def _path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int
 
 def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:
     """Positions of the path planned at ``t_ns`` (distance only for a historical export)."""
-    from aion_cli.engine.fremen import to_model_seconds
     from aion_cli.engine.planning import plan
+    from aion_cli.engine.windows import to_model_seconds
     from aion_cli.mapquery import node_cost_fn, planning_config
 
     nav, a, b = ends

@@ -23,7 +23,8 @@ JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns,
 size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
 role, encoding, rate_hz, used}], roles, dsg_versions, will_use{detections, scene_graph, tf},
 cannot_read, warnings. For a map (.aion): format, version, creator, created, inputs,
-time_span, counts (all builds), last_build, graph_source, observation, config.
+time_span, counts (all builds), last_build, graph_source, observation, families (how many
+entries each temporal model family forecasts, flow and direction), timezone, config.
 """
 
 MAP_SUFFIX = ".aion"
@@ -181,6 +182,17 @@ def _print_map(report: dict[str, Any]) -> None:
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
     table.add_row("graph", str(report.get("graph_source")))
     table.add_row("observation", str(report.get("observation")))
+    families = report.get("families") or {}
+    for kind in ("flow", "direction"):
+        tally = families.get(kind) or {}
+        if tally:
+            text = ", ".join(f"{name} {count:,}" for name, count in sorted(tally.items()))
+            table.add_row(f"{kind} models", text)
+    if families:
+        table.add_row(
+            "reconciled", "yes: totals follow the map's profile" if families.get("reconciled")
+            else "no"
+        )
     defaults = ModelConfig().to_dict()
     changed = {k: v for k, v in report.get("config", {}).items() if defaults.get(k) != v}
     table.add_row("config", ", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults")

@@ -101,8 +101,8 @@ def command(
     from aion_cli.cli.common import load
     from aion_cli.cli.ids import node_label
     from aion_cli.cli.timeparse import format_ns
-    from aion_cli.engine.fremen import to_model_seconds
     from aion_cli.engine.planning import evaluate_path_cost, plan
+    from aion_cli.engine.windows import to_model_seconds
     from aion_cli.mapquery import nav_graph, node_cost_fn, planning_config
 
     loaded = load(map_path)

@@ -21,12 +21,13 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass
-from datetime import UTC, date, datetime, time, timedelta, timezone, tzinfo
+from datetime import UTC, date, datetime, time, timedelta, tzinfo
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-from aion_cli.engine.errors import InputError
+from aion_cli.engine.errors import ConfigError, InputError
+from aion_cli.engine.temporal.zones import zone_of
 
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
 NS_PER_S = 1_000_000_000
@@ -114,20 +115,17 @@ def resolve_zone(name: str | None) -> Zone:
     if name is None or name.strip().lower() in ("", "local"):
         return local_zone()
     text = name.strip()
-    if text.lower() in ("utc", "z", "gmt"):
+    try:
+        tz = zone_of(text)
+    except ConfigError as exc:
+        raise TimeFormatError(exc.message, ZONE_HINT) from exc
+    if tz is UTC:
         return Zone(UTC, "UTC")
     offset = _RE_OFFSET.match(text.lower())
     if offset:
         sign, hours, minutes = offset.groups()
-        delta = timedelta(hours=int(hours), minutes=int(minutes or 0))
-        if delta >= timedelta(hours=24):
-            raise TimeFormatError(f"time-zone offset out of range: {name!r}", ZONE_HINT)
-        tz = timezone(-delta if sign == "-" else delta)
         return Zone(tz, f"UTC{sign}{int(hours):02d}:{int(minutes or 0):02d}")
-    try:
-        return Zone(ZoneInfo(text), text)
-    except (ZoneInfoNotFoundError, ValueError, IsADirectoryError) as exc:
-        raise TimeFormatError(f"unknown time zone {name!r}", ZONE_HINT) from exc
+    return Zone(tz, text)
 
 
 # -- conversions -------------------------------------------------------------------------------

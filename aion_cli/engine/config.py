@@ -17,6 +17,8 @@ from aion_cli.engine.errors import ConfigError
 
 DAY_S = 86400.0
 WEEK_S = 7 * DAY_S
+FAMILIES = ("static", "shape", "profile", "fremen")
+"""The temporal model families (``engine.temporal.params``)."""
 
 
 def default_periods() -> tuple[float, ...]:
@@ -37,14 +39,20 @@ class ModelConfig:
     than ``stable_move_tolerance`` for ``stability_s`` (τ) seconds of log time.
     Time: windows of ``window_s`` (Δ) aligned to the UNIX epoch; the robot observes entries
     within ``sensor_range`` of its trajectory.
-    Activity: a window with n detections has activity ``1 - exp(-n / activity_scale)``.
-    FreMEn: ``periods``, a period counts once the row's observed span >= ``span_factor`` * T;
-    orders 0..``max_order`` chosen per row by prequential error, a higher order only when it
-    beats the lower one by ``order_bias`` (mean absolute error); once a row has 64 observations
-    the prequential errors score only every ``score_stride``-th of them, weighted by it (1 scores
-    every observation), each predicted by the row's model frozen at the start of its rank epoch
-    of ``rank_period_s`` (a day: the error of forecasting the day ahead); direction
-    predictions are floored at ``direction_floor`` and renormalised.
+    Temporal model (``engine.temporal``): the expected detections per observed window of every
+    entry and direction bin, forecast by the families in ``families`` (``static``, ``shape``,
+    ``profile``, ``fremen``; static is always on) and chosen per entry by day-ahead score, a
+    more complex family only when it beats the simpler one by ``family_margin`` nats; with
+    ``reconcile`` the entries' total follows the map's pooled profile. Days and
+    the periodic ``profile`` (``day``, ``day_weekend`` or ``week`` with bins of
+    ``profile_bin_s``) follow the local clock of ``timezone``. Profiles and shapes are shrunk
+    toward their parent's with ``profile_prior`` pseudo-detections per bin.
+    FreMEn: ``periods``, a period counts once an entry's observed span >= ``span_factor`` * T,
+    orders 1..``max_order``. Directions: a Dirichlet prior of ``direction_prior``
+    pseudo-detections toward the parent's histogram (room, else the ``pool_size``-metre
+    neighbourhood; then the map), time-varying histograms shrunk toward the entry's static
+    one with ``direction_time_prior``. Log-likelihoods floor rates at ``rate_floor``
+    detections per window.
     Planning: edge cost ``d * (1 + w_entropy*H + w_flow*F + w_direction*c_d)`` (see
     ``engine.planning``), flow normalised by ``plan_flow_scale`` detections per window, or, with
     ``plan_flow_auto``, by the map's own busy level (the 90th percentile of its places'
@@ -59,14 +67,20 @@ class ModelConfig:
     stable_move_tolerance: float = 0.25
     window_s: float = 600.0
     sensor_range: float = 8.0
-    activity_scale: float = 5.0
+    timezone: str = "UTC"
+    families: tuple[str, ...] = FAMILIES
+    profile: str = "day_weekend"
+    profile_bin_s: float = 3600.0
+    profile_prior: float = 5.0
+    family_margin: float = 3.0
+    reconcile: bool = True
     periods: tuple[float, ...] = field(default_factory=default_periods)
     span_factor: float = 1.5
     max_order: int = 4
-    order_bias: float = 0.002
-    score_stride: int = 8
-    rank_period_s: float = 86_400.0
-    direction_floor: float = 0.01
+    direction_prior: float = 10.0
+    direction_time_prior: float = 50.0
+    pool_size: float = 4.0
+    rate_floor: float = 1e-3
     plan_speed: float = 1.0
     plan_w_entropy: float = 0.5
     plan_w_flow: float = 1.0
@@ -78,6 +92,10 @@ class ModelConfig:
     derive_min_detections: int = 3
 
     def __post_init__(self) -> None:
+        if isinstance(self.families, list):
+            object.__setattr__(self, "families", tuple(self.families))
+        if isinstance(self.periods, list):
+            object.__setattr__(self, "periods", tuple(float(p) for p in self.periods))
         self.validate()
 
     def validate(self) -> None:
@@ -87,9 +105,10 @@ class ModelConfig:
             "bind_radius",
             "window_s",
             "sensor_range",
-            "activity_scale",
             "span_factor",
-            "rank_period_s",
+            "profile_bin_s",
+            "pool_size",
+            "rate_floor",
             "plan_speed",
             "plan_flow_scale",
             "plan_connect_radius",
@@ -103,7 +122,10 @@ class ModelConfig:
             "bind_vertical_tolerance",
             "stability_s",
             "stable_move_tolerance",
-            "order_bias",
+            "profile_prior",
+            "family_margin",
+            "direction_prior",
+            "direction_time_prior",
             "plan_w_entropy",
             "plan_w_flow",
             "plan_w_direction",
@@ -116,24 +138,37 @@ class ModelConfig:
             raise ConfigError(f"bins must be an integer in 2..64, got {self.bins!r}")
         if not (isinstance(self.max_order, int) and 0 <= self.max_order <= 16):
             raise ConfigError(f"max_order must be an integer in 0..16, got {self.max_order!r}")
-        stride = self.score_stride
-        if not (isinstance(stride, int) and not isinstance(stride, bool) and 1 <= stride <= 1024):
-            raise ConfigError(f"score_stride must be an integer in 1..1024, got {stride!r}")
-        if not (0 < self.direction_floor < 1.0 / self.bins):
+        unknown = [f for f in self.families if f not in FAMILIES]
+        if unknown or not self.families or len(set(self.families)) != len(self.families):
             raise ConfigError(
-                f"direction_floor must be in (0, 1/bins), got {self.direction_floor!r}"
+                f"families must be distinct names from {', '.join(FAMILIES)}, got "
+                f"{list(self.families)!r}"
             )
+        if self.window_s > DAY_S:
+            raise ConfigError(f"window_s must be at most a day (86400), got {self.window_s!r}")
+        self._validate_calendar()
         if not self.periods or any(not (math.isfinite(p) and p > 0) for p in self.periods):
             raise ConfigError("periods must be a non-empty list of positive seconds")
+        if not isinstance(self.reconcile, bool):
+            raise ConfigError(f"reconcile must be true or false, got {self.reconcile!r}")
         if not isinstance(self.plan_flow_auto, bool):
             raise ConfigError(f"plan_flow_auto must be true or false, got {self.plan_flow_auto!r}")
         if self.derive_min_detections < 1:
             raise ConfigError("derive_min_detections must be >= 1")
 
+    def _validate_calendar(self) -> None:
+        from aion_cli.engine.temporal.calendar import Calendar
+
+        for name in ("timezone", "profile"):
+            if not isinstance(getattr(self, name), str):
+                raise ConfigError(f"{name} must be a string, got {getattr(self, name)!r}")
+        Calendar(self.timezone, self.profile, self.profile_bin_s)  # raises ConfigError
+
     # -- conversions -------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         data = dataclasses.asdict(self)
         data["periods"] = list(self.periods)
+        data["families"] = list(self.families)
         return data
 
     @classmethod
@@ -153,6 +188,11 @@ class ModelConfig:
                 kwargs["periods"] = tuple(float(p) for p in kwargs["periods"])
             except (TypeError, ValueError) as exc:
                 raise ConfigError(f"periods must be a list of numbers: {exc}") from exc
+        if "families" in kwargs:
+            families = kwargs["families"]
+            if isinstance(families, str) or not isinstance(families, (list, tuple)):
+                raise ConfigError(f"families must be a list of names, got {families!r}")
+            kwargs["families"] = tuple(str(f) for f in families)
         for f in dataclasses.fields(cls):
             if f.name in kwargs and f.type in ("float", float):
                 value = kwargs[f.name]
@@ -182,8 +222,10 @@ class ModelConfig:
         lines = ["# aion model parameters (aion build --config FILE)", "[model]"]
         for key, value in self.to_dict().items():
             if isinstance(value, list):
-                body = ", ".join(repr(float(v)) for v in value)
+                body = ", ".join(f'"{v}"' if isinstance(v, str) else repr(float(v)) for v in value)
                 lines.append(f"{key} = [{body}]")
+            elif isinstance(value, str):
+                lines.append(f'{key} = "{value}"')
             elif isinstance(value, bool):
                 lines.append(f"{key} = {'true' if value else 'false'}")
             else:

@@ -1,12 +1,8 @@
 """Flow descriptors per entry: how much flow, in which direction, how ordered, how fast.
 
-Two sources give the same :class:`Descriptors`:
-
-* :func:`historical` — from the cumulative per-bin counts of an entry over the windows in which
-  it was observed (what happened);
-* :func:`predicted` — from a FreMEn activity prediction a ∈ [0, 1] and predicted direction
-  fractions (what is expected at a time). Activity is ``1 − exp(−n / activity_scale)`` for a
-  window with n detections, so the expected count is its inverse ``−activity_scale·ln(1 − a)``.
+:func:`historical` computes :class:`Descriptors` from per-bin counts (or expected counts)
+accumulated over a number of observed windows; ``engine.query`` feeds it the historical or the
+predicted per-bin rates (with one window), so both give the same descriptors.
 
 Direction bins follow the paper: ``bin(θ) = floor((θ + π) / (2π/B)) mod B``; bin b covers
 ``[−π + b·2π/B, −π + (b+1)·2π/B)`` and is reported by its centre ``−π + (b + 0.5)·2π/B``. The
@@ -25,9 +21,6 @@ from scipy.special import entr
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
-
-_ACTIVITY_MAX = 1.0 - 1e-9
-"""Activity is clamped below 1 so the expected count stays finite (≈ 20.7·activity_scale)."""
 
 
 @dataclass(frozen=True)
@@ -134,29 +127,3 @@ def historical(
     speed = np.full(cnt.shape, np.nan)
     np.divide(ssum, sn, out=speed, where=sn > 0)
     return _from_distribution(flow, cnt, window_s, speed)
-
-
-def expected_count(activity: npt.ArrayLike, activity_scale: float) -> F64:
-    """Inverse of the activity transform: ``−activity_scale·ln(1 − a)``, a clamped to
-    [0, 1 − 1e-9]."""
-    a = np.clip(np.asarray(activity, dtype=np.float64), 0.0, _ACTIVITY_MAX)
-    return -activity_scale * np.log1p(-a)
-
-
-def predicted(
-    activity: npt.ArrayLike,
-    directions: npt.ArrayLike,
-    activity_scale: float,
-    window_s: float,
-    speed_mean: npt.ArrayLike,
-) -> Descriptors:
-    """Descriptors of what is expected: FreMEn ``activity[E]`` and direction fractions
-    ``directions[E, B]`` (renormalised here), with the historical mean speed per bin."""
-    act = np.asarray(activity, dtype=np.float64).reshape(-1)
-    dirs = np.asarray(directions, dtype=np.float64)
-    speed = np.array(speed_mean, dtype=np.float64)
-    if dirs.shape[:1] != act.shape or dirs.ndim != 2 or speed.shape != dirs.shape:
-        raise ValueError("directions and speed_mean must be (E, B) with activity (E,)")
-    return _from_distribution(
-        expected_count(act, activity_scale), np.maximum(dirs, 0.0), window_s, speed
-    )

@@ -1,18 +1,18 @@
 """The entry store: one row per dynamics holder (an unbound hash cell or a navigational node).
 
-A struct of arrays with amortized capacity (doubling). Rows never move: entry row ``e`` owns
-FreMEn rows ``e·(B+1)`` (activity) and ``e·(B+1)+1+b`` (direction bin b), see
-:func:`fremen_rows`, so deleting an entry just marks its row ``FREE`` (zeroed, put on a free
-list and reused by the next new entry) and the FreMEn row mapping never needs a permutation.
+A struct of arrays with amortized capacity (doubling). Rows never move: entry row ``e`` is also
+row ``e`` of the temporal accumulators (``engine.temporal``), so deleting an entry just marks
+its row ``FREE`` (zeroed, put on a free list and reused by the next new entry) and the two
+stores never need a permutation.
 Exports use :meth:`EntryStore.canonical_order` (cells by key, then nodes by id), so two maps with
 the same entries give the same arrays whatever their internal row layout.
 
 Per entry, cumulative (including the open window) and for the open window only:
 ``counts[E,B]`` detections per direction bin, ``nodir[E]`` detections without a heading (they
 count for activity but not for a direction), ``speed_sum[E,B]`` / ``speed_n[E,B]`` (the motion
-descriptor λ: speed samples per bin), and ``windows_observed[E]`` closed windows in which the
-entry was observed. Accumulation uses ``np.bincount`` on combined ``row·B + bin`` indices: no
-Python loop per detection.
+descriptor λ: speed samples per bin). Which windows observed an entry, and its counts per window
+over time, live in the temporal model. Accumulation uses ``np.bincount`` on combined
+``row·B + bin`` indices: no Python loop per detection.
 """
 
 from __future__ import annotations
@@ -31,14 +31,7 @@ CELL = 0
 NODE = 1
 
 _PER_BIN = ("counts", "window_counts", "speed_sum", "speed_n")
-_SCALAR = ("nodir", "window_nodir", "windows_observed")
-
-
-def fremen_rows(entry_rows: npt.ArrayLike, bins: int) -> I64:
-    """FreMEn rows owned by entries: int64[r, 1+B]; column 0 activity, 1+b direction bin b."""
-    e = np.asarray(entry_rows, dtype=np.int64).reshape(-1)
-    out: I64 = e[:, None] * (bins + 1) + np.arange(bins + 1, dtype=np.int64)[None, :]
-    return out
+_SCALAR = ("nodir", "window_nodir")
 
 
 def direction_bins(heading: npt.ArrayLike, bins: int) -> I64:
@@ -75,7 +68,6 @@ class EntryStore:
     speed_n: F64
     nodir: F64
     window_nodir: F64
-    windows_observed: F64
 
     @classmethod
     def empty(cls, bins: int, capacity: int = 64) -> EntryStore:
@@ -94,7 +86,6 @@ class EntryStore:
             speed_n=np.zeros((cap, bins)),
             nodir=np.zeros(cap),
             window_nodir=np.zeros(cap),
-            windows_observed=np.zeros(cap),
         )
 
     @property
@@ -122,7 +113,7 @@ class EntryStore:
         """Create empty entries, reusing freed rows first (lowest first); returns their rows.
 
         The capacity grows as needed: compare :attr:`capacity` before and after to resize the
-        FreMEn state.
+        temporal state.
         """
         k = len(key)
         reuse = self.free[:k]
@@ -142,7 +133,7 @@ class EntryStore:
     def delete(self, rows: I64) -> None:
         """Free entries: their rows are zeroed and reused by later :meth:`allocate` calls.
 
-        The owner must also clear the entries' FreMEn rows (``FremenState.zero_rows``).
+        The owner must also clear the entries' temporal rows (``TemporalState.zero_rows``).
         """
         if len(rows) == 0:
             return
@@ -216,16 +207,10 @@ class EntryStore:
 
     # -- moving state between entries (bind / release) --------------------------------------
     def add_into(self, src: I64, dst: I64) -> None:
-        """dst += src for every per-entry quantity (``dst`` may repeat).
-
-        ``windows_observed`` takes the maximum, not the sum: entries merged by ownership
-        transfer were observed over the same time span, and a sum would divide the node's flow
-        per window by the number of cells it absorbed.
-        """
+        """dst += src for every per-entry quantity (``dst`` may repeat)."""
         for name in (*_PER_BIN, "nodir", "window_nodir"):
             arr = getattr(self, name)
             np.add.at(arr, dst, arr[src])
-        np.maximum.at(self.windows_observed, dst, self.windows_observed[src])
 
     # -- views and export -------------------------------------------------------------------
     def total_count(self) -> float:

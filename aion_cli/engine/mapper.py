@@ -19,22 +19,20 @@ Choices:
   descriptor; NaN speeds only skip the speed descriptor. Non-finite positions are dropped and
   counted as ``"nan"``, positions outside the hashable range as ``"out_of_range"``.
 * **Empty windows**: when time jumps over windows with no detections, the whole run is closed
-  at once — one FreMEn update of the activity rows (values 0, an observation mask per window;
-  an observed empty window is a real zero, an unobserved one teaches nothing); direction rows
-  learn only from windows with detections. An entry with detections in a window counts as
-  observed in it.
-* **Binding and FreMEn rows**: entry ``e`` owns FreMEn rows ``e·(B+1)`` (activity) and
-  ``e·(B+1)+1+b`` (direction b). Binding adds the cell's rows into the node's rows with
-  ``FremenState.add_rows`` (accumulators add, first = min, last = max), then zeroes and frees
-  the cell's rows; releasing does the same in the other direction. When several cells observed
-  the same window, the node's row holds one observation per cell for that window (the mean is
-  the mean of their activities); from then on the node is observed as one entry.
+  at once; every recorded window goes to the temporal model with who observed it (an observed
+  empty window is a real zero, an unobserved one teaches nothing). An entry with detections in
+  a window counts as observed in it.
+* **Binding and temporal rows**: entry ``e`` is row ``e`` of the temporal accumulators.
+  Binding adds the cell's counts, accumulators and scores into the node's
+  (``TemporalState.add_rows``; the observation with more windows is kept, since both were seen
+  over the same time), re-labels the cell's windows still held for the current day, then
+  zeroes and frees the cell's row; releasing does the same in the other direction.
 * **Graphs close windows**: a graph at time t means log time reached t, so ``add_graph`` first
   closes the windows ending at or before t (as ``advance`` does); detections stamped in a
   closed window that arrive later are dropped as ``"before_window"``.
 * **When binding is checked**: on ``add_graph`` and ``advance`` (at their times), and at the
   end of every window that is recorded when windows close (one with detections or covered by
-  an observation source; before that window's FreMEn update), whatever closes it.
+  an observation source; before that window is recorded), whatever closes it.
 * **Continuing a build**: the open window stays open at the end of a log and is persisted, so
   building from log A, saving, loading and continuing with log B gives the same state as
   building from A+B at once with the same graphs, detections and observation sources. An
@@ -112,10 +110,36 @@ class Mapper:
     def add_trajectory(self, trajectory: Trajectory) -> None:
         """Robot poses for the observation masks (any time order, before windows close)."""
         self._state.observation.add_trajectory(trajectory)
+        if len(trajectory):
+            self._start_at(int(np.min(trajectory.t_ns)))
 
     def set_fixed_sensor(self, start_ns: int, end_ns: int) -> None:
         """Everything is observed in windows overlapping ``[start_ns, end_ns)``."""
         self._state.observation.set_fixed_sensor(int(start_ns), int(end_ns))
+        if int(end_ns) > int(start_ns):
+            self._start_at(int(start_ns))
+
+    def set_fixed_windows(self, windows: I64) -> None:
+        """Everything is observed in the given windows (sorted window indices)."""
+        w = np.asarray(windows, np.int64)
+        self._state.observation.add_fixed_windows(w, self._delta)
+        if w.size:
+            self._start_at(int(w.min()) * self._delta)
+
+    def _start_at(self, t_ns: int) -> None:
+        """An observation source starts at ``t_ns``: before anything was recorded, the map
+        starts there too, so the observed windows before the first detection count (as
+        observed-empty windows) instead of being skipped."""
+        st = self._state
+        window = int(window_index(np.int64(t_ns), self._delta))
+        if st.open_window is None:
+            st.open_window = window
+            return
+        if window >= st.open_window or st.recorded_anything():
+            return
+        if np.any(st.entries.window_totals(st.entries.live_rows()) > 0):
+            return  # the open window holds detections: it cannot move
+        st.open_window = window
 
     def advance(self, t_ns: int) -> None:
         """Log time reached ``t_ns``: close every window ending at or before it (ownership is

@@ -6,19 +6,22 @@ window and pending poses are the newest) and every entry of the earlier map is a
 its state belongs there: a cell goes to the later map's cell at the same key, or follows the
 later map's redirect; a node goes to the node's entry (created if the node lives in the later
 graph) or, if the node is gone, is released to the cell at its position. Counts, speed sums and
-FreMEn accumulators add (exact for disjoint time: ``n``, ``Σs``, ``Σs·e^{iωt}``, ``Σe^{iωt}``,
-first = min, last = max); ``windows_observed`` of the two maps add. Finally the earlier map's
-redirects to nodes alive in the later graph are kept, moving any later cell at such a key into
-the node.
+temporal accumulators add — exact for disjoint time: observations (windows, Σe^{iωt}, windows
+per profile bin, first = min, last = max), counts (Σn·e^{iωt}, per profile bin) and scores;
+the global fixed-sensor observations of the two maps add, so an entry only one map has counts
+as observed-empty over the other's fixed-sensor windows, as a single pass would. The earlier
+map's pending day is scored and absorbed first. Finally the earlier map's redirects to nodes
+alive in the later graph are kept, moving any later cell at such a key into the node.
 
-Approximated: (1) a map built from one log alone cannot know the observed-but-empty windows of
-entries that only the other log created (a single pass would record real zeros for them), nor
-windows in which one map's cells were still unbound while the other's node owned them — so the
-merge equals a single pass exactly only when both logs touch the same places from their first
-window on; (2) the prequential order errors add (each map scored its observations against its
-own history); (3) a node's stability timer keeps the earlier start only when the later map's
-reference position is within ``stable_move_tolerance`` of the earlier one. Maps whose times
-overlap merge without error but count shared windows twice in FreMEn.
+Approximated: (1) a map built from one log alone cannot know the robot-observed empty windows
+of entries that only the other log created (a single pass would record real zeros for them),
+nor windows in which one map's cells were still unbound while the other's node owned them;
+(2) the day-ahead scores add (each map scored its days against its own history, and the later
+map's first day was not scored against the earlier map's model); (3) a node's stability timer
+keeps the earlier start only when the later map's reference position is within
+``stable_move_tolerance`` of the earlier one; (4) when the earlier map ends on the day the
+later one starts, that day is scored as two days. Maps whose times overlap merge without
+error but count shared windows twice.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aion_cli.engine.closing import close_windows
-from aion_cli.engine.entries import CELL, NODE, fremen_rows
+from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.errors import ConfigError
 from aion_cli.engine.ownership import node_rows_creating, rows_for_keys
 from aion_cli.engine.spatial_hash import keys_for_points
@@ -48,6 +51,7 @@ def merge_maps(a: MapState, b: MapState) -> MapState:
     early = _copy(earlier)
     if early.open_window is not None:
         close_windows(early, early.open_window + 1)
+    early.close_day()
     out = _copy(later)
     _merge_timers(out, early)
     src_rows = early.entries.canonical_order()
@@ -99,15 +103,14 @@ def _add_entries(out: MapState, early: MapState, src: np.ndarray, dst: np.ndarra
     e, o = early.entries, out.entries
     for name in ("counts", "window_counts", "speed_sum", "speed_n", "nodir", "window_nodir"):
         np.add.at(getattr(o, name), dst, getattr(e, name)[src])
-    early_windows = np.zeros(o.capacity)
-    np.maximum.at(early_windows, dst, e.windows_observed[src])
-    o.windows_observed += early_windows
-    bins, n_rows = out.bins, out.fremen.n_rows
-    part = early.fremen.take(fremen_rows(src, bins).ravel())
-    joined = type(out.fremen).concat([out.fremen, part])
-    joined.add_rows(n_rows + np.arange(part.n_rows, dtype=np.int64), fremen_rows(dst, bins).ravel())
+    n_rows = out.temporal.n_rows
+    part = early.temporal.take(src)
+    joined = type(out.temporal).concat([out.temporal, part])
+    joined.add_rows(n_rows + np.arange(part.n_rows, dtype=np.int64), dst, observation="add")
     joined.resize(n_rows)
-    out.fremen = joined
+    joined.glob.add_block(np.array([0]), early.temporal.glob)
+    joined.touch()
+    out.temporal = joined
 
 
 def _adopt_redirects(out: MapState, early: MapState) -> None:

@@ -3,7 +3,7 @@
 Two sources: the robot trajectory (an entry is observed in a window if it lies within
 ``sensor_range`` metres, horizontally, of any robot pose inside that window) and fixed-sensor
 intervals (every entry is observed in any window that overlaps the interval). Observed-but-empty
-windows become real zeros for FreMEn's activity; windows no source covers teach nothing.
+windows become real zeros for the temporal model; windows no source covers teach nothing.
 
 Poses are kept until the windows they fall in are closed (:meth:`prune`), so a trajectory may be
 given before, with or after the detections of the open window.
@@ -49,6 +49,18 @@ class ObservationSource:
         self.fixed_start = np.append(self.fixed_start, np.int64(start_ns))
         self.fixed_end = np.append(self.fixed_end, np.int64(end_ns))
 
+    def add_fixed_windows(self, windows: I64, delta_ns: int) -> None:
+        """Declare whole windows observed everywhere: each run of consecutive windows becomes
+        one fixed-sensor interval."""
+        w = np.unique(np.asarray(windows, dtype=np.int64))
+        if w.size == 0:
+            return
+        breaks = np.flatnonzero(np.diff(w) > 1)
+        starts = np.concatenate([w[:1], w[breaks + 1]])
+        stops = np.concatenate([w[breaks], w[-1:]]) + 1
+        self.fixed_start = np.concatenate([self.fixed_start, starts * np.int64(delta_ns)])
+        self.fixed_end = np.concatenate([self.fixed_end, stops * np.int64(delta_ns)])
+
     def prune(self, before_ns: int) -> None:
         """Forget poses before ``before_ns`` (their windows are closed)."""
         keep = self.pose_t >= before_ns
@@ -68,13 +80,18 @@ class ObservationSource:
                 parts.append(np.arange(w0, w1, dtype=np.int64))
         return np.unique(np.concatenate(parts)).astype(np.int64)
 
-    def observed(self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float) -> BoolA:
-        """Mask of entries observed in one window."""
-        n = len(entry_xy)
+    def fixed_covers(self, window: int, delta_ns: int) -> bool:
+        """Whether a fixed-sensor interval overlaps window ``window``."""
         lo, hi = window * delta_ns, (window + 1) * delta_ns
         start, end = self.fixed_start, self.fixed_end
-        if np.any((start < hi) & (end > lo) & (end > start)):
-            return np.ones(n, dtype=bool)
+        return bool(np.any((start < hi) & (end > lo) & (end > start)))
+
+    def robot_observed(
+        self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float
+    ) -> BoolA:
+        """Mask of entries within ``sensor_range`` of a robot pose inside the window."""
+        n = len(entry_xy)
+        lo, hi = window * delta_ns, (window + 1) * delta_ns
         i0, i1 = np.searchsorted(self.pose_t, [lo, hi])
         if i1 <= i0 or n == 0:
             return np.zeros(n, dtype=bool)
@@ -82,6 +99,12 @@ class ObservationSource:
         dist, _ = cKDTree(poses).query(entry_xy, k=1, distance_upper_bound=sensor_range)
         mask: BoolA = dist <= sensor_range
         return mask
+
+    def observed(self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float) -> BoolA:
+        """Mask of entries observed in one window (every entry under a fixed sensor)."""
+        if self.fixed_covers(window, delta_ns):
+            return np.ones(len(entry_xy), dtype=bool)
+        return self.robot_observed(entry_xy, window, delta_ns, sensor_range)
 
     def to_arrays(self, prefix: str = "obs_") -> dict[str, np.ndarray]:
         return {

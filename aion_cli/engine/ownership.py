@@ -3,9 +3,9 @@
 * **Bind** (:func:`bind_cells`): every live cell entry whose centre has a *stable* node (present
   and within ``stable_move_tolerance`` of its reference position for ``stability_s`` of log time)
   within ``bind_radius`` horizontally and ``bind_vertical_tolerance`` vertically moves into the
-  nearest such node's entry: counts, open-window counts, speed sums, FreMEn rows (``add_rows``:
-  accumulators add, first = min, last = max) are ADDED to what the node has (never overwritten),
-  ``windows_observed`` takes the maximum (same time span); the cell entry is deleted and
+  nearest such node's entry: counts, open-window counts, speed sums, temporal rows (``add_rows``:
+  counts and scores add) are ADDED to what the node has (never overwritten), the observation
+  with more windows is kept (same time span); the cell entry is deleted and
   φ(cell key) = node id is recorded, so later detections there go to the node.
 * **Move** (:func:`apply_graph`): a node present in the new snapshot keeps its entry; the
   entry's position follows the node (a loop closure carries the dynamics along).
@@ -98,9 +98,7 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
         return None
     cells = cells[np.argsort(state.entries.key[cells], kind="stable")]
     ids, xyz = state.nodes.ids[stable], state.nodes.xyz[stable]
-    hit = nearest_nodes(
-        state.entries.xyz[cells], xyz, cfg.bind_radius, cfg.bind_vertical_tolerance
-    )
+    hit = nearest_nodes(state.entries.xyz[cells], xyz, cfg.bind_radius, cfg.bind_vertical_tolerance)
     bound = hit >= 0
     if not bound.any():
         return None

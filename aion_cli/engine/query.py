@@ -1,9 +1,12 @@
 """Answering questions about a map: per-entry tables of flow descriptors.
 
-* :func:`historical_table` — what was seen: descriptors from cumulative counts (the open
-  window included; it counts as an observed window for entries with detections in it).
-* :func:`predict_table` — what is expected at a time: FreMEn activity -> expected detections per
-  window (``descriptors.predicted``), FreMEn direction fractions floored and renormalised.
+* :func:`historical_table` — what was seen: each entry's detections per observed window and the
+  raw proportions of its direction bins (the open window included, as closing it now would
+  record it: ``MapState.query_temporal``).
+* :func:`predict_table` — what is expected at a time: each entry's chosen temporal families
+  (``engine.temporal``), with the predictive variance of the window count. With every temporal
+  family switched off (``families = ["static"]``) its flows equal the historical table's
+  exactly, and its histograms too when the direction prior is off (``direction_prior = 0``).
 * :func:`aggregate_table` — places summed into rooms or buildings with the latest graph's
   parents (``hierarchy.aggregate``); per-bin rates, flows and speed sums add.
 
@@ -11,7 +14,8 @@ Rows: every live entry (unbound cells, then node entries, in canonical order), p
 of the latest graph that has no entry yet (zero flow). Ids print as spark_dsg NodeSymbols
 (``p12`` = ``(ord('p') << 56) | 12``) for nodes and ``c<key>`` for hash cells. Flow quantities
 per entry are additive: ``rate[E, B]`` expected directed detections per window per bin,
-``flow[E]`` all expected detections per window (detections without a heading included).
+``flow[E]`` all expected detections per window (detections without a heading included),
+``flow_var[E]`` the variance of the window count.
 """
 
 from __future__ import annotations
@@ -25,10 +29,11 @@ import numpy.typing as npt
 
 from aion_cli.engine import descriptors
 from aion_cli.engine.descriptors import Descriptors
-from aion_cli.engine.entries import CELL, NODE, fremen_rows
-from aion_cli.engine.fremen import normalise_directions, to_model_seconds
+from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.hierarchy import aggregate
 from aion_cli.engine.state import MapState
+from aion_cli.engine.temporal.choice import count_quantiles
+from aion_cli.engine.temporal.model import Prediction
 from aion_cli.engine.types import F64, U64, GraphSnapshot
 
 ROOM = 2
@@ -56,9 +61,17 @@ class EntryTable:
     speed_sum: F64
     speed_n: F64
     window_s: float
+    flow_var: F64
+    flow_family: StrA
+    direction_family: StrA
 
     def __len__(self) -> int:
         return len(self.kind)
+
+    def flow_quantile(self, q: float) -> F64:
+        """The q-quantile of the number of detections in a window (negative binomial with
+        the predicted mean and variance; NaN where unknown, e.g. historical tables)."""
+        return count_quantiles(self.flow, self.flow_var, q)
 
     @cached_property
     def ids(self) -> StrA:
@@ -85,34 +98,31 @@ def node_symbol(node_ids: npt.ArrayLike) -> StrA:
 
 
 def historical_table(state: MapState) -> EntryTable:
-    """Descriptors of what the map has seen, per entry."""
-    ent = state.entries
-    rows = ent.canonical_order()
-    open_seen = ent.window_totals(rows) > 0
-    windows = ent.windows_observed[rows] + open_seen
-    counts = ent.counts[rows]
-    total = counts.sum(axis=1) + ent.nodir[rows]
-    flow = np.full(len(rows), np.nan)
-    np.divide(total, windows, out=flow, where=windows > 0)
-    rate = np.zeros_like(counts)
-    np.divide(counts, windows[:, None], out=rate, where=windows[:, None] > 0)
-    return _table(state, rows, rate, flow, ent.speed_sum[rows], ent.speed_n[rows])
+    """Descriptors of what was observed, per entry (see the module docstring)."""
+    rows, predictor = state.predictor()
+    return _entry_table(state, rows, predictor.historical())
 
 
 def predict_table(state: MapState, t_ns: int) -> EntryTable:
-    """Descriptors expected at ``t_ns`` (UNIX ns) from the FreMEn models, per entry."""
-    cfg = state.config
-    rows = state.entries.canonical_order()
-    t_s = to_model_seconds(np.array([t_ns], np.int64))
-    fr = fremen_rows(rows, cfg.bins)
-    b = cfg.bins  # one FreMEn evaluation for the B+1 rows of every entry, then split
-    both = state.model.predict(state.fremen, t_s, rows=fr.ravel()).reshape(len(rows), b + 1, 1)
-    activity = both[:, 0, 0]
-    dirs = normalise_directions(both[:, 1:, :].copy(), cfg.direction_floor)
-    flow = descriptors.expected_count(activity, cfg.activity_scale)
-    rate = flow[:, None] * dirs[:, :, 0]
+    """Descriptors expected at ``t_ns`` (UNIX ns), per entry."""
+    rows, predictor = state.predictor()
+    return _entry_table(state, rows, predictor.at(int(t_ns)))
+
+
+def _entry_table(state: MapState, rows: np.ndarray, pred: Prediction) -> EntryTable:
+    rate = np.nan_to_num(pred.flow * pred.directed_share)[:, None] * pred.probabilities
     ent = state.entries
-    return _table(state, rows, rate, flow, ent.speed_sum[rows], ent.speed_n[rows])
+    return _table(
+        state,
+        rows,
+        rate,
+        pred.flow,
+        ent.speed_sum[rows],
+        ent.speed_n[rows],
+        pred.variance,
+        pred.flow_family,
+        pred.direction_family,
+    )
 
 
 def aggregate_table(
@@ -128,11 +138,14 @@ def aggregate_table(
     target = graph.rooms if level == "rooms" else graph.buildings
     b = table.rate.shape[1]
     stacked = np.concatenate(
-        [table.rate, table.flow[:, None], table.speed_sum, table.speed_n], axis=1
+        [table.rate, table.flow[:, None], table.speed_sum, table.speed_n, table.flow_var[:, None]],
+        axis=1,
     )
     ids, sums = aggregate(parent, np.nan_to_num(stacked))
     rate, flow = sums[:, :b], sums[:, b]
-    speed_sum, speed_n = sums[:, b + 1 : 2 * b + 1], sums[:, 2 * b + 1 :]
+    speed_sum, speed_n = sums[:, b + 1 : 2 * b + 1], sums[:, 2 * b + 1 : 3 * b + 1]
+    historical = bool(np.all(np.isnan(table.flow_var)))
+    flow_var = np.full(len(ids), np.nan) if historical else sums[:, 3 * b + 1]
     xyz = np.full((len(ids), 3), np.nan)
     if len(target):  # graph layers need not be sorted by id
         order = np.argsort(target.ids)
@@ -153,6 +166,9 @@ def aggregate_table(
         speed_sum=speed_sum,
         speed_n=speed_n,
         window_s=table.window_s,
+        flow_var=flow_var,
+        flow_family=np.full(len(ids), "aggregate"),
+        direction_family=np.full(len(ids), "aggregate"),
     )
 
 
@@ -176,7 +192,15 @@ def _descriptors(
 
 
 def _table(
-    state: MapState, rows: np.ndarray, rate: F64, flow: F64, speed_sum: F64, speed_n: F64
+    state: MapState,
+    rows: np.ndarray,
+    rate: F64,
+    flow: F64,
+    speed_sum: F64,
+    speed_n: F64,
+    flow_var: F64,
+    flow_family: StrA,
+    direction_family: StrA,
 ) -> EntryTable:
     """Entries ``rows`` plus the latest graph's places without an entry (zero flow)."""
     ent, b = state.entries, state.bins
@@ -195,6 +219,10 @@ def _table(
         flow = np.concatenate([flow, np.zeros(k)])
         speed_sum = np.concatenate([speed_sum, np.zeros((k, b))])
         speed_n = np.concatenate([speed_n, np.zeros((k, b))])
+        unknown = len(flow_var) > 0 and bool(np.all(np.isnan(flow_var)))  # historical
+        flow_var = np.concatenate([flow_var, np.full(k, np.nan if unknown else 0.0)])
+        flow_family = np.concatenate([flow_family, np.full(k, "none")])
+        direction_family = np.concatenate([direction_family, np.full(k, "none")])
     is_cell = kind == CELL
     keys = np.concatenate([ent.key[rows], np.full(len(kind) - len(rows), -1, np.int64)])
     keys[~is_cell] = -1
@@ -202,5 +230,18 @@ def _table(
     window_s = state.config.window_s
     desc = _descriptors(rate, flow, speed_sum, speed_n, window_s)
     return EntryTable(
-        keys, node_id, kind, layer, xyz, desc, rate, flow, speed_sum, speed_n, window_s
+        keys,
+        node_id,
+        kind,
+        layer,
+        xyz,
+        desc,
+        rate,
+        flow,
+        speed_sum,
+        speed_n,
+        window_s,
+        flow_var,
+        flow_family,
+        direction_family,
     )

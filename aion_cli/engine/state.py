@@ -1,11 +1,12 @@
 """The map state: everything needed to continue a build and to answer queries.
 
-:class:`MapState` bundles the entry store, the FreMEn state (entry row ``e`` owns FreMEn rows
-``e·(B+1) .. e·(B+1)+B``), the node table with its stability timers, the redirect table φ, the
-latest graph, the open window, pending robot poses and fixed-sensor intervals, and the drop
-counters. :meth:`MapState.to_arrays` turns it into plain numpy arrays plus a JSON-serialisable
-``meta`` dict (no objects, no pickle); entries are exported in canonical order (cells by key,
-then nodes by id), so equal maps give equal arrays whatever their in-memory row layout.
+:class:`MapState` bundles the entry store, the temporal accumulators (entry row ``e`` is row
+``e`` of :class:`~aion_cli.engine.temporal.accumulators.TemporalState`) and the pending day,
+the node table with its stability timers, the redirect table φ, the latest graph, the open
+window, pending robot poses and fixed-sensor intervals, and the drop counters.
+:meth:`MapState.to_arrays` turns it into plain numpy arrays plus a JSON-serialisable ``meta``
+dict (no objects, no pickle); entries are exported in canonical order (cells by key, then nodes
+by id), so equal maps give equal arrays whatever their in-memory row layout.
 :func:`merge_states` combines two maps of disjoint time.
 """
 
@@ -17,28 +18,37 @@ from typing import Any
 import numpy as np
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.entries import CELL, NODE, EntryStore, fremen_rows
-from aion_cli.engine.errors import MapCorruptError
-from aion_cli.engine.fremen import FremenModel, FremenState, Predictor
+from aion_cli.engine.entries import CELL, NODE, EntryStore
+from aion_cli.engine.errors import MapCorruptError, MapFileError
 from aion_cli.engine.graph_arrays import graph_from_arrays, graph_to_arrays
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
 from aion_cli.engine.observation import ObservationSource
-from aion_cli.engine.pending import PendingUpdates, combine
 from aion_cli.engine.routing import RouteTable
-from aion_cli.engine.types import F64, I64, U64, BoolA, GraphSnapshot
+from aion_cli.engine.temporal import model as temporal_model
+from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.groups import entry_groups
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pending import DayWindows, PendingDay
+from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
+from aion_cli.engine.windows import window_ns
 
-STATE_VERSION = 1
+STATE_VERSION = 2
 DROP_REASONS = ("nan", "out_of_range", "before_window")
 
 
 @dataclass
 class MapState:
-    """A map under construction or loaded from a file (see the module docstring)."""
+    """A map under construction or loaded from a file (see the module docstring).
+
+    ``writable``: the state may be continued and saved. A query on a state that is not
+    (a map loaded for ``predict``, ``plan``, ``export``) absorbs the pending day in place
+    instead of into a copy."""
 
     config: ModelConfig
     entries: EntryStore
-    fremen_store: FremenState
+    temporal: TemporalState
+    pending: PendingDay
     nodes: NodeTable = field(default_factory=NodeTable)
     redirects: Redirects = field(default_factory=Redirects)
     observation: ObservationSource = field(default_factory=ObservationSource)
@@ -48,76 +58,58 @@ class MapState:
     accepted: int = 0
     dropped: dict[str, int] = field(default_factory=lambda: dict.fromkeys(DROP_REASONS, 0))
     routes: RouteTable = field(default_factory=RouteTable)
-    pending: PendingUpdates = field(default_factory=PendingUpdates)
+    writable: bool = True
+    params: TemporalParams = field(init=False, repr=False, compare=False)
+    _view: tuple[tuple[int, int, int | None, int], TemporalState] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
+    _predictor: tuple[tuple[int, int, int | None, int], temporal_model.Predictor] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
 
-    @property
-    def fremen(self) -> FremenState:
-        """The FreMEn state with every deferred window absorbed (see :meth:`defer_update`)."""
-        if self.pending:
-            self.flush_fremen()
-        return self.fremen_store
-
-    @fremen.setter
-    def fremen(self, value: FremenState) -> None:
-        if self.pending:
-            self.flush_fremen()
-        self.fremen_store = value
-
-    def defer_update(self, rows: I64, t_s: F64, values: F64, observed: BoolA) -> None:
-        """``model.update(fremen, rows, t_s, values, observed)``, absorbed together with the
-        next windows' (one pass over the accumulators for many windows); flushed when enough
-        is pending and before anything reads or moves FreMEn rows."""
-        if not self.pending.accepts(rows, t_s):
-            self.flush_fremen()
-        self.pending.add(rows, t_s, values, observed)
-        if self.pending.full():
-            self.flush_fremen()
-
-    def flush_fremen(self) -> None:
-        """Absorb the deferred windows now."""
-        calls = self.pending.take()
-        if calls:
-            self.model.update(self.fremen_store, *combine(calls))
+    def __post_init__(self) -> None:
+        self.params = TemporalParams.from_config(self.config)
 
     @classmethod
     def empty(cls, config: ModelConfig) -> MapState:
         entries = EntryStore.empty(config.bins)
-        model = FremenModel.from_config(config)
-        return cls(config, entries, model.empty(entries.capacity * (config.bins + 1)))
+        params = TemporalParams.from_config(config)
+        temporal = temporal_model.empty_state(params, entries.capacity)
+        return cls(config, entries, temporal, PendingDay(params.values))
 
     @property
     def bins(self) -> int:
         return self.config.bins
 
     @property
-    def model(self) -> FremenModel:
-        return FremenModel.from_config(self.config)
+    def window_ns(self) -> int:
+        return window_ns(self.config.window_s)
 
-    # -- entry lifecycle (keeps the FreMEn rows in step) ------------------------------------
+    # -- entry lifecycle (keeps the temporal rows in step) ----------------------------------
     def allocate(self, kind: int, keys: I64, node_ids: U64, xyz: F64) -> I64:
-        """New empty entries (and empty FreMEn rows); returns their rows."""
+        """New empty entries (and empty temporal rows); returns their rows."""
         rows = self.entries.allocate(kind, keys, node_ids, xyz)
-        needed = self.entries.capacity * (self.bins + 1)
-        if self.fremen_store.n_rows < needed:  # pending row indices stay valid
-            self.fremen_store.resize(needed)
+        if self.temporal.n_rows < self.entries.capacity:
+            self.temporal.resize(self.entries.capacity)
         return rows
 
     def move(self, src: I64, dst: I64) -> None:
         """Move entries ``src`` into ``dst`` (adding; ``dst`` may repeat) and delete ``src``.
 
-        Every count, open-window count, speed sum and FreMEn accumulator of ``src`` is added
-        to ``dst``; pairs are applied in the caller's order, which callers make canonical so
-        the floating-point result does not depend on the row layout.
+        Every count, open-window count, speed sum and temporal accumulator of ``src`` is added
+        to ``dst`` (observations: the larger of the two, see ``temporal.accumulators``), and
+        the pending day's windows follow; pairs are applied in the caller's order, which
+        callers make canonical so the floating-point result does not depend on the row layout.
         """
         if len(src) == 0:
             return
         self.entries.add_into(src, dst)
-        b = self.bins
-        self.fremen.add_rows(fremen_rows(src, b).ravel(), fremen_rows(dst, b).ravel())
+        self.temporal.add_rows(src, dst, observation="max")
+        self.pending.remap(np.asarray(src, np.int64), np.asarray(dst, np.int64))
         self.delete(src)
 
     def delete(self, rows: I64) -> None:
-        self.fremen.zero_rows(fremen_rows(rows, self.bins).ravel())
+        self.temporal.zero_rows(rows)
         self.entries.delete(rows)
 
     def node_entry_rows(self, node_ids: U64) -> I64:
@@ -139,22 +131,160 @@ class MapState:
         rows = np.concatenate([cells, red_rows])
         self.routes = RouteTable.build(keys, rows)
 
+    # -- the temporal model -----------------------------------------------------------------
+    def groups(self, rows: I64) -> tuple[I64, int]:
+        """Pooling group of each entry (room, else neighbourhood) and the number of groups."""
+        places = self.graph.places if self.graph is not None else None
+        ent = self.entries
+        return entry_groups(
+            ent.kind[rows],
+            ent.node_id[rows],
+            ent.xyz[rows],
+            places.ids if places is not None else np.zeros(0, np.uint64),
+            places.parent if places is not None else np.zeros(0, np.uint64),
+            self.config.pool_size,
+        )
+
+    def window_day(self, window: int) -> int:
+        """The local day (``timezone``) of a window, by its centre."""
+        return temporal_model.window_day(self.params, window, self.window_ns)
+
+    def record_window(
+        self, window: int, fixed: bool, observed: I64, count_rows: I64, counts: F64
+    ) -> None:
+        """One closed window for the temporal model (a window of a new day first closes the
+        pending day: see :mod:`aion_cli.engine.temporal.model`)."""
+        day = temporal_model.window_day(self.params, window, self.window_ns)
+        if self.pending and self.pending.day != day:
+            self.close_day()
+        self.pending.add_window(day, window, fixed, observed, count_rows, counts)
+
+    def recorded_anything(self) -> bool:
+        """Whether any window was recorded (closed) yet."""
+        t = self.temporal
+        return bool(self.pending) or bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
+
+    def close_day(self) -> None:
+        """Score the pending day against the model before it, then absorb it."""
+        if not self.pending:
+            return
+        rows = self.entries.live_rows()
+        groups, n_groups = self.groups(rows)
+        temporal_model.close_pending(
+            self.params, self.temporal, self.pending, rows, groups, n_groups, self.window_ns
+        )
+
+    def query_temporal(self) -> TemporalState:
+        """The accumulators as queries see them: pending day and open window absorbed,
+        unscored (in place when the state is not ``writable``, else a cached copy)."""
+        key = self._view_key()
+        if self._view is not None and self._view[0] == key:
+            return self._view[1]
+        view = temporal_model.query_view(
+            self.params,
+            self.temporal,
+            self.pending,
+            self._open_window_record(),
+            self.window_ns,
+            in_place=not self.writable,
+        )
+        if not self.writable:  # the open window now counts as closed for this state's queries
+            self.entries.clear_window()
+            key = self._view_key()
+        self._view = (key, view)
+        return view
+
+    def _open_window_record(self) -> DayWindows | None:
+        """The open window as closing it now would record it (``closing._record``): observed
+        by every entry under a fixed sensor, else by the robot and where detections are."""
+        w = self.open_window
+        if w is None:
+            return None
+        rows = self.entries.live_rows()
+        counts = np.column_stack(
+            [self.entries.window_counts[rows], self.entries.window_nodir[rows]]
+        )
+        seen = counts.sum(axis=1) > 0
+        fixed = self.observation.fixed_covers(w, self.window_ns)
+        observed = np.zeros(0, np.int64)
+        if not fixed:
+            xy = self.entries.xyz[rows, :2]
+            mask = self.observation.robot_observed(xy, w, self.window_ns, self.config.sensor_range)
+            observed = rows[mask | seen]
+        if not fixed and observed.size == 0:
+            return None
+        zeros = np.zeros(observed.size, np.int64)
+        return DayWindows(
+            np.array([w], np.int64),
+            np.array([fixed]),
+            observed,
+            zeros,
+            rows[seen],
+            np.zeros(int(seen.sum()), np.int64),
+            counts[seen],
+        )
+
+    def predictor(self) -> tuple[I64, temporal_model.Predictor]:
+        """Live entries in canonical order and their forecasts (cached while the state is
+        unchanged, so many query times cost one preparation)."""
+        view = self.query_temporal()
+        key = self._view_key()
+        rows = self.entries.canonical_order()
+        if self._predictor is None or self._predictor[0] != key:
+            groups, n_groups = self.groups(rows)
+            self._predictor = (
+                key,
+                temporal_model.Predictor.of(self.params, view, rows, groups, n_groups),
+            )
+        return rows, self._predictor[1]
+
+    def family_summary(self) -> dict[str, Any]:
+        """How many entries forecast with each family (flow and direction), and whether the
+        map's total is reconciled to its pooled profile (for the manifest and ``aion info``)."""
+        rows, predictor = self.predictor()
+        flow = np.asarray(self.params.flow)[predictor.flow_choice]
+        direction = np.asarray(self.params.direction)[predictor.direction_choice]
+        scored = self.query_temporal().flow_scored[rows]
+        return {
+            "flow": _tally(flow),
+            "direction": _tally(direction),
+            "reconciled": bool(predictor.reconcile),
+            "scored_windows": float(scored.sum()),
+        }
+
+    def _view_key(self) -> tuple[int, int, int | None, int]:
+        return (
+            self.temporal.generation,
+            len(self.pending.windows),
+            self.open_window,
+            self.accepted,
+        )
+
+    def windows_observed(self, rows: I64) -> F64:
+        """Windows in which each entry was observed so far (pending day included)."""
+        out: F64 = self.temporal.windows_observed(rows)
+        if self.pending:
+            day = self.pending.consolidated()
+            fixed = float(day.fixed.sum())
+            own = day.obs_entry[~day.fixed[day.obs_slot]]
+            out = out + fixed + np.bincount(own, minlength=self.temporal.n_rows)[rows]
+        return out
+
     # -- persistence ------------------------------------------------------------------------
     def to_arrays(self, lazy: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
         """Plain arrays and a JSON-serialisable meta dict (config, counters, window, graph).
 
-        ``lazy``: the FreMEn members are :class:`RowTake` (gathered block by block when
-        :func:`formats.mapfile.write_map` writes them), so writing needs no second copy of the
+        The temporal members are gathered block by block when written (``lazy`` is kept for
+        callers; every large member is streamed), so writing needs no second copy of the
         largest part of the state."""
+        del lazy
         order = self.entries.canonical_order()
         arrays: dict[str, Any] = self.entries.to_arrays(order)
-        fr = fremen_rows(order, self.bins).ravel()
-        if lazy:
-            arrays.update(self.fremen.rows_to_arrays("fremen_", fr))
-        else:
-            arrays.update(self.fremen.take(fr).to_arrays("fremen_"))
-        # the prediction coefficients, so a loaded map predicts without ranking components
-        arrays.update(self.model.predictor(self.fremen, fr, cache=False).to_arrays("fremen_pred_"))
+        arrays.update(self.temporal.to_arrays("temporal_", order))
+        position = np.full(self.entries.capacity, -1, np.int64)
+        position[order] = np.arange(order.size)
+        pending_arrays, pending_day = self.pending.to_arrays("pending_", position)
+        arrays.update(pending_arrays)
         arrays.update(self.nodes.to_arrays())
         arrays.update(self.redirects.to_arrays())
         arrays.update(self.observation.to_arrays())
@@ -168,45 +298,57 @@ class MapState:
             "accepted": int(self.accepted),
             "dropped": {k: int(v) for k, v in self.dropped.items()},
             "graph": graph_meta,
+            "pending_day": pending_day,
         }
         return arrays, meta
 
     @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> MapState:
+    def from_arrays(
+        cls, arrays: dict[str, np.ndarray], meta: dict[str, Any], writable: bool = True
+    ) -> MapState:
         """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` for inconsistent input."""
         try:
             version = int(meta["state_version"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
+        if version < STATE_VERSION:
+            raise MapFileError(
+                f"the map was written by an older aion (model state version {version}, "
+                "before flows became rates)",
+                hint="rebuild the map from its logs with `aion build`",
+            )
+        if version > STATE_VERSION:
+            raise MapCorruptError(f"map state version {version} is newer than {STATE_VERSION}")
+        try:
             config = ModelConfig.from_dict(meta["config"])
             open_window = meta["open_window"]
             log_time = meta["log_time_ns"]
             accepted = int(meta["accepted"])
             dropped = {str(k): int(v) for k, v in meta["dropped"].items()}
             graph_meta = meta["graph"]
+            pending_day = meta.get("pending_day")
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
-        if version > STATE_VERSION:
-            raise MapCorruptError(f"map state version {version} is newer than {STATE_VERSION}")
         entries = EntryStore.from_arrays(arrays, config.bins)
-        fremen = FremenState.from_arrays(arrays, "fremen_")
-        if (fremen.n_periods, fremen.max_order) != (len(config.periods), config.max_order):
-            raise MapCorruptError(
-                f"FreMEn state has {fremen.n_periods} periods and order {fremen.max_order}, "
-                f"the config says {len(config.periods)} and {config.max_order}"
-            )
-        if fremen.n_rows != entries.n * (config.bins + 1):
-            raise MapCorruptError(
-                f"FreMEn state has {fremen.n_rows} rows, expected {entries.n * (config.bins + 1)}"
-            )
-        model = FremenModel.from_config(config)
-        predictor = Predictor.from_arrays(arrays, "fremen_pred_", fremen.n_rows, model)
-        fremen.resize(entries.capacity * (config.bins + 1))
-        if predictor is not None:
-            model.attach_predictor(fremen, predictor)
+        params = TemporalParams.from_config(config)
+        temporal = TemporalState.from_arrays(
+            arrays,
+            "temporal_",
+            entries.n,
+            params.values,
+            params.n_periods,
+            params.n_profile,
+            len(params.flow),
+            len(params.direction),
+        )
+        temporal.resize(entries.capacity)
+        pending = PendingDay.from_arrays(arrays, "pending_", pending_day, params.values, entries.n)
         try:
             state = cls(
                 config=config,
                 entries=entries,
-                fremen_store=fremen,
+                temporal=temporal,
+                pending=pending,
                 nodes=NodeTable.from_arrays(arrays),
                 redirects=Redirects.from_arrays(arrays),
                 observation=ObservationSource.from_arrays(arrays),
@@ -215,6 +357,7 @@ class MapState:
                 log_time_ns=None if log_time is None else int(log_time),
                 accepted=accepted,
                 dropped={**dict.fromkeys(DROP_REASONS, 0), **dropped},
+                writable=writable,
             )
         except (KeyError, ValueError) as exc:
             raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
@@ -238,6 +381,11 @@ class MapState:
             problems.append("a redirect points at a node without an entry")
         if problems:
             raise MapCorruptError(f"map state is inconsistent: {'; '.join(problems)}")
+
+
+def _tally(names: np.ndarray) -> dict[str, int]:
+    values, counts = np.unique(names, return_counts=True)
+    return {str(v): int(c) for v, c in zip(values, counts, strict=True)}
 
 
 def merge_states(a: MapState, b: MapState) -> MapState:

@@ -174,7 +174,7 @@ class GraphSnapshot:
 @dataclass(frozen=True)
 class RowTake:
     """Rows ``rows`` of ``source`` (along axis 0), gathered block by block when written: a map
-    member that never exists as one whole copy in memory (writing a map of 10^6 FreMEn rows
+    member that never exists as one whole copy in memory (writing a map of 10^6 temporal rows
     would otherwise hold the state and a reordered copy of it at once).
 
     :func:`formats.mapfile.write_map` streams it; ``np.asarray`` materialises it."""

@@ -1,8 +1,10 @@
-"""Time windows of Δ seconds aligned to the UNIX epoch.
+"""Time windows of Δ seconds aligned to the UNIX epoch, and the model's time base.
 
 Window ``w`` covers ``[w·Δ, (w+1)·Δ)`` in integer nanoseconds, so every map built with the same
 Δ uses the same windows whatever log it started from (needed to continue and merge maps). A
-window is fed to FreMEn at its centre time, in model seconds (``fremen.to_model_seconds``).
+window enters the temporal model at its centre time; FreMEn phases use *model seconds*, float64
+seconds since :data:`EPOCH_NS` (a recent epoch: float seconds since 1970 would lose the
+precision short periods need).
 """
 
 from __future__ import annotations
@@ -11,7 +13,17 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.errors import ConfigError
-from aion_cli.engine.types import I64
+from aion_cli.engine.types import F64, I64
+
+EPOCH_NS: int = 1_578_268_800 * 1_000_000_000
+"""The model epoch, 2020-01-06T00:00:00Z (a Monday), in UNIX nanoseconds."""
+
+
+def to_model_seconds(t_ns: npt.ArrayLike) -> F64:
+    """UNIX nanoseconds -> float64 seconds since :data:`EPOCH_NS` (exact integer subtraction)."""
+    t = np.asarray(t_ns, dtype=np.int64)
+    out: F64 = (t - np.int64(EPOCH_NS)).astype(np.float64) / 1e9
+    return out
 
 
 def window_ns(window_s: float) -> int:
@@ -35,6 +47,6 @@ def window_start_ns(window: npt.ArrayLike, delta_ns: int) -> I64:
 
 
 def window_centre_ns(window: npt.ArrayLike, delta_ns: int) -> I64:
-    """Centre time of each window in ns (the time FreMEn sees the window at)."""
+    """Centre time of each window in ns (the time the temporal model sees it at)."""
     out: I64 = window_start_ns(window, delta_ns) + np.int64(delta_ns // 2)
     return out

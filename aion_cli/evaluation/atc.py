@@ -7,9 +7,11 @@ Two protocols (``docs/EVALUATION.md``):
 - ``chronological``: train on all people of the hours up to 16:00 (09:00–16:59), then predict
   17:00–20:59 (all people of those hours) — forecasting, not interpolation.
 
-Models: ``aion`` (hash cells, FreMEn with per-row order), ``aion+graph`` (a navigational graph
-derived from where people walk, cells bound to its nodes, FreMEn), ``aion static`` (the same map
-as ``aion`` with FreMEn order 0), ``grid`` (STeF-style dense 1 m grid, shared FreMEn code),
+Models: ``aion`` (hash cells, each entry's chosen temporal families), ``aion+graph`` (a
+navigational graph derived from where people walk, cells bound to its nodes), ``aion static``
+(the same map as ``aion`` with its static, pooled histograms), ``aion historical`` (its raw
+proportions, as ``predict --historical`` shows), ``grid`` (STeF-style dense 1 m grid, aion's
+FreMEn),
 ``time-of-day`` (per-cell histograms per hour of the day). ATC has no robot: every model is a
 fixed sensor observing the whole area over the training span.
 """
@@ -40,6 +42,7 @@ from aion_cli.evaluation.heading import (
 from formats.tracks import read_tracks
 
 JST_OFFSET_H = 9.0
+JST = "Asia/Tokyo"
 HOUR_NS = 3_600_000_000_000
 PROTOCOLS = ("random", "chronological")
 _NAME = re.compile(r"atc-1024-(\d+)_(train|test)\.csv$")
@@ -138,7 +141,7 @@ def run_atc(
     """Train and score every model on ATC under ``protocol``."""
     if protocol not in PROTOCOLS:
         raise ValueError(f"protocol must be one of {PROTOCOLS}, got {protocol!r}")
-    cfg = config or ModelConfig()
+    cfg = config or ModelConfig(timezone=JST)
     say = progress or (lambda _msg: None)
     files = atc_files(data_dir)
     hours = sorted({h for h, _ in files})
@@ -147,9 +150,7 @@ def run_atc(
         tests = {h: load(files, [(h, "test")]) for h in hours if (h, "test") in files}
     else:
         train = load(files, [(h, s) for h in hours if h <= 16 for s in ("train", "test")])
-        tests = {
-            h: load(files, [(h, "train"), (h, "test")]) for h in hours if h >= 17
-        }
+        tests = {h: load(files, [(h, "train"), (h, "test")]) for h in hours if h >= 17}
     say(f"training on {len(train):,} detections")
     models = _train_models(train, cfg, radius, say)
     result = AtcResult(protocol, radius, len(train))
@@ -178,7 +179,10 @@ def _train_models(
     return {
         "aion": (AionHeadingModel(cells, radius), _state_bytes(cells)),
         "aion+graph": (AionHeadingModel(graph, radius, name="aion+graph"), _state_bytes(graph)),
-        "aion static": (AionHeadingModel(cells, radius, order=0, name="aion static"), 0),
+        "aion static": (AionHeadingModel(cells, radius, static=True, name="aion static"), 0),
+        "aion historical": (
+            AionHeadingModel(cells, radius, historical=True, name="aion historical"), 0
+        ),
         "grid": (GridHeadingModel(grid), grid.stored_bytes()),
         "time-of-day": (tod, int(tod.counts.nbytes)),
     }

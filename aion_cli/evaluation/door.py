@@ -1,9 +1,12 @@
 """The FreMEn check on a real periodic signal: the door of ``gestom/hypertime-RAL``.
 
 Ten training weeks of 1-minute door states (open 1 / closed 0), then nine later test weeks.
-FreMEn is trained on the training weeks (batched one day per update, as the mapper batches
-windows) and scored on every test week by the mean absolute error of its prediction with the
-chosen order against that of the static mean (order 0).
+The signal is learnt by aion's temporal model as one entry observed every minute (windows of
+60 s) whose "count" in a minute is the door state, day by day as a build records windows; each
+family's order and score come from the same day-ahead scoring as a map's. On every test week
+the mean absolute error of FreMEn (its best order by day-ahead score) is compared with the
+static mean's; the family the model itself would choose and the periodic profile are reported
+beside them.
 """
 
 from __future__ import annotations
@@ -13,59 +16,86 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.config import default_periods
-from aion_cli.engine.fremen import FremenModel, FremenState, to_model_seconds
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.temporal import model as temporal
+from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.forecast import Forecaster
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pending import DayWindows
+from aion_cli.engine.windows import to_model_seconds
 
-SAMPLES_PER_DAY = 1440
+WINDOW_NS = 60_000_000_000
+_ONE = np.zeros(1, np.int64)
 
 
-def _model_seconds(unix_s: np.ndarray) -> np.ndarray:
-    return to_model_seconds(np.round(unix_s).astype(np.int64) * 1_000_000_000)
+def door_config() -> ModelConfig:
+    """Minute windows; everything else aion's defaults."""
+    return ModelConfig(window_s=60.0)
 
 
-def train_door(data_dir: Path) -> tuple[FremenModel, FremenState]:
-    """FreMEn (default 31 periods) fed the training signal one day at a time."""
+def train_door(data_dir: Path) -> tuple[TemporalParams, TemporalState]:
+    """The door signal learnt as one always-observed entry (see the module docstring)."""
     train = np.loadtxt(Path(data_dir) / "training_data.txt", ndmin=2)
-    model = FremenModel(default_periods())
-    state = model.empty(1)
-    t = _model_seconds(train[:, 0])
-    for start in range(0, len(t), SAMPLES_PER_DAY):
-        values = train[None, start : start + SAMPLES_PER_DAY, 1]
-        model.update(
-            state,
-            [0],
-            t[start : start + SAMPLES_PER_DAY],
-            values,
-            np.ones(values.shape, dtype=bool),
-        )
-    return model, state
+    params = TemporalParams.from_config(door_config())
+    state = temporal.empty_state(params, 1)
+    windows = np.floor_divide(np.round(train[:, 0]).astype(np.int64) * 10**9, WINDOW_NS)
+    windows, first = np.unique(windows, return_index=True)
+    open_ = np.flatnonzero(train[first, 1] > 0)
+    values = np.zeros((open_.size, params.values))
+    values[:, -1] = train[first[open_], 1]  # the "no heading" bin carries the state
+    day = DayWindows(
+        windows,
+        np.ones(windows.size, bool),
+        np.zeros(0, np.int64),
+        np.zeros(0, np.int64),
+        np.zeros(open_.size, np.int64),
+        open_.astype(np.int64),
+        values,
+    )
+    temporal.learn(params, state, day, _ONE, _ONE, 1, WINDOW_NS)
+    return params, state
+
+
+def _mae(fc: Forecaster, family: str, t_ns: np.ndarray, truth: np.ndarray) -> float:
+    """Mean absolute error of a family's prediction (clamped to [0, 1]) at the test times."""
+    e = np.zeros(t_ns.size, np.int64)
+    h = fc.params.calendar.profile_bin(t_ns)
+    pred = np.clip(fc.flow(family, e, h, to_model_seconds(t_ns)), 0.0, 1.0)
+    return float(np.mean(np.abs(pred - truth)))
 
 
 def run_door(data_dir: Path, weeks: range = range(1, 10)) -> dict[str, Any]:
-    """Per test week: MAE of FreMEn (chosen order) and of the static mean, and who wins."""
-    model, state = train_door(data_dir)
-    amplitude, _phase = model.spectrum(state)
-    strongest = np.argsort(-amplitude[0])[:5]
-    order = int(model.chosen_order(state)[0])
+    """Per test week: MAE of FreMEn (best order), of the static mean and of the model's own
+    choice, and who wins."""
+    params, state = train_door(data_dir)
+    predictor = temporal.Predictor.of(params, state, _ONE, _ONE, 1)
+    fc = predictor.forecaster
+    scores = state.flow_score[0]
+    fremen = [f for f in params.flow if f.startswith("fremen")]
+    best_fremen = max(fremen, key=lambda f: scores[params.flow.index(f)])
+    chosen = params.flow[int(predictor.flow_choice[0])]
     rows = []
     for k in weeks:
         times = np.loadtxt(Path(data_dir) / f"test_times_{k}.txt", ndmin=1)
         truth = np.loadtxt(Path(data_dir) / f"test_data_{k}.txt", ndmin=1)
-        t = _model_seconds(times)
-        fremen = model.predict(state, t)[0]
-        static = model.predict(state, t, order=0)[0]
-        rows.append(
-            {
-                "week": k,
-                "samples": len(truth),
-                "mae_fremen": float(np.mean(np.abs(fremen - truth))),
-                "mae_static": float(np.mean(np.abs(static - truth))),
-            }
-        )
+        t_ns = np.round(times).astype(np.int64) * 10**9 + WINDOW_NS // 2
+        row: dict[str, Any] = {"week": k, "samples": len(truth)}
+        for key, family in (
+            ("fremen", best_fremen),
+            ("static", "static"),
+            ("profile", "profile"),
+            ("chosen", chosen),
+        ):
+            row[f"mae_{key}"] = _mae(fc, family, t_ns, truth)
+        rows.append(row)
+    gamma = fc.coef_total[0]
+    periods = np.asarray(params.config.periods)[fc.period_idx[0]]
     return {
-        "chosen_order": order,
-        "strongest_periods_h": [round(model.periods[i] / 3600.0, 3) for i in strongest],
-        "strongest_amplitudes": [round(float(amplitude[0, i]), 5) for i in strongest],
+        "chosen_family": chosen,
+        "fremen_order": int(best_fremen.removeprefix("fremen")),
+        "day_ahead_scores": {f: float(scores[i]) for i, f in enumerate(params.flow)},
+        "strongest_periods_h": [round(float(p) / 3600.0, 3) for p in periods],
+        "strongest_amplitudes": [round(float(abs(g)), 5) for g in gamma],
         "weeks": rows,
         "fremen_wins": sum(r["mae_fremen"] < r["mae_static"] for r in rows),
     }

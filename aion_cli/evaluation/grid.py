@@ -3,12 +3,14 @@
 STeF-map (Molina et al., TAROS 2018) as its public scripts implement it: a dense grid over the
 area (1 m cells), B = 8 direction bins, 600 s windows; per window and cell the bin counts are
 normalised by the cell's maximum bin (the dominant direction becomes 1), cells with no detection
-in an observed window are observed zeros, and one FreMEn state per cell and bin learns the
-periodicity. Memory is allocated for every cell of the bounding box, as a dense grid does; the
-stored size is reported by :meth:`GridMoD.stored_bytes`.
+in an observed window are observed zeros, and FreMEn per cell and bin learns the periodicity.
+Memory is allocated for every cell of the bounding box, as a dense grid does; the stored size is
+reported by :meth:`GridMoD.stored_bytes`.
 
-It uses the same FreMEn code as aion (``aion_cli.engine.fremen``), so differences between the
-two maps come from the spatial representation, not the temporal model.
+It uses aion's own temporal code (``aion_cli.engine.temporal``) restricted to the static and
+FreMEn families (orders chosen per cell by the same day-ahead score), so differences between the
+two maps come from the spatial representation and from aion's other families, not from a second
+FreMEn implementation. Its predictions are the raw per-bin rates (no direction prior).
 """
 
 from __future__ import annotations
@@ -20,9 +22,12 @@ import numpy.typing as npt
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.engine.fremen import FremenModel, FremenState, to_model_seconds
 from aion_cli.engine.observation import ObservationSource
+from aion_cli.engine.temporal import model as temporal
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.types import DetectionBatch
+from aion_cli.engine.windows import to_model_seconds
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
@@ -70,17 +75,23 @@ class GridSpec:
 
 
 class GridMoD:
-    """STeF-style dense grid with one FreMEn state per cell and direction bin."""
+    """STeF-style dense grid: FreMEn per cell and direction bin (see the module docstring)."""
 
-    def __init__(self, spec: GridSpec, config: ModelConfig | None = None) -> None:
+    def __init__(
+        self, spec: GridSpec, config: ModelConfig | None = None, normalise: bool = True
+    ) -> None:
+        """``normalise``: STeF's per-window max normalisation; False keeps raw counts (a grid
+        whose predictions are expected detections, for activity comparisons)."""
         self.spec = spec
-        self.config = config or ModelConfig()
+        self.normalise = normalise
+        self.config = (config or ModelConfig()).replace(families=["static", "fremen"])
         self.bins = self.config.bins
-        self.model = FremenModel.from_config(self.config)
-        self.state: FremenState = self.model.empty(spec.n_cells * self.bins)
+        self.params = TemporalParams.from_config(self.config)
+        self.state = temporal.empty_state(self.params, spec.n_cells)
         self.counts = np.zeros((spec.n_cells, self.bins))
-        self.windows_observed = 0
         self.windows_observed_per_cell = np.zeros(spec.n_cells)
+        self._rows = np.arange(spec.n_cells, dtype=np.int64)
+        self._predictor: temporal.Predictor | None = None
 
     def fit(
         self,
@@ -108,33 +119,42 @@ class GridMoD:
         n_windows = int(last - first + 1)
         w = t // window_ns - first
         in_span = (w >= 0) & (w < n_windows)
-        flat = (
-            cells[keep][in_span] * self.bins + bin_of(batch.heading[keep][in_span], self.bins)
-        )
-        n_rows = self.spec.n_cells * self.bins
-        per_window = np.bincount(
-            w[in_span] * n_rows + flat, minlength=n_windows * n_rows
-        ).astype(np.float64).reshape(n_windows, n_rows)
-        self.counts += per_window.sum(axis=0).reshape(self.spec.n_cells, self.bins)
-        self.windows_observed += n_windows
-        cube = per_window.reshape(n_windows, self.spec.n_cells, self.bins)
-        peak = cube.max(axis=2, keepdims=True)
-        normalised = np.divide(cube, peak, out=np.zeros_like(cube), where=peak > 0)
-        centres_ns = (np.arange(first, last + 1) * window_ns + window_ns // 2).astype(np.int64)
-        t_s = to_model_seconds(centres_ns)
-        values = normalised.reshape(n_windows, -1).T
+        b = self.bins
+        flat = cells[keep][in_span] * b + bin_of(batch.heading[keep][in_span], b)
+        pair = w[in_span] * self.spec.n_cells * b + flat
+        keys, counts = np.unique(pair, return_counts=True)
+        slot, rest = np.divmod(keys, self.spec.n_cells * b)
+        cell, bin_ = np.divmod(rest, b)
+        np.add.at(self.counts, (cell, bin_), counts)
+        # per (window, cell): counts normalised by the cell's largest bin (STeF)
+        group, inverse = np.unique(slot * self.spec.n_cells + cell, return_inverse=True)
+        values = np.zeros((group.size, self.params.values))
+        values[inverse.reshape(-1), bin_] = counts
+        if self.normalise:
+            values[:, :b] /= values[:, :b].max(axis=1, keepdims=True)
+        cnt_slot, cnt_cell = np.divmod(group, self.spec.n_cells)
         observed = self._observed(first, n_windows, window_ns, observation)
-        self.windows_observed_per_cell += observed.sum(axis=0)
-        rows = np.arange(self.spec.n_cells * self.bins, dtype=np.int64)
-        mask = np.repeat(observed.T, self.bins, axis=0)
-        self.model.update(self.state, rows, t_s, values, mask | (values > 0))
+        windows = np.arange(first, last + 1, dtype=np.int64)
+        if observed is None:
+            fixed = np.ones(n_windows, bool)
+            obs_entry = obs_slot = np.zeros(0, np.int64)
+            self.windows_observed_per_cell += n_windows
+        else:
+            fixed = np.zeros(n_windows, bool)
+            observed[cnt_slot, cnt_cell] = True  # detections: observed whatever the source says
+            obs_slot, obs_entry = np.nonzero(observed)
+            self.windows_observed_per_cell += observed.sum(axis=0)
+        day = DayWindows(windows, fixed, obs_entry, obs_slot, cnt_cell, cnt_slot, values)
+        groups = np.zeros(self.spec.n_cells, np.int64)
+        temporal.learn(self.params, self.state, day, self._rows, groups, 1, window_ns)
+        self._predictor = None
 
     def _observed(
         self, first: int, n_windows: int, window_ns: int, observation: ObservationSource | None
-    ) -> npt.NDArray[np.bool_]:
-        """Observed mask float[n_windows, n_cells] (every cell when no source is given)."""
+    ) -> npt.NDArray[np.bool_] | None:
+        """Observed mask bool[n_windows, n_cells] (None: every cell, a fixed sensor)."""
         if observation is None:
-            return np.ones((n_windows, self.spec.n_cells), dtype=bool)
+            return None
         centres = self.spec.centres()
         return np.stack(
             [
@@ -143,22 +163,47 @@ class GridMoD:
             ]
         )
 
-    def predict(self, t_ns: int, order: int | None = None) -> F64:
-        """Predicted max-normalised bin values per cell at ``t_ns``: float64[n_cells, B].
+    def _ready(self) -> temporal.Predictor:
+        if self._predictor is None:
+            groups = np.zeros(self.spec.n_cells, np.int64)
+            self._predictor = temporal.Predictor.of(self.params, self.state, self._rows, groups, 1)
+        return self._predictor
 
-        ``order=None`` uses each state's chosen FreMEn order; 0 gives the static mean.
-        """
-        t_s = to_model_seconds(np.array([t_ns], dtype=np.int64))
-        pred = self.model.predict(self.state, t_s, order=order)[:, 0]
-        return pred.reshape(self.spec.n_cells, self.bins)
+    def predict(self, t_ns: int, static: bool = False) -> F64:
+        """Predicted max-normalised bin values per cell at ``t_ns``: float64[n_cells, B]: the
+        total of the cell's chosen flow family (static or FreMEn) split over the bins as its
+        chosen direction family's per-bin rates are (raw rates, no direction prior);
+        ``static`` forces the static mean."""
+        pred = self._ready()
+        fc = pred.forecaster
+        n, b = self.spec.n_cells, self.bins
+        t = np.full(n, int(t_ns), np.int64)
+        h = self.params.calendar.profile_bin(t)
+        t_s = to_model_seconds(t)
+        if static:
+            return fc.bin_rates("static", self._rows, h, t_s)[:, :b]
+        total = np.zeros(n)
+        for f, name in enumerate(self.params.flow):
+            pick = np.flatnonzero(pred.flow_choice == f)
+            if pick.size:
+                total[pick] = fc.bin_rates(name, pick, h[pick], t_s[pick])[:, :b].sum(axis=1)
+        split = np.zeros((n, b))
+        for d, name in enumerate(self.params.direction):
+            pick = np.flatnonzero(pred.direction_choice == d)
+            if pick.size:
+                split[pick] = fc.bin_rates(name, pick, h[pick], t_s[pick])[:, :b]
+        sums = split.sum(axis=1, keepdims=True)
+        share = np.divide(split, sums, out=np.zeros_like(split), where=sums > 0)
+        out: F64 = total[:, None] * share
+        return out
 
     def historical(self) -> F64:
         """Cumulative counts per cell and bin."""
         return self.counts.copy()
 
     def stored_bytes(self) -> int:
-        """Bytes held for the whole dense grid (FreMEn states and counts)."""
-        arrays = self.state.to_arrays("g")
+        """Bytes held for the whole dense grid (temporal accumulators and counts)."""
+        arrays = self.state.to_arrays("g", self._rows)
         return int(sum(a.nbytes for a in arrays.values()) + self.counts.nbytes)
 
 
@@ -168,4 +213,3 @@ def expected_counts_per_window(grid: GridMoD) -> F64:
     out = np.zeros(grid.spec.n_cells)
     np.divide(grid.counts.sum(axis=1), windows, out=out, where=windows > 0)
     return out
-

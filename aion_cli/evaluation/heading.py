@@ -5,7 +5,7 @@ detection a B-bin direction histogram (any non-negative scale) and whether the m
 near it. Scores, all documented in ``docs/EVALUATION.md``:
 
 - **heading NLL**: ``-(log P(bin) + log(B / 2π))`` per matched detection (every model's
-  histogram normalised, floored at aion's ``direction_floor`` and renormalised;
+  histogram normalised, floored at :data:`FLOOR` and renormalised;
   :func:`aion_cli.evaluation.metrics.heading_nll`), reported as the
   mean over matched detections, together with the unmatched count and the mean over *all*
   detections where an unmatched one scores the uniform density ``log(2π)`` — the fair number
@@ -25,8 +25,6 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.engine.entries import fremen_rows
-from aion_cli.engine.fremen import predict_directions, to_model_seconds
 from aion_cli.engine.state import MapState
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.evaluation.grid import GridMoD, GridSpec
@@ -37,6 +35,9 @@ I64 = npt.NDArray[np.int64]
 BoolA = npt.NDArray[np.bool_]
 
 UNIFORM_NLL = math.log(2 * math.pi)
+FLOOR = 0.01
+"""Every model's histogram is floored at this probability and renormalised before scoring, so
+sparse count histograms are not punished with near-zero probabilities."""
 
 
 class HeadingModel(Protocol):
@@ -62,26 +63,26 @@ class HeadingScore:
 class AionHeadingModel:
     """aion's map as a heading model: the nearest live entry within ``radius`` answers.
 
-    ``order=None`` uses FreMEn with each row's chosen order, ``order=0`` the static mean
-    ("aion static"); ``historical=True`` uses the cumulative counts instead of FreMEn.
-    Predictions are computed once per distinct query window (window centre).
-    """
+    ``static=False`` uses each entry's chosen direction family at the detection's time,
+    ``static=True`` its static histogram (pooled toward its parents) — "aion static" —
+    and ``historical=True`` the raw proportions ``aion predict --historical`` shows."""
 
     def __init__(
         self,
         state: MapState,
         radius: float,
-        order: int | None = None,
-        historical: bool = False,
+        static: bool = False,
         name: str = "aion",
+        historical: bool = False,
     ) -> None:
         self.state = state
         self.radius = radius
-        self.order = order
+        self.static = static
         self.historical = historical
         self.name = name
-        self.rows = state.entries.live_rows()
-        self.tree = cKDTree(state.entries.xyz[self.rows, :2]) if len(self.rows) else None
+        self.rows, self.predictor = state.predictor()
+        xy = state.entries.xyz[self.rows, :2]
+        self.tree = cKDTree(xy) if len(self.rows) else None
 
     def probabilities(self, xyz: F64, t_ns: I64) -> tuple[F64, BoolA]:
         bins = self.state.bins
@@ -92,37 +93,26 @@ class AionHeadingModel:
         matched = np.isfinite(dist)
         if not np.any(matched):
             return hist, matched
-        entry = self.rows[idx[matched]]
+        entry = idx[matched].astype(np.int64)
         if self.historical:
-            hist[matched] = self.state.entries.counts[entry]
+            hist[matched] = self.predictor.forecaster.raw_histogram[entry]
             return hist, matched & (hist.sum(axis=1) > 0)
-        window_ns = round(self.state.config.window_s * 1e9)
-        windows, inverse = np.unique(t_ns[matched] // window_ns, return_inverse=True)
-        unique_entries, entry_inverse = np.unique(entry, return_inverse=True)
-        dir_rows = fremen_rows(unique_entries, bins)[:, 1:]
-        centres = to_model_seconds(windows * window_ns + window_ns // 2)
-        probs = self._predict(dir_rows, centres)
-        hist[matched] = probs[entry_inverse, :, inverse]
+        if self.static:
+            hist[matched] = self.predictor.forecaster.histogram[entry]
+            return hist, matched
+        window_ns = self.state.window_ns
+        centres = t_ns[matched] // window_ns * window_ns + window_ns // 2
+        _flow, probs = self.predictor.pairs(entry, centres)
+        hist[matched] = probs
         return hist, matched
-
-    def _predict(self, dir_rows: I64, t_s: F64) -> F64:
-        model = self.state.model
-        if self.order is None:
-            return predict_directions(
-                model, self.state.fremen, dir_rows, t_s, self.state.config.direction_floor
-            )
-        flat = model.predict(self.state.fremen, t_s, rows=dir_rows.reshape(-1), order=self.order)
-        p = flat.reshape(dir_rows.shape[0], dir_rows.shape[1], len(t_s))
-        np.maximum(p, self.state.config.direction_floor, out=p)
-        return p / p.sum(axis=1, keepdims=True)
 
 
 class GridHeadingModel:
     """The STeF-style grid as a heading model (cell of the detection, FreMEn prediction)."""
 
-    def __init__(self, grid: GridMoD, order: int | None = None, name: str = "grid") -> None:
+    def __init__(self, grid: GridMoD, static: bool = False, name: str = "grid") -> None:
         self.grid = grid
-        self.order = order
+        self.static = static
         self.name = name
 
     def probabilities(self, xyz: F64, t_ns: I64) -> tuple[F64, BoolA]:
@@ -133,7 +123,7 @@ class GridHeadingModel:
         windows, inverse = np.unique(t_ns[inside] // window_ns, return_inverse=True)
         inside_idx = np.flatnonzero(inside)
         for k, w in enumerate(windows):
-            pred = self.grid.predict(int(w * window_ns + window_ns // 2), order=self.order)
+            pred = self.grid.predict(int(w * window_ns + window_ns // 2), static=self.static)
             pick = inside_idx[inverse == k]
             hist[pick] = pred[cells[pick]]
         trained = self.grid.counts.sum(axis=1) > 0
@@ -147,13 +137,12 @@ def score_headings(
     bins: int,
     chi_grid: float = 1.0,
     window_s: float = 600.0,
-    floor: float = 0.01,
+    floor: float = FLOOR,
 ) -> HeadingScore:
     """Heading NLL and chi-square of ``model`` on the test detections that have a heading.
 
-    Every model's histogram is normalised, floored at ``floor`` (aion's ``direction_floor``)
-    and renormalised before scoring, so sparse count histograms are not punished with 1e-9
-    probabilities that aion's own predictions never produce.
+    Every model's histogram is normalised, floored at ``floor`` and renormalised before
+    scoring, so sparse count histograms are not punished with near-zero probabilities.
     """
     keep = np.isfinite(test.heading) & np.all(np.isfinite(test.xyz), axis=1)
     batch = test.select(keep)
@@ -179,8 +168,13 @@ def score_headings(
 
 
 def _chi_square(
-    batch: DetectionBatch, hist: F64, matched: BoolA, observed_bins: I64, bins: int,
-    cell_size: float, window_s: float,
+    batch: DetectionBatch,
+    hist: F64,
+    matched: BoolA,
+    observed_bins: I64,
+    bins: int,
+    cell_size: float,
+    window_s: float,
 ) -> float:
     """Mean chi-square distance over (cell, window) groups of matched test detections."""
     if not np.any(matched):

@@ -195,17 +195,8 @@ def grid_view(grid: GridMoD, t_ns: int | None) -> MapView:
     else:
         pred = grid.predict(t_ns)
         flow = pred.sum(axis=1)
-        # descriptors.predicted derives the flow from an activity; give it the activity whose
-        # expected count is the grid's relative flow, so entropy and direction are defined
-        # exactly where the grid predicts any flow.
-        activity = -np.expm1(-flow / grid.config.activity_scale)
-        d = descriptors.predicted(
-            activity,
-            pred,
-            grid.config.activity_scale,
-            grid.config.window_s,
-            np.full_like(pred, np.nan),
-        )
+        ones = np.ones(len(pred))
+        d = descriptors.historical(pred, np.zeros_like(pred), np.zeros_like(pred), ones, 1.0)
     trained = grid.counts.sum(axis=1) > 0
     flow = np.where(trained, flow, np.nan)
     return MapView(d.entropy, flow, d.dominant_angle)

@@ -94,3 +94,25 @@ def door_weeks(weeks: list[dict[str, Any]], path: Path) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def hourly_activity(
+    hours: list[int], series: dict[str, list[float]], path: Path, title: str
+) -> Path:
+    """Detections per hour: the truth as bars, every model's forecast as a line."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 3.8))
+    x = np.arange(len(hours))
+    ax.bar(x, series["truth"], color="0.8", label="truth")
+    for name, values in series.items():
+        if name != "truth":
+            ax.plot(x, values, marker="o", ms=3, label=name)
+    ax.set_xticks(x, [f"{h:02d}" for h in hours])
+    ax.set_xlabel("hour (UTC)")
+    ax.set_ylabel("detections per hour")
+    ax.set_title(title)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -18,6 +18,8 @@ from tests.cli.logdata import (
     write_office_log,
 )
 
+FIXED_TWO_WINDOWS = "fixed sensor over the 2 windows with messages (0.3 h of a 0.3 h span)"
+
 
 def test_counts_and_provenance(office: Office) -> None:
     report = office.build
@@ -135,7 +137,9 @@ def test_graph_file_and_derived_graph_without_tf(tmp_path: Path) -> None:
     report = run_json("build", log, "--graph", graph, "--format", "json")
     assert report["graph"]["source"] == "file dsg.json"
     assert report["nodes"] == len(PLACES)
-    assert report["observation"] == "fixed sensor over the log's time span"
+    # no robot trajectory: observed in the 600-s windows holding a message, two for the
+    # 20-minute log from an aligned T0 (2 x 600 s = 0.33 h, both windows of the span)
+    assert report["observation"] == FIXED_TWO_WINDOWS
     assert any("fixed sensor" in note for note in report["notes"])
 
     out = tmp_path / "derived.aion"
@@ -188,17 +192,20 @@ def test_observation_from_the_scene_graph_agents_or_fixed(tmp_path: Path) -> Non
 
     30 minutes (windows 1-2 closed, 3 open); the person at p3 leaves after window 1. The
     agent-layer robot stands near p3 in window 1 only, so window 2 is unobserved at p3 and
-    teaches nothing (60 detections in 1 window); a fixed sensor saw p3 empty in window 2
-    (60 detections in 2 windows)."""
+    teaches nothing (60 detections in 1 window); a fixed sensor saw p3 empty in windows 2 and
+    3 (it recorded messages in all three; queries count the open window as closing it would
+    record it): 60 detections in 3 windows."""
     fixed_log = tmp_path / "fixed.mcap"
     write_office_log(fixed_log, tf=False, duration_s=1800)
     report = run_json("build", fixed_log, "--format", "json")
-    assert report["observation"] == "fixed sensor over the log's time span"
+    assert report["observation"] == (
+        "fixed sensor over the 3 windows with messages (0.5 h of a 0.5 h span)"
+    )
     assert report["detections"]["used"] == 180 + 180 + 60
     fixed = run_json(
         "predict", tmp_path / "fixed.aion", "--historical", "--node", "p3", "--format", "json"
     )
-    assert fixed["entries"][0]["flow"] == 30.0
+    assert fixed["entries"][0]["flow"] == 20.0
 
     agents_log = tmp_path / "agents.mcap"
     write_office_log(agents_log, tf=False, agents=True, duration_s=1800)
@@ -279,7 +286,7 @@ def test_a_missing_robot_frame_is_noted(office: Office, tmp_path: Path) -> None:
     report = run_json(
         "build", office.log, "--base-frame", "robot", "-o", tmp_path / "r.aion", "--format", "json"
     )
-    assert report["observation"] == "fixed sensor over the log's time span"
+    assert report["observation"] == FIXED_TWO_WINDOWS
     assert any("no map->robot chain" in note and "base_link" in note for note in report["notes"])
 
 
@@ -291,7 +298,10 @@ def test_fixed_sensor_logs_continue_like_building_at_once(tmp_path: Path) -> Non
     write_office_log(day2, tf=False, shift_s=86400)
     both = tmp_path / "both.aion"
     once = run_json("build", day1, day2, "-o", both, "--format", "json")
-    assert once["observation"].startswith("fixed sensor")
+    # windows 0-1 and 144-145 hold messages: 4 windows (0.67 h) of a 146-window span (24.33 h)
+    assert once["observation"] == (
+        "fixed sensor over the 4 windows with messages (0.7 h of a 24.3 h span)"
+    )
     step = tmp_path / "step.aion"
     run_json("build", day1, "-o", step, "--format", "json")
     cont = run_json("build", day2, "--map", step, "--format", "json")
@@ -300,3 +310,49 @@ def test_fixed_sensor_logs_continue_like_building_at_once(tmp_path: Path) -> Non
     a = run_json("predict", both, "--time", at, "--format", "json")["entries"]
     b = run_json("predict", step, "--time", at, "--format", "json")["entries"]
     assert a == b
+
+
+def test_time_zone_is_stored_and_kept_by_continuation(tmp_path: Path) -> None:
+    """``--tz`` sets the model's zone (days and profile bins follow its clock); the manifest
+    records it and a continued map refuses another zone with one error line."""
+    day1, day2 = tmp_path / "day1.mcap", tmp_path / "day2.mcap"
+    write_office_log(day1)
+    write_office_log(day2, shift_s=86400)
+    out = tmp_path / "london.aion"
+    run_json("build", day1, "-o", out, "--tz", "Europe/London", "--format", "json")
+    doc = run_json("info", out, "--format", "json")
+    assert doc["config"]["timezone"] == "Europe/London"
+    assert doc["timezone"] == "Europe/London"
+    before = out.read_bytes()
+    result = run("build", day2, "--map", out, "--tz", "Europe/Berlin")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "Europe/London", "Europe/Berlin")
+    assert result.stdout == ""
+    assert out.read_bytes() == before  # the map is untouched
+    # the same zone (or none) continues the map
+    cont = run_json("build", day2, "--map", out, "--tz", "Europe/London", "--format", "json")
+    assert cont["continued"] is True
+    assert run_json("info", out, "--format", "json")["config"]["timezone"] == "Europe/London"
+    # without --tz a new map is in UTC
+    run_json("build", day1, "-o", tmp_path / "utc.aion", "--format", "json")
+    assert (
+        run_json("info", tmp_path / "utc.aion", "--format", "json")["config"]["timezone"] == "UTC"
+    )
+
+
+def test_time_zone_given_twice_must_agree(tmp_path: Path) -> None:
+    log = tmp_path / "day.mcap"
+    write_office_log(log)
+    config = tmp_path / "berlin.toml"
+    config.write_text(ModelConfig(timezone="Europe/Berlin").to_toml())
+    result = run(
+        "build", log, "--config", config, "--tz", "Europe/London", "-o", tmp_path / "x.aion"
+    )
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "Europe/London", "Europe/Berlin")
+    assert not (tmp_path / "x.aion").exists()
+    out = tmp_path / "y.aion"
+    run_json(
+        "build", log, "--config", config, "--tz", "Europe/Berlin", "-o", out, "--format", "json"
+    )
+    assert run_json("info", out, "--format", "json")["timezone"] == "Europe/Berlin"

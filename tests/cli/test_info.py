@@ -95,3 +95,45 @@ def test_info_on_a_map(office: Office) -> None:
     mixed = run("info", office.map, office.log)
     assert mixed.exit_code == 2
     assert_one_line_error(mixed.stderr, "not both")
+
+
+def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> None:
+    """The manifest tallies the entries forecast by each family. One day: nothing is scored
+    yet (the last day of a build stays pending), so the three entries with data (p1, p3, p4)
+    are all ``static``; the table shows the same."""
+    doc = run_json("info", office.map, "--format", "json")
+    assert doc["families"] == {
+        "flow": {"static": 3},
+        "direction": {"static": 3},
+        "reconciled": False,
+        "scored_windows": 0.0,
+    }
+    assert doc["timezone"] == "UTC"
+    table = run("info", office.map)
+    assert table.exit_code == 0, table.stderr
+    lines = table.stdout.splitlines()
+    assert any("flow models" in line and "static 3" in line for line in lines)
+    assert any("direction models" in line and "static 3" in line for line in lines)
+
+
+def test_families_after_a_scored_day(tmp_path: Path) -> None:
+    """Three daily copies of the office log: the middle day is scored against the first, in
+    the 2 windows the robot watched each of the 3 entries (6 entry-windows); the last day
+    stays pending. Every entry is counted once per kind."""
+    from tests.cli.logdata import write_office_log
+
+    logs = []
+    for day in range(3):
+        logs.append(tmp_path / f"day{day}.mcap")
+        write_office_log(logs[-1], shift_s=86400 * day)
+    out = tmp_path / "three.aion"
+    run_json("build", *logs, "-o", out, "--format", "json")
+    families = run_json("info", out, "--format", "json")["families"]
+    assert families["scored_windows"] == 6.0
+    assert sum(families["flow"].values()) == 3
+    assert sum(families["direction"].values()) == 3
+    assert set(families["flow"]) <= {"static", "shape", "profile", "fremen1", "fremen2"} | {
+        "fremen3",
+        "fremen4",
+    }
+    assert isinstance(families["reconciled"], bool)

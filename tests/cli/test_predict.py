@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import cmath
 import csv
 import io
 import json
+import math
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -21,23 +23,95 @@ def entries(office: Office, *args: str) -> dict[str, dict[str, Any]]:
     return {e["id"]: e for e in doc["entries"]}
 
 
+def _circular_mean_deg(hist: list[float]) -> float:
+    """Circular mean of a B-bin histogram (bin b centred at -180 + (b + 0.5)·360/B degrees)."""
+    b = len(hist)
+    centres = [math.radians(-180.0 + (k + 0.5) * 360.0 / b) for k in range(b)]
+    z = sum(p * cmath.exp(1j * c) for p, c in zip(hist, centres, strict=True))
+    return math.degrees(cmath.phase(z))
+
+
+def _static_histograms(kappa: float) -> dict[str, list[float]]:
+    """The predicted (static family) histograms of p1, p3, p4, from the log's known counts and
+    the documented prior: p_map = (N_map + 1) / (N_map + B) (Laplace), the room's
+    p_g = (N_g + κ p_map) / (N_g + κ), the place's h = (N_e + κ p_g) / (N_e + κ)."""
+    b = 8
+    counts = {"p1": {4: 120}, "p4": {2: 120}, "p3": {0: 60}}  # tracks 1, 2, 3 (logdata.py)
+    rooms = {"p1": ("p0", "p1"), "p3": ("p2", "p3", "p4"), "p4": ("p2", "p3", "p4")}
+
+    def vec(place: str) -> list[float]:
+        return [float(counts.get(place, {}).get(k, 0)) for k in range(b)]
+
+    n_map = [sum(vec(p)[k] for p in counts) for k in range(b)]
+    p_map = [(n + 1.0) / (sum(n_map) + b) for n in n_map]
+    out = {}
+    for place, room in rooms.items():
+        n_g = [sum(vec(p)[k] for p in room) for k in range(b)]
+        p_g = [(n + kappa * q) / (sum(n_g) + kappa) for n, q in zip(n_g, p_map, strict=True)]
+        n_e = vec(place)
+        out[place] = [(n + kappa * q) / (sum(n_e) + kappa) for n, q in zip(n_e, p_g, strict=True)]
+    return out
+
+
 def test_dominant_directions_are_the_walking_directions(office: Office) -> None:
+    """The predicted histogram is the static posterior (one day: nothing scored yet, so every
+    entry forecasts with ``static``), pulled toward the room's and the map's histograms by the
+    Dirichlet prior of the map's ``direction_prior`` κ; its circular mean moves off the bin
+    centre by that pull (p3 shares room R1 with p4, who walks at -67.5°). Historically the
+    raw proportions give the bin centre exactly."""
+    kappa = run_json("info", office.map, "--format", "json")["config"]["direction_prior"]
     rows = entries(office, "--time", AT)
+    hist = _static_histograms(kappa)
+    historical = entries(office, "--historical")
     # bin centres for B = 8: -157.5, -112.5, ..., 157.5 degrees
     expected = {"p1": (4, 22.5), "p4": (2, -67.5), "p3": (0, -157.5)}
     for node, (bin_, angle) in expected.items():
         row = rows[node]
         assert row["kind"] == "node"
         assert row["direction_bin"] == bin_
-        assert row["direction_deg"] == pytest.approx(angle, abs=1.0)
-        assert row["histogram"][bin_] > 0.9
+        assert row["histogram"] == pytest.approx(hist[node], abs=1e-12)
+        assert row["direction_deg"] == pytest.approx(_circular_mean_deg(hist[node]), abs=1e-9)
+        assert max(row["histogram"]) == row["histogram"][bin_] > 0.5
         assert sum(row["histogram"]) == pytest.approx(1.0)
         assert row["mean_speed"] == pytest.approx(1.0)
         assert row["flow"] > 0
+        assert (row["family"], row["direction_family"]) == ("static", "static")
+        past = historical[node]
+        assert past["histogram"] == [1.0 if k == bin_ else 0.0 for k in range(8)]
+        assert past["direction_deg"] == pytest.approx(angle, abs=1e-9)
     for node in ("p0", "p2", "p5", "p6"):  # nobody there
         assert rows[node]["flow"] == 0
         assert rows[node]["direction_deg"] is None
     assert (rows["p1"]["x"], rows["p1"]["y"]) == (2.0, 0.0)
+
+
+def test_static_model_without_prior_predicts_what_was_observed(
+    office: Office, tmp_path: Path
+) -> None:
+    """``families = ["static"]`` and ``direction_prior = 0``: the prediction at any time equals
+    the historical table in flow and histogram (the walking directions' bin centres)."""
+    from aion_cli.engine.config import ModelConfig
+
+    config = tmp_path / "static.toml"
+    config.write_text(ModelConfig(families=("static",), direction_prior=0.0).to_toml())
+    out = tmp_path / "static.aion"
+    run_json("build", office.log, "-o", out, "--config", config, "--format", "json")
+    past = {
+        e["id"]: e for e in run_json("predict", out, "--historical", "--format", "json")["entries"]
+    }
+    for at in (AT, "2026-11-28 03:10"):  # the log's morning; a Saturday night
+        now = {
+            e["id"]: e
+            for e in run_json("predict", out, "--time", at, "--format", "json")["entries"]
+        }
+        assert set(now) == set(past)
+        for node, row in now.items():
+            assert row["flow"] == past[node]["flow"], node
+            assert row["histogram"] == pytest.approx(past[node]["histogram"], abs=1e-12), node
+    bins = {"p1": 4, "p4": 2, "p3": 0}
+    for node, bin_ in bins.items():
+        assert now[node]["direction_deg"] == pytest.approx(-157.5 + 45.0 * bin_, abs=1e-9)
+        assert (now[node]["family"], now[node]["direction_family"]) == ("static", "static")
 
 
 def test_historical_counts_per_window(office: Office) -> None:
@@ -48,9 +122,10 @@ def test_historical_counts_per_window(office: Office) -> None:
     # 120 detections over the two windows the robot watched (one closed, one open)
     assert rows["p1"]["flow"] == pytest.approx(60.0)
     assert rows["p4"]["flow"] == pytest.approx(60.0)
-    # track 3 left after the first window; the open window is not closed yet, so it counts
-    # as observed only where it has detections: 60 detections in one window
-    assert rows["p3"]["flow"] == pytest.approx(60.0)
+    # track 3 left after the first window; the open window counts as closing it now would
+    # record it: the robot at (3, 0) watched p3 (3 m away, 8-m range) in both windows, so
+    # 60 detections in two windows
+    assert rows["p3"]["flow"] == pytest.approx(30.0)
     assert rows["p1"]["flow_per_hour"] == pytest.approx(360.0)
     assert rows["p1"]["histogram"][4] == pytest.approx(1.0)
     assert rows["p1"]["entropy"] == pytest.approx(0.0, abs=1e-9)
@@ -200,10 +275,10 @@ def test_subprocess_bad_inputs_are_one_line_exit_2(office: Office, tmp_path: Pat
     from concurrent.futures import ThreadPoolExecutor
 
     newer = tmp_path / "newer.aion"
-    _rewrite_manifest(office.map, newer, version="2.0")
+    _rewrite_manifest(office.map, newer, version="3.0")  # this aion writes format 2.0
     cases = {
         "25:99": ["predict", office.map, "--time", "25:99"],
-        "2.0": ["predict", newer],
+        "3.0": ["predict", newer],
     }
     with ThreadPoolExecutor(max_workers=2) as pool:
         procs = dict(zip(cases, pool.map(lambda a: run_process(*a), cases.values()), strict=True))
@@ -211,3 +286,91 @@ def test_subprocess_bad_inputs_are_one_line_exit_2(office: Office, tmp_path: Pat
         assert proc.returncode == 2, (fragment, proc.stderr)
         assert_one_line_error(proc.stderr, fragment)
         assert proc.stdout == ""
+
+
+# -- the temporal model's fields ---------------------------------------------------------------
+
+
+def test_rows_name_their_families_and_a_predictive_interval(office: Office) -> None:
+    """One day of log: nothing scored yet, so every entry with data forecasts with ``static``
+    and the dispersion is 1: the interval is the Poisson one around the flow (p1 and p4 at 120
+    detections in 2 windows: Poisson(60); p3 at 60 in 2: Poisson(30))."""
+    from scipy import stats
+
+    rows = entries(office, "--time", AT)
+    for node, flow in (("p1", 60.0), ("p4", 60.0), ("p3", 30.0)):
+        row = rows[node]
+        assert row["flow"] == pytest.approx(flow)
+        assert row["family"] == "static"
+        assert row["direction_family"] == "static"
+        assert row["flow_p10"] == stats.poisson.ppf(0.1, flow)
+        assert row["flow_p90"] == stats.poisson.ppf(0.9, flow)
+        assert row["flow_p10"] <= row["flow"] <= row["flow_p90"]
+    for node in ("p0", "p2", "p5", "p6"):  # no entry: nothing to forecast, an empty window
+        row = rows[node]
+        assert (row["family"], row["direction_family"]) == ("none", "none")
+        assert row["flow_p10"] == row["flow_p90"] == 0.0
+    for row in rows.values():
+        assert row["flow_p10"] <= row["flow_p90"]
+        assert float(row["flow_p10"]).is_integer()
+        assert float(row["flow_p90"]).is_integer()
+    past = entries(office, "--historical")
+    for row in past.values():
+        assert row["flow_p10"] is None
+        assert row["flow_p90"] is None
+    for node in ("p1", "p3", "p4"):
+        assert (past[node]["family"], past[node]["direction_family"]) == (
+            "historical",
+            "historical",
+        )
+    rooms = entries(office, "--time", AT, "--layer", "rooms")
+    assert rooms["R1"]["family"] == "aggregate"
+
+
+def test_csv_carries_the_new_columns(office: Office) -> None:
+    result = run("predict", office.map, "--time", AT, "--format", "csv", "--node", "p3")
+    assert result.exit_code == 0, result.stderr
+    (row,) = list(csv.DictReader(io.StringIO(result.stdout)))
+    assert (row["family"], row["direction_family"]) == ("static", "static")
+    assert float(row["flow_p10"]) <= float(row["flow"]) <= float(row["flow_p90"])
+
+
+def test_a_scored_day_keeps_rows_consistent(tmp_path: Path) -> None:
+    """Three days of the office log: the middle day is scored against the first (the last
+    stays pending), so the dispersion is estimated; intervals stay ordered around the flow and
+    the families are the documented names."""
+    from tests.cli.logdata import write_office_log
+
+    logs = []
+    for day in range(3):
+        logs.append(tmp_path / f"day{day}.mcap")
+        write_office_log(logs[-1], shift_s=86400 * day)
+    out = tmp_path / "three.aion"
+    run_json("build", *logs, "-o", out, "--format", "json")
+    flow_names = {"static", "shape", "profile", *(f"fremen{m}" for m in range(1, 5))}
+    direction_names = flow_names - {"shape"}
+    doc = run_json("predict", out, "--time", "2026-11-26 08:05", "--format", "json")
+    rows = {e["id"]: e for e in doc["entries"]}
+    for node in ("p1", "p3", "p4"):
+        row = rows[node]
+        assert row["family"] in flow_names
+        assert row["direction_family"] in direction_names
+        assert row["flow_p10"] <= row["flow"] <= row["flow_p90"]
+
+
+def test_a_map_of_format_1_must_be_rebuilt(office: Office, tmp_path: Path) -> None:
+    """Format 1 held the old FreMEn state; this aion refuses it with a hint to rebuild."""
+    older = tmp_path / "older.aion"
+    _rewrite_manifest(office.map, older, version="1.0")
+    for args in (["predict", older, "--time", AT], ["info", older]):
+        result = run(*args)
+        assert result.exit_code == 2
+        assert_one_line_error(result.stderr, "1.0", "older")
+        hints = [line for line in result.stderr.splitlines() if line.startswith("hint: ")]
+        assert len(hints) == 1, result.stderr
+        assert "rebuild" in hints[0], result.stderr
+        assert result.stdout == ""
+    proc = run_process("predict", older, "--time", AT)
+    assert proc.returncode == 2
+    assert_one_line_error(proc.stderr, "older")
+    assert "rebuild" in proc.stderr

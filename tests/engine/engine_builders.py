@@ -5,12 +5,15 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.entries import CELL, NODE, fremen_rows
+from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.state import MapState
 from aion_cli.engine.types import DetectionBatch, GraphSnapshot, Layer
 
 S = 1_000_000_000
 T0 = 1_700_000_400 * S  # a window start for 600 s and 60 s windows (1_700_000_400 % 600 == 0)
+DAY_NS = 86_400 * S
+# T0 is 2023-11-14 22:20 UTC (a Tuesday): the local (UTC) day ends 100 minutes later
+T0_DAY_END = (T0 // DAY_NS + 1) * DAY_NS
 
 
 def pid(index: int | npt.ArrayLike, category: str = "p") -> np.ndarray:
@@ -52,21 +55,44 @@ def detections(
     return DetectionBatch.from_arrays(t, p, h, speed)
 
 
-def activity_n(state: MapState) -> float:
-    """Σ n over every activity row of live entries (FreMEn observations absorbed)."""
-    rows = fremen_rows(state.entries.live_rows(), state.bins)[:, 0]
-    return float(state.fremen.n[rows].sum())
+# -- where the detections of a map are ------------------------------------------------------
+def closed_counts(state: MapState, rows: npt.ArrayLike) -> np.ndarray:
+    """Detections per value bin (B directions, then "no heading") absorbed into the temporal
+    accumulators of entries ``rows``: Σ over profile bins of ``cnt_profile``, float64[r, V]."""
+    r = np.asarray(rows, dtype=np.int64)
+    out: np.ndarray = state.temporal.cnt_profile[r].sum(axis=2)
+    return out
 
 
-def activity_sum_s(state: MapState) -> float:
-    rows = fremen_rows(state.entries.live_rows(), state.bins)[:, 0]
-    return float(state.fremen.sum_s[rows].sum())
+def pending_counts(state: MapState) -> np.ndarray:
+    """Detections per entry row and value bin held in the pending day, float64[capacity, V]."""
+    out = np.zeros((state.temporal.n_rows, state.params.values))
+    if state.pending:
+        day = state.pending.consolidated()
+        np.add.at(out, day.cnt_entry, day.cnt_values)
+    return out
+
+
+def open_counts(state: MapState) -> np.ndarray:
+    """Detections per entry row and value bin in the open window, float64[capacity, V]."""
+    ent = state.entries
+    return np.column_stack([ent.window_counts, ent.window_nodir])
+
+
+def temporal_detections(state: MapState) -> float:
+    """Σ over live entries of ``cnt_profile`` + the pending day's counts + the open window's:
+    every accepted detection must be in exactly one of the three."""
+    rows = state.entries.live_rows()
+    closed = float(closed_counts(state, rows).sum())
+    return closed + float(pending_counts(state)[rows].sum()) + float(open_counts(state)[rows].sum())
 
 
 def check_invariants(state: MapState) -> None:
-    """The ownership invariants of DESIGN.md §4 (raises AssertionError)."""
+    """The ownership invariants of DESIGN.md §4 and the temporal model's conservation
+    (raises AssertionError)."""
     ent = state.entries
     assert ent.total_count() == state.accepted
+    assert temporal_detections(state) == state.accepted, "temporal counts not conserved"
     cells, nodes = ent.cell_rows(), ent.node_rows()
     cell_keys = ent.key[cells]
     node_ids = ent.node_id[nodes]
@@ -78,6 +104,14 @@ def check_invariants(state: MapState) -> None:
     assert np.isin(node_ids, state.nodes.ids).all(), "entry of a vanished node"
     assert np.all(ent.kind[cells] == CELL)
     assert np.all(ent.kind[nodes] == NODE)
-    free = np.setdiff1d(np.arange(ent.n), ent.live_rows())
-    assert state.fremen.n[fremen_rows(free, state.bins).ravel()].sum() == 0
+    live = ent.live_rows()
+    free = np.setdiff1d(np.arange(ent.n), live)
+    tmp = state.temporal
+    assert tmp.n_rows >= ent.capacity
+    assert tmp.obs.n[free].sum() == 0, "a free row keeps observations"
+    assert tmp.cnt_profile[free].sum() == 0, "a free row keeps counts"
+    assert not np.any(tmp.cnt_fourier[free]), "a free row keeps Fourier counts"
+    assert tmp.flow_scored[free].sum() == 0, "a free row keeps scores"
     assert ent.counts[free].sum() == 0
+    if state.pending:
+        assert np.isin(state.pending.entries(), live).all(), "the pending day names a free row"

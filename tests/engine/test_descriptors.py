@@ -14,9 +14,7 @@ from aion_cli.engine.descriptors import (
     Descriptors,
     bin_centres,
     bin_of,
-    expected_count,
     historical,
-    predicted,
 )
 
 B = 8
@@ -96,21 +94,26 @@ def test_mean_speed_only_where_known() -> None:
     assert np.all(np.isnan(d.mean_speed[0, 1:]))
 
 
-def test_predicted_flow_inverts_the_activity_transform() -> None:
-    scale = 5.0
-    n = np.array([10.0, 0.5, 0.0])
-    activity = 1.0 - np.exp(-n / scale)
-    np.testing.assert_allclose(expected_count(activity, scale), n, rtol=1e-12, atol=1e-15)
-    assert np.isfinite(expected_count([1.0], scale)[0])
-    dirs = np.zeros((3, B))
-    dirs[:, 5] = 2.0  # unnormalised: renormalised to one bin
-    d = predicted(activity, dirs, scale, 600.0, np.full((3, B), np.nan))
-    np.testing.assert_allclose(d.flow_per_hour, n * 6)
-    assert d.dominant_bin.tolist() == [5, 5, -1]  # zero activity = no flow
-    np.testing.assert_allclose(d.probabilities[0], np.eye(B)[5])
-    assert d.entropy[0] == pytest.approx(0.0)
-    assert math.isnan(d.entropy[2])
-    assert d.dominant_angle[0] == pytest.approx(-math.pi + 5.5 * W)
+def test_per_window_rates_give_the_descriptors_of_the_counts() -> None:
+    """Queries feed expected detections per window (rates) with one window: the descriptors
+    must equal those of the counts over their W observed windows."""
+    counts = np.array([[6.0, 0, 0, 0, 0, 3.0, 0, 3.0], [0.0] * B, [0, 0, 10.0, 0, 0, 0, 0, 0]])
+    speed_sum = np.array([[6.0, 0, 0, 0, 0, 1.5, 0, 0]] + [[0.0] * B] * 2)
+    speed_n = np.array([[4.0, 0, 0, 0, 0, 1.0, 0, 0]] + [[0.0] * B] * 2)
+    windows = np.array([4.0, 2.0, 5.0])
+    a = historical(counts, speed_sum, speed_n, windows, 600.0)
+    b = historical(counts / windows[:, None], speed_sum, speed_n, np.ones(3), 600.0)
+    np.testing.assert_allclose(b.flow_per_window, [3.0, 0.0, 2.0], rtol=1e-12)
+    np.testing.assert_allclose(b.flow_per_hour, [18.0, 0.0, 12.0], rtol=1e-12)
+    for name in ("flow_per_window", "flow_per_hour", "probabilities", "entropy",
+                 "concentration", "dominant_angle", "mean_speed"):
+        np.testing.assert_allclose(getattr(b, name), getattr(a, name), rtol=1e-12,
+                                   atol=1e-15, equal_nan=True, err_msg=name)
+    np.testing.assert_array_equal(b.dominant_bin, a.dominant_bin)
+    assert b.dominant_bin.tolist() == [0, -1, 2]
+    np.testing.assert_allclose(b.probabilities[0], [0.5, 0, 0, 0, 0, 0.25, 0, 0.25])
+    assert b.mean_speed[0, 0] == pytest.approx(1.5)
+    assert b.entropy[2] == pytest.approx(0.0)
 
 
 @settings(max_examples=60, deadline=None)

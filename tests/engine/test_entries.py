@@ -7,11 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.engine.entries import CELL, FREE, NODE, EntryStore, direction_bins, fremen_rows
+from aion_cli.engine.entries import CELL, FREE, NODE, EntryStore, direction_bins
 from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.routing import RouteTable
 from aion_cli.engine.spatial_hash import pack_keys
+from aion_cli.engine.state import MapState
 
 
 def _store(n: int, bins: int = 8) -> EntryStore:
@@ -28,8 +30,29 @@ def test_direction_bins_follow_the_paper_convention() -> None:
     np.testing.assert_array_equal(direction_bins(np.array([0.1, -0.1]), 2), [1, 0])
 
 
-def test_fremen_rows_layout() -> None:
-    np.testing.assert_array_equal(fremen_rows(np.array([0, 2]), 3), [[0, 1, 2, 3], [8, 9, 10, 11]])
+def test_entry_row_e_is_accumulator_row_e_and_a_freed_row_is_forgotten() -> None:
+    state = MapState.empty(ModelConfig())
+    keys = np.arange(100, dtype=np.int64) * 10
+    rows = state.allocate(CELL, keys, np.zeros(100, np.uint64), np.zeros((100, 3)))
+    assert state.temporal.n_rows == state.entries.capacity >= 100
+    tmp = state.temporal
+    tmp.touch(rows)
+    tmp.cnt_profile[rows, 0, 0] = rows  # mark each temporal row with its entry row
+    tmp.obs.n[rows] = 1.0
+    state.delete(rows[[3, 50]])
+    assert tmp.cnt_profile[rows[[3, 50]]].sum() == 0
+    assert tmp.obs.n[rows[[3, 50]]].sum() == 0
+    again = state.allocate(NODE, np.full(2, -1, np.int64), np.array([7, 8], np.uint64),
+                           np.zeros((2, 3)))
+    np.testing.assert_array_equal(again, rows[[3, 50]])  # freed rows are reused ...
+    assert tmp.cnt_profile[again].sum() == 0  # ... with empty temporal rows
+    kept = np.setdiff1d(rows, rows[[3, 50]])
+    np.testing.assert_array_equal(tmp.cnt_profile[kept, 0, 0], kept)
+    more = state.allocate(CELL, np.arange(1, 200, dtype=np.int64) * 7 + 10_000,
+                          np.zeros(199, np.uint64), np.zeros((199, 3)))
+    assert state.temporal.n_rows == state.entries.capacity >= 301  # grown with the store
+    np.testing.assert_array_equal(state.temporal.cnt_profile[kept, 0, 0], kept)  # kept
+    assert state.temporal.cnt_profile[more].sum() == 0
 
 
 @given(
@@ -92,14 +115,16 @@ def test_delete_frees_rows_for_reuse_and_grows_by_doubling() -> None:
     assert store.capacity == 8
 
 
-def test_add_into_adds_counts_and_takes_max_windows() -> None:
+def test_add_into_adds_counts_speeds_and_the_open_window() -> None:
     store = _store(3)
     store.accumulate(np.array([0, 0, 1, 2]), np.array([1, 2, 1, -1]), np.full(4, 2.0))
-    store.windows_observed[:3] = [4, 6, 5]
     store.add_into(np.array([0, 1]), np.array([2, 2]))
     np.testing.assert_array_equal(store.counts[2, :3], [0, 2, 1])
+    np.testing.assert_array_equal(store.window_counts[2, :3], [0, 2, 1])
+    np.testing.assert_array_equal(store.speed_sum[2, :3], [0, 4, 2])
+    np.testing.assert_array_equal(store.speed_n[2, :3], [0, 2, 1])
     assert store.nodir[2] == 1
-    assert store.windows_observed[2] == 6
+    assert store.window_nodir[2] == 1
 
 
 def test_canonical_order_and_array_round_trip() -> None:

@@ -3,26 +3,34 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.entries import CELL, fremen_rows
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.nodes import NodeTable, nearest_nodes
+from aion_cli.engine.query import historical_table
 from aion_cli.engine.spatial_hash import keys_for_points
+from aion_cli.engine.state import MapState
+from aion_cli.engine.temporal.model import empty_state
+from aion_cli.engine.temporal.params import TemporalParams
 from tests.engine.engine_builders import (
+    DAY_NS,
     T0,
+    T0_DAY_END,
     S,
-    activity_n,
-    activity_sum_s,
     check_invariants,
+    closed_counts,
     detections,
     graph,
+    open_counts,
+    pending_counts,
     pid,
 )
 
 CFG = ModelConfig(stability_s=30.0, window_s=600.0, cell_size=0.5)
+W = 600 * S
 
 
 def _one_node_mapper(at: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Mapper:
@@ -34,6 +42,17 @@ def _one_node_mapper(at: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Mapper
 
 def _cell_rows(m: Mapper) -> np.ndarray:
     return m.state.entries.cell_rows()
+
+
+def _totals(state: MapState) -> tuple[float, float, float]:
+    """Detections absorbed (Σ cnt_profile), held in the pending day, and in the open window,
+    over live entries."""
+    rows = state.entries.live_rows()
+    return (
+        float(closed_counts(state, rows).sum()),
+        float(pending_counts(state)[rows].sum()),
+        float(open_counts(state)[rows].sum()),
+    )
 
 
 def test_cell_binds_only_after_the_node_is_stable_for_tau() -> None:
@@ -58,10 +77,10 @@ def test_cell_binds_only_after_the_node_is_stable_for_tau() -> None:
 
 def test_binding_respects_radius_vertical_tolerance_and_nearest() -> None:
     m = Mapper(CFG)
-    m.add_graph(graph(T0, [0, 1, 2], [[0, 0, 0], [2.0, 0, 0], [0, 0, 3.0]]))
+    m.add_graph(graph(T0, [0, 1, 2], np.array([[0, 0, 0], [2.0, 0, 0], [0, 0, 3.0]])))
     pts = [[1.2, 0.1, 0.1], [0.1, 0.1, 3.1], [5.0, 5.0, 0.0], [0.1, 0.1, 1.8]]
     m.add_detections(detections(T0 + S, pts))
-    m.add_graph(graph(T0 + 31 * S, [0, 1, 2], [[0, 0, 0], [2.0, 0, 0], [0, 0, 3.0]]))
+    m.add_graph(graph(T0 + 31 * S, [0, 1, 2], np.array([[0, 0, 0], [2.0, 0, 0], [0, 0, 3.0]])))
     st_ = m.state
     # (1.25,.25) -> p1 (0.75 m) not p0 (1.27 m); (.25,.25,3.25) -> p2; (5.25,5.25) unbound;
     # (.25,.25,1.75): p0 is 1.75 m below, p2 1.25 m above -> both beyond 1 m: unbound
@@ -113,7 +132,7 @@ def test_removed_node_releases_into_the_cell_at_its_last_position() -> None:
     m.add_detections(detections(T0 + 45 * S, [[2.2, 0.2, 0.0]] * 2))
     st_ = m.state
     assert len(_cell_rows(m)) == 1
-    before_n = activity_n(st_)
+    before = _totals(st_)
     m.add_graph(graph(T0 + 50 * S, [], np.zeros((0, 3))))
     assert len(st_.entries.node_rows()) == 0
     assert len(st_.redirects) == 0
@@ -122,32 +141,143 @@ def test_removed_node_releases_into_the_cell_at_its_last_position() -> None:
     cell = rows[st_.entries.key[rows] == home]
     assert len(cell) == 1
     assert st_.entries.counts[cell[0]].sum() == 5  # 3 released + 2 already there
-    assert activity_n(st_) == before_n
+    assert _totals(st_) == before
+    assert open_counts(st_)[cell[0], 4] == 5  # the open window's counts moved with it
     # a detection in the formerly redirected cell now makes a new cell entry
     m.add_detections(detections(T0 + 51 * S, [[2.8, 0.4, 0.0]]))
     assert len(_cell_rows(m)) == 2
     check_invariants(st_)
 
 
-def test_binding_moves_fremen_rows_and_frees_the_cell_rows() -> None:
+_TEMPORAL = ("cnt_fourier", "cnt_profile", "flow_score", "flow_chi2", "flow_scored",
+             "dir_score", "dir_scored")
+
+
+def _temporal_row(m: Mapper, row: int) -> dict[str, np.ndarray]:
+    tmp = m.state.temporal
+    out = {name: getattr(tmp, name)[row].copy() for name in _TEMPORAL}
+    for name in ("n", "fourier", "profile", "first", "last"):
+        out["obs_" + name] = getattr(tmp.obs, name)[row].copy()
+    return out
+
+
+def test_binding_moves_the_cells_accumulators_and_frees_its_row() -> None:
     m = _one_node_mapper()
-    m.add_detections(detections(T0 + S, [[2.3, 0.3, 0.0]] * 5))  # far from p0
-    m.advance(T0 + 700 * S)  # closes the window: the cell learns one observation
+    m.add_detections(detections(T0 + S, [[2.3, 0.3, 0.0]] * 5))  # far from p0: stays a cell
+    m.add_detections(detections(T0_DAY_END + S, [[2.3, 0.3, 0.0]] * 2))  # the next day
+    m.advance(T0_DAY_END + DAY_NS + S)  # both days closed: the second scored on the first
     st_ = m.state
-    cell = _cell_rows(m)[0]
-    act = fremen_rows(np.array([cell]), st_.bins)[0]
-    assert st_.fremen.n[act[0]] == 1
-    np.testing.assert_allclose(st_.fremen.sum_s[act[0]], 1 - np.exp(-1.0))
-    assert st_.fremen.n[act[5]] == 1  # heading 0 -> bin 4 -> row offset 5
-    m.add_graph(graph(T0 + 701 * S, [0], [[2.0, 0.0, 0.0]]))  # moves: timer restarts
-    m.add_graph(graph(T0 + 731 * S, [0], [[2.0, 0.0, 0.0]]))
-    node = st_.node_entry_rows(pid([0]))[0]
-    nrows = fremen_rows(np.array([node]), st_.bins)[0]
-    assert st_.entries.kind[cell] != CELL or st_.entries.key[cell] != st_.entries.key[node]
-    assert st_.fremen.n[nrows[0]] == 1
-    np.testing.assert_allclose(st_.fremen.sum_s[nrows[0]], 1 - np.exp(-1.0))
-    assert st_.fremen.n[nrows[5]] == 1
+    cell = int(_cell_rows(m)[0])
+    before = _temporal_row(m, cell)
+    assert before["cnt_profile"][4, 22] == 5  # heading 0 -> bin 4, 22:20 UTC on a weekday
+    assert before["cnt_profile"][4, 0] == 2  # 00:00 UTC the next (week)day
+    assert before["cnt_profile"].sum() == 7
+    assert before["flow_scored"] > 0  # the second day was scored
+    assert before["dir_scored"] == 2
+    t = T0_DAY_END + DAY_NS + 2 * S
+    m.add_graph(graph(t, [0], [[2.0, 0.0, 0.0]]))  # moves: timer restarts
+    m.add_graph(graph(t + 31 * S, [0], [[2.0, 0.0, 0.0]]))
+    assert len(_cell_rows(m)) == 0
+    node = int(st_.node_entry_rows(pid([0]))[0])
+    after = _temporal_row(m, node)
+    for name, value in before.items():  # the node had nothing: it now has the cell's exactly
+        np.testing.assert_array_equal(after[name], value, err_msg=name)
+    assert cell not in st_.entries.live_rows()
+    assert st_.temporal.cnt_profile[cell].sum() == 0
+    assert st_.temporal.flow_scored[cell] == 0
     check_invariants(st_)
+
+
+def test_binding_keeps_the_observation_block_with_more_windows() -> None:
+    """Cells bound into one node were seen over the same time: the node keeps the block with
+    the most windows (a sum would divide its rate by the number of cells), counts add."""
+    m = Mapper(CFG)  # no source: an entry is observed in the windows with its detections
+    a, b = [0.3, 0.3, 0.0], [-0.3, 0.3, 0.0]  # two cells within the bind radius of (0, 0)
+    for w, (na, nb) in enumerate([(2, 1), (3, 0), (1, 4)]):
+        if na:
+            m.add_detections(detections(T0 + w * W + S, [a] * na))
+        if nb:
+            m.add_detections(detections(T0 + w * W + 2 * S, [b] * nb))
+    m.advance(T0_DAY_END)  # the day is over: absorbed
+    st_ = m.state
+    key_a, key_b = keys_for_points(np.array([a, b]), CFG.cell_size)
+    rows, _ = st_.routes.lookup(np.array([key_a, key_b]))
+    row_a, row_b = int(rows[0]), int(rows[1])
+    np.testing.assert_array_equal(st_.temporal.obs.n[[row_a, row_b]], [3, 2])
+    obs_a = _temporal_row(m, row_a)
+    counts = st_.temporal.cnt_profile[[row_a, row_b]].sum(axis=0)
+    t = T0_DAY_END + 10 * S
+    m.add_graph(graph(t, [0], [[0.0, 0.0, 0.0]]))
+    m.add_graph(graph(t + 31 * S, [0], [[0.0, 0.0, 0.0]]))  # stable: both cells bind
+    assert len(_cell_rows(m)) == 0
+    node = int(st_.node_entry_rows(pid([0]))[0])
+    for name in ("obs_n", "obs_fourier", "obs_profile", "obs_first", "obs_last"):
+        np.testing.assert_array_equal(_temporal_row(m, node)[name], obs_a[name], err_msg=name)
+    np.testing.assert_array_equal(st_.temporal.cnt_profile[node], counts)
+    assert counts.sum() == 11
+    table = historical_table(st_)
+    k = int(np.flatnonzero(table.ids == "p0")[0])
+    assert table.flow[k] == pytest.approx(11 / 3)  # 11 detections over A's 3 windows
+    check_invariants(st_)
+
+
+def test_the_pending_days_windows_follow_a_moved_cell() -> None:
+    """Bound on the day the windows were recorded: the held counts follow the cell into its
+    node, and the node is observed in the union of its cells' windows (exact)."""
+    m = Mapper(CFG)
+    a, b = [0.3, 0.3, 0.0], [-0.3, 0.3, 0.0]
+    m.add_detections(detections(T0 + S, [a] * 2))  # window 0: A
+    m.add_detections(detections(T0 + W + S, [a, b, b]))  # window 1: A and B
+    m.add_detections(detections(T0 + 2 * W + S, [b] * 3))  # window 2: B
+    m.add_graph(graph(T0 + 3 * W + 10 * S, [0], [[0.0, 0.0, 0.0]]))  # closes windows 0..2
+    st_ = m.state
+    assert len(st_.pending.windows) == 3
+    cells = _cell_rows(m)
+    np.testing.assert_array_equal(st_.windows_observed(cells), [2, 2])
+    m.add_graph(graph(T0 + 3 * W + 41 * S, [0], [[0.0, 0.0, 0.0]]))  # binds both
+    assert len(_cell_rows(m)) == 0
+    node = st_.node_entry_rows(pid([0]))
+    day = st_.pending.consolidated()
+    np.testing.assert_array_equal(np.unique(day.cnt_entry), node)
+    np.testing.assert_array_equal(np.unique(day.obs_entry), node)
+    np.testing.assert_array_equal(pending_counts(st_)[node[0], 4], 8)
+    np.testing.assert_array_equal(st_.windows_observed(node), [3])  # {0, 1} ∪ {1, 2}
+    check_invariants(st_)
+    m.advance(T0_DAY_END)
+    assert not st_.pending
+    tmp = st_.temporal
+    np.testing.assert_array_equal(tmp.obs.n[node], [3])
+    profile = np.zeros(tmp.n_bins)
+    profile[22] = 3
+    np.testing.assert_array_equal(tmp.obs.profile[node[0]], profile)
+    np.testing.assert_array_equal(tmp.cnt_profile[node[0], 4, 22], 8)
+    check_invariants(st_)
+
+
+def test_add_rows_keeps_the_larger_observation_or_adds() -> None:
+    params = TemporalParams.from_config(ModelConfig(periods=(86400.0,), max_order=1))
+    state = empty_state(params, 4)
+    state.touch(np.arange(4))
+    state.obs.n[:] = [1, 3, 3, 0]
+    state.obs.first[:] = [10.0, 20.0, 30.0, np.nan]
+    state.obs.last[:] = [11.0, 21.0, 31.0, np.nan]
+    state.cnt_profile[:, 0, 0] = [1, 2, 4, 8]
+    state.flow_scored[:] = [1, 1, 1, 0]
+    maxed = state.copy()
+    maxed.add_rows([1, 2], [0, 0], observation="max")
+    # row 0 keeps the block with the most windows; rows 1 and 2 tie: the first source wins
+    assert maxed.obs.n[0] == 3
+    assert (maxed.obs.first[0], maxed.obs.last[0]) == (20.0, 21.0)
+    assert maxed.cnt_profile[0, 0, 0] == 7
+    assert maxed.flow_scored[0] == 3
+    maxed.add_rows([3], [0], observation="max")  # an unobserved source changes no observation
+    assert maxed.obs.n[0] == 3
+    assert maxed.cnt_profile[0, 0, 0] == 15
+    added = state.copy()
+    added.add_rows([1, 2], [0, 0], observation="add")
+    assert added.obs.n[0] == 7
+    assert (added.obs.first[0], added.obs.last[0]) == (10.0, 31.0)
+    assert added.cnt_profile[0, 0, 0] == 7
 
 
 def test_node_table_timer_rules() -> None:
@@ -176,19 +306,20 @@ op = st.one_of(
     st.tuples(st.just("detect"), st.integers(1, 30), st.integers(0, 10**6)),
     # toggle one pool node's presence (or none: -1) and shift every node by an offset
     st.tuples(st.just("graph"), st.integers(-1, 4), st.sampled_from([0.0, 0.0, 0.1, 2.0])),
-    st.tuples(st.just("wait"), st.integers(1, 200), st.just(0)),
+    st.tuples(st.just("wait"), st.integers(1, 400), st.just(0)),
 )
 
 
 @given(st.lists(op, min_size=3, max_size=14))
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_invariants_hold_for_any_sequence(ops: list[tuple[str, int, float]]) -> None:
     cfg = ModelConfig(stability_s=10.0, window_s=60.0, cell_size=0.5, bind_radius=1.0)
     m = Mapper(cfg)
-    m.set_fixed_sensor(T0, T0 + 10**5 * S)
+    start = T0_DAY_END - 300 * S  # five minutes before midnight: many sequences close a day
+    m.set_fixed_sensor(start, start + 10**5 * S)
     present = np.ones(len(POOL), bool)
-    m.add_graph(graph(T0, list(range(len(POOL))), POOL))
-    t = T0
+    m.add_graph(graph(start, list(range(len(POOL))), POOL))
+    t = start
     accepted = 0
     for kind, a, b in ops:
         t += 7 * S
@@ -206,9 +337,11 @@ def test_invariants_hold_for_any_sequence(ops: list[tuple[str, int, float]]) -> 
                 present[int(a)] = ~present[int(a)]
             idx = np.flatnonzero(present)
             m.advance(t)  # close windows first: the graph update itself must conserve
-            before = (activity_n(st_), activity_sum_s(st_))
+            before = _totals(st_)
+            observed = st_.temporal.glob.n[0]
             m.add_graph(graph(t, idx.tolist(), POOL[idx] + float(b)))
-            np.testing.assert_allclose((activity_n(st_), activity_sum_s(st_)), before)
+            assert _totals(st_) == before  # binds, moves and releases move counts exactly
+            assert st_.temporal.glob.n[0] == observed
         else:
             t += int(a) * S
             m.advance(t)
@@ -218,3 +351,7 @@ def test_invariants_hold_for_any_sequence(ops: list[tuple[str, int, float]]) -> 
             event("cells bound")
         if kind == "graph" and len(m.state.entries.node_rows()) < nodes_before:
             event("node state released")
+        if m.state.temporal.glob.n[0] > 0:
+            event("a day closed")
+        if m.state.pending and m.state.temporal.glob.n[0] > 0:
+            event("a day closed and the next one pending")

@@ -4,25 +4,38 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from functools import partial
+from typing import Any
 
 import numpy as np
 import pytest
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.entries import fremen_rows
-from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.errors import MapCorruptError, MapFileError
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.state import MapState, merge_states
+from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.types import Mesh, Trajectory
-from tests.engine.engine_builders import T0, S, check_invariants, detections, graph, pid
+from tests.engine.engine_builders import (
+    T0,
+    T0_DAY_END,
+    S,
+    check_invariants,
+    closed_counts,
+    detections,
+    graph,
+    pending_counts,
+    pid,
+)
 
 CFG = ModelConfig(window_s=600.0, stability_s=30.0)
 W = 600 * S
 DAY = 86400 * S
+HOUR = 3600 * S
 NODES = [[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]]
 
-Step = Callable[[Mapper], None]
+Step = Callable[[Mapper], object]
 
 
 def _log(
@@ -50,11 +63,11 @@ def _log(
             xyz = spots[pick]
         heading = np.where(rng.random(n) < 0.1, np.nan, rng.uniform(-np.pi, np.pi, n))
         batch = detections(t, xyz, heading, rng.uniform(0.2, 2, n))
-        steps.append(lambda m, b=batch: m.add_detections(b))
+        steps.append(partial(Mapper.add_detections, batch=batch))
         if w == windows // 2 and move:
             moved = np.array(NODES) + np.array([move, 0, 0])
             g_moved = graph(start + w * W + W // 2, [0, 1, 2, 3], moved[:4])
-            steps.append(lambda m, g=g_moved: m.add_graph(g))
+            steps.append(partial(Mapper.add_graph, snapshot=g_moved))
     return steps
 
 
@@ -71,36 +84,71 @@ def _reload(m: Mapper) -> Mapper:
     return Mapper(CFG, MapState.from_arrays(arrays, meta))
 
 
+def _plain(arrays: dict[str, Any]) -> dict[str, np.ndarray]:
+    """Every member as a numpy array (temporal members are streamed row blocks)."""
+    return {name: np.asarray(value) for name, value in arrays.items()}
+
+
+def _pending_sorted(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The pending day's (entry position, slot) pairs sorted by position, then slot: the
+    content of the day independent of the order it was written in (the byte-exact export is
+    :func:`test_round_trip_is_exact_and_plain`'s business)."""
+    out = dict(arrays)
+    for kind, extra in (("obs", ()), ("cnt", ("cnt_values",))):
+        entry, slot = arrays[f"pending_{kind}_entry"], arrays[f"pending_{kind}_slot"]
+        order = np.lexsort((slot, entry))
+        for name in (f"{kind}_entry", f"{kind}_slot", *extra):
+            out["pending_" + name] = arrays["pending_" + name][order]
+    return out
+
+
 def _assert_same(a: MapState, b: MapState, rtol: float = 1e-12) -> None:
+    """Equal maps: metadata and integer members exactly, float members to ``rtol``."""
     xa, ma = a.to_arrays()
     xb, mb = b.to_arrays()
     assert ma == mb
     assert sorted(xa) == sorted(xb)
-    for name in xa:
-        assert xa[name].dtype == xb[name].dtype, name
-        np.testing.assert_allclose(xa[name], xb[name], rtol=rtol, atol=1e-9, err_msg=name)
+    pa, pb = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xb))
+    for name in pa:
+        assert pa[name].dtype == pb[name].dtype, name
+        if pa[name].dtype.kind in "fc":
+            np.testing.assert_allclose(pa[name], pb[name], rtol=rtol, atol=0, err_msg=name)
+        else:
+            np.testing.assert_array_equal(pa[name], pb[name], err_msg=name)
 
 
 def test_round_trip_is_exact_and_plain() -> None:
-    m = _run(_log(T0, seed=1, move=0.6))
-    m.add_trajectory(Trajectory(np.array([T0 + 10 * W]), np.array([[1.0, 2.0, 0.0]])))
-    g = graph(T0 + 7 * W, [0, 1], [[0, 0, 0], [1, 1, 1.0]])
+    # two days: the first absorbed, the second pending (the last day of a build waits)
+    m = _run(_log(T0, seed=1, move=0.6) + _log(T0 + 8 * W, seed=11))
+    assert m.state.pending
+    assert m.state.temporal.glob.n[0] > 0
+    m.add_trajectory(Trajectory(np.array([T0 + 20 * W]), np.array([[1.0, 2.0, 0.0]])))
+    g = graph(T0 + 15 * W, [0, 1], np.array([[0, 0, 0], [1, 1, 1.0]]))
     mesh = Mesh(np.zeros((3, 3)), np.array([[0, 1, 2]], np.int32), np.ones((3, 3)))
     m.add_graph(type(g)(g.t_ns, g.places, np.array([[0, 1]]), mesh=mesh, layer_name="mesh_places"))
     arrays, meta = m.state.to_arrays()
     json.dumps(meta)
-    for name, value in arrays.items():
-        assert isinstance(value, np.ndarray), name
+    for name, value in _plain(arrays).items():
         assert value.dtype != object, name
     again = MapState.from_arrays(arrays, json.loads(json.dumps(meta)))
     arrays2, meta2 = again.to_arrays()
     assert meta2 == meta
+    assert meta["pending_day"] == m.state.pending.day
     assert sorted(arrays2) == sorted(arrays)
-    for name in arrays:
-        np.testing.assert_array_equal(arrays2[name], arrays[name], err_msg=name)
+    assert again.pending.windows == m.state.pending.windows
+    order, order2 = m.state.entries.canonical_order(), again.entries.canonical_order()
+    np.testing.assert_array_equal(
+        again.windows_observed(order2), m.state.windows_observed(order)
+    )
+    np.testing.assert_array_equal(pending_counts(again)[order2], pending_counts(m.state)[order])
     assert again.graph is not None
     assert again.graph.layer_name == "mesh_places"
     check_invariants(again)
+    # equal maps give equal arrays whatever their in-memory row layout (state.py)
+    plain, plain2 = _plain(arrays), _plain(arrays2)
+    assert plain["pending_cnt_values"].sum() > 0
+    for name in plain:
+        np.testing.assert_array_equal(plain2[name], plain[name], err_msg=name)
 
 
 @pytest.mark.parametrize("cut", [3, 6, 9])
@@ -109,6 +157,35 @@ def test_building_a_then_b_equals_building_both_at_once(cut: int) -> None:
     whole = _run(steps)
     first = _run(steps[:cut])
     continued = _run(steps[cut:], _reload(first))
+    _assert_same(whole.state, continued.state)
+    check_invariants(continued.state)
+
+
+def _three_days() -> list[Step]:
+    """A log on T0's day, one in the morning of the next day (its nodes move halfway) and one
+    on the day after: the middle day is closed, scored against the first, when the third
+    one starts."""
+    return (
+        _log(T0, seed=21)
+        + _log(T0_DAY_END + 8 * HOUR, seed=22, windows=12, move=0.6)
+        + _log(T0_DAY_END + DAY + 8 * HOUR, seed=23, windows=4)
+    )
+
+
+@pytest.mark.parametrize("cut", [15, 23])  # in the middle of the second day; at its end
+def test_a_map_saved_mid_day_and_continued_closes_the_day_exactly_as_a_single_pass(
+    cut: int,
+) -> None:
+    steps = _three_days()
+    whole = _run(steps)
+    first = _run(steps[:cut])
+    assert first.state.pending.day == (T0_DAY_END + 8 * HOUR) // DAY  # saved mid-day
+    assert first.state.temporal.flow_scored.sum() == 0  # nothing scored yet
+    continued = _run(steps[cut:], _reload(first))
+    tmp = whole.state.temporal
+    assert tmp.flow_scored.sum() > 0  # the second day was scored
+    assert tmp.dir_scored.sum() > 0
+    assert whole.state.pending.day == (T0_DAY_END + DAY + 8 * HOUR) // DAY
     _assert_same(whole.state, continued.state)
     check_invariants(continued.state)
 
@@ -124,19 +201,46 @@ def test_merging_disjoint_maps_equals_building_from_both() -> None:
     check_invariants(merged)
     xa, ma = both.to_arrays()
     xm, mm = merged.to_arrays()
+    pa, pm = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xm))
     assert ma["accepted"] == mm["accepted"]
     assert ma["open_window"] == mm["open_window"]
+    assert ma["pending_day"] == mm["pending_day"] == (T0 + 2 * DAY) // DAY
     exact = ["entry_key", "entry_node_id", "entry_kind", "entry_counts", "entry_nodir",
-             "entry_window_counts", "entry_speed_n", "entry_windows_observed",
-             "redirect_keys", "redirect_nodes", "fremen_n"]
+             "entry_window_counts", "entry_speed_n", "redirect_keys", "redirect_nodes",
+             "temporal_glob_n", "temporal_glob_profile", "temporal_obs_n",
+             "temporal_obs_profile", "temporal_cnt_profile", "pending_windows",
+             "pending_fixed", "pending_obs_entry", "pending_cnt_entry", "pending_cnt_slot",
+             "pending_cnt_values"]
     for name in exact:
-        np.testing.assert_array_equal(xm[name], xa[name], err_msg=name)
-    for name in ["entry_speed_sum", "fremen_sum_s", "fremen_sum_se", "fremen_sum_e",
-                 "fremen_t_first", "fremen_t_last"]:
-        np.testing.assert_allclose(xm[name], xa[name], rtol=1e-9, atol=1e-9, err_msg=name)
-    assert np.any(xa["fremen_n"] > 0)
-    assert len(xa["redirect_keys"]) > 0  # ownership transfer happened in both builds
-    assert np.any(xa["entry_kind"] == 0)  # and some cells stayed unbound
+        np.testing.assert_array_equal(pm[name], pa[name], err_msg=name)
+    for name in ["entry_speed_sum", "temporal_glob_fourier", "temporal_glob_first",
+                 "temporal_glob_last", "temporal_obs_fourier", "temporal_cnt_fourier"]:
+        np.testing.assert_allclose(pm[name], pa[name], rtol=1e-12, atol=0, err_msg=name)
+    assert pa["temporal_glob_n"][0] == 6  # the first log's windows; the second's are pending
+    assert pa["temporal_cnt_profile"].sum() > 0
+    assert len(pa["redirect_keys"]) > 0  # ownership transfer happened in both builds
+    assert np.any(pa["entry_kind"] == 0)  # and some cells stayed unbound
+
+
+def test_merge_adds_the_fixed_sensor_windows_of_both_maps_for_every_entry() -> None:
+    """An entry only the later map has still counts as observed-empty over the earlier map's
+    fixed-sensor windows, as a single pass would."""
+    early = Mapper(CFG)
+    early.set_fixed_sensor(T0, T0 + 3 * W)
+    early.add_detections(detections(T0 + S, [[0.1, 0.1, 0]] * 2))
+    early.advance(T0 + 3 * W)
+    late = Mapper(CFG)
+    late.set_fixed_sensor(T0 + 2 * DAY, T0 + 2 * DAY + 2 * W)
+    late.add_detections(detections(T0 + 2 * DAY + S, [[5.1, 5.1, 0]] * 4))
+    late.advance(T0 + 2 * DAY + 2 * W)
+    merged = merge_states(early.state, late.state)
+    assert merged.temporal.glob.n[0] == 3  # the earlier map's day, scored and absorbed
+    rows = merged.entries.live_rows()
+    np.testing.assert_array_equal(merged.windows_observed(rows), [5, 5])  # 3 + 2 pending
+    table = historical_table(merged)
+    flows = dict(zip(table.ids.tolist(), table.flow.tolist(), strict=True))
+    assert sorted(flows.values()) == pytest.approx([2 / 5, 4 / 5])
+    check_invariants(merged)
 
 
 def test_merge_rejects_different_configs() -> None:
@@ -148,41 +252,61 @@ def test_merge_rejects_different_configs() -> None:
 
 def test_from_arrays_rejects_corrupt_input() -> None:
     arrays, meta = _run(_log(T0, seed=6, windows=2)).state.to_arrays()
+    arrays = _plain(arrays)
     broken = dict(arrays)
-    broken["fremen_n"] = broken["fremen_n"][:-1]
-    with pytest.raises(MapCorruptError):
+    broken["temporal_obs_n"] = broken["temporal_obs_n"][:-1]
+    with pytest.raises(MapCorruptError, match="temporal_obs_n"):
         MapState.from_arrays(broken, meta)
+    real = {**arrays, "temporal_cnt_fourier": arrays["temporal_cnt_fourier"].real.copy()}
+    with pytest.raises(MapCorruptError, match="complex"):
+        MapState.from_arrays(real, meta)
     missing = {k: v for k, v in arrays.items() if k != "node_ids"}
     with pytest.raises(MapCorruptError):
         MapState.from_arrays(missing, meta)
+    no_counts = {k: v for k, v in arrays.items() if k != "temporal_cnt_profile"}
+    with pytest.raises(MapCorruptError, match="missing: temporal_cnt_profile"):
+        MapState.from_arrays(no_counts, meta)
+    no_pending = {k: v for k, v in arrays.items() if k != "pending_cnt_values"}
+    with pytest.raises(MapCorruptError, match="pending day incomplete"):
+        MapState.from_arrays(no_pending, meta)
+    assert len(arrays["pending_cnt_entry"]) > 0
+    far = {**arrays, "pending_cnt_entry": arrays["pending_cnt_entry"] + len(arrays["entry_kind"])}
+    with pytest.raises(MapCorruptError, match="pending day"):
+        MapState.from_arrays(far, meta)
+    with pytest.raises(MapCorruptError, match="pending day"):
+        MapState.from_arrays(arrays, {**meta, "pending_day": None})
     with pytest.raises(MapCorruptError):
         MapState.from_arrays(arrays, {k: v for k, v in meta.items() if k != "config"})
     with pytest.raises(MapCorruptError, match="newer"):
         MapState.from_arrays(arrays, {**meta, "state_version": 99})
-    bad_order = dict(arrays)
-    bad_order["fremen_pred_order"] = np.full_like(arrays["fremen_pred_order"], 9)
-    with pytest.raises(MapCorruptError, match="predictor"):
-        MapState.from_arrays(bad_order, meta)
-    partial = {k: v for k, v in arrays.items() if k != "fremen_pred_coef"}
-    with pytest.raises(MapCorruptError, match="predictor"):
-        MapState.from_arrays(partial, meta)
+    with pytest.raises(MapFileError, match="older") as old:
+        MapState.from_arrays(arrays, {**meta, "state_version": 1})
+    assert "aion build" in str(old.value.hint)
 
 
-def test_loaded_map_predicts_from_its_stored_predictor_like_the_built_one() -> None:
-    m = _run(_log(T0, seed=7, windows=8, move=0.6) + _log(T0 + 2 * DAY, seed=8))
+@pytest.mark.parametrize("writable", [True, False])
+def test_loaded_map_predicts_like_the_built_one(writable: bool) -> None:
+    m = _run(_three_days())
     arrays, meta = m.state.to_arrays()
-    loaded = MapState.from_arrays(arrays, json.loads(json.dumps(meta)))
-    assert loaded.fremen.predictor_cache is not None  # no ranking needed after a load
-    for t in (T0 + 3 * DAY, T0 + 3 * DAY + 7 * 3600 * S):
+    loaded = MapState.from_arrays(arrays, json.loads(json.dumps(meta)), writable=writable)
+    assert loaded.pending  # the last day waits in the map ...
+    for t in (T0 + 3 * DAY, T0 + 3 * DAY + 7 * HOUR):
         a, b = predict_table(m.state, t), predict_table(loaded, t)
-        np.testing.assert_array_equal(a.flow, b.flow)
-        np.testing.assert_array_equal(a.rate, b.rate)
-    # a map written before predictors were stored loads and computes them on demand
-    old = {k: v for k, v in arrays.items() if not k.startswith(("fremen_pred_", "fremen_rank_"))}
-    again = MapState.from_arrays(old, meta)
-    assert again.fremen.predictor_cache is None
-    t = T0 + 3 * DAY
-    np.testing.assert_array_equal(predict_table(again, t).flow, predict_table(m.state, t).flow)
+        np.testing.assert_allclose(b.flow, a.flow, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(b.rate, a.rate, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(b.flow_var, a.flow_var, rtol=1e-12, atol=0)
+        np.testing.assert_array_equal(b.flow_family, a.flow_family)
+        np.testing.assert_array_equal(b.direction_family, a.direction_family)
+    h_a, h_b = historical_table(m.state), historical_table(loaded)
+    np.testing.assert_allclose(h_b.flow, h_a.flow, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(h_b.rate, h_a.rate, rtol=1e-12, atol=0)
+    # ... and a query absorbs it unscored: in place for a read-only map, in a copy otherwise
+    assert bool(loaded.pending) == writable
+    assert m.state.pending
+    np.testing.assert_array_equal(
+        np.sort(loaded.temporal.flow_scored[loaded.entries.live_rows()]),
+        np.sort(m.state.temporal.flow_scored[m.state.entries.live_rows()]),
+    )
 
 
 def test_from_arrays_rejects_broken_ownership() -> None:
@@ -203,6 +327,7 @@ def test_empty_state_round_trips_and_answers_queries() -> None:
     arrays, meta = state.to_arrays()
     again = MapState.from_arrays(arrays, json.loads(json.dumps(meta)))
     assert again.open_window is None
+    assert not again.pending
     assert len(historical_table(again)) == 0
     assert len(predict_table(again, T0)) == 0
 
@@ -240,61 +365,117 @@ def test_merge_releases_nodes_the_later_graph_no_longer_has() -> None:
     assert merged.entries.counts[p0].sum() == 2
     cells = merged.entries.cell_rows()
     assert merged.entries.counts[cells].sum() == 4  # p1's 2 released + the later map's 2 there
+    assert closed_counts(merged, cells).sum() == 2  # the earlier day's, absorbed
+    assert pending_counts(merged)[cells].sum() == 2  # the later map's day, still pending
     np.testing.assert_array_equal(np.unique(merged.entries.key[cells]).size, cells.size)
     arrays, meta = merged.to_arrays()
     other = {**meta, "config": cfg.replace(periods=[3600.0]).to_dict()}
-    with pytest.raises(MapCorruptError, match="periods"):
+    with pytest.raises(MapCorruptError, match="temporal member"):
         MapState.from_arrays(arrays, other)
 
 
-@pytest.mark.parametrize("limit", [1, 3, 10_000])
-def test_deferred_fremen_windows_give_the_state_of_immediate_updates(
-    limit: int, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Closed windows wait in ``MapState.pending`` and are absorbed together; flushing after
-    every window (limit 1), every few, or only when something reads the state must give the
-    same map, and a reader never sees a window missing."""
-    from aion_cli.engine import pending
-
-    steps = _log(T0, seed=12, windows=9, move=0.6) + _log(T0 + DAY + 5 * W, seed=13)
-    monkeypatch.setattr(pending, "MAX_PENDING_WINDOWS", 1)
-    immediate = _run(steps).state
-    midway = _run(steps[:8]).state
-    monkeypatch.setattr(pending, "MAX_PENDING_WINDOWS", limit)
+def test_queries_do_not_change_what_a_build_learns() -> None:
+    """A query absorbs the pending day and the open window into a view (unscored); the map
+    goes on as if nobody had asked."""
+    steps = _three_days()
+    quiet = _run(steps).state
     m = Mapper(CFG)
-    waited = False
-    for step in steps[:8]:
+    seen = 0
+    for k, step in enumerate(steps):
         step(m)
-        waited |= bool(m.state.pending)  # (reading ``pending`` does not flush)
-    rows = fremen_rows(m.state.entries.live_rows(), CFG.bins).ravel()
-    np.testing.assert_array_equal(m.state.fremen.n[rows], midway.fremen.n[rows])
-    assert not m.state.pending  # reading the state absorbed every waiting window
-    assert midway.fremen.n[rows].sum() > 0
-    for step in steps[8:]:
-        step(m)
-        waited |= bool(m.state.pending)
-    assert waited == (limit > 1)
-    deferred = m.state
-    _assert_same(immediate, deferred)
+        if k % 5 == 2:
+            historical_table(m.state)
+            predict_table(m.state, T0 + 3 * DAY)
+            seen += bool(m.state.pending)
+    assert seen > 0  # some queries saw a pending day
+    _assert_same(quiet, m.state)
 
 
-def test_pending_updates_refuse_a_window_given_twice_for_the_same_rows() -> None:
-    from aion_cli.engine.pending import PendingUpdates, combine
+def test_the_query_view_equals_the_map_with_its_day_closed() -> None:
+    m = _run(_log(T0, seed=31) + _log(T0 + 8 * W, seed=32))
+    m.advance(T0 + 14 * W)  # the open window closes too: the view only absorbs the day
+    state = m.state
+    assert state.pending
+    view = historical_table(state)
+    closed = _reload(m).state
+    closed.close_day()  # scores the day against the one before, then absorbs it
+    assert not closed.pending
+    assert closed.temporal.flow_scored.sum() > 0
+    table = historical_table(closed)
+    np.testing.assert_array_equal(table.ids, view.ids)
+    np.testing.assert_allclose(table.flow, view.flow, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(table.rate, view.rate, rtol=1e-12, atol=0)
+    assert state.pending  # the built map still holds its day
 
-    p = PendingUpdates()
-    t = np.array([10.0])
-    one = np.ones((3, 1))
-    p.add(np.array([0, 9, 18]), t, one, one > 0)
-    assert p.accepts(np.array([1, 2, 10]), t)  # other rows, same window: joins
-    assert not p.accepts(np.array([5, 18]), t)  # row 18 again in window 10: flush first
-    assert not p.accepts(np.array([4]), np.array([5.0]))  # an earlier window: flush first
-    p.add(np.array([10, 2, 1]), t, 2 * one, one > 0)  # unsorted rows are fine
-    p.add(np.array([0]), np.array([20.0, 30.0]), np.array([[3.0, 4.0]]), np.array([[True, False]]))
-    rows, times, values, observed = combine(p.take())
-    assert rows.tolist() == [0, 1, 2, 9, 10, 18]
-    assert times.tolist() == [10.0, 20.0, 30.0]
-    assert values[:, 0].tolist() == [1, 2, 2, 1, 2, 1]
-    assert values[0].tolist() == [1, 3, 4]
-    assert observed[0].tolist() == [True, True, False]
-    assert observed[1:, 1:].sum() == 0
-    assert not p
+
+def test_pending_day_holds_windows_in_order_and_follows_moves() -> None:
+    day = PendingDay(values=3)
+    assert not day
+    day.add_window(5, 100, False, [4, 2], [2], [[1, 0, 2]])
+    day.add_window(5, 102, True, [], [2, 7], [[0, 1, 0], [3, 0, 0]])
+    with pytest.raises(ValueError, match="increasing"):
+        day.add_window(5, 102, False, [1], [], np.zeros((0, 3)))
+    with pytest.raises(ValueError, match="pending day"):
+        day.add_window(6, 200, False, [1], [], np.zeros((0, 3)))
+    day.add_window(5, 103, False, [2, 4, 2], [4, 4], [[1, 1, 1], [0, 0, 1]])
+    assert day.windows == [100, 102, 103]
+    assert day.fixed == [False, True, False]
+    np.testing.assert_array_equal(day.entries(), [2, 4, 7])
+    got = day.consolidated()
+    np.testing.assert_array_equal(np.c_[got.obs_entry, got.obs_slot], [[2, 0], [2, 2], [4, 0],
+                                                                         [4, 2]])
+    np.testing.assert_array_equal(np.c_[got.cnt_entry, got.cnt_slot], [[2, 0], [2, 1], [4, 2],
+                                                                         [7, 1]])
+    np.testing.assert_array_equal(got.cnt_values, [[1, 0, 2], [0, 1, 0], [1, 1, 2], [3, 0, 0]])
+    day.remap(np.array([4, 7]), np.array([2, 9]))  # 4 moved into 2, 7 into 9
+    got = day.consolidated()
+    np.testing.assert_array_equal(np.c_[got.obs_entry, got.obs_slot], [[2, 0], [2, 2]])
+    np.testing.assert_array_equal(np.c_[got.cnt_entry, got.cnt_slot], [[2, 0], [2, 1], [2, 2],
+                                                                         [9, 1]])
+    np.testing.assert_array_equal(got.cnt_values, [[1, 0, 2], [0, 1, 0], [1, 1, 2], [3, 0, 0]])
+    # persistence: rows are written as positions and read back into the loaded rows
+    position = np.full(10, -1, np.int64)
+    position[[2, 9]] = [1, 0]
+    arrays, meta = day.to_arrays("p_", position)
+    again = PendingDay.from_arrays(arrays, "p_", meta, 3, entries=2)
+    again.relabel(np.array([30, 20]))
+    back = again.consolidated()
+    assert again.day == 5
+    assert again.windows == [100, 102, 103]
+    np.testing.assert_array_equal(np.c_[back.cnt_entry, back.cnt_slot], [[20, 0], [20, 1],
+                                                                          [20, 2], [30, 1]])
+    np.testing.assert_array_equal(back.cnt_values, [[1, 0, 2], [0, 1, 0], [1, 1, 2], [3, 0, 0]])
+    with pytest.raises(MapCorruptError):
+        PendingDay.from_arrays(arrays, "p_", meta, 3, entries=1)  # a position out of range
+    day.clear()
+    assert not day
+    assert day.day is None
+
+
+@pytest.mark.parametrize("source", ["fixed", "robot"])
+def test_a_query_sees_the_open_window_as_closing_it_would_record_it(source: str) -> None:
+    rng = np.random.default_rng(41)
+    cfg = CFG.replace(sensor_range=3.0)
+    m = Mapper(cfg)
+    if source == "fixed":
+        m.set_fixed_sensor(T0, T0 + 5 * W + W // 2)
+    else:
+        poses = np.c_[np.linspace(0.0, 6.0, 12), np.zeros(12), np.zeros(12)]
+        m.add_trajectory(Trajectory(T0 + np.arange(12) * (W // 2) + S, poses))
+    for w in range(6):
+        n = int(rng.integers(3, 12))
+        xyz = np.c_[rng.uniform(0, 6, (n, 2)), np.zeros(n)]
+        m.add_detections(detections(T0 + w * W + S + np.sort(rng.integers(0, W - S, n)), xyz))
+    state = m.state
+    assert state.open_window == T0 // W + 5
+    assert state.entries.window_totals(state.entries.live_rows()).sum() > 0
+    view = historical_table(state)
+    arrays, meta = state.to_arrays()
+    closed = Mapper(cfg, MapState.from_arrays(arrays, meta))
+    closed.advance(T0 + 6 * W)  # records window 5 (log time reached its end) ...
+    closed.state.close_day()  # ... and absorbs the day
+    table = historical_table(closed.state)
+    np.testing.assert_array_equal(table.ids, view.ids)
+    np.testing.assert_allclose(table.flow, view.flow, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(table.rate, view.rate, rtol=1e-12, atol=0)
+    assert state.open_window == T0 // W + 5  # the built map is unchanged

@@ -11,6 +11,10 @@ from aion_cli.evaluation.atc import atc_files, local_hour, run_atc
 from aion_cli.evaluation.heading import UNIFORM_NLL
 
 ATC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "atc"
+needs_atc = pytest.mark.skipif(
+    not (ATC / "atc-1024-15_train.csv").is_file(),
+    reason="the ATC data (../shared/data/atc) is not here",
+)
 
 
 def slice_of_atc(tmp_path: Path, hours: list[int], step: int) -> Path:
@@ -24,6 +28,7 @@ def slice_of_atc(tmp_path: Path, hours: list[int], step: int) -> Path:
     return tmp_path
 
 
+@needs_atc
 def test_atc_files_are_indexed_by_hour_and_split() -> None:
     files = atc_files(ATC)
     assert (9, "train") in files
@@ -32,6 +37,7 @@ def test_atc_files_are_indexed_by_hour_and_split() -> None:
     assert (12, "test") in files
 
 
+@needs_atc
 @pytest.mark.parametrize("protocol", ["random", "chronological"])
 def test_protocol_runs_and_learned_models_beat_uniform(tmp_path: Path, protocol: str) -> None:
     data = slice_of_atc(tmp_path, [15, 16, 17], step=4)
@@ -39,7 +45,9 @@ def test_protocol_runs_and_learned_models_beat_uniform(tmp_path: Path, protocol:
     hours = {r["hour"] for r in result.rows}
     assert hours == ({15, 16, 17} if protocol == "random" else {17})
     summary = {s["model"]: s for s in result.summary()}
-    assert set(summary) == {"aion", "aion+graph", "aion static", "grid", "time-of-day histogram"}
+    assert set(summary) == {
+        "aion", "aion+graph", "aion static", "aion historical", "grid", "time-of-day histogram"
+    }
     for name in ("aion", "aion static", "grid"):
         assert math.isfinite(summary[name]["nll_all"])
         assert summary[name]["nll_all"] < UNIFORM_NLL

@@ -9,10 +9,10 @@ import pytest
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.engine.fremen import EPOCH_NS
 from aion_cli.engine.types import DetectionBatch
+from aion_cli.engine.windows import EPOCH_NS
 from aion_cli.evaluation.baselines import StaticHistogram, TimeOfDayHistogram
-from aion_cli.evaluation.grid import GridMoD, GridSpec
+from aion_cli.evaluation.grid import GridMoD, GridSpec, expected_counts_per_window
 
 HOUR = 3_600_000_000_000
 
@@ -55,15 +55,50 @@ def test_grid_learns_the_dominant_direction_per_cell() -> None:
     cells = grid.spec.cell_of(batch.xyz[:, :2])
     windows = batch.t_ns // 600_000_000_000
     n_windows = windows.max() - windows.min() + 1
+    static = grid.predict(int(batch.t_ns.mean()), static=True)
     for cell in np.flatnonzero(occupied):
         busy = len(np.unique(windows[cells == cell]))
-        static = grid.predict(int(batch.t_ns.mean()), order=0)
-        assert static[cell, dominant] == pytest.approx(busy / n_windows)
+        assert static[cell, dominant] == pytest.approx(busy / n_windows, rel=1e-12)
+    # every window of the span was observed (a fixed sensor): the global observation block
+    assert grid.state.glob.n[0] == n_windows
+    np.testing.assert_array_equal(grid.windows_observed_per_cell, n_windows)
     pred = grid.predict(int(batch.t_ns.mean()))
     others = np.delete(pred[occupied], dominant, axis=1)
-    assert np.all(others == 0.0)
+    assert np.all(others == 0.0)  # raw per-bin rates: no direction prior
     assert pred[occupied, dominant].mean() > 0.2
     assert np.all(pred[~occupied] == 0.0)
+    # one day, never scored: every cell forecasts with the static family
+    np.testing.assert_array_equal(pred, static)
+    counts_per_window = expected_counts_per_window(grid)
+    np.testing.assert_allclose(counts_per_window, hist.sum(axis=1) / n_windows, rtol=1e-12)
+
+
+def test_raw_grid_predicts_expected_detections_per_window() -> None:
+    batch = corridor_flow(6, seed=3)
+    grid = GridMoD(GridSpec.covering(batch.xyz[:, :2], 1.0), ModelConfig(window_s=600.0),
+                   normalise=False)
+    grid.fit(batch)
+    windows = batch.t_ns // 600_000_000_000
+    n_windows = windows.max() - windows.min() + 1
+    np.testing.assert_allclose(grid.predict(int(batch.t_ns.min()), static=True),
+                               grid.historical() / n_windows, rtol=1e-12)
+
+
+def test_grid_fremen_learns_a_direction_that_flips_at_noon() -> None:
+    """STeF's point: FreMEn per cell and bin. A week of a corridor walked +x every morning and
+    -x every afternoon (the total flow never changes): at 09:00 the grid must expect +x walkers
+    (bin 4) more than -x walkers (bin 7), at 15:00 the other way round — the static histogram
+    cannot."""
+    batch = corridor_flow(7 * 24, seed=2)
+    grid = GridMoD(GridSpec.covering(batch.xyz[:, :2], 1.0), ModelConfig(window_s=600.0))
+    grid.fit(batch)
+    occupied = grid.historical().sum(axis=1) > 0
+    east, west = bin_of(np.array([0.0, math.pi - 1e-9]), 8)
+    after = EPOCH_NS + 7 * 24 * HOUR
+    morning = grid.predict(after + 9 * HOUR)[occupied]
+    afternoon = grid.predict(after + 15 * HOUR)[occupied]
+    assert np.mean(morning[:, east] > morning[:, west]) > 0.9
+    assert np.mean(afternoon[:, west] > afternoon[:, east]) > 0.9
 
 
 def test_grid_memory_is_dense() -> None:

@@ -114,7 +114,7 @@ def test_round_trip_preserves_values_dtypes_shapes(written: Path) -> None:
 def test_manifest_carries_container_and_caller_fields(written: Path) -> None:
     _, manifest = read_map(written)
     assert manifest["format"] == "aion-map"
-    assert manifest["version"] == "1.0"
+    assert manifest["version"] == "2.0"  # format 2: the temporal model's state
     assert manifest["creator"] == f"aion {__version__}"
     assert manifest["created"].endswith("Z")
     assert manifest["config"] == {"bins": 8}
@@ -358,20 +358,26 @@ def test_not_a_zip_missing_file_and_missing_manifest(tmp_path: Path, written: Pa
 
 
 def test_newer_major_is_a_version_error_newer_minor_reads(written: Path, tmp_path: Path) -> None:
-    newer = tmp_path / "v2.aion"
-    rewrite(written, newer, manifest_edit=lambda m: m.update(version="2.0"))
+    newer = tmp_path / "v3.aion"
+    rewrite(written, newer, manifest_edit=lambda m: m.update(version="3.0"))
     with pytest.raises(MapVersionError) as err:
         read_map(newer)
-    assert str(err.value) == ("map format 2.0 is newer than this aion supports (1.x); upgrade aion")
-    minor = tmp_path / "v1_7.aion"
-    rewrite(written, minor, manifest_edit=lambda m: m.update(version="1.7", extra=True))
+    assert str(err.value) == ("map format 3.0 is newer than this aion supports (2.x); upgrade aion")
+    minor = tmp_path / "v2_7.aion"
+    rewrite(written, minor, manifest_edit=lambda m: m.update(version="2.7", extra=True))
     arrays, manifest = read_map(minor)
     assert manifest["extra"] is True
     assert_same(sample_arrays(), arrays)
-    older = tmp_path / "v0.aion"
-    rewrite(written, older, manifest_edit=lambda m: m.update(version="0.3"))
-    with pytest.raises(MapVersionError, match="older"):
-        read_map(older)
+    for old in ("1.0", "1.9", "0.3"):  # format 1 held the old FreMEn state: rebuild
+        older = tmp_path / f"v{old}.aion"
+        rewrite(written, older, manifest_edit=lambda m, v=old: m.update(version=v))
+        with pytest.raises(MapVersionError, match="older") as err:
+            read_map(older)
+        assert f"map format {old} is older" in str(err.value)
+        assert err.value.hint is not None
+        assert "rebuild" in err.value.hint
+        with pytest.raises(MapVersionError, match="older"):
+            read_manifest(older)
 
 
 @pytest.mark.parametrize(
@@ -476,7 +482,7 @@ def test_zip_bomb_ratio_is_rejected(tmp_path: Path) -> None:
     bomb = tmp_path / "bomb.aion"
     manifest = {
         "format": "aion-map",
-        "version": "1.0",
+        "version": "2.0",
         "creator": "x",
         "created": "now",
         "members": {

@@ -7,11 +7,13 @@ import math
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import DetectionBatch
 from formats import tracks as ft
+from formats.detections.frame import FrameDetections
 
 DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
 ATC = DATA / "atc" / "atc-1024-9_test.csv"
@@ -371,3 +373,87 @@ def test_tracks_to_log_ros1_bag_spencer(tmp_path: Path) -> None:
     )
     np.testing.assert_allclose(np.sort(xyz[:, 0]), np.sort(batch.xyz[:, 0]))
     assert [m.header.seq for _, _, m in msgs[:3]] == [0, 1, 2]
+
+
+# ----------------------------------------------------------------------------- observed spans
+
+
+def test_observed_stamps_every_interval_and_the_last_instant() -> None:
+    spans = [(90 * S, 100 * S), (0, 95 * S), (200 * S, 200 * S + 1)]  # overlapping, unsorted
+    stamps = ft.observed_stamps(spans, 30 * S)
+    assert stamps.tolist() == [0, 30 * S, 60 * S, 90 * S, 100 * S - 1, 200 * S]
+    assert ft.observed_stamps([]).tolist() == []
+    assert ft.OBSERVED_INTERVAL_NS == 30 * S
+    with pytest.raises(InputError, match="ends before it starts"):
+        ft.observed_stamps([(5, 5)])
+    with pytest.raises(InputError, match="interval"):
+        ft.observed_stamps([(0, S)], 0)
+
+
+def _log_messages(path: Path) -> tuple[list[int], FrameDetections, npt.NDArray[np.int64]]:
+    """Log times of all messages, the decoded detections (adapter) and windows recorded."""
+    from formats.detections import adapter_for
+    from formats.logs import open_logs
+
+    with open_logs([path]) as logs:
+        msgs = list(logs.messages())
+        adapter = adapter_for(msgs[0].msgtype)
+        assert adapter is not None
+        frames = adapter.decode(msgs)
+        windows = logs.recorded_windows(600 * S)
+    return [m.log_time_ns for m in msgs], frames, windows
+
+
+@pytest.mark.parametrize(
+    ("container", "msgtype"),
+    [("mcap", ft.SPENCER_TRACKED), ("bag", ft.POSE_ARRAY), ("mcap", ft.POSE_ARRAY)],
+)
+def test_tracks_to_log_marks_observed_spans(tmp_path: Path, container: str, msgtype: str) -> None:
+    t0 = 1_700_000_000 * S
+    batch = DetectionBatch.from_arrays(
+        t_ns=[t0 + 5 * S, t0 + 6 * S, t0 + 6 * S, t0 + 7300 * S],
+        xyz=np.array([[1, 2, 0], [1.5, 2, 0], [4, 4, 0], [9, 9, 0]], dtype=float),
+        heading=[0.0, 0.0, 1.0, 2.0],
+        speed=[1.0, 1.0, 0.5, 0.5],
+        track_id=[1, 1, 2, 3],
+    )
+    spans = [(t0 - 1800 * S, t0 + 1800 * S), (t0 + 7200 * S, t0 + 7200 * S + 3599 * S)]
+    out = tmp_path / f"o.{container}"
+    summary = ft.tracks_to_log(batch, out, container=container, msgtype=msgtype, observed=spans)
+    marks = ft.observed_stamps(spans)
+    assert len(marks) == 3600 // 30 + 1 + 3599 // 30 + 1 + 1
+    assert summary.detection_messages == 3
+    assert summary.observed_messages == len(marks)
+    assert summary.observed_spans == 2
+    assert summary.observed_ns == 3600 * S + 3599 * S
+    assert (summary.start_ns, summary.end_ns) == (spans[0][0], spans[1][1] - 1)
+    times, frames, windows = _log_messages(out)
+    assert len(times) == 3 + len(marks)
+    assert times == sorted(times)  # merged in time order
+    assert sorted(set(times)) == sorted({*marks.tolist(), *batch.t_ns.tolist()})
+    # every 600-s window either span touches holds a message
+    for start, end in spans:
+        touched = np.arange(start // (600 * S), (end - 1) // (600 * S) + 1)
+        assert np.isin(touched, windows).all()
+    # the detections are intact; the empty messages carry none
+    assert len(frames) == len(batch)
+    order = np.argsort(frames.t_ns, kind="stable")
+    np.testing.assert_array_equal(frames.t_ns[order], batch.t_ns)
+    np.testing.assert_allclose(frames.xyz[order], batch.xyz)
+    if msgtype == ft.SPENCER_TRACKED:
+        np.testing.assert_array_equal(frames.track_id[order], batch.track_id)
+
+
+def test_tracks_to_log_observed_without_detections_and_bad_spans(tmp_path: Path) -> None:
+    summary = ft.tracks_to_log(DetectionBatch.empty(), tmp_path / "e.mcap", observed=[(0, 60 * S)])
+    assert (summary.detections, summary.detection_messages, summary.observed_messages) == (0, 0, 3)
+    times, frames, _ = _log_messages(tmp_path / "e.mcap")
+    assert times == [0, 30 * S, 60 * S - 1]
+    assert len(frames) == 0
+    one = DetectionBatch.from_arrays([S], [[0, 0, 0]], track_id=[1])
+    with pytest.raises(InputError, match="ends before it starts"):
+        ft.tracks_to_log(one, tmp_path / "b.mcap", observed=[(10 * S, 5 * S)])
+    # without spans: only the detection messages, as before
+    summary = ft.tracks_to_log(one, tmp_path / "d.mcap")
+    assert (summary.observed_messages, summary.observed_spans) == (0, 0)
+    assert _log_messages(tmp_path / "d.mcap")[0] == [S]

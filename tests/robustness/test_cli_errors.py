@@ -52,13 +52,22 @@ def flip_byte(path: Path, offset: int) -> None:
     path.write_bytes(bytes(data))
 
 
-def _newer_map(office: Office, folder: Path) -> Path:
+def _versioned_map(office: Office, folder: Path, name: str, version: str) -> Path:
     from tests.robustness.conftest import rewrite_map
 
-    def newer(manifest: dict[str, Any]) -> None:
-        manifest["version"] = "2.0"
+    def edit(manifest: dict[str, Any]) -> None:
+        manifest["version"] = version
 
-    return rewrite_map(office.map, folder / "newer.aion", manifest_edit=newer)
+    return rewrite_map(office.map, folder / name, manifest_edit=edit)
+
+
+def _newer_map(office: Office, folder: Path) -> Path:
+    return _versioned_map(office, folder, "newer.aion", "3.0")  # this aion writes 2.0
+
+
+def _older_map(office: Office, folder: Path) -> Path:
+    """A map of format 1.x (the FreMEn state before the temporal model): must be rebuilt."""
+    return _versioned_map(office, folder, "older.aion", "1.0")
 
 
 def _corrupted_map(office: Office, folder: Path) -> Path:
@@ -111,6 +120,10 @@ def _mistakes(office: Office, folder: Path) -> dict[str, tuple[list[Any], str]]:
             ["predict", _newer_map(office, folder), "--time", "now"],
             "newer",
         ),
+        "map from an older format": (
+            ["predict", _older_map(office, folder), "--time", "now"],
+            "older",
+        ),
         "corrupted map": (["predict", _corrupted_map(office, folder), "--time", "now"], "corrupt"),
         "a log given as the map": (["predict", folder / "notes.txt", "--time", "now"], "map"),
         "config with an unknown key": (
@@ -139,6 +152,7 @@ CASES = (
     "unknown node id",
     "malformed node id",
     "map from a newer version",
+    "map from an older format",
     "corrupted map",
     "a log given as the map",
     "config with an unknown key",

@@ -1,0 +1,379 @@
+"""The additive temporal accumulators of a map: observation, counts and forecast scores.
+
+Per entry row e (an unbound hash cell or a node) and value bin v (the B direction bins, then
+one bin for detections without a heading; V = B + 1):
+
+* **observation** — which windows saw the entry, as sums over its observed windows: ``n``
+  (windows), ``fourier[K]`` = Σ e^{iω_k t_w}, ``profile[H]`` = windows per profile bin,
+  ``first`` / ``last`` (model seconds, NaN before any). The B+1 value bins of an entry share
+  them. A fixed sensor observes every entry at once, so its windows live in one *global* block
+  (:attr:`TemporalState.glob`) that counts for every entry, including entries created later
+  (the sensor saw their place empty before); per-entry blocks hold the rest (robot coverage, or
+  windows in which the entry had detections although no source covered it). An entry's
+  observation is ``glob + obs[e]`` (:meth:`TemporalState.observation`).
+* **counts** — ``cnt_fourier[V, K]`` = Σ n_{w,v}·e^{iω_k t_w} (FreMEn) and
+  ``cnt_profile[V, H]`` = Σ n_{w,v} per profile bin (the periodic profile; its sum over H is
+  the entry's count N_v over closed windows).
+* **scores** — sums over day-ahead forecasts (see :mod:`~aion_cli.engine.temporal.scoring`):
+  ``flow_score[F]`` Poisson log-likelihood of the window counts per flow family,
+  ``flow_chi2[F]`` Pearson χ² (over-dispersion for the predictive spread), ``flow_scored``
+  windows scored, ``flow_days`` days scored and ``flow_gain_sq[F]`` Σ over days of the squared
+  daily gain over ``static`` (how consistent a family's advantage is); ``dir_score[D]``,
+  ``dir_scored`` (detections), ``dir_days`` and ``dir_gain_sq[D]`` the same for the
+  log-probability of each detection's direction bin.
+
+Every field is a sum (or min/max), so states of disjoint time add exactly
+(:meth:`TemporalState.add_rows` with ``observation="add"``). When ownership moves a cell into
+a node (same time span) counts and scores add, and the observation of whichever had more
+windows is kept (``observation="max"``): the two were seen in nearly the same windows, and a
+sum would divide the node's rate by the number of cells it absorbed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.types import F64, I64, RowTake
+
+C128 = npt.NDArray[np.complex128]
+
+_OBS_FIELDS = ("n", "fourier", "profile", "first", "last")
+_ADDITIVE = (
+    "cnt_fourier",
+    "cnt_profile",
+    "flow_score",
+    "flow_chi2",
+    "flow_scored",
+    "flow_days",
+    "flow_gain_sq",
+    "dir_score",
+    "dir_scored",
+    "dir_days",
+    "dir_gain_sq",
+)
+_ROW_BLOCK = 1 << 14
+
+
+@dataclass
+class ObsBlock:
+    """Observation sums of R rows over K periods and H profile bins (see module docstring)."""
+
+    n: F64
+    fourier: C128
+    profile: F64
+    first: F64
+    last: F64
+
+    @classmethod
+    def empty(cls, rows: int, periods: int, bins: int) -> ObsBlock:
+        return cls(
+            np.zeros(rows),
+            np.zeros((rows, periods), np.complex128),
+            np.zeros((rows, bins)),
+            np.full(rows, np.nan),
+            np.full(rows, np.nan),
+        )
+
+    def take(self, rows: npt.ArrayLike) -> ObsBlock:
+        r = np.asarray(rows, dtype=np.int64)
+        return ObsBlock(*(getattr(self, f)[r].copy() for f in _OBS_FIELDS))
+
+    def put(self, rows: I64, other: ObsBlock) -> None:
+        for f in _OBS_FIELDS:
+            getattr(self, f)[rows] = getattr(other, f)
+
+    def add_block(self, rows: I64, other: ObsBlock) -> None:
+        """``self[rows] += other`` (repeated rows accumulate; first = min, last = max)."""
+        np.add.at(self.n, rows, other.n)
+        np.add.at(self.fourier, rows, other.fourier)
+        np.add.at(self.profile, rows, other.profile)
+        np.fmin.at(self.first, rows, other.first)
+        np.fmax.at(self.last, rows, other.last)
+
+    def zero(self, rows: I64) -> None:
+        self.n[rows] = 0.0
+        self.fourier[rows] = 0.0
+        self.profile[rows] = 0.0
+        self.first[rows] = np.nan
+        self.last[rows] = np.nan
+
+    def to_arrays(self, prefix: str, rows: I64 | None = None) -> dict[str, Any]:
+        if rows is None:
+            return {prefix + f: getattr(self, f) for f in _OBS_FIELDS}
+        return {prefix + f: RowTake(getattr(self, f), rows) for f in _OBS_FIELDS}
+
+    @classmethod
+    def from_arrays(
+        cls, arrays: dict[str, np.ndarray], prefix: str, rows: int, periods: int, bins: int
+    ) -> ObsBlock:
+        shapes = {
+            "n": (rows,),
+            "fourier": (rows, periods),
+            "profile": (rows, bins),
+            "first": (rows,),
+            "last": (rows,),
+        }
+        vals = {f: _member(arrays, prefix + f, shape) for f, shape in shapes.items()}
+        if vals["fourier"].dtype != np.complex128:
+            raise MapCorruptError(f"{prefix}fourier must be complex128")
+        return cls(**vals)
+
+
+def _member(arrays: dict[str, np.ndarray], name: str, shape: tuple[int, ...]) -> Any:
+    if name not in arrays:
+        raise MapCorruptError(f"temporal state incomplete, missing: {name}")
+    value = np.asarray(arrays[name])
+    if value.shape != shape or value.dtype.kind not in "fc":
+        raise MapCorruptError(
+            f"temporal member {name} has shape {value.shape} and dtype {value.dtype}, "
+            f"expected {shape}"
+        )
+    if value.dtype.kind == "f":
+        value = value.astype(np.float64, copy=False)
+    return np.array(value)
+
+
+@dataclass
+class TemporalState:
+    """The accumulators of R entry rows (struct of arrays; see the module docstring)."""
+
+    glob: ObsBlock
+    obs: ObsBlock
+    cnt_fourier: C128
+    cnt_profile: F64
+    flow_score: F64
+    flow_chi2: F64
+    flow_scored: F64
+    flow_days: F64
+    flow_gain_sq: F64
+    dir_score: F64
+    dir_scored: F64
+    dir_days: F64
+    dir_gain_sq: F64
+    high_water: int = field(default=-1, compare=False, repr=False)
+    """Rows from here on were never written: :meth:`resize` does not copy them (reserved
+    capacity stays unbacked by memory). −1 at construction means every row."""
+    generation: int = field(default=0, compare=False, repr=False)
+    """Bumped by every change (invalidates cached forecasts)."""
+
+    def __post_init__(self) -> None:
+        if self.high_water < 0:
+            self.high_water = self.n_rows
+
+    @classmethod
+    def empty(
+        cls,
+        rows: int,
+        values: int,
+        periods: int,
+        bins: int,
+        flow_families: int,
+        dir_families: int,
+    ) -> TemporalState:
+        out = cls(
+            glob=ObsBlock.empty(1, periods, bins),
+            obs=ObsBlock.empty(rows, periods, bins),
+            cnt_fourier=np.zeros((rows, values, periods), np.complex128),
+            cnt_profile=np.zeros((rows, values, bins)),
+            flow_score=np.zeros((rows, flow_families)),
+            flow_chi2=np.zeros((rows, flow_families)),
+            flow_scored=np.zeros(rows),
+            flow_days=np.zeros(rows),
+            flow_gain_sq=np.zeros((rows, flow_families)),
+            dir_score=np.zeros((rows, dir_families)),
+            dir_scored=np.zeros(rows),
+            dir_days=np.zeros(rows),
+            dir_gain_sq=np.zeros((rows, dir_families)),
+        )
+        out.high_water = 0
+        return out
+
+    # -- shape ------------------------------------------------------------------------------
+    @property
+    def n_rows(self) -> int:
+        return int(self.obs.n.shape[0])
+
+    @property
+    def n_values(self) -> int:
+        return int(self.cnt_profile.shape[1])
+
+    @property
+    def n_periods(self) -> int:
+        return int(self.obs.fourier.shape[1])
+
+    @property
+    def n_bins(self) -> int:
+        return int(self.obs.profile.shape[1])
+
+    def _like(self, rows: int) -> TemporalState:
+        return TemporalState.empty(
+            rows,
+            self.n_values,
+            self.n_periods,
+            self.n_bins,
+            self.flow_score.shape[1],
+            self.dir_score.shape[1],
+        )
+
+    def touch(self, rows: I64 | None = None) -> None:
+        """Note a change (and that ``rows`` were written)."""
+        self.generation += 1
+        if rows is not None and rows.size:
+            self.high_water = max(self.high_water, int(rows.max()) + 1)
+
+    # -- reading ----------------------------------------------------------------------------
+    def observation(self, rows: npt.ArrayLike) -> ObsBlock:
+        """The observation of entries ``rows``: the global block plus their own."""
+        out = self.obs.take(rows)
+        out.n += self.glob.n[0]
+        out.fourier += self.glob.fourier[0]
+        out.profile += self.glob.profile[0]
+        out.first = np.fmin(out.first, self.glob.first[0])
+        out.last = np.fmax(out.last, self.glob.last[0])
+        return out
+
+    def windows_observed(self, rows: npt.ArrayLike) -> F64:
+        """Closed windows in which each entry was observed."""
+        r = np.asarray(rows, dtype=np.int64)
+        out: F64 = self.obs.n[r] + self.glob.n[0]
+        return out
+
+    # -- row operations ---------------------------------------------------------------------
+    def add_rows(
+        self, src: npt.ArrayLike, dst: npt.ArrayLike, observation: Literal["max", "add"]
+    ) -> None:
+        """``dst += src`` row by row (``dst`` may repeat; sources are read before writing).
+
+        Counts and scores add. ``observation="add"`` adds the per-entry observation blocks
+        (states of disjoint time); ``"max"`` keeps, per destination, the block with the most
+        windows among the destination's own and its sources' (ownership transfer within one
+        map; ties keep the destination's, then the first source's)."""
+        s = np.asarray(src, dtype=np.int64).reshape(-1)
+        d = np.asarray(dst, dtype=np.int64).reshape(-1)
+        if s.shape != d.shape:
+            raise ValueError("src and dst must have the same length")
+        written = s < self.high_water
+        s, d = s[written], d[written]
+        if s.size == 0:
+            return
+        self.touch(d)
+        if observation == "add":
+            self.obs.add_block(d, self.obs.take(s))
+        else:
+            self._keep_larger_observation(s, d)
+        for a in range(0, s.size, _ROW_BLOCK):
+            sb, db = s[a : a + _ROW_BLOCK], d[a : a + _ROW_BLOCK]
+            vals = {name: getattr(self, name)[sb] for name in _ADDITIVE}
+            for name in _ADDITIVE:
+                np.add.at(getattr(self, name), db, vals[name])
+
+    def _keep_larger_observation(self, s: I64, d: I64) -> None:
+        targets = np.unique(d)
+        cand_row = np.concatenate([targets, s])
+        cand_dst = np.concatenate([targets, d])
+        order = np.lexsort((np.arange(cand_row.size), -self.obs.n[cand_row], cand_dst))
+        first = np.ones(order.size, dtype=bool)
+        first[1:] = cand_dst[order][1:] != cand_dst[order][:-1]
+        chosen, into = cand_row[order][first], cand_dst[order][first]
+        change = chosen != into
+        if change.any():
+            self.obs.put(into[change], self.obs.take(chosen[change]))
+
+    def zero_rows(self, rows: npt.ArrayLike) -> None:
+        """Forget rows ``rows`` (they become never-observed rows)."""
+        r = np.asarray(rows, dtype=np.int64).reshape(-1)
+        r = r[r < self.high_water]
+        self.obs.zero(r)
+        for name in _ADDITIVE:
+            getattr(self, name)[r] = 0.0
+        self.touch()
+
+    def resize(self, rows: int) -> None:
+        """Truncate to, or extend with empty rows up to, ``rows`` rows (in place); rows past
+        the high-water mark are not copied."""
+        if rows < 0:
+            raise ValueError("rows must be >= 0")
+        keep = min(rows, self.high_water)
+        new = self._like(rows)
+        for name in _OBS_FIELDS:
+            getattr(new.obs, name)[:keep] = getattr(self.obs, name)[:keep]
+        for name in _ADDITIVE:
+            getattr(new, name)[:keep] = getattr(self, name)[:keep]
+        self.obs = new.obs
+        for name in _ADDITIVE:
+            setattr(self, name, getattr(new, name))
+        self.high_water = keep
+        self.touch()
+
+    def take(self, rows: npt.ArrayLike) -> TemporalState:
+        """A new state with copies of rows ``rows`` (in that order) and the same global block."""
+        r = np.asarray(rows, dtype=np.int64).reshape(-1)
+        return TemporalState(
+            glob=self.glob.take([0]),
+            obs=self.obs.take(r),
+            **{name: getattr(self, name)[r].copy() for name in _ADDITIVE},
+        )
+
+    def copy(self) -> TemporalState:
+        return self.take(np.arange(self.n_rows))
+
+    @classmethod
+    def concat(cls, states: list[TemporalState]) -> TemporalState:
+        """Rows of every state in order; the global block is the first state's."""
+        if not states:
+            raise ValueError("concat needs at least one state")
+        obs = ObsBlock(*(np.concatenate([getattr(s.obs, f) for s in states]) for f in _OBS_FIELDS))
+        joined: dict[str, Any] = {
+            name: np.concatenate([getattr(s, name) for s in states]) for name in _ADDITIVE
+        }
+        return cls(glob=states[0].glob.take([0]), obs=obs, **joined)
+
+    # -- persistence ------------------------------------------------------------------------
+    def to_arrays(self, prefix: str, rows: I64) -> dict[str, Any]:
+        """Members ``prefix + name`` for rows ``rows`` (gathered block by block when written)."""
+        out: dict[str, Any] = self.glob.to_arrays(prefix + "glob_")
+        out.update(self.obs.to_arrays(prefix + "obs_", rows))
+        out.update({prefix + name: RowTake(getattr(self, name), rows) for name in _ADDITIVE})
+        return out
+
+    @classmethod
+    def from_arrays(
+        cls,
+        arrays: dict[str, np.ndarray],
+        prefix: str,
+        rows: int,
+        values: int,
+        periods: int,
+        bins: int,
+        flow_families: int,
+        dir_families: int,
+    ) -> TemporalState:
+        """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` on missing or
+        inconsistent members (shapes must match the config)."""
+        glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
+        obs = ObsBlock.from_arrays(arrays, prefix + "obs_", rows, periods, bins)
+        shapes = {
+            "cnt_fourier": (rows, values, periods),
+            "cnt_profile": (rows, values, bins),
+            "flow_score": (rows, flow_families),
+            "flow_chi2": (rows, flow_families),
+            "flow_scored": (rows,),
+            "flow_days": (rows,),
+            "flow_gain_sq": (rows, flow_families),
+            "dir_score": (rows, dir_families),
+            "dir_scored": (rows,),
+            "dir_days": (rows,),
+            "dir_gain_sq": (rows, dir_families),
+        }
+        vals = {name: _member(arrays, prefix + name, shape) for name, shape in shapes.items()}
+        if vals["cnt_fourier"].dtype != np.complex128:
+            raise MapCorruptError(f"{prefix}cnt_fourier must be complex128")
+        for name, value in vals.items():
+            if name != "cnt_fourier" and value.dtype.kind != "f":
+                raise MapCorruptError(f"{prefix}{name} must be real")
+        return cls(glob=glob, obs=obs, **vals)

@@ -1,0 +1,342 @@
+"""Every family's forecast for a set of entries, from the accumulators (no scoring, no choice).
+
+:class:`Forecaster` precomputes the time-independent parts for entries ``rows`` of a
+:class:`~aion_cli.engine.temporal.accumulators.TemporalState` — static rates, the parents'
+periodic shapes, FreMEn components, the static direction histograms — and then evaluates any
+family at (entry, time) pairs: :meth:`Forecaster.flow` (expected detections per window, all
+value bins) and :meth:`Forecaster.direction` (B-bin probabilities). The same object serves the
+day-ahead scoring (built from the state before the day) and queries.
+
+Shapes (``params`` docstring for the families). With W[e,h] the entry's observed windows in
+profile bin h, S[e,h] its detections there and μ its static rate:
+
+every rate is a Gamma-Poisson posterior mean with c = ``profile_prior`` pseudo-detections at
+its parent's rate m, :func:`shrunk_rate` ``m (S + c) / (m W + c)`` (its own rate once its
+detections outweigh c):
+
+* map rate per entry-window ρ_map[h] with parent rate ρ_map (flat), shape r_map = ρ_map[h] / ρ_map;
+* group g: ρ_g[h] with parent rate ρ_g·r_map[h], shape r_g = ρ_g[h] / ρ_g (the map's shape for
+  a group without detections);
+* an entry's borrowed shape s[e,h] = r_g[h] / r̄_e with r̄_e = Σ_h W[e,h] r_g[h] / W_e, so the
+  ``shape`` forecast μ·s keeps the entry's count over its observed windows;
+* ``profile``: λ(h) with parent rate μ·s[e,h] (per value bin v the same with the bin's share of
+  the c pseudo-detections, so the bins sum to λ).
+
+Directions: p_map,b = (N_map,b + 1) / (N_map + B) (Laplace), p_g,b = (N_g,b + κ p_map,b) /
+(N_g + κ), static h_e,b = (N_e,b + κ p_g,b) / (N_e + κ) with κ = ``direction_prior`` (κ = 0:
+the raw proportions, the parent's only where an entry has no directed detection); the
+time-varying families use pseudo-counts c_b(t) (profile: the entry's directed counts in the
+profile bin; FreMEn: max(0, λ_b(t)) × W[e,h]) and q_b = (c_b + κ_t h_e,b) / (Σ c + κ_t), so no
+probability falls below κ·κ_t·min_b p_map,b / ((N_e + κ)(Σ c + κ_t)) — a floor set by the
+counts, never zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.spectrum import admitted, top_periods
+from aion_cli.engine.types import F64, I64
+
+C128 = npt.NDArray[np.complex128]
+_BLOCK = 1 << 13
+
+
+@dataclass(frozen=True)
+class PoolStats:
+    """What entries borrow from their parents: each group's periodic shape ``shape[G, H]``
+    and direction histogram ``histogram[G, B]`` (see the module docstring)."""
+
+    shape: F64
+    histogram: F64
+    map_shape: F64
+
+    @classmethod
+    def of(
+        cls,
+        params: TemporalParams,
+        state: TemporalState,
+        rows: I64,
+        groups: I64,
+        n_groups: int,
+    ) -> PoolStats:
+        """Pool the entries ``rows`` (all live entries) into their groups."""
+        b, h = params.bins, params.n_profile
+        s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
+        c_g = np.zeros((n_groups, b))
+        glob = state.glob.profile[0]
+        for a in range(0, rows.size, _BLOCK):
+            r, g = rows[a : a + _BLOCK], groups[a : a + _BLOCK]
+            block = state.cnt_profile[r]
+            member = _membership(g, n_groups)
+            s_g += member @ block.sum(axis=1)
+            w_g += member @ (state.obs.profile[r] + glob)
+            c_g += member @ block[:, :b].sum(axis=2)
+        shapes, map_shape = _group_shapes(params.config.profile_prior, s_g, w_g)
+        return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
+
+
+def _membership(groups: I64, n_groups: int) -> Any:
+    """The sparse group × entry indicator matrix (sums per group as one product)."""
+    from scipy.sparse import csr_matrix
+
+    ones = np.ones(groups.size)
+    return csr_matrix((ones, (groups, np.arange(groups.size))), shape=(n_groups, groups.size))
+
+
+def shrunk_rate(counts: F64, windows: F64, prior_rate: F64, prior_counts: float) -> F64:
+    """Gamma-Poisson posterior mean rate: ``prior_counts`` pseudo-detections at
+    ``prior_rate``, ``m (S + c) / (m W + c)`` — the own rate once the detections outweigh
+    ``c``, the prior while they do not (so a sparse series leans on its parent); the prior
+    rate where nothing was observed (or it is 0)."""
+    m = np.asarray(prior_rate, dtype=np.float64)
+    num = m * (counts + prior_counts)
+    den = m * windows + prior_counts
+    fallback = np.broadcast_to(m, np.broadcast(num, den).shape).astype(np.float64)
+    out: F64 = np.divide(num, den, out=fallback, where=den > 0)
+    return out
+
+
+def _group_shapes(c: float, s_g: F64, w_g: F64) -> tuple[F64, F64]:
+    """The groups' shapes r_g[G, H] (each shrunk toward the map's) and the map's r_map[H]."""
+    s_map, w_map = s_g.sum(axis=0), w_g.sum(axis=0)
+    rho_map = s_map.sum() / w_map.sum() if w_map.sum() > 0 else 0.0
+    if rho_map <= 0:
+        return np.ones_like(s_g), np.ones(s_g.shape[1])
+    r_map = shrunk_rate(s_map, w_map, np.full(s_map.shape, rho_map), c) / rho_map
+    w_tot = w_g.sum(axis=1)
+    rho_g = np.divide(s_g.sum(axis=1), w_tot, out=np.zeros(len(w_tot)), where=w_tot > 0)
+    prior = rho_g[:, None] * r_map[None, :]
+    r_g = np.divide(
+        shrunk_rate(s_g, w_g, prior, c), rho_g[:, None], out=np.zeros_like(s_g),
+        where=rho_g[:, None] > 0,
+    )
+    out: F64 = np.where((rho_g > 0)[:, None], r_g, r_map[None, :])
+    return out, r_map
+
+
+def _group_histograms(kappa: float, c_g: F64) -> F64:
+    b = c_g.shape[1]
+    total = c_g.sum(axis=0)
+    p_map = (total + 1.0) / (total.sum() + b)
+    return _posterior(c_g, np.broadcast_to(p_map, c_g.shape), kappa)
+
+
+def _normalised(counts: F64) -> F64:
+    """Rows divided by their sums (zeros where a row has no count)."""
+    total = counts.sum(axis=1, keepdims=True)
+    out: F64 = np.divide(counts, total, out=np.zeros_like(counts), where=total > 0)
+    return out
+
+
+def _posterior(counts: F64, prior: F64, kappa: float) -> F64:
+    """Dirichlet posterior mean (counts + κ·prior) / (N + κ); with κ = 0 the raw proportions
+    where there are counts, the prior elsewhere."""
+    total = counts.sum(axis=1, keepdims=True)
+    if kappa > 0:
+        out: F64 = (counts + kappa * prior) / (total + kappa)
+        return out
+    return np.where(total > 0, _normalised(counts), prior)
+
+
+class Forecaster:
+    """Forecast parts of entries ``rows`` whose groups ``groups`` index ``pool``."""
+
+    def __init__(
+        self,
+        params: TemporalParams,
+        state: TemporalState,
+        rows: I64,
+        groups: I64,
+        pool: PoolStats,
+    ) -> None:
+        self.params = params
+        self.state = state
+        self.rows = np.asarray(rows, dtype=np.int64)
+        groups = np.asarray(groups, dtype=np.int64)
+        e, v, b, h = self.rows.size, params.values, params.bins, params.n_profile
+        obs = state.observation(self.rows)
+        self.windows = obs.n
+        self.profile_windows = obs.profile  # W[e, h]
+        self.counts = np.empty((e, v))  # N[e, v]
+        self.profile_total = np.empty((e, h))  # S[e, h], all value bins
+        for a in range(0, e, _BLOCK):
+            block = state.cnt_profile[self.rows[a : a + _BLOCK]]
+            self.counts[a : a + _BLOCK] = block.sum(axis=2)
+            self.profile_total[a : a + _BLOCK] = block.sum(axis=1)
+        self.observed = self.windows > 0
+        safe_n = np.where(self.observed, self.windows, 1.0)
+        self.rate = self.counts / safe_n[:, None]  # μ[e, v]
+        self.rate_total = self.rate.sum(axis=1)
+        total = self.counts.sum(axis=1)
+        directed = self.counts[:, :b].sum(axis=1)
+        self.directed_share = np.divide(directed, total, out=np.zeros(e), where=total > 0)
+        self.shape = self._borrowed_shape(pool.shape[groups])
+        self.map_shape = self._borrowed_shape(np.broadcast_to(pool.map_shape, self.shape.shape))
+        self.raw_histogram = _normalised(self.counts[:, :b])
+        self.histogram = _posterior(
+            self.counts[:, :b], pool.histogram[groups], params.config.direction_prior
+        )
+        self._fremen(obs.first, obs.last)
+
+    # -- precomputation ---------------------------------------------------------------------
+    def _borrowed_shape(self, r: F64) -> F64:
+        """s[e,h] = r_g[h] / r̄_e (the group's shape, normalised over the entry's windows)."""
+        w = self.profile_windows
+        mean = np.divide(
+            (w * r).sum(axis=1), self.windows, out=np.zeros(len(r)), where=self.observed
+        )
+        ok = mean > 1e-12
+        shape = np.ones_like(r)
+        shape[ok] = r[ok] / mean[ok, None]
+        return shape
+
+    def _fremen(self, first: F64, last: F64) -> None:
+        """FreMEn components: the M strongest admitted periods of each entry's *total*
+        spectrum with their coefficients (``period_idx``, ``coef_total``: the flow family),
+        and — computed on first use, per entry — each value bin's own M strongest
+        (``bin_idx``, ``coef_bins`` complex[E, V, M]: per-bin rates and directions, so opposite
+        flows that cancel in the total, east in the morning and west in the evening, keep
+        their rhythm)."""
+        p = self.params
+        m, e, v = p.max_order, self.rows.size, p.values
+        self.period_idx = np.zeros((e, m), dtype=np.int64)
+        self.coef_total = np.zeros((e, m), dtype=np.complex128)
+        self.bin_idx = np.zeros((e, v, m), dtype=np.int64)
+        self.coef_bins = np.zeros((e, v, m), dtype=np.complex128)
+        self._bins_ready = np.zeros(e, dtype=bool)
+        self._gate = admitted(first, last, p.min_span)
+        if m == 0 or e == 0:
+            self._bins_ready[:] = True
+            return
+        for a in range(0, e, _BLOCK):
+            pos = np.arange(a, min(a + _BLOCK, e))
+            total = self._gamma(pos).sum(axis=1)
+            idx, valid = top_periods(total, self._gate[pos], m)
+            coef = np.take_along_axis(total, idx, axis=1)
+            coef[~valid] = 0.0
+            self.period_idx[pos], self.coef_total[pos] = idx, coef
+
+    def _gamma(self, pos: I64) -> C128:
+        """γ_{v,k} = (A − μ B) / W of entries at positions ``pos``: complex[n, V, K]."""
+        r = self.rows[pos]
+        balance = self.state.obs.fourier[r] + self.state.glob.fourier[0]  # Σ e^{iωt}
+        gamma: C128 = self.state.cnt_fourier[r] - self.rate[pos, :, None] * balance[:, None, :]
+        gamma /= np.where(self.observed[pos], self.windows[pos], 1.0)[:, None, None]
+        return gamma
+
+    def _ensure_bins(self, e: I64) -> None:
+        """Compute the per-bin FreMEn components of the entries ``e`` not done yet."""
+        todo = np.unique(e[~self._bins_ready[e]])
+        m, v, k = self.params.max_order, self.params.values, self.params.n_periods
+        for a in range(0, todo.size, _BLOCK):
+            pos = todo[a : a + _BLOCK]
+            n = pos.size
+            gamma = self._gamma(pos).reshape(n * v, k)
+            idx, valid = top_periods(gamma, np.repeat(self._gate[pos], v, axis=0), m)
+            coef = np.take_along_axis(gamma, idx, axis=1)
+            coef[~valid] = 0.0
+            self.bin_idx[pos] = idx.reshape(n, v, m)
+            self.coef_bins[pos] = coef.reshape(n, v, m)
+        self._bins_ready[todo] = True
+
+    # -- evaluation at (entry, time) pairs --------------------------------------------------
+    def _rotations(self, e: I64, t_s: F64, m: int) -> C128:
+        """e^{−iω t} of each pair's first ``m`` FreMEn periods: complex[P, m]."""
+        w = self.params.omega[self.period_idx[e, :m]]
+        out: C128 = np.exp(-1j * w * t_s[:, None])
+        return out
+
+    def map_total(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
+        """The map's forecast of ``family`` spread over entries ``e`` at one time: for the
+        periodic families (``shape``, ``profile``) each entry's static rate times the *map's*
+        pooled shape (the total then follows the map's own profile, estimated from all its
+        detections at once); for FreMEn and ``static`` the family itself."""
+        if family in ("shape", "profile"):
+            out: F64 = self.rate_total[e] * self.map_shape[e, h]
+            return out
+        return np.maximum(self.flow(family, e, h, t_s), 0.0)
+
+    def _bin_terms(self, e: I64, t_s: F64, m: int, bins: int) -> F64:
+        """Σ_j Re(γ_{v,j} e^{−iω t}) over each value bin's own first ``m`` periods: [P, bins]."""
+        self._ensure_bins(e)
+        w = self.params.omega[self.bin_idx[e, :bins, :m]]  # (P, bins, m)
+        rot = np.exp(-1j * w * t_s[:, None, None])
+        out: F64 = (self.coef_bins[e, :bins, :m] * rot).real.sum(axis=2)
+        return out
+
+    def flow(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
+        """Expected detections per window (all value bins) of family ``family`` at pairs
+        (entry position ``e``, profile bin ``h``, model time ``t_s``); FreMEn is not clamped
+        (callers clamp at 0 or at the scoring floor)."""
+        mu = self.rate_total[e]
+        if family == "static":
+            return mu.copy()
+        if family == "shape":
+            out: F64 = mu * self.shape[e, h]
+            return out
+        if family == "profile":
+            c = self.params.config.profile_prior
+            m = mu * self.shape[e, h]
+            return shrunk_rate(self.profile_total[e, h], self.profile_windows[e, h], m, c)
+        m = int(family.removeprefix("fremen"))
+        terms = self.coef_total[e, :m] * self._rotations(e, t_s, m)
+        out = mu + 2.0 * terms.real.sum(axis=1)
+        return out
+
+    def bin_rates(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
+        """Expected detections per window in each value bin, float64[P, V] (FreMEn clamped at
+        0 per bin): the per-bin form of :meth:`flow`."""
+        mu = self.rate[e]
+        if family == "static":
+            return mu.copy()
+        if family == "shape":
+            out: F64 = mu * self.shape[e, h][:, None]
+            return out
+        if family == "profile":
+            c = self.params.config.profile_prior
+            m = self.rate_total[e] * self.shape[e, h]
+            share = np.divide(
+                mu, self.rate_total[e][:, None], out=np.zeros_like(mu),
+                where=self.rate_total[e][:, None] > 0,
+            )
+            own = self.state.cnt_profile[self.rows[e], :, h]
+            den = m * self.profile_windows[e, h] + c
+            out = np.divide(
+                m[:, None] * (own + c * share), den[:, None], out=np.zeros_like(own),
+                where=den[:, None] > 0,
+            )
+            return out
+        m = int(family.removeprefix("fremen"))
+        out = np.maximum(mu + 2.0 * self._bin_terms(e, t_s, m, self.params.values), 0.0)
+        return out
+
+    def flow_bound(self, family: str, e: I64) -> F64:
+        """A lower bound of the FreMEn forecast over all times: μ − Σ 2|γ| (for skipping the
+        per-window clamp where it cannot bite)."""
+        m = int(family.removeprefix("fremen"))
+        out: F64 = self.rate_total[e] - 2.0 * np.abs(self.coef_total[e, :m]).sum(axis=1)
+        return out
+
+    def direction(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
+        """Direction probabilities float64[P, B] of family ``family`` at pairs."""
+        hist = self.histogram[e]
+        if family == "static":
+            return hist.copy()
+        kappa_t = self.params.config.direction_time_prior
+        b = self.params.bins
+        if family == "profile":
+            pseudo = self.state.cnt_profile[self.rows[e], :b, h]
+        else:
+            m = int(family.removeprefix("fremen"))
+            terms = self._bin_terms(e, t_s, m, b)
+            pseudo = np.maximum(self.rate[e, :b] + 2.0 * terms, 0.0)
+            pseudo *= self.profile_windows[e, h][:, None]
+        out: F64 = (pseudo + kappa_t * hist) / (pseudo.sum(axis=1, keepdims=True) + kappa_t)
+        return out

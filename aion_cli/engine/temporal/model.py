@@ -1,0 +1,274 @@
+"""The temporal model's entry points: record windows, close days, forecast.
+
+* ``MapState.record_window`` — one closed window's observations and counts join the pending
+  day; log time reaching a later day closes it (:func:`close_pending`: scored against the
+  model before it, then absorbed). :func:`learn` does the same for many days at once.
+* :func:`query_view` — the accumulators as a query sees them: the pending day and the open
+  window (recorded as closing it would record it) absorbed without scoring.
+* :class:`Predictor` — per entry the flow (expected detections per window), the direction
+  histogram, the families used and the predictive variance at a time (:meth:`Predictor.at`)
+  or historically (:meth:`Predictor.historical`); with every temporal family switched off
+  (``families = ["static"]``) the flows are equal exactly, and so are the histograms when the
+  direction prior is off too (``direction_prior = 0``; otherwise predictions pool sparse
+  entries' directions toward their parents).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.choice import choose_families, dispersion
+from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pending import DayWindows, PendingDay
+from aion_cli.engine.temporal.scoring import absorb, close_day
+from aion_cli.engine.types import F64, I64, BoolA
+from aion_cli.engine.windows import to_model_seconds, window_centre_ns
+
+
+def empty_state(params: TemporalParams, rows: int) -> TemporalState:
+    return TemporalState.empty(
+        rows,
+        params.values,
+        params.n_periods,
+        params.n_profile,
+        len(params.flow),
+        len(params.direction),
+    )
+
+
+def window_day(params: TemporalParams, window: int, window_ns: int) -> int:
+    """The local day of a window (by its centre)."""
+    centre = window_centre_ns(np.array([window], np.int64), window_ns)
+    return int(params.calendar.day(centre)[0])
+
+
+def close_pending(
+    params: TemporalParams,
+    state: TemporalState,
+    pending: PendingDay,
+    live_rows: I64,
+    groups: I64,
+    n_groups: int,
+    window_ns: int,
+) -> None:
+    """Score and absorb the pending day, then forget it."""
+    if pending:
+        close_day(params, state, pending.consolidated(), live_rows, groups, n_groups, window_ns)
+    pending.clear()
+
+
+def learn(
+    params: TemporalParams,
+    state: TemporalState,
+    windows: DayWindows,
+    rows: I64,
+    groups: I64,
+    n_groups: int,
+    window_ns: int,
+) -> None:
+    """Learn many closed windows at once (any number of days, in time order): each local day
+    is scored against the model before it and absorbed, exactly as a build would record them
+    one by one. ``rows``/``groups``: the population that pools shapes and histograms."""
+    if windows.windows.size == 0:
+        return
+    if np.any(np.diff(windows.windows) <= 0):
+        raise ValueError("windows must be increasing")
+    days = params.calendar.day(window_centre_ns(windows.windows, window_ns))
+    cuts = np.flatnonzero(np.diff(days)) + 1
+    bounds = np.concatenate([[0], cuts, [days.size]])
+    obs_order = np.argsort(windows.obs_slot, kind="stable")
+    cnt_order = np.argsort(windows.cnt_slot, kind="stable")
+    obs_slots, cnt_slots = windows.obs_slot[obs_order], windows.cnt_slot[cnt_order]
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+        o = obs_order[np.searchsorted(obs_slots, a) : np.searchsorted(obs_slots, b)]
+        c = cnt_order[np.searchsorted(cnt_slots, a) : np.searchsorted(cnt_slots, b)]
+        day = DayWindows(
+            windows.windows[a:b],
+            windows.fixed[a:b],
+            windows.obs_entry[o],
+            windows.obs_slot[o] - a,
+            windows.cnt_entry[c],
+            windows.cnt_slot[c] - a,
+            windows.cnt_values[c],
+        )
+        close_day(params, state, day, rows, groups, n_groups, window_ns)
+
+
+def query_view(
+    params: TemporalParams,
+    state: TemporalState,
+    pending: PendingDay,
+    open_window: DayWindows | None,
+    window_ns: int,
+    in_place: bool,
+) -> TemporalState:
+    """The state with the pending day and the open window (as closing it would record it)
+    absorbed, unscored (a copy unless ``in_place``; ``pending`` is cleared when absorbed in
+    place)."""
+    day = pending.consolidated() if pending else None
+    if day is None and open_window is None:
+        return state
+    view = state if in_place else state.copy()
+    for part in (day, open_window):
+        if part is not None:
+            absorb(params, view, part, window_ns)
+    if in_place:
+        pending.clear()
+    return view
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Per entry at one time (or historically): ``flow`` expected detections per window (all
+    value bins; NaN for an entry never observed), ``probabilities[E, B]`` the direction
+    histogram, ``directed_share`` the fraction of detections with a heading, the chosen
+    family names, and ``variance`` of the window count (NaN historically)."""
+
+    flow: F64
+    probabilities: F64
+    directed_share: F64
+    flow_family: npt.NDArray[np.str_]
+    direction_family: npt.NDArray[np.str_]
+    variance: F64
+    observed: BoolA
+
+
+@dataclass
+class Predictor:
+    """The time-independent part of the forecasts of entries ``rows``: every family's parts,
+    the chosen families, the dispersion and whether totals are reconciled; :meth:`at` and
+    :meth:`pairs` evaluate them.
+
+    Reconciliation (``ModelConfig.reconcile``, when the map's pooled day-ahead evidence
+    chooses a temporal family f_map): the entries' forecasts at time t are scaled by one factor
+    so that their total is the map's forecast with f_map (``Forecaster.map_total``: the pooled
+    periodic profile of the whole map for the periodic families, the entries' FreMEn sum for
+    FreMEn) — the best-supported forecast of *how busy the whole map is* — while each entry
+    keeps its own family's share of it. Sparse entries that chose ``static`` on noisy evidence then
+    still follow the map's rhythm, and the map's total is never diluted by them."""
+
+    params: TemporalParams
+    forecaster: Forecaster
+    flow_choice: I64
+    direction_choice: I64
+    phi: F64
+    map_family: str | None
+
+    @classmethod
+    def of(
+        cls,
+        params: TemporalParams,
+        state: TemporalState,
+        rows: I64,
+        groups: I64,
+        n_groups: int,
+    ) -> Predictor:
+        pool = PoolStats.of(params, state, rows, groups, n_groups)
+        fc = Forecaster(params, state, rows, groups, pool)
+        flow_choice, dir_choice, map_choice = choose_families(
+            params,
+            state.flow_score[rows],
+            state.dir_score[rows],
+            groups,
+            n_groups,
+            (state.flow_gain_sq[rows], state.flow_days[rows]),
+            (state.dir_gain_sq[rows], state.dir_days[rows]),
+        )
+        phi = dispersion(state.flow_chi2[rows], state.flow_scored[rows], flow_choice)
+        name = params.flow[map_choice]
+        map_family = name if params.config.reconcile and name != "static" else None
+        return cls(params, fc, flow_choice, dir_choice, phi, map_family)
+
+    @property
+    def reconcile(self) -> bool:
+        """Whether totals are reconciled to the map's family."""
+        return self.map_family is not None
+
+    def historical(self) -> Prediction:
+        """What was observed: each entry's rate per observed window and the raw proportions
+        of its detections' direction bins (zeros for an entry without a heading)."""
+        fc = self.forecaster
+        n = fc.rows.size
+        flow = np.where(fc.observed, fc.rate_total, np.nan)
+        names = np.full(n, "historical")
+        return Prediction(
+            flow,
+            fc.raw_histogram.copy(),
+            fc.directed_share,
+            names,
+            names,
+            np.full(n, np.nan),
+            fc.observed,
+        )
+
+    def _flows(self, e: I64, h: I64, t_s: F64) -> F64:
+        """The chosen flow families at pairs, before reconciliation (clamped at 0)."""
+        fc = self.forecaster
+        flow = np.zeros(e.size)
+        for f, name in enumerate(self.params.flow):
+            pick = np.flatnonzero(self.flow_choice[e] == f)
+            if pick.size:
+                flow[pick] = np.maximum(fc.flow(name, e[pick], h[pick], t_s[pick]), 0.0)
+        return flow
+
+    def _directions(self, e: I64, h: I64, t_s: F64) -> F64:
+        fc = self.forecaster
+        probs = np.zeros((e.size, self.params.bins))
+        for d, name in enumerate(self.params.direction):
+            pick = np.flatnonzero(self.direction_choice[e] == d)
+            if pick.size:
+                probs[pick] = fc.direction(name, e[pick], h[pick], t_s[pick])
+        return probs
+
+    def scale(self, t_ns: npt.ArrayLike) -> F64:
+        """The reconciliation factor at each time (1 where totals are not reconciled)."""
+        t = np.asarray(t_ns, dtype=np.int64).reshape(-1)
+        out = np.ones(t.size)
+        if self.map_family is None or t.size == 0:
+            return out
+        fc = self.forecaster
+        everyone = np.flatnonzero(fc.observed)
+        times, inverse = np.unique(t, return_inverse=True)
+        bins = self.params.calendar.profile_bin(times)
+        secs = to_model_seconds(times)
+        factor = np.ones(times.size)
+        for i in range(times.size):
+            h = np.full(everyone.size, int(bins[i]))
+            t_s = np.full(everyone.size, float(secs[i]))
+            raw = self._flows(everyone, h, t_s).sum()
+            target = float(fc.map_total(self.map_family, everyone, h, t_s).sum())
+            if raw > 0:
+                factor[i] = target / raw
+        out[:] = factor[inverse.reshape(-1)]
+        return out
+
+    def pairs(self, e: I64, t_ns: npt.ArrayLike) -> tuple[F64, F64]:
+        """Chosen families at (entry position, time) pairs: flow float64[P] and direction
+        probabilities float64[P, B] (e.g. every held-out detection at its own window)."""
+        fc = self.forecaster
+        t = np.asarray(t_ns, dtype=np.int64).reshape(-1)
+        h = self.params.calendar.profile_bin(t)
+        t_s = to_model_seconds(t)
+        flow = self._flows(e, h, t_s) * self.scale(t)
+        return np.where(fc.observed[e], flow, np.nan), self._directions(e, h, t_s)
+
+    def at(self, t_ns: int) -> Prediction:
+        """Each entry's chosen families evaluated at ``t_ns``."""
+        fc = self.forecaster
+        n = fc.rows.size
+        everyone = np.arange(n)
+        flow, probs = self.pairs(everyone, np.full(n, int(t_ns), np.int64))
+        return Prediction(
+            flow,
+            probs,
+            fc.directed_share,
+            np.asarray(self.params.flow, dtype=str)[self.flow_choice],
+            np.asarray(self.params.direction, dtype=str)[self.direction_choice],
+            self.phi * flow,
+            fc.observed,
+        )

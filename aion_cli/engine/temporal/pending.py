@@ -1,0 +1,209 @@
+"""The closed windows of the current (local) day, held until the day is over.
+
+A day's windows are scored against the forecast the map made *before* the day — its
+accumulators without the day (:mod:`~aion_cli.engine.temporal.scoring`) — and only then
+absorbed. Holding them (rather than freezing each entry's forecast at the start of the day)
+keeps the scores independent of how windows are batched into calls and of where a build is
+stopped and continued: the same day gives the same scores whenever it is flushed.
+
+Per window: its index, whether a fixed sensor covered it (every entry observed: the global
+observation block), the entries observed otherwise (robot coverage, or detections no source
+covered), and the entries' counts per value bin. Sparse: a window costs the entries it saw,
+never the whole map. Ownership transfer during the day re-labels the held entries
+(:meth:`PendingDay.remap`): counts follow the cell into its node, and a node is observed in a
+window if it or any cell it absorbed was (an exact union, unlike the accumulators' "max").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import MapCorruptError
+from aion_cli.engine.types import F64, I64, BoolA
+
+
+@dataclass
+class DayWindows:
+    """A consolidated pending day: windows, fixed flags, unique (entry, slot) observation
+    pairs and summed counts per (entry, slot) (``slot`` indexes ``windows``)."""
+
+    windows: I64
+    fixed: BoolA
+    obs_entry: I64
+    obs_slot: I64
+    cnt_entry: I64
+    cnt_slot: I64
+    cnt_values: F64
+
+
+@dataclass
+class PendingDay:
+    """Closed windows of the local day ``day`` not yet absorbed (see the module docstring)."""
+
+    values: int
+    day: int | None = None
+    windows: list[int] = field(default_factory=list)
+    fixed: list[bool] = field(default_factory=list)
+    _obs_entry: list[I64] = field(default_factory=list)
+    _obs_slot: list[I64] = field(default_factory=list)
+    _cnt_entry: list[I64] = field(default_factory=list)
+    _cnt_slot: list[I64] = field(default_factory=list)
+    _cnt_values: list[F64] = field(default_factory=list)
+
+    def __bool__(self) -> bool:
+        return bool(self.windows)
+
+    def add_window(
+        self,
+        day: int,
+        window: int,
+        fixed: bool,
+        observed: npt.ArrayLike,
+        count_rows: npt.ArrayLike,
+        counts: npt.ArrayLike,
+    ) -> None:
+        """Hold window ``window`` of local day ``day`` (windows arrive in time order; the
+        caller flushes before a window of another day)."""
+        if self.day is not None and day != self.day:
+            raise ValueError(f"window of day {day} added to the pending day {self.day}")
+        if self.windows and window <= self.windows[-1]:
+            raise ValueError("pending windows must arrive in increasing order")
+        self.day = int(day)
+        slot = len(self.windows)
+        self.windows.append(int(window))
+        self.fixed.append(bool(fixed))
+        obs = np.asarray(observed, dtype=np.int64).reshape(-1)
+        if obs.size:
+            self._obs_entry.append(obs)
+            self._obs_slot.append(np.full(obs.size, slot, np.int64))
+        rows = np.asarray(count_rows, dtype=np.int64).reshape(-1)
+        if rows.size:
+            vals = np.asarray(counts, dtype=np.float64).reshape(rows.size, self.values)
+            self._cnt_entry.append(rows)
+            self._cnt_slot.append(np.full(rows.size, slot, np.int64))
+            self._cnt_values.append(vals)
+
+    def remap(self, src: I64, dst: I64) -> None:
+        """Entries ``src`` were moved into ``dst``: held observations and counts follow."""
+        if not self.windows or src.size == 0:
+            return
+        order = np.argsort(src, kind="stable")
+        keys, targets = src[order], dst[order]
+        for chunks in (self._obs_entry, self._cnt_entry):
+            for i, arr in enumerate(chunks):
+                pos = np.minimum(np.searchsorted(keys, arr), keys.size - 1)
+                hit = keys[pos] == arr
+                if hit.any():
+                    chunks[i] = np.where(hit, targets[pos], arr)
+
+    def entries(self) -> I64:
+        """Every entry row the held windows mention."""
+        parts = self._obs_entry + self._cnt_entry
+        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+
+    def consolidated(self) -> DayWindows:
+        """The held windows with duplicate pairs merged (sorted by entry, then slot)."""
+        obs_e, obs_s = _cat(self._obs_entry), _cat(self._obs_slot)
+        if obs_e.size:
+            pairs = np.unique(np.column_stack([obs_e, obs_s]), axis=0)
+            obs_e, obs_s = pairs[:, 0], pairs[:, 1]
+        cnt_e, cnt_s = _cat(self._cnt_entry), _cat(self._cnt_slot)
+        vals = np.concatenate(self._cnt_values) if self._cnt_values else np.zeros((0, self.values))
+        if cnt_e.size:
+            keys, inverse = np.unique(np.column_stack([cnt_e, cnt_s]), axis=0, return_inverse=True)
+            summed = np.zeros((len(keys), self.values))
+            np.add.at(summed, inverse.reshape(-1), vals)
+            cnt_e, cnt_s, vals = keys[:, 0], keys[:, 1], summed
+        return DayWindows(
+            np.asarray(self.windows, dtype=np.int64),
+            np.asarray(self.fixed, dtype=bool),
+            obs_e,
+            obs_s,
+            cnt_e,
+            cnt_s,
+            vals,
+        )
+
+    def clear(self) -> None:
+        self.day = None
+        self.windows, self.fixed = [], []
+        self._obs_entry, self._obs_slot = [], []
+        self._cnt_entry, self._cnt_slot, self._cnt_values = [], [], []
+
+    # -- persistence ------------------------------------------------------------------------
+    def to_arrays(self, prefix: str, position: I64) -> tuple[dict[str, np.ndarray], Any]:
+        """Arrays with entry rows replaced by ``position[row]`` (their index in the saved
+        entry order) and the day as meta."""
+        day = self.consolidated()
+        obs_pos, cnt_pos = position[day.obs_entry], position[day.cnt_entry]
+        obs = np.lexsort((day.obs_slot, obs_pos))  # saved order: by position, then slot,
+        cnt = np.lexsort((day.cnt_slot, cnt_pos))  # whatever the in-memory row layout
+        arrays = {
+            prefix + "windows": day.windows,
+            prefix + "fixed": day.fixed,
+            prefix + "obs_entry": obs_pos[obs],
+            prefix + "obs_slot": day.obs_slot[obs],
+            prefix + "cnt_entry": cnt_pos[cnt],
+            prefix + "cnt_slot": day.cnt_slot[cnt],
+            prefix + "cnt_values": day.cnt_values[cnt],
+        }
+        return arrays, self.day
+
+    @classmethod
+    def from_arrays(
+        cls, arrays: dict[str, np.ndarray], prefix: str, day: Any, values: int, entries: int
+    ) -> PendingDay:
+        """Inverse of :meth:`to_arrays` (rows are positions in the loaded entry order)."""
+        out = cls(values)
+        names = ("windows", "fixed", "obs_entry", "obs_slot", "cnt_entry", "cnt_slot", "cnt_values")
+        missing = [prefix + n for n in names if prefix + n not in arrays]
+        if missing:
+            raise MapCorruptError(f"pending day incomplete, missing: {', '.join(missing)}")
+        try:
+            windows = np.asarray(arrays[prefix + "windows"], dtype=np.int64).reshape(-1)
+            fixed = np.asarray(arrays[prefix + "fixed"], dtype=bool).reshape(-1)
+            obs_e = np.asarray(arrays[prefix + "obs_entry"], dtype=np.int64).reshape(-1)
+            obs_s = np.asarray(arrays[prefix + "obs_slot"], dtype=np.int64).reshape(-1)
+            cnt_e = np.asarray(arrays[prefix + "cnt_entry"], dtype=np.int64).reshape(-1)
+            cnt_s = np.asarray(arrays[prefix + "cnt_slot"], dtype=np.int64).reshape(-1)
+            vals = np.asarray(arrays[prefix + "cnt_values"], dtype=np.float64)
+            vals = vals.reshape(cnt_e.size, values)
+        except (TypeError, ValueError) as exc:
+            raise MapCorruptError(f"pending day has invalid arrays: {exc}") from exc
+        ok = (
+            windows.size == fixed.size
+            and (windows.size == 0 or bool(np.all(np.diff(windows) > 0)))
+            and obs_e.size == obs_s.size
+            and cnt_e.size == cnt_s.size
+            and all(a.size == 0 or (a.min() >= 0 and a.max() < entries) for a in (obs_e, cnt_e))
+            and all(
+                a.size == 0 or (a.min() >= 0 and a.max() < windows.size) for a in (obs_s, cnt_s)
+            )
+            and bool(np.all(np.isfinite(vals)))
+            and (windows.size == 0) == (day is None)
+        )
+        if not ok:
+            raise MapCorruptError("pending day arrays are inconsistent")
+        if windows.size == 0:
+            return out
+        out.day = int(day)
+        out.windows = [int(w) for w in windows.tolist()]
+        out.fixed = [bool(f) for f in fixed.tolist()]
+        if obs_e.size:
+            out._obs_entry, out._obs_slot = [obs_e], [obs_s]
+        if cnt_e.size:
+            out._cnt_entry, out._cnt_slot, out._cnt_values = [cnt_e], [cnt_s], [vals]
+        return out
+
+    def relabel(self, row_of_position: I64) -> None:
+        """After loading: positions in the saved order -> the rows they were loaded into."""
+        self._obs_entry = [row_of_position[a] for a in self._obs_entry]
+        self._cnt_entry = [row_of_position[a] for a in self._cnt_entry]
+
+
+def _cat(chunks: list[I64]) -> I64:
+    return np.concatenate(chunks) if chunks else np.zeros(0, np.int64)

@@ -1,0 +1,302 @@
+"""Closing a day: score its windows against the forecast made before it, then absorb them.
+
+For every entry observed on the day and observed at least once before it, with λ_f(t) each
+flow family's forecast from the accumulators *without* the day and n_w the window counts:
+
+    flow_score_f += Σ_w [n_w log max(λ_f, ε) − max(λ_f, ε)]       (Poisson, ε = rate_floor)
+    flow_chi2_f  += Σ_w (n_w − λ_f)² / max(λ_f, ε)                  (Pearson, for the spread)
+    dir_score_d  += Σ_{w,b} n_{w,b} log q_{d,b}(t_w)                 (direction bins)
+
+over the entry's observed windows (the sum of λ over the many empty windows is taken in
+closed form per profile bin, and for FreMEn from the day's Fourier sums wherever its lower
+bound shows the floor cannot bite; only the rest is evaluated window by window). The
+accumulators then absorb the day: the fixed-sensor windows into the global observation
+block, other observed windows into the entries' own blocks, and the counts into
+``cnt_fourier`` / ``cnt_profile`` — sparse, by (entry, value bin) pairs with detections.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.temporal.accumulators import ObsBlock, TemporalState
+from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pending import DayWindows
+from aion_cli.engine.types import F64, I64
+from aion_cli.engine.windows import to_model_seconds, window_centre_ns
+
+C128 = npt.NDArray[np.complex128]
+_PAIRS = 1 << 15
+_LOG_FLOOR = 1e-12
+"""Probabilities below this count as it in log-likelihoods (raw histograms, κ = 0, have
+zeros)."""
+
+
+def close_day(
+    params: TemporalParams,
+    state: TemporalState,
+    day: DayWindows,
+    live_rows: I64,
+    groups: I64,
+    n_groups: int,
+    window_ns: int,
+) -> None:
+    """Score the day's windows (see the module docstring), then absorb them into ``state``."""
+    if day.windows.size == 0:
+        return
+    centres = window_centre_ns(day.windows, window_ns)
+    t_s = to_model_seconds(centres)
+    h = params.calendar.profile_bin(centres)
+    _score(params, state, day, live_rows, groups, n_groups, t_s, h)
+    _absorb(params, state, day, t_s, h)
+
+
+def absorb(params: TemporalParams, state: TemporalState, day: DayWindows, window_ns: int) -> None:
+    """Absorb the day's windows without scoring them (a query's view of the state)."""
+    if day.windows.size == 0:
+        return
+    centres = window_centre_ns(day.windows, window_ns)
+    _absorb(params, state, day, to_model_seconds(centres), params.calendar.profile_bin(centres))
+
+
+# -- scoring ------------------------------------------------------------------------------------
+def _score(
+    params: TemporalParams,
+    state: TemporalState,
+    day: DayWindows,
+    live_rows: I64,
+    groups: I64,
+    n_groups: int,
+    t_s: F64,
+    h: I64,
+) -> None:
+    if day.fixed.any():
+        candidates = live_rows
+    else:
+        candidates = np.intersect1d(np.union1d(day.obs_entry, day.cnt_entry), live_rows)
+    position = np.searchsorted(live_rows, candidates)
+    prior = state.windows_observed(candidates) > 0
+    candidates, position = candidates[prior], position[prior]
+    if candidates.size == 0:
+        return
+    pool = PoolStats.of(params, state, live_rows, groups, n_groups)
+    fc = Forecaster(params, state, candidates, groups[position], pool)
+    # observed windows of each candidate: the fixed slots plus its own pairs
+    slot_of = np.searchsorted(candidates, day.obs_entry)
+    own = (slot_of < candidates.size) & (
+        candidates[np.minimum(slot_of, candidates.size - 1)] == day.obs_entry
+    )
+    obs_e, obs_s = slot_of[own], day.obs_slot[own]
+    obs_e, obs_s = _drop_fixed(obs_e, obs_s, day.fixed)
+    fixed_slots = np.flatnonzero(day.fixed)
+    n_prof = params.n_profile
+    per_bin = np.zeros((candidates.size, n_prof))
+    per_bin += np.bincount(h[fixed_slots], minlength=n_prof)[None, :]
+    per_bin += np.bincount(
+        obs_e * n_prof + h[obs_s], minlength=candidates.size * n_prof
+    ).reshape(candidates.size, n_prof)
+    windows = per_bin.sum(axis=1)
+    # count pairs of candidates
+    at = np.searchsorted(candidates, day.cnt_entry)
+    hit = (at < candidates.size) & (
+        candidates[np.minimum(at, candidates.size - 1)] == day.cnt_entry
+    )
+    ce, cs, cv = at[hit], day.cnt_slot[hit], day.cnt_values[hit]
+    n_total = cv.sum(axis=1)
+    floor = params.config.rate_floor
+    day_score = np.zeros((candidates.size, len(params.flow)))
+    for f, name in enumerate(params.flow):
+        if not params.flow_enabled[f]:
+            continue
+        lam_pairs = np.maximum(fc.flow(name, ce, h[cs], t_s[cs]), floor)
+        sum_lam = _observed_sum(fc, name, per_bin, fixed_slots, obs_e, obs_s, t_s, h, floor)
+        log_part = np.bincount(ce, n_total * np.log(lam_pairs), minlength=candidates.size)
+        sq_part = np.bincount(ce, n_total**2 / lam_pairs, minlength=candidates.size)
+        n_part = np.bincount(ce, n_total, minlength=candidates.size)
+        day_score[:, f] = log_part - sum_lam
+        state.flow_chi2[candidates, f] += sq_part - 2.0 * n_part + sum_lam
+    _add_day(
+        day_score, params.flow.index("static"), windows > 0, candidates,
+        state.flow_score, state.flow_gain_sq, state.flow_days,
+    )
+    state.flow_scored[candidates] += windows
+    _score_directions(params, state, fc, candidates, ce, cs, cv, t_s, h)
+    state.touch(candidates)
+
+
+def _drop_fixed(obs_e: I64, obs_s: I64, fixed: npt.NDArray[np.bool_]) -> tuple[I64, I64]:
+    """Own observation pairs in fixed-sensor slots are already counted by the fixed slots."""
+    keep = ~fixed[obs_s]
+    return obs_e[keep], obs_s[keep]
+
+
+def _observed_sum(
+    fc: Forecaster,
+    name: str,
+    per_bin: F64,
+    fixed_slots: I64,
+    obs_e: I64,
+    obs_s: I64,
+    t_s: F64,
+    h: I64,
+    floor: float,
+) -> F64:
+    """Σ over each entry's observed windows of max(λ, floor)."""
+    e = np.arange(per_bin.shape[0])
+    if not name.startswith("fremen"):
+        bins = np.flatnonzero(per_bin.any(axis=0))
+        out = np.zeros(e.size)
+        for b in bins.tolist():
+            lam = np.maximum(fc.flow(name, e, np.full(e.size, b), np.zeros(e.size)), floor)
+            out += lam * per_bin[:, b]
+        return out
+    # FreMEn: closed form where the floor cannot bite, window by window elsewhere
+    m = int(name.removeprefix("fremen"))
+    safe = fc.flow_bound(name, e) >= floor
+    windows = per_bin.sum(axis=1)
+    out = fc.rate_total * windows
+    rot = np.exp(-1j * np.multiply.outer(t_s, fc.params.omega))  # (S, K)
+    fixed_sum = rot[fixed_slots].sum(axis=0)  # Σ over fixed slots, (K,)
+    idx = fc.period_idx[:, :m]
+    picked = fixed_sum[idx]  # (E, m): Σ e^{−iωt} at each entry's periods
+    for a in range(0, obs_e.size, _PAIRS):
+        pe, ps = obs_e[a : a + _PAIRS], obs_s[a : a + _PAIRS]
+        vals = rot[ps[:, None], idx[pe]]  # (P, m)
+        for j in range(m):
+            picked[:, j] += np.bincount(pe, vals[:, j].real, minlength=e.size)
+            picked[:, j] += 1j * np.bincount(pe, vals[:, j].imag, minlength=e.size)
+    out += 2.0 * (fc.coef_total[:, :m] * picked).real.sum(axis=1)
+    risky = np.flatnonzero(~safe & (windows > 0))
+    if risky.size:
+        out[risky] = _per_window_sum(fc, name, risky, fixed_slots, obs_e, obs_s, t_s, h, floor)
+    return out
+
+
+def _per_window_sum(
+    fc: Forecaster,
+    name: str,
+    entries: I64,
+    fixed_slots: I64,
+    obs_e: I64,
+    obs_s: I64,
+    t_s: F64,
+    h: I64,
+    floor: float,
+) -> F64:
+    """Σ max(λ, floor) over each of ``entries``' observed windows, evaluated per window."""
+    pair_e = [np.repeat(entries, fixed_slots.size)]
+    pair_s = [np.tile(fixed_slots, entries.size)]
+    own = np.isin(obs_e, entries)
+    pair_e.append(obs_e[own])
+    pair_s.append(obs_s[own])
+    pe, ps = np.concatenate(pair_e), np.concatenate(pair_s)
+    total = np.zeros(fc.rows.size)
+    for a in range(0, pe.size, _PAIRS):
+        e, s = pe[a : a + _PAIRS], ps[a : a + _PAIRS]
+        lam = np.maximum(fc.flow(name, e, h[s], t_s[s]), floor)
+        total += np.bincount(e, lam, minlength=fc.rows.size)
+    out: F64 = total[entries]
+    return out
+
+
+def _score_directions(
+    params: TemporalParams,
+    state: TemporalState,
+    fc: Forecaster,
+    candidates: I64,
+    ce: I64,
+    cs: I64,
+    cv: F64,
+    t_s: F64,
+    h: I64,
+) -> None:
+    b = params.bins
+    directed = cv[:, :b]
+    has = directed.sum(axis=1) > 0
+    if not has.any():
+        return
+    ce, cs, directed = ce[has], cs[has], directed[has]
+    day_score = np.zeros((candidates.size, len(params.direction)))
+    for d, name in enumerate(params.direction):
+        if not params.direction_enabled[d]:
+            continue
+        q = fc.direction(name, ce, h[cs], t_s[cs])
+        logp = (directed * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
+        day_score[:, d] = np.bincount(ce, logp, minlength=candidates.size)
+    detections = np.bincount(ce, directed.sum(axis=1), minlength=candidates.size)
+    _add_day(
+        day_score, params.direction.index("static"), detections > 0, candidates,
+        state.dir_score, state.dir_gain_sq, state.dir_days,
+    )
+    state.dir_scored[candidates] += detections
+
+
+def _add_day(
+    day_score: F64, static: int, scored: npt.NDArray[np.bool_], candidates: I64,
+    score: F64, gain_sq: F64, days: F64,
+) -> None:
+    """Add one day's scores, the squares of the day's gains over ``static`` and the day."""
+    gain = day_score - day_score[:, static : static + 1]
+    score[candidates] += day_score
+    gain_sq[candidates] += gain**2
+    days[candidates] += scored
+
+
+# -- absorbing ----------------------------------------------------------------------------------
+def _absorb(
+    params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64
+) -> None:
+    n_prof = params.n_profile
+    phasor = np.exp(1j * np.multiply.outer(t_s, params.omega))  # (S, K): e^{iωt}
+    fixed = np.flatnonzero(day.fixed)
+    if fixed.size:
+        block = ObsBlock(
+            np.array([float(fixed.size)]),
+            phasor[fixed].sum(axis=0, keepdims=True),
+            np.bincount(h[fixed], minlength=n_prof)[None, :].astype(np.float64),
+            np.array([t_s[fixed].min()]),
+            np.array([t_s[fixed].max()]),
+        )
+        state.glob.add_block(np.array([0]), block)
+    obs_e, obs_s = _drop_fixed(day.obs_entry, day.obs_slot, day.fixed)
+    if obs_e.size:
+        rows, inverse = np.unique(obs_e, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
+        fourier = np.zeros((rows.size, phasor.shape[1]), np.complex128)
+        _scatter_add(fourier, inverse, phasor[obs_s])
+        flat_bins = inverse * n_prof + h[obs_s]
+        prof = np.bincount(flat_bins, minlength=rows.size * n_prof).astype(np.float64)
+        prof = prof.reshape(rows.size, n_prof)
+        first = np.full(rows.size, np.inf)
+        np.minimum.at(first, inverse, t_s[obs_s])
+        last = np.full(rows.size, -np.inf)
+        np.maximum.at(last, inverse, t_s[obs_s])
+        state.obs.add_block(rows, ObsBlock(n, fourier, prof, first, last))
+    if day.cnt_entry.size:
+        pair, value = np.nonzero(day.cnt_values)
+        counts = day.cnt_values[pair, value]
+        rows = day.cnt_entry[pair]
+        slots = day.cnt_slot[pair]
+        flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
+        for a in range(0, rows.size, _PAIRS):
+            sl = slice(a, a + _PAIRS)
+            target = rows[sl] * params.values + value[sl]
+            values = np.asarray(counts[sl, None] * phasor[slots[sl]], dtype=np.complex128)
+            _scatter_add(flat_fourier, target, values)
+        flat_profile = state.cnt_profile.reshape(-1)
+        flat = (rows * params.values + value) * n_prof + h[slots]
+        keys, inverse = np.unique(flat, return_inverse=True)
+        flat_profile[keys] += np.bincount(inverse.reshape(-1), counts, minlength=keys.size)
+        state.touch(rows)
+    state.touch(obs_e if obs_e.size else None)
+
+
+def _scatter_add(target: C128, rows: I64, values: C128) -> None:
+    """``target[rows] += values`` with repeated rows summed first (faster than np.add.at)."""
+    order = np.argsort(rows, kind="stable")
+    rows, values = rows[order], values[order]
+    starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))
+    target[rows[starts]] += np.add.reduceat(values, starts, axis=0)

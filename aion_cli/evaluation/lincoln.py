@@ -1,0 +1,305 @@
+"""Forecasting a real multi-day corridor: the University of Lincoln T-junction (2017).
+
+Protocol (``docs/EVALUATION.md``): train on the four recorded days 2017-05-24, -25, -26, -31
+and forecast 2017-06-09, nine days after the last training day. Detections have no ids: every
+file is linked into tracks (``engine.tracking``) for headings, the same way for training and
+test. A day present in two files (05-25) is taken from the file holding more of its detections.
+No file declares when the sensor ran (06-09's header declares four days of which it holds one),
+so each day's recording sessions — detections split at gaps over an hour — are its observed
+spans, for training and for the test day alike.
+
+aion learns through the real pipeline: the training days become one MCAP log with the
+observed spans written as empty detection messages (``aion convert --observed``), and
+``aion build`` reads it. The zone is Europe/London (the local clock people keep).
+
+Scores, per model:
+
+- **heading NLL** of every test detection with a heading (association radius 1 m; the same
+  floor for every model, ``evaluation.heading``);
+- **hourly activity**: over the test day's observed 10-minute windows, the predicted number of
+  detections per window summed per hour against the true count — Spearman rank correlation,
+  Poisson deviance ``2 Σ [y ln(y/μ) − (y − μ)]`` and mean absolute error.
+
+Models: ``aion`` (each entry's chosen families), ``aion static`` (its static rates and pooled
+histograms), ``aion historical`` (headings only: the raw proportions ``predict --historical``
+shows), ``hour-of-day profile`` (activity: the training days' detections per observed
+window at each hour of the day; headings: the time-of-day histogram per 1 m cell),
+``hour-of-day mean`` (activity only: the plain profile, detections in each hour of the day
+averaged over the training days whether or not a day recorded all of that hour), ``static``
+(activity: the training days' mean detections per observed window; headings: one histogram
+per 1 m cell) and ``grid`` (the STeF-style grid: headings from its FreMEn bin values; activity
+from a grid of the same kind fed raw counts).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.types import DetectionBatch
+from aion_cli.evaluation.baselines import StaticHistogram, TimeOfDayHistogram
+from aion_cli.evaluation.grid import GridMoD, GridSpec
+from aion_cli.evaluation.heading import (
+    AionHeadingModel,
+    GridHeadingModel,
+    HeadingModel,
+    score_headings,
+)
+
+TRAIN_DAYS = ("2017-05-24", "2017-05-25", "2017-05-26", "2017-05-31")
+TEST_DAY = "2017-06-09"
+ZONE = "Europe/London"
+SESSION_GAP_NS = 3_600 * 1_000_000_000
+DAY_NS = 86_400 * 1_000_000_000
+HOUR_NS = 3_600 * 1_000_000_000
+
+
+@dataclass
+class DayData:
+    """One recorded day: its detections and observed spans (UNIX ns, half-open)."""
+
+    day: str
+    batch: DetectionBatch
+    spans: list[tuple[int, int]]
+    source: str
+
+
+@dataclass
+class LincolnResult:
+    """Scores per model: heading NLL and hourly activity, plus the per-hour series."""
+
+    headings: list[dict[str, Any]] = field(default_factory=list)
+    activity: list[dict[str, Any]] = field(default_factory=list)
+    hours: list[int] = field(default_factory=list)
+    series: dict[str, list[float]] = field(default_factory=dict)
+    families: dict[str, dict[str, int]] = field(default_factory=dict)
+    data: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "protocol": {"train": list(TRAIN_DAYS), "test": TEST_DAY, "zone": ZONE},
+            "data": self.data,
+            "headings": self.headings,
+            "activity": self.activity,
+            "hours_utc": self.hours,
+            "hourly_series": self.series,
+            "families": self.families,
+        }
+
+
+def _utc_day(t_ns: np.ndarray) -> np.ndarray:
+    return np.array(
+        [datetime.fromtimestamp(int(d) * 86400, UTC).strftime("%Y-%m-%d")
+         for d in (t_ns // DAY_NS).tolist()]
+    )
+
+
+def load_days(data_dir: Path) -> dict[str, DayData]:
+    """Every recorded day of the Lincoln files, each from the file holding most of it."""
+    from formats.tracks import read_lincoln, sessions
+
+    files = sorted(Path(data_dir).glob("2017-*"))
+    if not files:
+        raise FileNotFoundError(f"no Lincoln files (2017-*.txt) in {data_dir}")
+    days: dict[str, DayData] = {}
+    for path in files:
+        batch = read_lincoln(path).batch
+        if len(batch) == 0:
+            continue
+        day_index = batch.t_ns // DAY_NS
+        for d in np.unique(day_index).tolist():
+            part = batch.select(day_index == d)
+            name = _utc_day(np.array([d * DAY_NS]))[0]
+            if name in days and len(days[name].batch) >= len(part):
+                continue
+            days[name] = DayData(name, part, sessions(part.t_ns, SESSION_GAP_NS), path.name)
+    return days
+
+
+def observed_windows(spans: list[tuple[int, int]], window_ns: int) -> np.ndarray:
+    """Windows overlapping the spans (sorted)."""
+    parts = [np.arange(a // window_ns, -((-b) // window_ns)) for a, b in spans]
+    return np.unique(np.concatenate(parts)).astype(np.int64) if parts else np.zeros(0, np.int64)
+
+
+def _build_aion(train: list[DayData], config: ModelConfig, work: Path) -> Any:
+    """aion's map of the training days through ``convert`` + ``build`` (see module doc)."""
+    from aion_cli.pipeline import BuildOptions, build_map, load_map
+    from formats.tracks import tracks_to_log
+
+    batch = DetectionBatch.concat([d.batch for d in train]).sorted_by_time()
+    spans = [s for d in train for s in d.spans]
+    log = work / "lincoln_train.mcap"
+    tracks_to_log(batch, log, observed=spans, overwrite=True)
+    report = build_map(BuildOptions(logs=(log,), output=work / "lincoln.aion", config=config))
+    return load_map(report.output).state
+
+
+def _rate_per_hour_of_day(
+    train: list[DayData], window_ns: int
+) -> tuple[np.ndarray, float]:
+    """Training detections per observed window at each UTC hour of the day, and overall."""
+    counts, windows = np.zeros(24), np.zeros(24)
+    for d in train:
+        w = observed_windows(d.spans, window_ns)
+        hours = (w * window_ns % DAY_NS) // HOUR_NS
+        np.add.at(windows, hours, 1.0)
+        det_w = d.batch.t_ns // window_ns
+        seen = np.isin(det_w, w)
+        np.add.at(counts, (det_w[seen] * window_ns % DAY_NS) // HOUR_NS, 1.0)
+    overall = counts.sum() / windows.sum()
+    rate = np.where(windows > 0, counts / np.maximum(windows, 1.0), overall)
+    return rate, float(overall)
+
+
+def _mean_per_hour_of_day(train: list[DayData]) -> np.ndarray:
+    """The plain profile: training detections in each UTC hour of the day, averaged over the
+    training days (whether or not a day recorded that hour)."""
+    counts = np.zeros(24)
+    for d in train:
+        np.add.at(counts, (d.batch.t_ns % DAY_NS) // HOUR_NS, 1.0)
+    out: np.ndarray = counts / len(train)
+    return out
+
+
+def _activity_scores(truth: np.ndarray, predicted: np.ndarray) -> dict[str, float]:
+    ok = np.isfinite(predicted)
+    y, mu = truth[ok], np.maximum(predicted[ok], 1e-9)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        term = np.where(y > 0, y * np.log(y / mu), 0.0)
+    rho = spearmanr(y, mu).statistic if len(y) > 2 else math.nan
+    return {
+        "spearman": float(rho),
+        "poisson_deviance": float(2.0 * np.sum(term - (y - mu))),
+        "mae": float(np.mean(np.abs(y - mu))),
+    }
+
+
+def run_lincoln(
+    data_dir: Path,
+    config: ModelConfig | None = None,
+    radius: float = 1.0,
+    progress: Callable[[str], None] | None = None,
+) -> LincolnResult:
+    """Train on the four May days, forecast June 9 (see the module docstring)."""
+    cfg = config or ModelConfig(timezone=ZONE)
+    say = progress or (lambda _msg: None)
+    days = load_days(data_dir)
+    missing = [d for d in (*TRAIN_DAYS, TEST_DAY) if d not in days]
+    if missing:
+        raise FileNotFoundError(f"Lincoln days missing from {data_dir}: {', '.join(missing)}")
+    train = [days[d] for d in TRAIN_DAYS]
+    test = days[TEST_DAY]
+    window_ns = round(cfg.window_s * 1e9)
+    result = LincolnResult()
+    result.data = {
+        d.day: {"detections": len(d.batch), "file": d.source, "observed_h": round(
+            sum(b - a for a, b in d.spans) / 3.6e12, 2)}
+        for d in (*train, test)
+    }
+    say("building aion from the four training days (convert + build)")
+    with tempfile.TemporaryDirectory(prefix="aion-lincoln-") as tmp:
+        state = _build_aion(train, cfg, Path(tmp))
+    train_batch = DetectionBatch.concat([d.batch for d in train])
+    say("training the baselines")
+    models = _heading_models(state, train_batch, train, cfg, radius)
+    for model in models:
+        score = score_headings(model, test.batch, cfg.bins, window_s=cfg.window_s)
+        result.headings.append(score.to_dict())
+    say("forecasting the test day's hourly activity")
+    _activity(result, state, train, test, train_batch, cfg, window_ns)
+    return result
+
+
+def _heading_models(
+    state: Any, train_batch: DetectionBatch, train: list[DayData], cfg: ModelConfig,
+    radius: float,
+) -> list[HeadingModel]:
+    spec = GridSpec.covering(train_batch.xyz[:, :2], 1.0)
+    grid = GridMoD(spec, cfg)
+    for d in train:
+        grid.fit(d.batch, *_span_bounds(d))
+    tod = TimeOfDayHistogram(spec, cfg.bins)
+    tod.fit(train_batch)
+    static = StaticHistogram(spec, cfg.bins)
+    static.fit(train_batch)
+    return [
+        AionHeadingModel(state, radius),
+        AionHeadingModel(state, radius, static=True, name="aion static"),
+        AionHeadingModel(state, radius, historical=True, name="aion historical"),
+        tod,
+        static,
+        GridHeadingModel(grid),
+    ]
+
+
+def _span_bounds(day: DayData) -> tuple[int, int]:
+    return day.spans[0][0], day.spans[-1][1]
+
+
+def _activity(
+    result: LincolnResult,
+    state: Any,
+    train: list[DayData],
+    test: DayData,
+    train_batch: DetectionBatch,
+    cfg: ModelConfig,
+    window_ns: int,
+) -> None:
+    from aion_cli.engine.query import predict_table
+
+    windows = observed_windows(test.spans, window_ns)
+    det_w = test.batch.t_ns // window_ns
+    truth_w = np.array([np.count_nonzero(det_w == w) for w in windows.tolist()], dtype=float)
+    centres = windows * window_ns + window_ns // 2
+    hour_of = (windows * window_ns) // HOUR_NS
+    hours, inverse = np.unique(hour_of, return_inverse=True)
+    truth = np.bincount(inverse, truth_w)
+    per_window: dict[str, np.ndarray] = {}
+    aion = np.array([np.nansum(predict_table(state, int(t)).flow) for t in centres.tolist()])
+    per_window["aion"] = aion
+    static_rate = float(np.nansum(_historical_flow(state)))
+    per_window["aion static"] = np.full(windows.size, static_rate)
+    rate_h, overall = _rate_per_hour_of_day(train, window_ns)
+    hod = (windows * window_ns % DAY_NS) // HOUR_NS
+    per_window["hour-of-day profile"] = rate_h[hod]
+    per_window["hour-of-day mean"] = _mean_per_hour_of_day(train)[hod] * window_ns / HOUR_NS
+    per_window["static"] = np.full(windows.size, overall)
+    spec = GridSpec.covering(train_batch.xyz[:, :2], 1.0)
+    counts_grid = GridMoD(spec, cfg, normalise=False)
+    for d in train:
+        counts_grid.fit(d.batch, *_span_bounds(d))
+    per_window["grid"] = np.array(
+        [counts_grid.predict(int(t)).sum() for t in centres.tolist()]
+    )
+    result.hours = [int(h % 24) for h in hours.tolist()]
+    result.series["truth"] = truth.tolist()
+    for name, values in per_window.items():
+        hourly = np.bincount(inverse, values)
+        result.series[name] = hourly.tolist()
+        result.activity.append({"model": name, **_activity_scores(truth, hourly)})
+    table = predict_table(state, int(centres[len(centres) // 2]))
+    fam, cnt = np.unique(table.flow_family[table.flow_family != "none"], return_counts=True)
+    dfam, dcnt = np.unique(
+        table.direction_family[table.direction_family != "none"], return_counts=True
+    )
+    result.families = {
+        "flow": {str(f): int(c) for f, c in zip(fam, cnt, strict=True)},
+        "direction": {str(f): int(c) for f, c in zip(dfam, dcnt, strict=True)},
+    }
+
+
+def _historical_flow(state: Any) -> np.ndarray:
+    from aion_cli.engine.query import historical_table
+
+    out: np.ndarray = historical_table(state).flow
+    return out

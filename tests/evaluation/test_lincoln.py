@@ -1,0 +1,64 @@
+"""The Lincoln corridor protocol: data handling, the activity scores, and the real run."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.evaluation import lincoln
+
+DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "lincoln"
+needs_lincoln = pytest.mark.skipif(
+    not (DATA / "2017-06-09.txt").exists(),
+    reason="the Lincoln corridor data (../shared/data/lincoln) is not available",
+)
+
+
+def test_activity_scores_match_their_definitions() -> None:
+    truth = np.array([10.0, 0.0, 5.0, 20.0])
+    pred = np.array([8.0, 1.0, 5.0, 25.0])
+    got = lincoln._activity_scores(truth, pred)
+    deviance = 2 * (10 * math.log(10 / 8) - 2 + 1 + 0 + 20 * math.log(20 / 25) + 5)
+    assert got["poisson_deviance"] == pytest.approx(deviance)
+    assert got["mae"] == pytest.approx((2 + 1 + 0 + 5) / 4)
+    assert got["spearman"] == pytest.approx(1.0)  # same ranks
+
+
+def test_observed_windows_cover_the_spans() -> None:
+    w = 600 * 10**9
+    spans = [(10 * w + 5, 12 * w), (20 * w, 20 * w + 1)]
+    np.testing.assert_array_equal(lincoln.observed_windows(spans, w), [10, 11, 20])
+
+
+@needs_lincoln
+def test_each_day_comes_from_the_file_holding_most_of_it() -> None:
+    days = lincoln.load_days(DATA)
+    assert set(lincoln.TRAIN_DAYS) | {lincoln.TEST_DAY} <= set(days)
+    # 05-25 is in two files; the single-day file holds more of its detections
+    assert days["2017-05-25"].source == "2017-05-25.txt"
+    assert days["2017-05-24"].source == "2017-05-24_25.txt"
+    for day in days.values():
+        assert len(day.spans) >= 1
+        t = day.batch.t_ns
+        first, last = day.spans[0][0], day.spans[-1][1]
+        assert first <= int(t.min())
+        assert int(t.max()) < last
+
+
+@needs_lincoln
+def test_the_corridor_forecast_beats_the_historical_map_and_a_static_rate() -> None:
+    result = lincoln.run_lincoln(DATA)
+    nll = {h["model"]: h["nll_all"] for h in result.headings}
+    assert nll["aion"] < nll["aion historical"]
+    assert nll["aion"] < nll["time-of-day histogram"]
+    assert nll["aion"] < math.log(2 * math.pi)
+    act = {a["model"]: a for a in result.activity}
+    assert act["aion"]["spearman"] >= act["hour-of-day mean"]["spearman"]
+    assert act["aion"]["mae"] < act["static"]["mae"]
+    assert act["aion"]["mae"] < act["hour-of-day mean"]["mae"]
+    assert act["aion"]["poisson_deviance"] < act["static"]["poisson_deviance"]
+    assert len(result.hours) == len(result.series["truth"]) >= 8
+    assert sum(result.families["flow"].values()) > 0
