@@ -240,16 +240,18 @@ class MapState:
 
     def family_summary(self) -> dict[str, Any]:
         """How many entries forecast with each family (flow and direction), and whether the
-        map's total is reconciled to its pooled profile (for the manifest and ``aion info``)."""
-        rows, predictor = self.predictor()
-        flow = np.asarray(self.params.flow)[predictor.flow_choice]
-        direction = np.asarray(self.params.direction)[predictor.direction_choice]
-        scored = self.query_temporal().flow_scored[rows]
+        map's total is reconciled to its own forecast (for the manifest and ``aion info``).
+        The choice depends only on the day-ahead scores, so no forecast is prepared."""
+        rows = self.entries.canonical_order()
+        groups, n_groups = self.groups(rows)
+        t = self.temporal
+        flow, direction, map_flow = temporal_model.choose(self.params, t, rows, groups, n_groups)
+        reconciled = self.config.reconcile and self.params.flow[map_flow] != "static"
         return {
-            "flow": _tally(flow),
-            "direction": _tally(direction),
-            "reconciled": bool(predictor.reconcile),
-            "scored_windows": float(scored.sum()),
+            "flow": _tally(np.asarray(self.params.flow)[flow]),
+            "direction": _tally(np.asarray(self.params.direction)[direction]),
+            "reconciled": bool(reconciled),
+            "scored_windows": float(t.flow_scored[rows].sum()),
         }
 
     def _view_key(self) -> tuple[int, int, int | None, int]:

@@ -35,6 +35,8 @@ DAY_NS = 86_400 * 1_000_000_000
 HOUR_NS = 3_600 * 1_000_000_000
 PROFILES = ("day", "day_weekend", "week")
 _DAYS_PER_PROFILE = {"day": 1, "day_weekend": 2, "week": 7}
+
+
 @dataclass(frozen=True)
 class Calendar:
     """Local days and profile bins of UNIX-nanosecond times (see the module docstring)."""

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats
 
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.types import F64, I64
@@ -114,6 +113,8 @@ def dispersion(flow_chi2: F64, flow_scored: F64, family: I64) -> F64:
 def count_quantiles(mean: npt.ArrayLike, variance: npt.ArrayLike, q: float) -> F64:
     """The q-quantile of a window count with this mean and variance: negative binomial
     (moment-matched) where over-dispersed, Poisson otherwise; NaN where the mean is unknown."""
+    from scipy import stats  # slow to import: only queries that print a spread need it
+
     mu = np.asarray(mean, dtype=np.float64)
     var = np.asarray(variance, dtype=np.float64)
     out = np.full(mu.shape, np.nan)

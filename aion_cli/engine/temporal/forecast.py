@@ -114,7 +114,9 @@ def _group_shapes(c: float, s_g: F64, w_g: F64) -> tuple[F64, F64]:
     rho_g = np.divide(s_g.sum(axis=1), w_tot, out=np.zeros(len(w_tot)), where=w_tot > 0)
     prior = rho_g[:, None] * r_map[None, :]
     r_g = np.divide(
-        shrunk_rate(s_g, w_g, prior, c), rho_g[:, None], out=np.zeros_like(s_g),
+        shrunk_rate(s_g, w_g, prior, c),
+        rho_g[:, None],
+        out=np.zeros_like(s_g),
         where=rho_g[:, None] > 0,
     )
     out: F64 = np.where((rho_g > 0)[:, None], r_g, r_map[None, :])
@@ -183,6 +185,7 @@ class Forecaster:
         self.histogram = _posterior(
             self.counts[:, :b], pool.histogram[groups], params.config.direction_prior
         )
+        self._cache: dict[str, Any] = {}
         self._fremen(obs.first, obs.last)
 
     # -- precomputation ---------------------------------------------------------------------
@@ -247,10 +250,34 @@ class Forecaster:
         self._bins_ready[todo] = True
 
     # -- evaluation at (entry, time) pairs --------------------------------------------------
-    def _rotations(self, e: I64, t_s: F64, m: int) -> C128:
-        """e^{−iω t} of each pair's first ``m`` FreMEn periods: complex[P, m]."""
-        w = self.params.omega[self.period_idx[e, :m]]
-        out: C128 = np.exp(-1j * w * t_s[:, None])
+    def _rotation_table(self, t_s: F64) -> tuple[C128, I64]:
+        """e^{−iω_k t} for the distinct times of ``t_s`` (complex[T, K]) and each pair's row in
+        it: pairs share few times (a day's windows), so exponentials are computed per time."""
+        times, inverse = np.unique(t_s, return_inverse=True)
+        table: C128 = np.exp(-1j * np.multiply.outer(times, self.params.omega))
+        return table, inverse.reshape(-1)
+
+    def _memo(self, kind: str, e: I64, t_s: F64, compute: Any) -> Any:
+        """The last result of ``compute()`` for these very arrays (the scoring evaluates every
+        FreMEn order at the same pairs: orders are cumulative, so one pass serves them all)."""
+        key = (kind, id(e), id(t_s), e.size)
+        cached = self._cache.get(kind)
+        if cached is not None and cached[0] == key:
+            return cached[2]
+        value = compute()
+        self._cache[kind] = (key, (e, t_s), value)
+        return value
+
+    def _total_terms(self, e: I64, t_s: F64) -> F64:
+        """Cumulative FreMEn terms of the total, float64[P, M]: column j sums periods 0..j."""
+
+        def compute() -> F64:
+            table, inverse = self._rotation_table(t_s)
+            rot = table[inverse[:, None], self.period_idx[e]]
+            out: F64 = np.cumsum(2.0 * (self.coef_total[e] * rot).real, axis=1)
+            return out
+
+        out: F64 = self._memo("total", e, t_s, compute)
         return out
 
     def map_total(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
@@ -264,11 +291,23 @@ class Forecaster:
         return np.maximum(self.flow(family, e, h, t_s), 0.0)
 
     def _bin_terms(self, e: I64, t_s: F64, m: int, bins: int) -> F64:
-        """Σ_j Re(γ_{v,j} e^{−iω t}) over each value bin's own first ``m`` periods: [P, bins]."""
-        self._ensure_bins(e)
-        w = self.params.omega[self.bin_idx[e, :bins, :m]]  # (P, bins, m)
-        rot = np.exp(-1j * w * t_s[:, None, None])
-        out: F64 = (self.coef_bins[e, :bins, :m] * rot).real.sum(axis=2)
+        """Σ_j 2 Re(γ_{v,j} e^{−iω t}) over each value bin's own first ``m`` periods:
+        float64[P, bins] (from one cumulative pass over every order, memoised)."""
+
+        def compute() -> F64:
+            self._ensure_bins(e)
+            table, inverse = self._rotation_table(t_s)
+            at = (inverse[:, None, None], self.bin_idx[e])
+            coef = self.coef_bins[e]
+            # 2 Re(γ e^{−iωt}) = 2 (Re γ cos ωt + Im γ sin ωt): real arithmetic throughout
+            terms = coef.real * table.real[at]
+            terms -= coef.imag * table.imag[at]
+            terms *= 2.0
+            out: F64 = np.cumsum(terms, axis=2)
+            return out
+
+        full: F64 = self._memo("bins", e, t_s, compute)
+        out: F64 = full[:, :bins, m - 1]
         return out
 
     def flow(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
@@ -286,8 +325,7 @@ class Forecaster:
             m = mu * self.shape[e, h]
             return shrunk_rate(self.profile_total[e, h], self.profile_windows[e, h], m, c)
         m = int(family.removeprefix("fremen"))
-        terms = self.coef_total[e, :m] * self._rotations(e, t_s, m)
-        out = mu + 2.0 * terms.real.sum(axis=1)
+        out = mu + self._total_terms(e, t_s)[:, m - 1]
         return out
 
     def bin_rates(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
@@ -303,18 +341,22 @@ class Forecaster:
             c = self.params.config.profile_prior
             m = self.rate_total[e] * self.shape[e, h]
             share = np.divide(
-                mu, self.rate_total[e][:, None], out=np.zeros_like(mu),
+                mu,
+                self.rate_total[e][:, None],
+                out=np.zeros_like(mu),
                 where=self.rate_total[e][:, None] > 0,
             )
             own = self.state.cnt_profile[self.rows[e], :, h]
             den = m * self.profile_windows[e, h] + c
             out = np.divide(
-                m[:, None] * (own + c * share), den[:, None], out=np.zeros_like(own),
+                m[:, None] * (own + c * share),
+                den[:, None],
+                out=np.zeros_like(own),
                 where=den[:, None] > 0,
             )
             return out
         m = int(family.removeprefix("fremen"))
-        out = np.maximum(mu + 2.0 * self._bin_terms(e, t_s, m, self.params.values), 0.0)
+        out = np.maximum(mu + self._bin_terms(e, t_s, m, self.params.values), 0.0)
         return out
 
     def flow_bound(self, family: str, e: I64) -> F64:
@@ -336,7 +378,7 @@ class Forecaster:
         else:
             m = int(family.removeprefix("fremen"))
             terms = self._bin_terms(e, t_s, m, b)
-            pseudo = np.maximum(self.rate[e, :b] + 2.0 * terms, 0.0)
+            pseudo = np.maximum(self.rate[e, :b] + terms, 0.0)
             pseudo *= self.profile_windows[e, h][:, None]
         out: F64 = (pseudo + kappa_t * hist) / (pseudo.sum(axis=1, keepdims=True) + kappa_t)
         return out

@@ -138,6 +138,22 @@ class Prediction:
     observed: BoolA
 
 
+def choose(
+    params: TemporalParams, state: TemporalState, rows: I64, groups: I64, n_groups: int
+) -> tuple[I64, I64, int]:
+    """Each entry's flow and direction family and the map's flow family, from the day-ahead
+    scores (``choice.choose_families``)."""
+    return choose_families(
+        params,
+        state.flow_score[rows],
+        state.dir_score[rows],
+        groups,
+        n_groups,
+        (state.flow_gain_sq[rows], state.flow_days[rows]),
+        (state.dir_gain_sq[rows], state.dir_days[rows]),
+    )
+
+
 @dataclass
 class Predictor:
     """The time-independent part of the forecasts of entries ``rows``: every family's parts,
@@ -170,15 +186,7 @@ class Predictor:
     ) -> Predictor:
         pool = PoolStats.of(params, state, rows, groups, n_groups)
         fc = Forecaster(params, state, rows, groups, pool)
-        flow_choice, dir_choice, map_choice = choose_families(
-            params,
-            state.flow_score[rows],
-            state.dir_score[rows],
-            groups,
-            n_groups,
-            (state.flow_gain_sq[rows], state.flow_days[rows]),
-            (state.dir_gain_sq[rows], state.dir_days[rows]),
-        )
+        flow_choice, dir_choice, map_choice = choose(params, state, rows, groups, n_groups)
         phi = dispersion(state.flow_chi2[rows], state.flow_scored[rows], flow_choice)
         name = params.flow[map_choice]
         map_family = name if params.config.reconcile and name != "static" else None

@@ -107,17 +107,18 @@ class PendingDay:
 
     def consolidated(self) -> DayWindows:
         """The held windows with duplicate pairs merged (sorted by entry, then slot)."""
+        slots = max(len(self.windows), 1)
         obs_e, obs_s = _cat(self._obs_entry), _cat(self._obs_slot)
         if obs_e.size:
-            pairs = np.unique(np.column_stack([obs_e, obs_s]), axis=0)
-            obs_e, obs_s = pairs[:, 0], pairs[:, 1]
+            keys = np.unique(obs_e * slots + obs_s)
+            obs_e, obs_s = np.divmod(keys, slots)
         cnt_e, cnt_s = _cat(self._cnt_entry), _cat(self._cnt_slot)
         vals = np.concatenate(self._cnt_values) if self._cnt_values else np.zeros((0, self.values))
         if cnt_e.size:
-            keys, inverse = np.unique(np.column_stack([cnt_e, cnt_s]), axis=0, return_inverse=True)
+            keys, inverse = np.unique(cnt_e * slots + cnt_s, return_inverse=True)
             summed = np.zeros((len(keys), self.values))
             np.add.at(summed, inverse.reshape(-1), vals)
-            cnt_e, cnt_s, vals = keys[:, 0], keys[:, 1], summed
+            cnt_e, cnt_s, vals = *np.divmod(keys, slots), summed
         return DayWindows(
             np.asarray(self.windows, dtype=np.int64),
             np.asarray(self.fixed, dtype=bool),

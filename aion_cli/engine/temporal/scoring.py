@@ -94,9 +94,9 @@ def _score(
     n_prof = params.n_profile
     per_bin = np.zeros((candidates.size, n_prof))
     per_bin += np.bincount(h[fixed_slots], minlength=n_prof)[None, :]
-    per_bin += np.bincount(
-        obs_e * n_prof + h[obs_s], minlength=candidates.size * n_prof
-    ).reshape(candidates.size, n_prof)
+    per_bin += np.bincount(obs_e * n_prof + h[obs_s], minlength=candidates.size * n_prof).reshape(
+        candidates.size, n_prof
+    )
     windows = per_bin.sum(axis=1)
     # count pairs of candidates
     at = np.searchsorted(candidates, day.cnt_entry)
@@ -107,19 +107,26 @@ def _score(
     n_total = cv.sum(axis=1)
     floor = params.config.rate_floor
     day_score = np.zeros((candidates.size, len(params.flow)))
+    pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
+    fremen = _fremen_sums(fc, per_bin, fixed_slots, obs_e, obs_s, t_s, floor)
     for f, name in enumerate(params.flow):
         if not params.flow_enabled[f]:
             continue
-        lam_pairs = np.maximum(fc.flow(name, ce, h[cs], t_s[cs]), floor)
-        sum_lam = _observed_sum(fc, name, per_bin, fixed_slots, obs_e, obs_s, t_s, h, floor)
+        lam_pairs = np.maximum(fc.flow(name, ce, pair_h, pair_t), floor)
+        sum_lam = _observed_sum(fc, name, per_bin, floor, fremen)
         log_part = np.bincount(ce, n_total * np.log(lam_pairs), minlength=candidates.size)
         sq_part = np.bincount(ce, n_total**2 / lam_pairs, minlength=candidates.size)
         n_part = np.bincount(ce, n_total, minlength=candidates.size)
         day_score[:, f] = log_part - sum_lam
         state.flow_chi2[candidates, f] += sq_part - 2.0 * n_part + sum_lam
     _add_day(
-        day_score, params.flow.index("static"), windows > 0, candidates,
-        state.flow_score, state.flow_gain_sq, state.flow_days,
+        day_score,
+        params.flow.index("static"),
+        windows > 0,
+        candidates,
+        state.flow_score,
+        state.flow_gain_sq,
+        state.flow_days,
     )
     state.flow_scored[candidates] += windows
     _score_directions(params, state, fc, candidates, ce, cs, cv, t_s, h)
@@ -136,69 +143,93 @@ def _observed_sum(
     fc: Forecaster,
     name: str,
     per_bin: F64,
+    floor: float,
+    fremen: F64,
+) -> F64:
+    """Σ over each entry's observed windows of max(λ, floor): in closed form per profile bin
+    for the periodic families, from ``fremen`` (:func:`_fremen_sums`) for FreMEn."""
+    if name.startswith("fremen"):
+        out: F64 = fremen[int(name.removeprefix("fremen")) - 1]
+        return out
+    e = np.arange(per_bin.shape[0])
+    bins = np.flatnonzero(per_bin.any(axis=0))
+    total = np.zeros(e.size)
+    for b in bins.tolist():
+        lam = np.maximum(fc.flow(name, e, np.full(e.size, b), np.zeros(e.size)), floor)
+        total += lam * per_bin[:, b]
+    return total
+
+
+def _fremen_sums(
+    fc: Forecaster,
+    per_bin: F64,
     fixed_slots: I64,
     obs_e: I64,
     obs_s: I64,
     t_s: F64,
-    h: I64,
     floor: float,
 ) -> F64:
-    """Σ over each entry's observed windows of max(λ, floor)."""
-    e = np.arange(per_bin.shape[0])
-    if not name.startswith("fremen"):
-        bins = np.flatnonzero(per_bin.any(axis=0))
-        out = np.zeros(e.size)
-        for b in bins.tolist():
-            lam = np.maximum(fc.flow(name, e, np.full(e.size, b), np.zeros(e.size)), floor)
-            out += lam * per_bin[:, b]
+    """Σ over each entry's observed windows of max(λ_m, floor) for every FreMEn order m,
+    float64[M, E]. Closed form (the rate's sum plus the day's Fourier sums at the entry's
+    periods) where the lower bound μ − Σ 2|γ| shows the floor cannot bite; window by window
+    for the other entries, every order in one cumulative pass."""
+    m_max = fc.params.max_order
+    e = per_bin.shape[0]
+    out = np.zeros((m_max, e))
+    if m_max == 0 or e == 0:
         return out
-    # FreMEn: closed form where the floor cannot bite, window by window elsewhere
-    m = int(name.removeprefix("fremen"))
-    safe = fc.flow_bound(name, e) >= floor
     windows = per_bin.sum(axis=1)
-    out = fc.rate_total * windows
-    rot = np.exp(-1j * np.multiply.outer(t_s, fc.params.omega))  # (S, K)
-    fixed_sum = rot[fixed_slots].sum(axis=0)  # Σ over fixed slots, (K,)
-    idx = fc.period_idx[:, :m]
-    picked = fixed_sum[idx]  # (E, m): Σ e^{−iωt} at each entry's periods
+    rot = np.exp(-1j * np.multiply.outer(t_s, fc.params.omega))  # (S, K): e^{−iωt}
+    idx = fc.period_idx  # (E, M)
+    picked = rot[fixed_slots].sum(axis=0)[idx]  # Σ e^{−iωt} at each entry's periods
     for a in range(0, obs_e.size, _PAIRS):
         pe, ps = obs_e[a : a + _PAIRS], obs_s[a : a + _PAIRS]
-        vals = rot[ps[:, None], idx[pe]]  # (P, m)
-        for j in range(m):
-            picked[:, j] += np.bincount(pe, vals[:, j].real, minlength=e.size)
-            picked[:, j] += 1j * np.bincount(pe, vals[:, j].imag, minlength=e.size)
-    out += 2.0 * (fc.coef_total[:, :m] * picked).real.sum(axis=1)
-    risky = np.flatnonzero(~safe & (windows > 0))
-    if risky.size:
-        out[risky] = _per_window_sum(fc, name, risky, fixed_slots, obs_e, obs_s, t_s, h, floor)
+        vals = rot[ps[:, None], idx[pe]]  # (P, M)
+        for j in range(m_max):
+            picked[:, j] += np.bincount(pe, vals[:, j].real, minlength=e)
+            picked[:, j] += 1j * np.bincount(pe, vals[:, j].imag, minlength=e)
+    closed = np.cumsum(2.0 * (fc.coef_total * picked).real, axis=1)  # (E, M)
+    out[:] = (fc.rate_total * windows)[None, :] + closed.T
+    bound = fc.rate_total[:, None] - np.cumsum(2.0 * np.abs(fc.coef_total), axis=1)
+    risky = np.flatnonzero((bound[:, -1] < floor) & (windows > 0))  # the largest risky set
+    if risky.size == 0:
+        return out
+    per_window = _per_window_sums(fc, risky, fixed_slots, obs_e, obs_s, rot, floor)  # (M, r)
+    for j in range(m_max):
+        use = bound[risky, j] < floor
+        out[j, risky[use]] = per_window[j, use]
     return out
 
 
-def _per_window_sum(
+def _per_window_sums(
     fc: Forecaster,
-    name: str,
     entries: I64,
     fixed_slots: I64,
     obs_e: I64,
     obs_s: I64,
-    t_s: F64,
-    h: I64,
+    rot: C128,
     floor: float,
 ) -> F64:
-    """Σ max(λ, floor) over each of ``entries``' observed windows, evaluated per window."""
+    """Σ max(λ_m, floor) over each of ``entries``' observed windows for every order m,
+    evaluated window by window: float64[M, len(entries)]."""
+    slot_of = np.full(fc.rows.size, -1, np.int64)
+    slot_of[entries] = np.arange(entries.size)
     pair_e = [np.repeat(entries, fixed_slots.size)]
     pair_s = [np.tile(fixed_slots, entries.size)]
-    own = np.isin(obs_e, entries)
+    own = slot_of[obs_e] >= 0
     pair_e.append(obs_e[own])
     pair_s.append(obs_s[own])
     pe, ps = np.concatenate(pair_e), np.concatenate(pair_s)
-    total = np.zeros(fc.rows.size)
+    m_max = fc.params.max_order
+    total = np.zeros((m_max, entries.size))
     for a in range(0, pe.size, _PAIRS):
         e, s = pe[a : a + _PAIRS], ps[a : a + _PAIRS]
-        lam = np.maximum(fc.flow(name, e, h[s], t_s[s]), floor)
-        total += np.bincount(e, lam, minlength=fc.rows.size)
-    out: F64 = total[entries]
-    return out
+        terms = np.cumsum(2.0 * (fc.coef_total[e] * rot[s[:, None], fc.period_idx[e]]).real, axis=1)
+        lam = np.maximum(fc.rate_total[e][:, None] + terms, floor)  # (P, M)
+        local = slot_of[e]
+        for j in range(m_max):
+            total[j] += np.bincount(local, lam[:, j], minlength=entries.size)
+    return total
 
 
 def _score_directions(
@@ -219,23 +250,34 @@ def _score_directions(
         return
     ce, cs, directed = ce[has], cs[has], directed[has]
     day_score = np.zeros((candidates.size, len(params.direction)))
+    pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
     for d, name in enumerate(params.direction):
         if not params.direction_enabled[d]:
             continue
-        q = fc.direction(name, ce, h[cs], t_s[cs])
+        q = fc.direction(name, ce, pair_h, pair_t)
         logp = (directed * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
         day_score[:, d] = np.bincount(ce, logp, minlength=candidates.size)
     detections = np.bincount(ce, directed.sum(axis=1), minlength=candidates.size)
     _add_day(
-        day_score, params.direction.index("static"), detections > 0, candidates,
-        state.dir_score, state.dir_gain_sq, state.dir_days,
+        day_score,
+        params.direction.index("static"),
+        detections > 0,
+        candidates,
+        state.dir_score,
+        state.dir_gain_sq,
+        state.dir_days,
     )
     state.dir_scored[candidates] += detections
 
 
 def _add_day(
-    day_score: F64, static: int, scored: npt.NDArray[np.bool_], candidates: I64,
-    score: F64, gain_sq: F64, days: F64,
+    day_score: F64,
+    static: int,
+    scored: npt.NDArray[np.bool_],
+    candidates: I64,
+    score: F64,
+    gain_sq: F64,
+    days: F64,
 ) -> None:
     """Add one day's scores, the squares of the day's gains over ``static`` and the day."""
     gain = day_score - day_score[:, static : static + 1]
@@ -265,8 +307,7 @@ def _absorb(
         rows, inverse = np.unique(obs_e, return_inverse=True)
         inverse = inverse.reshape(-1)
         n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
-        fourier = np.zeros((rows.size, phasor.shape[1]), np.complex128)
-        _scatter_add(fourier, inverse, phasor[obs_s])
+        fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
         flat_bins = inverse * n_prof + h[obs_s]
         prof = np.bincount(flat_bins, minlength=rows.size * n_prof).astype(np.float64)
         prof = prof.reshape(rows.size, n_prof)
@@ -281,11 +322,9 @@ def _absorb(
         rows = day.cnt_entry[pair]
         slots = day.cnt_slot[pair]
         flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
-        for a in range(0, rows.size, _PAIRS):
-            sl = slice(a, a + _PAIRS)
-            target = rows[sl] * params.values + value[sl]
-            values = np.asarray(counts[sl, None] * phasor[slots[sl]], dtype=np.complex128)
-            _scatter_add(flat_fourier, target, values)
+        targets, which = np.unique(rows * params.values + value, return_inverse=True)
+        which = which.reshape(-1)
+        flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
         flat_profile = state.cnt_profile.reshape(-1)
         flat = (rows * params.values + value) * n_prof + h[slots]
         keys, inverse = np.unique(flat, return_inverse=True)
@@ -294,9 +333,11 @@ def _absorb(
     state.touch(obs_e if obs_e.size else None)
 
 
-def _scatter_add(target: C128, rows: I64, values: C128) -> None:
-    """``target[rows] += values`` with repeated rows summed first (faster than np.add.at)."""
-    order = np.argsort(rows, kind="stable")
-    rows, values = rows[order], values[order]
-    starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))
-    target[rows[starts]] += np.add.reduceat(values, starts, axis=0)
+def _sum_phasors(row: I64, slot: I64, weight: F64, n_rows: int, phasor: C128) -> C128:
+    """Σ over pairs (row, slot) of weight·phasor[slot] per row, complex[n_rows, K]: one sparse
+    (rows × slots) matrix times the day's (slots × K) phasors, no per-pair K-vectors."""
+    from scipy.sparse import csr_matrix
+
+    matrix = csr_matrix((weight, (row, slot)), shape=(n_rows, phasor.shape[0]))
+    out: C128 = np.asarray(matrix @ phasor, dtype=np.complex128)
+    return out
