@@ -190,7 +190,7 @@ def _print_map(report: dict[str, Any]) -> None:
             table.add_row(f"{kind} models", text)
     if families:
         table.add_row(
-            "reconciled", "yes: totals follow the map's profile" if families.get("reconciled")
+            "reconciled", "yes: totals follow the map's own forecast" if families.get("reconciled")
             else "no"
         )
     defaults = ModelConfig().to_dict()
