@@ -40,7 +40,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.temporal.accumulators import TemporalState
-from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.params import DIRECTION_ORDERS, TemporalParams
 from aion_cli.engine.temporal.spectrum import admitted, top_periods
 from aion_cli.engine.types import F64, I64
 
@@ -290,15 +290,16 @@ class Forecaster:
             return out
         return np.maximum(self.flow(family, e, h, t_s), 0.0)
 
-    def _bin_terms(self, e: I64, t_s: F64, m: int, bins: int) -> F64:
+    def _bin_terms(self, e: I64, t_s: F64, m: int, bins: int, upto: int) -> F64:
         """Σ_j 2 Re(γ_{v,j} e^{−iω t}) over each value bin's own first ``m`` periods:
-        float64[P, bins] (from one cumulative pass over every order, memoised)."""
+        float64[P, bins], from one cumulative pass over orders 1..``upto`` for the first
+        ``bins`` bins (memoised: the scoring asks for every order at the same pairs)."""
 
         def compute() -> F64:
             self._ensure_bins(e)
             table, inverse = self._rotation_table(t_s)
-            at = (inverse[:, None, None], self.bin_idx[e])
-            coef = self.coef_bins[e]
+            at = (inverse[:, None, None], self.bin_idx[e, :bins, :upto])
+            coef = self.coef_bins[e, :bins, :upto]
             # 2 Re(γ e^{−iωt}) = 2 (Re γ cos ωt + Im γ sin ωt): real arithmetic throughout
             terms = coef.real * table.real[at]
             terms -= coef.imag * table.imag[at]
@@ -306,8 +307,8 @@ class Forecaster:
             out: F64 = np.cumsum(terms, axis=2)
             return out
 
-        full: F64 = self._memo("bins", e, t_s, compute)
-        out: F64 = full[:, :bins, m - 1]
+        full: F64 = self._memo(f"bins{bins}/{upto}", e, t_s, compute)
+        out: F64 = full[:, :, m - 1]
         return out
 
     def flow(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
@@ -356,7 +357,8 @@ class Forecaster:
             )
             return out
         m = int(family.removeprefix("fremen"))
-        out = np.maximum(mu + self._bin_terms(e, t_s, m, self.params.values), 0.0)
+        v, upto = self.params.values, self.params.max_order
+        out = np.maximum(mu + self._bin_terms(e, t_s, m, v, upto), 0.0)
         return out
 
     def flow_bound(self, family: str, e: I64) -> F64:
@@ -377,7 +379,7 @@ class Forecaster:
             pseudo = self.state.cnt_profile[self.rows[e], :b, h]
         else:
             m = int(family.removeprefix("fremen"))
-            terms = self._bin_terms(e, t_s, m, b)
+            terms = self._bin_terms(e, t_s, m, b, min(self.params.max_order, DIRECTION_ORDERS))
             pseudo = np.maximum(self.rate[e, :b] + terms, 0.0)
             pseudo *= self.profile_windows[e, h][:, None]
         out: F64 = (pseudo + kappa_t * hist) / (pseudo.sum(axis=1, keepdims=True) + kappa_t)

@@ -13,8 +13,9 @@ Flow families (the expected number of detections per observed window), simplest 
 
 Direction families (the histogram of walking directions): ``static`` (the entry's historical
 histogram under a Dirichlet prior centred on its group's, itself centred on the map's),
-``fremen1`` … ``fremenM`` (per-bin FreMEn rates) and ``profile`` (per-bin counts in the profile
-bin), both shrunk toward the static histogram with ``direction_time_prior`` pseudo-detections.
+``fremen1``, ``fremen2`` (per-bin FreMEn rates, at most :data:`DIRECTION_ORDERS` periods per
+bin) and ``profile`` (per-bin counts in the profile bin), both shrunk toward the static
+histogram with ``direction_time_prior`` pseudo-detections.
 """
 
 from __future__ import annotations
@@ -35,8 +36,14 @@ def flow_families(max_order: int) -> tuple[str, ...]:
     return ("static", "shape", *(f"fremen{m}" for m in range(1, max_order + 1)), "profile")
 
 
+DIRECTION_ORDERS = 2
+"""Per-bin FreMEn directions use at most this many periods per bin: a direction bin's series is
+a fraction of its entry's, and higher orders only fit its noise (they also cost the most)."""
+
+
 def direction_families(max_order: int) -> tuple[str, ...]:
-    return ("static", *(f"fremen{m}" for m in range(1, max_order + 1)), "profile")
+    orders = min(max_order, DIRECTION_ORDERS)
+    return ("static", *(f"fremen{m}" for m in range(1, orders + 1)), "profile")
 
 
 def _kind(name: str) -> str:

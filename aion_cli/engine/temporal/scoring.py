@@ -9,7 +9,9 @@ flow family's forecast from the accumulators *without* the day and n_w the windo
 
 over the entry's observed windows (the sum of λ over the many empty windows is taken in
 closed form per profile bin, and for FreMEn from the day's Fourier sums wherever its lower
-bound shows the floor cannot bite; only the rest is evaluated window by window). The
+bound shows the floor cannot bite; only the rest is evaluated window by window). An entry with
+fewer directed detections before the day than ``direction_time_prior`` scores its time-varying
+direction families as its static one (their histograms cannot differ much from it). The
 accumulators then absorb the day: the fixed-sensor windows into the global observation
 block, other observed windows into the entries' own blocks, and the counts into
 ``cnt_fourier`` / ``cnt_profile`` — sparse, by (entry, value bin) pairs with detections.
@@ -249,18 +251,32 @@ def _score_directions(
     if not has.any():
         return
     ce, cs, directed = ce[has], cs[has], directed[has]
+    static = params.direction.index("static")
     day_score = np.zeros((candidates.size, len(params.direction)))
+    # an entry with fewer directed detections than the time prior's weight cannot have a
+    # time-varying histogram far from its static one: its other families score as static
+    evidence = fc.counts[:, :b].sum(axis=1) >= params.config.direction_time_prior
+    rich = evidence[ce]
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
+    rich_e, rich_h, rich_t, rich_n = ce[rich], pair_h[rich], pair_t[rich], directed[rich]
     for d, name in enumerate(params.direction):
         if not params.direction_enabled[d]:
             continue
-        q = fc.direction(name, ce, pair_h, pair_t)
-        logp = (directed * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
-        day_score[:, d] = np.bincount(ce, logp, minlength=candidates.size)
+        if d == static:
+            q = fc.direction(name, ce, pair_h, pair_t)
+            logp = (directed * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
+            day_score[:, d] = np.bincount(ce, logp, minlength=candidates.size)
+            continue
+        q = fc.direction(name, rich_e, rich_h, rich_t)
+        logp = (rich_n * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
+        day_score[:, d] = np.bincount(rich_e, logp, minlength=candidates.size)
+    for d in range(len(params.direction)):
+        if d != static and params.direction_enabled[d]:
+            day_score[~evidence, d] = day_score[~evidence, static]
     detections = np.bincount(ce, directed.sum(axis=1), minlength=candidates.size)
     _add_day(
         day_score,
-        params.direction.index("static"),
+        static,
         detections > 0,
         candidates,
         state.dir_score,
