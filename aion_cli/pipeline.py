@@ -32,7 +32,14 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks, decoded_chunks
+from aion_cli.detection_feed import (
+    HEADING_SOURCES,
+    DetectionCounts,
+    DetectionFeeder,
+    chunks,
+    decoded_chunks,
+    log_adapters,
+)
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.errors import (
     ConfigError,
@@ -95,11 +102,13 @@ class BuildOptions:
     map_frame: str = "map"
     base_frame: str = "base_link"
     graph_file: Path | None = None
+    nav_layer: str | None = None  # --nav-layer NAME|KEY (None: MESH_PLACES if any, else PLACES)
     derive_graph: bool = False
     continue_from: Path | None = None
     dsg_version: str | None = None
     batch_size: int = 4000
     timezone: str | None = None
+    detections_mapping: Path | None = None
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""
@@ -132,12 +141,16 @@ class BuildReport:
     graph_source: str = "none"
     graph_messages: int = 0
     graph_skipped: int = 0
+    graph_layer: str | None = None  # the navigational layer taken, e.g. "MESH_PLACES (3[1])"
     dsg_version: str | None = None
     detection_topics: list[str] = field(default_factory=list)
     graph_topics: list[str] = field(default_factory=list)
     inputs: list[dict[str, Any]] = field(default_factory=list)
     continued: bool = False
     notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    headings: dict[str, int] = field(default_factory=dict)
+    detection_decoding: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         span = (
@@ -163,27 +176,33 @@ class BuildReport:
             "observation": self.observation,
             "graph": {
                 "source": self.graph_source,
+                "layer": self.graph_layer,
                 "messages": self.graph_messages,
                 "skipped": self.graph_skipped,
                 "dsg_version": self.dsg_version,
                 "topics": self.graph_topics,
             },
             "detection_topics": self.detection_topics,
+            "detection_decoding": self.detection_decoding,
+            "headings": {k: int(self.headings.get(k, 0)) for k in HEADING_SOURCES},
             "inputs": self.inputs,
             "notes": self.notes,
+            "warnings": self.warnings,
         }
 
 
 # -- the build ---------------------------------------------------------------------------------
 def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer | None:
     """All TF into one buffer. Messages are decoded with numpy 4096 at a time
-    (:mod:`formats.tf_fast`, ~50x faster than rosbags); a chunk the fast decoder rejects (e.g.
-    big-endian CDR, another layout under the type name, a corrupt payload) is decoded message by
-    message with the log's generic decoder, which reports a corrupt payload as before."""
+    (:mod:`formats.tf_fast`, ~50x faster than rosbags) where the log's definition of the TF
+    type is the layout that decoder reads (:func:`formats.tf_fast.layout_matches`); messages
+    of other topics, and a chunk the fast decoder rejects (e.g. big-endian CDR, a corrupt
+    payload), are decoded message by message with the log's own definitions, which reports a
+    corrupt payload as before."""
     import logging
 
     from formats.tf import TfBuffer
-    from formats.tf_fast import decode_tf_messages
+    from formats.tf_fast import decode_tf_messages, layout_matches
 
     if not plan.tf:
         return None
@@ -191,11 +210,21 @@ def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer |
     progress.start("reading TF", logset.total(topics))
     buffer = TfBuffer()
     generic = 0
+    fast_ok: dict[tuple[str, str, str], bool] = {}
+
+    def fast(m: RawMessage) -> bool:
+        key = (m.topic, m.msgtype, m.encoding)
+        ok = fast_ok.get(key)
+        if ok is None:
+            ok = fast_ok[key] = layout_matches(m.msgtype, m.encoding, *logset.definition(*key))
+        return ok
 
     def add(chunk: list[RawMessage]) -> None:
         nonlocal generic
         static = np.fromiter((m.topic.endswith("_static") for m in chunk), bool, len(chunk))
         try:
+            if not all(map(fast, chunk)):
+                raise MessageDecodeError("the log defines TF in another layout")
             arrays = decode_tf_messages(chunk)
         except MessageDecodeError:
             generic += 1
@@ -245,8 +274,11 @@ class _Build:
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
         self.dsg_version = opts.dsg_version
+        self._nav_pin: str | None = None  # the layer key the log's first graph chose
         self._agents_until = np.iinfo(np.int64).min
         self._first_graph_error: MessageDecodeError | None = None
+        self._adapters: dict[tuple[str, str, str], Any] = {}
+        self._factory: Any = None
 
     def config(self) -> ModelConfig:
         """The model config: ``--config`` (or the defaults) with ``--tz`` as its time zone
@@ -309,19 +341,27 @@ class _Build:
             self.report.notes.append(
                 f"{out.name} existed and is replaced (use --map {out.name} to extend a map)"
             )
+        mappings = _load_mappings(opts.detections_mapping)
         with open_logs(list(opts.logs), opts.log_format) as logset:
-            plan = select_topics(logset.topics, opts.detection_topics, opts.graph_topic)
+            plan = select_topics(
+                logset.topics, opts.detection_topics, opts.graph_topic, mappings
+            )
             if not plan.detections:
-                found = [f"{t.topic} ({t.msgtype})" for t in logset.topics]
-                raise TopicNotFoundError(
-                    "the log has no people-detection topic of a supported type",
-                    candidates=found,
-                    hint="the log has: "
-                    + ", ".join(found[:8] + (["..."] if len(found) > 8 else []))
-                    + "; `aion info LOG` lists the types aion reads",
-                )
+                raise _no_detection_topic(logset, plan)
             self.report.detection_topics = sorted(plan.names("detections"))
             self.report.notes.extend(getattr(logset, "warnings", []))
+            self._adapters, self._factory, notes = log_adapters(
+                logset, plan.detections, plan.mappings
+            )
+            self.report.notes.extend(notes)
+            self.report.detection_decoding = {
+                info.topic: {
+                    "type": info.msgtype,
+                    "why": plan.reasons.get(info.topic, ""),
+                    "decoder": self._adapters[info.topic, info.msgtype, info.encoding].kind,
+                }
+                for info in plan.detections
+            }
             mapper = Mapper(config, self.previous.state if self.previous else None)
             tf = _load_tf(logset, plan, self.progress)
             self._observation(mapper, tf, plan, logset)
@@ -401,19 +441,24 @@ class _Build:
         opts = self.opts
         start = int(logset.start_ns)
         if opts.graph_file is not None:
-            from formats.dsg import load_graph_file
+            from formats.dsg import load_graph
 
             if plan.graph:
                 self.report.notes.append("--graph given: scene graphs in the log are ignored")
                 plan.graph = []
             self.report.graph_source = f"file {opts.graph_file.name}"
-            return load_graph_file(opts.graph_file, start)
+            loaded = load_graph(opts.graph_file, start, opts.nav_layer)
+            self.report.graph_layer = str(loaded.nav.layer)
+            self.report.notes.extend(loaded.notes())
+            return loaded.snapshot
         if plan.graph:
             self.report.graph_source = "log"
             self.report.graph_topics = sorted(plan.names("graph"))
             if opts.derive_graph:
                 self.report.notes.append("--derive-graph ignored: the log has scene graphs")
             return None
+        if opts.nav_layer is not None:
+            self.report.notes.append("--nav-layer ignored: no scene graph is read")
         if self.previous is not None and self.previous.graph is not None:
             self.report.graph_source = "continued map"
             return None
@@ -432,7 +477,7 @@ class _Build:
 
         grid = OccupancyGrid(config.derive_spacing)
         scratch = DetectionCounts()
-        feeder = DetectionFeeder(tf, self.opts.map_frame, scratch)
+        feeder = self._feeder(tf, scratch, link=False)
         topics = plan.names("detections")
         self.progress.start("deriving graph", logset.total(topics))
         for chunk, _ in chunks(logset.messages(topics), set(), self.opts.batch_size):
@@ -445,10 +490,19 @@ class _Build:
             )
         return graph
 
+    def _feeder(
+        self, tf: TfBuffer | None, counts: DetectionCounts, link: bool = True
+    ) -> DetectionFeeder:
+        """A feeder with the adapters chosen for the log's detection topics; ``link``: link
+        id-less detections into tracks (headings from motion)."""
+        return DetectionFeeder(
+            tf, self.opts.map_frame, counts, self._adapters, self._factory, linker=link
+        )
+
     def _stream(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper, fixed: bool
     ) -> None:
-        feeder = DetectionFeeder(tf, self.opts.map_frame, self.counts)
+        feeder = self._feeder(tf, self.counts)
         graph_topics = plan.names("graph")
         topics = plan.names("detections") | graph_topics
         self.progress.start("building map", logset.total(topics))
@@ -472,13 +526,86 @@ class _Build:
         self.report.detections_read = c.read
         self.report.detections_used = c.used
         self.report.dropped = dict(c.dropped)
+        self.report.headings = dict(c.headings)
+        self._check_decoding(plan)
         if c.stamp_fallbacks:
             self.report.notes.append(
                 f"{c.stamp_fallbacks:,} detections had a zero header stamp: their messages' "
                 "log times were used"
             )
+        if c.log_times:
+            self.report.notes.append(
+                f"{c.log_times:,} detections came from messages without a header (as mapped): "
+                "their messages' log times were used"
+            )
+        self._check_usable()
         if use_agents and self.report.graph_messages == 0:
             self.report.observation = _fixed_sensor_windows(mapper, logset)
+
+    def _check_decoding(self, plan: TopicPlan) -> None:
+        """Per detection topic: every message undecodable is the build's error (with the first
+        failure's reason); some undecodable is a warning with the counts."""
+        for info in plan.detections:
+            tc = self.counts.topics.get(info.topic)
+            entry = self.report.detection_decoding.setdefault(info.topic, {})
+            if tc is None:
+                entry.update(messages=0, undecodable=0)
+                continue
+            entry.update(messages=tc.messages, undecodable=tc.undecodable)
+            if tc.undecodable == 0:
+                continue
+            reason = tc.first_error or "unknown reason"
+            if tc.undecodable == tc.messages:
+                raise MessageDecodeError(
+                    f"none of the {tc.messages:,} messages on {info.topic} ({info.msgtype}) "
+                    f"could be decoded: {reason}",
+                    hint=tc.first_hint
+                    or "the log's definition of the type may differ from what aion reads",
+                )
+            self.report.warnings.append(
+                f"{tc.undecodable:,} of {tc.messages:,} messages on {info.topic} could not be "
+                f"decoded and were skipped (first: {reason})"
+            )
+
+    def _check_usable(self) -> None:
+        """A map without a single usable detection is an error, never a success: it names
+        what became of the detections read. A continued map that holds detections already
+        may take logs of which none could be used (a warning), or in which nobody was seen
+        (a note: their observed windows are real zeros)."""
+        c = self.counts
+        if c.used > 0:
+            return
+        drops = ", ".join(f"{k} {v:,}" for k, v in sorted(c.dropped.items()) if v)
+        messages = sum(t.messages for t in c.topics.values())
+        before = self.previous.manifest.get("counts", {}) if self.previous is not None else {}
+        if int(before.get("used", 0)) > 0:
+            if c.read == 0 and not drops:
+                self.report.notes.append(
+                    f"no person in the {messages:,} detection messages: only observed-empty "
+                    "windows were added to the map"
+                )
+            else:
+                self.report.warnings.append(
+                    f"none of the {c.read:,} people detections of these logs could be used "
+                    f"(dropped: {drops or 'none'}); the map keeps what it had"
+                )
+            return
+        if c.read == 0:
+            raise InputError(
+                f"no people detection in the {messages:,} messages of "
+                f"{', '.join(self.report.detection_topics)}"
+                + (f" (dropped: {drops})" if drops else ""),
+                hint="the topics carry no detections (check the class filter of vision_msgs, "
+                "or choose other topics with --detections-topic); no map was written",
+            )
+        hint = "no map was written"
+        if c.dropped.get("no_transform"):
+            hint = "check --map-frame and the log's TF; no map was written"
+        raise InputError(
+            f"none of the {c.read:,} people detections read could be used (dropped: "
+            f"{drops or 'none'})",
+            hint=hint,
+        )
 
     def _add_agent_poses(self, mapper: Mapper, agents: Trajectory | None) -> None:
         """Feed the robot poses of a snapshot's agent layer that are newer than those fed
@@ -528,16 +655,32 @@ class _Build:
         )
 
     def _decode_graph(self, logset: Any, msg: RawMessage) -> GraphSnapshot:
-        from formats.dsg import decode_dsg
+        """One DsgUpdate message as a snapshot, through the loader every command uses.
+
+        The navigational layer is ``--nav-layer``, else the one the first graph with places
+        chose by name, kept for the rest of the log (an early graph that has 3D places but no
+        2D places yet must not make the map switch layers later); when a later graph lacks
+        that layer it is chosen again.
+        """
+        from formats.dsg import GraphLayerError, decode_dsg
 
         decoded = logset.decode(msg)
         payload = np.asarray(decoded.layer_contents, dtype=np.uint8)
         stamp = decoded.header.stamp
-        t_ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-        result = decode_dsg(payload, t_ns or msg.log_time_ns, self.dsg_version)
+        t_ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec) or msg.log_time_ns
+        layer = self.opts.nav_layer or self._nav_pin
+        try:
+            result = decode_dsg(payload, t_ns, self.dsg_version, layer)
+        except GraphLayerError as exc:
+            if self.opts.nav_layer is not None or self._nav_pin is None:
+                raise GraphLayerError(f"{msg.topic}: {exc.message}", hint=exc.hint) from exc
+            result = decode_dsg(payload, t_ns, self.dsg_version)
         if self.dsg_version is None:  # pin the version that worked for the rest of the log
             self.dsg_version = result.version
+        if self.opts.nav_layer is None and self._nav_pin is None and len(result.snapshot.places):
+            self._nav_pin = result.layer.key
         self.report.dsg_version = result.version
+        self.report.graph_layer = str(result.layer)
         return result.snapshot
 
     def _span(self, logset: Any) -> None:
@@ -581,6 +724,36 @@ class _Build:
         out = self.report.output
         write_map(out, arrays, manifest, lock=False)  # run() holds the lock
         self.report.map_bytes = out.stat().st_size
+
+
+def _load_mappings(path: Path | None) -> list[Any]:
+    """The [[topic]] tables of ``--detections-mapping`` (none without it)."""
+    if path is None:
+        return []
+    from formats.detections.mapping import load_mapping
+
+    return load_mapping(Path(path))
+
+
+def _no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
+    """The error for a log with no detection topic to use: what it has, why generic topics
+    were skipped, and how to read another type."""
+    found = [f"{t.topic} ({t.msgtype})" for t in logset.topics]
+    if plan.skipped:
+        first = plan.skipped[0]
+        hint = (
+            f"{plan.reasons[first.topic]}; or map another type with --detections-mapping FILE"
+        )
+    else:
+        hint = (
+            "the log has: "
+            + ", ".join(found[:8] + (["..."] if len(found) > 8 else []))
+            + "; map a type with --detections-mapping FILE (`aion info LOG --suggest-mapping "
+            "TOPIC` writes one)"
+        )
+    return TopicNotFoundError(
+        "the log has no people-detection topic of a supported type", candidates=found, hint=hint
+    )
 
 
 def _add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:

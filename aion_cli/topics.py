@@ -1,39 +1,108 @@
-"""Which topics of a log ``aion build`` reads: people detections, scene graphs and TF, by type."""
+"""Which topics of a log ``aion build`` reads: people detections, scene graphs and TF, by type.
+
+People detections are taken automatically when their type is a people type (spencer
+``TrackedPersons``, ``people_msgs/People``, ``leg_tracker/PersonArray``, ...). Generic types
+that robots publish for many other things (:data:`GENERIC_TYPES`: ``PoseStamped`` navigation
+goals, ``PoseArray`` particle clouds, ``Marker(Array)`` visualisations) are taken only when the
+topic's name suggests people (:func:`name_suggests_people`) or the user names the topic with
+``--detections-topic``. A TOML mapping (``--detections-mapping``) adds topics of any type.
+:class:`TopicPlan` says why each topic is taken or skipped, for ``aion info``.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from aion_cli.engine.errors import TopicNotFoundError
 
 if TYPE_CHECKING:
+    from formats.detections.mapping import TopicMapping
     from formats.raw import TopicInfo
 
 DSG_TYPES = frozenset({"hydra_msgs/msg/DsgUpdate"})
 TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"})
 
+#: Types with a detection adapter that are not specific to people: used only from topics whose
+#: name suggests people, or that the user names.
+GENERIC_TYPES = frozenset(
+    {
+        "geometry_msgs/msg/PoseStamped",
+        "geometry_msgs/msg/PoseArray",
+        "geometry_msgs/msg/PoseWithCovarianceStamped",
+        "visualization_msgs/msg/Marker",
+        "visualization_msgs/msg/MarkerArray",
+    }
+)
+
+#: Words of a topic name that suggest people (singular, plural and tracker forms).
+PEOPLE_WORDS = frozenset(
+    {
+        "person", "persons", "people", "peoples", "human", "humans", "pedestrian",
+        "pedestrians", "ped", "peds", "agent", "agents", "track", "tracks", "tracked",
+        "tracker", "trackers", "tracking", "tracklet", "tracklets", "leg", "legs", "crowd",
+        "crowds",
+    }
+)  # fmt: skip
+
+_WORD = re.compile(r"[A-Z]?[a-z]+|[A-Z]+(?![a-z])|\d+")
+
+
+def name_suggests_people(topic: str) -> bool:
+    """Whether a word of ``topic`` (split at ``/``, ``_``, ``-``, digits and camelCase) is one
+    of :data:`PEOPLE_WORDS`: ``/leg_cluster_positions``, ``/people_tracker/poses`` and
+    ``/humanTracks`` do, ``/move_base_simple/goal`` and ``/legacy/poses`` do not."""
+    return any(w.lower() in PEOPLE_WORDS for w in _WORD.findall(topic))
+
+
+def _short(msgtype: str) -> str:
+    return msgtype.rsplit("/", 1)[-1]
+
 
 @dataclass
 class TopicPlan:
-    """The topics a build reads, by role."""
+    """The topics a build reads, by role, and why.
+
+    ``reasons``: per topic taken or skipped, one line saying why; ``skipped``: detection-type
+    topics that are not used (generic types on topics whose name does not suggest people, or
+    topics left out by ``--detections-topic``); ``mappings``: the TOML mapping of each mapped
+    detection topic."""
 
     detections: list[TopicInfo] = field(default_factory=list)
     graph: list[TopicInfo] = field(default_factory=list)
     tf: list[TopicInfo] = field(default_factory=list)
     ignored: list[TopicInfo] = field(default_factory=list)
+    skipped: list[TopicInfo] = field(default_factory=list)
+    reasons: dict[str, str] = field(default_factory=dict)
+    mappings: dict[str, TopicMapping] = field(default_factory=dict)
 
     def names(self, role: str) -> set[str]:
         return {t.topic for t in getattr(self, role)}
+
+
+def _why_automatic(info: TopicInfo) -> tuple[bool, str]:
+    """Whether a topic with a built-in adapter is taken without being named, and why."""
+    if info.msgtype not in GENERIC_TYPES:
+        return True, "people type"
+    kind = _short(info.msgtype)
+    if name_suggests_people(info.topic):
+        return True, f"generic {kind}, the name suggests people"
+    return False, (
+        f"skipped: generic {kind} on {info.topic} (name does not suggest people; "
+        "name it with --detections-topic)"
+    )
 
 
 def select_topics(
     topics: Iterable[TopicInfo],
     detection_topics: tuple[str, ...] = (),
     graph_topic: str | None = None,
+    mappings: Sequence[TopicMapping] = (),
 ) -> TopicPlan:
-    """Pick topics by message type; named topics must exist and have a usable type.
+    """Pick topics by message type (see the module docstring); named and mapped topics must
+    exist and have a usable type.
 
     Several detection topics are all used unless ``detection_topics`` names some: people
     trackers often publish the same people on more than one topic, so the report lists them
@@ -44,20 +113,35 @@ def select_topics(
     topics = list(topics)
     by_name = {t.topic: t for t in topics}
     plan = TopicPlan()
-    supported = [t for t in topics if adapter_for(t.msgtype) is not None]
+    mapped = _mapped_topics(by_name, mappings, plan)
+    supported = [t for t in topics if t.topic in mapped or adapter_for(t.msgtype) is not None]
     if detection_topics:
         for name in detection_topics:
             info = by_name.get(name)
-            if info is None or adapter_for(info.msgtype) is None:
+            if info is None or (name not in mapped and adapter_for(info.msgtype) is None):
                 raise TopicNotFoundError(
                     f"no people-detection topic {name!r} in the log"
                     + (f" (it has type {info.msgtype})" if info else ""),
                     candidates=[f"--detections-topic {t.topic}" for t in supported],
-                    hint=_candidate_hint("--detections-topic", supported, "people detections"),
+                    hint=_named_hint(name, info, supported),
                 )
-            plan.detections.append(info)
+            if info not in plan.detections:
+                plan.detections.append(info)
+                plan.reasons[name] = "named with --detections-topic" + (
+                    " (--detections-mapping)" if name in mapped else ""
+                )
+        for info in supported:
+            if info not in plan.detections:
+                plan.skipped.append(info)
+                plan.reasons[info.topic] = "skipped: not named with --detections-topic"
     else:
-        plan.detections = supported
+        for info in supported:
+            if info.topic in mapped:
+                take, why = True, "--detections-mapping"
+            else:
+                take, why = _why_automatic(info)
+            (plan.detections if take else plan.skipped).append(info)
+            plan.reasons[info.topic] = why
     dsg = [t for t in topics if t.msgtype in DSG_TYPES]
     if graph_topic is not None:
         info = by_name.get(graph_topic)
@@ -70,9 +154,55 @@ def select_topics(
         dsg = [info]
     plan.graph = dsg
     plan.tf = [t for t in topics if t.msgtype in TF_TYPES]
+    for info in plan.graph:
+        plan.reasons.setdefault(info.topic, "hydra_msgs/DsgUpdate")
     used = plan.names("detections") | plan.names("graph") | plan.names("tf")
     plan.ignored = [t for t in topics if t.topic not in used]
+    for info in plan.ignored:
+        plan.reasons.setdefault(
+            info.topic,
+            f"skipped: {_short(info.msgtype)} is not a type aion reads (a TOML mapping can "
+            "read it: --detections-mapping)",
+        )
     return plan
+
+
+def _mapped_topics(
+    by_name: dict[str, TopicInfo], mappings: Sequence[TopicMapping], plan: TopicPlan
+) -> set[str]:
+    """Topics of ``mappings`` (each must be in the log, with the mapping's type)."""
+    for m in mappings:
+        info = by_name.get(m.topic)
+        if info is None:
+            raise TopicNotFoundError(
+                f"the detections mapping names topic {m.topic!r}, which is not in the log",
+                candidates=[f"{t.topic} ({t.msgtype})" for t in by_name.values()],
+                hint="fix `topic = ...` in the mapping; `aion info LOG` lists the topics",
+            )
+        if info.msgtype != m.msgtype:
+            raise TopicNotFoundError(
+                f"the detections mapping reads {m.topic!r} as {m.msgtype}, but the log's "
+                f"{m.topic} carries {info.msgtype}",
+                hint=f"set msgtype = \"{info.msgtype}\" and check the paths, or write a new "
+                f"mapping with `aion info LOG --suggest-mapping {m.topic}`",
+            )
+        if m.topic in plan.mappings:
+            raise TopicNotFoundError(
+                f"the detections mapping has two [[topic]] tables for {m.topic!r}",
+                hint="keep one table per topic",
+            )
+        plan.mappings[m.topic] = m
+    return set(plan.mappings)
+
+
+def _named_hint(name: str, info: TopicInfo | None, supported: list[TopicInfo]) -> str:
+    hint = _candidate_hint("--detections-topic", supported, "people detections")
+    if info is None:
+        return hint
+    return (
+        f"{hint}; or map {info.msgtype} with --detections-mapping FILE (`aion info LOG "
+        f"--suggest-mapping {name}` writes one)"
+    )
 
 
 def _candidate_hint(option: str, infos: list[TopicInfo], what: str) -> str:

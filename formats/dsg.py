@@ -11,9 +11,19 @@ Three entry points:
   trying versions newest first is safe. :func:`decode_dsg` also reports which version worked so a
   caller can pin it for the rest of a log (each failed try costs a parse and a warning line that
   spark_dsg prints itself).
-- :func:`load_graph_file` reads Hydra's saved files (``dsg.json``, ``dsg_with_mesh.json``,
-  ``.sparkdsg``, legacy header-less JSON).
-- :func:`snapshot_from_dsg` converts an in-memory spark_dsg graph.
+- :func:`load_graph` reads Hydra's saved files (``dsg.json``, ``dsg_with_mesh.json``,
+  ``.sparkdsg``, legacy header-less JSON); a JSON file spark_dsg refuses is read leniently
+  (:mod:`formats.dsg_json`) and the result says what was skipped.
+- :func:`navigation` (behind all of them, and :func:`snapshot_from_dsg`) turns any spark_dsg graph
+  into the navigational :class:`GraphSnapshot`.
+
+**One navigational layer rule for every command that reads a scene graph** (build, simulate and
+the evaluation through it, info; predict / plan / export read the graph stored in the map):
+layers are spark_dsg *keys*, a layer id and a partition (``3[1]``). Without a choice, the 2D
+places are taken when the graph has any — the layer the graph names ``MESH_PLACES`` (spark_dsg
+1.1.x: partition 1 of layer 3, ``3[1]``; older Hydra graphs: layer 20) — else ``PLACES``
+(layer 3). ``--nav-layer NAME|KEY`` (``MESH_PLACES``, ``PLACES``, any name the graph gives a
+layer, ``3[1]``, ``20``) overrides it; :func:`parse_nav_layer` checks its syntax.
 
 spark_dsg is imported inside the functions (heavy import, see docs/CONTRACTS.md).
 """
@@ -26,10 +36,11 @@ import datetime
 import functools
 import itertools
 import os
+import re
 import sys
 import tempfile
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -59,6 +70,22 @@ ROOMS_LAYER = 4
 BUILDINGS_LAYER = 5
 AGENTS_LAYER = 2
 MESH_PLACES_PARTITION = 1
+#: Where Hydra put its 2D (mesh) places before spark_dsg 1.1 had layer partitions.
+LEGACY_MESH_PLACES_LAYER = 20
+#: Layer names of keys a graph does not name itself (spark_dsg ``DsgLayers`` defaults).
+DEFAULT_LAYER_NAMES: dict[tuple[int, int], str] = {
+    (1, 0): "SEGMENTS",
+    (2, 0): "OBJECTS",
+    (PLACES_LAYER, 0): "PLACES",
+    (PLACES_LAYER, MESH_PLACES_PARTITION): "MESH_PLACES",
+    (ROOMS_LAYER, 0): "ROOMS",
+    (BUILDINGS_LAYER, 0): "BUILDINGS",
+    (LEGACY_MESH_PLACES_LAYER, 0): "MESH_PLACES",
+}
+NAV_LAYER_HINT = (
+    "give a layer name (MESH_PLACES, PLACES) or key (3, 3[1], 20) with --nav-layer; "
+    "`aion info GRAPH_FILE` lists a graph's layers"
+)
 
 PayloadLike = bytes | bytearray | memoryview | npt.NDArray[np.uint8]
 
@@ -72,15 +99,60 @@ class GraphLayerError(InputError):
 
 
 @dataclass(frozen=True)
+class NavLayer:
+    """The layer key a navigational graph came from, and its name.
+
+    ``name`` is the upper-case spark_dsg name (the graph's own, else the default of the key;
+    ``""`` for a key nobody names); ``legacy`` marks MESH_PLACES found at layer 20.
+    """
+
+    layer: int
+    partition: int = 0
+    name: str = ""
+    legacy: bool = False
+
+    @property
+    def key(self) -> str:
+        """spark_dsg's notation: ``3`` for partition 0, ``3[1]`` otherwise."""
+        return str(self.layer) if self.partition == 0 else f"{self.layer}[{self.partition}]"
+
+    @property
+    def snapshot_name(self) -> str:
+        """The ``GraphSnapshot.layer_name`` (and predict's layer column): ``mesh_places``,
+        ``places``, another name in lower case, or ``layer_<key>``."""
+        return self.name.lower() if self.name else f"layer_{self.key}"
+
+    def __str__(self) -> str:
+        return f"{self.name} ({self.key})" if self.name else self.key
+
+
+@dataclass(frozen=True)
+class NavGraph:
+    """The navigational part of one spark_dsg graph, and how it was found.
+
+    ``frontiers`` counts the frontier places (``real_place`` false) left out; ``clearance``
+    (only when asked for) is each place's free-space ``distance`` attribute, 0 where the node
+    type has none (2D places).
+    """
+
+    snapshot: GraphSnapshot
+    layer: NavLayer
+    frontiers: int = 0
+    clearance: npt.NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True)
 class DecodedGraph:
     """A decoded payload and the spark_dsg format version that read it.
 
     ``version`` is ``"X.Y.Z"``; the installed spark_dsg's own version means ``from_binary``
     read the payload directly, any other value means the versioned-header fallback did.
+    ``layer`` is the navigational layer taken.
     """
 
     snapshot: GraphSnapshot
     version: str
+    layer: NavLayer = NavLayer(PLACES_LAYER, 0, "PLACES")
 
 
 @functools.cache
@@ -227,8 +299,9 @@ def read_dsg_payload(payload: PayloadLike, version: str | None = None) -> tuple[
 
 
 def _short(exc: Exception) -> str:
+    """The first line of an error, whitespace runs collapsed, at most 120 characters."""
     text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    return text[:120]
+    return " ".join(text.split())[:120]
 
 
 def decode_dsg(
@@ -237,14 +310,14 @@ def decode_dsg(
     """Decode a payload to a snapshot at ``t_ns`` and say which format version read it."""
     graph, used = read_dsg_payload(payload, version)
     try:
-        snapshot = snapshot_from_dsg(graph, t_ns, layer)
+        nav = navigation(graph, t_ns, layer)
     except UnicodeDecodeError as exc:  # spark_dsg reads a damaged node name without checking
         raise MessageDecodeError(
             f"scene-graph payload ({len(_as_bytes(payload))} bytes) holds a node name that is "
             f"not UTF-8 ({exc.reason} at byte {exc.start})",
             hint="the payload is damaged",
         ) from exc
-    return DecodedGraph(snapshot, used)
+    return DecodedGraph(nav.snapshot, used, nav.layer)
 
 
 def decode_dsg_update(
@@ -258,13 +331,104 @@ def decode_dsg_update(
     return decode_dsg(payload, t_ns, version, layer).snapshot
 
 
-def load_dsg_file(path: str | Path) -> Any:
-    """Load a spark_dsg graph file (``.json``, ``.bson``, ``.sparkdsg``), with clear errors."""
+@dataclass(frozen=True)
+class GraphFile:
+    """A scene-graph file read into a spark_dsg graph, and how.
+
+    ``reader`` is ``"spark_dsg"``, or ``"lenient"`` when spark_dsg refused the (JSON) file for
+    ``refused`` and :mod:`formats.dsg_json` read it, skipping what ``skipped`` counts;
+    ``rebuilt`` means only the attributes aion uses were read. ``version`` is the file's
+    spark_dsg format version (``"1.1.3"``), None for a legacy JSON without a version header.
+    """
+
+    path: Path
+    graph: Any
+    reader: str = "spark_dsg"
+    refused: str | None = None
+    skipped: dict[str, int] = field(default_factory=dict)
+    rebuilt: bool = False
+    rebuild_reason: str | None = None
+    mesh_dropped: bool = False
+    version: str | None = None
+
+    @property
+    def format(self) -> str:
+        """``"spark_dsg JSON 1.1.3"``, ``"spark_dsg JSON (legacy, no version header)"``..."""
+        kind = "JSON" if self.path.suffix.lower() == ".json" else "binary"
+        if self.version is None:
+            return f"spark_dsg {kind} (legacy, no version header)"
+        return f"spark_dsg {kind} {self.version}"
+
+    def notes(self) -> list[str]:
+        """What the user must be told: the lenient read and what it skipped."""
+        if self.reader != "lenient":
+            return []
+        from formats.dsg_json import skipped_text
+
+        text = (
+            f"{self.path.name}: spark_dsg refused it ({self.refused}); read leniently: "
+            f"{skipped_text(self.skipped)}"
+        )
+        if self.rebuilt:
+            text += (
+                f"; spark_dsg refused the repaired file too ({self.rebuild_reason}), so only "
+                "positions, names, labels, place distances and agent stamps were read"
+            )
+            if self.mesh_dropped:
+                text += " (the mesh was left out)"
+        return [text]
+
+
+@dataclass(frozen=True)
+class LoadedGraph:
+    """A scene-graph file and its navigational graph (what every command reads from a file)."""
+
+    file: GraphFile
+    nav: NavGraph
+
+    @property
+    def snapshot(self) -> GraphSnapshot:
+        return self.nav.snapshot
+
+    def notes(self) -> list[str]:
+        return self.file.notes()
+
+
+def _file_version(path: Path) -> str | None:
+    """The spark_dsg version in the file's header (None: a legacy file without one).
+
+    Binary files start with the 29-byte header of :func:`spark_header`; JSON files with a
+    version header start with ``"SPARK_DSG_header"`` (spark_dsg sorts keys, upper case first).
+    """
+    with contextlib.suppress(OSError), path.open("rb") as fh:
+        head = fh.read(512)
+        if path.suffix.lower() != ".json":
+            if len(head) >= 29 and head[:14] == spark_header("0.0.0")[:14]:
+                return f"{head[24]}.{head[26]}.{head[28]}"
+            return None
+        m = re.search(
+            rb'"SPARK_DSG_header"\s*:\s*\{.*?"major"\s*:\s*(\d+)\s*,\s*"minor"\s*:\s*(\d+)'
+            rb'\s*,\s*"patch"\s*:\s*(\d+)',
+            head,
+            re.DOTALL,
+        )
+        if m:
+            return ".".join(g.decode() for g in m.groups())
+    return None
+
+
+def read_dsg_file(path: str | Path) -> GraphFile:
+    """Read a spark_dsg graph file (``.json``, ``.bson``, ``.sparkdsg``), with clear errors.
+
+    A JSON file spark_dsg refuses is read leniently (:func:`formats.dsg_json.read_lenient`);
+    a binary file spark_dsg refuses, or a file that is not a graph at all, is a
+    :class:`GraphFileError`.
+    """
     import spark_dsg
 
     p = Path(path)
     if not p.is_file():
-        raise GraphFileError(f"scene-graph file not found: {p}", hint="check the --graph path")
+        raise GraphFileError(f"scene-graph file not found: {p}", hint="check the path")
     suffix = p.suffix.lower()
     if suffix not in (".json", ".bson", ".sparkdsg"):
         raise GraphFileError(
@@ -273,21 +437,57 @@ def load_dsg_file(path: str | Path) -> Any:
         )
     if p.stat().st_size == 0:
         raise GraphFileError(f"scene-graph file is empty: {p}")
+    version = _file_version(p)
     try:
         with _native_output_silenced():  # legacy (header-less) JSON files warn on stdout
-            return spark_dsg.DynamicSceneGraph.load(str(p))
-    except (RuntimeError, ValueError, IndexError, TypeError) as exc:
-        raise GraphFileError(
-            f"cannot read scene-graph file {p}: {_short(exc)}",
-            hint="expected a spark_dsg graph saved by Hydra (dsg.json / .sparkdsg)",
-        ) from exc
+            return GraphFile(p, spark_dsg.DynamicSceneGraph.load(str(p)), version=version)
+    except (RuntimeError, ValueError, IndexError, TypeError, MemoryError) as exc:
+        if suffix != ".json":
+            raise GraphFileError(
+                f"cannot read scene-graph file {p}: {_short(exc)}",
+                hint="expected a spark_dsg graph saved by Hydra (dsg.json / .sparkdsg)",
+            ) from exc
+        refused = _short(exc)
+    from formats.dsg_json import read_lenient
+
+    got = read_lenient(p)
+    return GraphFile(
+        p,
+        got.graph,
+        reader="lenient",
+        refused=refused,
+        skipped=got.skipped,
+        rebuilt=got.rebuilt,
+        rebuild_reason=got.rebuild_reason,
+        mesh_dropped=got.mesh_dropped,
+        version=version,
+    )
+
+
+def load_dsg_file(path: str | Path) -> Any:
+    """The spark_dsg graph of a file (:func:`read_dsg_file` without the reading report)."""
+    return read_dsg_file(path).graph
+
+
+def load_graph(
+    path: str | Path, t_ns: int = 0, layer: str | int | None = None, clearance: bool = False
+) -> LoadedGraph:
+    """Read a Hydra graph file and its navigational graph, stamped ``t_ns`` (files carry no
+    time). ``layer`` is ``--nav-layer`` (None: choose by name); ``clearance`` also collects
+    each place's ``distance`` (the simulator's free space)."""
+    file = read_dsg_file(path)
+    try:
+        nav = navigation(file.graph, t_ns, layer, clearance)
+    except GraphLayerError as exc:
+        raise GraphLayerError(f"{file.path.name}: {exc.message}", hint=exc.hint) from exc
+    return LoadedGraph(file, nav)
 
 
 def load_graph_file(
     path: str | Path, t_ns: int = 0, layer: str | int | None = None
 ) -> GraphSnapshot:
     """Read a Hydra graph file into a snapshot stamped ``t_ns`` (files carry no time)."""
-    return snapshot_from_dsg(load_dsg_file(path), t_ns, layer)
+    return load_graph(path, t_ns, layer).snapshot
 
 
 # --------------------------------------------------------------------------- conversion
@@ -302,31 +502,143 @@ def _named_key(G: Any, name: str, default: tuple[int, int]) -> tuple[int, int]:
     return (int(key.layer), int(key.partition)) if key is not None else default
 
 
-def _choose_places(G: Any, layer: str | int | None) -> tuple[Any | None, str]:
-    """Pick the navigational layer: 2D (mesh) places when present and non-empty, else places."""
-    places_key = _named_key(G, "PLACES", (PLACES_LAYER, 0))
-    mesh_key = _named_key(G, "MESH_PLACES", (PLACES_LAYER, MESH_PLACES_PARTITION))
+_KEY_RE = re.compile(r"^(\d+)(?:\[(\d+)\])?$")
+_NAME_RE = re.compile(r"^[A-Z][A-Z0-9_]*$")
+
+
+def parse_nav_layer(layer: str | int | None) -> tuple[int, int] | str | None:
+    """The request behind ``--nav-layer``: None (choose by name), a layer key
+    ``(layer, partition)`` (``"3[1]"``, ``"20"``, ``3``) or an upper-case layer name
+    (``"mesh_places"`` -> ``"MESH_PLACES"``). Bad syntax is a :class:`GraphLayerError`."""
     if layer is None:
-        mesh = _layer_view(G, *mesh_key)
-        if mesh is not None and mesh.num_nodes() > 0:
-            return mesh, "mesh_places"
-        return _layer_view(G, *places_key), "places"
-    if isinstance(layer, str) and layer.lower() in ("places", "mesh_places"):
-        key = places_key if layer.lower() == "places" else mesh_key
-        name = layer.lower()
-    elif isinstance(layer, int) or (isinstance(layer, str) and layer.strip().isdigit()):
-        key, name = (int(layer), 0), f"layer_{int(layer)}"
+        return None
+    if isinstance(layer, int) and not isinstance(layer, bool):
+        text = str(layer)
+    elif isinstance(layer, str):
+        text = layer.strip().replace(" ", "")
     else:
-        raise GraphLayerError(
-            f"unknown scene-graph layer {layer!r}", hint="use places, mesh_places or a layer id"
-        )
-    view = _layer_view(G, *key)
-    if view is None:
-        known = ", ".join(str(k) for k in G.layer_keys)
-        raise GraphLayerError(
-            f"scene graph has no layer {layer!r} (key {key[0]}[{key[1]}]); layers: {known}"
-        )
-    return view, name
+        raise GraphLayerError(f"bad navigational layer {layer!r}", hint=NAV_LAYER_HINT)
+    m = _KEY_RE.match(text)
+    if m:
+        key = (int(m.group(1)), int(m.group(2) or 0))
+        if max(key) >= 2**32:
+            raise GraphLayerError(f"navigational layer key {layer!r} is out of range")
+        return key
+    name = text.upper().replace("-", "_")
+    if _NAME_RE.match(name):
+        return name
+    raise GraphLayerError(f"bad navigational layer {layer!r}", hint=NAV_LAYER_HINT)
+
+
+def _graph_names(G: Any) -> dict[str, tuple[int, int]]:
+    """The graph's own layer names (spark_dsg >= 1.1 graphs carry them)."""
+    names = getattr(G, "layer_names", None) or {}
+    return {str(n): (int(k.layer), int(k.partition)) for n, k in dict(names).items()}
+
+
+def _name_of(G: Any, key: tuple[int, int]) -> tuple[str, bool]:
+    """The name of a key (the graph's own first, MESH_PLACES / PLACES preferred) and whether it
+    is the legacy MESH_PLACES layer 20."""
+    names = _graph_names(G)
+    named = [n for n, k in names.items() if k == key]
+    for preferred in ("MESH_PLACES", "PLACES", "OBJECTS"):  # OBJECTS and AGENTS share layer 2
+        if preferred in named:
+            return preferred, False
+    if named:
+        return sorted(named)[0], False
+    name = DEFAULT_LAYER_NAMES.get(key, "")
+    if name in names:  # the graph gives this name to another key
+        return "", False
+    return name, key == (LEGACY_MESH_PLACES_LAYER, 0) and name == "MESH_PLACES"
+
+
+def _nav(G: Any, key: tuple[int, int]) -> NavLayer:
+    name, legacy = _name_of(G, key)
+    return NavLayer(key[0], key[1], name, legacy)
+
+
+def _has(G: Any, key: tuple[int, int]) -> bool:
+    return bool(G.has_layer(key[0], key[1]))
+
+
+def _mesh_place_keys(G: Any) -> list[tuple[int, int]]:
+    """Where a graph may keep its 2D places: the key it names MESH_PLACES, ``3[1]`` and the
+    legacy layer 20 (the defaults only when the graph does not name them otherwise)."""
+    keys = []
+    named = _graph_names(G).get("MESH_PLACES")
+    if named is not None:
+        keys.append(named)
+    for key in ((PLACES_LAYER, MESH_PLACES_PARTITION), (LEGACY_MESH_PLACES_LAYER, 0)):
+        if key not in keys and _name_of(G, key)[0] == "MESH_PLACES":
+            keys.append(key)
+    return keys
+
+
+def graph_layers(G: Any) -> list[tuple[str, str, int]]:
+    """Every layer and partition of a graph as ``(key, name, nodes)``, sorted by key."""
+    views = list(G.layers) + list(G.layer_partitions)
+    rows = {}
+    for v in views:
+        key = (int(v.id), int(v.partition))
+        name = _name_of(G, key)[0]
+        if not name and key[1] != 0 and key[0] == _named_key(G, "AGENTS", (AGENTS_LAYER, 0))[0]:
+            name = "AGENTS"  # one partition per robot
+        rows[key] = (NavLayer(*key).key, name, int(v.num_nodes()))
+    return [rows[k] for k in sorted(rows)]
+
+
+def layers_text(G: Any) -> str:
+    """``"3 PLACES (437 nodes), 3[1] MESH_PLACES (96 nodes), ..."`` for messages."""
+    return ", ".join(
+        f"{key}{' ' + name if name else ''} ({n:,} node{'' if n == 1 else 's'})"
+        for key, name, n in graph_layers(G)
+    )
+
+
+def _missing_layer(G: Any, what: str) -> GraphLayerError:
+    return GraphLayerError(
+        f"scene graph has no layer {what}; its layers: {layers_text(G) or 'none'}",
+        hint=NAV_LAYER_HINT,
+    )
+
+
+def choose_nav_layer(G: Any, layer: str | int | None = None) -> NavLayer:
+    """The navigational layer of graph ``G`` (see the module docstring for the rule).
+
+    ``layer`` is ``--nav-layer``: None, a name or a key (:func:`parse_nav_layer`). A requested
+    layer the graph does not have is a :class:`GraphLayerError` listing the graph's layers.
+    """
+    request = parse_nav_layer(layer)
+    places = _named_key(G, "PLACES", (PLACES_LAYER, 0))
+    if request is None:
+        for key in _mesh_place_keys(G):
+            if _has(G, key) and G.get_layer(*key).num_nodes() > 0:
+                return _nav(G, key)
+        return _nav(G, places)
+    if isinstance(request, tuple):
+        if not _has(G, request):
+            raise _missing_layer(G, NavLayer(*request).key)
+        return _nav(G, request)
+    if request == "MESH_PLACES":
+        keys = _mesh_place_keys(G)
+        found = [k for k in keys if _has(G, k)]
+        if not found:
+            raise _missing_layer(
+                G, "MESH_PLACES (" + " or ".join(NavLayer(*k).key for k in keys) + ")"
+            )
+        nonempty = [k for k in found if G.get_layer(*k).num_nodes() > 0]
+        return _nav(G, (nonempty or found)[0])
+    named = _graph_names(G).get(request)
+    if named is None and request == "PLACES":
+        named = places
+    if named is None:
+        default = [k for k, n in DEFAULT_LAYER_NAMES.items() if n == request]
+        named = default[0] if default else None
+    if named is None:
+        raise _missing_layer(G, f"named {request}")
+    if not _has(G, named):
+        raise _missing_layer(G, f"{request} ({NavLayer(*named).key})")
+    return NavLayer(named[0], named[1], request)
 
 
 def _label(symbol: Any, attrs: Any) -> str:
@@ -342,29 +654,37 @@ def _label(symbol: Any, attrs: Any) -> str:
 @dataclass
 class _LayerScan:
     """One pass over a layer's nodes: the layer and, per kept node, its in-layer neighbours
-    (``siblings``, which hold the layer's edges seen from each end)."""
+    (``siblings``, which hold the layer's edges seen from each end), the number of frontier
+    nodes left out and (when asked) each kept node's ``distance``."""
 
     layer: Layer
     neighbours: list[set[int]]
+    frontiers: int = 0
+    clearance: npt.NDArray[np.float64] | None = None
 
 
-def _scan(view: Any | None, skip_frontiers: bool = False, edges: bool = False) -> _LayerScan:
+def _scan(
+    view: Any | None, skip_frontiers: bool = False, edges: bool = False, clearance: bool = False
+) -> _LayerScan:
     """Collect ids, positions, parents, labels (and neighbour sets) of a layer in one pass.
 
     Each node's attributes object is fetched once; positions (views into graph memory) are
     copied into one array right away.
     """
+    none = np.zeros(0) if clearance else None
     if view is None:
-        return _LayerScan(Layer.empty(), [])
+        return _LayerScan(Layer.empty(), [], 0, none)
     nodes = list(view.nodes)
     attrs = [node.attributes for node in nodes]
+    frontiers = 0
     if skip_frontiers:
         keep = [getattr(a, "real_place", True) for a in attrs]
         if not all(keep):
+            frontiers = len(keep) - sum(map(bool, keep))
             nodes = [n for n, k in zip(nodes, keep, strict=True) if k]
             attrs = [a for a, k in zip(attrs, keep, strict=True) if k]
     if not nodes:
-        return _LayerScan(Layer.empty(), [])
+        return _LayerScan(Layer.empty(), [], frontiers, none)
     n = len(nodes)
     symbols = [node.id for node in nodes]
     ids = np.fromiter((s.value for s in symbols), dtype=np.uint64, count=n)
@@ -373,7 +693,10 @@ def _scan(view: Any | None, skip_frontiers: bool = False, edges: bool = False) -
     parent = np.fromiter((0 if p is None else p for p in parents), dtype=np.uint64, count=n)
     labels = tuple(map(_label, symbols, attrs))
     neighbours = [node.siblings() for node in nodes] if edges else []
-    return _LayerScan(Layer(ids, xyz, parent, labels), neighbours)
+    dist = None
+    if clearance:
+        dist = np.fromiter((float(getattr(a, "distance", 0.0)) for a in attrs), np.float64, n)
+    return _LayerScan(Layer(ids, xyz, parent, labels), neighbours, frontiers, dist)
 
 
 def _nodes(view: Any | None, skip_frontiers: bool = False) -> Layer:
@@ -464,21 +787,25 @@ def _agents(G: Any) -> Trajectory | None:
     return Trajectory(t_arr[order], xyz[order])
 
 
-def snapshot_from_dsg(G: Any, t_ns: int, layer: str | int | None = None) -> GraphSnapshot:
-    """Convert a spark_dsg ``DynamicSceneGraph`` into the navigational :class:`GraphSnapshot`.
+def navigation(
+    G: Any, t_ns: int, layer: str | int | None = None, clearance: bool = False
+) -> NavGraph:
+    """The navigational graph of a spark_dsg ``DynamicSceneGraph`` (a saved file or a decoded
+    DsgUpdate payload alike) and the layer it came from.
 
-    ``layer``: ``None`` (mesh places when present and non-empty, else places), ``"places"``,
-    ``"mesh_places"`` or an integer layer id. Frontier places (``real_place == False``) are left
-    out; edges to them too. Parents are kept only when they are in the layer above.
+    ``layer``: ``--nav-layer`` (None: MESH_PLACES when present and non-empty, else PLACES; see
+    :func:`choose_nav_layer`). Frontier places (``real_place == False``) are left out; edges to
+    them too. Parents are kept only when they are in the layer above.
     """
-    view, name = _choose_places(G, layer)
+    nav = choose_nav_layer(G, layer)
+    view = _layer_view(G, nav.layer, nav.partition)
     buildings = _nodes(_layer_view(G, *_named_key(G, "BUILDINGS", (BUILDINGS_LAYER, 0))))
     rooms = _keep_parents_in(
         _nodes(_layer_view(G, *_named_key(G, "ROOMS", (ROOMS_LAYER, 0)))), buildings
     )
-    scan = _scan(view, skip_frontiers=True, edges=True)
+    scan = _scan(view, skip_frontiers=True, edges=True, clearance=clearance)
     places = _keep_parents_in(scan.layer, rooms)
-    return GraphSnapshot(
+    snapshot = GraphSnapshot(
         t_ns=int(t_ns),
         places=places,
         edges=_edges(places.ids, scan.neighbours),
@@ -486,5 +813,11 @@ def snapshot_from_dsg(G: Any, t_ns: int, layer: str | int | None = None) -> Grap
         buildings=buildings,
         mesh=_mesh(G),
         agents=_agents(G),
-        layer_name=name,
+        layer_name=nav.snapshot_name,
     )
+    return NavGraph(snapshot, nav, scan.frontiers, scan.clearance)
+
+
+def snapshot_from_dsg(G: Any, t_ns: int, layer: str | int | None = None) -> GraphSnapshot:
+    """The navigational :class:`GraphSnapshot` of a spark_dsg graph (:func:`navigation`)."""
+    return navigation(G, t_ns, layer).snapshot

@@ -10,9 +10,16 @@ log itself embeds.
 MCAP files are read with the ``mcap`` library directly (rosbags refuses ROS 1-profile MCAP, and the
 raw bytes are what the numpy adapters want): chunks that hold no requested topic are skipped
 without decompressing them. A truncated or partly corrupt MCAP is read linearly up to the break,
-and :attr:`LogSet.warnings` says where reading stopped. The storage files of rosbag2 folders with
-(uncompressed) mcap storage go the same way; ROS 1 bags and sqlite3 or compressed rosbag2 folders
-are read with the rosbags readers.
+and :attr:`LogSet.warnings` says where reading stopped; messages a file holds out of log-time
+order come out in order. The storage files of rosbag2 folders with (uncompressed) mcap storage go
+the same way; ROS 1 bags and sqlite3 or compressed rosbag2 folders are read with the rosbags
+readers, a rosbag2 folder's storage files matched to its topics by topic and type (not by QoS).
+
+rosbag2 storage files without ``metadata.yaml`` (a folder of them, one ``.db3`` given alone, or a
+folder whose metadata.yaml is unusable) are indexed in memory from the files themselves, as
+``ros2 bag reindex`` would (:func:`reindex` returns that metadata). Files compressed whole with
+zstd (``*.db3.zstd``, ``*.mcap.zstd``: ``compression_mode: file``) given without their folder are
+read through a decompressed temporary copy (:mod:`formats.rosbag2_storage`), removed on close.
 
 :meth:`LogSet.recorded_windows` says which time windows the logs recorded anything in, from the
 same indexes (:mod:`formats.recorded`), without reading message payloads where a container
@@ -27,8 +34,9 @@ import re
 import struct
 import zlib
 from array import array
+from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from operator import attrgetter
 from pathlib import Path
 from types import TracebackType
@@ -52,6 +60,7 @@ FORMATS: tuple[str, ...] = ("mcap", "bag", "rosbag2")
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _BAG_MAGIC = b"#ROSBAG V2.0"
 _SQLITE_MAGIC = b"SQLite format 3\x00"
+_ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
 _SEPARATOR = re.compile(r"^={3,}[ \t]*$", re.MULTILINE)
 _MESSAGE_ENCODINGS: dict[str, Encoding] = {"cdr": "cdr", "ros1": "ros1"}
 _MCAP_READ_ERRORS = (
@@ -89,6 +98,7 @@ class _Topic:
     idl: bool = False  # definition is ROS 2 IDL rather than .msg text
     count: int = 0
     keys: list[Any] = field(default_factory=list)  # channel ids or rosbags connections
+    qos: str = ""  # rosbag2's offered_qos_profiles (YAML text) where the storage keeps it
 
 
 class _Source:
@@ -143,11 +153,26 @@ class _McapSource(_Source):
         # log times of every message, kept by the linear scan of a file without a usable
         # summary: recorded_windows then needs no second read (8 bytes per message)
         self._scanned_times: npt.NDArray[np.int64] | None = None
+        # with messages out of order in a file read linearly: the earliest log time of each
+        # group of records holding messages and of all after it (see _records_linear)
+        self._later_min: npt.NDArray[np.int64] | None = None
         self._profile = ""
+        self._channel_count = 0  # as the summary's statistics count them
         channels, schemas, counts, start, end = self._read_summary()
         if channels is None:
             channels, schemas, counts, start, end = self._scan()
+        elif _summary_lacks_records(channels, schemas, self._channel_count):
+            # the summary may leave out the channel and schema records (the MCAP spec makes
+            # repeating them optional): take them from the data section; messages still go
+            # through the chunk indexes
+            found_channels, found_schemas, *_ = self._scan()
+            channels = {**found_channels, **channels}
+            schemas = {**found_schemas, **schemas}
         self._channels: dict[int, tuple[str, str, Encoding]] = {}
+        # every channel, ROS or not: what records() reads (the conformance tests use it)
+        self.channel_topics: dict[int, str] = {
+            cid: channel.topic for cid, channel in sorted(channels.items())
+        }
         self.topics = {}
         for cid, channel in sorted(channels.items()):
             schema = schemas.get(channel.schema_id)
@@ -166,6 +191,7 @@ class _McapSource(_Source):
                 info = self.topics[channel.topic, msgtype] = _Topic(
                     channel.topic, msgtype, encoding, definition, schema.encoding == "ros2idl"
                 )
+                info.qos = (channel.metadata or {}).get("offered_qos_profiles", "")
             info.count += counts.get(cid, 0)
             info.keys.append(cid)
             self._channels[cid] = (channel.topic, msgtype, encoding)
@@ -194,6 +220,7 @@ class _McapSource(_Source):
         if summary is None or summary.statistics is None or not summary.chunk_indexes:
             return None, None, {}, 0, 0
         stats = summary.statistics
+        self._channel_count = stats.channel_count
         self._chunk_indexes = sorted(
             summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
         )
@@ -215,21 +242,32 @@ class _McapSource(_Source):
         schemas: dict[int, Any] = {}
         counts: dict[int, int] = {}
         times = array("Q")
+        group_starts = array("Q")  # earliest log time of each record group holding messages
         start, end, n = 2**63 - 1, 0, 0
-        for record in self._linear_records(scanning=True):
-            if isinstance(record, Message):
-                counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
-                times.append(record.log_time)
-                start = min(start, record.log_time)
-                end = max(end, record.log_time)
-                n += 1
-            elif isinstance(record, Channel):
-                channels[record.id] = record
-            elif isinstance(record, Schema):
-                schemas[record.id] = record
-            elif isinstance(record, Header):
-                self._profile = record.profile
+        for group in self._linear_groups(scanning=True):
+            first = 2**64 - 1
+            for record in group:
+                if isinstance(record, Message):
+                    counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
+                    times.append(record.log_time)
+                    first = min(first, record.log_time)
+                    end = max(end, record.log_time)
+                    n += 1
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                elif isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Header):
+                    self._profile = record.profile
+            if first != 2**64 - 1:
+                group_starts.append(first)
+                start = min(start, first)
         self._scanned_times = np.frombuffer(times, dtype=np.uint64).astype(np.int64)
+        if np.any(np.diff(self._scanned_times) < 0):
+            # messages out of log-time order in the file: what a linear read may still hold
+            # back is bounded by the earliest message of every later group
+            starts = np.frombuffer(group_starts, dtype=np.uint64).astype(np.int64)
+            self._later_min = np.minimum.accumulate(starts[::-1])[::-1]
         if self._stop_offset is not None:
             self.warnings.append(
                 f"{self.path.name}: truncated or corrupt MCAP: read stopped at byte "
@@ -238,9 +276,17 @@ class _McapSource(_Source):
             )
         return channels, schemas, counts, (start if n else 0), end
 
-    def _linear_records(self, *, scanning: bool = False) -> Iterator[Any]:
-        """Every record of the file in file order, chunks broken up with their messages sorted
-        by log time; stops quietly at the first unreadable record (remembered when scanning)."""
+    def _linear_records(self) -> Iterator[Any]:
+        """Every message record of the file in file order, chunks broken up with their
+        messages sorted by log time; stops quietly at the first unreadable record."""
+        for group in self._linear_groups():
+            yield from group
+
+    def _linear_groups(self, *, scanning: bool = False) -> Iterator[list[Any]]:
+        """The file's top-level records in file order, each as a list: a chunk broken up with
+        its records sorted by log time, any other record alone; only message records unless
+        ``scanning``. Stops quietly at the first unreadable record (remembered when
+        scanning)."""
         from mcap.stream_reader import StreamReader
 
         with self.path.open("rb") as stream:  # own handle: iterations may interleave
@@ -249,8 +295,8 @@ class _McapSource(_Source):
 
     def _split_records(
         self, records: Iterator[Any], stream: IO[bytes], scanning: bool
-    ) -> Iterator[Any]:
-        """Records of ``records`` with chunks broken up; ``stream`` gives the byte offset of the
+    ) -> Iterator[list[Any]]:
+        """Groups of ``records`` (chunks broken up); ``stream`` gives the byte offset of the
         last good record when reading fails."""
         from mcap.records import Chunk, Message
         from mcap.stream_reader import breakup_chunk
@@ -271,9 +317,12 @@ class _McapSource(_Source):
                     self._stop_offset = good
                 return
             good = stream.tell()
-            for part in parts:
-                if scanning or isinstance(part, Message):
-                    yield part
+            if scanning:
+                yield parts
+            else:
+                messages = [part for part in parts if isinstance(part, Message)]
+                if messages:
+                    yield messages
 
     # -- reading ---------------------------------------------------------------------------
 
@@ -285,19 +334,45 @@ class _McapSource(_Source):
         }
         if not wanted:
             return iter(())
-        if self._chunk_indexes is None:
-            return self._messages_linear(wanted)
-        if _chunks_overlap(self._chunk_indexes):
-            return self._messages_library(wanted)
-        return self._messages_chunks(wanted)
+        return self._raw_messages(wanted)
 
-    def _messages_chunks(self, wanted: set[int]) -> Iterator[RawMessage]:
+    def _raw_messages(self, wanted: set[int]) -> Iterator[RawMessage]:
+        channels = self._channels
+        if self._chunk_indexes is not None and not _chunks_overlap(self._chunk_indexes):
+            # the hot path: a chunk's messages at a time, no generator step per message
+            for selected in self._chunk_batches(wanted):
+                for log_time, channel_id, data in selected:
+                    topic, msgtype, encoding = channels[channel_id]
+                    yield RawMessage(topic, msgtype, log_time, data, encoding)
+            return
+        for log_time, channel_id, data in self._records(wanted):
+            topic, msgtype, encoding = channels[channel_id]
+            yield RawMessage(topic, msgtype, log_time, data, encoding)
+
+    def records(self, channel_ids: Iterable[int] | None = None) -> Iterator[tuple[int, int, bytes]]:
+        """``(log_time, channel_id, data)`` of every message on ``channel_ids`` (all channels
+        of the file when None, ROS or not: see :attr:`channel_topics`), in log-time order, read
+        exactly as :meth:`messages` reads ROS topics. For tests of the MCAP reading itself on
+        files whose channels are not ROS (the MCAP conformance suite)."""
+        wanted = set(self.channel_topics if channel_ids is None else channel_ids)
+        if not wanted:
+            return iter(())
+        return self._records(wanted)
+
+    def _records(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
+        """The messages of the ``wanted`` channels by the fastest path the file allows."""
+        if self._chunk_indexes is None:
+            return self._records_linear(wanted)
+        if _chunks_overlap(self._chunk_indexes):
+            return self._records_library(wanted)
+        return (record for batch in self._chunk_batches(wanted) for record in batch)
+
+    def _chunk_batches(self, wanted: set[int]) -> Iterator[list[tuple[int, int, bytes]]]:
         """Time order by chunk: chunk indexes sorted by start time do not overlap, so each
-        chunk's messages sorted by log time continue the stream."""
+        chunk's messages sorted by log time (one list per chunk) continue the stream."""
         from mcap.data_stream import ReadDataStream
         from mcap.records import Chunk
 
-        channels = self._channels
         stream = self._stream
         assert self._chunk_indexes is not None
         for index in self._chunk_indexes:
@@ -312,33 +387,50 @@ class _McapSource(_Source):
                     f"({exc}); the rest of the file is ignored"
                 )
                 return
-            for log_time, channel_id, data in selected:
-                topic, msgtype, encoding = channels[channel_id]
-                yield RawMessage(topic, msgtype, log_time, data, encoding)
+            yield selected
 
-    def _messages_library(self, wanted: set[int]) -> Iterator[RawMessage]:
+    def _records_library(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
         """Overlapping chunks: let the mcap reader interleave them in log-time order."""
         from mcap.reader import SeekingReader
 
-        topics = {self._channels[cid][0] for cid in wanted}
-        channels = self._channels
+        topics = {self.channel_topics[cid] for cid in wanted}
         reader = SeekingReader(self._stream, validate_crcs=True)
         try:
             for _, channel, r in reader.iter_messages(topics=topics, log_time_order=True):
                 if channel.id in wanted:
-                    topic, msgtype, encoding = channels[channel.id]
-                    yield RawMessage(topic, msgtype, r.log_time, r.data, encoding)
+                    yield r.log_time, channel.id, r.data
         except self._errors as exc:
             self.warnings.append(
                 f"{self.path.name}: corrupt chunk ({exc}); the rest of the file is ignored"
             )
 
-    def _messages_linear(self, wanted: set[int]) -> Iterator[RawMessage]:
-        channels = self._channels
-        for r in self._linear_records():
-            if r.channel_id in wanted:
-                topic, msgtype, encoding = channels[r.channel_id]
-                yield RawMessage(topic, msgtype, r.log_time, r.data, encoding)
+    def _records_linear(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
+        """A file without a usable summary, read in file order. When the opening scan found
+        messages out of log-time order (unchunked writers that log as messages arrive, or
+        overlapping chunks), they are put in order with a heap that holds a message back only
+        while a later group of records can still hold an earlier one (what ``_later_min``
+        says); ties keep file order."""
+        later_min = self._later_min
+        if later_min is None:
+            for r in self._linear_records():
+                if r.channel_id in wanted:
+                    yield r.log_time, r.channel_id, r.data
+            return
+        heap: list[tuple[int, int, int, bytes]] = []
+        seq = 0
+        groups = len(later_min)
+        for k, group in enumerate(self._linear_groups()):
+            for r in group:
+                if r.channel_id in wanted:
+                    heapq.heappush(heap, (r.log_time, seq, r.channel_id, r.data))
+                    seq += 1
+            bound = int(later_min[k + 1]) if k + 1 < groups else None
+            while heap and (bound is None or heap[0][0] <= bound):
+                log_time, _, channel_id, data = heapq.heappop(heap)
+                yield log_time, channel_id, data
+        while heap:
+            log_time, _, channel_id, data = heapq.heappop(heap)
+            yield log_time, channel_id, data
 
     # -- recorded windows ------------------------------------------------------------------
 
@@ -479,6 +571,14 @@ def _chunks_overlap(indexes: list[Any]) -> bool:
     return False
 
 
+def _summary_lacks_records(channels: dict[int, Any], schemas: dict[int, Any], count: int) -> bool:
+    """Whether a summary section leaves out channels its statistics count, or schemas its
+    channels use (schema id 0: a channel without schema)."""
+    if len(channels) < count:
+        return True
+    return any(c.schema_id != 0 and c.schema_id not in schemas for c in channels.values())
+
+
 def _all_ros1(topics: dict[tuple[str, str], _Topic]) -> bool:
     return bool(topics) and all(t.encoding == "ros1" for t in topics.values())
 
@@ -514,7 +614,7 @@ class _RosbagsSource(_Source):
                 )
             info.count += conn.msgcount
             info.keys.append(conn)
-        total = sum(t.count for t in self.topics.values())
+        start, end = (reader.start_time, reader.end_time) if kind == "bag" else (0, 0)
         if kind == "bag":
             fmt_name = "bag"
             size = path.stat().st_size
@@ -523,9 +623,30 @@ class _RosbagsSource(_Source):
             mcap = any("mcap" in type(x).__name__.lower() for x in storages)
             fmt_name = "rosbag2-mcap" if mcap else "rosbag2-sqlite3"
             size = sum(p.stat().st_size for p in path.iterdir() if p.is_file())
-        start = reader.start_time if total else 0
-        end = max(reader.end_time - 1, start) if total else 0  # rosbags' end is exclusive
+            start, end = self._count_storages(storages, reader)
+        total = sum(t.count for t in self.topics.values())
+        start = start if total else 0
+        end = max(end - 1, start) if total else 0  # rosbags' end is exclusive
         self.file = LogFile(path, fmt_name, size, start, end, total)
+
+    def _count_storages(self, storages: list[Any], reader: Any) -> tuple[int, int]:
+        """Message counts per topic and the time range (end exclusive) of a rosbag2 folder
+        from its storage files (SQL counts and MIN / MAX over the indexed timestamps, or the
+        MCAP statistics, which rosbags read at open) rather than from metadata.yaml: real
+        metadata can be wrong (rosbag2's own wbag test bags state another recording's time
+        range). Without storage readers, metadata.yaml's figures stay."""
+        if not storages:
+            return reader.start_time, reader.end_time
+        counted: Counter[tuple[str, str]] = Counter()
+        for storage in storages:
+            for conn in storage.connections:
+                counted[conn.topic, normalize_msgtype(conn.msgtype)] += conn.msgcount
+        for key, info in self.topics.items():
+            info.count = counted.get(key, 0)
+        metas = [s.metadata for s in storages if s.metadata.message_count > 0]
+        if not metas:
+            return 0, 0
+        return min(m.start_time for m in metas), max(m.end_time for m in metas)
 
     def plain_mcap_files(self) -> list[Path]:
         """The storage files of an uncompressed rosbag2 folder with mcap storage, else []."""
@@ -538,6 +659,14 @@ class _RosbagsSource(_Source):
         return [p for p in paths if isinstance(p, Path)]
 
     def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+        if self.file.format != "bag":
+            storages = getattr(self._reader.storage, "storages", None)
+            if isinstance(storages, list):
+                wanted = _wanted_types(self.topics, topics)
+                if not wanted:
+                    return iter(())
+                unzstd = self._reader.compression_mode == "message"
+                return _storage_messages(self.path, storages, wanted, unzstd)
         conns = [
             conn
             for info in self.topics.values()
@@ -549,6 +678,7 @@ class _RosbagsSource(_Source):
         return self._messages(conns)
 
     def _messages(self, conns: list[Any]) -> Iterator[RawMessage]:
+        """Through the rosbags reader itself (ROS 1 bags)."""
         meta = {
             conn.id: (info.topic, info.msgtype, info.encoding)
             for info in self.topics.values()
@@ -613,6 +743,220 @@ class _RosbagsSource(_Source):
         self._reader.close()
 
 
+class _ReindexedSqliteSource(_Source):
+    """rosbag2 sqlite3 storage files without metadata.yaml, indexed in memory from the files
+    themselves, as ``ros2 bag reindex`` would: topics, types, serialization, offered QoS and
+    message counts from each file's ``topics`` table and SQL counts over ``messages`` (no
+    payload is read), the time range from the indexed ``timestamp`` column, the message
+    definitions from ``message_definitions`` where the file has them. The files' messages are
+    merged in log-time order; zstd-compressed payloads (a bag recorded with message
+    compression) are recognised by their magic bytes.
+    """
+
+    def __init__(self, path: Path, files: list[Path], originals: list[Path]) -> None:
+        from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
+
+        self.path = path
+        self.warnings = []
+        self.file_count = len(files)
+        self._storages: list[Any] = []
+        for plain, original in zip(files, originals, strict=True):
+            storage = Sqlite3Reader(plain)
+            try:
+                storage.open()
+            except Exception as exc:  # rosbags ReaderError, apsw errors
+                self.close()
+                raise LogFormatError(
+                    f"{original}: not a readable rosbag2 sqlite3 storage file ({exc})",
+                    hint="the storage file may be truncated or corrupt",
+                ) from exc
+            self._storages.append(storage)
+        self.topics = {}
+        # per file: name, first and last message time, message count (what reindex writes)
+        self.per_file: list[tuple[str, int, int, int]] = []
+        for storage, original in zip(self._storages, originals, strict=True):
+            qos = _sqlite_qos(storage)
+            count = 0
+            for conn in storage.connections:
+                fmt = getattr(conn.ext, "serialization_format", "cdr")
+                if fmt not in _MESSAGE_ENCODINGS:
+                    self.warnings.append(
+                        f"{original.name}: topic {conn.topic} skipped: serialization {fmt!r} "
+                        "is not CDR"
+                    )
+                    continue
+                msgtype = normalize_msgtype(conn.msgtype)
+                info = self.topics.get((conn.topic, msgtype))
+                if info is None:
+                    msgdef = conn.msgdef
+                    known = msgdef is not None and msgdef.format.name != "NONE"
+                    info = self.topics[conn.topic, msgtype] = _Topic(
+                        conn.topic,
+                        msgtype,
+                        _MESSAGE_ENCODINGS[fmt],
+                        (msgdef.data or "") if known else "",
+                        known and msgdef.format.name == "IDL",
+                    )
+                info.count += conn.msgcount
+                info.keys.append(conn)
+                info.qos = info.qos or qos.get(conn.id, "")
+                count += conn.msgcount
+            meta = storage.metadata  # rosbags: end_time is exclusive
+            first, last = (meta.start_time, meta.end_time - 1) if count else (0, 0)
+            self.per_file.append((original.name, first, last, count))
+        total = sum(t.count for t in self.topics.values())
+        with_messages = [f for f in self.per_file if f[3] > 0]
+        start = min((f[1] for f in with_messages), default=0)
+        end = max((f[2] for f in with_messages), default=0)
+        size = sum(o.stat().st_size for o in originals)
+        self.file = LogFile(path, "rosbag2-sqlite3", size, start, end, total)
+
+    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+        wanted = _wanted_types(self.topics, topics)
+        if not wanted:
+            return iter(())
+        return _storage_messages(self.path, self._storages, wanted, None)
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        """Per storage file, SQLite computes the windows over the indexed ``timestamp``
+        column (no payload is read)."""
+        try:
+            return recorded.union(
+                recorded.sqlite_windows(storage.dbconn, window_ns) for storage in self._storages
+            )
+        except Exception as exc:  # apsw errors on a damaged file
+            raise LogFormatError(
+                f"{self.path}: cannot read message times ({exc})",
+                hint="the storage files may be corrupt or truncated",
+            ) from exc
+
+    def close(self) -> None:
+        storages, self._storages = self._storages, []
+        for storage in storages:
+            if storage.dbconn is not None:
+                storage.close()
+
+
+def _sqlite_qos(storage: Any) -> dict[int, str]:
+    """``topic id -> offered_qos_profiles`` text of a rosbag2 sqlite3 file (schema 2 and later
+    keep it in the topics table), {} where it has none."""
+    if storage.schema < 2:
+        return {}
+    rows = storage.dbconn.execute("SELECT id, offered_qos_profiles FROM topics")
+    return {int(cid): str(text or "") for cid, text in rows}
+
+
+class _Unpacked(_Source):
+    """A source read from decompressed temporary copies of zstd-compressed files: shown as the
+    compressed file (``path``, its size on disk; the rosbag2 storage format for an mcap
+    storage file), and removing the copies when closed."""
+
+    def __init__(self, inner: _Source, temps: list[Any], path: Path | None = None) -> None:
+        self.inner = inner
+        self.topics = inner.topics
+        self.warnings = inner.warnings
+        self.file_count = getattr(inner, "file_count", 1)
+        self._temps = temps
+        f = inner.file
+        if path is not None:
+            fmt = f.format
+            if fmt.startswith("mcap") and ".mcap" in path.name:
+                fmt = "rosbag2-mcap"  # *.mcap.zstd: rosbag2's whole-file compression
+            f = replace(f, path=path, format=fmt, size_bytes=path.stat().st_size)
+        self.file = f
+
+    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+        return self.inner.messages(topics)
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        return self.inner.recorded_windows(window_ns)
+
+    def close(self) -> None:
+        try:
+            self.inner.close()
+        finally:
+            for tmp in self._temps:
+                tmp.cleanup()
+
+
+def _wanted_types(
+    topics: dict[tuple[str, str], _Topic], names: set[str] | None
+) -> dict[tuple[str, str], tuple[str, str, Encoding]]:
+    """``(topic, msgtype) -> (topic, msgtype, encoding)`` of the source's topics on ``names``
+    (all when None)."""
+    return {
+        key: (info.topic, info.msgtype, info.encoding)
+        for key, info in topics.items()
+        if names is None or info.topic in names
+    }
+
+
+def _storage_messages(
+    path: Path,
+    storages: list[Any],
+    wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
+    unzstd: bool | None,
+) -> Iterator[RawMessage]:
+    """Messages of rosbag2 storage readers (rosbags' sqlite3 / mcap storage plugins), merged in
+    log-time order, on the ``wanted`` (topic, normalised type) pairs.
+
+    Each storage file's own connections are matched by topic and type only. rosbags' folder
+    reader also compares the QoS profiles of metadata.yaml with those the storage file keeps,
+    and real bags disagree (rosbag2's own talker test bag: infinite deadlines written as 0 in
+    one and as 2147483647 s in the other), so it yields none of their messages. ``unzstd``:
+    payloads are zstd-compressed (``compression_mode: message``); None: unknown (a reindexed
+    bag), a payload is decompressed when it starts with the zstd magic bytes, which no CDR
+    payload does (CDR starts with its encapsulation header, 0x00 first).
+    """
+    streams = []
+    for storage in storages:
+        conns = [
+            conn
+            for conn in storage.connections
+            if (conn.topic, normalize_msgtype(conn.msgtype)) in wanted
+        ]
+        if conns:
+            streams.append(_one_storage(storage, conns, wanted, unzstd))
+    if not streams:
+        return
+    merged: Iterator[RawMessage] = (
+        streams[0] if len(streams) == 1 else heapq.merge(*streams, key=attrgetter("log_time_ns"))
+    )
+    try:
+        yield from merged
+    except LogFormatError:
+        raise
+    except Exception as exc:  # rosbags, apsw / sqlite3, struct and zstd errors
+        raise LogFormatError(
+            f"{path}: cannot read messages ({exc})",
+            hint="the storage files may be corrupt or truncated",
+        ) from exc
+
+
+def _one_storage(
+    storage: Any,
+    conns: list[Any],
+    wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
+    unzstd: bool | None,
+) -> Iterator[RawMessage]:
+    meta = {conn.id: wanted[conn.topic, normalize_msgtype(conn.msgtype)] for conn in conns}
+    for conn, t_ns, data in storage.messages(conns):
+        topic, msgtype, encoding = meta[conn.id]
+        if unzstd or (unzstd is None and data[:4] == _ZSTD_MAGIC):
+            data = _unzstd(data)
+        elif type(data) is not bytes:
+            data = bytes(data)
+        yield RawMessage(topic, msgtype, t_ns, data, encoding)
+
+
+def _unzstd(data: bytes | memoryview) -> bytes:
+    """One zstd-compressed message payload (with or without the content size in its frame)."""
+    import zstandard
+
+    obj = zstandard.ZstdDecompressor().decompressobj()
+    return bytes(obj.decompress(bytes(data)))
+
+
 def _open_rosbags(path: Path, kind: str) -> Any:
     """An open rosbags Reader for ``path``, with rosbags errors turned into LogFormatError."""
     if kind == "bag":
@@ -639,39 +983,50 @@ def _open_rosbags(path: Path, kind: str) -> Any:
 
 def guess_format(path: Path) -> tuple[str, Path]:
     """``(format, path to open)`` for ``path``: ``.mcap`` / ``.bag`` files, rosbag2 folders
-    (or their ``metadata.yaml`` / ``.db3``), otherwise the file's first bytes decide."""
+    (or their ``metadata.yaml`` / storage files), rosbag2 storage files without
+    ``metadata.yaml`` (a folder of them, or one ``.db3``), zstd-compressed storage files
+    (``*.mcap.zstd``, ``*.db3.zstd``, read through a decompressed temporary copy); otherwise
+    the file's first bytes decide (through zstd too)."""
+    from formats import rosbag2_storage as storage
+
     if not path.exists():
         raise LogFormatError(f"no such file or folder: {path}", hint="check the log path")
     if path.is_dir():
-        if (path / "metadata.yaml").is_file():
+        if (path / "metadata.yaml").is_file() or storage.storage_files(path):
             return "rosbag2", path
         found = sorted(p.name for p in path.iterdir())[:5]
         raise LogFormatError(
-            f"{path} is a folder but not a rosbag2 bag (no metadata.yaml)",
+            f"{path} is a folder but not a rosbag2 bag (no metadata.yaml, no storage files)",
             hint="pass a .mcap or .bag file, or a rosbag2 folder; the folder holds: "
             + (", ".join(found) if found else "nothing"),
         )
     if path.stat().st_size == 0:
         raise LogFormatError(f"{path} is empty (0 bytes)", hint="the recording was not written")
+    compressed = storage.is_zstd(path)
+    suffix = Path(storage.inner_name(path)).suffix.lower()
+    beside_metadata = (path.parent / "metadata.yaml").is_file()
     if path.name == "metadata.yaml" or (
-        path.suffix == ".db3" and (path.parent / "metadata.yaml").is_file()
+        beside_metadata and (suffix == ".db3" or (compressed and suffix == ".mcap"))
     ):
         return "rosbag2", path.parent
-    suffix = path.suffix.lower()
-    if suffix == ".mcap":
-        return "mcap", path
-    if suffix == ".bag":
+    if not compressed:
+        if suffix == ".mcap":
+            return "mcap", path
+        if suffix == ".bag":
+            return "bag", path
+        if suffix == ".db3":
+            return "rosbag2", path  # one storage file alone: reindexed
+    kind = storage.sniff(path)
+    if kind == "mcap":
+        return ("rosbag2" if compressed else "mcap"), path
+    if kind == "bag":
         return "bag", path
-    with path.open("rb") as f:
-        head = f.read(16)
-    if head.startswith(_MCAP_MAGIC):
-        return "mcap", path
-    if head.startswith(_BAG_MAGIC):
-        return "bag", path
-    if head.startswith(_SQLITE_MAGIC):
+    if kind == "sqlite3":
+        return "rosbag2", path
+    if compressed:
         raise LogFormatError(
-            f"{path} is an SQLite file without a rosbag2 metadata.yaml next to it",
-            hint="pass the rosbag2 folder that holds metadata.yaml",
+            f"{path} is zstd-compressed but holds no log aion reads",
+            hint="aion reads zstd-compressed rosbag2 storage files (.mcap.zstd, .db3.zstd)",
         )
     raise LogFormatError(
         f"cannot tell the log format of {path}",
@@ -680,13 +1035,22 @@ def guess_format(path: Path) -> tuple[str, Path]:
 
 
 def _open_sources(path: Path, fmt: str | None) -> list[_Source]:
-    """The sources of one path: one file, or the storage files of a rosbag2 folder."""
+    """The sources of one path: one file, the storage files of a rosbag2 folder, or storage
+    files without metadata.yaml (reindexed in memory)."""
+    from formats import rosbag2_storage as storage
+
     if fmt is not None and fmt not in FORMATS:
         raise LogFormatError(
             f"unknown log format {fmt!r}", hint=f"use one of: {', '.join(FORMATS)}"
         )
     guessed, target = guess_format(path)
     kind = fmt or guessed
+    if (
+        target.is_file()
+        and storage.is_zstd(target)
+        and not (kind == "rosbag2" and (target.parent / "metadata.yaml").is_file())
+    ):
+        return _open_compressed(target, kind)
     if kind == "mcap":
         if target.is_dir():
             files = sorted(target.glob("*.mcap"))
@@ -699,21 +1063,197 @@ def _open_sources(path: Path, fmt: str | None) -> list[_Source]:
     if kind == "bag":
         return [_RosbagsSource(target, "bag")]
     folder = target.parent if target.is_file() else target
+    if not (folder / "metadata.yaml").is_file():
+        if target.is_file():
+            return _reindexed_sources([target], target)  # one storage file given alone
+        sources = _reindexed_sources(storage.storage_files(folder), folder)
+        sources[-1].warnings.append(
+            f"{folder}: no metadata.yaml; indexed in memory from its {_files(sources)}, "
+            "as `ros2 bag reindex` would"
+        )
+        return sources
     try:
         source = _RosbagsSource(folder, "rosbag2")
-    except LogFormatError:
+    except LogFormatError as exc:
         # A recording killed before it finished leaves mcap storage files without a summary,
-        # which rosbags refuses; the mcap reader recovers what was written.
-        storage = sorted(folder.glob("*.mcap"))
-        if not storage:
+        # which rosbags refuses, or a metadata.yaml that does not match the files: index the
+        # storage files themselves; the mcap reader recovers what was written.
+        files = storage.storage_files(folder)
+        if not files:
             raise
-        return [_open_mcap(f, fmt_name="rosbag2-mcap") for f in storage]
+        try:
+            sources = _reindexed_sources(files, folder)
+        except LogFormatError:
+            raise exc from None
+        sources[-1].warnings.append(
+            f"{folder}: metadata.yaml not used ({exc.message}); indexed in memory from its "
+            f"{_files(sources)}"
+        )
+        return sources
     files = source.plain_mcap_files()
     if files:
         # rosbag2 with mcap storage: the mcap reader is faster than rosbags' mcap plugin.
         source.close()
         return [_open_mcap(f, fmt_name="rosbag2-mcap") for f in files]
     return [source]
+
+
+def _files(sources: list[_Source]) -> str:
+    n = sum(getattr(s, "file_count", 1) for s in sources)
+    return f"{n} storage file" + ("" if n == 1 else "s")
+
+
+def _open_compressed(path: Path, kind: str) -> list[_Source]:
+    """A zstd-compressed file given alone (a rosbag2 storage file from a bag recorded with
+    ``compression_mode: file``, or a compressed .bag / .mcap): read through a decompressed
+    temporary copy that closing the source removes."""
+    from formats import rosbag2_storage as storage
+
+    if kind == "rosbag2":
+        return _reindexed_sources([path], path)
+    tmp, inner = storage.decompress_to_temp(path)
+    try:
+        source: _Source = _open_mcap(inner) if kind == "mcap" else _RosbagsSource(inner, "bag")
+    except BaseException:
+        tmp.cleanup()
+        raise
+    return [_Unpacked(source, [tmp], path)]
+
+
+def _reindexed_sources(files: list[Path], shown: Path) -> list[_Source]:
+    """rosbag2 storage files without (a usable) metadata.yaml, indexed from the files
+    themselves: the sqlite3 ones as one source (shown as ``shown``: the folder, or the one
+    file), each mcap one as its own (read with the mcap reader, which recovers files without a
+    summary); zstd-compressed files are read through decompressed temporary copies."""
+    from formats import rosbag2_storage as storage
+
+    temps: dict[Path, Any] = {}
+    opened: list[_Source] = []
+    try:
+        readable: list[tuple[Path, Path]] = []  # (the file on disk, the file to read)
+        for f in files:
+            if storage.is_zstd(f):
+                tmp, inner = storage.decompress_to_temp(f)
+                temps[f] = tmp
+                readable.append((f, inner))
+            else:
+                readable.append((f, f))
+        sqlite: list[tuple[Path, Path]] = []
+        for original, plain in readable:
+            kind = storage.sniff(plain)
+            if kind == "sqlite3":
+                sqlite.append((original, plain))
+            elif kind == "mcap":
+                mcap: _Source = _open_mcap(plain, fmt_name="rosbag2-mcap")
+                if original in temps:
+                    mcap = _Unpacked(mcap, [temps[original]], original)
+                opened.append(mcap)
+            else:
+                raise LogFormatError(
+                    f"{original} is not a rosbag2 storage file (neither SQLite nor MCAP)",
+                    hint="pass the bag's .db3 / .mcap storage files, or its folder",
+                )
+        if sqlite and opened:
+            raise LogFormatError(
+                f"{shown} holds both sqlite3 and mcap storage files: not the files of one bag",
+                hint="pass the storage files one by one",
+            )
+        if sqlite:
+            originals = [o for o, _ in sqlite]
+            db: _Source = _ReindexedSqliteSource(shown, [p for _, p in sqlite], originals)
+            owned = [temps[o] for o in originals if o in temps]
+            opened.insert(0, _Unpacked(db, owned) if owned else db)
+    except BaseException:
+        for source in opened:
+            source.close()
+        for tmp in temps.values():
+            tmp.cleanup()
+        raise
+    return opened
+
+
+def reindex(path: Path | str) -> dict[str, Any]:
+    """What ``ros2 bag reindex`` would write into ``metadata.yaml`` for the rosbag2 storage
+    files at ``path`` (a folder of them, or one storage file; zstd-compressed or not), built
+    from the files themselves: the ``rosbag2_bagfile_information`` mapping (storage,
+    relative file paths, start and duration, counts per topic with type, serialization and
+    offered QoS profiles, per-file figures, whole-file compression). Any metadata.yaml beside
+    the files is ignored."""
+    from formats import rosbag2_storage as storage
+
+    target = Path(path)
+    if not target.exists():
+        raise LogFormatError(f"no such file or folder: {target}", hint="check the path")
+    files = storage.storage_files(target) if target.is_dir() else [target]
+    if not files:
+        raise LogFormatError(
+            f"{target} holds no rosbag2 storage files", hint="pass .db3 / .mcap storage files"
+        )
+    sources = _reindexed_sources(files, target)
+    try:
+        return _bag_metadata(sources, files)
+    finally:
+        for source in sources:
+            source.close()
+
+
+def _bag_metadata(sources: list[_Source], files: list[Path]) -> dict[str, Any]:
+    from formats import rosbag2_storage as storage
+
+    per_file: list[tuple[str, int, int, int]] = []  # name, first, last, count
+    topics: dict[tuple[str, str], _Topic] = {}
+    kinds = set()
+    for source in sources:
+        inner = source.inner if isinstance(source, _Unpacked) else source
+        if isinstance(inner, _ReindexedSqliteSource):
+            per_file.extend(inner.per_file)
+            kinds.add("sqlite3")
+        else:
+            f = source.file
+            per_file.append((f.path.name, f.start_ns, f.end_ns, f.message_count))
+            kinds.add("mcap")
+        for key, t in source.topics.items():
+            merged = topics.setdefault(key, _Topic(t.topic, t.msgtype, t.encoding, "", qos=t.qos))
+            merged.count += t.count
+            merged.qos = merged.qos or t.qos
+    order = {p.name: k for k, p in enumerate(files)}
+    per_file.sort(key=lambda item: order.get(item[0], len(order)))
+    with_messages = [f for f in per_file if f[3] > 0]
+    start = min((f[1] for f in with_messages), default=0)
+    end = max((f[2] for f in with_messages), default=0)
+    compressed = any(storage.is_zstd(f) for f in files)
+
+    def span(first: int, last: int, count: int) -> dict[str, Any]:
+        return {
+            "starting_time": {"nanoseconds_since_epoch": first if count else 0},
+            "duration": {"nanoseconds": last - first if count else 0},
+        }
+
+    return {
+        "version": 9,
+        "storage_identifier": "/".join(sorted(kinds)),
+        "relative_file_paths": [f.name for f in files],
+        **span(start, end, len(with_messages)),
+        "message_count": sum(f[3] for f in per_file),
+        "topics_with_message_count": [
+            {
+                "topic_metadata": {
+                    "name": t.topic,
+                    "type": t.msgtype,
+                    "serialization_format": t.encoding,
+                    "offered_qos_profiles": t.qos,
+                },
+                "message_count": t.count,
+            }
+            for t in sorted(topics.values(), key=attrgetter("topic", "msgtype"))
+        ],
+        "compression_format": "zstd" if compressed else "",
+        "compression_mode": "file" if compressed else "",
+        "files": [
+            {"path": name, **span(first, last, count), "message_count": count}
+            for name, first, last, count in per_file
+        ],
+    }
 
 
 def _open_mcap(path: Path, fmt_name: str | None = None) -> _McapSource:
@@ -845,9 +1385,20 @@ class LogSet:
                 hint="the payload does not match its definition; the log may be corrupt",
             ) from exc
 
+    def definition(self, topic: str, msgtype: str, encoding: str) -> tuple[str, bool]:
+        """The message definition the log embeds for ``topic`` carrying ``msgtype`` in
+        ``encoding``: ``(text, is ROS 2 IDL)``, ``("", False)`` when it embeds none."""
+        return self._definitions.get((topic, msgtype, encoding), ("", False))
+
+    def typestore(self, topic: str, msgtype: str, encoding: str) -> Typestore:
+        """A rosbags typestore that decodes ``topic`` with the log's own definition of
+        ``msgtype`` (aion's shipped definitions when the log embeds none);
+        :class:`MessageDecodeError` when there is neither or the definition is malformed."""
+        definition, idl = self.definition(topic, msgtype, encoding)
+        return _store_with_definition(self._stores, encoding, msgtype, definition, idl)
+
     def _make_decoder(self, msg: RawMessage) -> Callable[[bytes], Any]:
-        definition, idl = self._definitions.get((msg.topic, msg.msgtype, msg.encoding), ("", False))
-        store = _store_with_definition(self._stores, msg.encoding, msg.msgtype, definition, idl)
+        store = self.typestore(msg.topic, msg.msgtype, msg.encoding)
         if msg.encoding == "ros1":
             des1 = store.deserialize_ros1
             return lambda data: des1(data, msg.msgtype)

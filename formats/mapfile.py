@@ -27,6 +27,7 @@ import os
 import re
 import signal
 import socket
+import stat
 import tempfile
 import time
 import zipfile
@@ -56,6 +57,14 @@ DEFAULT_MAX_MEMBER_BYTES = 4 * 1024**3
 DEFAULT_MAX_RATIO = 100.0
 """Largest uncompressed/compressed ratio accepted for members above ``RATIO_MIN_BYTES``."""
 RATIO_MIN_BYTES = 1024**2
+DEFAULT_MAX_MEMBERS = 10_000
+"""Most zip entries a map may have (a map written by aion has about 50): counted from the
+zip's end record before its central directory is parsed."""
+DEFAULT_MAX_TOTAL_BYTES = 16 * 1024**3
+"""Largest sum of the members' uncompressed sizes accepted on read (declared and actual),
+16 GiB; also, above ``RATIO_MIN_BYTES``, the sum may not exceed ``max_ratio`` times the file's
+size, so many small deflated members (each under the per-member ratio check) cannot expand a
+small file into gigabytes."""
 MAX_MANIFEST_BYTES = 64 * 1024**2
 STALE_UNREADABLE_LOCK_S = 10.0
 """A lock file with no readable pid older than this is treated as stale (crash mid-create)."""
@@ -281,6 +290,7 @@ def write_map(
             f"cannot write map {target}: folder {folder} does not exist",
             hint="create the folder first or choose another output path",
         )
+    check_map_target(target)
     with map_lock(target) if lock else contextlib.nullcontext(target):
         tmp: Path | None = None
         try:
@@ -294,6 +304,7 @@ def write_map(
                 _write_zip(fh, arrays, manifest)
                 fh.flush()
                 os.fsync(fh.fileno())
+            check_map_target(target)  # still a map (or nothing) after the write?
             os.replace(tmp, target)
         except BaseException as exc:
             if tmp is not None:
@@ -307,6 +318,66 @@ def write_map(
                 ) from exc
             raise
     _fsync_dir(folder)
+
+
+# -- output targets -------------------------------------------------------------------------
+
+
+def is_aion_map(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` (followed) is a regular file holding a zip whose ``manifest.json``
+    says ``"format": "aion-map"`` (any version; nothing else is checked or read)."""
+    p = Path(path)
+    try:
+        if not stat.S_ISREG(os.stat(p).st_mode):
+            return False
+        with zipfile.ZipFile(p, "r") as zf:
+            info = zf.getinfo(MANIFEST_NAME)
+            if info.file_size > MAX_MANIFEST_BYTES:
+                return False
+            with zf.open(info) as fh:
+                doc = json.loads(fh.read(MAX_MANIFEST_BYTES + 1).decode("utf-8"))
+    except Exception:  # not a zip, no manifest, not JSON, unreadable: not a map
+        return False
+    return isinstance(doc, dict) and doc.get("format") == MAP_FORMAT
+
+
+def check_map_path(path: str | os.PathLike[str]) -> None:
+    """Refuse a map output path that is not a place for a file: a device (``/dev/null``), a
+    FIFO, a socket, a folder (:class:`MapWriteError`, exit 2). Cheap; :func:`map_lock` calls
+    it, so nothing (not even ``<map>.lock``) is created beside such a path."""
+    from formats.outputs import special_kind
+
+    p = Path(path)
+    kind = special_kind(p)
+    if kind is not None:
+        raise MapWriteError(
+            f"cannot write map {p}: it is {kind}, not a regular file",
+            hint="choose a path for a new .aion file (or an existing map to replace)",
+        )
+    if p.is_dir():
+        raise MapWriteError(
+            f"cannot write map {p}: it is a folder",
+            hint="give a file path, e.g. -o office.aion",
+        )
+
+
+def check_map_target(path: str | os.PathLike[str]) -> None:
+    """Refuse a map output path that :func:`write_map` must not replace: everything
+    :func:`check_map_path` refuses, and an existing regular file that is not an aion map
+    (:func:`is_aion_map`; an empty file is fine). Call it before a long build so a wrong
+    ``-o`` fails before any work."""
+    check_map_path(path)
+    p = Path(path)
+    if os.path.lexists(p) and not os.path.exists(p):
+        raise MapWriteError(
+            f"cannot write map {p}: it is a dangling symbolic link",
+            hint="remove the link or choose another output path",
+        )
+    if p.exists() and p.stat().st_size > 0 and not is_aion_map(p):
+        raise MapWriteError(
+            f"cannot write map {p}: it exists and is not an aion map; refusing to replace it",
+            hint="choose another output path (maps end in .aion) or remove the file yourself",
+        )
 
 
 # -- locking --------------------------------------------------------------------------------
@@ -368,6 +439,7 @@ def map_lock(path: str | os.PathLike[str]) -> Iterator[Path]:
     same instant could both succeed; the window is the few microseconds between check and
     unlink.
     """
+    check_map_path(path)  # never a lock beside /dev/null, a FIFO or a folder
     lock = lock_path(path)
     try:
         acquired = _try_create_lock(lock)
@@ -523,15 +595,59 @@ def _load_member(data: bytes, name: str, rec: dict[str, Any], path: Path) -> npt
     return arr
 
 
-def _open_zip(path: Path) -> zipfile.ZipFile:
+def _declared_entries(path: Path) -> int | None:
+    """The entry count in the zip's end-of-central-directory record (ZIP64 included), read
+    before ``ZipFile`` parses the whole central directory (one object per entry); None when
+    the record cannot be found (``ZipFile`` then reports the damage)."""
+    end_record = getattr(zipfile, "_EndRecData", None)  # CPython's own EOCD locator
+    if end_record is None:  # pragma: no cover - every CPython has it
+        return None
+    try:
+        with open(path, "rb") as fh:
+            rec = end_record(fh)
+    except Exception:
+        return None
+    if not rec:
+        return None
+    try:
+        return int(rec[getattr(zipfile, "_ECD_ENTRIES_TOTAL", 4)])
+    except (TypeError, ValueError, IndexError):
+        return None
+
+
+def _too_many_members(path: Path, count: int, limit: int) -> MapFileError:
+    return MapFileError(
+        f"map {path} has {count:,} zip entries, over the {limit:,}-entry limit (a map written "
+        "by aion has about 50): refusing a possible zip bomb",
+        hint="the file was not written by aion; do not trust it (read_map(max_members=...) "
+        "raises the limit)",
+    )
+
+
+def _open_zip(path: Path, max_members: int = DEFAULT_MAX_MEMBERS) -> zipfile.ZipFile:
+    from formats.outputs import special_kind
+
     if not path.exists():
         raise MapFileError(f"map file {path} does not exist", hint="check the path")
     if path.is_dir():
         raise MapFileError(f"{path} is a folder, not a map file", hint="pass the .aion file")
+    kind = special_kind(path)
+    if kind is not None:  # reading /dev/zero or a FIFO would never end
+        raise MapFileError(f"{path} is {kind}, not a map file", hint="pass the .aion file")
+    count = _declared_entries(path)
+    if count is not None and count > max_members:
+        raise _too_many_members(path, count, max_members)
     try:
-        return zipfile.ZipFile(path, "r")
+        zf = zipfile.ZipFile(path, "r")
+        if len(zf.infolist()) > max_members:  # the end record understated the count
+            n = len(zf.infolist())
+            zf.close()
+            raise _too_many_members(path, n, max_members)
+        return zf
     except OSError as exc:
         raise MapFileError(f"cannot open map {path}: {exc.strerror or exc}") from exc
+    except MapFileError:
+        raise
     except Exception as exc:  # BadZipFile, and e.g. NotImplementedError for a damaged version
         raise _not_a_map(path, f"not a zip container ({exc})") from exc
 
@@ -550,12 +666,37 @@ def _read_manifest(zf: zipfile.ZipFile, path: Path) -> dict[str, Any]:
     return validate_manifest(parsed, path)
 
 
-def read_manifest(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Only the validated manifest (cheap: no array is read or checksummed)."""
+def read_manifest(
+    path: str | os.PathLike[str], *, max_members: int = DEFAULT_MAX_MEMBERS
+) -> dict[str, Any]:
+    """Only the validated manifest (cheap: no array is read or checksummed); the zip may have
+    at most ``max_members`` entries, as for :func:`read_map`."""
     p = Path(path)
-    with _open_zip(p) as zf:
+    with _open_zip(p, max_members) as zf:
         _check_zip_names(zf, p)
         return _read_manifest(zf, p)
+
+
+def _check_totals(
+    zf: zipfile.ZipFile, path: Path, max_total_bytes: int, max_ratio: float
+) -> None:
+    """The zip's declared uncompressed total against ``max_total_bytes`` and, above
+    ``RATIO_MIN_BYTES``, against ``max_ratio`` times the file's size (before any read)."""
+    total = sum(info.file_size for info in zf.infolist())
+    if total > max_total_bytes:
+        raise MapFileError(
+            f"map {path}: its members declare {total:,} bytes in all, over the "
+            f"{max_total_bytes:,}-byte limit",
+            hint="raise read_map(max_total_bytes=...) if this map is genuinely that large",
+        )
+    size = max(path.stat().st_size, 1)
+    if total > RATIO_MIN_BYTES and total > max_ratio * size:
+        raise MapFileError(
+            f"map {path}: its members expand {total / size:.0f}x over the file's {size:,} "
+            f"bytes (limit {max_ratio:.0f}x): refusing a possible zip bomb",
+            hint="the file was not written by aion (aion stores members uncompressed); do "
+            "not trust it",
+        )
 
 
 def read_map(
@@ -563,20 +704,30 @@ def read_map(
     *,
     max_member_bytes: int = DEFAULT_MAX_MEMBER_BYTES,
     max_ratio: float = DEFAULT_MAX_RATIO,
+    max_members: int = DEFAULT_MAX_MEMBERS,
+    max_total_bytes: int = DEFAULT_MAX_TOTAL_BYTES,
 ) -> tuple[Arrays, dict[str, Any]]:
     """Read and verify a map file: ``(arrays, manifest)``.
 
+    The zip may have at most ``max_members`` entries (checked before its central directory is
+    parsed) and its members at most ``max_total_bytes`` uncompressed in all (declared, and
+    counted while reading) and, above 1 MiB, at most ``max_ratio`` times the file's size.
     Every member listed in the manifest must be present, within ``max_member_bytes`` (declared
     and actual), no more compressed than ``max_ratio`` (above 1 MiB), match its sha256, size,
     dtype and shape, and load with ``allow_pickle=False``. Members not in the manifest are
-    refused. Errors: :class:`MapFileError` (not a map, unsafe content), :class:`MapVersionError`
-    (other major version), :class:`MapCorruptError` (a member fails its checks; names it).
+    refused. Errors: :class:`MapFileError` (not a map, unsafe content, over a limit),
+    :class:`MapVersionError` (other major version), :class:`MapCorruptError` (a member fails
+    its checks; names it).
     """
     p = Path(path)
-    with _open_zip(p) as zf:
+    with _open_zip(p, max_members) as zf:
         _check_zip_names(zf, p)
+        _check_totals(zf, p, max_total_bytes, max_ratio)
         manifest = _read_manifest(zf, p)
         members: dict[str, dict[str, Any]] = manifest["members"]
+        if len(members) > max_members:
+            raise _too_many_members(p, len(members), max_members)
+        read_total = 0
         present = {n[: -len(MEMBER_SUFFIX)] for n in zf.namelist() if n != MANIFEST_NAME}
         unexpected = sorted(present - set(members))
         if unexpected:
@@ -595,6 +746,8 @@ def read_map(
                     hint="raise the member size limit if this map is genuinely that large",
                 )
             info = zf.getinfo(name + MEMBER_SUFFIX)
-            data = _read_member_bytes(zf, info, p, max_member_bytes, max_ratio)
+            limit = min(max_member_bytes, max_total_bytes - read_total)
+            data = _read_member_bytes(zf, info, p, limit, max_ratio)
+            read_total += len(data)
             arrays[name] = _load_member(data, name, rec, p)
     return arrays, manifest

@@ -261,3 +261,18 @@ def _merge(parts: list[tuple[I64, TfArrays]], n_messages: int) -> TfArrays:
         msg[order],
         counts,
     )
+
+
+def layout_matches(msgtype: str, encoding: str, definition: str, idl: bool = False) -> bool:
+    """Whether a log's own ``definition`` of a TF type (``tf2_msgs/TFMessage`` or the old
+    ``tf/tfMessage``) has the TFMessage layout this module decodes; an empty definition (the
+    log embeds none) is taken as that layout. Anything else goes to the generic decoder, which
+    reads the log's definition."""
+    from formats import msgdefs
+
+    if msgtype not in TF_TYPES:
+        return False
+    ros_version = 1 if encoding == "ros1" else 2
+    return msgdefs.same_layout(
+        definition, msgtype, ros_version, idl, reference="tf2_msgs/msg/TFMessage"
+    )

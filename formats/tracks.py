@@ -13,6 +13,12 @@ Layouts (``../shared/data/README.md``):
 - ``lincoln``: the L-CAS corridor detections (UNIX seconds, no ids), every variant of the
   files told apart by content (:func:`read_lincoln`); the detections are linked into tracks by
   :mod:`aion_cli.engine.tracking` (pure numpy, like the differencing the ETH reader uses).
+- ``edinburgh``: the Edinburgh Informatics Forum tracks (``TRACK.Rn=[[x y frame];...];``,
+  overhead-camera pixels at 24.7 mm, frame numbers at about 9 fps, no clock time:
+  :func:`read_edinburgh`).
+- ``thor-magni``: THÖR-MAGNI CSVs (header ``Time,frame_id,x,y,z,ag_id,data_label,...``,
+  millimetres, seconds from the start, ``ag_id`` names such as ``Helmet_3``:
+  :func:`read_thor_magni`).
 
 Files are parsed with ``np.loadtxt`` (C speed: ATC's ~500k rows in well under a second). Only
 when that fails is the file re-scanned line by line, to name the first bad line exactly.
@@ -25,7 +31,9 @@ robot log.
 
 from __future__ import annotations
 
+import io
 import math
+import re
 import struct
 import warnings
 from collections.abc import Iterable, Iterator
@@ -45,8 +53,21 @@ if TYPE_CHECKING:
     from aion_cli.engine.tracking import LinkerConfig
 
 CANONICAL_HEADER = "t_ns,track_id,x,y,z,heading_rad,speed_mps"
-Layout = Literal["canonical", "atc", "thor", "eth", "ucy", "lincoln"]
-LAYOUTS: tuple[str, ...] = ("canonical", "atc", "thor", "eth", "ucy", "lincoln")
+Layout = Literal[
+    "canonical", "atc", "thor", "eth", "ucy", "lincoln", "edinburgh", "thor-magni"
+]
+LAYOUTS: tuple[str, ...] = (
+    "canonical",
+    "atc",
+    "thor",
+    "eth",
+    "ucy",
+    "lincoln",
+    "edinburgh",
+    "thor-magni",
+)
+#: layouts whose times count from 0 (the recording's start), not from the UNIX epoch
+RELATIVE_TIME_LAYOUTS: tuple[str, ...] = ("thor", "eth", "ucy", "edinburgh", "thor-magni")
 
 #: columns of the header-less ATC / THÖR files
 ATC_COLUMNS = ("time_s", "person_id", "x_m", "y_m", "speed_mps", "motion_angle_rad")
@@ -260,6 +281,275 @@ def read_eth(path: str | Path, fps: float = 25.0, start_ns: int = 0) -> Detectio
     return DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
 
 
+# ----------------------------------------------------------------------------- Edinburgh
+
+#: Edinburgh Informatics Forum: ground size of one image pixel (README of the database)
+EDINBURGH_M_PER_PX = 0.0247
+#: its capture rate, "about 9 frames per second" (it varies with the capture host's load)
+EDINBURGH_FPS = 9.0
+#: image height in pixels (640 x 480): rows are flipped so that y points up
+EDINBURGH_HEIGHT_PX = 480
+
+_EDINBURGH_TRACK = re.compile(r"TRACK\.R(\d+)\s*=\s*\[\s*(.*?)\]\s*\]\s*;", re.S)
+_EDINBURGH_PROPERTIES = re.compile(r"Properties\.R(\d+)\s*=\s*\[\s*([0-9.eE+-]+)")
+_EDINBURGH_HINT = (
+    "Edinburgh tracks files hold `Properties.Rn=[...];` and `TRACK.Rn=[[x y frame];...];` "
+    "entries (tracks.DDMon.txt of the Informatics Forum database)"
+)
+
+
+def _line_of(text: str, pos: int) -> int:
+    return text.count("\n", 0, pos) + 1
+
+
+def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_FPS) -> TrackData:
+    """An Edinburgh Informatics Forum tracks file (``tracks.01Jul.txt``): Matlab-like
+    ``TRACK.Rn=[[x y frame];...];`` entries, image pixels of an overhead camera and frame
+    numbers (``../shared/data/tracks/edinburgh/README.opentraj.md``).
+
+    Positions: ``x = px * 24.7 mm``, ``y = (480 - py) * 24.7 mm`` (image rows flipped so the map
+    frame is right-handed, y up; origin at the image's bottom-left corner). Times: ``start_ns +
+    frame / fps`` (about 9 fps; the files carry no clock time, so ``start_ns`` is when frame 0
+    was captured). The track id is ``n`` of ``Rn``; heading and speed come from differencing
+    each track. ``Properties.Rn`` (whose first value is the number of points) is checked
+    against the track where present: a mismatch is a note, not an error.
+    """
+    if not fps > 0:
+        raise TracksFormatError(f"fps must be > 0, got {fps}")
+    p = Path(path)
+    if not p.is_file():
+        raise TracksFormatError(f"tracks file not found: {p}")
+    text = p.read_text(encoding="utf-8-sig", errors="replace")
+    if not text.strip():
+        raise TracksFormatError(f"{p}: no track rows", hint="the file is empty")
+    found = list(_EDINBURGH_TRACK.finditer(text))
+    entries = [m.start() for m in re.finditer(r"TRACK\.R", text)]
+    if not found:
+        raise TracksFormatError(f"{p}: no TRACK.Rn=[[x y frame];...]; entry", hint=_EDINBURGH_HINT)
+    if len(found) != len(entries):
+        parsed = {m.start() for m in found}
+        bad = next(pos for pos in entries if pos not in parsed)
+        raise TracksFormatError(
+            f"{p}: line {_line_of(text, bad)}: a TRACK entry that is not [[x y frame];...];",
+            hint=_EDINBURGH_HINT,
+        )
+    ids = np.array([int(m.group(1)) for m in found], dtype=np.int64)
+    if len(np.unique(ids)) != len(ids):
+        dup = int(ids[np.flatnonzero(np.bincount(np.unique(ids, return_inverse=True)[1]) > 1)[0]])
+        raise TracksFormatError(f"{p}: track R{dup} is defined twice", hint=_EDINBURGH_HINT)
+    # one C-speed parse of every point: each track's points become "x y frame" lines
+    bodies = [re.sub(r"\]\s*;\s*\[", "\n", m.group(2)).replace("[", " ") for m in found]
+    counts = np.array([b.count("\n") + 1 for b in bodies], dtype=np.int64)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            points = np.loadtxt(io.StringIO("\n".join(bodies)), dtype=np.float64, ndmin=2)
+    except ValueError as exc:
+        raise _edinburgh_problem(p, text, found) from exc
+    if points.shape != (int(counts.sum()), 3) or not np.isfinite(points).all():
+        raise _edinburgh_problem(p, text, found)
+    if (points[:, 2] != np.round(points[:, 2])).any() or (points[:, 2] < 0).any():
+        raise _edinburgh_problem(p, text, found)
+    tid = np.repeat(ids, counts)
+    notes = _edinburgh_count_notes(p, text, ids, counts)
+    t_ns = _seconds_to_ns(points[:, 2] / fps, start_ns)
+    xyz = np.zeros((len(points), 3))
+    xyz[:, 0] = points[:, 0] * EDINBURGH_M_PER_PX
+    xyz[:, 1] = (EDINBURGH_HEIGHT_PX - points[:, 1]) * EDINBURGH_M_PER_PX
+    heading, speed = finite_difference(t_ns, tid, xyz[:, :2])
+    batch = DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
+    return TrackData(batch, notes=notes)
+
+
+def _edinburgh_problem(path: Path, text: str, found: list[re.Match[str]]) -> TracksFormatError:
+    """The first TRACK point that is not three numbers (slow path, after a failed parse)."""
+    for m in found:
+        for k, point in enumerate(re.split(r"\]\s*;\s*\[", m.group(2).strip("[] \n\t"))):
+            values = point.split()
+            try:
+                numbers = [float(v) for v in values]
+            except ValueError:
+                numbers = []
+            ok = len(numbers) == 3 and all(math.isfinite(v) for v in numbers)
+            if ok and numbers[2].is_integer() and numbers[2] >= 0:
+                continue
+            return TracksFormatError(
+                f"{path}: line {_line_of(text, m.start())}: TRACK.R{m.group(1)} point {k + 1}: "
+                f"expected [x y frame] (numbers, a whole frame), got [{point.strip()[:40]}]",
+                hint=_EDINBURGH_HINT,
+            )
+    return TracksFormatError(f"{path}: unreadable TRACK entries", hint=_EDINBURGH_HINT)
+
+
+def _edinburgh_count_notes(
+    path: Path, text: str, ids: I64, counts: I64
+) -> tuple[str, ...]:
+    """A note when ``Properties.Rn``'s point count differs from the track's (none when the
+    file has no properties)."""
+    declared = {int(m.group(1)): float(m.group(2)) for m in _EDINBURGH_PROPERTIES.finditer(text)}
+    if not declared:
+        return ()
+    wrong = [int(i) for i, n in zip(ids.tolist(), counts.tolist(), strict=True)
+             if i in declared and declared[i] != n]
+    if not wrong:
+        return ()
+    return (
+        f"{path.name}: {len(wrong)} track(s) hold another number of points than their "
+        f"Properties entry says (first: R{wrong[0]}); the points are used as they are",
+    )
+
+
+# ----------------------------------------------------------------------------- THÖR-MAGNI
+
+#: the columns a THÖR-MAGNI CSV must have, found by name in its header
+THOR_MAGNI_REQUIRED = ("Time", "ag_id", "x", "y")
+#: agents that are people: THÖR-MAGNI's participants wear tracked helmets (``Helmet_3``); the
+#: robot (``DARKO_Robot``) and tracked objects (``LO1``) are not people
+THOR_MAGNI_PEOPLE = "Helmet"
+#: a position extent beyond this many units means millimetres (a mocap room is ~10-20 m)
+_MM_EXTENT = 200.0
+Units = Literal["auto", "mm", "m"]
+
+
+def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") -> TrackData:
+    """A THÖR-MAGNI trajectory CSV as ``thor-magni-tools`` writes it (header ``Time,frame_id,
+    x,y,z,ag_id,data_label,...``; columns found by name, any order, extra columns ignored).
+
+    ``Time`` is seconds from the recording's start (``start_ns`` is when that was). Positions
+    are millimetres in the files of the dataset (thor-magni-tools' converters divide ``x, y, z``
+    by 1000); ``units="auto"`` takes millimetres when the positions span more than 200 units
+    and metres otherwise, with a note saying which; ``"mm"`` / ``"m"`` force it. Rows without a
+    position (untracked frames, empty ``x`` / ``y``) are dropped, with a note. Only people are
+    kept: agents whose ``ag_id`` starts with ``Helmet`` when there are any (the robot and
+    objects are dropped, with a note), else every agent. ``ag_id`` strings become integer
+    track ids: the number that ends the name (``Helmet_3`` -> 3) when those are unique, else
+    the name's rank. Heading and speed come from differencing each track.
+    """
+    if units not in ("auto", "mm", "m"):
+        raise TracksFormatError(f"unknown length unit {units!r}", hint="use auto, mm or m")
+    p = Path(path)
+    columns = _thor_magni_header(p)
+    used = [columns[name] for name in (*THOR_MAGNI_REQUIRED, "z") if name in columns]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            table = np.loadtxt(
+                p,
+                dtype=str,
+                delimiter=",",
+                skiprows=1,
+                usecols=used,
+                quotechar='"',
+                ndmin=2,
+                encoding="utf-8-sig",
+            )
+    except ValueError as exc:
+        raise TracksFormatError(
+            f"{p}: not a valid thor-magni tracks file: {exc}",
+            hint="every row needs the header's columns, comma-separated",
+        ) from exc
+    if table.size == 0:
+        raise TracksFormatError(f"{p}: no track rows", hint="the file has only its header")
+    t_s = _number_column(p, table[:, 0], "Time", finite=True)
+    x = _number_column(p, table[:, 2], "x")
+    y = _number_column(p, table[:, 3], "y")
+    z = _number_column(p, table[:, 4], "z") if table.shape[1] > 4 else np.zeros(len(table))
+    names = np.char.strip(table[:, 1])
+    notes: list[str] = []
+    located = np.isfinite(x) & np.isfinite(y)
+    if not located.all():
+        notes.append(
+            f"{p.name}: {int((~located).sum()):,} of {len(located):,} rows have no position "
+            "(untracked frames) and are skipped"
+        )
+    people = np.char.startswith(names, THOR_MAGNI_PEOPLE)
+    keep = located & people if people.any() else located
+    if people.any() and not people.all():
+        others = sorted(set(names[~people].tolist()))
+        notes.append(f"{p.name}: not people, skipped: {', '.join(others)}")
+    if not keep.any():
+        raise TracksFormatError(f"{p}: no row with a position", hint="x and y are all empty")
+    t_s, x, y, z, names = t_s[keep], x[keep], y[keep], z[keep], names[keep]
+    scale = _thor_magni_scale(p, x, y, units, notes)
+    tid = _agent_ids(names)
+    xyz = np.stack([x, y, np.nan_to_num(z)], axis=1) * scale
+    t_ns = _seconds_to_ns(t_s, start_ns)
+    heading, speed = finite_difference(t_ns, tid, xyz[:, :2])
+    batch = DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
+    return TrackData(batch, notes=tuple(notes))
+
+
+def _thor_magni_header(path: Path) -> dict[str, int]:
+    """Column name -> index of a THÖR-MAGNI CSV's header, with the required ones checked."""
+    if not path.is_file():
+        raise TracksFormatError(f"tracks file not found: {path}")
+    if path.stat().st_size == 0:
+        raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
+        first = fh.readline().strip()
+    names = [name.strip().strip('"') for name in first.split(",")]
+    columns = {name: k for k, name in reversed(list(enumerate(names)))}
+    missing = [name for name in THOR_MAGNI_REQUIRED if name not in columns]
+    if missing:
+        raise TracksFormatError(
+            f"{path}: line 1 must be a THÖR-MAGNI header with the columns "
+            f"{', '.join(THOR_MAGNI_REQUIRED)}; {', '.join(missing)} missing (got {first[:80]!r})",
+            hint="THÖR-MAGNI CSVs start `Time,frame_id,x,y,z,ag_id,data_label,...`",
+        )
+    return columns
+
+
+def _number_column(path: Path, text: npt.NDArray[np.str_], name: str, finite: bool = False) -> F64:
+    """A text column as float64 (empty fields -> NaN), or the first bad value's line."""
+    cleaned = np.char.strip(text)
+    try:
+        values: F64 = np.where(cleaned == "", "nan", cleaned).astype(np.float64)
+    except ValueError:
+        parsed = []
+        for k, v in enumerate(cleaned.tolist()):  # slow path, only after a failure
+            try:
+                parsed.append(float(v or "nan"))
+            except ValueError:
+                raise TracksFormatError(
+                    f"{path}: line {k + 2}, column {name}: {v[:40]!r} is not a number"
+                ) from None
+        values = np.array(parsed, dtype=np.float64)
+    if finite:
+        bad = np.flatnonzero(~np.isfinite(values))
+        if len(bad):
+            raise TracksFormatError(
+                f"{path}: line {int(bad[0]) + 2}, column {name}: {str(text[bad[0]])!r} is not "
+                "a finite number"
+            )
+    return values
+
+
+def _thor_magni_scale(path: Path, x: F64, y: F64, units: str, notes: list[str]) -> float:
+    """Metres per file unit: 1e-3 for millimetres, 1 for metres (``auto``: by the extent)."""
+    extent = float(max(np.ptp(x), np.ptp(y)))
+    if units == "auto":
+        units = "mm" if extent > _MM_EXTENT else "m"
+        span = extent / 1000 if units == "mm" else extent
+        notes.append(
+            f"{path.name}: positions read as {'millimetres' if units == 'mm' else 'metres'} "
+            f"(they span {span:,.1f} m); give --length-unit mm|m if that is wrong"
+        )
+    return 1e-3 if units == "mm" else 1.0
+
+
+def _agent_ids(names: npt.NDArray[np.str_]) -> I64:
+    """Integer track ids of agent names: each name's trailing number when those are unique
+    (``Helmet_3`` -> 3), else the name's rank among the sorted names."""
+    unique, inverse = np.unique(names, return_inverse=True)
+    numbers = [re.search(r"(\d+)$", str(name)) for name in unique.tolist()]
+    if all(numbers) and len({int(m.group(1)) for m in numbers if m}) == len(unique):
+        codes = np.array([int(m.group(1)) for m in numbers if m], dtype=np.int64)
+    else:
+        codes = np.arange(len(unique), dtype=np.int64)
+    ids: I64 = codes[inverse.reshape(-1)]
+    return ids
+
+
 # ----------------------------------------------------------------------------- Lincoln
 
 #: how long a sentinel row (x = y = 0: "the sensor was running") marks as observed
@@ -468,38 +758,44 @@ def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackD
 
 
 def read_tracks(
-    path: str | Path, layout: str = "canonical", start_ns: int = 0, fps: float = 25.0
+    path: str | Path, layout: str = "canonical", start_ns: int = 0, fps: float | None = None
 ) -> DetectionBatch:
     """Read a tracks file of ``layout`` into a time-sorted :class:`DetectionBatch`.
 
-    ``start_ns`` shifts THÖR / ETH / ATC times (Lincoln times are UNIX already and are not
-    shifted); ``fps`` is the ETH/UCY frame rate.
+    ``start_ns`` shifts THÖR / THÖR-MAGNI / ETH / UCY / ATC times and is when frame 0 of an
+    Edinburgh file was captured (Lincoln times are UNIX already and are not shifted); ``fps``
+    is the ETH/UCY (default 25) or Edinburgh (default about 9) frame rate.
     """
-    key = layout.lower()
-    if key == "canonical":
-        return read_canonical(path)
-    if key in ("atc", "thor"):
-        return read_atc(path, start_ns, key)
-    if key in ("eth", "ucy"):
-        return read_eth(path, fps, start_ns)
-    if key == "lincoln":
-        return read_lincoln(path).batch
-    raise TracksFormatError(f"unknown tracks layout {layout!r}", hint=f"use {', '.join(LAYOUTS)}")
+    return read_track_data(path, layout, start_ns, fps).batch
 
 
 def read_track_data(
     path: str | Path,
     layout: str = "canonical",
     start_ns: int = 0,
-    fps: float = 25.0,
+    fps: float | None = None,
     linker: LinkerConfig | None = None,
+    units: str = "auto",
 ) -> TrackData:
-    """:func:`read_tracks` plus what the file says about when the sensor was recording: the
-    Lincoln layout's declared and sentinel spans (:func:`read_lincoln`, linked with
-    ``linker``); the other layouts declare nothing (``observed`` empty)."""
-    if layout.lower() == "lincoln":
+    """A tracks file of ``layout`` read whole: the time-sorted detections plus what the file
+    says about itself: the Lincoln layout's declared and sentinel spans (:func:`read_lincoln`,
+    linked with ``linker``), and notes (Edinburgh point counts, THÖR-MAGNI's skipped rows and
+    agents and its length unit, ``units``); the other layouts declare nothing (``observed``
+    empty). ``start_ns`` and ``fps`` as in :func:`read_tracks`."""
+    key = layout.lower()
+    if key == "canonical":
+        return TrackData(read_canonical(path))
+    if key in ("atc", "thor"):
+        return TrackData(read_atc(path, start_ns, key))
+    if key in ("eth", "ucy"):
+        return TrackData(read_eth(path, 25.0 if fps is None else fps, start_ns))
+    if key == "lincoln":
         return read_lincoln(path, linker)
-    return TrackData(read_tracks(path, layout, start_ns, fps))
+    if key == "edinburgh":
+        return read_edinburgh(path, start_ns, EDINBURGH_FPS if fps is None else fps)
+    if key == "thor-magni":
+        return read_thor_magni(path, start_ns, units)
+    raise TracksFormatError(f"unknown tracks layout {layout!r}", hint=f"use {', '.join(LAYOUTS)}")
 
 
 def write_canonical_csv(batch: DetectionBatch, path: str | Path) -> None:

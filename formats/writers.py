@@ -11,7 +11,9 @@ converters are cached, so writing 10^5 small messages takes seconds.
 
 from __future__ import annotations
 
-import shutil
+import contextlib
+import os
+import stat
 from collections.abc import Callable, Mapping
 from functools import cache
 from pathlib import Path
@@ -22,6 +24,13 @@ import numpy as np
 
 from aion_cli.engine.errors import InputError, LogFormatError
 from formats import msgdefs
+from formats.outputs import (
+    OutputPathError,
+    Staged,
+    check_output,
+    file_starts_with,
+    folder_entries,
+)
 from formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
@@ -60,6 +69,90 @@ class LogWriteError(LogFormatError):
 
 class MessageEncodeError(InputError):
     """A message dict does not fit its type (unknown field, wrong value type)."""
+
+
+class LogTargetError(LogWriteError, OutputPathError):
+    """The output path is refused: special file, current folder, exists, or not aion's log."""
+
+
+class LogTimeError(LogWriteError):
+    """A message's log time is outside what log containers store (0 .. 2^63 - 1 ns)."""
+
+
+MAX_LOG_TIME_NS = 2**63 - 1
+"""The latest log time a container stores (int64 nanoseconds: 2262-04-11)."""
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+BAG_MAGIC = b"#ROSBAG V2.0\n"
+_MAX_METADATA_BYTES = 16 * 1024**2
+
+
+def is_own_log(path: Path, container: str) -> bool:
+    """True when ``path`` is a log of ``container``'s kind that ``--force`` may replace: an MCAP
+    file (magic bytes) for ``mcap`` / ``mcap-ros1``, a ROS 1 bag (its version line) for
+    ``bag``, and for the rosbag2 containers a folder holding only ``metadata.yaml`` and the
+    storage files it names (no other file, no subfolder), as :class:`LogWriter` writes it."""
+    if container in ("mcap", "mcap-ros1"):
+        return file_starts_with(path, MCAP_MAGIC)
+    if container == "bag":
+        return file_starts_with(path, BAG_MAGIC)
+    return is_own_rosbag2(path)
+
+
+def is_own_rosbag2(path: Path) -> bool:
+    """A rosbag2 folder of ``metadata.yaml`` plus exactly the storage files it names (see
+    :func:`is_own_log`); anything else in it (a CSV, a subfolder, a symlink) says no."""
+    names = folder_entries(path)
+    if names is None or "metadata.yaml" not in names:
+        return False
+    meta = path / "metadata.yaml"
+    try:
+        st = os.lstat(meta)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > _MAX_METADATA_BYTES:
+            return False
+        from ruamel.yaml import YAML  # rosbags' own YAML library
+
+        doc = YAML(typ="safe").load(meta.read_text(encoding="utf-8"))
+        files = doc["rosbag2_bagfile_information"]["relative_file_paths"]
+    except Exception:  # unreadable, not YAML, not rosbag2 metadata: not ours
+        return False
+    if not isinstance(files, list) or not all(isinstance(f, str) and f for f in files):
+        return False
+    allowed = {"metadata.yaml", *files}
+    if any("/" in f or f in (".", "..") for f in files) or set(names) - allowed:
+        return False
+    for name in names:
+        try:
+            if not stat.S_ISREG(os.lstat(path / name).st_mode):
+                return False
+        except OSError:
+            return False
+    return True
+
+
+def _log_kind(container: str) -> str:
+    if container in ("mcap", "mcap-ros1"):
+        return "an MCAP log"
+    if container == "bag":
+        return "a ROS 1 bag"
+    return "a rosbag2 folder"
+
+
+def check_log_target(path: str | os.PathLike[str], container: str, *, overwrite: bool) -> bool:
+    """Refuse an output path before anything is written (see :mod:`formats.outputs`): a device,
+    FIFO or socket, the current folder, an existing path without ``overwrite``, or an existing
+    path that is not a log of ``container``'s kind (:func:`is_own_log`). Returns whether an
+    existing log will be replaced. Raises :class:`LogTargetError` (exit 2)."""
+    try:
+        return check_output(
+            path,
+            overwrite=overwrite,
+            recognise=lambda p: is_own_log(p, container),
+            what=_log_kind(container),
+            folder=container.startswith("rosbag2"),
+        )
+    except OutputPathError as exc:
+        raise LogTargetError(exc.message, exc.hint) from None
 
 
 # --- dict -> rosbags message conversion -----------------------------------------------------
@@ -334,7 +427,14 @@ class LogWriter:
 
     ``container``: ``"mcap"`` (ROS 2 profile, CDR), ``"mcap-ros1"`` (ROS 1 profile),
     ``"bag"`` (ROS 1 bag), ``"rosbag2-sqlite3"`` or ``"rosbag2-mcap"`` (rosbag2 folder).
-    An existing ``path`` is an error unless ``overwrite`` is set.
+
+    The log is written beside ``path`` (a hidden ``.<name>.*.tmp`` folder) and renamed into
+    place by :meth:`close`, so it appears complete or not at all: an exception inside the
+    ``with`` block (or :meth:`abort`) throws the partial log away and leaves whatever was at
+    ``path`` untouched. An existing ``path`` is an error unless ``overwrite`` is set, and even
+    then only a log of this container's kind is replaced (:func:`check_log_target`: never a
+    folder holding other files, never a device, FIFO or socket). Log times must lie in
+    ``0 .. 2^63 - 1`` ns (:class:`LogTimeError` otherwise).
     """
 
     def __init__(self, path: Path | str, container: str = "mcap", *, overwrite: bool = False):
@@ -344,31 +444,29 @@ class LogWriter:
             )
         self.path = Path(path)
         self.container = container
+        self.overwrite = overwrite
         self.ros_version = 1 if container in _ROS1_CONTAINERS else 2
         self.encoding = "ros1" if self.ros_version == 1 else "cdr"
-        if self.path.exists() or self.path.is_symlink():
-            if not overwrite:
-                raise LogWriteError(
-                    f"{self.path} exists already", hint="remove it or write to another path"
-                )
-            if self.path.is_dir() and not self.path.is_symlink():
-                shutil.rmtree(self.path)
-            else:
-                self.path.unlink()
+        check_log_target(self.path, container, overwrite=overwrite)  # before anything is written
         self._store = msgdefs.typestore(self.ros_version)
         self._serialize = (
             self._store.serialize_ros1 if self.ros_version == 1 else self._store.serialize_cdr
         )
         self._channels: dict[tuple[str, str], _Channel] = {}
-        self._backend: _Backend | None = self._open()
+        self._staged = Staged(self.path)
+        try:
+            self._backend: _Backend | None = self._open(self._staged.path)
+        except BaseException:
+            self._staged.discard()
+            raise
         self.count = 0
 
-    def _open(self) -> _Backend:
+    def _open(self, path: Path) -> _Backend:
         if self.container in ("mcap", "mcap-ros1"):
-            return _McapBackend(self.path, self.ros_version)
+            return _McapBackend(path, self.ros_version)
         if self.container == "bag":
-            return _Rosbag1Backend(self.path)
-        return _Rosbag2Backend(self.path, self.container.removeprefix("rosbag2-"))
+            return _Rosbag1Backend(path)
+        return _Rosbag2Backend(path, self.container.removeprefix("rosbag2-"))
 
     def _channel(self, topic: str, msgtype: str) -> _Channel:
         """The cached channel of ``(topic, msgtype)`` as the caller spells the type."""
@@ -417,7 +515,15 @@ class LogWriter:
     def _write(self, entry: _Channel, t_ns: int, data: bytes | memoryview) -> None:
         if self._backend is None:
             raise LogWriteError(f"{self.path} is closed", hint="write inside the with block")
-        self._backend.write(entry.handle, int(t_ns), data, entry.seq)
+        t = int(t_ns)
+        if not 0 <= t <= MAX_LOG_TIME_NS:
+            raise LogTimeError(
+                f"cannot write a message on {self._topic(entry)} at log time "
+                f"{t} ns: log times are nanoseconds since 1970 in 0..{MAX_LOG_TIME_NS} "
+                "(1970-01-01 to 2262-04-11)",
+                hint="the input has times before 1970 or beyond 2262; shift or fix them",
+            )
+        self._backend.write(entry.handle, t, data, entry.seq)
         entry.seq += 1
         self.count += 1
 
@@ -426,11 +532,35 @@ class LogWriter:
         msgtype = normalize_msgtype(msgtype)
         return bytes(self._serialize(self.message(msgtype, message), msgtype))
 
+    def _topic(self, entry: _Channel) -> str:
+        """The topic a channel was registered for (for messages)."""
+        return next((topic for (topic, _), e in self._channels.items() if e is entry), "?")
+
     def close(self) -> None:
-        """Finish the log; further writes raise :class:`LogWriteError`. Idempotent."""
+        """Finish the log and move it into place (replacing the old one when ``overwrite``
+        allowed it); further writes raise :class:`LogWriteError`. Idempotent. If finishing
+        fails, nothing is left at the target but what was there before."""
         backend, self._backend = self._backend, None
-        if backend is not None:
+        if backend is None:
+            return
+        try:
             backend.close()
+            check_log_target(self.path, self.container, overwrite=self.overwrite)  # unchanged?
+        except BaseException:
+            self._staged.discard()
+            raise
+        self._staged.commit()
+
+    def abort(self) -> None:
+        """Stop writing and throw the partial log away: the target stays as it was (a previous
+        log included). Idempotent; ``close`` after ``abort`` does nothing."""
+        backend, self._backend = self._backend, None
+        try:
+            if backend is not None:
+                with contextlib.suppress(Exception):
+                    backend.close()
+        finally:
+            self._staged.discard()
 
     def __enter__(self) -> LogWriter:
         return self
@@ -441,7 +571,10 @@ class LogWriter:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        self.close()
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()  # an exception mid-write never leaves a partial log
 
 
 def stamp(t_ns: int) -> dict[str, int]:

@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, to_json
 
 EPILOG = """\b
@@ -17,22 +18,31 @@ Examples:
   aion build run3.mcap --map office.aion       continue a map with a new log
   aion build tracks.mcap --derive-graph        no scene graph: derive one from walking people
   aion build run.mcap --graph dsg.json         use a scene graph saved by Hydra
+  aion build legs.bag --map-frame laser        a fixed sensor's frame as the map frame
+  aion build run.bag --detections-mapping people.toml   people of another message type
+  aion build run.mcap --nav-layer PLACES       3D places even where the graph has 2D ones
   aion build --print-config > model.toml       dump every model parameter, edit, then
   aion build run.mcap --config model.toml      build with it
 
 \b
-Topics are found by message type. All topics with a supported people-detection type are
-used; name the ones you want with --detections-topic (repeatable) when a tracker publishes
-the same people twice. Without a robot trajectory (TF map->base_link or the scene graph's
-agent layer) the log is treated as a fixed sensor over its time span; the summary says so.
-An interrupted or failed build leaves an existing map untouched.
+Topics are found by message type. All topics with a people type are used, generic types
+(PoseStamped, PoseArray, PoseWithCovarianceStamped, Marker, MarkerArray) only when the topic
+name suggests people (person, people, human, pedestrian, agent, track, leg, crowd); name the
+ones you want with --detections-topic (repeatable), e.g. when a tracker publishes the same
+people twice. Other types: --detections-mapping FILE. Detections without ids are linked into
+short tracks, so their headings come from motion. Without a robot trajectory (TF
+map->base_link or the scene graph's agent layer) the log is treated as a fixed sensor over
+its time span; the summary says so. An interrupted or failed build leaves an existing map
+untouched.
 
 \b
 JSON keys (--format json): map, map_bytes, continued, detections{read, used,
 dropped{reason: n}}, cells (unbound hash cells), nodes, nodes_with_flow, bound_cells,
 windows (most windows any entry observed), time_span{start_ns, end_ns, seconds},
-observation, graph{source, messages, dsg_version, topics}, detection_topics,
-inputs[{path, name, size, sha256}], notes.
+observation, graph{source, layer, messages, dsg_version, topics}, detection_topics,
+detection_decoding{topic: {type, why, decoder (fast|generic|mapping), messages,
+undecodable}}, headings{velocity, track, linked, pose_yaw, none}, inputs[{path, name, size,
+sha256}], notes, warnings.
 """
 
 
@@ -86,6 +96,7 @@ def _load_config(path: Path | None) -> Any:
     cls=AionCommand,
     epilog=EPILOG,
     advanced=(
+        "nav_layer",
         "graph_topic",
         "map_frame",
         "base_frame",
@@ -113,7 +124,16 @@ def _load_config(path: Path | None) -> Any:
     "detection_topics",
     multiple=True,
     metavar="TOPIC",
-    help="People-detection topic to use (repeatable) [default: all supported].",
+    help="People-detection topic to use (repeatable) [default: every people type, and "
+    "generic types on topics whose name suggests people].",
+)
+@click.option(
+    "--detections-mapping",
+    "detections_mapping",
+    type=click.Path(path_type=Path, dir_okay=False),
+    metavar="FILE",
+    help="TOML mapping that reads people from other message types (README, People "
+    "detections; `aion info LOG --suggest-mapping TOPIC` writes one).",
 )
 @click.option(
     "--graph-topic",
@@ -126,6 +146,7 @@ def _load_config(path: Path | None) -> Any:
     type=click.Path(path_type=Path, dir_okay=False),
     help="Scene graph saved by Hydra (dsg.json, .sparkdsg) instead of the log's.",
 )
+@nav_layer_option
 @click.option(
     "--derive-graph",
     is_flag=True,
@@ -184,8 +205,10 @@ def command(
     output: Path | None,
     continue_from: Path | None,
     detection_topics: tuple[str, ...],
+    detections_mapping: Path | None,
     graph_topic: str | None,
     graph_file: Path | None,
+    nav_layer: str | None,
     derive_graph: bool,
     map_frame: str,
     base_frame: str,
@@ -225,11 +248,13 @@ def command(
         map_frame=map_frame,
         base_frame=base_frame,
         graph_file=graph_file,
+        nav_layer=nav_layer,
         derive_graph=derive_graph,
         continue_from=continue_from,
         dsg_version=dsg_version,
         batch_size=batch_size,
         timezone=None if timezone is None else resolve_zone(timezone).name,
+        detections_mapping=detections_mapping,
     )
     with _RichProgress(quiet or fmt == "json") as progress:
         report = build_map(options, progress)

@@ -19,6 +19,7 @@ def span_text(seconds: float | None) -> str:
 
 def print_summary(summary: dict[str, Any]) -> None:
     """Render the build report dict (``BuildReport.to_dict``) as a two-column table."""
+    from rich.markup import escape
     from rich.table import Table
 
     det = summary["detections"]
@@ -30,7 +31,12 @@ def print_summary(summary: dict[str, Any]) -> None:
     for reason, count in det["dropped"].items():
         if count:
             table.add_row(f"  dropped: {reason}", f"{count:,}")
-    table.add_row("graph", f"{summary['graph']['source']}")
+    headings = summary.get("headings") or {}
+    if any(headings.values()):
+        table.add_row("headings", heading_text(headings))
+    graph = summary["graph"]
+    layer = f", layer {graph['layer']}" if graph.get("layer") else ""
+    table.add_row("graph", f"{graph['source']}{layer}")
     table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
     table.add_row("hash cells", f"{summary['cells']:,}")
     table.add_row("bound cells", f"{summary['bound_cells']:,}")
@@ -40,5 +46,13 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row("map size", human_size(summary["map_bytes"]))
     out = console()
     out.print(table)
+    for warning in summary.get("warnings", []):
+        out.print(f"[yellow]warning:[/yellow] {escape(warning)}", soft_wrap=True)
     for note in summary.get("notes", []):
         out.print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
+
+
+def heading_text(headings: dict[str, int]) -> str:
+    """Detections per heading source, in the report's order: ``velocity 0, track 0, linked
+    290, pose yaw 0, none 34``."""
+    return ", ".join(f"{name.replace('_', ' ')} {int(n):,}" for name, n in headings.items())

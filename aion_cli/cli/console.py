@@ -38,13 +38,20 @@ def data_console() -> Console:
 
 
 def note(message: str) -> None:
-    """A one-line informational message on stderr (dimmed)."""
-    console().print(f"[dim]{message}[/dim]", soft_wrap=True)
+    """A one-line informational message on stderr (dimmed). ``message`` is plain text: rich
+    markup in it is shown, not applied, and control characters are made visible
+    (:func:`aion_cli.cli.output.markup_safe`), so names from a log cannot restyle or drive the
+    terminal."""
+    from aion_cli.cli.output import markup_safe
+
+    console().print(f"[dim]{markup_safe(message)}[/dim]", soft_wrap=True)
 
 
 def warn(message: str) -> None:
-    """A one-line warning on stderr."""
-    console().print(f"[yellow]warning:[/yellow] {message}", soft_wrap=True, markup=True)
+    """A one-line warning on stderr (``message`` is plain text, as for :func:`note`)."""
+    from aion_cli.cli.output import markup_safe
+
+    console().print(f"[yellow]warning:[/yellow] {markup_safe(message)}", soft_wrap=True)
 
 
 def progress(quiet: bool = False) -> Progress:

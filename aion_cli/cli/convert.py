@@ -18,13 +18,22 @@ Examples:
       --observed "2012-10-24 09:00..2012-10-24 21:00" --tz Asia/Tokyo
   aion convert thor_run1.csv --layout thor -o thor.mcap --graph dsg.json
   aion convert 2017-06-09.txt --layout lincoln -o lincoln.mcap
+  aion convert tracks.01Jul.txt --layout edinburgh --date 2010-07-01 --tz Europe/London \\
+      -o forum.mcap
+  aion convert THOR-Magni_120522_SC1A_R1.csv --layout thor-magni \\
+      --start "2022-05-12 10:00" --tz Europe/Stockholm -o magni.mcap
+  aion convert students003.txt --layout ucy -o ucy.mcap --start "2026-01-05 12:00"
   aion convert tracks.csv -o tracks.mcap            canonical columns (the default)
   aion build atc.mcap --derive-graph                then learn a map from it
 
 \b
 Layouts: canonical (t_ns, track_id, x, y, z, heading_rad, speed_mps), atc (ATC shopping
-centre), thor (THÖR), eth (ETH/UCY obsmat), lincoln (L-CAS corridor detections without ids:
-linked into tracks; every variant is recognised by its content).
+centre), thor (THÖR), thor-magni (THÖR-MAGNI CSV: Time, ag_id, x, y in mm; only the
+Helmet_N people), eth / ucy (4 columns frame ped_id x y: 25 fps frame numbers, 0.4 s apart;
+--fps 15 for the 10-frame biwi_eth.txt of the Social-GAN / Trajectron++ sets), lincoln
+(L-CAS corridor detections without ids: linked into tracks; every variant is recognised by
+its content), edinburgh (Informatics Forum TRACK.Rn entries: pixels at 24.7 mm, frames at
+about 9 fps; --date says when frame 0 was, midnight unless a time is given).
 
 \b
 The tracks become people-detection messages. A dataset has no robot, so the build treats
@@ -37,6 +46,12 @@ windows without a detection count as not observed.
 
 
 CONTAINERS = ("mcap", "mcap-ros1", "bag", "rosbag2-sqlite3", "rosbag2-mcap")
+#: formats.tracks.LAYOUTS, spelt out so that `aion --help` need not import numpy
+LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "edinburgh")
+#: layouts with frame numbers, and their frame rate when --fps is not given
+FRAME_LAYOUTS = {"eth": 25.0, "ucy": 25.0, "edinburgh": 9.0}
+#: layouts whose times count from the recording's start: --start says when that was
+RELATIVE_LAYOUTS = ("thor", "thor-magni", "eth", "ucy")
 
 
 def _container_for(output: Path, container: str | None) -> str:
@@ -64,7 +79,7 @@ def _container_for(output: Path, container: str | None) -> str:
     short_help="Turn pedestrian-track CSVs into logs.",
     cls=AionCommand,
     epilog=EPILOG,
-    advanced=("container", "msgtype", "start_text", "tz"),
+    advanced=("container", "msgtype", "start_text", "tz", "fps", "length_unit"),
 )
 @click.argument("tracks", type=click.Path(path_type=Path))
 @click.option(
@@ -76,10 +91,17 @@ def _container_for(output: Path, container: str | None) -> str:
 )
 @click.option(
     "--layout",
-    type=click.Choice(["canonical", "atc", "thor", "eth", "lincoln"]),
+    type=click.Choice(LAYOUTS),
     default="canonical",
     show_default=True,
     help="Column layout of the CSV.",
+)
+@click.option(
+    "--date",
+    "date_text",
+    metavar="DAY",
+    help="edinburgh: the day of the file (it has frame numbers, no clock), e.g. 2010-07-01 "
+    '(frame 0 at midnight) or "2010-07-01 08:00" (frame 0 then).',
 )
 @click.option(
     "--graph",
@@ -104,7 +126,21 @@ def _container_for(output: Path, container: str | None) -> str:
     "--start",
     "start_text",
     metavar="T",
-    help="Shift dataset times (ATC/THÖR/ETH seconds) to start at this time.",
+    help="Shift dataset times (ATC / THÖR / THÖR-MAGNI / ETH / UCY seconds) to start at this "
+    "time.",
+)
+@click.option(
+    "--fps",
+    type=float,
+    metavar="HZ",
+    help="Frame rate of frame numbers: eth / ucy [default: 25], edinburgh [default: 9].",
+)
+@click.option(
+    "--length-unit",
+    "length_unit",
+    type=click.Choice(["auto", "mm", "m"]),
+    help="thor-magni: unit of x, y, z [default: auto: millimetres when the positions span "
+    "more than 200 units, as the dataset's files do].",
 )
 @click.option(
     "--observed",
@@ -118,7 +154,7 @@ def _container_for(output: Path, container: str | None) -> str:
 @click.option(
     "--tz",
     metavar="ZONE",
-    help="Time zone for --observed / --start times without an offset: IANA name, UTC, "
+    help="Time zone for --observed / --start / --date times without an offset: IANA name, UTC, "
     "+01:00 [default: the machine's local zone].",
 )
 @click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
@@ -126,10 +162,13 @@ def command(
     tracks: Path,
     output: Path,
     layout: str,
+    date_text: str | None,
     graph_file: Path | None,
     container: str | None,
     msgtype: str,
     start_text: str | None,
+    fps: float | None,
+    length_unit: str | None,
     observed_text: tuple[str, ...],
     tz: str | None,
     force: bool,
@@ -145,17 +184,16 @@ def command(
     kind = _container_for(output, container)
     if output.exists() and not force:
         raise InputError(f"{output} exists already", hint="choose another -o or add --force")
+    _check_layout_options(layout, date_text, start_text, fps, length_unit)
     zone = resolve_zone(tz)
     spans = [_span(text, zone) for text in observed_text]  # bad spans fail before reading
     start_ns = 0
-    if start_text is not None:
-        if layout == "lincoln":
-            raise InputError(
-                "--start does not apply to the lincoln layout",
-                hint="Lincoln times are UNIX seconds already; drop --start",
-            )
-        start_ns = parse_time(start_text, zone)
-    data = read_track_data(tracks, layout, start_ns=start_ns)
+    clock = date_text if layout == "edinburgh" else start_text
+    if clock is not None:
+        start_ns = parse_time(clock, zone)
+    data = read_track_data(
+        tracks, layout, start_ns=start_ns, fps=fps, units=length_unit or "auto"
+    )
     batch = data.batch
     observed = merge_spans([*data.observed, *spans])
     if len(batch) == 0:
@@ -171,6 +209,18 @@ def command(
     )
     for line in data.notes:
         note(line)
+    if layout == "edinburgh":
+        from aion_cli.cli.timeparse import format_ns
+
+        note(
+            f"edinburgh: frame 0 taken as {format_ns(start_ns, zone)}, frames at "
+            f"{fps or FRAME_LAYOUTS['edinburgh']:g} fps (the file has no clock time)"
+        )
+    elif layout in RELATIVE_LAYOUTS and start_text is None:
+        note(
+            f"{layout}: the file's times count from 0 and were written from 1970-01-01 00:00 "
+            "UTC; give --start for when it was recorded"
+        )
     n_tracks = len(set(batch.track_id.tolist()))
     span = (summary.end_ns - summary.start_ns) / 1e9
     console().print(
@@ -189,6 +239,53 @@ def command(
         note(
             "no observed spans: the build counts only windows with a detection as observed; "
             "give the spans the sensor was recording with --observed START..END"
+        )
+
+
+def _check_layout_options(
+    layout: str,
+    date_text: str | None,
+    start_text: str | None,
+    fps: float | None,
+    length_unit: str | None,
+) -> None:
+    """The options that apply to ``layout`` only, checked before anything is read."""
+    from aion_cli.engine.errors import InputError
+
+    if layout == "lincoln" and start_text is not None:
+        raise InputError(
+            "--start does not apply to the lincoln layout",
+            hint="Lincoln times are UNIX seconds already; drop --start",
+        )
+    if layout == "edinburgh":
+        if start_text is not None:
+            raise InputError(
+                "--start does not apply to the edinburgh layout: give --date",
+                hint='--date DAY puts frame 0 at midnight, --date "DAY HH:MM" at that time',
+            )
+        if date_text is None:
+            raise InputError(
+                "the edinburgh layout needs --date: its files have frame numbers, no clock",
+                hint="e.g. --date 2010-07-01 --tz Europe/London for tracks.01Jul.txt (the "
+                "database recorded Aug 2009 - Jan 2010 and May - Aug 2010)",
+            )
+    elif date_text is not None:
+        raise InputError(
+            f"--date applies to the edinburgh layout only, not {layout}",
+            hint="shift the times of atc, thor, thor-magni, eth and ucy files with --start",
+        )
+    if fps is not None:
+        if layout not in FRAME_LAYOUTS:
+            raise InputError(
+                f"--fps does not apply to the {layout} layout",
+                hint=f"only {', '.join(FRAME_LAYOUTS)} files have frame numbers",
+            )
+        if not fps > 0:  # also NaN
+            raise InputError(f"--fps must be a positive number of frames per second, not {fps}")
+    if length_unit is not None and layout != "thor-magni":
+        raise InputError(
+            f"--length-unit does not apply to the {layout} layout",
+            hint="only thor-magni files may be in millimetres",
         )
 
 

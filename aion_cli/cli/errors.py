@@ -29,9 +29,13 @@ EXIT_INTERRUPTED = 130
 
 
 def one_line(text: str) -> str:
-    """Collapse a message to one line (multi-line library messages join with '; ')."""
+    """Collapse a message to one line (multi-line library messages join with '; ') that is
+    safe to print: control characters that remain (ESC sequences from a topic or frame name
+    in a log) become visible escapes (:func:`aion_cli.cli.output.printable`)."""
+    from aion_cli.cli.output import printable
+
     parts = [p.strip() for p in str(text).splitlines() if p.strip()]
-    return "; ".join(parts) if parts else "(no message)"
+    return printable("; ".join(parts)) if parts else "(no message)"
 
 
 def _emit(message: str, hint: str | None) -> None:

@@ -16,6 +16,7 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.output import AionCommand
 from aion_cli.cli.timeparse import Zone
+from formats.outputs import Staged
 
 EPILOG = """\b
 Examples:
@@ -35,7 +36,14 @@ subfolder per time (named by the time) for animations.
 
 def _step_seconds(text: str) -> float:
     """``"1h"``, ``"30m"``, ``"600s"``, ``"600"`` -> seconds."""
-    from aion_cli.cli.timeparse import _RE_REL_PART, _UNITS_S, TimeFormatError
+    from aion_cli.cli.timeparse import (
+        _RE_REL_PART,
+        _UNITS_S,
+        MAX_TIME_NS,
+        MIN_TIME_NS,
+        RANGE_TEXT,
+        TimeFormatError,
+    )
 
     token = text.strip().lower()
     if token.replace(".", "", 1).isdigit():
@@ -49,8 +57,15 @@ def _step_seconds(text: str) -> float:
             if unit not in _UNITS_S:
                 raise TimeFormatError(f"unknown unit {unit!r} in --step {text!r}", "w d h m s")
             value += float(amount) * _UNITS_S[unit]
-    if value <= 0:
-        raise TimeFormatError(f"--step must be positive, got {text!r}")
+    if not value >= 1.0:  # frames are named by the second (and a 0 s step never ends)
+        raise TimeFormatError(
+            f"--step must be at least 1 s, got {text!r}", "e.g. --step 1h, 30m or 600s"
+        )
+    if not value <= (MAX_TIME_NS - MIN_TIME_NS) / 1e9:
+        raise TimeFormatError(
+            f"--step {text!r} is longer than the time range aion handles ({RANGE_TEXT})",
+            "e.g. --step 1h, 30m or 600s",
+        )
     return value
 
 
@@ -108,6 +123,7 @@ def command(
     """Export MAP as 3D scenes (PLY/PCD) and tables (CSV/JSON) for viewers and scripts."""
     from aion_cli.cli.common import load
     from aion_cli.cli.console import console, progress
+    from aion_cli.cli.output import markup_safe
     from aion_cli.engine.errors import InputError
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
@@ -130,18 +146,36 @@ def command(
     ends = None
     if path_from is not None and path_to is not None:
         ends = _path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
-    out_dir.mkdir(parents=True, exist_ok=True)
+    _check_out_dir(out_dir)
     written: list[Path] = []
-    with progress(quiet=len(times) == 1) as bar:
+    # Everything is written into a hidden staging folder and moved into OUT when complete:
+    # a failure (a bad time, a full disk, Ctrl-C) leaves no partial export behind.
+    with progress(quiet=len(times) == 1) as bar, Staged(out_dir, merge=True) as staged:
         task = bar.add_task("exporting", total=len(times), unit="times")
+        staged.path.mkdir()
         for t_ns in times:
-            folder = out_dir if len(times) == 1 else out_dir / _stamp(t_ns)
+            folder = staged.path if len(times) == 1 else staged.path / _stamp(t_ns)
             written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
             bar.advance(task)
     if zone is not None and times[0] is not None:
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
         announce_time(times[0], zone, label)
-    console().print(f"wrote {len(written)} file(s) to {out_dir}")
+    console().print(f"wrote {len(written)} file(s) to {markup_safe(out_dir)}")
+
+
+def _check_out_dir(out_dir: Path) -> None:
+    """OUT must be a folder or a new path: never a file, device, FIFO or socket."""
+    from formats.outputs import OutputPathError, special_kind
+
+    kind = special_kind(out_dir)
+    if kind is not None:
+        raise OutputPathError(
+            f"-o {out_dir} is {kind}, not a folder", hint="give a folder to write into"
+        )
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputPathError(
+            f"-o {out_dir} is a file, not a folder", hint="give a folder to write into"
+        )
 
 
 def _series(
@@ -237,18 +271,20 @@ def write_scene(
 
 def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) -> None:
     """The whole scene at ``t_ns`` with a planned path, as the one PLY file ``out``
-    (``aion plan --export``)."""
-    import shutil
-    import tempfile
-
+    (``aion plan --export``): written beside ``out`` and renamed into place; an existing
+    ``out`` is replaced only when it is a PLY file (never a device, FIFO or other file)."""
     from aion_cli.engine import query
     from aion_cli.engine.errors import InputError
+    from formats.outputs import check_output, file_starts_with
 
     if out.suffix.lower() != ".ply":
         raise InputError(f"--export writes a .ply file, got {out.name!r}")
+    check_output(
+        out, overwrite=True, recognise=lambda p: file_starts_with(p, b"ply"), what="a PLY file"
+    )
     table = query.predict_table(loaded.state, t_ns)
-    with tempfile.TemporaryDirectory(prefix="aion-plan-") as tmp:
-        files = write_scene(loaded, table, Path(tmp), "ply", nav.xyz[path])
-        scene = next(f for f in files if f.name == "scene.ply")
-        out.parent.mkdir(parents=True, exist_ok=True)
-        shutil.move(str(scene), out)
+    with Staged(out) as staged:
+        scratch = staged.folder / "scene"  # the other files are dropped with the staging
+        scratch.mkdir()
+        files = write_scene(loaded, table, scratch, "ply", nav.xyz[path])
+        next(f for f in files if f.name == "scene.ply").rename(staged.path)

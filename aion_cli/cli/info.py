@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import format_option, human_size, to_json
 
 EPILOG = """\b
@@ -14,17 +15,26 @@ Examples:
   aion info run.mcap
   aion info run1.mcap run2.bag rosbag2_folder/      several logs, seen as one
   aion info office.aion                              a map: inputs, time span, counts, config
+  aion info dsg.json                                 a scene graph: its layers, the places used
   aion info run.mcap --format json | jq '.topics[] | select(.role == "detections")'
+  aion info run.bag --suggest-mapping /people > people.toml   a mapping to edit
+  aion info run.bag --detections-mapping people.toml         what build takes with it
 
 \b
 Roles: scene_graph (hydra_msgs/DsgUpdate, used by build), detections (a supported people
 type, used by build), tf / tf_static (frames and the robot trajectory), unsupported (ignored).
+Generic types (PoseStamped, PoseArray, PoseWithCovarianceStamped, Marker, MarkerArray) are
+used only from topics whose name suggests people; `why` says why each topic is used or
+skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping.
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
 size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
-role, encoding, rate_hz, used}], roles, dsg_versions, will_use{detections, scene_graph, tf},
+role, encoding, rate_hz, used, why}], roles, dsg_versions, will_use{detections, scene_graph, tf},
 cannot_read, warnings. For a map (.aion): format, version, creator, created, inputs,
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config.
+For a scene graph (.json, .sparkdsg): graph, size_bytes, format, version, reader (spark_dsg or
+lenient), nav_layer{name, key}, places, edges, frontiers_left_out, places_with_room, rooms,
+buildings, agent_poses, mesh{vertices, faces}, layers[{key, name, nodes}], skipped, notes.
 """
 
 MAP_SUFFIX = ".aion"
@@ -38,22 +48,29 @@ def describe_map(path: Path) -> dict[str, Any]:
     return {"map": str(path)} | {k: v for k, v in manifest.items() if k not in ("members", "state")}
 
 
-def describe(paths: list[Path], log_format: str | None) -> dict[str, Any]:
+def describe(
+    paths: list[Path], log_format: str | None, mapping: Path | None = None
+) -> dict[str, Any]:
     """The info report of ``paths`` as a plain dict (also the JSON document):
-    ``formats.summary`` plus what ``aion build`` will use and the scene-graph payload version."""
+    ``formats.summary`` plus what ``aion build`` will use (with ``mapping``, a
+    ``--detections-mapping`` file), why each topic is used or skipped, and the scene-graph
+    payload version."""
     from aion_cli.topics import select_topics
     from formats.logs import open_logs
     from formats.summary import summarize
 
+    mappings = _mappings(mapping)
     with open_logs(paths, log_format) as logset:
-        summary = summarize(logset)
-        plan = select_topics(logset.topics)
+        summary = summarize(logset, [m.msgtype for m in mappings])
+        plan = select_topics(logset.topics, mappings=mappings)
+        _check_mappings(logset, plan)
         for info in plan.graph:
             summary.dsg_versions[info.topic] = _dsg_versions(logset, info.topic)
         report = summary.to_dict()
     used = plan.names("detections") | plan.names("graph") | plan.names("tf")
     for topic in report["topics"]:
         topic["used"] = topic["topic"] in used
+        topic["why"] = plan.reasons.get(topic["topic"], topic["role"])
     report["format"] = ", ".join(report["formats"]) or None
     report["will_use"] = {
         "detections": sorted(plan.names("detections")),
@@ -62,6 +79,35 @@ def describe(paths: list[Path], log_format: str | None) -> dict[str, Any]:
     }
     report["cannot_read"] = [f"{t.topic} ({t.msgtype})" for t in plan.ignored]
     return report
+
+
+def _mappings(path: Path | None) -> list[Any]:
+    if path is None:
+        return []
+    from formats.detections.mapping import load_mapping
+
+    return load_mapping(path)
+
+
+def _check_mappings(logset: Any, plan: Any) -> None:
+    """Every mapping's paths against the log's own definition of its topic's type (a
+    ConfigError naming the path and the fields that exist)."""
+    for info in plan.detections:
+        mapping = plan.mappings.get(info.topic)
+        if mapping is not None:
+            mapping.check(logset.typestore(info.topic, info.msgtype, info.encoding))
+
+
+def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
+    """``--suggest-mapping TOPIC``: a TOML mapping from the log's own definition of the
+    topic's type (:func:`formats.detections.suggest.suggest_mapping`)."""
+    from formats.detections.suggest import suggest_mapping
+    from formats.logs import open_logs
+
+    with open_logs(paths, log_format) as logset:
+        info = logset.topic(topic)
+        store = logset.typestore(info.topic, info.msgtype, info.encoding)
+        return suggest_mapping(info.topic, info.msgtype, store)
 
 
 def _dsg_versions(logset: Any, topic: str) -> list[str]:
@@ -88,17 +134,42 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
     type=click.Choice(["mcap", "bag", "rosbag2"]),
     help="Container format [default: guessed from the path].",
 )
+@click.option(
+    "--detections-mapping",
+    "detections_mapping",
+    type=click.Path(path_type=Path, dir_okay=False),
+    metavar="FILE",
+    help="TOML mapping of other message types to people (as aion build takes it).",
+)
+@click.option(
+    "--suggest-mapping",
+    "suggest_topic",
+    metavar="TOPIC",
+    help="Print a ready-to-edit TOML mapping for TOPIC, from the log's own definition of "
+    "its type, and exit.",
+)
+@nav_layer_option
 @format_option(choices=("table", "json"))
-def command(logs: tuple[Path, ...], log_format: str | None, fmt: str) -> None:
+def command(
+    logs: tuple[Path, ...],
+    log_format: str | None,
+    fmt: str,
+    nav_layer: str | None = None,
+    detections_mapping: Path | None = None,
+    suggest_topic: str | None = None,
+) -> None:
     """Show the format, duration and topics of LOGS and what aion will use from them.
 
-    Given a map (.aion) instead, show what it was built from and with.
+    Given a map (.aion) instead, show what it was built from and with; given a scene-graph
+    file (.json, .sparkdsg), its layers and the navigational graph aion takes from it.
     """
     from aion_cli.engine.errors import InputError
 
     for path in logs:
         if not path.exists():
             raise InputError(f"not found: {path}", hint="check the path")
+    if _show_graph_files(logs, nav_layer, fmt):
+        return
     maps = [p for p in logs if p.suffix == MAP_SUFFIX and p.is_file()]
     if maps and len(maps) != len(logs):
         raise InputError("give either logs or maps, not both")
@@ -110,14 +181,38 @@ def command(logs: tuple[Path, ...], log_format: str | None, fmt: str) -> None:
             for report in reports:
                 _print_map(report)
         return
-    report = describe(list(logs), log_format)
+    if suggest_topic is not None:
+        click.echo(suggest(list(logs), log_format, suggest_topic), nl=False)
+        return
+    report = describe(list(logs), log_format, detections_mapping)
     if fmt == "json":
         click.echo(to_json(report))
     else:
         _print(report)
 
 
+def _show_graph_files(paths: tuple[Path, ...], nav_layer: str | None, fmt: str) -> bool:
+    """The GRAPH_FILE branch: describe scene-graph files (:mod:`aion_cli.cli.info_graph`);
+    False when ``paths`` are no graph files."""
+    from aion_cli.cli.info_graph import describe_graph, is_graph_file, print_graph
+    from aion_cli.engine.errors import InputError
+
+    graphs = [p for p in paths if is_graph_file(p)]
+    if not graphs:
+        return False
+    if len(graphs) != len(paths):
+        raise InputError("give either logs, maps or scene-graph files, not a mix")
+    reports = [describe_graph(p, nav_layer) for p in graphs]
+    if fmt == "json":
+        click.echo(to_json(reports[0] if len(reports) == 1 else reports))
+    else:
+        for report in reports:
+            print_graph(report)
+    return True
+
+
 def _print(report: dict[str, Any]) -> None:
+    from rich.markup import escape
     from rich.table import Table
 
     from aion_cli.cli.console import console, data_console
@@ -141,7 +236,11 @@ def _print(report: dict[str, Any]) -> None:
     ):
         table.add_column(name, justify=justify)  # type: ignore[arg-type]
     for t in report["topics"]:
-        role = t["role"] if t["used"] else "[dim]- (not a type aion reads)[/dim]"
+        why = t.get("why", "")
+        if t["used"]:
+            role = t["role"] + (f" ({why})" if why and why != t["role"] else "")
+        else:
+            role = f"[dim]- {escape(why or 'not a type aion reads')}[/dim]"
         if t["topic"] in report["dsg_versions"]:
             role += f" (spark_dsg {', '.join(report['dsg_versions'][t['topic']])})"
         rate = "-" if t["rate_hz"] is None else f"{t['rate_hz']:.2f}"
@@ -151,7 +250,9 @@ def _print(report: dict[str, Any]) -> None:
     if not use["detections"]:
         console().print(
             "[yellow]note:[/yellow] no people-detection topic of a supported type: "
-            "`aion build` cannot learn flows from this log"
+            "`aion build` cannot learn flows from this log (name a generic one with "
+            "--detections-topic, or map another type: aion info LOG --suggest-mapping TOPIC)",
+            soft_wrap=True,
         )
     if not use["scene_graph"]:
         console().print(

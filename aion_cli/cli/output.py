@@ -11,6 +11,7 @@ import csv
 import io
 import json
 import math
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -18,6 +19,38 @@ from typing import Any
 import click
 
 FORMATS = ("table", "json", "csv")
+
+# C0 controls (ESC, BEL, CR, backspace...), DEL, C1 controls (CSI 0x9b...), and the Unicode
+# line/paragraph separators and bidirectional overrides that reorder what a terminal shows.
+_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028-\u202e\u2066-\u2069]")
+_NAMED = {"\t": "\\t", "\n": "\\n", "\r": "\\r"}
+
+
+def _escape_char(match: re.Match[str]) -> str:
+    char = match.group()
+    named = _NAMED.get(char)
+    if named is not None:
+        return named
+    code = ord(char)
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def printable(value: object) -> str:
+    """``str(value)`` safe to print on a terminal: every control character (ESC and so every
+    escape sequence, BEL, CR, backspace, C1 controls) and every bidirectional override becomes a
+    visible escape (``\\x1b``, ``\\n``, ``\\u202e``); everything else, non-ASCII text included,
+    is kept. Use it for any string that comes from a log or a map (topic names, frame ids,
+    node labels, file contents) before it reaches the terminal."""
+    text = value if isinstance(value, str) else str(value)
+    return _UNSAFE.sub(_escape_char, text)
+
+
+def markup_safe(value: object) -> str:
+    """:func:`printable`, with rich markup escaped too (``[red]`` shown, not applied), for
+    strings interpolated into text that ``console().print`` renders as markup."""
+    from rich.markup import escape
+
+    return escape(printable(value))
 
 
 def format_option(choices: Sequence[str] = FORMATS, default: str = "table") -> Any:
@@ -136,16 +169,22 @@ def degrees(value: Any) -> str:
 def render_table(
     rows: Sequence[dict[str, Any]], columns: Sequence[Column], title: str | None = None
 ) -> None:
-    """A rich table on stdout."""
+    """A rich table on stdout. Every cell, header and the title are plain text made
+    :func:`printable` (no markup is interpreted, no control character reaches the terminal)."""
     from rich.table import Table
+    from rich.text import Text
 
     from aion_cli.cli.console import data_console
 
-    table = Table(title=title, show_lines=False, header_style="bold")
+    table = Table(
+        title=None if title is None else Text(printable(title)),
+        show_lines=False,
+        header_style="bold",
+    )
     for col in columns:
-        table.add_column(col.header, justify=col.justify)  # type: ignore[arg-type]
+        table.add_column(Text(printable(col.header)), justify=col.justify)  # type: ignore[arg-type]
     for row in rows:
-        table.add_row(*(col.fmt(row.get(col.key)) for col in columns))
+        table.add_row(*(Text(printable(col.fmt(row.get(col.key)))) for col in columns))
     data_console().print(table)
 
 

@@ -155,15 +155,18 @@ def command(
 
 def _print(report: dict[str, Any]) -> None:
     from rich.table import Table
+    from rich.text import Text
 
     from aion_cli.cli.console import console, data_console
+    from aion_cli.cli.output import markup_safe, printable
 
     for snap in report["snapped"]:
         console().print(
-            f"[dim]{snap['option']} {snap['point']} snapped to {snap['node']} "
-            f"({snap['distance_m']:.2f} m away)[/dim]"
+            f"[dim]{markup_safe(snap['option'])} {markup_safe(snap['point'])} snapped to "
+            f"{markup_safe(snap['node'])} ({snap['distance_m']:.2f} m away)[/dim]"
         )
-    table = Table(title=f"{report['from']} -> {report['to']}, departing {report['depart']}")
+    title = f"{report['from']} -> {report['to']}, departing {report['depart']}"
+    table = Table(title=Text(printable(title)))
     table.add_column("plan", style="bold")
     table.add_column("length", justify="right")
     table.add_column("time", justify="right")
@@ -176,8 +179,8 @@ def _print(report: dict[str, Any]) -> None:
             f"{part['length_m']:.1f} m",
             f"{part['duration_s']:.0f} s",
             f"{part['cost']:.1f}",
-            " > ".join(part["path"]),
+            Text(printable(" > ".join(part["path"]))),
         )
     data_console().print(table)
     if "export" in report:
-        console().print(f"wrote {report['export']}")
+        console().print(f"wrote {markup_safe(report['export'])}")

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import AionCommand
 
 if TYPE_CHECKING:
@@ -19,6 +20,8 @@ Examples:
   aion simulate -o paper/ --scenes 20 --agents 6        the paper's dataset shape
   aion simulate -o apt.bag --format bag \\
       --environment ../shared/data/dsg/apartment_dsg.json   people in a real scene graph
+  aion simulate -o hydra.mcap --environment dsg.json --nav-layer PLACES
+                                                        walk the 3D places, not the 2D ones
   aion simulate -o fixed.mcap --robot fixed --detection-type people
   aion build office.mcap -o office.aion                 then learn a map from it
 
@@ -44,12 +47,23 @@ def _hours(text: str) -> tuple[float, float]:
 
 def _summary(results: list[SceneResult]) -> None:
     from aion_cli.cli.console import console
+    from aion_cli.cli.output import markup_safe as safe  # names from the scene-graph file
 
+    first = results[0].meta if results else {}
+    if first.get("nav_layer"):
+        console().print(
+            f"environment {safe(first['environment'])}: navigational layer "
+            f"{safe(first['nav_layer'])}, {first['places']:,} walkable places",
+            soft_wrap=True,
+        )
+    for note in first.get("environment_notes", []):
+        console().print(f"[yellow]note:[/yellow] {safe(note)}", soft_wrap=True)
     for r in results:
         m = r.meta
         ev = _event_counts(r)
         console().print(
-            f"wrote {r.log}: {m['detections']:,} detections in {m['messages']['detections']:,} "
+            f"wrote {safe(r.log)}: {m['detections']:,} detections in "
+            f"{m['messages']['detections']:,} "
             f"messages, {m['messages']['scene_graph']:,} scene graphs, {m['messages']['tf']:,} "
             f"TF; {ev}; truth {r.truth_npz.name}",
             soft_wrap=True,
@@ -72,6 +86,7 @@ def _event_counts(r: SceneResult) -> str:
     cls=AionCommand,
     epilog=EPILOG,
     advanced=(
+        "nav_layer",
         "utc_offset",
         "rate",
         "noise",
@@ -110,6 +125,7 @@ def _event_counts(r: SceneResult) -> str:
     show_default=True,
     help="'office' (the paper's) or a spark_dsg scene graph file to walk in.",
 )
+@nav_layer_option
 @click.option(
     "--robot",
     type=click.Choice(["patrol", "fixed"]),
@@ -220,6 +236,7 @@ def simulate(
     agents: int,
     scenes: int,
     environment: str,
+    nav_layer: str | None,
     robot: str,
     frame: str | None,
     fmt: str,
@@ -253,6 +270,7 @@ def simulate(
 
     config = ScenarioConfig(
         environment=environment,
+        nav_layer=nav_layer,
         days=days,
         seed=seed,
         agents=agents,

@@ -31,6 +31,12 @@ from aion_cli.engine.temporal.zones import zone_of
 
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
 NS_PER_S = 1_000_000_000
+MIN_TIME_NS = -2_208_988_800 * NS_PER_S
+"""Earliest time accepted, 1900-01-01T00:00Z."""
+MAX_TIME_NS = 9_183_110_400 * NS_PER_S
+"""Latest time accepted, 2261-01-01T00:00Z: times are int64 nanoseconds (which end on
+2262-04-11), and the margin keeps window, calendar and planning arithmetic exact."""
+RANGE_TEXT = "1900-01-01 .. 2261-01-01 UTC"
 
 FORMS_HINT = (
     'use ISO 8601 ("2026-11-23 08:30", "2026-11-23T08:30:00+01:00"), UNIX seconds '
@@ -175,10 +181,28 @@ def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
         raise TimeFormatError("empty time", FORMS_HINT)
     current = (now or datetime.now(UTC)).astimezone(zone.tz)
     for parser in (_parse_relative, _parse_unix, _parse_dayword, _parse_clock, _parse_iso):
-        result = parser(text, zone, current)
+        try:
+            result = parser(text, zone, current)
+        except OverflowError:  # datetime arithmetic beyond year 9999
+            raise _out_of_range(raw) from None
         if result is not None:
-            return result
+            return check_range(result, raw)
     raise TimeFormatError(f"cannot read the time {raw!r}", FORMS_HINT)
+
+
+def _out_of_range(text: str) -> TimeFormatError:
+    return TimeFormatError(
+        f"the time {text!r} is outside the range aion handles ({RANGE_TEXT})",
+        "times are nanoseconds since 1970 in 64 bits; give a time in that range",
+    )
+
+
+def check_range(t_ns: int, text: str) -> int:
+    """``t_ns`` if it lies in ``MIN_TIME_NS .. MAX_TIME_NS``, else a :class:`TimeFormatError`
+    naming ``text`` (what the user typed)."""
+    if not MIN_TIME_NS <= t_ns <= MAX_TIME_NS:
+        raise _out_of_range(text)
+    return t_ns
 
 
 def _split_zone(text: str, zone: Zone) -> tuple[str, Zone]:

@@ -17,8 +17,33 @@ from aion_cli.engine.errors import ConfigError
 
 DAY_S = 86400.0
 WEEK_S = 7 * DAY_S
+
+# Documented ranges (README "Model parameters"; checked by ModelConfig.validate, also when a
+# map's stored config is read). Each bound keeps a resource or a representation finite:
+MIN_WINDOW_S = 1.0
+"""Shortest window Δ: windows are closed one by one, and a map keeps per-window state."""
+CELL_SIZE_RANGE = (0.01, 1000.0)
+"""δ in metres: cell indices are packed into 21 bits per axis (±2^20 cells), so δ = 1 cm
+already limits a map to ±10.5 km; above 1 km a cell is no longer a place."""
+MAX_PROFILE_BINS = 2016
+"""Most periodic-profile bins H (a week of 5-minute bins): every entry keeps H values per
+direction bin."""
+MAX_PERIODS = 64
+"""Most FreMEn periods: every entry keeps one complex sum per period and direction bin."""
+MAX_PERIOD_S = 366 * DAY_S
+"""Longest FreMEn period (a year); the shortest is two windows (Nyquist: a shorter period
+cannot be seen in per-window counts)."""
 FAMILIES = ("static", "shape", "profile", "fremen")
 """The temporal model families (``engine.temporal.params``)."""
+
+
+def _is_number(value: object) -> bool:
+    """An int or float, not a bool (``True`` is an int to Python, not a length to us)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
 
 
 def default_periods() -> tuple[float, ...]:
@@ -116,7 +141,7 @@ class ModelConfig:
         )
         for name in positive:
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            if not (_is_number(value) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"{name} must be a positive number, got {value!r}")
         non_negative = (
             "bind_vertical_tolerance",
@@ -132,12 +157,19 @@ class ModelConfig:
         )
         for name in non_negative:
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            if not (_is_number(value) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be a number >= 0, got {value!r}")
-        if not (isinstance(self.bins, int) and 2 <= self.bins <= 64):
+        if not (_is_int(self.bins) and 2 <= self.bins <= 64):
             raise ConfigError(f"bins must be an integer in 2..64, got {self.bins!r}")
-        if not (isinstance(self.max_order, int) and 0 <= self.max_order <= 16):
+        if not (_is_int(self.max_order) and 0 <= self.max_order <= 16):
             raise ConfigError(f"max_order must be an integer in 0..16, got {self.max_order!r}")
+        lo, hi = CELL_SIZE_RANGE
+        if not lo <= self.cell_size <= hi:
+            raise ConfigError(
+                f"cell_size must be in {lo:g}..{hi:g} m, got {self.cell_size!r}",
+                hint="cell indices are packed into 21 bits per axis: a cell of 1 cm already "
+                "limits the map to ±10.5 km",
+            )
         unknown = [f for f in self.families if f not in FAMILIES]
         if unknown or not self.families or len(set(self.families)) != len(self.families):
             raise ConfigError(
@@ -146,15 +178,43 @@ class ModelConfig:
             )
         if self.window_s > DAY_S:
             raise ConfigError(f"window_s must be at most a day (86400), got {self.window_s!r}")
+        if self.window_s < MIN_WINDOW_S:
+            raise ConfigError(
+                f"window_s must be at least {MIN_WINDOW_S:g} s, got {self.window_s!r}",
+                hint="windows are closed one by one: the default is 600 s",
+            )
+        if self.profile_bin_s < self.window_s:
+            raise ConfigError(
+                f"profile_bin_s ({self.profile_bin_s!r}) must be at least window_s "
+                f"({self.window_s!r}): a window enters the profile at its centre time",
+            )
         self._validate_calendar()
-        if not self.periods or any(not (math.isfinite(p) and p > 0) for p in self.periods):
-            raise ConfigError("periods must be a non-empty list of positive seconds")
+        self._validate_periods()
         if not isinstance(self.reconcile, bool):
             raise ConfigError(f"reconcile must be true or false, got {self.reconcile!r}")
         if not isinstance(self.plan_flow_auto, bool):
             raise ConfigError(f"plan_flow_auto must be true or false, got {self.plan_flow_auto!r}")
-        if self.derive_min_detections < 1:
-            raise ConfigError("derive_min_detections must be >= 1")
+        if not (_is_int(self.derive_min_detections) and self.derive_min_detections >= 1):
+            raise ConfigError(
+                f"derive_min_detections must be an integer >= 1, got "
+                f"{self.derive_min_detections!r}"
+            )
+
+    def _validate_periods(self) -> None:
+        periods = self.periods
+        if not periods or any(not (_is_number(p) and math.isfinite(p) and p > 0) for p in periods):
+            raise ConfigError("periods must be a non-empty list of positive seconds")
+        if len(periods) > MAX_PERIODS:
+            raise ConfigError(f"periods: at most {MAX_PERIODS}, got {len(periods)}")
+        shortest = 2.0 * self.window_s
+        bad = [p for p in periods if not shortest <= p <= MAX_PERIOD_S]
+        if bad:
+            raise ConfigError(
+                f"periods must lie in {shortest:g}..{MAX_PERIOD_S:.0f} s (two windows to a year), "
+                f"got {bad[0]!r}",
+                hint="a period shorter than two windows cannot be seen in per-window counts: "
+                "drop it from periods or use a shorter window_s",
+            )
 
     def _validate_calendar(self) -> None:
         from aion_cli.engine.temporal.calendar import Calendar
@@ -162,9 +222,35 @@ class ModelConfig:
         for name in ("timezone", "profile"):
             if not isinstance(getattr(self, name), str):
                 raise ConfigError(f"{name} must be a string, got {getattr(self, name)!r}")
-        Calendar(self.timezone, self.profile, self.profile_bin_s)  # raises ConfigError
+        calendar = Calendar(self.timezone, self.profile, self.profile_bin_s)  # ConfigError
+        if calendar.n_bins > MAX_PROFILE_BINS:
+            raise ConfigError(
+                f"the {self.profile} profile with profile_bin_s = {self.profile_bin_s!r} has "
+                f"{calendar.n_bins:,} bins, over {MAX_PROFILE_BINS:,}",
+                hint="use longer profile bins (3600 s by default)",
+            )
 
     # -- conversions -------------------------------------------------------------------------
+    @classmethod
+    def from_stored(cls, data: object) -> ModelConfig:
+        """The config a map stored (its manifest's ``state.config``), validated like a config
+        file; any fault is a :class:`~aion_cli.engine.errors.MapCorruptError` naming it (a map
+        with a 1e-6 s window or a 10^6-bin profile never reaches the engine)."""
+        from aion_cli.engine.errors import MapCorruptError
+
+        if not isinstance(data, dict):
+            raise MapCorruptError(
+                f"the map's stored model configuration is not an object: {data!r:.80}",
+                hint="the map was damaged or not written by aion; rebuild it with `aion build`",
+            )
+        try:
+            return cls.from_dict(data)
+        except ConfigError as exc:
+            raise MapCorruptError(
+                f"the map's stored model configuration is invalid: {exc.message}",
+                hint="the map was damaged or not written by aion; rebuild it with `aion build`",
+            ) from exc
+
     def to_dict(self) -> dict[str, Any]:
         data = dataclasses.asdict(self)
         data["periods"] = list(self.periods)
@@ -200,7 +286,7 @@ class ModelConfig:
                     kwargs[f.name] = float(value)
         try:
             return cls(**kwargs)
-        except TypeError as exc:
+        except (TypeError, ValueError, OverflowError) as exc:  # e.g. a string compared to 0
             raise ConfigError(f"invalid model parameters: {exc}") from exc
 
     def replace(self, **changes: Any) -> ModelConfig:

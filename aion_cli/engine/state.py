@@ -322,7 +322,7 @@ class MapState:
         if version > STATE_VERSION:
             raise MapCorruptError(f"map state version {version} is newer than {STATE_VERSION}")
         try:
-            config = ModelConfig.from_dict(meta["config"])
+            config = ModelConfig.from_stored(meta["config"])  # MapCorruptError if invalid
             open_window = meta["open_window"]
             log_time = meta["log_time_ns"]
             accepted = int(meta["accepted"])

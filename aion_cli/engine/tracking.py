@@ -332,3 +332,174 @@ def difference_tracks(
     h = np.where(moved, np.arctan2(v[:, 1], v[:, 0]), np.nan)
     heading[order], speed[order] = h, s
     return heading, speed
+
+
+# ----------------------------------------------------------------------------- incremental
+
+
+class TrackLinker:
+    """:func:`link_tracks`' association, one chunk of detections at a time: a log's stream is
+    decoded in chunks of messages, and tracks must carry over from one chunk to the next.
+
+    :meth:`link` takes the next detections (times need not be sorted within a chunk; a frame
+    is a run of equal times, i.e. one message), associates them frame by frame with the live
+    tracks as :func:`link_tracks` does, and returns their track ids, unique over the linker's
+    life (0, 1, ... in order of each track's first detection; -1 for a non-finite position).
+    Linking a stream in chunks that end between frames gives the ids linking it at once gives.
+
+    Only live tracks are kept (preallocated arrays of their id, last time, position, velocity
+    and match count; ended tracks are compacted away), so memory follows the people in view,
+    not the length of the log. The work per frame is array work over live tracks x
+    detections: squared distances against each track's gate, then the optimal assignment
+    (``linear_sum_assignment``) only over the tracks and detections that have a pair inside a
+    gate -- and none where every gated pair is unambiguous.
+
+    Frames older than a track's last detection (stamps that jitter across chunks) are gated
+    as if no time had passed (``dt = 0``: the gate is ``gate_slack``, the velocity unchanged).
+    """
+
+    def __init__(self, config: LinkerConfig | None = None, capacity: int = 64) -> None:
+        self.config = config or LinkerConfig()
+        self._gap_ns = round(self.config.max_gap_s * 1e9)
+        cap = max(int(capacity), 1)
+        self._ids: I64 = np.zeros(cap, np.int64)
+        self._t: I64 = np.zeros(cap, np.int64)
+        self._xy: F64 = np.zeros((cap, 2))
+        self._v: F64 = np.zeros((cap, 2))
+        self._count: I64 = np.zeros(cap, np.int64)
+        self._n = 0
+        self.next_id = 0
+
+    def __len__(self) -> int:
+        """Number of live tracks."""
+        return self._n
+
+    @property
+    def ids(self) -> I64:
+        """Ids of the live tracks."""
+        return self._ids[: self._n]
+
+    @property
+    def v(self) -> F64:
+        """Predicted velocities (m/s) of the live tracks."""
+        return self._v[: self._n]
+
+    def link(self, t_ns: npt.ArrayLike, xy: npt.ArrayLike) -> I64:
+        """Track ids of the next detections (``t_ns`` int64 ns, ``xy`` [n, 2] or [n, 3] m),
+        aligned with the input rows; :class:`InputError` for arrays of the wrong shape."""
+        t, p = _inputs(t_ns, xy)
+        out = np.full(len(t), -1, np.int64)
+        rows = np.flatnonzero(np.isfinite(p).all(axis=1))
+        if rows.size == 0:
+            return out
+        if rows.size > 1 and not bool(np.all(t[rows][1:] >= t[rows][:-1])):
+            rows = rows[np.argsort(t[rows], kind="stable")]
+        ts, ps = t[rows], p[rows]
+        ids = np.empty(len(rows), np.int64)
+        for a, b, now in zip(*_frames(ts), strict=True):
+            ids[a:b] = self._frame(now, ps[a:b])
+        out[rows] = ids
+        return out
+
+    def _frame(self, now: int, det: F64) -> I64:
+        """Associate one frame's detections with the live tracks (see :func:`_associate`)."""
+        cfg = self.config
+        n = self._n
+        if n:
+            alive = self._t[:n] >= now - self._gap_ns
+            if not alive.all():
+                self._keep(alive)
+                n = self._n
+        m = len(det)
+        if n == 0:
+            return self._start(now, det)
+        dt_s = np.maximum(now - self._t[:n], 0).astype(np.float64) * _NS
+        pred = self._xy[:n] + self._v[:n] * dt_s[:, None]
+        dx = pred[:, 0, None] - det[None, :, 0]
+        dy = pred[:, 1, None] - det[None, :, 1]
+        d2 = dx * dx + dy * dy
+        gate = cfg.max_speed * dt_s + cfg.gate_slack
+        gated = d2 <= (gate * gate)[:, None]
+        out = np.empty(m, np.int64)
+        per_row = gated.sum(axis=1)
+        if not per_row.any():
+            out[:] = self._start(now, det)
+            return out
+        per_col = gated.sum(axis=0)
+        if per_row.max() == 1 and per_col.max() == 1:
+            r, c = np.nonzero(gated)  # every gated pair is the only one of its row and column
+        else:
+            r, c = self._assign(gated, d2, np.flatnonzero(per_row), np.flatnonzero(per_col))
+        out[c] = self._ids[r]
+        self._extend(r, now, det[c], dt_s[r])
+        if len(c) < m:
+            rest = np.ones(m, dtype=bool)
+            rest[c] = False
+            out[rest] = self._start(now, det[rest])
+        return out
+
+    @staticmethod
+    def _assign(
+        gated: npt.NDArray[np.bool_], d2: F64, rows_in: I64, cols_in: I64
+    ) -> tuple[I64, I64]:
+        """Track rows and detection columns matched: the cheapest one-to-one assignment of
+        gated pairs (most pairs first, then the least total distance), solved only over the
+        rows and columns that have a gated pair."""
+        sub = gated[np.ix_(rows_in, cols_in)]
+        dist = np.sqrt(d2[np.ix_(rows_in, cols_in)])
+        if len(rows_in) == 1 or len(cols_in) == 1:  # the best gated pair is optimal
+            flat = int(np.argmin(np.where(sub, dist, np.inf)))
+            r, c = np.divmod(np.array([flat]), len(cols_in))
+        else:
+            from scipy.optimize import linear_sum_assignment
+
+            r, c = linear_sum_assignment(np.where(sub, dist, _BIG))
+            keep = sub[r, c]
+            r, c = r[keep], c[keep]
+        return rows_in[r], cols_in[c]
+
+    def _keep(self, mask: npt.NDArray[np.bool_]) -> None:
+        """Compact the live tracks to those of ``mask`` (their order kept)."""
+        k = int(mask.sum())
+        for arr in (self._ids, self._t, self._count, self._xy, self._v):
+            arr[:k] = arr[: self._n][mask]
+        self._n = k
+
+    def _start(self, now: int, xy: F64) -> I64:
+        """New tracks at ``xy`` (stationary until matched), appended to the live ones."""
+        k = len(xy)
+        a, b = self._n, self._n + k
+        if b > len(self._ids):
+            self._grow(b)
+        new = np.arange(self.next_id, self.next_id + k, dtype=np.int64)
+        self.next_id += k
+        self._ids[a:b], self._t[a:b], self._xy[a:b] = new, now, xy
+        self._v[a:b], self._count[a:b] = 0.0, 1
+        self._n = b
+        return new
+
+    def _grow(self, needed: int) -> None:
+        cap = max(needed, 2 * len(self._ids))
+        for name in ("_ids", "_t", "_count", "_xy", "_v"):
+            old = getattr(self, name)
+            arr = np.zeros((cap, *old.shape[1:]), old.dtype)
+            arr[: self._n] = old[: self._n]
+            setattr(self, name, arr)
+
+    def _extend(self, rows: I64, now: int, xy: F64, dt_s: F64) -> None:
+        """Live rows ``rows`` matched detections at ``xy``: :meth:`_Tracks.extend`, except
+        that a zero time step keeps the velocity."""
+        cfg = self.config
+        old_v = self._v[rows]
+        moved = dt_s > 0
+        step = (xy - self._xy[rows]) / np.where(moved, dt_s, 1.0)[:, None]
+        if not moved.all():
+            step[~moved] = old_v[~moved]
+        a = np.where(self._count[rows] == 1, 1.0, cfg.velocity_smoothing)[:, None]
+        v = old_v + a * (step - old_v)
+        speed2 = np.einsum("ij,ij->i", v, v)
+        too_fast = speed2 > cfg.max_speed * cfg.max_speed
+        if too_fast.any():  # a person does not outrun max_speed
+            v[too_fast] *= (cfg.max_speed / np.sqrt(speed2[too_fast]))[:, None]
+        self._v[rows], self._xy[rows], self._t[rows] = v, xy, now
+        self._count[rows] += 1

@@ -7,7 +7,9 @@ segments for occlusion, a simple mesh for export, each place's clearance, and na
 
 Two sources: the paper's office (:func:`aion_cli.sim.office.office_environment`) and any real
 spark_dsg scene graph file (:func:`load_graph_environment`), whose largest connected component of
-real places becomes the walkable graph.
+real places becomes the walkable graph. A file is read by the loader every command uses
+(:func:`formats.dsg.load_graph`): the same navigational layer (MESH_PLACES when the graph has
+2D places, else PLACES, or ``--nav-layer``), the same lenient reading of damaged JSON.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from aion_cli.engine.errors import InputError, NoPathError
-from aion_cli.engine.types import F64, I64, U64, BoolA, Mesh
+from aion_cli.engine.types import F64, I64, U64, BoolA, GraphSnapshot, Mesh
 from aion_cli.sim.geometry import segments_blocked
 
 PLACE_CHAR = "p"
@@ -62,6 +64,8 @@ class Environment:
     roles: Roles
     walls: F64 = field(default_factory=lambda: np.zeros((0, 4)))
     mesh: Mesh | None = None
+    layer: str = ""  # the scene graph's navigational layer, e.g. "MESH_PLACES (3[1])"
+    notes: tuple[str, ...] = ()  # what reading the scene graph file had to skip
 
     @property
     def n_places(self) -> int:
@@ -171,89 +175,69 @@ def roles_for_graph(xyz: F64, n_desks: int, n_patrol: int = 6) -> Roles:
     )
 
 
-def load_graph_environment(path: Path, n_desks: int) -> Environment:
+def load_graph_environment(path: Path, n_desks: int, nav_layer: str | None = None) -> Environment:
     """An environment from a spark_dsg scene graph file (Hydra dsg.json, .sparkdsg, legacy JSON).
 
-    Keeps the real places (``real_place`` true) of the places layer that lie in the largest
-    connected component of the place edges, their room parents, and the rooms' building.
+    Keeps the real places of the navigational layer (``nav_layer``, see
+    :func:`formats.dsg.choose_nav_layer`) that lie in the largest connected component of the
+    place edges, their room parents, and the rooms' building.
     """
-    import spark_dsg as dsg
+    from formats.dsg import layers_text, load_graph
 
-    if not path.exists():
-        raise InputError(f"scene graph file not found: {path}")
-    try:
-        graph = dsg.DynamicSceneGraph.load(str(path))
-    except Exception as exc:  # spark_dsg raises plain RuntimeError/ValueError
+    loaded = load_graph(path, 0, nav_layer, clearance=True)
+    snap, layer = loaded.snapshot, loaded.nav.layer
+    places = snap.places
+    other = f"choose another layer with --nav-layer; layers: {layers_text(loaded.file.graph)}"
+    if len(places) < 2:
         raise InputError(
-            f"cannot load scene graph {path}: {exc}",
-            hint="give a spark_dsg file (dsg.json, dsg_with_mesh.json or .sparkdsg)",
-        ) from exc
-    if not graph.has_layer(dsg.DsgLayers.PLACES):
-        raise InputError(f"scene graph {path} has no places layer")
-    layer = graph.get_layer(dsg.DsgLayers.PLACES)
-    ids, pos, parents, clear = [], [], [], []
-    for node in layer.nodes:
-        attrs = node.attributes
-        if not getattr(attrs, "real_place", True):
-            continue
-        ids.append(node.id.value)
-        pos.append(np.array(attrs.position, dtype=np.float64).reshape(3))  # a copy: views dangle
-        parents.append(node.get_parent() if node.has_parent() else 0)
-        clear.append(float(getattr(attrs, "distance", 0.0)))
-    if len(ids) < 2:
-        raise InputError(f"scene graph {path} has fewer than two places")
-    id_arr = np.asarray(ids, dtype=np.uint64)
-    row = {int(v): i for i, v in enumerate(ids)}
-    edge_list = [
-        (row[e.source], row[e.target])
-        for e in layer.edges
-        if e.source in row and e.target in row and e.source != e.target
-    ]
-    if not edge_list:
-        raise InputError(f"scene graph {path} has no place edges to walk on")
-    edges = np.asarray(edge_list, dtype=np.int64)
-    keep = largest_component(len(ids), edges)
-    remap = np.full(len(ids), -1, dtype=np.int64)
+            f"scene graph {path.name}: its navigational layer {layer} has "
+            f"{len(places)} place{'' if len(places) == 1 else 's'}; at least two are needed",
+            hint=other,
+        )
+    if len(snap.edges) == 0:
+        raise InputError(
+            f"scene graph {path.name}: its navigational layer {layer} has no place edges to "
+            "walk on",
+            hint=other,
+        )
+    keep = largest_component(len(places), snap.edges)
+    remap = np.full(len(places), -1, dtype=np.int64)
     remap[keep] = np.arange(len(keep))
-    edges = remap[edges]
+    edges = remap[snap.edges]
     edges = edges[(edges >= 0).all(axis=1)]
     edges = np.unique(np.sort(edges, axis=1), axis=0)
-    xyz = np.asarray(pos)[keep]
-    place_room = np.asarray(parents, dtype=np.uint64)[keep]
-    room_ids, room_xyz, labels, building = _rooms_of(graph, place_room)
+    xyz = np.array(places.xyz[keep], dtype=np.float64)
+    place_room = np.asarray(places.parent, dtype=np.uint64)[keep]
+    clearance = loaded.nav.clearance
+    room_ids, room_xyz, labels, building = _rooms_of(snap, place_room)
     return Environment(
         name=path.name,
-        place_ids=id_arr[keep],
+        place_ids=np.asarray(places.ids, dtype=np.uint64)[keep],
         xyz=xyz,
         edges=edges,
         place_room=place_room,
-        clearance=np.asarray(clear)[keep],
+        clearance=np.zeros(len(keep)) if clearance is None else clearance[keep],
         room_ids=room_ids,
         room_xyz=room_xyz,
         room_labels=labels,
         building_id=building,
         roles=roles_for_graph(xyz, n_desks),
+        layer=str(layer),
+        notes=tuple(loaded.notes()),
     )
 
 
-def _rooms_of(graph: object, place_room: U64) -> tuple[U64, F64, tuple[str, ...], int]:
+def _rooms_of(snap: GraphSnapshot, place_room: U64) -> tuple[U64, F64, tuple[str, ...], int]:
     """The rooms that parent the kept places, and their building (B0 when the file has none)."""
     used = np.unique(place_room[place_room != 0])
-    xyz, labels, buildings = [], [], []
-    for rid in used:
-        node = graph.find_node(int(rid))  # type: ignore[attr-defined]
-        if node is None:
-            xyz.append(np.zeros(3))
-            labels.append("")
-            continue
-        xyz.append(np.array(node.attributes.position, dtype=np.float64).reshape(3))
-        labels.append(str(getattr(node.attributes, "name", "")))
-        if node.has_parent():
-            buildings.append(int(node.get_parent()))
-    building = buildings[0] if buildings else int(symbol(BUILDING_CHAR, 0))
+    rooms = snap.rooms  # every used parent is one of them (the loader zeroes other parents)
+    order = np.argsort(rooms.ids)
+    rows = order[np.searchsorted(rooms.ids, used, sorter=order)] if len(used) else order[:0]
+    parents = [int(p) for p in rooms.parent[rows] if int(p) != 0]
+    building = parents[0] if parents else int(symbol(BUILDING_CHAR, 0))
     return (
         used.astype(np.uint64),
-        np.asarray(xyz, dtype=np.float64).reshape(-1, 3),
-        tuple(labels),
+        np.asarray(rooms.xyz[rows], dtype=np.float64).reshape(-1, 3),
+        tuple(rooms.labels[int(r)] for r in rows),
         building,
     )

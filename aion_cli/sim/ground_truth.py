@@ -194,12 +194,44 @@ def save_npz(path: Path, arrays: dict[str, npt.NDArray[Any]]) -> None:
                 np.lib.format.write_array(member, np.asanyarray(arrays[name]), allow_pickle=False)
 
 
-def write_truth(
-    log_path: Path, arrays: dict[str, npt.NDArray[Any]], meta: dict[str, Any]
-) -> tuple[Path, Path]:
-    """Write the arrays (compressed npz) and the JSON sidecar; returns both paths."""
+def _is_truth_npz(path: Path) -> bool:
+    from formats.outputs import file_starts_with
+
+    return file_starts_with(path, b"PK\x03\x04")  # a zip (npz), as save_npz writes it
+
+
+def _is_truth_json(path: Path) -> bool:
+    from formats.outputs import file_starts_with
+
+    return file_starts_with(path, b"{")  # a JSON object, as write_truth writes it
+
+
+def check_truth_targets(log_path: Path, overwrite: bool) -> None:
+    """Refuse the truth files' paths of ``log_path`` before anything is simulated (the rules
+    of :func:`formats.outputs.check_output`: no special file, an existing one only with
+    ``overwrite`` and only when it is an npz / JSON file as aion writes them)."""
+    from formats.outputs import check_output
+
     npz, js = truth_paths(log_path)
-    save_npz(npz, arrays)
+    check_output(npz, overwrite=overwrite, recognise=_is_truth_npz, what="a ground-truth npz")
+    check_output(js, overwrite=overwrite, recognise=_is_truth_json, what="a ground-truth JSON")
+
+
+def write_truth(
+    log_path: Path,
+    arrays: dict[str, npt.NDArray[Any]],
+    meta: dict[str, Any],
+    overwrite: bool = False,
+) -> tuple[Path, Path]:
+    """Write the arrays (compressed npz) and the JSON sidecar; returns both paths. Each is
+    written beside its target and renamed into place (``overwrite`` replaces a previous
+    run's truth files, never another file)."""
+    from formats.outputs import Staged
+
+    npz, js = truth_paths(log_path)
+    check_truth_targets(log_path, overwrite)
+    with Staged(npz) as staged:
+        save_npz(staged.path, arrays)
     kinds = arrays["event_kind"]
     meta = {
         **meta,
@@ -210,5 +242,6 @@ def write_truth(
         "seen_samples": int(arrays["agent_seen"].sum()),
         "arrays": {k: ARRAY_DOC[k] for k in arrays},
     }
-    js.write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
+    with Staged(js) as staged:
+        staged.path.write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
     return npz, js

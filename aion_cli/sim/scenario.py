@@ -46,6 +46,7 @@ class ScenarioConfig:
     """Every option of a simulation run (the CLI maps its flags onto these fields)."""
 
     environment: str = "office"  # "office" or a spark_dsg scene-graph file
+    nav_layer: str | None = None  # --nav-layer of a scene-graph file (None: chosen by name)
     days: float = 1.0
     seed: int = 0
     agents: int = 6
@@ -87,6 +88,10 @@ class ScenarioConfig:
             (self.patrol.tour_every_s > 0, "the patrol interval must be positive"),
             (self.tf_idle_s > 0, "the TF period must be positive"),
             (self.patrol.sensor_range > 0, "the sensor range must be positive"),
+            (
+                self.nav_layer is None or self.environment != "office",
+                "--nav-layer needs a scene-graph file as --environment",
+            ),
         ]
         for ok, message in checks:
             if not ok:
@@ -145,7 +150,7 @@ def load_environment(config: ScenarioConfig) -> Environment:
     """The office, or the walkable part of a scene-graph file."""
     if config.environment == "office":
         return office_environment(max(config.agents, 1))
-    return load_graph_environment(Path(config.environment), max(config.agents, 1))
+    return load_graph_environment(Path(config.environment), max(config.agents, 1), config.nav_layer)
 
 
 def scene_paths(output: Path, config: ScenarioConfig) -> list[Path]:
@@ -222,8 +227,10 @@ def run_scene(
     scene: int,
     log_path: Path,
     progress: Progress | None = None,
+    overwrite: bool = False,
 ) -> SceneResult:
-    """Simulate one scene and write its log and ground truth."""
+    """Simulate one scene and write its log and ground truth (``overwrite``: replace a log
+    and truth files of a previous run; each appears complete or not at all)."""
     data = build_scene(config, env, scene, progress)
     msgtype = detection_msgtype(config.detection_type)
     container = FORMATS[config.format][0]
@@ -244,6 +251,7 @@ def run_scene(
         config.stream.include_mesh,
         config.noise,
         progress=report,
+        overwrite=overwrite,
     )
     if progress is not None:
         progress("ground truth", 0, 0)
@@ -258,6 +266,8 @@ def run_scene(
         "log": log_path.name,
         "config": _jsonable(asdict(replace(config, scenes=1))),
         "environment": env.name,
+        "nav_layer": env.layer or None,
+        "environment_notes": list(env.notes),
         "places": env.n_places,
         "start_ns": data.t0_ns,
         "end_ns": data.end_ns,
@@ -270,7 +280,7 @@ def run_scene(
         "messages": {"tf": counts.tf, "scene_graph": counts.dsg, "detections": counts.detections},
         "detections": counts.detection_rows,
     }
-    npz, js = write_truth(log_path, arrays, meta)
+    npz, js = write_truth(log_path, arrays, meta, overwrite=overwrite)
     return SceneResult(log_path, npz, js, meta)
 
 
@@ -288,24 +298,37 @@ def simulate(
     """Simulate ``config.scenes`` scenes into ``output`` (a log path, or a folder of scenes)."""
     config.validate()
     paths = scene_paths(output, config)
-    existing = [p for p in paths if p.exists()]
-    if existing and not overwrite:
-        raise InputError(f"{existing[0]} exists already", hint="remove it or pass --force")
-    for p in existing:
-        _remove(p)
+    check_outputs(output, paths, FORMATS[config.format][0], overwrite)  # nothing is deleted
     env = load_environment(config)
     results = []
     for scene, path in enumerate(paths):
         if progress is not None:
             progress(f"scene {scene + 1}/{len(paths)}", 0, 0)
-        results.append(run_scene(config, env, scene, path, progress))
+        results.append(run_scene(config, env, scene, path, progress, overwrite))
     return results
 
 
-def _remove(path: Path) -> None:
-    import shutil
+def check_outputs(output: Path, paths: list[Path], container: str, overwrite: bool) -> None:
+    """Refuse ``-o`` and the scene logs' paths and their truth files before anything is
+    simulated: a device, FIFO or socket (``-o /dev/null`` too, though ``.mcap`` is appended),
+    an existing path without ``overwrite``, or one that is not aion's own log / truth file
+    (``--force`` never deletes a folder of other files).
+    :class:`formats.outputs.OutputPathError` (exit 2)."""
+    from aion_cli.sim.ground_truth import check_truth_targets
+    from formats.outputs import OutputPathError, special_kind
+    from formats.writers import check_log_target
 
-    if path.is_dir():
-        shutil.rmtree(path)
-    else:
-        path.unlink()
+    kind = special_kind(output)
+    if kind is not None:
+        raise OutputPathError(
+            f"{output} is {kind}: aion does not write there",
+            hint="choose a path for a new log (or one aion wrote)",
+        )
+    if len(paths) > 1 and output.exists() and not output.is_dir():
+        raise OutputPathError(
+            f"{output} is a file, not a folder: --scenes {len(paths)} writes a folder of logs",
+            hint="choose a folder path for the scenes",
+        )
+    for path in paths:
+        check_log_target(path, container, overwrite=overwrite)
+        check_truth_targets(path, overwrite)

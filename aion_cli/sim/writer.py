@@ -85,8 +85,11 @@ def write_scene_log(
     include_mesh: bool,
     noise: float,
     progress: Progress | None = None,
+    overwrite: bool = False,
 ) -> LogCounts:
-    """Write the merged streams to ``path`` with :class:`formats.writers.LogWriter`."""
+    """Write the merged streams to ``path`` with :class:`formats.writers.LogWriter`: beside
+    the target, renamed into place when complete (``overwrite`` replaces only a log of the
+    same kind aion wrote; an error or Ctrl-C mid-scene leaves the previous log intact)."""
     from formats.writers import LogWriter
 
     idle_ticks = max(round(tf_idle_s * 1e9 / dt_ns), 1)
@@ -108,7 +111,7 @@ def write_scene_log(
     graph_topic = dsg_topic(container)
     total = len(order)
     builder = PayloadBuilder(env, frames, include_mesh)
-    with LogWriter(path, container) as log:
+    with LogWriter(path, container, overwrite=overwrite) as log:
         tf_bytes = TfEncoder(log).encode(t0_ns + tf_t * dt_ns, map_odom, odom_base)
         for n, o in enumerate(order):
             k, i = int(tick[o]), int(index[o])

@@ -3,9 +3,12 @@
 ``adapter_for(msgtype)`` returns a :class:`DetectionAdapter` for every type of
 ``SUPPORTED_TYPES``; ``adapter.decode(raw_messages)`` gives :class:`FrameDetections` (message
 frames). The common types are decoded with numpy straight from the bytes (:mod:`.fast`), the
-rest through rosbags objects (:mod:`.builtin`, :mod:`.generic`); :mod:`.mapping` reads any other
-type from a TOML field mapping. :class:`HeadingEstimator` turns map-frame detections into the
-engine's :class:`~aion_cli.engine.types.DetectionBatch`.
+rest through rosbags objects (:mod:`.builtin`, :mod:`.generic`); for a log,
+:func:`~formats.detections.registry.log_adapter` decodes with the log's own definitions and
+keeps the numpy path only where they have its layout. :mod:`.mapping` reads any other type
+from a TOML field mapping, and :mod:`.suggest` writes one from a type's definition.
+:class:`HeadingEstimator` turns map-frame detections into the engine's
+:class:`~aion_cli.engine.types.DetectionBatch`.
 """
 
 from formats.detections.adapter import DetectionAdapter

@@ -63,10 +63,26 @@ class DetectionAdapter:
         self.fast = fast
         self.typestore = typestore
         self.strict_fields = strict_fields
+        #: The first :class:`MessageDecodeError` met in ``on_error="skip"`` mode (the build
+        #: reports it when every message of a topic fails).
+        self.first_error: MessageDecodeError | None = None
+        #: Set when the log's definition of the type is not the layout of the fast decoder,
+        #: which is then not used (:func:`formats.detections.registry.log_adapter`).
+        self.layout_differs = False
+        #: False when the messages carry no stamp by design (a mapping of a header-less
+        #: type): their log times are then the rule, not a fallback.
+        self.stamped = True
 
     def __repr__(self) -> str:
-        kind = "fast" if self.fast else "generic"
-        return f"DetectionAdapter({self.msgtype!r}, {kind})"
+        return f"DetectionAdapter({self.msgtype!r}, {self.kind})"
+
+    @property
+    def kind(self) -> str:
+        """How this adapter decodes: ``fast`` (numpy over the bytes), ``mapping`` (a user's
+        TOML mapping) or ``generic`` (rosbags objects and field paths)."""
+        if self.fast is not None:
+            return "fast"
+        return "mapping" if self.strict_fields else "generic"
 
     # --- public --------------------------------------------------------------------------------
     def decode(
@@ -108,7 +124,8 @@ class DetectionAdapter:
             return store.deserialize_cdr(m.data, self.msgtype)
         except Exception as exc:  # rosbags raises many kinds (struct.error, KeyError, ...)
             raise MessageDecodeError(
-                f"cannot decode {self.msgtype} message {index} on {m.topic!r}: "
+                f"cannot decode the {self.msgtype} message on {m.topic!r} at log time "
+                f"{m.log_time_ns} ns: "
                 f"{type(exc).__name__}: {exc}",
                 hint="the payload is truncated or corrupt, or the log's definition differs",
             ) from exc
@@ -119,17 +136,25 @@ class DetectionAdapter:
     ) -> FrameDetections:
         try:
             return self._decode_once(group, key)
-        except MessageDecodeError:
+        except MessageDecodeError as exc:
             if on_error == "raise":
                 raise
+            if len(group) == 1:
+                self._remember(exc)
+                return _skipped(1)
         # Skip mode: decode one by one so a single bad message costs only itself.
         parts = []
         for m in group:
             try:
                 parts.append(self._decode_once([m], key))
-            except MessageDecodeError:
+            except MessageDecodeError as exc:
+                self._remember(exc)
                 parts.append(_skipped(1))
         return FrameDetections.concat(parts)
+
+    def _remember(self, exc: MessageDecodeError) -> None:
+        if self.first_error is None:
+            self.first_error = exc
 
     def _decode_once(self, group: list[RawMessage], key: str) -> FrameDetections:
         if self.fast is not None and key != "other":

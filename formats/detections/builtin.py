@@ -56,6 +56,9 @@ SPECS: dict[str, ItemSpec] = {
     "geometry_msgs/msg/PoseStamped": ItemSpec.of(
         None, "pose.position", orientation="pose.orientation"
     ),
+    "geometry_msgs/msg/PoseWithCovarianceStamped": ItemSpec.of(
+        None, "pose.pose.position", orientation="pose.pose.orientation"
+    ),
     "spencer_tracking_msgs/msg/TrackedPersons": ItemSpec.of(
         "tracks", "pose.pose.position", "twist.twist.linear", "pose.pose.orientation",
         "track_id", adjust=_spencer_adjust,
@@ -90,17 +93,17 @@ class Detection3DExtractor:
         self.options = options
 
     def _is_person(self, det: Any) -> bool | None:
-        """True/False under an active class filter, None when no filter applies."""
-        ros1 = hasattr(det, "source_cloud")
+        """True/False under an active class filter, None when no filter applies. String class
+        ids (ROS 2: foxy's ``results[].id``, later ``results[].hypothesis.class_id``) go
+        through ``class_names``, integer ones (ROS 1 noetic) through ``class_ids``."""
         opts = self.options
-        wanted: tuple[Any, ...] | None = opts.class_ids if ros1 else opts.class_names
+        classes = [r.hypothesis.class_id if hasattr(r, "hypothesis") else r.id for r in det.results]
+        ros2 = hasattr(det, "tracking_id") or not hasattr(det, "source_cloud")
+        named = ros2 or any(isinstance(c, str) for c in classes)
+        wanted: tuple[Any, ...] | None = opts.class_names if named else opts.class_ids
         if wanted is None:
             return None
-        for r in det.results:
-            cls = r.hypothesis.class_id if hasattr(r, "hypothesis") else r.id
-            if cls in wanted:
-                return True
-        return False
+        return any(c in wanted for c in classes)
 
     def __call__(self, msg: Any, owner: int, rows: Rows) -> None:
         stamp0 = stamp_ns(msg.header.stamp)
@@ -141,16 +144,16 @@ def _rotate(q: tuple[float, float, float, float], p: np.ndarray) -> np.ndarray:
 
 
 class MarkerExtractor:
-    """visualization_msgs/MarkerArray: one detection per marker at ``pose.position`` (track
-    id = hash of ``ns/id``), or one per point for list markers (points transformed by the
-    marker pose, no track id). DELETE/DELETEALL markers are skipped, and so are markers whose
-    ``ns`` does not match ``marker_ns``."""
+    """visualization_msgs/MarkerArray (or a single Marker): one detection per marker at
+    ``pose.position`` (track id = hash of ``ns/id``), or one per point for list markers
+    (points transformed by the marker pose, no track id). DELETE/DELETEALL markers are
+    skipped, and so are markers whose ``ns`` does not match ``marker_ns``."""
 
     def __init__(self, options: AdapterOptions) -> None:
         self.ns = re.compile(options.marker_ns) if options.marker_ns else None
 
     def __call__(self, msg: Any, owner: int, rows: Rows) -> None:
-        for mk in msg.markers:
+        for mk in msg.markers if hasattr(msg, "markers") else (msg,):
             if mk.action in DELETE_ACTIONS:
                 rows.drop("marker_delete")
                 continue

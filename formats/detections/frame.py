@@ -171,12 +171,21 @@ class FrameDetections:
         )
 
 
+#: A pose yaw counts only when its quaternion's norm is at least this: leg detectors and other
+#: bare-position publishers leave the orientation all zero ("unset"), and a quaternion of
+#: near-zero norm (a half-filled or noise-level one) is not a rotation anyone meant, so
+#: neither may pose as a walking direction. Larger norms are scaled rotations (the yaw formula
+#: is scale-free).
+MIN_QUAT_NORM = 0.5
+
+
 def quat_yaw(q: F64) -> F64:
-    """Yaw (rotation about z, rad) of quaternions float64[n,4] in (x, y, z, w) order; NaN for
-    an all-zero (unset) quaternion or non-finite input."""
+    """Yaw (rotation about z, rad) of quaternions float64[n,4] in (x, y, z, w) order; NaN
+    unless the quaternion is finite with a usable norm (at least :data:`MIN_QUAT_NORM`: an
+    all-zero, unset quaternion never yields a heading)."""
     q = np.asarray(q, dtype=np.float64).reshape(-1, 4)
     x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     # w²+x²-y²-z² instead of 1-2(y²+z²): the same for unit quaternions, scale-free otherwise.
     yaw = np.arctan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z)
-    unset = np.einsum("ij,ij->i", q, q) == 0.0
-    return np.where(unset | ~np.isfinite(yaw), np.nan, yaw)
+    usable = np.einsum("ij,ij->i", q, q) >= MIN_QUAT_NORM**2  # False for NaN too
+    return np.where(usable & np.isfinite(yaw), yaw, np.nan)

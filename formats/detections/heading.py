@@ -22,6 +22,9 @@ headings in radians in (-π, π].
 State between calls is a struct of arrays sorted by track id (id, reference time and position,
 last heading), looked up with ``np.searchsorted``. Within one call the rows of each track are
 processed in time order, one round per occurrence index, vectorized over all tracks.
+
+After each call :attr:`HeadingEstimator.sources` says which rule gave each row its heading
+(codes of :data:`SOURCES`), so a build can count headings by source.
 """
 
 from __future__ import annotations
@@ -32,6 +35,11 @@ import numpy.typing as npt
 from aion_cli.engine.errors import ConfigError
 from aion_cli.engine.types import DetectionBatch
 from formats.detections.frame import F64, I64, FrameDetections
+
+#: Heading source codes of :attr:`HeadingEstimator.sources`: no heading, the message's
+#: velocity, differencing the track, the pose yaw.
+SOURCES: tuple[str, ...] = ("none", "velocity", "track", "pose_yaw")
+NO_HEADING, FROM_VELOCITY, FROM_TRACK, FROM_YAW = range(4)
 
 
 class HeadingEstimator:
@@ -52,6 +60,9 @@ class HeadingEstimator:
         self.ref_t: I64 = np.zeros(0, np.int64)
         self.ref_xy: F64 = np.zeros((0, 2))
         self.heading: F64 = np.zeros(0)
+        #: Per row of the last :meth:`estimate` call, the code (index into :data:`SOURCES`) of
+        #: the rule that gave its heading.
+        self.sources: npt.NDArray[np.int8] = np.zeros(0, np.int8)
 
     def __len__(self) -> int:
         """Number of tracks remembered."""
@@ -88,12 +99,20 @@ class HeadingEstimator:
             heading[moving] = np.arctan2(vxy[moving, 1], vxy[moving, 0])
         speed = np.where(has_vel, vspeed, np.nan)
 
+        source = np.where(has_vel, FROM_VELOCITY, NO_HEADING).astype(np.int8)
         tracked = np.flatnonzero(k >= 0)
         if len(tracked):
             self._difference(tracked, t, p[:, :2], k, has_vel, heading, speed)
             if len(self.ids) > self.prune_above:
                 self._prune(int(t[tracked].max()))
-        heading = np.where(np.isnan(heading), y, heading)
+            source[tracked] = np.where(
+                has_vel[tracked], FROM_VELOCITY,
+                np.where(np.isnan(heading[tracked]), NO_HEADING, FROM_TRACK),
+            )
+        unset = np.isnan(heading)
+        source[unset & ~np.isnan(y)] = FROM_YAW
+        self.sources = source
+        heading = np.where(unset, y, heading)
         outside = np.flatnonzero(np.abs(heading) > np.pi)  # yaws moved by TF: wrap them
         if outside.size:
             h = heading[outside]

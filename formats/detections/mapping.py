@@ -20,6 +20,12 @@ Paths are dotted field names with ``[i]`` indices and inclusive ``[i..j]`` range
 (position, velocity, orientation, id, item_header, filter.field) are relative to one element of
 ``array``. :meth:`TopicMapping.check` validates every path against a typestore's definition
 before any message is read, and names the path and the fields that exist when one is wrong.
+
+A message type without a header (``leg_tracker/msg/Person``: ``geometry_msgs/Pose pose``,
+``uint32 id``) needs neither ``stamp`` nor ``frame``: when the type has no ``header`` and the
+mapping does not say otherwise, detections take their message's log time, and their frame is
+``frame_override`` (which such a mapping must then give: aion never guesses a frame).
+:func:`formats.detections.suggest.suggest_mapping` writes a mapping from a type's definition.
 """
 
 from __future__ import annotations
@@ -58,17 +64,25 @@ class TopicMapping:
     def adapter(self, typestore: Typestore | None = None) -> DetectionAdapter:
         """A generic adapter decoding this topic's messages with the mapping; missing fields
         at decode time raise :class:`ConfigError` naming the path."""
-        return DetectionAdapter(
+        adapter = DetectionAdapter(
             self.msgtype, self.spec.extract, None, typestore, strict_fields=True
         )
+        adapter.stamped = not self.uses_log_time
+        return adapter
 
-    def check(self, typestore: Typestore) -> None:
-        """Validate every path against ``typestore``'s definition of ``msgtype``."""
+    def check(self, typestore: Typestore) -> TopicMapping:
+        """Validate every path against ``typestore``'s definition of ``msgtype``; returns the
+        mapping to decode with: the same, or -- for a type without the default
+        ``header.stamp`` / ``header.frame_id`` that the mapping left unset -- one reading log
+        times and ``frame_override``."""
         if self.msgtype not in typestore.fielddefs:
             raise ConfigError(
                 f"mapping for {self.topic!r}: message type {self.msgtype!r} is not known",
-                hint="use the type name the log lists (aion inspect), e.g. pkg/msg/Type",
+                hint="use the type name the log lists (aion info LOG), e.g. pkg/msg/Type",
             )
+        resolved = self._headerless(typestore)
+        if resolved is not self:
+            return resolved.check(typestore)
         root = (_NAME, self.msgtype)
         item = root
         r = self.raw
@@ -89,6 +103,34 @@ class TopicMapping:
             _walk(typestore, item, r["item_header"] + ".stamp", "item_header")
         if "filter" in r:
             _walk(typestore, item, r["filter"]["field"], "filter.field")
+        return self
+
+    def _headerless(self, typestore: Typestore) -> TopicMapping:
+        """Without a ``header`` field, the default stamp and frame paths cannot apply: unset
+        ones become "log time" and "frame_override" (which must then be given)."""
+        r = self.raw
+        names = {name for name, _ in _fields(typestore, self.msgtype)}
+        if "header" in names or ("stamp" in r and "frame" in r):
+            return self
+        spec = self.spec
+        raw = dict(r)
+        if "stamp" not in r:
+            spec, raw["stamp"] = replace(spec, stamp=None), ""
+        if "frame" not in r:
+            if "frame_override" not in r and "item_header" not in r:
+                raise ConfigError(
+                    f"mapping for {self.topic!r}: {self.msgtype} has no header, so the frame "
+                    "of its positions is unknown",
+                    hint='add frame_override = "FRAME" (the frame the positions are in, e.g. '
+                    'the --map-frame, "map") to its [[topic]] table',
+                )
+            spec, raw["frame"] = replace(spec, frame=None), ""
+        return TopicMapping(self.topic, self.msgtype, spec, raw)
+
+    @property
+    def uses_log_time(self) -> bool:
+        """Whether detections take their message's log time (no stamp path at all)."""
+        return self.spec.stamp is None and self.spec.item_stamp is None
 
 
 def load_mapping(source: str | Path) -> list[TopicMapping]:

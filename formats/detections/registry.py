@@ -39,6 +39,7 @@ SUPPORTED_TYPES: tuple[str, ...] = (
     *SPECS,
     "vision_msgs/msg/Detection3DArray",
     "visualization_msgs/msg/MarkerArray",
+    "visualization_msgs/msg/Marker",
     "zed_interfaces/msg/ObjectsStamped",
     "zed_msgs/msg/ObjectsStamped",
 )
@@ -63,7 +64,7 @@ def adapter_for(
     elif name == "vision_msgs/msg/Detection3DArray":
         extract = Detection3DExtractor(opts)
         fast = partial(decode_detection3d, flt=ClassFilter(opts.class_names, opts.class_ids))
-    elif name == "visualization_msgs/msg/MarkerArray":
+    elif name in ("visualization_msgs/msg/MarkerArray", "visualization_msgs/msg/Marker"):
         extract = MarkerExtractor(opts)
     elif name in ("zed_interfaces/msg/ObjectsStamped", "zed_msgs/msg/ObjectsStamped"):
         extract = ZedExtractor(opts)
@@ -76,3 +77,35 @@ def adapter_for(
     elif name == "people_msgs/msg/People":
         fast = decode_people
     return DetectionAdapter(name, extract, fast, typestore)
+
+
+def fast_layout_matches(msgtype: str, encoding: str, definition: str, idl: bool = False) -> bool:
+    """Whether a log's own ``definition`` of ``msgtype`` (for messages in ``encoding``) has the
+    layout aion's numpy fast decoder of that type was written for (:func:`msgdefs.same_layout`
+    against the shipped definition: ROS 1 noetic / ROS 2 galactic+ layouts). A log that embeds
+    no definition is assumed to use the shipped one."""
+    from formats import msgdefs
+
+    ros_version = 1 if encoding == "ros1" else 2
+    return msgdefs.same_layout(definition, normalize_msgtype(msgtype), ros_version, idl)
+
+
+def log_adapter(
+    msgtype: str,
+    encoding: str,
+    definition: str,
+    idl: bool,
+    typestore: Typestore | None,
+    options: AdapterOptions | None = None,
+) -> DetectionAdapter | None:
+    """The built-in adapter for one topic of a log: messages are deserialized with
+    ``typestore`` (built from the log's own definitions), and the numpy fast decoder is used
+    only when :func:`fast_layout_matches` -- otherwise it would read another layout's bytes as
+    its own, or reject every message. None when aion has no adapter for ``msgtype``."""
+    adapter = adapter_for(msgtype, typestore, options)
+    if adapter is None:
+        return None
+    if adapter.fast is not None and not fast_layout_matches(msgtype, encoding, definition, idl):
+        adapter.fast = None
+        adapter.layout_differs = True
+    return adapter

@@ -44,3 +44,45 @@ def test_invalid_values_are_rejected(key: str, value: object) -> None:
 def test_invalid_toml_is_a_config_error() -> None:
     with pytest.raises(ConfigError):
         ModelConfig.from_toml_text("cell_size = = 3")
+
+
+@pytest.mark.parametrize(
+    ("changes", "fragment"),
+    [
+        ({"window_s": 1e-6}, "window_s must be at least 1 s"),  # hung the build
+        ({"window_s": 0.5}, "window_s must be at least 1 s"),
+        ({"cell_size": 1e-3}, "cell_size must be in 0.01..1000 m"),  # ±1 km packable
+        ({"cell_size": 5000.0}, "cell_size must be in 0.01..1000 m"),
+        ({"window_s": 1.0, "profile_bin_s": 1.0, "profile": "week"}, "bins, over 2,016"),
+        ({"window_s": 7200.0, "profile_bin_s": 7200.0}, "periods must lie in 14400..31622400 s"),
+        ({"periods": [86400.0] * 65}, "at most 64"),
+        ({"periods": [400 * 86400.0]}, "two windows to a year"),
+        ({"profile_bin_s": 300.0}, "profile_bin_s (300.0) must be at least window_s"),
+        ({"bins": True}, "bins must be an integer"),
+        ({"window_s": True}, "window_s must be a positive number"),
+        ({"derive_min_detections": "3"}, "derive_min_detections must be an integer"),
+        ({"max_order": 2.0}, "max_order must be an integer"),
+    ],
+)
+def test_documented_ranges_are_enforced(changes: dict, fragment: str) -> None:
+    with pytest.raises(ConfigError) as err:
+        ModelConfig.from_dict(changes)
+    assert fragment in err.value.message
+
+
+def test_the_edges_of_the_ranges_are_accepted() -> None:
+    edges = {"window_s": 1.0, "profile_bin_s": 300.0, "profile": "week", "cell_size": 0.01}
+    cfg = ModelConfig.from_dict({**edges, "periods": [2.0, 366 * 86400.0]})
+    assert cfg.window_s == 1.0
+    assert ModelConfig(cell_size=1000.0, window_s=86400.0, profile_bin_s=86400.0,
+                       periods=(172800.0,)).cell_size == 1000.0  # fmt: skip
+
+
+def test_a_stored_config_is_checked_as_a_map_fault() -> None:
+    from aion_cli.engine.errors import MapCorruptError
+
+    good = ModelConfig().to_dict()
+    assert ModelConfig.from_stored(good) == ModelConfig()
+    for bad in ({**good, "window_s": 1e-6}, {**good, "bins": "eight"}, "window_s", None):
+        with pytest.raises(MapCorruptError, match="stored model configuration"):
+            ModelConfig.from_stored(bad)

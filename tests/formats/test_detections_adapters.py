@@ -31,6 +31,7 @@ def test_supported_types_all_have_adapters() -> None:
         "people_msgs/msg/People", "people_msgs/msg/PositionMeasurementArray",
         "leg_tracker/msg/PersonArray", "vision_msgs/msg/Detection3DArray",
         "geometry_msgs/msg/PoseArray", "geometry_msgs/msg/PoseStamped",
+        "geometry_msgs/msg/PoseWithCovarianceStamped", "visualization_msgs/msg/Marker",
         "visualization_msgs/msg/MarkerArray", "pedsim_msgs/msg/AgentStates",
         "zed_interfaces/msg/ObjectsStamped", "zed_msgs/msg/ObjectsStamped",
         "nav2_dynamic_msgs/msg/ObstacleArray",
@@ -63,6 +64,24 @@ def test_pose_stamped(ros: int) -> None:
     assert d.frame_names() == ["map"]
     np.testing.assert_array_equal(d.t_ns, [3 * S + 5])
     np.testing.assert_array_equal(d.track_id, [-1])
+
+
+@ROS
+def test_pose_with_covariance_stamped_and_a_single_marker(ros: int) -> None:
+    d = decode(
+        "geometry_msgs/msg/PoseWithCovarianceStamped",
+        {"header": header(3, 5, "odom"), "pose": {"pose": pose(1, 2, 3, Q90)}},
+        ros,
+    )
+    np.testing.assert_array_equal(d.xyz, [[1, 2, 3]])
+    assert d.yaw[0] == pytest.approx(math.pi / 2)
+    assert d.frame_names() == ["odom"]
+    marker = {"header": header(4, 0, "map"), "ns": "people", "id": 7, "type": 2,
+              "pose": pose(5, 6, 0, (0, 0, 0, 0))}
+    m = decode("visualization_msgs/msg/Marker", marker, ros)
+    np.testing.assert_array_equal(m.xyz, [[5, 6, 0]])
+    np.testing.assert_array_equal(m.track_id, [hash_id("people/7")])
+    assert np.isnan(m.yaw[0])  # a zero quaternion is no orientation
 
 
 @ROS

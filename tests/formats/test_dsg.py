@@ -226,9 +226,9 @@ def test_mesh_places_preferred_and_layer_override() -> None:
 
 def test_missing_or_unknown_layer_errors() -> None:
     G = _build_graph()
-    with pytest.raises(fdsg.GraphLayerError, match="mesh_places"):
+    with pytest.raises(fdsg.GraphLayerError, match=r"no layer MESH_PLACES \(3\[1\] or 20\)"):
         fdsg.snapshot_from_dsg(G, 0, layer="mesh_places")
-    with pytest.raises(fdsg.GraphLayerError, match="unknown"):
+    with pytest.raises(fdsg.GraphLayerError, match="no layer named OBJECTS_AND_STUFF"):
         fdsg.snapshot_from_dsg(G, 0, layer="objects_and_stuff")
 
 

@@ -372,9 +372,9 @@ def test_real_empty_bags_record_no_window() -> None:
 
 
 def test_real_sqlite3_talker_equals_its_mcap_twin() -> None:
-    # The same recording in both storages. rosbags yields no message of the sqlite3 one (the QoS
-    # of its metadata.yaml and of its topics table differ, so no connection matches), but the
-    # bag recorded 20 messages: the windows come from the storage file and equal the mcap twin's.
+    # The same recording in both storages (the QoS of the sqlite3 one's metadata.yaml and of its
+    # topics table differ: rosbags' own matching would find no message; aion matches by topic
+    # and type, tests/formats/test_real_containers.py): the windows equal the mcap twin's.
     sqlite3 = _real("rosbag2_tests", "rosbag2_py_sqlite3_talker")
     mcap = _real("rosbag2_tests", "rosbag2_py_mcap_talker")
     with open_logs([sqlite3]) as a, open_logs([mcap]) as b:

@@ -247,6 +247,12 @@ def test_writer_refuses_bad_container_existing_path_and_writes_after_close(
     existing.write_bytes(b"old")
     with pytest.raises(LogWriteError, match="exists already"):
         LogWriter(existing, "mcap")
+    with pytest.raises(LogWriteError, match="not an MCAP log aion wrote"):  # not ours: kept
+        LogWriter(existing, "mcap", overwrite=True)
+    assert existing.read_bytes() == b"old"
+    existing.unlink()
+    with LogWriter(existing, "mcap") as w:  # an MCAP log, replaced below
+        w.write("/p", "geometry_msgs/PoseStamped", {"pose": {"position": {"x": 3}}}, T0)
     with LogWriter(existing, "mcap", overwrite=True) as w:
         w.write("/p", "geometry_msgs/PoseStamped", {"pose": {"position": {"x": 4}}}, T0)
     with pytest.raises(LogWriteError, match="closed"):

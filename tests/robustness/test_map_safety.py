@@ -195,8 +195,9 @@ def test_failing_rename_leaves_the_old_map(
     def no_rename(src: Any, dst: Any) -> None:
         raise PermissionError(errno.EPERM, "Operation not permitted", str(dst))
 
+    log = write_log(tmp_path / "w.mcap", walk(30))  # before os.replace fails for everyone
     monkeypatch.setattr("formats.mapfile.os.replace", no_rename)
-    result = run("build", write_log(tmp_path / "w.mcap", walk(30)), "-o", target)
+    result = run("build", log, "-o", target)
     assert result.exit_code == 2
     assert_one_error(result.stderr, "cannot write map")
     assert target.read_bytes() == old

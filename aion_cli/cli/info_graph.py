@@ -1,0 +1,99 @@
+"""``aion info GRAPH_FILE``: what is in a saved scene graph, and what aion takes from it.
+
+The file is read by the loader every command uses (:func:`formats.dsg.load_graph`), so the layer
+and counts shown are the ones ``aion build --graph`` and ``aion simulate --environment`` get.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from aion_cli.cli.output import human_size
+
+#: Suffixes of spark_dsg graph files (``aion info`` tells them from logs and maps by these).
+GRAPH_SUFFIXES = (".json", ".sparkdsg", ".bson")
+
+
+def is_graph_file(path: Path) -> bool:
+    """A spark_dsg graph file by its name (a rosbag2 folder is never one)."""
+    return path.suffix.lower() in GRAPH_SUFFIXES and path.is_file()
+
+
+def describe_graph(path: Path, nav_layer: str | None = None) -> dict[str, Any]:
+    """The info report of one graph file as a plain dict (also the JSON document)."""
+    from formats.dsg import graph_layers, load_graph
+
+    loaded = load_graph(path, 0, nav_layer)
+    snap, nav, file = loaded.snapshot, loaded.nav, loaded.file
+    mesh = snap.mesh
+    return {
+        "graph": str(path),
+        "size_bytes": path.stat().st_size,
+        "format": file.format,
+        "version": file.version,
+        "reader": file.reader,
+        "nav_layer": {"name": nav.layer.name or None, "key": nav.layer.key},
+        "places": len(snap.places),
+        "edges": len(snap.edges),
+        "frontiers_left_out": nav.frontiers,
+        "places_with_room": int((snap.places.parent != 0).sum()),
+        "rooms": len(snap.rooms),
+        "buildings": len(snap.buildings),
+        "agent_poses": 0 if snap.agents is None else len(snap.agents),
+        "mesh": None
+        if mesh is None
+        else {"vertices": len(mesh.vertices), "faces": len(mesh.faces)},
+        "layers": [
+            {"key": key, "name": name or None, "nodes": n}
+            for key, name, n in graph_layers(file.graph)
+        ],
+        "skipped": dict(file.skipped),
+        "notes": loaded.notes(),
+    }
+
+
+def print_graph(report: dict[str, Any]) -> None:
+    """The report as a two-column table (stdout) and its notes (stderr)."""
+    from rich.table import Table
+
+    from aion_cli.cli.console import console, data_console
+
+    nav = report["nav_layer"]
+    layer = f"{nav['name']} ({nav['key']})" if nav["name"] else nav["key"]
+    table = Table(title=f"scene graph {report['graph']}", show_header=False, title_justify="left")
+    table.add_column("what", style="bold")
+    table.add_column("value")
+    reader = "; read leniently" if report["reader"] == "lenient" else ""
+    table.add_row("format", f"{report['format']}{reader}, {human_size(report['size_bytes'])}")
+    table.add_row("navigational layer", layer)
+    frontiers = report["frontiers_left_out"]
+    table.add_row(
+        "places",
+        f"{report['places']:,}" + (f" ({frontiers:,} frontiers left out)" if frontiers else ""),
+    )
+    table.add_row("place edges", f"{report['edges']:,}")
+    table.add_row("rooms", f"{report['rooms']:,} ({report['places_with_room']:,} places in a room)")
+    table.add_row("buildings", f"{report['buildings']:,}")
+    table.add_row("agent poses", f"{report['agent_poses']:,}")
+    mesh = report["mesh"]
+    table.add_row(
+        "mesh",
+        "none" if mesh is None else f"{mesh['vertices']:,} vertices, {mesh['faces']:,} faces",
+    )
+    table.add_row(
+        "layers",
+        ", ".join(
+            f"{row['key']}{' ' + row['name'] if row['name'] else ''}: {row['nodes']:,}"
+            for row in report["layers"]
+        ),
+    )
+    data_console().print(table)
+    for note in report["notes"]:
+        console().print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
+    if report["places"] == 0:
+        console().print(
+            f"[yellow]warning:[/yellow] the navigational layer {layer} has no places: "
+            "choose another with --nav-layer",
+            soft_wrap=True,
+        )

@@ -1,0 +1,265 @@
+"""A ready-to-edit TOML mapping (:mod:`.mapping`) for a topic, from its message definition.
+
+``aion info LOG --suggest-mapping TOPIC`` prints :func:`suggest_mapping` of the topic's type as
+the log itself defines it. The definition is walked field by field (sub-messages resolved,
+sequences other than the array of people not entered) and every field that can play a role is
+named as a candidate:
+
+- the **array** of people: a sequence of messages that hold a position (names such as
+  ``people``, ``tracks``, ``agents``, ``detections`` first); none: one detection per message;
+- **position**: a Point/Vector3-like message (``x, y, z``) or 3 numbers, preferring names such
+  as ``position``, ``pos``, ``center`` (and a Pose's position); velocity-, size- or force-like
+  names are never positions;
+- **velocity**: a vector whose path says ``vel`` (or a Twist's ``linear``);
+- **orientation**: a Quaternion-like message (``x, y, z, w``);
+- **id**: an integer, string or UUID field named like an id (``track_id``, ``id``, ``uuid``,
+  ``object_id``, ``name``, ...);
+- **stamp / frame**: the message's ``header`` (the defaults), a per-item ``header``
+  (``item_header``), or, without any header, the log time and a ``frame_override`` to fill in.
+
+The first candidate of each role is filled in; the others are listed in a comment. The text
+loads with :func:`~formats.detections.mapping.load_mapping` and passes
+:meth:`~formats.detections.mapping.TopicMapping.check` as printed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from aion_cli.engine.errors import ConfigError
+from formats.raw import normalize_msgtype
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
+
+_BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4
+_FLOATS = frozenset({"float32", "float64"})
+_INTS = frozenset(
+    {"int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "byte", "char"}
+)
+_MAX_DEPTH = 5
+
+#: Array names most likely to hold the people, best first.
+_ARRAY_NAMES = (
+    "people", "persons", "tracks", "agents", "agent_states", "humans", "pedestrians",
+    "detections", "objects", "obstacles", "poses", "markers",
+)  # fmt: skip
+_POSITION_WORDS = ("position", "pos", "center", "centroid", "location", "point", "xyz")
+_NOT_POSITION = (
+    "vel", "linear", "angular", "twist", "size", "scale", "dimension", "force", "acc",
+    "covariance", "extent", "bbox_size", "orientation", "color", "normal",
+)  # fmt: skip
+#: Id field names, best first.
+_ID_NAMES = (
+    "track_id", "tracking_id", "id", "uuid", "object_id", "agent_id", "person_id",
+    "instance_id", "label_id", "name",
+)  # fmt: skip
+
+
+@dataclass
+class _Candidates:
+    """Candidate paths per role, in the order found (relative to one item)."""
+
+    vec3: list[str] = field(default_factory=list)
+    quat: list[str] = field(default_factory=list)
+    ids: list[str] = field(default_factory=list)
+
+
+def _fields(store: Typestore, typename: str) -> list[tuple[str, tuple[int, Any]]]:
+    return [(name, (int(node[0]), node[1])) for name, node in store.fielddefs[typename][1]]
+
+
+def _field_names(store: Typestore, typename: str) -> dict[str, tuple[int, Any]]:
+    return dict(_fields(store, typename))
+
+
+def _is_vector(store: Typestore, typename: str, names: str) -> bool:
+    fields = _field_names(store, typename)
+    if set(fields) != set(names) and not (names == "xyz" and set("xyz") <= set(fields)):
+        return False
+    if names == "xyz" and "w" in fields:
+        return False
+    return all(fields[c][0] == _BASE and fields[c][1][0] in _FLOATS for c in names)
+
+
+def _is_uuid(store: Typestore, node: tuple[int, Any]) -> bool:
+    """unique_identifier_msgs/UUID (``uint8[16] uuid``) or a bare ``uint8[16]``."""
+    if node[0] == _NAME:
+        fields = _fields(store, node[1])
+        return len(fields) == 1 and _is_uuid(store, fields[0][1])
+    if node[0] == _ARRAY:
+        elem, length = node[1]
+        return int(elem[0]) == _BASE and elem[1][0] in ("uint8", "byte") and length == 16
+    return False
+
+
+def _walk(
+    store: Typestore, typename: str, prefix: str, depth: int = 0
+) -> Iterator[tuple[str, str]]:
+    """``(path, kind)`` of every field of ``typename`` that can play a role: kinds ``vec3``,
+    ``quat``, ``id`` (scalars, strings, UUIDs). Headers and sequences are not entered."""
+    if depth > _MAX_DEPTH:
+        return
+    for name, node in _fields(store, typename):
+        path = f"{prefix}{name}"
+        kind, detail = node
+        if kind == _NAME:
+            sub = str(detail)
+            if sub.endswith("/Header"):
+                continue
+            if _is_vector(store, sub, "xyzw"):
+                yield path, "quat"
+            elif _is_vector(store, sub, "xyz"):
+                yield path, "vec3"
+            elif _is_uuid(store, node):
+                yield path, "id"
+            else:
+                yield from _walk(store, sub, path + ".", depth + 1)
+        elif kind == _BASE:
+            base = detail[0]
+            if base in _INTS or base == "string":
+                yield path, "id"
+        elif kind == _ARRAY:
+            elem, length = detail
+            if int(elem[0]) == _BASE and elem[1][0] in _FLOATS and length in (3, 4):
+                if length == 3:
+                    yield f"{path}[0..2]", "vec3"
+                elif any(w in name.lower() for w in ("orient", "quat", "rot")):
+                    yield f"{path}[0..3]", "quat"
+            elif _is_uuid(store, node):
+                yield path, "id"
+
+
+def _collect(store: Typestore, typename: str, prefix: str = "") -> _Candidates:
+    out = _Candidates()
+    for path, kind in _walk(store, typename, prefix):
+        {"vec3": out.vec3, "quat": out.quat, "id": out.ids}[kind].append(path)
+    return out
+
+
+def _last(path: str) -> str:
+    return path.split(".")[-1].split("[")[0].lower()
+
+
+def _position_rank(path: str) -> tuple[int, int]:
+    last = _last(path)
+    words = path.lower()
+    named = 0 if last in _POSITION_WORDS else 1 if any(w in last for w in _POSITION_WORDS) else 2
+    return (named + (1 if "pose" not in words and named else 0), path.count("."))
+
+
+def _positions(vec3: list[str]) -> list[str]:
+    usable = [p for p in vec3 if not any(w in p.lower() for w in _NOT_POSITION)]
+    return sorted(usable, key=_position_rank)
+
+
+def _velocities(vec3: list[str]) -> list[str]:
+    vel = [p for p in vec3 if "vel" in p.lower()]
+    twist = [p for p in vec3 if "twist" in p.lower() and _last(p) == "linear"]
+    return [*vel, *(p for p in twist if p not in vel)]
+
+
+def _ids(ids: list[str]) -> list[str]:
+    ranked = [((_ID_NAMES.index(_last(p)), p.count(".")), p) for p in ids if _last(p) in _ID_NAMES]
+    return [p for _, p in sorted(ranked)]
+
+
+def _arrays(store: Typestore, typename: str) -> list[str]:
+    """Sequences (or fixed arrays) of messages that hold a position, best first."""
+    found = []
+    for name, (kind, detail) in _fields(store, typename):
+        if kind not in (_SEQUENCE, _ARRAY) or int(detail[0][0]) != _NAME:
+            continue
+        if _positions(_collect(store, str(detail[0][1])).vec3):
+            found.append(name)
+    rank = {n: i for i, n in enumerate(_ARRAY_NAMES)}
+    return sorted(found, key=lambda n: rank.get(n.lower(), len(rank)))
+
+
+def _element(store: Typestore, typename: str, array: str) -> str:
+    detail = _field_names(store, typename)[array][1]
+    return str(detail[0][1])
+
+
+def _has_header(store: Typestore, typename: str) -> bool:
+    node = _field_names(store, typename).get("header")
+    return node is not None and node[0] == _NAME and str(node[1]).endswith("/Header")
+
+
+def _line(key: str, value: str, comment: str = "") -> str:
+    text = f'{key} = "{value}"'
+    return f"{text:<40} # {comment}" if comment else text
+
+
+def _others(chosen: str, all_: list[str]) -> str:
+    rest = [p for p in all_ if p != chosen]
+    return ("other candidates: " + ", ".join(rest)) if rest else ""
+
+
+def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
+    """A TOML mapping for ``topic`` carrying ``msgtype`` as ``store`` defines it (see the
+    module docstring); :class:`ConfigError` when the type holds nothing usable as a
+    position."""
+    name = normalize_msgtype(msgtype)
+    if name not in store.fielddefs:
+        raise ConfigError(f"{topic}: the log has no definition of {name}")
+    arrays = _arrays(store, name)
+    array = arrays[0] if arrays else None
+    item = _element(store, name, array) if array else name
+    found = _collect(store, item)
+    positions = _positions(found.vec3)
+    if not positions:
+        fields = ", ".join(n for n, _ in _fields(store, name))
+        raise ConfigError(
+            f"{topic}: {name} has no field aion can read as a position (a Point/Vector3-like "
+            f"message or 3 numbers, directly or in an array of messages); its fields: {fields}",
+            hint="write the mapping by hand (formats/detections/mapping.py, README)",
+        )
+    velocities = _velocities(found.vec3)
+    ids = _ids(found.ids)
+    header = _has_header(store, name)
+    item_header = array is not None and _has_header(store, item)
+    lines = [
+        f"# aion detections mapping for {topic} ({name}),",
+        "# suggested from the log's own definition of the type. Check the fields, then:",
+        "#   aion build LOG --detections-mapping THIS_FILE",
+        '# Format: README, "People detections"; paths are relative to one element of `array`.',
+        "",
+        "[[topic]]",
+        _line("topic", topic),
+        _line("msgtype", name),
+    ]
+    if array:
+        lines.append(_line("array", array, _others(array, arrays) or "the people"))
+    else:
+        lines.append("# no array of people found: one detection per message")
+    lines.append(_line("position", positions[0], _others(positions[0], positions)))
+    if velocities:
+        lines.append(_line("velocity", velocities[0], _others(velocities[0], velocities)))
+    else:
+        lines.append("# velocity: no candidate (headings come from tracks, or from linking)")
+    if found.quat:
+        comment = "a pose yaw counts only when the quaternion is set"
+        other = _others(found.quat[0], found.quat)
+        comment = f"{comment}; {other}" if other else comment
+        lines.append(_line("orientation", found.quat[0], comment))
+    else:
+        lines.append("# orientation: no candidate")
+    if ids:
+        lines.append(_line("id", ids[0], _others(ids[0], ids) or "track id"))
+    else:
+        lines.append("# id: no candidate (detections are linked into tracks)")
+    if header:
+        lines.append('# stamp = "header.stamp", frame = "header.frame_id" (the defaults)')
+    if item_header:
+        lines.append(_line("item_header", "header", "each element's own stamp and frame"))
+    if not header and not item_header:
+        lines.append("# no header: detections take their message's log time")
+        lines.append(
+            _line("frame_override", "map", "REQUIRED here: the frame the positions are in")
+        )
+    elif not header:
+        lines.append('# frame_override = "map"                 # optional: replaces their frames')
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,307 @@
+"""Output paths that never lose data: what may be replaced, and writing beside the target.
+
+Every file or folder aion writes (logs from ``convert`` / ``simulate``, maps, exports, ground
+truth) follows the same three rules, so that no option, typo or interruption can destroy data:
+
+1. **Special files are refused before anything is written.** A target that exists and is a
+   character or block device (``/dev/null``), a FIFO, a socket, or the current folder (``-o .``)
+   or one of its parents is an :class:`OutputPathError` (exit 2). Symbolic links are judged by
+   what they point to; replacing one replaces the link, never the file it points to.
+2. **Only aion's own outputs are replaced.** An existing target is replaced only when the caller
+   allows it (``--force``) *and* the caller's recogniser says it is an output of that kind
+   (an MCAP file by its magic bytes, a rosbag2 folder holding only ``metadata.yaml`` and the
+   storage files it names, a map by its manifest...). Anything else, a folder holding other
+   files in particular, is refused with the reason. A 0-byte regular file (and, where the
+   output is a folder, an empty folder) holds no data and counts as replaceable.
+3. **Outputs appear complete or not at all.** :class:`Staged` writes into a hidden folder
+   ``.<name>.<random>.tmp`` beside the target and renames the result into place when it is
+   complete: an exception (disk full, Ctrl-C, a bad record) leaves the previous output as it
+   was and removes the staging folder. Replacing a file is one atomic ``rename``; replacing a
+   folder is two (old out of the way, new in), with the old one put back if the second fails.
+
+Only a SIGKILL leaves a staging folder behind (nothing can run then); its name starts with a
+dot and the target's name, so it is easy to recognise and delete.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import signal
+import stat
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+from aion_cli.engine.errors import InputError
+
+Recogniser = Callable[[Path], bool]
+"""Says whether an existing path is an output the caller may replace (follows symlinks)."""
+
+_SPECIAL = (
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+class OutputPathError(InputError):
+    """An output path aion refuses to write or replace (exit 2); nothing was written."""
+
+
+def special_kind(path: Path) -> str | None:
+    """``"a character device"`` etc. when ``path`` (followed) exists and is not a regular file
+    or folder; ``None`` otherwise (missing, regular file, folder, dangling link)."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    for test, name in _SPECIAL:
+        if test(mode):
+            return name
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        return "not a regular file"
+    return None
+
+
+def _exists(path: Path) -> bool:
+    """True for anything at ``path``, a dangling symlink included."""
+    return os.path.lexists(path)
+
+
+def _is_cwd_or_parent(path: Path) -> bool:
+    try:
+        target = path.resolve()
+        cwd = Path.cwd().resolve()
+    except (OSError, RuntimeError):
+        return False
+    return target == cwd or target in cwd.parents
+
+
+def is_empty_file(path: Path) -> bool:
+    """A regular file of 0 bytes (nothing to lose by replacing it)."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return False
+    return stat.S_ISREG(st.st_mode) and st.st_size == 0
+
+
+def is_empty_folder(path: Path) -> bool:
+    """A real folder (not a link) with nothing in it (nothing to lose by replacing it)."""
+    return path.is_dir() and not path.is_symlink() and folder_entries(path, 1) == []
+
+
+def file_starts_with(path: Path, magic: bytes) -> bool:
+    """A regular file whose first bytes are ``magic`` (reads ``len(magic)`` bytes only)."""
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return False
+        with open(path, "rb") as fh:
+            return fh.read(len(magic)) == magic
+    except OSError:
+        return False
+
+
+def folder_entries(path: Path, limit: int = 10_000) -> list[str] | None:
+    """Names in a folder (at most ``limit``; None if it cannot be listed)."""
+    try:
+        with os.scandir(path) as it:
+            names = []
+            for entry in it:
+                names.append(entry.name)
+                if len(names) > limit:
+                    break
+            return names
+    except OSError:
+        return None
+
+
+def check_output(
+    path: str | os.PathLike[str],
+    *,
+    overwrite: bool,
+    recognise: Recogniser,
+    what: str,
+    folder: bool = False,
+) -> bool:
+    """Validate the output target ``path`` before anything is written.
+
+    Returns whether an existing target will be replaced (True) or the path is free (False).
+    Raises :class:`OutputPathError` for a special file, the current folder or a parent of it,
+    an existing target without ``overwrite``, and an existing target that ``recognise`` does not
+    accept as ``what`` (e.g. ``"an MCAP log"``). ``folder``: the output is a folder (a rosbag2
+    bag), which changes only the wording of the refusal.
+    """
+    target = Path(path)
+    kind = special_kind(target)
+    if kind is not None:
+        raise OutputPathError(
+            f"{target} is {kind}, not a {'folder' if folder else 'regular file'}: aion "
+            "does not write to it",
+            hint="choose a path for a new file (or one aion wrote)",
+        )
+    if _is_cwd_or_parent(target):
+        raise OutputPathError(
+            f"{target} is the current folder (or one of its parents): aion does not replace it",
+            hint="name an output inside it, e.g. -o out.mcap",
+        )
+    if not _exists(target):
+        return False
+    if not overwrite:
+        raise OutputPathError(
+            f"{target} exists already",
+            hint="remove it, choose another path, or add --force (which replaces only "
+            f"{what} aion wrote)",
+        )
+    if is_empty_file(target) or (folder and is_empty_folder(target)) or recognise(target):
+        return True
+    raise OutputPathError(
+        f"{target} exists and is {_what_it_is(target)}, not {what} aion wrote: refusing to "
+        "replace it",
+        hint="--force replaces only aion's own outputs; choose another path or remove it "
+        "yourself",
+    )
+
+
+def _what_it_is(path: Path) -> str:
+    """A short description of an existing path for refusals (what would have been lost)."""
+    if os.path.islink(path) and not os.path.exists(path):
+        return "a dangling symbolic link"
+    if path.is_dir():
+        names = folder_entries(path, 50)
+        if names is None:
+            return "a folder aion cannot list"
+        if not names:
+            return "an empty folder"
+        shown = ", ".join(sorted(names)[:5]) + (", ..." if len(names) > 5 else "")
+        return f"a folder holding {len(names)}{'+' if len(names) > 50 else ''} item(s) ({shown})"
+    return "another file"
+
+
+@contextlib.contextmanager
+def interrupts_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back for the block; they are delivered (and raise) right after.
+
+    Creating a temporary file or folder and learning its name are two steps; an interrupt
+    between them would leave something nobody removes.
+    """
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    except (AttributeError, OSError, ValueError):  # no pthread_sigmask on this platform
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def fsync_dir(folder: Path) -> None:
+    """Make a rename durable; best effort (some filesystems refuse to open folders)."""
+    with contextlib.suppress(OSError):
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _fsync_tree(path: Path) -> None:
+    """fsync a written file, or every file of a written folder."""
+    if path.is_dir() and not path.is_symlink():
+        for root, _dirs, files in os.walk(path):
+            for name in files:
+                _fsync_file(Path(root) / name)
+    else:
+        _fsync_file(path)
+
+
+def _fsync_file(path: Path) -> None:
+    with contextlib.suppress(OSError):
+        fd = os.open(path, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+class Staged:
+    """One output written beside its target and renamed into place (see the module docstring).
+
+    ``Staged(target)`` creates the hidden staging folder next to ``target`` (creating the
+    target's parent folders when missing); write the output at :attr:`path` (a file or folder
+    of the target's name that does not exist yet), then :meth:`commit` it or :meth:`discard`
+    it. As a context manager it commits on success and discards on any exception.
+    ``merge``: the target is a folder to write *into* (``aion export``): the staged folder's
+    files replace the same-named files of an existing target folder, others stay.
+    """
+
+    def __init__(self, target: str | os.PathLike[str], *, merge: bool = False) -> None:
+        self.target = Path(os.path.abspath(target))
+        self.merge = merge
+        parent = self.target.parent
+        if merge and self.target.is_dir():  # stage inside the folder written into (-o .)
+            parent = self.target
+        parent.mkdir(parents=True, exist_ok=True)
+        with interrupts_held():
+            self.folder = Path(
+                tempfile.mkdtemp(dir=parent, prefix=f".{self.target.name}.", suffix=".tmp")
+            )
+        self.path = self.folder / self.target.name
+        self.done = False
+
+    def commit(self) -> None:
+        """Move the finished output into place (replacing the old one), remove the staging
+        folder. On failure the previous target is as it was and the staging folder is gone."""
+        if self.done:
+            return
+        try:
+            if not _exists(self.path):
+                raise OutputPathError(f"nothing was written for {self.target}")
+            _fsync_tree(self.path)
+            if self.merge and self.target.is_dir():
+                _merge_into(self.path, self.target)
+            elif self.target.is_dir() and not self.target.is_symlink():
+                old = self.folder / ".replaced"
+                os.rename(self.target, old)
+                try:
+                    os.rename(self.path, self.target)
+                except BaseException:
+                    os.rename(old, self.target)
+                    raise
+            else:
+                os.replace(self.path, self.target)
+        finally:
+            self.discard()
+        fsync_dir(self.target.parent)
+
+    def discard(self) -> None:
+        """Remove the staging folder and whatever was written in it. Idempotent."""
+        self.done = True
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def __enter__(self) -> Staged:
+        return self
+
+    def __exit__(self, exc_type: object, exc: object, tb: object) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.discard()
+
+
+def _merge_into(src: Path, dst: Path) -> None:
+    """Move every entry of folder ``src`` into folder ``dst``: files replace same-named files,
+    folders are merged the same way (one rename per file)."""
+    for entry in sorted(src.iterdir()):
+        dest = dst / entry.name
+        if entry.is_dir() and dest.is_dir() and not dest.is_symlink():
+            _merge_into(entry, dest)
+        else:
+            kind = special_kind(dest)
+            if kind is not None:
+                raise OutputPathError(f"{dest} is {kind}: aion does not replace it")
+            os.replace(entry, dest)

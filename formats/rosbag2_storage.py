@@ -1,0 +1,182 @@
+"""rosbag2 storage files on their own: finding them, telling what they hold, decompressing them.
+
+A rosbag2 bag is a folder with ``metadata.yaml`` and storage files (``*.db3`` for sqlite3,
+``*.mcap`` for mcap), compressed whole with zstd (``*.db3.zstd``, ``*.mcap.zstd``) when the bag
+was recorded with ``compression_mode: file``. A recording killed before it finished, or a bag
+whose ``metadata.yaml`` was lost, leaves the storage files only: ``ros2 bag reindex`` rebuilds
+the metadata from them, and :mod:`formats.logs` does the same in memory.
+
+This module holds what that needs below the readers: the storage files of a folder in their
+recording order (:func:`storage_files`), the kind of a file from its first bytes, through zstd
+too (:func:`sniff`), and streaming decompression of a zstd-compressed file into a temporary
+folder (:func:`decompress_to_temp`: bounded memory, the folder removed by the caller, or here
+when decompression fails).
+"""
+
+from __future__ import annotations
+
+import re
+import tempfile
+from pathlib import Path
+from typing import IO
+
+from aion_cli.engine.errors import LogFormatError
+
+ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+BAG_MAGIC = b"#ROSBAG V2.0"
+SQLITE_MAGIC = b"SQLite format 3\x00"
+
+#: suffixes of the storage files rosbag2 writes (before any compression suffix)
+STORAGE_SUFFIXES = (".db3", ".mcap")
+#: suffixes of a file compressed whole with zstd
+ZSTD_SUFFIXES = (".zstd", ".zst")
+
+#: compressed bytes decompressed at a time: what one step can expand to stays small (zstd's
+#: worst case is about 32,000 times its input, real storage files a few times)
+_PIECE = 16 << 10
+_DIGITS = re.compile(r"(\d+)")
+
+
+def is_zstd(path: Path) -> bool:
+    """Whether ``path`` is a zstd-compressed file: by its suffix, else by its magic bytes."""
+    if path.suffix.lower() in ZSTD_SUFFIXES:
+        return True
+    try:
+        with path.open("rb") as f:
+            return f.read(4) == ZSTD_MAGIC
+    except OSError:
+        return False
+
+
+def inner_name(path: Path) -> str:
+    """The name of the file a zstd-compressed ``path`` holds (``bag_0.mcap.zstd`` ->
+    ``bag_0.mcap``)."""
+    if path.suffix.lower() in ZSTD_SUFFIXES:
+        return path.stem
+    return path.name
+
+
+def _natural_key(path: Path) -> list[object]:
+    """``bag_2.db3`` before ``bag_10.db3``: rosbag2 numbers split files without padding."""
+    return [int(part) if part.isdigit() else part for part in _DIGITS.split(path.name)]
+
+
+def storage_files(folder: Path) -> list[Path]:
+    """The rosbag2 storage files of ``folder`` (plain or zstd-compressed), in recording order
+    (their split index), or [] when it has none."""
+    found = []
+    for p in folder.iterdir():
+        if not p.is_file():
+            continue
+        suffix = Path(inner_name(p)).suffix.lower()
+        if suffix in STORAGE_SUFFIXES:
+            found.append(p)
+    return sorted(found, key=_natural_key)
+
+
+def _kind_of(head: bytes) -> str | None:
+    if head.startswith(MCAP_MAGIC):
+        return "mcap"
+    if head.startswith(BAG_MAGIC):
+        return "bag"
+    if head.startswith(SQLITE_MAGIC):
+        return "sqlite3"
+    return None
+
+
+def sniff(path: Path) -> str | None:
+    """What ``path`` holds, from its first bytes (decompressed first when it is zstd):
+    ``"mcap"``, ``"bag"``, ``"sqlite3"``, or None when it is none of them (or unreadable).
+    Raises :class:`LogFormatError` for zstd data that is damaged or ends before 16 bytes."""
+    import zstandard
+
+    try:
+        with path.open("rb") as f:
+            head = f.read(16)
+            if not head.startswith(ZSTD_MAGIC):
+                return _kind_of(head)
+            f.seek(0)
+            obj = zstandard.ZstdDecompressor().decompressobj()
+            inner = b""
+            while len(inner) < 16 and not obj.eof and (piece := f.read(_PIECE)):
+                inner += obj.decompress(piece)
+    except OSError:
+        return None
+    except zstandard.ZstdError as exc:
+        raise _damaged(path, exc) from exc
+    if len(inner) < 16 and not obj.eof:
+        raise _damaged(path, "the data ends inside a zstd frame (truncated file)")
+    return _kind_of(inner)
+
+
+def _damaged(path: Path, why: object) -> LogFormatError:
+    return LogFormatError(
+        f"{path}: not a readable zstd file ({why})",
+        hint="the compressed storage file may be truncated or corrupt",
+    )
+
+
+def decompress_to_temp(path: Path) -> tuple[tempfile.TemporaryDirectory[str], Path]:
+    """Decompress the zstd file ``path`` into a new temporary folder, streaming (a small
+    piece at a time, whatever the file's size): ``(folder, decompressed file)``; the file
+    keeps the inner name (``bag_0.mcap.zstd`` -> ``bag_0.mcap``) so messages about it read
+    naturally. A file that ends inside a zstd frame is refused, not read as far as it goes.
+
+    The caller owns the folder and calls its ``cleanup()`` when done. Raises
+    :class:`LogFormatError` (the folder removed) when the data is not zstd or is damaged, or
+    when the temporary disk runs out.
+    """
+    import zstandard
+
+    try:
+        tmp = tempfile.TemporaryDirectory(prefix="aion-unzstd-")
+    except OSError as exc:
+        raise _no_room(path, exc) from exc
+    target = Path(tmp.name) / inner_name(path)
+    try:
+        src = path.open("rb")
+    except OSError as exc:
+        tmp.cleanup()
+        raise LogFormatError(f"{path}: cannot read it ({exc.strerror or exc})") from exc
+    try:
+        with src, target.open("wb") as dst:
+            _unzstd_stream(src, dst)
+    except zstandard.ZstdError as exc:
+        tmp.cleanup()
+        raise _damaged(path, exc) from exc
+    except OSError as exc:
+        tmp.cleanup()
+        raise _no_room(path, exc) from exc
+    return tmp, target
+
+
+def _unzstd_stream(src: IO[bytes], dst: IO[bytes]) -> None:
+    """Decompress the zstd frames of ``src`` into ``dst``, a small piece of input at a time (the
+    output of a piece is written before the next is read), across frames (streaming writers
+    write many). Raises ``ZstdError`` for damaged data and for input that ends inside a frame,
+    which zstandard's stream readers would take silently as the end."""
+    import zstandard
+
+    dctx = zstandard.ZstdDecompressor()
+    obj = dctx.decompressobj()
+    started = False  # the current frame has received input
+    while piece := src.read(_PIECE):
+        while piece:
+            started = True
+            dst.write(obj.decompress(piece))
+            if not obj.eof:
+                break
+            piece = obj.unused_data  # the next frame begins in this piece
+            obj = dctx.decompressobj()
+            started = False
+    if started and not obj.eof:
+        raise zstandard.ZstdError("the data ends inside a zstd frame (truncated file)")
+
+
+def _no_room(path: Path, exc: OSError) -> LogFormatError:
+    return LogFormatError(
+        f"{path}: cannot decompress it into {tempfile.gettempdir()} ({exc.strerror or exc})",
+        hint="free disk space there, or set TMPDIR to a folder with room for the "
+        "decompressed file",
+    )

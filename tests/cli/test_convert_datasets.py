@@ -1,0 +1,176 @@
+"""``aion convert --layout edinburgh | thor-magni | eth | ucy``: real and synthetic dataset files
+become logs whose detections are the file's, at the times the options say; every misuse of the
+layout-specific options is one ``error:`` line and exit code 2."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from formats.detections.frame import FrameDetections
+from tests.cli.conftest import assert_one_line_error, run
+from tests.formats.test_datasets import EDINBURGH, ETH_UCY, _edinburgh_file, _magni
+
+S = 1_000_000_000
+
+
+def _read(log: Path) -> tuple[list[int], FrameDetections]:
+    """Log times of the detection messages and the decoded detections."""
+    from formats.detections import adapter_for
+    from formats.logs import open_logs
+
+    with open_logs([log]) as logs:
+        msgs = list(logs.messages())
+        adapter = adapter_for(msgs[0].msgtype)
+        assert adapter is not None
+        return [m.log_time_ns for m in msgs], adapter.decode(msgs)
+
+
+def test_layout_choices_are_the_readers_layouts() -> None:
+    from aion_cli.cli.convert import LAYOUTS
+    from formats.tracks import LAYOUTS as READERS
+
+    assert sorted(LAYOUTS) == sorted(READERS)
+
+
+@pytest.mark.skipif(not EDINBURGH.is_file(), reason="../shared/data/tracks/edinburgh is absent")
+def test_edinburgh_day_converts_at_its_date(tmp_path: Path) -> None:
+    out = tmp_path / "forum.mcap"
+    result = run(
+        "convert",
+        EDINBURGH,
+        "--layout",
+        "edinburgh",
+        "--date",
+        "2010-07-01",
+        "--tz",
+        "Europe/London",
+        "-o",
+        out,
+    )
+    assert result.exit_code == 0, result.stderr
+    assert "111,230 detections of 1,262 tracks" in result.stderr
+    assert "frame 0 taken as 2010-07-01 00:00:00+01:00, frames at 9 fps" in result.stderr
+    times, frames = _read(out)
+    midnight = 1_277_938_800 * S  # 2010-07-01 00:00 BST
+    assert times[0] == midnight + round(95 / 9 * 1e6) * 1000  # the first frame, 95
+    assert len(frames) == 111_230
+
+
+def test_edinburgh_date_with_a_time_and_fps(tmp_path: Path) -> None:
+    path = _edinburgh_file(tmp_path / "t.txt", {4: [(10, 20, 0), (12, 20, 5)]})
+    out = tmp_path / "t.mcap"
+    result = run(
+        "convert",
+        path,
+        "--layout",
+        "edinburgh",
+        "--date",
+        "2010-07-01 08:30",
+        "--tz",
+        "UTC",
+        "--fps",
+        "10",
+        "-o",
+        out,
+    )
+    assert result.exit_code == 0, result.stderr
+    times, frames = _read(out)
+    t0 = 1_277_973_000 * S  # 2010-07-01 08:30 UTC
+    assert times == [t0, t0 + S // 2]
+    np.testing.assert_allclose(frames.xyz[:, 0], [10 * 0.0247, 12 * 0.0247])
+    assert frames.track_id.tolist() == [4, 4]
+
+
+def test_thor_magni_converts_helmets_in_metres(tmp_path: Path) -> None:
+    path = _magni(tmp_path / "THOR-Magni_120522_SC1A_R1.csv")
+    out = tmp_path / "magni.mcap"
+    result = run(
+        "convert",
+        path,
+        "--layout",
+        "thor-magni",
+        "--start",
+        "2022-05-12 10:00",
+        "--tz",
+        "Europe/Stockholm",
+        "-o",
+        out,
+    )
+    assert result.exit_code == 0, result.stderr
+    assert "95 detections of 2 tracks" in result.stderr
+    assert "not people, skipped: DARKO_Robot" in result.stderr
+    assert "positions read as millimetres" in result.stderr
+    times, frames = _read(out)
+    t0 = 1_652_342_400 * S  # 2022-05-12 10:00 CEST
+    assert times[0] == t0
+    assert times[-1] == t0 + 490_000_000
+    assert sorted(set(frames.track_id.tolist())) == [3, 11]
+    assert frames.xyz[:, 0].max() < 6.0  # metres, not mm
+    # without --start the times count from 1970, and the user is told
+    result = run("convert", path, "--layout", "thor-magni", "-o", tmp_path / "m2.mcap")
+    assert result.exit_code == 0, result.stderr
+    assert "give --start for when it was recorded" in result.stderr
+
+
+@pytest.mark.skipif(not ETH_UCY.is_dir(), reason="../shared/data/tracks/eth_ucy is absent")
+def test_ucy_and_eth_files_convert(tmp_path: Path) -> None:
+    out = tmp_path / "uni.mcap"
+    result = run(
+        "convert",
+        ETH_UCY / "uni_examples.txt",
+        "--layout",
+        "ucy",
+        "--start",
+        "1700000000",
+        "-o",
+        out,
+    )
+    assert result.exit_code == 0, result.stderr
+    assert "2,747 detections of 118 tracks" in result.stderr
+    times, _ = _read(out)
+    assert set(np.diff(times).tolist()) <= {400_000_000 * k for k in range(1, 40)}
+    out = tmp_path / "eth.mcap"
+    result = run(
+        "convert",
+        ETH_UCY / "biwi_eth.txt",
+        "--layout",
+        "eth",
+        "--fps",
+        "15",
+        "-o",
+        out,
+        "--start",
+        "1700000000",
+    )
+    assert result.exit_code == 0, result.stderr
+    assert "5,492 detections of 360 tracks" in result.stderr
+    times, _ = _read(out)
+    assert times[0] == 1_700_000_000 * S + round(780 / 15 * 1e9)
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--layout", "edinburgh"], "needs --date"),
+        (["--layout", "edinburgh", "--date", "2010-07-01", "--start", "0"], "give --date"),
+        (["--layout", "thor", "--date", "2010-07-01"], "--date applies to the edinburgh"),
+        (["--layout", "atc", "--fps", "10"], "--fps does not apply to the atc"),
+        (["--layout", "eth", "--fps", "0"], "--fps must be a positive"),
+        (["--layout", "eth", "--fps", "nan"], "--fps must be a positive"),
+        (["--layout", "ucy", "--length-unit", "mm"], "--length-unit does not apply"),
+        (["--layout", "edinburgh", "--date", "someday"], "cannot read the time"),
+        (["--layout", "thor-magni"], "THÖR-MAGNI header"),
+        (["--layout", "edinburgh", "--date", "2010-07-01"], "no TRACK.Rn"),
+    ],
+)
+def test_bad_options_and_files(args: list[str], fragment: str, tmp_path: Path) -> None:
+    path = tmp_path / "data.txt"
+    path.write_text("1 2 3 4\n")
+    out = tmp_path / "x.mcap"
+    result = run("convert", path, "-o", out, *args)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, fragment)
+    assert not out.exists()

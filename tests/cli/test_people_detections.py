@@ -1,0 +1,492 @@
+"""People detections from the command line, on logs with known contents: the log's own
+definitions (a foxy-era Detection3DArray MCAP, a TF fork), decoding failures (all: exit 2,
+some: a warning with counts), no usable detection (never a success), topic choice for generic
+types, TOML mappings (``--detections-mapping``, ``--suggest-mapping``, the README's examples)
+and the real leg_tracker bags (id-less PoseArrays with zero quaternions: linked headings)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.own_definitions import (
+    DETECTION3D_ARRAY,
+    FOXY_VISION_MSGS,
+    Message,
+    OwnTypes,
+    foxy_detection3d_array,
+    write_mcap,
+)
+
+S = 1_000_000_000
+T0 = 1_700_000_400 * S  # aligned to 600-s windows
+POSE_ARRAY = "geometry_msgs/msg/PoseArray"
+TF = "tf2_msgs/msg/TFMessage"
+README = Path(__file__).resolve().parents[2] / "README.md"
+LEG_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "logs" / "leg_tracker"
+
+
+def map_cells(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cell centres (x, y), detections per direction bin, undirected detections of a map."""
+    from aion_cli.pipeline import load_map
+
+    entries = load_map(path).state.entries
+    rows = entries.cell_rows()
+    return entries.xyz[rows, :2], entries.counts[rows], entries.nodir[rows]
+
+
+# --- the log's own definitions ----------------------------------------------------------------
+
+
+def foxy_log(path: Path, cut: set[int] | None = None, classes: tuple[str, str] = ("person",
+             "person")) -> Path:  # fmt: skip
+    """The issue's case: 10 foxy Detection3DArrays, each with two people (tracking ids a, b:
+    a walks +x, b walks +y, 0.5 m per message) and a car; payloads ``cut`` are truncated."""
+    own = OwnTypes(FOXY_VISION_MSGS)
+    msgs = []
+    for k in range(10):
+        t = T0 + k * S // 2
+        people = [
+            (classes[0], "a", 1.0 + 0.5 * k, 1.0),
+            (classes[1], "b", 8.0, 1.0 + 0.5 * k),
+            ("car", "c", 20.0, 20.0),
+        ]
+        data = own.cdr(foxy_detection3d_array(own, t, "map", people), DETECTION3D_ARRAY)
+        if cut and k in cut:
+            data = data[: len(data) // 2]
+        msgs.append(Message("/detections", DETECTION3D_ARRAY, data, t))
+    return write_mcap(path, msgs, {DETECTION3D_ARRAY: own.definition(DETECTION3D_ARRAY)})
+
+
+def test_foxy_detection3d_array_mcap_builds_with_its_20_detections(tmp_path: Path) -> None:
+    log = foxy_log(tmp_path / "foxy.mcap")
+    info = run_json("info", log, "--format", "json")
+    assert info["will_use"]["detections"] == ["/detections"]
+    out = tmp_path / "foxy.aion"
+    report = run_json("build", log, "-o", out, "--format", "json")
+    assert report["detections"] == {"read": 20, "used": 20, "dropped": {"class": 10}}
+    assert report["detection_decoding"]["/detections"] == {
+        "type": DETECTION3D_ARRAY, "why": "people type", "decoder": "generic",
+        "messages": 10, "undecodable": 0,
+    }  # fmt: skip
+    assert any("differs from the layout of aion's fast decoder" in n for n in report["notes"])
+    assert report["warnings"] == []
+    # tracks a and b are differenced; their first sightings have no heading: every
+    # orientation of the topic is the identity, which says nothing about direction
+    assert report["headings"] == {"velocity": 0, "track": 18, "linked": 0, "pose_yaw": 0,
+                                  "none": 2}  # fmt: skip
+    xy, counts, nodir = map_cells(out)
+    assert counts.sum() == 18
+    assert nodir.sum() == 2
+    # bin(θ) = floor((θ + π) / (π/4)): a heads 0 -> bin 4, b heads π/2 -> bin 6
+    assert counts.sum(axis=0).tolist() == [0, 0, 0, 0, 9, 0, 9, 0]
+    # every detection in its own 0.5-m cell: a at (1 + 0.5k, 1), b at (8, 1 + 0.5k)
+    expected = {(1.25 + 0.5 * k, 1.25) for k in range(10)} | {
+        (8.25, 1.25 + 0.5 * k) for k in range(10)
+    }
+    assert {(float(x), float(y)) for x, y in xy} == expected
+
+
+def test_every_message_undecodable_is_an_error_with_the_reason(tmp_path: Path) -> None:
+    log = foxy_log(tmp_path / "cut.mcap", cut=set(range(10)))
+    out = tmp_path / "cut.aion"
+    result = run("build", log, "-o", out)
+    assert result.exit_code == 2
+    assert_one_line_error(
+        result.stderr, "none of the 10 messages on /detections", "could be decoded", "cannot"
+    )
+    assert not out.exists()
+
+
+def test_some_messages_undecodable_is_a_warning_with_counts(tmp_path: Path) -> None:
+    log = foxy_log(tmp_path / "some.mcap", cut={2, 5, 7})
+    out = tmp_path / "some.aion"
+    report = run_json("build", log, "-o", out, "--format", "json")
+    assert report["detections"]["used"] == 14
+    assert report["detections"]["dropped"]["undecodable_messages"] == 3
+    assert report["detection_decoding"]["/detections"]["undecodable"] == 3
+    (warning,) = report["warnings"]
+    assert warning.startswith("3 of 10 messages on /detections could not be decoded")
+    table = run("build", log, "-o", out)
+    assert table.exit_code == 0
+    assert "warning: 3 of 10 messages on /detections" in table.stderr
+
+
+def test_no_usable_detection_is_never_a_success(tmp_path: Path) -> None:
+    log = foxy_log(tmp_path / "cars.mcap", classes=("car", "bicycle"))
+    out = tmp_path / "cars.aion"
+    result = run("build", log, "-o", out)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no people detection in the 10 messages",
+                          "dropped: class 30")  # fmt: skip
+    assert not out.exists()
+
+
+def test_detections_without_a_transform_are_never_a_success(tmp_path: Path) -> None:
+    """TF exists but only long after the detections: every detection is a counted drop, and
+    a map of nothing is an error that says so."""
+    from formats.writers import LogWriter, stamp
+
+    log = tmp_path / "late_tf.mcap"
+    with LogWriter(log, "mcap") as w:
+        for k in range(5):
+            t = T0 + k * S
+            poses = [{"position": {"x": 1.0, "y": 0.0}}]
+            w.write("/people/poses", POSE_ARRAY,
+                    {"header": {"stamp": stamp(t), "frame_id": "laser"}, "poses": poses}, t)
+        for k in range(3):
+            t = T0 + (100 + k) * S
+            tf = {"header": {"stamp": stamp(t), "frame_id": "map"}, "child_frame_id": "laser",
+                  "transform": {"rotation": {"w": 1.0}}}
+            w.write("/tf", TF, {"transforms": [tf]}, t)
+    result = run("build", log, "-o", tmp_path / "late.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "none of the 5 people detections read could be used",
+                          "no_transform 5")  # fmt: skip
+    assert "--map-frame" in result.stderr
+
+
+def _swapped_tf_log(path: Path) -> Path:
+    """People at (1, 2) in frame laser; TF map->laser = translation (10, 0, 0), identity
+    rotation, in a TFMessage fork whose transforms hold the rotation before the translation
+    (same byte size as the standard layout: numpy over the bytes would misread it)."""
+    own = OwnTypes(
+        {
+            "my_geometry/msg/Transform": "geometry_msgs/Quaternion rotation\n"
+            "geometry_msgs/Vector3 translation\n",
+            "my_geometry/msg/TransformStamped": "std_msgs/Header header\n"
+            "string child_frame_id\nmy_geometry/Transform transform\n",
+            TF: "my_geometry/TransformStamped[] transforms\n",
+        }
+    )
+    T = own.T
+    msgs = []
+    for k in range(21):
+        t = T0 + k * S // 2
+        tr = T["my_geometry/msg/Transform"](
+            rotation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+            translation=T["geometry_msgs/msg/Vector3"](x=10.0, y=0.0, z=0.0),
+        )
+        ts = T["my_geometry/msg/TransformStamped"](
+            header=own.header(t, "map"), child_frame_id="laser", transform=tr
+        )
+        msgs.append(Message("/tf", TF, own.cdr(T[TF](transforms=[ts]), TF), t))
+        if 1 <= k <= 19:
+            people = T[POSE_ARRAY](header=own.header(t, "laser"), poses=[own.pose(1.0, 2.0)])
+            msgs.append(Message("/people/poses", POSE_ARRAY, own.cdr(people, POSE_ARRAY), t))
+    return write_mcap(path, msgs, {TF: own.definition(TF)})
+
+
+def test_tf_in_another_layout_is_read_with_the_logs_own_definition(tmp_path: Path) -> None:
+    out = tmp_path / "tf.aion"
+    report = run_json("build", _swapped_tf_log(tmp_path / "tf.mcap"), "-o", out, "--format",
+                      "json")  # fmt: skip
+    assert report["detections"]["used"] == 19
+    xy, _counts, _nodir = map_cells(out)
+    assert len(xy) == 1
+    np.testing.assert_allclose(xy[0], [11.25, 2.25])  # the 0.5-m cell holding (11, 2)
+    # what the layout check prevents: numpy over these bytes reads the rotation as the
+    # translation, without an error
+    from formats.logs import open_logs
+    from formats.tf_fast import decode_tf_messages
+
+    with open_logs([tmp_path / "tf.mcap"]) as logs:
+        fast = decode_tf_messages(list(logs.messages({"/tf"})))
+    assert not np.allclose(fast.translation, [10.0, 0.0, 0.0])
+
+
+# --- topic choice -----------------------------------------------------------------------------
+
+
+def nav_log(path: Path, people: bool = True) -> Path:
+    """Navigation goals (PoseStamped), an initial pose, RViz markers and (optionally) a
+    people tracker's PoseArray, 10 messages each."""
+    from formats.writers import LogWriter, stamp
+
+    with LogWriter(path, "mcap") as w:
+        for k in range(10):
+            t = T0 + k * S
+            hdr = {"stamp": stamp(t), "frame_id": "map"}
+            p = {"position": {"x": 3.0 + 0.5 * k, "y": 1.0}, "orientation": {"w": 1.0}}
+            w.write("/move_base_simple/goal", "geometry_msgs/msg/PoseStamped",
+                    {"header": hdr, "pose": p}, t)
+            w.write("/initialpose", "geometry_msgs/msg/PoseWithCovarianceStamped",
+                    {"header": hdr, "pose": {"pose": p}}, t)
+            w.write("/rviz/markers", "visualization_msgs/msg/MarkerArray",
+                    {"markers": [{"header": hdr, "pose": p}]}, t)
+            if people:
+                w.write("/people_tracker/poses", POSE_ARRAY, {"header": hdr, "poses": [p, p]}, t)
+    return path
+
+
+def test_generic_types_are_taken_only_from_topics_that_suggest_people(tmp_path: Path) -> None:
+    log = nav_log(tmp_path / "nav.mcap")
+    info = run_json("info", log, "--format", "json")
+    why = {t["topic"]: (t["used"], t["why"]) for t in info["topics"]}
+    assert why == {
+        "/initialpose": (False, "skipped: generic PoseWithCovarianceStamped on /initialpose "
+                         "(name does not suggest people; name it with --detections-topic)"),
+        "/move_base_simple/goal": (False, "skipped: generic PoseStamped on "
+                                   "/move_base_simple/goal (name does not suggest people; name "
+                                   "it with --detections-topic)"),
+        "/people_tracker/poses": (True, "generic PoseArray, the name suggests people"),
+        "/rviz/markers": (False, "skipped: generic MarkerArray on /rviz/markers (name does not "
+                          "suggest people; name it with --detections-topic)"),
+    }  # fmt: skip
+    assert info["will_use"]["detections"] == ["/people_tracker/poses"]
+    table = run("info", log)
+    assert table.exit_code == 0
+    assert "name does not suggest people" in " ".join(table.stdout.split())
+    report = run_json("build", log, "-o", tmp_path / "nav.aion", "--format", "json")
+    assert report["detection_topics"] == ["/people_tracker/poses"]
+    assert report["detections"]["read"] == 20
+    named = run_json("build", log, "-o", tmp_path / "goal.aion", "--format", "json",
+                     "--detections-topic", "/move_base_simple/goal")  # fmt: skip
+    assert named["detection_topics"] == ["/move_base_simple/goal"]
+    assert named["detection_decoding"]["/move_base_simple/goal"]["why"] == (
+        "named with --detections-topic"
+    )
+    assert named["detections"]["read"] == 10
+
+
+def test_a_log_of_navigation_goals_only_is_refused_with_the_reason(tmp_path: Path) -> None:
+    log = nav_log(tmp_path / "goals.mcap", people=False)
+    result = run("build", log, "-o", tmp_path / "goals.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no people-detection topic of a supported type")
+    assert (
+        "hint: skipped: generic PoseWithCovarianceStamped on /initialpose (name does not "
+        "suggest people; name it with --detections-topic); or map another type with "
+        "--detections-mapping FILE"
+    ) in " ".join(result.stderr.split())
+
+
+# --- TOML mappings ----------------------------------------------------------------------------
+
+PERSON = "leg_tracker/msg/Person"
+
+
+def person_bag(path: Path) -> Path:
+    """``leg_tracker/msg/Person`` messages (a Pose and a uint32 id, no header) on /people in
+    a ROS 1 bag: person 4 walks +x from (0, 0), person 9 walks -x from (10, 5), 0.5 m per
+    second, one message per person per second."""
+    from formats.writers import LogWriter
+
+    with LogWriter(path, "bag") as w:
+        for k in range(20):
+            t = T0 + k * S
+            for pid, x, y in ((4, 0.5 * k, 0.0), (9, 10.0 - 0.5 * k, 5.0)):
+                pose = {"position": {"x": x, "y": y}}
+                w.write("/people", PERSON, {"pose": pose, "id": pid}, t + pid)
+    return path
+
+
+def test_person_messages_need_a_mapping_and_suggest_mapping_writes_one(tmp_path: Path) -> None:
+    log = person_bag(tmp_path / "legs.bag")
+    out = tmp_path / "legs.aion"
+    refused = run("build", log, "-o", out)
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "no people-detection topic of a supported type")
+    assert "--detections-mapping" in refused.stderr
+    suggested = run("info", log, "--suggest-mapping", "/people")
+    assert suggested.exit_code == 0, suggested.stderr
+    text = suggested.stdout
+    for line in ('topic = "/people"', f'msgtype = "{PERSON}"', 'position = "pose.position"',
+                 'orientation = "pose.orientation"', 'id = "id"', 'frame_override = "map"'):
+        assert line in text, line  # fmt: skip
+    assert "array =" not in text.replace("# no array", "")
+    mapping = tmp_path / "legs.toml"
+    mapping.write_text(text)
+    info = run_json("info", log, "--detections-mapping", mapping, "--format", "json")
+    (people,) = [t for t in info["topics"] if t["topic"] == "/people"]
+    assert (people["used"], people["why"], people["role"]) == (
+        True, "--detections-mapping", "detections"
+    )
+    report = run_json("build", log, "-o", out, "--detections-mapping", mapping, "--format",
+                      "json")  # fmt: skip
+    assert report["detections"] == {"read": 40, "used": 40, "dropped": {}}
+    assert report["detection_decoding"]["/people"]["decoder"] == "mapping"
+    # ids 4 and 9 differenced; a zero quaternion (the writer's default) is no heading
+    assert report["headings"] == {"velocity": 0, "track": 38, "linked": 0, "pose_yaw": 0,
+                                  "none": 2}  # fmt: skip
+    assert "40 detections came from messages without a header" in " ".join(report["notes"])
+    _, counts, nodir = map_cells(out)
+    assert counts.sum(axis=0).tolist() == [19, 0, 0, 0, 19, 0, 0, 0]  # -x: bin 0, +x: bin 4
+    assert nodir.sum() == 2
+
+
+@pytest.mark.parametrize(
+    ("change", "fragments"),
+    [
+        (('frame_override = "map"', ""), ("has no header", "frame")),
+        (('topic = "/people"', 'topic = "/persons"'), ("names topic '/persons'",)),
+        ((f'msgtype = "{PERSON}"', 'msgtype = "leg_tracker/msg/PersonArray"'),
+         ("carries leg_tracker/msg/Person",)),
+        (('position = "pose.position"', 'position = "pos"'),
+         ("has no field 'pos'", "available: pose, id")),
+        (("[[topic]]", "[topic]"), ("no [[topic]] tables",)),
+    ],
+)
+def test_bad_mappings_are_clear_errors(
+    tmp_path: Path, change: tuple[str, str], fragments: tuple[str, ...]
+) -> None:
+    log = person_bag(tmp_path / "legs.bag")
+    text = run("info", log, "--suggest-mapping", "/people").stdout
+    assert change[0] in text
+    mapping = tmp_path / "bad.toml"
+    mapping.write_text(text.replace(*change))
+    for command in ("build", "info"):
+        args = ["-o", tmp_path / "x.aion"] if command == "build" else []
+        result = run(command, log, *args, "--detections-mapping", mapping)
+        assert result.exit_code == 2, (command, result.stderr)
+        assert_one_line_error(result.stderr, *fragments)
+    missing = run("build", log, "--detections-mapping", tmp_path / "absent.toml")
+    assert missing.exit_code == 2
+    assert_one_line_error(missing.stderr, "cannot read mapping file")
+
+
+def test_suggest_mapping_errors(tmp_path: Path) -> None:
+    from formats.writers import LogWriter
+
+    log = tmp_path / "chat.mcap"
+    with LogWriter(log, "mcap") as w:
+        w.write("/chatter", "std_msgs/msg/String", {"data": "hi"}, T0)
+    result = run("info", log, "--suggest-mapping", "/chatter")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no field aion can read as a position")
+    result = run("info", log, "--suggest-mapping", "/nope")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "topic '/nope' is not in the log")
+
+
+AGENTS = "my_sim/msg/AgentArray"
+AGENT_TYPES = {
+    "my_sim/msg/Agent": "string name\nstring kind\nfloat64[3] position\n"
+    "geometry_msgs/Vector3 velocity\n",
+    AGENTS: "std_msgs/Header header\nmy_sim/Agent[] agents\n",
+}
+
+
+def readme_mapping() -> str:
+    """The TOML examples of the README's "People detections" section, as one file."""
+    text = README.read_text(encoding="utf-8")
+    section = text[text.index("**People detections**") :]
+    blocks = re.findall(r"```toml\n(.*?)```", section, re.DOTALL)
+    assert len(blocks) >= 2, "the README shows the mapping examples as ```toml blocks"
+    return "\n".join(blocks)
+
+
+def two_mapped_topics(path: Path) -> Path:
+    """One ROS 2 MCAP with the README's two examples: ``leg_tracker/msg/Person`` on /people
+    (headerless, positions in base_laser; one person walking +y) and a simulator's
+    ``my_sim/msg/AgentArray`` on /sim/agents (a person walking -x with velocity (-1, 0),
+    and a robot that the filter drops)."""
+    from formats.writers import LogWriter
+
+    own = OwnTypes(AGENT_TYPES)
+    T = own.T
+    msgs = []
+    with LogWriter(path.with_suffix(".tmp.mcap"), "mcap") as w:  # for its CDR of Person
+        for k in range(10):
+            t = T0 + k * S
+            data = w.serialize(PERSON, {"pose": {"position": {"x": 2.0, "y": 0.5 * k}}, "id": 7})
+            msgs.append(Message("/people", PERSON, data, t))
+            vector = T["geometry_msgs/msg/Vector3"]
+            agents = [
+                T["my_sim/msg/Agent"](
+                    name="alice", kind="person", position=np.array([20.0 - 1.0 * k, 3.0, 0.0]),
+                    velocity=vector(x=-1.0, y=0.0, z=0.0),
+                ),
+                T["my_sim/msg/Agent"](
+                    name="r2", kind="robot", position=np.array([0.0, 9.0, 0.0]),
+                    velocity=vector(x=0.0, y=0.0, z=0.0),
+                ),
+            ]  # fmt: skip
+            arr = T[AGENTS](header=own.header(t, "base_laser"), agents=agents)
+            msgs.append(Message("/sim/agents", AGENTS, own.cdr(arr, AGENTS), t))
+    return write_mcap(path, msgs, {AGENTS: own.definition(AGENTS)})
+
+
+def test_the_readme_mapping_examples_read_both_topics(tmp_path: Path) -> None:
+    log = two_mapped_topics(tmp_path / "mapped.mcap")
+    mapping = tmp_path / "readme.toml"
+    mapping.write_text(readme_mapping())
+    out = tmp_path / "mapped.aion"
+    report = run_json("build", log, "-o", out, "--detections-mapping", mapping,
+                      "--map-frame", "base_laser", "--format", "json")  # fmt: skip
+    assert report["detection_topics"] == ["/people", "/sim/agents"]
+    assert report["detections"] == {"read": 20, "used": 20, "dropped": {"filter": 10}}
+    assert report["headings"] == {"velocity": 10, "track": 9, "linked": 0, "pose_yaw": 0,
+                                  "none": 1}  # fmt: skip
+    _, counts, nodir = map_cells(out)
+    # alice heads π (velocity -x) -> bin 0; the Person walks +y -> bin 6
+    assert counts.sum(axis=0).tolist() == [10, 0, 0, 0, 0, 0, 9, 0]
+    assert nodir.sum() == 1
+
+
+def test_suggested_mapping_of_an_agent_array_builds(tmp_path: Path) -> None:
+    log = two_mapped_topics(tmp_path / "mapped.mcap")
+    result = run("info", log, "--suggest-mapping", "/sim/agents")
+    assert result.exit_code == 0, result.stderr
+    text = result.stdout
+    for line in ('array = "agents"', 'position = "position[0..2]"', 'velocity = "velocity"',
+                 'id = "name"'):
+        assert line in text, line  # fmt: skip
+    mapping = tmp_path / "agents.toml"
+    mapping.write_text(text)
+    report = run_json("build", log, "-o", tmp_path / "a.aion", "--detections-mapping", mapping,
+                      "--map-frame", "base_laser", "--format", "json")  # fmt: skip
+    assert report["detection_topics"] == ["/sim/agents"]
+    assert report["detections"]["read"] == 20  # no filter in a suggestion: the robot too
+
+
+# --- the real leg_tracker bags ----------------------------------------------------------------
+
+# Poses in /leg_cluster_positions per bag (counted with rosbags), and the laser frame.
+LEG_BAGS = {
+    "positive_1_extracted.bag": (324, "right_laser"),
+    "positive_2_extracted.bag": (116, "right_laser"),
+    "positive_3_extracted.bag": (309, "right_laser"),
+    "positive_4_extracted.bag": (415, "right_laser"),
+    "positive_6_extracted.bag": (303, "rear_laser"),
+    "positive_7_extracted.bag": (385, "rear_laser"),
+}
+
+
+@pytest.mark.skipif(
+    not LEG_DATA.is_dir(), reason="the leg_tracker bags (../shared/data) are not here"
+)
+@pytest.mark.parametrize("name", sorted(LEG_BAGS))
+def test_leg_tracker_bags_build_with_linked_headings(name: str, tmp_path: Path) -> None:
+    """Real laser leg clusters: PoseArray in the laser frame, no ids, zero quaternions, and an
+    RViz MarkerArray beside them (skipped: its name does not suggest people). With the laser
+    as the map frame every pose is used, and headings come from linking. People walk
+    towards and away from the laser: the clusters span ~4.5 m in x and ~1 m in y, so most
+    headings lie within 45° of the x axis."""
+    poses, frame = LEG_BAGS[name]
+    log = LEG_DATA / name
+    refused = run("build", log, "-o", tmp_path / "m.aion")
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, f"frame {frame!r}")
+    assert f"--map-frame {frame}" in refused.stderr
+    out = tmp_path / "legs.aion"
+    report = run_json("build", log, "-o", out, "--map-frame", frame, "--format", "json")
+    assert report["detection_topics"] == ["/leg_cluster_positions"]
+    assert report["detection_decoding"]["/leg_cluster_positions"]["decoder"] == "fast"
+    assert report["detections"] == {"read": poses, "used": poses, "dropped": {}}
+    h = report["headings"]
+    assert h["pose_yaw"] == 0
+    assert h["velocity"] == 0
+    assert h["track"] == 0
+    assert h["linked"] + h["none"] == poses
+    assert h["linked"] >= 0.5 * poses
+    _, counts, nodir = map_cells(out)
+    assert counts.sum() == h["linked"]
+    assert nodir.sum() == h["none"]
+    bins = counts.sum(axis=0)
+    along_x = bins[[0, 3, 4, 7]].sum()  # bins touching θ = ±π and θ = 0
+    assert along_x >= 0.8 * bins.sum()

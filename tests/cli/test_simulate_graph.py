@@ -1,0 +1,130 @@
+"""``aion simulate --environment FILE`` reads scene graphs with the loader ``aion build`` uses:
+a Hydra 1.1.x graph (96 2D places in ``MESH_PLACES`` = ``3[1]``, written by spark_dsg here),
+``--nav-layer``, the real legacy file spark_dsg refuses."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.formats import dsg_builders as b
+
+DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dsg"
+IGX = DATA / "apartment_igx_dsg.json"
+# a fixed sensor for 72 minutes around noon, when people walk
+SHORT = ("--days", "0.05", "--start", "2026-01-05T12:00", "--robot", "fixed", "--quiet")
+
+
+@pytest.fixture(scope="module")
+def hydra_json(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return b.save(b.hydra_graph(), tmp_path_factory.mktemp("graphs") / "dsg.json")
+
+
+def test_simulate_walks_the_mesh_places_then_build_finds_them(
+    hydra_json: Path, tmp_path: Path
+) -> None:
+    log = tmp_path / "sim.mcap"
+    result = run("simulate", "-o", log, "--environment", hydra_json, *SHORT)
+    assert result.exit_code == 0, result.stderr
+    assert (
+        "environment dsg.json: navigational layer MESH_PLACES (3[1]), 96 walkable places"
+        in result.stderr
+    )
+    meta = json.loads((tmp_path / "sim.mcap.truth.json").read_text())
+    assert meta["places"] == b.MESH_PLACES
+    assert meta["nav_layer"] == "MESH_PLACES (3[1])"
+    assert meta["environment_notes"] == []
+    assert meta["detections"] > 0
+    with np.load(tmp_path / "sim.mcap.truth.npz") as truth:
+        assert sorted(truth["place_ids"].tolist()) == [b.sym("P", i) for i in range(96)]
+
+    report = run_json(
+        "build", log, "--graph", hydra_json, "-o", tmp_path / "a.aion", "--format", "json"
+    )
+    assert report["graph"]["layer"] == "MESH_PLACES (3[1])"
+    assert report["nodes"] == b.MESH_PLACES
+    assert report["detections"]["used"] == meta["detections"]
+    # the simulated log's own scene graphs carry the same 96 places
+    report = run_json("build", log, "-o", tmp_path / "b.aion", "--format", "json")
+    assert report["graph"]["source"] == "log"
+    assert report["nodes"] == b.MESH_PLACES
+
+
+def test_simulate_nav_layer_places(hydra_json: Path, tmp_path: Path) -> None:
+    binary = tmp_path / "dsg.sparkdsg"
+    b.hydra_graph().save(str(binary), False)
+    result = run(
+        "simulate",
+        "-o",
+        tmp_path / "p.mcap",
+        "--environment",
+        binary,
+        "--nav-layer",
+        "PLACES",
+        *SHORT,
+    )
+    assert result.exit_code == 0, result.stderr
+    meta = json.loads((tmp_path / "p.mcap.truth.json").read_text())
+    assert (meta["places"], meta["nav_layer"]) == (b.PLACES_3D, "PLACES (3)")
+    with np.load(tmp_path / "p.mcap.truth.npz") as truth:
+        assert sorted(truth["place_ids"].tolist()) == [b.sym("p", i) for i in range(10)]
+
+
+def test_simulate_legacy_layer_20(tmp_path: Path) -> None:
+    legacy = b.save(b.legacy_mesh_graph(), tmp_path / "legacy.json")
+    result = run("simulate", "-o", tmp_path / "l.mcap", "--environment", legacy, *SHORT)
+    assert result.exit_code == 0, result.stderr
+    meta = json.loads((tmp_path / "l.mcap.truth.json").read_text())
+    assert (meta["places"], meta["nav_layer"]) == (96, "MESH_PLACES (20)")
+
+
+@pytest.mark.skipif(not IGX.is_file(), reason=f"real data not present: {IGX}")
+def test_simulate_in_the_real_file_spark_dsg_refuses(tmp_path: Path) -> None:
+    result = run("simulate", "-o", tmp_path / "igx.mcap", "--environment", IGX, *SHORT)
+    assert result.exit_code == 0, result.stderr
+    assert (
+        "note: apartment_igx_dsg.json: spark_dsg refused it (failed to add O(23) → p(8928)); "
+        "read leniently: 6 dangling edges skipped" in result.stderr
+    )
+    meta = json.loads((tmp_path / "igx.mcap.truth.json").read_text())
+    assert meta["nav_layer"] == "PLACES (3)"
+    assert meta["environment_notes"] == [
+        "apartment_igx_dsg.json: spark_dsg refused it (failed to add O(23) → p(8928)); "
+        "read leniently: 6 dangling edges skipped"
+    ]
+    assert 2 <= meta["places"] <= 437  # the largest connected part of the 437 places
+
+
+def test_simulate_graph_errors_exit_2(hydra_json: Path, tmp_path: Path) -> None:
+    out = tmp_path / "x.mcap"
+    cases = [
+        (("--nav-layer", "PLACES"), "--nav-layer needs a scene-graph file as --environment"),
+        (("--environment", hydra_json, "--nav-layer", "ROOMS"), "ROOMS (4) has no place edges"),
+        (("--environment", hydra_json, "--nav-layer", "20"), "scene graph has no layer 20"),
+        (("--environment", hydra_json, "--nav-layer", "x["), "bad navigational layer 'x['"),
+    ]
+    broken = tmp_path / "broken.json"
+    broken.write_text("{")
+    cases.append((("--environment", broken), "not valid JSON"))
+    one = tmp_path / "one.json"
+    b.save(_one_place_graph(), one)
+    cases.append((("--environment", one), "MESH_PLACES (3[1]) has 1 place; at least two"))
+    for extra, fragment in cases:
+        result = run("simulate", "-o", out, "--quiet", *extra)
+        assert result.exit_code == 2, (extra, result.stderr)
+        assert_one_line_error(result.stderr, fragment)
+    assert not out.exists()
+
+
+def _one_place_graph() -> object:
+    import spark_dsg as dsg
+
+    G = dsg.DynamicSceneGraph([dsg.LayerKey(3), dsg.LayerKey(3, 1)], {})
+    a = dsg.Place2dNodeAttributes()
+    a.position = np.zeros(3)
+    G.add_node(dsg.LayerKey(3, 1), dsg.NodeSymbol("P", 0), a)
+    return G

@@ -1,0 +1,371 @@
+"""rosbag2 storage files without metadata.yaml (indexed in memory, as ``ros2 bag reindex`` would)
+and rosbag2 whole-file compression (``*.db3.zstd``, ``*.mcap.zstd``), by folder or by file.
+
+Expected answers: the real bags' own metadata.yaml, their storage files read with Python's
+``sqlite3`` and the ``mcap`` library, and bags written here with rosbags' writer.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sqlite3
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.errors import LogFormatError
+from formats.logs import open_logs, reindex
+from tests.cli.conftest import assert_one_line_error, run
+
+DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "logs" / "rosbag2_tests"
+NO_DATA = "the rosbag2 test bags of ../shared/data/logs are not available"
+REINDEX = "rosbag2_py_sqlite3_reindex_test_bags_multiple_files"
+
+
+def _real(*parts: str) -> Path:
+    path = DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(NO_DATA)
+    return path
+
+
+def _metadata(folder: Path) -> dict[str, Any]:
+    from ruamel.yaml import YAML
+
+    info: dict[str, Any] = YAML(typ="safe").load((folder / "metadata.yaml").read_text())
+    return info["rosbag2_bagfile_information"]
+
+
+def _sqlite(*files: Path) -> list[tuple[str, int, bytes]]:
+    """``(topic, timestamp, data)`` of rosbag2 sqlite3 files, read with Python's sqlite3."""
+    out: list[tuple[str, int, bytes]] = []
+    for f in files:
+        with sqlite3.connect(f"file:{f}?mode=ro", uri=True) as db:
+            out += db.execute(
+                "SELECT topics.name, timestamp, data FROM messages "
+                "JOIN topics ON messages.topic_id = topics.id"
+            ).fetchall()
+    return sorted(out, key=lambda m: m[1])
+
+
+def _got(logs: Any) -> list[tuple[str, int, bytes]]:
+    return [(m.topic, m.log_time_ns, m.data) for m in logs.messages()]
+
+
+def _zstd(src: Path, dst: Path, frame: int = 4096) -> Path:
+    """``src`` compressed with zstd into ``dst`` as several frames (a streaming writer's
+    output), which the reader must read across."""
+    import zstandard
+
+    data = src.read_bytes()
+    frames = [data[k : k + frame] for k in range(0, len(data), frame)]
+    dst.write_bytes(b"".join(zstandard.ZstdCompressor().compress(f) for f in frames))
+    return dst
+
+
+# --- storage files without metadata.yaml -----------------------------------------------------
+
+
+def test_reindex_test_bag_folder_is_read_from_its_storage_files() -> None:
+    folder = _real(REINDEX)
+    files = sorted(folder.glob("*.db3"))
+    assert len(files) == 3
+    assert not (folder / "metadata.yaml").exists()
+    expected = _sqlite(*files)
+    assert len(expected) == 3177  # 1324 + 1324 + 529 on /chatter
+    with open_logs([folder]) as logs:
+        (f,) = logs.files
+        assert (f.path, f.format, f.message_count) == (folder, "rosbag2-sqlite3", 3177)
+        assert f.size_bytes == sum(p.stat().st_size for p in files)
+        assert [(t.topic, t.msgtype, t.count) for t in logs.topics] == [
+            ("/chatter", "std_msgs/msg/String", 3177)
+        ]
+        assert (logs.start_ns, logs.end_ns) == (expected[0][1], expected[-1][1])
+        assert _got(logs) == expected  # across the three files, in time order
+        first = next(iter(logs.messages()))
+        size = int.from_bytes(first.data[4:8], "little")  # CDR string: length, text, NUL
+        text = first.data[8 : 8 + size - 1].decode()
+        assert logs.decode(first).data == text == "test"  # the shipped std_msgs definition
+        times = np.array([t for _, t, _ in expected])
+        for window in (1, 10**9, 600 * 10**9):
+            assert np.array_equal(logs.recorded_windows(window), np.unique(times // window))
+        assert logs.warnings == [
+            f"{folder}: no metadata.yaml; indexed in memory from its 3 storage files, "
+            "as `ros2 bag reindex` would"
+        ]
+
+
+@pytest.mark.parametrize(
+    "parts",
+    [(REINDEX, "multiple_files_1.db3"), ("rosbag2_cpp_bags", "topics_and_services.db3")],
+    ids=["split-file", "cpp-bag"],
+)
+def test_one_storage_file_alone(parts: tuple[str, ...]) -> None:
+    path = _real(*parts)
+    expected = _sqlite(path)
+    with open_logs([path]) as logs:
+        (f,) = logs.files
+        assert (f.path, f.format) == (path, "rosbag2-sqlite3")
+        assert logs.total() == len(expected) > 0
+        assert _got(logs) == expected
+        assert logs.warnings == []
+
+
+def test_reindex_writes_what_the_bags_own_metadata_says(tmp_path: Path) -> None:
+    talker = _real("rosbag2_py_sqlite3_talker")
+    wbag = _real("rosbag2_py_sqlite3_wbag")
+    for bag in (talker, wbag):
+        copy = tmp_path / bag.name
+        copy.mkdir()
+        for f in bag.glob("*.db3"):
+            shutil.copy(f, copy / f.name)
+        meta, built = _metadata(bag), reindex(copy)
+        assert built["storage_identifier"] == meta["storage_identifier"] == "sqlite3"
+        assert built["relative_file_paths"] == meta["relative_file_paths"]
+        assert built["message_count"] == meta["message_count"]
+
+        def topics(info: dict[str, Any]) -> dict[str, tuple[str, str, int]]:
+            return {
+                t["topic_metadata"]["name"]: (
+                    t["topic_metadata"]["type"],
+                    t["topic_metadata"]["serialization_format"],
+                    t["message_count"],
+                )
+                for t in info["topics_with_message_count"]
+            }
+
+        assert topics(built) == topics(meta)
+        expected = _sqlite(*sorted(copy.glob("*.db3")))
+        assert built["starting_time"]["nanoseconds_since_epoch"] == expected[0][1]
+        assert built["duration"]["nanoseconds"] == expected[-1][1] - expected[0][1]
+        assert [f["message_count"] for f in built["files"]] == [
+            len(_sqlite(copy / name)) for name in meta["relative_file_paths"]
+        ]
+        assert built["compression_mode"] == built["compression_format"] == ""
+    # the talker's metadata.yaml has the right times (the wbag one states another bag's); the
+    # QoS written is what the storage file keeps (it differs from the metadata.yaml's)
+    built, meta = reindex(tmp_path / talker.name), _metadata(talker)
+    assert built["starting_time"] == meta["starting_time"]
+    assert built["duration"] == meta["duration"]
+    with sqlite3.connect(talker / "talker.db3") as db:
+        qos = dict(db.execute("SELECT name, offered_qos_profiles FROM topics").fetchall())
+    got = {
+        t["topic_metadata"]["name"]: t["topic_metadata"]["offered_qos_profiles"]
+        for t in built["topics_with_message_count"]
+    }
+    assert got == qos
+    assert "deadline:\n    sec: 2147483647" in qos["/topic"]
+
+
+def test_mcap_storage_files_without_metadata(tmp_path: Path) -> None:
+    bag = _real("rosbag2_py_mcap_wbag")
+    copy = tmp_path / "wbag"
+    copy.mkdir()
+    for f in bag.glob("*.mcap"):
+        shutil.copy(f, copy / f.name)
+    meta = _metadata(bag)
+    with open_logs([copy]) as logs:
+        assert [f.path.name for f in logs.files] == meta["relative_file_paths"]
+        assert {f.format for f in logs.files} == {"rosbag2-mcap"}
+        assert logs.total() == meta["message_count"] == 6074
+        assert len(list(logs.messages())) == 6074
+        assert "no metadata.yaml; indexed in memory from its 5 storage files" in logs.warnings[-1]
+    built = reindex(copy)
+    assert built["storage_identifier"] == "mcap"
+    assert {
+        t["topic_metadata"]["name"]: t["message_count"] for t in built["topics_with_message_count"]
+    } == {
+        t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]
+    }
+
+
+def test_unusable_metadata_yaml_falls_back_to_the_storage_files(tmp_path: Path) -> None:
+    talker = _real("rosbag2_py_sqlite3_talker")
+    copy = tmp_path / "talker"
+    shutil.copytree(talker, copy)
+    (copy / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 4}\n")
+    with open_logs([copy]) as logs:
+        assert logs.total() == 20
+        assert _got(logs) == _sqlite(talker / "talker.db3")
+        assert "metadata.yaml not used (" in logs.warnings[-1]
+        assert "indexed in memory from its 1 storage file" in logs.warnings[-1]
+
+
+# --- whole-file compression --------------------------------------------------------------------
+
+
+@pytest.fixture
+def temp_root(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """Where the decompressed copies go (tempfile's folder), to see them come and go."""
+    root = tmp_path / "tmp"
+    root.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(root))
+    return root
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_compressed_storage_file_by_file_or_folder(
+    storage: str, tmp_path: Path, temp_root: Path
+) -> None:
+    bag = _real(f"rosbag2_py_{storage}_talker")
+    (plain,) = bag.glob("talker.*[3p]")
+    expected = _sqlite(bag / "talker.db3") if storage == "sqlite3" else None
+    folder = tmp_path / "compressed"
+    folder.mkdir()
+    packed = _zstd(plain, folder / f"{plain.name}.zstd")
+    with open_logs([bag]) as twin:
+        reference = _got(twin)
+    assert expected is None or expected == reference
+    # the compressed file alone, then its folder (no metadata.yaml)
+    for path, warned in ((packed, False), (folder, True)):
+        with open_logs([path]) as logs:
+            (f,) = logs.files
+            assert f.format == f"rosbag2-{storage}"
+            # a folder of sqlite3 files is one entry; mcap storage files are one entry each
+            assert f.path == (folder if warned and storage == "sqlite3" else packed)
+            assert f.size_bytes == packed.stat().st_size
+            assert logs.total() == 20
+            assert _got(logs) == reference
+            assert len(list(temp_root.iterdir())) == 1  # the decompressed copy, while open
+            assert bool(logs.warnings) == warned
+        assert list(temp_root.iterdir()) == []  # removed on close
+    # with a metadata.yaml saying compression_mode: file, by folder or by the storage file
+    text = (bag / "metadata.yaml").read_text()
+    text = (
+        text.replace(f"- {plain.name}", f"- {packed.name}")
+        .replace("compression_format: ''", "compression_format: zstd")
+        .replace('compression_format: ""', "compression_format: zstd")
+        .replace("compression_mode: ''", "compression_mode: file")
+        .replace('compression_mode: ""', "compression_mode: file")
+    )
+    assert "compression_mode: file" in text
+    assert packed.name in text
+    (folder / "metadata.yaml").write_text(text)
+    for path in (folder, packed):
+        with open_logs([path]) as logs:
+            assert [f.path for f in logs.files] == [folder]
+            assert logs.files[0].format == f"rosbag2-{storage}"
+            assert _got(logs) == reference
+            assert logs.warnings == []
+
+
+def test_message_compressed_bag_with_and_without_metadata(tmp_path: Path) -> None:
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+
+    from formats import msgdefs
+
+    folder = tmp_path / "msgzstd"
+    writer = Writer(folder, version=9, storage_plugin=StoragePlugin.SQLITE3)
+    writer.set_compression(CompressionMode.MESSAGE, CompressionFormat.ZSTD)
+    writer.open()
+    conn = writer.add_connection("/chatter", "std_msgs/msg/String", typestore=msgdefs.typestore(2))
+    payloads = [
+        b"\x00\x01\x00\x00" + (len(t) + 1).to_bytes(4, "little") + t + b"\x00"
+        for t in (b"one", b"two", b"three")
+    ]
+    for k, data in enumerate(payloads):
+        writer.write(conn, 1000 + k, data)
+    writer.close()
+    (db3,) = folder.glob("*.db3")
+    assert all(row[2][:4] == b"\x28\xb5\x2f\xfd" for row in _sqlite(db3))  # stored compressed
+    with open_logs([folder]) as logs:
+        assert [m.data for m in logs.messages()] == payloads
+    (folder / "metadata.yaml").unlink()
+    with open_logs([folder]) as logs:  # reindexed: recognised by the zstd magic bytes
+        assert [m.data for m in logs.messages()] == payloads
+        assert [logs.decode(m).data for m in logs.messages()] == ["one", "two", "three"]
+
+
+# --- bad input -----------------------------------------------------------------------------------
+
+
+def _sqlite_file(path: Path, sql: str) -> Path:
+    with sqlite3.connect(path) as db:
+        db.executescript(sql)
+    return path
+
+
+def test_bad_storage_files(
+    tmp_path: Path, temp_root: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import zstandard
+
+    talker = _real("rosbag2_py_sqlite3_talker", "talker.db3")
+    packed = _zstd(talker, tmp_path / "talker.db3.zstd")
+    cut = tmp_path / "cut" / "talker.db3.zstd"
+    cut.parent.mkdir()
+    cut.write_bytes(packed.read_bytes()[:-100])
+    with pytest.raises(LogFormatError, match="not a readable zstd file"):
+        open_logs([cut])
+    text = tmp_path / "notes.txt.zst"
+    text.write_bytes(zstandard.ZstdCompressor().compress(b"no log here\n" * 10))
+    with pytest.raises(LogFormatError, match="zstd-compressed but holds no log"):
+        open_logs([text])
+    other = _sqlite_file(tmp_path / "other.db3", "CREATE TABLE t(x);")
+    with pytest.raises(LogFormatError, match="not a readable rosbag2 sqlite3 storage file"):
+        open_logs([other])
+    fake = tmp_path / "fake"
+    fake.mkdir()
+    (fake / "bag_0.db3").write_text("not a database\n")
+    with pytest.raises(LogFormatError, match="not a rosbag2 storage file"):
+        open_logs([fake])
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    shutil.copy(talker, mixed / "a.db3")
+    shutil.copy(_real("rosbag2_py_mcap_talker", "talker.mcap"), mixed / "b.mcap")
+    with pytest.raises(LogFormatError, match="both sqlite3 and mcap storage files"):
+        open_logs([mixed])
+    with pytest.raises(LogFormatError, match="holds no rosbag2 storage files"):
+        reindex(_empty(tmp_path))
+    assert list(temp_root.iterdir()) == []  # nothing left behind by the failures
+    # no room for the decompressed copy
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "missing" / "tmp"))
+    with pytest.raises(LogFormatError, match="cannot decompress it into") as info:
+        open_logs([packed])
+    assert "TMPDIR" in (info.value.hint or "")
+
+
+def _empty(tmp_path: Path) -> Path:
+    folder = tmp_path / "empty"
+    folder.mkdir()
+    (folder / "readme.txt").write_text("hello\n")
+    return folder
+
+
+# --- from the command line -------------------------------------------------------------------
+
+
+def test_aion_info_reads_them(tmp_path: Path) -> None:
+    folder = _real(REINDEX)
+    result = run("info", folder)
+    assert result.exit_code == 0, result.stderr
+    assert "format: rosbag2-sqlite3" in result.stdout
+    assert "messages: 3,177" in result.stdout or "messages: 3177" in result.stdout
+    assert "no metadata.yaml; indexed in memory" in result.stderr
+    packed = _zstd(_real("rosbag2_py_mcap_talker", "talker.mcap"), tmp_path / "talker.mcap.zstd")
+    result = run("info", packed)
+    assert result.exit_code == 0, result.stderr
+    assert "format: rosbag2-mcap" in result.stdout
+    assert "messages: 20" in result.stdout
+    broken = tmp_path / "broken.mcap.zstd"
+    broken.write_bytes(packed.read_bytes()[: packed.stat().st_size // 2])
+    result = run("info", broken)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "not a readable zstd file")
+
+
+def test_other_logs_compressed_whole(tmp_path: Path, temp_root: Path) -> None:
+    # any log aion reads, compressed with zstd: told apart by its decompressed first bytes
+    bag = DATA.parent / "rosbagjs_fixtures" / "example-lz4.bag"
+    if not bag.is_file():
+        pytest.skip(NO_DATA)
+    packed = _zstd(bag, tmp_path / "example.bag.zst")
+    with open_logs([bag]) as plain, open_logs([packed]) as logs:
+        assert [(f.path, f.format) for f in logs.files] == [(packed, "bag")]
+        assert logs.total() == plain.total() == 8647
+        assert _got(logs) == _got(plain)
+    assert list(temp_root.iterdir()) == []
