@@ -175,13 +175,15 @@ class GraphSnapshot:
 class RowTake:
     """Rows ``rows`` of ``source`` (along axis 0), gathered block by block when written: a map
     member that never exists as one whole copy in memory (writing a map of 10^6 temporal rows
-    would otherwise hold the state and a reordered copy of it at once).
+    would otherwise hold the state and a reordered copy of it at once). ``cast``: the dtype the
+    rows are stored as (a lossless narrowing the caller has checked, e.g. integral counts).
 
     :func:`formats.mapfile.write_map` streams it; ``np.asarray`` materialises it."""
 
     source: np.ndarray
     rows: I64
     block_rows: int = 1 << 15
+    cast: np.dtype[Any] | None = None
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -189,17 +191,21 @@ class RowTake:
 
     @property
     def dtype(self) -> np.dtype[Any]:
-        return self.source.dtype
+        return self.source.dtype if self.cast is None else self.cast
 
     @property
     def nbytes(self) -> int:
-        return int(self.rows.size) * int(self.source[:1].nbytes if len(self.source) else 0)
+        row = int(np.prod(self.source.shape[1:], dtype=np.int64)) * self.dtype.itemsize
+        return int(self.rows.size) * row
 
     def blocks(self) -> Iterator[np.ndarray]:
         """C-contiguous blocks of consecutive output rows, in order."""
         for a in range(0, int(self.rows.size), self.block_rows):
-            yield np.ascontiguousarray(self.source[self.rows[a : a + self.block_rows]])
+            block = self.source[self.rows[a : a + self.block_rows]]
+            yield np.ascontiguousarray(block if self.cast is None else block.astype(self.cast))
 
     def __array__(self, dtype: npt.DTypeLike | None = None, copy: bool | None = None) -> np.ndarray:
         out = self.source[self.rows]
+        if self.cast is not None:
+            out = out.astype(self.cast)
         return out if dtype is None else out.astype(dtype)

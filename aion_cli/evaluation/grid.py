@@ -202,9 +202,9 @@ class GridMoD:
         return self.counts.copy()
 
     def stored_bytes(self) -> int:
-        """Bytes held for the whole dense grid (temporal accumulators and counts)."""
-        arrays = self.state.to_arrays("g", self._rows)
-        return int(sum(a.nbytes for a in arrays.values()) + self.counts.nbytes)
+        """Bytes held for the whole dense grid (temporal accumulators and counts, in memory:
+        a dense grid allocates every cell whether anyone walked there or not)."""
+        return int(self.state.nbytes + self.counts.nbytes)
 
 
 def expected_counts_per_window(grid: GridMoD) -> F64:

@@ -251,15 +251,27 @@ def test_merge_rejects_different_configs() -> None:
 
 
 def test_from_arrays_rejects_corrupt_input() -> None:
+    closed = _run(_log(T0, seed=6, windows=2)).state
+    closed.close_day()  # the counts move from the pending day into the (sparse) accumulators
+    counted, closed_meta = closed.to_arrays()
+    counted = _plain(counted)
+    assert len(counted["temporal_cnt_index"]) > 1
+    broken = {**counted, "temporal_cnt_profile": counted["temporal_cnt_profile"][:-1]}
+    with pytest.raises(MapCorruptError, match="temporal_cnt_profile"):
+        MapState.from_arrays(broken, closed_meta)
+    unordered = {**counted, "temporal_cnt_index": counted["temporal_cnt_index"][::-1].copy()}
+    with pytest.raises(MapCorruptError, match="out of order or range"):
+        MapState.from_arrays(unordered, closed_meta)
+    real = {**counted, "temporal_cnt_fourier": counted["temporal_cnt_fourier"].real.copy()}
+    with pytest.raises(MapCorruptError, match="complex"):
+        MapState.from_arrays(real, closed_meta)
+    negative = {
+        **counted, "temporal_cnt_profile": -counted["temporal_cnt_profile"].astype(np.float64)
+    }
+    with pytest.raises(MapCorruptError, match="negative"):
+        MapState.from_arrays(negative, closed_meta)
     arrays, meta = _run(_log(T0, seed=6, windows=2)).state.to_arrays()
     arrays = _plain(arrays)
-    broken = dict(arrays)
-    broken["temporal_obs_n"] = broken["temporal_obs_n"][:-1]
-    with pytest.raises(MapCorruptError, match="temporal_obs_n"):
-        MapState.from_arrays(broken, meta)
-    real = {**arrays, "temporal_cnt_fourier": arrays["temporal_cnt_fourier"].real.copy()}
-    with pytest.raises(MapCorruptError, match="complex"):
-        MapState.from_arrays(real, meta)
     missing = {k: v for k, v in arrays.items() if k != "node_ids"}
     with pytest.raises(MapCorruptError):
         MapState.from_arrays(missing, meta)

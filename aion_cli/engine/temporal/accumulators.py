@@ -57,6 +57,76 @@ _ADDITIVE = (
     "dir_gain_sq",
 )
 _ROW_BLOCK = 1 << 14
+_SCORES = (
+    "flow_score",
+    "flow_chi2",
+    "flow_scored",
+    "flow_days",
+    "flow_gain_sq",
+    "dir_score",
+    "dir_scored",
+    "dir_days",
+    "dir_gain_sq",
+)
+_UINT32_MAX = float(np.iinfo(np.uint32).max)
+
+
+@dataclass(frozen=True)
+class _Pairs:
+    """(entry, value bin) pairs: flat positions ``pos·V + v`` and flat state rows."""
+
+    positions: I64
+    rows: I64
+
+
+def _nonzero_pairs(flat_profile: F64, rows: I64, values: int) -> _Pairs:
+    """The (entry, value bin) pairs of ``rows`` whose profile counts are not all zero, found
+    block by block (bounded temporaries)."""
+    positions, state_rows = [], []
+    v = np.arange(values, dtype=np.int64)
+    for a in range(0, rows.size, _ROW_BLOCK):
+        r = rows[a : a + _ROW_BLOCK]
+        flat = (r[:, None] * values + v[None, :]).reshape(-1)
+        keep = flat_profile[flat].any(axis=1)
+        pos = ((a + np.arange(r.size))[:, None] * values + v[None, :]).reshape(-1)
+        positions.append(pos[keep])
+        state_rows.append(flat[keep])
+    empty = np.zeros(0, np.int64)
+    return _Pairs(
+        np.concatenate(positions) if positions else empty,
+        np.concatenate(state_rows) if state_rows else empty,
+    )
+
+
+def _narrowed(source: F64, rows: I64) -> RowTake:
+    """``RowTake`` of ``source[rows]``, stored as the narrowest of uint16 / uint32 that holds
+    every value exactly when all are whole numbers (window tallies and detection counts are),
+    else as float64."""
+    top = 0.0
+    for a in range(0, rows.size, _ROW_BLOCK):
+        block = source[rows[a : a + _ROW_BLOCK]]
+        if not block.size:
+            continue
+        if not (block.min() >= 0.0 and np.all(block == np.rint(block))):
+            return RowTake(source, rows)
+        top = max(top, float(block.max()))
+    if top > _UINT32_MAX:
+        return RowTake(source, rows)
+    narrow = np.uint16 if top <= np.iinfo(np.uint16).max else np.uint32
+    return RowTake(source, rows, cast=np.dtype(narrow))
+
+
+def _index(arrays: dict[str, np.ndarray], name: str, limit: int) -> I64:
+    """A stored index member: int64, strictly increasing, within [0, limit)."""
+    if name not in arrays:
+        raise MapCorruptError(f"temporal state incomplete, missing: {name}")
+    value = np.asarray(arrays[name])
+    if value.ndim != 1 or value.dtype.kind not in "iu":
+        raise MapCorruptError(f"temporal member {name} must be a 1-D integer array")
+    out = value.astype(np.int64)
+    if out.size and (out[0] < 0 or out[-1] >= limit or np.any(np.diff(out) <= 0)):
+        raise MapCorruptError(f"temporal member {name} holds positions out of order or range")
+    return out
 
 
 @dataclass
@@ -128,12 +198,12 @@ def _member(arrays: dict[str, np.ndarray], name: str, shape: tuple[int, ...]) ->
     if name not in arrays:
         raise MapCorruptError(f"temporal state incomplete, missing: {name}")
     value = np.asarray(arrays[name])
-    if value.shape != shape or value.dtype.kind not in "fc":
+    if value.shape != shape or value.dtype.kind not in "fcu":
         raise MapCorruptError(
             f"temporal member {name} has shape {value.shape} and dtype {value.dtype}, "
             f"expected {shape}"
         )
-    if value.dtype.kind == "f":
+    if value.dtype.kind in "fu":
         value = value.astype(np.float64, copy=False)
     return np.array(value)
 
@@ -219,6 +289,12 @@ class TemporalState:
             self.flow_score.shape[1],
             self.dir_score.shape[1],
         )
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held in memory by the accumulators (dense arrays of every row)."""
+        obs = sum(getattr(block, f).nbytes for block in (self.glob, self.obs) for f in _OBS_FIELDS)
+        return int(obs + sum(getattr(self, name).nbytes for name in _ADDITIVE))
 
     def touch(self, rows: I64 | None = None) -> None:
         """Note a change (and that ``rows`` were written)."""
@@ -335,10 +411,36 @@ class TemporalState:
 
     # -- persistence ------------------------------------------------------------------------
     def to_arrays(self, prefix: str, rows: I64) -> dict[str, Any]:
-        """Members ``prefix + name`` for rows ``rows`` (gathered block by block when written)."""
+        """Members ``prefix + name`` for rows ``rows``, sparse and gathered block by block
+        when written (no second copy of the state):
+
+        * ``obs_index`` — positions (in ``rows``) of entries with windows of their own, and
+          their observation blocks (a fixed sensor's map has none: its windows are global);
+        * ``cnt_index`` — flat positions ``pos·V + v`` of the (entry, value bin) pairs that
+          ever counted a detection, with their ``cnt_fourier`` and ``cnt_profile`` rows (a
+          direction nobody walked costs nothing);
+        * ``score_index`` — positions of entries with day-ahead scores, and the scores.
+
+        Integral counts and window tallies are stored as ``uint16`` or ``uint32`` (lossless;
+        float64 when a value is not a whole number below 2^32)."""
+        r = np.asarray(rows, dtype=np.int64)
+        pos = np.arange(r.size, dtype=np.int64)
         out: dict[str, Any] = self.glob.to_arrays(prefix + "glob_")
-        out.update(self.obs.to_arrays(prefix + "obs_", rows))
-        out.update({prefix + name: RowTake(getattr(self, name), rows) for name in _ADDITIVE})
+        own = self.obs.n[r] > 0
+        out[prefix + "obs_index"] = pos[own]
+        out.update(self.obs.to_arrays(prefix + "obs_", r[own]))
+        out[prefix + "obs_profile"] = _narrowed(self.obs.profile, r[own])
+        v, k, h = self.n_values, self.n_periods, self.n_bins
+        flat_profile = self.cnt_profile.reshape(-1, h)
+        pairs = _nonzero_pairs(flat_profile, r, v)
+        out[prefix + "cnt_index"] = pairs.positions
+        out[prefix + "cnt_fourier"] = RowTake(self.cnt_fourier.reshape(-1, k), pairs.rows)
+        out[prefix + "cnt_profile"] = _narrowed(flat_profile, pairs.rows)
+        scored = (self.flow_days[r] > 0) | (self.dir_days[r] > 0)
+        scored |= (self.flow_scored[r] > 0) | (self.dir_scored[r] > 0)
+        out[prefix + "score_index"] = pos[scored]
+        for name in _SCORES:
+            out[prefix + name] = RowTake(getattr(self, name), r[scored])
         return out
 
     @classmethod
@@ -354,26 +456,44 @@ class TemporalState:
         dir_families: int,
     ) -> TemporalState:
         """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` on missing or
-        inconsistent members (shapes must match the config)."""
-        glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
-        obs = ObsBlock.from_arrays(arrays, prefix + "obs_", rows, periods, bins)
-        shapes = {
-            "cnt_fourier": (rows, values, periods),
-            "cnt_profile": (rows, values, bins),
-            "flow_score": (rows, flow_families),
-            "flow_chi2": (rows, flow_families),
-            "flow_scored": (rows,),
-            "flow_days": (rows,),
-            "flow_gain_sq": (rows, flow_families),
-            "dir_score": (rows, dir_families),
-            "dir_scored": (rows,),
-            "dir_days": (rows,),
-            "dir_gain_sq": (rows, dir_families),
-        }
-        vals = {name: _member(arrays, prefix + name, shape) for name, shape in shapes.items()}
-        if vals["cnt_fourier"].dtype != np.complex128:
+        inconsistent members (shapes must match the config, indices must be in range)."""
+        out = cls.empty(rows, values, periods, bins, flow_families, dir_families)
+        out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
+        own = _index(arrays, prefix + "obs_index", rows)
+        block = ObsBlock.from_arrays(arrays, prefix + "obs_", own.size, periods, bins)
+        out.obs.put(own, block)
+        pairs = _index(arrays, prefix + "cnt_index", rows * values)
+        fourier = _member(arrays, prefix + "cnt_fourier", (pairs.size, periods))
+        if fourier.dtype != np.complex128:
             raise MapCorruptError(f"{prefix}cnt_fourier must be complex128")
-        for name, value in vals.items():
-            if name != "cnt_fourier" and value.dtype.kind != "f":
+        out.cnt_fourier.reshape(-1, periods)[pairs] = fourier
+        profile = _member(arrays, prefix + "cnt_profile", (pairs.size, bins))
+        out.cnt_profile.reshape(-1, bins)[pairs] = profile
+        scored = _index(arrays, prefix + "score_index", rows)
+        shapes = {
+            "flow_score": (flow_families,),
+            "flow_chi2": (flow_families,),
+            "flow_scored": (),
+            "flow_days": (),
+            "flow_gain_sq": (flow_families,),
+            "dir_score": (dir_families,),
+            "dir_scored": (),
+            "dir_days": (),
+            "dir_gain_sq": (dir_families,),
+        }
+        for name, tail in shapes.items():
+            value = _member(arrays, prefix + name, (scored.size, *tail))
+            if value.dtype.kind != "f":
                 raise MapCorruptError(f"{prefix}{name} must be real")
-        return cls(glob=glob, obs=obs, **vals)
+            getattr(out, name)[scored] = value
+        bad = [
+            name
+            for name in ("cnt_fourier", "cnt_profile", *shapes)
+            if not np.all(np.isfinite(getattr(out, name)))
+        ]
+        if bad or np.any(out.cnt_profile < 0) or np.any(out.obs.n < 0) or out.glob.n[0] < 0:
+            raise MapCorruptError(
+                f"temporal state holds non-finite or negative values ({', '.join(bad) or 'counts'})"
+            )
+        out.high_water = rows
+        return out
