@@ -9,7 +9,9 @@ detection log vs raw iteration and rosbags decoding), ``temporal`` (bench_tempor
 temporal model's learning and prediction throughput), ``engine`` (bench_engine:
 ``Mapper.add_detections``), ``memory`` (bench_memory: aion vs dense grid),
 ``queries`` (bench_engine.run_queries: load, predict, plan, export), ``scaling``
-(bench_scaling, writes ``scaling.png``).
+(bench_scaling, writes ``scaling.png``), ``build`` (bench_build, issue 15: ``aion build`` vs raw
+iteration on TrackedPersons logs at 1/5/25 people per message, the scene-graph share of a
+build, map bytes per entry, ``aion predict`` / ``info`` process times, streaming peak RSS).
 
 ``--quick`` uses small sizes (seconds, for the smoke test and a fast look) and writes to
 ``benchmarks/_work/results-quick.json`` unless ``--out`` says otherwise, so it never replaces
@@ -29,7 +31,7 @@ from typing import Any
 
 from benchmarks.common import ROOT, WORK, fmt_si, machine_info
 
-SECTIONS = ("ingest", "temporal", "engine", "memory", "queries", "scaling")
+SECTIONS = ("ingest", "temporal", "engine", "memory", "queries", "scaling", "build")
 RESULTS = ROOT / "benchmarks" / "results.json"
 
 
@@ -80,9 +82,15 @@ def _scaling(quick: bool) -> list[dict[str, Any]]:
     return bench_scaling.run()
 
 
+def _build(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_build
+
+    return bench_build.run(quick)
+
+
 RUNNERS: dict[str, Callable[[bool], list[dict[str, Any]]]] = {
     "ingest": _ingest, "temporal": _temporal, "engine": _engine, "memory": _memory,
-    "queries": _queries, "scaling": _scaling,
+    "queries": _queries, "scaling": _scaling, "build": _build,
 }
 
 
@@ -171,7 +179,60 @@ def summary(results: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
             add("scaling", f"log-log slope vs {r['series']}",
                 f"time {r['time_slope']:.2f}, memory {r['memory_slope']:.2f}", "",
                 "~1 (linear)" if r["series"] == "detections" else "")
+    _build_summary(results.get("build", []), add)
     return out
+
+
+def _build_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> None:
+    """The ``build`` section's rows (bench_build: issue 15's targets)."""
+    for r in rows:
+        name = str(r.get("name", ""))
+        if name.startswith("build ") and "per_message" in r:
+            k = r["per_message"]
+            add("build", f"aion build, {k}/msg, {r['detections']:,} det, {r['days']} days",
+                f"{fmt_si(r['build_detections_per_s'], 'det/s')} ({r['build_s']:.2f} s)",
+                f"{r['build_vs_raw']:.1f}x raw iteration ({r['raw_iteration_s']:.2f} s)",
+                "<= 2x raw iteration", r["build_vs_raw"] <= 2.0)
+            if k == 5:
+                add("build", "end to end detections/s at 5/msg",
+                    fmt_si(r["build_detections_per_s"], "det/s"), "", ">= 1 M det/s",
+                    r["build_detections_per_s"] >= 1e6)
+        elif name.startswith("graph stream"):
+            add("build", f"scene graphs, {r['places']:,} places at 1 Hz, "
+                f"{r['seconds'] / 3600:.2g} h: share of build",
+                f"{100 * r['graph_share']:.0f} % ({r['build_s']:.1f} s vs "
+                f"{r['build_without_graphs_s']:.1f} s without)",
+                f"{1e3 * r['graph_s_per_message']:.1f} ms/graph msg; spark_dsg "
+                f"{1e3 * r.get('spark_from_binary_s_per_graph', float('nan')):.1f} ms, "
+                f"decode_dsg {1e3 * r.get('decode_dsg_s_per_graph', float('nan')):.1f} ms, "
+                f"add_graph {1e3 * r.get('add_graph_s_per_graph', float('nan')):.1f} ms",
+                "<= 25 %", r["graph_share"] <= 0.25)
+            if "graph_share_floor_reading" in r:
+                add("build", "scene graphs: share if only reading them cost (floor)",
+                    f"{100 * r['graph_share_floor_reading']:.0f} %",
+                    f"reading graph bytes {r['graph_reading_s']:.2f} s of raw iteration "
+                    f"{r['raw_iteration_s']:.2f} s")
+        elif name.startswith("map size"):
+            kinds = ", ".join(f"{k} {v:.0f}" for k, v in
+                              list(r["bytes_per_entry_by_kind"].items())[:3])
+            add("build", f"map bytes per entry ({r['entries']:,} entries)",
+                f"{r['bytes_per_entry']:.0f} B ({r['map_bytes'] / 1e6:.0f} MB)",
+                f"{r['vs_baseline']:.2f}x smaller than before; {kinds}",
+                ">= 4x smaller", r["vs_baseline"] >= 4.0)
+        elif name.startswith(("aion predict", "aion info")):
+            predict = name.startswith("aion predict")
+            add("build", f"{name} ({r['entries']:,} entries), whole process",
+                f"{r['seconds']:.2f} s",
+                f"{r['vs_aion_help']:.1f}x aion --help ({r['aion_help_s']:.2f} s)",
+                "<= 1 s" if predict else "", (r["seconds"] <= 1.0) if predict else None)
+        elif name == "stream memory fit":
+            judged = r["largest_gb"] >= 1.0  # below, the chunk buffers are still filling
+            how = "extrapolated" if r["extrapolated"] else "measured"
+            add("build", f"streaming peak RSS, log up to {r['largest_gb']:.2g} GB",
+                f"{r['largest_peak_mb']:.0f} MB at {r['largest_gb']:.2g} GB",
+                f"{r['mb_per_gb']:.1f} MB per GB of log; 10 GB: {r['peak_mb_at_10gb']:.0f} MB "
+                f"({how})", "<= 500 MB on 10 GB",
+                (r["peak_mb_at_10gb"] <= 500.0) if judged else None)
 
 
 def print_table(rows: list[dict[str, Any]]) -> None:
