@@ -6,6 +6,12 @@ place node at the cell's centre (z = mean height of its detections), connected t
 8-neighbours on the same floor. Node ids are spark_dsg NodeSymbols ``p0, p1, ...`` in the
 deterministic order of the cell indices (floor, y, x), so the same detections always give the
 same graph. Pure numpy; streamed: :meth:`OccupancyGrid.add` takes detections batch by batch.
+
+Only detections the map can hold are counted: a non-finite position, or one outside the
+spatial hash's packable range for the map's ``cell_size`` (the rows a build drops and counts
+as ``nan`` / ``out_of_range``), is skipped here too, and so is a row whose place (the centre of
+its grid cell) would fall outside that range. Three absurd detections used to become a place
+at 1e12 m that refused the whole build.
 """
 
 from __future__ import annotations
@@ -13,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.spatial_hash import hashable_indices
 from aion_cli.engine.types import GraphSnapshot, Layer
 
 F64 = npt.NDArray[np.float64]
@@ -24,20 +32,28 @@ _FORWARD = np.array([[1, 0], [0, 1], [1, 1], [1, -1]], dtype=np.int64)
 
 
 class OccupancyGrid:
-    """Detection counts per (x, y, floor) grid cell, accumulated batch by batch."""
+    """Detection counts per (x, y, floor) grid cell, accumulated batch by batch.
 
-    def __init__(self, spacing: float) -> None:
+    ``cell_size`` is the map's spatial-hash cell (default: :class:`ModelConfig`'s): rows the
+    map cannot hold at that cell size are not counted (module docstring)."""
+
+    def __init__(self, spacing: float, cell_size: float | None = None) -> None:
         if not (spacing > 0 and np.isfinite(spacing)):
             raise ValueError(f"spacing must be positive, got {spacing!r}")
         self.spacing = float(spacing)
+        self.cell_size = float(ModelConfig().cell_size if cell_size is None else cell_size)
         self._ijk = np.zeros((0, 3), dtype=np.int64)
         self._count = np.zeros(0, dtype=np.int64)
         self._zsum = np.zeros(0, dtype=np.float64)
+        #: rows of :meth:`add` that were not counted (non-finite or outside the hash range)
+        self.skipped = 0
 
     def add(self, xyz: F64) -> None:
-        """Count the finite rows of ``xyz`` (float64[n,3], map frame)."""
+        """Count the rows of ``xyz`` (float64[n,3], map frame) the map can hold."""
         pts = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
-        pts = pts[np.isfinite(pts).all(axis=1)]
+        keep = self._holdable(pts)
+        self.skipped += int(len(pts) - np.count_nonzero(keep))
+        pts = pts[keep]
         if len(pts) == 0:
             return
         ijk = np.floor(pts / self.spacing).astype(np.int64)
@@ -51,6 +67,19 @@ class OccupancyGrid:
         self._zsum = np.asarray(
             np.bincount(inverse, weights=zsum, minlength=len(uniq)), dtype=np.float64
         )
+
+    def _holdable(self, pts: F64) -> npt.NDArray[np.bool_]:
+        """Rows whose position and whose place (grid-cell centre, same height) hash at the
+        map's cell size: what a build keeps, and places it can bind."""
+        _, _, ok = hashable_indices(pts, self.cell_size)
+        if not ok.any():
+            return ok
+        centre = pts.copy()
+        with np.errstate(invalid="ignore", over="ignore"):
+            centre[:, :2] = (np.floor(pts[:, :2] / self.spacing) + 0.5) * self.spacing
+        centre[~ok] = 0.0
+        _, _, centre_ok = hashable_indices(centre, self.cell_size)
+        return ok & centre_ok
 
     @property
     def total(self) -> int:

@@ -6,16 +6,21 @@ No click here: the CLI hands over :class:`BuildOptions` and a :class:`ProgressSi
 1. open the logs (``formats.logs.open_logs``) and pick topics by type (:func:`select_topics`):
    detection topics with a supported adapter (all of them, or those named), the scene-graph
    topic(s) (``hydra_msgs/DsgUpdate``), ``/tf`` and ``/tf_static``;
-2. read TF first (small) into a ``TfBuffer``; the observation mask comes from the robot
-   trajectory ``map -> base_link``, else from the scene graph's agent layer, else the log is
-   treated as a fixed sensor over the windows in which it recorded any message (the report
-   says which);
+2. read TF first into a ``TfBuffer``, and in the same pass the log times of every topic the
+   build uses; the time-sanity rules (:mod:`aion_cli.log_times`) drop messages with stray or
+   unrepresentable log times (counted, warned) and give the build's time span (from the
+   messages used, never from other topics or a summary); the observation mask comes from the
+   robot trajectory ``map -> base_link``, else from the scene graph's agent layer, else the
+   log is treated as a fixed sensor over the windows in which it recorded any message within
+   that span (the report says which);
 3. with ``--derive-graph`` and no scene graph, one extra pass counts where people walk and
    :mod:`aion_cli.derive_graph` turns that into a navigational graph;
 4. stream detection and scene-graph messages in log-time order: detection messages are
    collected into chunks of ``batch_size`` (flushed before every scene graph, so the Mapper sees
-   everything in time order), decoded per type with numpy, transformed to the map frame,
-   given headings, and fed to the Mapper;
+   everything in time order), decoded per topic and type with numpy, transformed to the map
+   frame, given headings, and fed to the Mapper, which says per row what it dropped (so a
+   topic that loses most of its detections is a warning); a continued map refuses data in
+   the windows it has already closed (logs are added in time order);
 5. write the map atomically (``formats.mapfile.write_map``) with a manifest recording the
    config, the inputs' provenance (path, size, sha256), the time span and the counts.
 
@@ -26,9 +31,11 @@ and ``export``; :mod:`aion_cli.topics`, :mod:`aion_cli.detection_feed` and
 
 from __future__ import annotations
 
+from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
 
@@ -48,7 +55,9 @@ from aion_cli.engine.errors import (
     TopicNotFoundError,
     TransformError,
 )
-from aion_cli.engine.types import DetectionBatch, GraphSnapshot, Trajectory
+from aion_cli.engine.mapper import TIME_RANGE_TEXT
+from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot, Trajectory
+from aion_cli.log_times import TopicTimes, iso, stray_mask
 from aion_cli.mapquery import LoadedMap, load_map, state_counts
 from aion_cli.provenance import provenance, provenance_size
 from aion_cli.topics import TopicPlan, select_topics
@@ -69,6 +78,15 @@ __all__ = [
 ]
 
 MAP_SUFFIX = ".aion"
+
+LOSS_WARN_SHARE = 0.5
+"""A detection topic that loses more than this share of the detections read from it (dropped
+after decoding for any reason: no transform, a non-finite or out-of-range position, a closed
+window) gets a warning with the counts, even with ``-q``. Messages that cannot be decoded, or
+whose log times are stray, are warned about separately, whatever their number."""
+
+#: Drops of detections once read (the class filter of vision_msgs is a choice, not a loss).
+_DETECTION_DROPS = frozenset({"no_transform", "nan", "out_of_range", "before_window"})
 
 
 class ProgressSink(Protocol):
@@ -151,6 +169,9 @@ class BuildReport:
     warnings: list[str] = field(default_factory=list)
     headings: dict[str, int] = field(default_factory=dict)
     detection_decoding: dict[str, dict[str, Any]] = field(default_factory=dict)
+    by_topic: dict[str, dict[str, Any]] = field(default_factory=dict)
+    time_dropped: dict[str, dict[str, int]] = field(default_factory=dict)
+    tf_undecodable: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         span = (
@@ -167,6 +188,7 @@ class BuildReport:
                 "used": self.detections_used,
                 "dropped": dict(sorted(self.dropped.items())),
             },
+            "detections_by_topic": self.by_topic,
             "cells": self.cells,
             "nodes": self.nodes,
             "nodes_with_flow": self.nodes_with_flow,
@@ -184,6 +206,8 @@ class BuildReport:
             },
             "detection_topics": self.detection_topics,
             "detection_decoding": self.detection_decoding,
+            "log_times_dropped": self.time_dropped,
+            "tf_undecodable": self.tf_undecodable,
             "headings": {k: int(self.headings.get(k, 0)) for k in HEADING_SOURCES},
             "inputs": self.inputs,
             "notes": self.notes,
@@ -192,23 +216,45 @@ class BuildReport:
 
 
 # -- the build ---------------------------------------------------------------------------------
-def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer | None:
-    """All TF into one buffer. Messages are decoded with numpy 4096 at a time
-    (:mod:`formats.tf_fast`, ~50x faster than rosbags) where the log's definition of the TF
-    type is the layout that decoder reads (:func:`formats.tf_fast.layout_matches`); messages
-    of other topics, and a chunk the fast decoder rejects (e.g. big-endian CDR, a corrupt
-    payload), are decoded message by message with the log's own definitions, which reports a
-    corrupt payload as before."""
+@dataclass
+class _TfStats:
+    """TF messages read and skipped as undecodable (with the first failure)."""
+
+    messages: int = 0
+    undecodable: int = 0
+    first_error: MessageDecodeError | None = None
+
+
+def _read_tf_and_times(
+    logset: Any, plan: TopicPlan, timed: set[str], progress: ProgressSink
+) -> tuple[TfBuffer | None, TopicTimes, _TfStats]:
+    """One read of the TF topics and of the other topics in ``timed`` (those the build uses):
+    every TF message into one buffer, and the log time of every message of ``timed``
+    (:class:`aion_cli.log_times.TopicTimes`: what the time-sanity rules are applied to).
+
+    TF messages are decoded with numpy 4096 at a time (:mod:`formats.tf_fast`, ~50x faster
+    than rosbags) where the log's definition of the TF type is the layout that decoder reads
+    (:func:`formats.tf_fast.layout_matches`); messages of other topics, and a chunk the fast
+    decoder rejects (e.g. big-endian CDR, a corrupt payload), are decoded message by message
+    with the log's own definitions, and a message that cannot be decoded is skipped and
+    counted (like a bad detection or scene-graph message). A TF message whose log time is out
+    of the representable range is not decoded. The other topics' payloads are not decoded
+    here: MCAP chunks interleave topics, so reading them with TF costs little more than TF."""
     import logging
 
     from formats.tf import TfBuffer
     from formats.tf_fast import decode_tf_messages, layout_matches
 
-    if not plan.tf:
-        return None
-    topics = plan.names("tf")
-    progress.start("reading TF", logset.total(topics))
-    buffer = TfBuffer()
+    tf_topics = plan.names("tf") if plan.tf else set()
+    times = TopicTimes(timed | tf_topics)
+    stats = _TfStats()
+    topics = tf_topics | timed
+    if not topics:
+        return None, times, stats
+    progress.start(
+        "reading TF and log times" if tf_topics else "reading log times", logset.total(topics)
+    )
+    buffer = TfBuffer() if tf_topics else None
     generic = 0
     fast_ok: dict[tuple[str, str, str], bool] = {}
 
@@ -221,6 +267,8 @@ def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer |
 
     def add(chunk: list[RawMessage]) -> None:
         nonlocal generic
+        assert buffer is not None
+        stats.messages += len(chunk)
         static = np.fromiter((m.topic.endswith("_static") for m in chunk), bool, len(chunk))
         try:
             if not all(map(fast, chunk)):
@@ -229,7 +277,14 @@ def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer |
         except MessageDecodeError:
             generic += 1
             for m, st in zip(chunk, static.tolist(), strict=True):
-                buffer.add_message(logset.decode(m), static=st)
+                try:
+                    decoded = logset.decode(m)
+                except MessageDecodeError as exc:
+                    stats.undecodable += 1
+                    if stats.first_error is None:
+                        stats.first_error = exc
+                    continue
+                buffer.add_message(decoded, static=st)
         else:
             rows_static = static[arrays.msg_index]
             for flag in (True, False):  # like TfBuffer's own batches: static rows first
@@ -239,29 +294,104 @@ def _load_tf(logset: Any, plan: TopicPlan, progress: ProgressSink) -> TfBuffer |
                     buffer.add_transforms(
                         parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
                     )
-        progress.advance(len(chunk))
 
     chunk: list[RawMessage] = []
+    done = 0
     for msg in logset.messages(topics):
+        done += 1
+        if done == 4096:
+            progress.advance(done)
+            done = 0
+        if not times.add(msg.topic, msg.log_time_ns) or msg.topic not in tf_topics:
+            continue
         chunk.append(msg)
         if len(chunk) == 4096:
             add(chunk)
             chunk = []
     if chunk:
         add(chunk)
+    progress.advance(done)
     if generic:
         logging.getLogger(__name__).info("TF: %d chunk(s) read by the generic decoder", generic)
-    return buffer
+    return buffer, times, stats
 
 
-def _robot_trajectory(tf: TfBuffer | None, opts: BuildOptions) -> Trajectory | None:
+def _robot_trajectory(
+    tf: TfBuffer | None, opts: BuildOptions, warnings: list[str]
+) -> Trajectory | None:
+    """The robot's ``map_frame -> base_frame`` poses, without stray ones (the time-sanity
+    rule of :func:`aion_cli.log_times.stray_mask` on the poses' own stamps: a pose a day
+    away from the rest of the trajectory would make its far window an observed one)."""
     if tf is None:
         return None
     try:
         traj = tf.trajectory(opts.map_frame, opts.base_frame)
     except TransformError:
         return None
-    return traj if len(traj) else None
+    if len(traj) == 0:
+        return None
+    t = np.asarray(traj.t_ns, dtype=np.int64)
+    stray = stray_mask(t)
+    if stray.any():
+        warnings.append(
+            f"{int(stray.sum()):,} robot pose(s) ignored: stamped more than a day away from "
+            f"the rest of the trajectory (first: {iso(int(t[stray].min()))})"
+        )
+        keep = ~stray
+        traj = Trajectory(t[keep], np.asarray(traj.xyz)[keep])
+    return traj
+
+
+class _TopicFeeders:
+    """One :class:`DetectionFeeder` per detection topic, so the build knows what became of
+    each topic's detections (its own counts, its own heading estimator and track linker: the
+    track ids of two sensors are unrelated), with the chunk's rows merged in time order for
+    the Mapper as one feeder would give them.
+
+    :meth:`decode` has the feeder's signature (``decoded_chunks`` runs it in its worker
+    thread); :meth:`topics_of` then gives the topic index of each row of a returned batch.
+    """
+
+    def __init__(self, make: Callable[[DetectionCounts], DetectionFeeder], topics: list[str]):
+        self.topics = topics
+        self.index = {topic: i for i, topic in enumerate(topics)}
+        self.counts = {topic: DetectionCounts() for topic in topics}
+        self.feeders = {topic: make(self.counts[topic]) for topic in topics}
+        self._labels: dict[int, I64] = {}
+
+    def decode(self, messages: list[RawMessage]) -> DetectionBatch:
+        groups: dict[str, list[RawMessage]] = {}
+        for msg in messages:
+            groups.setdefault(msg.topic, []).append(msg)
+        parts = [(self.index[t], self.feeders[t].decode(msgs)) for t, msgs in groups.items()]
+        if len(parts) == 1:
+            label, batch = parts[0]
+            labels = np.full(len(batch), label, np.int64)
+        else:
+            batch = DetectionBatch.concat([b for _, b in parts])
+            labels = np.concatenate([np.full(len(b), k, np.int64) for k, b in parts])
+            t = batch.t_ns
+            if t.size > 1 and not bool(np.all(t[1:] >= t[:-1])):
+                order = np.argsort(t, kind="stable")
+                batch, labels = batch.select(order), labels[order]
+        self._labels[id(batch)] = labels
+        return batch
+
+    def topics_of(self, batch: DetectionBatch) -> I64:
+        """The topic index (into :attr:`topics`) of each row of a batch :meth:`decode` gave."""
+        return self._labels.pop(id(batch))
+
+    def total(self) -> DetectionCounts:
+        """Every topic's counts added up (``used`` is the caller's)."""
+        out = DetectionCounts()
+        for counts in self.counts.values():
+            out.read += counts.read
+            out.stamp_fallbacks += counts.stamp_fallbacks
+            out.log_times += counts.log_times
+            out.dropped.update(counts.dropped)
+            out.headings.update(counts.headings)
+            out.topics.update(counts.topics)
+        return out
 
 
 class _Build:
@@ -279,6 +409,11 @@ class _Build:
         self._first_graph_error: MessageDecodeError | None = None
         self._adapters: dict[tuple[str, str, str], Any] = {}
         self._factory: Any = None
+        self._logs: tuple[Path, ...] = tuple(opts.logs)  # the distinct logs (by sha256)
+        self._times = TopicTimes(()).check(())
+        self._map_open: int | None = None  # a continued map's open window when loaded
+        self._used = np.zeros(0, np.int64)  # detections used, per detection topic
+        self._mapper_drops = np.zeros((0, 0), np.int64)  # per topic x DROP_REASONS
 
     def config(self) -> ModelConfig:
         """The model config: ``--config`` (or the defaults) with ``--tz`` as its time zone
@@ -311,7 +446,7 @@ class _Build:
 
     def run(self) -> BuildReport:
         """The build, holding the output map's lock from start to end."""
-        from formats.mapfile import MapWriteError, map_lock
+        from formats.mapfile import MapWriteError, check_map_target, map_lock
 
         out = self.report.output
         folder = out.parent if str(out.parent) else Path(".")
@@ -320,6 +455,13 @@ class _Build:
                 f"cannot write map {out}: folder {folder} does not exist",
                 hint="create the folder first or choose another output path",
             )
+        resolved = out.resolve()
+        if any(resolved == p.resolve() for p in self.opts.logs):
+            raise InputError(
+                f"the map would overwrite the log {out}",
+                hint="choose another output with -o (maps end in .aion)",
+            )
+        check_map_target(out)  # a device, FIFO or foreign file fails now, not after hashing
         # Held from reading a continued map to writing the result: two builds extending the
         # same map would otherwise both start from the old map, and the later write would
         # silently drop the other build's logs.
@@ -334,6 +476,7 @@ class _Build:
         if opts.continue_from is not None:
             self.previous = load_map(opts.continue_from, writable=True)
             self.report.continued = True
+            self._map_open = self.previous.state.open_window
         config = self.config()
         inputs = self._inputs()
         out = self.report.output
@@ -342,7 +485,7 @@ class _Build:
                 f"{out.name} existed and is replaced (use --map {out.name} to extend a map)"
             )
         mappings = _load_mappings(opts.detections_mapping)
-        with open_logs(list(opts.logs), opts.log_format) as logset:
+        with open_logs(list(self._logs), opts.log_format) as logset:
             plan = select_topics(
                 logset.topics, opts.detection_topics, opts.graph_topic, mappings
             )
@@ -363,35 +506,97 @@ class _Build:
                 for info in plan.detections
             }
             mapper = Mapper(config, self.previous.state if self.previous else None)
-            tf = _load_tf(logset, plan, self.progress)
+            tf = self._read_times(logset, plan)
             self._observation(mapper, tf, plan, logset)
             fixed_graph = self._fixed_graph(logset, plan, tf, config)
             if fixed_graph is not None:
                 mapper.add_graph(fixed_graph)
             self._stream(logset, plan, tf, mapper, fixed_graph is not None)
-            mapper.advance(int(logset.end_ns))
-            self._span(logset)
+            end = self._times.end_ns
+            if end is not None:
+                # the last message aion uses, never a container's summary or another topic
+                mapper.advance(end)
+            self._span()
             # readers also warn while streaming (a corrupt chunk ends a file early)
             self.report.notes.extend(w for w in logset.warnings if w not in self.report.notes)
         self._write(mapper, config, inputs)
         return self.report
 
-    def _inputs(self) -> list[dict[str, Any]]:
-        for path in self.opts.logs:
-            if not path.exists():
-                raise InputError(f"log not found: {path}", hint="check the path")
-        out = self.report.output.resolve()
-        if any(out == p.resolve() for p in self.opts.logs):
+    def _read_times(self, logset: Any, plan: TopicPlan) -> TfBuffer | None:
+        """TF into a buffer and the log times of every topic the build uses, then the
+        time-sanity rules (:mod:`aion_cli.log_times`) over them: their warnings go to the
+        report, and :attr:`_times` filters the later reads. The build's time span comes from
+        the detection, scene-graph and (dynamic) TF topics only: unrelated topics and
+        container summaries have no say."""
+        graphs = plan.names("graph") if self.opts.graph_file is None else set()
+        timed = plan.names("detections") | graphs
+        tf, times, stats = _read_tf_and_times(logset, plan, timed, self.progress)
+        tf_topics = plan.names("tf") if plan.tf else set()
+        span = timed | {t for t in tf_topics if not t.endswith("_static")}
+        self._times = times.check(span)
+        self.report.warnings.extend(self._times.warnings(decoded=tf_topics))
+        self.report.time_dropped = {
+            topic: {
+                "out_of_range": int(self._times.out_of_range.get(topic, 0)),
+                "stray": int(self._times.strays[topic].size) if topic in self._times.strays else 0,
+            }
+            for topic in sorted(set(self._times.out_of_range) | set(self._times.strays))
+            if self._times.out_of_range.get(topic) or topic in self._times.strays
+        }
+        detection_topics = plan.names("detections")
+        dropped = sum(self._times.out_of_range.get(t, 0) for t in detection_topics)
+        if dropped and not any(self._times.kept.get(t, 0) for t in detection_topics):
             raise InputError(
-                f"the map would overwrite the log {self.report.output}",
-                hint="choose another output with -o (maps end in .aion)",
+                f"every one of the {dropped:,} detection messages has a log time outside "
+                f"{TIME_RANGE_TEXT} ({', '.join(sorted(detection_topics))})",
+                hint="log times are nanoseconds since 1970 (UTC); the recorder's clock or the "
+                "file is broken; no map was written",
             )
+        self._check_tf(stats, tf_topics)
+        return tf
+
+    def _check_tf(self, stats: _TfStats, tf_topics: set[str]) -> None:
+        """Undecodable TF messages were skipped: a warning with the count; when none of them
+        could be decoded the build stops (without its TF the map would silently change its
+        frames and its observation)."""
+        if stats.undecodable == 0 or stats.first_error is None:
+            return
+        names = ", ".join(sorted(tf_topics))
+        self.report.tf_undecodable = stats.undecodable
+        if stats.undecodable == stats.messages:
+            raise MessageDecodeError(
+                f"none of the {stats.messages:,} messages on {names} could be decoded: "
+                f"{stats.first_error.message}",
+                hint=stats.first_error.hint,
+            )
+        self.report.warnings.append(
+            f"{stats.undecodable:,} of {stats.messages:,} messages on {names} could not be "
+            f"decoded and were skipped (first: {stats.first_error.message})"
+        )
+
+    def _inputs(self) -> list[dict[str, Any]]:
+        """Provenance of the logs (checked, then hashed): a log given twice, or a byte-identical
+        copy, is used once (a note); a log the continued map holds already is an error."""
+        for path in self.opts.logs:
+            _check_log_path(path)
         sizes = [provenance_size(p) for p in self.opts.logs]
         self.progress.start("hashing logs", max(sum(sizes) >> 20, 1), "MiB")
-        new = []
+        new: list[dict[str, Any]] = []
+        logs: list[Path] = []
+        first_of: dict[str, str] = {}
         for path, size in zip(self.opts.logs, sizes, strict=True):
-            new.append(provenance(path))
+            entry = provenance(path)
             self.progress.advance(size >> 20)
+            seen = first_of.get(entry["sha256"])
+            if seen is not None:
+                self.report.notes.append(
+                    f"{path} is the same log as {seen} (same sha256): it is used once"
+                )
+                continue
+            first_of[entry["sha256"]] = str(path)
+            new.append(entry)
+            logs.append(path)
+        self._logs = tuple(logs)
         old = list(self.previous.manifest.get("inputs", [])) if self.previous else []
         known = {entry.get("sha256") for entry in old}
         for entry in new:
@@ -406,7 +611,7 @@ class _Build:
     def _observation(
         self, mapper: Mapper, tf: TfBuffer | None, plan: TopicPlan, logset: Any
     ) -> None:
-        traj = _robot_trajectory(tf, self.opts)
+        traj = _robot_trajectory(tf, self.opts, self.report.warnings)
         if tf is not None and traj is None:
             frames = ", ".join(sorted(tf.frames)[:12])
             self.report.notes.append(
@@ -419,16 +624,48 @@ class _Build:
         elif plan.graph and self.opts.graph_file is None and self._graph_has_agents(logset, plan):
             self.report.observation = "scene-graph agent layer"  # fed per snapshot
         else:
-            self.report.observation = _fixed_sensor_windows(mapper, logset)
+            self.report.observation = self._fixed_sensor_windows(mapper, logset)
             self.report.notes.append(
                 "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
                 "treated as a fixed sensor that saw everything in the windows in which it "
-                "recorded any message"
+                "recorded any message, within the time of the topics aion uses"
             )
+
+    def _fixed_sensor_windows(self, mapper: Mapper, logset: Any) -> str:
+        """A fixed sensor observes exactly the windows in which the logs recorded something
+        (any message on any topic: a tracker that publishes only when it sees someone still
+        records its laser's scans) — never the time between two recordings, within one file
+        or across files — so ``build A B`` records the same empty windows as ``build A`` then
+        ``--map B``. Only windows inside the runs of the topics aion uses count (one message
+        of an unrelated topic years away must not become an observed empty window), plus the
+        windows of those topics' own messages (the data, even where an index omits them).
+        Returns the report's description of the observation."""
+        from aion_cli.engine.windows import window_ns
+        from formats.recorded import windows_of
+
+        delta = window_ns(mapper.state.config.window_s)
+        recorded = logset.recorded_windows(delta)
+        inside = self._times.within_runs(recorded, delta)
+        outside = int(np.count_nonzero(~inside))
+        if outside:
+            first = int(recorded[~inside][0]) * delta
+            self.report.notes.append(
+                f"{outside:,} recorded window(s) outside the time of the topics aion uses are "
+                f"not taken as observed (first: {iso(first)})"
+            )
+        windows = np.union1d(recorded[inside], windows_of(self._times.span_times, delta))
+        mapper.set_fixed_windows(windows)
+        if len(windows) == 0:
+            return "fixed sensor (no message recorded)"
+        span = int(windows[-1] - windows[0] + 1)
+        return (
+            f"fixed sensor over the {len(windows):,} windows with messages "
+            f"({len(windows) * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
+        )
 
     def _graph_has_agents(self, logset: Any, plan: TopicPlan) -> bool:
         """Whether the first scene graph of the log carries robot poses (its agent layer)."""
-        first = next(iter(logset.messages(plan.names("graph"))), None)
+        first = next(iter(self._times.filter(logset.messages(plan.names("graph")))), None)
         if first is None:
             return False
         agents = self._decode_graph(logset, first).agents
@@ -439,7 +676,9 @@ class _Build:
     ) -> GraphSnapshot | None:
         """The graph from ``--graph FILE`` or ``--derive-graph`` (added once, at the start)."""
         opts = self.opts
-        start = int(logset.start_ns)
+        start = self._times.start_ns
+        if start is None:
+            start = int(logset.start_ns)
         if opts.graph_file is not None:
             from formats.dsg import load_graph
 
@@ -480,7 +719,8 @@ class _Build:
         feeder = self._feeder(tf, scratch, link=False)
         topics = plan.names("detections")
         self.progress.start("deriving graph", logset.total(topics))
-        for chunk, _ in chunks(logset.messages(topics), set(), self.opts.batch_size):
+        messages = self._times.filter(logset.messages(topics))
+        for chunk, _ in chunks(messages, set(), self.opts.batch_size):
             grid.add(feeder.decode(chunk).xyz)
             self.progress.advance(len(chunk))
         graph = grid.graph(config.derive_min_detections, start)
@@ -502,32 +742,46 @@ class _Build:
     def _stream(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper, fixed: bool
     ) -> None:
-        feeder = self._feeder(tf, self.counts)
+        feeders = _TopicFeeders(
+            lambda counts: self._feeder(tf, counts), sorted(plan.names("detections"))
+        )
+        from aion_cli.engine.state import DROP_REASONS
+
+        self._used = np.zeros(len(feeders.topics), np.int64)
+        self._mapper_drops = np.zeros((len(feeders.topics), len(DROP_REASONS)), np.int64)
         graph_topics = plan.names("graph")
         topics = plan.names("detections") | graph_topics
         self.progress.start("building map", logset.total(topics))
         use_agents = self.report.observation.startswith("scene-graph")
-        stream = chunks(logset.messages(topics), graph_topics, self.opts.batch_size)
-        for batch, n_messages, graph_msg in decoded_chunks(stream, feeder):
+        messages = self._times.filter(logset.messages(topics))
+        stream = chunks(messages, graph_topics, self.opts.batch_size)
+        # duck-typed: decoded_chunks only calls decode()
+        for batch, n_messages, graph_msg in decoded_chunks(stream, cast(Any, feeders)):
             if batch is not None:
-                self._feed(mapper, batch)
+                self._feed(mapper, batch, feeders.topics_of(batch))
                 self.progress.advance(n_messages)
             if graph_msg is not None:
                 snapshot = self._decode_graph_or_skip(logset, graph_msg)
                 self.progress.advance(1)
                 if snapshot is None:
                     continue
+                self._check_after_map(np.array([snapshot.t_ns], np.int64), "scene graph")
                 mapper.add_graph(snapshot)
                 if use_agents:
                     self._add_agent_poses(mapper, snapshot.agents)
                 self.report.graph_messages += 1
         self._check_graph_skips()
-        c = self.counts
+        c = self.counts = feeders.total()
+        c.used = int(self._used.sum())
+        for reason, n in zip(DROP_REASONS, self._mapper_drops.sum(axis=0).tolist(), strict=True):
+            if n:
+                c.dropped[reason] += int(n)
         self.report.detections_read = c.read
         self.report.detections_used = c.used
         self.report.dropped = dict(c.dropped)
         self.report.headings = dict(c.headings)
         self._check_decoding(plan)
+        self._topic_counts(feeders)
         if c.stamp_fallbacks:
             self.report.notes.append(
                 f"{c.stamp_fallbacks:,} detections had a zero header stamp: their messages' "
@@ -540,7 +794,36 @@ class _Build:
             )
         self._check_usable()
         if use_agents and self.report.graph_messages == 0:
-            self.report.observation = _fixed_sensor_windows(mapper, logset)
+            self.report.observation = self._fixed_sensor_windows(mapper, logset)
+
+    def _topic_counts(self, feeders: _TopicFeeders) -> None:
+        """Per detection topic: detections read, used and dropped (by reason) into the
+        report's ``detections_by_topic``; a topic that lost more than
+        :data:`LOSS_WARN_SHARE` of the detections read from it is a warning with the counts
+        (a build that loses most of a sensor must not look like a clean one)."""
+        from aion_cli.engine.state import DROP_REASONS
+
+        for i, topic in enumerate(feeders.topics):
+            counts = feeders.counts[topic]
+            read, used = counts.read, int(self._used[i])
+            dropped = Counter({k: int(v) for k, v in counts.dropped.items() if v})
+            for reason, n in zip(DROP_REASONS, self._mapper_drops[i].tolist(), strict=True):
+                if n:
+                    dropped[reason] += int(n)
+            self.report.by_topic[topic] = {
+                "read": read,
+                "used": used,
+                "dropped": dict(sorted(dropped.items())),
+            }
+            lost = read - used
+            if read and lost > LOSS_WARN_SHARE * read and self.counts.used > 0:
+                reasons = ", ".join(
+                    f"{k} {v:,}" for k, v in sorted(dropped.items()) if k in _DETECTION_DROPS
+                )
+                self.report.warnings.append(
+                    f"{topic}: {lost:,} of its {read:,} detections ({100 * lost / read:.0f} %) "
+                    f"could not be used (dropped: {reasons})"
+                )
 
     def _check_decoding(self, plan: TopicPlan) -> None:
         """Per detection topic: every message undecodable is the build's error (with the first
@@ -568,39 +851,39 @@ class _Build:
             )
 
     def _check_usable(self) -> None:
-        """A map without a single usable detection is an error, never a success: it names
-        what became of the detections read. A continued map that holds detections already
-        may take logs of which none could be used (a warning), or in which nobody was seen
-        (a note: their observed windows are real zeros)."""
+        """A build without a single usable detection is an error, never a success: it names
+        what became of the detections read, and nothing is written (a continued map is left
+        as it was, its new logs not recorded, so they can be added once fixed). The one
+        exception: a continued map that holds detections already may take logs in which
+        nobody was seen (a note: their observed windows are real zeros)."""
         c = self.counts
         if c.used > 0:
             return
         drops = ", ".join(f"{k} {v:,}" for k, v in sorted(c.dropped.items()) if v)
         messages = sum(t.messages for t in c.topics.values())
         before = self.previous.manifest.get("counts", {}) if self.previous is not None else {}
-        if int(before.get("used", 0)) > 0:
-            if c.read == 0 and not drops:
-                self.report.notes.append(
-                    f"no person in the {messages:,} detection messages: only observed-empty "
-                    "windows were added to the map"
-                )
-            else:
-                self.report.warnings.append(
-                    f"none of the {c.read:,} people detections of these logs could be used "
-                    f"(dropped: {drops or 'none'}); the map keeps what it had"
-                )
+        if int(before.get("used", 0)) > 0 and c.read == 0 and not drops:
+            self.report.notes.append(
+                f"no person in the {messages:,} detection messages: only observed-empty "
+                "windows were added to the map"
+            )
             return
+        written = (
+            "no map was written"
+            if self.previous is None
+            else "the map was left as it was and the logs were not added"
+        )
         if c.read == 0:
             raise InputError(
                 f"no people detection in the {messages:,} messages of "
                 f"{', '.join(self.report.detection_topics)}"
                 + (f" (dropped: {drops})" if drops else ""),
                 hint="the topics carry no detections (check the class filter of vision_msgs, "
-                "or choose other topics with --detections-topic); no map was written",
+                f"or choose other topics with --detections-topic); {written}",
             )
-        hint = "no map was written"
+        hint = written
         if c.dropped.get("no_transform"):
-            hint = "check --map-frame and the log's TF; no map was written"
+            hint = f"check --map-frame and the log's TF; {hint}"
         raise InputError(
             f"none of the {c.read:,} people detections read could be used (dropped: "
             f"{drops or 'none'})",
@@ -618,15 +901,51 @@ class _Build:
             mapper.add_trajectory(Trajectory(t[new], np.asarray(agents.xyz)[new]))
             self._agents_until = int(t[new].max())
 
-    def _feed(self, mapper: Mapper, batch: DetectionBatch) -> None:
+    def _feed(self, mapper: Mapper, batch: DetectionBatch, topics: I64) -> None:
+        """Detections to the Mapper; what it drops is counted per reason and per topic
+        (``topics``: the topic index of each row)."""
+        from aion_cli.engine.mapper import ACCEPTED
+        from aion_cli.engine.state import DROP_REASONS
+
         if len(batch) == 0:
             return
-        drops = mapper.add_detections(batch)
-        dropped = sum(int(v) for v in drops.values())
-        for reason, n in drops.items():
-            if n:
-                self.counts.dropped[reason] += int(n)
-        self.counts.used += len(batch) - dropped
+        self._check_after_map(batch.t_ns, "detection")
+        codes = np.empty(len(batch), np.int8)
+        mapper.add_detections(batch, codes)
+        n_topics = len(self._used)
+        self._used += np.bincount(topics[codes == ACCEPTED], minlength=n_topics)
+        dropped = codes != ACCEPTED
+        if dropped.any():
+            pairs = np.bincount(
+                topics[dropped] * len(DROP_REASONS) + codes[dropped],
+                minlength=n_topics * len(DROP_REASONS),
+            ).reshape(n_topics, len(DROP_REASONS))
+            self._mapper_drops += pairs
+
+    def _check_after_map(self, t_ns: I64, what: str) -> None:
+        """A continued map has closed every window before its open one: a log with data
+        there would lose it (``before_window``) and yet be recorded as added, so it can never
+        be added again. The build stops instead, before anything is written."""
+        if self._map_open is None or len(t_ns) == 0:
+            return
+        from aion_cli.engine.windows import window_ns
+
+        delta = window_ns(self.previous.config.window_s) if self.previous else 1
+        open_start = self._map_open * delta
+        early = int(np.count_nonzero(t_ns < open_start))
+        if early == 0:
+            return
+        inputs = self.previous.manifest.get("inputs", []) if self.previous else []
+        names = [str(e.get("name", "?")) for e in inputs]
+        listed = " ".join([*names[:3], *(["..."] if len(names) > 3 else [])])
+        listed += " " + " ".join(str(p) for p in self._logs[:3])
+        raise InputError(
+            f"the {what}s of {', '.join(p.name for p in self._logs)} start at "
+            f"{iso(int(t_ns.min()))}, but {self.report.output.name} has already closed every "
+            f"window before {iso(open_start)}: logs must be added to a map in time order; "
+            "nothing was added",
+            hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",
+        )
 
     def _decode_graph_or_skip(self, logset: Any, msg: RawMessage) -> GraphSnapshot | None:
         """A damaged scene-graph message is skipped and counted (the graph stays as it was
@@ -683,12 +1002,17 @@ class _Build:
         self.report.graph_layer = str(result.layer)
         return result.snapshot
 
-    def _span(self, logset: Any) -> None:
-        start, end = int(logset.start_ns), int(logset.end_ns)
+    def _span(self) -> None:
+        """The map's time span: the first and last message the build used (detections, scene
+        graphs, dynamic TF; strays and out-of-range times left out), joined with a continued
+        map's."""
+        start, end = self._times.start_ns, self._times.end_ns
         if self.previous is not None:
             old = self.previous.manifest.get("time_span", {})
-            start = min(start, int(old.get("start_ns", start)))
-            end = max(end, int(old.get("end_ns", end)))
+            if old.get("start_ns") is not None:
+                start = int(old["start_ns"]) if start is None else min(start, int(old["start_ns"]))
+            if old.get("end_ns") is not None:
+                end = int(old["end_ns"]) if end is None else max(end, int(old["end_ns"]))
         self.report.start_ns, self.report.end_ns = start, end
 
     def _cumulative_counts(self) -> dict[str, Any]:
@@ -724,6 +1048,18 @@ class _Build:
         out = self.report.output
         write_map(out, arrays, manifest, lock=False)  # run() holds the lock
         self.report.map_bytes = out.stat().st_size
+
+
+def _check_log_path(path: Path) -> None:
+    """A log must exist and be a regular file or a folder (a rosbag2 folder): a FIFO, a
+    device or a socket would make hashing block or read forever (``/dev/zero``), so it is
+    refused (:func:`formats.raw.check_regular_input`, ``os.stat`` only) before any byte is
+    read."""
+    from formats.raw import check_regular_input
+
+    if not path.exists():
+        raise InputError(f"log not found: {path}", hint="check the path")
+    check_regular_input(path, "log", hint="give a log file (MCAP, .bag) or a rosbag2 folder")
 
 
 def _load_mappings(path: Path | None) -> list[Any]:
@@ -774,22 +1110,3 @@ def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> Build
     if opts.batch_size < 1:
         raise InputError("batch size must be >= 1")
     return _Build(opts, progress or _NoProgress()).run()
-
-
-def _fixed_sensor_windows(mapper: Mapper, logset: Any) -> str:
-    """A fixed sensor observes exactly the windows in which the logs recorded something (any
-    message on any topic) — never the time between two recordings, within one file or across
-    files — so ``build A B`` records the same empty windows as ``build A`` then ``--map B``.
-    Returns the report's description of the observation."""
-    from aion_cli.engine.windows import window_ns
-
-    delta = window_ns(mapper.state.config.window_s)
-    windows = logset.recorded_windows(delta)
-    mapper.set_fixed_windows(windows)
-    if len(windows) == 0:
-        return "fixed sensor (no message recorded)"
-    span = int(windows[-1] - windows[0] + 1)
-    return (
-        f"fixed sensor over the {len(windows):,} windows with messages "
-        f"({len(windows) * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
-    )

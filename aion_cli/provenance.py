@@ -6,10 +6,18 @@ import hashlib
 from pathlib import Path
 from typing import Any
 
+from aion_cli.engine.errors import InputError
+
 
 def _files_of(path: Path) -> list[Path]:
+    """The files hashed for ``path``: itself, or the regular files of a folder. A FIFO or a
+    device is an :class:`InputError`: hashing it would block or never end."""
     if path.is_dir():
         return sorted(p for p in path.rglob("*") if p.is_file())
+    if not path.is_file():
+        raise InputError(
+            f"{path} is not a regular file", hint="give a log file or a rosbag2 folder"
+        )
     return [path]
 
 

@@ -32,10 +32,9 @@ import heapq
 import io
 import re
 import struct
-import zlib
 from array import array
 from collections import Counter
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from operator import attrgetter
 from pathlib import Path
@@ -46,7 +45,8 @@ import numpy as np
 
 from aion_cli.engine.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
 from formats import recorded
-from formats.raw import Encoding, RawMessage, TopicInfo, normalize_msgtype
+from formats.limits import ReadLimits
+from formats.raw import Encoding, RawMessage, TopicInfo, check_regular_input, normalize_msgtype
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -56,6 +56,8 @@ if TYPE_CHECKING:
 
 FORMATS: tuple[str, ...] = ("mcap", "bag", "rosbag2")
 """Values of ``fmt`` / ``--format``."""
+
+_LOG_HINT = "pass a log file (.mcap, .bag) or a rosbag2 folder"
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _BAG_MAGIC = b"#ROSBAG V2.0"
@@ -127,28 +129,46 @@ def _schema_encoding_ok(encoding: str) -> bool:
 
 
 class _McapSource(_Source):
-    """An MCAP file read with the mcap library (both ROS profiles).
+    """An MCAP file read with aion's own record reader (:mod:`formats.mcap_records`; both ROS
+    profiles), holding no file open between reads.
 
-    With a summary, chunks are visited in time order through the chunk indexes, skipping chunks
-    without requested channels; without one (or when it is unreadable) the file is read
-    linearly, up to the first unreadable record.
+    The summary is used only after :func:`formats.mcap_records.check_summary` found it in
+    agreement with the data section: then chunks are visited in time order through the chunk
+    indexes, skipping chunks without requested channels, and a chunk that cannot be read
+    (CRC mismatch, unknown compression, over the size cap, damaged) is skipped alone with a
+    warning naming it and the messages lost. Without a summary, or when it disagrees with the
+    data (chunks or channels it leaves out, statistics that do not match), the file is read
+    linearly, chunk by chunk, up to the first record whose framing is broken.
     """
 
-    def __init__(self, path: Path, fmt_name: str | None = None) -> None:
+    def __init__(
+        self,
+        path: Path,
+        fmt_name: str | None = None,
+        limits: ReadLimits | None = None,
+        *,
+        unzstd: bool = False,
+    ) -> None:
+        """``unzstd``: message payloads are zstd-compressed (a rosbag2 bag recorded with
+        ``compression_mode: message``), each decompressed within the message cap."""
         from mcap.exceptions import McapError
-        from zstandard import ZstdError
+
+        from formats import mcap_records
 
         self.path = path
         self.warnings = []
-        self._stream: IO[bytes] = path.open("rb")
-        # RuntimeError: what lz4 raises on a damaged frame
-        self._errors: tuple[type[BaseException], ...] = (
-            McapError,
-            ZstdError,
-            RuntimeError,
-            *_MCAP_READ_ERRORS,
-        )
+        self._limits = limits if limits is not None else ReadLimits.from_env()
+        self._unzstd = unzstd
+        self._size = path.stat().st_size
+        # the mcap library reads the summary section (its errors: McapError)
+        self._errors: tuple[type[BaseException], ...] = (McapError, *_MCAP_READ_ERRORS)
         self._chunk_indexes: list[Any] | None = None
+        # chunks that cannot be read (offset -> why) and their message counts per channel
+        # (from the message index records after each chunk)
+        self._bad_chunks: dict[int, str] = {}
+        self._chunk_counts: dict[int, dict[int, int]] = {}
+        # chunks whose record states a wrong length: read with their index's (offset -> length)
+        self._lengths: dict[int, int] = {}
         self._stop_offset: int | None = None
         # log times of every message, kept by the linear scan of a file without a usable
         # summary: recorded_windows then needs no second read (8 bytes per message)
@@ -157,22 +177,58 @@ class _McapSource(_Source):
         # group of records holding messages and of all after it (see _records_linear)
         self._later_min: npt.NDArray[np.int64] | None = None
         self._profile = ""
-        self._channel_count = 0  # as the summary's statistics count them
-        channels, schemas, counts, start, end = self._read_summary()
-        if channels is None:
+        self.channel_topics: dict[int, str] = {}
+        # messages over the cap met while opening, said once the channels' topics are known
+        self._pending_big: list[tuple[int, int, int]] | None = []
+        with path.open("rb") as f:
+            summary = self._read_summary(f)
+            check = None
+            if summary is not None:
+                names = {cid: c.topic for cid, c in summary.channels.items()}
+                check = mcap_records.check_summary(
+                    f, self._size, summary.chunk_indexes, summary.statistics, names
+                )
+        distrust = check is not None and (bool(check.problems) or check.unsure)
+        if summary is None or check is None or distrust:
             channels, schemas, counts, start, end = self._scan()
-        elif _summary_lacks_records(channels, schemas, self._channel_count):
-            # the summary may leave out the channel and schema records (the MCAP spec makes
-            # repeating them optional): take them from the data section; messages still go
-            # through the chunk indexes
-            found_channels, found_schemas, *_ = self._scan()
-            channels = {**found_channels, **channels}
-            schemas = {**found_schemas, **schemas}
+            if summary is not None and check is not None:
+                channels = {**summary.channels, **channels}
+                schemas = {**summary.schemas, **schemas}
+                self._distrusted(check, summary.statistics, counts)
+        else:
+            stats = summary.statistics
+            channels, schemas = summary.channels, summary.schemas
+            counts = dict(stats.channel_message_counts)
+            start, end = stats.message_start_time, stats.message_end_time
+            self._chunk_indexes = sorted(
+                summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
+            )
+            self._bad_chunks.update(check.bad_chunks)
+            for index in self._chunk_indexes:  # what the index says is refused already
+                why = _refused(index, self._limits)
+                if why is not None:
+                    self._bad_chunks.setdefault(index.chunk_start_offset, why)
+            self._chunk_counts = check.counts
+            self._lengths = check.lengths
+            for note in check.notes:
+                self._warn(f"{path.name}: {note}")
+            for offset in self._bad_chunks:  # what cannot be read is not counted
+                for cid, n in check.counts.get(offset, {}).items():
+                    counts[cid] = max(counts.get(cid, 0) - n, 0)
+            if _summary_lacks_records(channels, schemas, stats.channel_count):
+                # the summary may leave out the channel and schema records (the MCAP spec
+                # makes repeating them optional): take them from the data section; messages
+                # still go through the chunk indexes
+                found_channels, found_schemas, *_ = self._scan()
+                channels = {**found_channels, **channels}
+                schemas = {**found_schemas, **schemas}
         self._channels: dict[int, tuple[str, str, Encoding]] = {}
         # every channel, ROS or not: what records() reads (the conformance tests use it)
-        self.channel_topics: dict[int, str] = {
-            cid: channel.topic for cid, channel in sorted(channels.items())
-        }
+        self.channel_topics = {cid: channel.topic for cid, channel in sorted(channels.items())}
+        for offset in sorted(self._bad_chunks):
+            self._chunk_lost(offset)
+        pending, self._pending_big = self._pending_big, None
+        self._oversized(pending or [])
         self.topics = {}
         for cid, channel in sorted(channels.items()):
             schema = schemas.get(channel.schema_id)
@@ -202,41 +258,47 @@ class _McapSource(_Source):
         else:
             fmt = "mcap-ros2"
         total = sum(counts.values())
-        self.file = LogFile(path, fmt, path.stat().st_size, start, end, total)
+        self.file = LogFile(path, fmt, self._size, start if total else 0, end, total)
 
     # -- opening ---------------------------------------------------------------------------
 
-    def _read_summary(self) -> tuple[Any, Any, dict[int, int], int, int]:
-        """Channels, schemas, counts and time range from the summary section, or ``None``
-        channels when there is no usable summary (no footer, no statistics, no chunk index)."""
+    def _read_summary(self, f: IO[bytes]) -> Any:
+        """The summary section (mcap's ``Summary``: channels, schemas, statistics, chunk
+        indexes), or None when there is no usable one (no footer, no statistics, no chunk
+        index)."""
         from mcap.reader import SeekingReader
 
         try:
-            reader = SeekingReader(self._stream)
+            reader = SeekingReader(f, record_size_limit=None)
             self._profile = reader.get_header().profile
             summary = reader.get_summary()
         except self._errors:
-            return None, None, {}, 0, 0
+            return None
         if summary is None or summary.statistics is None or not summary.chunk_indexes:
-            return None, None, {}, 0, 0
-        stats = summary.statistics
-        self._channel_count = stats.channel_count
-        self._chunk_indexes = sorted(
-            summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
-        )
-        return (
-            summary.channels,
-            summary.schemas,
-            dict(stats.channel_message_counts),
-            stats.message_start_time,
-            stats.message_end_time,
-        )
+            return None
+        return summary
+
+    def _distrusted(self, check: Any, stats: Any, counts: dict[int, int]) -> None:
+        """Say that the summary was not used and what the data held instead."""
+        total = sum(counts.values())
+        if check.problems:
+            more = len(check.problems) - 1
+            first = check.problems[0] + (f" (and {more} more)" if more > 0 else "")
+            self._warn(
+                f"{self.path.name}: its summary disagrees with the data: {first}; aion read the "
+                f"chunks themselves instead (linear scan): {total:,} messages"
+            )
+        elif total != stats.message_count:
+            self._warn(
+                f"{self.path.name}: its statistics count {stats.message_count:,} messages but "
+                f"its chunks hold {total:,}; aion read the chunks themselves (linear scan)"
+            )
 
     def _scan(self) -> tuple[Any, Any, dict[int, int], int, int]:
         """Read the whole file linearly to count messages and keep their log times (for
         :meth:`recorded_windows`); note where an unreadable record stops the read (truncated
         or corrupt file)."""
-        from mcap.records import Channel, Header, Message, Schema
+        from mcap.records import Channel, Header, Schema
 
         channels: dict[int, Any] = {}
         schemas: dict[int, Any] = {}
@@ -244,14 +306,15 @@ class _McapSource(_Source):
         times = array("Q")
         group_starts = array("Q")  # earliest log time of each record group holding messages
         start, end, n = 2**63 - 1, 0, 0
-        for group in self._linear_groups(scanning=True):
+        for group in self._linear_groups(None, scanning=True):
             first = 2**64 - 1
             for record in group:
-                if isinstance(record, Message):
-                    counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
-                    times.append(record.log_time)
-                    first = min(first, record.log_time)
-                    end = max(end, record.log_time)
+                if type(record) is tuple:
+                    log_time, cid = record[0], record[1]
+                    counts[cid] = counts.get(cid, 0) + 1
+                    times.append(log_time)
+                    first = min(first, log_time)
+                    end = max(end, log_time)
                     n += 1
                 elif isinstance(record, Channel):
                     channels[record.id] = record
@@ -269,60 +332,192 @@ class _McapSource(_Source):
             starts = np.frombuffer(group_starts, dtype=np.uint64).astype(np.int64)
             self._later_min = np.minimum.accumulate(starts[::-1])[::-1]
         if self._stop_offset is not None:
-            self.warnings.append(
+            self._warn(
                 f"{self.path.name}: truncated or corrupt MCAP: read stopped at byte "
-                f"{self._stop_offset} of {self.path.stat().st_size} after {n} messages; "
+                f"{self._stop_offset} of {self._size} after {n} messages; "
                 "the rest of the file is ignored"
             )
         return channels, schemas, counts, (start if n else 0), end
 
-    def _linear_records(self) -> Iterator[Any]:
-        """Every message record of the file in file order, chunks broken up with their
-        messages sorted by log time; stops quietly at the first unreadable record."""
-        for group in self._linear_groups():
+    def _linear_records(self, wanted: set[int] | None) -> Iterator[tuple[int, int, bytes]]:
+        """Every message on ``wanted`` channels in file order, chunks broken up with their
+        messages sorted by log time; unreadable chunks skipped, the read stopped quietly at the
+        first record whose framing is broken."""
+        for group in self._linear_groups(wanted):
             yield from group
 
-    def _linear_groups(self, *, scanning: bool = False) -> Iterator[list[Any]]:
-        """The file's top-level records in file order, each as a list: a chunk broken up with
-        its records sorted by log time, any other record alone; only message records unless
-        ``scanning``. Stops quietly at the first unreadable record (remembered when
-        scanning)."""
-        from mcap.stream_reader import StreamReader
-
-        with self.path.open("rb") as stream:  # own handle: iterations may interleave
-            reader = StreamReader(stream, skip_magic=False, emit_chunks=True)
-            yield from self._split_records(reader.records, stream, scanning)
-
-    def _split_records(
-        self, records: Iterator[Any], stream: IO[bytes], scanning: bool
+    def _linear_groups(
+        self, wanted: set[int] | None, *, scanning: bool = False
     ) -> Iterator[list[Any]]:
-        """Groups of ``records`` (chunks broken up); ``stream`` gives the byte offset of the
-        last good record when reading fails."""
-        from mcap.records import Chunk, Message
-        from mcap.stream_reader import breakup_chunk
+        """The file's top-level records in file order, as lists: a chunk broken up with its
+        records sorted by log time (messages as ``(log_time, channel_id, data)``), a message
+        alone. Only the messages on ``wanted`` (all when None) unless ``scanning``, which
+        also yields headers, schemas and channels, leaves the payloads out (``b""``) and
+        remembers where a broken record stopped the read. A group is yielded for every record
+        holding a readable message, empty when none is wanted, so that group ``k`` is the same
+        record in every pass (what ``_later_min`` counts)."""
+        from formats import mcap_records as mr
 
-        good = 0
-        while True:
-            try:
-                record = next(records)
-                if isinstance(record, Chunk):
-                    parts = breakup_chunk(record, validate_crc=True)
-                    parts.sort(key=_record_sort_key)
-                else:
-                    parts = [record]
-            except StopIteration:
-                return
-            except self._errors:
-                if scanning:
-                    self._stop_offset = good
-                return
-            good = stream.tell()
+        counts: dict[int, int] | None = None  # message index counts of the last chunk
+        with self.path.open("rb") as f:  # own handle, held while this pass runs
+            records = mr.walk(f, len(_MCAP_MAGIC), self._size)
+            while True:
+                try:
+                    offset, opcode, length = next(records)
+                except StopIteration:
+                    break
+                except mr.RecordError as exc:
+                    if scanning:
+                        self._stop_offset = exc.offset
+                    break
+                if opcode == mr.OP_MESSAGE_INDEX:
+                    if scanning and counts is not None:
+                        for _, cid, k in mr.read_index_heads(f, offset, offset + 9 + length):
+                            counts[cid] = counts.get(cid, 0) + k
+                    continue
+                counts = None
+                group: list[Any] | None = None
+                if opcode == mr.OP_CHUNK:
+                    if scanning:
+                        counts = self._chunk_counts.setdefault(offset, {})
+                    group = self._linear_chunk(f, offset, wanted, scanning)
+                elif opcode == mr.OP_MESSAGE:
+                    group = self._bare_message(f, offset, length, wanted, scanning)
+                elif scanning and opcode in (mr.OP_HEADER, mr.OP_SCHEMA, mr.OP_CHANNEL):
+                    group = self._bare_definition(f, offset, opcode, length)
+                if group is not None:
+                    yield group
+
+    def _linear_chunk(
+        self, f: IO[bytes], offset: int, wanted: set[int] | None, scanning: bool
+    ) -> list[Any] | None:
+        """The records of the chunk at ``offset`` for :meth:`_linear_groups`, or None when it
+        holds no readable message (or cannot be read: remembered, and said when not
+        scanning; the scan says it once the chunk's message counts are known)."""
+        from formats import mcap_records as mr
+
+        if offset in self._bad_chunks:
+            return None
+        try:
+            head = mr.read_chunk_head(f, offset, self._size)
+            buf = mr.read_chunk(f, head, self._limits, _decompress)
             if scanning:
-                yield parts
-            else:
-                messages = [part for part in parts if isinstance(part, Message)]
-                if messages:
-                    yield messages
+                return self._chunk_definitions(buf)
+            selected, big, seen = mr.chunk_messages(buf, wanted, self._limits.max_message_bytes)
+        except ValueError as exc:  # ChunkError and the head's ValueError
+            self._bad_chunks[offset] = _why(exc)
+            if not scanning:
+                self._chunk_lost(offset)
+            return None
+        self._oversized(big)
+        return selected if seen else None
+
+    def _chunk_definitions(self, buf: bytes) -> list[Any] | None:
+        """Schemas and channels (mcap records) and messages (``(log_time, channel_id, b"")``)
+        of a decompressed chunk, definitions first, messages by log time; None when it holds
+        neither. :class:`formats.limits.ChunkError` for records that do not parse."""
+        from mcap.records import Channel, Schema
+
+        from formats import mcap_records as mr
+
+        cap = self._limits.max_message_bytes
+        items: list[Any] = []
+        messages: list[tuple[int, int, bytes]] = []
+        big: list[tuple[int, int, int]] = []
+        for opcode, b0, b1 in mr.chunk_records(buf):
+            if opcode == mr.OP_MESSAGE:
+                cid, log_time = mr.message_fields(buf, b0)
+                if b1 - b0 - mr.MESSAGE_PREFIX > cap:
+                    big.append((cid, log_time, b1 - b0 - mr.MESSAGE_PREFIX))
+                else:
+                    messages.append((log_time, cid, b""))
+            elif opcode in (mr.OP_SCHEMA, mr.OP_CHANNEL):
+                kind = Schema if opcode == mr.OP_SCHEMA else Channel
+                items.append(_parse_record(kind, buf[b0:b1]))
+        self._oversized(big)
+        messages.sort(key=_first)
+        items.extend(messages)
+        return items or None
+
+    def _bare_message(
+        self, f: IO[bytes], offset: int, length: int, wanted: set[int] | None, scanning: bool
+    ) -> list[Any] | None:
+        """A Message record outside chunks as a group, None when it is malformed or over the
+        message cap (that one said in a warning, its payload never read)."""
+        from formats import mcap_records as mr
+
+        if length < mr.MESSAGE_PREFIX:
+            return None
+        f.seek(offset + 9)
+        cid, log_time = mr.message_fields(f.read(mr.MESSAGE_PREFIX), 0)
+        size = length - mr.MESSAGE_PREFIX
+        if size > self._limits.max_message_bytes:
+            self._oversized([(cid, log_time, size)])
+            return None
+        if scanning:
+            return [(log_time, cid, b"")]
+        if wanted is not None and cid not in wanted:
+            return []
+        data = f.read(size)
+        if len(data) < size:
+            return None
+        return [(log_time, cid, data)]
+
+    def _bare_definition(
+        self, f: IO[bytes], offset: int, opcode: int, length: int
+    ) -> list[Any] | None:
+        """A Header, Schema or Channel record outside chunks (for the scan), None (and a
+        warning) when it does not parse."""
+        from mcap.records import Channel, Header, Schema
+
+        from formats import mcap_records as mr
+
+        kinds = {mr.OP_HEADER: Header, mr.OP_SCHEMA: Schema, mr.OP_CHANNEL: Channel}
+        f.seek(offset + 9)
+        try:
+            return [_parse_record(kinds[opcode], f.read(length))]
+        except ValueError as exc:
+            self._warn(f"{self.path.name}: record at byte {offset} skipped: {exc}")
+            return None
+
+    # -- warnings --------------------------------------------------------------------------
+
+    def _warn(self, text: str) -> None:
+        """Add a warning once, however often the file is read."""
+        if text not in self.warnings:
+            self.warnings.append(text)
+
+    def _chunk_lost(self, offset: int) -> None:
+        """Warn that the chunk at ``offset`` is skipped: why, and the messages lost per topic
+        (from its message index records; all topics, not only those being read, so the line
+        is the same whichever pass meets the chunk)."""
+        what, why = _noun_and_reason(self._bad_chunks[offset])
+        counts = {cid: n for cid, n in self._chunk_counts.get(offset, {}).items() if n}
+        if counts:
+            names = sorted(
+                (self.channel_topics.get(cid, f"channel {cid}"), n) for cid, n in counts.items()
+            )
+            per = ", ".join(f"{name} {n:,}" for name, n in names)
+            total = sum(counts.values())
+            lost = f"{total:,} message{'s' if total != 1 else ''} lost ({per})"
+        else:
+            lost = "its messages are lost (no message index counts them)"
+        self._warn(f"{self.path.name}: {what} at byte {offset} skipped: {why}; {lost}")
+
+    def _oversized(self, big: list[tuple[int, int, int]]) -> None:
+        """Warn about messages left out for their size."""
+        from formats import limits as caps
+        from formats.mcap_records import iso
+
+        if self._pending_big is not None:
+            self._pending_big.extend(big)
+            return
+        for cid, log_time, size in big:
+            topic = self.channel_topics.get(cid, f"channel {cid}")
+            self._warn(
+                f"{self.path.name}: a message on {topic} at {iso(log_time)} skipped: "
+                + str(caps.message_over_limit(size, self._limits.max_message_bytes))
+            )
 
     # -- reading ---------------------------------------------------------------------------
 
@@ -338,6 +533,9 @@ class _McapSource(_Source):
 
     def _raw_messages(self, wanted: set[int]) -> Iterator[RawMessage]:
         channels = self._channels
+        if self._unzstd:
+            yield from self._unzstd_messages(wanted)
+            return
         if self._chunk_indexes is not None and not _chunks_overlap(self._chunk_indexes):
             # the hot path: a chunk's messages at a time, no generator step per message
             for selected in self._chunk_batches(wanted):
@@ -347,6 +545,24 @@ class _McapSource(_Source):
             return
         for log_time, channel_id, data in self._records(wanted):
             topic, msgtype, encoding = channels[channel_id]
+            yield RawMessage(topic, msgtype, log_time, data, encoding)
+
+    def _unzstd_messages(self, wanted: set[int]) -> Iterator[RawMessage]:
+        """Messages whose payloads are zstd-compressed, decompressed one by one within the
+        message cap (one over it is skipped with a warning)."""
+        from formats.limits import OverLimitError
+        from formats.mcap_records import iso
+
+        cap = self._limits.max_message_bytes
+        for log_time, channel_id, data in self._records(wanted):
+            topic, msgtype, encoding = self._channels[channel_id]
+            if data[:4] == _ZSTD_MAGIC:
+                try:
+                    data = _unzstd(data, cap)
+                except OverLimitError as exc:
+                    self._warn(f"{self.path.name}: a message on {topic} at {iso(log_time)} "
+                               f"skipped: {exc}")
+                    continue
             yield RawMessage(topic, msgtype, log_time, data, encoding)
 
     def records(self, channel_ids: Iterable[int] | None = None) -> Iterator[tuple[int, int, bytes]]:
@@ -364,45 +580,63 @@ class _McapSource(_Source):
         if self._chunk_indexes is None:
             return self._records_linear(wanted)
         if _chunks_overlap(self._chunk_indexes):
-            return self._records_library(wanted)
+            return self._records_merged(wanted)
         return (record for batch in self._chunk_batches(wanted) for record in batch)
+
+    def _selected(self, index: Any, wanted: set[int]) -> bool:
+        """Whether the chunk of ``index`` may hold a wanted message (its index lists the
+        channels it holds, checked against the data at open) and can be read."""
+        if index.chunk_start_offset in self._bad_chunks:
+            return False
+        return not (index.message_index_offsets and wanted.isdisjoint(index.message_index_offsets))
 
     def _chunk_batches(self, wanted: set[int]) -> Iterator[list[tuple[int, int, bytes]]]:
         """Time order by chunk: chunk indexes sorted by start time do not overlap, so each
         chunk's messages sorted by log time (one list per chunk) continue the stream."""
-        from mcap.data_stream import ReadDataStream
-        from mcap.records import Chunk
-
-        stream = self._stream
         assert self._chunk_indexes is not None
         for index in self._chunk_indexes:
-            if index.message_index_offsets and wanted.isdisjoint(index.message_index_offsets):
-                continue
-            try:
-                stream.seek(index.chunk_start_offset + 1 + 8, io.SEEK_SET)
-                selected = _chunk_messages(Chunk.read(ReadDataStream(stream)), wanted)
-            except self._errors as exc:
-                self.warnings.append(
-                    f"{self.path.name}: corrupt chunk at byte {index.chunk_start_offset} "
-                    f"({exc}); the rest of the file is ignored"
-                )
-                return
-            yield selected
+            if self._selected(index, wanted):
+                selected = self._read_indexed(index.chunk_start_offset, wanted)
+                if selected:
+                    yield selected
 
-    def _records_library(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
-        """Overlapping chunks: let the mcap reader interleave them in log-time order."""
-        from mcap.reader import SeekingReader
+    def _read_indexed(self, offset: int, wanted: set[int]) -> list[tuple[int, int, bytes]]:
+        """The wanted messages of the indexed chunk at ``offset``, sorted by log time; [] (and
+        a warning) when it cannot be read. Opens the file for this chunk only."""
+        from formats import mcap_records as mr
 
-        topics = {self.channel_topics[cid] for cid in wanted}
-        reader = SeekingReader(self._stream, validate_crcs=True)
         try:
-            for _, channel, r in reader.iter_messages(topics=topics, log_time_order=True):
-                if channel.id in wanted:
-                    yield r.log_time, channel.id, r.data
-        except self._errors as exc:
-            self.warnings.append(
-                f"{self.path.name}: corrupt chunk ({exc}); the rest of the file is ignored"
-            )
+            with self.path.open("rb") as f:
+                head = mr.read_chunk_head(f, offset, self._size, self._lengths.get(offset))
+                buf = mr.read_chunk(f, head, self._limits, _decompress)
+            selected, big, _ = mr.chunk_messages(buf, wanted, self._limits.max_message_bytes)
+        except ValueError as exc:  # ChunkError and the head's ValueError
+            self._bad_chunks[offset] = _why(exc)
+            self._chunk_lost(offset)
+            return []
+        self._oversized(big)
+        return selected
+
+    def _records_merged(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
+        """Overlapping chunks, merged in log-time order: a chunk is read when the stream
+        reaches its start time, so only the chunks overlapping one moment are held; ties keep
+        chunk order."""
+        assert self._chunk_indexes is not None
+        chunks = [c for c in self._chunk_indexes if self._selected(c, wanted)]
+        heap: list[tuple[int, int, int, bytes]] = []
+        seq = 0
+        k = 0
+        while k < len(chunks) or heap:
+            if k < len(chunks) and (not heap or chunks[k].message_start_time <= heap[0][0]):
+                for log_time, channel_id, data in self._read_indexed(
+                    chunks[k].chunk_start_offset, wanted
+                ):
+                    heapq.heappush(heap, (log_time, seq, channel_id, data))
+                    seq += 1
+                k += 1
+                continue
+            log_time, _, channel_id, data = heapq.heappop(heap)
+            yield log_time, channel_id, data
 
     def _records_linear(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
         """A file without a usable summary, read in file order. When the opening scan found
@@ -412,18 +646,15 @@ class _McapSource(_Source):
         says); ties keep file order."""
         later_min = self._later_min
         if later_min is None:
-            for r in self._linear_records():
-                if r.channel_id in wanted:
-                    yield r.log_time, r.channel_id, r.data
+            yield from self._linear_records(wanted)
             return
         heap: list[tuple[int, int, int, bytes]] = []
         seq = 0
         groups = len(later_min)
-        for k, group in enumerate(self._linear_groups()):
-            for r in group:
-                if r.channel_id in wanted:
-                    heapq.heappush(heap, (r.log_time, seq, r.channel_id, r.data))
-                    seq += 1
+        for k, group in enumerate(self._linear_groups(wanted)):
+            for log_time, channel_id, data in group:
+                heapq.heappush(heap, (log_time, seq, channel_id, data))
+                seq += 1
             bound = int(later_min[k + 1]) if k + 1 < groups else None
             while heap and (bound is None or heap[0][0] <= bound):
                 log_time, _, channel_id, data = heapq.heappop(heap)
@@ -438,8 +669,8 @@ class _McapSource(_Source):
         """From the chunk indexes when the file has a summary: a chunk within one window or
         two adjacent ones records the windows of its first and last message; only wider chunks
         need their message times, from their MessageIndex records (a few bytes each; the chunk
-        is decompressed only when it has none or they are damaged). Without a summary, the log
-        times the opening scan kept (read up to the first unreadable record)."""
+        is decompressed only when it has none or they are damaged). Chunks that cannot be read
+        record nothing. Without a summary, the log times the opening scan kept."""
         if self._chunk_indexes is None:
             times = self._scanned_times
             return recorded.windows_of(times if times is not None else [], window_ns)
@@ -449,117 +680,105 @@ class _McapSource(_Source):
         starts = np.fromiter((c.message_start_time for c in indexes), np.uint64, n).astype(np.int64)
         ends = np.fromiter((c.message_end_time for c in indexes), np.uint64, n).astype(np.int64)
         indexed = np.fromiter((bool(c.message_index_offsets) for c in indexes), np.bool_, n)
-        empty = starts > ends  # some writers mark a chunk without messages so
+        bad = np.fromiter((c.chunk_start_offset in self._bad_chunks for c in indexes), np.bool_, n)
+        empty = (starts > ends) | bad  # some writers mark a chunk without messages so
         # 0..0 without message indexes: a chunk without messages, or one message at t = 0
         unsure = ~indexed & (starts == 0) & (ends == 0)
         read = (recorded.wide_spans(starts, ends, window_ns) | unsure) & ~empty
         parts = []
-        stop = n
-        with self.path.open("rb") as stream:  # own handle: message iterations may be running
+        with self.path.open("rb") as stream:  # own handle, for this call only
             for k in np.flatnonzero(read):
                 times = self._chunk_times(stream, indexes[k])
-                if times is None:  # unreadable chunk: like messages(), stop here
-                    stop = int(k)
-                    break
-                parts.append(recorded.windows_of(times, window_ns))
+                if times is not None:  # None: an unreadable chunk, skipped with a warning
+                    parts.append(recorded.windows_of(times, window_ns))
         ends_only = ~read & ~empty
-        ends_only[stop:] = False
         parts.append(recorded.end_windows(starts[ends_only], ends[ends_only], window_ns))
         return recorded.union(parts)
 
     def _chunk_times(self, stream: IO[bytes], index: Any) -> npt.NDArray[np.int64] | None:
         """Log times of one chunk's messages: from its MessageIndex records, else from the
         decompressed chunk; ``None`` (and a warning) when the chunk itself is unreadable."""
-        from mcap.data_stream import ReadDataStream
-        from mcap.records import Chunk
+        from formats import mcap_records as mr
 
         if index.message_index_offsets and index.message_index_length > 0:
             base = index.chunk_start_offset + index.chunk_length
             try:
                 stream.seek(base, io.SEEK_SET)
-                block = stream.read(index.message_index_length)
+                block = stream.read(min(index.message_index_length, self._size - base))
                 offsets = [off - base for off in index.message_index_offsets.values()]
                 return recorded.message_index_times(block, offsets)
             except self._errors:
                 pass  # a damaged index does not mean a damaged chunk: read the chunk
+        offset = index.chunk_start_offset
         try:
-            stream.seek(index.chunk_start_offset + 1 + 8, io.SEEK_SET)
-            chunk = Chunk.read(ReadDataStream(stream))
-            buf = _decompress(chunk)
-            if chunk.uncompressed_crc and zlib.crc32(buf) != chunk.uncompressed_crc:
-                raise ValueError("chunk records fail their CRC-32 check")
+            head = mr.read_chunk_head(stream, offset, self._size, self._lengths.get(offset))
+            buf = mr.read_chunk(stream, head, self._limits, _decompress)
             return recorded.record_log_times(buf)
-        except self._errors as exc:
-            warning = (
-                f"{self.path.name}: corrupt chunk at byte {index.chunk_start_offset} ({exc}); "
-                "no recorded window is taken from it or from later chunks"
-            )
-            if warning not in self.warnings:  # once, however often windows are asked for
-                self.warnings.append(warning)
+        except ValueError as exc:  # ChunkError, the head's and record_log_times' ValueError
+            self._bad_chunks[offset] = _why(exc)
+            self._chunk_lost(offset)
             return None
 
     def close(self) -> None:
-        self._stream.close()
+        """Nothing to release: the file is open only while a read runs."""
 
 
-_MESSAGE_OPCODE = 0x05
-_RECORD_HEAD = struct.Struct("<BQ")
-_MESSAGE_HEAD = struct.Struct("<HIQ")  # channel id, sequence, log time (publish time follows)
-_MESSAGE_PREFIX = 2 + 4 + 8 + 8
+def _refused(index: Any, limits: ReadLimits) -> str | None:
+    """Why the chunk a (checked) chunk index describes will not be read, from the index
+    alone: an unknown compression, or more than the chunk cap; None when it may be read."""
+    from formats import limits as caps
+
+    if index.compression not in ("", "zstd", "lz4"):
+        return str(caps.UnknownCompressionError(f"unknown compression {index.compression[:40]!r}"))
+    size = index.uncompressed_size if index.compression else index.compressed_size
+    if size > limits.max_chunk_bytes:
+        return str(caps.chunk_over_limit(size, limits.max_chunk_bytes))
+    return None
 
 
-def _decompress(chunk: Any) -> bytes:
-    """The records section of an MCAP chunk (zstd, lz4 or uncompressed)."""
-    if chunk.compression in ("zstd", "lz4"):
-        try:
-            if chunk.compression == "zstd":
-                import zstandard
+def _why(exc: Exception) -> str:
+    """Why a chunk cannot be read, for :meth:`_McapSource._chunk_lost`: damage is marked as
+    such; a chunk over the cap or in an unknown compression is not corrupt."""
+    from formats.limits import OverLimitError, UnknownCompressionError
+    from formats.mcap_records import CORRUPT
 
-                return bytes(zstandard.decompress(chunk.data, chunk.uncompressed_size))
-            import lz4.frame  # type: ignore[import-untyped]
-
-            return bytes(lz4.frame.decompress(chunk.data))
-        except Exception as exc:  # zstandard.ZstdError, lz4's RuntimeError: a damaged chunk
-            raise ValueError(f"cannot decompress the {chunk.compression} chunk: {exc}") from exc
-    if chunk.compression:
-        raise ValueError(f"unsupported MCAP chunk compression {chunk.compression!r}")
-    return bytes(chunk.data)
+    if isinstance(exc, OverLimitError | UnknownCompressionError):
+        return str(exc)
+    return CORRUPT + str(exc)
 
 
-def _chunk_messages(chunk: Any, wanted: set[int]) -> list[tuple[int, int, bytes]]:
-    """``(log_time, channel_id, data)`` of the chunk's messages on ``wanted`` channels, sorted
-    by log time. Parses the record headers with struct and slices only the wanted payloads:
-    several times faster than building an mcap ``Message`` object per record."""
-    buf = _decompress(chunk)
-    if chunk.uncompressed_crc and zlib.crc32(buf) != chunk.uncompressed_crc:
-        # a flipped bit in compressed data often still decompresses: into garbage
-        raise ValueError("chunk records fail their CRC-32 check")
-    out: list[tuple[int, int, bytes]] = []
-    unpack_record = _RECORD_HEAD.unpack_from
-    unpack_message = _MESSAGE_HEAD.unpack_from
-    pos, end = 0, len(buf)
-    while pos < end:
-        opcode, length = unpack_record(buf, pos)
-        body = pos + 9
-        pos = body + length
-        if opcode == _MESSAGE_OPCODE:
-            channel_id, _, log_time = unpack_message(buf, body)
-            if channel_id in wanted:
-                out.append((log_time, channel_id, buf[body + _MESSAGE_PREFIX : pos]))
-    if pos != end:
-        raise ValueError("chunk records overrun the chunk")
-    out.sort(key=_first)
-    return out
+def _noun_and_reason(why: str) -> tuple[str, str]:
+    from formats.mcap_records import CORRUPT
+
+    if why.startswith(CORRUPT):
+        return "corrupt chunk", why.removeprefix(CORRUPT)
+    return "chunk", why
+
+
+def _decompress(data: bytes | memoryview, compression: str, declared: int, limit: int) -> bytes:
+    """Every MCAP chunk's records go through here (:func:`formats.limits.decompress`: the
+    declared size checked against ``limit`` first, the output bounded)."""
+    from formats import limits as caps
+
+    return caps.decompress(data, compression, declared, limit)
+
+
+def _parse_record(kind: Any, body: bytes) -> Any:
+    """An mcap library record (Header, Schema, Channel) from its body bytes;
+    :class:`formats.limits.ChunkError` when it does not parse."""
+    from mcap.data_stream import ReadDataStream
+    from mcap.exceptions import McapError
+
+    from formats.limits import ChunkError
+
+    try:
+        return kind.read(ReadDataStream(io.BytesIO(body)))
+    except (McapError, *_MCAP_READ_ERRORS, UnicodeDecodeError) as exc:  # EndOfFile: too short
+        raise ChunkError(f"a {kind.__name__} record does not parse ({exc})") from exc
 
 
 def _first(item: tuple[int, int, bytes]) -> int:
     return item[0]
-
-
-def _record_sort_key(record: Any) -> tuple[int, int]:
-    """Non-message records (schemas, channels) first, then messages by log time."""
-    log_time = getattr(record, "log_time", None)
-    return (0, 0) if log_time is None else (1, int(log_time))
 
 
 def _chunks_overlap(indexes: list[Any]) -> bool:
@@ -586,11 +805,13 @@ def _all_ros1(topics: dict[tuple[str, str], _Topic]) -> bool:
 class _RosbagsSource(_Source):
     """A ROS 1 bag or a rosbag2 folder, read with the rosbags readers."""
 
-    def __init__(self, path: Path, kind: str) -> None:
+    def __init__(self, path: Path, kind: str, limits: ReadLimits | None = None) -> None:
         self.path = path
         self.warnings = []
-        self._reader = _open_rosbags(path, kind)
+        self._limits = limits if limits is not None else ReadLimits.from_env()
+        self._reader = _open_rosbags(path, kind, self._limits)
         reader = self._reader
+        self._index_times: npt.NDArray[np.int64] | None = None
         self.topics = {}
         for conn in reader.connections:
             encoding: Encoding
@@ -614,16 +835,28 @@ class _RosbagsSource(_Source):
                 )
             info.count += conn.msgcount
             info.keys.append(conn)
-        start, end = (reader.start_time, reader.end_time) if kind == "bag" else (0, 0)
+        start, end = 0, 0
         if kind == "bag":
             fmt_name = "bag"
             size = path.stat().st_size
+            self._index_times = recorded.rosbag1_index_times(reader.indexes)
+            if self._index_times.size:  # the index's message times, not the chunk infos'
+                start, end = int(self._index_times.min()), int(self._index_times.max()) + 1
+            names = {conn.id: conn.topic for conn in reader.connections}
+            for pos, (why, counts) in sorted(reader.refused.items()):
+                self.warnings.append(self._chunk_skipped(pos, why, counts, names))
+            reader.suspend()  # no file handle held between reads
         else:
             storages = getattr(reader.storage, "storages", [])
             mcap = any("mcap" in type(x).__name__.lower() for x in storages)
             fmt_name = "rosbag2-mcap" if mcap else "rosbag2-sqlite3"
             size = sum(p.stat().st_size for p in path.iterdir() if p.is_file())
             start, end = self._count_storages(storages, reader)
+            if storages:
+                counts = {key: t.count for key, t in self.topics.items()}
+                warning = _metadata_warning(path, start, end - 1, sum(counts.values()), counts)
+                if warning:
+                    self.warnings.append(warning)
         total = sum(t.count for t in self.topics.values())
         start = start if total else 0
         end = max(end - 1, start) if total else 0  # rosbags' end is exclusive
@@ -648,15 +881,33 @@ class _RosbagsSource(_Source):
             return 0, 0
         return min(m.start_time for m in metas), max(m.end_time for m in metas)
 
-    def plain_mcap_files(self) -> list[Path]:
-        """The storage files of an uncompressed rosbag2 folder with mcap storage, else []."""
-        if self.file.format != "rosbag2-mcap" or self._reader.compression_format:
-            return []
+    def mcap_storage(self) -> tuple[list[tuple[Path, Path | None]], bool] | None:
+        """For a rosbag2 folder with mcap storage, what aion's MCAP reader reads instead of
+        rosbags' mcap plugin (faster, and with the size caps): the storage files, each with
+        the compressed file rosbags decompressed it from (``compression_mode: file``; the
+        decompressed copy lives while this source is open) or None, and whether message
+        payloads are zstd-compressed (``compression_mode: message``). None for other
+        folders."""
+        if self.file.format != "rosbag2-mcap":
+            return None
         storages = getattr(self._reader.storage, "storages", [])
         paths = [getattr(x, "path", None) for x in storages]
         if not paths or not all(isinstance(p, Path) and p.suffix == ".mcap" for p in paths):
-            return []
-        return [p for p in paths if isinstance(p, Path)]
+            return None
+        mode = self._reader.compression_mode if self._reader.compression_format else None
+        if mode not in (None, "file", "message"):
+            return None
+        files: list[tuple[Path, Path | None]] = []
+        for p in paths:
+            assert isinstance(p, Path)
+            original = None
+            if mode == "file":
+                original = next(
+                    (q for q in sorted(self.path.iterdir()) if q.is_file() and q.stem == p.name),
+                    self.path / f"{p.name}.zstd",
+                )
+            files.append((p, original))
+        return files, mode == "message"
 
     def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
         if self.file.format != "bag":
@@ -666,7 +917,7 @@ class _RosbagsSource(_Source):
                 if not wanted:
                     return iter(())
                 unzstd = self._reader.compression_mode == "message"
-                return _storage_messages(self.path, storages, wanted, unzstd)
+                return _storage_messages(self, storages, wanted, unzstd)
         conns = [
             conn
             for info in self.topics.values()
@@ -678,24 +929,59 @@ class _RosbagsSource(_Source):
         return self._messages(conns)
 
     def _messages(self, conns: list[Any]) -> Iterator[RawMessage]:
-        """Through the rosbags reader itself (ROS 1 bags)."""
+        """Through :class:`formats.bag_reader.BagReader` (ROS 1 bags): the file open while
+        the iteration runs, chunks that cannot be read skipped with a warning."""
         meta = {
             conn.id: (info.topic, info.msgtype, info.encoding)
             for info in self.topics.values()
             for conn in info.keys
             if conn in conns
         }
+        names = {conn.id: conn.topic for conn in conns}
+        reader = self._reader
+
+        def bad_chunk(pos: int, why: str, lost: dict[int, int]) -> None:
+            warning = self._chunk_skipped(pos, why, lost, names)
+            if warning not in self.warnings:
+                self.warnings.append(warning)
+
+        def oversized(conn: Any, t_ns: int, size: int) -> None:
+            from formats import limits as caps
+            from formats.mcap_records import iso
+
+            warning = (
+                f"{self.path.name}: a message on {conn.topic} at {iso(t_ns)} skipped: "
+                + str(caps.message_over_limit(size, self._limits.max_message_bytes))
+            )
+            if warning not in self.warnings:
+                self.warnings.append(warning)
+
         try:
-            for conn, t_ns, data in self._reader.messages(connections=conns):
+            reader.resume()
+            for conn, t_ns, data in reader.iter_messages(conns, bad_chunk, oversized):
                 topic, msgtype, encoding = meta[conn.id]
-                if type(data) is not bytes:
-                    data = bytes(data)
                 yield RawMessage(topic, msgtype, t_ns, data, encoding)
-        except Exception as exc:  # rosbags raises its own errors, sqlite3 and struct errors
+        except LogFormatError:
+            raise
+        except Exception as exc:  # rosbags raises its own errors, OSError, struct errors
             raise LogFormatError(
                 f"{self.path}: cannot read messages ({exc})",
                 hint="the log may be corrupt; for ROS 1 bags try `rosbag reindex`",
             ) from exc
+        finally:
+            reader.suspend()
+
+    def _chunk_skipped(
+        self, pos: int, why: str, lost: dict[int, int], names: dict[int, str]
+    ) -> str:
+        """The warning for a bag chunk that is skipped: where, why, the messages lost."""
+        counts = sorted((names.get(cid, f"connection {cid}"), n) for cid, n in lost.items() if n)
+        total = sum(n for _, n in counts)
+        per = ", ".join(f"{name} {n:,}" for name, n in counts)
+        return (
+            f"{self.path.name}: chunk at byte {pos} skipped: {why}; "
+            f"{total:,} message{'s' if total != 1 else ''} lost ({per})"
+        )
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """ROS 1 bags: the message times of the index rosbags loaded at open (no chunk is
@@ -715,11 +1001,8 @@ class _RosbagsSource(_Source):
             ) from exc
 
     def _bag_windows(self, window_ns: int) -> Windows:
-        indexes = getattr(self._reader, "indexes", None)
-        if isinstance(indexes, dict):
-            return recorded.windows_of(recorded.rosbag1_index_times(indexes), window_ns)
-        # a rosbags version without the loaded index: read the messages for their times
-        return recorded.windows_of(recorded.times_of(self._reader.messages()), window_ns)
+        times = self._index_times
+        return recorded.windows_of(times if times is not None else [], window_ns)
 
     def _rosbag2_windows(self, window_ns: int) -> Windows:
         storages = getattr(self._reader.storage, "storages", None)
@@ -753,11 +1036,18 @@ class _ReindexedSqliteSource(_Source):
     compression) are recognised by their magic bytes.
     """
 
-    def __init__(self, path: Path, files: list[Path], originals: list[Path]) -> None:
+    def __init__(
+        self,
+        path: Path,
+        files: list[Path],
+        originals: list[Path],
+        limits: ReadLimits | None = None,
+    ) -> None:
         from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
 
         self.path = path
         self.warnings = []
+        self._limits = limits if limits is not None else ReadLimits.from_env()
         self.file_count = len(files)
         self._storages: list[Any] = []
         for plain, original in zip(files, originals, strict=True):
@@ -815,7 +1105,7 @@ class _ReindexedSqliteSource(_Source):
         wanted = _wanted_types(self.topics, topics)
         if not wanted:
             return iter(())
-        return _storage_messages(self.path, self._storages, wanted, None)
+        return _storage_messages(self, self._storages, wanted, None)
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """Per storage file, SQLite computes the windows over the indexed ``timestamp``
@@ -865,6 +1155,10 @@ class _Unpacked(_Source):
             f = replace(f, path=path, format=fmt, size_bytes=path.stat().st_size)
         self.file = f
 
+    def owns(self, source: _Source) -> None:
+        """Close ``source`` too when this one is closed (what keeps the copies alive)."""
+        self._temps.append(_Closing(source))
+
     def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
         return self.inner.messages(topics)
 
@@ -877,6 +1171,16 @@ class _Unpacked(_Source):
         finally:
             for tmp in self._temps:
                 tmp.cleanup()
+
+
+@dataclass
+class _Closing:
+    """A source to close with an :class:`_Unpacked` one (as if it were a temporary folder)."""
+
+    source: _Source
+
+    def cleanup(self) -> None:
+        self.source.close()
 
 
 def _wanted_types(
@@ -892,7 +1196,7 @@ def _wanted_types(
 
 
 def _storage_messages(
-    path: Path,
+    source: _RosbagsSource | _ReindexedSqliteSource,
     storages: list[Any],
     wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
     unzstd: bool | None,
@@ -906,8 +1210,10 @@ def _storage_messages(
     one and as 2147483647 s in the other), so it yields none of their messages. ``unzstd``:
     payloads are zstd-compressed (``compression_mode: message``); None: unknown (a reindexed
     bag), a payload is decompressed when it starts with the zstd magic bytes, which no CDR
-    payload does (CDR starts with its encapsulation header, 0x00 first).
+    payload does (CDR starts with its encapsulation header, 0x00 first). A compressed payload
+    that expands beyond the message cap is skipped with a warning on ``source``.
     """
+    path = source.path
     streams = []
     for storage in storages:
         conns = [
@@ -916,7 +1222,7 @@ def _storage_messages(
             if (conn.topic, normalize_msgtype(conn.msgtype)) in wanted
         ]
         if conns:
-            streams.append(_one_storage(storage, conns, wanted, unzstd))
+            streams.append(_one_storage(source, storage, conns, wanted, unzstd))
     if not streams:
         return
     merged: Iterator[RawMessage] = (
@@ -934,35 +1240,62 @@ def _storage_messages(
 
 
 def _one_storage(
+    source: _RosbagsSource | _ReindexedSqliteSource,
     storage: Any,
     conns: list[Any],
     wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
     unzstd: bool | None,
 ) -> Iterator[RawMessage]:
+    from formats.limits import OverLimitError
+    from formats.mcap_records import iso
+
     meta = {conn.id: wanted[conn.topic, normalize_msgtype(conn.msgtype)] for conn in conns}
+    cap = source._limits.max_message_bytes
     for conn, t_ns, data in storage.messages(conns):
         topic, msgtype, encoding = meta[conn.id]
         if unzstd or (unzstd is None and data[:4] == _ZSTD_MAGIC):
-            data = _unzstd(data)
+            try:
+                data = _unzstd(data, cap)
+            except OverLimitError as exc:
+                warning = f"{source.path.name}: a message on {topic} at {iso(t_ns)} skipped: {exc}"
+                if warning not in source.warnings:
+                    source.warnings.append(warning)
+                continue
         elif type(data) is not bytes:
             data = bytes(data)
+        if len(data) > cap:
+            from formats.limits import message_over_limit
+
+            warning = (
+                f"{source.path.name}: a message on {topic} at {iso(t_ns)} skipped: "
+                f"{message_over_limit(len(data), cap)}"
+            )
+            if warning not in source.warnings:
+                source.warnings.append(warning)
+            continue
         yield RawMessage(topic, msgtype, t_ns, data, encoding)
 
 
-def _unzstd(data: bytes | memoryview) -> bytes:
-    """One zstd-compressed message payload (with or without the content size in its frame)."""
-    import zstandard
+def _unzstd(data: bytes | memoryview, cap: int) -> bytes:
+    """One zstd-compressed message payload (with or without the content size in its frame),
+    decompressed to at most ``cap`` bytes (:class:`formats.limits.OverLimitError` beyond)."""
+    from formats.limits import ChunkError, OverLimitError, decompress, message_over_limit
 
-    obj = zstandard.ZstdDecompressor().decompressobj()
-    return bytes(obj.decompress(bytes(data)))
+    try:
+        return decompress(bytes(data), "zstd", 0, cap)
+    except OverLimitError:
+        raise message_over_limit(cap + 1, cap) from None
+    except ChunkError as exc:
+        raise ValueError(f"cannot decompress a zstd message payload ({exc})") from exc
 
 
-def _open_rosbags(path: Path, kind: str) -> Any:
-    """An open rosbags Reader for ``path``, with rosbags errors turned into LogFormatError."""
+def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
+    """An open rosbags Reader for ``path`` (ROS 1 bags: :class:`formats.bag_reader.BagReader`
+    with ``limits``), with rosbags errors turned into LogFormatError."""
     if kind == "bag":
-        from rosbags.rosbag1 import Reader as Reader1
+        from formats.bag_reader import BagReader
 
-        reader: Any = Reader1(path)
+        reader: Any = BagReader(path, limits)
         what = "ROS 1 bag"
         hint = "the bag may be truncated or corrupt; try `rosbag reindex` on a copy"
     else:
@@ -989,9 +1322,15 @@ def guess_format(path: Path) -> tuple[str, Path]:
     the file's first bytes decide (through zstd too)."""
     from formats import rosbag2_storage as storage
 
+    check_regular_input(path, "log", hint=_LOG_HINT)  # a FIFO or /dev/zero: before any read
     if not path.exists():
         raise LogFormatError(f"no such file or folder: {path}", hint="check the log path")
     if path.is_dir():
+        for entry in path.iterdir():  # what a rosbag2 reader would open
+            if entry.name == "metadata.yaml" or (
+                Path(storage.inner_name(entry)).suffix.lower() in storage.STORAGE_SUFFIXES
+            ):
+                check_regular_input(entry, "log", hint=_LOG_HINT)
         if (path / "metadata.yaml").is_file() or storage.storage_files(path):
             return "rosbag2", path
         found = sorted(p.name for p in path.iterdir())[:5]
@@ -1034,7 +1373,7 @@ def guess_format(path: Path) -> tuple[str, Path]:
     )
 
 
-def _open_sources(path: Path, fmt: str | None) -> list[_Source]:
+def _open_sources(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]:
     """The sources of one path: one file, the storage files of a rosbag2 folder, or storage
     files without metadata.yaml (reindexed in memory)."""
     from formats import rosbag2_storage as storage
@@ -1050,7 +1389,7 @@ def _open_sources(path: Path, fmt: str | None) -> list[_Source]:
         and storage.is_zstd(target)
         and not (kind == "rosbag2" and (target.parent / "metadata.yaml").is_file())
     ):
-        return _open_compressed(target, kind)
+        return _open_compressed(target, kind, limits)
     if kind == "mcap":
         if target.is_dir():
             files = sorted(target.glob("*.mcap"))
@@ -1059,21 +1398,21 @@ def _open_sources(path: Path, fmt: str | None) -> list[_Source]:
                     f"{target} holds {len(files)} .mcap files", hint="pass one .mcap file"
                 )
             target = files[0]
-        return [_open_mcap(target)]
+        return [_open_mcap(target, limits=limits)]
     if kind == "bag":
-        return [_RosbagsSource(target, "bag")]
+        return [_RosbagsSource(target, "bag", limits)]
     folder = target.parent if target.is_file() else target
     if not (folder / "metadata.yaml").is_file():
         if target.is_file():
-            return _reindexed_sources([target], target)  # one storage file given alone
-        sources = _reindexed_sources(storage.storage_files(folder), folder)
+            return _reindexed_sources([target], target, limits)  # one storage file alone
+        sources = _reindexed_sources(storage.storage_files(folder), folder, limits)
         sources[-1].warnings.append(
             f"{folder}: no metadata.yaml; indexed in memory from its {_files(sources)}, "
             "as `ros2 bag reindex` would"
         )
         return sources
     try:
-        source = _RosbagsSource(folder, "rosbag2")
+        source = _RosbagsSource(folder, "rosbag2", limits)
     except LogFormatError as exc:
         # A recording killed before it finished leaves mcap storage files without a summary,
         # which rosbags refuses, or a metadata.yaml that does not match the files: index the
@@ -1082,7 +1421,7 @@ def _open_sources(path: Path, fmt: str | None) -> list[_Source]:
         if not files:
             raise
         try:
-            sources = _reindexed_sources(files, folder)
+            sources = _reindexed_sources(files, folder, limits)
         except LogFormatError:
             raise exc from None
         sources[-1].warnings.append(
@@ -1090,12 +1429,67 @@ def _open_sources(path: Path, fmt: str | None) -> list[_Source]:
             f"{_files(sources)}"
         )
         return sources
-    files = source.plain_mcap_files()
-    if files:
-        # rosbag2 with mcap storage: the mcap reader is faster than rosbags' mcap plugin.
-        source.close()
-        return [_open_mcap(f, fmt_name="rosbag2-mcap") for f in files]
+    found = source.mcap_storage()
+    if found is not None:
+        # rosbag2 with mcap storage: aion's MCAP reader (faster than rosbags' mcap plugin,
+        # and bounded); a whole-file compressed bag is read from rosbags' decompressed copies,
+        # which live until the last of these sources is closed
+        mcap_files, unzstd = found
+        keep = any(original is not None for _, original in mcap_files)
+        if not keep:
+            source.close()
+        mcaps: list[_Source] = []
+        try:
+            for plain, original in mcap_files:
+                mcap = _open_mcap(plain, fmt_name="rosbag2-mcap", limits=limits, unzstd=unzstd)
+                mcaps.append(mcap if original is None else _Unpacked(mcap, [], original))
+            if keep:
+                last = mcaps[-1]
+                assert isinstance(last, _Unpacked)
+                last.owns(source)
+        except BaseException:
+            for opened in mcaps:
+                opened.close()
+            if keep:
+                source.close()
+            raise
+        counted: Counter[tuple[str, str]] = Counter()
+        for opened in mcaps:
+            for key, t in opened.topics.items():
+                counted[key] += t.count
+        busy = [m.file for m in mcaps if m.file.message_count]
+        warning = _metadata_warning(
+            folder,
+            min((f.start_ns for f in busy), default=0),
+            max((f.end_ns for f in busy), default=0),
+            sum(counted.values()),
+            counted,
+        )
+        if warning:
+            mcaps[0].warnings.append(warning)
+        return mcaps
     return [source]
+
+
+def _metadata_warning(
+    folder: Path, start: int, last: int, total: int, counts: Mapping[tuple[str, str], int]
+) -> str | None:
+    """A warning when the folder's metadata.yaml states figures its storage files contradict
+    (aion uses the storage files: first and last message time ``start`` / ``last``, ``total``
+    messages, ``counts`` per (topic, normalised type)); None when they agree."""
+    from formats import rosbag2_storage as storage
+
+    figures = storage.metadata_figures(folder)
+    if figures is None:
+        return None
+    found = storage.metadata_disagreements(figures, start, last, total, counts, normalize_msgtype)
+    if not found:
+        return None
+    more = f"; and {len(found) - 4} more" if len(found) > 4 else ""
+    return (
+        f"{folder.name}: metadata.yaml disagrees with its storage files, which aion uses "
+        f"instead: {'; '.join(found[:4])}{more}"
+    )
 
 
 def _files(sources: list[_Source]) -> str:
@@ -1103,24 +1497,28 @@ def _files(sources: list[_Source]) -> str:
     return f"{n} storage file" + ("" if n == 1 else "s")
 
 
-def _open_compressed(path: Path, kind: str) -> list[_Source]:
+def _open_compressed(path: Path, kind: str, limits: ReadLimits) -> list[_Source]:
     """A zstd-compressed file given alone (a rosbag2 storage file from a bag recorded with
     ``compression_mode: file``, or a compressed .bag / .mcap): read through a decompressed
     temporary copy that closing the source removes."""
     from formats import rosbag2_storage as storage
 
     if kind == "rosbag2":
-        return _reindexed_sources([path], path)
+        return _reindexed_sources([path], path, limits)
     tmp, inner = storage.decompress_to_temp(path)
     try:
-        source: _Source = _open_mcap(inner) if kind == "mcap" else _RosbagsSource(inner, "bag")
+        source: _Source = (
+            _open_mcap(inner, limits=limits)
+            if kind == "mcap"
+            else _RosbagsSource(inner, "bag", limits)
+        )
     except BaseException:
         tmp.cleanup()
         raise
     return [_Unpacked(source, [tmp], path)]
 
 
-def _reindexed_sources(files: list[Path], shown: Path) -> list[_Source]:
+def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> list[_Source]:
     """rosbag2 storage files without (a usable) metadata.yaml, indexed from the files
     themselves: the sqlite3 ones as one source (shown as ``shown``: the folder, or the one
     file), each mcap one as its own (read with the mcap reader, which recovers files without a
@@ -1144,7 +1542,7 @@ def _reindexed_sources(files: list[Path], shown: Path) -> list[_Source]:
             if kind == "sqlite3":
                 sqlite.append((original, plain))
             elif kind == "mcap":
-                mcap: _Source = _open_mcap(plain, fmt_name="rosbag2-mcap")
+                mcap: _Source = _open_mcap(plain, fmt_name="rosbag2-mcap", limits=limits)
                 if original in temps:
                     mcap = _Unpacked(mcap, [temps[original]], original)
                 opened.append(mcap)
@@ -1160,7 +1558,9 @@ def _reindexed_sources(files: list[Path], shown: Path) -> list[_Source]:
             )
         if sqlite:
             originals = [o for o, _ in sqlite]
-            db: _Source = _ReindexedSqliteSource(shown, [p for _, p in sqlite], originals)
+            db: _Source = _ReindexedSqliteSource(
+                shown, [p for _, p in sqlite], originals, limits
+            )
             owned = [temps[o] for o in originals if o in temps]
             opened.insert(0, _Unpacked(db, owned) if owned else db)
     except BaseException:
@@ -1189,7 +1589,7 @@ def reindex(path: Path | str) -> dict[str, Any]:
         raise LogFormatError(
             f"{target} holds no rosbag2 storage files", hint="pass .db3 / .mcap storage files"
         )
-    sources = _reindexed_sources(files, target)
+    sources = _reindexed_sources(files, target, ReadLimits.from_env())
     try:
         return _bag_metadata(sources, files)
     finally:
@@ -1256,7 +1656,13 @@ def _bag_metadata(sources: list[_Source], files: list[Path]) -> dict[str, Any]:
     }
 
 
-def _open_mcap(path: Path, fmt_name: str | None = None) -> _McapSource:
+def _open_mcap(
+    path: Path,
+    fmt_name: str | None = None,
+    limits: ReadLimits | None = None,
+    *,
+    unzstd: bool = False,
+) -> _McapSource:
     size = path.stat().st_size
     if size == 0:
         raise LogFormatError(f"{path} is empty (0 bytes)", hint="the recording was not written")
@@ -1267,7 +1673,7 @@ def _open_mcap(path: Path, fmt_name: str | None = None) -> _McapSource:
             f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)",
             hint="check the file, or pass --format bag|rosbag2 if it is another log type",
         )
-    return _McapSource(path, fmt_name)
+    return _McapSource(path, fmt_name, limits, unzstd=unzstd)
 
 
 # --- the merged set -------------------------------------------------------------------------
@@ -1340,14 +1746,18 @@ class LogSet:
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """Messages on ``topics`` (all when None; names not in the log are ignored) of every
-        file, merged in log-time order (ties keep file order)."""
+        file, merged in log-time order (ties keep file order).
+
+        A file is opened only when the merged stream reaches the first message time its index
+        gives, and closed when its messages are used up (an MCAP file with a summary is even
+        opened per chunk), so a set of thousands of consecutive files holds few file handles
+        at a time."""
         if self._closed:
             raise ValueError("messages() on a closed LogSet")
         selected = None if topics is None else set(topics)
-        streams = [s.messages(selected) for s in self._sources]
-        if len(streams) == 1:
-            return streams[0]
-        return heapq.merge(*streams, key=attrgetter("log_time_ns"))
+        if len(self._sources) == 1:
+            return self._sources[0].messages(selected)
+        return _merge_by_start(self._sources, selected)
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """Sorted unique window indices ``floor(t / window_ns)`` holding at least one message
@@ -1423,6 +1833,36 @@ class LogSet:
         self.close()
 
 
+def _merge_by_start(sources: list[_Source], topics: set[str] | None) -> Iterator[RawMessage]:
+    """The messages of ``sources`` merged by log time, ties in source order; a source's
+    stream is started only once the merge reaches its first message time (or nothing earlier
+    is left), so files that follow one another are read one after the other."""
+    order = sorted(range(len(sources)), key=lambda k: (sources[k].file.start_ns, k))
+    heap: list[tuple[int, int, int, RawMessage, Iterator[RawMessage]]] = []
+    seq = 0
+    nxt = 0
+    while nxt < len(order) or heap:
+        if nxt < len(order) and (
+            not heap or sources[order[nxt]].file.start_ns <= heap[0][0]
+        ):
+            k = order[nxt]
+            nxt += 1
+            stream = sources[k].messages(topics)
+            first = next(stream, None)
+            if first is not None:
+                heapq.heappush(heap, (first.log_time_ns, k, seq, first, stream))
+                seq += 1
+            continue
+        _, k, _, msg, stream = heap[0]
+        yield msg
+        following = next(stream, None)
+        if following is None:
+            heapq.heappop(heap)
+        else:
+            heapq.heapreplace(heap, (following.log_time_ns, k, seq, following, stream))
+            seq += 1
+
+
 def _store_with_definition(
     stores: dict[str, Typestore], encoding: str, msgtype: str, definition: str, idl: bool
 ) -> Typestore:
@@ -1479,16 +1919,22 @@ def _parse_definition(definition: str, msgtype: str, idl: bool) -> dict[str, Any
         ) from exc
 
 
-def open_logs(paths: Iterable[Path | str], fmt: str | None = None) -> LogSet:
+def open_logs(
+    paths: Iterable[Path | str], fmt: str | None = None, *, limits: ReadLimits | None = None
+) -> LogSet:
     """Open ``paths`` (files or rosbag2 folders) as one :class:`LogSet`; ``fmt`` (``"mcap"``,
-    ``"bag"``, ``"rosbag2"``) overrides the format guessed from each path.
+    ``"bag"``, ``"rosbag2"``) overrides the format guessed from each path. ``limits``: what
+    one decompressed chunk and one message may take (:class:`formats.limits.ReadLimits`;
+    default: ``AION_MAX_CHUNK_MB`` / ``AION_MAX_MESSAGE_MB`` or 512 / 256 MiB).
 
+    Special files (FIFOs, devices, sockets) are refused before anything is read from them.
     Raises :class:`LogFormatError` for missing, empty, unreadable or message-less logs.
     """
+    read_limits = limits if limits is not None else ReadLimits.from_env()
     sources: list[_Source] = []
     try:
         for p in paths:
-            sources.extend(_open_sources(Path(p), fmt))
+            sources.extend(_open_sources(Path(p), fmt, read_limits))
         if not sources:
             raise LogFormatError("no log given", hint="pass at least one log file or folder")
         logset = LogSet(sources)

@@ -1,9 +1,15 @@
-"""Raw log records shared by the log readers and the message adapters."""
+"""Raw log records shared by the log readers and the message adapters, and the check every
+input path goes through before anything reads it (:func:`check_regular_input`)."""
 
 from __future__ import annotations
 
+import os
+import stat
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
+
+from aion_cli.engine.errors import InputError, LogFormatError
 
 Encoding = Literal["cdr", "ros1"]
 
@@ -43,3 +49,39 @@ class RawMessage:
     log_time_ns: int
     data: bytes
     encoding: Encoding
+
+
+_SPECIAL_INPUTS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def check_regular_input(
+    path: Path | str,
+    what: str = "log",
+    error: type[InputError] = LogFormatError,
+    hint: str | None = None,
+) -> None:
+    """Refuse an input that is not a regular file or a folder (a FIFO, a character or block
+    device such as ``/dev/zero``, a socket) before anything opens it: reading one can block
+    forever (a FIFO without a writer) or never end (``/dev/zero``, ``/dev/urandom``).
+
+    ``what`` names the input in the message (``"log"``, ``"map"``), ``error`` is the
+    :class:`InputError` subclass raised (exit code 2). Only ``os.stat`` is called (it follows
+    symbolic links and never opens the file); a path that does not exist passes (the caller
+    says so in its own words). Call it before hashing, sniffing or reading any input.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return
+    kind = next((name for test, name in _SPECIAL_INPUTS if test(mode)), "not a regular file")
+    raise error(
+        f"{path} is {kind}, not a regular file: aion does not read a {what} from it",
+        hint=hint or f"pass the {what} file itself (a FIFO or device gives no file to read)",
+    )

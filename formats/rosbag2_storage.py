@@ -8,17 +8,22 @@ the metadata from them, and :mod:`formats.logs` does the same in memory.
 
 This module holds what that needs below the readers: the storage files of a folder in their
 recording order (:func:`storage_files`), the kind of a file from its first bytes, through zstd
-too (:func:`sniff`), and streaming decompression of a zstd-compressed file into a temporary
+too (:func:`sniff`), streaming decompression of a zstd-compressed file into a temporary
 folder (:func:`decompress_to_temp`: bounded memory, the folder removed by the caller, or here
-when decompression fails).
+when decompression fails), and the figures ``metadata.yaml`` states (:func:`metadata_figures`)
+with what in them disagrees with the storage files (:func:`metadata_disagreements`): aion takes
+counts and times from the storage files, and says when metadata.yaml states others.
 """
 
 from __future__ import annotations
 
 import re
 import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 from aion_cli.engine.errors import LogFormatError
 
@@ -180,3 +185,93 @@ def _no_room(path: Path, exc: OSError) -> LogFormatError:
         hint="free disk space there, or set TMPDIR to a folder with room for the "
         "decompressed file",
     )
+
+
+# -- metadata.yaml against the storage files ---------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MetadataFigures:
+    """The figures a bag's ``metadata.yaml`` states (None where it states none, or a value
+    that is not an integer): first message time, duration (last minus first), message count,
+    counts per (topic, type as written)."""
+
+    start_ns: int | None
+    duration_ns: int | None
+    message_count: int | None
+    topic_counts: dict[tuple[str, str], int] = field(default_factory=dict)
+
+
+def _integer(value: object) -> int | None:
+    return value if isinstance(value, int) and not isinstance(value, bool) else None
+
+
+def _nested(mapping: object, *keys: str) -> object:
+    for key in keys:
+        if not isinstance(mapping, dict):
+            return None
+        mapping = mapping.get(key)
+    return mapping
+
+
+def metadata_figures(folder: Path) -> MetadataFigures | None:
+    """What ``folder/metadata.yaml`` states, or None when it cannot be read as YAML."""
+    from ruamel.yaml import YAML
+
+    try:
+        data = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
+    except Exception:  # OSError, YAML and decoding errors: the reader says why elsewhere
+        return None
+    info = _nested(data, "rosbag2_bagfile_information")
+    if not isinstance(info, dict):
+        return None
+    counts: dict[tuple[str, str], int] = {}
+    for entry in info.get("topics_with_message_count") or []:
+        name = _nested(entry, "topic_metadata", "name")
+        msgtype = _nested(entry, "topic_metadata", "type")
+        count = _integer(_nested(entry, "message_count"))
+        if isinstance(name, str) and isinstance(msgtype, str) and count is not None:
+            counts[name, msgtype] = counts.get((name, msgtype), 0) + count
+    return MetadataFigures(
+        _integer(_nested(info, "starting_time", "nanoseconds_since_epoch")),
+        _integer(_nested(info, "duration", "nanoseconds")),
+        _integer(info.get("message_count")),
+        counts,
+    )
+
+
+def _when(t_ns: int) -> str:
+    try:
+        return datetime.fromtimestamp(t_ns / 1e9, tz=UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+    except (OverflowError, OSError, ValueError):
+        return f"{t_ns} ns"
+
+
+def metadata_disagreements(
+    figures: MetadataFigures,
+    start_ns: int,
+    last_ns: int,
+    total: int,
+    counts: Mapping[tuple[str, str], int],
+    normalize: Any = None,
+) -> list[str]:
+    """What ``figures`` state that the storage files contradict (first message at
+    ``start_ns``, last at ``last_ns``, ``total`` messages, ``counts`` per (topic, normalised
+    type); ``normalize`` maps metadata type names to normalised ones), one phrase each;
+    impossible values (negative times, durations or counts) are called so."""
+    out = []
+    start, duration, count = figures.start_ns, figures.duration_ns, figures.message_count
+    if start is not None and total and start != start_ns:
+        what = "impossible: before 1970" if start < 0 else _when(start)
+        out.append(f"starting_time {start} ns ({what}; the files start at {_when(start_ns)})")
+    if duration is not None and total and duration != last_ns - start_ns:
+        what = "impossible, " if duration < 0 else ""
+        out.append(f"duration {duration} ns ({what}the files: {last_ns - start_ns} ns)")
+    if count is not None and count != total:
+        what = "impossible, " if count < 0 else ""
+        out.append(f"message_count {count} ({what}the files: {total})")
+    for (topic, msgtype), n in sorted(figures.topic_counts.items()):
+        key = (topic, normalize(msgtype) if normalize is not None else msgtype)
+        if key in counts and counts[key] != n:
+            out.append(f"{n} messages on {topic} (the files: {counts[key]})")
+    return out

@@ -205,7 +205,12 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Lit
 
 def _plain_columns(path: Path, spec: _Spec, layout: str) -> F64:
     """The read columns (``spec.used``) of a header-less numeric layout, checked."""
-    data = _load(path, spec, layout, np.float64, ndmin=2)
+    return _checked_plain(path, spec, layout, _load(path, spec, layout, np.float64, ndmin=2))
+
+
+def _checked_plain(path: Path, spec: _Spec, layout: str, data: F64) -> F64:
+    """``data`` (rows of the read columns) checked: column count, finite and integer columns;
+    the ignored columns come back as zeros."""
     if data.shape[1] != len(spec.used):
         raise _fail(path, spec, layout, f"expected {len(spec.columns)} columns")
     arr: F64 = data
@@ -219,26 +224,60 @@ def _plain_columns(path: Path, spec: _Spec, layout: str) -> F64:
     return arr
 
 
-def _seconds_to_ns(t_s: F64, start_ns: int = 0) -> I64:
-    """Seconds -> int64 ns, rounded to the microsecond (the files carry ms at best)."""
+#: Largest magnitude of a time in ns that int64 holds with margin (about 2262-04-11).
+_MAX_ABS_NS = 9.2e18
+
+
+def _seconds_to_ns(t_s: F64, start_ns: int = 0, path: Path | None = None) -> I64:
+    """Seconds -> int64 ns, rounded to the microsecond (the files carry ms at best). A time
+    (after the ``start_ns`` shift) beyond int64 nanoseconds is a :class:`TracksFormatError`
+    (naming ``path``), never a value that wrapped around."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        shifted = t_s * 1e9 + float(start_ns)
+    if len(t_s) and not (np.abs(shifted) < _MAX_ABS_NS).all():  # NaN fails too
+        k = int(np.flatnonzero(~(np.abs(shifted) < _MAX_ABS_NS))[0])
+        raise TracksFormatError(
+            f"{'' if path is None else f'{path}: '}a time of {t_s[k]:g} s is beyond the range "
+            "of nanosecond log times (1970 +- 292 years)",
+            hint="is the time column in seconds? check --start, --fps or the layout",
+        )
     return np.round(t_s * 1e6).astype(np.int64) * 1000 + np.int64(start_ns)
 
 
 # ----------------------------------------------------------------------------- readers
 
 
+_CANONICAL_DTYPE = np.dtype(
+    [(name, "i8" if k in (0, 1) else "f8") for k, name in enumerate(CANONICAL_COLUMNS)]
+)
+
+
+def _canonical_rows(path: Path, rec: Any) -> DetectionBatch:
+    """Canonical records (file order) -> batch; non-finite positions are a format error."""
+    xyz = np.stack([rec["x"], rec["y"], rec["z"]], axis=1)
+    if not np.isfinite(xyz).all():
+        raise _fail(path, _SPECS["canonical"], "canonical")
+    return DetectionBatch.from_arrays(
+        rec["t_ns"], xyz, rec["heading_rad"], rec["speed_mps"], rec["track_id"]
+    )
+
+
+def _atc_rows(path: Path, layout: str, data: F64, start_ns: int) -> DetectionBatch:
+    """ATC / THÖR rows (file order, checked by :func:`_checked_plain`) -> batch."""
+    a = _checked_plain(path, _SPECS["atc"], layout, data)
+    xyz = np.zeros((len(a), 3))
+    xyz[:, :2] = a[:, 2:4]
+    heading = np.mod(a[:, 5] + np.pi, 2 * np.pi) - np.pi
+    return DetectionBatch.from_arrays(
+        _seconds_to_ns(a[:, 0], start_ns, path), xyz, heading, a[:, 4], a[:, 1].astype(np.int64)
+    )
+
+
 def read_canonical(path: str | Path) -> DetectionBatch:
     """Read aion's canonical tracks CSV (exact int64 ``t_ns``)."""
     p = Path(path)
-    spec = _SPECS["canonical"]
-    dtype = np.dtype([(name, "i8" if k in (0, 1) else "f8") for k, name in enumerate(spec.columns)])
-    rec = _load(p, spec, "canonical", dtype, ndmin=1)
-    xyz = np.stack([rec["x"], rec["y"], rec["z"]], axis=1)
-    if not np.isfinite(xyz).all():
-        raise _fail(p, spec, "canonical")
-    return DetectionBatch.from_arrays(
-        rec["t_ns"], xyz, rec["heading_rad"], rec["speed_mps"], rec["track_id"]
-    ).sorted_by_time()
+    rec = _load(p, _SPECS["canonical"], "canonical", _CANONICAL_DTYPE, ndmin=1)
+    return _canonical_rows(p, rec).sorted_by_time()
 
 
 def read_atc(path: str | Path, start_ns: int = 0, layout: str = "atc") -> DetectionBatch:
@@ -248,13 +287,70 @@ def read_atc(path: str | Path, start_ns: int = 0, layout: str = "atc") -> Detect
     Headings are wrapped to [-π, π).
     """
     p = Path(path)
-    a = _plain_columns(p, _SPECS["atc"], layout)
-    xyz = np.zeros((len(a), 3))
-    xyz[:, :2] = a[:, 2:4]
-    heading = np.mod(a[:, 5] + np.pi, 2 * np.pi) - np.pi
-    return DetectionBatch.from_arrays(
-        _seconds_to_ns(a[:, 0], start_ns), xyz, heading, a[:, 4], a[:, 1].astype(np.int64)
-    ).sorted_by_time()
+    data = _load(p, _SPECS["atc"], layout, np.float64, ndmin=2)
+    return _atc_rows(p, layout, data, start_ns).sorted_by_time()
+
+
+#: Rows per chunk when a tracks file is streamed (``aion convert``) and when messages are
+#: built: a chunk takes about 1 KB per row while it is written (TrackedPerson records are 712
+#: bytes), so ~25 MB at most, whatever the file's length.
+CHUNK_ROWS = 20_000
+#: Layouts that can be streamed: one line is one detection, nothing needs the whole file.
+STREAM_LAYOUTS: tuple[str, ...] = ("canonical", "atc", "thor")
+
+
+def track_chunks(
+    path: str | Path, layout: str = "canonical", start_ns: int = 0, rows: int | None = None
+) -> Iterator[DetectionBatch]:
+    """The detections of a canonical / ATC / THÖR file in *file* order, ``rows`` lines
+    (default :data:`CHUNK_ROWS`) at a time (no chunk is empty), each chunk checked as
+    :func:`read_tracks` checks the whole file (the same errors, naming the first bad line of
+    the file). A file without rows is a :class:`TracksFormatError`. Memory: one chunk,
+    whatever the file's length."""
+    key = layout.lower()
+    if key not in STREAM_LAYOUTS:
+        raise TracksFormatError(
+            f"the {layout!r} layout cannot be streamed", hint=f"use {', '.join(STREAM_LAYOUTS)}"
+        )
+    rows = CHUNK_ROWS if rows is None else rows
+    if rows < 1:
+        raise ValueError(f"rows must be >= 1, got {rows}")
+    p = Path(path)
+    spec = _SPECS["canonical" if key == "canonical" else "atc"]
+    _check_file(p, spec, key)
+    found = 0
+    for lines in _line_chunks(p, spec, key, rows):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # a chunk of comments only
+                data: Any = np.loadtxt(
+                    lines,
+                    dtype=_CANONICAL_DTYPE if key == "canonical" else np.float64,
+                    delimiter=spec.delimiter,
+                    ndmin=1 if key == "canonical" else 2,
+                )
+        except (ValueError, OverflowError) as exc:
+            raise _fail(p, spec, key, str(exc)) from exc
+        if data.size == 0:
+            continue
+        found += len(data)
+        yield _canonical_rows(p, data) if key == "canonical" else _atc_rows(p, key, data, start_ns)
+    if found == 0:
+        raise TracksFormatError(f"{p}: no track rows", hint="the file is empty")
+
+
+def _line_chunks(path: Path, spec: _Spec, layout: str, rows: int) -> Iterator[list[str]]:
+    """The data lines of a file (after its header), ``rows`` at a time."""
+    import itertools
+
+    with path.open(encoding="utf-8-sig") as fh:
+        try:
+            for _ in range(spec.skip):
+                fh.readline()
+            while lines := list(itertools.islice(fh, rows)):
+                yield lines
+        except UnicodeDecodeError as exc:
+            raise _fail(path, spec, layout, str(exc)) from exc
 
 
 def finite_difference(t_ns: I64, track_id: I64, xy: F64) -> tuple[F64, F64]:
@@ -273,7 +369,7 @@ def read_eth(path: str | Path, fps: float = 25.0, start_ns: int = 0) -> Detectio
         raise TracksFormatError(f"fps must be > 0, got {fps}")
     p = Path(path)
     a = _plain_columns(p, _SPECS["eth"], "eth")
-    t_ns = _seconds_to_ns(a[:, 0] / fps, start_ns)
+    t_ns = _seconds_to_ns(a[:, 0] / fps, start_ns, p)
     tid = a[:, 1].astype(np.int64)
     heading, speed = finite_difference(t_ns, tid, a[:, 2:4])
     xyz = np.zeros((len(a), 3))
@@ -352,7 +448,7 @@ def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_F
         raise _edinburgh_problem(p, text, found)
     tid = np.repeat(ids, counts)
     notes = _edinburgh_count_notes(p, text, ids, counts)
-    t_ns = _seconds_to_ns(points[:, 2] / fps, start_ns)
+    t_ns = _seconds_to_ns(points[:, 2] / fps, start_ns, p)
     xyz = np.zeros((len(points), 3))
     xyz[:, 0] = points[:, 0] * EDINBURGH_M_PER_PX
     xyz[:, 1] = (EDINBURGH_HEIGHT_PX - points[:, 1]) * EDINBURGH_M_PER_PX
@@ -473,7 +569,7 @@ def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") ->
     scale = _thor_magni_scale(p, x, y, units, notes)
     tid = _agent_ids(names)
     xyz = np.stack([x, y, np.nan_to_num(z)], axis=1) * scale
-    t_ns = _seconds_to_ns(t_s, start_ns)
+    t_ns = _seconds_to_ns(t_s, start_ns, p)
     heading, speed = finite_difference(t_ns, tid, xyz[:, :2])
     batch = DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
     return TrackData(batch, notes=tuple(notes))
@@ -734,7 +830,7 @@ def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackD
         t_s, xyz, own = a[:, 0], a[:, 2:5], np.mod(a[:, 5] + np.pi, 2 * np.pi) - np.pi
     else:
         t_s, xyz, own = a[:, 0], np.c_[a[:, 1:3], np.zeros(len(a))], None
-    t_ns = _seconds_to_ns(t_s)
+    t_ns = _seconds_to_ns(t_s, path=p)
     sentinel = (xyz[:, 0] == 0) & (xyz[:, 1] == 0)
     spans = [(t, t + SENTINEL_SPAN_NS) for t in np.unique(t_ns[sentinel]).tolist()]
     people = ~sentinel
@@ -839,6 +935,8 @@ class TracksLogSummary:
     observed_messages: int = 0
     observed_spans: int = 0
     observed_ns: int = 0
+    #: distinct track ids among the detections
+    tracks: int = 0
 
 
 #: interval of the empty detection messages over an observed span: far below any sane
@@ -862,10 +960,16 @@ def observed_stamps(
     return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
 
 
-def _group_bounds(t_ns: I64, group_ns: int) -> tuple[I64, I64]:
-    """Message stamps and split points of time-sorted rows: one message per distinct time, or
-    per ``group_ns`` bin (stamped at the bin's first detection) when ``group_ns > 0``."""
-    key = t_ns if group_ns <= 0 else (t_ns - t_ns[0]) // group_ns
+def _group_keys(t_ns: I64, group_ns: int, t0: int) -> I64:
+    """The message each time-sorted row goes into: one message per distinct time, or per
+    ``group_ns`` bin counted from ``t0`` (the first detection) when ``group_ns > 0``."""
+    return t_ns if group_ns <= 0 else (t_ns - np.int64(t0)) // group_ns
+
+
+def _group_bounds(t_ns: I64, group_ns: int, t0: int | None = None) -> tuple[I64, I64]:
+    """Message stamps and split points of time-sorted rows (:func:`_group_keys`; a bin's
+    message is stamped at its first detection)."""
+    key = _group_keys(t_ns, group_ns, int(t_ns[0]) if t0 is None else t0)
     _, first = np.unique(key, return_index=True)
     return t_ns[first], first[1:]
 
@@ -907,8 +1011,11 @@ _TP_LAYOUT = {
 _CDR_LE = b"\x00\x01\x00\x00"  # CDR little-endian encapsulation header
 
 
-def _tracked_person_records(batch: DetectionBatch, cdr: bool) -> npt.NDArray[np.void]:
-    """Every row's serialized TrackedPerson, built in one go as a structured array."""
+def _tracked_person_records(
+    batch: DetectionBatch, cdr: bool, first_id: int = 0
+) -> npt.NDArray[np.void]:
+    """Every row's serialized TrackedPerson, built in one go as a structured array; detection
+    ids count from ``first_id`` (the row's index in the whole log)."""
     offsets, itemsize, nsec_type = _TP_LAYOUT[cdr]
     formats = [
         "<u8",
@@ -929,7 +1036,7 @@ def _tracked_person_records(batch: DetectionBatch, cdr: bool) -> npt.NDArray[np.
     rec = np.zeros(len(batch), dtype=dtype)
     rec["track_id"] = batch.track_id.astype(np.uint64)
     rec["is_matched"] = 1
-    rec["detection_id"] = np.arange(len(batch), dtype=np.uint64)
+    rec["detection_id"] = np.arange(first_id, first_id + len(batch), dtype=np.uint64)
     rec["pose"][:, :3] = batch.xyz
     rec["pose"][:, 3:] = quat
     rec["pose_cov"][~known_h, 35] = UNSET_VARIANCE
@@ -1013,79 +1120,236 @@ def tracks_to_log(
     :data:`OBSERVED_INTERVAL_NS`), merged in time order with the detection messages.
     Without spans only the detections are written: windows without one count as unobserved.
     The batch may be empty when spans are given (the sensor ran, nobody came).
+
+    Times must lie in ``0 .. 2^63 - 1`` ns (:class:`formats.writers.LogTimeError`, raised
+    before anything is written). The messages are built :data:`CHUNK_ROWS` rows at a time
+    (:func:`stream_tracks_to_log` reads the file that way too).
     """
+    if len(batch) == 0 and not merge_spans(observed):
+        raise InputError("no detections to write", hint="the tracks file has no rows")
+    data = batch.sorted_by_time()
+    n, step = len(data), CHUNK_ROWS
+    chunks = (data.select(np.arange(a, min(a + step, n))) for a in range(0, n, step))
+    return _write_tracks(
+        chunks, out_path, graph_file=graph_file, container=container, topic=topic,
+        msgtype=msgtype, frame_id=frame_id, group_ns=group_ns, graph_topic=graph_topic,
+        graph_period_s=graph_period_s, overwrite=overwrite, observed=observed,
+    )
+
+
+def stream_tracks_to_log(
+    tracks: str | Path,
+    out_path: str | Path,
+    layout: str = "canonical",
+    start_ns: int = 0,
+    rows: int | None = None,
+    **options: Any,
+) -> TracksLogSummary:
+    """:func:`tracks_to_log` of a canonical / ATC / THÖR file (:data:`STREAM_LAYOUTS`) read
+    ``rows`` lines (default :data:`CHUNK_ROWS`) at a time: memory for one chunk, whatever the
+    file's length, and the same log as reading the whole file. That needs the file in time
+    order, chunk after chunk (rows within a chunk may be in any order); if a chunk starts
+    before the previous one ended, the partial log is thrown away and the file is read whole
+    (memory ~70 bytes per row) and sorted, as :func:`read_tracks` does. ``options``: those
+    of :func:`tracks_to_log`."""
+    chunks = (c.sorted_by_time() for c in track_chunks(tracks, layout, start_ns, rows))
+    try:
+        return _write_tracks(chunks, out_path, **options)
+    except _UnsortedError:
+        return tracks_to_log(read_tracks(tracks, layout, start_ns), out_path, **options)
+
+
+class _UnsortedError(Exception):
+    """A chunk starts before the previous one ended (streamed input out of time order)."""
+
+
+def _check_log_times(t_ns: I64, what: str) -> None:
+    """Log times are nanoseconds since 1970 in ``0 .. 2^63 - 1`` (int64 holds no more):
+    a time before 1970 is a :class:`formats.writers.LogTimeError` naming it."""
+    if len(t_ns) and int(t_ns.min()) < 0:
+        from formats.writers import MAX_LOG_TIME_NS, LogTimeError
+
+        first = int(t_ns.min())
+        raise LogTimeError(
+            f"{what} have times before 1970, the first at log time {first} ns "
+            f"({_utc(first)} UTC): log times are nanoseconds since 1970 in "
+            f"0..{MAX_LOG_TIME_NS} (1970-01-01 to 2262-04-11)",
+            hint="shift the times (--start for layouts that count from 0) or drop those rows",
+        )
+
+
+@dataclass
+class _Messages:
+    """Writes the messages of a tracks log in time order: detection messages (a group of
+    rows each), the empty "still observing" messages at ``marks`` (after a detection message
+    of the same time), and the scene graph every ``period`` ns from the first message."""
+
+    writer: Any
+    kind: str
+    topic: str
+    frame_id: str
+    marks: I64
+    payload: bytes | None
+    graph_topic: str
+    period: int
+    next_mark: int = 0
+    seq: int = 0  # detection and mark messages written (their ROS 1 header seq)
+    graph_next: int | None = None
+    graphs: int = 0
+    first_ns: int | None = None
+    last_ns: int | None = None
+
+    def rows(self, data: DetectionBatch, stamps: I64, splits: I64, first_id: int) -> None:
+        """One message per group of ``data`` (time-sorted rows, groups split at ``splits``
+        and stamped ``stamps``); ``first_id`` numbers the rows (TrackedPerson ids)."""
+        cdr = self.writer.ros_version == 2
+        if self.kind == SPENCER_TRACKED:
+            records = _tracked_person_records(data, cdr, first_id)
+        else:
+            quat = _orientation_velocity(data)[0].tolist()
+            xyz = data.xyz.tolist()
+        bounds = np.concatenate([[0], splits, [len(data)]]).tolist()
+        for t, a, b in zip(stamps.tolist(), bounds[:-1], bounds[1:], strict=True):
+            self.marks_before(t)
+            self._before(t)
+            if self.kind == SPENCER_TRACKED:
+                raw = _tracked_persons_bytes(records[a:b], t, self.frame_id, cdr, self.seq)
+                self.writer.write_raw(self.topic, self.kind, raw, t)
+            else:
+                msg = _pose_array_message(t, xyz[a:b], quat[a:b], self.frame_id)
+                self.writer.write(self.topic, self.kind, msg, t)
+            self.seq += 1
+
+    def marks_before(self, t: int | None) -> None:
+        """The empty messages stamped before ``t`` (all that are left when None)."""
+        end = len(self.marks) if t is None else int(np.searchsorted(self.marks, t, "left"))
+        cdr = self.writer.ros_version == 2
+        for m in self.marks[self.next_mark : end].tolist():
+            self._before(m)
+            if self.kind == SPENCER_TRACKED:
+                empty = _tracked_persons_bytes(_NO_RECORDS[cdr], m, self.frame_id, cdr, self.seq)
+                self.writer.write_raw(self.topic, self.kind, empty, m)
+            else:
+                self.writer.write(self.topic, self.kind, _pose_array_message(
+                    m, [], [], self.frame_id), m)
+            self.seq += 1
+        self.next_mark = max(self.next_mark, end)
+
+    def _before(self, t: int) -> None:
+        """Bookkeeping before a message at ``t``: the scene graphs due by then."""
+        from formats.writers import stamp
+
+        if self.first_ns is None:
+            self.first_ns = t
+            self.graph_next = t if self.payload is not None else None
+        self.last_ns = t
+        while self.graph_next is not None and self.graph_next <= t:
+            g = self.graph_next
+            self.writer.write(
+                self.graph_topic,
+                DSG_UPDATE,
+                {
+                    "header": {"stamp": stamp(g), "frame_id": self.frame_id},
+                    "layer_contents": self.payload,
+                    "full_update": True,
+                    "sequence_number": self.graphs,
+                },
+                g,
+            )
+            self.graphs += 1
+            self.graph_next = g + self.period
+
+
+_NO_RECORDS = {cdr: np.zeros(0, dtype=_tracked_person_records(DetectionBatch.empty(), cdr).dtype)
+               for cdr in (True, False)}
+
+
+def _write_tracks(
+    chunks: Iterable[DetectionBatch],
+    out_path: str | Path,
+    graph_file: str | Path | None = None,
+    container: str = "mcap",
+    topic: str = "/people_tracker/tracked_persons",
+    msgtype: str = SPENCER_TRACKED,
+    frame_id: str = "map",
+    group_ns: int = 0,
+    graph_topic: str = "/hydra/backend/dsg",
+    graph_period_s: float = 60.0,
+    overwrite: bool = False,
+    observed: Iterable[tuple[int, int]] = (),
+) -> TracksLogSummary:
+    """:func:`tracks_to_log` over time-sorted ``chunks`` (each sorted; a chunk starting
+    before the previous one ended raises :class:`_UnsortedError`, the partial log thrown
+    away). The rows of a chunk's last message are held back until the next chunk shows it is
+    complete, so the messages are those of the concatenated rows."""
     from formats.raw import normalize_msgtype
-    from formats.writers import LogWriter, stamp
+    from formats.writers import LogWriter
 
     kind = normalize_msgtype(msgtype)
     if kind not in (SPENCER_TRACKED, POSE_ARRAY):
         raise InputError(
             f"cannot write tracks as {msgtype!r}", hint=f"use {SPENCER_TRACKED} or {POSE_ARRAY}"
         )
+    if not graph_period_s > 0:
+        raise InputError(f"graph period must be > 0 s, got {graph_period_s}")
     spans = merge_spans(observed)
-    if len(batch) == 0 and not spans:
-        raise InputError("no detections to write", hint="the tracks file has no rows")
-    if kind == SPENCER_TRACKED and (batch.track_id < 0).any():
+    marks = observed_stamps(spans)
+    _check_log_times(marks, "the observed spans")
+    payload = _graph_payload(graph_file) if graph_file is not None else None
+    rows = groups = 0
+    track_ids = np.zeros(0, np.int64)
+    with LogWriter(out_path, container, overwrite=overwrite) as writer:
+        out = _Messages(
+            writer, kind, topic, frame_id, marks, payload, graph_topic, round(graph_period_s * 1e9)
+        )
+        held: DetectionBatch | None = None  # the rows of the last, maybe unfinished, message
+        t0: int | None = None
+        for chunk in chunks:
+            if len(chunk) == 0:
+                continue
+            _check_chunk(chunk, kind, held)
+            t0 = int(chunk.t_ns[0]) if t0 is None else t0
+            track_ids = np.union1d(track_ids, chunk.track_id)
+            data = chunk if held is None else DetectionBatch.concat([held, chunk])
+            keys = _group_keys(data.t_ns, group_ns, t0)
+            cut = int(np.searchsorted(keys, keys[-1], "left"))  # the last message's rows
+            if cut > 0:
+                done = data.select(np.arange(cut))
+                stamps, splits = _group_bounds(done.t_ns, group_ns, t0)
+                out.rows(done, stamps, splits, rows)
+                rows, groups = rows + cut, groups + len(stamps)
+            held = data.select(np.arange(cut, len(data)))
+        if held is not None:
+            stamps, splits = _group_bounds(held.t_ns, group_ns, t0)
+            out.rows(held, stamps, splits, rows)
+            rows, groups = rows + len(held), groups + len(stamps)
+        if rows == 0 and not spans:
+            raise InputError("no detections to write", hint="the tracks file has no rows")
+        out.marks_before(None)
+    assert out.first_ns is not None
+    assert out.last_ns is not None
+    return TracksLogSummary(
+        Path(out_path),
+        groups,
+        rows,
+        out.graphs,
+        out.first_ns,
+        out.last_ns,
+        observed_messages=len(marks),
+        observed_spans=len(spans),
+        observed_ns=sum(b - a for a, b in spans),
+        tracks=len(track_ids),
+    )
+
+
+def _check_chunk(chunk: DetectionBatch, kind: str, held: DetectionBatch | None) -> None:
+    """A chunk may be written: times in range, in order after what came before, track ids
+    where TrackedPersons needs them."""
+    if held is not None and int(chunk.t_ns[0]) < int(held.t_ns[-1]):
+        raise _UnsortedError
+    _check_log_times(chunk.t_ns, "the tracks")
+    if kind == SPENCER_TRACKED and (chunk.track_id < 0).any():
         raise InputError(
             "TrackedPersons needs track ids, some rows have none (-1)",
             hint=f"write the rows as {POSE_ARRAY} instead",
         )
-    if not graph_period_s > 0:
-        raise InputError(f"graph period must be > 0 s, got {graph_period_s}")
-    data = batch.sorted_by_time()
-    empty = np.zeros(0, np.int64)
-    stamps, splits = _group_bounds(data.t_ns, group_ns) if len(data) else (empty, empty)
-    marks = observed_stamps(spans)
-    # one time-ordered list of (stamp, first row, end row); the empty messages have no rows
-    none = np.zeros(len(marks), np.int64)
-    times = np.concatenate([stamps, marks])
-    starts = np.concatenate([[0], splits])[: len(stamps)]
-    ends = np.concatenate([splits, [len(data)]])[: len(stamps)]
-    starts, ends = np.concatenate([starts, none]), np.concatenate([ends, none])
-    order = np.argsort(times, kind="stable")
-    times, starts, ends = times[order], starts[order], ends[order]
-    payload = _graph_payload(graph_file) if graph_file is not None else None
-    graph_times: list[int] = []
-    if payload is not None:
-        period = round(graph_period_s * 1e9)
-        graph_times = list(range(int(times[0]), int(times[-1]) + 1, period))
-    with LogWriter(out_path, container, overwrite=overwrite) as writer:
-        cdr = writer.ros_version == 2
-        if kind == SPENCER_TRACKED:
-            records = _tracked_person_records(data, cdr)
-        else:
-            quat = _orientation_velocity(data)[0].tolist()
-            xyz = data.xyz.tolist()
-        g = 0
-        for k, (t, a, b) in enumerate(
-            zip(times.tolist(), starts.tolist(), ends.tolist(), strict=True)
-        ):
-            while g < len(graph_times) and graph_times[g] <= t:
-                writer.write(
-                    graph_topic,
-                    DSG_UPDATE,
-                    {
-                        "header": {"stamp": stamp(graph_times[g]), "frame_id": frame_id},
-                        "layer_contents": payload,
-                        "full_update": True,
-                        "sequence_number": g,
-                    },
-                    graph_times[g],
-                )
-                g += 1
-            if kind == SPENCER_TRACKED:
-                raw = _tracked_persons_bytes(records[a:b], t, frame_id, cdr, k)
-                writer.write_raw(topic, kind, raw, t)
-            else:
-                writer.write(topic, kind, _pose_array_message(t, xyz[a:b], quat[a:b], frame_id), t)
-    return TracksLogSummary(
-        Path(out_path),
-        len(stamps),
-        len(data),
-        len(graph_times),
-        int(times[0]),
-        int(times[-1]),
-        observed_messages=len(marks),
-        observed_spans=len(spans),
-        observed_ns=sum(b - a for a, b in spans),
-    )

@@ -32,17 +32,22 @@ ones you want with --detections-topic (repeatable), e.g. when a tracker publishe
 people twice. Other types: --detections-mapping FILE. Detections without ids are linked into
 short tracks, so their headings come from motion. Without a robot trajectory (TF
 map->base_link or the scene graph's agent layer) the log is treated as a fixed sensor over
-its time span; the summary says so. An interrupted or failed build leaves an existing map
-untouched.
+the windows in which it recorded messages; the summary says so. The time span comes from the
+messages used; a message logged more than a day away from its topic's others (a run of at most
+10 messages and 5 % of the topic), or outside 1900..2261, is dropped with a warning. Logs
+must be added to a --map in time order; a log given twice is used once. Warnings are printed
+also with -q and --format json (on stderr). An interrupted or failed build leaves an existing
+map untouched.
 
 \b
 JSON keys (--format json): map, map_bytes, continued, detections{read, used,
-dropped{reason: n}}, cells (unbound hash cells), nodes, nodes_with_flow, bound_cells,
-windows (most windows any entry observed), time_span{start_ns, end_ns, seconds},
-observation, graph{source, layer, messages, dsg_version, topics}, detection_topics,
-detection_decoding{topic: {type, why, decoder (fast|generic|mapping), messages,
-undecodable}}, headings{velocity, track, linked, pose_yaw, none}, inputs[{path, name, size,
-sha256}], notes, warnings.
+dropped{reason: n}}, detections_by_topic{topic: {read, used, dropped{reason: n}}}, cells
+(unbound hash cells), nodes, nodes_with_flow, bound_cells, windows (most windows any entry
+observed), time_span{start_ns, end_ns, seconds}, observation, graph{source, layer,
+messages, dsg_version, topics}, detection_topics, detection_decoding{topic: {type, why,
+decoder (fast|generic|mapping), messages, undecodable}}, log_times_dropped{topic:
+{out_of_range, stray}}, tf_undecodable, headings{velocity, track, linked, pose_yaw, none},
+inputs[{path, name, size, sha256}], notes, warnings.
 """
 
 
@@ -198,7 +203,9 @@ def _load_config(path: Path | None) -> Any:
     "local clock of the map's days and daily profiles, and the default of predict / plan / "
     "export [default: UTC; a continued map keeps its own].",
 )
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary table.")
+@click.option(
+    "-q", "--quiet", is_flag=True, help="No progress bar and no summary table (warnings stay)."
+)
 @format_option(choices=("table", "json"))
 def command(
     logs: tuple[Path, ...],
@@ -259,9 +266,12 @@ def command(
     with _RichProgress(quiet or fmt == "json") as progress:
         report = build_map(options, progress)
     summary = report.to_dict()
+    from aion_cli.cli.build_summary import print_summary, print_warnings
+
     if fmt == "json":
         click.echo(to_json(summary))
+        print_warnings(summary)  # on stderr: stdout stays one JSON document
     elif not quiet:
-        from aion_cli.cli.build_summary import print_summary
-
         print_summary(summary)
+    else:
+        print_warnings(summary)

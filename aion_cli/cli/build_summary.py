@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from aion_cli.cli.console import console
-from aion_cli.cli.output import human_size
+from aion_cli.cli.console import console, warn
+from aion_cli.cli.output import human_size, markup_safe
 
 
 def span_text(seconds: float | None) -> str:
@@ -18,38 +18,47 @@ def span_text(seconds: float | None) -> str:
 
 
 def print_summary(summary: dict[str, Any]) -> None:
-    """Render the build report dict (``BuildReport.to_dict``) as a two-column table."""
-    from rich.markup import escape
+    """Render the build report dict (``BuildReport.to_dict``) as a two-column table, then its
+    warnings and notes. Every string that can come from a log or a path (map name, layer,
+    observation, notes naming topics and frames) is shown as plain text: control characters
+    made visible, rich markup not applied (:func:`aion_cli.cli.output.markup_safe`)."""
     from rich.table import Table
 
     det = summary["detections"]
-    table = Table(title=f"map {summary['map']}", show_header=False, title_justify="left")
+    table = Table(
+        title=f"map {markup_safe(summary['map'])}", show_header=False, title_justify="left"
+    )
     table.add_column("what", style="bold")
     table.add_column("value", justify="right")
     table.add_row("detections read", f"{det['read']:,}")
     table.add_row("detections used", f"{det['used']:,}")
     for reason, count in det["dropped"].items():
         if count:
-            table.add_row(f"  dropped: {reason}", f"{count:,}")
+            table.add_row(f"  dropped: {markup_safe(reason)}", f"{count:,}")
     headings = summary.get("headings") or {}
     if any(headings.values()):
         table.add_row("headings", heading_text(headings))
     graph = summary["graph"]
     layer = f", layer {graph['layer']}" if graph.get("layer") else ""
-    table.add_row("graph", f"{graph['source']}{layer}")
+    table.add_row("graph", markup_safe(f"{graph['source']}{layer}"))
     table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
     table.add_row("hash cells", f"{summary['cells']:,}")
     table.add_row("bound cells", f"{summary['bound_cells']:,}")
     table.add_row("windows observed", f"{summary['windows']:,}")
     table.add_row("time span", span_text(summary["time_span"]["seconds"]))
-    table.add_row("observation", summary["observation"])
+    table.add_row("observation", markup_safe(summary["observation"]))
     table.add_row("map size", human_size(summary["map_bytes"]))
-    out = console()
-    out.print(table)
-    for warning in summary.get("warnings", []):
-        out.print(f"[yellow]warning:[/yellow] {escape(warning)}", soft_wrap=True)
-    for note in summary.get("notes", []):
-        out.print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
+    console().print(table)
+    print_warnings(summary)
+    for message in summary.get("notes", []):
+        console().print(f"[yellow]note:[/yellow] {markup_safe(message)}", soft_wrap=True)
+
+
+def print_warnings(summary: dict[str, Any]) -> None:
+    """The report's warnings on stderr, one line each (also with ``-q`` and ``--format
+    json``: a build that lost data must say so however it is run)."""
+    for message in summary.get("warnings", []):
+        warn(message)
 
 
 def heading_text(headings: dict[str, int]) -> str:

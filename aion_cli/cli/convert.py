@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -177,13 +177,20 @@ def command(
     from aion_cli.cli.console import console, note
     from aion_cli.cli.timeparse import parse_time, resolve_zone
     from aion_cli.engine.errors import InputError
-    from formats.tracks import merge_spans, read_track_data, tracks_to_log
+    from formats.tracks import (
+        STREAM_LAYOUTS,
+        merge_spans,
+        read_track_data,
+        stream_tracks_to_log,
+        tracks_to_log,
+    )
+    from formats.writers import check_log_target
 
     if not tracks.is_file():
         raise InputError(f"tracks file not found: {tracks}", hint="check the path")
     kind = _container_for(output, container)
-    if output.exists() and not force:
-        raise InputError(f"{output} exists already", hint="choose another -o or add --force")
+    # the target is refused (exists, device, FIFO, not aion's own log) before anything is read
+    check_log_target(output, kind, overwrite=force)
     _check_layout_options(layout, date_text, start_text, fps, length_unit)
     zone = resolve_zone(tz)
     spans = [_span(text, zone) for text in observed_text]  # bad spans fail before reading
@@ -191,23 +198,27 @@ def command(
     clock = date_text if layout == "edinburgh" else start_text
     if clock is not None:
         start_ns = parse_time(clock, zone)
-    data = read_track_data(
-        tracks, layout, start_ns=start_ns, fps=fps, units=length_unit or "auto"
-    )
-    batch = data.batch
-    observed = merge_spans([*data.observed, *spans])
-    if len(batch) == 0:
-        raise InputError(f"no tracks in {tracks}", hint=f"is it really the {layout!r} layout?")
-    summary = tracks_to_log(
-        batch,
-        output,
-        graph_file=graph_file,
-        container=kind,
-        msgtype=msgtype,
-        overwrite=force,
-        observed=observed,
-    )
-    for line in data.notes:
+    options: dict[str, Any] = {
+        "graph_file": graph_file, "container": kind, "msgtype": msgtype, "overwrite": force,
+    }
+    notes: tuple[str, ...] = ()
+    if layout in STREAM_LAYOUTS:  # one detection per line: read and written in chunks
+        summary = stream_tracks_to_log(
+            tracks, output, layout, start_ns, observed=merge_spans(spans), **options
+        )
+    else:
+        data = read_track_data(
+            tracks, layout, start_ns=start_ns, fps=fps, units=length_unit or "auto"
+        )
+        if len(data.batch) == 0:
+            raise InputError(
+                f"no tracks in {tracks}", hint=f"is it really the {layout!r} layout?"
+            )
+        summary = tracks_to_log(
+            data.batch, output, observed=merge_spans([*data.observed, *spans]), **options
+        )
+        notes = data.notes
+    for line in notes:
         note(line)
     if layout == "edinburgh":
         from aion_cli.cli.timeparse import format_ns
@@ -221,10 +232,9 @@ def command(
             f"{layout}: the file's times count from 0 and were written from 1970-01-01 00:00 "
             "UTC; give --start for when it was recorded"
         )
-    n_tracks = len(set(batch.track_id.tolist()))
     span = (summary.end_ns - summary.start_ns) / 1e9
     console().print(
-        f"wrote {summary.path}: {summary.detections:,} detections of {n_tracks:,} tracks in "
+        f"wrote {summary.path}: {summary.detections:,} detections of {summary.tracks:,} tracks in "
         f"{summary.detection_messages:,} messages over {span:,.0f} s"
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,

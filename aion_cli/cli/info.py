@@ -212,15 +212,19 @@ def _show_graph_files(paths: tuple[Path, ...], nav_layer: str | None, fmt: str) 
 
 
 def _print(report: dict[str, Any]) -> None:
-    from rich.markup import escape
+    """The table of a log report. Every string that comes from the log (topic and type names,
+    reasons naming topics, versions, warnings) or from the command line (file names) goes
+    through :func:`markup_safe`: a topic named ``/x<ESC>[2J`` shows as ``/x\x1b[2J``
+    instead of clearing the screen, and ``[bold]`` in a name is shown, not applied."""
     from rich.table import Table
 
     from aion_cli.cli.console import console, data_console
+    from aion_cli.cli.output import markup_safe as safe
 
     out = data_console()
-    names = ", ".join(Path(f["path"]).name for f in report["files"])
+    names = safe(", ".join(Path(f["path"]).name for f in report["files"]))
     out.print(
-        f"[bold]{names}[/bold]  format: {report['format'] or '?'}  "
+        f"[bold]{names}[/bold]  format: {safe(report['format'] or '?')}  "
         f"size: {human_size(report['size_bytes'])}  "
         f"duration: {report['duration_s']:,.1f} s ({report['start']} .. {report['end']})  "
         f"messages: {report['messages']:,}",
@@ -238,13 +242,13 @@ def _print(report: dict[str, Any]) -> None:
     for t in report["topics"]:
         why = t.get("why", "")
         if t["used"]:
-            role = t["role"] + (f" ({why})" if why and why != t["role"] else "")
+            role = safe(t["role"] + (f" ({why})" if why and why != t["role"] else ""))
         else:
-            role = f"[dim]- {escape(why or 'not a type aion reads')}[/dim]"
+            role = f"[dim]- {safe(why or 'not a type aion reads')}[/dim]"
         if t["topic"] in report["dsg_versions"]:
-            role += f" (spark_dsg {', '.join(report['dsg_versions'][t['topic']])})"
+            role += f" (spark_dsg {safe(', '.join(report['dsg_versions'][t['topic']]))})"
         rate = "-" if t["rate_hz"] is None else f"{t['rate_hz']:.2f}"
-        table.add_row(t["topic"], t["type"], f"{t['count']:,}", rate, role)
+        table.add_row(safe(t["topic"]), safe(t["type"]), f"{t['count']:,}", rate, role)
     out.print(table)
     use = report["will_use"]
     if not use["detections"]:
@@ -259,36 +263,39 @@ def _print(report: dict[str, Any]) -> None:
             "[yellow]note:[/yellow] no scene graph: build with --graph FILE or --derive-graph"
         )
     for warning in report["warnings"]:
-        console().print(f"[yellow]warning:[/yellow] {warning}", soft_wrap=True)
+        console().print(f"[yellow]warning:[/yellow] {safe(warning)}", soft_wrap=True)
 
 
 def _print_map(report: dict[str, Any]) -> None:
+    """The table of a map's manifest; its strings (input names, creator, sources, config
+    values) are escaped like a log's (:func:`_print`): a map file is input too."""
     from rich.table import Table
 
     from aion_cli.cli.build_summary import span_text
     from aion_cli.cli.console import data_console
+    from aion_cli.cli.output import markup_safe as safe
     from aion_cli.engine.config import ModelConfig
 
     span = report.get("time_span", {})
     start, end = span.get("start_ns"), span.get("end_ns")
     seconds = None if start is None or end is None else (end - start) / 1e9
     counts = report.get("counts", {})
-    table = Table(title=f"map {report['map']}", show_header=False, title_justify="left")
+    table = Table(title=f"map {safe(report['map'])}", show_header=False, title_justify="left")
     table.add_column("what", style="bold")
     table.add_column("value")
-    table.add_row("format", f"{report.get('format')} {report.get('version')}")
-    table.add_row("created", f"{report.get('created')} by {report.get('creator')}")
+    table.add_row("format", safe(f"{report.get('format')} {report.get('version')}"))
+    table.add_row("created", safe(f"{report.get('created')} by {report.get('creator')}"))
     table.add_row("time span", span_text(seconds))
     table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
-    table.add_row("graph", str(report.get("graph_source")))
-    table.add_row("observation", str(report.get("observation")))
+    table.add_row("graph", safe(report.get("graph_source")))
+    table.add_row("observation", safe(report.get("observation")))
     families = report.get("families") or {}
     for kind in ("flow", "direction"):
         tally = families.get(kind) or {}
         if tally:
             text = ", ".join(f"{name} {count:,}" for name, count in sorted(tally.items()))
-            table.add_row(f"{kind} models", text)
+            table.add_row(f"{kind} models", safe(text))
     if families:
         table.add_row(
             "reconciled", "yes: totals follow the map's own forecast" if families.get("reconciled")
@@ -296,9 +303,12 @@ def _print_map(report: dict[str, Any]) -> None:
         )
     defaults = ModelConfig().to_dict()
     changed = {k: v for k, v in report.get("config", {}).items() if defaults.get(k) != v}
-    table.add_row("config", ", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults")
+    table.add_row(
+        "config", safe(", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults")
+    )
     for entry in report.get("inputs", []):
         table.add_row(
-            "input", f"{entry['name']}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"
+            "input",
+            safe(f"{entry['name']}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"),
         )
     data_console().print(table)

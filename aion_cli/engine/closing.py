@@ -25,6 +25,11 @@ Closing the run of windows ``[w0, stop)`` (``w0`` the open window) when time rea
 Because bind checks happen only at recorded-window ends (and at graph updates), closing
 ``[w0, k)`` and later ``[k, stop)`` gives the same state as closing ``[w0, stop)`` at once: a
 build can stop anywhere and continue.
+
+Cost: O(recorded windows) per call, whatever the gap between ``w0`` and ``stop``: the recorded
+windows come from binary searches over the sorted poses and merged fixed-sensor intervals
+(:meth:`ObservationSource.covered_windows`), and only they are visited; a day is closed only
+when a recorded window (or ``stop``) lies in a later day, never once per elapsed day.
 """
 
 from __future__ import annotations
@@ -94,8 +99,8 @@ def _record(state: MapState, windows: I64, w0: int, delta: int) -> None:
     count_rows, counts = rows[seen], counts[seen]
     none = np.zeros(0, np.int64)
     xy = state.entries.xyz[rows, :2]
-    for w in windows.tolist():
-        fixed = state.observation.fixed_covers(int(w), delta)
+    fixed_mask = state.observation.fixed_mask(windows, delta).tolist()
+    for w, fixed in zip(windows.tolist(), fixed_mask, strict=True):
         observed = none
         if not fixed and len(rows):
             mask = state.observation.robot_observed(xy, int(w), delta, state.config.sensor_range)

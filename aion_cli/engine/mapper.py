@@ -33,6 +33,10 @@ Choices:
 * **When binding is checked**: on ``add_graph`` and ``advance`` (at their times), and at the
   end of every window that is recorded when windows close (one with detections or covered by
   an observation source; before that window is recorded), whatever closes it.
+* **Times**: every time given to the Mapper (detections, graphs, poses, fixed-sensor spans,
+  ``advance``) must lie in ``MIN_TIME_NS .. MAX_TIME_NS`` (1900-01-01 .. 2261-01-01 UTC, as
+  ``--time``), else :class:`InputError`: window arithmetic stays exact in int64, and a far
+  time costs nothing but its recorded windows (``advance`` to 2261 visits only those).
 * **Continuing a build**: the open window stays open at the end of a log and is persisted, so
   building from log A, saving, loading and continuing with log B gives the same state as
   building from A+B at once with the same graphs, detections and observation sources. An
@@ -44,16 +48,37 @@ Choices:
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, direction_bins
-from aion_cli.engine.errors import ConfigError
+from aion_cli.engine.errors import ConfigError, InputError
 from aion_cli.engine.ownership import apply_graph, bind_cells
 from aion_cli.engine.spatial_hash import cell_centres, hashable_indices, pack_keys_unchecked
 from aion_cli.engine.state import DROP_REASONS, MapState
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot, Trajectory
 from aion_cli.engine.windows import window_index, window_ns
+
+MIN_TIME_NS: int = -2_208_988_800 * 1_000_000_000
+"""Earliest time the Mapper accepts, 1900-01-01T00:00Z (as ``--time``)."""
+MAX_TIME_NS: int = 9_183_110_400 * 1_000_000_000
+"""Latest time the Mapper accepts, 2261-01-01T00:00Z: times are int64 nanoseconds (which end
+on 2262-04-11), and the margin keeps window and calendar arithmetic exact."""
+TIME_RANGE_TEXT = "1900-01-01 .. 2261-01-01 UTC"
+
+#: Per-row code of :meth:`Mapper.add_detections` for an accepted detection (a dropped
+#: one has the index of its reason in ``DROP_REASONS``).
+ACCEPTED = -1
+
+
+def check_time(t_ns: int, what: str) -> None:
+    """:class:`InputError` for a time outside ``MIN_TIME_NS .. MAX_TIME_NS``."""
+    if not MIN_TIME_NS <= int(t_ns) <= MAX_TIME_NS:
+        raise InputError(
+            f"{what} at {int(t_ns)} ns lies outside {TIME_RANGE_TEXT}",
+            hint="times are nanoseconds since 1970 (UTC); fix or drop the bad stamps",
+        )
 
 
 class Mapper:
@@ -73,12 +98,23 @@ class Mapper:
         return self._state
 
     # -- inputs -----------------------------------------------------------------------------
-    def add_detections(self, batch: DetectionBatch) -> dict[str, int]:
-        """Accumulate a batch; returns how many detections were dropped, per reason."""
+    def add_detections(
+        self, batch: DetectionBatch, codes: npt.NDArray[np.int8] | None = None
+    ) -> dict[str, int]:
+        """Accumulate a batch; returns how many detections were dropped, per reason.
+
+        ``codes`` (optional, one int8 per row) receives per row :data:`ACCEPTED` or the index
+        in ``DROP_REASONS`` of why the row was dropped, so a caller can count per source.
+        :class:`InputError` when a time lies outside ``MIN_TIME_NS .. MAX_TIME_NS``."""
         st = self._state
         drops = dict.fromkeys(DROP_REASONS, 0)
+        if codes is None:
+            codes = np.empty(len(batch), dtype=np.int8)
+        codes[:] = ACCEPTED
         if len(batch) == 0:
             return drops
+        check_time(int(batch.t_ns.min()), "a detection")
+        check_time(int(batch.t_ns.max()), "a detection")
         ijk, finite, hashable = hashable_indices(batch.xyz, st.config.cell_size)
         window = window_index(batch.t_ns, self._delta)
         if st.open_window is None and hashable.any():
@@ -91,6 +127,9 @@ class Mapper:
         drops["before_window"] = int(np.count_nonzero(late))
         for reason, count in drops.items():
             st.dropped[reason] = st.dropped.get(reason, 0) + count
+        codes[~finite] = DROP_REASONS.index("nan")
+        codes[finite & ~hashable] = DROP_REASONS.index("out_of_range")
+        codes[late] = DROP_REASONS.index("before_window")
         if keep.all():
             self._accumulate_by_window(batch, ijk, window)
         elif keep.any():
@@ -101,6 +140,7 @@ class Mapper:
         """A new scene graph at log time ``t``: windows ending at or before ``t`` close first
         (they are over), then node timers, moves and releases, then a bind check at ``t``."""
         st = self._state
+        check_time(int(snapshot.t_ns), "a scene graph")
         if st.open_window is not None:
             close_windows(st, int(window_index(np.int64(snapshot.t_ns), self._delta)))
         apply_graph(st, snapshot)
@@ -109,12 +149,17 @@ class Mapper:
 
     def add_trajectory(self, trajectory: Trajectory) -> None:
         """Robot poses for the observation masks (any time order, before windows close)."""
+        if len(trajectory):
+            check_time(int(np.min(trajectory.t_ns)), "a robot pose")
+            check_time(int(np.max(trajectory.t_ns)), "a robot pose")
         self._state.observation.add_trajectory(trajectory)
         if len(trajectory):
             self._start_at(int(np.min(trajectory.t_ns)))
 
     def set_fixed_sensor(self, start_ns: int, end_ns: int) -> None:
         """Everything is observed in windows overlapping ``[start_ns, end_ns)``."""
+        check_time(int(start_ns), "a fixed-sensor interval")
+        check_time(int(end_ns), "a fixed-sensor interval")
         self._state.observation.set_fixed_sensor(int(start_ns), int(end_ns))
         if int(end_ns) > int(start_ns):
             self._start_at(int(start_ns))
@@ -122,6 +167,9 @@ class Mapper:
     def set_fixed_windows(self, windows: I64) -> None:
         """Everything is observed in the given windows (sorted window indices)."""
         w = np.asarray(windows, np.int64)
+        if w.size:
+            check_time(int(w.min()) * self._delta, "a fixed-sensor window")
+            check_time((int(w.max()) + 1) * self._delta, "a fixed-sensor window")
         self._state.observation.add_fixed_windows(w, self._delta)
         if w.size:
             self._start_at(int(w.min()) * self._delta)
@@ -143,7 +191,12 @@ class Mapper:
 
     def advance(self, t_ns: int) -> None:
         """Log time reached ``t_ns``: close every window ending at or before it (ownership is
-        checked at each recorded window's end), then check ownership at ``t_ns``."""
+        checked at each recorded window's end), then check ownership at ``t_ns``.
+
+        Costs O(recorded windows) however far ``t_ns`` lies: only windows with detections or
+        covered by an observation source are visited (:func:`close_windows`).
+        :class:`InputError` for a time outside ``MIN_TIME_NS .. MAX_TIME_NS``."""
+        check_time(int(t_ns), "log time")
         st = self._state
         target = int(window_index(np.int64(t_ns), self._delta))
         if st.open_window is None:

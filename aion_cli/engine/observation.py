@@ -29,6 +29,8 @@ class ObservationSource:
     pose_xy: F64 = field(default_factory=lambda: np.zeros((0, 2)))
     fixed_start: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
     fixed_end: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
+    # the fixed-sensor intervals merged into sorted disjoint ones (built on first use)
+    _merged: tuple[I64, I64] | None = field(default=None, init=False, repr=False, compare=False)
 
     def add_trajectory(self, trajectory: Trajectory) -> None:
         """Add robot poses; non-finite poses are ignored (they cannot say what was seen)."""
@@ -48,6 +50,7 @@ class ObservationSource:
             raise InputError(f"fixed-sensor interval ends before it starts ({start_ns}, {end_ns})")
         self.fixed_start = np.append(self.fixed_start, np.int64(start_ns))
         self.fixed_end = np.append(self.fixed_end, np.int64(end_ns))
+        self._merged = None
 
     def add_fixed_windows(self, windows: I64, delta_ns: int) -> None:
         """Declare whole windows observed everywhere: each run of consecutive windows becomes
@@ -60,6 +63,24 @@ class ObservationSource:
         stops = np.concatenate([w[breaks], w[-1:]]) + 1
         self.fixed_start = np.concatenate([self.fixed_start, starts * np.int64(delta_ns)])
         self.fixed_end = np.concatenate([self.fixed_end, stops * np.int64(delta_ns)])
+        self._merged = None
+
+    def merged_fixed(self) -> tuple[I64, I64]:
+        """The fixed-sensor intervals as sorted, disjoint ``[start, end)`` intervals (empty
+        ones left out), so a window's coverage is one binary search instead of a pass over
+        every interval (a long log with gaps has one interval per run of recorded windows)."""
+        if self._merged is None:
+            ok = self.fixed_end > self.fixed_start
+            s, e = self.fixed_start[ok], self.fixed_end[ok]
+            if s.size == 0:
+                self._merged = (s.copy(), e.copy())
+            else:
+                order = np.argsort(s, kind="stable")
+                s, e = s[order], np.maximum.accumulate(e[order])  # e: furthest end so far
+                new = np.concatenate([[True], s[1:] > e[:-1]])  # starts after all before it
+                last = np.concatenate([new[1:], [True]])
+                self._merged = (s[new], e[last])
+        return self._merged
 
     def prune(self, before_ns: int) -> None:
         """Forget poses before ``before_ns`` (their windows are closed)."""
@@ -67,24 +88,43 @@ class ObservationSource:
         self.pose_t, self.pose_xy = self.pose_t[keep], self.pose_xy[keep]
 
     def covered_windows(self, first: int, stop: int, delta_ns: int) -> I64:
-        """Sorted windows in ``[first, stop)`` covered by a pose or a fixed-sensor interval."""
-        lo, hi = first * delta_ns, stop * delta_ns
-        in_range = (self.pose_t >= lo) & (self.pose_t < hi)
-        parts = [np.unique(window_index(self.pose_t[in_range], delta_ns))]
-        for s, e in zip(self.fixed_start.tolist(), self.fixed_end.tolist(), strict=True):
-            if e <= s:
-                continue
-            w0 = max(first, s // delta_ns)
-            w1 = min(stop, -((-e) // delta_ns))  # ceil(e / Δ): windows overlapping [s, e)
-            if w1 > w0:
-                parts.append(np.arange(w0, w1, dtype=np.int64))
+        """Sorted windows in ``[first, stop)`` covered by a pose or a fixed-sensor interval.
+
+        Costs O(log n + covered windows): poses are sorted and the intervals merged, so a long
+        gap between recordings is skipped by binary search, never walked window by window."""
+        lo, hi = int(first) * delta_ns, int(stop) * delta_ns
+        i0, i1 = np.searchsorted(self.pose_t, [lo, hi], side="left")
+        parts = [np.unique(window_index(self.pose_t[i0:i1], delta_ns))]
+        starts, ends = self.merged_fixed()
+        k0 = int(np.searchsorted(ends, lo, side="right"))  # first interval ending after lo
+        k1 = int(np.searchsorted(starts, hi, side="left"))  # intervals starting before hi
+        if k1 > k0:
+            w0 = np.maximum(starts[k0:k1] // delta_ns, first)
+            w1 = np.minimum(-((-ends[k0:k1]) // delta_ns), stop)  # ceil(e / Δ)
+            size = np.maximum(w1 - w0, 0)
+            total = int(size.sum())
+            if total:
+                # every window of every interval: w0 repeated, plus 0, 1, ... within each
+                offsets = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(size) - size, size)
+                parts.append(np.repeat(w0, size) + offsets)
         return np.unique(np.concatenate(parts)).astype(np.int64)
 
     def fixed_covers(self, window: int, delta_ns: int) -> bool:
         """Whether a fixed-sensor interval overlaps window ``window``."""
-        lo, hi = window * delta_ns, (window + 1) * delta_ns
-        start, end = self.fixed_start, self.fixed_end
-        return bool(np.any((start < hi) & (end > lo) & (end > start)))
+        return bool(self.fixed_mask(np.array([window], np.int64), delta_ns)[0])
+
+    def fixed_mask(self, windows: I64, delta_ns: int) -> BoolA:
+        """Per window of ``windows``: whether a fixed-sensor interval overlaps it (one binary
+        search per window over the merged intervals)."""
+        w = np.asarray(windows, dtype=np.int64)
+        starts, ends = self.merged_fixed()
+        if starts.size == 0 or w.size == 0:
+            return np.zeros(w.size, dtype=bool)
+        lo = w * np.int64(delta_ns)
+        k = np.searchsorted(ends, lo, side="right")  # the first interval ending after lo
+        mask: BoolA = k < ends.size
+        mask[mask] = starts[k[mask]] < lo[mask] + np.int64(delta_ns)
+        return mask
 
     def robot_observed(
         self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float

@@ -27,6 +27,12 @@ from formats.raw import RawMessage
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
+#: Largest payload the generic decoder (rosbags objects, a Python loop per element: about
+#: 0.16 µs per byte) reads; a bigger message is a MessageDecodeError (counted as undecodable
+#: in a build), so one hostile message cannot cost minutes. The numpy decoders have no such
+#: limit.
+GENERIC_MAX_PAYLOAD = 4 * 1024**2
+
 FastDecoder = Callable[[Joined], Decoded]
 #: Appends the detections of one deserialized message (index ``owner``) to ``rows``.
 Extractor = Callable[[Any, int, Rows], None]
@@ -168,6 +174,15 @@ class DetectionAdapter:
         return self._generic(group)
 
     def _generic(self, group: list[RawMessage]) -> FrameDetections:
+        big = next((m for m in group if len(m.data) > GENERIC_MAX_PAYLOAD), None)
+        if big is not None:
+            raise MessageDecodeError(
+                f"the {self.msgtype} message on {big.topic!r} at log time {big.log_time_ns} ns "
+                f"is {len(big.data):,} bytes, more than the {GENERIC_MAX_PAYLOAD:,} bytes aion "
+                "decodes through rosbags",
+                hint="the numpy decoders of the common types have no such limit; is the "
+                "payload damaged or of another layout?",
+            )
         try:
             return self.decode_generic(group)
         except ConfigError as exc:

@@ -4,16 +4,16 @@ vision_msgs/Detection3DArray), in ROS 2 CDR and ROS 1 encodings.
 
 Fixed-size elements (Pose, TrackedPerson) are located by arithmetic after reading each
 message's header and array count, then read with one gather per field over all elements of all
-messages. Variable-size elements (People.Person, Detection3D) are walked element index by
-element index, vectorized over all messages at once (the Python loop runs max(count) times,
-not once per detection). Every decoder checks that it consumed the whole payload, so a message
-of a different layout under the same type name is rejected (and the adapter falls back to the
-generic decoder) instead of yielding garbage.
+messages. Variable-size elements (People.Person, Detection3D, strings of a string[]) are read
+by :func:`formats.detections.wire.walk`: vectorized over all messages and over runs of equally
+sized elements (the Python loop runs once per change of element size, not once per detection:
+a message of a million equal persons takes two steps). Every decoder checks that it consumed
+the whole payload, so a message of a different layout under the same type name is rejected
+(and the adapter falls back to the generic decoder) instead of yielding garbage.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,6 +27,7 @@ from formats.detections.wire import (
     gather_f64,
     hashed_strings,
     string_codes,
+    walk,
 )
 
 NAN3 = np.array([np.nan, np.nan, np.nan])
@@ -68,7 +69,12 @@ def read_header(c: Cursors) -> Header:
         sec = c.scalar(np.uint32).astype(np.int64)
     nsec = c.u32()
     fs, fl = c.string()
-    names, codes = string_codes(c.j, fs, fl, f"{c.what} frame_id")
+    if c.bad is None:
+        names, codes = string_codes(c.j, fs, fl, f"{c.what} frame_id")
+    else:  # a speculative read: a frame_id that is not UTF-8 only marks the guess wrong
+        invalid = np.zeros(len(fs), dtype=bool)
+        names, codes = string_codes(c.j, fs, fl, f"{c.what} frame_id", invalid)
+        c.fail(invalid, "frame_id is not UTF-8")
     return Header(sec, nsec, names, codes)
 
 
@@ -137,22 +143,6 @@ def decode_tracked_persons(j: Joined) -> Decoded:
     return Decoded(owner, sec, nsec, h.frame_names, code, pose[:, :3], vel, yaw, track)
 
 
-def _walk(
-    c: Cursors, n: I64, step: Callable[[Cursors, np.ndarray], None]
-) -> None:
-    """Walk variable-size elements: for k = 0, 1, ... call ``step(cursors of the messages
-    that have an element k, their row indices)``; rows are numbered message-major."""
-    row0 = np.cumsum(n) - n
-    k = 0
-    active = n > k
-    while active.any():
-        sub = c.subset(active)
-        step(sub, row0[active] + k)
-        c.merge(active, sub)
-        k += 1
-        active = n > k
-
-
 def decode_people(j: Joined) -> Decoded:
     """people_msgs/People: Header, Person[] {string name, Point position, Point velocity,
     float64 reliability, string[] tagnames, string[] tags}; the name is the track id."""
@@ -173,7 +163,7 @@ def decode_people(j: Joined) -> Decoded:
         s.skip_strings(s.count(4))  # tagnames
         s.skip_strings(s.count(4))  # tags
 
-    _walk(c, n, step)
+    walk(c, n, step)
     c.check_consumed()
     owner, sec, nsec, code = _rows(h, n)
     track = hashed_strings(j, name_start, name_len)
@@ -202,7 +192,7 @@ def _skip_point_cloud2_ros1(s: Cursors) -> None:
         f.string()
         f.skip(9)
 
-    _walk(s, s.count(13), field_step)
+    walk(s, s.count(13), field_step)
     s.skip(1 + 8)
     s.skip_bytes_seq(1)
     s.skip(1)
@@ -228,16 +218,18 @@ def decode_detection3d(j: Joined, flt: ClassFilter) -> Decoded:
     names: list[str] = list(h.frame_names)
     active_filter = (flt.names if j.cdr else flt.ids) is not None
 
-    def result_step(r: Cursors, det_rows: np.ndarray, match: np.ndarray) -> None:
+    def result_step(r: Cursors, result_rows: np.ndarray, hit: np.ndarray) -> None:
+        # stored per result (rows are overwritten by later reads, see wire.walk), combined
+        # per detection after the walk
         if j.cdr:
             cs, cl = r.string()
             if flt.names is not None:
-                match[det_rows] |= equals_any(j, cs, cl, flt.names)
+                hit[result_rows] = equals_any(j, cs, cl, flt.names)
             r.skip(8 * (1 + 7 + 36), align=8)
         else:
             cid = r.scalar(np.int64).astype(np.int64)
             if flt.ids is not None:
-                match[det_rows] |= np.isin(cid, np.asarray(flt.ids, np.int64))
+                hit[result_rows] = np.isin(cid, np.asarray(flt.ids, np.int64))
             r.skip(8 * (1 + 7 + 36))
 
     def step(s: Cursors, rows: np.ndarray) -> None:
@@ -246,10 +238,11 @@ def decode_detection3d(j: Joined, flt: ClassFilter) -> Decoded:
         dcode[rows] = np.where(dh.frame_code > 0, dh.frame_code + len(names), -1)
         names.extend(dh.frame_names)
         nres = s.count(8)
-        match = np.zeros(total, dtype=bool)
-        _walk(s, nres, lambda r, ri: result_step(r, rows[_owner_of(ri, nres)], match))
+        hit = np.zeros(int(nres.sum()), dtype=bool)  # per result of this step's detections
+        walk(s, nres, lambda r, ri: result_step(r, ri, hit))
         if active_filter:
-            keep[rows] = match[rows]
+            owner = np.repeat(np.arange(len(rows)), nres)
+            keep[rows] = np.bincount(owner, weights=hit, minlength=len(rows)) > 0
         center[rows] = s.f64(7)
         s.skip(24, align=8)  # bbox.size
         if j.cdr:
@@ -257,7 +250,7 @@ def decode_detection3d(j: Joined, flt: ClassFilter) -> Decoded:
         else:
             _skip_point_cloud2_ros1(s)
 
-    _walk(c, n, step)
+    walk(c, n, step)
     c.check_consumed()
     owner = np.repeat(np.arange(len(n)), n)
     unset = (sec == 0) & (nsec == 0)
@@ -273,12 +266,6 @@ def decode_detection3d(j: Joined, flt: ClassFilter) -> Decoded:
         out = _select(out, keep)
         out.filtered["class"] = int((~keep).sum())
     return out
-
-
-def _owner_of(result_rows: np.ndarray, nres: I64) -> np.ndarray:
-    """Map row numbers of a nested walk (message-major over ``nres``) back to the index of
-    the parent cursor they belong to."""
-    return np.searchsorted(np.cumsum(nres), result_rows, side="right")
 
 
 def _select(d: Decoded, keep: np.ndarray) -> Decoded:

@@ -24,6 +24,7 @@ loads with :func:`~formats.detections.mapping.load_mapping` and passes
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -188,9 +189,26 @@ def _has_header(store: Typestore, typename: str) -> bool:
     return node is not None and node[0] == _NAME and str(node[1]).endswith("/Header")
 
 
+def _toml_string(value: str) -> str:
+    """A TOML basic string of ``value``: quotes, backslashes and control characters escaped
+    (a topic name from a log may hold any of them; raw, they would break the file or reach
+    the terminal as escape sequences)."""
+    out = value.replace("\\", "\\\\").replace('"', '\\"')
+    return '"' + _CONTROL.sub(lambda m: f"\\u{ord(m.group()):04x}", out) + '"'
+
+
+def _comment(text: str) -> str:
+    """``text`` fit for a TOML comment: control characters (newlines included) escaped."""
+    return _CONTROL.sub(lambda m: f"\\u{ord(m.group()):04x}", text)
+
+
+#: C0 controls, DEL, C1 controls and the bidirectional overrides / isolates
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
+
+
 def _line(key: str, value: str, comment: str = "") -> str:
-    text = f'{key} = "{value}"'
-    return f"{text:<40} # {comment}" if comment else text
+    text = f"{key} = {_toml_string(value)}"
+    return f"{text:<40} # {_comment(comment)}" if comment else text
 
 
 def _others(chosen: str, all_: list[str]) -> str:
@@ -222,7 +240,7 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
     header = _has_header(store, name)
     item_header = array is not None and _has_header(store, item)
     lines = [
-        f"# aion detections mapping for {topic} ({name}),",
+        f"# aion detections mapping for {_comment(topic)} ({name}),",
         "# suggested from the log's own definition of the type. Check the fields, then:",
         "#   aion build LOG --detections-mapping THIS_FILE",
         '# Format: README, "People detections"; paths are relative to one element of `array`.',

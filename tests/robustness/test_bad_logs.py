@@ -86,11 +86,12 @@ def test_truncated_mcap_builds_from_the_readable_part_and_says_where_it_stopped(
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_corrupt_mcap_chunk_keeps_the_chunks_before_it_and_warns(
+def test_corrupt_mcap_chunk_is_skipped_alone_and_named(
     seed: int, spread_log: Path, tmp_path: Path
 ) -> None:
     """A flipped bit in a chunk's compressed bytes: often still valid zstd, but garbage; the
-    chunk CRC catches it. The chunks before it are used, the rest is ignored with a note."""
+    chunk CRC catches it. That chunk alone is skipped with a note naming it and its messages
+    (issue 14: the chunks after it used to be ignored too)."""
     full = spread_log
     chunks = chunk_indexes(full)
     assert len(chunks) >= 4
@@ -102,14 +103,20 @@ def test_corrupt_mcap_chunk_keeps_the_chunks_before_it_and_warns(
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(data))
     report = build_json(bad, "-o", tmp_path / "bad.aion")
-    before = sum(1 for k in range(N_SPREAD) if T0 + k * S < victim.message_start_time)
-    assert report["detections"]["read"] == before
+    inside = sum(
+        1
+        for k in range(N_SPREAD)
+        if victim.message_start_time <= T0 + k * S <= victim.message_end_time
+    )
+    assert report["detections"]["read"] == N_SPREAD - inside
     assert any(
-        f"corrupt chunk at byte {victim.chunk_start_offset}" in n for n in report["notes"]
-    ), report["notes"]
+        f"corrupt chunk at byte {victim.chunk_start_offset} skipped" in n
+        and f"{inside:,} messages lost (/tracks {inside:,})" in n
+        for n in report["notes"] + report.get("warnings", [])
+    ), report
 
 
-def test_corrupt_chunk_in_an_mcap_without_summary_stops_the_linear_read(
+def test_corrupt_chunk_in_an_mcap_without_summary_is_skipped_by_the_linear_read(
     spread_log: Path, tmp_path: Path
 ) -> None:
     full = spread_log
@@ -120,11 +127,17 @@ def test_corrupt_chunk_in_an_mcap_without_summary_stops_the_linear_read(
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(data))
     report = build_json(bad, "-o", tmp_path / "bad.aion")
-    before = sum(1 for k in range(N_SPREAD) if T0 + k * S < victim.message_start_time)
-    assert report["detections"]["read"] == before
-    assert any(f"read stopped at byte {victim.chunk_start_offset}" in n for n in report["notes"]), (
-        report["notes"]
+    inside = sum(
+        1
+        for k in range(N_SPREAD)
+        if victim.message_start_time <= T0 + k * S <= victim.message_end_time
     )
+    before_last = sum(1 for k in range(N_SPREAD) if T0 + k * S < chunks[-1].message_start_time)
+    assert report["detections"]["read"] == before_last - inside  # the chunks after it too
+    assert any(
+        f"corrupt chunk at byte {victim.chunk_start_offset} skipped" in n
+        for n in report["notes"] + report.get("warnings", [])
+    ), report
 
 
 def test_truncated_bag_is_a_clear_error_and_writes_no_map(tmp_path: Path) -> None:
@@ -355,17 +368,18 @@ def test_garbage_scene_graph_payload_is_a_clear_error_and_no_map(
 ) -> None:
     """A DsgUpdate whose payload no spark_dsg version reads: the build stops with one error
     line naming the payload, spark_dsg's own warnings for each version tried do not leak onto
-    stdout or stderr, and an existing map is left as it was."""
+    stdout or stderr, and the output already there (an empty file, which aion may replace) is
+    left as it was."""
     msgs = [*walk(40), scene_graph(T0 + 40 * S, b"\x01\x02garbage" * 50), *walk(40, 41)]
     log = write_log(tmp_path / "g.mcap", msgs)
     out = tmp_path / "g.aion"
-    out.write_bytes(b"previous map")
+    out.write_bytes(b"")
     native_output(capfd)
     result = run("build", log, "-o", out)
     fails(result, "cannot decode scene-graph payload (450 bytes)")
     assert result.stdout == ""
     assert native_output(capfd) == ""
-    assert out.read_bytes() == b"previous map"
+    assert out.read_bytes() == b""
 
 
 def payload_1_1_2() -> bytes:

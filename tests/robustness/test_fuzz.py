@@ -1,6 +1,9 @@
 """Mutation fuzzing of the log readers, the detection decoders, the scene-graph decoder and the
 map loader: truncated and bit-flipped valid inputs must give a result or a typed aion error
-(an ``AionError`` subclass), never another exception and never a hang.
+(an ``AionError`` subclass), never another exception and never a hang. Three targets mutate
+*fields* instead of bytes -- lengths, counts and times of MCAP / bag / rosbag2 records, of CDR
+and ROS 1 payloads, and single values of map arrays -- and run ``aion build`` / ``aion info``
+on the log mutants (exit 0 or 2, never 1).
 
 The cases run in ``tests/robustness/fuzz_worker.py`` subprocesses (an address-space limit turns
 a runaway allocation into a MemoryError; a per-case timer catches hangs). The default run tries
@@ -42,13 +45,17 @@ LOG_CONTAINERS = {
     "e_r2": "rosbag2-mcap",
 }
 
-# target -> (cases in the default run, cases in the long run)
+# target -> (cases in the default run, cases in the long run). The *_fields / map_values
+# targets mutate lengths, counts and times (structure-aware, see fuzz_worker.py).
 BUDGET = {
     "logs": (40, 3000),
     "detections": (80, 5000),
     "dsg": (30, 1000),
     "read_map": (40, 3000),
     "load_map": (40, 3000),
+    "log_fields": (30, 3000),
+    "payload_fields": (80, 5000),
+    "map_values": (30, 3000),
 }
 
 
@@ -100,9 +107,9 @@ def fuzz(target: str, seed: int, cases: int, files: list[Path]) -> dict[str, Any
 
 
 def _files(target: str, seeds: dict[str, list[Path]]) -> list[Path]:
-    if target == "logs":
+    if target in ("logs", "log_fields"):
         return seeds["logs"]
-    if target in ("read_map", "load_map"):
+    if target in ("read_map", "load_map", "map_values"):
         return seeds["maps"]
     return []
 
@@ -145,3 +152,44 @@ def test_the_worker_reports_untyped_exceptions(
         signal.signal(signal.SIGALRM, handler)
     assert len(summary["failures"]) == 3
     assert "RuntimeError: untyped" in summary["failures"][0]
+
+
+def test_the_field_walkers_find_the_real_fields(seeds: dict[str, list[Path]]) -> None:
+    """The structure-aware mutations hit the fields they claim to: the message times inside
+    an MCAP chunk (rewritten with a valid CRC, the reader sees the new time), a bag's message
+    record times, a CDR payload's sequence count."""
+    import io
+    import random
+
+    from tests.robustness import fuzz_worker as fw
+
+    mcap_log, bag_log = seeds["logs"][0], seeds["logs"][2]
+    data = mcap_log.read_bytes()
+    kinds = {f.kind for f in fw.mcap_fields(data)}
+    assert kinds == {"length", "time"}
+
+    class Far(random.Random):  # every choice: the largest int64 time
+        def choice(self, seq: Any) -> Any:
+            times = [x for x in seq if isinstance(x, fw.Field) and x.kind == "time"]
+            return times[0] if times else (2**63 - 1 if isinstance(seq[0], int) else seq[0])
+
+    mutant = fw.mutate_mcap_chunk(data, Far(1))
+    assert mutant is not None
+
+    def log_times(raw: bytes) -> list[int]:  # a linear read: the chunk's offsets moved
+        from mcap.records import Message
+        from mcap.stream_reader import StreamReader
+
+        records = StreamReader(io.BytesIO(raw), validate_crcs=True).records
+        return sorted(r.log_time for r in records if isinstance(r, Message))
+
+    before, after = log_times(data), log_times(mutant)
+    assert len(after) == len(before)
+    assert after[-1] == 2**63 - 1
+    assert after[:-1] == before[1:]  # the first message's log time, now 2^63 - 1
+    bag = bag_log.read_bytes()
+    seconds = {fw._u(bag, f.offset, 4) for f in fw.bag_fields(bag) if f.kind == "time32"}
+    assert T0 // S in seconds  # the first person's message time
+    payload = fw.detection_seeds()[0]  # TrackedPersons in CDR with 3 tracks
+    fields = fw.payload_fields(payload.data, True)
+    assert [f for f in fields if fw._u(payload.data, f.offset, 4) == 3]  # the count

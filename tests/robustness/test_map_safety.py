@@ -43,8 +43,9 @@ from tests.robustness.conftest import (
 
 
 def crowd(k: int) -> Message:
-    """Message ``k``: eight people on a 40 x 50 m grid of 4000 cells (~8 KB per cell)."""
-    t = T0 + k * S
+    """Message ``k``: eight people on a 40 x 50 m grid of 4000 cells (~8 KB per cell), from
+    T0 + 1200 s on (after the office log's windows: logs join a map in time order)."""
+    t = T0 + (1200 + k) * S
     tracks = []
     for j in range(8):
         c = (k * 8 + j) % 4000
@@ -230,7 +231,7 @@ def test_two_builds_extending_one_map_never_lose_a_log(
 
     target = office.copy_map(tmp_path / "m.aion")
     lock = target.with_name("m.aion.lock")
-    small = write_log(tmp_path / "small.mcap", walk(30))
+    small = write_log(tmp_path / "small.mcap", walk(30, start_s=2400))
     proc = subprocess.Popen(
         [str(AION), "build", str(crowd_log), "--map", str(target), "-q"],
         stdout=subprocess.DEVNULL,

@@ -1,0 +1,255 @@
+"""Log times a build can trust: the span of the messages it uses, without stray messages.
+
+Why: one message with a far-future (or far-past) log time used to stretch a build across
+years — on a topic aion does not even read, or in a container summary whose end time lies —
+and the fixed-sensor observation then counted the far window as an observed empty window
+(flows dropped by a sixth for a one-hour log), or the time did not fit int64 at all (an
+internal error). So a build takes its time span only from the messages it uses, and drops
+(and counts) the messages of those topics whose log times cannot be right:
+
+* **Representable**: a log time must lie in :data:`~aion_cli.engine.mapper.MIN_TIME_NS` ..
+  :data:`~aion_cli.engine.mapper.MAX_TIME_NS` (1900-01-01 .. 2261-01-01 UTC, the range of
+  ``--time``); MCAP stores unsigned times up to 2554, which int64 nanoseconds cannot hold.
+* **Stray**: the log times of one topic (over every input of the build), sorted, are cut into
+  *runs* wherever two consecutive messages are more than :data:`STRAY_GAP_NS` (one day) apart.
+  A run is stray when the topic has a bulk — a run of more than :data:`STRAY_MAX_MESSAGES`
+  (10) messages — and the run holds at most :data:`STRAY_MAX_MESSAGES` messages and at most
+  :data:`STRAY_SHARE` (5 %) of the topic's messages. Recording sessions days apart (in one
+  log or several) stay: each is a run of its own with more than ten messages. A topic whose
+  messages are all sparse (one a day) has no bulk and loses nothing. The rule sees the inputs
+  of one build together: a log of at most ten messages on a topic, added a day away from a
+  bigger log, is a stray in ``build A B`` but not in ``build B --map A.aion`` (a build of
+  such a log alone keeps everything).
+
+The same rule (:func:`stray_mask`) drops robot poses far from the rest of the trajectory.
+Everything here is numpy over int64 arrays; the per-message part is one ``array.append``.
+"""
+
+from __future__ import annotations
+
+from array import array
+from collections import Counter
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from datetime import UTC, datetime, timedelta
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS, TIME_RANGE_TEXT
+from aion_cli.engine.types import I64, BoolA
+
+if TYPE_CHECKING:
+    from formats.raw import RawMessage
+
+STRAY_GAP_NS = 86_400 * 1_000_000_000
+"""Gap between consecutive messages of a topic that starts a new run (one day)."""
+STRAY_MAX_MESSAGES = 10
+"""A stray run holds at most this many messages (and the topic's bulk run more)."""
+STRAY_SHARE = 0.05
+"""A stray run holds at most this share of its topic's messages."""
+
+
+def in_range(t_ns: int) -> bool:
+    """Whether a log time lies in the representable range (inclusive)."""
+    return MIN_TIME_NS <= t_ns <= MAX_TIME_NS
+
+
+def iso(t_ns: int) -> str:
+    """``2038-01-01 00:00:00 UTC`` for a UNIX-ns time (any Python int)."""
+    try:
+        when = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=t_ns // 1000)
+    except OverflowError:
+        return f"{t_ns} ns"
+    return when.strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
+def stray_mask(times: I64) -> BoolA:
+    """Mask of the stray entries of ``times`` (any order; see the module docstring)."""
+    t = np.asarray(times, dtype=np.int64)
+    n = t.size
+    out = np.zeros(n, dtype=bool)
+    if n <= STRAY_MAX_MESSAGES:
+        return out
+    order = np.argsort(t, kind="stable")
+    ts = t[order]
+    # int64 differences of in-range times cannot overflow (the range spans < 2**63 ns)
+    cuts = np.flatnonzero(np.diff(ts) > STRAY_GAP_NS) + 1
+    if cuts.size == 0:
+        return out
+    starts = np.concatenate([[0], cuts])
+    sizes = np.diff(np.concatenate([starts, [n]]))
+    if int(sizes.max()) <= STRAY_MAX_MESSAGES:
+        return out  # no bulk: sparse messages, nothing stands out
+    stray_run = (sizes <= STRAY_MAX_MESSAGES) & (sizes <= STRAY_SHARE * n)
+    if not stray_run.any():
+        return out
+    out[order] = np.repeat(stray_run, sizes)
+    return out
+
+
+def runs(times: I64) -> tuple[I64, I64]:
+    """``(first, last)`` log time of each run of ``times`` (sorted), gaps of more than
+    :data:`STRAY_GAP_NS` between runs."""
+    ts = np.sort(np.asarray(times, dtype=np.int64))
+    if ts.size == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    cuts = np.flatnonzero(np.diff(ts) > STRAY_GAP_NS) + 1
+    first = ts[np.concatenate([[0], cuts])]
+    last = ts[np.concatenate([cuts - 1, [ts.size - 1]])]
+    return first, last
+
+
+class TopicTimes:
+    """Collects the log times of the messages of some topics during one read of a log."""
+
+    def __init__(self, topics: Iterable[str]) -> None:
+        self._times: dict[str, array[int]] = {t: array("q") for t in topics}
+        self.out_of_range: Counter[str] = Counter()
+        self.first_out_of_range: dict[str, int] = {}
+
+    @property
+    def topics(self) -> set[str]:
+        return set(self._times)
+
+    def add(self, topic: str, t_ns: int) -> bool:
+        """Record one message's log time; False (and counted) when it is out of range."""
+        if MIN_TIME_NS <= t_ns <= MAX_TIME_NS:
+            self._times[topic].append(t_ns)
+            return True
+        self.out_of_range[topic] += 1
+        self.first_out_of_range.setdefault(topic, t_ns)
+        return False
+
+    def check(self, span_topics: Iterable[str]) -> TimeCheck:
+        """The strays of ``span_topics`` (the topics whose times matter: a static transform's
+        log time says nothing), and their runs and span; the other topics are only checked
+        for range."""
+        strays: dict[str, I64] = {}
+        firsts, lasts, kept_span = [], [], []
+        span = set(span_topics)
+        for topic, raw in self._times.items():
+            t = np.frombuffer(raw, dtype=np.int64) if len(raw) else np.zeros(0, np.int64)
+            mask = stray_mask(t) if topic in span else np.zeros(t.size, dtype=bool)
+            if mask.any():
+                strays[topic] = np.sort(t[mask])
+                t = t[~mask]
+            if topic in span and t.size:
+                a, b = runs(t)
+                firsts.append(a)
+                lasts.append(b)
+                kept_span.append(t)
+        kept = {topic: len(raw) - len(strays.get(topic, ())) for topic, raw in self._times.items()}
+        return TimeCheck(
+            strays,
+            dict(self.out_of_range),
+            dict(self.first_out_of_range),
+            kept,
+            _joined(firsts),
+            _joined(lasts),
+            _joined(kept_span),
+        )
+
+
+def _joined(parts: list[I64]) -> I64:
+    return np.concatenate(parts) if parts else np.zeros(0, np.int64)
+
+
+@dataclass
+class TimeCheck:
+    """What :meth:`TopicTimes.check` found: stray log times per topic (sorted), messages out of
+    range per topic (and the first such time), messages kept per topic, and the runs
+    ``[first, last]`` of the topics that make the build's time span, and those topics' kept
+    log times (any order)."""
+
+    strays: dict[str, I64]
+    out_of_range: dict[str, int]
+    first_out_of_range: dict[str, int]
+    kept: dict[str, int]
+    run_first: I64
+    run_last: I64
+    span_times: I64
+    _pending: Counter[tuple[str, int]] = field(default_factory=Counter, repr=False)
+
+    def __post_init__(self) -> None:
+        for topic, times in self.strays.items():
+            self._pending.update((topic, int(t)) for t in times.tolist())
+
+    @property
+    def start_ns(self) -> int | None:
+        return int(self.run_first.min()) if self.run_first.size else None
+
+    @property
+    def end_ns(self) -> int | None:
+        return int(self.run_last.max()) if self.run_last.size else None
+
+    @property
+    def clean(self) -> bool:
+        """Nothing to drop: the stream filter can be skipped."""
+        return not self.strays and not any(self.out_of_range.values())
+
+    def filter(self, messages: Iterator[RawMessage]) -> Iterator[RawMessage]:
+        """``messages`` without those out of range and without the strays (each stray
+        ``(topic, log time)`` is dropped as often as it was counted)."""
+        if self.clean:
+            yield from messages
+            return
+        pending = Counter(self._pending)  # a fresh copy: the log may be read several times
+        for msg in messages:
+            t = msg.log_time_ns
+            if not MIN_TIME_NS <= t <= MAX_TIME_NS:
+                continue
+            if pending:
+                key = (msg.topic, t)
+                left = pending.get(key, 0)
+                if left:
+                    if left == 1:
+                        del pending[key]
+                    else:
+                        pending[key] = left - 1
+                    continue
+            yield msg
+
+    def windows(self, delta_ns: int) -> tuple[I64, I64]:
+        """Inclusive window ranges ``[a, b]`` covered by the span runs, merged and sorted."""
+        if self.run_first.size == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        a = self.run_first // np.int64(delta_ns)
+        b = self.run_last // np.int64(delta_ns)
+        order = np.argsort(a, kind="stable")
+        a, b = a[order], np.maximum.accumulate(b[order])  # b: the furthest end so far
+        new = np.concatenate([[True], a[1:] > b[:-1] + 1])  # a range not touching the last
+        last = np.concatenate([new[1:], [True]])
+        return a[new], b[last]
+
+    def within_runs(self, windows: I64, delta_ns: int) -> BoolA:
+        """Mask of ``windows`` (window indices) that lie inside a span run's windows."""
+        w = np.asarray(windows, dtype=np.int64)
+        starts, ends = self.windows(delta_ns)
+        if starts.size == 0 or w.size == 0:
+            return np.zeros(w.size, dtype=bool)
+        k = np.searchsorted(ends, w, side="left")  # first range ending at or after w
+        inside = k < ends.size
+        inside[inside] = starts[k[inside]] <= w[inside]
+        return inside
+
+    def warnings(self, decoded: Iterable[str] = ()) -> list[str]:
+        """One line per topic that lost messages to the rules. ``decoded``: topics whose
+        messages were decoded before the rules could be applied (TF): their strays are left
+        out of the time span (and their poses out of the trajectory), not of the TF buffer."""
+        decoded = set(decoded)
+        out = []
+        for topic, n in sorted(self.out_of_range.items()):
+            if n:
+                out.append(
+                    f"{n:,} message(s) on {topic} dropped: log time outside {TIME_RANGE_TEXT} "
+                    f"(first: {iso(self.first_out_of_range[topic])})"
+                )
+        for topic, times in sorted(self.strays.items()):
+            what = "ignored for the time span" if topic in decoded else "dropped"
+            out.append(
+                f"{times.size:,} message(s) on {topic} {what}: log time more than a day away "
+                f"from the topic's other messages (first: {iso(int(times[0]))}; "
+                "docs/ROBUSTNESS.md, time sanity)"
+            )
+        return out

@@ -1,0 +1,212 @@
+"""ROS 1 bags read with bounded memory, skipping the chunks that cannot be read.
+
+rosbags' ROS 1 reader decompresses a chunk whole with ``bz2.decompress`` / ``lz4.frame.decompress``
+(a 6 KB bag can hold a bz2 chunk that expands to a gigabyte), refuses a whole bag for one chunk
+in an unknown compression, and stops the read at the first chunk whose data is damaged.
+:class:`BagReader` keeps rosbags' parsing of the bag header, connections and index (what it does
+well) and replaces the rest:
+
+- each chunk record's ``size`` field (the uncompressed size ROS 1 writes into every chunk header)
+  is read at open: a chunk that declares more than the cap (:mod:`formats.limits`), or that is
+  compressed with an unknown method, is dropped from the index then, with its message counts;
+- a chunk is decompressed with a bounded output (:func:`formats.limits.decompress`), so a size
+  field that lies cannot blow up either;
+- :meth:`BagReader.iter_messages` merges the index itself and skips a chunk that fails to
+  decompress or parse (the callback says which and how many messages were lost), and leaves out
+  messages over the message cap;
+- :meth:`BagReader.suspend` closes the file between reads (the index stays in memory), so a
+  LogSet over thousands of bags does not hold thousands of file handles.
+"""
+
+from __future__ import annotations
+
+import heapq
+import io
+import os
+import struct
+from collections import Counter
+from collections.abc import Callable, Collection, Iterator
+from pathlib import Path
+from typing import Any
+
+from rosbags.rosbag1 import Reader
+from rosbags.rosbag1.reader import (
+    Chunk,
+    Header,
+    ReaderError,
+    RecordType,
+    read_bytes,
+    read_uint32,
+)
+
+from formats import limits as caps
+
+BadChunk = Callable[[int, str, dict[int, int]], None]
+"""Called with a chunk's position, why it is skipped, and its lost messages per connection."""
+
+Oversized = Callable[[Any, int, int], None]
+"""Called with the connection, log time and size of a message left out for its size."""
+
+#: errors of a chunk whose decompressed records do not parse
+_PARSE_ERRORS = (ReaderError, struct.error, AssertionError, KeyError, ValueError, IndexError)
+
+
+class BagReader(Reader):
+    """A rosbags ROS 1 reader that checks chunk sizes at open, decompresses with a bounded
+    output and skips unreadable chunks (see the module text)."""
+
+    def __init__(self, path: Path, limits: caps.ReadLimits) -> None:
+        super().__init__(path)
+        self.limits = limits
+        # chunk position -> (compression, declared uncompressed size)
+        self.chunk_meta: dict[int, tuple[str, int]] = {}
+        # chunks dropped at open: position -> (why, lost messages per connection id)
+        self.refused: dict[int, tuple[str, dict[int, int]]] = {}
+
+    def read_chunk(self) -> Chunk:
+        """The chunk record header at the file position (as rosbags reads it), remembering its
+        compression and declared size; an unknown compression is not an error here (the chunk
+        is refused after the index is read)."""
+        assert self.bio
+        pos = self.bio.tell()
+        header = Header.read(self.bio, RecordType.CHUNK)
+        compression = header.get_string("compression")
+        size = header.get_uint32("size") if "size" in header else 0
+        datasize = read_uint32(self.bio)
+        datapos = self.bio.tell()
+        self.bio.seek(datasize, os.SEEK_CUR)
+        self.chunk_meta[pos] = (compression, size)
+        return Chunk(datasize, datapos, _no_decompressor)
+
+    def open(self) -> None:
+        """Open the bag and read its index (rosbags), then drop the chunks that declare more
+        than the chunk cap or use an unknown compression."""
+        super().open()
+        limit = self.limits.max_chunk_bytes
+        for info in self.chunk_infos:
+            compression, size = self.chunk_meta.get(info.pos, ("none", 0))
+            why = None
+            if compression not in ("none", "bz2", "lz4"):
+                why = str(caps.UnknownCompressionError(f"unknown compression {compression[:40]!r}"))
+            elif size > limit:
+                why = str(caps.chunk_over_limit(size, limit))
+            elif compression == "none" and self.chunks[info.pos].datasize > limit:
+                why = str(caps.chunk_over_limit(self.chunks[info.pos].datasize, limit))
+            if why is not None:
+                self.refused[info.pos] = (why, dict(info.connection_counts))
+        if self.refused:
+            self.indexes = {
+                cid: [e for e in entries if e.chunk_pos not in self.refused]
+                for cid, entries in self.indexes.items()
+            }
+            self.connections = [
+                conn._replace(msgcount=len(self.indexes.get(conn.id, ())))
+                for conn in self.connections
+            ]
+
+    def suspend(self) -> None:
+        """Close the file and drop the cached chunk; the index stays (see :meth:`resume`)."""
+        self.current_chunk = (-1, io.BytesIO())
+        if self.bio is not None:
+            bio, self.bio = self.bio, None
+            bio.close()
+
+    def resume(self) -> None:
+        """Reopen the file after :meth:`suspend`."""
+        if self.bio is None:
+            self.bio = self.path.open("rb")
+
+    def close(self) -> None:
+        """Close the bag (suspended or not: a suspended one needs no file to be reopened)."""
+        if self.bio is None:
+            self.bio = io.BytesIO()  # what rosbags' close closes
+        super().close()
+
+    def iter_messages(
+        self,
+        connections: Collection[Any],
+        bad_chunk: BadChunk,
+        oversized: Oversized,
+    ) -> Iterator[tuple[Any, int, bytes]]:
+        """``(connection, log time, data)`` of the messages on ``connections`` in log-time
+        order (the index merged as rosbags merges it: ties keep connection order). A chunk
+        that cannot be decompressed or parsed is skipped: ``bad_chunk`` hears of it once, with
+        the messages of it not yet read; messages over the message cap go to ``oversized``."""
+        assert self.bio is not None
+        connmap = {c.id: c for c in self.connections}
+        wanted = [c.id for c in connections]
+        infos = {info.pos: info for info in self.chunk_infos}
+        read: Counter[tuple[int, int]] = Counter()
+        bad: set[int] = set()
+        pos, buf = -1, io.BytesIO()
+        limit = self.limits.max_message_bytes
+
+        def lost(at: int) -> dict[int, int]:
+            counts = infos[at].connection_counts if at in infos else {}
+            return {c: counts[c] - read[at, c] for c in wanted if counts.get(c, 0) > read[at, c]}
+
+        merged = heapq.merge(
+            *[[(e, cid) for e in self.indexes.get(cid, ())] for cid in wanted], key=_time
+        )
+        for entry, cid in merged:
+            if entry.chunk_pos in bad:
+                continue
+            try:
+                if entry.chunk_pos != pos:
+                    pos, buf = entry.chunk_pos, io.BytesIO(self._chunk_bytes(entry.chunk_pos))
+                size = _message_at(buf, entry.offset)
+                if size > limit:
+                    oversized(connmap[cid], entry.time, size)
+                    buf.seek(size, os.SEEK_CUR)
+                    read[entry.chunk_pos, cid] += 1
+                    continue
+                data = read_bytes(buf, size)
+            except caps.ChunkError as exc:
+                bad.add(entry.chunk_pos)
+                bad_chunk(entry.chunk_pos, str(exc), lost(entry.chunk_pos))
+                pos, buf = -1, io.BytesIO()
+                continue
+            except _PARSE_ERRORS as exc:
+                bad.add(entry.chunk_pos)
+                why = f"its records do not parse ({exc})"
+                bad_chunk(entry.chunk_pos, why, lost(entry.chunk_pos))
+                pos, buf = -1, io.BytesIO()
+                continue
+            read[entry.chunk_pos, cid] += 1
+            yield connmap[cid], entry.time, data
+
+    def _chunk_bytes(self, pos: int) -> bytes:
+        """The decompressed records of the chunk at ``pos``, bounded by the chunk cap."""
+        assert self.bio is not None
+        chunk = self.chunks[pos]
+        compression, size = self.chunk_meta[pos]
+        self.bio.seek(chunk.datapos)
+        raw = self.bio.read(chunk.datasize)
+        if len(raw) < chunk.datasize:
+            raise caps.ChunkError("the file ends inside its data")
+        # rosbags's lz4 is the frame format; "none" is stored as it is
+        return caps.decompress(raw, compression, size, self.limits.max_chunk_bytes)
+
+
+def _time(item: tuple[Any, int]) -> int:
+    return int(item[0].time)
+
+
+def _message_at(buf: io.BytesIO, offset: int) -> int:
+    """The data size of the message data record at ``offset`` of a chunk's records
+    (connection records before it are stepped over, as rosbags does); the buffer is left at
+    the start of the data."""
+    buf.seek(offset)
+    while True:
+        header = Header.read(buf)
+        op = header.get_uint8("op")
+        if op != RecordType.CONNECTION:
+            break
+        buf.seek(read_uint32(buf), os.SEEK_CUR)
+    if op != RecordType.MSGDATA:
+        raise ReaderError("expected message data")
+    return read_uint32(buf)
+
+
+def _no_decompressor(data: bytes) -> bytes:
+    raise caps.ChunkError("chunks are decompressed by BagReader._chunk_bytes")

@@ -1,0 +1,252 @@
+"""What ``aion build`` does with its inputs before and while it reads them (issue 14):
+
+* ``--map`` with a log older than the map: refused (exit 2), the map and its inputs untouched;
+* the same log, or a byte-identical copy, twice in one build: used once, with a note;
+* FIFOs and devices as inputs, and a target that cannot be a map, are refused before hashing;
+* an undecodable ``/tf`` message is skipped and counted, not the end of the build;
+* a topic that loses more than half its detections is a warning, also with ``-q`` and JSON;
+* a continued build that can use none of its detections is exit 2, not a recorded log;
+* the summary prints strings from the log as plain text.
+
+Logs are written with ``formats.writers.LogWriter`` (tests/robustness/conftest.py helpers);
+garbage payloads are placed with ``tests/robustness/mcap_edit.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+from formats.mapfile import read_manifest
+from tests.robustness.conftest import (
+    T0,
+    Message,
+    S,
+    assert_one_error,
+    assert_same_arrays,
+    build_json,
+    map_arrays,
+    person,
+    robot_tf,
+    run,
+    run_process,
+    walk,
+    write_log,
+)
+from tests.robustness.mcap_edit import copy_with
+
+NAN = float("nan")
+ESC = "\x1b"
+
+
+def fails(result: object, *fragments: str) -> None:
+    assert getattr(result, "exit_code", None) == 2, getattr(result, "stderr", result)
+    assert_one_error(result.stderr, *fragments)  # type: ignore[attr-defined]
+
+
+# -- --map with an older log ------------------------------------------------------------------
+
+
+def test_an_older_log_added_to_a_newer_map_is_refused_and_not_recorded(tmp_path: Path) -> None:
+    """Before: exit 0, every detection of the older log dropped as ``before_window``, and its
+    sha256 recorded, so it could never be added again."""
+    old = write_log(tmp_path / "old.mcap", walk(1200))
+    new = write_log(tmp_path / "new.mcap", walk(1200, start_s=7200))
+    target = tmp_path / "m.aion"
+    build_json(new, "-o", target)
+    before = target.read_bytes()
+    result = run("build", old, "--map", target)
+    fails(
+        result,
+        "the detections of old.mcap start at 2026-11-23 08:00:00 UTC",
+        "m.aion has already closed every window before 2026-11-23 10:10:00 UTC",
+        "logs must be added to a map in time order",
+    )
+    assert (
+        f"hint: rebuild the map from all logs at once (aion build new.mcap {old} -o NEW.aion)"
+        in result.stderr
+    )
+    assert target.read_bytes() == before
+    assert [i["name"] for i in read_manifest(target)["inputs"]] == ["new.mcap"]
+    # all logs at once is the documented way, and equals adding them in time order
+    together = build_json(new, old, "-o", tmp_path / "all.aion")
+    assert together["detections"]["used"] == 2400
+    build_json(old, "-o", tmp_path / "steps.aion")
+    build_json(new, "--map", tmp_path / "steps.aion")
+    assert_same_arrays(map_arrays(tmp_path / "steps.aion"), map_arrays(tmp_path / "all.aion"))
+
+
+def test_a_log_reaching_back_into_closed_windows_is_refused(tmp_path: Path) -> None:
+    """A log that starts in the map's open window is fine; one that starts a window earlier is
+    refused even though most of it is new (its first detections would be lost)."""
+    first = write_log(tmp_path / "a.mcap", walk(1200))  # windows 0, 1: window 1 stays open
+    target = tmp_path / "m.aion"
+    build_json(first, "-o", target)
+    overlap_open = write_log(tmp_path / "b.mcap", walk(600, start_s=1200))
+    build_json(overlap_open, "--map", target)  # starts in the open window 2
+    early = write_log(tmp_path / "c.mcap", walk(1200, start_s=1100))
+    fails(run("build", early, "--map", target), "logs must be added to a map in time order")
+    assert [i["name"] for i in read_manifest(target)["inputs"]] == ["a.mcap", "b.mcap"]
+
+
+# -- the same input twice ---------------------------------------------------------------------
+
+
+def test_the_same_log_twice_is_used_once(tmp_path: Path) -> None:
+    """Before: ``build a a`` and ``build a copy-of-a`` counted every detection twice."""
+    log = write_log(tmp_path / "a.mcap", walk(600))
+    copy = tmp_path / "copy.mcap"
+    shutil.copyfile(log, copy)
+    once = build_json(log, "-o", tmp_path / "once.aion")
+    for args, other in [((log, log), log), ((log, copy), copy)]:
+        out = tmp_path / f"twice_{other.stem}.aion"
+        report = build_json(*args, "-o", out)
+        assert report["detections"] == once["detections"]
+        assert [i["name"] for i in report["inputs"]] == ["a.mcap"]
+        assert f"{other} is the same log as {log} (same sha256): it is used once" in report["notes"]
+        assert_same_arrays(map_arrays(out), map_arrays(tmp_path / "once.aion"))
+
+
+# -- inputs and targets checked before hashing ------------------------------------------------
+
+
+def test_a_fifo_or_a_device_as_log_is_refused_at_once(tmp_path: Path) -> None:
+    """Before: hashing read the FIFO (blocked forever) or /dev/zero (forever, at disk speed)."""
+    fifo = tmp_path / "pipe.mcap"
+    os.mkfifo(fifo)
+    for path, kind in [(fifo, "a FIFO (named pipe)"), (Path("/dev/zero"), "a character device")]:
+        result = run_process("build", path, "-o", tmp_path / "m.aion", timeout=30)
+        assert result.returncode == 2, result.stderr
+        assert_one_error(result.stderr, f"{path} is {kind}, not a regular file")
+    assert not (tmp_path / "m.aion").exists()
+
+
+def test_a_target_that_cannot_be_a_map_is_refused_before_hashing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Before: a long log was hashed (and read) first, and only the write failed."""
+    log = write_log(tmp_path / "a.mcap", walk(60))
+
+    def no_hashing(path: Path) -> dict[str, object]:
+        raise AssertionError(f"hashed {path} before checking the target")
+
+    monkeypatch.setattr("aion_cli.pipeline.provenance", no_hashing)
+    notes = tmp_path / "notes.txt"
+    notes.write_text("my notes\n")
+    fails(run("build", log, "-o", notes), "it exists and is not an aion map")
+    assert notes.read_text() == "my notes\n"
+    fifo = tmp_path / "out.aion"
+    os.mkfifo(fifo)
+    result = run("build", log, "-o", fifo)
+    assert result.exit_code == 2, result.stderr
+    assert "Traceback" not in result.stderr
+
+
+# -- a bad TF message -------------------------------------------------------------------------
+
+
+def robot_log(seconds: int = 1200) -> list[Message]:
+    """People near (2.1, 0.1) every second, the robot's TF every 5 s."""
+    msgs = [*walk(seconds), *(robot_tf(T0 + k * S) for k in range(0, seconds, 5))]
+    return sorted(msgs, key=lambda m: m[3])
+
+
+GARBAGE_TF = b"\x00\x01\x00\x00\xff\xff\xff\x7f"  # a CDR TFMessage claiming 2**31 transforms
+
+
+def test_one_undecodable_tf_message_is_skipped_and_counted(tmp_path: Path) -> None:
+    """Before: one bad /tf message stopped the whole build (exit 2)."""
+    clean = write_log(tmp_path / "clean.mcap", robot_log())
+    bad = copy_with(clean, tmp_path / "bad.mcap", [("/tf", "", GARBAGE_TF, T0 + 602 * S + 1)])
+    build_json(clean, "-o", tmp_path / "clean.aion")
+    report = build_json(bad, "-o", tmp_path / "bad.aion")
+    assert report["tf_undecodable"] == 1
+    warning = next(w for w in report["warnings"] if "/tf" in w)
+    assert warning.startswith(
+        "1 of 241 messages on /tf could not be decoded and were skipped (first: cannot decode"
+    )
+    assert report["observation"] == "tf map->base_link"
+    assert_same_arrays(map_arrays(tmp_path / "bad.aion"), map_arrays(tmp_path / "clean.aion"))
+
+
+def test_a_log_whose_tf_is_all_undecodable_is_exit_2(tmp_path: Path) -> None:
+    """Without any TF the map would quietly turn into a fixed-sensor map: an error instead."""
+    clean = write_log(tmp_path / "clean.mcap", robot_log(300))
+    bad = copy_with(clean, tmp_path / "bad.mcap", replace={"/tf": GARBAGE_TF})
+    fails(run("build", bad, "-o", tmp_path / "m.aion"), "none of the 60 messages on /tf")
+    assert not (tmp_path / "m.aion").exists()
+
+
+# -- losses are never silent ------------------------------------------------------------------
+
+
+def half_lost(n_bad: int, topic: str = "/tracks") -> list[Message]:
+    """100 person messages, the last ``n_bad`` with a NaN position."""
+    msgs = [
+        person(T0 + k * S, (NAN, 0.0, 0.0) if k >= 100 - n_bad else (2.1, 0.1, 0.0))
+        for k in range(100)
+    ]
+    return [(topic, *m[1:]) for m in msgs]
+
+
+def test_a_topic_losing_most_of_its_detections_warns_even_when_quiet(tmp_path: Path) -> None:
+    log = write_log(tmp_path / "lossy.mcap", half_lost(60))
+    warning = "/tracks: 60 of its 100 detections (60 %) could not be used (dropped: nan 60)"
+    quiet = run("build", log, "-o", tmp_path / "q.aion", "-q")
+    assert quiet.exit_code == 0, quiet.stderr
+    assert quiet.stderr.strip() == f"warning: {warning}"
+    as_json = run("build", log, "-o", tmp_path / "j.aion", "--format", "json")
+    assert as_json.exit_code == 0, as_json.stderr
+    report = json.loads(as_json.stdout)
+    assert warning in report["warnings"]
+    assert f"warning: {warning}" in as_json.stderr
+    assert report["detections_by_topic"] == {
+        "/tracks": {"read": 100, "used": 40, "dropped": {"nan": 60}}
+    }
+    table = run("build", log, "-o", tmp_path / "t.aion")
+    assert f"warning: {warning}" in table.stderr
+
+
+def test_a_minor_loss_is_counted_without_the_warning(tmp_path: Path) -> None:
+    report = build_json(write_log(tmp_path / "ok.mcap", half_lost(40)), "-o", tmp_path / "m.aion")
+    assert report["detections"]["dropped"] == {"nan": 40}
+    assert not any("could not be used" in w for w in report["warnings"])
+
+
+@pytest.mark.parametrize("mode", [(), ("-q",), ("--format", "json")])
+def test_a_continued_build_that_uses_nothing_is_exit_2(
+    mode: tuple[str, ...], tmp_path: Path
+) -> None:
+    """Before: exit 0 with a warning, and the log recorded in the map (never to be added again
+    once fixed)."""
+    target = tmp_path / "m.aion"
+    build_json(write_log(tmp_path / "a.mcap", walk(100)), "-o", target)
+    before = target.read_bytes()
+    lost = [person(T0 + (3600 + k) * S, (NAN, 0.0, 0.0)) for k in range(50)]
+    log = write_log(tmp_path / "b.mcap", lost)
+    result = run("build", log, "--map", target, *mode)
+    fails(result, "none of the 50 people detections read could be used (dropped: nan 50)")
+    assert "the map was left as it was" in result.stderr
+    assert result.stdout == ""
+    assert target.read_bytes() == before
+
+
+# -- strings from the log are plain text ------------------------------------------------------
+
+
+def test_the_summary_prints_names_from_the_log_as_plain_text(tmp_path: Path) -> None:
+    """A topic named with an escape sequence and a TF frame named like rich markup reach the
+    summary's warnings and notes escaped, never as terminal codes or styling."""
+    topic = "/tr\x1b[2Jacks"
+    msgs = [*half_lost(60, topic), robot_tf(T0, child="[red]cam\x07")]
+    log = write_log(tmp_path / "odd.mcap", sorted(msgs, key=lambda m: m[3]))
+    result = run("build", log, "-o", tmp_path / "m.aion", "--detections-topic", topic)
+    assert result.exit_code == 0, result.stderr
+    assert ESC not in result.stderr
+    assert "\x07" not in result.stderr
+    assert "warning: /tr\\x1b[2Jacks: 60 of its 100 detections" in result.stderr
+    assert "frames: [red]cam\\x07, map" in result.stderr
