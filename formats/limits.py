@@ -110,14 +110,15 @@ def mib(n: int) -> str:
 def chunk_over_limit(size: int, limit: int) -> OverLimitError:
     return OverLimitError(
         f"it declares {mib(size)} uncompressed, over the {mib(limit)} limit per chunk "
-        f"(set {CHUNK_ENV} to raise it)",
+        f"(raise it with aion --max-chunk-mb or {CHUNK_ENV})",
         CHUNK_ENV,
     )
 
 
 def message_over_limit(size: int, limit: int) -> OverLimitError:
     return OverLimitError(
-        f"{mib(size)}, over the {mib(limit)} limit per message (set {MESSAGE_ENV} to raise it)",
+        f"{mib(size)}, over the {mib(limit)} limit per message "
+        f"(raise it with aion --max-message-mb or {MESSAGE_ENV})",
         MESSAGE_ENV,
     )
 
@@ -160,7 +161,8 @@ def decompress(data: bytes | memoryview, compression: str, declared: int, limit:
                 f"its {compression} data expands beyond the {declared:,} bytes it declares"
             )
         raise OverLimitError(
-            f"it expands beyond the {mib(limit)} limit per chunk (set {CHUNK_ENV} to raise it)",
+            f"it expands beyond the {mib(limit)} limit per chunk "
+            f"(raise it with aion --max-chunk-mb or {CHUNK_ENV})",
             CHUNK_ENV,
         )
     if declared > 0 and len(out) != declared:
@@ -176,9 +178,7 @@ def _bounded(compression: str, data: bytes | memoryview, most: int) -> bytes:
     if compression == "zstd":
         import zstandard
 
-        reader = zstandard.ZstdDecompressor().stream_reader(
-            bytes(data), read_across_frames=True
-        )
+        reader = zstandard.ZstdDecompressor().stream_reader(bytes(data), read_across_frames=True)
         return bytes(reader.read(most))
     if compression == "lz4":
         import lz4.frame  # type: ignore[import-untyped]

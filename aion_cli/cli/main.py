@@ -90,13 +90,41 @@ class AionGroup(click.Group):
 @click.option(
     "--debug", is_flag=True, help="Show the full traceback when something fails (anywhere)."
 )
-def cli(debug: bool) -> None:
+@click.option(
+    "--max-chunk-mb",
+    type=float,
+    default=None,
+    metavar="MIB",
+    help="Largest decompressed log chunk to read (default 512, or AION_MAX_CHUNK_MB).",
+)
+@click.option(
+    "--max-message-mb",
+    type=float,
+    default=None,
+    metavar="MIB",
+    help="Largest log message to read (default 256, or AION_MAX_MESSAGE_MB).",
+)
+def cli(debug: bool, max_chunk_mb: float | None, max_message_mb: float | None) -> None:
     """aion: 4D scene graphs (scene graphs with temporal flow dynamics) from robot logs.
 
     Reads MCAP, ROS 1 bag and rosbag2 logs of Hydra scene graphs and people detections,
     learns where and when people walk in which direction, and predicts, plans and exports from
     the map file it writes.
     """
+    _apply_read_limits(max_chunk_mb, max_message_mb)
+
+
+def _apply_read_limits(max_chunk_mb: float | None, max_message_mb: float | None) -> None:
+    """``--max-chunk-mb`` / ``--max-message-mb`` (``aion --max-chunk-mb 2048 build ...``):
+    validated here, then handed to every reader of this process through the environment
+    variables the readers consult (:meth:`formats.limits.ReadLimits.from_env`)."""
+    from formats.limits import CHUNK_ENV, MESSAGE_ENV, ReadLimits
+
+    limits = ReadLimits.of(max_chunk_mb, max_message_mb)  # ConfigError (exit 2) when invalid
+    if max_chunk_mb is not None:
+        os.environ[CHUNK_ENV] = repr(limits.max_chunk_bytes / 2**20)
+    if max_message_mb is not None:
+        os.environ[MESSAGE_ENV] = repr(limits.max_message_bytes / 2**20)
 
 
 for _module in (info, build, predict, plan, export, convert):

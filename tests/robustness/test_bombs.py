@@ -94,7 +94,8 @@ def test_a_chunk_declaring_a_gigabyte_is_skipped_before_decompressing(
     (line,) = got["warnings"]
     assert line == (
         f"bomb.mcap: chunk at byte {f.chunk_offsets[1]} skipped: it declares 1,024 MiB "
-        "uncompressed, over the 512 MiB limit per chunk (set AION_MAX_CHUNK_MB to raise it); "
+        "uncompressed, over the 512 MiB limit per chunk "
+        "(raise it with aion --max-chunk-mb or AION_MAX_CHUNK_MB); "
         "1 message lost (/tracks 1)"
     )
 
@@ -131,7 +132,11 @@ def test_the_chunk_cap_is_raised_by_the_environment_or_the_keyword(
     got = read_everything(path)
     assert len(got["sizes"]) == 20
     (line,) = got["warnings"]
-    assert "declares 16 MiB uncompressed, over the 8 MiB limit per chunk (set AION_MAX" in line
+    assert (
+        "declares 16 MiB uncompressed, over the 8 MiB limit per chunk "
+        "(raise it with aion --max-chunk-mb"
+        in line
+    )
     monkeypatch.setenv("AION_MAX_CHUNK_MB", "32")
     got = read_everything(path)
     assert got["warnings"] == []
@@ -152,7 +157,11 @@ def test_a_chunk_without_a_declared_size_is_bounded_by_the_cap(
     assert peak < 24, peak
     assert len(got["sizes"]) == 20
     (line,) = got["warnings"]
-    assert "it expands beyond the 8 MiB limit per chunk (set AION_MAX_CHUNK_MB" in line
+    assert (
+        "it expands beyond the 8 MiB limit per chunk "
+        "(raise it with aion --max-chunk-mb or AION_MAX_CHUNK_MB"
+        in line
+    )
 
 
 @pytest.mark.parametrize("chunked", [True, False], ids=["in-a-chunk", "outside-chunks"])
@@ -174,8 +183,9 @@ def test_a_message_over_the_message_cap_is_skipped_and_said(
         for record in [*parts.schemas, *parts.channels, *parts.messages[:10]]:
             f.record(record)
         t = parts.messages[5].log_time + 1
-        f.record(Message(channel_id=cid, log_time=t, data=bytes(2 * MiB), publish_time=t,
-                         sequence=0))
+        f.record(
+            Message(channel_id=cid, log_time=t, data=bytes(2 * MiB), publish_time=t, sequence=0)
+        )
         for record in parts.messages[10:]:
             f.record(record)
         path.write_bytes(f.bytes(with_summary=False))
@@ -185,10 +195,30 @@ def test_a_message_over_the_message_cap_is_skipped_and_said(
     (line,) = got["warnings"]
     assert line == (
         "big-message.mcap: a message on /tracks at 2026-11-23T08:00:05.000000Z skipped: "
-        "2 MiB, over the 1 MiB limit per message (set AION_MAX_MESSAGE_MB to raise it)"
+        "2 MiB, over the 1 MiB limit per message "
+        "(raise it with aion --max-message-mb or AION_MAX_MESSAGE_MB)"
     )
     monkeypatch.delenv("AION_MAX_MESSAGE_MB")
     assert len(read_everything(path)["sizes"]) == 21
+
+
+def test_the_chunk_cap_is_raised_by_the_command_line_flag(
+    parts: McapParts, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``aion --max-chunk-mb 32 info`` reads the honest 16 MiB chunk the 8 MiB environment cap
+    refuses (the flag wins); a flag that is not a positive size is one error line, exit 2."""
+    path = tmp_path / "big.mcap"
+    bomb_file(parts, path, 16 * MiB)
+    monkeypatch.setenv("AION_MAX_CHUNK_MB", "8")  # restored after the test, whatever the flag set
+    refused = run("info", path)
+    assert refused.exit_code == 0, refused.stderr
+    assert "over the 8 MiB limit per chunk (raise it with aion --max-chunk-mb" in refused.stderr
+    raised = run("--max-chunk-mb", "32", "info", path)
+    assert raised.exit_code == 0, raised.stderr
+    assert "limit per chunk" not in raised.stderr
+    bad = run("--max-chunk-mb", "-1", "info", path)
+    assert bad.exit_code == 2
+    assert_one_error(bad.stderr, "the chunk limit must be a positive number of megabytes")
 
 
 def test_a_bad_cap_in_the_environment_is_one_error_line(
@@ -219,7 +249,10 @@ def test_the_linear_bomb_through_aion_info_takes_megabytes(
     assert result.exit_code == 0, result.stderr
     assert peak < 32, peak
     assert "warning: bomb.mcap: chunk at byte" in result.stderr
-    assert "over the 512 MiB limit per chunk (set AION_MAX_CHUNK_MB" in result.stderr
+    assert (
+        "over the 512 MiB limit per chunk (raise it with aion --max-chunk-mb or AION_MAX_CHUNK_MB"
+        in result.stderr
+    )
 
 
 # -- ROS 1 bags ----------------------------------------------------------------------------------
@@ -254,7 +287,9 @@ def test_a_bag_chunk_declaring_a_gigabyte_is_refused_at_open(
     assert [t for t, _ in got["sizes"]] == [t for t, _ in msgs[10:]]  # the other chunk
     (line,) = got["warnings"]
     assert line.startswith("bomb.bag: chunk at byte 4109 skipped: it declares 1,024 MiB ")
-    assert line.endswith("(set AION_MAX_CHUNK_MB to raise it); 11 messages lost (/tracks 11)")
+    assert line.endswith(
+        "(raise it with aion --max-chunk-mb or AION_MAX_CHUNK_MB); 11 messages lost (/tracks 11)"
+    )
 
 
 def test_a_bag_chunk_whose_size_field_lies_is_cut_off(
@@ -264,8 +299,9 @@ def test_a_bag_chunk_whose_size_field_lies_is_cut_off(
     1 KiB + 1 byte and the chunk is skipped, the next one read."""
     topic, msgs = bag_parts
     path = tmp_path / "liar.bag"
-    data = craft_bag(topic, [msgs[:10], msgs[10:]], "bz2", bomb=(0, 64 * MiB),
-                     declared_sizes=[1024, None])
+    data = craft_bag(
+        topic, [msgs[:10], msgs[10:]], "bz2", bomb=(0, 64 * MiB), declared_sizes=[1024, None]
+    )
     path.write_bytes(data)
     got, peak = peak_mib(lambda: read_everything(path))
     assert peak < 8, peak
