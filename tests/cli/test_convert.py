@@ -12,6 +12,7 @@ from formats.detections.frame import FrameDetections
 from formats.tracks import OBSERVED_INTERVAL_NS
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.logdata import T0, save_graph_file
+from tests.shared_data import SHARED_DATA
 
 S = 1_000_000_000
 
@@ -84,7 +85,7 @@ def test_bad_inputs(tmp_path: Path) -> None:
 
 # ----------------------------------------------------------------------------- --observed
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
+DATA = SHARED_DATA
 LINCOLN = DATA / "lincoln"
 WINDOW = 600 * S
 

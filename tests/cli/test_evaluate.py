@@ -10,11 +10,13 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from aion_cli.cli.main import cli
+from tests.shared_data import SHARED_DATA, needs
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+DATA = SHARED_DATA
 AION = Path(sys.executable).parent / "aion"
 
 
+@needs(DATA / "fremen_door", "the FreMEn door data")
 def test_door_json_reports_every_test_week() -> None:
     result = CliRunner().invoke(
         cli, ["evaluate", "door", "--data", str(DATA / "fremen_door"), "--format", "json"],

@@ -10,8 +10,9 @@ import pytest
 
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.formats import dsg_builders as b
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dsg"
+DATA = SHARED_DATA / "dsg"
 IGX = DATA / "apartment_igx_dsg.json"
 S = 1_000_000_000
 T0 = 1_795_420_800 * S  # Monday 2026-11-23 08:00 UTC

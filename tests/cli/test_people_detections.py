@@ -21,13 +21,14 @@ from tests.cli.own_definitions import (
     foxy_detection3d_array,
     write_mcap,
 )
+from tests.shared_data import SHARED_DATA
 
 S = 1_000_000_000
 T0 = 1_700_000_400 * S  # aligned to 600-s windows
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"
 TF = "tf2_msgs/msg/TFMessage"
 README = Path(__file__).resolve().parents[2] / "README.md"
-LEG_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "logs" / "leg_tracker"
+LEG_DATA = SHARED_DATA / "logs" / "leg_tracker"
 
 
 def map_cells(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -12,8 +12,9 @@ import pytest
 
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.formats import dsg_builders as b
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dsg"
+DATA = SHARED_DATA / "dsg"
 IGX = DATA / "apartment_igx_dsg.json"
 # a fixed sensor for 72 minutes around noon, when people walk
 SHORT = ("--days", "0.05", "--start", "2026-01-05T12:00", "--robot", "fixed", "--quiet")

@@ -6,7 +6,6 @@ from __future__ import annotations
 import cmath
 import math
 from datetime import UTC, datetime
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,6 +27,7 @@ from tests.engine.engine_builders import (
     pending_counts,
     temporal_detections,
 )
+from tests.shared_data import SHARED_DATA
 
 CFG = ModelConfig(window_s=600.0, sensor_range=8.0)
 W = 600 * S
@@ -261,7 +261,7 @@ def test_bad_inputs() -> None:
         Mapper(CFG, MapState.empty(CFG.replace(bins=4)))
 
 
-ATC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "atc"
+ATC = SHARED_DATA / "atc"
 needs_atc = pytest.mark.skipif(
     not (ATC / "atc-1024-10_train.csv").is_file(),
     reason="the ATC data (../shared/data/atc) is not here",

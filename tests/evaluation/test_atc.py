@@ -9,8 +9,9 @@ import pytest
 
 from aion_cli.evaluation.atc import atc_files, local_hour, run_atc
 from aion_cli.evaluation.heading import UNIFORM_NLL
+from tests.shared_data import SHARED_DATA
 
-ATC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "atc"
+ATC = SHARED_DATA / "atc"
 needs_atc = pytest.mark.skipif(
     not (ATC / "atc-1024-15_train.csv").is_file(),
     reason="the ATC data (../shared/data/atc) is not here",

@@ -9,7 +9,6 @@ per-week figures.
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -18,8 +17,9 @@ import pytest
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.evaluation.door import run_door, train_door
+from tests.shared_data import SHARED_DATA
 
-DOOR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "fremen_door"
+DOOR = SHARED_DATA / "fremen_door"
 pytestmark = pytest.mark.skipif(
     not (DOOR / "training_data.txt").is_file(),
     reason="the door data (../shared/data/fremen_door) is not here",

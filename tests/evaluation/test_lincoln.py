@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from aion_cli.evaluation import lincoln
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "lincoln"
+DATA = SHARED_DATA / "lincoln"
 needs_lincoln = pytest.mark.skipif(
     not (DATA / "2017-06-09.txt").exists(),
     reason="the Lincoln corridor data (../shared/data/lincoln) is not available",

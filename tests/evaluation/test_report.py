@@ -8,8 +8,9 @@ import pytest
 
 from aion_cli.evaluation.atc import AtcResult
 from aion_cli.evaluation.report import atc_section, write_report
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+DATA = SHARED_DATA
 
 
 @pytest.mark.skipif(

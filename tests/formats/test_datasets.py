@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 from formats import tracks as ft
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "tracks"
+DATA = SHARED_DATA / "tracks"
 EDINBURGH = DATA / "edinburgh" / "tracks.01Jul.txt"
 ETH_UCY = DATA / "eth_ucy"
 S = 1_000_000_000

@@ -11,8 +11,9 @@ import pytest
 
 from aion_cli.engine.errors import InputError, MessageDecodeError
 from formats import dsg as fdsg
+from tests.shared_data import SHARED_DATA, needs
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dsg"
+DATA = SHARED_DATA / "dsg"
 APARTMENT = DATA / "apartment_dsg.json"
 MP3D = DATA / "mp3d_x8F5xyUWy9e_dsg.json"
 
@@ -35,6 +36,7 @@ def _edges_valid(snap: Any) -> None:
 # ----------------------------------------------------------------------------- real graphs
 
 
+@needs(APARTMENT, "the apartment scene graph")
 def test_apartment_counts_and_hierarchy() -> None:
     snap = fdsg.load_graph_file(APARTMENT)
     assert snap.layer_name == "places"
@@ -56,6 +58,7 @@ def test_apartment_counts_and_hierarchy() -> None:
     assert np.isfinite(snap.places.xyz).all()
 
 
+@needs(MP3D, "the mp3d scene graph")
 def test_mp3d_counts() -> None:
     snap = fdsg.load_graph_file(MP3D, t_ns=123)
     assert snap.t_ns == 123
@@ -68,6 +71,7 @@ def test_mp3d_counts() -> None:
     assert set(snap.places.parent.tolist()) <= {0, *snap.rooms.ids.tolist()}
 
 
+@needs(DATA, "the real scene graphs")
 def test_real_graph_binary_round_trip_matches_file() -> None:
     """Real graph -> to_binary -> decode gives the same nodes, edges and parents as the file."""
     graph = fdsg.load_dsg_file(APARTMENT)
@@ -301,6 +305,7 @@ def test_garbage_payload_lists_versions(bad: bytes) -> None:
     assert isinstance(err.value, InputError)
 
 
+@needs(APARTMENT, "the apartment scene graph")
 def test_truncated_real_payload_fails() -> None:
     payload = fdsg.load_dsg_file(APARTMENT).to_binary()
     with pytest.raises(MessageDecodeError, match="versions tried"):

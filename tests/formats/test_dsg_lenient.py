@@ -14,8 +14,9 @@ import pytest
 from formats import dsg as fdsg
 from formats.dsg_json import skipped_text
 from tests.formats import dsg_builders as b
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dsg"
+DATA = SHARED_DATA / "dsg"
 IGX = DATA / "apartment_igx_dsg.json"
 APARTMENT = DATA / "apartment_dsg.json"
 

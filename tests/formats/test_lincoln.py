@@ -11,8 +11,9 @@ import pytest
 
 from aion_cli.engine.errors import InputError
 from formats import tracks as ft
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
+DATA = SHARED_DATA
 LINCOLN = DATA / "lincoln"
 S = 1_000_000_000
 DAY = 86_400

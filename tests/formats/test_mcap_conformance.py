@@ -20,8 +20,9 @@ import pytest
 
 from aion_cli.engine.errors import LogFormatError
 from formats.logs import _McapSource, open_logs
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "logs" / "mcap_conformance"
+DATA = SHARED_DATA / "logs" / "mcap_conformance"
 NO_DATA = "the MCAP conformance suite (../shared/data/logs/mcap_conformance) is not available"
 
 

@@ -20,8 +20,9 @@ import pytest
 
 from aion_cli.engine.errors import LogFormatError
 from formats.logs import open_logs
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "logs"
+DATA = SHARED_DATA / "logs"
 NO_DATA = "the real logs of ../shared/data/logs are not available"
 
 

@@ -18,8 +18,9 @@ import formats.logs
 from aion_cli.engine.errors import ConfigError
 from formats.logs import LogSet, open_logs
 from formats.writers import CONTAINERS, LogWriter, stamp
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "logs"
+DATA = SHARED_DATA / "logs"
 NO_DATA = "the real logs of ../shared/data/logs are not available"
 
 S = 1_000_000_000

@@ -19,8 +19,9 @@ import pytest
 from aion_cli.engine.errors import LogFormatError
 from formats.logs import open_logs, reindex
 from tests.cli.conftest import assert_one_line_error, run
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "logs" / "rosbag2_tests"
+DATA = SHARED_DATA / "logs" / "rosbag2_tests"
 NO_DATA = "the rosbag2 test bags of ../shared/data/logs are not available"
 REINDEX = "rosbag2_py_sqlite3_reindex_test_bags_multiple_files"
 

@@ -14,8 +14,9 @@ from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import DetectionBatch
 from formats import tracks as ft
 from formats.detections.frame import FrameDetections
+from tests.shared_data import SHARED_DATA, needs
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
+DATA = SHARED_DATA
 ATC = DATA / "atc" / "atc-1024-9_test.csv"
 THOR = DATA / "thor" / "thor1-exp-1-run-2.csv"
 THOR3 = DATA / "thor" / "thor3-exp-3-run-2.csv"
@@ -30,6 +31,7 @@ def _csv_rows(path: Path) -> list[list[str]]:
 # ----------------------------------------------------------------------------- real files
 
 
+@needs(ATC, "the ATC excerpt")
 def test_atc_real_file() -> None:
     rows = _csv_rows(ATC)
     batch = ft.read_tracks(ATC, "atc")
@@ -56,6 +58,8 @@ def test_atc_real_file() -> None:
     assert got == want
 
 
+@needs(THOR3, "the THÖR files")
+@needs(THOR, "the THÖR files")
 @pytest.mark.parametrize("path", [THOR, THOR3])
 def test_thor_real_files_with_start_offset(path: Path) -> None:
     rows = _csv_rows(path)
@@ -183,13 +187,14 @@ def test_empty_missing_and_wrong_layout(tmp_path: Path) -> None:
     assert single.track_id.tolist() == [3]
     with pytest.raises(ft.TracksFormatError, match="not found"):
         ft.read_tracks(tmp_path / "missing.csv", "atc")
+    atc_rows = _write(tmp_path, "atc.csv", "1351038020.969,9190802,-22.311,1.883,0.324,-0.45\n")
     with pytest.raises(ft.TracksFormatError, match="header"):
-        ft.read_tracks(ATC)  # an ATC file read as canonical
+        ft.read_tracks(atc_rows)  # an ATC file read as canonical
     bad_canon = _write(tmp_path, "c.csv", ft.CANONICAL_HEADER + "\n1.5,1,0,0,0,0,0\n")
     with pytest.raises(ft.TracksFormatError, match=r"line 2, column 1 \(t_ns\).*integer"):
         ft.read_tracks(bad_canon)
     with pytest.raises(ft.TracksFormatError, match="unknown tracks layout"):
-        ft.read_tracks(ATC, "csv")
+        ft.read_tracks(atc_rows, "csv")
     assert issubclass(ft.TracksFormatError, InputError)
 
 
@@ -206,6 +211,8 @@ def _read_log(path: Path) -> list[tuple[str, int, object]]:
     return out
 
 
+@needs(DATA / "dsg" / "apartment_dsg.json", "the apartment scene graph")
+@needs(THOR, "the THÖR file")
 def test_tracks_to_log_round_trip_with_graph(tmp_path: Path) -> None:
     batch = ft.read_tracks(THOR, "thor", start_ns=1_600_000_000 * S)
     out = tmp_path / "thor.mcap"
@@ -362,6 +369,7 @@ def test_vectorized_tracked_persons_bytes_equal_writer_serialization(
             assert raw == want
 
 
+@needs(THOR3, "the THÖR file")
 def test_tracks_to_log_ros1_bag_spencer(tmp_path: Path) -> None:
     batch = ft.read_tracks(THOR3, "thor")
     out = tmp_path / "t.bag"

@@ -24,8 +24,9 @@ from formats import dsg as fdsg
 from tests.cli.logdata import build_graph
 from tests.robustness.conftest import assert_one_error, run, walk, write_log
 from tests.robustness.test_bad_logs import payload_1_1_2
+from tests.shared_data import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dsg"
+DATA = SHARED_DATA / "dsg"
 REAL = ["apartment_dsg.json", "mp3d_x8F5xyUWy9e_dsg.json"]
 
 

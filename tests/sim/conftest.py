@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -12,8 +11,9 @@ import pytest
 from aion_cli.sim.graphstream import StreamConfig
 from aion_cli.sim.robot import PatrolConfig
 from aion_cli.sim.scenario import ScenarioConfig, SceneResult, simulate
+from tests.shared_data import SHARED_DATA
 
-DSG_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "dsg"
+DSG_DIR = SHARED_DATA / "dsg"
 
 # Three hours around lunch on a Monday, a tour every 20 minutes, and every loop closure both
 # merges and removes a place, so the stream has all the situations to check.

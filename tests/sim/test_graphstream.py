@@ -12,6 +12,7 @@ from aion_cli.sim.graphstream import EVENT_KINDS
 from aion_cli.sim.scenario import SceneResult, build_scene, load_environment
 from formats.dsg import decode_dsg_update
 from formats.logs import open_logs
+from tests.shared_data import needs
 from tests.sim.conftest import DSG_DIR, PATROL, load_truth
 
 PLACES = 3
@@ -143,6 +144,7 @@ def test_removed_places_vanish_and_return_under_new_ids(stream: tuple[list[Frame
         assert int(node[i]) in frames[-1].pos or int(node[i]) in set(node[removes].tolist())
 
 
+@needs(DSG_DIR / "mp3d_x8F5xyUWy9e_dsg.json", "the mp3d scene graph")
 def test_new_ids_never_collide_with_a_real_graphs_ids() -> None:
     """Real files number places sparsely; ids issued for re-added places must be fresh."""
     config = replace(

@@ -13,6 +13,7 @@ from aion_cli.sim.environment import load_graph_environment
 from aion_cli.sim.office import office_environment
 from aion_cli.sim.scenario import build_scene, load_environment
 from aion_cli.sim.schedule import plan_moves
+from tests.shared_data import needs, require
 from tests.sim.conftest import DSG_DIR, FIXED
 
 
@@ -74,7 +75,7 @@ def test_agents_walk_at_their_speed_with_heading_along_motion() -> None:
 
 @pytest.mark.parametrize("name", ["apartment_dsg.json", "mp3d_x8F5xyUWy9e_dsg.json"])
 def test_people_stay_on_the_place_graph_of_a_real_scene_graph(name: str) -> None:
-    path = DSG_DIR / name
+    path = require(DSG_DIR / name, "the real scene graph")
     config = replace(
         FIXED, environment=str(path), noise=0.05, days=3 / 24, start="2026-01-05T11:30"
     )
@@ -91,6 +92,7 @@ def test_people_stay_on_the_place_graph_of_a_real_scene_graph(name: str) -> None
     assert set(alive.tolist()) <= set(env.place_ids.tolist())
 
 
+@needs(DSG_DIR / "apartment_dsg.json", "the apartment scene graph")
 def test_real_graph_loader_keeps_the_largest_component() -> None:
     env = load_graph_environment(Path(DSG_DIR / "apartment_dsg.json"), 6)
     from aion_cli.sim.environment import largest_component

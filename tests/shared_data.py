@@ -1,0 +1,41 @@
+"""Where the tests find the workspace's real public data, and how they skip without it.
+
+The data sits in ``../shared/data`` beside a checkout of this workspace (its README lists the
+datasets and their licences). A clone elsewhere has none of it: every test that reads it is
+marked with :func:`needs` (or calls :func:`require`) and skips with the reason, so ``make
+test`` passes anywhere. ``AION_SHARED_DATA=/path/to/data`` points the tests at another copy
+(``AION_SHARED_DATA=/nonexistent make test`` runs the suite as a clone without it would).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+#: the real data: ``$AION_SHARED_DATA`` or ``../shared/data`` beside the repository
+SHARED_DATA = Path(os.environ.get("AION_SHARED_DATA") or REPO.parent / "shared" / "data")
+
+
+def shared(*parts: str) -> Path:
+    """A path inside the shared data (it may not exist: pair it with :func:`needs`)."""
+    return SHARED_DATA.joinpath(*parts)
+
+
+def absent_reason(path: Path, what: str) -> str:
+    return f"{what} ({path}) is not here: the real data of ../shared/data is absent"
+
+
+def needs(path: Path, what: str) -> pytest.MarkDecorator:
+    """Skip the marked test (or module, as ``pytestmark``) when ``path`` does not exist."""
+    return pytest.mark.skipif(not path.exists(), reason=absent_reason(path, what))
+
+
+def require(path: Path, what: str) -> Path:
+    """Inside a test or fixture: skip it when ``path`` does not exist, else return it."""
+    if not path.exists():
+        pytest.skip(absent_reason(path, what))
+    return path
