@@ -5,9 +5,14 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 DEMO := demo-out
 
-.PHONY: install test lint typecheck pytest demo bench sample clean
+.PHONY: install system-deps test lint typecheck pytest demo bench sample clean
+
+## system libraries pip cannot install (libusb-1.0 for open3d), with apt-get/dnf/apk if missing
+system-deps:
+	@bash .ci/system-deps.sh
 
 $(STAMP): pyproject.toml
+	@bash .ci/system-deps.sh
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[test]'
@@ -28,7 +33,7 @@ pytest: $(STAMP)
 test: lint typecheck pytest
 
 ## make demo: build a map from the bundled sample, predict, plan, export
-demo: $(STAMP)
+demo: $(STAMP) system-deps
 	bash samples/demo.sh $(BIN) $(DEMO)
 
 ## make bench: speed and memory benchmarks (not part of make test)

@@ -39,7 +39,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import AionError, InputError
+from aion_cli.engine.errors import AionError, InputError, MissingSystemLibraryError
 from aion_cli.engine.types import Mesh
 
 F64 = npt.NDArray[np.float64]
@@ -118,10 +118,34 @@ def sphere_radii(flow: npt.ArrayLike, flow_scale: float, cell_size: float) -> F6
 # -- instancing ------------------------------------------------------------------------------
 
 
+def open3d() -> Any:
+    """The ``open3d`` module, or :class:`MissingSystemLibraryError` naming the missing system
+    library: open3d's wheel links against ``libusb-1.0.so.0`` (Debian/Ubuntu package
+    ``libusb-1.0-0``), which minimal machines and containers lack; ``make install`` installs it
+    where it can."""
+    try:
+        import open3d as o3d
+    except (ImportError, OSError) as exc:
+        missing = str(exc)
+        if "libusb" in missing:
+            raise MissingSystemLibraryError(
+                f"open3d cannot be loaded: {missing}",
+                hint="install the system library libusb-1.0 (Debian/Ubuntu: "
+                "sudo apt-get install libusb-1.0-0; Fedora: sudo dnf install libusb1), "
+                "or run make install, which does it where it can",
+            ) from exc
+        raise MissingSystemLibraryError(
+            f"open3d cannot be loaded: {missing}",
+            hint="reinstall aion's dependencies (make install) and check open3d's system "
+            "requirements",
+        ) from exc
+    return o3d
+
+
 def _template(kind: str) -> tuple[F64, I64]:
     """Unit template geometry from open3d: sphere (r = 1), arrow (shaft radius 1, length 1
     along +z from the origin), tube (radius 1, height 1 along +z centred on the origin)."""
-    import open3d as o3d
+    o3d = open3d()
 
     tm = o3d.geometry.TriangleMesh
     if kind == "sphere":
@@ -219,7 +243,7 @@ def cell_squares(xyz: F64, cell_size: float, colors: F64) -> TriMesh:
 
 
 def _o3d_mesh(mesh: TriMesh) -> Any:
-    import open3d as o3d
+    o3d = open3d()
 
     out = o3d.geometry.TriangleMesh()
     out.vertices = o3d.utility.Vector3dVector(np.ascontiguousarray(mesh.vertices))
@@ -232,7 +256,7 @@ def _o3d_mesh(mesh: TriMesh) -> Any:
 
 
 def _o3d_lines(points: F64, lines: I64, color: tuple[float, float, float]) -> Any:
-    import open3d as o3d
+    o3d = open3d()
 
     ls = o3d.geometry.LineSet()
     ls.points = o3d.utility.Vector3dVector(np.ascontiguousarray(points))
@@ -242,7 +266,7 @@ def _o3d_lines(points: F64, lines: I64, color: tuple[float, float, float]) -> An
 
 
 def _o3d_points(xyz: F64, colors: F64, normals: F64 | None = None) -> Any:
-    import open3d as o3d
+    o3d = open3d()
 
     pc = o3d.geometry.PointCloud()
     pc.points = o3d.utility.Vector3dVector(np.ascontiguousarray(xyz))
@@ -253,7 +277,7 @@ def _o3d_points(xyz: F64, colors: F64, normals: F64 | None = None) -> Any:
 
 
 def _write(path: Path, kind: str, geometry: Any) -> Path:
-    import open3d as o3d
+    o3d = open3d()
 
     writers: dict[str, Any] = {
         "mesh": o3d.io.write_triangle_mesh,

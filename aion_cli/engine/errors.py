@@ -20,6 +20,11 @@ class AionError(Exception):
         self.hint = hint
 
 
+class MissingSystemLibraryError(AionError):
+    """A library the machine must provide is missing (e.g. open3d's ``libusb-1.0.so.0``): not
+    a bug in aion and not bad input; the hint names the package that provides it (exit 1)."""
+
+
 class InputError(AionError):
     """Bad input or usage: a file, an option, a value the user gave (CLI exit code 2)."""
 
