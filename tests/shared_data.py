@@ -5,6 +5,10 @@ datasets and their licences). A clone elsewhere has none of it: every test that 
 marked with :func:`needs` (or calls :func:`require`) and skips with the reason, so ``make
 test`` passes anywhere. ``AION_SHARED_DATA=/path/to/data`` points the tests at another copy
 (``AION_SHARED_DATA=/nonexistent make test`` runs the suite as a clone without it would).
+
+A few MB of it are copied into ``tests/data`` (same relative paths, licences beside them:
+``tests/data/README.md``); :func:`real` prefers the shared copy and falls back to those, so the
+readers are tested on real files from any clone.
 """
 
 from __future__ import annotations
@@ -18,6 +22,9 @@ REPO = Path(__file__).resolve().parents[1]
 
 #: the real data: ``$AION_SHARED_DATA`` or ``../shared/data`` beside the repository
 SHARED_DATA = Path(os.environ.get("AION_SHARED_DATA") or REPO.parent / "shared" / "data")
+
+#: the small real fixtures kept in the repository
+FIXTURES = REPO / "tests" / "data"
 
 
 def shared(*parts: str) -> Path:
@@ -39,3 +46,18 @@ def require(path: Path, what: str) -> Path:
     if not path.exists():
         pytest.skip(absent_reason(path, what))
     return path
+
+
+def real_path(*parts: str) -> Path:
+    """The shared copy of a real file when it exists, else the repository's fixture copy
+    (which may not exist either: pair it with :func:`needs` or use :func:`real`)."""
+    shared_copy = SHARED_DATA.joinpath(*parts)
+    if shared_copy.exists():
+        return shared_copy
+    fixture = FIXTURES.joinpath(*parts)
+    return fixture if fixture.exists() else shared_copy
+
+
+def real(*parts: str) -> Path:
+    """Inside a test: :func:`real_path`, skipping the test when neither copy exists."""
+    return require(real_path(*parts), "/".join(parts))

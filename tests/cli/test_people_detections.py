@@ -21,7 +21,7 @@ from tests.cli.own_definitions import (
     foxy_detection3d_array,
     write_mcap,
 )
-from tests.shared_data import SHARED_DATA
+from tests.shared_data import SHARED_DATA, real
 
 S = 1_000_000_000
 T0 = 1_700_000_400 * S  # aligned to 600-s windows
@@ -458,9 +458,6 @@ LEG_BAGS = {
 }
 
 
-@pytest.mark.skipif(
-    not LEG_DATA.is_dir(), reason="the leg_tracker bags (../shared/data) are not here"
-)
 @pytest.mark.parametrize("name", sorted(LEG_BAGS))
 def test_leg_tracker_bags_build_with_linked_headings(name: str, tmp_path: Path) -> None:
     """Real laser leg clusters: PoseArray in the laser frame, no ids, zero quaternions, and an
@@ -469,7 +466,7 @@ def test_leg_tracker_bags_build_with_linked_headings(name: str, tmp_path: Path) 
     towards and away from the laser: the clusters span ~4.5 m in x and ~1 m in y, so most
     headings lie within 45° of the x axis."""
     poses, frame = LEG_BAGS[name]
-    log = LEG_DATA / name
+    log = real("logs", "leg_tracker", name)
     refused = run("build", log, "-o", tmp_path / "m.aion")
     assert refused.exit_code == 2
     assert_one_line_error(refused.stderr, f"frame {frame!r}")

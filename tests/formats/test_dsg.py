@@ -11,10 +11,10 @@ import pytest
 
 from aion_cli.engine.errors import InputError, MessageDecodeError
 from formats import dsg as fdsg
-from tests.shared_data import SHARED_DATA, needs
+from tests.shared_data import SHARED_DATA, needs, real_path
 
 DATA = SHARED_DATA / "dsg"
-APARTMENT = DATA / "apartment_dsg.json"
+APARTMENT = real_path("dsg", "apartment_dsg.json")
 MP3D = DATA / "mp3d_x8F5xyUWy9e_dsg.json"
 
 

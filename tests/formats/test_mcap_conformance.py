@@ -20,9 +20,10 @@ import pytest
 
 from aion_cli.engine.errors import LogFormatError
 from formats.logs import _McapSource, open_logs
-from tests.shared_data import SHARED_DATA
+from tests.shared_data import FIXTURES, SHARED_DATA, real_path
 
-DATA = SHARED_DATA / "logs" / "mcap_conformance"
+DATA = real_path("logs", "mcap_conformance")  # the whole suite, else tests/data's 8 files
+WHOLE_SUITE = SHARED_DATA / "logs" / "mcap_conformance"
 NO_DATA = "the MCAP conformance suite (../shared/data/logs/mcap_conformance) is not available"
 
 
@@ -48,9 +49,18 @@ def _expected(path: Path) -> tuple[list[tuple[int, int, bytes]], dict[int, str]]
     return messages, channels
 
 
+def test_the_repository_keeps_a_part_of_the_suite() -> None:
+    """tests/data holds 8 files of the suite with their expected records, so the reader is
+    checked against it from any clone."""
+    kept = sorted((FIXTURES / "logs" / "mcap_conformance").glob("*/*.mcap"))
+    assert len(kept) == 8
+    assert all(p.with_suffix(".json").is_file() for p in kept)
+
+
 def test_the_whole_suite_is_here() -> None:
-    if not DATA.is_dir():
+    if not WHOLE_SUITE.is_dir():
         pytest.skip(NO_DATA)
+    assert DATA == WHOLE_SUITE
     assert len(_cases()) == 342
     assert all((DATA / name).with_suffix(".json").is_file() for name in _cases())
 

@@ -20,17 +20,16 @@ import pytest
 
 from aion_cli.engine.errors import LogFormatError
 from formats.logs import open_logs
-from tests.shared_data import SHARED_DATA
+from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs"
 NO_DATA = "the real logs of ../shared/data/logs are not available"
 
 
 def _real(*parts: str) -> Path:
-    path = DATA.joinpath(*parts)
-    if not path.exists():
-        pytest.skip(NO_DATA)
-    return path
+    """The real log: ../shared/data's copy, else the repository's fixture (tests/data), else
+    the test skips."""
+    return real("logs", *parts)
 
 
 # --- an independent ROS 1 bag (format 2.0) parser -------------------------------------------------

@@ -18,7 +18,7 @@ import formats.logs
 from aion_cli.engine.errors import ConfigError
 from formats.logs import LogSet, open_logs
 from formats.writers import CONTAINERS, LogWriter, stamp
-from tests.shared_data import SHARED_DATA
+from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs"
 NO_DATA = "the real logs of ../shared/data/logs are not available"
@@ -325,16 +325,19 @@ WINDOWS = (1, 7, 1_000, 1_000_000, S, WINDOW)
 
 
 def _real(*parts: str) -> Path:
-    path = DATA.joinpath(*parts)
-    if not path.exists():
-        pytest.skip(NO_DATA)
-    return path
+    return real("logs", *parts)
 
 
-ROSBAG_JS = ["example.bag", "example-bz2.bag", "example-lz4.bag", "example-unsorted-chunks.bag"]
-LEG_TRACKER = ["demo_stationary_simple_environment.bag", "positive_1_extracted.bag"]
+
+ROSBAG_JS = ["example-bz2.bag", "example.bag", "example-lz4.bag", "example-unsorted-chunks.bag"]
+LEG_TRACKER = [
+    "demo_stationary_simple_environment.bag",
+    "positive_1_extracted.bag",
+    "positive_2_extracted.bag",
+]
 ROSBAG2 = [
     "rosbag2_py_mcap_talker",
+    "rosbag2_py_sqlite3_talker",
     "rosbag2_py_mcap_wbag",  # split over five storage files
     "rosbag2_py_sqlite3_wbag",
     "rosbag2_tests_mcap_bag_with_topics_and_service_events",

@@ -19,7 +19,7 @@ import pytest
 from aion_cli.engine.errors import LogFormatError
 from formats.logs import open_logs, reindex
 from tests.cli.conftest import assert_one_line_error, run
-from tests.shared_data import SHARED_DATA
+from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs" / "rosbag2_tests"
 NO_DATA = "the rosbag2 test bags of ../shared/data/logs are not available"
@@ -27,10 +27,8 @@ REINDEX = "rosbag2_py_sqlite3_reindex_test_bags_multiple_files"
 
 
 def _real(*parts: str) -> Path:
-    path = DATA.joinpath(*parts)
-    if not path.exists():
-        pytest.skip(NO_DATA)
-    return path
+    return real("logs", "rosbag2_tests", *parts)
+
 
 
 def _metadata(folder: Path) -> dict[str, Any]:

@@ -14,12 +14,12 @@ from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import DetectionBatch
 from formats import tracks as ft
 from formats.detections.frame import FrameDetections
-from tests.shared_data import SHARED_DATA, needs
+from tests.shared_data import SHARED_DATA, needs, real_path
 
 DATA = SHARED_DATA
-ATC = DATA / "atc" / "atc-1024-9_test.csv"
-THOR = DATA / "thor" / "thor1-exp-1-run-2.csv"
-THOR3 = DATA / "thor" / "thor3-exp-3-run-2.csv"
+ATC = real_path("atc", "atc-1024-9_test.csv")
+THOR = real_path("thor", "thor1-exp-1-run-2.csv")
+THOR3 = real_path("thor", "thor3-exp-3-run-2.csv")
 S = 1_000_000_000
 
 
@@ -211,12 +211,12 @@ def _read_log(path: Path) -> list[tuple[str, int, object]]:
     return out
 
 
-@needs(DATA / "dsg" / "apartment_dsg.json", "the apartment scene graph")
+@needs(real_path("dsg", "apartment_dsg.json"), "the apartment scene graph")
 @needs(THOR, "the THÖR file")
 def test_tracks_to_log_round_trip_with_graph(tmp_path: Path) -> None:
     batch = ft.read_tracks(THOR, "thor", start_ns=1_600_000_000 * S)
     out = tmp_path / "thor.mcap"
-    graph = DATA / "dsg" / "apartment_dsg.json"
+    graph = real_path("dsg", "apartment_dsg.json")
     summary = ft.tracks_to_log(batch, out, graph_file=graph, graph_period_s=60.0)
     distinct = np.unique(batch.t_ns)
     assert summary.detection_messages == len(distinct)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,8 +12,8 @@ from aion_cli.sim.environment import load_graph_environment
 from aion_cli.sim.office import office_environment
 from aion_cli.sim.scenario import build_scene, load_environment
 from aion_cli.sim.schedule import plan_moves
-from tests.shared_data import needs, require
-from tests.sim.conftest import DSG_DIR, FIXED
+from tests.shared_data import needs, real_path, require
+from tests.sim.conftest import FIXED
 
 
 def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -75,7 +74,7 @@ def test_agents_walk_at_their_speed_with_heading_along_motion() -> None:
 
 @pytest.mark.parametrize("name", ["apartment_dsg.json", "mp3d_x8F5xyUWy9e_dsg.json"])
 def test_people_stay_on_the_place_graph_of_a_real_scene_graph(name: str) -> None:
-    path = require(DSG_DIR / name, "the real scene graph")
+    path = require(real_path("dsg", name), "the real scene graph")
     config = replace(
         FIXED, environment=str(path), noise=0.05, days=3 / 24, start="2026-01-05T11:30"
     )
@@ -92,9 +91,9 @@ def test_people_stay_on_the_place_graph_of_a_real_scene_graph(name: str) -> None
     assert set(alive.tolist()) <= set(env.place_ids.tolist())
 
 
-@needs(DSG_DIR / "apartment_dsg.json", "the apartment scene graph")
+@needs(real_path("dsg", "apartment_dsg.json"), "the apartment scene graph")
 def test_real_graph_loader_keeps_the_largest_component() -> None:
-    env = load_graph_environment(Path(DSG_DIR / "apartment_dsg.json"), 6)
+    env = load_graph_environment(real_path("dsg", "apartment_dsg.json"), 6)
     from aion_cli.sim.environment import largest_component
 
     assert len(largest_component(env.n_places, env.edges)) == env.n_places
