@@ -21,7 +21,7 @@ class _NoLibusb(importlib.abc.MetaPathFinder):
     def find_spec(self, fullname: str, path: object, target: object = None) -> None:
         if fullname == "open3d" or fullname.startswith("open3d."):
             raise ImportError(LOADER_ERROR)
-        return None
+        return
 
 
 @pytest.fixture
