@@ -1,6 +1,6 @@
 """A small tf2-style transform buffer built from ``/tf`` and ``/tf_static``.
 
-No maintained PyPI package offers a ROS-free tf2 buffer (``../shared/reference/notes-formats.md``
+No maintained PyPI package offers a ROS-free tf2 buffer (``docs/FORMATS-NOTES.md``
 §5), so this is our own: per frame edge (``parent_T_child``) sorted arrays of stamp, translation
 and quaternion (x, y, z, w); static edges separately. A lookup finds the chain between two frames
 by BFS over the undirected frame tree, interpolates every dynamic edge between its bracketing
