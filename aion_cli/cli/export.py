@@ -231,33 +231,24 @@ def _export_one(
 
 
 def _path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int]:
-    """The planning graph and the node ids of ``--path-from`` / ``--path-to``."""
-    from aion_cli.cli.plan import _endpoint
-    from aion_cli.engine.planning import plan
+    """The planning graph and the node ids of ``--path-from`` / ``--path-to`` (a graph with
+    no path between them is a ``NoPathError`` now, before any file is written)."""
     from aion_cli.mapquery import nav_graph
+    from aion_cli.routes import plan_routes, resolve_endpoint
 
     nav = nav_graph(loaded)
-    a, _ = _endpoint(path_from, nav, "--path-from")
-    b, _ = _endpoint(path_to, nav, "--path-to")
-    plan(nav, a, b, 0.0, loaded.config.plan_speed, None, loaded.config)  # NoPathError now
+    a = resolve_endpoint(path_from, nav).node_id
+    b = resolve_endpoint(path_to, nav).node_id
+    plan_routes(loaded, a, b, None, nav=nav)
     return nav, a, b
 
 
 def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:
     """Positions of the path planned at ``t_ns`` (distance only for a historical export)."""
-    from aion_cli.engine.planning import plan
-    from aion_cli.engine.windows import to_model_seconds
-    from aion_cli.mapquery import node_cost_fn, planning_config
+    from aion_cli.routes import plan_routes
 
     nav, a, b = ends
-    config = planning_config(loaded)
-    if t_ns is None:
-        result = plan(nav, a, b, 0.0, config.plan_speed, None, config)
-    else:
-        depart = float(to_model_seconds(t_ns))
-        cost = node_cost_fn(loaded, nav.ids)
-        result = plan(nav, a, b, depart, config.plan_speed, cost, config)
-    return nav.xyz[result.path]
+    return nav.xyz[plan_routes(loaded, a, b, t_ns, nav=nav).temporal.rows]
 
 
 def write_scene(

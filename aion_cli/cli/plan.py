@@ -33,28 +33,6 @@ duration_s, cost}, snapped.
 """
 
 
-def _endpoint(text: str, nav: Any, option: str) -> tuple[int, dict[str, Any] | None]:
-    """Node id for ``--from``/``--to``: an id, or the node nearest to coordinates."""
-    import math
-
-    from aion_cli.cli.ids import node_label, parse_node_id, parse_point
-
-    point = parse_point(text)
-    if point is None:
-        node_id = parse_node_id(text)
-        nav.index_of(node_id)  # UnknownNodeError with examples
-        return node_id, None
-    row = nav.nearest(point)
-    node_id = int(nav.ids[row])
-    distance = math.dist(point, tuple(float(v) for v in nav.xyz[row]))
-    return node_id, {
-        "option": option,
-        "point": list(point),
-        "node": node_label(node_id),
-        "distance_m": distance,
-    }
-
-
 @click.command(
     "plan",
     short_help="A path that avoids busy, opposing flows.",
@@ -99,58 +77,58 @@ def command(
 ) -> None:
     """Plan a path on the navigational graph of MAP from A to B, departing at a time."""
     from aion_cli.cli.common import load
-    from aion_cli.cli.ids import node_label
-    from aion_cli.cli.timeparse import format_ns
-    from aion_cli.engine.planning import evaluate_path_cost, plan
-    from aion_cli.engine.windows import to_model_seconds
-    from aion_cli.mapquery import nav_graph, node_cost_fn, planning_config
+    from aion_cli.mapquery import nav_graph
+    from aion_cli.routes import plan_routes, resolve_endpoint
 
     loaded = load(map_path)
     t_ns, zone = resolve_time(time_text, tz, loaded)
     nav = nav_graph(loaded)
-    config = planning_config(loaded)
-    v = float(speed if speed is not None else config.plan_speed)
-    start_id, snap_a = _endpoint(start, nav, "--from")
-    goal_id, snap_b = _endpoint(goal, nav, "--to")
-    depart_s = float(to_model_seconds(t_ns))
-    cost_fn = node_cost_fn(loaded, nav.ids)
-    temporal = plan(nav, start_id, goal_id, depart_s, v, cost_fn, config)
-    shortest = plan(nav, start_id, goal_id, depart_s, v, None, config)
-    shortest_cost = evaluate_path_cost(nav, shortest.path, depart_s, v, cost_fn, config)
-
-    def describe(result: Any, cost: float) -> dict[str, Any]:
-        return {
-            "path": [node_label(int(i)) for i in result.path_ids],
-            "length_m": float(result.length_m),
-            "duration_s": float(result.duration_s),
-            "cost": float(cost),
-            "arrival": [
-                format_ns(t_ns + round((a - depart_s) * 1e9), zone) for a in result.arrival_s
-            ],
-        }
-
-    report = {
-        "map": str(map_path),
-        "from": node_label(start_id),
-        "to": node_label(goal_id),
-        "depart": format_ns(t_ns, zone),
-        "depart_ns": t_ns,
-        "zone": zone.name,
-        "speed_mps": v,
-        "temporal": describe(temporal, temporal.cost),
-        "distance_only": describe(shortest, shortest_cost),
-        "snapped": [s for s in (snap_a, snap_b) if s is not None],
-    }
+    a = resolve_endpoint(start, nav)
+    b = resolve_endpoint(goal, nav)
+    routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)
+    report = plan_report(routes, zone)
+    report = {"map": str(map_path), **report}
+    report["snapped"] = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
+    temporal = routes.temporal
     if export_path is not None:
         from aion_cli.cli.export import export_plan_scene
 
-        export_plan_scene(loaded, t_ns, nav, temporal.path, export_path)
+        export_plan_scene(loaded, t_ns, nav, temporal.rows, export_path)
         report["export"] = str(export_path)
     announce_time(t_ns, zone, "departure")
     if fmt == "json":
         click.echo(to_json(report))
     else:
         _print(report)
+
+
+def plan_report(routes: Any, zone: Any) -> dict[str, Any]:
+    """The JSON document of ``aion plan --format json`` (without ``map`` and ``snapped``) for
+    :class:`aion_cli.routes.Routes` departing at a time shown in ``zone``."""
+    from aion_cli.cli.timeparse import format_ns
+    from aion_cli.engine.node_ids import node_label
+
+    assert routes.depart_ns is not None, "aion plan always departs at a time"
+
+    def describe(route: Any) -> dict[str, Any]:
+        return {
+            "path": route.nodes,
+            "length_m": route.length_m,
+            "duration_s": route.duration_s,
+            "cost": route.cost,
+            "arrival": [format_ns(t, zone) for t in route.arrival_ns],
+        }
+
+    return {
+        "from": node_label(routes.start),
+        "to": node_label(routes.goal),
+        "depart": format_ns(routes.depart_ns, zone),
+        "depart_ns": routes.depart_ns,
+        "zone": zone.name,
+        "speed_mps": routes.speed_mps,
+        "temporal": describe(routes.temporal),
+        "distance_only": describe(routes.distance_only),
+    }
 
 
 def _print(report: dict[str, Any]) -> None:

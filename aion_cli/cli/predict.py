@@ -146,8 +146,8 @@ def _select(
     nodes: tuple[str, ...],
     at: str | None,
 ) -> list[dict[str, Any]]:
-    from aion_cli.cli.ids import node_label, parse_node_id, require_point
     from aion_cli.engine.errors import UnknownNodeError
+    from aion_cli.engine.node_ids import node_label, parse_node_id, require_point
 
     if layer == "places":
         rows = [r for r in rows if r["kind"] == "node"]

@@ -48,13 +48,13 @@ from scipy.spatial import cKDTree
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.errors import AionError, InputError, NoPathError, UnknownNodeError
+from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.types import GraphSnapshot
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
 U64 = npt.NDArray[np.uint64]
 
-_INDEX_MASK = (1 << 56) - 1
 
 
 class NodeCostError(AionError):
@@ -63,13 +63,6 @@ class NodeCostError(AionError):
 
 class NavGraphError(AionError, ValueError):
     """Graph arrays or a path are inconsistent (a caller bug, not a user error)."""
-
-
-def node_label(node_id: int) -> str:
-    """``(ord('p') << 56) | 12`` -> ``"p12"`` (numeric when the category is not printable)."""
-    value = int(node_id)
-    category = value >> 56
-    return f"{chr(category)}{value & _INDEX_MASK}" if 33 <= category < 127 else str(value)
 
 
 @dataclass(frozen=True)

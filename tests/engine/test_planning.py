@@ -22,9 +22,9 @@ from aion_cli.engine.planning import (
     PlanResult,
     arc_costs,
     evaluate_path_cost,
-    node_label,
     plan,
 )
+from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.types import GraphSnapshot, Layer
 
 P = ord("p") << 56

@@ -1,6 +1,10 @@
-"""Node ids as users see them ("p12") and coordinates they type ("3.5,-1,0").
+"""Node ids as users see them ("p12") and coordinates they type ("3.5,-1,0"): the one place
+that formats and parses them (the CLI, the Python API, planning messages and the scene-graph
+reader all use it).
 
-Node ids are spark_dsg NodeSymbol values: ``(ord(category) << 56) | index``.
+Node ids are spark_dsg NodeSymbol values: ``(ord(category) << 56) | index``; the label is
+spark_dsg's short form ``NodeSymbol.str()`` (``p12``; its long form is ``p(12)``, which
+:func:`parse_node_id` accepts too).
 """
 
 from __future__ import annotations
@@ -10,8 +14,9 @@ import re
 
 from aion_cli.engine.errors import InputError
 
-_RE_SYMBOL = re.compile(r"^([A-Za-z])\(?(\d+)\)?$")
-_INDEX_MASK = (1 << 56) - 1
+_RE_SYMBOL = re.compile(r"^([A-Za-z])(?:(\d+)|\((\d+)\))$")  # p12 or p(12), balanced
+INDEX_BITS = 56
+INDEX_MASK = (1 << INDEX_BITS) - 1
 
 
 def node_label(node_id: int) -> str:
@@ -19,7 +24,7 @@ def node_label(node_id: int) -> str:
     value = int(node_id)
     category = value >> 56
     if 33 <= category < 127:
-        return f"{chr(category)}{value & _INDEX_MASK}"
+        return f"{chr(category)}{value & INDEX_MASK}"
     return str(value)
 
 
@@ -28,8 +33,8 @@ def parse_node_id(text: str) -> int:
     token = text.strip()
     match = _RE_SYMBOL.match(token)
     if match:
-        index = int(match.group(2))
-        if index > _INDEX_MASK:
+        index = int(match.group(2) or match.group(3))
+        if index > INDEX_MASK:
             raise InputError(f"node index too large in {text!r}")
         return (ord(match.group(1)) << 56) | index
     if token.isdigit():

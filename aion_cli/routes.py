@@ -1,0 +1,143 @@
+"""Planning on a loaded map with temporal costs: the one planner behind ``aion plan``,
+``aion export --path-from/--path-to`` and :meth:`aion_cli.Map.plan`.
+
+A plan is always two paths: the *temporal* one (A* over the navigational graph, each node's
+cost predicted at the time the walker is expected to arrive, ``engine.planning.plan``) and the
+*distance-only* one beside it, with the temporal cost it would have had. Without a time (a
+historical export) both are the distance-only path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.node_ids import node_label, parse_node_id, parse_point
+
+if TYPE_CHECKING:
+    from aion_cli.engine.planning import NavGraph, PlanResult
+    from aion_cli.mapquery import LoadedMap
+
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """A plan's start or goal: its node id, and where a typed point was snapped from."""
+
+    node_id: int
+    point: tuple[float, float, float] | None = None
+    distance_m: float = 0.0
+
+    def snapped(self, option: str) -> dict[str, Any] | None:
+        """The ``snapped`` record of ``aion plan --format json`` (None for a node id)."""
+        if self.point is None:
+            return None
+        return {
+            "option": option,
+            "point": list(self.point),
+            "node": node_label(self.node_id),
+            "distance_m": self.distance_m,
+        }
+
+
+def resolve_endpoint(where: str | int, nav: NavGraph) -> Endpoint:
+    """A node id (``"p12"``, ``"p(12)"``, an int) or coordinates ``"x,y[,z]"`` snapped to the
+    nearest node; :class:`~aion_cli.engine.errors.UnknownNodeError` for an id not in the
+    graph."""
+    if isinstance(where, (int, np.integer)):
+        nav.index_of(int(where))
+        return Endpoint(int(where))
+    point = parse_point(where)
+    if point is None:
+        node_id = parse_node_id(where)
+        nav.index_of(node_id)  # UnknownNodeError with examples
+        return Endpoint(node_id)
+    row = nav.nearest(point)
+    node_id = int(nav.ids[row])
+    distance = math.dist(point, tuple(float(v) for v in nav.xyz[row]))
+    return Endpoint(node_id, point, distance)
+
+
+@dataclass(frozen=True)
+class Route:
+    """One path: rows into the graph, node ids, length, walking time, temporal cost and the
+    arrival time at each node (nanoseconds since 1970, UTC)."""
+
+    rows: I64
+    node_ids: tuple[int, ...]
+    length_m: float
+    duration_s: float
+    cost: float
+    arrival_ns: tuple[int, ...]
+
+    @property
+    def nodes(self) -> list[str]:
+        """The path as node labels (``["p12", "p13", ...]``)."""
+        return [node_label(i) for i in self.node_ids]
+
+
+@dataclass(frozen=True)
+class Routes:
+    """The temporal plan and the distance-only plan beside it."""
+
+    start: int
+    goal: int
+    depart_ns: int | None
+    speed_mps: float
+    temporal: Route
+    distance_only: Route
+
+
+def plan_routes(
+    loaded: LoadedMap,
+    start: int,
+    goal: int,
+    depart_ns: int | None,
+    speed: float | None = None,
+    nav: NavGraph | None = None,
+) -> Routes:
+    """Both plans from node ``start`` to node ``goal`` departing at ``depart_ns`` (None: no
+    time, both distance-only) at ``speed`` m/s (None: the map's ``plan_speed``)."""
+    from aion_cli.engine.planning import evaluate_path_cost, plan
+    from aion_cli.engine.windows import to_model_seconds
+    from aion_cli.mapquery import nav_graph, node_cost_fn, planning_config
+
+    nav = nav if nav is not None else nav_graph(loaded)
+    config = planning_config(loaded)
+    v = float(speed if speed is not None else config.plan_speed)
+    shortest_t = 0.0 if depart_ns is None else float(to_model_seconds(depart_ns))
+    shortest = plan(nav, start, goal, shortest_t, v, None, config)
+    if depart_ns is None:
+        route = _route(shortest, shortest.cost, None, 0.0)
+        return Routes(start, goal, None, v, route, route)
+    depart_s = float(to_model_seconds(depart_ns))
+    cost_fn = node_cost_fn(loaded, nav.ids)
+    temporal = plan(nav, start, goal, depart_s, v, cost_fn, config)
+    shortest_cost = evaluate_path_cost(nav, shortest.path, depart_s, v, cost_fn, config)
+    return Routes(
+        start,
+        goal,
+        depart_ns,
+        v,
+        _route(temporal, temporal.cost, depart_ns, depart_s),
+        _route(shortest, shortest_cost, depart_ns, depart_s),
+    )
+
+
+def _route(result: PlanResult, cost: float, depart_ns: int | None, depart_s: float) -> Route:
+    base = 0 if depart_ns is None else depart_ns
+    arrival = tuple(base + round((float(a) - depart_s) * 1e9) for a in result.arrival_s)
+    return Route(
+        np.asarray(result.path, dtype=np.int64),
+        tuple(int(i) for i in result.path_ids),
+        float(result.length_m),
+        float(result.duration_s),
+        float(cost),
+        arrival,
+    )

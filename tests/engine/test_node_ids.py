@@ -1,0 +1,44 @@
+"""The one node-id formatter agrees with spark_dsg's own NodeSymbol, and parsing inverts it."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from aion_cli.engine.errors import InputError
+from aion_cli.engine.node_ids import INDEX_MASK, node_label, parse_node_id, parse_point
+
+
+@given(
+    category=st.sampled_from("pPoOrRbBaAxXlL"),
+    index=st.integers(min_value=0, max_value=INDEX_MASK),
+)
+def test_label_is_spark_dsg_short_form_and_parses_back(category: str, index: int) -> None:
+    import spark_dsg
+
+    symbol = spark_dsg.NodeSymbol(category, index)
+    value = int(symbol.value)
+    assert node_label(value) == symbol.str()  # "p12"
+    assert parse_node_id(symbol.str()) == value
+    assert parse_node_id(str(symbol)) == value  # the long form "p(12)"
+    assert parse_node_id(str(value)) == value  # a raw integer id
+
+
+def test_ids_without_a_printable_category_stay_numeric() -> None:
+    assert node_label(12) == "12"
+    assert node_label((200 << 56) | 3) == str((200 << 56) | 3)
+
+
+@pytest.mark.parametrize("text", ["", "p", "12p", "p-1", "pp12", "p(12"])
+def test_bad_ids_are_input_errors(text: str) -> None:
+    with pytest.raises(InputError):
+        parse_node_id(text)
+
+
+def test_points() -> None:
+    assert parse_point("3.5,-1") == (3.5, -1.0, 0.0)
+    assert parse_point("1,2,3") == (1.0, 2.0, 3.0)
+    assert parse_point("p12") is None
+    with pytest.raises(InputError):
+        parse_point("nan,1")
