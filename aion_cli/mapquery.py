@@ -43,19 +43,24 @@ def load_map(path: Path, writable: bool = False) -> LoadedMap:
     """Read ``path`` (checksums and version checked) into a :class:`LoadedMap`.
 
     ``writable``: the state will be continued and saved (``aion build --map``); otherwise
-    queries may fold the map's pending day into its accumulators in place."""
+    queries may fold the map's pending day into its accumulators in place, and the state
+    keeps its arrays as read (no room reserved for new entries: no copy of the
+    accumulators). Members are read and verified as the state asks for them
+    (``formats.mapfile.open_map``): each is checksummed once, and the arrays read become the
+    state's own (no second copy)."""
     from aion_cli.engine.state import MapState
-    from formats.mapfile import read_map
+    from formats.mapfile import open_map
 
     if not path.exists():
         raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
     if path.is_dir():
         raise MapFileError(f"{path} is a folder, not a map file")
-    arrays, manifest = read_map(path)
-    meta = manifest.get("state")
-    if not isinstance(meta, dict):
-        raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
-    state = MapState.from_arrays(arrays, meta, writable=writable)
+    with open_map(path) as members:
+        manifest = members.manifest
+        meta = manifest.get("state")
+        if not isinstance(meta, dict):
+            raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
+        state = MapState.from_arrays(members, meta, writable=writable, copy=False)
     return LoadedMap(state, _latest_graph(state), manifest)
 
 

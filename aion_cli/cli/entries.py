@@ -76,14 +76,21 @@ def _finite(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 
-def rows_from_table(table: Any) -> list[dict[str, Any]]:
-    """One dict per entry of an engine ``EntryTable``."""
+def rows_from_table(table: Any, index: Any = None) -> list[dict[str, Any]]:
+    """One dict per entry of an engine ``EntryTable``, for the rows ``index`` (an array of
+    row numbers, in that order; default every row): a query that prints ten rows of a map of
+    10^5 entries builds ten dicts, and computes the count quantiles of those ten only."""
     import numpy as np
 
+    from aion_cli.engine.temporal.quantiles import count_quantiles
+
     d = table.descriptors
-    p10, p90 = table.flow_quantile(0.1), table.flow_quantile(0.9)
+    picked = np.arange(len(table.xyz)) if index is None else np.asarray(index, dtype=np.int64)
+    flow, var = np.asarray(table.flow)[picked], np.asarray(table.flow_var)[picked]
+    p10, p90 = count_quantiles(flow, var, 0.1), count_quantiles(flow, var, 0.9)
+    labels = entry_ids(table, picked)
     rows = []
-    for e in range(len(table.xyz)):
+    for i, e in enumerate(picked.tolist()):
         kind = _kind(table, e)
         probabilities = d.probabilities[e]
         speeds = d.mean_speed[e]
@@ -96,7 +103,7 @@ def rows_from_table(table: Any) -> list[dict[str, Any]]:
         angle = _finite(float(d.dominant_angle[e]))
         rows.append(
             {
-                "id": _label(table, e, kind),
+                "id": str(labels[i]),
                 "kind": kind,
                 "layer": _layer(table, e, kind),
                 "x": float(table.xyz[e, 0]),
@@ -104,8 +111,8 @@ def rows_from_table(table: Any) -> list[dict[str, Any]]:
                 "z": float(table.xyz[e, 2]),
                 "flow": _finite(float(d.flow_per_window[e])),
                 "flow_per_hour": _finite(float(d.flow_per_hour[e])),
-                "flow_p10": _finite(float(p10[e])),
-                "flow_p90": _finite(float(p90[e])),
+                "flow_p10": _finite(float(p10[i])),
+                "flow_p90": _finite(float(p90[i])),
                 "direction_deg": None if angle is None else math.degrees(angle),
                 "direction_bin": int(d.dominant_bin[e]),
                 "concentration": _finite(float(d.concentration[e])),
@@ -118,6 +125,46 @@ def rows_from_table(table: Any) -> list[dict[str, Any]]:
             }
         )
     return rows
+
+
+def entry_ids(table: Any, index: Any) -> Any:
+    """Display ids (``EntryTable.ids``) of rows ``index`` only, formatted as the table
+    formats them (``c<key>`` for cells, the node symbol otherwise) without formatting the
+    other 10^5."""
+    import numpy as np
+
+    picked = np.asarray(index, dtype=np.int64)
+    cached = getattr(table, "__dict__", {}).get("ids")
+    if cached is not None or not (hasattr(table, "key") and hasattr(table, "node_id")):
+        return np.asarray(table.ids)[picked]
+    from aion_cli.engine.query import node_symbol
+
+    kind = np.asarray(table.kind)[picked]
+    is_cell = kind == 0
+    out = np.empty(picked.size, dtype=object)
+    out[is_cell] = [f"c{k}" for k in np.asarray(table.key)[picked[is_cell]].tolist()]
+    out[~is_cell] = list(node_symbol(np.asarray(table.node_id)[picked[~is_cell]]))
+    return out
+
+
+def ordered_rows(table: Any, index: Any, top: int | None) -> Any:
+    """The rows ``index`` in :func:`sort_rows` order (busiest first, entries without a known
+    flow last, ties by id), the first ``top`` of them: the order of the dicts, computed on
+    arrays. Only rows tied with the ``top``-th busiest (and those above it) are formatted
+    and sorted, found with ``np.partition``."""
+    import numpy as np
+
+    picked = np.asarray(index, dtype=np.int64)
+    flow = np.asarray(table.descriptors.flow_per_window, dtype=np.float64)[picked]
+    key = np.where(np.isfinite(flow), -flow, np.inf)  # unknown flows last, then by id
+    if top is not None and top < picked.size:
+        threshold = np.partition(key, top - 1)[top - 1]
+        keep = np.flatnonzero(key <= threshold)
+        picked, key = picked[keep], key[keep]
+    ids = np.asarray([str(i) for i in entry_ids(table, picked)], dtype=str)
+    order = np.lexsort((ids, key)) if picked.size else np.zeros(0, np.int64)
+    out = picked[order]
+    return out if top is None else out[:top]
 
 
 def _kind(table: Any, e: int) -> str:

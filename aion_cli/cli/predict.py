@@ -15,7 +15,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
-from aion_cli.cli.entries import COLUMNS, CSV_KEYS, document, rows_from_table, sort_rows
+from aion_cli.cli.entries import COLUMNS, CSV_KEYS, document, ordered_rows, rows_from_table
 from aion_cli.cli.output import AionCommand, emit, format_option
 
 EPILOG = """\b
@@ -96,9 +96,13 @@ def command(
     if not historical:
         t_ns, zone = resolve_time(time_text, tz, loaded)
     table = _table(loaded, t_ns, layer)
-    rows = rows_from_table(table)
-    rows = _select(rows, table, layer, nodes, at)
-    rows = sort_rows(rows)[: top or None]
+    # rows are ordered and cut on arrays; dicts are made for the rows printed only
+    index = _select(table, layer, nodes, at)
+    count = len(index)
+    if fmt == "table" and top is None and count > TABLE_LIMIT:
+        rows = rows_from_table(table, ordered_rows(table, index, TABLE_LIMIT))
+    else:
+        rows = rows_from_table(table, ordered_rows(table, index, top))
     payload = document(map_path, loaded.config.bins, rows, t_ns, zone)
     if t_ns is not None and zone is not None:
         announce_time(t_ns, zone)
@@ -107,16 +111,14 @@ def command(
         if t_ns is None or zone is None
         else (f"predicted flows at {format_ns(t_ns, zone)}")
     )
-    shown = rows
-    if fmt == "table" and top is None and len(rows) > TABLE_LIMIT:
-        shown = rows[:TABLE_LIMIT]
+    if fmt == "table" and top is None and count > TABLE_LIMIT:
         from aion_cli.cli.console import note
 
         note(
-            f"showing the {TABLE_LIMIT} busiest of {len(rows):,} entries: use --top N, "
+            f"showing the {TABLE_LIMIT} busiest of {count:,} entries: use --top N, "
             "--format csv or --format json for all"
         )
-    emit(fmt, shown, COLUMNS, json_payload=payload, csv_keys=CSV_KEYS, title=title)
+    emit(fmt, rows, COLUMNS, json_payload=payload, csv_keys=CSV_KEYS, title=title)
 
 
 def _table(loaded: Any, t_ns: int | None, layer: str) -> Any:
@@ -139,36 +141,62 @@ def _table(loaded: Any, t_ns: int | None, layer: str) -> Any:
     return table
 
 
-def _select(
-    rows: list[dict[str, Any]],
-    table: Any,
-    layer: str,
-    nodes: tuple[str, ...],
-    at: str | None,
-) -> list[dict[str, Any]]:
+def _select(table: Any, layer: str, nodes: tuple[str, ...], at: str | None) -> Any:
+    """Row numbers of the entries asked for (``--layer``, ``--node``, ``--at``), in table
+    order (``--node``: in the order given), as an int64 array."""
+    import numpy as np
+
+    from aion_cli.cli.entries import KINDS, entry_ids
     from aion_cli.engine.errors import UnknownNodeError
     from aion_cli.engine.node_ids import node_label, parse_node_id, require_point
 
-    if layer == "places":
-        rows = [r for r in rows if r["kind"] == "node"]
-    elif layer == "cells":
-        rows = [r for r in rows if r["kind"] == "cell"]
+    index = np.arange(len(table.xyz), dtype=np.int64)
+    if layer in ("places", "cells"):
+        kind = np.asarray(table.kind)
+        names = (
+            np.asarray([KINDS.get(int(k), str(k)) for k in np.unique(kind)], dtype=object)
+            if kind.dtype.kind in "iu"
+            else None
+        )
+        want = "node" if layer == "places" else "cell"
+        if names is not None:
+            codes = np.unique(kind)[names == want]
+            index = index[np.isin(kind, codes)]
+        else:
+            index = index[kind == want]
     if nodes:
         wanted = [node_label(parse_node_id(text)) for text in nodes]
-        by_id = {r["id"]: r for r in rows}
+        labels = [str(i) for i in entry_ids(table, index)]
+        by_id = dict(zip(labels, index.tolist(), strict=True))
         missing = [w for w in wanted if w not in by_id]
         if missing:
             if layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
                 hint = "rooms and buildings are answered with --layer rooms / --layer buildings"
             else:
-                ids = [r["id"] for r in rows if r["kind"] != "cell"][:8]
+                kind_names = [_kind_name(table, e) for e in index.tolist()]
+                ids = [i for i, k in zip(labels, kind_names, strict=True) if k != "cell"][:8]
                 hint = f"ids include {', '.join(ids)}" if ids else "the map has no nodes"
             raise UnknownNodeError(f"node {', '.join(missing)} is not in the map", hint=hint)
-        rows = [by_id[w] for w in wanted]
+        index = np.asarray([by_id[w] for w in wanted], dtype=np.int64)
     if at is not None:
         x, y, z = require_point(at, "--at")
-        if not rows:
-            return rows
-        best = min(rows, key=lambda r: math.dist((r["x"], r["y"], r["z"]), (x, y, z)))
-        rows = [best]
-    return rows
+        if not index.size:
+            return index
+        xyz = np.asarray(table.xyz, dtype=np.float64)[index]
+        dist = np.sqrt(((xyz - np.array([x, y, z])) ** 2).sum(axis=1))
+        nearest = float(dist.min())
+        # candidates by numpy, the choice by math.dist as the rows' own floats give it
+        close = index[dist <= nearest * (1 + 1e-9) + 1e-12] if math.isfinite(nearest) else index
+        best = min(
+            close.tolist(),
+            key=lambda e: math.dist(tuple(float(v) for v in table.xyz[e][:3]), (x, y, z)),
+        )
+        index = np.array([best], dtype=np.int64)
+    return index
+
+
+def _kind_name(table: Any, e: int) -> str:
+    from aion_cli.cli.entries import KINDS
+
+    kind = table.kind[e]
+    return kind if isinstance(kind, str) else KINDS.get(int(kind), str(kind))

@@ -12,8 +12,9 @@ by id), so equal maps give equal arrays whatever their in-memory row layout.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -306,9 +307,19 @@ class MapState:
 
     @classmethod
     def from_arrays(
-        cls, arrays: dict[str, np.ndarray], meta: dict[str, Any], writable: bool = True
+        cls,
+        arrays: Mapping[str, np.ndarray],
+        meta: dict[str, Any],
+        writable: bool = True,
+        copy: bool = True,
     ) -> MapState:
-        """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` for inconsistent input."""
+        """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` for inconsistent input.
+
+        ``arrays`` may be any mapping (e.g. a map file's lazily read members). ``copy=False``:
+        the arrays are fresh (just read from a file) and the state may keep them instead of
+        copying. A state that is not ``writable`` (a query's) keeps its temporal rows as
+        stored: no room is reserved for new entries (``EntryStore`` capacity), which would
+        copy every accumulator once more."""
         try:
             version = int(meta["state_version"])
         except (KeyError, TypeError, ValueError) as exc:
@@ -331,6 +342,8 @@ class MapState:
             pending_day = meta.get("pending_day")
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
+        # the components' readers only look members up by name: any mapping will do
+        arrays = cast(dict[str, np.ndarray], arrays)
         _check_member_shapes(arrays)  # what the components' readers index without checking
         entries = EntryStore.from_arrays(arrays, config.bins)
         params = TemporalParams.from_config(config)
@@ -343,8 +356,10 @@ class MapState:
             params.n_profile,
             len(params.flow),
             len(params.direction),
+            copy=copy,
         )
-        temporal.resize(entries.capacity)
+        if writable:
+            temporal.resize(entries.capacity)
         pending = PendingDay.from_arrays(arrays, "pending_", pending_day, params.values, entries.n)
         try:
             state = cls(
@@ -402,7 +417,7 @@ class MapState:
 _COUNT_SLACK = 1e-9
 
 
-def _check_member_shapes(arrays: dict[str, np.ndarray]) -> None:
+def _check_member_shapes(arrays: Mapping[str, np.ndarray]) -> None:
     """Members read together must agree in length (and shape) before the node table,
     redirects, observation and graph are built from them."""
     groups = [
@@ -453,7 +468,7 @@ def _first_bad(name: str, values: np.ndarray, nonnegative: bool) -> str | None:
     return None
 
 
-def _check_loaded(state: MapState, arrays: dict[str, np.ndarray]) -> None:
+def _check_loaded(state: MapState, arrays: Mapping[str, np.ndarray]) -> None:
     """:class:`MapCorruptError` naming the first problems of a loaded state (see above)."""
     problems = [
         *_entry_problems(state),
@@ -515,7 +530,10 @@ _NONNEGATIVE_TEMPORAL = (
 def _temporal_problems(state: MapState) -> list[str]:
     t, n = state.temporal, state.entries.n
     out = []
-    for name in (*_NONNEGATIVE_TEMPORAL, "cnt_fourier", "flow_score", "dir_score"):
+    # cnt_fourier, flow_score and dir_score need only be finite, which
+    # TemporalState.from_arrays has checked on the stored members (a second pass over the
+    # largest member would cost more than reading it)
+    for name in _NONNEGATIVE_TEMPORAL:
         values = getattr(t, name)[:n]
         if (p := _first_bad(f"temporal_{name}", values, name in _NONNEGATIVE_TEMPORAL)):
             out.append(p)
@@ -534,7 +552,7 @@ def _temporal_problems(state: MapState) -> list[str]:
     return out
 
 
-def _pending_problems(state: MapState, arrays: dict[str, np.ndarray]) -> list[str]:
+def _pending_problems(state: MapState, arrays: Mapping[str, np.ndarray]) -> list[str]:
     out = []
     values = np.asarray(arrays.get("pending_cnt_values", np.zeros((0, 1))))
     if (p := _first_bad("pending_cnt_values", values, True)) is not None:

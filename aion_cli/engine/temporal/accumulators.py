@@ -31,6 +31,7 @@ sum would divide the node's rate by the number of cells it absorbed.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -116,7 +117,7 @@ def _narrowed(source: F64, rows: I64) -> RowTake:
     return RowTake(source, rows, cast=np.dtype(narrow))
 
 
-def _index(arrays: dict[str, np.ndarray], name: str, limit: int) -> I64:
+def _index(arrays: Mapping[str, np.ndarray], name: str, limit: int) -> I64:
     """A stored index member: int64, strictly increasing, within [0, limit)."""
     if name not in arrays:
         raise MapCorruptError(f"temporal state incomplete, missing: {name}")
@@ -179,7 +180,13 @@ class ObsBlock:
 
     @classmethod
     def from_arrays(
-        cls, arrays: dict[str, np.ndarray], prefix: str, rows: int, periods: int, bins: int
+        cls,
+        arrays: Mapping[str, np.ndarray],
+        prefix: str,
+        rows: int,
+        periods: int,
+        bins: int,
+        copy: bool = True,
     ) -> ObsBlock:
         shapes = {
             "n": (rows,),
@@ -188,13 +195,18 @@ class ObsBlock:
             "first": (rows,),
             "last": (rows,),
         }
-        vals = {f: _member(arrays, prefix + f, shape) for f, shape in shapes.items()}
+        vals = {f: _member(arrays, prefix + f, shape, copy) for f, shape in shapes.items()}
         if vals["fourier"].dtype != np.complex128:
             raise MapCorruptError(f"{prefix}fourier must be complex128")
         return cls(**vals)
 
 
-def _member(arrays: dict[str, np.ndarray], name: str, shape: tuple[int, ...]) -> Any:
+def _member(
+    arrays: Mapping[str, np.ndarray], name: str, shape: tuple[int, ...], copy: bool = True
+) -> Any:
+    """A stored temporal member as a float64/complex128 array of ``shape`` that the state
+    may own and change: a copy, unless ``copy`` is False (the caller hands over freshly read
+    arrays) and the member is already native, contiguous and writable."""
     if name not in arrays:
         raise MapCorruptError(f"temporal state incomplete, missing: {name}")
     value = np.asarray(arrays[name])
@@ -203,9 +215,27 @@ def _member(arrays: dict[str, np.ndarray], name: str, shape: tuple[int, ...]) ->
             f"temporal member {name} has shape {value.shape} and dtype {value.dtype}, "
             f"expected {shape}"
         )
-    if value.dtype.kind in "fu":
-        value = value.astype(np.float64, copy=False)
+    if value.dtype != np.float64 and value.dtype.kind in "fu":
+        return value.astype(np.float64)  # a fresh copy already
+    if not copy and value.flags.writeable and value.flags.c_contiguous and value.dtype.isnative:
+        return value  # a member freshly read from a map: no second copy
     return np.array(value)
+
+
+def _is_all(index: I64, size: int) -> bool:
+    """Whether a stored index (strictly increasing, in range) lists every position."""
+    return bool(index.size == size)
+
+
+def _first_nonfinite(named: dict[str, Any]) -> list[str]:
+    """Names of the arrays holding a NaN or an infinity. A finite sum proves every value
+    finite (NaN and infinities propagate) without a boolean temporary of the array's size;
+    only an infinite sum (a NaN, an infinity, or an overflow) is checked value by value."""
+    return [
+        name
+        for name, v in named.items()
+        if v.size and not np.isfinite(v.sum()) and not np.isfinite(v).all()
+    ]
 
 
 @dataclass
@@ -446,7 +476,7 @@ class TemporalState:
     @classmethod
     def from_arrays(
         cls,
-        arrays: dict[str, np.ndarray],
+        arrays: Mapping[str, np.ndarray],
         prefix: str,
         rows: int,
         values: int,
@@ -454,21 +484,34 @@ class TemporalState:
         bins: int,
         flow_families: int,
         dir_families: int,
+        copy: bool = True,
     ) -> TemporalState:
         """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` on missing or
-        inconsistent members (shapes must match the config, indices must be in range)."""
+        inconsistent members (shapes must match the config, indices must be in range).
+
+        ``copy=False``: the members are fresh arrays the state may keep (a map just read);
+        members that cover every row (a dense map) then become the state's arrays as they
+        are, without a scatter into zeros or a second copy."""
         out = cls.empty(rows, values, periods, bins, flow_families, dir_families)
         out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
         own = _index(arrays, prefix + "obs_index", rows)
-        block = ObsBlock.from_arrays(arrays, prefix + "obs_", own.size, periods, bins)
-        out.obs.put(own, block)
+        block = ObsBlock.from_arrays(arrays, prefix + "obs_", own.size, periods, bins, copy)
+        if _is_all(own, rows):
+            out.obs = block
+        else:
+            out.obs.put(own, block)
         pairs = _index(arrays, prefix + "cnt_index", rows * values)
-        fourier = _member(arrays, prefix + "cnt_fourier", (pairs.size, periods))
+        fourier = _member(arrays, prefix + "cnt_fourier", (pairs.size, periods), copy)
         if fourier.dtype != np.complex128:
             raise MapCorruptError(f"{prefix}cnt_fourier must be complex128")
-        out.cnt_fourier.reshape(-1, periods)[pairs] = fourier
-        profile = _member(arrays, prefix + "cnt_profile", (pairs.size, bins))
-        out.cnt_profile.reshape(-1, bins)[pairs] = profile
+        profile = _member(arrays, prefix + "cnt_profile", (pairs.size, bins), copy)
+        stored: dict[str, Any] = {"cnt_fourier": fourier, "cnt_profile": profile}
+        if _is_all(pairs, rows * values):  # every pair counted: the members are the arrays
+            out.cnt_fourier = fourier.reshape(rows, values, periods)
+            out.cnt_profile = profile.reshape(rows, values, bins)
+        else:
+            out.cnt_fourier.reshape(-1, periods)[pairs] = fourier
+            out.cnt_profile.reshape(-1, bins)[pairs] = profile
         scored = _index(arrays, prefix + "score_index", rows)
         shapes = {
             "flow_score": (flow_families,),
@@ -481,17 +524,19 @@ class TemporalState:
             "dir_days": (),
             "dir_gain_sq": (dir_families,),
         }
+        dense = _is_all(scored, rows)
         for name, tail in shapes.items():
-            value = _member(arrays, prefix + name, (scored.size, *tail))
+            value = _member(arrays, prefix + name, (scored.size, *tail), copy)
             if value.dtype.kind != "f":
                 raise MapCorruptError(f"{prefix}{name} must be real")
-            getattr(out, name)[scored] = value
-        bad = [
-            name
-            for name in ("cnt_fourier", "cnt_profile", *shapes)
-            if not np.all(np.isfinite(getattr(out, name)))
-        ]
-        if bad or np.any(out.cnt_profile < 0) or np.any(out.obs.n < 0) or out.glob.n[0] < 0:
+            stored[name] = value
+            if dense:
+                setattr(out, name, value)
+            else:
+                getattr(out, name)[scored] = value
+        # the stored values are checked (the rows not stored are zeros)
+        bad = _first_nonfinite(stored)
+        if bad or np.any(profile < 0) or np.any(block.n < 0) or out.glob.n[0] < 0:
             raise MapCorruptError(
                 f"temporal state holds non-finite or negative values ({', '.join(bad) or 'counts'})"
             )

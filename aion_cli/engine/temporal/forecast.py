@@ -74,20 +74,22 @@ class PoolStats:
         for a in range(0, rows.size, _BLOCK):
             r, g = rows[a : a + _BLOCK], groups[a : a + _BLOCK]
             block = state.cnt_profile[r]
-            member = _membership(g, n_groups)
-            s_g += member @ block.sum(axis=1)
-            w_g += member @ (state.obs.profile[r] + glob)
-            c_g += member @ block[:, :b].sum(axis=2)
+            s_g += _group_sums(g, n_groups, block.sum(axis=1))
+            w_g += _group_sums(g, n_groups, state.obs.profile[r] + glob)
+            c_g += _group_sums(g, n_groups, block[:, :b].sum(axis=2))
         shapes, map_shape = _group_shapes(params.config.profile_prior, s_g, w_g)
         return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
 
 
-def _membership(groups: I64, n_groups: int) -> Any:
-    """The sparse group × entry indicator matrix (sums per group as one product)."""
-    from scipy.sparse import csr_matrix
-
-    ones = np.ones(groups.size)
-    return csr_matrix((ones, (groups, np.arange(groups.size))), shape=(n_groups, groups.size))
+def _group_sums(groups: I64, n_groups: int, values: F64) -> F64:
+    """Σ of the rows of ``values`` per group, float64[G, C]: each group's rows added in row
+    order from zero, as the sparse indicator product this replaces added them (so the sums
+    are the same to the bit), one ``bincount`` per column and without importing
+    ``scipy.sparse`` (a fifth of a second, for a query)."""
+    out = np.empty((n_groups, values.shape[1]))
+    for c in range(values.shape[1]):
+        out[:, c] = np.bincount(groups, weights=values[:, c], minlength=n_groups)
+    return out
 
 
 def shrunk_rate(counts: F64, windows: F64, prior_rate: F64, prior_counts: float) -> F64:

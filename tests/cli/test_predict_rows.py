@@ -1,0 +1,53 @@
+"""``aion predict`` orders and cuts entries on arrays and formats only the rows it prints
+(issue 15): ``--top N`` is the head of the full, sorted output whatever N, layer and format,
+and the dicts of the rows printed are the dicts of the whole table."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from aion_cli.cli.entries import ordered_rows, rows_from_table, sort_rows
+from aion_cli.engine.query import historical_table, predict_table
+from aion_cli.mapquery import load_map
+from tests.cli.conftest import Office, run, run_json
+
+WHEN = ("--time", "2026-11-23 08:30")
+
+
+@pytest.mark.parametrize("layer", ["all", "places", "cells"])
+@pytest.mark.parametrize("mode", [WHEN, ("--historical",)])
+def test_top_n_is_the_head_of_the_full_output(office: Office, layer: str,
+                                             mode: tuple[str, ...]) -> None:
+    full = run_json("predict", office.map, *mode, "--layer", layer, "--format", "json")
+    everyone = full["entries"]
+    for top in sorted({1, 2, 5, 17, max(len(everyone), 1), len(everyone) + 3}):
+        head = run_json("predict", office.map, *mode, "--layer", layer, "--top", str(top),
+                        "--format", "json")
+        assert head["entries"] == everyone[:top]
+        csv_full = run("predict", office.map, *mode, "--layer", layer, "--format", "csv")
+        csv_head = run("predict", office.map, *mode, "--layer", layer, "--top", str(top),
+                       "--format", "csv")
+        lines = csv_full.stdout.splitlines()
+        assert csv_head.stdout.splitlines() == lines[: top + 1]
+
+
+def test_array_order_is_the_dict_order_with_ties_and_unknown_flows(office: Office) -> None:
+    state = load_map(office.map).state
+    for table in (predict_table(state, 1_795_000_000 * 10**9), historical_table(state)):
+        every = np.arange(len(table))
+        rows = rows_from_table(table)
+        assert rows_from_table(table, every) == rows
+        expected = sort_rows(rows)
+        assert rows_from_table(table, ordered_rows(table, every, None)) == expected
+        for top in (1, 3, 10, len(rows)):
+            assert rows_from_table(table, ordered_rows(table, every, top)) == expected[:top]
+        # ties: every flow equal, then every flow unknown: the order is by id alone
+        for value in (0.0, np.nan):
+            flat = np.full(len(table), value)
+            desc = dataclasses.replace(table.descriptors, flow_per_window=flat)
+            tied = dataclasses.replace(table, flow=flat, descriptors=desc)
+            want = sorted(range(len(table)), key=lambda e: str(table.ids[e]))
+            assert ordered_rows(tied, every, 4).tolist() == want[:4]
