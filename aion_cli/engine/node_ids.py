@@ -12,6 +12,9 @@ from __future__ import annotations
 import math
 import re
 
+import numpy as np
+import numpy.typing as npt
+
 from aion_cli.engine.errors import InputError
 
 _RE_SYMBOL = re.compile(r"^([A-Za-z])(?:(\d+)|\((\d+)\))$")  # p12 or p(12), balanced
@@ -68,3 +71,17 @@ def require_point(text: str, option: str) -> tuple[float, float, float]:
             f"{option} expects coordinates x,y[,z], got {text!r}", f'e.g. {option} "3.5,-1.0"'
         )
     return point
+
+
+def node_labels(node_ids: npt.ArrayLike) -> npt.NDArray[np.str_]:
+    """:func:`node_label` of many ids at once, with numpy (``["p12", "R3", ...]``): one
+    string operation per array, not a Python call per id."""
+    ids = np.asarray(node_ids, dtype=np.uint64).reshape(-1)
+    category = ids >> np.uint64(INDEX_BITS)
+    printable = (category >= 33) & (category < 127)
+    chars = np.frombuffer(
+        np.where(printable, category, ord("?")).astype(np.uint8).tobytes(), dtype="S1"
+    ).astype(str)
+    index = (ids & np.uint64(INDEX_MASK)).astype(str)
+    out: npt.NDArray[np.str_] = np.where(printable, np.char.add(chars, index), ids.astype(str))
+    return out

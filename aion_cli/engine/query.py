@@ -31,6 +31,7 @@ from aion_cli.engine import descriptors
 from aion_cli.engine.descriptors import Descriptors
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.hierarchy import aggregate
+from aion_cli.engine.node_ids import node_labels
 from aion_cli.engine.state import MapState
 from aion_cli.engine.temporal.choice import count_quantiles
 from aion_cli.engine.temporal.model import Prediction
@@ -87,13 +88,9 @@ class EntryTable:
 
 
 def node_symbol(node_ids: npt.ArrayLike) -> StrA:
-    """spark_dsg NodeSymbol strings: category character + index (``p12``)."""
-    ids = np.asarray(node_ids, dtype=np.uint64).reshape(-1)
-    cat = (ids >> np.uint64(56)).astype(np.uint8)
-    cat = np.where((cat > 32) & (cat < 127), cat, ord("?")).astype(np.uint8)
-    chars = np.frombuffer(cat.tobytes(), dtype="S1").astype(str)
-    idx = (ids & np.uint64((1 << 56) - 1)).astype(str)
-    out: StrA = np.char.add(chars, idx)
+    """spark_dsg NodeSymbol strings: category character + index (``p12``); see
+    :func:`aion_cli.engine.node_ids.node_labels`."""
+    out: StrA = node_labels(node_ids)
     return out
 
 

@@ -42,3 +42,13 @@ def test_points() -> None:
     assert parse_point("p12") is None
     with pytest.raises(InputError):
         parse_point("nan,1")
+
+
+@given(st.lists(st.integers(min_value=0, max_value=2**64 - 1), max_size=50))
+def test_the_array_form_equals_the_scalar_form(values: list[int]) -> None:
+    import numpy as np
+
+    from aion_cli.engine.node_ids import node_labels
+
+    ids = np.asarray(values, dtype=np.uint64)
+    assert node_labels(ids).tolist() == [node_label(v) for v in values]

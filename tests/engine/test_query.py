@@ -27,8 +27,13 @@ DAY = 86400 * S
 
 
 def test_node_symbols_print_like_spark_dsg() -> None:
+    """Like NodeSymbol.str(); an id without a printable category stays the number it is (so
+    ``--node 5`` finds it again), as the one formatter, ``node_label``, writes it."""
+    from aion_cli.engine.node_ids import node_label
+
     ids = np.concatenate([pid([12, 0]), pid([7], "R"), np.array([5], np.uint64)])
-    np.testing.assert_array_equal(node_symbol(ids), ["p12", "p0", "R7", "?5"])
+    np.testing.assert_array_equal(node_symbol(ids), ["p12", "p0", "R7", "5"])
+    assert node_symbol(ids).tolist() == [node_label(int(i)) for i in ids]
 
 
 def _mapper_with_rooms(windows: int) -> Mapper:
