@@ -31,13 +31,16 @@ and ``export``; :mod:`aion_cli.topics`, :mod:`aion_cli.detection_feed` and
 
 from __future__ import annotations
 
+import dataclasses
+from array import array
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
+import numpy.typing as npt
 
 from aion_cli.detection_feed import (
     HEADING_SOURCES,
@@ -88,6 +91,56 @@ whose log times are stray, are warned about separately, whatever their number.""
 #: Drops of detections once read (the class filter of vision_msgs is a choice, not a loss).
 _DETECTION_DROPS = frozenset({"no_transform", "nan", "out_of_range", "before_window"})
 
+DEFAULT_GRAPH_PERIOD_NS = 5_000_000_000
+"""``--graph-period`` default: 5 s of log time. Why: a graph matters to the map through its
+place nodes, and a node takes part only once it has been stable for ``stability_s`` (30 s by
+default) — cells bind to it at graph times, adding their state, never overwriting it — so a
+graph used up to 5 s late shifts a bind by at most a sixth of that wait and moves no detection
+out of its 600-s window's counts; a 1 Hz Hydra stream costs a fifth. Use ``0`` for every
+graph."""
+
+
+def graph_schedule(t_ns: I64, period_ns: int, window_ns: int = 0) -> npt.NDArray[np.bool_]:
+    """Which scene-graph messages (log times, in stream order) a build uses with
+    ``--graph-period`` ``period_ns``; True = used.
+
+    The first graph is used, and then one graph per *period boundary*: at ``b = t + period``
+    after a used graph at ``t`` the newest graph logged at or before ``b`` that came after the
+    used one (it was pending) is used and the next boundary is ``b + period``; when none came
+    the next graph to arrive is used and the next boundary is its time + period. So the map
+    is never more than one period behind the newest graph, graphs are at least a period apart
+    on a steady stream (1 Hz, 5 s: every fifth), and the last graph of the log is always used
+    (the final map shows it). With ``window_ns`` the last graph logged in each window is used
+    too, so every window closes with the newest graph (and, where the robot poses come from
+    the graphs' agent layer, with all its poses). Used graphs are applied at their own place
+    in the stream, in time order, exactly as if the log held only them. ``period_ns <= 0``:
+    every graph. One ``searchsorted`` per graph used (times made non-decreasing first)."""
+    t = np.maximum.accumulate(np.asarray(t_ns, dtype=np.int64)) if len(t_ns) else t_ns
+    n = len(t)
+    used = np.zeros(n, dtype=bool)
+    if n == 0:
+        return used
+    if period_ns <= 0:
+        used[:] = True
+        return used
+    top = int(np.iinfo(np.int64).max)
+    last = 0
+    used[0] = True
+    boundary = min(int(t[0]) + int(period_ns), top)
+    while last < n - 1:
+        newest = int(np.searchsorted(t, np.int64(boundary), side="right")) - 1  # at or before b
+        if newest > last:
+            last = newest
+            boundary = min(boundary + int(period_ns), top)
+        else:
+            last += 1  # nothing pending: the next graph, whenever it comes
+            boundary = min(int(t[last]) + int(period_ns), top)
+        used[last] = True
+    if window_ns > 0:
+        w = t // np.int64(window_ns)
+        used[:-1] |= w[1:] != w[:-1]
+    return used
+
 
 class ProgressSink(Protocol):
     """Where the build reports progress (the CLI adapts a rich progress bar)."""
@@ -127,6 +180,12 @@ class BuildOptions:
     batch_size: int = 4000
     timezone: str | None = None
     detections_mapping: Path | None = None
+    #: ``--graph-period``: log time between the scene graphs a build uses (0: every one);
+    #: see :func:`graph_schedule`
+    graph_period_ns: int = DEFAULT_GRAPH_PERIOD_NS
+    #: internal switch (tests): a payload identical to the last decoded one reuses its graph
+    #: instead of being decoded again (same map either way)
+    skip_identical_graphs: bool = True
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""
@@ -157,8 +216,12 @@ class BuildReport:
     map_bytes: int = 0
     observation: str = "fixed"
     graph_source: str = "none"
-    graph_messages: int = 0
-    graph_skipped: int = 0
+    graph_messages: int = 0  # graphs applied to the map (decoded or reused)
+    graph_skipped: int = 0  # damaged, skipped
+    graph_decoded: int = 0  # spark_dsg decodes
+    graphs_skipped_identical: int = 0  # applied without decoding: the last payload again
+    graphs_skipped_period: int = 0  # within --graph-period of the graph before: not applied
+    graph_period_ns: int = 0
     graph_layer: str | None = None  # the navigational layer taken, e.g. "MESH_PLACES (3[1])"
     dsg_version: str | None = None
     detection_topics: list[str] = field(default_factory=list)
@@ -201,6 +264,10 @@ class BuildReport:
                 "layer": self.graph_layer,
                 "messages": self.graph_messages,
                 "skipped": self.graph_skipped,
+                "decoded": self.graph_decoded,
+                "skipped_identical": self.graphs_skipped_identical,
+                "skipped_period": self.graphs_skipped_period,
+                "period_s": self.graph_period_ns / 1e9,
                 "dsg_version": self.dsg_version,
                 "topics": self.graph_topics,
             },
@@ -216,6 +283,50 @@ class BuildReport:
 
 
 # -- the build ---------------------------------------------------------------------------------
+class _GraphTimes(TopicTimes):
+    """:class:`TopicTimes` that also keeps the log times of the scene-graph messages, with
+    their topics, in read order: what :func:`graph_schedule` decides on before the stream
+    (it must know when the next graph comes to choose the newest one of a period)."""
+
+    def __init__(self, topics: Iterable[str], graph_topics: set[str]) -> None:
+        super().__init__(topics)
+        self.graph_topics = sorted(graph_topics)
+        self._index = {t: i for i, t in enumerate(self.graph_topics)}
+        self.graph_t: array[int] = array("q")
+        self.graph_topic: array[int] = array("h")
+
+    def add(self, topic: str, t_ns: int) -> bool:
+        ok = super().add(topic, t_ns)
+        k = self._index.get(topic)
+        if ok and k is not None:
+            self.graph_t.append(t_ns)
+            self.graph_topic.append(k)
+        return ok
+
+    def stream_times(self, strays: dict[str, I64]) -> I64:
+        """The graph log times in the order the build's stream yields them: the strays the
+        time check drops are dropped here too (the first messages of each stray
+        ``(topic, time)``, as :meth:`aion_cli.log_times.TimeCheck.filter` does)."""
+        t = np.frombuffer(self.graph_t, dtype=np.int64) if len(self.graph_t) else np.zeros(0)
+        t = t.astype(np.int64)  # a copy: the array's buffer stays appendable
+        pending = Counter(
+            (self._index[topic], int(x))
+            for topic, times in strays.items()
+            if topic in self._index
+            for x in times.tolist()
+        )
+        if not pending:
+            return t
+        keep = np.ones(len(t), dtype=bool)
+        topics = np.frombuffer(self.graph_topic, dtype=np.int16)
+        for i in np.flatnonzero(np.isin(t, [x for _, x in pending])).tolist():
+            key = (int(topics[i]), int(t[i]))
+            if pending.get(key, 0) > 0:
+                pending[key] -= 1
+                keep[i] = False
+        return t[keep]
+
+
 @dataclass
 class _TfStats:
     """TF messages read and skipped as undecodable (with the first failure)."""
@@ -226,7 +337,11 @@ class _TfStats:
 
 
 def _read_tf_and_times(
-    logset: Any, plan: TopicPlan, timed: set[str], progress: ProgressSink
+    logset: Any,
+    plan: TopicPlan,
+    timed: set[str],
+    progress: ProgressSink,
+    graph_topics: set[str] | None = None,
 ) -> tuple[TfBuffer | None, TopicTimes, _TfStats]:
     """One read of the TF topics and of the other topics in ``timed`` (those the build uses):
     every TF message into one buffer, and the log time of every message of ``timed``
@@ -239,14 +354,20 @@ def _read_tf_and_times(
     with the log's own definitions, and a message that cannot be decoded is skipped and
     counted (like a bad detection or scene-graph message). A TF message whose log time is out
     of the representable range is not decoded. The other topics' payloads are not decoded
-    here: MCAP chunks interleave topics, so reading them with TF costs little more than TF."""
+    here: MCAP chunks interleave topics, so reading them with TF costs little more than TF.
+    With ``graph_topics`` the times are a :class:`_GraphTimes`, which also keeps those topics'
+    log times in read order (for :func:`graph_schedule`)."""
     import logging
 
     from formats.tf import TfBuffer
     from formats.tf_fast import decode_tf_messages, layout_matches
 
     tf_topics = plan.names("tf") if plan.tf else set()
-    times = TopicTimes(timed | tf_topics)
+    times = (
+        _GraphTimes(timed | tf_topics, graph_topics)
+        if graph_topics
+        else TopicTimes(timed | tf_topics)
+    )
     stats = _TfStats()
     topics = tf_topics | timed
     if not topics:
@@ -407,6 +528,9 @@ class _Build:
         self._nav_pin: str | None = None  # the layer key the log's first graph chose
         self._agents_until = np.iinfo(np.int64).min
         self._first_graph_error: MessageDecodeError | None = None
+        self._graph_used: npt.NDArray[np.bool_] | None = None  # graph_schedule (None: all)
+        self._last_graph: tuple[bytes, GraphSnapshot] | None = None  # payload, snapshot
+        self._first_graph: tuple[str, int, GraphSnapshot] | None = None  # decoded early
         self._adapters: dict[tuple[str, str, str], Any] = {}
         self._factory: Any = None
         self._logs: tuple[Path, ...] = tuple(opts.logs)  # the distinct logs (by sha256)
@@ -530,10 +654,19 @@ class _Build:
         container summaries have no say."""
         graphs = plan.names("graph") if self.opts.graph_file is None else set()
         timed = plan.names("detections") | graphs
-        tf, times, stats = _read_tf_and_times(logset, plan, timed, self.progress)
+        thinned = graphs if self.opts.graph_period_ns > 0 else set()
+        tf, times, stats = _read_tf_and_times(logset, plan, timed, self.progress, thinned)
         tf_topics = plan.names("tf") if plan.tf else set()
         span = timed | {t for t in tf_topics if not t.endswith("_static")}
         self._times = times.check(span)
+        if isinstance(times, _GraphTimes):
+            from aion_cli.engine.windows import window_ns
+
+            self._graph_used = graph_schedule(
+                times.stream_times(self._times.strays),
+                self.opts.graph_period_ns,
+                window_ns(self.config().window_s),
+            )
         self.report.warnings.extend(self._times.warnings(decoded=tf_topics))
         self.report.time_dropped = {
             topic: {
@@ -664,11 +797,14 @@ class _Build:
         )
 
     def _graph_has_agents(self, logset: Any, plan: TopicPlan) -> bool:
-        """Whether the first scene graph of the log carries robot poses (its agent layer)."""
+        """Whether the first scene graph of the log carries robot poses (its agent layer).
+        Its snapshot is kept for the stream, which then does not decode it again."""
         first = next(iter(self._times.filter(logset.messages(plan.names("graph")))), None)
         if first is None:
             return False
-        agents = self._decode_graph(logset, first).agents
+        snapshot = self._decode_graph(logset, first)
+        self._first_graph = (first.topic, first.log_time_ns, snapshot)
+        agents = snapshot.agents
         return agents is not None and len(agents) > 0
 
     def _fixed_graph(
@@ -753,7 +889,7 @@ class _Build:
         topics = plan.names("detections") | graph_topics
         self.progress.start("building map", logset.total(topics))
         use_agents = self.report.observation.startswith("scene-graph")
-        messages = self._times.filter(logset.messages(topics))
+        messages = self._thin_graphs(self._times.filter(logset.messages(topics)), graph_topics)
         stream = chunks(messages, graph_topics, self.opts.batch_size)
         # duck-typed: decoded_chunks only calls decode()
         for batch, n_messages, graph_msg in decoded_chunks(stream, cast(Any, feeders)):
@@ -761,15 +897,8 @@ class _Build:
                 self._feed(mapper, batch, feeders.topics_of(batch))
                 self.progress.advance(n_messages)
             if graph_msg is not None:
-                snapshot = self._decode_graph_or_skip(logset, graph_msg)
+                self._take_graph(logset, mapper, graph_msg, use_agents)
                 self.progress.advance(1)
-                if snapshot is None:
-                    continue
-                self._check_after_map(np.array([snapshot.t_ns], np.int64), "scene graph")
-                mapper.add_graph(snapshot)
-                if use_agents:
-                    self._add_agent_poses(mapper, snapshot.agents)
-                self.report.graph_messages += 1
         self._check_graph_skips()
         c = self.counts = feeders.total()
         c.used = int(self._used.sum())
@@ -947,6 +1076,42 @@ class _Build:
             hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",
         )
 
+    def _thin_graphs(
+        self, messages: Iterator[RawMessage], graph_topics: set[str]
+    ) -> Iterator[RawMessage]:
+        """The stream without the scene graphs :func:`graph_schedule` leaves out
+        (``--graph-period``; counted, the progress bar still advances). They go before the
+        detection chunks are cut, so a skipped graph neither cuts the Mapper's feed into
+        smaller pieces nor is decoded. Every message passes when every graph is used."""
+        used = self._graph_used
+        if used is None or bool(used.all()):
+            yield from messages
+            return
+        flags = used.tolist()
+        k = 0
+        for msg in messages:
+            if msg.topic in graph_topics:
+                keep = k >= len(flags) or flags[k]
+                k += 1
+                if not keep:
+                    self.report.graphs_skipped_period += 1
+                    self.progress.advance(1)
+                    continue
+            yield msg
+
+    def _take_graph(self, logset: Any, mapper: Mapper, msg: RawMessage, use_agents: bool) -> None:
+        """One scene-graph message of the stream (one :func:`graph_schedule` kept): decoded
+        (or its last payload's graph reused, :meth:`_decode_graph`) and applied to the map;
+        damaged ones are skipped (:meth:`_decode_graph_or_skip`)."""
+        snapshot = self._decode_graph_or_skip(logset, msg)
+        if snapshot is None:
+            return
+        self._check_after_map(np.array([snapshot.t_ns], np.int64), "scene graph")
+        mapper.add_graph(snapshot)
+        if use_agents:
+            self._add_agent_poses(mapper, snapshot.agents)
+        self.report.graph_messages += 1
+
     def _decode_graph_or_skip(self, logset: Any, msg: RawMessage) -> GraphSnapshot | None:
         """A damaged scene-graph message is skipped and counted (the graph stays as it was
         until the next full graph, which Hydra repeats every few seconds); with the version
@@ -963,7 +1128,19 @@ class _Build:
 
     def _check_graph_skips(self) -> None:
         """Skipped graphs are a note; when no scene graph at all could be decoded the first
-        failure is the build's error (a map without the log's graph would mislead)."""
+        failure is the build's error (a map without the log's graph would mislead). Graphs
+        left out by ``--graph-period`` or reused unchanged are a note with the counts."""
+        r = self.report
+        seen = r.graph_messages + r.graph_skipped + r.graphs_skipped_period
+        if seen:
+            r.graph_period_ns = self.opts.graph_period_ns
+        if r.graphs_skipped_period or r.graphs_skipped_identical:
+            r.notes.append(
+                f"scene graphs: {r.graph_messages:,} of {seen:,} applied "
+                f"({r.graph_decoded:,} decoded, {r.graphs_skipped_identical:,} identical to "
+                f"the payload before and not decoded again); {r.graphs_skipped_period:,} left "
+                f"out by --graph-period {r.graph_period_ns / 1e9:g}s"
+            )
         if self.report.graph_skipped == 0 or self._first_graph_error is None:
             return
         if self.report.graph_messages == 0:
@@ -980,13 +1157,34 @@ class _Build:
         chose by name, kept for the rest of the log (an early graph that has 3D places but no
         2D places yet must not make the map switch layers later); when a later graph lacks
         that layer it is chosen again.
+
+        Decoding is skipped twice: the log's first graph when :meth:`_graph_has_agents`
+        decoded it already, and a payload byte-identical to the last one decoded (a fixed
+        sensor's static map, Hydra repeating an unchanged graph): its snapshot is reused with
+        the message's own time (counted as ``skipped_identical``). The payload is compared
+        byte for byte with a copy of the last one: exact, where a digest could collide, and
+        cheaper (0.1 ms for a 1.9 MB, 5,000-place payload; blake2b takes 3.4 ms).
         """
         from formats.dsg import GraphLayerError, decode_dsg
 
+        first = self._first_graph
+        if first is not None and first[:2] == (msg.topic, msg.log_time_ns):
+            self._first_graph = None  # decoded already, for the observation
+            return first[2]
         decoded = logset.decode(msg)
         payload = np.asarray(decoded.layer_contents, dtype=np.uint8)
         stamp = decoded.header.stamp
         t_ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec) or msg.log_time_ns
+        data = b""
+        if self.opts.skip_identical_graphs:
+            data = payload.tobytes()
+            last = self._last_graph
+            if last is not None and last[0] == data:
+                # The same bytes decode to the same graph with the same pinned version and
+                # layer: only its time differs. It is still applied (add_graph closes windows
+                # and checks binds at its time), so the map equals decoding it again.
+                self.report.graphs_skipped_identical += 1
+                return dataclasses.replace(last[1], t_ns=t_ns)
         layer = self.opts.nav_layer or self._nav_pin
         try:
             result = decode_dsg(payload, t_ns, self.dsg_version, layer)
@@ -1000,6 +1198,9 @@ class _Build:
             self._nav_pin = result.layer.key
         self.report.dsg_version = result.version
         self.report.graph_layer = str(result.layer)
+        self.report.graph_decoded += 1
+        if self.opts.skip_identical_graphs:
+            self._last_graph = (data, result.snapshot)
         return result.snapshot
 
     def _span(self) -> None:

@@ -137,7 +137,9 @@ def test_build_small() -> None:
     assert r["build_vs_raw"] > 0
     graphs = bench_build.run_graphs(places=40, seconds=5.0)
     (g,) = graphs
-    assert g["graph_messages_in_log"] == g["graph_messages_used"] == 5
+    assert g["graph_messages_in_log"] == 5
+    # --graph-period's default (5 s) thins five 1-Hz graphs to the first and the last
+    assert 2 <= g["graph_messages_used"] <= 5
     assert g["nodes"] == g["places"] == 40
     assert g["detections"] >= 50
     maps = bench_build.run_map(sizes=(200,), repeats=1)

@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.graph_options import nav_layer_option
+from aion_cli.cli.graph_options import graph_period_option, nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, to_json
 
 EPILOG = """\b
@@ -21,6 +21,7 @@ Examples:
   aion build legs.bag --map-frame laser        a fixed sensor's frame as the map frame
   aion build run.bag --detections-mapping people.toml   people of another message type
   aion build run.mcap --nav-layer PLACES       3D places even where the graph has 2D ones
+  aion build hydra.mcap --graph-period 0       every scene graph of a live Hydra stream
   aion build --print-config > model.toml       dump every model parameter, edit, then
   aion build run.mcap --config model.toml      build with it
 
@@ -44,7 +45,9 @@ JSON keys (--format json): map, map_bytes, continued, detections{read, used,
 dropped{reason: n}}, detections_by_topic{topic: {read, used, dropped{reason: n}}}, cells
 (unbound hash cells), nodes, nodes_with_flow, bound_cells, windows (most windows any entry
 observed), time_span{start_ns, end_ns, seconds}, observation, graph{source, layer,
-messages, dsg_version, topics}, detection_topics, detection_decoding{topic: {type, why,
+messages (applied), skipped (damaged), decoded, skipped_identical (applied without decoding:
+the last payload again), skipped_period (left out by --graph-period), period_s, dsg_version,
+topics}, detection_topics, detection_decoding{topic: {type, why,
 decoder (fast|generic|mapping), messages, undecodable}}, log_times_dropped{topic:
 {out_of_range, stray}}, tf_undecodable, headings{velocity, track, linked, pose_yaw, none},
 inputs[{path, name, size, sha256}], notes, warnings.
@@ -102,6 +105,7 @@ def _load_config(path: Path | None) -> Any:
     epilog=EPILOG,
     advanced=(
         "nav_layer",
+        "graph_period_ns",
         "graph_topic",
         "map_frame",
         "base_frame",
@@ -152,6 +156,7 @@ def _load_config(path: Path | None) -> Any:
     help="Scene graph saved by Hydra (dsg.json, .sparkdsg) instead of the log's.",
 )
 @nav_layer_option
+@graph_period_option
 @click.option(
     "--derive-graph",
     is_flag=True,
@@ -216,6 +221,7 @@ def command(
     graph_topic: str | None,
     graph_file: Path | None,
     nav_layer: str | None,
+    graph_period_ns: int | None,
     derive_graph: bool,
     map_frame: str,
     base_frame: str,
@@ -237,7 +243,7 @@ def command(
     from aion_cli.cli.timeparse import resolve_zone
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.errors import InputError
-    from aion_cli.pipeline import BuildOptions, build_map
+    from aion_cli.pipeline import DEFAULT_GRAPH_PERIOD_NS, BuildOptions, build_map
 
     config = _load_config(config_file)
     if print_config:
@@ -262,6 +268,7 @@ def command(
         batch_size=batch_size,
         timezone=None if timezone is None else resolve_zone(timezone).name,
         detections_mapping=detections_mapping,
+        graph_period_ns=DEFAULT_GRAPH_PERIOD_NS if graph_period_ns is None else graph_period_ns,
     )
     with _RichProgress(quiet or fmt == "json") as progress:
         report = build_map(options, progress)

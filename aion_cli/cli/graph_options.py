@@ -1,9 +1,13 @@
-"""``--nav-layer``: the one option that picks a scene graph's navigational layer (build,
-simulate, info). The rule behind it is :func:`formats.dsg.choose_nav_layer`."""
+"""Scene-graph options: ``--nav-layer``, the one option that picks a scene graph's
+navigational layer (build, simulate, info; the rule behind it is
+:func:`formats.dsg.choose_nav_layer`), and build's ``--graph-period`` (how thinly a log's
+graph stream is used, :func:`aion_cli.pipeline.graph_schedule`)."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
+from decimal import Decimal, InvalidOperation
 from typing import Any, TypeVar
 
 import click
@@ -31,3 +35,72 @@ def nav_layer_option(func: F) -> F:
     return click.option("--nav-layer", metavar="NAME|KEY", callback=_check, help=NAV_LAYER_HELP)(
         func
     )
+
+
+#: ``--graph-period`` units (seconds each); ``ms`` besides the units of ``--time``'s offsets.
+_PERIOD_UNITS = {
+    "ms": Decimal("0.001"),
+    "s": Decimal(1),
+    "sec": Decimal(1),
+    "m": Decimal(60),
+    "min": Decimal(60),
+    "h": Decimal(3600),
+    "d": Decimal(86400),
+}
+_PERIOD_RE = re.compile(r"(\d+(?:\.\d+)?)\s*([a-z]+)")
+#: Longest accepted period: a year (anything longer thins a log to its first and last graphs
+#: just the same).
+MAX_GRAPH_PERIOD_NS = 366 * 86_400 * 1_000_000_000
+
+
+def parse_period_ns(text: str) -> int:
+    """A duration as the CLI's other durations are written (``5s``, ``1m``, ``1m30s``,
+    ``500ms``, ``2.5``: seconds without a unit) -> integer nanoseconds, exactly (decimal
+    arithmetic). Negative, unreadable or longer than a year: a one-line error (exit 2)."""
+    from aion_cli.cli.timeparse import TimeFormatError
+
+    hint = "e.g. --graph-period 5s, 1m, 500ms or 0 (every graph)"
+    token = text.strip().lower().replace(" ", "")
+    total: Decimal
+    try:
+        total = Decimal(token) if re.fullmatch(r"\d+(?:\.\d+)?", token) else Decimal(-1)
+    except InvalidOperation:
+        total = Decimal(-1)
+    if total < 0:
+        parts = _PERIOD_RE.findall(token)
+        if not parts or "".join(a + u for a, u in parts) != token:
+            raise TimeFormatError(f"cannot read the period {text!r}", hint)
+        total = Decimal(0)
+        for amount, unit in parts:
+            if unit not in _PERIOD_UNITS:
+                raise TimeFormatError(f"unknown unit {unit!r} in --graph-period {text!r}", hint)
+            total += Decimal(amount) * _PERIOD_UNITS[unit]
+    ns = int(total * 1_000_000_000)
+    if ns > MAX_GRAPH_PERIOD_NS:
+        raise TimeFormatError(f"--graph-period {text!r} is longer than a year", hint)
+    return ns
+
+
+def _period(ctx: click.Context, param: click.Parameter, value: str | None) -> int | None:
+    return None if value is None else parse_period_ns(value)
+
+
+#: ``--graph-period``'s default as the help shows it: ``aion_cli.pipeline``'s
+#: ``DEFAULT_GRAPH_PERIOD_NS`` (not imported here: ``aion --help`` must stay light; a test
+#: checks that the two agree).
+GRAPH_PERIOD_DEFAULT_TEXT = "5s"
+
+
+def graph_period_option(func: F) -> F:
+    """``--graph-period DURATION`` (log time), passed on as integer ns (None: the build's
+    default, :data:`aion_cli.pipeline.DEFAULT_GRAPH_PERIOD_NS`)."""
+    return click.option(
+        "--graph-period",
+        "graph_period_ns",
+        metavar="DURATION",
+        callback=_period,
+        help="Use about one scene graph per DURATION of log time (5s, 1m, 500ms; 0: every "
+        "graph): the newest graph of each period, the last of each window and of the log; "
+        "a payload identical to the last one is never decoded again "
+        f"[default: {GRAPH_PERIOD_DEFAULT_TEXT}].",
+    )(func)

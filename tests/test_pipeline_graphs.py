@@ -1,0 +1,328 @@
+"""Scene-graph streams in ``aion build`` (issue 15): identical payloads are not decoded again,
+``--graph-period`` thins the stream, and both leave ownership exact on the graphs used.
+
+The stream log: the office of ``tests/cli/logdata.py`` (people at p1, p4, p3; TF at the robot)
+with a ``DsgUpdate`` every second for 60 s, starting 30 s before a window boundary. Place p1
+moves by 0.5 m (more than ``stable_move_tolerance``, so its stability timer restarts) in the
+graphs from index 3 on and again from index 12 on; every other graph repeats the payload before
+it. Expected answers are worked out by hand from the rules in the docstrings:
+
+* ``--graph-period 0``: all 60 graphs applied; 3 payloads differ (indices 0, 3, 12), so 3
+  decodes and 57 reuses; p1 stable since graph 12.
+* ``--graph-period 5s``: graphs 0, 5, ..., 25 (the period boundaries), 29 (the last one logged
+  in the first window), 30, 35, ..., 55 and 59 (the last of the log): 14 applied, 46 left out;
+  p1 seen moved first at graph 5 and again at 15, so stable since graph 15.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from aion_cli.cli.graph_options import GRAPH_PERIOD_DEFAULT_TEXT, parse_period_ns
+from aion_cli.engine.errors import InputError
+from aion_cli.pipeline import DEFAULT_GRAPH_PERIOD_NS, BuildOptions, build_map, graph_schedule
+from formats.mapfile import read_map
+from tests.cli.logdata import EDGES, PLACES, ROBOT_XYZ, ROOMS, T0, S, _tracked_persons, sym
+from tests.cli.logdata import build_graph as office_graph
+
+START = T0 + 570 * S  # 30 s before the window boundary at T0 + 600 s
+N_GRAPHS = 60
+PERIOD_5S_USED = [0, 5, 10, 15, 20, 25, 29, 30, 35, 40, 45, 50, 55, 59]
+
+
+def _p1_moves(k: int) -> int:
+    return int(k >= 3) + int(k >= 12)
+
+
+def _payload(moves: int, _cache: dict[int, bytes] = {}) -> bytes:  # noqa: B006
+    if moves not in _cache:
+        places = dict(PLACES)
+        x, y, z = places[1]
+        places[1] = (x, y + 0.5 * moves, z)
+        _cache[moves] = bytes(office_graph(places, EDGES, ROOMS).to_binary(False))
+    return _cache[moves]
+
+
+def write_stream_log(
+    path: Path,
+    graphs: list[int] | None = None,
+    *,
+    stray_graph: bool = False,
+) -> Path:
+    """The stream log with the graphs of index ``graphs`` (all 60 when None); people every
+    second, TF every 5 s, 63 s in all. ``stray_graph``: one more graph two days earlier (a
+    stray log time the build drops)."""
+    from formats.writers import LogWriter
+
+    keep = set(range(N_GRAPHS) if graphs is None else graphs)
+    with LogWriter(path, "mcap") as writer:
+
+        def graph(t: int, payload: bytes) -> None:
+            writer.write(
+                "/hydra/backend/dsg",
+                "hydra_msgs/msg/DsgUpdate",
+                {
+                    "header": {"stamp": {"sec": t // S, "nanosec": t % S}, "frame_id": "map"},
+                    "layer_contents": np.frombuffer(payload, np.uint8),
+                    "full_update": True,
+                },
+                t,
+            )
+
+        if stray_graph:
+            graph(START - 2 * 86_400 * S, _payload(2))
+        for s in range(63):
+            t = START + s * S
+            if s < N_GRAPHS and s in keep:
+                graph(t, _payload(_p1_moves(s)))
+            if s % 5 == 0:
+                x, y, z = ROBOT_XYZ
+                writer.write(
+                    "/tf",
+                    "tf2_msgs/msg/TFMessage",
+                    {
+                        "transforms": [
+                            {
+                                "header": {"stamp": {"sec": t // S}, "frame_id": "map"},
+                                "child_frame_id": "base_link",
+                                "transform": {
+                                    "translation": {"x": x, "y": y, "z": z},
+                                    "rotation": {"w": 1.0},
+                                },
+                            }
+                        ]
+                    },
+                    t,
+                )
+            writer.write(
+                "/tracks",
+                "spencer_tracking_msgs/msg/TrackedPersons",
+                _tracked_persons(t + S // 2, START, "map"),
+                t + S // 2,
+            )
+    return path
+
+
+def _build(log: Path, out: Path, **options: Any) -> Any:
+    return build_map(BuildOptions(logs=(log,), output=out, **options))
+
+
+def _map_content(path: Path) -> tuple[dict[str, np.ndarray], Any]:
+    arrays, manifest = read_map(path)
+    return arrays, manifest["state"]
+
+
+def _assert_same_map(a: Path, b: Path) -> None:
+    arrays_a, state_a = _map_content(a)
+    arrays_b, state_b = _map_content(b)
+    assert sorted(arrays_a) == sorted(arrays_b)
+    for name in arrays_a:
+        assert arrays_a[name].dtype == arrays_b[name].dtype, name
+        np.testing.assert_array_equal(arrays_a[name], arrays_b[name], err_msg=name)
+    assert state_a == state_b
+
+
+def _stable_since(path: Path, node: int) -> int:
+    arrays, _ = read_map(path)
+    ids = arrays["node_ids"].tolist()
+    return int(arrays["node_stable_since_ns"][ids.index(node)])
+
+
+@pytest.fixture(scope="module")
+def stream_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_stream_log(tmp_path_factory.mktemp("graphs") / "stream.mcap")
+
+
+# -- the schedule ---------------------------------------------------------------------------------
+def test_schedule_on_a_steady_stream() -> None:
+    t = np.arange(20, dtype=np.int64) * S
+    assert np.flatnonzero(graph_schedule(t, 5 * S)).tolist() == [0, 5, 10, 15, 19]
+    assert graph_schedule(t, 0).all()
+    assert graph_schedule(t, -1).all()
+    assert np.flatnonzero(graph_schedule(t, 100 * S)).tolist() == [0, 19]
+
+
+def test_schedule_takes_the_newest_graph_of_each_period() -> None:
+    # 0 used; boundary 5: the newest graph at or before it is at 3; boundary 10: 8; at 15
+    # nothing came after 8, so the next graph (30) is used when it comes
+    t = np.array([0, 1, 2, 3, 7, 8, 30], np.int64) * S
+    assert np.flatnonzero(graph_schedule(t, 5 * S)).tolist() == [0, 3, 5, 6]
+    # a graph exactly on the boundary is used
+    t = np.array([0, 2, 5, 6], np.int64) * S
+    assert np.flatnonzero(graph_schedule(t, 5 * S)).tolist() == [0, 2, 3]
+
+
+def test_schedule_uses_the_last_graph_of_each_window() -> None:
+    t = np.arange(10, dtype=np.int64) * S
+    used = graph_schedule(t, 100 * S, window_ns=4 * S)  # windows [0, 4), [4, 8), [8, 12)
+    assert np.flatnonzero(used).tolist() == [0, 3, 7, 9]
+    assert graph_schedule(np.zeros(0, np.int64), 5 * S).size == 0
+    assert graph_schedule(np.array([7], np.int64), 5 * S).tolist() == [True]
+    # log times out of order (several files) still give a valid schedule, first and last used
+    used = graph_schedule(np.array([0, 9, 3, 12], np.int64) * S, 5 * S)
+    assert used[0]
+    assert used[-1]
+
+
+def test_schedule_near_the_end_of_time_does_not_overflow() -> None:
+    top = np.iinfo(np.int64).max
+    t = np.array([top - 3 * S, top - 2 * S, top - S], np.int64)
+    assert np.flatnonzero(graph_schedule(t, 10 * S)).tolist() == [0, 2]
+
+
+# -- the option -----------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("text", "ns"),
+    [
+        ("0", 0),
+        ("5", 5 * S),
+        ("2.5", 2_500_000_000),
+        ("5s", 5 * S),
+        ("1m", 60 * S),
+        ("1m30s", 90 * S),
+        ("1 m 30 s", 90 * S),
+        ("500ms", 500_000_000),
+        ("0.001s", 1_000_000),
+        ("1h", 3600 * S),
+        ("2d", 2 * 86_400 * S),
+    ],
+)
+def test_period_parses_like_the_other_durations(text: str, ns: int) -> None:
+    assert parse_period_ns(text) == ns
+
+
+@pytest.mark.parametrize("text", ["-1s", "abc", "5x", "5s5", "", "400d", "1e3"])
+def test_bad_periods_are_input_errors(text: str) -> None:
+    with pytest.raises(InputError):
+        parse_period_ns(text)
+
+
+def test_the_help_shows_the_builds_default() -> None:
+    assert parse_period_ns(GRAPH_PERIOD_DEFAULT_TEXT) == DEFAULT_GRAPH_PERIOD_NS
+    assert BuildOptions(logs=()).graph_period_ns == DEFAULT_GRAPH_PERIOD_NS
+
+
+# -- identical payloads ---------------------------------------------------------------------------
+def test_identical_payloads_are_not_decoded_and_the_map_is_the_same(
+    stream_log: Path, tmp_path: Path
+) -> None:
+    fast = _build(stream_log, tmp_path / "fast.aion", graph_period_ns=0)
+    slow = _build(
+        stream_log, tmp_path / "slow.aion", graph_period_ns=0, skip_identical_graphs=False
+    )
+    assert fast.graph_messages == slow.graph_messages == N_GRAPHS
+    assert fast.graph_decoded == 3  # graphs 0, 3 and 12 differ from the one before
+    assert fast.graphs_skipped_identical == N_GRAPHS - 3
+    assert slow.graph_decoded == N_GRAPHS
+    assert slow.graphs_skipped_identical == 0
+    assert fast.graphs_skipped_period == slow.graphs_skipped_period == 0
+    _assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
+    # p1's timer restarted at graph 12, where it moved the second time
+    assert _stable_since(tmp_path / "fast.aion", sym("p", 1)) == START + 12 * S
+    graph = fast.to_dict()["graph"]
+    assert graph["decoded"] == 3
+    assert graph["skipped_identical"] == N_GRAPHS - 3
+    assert graph["period_s"] == 0
+
+
+def test_a_payload_that_comes_back_is_decoded_again(tmp_path: Path) -> None:
+    """Only the *last* decoded payload is reused: A A B A decodes A, B and A."""
+    from formats.writers import LogWriter
+
+    log = tmp_path / "aba.mcap"
+    order = [0, 0, 1, 0]
+    with LogWriter(log, "mcap") as writer:
+        for s in range(40):
+            t = START + s * S
+            if s % 10 == 0:
+                writer.write(
+                    "/hydra/backend/dsg",
+                    "hydra_msgs/msg/DsgUpdate",
+                    {
+                        "header": {"stamp": {"sec": t // S, "nanosec": 0}, "frame_id": "map"},
+                        "layer_contents": np.frombuffer(_payload(order[s // 10]), np.uint8),
+                    },
+                    t,
+                )
+            writer.write(
+                "/tracks",
+                "spencer_tracking_msgs/msg/TrackedPersons",
+                _tracked_persons(t + S // 2, START, "map"),
+                t + S // 2,
+            )
+    fast = _build(log, tmp_path / "fast.aion", graph_period_ns=0)
+    slow = _build(log, tmp_path / "slow.aion", graph_period_ns=0, skip_identical_graphs=False)
+    assert (fast.graph_decoded, fast.graphs_skipped_identical) == (3, 1)
+    assert slow.graph_decoded == 4
+    _assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
+
+
+def test_the_first_graph_is_decoded_once_when_it_gives_the_observation(
+    tmp_path: Path,
+) -> None:
+    """Without TF the first graph's agent layer decides the observation; the stream then
+    reuses that decode instead of decoding the graph a second time."""
+    from tests.cli.logdata import write_office_log
+
+    log = tmp_path / "agents.mcap"
+    expected = write_office_log(log, tf=False, agents=True)
+    slow = _build(log, tmp_path / "slow.aion", skip_identical_graphs=False)
+    assert slow.observation == "scene-graph agent layer"
+    assert slow.graph_messages == expected.graph_messages
+    assert slow.graph_decoded == expected.graph_messages  # not one more
+    fast = _build(log, tmp_path / "fast.aion")
+    assert fast.graph_decoded == 1  # the office repeats one payload
+    _assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
+
+
+# -- --graph-period --------------------------------------------------------------------------------
+def test_period_build_equals_a_log_of_only_the_graphs_used(
+    stream_log: Path, tmp_path: Path
+) -> None:
+    thinned = _build(stream_log, tmp_path / "thinned.aion", graph_period_ns=5 * S)
+    assert thinned.graph_messages == len(PERIOD_5S_USED)
+    assert thinned.graphs_skipped_period == N_GRAPHS - len(PERIOD_5S_USED)
+    # decoded: 0 (p1 unmoved), 5 (moved once), 15 (moved twice); 10, 20, ... repeat them
+    assert thinned.graph_decoded == 3
+    only = write_stream_log(tmp_path / "only.mcap", PERIOD_5S_USED)
+    reference = _build(only, tmp_path / "reference.aion", graph_period_ns=0)
+    assert reference.graph_messages == len(PERIOD_5S_USED)
+    _assert_same_map(tmp_path / "thinned.aion", tmp_path / "reference.aion")
+    assert _stable_since(tmp_path / "thinned.aion", sym("p", 1)) == START + 15 * S
+    # the thinning is visible: every graph gives p1 another stability time
+    every = _build(stream_log, tmp_path / "every.aion", graph_period_ns=0)
+    assert every.graphs_skipped_period == 0
+    assert _stable_since(tmp_path / "every.aion", sym("p", 1)) == START + 12 * S
+    assert any("left out by --graph-period 5s" in n for n in thinned.notes)
+    assert thinned.to_dict()["graph"]["skipped_period"] == N_GRAPHS - len(PERIOD_5S_USED)
+
+
+def test_period_schedule_skips_the_graphs_the_time_check_drops(tmp_path: Path) -> None:
+    """A stray graph (two days before the others) is dropped from the stream; the schedule is
+    decided on the same messages, so the map equals the one of the log without it."""
+    stray = write_stream_log(tmp_path / "stray.mcap", stray_graph=True)
+    with_stray = _build(stray, tmp_path / "stray.aion", graph_period_ns=5 * S)
+    assert with_stray.time_dropped["/hydra/backend/dsg"]["stray"] == 1
+    assert with_stray.graph_messages == len(PERIOD_5S_USED)
+    clean = write_stream_log(tmp_path / "clean.mcap")
+    _build(clean, tmp_path / "clean.aion", graph_period_ns=5 * S)
+    _assert_same_map(tmp_path / "stray.aion", tmp_path / "clean.aion")
+
+
+def test_cli_graph_period_option(stream_log: Path, tmp_path: Path) -> None:
+    from tests.cli.conftest import run, run_json
+
+    report = run_json(
+        "build", stream_log, "-o", tmp_path / "a.aion", "--graph-period", "5s", "--format", "json"
+    )
+    assert report["graph"]["messages"] == len(PERIOD_5S_USED)
+    assert report["graph"]["period_s"] == 5.0
+    report = run_json("build", stream_log, "-o", tmp_path / "b.aion", "--format", "json")
+    assert report["graph"]["period_s"] == DEFAULT_GRAPH_PERIOD_NS / 1e9
+    bad = run("build", stream_log, "-o", tmp_path / "c.aion", "--graph-period", "soon")
+    assert bad.exit_code == 2
+    assert "--graph-period" in bad.stderr or "period" in bad.stderr
