@@ -1,20 +1,5 @@
-"""Entry tables (per node / cell / room flow descriptors) as rows for table, JSON and CSV.
-
-Field names (stable, documented in ``aion predict --help``):
-
-``id`` ("p12", "R3", or "c<key>" for a hash cell), ``kind`` (node, cell, room, building), ``layer``,
-``x``/``y``/``z`` (m), ``flow`` (expected detections per window), ``flow_per_hour``,
-``direction_deg`` (dominant direction, circular mean, degrees from +x counter-clockwise; null
-without flow), ``direction_bin`` (argmax bin, -1 without flow), ``concentration`` (0..1),
-``entropy`` (normalised directional entropy 0..1, null without flow), ``mean_speed`` (m/s
-over bins with known speed, null if unknown), ``histogram`` (B direction probabilities, bin b
-centred at -180 + (b + 0.5)·360/B degrees), ``speed_per_bin`` (m/s per bin, JSON only),
-``family`` / ``direction_family`` (the temporal model that forecast the flow and the
-directions: static, shape, profile, fremen1..4; "historical" for what was observed, "none" for
-a place without data, "aggregate" for rooms), ``flow_p10`` / ``flow_p90`` (10th and 90th
-percentile of the number of detections in a window, from the predictive negative binomial;
-null historically).
-"""
+"""How entry records (``aion_cli.predictions``) look in a terminal table: the columns of
+``aion predict`` and the direction histogram drawn as a sparkline."""
 
 from __future__ import annotations
 
@@ -22,9 +7,6 @@ import math
 from typing import Any
 
 from aion_cli.cli.output import Column, degrees, num
-from aion_cli.cli.timeparse import Zone
-
-KINDS = {0: "cell", 1: "node", 2: "room", 3: "building"}
 
 COLUMNS = [
     Column("id", "id", justify="left"),
@@ -40,27 +22,6 @@ COLUMNS = [
     Column("histogram", "histogram", lambda h: _spark(h), justify="left"),
     Column("family", "model", justify="left"),
 ]
-CSV_KEYS = [
-    "id",
-    "kind",
-    "layer",
-    "x",
-    "y",
-    "z",
-    "flow",
-    "flow_per_hour",
-    "flow_p10",
-    "flow_p90",
-    "direction_deg",
-    "direction_bin",
-    "concentration",
-    "entropy",
-    "mean_speed",
-    "histogram",
-    "family",
-    "direction_family",
-]
-
 _BARS = " ▁▂▃▄▅▆▇█"
 
 
@@ -70,138 +31,3 @@ def _spark(hist: Any) -> str:
     values = [0.0 if v is None else float(v) for v in hist]
     top = max(values) or 1.0
     return "".join(_BARS[min(round(v / top * 8), 8)] for v in values)
-
-
-def _finite(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
-def rows_from_table(table: Any, index: Any = None) -> list[dict[str, Any]]:
-    """One dict per entry of an engine ``EntryTable``, for the rows ``index`` (an array of
-    row numbers, in that order; default every row): a query that prints ten rows of a map of
-    10^5 entries builds ten dicts, and computes the count quantiles of those ten only."""
-    import numpy as np
-
-    from aion_cli.engine.temporal.quantiles import count_quantiles
-
-    d = table.descriptors
-    picked = np.arange(len(table.xyz)) if index is None else np.asarray(index, dtype=np.int64)
-    flow, var = np.asarray(table.flow)[picked], np.asarray(table.flow_var)[picked]
-    p10, p90 = count_quantiles(flow, var, 0.1), count_quantiles(flow, var, 0.9)
-    labels = entry_ids(table, picked)
-    rows = []
-    for i, e in enumerate(picked.tolist()):
-        kind = _kind(table, e)
-        probabilities = d.probabilities[e]
-        speeds = d.mean_speed[e]
-        known = np.isfinite(speeds) & (probabilities > 0)
-        mean_speed = (
-            float((speeds[known] * probabilities[known]).sum() / probabilities[known].sum())
-            if known.any()
-            else None
-        )
-        angle = _finite(float(d.dominant_angle[e]))
-        rows.append(
-            {
-                "id": str(labels[i]),
-                "kind": kind,
-                "layer": _layer(table, e, kind),
-                "x": float(table.xyz[e, 0]),
-                "y": float(table.xyz[e, 1]),
-                "z": float(table.xyz[e, 2]),
-                "flow": _finite(float(d.flow_per_window[e])),
-                "flow_per_hour": _finite(float(d.flow_per_hour[e])),
-                "flow_p10": _finite(float(p10[i])),
-                "flow_p90": _finite(float(p90[i])),
-                "direction_deg": None if angle is None else math.degrees(angle),
-                "direction_bin": int(d.dominant_bin[e]),
-                "concentration": _finite(float(d.concentration[e])),
-                "entropy": _finite(float(d.entropy[e])),
-                "mean_speed": mean_speed,
-                "histogram": [float(p) for p in probabilities],
-                "speed_per_bin": [_finite(float(s)) for s in speeds],
-                "family": str(table.flow_family[e]),
-                "direction_family": str(table.direction_family[e]),
-            }
-        )
-    return rows
-
-
-def entry_ids(table: Any, index: Any) -> Any:
-    """Display ids (``EntryTable.ids``) of rows ``index`` only, formatted as the table
-    formats them (``c<key>`` for cells, the node symbol otherwise) without formatting the
-    other 10^5."""
-    import numpy as np
-
-    picked = np.asarray(index, dtype=np.int64)
-    cached = getattr(table, "__dict__", {}).get("ids")
-    if cached is not None or not (hasattr(table, "key") and hasattr(table, "node_id")):
-        return np.asarray(table.ids)[picked]
-    from aion_cli.engine.query import node_symbol
-
-    kind = np.asarray(table.kind)[picked]
-    is_cell = kind == 0
-    out = np.empty(picked.size, dtype=object)
-    out[is_cell] = [f"c{k}" for k in np.asarray(table.key)[picked[is_cell]].tolist()]
-    out[~is_cell] = list(node_symbol(np.asarray(table.node_id)[picked[~is_cell]]))
-    return out
-
-
-def ordered_rows(table: Any, index: Any, top: int | None) -> Any:
-    """The rows ``index`` in :func:`sort_rows` order (busiest first, entries without a known
-    flow last, ties by id), the first ``top`` of them: the order of the dicts, computed on
-    arrays. Only rows tied with the ``top``-th busiest (and those above it) are formatted
-    and sorted, found with ``np.partition``."""
-    import numpy as np
-
-    picked = np.asarray(index, dtype=np.int64)
-    flow = np.asarray(table.descriptors.flow_per_window, dtype=np.float64)[picked]
-    key = np.where(np.isfinite(flow), -flow, np.inf)  # unknown flows last, then by id
-    if top is not None and top < picked.size:
-        threshold = np.partition(key, top - 1)[top - 1]
-        keep = np.flatnonzero(key <= threshold)
-        picked, key = picked[keep], key[keep]
-    ids = np.asarray([str(i) for i in entry_ids(table, picked)], dtype=str)
-    order = np.lexsort((ids, key)) if picked.size else np.zeros(0, np.int64)
-    out = picked[order]
-    return out if top is None else out[:top]
-
-
-def _kind(table: Any, e: int) -> str:
-    kind = table.kind[e]
-    if isinstance(kind, str):
-        return kind
-    return KINDS.get(int(kind), str(kind))
-
-
-def _layer(table: Any, e: int, kind: str) -> str:
-    return str(table.layer[e])
-
-
-def _label(table: Any, e: int, kind: str) -> str:
-    return str(table.ids[e])
-
-
-def sort_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Busiest first; entries without a known flow last; ties by id for a stable order."""
-    return sorted(rows, key=lambda r: (r["flow"] is None, -(r["flow"] or 0.0), r["id"]))
-
-
-def document(
-    map_path: Any, bins: int, rows: list[dict[str, Any]], t_ns: int | None, zone: Zone | None
-) -> dict[str, Any]:
-    """The JSON document of ``predict`` and of ``export``'s entries.json: metadata and rows.
-    ``t_ns`` None means historical (what was observed)."""
-    from aion_cli.cli.timeparse import format_ns
-
-    when = None if t_ns is None or zone is None else (format_ns(t_ns, zone), zone.name)
-    return {
-        "map": str(map_path),
-        "mode": "historical" if when is None else "predicted",
-        "time": None if when is None else when[0],
-        "time_ns": t_ns,
-        "zone": None if when is None else when[1],
-        "bins": int(bins),
-        "bin_centres_deg": [-180.0 + (b + 0.5) * 360.0 / bins for b in range(bins)],
-        "entries": rows,
-    }

@@ -9,9 +9,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from aion_cli.cli.entries import ordered_rows, rows_from_table, sort_rows
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.mapquery import load_map
+from aion_cli.predictions import ordered_rows, rows_from_table, sort_rows
 from tests.cli.conftest import Office, run, run_json
 
 WHEN = ("--time", "2026-11-23 08:30")
