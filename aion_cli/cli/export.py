@@ -16,7 +16,6 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.output import AionCommand
 from aion_cli.cli.timeparse import Zone
-from formats.outputs import Staged
 
 EPILOG = """\b
 Examples:
@@ -125,6 +124,7 @@ def command(
     from aion_cli.cli.console import console, progress
     from aion_cli.cli.output import markup_safe
     from aion_cli.engine.errors import InputError
+    from aion_cli.exports import export_frames, path_ends
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:
@@ -145,37 +145,16 @@ def command(
         times = [when]
     ends = None
     if path_from is not None and path_to is not None:
-        ends = _path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
-    _check_out_dir(out_dir)
-    written: list[Path] = []
-    # Everything is written into a hidden staging folder and moved into OUT when complete:
-    # a failure (a bad time, a full disk, Ctrl-C) leaves no partial export behind.
-    with progress(quiet=len(times) == 1) as bar, Staged(out_dir, merge=True) as staged:
+        ends = path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
+    with progress(quiet=len(times) == 1) as bar:
         task = bar.add_task("exporting", total=len(times), unit="times")
-        staged.path.mkdir()
-        for t_ns in times:
-            folder = staged.path if len(times) == 1 else staged.path / _stamp(t_ns)
-            written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
-            bar.advance(task)
+        written = export_frames(
+            loaded, map_path, out_dir, times, zone, fmt, ends, lambda: bar.advance(task)
+        )
     if zone is not None and times[0] is not None:
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
         announce_time(times[0], zone, label)
     console().print(f"wrote {len(written)} file(s) to {markup_safe(out_dir)}")
-
-
-def _check_out_dir(out_dir: Path) -> None:
-    """OUT must be a folder or a new path: never a file, device, FIFO or socket."""
-    from formats.outputs import OutputPathError, special_kind
-
-    kind = special_kind(out_dir)
-    if kind is not None:
-        raise OutputPathError(
-            f"-o {out_dir} is {kind}, not a folder", hint="give a folder to write into"
-        )
-    if out_dir.exists() and not out_dir.is_dir():
-        raise OutputPathError(
-            f"-o {out_dir} is a file, not a folder", hint="give a folder to write into"
-        )
 
 
 def _series(
@@ -194,88 +173,3 @@ def _series(
     return [start + k * step_ns for k in range(int(count))], zone
 
 
-def _stamp(t_ns: int | None) -> str:
-    from datetime import UTC, datetime
-
-    if t_ns is None:
-        return "historical"
-    return datetime.fromtimestamp(t_ns / 1e9, UTC).strftime("%Y%m%dT%H%M%SZ")
-
-
-def _export_one(
-    loaded: Any,
-    t_ns: int | None,
-    zone: Zone | None,
-    folder: Path,
-    fmt: str,
-    ends: tuple[Any, int, int] | None,
-    map_path: Path,
-) -> list[Path]:
-    from aion_cli.cli.output import to_csv, to_json
-    from aion_cli.engine import query
-    from aion_cli.predictions import CSV_KEYS, document, rows_from_table
-
-    folder.mkdir(parents=True, exist_ok=True)
-    table = (
-        query.historical_table(loaded.state)
-        if t_ns is None
-        else query.predict_table(loaded.state, t_ns)
-    )
-    rows = rows_from_table(table)
-    path_rows = None if ends is None else _plan_rows(loaded, t_ns, ends)
-    files = write_scene(loaded, table, folder, fmt, path_rows)
-    (folder / "entries.csv").write_text(to_csv(rows, CSV_KEYS))
-    doc = document(map_path, loaded.config.bins, rows, t_ns, zone)
-    (folder / "entries.json").write_text(to_json(doc))
-    return [*files, folder / "entries.csv", folder / "entries.json"]
-
-
-def _path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int]:
-    """The planning graph and the node ids of ``--path-from`` / ``--path-to`` (a graph with
-    no path between them is a ``NoPathError`` now, before any file is written)."""
-    from aion_cli.mapquery import nav_graph
-    from aion_cli.routes import plan_routes, resolve_endpoint
-
-    nav = nav_graph(loaded)
-    a = resolve_endpoint(path_from, nav).node_id
-    b = resolve_endpoint(path_to, nav).node_id
-    plan_routes(loaded, a, b, None, nav=nav)
-    return nav, a, b
-
-
-def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:
-    """Positions of the path planned at ``t_ns`` (distance only for a historical export)."""
-    from aion_cli.routes import plan_routes
-
-    nav, a, b = ends
-    return nav.xyz[plan_routes(loaded, a, b, t_ns, nav=nav).temporal.rows]
-
-
-def write_scene(
-    loaded: Any, table: Any, folder: Path, fmt: str, path_xyz: Any | None
-) -> list[Path]:
-    """The scene files for one time (``formats.export`` via ``mapquery.export_map``)."""
-    from aion_cli.mapquery import export_map
-
-    return export_map(loaded, table, folder, fmt, path_xyz)
-
-
-def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) -> None:
-    """The whole scene at ``t_ns`` with a planned path, as the one PLY file ``out``
-    (``aion plan --export``): written beside ``out`` and renamed into place; an existing
-    ``out`` is replaced only when it is a PLY file (never a device, FIFO or other file)."""
-    from aion_cli.engine import query
-    from aion_cli.engine.errors import InputError
-    from formats.outputs import check_output, file_starts_with
-
-    if out.suffix.lower() != ".ply":
-        raise InputError(f"--export writes a .ply file, got {out.name!r}")
-    check_output(
-        out, overwrite=True, recognise=lambda p: file_starts_with(p, b"ply"), what="a PLY file"
-    )
-    table = query.predict_table(loaded.state, t_ns)
-    with Staged(out) as staged:
-        scratch = staged.folder / "scene"  # the other files are dropped with the staging
-        scratch.mkdir()
-        files = write_scene(loaded, table, scratch, "ply", nav.xyz[path])
-        next(f for f in files if f.name == "scene.ply").rename(staged.path)

@@ -91,7 +91,7 @@ def command(
     report["snapped"] = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
     temporal = routes.temporal
     if export_path is not None:
-        from aion_cli.cli.export import export_plan_scene
+        from aion_cli.exports import export_plan_scene
 
         export_plan_scene(loaded, t_ns, nav, temporal.rows, export_path)
         report["export"] = str(export_path)

@@ -353,7 +353,7 @@ def test_write_map_refuses_special_and_foreign_targets(tmp_path: Path) -> None:
 def test_a_failing_export_leaves_no_partial_folder(
     office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import aion_cli.cli.export as export
+    import aion_cli.exports as export
 
     real = export._export_one
     calls = {"n": 0}

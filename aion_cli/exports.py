@@ -1,0 +1,145 @@
+"""Writing a map's scenes and tables into a folder: ``aion export``, ``aion plan --export``
+and :meth:`aion_cli.Map.export` (no click or rich here).
+
+One frame per time: the scene files (``formats.export`` through ``mapquery.export_map``), and
+``entries.csv`` / ``entries.json`` with the records of ``aion predict``. Everything is written
+into a hidden staging folder beside ``OUT`` and moved in when complete, so a failure (a bad
+time, a full disk, Ctrl-C) leaves no partial export behind; files already in ``OUT`` that the
+export does not write are kept.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from aion_cli.cli.timeparse import Zone
+from formats.outputs import Staged
+
+
+def export_frames(
+    loaded: Any,
+    map_path: Any,
+    out_dir: Path,
+    times: Sequence[int | None],
+    zone: Zone | None,
+    fmt: str = "ply",
+    ends: tuple[Any, int, int] | None = None,
+    on_frame: Callable[[], None] | None = None,
+) -> list[Path]:
+    """Write one frame per time of ``times`` (None: historical) into ``out_dir`` (a series:
+    one subfolder per time, named by it), with the path between ``ends`` (from
+    :func:`path_ends`) drawn in each; the files written."""
+    check_out_dir(out_dir)
+    written: list[Path] = []
+    with Staged(out_dir, merge=True) as staged:
+        staged.path.mkdir()
+        for t_ns in times:
+            folder = staged.path if len(times) == 1 else staged.path / frame_name(t_ns)
+            written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
+            if on_frame is not None:
+                on_frame()
+    return [out_dir / p.relative_to(staged.path) for p in written]
+
+
+def check_out_dir(out_dir: Path) -> None:
+    """OUT must be a folder or a new path: never a file, device, FIFO or socket."""
+    from formats.outputs import OutputPathError, special_kind
+
+    kind = special_kind(out_dir)
+    if kind is not None:
+        raise OutputPathError(
+            f"-o {out_dir} is {kind}, not a folder", hint="give a folder to write into"
+        )
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputPathError(
+            f"-o {out_dir} is a file, not a folder", hint="give a folder to write into"
+        )
+
+
+def frame_name(t_ns: int | None) -> str:
+    from datetime import UTC, datetime
+
+    if t_ns is None:
+        return "historical"
+    return datetime.fromtimestamp(t_ns / 1e9, UTC).strftime("%Y%m%dT%H%M%SZ")
+
+
+def _export_one(
+    loaded: Any,
+    t_ns: int | None,
+    zone: Zone | None,
+    folder: Path,
+    fmt: str,
+    ends: tuple[Any, int, int] | None,
+    map_path: Path,
+) -> list[Path]:
+    from aion_cli.cli.output import to_csv, to_json
+    from aion_cli.engine import query
+    from aion_cli.predictions import CSV_KEYS, document, rows_from_table
+
+    folder.mkdir(parents=True, exist_ok=True)
+    table = (
+        query.historical_table(loaded.state)
+        if t_ns is None
+        else query.predict_table(loaded.state, t_ns)
+    )
+    rows = rows_from_table(table)
+    path_rows = None if ends is None else _plan_rows(loaded, t_ns, ends)
+    files = write_scene(loaded, table, folder, fmt, path_rows)
+    (folder / "entries.csv").write_text(to_csv(rows, CSV_KEYS))
+    doc = document(map_path, loaded.config.bins, rows, t_ns, zone)
+    (folder / "entries.json").write_text(to_json(doc))
+    return [*files, folder / "entries.csv", folder / "entries.json"]
+
+
+def path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int]:
+    """The planning graph and the node ids of ``--path-from`` / ``--path-to`` (a graph with
+    no path between them is a ``NoPathError`` now, before any file is written)."""
+    from aion_cli.mapquery import nav_graph
+    from aion_cli.routes import plan_routes, resolve_endpoint
+
+    nav = nav_graph(loaded)
+    a = resolve_endpoint(path_from, nav).node_id
+    b = resolve_endpoint(path_to, nav).node_id
+    plan_routes(loaded, a, b, None, nav=nav)
+    return nav, a, b
+
+
+def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:
+    """Positions of the path planned at ``t_ns`` (distance only for a historical export)."""
+    from aion_cli.routes import plan_routes
+
+    nav, a, b = ends
+    return nav.xyz[plan_routes(loaded, a, b, t_ns, nav=nav).temporal.rows]
+
+
+def write_scene(
+    loaded: Any, table: Any, folder: Path, fmt: str, path_xyz: Any | None
+) -> list[Path]:
+    """The scene files for one time (``formats.export`` via ``mapquery.export_map``)."""
+    from aion_cli.mapquery import export_map
+
+    return export_map(loaded, table, folder, fmt, path_xyz)
+
+
+def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) -> None:
+    """The whole scene at ``t_ns`` with a planned path, as the one PLY file ``out``
+    (``aion plan --export``): written beside ``out`` and renamed into place; an existing
+    ``out`` is replaced only when it is a PLY file (never a device, FIFO or other file)."""
+    from aion_cli.engine import query
+    from aion_cli.engine.errors import InputError
+    from formats.outputs import check_output, file_starts_with
+
+    if out.suffix.lower() != ".ply":
+        raise InputError(f"--export writes a .ply file, got {out.name!r}")
+    check_output(
+        out, overwrite=True, recognise=lambda p: file_starts_with(p, b"ply"), what="a PLY file"
+    )
+    table = query.predict_table(loaded.state, t_ns)
+    with Staged(out) as staged:
+        scratch = staged.folder / "scene"  # the other files are dropped with the staging
+        scratch.mkdir()
+        files = write_scene(loaded, table, scratch, "ply", nav.xyz[path])
+        next(f for f in files if f.name == "scene.ply").rename(staged.path)
