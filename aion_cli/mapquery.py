@@ -47,7 +47,8 @@ def load_map(path: Path, writable: bool = False) -> LoadedMap:
     keeps its arrays as read (no room reserved for new entries: no copy of the
     accumulators). Members are read and verified as the state asks for them
     (``formats.mapfile.open_map``): each is checksummed once, and the arrays read become the
-    state's own (no second copy)."""
+    state's own (no second copy; a query's arrays view the file's pages in place, copied on
+    write)."""
     from aion_cli.engine.state import MapState
     from formats.mapfile import open_map
 
@@ -55,16 +56,16 @@ def load_map(path: Path, writable: bool = False) -> LoadedMap:
         raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
     if path.is_dir():
         raise MapFileError(f"{path} is a folder, not a map file")
-    with open_map(path) as members:
+    with open_map(path, in_place=not writable) as members:
         manifest = members.manifest
         meta = manifest.get("state")
         if not isinstance(meta, dict):
             raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
         state = MapState.from_arrays(members, meta, writable=writable, copy=False)
-    return LoadedMap(state, _latest_graph(state), manifest)
+    return LoadedMap(state, latest_graph(state), manifest)
 
 
-def _latest_graph(state: MapState) -> GraphSnapshot | None:
+def latest_graph(state: MapState) -> GraphSnapshot | None:
     """The map's latest scene graph, None when it has no places (a map of hash cells)."""
     graph = state.graph
     if graph is None or len(graph.places) == 0:

@@ -1,0 +1,426 @@
+"""The Python API: build, load, query, plan, export and save maps without the command line.
+
+    import aion_cli as aion
+    m = aion.build(["run.mcap"], output="office.aion")   # -> aion.Map
+    t = m.predict("2026-11-23 08:30")                    # -> aion.Table
+    t.records()                                          # dicts, as predict --format json
+    p = m.plan("p12", "p87", time="2026-11-23 08:30")    # -> aion.Plan (+ .distance_only)
+    m.export("out/", time="2026-11-23 08:30")
+    m.save("copy.aion")
+
+Paths are ``str`` or ``os.PathLike``. Times are aion time strings (``"2026-11-23 08:30"``,
+``"monday 08:30"``, ``"+2h"``, ``"now"``, ``"1700000000"``), ``datetime`` (a naive one is
+read in the map's zone), or integer nanoseconds since 1970 (UTC). Errors are the typed errors
+of :mod:`aion_cli.engine.errors` (``InputError`` and its subclasses for bad input), exactly
+as the CLI reports them. The CLI's ``predict``, ``plan`` and ``export`` are formatting over
+the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
+:mod:`aion_cli.exports`), so results are equal to their JSON output.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Union
+
+from aion_cli.engine.errors import InputError
+
+if TYPE_CHECKING:
+    from aion_cli.cli.timeparse import Zone
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.state import MapState
+    from aion_cli.manifest import Manifest
+    from aion_cli.mapquery import LoadedMap
+    from aion_cli.pipeline import BuildReport, ProgressSink
+    from aion_cli.routes import Route
+
+PathLike = Union[str, "os.PathLike[str]"]
+TimeLike = str | int | datetime
+
+
+@dataclass(frozen=True)
+class Table:
+    """Flows per entry at one time (or as observed): the records of ``aion predict``.
+
+    ``time_ns`` is None for a historical table; ``entries`` are the records, busiest first,
+    with the fields of ``aion predict --format json`` (``id``, ``kind``, ``x`` .. ``flow``,
+    ``histogram``, ``family`` ...)."""
+
+    map: str
+    time_ns: int | None
+    time: str | None
+    zone: str | None
+    bins: int
+    entries: tuple[dict[str, Any], ...]
+
+    def records(self) -> list[dict[str, Any]]:
+        """The entries as a list of fresh dicts (safe to change)."""
+        return [dict(e, histogram=list(e["histogram"])) for e in self.entries]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The document ``aion predict --format json`` prints."""
+        from aion_cli.predictions import document
+
+        doc = document(self.map, self.bins, self.records(), self.time_ns, None)
+        doc.update(
+            mode="historical" if self.time_ns is None else "predicted",
+            time=self.time,
+            zone=self.zone,
+        )
+        return doc
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        return iter(self.records())
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A planned path (``aion plan``): node labels, length, walking time, temporal cost and
+    arrival times; ``distance_only`` is the shortest path beside it, with the temporal cost
+    it would have had."""
+
+    start: str
+    goal: str
+    depart: str
+    depart_ns: int
+    zone: str
+    speed_mps: float
+    nodes: list[str]
+    length_m: float
+    duration_s: float
+    cost: float
+    arrival: list[str]
+    distance_only: Plan | None = None
+    snapped: list[dict[str, Any]] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The document ``aion plan --format json`` prints (without ``map``)."""
+        other = self.distance_only or self
+
+        def part(p: Plan) -> dict[str, Any]:
+            return {
+                "path": list(p.nodes),
+                "length_m": p.length_m,
+                "duration_s": p.duration_s,
+                "cost": p.cost,
+                "arrival": list(p.arrival),
+            }
+
+        return {
+            "from": self.start,
+            "to": self.goal,
+            "depart": self.depart,
+            "depart_ns": self.depart_ns,
+            "zone": self.zone,
+            "speed_mps": self.speed_mps,
+            "temporal": part(self),
+            "distance_only": part(other),
+            "snapped": [dict(s) for s in self.snapped],
+        }
+
+
+class Map:
+    """A 4D scene-graph map: loaded from a ``.aion`` file, built from logs, or made from an
+    in-memory ``MapState`` (:meth:`from_state`)."""
+
+    def __init__(
+        self,
+        loaded: LoadedMap,
+        path: Path | None = None,
+        report: BuildReport | None = None,
+    ) -> None:
+        self._loaded = loaded
+        self.path = path
+        #: what the build did, for a map returned by :func:`build` (else None)
+        self.report = report
+
+    @classmethod
+    def load(cls, path: PathLike) -> Map:
+        """Read a map file (checksums and version checked as members are used)."""
+        from aion_cli.mapquery import load_map
+
+        p = Path(os.fspath(path))
+        return cls(load_map(p), p)
+
+    @classmethod
+    def from_state(cls, state: MapState, timezone: str | None = None) -> Map:
+        """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g.
+        to :meth:`save` it; its scene graph is the state's latest."""
+        from aion_cli.manifest import Manifest
+        from aion_cli.mapquery import LoadedMap, latest_graph
+
+        manifest = Manifest(state={}, config=state.config.to_dict(), timezone=timezone)
+        return cls(LoadedMap(state, latest_graph(state), manifest.to_dict()))
+
+    # -- what the map is ---------------------------------------------------------------------
+
+    @property
+    def config(self) -> ModelConfig:
+        """The model parameters the map was built with."""
+        return self._loaded.config
+
+    @property
+    def state(self) -> MapState:
+        """The engine state (entries, temporal model, ownership); see ``aion_cli.engine``."""
+        return self._loaded.state
+
+    @property
+    def manifest(self) -> Manifest:
+        """What the map file says about itself: inputs, time span, counts, zone, families."""
+        from aion_cli.manifest import Manifest
+
+        raw = dict(self._loaded.manifest)
+        raw.setdefault("state", {})
+        return Manifest.from_dict(raw)
+
+    @property
+    def timezone(self) -> str | None:
+        """The zone the map was built for (``aion build --tz``), the default of queries."""
+        zone = self._loaded.manifest.get("timezone")
+        return zone if isinstance(zone, str) else None
+
+    def _zone(self, tz: str | None) -> Zone:
+        from aion_cli.cli.timeparse import resolve_zone
+
+        return resolve_zone(tz if tz is not None else self.timezone)
+
+    def _time(self, time: TimeLike, tz: str | None) -> tuple[int, Zone]:
+        return to_ns(time, self._zone(tz)), self._zone(tz)
+
+    # -- queries -----------------------------------------------------------------------------
+
+    def predict(
+        self,
+        time: TimeLike = "now",
+        *,
+        historical: bool = False,
+        tz: str | None = None,
+        layer: str = "all",
+        nodes: Sequence[str | int] = (),
+        at: str | tuple[float, ...] | None = None,
+        top: int | None = None,
+    ) -> Table:
+        """Flows per entry at ``time`` (``historical=True``: as observed), as ``aion predict``
+        with ``--layer``, ``--node``, ``--at`` and ``--top``."""
+        from aion_cli.cli.timeparse import format_ns
+        from aion_cli.predictions import (
+            LAYERS,
+            entry_table,
+            ordered_rows,
+            rows_from_table,
+            select,
+        )
+
+        if layer not in LAYERS:
+            raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
+        if top is not None and top < 1:
+            raise InputError(f"top must be at least 1, got {top}")
+        t_ns: int | None = None
+        zone = None
+        if not historical:
+            t_ns, zone = self._time(time, tz)
+        point = ",".join(str(float(v)) for v in at) if isinstance(at, tuple) else at
+        table = entry_table(self._loaded, t_ns, layer)
+        index = select(table, layer, nodes, point)
+        rows = rows_from_table(table, ordered_rows(table, index, top))
+        return Table(
+            str(self.path) if self.path is not None else "<memory>",
+            t_ns,
+            None if t_ns is None or zone is None else format_ns(t_ns, zone),
+            None if zone is None else zone.name,
+            int(self.config.bins),
+            tuple(rows),
+        )
+
+    def plan(
+        self,
+        start: str | int,
+        goal: str | int,
+        *,
+        time: TimeLike = "now",
+        tz: str | None = None,
+        speed: float | None = None,
+    ) -> Plan:
+        """A path from ``start`` to ``goal`` (node ids ``"p12"`` or coordinates ``"x,y"``)
+        departing at ``time``, avoiding busy and opposing flows, with the distance-only
+        path beside it (``Plan.distance_only``), as ``aion plan``."""
+        from aion_cli.cli.timeparse import format_ns
+        from aion_cli.engine.node_ids import node_label
+        from aion_cli.mapquery import nav_graph
+        from aion_cli.routes import plan_routes, resolve_endpoint
+
+        if speed is not None and not 0.01 <= speed <= 20.0:
+            raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
+        t_ns, zone = self._time(time, tz)
+        nav = nav_graph(self._loaded)
+        a, b = resolve_endpoint(start, nav), resolve_endpoint(goal, nav)
+        routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
+        snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
+
+        def plan_of(route: Route, other: Plan | None) -> Plan:
+            return Plan(
+                node_label(routes.start),
+                node_label(routes.goal),
+                format_ns(t_ns, zone),
+                t_ns,
+                zone.name,
+                routes.speed_mps,
+                route.nodes,
+                route.length_m,
+                route.duration_s,
+                route.cost,
+                [format_ns(t, zone) for t in route.arrival_ns],
+                other,
+                snapped,
+            )
+
+        return plan_of(routes.temporal, plan_of(routes.distance_only, None))
+
+    def export(
+        self,
+        folder: PathLike,
+        *,
+        time: TimeLike | None = None,
+        historical: bool = False,
+        tz: str | None = None,
+        format: str = "ply",
+        path: tuple[str | int, str | int] | None = None,
+    ) -> list[Path]:
+        """Write the scene (PLY or PCD) and ``entries.csv`` / ``entries.json`` at ``time``
+        (or as observed) into ``folder``, optionally with the path planned between
+        ``path = (start, goal)``; the files written (as ``aion export``)."""
+        from aion_cli.exports import export_frames, path_ends
+
+        if format not in ("ply", "pcd"):
+            raise InputError(f"unknown export format {format!r}", hint="ply or pcd")
+        if historical and time is not None:
+            raise InputError("choose time or historical=True, not both")
+        times: list[int | None]
+        zone = None
+        if historical:
+            times = [None]
+        else:
+            when, zone = self._time("now" if time is None else time, tz)
+            times = [when]
+        ends = None
+        if path is not None:
+            ends = path_ends(self._loaded, str(path[0]), str(path[1]))
+        out = Path(os.fspath(folder))
+        label = str(self.path) if self.path is not None else "<memory>"
+        return export_frames(self._loaded, label, out, times, zone, format, ends)
+
+    # -- saving ------------------------------------------------------------------------------
+
+    def save(self, path: PathLike) -> Path:
+        """Write the map to ``path`` (a new file, or an existing aion map, which is replaced
+        atomically; anything else is refused). A map loaded from a file is copied byte for
+        byte (its checksums stay valid); an in-memory map is written from its state."""
+        from formats.mapfile import check_map_target, write_map
+
+        target = Path(os.fspath(path))
+        if self.path is not None:
+            if target.exists() and target.resolve() == self.path.resolve():
+                return target
+            check_map_target(target)
+            tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+            try:
+                shutil.copyfile(self.path, tmp)
+                os.replace(tmp, target)
+            finally:
+                tmp.unlink(missing_ok=True)
+            return target
+        from aion_cli.manifest import Manifest
+        from aion_cli.mapquery import state_counts
+
+        state = self._loaded.state
+        arrays, meta = state.to_arrays(lazy=True)
+        stored = Manifest(
+            state=meta,
+            config=state.config.to_dict(),
+            counts=state_counts(state),
+            graph_source="memory",
+            timezone=self.timezone,
+            families=state.family_summary(),
+        )
+        write_map(target, arrays, stored.to_dict())
+        self.path = target
+        return target
+
+    def __repr__(self) -> str:
+        where = str(self.path) if self.path is not None else "in memory"
+        return f"<aion.Map {where}: {len(self.state.entries.kind)} entries>"
+
+
+def to_ns(time: TimeLike, zone: Zone) -> int:
+    """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (naive: in
+    ``zone``) or integer nanoseconds; outside 1900 .. 2261 is an ``InputError``."""
+    from aion_cli.cli.timeparse import check_range, parse_time
+    from aion_cli.cli.timeparse import to_ns as datetime_ns
+
+    if isinstance(time, bool):
+        raise InputError(f"not a time: {time!r}")
+    if isinstance(time, int):
+        return check_range(int(time), f"{time} ns")
+    if isinstance(time, datetime):
+        moment = time if time.tzinfo is not None else time.replace(tzinfo=zone.tz)
+        return check_range(datetime_ns(moment), moment.isoformat())
+    if isinstance(time, str):
+        return parse_time(time, zone)
+    raise InputError(f"not a time: {time!r}", hint="a time string, a datetime or nanoseconds")
+
+
+def build(
+    logs: PathLike | Sequence[PathLike],
+    output: PathLike | None = None,
+    *,
+    continue_from: PathLike | None = None,
+    config: ModelConfig | None = None,
+    graph: PathLike | None = None,
+    tz: str | None = None,
+    detection_topics: Sequence[str] = (),
+    graph_topic: str | None = None,
+    map_frame: str = "map",
+    base_frame: str = "base_link",
+    derive_graph: bool = False,
+    nav_layer: str | None = None,
+    detections_mapping: PathLike | None = None,
+    log_format: str | None = None,
+    progress: ProgressSink | None = None,
+) -> Map:
+    """Build a map from logs (or extend ``continue_from`` with them) and write it to
+    ``output`` (default: the first log's name with ``.aion``), as ``aion build``; the map,
+    with what the build did in ``Map.report``."""
+    from aion_cli.pipeline import BuildOptions, build_map
+
+    paths = [logs] if isinstance(logs, (str, os.PathLike)) else list(logs)
+
+    def opt(p: PathLike | None) -> Path | None:
+        return None if p is None else Path(os.fspath(p))
+
+    opts = BuildOptions(
+        logs=tuple(Path(os.fspath(p)) for p in paths),
+        output=opt(output),
+        config=config,
+        log_format=log_format,
+        detection_topics=tuple(detection_topics),
+        graph_topic=graph_topic,
+        map_frame=map_frame,
+        base_frame=base_frame,
+        graph_file=opt(graph),
+        nav_layer=nav_layer,
+        derive_graph=derive_graph,
+        continue_from=opt(continue_from),
+        timezone=tz,
+        detections_mapping=opt(detections_mapping),
+    )
+    report = build_map(opts, progress)
+    made = Map.load(report.output)
+    made.report = report
+    return made

@@ -1,0 +1,137 @@
+"""The map file's manifest as a typed record: what a map holds beside its arrays.
+
+``formats.mapfile`` stores a manifest as JSON and adds the container's own keys (``format``,
+``version``, ``creator``, ``created``, ``members``); this module gives the fields aion writes a
+type, one reader and one writer, so that the build, the query commands, ``aion info`` and the
+Python API never read it by string keys. A manifest from a file is validated here: a field of
+the wrong type is :class:`~aion_cli.engine.errors.MapCorruptError` (exit 2), never a
+``KeyError`` later.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from aion_cli.engine.errors import MapCorruptError
+
+
+@dataclass(frozen=True)
+class InputLog:
+    """One log a map was built from: its path when it was read, file name, size, sha256."""
+
+    path: str
+    name: str
+    size: int
+    sha256: str
+
+    @classmethod
+    def from_dict(cls, d: Any) -> InputLog:
+        if not isinstance(d, dict):
+            raise _bad("inputs", "an input is not an object")
+        try:
+            return cls(str(d["path"]), str(d["name"]), int(d["size"]), str(d["sha256"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise _bad("inputs", f"an input lacks {exc}") from exc
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"path": self.path, "name": self.name, "size": self.size, "sha256": self.sha256}
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """The fields aion writes into a map's manifest (see formats/MAPFILE.md).
+
+    ``state`` is the model state's own metadata (``MapState.to_arrays``), ``config`` the model
+    parameters (``ModelConfig.to_dict``), ``counts`` the detections read / used / dropped over
+    every build plus the state's sizes, ``last_build`` the detections of the latest build,
+    ``families`` the model families in use; ``container`` holds the keys the map file itself
+    adds (format, version, creator, created), empty before the map is written."""
+
+    state: dict[str, Any]
+    config: dict[str, Any]
+    inputs: tuple[InputLog, ...] = ()
+    start_ns: int | None = None
+    end_ns: int | None = None
+    counts: dict[str, Any] = field(default_factory=dict)
+    last_build: dict[str, Any] = field(default_factory=dict)
+    graph_source: str = "none"
+    observation: str = "fixed"
+    timezone: str | None = None
+    families: dict[str, Any] = field(default_factory=dict)
+    container: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Manifest:
+        """A manifest read from a map file (container keys kept in ``container``)."""
+        state = d.get("state")
+        if not isinstance(state, dict):
+            raise MapCorruptError("the map has no model state", hint="rebuild it with aion build")
+        span = _dict(d, "time_span")
+        inputs = d.get("inputs", [])
+        if not isinstance(inputs, list):
+            raise _bad("inputs", "not a list")
+        zone = d.get("timezone")
+        return cls(
+            state=state,
+            config=_dict(d, "config"),
+            inputs=tuple(InputLog.from_dict(i) for i in inputs),
+            start_ns=_optional_int(span.get("start_ns"), "time_span"),
+            end_ns=_optional_int(span.get("end_ns"), "time_span"),
+            counts=_dict(d, "counts"),
+            last_build=_dict(d, "last_build"),
+            graph_source=str(d.get("graph_source", "none")),
+            observation=str(d.get("observation", "fixed")),
+            timezone=zone if isinstance(zone, str) else None,
+            families=_dict(d, "families"),
+            container={k: d[k] for k in ("format", "version", "creator", "created") if k in d},
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields to store (``formats.mapfile.write_map`` adds the container's keys)."""
+        return {
+            "state": self.state,
+            "config": self.config,
+            "inputs": [i.to_dict() for i in self.inputs],
+            "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns},
+            "counts": self.counts,
+            "last_build": self.last_build,
+            "graph_source": self.graph_source,
+            "observation": self.observation,
+            "timezone": self.timezone,
+            "families": self.families,
+        }
+
+    def shown(self) -> dict[str, Any]:
+        """What ``aion info MAP`` shows: the stored fields and the container's, without the
+        internal state table."""
+        out = {k: v for k, v in self.to_dict().items() if k != "state"}
+        return self.container | out
+
+    @property
+    def input_hashes(self) -> set[str]:
+        """The sha256 of every log already in the map (a log is added at most once)."""
+        return {i.sha256 for i in self.inputs}
+
+
+def _bad(key: str, why: str) -> MapCorruptError:
+    return MapCorruptError(
+        f"the map's manifest is invalid: {key}: {why}", hint="rebuild the map with aion build"
+    )
+
+
+def _dict(d: dict[str, Any], key: str) -> dict[str, Any]:
+    value = d.get(key, {})
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise _bad(key, f"expected an object, got {type(value).__name__}")
+    return value
+
+
+def _optional_int(value: Any, key: str) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise _bad(key, f"expected an integer time, got {value!r}")
+    return value

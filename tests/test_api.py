@@ -1,0 +1,180 @@
+"""The Python API: docs/API.md's example runs as written, and its results equal the CLI's JSON
+(the CLI formats the same functions); inputs of every accepted type; in-memory maps save."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import pytest
+from click.testing import CliRunner
+
+import aion_cli as aion
+from aion_cli.cli.main import cli
+
+REPO = Path(__file__).resolve().parents[1]
+AT = "2026-01-12 08:40"
+
+
+def _example() -> str:
+    text = (REPO / "docs" / "API.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    assert blocks, "docs/API.md has no python example"
+    return blocks[0]
+
+
+def _cli_json(*args: str | Path) -> Any:
+    result = CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+    assert result.exit_code == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+def _jsonable(value: Any) -> Any:
+    """What the CLI's JSON makes of a value (non-finite floats are null there too)."""
+    return json.loads(json.dumps(value, allow_nan=False))
+
+
+@pytest.fixture(scope="module")
+def example(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """docs/API.md's example, run in a folder holding the sample log; its variables."""
+    folder = tmp_path_factory.mktemp("api")
+    (folder / "samples").mkdir()
+    shutil.copy(REPO / "samples" / "office.mcap", folder / "samples" / "office.mcap")
+    cwd = Path.cwd()
+    os.chdir(folder)
+    try:
+        scope: dict[str, Any] = {}
+        exec(compile(_example(), "docs/API.md", "exec"), scope)
+    finally:
+        os.chdir(cwd)
+    scope["folder"] = folder
+    return scope
+
+
+def test_the_example_builds_and_saves_a_map(example: dict[str, Any]) -> None:
+    folder: Path = example["folder"]
+    m = example["m"]
+    assert isinstance(m, aion.Map)
+    assert (folder / "office.aion").is_file()
+    assert (folder / "copy.aion").read_bytes() == (folder / "office.aion").read_bytes()
+    built = aion.Map.load(folder / "copy.aion")
+    assert built.predict(AT, tz="UTC").records() == m.predict(AT, tz="UTC").records()
+
+
+def test_predict_equals_the_cli_json(example: dict[str, Any]) -> None:
+    folder: Path = example["folder"]
+    t = example["t"]
+    cli = _cli_json(
+        "predict", folder / "office.aion", "--time", AT, "--tz", "UTC", "--top", "5",
+        "--format", "json",
+    )
+    assert len(t) == 5
+    assert _jsonable(t.records()) == cli["entries"]
+    assert (t.time_ns, t.time, t.zone, t.bins) == (cli["time_ns"], cli["time"], "UTC", cli["bins"])
+    history = example["history"]
+    cli_hist = _cli_json("predict", folder / "office.aion", "--historical", "--format", "json")
+    assert _jsonable(history.records()) == cli_hist["entries"]
+    assert history.time_ns is None
+    doc = t.to_dict()
+    assert {k: v for k, v in _jsonable(doc).items() if k != "map"} == {
+        k: v for k, v in cli.items() if k != "map"
+    }
+
+
+def test_plan_equals_the_cli_json(example: dict[str, Any]) -> None:
+    folder: Path = example["folder"]
+    p = example["p"]
+    cli = _cli_json(
+        "plan", folder / "office.aion", "--from", "p103", "--to", "p2", "--time", AT,
+        "--tz", "UTC", "--format", "json",
+    )
+    assert _jsonable(p.to_dict()) == {k: v for k, v in cli.items() if k != "map"}
+    assert p.nodes[0] == "p103"
+    assert p.nodes[-1] == "p2"
+    assert p.distance_only is not None
+    assert p.distance_only.length_m <= p.length_m + 1e-9  # the shortest is never longer
+    assert p.cost <= p.distance_only.cost + 1e-9  # the temporal plan is never costlier
+
+
+def test_export_writes_what_the_cli_writes(example: dict[str, Any], tmp_path: Path) -> None:
+    folder: Path = example["folder"]
+    files = example["files"]
+    out = folder / "office-export"
+    assert sorted(folder / f for f in files) == sorted(p for p in out.rglob("*") if p.is_file())
+    cli_out = tmp_path / "cli"
+    result = CliRunner().invoke(
+        cli,
+        ["export", str(folder / "office.aion"), "--time", AT, "--tz", "UTC", "-o", str(cli_out),
+         "--path-from", "p103", "--path-to", "p2"],
+        catch_exceptions=False,
+    )
+    assert result.exit_code == 0, result.stderr
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in cli_out.iterdir())
+    for name in ("entries.csv", "scene.ply", "nodes.ply"):
+        assert (out / name).read_bytes() == (cli_out / name).read_bytes(), name
+    ours = json.loads((out / "entries.json").read_text())
+    theirs = json.loads((cli_out / "entries.json").read_text())
+    assert ours["entries"] == theirs["entries"]
+
+
+def test_times_of_every_accepted_type_agree(example: dict[str, Any]) -> None:
+    m = example["m"]
+    ns = aion.to_ns(AT, m._zone("UTC"))
+    assert ns == aion.to_ns(datetime(2026, 1, 12, 8, 40, tzinfo=UTC), m._zone(None))
+    assert ns == aion.to_ns(datetime(2026, 1, 12, 8, 40), m._zone("UTC"))  # naive: in the zone
+    by_text = m.predict(AT, tz="UTC", top=3).records()
+    assert m.predict(ns, top=3).records() == by_text
+    assert m.predict(datetime(2026, 1, 12, 8, 40, tzinfo=UTC), top=3).records() == by_text
+
+
+def test_bad_inputs_are_typed_errors(example: dict[str, Any], tmp_path: Path) -> None:
+    from aion_cli.cli.timeparse import TimeFormatError
+    from aion_cli.engine.errors import MapFileError, UnknownNodeError
+
+    m = example["m"]
+    with pytest.raises(TimeFormatError):
+        m.predict("2300-01-01")
+    with pytest.raises(aion.InputError, match="unknown layer"):
+        m.predict(AT, layer="floors")
+    with pytest.raises(UnknownNodeError):
+        m.plan("p99999", "p2", time=AT)
+    with pytest.raises(MapFileError):
+        aion.Map.load(tmp_path / "missing.aion")
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine")
+    with pytest.raises(aion.InputError):
+        m.save(notes)  # never replaces a file that is not a map
+    assert notes.read_text() == "mine"
+
+
+def test_an_in_memory_state_is_saved_and_reloads_equal(tmp_path: Path) -> None:
+    """A Mapper fed in memory (no log, no build) saves through the API; the file predicts
+    what the state predicts."""
+    import numpy as np
+
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.types import DetectionBatch
+
+    t0 = 1_767_600_000 * 10**9  # 2026-01-05 08:00 UTC
+    n = 400
+    rng = np.random.default_rng(3)
+    mapper = Mapper(ModelConfig())
+    t = t0 + np.sort(rng.integers(0, 4 * 3600 * 10**9, n))
+    xyz = np.column_stack([rng.uniform(0, 4, n), rng.uniform(0, 2, n), np.zeros(n)])
+    batch = DetectionBatch.from_arrays(t_ns=t, xyz=xyz, heading=rng.uniform(-np.pi, np.pi, n))
+    mapper.set_fixed_sensor(t0, t0 + 4 * 3600 * 10**9)
+    mapper.add_detections(batch)
+    mapper.advance(t0 + 4 * 3600 * 10**9)
+    m = aion.Map.from_state(mapper.state, timezone="UTC")
+    saved = m.save(tmp_path / "memory.aion")
+    again = aion.Map.load(saved)
+    at = t0 + 2 * 3600 * 10**9
+    assert again.predict(at).records() == m.predict(at).records()
+    assert again.manifest.graph_source == "memory"
+    assert again.timezone == "UTC"
