@@ -23,6 +23,7 @@ import datetime as _dt
 import hashlib
 import io
 import json
+import mmap
 import os
 import re
 import signal
@@ -201,12 +202,32 @@ def _manifest_text(manifest: Mapping[str, Any], members: dict[str, dict[str, Any
         raise MapContentError(f"manifest is not JSON-serialisable (strict JSON): {exc}") from exc
 
 
+ALIGN = 64
+"""Members' data start at a multiple of this many bytes in the file (and ``.npy`` headers
+are padded to it), so a reader can map an array in place."""
+_ALIGN_EXTRA_ID = 0xD935
+"""The zip extra-field id of the padding (the id Android's zipalign uses for the same)."""
+
+
+def _aligned_info(filename: str, offset: int, zip64: bool) -> zipfile.ZipInfo:
+    """A stored member's ``ZipInfo`` whose local header, written at ``offset``, ends at a
+    multiple of :data:`ALIGN` (an extra field of padding): its data, and the array after
+    its 64-byte-padded ``.npy`` header, are then aligned in the file."""
+    zinfo = zipfile.ZipInfo(filename, date_time=time.localtime(time.time())[:6])
+    zinfo.compress_type = zipfile.ZIP_STORED
+    end = offset + _LOCAL_HEADER_SIZE + len(filename.encode("utf-8")) + (20 if zip64 else 0)
+    pad = (-(end + 4)) % ALIGN
+    zinfo.extra = struct.pack("<HH", _ALIGN_EXTRA_ID, pad) + bytes(pad)
+    return zinfo
+
+
 def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, Any], manifest: Any) -> None:
     members: dict[str, dict[str, Any]] = {}
     with zipfile.ZipFile(fileobj, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
         for name, arr in arrays.items():
             big = arr.nbytes > 1024**3
-            with zf.open(name + MEMBER_SUFFIX, "w", force_zip64=big) as member:
+            zinfo = _aligned_info(name + MEMBER_SUFFIX, zf.start_dir, big)
+            with zf.open(zinfo, "w", force_zip64=big) as member:
                 writer = _HashingWriter(member)
                 if isinstance(arr, np.ndarray):
                     np.save(writer, arr, allow_pickle=False)
@@ -712,8 +733,11 @@ class MapMembers(Mapping[str, npt.NDArray[Any]]):
     count against ``max_total_bytes`` as they are read. Stored (uncompressed) members, which
     is every member aion writes, are read with one positioned read straight into the array's
     buffer (no intermediate copy; the sha256 covers what the zip's CRC would); deflated
-    members written by other tools go through :mod:`zipfile`. Close it (or use it as a context
-    manager) to release the file; arrays already read stay valid.
+    members written by other tools go through :mod:`zipfile`. With ``in_place``
+    (:func:`open_map`) stored members are not copied at all: their arrays view a private
+    copy-on-write mapping of the file (aion aligns every member's data to :data:`ALIGN`
+    bytes; an unaligned member is copied). Close it (or use it as a context manager) to
+    release the file; arrays already read stay valid.
     """
 
     def __init__(
@@ -724,6 +748,7 @@ class MapMembers(Mapping[str, npt.NDArray[Any]]):
         max_ratio: float = DEFAULT_MAX_RATIO,
         max_members: int = DEFAULT_MAX_MEMBERS,
         max_total_bytes: int = DEFAULT_MAX_TOTAL_BYTES,
+        in_place: bool = False,
     ) -> None:
         self.path = path
         self._max_member_bytes = max_member_bytes
@@ -755,6 +780,11 @@ class MapMembers(Mapping[str, npt.NDArray[Any]]):
         self._zf: zipfile.ZipFile | None = zf
         self.manifest = manifest
         self._records = members
+        self._mm: mmap.mmap | None = None
+        if in_place:
+            with contextlib.suppress(OSError, ValueError, AttributeError):  # e.g. empty file
+                assert zf.fp is not None
+                self._mm = mmap.mmap(zf.fp.fileno(), 0, access=mmap.ACCESS_COPY)
 
     # -- Mapping ------------------------------------------------------------------------
     def __getitem__(self, name: str) -> npt.NDArray[Any]:
@@ -783,6 +813,9 @@ class MapMembers(Mapping[str, npt.NDArray[Any]]):
         return list(self._cache)
 
     def close(self) -> None:
+        """Release the file; arrays already read stay valid (a mapping lives as long as the
+        arrays that view it)."""
+        self._mm = None
         if self._zf is not None:
             self._zf.close()
             self._zf = None
@@ -836,6 +869,9 @@ class MapMembers(Mapping[str, npt.NDArray[Any]]):
             if stored_name.decode("utf-8", "replace") != name:
                 raise _corrupt(p, name, "has a zip local header naming another member")
             start = info.header_offset + _LOCAL_HEADER_SIZE + name_len + extra_len
+            if self._mm is not None and start + info.file_size <= len(self._mm):
+                # in place: a private (copy-on-write) mapping of the file, no fresh memory
+                return np.frombuffer(self._mm, np.uint8, count=info.file_size, offset=start)
             buffer = np.empty(info.file_size, np.uint8)
             got = os.preadv(fd, [buffer.data], start) if buffer.size else 0
         except OSError as exc:
@@ -875,6 +911,8 @@ def _member_array(
             np.zeros(0, dtype)
         )
         arr = flat.reshape(shape[::-1]).transpose() if fortran else flat.reshape(shape)
+        if not arr.flags.aligned:  # a member another tool wrote unaligned: an aligned copy
+            arr = arr.copy()
     except Exception as exc:  # a damaged .npy header also raises tokenize/syntax errors
         raise _corrupt(path, name, f"is not a valid .npy array ({exc})") from exc
     if arr.dtype.str != rec["dtype"]:
@@ -907,16 +945,24 @@ def open_map(
     max_ratio: float = DEFAULT_MAX_RATIO,
     max_members: int = DEFAULT_MAX_MEMBERS,
     max_total_bytes: int = DEFAULT_MAX_TOTAL_BYTES,
+    in_place: bool = False,
 ) -> MapMembers:
     """Open a map for reading members on demand (:class:`MapMembers`; its ``manifest`` is
     validated). The limits are :func:`read_map`'s; every archive-level check runs here, each
-    member's own checks when it is first accessed."""
+    member's own checks when it is first accessed.
+
+    ``in_place``: stored members are arrays over a private copy-on-write mapping of the file
+    (no fresh memory filled, pages copied only where the caller writes); for queries, which
+    never write the map back. The file must then not be truncated in place while the arrays
+    live (aion replaces maps by renaming, which a mapping survives); otherwise every member
+    is read into memory of its own."""
     return MapMembers(
         Path(path),
         max_member_bytes=max_member_bytes,
         max_ratio=max_ratio,
         max_members=max_members,
         max_total_bytes=max_total_bytes,
+        in_place=in_place,
     )
 
 

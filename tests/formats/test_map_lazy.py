@@ -134,3 +134,67 @@ def test_count_quantiles_without_scipy_stats_are_scipys() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "False"
+
+
+def test_members_are_aligned_and_mapped_in_place_copy_on_write(built: tuple) -> None:
+    from formats.mapfile import ALIGN
+
+    _, path = built
+    before = path.read_bytes()
+    with zipfile.ZipFile(path) as zf:
+        for info in zf.infolist():
+            if info.filename == "manifest.json":
+                continue
+            raw = before[info.header_offset : info.header_offset + 30]
+            start = (info.header_offset + 30 + int.from_bytes(raw[26:28], "little")
+                     + int.from_bytes(raw[28:30], "little"))
+            assert start % ALIGN == 0, info.filename
+    with open_map(path, in_place=True) as members, open_map(path) as copies:
+        for name in members:
+            mapped, copied = members[name], copies[name]
+            assert mapped.flags.aligned, name
+            assert mapped.flags.writeable, name
+            np.testing.assert_array_equal(mapped, copied, err_msg=name)
+        fourier = members["temporal_cnt_fourier"]
+        fourier[:] = 0  # a private mapping: the file is not written
+    assert path.read_bytes() == before
+
+
+def test_a_map_of_the_dense_layout_reads_as_the_sparse_one(built: tuple, tmp_path: Path) -> None:
+    """Maps written before the temporal members were sparse (every row stored, counts as
+    [R, V, K], no index members) load and predict as the same map written sparsely."""
+    state, path = built
+    arrays, manifest = read_map(path)
+    manifest = {k: v for k, v in manifest.items()
+                if k not in ("format", "version", "creator", "created", "members")}
+    rows = int(np.asarray(arrays["entry_kind"]).size)
+    values = state.params.values
+    dense = {k: v for k, v in arrays.items() if not k.endswith("_index")}
+    obs_rows = np.asarray(arrays["temporal_obs_index"], np.int64)
+    for f in ("n", "fourier", "profile", "first", "last"):
+        part = np.asarray(arrays[f"temporal_obs_{f}"], np.float64 if f != "fourier" else None)
+        full = np.zeros((rows, *part.shape[1:]), part.dtype)
+        if f in ("first", "last"):
+            full[:] = np.nan
+        full[obs_rows] = part
+        dense[f"temporal_obs_{f}"] = full
+    pairs = np.asarray(arrays["temporal_cnt_index"], np.int64)
+    for f in ("fourier", "profile"):
+        part = np.asarray(arrays[f"temporal_cnt_{f}"])
+        part = part if f == "fourier" else part.astype(np.float64)
+        full = np.zeros((rows * values, part.shape[1]), part.dtype)
+        full[pairs] = part
+        dense[f"temporal_cnt_{f}"] = full.reshape(rows, values, -1)
+    scored = np.asarray(arrays["temporal_score_index"], np.int64)
+    for f in ("flow_score", "flow_chi2", "flow_scored", "flow_days", "flow_gain_sq",
+              "dir_score", "dir_scored", "dir_days", "dir_gain_sq"):
+        part = np.asarray(arrays[f"temporal_{f}"], np.float64)
+        full = np.zeros((rows, *part.shape[1:]))
+        full[scored] = part
+        dense[f"temporal_{f}"] = full
+    old = tmp_path / "dense.aion"
+    write_map(old, dense, manifest)
+    t = T0_NS + DAY_NS + 9 * 3_600 * 10**9
+    a, b = predict_table(load_map(path).state, t), predict_table(load_map(old).state, t)
+    np.testing.assert_array_equal(a.flow, b.flow)
+    np.testing.assert_array_equal(a.descriptors.probabilities, b.descriptors.probabilities)

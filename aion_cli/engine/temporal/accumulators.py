@@ -33,7 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -69,6 +69,7 @@ _SCORES = (
     "dir_days",
     "dir_gain_sq",
 )
+_TALLIES = ("flow_scored", "flow_days", "dir_scored", "dir_days")
 _UINT32_MAX = float(np.iinfo(np.uint32).max)
 
 
@@ -100,9 +101,9 @@ def _nonzero_pairs(flat_profile: F64, rows: I64, values: int) -> _Pairs:
 
 
 def _narrowed(source: F64, rows: I64) -> RowTake:
-    """``RowTake`` of ``source[rows]``, stored as the narrowest of uint16 / uint32 that holds
-    every value exactly when all are whole numbers (window tallies and detection counts are),
-    else as float64."""
+    """``RowTake`` of ``source[rows]``, stored as the narrowest of uint8 / uint16 / uint32 that
+    holds every value exactly when all are whole numbers (window tallies and detection counts
+    are), else as float64."""
     top = 0.0
     for a in range(0, rows.size, _ROW_BLOCK):
         block = source[rows[a : a + _ROW_BLOCK]]
@@ -113,8 +114,14 @@ def _narrowed(source: F64, rows: I64) -> RowTake:
         top = max(top, float(block.max()))
     if top > _UINT32_MAX:
         return RowTake(source, rows)
-    narrow = np.uint16 if top <= np.iinfo(np.uint16).max else np.uint32
+    narrow = next(t for t in (np.uint8, np.uint16, np.uint32) if top <= np.iinfo(t).max)
     return RowTake(source, rows, cast=np.dtype(narrow))
+
+
+def _positions(index: I64, limit: int) -> I64:
+    """A stored index as uint32 when every position fits (lossless: readers widen it), else
+    int64."""
+    return index.astype(np.uint32) if limit <= np.iinfo(np.uint32).max + 1 else index
 
 
 def _index(arrays: Mapping[str, np.ndarray], name: str, limit: int) -> I64:
@@ -220,6 +227,30 @@ def _member(
     if not copy and value.flags.writeable and value.flags.c_contiguous and value.dtype.isnative:
         return value  # a member freshly read from a map: no second copy
     return np.array(value)
+
+
+def _sparse_layout(
+    arrays: Mapping[str, np.ndarray], prefix: str, rows: int, values: int
+) -> Mapping[str, np.ndarray]:
+    """The members in the sparse layout: a map written before the layout was sparse (format
+    2.0 of aion before 2026-12-01: every row stored, ``cnt_fourier`` as [R, V, K], no
+    ``*_index`` members) reads as one whose indices list every row and pair."""
+    fourier = prefix + "cnt_fourier"
+    if prefix + "obs_index" in arrays or fourier not in arrays:
+        return arrays
+    from collections import ChainMap
+
+    dense: dict[str, np.ndarray] = {
+        prefix + "obs_index": np.arange(rows, dtype=np.int64),
+        prefix + "cnt_index": np.arange(rows * values, dtype=np.int64),
+        prefix + "score_index": np.arange(rows, dtype=np.int64),
+    }
+    for name in (fourier, prefix + "cnt_profile"):
+        value = np.asarray(arrays[name])
+        if value.ndim == 3 and value.shape[:2] == (rows, values):
+            dense[name] = value.reshape(rows * values, value.shape[2])
+    # reads go through to ``arrays`` (a lazily read map stays lazy)
+    return ChainMap(dense, cast(dict[str, np.ndarray], arrays))
 
 
 def _is_all(index: I64, size: int) -> bool:
@@ -451,26 +482,31 @@ class TemporalState:
           direction nobody walked costs nothing);
         * ``score_index`` — positions of entries with day-ahead scores, and the scores.
 
-        Integral counts and window tallies are stored as ``uint16`` or ``uint32`` (lossless;
-        float64 when a value is not a whole number below 2^32)."""
+        Integral counts and window tallies (profiles, windows, detections and days scored)
+        are stored as ``uint8``, ``uint16`` or ``uint32`` (lossless; float64 when a value is
+        not a whole number below 2^32), indices as ``uint32`` when they fit."""
         r = np.asarray(rows, dtype=np.int64)
         pos = np.arange(r.size, dtype=np.int64)
         out: dict[str, Any] = self.glob.to_arrays(prefix + "glob_")
         own = self.obs.n[r] > 0
-        out[prefix + "obs_index"] = pos[own]
+        out[prefix + "obs_index"] = _positions(pos[own], r.size)
         out.update(self.obs.to_arrays(prefix + "obs_", r[own]))
         out[prefix + "obs_profile"] = _narrowed(self.obs.profile, r[own])
         v, k, h = self.n_values, self.n_periods, self.n_bins
         flat_profile = self.cnt_profile.reshape(-1, h)
         pairs = _nonzero_pairs(flat_profile, r, v)
-        out[prefix + "cnt_index"] = pairs.positions
+        out[prefix + "cnt_index"] = _positions(pairs.positions, r.size * v)
         out[prefix + "cnt_fourier"] = RowTake(self.cnt_fourier.reshape(-1, k), pairs.rows)
         out[prefix + "cnt_profile"] = _narrowed(flat_profile, pairs.rows)
         scored = (self.flow_days[r] > 0) | (self.dir_days[r] > 0)
         scored |= (self.flow_scored[r] > 0) | (self.dir_scored[r] > 0)
-        out[prefix + "score_index"] = pos[scored]
+        out[prefix + "score_index"] = _positions(pos[scored], r.size)
         for name in _SCORES:
-            out[prefix + name] = RowTake(getattr(self, name), r[scored])
+            source = getattr(self, name)
+            tally = name in _TALLIES  # windows, detections and days scored: whole numbers
+            out[prefix + name] = (
+                _narrowed(source, r[scored]) if tally else RowTake(source, r[scored])
+            )
         return out
 
     @classmethod
@@ -492,6 +528,7 @@ class TemporalState:
         ``copy=False``: the members are fresh arrays the state may keep (a map just read);
         members that cover every row (a dense map) then become the state's arrays as they
         are, without a scatter into zeros or a second copy."""
+        arrays = _sparse_layout(arrays, prefix, rows, values)
         out = cls.empty(rows, values, periods, bins, flow_families, dir_families)
         out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
         own = _index(arrays, prefix + "obs_index", rows)
