@@ -39,7 +39,12 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import AionError, InputError, MissingSystemLibraryError
+from aion_cli.engine.errors import (
+    AionError,
+    InputError,
+    MissingPackageError,
+    MissingSystemLibraryError,
+)
 from aion_cli.engine.types import Mesh
 
 F64 = npt.NDArray[np.float64]
@@ -125,6 +130,14 @@ def open3d() -> Any:
     where it can."""
     try:
         import open3d as o3d
+    except ModuleNotFoundError as exc:
+        if exc.name != "open3d":
+            raise
+        raise MissingPackageError(
+            "PLY/PCD scenes need open3d, an optional part of aion that is not installed",
+            hint="pip install 'aion[export]' (make install does it); predict, plan and the "
+            "entries tables work without it",
+        ) from exc
     except (ImportError, OSError) as exc:
         missing = str(exc)
         if "libusb" in missing:

@@ -25,6 +25,11 @@ class MissingSystemLibraryError(AionError):
     a bug in aion and not bad input; the hint names the package that provides it (exit 1)."""
 
 
+class MissingPackageError(AionError):
+    """An optional part of aion is not installed (e.g. open3d for ``aion export``, the
+    ``export`` extra); the hint names the pip command (exit 1)."""
+
+
 class InputError(AionError):
     """Bad input or usage: a file, an option, a value the user gave (CLI exit code 2)."""
 
