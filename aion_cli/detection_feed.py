@@ -11,20 +11,28 @@ topic whose orientations never vary has none) -- with one
 such detections get headings from motion; sorted by time and given headings by
 :class:`HeadingEstimator` s that keep their per-track state across chunks.
 :class:`DetectionCounts` tallies what happened per topic and per heading source.
+
+A build's stream is cut into *pieces* at every scene graph (the Mapper must apply a graph
+between the detections before and after it) but decoded in *jobs* of many pieces
+(:func:`chunks`, :func:`decoded_chunks`, :meth:`DetectionFeeder.decode_segments`): the fixed
+cost of a decode (joining payloads, reading headers, estimating headings) is paid once per few
+thousand messages however often graphs come, and the worker thread runs ahead across graphs.
+Every stateful step treats each piece as a call of its own would, so the batches are the
+same as decoding piece by piece.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections import Counter
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aion_cli.engine.errors import TransformError
-from aion_cli.engine.types import DetectionBatch
+from aion_cli.engine.types import I64, DetectionBatch
 
 if TYPE_CHECKING:
     from aion_cli.engine.tracking import LinkerConfig, TrackLinker
@@ -136,32 +144,79 @@ class DetectionFeeder:
 
     def decode(self, messages: list[RawMessage]) -> DetectionBatch:
         """Decode, transform, link and give headings to ``messages`` (any detection topics)."""
+        return self.decode_rows(messages)[0]
+
+    def decode_segments(self, chunks: Sequence[list[RawMessage]]) -> list[DetectionBatch | None]:
+        """:meth:`decode` of every chunk, in one go: the batches (None for an empty chunk) are
+        what decoding the chunks one after the other gives (see :meth:`decode_rows`)."""
+        messages, segment = _flatten(chunks)
+        batch, rows_segment = self.decode_rows(messages, segment)
+        return _split(batch, rows_segment, chunks)
+
+    def decode_rows(
+        self, messages: list[RawMessage], segment: I64 | None = None
+    ) -> tuple[DetectionBatch, I64]:
+        """Decode, transform, link and give headings to ``messages``; with ``segment`` (per
+        message, non-decreasing: the scene-graph interval it lies in) every step acts as if
+        each segment were decoded by a call of its own, in order -- rows sorted by time within
+        their segment, headings and links carried from one segment to the next, a topic's
+        orientations judged per segment -- while the byte decoding, the transforms and the
+        heading estimation run once over all of them. Returns the batch (rows in (segment,
+        time) order) and each row's segment."""
         from formats.detections.frame import FrameDetections
 
-        groups: dict[tuple[str, str, str], list[RawMessage]] = {}
-        for msg in messages:
-            groups.setdefault((msg.topic, msg.msgtype, msg.encoding), []).append(msg)
+        if segment is None:
+            segment = np.zeros(len(messages), np.int64)
+        groups: dict[tuple[str, str, str], list[int]] = {}
+        for i, msg in enumerate(messages):
+            groups.setdefault((msg.topic, msg.msgtype, msg.encoding), []).append(i)
+        if len(groups) > 1 and len(segment) and segment[0] != segment[-1]:
+            # Several types or encodings (a topic recorded by both ROS versions): their yaw
+            # judgement and their linker are the topic's, shared in the order of each
+            # segment's messages, so such a job is decoded segment by segment (rare).
+            return self._by_segment(messages, segment)
         parts = []
         linked = []
-        for (topic, msgtype, encoding), msgs in groups.items():
+        row_segs = []
+        firsts = []
+        for (topic, msgtype, encoding), index in groups.items():
             adapter = self.adapter(topic, msgtype, encoding)
+            msgs = messages if len(groups) == 1 else [messages[i] for i in index]
+            seg = segment if len(groups) == 1 else segment[np.asarray(index, np.int64)]
             frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
             self._count(topic, adapter, frames, len(msgs))
-            frames = self._informative_yaws(topic, frames)
+            frames = self._informative_yaws(topic, frames, seg[frames.msg_index])
             frames = self._to_map_frame(frames)
+            rseg = seg[frames.msg_index]
             parts.append(frames)
-            linked.append(self._link(topic, frames))
+            row_segs.append(rseg)
+            linked.append(self._link(topic, frames, rseg))
+            firsts.append(_first_in_segment(np.asarray(index, np.int64), seg))
         if not parts:
-            return DetectionBatch.empty()
+            return DetectionBatch.empty(), np.zeros(0, np.int64)
         merged = parts[0] if len(parts) == 1 else FrameDetections.concat(parts)
         link_ids = linked[0] if len(linked) == 1 else np.concatenate(linked)
-        t = merged.t_ns
-        if t.size > 1 and not bool(np.all(t[1:] >= t[:-1])):  # usually in order already
-            order = np.argsort(t, kind="stable")
-            merged, link_ids = merged.select(order), link_ids[order]
-        return self._headings(merged, link_ids)
+        rows_segment = row_segs[0] if len(row_segs) == 1 else np.concatenate(row_segs)
+        order = _time_order(merged.t_ns, rows_segment, row_segs, firsts)
+        if order is not None:
+            merged, link_ids, rows_segment = (
+                merged.select(order), link_ids[order], rows_segment[order]
+            )
+        return self._headings(merged, link_ids, rows_segment), rows_segment
 
     # --- internals ---------------------------------------------------------------------------
+    def _by_segment(
+        self, messages: list[RawMessage], segment: I64
+    ) -> tuple[DetectionBatch, I64]:
+        """:meth:`decode_rows` one segment at a time (segments are contiguous runs)."""
+        cuts = (np.flatnonzero(segment[1:] != segment[:-1]) + 1).tolist()
+        batches, segs = [], []
+        for a, b in zip([0, *cuts], [*cuts, len(messages)], strict=True):
+            batch, _ = self.decode_rows(messages[a:b])
+            batches.append(batch)
+            segs.append(np.full(len(batch), segment[a], np.int64))
+        return DetectionBatch.concat(batches), np.concatenate(segs)
+
     def _count(self, topic: str, adapter: DetectionAdapter, frames: Any, n_messages: int) -> None:
         c = self.counts
         c.read += len(frames)
@@ -181,30 +236,48 @@ class DetectionFeeder:
         if error is not None and per_topic.first_error is None:
             per_topic.first_error, per_topic.first_hint = error.message, error.hint
 
-    def _informative_yaws(self, topic: str, frames: Any) -> Any:
+    def _informative_yaws(self, topic: str, frames: Any, segment: I64) -> Any:
         """``frames`` with its yaws unset while its topic's orientations have never varied
         (checked in the message frame, before TF turns them with the robot): a publisher
         that leaves every orientation at zero or at identity says nothing about where people
-        walk, and a yaw of 0 for everyone would pose as a heading."""
+        walk, and a yaw of 0 for everyone would pose as a heading.
+
+        Judged per segment (``segment`` per row, non-decreasing), in order, as separate calls
+        would judge them: a segment is unset while its yaws and all before agree; from the
+        first segment that differs on, yaws are kept. The loop runs once per segment with
+        finite yaws (per scene graph, never per detection)."""
         y = frames.yaw
-        finite = np.isfinite(y)
-        if not finite.any():
+        finite = np.flatnonzero(np.isfinite(y))
+        if finite.size == 0:
             return frames
         seen = self._yaw_seen.get(topic)
         if seen is not None and np.isnan(seen):
             return frames  # the topic's orientations vary: they are real
+        fseg = segment[finite]
+        starts = np.flatnonzero(np.r_[True, fseg[1:] != fseg[:-1]])
         vals = y[finite]
-        lo, hi = float(vals.min()), float(vals.max())
-        if hi - lo > _SAME_YAW or (seen is not None and abs(seen - lo) > _SAME_YAW):
-            self._yaw_seen[topic] = _VARIES
+        lows = np.minimum.reduceat(vals, starts).tolist()
+        highs = np.maximum.reduceat(vals, starts).tolist()
+        unset = []
+        for s, lo, hi in zip(fseg[starts].tolist(), lows, highs, strict=True):
+            if hi - lo > _SAME_YAW or (seen is not None and abs(seen - lo) > _SAME_YAW):
+                self._yaw_seen[topic] = _VARIES
+                break
+            seen = self._yaw_seen[topic] = lo
+            unset.append(s)
+        if not unset:
             return frames
-        self._yaw_seen[topic] = lo
-        return dataclasses.replace(frames, yaw=np.full(len(frames), np.nan))
+        if len(unset) == len(starts) and segment[0] == segment[-1]:
+            return dataclasses.replace(frames, yaw=np.full(len(frames), np.nan))
+        # the segments judged uniform lose their yaws, every row of them (as one call would)
+        gone = np.isin(segment, np.asarray(unset, np.int64))
+        return dataclasses.replace(frames, yaw=np.where(gone, np.nan, y))
 
-    def _link(self, topic: str, frames: Any) -> np.ndarray:
+    def _link(self, topic: str, frames: Any, segment: I64) -> np.ndarray:
         """Linked track ids (-1 elsewhere) of the rows that have no other heading source: no
         track id, no velocity, no (informative) pose yaw. One linker per topic, so that two
-        sensors' detections are never joined into one track."""
+        sensors' detections are never joined into one track; rows are linked segment by
+        segment (``segment`` per row), in order, as separate calls would link them."""
         out = np.full(len(frames), -1, np.int64)
         if self.linker_config is None or len(frames) == 0:
             return out
@@ -218,26 +291,32 @@ class DetectionFeeder:
             from aion_cli.engine.tracking import TrackLinker
 
             linker = self._linkers[topic] = TrackLinker(self.linker_config)
-        ids = linker.link(frames.t_ns[rows], frames.xyz[rows, :2])
+        ids = np.empty(len(rows), np.int64)
+        rseg = segment[rows]
+        cuts = np.flatnonzero(rseg[1:] != rseg[:-1]) + 1
+        for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), len(rows)], strict=True):
+            part = rows[a:b]
+            ids[a:b] = linker.link(frames.t_ns[part], frames.xyz[part, :2])
         # the linked tracks of every topic in one number space: id * 2**16 + topic index
         stride = 1 << 16
         index = list(self._linkers).index(topic)
         out[rows] = np.where(ids >= 0, ids * stride + index, -1)
         return out
 
-    def _headings(self, merged: Any, link_ids: np.ndarray) -> DetectionBatch:
+    def _headings(self, merged: Any, link_ids: np.ndarray, segment: I64) -> DetectionBatch:
         """Headings of every row: the main estimator for rows with the source's ids (or none),
-        the linked estimator for linked rows; both tallied by source."""
+        the linked estimator for linked rows; both tallied by source. Rows are differenced in
+        (segment, time) order (``segment`` per row)."""
         from formats.detections.heading import SOURCES
 
-        batch = self.headings.to_batch(merged)
+        batch = self.headings.to_batch(merged, segment)
         sources = self.headings.sources
         is_linked = link_ids >= 0
         if is_linked.any():
             rows = np.flatnonzero(is_linked)
             lb = self.linked_headings.estimate(
                 merged.t_ns[rows], merged.xyz[rows], merged.velocity[rows], merged.yaw[rows],
-                link_ids[rows],
+                link_ids[rows], segment[rows],
             )
             batch.heading[rows], batch.speed[rows] = lb.heading, lb.speed
             lsrc = self.linked_headings.sources
@@ -298,10 +377,157 @@ class DetectionFeeder:
         return moved.select(ok) if n_bad else moved
 
 
+def _flatten(chunks: Sequence[list[RawMessage]]) -> tuple[list[RawMessage], I64]:
+    """The messages of ``chunks`` in order, and the chunk (segment) of each."""
+    messages = [m for chunk in chunks for m in chunk]
+    lengths = np.fromiter(map(len, chunks), np.int64, len(chunks))
+    return messages, np.repeat(np.arange(len(chunks), dtype=np.int64), lengths)
+
+
+def _split(
+    batch: DetectionBatch, rows_segment: I64, chunks: Sequence[list[RawMessage]]
+) -> list[DetectionBatch | None]:
+    """``batch`` (rows in segment order) cut into one batch per chunk (views; None for an empty
+    chunk, an empty batch for a chunk without detections)."""
+    bounds = np.searchsorted(rows_segment, np.arange(len(chunks) + 1)).tolist()
+    out: list[DetectionBatch | None] = []
+    for k, chunk in enumerate(chunks):
+        a, b = bounds[k], bounds[k + 1]
+        out.append(None if not chunk else _rows(batch, a, b))
+    return out
+
+
+def _rows(batch: DetectionBatch, a: int, b: int) -> DetectionBatch:
+    if a == 0 and b == len(batch):
+        return batch
+    return DetectionBatch(
+        batch.t_ns[a:b], batch.xyz[a:b], batch.heading[a:b], batch.speed[a:b],
+        batch.track_id[a:b],
+    )
+
+
+def _first_in_segment(index: I64, segment: I64) -> I64:
+    """Per segment value (dense, up to the largest), the position of the first of a group's
+    messages (``index``: their positions in the job, ``segment``: theirs) in that segment; a
+    large value where the group has none. Decoding one segment alone concatenates its groups
+    in this order."""
+    top = int(segment.max(initial=-1)) + 1
+    out = np.full(top, np.iinfo(np.int64).max, np.int64)
+    if len(index):
+        starts = np.flatnonzero(np.r_[True, segment[1:] != segment[:-1]])
+        out[segment[starts]] = index[starts]
+    return out
+
+
+def _time_order(
+    t: I64, segment: I64, part_segments: list[I64], firsts: list[I64]
+) -> I64 | None:
+    """The order that puts concatenated parts' rows as decoding each segment alone would: by
+    segment, then time, ties by the part that came first in the segment, then by row (a
+    stable sort); None when the rows are in that order already."""
+    if len(part_segments) == 1:
+        if t.size < 2 or bool(np.all((segment[1:] != segment[:-1]) | (t[1:] >= t[:-1]))):
+            return None
+        return np.lexsort((t, segment))
+    rank = np.concatenate([f[s] for f, s in zip(firsts, part_segments, strict=True)])
+    return np.lexsort((rank, t, segment))
+
+
+class TopicFeeders:
+    """One :class:`DetectionFeeder` per detection topic, so the build knows what became of
+    each topic's detections (its own counts, its own heading estimator and track linker: the
+    track ids of two sensors are unrelated), with the rows merged in time order for the
+    Mapper as one feeder would give them.
+
+    :meth:`decode` and :meth:`decode_segments` have the feeder's signatures
+    (:func:`decoded_chunks` runs them in its worker thread); :meth:`topics_of` then gives the
+    topic index of each row of a returned batch."""
+
+    def __init__(self, make: Callable[[DetectionCounts], DetectionFeeder], topics: list[str]):
+        self.topics = topics
+        self.index = {topic: i for i, topic in enumerate(topics)}
+        self.counts = {topic: DetectionCounts() for topic in topics}
+        self.feeders = {topic: make(self.counts[topic]) for topic in topics}
+        self._labels: dict[int, I64] = {}
+
+    def decode(self, messages: list[RawMessage]) -> DetectionBatch:
+        """One chunk (see :meth:`DetectionFeeder.decode`)."""
+        got = self.decode_segments([messages])[0]
+        return DetectionBatch.empty() if got is None else got
+
+    def decode_segments(self, chunks: Sequence[list[RawMessage]]) -> list[DetectionBatch | None]:
+        """Every chunk's batch (None for an empty chunk), as decoding the chunks one after
+        the other gives them, with one decode per topic for all of them
+        (:meth:`DetectionFeeder.decode_rows`)."""
+        messages, segment = _flatten(chunks)
+        groups: dict[str, list[int]] = {}
+        for i, msg in enumerate(messages):
+            groups.setdefault(msg.topic, []).append(i)
+        batches, labels, segs, firsts = [], [], [], []
+        for topic, index in groups.items():
+            idx = np.asarray(index, np.int64)
+            one = len(groups) == 1
+            batch, rseg = self.feeders[topic].decode_rows(
+                messages if one else [messages[i] for i in index], segment if one else
+                segment[idx],
+            )
+            batches.append(batch)
+            labels.append(np.full(len(batch), self.index[topic], np.int64))
+            segs.append(rseg)
+            firsts.append(_first_in_segment(idx, segment[idx]))
+        if not batches:
+            return [None if not c else DetectionBatch.empty() for c in chunks]
+        if len(batches) == 1:
+            batch, label, rows_segment = batches[0], labels[0], segs[0]
+        else:
+            batch = DetectionBatch.concat(batches)
+            label, rows_segment = np.concatenate(labels), np.concatenate(segs)
+            order = np.lexsort((
+                np.concatenate([f[s] for f, s in zip(firsts, segs, strict=True)]),
+                batch.t_ns, rows_segment,
+            ))
+            batch = DetectionBatch(
+                batch.t_ns[order], batch.xyz[order], batch.heading[order], batch.speed[order],
+                batch.track_id[order],
+            )
+            label, rows_segment = label[order], rows_segment[order]
+        out = _split(batch, rows_segment, chunks)
+        bounds = np.searchsorted(rows_segment, np.arange(len(chunks) + 1)).tolist()
+        for k, piece in enumerate(out):
+            if piece is not None:
+                self._labels[id(piece)] = label[bounds[k] : bounds[k + 1]]
+        return out
+
+    def topics_of(self, batch: DetectionBatch) -> I64:
+        """The topic index (into :attr:`topics`) of each row of a batch :meth:`decode` or
+        :meth:`decode_segments` gave."""
+        return self._labels.pop(id(batch))
+
+    def total(self) -> DetectionCounts:
+        """Every topic's counts added up (``used`` is the caller's)."""
+        out = DetectionCounts()
+        for counts in self.counts.values():
+            out.read += counts.read
+            out.stamp_fallbacks += counts.stamp_fallbacks
+            out.log_times += counts.log_times
+            out.dropped.update(counts.dropped)
+            out.headings.update(counts.headings)
+            out.topics.update(counts.topics)
+        return out
+
+
 MAX_CHUNK_BYTES = 32 * 1024**2
 """Payload bytes after which a chunk ends whatever its message count: with large messages
 (many people each, or point clouds inside detections) ``size`` messages alone could hold
 gigabytes, and the decoders copy the payloads once more."""
+
+
+class Chunk(list["RawMessage"]):
+    """The detection messages of one item of :func:`chunks` (a list), and whether a decode
+    job ends with it (``closes``): the messages since the last job reached the size or byte
+    limit, or the stream ended. Items between two closing ones are decoded together."""
+
+    closes: bool = True
 
 
 def chunks(
@@ -311,21 +537,32 @@ def chunks(
     max_bytes: int = MAX_CHUNK_BYTES,
 ) -> Iterator[tuple[list[RawMessage], RawMessage | None]]:
     """(detection chunk, graph message or None): chunks end at a graph message, at ``size``
-    messages or at ``max_bytes`` of payload."""
-    chunk: list[RawMessage] = []
+    messages or at ``max_bytes`` of payload -- the pieces the Mapper is fed, in order.
+
+    Each chunk is a :class:`Chunk`; a *decode job* ends with the first chunk by which ``size``
+    detection messages or ``max_bytes`` of payload (detections and graphs: a job holds both
+    until it is fed) have come since the last job, wherever the graphs fall: a scene graph
+    every few messages cuts the Mapper's pieces, not the decoding."""
+    chunk = Chunk()
     nbytes = 0
+    job_count = job_bytes = 0
     for msg in messages:
+        job_bytes += len(msg.data)
         if msg.topic in graph_topics:
+            chunk.closes = job_count >= size or job_bytes >= max_bytes
             yield chunk, msg
-            chunk = []
             nbytes = 0
         else:
             chunk.append(msg)
             nbytes += len(msg.data)
-            if len(chunk) >= size or nbytes >= max_bytes:
-                yield chunk, None
-                chunk = []
-                nbytes = 0
+            job_count += 1
+            if len(chunk) < size and nbytes < max_bytes:
+                continue
+            yield chunk, None  # closes
+            nbytes = 0
+        if chunk.closes:
+            job_count = job_bytes = 0
+        chunk = Chunk()
     if chunk:
         yield chunk, None
 
@@ -336,37 +573,66 @@ def decoded_chunks(
     ahead: int = 2,
 ) -> Iterator[tuple[DetectionBatch | None, int, RawMessage | None]]:
     """(decoded batch or None, messages in it, graph message or None) for every item of
-    ``stream`` (see :func:`chunks`), in order, decoding up to ``ahead`` chunks in a worker
+    ``stream`` (see :func:`chunks`), in order, decoding up to ``ahead`` jobs in a worker
     thread while the caller reads the next messages and feeds the Mapper.
 
+    A job is the items up to one whose chunk closes (:class:`Chunk`; a plain list closes):
+    with ``decode_segments`` (:meth:`DetectionFeeder.decode_segments`) the feeder decodes them
+    at once and splits the rows back per item, so a graph between two items costs no decode
+    of its own; a feeder with only ``decode`` decodes the items one after the other in the
+    same job. Either way the worker runs ahead across graph messages: the caller receives a
+    graph only after the detections before it, and the detections after it only then.
+
     Decoding is numpy work that mostly releases the GIL, so on two cores reading and decoding
-    overlap. One worker keeps the chunks' order (the heading estimator and the counters are
-    stateful); an error in a chunk is raised here, when its turn comes."""
+    overlap. One worker keeps the jobs' order (the heading estimator and the counters are
+    stateful); an error in a job is raised here, when its first item's turn comes."""
     from collections import deque
     from concurrent.futures import Future, ThreadPoolExecutor
 
-    queue: deque[tuple[Future[DetectionBatch] | None, int, RawMessage | None]] = deque()
+    decode_all = getattr(feeder, "decode_segments", None)
+
+    def run(parts: list[list[RawMessage]]) -> list[DetectionBatch | None]:
+        if len(parts) == 1 or decode_all is None:
+            return [feeder.decode(p) if p else None for p in parts]
+        result: list[DetectionBatch | None] = decode_all(parts)
+        return result
+
+    Job = tuple["Future[list[DetectionBatch | None]] | None", list[tuple[int, Any]]]
+    queue: deque[Job] = deque()
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="aion-decode") as pool:
         try:
+            parts: list[list[RawMessage]] = []
+            items: list[tuple[int, Any]] = []
+
+            def submit() -> None:
+                job = pool.submit(run, parts) if any(parts) else None
+                queue.append((job, items))
+
             for chunk, graph_msg in stream:
-                job = pool.submit(feeder.decode, chunk) if chunk else None
-                queue.append((job, len(chunk), graph_msg))
-                while len(queue) > ahead or (queue and queue[0][2] is not None):
-                    # a graph message waits for the detections before it
-                    yield _ready(queue.popleft())
+                parts.append(chunk)
+                items.append((len(chunk), graph_msg))
+                if getattr(chunk, "closes", True):
+                    submit()
+                    parts, items = [], []
+                while len(queue) > ahead:
+                    yield from _ready(queue.popleft())
+            if items:
+                submit()
             while queue:
-                yield _ready(queue.popleft())
+                yield from _ready(queue.popleft())
         finally:
-            for job, _, _ in queue:
+            for job, _ in queue:
                 if job is not None:
                     job.cancel()
 
 
 def _ready(
-    item: tuple[Any, int, RawMessage | None],
-) -> tuple[DetectionBatch | None, int, RawMessage | None]:
-    job, n, graph_msg = item
-    return (None if job is None else job.result()), n, graph_msg
+    item: tuple[Any, list[tuple[int, RawMessage | None]]],
+) -> Iterator[tuple[DetectionBatch | None, int, RawMessage | None]]:
+    job, items = item
+    batches = [None] * len(items) if job is None else job.result()
+    for batch, (n, graph_msg) in zip(batches, items, strict=True):
+        yield batch, n, graph_msg
 
 
 def log_adapters(

@@ -567,9 +567,10 @@ def run(quick: bool = False) -> list[dict[str, Any]]:
 def profile_build(path: Path, top: int = 25, dump: Path | None = None) -> str:
     """cProfile of one build of ``path``: the ``top`` functions by cumulative and by own time,
     for the main thread and, separately, for the detection decode worker thread
-    (``DetectionFeeder.decode`` runs there, which the main thread's profile sees only as
-    waiting; it is wrapped for the run, here only, to profile it as well). ``dump``: also
-    write the raw stats to ``dump``-main.prof and ``dump``-worker.prof (for pstats / snakeviz)."""
+    (``DetectionFeeder.decode_rows``, which every decode of a chunk or of a job of chunks goes
+    through, runs there; the main thread's profile sees it only as waiting; it is wrapped for
+    the run, here only, to profile it as well). ``dump``: also write the raw stats to
+    ``dump``-main.prof and ``dump``-worker.prof (for pstats / snakeviz)."""
     import cProfile
     import io
     import pstats
@@ -578,18 +579,18 @@ def profile_build(path: Path, top: int = 25, dump: Path | None = None) -> str:
 
     out = path.with_suffix(".profile.aion")
     main, worker = cProfile.Profile(), cProfile.Profile()
-    decode = DetectionFeeder.decode
+    decode = DetectionFeeder.decode_rows
     calls = [0]
 
-    def profiled(self: Any, chunk: Any) -> Any:
+    def profiled(self: Any, *args: Any) -> Any:
         calls[0] += 1
         worker.enable()
         try:
-            return decode(self, chunk)
+            return decode(self, *args)
         finally:
             worker.disable()
 
-    DetectionFeeder.decode = profiled  # type: ignore[method-assign,assignment]
+    DetectionFeeder.decode_rows = profiled  # type: ignore[method-assign,assignment]
     try:
         t0 = time.perf_counter()
         main.enable()
@@ -597,7 +598,7 @@ def profile_build(path: Path, top: int = 25, dump: Path | None = None) -> str:
         main.disable()
         wall = time.perf_counter() - t0
     finally:
-        DetectionFeeder.decode = decode  # type: ignore[method-assign]
+        DetectionFeeder.decode_rows = decode  # type: ignore[method-assign]
     out.unlink(missing_ok=True)
     if dump is not None:
         main.dump_stats(f"{dump}-main.prof")
@@ -605,7 +606,8 @@ def profile_build(path: Path, top: int = 25, dump: Path | None = None) -> str:
     buf = io.StringIO()
     buf.write(f"build of {path.name}: {wall:.2f} s under cProfile, "
               f"{report.detections_read:,} detections, {report.graph_messages:,} graphs, "
-              f"{report.windows:,} windows, {calls[0]:,} decoded chunks\n\n")
+              f"{report.windows:,} windows, {calls[0]:,} decodes (per topic: chunks or jobs of "
+              "chunks)\n\n")
     for label, prof in (("main thread", main), ("decode worker thread", worker)):
         for order in ("cumulative", "tottime"):
             buf.write(f"## {label}, top {top} by {order}\n")

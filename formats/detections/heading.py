@@ -20,8 +20,22 @@ before calling (a heading in a moving robot frame means nothing). Speeds are hor
 headings in radians in (-π, π].
 
 State between calls is a struct of arrays sorted by track id (id, reference time and position,
-last heading), looked up with ``np.searchsorted``. Within one call the rows of each track are
-processed in time order, one round per occurrence index, vectorized over all tracks.
+last heading). Within one call the rows of each track are taken in time order (with
+``segment``: in (segment, time) order, as if each segment were a call of its own) and rule 2 is
+a scan over them whose only sequential part is the reference point: a row resets it when it
+lies more than ``max_gap_s`` after (or any time before) the reference, or at least
+``min_displacement`` away from it after any time has passed. That scan is vectorised without a
+loop over rows (see :meth:`HeadingEstimator._difference`): each row's *next reset* if it were
+the reference is found for all rows at once (the range within ``max_gap_s`` by
+``searchsorted``, a standing person's range passed over by a bounding-box test, the rest by a
+search that widens geometrically), the chain of resets from each track's current reference is
+followed by pointer doubling (log2 of the chain's length in steps), and the previous-heading
+carry is a running maximum of event indices. Before issue 15 a call ran one vectorised round
+per occurrence of a track (``tests/formats/heading_reference.py`` keeps that version, which
+the tests compare against bit for bit); a build decoding 28-message pieces spent 4.7 s of a
+20-day log's 7 s decode there. The
+cost per call is a few dozen numpy operations over the call's rows, whatever the number of
+rows per track, so a batch of thousands of messages costs about what one message used to.
 
 After each call :attr:`HeadingEstimator.sources` says which rule gave each row its heading
 (codes of :data:`SOURCES`), so a build can count headings by source.
@@ -68,9 +82,11 @@ class HeadingEstimator:
         """Number of tracks remembered."""
         return len(self.ids)
 
-    def to_batch(self, det: FrameDetections) -> DetectionBatch:
+    def to_batch(
+        self, det: FrameDetections, segment: npt.ArrayLike | None = None
+    ) -> DetectionBatch:
         """The engine batch of detections already transformed into the map frame."""
-        return self.estimate(det.t_ns, det.xyz, det.velocity, det.yaw, det.track_id)
+        return self.estimate(det.t_ns, det.xyz, det.velocity, det.yaw, det.track_id, segment)
 
     def estimate(
         self,
@@ -79,8 +95,14 @@ class HeadingEstimator:
         velocity: npt.ArrayLike | None = None,
         yaw: npt.ArrayLike | None = None,
         track_id: npt.ArrayLike | None = None,
+        segment: npt.ArrayLike | None = None,
     ) -> DetectionBatch:
-        """Headings and speeds for map-frame arrays; rows keep their order."""
+        """Headings and speeds for map-frame arrays; rows keep their order.
+
+        ``segment`` (int per row, non-decreasing along the stream): rows are differenced in
+        (segment, time) order, which gives what calling once per segment in order gives (the
+        state is pruned once, at the end of the call), so a build can decode many scene-graph
+        intervals in one call."""
         t = np.asarray(t_ns, np.int64).reshape(-1)
         n = len(t)
         p = np.asarray(xyz, np.float64).reshape(n, 3)
@@ -102,7 +124,8 @@ class HeadingEstimator:
         source = np.where(has_vel, FROM_VELOCITY, NO_HEADING).astype(np.int8)
         tracked = np.flatnonzero(k >= 0)
         if len(tracked):
-            self._difference(tracked, t, p[:, :2], k, has_vel, heading, speed)
+            seg = None if segment is None else np.asarray(segment, np.int64).reshape(n)
+            self._difference(tracked, t, p[:, :2], k, has_vel, heading, speed, seg)
             if len(self.ids) > self.prune_above:
                 self._prune(int(t[tracked].max()))
             source[tracked] = np.where(
@@ -127,19 +150,6 @@ class HeadingEstimator:
         self.ids, self.ref_t = self.ids[keep], self.ref_t[keep]
         self.ref_xy, self.heading = self.ref_xy[keep], self.heading[keep]
 
-    def _slots(self, ids: I64) -> I64:
-        """Slots of ``ids`` in the state arrays, adding unseen ids (kept sorted)."""
-        new = np.setdiff1d(ids, self.ids)
-        if len(new):
-            merged = np.union1d(self.ids, new)
-            old = np.searchsorted(merged, self.ids)
-            ref_t = np.full(len(merged), np.iinfo(np.int64).min)
-            ref_xy = np.full((len(merged), 2), np.nan)
-            head = np.full(len(merged), np.nan)
-            ref_t[old], ref_xy[old], head[old] = self.ref_t, self.ref_xy, self.heading
-            self.ids, self.ref_t, self.ref_xy, self.heading = merged, ref_t, ref_xy, head
-        return np.searchsorted(self.ids, ids)
-
     def _difference(
         self,
         rows: I64,
@@ -149,45 +159,300 @@ class HeadingEstimator:
         has_vel: npt.NDArray[np.bool_],
         heading: F64,
         speed: F64,
+        segment: I64 | None,
     ) -> None:
-        """Rule 2 for the tracked ``rows`` (updates ``heading``/``speed`` in place)."""
-        slot = self._slots(k[rows])
-        order = np.lexsort((t[rows], slot))
-        rows, slot = rows[order], slot[order]
-        start = np.r_[True, slot[1:] != slot[:-1]]
-        group_start = np.maximum.accumulate(np.where(start, np.arange(len(rows)), 0))
-        rank = np.arange(len(rows)) - group_start
-        for r in range(int(rank.max()) + 1):
-            sel = rank == r
-            self._round(rows[sel], slot[sel], t, xy, has_vel, heading, speed)
+        """Rule 2 for the tracked ``rows`` (updates ``heading``/``speed`` and the state in
+        place), vectorised over rows and tracks.
 
-    def _round(
-        self,
-        rows: I64,
-        slot: I64,
-        t: I64,
-        xy: F64,
-        has_vel: npt.NDArray[np.bool_],
-        heading: F64,
-        speed: F64,
-    ) -> None:
-        """One detection per track (distinct slots): difference against the reference."""
-        ref_t = self.ref_t[slot]
-        dt = t[rows] - ref_t
-        known = ref_t != np.iinfo(np.int64).min
-        fresh = known & (dt > 0) & (dt <= self.max_gap_ns)
-        stale = ~fresh & ~(known & (dt == 0))
-        d = xy[rows] - self.ref_xy[slot]
-        dist = np.hypot(d[:, 0], d[:, 1])
+        The rows are laid out as *nodes*, track after track in (segment,) time order, each track
+        preceded by a virtual node holding its remembered reference (when it has one). A
+        track's reference resets exactly at the nodes of a chain: its first node, then, from
+        each chain node ``i``, the first later node ``j`` of the track that would reset with
+        ``i`` as reference (:meth:`_next_resets`); the chain is marked by pointer doubling
+        (:func:`_chains`). Each row's reference is then the last chain node before it, and its
+        previous heading the value of the last *event* (velocity, new differenced heading, or
+        stale reset) before it: both running maxima of node indices. Every comparison and
+        arithmetic step is the one the sequential rule makes, on the same values, so the
+        results are identical to processing the rows one at a time."""
+        keys = (t[rows], k[rows]) if segment is None else (t[rows], segment[rows], k[rows])
+        rows = rows[np.lexsort(keys)]
+        kr = k[rows]
+        n = len(rows)
+        starts = np.empty(n, dtype=bool)
+        starts[0] = True
+        np.not_equal(kr[1:], kr[:-1], out=starts[1:])
+        group = np.cumsum(starts) - 1
+        ids = kr[starts]
+        n_groups = len(ids)
+
+        # remembered tracks: their slot in the state arrays; those with a reference get a
+        # virtual node before their rows
+        if len(self.ids):
+            slot = np.minimum(np.searchsorted(self.ids, ids), len(self.ids) - 1)
+            found = self.ids[slot] == ids
+            known = found & (self.ref_t[slot] != _UNSET)
+        else:
+            slot = np.zeros(n_groups, np.int64)
+            found = known = np.zeros(n_groups, dtype=bool)
+        virtual = known.astype(np.int64)
+        real = np.arange(n) + np.cumsum(virtual)[group]  # node of each row
+        count = np.diff(np.append(np.flatnonzero(starts), n))
+        size = count + virtual
+        g_end = np.cumsum(size)
+        g_start = g_end - size
+        n_nodes = int(g_end[-1])
+        vnodes = g_start[known]
+        vslot = slot[known]
+        t_rows, x_rows, y_rows = t[rows], xy[rows, 0], xy[rows, 1]
+        if len(vnodes):
+            T = np.empty(n_nodes, np.int64)
+            x = np.empty(n_nodes)
+            y = np.empty(n_nodes)
+            T[real], x[real], y[real] = t_rows, x_rows, y_rows
+            T[vnodes], x[vnodes], y[vnodes] = (
+                self.ref_t[vslot], self.ref_xy[vslot, 0], self.ref_xy[vslot, 1]
+            )
+        else:
+            T, x, y = t_rows, x_rows, y_rows
+        node_end = np.repeat(g_end, size)
+
+        nxt = self._next_resets(T, x, y, node_end, g_start, size)
+        chain = _chains(nxt, g_start)
+
+        # each row's reference: the last chain node before it (a track's first node is on
+        # the chain, so it lies in the row's own track), except for the first node of a track
+        # without one, which has no reference (it resets: stale)
+        root = starts.copy()
+        root[starts] = ~known
+        node_index = np.arange(n_nodes)
+        last_chain = np.maximum.accumulate(np.where(chain, node_index, -1))
+        before = real - 1  # -1 only for a root: masked
+        ref = last_chain[before]
+        dt = t_rows - T[ref]
+        fresh = ~root & (dt > 0) & (dt <= self.max_gap_ns)
+        stale = ~fresh & (root | (dt != 0))
+        dx = x_rows - x[ref]
+        dy = y_rows - y[ref]
+        dist = np.hypot(dx, dy)
         moved = fresh & (dist >= self.min_displacement)
-        prev = np.where(stale, np.nan, self.heading[slot])
-        diff_heading = np.where(moved, np.arctan2(d[:, 1], d[:, 0]), prev)
+        diff_heading = np.arctan2(dy, dx)
+
+        # previous heading: the value of the last event before each row (a track's first node
+        # is an event; a root is stale, so its own previous heading is NaN anyway)
         vel = has_vel[rows]
-        use = ~vel & fresh
+        event = np.ones(n_nodes, dtype=bool)
+        value = np.full(n_nodes, np.nan)
+        value[vnodes] = self.heading[vslot]
+        event[real] = vel | moved | stale
+        value[real] = np.where(vel, heading[rows], np.where(moved, diff_heading, np.nan))
+        last_event = np.maximum.accumulate(np.where(event, node_index, -1))
+        prev = np.where(stale, np.nan, value[last_event[before]])
+        diff_heading = np.where(moved, diff_heading, prev)
+        use = np.flatnonzero(~vel & fresh)
         heading[rows[use]] = diff_heading[use]
         speed[rows[use]] = dist[use] / (dt[use] * 1e-9)
-        # State: velocity headings and new differenced headings become "previous".
-        self.heading[slot] = np.where(vel, heading[rows], diff_heading)
-        reset = stale | moved
-        self.ref_t[slot] = np.where(reset, t[rows], ref_t)
-        self.ref_xy[slot] = np.where(reset[:, None], xy[rows], self.ref_xy[slot])
+
+        # the state after the call: per track, its last chain node and its last event
+        last = g_end - 1
+        ref_last, ev_last = last_chain[last], last_event[last]
+        new_t, new_heading = T[ref_last], value[ev_last]
+        new_xy = np.stack([x[ref_last], y[ref_last]], axis=1)
+        hit = slot[found]
+        self.ref_t[hit], self.ref_xy[hit] = new_t[found], new_xy[found]
+        self.heading[hit] = new_heading[found]
+        if not found.all():
+            at = np.searchsorted(self.ids, ids[~found])
+            self.ids = np.insert(self.ids, at, ids[~found])
+            self.ref_t = np.insert(self.ref_t, at, new_t[~found])
+            self.ref_xy = np.insert(self.ref_xy, at, new_xy[~found], axis=0)
+            self.heading = np.insert(self.heading, at, new_heading[~found])
+
+    def _next_resets(
+        self, T: I64, x: F64, y: F64, node_end: I64, g_start: I64, size: I64
+    ) -> I64:
+        """For every node ``i``: the first later node ``j`` of its track that resets the
+        reference if ``i`` is the reference (``len(T)`` when none does): ``j`` earlier than
+        ``i``, more than ``max_gap_s`` later, or later and at least ``min_displacement`` away.
+
+        Nodes at ``i``'s own time never reset (the run of them after ``i`` is skipped at once).
+        In a track whose nodes are in time order (stamps in order: the usual case) the nodes
+        within ``max_gap_s`` of ``i`` are a range found by one ``searchsorted``, and only
+        distance can reset inside it: the node right after the equal-time run is tried first
+        (a walker's next node resets), then a range whose bounding box lies inside the
+        ``min_displacement`` circle around ``i`` is passed over at once (a person standing
+        still: two lookups in a sparse min/max table), and only the rest is searched node by
+        node, in blocks of 1, 2, 4, ... nodes. Tracks out of time order are searched the
+        general way, blocks from the equal-time run on."""
+        n = len(T)
+        nxt = np.full(n + 1, n, np.int64)
+        if n == 0:
+            return nxt
+        # the first node after each node's own time: j > i with T[j] != T[j - 1]
+        same = np.flatnonzero(T[1:] == T[:-1])
+        start = np.arange(1, n + 1)
+        if same.size:
+            later = np.full(n, n)
+            later[:-1] = np.where(T[1:] != T[:-1], np.arange(1, n), n)
+            start = np.minimum.accumulate(later[::-1])[::-1]
+        start = np.minimum(start, node_end)
+        g_end = g_start + size
+        # tracks whose nodes are in time order
+        back = np.r_[0, np.cumsum((T[1:] < T[:-1]) & (node_end[1:] == node_end[:-1]))]
+        in_order = back[g_end - 1] == back[g_start]
+        t_first, t_last = T[g_start], T[g_end - 1]
+        stride = int((t_last - t_first)[in_order].max(initial=0)) + self.max_gap_ns + 1
+        if len(size) * stride >= 2**62:  # absurd stamp spans: everything the general way
+            in_order[:] = False
+        ordered = np.repeat(in_order, size)
+        rest = np.flatnonzero(~ordered & (start < node_end))
+        if rest.size:
+            found, j = self._search(T, x, y, rest, start[rest], node_end[rest], general=True)
+            nxt[rest[found]] = j[found]
+        todo = np.flatnonzero(ordered)
+        if todo.size == 0:
+            return nxt
+        rel = np.where(ordered, T - np.repeat(np.where(in_order, t_first, 0), size), 0)
+        key = np.repeat(np.arange(len(size), dtype=np.int64) * stride, size) + rel
+        lim = np.minimum(np.searchsorted(key, key[todo] + self.max_gap_ns, side="right"),
+                         node_end[todo])
+        nxt[todo] = np.where(lim < node_end[todo], lim, n)  # no move in time: stale at lim
+        a = start[todo]
+        open_ = a < lim
+        todo, a, lim = todo[open_], a[open_], lim[open_]
+        # the first node after i's own time (a walker's next node resets)
+        first = np.hypot(x[a] - x[todo], y[a] - y[todo]) >= self.min_displacement
+        nxt[todo[first]] = a[first]
+        more = ~first & (a + 1 < lim)
+        todo, a, lim = todo[more], a[more] + 1, lim[more]
+        if todo.size == 0:
+            return nxt
+        inside = _inside_circle(x, y, todo, a, lim, self.min_displacement)
+        todo, a, lim = todo[~inside], a[~inside], lim[~inside]
+        if todo.size:
+            found, j = self._search(T, x, y, todo, a, lim, general=False)
+            nxt[todo[found]] = j[found]
+        return nxt
+
+    def _search(
+        self, T: I64, x: F64, y: F64, nodes: I64, pos: I64, end: I64, general: bool
+    ) -> tuple[npt.NDArray[np.bool_], I64]:
+        """The first reset after each of ``nodes`` among nodes ``pos .. end - 1`` (found,
+        index), searched in blocks of 1, 2, 4, ... nodes per still-unresolved node. ``general``
+        checks every rule; otherwise the range is known to lie within ``max_gap_s`` after the
+        node and only the distance is checked."""
+        found = np.zeros(len(nodes), dtype=bool)
+        out = np.zeros(len(nodes), np.int64)
+        active = np.arange(len(nodes))
+        width = 1
+        gap, min_d = self.max_gap_ns, self.min_displacement
+        while active.size:
+            width = max(1, min(width, _SCAN_BUDGET // active.size))
+            i = nodes[active]
+            j = pos[active][:, None] + np.arange(width)
+            stop = end[active]
+            valid = j < stop[:, None]
+            jc = np.where(valid, j, i[:, None])
+            dist = np.hypot(x[jc] - x[i][:, None], y[jc] - y[i][:, None])
+            reset = dist >= min_d
+            if general:
+                dt = T[jc] - T[i][:, None]
+                reset = (dt < 0) | (dt > gap) | ((dt > 0) & reset)
+            reset &= valid
+            hit = reset.any(axis=1)
+            if hit.any():
+                found[active[hit]] = True
+                out[active[hit]] = j[hit, reset[hit].argmax(axis=1)]
+            pos[active] += width
+            more = ~hit & (pos[active] < stop)
+            active = active[more]
+            width *= 2
+        return found, out
+
+
+def _inside_circle(
+    x: F64, y: F64, nodes: I64, a: I64, b: I64, radius: float
+) -> npt.NDArray[np.bool_]:
+    """Whether every node ``a .. b - 1`` is certainly closer than ``radius`` to its node of
+    ``nodes``: the bounding box of the range (a sparse table of min/max, levels up to
+    :data:`_BOX_LEVELS`; longer ranges are not decided) has its farthest corner inside the
+    circle, with a margin far above rounding (so a True here never contradicts the exact
+    per-node test; NaN positions, which never reset by distance, only make it False)."""
+    inside = np.zeros(len(nodes), dtype=bool)
+    w = b - a
+    level = np.minimum(np.frexp(w.astype(np.float64))[1] - 1, _BOX_LEVELS)
+    ok = w <= 2 * (1 << level)
+    top = int(level[ok].max(initial=-1))
+    if top < 0:
+        return inside
+    tables = [(x, x, y, y)]
+    for k in range(top):
+        h = 1 << k
+        x_lo, x_hi, y_lo, y_hi = tables[-1]
+        tables.append((
+            np.fmin(x_lo[:-h], x_lo[h:]), np.fmax(x_hi[:-h], x_hi[h:]),
+            np.fmin(y_lo[:-h], y_lo[h:]), np.fmax(y_hi[:-h], y_hi[h:]),
+        ))
+    for k in range(top + 1):
+        sel = np.flatnonzero(ok & (level == k))
+        if sel.size == 0:
+            continue
+        x_lo, x_hi, y_lo, y_hi = tables[k]
+        sa, sb = a[sel], b[sel] - (1 << k)
+        xi, yi = x[nodes[sel]], y[nodes[sel]]
+        rx = np.fmax(np.abs(np.fmin(x_lo[sa], x_lo[sb]) - xi),
+                     np.abs(np.fmax(x_hi[sa], x_hi[sb]) - xi))
+        ry = np.fmax(np.abs(np.fmin(y_lo[sa], y_lo[sb]) - yi),
+                     np.abs(np.fmax(y_hi[sa], y_hi[sb]) - yi))
+        inside[sel] = np.hypot(rx, ry) < radius * (1.0 - 1e-9)
+    return inside
+
+
+_UNSET = np.iinfo(np.int64).min
+#: Largest (unresolved nodes x block width) matrix of one step of the reset search.
+_SCAN_BUDGET = 1 << 20
+#: Levels of the sparse min/max table of :func:`_inside_circle`: ranges up to 2**(L+1) nodes.
+_BOX_LEVELS = 8
+
+
+def _chains(nxt: I64, roots: I64) -> npt.NDArray[np.bool_]:
+    """Nodes reachable from ``roots`` by ``nxt`` (a node's next reset; ``len(nxt) - 1`` is the
+    end, mapped to itself).
+
+    Runs of nodes that each reset at the very next node (a walker's) are taken whole: a chain
+    that enters a run at ``e`` covers it to its exit (the first node whose next reset is not
+    its neighbour) and continues at that exit's next reset. Only the entries (roots and
+    targets of longer jumps) are chained, by pointer doubling: after step ``k`` the first
+    ``2**k`` entries of every chain are marked and the jumps leap ``2**k`` entries, so a chain
+    of ``L`` entries takes about ``log2 L`` steps; the runs from the reached entries are then
+    marked with one cumulative sum."""
+    n = len(nxt) - 1
+    index = np.arange(n)
+    step = nxt[:n]
+    unit = step == index + 1
+    unit[-1:] = False  # the last node's next is the end, not a neighbour
+    exits = np.minimum.accumulate(np.where(unit, n, index)[::-1])[::-1]
+    jumps = step[~unit]
+    entry = np.zeros(n + 1, dtype=bool)
+    entry[roots] = True
+    entry[jumps] = True
+    entry[n] = False
+    entries = np.flatnonzero(entry)
+    compact = np.full(n + 1, len(entries), np.int64)
+    compact[entries] = np.arange(len(entries))
+    m = len(entries)
+    jump = np.append(compact[step[exits[entries]]], m)
+    reach = np.zeros(m + 1, dtype=bool)
+    reach[compact[roots]] = True
+    while True:
+        target = jump[np.flatnonzero(reach[:m])]
+        target = target[~reach[target]]
+        if target.size == 0 or bool((target == m).all()):
+            break
+        reach[target] = True
+        reach[m] = False
+        jump = jump[jump]
+    first = entries[reach[:m]]
+    marks = np.zeros(n + 1, np.int64)
+    marks[first] += 1
+    marks[exits[first] + 1] -= 1
+    return np.cumsum(marks[:n]) > 0
