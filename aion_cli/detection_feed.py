@@ -452,13 +452,16 @@ class TopicFeeders:
 
     def decode(self, messages: list[RawMessage]) -> DetectionBatch:
         """One chunk (see :meth:`DetectionFeeder.decode`)."""
-        got = self.decode_segments([messages])[0]
+        got = self._decode_job([messages])[0]
         return DetectionBatch.empty() if got is None else got
 
     def decode_segments(self, chunks: Sequence[list[RawMessage]]) -> list[DetectionBatch | None]:
         """Every chunk's batch (None for an empty chunk), as decoding the chunks one after
         the other gives them, with one decode per topic for all of them
         (:meth:`DetectionFeeder.decode_rows`)."""
+        return self._decode_job(chunks)
+
+    def _decode_job(self, chunks: Sequence[list[RawMessage]]) -> list[DetectionBatch | None]:
         messages, segment = _flatten(chunks)
         groups: dict[str, list[int]] = {}
         for i, msg in enumerate(messages):

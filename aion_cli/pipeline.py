@@ -17,10 +17,11 @@ No click here: the CLI hands over :class:`BuildOptions` and a :class:`ProgressSi
    :mod:`aion_cli.derive_graph` turns that into a navigational graph;
 4. stream detection and scene-graph messages in log-time order: detection messages are
    collected into chunks of ``batch_size`` (flushed before every scene graph, so the Mapper sees
-   everything in time order), decoded per topic and type with numpy, transformed to the map
-   frame, given headings, and fed to the Mapper, which says per row what it dropped (so a
-   topic that loses most of its detections is a warning); a continued map refuses data in
-   the windows it has already closed (logs are added in time order);
+   everything in time order; decoded in jobs of ``batch_size`` messages however often the
+   graphs come, :mod:`aion_cli.detection_feed`), decoded per topic and type with numpy,
+   transformed to the map frame, given headings, and fed to the Mapper, which says per row
+   what it dropped (so a topic that loses most of its detections is a warning); a continued
+   map refuses data in the windows it has already closed (logs are added in time order);
 5. write the map atomically (``formats.mapfile.write_map``) with a manifest recording the
    config, the inputs' provenance (path, size, sha256), the time span and the counts.
 
@@ -34,7 +35,7 @@ from __future__ import annotations
 import dataclasses
 from array import array
 from collections import Counter
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
@@ -50,6 +51,7 @@ from aion_cli.detection_feed import (
     decoded_chunks,
     log_adapters,
 )
+from aion_cli.detection_feed import TopicFeeders as _TopicFeeders
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.errors import (
     ConfigError,
@@ -461,58 +463,6 @@ def _robot_trajectory(
         keep = ~stray
         traj = Trajectory(t[keep], np.asarray(traj.xyz)[keep])
     return traj
-
-
-class _TopicFeeders:
-    """One :class:`DetectionFeeder` per detection topic, so the build knows what became of
-    each topic's detections (its own counts, its own heading estimator and track linker: the
-    track ids of two sensors are unrelated), with the chunk's rows merged in time order for
-    the Mapper as one feeder would give them.
-
-    :meth:`decode` has the feeder's signature (``decoded_chunks`` runs it in its worker
-    thread); :meth:`topics_of` then gives the topic index of each row of a returned batch.
-    """
-
-    def __init__(self, make: Callable[[DetectionCounts], DetectionFeeder], topics: list[str]):
-        self.topics = topics
-        self.index = {topic: i for i, topic in enumerate(topics)}
-        self.counts = {topic: DetectionCounts() for topic in topics}
-        self.feeders = {topic: make(self.counts[topic]) for topic in topics}
-        self._labels: dict[int, I64] = {}
-
-    def decode(self, messages: list[RawMessage]) -> DetectionBatch:
-        groups: dict[str, list[RawMessage]] = {}
-        for msg in messages:
-            groups.setdefault(msg.topic, []).append(msg)
-        parts = [(self.index[t], self.feeders[t].decode(msgs)) for t, msgs in groups.items()]
-        if len(parts) == 1:
-            label, batch = parts[0]
-            labels = np.full(len(batch), label, np.int64)
-        else:
-            batch = DetectionBatch.concat([b for _, b in parts])
-            labels = np.concatenate([np.full(len(b), k, np.int64) for k, b in parts])
-            t = batch.t_ns
-            if t.size > 1 and not bool(np.all(t[1:] >= t[:-1])):
-                order = np.argsort(t, kind="stable")
-                batch, labels = batch.select(order), labels[order]
-        self._labels[id(batch)] = labels
-        return batch
-
-    def topics_of(self, batch: DetectionBatch) -> I64:
-        """The topic index (into :attr:`topics`) of each row of a batch :meth:`decode` gave."""
-        return self._labels.pop(id(batch))
-
-    def total(self) -> DetectionCounts:
-        """Every topic's counts added up (``used`` is the caller's)."""
-        out = DetectionCounts()
-        for counts in self.counts.values():
-            out.read += counts.read
-            out.stamp_fallbacks += counts.stamp_fallbacks
-            out.log_times += counts.log_times
-            out.dropped.update(counts.dropped)
-            out.headings.update(counts.headings)
-            out.topics.update(counts.topics)
-        return out
 
 
 class _Build:
