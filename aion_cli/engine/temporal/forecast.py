@@ -73,12 +73,22 @@ class PoolStats:
         glob = state.glob.profile[0]
         for a in range(0, rows.size, _BLOCK):
             r, g = rows[a : a + _BLOCK], groups[a : a + _BLOCK]
-            block = state.cnt_profile[r]
+            block = _rows_of(state.cnt_profile, r)
             s_g += _group_sums(g, n_groups, block.sum(axis=1))
-            w_g += _group_sums(g, n_groups, state.obs.profile[r] + glob)
+            w_g += _group_sums(g, n_groups, _rows_of(state.obs.profile, r) + glob)
             c_g += _group_sums(g, n_groups, block[:, :b].sum(axis=2))
         shapes, map_shape = _group_shapes(params.config.profile_prior, s_g, w_g)
         return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
+
+
+def _rows_of(values: Any, rows: I64) -> Any:
+    """``values[rows]`` for reading: a view (no copy) when ``rows`` are consecutive, as the
+    rows of a map read back are (its entries are stored in canonical order), so preparing
+    a forecast does not copy the largest accumulators block by block."""
+    n = rows.size
+    if n and int(rows[-1]) - int(rows[0]) == n - 1 and (n == 1 or bool(np.all(np.diff(rows) == 1))):
+        return values[int(rows[0]) : int(rows[-1]) + 1]
+    return values[rows]
 
 
 def _group_sums(groups: I64, n_groups: int, values: F64) -> F64:
@@ -171,7 +181,7 @@ class Forecaster:
         self.counts = np.empty((e, v))  # N[e, v]
         self.profile_total = np.empty((e, h))  # S[e, h], all value bins
         for a in range(0, e, _BLOCK):
-            block = state.cnt_profile[self.rows[a : a + _BLOCK]]
+            block = _rows_of(state.cnt_profile, self.rows[a : a + _BLOCK])
             self.counts[a : a + _BLOCK] = block.sum(axis=2)
             self.profile_total[a : a + _BLOCK] = block.sum(axis=1)
         self.observed = self.windows > 0
@@ -231,8 +241,9 @@ class Forecaster:
     def _gamma(self, pos: I64) -> C128:
         """γ_{v,k} = (A − μ B) / W of entries at positions ``pos``: complex[n, V, K]."""
         r = self.rows[pos]
-        balance = self.state.obs.fourier[r] + self.state.glob.fourier[0]  # Σ e^{iωt}
-        gamma: C128 = self.state.cnt_fourier[r] - self.rate[pos, :, None] * balance[:, None, :]
+        balance = _rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
+        counts = _rows_of(self.state.cnt_fourier, r)
+        gamma: C128 = counts - self.rate[pos, :, None] * balance[:, None, :]
         gamma /= np.where(self.observed[pos], self.windows[pos], 1.0)[:, None, None]
         return gamma
 
