@@ -52,8 +52,7 @@ def close_windows(state: MapState, stop: int) -> None:
     if w0 is None or stop <= w0:
         return
     delta = window_ns(state.config.window_s)
-    rows = state.entries.live_rows()
-    had_detections = bool(np.any(state.entries.window_totals(rows) > 0))
+    had_detections = state.entries.window_rows().size > 0
     recorded = state.observation.covered_windows(w0, stop, delta)
     if had_detections:
         recorded = np.union1d(recorded, np.array([w0], np.int64))
@@ -90,16 +89,22 @@ def close_windows(state: MapState, stop: int) -> None:
 
 
 def _record(state: MapState, windows: I64, w0: int, delta: int) -> None:
-    """Record consecutive recorded windows on the current entries."""
-    rows = state.entries.live_rows()
+    """Record consecutive recorded windows on the current entries.
+
+    Costs the entries with detections in ``w0`` (``EntryStore.window_rows``) plus, for the
+    windows no fixed sensor covered, the robot-coverage test over the live entries."""
     if len(windows) == 0:
         return
-    counts = np.column_stack([state.entries.window_counts[rows], state.entries.window_nodir[rows]])
-    seen = counts.sum(axis=1) > 0
-    count_rows, counts = rows[seen], counts[seen]
+    ent = state.entries
+    count_rows = ent.window_rows()
+    counts = np.column_stack([ent.window_counts[count_rows], ent.window_nodir[count_rows]])
     none = np.zeros(0, np.int64)
-    xy = state.entries.xyz[rows, :2]
+    no_counts = np.zeros((0, counts.shape[1]))
     fixed_mask = state.observation.fixed_mask(windows, delta).tolist()
+    rows, xy = none, np.zeros((0, 2))
+    if not all(fixed_mask):
+        rows = ent.live_rows()
+        xy = ent.xyz[rows, :2]
     for w, fixed in zip(windows.tolist(), fixed_mask, strict=True):
         observed = none
         if not fixed and len(rows):
@@ -110,4 +115,4 @@ def _record(state: MapState, windows: I64, w0: int, delta: int) -> None:
                 observed = np.union1d(observed, count_rows)
             state.record_window(int(w), fixed, observed, count_rows, counts)
         else:
-            state.record_window(int(w), fixed, observed, none, np.zeros((0, counts.shape[1])))
+            state.record_window(int(w), fixed, observed, none, no_counts)

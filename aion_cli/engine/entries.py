@@ -13,11 +13,17 @@ count for activity but not for a direction), ``speed_sum[E,B]`` / ``speed_n[E,B]
 descriptor λ: speed samples per bin). Which windows observed an entry, and its counts per window
 over time, live in the temporal model. Accumulation uses ``np.bincount`` on combined
 ``row·B + bin`` indices: no Python loop per detection.
+
+Closing a window must not cost every entry of the map (issue 15: a 20-day build closes 2,879
+windows over ~3,400 entries): ``window_mark`` flags the rows whose open-window counts may be
+non-zero (every method that adds to them sets it), so :meth:`EntryStore.window_rows` and
+:meth:`EntryStore.clear_window` cost the entries the window touched. The open-window arrays
+are written only through this class's methods (a loaded store re-derives the flags).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -68,6 +74,16 @@ class EntryStore:
     speed_n: F64
     nodir: F64
     window_nodir: F64
+    window_mark: npt.NDArray[np.bool_] = field(
+        default_factory=lambda: np.zeros(0, bool), compare=False, repr=False
+    )
+    """Per row slot: the open-window counts may be non-zero (a superset of the rows that
+    have detections in the open window; see the module docstring)."""
+
+    def __post_init__(self) -> None:
+        if len(self.window_mark) != len(self.kind):  # built without flags: derive them
+            self.window_mark = np.zeros(len(self.kind), bool)
+            self.window_mark[: self.n] = self.window_totals(np.arange(self.n)) != 0
 
     @classmethod
     def empty(cls, bins: int, capacity: int = 64) -> EntryStore:
@@ -86,6 +102,7 @@ class EntryStore:
             speed_n=np.zeros((cap, bins)),
             nodir=np.zeros(cap),
             window_nodir=np.zeros(cap),
+            window_mark=np.zeros(cap, bool),
         )
 
     @property
@@ -105,6 +122,9 @@ class EntryStore:
             new = np.zeros((cap, *old.shape[1:]), dtype=old.dtype)
             new[: self.n] = old[: self.n]
             setattr(self, name, new)
+        mark = np.zeros(cap, bool)
+        mark[: self.n] = self.window_mark[: self.n]
+        self.window_mark = mark
         self.kind[self.n :] = FREE
         self.key[self.n :] = -1
         return True
@@ -139,6 +159,7 @@ class EntryStore:
             return
         for name in self._array_names():
             getattr(self, name)[rows] = 0
+        self.window_mark[rows] = False
         self.kind[rows] = FREE
         self.key[rows] = -1
         self.free = np.union1d(self.free, rows).astype(np.int64)
@@ -184,6 +205,7 @@ class EntryStore:
         undirected = np.bincount(local[~directed], minlength=m).astype(np.float64)
         self.counts[target] += hist
         self.window_counts[target] += hist
+        self.window_mark[rows] = True
         self.nodir[target] += undirected
         self.window_nodir[target] += undirected
         sp = speed[directed]
@@ -200,10 +222,24 @@ class EntryStore:
         out: F64 = self.window_counts[rows].sum(axis=1) + self.window_nodir[rows]
         return out
 
+    def window_rows(self) -> I64:
+        """Live rows with detections in the open window, ascending: the rows a window close
+        records counts for. Costs the rows the window touched (``window_mark``), not ``n``."""
+        marked = np.flatnonzero(self.window_mark[: self.n]).astype(np.int64)
+        if marked.size == 0:
+            return marked
+        counts = np.column_stack([self.window_counts[marked], self.window_nodir[marked]])
+        keep = (counts.sum(axis=1) > 0) & (self.kind[marked] != FREE)
+        out: I64 = marked[keep]
+        return out
+
     def clear_window(self) -> None:
-        """Forget the open window's counts (the cumulative arrays already hold them)."""
-        self.window_counts[: self.n] = 0.0
-        self.window_nodir[: self.n] = 0.0
+        """Forget the open window's counts (the cumulative arrays already hold them); costs
+        the rows the window touched."""
+        marked = np.flatnonzero(self.window_mark[: self.n])
+        self.window_counts[marked] = 0.0
+        self.window_nodir[marked] = 0.0
+        self.window_mark[marked] = False
 
     # -- moving state between entries (bind / release) --------------------------------------
     def add_into(self, src: I64, dst: I64) -> None:
@@ -211,6 +247,7 @@ class EntryStore:
         for name in (*_PER_BIN, "nodir", "window_nodir"):
             arr = getattr(self, name)
             np.add.at(arr, dst, arr[src])
+        self.window_mark[dst[self.window_mark[src]]] = True  # (a repeated dst: any src)
 
     # -- views and export -------------------------------------------------------------------
     def total_count(self) -> float:
@@ -243,6 +280,7 @@ class EntryStore:
         if np.any((store.kind[:n] != CELL) & (store.kind[:n] != NODE)):
             raise MapCorruptError("map state has entries of unknown kind")
         store.n = n
+        store.window_mark[:n] = store.window_totals(np.arange(n)) != 0
         return store
 
     @staticmethod

@@ -185,7 +185,7 @@ class Mapper:
             return
         if window >= st.open_window or st.recorded_anything():
             return
-        if np.any(st.entries.window_totals(st.entries.live_rows()) > 0):
+        if st.entries.window_rows().size:
             return  # the open window holds detections: it cannot move
         st.open_window = window
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.errors import CoordinateRangeError
-from aion_cli.engine.nodes import nearest_nodes
+from aion_cli.engine.nodes import BindIndex, nearest_nodes
 from aion_cli.engine.spatial_hash import (
     cell_centres,
     keys_for_points,
@@ -90,7 +90,38 @@ class BindPlan:
 
 
 def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
-    """The binds a check at log time ``t_ns`` would make (None if none); no state changes."""
+    """The binds a check at log time ``t_ns`` would make (None if none); no state changes
+    (beyond the node table's memo of earlier checks, :class:`~aion_cli.engine.nodes.BindIndex`,
+    which makes the answer cost the cells that are new since the last check, not every cell)."""
+    cfg = state.config
+    stable = stable_nodes(state, t_ns)
+    cells = state.entries.cell_rows()
+    if not stable.any() or len(cells) == 0:
+        return None
+    xyz = state.nodes.xyz[stable]
+    index = state.nodes.bind_index
+    if index is None:
+        index = state.nodes.bind_index = BindIndex()
+    hit = index.nearest(
+        cells,
+        state.entries.key,
+        state.entries.xyz,
+        xyz,
+        cfg.bind_radius,
+        cfg.bind_vertical_tolerance,
+    )
+    bound = hit >= 0
+    if not bound.any():
+        return None
+    cells, hit = cells[bound], hit[bound]
+    order = np.argsort(state.entries.key[cells], kind="stable")  # canonical: by cell key
+    cells, hit = cells[order], hit[order]
+    return BindPlan(cells, state.nodes.ids[stable][hit], xyz[hit])
+
+
+def plan_binds_plain(state: MapState, t_ns: int) -> BindPlan | None:
+    """:func:`plan_binds` without the memo: every cell queried against a new KD-tree (the
+    reference the memo is tested against)."""
     cfg = state.config
     stable = stable_nodes(state, t_ns)
     cells = state.entries.cell_rows()

@@ -213,24 +213,57 @@ def _per_window_sums(
     floor: float,
 ) -> F64:
     """Σ max(λ_m, floor) over each of ``entries``' observed windows for every order m,
-    evaluated window by window: float64[M, len(entries)]."""
+    evaluated window by window: float64[M, len(entries)].
+
+    The (entry, window) pairs are every entry with every fixed-sensor slot (entry-major),
+    then the entries' own pairs, summed in chunks of ``_PAIRS`` pairs, each chunk's sums
+    (pair order) added to the total. The fixed-sensor pairs of a chunk are evaluated as one
+    (slot × entry × order) block — the slots' phasors gathered once per entry's periods, no
+    per-pair copies of coefficients and rates, sums along the slot axis — which gives the
+    same floating-point sums as adding pair by pair (issue 15: this was the largest part of
+    closing a day under a fixed sensor, where every entry has every window)."""
     slot_of = np.full(fc.rows.size, -1, np.int64)
     slot_of[entries] = np.arange(entries.size)
-    pair_e = [np.repeat(entries, fixed_slots.size)]
-    pair_s = [np.tile(fixed_slots, entries.size)]
     own = slot_of[obs_e] >= 0
-    pair_e.append(obs_e[own])
-    pair_s.append(obs_s[own])
-    pe, ps = np.concatenate(pair_e), np.concatenate(pair_s)
+    own_e, own_s = obs_e[own], obs_s[own]
     m_max = fc.params.max_order
+    n_fixed = fixed_slots.size
+    fixed_pairs = entries.size * n_fixed
+    n_pairs = fixed_pairs + own_e.size
+    coef, rate, idx = fc.coef_total[entries], fc.rate_total[entries], fc.period_idx[entries]
+    rot_by_period = np.ascontiguousarray(rot[fixed_slots].T)  # (K, S): a period's slots
+    slot = np.arange(n_fixed)
     total = np.zeros((m_max, entries.size))
-    for a in range(0, pe.size, _PAIRS):
-        e, s = pe[a : a + _PAIRS], ps[a : a + _PAIRS]
-        terms = np.cumsum(2.0 * (fc.coef_total[e] * rot[s[:, None], fc.period_idx[e]]).real, axis=1)
-        lam = np.maximum(fc.rate_total[e][:, None] + terms, floor)  # (P, M)
-        local = slot_of[e]
-        for j in range(m_max):
-            total[j] += np.bincount(local, lam[:, j], minlength=entries.size)
+    for a in range(0, n_pairs, _PAIRS):
+        b = min(a + _PAIRS, n_pairs)
+        chunk = np.zeros((m_max, entries.size))
+        if a < fixed_pairs:  # entries [i0, i1) have fixed pairs in [a, min(b, fixed_pairs))
+            fb = min(b, fixed_pairs)
+            i0, i1 = a // n_fixed, (fb - 1) // n_fixed + 1
+            pair = np.arange(i0, i1)[:, None] * n_fixed + slot[None, :]  # (nb, S)
+            inside = (pair >= a) & (pair < fb)
+            whole = bool(inside.all())
+            terms = np.zeros(0)
+            for j in range(m_max):  # the running sum over orders (cumsum's order)
+                part = 2.0 * (coef[i0:i1, j, None] * rot_by_period[idx[i0:i1, j]]).real
+                terms = part if j == 0 else terms + part
+                lam = np.maximum(rate[i0:i1, None] + terms, floor)  # (nb, S)
+                if not whole:  # adding 0.0 leaves a sum of positive terms unchanged
+                    lam = np.where(inside, lam, 0.0)
+                # along the slots in pair order: an accumulation is sequential by
+                # definition (a sum may be pairwise), as bincount's running sums are
+                chunk[j, i0:i1] = np.add.accumulate(lam, axis=1)[:, -1]
+        if b > fixed_pairs:
+            e = own_e[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
+            s = own_s[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
+            terms = np.cumsum(
+                2.0 * (fc.coef_total[e] * rot[s[:, None], fc.period_idx[e]]).real, axis=1
+            )
+            lam_own = np.maximum(fc.rate_total[e][:, None] + terms, floor)  # (P, M)
+            local = slot_of[e]
+            for j in range(m_max):
+                np.add.at(chunk[j], local, lam_own[:, j])  # in pair order, after the fixed
+        total += chunk
     return total
 
 
