@@ -530,10 +530,10 @@ _NONNEGATIVE_TEMPORAL = (
 def _temporal_problems(state: MapState) -> list[str]:
     t, n = state.temporal, state.entries.n
     out = []
-    # cnt_fourier, flow_score and dir_score need only be finite, which
-    # TemporalState.from_arrays has checked on the stored members (a second pass over the
-    # largest member would cost more than reading it)
-    for name in _NONNEGATIVE_TEMPORAL:
+    # cnt_fourier, flow_score and dir_score need only be finite, and cnt_profile finite and
+    # non-negative, which TemporalState.from_arrays has checked on the stored members (a
+    # second pass over the largest members would cost more than reading them)
+    for name in _NONNEGATIVE_TEMPORAL[1:]:
         values = getattr(t, name)[:n]
         if (p := _first_bad(f"temporal_{name}", values, name in _NONNEGATIVE_TEMPORAL)):
             out.append(p)
