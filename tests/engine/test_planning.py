@@ -15,6 +15,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.errors import InputError, NoPathError, UnknownNodeError
+from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.planning import (
     NavGraph,
     NavGraphError,
@@ -24,7 +25,6 @@ from aion_cli.engine.planning import (
     evaluate_path_cost,
     plan,
 )
-from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.types import GraphSnapshot, Layer
 
 P = ord("p") << 56
