@@ -40,29 +40,32 @@ import numpy as np
 
 from aion_cli.engine.ownership import apply_binds, plan_binds, stable_nodes
 from aion_cli.engine.types import I64
-from aion_cli.engine.windows import window_ns, window_start_ns
+from aion_cli.engine.windows import window_centre_ns, window_ns, window_start_ns
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
 
 
 def close_windows(state: MapState, stop: int) -> None:
-    """Close every window from the open one up to (not including) window ``stop``."""
+    """Close every window from the open one up to (not including) window ``stop``.
+
+    Per call: the local days of all recorded windows in one vectorised step, the open
+    window's rows with detections once (again only after a bind moved them)."""
     w0 = state.open_window
     if w0 is None or stop <= w0:
         return
     delta = window_ns(state.config.window_s)
-    had_detections = state.entries.window_rows().size > 0
+    count_rows = state.entries.window_rows()
     recorded = state.observation.covered_windows(w0, stop, delta)
-    if had_detections:
+    if count_rows.size:
         recorded = np.union1d(recorded, np.array([w0], np.int64))
+    days = state.params.calendar.day(window_centre_ns(recorded, delta)).tolist()
     segment: list[int] = []
     segment_day: int | None = None
     stable_seen = -1
-    for w in recorded.tolist():
-        day = state.window_day(w)
+    for w, day in zip(recorded.tolist(), days, strict=True):
         if segment and day != segment_day:  # a day is over: record it and close it
-            _record(state, np.array(segment, np.int64), w0, delta)
+            _record(state, np.array(segment, np.int64), w0, delta, count_rows)
             segment = []
             state.close_day()
         segment_day = day
@@ -72,11 +75,12 @@ def close_windows(state: MapState, stop: int) -> None:
             stable_seen = n_stable
             plan = plan_binds(state, end)
             if plan is not None:
-                _record(state, np.array(segment, np.int64), w0, delta)
+                _record(state, np.array(segment, np.int64), w0, delta, count_rows)
                 segment = []
                 apply_binds(state, plan)
+                count_rows = state.entries.window_rows()  # the counts moved with the cells
         segment.append(w)
-    _record(state, np.array(segment, np.int64), w0, delta)
+    _record(state, np.array(segment, np.int64), w0, delta, count_rows)
     state.entries.clear_window()
     state.open_window = int(stop)
     state.observation.prune(int(window_start_ns(stop, delta)))
@@ -88,15 +92,15 @@ def close_windows(state: MapState, stop: int) -> None:
         state.close_day()  # log time is in a later day: the pending day is over
 
 
-def _record(state: MapState, windows: I64, w0: int, delta: int) -> None:
-    """Record consecutive recorded windows on the current entries.
+def _record(state: MapState, windows: I64, w0: int, delta: int, count_rows: I64) -> None:
+    """Record consecutive recorded windows on the current entries (``count_rows``: those
+    with detections in ``w0``, ``EntryStore.window_rows``).
 
-    Costs the entries with detections in ``w0`` (``EntryStore.window_rows``) plus, for the
-    windows no fixed sensor covered, the robot-coverage test over the live entries."""
+    Costs the entries with detections in ``w0`` plus, for the windows no fixed sensor
+    covered, the robot-coverage test over the live entries."""
     if len(windows) == 0:
         return
     ent = state.entries
-    count_rows = ent.window_rows()
     counts = np.column_stack([ent.window_counts[count_rows], ent.window_nodir[count_rows]])
     none = np.zeros(0, np.int64)
     no_counts = np.zeros((0, counts.shape[1]))

@@ -49,8 +49,12 @@ class NodeTable:
         keep their first row. Returns the new table and a mask over *this* table's rows of the
         nodes that are gone.
         """
-        uniq, first = np.unique(np.asarray(ids, dtype=np.uint64), return_index=True)
-        pos = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)[first]
+        ids = np.asarray(ids, dtype=np.uint64)
+        xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+        if self._unchanged_by(ids, xyz, move_tolerance):
+            return self._same(xyz), np.zeros(len(self), bool)
+        uniq, first = np.unique(ids, return_index=True)
+        pos = xyz[first]
         old_at = np.searchsorted(self.ids, uniq)
         old_at_c = np.minimum(old_at, max(len(self.ids) - 1, 0))
         known = np.zeros(len(uniq), bool)
@@ -66,6 +70,25 @@ class NodeTable:
             since[kept] = self.stable_since_ns[old_at_c[known]][still]
         gone = ~np.isin(self.ids, uniq)
         return NodeTable(uniq, pos, ref, since, self.bind_index), gone
+
+    def _unchanged_by(self, ids: U64, xyz: F64, move_tolerance: float) -> bool:
+        """Whether a snapshot of nodes ``ids``/``xyz`` leaves this table as it is: the same
+        ids in the same (sorted, unique) order at the same positions, every node within
+        ``move_tolerance`` of its reference (a static map's graph, resent every update:
+        :meth:`updated` then skips its sort and searches, issue 15)."""
+        return (
+            len(ids) == len(self)
+            and np.array_equal(ids, self.ids)
+            and np.array_equal(xyz, self.xyz)
+            and bool(np.all(np.linalg.norm(xyz - self.ref_xyz, axis=1) <= move_tolerance))
+        )
+
+    def _same(self, xyz: F64) -> NodeTable:
+        """A copy of this table (positions ``xyz``, equal to its own), memo kept."""
+        return NodeTable(
+            self.ids.copy(), xyz.copy(), self.ref_xyz.copy(), self.stable_since_ns.copy(),
+            self.bind_index,
+        )
 
     def stable_mask(self, t_ns: int, stability_ns: int) -> BoolA:
         """Nodes stable for at least ``stability_ns`` at log time ``t_ns``."""

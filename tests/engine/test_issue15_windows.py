@@ -310,3 +310,45 @@ def test_builds_equal_the_plain_builds_bit_for_bit(
     assert (fast["entry_kind"] == 1).any()  # node entries
     assert (fast["entry_kind"] == 0).any()  # cell entries
     assert fast["temporal_flow_scored"].sum() > 0  # days were closed and scored
+
+
+# -- an unchanged graph ------------------------------------------------------------------------
+
+
+@given(st.integers(0, 2**31 - 1), st.sampled_from(["same", "moved", "beyond", "new", "gone"]))
+@settings(max_examples=120, deadline=None)
+def test_node_table_update_by_an_unchanged_graph_keeps_the_table(seed: int, kind: str) -> None:
+    """A snapshot repeating the table's nodes (the shortcut) gives the table the full update
+    gives for the same snapshot in another order (which takes the general path), whatever
+    changed before: timers, references and the gone mask equal."""
+    from aion_cli.engine.nodes import NodeTable
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 12))
+    ids = np.sort(rng.choice(10**6, n, replace=False)).astype(np.uint64)
+    xyz = rng.uniform(-5, 5, (n, 3))
+    table, _ = NodeTable().updated(ids, xyz, 0, 0.1)
+    later = xyz.copy()
+    if kind == "moved":  # within the tolerance: timers kept, reference kept
+        later[0] += 0.05
+    elif kind == "beyond":
+        later[0] += 1.0
+    table, _ = table.updated(ids, later, 10 * S, 0.1)
+    snap_ids, snap_xyz = ids.copy(), later.copy()
+    if kind == "new":
+        snap_ids, snap_xyz = np.r_[ids, np.uint64(10**7)], np.r_[later, [[0.0, 0.0, 0.0]]]
+    elif kind == "gone" and n > 1:
+        snap_ids, snap_xyz = ids[1:], later[1:]
+    perm = rng.permutation(len(snap_ids))
+    fast, fast_gone = table.updated(snap_ids, snap_xyz, 20 * S, 0.1)
+    full, full_gone = table.updated(snap_ids[perm][::-1].copy(), snap_xyz[perm][::-1].copy(),
+                                    20 * S, 0.1)
+    if len(perm) > 1 and not (perm[::-1] == np.arange(len(perm))).all():
+        assert not np.array_equal(snap_ids[perm][::-1], table.ids)  # really the other path
+    for name in ("ids", "xyz", "ref_xyz", "stable_since_ns"):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(full, name), err_msg=name)
+    np.testing.assert_array_equal(fast_gone, full_gone)
+    if kind in ("same", "moved"):
+        np.testing.assert_array_equal(fast.stable_since_ns, np.zeros(n, np.int64))
+    if kind == "beyond":
+        assert fast.stable_since_ns[0] == 10 * S
