@@ -27,7 +27,8 @@ import dataclasses
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from operator import attrgetter
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -167,9 +168,7 @@ class DetectionFeeder:
 
         if segment is None:
             segment = np.zeros(len(messages), np.int64)
-        groups: dict[tuple[str, str, str], list[int]] = {}
-        for i, msg in enumerate(messages):
-            groups.setdefault((msg.topic, msg.msgtype, msg.encoding), []).append(i)
+        groups = _groups(messages, attrgetter("topic", "msgtype", "encoding"))
         if len(groups) > 1 and len(segment) and segment[0] != segment[-1]:
             # Several types or encodings (a topic recorded by both ROS versions): their yaw
             # judgement and their linker are the topic's, shared in the order of each
@@ -377,6 +376,22 @@ class DetectionFeeder:
         return moved.select(ok) if n_bad else moved
 
 
+K = TypeVar("K")
+
+
+def _groups(messages: list[RawMessage], key: Callable[[RawMessage], K]) -> dict[K, list[int]]:
+    """Message positions by ``key``, groups in order of first appearance. A job of one topic
+    and type (the usual case) is recognised by a C-level pass, without a Python loop over its
+    messages (which would hold the GIL the reading thread needs)."""
+    keys = list(map(key, messages))
+    if len(set(keys)) <= 1:
+        return {keys[0]: list(range(len(keys)))} if keys else {}
+    groups: dict[K, list[int]] = {}
+    for i, k in enumerate(keys):
+        groups.setdefault(k, []).append(i)
+    return groups
+
+
 def _flatten(chunks: Sequence[list[RawMessage]]) -> tuple[list[RawMessage], I64]:
     """The messages of ``chunks`` in order, and the chunk (segment) of each."""
     messages = [m for chunk in chunks for m in chunk]
@@ -463,9 +478,7 @@ class TopicFeeders:
 
     def _decode_job(self, chunks: Sequence[list[RawMessage]]) -> list[DetectionBatch | None]:
         messages, segment = _flatten(chunks)
-        groups: dict[str, list[int]] = {}
-        for i, msg in enumerate(messages):
-            groups.setdefault(msg.topic, []).append(i)
+        groups = _groups(messages, attrgetter("topic"))
         batches, labels, segs, firsts = [], [], [], []
         for topic, index in groups.items():
             idx = np.asarray(index, np.int64)

@@ -308,22 +308,24 @@ class HeadingEstimator:
         if rest.size:
             found, j = self._search(T, x, y, rest, start[rest], node_end[rest], general=True)
             nxt[rest[found]] = j[found]
-        todo = np.flatnonzero(ordered)
+        todo = np.flatnonzero(ordered & (start < node_end))
+        # the first node after i's own time (a walker's, or one after a gap, resets)
+        a = start[todo]
+        gap = T[a] - T[todo] > self.max_gap_ns  # > 0 in a track in time order
+        first = gap | (np.hypot(x[a] - x[todo], y[a] - y[todo]) >= self.min_displacement)
+        nxt[todo[first]] = a[first]
+        todo, a = todo[~first], a[~first] + 1
         if todo.size == 0:
             return nxt
+        # the others: the nodes within max_gap_s (a range, by one searchsorted on a key that
+        # orders tracks, then time) can only reset by distance; none does: stale at the end
         rel = np.where(ordered, T - np.repeat(np.where(in_order, t_first, 0), size), 0)
         key = np.repeat(np.arange(len(size), dtype=np.int64) * stride, size) + rel
         lim = np.minimum(np.searchsorted(key, key[todo] + self.max_gap_ns, side="right"),
                          node_end[todo])
-        nxt[todo] = np.where(lim < node_end[todo], lim, n)  # no move in time: stale at lim
-        a = start[todo]
+        nxt[todo] = np.where(lim < node_end[todo], lim, n)
         open_ = a < lim
         todo, a, lim = todo[open_], a[open_], lim[open_]
-        # the first node after i's own time (a walker's next node resets)
-        first = np.hypot(x[a] - x[todo], y[a] - y[todo]) >= self.min_displacement
-        nxt[todo[first]] = a[first]
-        more = ~first & (a + 1 < lim)
-        todo, a, lim = todo[more], a[more] + 1, lim[more]
         if todo.size == 0:
             return nxt
         inside = _inside_circle(x, y, todo, a, lim, self.min_displacement)
