@@ -921,30 +921,31 @@ def _symbol_strings(value: int) -> tuple[str, str]:
 
 
 def _labels(ids: npt.NDArray[np.uint64], names: list[Any]) -> tuple[str, ...]:
-    """:func:`_label` of every node of a layer from the ids and the ``name`` attributes (``""``
-    where a node has none), without a spark_dsg call per node.
+    """The label of every node of a layer — its semantic name when it has one, else the
+    symbol's short form (``R0``); spark_dsg may fill ``name`` with the long form ``R(0)``,
+    which is no name either — from the ids and the ``name`` attributes (``""`` where a node
+    has none), without a spark_dsg call per node.
 
-    The short symbol strings (``p12``) are built per category (one prefix per distinct top
-    byte, usually one per layer) and the index; the long form (``p(12)``) only for the nodes
-    whose name is set and differs from the short form."""
+    A layer of one letter category (the usual case) is one comprehension over the indices;
+    other layers go through :func:`_symbol_strings` node by node."""
     n = len(ids)
     if n == 0:
         return ()
-    cats = ids >> np.uint64(_SYMBOL_INDEX_BITS)
-    uniq = np.unique(cats)
+    uniq = np.unique(ids >> np.uint64(_SYMBOL_INDEX_BITS))
     if len(uniq) == 1 and int(uniq[0]) < 128 and chr(int(uniq[0])).isalpha():
         char = chr(int(uniq[0]))
-        index = (ids & np.uint64(_SYMBOL_INDEX_MASK)).tolist()
-        shorts = [char + s for s in map(str, index)]
-    else:
-        shorts = [_symbol_strings(v)[0] for v in ids.tolist()]
-    if not any(names):
-        return tuple(shorts)
-    out = shorts
-    values = ids.tolist()
-    for i, name in enumerate(names):
-        if name and name != shorts[i] and name != _symbol_strings(values[i])[1]:
-            out[i] = name
+        index = list(map(str, (ids & np.uint64(_SYMBOL_INDEX_MASK)).tolist()))
+        shorts = [char + i for i in index]
+        if not any(names):
+            return tuple(shorts)
+        return tuple(
+            name if (name and name != short and name != f"{char}({i})") else short
+            for name, short, i in zip(names, shorts, index, strict=True)
+        )
+    out = []
+    for value, name in zip(ids.tolist(), names, strict=True):
+        short, long = _symbol_strings(value)
+        out.append(name if (name and name != short and name != long) else short)
     return tuple(out)
 
 
@@ -974,8 +975,9 @@ def _scan(
     spark_dsg has no bulk accessors, so the cost is the number of binding calls: one per node
     and field (node, attributes, id, position, parent, name, ``real_place``, siblings), each
     made by ``map`` over ``operator`` getters (no Python frame per node); labels come from the
-    ids arithmetically (:func:`_labels`), positions are copied into one array at once. A 5,000
-    place layer takes ~12 ms (was ~27 ms with five Python-level calls per node).
+    ids arithmetically (:func:`_labels`), positions are copied into one array at once. Those
+    ~9 binding calls per node are the floor: a 5,000-place layer takes ~16-17 ms of CPU (was
+    ~17-20 ms with two more binding calls and a Python function per node, docs/BENCHMARKS.md).
     """
     none = np.zeros(0) if clearance else None
     if view is None:

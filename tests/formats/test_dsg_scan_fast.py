@@ -206,6 +206,11 @@ def test_large_layer_labels_from_ids() -> None:
     assert got[18] == "p18"
     assert got[19] == "p19"
     assert got[:17] == labels[:17]
+    # spark_dsg's default name is the long form: no name at all
+    assert fdsg._labels(ids, [f"p({i})" for i in range(5000)]) == labels
+    # several categories: node by node, the same rule
+    mixed = np.array([(ord("p") << 56) | 3, (ord("R") << 56) | 3, 7], np.uint64)
+    assert fdsg._labels(mixed, ["", "R(3)", "lobby"]) == ("p3", "R3", "lobby")
 
 
 def test_empty_and_all_frontier_layers() -> None:
