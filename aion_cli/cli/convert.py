@@ -46,7 +46,7 @@ windows without a detection count as not observed.
 
 
 CONTAINERS = ("mcap", "mcap-ros1", "bag", "rosbag2-sqlite3", "rosbag2-mcap")
-#: formats.tracks.LAYOUTS, spelt out so that `aion --help` need not import numpy
+#: formats.track_types.LAYOUTS, spelt out so that `aion --help` need not import numpy
 LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "edinburgh")
 #: layouts with frame numbers, and their frame rate when --fps is not given
 FRAME_LAYOUTS = {"eth": 25.0, "ucy": 25.0, "edinburgh": 9.0}
@@ -177,13 +177,10 @@ def command(
     from aion_cli.cli.console import console, note
     from aion_cli.cli.timeparse import parse_time, resolve_zone
     from aion_cli.engine.errors import InputError
-    from formats.tracks import (
-        STREAM_LAYOUTS,
-        merge_spans,
-        read_track_data,
-        stream_tracks_to_log,
-        tracks_to_log,
-    )
+    from formats.track_csv import STREAM_LAYOUTS
+    from formats.track_types import merge_spans
+    from formats.tracks import read_track_data
+    from formats.tracks_log import stream_tracks_to_log, tracks_to_log
     from formats.writers import check_log_target
 
     if not tracks.is_file():

@@ -9,7 +9,7 @@ import numpy.typing as npt
 import pytest
 
 from formats.detections.frame import FrameDetections
-from formats.tracks import OBSERVED_INTERVAL_NS
+from formats.tracks_log import OBSERVED_INTERVAL_NS
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.logdata import T0, save_graph_file
 from tests.shared_data import SHARED_DATA

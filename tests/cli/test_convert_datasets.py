@@ -30,7 +30,7 @@ def _read(log: Path) -> tuple[list[int], FrameDetections]:
 
 def test_layout_choices_are_the_readers_layouts() -> None:
     from aion_cli.cli.convert import LAYOUTS
-    from formats.tracks import LAYOUTS as READERS
+    from formats.track_types import LAYOUTS as READERS
 
     assert sorted(LAYOUTS) == sorted(READERS)
 

@@ -10,7 +10,7 @@ import pytest
 
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.pipeline import BuildOptions, build_map, load_map
-from formats.tracks import tracks_to_log
+from formats.tracks_log import tracks_to_log
 
 S = 1_000_000_000
 HOUR = 3600 * S

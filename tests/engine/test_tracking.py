@@ -302,7 +302,7 @@ def _neighbour_difference(t: np.ndarray, tid: np.ndarray, xy: np.ndarray) -> np.
 
 
 def test_difference_is_the_plain_neighbour_difference_with_min_step_zero() -> None:
-    from formats.tracks import finite_difference
+    from formats.track_csv import finite_difference
 
     rng = np.random.default_rng(5)
     n = 300

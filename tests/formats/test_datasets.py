@@ -1,8 +1,8 @@
 """The public pedestrian datasets beyond ATC / THÖR / Lincoln: Edinburgh Informatics Forum
-tracks, THÖR-MAGNI CSVs and the ETH/UCY 4-column files (``formats.tracks``), checked against
-figures known from the files themselves (the Edinburgh database's own table of trajectories and
-detections per day, counts parsed here independently) and against synthetic files whose
-answers follow from how they were written."""
+tracks, THÖR-MAGNI CSVs (``formats.datasets``) and the ETH/UCY 4-column files
+(``formats.track_csv``), checked against figures known from the files themselves (the Edinburgh
+database's own table of trajectories and detections per day, counts parsed here independently)
+and against synthetic files whose answers follow from how they were written."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from formats import datasets, track_types
 from formats import tracks as ft
 from tests.shared_data import SHARED_DATA
 
@@ -115,16 +116,16 @@ def test_edinburgh_point_count_mismatch_is_a_note(tmp_path: Path) -> None:
 def test_bad_edinburgh_files(text: str, fragment: str, tmp_path: Path) -> None:
     path = tmp_path / "bad.txt"
     path.write_text(text)
-    with pytest.raises(ft.TracksFormatError, match=re.escape(fragment)):
+    with pytest.raises(track_types.TracksFormatError, match=re.escape(fragment)):
         ft.read_tracks(path, "edinburgh")
 
 
 def test_edinburgh_missing_file_and_bad_fps(tmp_path: Path) -> None:
-    with pytest.raises(ft.TracksFormatError, match="not found"):
+    with pytest.raises(track_types.TracksFormatError, match="not found"):
         ft.read_tracks(tmp_path / "none.txt", "edinburgh")
     path = _edinburgh_file(tmp_path / "t.txt", {1: [(1, 2, 3)]})
-    with pytest.raises(ft.TracksFormatError, match="fps must be > 0"):
-        ft.read_edinburgh(path, fps=0.0)
+    with pytest.raises(track_types.TracksFormatError, match="fps must be > 0"):
+        datasets.read_edinburgh(path, fps=0.0)
 
 
 # ----------------------------------------------------------------------------- THÖR-MAGNI
@@ -221,19 +222,19 @@ def test_thor_magni_columns_by_name_units_and_ids(tmp_path: Path) -> None:
 )
 def test_bad_thor_magni_files(header: str, rows: list[str], fragment: str, tmp_path: Path) -> None:
     path = _magni(tmp_path / "bad.csv", header, rows)
-    with pytest.raises(ft.TracksFormatError, match=re.escape(fragment)):
+    with pytest.raises(track_types.TracksFormatError, match=re.escape(fragment)):
         ft.read_tracks(path, "thor-magni")
 
 
 def test_thor_magni_missing_empty_and_unit(tmp_path: Path) -> None:
-    with pytest.raises(ft.TracksFormatError, match="not found"):
+    with pytest.raises(track_types.TracksFormatError, match="not found"):
         ft.read_tracks(tmp_path / "none.csv", "thor-magni")
     empty = tmp_path / "empty.csv"
     empty.write_text("")
-    with pytest.raises(ft.TracksFormatError, match="no track rows"):
+    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
         ft.read_tracks(empty, "thor-magni")
-    with pytest.raises(ft.TracksFormatError, match="unknown length unit"):
-        ft.read_thor_magni(_magni(tmp_path / "m.csv"), units="feet")
+    with pytest.raises(track_types.TracksFormatError, match="unknown length unit"):
+        datasets.read_thor_magni(_magni(tmp_path / "m.csv"), units="feet")
 
 
 # ----------------------------------------------------------------------------- ETH / UCY

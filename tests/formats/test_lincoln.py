@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.errors import InputError
+from formats import datasets, track_types
 from formats import tracks as ft
 from tests.shared_data import SHARED_DATA
 
@@ -40,7 +41,7 @@ def write(path: Path, lines: list[str]) -> Path:
     return path
 
 
-def check_two_walkers(data: ft.TrackData, n_rows: int) -> None:
+def check_two_walkers(data: track_types.TrackData, n_rows: int) -> None:
     b = data.batch
     assert len(b) == n_rows
     assert (np.diff(b.t_ns) >= 0).all()
@@ -60,7 +61,7 @@ def test_header_variant_declared_span_and_sentinels(tmp_path: Path) -> None:
     lines = [f"{T0 - 3600} {T0 + 7200}", "-8 12 ", "-3 17 "]
     lines += [f"{t:.0f} {x} {y}" for t, x, y in rows]
     lines += [f"{T0 + 5000} 0 0", f"{T0 + 5000} 0.0 0.0", f"{T0 + 5000.5} 0 0"]  # sentinels
-    data = ft.read_lincoln(write(tmp_path / "day.txt", lines))
+    data = datasets.read_lincoln(write(tmp_path / "day.txt", lines))
     check_two_walkers(data, len(rows))
     assert data.batch.t_ns[0] == T0 * S
     # the declared span holds the sentinels: one span; nothing to note (within a day)
@@ -73,7 +74,7 @@ def test_declared_span_far_beyond_the_data_is_kept_with_a_note(tmp_path: Path) -
     rows = two_walkers(np.arange(0.0, 5.0))
     start, end = T0 - 2 * DAY, T0 + 3 * DAY  # as 2017-06-09.txt: 06-08 .. 06-12, data 06-09
     lines = [f"{start} {end}", "-8 12", "-3 17", *[f"{t:.0f} {x} {y}" for t, x, y in rows]]
-    data = ft.read_lincoln(write(tmp_path / "long.txt", lines))
+    data = datasets.read_lincoln(write(tmp_path / "long.txt", lines))
     assert data.observed == [(start * S, end * S)]
     (note,) = data.notes
     assert "long.txt" in note
@@ -85,7 +86,7 @@ def test_sentinels_without_header_mark_one_second_each(tmp_path: Path) -> None:
     rows = two_walkers(np.arange(0.0, 4.0, 0.5))
     lines = [f"{t:.2f} {x:.4f} {y:.4f} 1.0000" for t, x, y in rows]
     lines += [f"{T0 + 100}.0000 0.0000 0.0000 1.0000", f"{T0 + 100.5} 0 0 1", f"{T0 + 300} 0 0 1"]
-    data = ft.read_lincoln(write(tmp_path / "ones.txt", lines))
+    data = datasets.read_lincoln(write(tmp_path / "ones.txt", lines))
     check_two_walkers(data, len(rows))
     assert data.observed == [
         ((T0 + 100) * S, (T0 + 101) * S + S // 2),  # two overlapping sentinels merged
@@ -96,7 +97,7 @@ def test_sentinels_without_header_mark_one_second_each(tmp_path: Path) -> None:
 def test_waypoint_variant_reads_only_t_x_y(tmp_path: Path) -> None:
     rows = two_walkers(np.arange(0.0, 6.0, 0.54))
     lines = [f"{t:.2f} {x} {y} 7.9 -1.1 WP{k % 12}" for k, (t, x, y) in enumerate(rows)]
-    data = ft.read_lincoln(write(tmp_path / "wp.txt", lines))
+    data = datasets.read_lincoln(write(tmp_path / "wp.txt", lines))
     check_two_walkers(data, len(rows))
     assert data.observed == []  # nothing declared, no sentinels
     np.testing.assert_array_equal(data.batch.xyz[:, 2], 0.0)
@@ -111,7 +112,7 @@ def test_heading_csv_keeps_the_detector_heading_aside(tmp_path: Path) -> None:
     lines = [
         f"{t:.2f},0,{x},{y},0.5,{h + 2 * math.pi}" for (t, x, y), h in zip(rows, own, strict=True)
     ]
-    data = ft.read_lincoln(write(tmp_path / "h.csv", lines))
+    data = datasets.read_lincoln(write(tmp_path / "h.csv", lines))
     check_two_walkers(data, len(rows))
     np.testing.assert_array_equal(data.batch.xyz[:, 2], 0.5)
     assert data.detector_heading is not None
@@ -126,7 +127,7 @@ def test_heading_csv_keeps_the_detector_heading_aside(tmp_path: Path) -> None:
 
 def test_plain_t_x_y_rows(tmp_path: Path) -> None:
     rows = two_walkers(np.arange(0.0, 3.0, 0.5))
-    data = ft.read_lincoln(write(tmp_path / "txy.txt", [f"{t} {x} {y}" for t, x, y in rows]))
+    data = datasets.read_lincoln(write(tmp_path / "txy.txt", [f"{t} {x} {y}" for t, x, y in rows]))
     check_two_walkers(data, len(rows))
 
 
@@ -141,26 +142,30 @@ def test_read_track_data_for_other_layouts_declares_nothing(tmp_path: Path) -> N
 
 
 def test_bad_lincoln_files(tmp_path: Path) -> None:
-    with pytest.raises(ft.TracksFormatError, match="5 columns: not a Lincoln"):
-        ft.read_lincoln(write(tmp_path / "five.txt", ["1 2 3 4 5"]))
-    with pytest.raises(ft.TracksFormatError, match="no track rows"):
-        ft.read_lincoln(write(tmp_path / "empty.txt", []))
-    with pytest.raises(ft.TracksFormatError, match="not found"):
-        ft.read_lincoln(tmp_path / "missing.txt")
+    with pytest.raises(track_types.TracksFormatError, match="5 columns: not a Lincoln"):
+        datasets.read_lincoln(write(tmp_path / "five.txt", ["1 2 3 4 5"]))
+    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
+        datasets.read_lincoln(write(tmp_path / "empty.txt", []))
+    with pytest.raises(track_types.TracksFormatError, match="not found"):
+        datasets.read_lincoln(tmp_path / "missing.txt")
     bad_span = ["200 100", "-8 12", "-3 17", f"{T0} 1 1"]
-    with pytest.raises(ft.TracksFormatError, match=r"line 1: expected the header `t_start t_end`"):
-        ft.read_lincoln(write(tmp_path / "span.txt", bad_span))
+    with pytest.raises(
+        track_types.TracksFormatError, match=r"line 1: expected the header `t_start t_end`"
+    ):
+        datasets.read_lincoln(write(tmp_path / "span.txt", bad_span))
     short = ["100 200", "-8 12", f"{T0} 1 1"]
-    with pytest.raises(ft.TracksFormatError, match=r"line 3: expected the header `y_min y_max`"):
-        ft.read_lincoln(write(tmp_path / "short.txt", short))
+    with pytest.raises(
+        track_types.TracksFormatError, match=r"line 3: expected the header `y_min y_max`"
+    ):
+        datasets.read_lincoln(write(tmp_path / "short.txt", short))
     text = [f"{T0} 1 1 1.0", f"{T0 + 1} abc 1 1.0"]
-    with pytest.raises(ft.TracksFormatError, match=r"line 2, column 2 \(x_m\): 'abc'"):
-        ft.read_lincoln(write(tmp_path / "text.txt", text))
+    with pytest.raises(track_types.TracksFormatError, match=r"line 2, column 2 \(x_m\): 'abc'"):
+        datasets.read_lincoln(write(tmp_path / "text.txt", text))
     nan_x = [f"{T0},0,nan,1,0,0.1"]
-    with pytest.raises(ft.TracksFormatError, match=r"line 1, column 3 \(x_m\).*finite"):
-        ft.read_lincoln(write(tmp_path / "nan.csv", nan_x))
-    with pytest.raises(ft.TracksFormatError, match="line 2: Lincoln files start"):
-        ft.read_lincoln(write(tmp_path / "comment.txt", ["# hello", f"{T0} 1 1"]))
+    with pytest.raises(track_types.TracksFormatError, match=r"line 1, column 3 \(x_m\).*finite"):
+        datasets.read_lincoln(write(tmp_path / "nan.csv", nan_x))
+    with pytest.raises(track_types.TracksFormatError, match="line 2: Lincoln files start"):
+        datasets.read_lincoln(write(tmp_path / "comment.txt", ["# hello", f"{T0} 1 1"]))
 
 
 # ----------------------------------------------------------------------------- spans
@@ -168,26 +173,26 @@ def test_bad_lincoln_files(tmp_path: Path) -> None:
 
 def test_sessions_split_at_long_gaps() -> None:
     t = np.array([50, 10, 20, 21, 400, 410, 10_000], dtype=np.int64) * S
-    assert ft.sessions(t, 100 * S) == [
+    assert track_types.sessions(t, 100 * S) == [
         (10 * S, 50 * S + 1),
         (400 * S, 410 * S + 1),
         (10_000 * S, 10_000 * S + 1),
     ]
-    assert ft.sessions(t, 10_000 * S) == [(10 * S, 10_000 * S + 1)]
-    assert ft.sessions(np.zeros(0, np.int64), S) == []
+    assert track_types.sessions(t, 10_000 * S) == [(10 * S, 10_000 * S + 1)]
+    assert track_types.sessions(np.zeros(0, np.int64), S) == []
     with pytest.raises(InputError, match="gap must be > 0"):
-        ft.sessions(t, 0)
+        track_types.sessions(t, 0)
 
 
 def test_merge_spans() -> None:
-    assert ft.merge_spans([(5, 9), (1, 3), (3, 4), (8, 12), (20, 21)]) == [
+    assert track_types.merge_spans([(5, 9), (1, 3), (3, 4), (8, 12), (20, 21)]) == [
         (1, 4),
         (5, 12),
         (20, 21),
     ]
-    assert ft.merge_spans([]) == []
+    assert track_types.merge_spans([]) == []
     with pytest.raises(InputError, match="ends before it starts"):
-        ft.merge_spans([(1, 3), (7, 7)])
+        track_types.merge_spans([(1, 3), (7, 7)])
 
 
 # ----------------------------------------------------------------------------- real files
@@ -205,7 +210,7 @@ REAL = {  # file: detections (every row: there are no sentinel rows in these fil
 @pytest.mark.parametrize("name", sorted(REAL))
 def test_real_lincoln_files(name: str) -> None:
     path = LINCOLN / name
-    data = ft.read_lincoln(path)
+    data = datasets.read_lincoln(path)
     b = data.batch
     assert len(b) == REAL[name]
     assert (b.track_id >= 0).all()
@@ -221,7 +226,7 @@ def test_real_lincoln_files(name: str) -> None:
         assert data.observed == []
         assert data.notes == ()
     # the recordings are one session a day (roughly 09:00-18:00 UTC)
-    spans = ft.sessions(b.t_ns, 3600 * S)
+    spans = track_types.sessions(b.t_ns, 3600 * S)
     assert len(spans) == len(days)
     assert all(6 * 3600 * S < end - start < 10 * 3600 * S for start, end in spans)
 
@@ -231,7 +236,7 @@ def test_real_linked_headings_agree_with_the_detector() -> None:
     # An independent answer: the 05-31 file carries the detector's own heading. Where the
     # linked tracks walk (> 0.3 m/s), it is the linked heading turned by π (the detector
     # points the other way) for the great majority of detections.
-    data = ft.read_lincoln(LINCOLN / "2017-05-31_heading.csv")
+    data = datasets.read_lincoln(LINCOLN / "2017-05-31_heading.csv")
     b, own = data.batch, data.detector_heading
     assert own is not None
     walking = np.isfinite(b.heading) & (b.speed > 0.3)

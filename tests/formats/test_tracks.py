@@ -12,6 +12,7 @@ import pytest
 
 from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import DetectionBatch
+from formats import track_csv, track_types, tracks_log
 from formats import tracks as ft
 from formats.detections.frame import FrameDetections
 from tests.shared_data import SHARED_DATA, needs, real_path
@@ -84,8 +85,8 @@ def test_canonical_round_trip(tmp_path: Path) -> None:
         track_id=[7, -1, 2**40],
     )
     path = tmp_path / "tracks.csv"
-    ft.write_canonical_csv(batch, path)
-    assert path.read_text().splitlines()[0] == ft.CANONICAL_HEADER
+    track_csv.write_canonical_csv(batch, path)
+    assert path.read_text().splitlines()[0] == track_csv.CANONICAL_HEADER
     back = ft.read_tracks(path)
     order = np.argsort(batch.t_ns)
     np.testing.assert_array_equal(back.t_ns, batch.t_ns[order])  # exact int64 ns
@@ -137,7 +138,7 @@ def test_finite_difference_central_on_curve() -> None:
     # a quarter circle at constant speed: central differences give the chord direction
     t = np.arange(3, dtype=np.int64) * S
     xy = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
-    heading, speed = ft.finite_difference(t, np.zeros(3, np.int64), xy)
+    heading, speed = track_csv.finite_difference(t, np.zeros(3, np.int64), xy)
     np.testing.assert_allclose(heading, [3 * np.pi / 4, np.pi, -3 * np.pi / 4])
     np.testing.assert_allclose(speed, [math.sqrt(2), 1.0, math.sqrt(2)])
 
@@ -154,48 +155,50 @@ def _write(tmp_path: Path, name: str, text: str) -> Path:
 def test_bad_files_name_the_line(tmp_path: Path) -> None:
     good = "1.0,5,0.1,0.2,0.3,0.4\n"
     cols = _write(tmp_path, "cols.csv", good * 3 + "2.0,5,0.1,0.2,0.3\n")
-    with pytest.raises(ft.TracksFormatError, match=r"line 4: expected 6 columns .* got 5"):
+    with pytest.raises(track_types.TracksFormatError, match=r"line 4: expected 6 columns .* got 5"):
         ft.read_tracks(cols, "atc")
     text = _write(tmp_path, "text.csv", good + "\n" + "2.0,5,abc,0.2,0.3,0.4\n")
-    with pytest.raises(ft.TracksFormatError, match=r"line 3, column 3 \(x_m\): 'abc'"):
+    with pytest.raises(track_types.TracksFormatError, match=r"line 3, column 3 \(x_m\): 'abc'"):
         ft.read_tracks(text, "atc")
     frac = _write(tmp_path, "frac.csv", good + "2.0,5.5,0,0,0,0\n")
-    with pytest.raises(ft.TracksFormatError, match=r"line 2, column 2 \(person_id\).*integer"):
+    with pytest.raises(
+        track_types.TracksFormatError, match=r"line 2, column 2 \(person_id\).*integer"
+    ):
         ft.read_tracks(frac, "thor")
     nan_t = _write(tmp_path, "nan.csv", "nan,5,0,0,0,0\n")
-    with pytest.raises(ft.TracksFormatError, match=r"line 1, column 1 \(time_s\).*finite"):
+    with pytest.raises(track_types.TracksFormatError, match=r"line 1, column 1 \(time_s\).*finite"):
         ft.read_tracks(nan_t, "atc")
     eth = _write(tmp_path, "eth.txt", "10 1 0.5 0.5\n20 1 0.5\n")
-    with pytest.raises(ft.TracksFormatError, match=r"line 2: expected 4 columns"):
+    with pytest.raises(track_types.TracksFormatError, match=r"line 2: expected 4 columns"):
         ft.read_tracks(eth, "eth")
 
 
 def test_empty_missing_and_wrong_layout(tmp_path: Path) -> None:
-    with pytest.raises(ft.TracksFormatError, match="no track rows"):
+    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
         ft.read_tracks(_write(tmp_path, "empty.csv", ""), "atc")
-    with pytest.raises(ft.TracksFormatError, match="no track rows"):
+    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
         ft.read_tracks(_write(tmp_path, "empty2.csv", ""))
-    with pytest.raises(ft.TracksFormatError, match="no track rows"):
-        ft.read_tracks(_write(tmp_path, "hdr.csv", ft.CANONICAL_HEADER + "\n"))
-    with pytest.raises(ft.TracksFormatError, match="no track rows"):
+    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
+        ft.read_tracks(_write(tmp_path, "hdr.csv", track_csv.CANONICAL_HEADER + "\n"))
+    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
         ft.read_tracks(_write(tmp_path, "blank.csv", "\n\n# comment only\n"), "atc")
     one_col = _write(tmp_path, "one.csv", "1\n2\n3\n4\n5\n6\n")
-    with pytest.raises(ft.TracksFormatError, match=r"line 1: expected 6 columns .* got 1"):
+    with pytest.raises(track_types.TracksFormatError, match=r"line 1: expected 6 columns .* got 1"):
         ft.read_tracks(one_col, "atc")
     single = ft.read_tracks(_write(tmp_path, "single.csv", "1.5,3,0.1,0.2,0.3,0.4\n"), "atc")
     assert single.t_ns.tolist() == [1_500_000_000]
     assert single.track_id.tolist() == [3]
-    with pytest.raises(ft.TracksFormatError, match="not found"):
+    with pytest.raises(track_types.TracksFormatError, match="not found"):
         ft.read_tracks(tmp_path / "missing.csv", "atc")
     atc_rows = _write(tmp_path, "atc.csv", "1351038020.969,9190802,-22.311,1.883,0.324,-0.45\n")
-    with pytest.raises(ft.TracksFormatError, match="header"):
+    with pytest.raises(track_types.TracksFormatError, match="header"):
         ft.read_tracks(atc_rows)  # an ATC file read as canonical
-    bad_canon = _write(tmp_path, "c.csv", ft.CANONICAL_HEADER + "\n1.5,1,0,0,0,0,0\n")
-    with pytest.raises(ft.TracksFormatError, match=r"line 2, column 1 \(t_ns\).*integer"):
+    bad_canon = _write(tmp_path, "c.csv", track_csv.CANONICAL_HEADER + "\n1.5,1,0,0,0,0,0\n")
+    with pytest.raises(track_types.TracksFormatError, match=r"line 2, column 1 \(t_ns\).*integer"):
         ft.read_tracks(bad_canon)
-    with pytest.raises(ft.TracksFormatError, match="unknown tracks layout"):
+    with pytest.raises(track_types.TracksFormatError, match="unknown tracks layout"):
         ft.read_tracks(atc_rows, "csv")
-    assert issubclass(ft.TracksFormatError, InputError)
+    assert issubclass(track_types.TracksFormatError, InputError)
 
 
 # ----------------------------------------------------------------------------- logs
@@ -217,7 +220,7 @@ def test_tracks_to_log_round_trip_with_graph(tmp_path: Path) -> None:
     batch = ft.read_tracks(THOR, "thor", start_ns=1_600_000_000 * S)
     out = tmp_path / "thor.mcap"
     graph = real_path("dsg", "apartment_dsg.json")
-    summary = ft.tracks_to_log(batch, out, graph_file=graph, graph_period_s=60.0)
+    summary = tracks_log.tracks_to_log(batch, out, graph_file=graph, graph_period_s=60.0)
     distinct = np.unique(batch.t_ns)
     assert summary.detection_messages == len(distinct)
     span_s = (batch.t_ns[-1] - batch.t_ns[0]) / 1e9
@@ -265,7 +268,7 @@ def test_tracks_to_log_pose_array_grouped_and_unknown_heading(tmp_path: Path) ->
         speed=[1.0, np.nan, 0.5, 0.5],
     )
     out = tmp_path / "p.bag"
-    summary = ft.tracks_to_log(
+    summary = tracks_log.tracks_to_log(
         batch, out, container="bag", msgtype="geometry_msgs/PoseArray", group_ns=100_000_000
     )
     assert summary.detection_messages == 2
@@ -288,7 +291,7 @@ def test_tracks_to_log_spencer_marks_unknown_velocity(tmp_path: Path) -> None:
         track_id=[1, 2],
     )
     out = tmp_path / "s.mcap"
-    ft.tracks_to_log(batch, out)
+    tracks_log.tracks_to_log(batch, out)
     ((_, _, msg),) = _read_log(out)
     unknown, known = sorted(msg.tracks, key=lambda tr: tr.track_id)
     assert unknown.twist.covariance[0] > 99999
@@ -300,13 +303,13 @@ def test_tracks_to_log_spencer_marks_unknown_velocity(tmp_path: Path) -> None:
 def test_tracks_to_log_errors(tmp_path: Path) -> None:
     no_ids = DetectionBatch.from_arrays([1], [[0, 0, 0]])
     with pytest.raises(InputError, match="track ids"):
-        ft.tracks_to_log(no_ids, tmp_path / "a.mcap")
+        tracks_log.tracks_to_log(no_ids, tmp_path / "a.mcap")
     with pytest.raises(InputError, match="no detections"):
-        ft.tracks_to_log(DetectionBatch.empty(), tmp_path / "b.mcap")
+        tracks_log.tracks_to_log(DetectionBatch.empty(), tmp_path / "b.mcap")
     with pytest.raises(InputError, match="cannot write tracks"):
-        ft.tracks_to_log(no_ids, tmp_path / "c.mcap", msgtype="people_msgs/People")
+        tracks_log.tracks_to_log(no_ids, tmp_path / "c.mcap", msgtype="people_msgs/People")
     with pytest.raises(InputError, match="scene-graph file not found"):
-        ft.tracks_to_log(
+        tracks_log.tracks_to_log(
             DetectionBatch.from_arrays([1], [[0, 0, 0]], track_id=[1]),
             tmp_path / "d.mcap",
             graph_file=tmp_path / "nope.json",
@@ -334,8 +337,9 @@ def test_vectorized_tracked_persons_bytes_equal_writer_serialization(
     for frame in ("map", "odom_x"):  # two string lengths: different CDR padding
         with LogWriter(tmp_path / f"w-{frame}.{container}", container) as writer:
             cdr = writer.ros_version == 2
-            raw = ft._tracked_persons_bytes(
-                ft._tracked_person_records(batch, cdr), int(batch.t_ns[0]), frame, cdr, seq=4
+            records = tracks_log._tracked_person_records(batch, cdr)
+            raw = tracks_log._tracked_persons_bytes(
+                records, int(batch.t_ns[0]), frame, cdr, seq=4
             )
             tracks = []
             for i in range(3):
@@ -365,7 +369,9 @@ def test_vectorized_tracked_persons_bytes_equal_writer_serialization(
             header = {"stamp": {"sec": 7, "nanosec": 5}, "frame_id": frame, "seq": 4}
             if cdr:
                 del header["seq"]
-            want = writer.serialize(ft.SPENCER_TRACKED, {"header": header, "tracks": tracks})
+            want = writer.serialize(
+                tracks_log.SPENCER_TRACKED, {"header": header, "tracks": tracks}
+            )
             assert raw == want
 
 
@@ -373,7 +379,7 @@ def test_vectorized_tracked_persons_bytes_equal_writer_serialization(
 def test_tracks_to_log_ros1_bag_spencer(tmp_path: Path) -> None:
     batch = ft.read_tracks(THOR3, "thor")
     out = tmp_path / "t.bag"
-    summary = ft.tracks_to_log(batch, out, container="bag")
+    summary = tracks_log.tracks_to_log(batch, out, container="bag")
     msgs = _read_log(out)
     assert len(msgs) == summary.detection_messages == len(np.unique(batch.t_ns))
     xyz = np.array(
@@ -388,14 +394,14 @@ def test_tracks_to_log_ros1_bag_spencer(tmp_path: Path) -> None:
 
 def test_observed_stamps_every_interval_and_the_last_instant() -> None:
     spans = [(90 * S, 100 * S), (0, 95 * S), (200 * S, 200 * S + 1)]  # overlapping, unsorted
-    stamps = ft.observed_stamps(spans, 30 * S)
+    stamps = tracks_log.observed_stamps(spans, 30 * S)
     assert stamps.tolist() == [0, 30 * S, 60 * S, 90 * S, 100 * S - 1, 200 * S]
-    assert ft.observed_stamps([]).tolist() == []
-    assert ft.OBSERVED_INTERVAL_NS == 30 * S
+    assert tracks_log.observed_stamps([]).tolist() == []
+    assert tracks_log.OBSERVED_INTERVAL_NS == 30 * S
     with pytest.raises(InputError, match="ends before it starts"):
-        ft.observed_stamps([(5, 5)])
+        tracks_log.observed_stamps([(5, 5)])
     with pytest.raises(InputError, match="interval"):
-        ft.observed_stamps([(0, S)], 0)
+        tracks_log.observed_stamps([(0, S)], 0)
 
 
 def _log_messages(path: Path) -> tuple[list[int], FrameDetections, npt.NDArray[np.int64]]:
@@ -414,7 +420,11 @@ def _log_messages(path: Path) -> tuple[list[int], FrameDetections, npt.NDArray[n
 
 @pytest.mark.parametrize(
     ("container", "msgtype"),
-    [("mcap", ft.SPENCER_TRACKED), ("bag", ft.POSE_ARRAY), ("mcap", ft.POSE_ARRAY)],
+    [
+        ("mcap", tracks_log.SPENCER_TRACKED),
+        ("bag", tracks_log.POSE_ARRAY),
+        ("mcap", tracks_log.POSE_ARRAY),
+    ],
 )
 def test_tracks_to_log_marks_observed_spans(tmp_path: Path, container: str, msgtype: str) -> None:
     t0 = 1_700_000_000 * S
@@ -427,8 +437,10 @@ def test_tracks_to_log_marks_observed_spans(tmp_path: Path, container: str, msgt
     )
     spans = [(t0 - 1800 * S, t0 + 1800 * S), (t0 + 7200 * S, t0 + 7200 * S + 3599 * S)]
     out = tmp_path / f"o.{container}"
-    summary = ft.tracks_to_log(batch, out, container=container, msgtype=msgtype, observed=spans)
-    marks = ft.observed_stamps(spans)
+    summary = tracks_log.tracks_to_log(
+        batch, out, container=container, msgtype=msgtype, observed=spans
+    )
+    marks = tracks_log.observed_stamps(spans)
     assert len(marks) == 3600 // 30 + 1 + 3599 // 30 + 1 + 1
     assert summary.detection_messages == 3
     assert summary.observed_messages == len(marks)
@@ -448,20 +460,22 @@ def test_tracks_to_log_marks_observed_spans(tmp_path: Path, container: str, msgt
     order = np.argsort(frames.t_ns, kind="stable")
     np.testing.assert_array_equal(frames.t_ns[order], batch.t_ns)
     np.testing.assert_allclose(frames.xyz[order], batch.xyz)
-    if msgtype == ft.SPENCER_TRACKED:
+    if msgtype == tracks_log.SPENCER_TRACKED:
         np.testing.assert_array_equal(frames.track_id[order], batch.track_id)
 
 
 def test_tracks_to_log_observed_without_detections_and_bad_spans(tmp_path: Path) -> None:
-    summary = ft.tracks_to_log(DetectionBatch.empty(), tmp_path / "e.mcap", observed=[(0, 60 * S)])
+    summary = tracks_log.tracks_to_log(
+        DetectionBatch.empty(), tmp_path / "e.mcap", observed=[(0, 60 * S)]
+    )
     assert (summary.detections, summary.detection_messages, summary.observed_messages) == (0, 0, 3)
     times, frames, _ = _log_messages(tmp_path / "e.mcap")
     assert times == [0, 30 * S, 60 * S - 1]
     assert len(frames) == 0
     one = DetectionBatch.from_arrays([S], [[0, 0, 0]], track_id=[1])
     with pytest.raises(InputError, match="ends before it starts"):
-        ft.tracks_to_log(one, tmp_path / "b.mcap", observed=[(10 * S, 5 * S)])
+        tracks_log.tracks_to_log(one, tmp_path / "b.mcap", observed=[(10 * S, 5 * S)])
     # without spans: only the detection messages, as before
-    summary = ft.tracks_to_log(one, tmp_path / "d.mcap")
+    summary = tracks_log.tracks_to_log(one, tmp_path / "d.mcap")
     assert (summary.observed_messages, summary.observed_spans) == (0, 0)
     assert _log_messages(tmp_path / "d.mcap")[0] == [S]

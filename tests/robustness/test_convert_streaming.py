@@ -1,5 +1,5 @@
 """``aion convert`` streams rows: canonical / ATC / THÖR files are read and written in chunks of
-``formats.tracks.CHUNK_ROWS`` rows, so memory does not grow with the file (it held ~1 KB per
+``formats.track_csv.CHUNK_ROWS`` rows, so memory does not grow with the file (it held ~1 KB per
 row: a full ATC day needed ~10 GB). The log is byte for byte the one the whole file gives;
 a file out of time order falls back to reading it whole. The output path is checked before the
 CSV is read, and times before 1970 are refused before a log exists.
@@ -18,6 +18,7 @@ import pytest
 
 import formats.tracks as ft
 from aion_cli.engine.types import DetectionBatch
+from formats import track_csv, track_types, tracks_log
 from tests.robustness.conftest import assert_one_error, run
 
 T0 = 1_351_036_800 * 10**9  # 2012-10-24 00:00 UTC
@@ -32,7 +33,7 @@ def tracks_file(path: Path, n: int, seed: int = 1, tick_ns: int = 10**8) -> Path
     xyz = np.c_[rng.uniform(-20, 20, (n, 2)), np.zeros(n)]
     batch = DetectionBatch(t, xyz, rng.uniform(-3, 3, n), rng.uniform(0, 2, n),
                            rng.integers(0, 5000, n))
-    ft.write_canonical_csv(batch, path)
+    track_csv.write_canonical_csv(batch, path)
     return path
 
 
@@ -62,7 +63,7 @@ def test_convert_memory_is_one_chunk_not_the_whole_file(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("container", ["mcap", "bag"])
-@pytest.mark.parametrize("msgtype", [ft.SPENCER_TRACKED, ft.POSE_ARRAY])
+@pytest.mark.parametrize("msgtype", [tracks_log.SPENCER_TRACKED, tracks_log.POSE_ARRAY])
 def test_a_streamed_log_equals_the_whole_file_log(
     tmp_path: Path, container: str, msgtype: str
 ) -> None:
@@ -79,8 +80,8 @@ def test_a_streamed_log_equals_the_whole_file_log(
     opts: dict[str, Any] = {
         "container": container, "msgtype": msgtype, "observed": spans, "graph_file": graph,
     }
-    whole = ft.tracks_to_log(batch, tmp_path / f"whole.{container}", **opts)
-    streamed = ft.stream_tracks_to_log(csv, tmp_path / f"s.{container}", rows=7, **opts)
+    whole = tracks_log.tracks_to_log(batch, tmp_path / f"whole.{container}", **opts)
+    streamed = tracks_log.stream_tracks_to_log(csv, tmp_path / f"s.{container}", rows=7, **opts)
     assert (tmp_path / f"s.{container}").read_bytes() == (
         tmp_path / f"whole.{container}"
     ).read_bytes()
@@ -99,8 +100,8 @@ def test_a_file_out_of_time_order_is_read_whole(tmp_path: Path) -> None:
     lines = sorted_csv.read_text().splitlines()
     shuffled = tmp_path / "shuffled.csv"
     shuffled.write_text("\n".join([lines[0], *lines[151:], *lines[1:151]]) + "\n")
-    ft.stream_tracks_to_log(shuffled, tmp_path / "a.mcap", rows=50)
-    ft.stream_tracks_to_log(sorted_csv, tmp_path / "b.mcap", rows=50)
+    tracks_log.stream_tracks_to_log(shuffled, tmp_path / "a.mcap", rows=50)
+    tracks_log.stream_tracks_to_log(sorted_csv, tmp_path / "b.mcap", rows=50)
     assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "a.mcap", "b.mcap", "shuffled.csv", "sorted.csv",
@@ -112,8 +113,8 @@ def test_a_bad_line_in_a_later_chunk_names_its_line_and_writes_nothing(tmp_path:
     lines = csv.read_text().splitlines()
     lines[80] = lines[80].replace(",", ",x", 1)
     csv.write_text("\n".join(lines) + "\n")
-    with pytest.raises(ft.TracksFormatError, match="line 81"):
-        ft.stream_tracks_to_log(csv, tmp_path / "out.mcap", rows=10)
+    with pytest.raises(track_types.TracksFormatError, match="line 81"):
+        tracks_log.stream_tracks_to_log(csv, tmp_path / "out.mcap", rows=10)
     assert not (tmp_path / "out.mcap").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["t.csv"]
 
@@ -122,7 +123,7 @@ def test_a_bad_line_in_a_later_chunk_names_its_line_and_writes_nothing(tmp_path:
 def test_times_before_1970_are_exit_2_without_a_partial_log(tmp_path: Path, suffix: str) -> None:
     """The .bag case was an internal error (exit 1: struct packing of a negative second)."""
     csv = tmp_path / "neg.csv"
-    csv.write_text(f"{ft.CANONICAL_HEADER}\n-1000000000,1,0,0,0,0,1\n2000000000,1,1,0,0,0,1\n")
+    csv.write_text(f"{track_csv.CANONICAL_HEADER}\n-1000000000,1,0,0,0,0,1\n2000000000,1,1,0,0,0,1\n")
     out = tmp_path / f"neg{suffix}"
     result = run("convert", csv, "-o", out)
     assert result.exit_code == 2, result.stderr
@@ -154,7 +155,7 @@ def test_the_output_is_checked_before_the_csv_is_read(tmp_path: Path) -> None:
     """An output that may not be replaced is refused first: a broken CSV is not even read
     (its error would name a line), and nothing is written."""
     broken = tmp_path / "broken.csv"
-    broken.write_text(f"{ft.CANONICAL_HEADER}\n1,2,three,4,5,6,7\n")
+    broken.write_text(f"{track_csv.CANONICAL_HEADER}\n1,2,three,4,5,6,7\n")
     notes = tmp_path / "notes.mcap"
     notes.write_text("my notes")
     result = run("convert", broken, "-o", notes, "--force")

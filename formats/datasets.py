@@ -1,0 +1,450 @@
+"""Readers of people-tracking datasets whose files are not a plain table of detections.
+
+- ``edinburgh``: the Edinburgh Informatics Forum tracks (``TRACK.Rn=[[x y frame];...];``,
+  overhead-camera pixels at 24.7 mm, frame numbers at about 9 fps, no clock time:
+  :func:`read_edinburgh`).
+- ``thor-magni``: THÖR-MAGNI CSVs (header ``Time,frame_id,x,y,z,ag_id,data_label,...``,
+  millimetres, seconds from the start, ``ag_id`` names such as ``Helmet_3``:
+  :func:`read_thor_magni`).
+- ``lincoln``: the L-CAS corridor detections (UNIX seconds, no ids), every variant of the
+  files told apart by content (:func:`read_lincoln`); the detections are linked into tracks by
+  :mod:`aion_cli.engine.tracking` (pure numpy, like the differencing the ETH reader uses), and
+  the spans the file declares or marks as recorded come back as observed.
+
+Each reader returns a :class:`formats.track_types.TrackData` (detections, observed spans,
+notes for the user); the plain tables (canonical, ATC, THÖR, ETH/UCY) are read by
+:mod:`formats.track_csv`, whose parsing helpers these readers share.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import re
+import warnings
+from pathlib import Path
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.types import F64, I64, DetectionBatch
+from formats.track_csv import _check_file, _plain_columns, _seconds_to_ns, _Spec, finite_difference
+from formats.track_types import TrackData, TracksFormatError, _utc, merge_spans
+
+if TYPE_CHECKING:
+    from aion_cli.engine.tracking import LinkerConfig
+
+
+#: Edinburgh Informatics Forum: ground size of one image pixel (README of the database)
+EDINBURGH_M_PER_PX = 0.0247
+#: its capture rate, "about 9 frames per second" (it varies with the capture host's load)
+EDINBURGH_FPS = 9.0
+#: image height in pixels (640 x 480): rows are flipped so that y points up
+EDINBURGH_HEIGHT_PX = 480
+
+_EDINBURGH_TRACK = re.compile(r"TRACK\.R(\d+)\s*=\s*\[\s*(.*?)\]\s*\]\s*;", re.S)
+_EDINBURGH_PROPERTIES = re.compile(r"Properties\.R(\d+)\s*=\s*\[\s*([0-9.eE+-]+)")
+_EDINBURGH_HINT = (
+    "Edinburgh tracks files hold `Properties.Rn=[...];` and `TRACK.Rn=[[x y frame];...];` "
+    "entries (tracks.DDMon.txt of the Informatics Forum database)"
+)
+
+
+def _line_of(text: str, pos: int) -> int:
+    return text.count("\n", 0, pos) + 1
+
+
+def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_FPS) -> TrackData:
+    """An Edinburgh Informatics Forum tracks file (``tracks.01Jul.txt``): Matlab-like
+    ``TRACK.Rn=[[x y frame];...];`` entries, image pixels of an overhead camera and frame
+    numbers (``../shared/data/tracks/edinburgh/README.opentraj.md``).
+
+    Positions: ``x = px * 24.7 mm``, ``y = (480 - py) * 24.7 mm`` (image rows flipped so the map
+    frame is right-handed, y up; origin at the image's bottom-left corner). Times: ``start_ns +
+    frame / fps`` (about 9 fps; the files carry no clock time, so ``start_ns`` is when frame 0
+    was captured). The track id is ``n`` of ``Rn``; heading and speed come from differencing
+    each track. ``Properties.Rn`` (whose first value is the number of points) is checked
+    against the track where present: a mismatch is a note, not an error.
+    """
+    if not fps > 0:
+        raise TracksFormatError(f"fps must be > 0, got {fps}")
+    p = Path(path)
+    if not p.is_file():
+        raise TracksFormatError(f"tracks file not found: {p}")
+    text = p.read_text(encoding="utf-8-sig", errors="replace")
+    if not text.strip():
+        raise TracksFormatError(f"{p}: no track rows", hint="the file is empty")
+    found = list(_EDINBURGH_TRACK.finditer(text))
+    entries = [m.start() for m in re.finditer(r"TRACK\.R", text)]
+    if not found:
+        raise TracksFormatError(f"{p}: no TRACK.Rn=[[x y frame];...]; entry", hint=_EDINBURGH_HINT)
+    if len(found) != len(entries):
+        parsed = {m.start() for m in found}
+        bad = next(pos for pos in entries if pos not in parsed)
+        raise TracksFormatError(
+            f"{p}: line {_line_of(text, bad)}: a TRACK entry that is not [[x y frame];...];",
+            hint=_EDINBURGH_HINT,
+        )
+    ids = np.array([int(m.group(1)) for m in found], dtype=np.int64)
+    if len(np.unique(ids)) != len(ids):
+        dup = int(ids[np.flatnonzero(np.bincount(np.unique(ids, return_inverse=True)[1]) > 1)[0]])
+        raise TracksFormatError(f"{p}: track R{dup} is defined twice", hint=_EDINBURGH_HINT)
+    # one C-speed parse of every point: each track's points become "x y frame" lines
+    bodies = [re.sub(r"\]\s*;\s*\[", "\n", m.group(2)).replace("[", " ") for m in found]
+    counts = np.array([b.count("\n") + 1 for b in bodies], dtype=np.int64)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            points = np.loadtxt(io.StringIO("\n".join(bodies)), dtype=np.float64, ndmin=2)
+    except ValueError as exc:
+        raise _edinburgh_problem(p, text, found) from exc
+    if points.shape != (int(counts.sum()), 3) or not np.isfinite(points).all():
+        raise _edinburgh_problem(p, text, found)
+    if (points[:, 2] != np.round(points[:, 2])).any() or (points[:, 2] < 0).any():
+        raise _edinburgh_problem(p, text, found)
+    tid = np.repeat(ids, counts)
+    notes = _edinburgh_count_notes(p, text, ids, counts)
+    t_ns = _seconds_to_ns(points[:, 2] / fps, start_ns, p)
+    xyz = np.zeros((len(points), 3))
+    xyz[:, 0] = points[:, 0] * EDINBURGH_M_PER_PX
+    xyz[:, 1] = (EDINBURGH_HEIGHT_PX - points[:, 1]) * EDINBURGH_M_PER_PX
+    heading, speed = finite_difference(t_ns, tid, xyz[:, :2])
+    batch = DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
+    return TrackData(batch, notes=notes)
+
+
+def _edinburgh_problem(path: Path, text: str, found: list[re.Match[str]]) -> TracksFormatError:
+    """The first TRACK point that is not three numbers (slow path, after a failed parse)."""
+    for m in found:
+        for k, point in enumerate(re.split(r"\]\s*;\s*\[", m.group(2).strip("[] \n\t"))):
+            values = point.split()
+            try:
+                numbers = [float(v) for v in values]
+            except ValueError:
+                numbers = []
+            ok = len(numbers) == 3 and all(math.isfinite(v) for v in numbers)
+            if ok and numbers[2].is_integer() and numbers[2] >= 0:
+                continue
+            return TracksFormatError(
+                f"{path}: line {_line_of(text, m.start())}: TRACK.R{m.group(1)} point {k + 1}: "
+                f"expected [x y frame] (numbers, a whole frame), got [{point.strip()[:40]}]",
+                hint=_EDINBURGH_HINT,
+            )
+    return TracksFormatError(f"{path}: unreadable TRACK entries", hint=_EDINBURGH_HINT)
+
+
+def _edinburgh_count_notes(
+    path: Path, text: str, ids: I64, counts: I64
+) -> tuple[str, ...]:
+    """A note when ``Properties.Rn``'s point count differs from the track's (none when the
+    file has no properties)."""
+    declared = {int(m.group(1)): float(m.group(2)) for m in _EDINBURGH_PROPERTIES.finditer(text)}
+    if not declared:
+        return ()
+    wrong = [int(i) for i, n in zip(ids.tolist(), counts.tolist(), strict=True)
+             if i in declared and declared[i] != n]
+    if not wrong:
+        return ()
+    return (
+        f"{path.name}: {len(wrong)} track(s) hold another number of points than their "
+        f"Properties entry says (first: R{wrong[0]}); the points are used as they are",
+    )
+
+
+# ----------------------------------------------------------------------------- THÖR-MAGNI
+
+#: the columns a THÖR-MAGNI CSV must have, found by name in its header
+THOR_MAGNI_REQUIRED = ("Time", "ag_id", "x", "y")
+#: agents that are people: THÖR-MAGNI's participants wear tracked helmets (``Helmet_3``); the
+#: robot (``DARKO_Robot``) and tracked objects (``LO1``) are not people
+THOR_MAGNI_PEOPLE = "Helmet"
+#: a position extent beyond this many units means millimetres (a mocap room is ~10-20 m)
+_MM_EXTENT = 200.0
+Units = Literal["auto", "mm", "m"]
+
+
+def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") -> TrackData:
+    """A THÖR-MAGNI trajectory CSV as ``thor-magni-tools`` writes it (header ``Time,frame_id,
+    x,y,z,ag_id,data_label,...``; columns found by name, any order, extra columns ignored).
+
+    ``Time`` is seconds from the recording's start (``start_ns`` is when that was). Positions
+    are millimetres in the files of the dataset (thor-magni-tools' converters divide ``x, y, z``
+    by 1000); ``units="auto"`` takes millimetres when the positions span more than 200 units
+    and metres otherwise, with a note saying which; ``"mm"`` / ``"m"`` force it. Rows without a
+    position (untracked frames, empty ``x`` / ``y``) are dropped, with a note. Only people are
+    kept: agents whose ``ag_id`` starts with ``Helmet`` when there are any (the robot and
+    objects are dropped, with a note), else every agent. ``ag_id`` strings become integer
+    track ids: the number that ends the name (``Helmet_3`` -> 3) when those are unique, else
+    the name's rank. Heading and speed come from differencing each track.
+    """
+    if units not in ("auto", "mm", "m"):
+        raise TracksFormatError(f"unknown length unit {units!r}", hint="use auto, mm or m")
+    p = Path(path)
+    columns = _thor_magni_header(p)
+    used = [columns[name] for name in (*THOR_MAGNI_REQUIRED, "z") if name in columns]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            table = np.loadtxt(
+                p,
+                dtype=str,
+                delimiter=",",
+                skiprows=1,
+                usecols=used,
+                quotechar='"',
+                ndmin=2,
+                encoding="utf-8-sig",
+            )
+    except ValueError as exc:
+        raise TracksFormatError(
+            f"{p}: not a valid thor-magni tracks file: {exc}",
+            hint="every row needs the header's columns, comma-separated",
+        ) from exc
+    if table.size == 0:
+        raise TracksFormatError(f"{p}: no track rows", hint="the file has only its header")
+    t_s = _number_column(p, table[:, 0], "Time", finite=True)
+    x = _number_column(p, table[:, 2], "x")
+    y = _number_column(p, table[:, 3], "y")
+    z = _number_column(p, table[:, 4], "z") if table.shape[1] > 4 else np.zeros(len(table))
+    names = np.char.strip(table[:, 1])
+    notes: list[str] = []
+    located = np.isfinite(x) & np.isfinite(y)
+    if not located.all():
+        notes.append(
+            f"{p.name}: {int((~located).sum()):,} of {len(located):,} rows have no position "
+            "(untracked frames) and are skipped"
+        )
+    people = np.char.startswith(names, THOR_MAGNI_PEOPLE)
+    keep = located & people if people.any() else located
+    if people.any() and not people.all():
+        others = sorted(set(names[~people].tolist()))
+        notes.append(f"{p.name}: not people, skipped: {', '.join(others)}")
+    if not keep.any():
+        raise TracksFormatError(f"{p}: no row with a position", hint="x and y are all empty")
+    t_s, x, y, z, names = t_s[keep], x[keep], y[keep], z[keep], names[keep]
+    scale = _thor_magni_scale(p, x, y, units, notes)
+    tid = _agent_ids(names)
+    xyz = np.stack([x, y, np.nan_to_num(z)], axis=1) * scale
+    t_ns = _seconds_to_ns(t_s, start_ns, p)
+    heading, speed = finite_difference(t_ns, tid, xyz[:, :2])
+    batch = DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
+    return TrackData(batch, notes=tuple(notes))
+
+
+def _thor_magni_header(path: Path) -> dict[str, int]:
+    """Column name -> index of a THÖR-MAGNI CSV's header, with the required ones checked."""
+    if not path.is_file():
+        raise TracksFormatError(f"tracks file not found: {path}")
+    if path.stat().st_size == 0:
+        raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
+        first = fh.readline().strip()
+    names = [name.strip().strip('"') for name in first.split(",")]
+    columns = {name: k for k, name in reversed(list(enumerate(names)))}
+    missing = [name for name in THOR_MAGNI_REQUIRED if name not in columns]
+    if missing:
+        raise TracksFormatError(
+            f"{path}: line 1 must be a THÖR-MAGNI header with the columns "
+            f"{', '.join(THOR_MAGNI_REQUIRED)}; {', '.join(missing)} missing (got {first[:80]!r})",
+            hint="THÖR-MAGNI CSVs start `Time,frame_id,x,y,z,ag_id,data_label,...`",
+        )
+    return columns
+
+
+def _number_column(path: Path, text: npt.NDArray[np.str_], name: str, finite: bool = False) -> F64:
+    """A text column as float64 (empty fields -> NaN), or the first bad value's line."""
+    cleaned = np.char.strip(text)
+    try:
+        values: F64 = np.where(cleaned == "", "nan", cleaned).astype(np.float64)
+    except ValueError:
+        parsed = []
+        for k, v in enumerate(cleaned.tolist()):  # slow path, only after a failure
+            try:
+                parsed.append(float(v or "nan"))
+            except ValueError:
+                raise TracksFormatError(
+                    f"{path}: line {k + 2}, column {name}: {v[:40]!r} is not a number"
+                ) from None
+        values = np.array(parsed, dtype=np.float64)
+    if finite:
+        bad = np.flatnonzero(~np.isfinite(values))
+        if len(bad):
+            raise TracksFormatError(
+                f"{path}: line {int(bad[0]) + 2}, column {name}: {str(text[bad[0]])!r} is not "
+                "a finite number"
+            )
+    return values
+
+
+def _thor_magni_scale(path: Path, x: F64, y: F64, units: str, notes: list[str]) -> float:
+    """Metres per file unit: 1e-3 for millimetres, 1 for metres (``auto``: by the extent)."""
+    extent = float(max(np.ptp(x), np.ptp(y)))
+    if units == "auto":
+        units = "mm" if extent > _MM_EXTENT else "m"
+        span = extent / 1000 if units == "mm" else extent
+        notes.append(
+            f"{path.name}: positions read as {'millimetres' if units == 'mm' else 'metres'} "
+            f"(they span {span:,.1f} m); give --length-unit mm|m if that is wrong"
+        )
+    return 1e-3 if units == "mm" else 1.0
+
+
+def _agent_ids(names: npt.NDArray[np.str_]) -> I64:
+    """Integer track ids of agent names: each name's trailing number when those are unique
+    (``Helmet_3`` -> 3), else the name's rank among the sorted names."""
+    unique, inverse = np.unique(names, return_inverse=True)
+    numbers = [re.search(r"(\d+)$", str(name)) for name in unique.tolist()]
+    if all(numbers) and len({int(m.group(1)) for m in numbers if m}) == len(unique):
+        codes = np.array([int(m.group(1)) for m in numbers if m], dtype=np.int64)
+    else:
+        codes = np.arange(len(unique), dtype=np.int64)
+    ids: I64 = codes[inverse.reshape(-1)]
+    return ids
+
+
+# ----------------------------------------------------------------------------- Lincoln
+
+#: how long a sentinel row (x = y = 0: "the sensor was running") marks as observed
+SENTINEL_SPAN_NS = 1_000_000_000
+#: a declared recording span reaching further than this beyond the detections gets a note
+DECLARED_SLACK_NS = 86_400 * 1_000_000_000
+
+_LINCOLN_XY = ("time_s", "x_m", "y_m")
+_LINCOLN_SPECS: dict[str, _Spec] = {
+    # 2017-06-09.txt: `t_start t_end`, `x_min x_max`, `y_min y_max`, then `t x y`
+    "header": _Spec(_LINCOLN_XY, frozenset(), frozenset({0, 1, 2}), None, None, header_lines=3),
+    "xy": _Spec(_LINCOLN_XY, frozenset(), frozenset({0, 1, 2}), None, None),
+    # 2017-05-24_25.txt: `t x y 1.0`
+    "xy1": _Spec(
+        (*_LINCOLN_XY, "one"),
+        frozenset(),
+        frozenset({0, 1, 2}),
+        None,
+        None,
+        ignored_columns=frozenset({3}),
+    ),
+    # 2017-05-25.txt, 2017-05-26.txt: `t x y a b WPn` (a, b undocumented; WPn: robot waypoint)
+    "waypoint": _Spec(
+        (*_LINCOLN_XY, "a", "b", "waypoint"),
+        frozenset(),
+        frozenset({0, 1, 2}),
+        None,
+        None,
+        ignored_columns=frozenset({3, 4, 5}),
+    ),
+    # 2017-05-31_heading.csv: `t, id, x, y, z, heading_rad` (id always 0)
+    "heading": _Spec(
+        ("time_s", "id", "x_m", "y_m", "z_m", "heading_rad"),
+        frozenset(),
+        frozenset({0, 2, 3}),
+        ",",
+        None,
+        ignored_columns=frozenset({1}),
+    ),
+}
+_LINCOLN_BY_FIELDS = {3: "xy", 4: "xy1", 6: "waypoint"}
+
+
+def _first_data_line(path: Path) -> tuple[int, str]:
+    """Line number and text of the first line that is neither blank nor a comment."""
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
+        for lineno, raw in enumerate(fh, start=1):
+            line = raw.split("#", 1)[0].strip()
+            if line:
+                return lineno, line
+    raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
+
+
+def _lincoln_variant(path: Path) -> str:
+    """Which Lincoln variant ``path`` is, from its first line: commas -> the heading CSV, two
+    numbers -> the header of declared spans, else by the number of columns (3, 4 or 6)."""
+    lineno, line = _first_data_line(path)
+    if lineno != 1:  # header lines are counted from the top: no blank lines or comments first
+        raise TracksFormatError(
+            f"{path}: line {lineno}: Lincoln files start with data or the header on line 1"
+        )
+    if "," in line:
+        return "heading"
+    fields = line.split()
+    if len(fields) == 2:
+        return "header"
+    if len(fields) in _LINCOLN_BY_FIELDS:
+        return _LINCOLN_BY_FIELDS[len(fields)]
+    raise TracksFormatError(
+        f"{path}: line 1 has {len(fields)} columns: not a Lincoln corridor file",
+        hint="Lincoln rows are `t x y`, `t x y 1.0`, `t x y a b WPn` or `t, id, x, y, z, heading`"
+        ", optionally after a 3-line header `t_start t_end` / `x_min x_max` / `y_min y_max`",
+    )
+
+
+def _lincoln_header(path: Path) -> tuple[int, int]:
+    """The declared recorded span ``[t_start, t_end)`` (ns) of a 3-line Lincoln header."""
+    names = ("t_start t_end", "x_min x_max", "y_min y_max")
+    pairs: list[tuple[float, float]] = []
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
+        for lineno, name in enumerate(names, start=1):
+            text = fh.readline().strip()
+            try:
+                lo, hi = (float(v) for v in text.split())
+            except ValueError:
+                lo = hi = math.nan
+            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+                raise TracksFormatError(
+                    f"{path}: line {lineno}: expected the header `{name}` (two numbers, the "
+                    f"second larger), got {text[:80]!r}"
+                )
+            pairs.append((lo, hi))
+    (t0, t1) = pairs[0]
+    return round(t0 * 1e6) * 1000, round(t1 * 1e6) * 1000
+
+
+def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackData:
+    """A Lincoln (L-CAS) corridor file, any of its variants (``../shared/data/README.md``).
+
+    The variant is told by content (:func:`_lincoln_variant`); only ``t x y`` (UNIX seconds,
+    metres) are read from the 4- and 6-column files. The detections have no ids: they are
+    linked into tracks (:func:`aion_cli.engine.tracking.link_tracks` with ``linker``), which
+    gives the track ids, headings and speeds. The 2017-05-31 CSV's own heading column is kept
+    as ``detector_heading`` but not used: on that file it points opposite (π off) to the
+    direction the linked tracks move for most walking detections, so it is not a walking
+    direction in the map's convention.
+
+    Observed spans: the declared header span ``[t_start, t_end)`` (used as declared, with a
+    note when it reaches more than a day beyond the detections, as 2017-06-09.txt's does),
+    and ``[t, t + 1 s)`` around every sentinel row (x = y = 0, "the sensor was running"),
+    which is not a detection. A file with neither gives no observed spans.
+    """
+    from aion_cli.engine.tracking import link_tracks
+
+    p = Path(path)
+    _check_file(p, _LINCOLN_SPECS["xy"], "lincoln")
+    variant = _lincoln_variant(p)
+    spec = _LINCOLN_SPECS[variant]
+    declared = _lincoln_header(p) if variant == "header" else None
+    a = _plain_columns(p, spec, "lincoln")
+    if variant == "heading":
+        t_s, xyz, own = a[:, 0], a[:, 2:5], np.mod(a[:, 5] + np.pi, 2 * np.pi) - np.pi
+    else:
+        t_s, xyz, own = a[:, 0], np.c_[a[:, 1:3], np.zeros(len(a))], None
+    t_ns = _seconds_to_ns(t_s, path=p)
+    sentinel = (xyz[:, 0] == 0) & (xyz[:, 1] == 0)
+    spans = [(t, t + SENTINEL_SPAN_NS) for t in np.unique(t_ns[sentinel]).tolist()]
+    people = ~sentinel
+    order = np.flatnonzero(people)[np.argsort(t_ns[people], kind="stable")]
+    t_ns, xyz = t_ns[order], xyz[order]
+    links = link_tracks(t_ns, xyz, linker)
+    batch = DetectionBatch(t_ns, xyz, links.heading, links.speed, links.track_id)
+    notes: list[str] = []
+    if declared is not None:
+        start, end = declared
+        spans.append((start, end))
+        if len(t_ns) and (
+            t_ns[0] - start > DECLARED_SLACK_NS or end - t_ns[-1] > DECLARED_SLACK_NS
+        ):
+            notes.append(
+                f"{p.name}: the header declares recording from {_utc(start)} to {_utc(end)} UTC"
+                f" but the detections run from {_utc(int(t_ns[0]))} to {_utc(int(t_ns[-1]))};"
+                " the declared span is used as observed"
+            )
+    return TrackData(batch, merge_spans(spans), tuple(notes), None if own is None else own[order])

@@ -1,0 +1,106 @@
+"""What every tracks module shares: the layout names, the error, and a file's data.
+
+The readers (:mod:`formats.track_csv`, :mod:`formats.datasets`), the dispatch over them
+(:mod:`formats.tracks`) and the log writer (:mod:`formats.tracks_log`) all use these, so they
+sit below all of them, in a module that imports none of them:
+
+- :data:`LAYOUTS`: the layouts :func:`formats.tracks.read_track_data` reads (an error names
+  them, whichever reader raised it); :data:`RELATIVE_TIME_LAYOUTS`: those counting from 0.
+- :class:`TracksFormatError`: a tracks file that cannot be read.
+- :class:`TrackData`: a file read whole, its detections and the spans in which the sensor was
+  recording; :func:`merge_spans` joins such spans, :func:`sessions` finds recording sessions
+  in header-less files.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import InputError
+from aion_cli.engine.types import F64, DetectionBatch
+
+Layout = Literal[
+    "canonical", "atc", "thor", "eth", "ucy", "lincoln", "edinburgh", "thor-magni"
+]
+LAYOUTS: tuple[str, ...] = (
+    "canonical",
+    "atc",
+    "thor",
+    "eth",
+    "ucy",
+    "lincoln",
+    "edinburgh",
+    "thor-magni",
+)
+#: layouts whose times count from 0 (the recording's start), not from the UNIX epoch
+RELATIVE_TIME_LAYOUTS: tuple[str, ...] = ("thor", "eth", "ucy", "edinburgh", "thor-magni")
+
+
+class TracksFormatError(InputError):
+    """A tracks file has the wrong layout, non-numeric data, or no rows."""
+
+
+@dataclass(frozen=True)
+class TrackData:
+    """A tracks file read whole: its detections and when the sensor was recording.
+
+    ``observed`` lists sorted, disjoint, half-open ``[start, end)`` UNIX-ns spans in which the
+    sensor ran (empty: the file does not say; do not take its time span as observed).
+    ``notes`` are one-line remarks about the file for the user. ``detector_heading`` is a
+    heading column the file itself carries (rad, aligned with ``batch`` rows), else None.
+    """
+
+    batch: DetectionBatch
+    observed: list[tuple[int, int]] = field(default_factory=list)
+    notes: tuple[str, ...] = ()
+    detector_heading: F64 | None = None
+
+
+def merge_spans(spans: Iterable[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Sorted union of half-open ``[start, end)`` spans (overlapping or touching ones joined).
+
+    Raises :class:`InputError` for a span whose end is not after its start.
+    """
+    items = sorted((int(a), int(b)) for a, b in spans)
+    for a, b in items:
+        if b <= a:
+            raise InputError(
+                f"observed span {a}..{b} ns ends before it starts",
+                hint="give each span as START..END with END after START",
+            )
+    merged: list[tuple[int, int]] = []
+    for a, b in items:
+        if merged and a <= merged[-1][1]:
+            merged[-1] = (merged[-1][0], max(merged[-1][1], b))
+        else:
+            merged.append((a, b))
+    return merged
+
+
+def sessions(t_ns: npt.ArrayLike, gap_ns: int) -> list[tuple[int, int]]:
+    """Recording sessions of a set of detection times: the times split wherever two successive
+    detections are more than ``gap_ns`` apart, each session spanning ``[first, last + 1 ns)``
+    (half-open, so its last detection is inside).
+
+    Used to declare what a header-less dataset observed: a corridor dataset recorded on
+    several days has sessions of hours separated by nights. Empty input: no sessions.
+    """
+    if not gap_ns > 0:
+        raise InputError(f"the session gap must be > 0 ns, got {gap_ns}")
+    t = np.unique(np.asarray(t_ns, dtype=np.int64))
+    if t.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(t) > gap_ns)
+    starts = np.concatenate([[0], cut + 1])
+    ends = np.concatenate([cut, [len(t) - 1]])
+    return [(int(a), int(b) + 1) for a, b in zip(t[starts], t[ends], strict=True)]
+
+
+def _utc(t_ns: int) -> str:
+    return datetime.fromtimestamp(t_ns / 1e9, UTC).strftime("%Y-%m-%d %H:%M:%S")

@@ -1,0 +1,467 @@
+"""Track batches -> robot-style logs (MCAP or bag) that ``aion build`` reads like any other.
+
+:func:`tracks_to_log` turns a batch (plus optionally a Hydra graph and the observed spans,
+written as empty detection messages at :func:`observed_stamps`) into a log of spencer
+``TrackedPersons`` (serialized with numpy, :func:`_tracked_person_records` /
+:func:`_tracked_persons_bytes`) or ``PoseArray`` messages; :func:`stream_tracks_to_log` does
+the same for a file read :data:`formats.track_csv.CHUNK_ROWS` lines at a time. Reading the
+files is :mod:`formats.tracks`' job; this module only writes.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import InputError
+from aion_cli.engine.types import F64, I64, BoolA, DetectionBatch
+from formats.track_csv import CHUNK_ROWS, track_chunks
+from formats.track_types import _utc, merge_spans
+from formats.tracks import read_tracks
+
+SPENCER_TRACKED = "spencer_tracking_msgs/msg/TrackedPersons"
+POSE_ARRAY = "geometry_msgs/msg/PoseArray"
+DSG_UPDATE = "hydra_msgs/msg/DsgUpdate"
+#: spencer convention: a variance above 99999 marks a velocity / orientation as "not set"
+UNSET_VARIANCE = 1e6
+
+
+@dataclass(frozen=True)
+class TracksLogSummary:
+    """What :func:`tracks_to_log` wrote: messages with detections, empty "still observing"
+    messages over the ``observed`` spans, scene-graph messages, and the time span of all
+    messages (``start_ns``..``end_ns``, inclusive)."""
+
+    path: Path
+    detection_messages: int
+    detections: int
+    graph_messages: int
+    start_ns: int
+    end_ns: int
+    observed_messages: int = 0
+    observed_spans: int = 0
+    observed_ns: int = 0
+    #: distinct track ids among the detections
+    tracks: int = 0
+
+
+#: interval of the empty detection messages over an observed span: far below any sane
+#: observation window (aion's default is 600 s), so every window the span touches holds one
+OBSERVED_INTERVAL_NS = 30 * 1_000_000_000
+
+
+def observed_stamps(
+    spans: Iterable[tuple[int, int]], interval_ns: int = OBSERVED_INTERVAL_NS
+) -> I64:
+    """Stamps of the empty detection messages that mark ``spans`` (half-open ``[start, end)``
+    ns, merged first) as observed: ``start, start + interval, ...`` while before ``end``, and
+    the span's last instant ``end - 1 ns``, so a window that overlaps a span only briefly at
+    either end still gets a message. Sorted, unique."""
+    if not interval_ns > 0:
+        raise InputError(f"the observed-message interval must be > 0 ns, got {interval_ns}")
+    parts = [
+        np.append(np.arange(a, b, interval_ns, dtype=np.int64), np.int64(b - 1))
+        for a, b in merge_spans(spans)
+    ]
+    return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+
+
+def _group_keys(t_ns: I64, group_ns: int, t0: int) -> I64:
+    """The message each time-sorted row goes into: one message per distinct time, or per
+    ``group_ns`` bin counted from ``t0`` (the first detection) when ``group_ns > 0``."""
+    return t_ns if group_ns <= 0 else (t_ns - np.int64(t0)) // group_ns
+
+
+def _group_bounds(t_ns: I64, group_ns: int, t0: int | None = None) -> tuple[I64, I64]:
+    """Message stamps and split points of time-sorted rows (:func:`_group_keys`; a bin's
+    message is stamped at its first detection)."""
+    key = _group_keys(t_ns, group_ns, int(t_ns[0]) if t0 is None else t0)
+    _, first = np.unique(key, return_index=True)
+    return t_ns[first], first[1:]
+
+
+def _orientation_velocity(batch: DetectionBatch) -> tuple[F64, F64, BoolA, BoolA]:
+    """Yaw quaternions (x, y, z, w) from the headings and planar velocities from heading and
+    speed, with masks of which are known (unknown: identity / zero, flagged by the caller)."""
+    known_h = np.isfinite(batch.heading)
+    known_v = known_h & np.isfinite(batch.speed)
+    h = np.where(known_h, batch.heading, 0.0)
+    quat = np.zeros((len(batch), 4))
+    quat[:, 2], quat[:, 3] = np.sin(h / 2), np.cos(h / 2)
+    s = np.where(known_v, batch.speed, 0.0)
+    vel = np.zeros((len(batch), 3))
+    vel[:, 0], vel[:, 1] = s * np.cos(h), s * np.sin(h)
+    return quat, vel, known_h, known_v
+
+
+# spencer_tracking_msgs/TrackedPerson on the wire: uint64 track_id, bool is_occluded, bool
+# is_matched, uint64 detection_id, duration age, PoseWithCovariance, TwistWithCovariance.
+# CDR aligns the uint64s to 8 (record 712 bytes, a multiple of 8); ROS 1 packs (706 bytes).
+# The same offsets are what formats.detections.fast reads.
+_TP_NAMES = (
+    "track_id",
+    "is_occluded",
+    "is_matched",
+    "detection_id",
+    "age_sec",
+    "age_nsec",
+    "pose",
+    "pose_cov",
+    "twist",
+    "twist_cov",
+)
+_TP_LAYOUT = {
+    True: ((0, 8, 9, 16, 24, 28, 32, 88, 376, 424), 712, "<u4"),
+    False: ((0, 8, 9, 10, 18, 22, 26, 82, 370, 418), 706, "<i4"),
+}
+_CDR_LE = b"\x00\x01\x00\x00"  # CDR little-endian encapsulation header
+
+
+def _tracked_person_records(
+    batch: DetectionBatch, cdr: bool, first_id: int = 0
+) -> npt.NDArray[np.void]:
+    """Every row's serialized TrackedPerson, built in one go as a structured array; detection
+    ids count from ``first_id`` (the row's index in the whole log)."""
+    offsets, itemsize, nsec_type = _TP_LAYOUT[cdr]
+    formats = [
+        "<u8",
+        "u1",
+        "u1",
+        "<u8",
+        "<i4",
+        nsec_type,
+        ("<f8", (7,)),
+        ("<f8", (36,)),
+        ("<f8", (6,)),
+        ("<f8", (36,)),
+    ]
+    dtype = np.dtype(
+        {"names": _TP_NAMES, "formats": formats, "offsets": offsets, "itemsize": itemsize}
+    )
+    quat, vel, known_h, known_v = _orientation_velocity(batch)
+    rec = np.zeros(len(batch), dtype=dtype)
+    rec["track_id"] = batch.track_id.astype(np.uint64)
+    rec["is_matched"] = 1
+    rec["detection_id"] = np.arange(first_id, first_id + len(batch), dtype=np.uint64)
+    rec["pose"][:, :3] = batch.xyz
+    rec["pose"][:, 3:] = quat
+    rec["pose_cov"][~known_h, 35] = UNSET_VARIANCE
+    rec["twist"][:, :3] = vel
+    unset_v = np.flatnonzero(~known_v)
+    for k in (0, 7, 14):  # the x, y, z velocity variances
+        rec["twist_cov"][unset_v, k] = UNSET_VARIANCE
+    return rec
+
+
+def _tracked_persons_bytes(
+    records: npt.NDArray[np.void], t_ns: int, frame_id: str, cdr: bool, seq: int
+) -> bytes:
+    """A whole serialized TrackedPersons message: header, count, then the records' bytes."""
+    sec, nsec = divmod(int(t_ns), 1_000_000_000)
+    frame = frame_id.encode()
+    count = struct.pack("<I", len(records))
+    if not cdr:  # ROS 1: seq, time, string without terminator, packed
+        head = struct.pack("<IIII", seq, sec, nsec, len(frame)) + frame
+        return head + count + records.tobytes()
+    frame += b"\x00"
+    head = struct.pack("<iII", sec, nsec, len(frame)) + frame
+    head += b"\x00" * (-len(head) % 4) + count
+    head += b"\x00" * (-len(head) % 8 if len(records) else 0)  # first uint64 aligned to 8
+    return _CDR_LE + head + records.tobytes()
+
+
+def _pose_array_message(
+    t_ns: int, xyz: list[list[float]], quat: list[list[float]], frame_id: str
+) -> dict[str, Any]:
+    """A geometry_msgs/PoseArray dict (ROS 2 naming) for one stamp's rows."""
+    sec, nsec = divmod(int(t_ns), 1_000_000_000)
+    poses = [
+        {
+            "position": {"x": p[0], "y": p[1], "z": p[2]},
+            "orientation": {"x": q[0], "y": q[1], "z": q[2], "w": q[3]},
+        }
+        for p, q in zip(xyz, quat, strict=True)
+    ]
+    return {
+        "header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": frame_id},
+        "poses": poses,
+    }
+
+
+def _graph_payload(graph_file: str | Path) -> bytes:
+    """spark_dsg binary of a graph file, mesh included, as Hydra publishes it."""
+    from formats.dsg import load_dsg_file
+
+    payload: bytes = load_dsg_file(graph_file).to_binary(True)
+    return payload
+
+
+def tracks_to_log(
+    batch: DetectionBatch,
+    out_path: str | Path,
+    graph_file: str | Path | None = None,
+    container: str = "mcap",
+    topic: str = "/people_tracker/tracked_persons",
+    msgtype: str = SPENCER_TRACKED,
+    frame_id: str = "map",
+    group_ns: int = 0,
+    graph_topic: str = "/hydra/backend/dsg",
+    graph_period_s: float = 60.0,
+    overwrite: bool = False,
+    observed: Iterable[tuple[int, int]] = (),
+) -> TracksLogSummary:
+    """Write ``batch`` as a people-tracking log that ``aion build`` reads like a robot's.
+
+    One ``msgtype`` message (spencer ``TrackedPersons`` with velocity from heading and speed,
+    or ``PoseArray`` with the heading as yaw) per distinct timestamp, or per ``group_ns`` bin;
+    positions are in ``frame_id`` (the map, so no ``/tf`` is needed). With ``graph_file``, a
+    ``hydra_msgs/DsgUpdate`` carrying the whole graph (mesh included) is written at the first
+    stamp and again every ``graph_period_s`` so a reader joining late still gets it.
+    Unknown headings / speeds are marked with the spencer "unset" variance.
+
+    ``observed`` lists the half-open ``[start, end)`` ns spans in which the sensor was
+    recording. A fixed sensor's log counts as observed only in the windows in which it holds
+    a message, so over these spans empty messages (same topic and type, no people) are
+    written as a running tracker publishes them, at :func:`observed_stamps` (every
+    :data:`OBSERVED_INTERVAL_NS`), merged in time order with the detection messages.
+    Without spans only the detections are written: windows without one count as unobserved.
+    The batch may be empty when spans are given (the sensor ran, nobody came).
+
+    Times must lie in ``0 .. 2^63 - 1`` ns (:class:`formats.writers.LogTimeError`, raised
+    before anything is written). The messages are built :data:`CHUNK_ROWS` rows at a time
+    (:func:`stream_tracks_to_log` reads the file that way too).
+    """
+    if len(batch) == 0 and not merge_spans(observed):
+        raise InputError("no detections to write", hint="the tracks file has no rows")
+    data = batch.sorted_by_time()
+    n, step = len(data), CHUNK_ROWS
+    chunks = (data.select(np.arange(a, min(a + step, n))) for a in range(0, n, step))
+    return _write_tracks(
+        chunks, out_path, graph_file=graph_file, container=container, topic=topic,
+        msgtype=msgtype, frame_id=frame_id, group_ns=group_ns, graph_topic=graph_topic,
+        graph_period_s=graph_period_s, overwrite=overwrite, observed=observed,
+    )
+
+
+def stream_tracks_to_log(
+    tracks: str | Path,
+    out_path: str | Path,
+    layout: str = "canonical",
+    start_ns: int = 0,
+    rows: int | None = None,
+    **options: Any,
+) -> TracksLogSummary:
+    """:func:`tracks_to_log` of a canonical / ATC / THÖR file (:data:`STREAM_LAYOUTS`) read
+    ``rows`` lines (default :data:`CHUNK_ROWS`) at a time: memory for one chunk, whatever the
+    file's length, and the same log as reading the whole file. That needs the file in time
+    order, chunk after chunk (rows within a chunk may be in any order); if a chunk starts
+    before the previous one ended, the partial log is thrown away and the file is read whole
+    (memory ~70 bytes per row) and sorted, as :func:`read_tracks` does. ``options``: those
+    of :func:`tracks_to_log`."""
+    chunks = (c.sorted_by_time() for c in track_chunks(tracks, layout, start_ns, rows))
+    try:
+        return _write_tracks(chunks, out_path, **options)
+    except _UnsortedError:
+        return tracks_to_log(read_tracks(tracks, layout, start_ns), out_path, **options)
+
+
+class _UnsortedError(Exception):
+    """A chunk starts before the previous one ended (streamed input out of time order)."""
+
+
+def _check_log_times(t_ns: I64, what: str) -> None:
+    """Log times are nanoseconds since 1970 in ``0 .. 2^63 - 1`` (int64 holds no more):
+    a time before 1970 is a :class:`formats.writers.LogTimeError` naming it."""
+    if len(t_ns) and int(t_ns.min()) < 0:
+        from formats.writers import MAX_LOG_TIME_NS, LogTimeError
+
+        first = int(t_ns.min())
+        raise LogTimeError(
+            f"{what} have times before 1970, the first at log time {first} ns "
+            f"({_utc(first)} UTC): log times are nanoseconds since 1970 in "
+            f"0..{MAX_LOG_TIME_NS} (1970-01-01 to 2262-04-11)",
+            hint="shift the times (--start for layouts that count from 0) or drop those rows",
+        )
+
+
+@dataclass
+class _Messages:
+    """Writes the messages of a tracks log in time order: detection messages (a group of
+    rows each), the empty "still observing" messages at ``marks`` (after a detection message
+    of the same time), and the scene graph every ``period`` ns from the first message."""
+
+    writer: Any
+    kind: str
+    topic: str
+    frame_id: str
+    marks: I64
+    payload: bytes | None
+    graph_topic: str
+    period: int
+    next_mark: int = 0
+    seq: int = 0  # detection and mark messages written (their ROS 1 header seq)
+    graph_next: int | None = None
+    graphs: int = 0
+    first_ns: int | None = None
+    last_ns: int | None = None
+
+    def rows(self, data: DetectionBatch, stamps: I64, splits: I64, first_id: int) -> None:
+        """One message per group of ``data`` (time-sorted rows, groups split at ``splits``
+        and stamped ``stamps``); ``first_id`` numbers the rows (TrackedPerson ids)."""
+        cdr = self.writer.ros_version == 2
+        if self.kind == SPENCER_TRACKED:
+            records = _tracked_person_records(data, cdr, first_id)
+        else:
+            quat = _orientation_velocity(data)[0].tolist()
+            xyz = data.xyz.tolist()
+        bounds = np.concatenate([[0], splits, [len(data)]]).tolist()
+        for t, a, b in zip(stamps.tolist(), bounds[:-1], bounds[1:], strict=True):
+            self.marks_before(t)
+            self._before(t)
+            if self.kind == SPENCER_TRACKED:
+                raw = _tracked_persons_bytes(records[a:b], t, self.frame_id, cdr, self.seq)
+                self.writer.write_raw(self.topic, self.kind, raw, t)
+            else:
+                msg = _pose_array_message(t, xyz[a:b], quat[a:b], self.frame_id)
+                self.writer.write(self.topic, self.kind, msg, t)
+            self.seq += 1
+
+    def marks_before(self, t: int | None) -> None:
+        """The empty messages stamped before ``t`` (all that are left when None)."""
+        end = len(self.marks) if t is None else int(np.searchsorted(self.marks, t, "left"))
+        cdr = self.writer.ros_version == 2
+        for m in self.marks[self.next_mark : end].tolist():
+            self._before(m)
+            if self.kind == SPENCER_TRACKED:
+                empty = _tracked_persons_bytes(_NO_RECORDS[cdr], m, self.frame_id, cdr, self.seq)
+                self.writer.write_raw(self.topic, self.kind, empty, m)
+            else:
+                self.writer.write(self.topic, self.kind, _pose_array_message(
+                    m, [], [], self.frame_id), m)
+            self.seq += 1
+        self.next_mark = max(self.next_mark, end)
+
+    def _before(self, t: int) -> None:
+        """Bookkeeping before a message at ``t``: the scene graphs due by then."""
+        from formats.writers import stamp
+
+        if self.first_ns is None:
+            self.first_ns = t
+            self.graph_next = t if self.payload is not None else None
+        self.last_ns = t
+        while self.graph_next is not None and self.graph_next <= t:
+            g = self.graph_next
+            self.writer.write(
+                self.graph_topic,
+                DSG_UPDATE,
+                {
+                    "header": {"stamp": stamp(g), "frame_id": self.frame_id},
+                    "layer_contents": self.payload,
+                    "full_update": True,
+                    "sequence_number": self.graphs,
+                },
+                g,
+            )
+            self.graphs += 1
+            self.graph_next = g + self.period
+
+
+_NO_RECORDS = {cdr: np.zeros(0, dtype=_tracked_person_records(DetectionBatch.empty(), cdr).dtype)
+               for cdr in (True, False)}
+
+
+def _write_tracks(
+    chunks: Iterable[DetectionBatch],
+    out_path: str | Path,
+    graph_file: str | Path | None = None,
+    container: str = "mcap",
+    topic: str = "/people_tracker/tracked_persons",
+    msgtype: str = SPENCER_TRACKED,
+    frame_id: str = "map",
+    group_ns: int = 0,
+    graph_topic: str = "/hydra/backend/dsg",
+    graph_period_s: float = 60.0,
+    overwrite: bool = False,
+    observed: Iterable[tuple[int, int]] = (),
+) -> TracksLogSummary:
+    """:func:`tracks_to_log` over time-sorted ``chunks`` (each sorted; a chunk starting
+    before the previous one ended raises :class:`_UnsortedError`, the partial log thrown
+    away). The rows of a chunk's last message are held back until the next chunk shows it is
+    complete, so the messages are those of the concatenated rows."""
+    from formats.raw import normalize_msgtype
+    from formats.writers import LogWriter
+
+    kind = normalize_msgtype(msgtype)
+    if kind not in (SPENCER_TRACKED, POSE_ARRAY):
+        raise InputError(
+            f"cannot write tracks as {msgtype!r}", hint=f"use {SPENCER_TRACKED} or {POSE_ARRAY}"
+        )
+    if not graph_period_s > 0:
+        raise InputError(f"graph period must be > 0 s, got {graph_period_s}")
+    spans = merge_spans(observed)
+    marks = observed_stamps(spans)
+    _check_log_times(marks, "the observed spans")
+    payload = _graph_payload(graph_file) if graph_file is not None else None
+    rows = groups = 0
+    track_ids = np.zeros(0, np.int64)
+    with LogWriter(out_path, container, overwrite=overwrite) as writer:
+        out = _Messages(
+            writer, kind, topic, frame_id, marks, payload, graph_topic, round(graph_period_s * 1e9)
+        )
+        held: DetectionBatch | None = None  # the rows of the last, maybe unfinished, message
+        t0: int | None = None
+        for chunk in chunks:
+            if len(chunk) == 0:
+                continue
+            _check_chunk(chunk, kind, held)
+            t0 = int(chunk.t_ns[0]) if t0 is None else t0
+            track_ids = np.union1d(track_ids, chunk.track_id)
+            data = chunk if held is None else DetectionBatch.concat([held, chunk])
+            keys = _group_keys(data.t_ns, group_ns, t0)
+            cut = int(np.searchsorted(keys, keys[-1], "left"))  # the last message's rows
+            if cut > 0:
+                done = data.select(np.arange(cut))
+                stamps, splits = _group_bounds(done.t_ns, group_ns, t0)
+                out.rows(done, stamps, splits, rows)
+                rows, groups = rows + cut, groups + len(stamps)
+            held = data.select(np.arange(cut, len(data)))
+        if held is not None:
+            stamps, splits = _group_bounds(held.t_ns, group_ns, t0)
+            out.rows(held, stamps, splits, rows)
+            rows, groups = rows + len(held), groups + len(stamps)
+        if rows == 0 and not spans:
+            raise InputError("no detections to write", hint="the tracks file has no rows")
+        out.marks_before(None)
+    assert out.first_ns is not None
+    assert out.last_ns is not None
+    return TracksLogSummary(
+        Path(out_path),
+        groups,
+        rows,
+        out.graphs,
+        out.first_ns,
+        out.last_ns,
+        observed_messages=len(marks),
+        observed_spans=len(spans),
+        observed_ns=sum(b - a for a, b in spans),
+        tracks=len(track_ids),
+    )
+
+
+def _check_chunk(chunk: DetectionBatch, kind: str, held: DetectionBatch | None) -> None:
+    """A chunk may be written: times in range, in order after what came before, track ids
+    where TrackedPersons needs them."""
+    if held is not None and int(chunk.t_ns[0]) < int(held.t_ns[-1]):
+        raise _UnsortedError
+    _check_log_times(chunk.t_ns, "the tracks")
+    if kind == SPENCER_TRACKED and (chunk.track_id < 0).any():
+        raise InputError(
+            "TrackedPersons needs track ids, some rows have none (-1)",
+            hint=f"write the rows as {POSE_ARRAY} instead",
+        )
