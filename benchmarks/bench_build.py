@@ -184,11 +184,11 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
     ``graph(t)`` every ``graph_period_s`` from the first message on, merged in time order.
 
     Messages are serialized with numpy through the project's own CDR helpers
-    (``formats.tracks._tracked_person_records`` / ``_tracked_persons_bytes``) 20,000 at a time
+    (``formats.tracks_log._tracked_person_records`` / ``_tracked_persons_bytes``) 20,000 at a time
     and written with ``formats.writers.LogWriter`` (MCAP, zstd chunks), which writes to a
     staging name and renames on success, so an interrupted run leaves no truncated cache."""
     from aion_cli.engine.types import DetectionBatch
-    from formats.tracks import _tracked_person_records, _tracked_persons_bytes
+    from formats.tracks_log import _tracked_person_records, _tracked_persons_bytes
     from formats.writers import LogWriter, stamp
 
     if path.exists():
