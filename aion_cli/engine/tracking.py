@@ -22,7 +22,7 @@ steps, both pure numpy/scipy:
    walker does not turn into a random direction. A detection with no such point within
    ``heading_span_s`` either way (a standing person) has no heading (NaN); its speed is the
    plain neighbour difference (small, noisy), NaN for a single-detection track.
-   With ``min_step = 0`` this is the plain neighbour difference of ``formats.tracks``
+   With ``min_step = 0`` this is the plain neighbour difference of ``formats.track_csv``
    (``finite_difference`` is this function).
 
 Rows whose position is NaN or infinite take no part: ``track_id`` -1, heading and speed NaN.
