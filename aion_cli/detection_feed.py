@@ -516,8 +516,14 @@ class TopicFeeders:
 
     def topics_of(self, batch: DetectionBatch) -> I64:
         """The topic index (into :attr:`topics`) of each row of a batch :meth:`decode` or
-        :meth:`decode_segments` gave."""
-        return self._labels.pop(id(batch))
+        :meth:`decode_segments` gave (an empty batch, which may be a chunk no topic decoded
+        anything from, has no rows to label)."""
+        labels = self._labels.pop(id(batch), None)
+        if labels is None:
+            if len(batch):
+                raise KeyError("topics_of: a batch this TopicFeeders did not decode")
+            return np.zeros(0, np.int64)
+        return labels
 
     def total(self) -> DetectionCounts:
         """Every topic's counts added up (``used`` is the caller's)."""

@@ -242,3 +242,21 @@ def test_topic_feeders_merge_topics_per_piece_as_before(seed: int) -> None:
     assert ta.total() == tb.total()
     assert not ta._labels
     assert not tb._labels
+
+
+def test_an_empty_piece_has_no_topics_to_label() -> None:
+    """A piece no topic decoded anything from (no detection message in it) gives an empty
+    batch whose topic labels are empty — the build feeds it without a KeyError (the office
+    scene's first chunk is such a piece)."""
+
+    def make(counts: DetectionCounts) -> DetectionFeeder:
+        return DetectionFeeder(None, "map", counts)
+
+    feeders = TopicFeeders(make, ["/a"])
+    empty = feeders.decode([])
+    assert len(empty) == 0
+    assert feeders.topics_of(empty).tolist() == []
+    (none,) = feeders.decode_segments([[]])
+    assert none is None
+    with pytest.raises(KeyError):
+        feeders.topics_of(DetectionBatch.from_arrays(t_ns=[1], xyz=[[0.0, 0.0, 0.0]]))
