@@ -413,7 +413,9 @@ def _split(
 
 
 def _rows(batch: DetectionBatch, a: int, b: int) -> DetectionBatch:
-    if a == 0 and b == len(batch):
+    """Rows ``a:b`` as a batch of their own (a distinct object per piece, even when empty:
+    :meth:`TopicFeeders.topics_of` finds a piece's labels by identity)."""
+    if a == 0 and b == len(batch) > 0:
         return batch
     return DetectionBatch(
         batch.t_ns[a:b], batch.xyz[a:b], batch.heading[a:b], batch.speed[a:b],
