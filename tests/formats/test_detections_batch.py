@@ -80,3 +80,46 @@ def test_many_messages_at_once_equal_rosbags_one_by_one(
     assert got.stamp_fallbacks == want.stamp_fallbacks
     assert got.filtered.get("class", 0) == want.filtered.get("class", 0)
     assert got.n_messages == n
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+@pytest.mark.parametrize("seed", range(4))
+def test_a_job_with_damaged_messages_skips_only_them_in_few_decodes(ros: int, seed: int) -> None:
+    """Skip mode on a decode job of hundreds of messages with a few truncated ones: the rows,
+    counts and first error are those of decoding every message alone, and the job is halved
+    down to the bad messages (a few dozen fast decodes, not one per message)."""
+    rng = np.random.default_rng(seed)
+    good = [
+        raw(TRACKED, {"header": {"stamp": {"sec": 5, "nanosec": i}, "frame_id": "map"},
+                      "tracks": [{"track_id": i * 10 + k} for k in range(int(rng.integers(0, 4)))]},
+            ros, log_time_ns=100 + i)
+        for i in range(400)
+    ]
+    bad_at = set(rng.choice(400, int(rng.integers(1, 4)), replace=False).tolist())
+    msgs = [
+        RawMessage(m.topic, m.msgtype, m.log_time_ns, m.data[: len(m.data) // 2], m.encoding)
+        if i in bad_at else m
+        for i, m in enumerate(good)
+    ]
+    adapter = adapter_for(TRACKED)
+    alone = adapter_for(TRACKED)
+    assert adapter is not None
+    assert alone is not None
+    assert adapter.fast is not None
+    fast = adapter.fast
+    calls = [0]
+
+    def counted(j: Any) -> Any:
+        calls[0] += 1
+        return fast(j)
+
+    adapter.fast = counted
+    got = adapter.decode(msgs, on_error="skip")
+    want = FrameDetections.concat([alone.decode([m], on_error="skip") for m in msgs])
+    for name in ("t_ns", "xyz", "velocity", "yaw", "track_id", "msg_index"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
+    assert got.filtered == want.filtered == {"undecodable": len(bad_at)}
+    assert adapter.first_error is not None
+    assert alone.first_error is not None
+    assert adapter.first_error.message == alone.first_error.message
+    assert calls[0] <= 1 + 2 * len(bad_at) * 10  # halvings of 400 messages: ~9 levels
