@@ -2,11 +2,11 @@
 never produces more than it is allowed to.
 
 A 33 KB MCAP file can hold a zstd chunk that expands to a gigabyte, a 6 KB ROS 1 bag a bz2 chunk
-of the same size: read naively, each takes gigabytes of memory for nothing. The readers of
-:mod:`formats.logs` therefore check the uncompressed size a chunk declares before
-decompressing it, and decompress with a bounded output (zstd and lz4 frames, bz2 streams), so
-that a header that lies about the size cannot blow up either: a chunk that expands beyond what
-it declares is refused after at most ``declared + 1`` bytes.
+of the same size: read naively, each takes gigabytes of memory for nothing. The readers
+(:mod:`formats.mcap_source`, :mod:`formats.bag_reader`) therefore check the uncompressed size a
+chunk declares before decompressing it, and decompress with a bounded output (zstd and lz4
+frames, bz2 streams), so that a header that lies about the size cannot blow up either: a chunk
+that expands beyond what it declares is refused after at most ``declared + 1`` bytes.
 
 Defaults: 512 MiB per chunk (:data:`DEFAULT_MAX_CHUNK_MB`), 256 MiB per message
 (:data:`DEFAULT_MAX_MESSAGE_MB`): far above what recorders write (MCAP writers default to 1 to

@@ -1,6 +1,6 @@
 """MCAP records read byte by byte, with bounded memory and without trusting the summary.
 
-:mod:`formats.logs` reads MCAP files through this module rather than the ``mcap`` library's
+:mod:`formats.mcap_source` reads MCAP files through this module rather than the ``mcap`` library's
 stream and seeking readers, because those decompress a chunk whole (a 33 KB file can hold a
 chunk that expands to a gigabyte), stop at the first chunk that fails its CRC, and read what the
 summary indexes without checking it against the data. Here:

@@ -414,7 +414,7 @@ def definition_layout(
     taken from aion's base store of ``ros_version``. None when the text cannot be parsed or
     leaves a type undefined."""
     from aion_cli.engine.errors import MessageDecodeError
-    from formats.logs import _parse_definition
+    from formats.typestores import _parse_definition
 
     name = normalize_msgtype(msgtype)
     try:

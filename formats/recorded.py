@@ -4,7 +4,8 @@ A log without a robot trajectory is a fixed sensor that observed exactly the win
 recorded at least one message (design, section 4): never the time between two recordings. Window
 ``w`` is ``floor(t_ns / window_ns)`` of a message's log time, aligned to the UNIX epoch.
 
-The readers in :mod:`formats.logs` answer that from what each container indexes (MCAP chunk and
+The readers of :mod:`formats.mcap_source`, :mod:`formats.rosbags_source` and
+:mod:`formats.rosbag2_reindex` answer that from what each container indexes (MCAP chunk and
 message indexes, the ROS 1 bag index, the rosbag2 sqlite3 ``timestamp`` column) and fall back to
 message log times only where nothing is indexed. This module holds the byte-level and numpy parts
 of that: window arithmetic, MessageIndex and chunk-record parsing, the SQL query. No file is

@@ -4,7 +4,7 @@ A rosbag2 bag is a folder with ``metadata.yaml`` and storage files (``*.db3`` fo
 ``*.mcap`` for mcap), compressed whole with zstd (``*.db3.zstd``, ``*.mcap.zstd``) when the bag
 was recorded with ``compression_mode: file``. A recording killed before it finished, or a bag
 whose ``metadata.yaml`` was lost, leaves the storage files only: ``ros2 bag reindex`` rebuilds
-the metadata from them, and :mod:`formats.logs` does the same in memory.
+the metadata from them, and :mod:`formats.rosbag2_reindex` does the same in memory.
 
 This module holds what that needs below the readers: the storage files of a folder in their
 recording order (:func:`storage_files`), the kind of a file from its first bytes, through zstd

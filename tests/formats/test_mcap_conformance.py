@@ -5,7 +5,7 @@ of log-time order in a file read linearly, and a summary without channel records
 
 The suite's channels are not ROS (message encoding ``a``, schema encoding ``c``), so
 :class:`~formats.logs.LogSet` lists none of them as topics. The reader is tested one level
-below, on :meth:`formats.logs._McapSource.records`: the same chunk-index, library and linear
+below, on :meth:`formats.mcap_source._McapSource.records`: the same chunk-index, library and linear
 paths ``LogSet.messages()`` takes, for every channel of the file (ROS or not). The ROS-level
 path is tested on files written here with the same layouts.
 """
@@ -19,7 +19,8 @@ from typing import Any
 import pytest
 
 from aion_cli.engine.errors import LogFormatError
-from formats.logs import _McapSource, open_logs
+from formats.logs import open_logs
+from formats.mcap_source import _McapSource
 from tests.shared_data import FIXTURES, SHARED_DATA, real_path
 
 DATA = real_path("logs", "mcap_conformance")  # the whole suite, else tests/data's 8 files

@@ -14,7 +14,8 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-import formats.logs
+import formats.mcap_linear
+import formats.mcap_source
 from aion_cli.engine.errors import ConfigError
 from formats.logs import LogSet, open_logs
 from formats.writers import CONTAINERS, LogWriter, stamp
@@ -96,7 +97,7 @@ def test_mcap_chunk_spanning_the_gap_is_answered_from_its_message_index(
     assert summary is not None
     (chunk,) = summary.chunk_indexes  # one chunk holds both sessions and the gap between them
     assert chunk.message_index_offsets
-    monkeypatch.setattr(formats.logs, "_decompress", _boom)  # no chunk is decompressed
+    monkeypatch.setattr(formats.mcap_linear, "_decompress", _boom)  # no chunk is decompressed
     with open_logs([path]) as logs:
         assert logs.recorded_windows(WINDOW).tolist() == SESSIONS
 
@@ -208,7 +209,7 @@ def test_narrow_chunks_need_no_message_time(
     def no_reads(self: Any, stream: Any, index: Any) -> NoReturn:
         raise AssertionError("a chunk inside two windows needs no message time")
 
-    monkeypatch.setattr(formats.logs._McapSource, "_chunk_times", no_reads)
+    monkeypatch.setattr(formats.mcap_source._McapSource, "_chunk_times", no_reads)
     with open_logs([path]) as logs:
         assert logs.recorded_windows(WINDOW).tolist() == SESSIONS
 

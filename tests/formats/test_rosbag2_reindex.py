@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.errors import LogFormatError
-from formats.logs import open_logs, reindex
+from formats.logs import open_logs
+from formats.rosbag2_reindex import reindex
 from tests.cli.conftest import assert_one_line_error, run
 from tests.shared_data import SHARED_DATA, real
 

@@ -1,0 +1,79 @@
+"""Which container a log path holds: :func:`guess_format` (``.mcap`` / ``.bag`` files, rosbag2
+folders or their files, rosbag2 storage files without metadata.yaml, zstd-compressed storage
+files; otherwise the first bytes decide, :func:`formats.rosbag2_storage.sniff`) and the values
+``--log-format`` accepts instead (:data:`FORMATS`). Special files are refused before any read.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from aion_cli.engine.errors import LogFormatError
+from formats.raw import check_regular_input
+
+FORMATS: tuple[str, ...] = ("mcap", "bag", "rosbag2")
+"""Values of ``fmt`` / ``--format``."""
+
+_LOG_HINT = "pass a log file (.mcap, .bag) or a rosbag2 folder"
+
+_BAG_MAGIC = b"#ROSBAG V2.0"
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+def guess_format(path: Path) -> tuple[str, Path]:
+    """``(format, path to open)`` for ``path``: ``.mcap`` / ``.bag`` files, rosbag2 folders
+    (or their ``metadata.yaml`` / storage files), rosbag2 storage files without
+    ``metadata.yaml`` (a folder of them, or one ``.db3``), zstd-compressed storage files
+    (``*.mcap.zstd``, ``*.db3.zstd``, read through a decompressed temporary copy); otherwise
+    the file's first bytes decide (through zstd too)."""
+    from formats import rosbag2_storage as storage
+
+    check_regular_input(path, "log", hint=_LOG_HINT)  # a FIFO or /dev/zero: before any read
+    if not path.exists():
+        raise LogFormatError(f"no such file or folder: {path}", hint="check the log path")
+    if path.is_dir():
+        for entry in path.iterdir():  # what a rosbag2 reader would open
+            if entry.name == "metadata.yaml" or (
+                Path(storage.inner_name(entry)).suffix.lower() in storage.STORAGE_SUFFIXES
+            ):
+                check_regular_input(entry, "log", hint=_LOG_HINT)
+        if (path / "metadata.yaml").is_file() or storage.storage_files(path):
+            return "rosbag2", path
+        found = sorted(p.name for p in path.iterdir())[:5]
+        raise LogFormatError(
+            f"{path} is a folder but not a rosbag2 bag (no metadata.yaml, no storage files)",
+            hint="pass a .mcap or .bag file, or a rosbag2 folder; the folder holds: "
+            + (", ".join(found) if found else "nothing"),
+        )
+    if path.stat().st_size == 0:
+        raise LogFormatError(f"{path} is empty (0 bytes)", hint="the recording was not written")
+    compressed = storage.is_zstd(path)
+    suffix = Path(storage.inner_name(path)).suffix.lower()
+    beside_metadata = (path.parent / "metadata.yaml").is_file()
+    if path.name == "metadata.yaml" or (
+        beside_metadata and (suffix == ".db3" or (compressed and suffix == ".mcap"))
+    ):
+        return "rosbag2", path.parent
+    if not compressed:
+        if suffix == ".mcap":
+            return "mcap", path
+        if suffix == ".bag":
+            return "bag", path
+        if suffix == ".db3":
+            return "rosbag2", path  # one storage file alone: reindexed
+    kind = storage.sniff(path)
+    if kind == "mcap":
+        return ("rosbag2" if compressed else "mcap"), path
+    if kind == "bag":
+        return "bag", path
+    if kind == "sqlite3":
+        return "rosbag2", path
+    if compressed:
+        raise LogFormatError(
+            f"{path} is zstd-compressed but holds no log aion reads",
+            hint="aion reads zstd-compressed rosbag2 storage files (.mcap.zstd, .db3.zstd)",
+        )
+    raise LogFormatError(
+        f"cannot tell the log format of {path}",
+        hint="aion reads .mcap, ROS 1 .bag and rosbag2 folders; use --log-format mcap|bag|rosbag2",
+    )

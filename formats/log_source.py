@@ -1,0 +1,135 @@
+"""What one opened log is to :class:`formats.logs.LogSet`: the :class:`_Source` interface
+every container reader implements (its :class:`LogFile`, its topics as :class:`_Topic`, its
+messages in log-time order, its recorded windows, its warnings), and what the readers share.
+
+The readers live one per container: :mod:`formats.mcap_source` (MCAP files and rosbag2 mcap
+storage), :mod:`formats.rosbags_source` (ROS 1 bags and rosbag2 folders through rosbags) and
+:mod:`formats.rosbag2_reindex` (rosbag2 storage files without metadata.yaml). Here too:
+:class:`_Unpacked`, a source read from decompressed temporary copies of zstd-compressed files,
+and :func:`_unzstd`, the bounded decompression of one zstd-compressed message payload (rosbag2
+``compression_mode: message``), which the MCAP and the rosbag2 storage readers both need.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from formats.raw import Encoding, RawMessage
+
+if TYPE_CHECKING:
+    from formats.recorded import Windows
+
+
+_MESSAGE_ENCODINGS: dict[str, Encoding] = {"cdr": "cdr", "ros1": "ros1"}
+_ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+
+
+@dataclass(frozen=True)
+class LogFile:
+    """One opened file: container format (``mcap-ros2``, ``mcap-ros1``, ``bag``,
+    ``rosbag2-sqlite3``, ``rosbag2-mcap``), size on disk, time range and message count."""
+
+    path: Path
+    format: str
+    size_bytes: int
+    start_ns: int
+    end_ns: int
+    message_count: int
+
+
+@dataclass
+class _Topic:
+    """What a source knows about one of its topics."""
+
+    topic: str
+    msgtype: str
+    encoding: Encoding
+    definition: str
+    idl: bool = False  # definition is ROS 2 IDL rather than .msg text
+    count: int = 0
+    keys: list[Any] = field(default_factory=list)  # channel ids or rosbags connections
+    qos: str = ""  # rosbag2's offered_qos_profiles (YAML text) where the storage keeps it
+
+
+class _Source:
+    """One log file or rosbag2 folder behind :class:`LogSet`."""
+
+    file: LogFile
+    topics: dict[tuple[str, str], _Topic]  # by (topic, msgtype)
+    warnings: list[str]
+
+    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+        """This source's messages on ``topics`` (all when None), in log-time order."""
+        raise NotImplementedError
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        """Sorted unique windows ``floor(t / window_ns)`` (``window_ns`` already checked) that
+        hold at least one message of this source, any topic, from its indexes where it has
+        them."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release the file handles."""
+
+
+class _Unpacked(_Source):
+    """A source read from decompressed temporary copies of zstd-compressed files: shown as the
+    compressed file (``path``, its size on disk; the rosbag2 storage format for an mcap
+    storage file), and removing the copies when closed."""
+
+    def __init__(self, inner: _Source, temps: list[Any], path: Path | None = None) -> None:
+        self.inner = inner
+        self.topics = inner.topics
+        self.warnings = inner.warnings
+        self.file_count = getattr(inner, "file_count", 1)
+        self._temps = temps
+        f = inner.file
+        if path is not None:
+            fmt = f.format
+            if fmt.startswith("mcap") and ".mcap" in path.name:
+                fmt = "rosbag2-mcap"  # *.mcap.zstd: rosbag2's whole-file compression
+            f = replace(f, path=path, format=fmt, size_bytes=path.stat().st_size)
+        self.file = f
+
+    def owns(self, source: _Source) -> None:
+        """Close ``source`` too when this one is closed (what keeps the copies alive)."""
+        self._temps.append(_Closing(source))
+
+    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+        return self.inner.messages(topics)
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        return self.inner.recorded_windows(window_ns)
+
+    def close(self) -> None:
+        try:
+            self.inner.close()
+        finally:
+            for tmp in self._temps:
+                tmp.cleanup()
+
+
+@dataclass
+class _Closing:
+    """A source to close with an :class:`_Unpacked` one (as if it were a temporary folder)."""
+
+    source: _Source
+
+    def cleanup(self) -> None:
+        self.source.close()
+
+
+def _unzstd(data: bytes | memoryview, cap: int) -> bytes:
+    """One zstd-compressed message payload (with or without the content size in its frame),
+    decompressed to at most ``cap`` bytes (:class:`formats.limits.OverLimitError` beyond)."""
+    from formats.limits import ChunkError, OverLimitError, decompress, message_over_limit
+
+    try:
+        return decompress(bytes(data), "zstd", 0, cap)
+    except OverLimitError:
+        raise message_over_limit(cap + 1, cap) from None
+    except ChunkError as exc:
+        raise ValueError(f"cannot decompress a zstd message payload ({exc})") from exc

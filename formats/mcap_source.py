@@ -1,0 +1,439 @@
+"""MCAP files (both ROS profiles, and the storage files of rosbag2 folders with mcap storage) as
+one :class:`formats.log_source._Source`: :class:`_McapSource` and :func:`_open_mcap`.
+
+MCAP files are read with aion's own record reader (:mod:`formats.mcap_records`) rather than
+through rosbags (which refuses ROS 1-profile MCAP; the raw bytes are what the numpy adapters
+want). At open, the summary is checked against the data section; when it agrees, chunks are
+read through the chunk indexes in time order, chunks without requested channels skipped without
+decompressing them, overlapping chunks merged, a chunk that cannot be read skipped alone with a
+warning. Otherwise the file is read linearly (:mod:`formats.mcap_linear`, the other half of the
+class). :meth:`_McapSource.recorded_windows` answers from the chunk indexes and MessageIndex
+records where it can.
+"""
+
+from __future__ import annotations
+
+import heapq
+import io
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import IO, TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.engine.errors import LogFormatError
+
+# mcap_linear._decompress is looked up at call time (tests replace it)
+from formats import mcap_linear, recorded
+from formats.limits import ReadLimits
+from formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Topic, _unzstd
+from formats.mcap_linear import _MCAP_MAGIC, _MCAP_READ_ERRORS, _McapLinearRead, _why
+from formats.raw import Encoding, RawMessage, normalize_msgtype
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from formats.recorded import Windows
+
+
+def _schema_encoding_ok(encoding: str) -> bool:
+    return encoding in ("ros1msg", "ros2msg", "ros2idl", "")
+
+
+class _McapSource(_McapLinearRead):
+    """An MCAP file read with aion's own record reader (:mod:`formats.mcap_records`; both ROS
+    profiles), holding no file open between reads.
+
+    The summary is used only after :func:`formats.mcap_records.check_summary` found it in
+    agreement with the data section: then chunks are visited in time order through the chunk
+    indexes, skipping chunks without requested channels, and a chunk that cannot be read
+    (CRC mismatch, unknown compression, over the size cap, damaged) is skipped alone with a
+    warning naming it and the messages lost. Without a summary, or when it disagrees with the
+    data (chunks or channels it leaves out, statistics that do not match), the file is read
+    linearly, chunk by chunk, up to the first record whose framing is broken.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        fmt_name: str | None = None,
+        limits: ReadLimits | None = None,
+        *,
+        unzstd: bool = False,
+    ) -> None:
+        """``unzstd``: message payloads are zstd-compressed (a rosbag2 bag recorded with
+        ``compression_mode: message``), each decompressed within the message cap."""
+        from mcap.exceptions import McapError
+
+        from formats import mcap_records
+
+        self.path = path
+        self.warnings = []
+        self._limits = limits if limits is not None else ReadLimits.from_env()
+        self._unzstd = unzstd
+        self._size = path.stat().st_size
+        # the mcap library reads the summary section (its errors: McapError)
+        self._errors: tuple[type[BaseException], ...] = (McapError, *_MCAP_READ_ERRORS)
+        self._chunk_indexes: list[Any] | None = None
+        # chunks that cannot be read (offset -> why) and their message counts per channel
+        # (from the message index records after each chunk)
+        self._bad_chunks: dict[int, str] = {}
+        self._chunk_counts: dict[int, dict[int, int]] = {}
+        # chunks whose record states a wrong length: read with their index's (offset -> length)
+        self._lengths: dict[int, int] = {}
+        self._stop_offset: int | None = None
+        # log times of every message, kept by the linear scan of a file without a usable
+        # summary: recorded_windows then needs no second read (8 bytes per message)
+        self._scanned_times: npt.NDArray[np.int64] | None = None
+        # with messages out of order in a file read linearly: the earliest log time of each
+        # group of records holding messages and of all after it (see _records_linear)
+        self._later_min: npt.NDArray[np.int64] | None = None
+        self._profile = ""
+        self.channel_topics: dict[int, str] = {}
+        # messages over the cap met while opening, said once the channels' topics are known
+        self._pending_big: list[tuple[int, int, int]] | None = []
+        with path.open("rb") as f:
+            summary = self._read_summary(f)
+            check = None
+            if summary is not None:
+                names = {cid: c.topic for cid, c in summary.channels.items()}
+                check = mcap_records.check_summary(
+                    f, self._size, summary.chunk_indexes, summary.statistics, names
+                )
+        distrust = check is not None and (bool(check.problems) or check.unsure)
+        if summary is None or check is None or distrust:
+            channels, schemas, counts, start, end = self._scan()
+            if summary is not None and check is not None:
+                channels = {**summary.channels, **channels}
+                schemas = {**summary.schemas, **schemas}
+                self._distrusted(check, summary.statistics, counts)
+        else:
+            stats = summary.statistics
+            channels, schemas = summary.channels, summary.schemas
+            counts = dict(stats.channel_message_counts)
+            start, end = stats.message_start_time, stats.message_end_time
+            self._chunk_indexes = sorted(
+                summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
+            )
+            self._bad_chunks.update(check.bad_chunks)
+            for index in self._chunk_indexes:  # what the index says is refused already
+                why = _refused(index, self._limits)
+                if why is not None:
+                    self._bad_chunks.setdefault(index.chunk_start_offset, why)
+            self._chunk_counts = check.counts
+            self._lengths = check.lengths
+            for note in check.notes:
+                self._warn(f"{path.name}: {note}")
+            for offset in self._bad_chunks:  # what cannot be read is not counted
+                for cid, n in check.counts.get(offset, {}).items():
+                    counts[cid] = max(counts.get(cid, 0) - n, 0)
+            if _summary_lacks_records(channels, schemas, stats.channel_count):
+                # the summary may leave out the channel and schema records (the MCAP spec
+                # makes repeating them optional): take them from the data section; messages
+                # still go through the chunk indexes
+                found_channels, found_schemas, *_ = self._scan()
+                channels = {**found_channels, **channels}
+                schemas = {**found_schemas, **schemas}
+        self._channels: dict[int, tuple[str, str, Encoding]] = {}
+        # every channel, ROS or not: what records() reads (the conformance tests use it)
+        self.channel_topics = {cid: channel.topic for cid, channel in sorted(channels.items())}
+        for offset in sorted(self._bad_chunks):
+            self._chunk_lost(offset)
+        pending, self._pending_big = self._pending_big, None
+        self._oversized(pending or [])
+        self.topics = {}
+        for cid, channel in sorted(channels.items()):
+            schema = schemas.get(channel.schema_id)
+            encoding = _MESSAGE_ENCODINGS.get(channel.message_encoding)
+            if schema is None or encoding is None or not _schema_encoding_ok(schema.encoding):
+                enc = schema.encoding if schema is not None else "none"
+                self.warnings.append(
+                    f"{path.name}: topic {channel.topic} skipped: message encoding "
+                    f"{channel.message_encoding!r} with schema encoding {enc!r} is not ROS"
+                )
+                continue
+            msgtype = normalize_msgtype(schema.name)
+            info = self.topics.get((channel.topic, msgtype))
+            if info is None:
+                definition = schema.data.decode("utf-8", "replace")
+                info = self.topics[channel.topic, msgtype] = _Topic(
+                    channel.topic, msgtype, encoding, definition, schema.encoding == "ros2idl"
+                )
+                info.qos = (channel.metadata or {}).get("offered_qos_profiles", "")
+            info.count += counts.get(cid, 0)
+            info.keys.append(cid)
+            self._channels[cid] = (channel.topic, msgtype, encoding)
+        if fmt_name is not None:
+            fmt = fmt_name
+        elif self._profile == "ros1" or (not self._profile and _all_ros1(self.topics)):
+            fmt = "mcap-ros1"
+        else:
+            fmt = "mcap-ros2"
+        total = sum(counts.values())
+        self.file = LogFile(path, fmt, self._size, start if total else 0, end, total)
+
+    # -- opening ---------------------------------------------------------------------------
+
+    def _read_summary(self, f: IO[bytes]) -> Any:
+        """The summary section (mcap's ``Summary``: channels, schemas, statistics, chunk
+        indexes), or None when there is no usable one (no footer, no statistics, no chunk
+        index)."""
+        from mcap.reader import SeekingReader
+
+        try:
+            reader = SeekingReader(f, record_size_limit=None)
+            self._profile = reader.get_header().profile
+            summary = reader.get_summary()
+        except self._errors:
+            return None
+        if summary is None or summary.statistics is None or not summary.chunk_indexes:
+            return None
+        return summary
+
+    def _distrusted(self, check: Any, stats: Any, counts: dict[int, int]) -> None:
+        """Say that the summary was not used and what the data held instead."""
+        total = sum(counts.values())
+        if check.problems:
+            more = len(check.problems) - 1
+            first = check.problems[0] + (f" (and {more} more)" if more > 0 else "")
+            self._warn(
+                f"{self.path.name}: its summary disagrees with the data: {first}; aion read the "
+                f"chunks themselves instead (linear scan): {total:,} messages"
+            )
+        elif total != stats.message_count:
+            self._warn(
+                f"{self.path.name}: its statistics count {stats.message_count:,} messages but "
+                f"its chunks hold {total:,}; aion read the chunks themselves (linear scan)"
+            )
+
+    # -- reading ---------------------------------------------------------------------------
+
+    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+        wanted = {
+            cid
+            for cid, (topic, _, _) in self._channels.items()
+            if topics is None or topic in topics
+        }
+        if not wanted:
+            return iter(())
+        return self._raw_messages(wanted)
+
+    def _raw_messages(self, wanted: set[int]) -> Iterator[RawMessage]:
+        channels = self._channels
+        if self._unzstd:
+            yield from self._unzstd_messages(wanted)
+            return
+        if self._chunk_indexes is not None and not _chunks_overlap(self._chunk_indexes):
+            # the hot path: a chunk's messages at a time, no generator step per message
+            for selected in self._chunk_batches(wanted):
+                for log_time, channel_id, data in selected:
+                    topic, msgtype, encoding = channels[channel_id]
+                    yield RawMessage(topic, msgtype, log_time, data, encoding)
+            return
+        for log_time, channel_id, data in self._records(wanted):
+            topic, msgtype, encoding = channels[channel_id]
+            yield RawMessage(topic, msgtype, log_time, data, encoding)
+
+    def _unzstd_messages(self, wanted: set[int]) -> Iterator[RawMessage]:
+        """Messages whose payloads are zstd-compressed, decompressed one by one within the
+        message cap (one over it is skipped with a warning)."""
+        from formats.limits import OverLimitError
+        from formats.mcap_records import iso
+
+        cap = self._limits.max_message_bytes
+        for log_time, channel_id, data in self._records(wanted):
+            topic, msgtype, encoding = self._channels[channel_id]
+            if data[:4] == _ZSTD_MAGIC:
+                try:
+                    data = _unzstd(data, cap)
+                except OverLimitError as exc:
+                    self._warn(f"{self.path.name}: a message on {topic} at {iso(log_time)} "
+                               f"skipped: {exc}")
+                    continue
+            yield RawMessage(topic, msgtype, log_time, data, encoding)
+
+    def records(self, channel_ids: Iterable[int] | None = None) -> Iterator[tuple[int, int, bytes]]:
+        """``(log_time, channel_id, data)`` of every message on ``channel_ids`` (all channels
+        of the file when None, ROS or not: see :attr:`channel_topics`), in log-time order, read
+        exactly as :meth:`messages` reads ROS topics. For tests of the MCAP reading itself on
+        files whose channels are not ROS (the MCAP conformance suite)."""
+        wanted = set(self.channel_topics if channel_ids is None else channel_ids)
+        if not wanted:
+            return iter(())
+        return self._records(wanted)
+
+    def _records(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
+        """The messages of the ``wanted`` channels by the fastest path the file allows."""
+        if self._chunk_indexes is None:
+            return self._records_linear(wanted)
+        if _chunks_overlap(self._chunk_indexes):
+            return self._records_merged(wanted)
+        return (record for batch in self._chunk_batches(wanted) for record in batch)
+
+    def _selected(self, index: Any, wanted: set[int]) -> bool:
+        """Whether the chunk of ``index`` may hold a wanted message (its index lists the
+        channels it holds, checked against the data at open) and can be read."""
+        if index.chunk_start_offset in self._bad_chunks:
+            return False
+        return not (index.message_index_offsets and wanted.isdisjoint(index.message_index_offsets))
+
+    def _chunk_batches(self, wanted: set[int]) -> Iterator[list[tuple[int, int, bytes]]]:
+        """Time order by chunk: chunk indexes sorted by start time do not overlap, so each
+        chunk's messages sorted by log time (one list per chunk) continue the stream."""
+        assert self._chunk_indexes is not None
+        for index in self._chunk_indexes:
+            if self._selected(index, wanted):
+                selected = self._read_indexed(index.chunk_start_offset, wanted)
+                if selected:
+                    yield selected
+
+    def _read_indexed(self, offset: int, wanted: set[int]) -> list[tuple[int, int, bytes]]:
+        """The wanted messages of the indexed chunk at ``offset``, sorted by log time; [] (and
+        a warning) when it cannot be read. Opens the file for this chunk only."""
+        from formats import mcap_records as mr
+
+        try:
+            with self.path.open("rb") as f:
+                head = mr.read_chunk_head(f, offset, self._size, self._lengths.get(offset))
+                buf = mr.read_chunk(f, head, self._limits, mcap_linear._decompress)
+            selected, big, _ = mr.chunk_messages(buf, wanted, self._limits.max_message_bytes)
+        except ValueError as exc:  # ChunkError and the head's ValueError
+            self._bad_chunks[offset] = _why(exc)
+            self._chunk_lost(offset)
+            return []
+        self._oversized(big)
+        return selected
+
+    def _records_merged(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
+        """Overlapping chunks, merged in log-time order: a chunk is read when the stream
+        reaches its start time, so only the chunks overlapping one moment are held; ties keep
+        chunk order."""
+        assert self._chunk_indexes is not None
+        chunks = [c for c in self._chunk_indexes if self._selected(c, wanted)]
+        heap: list[tuple[int, int, int, bytes]] = []
+        seq = 0
+        k = 0
+        while k < len(chunks) or heap:
+            if k < len(chunks) and (not heap or chunks[k].message_start_time <= heap[0][0]):
+                for log_time, channel_id, data in self._read_indexed(
+                    chunks[k].chunk_start_offset, wanted
+                ):
+                    heapq.heappush(heap, (log_time, seq, channel_id, data))
+                    seq += 1
+                k += 1
+                continue
+            log_time, _, channel_id, data = heapq.heappop(heap)
+            yield log_time, channel_id, data
+
+    # -- recorded windows ------------------------------------------------------------------
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        """From the chunk indexes when the file has a summary: a chunk within one window or
+        two adjacent ones records the windows of its first and last message; only wider chunks
+        need their message times, from their MessageIndex records (a few bytes each; the chunk
+        is decompressed only when it has none or they are damaged). Chunks that cannot be read
+        record nothing. Without a summary, the log times the opening scan kept."""
+        if self._chunk_indexes is None:
+            times = self._scanned_times
+            return recorded.windows_of(times if times is not None else [], window_ns)
+        indexes = self._chunk_indexes
+        n = len(indexes)
+        # uint64 in the file: as int64, like every time in aion
+        starts = np.fromiter((c.message_start_time for c in indexes), np.uint64, n).astype(np.int64)
+        ends = np.fromiter((c.message_end_time for c in indexes), np.uint64, n).astype(np.int64)
+        indexed = np.fromiter((bool(c.message_index_offsets) for c in indexes), np.bool_, n)
+        bad = np.fromiter((c.chunk_start_offset in self._bad_chunks for c in indexes), np.bool_, n)
+        empty = (starts > ends) | bad  # some writers mark a chunk without messages so
+        # 0..0 without message indexes: a chunk without messages, or one message at t = 0
+        unsure = ~indexed & (starts == 0) & (ends == 0)
+        read = (recorded.wide_spans(starts, ends, window_ns) | unsure) & ~empty
+        parts = []
+        with self.path.open("rb") as stream:  # own handle, for this call only
+            for k in np.flatnonzero(read):
+                times = self._chunk_times(stream, indexes[k])
+                if times is not None:  # None: an unreadable chunk, skipped with a warning
+                    parts.append(recorded.windows_of(times, window_ns))
+        ends_only = ~read & ~empty
+        parts.append(recorded.end_windows(starts[ends_only], ends[ends_only], window_ns))
+        return recorded.union(parts)
+
+    def _chunk_times(self, stream: IO[bytes], index: Any) -> npt.NDArray[np.int64] | None:
+        """Log times of one chunk's messages: from its MessageIndex records, else from the
+        decompressed chunk; ``None`` (and a warning) when the chunk itself is unreadable."""
+        from formats import mcap_records as mr
+
+        if index.message_index_offsets and index.message_index_length > 0:
+            base = index.chunk_start_offset + index.chunk_length
+            try:
+                stream.seek(base, io.SEEK_SET)
+                block = stream.read(min(index.message_index_length, self._size - base))
+                offsets = [off - base for off in index.message_index_offsets.values()]
+                return recorded.message_index_times(block, offsets)
+            except self._errors:
+                pass  # a damaged index does not mean a damaged chunk: read the chunk
+        offset = index.chunk_start_offset
+        try:
+            head = mr.read_chunk_head(stream, offset, self._size, self._lengths.get(offset))
+            buf = mr.read_chunk(stream, head, self._limits, mcap_linear._decompress)
+            return recorded.record_log_times(buf)
+        except ValueError as exc:  # ChunkError, the head's and record_log_times' ValueError
+            self._bad_chunks[offset] = _why(exc)
+            self._chunk_lost(offset)
+            return None
+
+    def close(self) -> None:
+        """Nothing to release: the file is open only while a read runs."""
+
+
+def _refused(index: Any, limits: ReadLimits) -> str | None:
+    """Why the chunk a (checked) chunk index describes will not be read, from the index
+    alone: an unknown compression, or more than the chunk cap; None when it may be read."""
+    from formats import limits as caps
+
+    if index.compression not in ("", "zstd", "lz4"):
+        return str(caps.UnknownCompressionError(f"unknown compression {index.compression[:40]!r}"))
+    size = index.uncompressed_size if index.compression else index.compressed_size
+    if size > limits.max_chunk_bytes:
+        return str(caps.chunk_over_limit(size, limits.max_chunk_bytes))
+    return None
+
+
+def _chunks_overlap(indexes: list[Any]) -> bool:
+    end = -1
+    for index in indexes:
+        if index.message_start_time < end:
+            return True
+        end = max(end, index.message_end_time)
+    return False
+
+
+def _summary_lacks_records(channels: dict[int, Any], schemas: dict[int, Any], count: int) -> bool:
+    """Whether a summary section leaves out channels its statistics count, or schemas its
+    channels use (schema id 0: a channel without schema)."""
+    if len(channels) < count:
+        return True
+    return any(c.schema_id != 0 and c.schema_id not in schemas for c in channels.values())
+
+
+def _all_ros1(topics: dict[tuple[str, str], _Topic]) -> bool:
+    return bool(topics) and all(t.encoding == "ros1" for t in topics.values())
+
+
+def _open_mcap(
+    path: Path,
+    fmt_name: str | None = None,
+    limits: ReadLimits | None = None,
+    *,
+    unzstd: bool = False,
+) -> _McapSource:
+    size = path.stat().st_size
+    if size == 0:
+        raise LogFormatError(f"{path} is empty (0 bytes)", hint="the recording was not written")
+    with path.open("rb") as f:
+        head = f.read(len(_MCAP_MAGIC))
+    if head != _MCAP_MAGIC:
+        raise LogFormatError(
+            f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)",
+            hint="check the file, or pass --format bag|rosbag2 if it is another log type",
+        )
+    return _McapSource(path, fmt_name, limits, unzstd=unzstd)

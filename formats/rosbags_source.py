@@ -1,0 +1,394 @@
+"""ROS 1 bags and rosbag2 folders read with the rosbags readers, as one
+:class:`formats.log_source._Source`: :class:`_RosbagsSource`.
+
+ROS 1 bags go through :class:`formats.bag_reader.BagReader` (rosbags' reader with aion's size
+caps), rosbag2 folders through rosbags' folder reader, their storage files matched to the
+folder's topics by topic and type, not by QoS (:func:`_storage_messages`, which the in-memory
+reindexed sqlite3 source of :mod:`formats.rosbag2_reindex` reads through too). Counts and time
+ranges come from the storage files; :func:`_metadata_warning` says where metadata.yaml
+disagrees with them. A rosbag2 folder with uncompressed or file-compressed mcap storage is read
+with aion's MCAP reader instead (:meth:`_RosbagsSource.mcap_storage` says which files).
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections import Counter
+from collections.abc import Iterator, Mapping
+from operator import attrgetter
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.engine.errors import LogFormatError
+from formats import recorded
+from formats.limits import ReadLimits
+from formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Source, _Topic, _unzstd
+from formats.raw import Encoding, RawMessage, normalize_msgtype
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from formats.recorded import Windows
+    from formats.rosbag2_reindex import _ReindexedSqliteSource  # annotations only: no cycle
+
+
+class _RosbagsSource(_Source):
+    """A ROS 1 bag or a rosbag2 folder, read with the rosbags readers."""
+
+    def __init__(self, path: Path, kind: str, limits: ReadLimits | None = None) -> None:
+        self.path = path
+        self.warnings = []
+        self._limits = limits if limits is not None else ReadLimits.from_env()
+        self._reader = _open_rosbags(path, kind, self._limits)
+        reader = self._reader
+        self._index_times: npt.NDArray[np.int64] | None = None
+        self.topics = {}
+        for conn in reader.connections:
+            encoding: Encoding
+            if kind == "bag":
+                encoding = "ros1"
+            else:
+                fmt = getattr(conn.ext, "serialization_format", "cdr")
+                if fmt not in _MESSAGE_ENCODINGS:
+                    self.warnings.append(
+                        f"{path.name}: topic {conn.topic} skipped: serialization {fmt!r} is not CDR"
+                    )
+                    continue
+                encoding = _MESSAGE_ENCODINGS[fmt]
+            msgtype = normalize_msgtype(conn.msgtype)
+            info = self.topics.get((conn.topic, msgtype))
+            if info is None:
+                definition = conn.msgdef.data if conn.msgdef is not None else ""
+                idl = conn.msgdef is not None and conn.msgdef.format.name == "IDL"
+                info = self.topics[conn.topic, msgtype] = _Topic(
+                    conn.topic, msgtype, encoding, definition or "", idl
+                )
+            info.count += conn.msgcount
+            info.keys.append(conn)
+        start, end = 0, 0
+        if kind == "bag":
+            fmt_name = "bag"
+            size = path.stat().st_size
+            self._index_times = recorded.rosbag1_index_times(reader.indexes)
+            if self._index_times.size:  # the index's message times, not the chunk infos'
+                start, end = int(self._index_times.min()), int(self._index_times.max()) + 1
+            names = {conn.id: conn.topic for conn in reader.connections}
+            for pos, (why, counts) in sorted(reader.refused.items()):
+                self.warnings.append(self._chunk_skipped(pos, why, counts, names))
+            reader.suspend()  # no file handle held between reads
+        else:
+            storages = getattr(reader.storage, "storages", [])
+            mcap = any("mcap" in type(x).__name__.lower() for x in storages)
+            fmt_name = "rosbag2-mcap" if mcap else "rosbag2-sqlite3"
+            size = sum(p.stat().st_size for p in path.iterdir() if p.is_file())
+            start, end = self._count_storages(storages, reader)
+            if storages:
+                counts = {key: t.count for key, t in self.topics.items()}
+                warning = _metadata_warning(path, start, end - 1, sum(counts.values()), counts)
+                if warning:
+                    self.warnings.append(warning)
+        total = sum(t.count for t in self.topics.values())
+        start = start if total else 0
+        end = max(end - 1, start) if total else 0  # rosbags' end is exclusive
+        self.file = LogFile(path, fmt_name, size, start, end, total)
+
+    def _count_storages(self, storages: list[Any], reader: Any) -> tuple[int, int]:
+        """Message counts per topic and the time range (end exclusive) of a rosbag2 folder
+        from its storage files (SQL counts and MIN / MAX over the indexed timestamps, or the
+        MCAP statistics, which rosbags read at open) rather than from metadata.yaml: real
+        metadata can be wrong (rosbag2's own wbag test bags state another recording's time
+        range). Without storage readers, metadata.yaml's figures stay."""
+        if not storages:
+            return reader.start_time, reader.end_time
+        counted: Counter[tuple[str, str]] = Counter()
+        for storage in storages:
+            for conn in storage.connections:
+                counted[conn.topic, normalize_msgtype(conn.msgtype)] += conn.msgcount
+        for key, info in self.topics.items():
+            info.count = counted.get(key, 0)
+        metas = [s.metadata for s in storages if s.metadata.message_count > 0]
+        if not metas:
+            return 0, 0
+        return min(m.start_time for m in metas), max(m.end_time for m in metas)
+
+    def mcap_storage(self) -> tuple[list[tuple[Path, Path | None]], bool] | None:
+        """For a rosbag2 folder with mcap storage, what aion's MCAP reader reads instead of
+        rosbags' mcap plugin (faster, and with the size caps): the storage files, each with
+        the compressed file rosbags decompressed it from (``compression_mode: file``; the
+        decompressed copy lives while this source is open) or None, and whether message
+        payloads are zstd-compressed (``compression_mode: message``). None for other
+        folders."""
+        if self.file.format != "rosbag2-mcap":
+            return None
+        storages = getattr(self._reader.storage, "storages", [])
+        paths = [getattr(x, "path", None) for x in storages]
+        if not paths or not all(isinstance(p, Path) and p.suffix == ".mcap" for p in paths):
+            return None
+        mode = self._reader.compression_mode if self._reader.compression_format else None
+        if mode not in (None, "file", "message"):
+            return None
+        files: list[tuple[Path, Path | None]] = []
+        for p in paths:
+            assert isinstance(p, Path)
+            original = None
+            if mode == "file":
+                original = next(
+                    (q for q in sorted(self.path.iterdir()) if q.is_file() and q.stem == p.name),
+                    self.path / f"{p.name}.zstd",
+                )
+            files.append((p, original))
+        return files, mode == "message"
+
+    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+        if self.file.format != "bag":
+            storages = getattr(self._reader.storage, "storages", None)
+            if isinstance(storages, list):
+                wanted = _wanted_types(self.topics, topics)
+                if not wanted:
+                    return iter(())
+                unzstd = self._reader.compression_mode == "message"
+                return _storage_messages(self, storages, wanted, unzstd)
+        conns = [
+            conn
+            for info in self.topics.values()
+            if topics is None or info.topic in topics
+            for conn in info.keys
+        ]
+        if not conns:
+            return iter(())
+        return self._messages(conns)
+
+    def _messages(self, conns: list[Any]) -> Iterator[RawMessage]:
+        """Through :class:`formats.bag_reader.BagReader` (ROS 1 bags): the file open while
+        the iteration runs, chunks that cannot be read skipped with a warning."""
+        meta = {
+            conn.id: (info.topic, info.msgtype, info.encoding)
+            for info in self.topics.values()
+            for conn in info.keys
+            if conn in conns
+        }
+        names = {conn.id: conn.topic for conn in conns}
+        reader = self._reader
+
+        def bad_chunk(pos: int, why: str, lost: dict[int, int]) -> None:
+            warning = self._chunk_skipped(pos, why, lost, names)
+            if warning not in self.warnings:
+                self.warnings.append(warning)
+
+        def oversized(conn: Any, t_ns: int, size: int) -> None:
+            from formats import limits as caps
+            from formats.mcap_records import iso
+
+            warning = (
+                f"{self.path.name}: a message on {conn.topic} at {iso(t_ns)} skipped: "
+                + str(caps.message_over_limit(size, self._limits.max_message_bytes))
+            )
+            if warning not in self.warnings:
+                self.warnings.append(warning)
+
+        try:
+            reader.resume()
+            for conn, t_ns, data in reader.iter_messages(conns, bad_chunk, oversized):
+                topic, msgtype, encoding = meta[conn.id]
+                yield RawMessage(topic, msgtype, t_ns, data, encoding)
+        except LogFormatError:
+            raise
+        except Exception as exc:  # rosbags raises its own errors, OSError, struct errors
+            raise LogFormatError(
+                f"{self.path}: cannot read messages ({exc})",
+                hint="the log may be corrupt; for ROS 1 bags try `rosbag reindex`",
+            ) from exc
+        finally:
+            reader.suspend()
+
+    def _chunk_skipped(
+        self, pos: int, why: str, lost: dict[int, int], names: dict[int, str]
+    ) -> str:
+        """The warning for a bag chunk that is skipped: where, why, the messages lost."""
+        counts = sorted((names.get(cid, f"connection {cid}"), n) for cid, n in lost.items() if n)
+        total = sum(n for _, n in counts)
+        per = ", ".join(f"{name} {n:,}" for name, n in counts)
+        return (
+            f"{self.path.name}: chunk at byte {pos} skipped: {why}; "
+            f"{total:,} message{'s' if total != 1 else ''} lost ({per})"
+        )
+
+    def recorded_windows(self, window_ns: int) -> Windows:
+        """ROS 1 bags: the message times of the index rosbags loaded at open (no chunk is
+        read). rosbag2 folders: per storage file, SQLite computes the windows over the indexed
+        ``timestamp`` column; mcap storage files read here (compressed bags) give their times
+        through the rosbags storage reader, which never decompresses message payloads."""
+        try:
+            if self.file.format == "bag":
+                return self._bag_windows(window_ns)
+            return self._rosbag2_windows(window_ns)
+        except LogFormatError:
+            raise
+        except Exception as exc:  # rosbags, apsw / sqlite3 and struct errors
+            raise LogFormatError(
+                f"{self.path}: cannot read message times ({exc})",
+                hint="the log may be corrupt; for ROS 1 bags try `rosbag reindex`",
+            ) from exc
+
+    def _bag_windows(self, window_ns: int) -> Windows:
+        times = self._index_times
+        return recorded.windows_of(times if times is not None else [], window_ns)
+
+    def _rosbag2_windows(self, window_ns: int) -> Windows:
+        storages = getattr(self._reader.storage, "storages", None)
+        if not isinstance(storages, list):
+            return recorded.windows_of(
+                recorded.times_of(self._reader.messages(self._reader.connections)), window_ns
+            )
+        parts = []
+        for storage in storages:
+            # rosbags decompressed file-compressed storage at open, and message compression
+            # leaves the timestamps alone: the sqlite3 query holds for every bag
+            db = getattr(storage, "dbconn", None)
+            if db is not None:
+                parts.append(recorded.sqlite_windows(db, window_ns))
+            else:
+                times = recorded.times_of(storage.messages(storage.connections))
+                parts.append(recorded.windows_of(times, window_ns))
+        return recorded.union(parts)
+
+    def close(self) -> None:
+        self._reader.close()
+
+
+def _wanted_types(
+    topics: dict[tuple[str, str], _Topic], names: set[str] | None
+) -> dict[tuple[str, str], tuple[str, str, Encoding]]:
+    """``(topic, msgtype) -> (topic, msgtype, encoding)`` of the source's topics on ``names``
+    (all when None)."""
+    return {
+        key: (info.topic, info.msgtype, info.encoding)
+        for key, info in topics.items()
+        if names is None or info.topic in names
+    }
+
+
+def _storage_messages(
+    source: _RosbagsSource | _ReindexedSqliteSource,
+    storages: list[Any],
+    wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
+    unzstd: bool | None,
+) -> Iterator[RawMessage]:
+    """Messages of rosbag2 storage readers (rosbags' sqlite3 / mcap storage plugins), merged in
+    log-time order, on the ``wanted`` (topic, normalised type) pairs.
+
+    Each storage file's own connections are matched by topic and type only. rosbags' folder
+    reader also compares the QoS profiles of metadata.yaml with those the storage file keeps,
+    and real bags disagree (rosbag2's own talker test bag: infinite deadlines written as 0 in
+    one and as 2147483647 s in the other), so it yields none of their messages. ``unzstd``:
+    payloads are zstd-compressed (``compression_mode: message``); None: unknown (a reindexed
+    bag), a payload is decompressed when it starts with the zstd magic bytes, which no CDR
+    payload does (CDR starts with its encapsulation header, 0x00 first). A compressed payload
+    that expands beyond the message cap is skipped with a warning on ``source``.
+    """
+    path = source.path
+    streams = []
+    for storage in storages:
+        conns = [
+            conn
+            for conn in storage.connections
+            if (conn.topic, normalize_msgtype(conn.msgtype)) in wanted
+        ]
+        if conns:
+            streams.append(_one_storage(source, storage, conns, wanted, unzstd))
+    if not streams:
+        return
+    merged: Iterator[RawMessage] = (
+        streams[0] if len(streams) == 1 else heapq.merge(*streams, key=attrgetter("log_time_ns"))
+    )
+    try:
+        yield from merged
+    except LogFormatError:
+        raise
+    except Exception as exc:  # rosbags, apsw / sqlite3, struct and zstd errors
+        raise LogFormatError(
+            f"{path}: cannot read messages ({exc})",
+            hint="the storage files may be corrupt or truncated",
+        ) from exc
+
+
+def _one_storage(
+    source: _RosbagsSource | _ReindexedSqliteSource,
+    storage: Any,
+    conns: list[Any],
+    wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
+    unzstd: bool | None,
+) -> Iterator[RawMessage]:
+    from formats.limits import OverLimitError
+    from formats.mcap_records import iso
+
+    meta = {conn.id: wanted[conn.topic, normalize_msgtype(conn.msgtype)] for conn in conns}
+    cap = source._limits.max_message_bytes
+    for conn, t_ns, data in storage.messages(conns):
+        topic, msgtype, encoding = meta[conn.id]
+        if unzstd or (unzstd is None and data[:4] == _ZSTD_MAGIC):
+            try:
+                data = _unzstd(data, cap)
+            except OverLimitError as exc:
+                warning = f"{source.path.name}: a message on {topic} at {iso(t_ns)} skipped: {exc}"
+                if warning not in source.warnings:
+                    source.warnings.append(warning)
+                continue
+        elif type(data) is not bytes:
+            data = bytes(data)
+        if len(data) > cap:
+            from formats.limits import message_over_limit
+
+            warning = (
+                f"{source.path.name}: a message on {topic} at {iso(t_ns)} skipped: "
+                f"{message_over_limit(len(data), cap)}"
+            )
+            if warning not in source.warnings:
+                source.warnings.append(warning)
+            continue
+        yield RawMessage(topic, msgtype, t_ns, data, encoding)
+
+
+def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
+    """An open rosbags Reader for ``path`` (ROS 1 bags: :class:`formats.bag_reader.BagReader`
+    with ``limits``), with rosbags errors turned into LogFormatError."""
+    if kind == "bag":
+        from formats.bag_reader import BagReader
+
+        reader: Any = BagReader(path, limits)
+        what = "ROS 1 bag"
+        hint = "the bag may be truncated or corrupt; try `rosbag reindex` on a copy"
+    else:
+        from rosbags.rosbag2 import Reader as Reader2
+
+        reader = Reader2(path)
+        what = "rosbag2 folder"
+        hint = "check metadata.yaml and the storage files (.db3 / .mcap) next to it"
+    try:
+        reader.open()
+    except Exception as exc:  # rosbags ReaderError and the errors of its storage plugins
+        raise LogFormatError(f"{path}: not a readable {what} ({exc})", hint=hint) from exc
+    return reader
+
+
+def _metadata_warning(
+    folder: Path, start: int, last: int, total: int, counts: Mapping[tuple[str, str], int]
+) -> str | None:
+    """A warning when the folder's metadata.yaml states figures its storage files contradict
+    (aion uses the storage files: first and last message time ``start`` / ``last``, ``total``
+    messages, ``counts`` per (topic, normalised type)); None when they agree."""
+    from formats import rosbag2_storage as storage
+
+    figures = storage.metadata_figures(folder)
+    if figures is None:
+        return None
+    found = storage.metadata_disagreements(figures, start, last, total, counts, normalize_msgtype)
+    if not found:
+        return None
+    more = f"; and {len(found) - 4} more" if len(found) > 4 else ""
+    return (
+        f"{folder.name}: metadata.yaml disagrees with its storage files, which aion uses "
+        f"instead: {'; '.join(found[:4])}{more}"
+    )

@@ -1,0 +1,75 @@
+"""Decoding with the definitions a log embeds: the rosbags typestore that knows a message type as
+the log defines it (:func:`_store_with_definition`; aion's shipped definitions of
+:mod:`formats.msgdefs` when the log embeds none), a private store when the log's definition
+conflicts with the standard one, and the parsing of embedded ``.msg`` / IDL text
+(:func:`_parse_definition`). :class:`formats.logs.LogSet` decodes through these.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import TYPE_CHECKING, Any
+
+from aion_cli.engine.errors import MessageDecodeError
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
+
+
+_SEPARATOR = re.compile(r"^={3,}[ \t]*$", re.MULTILINE)
+
+
+def _store_with_definition(
+    stores: dict[str, Typestore], encoding: str, msgtype: str, definition: str, idl: bool
+) -> Typestore:
+    """A typestore that knows ``msgtype`` as ``definition`` defines it: the set's shared store
+    for ``encoding``, or a private one when the log's definition conflicts with it."""
+    from rosbags.typesys import Stores, get_typestore
+    from rosbags.typesys.base import TypesysError
+
+    from formats import msgdefs
+
+    ros_version = 1 if encoding == "ros1" else 2
+    if not definition.strip():
+        shipped = msgdefs.typestore(ros_version)
+        if msgtype in shipped.fielddefs:
+            return shipped
+        raise MessageDecodeError(
+            f"the log has no definition for {msgtype} and aion ships none",
+            hint="give a log recorded with message definitions (ROS 2 Iron or later, MCAP)",
+        )
+    types = _parse_definition(definition, msgtype, idl)
+    store = stores.get(encoding)
+    if store is None:
+        store = stores[encoding] = get_typestore(
+            Stores.ROS1_NOETIC if ros_version == 1 else Stores.ROS2_HUMBLE
+        )
+    try:
+        store.register(types)
+        return store
+    except TypesysError:
+        # The log's own version of a type differs from the standard one: decode this topic with
+        # a store holding only the log's definitions (plus the builtin time types they use).
+        from rosbags.typesys.store import Typestore
+
+        private = Typestore()
+        builtins = {k: v for k, v in store.fielddefs.items() if k.startswith("builtin_interfaces/")}
+        private.register({**builtins, **types})
+        return private
+
+
+def _parse_definition(definition: str, msgtype: str, idl: bool) -> dict[str, Any]:
+    from rosbags.typesys import get_types_from_idl, get_types_from_msg
+
+    if not idl:
+        # rosbags wants the 80-character separator; ROS tools accept any run of "=".
+        definition = _SEPARATOR.sub("=" * 80, definition)
+    try:
+        if idl:
+            return dict(get_types_from_idl(definition))
+        return dict(get_types_from_msg(definition, msgtype))
+    except Exception as exc:  # rosbags parser errors
+        raise MessageDecodeError(
+            f"cannot parse the log's definition of {msgtype} ({exc})",
+            hint="the log's embedded message definition is malformed",
+        ) from exc
