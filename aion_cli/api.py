@@ -30,12 +30,12 @@ from typing import TYPE_CHECKING, Any, Union
 from aion_cli.engine.errors import InputError
 
 if TYPE_CHECKING:
+    from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.cli.timeparse import Zone
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
-    from aion_cli.pipeline import BuildReport, ProgressSink
     from aion_cli.routes import Route
 
 PathLike = Union[str, "os.PathLike[str]"]

@@ -135,3 +135,17 @@ def _optional_int(value: Any, key: str) -> int | None:
     if isinstance(value, bool) or not isinstance(value, int):
         raise _bad(key, f"expected an integer time, got {value!r}")
     return value
+
+
+def add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+    """The detections read / used / dropped (by reason) of a map's earlier builds (``old``,
+    its manifest's ``counts``) plus those of a new build (``new``): the ``counts`` a continued
+    map stores."""
+    dropped = dict(old.get("dropped", {}))
+    for reason, n in new["dropped"].items():
+        dropped[reason] = int(dropped.get(reason, 0)) + int(n)
+    return {
+        "read": int(old.get("read", 0)) + new["read"],
+        "used": int(old.get("used", 0)) + new["used"],
+        "dropped": dict(sorted(dropped.items())),
+    }

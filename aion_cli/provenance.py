@@ -1,4 +1,5 @@
-"""Provenance of an input log for the map manifest: path, size and sha256."""
+"""Provenance of an input log for the map manifest: path, size and sha256; and the check that
+a log is a file or folder that can be hashed at all (before any byte is read)."""
 
 from __future__ import annotations
 
@@ -43,3 +44,15 @@ def provenance(path: Path) -> dict[str, Any]:
 def provenance_size(path: Path) -> int:
     """Bytes :func:`provenance` will hash for ``path``."""
     return sum(f.stat().st_size for f in _files_of(path))
+
+
+def check_log_path(path: Path) -> None:
+    """A log must exist and be a regular file or a folder (a rosbag2 folder): a FIFO, a
+    device or a socket would make hashing block or read forever (``/dev/zero``), so it is
+    refused (:func:`formats.raw.check_regular_input`, ``os.stat`` only) before any byte is
+    read."""
+    from formats.raw import check_regular_input
+
+    if not path.exists():
+        raise InputError(f"log not found: {path}", hint="check the path")
+    check_regular_input(path, "log", hint="give a log file (MCAP, .bag) or a rosbag2 folder")

@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from aion_cli.engine.errors import TopicNotFoundError
 
@@ -209,3 +209,24 @@ def _candidate_hint(option: str, infos: list[TopicInfo], what: str) -> str:
     if not infos:
         return f"the log has no {what}; run `aion info LOG` to see its topics"
     return "use one of: " + "  ".join(f"{option} {t.topic}" for t in infos)
+
+
+def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
+    """The error for a log with no detection topic to use: what it has, why generic topics
+    were skipped, and how to read another type."""
+    found = [f"{t.topic} ({t.msgtype})" for t in logset.topics]
+    if plan.skipped:
+        first = plan.skipped[0]
+        hint = (
+            f"{plan.reasons[first.topic]}; or map another type with --detections-mapping FILE"
+        )
+    else:
+        hint = (
+            "the log has: "
+            + ", ".join(found[:8] + (["..."] if len(found) > 8 else []))
+            + "; map a type with --detections-mapping FILE (`aion info LOG --suggest-mapping "
+            "TOPIC` writes one)"
+        )
+    return TopicNotFoundError(
+        "the log has no people-detection topic of a supported type", candidates=found, hint=hint
+    )

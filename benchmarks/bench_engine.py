@@ -34,7 +34,7 @@ families have day-ahead scores, as in a mature map. The map is written with
 
 Timed (best of k, same process):
 
-* **map load**: ``pipeline.load_map`` (read_map with checksums + ``MapState.from_arrays``),
+* **map load**: ``mapquery.load_map`` (read_map with checksums + ``MapState.from_arrays``),
   ratio to a plain ``np.load`` of the same arrays from an uncompressed ``.npz``;
 * **predict, one time**: the first ``engine.query.predict_table`` after loading (it prepares
   the forecasts: the pending day absorbed, ``Predictor.of``), then ``predict_table`` with the

@@ -24,7 +24,8 @@ import pytest
 
 from aion_cli.cli.graph_options import GRAPH_PERIOD_DEFAULT_TEXT, parse_period_ns
 from aion_cli.engine.errors import InputError
-from aion_cli.pipeline import DEFAULT_GRAPH_PERIOD_NS, BuildOptions, build_map, graph_schedule
+from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS, graph_schedule
+from aion_cli.pipeline import BuildOptions, build_map
 from formats.mapfile import read_map
 from tests.cli.logdata import EDGES, PLACES, ROBOT_XYZ, ROOMS, T0, S, _tracked_persons, sym
 from tests.cli.logdata import build_graph as office_graph

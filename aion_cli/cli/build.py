@@ -55,7 +55,7 @@ inputs[{path, name, size, sha256}], notes, warnings.
 
 
 class _RichProgress:
-    """Adapts a rich progress bar to :class:`aion_cli.pipeline.ProgressSink`."""
+    """Adapts a rich progress bar to :class:`aion_cli.build_report.ProgressSink`."""
 
     def __init__(self, quiet: bool) -> None:
         from aion_cli.cli.console import progress
@@ -243,7 +243,8 @@ def command(
     from aion_cli.cli.timeparse import resolve_zone
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.errors import InputError
-    from aion_cli.pipeline import DEFAULT_GRAPH_PERIOD_NS, BuildOptions, build_map
+    from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS
+    from aion_cli.pipeline import BuildOptions, build_map
 
     config = _load_config(config_file)
     if print_config:

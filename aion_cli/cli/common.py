@@ -37,8 +37,9 @@ def resolve_time(text: str, tz: str | None, loaded: Any = None) -> tuple[int, Zo
     """Parse ``text`` in zone ``tz``; without ``tz``, the zone the map was built for (if
     any), else the machine's local zone (see :mod:`aion_cli.cli.timeparse`)."""
     if tz is None and loaded is not None:
-        stored = loaded.manifest.get("timezone")
-        tz = stored if isinstance(stored, str) else None
+        from aion_cli.manifest import Manifest
+
+        tz = Manifest.from_dict(loaded.manifest).timezone
     zone = resolve_zone(tz)
     return parse_time(text, zone), zone
 

@@ -1,7 +1,7 @@
 """Scene-graph options: ``--nav-layer``, the one option that picks a scene graph's
 navigational layer (build, simulate, info; the rule behind it is
 :func:`formats.dsg.choose_nav_layer`), and build's ``--graph-period`` (how thinly a log's
-graph stream is used, :func:`aion_cli.pipeline.graph_schedule`)."""
+graph stream is used, :func:`aion_cli.graph_feed.graph_schedule`)."""
 
 from __future__ import annotations
 
@@ -85,7 +85,7 @@ def _period(ctx: click.Context, param: click.Parameter, value: str | None) -> in
     return None if value is None else parse_period_ns(value)
 
 
-#: ``--graph-period``'s default as the help shows it: ``aion_cli.pipeline``'s
+#: ``--graph-period``'s default as the help shows it: ``aion_cli.graph_feed``'s
 #: ``DEFAULT_GRAPH_PERIOD_NS`` (not imported here: ``aion --help`` must stay light; a test
 #: checks that the two agree).
 GRAPH_PERIOD_DEFAULT_TEXT = "5s"
@@ -93,7 +93,7 @@ GRAPH_PERIOD_DEFAULT_TEXT = "5s"
 
 def graph_period_option(func: F) -> F:
     """``--graph-period DURATION`` (log time), passed on as integer ns (None: the build's
-    default, :data:`aion_cli.pipeline.DEFAULT_GRAPH_PERIOD_NS`)."""
+    default, :data:`aion_cli.graph_feed.DEFAULT_GRAPH_PERIOD_NS`)."""
     return click.option(
         "--graph-period",
         "graph_period_ns",

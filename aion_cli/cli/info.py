@@ -41,11 +41,12 @@ MAP_SUFFIX = ".aion"
 
 
 def describe_map(path: Path) -> dict[str, Any]:
-    """The manifest of a map file (cheap: no array is read), without the internal tables."""
+    """The manifest of a map file (cheap: no array is read), without the internal tables
+    (:meth:`aion_cli.manifest.Manifest.shown`)."""
+    from aion_cli.manifest import Manifest
     from formats.mapfile import read_manifest
 
-    manifest = read_manifest(path)
-    return {"map": str(path)} | {k: v for k, v in manifest.items() if k not in ("members", "state")}
+    return {"map": str(path)} | Manifest.from_dict(read_manifest(path)).shown()
 
 
 def describe(

@@ -134,7 +134,8 @@ def observed_windows(spans: list[tuple[int, int]], window_ns: int) -> np.ndarray
 
 def _build_aion(train: list[DayData], config: ModelConfig, work: Path) -> Any:
     """aion's map of the training days through ``convert`` + ``build`` (see module doc)."""
-    from aion_cli.pipeline import BuildOptions, build_map, load_map
+    from aion_cli.mapquery import load_map
+    from aion_cli.pipeline import BuildOptions, build_map
     from formats.tracks_log import tracks_to_log
 
     batch = DetectionBatch.concat([d.batch for d in train]).sorted_by_time()

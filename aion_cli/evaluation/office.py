@@ -221,7 +221,8 @@ def run_scene(
     keep_figure: bool,
 ) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """Simulate, build both maps, compare; returns the scene's figures (and plot arrays)."""
-    from aion_cli.pipeline import BuildOptions, build_map, load_map
+    from aion_cli.mapquery import load_map
+    from aion_cli.pipeline import BuildOptions, build_map
     from aion_cli.sim.scenario import build_scene, load_environment
     from aion_cli.sim.scenario import run_scene as write_scene
 

@@ -33,7 +33,7 @@ LEG_DATA = SHARED_DATA / "logs" / "leg_tracker"
 
 def map_cells(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cell centres (x, y), detections per direction bin, undirected detections of a map."""
-    from aion_cli.pipeline import load_map
+    from aion_cli.mapquery import load_map
 
     entries = load_map(path).state.entries
     rows = entries.cell_rows()

@@ -260,7 +260,7 @@ def test_terminal_table_is_limited_but_json_is_not(
 
 
 def test_load_map_gives_state_graph_and_manifest(office: Office) -> None:
-    from aion_cli.pipeline import load_map
+    from aion_cli.mapquery import load_map
 
     state, graph, manifest = load_map(office.map)
     assert graph is not None

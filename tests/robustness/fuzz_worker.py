@@ -555,7 +555,7 @@ def _cli(*commands: list[Any]) -> int:
 def _query_map(path: Path) -> int:
     """``load_map`` and the historical table of a map: flows must be finite and >= 0."""
     from aion_cli.engine.query import historical_table
-    from aion_cli.pipeline import load_map
+    from aion_cli.mapquery import load_map
 
     state = load_map(path).state
     table = historical_table(state)
@@ -642,7 +642,7 @@ def run_cases(
             return _query_map(out)
 
     elif target in ("read_map", "load_map"):
-        from aion_cli.pipeline import load_map
+        from aion_cli.mapquery import load_map
         from formats.mapfile import read_map
 
         def step(r: random.Random, work: Path) -> Any:

@@ -483,7 +483,7 @@ def test_scene_graph_with_a_damaged_node_name_is_a_clear_error(tmp_path: Path) -
 def test_detections_before_the_first_scene_graph_bind_to_its_nodes(tmp_path: Path) -> None:
     """15 minutes of people near p1 with no graph yet: they are kept on hash cells, and once
     the graph arrives the cells bind to the node; nothing is lost."""
-    from aion_cli.pipeline import load_map
+    from aion_cli.mapquery import load_map
 
     early = walk(900)
     graph = scene_graph(T0 + 900 * S + 1, graph_payload())

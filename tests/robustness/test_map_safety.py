@@ -3,7 +3,7 @@ keeps two writers apart, checksums catch corruption, and loading a map never exe
 trusts oversized, path-traversing or invalid content.
 
 ``formats/mapfile.py`` has unit tests for the container; these go through ``aion build`` /
-``aion predict`` (subprocesses for signals) and ``aion_cli.pipeline.load_map``.
+``aion predict`` (subprocesses for signals) and ``aion_cli.mapquery.load_map``.
 """
 
 from __future__ import annotations
@@ -273,7 +273,7 @@ def _member(path: Path) -> str:
 def refused(path: Path, *fragments: str) -> None:
     """``load_map`` raises a MapFileError and ``aion predict`` prints one error line, exit 2."""
     from aion_cli.engine.errors import MapFileError
-    from aion_cli.pipeline import load_map
+    from aion_cli.mapquery import load_map
 
     with pytest.raises(MapFileError) as info:
         load_map(path)

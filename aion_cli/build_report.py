@@ -1,0 +1,253 @@
+"""What a build tells its caller: the :class:`BuildReport`, the :class:`ProgressSink` it
+reports progress to, and the checks that turn the detection counts into the report's per-topic
+counts, warnings and errors.
+
+Why a module of its own: the CLI (``aion build``, its summary and ``--format json``) and the
+Python API read the report without the build's machinery, and the rules that decide when a
+build's losses are a warning and when they are its error (:func:`check_decoding`,
+:func:`check_usable`, :data:`LOSS_WARN_SHARE`) live beside the fields they fill.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+from aion_cli.detection_feed import HEADING_SOURCES
+from aion_cli.engine.errors import InputError, MessageDecodeError
+from aion_cli.engine.types import I64
+
+if TYPE_CHECKING:
+    from aion_cli.detection_feed import DetectionCounts, TopicFeeders
+    from aion_cli.manifest import Manifest
+    from aion_cli.topics import TopicPlan
+
+__all__ = [
+    "LOSS_WARN_SHARE",
+    "BuildReport",
+    "NoProgress",
+    "ProgressSink",
+    "check_decoding",
+    "check_usable",
+    "topic_counts",
+]
+
+LOSS_WARN_SHARE = 0.5
+"""A detection topic that loses more than this share of the detections read from it (dropped
+after decoding for any reason: no transform, a non-finite or out-of-range position, a closed
+window) gets a warning with the counts, even with ``-q``. Messages that cannot be decoded, or
+whose log times are stray, are warned about separately, whatever their number."""
+
+#: Drops of detections once read (the class filter of vision_msgs is a choice, not a loss).
+_DETECTION_DROPS = frozenset({"no_transform", "nan", "out_of_range", "before_window"})
+
+
+class ProgressSink(Protocol):
+    """Where the build reports progress (the CLI adapts a rich progress bar)."""
+
+    def start(self, description: str, total: int, unit: str = "msgs") -> None:
+        """A new phase with ``total`` ``unit`` (messages, MiB) to go."""
+
+    def advance(self, n: int) -> None:
+        """``n`` more units of the current phase are done."""
+
+
+class NoProgress:
+    """The progress sink of a build nobody watches (the default of ``build_map``)."""
+
+    def start(self, description: str, total: int, unit: str = "msgs") -> None:
+        return None
+
+    def advance(self, n: int) -> None:
+        return None
+
+
+@dataclass
+class BuildReport:
+    """What a build did; ``to_dict`` is the JSON printed by ``aion build --format json``."""
+
+    output: Path
+    detections_read: int = 0
+    detections_used: int = 0
+    dropped: dict[str, int] = field(default_factory=dict)
+    cells: int = 0
+    nodes: int = 0
+    nodes_with_flow: int = 0
+    bound_cells: int = 0
+    windows: int = 0
+    start_ns: int | None = None
+    end_ns: int | None = None
+    map_bytes: int = 0
+    observation: str = "fixed"
+    graph_source: str = "none"
+    graph_messages: int = 0  # graphs applied to the map (decoded or reused)
+    graph_skipped: int = 0  # damaged, skipped
+    graph_decoded: int = 0  # spark_dsg decodes
+    graphs_skipped_identical: int = 0  # applied without decoding: the last payload again
+    graphs_skipped_period: int = 0  # within --graph-period of the graph before: not applied
+    graph_period_ns: int = 0
+    graph_layer: str | None = None  # the navigational layer taken, e.g. "MESH_PLACES (3[1])"
+    dsg_version: str | None = None
+    detection_topics: list[str] = field(default_factory=list)
+    graph_topics: list[str] = field(default_factory=list)
+    inputs: list[dict[str, Any]] = field(default_factory=list)
+    continued: bool = False
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    headings: dict[str, int] = field(default_factory=dict)
+    detection_decoding: dict[str, dict[str, Any]] = field(default_factory=dict)
+    by_topic: dict[str, dict[str, Any]] = field(default_factory=dict)
+    time_dropped: dict[str, dict[str, int]] = field(default_factory=dict)
+    tf_undecodable: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        span = (
+            None
+            if self.start_ns is None or self.end_ns is None
+            else (self.end_ns - self.start_ns) / 1e9
+        )
+        return {
+            "map": str(self.output),
+            "map_bytes": self.map_bytes,
+            "continued": self.continued,
+            "detections": {
+                "read": self.detections_read,
+                "used": self.detections_used,
+                "dropped": dict(sorted(self.dropped.items())),
+            },
+            "detections_by_topic": self.by_topic,
+            "cells": self.cells,
+            "nodes": self.nodes,
+            "nodes_with_flow": self.nodes_with_flow,
+            "bound_cells": self.bound_cells,
+            "windows": self.windows,
+            "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns, "seconds": span},
+            "observation": self.observation,
+            "graph": {
+                "source": self.graph_source,
+                "layer": self.graph_layer,
+                "messages": self.graph_messages,
+                "skipped": self.graph_skipped,
+                "decoded": self.graph_decoded,
+                "skipped_identical": self.graphs_skipped_identical,
+                "skipped_period": self.graphs_skipped_period,
+                "period_s": self.graph_period_ns / 1e9,
+                "dsg_version": self.dsg_version,
+                "topics": self.graph_topics,
+            },
+            "detection_topics": self.detection_topics,
+            "detection_decoding": self.detection_decoding,
+            "log_times_dropped": self.time_dropped,
+            "tf_undecodable": self.tf_undecodable,
+            "headings": {k: int(self.headings.get(k, 0)) for k in HEADING_SOURCES},
+            "inputs": self.inputs,
+            "notes": self.notes,
+            "warnings": self.warnings,
+        }
+
+
+def topic_counts(
+    report: BuildReport,
+    feeders: TopicFeeders,
+    used: I64,
+    mapper_drops: I64,
+    total_used: int,
+) -> None:
+    """Per detection topic: detections read, used (``used``: per topic) and dropped (by
+    reason: the feeder's, plus the Mapper's ``mapper_drops``, topic x ``DROP_REASONS``) into
+    the report's ``detections_by_topic``; a topic that lost more than :data:`LOSS_WARN_SHARE`
+    of the detections read from it is a warning with the counts (a build that loses most of a
+    sensor must not look like a clean one) — unless the build used none at all
+    (``total_used``), which :func:`check_usable` makes an error."""
+    from aion_cli.engine.state import DROP_REASONS
+
+    for i, topic in enumerate(feeders.topics):
+        counts = feeders.counts[topic]
+        read, n_used = counts.read, int(used[i])
+        dropped = Counter({k: int(v) for k, v in counts.dropped.items() if v})
+        for reason, n in zip(DROP_REASONS, mapper_drops[i].tolist(), strict=True):
+            if n:
+                dropped[reason] += int(n)
+        report.by_topic[topic] = {
+            "read": read,
+            "used": n_used,
+            "dropped": dict(sorted(dropped.items())),
+        }
+        lost = read - n_used
+        if read and lost > LOSS_WARN_SHARE * read and total_used > 0:
+            reasons = ", ".join(
+                f"{k} {v:,}" for k, v in sorted(dropped.items()) if k in _DETECTION_DROPS
+            )
+            report.warnings.append(
+                f"{topic}: {lost:,} of its {read:,} detections ({100 * lost / read:.0f} %) "
+                f"could not be used (dropped: {reasons})"
+            )
+
+
+def check_decoding(report: BuildReport, counts: DetectionCounts, plan: TopicPlan) -> None:
+    """Per detection topic: every message undecodable is the build's error (with the first
+    failure's reason); some undecodable is a warning with the counts."""
+    for info in plan.detections:
+        tc = counts.topics.get(info.topic)
+        entry = report.detection_decoding.setdefault(info.topic, {})
+        if tc is None:
+            entry.update(messages=0, undecodable=0)
+            continue
+        entry.update(messages=tc.messages, undecodable=tc.undecodable)
+        if tc.undecodable == 0:
+            continue
+        reason = tc.first_error or "unknown reason"
+        if tc.undecodable == tc.messages:
+            raise MessageDecodeError(
+                f"none of the {tc.messages:,} messages on {info.topic} ({info.msgtype}) "
+                f"could be decoded: {reason}",
+                hint=tc.first_hint
+                or "the log's definition of the type may differ from what aion reads",
+            )
+        report.warnings.append(
+            f"{tc.undecodable:,} of {tc.messages:,} messages on {info.topic} could not be "
+            f"decoded and were skipped (first: {reason})"
+        )
+
+
+def check_usable(report: BuildReport, counts: DetectionCounts, previous: Manifest | None) -> None:
+    """A build without a single usable detection is an error, never a success: it names
+    what became of the detections read, and nothing is written (a continued map, whose
+    manifest is ``previous``, is left as it was, its new logs not recorded, so they can be
+    added once fixed). The one exception: a continued map that holds detections already may
+    take logs in which nobody was seen (a note: their observed windows are real zeros)."""
+    c = counts
+    if c.used > 0:
+        return
+    drops = ", ".join(f"{k} {v:,}" for k, v in sorted(c.dropped.items()) if v)
+    messages = sum(t.messages for t in c.topics.values())
+    before = previous.counts if previous is not None else {}
+    if int(before.get("used", 0)) > 0 and c.read == 0 and not drops:
+        report.notes.append(
+            f"no person in the {messages:,} detection messages: only observed-empty "
+            "windows were added to the map"
+        )
+        return
+    written = (
+        "no map was written"
+        if previous is None
+        else "the map was left as it was and the logs were not added"
+    )
+    if c.read == 0:
+        raise InputError(
+            f"no people detection in the {messages:,} messages of "
+            f"{', '.join(report.detection_topics)}"
+            + (f" (dropped: {drops})" if drops else ""),
+            hint="the topics carry no detections (check the class filter of vision_msgs, "
+            f"or choose other topics with --detections-topic); {written}",
+        )
+    hint = written
+    if c.dropped.get("no_transform"):
+        hint = f"check --map-frame and the log's TF; {hint}"
+    raise InputError(
+        f"none of the {c.read:,} people detections read could be used (dropped: "
+        f"{drops or 'none'})",
+        hint=hint,
+    )

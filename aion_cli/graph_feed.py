@@ -1,0 +1,368 @@
+"""The scene-graph feed of a build: which ``hydra_msgs/DsgUpdate`` messages it uses
+(``--graph-period``, :func:`graph_schedule`), how each is decoded (the spark_dsg version and
+the navigational layer pinned by the first graph that worked, a payload identical to the last
+one reused instead of decoded again) and what damaged ones do (skipped and counted; the first
+failure is the build's error when no graph at all could be decoded); and where a map's graph
+comes from when not from the stream (:func:`graph_source`: ``--graph FILE``, the continued map,
+``--derive-graph``).
+
+Why a module of its own, beside :mod:`aion_cli.detection_feed` and :mod:`aion_cli.tf_feed`:
+the graph stream carries state across the whole log (the pinned version and layer, the last
+payload, the robot poses already fed from the agent layer) that the build orchestration
+(:mod:`aion_cli.pipeline`) should not have to know about; it only asks :class:`GraphFeed` for
+the next snapshot.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from array import array
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.errors import MessageDecodeError
+from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
+from aion_cli.log_times import TopicTimes
+
+if TYPE_CHECKING:
+    from aion_cli.build_report import BuildReport, ProgressSink
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.topics import TopicPlan
+    from formats.raw import RawMessage
+
+__all__ = [
+    "DEFAULT_GRAPH_PERIOD_NS",
+    "GraphFeed",
+    "GraphOptions",
+    "GraphTimes",
+    "graph_schedule",
+    "graph_source",
+]
+
+DEFAULT_GRAPH_PERIOD_NS = 5_000_000_000
+"""``--graph-period`` default: 5 s of log time. Why: a graph matters to the map through its
+place nodes, and a node takes part only once it has been stable for ``stability_s`` (30 s by
+default) — cells bind to it at graph times, adding their state, never overwriting it — so a
+graph used up to 5 s late shifts a bind by at most a sixth of that wait and moves no detection
+out of its 600-s window's counts; a 1 Hz Hydra stream costs a fifth. Use ``0`` for every
+graph."""
+
+
+class GraphOptions(Protocol):
+    """The build options :func:`graph_source` reads (``pipeline.BuildOptions`` has them)."""
+
+    @property
+    def graph_file(self) -> Path | None: ...
+    @property
+    def nav_layer(self) -> str | None: ...
+    @property
+    def derive_graph(self) -> bool: ...
+
+
+def graph_schedule(t_ns: I64, period_ns: int, window_ns: int = 0) -> npt.NDArray[np.bool_]:
+    """Which scene-graph messages (log times, in stream order) a build uses with
+    ``--graph-period`` ``period_ns``; True = used.
+
+    The first graph is used, and then one graph per *period boundary*: at ``b = t + period``
+    after a used graph at ``t`` the newest graph logged at or before ``b`` that came after the
+    used one (it was pending) is used and the next boundary is ``b + period``; when none came
+    the next graph to arrive is used and the next boundary is its time + period. So the map
+    is never more than one period behind the newest graph, graphs are at least a period apart
+    on a steady stream (1 Hz, 5 s: every fifth), and the last graph of the log is always used
+    (the final map shows it). With ``window_ns`` the last graph logged in each window is used
+    too, so every window closes with the newest graph (and, where the robot poses come from
+    the graphs' agent layer, with all its poses). Used graphs are applied at their own place
+    in the stream, in time order, exactly as if the log held only them. ``period_ns <= 0``:
+    every graph. One ``searchsorted`` per graph used (times made non-decreasing first)."""
+    t = np.maximum.accumulate(np.asarray(t_ns, dtype=np.int64)) if len(t_ns) else t_ns
+    n = len(t)
+    used = np.zeros(n, dtype=bool)
+    if n == 0:
+        return used
+    if period_ns <= 0:
+        used[:] = True
+        return used
+    top = int(np.iinfo(np.int64).max)
+    last = 0
+    used[0] = True
+    boundary = min(int(t[0]) + int(period_ns), top)
+    while last < n - 1:
+        newest = int(np.searchsorted(t, np.int64(boundary), side="right")) - 1  # at or before b
+        if newest > last:
+            last = newest
+            boundary = min(boundary + int(period_ns), top)
+        else:
+            last += 1  # nothing pending: the next graph, whenever it comes
+            boundary = min(int(t[last]) + int(period_ns), top)
+        used[last] = True
+    if window_ns > 0:
+        w = t // np.int64(window_ns)
+        used[:-1] |= w[1:] != w[:-1]
+    return used
+
+
+class GraphTimes(TopicTimes):
+    """:class:`TopicTimes` that also keeps the log times of the scene-graph messages, with
+    their topics, in read order: what :func:`graph_schedule` decides on before the stream
+    (it must know when the next graph comes to choose the newest one of a period)."""
+
+    def __init__(self, topics: Iterable[str], graph_topics: set[str]) -> None:
+        super().__init__(topics)
+        self.graph_topics = sorted(graph_topics)
+        self._index = {t: i for i, t in enumerate(self.graph_topics)}
+        self.graph_t: array[int] = array("q")
+        self.graph_topic: array[int] = array("h")
+
+    def add(self, topic: str, t_ns: int) -> bool:
+        ok = super().add(topic, t_ns)
+        k = self._index.get(topic)
+        if ok and k is not None:
+            self.graph_t.append(t_ns)
+            self.graph_topic.append(k)
+        return ok
+
+    def stream_times(self, strays: dict[str, I64]) -> I64:
+        """The graph log times in the order the build's stream yields them: the strays the
+        time check drops are dropped here too (the first messages of each stray
+        ``(topic, time)``, as :meth:`aion_cli.log_times.TimeCheck.filter` does)."""
+        t = np.frombuffer(self.graph_t, dtype=np.int64) if len(self.graph_t) else np.zeros(0)
+        t = t.astype(np.int64)  # a copy: the array's buffer stays appendable
+        pending = Counter(
+            (self._index[topic], int(x))
+            for topic, times in strays.items()
+            if topic in self._index
+            for x in times.tolist()
+        )
+        if not pending:
+            return t
+        keep = np.ones(len(t), dtype=bool)
+        topics = np.frombuffer(self.graph_topic, dtype=np.int16)
+        for i in np.flatnonzero(np.isin(t, [x for _, x in pending])).tolist():
+            key = (int(topics[i]), int(t[i]))
+            if pending.get(key, 0) > 0:
+                pending[key] -= 1
+                keep[i] = False
+        return t[keep]
+
+
+class GraphFeed:
+    """The scene graphs of one build's stream, with the state they carry across the log.
+
+    ``dsg_version`` (``--dsg-version``, None: the version of the first graph that decodes)
+    and ``nav_layer`` (``--nav-layer``, None: the layer the first graph with places chose)
+    are pinned for the rest of the log; ``skip_identical``: a payload byte-identical to the
+    last one decoded reuses its snapshot. What happens to the graphs is counted in
+    ``report`` (``graph_decoded``, ``graph_skipped``, ``graphs_skipped_identical``,
+    ``graphs_skipped_period``, ``dsg_version``, ``graph_layer``, the notes)."""
+
+    def __init__(
+        self,
+        report: BuildReport,
+        dsg_version: str | None,
+        nav_layer: str | None,
+        period_ns: int,
+        skip_identical: bool = True,
+    ) -> None:
+        self.report = report
+        self.pinned_version = dsg_version is not None  # --dsg-version: failures stop the build
+        self.dsg_version = dsg_version
+        self.nav_layer = nav_layer
+        self.period_ns = period_ns
+        self.skip_identical = skip_identical
+        self.used: npt.NDArray[np.bool_] | None = None  # graph_schedule (None: all)
+        self._nav_pin: str | None = None  # the layer key the log's first graph chose
+        self._agents_until = np.iinfo(np.int64).min
+        self._first_error: MessageDecodeError | None = None
+        self._last: tuple[bytes, GraphSnapshot] | None = None  # payload, snapshot
+        self._first: tuple[str, int, GraphSnapshot] | None = None  # decoded early
+
+    def schedule(self, times: GraphTimes, strays: dict[str, I64], window_ns: int) -> None:
+        """Decide which graphs the stream uses (:func:`graph_schedule` over the graph log
+        times read before the stream, without the ``strays`` the time check drops)."""
+        self.used = graph_schedule(times.stream_times(strays), self.period_ns, window_ns)
+
+    def thin(
+        self, messages: Iterator[RawMessage], graph_topics: set[str], progress: ProgressSink
+    ) -> Iterator[RawMessage]:
+        """The stream without the scene graphs :func:`graph_schedule` leaves out
+        (``--graph-period``; counted, the progress bar still advances). They go before the
+        detection chunks are cut, so a skipped graph neither cuts the Mapper's feed into
+        smaller pieces nor is decoded. Every message passes when every graph is used."""
+        used = self.used
+        if used is None or bool(used.all()):
+            yield from messages
+            return
+        flags = used.tolist()
+        k = 0
+        for msg in messages:
+            if msg.topic in graph_topics:
+                keep = k >= len(flags) or flags[k]
+                k += 1
+                if not keep:
+                    self.report.graphs_skipped_period += 1
+                    progress.advance(1)
+                    continue
+            yield msg
+
+    def first_has_agents(self, logset: Any, first: RawMessage | None) -> bool:
+        """Whether ``first``, the first scene graph of the log, carries robot poses (its
+        agent layer). Its snapshot is kept for the stream, which then does not decode it
+        again."""
+        if first is None:
+            return False
+        snapshot = self.decode(logset, first)
+        self._first = (first.topic, first.log_time_ns, snapshot)
+        agents = snapshot.agents
+        return agents is not None and len(agents) > 0
+
+    def add_agent_poses(self, mapper: Mapper, agents: Trajectory | None) -> None:
+        """Feed the robot poses of a snapshot's agent layer that are newer than those fed
+        before (every Hydra snapshot repeats the whole trajectory)."""
+        if agents is None or len(agents) == 0:
+            return
+        t = np.asarray(agents.t_ns, dtype=np.int64)
+        new = t > self._agents_until
+        if new.any():
+            mapper.add_trajectory(Trajectory(t[new], np.asarray(agents.xyz)[new]))
+            self._agents_until = int(t[new].max())
+
+    def decode_or_skip(self, logset: Any, msg: RawMessage) -> GraphSnapshot | None:
+        """A damaged scene-graph message is skipped and counted (the graph stays as it was
+        until the next full graph, which Hydra repeats every few seconds); with the version
+        pinned by ``--dsg-version`` a failure is the user's to fix and stops the build."""
+        try:
+            return self.decode(logset, msg)
+        except MessageDecodeError as exc:
+            if self.pinned_version:
+                raise
+            self.report.graph_skipped += 1
+            if self._first_error is None:
+                self._first_error = exc
+            return None
+
+    def check_skips(self) -> None:
+        """Skipped graphs are a note; when no scene graph at all could be decoded the first
+        failure is the build's error (a map without the log's graph would mislead). Graphs
+        left out by ``--graph-period`` or reused unchanged are a note with the counts."""
+        r = self.report
+        seen = r.graph_messages + r.graph_skipped + r.graphs_skipped_period
+        if seen:
+            r.graph_period_ns = self.period_ns
+        if r.graphs_skipped_period or r.graphs_skipped_identical:
+            r.notes.append(
+                f"scene graphs: {r.graph_messages:,} of {seen:,} applied "
+                f"({r.graph_decoded:,} decoded, {r.graphs_skipped_identical:,} identical to "
+                f"the payload before and not decoded again); {r.graphs_skipped_period:,} left "
+                f"out by --graph-period {r.graph_period_ns / 1e9:g}s"
+            )
+        if r.graph_skipped == 0 or self._first_error is None:
+            return
+        if r.graph_messages == 0:
+            raise self._first_error
+        r.notes.append(
+            f"{r.graph_skipped:,} damaged scene-graph message(s) skipped (first: "
+            f"{self._first_error.message})"
+        )
+
+    def decode(self, logset: Any, msg: RawMessage) -> GraphSnapshot:
+        """One DsgUpdate message as a snapshot, through the loader every command uses.
+
+        The navigational layer is ``--nav-layer``, else the one the first graph with places
+        chose by name, kept for the rest of the log (an early graph that has 3D places but no
+        2D places yet must not make the map switch layers later); when a later graph lacks
+        that layer it is chosen again.
+
+        Decoding is skipped twice: the log's first graph when :meth:`first_has_agents`
+        decoded it already, and a payload byte-identical to the last one decoded (a fixed
+        sensor's static map, Hydra repeating an unchanged graph): its snapshot is reused with
+        the message's own time (counted as ``skipped_identical``). The payload is compared
+        byte for byte with a copy of the last one: exact, where a digest could collide, and
+        cheaper (0.1 ms for a 1.9 MB, 5,000-place payload; blake2b takes 3.4 ms).
+        """
+        from formats.dsg import GraphLayerError, decode_dsg
+
+        first = self._first
+        if first is not None and first[:2] == (msg.topic, msg.log_time_ns):
+            self._first = None  # decoded already, for the observation
+            return first[2]
+        decoded = logset.decode(msg)
+        payload = np.asarray(decoded.layer_contents, dtype=np.uint8)
+        stamp = decoded.header.stamp
+        t_ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec) or msg.log_time_ns
+        data = b""
+        if self.skip_identical:
+            data = payload.tobytes()
+            last = self._last
+            if last is not None and last[0] == data:
+                # The same bytes decode to the same graph with the same pinned version and
+                # layer: only its time differs. It is still applied (add_graph closes windows
+                # and checks binds at its time), so the map equals decoding it again.
+                self.report.graphs_skipped_identical += 1
+                return dataclasses.replace(last[1], t_ns=t_ns)
+        layer = self.nav_layer or self._nav_pin
+        try:
+            result = decode_dsg(payload, t_ns, self.dsg_version, layer)
+        except GraphLayerError as exc:
+            if self.nav_layer is not None or self._nav_pin is None:
+                raise GraphLayerError(f"{msg.topic}: {exc.message}", hint=exc.hint) from exc
+            result = decode_dsg(payload, t_ns, self.dsg_version)
+        if self.dsg_version is None:  # pin the version that worked for the rest of the log
+            self.dsg_version = result.version
+        if self.nav_layer is None and self._nav_pin is None and len(result.snapshot.places):
+            self._nav_pin = result.layer.key
+        self.report.dsg_version = result.version
+        self.report.graph_layer = str(result.layer)
+        self.report.graph_decoded += 1
+        if self.skip_identical:
+            self._last = (data, result.snapshot)
+        return result.snapshot
+
+
+def graph_source(
+    report: BuildReport,
+    plan: TopicPlan,
+    opts: GraphOptions,
+    continued_graph: bool,
+    start: int,
+    derive: Callable[[], GraphSnapshot],
+) -> GraphSnapshot | None:
+    """Where the map's graph comes from, in this order: ``--graph FILE`` (the log's scene
+    graphs are then ignored), the log's scene-graph stream (read by :class:`GraphFeed`), the
+    continued map's graph (``continued_graph``), ``--derive-graph`` (``derive``: where people
+    walk), else none (flows on hash cells). Says which in ``report.graph_source`` (with the
+    options that had no effect as notes) and returns the graph added once at ``start``, the
+    log's first time (None: no graph, or the stream's)."""
+    if opts.graph_file is not None:
+        from formats.dsg import load_graph
+
+        if plan.graph:
+            report.notes.append("--graph given: scene graphs in the log are ignored")
+            plan.graph = []
+        report.graph_source = f"file {opts.graph_file.name}"
+        loaded = load_graph(opts.graph_file, start, opts.nav_layer)
+        report.graph_layer = str(loaded.nav.layer)
+        report.notes.extend(loaded.notes())
+        return loaded.snapshot
+    if plan.graph:
+        report.graph_source = "log"
+        report.graph_topics = sorted(plan.names("graph"))
+        if opts.derive_graph:
+            report.notes.append("--derive-graph ignored: the log has scene graphs")
+        return None
+    if opts.nav_layer is not None:
+        report.notes.append("--nav-layer ignored: no scene graph is read")
+    if continued_graph:
+        report.graph_source = "continued map"
+        return None
+    if not opts.derive_graph:
+        report.notes.append(
+            "no scene graph: flows are kept on hash cells (try --graph FILE or --derive-graph)"
+        )
+        return None
+    report.graph_source = "derived from walking people"
+    return derive()

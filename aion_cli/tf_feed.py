@@ -1,0 +1,265 @@
+"""The TF feed of a build: one read of ``/tf`` and ``/tf_static`` into a ``TfBuffer``, with
+the log times of every other topic the build uses taken in the same pass (and the time-sanity
+rules over them, :func:`check_times`), and the observation mask they give: the robot
+trajectory (``map -> base_link``), or without one the windows a fixed sensor recorded in.
+
+Why a module of its own, beside :mod:`aion_cli.detection_feed` and
+:mod:`aion_cli.graph_feed`: TF is read before the stream (the detections need their
+transforms, the time-sanity rules need every log time), with its own fast decoder and its own
+failure rules (:func:`check_tf`), none of which the build orchestration
+(:mod:`aion_cli.pipeline`) needs to know.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.engine.errors import InputError, MessageDecodeError, TransformError
+from aion_cli.engine.mapper import TIME_RANGE_TEXT
+from aion_cli.engine.types import Trajectory
+from aion_cli.graph_feed import GraphTimes
+from aion_cli.log_times import TimeCheck, TopicTimes, iso, stray_mask
+
+if TYPE_CHECKING:
+    from aion_cli.build_report import BuildReport, ProgressSink
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.topics import TopicPlan
+    from formats.raw import RawMessage
+    from formats.tf import TfBuffer
+
+__all__ = [
+    "TfStats",
+    "check_tf",
+    "check_times",
+    "fixed_sensor_windows",
+    "read_tf_and_times",
+    "robot_trajectory",
+]
+
+
+@dataclass
+class TfStats:
+    """TF messages read and skipped as undecodable (with the first failure)."""
+
+    messages: int = 0
+    undecodable: int = 0
+    first_error: MessageDecodeError | None = None
+
+
+def read_tf_and_times(
+    logset: Any,
+    plan: TopicPlan,
+    timed: set[str],
+    progress: ProgressSink,
+    graph_topics: set[str] | None = None,
+) -> tuple[TfBuffer | None, TopicTimes, TfStats]:
+    """One read of the TF topics and of the other topics in ``timed`` (those the build uses):
+    every TF message into one buffer, and the log time of every message of ``timed``
+    (:class:`aion_cli.log_times.TopicTimes`: what the time-sanity rules are applied to).
+
+    TF messages are decoded with numpy 4096 at a time (:mod:`formats.tf_fast`, ~50x faster
+    than rosbags) where the log's definition of the TF type is the layout that decoder reads
+    (:func:`formats.tf_fast.layout_matches`); messages of other topics, and a chunk the fast
+    decoder rejects (e.g. big-endian CDR, a corrupt payload), are decoded message by message
+    with the log's own definitions, and a message that cannot be decoded is skipped and
+    counted (like a bad detection or scene-graph message). A TF message whose log time is out
+    of the representable range is not decoded. The other topics' payloads are not decoded
+    here: MCAP chunks interleave topics, so reading them with TF costs little more than TF.
+    With ``graph_topics`` the times are a :class:`GraphTimes`, which also keeps those topics'
+    log times in read order (for :func:`aion_cli.graph_feed.graph_schedule`)."""
+    import logging
+
+    from formats.tf import TfBuffer
+    from formats.tf_fast import decode_tf_messages, layout_matches
+
+    tf_topics = plan.names("tf") if plan.tf else set()
+    times = (
+        GraphTimes(timed | tf_topics, graph_topics)
+        if graph_topics
+        else TopicTimes(timed | tf_topics)
+    )
+    stats = TfStats()
+    topics = tf_topics | timed
+    if not topics:
+        return None, times, stats
+    progress.start(
+        "reading TF and log times" if tf_topics else "reading log times", logset.total(topics)
+    )
+    buffer = TfBuffer() if tf_topics else None
+    generic = 0
+    fast_ok: dict[tuple[str, str, str], bool] = {}
+
+    def fast(m: RawMessage) -> bool:
+        key = (m.topic, m.msgtype, m.encoding)
+        ok = fast_ok.get(key)
+        if ok is None:
+            ok = fast_ok[key] = layout_matches(m.msgtype, m.encoding, *logset.definition(*key))
+        return ok
+
+    def add(chunk: list[RawMessage]) -> None:
+        nonlocal generic
+        assert buffer is not None
+        stats.messages += len(chunk)
+        static = np.fromiter((m.topic.endswith("_static") for m in chunk), bool, len(chunk))
+        try:
+            if not all(map(fast, chunk)):
+                raise MessageDecodeError("the log defines TF in another layout")
+            arrays = decode_tf_messages(chunk)
+        except MessageDecodeError:
+            generic += 1
+            for m, st in zip(chunk, static.tolist(), strict=True):
+                try:
+                    decoded = logset.decode(m)
+                except MessageDecodeError as exc:
+                    stats.undecodable += 1
+                    if stats.first_error is None:
+                        stats.first_error = exc
+                    continue
+                buffer.add_message(decoded, static=st)
+        else:
+            rows_static = static[arrays.msg_index]
+            for flag in (True, False):  # like TfBuffer's own batches: static rows first
+                for parent, child, rows in arrays.select(
+                    arrays.usable() & (rows_static == flag)
+                ).by_edge():
+                    buffer.add_transforms(
+                        parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
+                    )
+
+    chunk: list[RawMessage] = []
+    done = 0
+    for msg in logset.messages(topics):
+        done += 1
+        if done == 4096:
+            progress.advance(done)
+            done = 0
+        if not times.add(msg.topic, msg.log_time_ns) or msg.topic not in tf_topics:
+            continue
+        chunk.append(msg)
+        if len(chunk) == 4096:
+            add(chunk)
+            chunk = []
+    if chunk:
+        add(chunk)
+    progress.advance(done)
+    if generic:
+        logging.getLogger(__name__).info("TF: %d chunk(s) read by the generic decoder", generic)
+    return buffer, times, stats
+
+
+def robot_trajectory(
+    tf: TfBuffer | None, map_frame: str, base_frame: str, warnings: list[str]
+) -> Trajectory | None:
+    """The robot's ``map_frame -> base_frame`` poses (``--map-frame``, ``--base-frame``),
+    without stray ones (the time-sanity rule of :func:`aion_cli.log_times.stray_mask` on the
+    poses' own stamps: a pose a day away from the rest of the trajectory would make its far
+    window an observed one)."""
+    if tf is None:
+        return None
+    try:
+        traj = tf.trajectory(map_frame, base_frame)
+    except TransformError:
+        return None
+    if len(traj) == 0:
+        return None
+    t = np.asarray(traj.t_ns, dtype=np.int64)
+    stray = stray_mask(t)
+    if stray.any():
+        warnings.append(
+            f"{int(stray.sum()):,} robot pose(s) ignored: stamped more than a day away from "
+            f"the rest of the trajectory (first: {iso(int(t[stray].min()))})"
+        )
+        keep = ~stray
+        traj = Trajectory(t[keep], np.asarray(traj.xyz)[keep])
+    return traj
+
+
+def check_tf(stats: TfStats, tf_topics: set[str], report: BuildReport) -> None:
+    """Undecodable TF messages were skipped: a warning with the count; when none of them
+    could be decoded the build stops (without its TF the map would silently change its
+    frames and its observation)."""
+    if stats.undecodable == 0 or stats.first_error is None:
+        return
+    names = ", ".join(sorted(tf_topics))
+    report.tf_undecodable = stats.undecodable
+    if stats.undecodable == stats.messages:
+        raise MessageDecodeError(
+            f"none of the {stats.messages:,} messages on {names} could be decoded: "
+            f"{stats.first_error.message}",
+            hint=stats.first_error.hint,
+        )
+    report.warnings.append(
+        f"{stats.undecodable:,} of {stats.messages:,} messages on {names} could not be "
+        f"decoded and were skipped (first: {stats.first_error.message})"
+    )
+
+
+def check_times(
+    times: TopicTimes, plan: TopicPlan, timed: set[str], report: BuildReport
+) -> TimeCheck:
+    """The time-sanity rules (:mod:`aion_cli.log_times`) over the log times read with TF:
+    their warnings and per-topic drops go to the report, and the returned
+    :class:`~aion_cli.log_times.TimeCheck` filters the build's later reads. The build's time
+    span comes from the topics in ``timed`` (detections, scene graphs) and the dynamic TF
+    topics only: unrelated topics, ``/tf_static`` and container summaries have no say. When
+    every detection message has an unrepresentable log time the build stops."""
+    tf_topics = plan.names("tf") if plan.tf else set()
+    span = timed | {t for t in tf_topics if not t.endswith("_static")}
+    checked = times.check(span)
+    report.warnings.extend(checked.warnings(decoded=tf_topics))
+    report.time_dropped = {
+        topic: {
+            "out_of_range": int(checked.out_of_range.get(topic, 0)),
+            "stray": int(checked.strays[topic].size) if topic in checked.strays else 0,
+        }
+        for topic in sorted(set(checked.out_of_range) | set(checked.strays))
+        if checked.out_of_range.get(topic) or topic in checked.strays
+    }
+    detection_topics = plan.names("detections")
+    dropped = sum(checked.out_of_range.get(t, 0) for t in detection_topics)
+    if dropped and not any(checked.kept.get(t, 0) for t in detection_topics):
+        raise InputError(
+            f"every one of the {dropped:,} detection messages has a log time outside "
+            f"{TIME_RANGE_TEXT} ({', '.join(sorted(detection_topics))})",
+            hint="log times are nanoseconds since 1970 (UTC); the recorder's clock or the "
+            "file is broken; no map was written",
+        )
+    return checked
+
+
+def fixed_sensor_windows(mapper: Mapper, logset: Any, times: TimeCheck, notes: list[str]) -> str:
+    """The observation of a log without a robot trajectory (neither TF nor scene-graph
+    agents), from its log times: a fixed sensor observes exactly the windows in which the logs
+    recorded something (any message on any topic: a tracker that publishes only when it sees
+    someone still records its laser's scans) — never the time between two recordings, within
+    one file or across files — so ``build A B`` records the same empty windows as ``build A``
+    then ``--map B``. Only windows inside the runs of the topics aion uses count (``times``;
+    one message of an unrelated topic years away must not become an observed empty window),
+    plus the windows of those topics' own messages (the data, even where an index omits
+    them). Sets the Mapper's windows, adds a note for windows left out, and returns the
+    report's description of the observation."""
+    from aion_cli.engine.windows import window_ns
+    from formats.recorded import windows_of
+
+    delta = window_ns(mapper.state.config.window_s)
+    recorded = logset.recorded_windows(delta)
+    inside = times.within_runs(recorded, delta)
+    outside = int(np.count_nonzero(~inside))
+    if outside:
+        first = int(recorded[~inside][0]) * delta
+        notes.append(
+            f"{outside:,} recorded window(s) outside the time of the topics aion uses are "
+            f"not taken as observed (first: {iso(first)})"
+        )
+    windows = np.union1d(recorded[inside], windows_of(times.span_times, delta))
+    mapper.set_fixed_windows(windows)
+    if len(windows) == 0:
+        return "fixed sensor (no message recorded)"
+    span = int(windows[-1] - windows[0] + 1)
+    return (
+        f"fixed sensor over the {len(windows):,} windows with messages "
+        f"({len(windows) * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
+    )

@@ -1,0 +1,147 @@
+"""The build writes its manifest through the typed :class:`aion_cli.manifest.Manifest` and reads
+a continued map's the same way; the stored JSON keeps the keys, their order and their values of
+the dict the build wrote before (``formats.mapfile.read_manifest``), and ``aion info`` shows
+the same document as before (the stored keys without ``members`` and ``state``).
+
+Before/after check done by hand when the manifest became typed: the manifests of a new map
+(with ``--graph FILE``), of that map continued by a second log, and of a map with ``--tz`` were
+equal key for key and value for value (``created`` aside)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from aion_cli.cli.info import describe_map
+from aion_cli.engine.types import DetectionBatch
+from aion_cli.manifest import Manifest
+from aion_cli.pipeline import BuildOptions, build_map
+from formats.mapfile import read_manifest
+from formats.tracks_log import tracks_to_log
+
+S = 1_000_000_000
+HOUR = 3600 * S
+DAY = 24 * HOUR
+T0 = 1_762_070_400 * S  # aligned to 10-minute windows
+GRAPH = Path(__file__).parent / "data" / "dsg" / "apartment_dsg.json"
+
+#: The keys of a map's manifest as the build wrote them before the typed manifest, in order.
+STORED_KEYS = [
+    "format",
+    "version",
+    "creator",
+    "created",
+    "state",
+    "config",
+    "inputs",
+    "time_span",
+    "counts",
+    "last_build",
+    "graph_source",
+    "observation",
+    "timezone",
+    "families",
+    "members",
+]
+CONTAINER_KEYS = ("format", "version", "creator", "created", "members")
+
+
+def _people(start: int, n: int = 60) -> DetectionBatch:
+    t = start + np.arange(n) * (HOUR // n)
+    xy = np.column_stack([np.linspace(0.0, 3.0, n), np.zeros(n), np.zeros(n)])
+    return DetectionBatch.from_arrays(t, xy, np.zeros(n), np.ones(n), np.arange(n) % 3)
+
+
+def _logs(folder: Path) -> list[Path]:
+    logs = []
+    for k, start in enumerate((T0, T0 + 2 * DAY)):
+        log = folder / f"day{k}.mcap"
+        tracks_to_log(_people(start), log, observed=[(start, start + HOUR)])
+        logs.append(log)
+    return logs
+
+
+def _old_describe(path: Path) -> dict[str, Any]:
+    """What ``aion info MAP`` showed before the typed manifest."""
+    manifest = read_manifest(path)
+    return {"map": str(path)} | {k: v for k, v in manifest.items() if k not in ("members", "state")}
+
+
+@pytest.fixture(scope="module")
+def maps(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    folder = tmp_path_factory.mktemp("manifest")
+    logs = _logs(folder)
+    first = build_map(BuildOptions(logs=(logs[0],), output=folder / "a.aion", graph_file=GRAPH))
+    first_manifest = read_manifest(first.output)
+    second = build_map(
+        BuildOptions(logs=(logs[1],), output=folder / "a.aion", continue_from=first.output)
+    )
+    zoned = build_map(
+        BuildOptions(logs=(logs[0],), output=folder / "z.aion", timezone="Europe/Berlin")
+    )
+    return {
+        "logs": logs,
+        "first": first,
+        "first_manifest": first_manifest,
+        "second": second,
+        "zoned": zoned,
+    }
+
+
+def test_the_stored_manifest_has_the_keys_of_before_in_their_order(maps: dict[str, Any]) -> None:
+    for report in (maps["second"], maps["zoned"]):
+        assert list(read_manifest(report.output)) == STORED_KEYS
+    assert list(maps["first_manifest"]) == STORED_KEYS
+
+
+def test_the_stored_manifest_round_trips_through_the_typed_one(maps: dict[str, Any]) -> None:
+    for stored in (maps["first_manifest"], read_manifest(maps["second"].output)):
+        fields = {k: v for k, v in stored.items() if k not in CONTAINER_KEYS}
+        typed = Manifest.from_dict(stored)
+        assert typed.to_dict() == fields
+        assert list(typed.to_dict()) == list(fields)
+
+
+def test_the_values_are_those_the_build_wrote_before(maps: dict[str, Any]) -> None:
+    first, second = maps["first"], maps["second"]
+    old = maps["first_manifest"]
+    assert old["inputs"] == first.inputs  # path, name, size, sha256 as provenance gives them
+    assert old["time_span"] == {"start_ns": first.start_ns, "end_ns": first.end_ns}
+    assert old["last_build"] == first.to_dict()["detections"]
+    assert old["counts"]["read"] == old["counts"]["used"] == 60
+    assert old["graph_source"] == f"file {GRAPH.name}"
+    assert old["timezone"] == "UTC"
+    new = read_manifest(second.output)
+    assert new["inputs"] == old["inputs"] + second.inputs  # the continued map's first
+    assert new["time_span"] == {"start_ns": first.start_ns, "end_ns": second.end_ns}
+    assert second.start_ns == first.start_ns  # joined with the continued map's span
+    assert new["counts"]["read"] == new["counts"]["used"] == 120  # over both builds
+    assert new["counts"]["dropped"] == {}
+    assert new["last_build"] == second.to_dict()["detections"]
+    assert new["graph_source"] == "continued map"
+    assert read_manifest(maps["zoned"].output)["timezone"] == "Europe/Berlin"
+
+
+def test_info_shows_what_it_showed_before(maps: dict[str, Any]) -> None:
+    for report in (maps["first"], maps["second"], maps["zoned"]):
+        shown = describe_map(report.output)
+        assert shown == _old_describe(report.output)
+        assert list(shown) == list(_old_describe(report.output))
+
+
+def test_a_log_the_continued_map_holds_is_refused_by_its_typed_inputs(
+    maps: dict[str, Any], tmp_path: Path
+) -> None:
+    from aion_cli.engine.errors import InputError
+
+    with pytest.raises(InputError, match="already in the map"):
+        build_map(
+            BuildOptions(
+                logs=(maps["logs"][0],),
+                output=tmp_path / "again.aion",
+                continue_from=maps["second"].output,
+            )
+        )
