@@ -11,6 +11,6 @@ The Python API (docs/API.md)::
 __version__ = "0.1.0"
 
 from aion_cli.api import Map, Plan, Table, build, to_ns
-from aion_cli.engine.errors import AionError, InputError
+from aion_cli.errors import AionError, InputError
 
 __all__ = ["AionError", "InputError", "Map", "Plan", "Table", "__version__", "build", "to_ns"]

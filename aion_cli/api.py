@@ -11,7 +11,7 @@
 Paths are ``str`` or ``os.PathLike``. Times are aion time strings (``"2026-11-23 08:30"``,
 ``"monday 08:30"``, ``"+2h"``, ``"now"``, ``"1700000000"``), ``datetime`` (a naive one is
 read in the map's zone), or integer nanoseconds since 1970 (UTC). Errors are the typed errors
-of :mod:`aion_cli.engine.errors` (``InputError`` and its subclasses for bad input), exactly
+of :mod:`aion_cli.errors` (``InputError`` and its subclasses for bad input), exactly
 as the CLI reports them. The CLI's ``predict``, ``plan`` and ``export`` are formatting over
 the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
 :mod:`aion_cli.exports`), so results are equal to their JSON output.
@@ -27,16 +27,16 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Union
 
-from aion_cli.engine.errors import InputError
+from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
-    from aion_cli.cli.timeparse import Zone
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
     from aion_cli.routes import Route
+    from aion_cli.timeparse import Zone
 
 PathLike = Union[str, "os.PathLike[str]"]
 TimeLike = str | int | datetime
@@ -187,7 +187,7 @@ class Map:
         return zone if isinstance(zone, str) else None
 
     def _zone(self, tz: str | None) -> Zone:
-        from aion_cli.cli.timeparse import resolve_zone
+        from aion_cli.timeparse import resolve_zone
 
         return resolve_zone(tz if tz is not None else self.timezone)
 
@@ -209,7 +209,6 @@ class Map:
     ) -> Table:
         """Flows per entry at ``time`` (``historical=True``: as observed), as ``aion predict``
         with ``--layer``, ``--node``, ``--at`` and ``--top``."""
-        from aion_cli.cli.timeparse import format_ns
         from aion_cli.predictions import (
             LAYERS,
             entry_table,
@@ -217,6 +216,7 @@ class Map:
             rows_from_table,
             select,
         )
+        from aion_cli.timeparse import format_ns
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
@@ -251,10 +251,10 @@ class Map:
         """A path from ``start`` to ``goal`` (node ids ``"p12"`` or coordinates ``"x,y"``)
         departing at ``time``, avoiding busy and opposing flows, with the distance-only
         path beside it (``Plan.distance_only``), as ``aion plan``."""
-        from aion_cli.cli.timeparse import format_ns
         from aion_cli.engine.node_ids import node_label
         from aion_cli.mapquery import nav_graph
         from aion_cli.routes import plan_routes, resolve_endpoint
+        from aion_cli.timeparse import format_ns
 
         if speed is not None and not 0.01 <= speed <= 20.0:
             raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
@@ -322,7 +322,7 @@ class Map:
         """Write the map to ``path`` (a new file, or an existing aion map, which is replaced
         atomically; anything else is refused). A map loaded from a file is copied byte for
         byte (its checksums stay valid); an in-memory map is written from its state."""
-        from formats.mapfile import check_map_target, write_map
+        from aion_cli.formats.mapfile import check_map_target, write_map
 
         target = Path(os.fspath(path))
         if self.path is not None:
@@ -361,8 +361,8 @@ class Map:
 def to_ns(time: TimeLike, zone: Zone) -> int:
     """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (naive: in
     ``zone``) or integer nanoseconds; outside 1900 .. 2261 is an ``InputError``."""
-    from aion_cli.cli.timeparse import check_range, parse_time
-    from aion_cli.cli.timeparse import to_ns as datetime_ns
+    from aion_cli.timeparse import check_range, parse_time
+    from aion_cli.timeparse import to_ns as datetime_ns
 
     if isinstance(time, bool):
         raise InputError(f"not a time: {time!r}")

@@ -16,8 +16,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from aion_cli.detection_feed import HEADING_SOURCES
-from aion_cli.engine.errors import InputError, MessageDecodeError
 from aion_cli.engine.types import I64
+from aion_cli.errors import InputError, MessageDecodeError
 
 if TYPE_CHECKING:
     from aion_cli.detection_feed import DetectionCounts, TopicFeeders

@@ -32,14 +32,14 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-from aion_cli.engine.errors import TransformError
 from aion_cli.engine.types import I64, DetectionBatch
+from aion_cli.errors import TransformError
 
 if TYPE_CHECKING:
     from aion_cli.engine.tracking import LinkerConfig, TrackLinker
-    from formats.detections import DetectionAdapter
-    from formats.raw import RawMessage
-    from formats.tf import TfBuffer
+    from aion_cli.formats.detections import DetectionAdapter
+    from aion_cli.formats.raw import RawMessage
+    from aion_cli.formats.tf import TfBuffer
 
 #: Heading sources counted by :class:`DetectionCounts` (the build summary's order).
 HEADING_SOURCES: tuple[str, ...] = ("velocity", "track", "linked", "pose_yaw", "none")
@@ -86,8 +86,8 @@ class DetectionCounts:
 
 def _default_factory(topic: str, msgtype: str, encoding: str) -> DetectionAdapter:
     """The built-in adapter with aion's shipped definitions (no log at hand)."""
-    from aion_cli.engine.errors import TopicNotFoundError
-    from formats.detections import adapter_for
+    from aion_cli.errors import TopicNotFoundError
+    from aion_cli.formats.detections import adapter_for
 
     adapter = adapter_for(msgtype)
     if adapter is None:
@@ -112,8 +112,8 @@ class DetectionFeeder:
         factory: AdapterFactory | None = None,
         linker: LinkerConfig | bool | None = True,
     ) -> None:
+        from aion_cli.engine.heading import HeadingEstimator
         from aion_cli.engine.tracking import LinkerConfig
-        from formats.detections import HeadingEstimator
 
         self.tf = tf
         self.map_frame = map_frame
@@ -164,7 +164,7 @@ class DetectionFeeder:
         orientations judged per segment -- while the byte decoding, the transforms and the
         heading estimation run once over all of them. Returns the batch (rows in (segment,
         time) order) and each row's segment."""
-        from formats.detections.frame import FrameDetections
+        from aion_cli.formats.detections.frame import FrameDetections
 
         if segment is None:
             segment = np.zeros(len(messages), np.int64)
@@ -306,7 +306,7 @@ class DetectionFeeder:
         """Headings of every row: the main estimator for rows with the source's ids (or none),
         the linked estimator for linked rows; both tallied by source. Rows are differenced in
         (segment, time) order (``segment`` per row)."""
-        from formats.detections.heading import SOURCES
+        from aion_cli.engine.heading import SOURCES
 
         batch = self.headings.to_batch(merged, segment)
         sources = self.headings.sources
@@ -671,8 +671,8 @@ def log_adapters(
     topic's type; the fast decoder is kept only where that definition has the layout it was
     written for; a topic of ``mappings`` (topic -> TopicMapping) is read with its mapping,
     checked against the log's definition."""
-    from aion_cli.engine.errors import TopicNotFoundError
-    from formats.detections.registry import log_adapter
+    from aion_cli.errors import TopicNotFoundError
+    from aion_cli.formats.detections.registry import log_adapter
 
     def factory(topic: str, msgtype: str, encoding: str) -> DetectionAdapter:
         store = logset.typestore(topic, msgtype, encoding)

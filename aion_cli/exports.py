@@ -14,8 +14,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from aion_cli.cli.timeparse import Zone
-from formats.outputs import Staged
+from aion_cli.formats.outputs import Staged
+from aion_cli.timeparse import Zone
 
 
 def export_frames(
@@ -45,7 +45,7 @@ def export_frames(
 
 def check_out_dir(out_dir: Path) -> None:
     """OUT must be a folder or a new path: never a file, device, FIFO or socket."""
-    from formats.outputs import OutputPathError, special_kind
+    from aion_cli.formats.outputs import OutputPathError, special_kind
 
     kind = special_kind(out_dir)
     if kind is not None:
@@ -129,8 +129,8 @@ def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) ->
     (``aion plan --export``): written beside ``out`` and renamed into place; an existing
     ``out`` is replaced only when it is a PLY file (never a device, FIFO or other file)."""
     from aion_cli.engine import query
-    from aion_cli.engine.errors import InputError
-    from formats.outputs import check_output, file_starts_with
+    from aion_cli.errors import InputError
+    from aion_cli.formats.outputs import check_output, file_starts_with
 
     if out.suffix.lower() != ".ply":
         raise InputError(f"--export writes a .ply file, got {out.name!r}")

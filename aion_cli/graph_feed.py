@@ -25,15 +25,15 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import MessageDecodeError
 from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
+from aion_cli.errors import MessageDecodeError
 from aion_cli.log_times import TopicTimes
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.mapper import Mapper
+    from aion_cli.formats.raw import RawMessage
     from aion_cli.topics import TopicPlan
-    from formats.raw import RawMessage
 
 __all__ = [
     "DEFAULT_GRAPH_PERIOD_NS",
@@ -284,7 +284,7 @@ class GraphFeed:
         byte for byte with a copy of the last one: exact, where a digest could collide, and
         cheaper (0.1 ms for a 1.9 MB, 5,000-place payload; blake2b takes 3.4 ms).
         """
-        from formats.dsg import GraphLayerError, decode_dsg
+        from aion_cli.formats.dsg import GraphLayerError, decode_dsg
 
         first = self._first
         if first is not None and first[:2] == (msg.topic, msg.log_time_ns):
@@ -338,7 +338,7 @@ def graph_source(
     options that had no effect as notes) and returns the graph added once at ``start``, the
     log's first time (None: no graph, or the stream's)."""
     if opts.graph_file is not None:
-        from formats.dsg import load_graph
+        from aion_cli.formats.dsg import load_graph
 
         if plan.graph:
             report.notes.append("--graph given: scene graphs in the log are ignored")

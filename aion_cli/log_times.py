@@ -40,7 +40,7 @@ from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS, TIME_RANGE_TEXT
 from aion_cli.engine.types import I64, BoolA
 
 if TYPE_CHECKING:
-    from formats.raw import RawMessage
+    from aion_cli.formats.raw import RawMessage
 
 STRAY_GAP_NS = 86_400 * 1_000_000_000
 """Gap between consecutive messages of a topic that starts a new run (one day)."""

@@ -4,7 +4,7 @@
 ``version``, ``creator``, ``created``, ``members``); this module gives the fields aion writes a
 type, one reader and one writer, so that the build, the query commands, ``aion info`` and the
 Python API never read it by string keys. A manifest from a file is validated here: a field of
-the wrong type is :class:`~aion_cli.engine.errors.MapCorruptError` (exit 2), never a
+the wrong type is :class:`~aion_cli.errors.MapCorruptError` (exit 2), never a
 ``KeyError`` later.
 """
 
@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from aion_cli.engine.errors import MapCorruptError
+from aion_cli.errors import MapCorruptError
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import InputError, MapFileError
 from aion_cli.engine.types import GraphSnapshot
+from aion_cli.errors import InputError, MapFileError
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
@@ -50,7 +50,7 @@ def load_map(path: Path, writable: bool = False) -> LoadedMap:
     state's own (no second copy; a query's arrays view the file's pages in place, copied on
     write)."""
     from aion_cli.engine.state import MapState
-    from formats.mapfile import open_map
+    from aion_cli.formats.mapfile import open_map
 
     if not path.exists():
         raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
@@ -163,7 +163,7 @@ def export_map(
 ) -> list[Path]:
     """Write the scene of an entry table (nodes, cells, edges, mesh, a path) with
     ``formats.export.export_scene``; returns the files written."""
-    from formats.export import export_scene
+    from aion_cli.formats.export import export_scene
 
     kind = np.asarray(table.kind)
     nodes, cells = kind == 1, kind == 0

@@ -60,8 +60,8 @@ from aion_cli.detection_feed import (
     log_adapters,
 )
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import ConfigError, InputError
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
+from aion_cli.errors import ConfigError, InputError
 from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS, GraphFeed, GraphTimes, graph_source
 from aion_cli.log_times import TopicTimes, iso
 from aion_cli.manifest import InputLog, Manifest, add_counts
@@ -78,8 +78,8 @@ from aion_cli.topics import TopicPlan, no_detection_topic, select_topics
 
 if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
-    from formats.raw import RawMessage
-    from formats.tf import TfBuffer
+    from aion_cli.formats.raw import RawMessage
+    from aion_cli.formats.tf import TfBuffer
 
 __all__ = ["MAP_SUFFIX", "BuildOptions", "build_map"]
 
@@ -180,7 +180,7 @@ class _Build:
 
     def run(self) -> BuildReport:
         """The build, holding the output map's lock from start to end."""
-        from formats.mapfile import MapWriteError, check_map_target, map_lock
+        from aion_cli.formats.mapfile import MapWriteError, check_map_target, map_lock
 
         out = self.report.output
         folder = out.parent if str(out.parent) else Path(".")
@@ -204,7 +204,7 @@ class _Build:
 
     def _run(self) -> BuildReport:
         from aion_cli.engine.mapper import Mapper
-        from formats.logs import open_logs
+        from aion_cli.formats.logs import open_logs
 
         opts = self.opts
         if opts.continue_from is not None:
@@ -533,7 +533,7 @@ class _Build:
         (config, inputs of every build, time span, counts over every build and of this one,
         where the graph and the observation came from, the default time zone of ``predict`` /
         ``plan`` / ``export``, the model families in use)."""
-        from formats.mapfile import write_map
+        from aion_cli.formats.mapfile import write_map
 
         state = mapper.state
         arrays, meta = state.to_arrays(lazy=True)
@@ -565,7 +565,7 @@ def _load_mappings(path: Path | None) -> list[Any]:
     """The [[topic]] tables of ``--detections-mapping`` (none without it)."""
     if path is None:
         return []
-    from formats.detections.mapping import load_mapping
+    from aion_cli.formats.detections.mapping import load_mapping
 
     return load_mapping(Path(path))
 

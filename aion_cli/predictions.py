@@ -25,7 +25,7 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
-from aion_cli.cli.timeparse import Zone
+from aion_cli.timeparse import Zone
 
 if TYPE_CHECKING:
     from aion_cli.mapquery import LoadedMap
@@ -178,7 +178,7 @@ def document(
 ) -> dict[str, Any]:
     """The JSON document of ``predict`` and of ``export``'s entries.json: metadata and rows.
     ``t_ns`` None means historical (what was observed)."""
-    from aion_cli.cli.timeparse import format_ns
+    from aion_cli.timeparse import format_ns
 
     when = None if t_ns is None or zone is None else (format_ns(t_ns, zone), zone.name)
     return {
@@ -197,7 +197,7 @@ def entry_table(loaded: LoadedMap, t_ns: int | None, layer: str = "all") -> Any:
     """The engine's entry table of a map at ``t_ns`` (None: historical), aggregated to rooms
     or buildings for those layers (an :class:`InputError` for a map without a scene graph)."""
     from aion_cli.engine import query
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     table = (
         query.historical_table(loaded.state)
@@ -222,8 +222,8 @@ def select(
     order (``--node``: in the order given), as an int64 array."""
     import numpy as np
 
-    from aion_cli.engine.errors import UnknownNodeError
     from aion_cli.engine.node_ids import node_label, parse_node_id, require_point
+    from aion_cli.errors import UnknownNodeError
 
     index = np.arange(len(table.xyz), dtype=np.int64)
     if layer in ("places", "cells"):

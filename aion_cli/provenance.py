@@ -7,7 +7,7 @@ import hashlib
 from pathlib import Path
 from typing import Any
 
-from aion_cli.engine.errors import InputError
+from aion_cli.errors import InputError
 
 
 def _files_of(path: Path) -> list[Path]:
@@ -51,7 +51,7 @@ def check_log_path(path: Path) -> None:
     device or a socket would make hashing block or read forever (``/dev/zero``), so it is
     refused (:func:`formats.raw.check_regular_input`, ``os.stat`` only) before any byte is
     read."""
-    from formats.raw import check_regular_input
+    from aion_cli.formats.raw import check_regular_input
 
     if not path.exists():
         raise InputError(f"log not found: {path}", hint="check the path")

@@ -48,7 +48,7 @@ class Endpoint:
 
 def resolve_endpoint(where: str | int, nav: NavGraph) -> Endpoint:
     """A node id (``"p12"``, ``"p(12)"``, an int) or coordinates ``"x,y[,z]"`` snapped to the
-    nearest node; :class:`~aion_cli.engine.errors.UnknownNodeError` for an id not in the
+    nearest node; :class:`~aion_cli.errors.UnknownNodeError` for an id not in the
     graph."""
     if isinstance(where, (int, np.integer)):
         nav.index_of(int(where))

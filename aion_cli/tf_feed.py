@@ -17,18 +17,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aion_cli.engine.errors import InputError, MessageDecodeError, TransformError
 from aion_cli.engine.mapper import TIME_RANGE_TEXT
 from aion_cli.engine.types import Trajectory
+from aion_cli.errors import InputError, MessageDecodeError, TransformError
 from aion_cli.graph_feed import GraphTimes
 from aion_cli.log_times import TimeCheck, TopicTimes, iso, stray_mask
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.mapper import Mapper
+    from aion_cli.formats.raw import RawMessage
+    from aion_cli.formats.tf import TfBuffer
     from aion_cli.topics import TopicPlan
-    from formats.raw import RawMessage
-    from formats.tf import TfBuffer
 
 __all__ = [
     "TfStats",
@@ -72,8 +72,8 @@ def read_tf_and_times(
     log times in read order (for :func:`aion_cli.graph_feed.graph_schedule`)."""
     import logging
 
-    from formats.tf import TfBuffer
-    from formats.tf_fast import decode_tf_messages, layout_matches
+    from aion_cli.formats.tf import TfBuffer
+    from aion_cli.formats.tf_fast import decode_tf_messages, layout_matches
 
     tf_topics = plan.names("tf") if plan.tf else set()
     times = (
@@ -242,7 +242,7 @@ def fixed_sensor_windows(mapper: Mapper, logset: Any, times: TimeCheck, notes: l
     them). Sets the Mapper's windows, adds a note for windows left out, and returns the
     report's description of the observation."""
     from aion_cli.engine.windows import window_ns
-    from formats.recorded import windows_of
+    from aion_cli.formats.recorded import windows_of
 
     delta = window_ns(mapper.state.config.window_s)
     recorded = logset.recorded_windows(delta)

@@ -16,11 +16,11 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.engine.errors import TopicNotFoundError
+from aion_cli.errors import TopicNotFoundError
 
 if TYPE_CHECKING:
-    from formats.detections.mapping import TopicMapping
-    from formats.raw import TopicInfo
+    from aion_cli.formats.detections.mapping import TopicMapping
+    from aion_cli.formats.raw import TopicInfo
 
 DSG_TYPES = frozenset({"hydra_msgs/msg/DsgUpdate"})
 TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"})
@@ -108,7 +108,7 @@ def select_topics(
     trackers often publish the same people on more than one topic, so the report lists them
     and ``--detections-topic`` narrows the choice.
     """
-    from formats.detections import adapter_for
+    from aion_cli.formats.detections import adapter_for
 
     topics = list(topics)
     by_name = {t.topic: t for t in topics}

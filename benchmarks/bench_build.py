@@ -188,8 +188,8 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
     and written with ``formats.writers.LogWriter`` (MCAP, zstd chunks), which writes to a
     staging name and renames on success, so an interrupted run leaves no truncated cache."""
     from aion_cli.engine.types import DetectionBatch
-    from formats.tracks_log import _tracked_person_records, _tracked_persons_bytes
-    from formats.writers import LogWriter, stamp
+    from aion_cli.formats.tracks_log import _tracked_person_records, _tracked_persons_bytes
+    from aion_cli.formats.writers import LogWriter, stamp
 
     if path.exists():
         return {}
@@ -268,7 +268,7 @@ def graph_logs(places: int, seconds: float, per_message: int = 5) -> tuple[Path,
 # -- timing ---------------------------------------------------------------------------------------
 def iterate(path: Path) -> int:
     """Raw iteration: every message of the log yielded by ``open_logs`` (nothing decoded)."""
-    from formats.logs import open_logs
+    from aion_cli.formats.logs import open_logs
 
     n = 0
     with open_logs([path]) as logs:
@@ -337,7 +337,7 @@ def run_ratio(per_messages: tuple[int, ...] = (1, 5, 25), messages: int = 62_501
 
 def _payloads(path: Path, limit: int) -> list[tuple[int, Any]]:
     """The first ``limit`` DsgUpdate payloads of ``path`` as (stamp ns, uint8 array)."""
-    from formats.logs import open_logs
+    from aion_cli.formats.logs import open_logs
 
     out = []
     with open_logs([path]) as logs:
@@ -359,7 +359,7 @@ def graph_parts(path: Path, samples: int = 10, repeats: int = 3) -> dict[str, An
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.mapper import Mapper
     from aion_cli.engine.types import DetectionBatch
-    from formats.dsg import decode_dsg
+    from aion_cli.formats.dsg import decode_dsg
 
     payloads = _payloads(path, samples)
     if not payloads:
@@ -440,8 +440,8 @@ def write_query_map(n_entries: int, path: Path) -> dict[str, Any]:
     """A map of ~``n_entries`` cell entries with two weeks of history (``bench_engine``'s
     query map) written with ``write_map`` and the manifest fields the CLI shows; returns its
     size, entry count and bytes per member kind."""
+    from aion_cli.formats.mapfile import read_manifest, write_map
     from benchmarks.bench_engine import build_state
-    from formats.mapfile import read_manifest, write_map
 
     state = build_state(n_entries)
     entries = len(state.entries.live_rows())

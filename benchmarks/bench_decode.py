@@ -27,9 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from formats import msgdefs
-from formats.detections import adapter_for
-from formats.raw import RawMessage
+from aion_cli.formats import msgdefs
+from aion_cli.formats.detections import adapter_for
+from aion_cli.formats.raw import RawMessage
 
 TYPES = (
     "geometry_msgs/msg/PoseArray",

@@ -229,7 +229,7 @@ def map_loader() -> Any:
 
 
 def _write(state: Any, path: Path) -> None:
-    from formats.mapfile import write_map
+    from aion_cli.formats.mapfile import write_map
 
     arrays, meta = state.to_arrays()
     path.unlink(missing_ok=True)
@@ -243,7 +243,7 @@ def bench_load_predict(n_entries: int, repeats: int, n_times: int = 100,
     ``table_calls`` times and the cost of ``n_times`` calls extrapolated (each call does the
     same work), which keeps ``make bench`` within its time budget."""
     from aion_cli.engine.query import predict_table
-    from formats.mapfile import read_map
+    from aion_cli.formats.mapfile import read_map
 
     WORK.mkdir(parents=True, exist_ok=True)
     path = WORK / f"queries_{n_entries}.aion"
@@ -304,7 +304,7 @@ def bench_load_predict(n_entries: int, repeats: int, n_times: int = 100,
 
 def bench_export(n_nodes: int, repeats: int) -> dict[str, Any]:
     """``export_scene`` of ``n_nodes`` nodes with grid edges (PLY) into benchmarks/_work."""
-    from formats.export import export_scene
+    from aion_cli.formats.export import export_scene
 
     rng = np.random.default_rng(4)
     side = int(np.ceil(np.sqrt(n_nodes)))

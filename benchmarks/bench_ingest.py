@@ -56,7 +56,7 @@ def generate(detections: int, path: Path | None = None, seed: int = 0) -> Path:
 
     Written to a temporary name and renamed, so an interrupted run never leaves a truncated
     cache behind."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     path = path or log_path(detections)
     if path.exists():
@@ -91,7 +91,7 @@ def generate(detections: int, path: Path | None = None, seed: int = 0) -> Path:
 
 
 def _iterate(path: Path) -> int:
-    from formats.logs import open_logs
+    from aion_cli.formats.logs import open_logs
 
     n = 0
     with open_logs([path]) as logs:
@@ -102,7 +102,7 @@ def _iterate(path: Path) -> int:
 
 def _rosbags_decode(path: Path, limit: int | None) -> int:
     """Deserialize every message (or the first ``limit``) with rosbags; returns poses seen."""
-    from formats.logs import open_logs
+    from aion_cli.formats.logs import open_logs
 
     poses = 0
     with open_logs([path]) as logs:
@@ -118,7 +118,7 @@ def _decode(path: Path, chunk: int = 2_000) -> int:
     production ``decoded_chunks``: chunks of raw messages decoded by ``DetectionFeeder`` one
     chunk ahead in a worker thread), without the Mapper; returns the detections decoded."""
     from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks, decoded_chunks
-    from formats.logs import open_logs
+    from aion_cli.formats.logs import open_logs
 
     n = 0
     with open_logs([path]) as logs:

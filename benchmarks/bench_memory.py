@@ -88,7 +88,7 @@ def aion_child(env: str, detections: int, graph: bool, write: bool = True) -> di
         "ingest_s": ingest_s,
     }
     if write:
-        from formats.mapfile import write_map
+        from aion_cli.formats.mapfile import write_map
 
         path = WORK / f"memory_{env}_{'graph' if graph else 'cells'}_{os.getpid()}.aion"
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.planning import NavGraph, NodeCosts, arc_costs, plan
-from formats.mapfile import read_map, write_map
+from aion_cli.formats.mapfile import read_map, write_map
 
 GRID_SIDE = 317  # 317^2 = 100 489 nodes
 

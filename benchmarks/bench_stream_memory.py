@@ -38,7 +38,7 @@ TYPE = "spencer_tracking_msgs/msg/TrackedPersons"
 
 def templates() -> list[bytes]:
     """Serialized TrackedPersons messages (CDR), zero stamps, people on a 20 x 20 m floor."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     out = []
     with tempfile.TemporaryDirectory() as tmp, LogWriter(Path(tmp) / "t.mcap") as writer:
@@ -69,7 +69,7 @@ def write_log(path: Path, target_bytes: int) -> dict[str, int]:
     """An uncompressed ROS 2 MCAP of about ``target_bytes``; returns its counts."""
     from mcap.writer import CompressionType, Writer
 
-    from formats import msgdefs
+    from aion_cli.formats import msgdefs
 
     payloads = templates()
     n = 0

@@ -39,7 +39,7 @@ from rosbags.rosbag1.reader import (
     read_uint32,
 )
 
-from formats import limits as caps
+from aion_cli.formats import limits as caps
 
 BadChunk = Callable[[int, str, dict[int, int]], None]
 """Called with a chunk's position, why it is skipped, and its lost messages per connection."""

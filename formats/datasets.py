@@ -29,8 +29,14 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.types import F64, I64, DetectionBatch
-from formats.track_csv import _check_file, _plain_columns, _seconds_to_ns, _Spec, finite_difference
-from formats.track_types import TrackData, TracksFormatError, _utc, merge_spans
+from aion_cli.formats.track_csv import (
+    _check_file,
+    _plain_columns,
+    _seconds_to_ns,
+    _Spec,
+    finite_difference,
+)
+from aion_cli.formats.track_types import TrackData, TracksFormatError, _utc, merge_spans
 
 if TYPE_CHECKING:
     from aion_cli.engine.tracking import LinkerConfig

@@ -63,8 +63,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import InputError, MessageDecodeError
 from aion_cli.engine.types import GraphSnapshot, Layer, Mesh, Trajectory
+from aion_cli.errors import InputError, MessageDecodeError
 
 #: Older payload versions tried, newest first, when the installed spark_dsg cannot read a payload.
 #: Before 1.0.2 (kimera_dsg era) spark_dsg itself refuses to read.
@@ -585,7 +585,7 @@ class GraphFile:
         """What the user must be told: the lenient read and what it skipped."""
         if self.reader != "lenient":
             return []
-        from formats.dsg_json import skipped_text
+        from aion_cli.formats.dsg_json import skipped_text
 
         text = (
             f"{self.path.name}: spark_dsg refused it ({self.refused}); read leniently: "
@@ -679,7 +679,7 @@ def read_dsg_file(path: str | Path) -> GraphFile:
                 hint="expected a spark_dsg graph saved by Hydra (dsg.json / .sparkdsg)",
             ) from exc
         refused = _short(exc)
-    from formats.dsg_json import read_lenient
+    from aion_cli.formats.dsg_json import read_lenient
 
     got = read_lenient(p)
     return GraphFile(

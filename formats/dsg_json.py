@@ -98,7 +98,7 @@ def _position(attrs: Any) -> list[float] | None:
 
 def parse_document(path: Path) -> dict[str, Any]:
     """The file's JSON document; :class:`GraphFileError` when it is not a graph document."""
-    from formats.dsg import GraphFileError
+    from aion_cli.formats.dsg import GraphFileError
 
     hint = "expected a spark_dsg graph saved by Hydra (dsg.json / .sparkdsg)"
     try:
@@ -189,7 +189,7 @@ def clean_items(doc: dict[str, Any]) -> tuple[list[Any], list[Any], dict[str, in
 
 def read_lenient(path: Path) -> LenientGraph:
     """Read the JSON graph file ``path`` leniently (see the module docstring)."""
-    from formats.dsg import GraphFileError
+    from aion_cli.formats.dsg import GraphFileError
 
     doc = parse_document(path)
     nodes, edges, skipped = clean_items(doc)
@@ -204,7 +204,7 @@ def read_lenient(path: Path) -> LenientGraph:
     try:
         graph = _load_document(repaired)
     except (RuntimeError, ValueError, IndexError, TypeError) as exc:
-        from formats.dsg import _short
+        from aion_cli.formats.dsg import _short
 
         result = _rebuild(path, doc, nodes, edges, skipped)
         result.rebuild_reason = _short(exc)
@@ -217,7 +217,7 @@ def _load_document(doc: dict[str, Any]) -> Any:
     API loads graphs from paths only)."""
     import spark_dsg
 
-    from formats.dsg import _native_output_silenced
+    from aion_cli.formats.dsg import _native_output_silenced
 
     try:
         text = json.dumps(doc, allow_nan=False)
@@ -263,7 +263,7 @@ def _rebuild(
     """A graph built node by node from the attributes aion uses (step 2)."""
     import spark_dsg
 
-    from formats.dsg import _native_output_silenced
+    from aion_cli.formats.dsg import _native_output_silenced
 
     layout = _layer_keys(doc)
     graph = spark_dsg.DynamicSceneGraph(*layout) if layout else spark_dsg.DynamicSceneGraph()
@@ -275,7 +275,7 @@ def _rebuild(
             if not _add_edge(spark_dsg, graph, edge):
                 skipped["rejected_edges"] += 1
     if graph.num_nodes() == 0:
-        from formats.dsg import GraphFileError
+        from aion_cli.formats.dsg import GraphFileError
 
         raise GraphFileError(
             f"cannot read scene-graph file {path}: spark_dsg rejected every node",

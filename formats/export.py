@@ -39,13 +39,13 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import (
+from aion_cli.engine.types import Mesh
+from aion_cli.errors import (
     AionError,
     InputError,
     MissingPackageError,
     MissingSystemLibraryError,
 )
-from aion_cli.engine.types import Mesh
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]

@@ -23,7 +23,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from aion_cli.engine.errors import ConfigError
+from aion_cli.errors import ConfigError
 
 MIB = 1 << 20
 DEFAULT_MAX_CHUNK_MB = 512

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from aion_cli.engine.errors import LogFormatError
-from formats.raw import check_regular_input
+from aion_cli.errors import LogFormatError
+from aion_cli.formats.raw import check_regular_input
 
 FORMATS: tuple[str, ...] = ("mcap", "bag", "rosbag2")
 """Values of ``fmt`` / ``--format``."""
@@ -26,7 +26,7 @@ def guess_format(path: Path) -> tuple[str, Path]:
     ``metadata.yaml`` (a folder of them, or one ``.db3``), zstd-compressed storage files
     (``*.mcap.zstd``, ``*.db3.zstd``, read through a decompressed temporary copy); otherwise
     the file's first bytes decide (through zstd too)."""
-    from formats import rosbag2_storage as storage
+    from aion_cli.formats import rosbag2_storage as storage
 
     check_regular_input(path, "log", hint=_LOG_HINT)  # a FIFO or /dev/zero: before any read
     if not path.exists():

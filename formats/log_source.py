@@ -17,10 +17,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from formats.raw import Encoding, RawMessage
+from aion_cli.formats.raw import Encoding, RawMessage
 
 if TYPE_CHECKING:
-    from formats.recorded import Windows
+    from aion_cli.formats.recorded import Windows
 
 
 _MESSAGE_ENCODINGS: dict[str, Encoding] = {"cdr": "cdr", "ros1": "ros1"}
@@ -125,7 +125,7 @@ class _Closing:
 def _unzstd(data: bytes | memoryview, cap: int) -> bytes:
     """One zstd-compressed message payload (with or without the content size in its frame),
     decompressed to at most ``cap`` bytes (:class:`formats.limits.OverLimitError` beyond)."""
-    from formats.limits import ChunkError, OverLimitError, decompress, message_over_limit
+    from aion_cli.formats.limits import ChunkError, OverLimitError, decompress, message_over_limit
 
     try:
         return decompress(bytes(data), "zstd", 0, cap)

@@ -44,21 +44,21 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.engine.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
-from formats import recorded
-from formats.limits import ReadLimits
-from formats.log_format import FORMATS, guess_format
-from formats.log_source import LogFile, _Source, _Unpacked
-from formats.mcap_source import _open_mcap
-from formats.raw import RawMessage, TopicInfo
-from formats.rosbag2_reindex import _reindexed_sources
-from formats.rosbags_source import _metadata_warning, _RosbagsSource
-from formats.typestores import _store_with_definition
+from aion_cli.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
+from aion_cli.formats import recorded
+from aion_cli.formats.limits import ReadLimits
+from aion_cli.formats.log_format import FORMATS, guess_format
+from aion_cli.formats.log_source import LogFile, _Source, _Unpacked
+from aion_cli.formats.mcap_source import _open_mcap
+from aion_cli.formats.raw import RawMessage, TopicInfo
+from aion_cli.formats.rosbag2_reindex import _reindexed_sources
+from aion_cli.formats.rosbags_source import _metadata_warning, _RosbagsSource
+from aion_cli.formats.typestores import _store_with_definition
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
-    from formats.recorded import Windows
+    from aion_cli.formats.recorded import Windows
 
 
 # --- the merged set -------------------------------------------------------------------------
@@ -254,7 +254,7 @@ def _merge_by_start(sources: list[_Source], topics: set[str] | None) -> Iterator
 def _open_sources(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]:
     """The sources of one path: one file, the storage files of a rosbag2 folder, or storage
     files without metadata.yaml (reindexed in memory)."""
-    from formats import rosbag2_storage as storage
+    from aion_cli.formats import rosbag2_storage as storage
 
     if fmt is not None and fmt not in FORMATS:
         raise LogFormatError(
@@ -358,7 +358,7 @@ def _open_compressed(path: Path, kind: str, limits: ReadLimits) -> list[_Source]
     """A zstd-compressed file given alone (a rosbag2 storage file from a bag recorded with
     ``compression_mode: file``, or a compressed .bag / .mcap): read through a decompressed
     temporary copy that closing the source removes."""
-    from formats import rosbag2_storage as storage
+    from aion_cli.formats import rosbag2_storage as storage
 
     if kind == "rosbag2":
         return _reindexed_sources([path], path, limits)

@@ -41,7 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli import __version__
-from aion_cli.engine.errors import (
+from aion_cli.errors import (
     AionError,
     MapCorruptError,
     MapFileError,
@@ -367,7 +367,7 @@ def check_map_path(path: str | os.PathLike[str]) -> None:
     """Refuse a map output path that is not a place for a file: a device (``/dev/null``), a
     FIFO, a socket, a folder (:class:`MapWriteError`, exit 2). Cheap; :func:`map_lock` calls
     it, so nothing (not even ``<map>.lock``) is created beside such a path."""
-    from formats.outputs import special_kind
+    from aion_cli.formats.outputs import special_kind
 
     p = Path(path)
     kind = special_kind(p)
@@ -647,7 +647,7 @@ def _too_many_members(path: Path, count: int, limit: int) -> MapFileError:
 
 
 def _open_zip(path: Path, max_members: int = DEFAULT_MAX_MEMBERS) -> zipfile.ZipFile:
-    from formats.outputs import special_kind
+    from aion_cli.formats.outputs import special_kind
 
     if not path.exists():
         raise MapFileError(f"map file {path} does not exist", hint="check the path")

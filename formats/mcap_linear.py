@@ -25,8 +25,8 @@ from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 
-from formats.limits import ReadLimits
-from formats.log_source import _Source
+from aion_cli.formats.limits import ReadLimits
+from aion_cli.formats.log_source import _Source
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -124,7 +124,7 @@ class _McapLinearRead(_Source):
         remembers where a broken record stopped the read. A group is yielded for every record
         holding a readable message, empty when none is wanted, so that group ``k`` is the same
         record in every pass (what ``_later_min`` counts)."""
-        from formats import mcap_records as mr
+        from aion_cli.formats import mcap_records as mr
 
         counts: dict[int, int] | None = None  # message index counts of the last chunk
         with self.path.open("rb") as f:  # own handle, held while this pass runs
@@ -162,7 +162,7 @@ class _McapLinearRead(_Source):
         """The records of the chunk at ``offset`` for :meth:`_linear_groups`, or None when it
         holds no readable message (or cannot be read: remembered, and said when not
         scanning; the scan says it once the chunk's message counts are known)."""
-        from formats import mcap_records as mr
+        from aion_cli.formats import mcap_records as mr
 
         if offset in self._bad_chunks:
             return None
@@ -186,7 +186,7 @@ class _McapLinearRead(_Source):
         neither. :class:`formats.limits.ChunkError` for records that do not parse."""
         from mcap.records import Channel, Schema
 
-        from formats import mcap_records as mr
+        from aion_cli.formats import mcap_records as mr
 
         cap = self._limits.max_message_bytes
         items: list[Any] = []
@@ -212,7 +212,7 @@ class _McapLinearRead(_Source):
     ) -> list[Any] | None:
         """A Message record outside chunks as a group, None when it is malformed or over the
         message cap (that one said in a warning, its payload never read)."""
-        from formats import mcap_records as mr
+        from aion_cli.formats import mcap_records as mr
 
         if length < mr.MESSAGE_PREFIX:
             return None
@@ -238,7 +238,7 @@ class _McapLinearRead(_Source):
         warning) when it does not parse."""
         from mcap.records import Channel, Header, Schema
 
-        from formats import mcap_records as mr
+        from aion_cli.formats import mcap_records as mr
 
         kinds = {mr.OP_HEADER: Header, mr.OP_SCHEMA: Schema, mr.OP_CHANNEL: Channel}
         f.seek(offset + 9)
@@ -299,8 +299,8 @@ class _McapLinearRead(_Source):
 
     def _oversized(self, big: list[tuple[int, int, int]]) -> None:
         """Warn about messages left out for their size."""
-        from formats import limits as caps
-        from formats.mcap_records import iso
+        from aion_cli.formats import limits as caps
+        from aion_cli.formats.mcap_records import iso
 
         if self._pending_big is not None:
             self._pending_big.extend(big)
@@ -316,8 +316,8 @@ class _McapLinearRead(_Source):
 def _why(exc: Exception) -> str:
     """Why a chunk cannot be read, for :meth:`_McapSource._chunk_lost`: damage is marked as
     such; a chunk over the cap or in an unknown compression is not corrupt."""
-    from formats.limits import OverLimitError, UnknownCompressionError
-    from formats.mcap_records import CORRUPT
+    from aion_cli.formats.limits import OverLimitError, UnknownCompressionError
+    from aion_cli.formats.mcap_records import CORRUPT
 
     if isinstance(exc, OverLimitError | UnknownCompressionError):
         return str(exc)
@@ -325,7 +325,7 @@ def _why(exc: Exception) -> str:
 
 
 def _noun_and_reason(why: str) -> tuple[str, str]:
-    from formats.mcap_records import CORRUPT
+    from aion_cli.formats.mcap_records import CORRUPT
 
     if why.startswith(CORRUPT):
         return "corrupt chunk", why.removeprefix(CORRUPT)
@@ -335,7 +335,7 @@ def _noun_and_reason(why: str) -> tuple[str, str]:
 def _decompress(data: bytes | memoryview, compression: str, declared: int, limit: int) -> bytes:
     """Every MCAP chunk's records go through here (:func:`formats.limits.decompress`: the
     declared size checked against ``limit`` first, the output bounded)."""
-    from formats import limits as caps
+    from aion_cli.formats import limits as caps
 
     return caps.decompress(data, compression, declared, limit)
 
@@ -346,7 +346,7 @@ def _parse_record(kind: Any, body: bytes) -> Any:
     from mcap.data_stream import ReadDataStream
     from mcap.exceptions import McapError
 
-    from formats.limits import ChunkError
+    from aion_cli.formats.limits import ChunkError
 
     try:
         return kind.read(ReadDataStream(io.BytesIO(body)))

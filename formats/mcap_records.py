@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import IO, Any
 
-from formats import limits as caps
+from aion_cli.formats import limits as caps
 
 OP_HEADER = 0x01
 OP_FOOTER = 0x02

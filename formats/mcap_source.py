@@ -21,19 +21,19 @@ from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 
-from aion_cli.engine.errors import LogFormatError
+from aion_cli.errors import LogFormatError
 
 # mcap_linear._decompress is looked up at call time (tests replace it)
-from formats import mcap_linear, recorded
-from formats.limits import ReadLimits
-from formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Topic, _unzstd
-from formats.mcap_linear import _MCAP_MAGIC, _MCAP_READ_ERRORS, _McapLinearRead, _why
-from formats.raw import Encoding, RawMessage, normalize_msgtype
+from aion_cli.formats import mcap_linear, recorded
+from aion_cli.formats.limits import ReadLimits
+from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Topic, _unzstd
+from aion_cli.formats.mcap_linear import _MCAP_MAGIC, _MCAP_READ_ERRORS, _McapLinearRead, _why
+from aion_cli.formats.raw import Encoding, RawMessage, normalize_msgtype
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-    from formats.recorded import Windows
+    from aion_cli.formats.recorded import Windows
 
 
 def _schema_encoding_ok(encoding: str) -> bool:
@@ -65,7 +65,7 @@ class _McapSource(_McapLinearRead):
         ``compression_mode: message``), each decompressed within the message cap."""
         from mcap.exceptions import McapError
 
-        from formats import mcap_records
+        from aion_cli.formats import mcap_records
 
         self.path = path
         self.warnings = []
@@ -237,8 +237,8 @@ class _McapSource(_McapLinearRead):
     def _unzstd_messages(self, wanted: set[int]) -> Iterator[RawMessage]:
         """Messages whose payloads are zstd-compressed, decompressed one by one within the
         message cap (one over it is skipped with a warning)."""
-        from formats.limits import OverLimitError
-        from formats.mcap_records import iso
+        from aion_cli.formats.limits import OverLimitError
+        from aion_cli.formats.mcap_records import iso
 
         cap = self._limits.max_message_bytes
         for log_time, channel_id, data in self._records(wanted):
@@ -290,7 +290,7 @@ class _McapSource(_McapLinearRead):
     def _read_indexed(self, offset: int, wanted: set[int]) -> list[tuple[int, int, bytes]]:
         """The wanted messages of the indexed chunk at ``offset``, sorted by log time; [] (and
         a warning) when it cannot be read. Opens the file for this chunk only."""
-        from formats import mcap_records as mr
+        from aion_cli.formats import mcap_records as mr
 
         try:
             with self.path.open("rb") as f:
@@ -360,7 +360,7 @@ class _McapSource(_McapLinearRead):
     def _chunk_times(self, stream: IO[bytes], index: Any) -> npt.NDArray[np.int64] | None:
         """Log times of one chunk's messages: from its MessageIndex records, else from the
         decompressed chunk; ``None`` (and a warning) when the chunk itself is unreadable."""
-        from formats import mcap_records as mr
+        from aion_cli.formats import mcap_records as mr
 
         if index.message_index_offsets and index.message_index_length > 0:
             base = index.chunk_start_offset + index.chunk_length
@@ -388,7 +388,7 @@ class _McapSource(_McapLinearRead):
 def _refused(index: Any, limits: ReadLimits) -> str | None:
     """Why the chunk a (checked) chunk index describes will not be read, from the index
     alone: an unknown compression, or more than the chunk cap; None when it may be read."""
-    from formats import limits as caps
+    from aion_cli.formats import limits as caps
 
     if index.compression not in ("", "zstd", "lz4"):
         return str(caps.UnknownCompressionError(f"unknown compression {index.compression[:40]!r}"))

@@ -17,8 +17,8 @@ from __future__ import annotations
 from functools import cache
 from typing import TYPE_CHECKING, Any, Literal
 
-from aion_cli.engine.errors import InputError
-from formats.raw import normalize_msgtype
+from aion_cli.errors import InputError
+from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -413,8 +413,8 @@ def definition_layout(
     with ``MSG:`` blocks for the sub-messages, or ROS 2 IDL), sub-messages the text leaves out
     taken from aion's base store of ``ros_version``. None when the text cannot be parsed or
     leaves a type undefined."""
-    from aion_cli.engine.errors import MessageDecodeError
-    from formats.typestores import _parse_definition
+    from aion_cli.errors import MessageDecodeError
+    from aion_cli.formats.typestores import _parse_definition
 
     name = normalize_msgtype(msgtype)
     try:

@@ -34,7 +34,7 @@ import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from aion_cli.engine.errors import InputError
+from aion_cli.errors import InputError
 
 Recogniser = Callable[[Path], bool]
 """Says whether an existing path is an output the caller may replace (follows symlinks)."""

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-from aion_cli.engine.errors import InputError, LogFormatError
+from aion_cli.errors import InputError, LogFormatError
 
 Encoding = Literal["cdr", "ros1"]
 

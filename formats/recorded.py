@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import ConfigError
+from aion_cli.errors import ConfigError
 
 Windows = npt.NDArray[np.int64]
 """Sorted unique window indices ``floor(t_ns / window_ns)``."""

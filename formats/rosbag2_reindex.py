@@ -16,16 +16,16 @@ from operator import attrgetter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.engine.errors import LogFormatError
-from formats import recorded
-from formats.limits import ReadLimits
-from formats.log_source import _MESSAGE_ENCODINGS, LogFile, _Source, _Topic, _Unpacked
-from formats.mcap_source import _open_mcap
-from formats.raw import RawMessage, normalize_msgtype
-from formats.rosbags_source import _storage_messages, _wanted_types
+from aion_cli.errors import LogFormatError
+from aion_cli.formats import recorded
+from aion_cli.formats.limits import ReadLimits
+from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, LogFile, _Source, _Topic, _Unpacked
+from aion_cli.formats.mcap_source import _open_mcap
+from aion_cli.formats.raw import RawMessage, normalize_msgtype
+from aion_cli.formats.rosbags_source import _storage_messages, _wanted_types
 
 if TYPE_CHECKING:
-    from formats.recorded import Windows
+    from aion_cli.formats.recorded import Windows
 
 
 class _ReindexedSqliteSource(_Source):
@@ -143,7 +143,7 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
     themselves: the sqlite3 ones as one source (shown as ``shown``: the folder, or the one
     file), each mcap one as its own (read with the mcap reader, which recovers files without a
     summary); zstd-compressed files are read through decompressed temporary copies."""
-    from formats import rosbag2_storage as storage
+    from aion_cli.formats import rosbag2_storage as storage
 
     temps: dict[Path, Any] = {}
     opened: list[_Source] = []
@@ -199,7 +199,7 @@ def reindex(path: Path | str) -> dict[str, Any]:
     relative file paths, start and duration, counts per topic with type, serialization and
     offered QoS profiles, per-file figures, whole-file compression). Any metadata.yaml beside
     the files is ignored."""
-    from formats import rosbag2_storage as storage
+    from aion_cli.formats import rosbag2_storage as storage
 
     target = Path(path)
     if not target.exists():
@@ -218,7 +218,7 @@ def reindex(path: Path | str) -> dict[str, Any]:
 
 
 def _bag_metadata(sources: list[_Source], files: list[Path]) -> dict[str, Any]:
-    from formats import rosbag2_storage as storage
+    from aion_cli.formats import rosbag2_storage as storage
 
     per_file: list[tuple[str, int, int, int]] = []  # name, first, last, count
     topics: dict[tuple[str, str], _Topic] = {}

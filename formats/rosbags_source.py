@@ -21,17 +21,26 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aion_cli.engine.errors import LogFormatError
-from formats import recorded
-from formats.limits import ReadLimits
-from formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Source, _Topic, _unzstd
-from formats.raw import Encoding, RawMessage, normalize_msgtype
+from aion_cli.errors import LogFormatError
+from aion_cli.formats import recorded
+from aion_cli.formats.limits import ReadLimits
+from aion_cli.formats.log_source import (
+    _MESSAGE_ENCODINGS,
+    _ZSTD_MAGIC,
+    LogFile,
+    _Source,
+    _Topic,
+    _unzstd,
+)
+from aion_cli.formats.raw import Encoding, RawMessage, normalize_msgtype
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-    from formats.recorded import Windows
-    from formats.rosbag2_reindex import _ReindexedSqliteSource  # annotations only: no cycle
+    from aion_cli.formats.recorded import Windows
+    from aion_cli.formats.rosbag2_reindex import (
+        _ReindexedSqliteSource,  # annotations only: no cycle
+    )
 
 
 class _RosbagsSource(_Source):
@@ -178,8 +187,8 @@ class _RosbagsSource(_Source):
                 self.warnings.append(warning)
 
         def oversized(conn: Any, t_ns: int, size: int) -> None:
-            from formats import limits as caps
-            from formats.mcap_records import iso
+            from aion_cli.formats import limits as caps
+            from aion_cli.formats.mcap_records import iso
 
             warning = (
                 f"{self.path.name}: a message on {conn.topic} at {iso(t_ns)} skipped: "
@@ -321,8 +330,8 @@ def _one_storage(
     wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
     unzstd: bool | None,
 ) -> Iterator[RawMessage]:
-    from formats.limits import OverLimitError
-    from formats.mcap_records import iso
+    from aion_cli.formats.limits import OverLimitError
+    from aion_cli.formats.mcap_records import iso
 
     meta = {conn.id: wanted[conn.topic, normalize_msgtype(conn.msgtype)] for conn in conns}
     cap = source._limits.max_message_bytes
@@ -339,7 +348,7 @@ def _one_storage(
         elif type(data) is not bytes:
             data = bytes(data)
         if len(data) > cap:
-            from formats.limits import message_over_limit
+            from aion_cli.formats.limits import message_over_limit
 
             warning = (
                 f"{source.path.name}: a message on {topic} at {iso(t_ns)} skipped: "
@@ -355,7 +364,7 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
     """An open rosbags Reader for ``path`` (ROS 1 bags: :class:`formats.bag_reader.BagReader`
     with ``limits``), with rosbags errors turned into LogFormatError."""
     if kind == "bag":
-        from formats.bag_reader import BagReader
+        from aion_cli.formats.bag_reader import BagReader
 
         reader: Any = BagReader(path, limits)
         what = "ROS 1 bag"
@@ -379,7 +388,7 @@ def _metadata_warning(
     """A warning when the folder's metadata.yaml states figures its storage files contradict
     (aion uses the storage files: first and last message time ``start`` / ``last``, ``total``
     messages, ``counts`` per (topic, normalised type)); None when they agree."""
-    from formats import rosbag2_storage as storage
+    from aion_cli.formats import rosbag2_storage as storage
 
     figures = storage.metadata_figures(folder)
     if figures is None:

@@ -14,10 +14,10 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any, Literal
 
-from formats.raw import normalize_msgtype
+from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
-    from formats.logs import LogSet
+    from aion_cli.formats.logs import LogSet
 
 Role = Literal["scene_graph", "detections", "tf", "tf_static", "unsupported"]
 ROLES: tuple[Role, ...] = ("scene_graph", "detections", "tf", "tf_static", "unsupported")
@@ -46,7 +46,7 @@ def detection_types() -> frozenset[str]:
     """Message types with a detection adapter: ``formats.detections.SUPPORTED_TYPES`` when that
     package is importable, else the DESIGN.md §6 list."""
     try:
-        from formats.detections import SUPPORTED_TYPES
+        from aion_cli.formats.detections import SUPPORTED_TYPES
     except ImportError:
         return frozenset(_FALLBACK_DETECTION_TYPES)
     return frozenset(normalize_msgtype(t) for t in SUPPORTED_TYPES)

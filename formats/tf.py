@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import TransformError
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
+from aion_cli.errors import TransformError
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
 LOOKUP_BLOCK_ROWS = 16_384

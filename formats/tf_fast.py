@@ -32,10 +32,10 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import MessageDecodeError
-from formats.detections.wire import Cursors, block, gather_f64, join_payloads, string_codes
-from formats.raw import RawMessage
-from formats.tf import normalize_frame
+from aion_cli.errors import MessageDecodeError
+from aion_cli.formats.detections.wire import Cursors, block, gather_f64, join_payloads, string_codes
+from aion_cli.formats.raw import RawMessage
+from aion_cli.formats.tf import normalize_frame
 
 I64 = npt.NDArray[np.int64]
 F64 = npt.NDArray[np.float64]
@@ -268,7 +268,7 @@ def layout_matches(msgtype: str, encoding: str, definition: str, idl: bool = Fal
     ``tf/tfMessage``) has the TFMessage layout this module decodes; an empty definition (the
     log embeds none) is taken as that layout. Anything else goes to the generic decoder, which
     reads the log's definition."""
-    from formats import msgdefs
+    from aion_cli.formats import msgdefs
 
     if msgtype not in TF_TYPES:
         return False

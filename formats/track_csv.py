@@ -32,7 +32,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.tracking import difference_tracks
 from aion_cli.engine.types import F64, I64, DetectionBatch
-from formats.track_types import LAYOUTS, TracksFormatError
+from aion_cli.formats.track_types import LAYOUTS, TracksFormatError
 
 CANONICAL_HEADER = "t_ns,track_id,x,y,z,heading_rad,speed_mps"
 

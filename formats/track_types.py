@@ -22,8 +22,8 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import F64, DetectionBatch
+from aion_cli.errors import InputError
 
 Layout = Literal[
     "canonical", "atc", "thor", "eth", "ucy", "lincoln", "edinburgh", "thor-magni"

@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import F64, I64, BoolA, DetectionBatch
-from formats.track_csv import CHUNK_ROWS, track_chunks
-from formats.track_types import _utc, merge_spans
-from formats.tracks import read_tracks
+from aion_cli.errors import InputError
+from aion_cli.formats.track_csv import CHUNK_ROWS, track_chunks
+from aion_cli.formats.track_types import _utc, merge_spans
+from aion_cli.formats.tracks import read_tracks
 
 SPENCER_TRACKED = "spencer_tracking_msgs/msg/TrackedPersons"
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"
@@ -196,7 +196,7 @@ def _pose_array_message(
 
 def _graph_payload(graph_file: str | Path) -> bytes:
     """spark_dsg binary of a graph file, mesh included, as Hydra publishes it."""
-    from formats.dsg import load_dsg_file
+    from aion_cli.formats.dsg import load_dsg_file
 
     payload: bytes = load_dsg_file(graph_file).to_binary(True)
     return payload
@@ -279,7 +279,7 @@ def _check_log_times(t_ns: I64, what: str) -> None:
     """Log times are nanoseconds since 1970 in ``0 .. 2^63 - 1`` (int64 holds no more):
     a time before 1970 is a :class:`formats.writers.LogTimeError` naming it."""
     if len(t_ns) and int(t_ns.min()) < 0:
-        from formats.writers import MAX_LOG_TIME_NS, LogTimeError
+        from aion_cli.formats.writers import MAX_LOG_TIME_NS, LogTimeError
 
         first = int(t_ns.min())
         raise LogTimeError(
@@ -349,7 +349,7 @@ class _Messages:
 
     def _before(self, t: int) -> None:
         """Bookkeeping before a message at ``t``: the scene graphs due by then."""
-        from formats.writers import stamp
+        from aion_cli.formats.writers import stamp
 
         if self.first_ns is None:
             self.first_ns = t
@@ -394,8 +394,8 @@ def _write_tracks(
     before the previous one ended raises :class:`_UnsortedError`, the partial log thrown
     away). The rows of a chunk's last message are held back until the next chunk shows it is
     complete, so the messages are those of the concatenated rows."""
-    from formats.raw import normalize_msgtype
-    from formats.writers import LogWriter
+    from aion_cli.formats.raw import normalize_msgtype
+    from aion_cli.formats.writers import LogWriter
 
     kind = normalize_msgtype(msgtype)
     if kind not in (SPENCER_TRACKED, POSE_ARRAY):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.engine.errors import MessageDecodeError
+from aion_cli.errors import MessageDecodeError
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -27,7 +27,7 @@ def _store_with_definition(
     from rosbags.typesys import Stores, get_typestore
     from rosbags.typesys.base import TypesysError
 
-    from formats import msgdefs
+    from aion_cli.formats import msgdefs
 
     ros_version = 1 if encoding == "ros1" else 2
     if not definition.strip():

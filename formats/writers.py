@@ -22,16 +22,16 @@ from typing import TYPE_CHECKING, Any, BinaryIO, Literal, get_args
 
 import numpy as np
 
-from aion_cli.engine.errors import InputError, LogFormatError
-from formats import msgdefs
-from formats.outputs import (
+from aion_cli.errors import InputError, LogFormatError
+from aion_cli.formats import msgdefs
+from aion_cli.formats.outputs import (
     OutputPathError,
     Staged,
     check_output,
     file_starts_with,
     folder_entries,
 )
-from formats.raw import normalize_msgtype
+from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore

@@ -133,8 +133,8 @@ def test_times_of_every_accepted_type_agree(example: dict[str, Any]) -> None:
 
 
 def test_bad_inputs_are_typed_errors(example: dict[str, Any], tmp_path: Path) -> None:
-    from aion_cli.cli.timeparse import TimeFormatError
-    from aion_cli.engine.errors import MapFileError, UnknownNodeError
+    from aion_cli.errors import MapFileError, UnknownNodeError
+    from aion_cli.timeparse import TimeFormatError
 
     m = example["m"]
     with pytest.raises(TimeFormatError):

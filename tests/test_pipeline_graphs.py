@@ -23,10 +23,10 @@ import numpy as np
 import pytest
 
 from aion_cli.cli.graph_options import GRAPH_PERIOD_DEFAULT_TEXT, parse_period_ns
-from aion_cli.engine.errors import InputError
+from aion_cli.errors import InputError
+from aion_cli.formats.mapfile import read_map
 from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS, graph_schedule
 from aion_cli.pipeline import BuildOptions, build_map
-from formats.mapfile import read_map
 from tests.cli.logdata import EDGES, PLACES, ROBOT_XYZ, ROOMS, T0, S, _tracked_persons, sym
 from tests.cli.logdata import build_graph as office_graph
 
@@ -57,7 +57,7 @@ def write_stream_log(
     """The stream log with the graphs of index ``graphs`` (all 60 when None); people every
     second, TF every 5 s, 63 s in all. ``stray_graph``: one more graph two days earlier (a
     stray log time the build drops)."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     keep = set(range(N_GRAPHS) if graphs is None else graphs)
     with LogWriter(path, "mcap") as writer:
@@ -232,7 +232,7 @@ def test_identical_payloads_are_not_decoded_and_the_map_is_the_same(
 
 def test_a_payload_that_comes_back_is_decoded_again(tmp_path: Path) -> None:
     """Only the *last* decoded payload is reused: A A B A decodes A, B and A."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     log = tmp_path / "aba.mcap"
     order = [0, 0, 1, 0]

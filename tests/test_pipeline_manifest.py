@@ -17,10 +17,10 @@ import pytest
 
 from aion_cli.cli.info import describe_map
 from aion_cli.engine.types import DetectionBatch
+from aion_cli.formats.mapfile import read_manifest
+from aion_cli.formats.tracks_log import tracks_to_log
 from aion_cli.manifest import Manifest
 from aion_cli.pipeline import BuildOptions, build_map
-from formats.mapfile import read_manifest
-from formats.tracks_log import tracks_to_log
 
 S = 1_000_000_000
 HOUR = 3600 * S
@@ -135,7 +135,7 @@ def test_info_shows_what_it_showed_before(maps: dict[str, Any]) -> None:
 def test_a_log_the_continued_map_holds_is_refused_by_its_typed_inputs(
     maps: dict[str, Any], tmp_path: Path
 ) -> None:
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     with pytest.raises(InputError, match="already in the map"):
         build_map(

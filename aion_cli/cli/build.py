@@ -87,7 +87,7 @@ class _RichProgress:
 
 def _load_config(path: Path | None) -> Any:
     from aion_cli.engine.config import ModelConfig
-    from aion_cli.engine.errors import ConfigError
+    from aion_cli.errors import ConfigError
 
     if path is None:
         return None
@@ -240,11 +240,11 @@ def command(
     stream, learns per place and hash cell how many people walk in which direction and how
     that changes over the day and week, and writes everything to a single map file.
     """
-    from aion_cli.cli.timeparse import resolve_zone
     from aion_cli.engine.config import ModelConfig
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
     from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS
     from aion_cli.pipeline import BuildOptions, build_map
+    from aion_cli.timeparse import resolve_zone
 
     config = _load_config(config_file)
     if print_config:

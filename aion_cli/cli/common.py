@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 
 import click
 
-from aion_cli.cli.timeparse import Zone, format_ns, parse_time, resolve_zone
+from aion_cli.timeparse import Zone, format_ns, parse_time, resolve_zone
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -35,7 +35,7 @@ def tz_option(func: F) -> F:
 
 def resolve_time(text: str, tz: str | None, loaded: Any = None) -> tuple[int, Zone]:
     """Parse ``text`` in zone ``tz``; without ``tz``, the zone the map was built for (if
-    any), else the machine's local zone (see :mod:`aion_cli.cli.timeparse`)."""
+    any), else the machine's local zone (see :mod:`aion_cli.timeparse`)."""
     if tz is None and loaded is not None:
         from aion_cli.manifest import Manifest
 

@@ -10,7 +10,7 @@ import click
 from aion_cli.cli.output import AionCommand
 
 if TYPE_CHECKING:
-    from aion_cli.cli.timeparse import Zone
+    from aion_cli.timeparse import Zone
 
 EPILOG = """\b
 Examples:
@@ -66,7 +66,7 @@ def _container_for(output: Path, container: str | None) -> str:
         return "mcap"
     if suffix == "":
         return "rosbag2-sqlite3"
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     raise InputError(
         f"cannot tell the log format from {output.name!r}",
@@ -175,13 +175,13 @@ def command(
 ) -> None:
     """Convert the pedestrian tracks in TRACKS (CSV) into a log with people detections."""
     from aion_cli.cli.console import console, note
-    from aion_cli.cli.timeparse import parse_time, resolve_zone
-    from aion_cli.engine.errors import InputError
-    from formats.track_csv import STREAM_LAYOUTS
-    from formats.track_types import merge_spans
-    from formats.tracks import read_track_data
-    from formats.tracks_log import stream_tracks_to_log, tracks_to_log
-    from formats.writers import check_log_target
+    from aion_cli.errors import InputError
+    from aion_cli.formats.track_csv import STREAM_LAYOUTS
+    from aion_cli.formats.track_types import merge_spans
+    from aion_cli.formats.tracks import read_track_data
+    from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
+    from aion_cli.formats.writers import check_log_target
+    from aion_cli.timeparse import parse_time, resolve_zone
 
     if not tracks.is_file():
         raise InputError(f"tracks file not found: {tracks}", hint="check the path")
@@ -218,7 +218,7 @@ def command(
     for line in notes:
         note(line)
     if layout == "edinburgh":
-        from aion_cli.cli.timeparse import format_ns
+        from aion_cli.timeparse import format_ns
 
         note(
             f"edinburgh: frame 0 taken as {format_ns(start_ns, zone)}, frames at "
@@ -257,7 +257,7 @@ def _check_layout_options(
     length_unit: str | None,
 ) -> None:
     """The options that apply to ``layout`` only, checked before anything is read."""
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     if layout == "lincoln" and start_text is not None:
         raise InputError(
@@ -297,10 +297,10 @@ def _check_layout_options(
 
 
 def _span(text: str, zone: Zone) -> tuple[int, int]:
-    """``START..END`` -> ``(start_ns, end_ns)``; each side is any form ``aion_cli.cli.timeparse``
+    """``START..END`` -> ``(start_ns, end_ns)``; each side is any form ``aion_cli.timeparse``
     reads (ISO with or without zone, UNIX seconds, ...), in ``zone`` unless it names one."""
-    from aion_cli.cli.timeparse import FORMS_HINT, TimeFormatError, parse_time
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
+    from aion_cli.timeparse import FORMS_HINT, TimeFormatError, parse_time
 
     parts = text.split("..")
     if len(parts) != 2 or not all(p.strip() for p in parts):

@@ -3,7 +3,7 @@
 Every failure becomes exactly one ``error: ...`` line on stderr, usually followed by one
 ``hint: ...`` line, and an exit code:
 
-* 2 — the user's to fix: :class:`~aion_cli.engine.errors.InputError` (bad file, option, value),
+* 2 — the user's to fix: :class:`~aion_cli.errors.InputError` (bad file, option, value),
   click usage errors (unknown option, missing argument), missing or unreadable files;
 * 1 — anything else (an internal fault): the hint asks to rerun with ``--debug``;
 * 130 — interrupted with Ctrl-C.
@@ -20,7 +20,7 @@ import traceback
 
 import click
 
-from aion_cli.engine.errors import AionError, InputError, TopicNotFoundError
+from aion_cli.errors import AionError, InputError, TopicNotFoundError
 
 EXIT_OK = 0
 EXIT_FAULT = 1

@@ -29,7 +29,7 @@ def _config(path: Path | None) -> Any:
 
 
 def _existing_dir(path: Path, what: str) -> Path:
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     if not path.is_dir():
         raise InputError(f"{what} folder not found: {path}", hint="pass it with --data DIR")

@@ -15,7 +15,7 @@ from aion_cli.cli.common import (
     tz_option,
 )
 from aion_cli.cli.output import AionCommand
-from aion_cli.cli.timeparse import Zone
+from aion_cli.timeparse import Zone
 
 EPILOG = """\b
 Examples:
@@ -35,7 +35,7 @@ subfolder per time (named by the time) for animations.
 
 def _step_seconds(text: str) -> float:
     """``"1h"``, ``"30m"``, ``"600s"``, ``"600"`` -> seconds."""
-    from aion_cli.cli.timeparse import (
+    from aion_cli.timeparse import (
         _RE_REL_PART,
         _UNITS_S,
         MAX_TIME_NS,
@@ -123,7 +123,7 @@ def command(
     from aion_cli.cli.common import load
     from aion_cli.cli.console import console, progress
     from aion_cli.cli.output import markup_safe
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
     from aion_cli.exports import export_frames, path_ends
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
@@ -160,7 +160,7 @@ def command(
 def _series(
     t_from: str, t_to: str, step: str, tz: str | None, loaded: Any
 ) -> tuple[list[int | None], Zone]:
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     start, zone = resolve_time(t_from, tz, loaded)
     end, _ = resolve_time(t_to, tz, loaded)

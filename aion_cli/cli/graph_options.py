@@ -24,7 +24,7 @@ NAV_LAYER_HELP = (
 def _check(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
     """Fail on bad syntax before any file is read (the layer itself is checked per graph)."""
     if value is not None:
-        from formats.dsg import parse_nav_layer
+        from aion_cli.formats.dsg import parse_nav_layer
 
         parse_nav_layer(value)  # GraphLayerError: one `error:` line, exit 2
     return value
@@ -57,7 +57,7 @@ def parse_period_ns(text: str) -> int:
     """A duration as the CLI's other durations are written (``5s``, ``1m``, ``1m30s``,
     ``500ms``, ``2.5``: seconds without a unit) -> integer nanoseconds, exactly (decimal
     arithmetic). Negative, unreadable or longer than a year: a one-line error (exit 2)."""
-    from aion_cli.cli.timeparse import TimeFormatError
+    from aion_cli.timeparse import TimeFormatError
 
     hint = "e.g. --graph-period 5s, 1m, 500ms or 0 (every graph)"
     token = text.strip().lower().replace(" ", "")

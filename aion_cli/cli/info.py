@@ -43,8 +43,8 @@ MAP_SUFFIX = ".aion"
 def describe_map(path: Path) -> dict[str, Any]:
     """The manifest of a map file (cheap: no array is read), without the internal tables
     (:meth:`aion_cli.manifest.Manifest.shown`)."""
+    from aion_cli.formats.mapfile import read_manifest
     from aion_cli.manifest import Manifest
-    from formats.mapfile import read_manifest
 
     return {"map": str(path)} | Manifest.from_dict(read_manifest(path)).shown()
 
@@ -56,9 +56,9 @@ def describe(
     ``formats.summary`` plus what ``aion build`` will use (with ``mapping``, a
     ``--detections-mapping`` file), why each topic is used or skipped, and the scene-graph
     payload version."""
+    from aion_cli.formats.logs import open_logs
+    from aion_cli.formats.summary import summarize
     from aion_cli.topics import select_topics
-    from formats.logs import open_logs
-    from formats.summary import summarize
 
     mappings = _mappings(mapping)
     with open_logs(paths, log_format) as logset:
@@ -85,7 +85,7 @@ def describe(
 def _mappings(path: Path | None) -> list[Any]:
     if path is None:
         return []
-    from formats.detections.mapping import load_mapping
+    from aion_cli.formats.detections.mapping import load_mapping
 
     return load_mapping(path)
 
@@ -102,8 +102,8 @@ def _check_mappings(logset: Any, plan: Any) -> None:
 def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
     """``--suggest-mapping TOPIC``: a TOML mapping from the log's own definition of the
     topic's type (:func:`formats.detections.suggest.suggest_mapping`)."""
-    from formats.detections.suggest import suggest_mapping
-    from formats.logs import open_logs
+    from aion_cli.formats.detections.suggest import suggest_mapping
+    from aion_cli.formats.logs import open_logs
 
     with open_logs(paths, log_format) as logset:
         info = logset.topic(topic)
@@ -115,8 +115,8 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
     """spark_dsg payload version of the topic's first scene graph (decoding one message)."""
     import numpy as np
 
-    from aion_cli.engine.errors import InputError
-    from formats.dsg import decode_dsg
+    from aion_cli.errors import InputError
+    from aion_cli.formats.dsg import decode_dsg
 
     first = next(iter(logset.messages({topic})), None)
     if first is None:
@@ -164,7 +164,7 @@ def command(
     Given a map (.aion) instead, show what it was built from and with; given a scene-graph
     file (.json, .sparkdsg), its layers and the navigational graph aion takes from it.
     """
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     for path in logs:
         if not path.exists():
@@ -196,7 +196,7 @@ def _show_graph_files(paths: tuple[Path, ...], nav_layer: str | None, fmt: str) 
     """The GRAPH_FILE branch: describe scene-graph files (:mod:`aion_cli.cli.info_graph`);
     False when ``paths`` are no graph files."""
     from aion_cli.cli.info_graph import describe_graph, is_graph_file, print_graph
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     graphs = [p for p in paths if is_graph_file(p)]
     if not graphs:

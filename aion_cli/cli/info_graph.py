@@ -22,7 +22,7 @@ def is_graph_file(path: Path) -> bool:
 
 def describe_graph(path: Path, nav_layer: str | None = None) -> dict[str, Any]:
     """The info report of one graph file as a plain dict (also the JSON document)."""
-    from formats.dsg import graph_layers, load_graph
+    from aion_cli.formats.dsg import graph_layers, load_graph
 
     loaded = load_graph(path, 0, nav_layer)
     snap, nav, file = loaded.snapshot, loaded.nav, loaded.file

@@ -105,8 +105,8 @@ def command(
 def plan_report(routes: Any, zone: Any) -> dict[str, Any]:
     """The JSON document of ``aion plan --format json`` (without ``map`` and ``snapped``) for
     :class:`aion_cli.routes.Routes` departing at a time shown in ``zone``."""
-    from aion_cli.cli.timeparse import format_ns
     from aion_cli.engine.node_ids import node_label
+    from aion_cli.timeparse import format_ns
 
     assert routes.depart_ns is not None, "aion plan always departs at a time"
 

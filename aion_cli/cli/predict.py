@@ -86,7 +86,6 @@ def command(
     histogram of directions.
     """
     from aion_cli.cli.common import load
-    from aion_cli.cli.timeparse import format_ns
     from aion_cli.predictions import (
         CSV_KEYS,
         document,
@@ -95,6 +94,7 @@ def command(
         rows_from_table,
         select,
     )
+    from aion_cli.timeparse import format_ns
 
     loaded = load(map_path)
     t_ns: int | None = None

@@ -34,7 +34,7 @@ The same --seed gives byte-identical logs.
 
 
 def _hours(text: str) -> tuple[float, float]:
-    from aion_cli.engine.errors import InputError
+    from aion_cli.errors import InputError
 
     try:
         lo, hi = (float(v) for v in text.split("-", 1))

@@ -13,7 +13,7 @@ import tomllib
 from dataclasses import dataclass, field
 from typing import Any
 
-from aion_cli.engine.errors import ConfigError
+from aion_cli.errors import ConfigError
 
 DAY_S = 86400.0
 WEEK_S = 7 * DAY_S
@@ -234,9 +234,9 @@ class ModelConfig:
     @classmethod
     def from_stored(cls, data: object) -> ModelConfig:
         """The config a map stored (its manifest's ``state.config``), validated like a config
-        file; any fault is a :class:`~aion_cli.engine.errors.MapCorruptError` naming it (a map
+        file; any fault is a :class:`~aion_cli.errors.MapCorruptError` naming it (a map
         with a 1e-6 s window or a 10^6-bin profile never reaches the engine)."""
-        from aion_cli.engine.errors import MapCorruptError
+        from aion_cli.errors import MapCorruptError
 
         if not isinstance(data, dict):
             raise MapCorruptError(

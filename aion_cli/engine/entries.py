@@ -29,8 +29,8 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.types import F64, I64, U64
+from aion_cli.errors import MapCorruptError
 
 FREE = -1
 CELL = 0

@@ -53,12 +53,12 @@ import numpy.typing as npt
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, direction_bins
-from aion_cli.engine.errors import ConfigError, InputError
 from aion_cli.engine.ownership import apply_graph, bind_cells
 from aion_cli.engine.spatial_hash import cell_centres, hashable_indices, pack_keys_unchecked
 from aion_cli.engine.state import DROP_REASONS, MapState
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot, Trajectory
 from aion_cli.engine.windows import window_index, window_ns
+from aion_cli.errors import ConfigError, InputError
 
 MIN_TIME_NS: int = -2_208_988_800 * 1_000_000_000
 """Earliest time the Mapper accepts, 1900-01-01T00:00Z (as ``--time``)."""

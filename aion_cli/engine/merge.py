@@ -32,9 +32,9 @@ import numpy as np
 
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import CELL, NODE
-from aion_cli.engine.errors import ConfigError
 from aion_cli.engine.ownership import node_rows_creating, rows_for_keys
 from aion_cli.engine.spatial_hash import keys_for_points
+from aion_cli.errors import ConfigError
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState

@@ -15,7 +15,7 @@ import re
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import InputError
+from aion_cli.errors import InputError
 
 _RE_SYMBOL = re.compile(r"^([A-Za-z])(?:(\d+)|\((\d+)\))$")  # p12 or p(12), balanced
 INDEX_BITS = 56

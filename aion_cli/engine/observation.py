@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.engine.windows import window_index
+from aion_cli.errors import InputError
 
 
 @dataclass

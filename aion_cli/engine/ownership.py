@@ -27,7 +27,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aion_cli.engine.entries import CELL, NODE
-from aion_cli.engine.errors import CoordinateRangeError
 from aion_cli.engine.nodes import BindIndex, nearest_nodes
 from aion_cli.engine.spatial_hash import (
     cell_centres,
@@ -36,6 +35,7 @@ from aion_cli.engine.spatial_hash import (
     unpack_keys,
 )
 from aion_cli.engine.types import F64, I64, U64, BoolA, GraphSnapshot
+from aion_cli.errors import CoordinateRangeError
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState

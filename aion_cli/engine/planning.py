@@ -47,9 +47,9 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import AionError, InputError, NoPathError, UnknownNodeError
 from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.types import GraphSnapshot
+from aion_cli.errors import AionError, InputError, NoPathError, UnknownNodeError
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]

@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import CoordinateRangeError
 from aion_cli.engine.types import F64, I64, BoolA
+from aion_cli.errors import CoordinateRangeError
 
 BITS = 21
 BIAS = 1 << (BITS - 1)

@@ -20,7 +20,6 @@ import numpy as np
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, NODE, EntryStore
-from aion_cli.engine.errors import MapCorruptError, MapFileError
 from aion_cli.engine.graph_arrays import graph_from_arrays, graph_to_arrays
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
@@ -33,6 +32,7 @@ from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, PendingDay
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
 from aion_cli.engine.windows import window_ns
+from aion_cli.errors import MapCorruptError, MapFileError
 
 STATE_VERSION = 2
 DROP_REASONS = ("nan", "out_of_range", "before_window")

@@ -37,8 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import ConfigError, InputError
 from aion_cli.engine.types import F64, I64, BoolA
+from aion_cli.errors import ConfigError, InputError
 
 _NS = 1e-9
 _BIG = 1e12  # the cost of a pair outside the gate (never chosen over a gated pair)

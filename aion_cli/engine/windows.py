@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import ConfigError
 from aion_cli.engine.types import F64, I64
+from aion_cli.errors import ConfigError
 
 EPOCH_NS: int = 1_578_268_800 * 1_000_000_000
 """The model epoch, 2020-01-06T00:00:00Z (a Monday), in UNIX nanoseconds."""

@@ -39,7 +39,7 @@ from aion_cli.evaluation.heading import (
     HeadingModel,
     score_headings,
 )
-from formats.tracks import read_tracks
+from aion_cli.formats.tracks import read_tracks
 
 JST_OFFSET_H = 9.0
 JST = "Asia/Tokyo"

@@ -105,8 +105,8 @@ def _utc_day(t_ns: np.ndarray) -> np.ndarray:
 
 def load_days(data_dir: Path) -> dict[str, DayData]:
     """Every recorded day of the Lincoln files, each from the file holding most of it."""
-    from formats.datasets import read_lincoln
-    from formats.track_types import sessions
+    from aion_cli.formats.datasets import read_lincoln
+    from aion_cli.formats.track_types import sessions
 
     files = sorted(Path(data_dir).glob("2017-*"))
     if not files:
@@ -134,9 +134,9 @@ def observed_windows(spans: list[tuple[int, int]], window_ns: int) -> np.ndarray
 
 def _build_aion(train: list[DayData], config: ModelConfig, work: Path) -> Any:
     """aion's map of the training days through ``convert`` + ``build`` (see module doc)."""
+    from aion_cli.formats.tracks_log import tracks_to_log
     from aion_cli.mapquery import load_map
     from aion_cli.pipeline import BuildOptions, build_map
-    from formats.tracks_log import tracks_to_log
 
     batch = DetectionBatch.concat([d.batch for d in train]).sorted_by_time()
     spans = [s for d in train for s in d.spans]

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from aion_cli.engine.errors import InputError, NoPathError
 from aion_cli.engine.types import F64, I64, U64, BoolA, GraphSnapshot, Mesh
+from aion_cli.errors import InputError, NoPathError
 from aion_cli.sim.geometry import segments_blocked
 
 PLACE_CHAR = "p"
@@ -182,7 +182,7 @@ def load_graph_environment(path: Path, n_desks: int, nav_layer: str | None = Non
     :func:`formats.dsg.choose_nav_layer`) that lie in the largest connected component of the
     place edges, their room parents, and the rooms' building.
     """
-    from formats.dsg import layers_text, load_graph
+    from aion_cli.formats.dsg import layers_text, load_graph
 
     loaded = load_graph(path, 0, nav_layer, clearance=True)
     snap, layer = loaded.snapshot, loaded.nav.layer

@@ -195,13 +195,13 @@ def save_npz(path: Path, arrays: dict[str, npt.NDArray[Any]]) -> None:
 
 
 def _is_truth_npz(path: Path) -> bool:
-    from formats.outputs import file_starts_with
+    from aion_cli.formats.outputs import file_starts_with
 
     return file_starts_with(path, b"PK\x03\x04")  # a zip (npz), as save_npz writes it
 
 
 def _is_truth_json(path: Path) -> bool:
-    from formats.outputs import file_starts_with
+    from aion_cli.formats.outputs import file_starts_with
 
     return file_starts_with(path, b"{")  # a JSON object, as write_truth writes it
 
@@ -210,7 +210,7 @@ def check_truth_targets(log_path: Path, overwrite: bool) -> None:
     """Refuse the truth files' paths of ``log_path`` before anything is simulated (the rules
     of :func:`formats.outputs.check_output`: no special file, an existing one only with
     ``overwrite`` and only when it is an npz / JSON file as aion writes them)."""
-    from formats.outputs import check_output
+    from aion_cli.formats.outputs import check_output
 
     npz, js = truth_paths(log_path)
     check_output(npz, overwrite=overwrite, recognise=_is_truth_npz, what="a ground-truth npz")
@@ -226,7 +226,7 @@ def write_truth(
     """Write the arrays (compressed npz) and the JSON sidecar; returns both paths. Each is
     written beside its target and renamed into place (``overwrite`` replaces a previous
     run's truth files, never another file)."""
-    from formats.outputs import Staged
+    from aion_cli.formats.outputs import Staged
 
     npz, js = truth_paths(log_path)
     check_truth_targets(log_path, overwrite)

@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import F64, I64
+from aion_cli.errors import InputError
 
 TRACKED_PERSONS = "spencer_tracking_msgs/msg/TrackedPersons"
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"

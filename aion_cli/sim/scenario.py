@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.errors import InputError
+from aion_cli.errors import InputError
 from aion_cli.sim.agents import AgentSamples, agent_speeds, simulate_agents
 from aion_cli.sim.environment import Environment, load_graph_environment
 from aion_cli.sim.graphstream import GraphFrames, StreamConfig, build_frames
@@ -314,9 +314,9 @@ def check_outputs(output: Path, paths: list[Path], container: str, overwrite: bo
     an existing path without ``overwrite``, or one that is not aion's own log / truth file
     (``--force`` never deletes a folder of other files).
     :class:`formats.outputs.OutputPathError` (exit 2)."""
+    from aion_cli.formats.outputs import OutputPathError, special_kind
+    from aion_cli.formats.writers import check_log_target
     from aion_cli.sim.ground_truth import check_truth_targets
-    from formats.outputs import OutputPathError, special_kind
-    from formats.writers import check_log_target
 
     kind = special_kind(output)
     if kind is not None:

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import AionError
 from aion_cli.engine.types import F64, I64
+from aion_cli.errors import AionError
 from aion_cli.sim.messages import TF_MESSAGE, tf_message
 
 # per transform: sec, nanosec (int) then x, y, z, qx, qy, qz, qw (float64)

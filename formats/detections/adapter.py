@@ -17,12 +17,17 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from aion_cli.engine.errors import ConfigError, MessageDecodeError
-from formats.detections.fast import Decoded
-from formats.detections.frame import FrameDetections, FrameTable, quat_yaw, stamps_or_log_time
-from formats.detections.generic import Rows
-from formats.detections.wire import Joined, join_payloads
-from formats.raw import RawMessage
+from aion_cli.errors import ConfigError, MessageDecodeError
+from aion_cli.formats.detections.fast import Decoded
+from aion_cli.formats.detections.frame import (
+    FrameDetections,
+    FrameTable,
+    quat_yaw,
+    stamps_or_log_time,
+)
+from aion_cli.formats.detections.generic import Rows
+from aion_cli.formats.detections.wire import Joined, join_payloads
+from aion_cli.formats.raw import RawMessage
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -41,7 +46,7 @@ OnError = Literal["raise", "skip"]
 
 def default_typestore(ros_version: Literal[1, 2]) -> Typestore:
     """aion's shipped definitions (:func:`formats.msgdefs.typestore`)."""
-    from formats import msgdefs
+    from aion_cli.formats import msgdefs
 
     return msgdefs.typestore(ros_version)
 

@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from formats.detections.frame import hash_id
-from formats.detections.generic import NAN_Q, NAN_V, ItemSpec, Rows
-from formats.detections.paths import quat4, stamp_ns, vec3
+from aion_cli.formats.detections.frame import hash_id
+from aion_cli.formats.detections.generic import NAN_Q, NAN_V, ItemSpec, Rows
+from aion_cli.formats.detections.paths import quat4, stamp_ns, vec3
 
 #: spencer convention: a variance above this means "this component is not set".
 UNSET_VARIANCE = 99999.0

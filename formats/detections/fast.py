@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from formats.detections.frame import F64, I64, quat_yaw, unsigned_ids
-from formats.detections.wire import (
+from aion_cli.formats.detections.frame import F64, I64, quat_yaw, unsigned_ids
+from aion_cli.formats.detections.wire import (
     Cursors,
     Joined,
     equals_any,

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from formats.raw import normalize_frame
+from aion_cli.formats.raw import normalize_frame
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]

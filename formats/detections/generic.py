@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.errors import ConfigError
-from formats.detections.frame import hash_id
-from formats.detections.paths import FieldPath, quat4, stamp_ns, vec3
+from aion_cli.errors import ConfigError
+from aion_cli.formats.detections.frame import hash_id
+from aion_cli.formats.detections.paths import FieldPath, quat4, stamp_ns, vec3
 
 NAN_Q = (math.nan, math.nan, math.nan, math.nan)
 NAN_V = (math.nan, math.nan, math.nan)

@@ -35,11 +35,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.engine.errors import ConfigError
-from formats.detections.adapter import DetectionAdapter
-from formats.detections.generic import ItemSpec, Keep
-from formats.detections.paths import FieldPath
-from formats.raw import normalize_msgtype
+from aion_cli.errors import ConfigError
+from aion_cli.formats.detections.adapter import DetectionAdapter
+from aion_cli.formats.detections.generic import ItemSpec, Keep
+from aion_cli.formats.detections.paths import FieldPath
+from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore

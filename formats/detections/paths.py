@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.errors import ConfigError
+from aion_cli.errors import ConfigError
 
 _STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+(?:\.\.\d+)?\])*)")
 _DOT = re.compile(r"\.(?![^\[]*\])")  # a dot outside [..] brackets

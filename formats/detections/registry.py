@@ -6,22 +6,22 @@ from __future__ import annotations
 from functools import partial
 from typing import TYPE_CHECKING
 
-from formats.detections.adapter import DetectionAdapter, Extractor, FastDecoder
-from formats.detections.builtin import (
+from aion_cli.formats.detections.adapter import DetectionAdapter, Extractor, FastDecoder
+from aion_cli.formats.detections.builtin import (
     SPECS,
     AdapterOptions,
     Detection3DExtractor,
     MarkerExtractor,
     ZedExtractor,
 )
-from formats.detections.fast import (
+from aion_cli.formats.detections.fast import (
     ClassFilter,
     decode_detection3d,
     decode_people,
     decode_pose_array,
     decode_tracked_persons,
 )
-from formats.raw import normalize_msgtype
+from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -84,7 +84,7 @@ def fast_layout_matches(msgtype: str, encoding: str, definition: str, idl: bool 
     layout aion's numpy fast decoder of that type was written for (:func:`msgdefs.same_layout`
     against the shipped definition: ROS 1 noetic / ROS 2 galactic+ layouts). A log that embeds
     no definition is assumed to use the shipped one."""
-    from formats import msgdefs
+    from aion_cli.formats import msgdefs
 
     ros_version = 1 if encoding == "ros1" else 2
     return msgdefs.same_layout(definition, normalize_msgtype(msgtype), ros_version, idl)

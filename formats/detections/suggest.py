@@ -29,8 +29,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.engine.errors import ConfigError
-from formats.raw import normalize_msgtype
+from aion_cli.errors import ConfigError
+from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore

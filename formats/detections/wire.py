@@ -37,8 +37,8 @@ from operator import attrgetter
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import MessageDecodeError
-from formats.raw import RawMessage
+from aion_cli.errors import MessageDecodeError
+from aion_cli.formats.raw import RawMessage
 
 U8 = npt.NDArray[np.uint8]
 I64 = npt.NDArray[np.int64]
@@ -487,7 +487,7 @@ def string_codes(
 def hashed_strings(j: Joined, start: I64, length: I64) -> I64:
     """:func:`formats.detections.frame.hash_id` of each (start, length) string, hashing each
     distinct value once (grouped by length, de-duplicated with ``np.unique``); empty -> -1."""
-    from formats.detections.frame import hash_id
+    from aion_cli.formats.detections.frame import hash_id
 
     out = np.full(len(start), -1, dtype=np.int64)
     for n in np.unique(length).tolist():

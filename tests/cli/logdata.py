@@ -170,7 +170,7 @@ def write_office_log(
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
     holds."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     n_tracks = n_graph = n_tf = 0
     t0 = T0 + shift_s * S

@@ -122,7 +122,7 @@ def write_mcap(path: Path, messages: Iterable[Message], definitions: dict[str, s
     ``definitions`` (type -> full definition), else aion's shipped definition."""
     from mcap.writer import CompressionType, Writer
 
-    from formats import msgdefs
+    from aion_cli.formats import msgdefs
 
     with path.open("wb") as f:
         writer = Writer(f, compression=CompressionType.ZSTD)

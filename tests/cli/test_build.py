@@ -250,7 +250,7 @@ def test_frames_without_tf_and_map_frame_option(tmp_path: Path) -> None:
 
 
 def test_dsg_version_pin(office: Office, tmp_path: Path) -> None:
-    from formats.dsg import installed_version
+    from aion_cli.formats.dsg import installed_version
 
     version = installed_version()
     report = run_json(

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from aion_cli.detection_feed import TopicFeeders
+from aion_cli.formats.writers import LogWriter, stamp
 from aion_cli.pipeline import BuildOptions, build_map
-from formats.writers import LogWriter, stamp
 
 S = 1_000_000_000
 T0 = 1_700_006_400 * S  # window- and day-aligned

@@ -8,8 +8,8 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from formats.detections.frame import FrameDetections
-from formats.tracks_log import OBSERVED_INTERVAL_NS
+from aion_cli.formats.detections.frame import FrameDetections
+from aion_cli.formats.tracks_log import OBSERVED_INTERVAL_NS
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.logdata import T0, save_graph_file
 from tests.shared_data import SHARED_DATA
@@ -92,8 +92,8 @@ WINDOW = 600 * S
 
 def read_back(log: Path) -> tuple[list[int], FrameDetections, npt.NDArray[np.int64]]:
     """Log times of all messages, the decoded detections and the 600-s windows recorded."""
-    from formats.detections import adapter_for
-    from formats.logs import open_logs
+    from aion_cli.formats.detections import adapter_for
+    from aion_cli.formats.logs import open_logs
 
     with open_logs([log]) as logs:
         msgs = list(logs.messages())

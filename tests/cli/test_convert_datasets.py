@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from formats.detections.frame import FrameDetections
+from aion_cli.formats.detections.frame import FrameDetections
 from tests.cli.conftest import assert_one_line_error, run
 from tests.formats.test_datasets import EDINBURGH, ETH_UCY, _edinburgh_file, _magni
 
@@ -18,8 +18,8 @@ S = 1_000_000_000
 
 def _read(log: Path) -> tuple[list[int], FrameDetections]:
     """Log times of the detection messages and the decoded detections."""
-    from formats.detections import adapter_for
-    from formats.logs import open_logs
+    from aion_cli.formats.detections import adapter_for
+    from aion_cli.formats.logs import open_logs
 
     with open_logs([log]) as logs:
         msgs = list(logs.messages())
@@ -30,7 +30,7 @@ def _read(log: Path) -> tuple[list[int], FrameDetections]:
 
 def test_layout_choices_are_the_readers_layouts() -> None:
     from aion_cli.cli.convert import LAYOUTS
-    from formats.track_types import LAYOUTS as READERS
+    from aion_cli.formats.track_types import LAYOUTS as READERS
 
     assert sorted(LAYOUTS) == sorted(READERS)
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, decoded_chunks
-from aion_cli.engine.errors import TransformError
 from aion_cli.engine.types import DetectionBatch
-from formats.raw import RawMessage
+from aion_cli.errors import TransformError
+from aion_cli.formats.raw import RawMessage
 
 
 class FakeFeeder(DetectionFeeder):

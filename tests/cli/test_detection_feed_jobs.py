@@ -24,7 +24,7 @@ from aion_cli.detection_feed import (
     decoded_chunks,
 )
 from aion_cli.engine.types import DetectionBatch
-from formats.raw import RawMessage
+from aion_cli.formats.raw import RawMessage
 from tests.formats.test_detections_support import header, pose, raw
 
 S = 1_000_000_000

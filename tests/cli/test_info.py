@@ -30,14 +30,14 @@ def test_json_lists_topics_roles_and_counts(office: Office) -> None:
         "tf": ["/tf"],
     }
     assert doc["cannot_read"] == []
-    from formats.dsg import installed_version
+    from aion_cli.formats.dsg import installed_version
 
     assert doc["dsg_versions"] == {"/hydra/backend/dsg": [installed_version()]}
     assert doc["files"][0]["size_bytes"] == office.log.stat().st_size
 
 
 def test_unsupported_topics_are_listed(tmp_path: Path) -> None:
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     log = tmp_path / "odd.mcap"
     with LogWriter(log, "mcap") as writer:

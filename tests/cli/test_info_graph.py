@@ -119,7 +119,7 @@ def test_info_graph_errors_exit_2(hydra_json: Path, tmp_path: Path) -> None:
 def _write_log(path: Path, graph: bool = True) -> None:
     """20 minutes: the Hydra 1.1.x graph as DsgUpdate every minute (if ``graph``), two people
     standing at P(2) and P(28) every 10 s (spencer TrackedPersons in the map frame), no TF."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     payload = np.frombuffer(b.hydra_graph().to_binary(False), dtype=np.uint8)
     with LogWriter(path, "mcap") as writer:

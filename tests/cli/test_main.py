@@ -8,7 +8,7 @@ import pytest
 
 from aion_cli import __version__
 from aion_cli.cli.errors import report
-from aion_cli.engine.errors import AionError, InputError
+from aion_cli.errors import AionError, InputError
 from tests.cli.conftest import assert_one_line_error, run, run_process
 
 COMMANDS = ("info", "build", "predict", "plan", "export", "convert", "simulate", "evaluate")

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.types import DetectionBatch
+from aion_cli.formats.tracks_log import tracks_to_log
 from aion_cli.mapquery import load_map
 from aion_cli.pipeline import BuildOptions, build_map
-from formats.tracks_log import tracks_to_log
 
 S = 1_000_000_000
 HOUR = 3600 * S

@@ -130,7 +130,7 @@ def test_no_usable_detection_is_never_a_success(tmp_path: Path) -> None:
 def test_detections_without_a_transform_are_never_a_success(tmp_path: Path) -> None:
     """TF exists but only long after the detections: every detection is a counted drop, and
     a map of nothing is an error that says so."""
-    from formats.writers import LogWriter, stamp
+    from aion_cli.formats.writers import LogWriter, stamp
 
     log = tmp_path / "late_tf.mcap"
     with LogWriter(log, "mcap") as w:
@@ -192,8 +192,8 @@ def test_tf_in_another_layout_is_read_with_the_logs_own_definition(tmp_path: Pat
     np.testing.assert_allclose(xy[0], [11.25, 2.25])  # the 0.5-m cell holding (11, 2)
     # what the layout check prevents: numpy over these bytes reads the rotation as the
     # translation, without an error
-    from formats.logs import open_logs
-    from formats.tf_fast import decode_tf_messages
+    from aion_cli.formats.logs import open_logs
+    from aion_cli.formats.tf_fast import decode_tf_messages
 
     with open_logs([tmp_path / "tf.mcap"]) as logs:
         fast = decode_tf_messages(list(logs.messages({"/tf"})))
@@ -206,7 +206,7 @@ def test_tf_in_another_layout_is_read_with_the_logs_own_definition(tmp_path: Pat
 def nav_log(path: Path, people: bool = True) -> Path:
     """Navigation goals (PoseStamped), an initial pose, RViz markers and (optionally) a
     people tracker's PoseArray, 10 messages each."""
-    from formats.writers import LogWriter, stamp
+    from aion_cli.formats.writers import LogWriter, stamp
 
     with LogWriter(path, "mcap") as w:
         for k in range(10):
@@ -275,7 +275,7 @@ def person_bag(path: Path) -> Path:
     """``leg_tracker/msg/Person`` messages (a Pose and a uint32 id, no header) on /people in
     a ROS 1 bag: person 4 walks +x from (0, 0), person 9 walks -x from (10, 5), 0.5 m per
     second, one message per person per second."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     with LogWriter(path, "bag") as w:
         for k in range(20):
@@ -351,7 +351,7 @@ def test_bad_mappings_are_clear_errors(
 
 
 def test_suggest_mapping_errors(tmp_path: Path) -> None:
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     log = tmp_path / "chat.mcap"
     with LogWriter(log, "mcap") as w:
@@ -386,7 +386,7 @@ def two_mapped_topics(path: Path) -> Path:
     (headerless, positions in base_laser; one person walking +y) and a simulator's
     ``my_sim/msg/AgentArray`` on /sim/agents (a person walking -x with velocity (-1, 0),
     and a robot that the filter drops)."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     own = OwnTypes(AGENT_TYPES)
     T = own.T

@@ -6,7 +6,8 @@ from datetime import UTC, datetime, timedelta, timezone
 
 import pytest
 
-from aion_cli.cli.timeparse import (
+from aion_cli.errors import InputError
+from aion_cli.timeparse import (
     TimeFormatError,
     Zone,
     format_ns,
@@ -15,7 +16,6 @@ from aion_cli.cli.timeparse import (
     resolve_zone,
     to_ns,
 )
-from aion_cli.engine.errors import InputError
 
 BERLIN = resolve_zone("Europe/Berlin")
 UTCZ = resolve_zone("UTC")

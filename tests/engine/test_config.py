@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from aion_cli.engine.config import ModelConfig, default_periods
-from aion_cli.engine.errors import ConfigError
+from aion_cli.errors import ConfigError
 
 
 def test_default_periods_are_31_daily_and_weekly_harmonics() -> None:
@@ -79,7 +79,7 @@ def test_the_edges_of_the_ranges_are_accepted() -> None:
 
 
 def test_a_stored_config_is_checked_as_a_map_fault() -> None:
-    from aion_cli.engine.errors import MapCorruptError
+    from aion_cli.errors import MapCorruptError
 
     good = ModelConfig().to_dict()
     assert ModelConfig.from_stored(good) == ModelConfig()

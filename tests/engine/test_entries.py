@@ -10,10 +10,10 @@ from hypothesis import strategies as st
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.descriptors import bin_of
 from aion_cli.engine.entries import CELL, FREE, NODE, EntryStore, direction_bins
-from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.routing import RouteTable
 from aion_cli.engine.spatial_hash import pack_keys
 from aion_cli.engine.state import MapState
+from aion_cli.errors import MapCorruptError
 
 
 def _store(n: int, bins: int = 8) -> EntryStore:

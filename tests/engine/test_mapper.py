@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import ConfigError, CoordinateRangeError
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.spatial_hash import keys_for_points, unpack_keys
 from aion_cli.engine.state import MapState
 from aion_cli.engine.types import DetectionBatch, Trajectory
+from aion_cli.errors import ConfigError, CoordinateRangeError
 from tests.engine.engine_builders import (
     T0,
     T0_DAY_END,

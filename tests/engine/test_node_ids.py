@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from aion_cli.engine.errors import InputError
 from aion_cli.engine.node_ids import INDEX_MASK, node_label, parse_node_id, parse_point
+from aion_cli.errors import InputError
 
 
 @given(

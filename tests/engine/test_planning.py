@@ -14,7 +14,6 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import InputError, NoPathError, UnknownNodeError
 from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.planning import (
     NavGraph,
@@ -26,6 +25,7 @@ from aion_cli.engine.planning import (
     plan,
 )
 from aion_cli.engine.types import GraphSnapshot, Layer
+from aion_cli.errors import InputError, NoPathError, UnknownNodeError
 
 P = ord("p") << 56
 CFG = ModelConfig()

@@ -8,7 +8,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from aion_cli.engine.errors import CoordinateRangeError
 from aion_cli.engine.spatial_hash import (
     INDEX_MAX,
     INDEX_MIN,
@@ -20,6 +19,7 @@ from aion_cli.engine.spatial_hash import (
     packable_mask,
     unpack_keys,
 )
+from aion_cli.errors import CoordinateRangeError
 
 index_arrays = arrays(
     np.int64, st.tuples(st.integers(1, 40), st.just(3)), elements=st.integers(INDEX_MIN, INDEX_MAX)

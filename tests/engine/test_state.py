@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import MapCorruptError, MapFileError
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.state import MapState, merge_states
 from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.types import Mesh, Trajectory
+from aion_cli.errors import MapCorruptError, MapFileError
 from tests.engine.engine_builders import (
     T0,
     T0_DAY_END,

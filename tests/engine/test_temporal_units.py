@@ -11,7 +11,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import ConfigError
 from aion_cli.engine.temporal import model as temporal
 from aion_cli.engine.temporal.calendar import Calendar
 from aion_cli.engine.temporal.forecast import Forecaster, PoolStats, shrunk_rate
@@ -19,6 +18,7 @@ from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, PendingDay
 from aion_cli.engine.temporal.spectrum import admitted, top_periods
 from aion_cli.engine.windows import to_model_seconds
+from aion_cli.errors import ConfigError
 
 S = 1_000_000_000
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import ConfigError, InputError
 from aion_cli.engine.tracking import LinkerConfig, difference_tracks, link_tracks
+from aion_cli.errors import ConfigError, InputError
 
 S = 1_000_000_000
 T0 = 1_496_999_627 * S
@@ -302,7 +302,7 @@ def _neighbour_difference(t: np.ndarray, tid: np.ndarray, xy: np.ndarray) -> np.
 
 
 def test_difference_is_the_plain_neighbour_difference_with_min_step_zero() -> None:
-    from formats.track_csv import finite_difference
+    from aion_cli.formats.track_csv import finite_difference
 
     rng = np.random.default_rng(5)
     n = 300

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import ConfigError, InputError
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.types import Trajectory
 from aion_cli.engine.windows import window_centre_ns, window_index, window_ns, window_start_ns
+from aion_cli.errors import ConfigError, InputError
 
 S = 1_000_000_000
 DELTA = window_ns(600.0)

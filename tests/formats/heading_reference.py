@@ -1,5 +1,5 @@
 """The heading estimator as it was before issue 15 (one vectorised round per occurrence of a
-track within a call): the reference the vectorised :mod:`formats.detections.heading` is tested
+track within a call): the reference the vectorised :mod:`aion_cli.engine.heading` is tested
 against, kept here verbatim (only this docstring and the class name changed)."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import ConfigError
 from aion_cli.engine.types import DetectionBatch
-from formats.detections.frame import F64, I64, FrameDetections
+from aion_cli.errors import ConfigError
+from aion_cli.formats.detections.frame import F64, I64, FrameDetections
 
 #: Heading source codes of :attr:`HeadingEstimator.sources`: no heading, the message's
 #: velocity, differencing the track, the pose yaw.

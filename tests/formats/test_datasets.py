@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from formats import datasets, track_types
-from formats import tracks as ft
+from aion_cli.formats import datasets, track_types
+from aion_cli.formats import tracks as ft
 from tests.shared_data import SHARED_DATA
 
 DATA = SHARED_DATA / "tracks"

@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from formats.detections import SUPPORTED_TYPES, AdapterOptions, adapter_for, hash_id
-from formats.raw import RawMessage
+from aion_cli.formats.detections import SUPPORTED_TYPES, AdapterOptions, adapter_for, hash_id
+from aion_cli.formats.raw import RawMessage
 from tests.formats.test_detections_support import header, pose, raw
 
 S = 1_000_000_000
@@ -307,7 +307,7 @@ def test_hash_id_is_stable_and_non_negative() -> None:
 
 
 def test_frame_detections_concat_merges_frames_and_offsets_messages() -> None:
-    from formats.detections import FrameDetections
+    from aion_cli.formats.detections import FrameDetections
 
     def part(frames: tuple[str, ...], frame_id: list[int], msg: list[int], n_msg: int) -> Any:
         n = len(frame_id)
@@ -330,7 +330,7 @@ def test_frame_detections_concat_merges_frames_and_offsets_messages() -> None:
 def test_garbage_gives_message_decode_error_for_every_type(msgtype: str) -> None:
     """Random bytes, truncated and empty payloads: MessageDecodeError (or a clean decode),
     never another exception, for every adapter and both encodings."""
-    from aion_cli.engine.errors import MessageDecodeError
+    from aion_cli.errors import MessageDecodeError
 
     rng = np.random.default_rng(abs(hash_id(msgtype)) % 2**32)
     adapter = adapter_for(msgtype)

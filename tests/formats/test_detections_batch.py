@@ -13,8 +13,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from formats.detections import FrameDetections, adapter_for
-from formats.raw import RawMessage
+from aion_cli.formats.detections import FrameDetections, adapter_for
+from aion_cli.formats.raw import RawMessage
 from tests.formats.test_detections_fast import (
     DET3D,
     PEOPLE,

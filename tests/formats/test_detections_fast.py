@@ -11,11 +11,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from aion_cli.engine.errors import MessageDecodeError
-from formats.detections import FrameDetections, adapter_for, hash_id
-from formats.detections.frame import quat_yaw
-from formats.detections.wire import join_payloads
-from formats.raw import RawMessage, normalize_frame
+from aion_cli.errors import MessageDecodeError
+from aion_cli.formats.detections import FrameDetections, adapter_for, hash_id
+from aion_cli.formats.detections.frame import quat_yaw
+from aion_cli.formats.detections.wire import join_payloads
+from aion_cli.formats.raw import RawMessage, normalize_frame
 from tests.formats.test_detections_support import header, pose, raw, reference
 
 SETTINGS = settings(
@@ -432,7 +432,7 @@ def test_skip_mode_drops_only_the_bad_message() -> None:
 def test_unique_rows_groups_equal_rows_even_when_hashes_collide(
     collide: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from formats.detections import wire
+    from aion_cli.formats.detections import wire
 
     if collide:  # every row hashes to 0: the byte-wise fallback must take over
         monkeypatch.setattr(wire, "_MIX", np.uint64(0))

@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import ConfigError
-from formats.detections.frame import FrameDetections, quat_yaw
-from formats.detections.heading import HeadingEstimator
+from aion_cli.engine.heading import HeadingEstimator
+from aion_cli.errors import ConfigError
+from aion_cli.formats.detections.frame import FrameDetections, quat_yaw
 
 S = 1_000_000_000
 

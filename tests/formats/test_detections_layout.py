@@ -10,11 +10,11 @@ import math
 import numpy as np
 import pytest
 
-from formats import msgdefs
-from formats.detections import hash_id
-from formats.detections.registry import fast_layout_matches, log_adapter
-from formats.raw import RawMessage
-from formats.tf_fast import layout_matches
+from aion_cli.formats import msgdefs
+from aion_cli.formats.detections import hash_id
+from aion_cli.formats.detections.registry import fast_layout_matches, log_adapter
+from aion_cli.formats.raw import RawMessage
+from aion_cli.formats.tf_fast import layout_matches
 from tests.cli.own_definitions import FOXY_VISION_MSGS, OwnTypes, foxy_detection3d_array
 
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"

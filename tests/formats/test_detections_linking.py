@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from aion_cli.detection_feed import DetectionCounts, DetectionFeeder
-from aion_cli.engine.errors import InputError
+from aion_cli.engine.heading import SOURCES, HeadingEstimator
 from aion_cli.engine.tracking import LinkerConfig, TrackLinker, link_tracks
-from formats.detections.heading import SOURCES, HeadingEstimator
-from formats.raw import RawMessage
+from aion_cli.errors import InputError
+from aion_cli.formats.raw import RawMessage
 from tests.formats.test_detections_support import header, pose, raw
 
 S = 1_000_000_000

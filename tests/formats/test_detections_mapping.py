@@ -9,11 +9,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import ConfigError
-from formats import msgdefs
-from formats.detections import adapter_for, hash_id
-from formats.detections.mapping import load_mapping
-from formats.raw import RawMessage
+from aion_cli.errors import ConfigError
+from aion_cli.formats import msgdefs
+from aion_cli.formats.detections import adapter_for, hash_id
+from aion_cli.formats.detections.mapping import load_mapping
+from aion_cli.formats.raw import RawMessage
 from tests.formats.test_detections_support import header, pose, raw
 
 MSGTYPE = "my_tracker/msg/Tracks"

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from formats import msgdefs
-from formats.raw import RawMessage
-from formats.writers import to_message
+from aion_cli.formats import msgdefs
+from aion_cli.formats.raw import RawMessage
+from aion_cli.formats.writers import to_message
 
 
 def serialize(msgtype: str, message: dict[str, Any], ros: int, little_endian: bool = True) -> bytes:

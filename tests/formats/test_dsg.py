@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import InputError, MessageDecodeError
-from formats import dsg as fdsg
+from aion_cli.errors import InputError, MessageDecodeError
+from aion_cli.formats import dsg as fdsg
 from tests.shared_data import SHARED_DATA, needs, real_path
 
 DATA = SHARED_DATA / "dsg"

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from formats import dsg as fdsg
+from aion_cli.formats import dsg as fdsg
 from tests.formats import dsg_builders as b
 
 

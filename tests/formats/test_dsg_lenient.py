@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from formats import dsg as fdsg
-from formats.dsg_json import skipped_text
+from aion_cli.formats import dsg as fdsg
+from aion_cli.formats.dsg_json import skipped_text
 from tests.formats import dsg_builders as b
 from tests.shared_data import SHARED_DATA
 

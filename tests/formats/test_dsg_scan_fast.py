@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.types import GraphSnapshot, Layer
-from formats import dsg as fdsg
+from aion_cli.formats import dsg as fdsg
 from tests.formats.dsg_builders import hydra_graph, legacy_mesh_graph
 from tests.shared_data import SHARED_DATA
 

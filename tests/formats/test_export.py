@@ -10,7 +10,7 @@ import open3d as o3d
 import pytest
 
 from aion_cli.engine.types import Mesh
-from formats.export import (
+from aion_cli.formats.export import (
     ARROW_RESOLUTION,
     SPHERE_RESOLUTION,
     TUBE_RESOLUTION,

@@ -16,7 +16,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from formats.detections.heading import HeadingEstimator
+from aion_cli.engine.heading import HeadingEstimator
 from tests.formats.heading_reference import RoundsHeadingEstimator
 
 S = 1_000_000_000

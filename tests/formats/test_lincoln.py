@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import InputError
-from formats import datasets, track_types
-from formats import tracks as ft
+from aion_cli.errors import InputError
+from aion_cli.formats import datasets, track_types
+from aion_cli.formats import tracks as ft
 from tests.shared_data import SHARED_DATA
 
 DATA = SHARED_DATA

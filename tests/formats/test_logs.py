@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
-from formats.logs import LogSet, open_logs
-from formats.raw import RawMessage
-from formats.writers import CONTAINERS, LogWriter, stamp
+from aion_cli.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
+from aion_cli.formats.logs import LogSet, open_logs
+from aion_cli.formats.raw import RawMessage
+from aion_cli.formats.writers import CONTAINERS, LogWriter, stamp
 
 T0 = 1_700_000_000_000_000_000
 FILE_NAMES = {"mcap": "log.mcap", "mcap-ros1": "log.mcap", "bag": "log.bag"}
@@ -185,8 +185,8 @@ def test_decode_falls_back_to_shipped_definitions(tmp_path: Path) -> None:
     """Old rosbag2 logs carry no definitions: aion's own definition of the type is used."""
     from mcap.writer import Writer
 
-    from formats.msgdefs import typestore
-    from formats.writers import to_message
+    from aion_cli.formats.msgdefs import typestore
+    from aion_cli.formats.writers import to_message
 
     path = tmp_path / "nodefs.mcap"
     msg = to_message("hydra_msgs/DsgUpdate", {"layer_contents": b"xyz", "sequence_number": 3})
@@ -221,8 +221,8 @@ def test_decode_reports_garbage_payloads(tmp_path: Path) -> None:
 def test_mcap_without_chunks_or_summary_is_read_linearly(tmp_path: Path) -> None:
     from mcap.writer import Writer
 
-    from formats.msgdefs import definition, typestore
-    from formats.writers import to_message
+    from aion_cli.formats.msgdefs import definition, typestore
+    from aion_cli.formats.writers import to_message
 
     path = tmp_path / "plain.mcap"
     with path.open("wb") as f:

@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.query import historical_table, predict_table
+from aion_cli.errors import MapCorruptError
+from aion_cli.formats.mapfile import open_map, read_map, write_map
 from aion_cli.mapquery import load_map
-from formats.mapfile import open_map, read_map, write_map
 
 T0_NS = 1_700_006_400 * 10**9  # the benchmark map's window (2023-11-15 00:00 UTC)
 DAY_NS = 86_400 * 10**9
@@ -137,7 +137,7 @@ def test_count_quantiles_without_scipy_stats_are_scipys() -> None:
 
 
 def test_members_are_aligned_and_mapped_in_place_copy_on_write(built: tuple) -> None:
-    from formats.mapfile import ALIGN
+    from aion_cli.formats.mapfile import ALIGN
 
     _, path = built
     before = path.read_bytes()

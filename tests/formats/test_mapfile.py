@@ -20,15 +20,15 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from aion_cli import __version__
-from aion_cli.engine.errors import (
+from aion_cli.errors import (
     InputError,
     MapCorruptError,
     MapFileError,
     MapLockedError,
     MapVersionError,
 )
-from formats import mapfile
-from formats.mapfile import (
+from aion_cli.formats import mapfile
+from aion_cli.formats.mapfile import (
     MapContentError,
     MapWriteError,
     lock_path,

@@ -18,9 +18,9 @@ from typing import Any
 
 import pytest
 
-from aion_cli.engine.errors import LogFormatError
-from formats.logs import open_logs
-from formats.mcap_source import _McapSource
+from aion_cli.errors import LogFormatError
+from aion_cli.formats.logs import open_logs
+from aion_cli.formats.mcap_source import _McapSource
 from tests.shared_data import FIXTURES, SHARED_DATA, real_path
 
 DATA = real_path("logs", "mcap_conformance")  # the whole suite, else tests/data's 8 files

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from formats import msgdefs
-from formats.writers import to_message
+from aion_cli.formats import msgdefs
+from aion_cli.formats.writers import to_message
 
 
 def test_ros1_md5_of_dsgupdate_and_tfmessage_match_upstream() -> None:

@@ -18,8 +18,8 @@ from typing import Any
 
 import pytest
 
-from aion_cli.engine.errors import LogFormatError
-from formats.logs import open_logs
+from aion_cli.errors import LogFormatError
+from aion_cli.formats.logs import open_logs
 from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs"

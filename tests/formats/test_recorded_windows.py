@@ -14,11 +14,11 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-import formats.mcap_linear
-import formats.mcap_source
-from aion_cli.engine.errors import ConfigError
-from formats.logs import LogSet, open_logs
-from formats.writers import CONTAINERS, LogWriter, stamp
+import aion_cli.formats.mcap_linear
+import aion_cli.formats.mcap_source
+from aion_cli.errors import ConfigError
+from aion_cli.formats.logs import LogSet, open_logs
+from aion_cli.formats.writers import CONTAINERS, LogWriter, stamp
 from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs"
@@ -97,7 +97,8 @@ def test_mcap_chunk_spanning_the_gap_is_answered_from_its_message_index(
     assert summary is not None
     (chunk,) = summary.chunk_indexes  # one chunk holds both sessions and the gap between them
     assert chunk.message_index_offsets
-    monkeypatch.setattr(formats.mcap_linear, "_decompress", _boom)  # no chunk is decompressed
+    # no chunk is decompressed
+    monkeypatch.setattr(aion_cli.formats.mcap_linear, "_decompress", _boom)
     with open_logs([path]) as logs:
         assert logs.recorded_windows(WINDOW).tolist() == SESSIONS
 
@@ -209,7 +210,7 @@ def test_narrow_chunks_need_no_message_time(
     def no_reads(self: Any, stream: Any, index: Any) -> NoReturn:
         raise AssertionError("a chunk inside two windows needs no message time")
 
-    monkeypatch.setattr(formats.mcap_source._McapSource, "_chunk_times", no_reads)
+    monkeypatch.setattr(aion_cli.formats.mcap_source._McapSource, "_chunk_times", no_reads)
     with open_logs([path]) as logs:
         assert logs.recorded_windows(WINDOW).tolist() == SESSIONS
 
@@ -297,7 +298,7 @@ def test_compressed_rosbag2(storage: str, mode: str, tmp_path: Path) -> None:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
-    from formats import msgdefs
+    from aion_cli.formats import msgdefs
 
     serializer = LogWriter(tmp_path / "unused.mcap", "mcap")
     data = serializer.serialize("people_msgs/People", _people(0))

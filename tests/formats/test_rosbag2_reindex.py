@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import LogFormatError
-from formats.logs import open_logs
-from formats.rosbag2_reindex import reindex
+from aion_cli.errors import LogFormatError
+from aion_cli.formats.logs import open_logs
+from aion_cli.formats.rosbag2_reindex import reindex
 from tests.cli.conftest import assert_one_line_error, run
 from tests.shared_data import SHARED_DATA, real
 
@@ -258,7 +258,7 @@ def test_message_compressed_bag_with_and_without_metadata(tmp_path: Path) -> Non
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
-    from formats import msgdefs
+    from aion_cli.formats import msgdefs
 
     folder = tmp_path / "msgzstd"
     writer = Writer(folder, version=9, storage_plugin=StoragePlugin.SQLITE3)

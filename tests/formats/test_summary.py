@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from formats.logs import open_logs
-from formats.summary import ROLES, detection_types, role_of, summarize
-from formats.writers import LogWriter, stamp
+from aion_cli.formats.logs import open_logs
+from aion_cli.formats.summary import ROLES, detection_types, role_of, summarize
+from aion_cli.formats.writers import LogWriter, stamp
 
 T0 = 1_700_000_000_000_000_000  # 2023-11-14T22:13:20Z
 

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation, Slerp
 
-from aion_cli.engine.errors import TransformError
-from formats.tf import TfBuffer
+from aion_cli.errors import TransformError
+from aion_cli.formats.tf import TfBuffer
 
 S = 1_000_000_000
 

@@ -11,10 +11,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from aion_cli.engine.errors import MessageDecodeError
-from formats.raw import RawMessage
-from formats.tf import TfBuffer, normalize_frame
-from formats.tf_fast import TfArrays, decode_tf_messages
+from aion_cli.errors import MessageDecodeError
+from aion_cli.formats.raw import RawMessage
+from aion_cli.formats.tf import TfBuffer, normalize_frame
+from aion_cli.formats.tf_fast import TfArrays, decode_tf_messages
 from tests.formats.test_detections_support import raw, reference
 
 TF = "tf2_msgs/msg/TFMessage"

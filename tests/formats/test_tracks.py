@@ -10,11 +10,11 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from aion_cli.engine.errors import InputError
 from aion_cli.engine.types import DetectionBatch
-from formats import track_csv, track_types, tracks_log
-from formats import tracks as ft
-from formats.detections.frame import FrameDetections
+from aion_cli.errors import InputError
+from aion_cli.formats import track_csv, track_types, tracks_log
+from aion_cli.formats import tracks as ft
+from aion_cli.formats.detections.frame import FrameDetections
 from tests.shared_data import SHARED_DATA, needs, real_path
 
 DATA = SHARED_DATA
@@ -252,7 +252,7 @@ def test_tracks_to_log_round_trip_with_graph(tmp_path: Path) -> None:
     vel = np.stack([np.cos(batch.heading), np.sin(batch.heading)], 1) * batch.speed[:, None]
     np.testing.assert_allclose(np.array(rows_v)[got], vel[order], atol=1e-12)
 
-    from formats.dsg import decode_dsg_update
+    from aion_cli.formats.dsg import decode_dsg_update
 
     payload = graphs[0][1].layer_contents
     snap = decode_dsg_update(np.asarray(payload, dtype=np.uint8), int(graphs[0][0]))
@@ -325,7 +325,7 @@ def test_vectorized_tracked_persons_bytes_equal_writer_serialization(
     tmp_path: Path, container: str
 ) -> None:
     """The numpy-built wire bytes equal what rosbags serializes from the equivalent dict."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     batch = DetectionBatch.from_arrays(
         t_ns=[7 * S + 5, 7 * S + 5, 7 * S + 5],
@@ -406,8 +406,8 @@ def test_observed_stamps_every_interval_and_the_last_instant() -> None:
 
 def _log_messages(path: Path) -> tuple[list[int], FrameDetections, npt.NDArray[np.int64]]:
     """Log times of all messages, the decoded detections (adapter) and windows recorded."""
-    from formats.detections import adapter_for
-    from formats.logs import open_logs
+    from aion_cli.formats.detections import adapter_for
+    from aion_cli.formats.logs import open_logs
 
     with open_logs([path]) as logs:
         msgs = list(logs.messages())

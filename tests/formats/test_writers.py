@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from formats.writers import (
+from aion_cli.formats.writers import (
     CONTAINERS,
     LogWriteError,
     LogWriter,
@@ -266,7 +266,7 @@ def test_every_shipped_schema_is_accepted_by_the_mcap_decoders(
     container: str, tmp_path: Path
 ) -> None:
     """The definition texts must parse in mcap_ros2 / mcap_ros1 (genpy), as in Foxglove."""
-    from formats.msgdefs import SUPPORTED_MSGTYPES
+    from aion_cli.formats.msgdefs import SUPPORTED_MSGTYPES
 
     ros_version = 1 if container == "mcap-ros1" else 2
     path = tmp_path / "all.mcap"

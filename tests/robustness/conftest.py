@@ -104,7 +104,7 @@ def scene_graph(t_ns: int, payload: np.ndarray | bytes) -> Message:
 
 def write_log(path: Path, messages: Iterable[Message], container: str = "mcap") -> Path:
     """Write ``messages`` (any order: containers keep what they are given) to ``path``."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     with LogWriter(path, container) as writer:
         for topic, msgtype, msg, t_ns in messages:
@@ -181,7 +181,7 @@ def rewrite_map(
 
 def map_arrays(path: Path) -> dict[str, np.ndarray]:
     """Every array of a map, checksums verified."""
-    from formats.mapfile import read_map
+    from aion_cli.formats.mapfile import read_map
 
     return read_map(path)[0]
 

@@ -460,7 +460,7 @@ def mutate_map(seed: Path, rng: random.Random, out: Path) -> None:
 
 def _read_log(path: Path) -> int:
     """open_logs + every message + decoding the first 20: what ``aion build`` reads."""
-    from formats.logs import open_logs
+    from aion_cli.formats.logs import open_logs
 
     n = 0
     with open_logs([path]) as logset:
@@ -488,8 +488,8 @@ def _mutant_log(seed: Path, rng: random.Random, work: Path) -> Path:
 
 def detection_seeds() -> list[Any]:
     """One RawMessage per fast-decoded type and encoding, with several people each."""
-    from formats.raw import RawMessage
-    from formats.writers import LogWriter
+    from aion_cli.formats.raw import RawMessage
+    from aion_cli.formats.writers import LogWriter
 
     person = {
         "track_id": 3,
@@ -521,7 +521,7 @@ def detection_seeds() -> list[Any]:
 
 
 def _decode_detections(raw: Any, skip: bool = False) -> int:
-    from formats.detections import adapter_for
+    from aion_cli.formats.detections import adapter_for
 
     adapter = adapter_for(raw.msgtype)
     assert adapter is not None
@@ -585,7 +585,7 @@ def run_cases(
     target: str, seed: int, cases: int, timeout: float, files: list[Path]
 ) -> dict[str, Any]:
     """Run ``cases`` mutants through ``target``; the summary dict printed as JSON."""
-    from aion_cli.engine.errors import AionError
+    from aion_cli.errors import AionError
 
     rng = random.Random(seed)
     step: Callable[[random.Random, Path], Any]
@@ -604,7 +604,7 @@ def run_cases(
             return _decode_detections(replace(raw, data=mutate(raw.data, r)))
 
     elif target == "dsg":
-        from formats.dsg import decode_dsg, installed_version
+        from aion_cli.formats.dsg import decode_dsg, installed_version
 
         graph = dsg_seed()
         native = installed_version()
@@ -642,8 +642,8 @@ def run_cases(
             return _query_map(out)
 
     elif target in ("read_map", "load_map"):
+        from aion_cli.formats.mapfile import read_map
         from aion_cli.mapquery import load_map
-        from formats.mapfile import read_map
 
         def step(r: random.Random, work: Path) -> Any:
             out = work / "mutant.aion"

@@ -455,7 +455,7 @@ def test_damaged_scene_graph_with_a_pinned_version_is_a_clear_error(tmp_path: Pa
 def test_damaged_detection_message_is_skipped_and_counted(tmp_path: Path) -> None:
     """One TrackedPersons payload cut short among good ones: dropped as an undecodable
     message, the others are used."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     path = tmp_path / "d.mcap"
     good = walk(30)

@@ -16,9 +16,9 @@ from typing import Any
 
 import pytest
 
-from aion_cli.engine.errors import ConfigError
-from formats.limits import ReadLimits
-from formats.logs import open_logs
+from aion_cli.errors import ConfigError
+from aion_cli.formats.limits import ReadLimits
+from aion_cli.formats.logs import open_logs
 from tests.formats.craft import (
     McapFile,
     McapParts,

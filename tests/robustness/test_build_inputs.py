@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from formats.mapfile import read_manifest
+from aion_cli.formats.mapfile import read_manifest
 from tests.robustness.conftest import (
     T0,
     Message,

@@ -21,9 +21,9 @@ from typing import Any
 
 import pytest
 
-from aion_cli.engine.errors import LogFormatError, MapFileError
-from formats.logs import open_logs
-from formats.raw import check_regular_input
+from aion_cli.errors import LogFormatError, MapFileError
+from aion_cli.formats.logs import open_logs
+from aion_cli.formats.raw import check_regular_input
 from tests.formats.craft import (
     McapFile,
     McapParts,

@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-import formats.tracks as ft
+import aion_cli.formats.tracks as ft
 from aion_cli.engine.types import DetectionBatch
-from formats import track_csv, track_types, tracks_log
+from aion_cli.formats import track_csv, track_types, tracks_log
 from tests.robustness.conftest import assert_one_error, run
 
 T0 = 1_351_036_800 * 10**9  # 2012-10-24 00:00 UTC

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from formats import dsg as fdsg
+from aion_cli.formats import dsg as fdsg
 from tests.cli.logdata import build_graph
 from tests.robustness.conftest import assert_one_error, run, walk, write_log
 from tests.robustness.test_bad_logs import payload_1_1_2

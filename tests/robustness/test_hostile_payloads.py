@@ -17,12 +17,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import MessageDecodeError
-from formats.detections import adapter as adapter_module
-from formats.detections import adapter_for, hash_id, wire
-from formats.detections.fast import decode_people
-from formats.detections.wire import join_payloads
-from formats.raw import RawMessage
+from aion_cli.errors import MessageDecodeError
+from aion_cli.formats.detections import adapter as adapter_module
+from aion_cli.formats.detections import adapter_for, hash_id, wire
+from aion_cli.formats.detections.fast import decode_people
+from aion_cli.formats.detections.wire import join_payloads
+from aion_cli.formats.raw import RawMessage
 from tests.formats.test_detections_support import reference
 
 PEOPLE = "people_msgs/msg/People"

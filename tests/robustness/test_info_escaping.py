@@ -9,7 +9,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from formats.mapfile import read_map, write_map
+from aion_cli.formats.mapfile import read_map, write_map
 from tests.robustness.conftest import TRACKED, Office, build_json, person, run, write_log
 
 ESC = "\x1b"

@@ -27,7 +27,7 @@ import json, resource, sys
 from pathlib import Path
 soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
 resource.setrlimit(resource.RLIMIT_NOFILE, ({limit}, hard))
-from formats.logs import open_logs
+from aion_cli.formats.logs import open_logs
 paths = sorted(Path(sys.argv[1]).iterdir())
 with open_logs(paths) as logs:
     times = [m.log_time_ns for m in logs.messages()]

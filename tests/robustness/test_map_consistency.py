@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from formats.mapfile import read_map, write_map
+from aion_cli.formats.mapfile import read_map, write_map
 from tests.robustness.conftest import (
     T0,
     S,

@@ -163,7 +163,7 @@ def test_write_failure_mid_map_leaves_the_old_map(
 ) -> None:
     """The disk fills up while the map is written: one error line (exit 2), the previous map
     byte for byte, no temporary file or lock left."""
-    from formats import mapfile
+    from aion_cli.formats import mapfile
 
     target = office.copy_map(tmp_path / "m.aion")
     old = target.read_bytes()
@@ -197,7 +197,7 @@ def test_failing_rename_leaves_the_old_map(
         raise PermissionError(errno.EPERM, "Operation not permitted", str(dst))
 
     log = write_log(tmp_path / "w.mcap", walk(30))  # before os.replace fails for everyone
-    monkeypatch.setattr("formats.mapfile.os.replace", no_rename)
+    monkeypatch.setattr("aion_cli.formats.mapfile.os.replace", no_rename)
     result = run("build", log, "-o", target)
     assert result.exit_code == 2
     assert_one_error(result.stderr, "cannot write map")
@@ -208,7 +208,7 @@ def test_failing_rename_leaves_the_old_map(
 def test_a_held_lock_stops_a_second_build(office: Office, tmp_path: Path) -> None:
     """While this process holds the map's lock (as a build writing it would), a build in a
     subprocess refuses with one error line and leaves the map alone."""
-    from formats.mapfile import map_lock
+    from aion_cli.formats.mapfile import map_lock
 
     target = office.copy_map(tmp_path / "m.aion")
     old = target.read_bytes()
@@ -227,7 +227,7 @@ def test_two_builds_extending_one_map_never_lose_a_log(
     """Build A (a long log) extends the map in a subprocess; build B starts meanwhile: B is
     refused (it would have started from the old map and its write, or A's, would silently
     drop the other's log). Once A is done, B runs and the map holds all three logs."""
-    from formats.mapfile import read_manifest
+    from aion_cli.formats.mapfile import read_manifest
 
     target = office.copy_map(tmp_path / "m.aion")
     lock = target.with_name("m.aion.lock")
@@ -272,7 +272,7 @@ def _member(path: Path) -> str:
 
 def refused(path: Path, *fragments: str) -> None:
     """``load_map`` raises a MapFileError and ``aion predict`` prints one error line, exit 2."""
-    from aion_cli.engine.errors import MapFileError
+    from aion_cli.errors import MapFileError
     from aion_cli.mapquery import load_map
 
     with pytest.raises(MapFileError) as info:

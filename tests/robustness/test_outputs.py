@@ -194,7 +194,7 @@ class BoomError(RuntimeError):
 
 def write_then_fail(target: Path, container: str, after: int, exc: BaseException) -> None:
     """Open ``target`` for writing (replacing it) and raise ``exc`` after ``after`` messages."""
-    from formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter
 
     with LogWriter(target, container, overwrite=True) as writer:
         for topic, msgtype, msg, t in walk(50, start_s=100):
@@ -284,7 +284,7 @@ def test_negative_csv_times_are_an_input_error_without_a_partial_file(
 
 
 def test_log_times_beyond_int64_are_refused_and_nothing_is_written(tmp_path: Path) -> None:
-    from formats.writers import LogTimeError, LogWriter
+    from aion_cli.formats.writers import LogTimeError, LogWriter
 
     target = tmp_path / "x.mcap"
     topic, msgtype, msg, _ = person(T0, (1.0, 0.0, 0.0))
@@ -322,7 +322,7 @@ def test_build_output_must_be_a_map_or_new(office: Office, tmp_path: Path) -> No
 
 
 def test_write_map_refuses_special_and_foreign_targets(tmp_path: Path) -> None:
-    from formats.mapfile import MapWriteError, is_aion_map, read_map, write_map
+    from aion_cli.formats.mapfile import MapWriteError, is_aion_map, read_map, write_map
 
     arrays = {"a": np.arange(4)}
     with pytest.raises(MapWriteError, match="character device"):
@@ -402,7 +402,7 @@ def test_export_into_the_current_folder_still_works(
 
 
 def test_only_a_folder_exactly_as_aion_writes_it_counts_as_its_rosbag2(tmp_path: Path) -> None:
-    from formats.writers import is_own_log, is_own_rosbag2
+    from aion_cli.formats.writers import is_own_log, is_own_rosbag2
 
     bag = write_log(tmp_path / "bag", walk(3), "rosbag2-mcap")
     assert is_own_rosbag2(bag)

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.engine.errors import MapFileError
-from formats.mapfile import (
+from aion_cli.errors import MapFileError
+from aion_cli.formats.mapfile import (
     DEFAULT_MAX_MEMBERS,
     MAP_FORMAT,
     RATIO_MIN_BYTES,
@@ -29,7 +29,7 @@ from formats.mapfile import (
     read_map,
     write_map,
 )
-from formats.tf import TfBuffer
+from aion_cli.formats.tf import TfBuffer
 from tests.robustness.conftest import Office, assert_one_error, run
 
 MB = 1024**2

@@ -21,11 +21,11 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.errors import InputError
 from aion_cli.engine.mapper import MAX_TIME_NS, Mapper
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.engine.windows import window_ns
+from aion_cli.errors import InputError
 from aion_cli.log_times import STRAY_MAX_MESSAGES, stray_mask
 from tests.robustness.conftest import (
     T0,

@@ -8,10 +8,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pytest
 
+from aion_cli.formats.dsg import decode_dsg_update
+from aion_cli.formats.logs import open_logs
 from aion_cli.sim.graphstream import EVENT_KINDS
 from aion_cli.sim.scenario import SceneResult, build_scene, load_environment
-from formats.dsg import decode_dsg_update
-from formats.logs import open_logs
 from tests.shared_data import needs
 from tests.sim.conftest import DSG_DIR, PATROL, load_truth
 

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from aion_cli.formats.logs import open_logs
+from aion_cli.formats.tf import TfBuffer
 from aion_cli.sim.scenario import SceneResult, simulate
-from formats.logs import open_logs
-from formats.tf import TfBuffer
 from tests.sim.conftest import PATROL
 
 DET = "/spencer/perception/tracked_persons"

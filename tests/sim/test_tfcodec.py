@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from aion_cli.formats.writers import LogWriter
 from aion_cli.sim.messages import TF_MESSAGE, tf_message
 from aion_cli.sim.tfcodec import TfEncoder
-from formats.writers import LogWriter
 
 
 @pytest.mark.parametrize("container", ["mcap", "bag"])

@@ -38,8 +38,8 @@ from typing import Any, Literal, cast
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.types import F64, I64, RowTake
+from aion_cli.errors import MapCorruptError
 
 C128 = npt.NDArray[np.complex128]
 

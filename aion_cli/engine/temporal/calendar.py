@@ -27,9 +27,9 @@ from datetime import UTC, datetime, timedelta, tzinfo
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import ConfigError
 from aion_cli.engine.temporal.zones import zone_of
 from aion_cli.engine.types import I64
+from aion_cli.errors import ConfigError
 
 DAY_NS = 86_400 * 1_000_000_000
 HOUR_NS = 3_600 * 1_000_000_000

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import MapCorruptError
 from aion_cli.engine.types import F64, I64, BoolA
+from aion_cli.errors import MapCorruptError
 
 
 @dataclass

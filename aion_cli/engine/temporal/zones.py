@@ -7,7 +7,7 @@ import re
 from datetime import UTC, timedelta, timezone, tzinfo
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-from aion_cli.engine.errors import ConfigError
+from aion_cli.errors import ConfigError
 
 _OFFSET = re.compile(r"^(?:utc|gmt)?\s*([+-])(\d{1,2})(?::?(\d{2}))?$")
 ZONE_HINT = "use UTC, an offset such as +09:00 or UTC-05:00, or an IANA name such as Europe/Madrid"

@@ -26,8 +26,8 @@ from decimal import Decimal, InvalidOperation
 from pathlib import Path
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-from aion_cli.engine.errors import ConfigError, InputError
 from aion_cli.engine.temporal.zones import zone_of
+from aion_cli.errors import ConfigError, InputError
 
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
 NS_PER_S = 1_000_000_000

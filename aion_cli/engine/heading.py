@@ -43,12 +43,25 @@ After each call :attr:`HeadingEstimator.sources` says which rule gave each row i
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.errors import ConfigError
-from aion_cli.engine.types import DetectionBatch
-from formats.detections.frame import F64, I64, FrameDetections
+from aion_cli.engine.types import F64, I64, DetectionBatch
+from aion_cli.errors import ConfigError
+
+
+class TrackedPositions(Protocol):
+    """What heading estimation reads of decoded detections (``formats.detections.frame.
+    FrameDetections`` is one): stamps, positions, velocities and yaws where known (NaN where
+    not), track ids (-1 without)."""
+
+    t_ns: I64
+    xyz: F64
+    velocity: F64
+    yaw: F64
+    track_id: I64
 
 #: Heading source codes of :attr:`HeadingEstimator.sources`: no heading, the message's
 #: velocity, differencing the track, the pose yaw.
@@ -83,7 +96,7 @@ class HeadingEstimator:
         return len(self.ids)
 
     def to_batch(
-        self, det: FrameDetections, segment: npt.ArrayLike | None = None
+        self, det: TrackedPositions, segment: npt.ArrayLike | None = None
     ) -> DetectionBatch:
         """The engine batch of detections already transformed into the map frame."""
         return self.estimate(det.t_ns, det.xyz, det.velocity, det.yaw, det.track_id, segment)
