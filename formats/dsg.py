@@ -63,6 +63,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.node_ids import INDEX_BITS, INDEX_MASK
 from aion_cli.engine.types import GraphSnapshot, Layer, Mesh, Trajectory
 from aion_cli.errors import InputError, MessageDecodeError
 
@@ -889,8 +890,8 @@ def choose_nav_layer(G: Any, layer: str | int | None = None) -> NavLayer:
 
 #: NodeSymbol layout (spark_dsg ``NodeSymbol``): the category character in the top byte of the
 #: uint64, the index in the lower 56 bits.
-_SYMBOL_INDEX_BITS = 56
-_SYMBOL_INDEX_MASK = (1 << _SYMBOL_INDEX_BITS) - 1
+_SYMBOL_INDEX_BITS = INDEX_BITS  # the one NodeSymbol layout (aion_cli.engine.node_ids)
+_SYMBOL_INDEX_MASK = INDEX_MASK
 _ID = operator.attrgetter("id.value")
 _ATTRIBUTES = operator.attrgetter("attributes")
 _POSITION = operator.attrgetter("position")
