@@ -26,7 +26,6 @@ import json
 import mmap
 import os
 import re
-import signal
 import socket
 import stat
 import struct
@@ -48,6 +47,7 @@ from aion_cli.errors import (
     MapLockedError,
     MapVersionError,
 )
+from aion_cli.formats.outputs import fsync_dir, interrupts_held
 
 MAP_FORMAT = "aion-map"
 MAP_VERSION = (2, 0)
@@ -249,16 +249,6 @@ def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, Any], manifest: Any) -> 
         zf.writestr(MANIFEST_NAME, _manifest_text(manifest, members))
 
 
-def _fsync_dir(folder: Path) -> None:
-    """Make the rename durable; best effort (some filesystems refuse to open folders)."""
-    with contextlib.suppress(OSError):
-        fd = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-
 def _new_file_mode(target: Path) -> int:
     """The replaced map's permissions, else what ``open()`` would give (0666 minus umask)."""
     try:
@@ -267,24 +257,6 @@ def _new_file_mode(target: Path) -> int:
         umask = os.umask(0)
         os.umask(umask)
         return 0o666 & ~umask
-
-
-@contextlib.contextmanager
-def _interrupts_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back for the block; they are delivered (and raise) right after.
-
-    Creating the temporary file and learning its name are two steps; an interrupt between them
-    would leave a temporary map nobody removes.
-    """
-    try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-    except (AttributeError, OSError, ValueError):  # no pthread_sigmask on this platform
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def write_map(
@@ -316,7 +288,7 @@ def write_map(
     with map_lock(target) if lock else contextlib.nullcontext(target):
         tmp: Path | None = None
         try:
-            with _interrupts_held():  # else Ctrl-C right after mkstemp leaves the file behind
+            with interrupts_held():  # else Ctrl-C right after mkstemp leaves the file behind
                 fd, tmp_name = tempfile.mkstemp(
                     dir=folder, prefix=f".{target.name}.", suffix=".tmp"
                 )
@@ -339,7 +311,7 @@ def write_map(
                     "any) is unchanged",
                 ) from exc
             raise
-    _fsync_dir(folder)
+    fsync_dir(folder)
 
 
 # -- output targets -------------------------------------------------------------------------
