@@ -44,20 +44,6 @@ from aion_cli.errors import MapCorruptError
 C128 = npt.NDArray[np.complex128]
 
 _OBS_FIELDS = ("n", "fourier", "profile", "first", "last")
-_ADDITIVE = (
-    "cnt_fourier",
-    "cnt_profile",
-    "flow_score",
-    "flow_chi2",
-    "flow_scored",
-    "flow_days",
-    "flow_gain_sq",
-    "dir_score",
-    "dir_scored",
-    "dir_days",
-    "dir_gain_sq",
-)
-_ROW_BLOCK = 1 << 14
 _SCORES = (
     "flow_score",
     "flow_chi2",
@@ -69,6 +55,8 @@ _SCORES = (
     "dir_days",
     "dir_gain_sq",
 )
+_ADDITIVE = ("cnt_fourier", "cnt_profile", *_SCORES)
+_ROW_BLOCK = 1 << 14
 _TALLIES = ("flow_scored", "flow_days", "dir_scored", "dir_days")
 _UINT32_MAX = float(np.iinfo(np.uint32).max)
 
