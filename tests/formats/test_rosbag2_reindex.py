@@ -20,6 +20,7 @@ from aion_cli.errors import LogFormatError
 from aion_cli.formats.logs import open_logs
 from aion_cli.formats.rosbag2_reindex import reindex
 from tests.cli.conftest import assert_one_line_error, run
+from tests.formats.test_real_containers import _metadata, _sqlite_messages
 from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs" / "rosbag2_tests"
@@ -30,25 +31,6 @@ REINDEX = "rosbag2_py_sqlite3_reindex_test_bags_multiple_files"
 def _real(*parts: str) -> Path:
     return real("logs", "rosbag2_tests", *parts)
 
-
-
-def _metadata(folder: Path) -> dict[str, Any]:
-    from ruamel.yaml import YAML
-
-    info: dict[str, Any] = YAML(typ="safe").load((folder / "metadata.yaml").read_text())
-    return info["rosbag2_bagfile_information"]
-
-
-def _sqlite(*files: Path) -> list[tuple[str, int, bytes]]:
-    """``(topic, timestamp, data)`` of rosbag2 sqlite3 files, read with Python's sqlite3."""
-    out: list[tuple[str, int, bytes]] = []
-    for f in files:
-        with sqlite3.connect(f"file:{f}?mode=ro", uri=True) as db:
-            out += db.execute(
-                "SELECT topics.name, timestamp, data FROM messages "
-                "JOIN topics ON messages.topic_id = topics.id"
-            ).fetchall()
-    return sorted(out, key=lambda m: m[1])
 
 
 def _got(logs: Any) -> list[tuple[str, int, bytes]]:
@@ -74,7 +56,7 @@ def test_reindex_test_bag_folder_is_read_from_its_storage_files() -> None:
     files = sorted(folder.glob("*.db3"))
     assert len(files) == 3
     assert not (folder / "metadata.yaml").exists()
-    expected = _sqlite(*files)
+    expected = _sqlite_messages(*files)
     assert len(expected) == 3177  # 1324 + 1324 + 529 on /chatter
     with open_logs([folder]) as logs:
         (f,) = logs.files
@@ -105,7 +87,7 @@ def test_reindex_test_bag_folder_is_read_from_its_storage_files() -> None:
 )
 def test_one_storage_file_alone(parts: tuple[str, ...]) -> None:
     path = _real(*parts)
-    expected = _sqlite(path)
+    expected = _sqlite_messages(path)
     with open_logs([path]) as logs:
         (f,) = logs.files
         assert (f.path, f.format) == (path, "rosbag2-sqlite3")
@@ -138,11 +120,11 @@ def test_reindex_writes_what_the_bags_own_metadata_says(tmp_path: Path) -> None:
             }
 
         assert topics(built) == topics(meta)
-        expected = _sqlite(*sorted(copy.glob("*.db3")))
+        expected = _sqlite_messages(*sorted(copy.glob("*.db3")))
         assert built["starting_time"]["nanoseconds_since_epoch"] == expected[0][1]
         assert built["duration"]["nanoseconds"] == expected[-1][1] - expected[0][1]
         assert [f["message_count"] for f in built["files"]] == [
-            len(_sqlite(copy / name)) for name in meta["relative_file_paths"]
+            len(_sqlite_messages(copy / name)) for name in meta["relative_file_paths"]
         ]
         assert built["compression_mode"] == built["compression_format"] == ""
     # the talker's metadata.yaml has the right times (the wbag one states another bag's); the
@@ -189,7 +171,7 @@ def test_unusable_metadata_yaml_falls_back_to_the_storage_files(tmp_path: Path) 
     (copy / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 4}\n")
     with open_logs([copy]) as logs:
         assert logs.total() == 20
-        assert _got(logs) == _sqlite(talker / "talker.db3")
+        assert _got(logs) == _sqlite_messages(talker / "talker.db3")
         assert "metadata.yaml not used (" in logs.warnings[-1]
         assert "indexed in memory from its 1 storage file" in logs.warnings[-1]
 
@@ -212,7 +194,7 @@ def test_compressed_storage_file_by_file_or_folder(
 ) -> None:
     bag = _real(f"rosbag2_py_{storage}_talker")
     (plain,) = bag.glob("talker.*[3p]")
-    expected = _sqlite(bag / "talker.db3") if storage == "sqlite3" else None
+    expected = _sqlite_messages(bag / "talker.db3") if storage == "sqlite3" else None
     folder = tmp_path / "compressed"
     folder.mkdir()
     packed = _zstd(plain, folder / f"{plain.name}.zstd")
@@ -273,7 +255,8 @@ def test_message_compressed_bag_with_and_without_metadata(tmp_path: Path) -> Non
         writer.write(conn, 1000 + k, data)
     writer.close()
     (db3,) = folder.glob("*.db3")
-    assert all(row[2][:4] == b"\x28\xb5\x2f\xfd" for row in _sqlite(db3))  # stored compressed
+    stored = _sqlite_messages(db3)
+    assert all(row[2][:4] == b"\x28\xb5\x2f\xfd" for row in stored)  # stored compressed
     with open_logs([folder]) as logs:
         assert [m.data for m in logs.messages()] == payloads
     (folder / "metadata.yaml").unlink()
