@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
-    from aion_cli.routes import Route
+    from aion_cli.routes import Route, Routes
     from aion_cli.timeparse import Zone
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -99,6 +99,38 @@ class Plan:
     arrival: list[str]
     distance_only: Plan | None = None
     snapped: list[dict[str, Any]] = field(default_factory=list)
+
+    @classmethod
+    def from_routes(
+        cls, routes: Routes, zone: Zone, snapped: Sequence[dict[str, Any]] = ()
+    ) -> Plan:
+        """The plan of :func:`aion_cli.routes.plan_routes`' two routes, times shown in
+        ``zone`` (``aion plan`` prints its :meth:`to_dict`)."""
+        from aion_cli.engine.node_ids import node_label
+        from aion_cli.timeparse import format_ns
+
+        depart = routes.depart_ns
+        if depart is None:
+            raise InputError("a plan departs at a time")
+
+        def of(route: Route, other: Plan | None) -> Plan:
+            return cls(
+                node_label(routes.start),
+                node_label(routes.goal),
+                format_ns(depart, zone),
+                depart,
+                zone.name,
+                routes.speed_mps,
+                route.nodes,
+                route.length_m,
+                route.duration_s,
+                route.cost,
+                [format_ns(t, zone) for t in route.arrival_ns],
+                other,
+                [dict(x) for x in snapped],
+            )
+
+        return of(routes.temporal, of(routes.distance_only, None))
 
     def to_dict(self) -> dict[str, Any]:
         """The document ``aion plan --format json`` prints (without ``map``)."""
@@ -192,7 +224,8 @@ class Map:
         return resolve_zone(tz if tz is not None else self.timezone)
 
     def _time(self, time: TimeLike, tz: str | None) -> tuple[int, Zone]:
-        return to_ns(time, self._zone(tz)), self._zone(tz)
+        zone = self._zone(tz)
+        return to_ns(time, zone), zone
 
     # -- queries -----------------------------------------------------------------------------
 
@@ -209,13 +242,7 @@ class Map:
     ) -> Table:
         """Flows per entry at ``time`` (``historical=True``: as observed), as ``aion predict``
         with ``--layer``, ``--node``, ``--at`` and ``--top``."""
-        from aion_cli.predictions import (
-            LAYERS,
-            entry_table,
-            ordered_rows,
-            rows_from_table,
-            select,
-        )
+        from aion_cli.predictions import LAYERS, predicted_records
         from aion_cli.timeparse import format_ns
 
         if layer not in LAYERS:
@@ -227,9 +254,7 @@ class Map:
         if not historical:
             t_ns, zone = self._time(time, tz)
         point = ",".join(str(float(v)) for v in at) if isinstance(at, tuple) else at
-        table = entry_table(self._loaded, t_ns, layer)
-        index = select(table, layer, nodes, point)
-        rows = rows_from_table(table, ordered_rows(table, index, top))
+        rows, _ = predicted_records(self._loaded, t_ns, layer, nodes, point, top)
         return Table(
             str(self.path) if self.path is not None else "<memory>",
             t_ns,
@@ -251,10 +276,8 @@ class Map:
         """A path from ``start`` to ``goal`` (node ids ``"p12"`` or coordinates ``"x,y"``)
         departing at ``time``, avoiding busy and opposing flows, with the distance-only
         path beside it (``Plan.distance_only``), as ``aion plan``."""
-        from aion_cli.engine.node_ids import node_label
         from aion_cli.mapquery import nav_graph
         from aion_cli.routes import plan_routes, resolve_endpoint
-        from aion_cli.timeparse import format_ns
 
         if speed is not None and not 0.01 <= speed <= 20.0:
             raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
@@ -263,25 +286,7 @@ class Map:
         a, b = resolve_endpoint(start, nav), resolve_endpoint(goal, nav)
         routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
         snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
-
-        def plan_of(route: Route, other: Plan | None) -> Plan:
-            return Plan(
-                node_label(routes.start),
-                node_label(routes.goal),
-                format_ns(t_ns, zone),
-                t_ns,
-                zone.name,
-                routes.speed_mps,
-                route.nodes,
-                route.length_m,
-                route.duration_s,
-                route.cost,
-                [format_ns(t, zone) for t in route.arrival_ns],
-                other,
-                snapped,
-            )
-
-        return plan_of(routes.temporal, plan_of(routes.distance_only, None))
+        return Plan.from_routes(routes, zone, snapped)
 
     def export(
         self,

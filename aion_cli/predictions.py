@@ -193,6 +193,23 @@ def document(
     }
 
 
+def predicted_records(
+    loaded: LoadedMap,
+    t_ns: int | None,
+    layer: str = "all",
+    nodes: Sequence[str | int] = (),
+    at: str | None = None,
+    top: int | None = None,
+) -> tuple[list[dict[str, Any]], int]:
+    """The records of the entries asked for (``--layer``, ``--node``, ``--at``) at ``t_ns``
+    (None: historical), busiest first, the first ``top`` of them; and how many entries
+    matched. Rows are ordered and cut on arrays, so dicts are made for the rows returned only
+    (``aion predict`` and :meth:`aion_cli.Map.predict`)."""
+    table = entry_table(loaded, t_ns, layer)
+    index = select(table, layer, nodes, at)
+    return rows_from_table(table, ordered_rows(table, index, top)), len(index)
+
+
 def entry_table(loaded: LoadedMap, t_ns: int | None, layer: str = "all") -> Any:
     """The engine's entry table of a map at ``t_ns`` (None: historical), aggregated to rooms
     or buildings for those layers (an :class:`InputError` for a map without a scene graph)."""

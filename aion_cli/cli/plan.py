@@ -76,6 +76,7 @@ def command(
     fmt: str,
 ) -> None:
     """Plan a path on the navigational graph of MAP from A to B, departing at a time."""
+    from aion_cli.api import Plan
     from aion_cli.cli.common import load
     from aion_cli.mapquery import nav_graph
     from aion_cli.routes import plan_routes, resolve_endpoint
@@ -86,9 +87,8 @@ def command(
     a = resolve_endpoint(start, nav)
     b = resolve_endpoint(goal, nav)
     routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)
-    report = plan_report(routes, zone)
-    report = {"map": str(map_path), **report}
-    report["snapped"] = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
+    snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
+    report = {"map": str(map_path), **Plan.from_routes(routes, zone, snapped).to_dict()}
     temporal = routes.temporal
     if export_path is not None:
         from aion_cli.exports import export_plan_scene
@@ -100,35 +100,6 @@ def command(
         click.echo(to_json(report))
     else:
         _print(report)
-
-
-def plan_report(routes: Any, zone: Any) -> dict[str, Any]:
-    """The JSON document of ``aion plan --format json`` (without ``map`` and ``snapped``) for
-    :class:`aion_cli.routes.Routes` departing at a time shown in ``zone``."""
-    from aion_cli.engine.node_ids import node_label
-    from aion_cli.timeparse import format_ns
-
-    assert routes.depart_ns is not None, "aion plan always departs at a time"
-
-    def describe(route: Any) -> dict[str, Any]:
-        return {
-            "path": route.nodes,
-            "length_m": route.length_m,
-            "duration_s": route.duration_s,
-            "cost": route.cost,
-            "arrival": [format_ns(t, zone) for t in route.arrival_ns],
-        }
-
-    return {
-        "from": node_label(routes.start),
-        "to": node_label(routes.goal),
-        "depart": format_ns(routes.depart_ns, zone),
-        "depart_ns": routes.depart_ns,
-        "zone": zone.name,
-        "speed_mps": routes.speed_mps,
-        "temporal": describe(routes.temporal),
-        "distance_only": describe(routes.distance_only),
-    }
 
 
 def _print(report: dict[str, Any]) -> None:

@@ -86,14 +86,7 @@ def command(
     histogram of directions.
     """
     from aion_cli.cli.common import load
-    from aion_cli.predictions import (
-        CSV_KEYS,
-        document,
-        entry_table,
-        ordered_rows,
-        rows_from_table,
-        select,
-    )
+    from aion_cli.predictions import CSV_KEYS, document, predicted_records
     from aion_cli.timeparse import format_ns
 
     loaded = load(map_path)
@@ -101,14 +94,8 @@ def command(
     zone = None
     if not historical:
         t_ns, zone = resolve_time(time_text, tz, loaded)
-    table = entry_table(loaded, t_ns, layer)
-    # rows are ordered and cut on arrays; dicts are made for the rows printed only
-    index = select(table, layer, nodes, at)
-    count = len(index)
-    if fmt == "table" and top is None and count > TABLE_LIMIT:
-        rows = rows_from_table(table, ordered_rows(table, index, TABLE_LIMIT))
-    else:
-        rows = rows_from_table(table, ordered_rows(table, index, top))
+    shown = TABLE_LIMIT if fmt == "table" and top is None else top
+    rows, count = predicted_records(loaded, t_ns, layer, nodes, at, shown)
     payload = document(map_path, loaded.config.bins, rows, t_ns, zone)
     if t_ns is not None and zone is not None:
         announce_time(t_ns, zone)
