@@ -118,6 +118,8 @@ def _apply_read_limits(max_chunk_mb: float | None, max_message_mb: float | None)
     """``--max-chunk-mb`` / ``--max-message-mb`` (``aion --max-chunk-mb 2048 build ...``):
     validated here, then handed to every reader of this process through the environment
     variables the readers consult (:meth:`formats.limits.ReadLimits.from_env`)."""
+    if max_chunk_mb is None and max_message_mb is None:
+        return  # the readers consult the environment themselves, when a log is read
     from aion_cli.formats.limits import CHUNK_ENV, MESSAGE_ENV, ReadLimits
 
     limits = ReadLimits.of(max_chunk_mb, max_message_mb)  # ConfigError (exit 2) when invalid
