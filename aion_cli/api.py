@@ -327,7 +327,7 @@ class Map:
         """Write the map to ``path`` (a new file, or an existing aion map, which is replaced
         atomically; anything else is refused). A map loaded from a file is copied byte for
         byte (its checksums stay valid); an in-memory map is written from its state."""
-        from aion_cli.formats.mapfile import check_map_target, write_map
+        from aion_cli.formats.mapfile import check_map_target, map_lock, write_map
 
         target = Path(os.fspath(path))
         if self.path is not None:
@@ -335,11 +335,12 @@ class Map:
                 return target
             check_map_target(target)
             tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-            try:
-                shutil.copyfile(self.path, tmp)
-                os.replace(tmp, target)
-            finally:
-                tmp.unlink(missing_ok=True)
+            with map_lock(target):  # as write_map: one writer per map at a time
+                try:
+                    shutil.copyfile(self.path, tmp)
+                    os.replace(tmp, target)
+                finally:
+                    tmp.unlink(missing_ok=True)
             return target
         from aion_cli.manifest import Manifest
         from aion_cli.mapquery import state_counts
