@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	@bash .ci/system-deps.sh
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test,export]'
+	$(BIN)/python -m pip install -q -e '.[test,export,dask]'
 	touch $(STAMP)
 
 install: $(STAMP)
