@@ -162,33 +162,26 @@ def export_map(
     prefix: str = "",
 ) -> list[Path]:
     """Write the scene of an entry table (nodes, cells, edges, mesh, a path) with
-    ``formats.export.export_scene``; returns the files written."""
+    ``formats.export.export_scene``; returns the files written. The arrays are gathered by
+    ``aion_cli.scene.scene_of_table``, as for the other pictures of a map."""
     from aion_cli.formats.export import export_scene
+    from aion_cli.scene import scene_of_table
 
-    kind = np.asarray(table.kind)
-    nodes, cells = kind == 1, kind == 0
-    d = table.descriptors
-    flow = np.nan_to_num(np.asarray(d.flow_per_window, dtype=np.float64), nan=0.0)
-    graph = loaded.graph
-    edges = None
-    mesh = None
-    if graph is not None:
-        edges = graph.places.xyz[graph.edges] if len(graph.edges) else None
-        mesh = graph.mesh
+    scene = scene_of_table(loaded, table)
     return export_scene(
         out_dir,
-        table.xyz[nodes],
-        flow[nodes],
-        d.entropy[nodes],
-        d.dominant_angle[nodes],
-        cells_xyz=table.xyz[cells],
-        cells_flow=flow[cells],
-        cells_entropy=d.entropy[cells],
-        edges_xyz_pairs=edges,
-        mesh=mesh,
+        scene.nodes_xyz,
+        scene.node_flow,
+        scene.node_entropy,
+        scene.node_angle,
+        cells_xyz=scene.cells_xyz,
+        cells_flow=scene.cells_flow,
+        cells_entropy=scene.cells_entropy,
+        edges_xyz_pairs=scene.edges_xyz if len(scene.edges_xyz) else None,
+        mesh=scene.mesh,
         path_xyz=path_xyz,
         fmt="pcd" if fmt == "pcd" else "ply",
-        cell_size=loaded.config.cell_size,
+        cell_size=scene.cell_size,
         prefix=prefix,
-        node_concentration=d.concentration[nodes],
+        node_concentration=scene.node_concentration,
     )
