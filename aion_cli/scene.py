@@ -35,12 +35,14 @@ class Scene:
     NaN without one), ``node_concentration`` (0..1, NaN without flow). Unbound hash cells:
     ``cells_xyz`` (centres), ``cells_flow``, ``cells_entropy``. From the scene graph (empty
     for a map of hash cells only): ``places_xyz`` (every place, with or without an entry),
-    ``edges_xyz`` f64[k,2,3] (place edge end points), ``room_labels`` / ``room_xyz`` (one per
-    room), ``place_room`` (the room row of each place, -1 for none) and ``mesh``.
-    ``cell_size`` is the map's hash-cell edge (m)."""
+    ``edges_xyz`` f64[k,2,3] (place edge end points), ``room_ids`` / ``room_labels`` /
+    ``room_xyz`` (one per room; a label is "" when the graph names none), ``place_room`` (the
+    room row of each place, -1 for none) and ``mesh``. ``cell_size`` is the map's hash-cell
+    edge (m), ``window_s`` its window (the flows are per window)."""
 
     t_ns: int | None
     cell_size: float
+    window_s: float
     node_ids: U64
     nodes_xyz: F64
     node_flow: F64
@@ -52,6 +54,7 @@ class Scene:
     cells_entropy: F64
     places_xyz: F64
     edges_xyz: F64
+    room_ids: U64
     room_labels: tuple[str, ...]
     room_xyz: F64
     place_room: I64
@@ -86,6 +89,7 @@ def scene_of_table(loaded: LoadedMap, table: Any, t_ns: int | None = None) -> Sc
     empty3 = np.zeros((0, 3))
     places_xyz, edges_xyz, room_xyz = empty3, np.zeros((0, 2, 3)), empty3
     labels: tuple[str, ...] = ()
+    room_ids = np.zeros(0, np.uint64)
     place_room = np.zeros(0, np.int64)
     mesh = None
     if graph is not None:
@@ -93,13 +97,15 @@ def scene_of_table(loaded: LoadedMap, table: Any, t_ns: int | None = None) -> Sc
         edges = np.asarray(graph.edges, dtype=np.int64).reshape(-1, 2)
         edges_xyz = places_xyz[edges] if len(edges) else edges_xyz
         rooms = graph.rooms
+        room_ids = np.asarray(rooms.ids, dtype=np.uint64)
         room_xyz = np.asarray(rooms.xyz, dtype=np.float64).reshape(-1, 3)
         labels = tuple(rooms.labels) if len(rooms.labels) == len(rooms) else ("",) * len(rooms)
-        place_room = _rows_of(np.asarray(rooms.ids), np.asarray(graph.places.parent))
+        place_room = _rows_of(room_ids, np.asarray(graph.places.parent))
         mesh = graph.mesh
     return Scene(
         t_ns=t_ns,
         cell_size=float(loaded.config.cell_size),
+        window_s=float(loaded.config.window_s),
         node_ids=np.asarray(table.node_id, dtype=np.uint64)[nodes],
         nodes_xyz=xyz[nodes],
         node_flow=flow[nodes],
@@ -111,6 +117,7 @@ def scene_of_table(loaded: LoadedMap, table: Any, t_ns: int | None = None) -> Sc
         cells_entropy=entropy[cells],
         places_xyz=places_xyz,
         edges_xyz=edges_xyz,
+        room_ids=room_ids,
         room_labels=labels,
         room_xyz=room_xyz,
         place_room=place_room,
