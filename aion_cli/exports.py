@@ -86,7 +86,7 @@ def _export_one(
         else query.predict_table(loaded.state, t_ns)
     )
     rows = rows_from_table(table)
-    path_rows = None if ends is None else _plan_rows(loaded, t_ns, ends)
+    path_rows = None if ends is None else planned_path(loaded, t_ns, ends)
     files = write_scene(loaded, table, folder, fmt, path_rows)
     (folder / "entries.csv").write_text(to_csv(rows, CSV_KEYS))
     doc = document(map_path, loaded.config.bins, rows, t_ns, zone)
@@ -107,8 +107,9 @@ def path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int]
     return nav, a, b
 
 
-def _plan_rows(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:
-    """Positions of the path planned at ``t_ns`` (distance only for a historical export)."""
+def planned_path(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:
+    """Positions f64[p,3] of the (temporal) path planned at ``t_ns`` between ``ends`` (from
+    :func:`path_ends`); distance only for a historical export (``t_ns`` None)."""
     from aion_cli.routes import plan_routes
 
     nav, a, b = ends
