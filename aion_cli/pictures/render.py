@@ -1,0 +1,218 @@
+"""PNG pictures of a loaded map: ``aion export --format png``, ``aion plan --png`` and
+:meth:`aion_cli.Map.picture` (no click or rich here).
+
+The scene at each time comes from :func:`aion_cli.scene.scene_at` (the entry table of
+``aion predict``), paths from :mod:`aion_cli.routes` (the plans ``aion plan`` prints). A
+picture is written beside its target and renamed into place (``formats.outputs.Staged``), so
+a failure leaves no partial file; an existing target is replaced only when it is a PNG file.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.errors import InputError
+from aion_cli.pictures.topdown import DPI, MAX_PANELS, PathLine, topdown_figure
+
+if TYPE_CHECKING:
+    from aion_cli.mapquery import LoadedMap
+    from aion_cli.routes import Routes
+    from aion_cli.timeparse import Zone
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def check_png_target(out: Path, option: str = "-o") -> None:
+    """Refuse, before anything is computed, a target that is not a new or existing PNG file
+    in an existing folder (a folder, a device, another kind of file, a missing folder)."""
+    from aion_cli.formats.outputs import (
+        OutputPathError,
+        check_output,
+        file_starts_with,
+        special_kind,
+    )
+
+    kind = special_kind(out)
+    if kind is not None:
+        raise OutputPathError(f"{option} {out} is {kind}, not a PNG file")
+    if out.is_dir():
+        raise OutputPathError(
+            f"{option} {out} is a folder, not a PNG file",
+            hint=f"name the picture, e.g. {option} {out / 'map.png'}",
+        )
+    if out.suffix.lower() != ".png":
+        raise InputError(f"{option} writes a .png file, got {out.name!r}")
+    parent = out.absolute().parent
+    if not parent.is_dir():
+        raise OutputPathError(
+            f"{option} {out}: the folder {parent} does not exist",
+            hint="create it first, or choose another path",
+        )
+    check_output(
+        out,
+        overwrite=True,
+        recognise=lambda p: file_starts_with(p, PNG_MAGIC),
+        what="a PNG picture",
+    )
+
+
+def save_png(fig: Any, out: Path, option: str = "-o") -> Path:
+    """Write the matplotlib figure ``fig`` to ``out`` atomically (checked first)."""
+    from aion_cli.formats.export import ExportWriteError
+    from aion_cli.formats.outputs import Staged
+
+    check_png_target(out, option)
+    try:
+        with Staged(out) as staged:
+            fig.savefig(staged.path, format="png", dpi=fig.dpi, facecolor="white")
+    except OSError as exc:
+        raise ExportWriteError(
+            f"cannot write {out}: {exc.strerror or exc}", hint="check the folder is writable"
+        ) from exc
+    return out
+
+
+def time_title(t_ns: int | None, zone: Zone | None, clock_only: bool = False) -> str:
+    """``"Mon 2026-01-12 08:40 UTC"`` (in the map's zone), ``"08:40"`` with ``clock_only``;
+    ``"as observed (historical)"`` for None."""
+    from aion_cli.timeparse import from_ns, resolve_zone
+
+    if t_ns is None:
+        return "as observed (historical)"
+    where = zone if zone is not None else resolve_zone("UTC")
+    moment = from_ns(t_ns, where)
+    if clock_only:
+        return moment.strftime("%H:%M")
+    return f"{moment.strftime('%a %Y-%m-%d %H:%M')} {where.name}"
+
+
+def _panel_titles(times: Sequence[int | None], zone: Zone | None) -> list[str]:
+    """Panel titles of a series: the clock when every time is on one day, else the day too."""
+    from aion_cli.timeparse import from_ns, resolve_zone
+
+    where = zone if zone is not None else resolve_zone("UTC")
+    known = [t for t in times if t is not None]
+    days = {from_ns(t, where).date() for t in known}
+    if len(days) <= 1:
+        return [time_title(t, zone, clock_only=True) for t in times]
+    return [
+        "historical" if t is None else from_ns(t, where).strftime("%a %m-%d %H:%M") for t in times
+    ]
+
+
+def _series_title(name: str, times: Sequence[int | None], zone: Zone | None) -> str:
+    """``"office.aion: Mon 2026-01-12 06:00 to 20:00 UTC, 8 times"`` (the day once when the
+    series stays in one day)."""
+    from aion_cli.timeparse import from_ns, resolve_zone
+
+    first, last = times[0], times[-1]
+    if len(times) == 1 or first is None or last is None:
+        return name
+    where = zone if zone is not None else resolve_zone("UTC")
+    a, b = from_ns(first, where), from_ns(last, where)
+    end = b.strftime("%H:%M" if a.date() == b.date() else "%a %Y-%m-%d %H:%M")
+    return f"{name}: {a.strftime('%a %Y-%m-%d %H:%M')} to {end} {where.name}, {len(times)} times"
+
+
+def render_map_png(
+    loaded: LoadedMap,
+    t_ns: int | None,
+    zone: Zone | None,
+    out: Path,
+    path_xyz: Any | None = None,
+    *,
+    title: str | None = None,
+    dpi: float = DPI,
+) -> Path:
+    """The top-down picture of ``loaded`` at ``t_ns`` (None: as observed) as the PNG file
+    ``out``, with the path ``path_xyz`` f64[p,3] if given; returns ``out``."""
+    from aion_cli.formats.export import PATH_GREEN
+    from aion_cli.scene import scene_at
+
+    check_png_target(out)
+    paths = []
+    if path_xyz is not None:
+        paths = [PathLine(np.asarray(path_xyz, dtype=np.float64), "planned path", PATH_GREEN)]
+    fig = topdown_figure(
+        [scene_at(loaded, t_ns)],
+        [time_title(t_ns, zone)],
+        suptitle=title,
+        paths=[paths],
+        dpi=dpi,
+    )
+    return save_png(fig, out)
+
+
+def export_png(
+    loaded: LoadedMap,
+    map_label: str,
+    out: Path,
+    times: Sequence[int | None],
+    zone: Zone | None,
+    ends: tuple[Any, int, int] | None = None,
+    on_frame: Callable[[], None] | None = None,
+    dpi: float = DPI,
+) -> Path:
+    """One PNG file ``out``: the map at one time, or small multiples of a series (one panel
+    per time, at most :data:`~aion_cli.pictures.topdown.MAX_PANELS`, sharing axes, flow
+    scale and colour bar), with the path planned between ``ends`` (from
+    ``exports.path_ends``) at each time."""
+    from aion_cli.exports import planned_path
+    from aion_cli.formats.export import PATH_GREEN
+    from aion_cli.scene import scene_at
+
+    check_png_target(out)
+    if len(times) > MAX_PANELS:
+        raise InputError(
+            f"the picture would have {len(times)} panels, more than {MAX_PANELS}",
+            hint="use a larger --step (or a shorter --from/--to)",
+        )
+    scenes = []
+    paths: list[list[PathLine]] = []
+    for t_ns in times:
+        scenes.append(scene_at(loaded, t_ns))
+        if ends is not None:
+            xyz = np.asarray(planned_path(loaded, t_ns, ends), dtype=np.float64)
+            paths.append([PathLine(xyz, "planned path", PATH_GREEN)])
+        else:
+            paths.append([])
+        if on_frame is not None:
+            on_frame()
+    titles = [time_title(times[0], zone)] if len(times) == 1 else _panel_titles(times, zone)
+    fig = topdown_figure(
+        scenes, titles, suptitle=_series_title(map_label, times, zone), paths=paths, dpi=dpi
+    )
+    return save_png(fig, out)
+
+
+def plan_png(
+    loaded: LoadedMap, routes: Routes, nav: Any, zone: Zone, out: Path, dpi: float = DPI
+) -> Path:
+    """The picture of ``aion plan``'s two routes (from ``routes.plan_routes``) over the flow
+    map at the departure, as the PNG file ``out`` (``--png``)."""
+    from aion_cli.engine.node_ids import node_label
+    from aion_cli.pictures.plan import DrawnRoute, plan_figure
+    from aion_cli.scene import scene_at
+
+    check_png_target(out, "--png")
+
+    def drawn(route: Any) -> DrawnRoute:
+        return DrawnRoute(
+            np.asarray(nav.xyz, dtype=np.float64)[route.rows], route.length_m, route.cost
+        )
+
+    start, goal = node_label(routes.start), node_label(routes.goal)
+    fig = plan_figure(
+        scene_at(loaded, routes.depart_ns),
+        drawn(routes.temporal),
+        drawn(routes.distance_only),
+        start_label=start,
+        goal_label=goal,
+        title=f"{start} to {goal}, departing {time_title(routes.depart_ns, zone)}",
+        dpi=dpi,
+    )
+    return save_png(fig, out, "--png")
