@@ -25,6 +25,10 @@ vertices), ``path.pcd`` (path points) and ``scene.pcd`` (all of them); arrows an
 PCD form. Parts with nothing in them are not written. Files are binary; every name gets
 ``prefix`` in front (e.g. ``t0830_nodes.ply`` for a time series).
 
+Sizes and colours are computed once per scene by :func:`formats.scene_style.style_scene`
+(with this module's :func:`entropy_colors`, :func:`sphere_radii` and :func:`busy_fraction`),
+which the MCAP export (:mod:`formats.scene_mcap`) shares.
+
 Geometry is instanced with numpy (one template sphere / arrow / tube transformed for every item),
 so exporting 10^4 nodes does not build 10^4 open3d objects.
 """
@@ -305,32 +309,6 @@ def _write(path: Path, kind: str, geometry: Any) -> Path:
     return path
 
 
-# -- inputs ----------------------------------------------------------------------------------
-
-
-def _rows(name: str, a: npt.ArrayLike | None, n: int | None, tail: tuple[int, ...]) -> F64:
-    arr = np.zeros((0, *tail)) if a is None else np.asarray(a, dtype=np.float64)
-    if arr.size == 0:
-        arr = arr.reshape((0, *tail))
-    if arr.shape[1:] != tail or (n is not None and len(arr) != n):
-        want = f"({n if n is not None else 'n'}{''.join(', ' + str(t) for t in tail)})"
-        raise ExportError(f"{name} must have shape {want}, got {arr.shape}")
-    return arr
-
-
-def _edge_pairs(edges_xyz_pairs: npt.ArrayLike | None) -> F64:
-    if edges_xyz_pairs is None:
-        return np.zeros((0, 2, 3))
-    arr = np.asarray(edges_xyz_pairs, dtype=np.float64)
-    if arr.size == 0:
-        return np.zeros((0, 2, 3))
-    if arr.ndim == 2 and arr.shape[1] == 6:
-        arr = arr.reshape(-1, 2, 3)
-    if arr.ndim != 3 or arr.shape[1:] != (2, 3):
-        raise ExportError(f"edges_xyz_pairs must have shape (k, 2, 3), got {arr.shape}")
-    return arr
-
-
 # -- the scene -------------------------------------------------------------------------------
 
 
@@ -375,49 +353,33 @@ def export_scene(
     """
     if fmt not in ("ply", "pcd"):
         raise ExportError(f"export format must be 'ply' or 'pcd', got {fmt!r}")
-    if not (np.isfinite(cell_size) and cell_size > 0):
-        raise ExportError(f"cell_size must be positive, got {cell_size!r}")
-    xyz = _rows("nodes_xyz", nodes_xyz, None, (3,))
-    n = len(xyz)
-    flow = _rows("node_flow", node_flow, n, ())
-    entropy = _rows("node_entropy", node_entropy, n, ())
-    angle = _rows("node_dominant_angle", node_dominant_angle, n, ())
-    conc = (
-        np.ones(n)
-        if node_concentration is None
-        else np.clip(np.nan_to_num(_rows("node_concentration", node_concentration, n, ())), 0, 1)
+    from aion_cli.formats.scene_style import style_scene  # it builds on this module's helpers
+
+    style = style_scene(
+        nodes_xyz,
+        node_flow,
+        node_entropy,
+        node_dominant_angle,
+        cells_xyz,
+        cells_flow,
+        cells_entropy,
+        edges_xyz_pairs,
+        mesh,
+        path_xyz,
+        cell_size,
+        node_concentration=node_concentration,
+        flow_scale=flow_scale,
     )
-    c_xyz = _rows("cells_xyz", cells_xyz, None, (3,))
-    c_flow = _rows(
-        "cells_flow",
-        cells_flow if cells_flow is not None else np.ones(len(c_xyz)),
-        len(c_xyz),
-        (),
-    )
-    c_ent = _rows(
-        "cells_entropy",
-        cells_entropy if cells_entropy is not None else np.full(len(c_xyz), np.nan),
-        len(c_xyz),
-        (),
-    )
-    c_ent = np.where(np.nan_to_num(c_flow, nan=0.0) > 0, c_ent, np.nan)  # no flow: grey
-    scale = _flow_scale(flow, flow_scale)
-    colors = entropy_colors(entropy)
-    busy = busy_fraction(flow, scale)
-    radii = sphere_radii(flow, scale, cell_size)
+    xyz, colors = style.nodes_xyz, style.colors
     scene = _Scene(
-        nodes=node_spheres(xyz, radii, colors),
+        nodes=node_spheres(xyz, style.radii, colors),
         arrows=direction_arrows(
-            xyz,
-            np.where(busy > 0, angle, np.nan),
-            radii + cell_size * (0.3 + 2.0 * busy * conc),
-            0.08 * cell_size,
-            colors,
+            xyz, style.arrow_angle, style.arrow_length, style.arrow_width, colors
         ),
-        cells=cell_squares(c_xyz, cell_size, entropy_colors(c_ent)),
-        mesh=_mesh_part(mesh),
-        edges=_edge_pairs(edges_xyz_pairs),
-        path=_rows("path_xyz", path_xyz, None, (3,)),
+        cells=cell_squares(style.cells_xyz, cell_size, style.cell_colors),
+        mesh=style.mesh,
+        edges=style.edges,
+        path=style.path,
     )
     out = Path(out_dir)
     try:
@@ -429,30 +391,9 @@ def export_scene(
         ) from exc
     if fmt == "ply":
         return _write_ply(out, prefix, scene, cell_size)
-    return _write_pcd(out, prefix, scene, xyz, colors, angle, c_xyz, entropy_colors(c_ent))
-
-
-def _flow_scale(flow: F64, flow_scale: float | None) -> float:
-    if flow_scale is not None:
-        if not (np.isfinite(flow_scale) and flow_scale > 0):
-            raise ExportError(f"flow_scale must be positive, got {flow_scale!r}")
-        return float(flow_scale)
-    finite = flow[np.isfinite(flow)]
-    top = float(finite.max()) if len(finite) else 0.0
-    return top if top > 0 else 1.0
-
-
-def _mesh_part(mesh: Mesh | None) -> TriMesh:
-    if mesh is None or len(mesh.vertices) == 0:
-        return TriMesh.empty()
-    v = _rows("mesh.vertices", mesh.vertices, None, (3,))
-    f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
-    if len(f) and (f.min() < 0 or f.max() >= len(v)):
-        raise ExportError("mesh faces refer to vertices that do not exist")
-    c = np.asarray(mesh.colors, dtype=np.float64)
-    if c.shape != v.shape:
-        c = np.tile(np.asarray(NO_FLOW_GREY), (len(v), 1))
-    return TriMesh(v, f, c)
+    return _write_pcd(
+        out, prefix, scene, xyz, colors, style.angle, style.cells_xyz, style.cell_colors
+    )
 
 
 def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[Path]:
