@@ -23,6 +23,11 @@ Examples:
   aion export office.aion --historical -o out/ --format pcd
   aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h -o series/
   aion export office.aion --time now --path-from p12 --path-to p87 -o out/
+  aion export office.aion --time "2026-11-23 08:30" --format png -o map.png
+  aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 2h \
+      --format png -o day.png
+  aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h \
+      --format mcap -o day.mcap --path-from p12 --path-to p87
 
 \b
 Writes into OUT: the scene (nodes as spheres sized by flow and coloured by entropy, blue low
@@ -30,6 +35,19 @@ to red high, arrows along the dominant direction, flat squares for hash cells, e
 lines, the scene graph's mesh, a planned path) as PLY or PCD, plus entries.csv and
 entries.json with the same fields as `aion predict`. --from/--to/--step writes one
 subfolder per time (named by the time) for animations.
+
+\b
+--format png writes one picture, -o naming the file: the map from above (place edges, rooms,
+hash cells, arrows along the dominant direction with length proportional to flow, coloured
+by direction entropy, blue low to red high); a series becomes small multiples, one panel per
+time (at most 24).
+
+\b
+--format mcap writes one MCAP file, -o naming it (.mcap), with a step per time logged at
+that time, to scrub through in Foxglove (topic /aion/scene, foxglove.SceneUpdate: one entity
+per entry named by its id, as `aion predict` prints it) or in RViz (/aion/markers,
+visualization_msgs/MarkerArray; /tf_static declares the frame "map"): the same spheres,
+arrows, cells, edges, mesh and path as the PLY scene, sizes on one scale for the whole series.
 """
 
 
@@ -82,7 +100,7 @@ def _step_seconds(text: str) -> float:
     "out_dir",
     required=True,
     type=click.Path(path_type=Path),
-    help="Folder to write into (created if missing).",
+    help="Folder to write into (created if missing); for png and mcap, the file.",
 )
 @click.option("-t", "--time", "time_text", metavar="T", help="Prediction time. " + TIME_HELP)
 @click.option("--historical", is_flag=True, help="Export what was observed instead.")
@@ -99,10 +117,10 @@ def _step_seconds(text: str) -> float:
 @click.option(
     "--format",
     "fmt",
-    type=click.Choice(["ply", "pcd"]),
+    type=click.Choice(["ply", "pcd", "png", "mcap"]),
     default="ply",
     show_default=True,
-    help="Point-cloud / scene format.",
+    help="Point-cloud / scene format, png for a top-down picture, mcap for Foxglove/RViz.",
 )
 @click.option("--path-from", metavar="A", help="Also plan and draw a path from A (id or x,y).")
 @click.option("--path-to", metavar="B", help="... to B.")
@@ -146,6 +164,12 @@ def command(
     ends = None
     if path_from is not None and path_to is not None:
         ends = path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
+    if fmt == "png":
+        _png(loaded, map_path, out_dir, times, zone, ends)
+        return
+    if fmt == "mcap":
+        _mcap(loaded, map_path, out_dir, times, zone, ends)
+        return
     with progress(quiet=len(times) == 1) as bar:
         task = bar.add_task("exporting", total=len(times), unit="times")
         written = export_frames(
@@ -155,6 +179,49 @@ def command(
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
         announce_time(times[0], zone, label)
     console().print(f"wrote {len(written)} file(s) to {markup_safe(out_dir)}")
+
+
+def _png(
+    loaded: Any,
+    map_path: Path,
+    out: Path,
+    times: list[int | None],
+    zone: Zone | None,
+    ends: tuple[Any, int, int] | None,
+) -> None:
+    """``--format png``: one picture file (small multiples for a series)."""
+    from aion_cli.cli.console import console, progress
+    from aion_cli.cli.output import markup_safe
+    from aion_cli.pictures.render import export_png
+
+    with progress(quiet=len(times) == 1) as bar:
+        task = bar.add_task("drawing", total=len(times), unit="times")
+        export_png(loaded, map_path.name, out, times, zone, ends, lambda: bar.advance(task))
+    if zone is not None and times[0] is not None:
+        label = "time" if len(times) == 1 else f"series of {len(times)} from"
+        announce_time(times[0], zone, label)
+    console().print(f"wrote {markup_safe(out)}")
+
+
+def _mcap(
+    loaded: Any,
+    map_path: Path,
+    out: Path,
+    times: list[int | None],
+    zone: Zone | None,
+    ends: tuple[Any, int, int] | None,
+) -> None:
+    """``--format mcap``: one MCAP file with a scene per time (Foxglove / RViz)."""
+    from aion_cli.cli.console import console, progress
+    from aion_cli.cli.output import markup_safe
+    from aion_cli.scene_frames import export_mcap
+
+    with progress(quiet=len(times) == 1) as bar:
+        task = bar.add_task("exporting", total=len(times), unit="steps")
+        export_mcap(loaded, map_path, out, times, zone, ends, lambda: bar.advance(task))
+    if zone is not None and times[0] is not None:
+        announce_time(times[0], zone, "time" if len(times) == 1 else f"series of {len(times)} from")
+    console().print(f"wrote {markup_safe(out)} ({len(times)} step(s); open it in Foxglove)")
 
 
 def _series(

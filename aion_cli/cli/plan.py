@@ -22,6 +22,7 @@ Examples:
   aion plan office.aion --from 0,0 --to 12.5,3 --time "2026-11-23 08:30" --speed 1.2
   aion plan office.aion --from p12 --to p87 --format json
   aion plan office.aion --from p12 --to p87 --export path.ply   the scene with the path
+  aion plan office.aion --from p12 --to p87 --png plan.png      both paths over the flows
 
 \b
 --from/--to take node ids ("p12") or coordinates "x,y[,z]" snapped to the nearest node.
@@ -29,7 +30,13 @@ The temporal cost of each node is predicted at the time the walker is expected t
 there (departure + distance / speed). The distance-only path is always shown beside it,
 with the temporal cost it would have. JSON keys: from, to, depart, zone, speed_mps,
 temporal{path, length_m, duration_s, cost, arrival}, distance_only{path, length_m,
-duration_s, cost}, snapped.
+duration_s, cost}, snapped (and export / png: the files written).
+
+\b
+--png draws the map from above at the departure (place edges, rooms, arrows along the
+dominant direction with length proportional to flow, coloured by direction entropy) with the
+temporal path (green) over the distance-only path (orange, dashed), each with its length and
+cost in the legend.
 """
 
 
@@ -64,6 +71,12 @@ duration_s, cost}, snapped.
     type=click.Path(path_type=Path, dir_okay=False),
     help="Also write the scene with the planned (temporal) path to this .ply file.",
 )
+@click.option(
+    "--png",
+    "png_path",
+    type=click.Path(path_type=Path),
+    help="Also draw both paths over the flow map at the departure into this .png file.",
+)
 @format_option(choices=("table", "json"))
 def command(
     map_path: Path,
@@ -73,6 +86,7 @@ def command(
     tz: str | None,
     speed: float | None,
     export_path: Path | None,
+    png_path: Path | None,
     fmt: str,
 ) -> None:
     """Plan a path on the navigational graph of MAP from A to B, departing at a time."""
@@ -81,6 +95,10 @@ def command(
     from aion_cli.mapquery import nav_graph
     from aion_cli.routes import plan_routes, resolve_endpoint
 
+    if png_path is not None:
+        from aion_cli.pictures.render import check_png_target
+
+        check_png_target(png_path, "--png")  # before any planning
     loaded = load(map_path)
     t_ns, zone = resolve_time(time_text, tz, loaded)
     nav = nav_graph(loaded)
@@ -95,6 +113,11 @@ def command(
 
         export_plan_scene(loaded, t_ns, nav, temporal.rows, export_path)
         report["export"] = str(export_path)
+    if png_path is not None:
+        from aion_cli.pictures.render import plan_png
+
+        plan_png(loaded, routes, nav, zone, png_path)
+        report["png"] = str(png_path)
     announce_time(t_ns, zone, "departure")
     if fmt == "json":
         click.echo(to_json(report))
@@ -131,5 +154,6 @@ def _print(report: dict[str, Any]) -> None:
             Text(printable(" > ".join(part["path"]))),
         )
     data_console().print(table)
-    if "export" in report:
-        console().print(f"wrote {markup_safe(report['export'])}")
+    for key in ("export", "png"):
+        if key in report:
+            console().print(f"wrote {markup_safe(report[key])}")

@@ -9,6 +9,7 @@ a failure leaves no partial file; an existing target is replaced only when it is
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -28,11 +29,12 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 def check_png_target(out: Path, option: str = "-o") -> None:
     """Refuse, before anything is computed, a target that is not a new or existing PNG file
-    in an existing folder (a folder, a device, another kind of file, a missing folder)."""
+    in an existing folder (a folder, a device, another kind of file, a missing folder): an
+    existing PNG file (or an empty file) is replaced, nothing else."""
     from aion_cli.formats.outputs import (
         OutputPathError,
-        check_output,
         file_starts_with,
+        is_empty_file,
         special_kind,
     )
 
@@ -52,12 +54,11 @@ def check_png_target(out: Path, option: str = "-o") -> None:
             f"{option} {out}: the folder {parent} does not exist",
             hint="create it first, or choose another path",
         )
-    check_output(
-        out,
-        overwrite=True,
-        recognise=lambda p: file_starts_with(p, PNG_MAGIC),
-        what="a PNG picture",
-    )
+    if os.path.lexists(out) and not (is_empty_file(out) or file_starts_with(out, PNG_MAGIC)):
+        raise OutputPathError(
+            f"{option} {out} exists and is not a PNG file: refusing to replace it",
+            hint="choose another path, or remove it yourself",
+        )
 
 
 def save_png(fig: Any, out: Path, option: str = "-o") -> Path:
