@@ -18,6 +18,7 @@ import click
 
 from aion_cli import __version__
 from aion_cli.cli import build, convert, export, info, plan, predict
+from aion_cli.cli import report as report_command
 from aion_cli.cli.errors import EXIT_OK, report
 from aion_cli.cli.evaluate import evaluate as evaluate_group
 from aion_cli.cli.simulate import simulate as simulate_command
@@ -29,6 +30,7 @@ Examples:
   aion predict office.aion --time "2026-11-23 08:30" flows per node at a time
   aion plan office.aion --from p12 --to p87 --time "tomorrow 12:00"
   aion export office.aion --time "+2h" -o out/       PLY/PCD scenes, CSV/JSON tables
+  aion report office.aion -o report/                 an HTML page about a map
   aion simulate -o office.mcap                       a synthetic log to try it all
   aion convert atc.csv --layout atc -o atc.mcap      pedestrian datasets -> logs
   aion evaluate office --scenes 20                   the paper's comparison, predictive metrics
@@ -129,7 +131,7 @@ def _apply_read_limits(max_chunk_mb: float | None, max_message_mb: float | None)
         os.environ[MESSAGE_ENV] = repr(limits.max_message_bytes / 2**20)
 
 
-for _module in (info, build, predict, plan, export, convert):
+for _module in (info, build, predict, plan, export, report_command, convert):
     cli.add_command(_module.command)
 cli.add_command(simulate_command, "simulate")
 cli.add_command(evaluate_group, "evaluate")

@@ -1,0 +1,305 @@
+"""What a map report says, gathered from the map (no drawing, no HTML).
+
+Every number comes from the function that answers it elsewhere, so the page agrees with the
+commands a colleague would run: the manifest as ``aion info MAP`` shows it
+(:meth:`aion_cli.manifest.Manifest.shown`: inputs, time span, counts, families, zone), the
+busiest entries as ``aion predict --top N`` lists them (:func:`aion_cli.predictions
+.predicted_records`), room activity as ``aion predict --layer rooms`` sums it, evaluated at
+many times at once (:func:`aion_cli.predictions.flow_series`), and what was observed from the
+temporal state's observation sums (``TemporalState.observation``: windows per profile bin,
+first and last observed window) and the fixed-sensor intervals the map keeps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from datetime import date, datetime, time, timedelta
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from aion_cli.timeparse import Zone
+
+if TYPE_CHECKING:
+    from aion_cli.mapquery import LoadedMap
+
+DAY_STEP_S = 900
+"""Step of the one-day activity curves (15 minutes)."""
+WEEK_STEP_S = 3600
+"""Step of the one-week activity curves (an hour)."""
+TOP_ROOMS = 6
+"""Rooms drawn as lines of their own; the others are summed into one."""
+TOP_ENTRIES = 10
+"""Rows of the busiest-places table."""
+ROSES = 6
+"""Direction roses drawn (the busiest entries with a direction histogram)."""
+_NS = 1_000_000_000
+_DAY_TYPES = {
+    "day": ("every day",),
+    "day_weekend": ("Mon-Fri", "Sat-Sun"),
+    "week": ("Mon", "Tue", "Wed", "Thu", "Fri", "Sat", "Sun"),
+}
+
+
+@dataclass(frozen=True)
+class Observed:
+    """When the map was observed: the logs' span, the first and last observed window (UNIX
+    ns, None before any), the fixed-sensor intervals ``[start, end)`` (ns; none for a robot's
+    coverage, which the map keeps only as tallies), and ``hours[D, H]``: the hours observed
+    per profile bin (``D`` day types named ``day_types``, ``H`` bins a day, in the map's own
+    zone ``model_zone``) of the entry observed most."""
+
+    span: tuple[int | None, int | None]
+    first_ns: int | None
+    last_ns: int | None
+    fixed: tuple[Any, Any]
+    hours: Any
+    day_types: tuple[str, ...]
+    model_zone: str
+    source: str
+
+
+@dataclass(frozen=True)
+class Series:
+    """Predicted flow at ``times_ns`` (UNIX ns), one column per line: ``names`` (the busiest
+    rooms, then the others summed; or the whole map without rooms)."""
+
+    title: str
+    times_ns: Any
+    names: tuple[str, ...]
+    flows: Any
+
+
+@dataclass(frozen=True)
+class Busiest:
+    """One row of the busiest-places table: the ``aion predict`` record, the room holding
+    it (display text, "" for none) and the family that forecasts it."""
+
+    record: dict[str, Any]
+    room: str
+    family: str
+
+
+@dataclass(frozen=True)
+class ReportContent:
+    """Everything the page shows (see the module docstring)."""
+
+    map_name: str
+    shown: dict[str, Any]
+    counts: dict[str, int]
+    zone: Zone
+    t_ns: int | None
+    observed: Observed
+    activity: tuple[Series, ...]
+    busiest: tuple[Busiest, ...]
+    bins: int
+    window_s: float
+    matched: int
+    notes: tuple[str, ...] = field(default=())
+
+
+def gather(loaded: LoadedMap, map_path: Any, zone: Zone, t_ns: int | None) -> ReportContent:
+    """The content of the report of ``loaded`` (read from ``map_path``) in ``zone``; the
+    busiest entries at ``t_ns`` (None: as observed)."""
+    from pathlib import Path
+
+    from aion_cli.manifest import Manifest
+
+    raw = dict(loaded.manifest)
+    raw.setdefault("state", {})
+    shown = Manifest.from_dict(raw).shown()
+    observed = observed_coverage(loaded, shown)
+    activity, notes = activity_series(loaded, zone, t_ns, observed)
+    busiest, matched = busiest_entries(loaded, t_ns)
+    return ReportContent(
+        map_name=Path(str(map_path)).name,
+        shown=shown,
+        counts=map_counts(loaded, shown),
+        zone=zone,
+        t_ns=t_ns,
+        observed=observed,
+        activity=activity,
+        busiest=busiest,
+        bins=loaded.config.bins,
+        window_s=float(loaded.config.window_s),
+        matched=matched,
+        notes=tuple(notes),
+    )
+
+
+def map_counts(loaded: LoadedMap, shown: dict[str, Any]) -> dict[str, int]:
+    """Places, rooms, buildings (the latest scene graph), hash cells, entries and detections
+    (the manifest's counts, as ``aion info`` shows them)."""
+    counts = shown.get("counts") or {}
+    graph = loaded.graph
+    return {
+        "places": len(graph.places) if graph is not None else 0,
+        "places with flow": int(counts.get("nodes_with_flow", 0)),
+        "rooms": len(graph.rooms) if graph is not None else 0,
+        "buildings": len(graph.buildings) if graph is not None else 0,
+        "hash cells": int(counts.get("cells", 0)),
+        "cells bound to places": int(counts.get("bound_cells", 0)),
+        "entries": len(loaded.state.entries.live_rows()),
+        "detections read": int(counts.get("read", 0)),
+        "detections accepted": int(counts.get("used", 0)),
+        "windows observed": int(counts.get("windows", 0)),
+    }
+
+
+def observed_coverage(loaded: LoadedMap, shown: dict[str, Any]) -> Observed:
+    """:class:`Observed` from the manifest's span and the temporal state's observation."""
+    from aion_cli.engine.windows import EPOCH_NS
+
+    state = loaded.state
+    rows = state.entries.live_rows()
+    view = state.query_temporal()
+    obs = view.observation(rows)
+    calendar = state.params.calendar
+    per_day = calendar.bins_per_day
+    if rows.size:
+        profile = obs.profile.max(axis=0)
+        first, last = float(np.nanmin(obs.first)), float(np.nanmax(obs.last))
+    else:  # a map without entries: the global (fixed-sensor) block alone
+        profile = view.glob.profile[0]
+        first, last = float(view.glob.first[0]), float(view.glob.last[0])
+    hours = profile.reshape(-1, per_day) * (float(state.config.window_s) / 3600.0)
+    span = shown.get("time_span") or {}
+
+    def ns(seconds: float) -> int | None:
+        return None if not np.isfinite(seconds) else EPOCH_NS + round(float(seconds) * _NS)
+
+    starts, ends = state.observation.merged_fixed()
+    return Observed(
+        span=(span.get("start_ns"), span.get("end_ns")),
+        first_ns=ns(first),
+        last_ns=ns(last),
+        fixed=(starts.copy(), ends.copy()),
+        hours=hours,
+        day_types=_DAY_TYPES[calendar.profile],
+        model_zone=calendar.timezone,
+        source=str(shown.get("observation", "")),
+    )
+
+
+def local_midnight(day: date, zone: Zone) -> int:
+    """UNIX ns of 00:00 of ``day`` in ``zone``."""
+    from aion_cli.timeparse import to_ns
+
+    return to_ns(datetime.combine(day, time(0)).replace(tzinfo=zone.tz))
+
+
+def series_days(anchor_ns: int, zone: Zone, inside: bool) -> tuple[date, date, date]:
+    """The week (its Monday), weekday and weekend day the activity curves show, in ``zone``:
+    the week holding ``anchor_ns`` and, when it is one, that day itself (``inside``: the
+    report's ``--time``); else the first week starting after the day of ``anchor_ns`` (the
+    end of the observations: the days the map forecasts next), its Monday and Saturday."""
+    from aion_cli.timeparse import from_ns
+
+    day = from_ns(anchor_ns, zone).date()
+    if inside:
+        monday = day - timedelta(days=day.weekday())
+        weekday = day if day.weekday() < 5 else monday
+        weekend = day if day.weekday() >= 5 else monday + timedelta(days=5)
+        return monday, weekday, weekend
+    monday = day + timedelta(days=7 - day.weekday())
+    return monday, monday, monday + timedelta(days=5)
+
+
+def activity_series(
+    loaded: LoadedMap, zone: Zone, t_ns: int | None, observed: Observed
+) -> tuple[tuple[Series, ...], list[str]]:
+    """Predicted flow per room over a weekday and a weekend day (15-minute steps) and over a
+    week (hourly), the busiest rooms as lines of their own; the whole map's total when the
+    map has no rooms. Empty (with a note) for a map that observed nothing."""
+    from aion_cli.predictions import flow_series
+
+    notes: list[str] = []
+    anchor = t_ns if t_ns is not None else observed.last_ns or observed.span[1]
+    if anchor is None:
+        return (), ["the map has observed nothing yet: no activity to forecast"]
+    monday, weekday, weekend = series_days(anchor, zone, t_ns is not None)
+    spans = (
+        (f"{weekday:%A %Y-%m-%d}", local_midnight(weekday, zone), DAY_STEP_S, 86_400),
+        (f"{weekend:%A %Y-%m-%d}", local_midnight(weekend, zone), DAY_STEP_S, 86_400),
+        (f"week of Monday {monday:%Y-%m-%d}", local_midnight(monday, zone), WEEK_STEP_S, 604_800),
+    )
+    times = [
+        start + np.arange(length // step, dtype=np.int64) * (step * _NS)
+        for _, start, step, length in spans
+    ]
+    layer: Literal["rooms", "all"] = (
+        "rooms" if loaded.graph is not None and len(loaded.graph.rooms) else "all"
+    )
+    if layer == "all":
+        notes.append("the map has no rooms: the curves show the whole map's flow")
+    ids, flows = flow_series(loaded, np.concatenate(times), layer)
+    names, columns = _top_columns(loaded, [str(i) for i in ids], flows, times[-1].size)
+    out, at = [], 0
+    for (title, _, _, _), when in zip(spans, times, strict=True):
+        out.append(Series(title, when, names, columns[at : at + when.size]))
+        at += when.size
+    return tuple(out), notes
+
+
+def _top_columns(
+    loaded: LoadedMap, ids: list[str], flows: Any, week: int
+) -> tuple[tuple[str, ...], Any]:
+    """The ``TOP_ROOMS`` rooms with the most flow over the week (the last ``week`` rows) as
+    columns of their own, the others summed into one ("other rooms (k)")."""
+    if len(ids) == 1 and ids[0] == "all":
+        return ("whole map",), flows
+    total = flows[-week:].sum(axis=0)
+    order = np.lexsort((np.asarray(ids), -total))
+    top, rest = order[:TOP_ROOMS], order[TOP_ROOMS:]
+    labels = room_labels(loaded)
+    names = [f"{ids[i]} {labels.get(ids[i], '')}".strip() for i in top]
+    columns = [flows[:, top]]
+    if rest.size:
+        names.append(f"other rooms ({rest.size})")
+        columns.append(flows[:, rest].sum(axis=1, keepdims=True))
+    return tuple(names), np.concatenate(columns, axis=1)
+
+
+def room_labels(loaded: LoadedMap) -> dict[str, str]:
+    """Display id (``R3``) -> label of each room of the latest graph ("" when unnamed)."""
+    from aion_cli.engine.query import node_symbol
+
+    graph = loaded.graph
+    if graph is None or not len(graph.rooms):
+        return {}
+    labels = list(graph.rooms.labels) + [""] * (len(graph.rooms) - len(graph.rooms.labels))
+    return dict(zip(node_symbol(graph.rooms.ids).tolist(), labels, strict=True))
+
+
+def busiest_entries(loaded: LoadedMap, t_ns: int | None) -> tuple[tuple[Busiest, ...], int]:
+    """The ``TOP_ENTRIES`` busiest entries (places and cells) at ``t_ns`` (None: as
+    observed), exactly as ``aion predict --top N`` lists them, with each one's room and the
+    flow family that forecasts it (the choice does not depend on the time), and how many
+    entries the map has."""
+    from aion_cli.engine.node_ids import parse_node_id
+    from aion_cli.engine.query import _parents, node_symbol
+    from aion_cli.engine.windows import EPOCH_NS
+    from aion_cli.predictions import entry_ids, entry_table, predicted_records
+
+    rows, matched = predicted_records(loaded, t_ns, "all", top=TOP_ENTRIES)
+    families = {r["id"]: r["family"] for r in rows}
+    if t_ns is None and rows:  # historical records say "historical": ask the forecast
+        table = entry_table(loaded, EPOCH_NS)
+        ids = entry_ids(table, np.arange(len(table)))
+        pick = np.flatnonzero(np.isin(ids, [r["id"] for r in rows]))
+        families = dict(zip(ids[pick].tolist(), table.flow_family[pick].tolist(), strict=True))
+    rooms = [""] * len(rows)
+    graph = loaded.graph
+    if graph is not None and rows:
+        labels = room_labels(loaded)
+        nodes = [i for i, r in enumerate(rows) if r["kind"] == "node"]
+        ids = np.asarray([parse_node_id(rows[i]["id"]) for i in nodes], dtype=np.uint64)
+        parents = _parents(graph.places.ids, graph.places.parent, ids)
+        for i, parent, symbol in zip(nodes, parents, node_symbol(parents), strict=True):
+            if parent:
+                rooms[i] = f"{symbol} {labels.get(str(symbol), '')}".strip()
+    out = tuple(
+        Busiest(r, room, families.get(r["id"], r["family"]))
+        for r, room in zip(rows, rooms, strict=True)
+    )
+    return out, matched

@@ -1,0 +1,281 @@
+"""The report's HTML: one page, inline CSS, no script, no external address.
+
+The page refers only to the pictures written beside it (relative names handed in by the
+writer). Every string that comes from the map (its file name, input names, room labels, ids,
+config values, notes) goes through :func:`html.escape`, so a log named ``<b>&x.mcap`` shows
+as written and never becomes markup.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from html import escape
+from typing import Any
+
+from aion_cli.report.content import ReportContent
+from aion_cli.timeparse import Zone, format_ns
+
+CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; color: #1d2733;
+  max-width: 1100px; margin: 2em auto; padding: 0 1em; line-height: 1.45; }
+h1 { font-size: 1.6em; margin-bottom: 0.1em; } h2 { border-bottom: 1px solid #d6dde6;
+  padding-bottom: 0.2em; margin-top: 2em; } .sub { color: #5b6b7c; margin-top: 0; }
+table { border-collapse: collapse; margin: 0.6em 0 1.2em; font-size: 0.92em; }
+th, td { border: 1px solid #d6dde6; padding: 0.25em 0.6em; text-align: left; }
+th { background: #eef2f6; } td.n { text-align: right; font-variant-numeric: tabular-nums; }
+.grid { display: flex; flex-wrap: wrap; gap: 2em; align-items: flex-start; }
+figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #e1e6ec; }
+figcaption { color: #44525f; font-size: 0.9em; max-width: 60em; }
+code { background: #f3f5f7; padding: 0 0.25em; } .note { color: #8a5a00; }
+footer { color: #7a8896; font-size: 0.85em; margin-top: 3em; }
+"""
+_NUMERIC = ' class="n"'
+
+
+def render(
+    content: ReportContent, pictures: Mapping[str, str | None], generated: str, version: str
+) -> str:
+    """The page of ``content``; ``pictures`` names the PNG files beside it by role
+    (``timeline``, ``day_weekday``, ``day_weekend``, ``week``, ``roses``, ``topdown``; None
+    or missing: not drawn)."""
+    c = content
+    when = (
+        "busiest entries as observed (historical)"
+        if c.t_ns is None
+        else f"busiest entries predicted at {format_ns(c.t_ns, c.zone)}"
+    )
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>aion map report: {escape(c.map_name)}</title>",
+        f"<style>{CSS}</style></head><body>",
+        f"<h1>Map report: <code>{escape(c.map_name)}</code></h1>",
+        f'<p class="sub">times in {escape(c.zone.name)}; {escape(when)}</p>',
+        *_holdings(c),
+        *_observed(c, pictures),
+        *_activity(c, pictures),
+        *_busiest(c, pictures),
+        *_topdown(pictures),
+        f"<footer>written by aion {escape(version)} on {escape(generated)}</footer>",
+        "</body></html>",
+    ]
+    return "\n".join(parts) + "\n"
+
+
+def _table(
+    headers: Sequence[str], rows: Iterable[Sequence[Any]], table_id: str, numeric: set[int]
+) -> str:
+    """An HTML table; every cell escaped, the columns in ``numeric`` right-aligned."""
+    head = "".join(f"<th>{escape(h)}</th>" for h in headers)
+    body = []
+    for row in rows:
+        cells = "".join(
+            f"<td{_NUMERIC if k in numeric else ''}>{escape(_text(v))}</td>"
+            for k, v in enumerate(row)
+        )
+        body.append(f"<tr>{cells}</tr>")
+    rows_html = "".join(body)
+    head_html = f"<thead><tr>{head}</tr></thead>"
+    return f'<table id="{table_id}">{head_html}<tbody>{rows_html}</tbody></table>'
+
+
+def _text(value: Any) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
+    if isinstance(value, int) and not isinstance(value, bool):
+        return f"{value:,}"
+    return str(value)
+
+
+def _figure(src: str | None, alt: str, caption: str) -> list[str]:
+    if src is None:
+        return []
+    return [
+        f'<figure><img src="{escape(src)}" alt="{escape(alt)}">',
+        f"<figcaption>{caption}</figcaption></figure>",
+    ]
+
+
+def size_text(n: int) -> str:
+    """Bytes as B / KiB / MiB / GiB."""
+    value = float(n)
+    for unit in ("B", "KiB", "MiB"):
+        if value < 1024:
+            return f"{value:.0f} {unit}" if unit == "B" else f"{value:.1f} {unit}"
+        value /= 1024
+    return f"{value:.1f} GiB"
+
+
+def _when(t_ns: int | None, zone: Zone) -> str:
+    return "-" if t_ns is None else format_ns(t_ns, zone)
+
+
+def _holdings(c: ReportContent) -> list[str]:
+    """What the map holds: counts, facts, inputs, model families."""
+    from aion_cli.engine.config import ModelConfig
+
+    s = c.shown
+    start, end = c.observed.span
+    hours = None if start is None or end is None else (end - start) / 3.6e12
+    defaults = ModelConfig().to_dict()
+    changed = {k: v for k, v in (s.get("config") or {}).items() if defaults.get(k) != v}
+    facts = [
+        ("format", f"{s.get('format', '-')} {s.get('version', '')}".strip()),
+        ("created", f"{s.get('created', '-')} by {s.get('creator', '-')}"),
+        (
+            "time span",
+            f"{_when(start, c.zone)} .. {_when(end, c.zone)}"
+            + ("" if hours is None else f" ({hours:,.1f} h)"),
+        ),
+        (
+            "first / last observed window (centres)",
+            f"{_when(c.observed.first_ns, c.zone)} / {_when(c.observed.last_ns, c.zone)}",
+        ),
+        ("observation", s.get("observation", "-")),
+        ("scene graph", s.get("graph_source", "-")),
+        ("map time zone", s.get("timezone") or "not set (queries use the local zone)"),
+        ("config", ", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults"),
+    ]
+    inputs = [
+        (i.get("name"), size_text(int(i.get("size", 0))), str(i.get("sha256", ""))[:12])
+        for i in s.get("inputs", [])
+    ]
+    families = s.get("families") or {}
+    flow, direction = families.get("flow") or {}, families.get("direction") or {}
+    names = sorted(set(flow) | set(direction))
+    out = [
+        "<h2>What the map holds</h2>",
+        '<div class="grid"><div>',
+        _table(("what", "count"), c.counts.items(), "counts", {1}),
+        "</div><div>",
+        _table(("what", "value"), facts, "facts", set()),
+        "</div></div>",
+        "<h3>Inputs</h3>",
+        _table(("log", "size", "sha256"), inputs, "inputs", {1}),
+        "<h3>Temporal model families</h3>",
+        "<p>How many entries each family forecasts (as <code>aion info</code> shows them): "
+        "the flow (how many people) and the direction histogram are chosen separately, per "
+        "entry, by their day-ahead scores.</p>",
+        _table(
+            ("family", "flow", "direction"),
+            ((n, flow.get(n, 0), direction.get(n, 0)) for n in names),
+            "families",
+            {1, 2},
+        ),
+    ]
+    if families:
+        reconciled = "yes" if families.get("reconciled") else "no"
+        out.append(f"<p>Totals reconciled to the map's own forecast: {reconciled}.</p>")
+    return out
+
+
+def _observed(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
+    o = c.observed
+    fixed = len(o.fixed[0])
+    coverage = (
+        f"blue: the {fixed:,} fixed-sensor interval(s) the map holds (every place observed)"
+        if fixed
+        else "the robot's coverage is kept as tallies per place, not as a list of windows, "
+        "so no intervals are drawn"
+    )
+    caption = (
+        f"Left: one row per day ({escape(c.zone.name)}), time of day across; grey: the span of "
+        f"the logs; {coverage}; red triangles: the first and last observed window. Right: the "
+        "hours observed in each profile bin (hour of the day, by day type) for the place "
+        "observed most; the periodic models learn their daily rhythm from these bins, so an "
+        "empty bin is one the map can only guess. Observation: "
+        f"<code>{escape(o.source)}</code>."
+    )
+    return [
+        "<h2>When it was observed</h2>",
+        *_figure(pictures.get("timeline"), "observed windows", caption),
+    ]
+
+
+def _activity(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
+    out = ["<h2>Activity over the day and the week</h2>"]
+    out += [f'<p class="note">{escape(n)}</p>' for n in c.notes]
+    if not c.activity:
+        return out
+    window = f"{c.window_s / 60:g}-minute"
+    lines = "one line per room (the busiest, the others summed)"
+    if c.activity[0].names == ("whole map",):
+        lines = "the whole map's flow"
+    out.append(
+        f"<p>Predicted flow (expected detections per {window} window, summed over each room's "
+        f"places as <code>aion predict --layer rooms</code> sums them), {lines}.</p>"
+    )
+    roles = ("day_weekday", "day_weekend", "week")
+    steps = ("every 15 minutes", "every 15 minutes", "every hour")
+    for series, role, step in zip(c.activity, roles, steps, strict=False):
+        out += _figure(
+            pictures.get(role),
+            f"activity {series.title}",
+            f"{escape(series.title)}: the forecast {step} ({escape(c.zone.name)}).",
+        )
+    return out
+
+
+def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
+    what = (
+        "as observed (detections per window over the windows each entry was observed)"
+        if c.t_ns is None
+        else f"predicted at {escape(format_ns(c.t_ns, c.zone))}"
+    )
+    command = f"aion predict --top {len(c.busiest)} " + (
+        "--historical" if c.t_ns is None else f'--time "{format_ns(c.t_ns, c.zone)}"'
+    )
+    rows = []
+    for rank, b in enumerate(c.busiest, start=1):
+        r = b.record
+        direction = r.get("direction_deg")
+        rows.append(
+            (
+                rank,
+                r["id"],
+                r["kind"],
+                b.room or "-",
+                None if r.get("flow") is None else f"{r['flow']:.3f}",
+                None if r.get("flow_per_hour") is None else f"{r['flow_per_hour']:.2f}",
+                None if r.get("entropy") is None else f"{r['entropy']:.3f}",
+                None if direction is None else f"{direction:+.1f}",
+                b.family,
+            )
+        )
+    headers = (
+        "#",
+        "id",
+        "kind",
+        "room",
+        "flow / window",
+        "flow / h",
+        "entropy",
+        "direction (deg)",
+        "family",
+    )
+    caption = (
+        "The dominant direction of each: the histogram of the directions people walked, as "
+        "bars around the place (east = +x, counter-clockwise), the red arrow the circular "
+        "mean, as long as the flow is concentrated along it (short when people walk both "
+        "ways)."
+    )
+    return [
+        "<h2>Busiest places</h2>",
+        f"<p>The {len(c.busiest)} busiest of {c.matched:,} entries (places and hash cells), "
+        f"{what}, as <code>{escape(command)}</code> lists them; entropy 0 "
+        "means everyone walks one way, 1 every way; direction in degrees counter-clockwise "
+        "from +x; family: the temporal model forecasting the flow.</p>",
+        _table(headers, rows, "busiest", {0, 4, 5, 6, 7}),
+        *_figure(pictures.get("roses"), "direction roses", caption),
+    ]
+
+
+def _topdown(pictures: Mapping[str, str | None]) -> list[str]:
+    src = pictures.get("topdown")
+    if src is None:
+        return []
+    return [
+        "<h2>The map from above</h2>",
+        *_figure(src, "top-down map", "The places seen from above, coloured by flow."),
+    ]

@@ -1,0 +1,220 @@
+"""The report's pictures as PNG files: matplotlib ``Figure`` objects drawn on the Agg canvas
+(no pyplot, so no global figure state and no display is ever needed).
+
+* :func:`timeline_png` — when the map was observed: one row per local day (time of day
+  across), the logs' span and the fixed-sensor intervals, beside the hours observed per
+  profile bin that the periodic models learn from;
+* :func:`activity_png` — predicted flow per room over a day or a week, one line per room;
+* :func:`roses_png` — direction roses (polar bars of the direction histograms) of the
+  busiest entries.
+
+Strings from the map (room labels, ids) reach matplotlib through :func:`plain`, so a ``$``
+in a label is drawn as a dollar sign, not read as mathtext.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from datetime import timedelta
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aion_cli.report.content import Busiest, Observed, Series, local_midnight
+from aion_cli.timeparse import Zone, from_ns
+
+DPI = 110
+_NS = 1_000_000_000
+_SPAN_GREY = "#c9d3df"
+_FIXED_BLUE = "#2c6fbb"
+_MAX_DAY_ROWS = 120
+
+
+def plain(text: object) -> str:
+    """``text`` as literal matplotlib text: ``$`` escaped (mathtext is off for it)."""
+    return str(text).replace("$", r"\$")
+
+
+def _figure(width: float, height: float) -> Any:
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+
+
+def _save(fig: Any, path: Path) -> Path:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig)
+    fig.savefig(path, format="png", dpi=DPI, metadata={"Software": None})
+    return path
+
+
+def timeline_png(observed: Observed, zone: Zone, path: Path) -> Path:
+    """Days (rows, in ``zone``) x time of day: the logs' span in grey, fixed-sensor intervals
+    in blue, the first and last observed window marked; beside it a heat map of the hours
+    observed per profile bin (the map's own zone)."""
+    days = (
+        1
+        if observed.first_ns is None or observed.last_ns is None
+        else ((observed.last_ns - observed.first_ns) // (86_400 * _NS) + 2)
+    )
+    fig = _figure(10.0, min(max(2.4 + 0.3 * days, 3.0), 9.0))
+    grid = fig.add_gridspec(1, 2, width_ratios=(1.25, 1.0))
+    _days_panel(fig.add_subplot(grid[0, 0]), observed, zone)
+    _profile_panel(fig, fig.add_subplot(grid[0, 1]), observed)
+    return _save(fig, path)
+
+
+def _days_panel(ax: Any, observed: Observed, zone: Zone) -> None:
+    start, end = observed.span
+    marks = [t for t in (start, end, observed.first_ns, observed.last_ns) if t is not None]
+    if not marks:
+        ax.text(0.5, 0.5, "nothing observed", ha="center", va="center", transform=ax.transAxes)
+        ax.set_axis_off()
+        return
+    first_day = from_ns(min(marks), zone).date()
+    last_day = from_ns(max(marks), zone).date()
+    days = min((last_day - first_day).days + 1, _MAX_DAY_ROWS)
+    starts, ends = observed.fixed
+    for row in range(days):
+        day = first_day + timedelta(days=row)
+        lo, hi = local_midnight(day, zone), local_midnight(day + timedelta(days=1), zone)
+        hours = (hi - lo) / 3600 / _NS
+        if start is not None and end is not None:
+            _bars(ax, row, [max(start, lo)], [min(end, hi)], lo, hours, _SPAN_GREY, 0.8)
+        keep = (ends > lo) & (starts < hi)
+        if keep.any():
+            _bars(
+                ax,
+                row,
+                np.maximum(starts[keep], lo),
+                np.minimum(ends[keep], hi),
+                lo,
+                hours,
+                _FIXED_BLUE,
+                0.5,
+            )
+    for t, label in ((observed.first_ns, "first"), (observed.last_ns, "last")):
+        if t is not None:
+            local = from_ns(t, zone)
+            row = (local.date() - first_day).days
+            x = local.hour + local.minute / 60 + local.second / 3600
+            ax.plot(
+                [x],
+                [row],
+                marker="v" if label == "first" else "^",
+                color="#c0392b",
+                markersize=7,
+                linestyle="none",
+            )
+    ax.set_xlim(0, 24)
+    ax.set_xticks(range(0, 25, 3))
+    ax.set_ylim(days - 0.5, -0.5)
+    step = max(1, days // 14)
+    ticks = list(range(0, days, step))
+    ax.set_yticks(ticks)
+    ax.set_yticklabels([f"{first_day + timedelta(days=r):%a %Y-%m-%d}" for r in ticks], fontsize=8)
+    ax.set_xlabel(f"time of day ({plain(zone.name)})")
+    ax.set_title("observed span per day", fontsize=10)
+    ax.grid(axis="x", color="#dddddd", linewidth=0.6)
+
+
+def _bars(
+    ax: Any, row: int, lo: Any, hi: Any, midnight: int, hours: float, color: str, height: float
+) -> None:
+    """Horizontal bars ``[lo, hi)`` (UNIX ns) on day ``row``, x in hours since midnight."""
+    a = (np.asarray(lo, dtype=np.float64) - midnight) / 3600 / _NS
+    b = (np.asarray(hi, dtype=np.float64) - midnight) / 3600 / _NS
+    ok = b > a
+    if ok.any():
+        x0 = a[ok] * 24 / hours
+        ax.barh(
+            np.full(int(ok.sum()), row),
+            (b[ok] - a[ok]) * 24 / hours,
+            left=x0,
+            height=height,
+            color=color,
+            linewidth=0,
+        )
+
+
+def _profile_panel(fig: Any, ax: Any, observed: Observed) -> None:
+    hours = np.asarray(observed.hours, dtype=np.float64)
+    image = ax.imshow(
+        hours,
+        aspect="auto",
+        cmap="Blues",
+        vmin=0.0,
+        extent=(0, 24, hours.shape[0] - 0.5, -0.5),
+        interpolation="nearest",
+    )
+    ax.set_yticks(range(hours.shape[0]))
+    ax.set_yticklabels(observed.day_types, fontsize=8)
+    ax.set_xticks(range(0, 25, 3))
+    ax.set_xlabel(f"hour of day ({plain(observed.model_zone)}, the map's zone)")
+    ax.set_title("hours observed per profile bin", fontsize=10)
+    bar = fig.colorbar(image, ax=ax, shrink=0.9)
+    bar.set_label("hours observed")
+
+
+def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
+    """One line per column of ``series`` against the time (hours of the day for a day, days
+    of the week for a week; in ``zone``)."""
+    fig = _figure(10.0, 3.6)
+    ax = fig.add_subplot()
+    times = np.asarray(series.times_ns, dtype=np.int64)
+    hours = (times - times[0]).astype(np.float64) / 3600 / _NS if times.size else times
+    week = times.size and hours[-1] > 24
+    for k, name in enumerate(series.names):
+        ax.plot(
+            hours,
+            series.flows[:, k],
+            label=plain(name),
+            linewidth=1.4,
+            linestyle="--" if name.startswith("other rooms") else "-",
+        )
+    if week:
+        start = from_ns(int(times[0]), zone).date()
+        ax.set_xticks(np.arange(0, 7 * 24 + 1, 24))
+        ax.set_xticklabels([f"{start + timedelta(days=d):%a %d}" for d in range(8)])
+        ax.set_xlim(0, 7 * 24)
+    else:
+        ax.set_xticks(range(0, 25, 2))
+        ax.set_xlim(0, 24)
+        ax.set_xlabel(f"hour of day ({plain(zone.name)})")
+    ax.set_ylabel(ylabel)
+    ax.set_ylim(bottom=0)
+    ax.set_title(plain(series.title), fontsize=10)
+    ax.grid(color="#e3e3e3", linewidth=0.6)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+    return _save(fig, path)
+
+
+def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
+    """A polar bar chart of the direction histogram of each of ``rows`` (bin b centred at
+    -180 + (b + 0.5)·360/B degrees, counter-clockwise from +x, east at the right)."""
+    n = max(len(rows), 1)
+    cols = min(n, 3)
+    fig = _figure(3.2 * cols, 3.2 * ((n + cols - 1) // cols))
+    centres = np.radians(-180.0 + (np.arange(bins) + 0.5) * 360.0 / bins)
+    for k, row in enumerate(rows):
+        ax = fig.add_subplot((n + cols - 1) // cols, cols, k + 1, projection="polar")
+        hist = np.nan_to_num(np.asarray(row.record["histogram"], dtype=np.float64))
+        ax.bar(centres, hist, width=2 * np.pi / bins * 0.9, color="#2c6fbb", alpha=0.85)
+        angle = row.record.get("direction_deg")
+        length = hist.max() * float(row.record.get("concentration") or 0.0)
+        if angle is not None and length > 0:  # the circular mean, as long as it is strong
+            ax.annotate(
+                "",
+                xy=(np.radians(angle), length),
+                xytext=(0, 0),
+                arrowprops={"arrowstyle": "->", "color": "#c0392b", "linewidth": 1.6},
+            )
+        ax.set_theta_zero_location("E")
+        ax.set_theta_direction(1)
+        ax.set_yticklabels([])
+        ax.tick_params(labelsize=7)
+        title = row.record["id"] + (f"  ({row.room})" if row.room else "")
+        ax.set_title(plain(title), fontsize=9)
+    return _save(fig, path)

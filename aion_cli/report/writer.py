@@ -1,0 +1,89 @@
+"""Writing a map report into a folder: ``index.html`` and the PNG pictures it shows.
+
+Everything is written into a hidden staging folder beside ``OUT`` (``formats.outputs.Staged``,
+as ``aion export`` does) and moved in when complete, so a failure (a bad map, a full disk,
+Ctrl-C) leaves no partial report behind; files already in ``OUT`` that the report does not
+write are kept.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from aion_cli.exports import check_out_dir
+from aion_cli.formats.outputs import Staged
+from aion_cli.report.content import ROSES, ReportContent, gather
+from aion_cli.timeparse import Zone
+
+PAGE = "index.html"
+STEPS = 7
+"""Calls of ``on_step`` a report makes (for a progress bar's total)."""
+
+
+def write_report(
+    loaded: Any,
+    map_path: Any,
+    out_dir: Path,
+    zone: Zone,
+    t_ns: int | None = None,
+    on_step: Callable[[str], None] | None = None,
+) -> list[Path]:
+    """Write the report of ``loaded`` into ``out_dir`` (times in ``zone``; the busiest
+    entries at ``t_ns``, None: as observed); the files written, ``index.html`` first.
+    ``on_step(what)`` is called after each of the :data:`STEPS` steps."""
+    from datetime import UTC, datetime
+
+    from aion_cli import __version__
+    from aion_cli.report import page, plots
+
+    def step(what: str) -> None:
+        if on_step is not None:
+            on_step(what)
+
+    check_out_dir(out_dir)
+    content = gather(loaded, map_path, zone, t_ns)
+    step("read the map")
+    with Staged(out_dir, merge=True) as staged:
+        folder = staged.path
+        folder.mkdir()
+        pictures: dict[str, str | None] = {}
+        pictures["timeline"] = plots.timeline_png(
+            content.observed, zone, folder / "observed.png"
+        ).name
+        step("timeline")
+        ylabel = f"detections per {content.window_s / 60:g} min"
+        for role, series in zip(
+            ("day_weekday", "day_weekend", "week"), content.activity, strict=False
+        ):
+            pictures[role] = plots.activity_png(
+                series, ylabel, folder / f"activity_{role}.png", zone
+            ).name
+            step(f"activity: {series.title}")
+        for _ in range(3 - len(content.activity)):
+            step("activity")
+        roses = [b for b in content.busiest if b.record.get("flow")][:ROSES]
+        pictures["roses"] = (
+            plots.roses_png(roses, content.bins, folder / "roses.png").name if roses else None
+        )
+        step("direction roses")
+        topdown = top_down_picture(loaded, content, folder / "map.png")
+        pictures["topdown"] = None if topdown is None else topdown.name
+        stamp = datetime.now(UTC).isoformat(sep=" ", timespec="seconds")
+        (folder / PAGE).write_text(
+            page.render(content, pictures, stamp, __version__), encoding="utf-8"
+        )
+        step("page")
+        written = [folder / PAGE, *(folder / n for n in pictures.values() if n is not None)]
+    return [out_dir / p.relative_to(folder) for p in written]
+
+
+def top_down_picture(loaded: Any, content: ReportContent, path: Path) -> Path | None:
+    """The top-down picture of the map for the page, written at ``path``; None: not drawn.
+
+    WIRE HERE: the single call site for the top-down map renderer of ``aion_cli.pictures``
+    (``aion export --format png``), which did not exist when this report was written. When it
+    does, render the map at ``content.t_ns`` (historical when None) into ``path`` and return
+    ``path``; the page then shows it under "The map from above"."""
+    return None

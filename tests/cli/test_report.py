@@ -1,0 +1,306 @@
+"""``aion report``: the page references only the files the run wrote, agrees with ``aion info``
+and ``aion predict``, escapes the map's strings, and fails cleanly on bad input.
+
+The map is built once from the bundled sample log copied under a name full of HTML special
+characters (``<``, ``&``, ``"``), so every test also sees how the page treats the map's own
+strings."""
+
+from __future__ import annotations
+
+import html
+import os
+import shutil
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.cli.conftest import assert_one_line_error, run, run_json
+
+REPO = Path(__file__).resolve().parents[2]
+SAMPLE = REPO / "samples" / "office.mcap"
+LOG_NAME = 'off<i>&amp;"ce.mcap'
+WHEN = "2026-01-12 08:40"
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+FIXED_BLUE = np.array([0x2C, 0x6F, 0xBB]) / 255.0
+
+
+class _Page(HTMLParser):
+    """Every reference (``src``/``href`` of any tag) and the cell texts of each table by id."""
+
+    def __init__(self) -> None:
+        super().__init__(convert_charrefs=True)
+        self.refs: list[str] = []
+        self.tags: set[str] = set()
+        self.tables: dict[str, list[list[str]]] = {}
+        self._table: str | None = None
+        self._cell: list[str] | None = None
+        self._in_body = False
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        self.tags.add(tag)
+        values = dict(attrs)
+        self.refs += [v for k, v in attrs if k in ("src", "href", "srcset", "data") and v]
+        if tag == "table":
+            self._table = values.get("id") or "?"
+            self.tables[self._table] = []
+        elif tag == "tbody":
+            self._in_body = True
+        elif tag == "tr" and self._table is not None and self._in_body:
+            self.tables[self._table].append([])
+        elif tag == "td" and self._table is not None and self._in_body:
+            self._cell = []
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag == "td" and self._cell is not None and self._table is not None:
+            self.tables[self._table][-1].append("".join(self._cell))
+            self._cell = None
+        elif tag == "tbody":
+            self._in_body = False
+        elif tag == "table":
+            self._table = None
+
+    def handle_data(self, data: str) -> None:
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+def _parse(path: Path) -> _Page:
+    page = _Page()
+    page.feed(path.read_text(encoding="utf-8"))
+    page.close()
+    return page
+
+
+@pytest.fixture(scope="module")
+def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("report")
+    log = folder / LOG_NAME
+    shutil.copyfile(SAMPLE, log)
+    out = folder / "office.aion"
+    result = run("build", log, "-o", out, "-q")
+    assert result.exit_code == 0, result.stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def report_dir(sample_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A report written into a folder that already holds an unrelated file and a stale copy
+    of one of the report's pictures (both older than the run)."""
+    out = tmp_path_factory.mktemp("out") / "report"
+    out.mkdir()
+    (out / "unrelated.png").write_bytes(PNG_MAGIC)
+    (out / "observed.png").write_bytes(b"stale")
+    for name in ("unrelated.png", "observed.png"):
+        os.utime(out / name, (1_000_000_000, 1_000_000_000))
+    result = run("report", sample_map, "-o", out, "-q")
+    assert result.exit_code == 0, result.stderr
+    return out
+
+
+def test_the_page_refers_only_to_files_this_run_wrote(report_dir: Path) -> None:
+    page = _parse(report_dir / "index.html")
+    text = (report_dir / "index.html").read_text(encoding="utf-8")
+    assert "http://" not in text
+    assert "https://" not in text
+    assert "script" not in page.tags  # no script
+    assert "link" not in page.tags  # the CSS is inline
+    images = [r for r in page.refs if r.endswith(".png")]
+    assert len(images) == 5  # timeline, two days, a week, the roses
+    for ref in page.refs:
+        assert "/" not in ref, ref  # a file beside the page: no folder, no address
+        assert ":" not in ref, ref
+        assert not ref.startswith("."), ref
+        target = report_dir / ref
+        assert target.is_file(), ref
+        assert target.stat().st_mtime > 1_000_000_000 + 1, f"{ref} was not written by this run"
+    assert "unrelated.png" not in page.refs
+    assert (report_dir / "unrelated.png").read_bytes() == PNG_MAGIC  # kept, not referenced
+    assert not [p for p in report_dir.parent.iterdir() if p.name.startswith(".report.")]
+
+
+def test_the_pictures_are_png_images_with_content(report_dir: Path) -> None:
+    from PIL import Image
+
+    page = _parse(report_dir / "index.html")
+    for ref in (r for r in page.refs if r.endswith(".png")):
+        path = report_dir / ref
+        assert path.read_bytes()[:8] == PNG_MAGIC, ref
+        with Image.open(path) as image:
+            image.verify()
+        with Image.open(path) as image:
+            pixels = np.asarray(image.convert("RGB"), dtype=np.float64)
+        assert min(pixels.shape[:2]) > 100, ref
+        assert pixels.std() > 5.0, f"{ref} is blank"
+
+
+def test_a_robot_map_draws_no_fixed_sensor_intervals(report_dir: Path) -> None:
+    """The sample is observed by a robot: the timeline has the logs' span (grey) and no
+    fixed-sensor bar (blue; tests/report/test_content.py checks a fixed sensor's)."""
+    from PIL import Image
+
+    with Image.open(report_dir / "observed.png") as image:
+        rgb = np.asarray(image.convert("RGB"), dtype=np.float64) / 255.0
+    left = rgb[:, : rgb.shape[1] // 2]  # the days panel
+    blue = np.abs(left - FIXED_BLUE).max(axis=2) < 0.02
+    grey = np.abs(left - np.array([0xC9, 0xD3, 0xDF]) / 255.0).max(axis=2) < 0.02
+    assert blue.sum() == 0
+    assert grey.sum() > 1000
+
+
+def test_the_busiest_row_is_predicts_top_entry(sample_map: Path, report_dir: Path) -> None:
+    first = _parse(report_dir / "index.html").tables["busiest"][0]
+    top = run_json("predict", sample_map, "--historical", "--top", "1", "--format", "json")
+    entry = top["entries"][0]
+    forecast = run_json(
+        "predict", sample_map, "--time", WHEN, "--node", entry["id"], "--format", "json"
+    )
+    assert [first[1], first[2], first[4]] == [entry["id"], entry["kind"], f"{entry['flow']:.3f}"]
+    assert first[3] == _room_of(sample_map, entry["id"])
+    assert first[6] == f"{entry['entropy']:.3f}"
+    assert first[7] == f"{entry['direction_deg']:+.1f}"
+    assert first[8] == forecast["entries"][0]["family"]  # the family that forecasts it
+
+
+def _room_of(map_path: Path, place: str) -> str:
+    """``"R1 hallway"``: the room holding ``place`` in the map's scene graph, read directly."""
+    from aion_cli.engine.node_ids import node_label, parse_node_id
+    from aion_cli.mapquery import load_map
+
+    graph = load_map(map_path).graph
+    assert graph is not None
+    at = np.flatnonzero(graph.places.ids == np.uint64(parse_node_id(place)))
+    room = graph.places.parent[at[0]]
+    k = int(np.flatnonzero(graph.rooms.ids == room)[0])
+    return f"{node_label(int(room))} {graph.rooms.labels[k]}"
+
+
+def test_at_a_time_the_busiest_row_is_predicts_top_entry_then(
+    sample_map: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "at"
+    result = run("report", sample_map, "-o", out, "--time", WHEN, "--tz", "UTC", "-q")
+    assert result.exit_code == 0, result.stderr
+    rows = _parse(out / "index.html").tables["busiest"]
+    top = run_json(
+        "predict", sample_map, "--time", WHEN, "--tz", "UTC", "--top", "10", "--format", "json"
+    )["entries"]
+    assert [r[1] for r in rows] == [e["id"] for e in top]
+    e = top[0]
+    assert rows[0][4:] == [
+        f"{e['flow']:.3f}",
+        f"{e['flow_per_hour']:.2f}",
+        f"{e['entropy']:.3f}",
+        f"{e['direction_deg']:+.1f}",
+        e["family"],
+    ]
+    rooms = run_json(
+        "predict", sample_map, "--layer", "rooms", "--time", WHEN, "--tz", "UTC", "--format", "json"
+    )["entries"]
+    labels = {r[3].split()[0] for r in rows if r[3] != "-"}
+    assert labels <= {r["id"] for r in rooms}
+
+
+def test_the_family_counts_are_infos(sample_map: Path, report_dir: Path) -> None:
+    info = run_json("info", sample_map, "--format", "json")
+    rows = _parse(report_dir / "index.html").tables["families"]
+    shown = {name: (int(flow), int(direction)) for name, flow, direction in rows}
+    families = info["families"]
+    names = set(families["flow"]) | set(families["direction"])
+    assert shown == {
+        n: (families["flow"].get(n, 0), families["direction"].get(n, 0)) for n in names
+    }
+    counts = {
+        k: int(v.replace(",", "")) for k, v in _parse(report_dir / "index.html").tables["counts"]
+    }
+    assert counts["detections accepted"] == info["counts"]["used"]
+    assert counts["hash cells"] == info["counts"]["cells"]
+    assert counts["places"] == info["counts"]["nodes"]
+    assert counts["places with flow"] == info["counts"]["nodes_with_flow"]
+    inputs = _parse(report_dir / "index.html").tables["inputs"]
+    assert inputs == [[LOG_NAME, "3.8 MiB", info["inputs"][0]["sha256"][:12]]]
+
+
+def test_the_maps_strings_are_escaped(report_dir: Path) -> None:
+    text = (report_dir / "index.html").read_text(encoding="utf-8")
+    assert html.escape(LOG_NAME) in text  # off&lt;i&gt;&amp;amp;&quot;ce.mcap
+    assert "<i>" not in text
+    assert '&amp;"' not in text
+
+
+def test_bad_output_and_missing_map_exit_2(sample_map: Path, tmp_path: Path) -> None:
+    a_file = tmp_path / "taken.txt"
+    a_file.write_text("keep me")
+    result = run("report", sample_map, "-o", a_file)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "is a file, not a folder")
+    assert a_file.read_text() == "keep me"
+    result = run("report", tmp_path / "missing.aion", "-o", tmp_path / "r")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "map file not found")
+    result = run("report", sample_map, "-o", tmp_path / "r", "--time", "not a time")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr)
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_failure_leaves_nothing_behind(
+    sample_map: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from aion_cli.report import plots
+
+    def broken(*args: object, **kwargs: object) -> Path:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(plots, "roses_png", broken)
+    out = tmp_path / "report"
+    result = run("report", sample_map, "-o", out, "-q")
+    assert result.exit_code != 0
+    assert list(tmp_path.iterdir()) == []  # neither the folder nor a staging folder
+
+
+def test_the_room_curves_are_predicts_room_flows(sample_map: Path) -> None:
+    """The activity curves (``flow_series``, one batch over every time) at a few of their
+    times equal ``aion predict --layer rooms`` run at each time."""
+    from aion_cli.mapquery import load_map
+    from aion_cli.report.content import gather
+    from aion_cli.timeparse import format_ns, resolve_zone
+
+    zone = resolve_zone("UTC")
+    content = gather(load_map(sample_map), sample_map, zone, None)
+    weekday, weekend, week = content.activity
+    assert weekday.names[:2] == ("R1 hallway", "R0 workspace")  # the busiest rooms first
+    for series, k in ((weekday, 35), (weekend, 50), (week, 100)):
+        t = int(series.times_ns[k])
+        rooms = run_json(
+            "predict",
+            sample_map,
+            "--layer",
+            "rooms",
+            "--time",
+            format_ns(t, zone),
+            "--format",
+            "json",
+        )["entries"]
+        flows = {r["id"]: r["flow"] for r in rooms}
+        for name, value in zip(series.names, series.flows[k], strict=True):
+            assert value == pytest.approx(flows[name.split()[0]], rel=1e-12, abs=1e-12), name
+        assert sum(series.flows[k]) == pytest.approx(sum(flows.values()), rel=1e-12)
+
+
+def test_rooms_beyond_the_busiest_are_summed_into_one_line(
+    sample_map: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from aion_cli.mapquery import load_map
+    from aion_cli.report import content as module
+    from aion_cli.timeparse import resolve_zone
+
+    loaded = load_map(sample_map)
+    every = module.gather(loaded, sample_map, resolve_zone("UTC"), None).activity
+    monkeypatch.setattr(module, "TOP_ROOMS", 2)
+    two = module.gather(loaded, sample_map, resolve_zone("UTC"), None).activity
+    for full, cut in zip(every, two, strict=True):
+        assert cut.names == (*full.names[:2], f"other rooms ({len(full.names) - 2})")
+        np.testing.assert_allclose(cut.flows[:, :2], full.flows[:, :2], rtol=0, atol=0)
+        np.testing.assert_allclose(cut.flows[:, 2], full.flows[:, 2:].sum(axis=1), rtol=1e-12)

@@ -1,0 +1,139 @@
+"""The report's content and pictures for a fixed sensor without a scene graph: the observed
+intervals and profile hours it draws are the spans the log declared, the activity is the
+whole map's flow, and the timeline shows the intervals in blue; the days the curves show."""
+
+from __future__ import annotations
+
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.types import DetectionBatch
+from aion_cli.formats.tracks_log import tracks_to_log
+from aion_cli.mapquery import LoadedMap, load_map
+from aion_cli.pipeline import BuildOptions, build_map
+from aion_cli.report.content import gather, series_days
+from aion_cli.report.writer import write_report
+from aion_cli.timeparse import resolve_zone
+
+S = 1_000_000_000
+HOUR = 3600 * S
+DAY = 24 * HOUR
+T0 = 1_762_070_400 * S  # Sunday 2025-11-02 08:00 UTC, on a 10-minute window boundary
+SECOND = T0 + DAY + 2 * HOUR  # Monday 10:00 UTC
+FIXED_BLUE = np.array([0x2C, 0x6F, 0xBB]) / 255.0
+
+
+def _people(start: int, n: int = 60) -> DetectionBatch:
+    t = start + np.arange(n) * (HOUR // n)
+    xy = np.column_stack([np.linspace(0.0, 3.0, n), np.zeros(n), np.zeros(n)])
+    return DetectionBatch.from_arrays(t, xy, np.zeros(n), np.ones(n), np.arange(n) % 3)
+
+
+@pytest.fixture(scope="module")
+def fixed_map(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, LoadedMap]:
+    folder = tmp_path_factory.mktemp("fixed")
+    log = folder / "two_sessions.mcap"
+    batch = DetectionBatch.concat([_people(T0), _people(SECOND)])
+    tracks_to_log(batch, log, observed=[(T0, T0 + HOUR), (SECOND, SECOND + HOUR)])
+    report = build_map(BuildOptions(logs=(log,), output=folder / "m.aion"))
+    return report.output, load_map(report.output)
+
+
+def test_the_observed_intervals_and_hours_are_the_declared_spans(
+    fixed_map: tuple[Path, LoadedMap],
+) -> None:
+    path, loaded = fixed_map
+    content = gather(loaded, path, resolve_zone("UTC"), None)
+    starts, ends = content.observed.fixed
+    np.testing.assert_array_equal(starts, [T0, SECOND])
+    np.testing.assert_array_equal(ends, [T0 + HOUR, SECOND + HOUR])
+    hours = content.observed.hours  # day_weekend: Mon-Fri, Sat-Sun x 24 hours (UTC)
+    expected = np.zeros((2, 24))
+    expected[1, 8] = 1.0  # Sunday 08:00-09:00
+    expected[0, 10] = 1.0  # Monday 10:00-11:00
+    np.testing.assert_allclose(hours, expected)
+    assert content.observed.day_types == ("Mon-Fri", "Sat-Sun")
+    assert content.counts["rooms"] == 0
+
+
+def test_without_rooms_the_curves_are_the_whole_maps_flow(
+    fixed_map: tuple[Path, LoadedMap],
+) -> None:
+    from aion_cli.engine.query import predict_table
+
+    path, loaded = fixed_map
+    content = gather(loaded, path, resolve_zone("UTC"), None)
+    assert [s.names for s in content.activity] == [("whole map",)] * 3
+    assert any("no rooms" in n for n in content.notes)
+    weekday, weekend, week = content.activity
+    assert weekday.times_ns.size == 96  # every 15 minutes
+    assert week.times_ns.size == 168  # every hour
+    # the last observation is Monday 2025-11-03: the curves show the next week, from Monday 10
+    assert int(weekday.times_ns[0]) == 1_762_732_800 * S  # Monday 2025-11-10 00:00 UTC
+    assert int(weekend.times_ns[0]) == int(weekday.times_ns[0]) + 5 * DAY
+    for k in (0, 41, 95):
+        t = int(weekday.times_ns[k])
+        total = float(np.nansum(predict_table(loaded.state, t).flow))
+        assert weekday.flows[k, 0] == pytest.approx(total, rel=1e-12, abs=1e-12)
+
+
+def test_the_timeline_draws_the_fixed_intervals(
+    fixed_map: tuple[Path, LoadedMap], tmp_path: Path
+) -> None:
+    from PIL import Image
+
+    path, loaded = fixed_map
+    written = write_report(loaded, path, tmp_path / "r", resolve_zone("UTC"))
+    assert written[0].name == "index.html"
+    assert {p.name for p in written} == {p.name for p in (tmp_path / "r").iterdir()}
+    with Image.open(tmp_path / "r" / "observed.png") as image:
+        rgb = np.asarray(image.convert("RGB"), dtype=np.float64) / 255.0
+    left = rgb[:, : rgb.shape[1] // 2]
+    blue = np.abs(left - FIXED_BLUE).max(axis=2) < 0.02
+    rows = np.flatnonzero(blue.any(axis=1))
+    assert rows.size > 0
+    # two days, one bar each: two separate bands of rows
+    assert int((np.diff(rows) > 1).sum()) == 1
+    sunday, monday = (
+        rows[: np.argmax(np.diff(rows) > 1) + 1],
+        rows[np.argmax(np.diff(rows) > 1) + 1 :],
+    )
+    # the x axis runs between the days panel's spines (its first two dark full-height columns)
+    dark = np.flatnonzero((rgb.max(axis=2) < 0.2).sum(axis=0) > rgb.shape[0] / 2)
+    midnight = int(dark[0])
+    per_hour = (int(dark[dark > midnight + 10][0]) - midnight) / 24
+    for band, hour in ((sunday, 8), (monday, 10)):  # Sunday 08:00-09:00, Monday 10:00-11:00
+        cols = np.flatnonzero(blue[int(band[band.size // 5])])  # above the triangles
+        assert cols.min() - midnight == pytest.approx(hour * per_hour, abs=3)
+        assert cols.size == pytest.approx(per_hour, abs=3)
+
+
+@pytest.mark.parametrize(
+    ("anchor", "zone", "inside", "expected"),
+    [
+        # the end of the sample (Sat 2026-01-10 00:00 UTC): the next week
+        (
+            1_768_003_200 * S,
+            "UTC",
+            False,
+            (date(2026, 1, 12), date(2026, 1, 12), date(2026, 1, 17)),
+        ),
+        # --time on a Wednesday: its week, that day, the week's Saturday
+        (1_768_392_000 * S, "UTC", True, (date(2026, 1, 12), date(2026, 1, 14), date(2026, 1, 17))),
+        # Sunday 2026-01-11 23:30 UTC is Monday 00:30 in Berlin: another week
+        (1_768_174_200 * S, "UTC", True, (date(2026, 1, 5), date(2026, 1, 5), date(2026, 1, 11))),
+        (
+            1_768_174_200 * S,
+            "Europe/Berlin",
+            True,
+            (date(2026, 1, 12), date(2026, 1, 12), date(2026, 1, 17)),
+        ),
+    ],
+)
+def test_the_days_the_curves_show(
+    anchor: int, zone: str, inside: bool, expected: tuple[date, date, date]
+) -> None:
+    assert series_days(anchor, resolve_zone(zone), inside) == expected
