@@ -53,10 +53,10 @@ def render(
         f"<h1>Map report: <code>{escape(c.map_name)}</code></h1>",
         f'<p class="sub">times in {escape(c.zone.name)}; {escape(when)}</p>',
         *_holdings(c),
+        *_topdown(c, pictures),
         *_observed(c, pictures),
         *_activity(c, pictures),
         *_busiest(c, pictures),
-        *_topdown(pictures),
         f"<footer>written by aion {escape(version)} on {escape(generated)}</footer>",
         "</body></html>",
     ]
@@ -271,11 +271,15 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
     ]
 
 
-def _topdown(pictures: Mapping[str, str | None]) -> list[str]:
+def _topdown(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
     src = pictures.get("topdown")
     if src is None:
         return []
-    return [
-        "<h2>The map from above</h2>",
-        *_figure(src, "top-down map", "The places seen from above, coloured by flow."),
-    ]
+    when = "as observed" if c.t_ns is None else f"predicted at {format_ns(c.t_ns, c.zone)}"
+    caption = (
+        f"The places and hash cells seen from above, {escape(when)} (as <code>aion export "
+        "--format png</code> draws them): an arrow along each one's dominant direction, as "
+        "long as its flow, coloured by direction entropy (blue: everyone walks one way, red: "
+        "every way); grey: no flow; dashed outlines: the rooms."
+    )
+    return ["<h2>The map from above</h2>", *_figure(src, "top-down map", caption)]

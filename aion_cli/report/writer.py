@@ -18,7 +18,7 @@ from aion_cli.report.content import ROSES, ReportContent, gather
 from aion_cli.timeparse import Zone
 
 PAGE = "index.html"
-STEPS = 7
+STEPS = 8
 """Calls of ``on_step`` a report makes (for a progress bar's total)."""
 
 
@@ -68,8 +68,8 @@ def write_report(
             plots.roses_png(roses, content.bins, folder / "roses.png").name if roses else None
         )
         step("direction roses")
-        topdown = top_down_picture(loaded, content, folder / "map.png")
-        pictures["topdown"] = None if topdown is None else topdown.name
+        pictures["topdown"] = top_down_picture(loaded, content, folder / "map.png").name
+        step("map from above")
         stamp = datetime.now(UTC).isoformat(sep=" ", timespec="seconds")
         (folder / PAGE).write_text(
             page.render(content, pictures, stamp, __version__), encoding="utf-8"
@@ -79,11 +79,11 @@ def write_report(
     return [out_dir / p.relative_to(folder) for p in written]
 
 
-def top_down_picture(loaded: Any, content: ReportContent, path: Path) -> Path | None:
-    """The top-down picture of the map for the page, written at ``path``; None: not drawn.
+def top_down_picture(loaded: Any, content: ReportContent, path: Path) -> Path:
+    """The top-down picture of the map for the page (``aion export --format png``'s
+    :func:`aion_cli.pictures.render.render_map_png`) at the report's time (as observed
+    without one), written at ``path``."""
+    from aion_cli.pictures.render import render_map_png
+    from aion_cli.report.plots import plain
 
-    WIRE HERE: the single call site for the top-down map renderer of ``aion_cli.pictures``
-    (``aion export --format png``), which did not exist when this report was written. When it
-    does, render the map at ``content.t_ns`` (historical when None) into ``path`` and return
-    ``path``; the page then shows it under "The map from above"."""
-    return None
+    return render_map_png(loaded, content.t_ns, content.zone, path, title=plain(content.map_name))

@@ -107,7 +107,7 @@ def test_the_page_refers_only_to_files_this_run_wrote(report_dir: Path) -> None:
     assert "script" not in page.tags  # no script
     assert "link" not in page.tags  # the CSS is inline
     images = [r for r in page.refs if r.endswith(".png")]
-    assert len(images) == 5  # timeline, two days, a week, the roses
+    assert len(images) == 6  # the map from above, timeline, two days, a week, the roses
     for ref in page.refs:
         assert "/" not in ref, ref  # a file beside the page: no folder, no address
         assert ":" not in ref, ref
