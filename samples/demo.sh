@@ -20,4 +20,5 @@ step "$BIN/aion" predict "$MAP" --time "2026-01-12 17:30" --tz UTC --layer rooms
 step "$BIN/aion" plan "$MAP" --from p103 --to p2 --time "2026-01-12 08:40" --tz UTC
 step "$BIN/aion" export "$MAP" --time "2026-01-12 08:40" --tz UTC -o "$OUT/export" \
     --path-from p103 --path-to p2
-printf '\nDone. Open the PLY files in %s/export with any viewer (MeshLab, CloudCompare, Open3D).\n' "$OUT"
+step "$BIN/aion" report "$MAP" --time "2026-01-12 08:40" --tz UTC -o "$OUT/report"
+printf '\nDone. Open the PLY files in %s/export with any viewer (MeshLab, CloudCompare, Open3D)\nand the report in %s/report/index.html with a browser.\n' "$OUT" "$OUT"
