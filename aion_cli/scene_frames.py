@@ -1,0 +1,124 @@
+"""A map's scenes over a time series as one MCAP file: ``aion export --format mcap`` and
+:meth:`aion_cli.Map.export` with ``format="mcap"`` (no click or rich here).
+
+Each step is the scene of ``aion predict``'s entry table at its time
+(``aion_cli.scene.scene_of_table``, the arrays the PLY export draws too), styled by
+``formats.scene_style.style_scene`` and written by ``formats.scene_mcap``. Entities are named
+by the entry ids of ``aion predict`` (``p12``, ``c<key>``), in the map's entry order, which is
+the same at every step. Sphere sizes share one scale over the whole series
+(:func:`series_flow_scale`): the busiest node of the busiest step is drawn at full size, so a
+node that grows on the timeline is busier then (a PLY series scales each folder on its own).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.timeparse import Zone
+
+if TYPE_CHECKING:
+    from aion_cli.formats.scene_style import SceneStyle
+    from aion_cli.mapquery import LoadedMap
+
+
+def export_mcap(
+    loaded: LoadedMap,
+    map_path: Any,
+    out: Path,
+    times: Sequence[int | None],
+    zone: Zone | None,
+    ends: tuple[Any, int, int] | None = None,
+    on_frame: Callable[[], None] | None = None,
+) -> Path:
+    """Write the scenes at ``times`` (None: historical) as the MCAP file ``out``, one step per
+    time logged at that time (a historical step at the end of the map's data), with the path
+    between ``ends`` (``exports.path_ends``) planned at each step; ``on_frame`` after each
+    step. ``out`` is checked before anything is computed and appears complete or not at all."""
+    from aion_cli.formats.scene_mcap import SceneMcapWriter, check_scene_target
+    from aion_cli.timeparse import format_ns
+
+    check_scene_target(out)
+    scale = series_flow_scale(loaded, times)
+    steps = [t for t in times if t is not None]
+    metadata = {
+        "map": str(map_path),
+        "mode": "predicted" if steps else "historical",
+        "steps": str(len(times)),
+        "first": format_ns(steps[0], zone) if steps and zone is not None else "",
+        "last": format_ns(steps[-1], zone) if steps and zone is not None else "",
+        "zone": zone.name if zone is not None else "",
+        "frame": "map",
+    }
+    with SceneMcapWriter(out, metadata) as writer:
+        for t_ns in times:
+            style, node_ids, cell_ids = step_scene(loaded, t_ns, ends, scale)
+            writer.write_step(_log_time(loaded, t_ns), style, node_ids, cell_ids)
+            if on_frame is not None:
+                on_frame()
+    return out
+
+
+def step_scene(
+    loaded: LoadedMap,
+    t_ns: int | None,
+    ends: tuple[Any, int, int] | None,
+    flow_scale: float | None,
+) -> tuple[SceneStyle, list[str], list[str]]:
+    """The drawn scene at ``t_ns`` (None: historical) with the path planned between ``ends``,
+    and the entry ids of its nodes and of its unbound cells (in the scene's order)."""
+    from aion_cli.engine.entries import CELL, NODE
+    from aion_cli.exports import planned_path
+    from aion_cli.formats.scene_style import style_scene
+    from aion_cli.predictions import entry_ids, entry_table
+    from aion_cli.scene import scene_of_table
+
+    table = entry_table(loaded, t_ns)
+    scene = scene_of_table(loaded, table, t_ns)
+    style = style_scene(
+        scene.nodes_xyz,
+        scene.node_flow,
+        scene.node_entropy,
+        scene.node_angle,
+        cells_xyz=scene.cells_xyz,
+        cells_flow=scene.cells_flow,
+        cells_entropy=scene.cells_entropy,
+        edges_xyz_pairs=scene.edges_xyz,
+        mesh=scene.mesh,
+        path_xyz=None if ends is None else planned_path(loaded, t_ns, ends),
+        cell_size=scene.cell_size,
+        node_concentration=scene.node_concentration,
+        flow_scale=flow_scale,
+    )
+    kind = np.asarray(table.kind)
+    ids = [
+        [str(i) for i in entry_ids(table, rows)] if len(rows) else []
+        for rows in (np.flatnonzero(kind == NODE), np.flatnonzero(kind == CELL))
+    ]
+    return style, ids[0], ids[1]
+
+
+def series_flow_scale(loaded: LoadedMap, times: Sequence[int | None]) -> float | None:
+    """The largest node flow over the scenes at ``times``: the flow drawn at full size in
+    every step of a series; None when no node has flow (each step then scales on its own, as
+    a single export does)."""
+    from aion_cli.scene import scene_at
+
+    top = 0.0
+    for t_ns in times:
+        flow = scene_at(loaded, t_ns).node_flow
+        if len(flow):
+            top = max(top, float(flow.max()))
+    return top if top > 0 else None
+
+
+def _log_time(loaded: LoadedMap, t_ns: int | None) -> int:
+    """A step's log time: its time; for the historical scene, the end of the map's data."""
+    if t_ns is not None:
+        return int(t_ns)
+    span = loaded.manifest.get("time_span")
+    end = span.get("end_ns") if isinstance(span, dict) else None
+    return int(end) if isinstance(end, int) and end >= 0 else 0

@@ -1,0 +1,297 @@
+"""A map's scenes over time as one MCAP file for Foxglove and RViz (``aion export --format mcap``).
+
+One message per time step on each scene topic, logged at the step's time, so a viewer's
+timeline scrubs through the day:
+
+- ``/aion/scene``: ``foxglove.SceneUpdate`` (protobuf, the schema from
+  ``foxglove_schemas_protobuf`` as a file descriptor set). One entity per entry whose id is
+  the entry id of ``aion predict`` (``p12``, ``c<key>``): a node is one sphere (diameter
+  ``2r``) plus an arrow along its dominant direction when it has flow, a hash cell one flat
+  cube (δ × δ × 0.02·δ); each carries ``kind``, ``flow``, ``entropy`` and ``direction_deg``
+  as metadata. The entities ``aion/edges`` (line list), ``aion/mesh`` (triangle list, indexed)
+  and ``aion/path`` (line strip) hold the rest. Every update starts with a deletion of all
+  entities older than the step, so each message is the whole scene at its time.
+- ``/aion/markers``: ``visualization_msgs/msg/MarkerArray`` (ROS 2 CDR) with the same content
+  for RViz: a ``DELETEALL`` marker first, then namespace ``nodes`` (one ``SPHERE`` per node,
+  ``text`` = the entry id), ``arrows`` (``ARROW``, the node's id), ``cells`` (one
+  ``CUBE_LIST``), ``edges`` (``LINE_LIST``), ``mesh`` (``TRIANGLE_LIST``) and ``path``
+  (``LINE_STRIP``). A node's marker id is its position in the map's entry order, which is
+  the same at every step of a file.
+- ``/tf_static``: one ``tf2_msgs/msg/TFMessage``, the identity ``world -> map``, so RViz and
+  Foxglove know the frame ``map`` every scene is drawn in.
+
+Sizes and colours come from :class:`formats.scene_style.SceneStyle` (as for PLY); line widths
+are the diameters of the PLY tubes. The file is written beside the target and renamed into
+place when complete (:class:`formats.outputs.Staged`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from aion_cli.formats.export import EDGE_GREY, PATH_GREEN, ExportWriteError
+from aion_cli.formats.outputs import OutputPathError, Staged, check_output, file_starts_with
+from aion_cli.formats.scene_markers import (
+    CELL_THICKNESS,
+    EDGE_WIDTH,
+    FRAME,
+    PATH_WIDTH,
+    marker_array,
+    tf_static,
+)
+from aion_cli.formats.scene_style import SceneStyle
+
+SCENE_TOPIC = "/aion/scene"
+MARKER_TOPIC = "/aion/markers"
+TF_STATIC_TOPIC = "/tf_static"
+MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def check_scene_target(path: Path) -> None:
+    """Refuse ``-o`` before anything is computed: a folder (``--format mcap`` writes one
+    file), a name without ``.mcap``, a device, FIFO or socket, or an existing file that is not
+    an MCAP file (an MCAP file is replaced, as a re-export replaces its PLY files)."""
+    if path.is_dir():
+        raise OutputPathError(
+            f"-o {path} is a folder: --format mcap writes one file",
+            hint=f"name the file, e.g. -o {path / 'scene.mcap'}",
+        )
+    if path.suffix.lower() != ".mcap":
+        raise OutputPathError(
+            f"--format mcap writes an .mcap file, got -o {path.name!r}", hint="e.g. -o scene.mcap"
+        )
+    check_output(
+        path,
+        overwrite=True,
+        recognise=lambda p: file_starts_with(p, MCAP_MAGIC),
+        what="an MCAP file",
+    )
+
+
+class SceneMcapWriter:
+    """Writes the scene MCAP file ``path`` (see the module docstring); a context manager: the
+    file appears at ``path`` when the block ends without an exception, and not at all
+    otherwise. ``metadata``: string pairs stored as the file's ``aion`` metadata record."""
+
+    def __init__(self, path: Path, metadata: Mapping[str, str]) -> None:
+        from mcap.writer import CompressionType, Writer
+
+        from aion_cli import __version__
+
+        self.path = path
+        try:
+            self._staged = Staged(path)
+        except OSError as exc:
+            raise _write_error(path, exc) from exc
+        try:
+            self._file: BinaryIO | None = self._staged.path.open("wb")
+            self._writer = Writer(self._file, compression=CompressionType.ZSTD)
+            self._writer.start(profile="", library=f"aion {__version__}")
+            self._channels = self._register()
+            self._writer.add_metadata("aion", dict(metadata))
+        except BaseException as exc:
+            self.abort()
+            if isinstance(exc, OSError):
+                raise _write_error(path, exc) from exc
+            raise
+        self.steps = 0
+
+    def _register(self) -> dict[str, int]:
+        from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+        from mcap_protobuf.schema import register_schema
+
+        from aion_cli.formats import msgdefs
+
+        channels = {
+            SCENE_TOPIC: self._writer.register_channel(
+                SCENE_TOPIC, "protobuf", register_schema(self._writer, SceneUpdate)
+            )
+        }
+        for topic, msgtype in ((MARKER_TOPIC, MARKER_ARRAY), (TF_STATIC_TOPIC, TF_MESSAGE)):
+            text = msgdefs.definition(msgtype, 2).encode()
+            schema = self._writer.register_schema(msgtype, "ros2msg", text)
+            channels[topic] = self._writer.register_channel(topic, "cdr", schema)
+        return channels
+
+    def write_step(
+        self, t_ns: int, style: SceneStyle, node_ids: Sequence[str], cell_ids: Sequence[str]
+    ) -> None:
+        """The scene of one time step (``t_ns``: its log time, ns since 1970, increasing)."""
+        if self._file is None:
+            raise ExportWriteError(f"{self.path} is closed")
+        if not 0 <= t_ns < 2**63:
+            raise ExportWriteError(
+                f"cannot log a scene at {t_ns} ns: MCAP times are 1970..2262",
+                hint="choose times after 1970",
+            )
+        if len(node_ids) != len(style.nodes_xyz) or len(cell_ids) != len(style.cells_xyz):
+            raise ExportWriteError("one id per node and per cell is needed")
+        try:
+            if self.steps == 0:
+                self._add(TF_STATIC_TOPIC, t_ns, tf_static(t_ns))
+            self._add(SCENE_TOPIC, t_ns, scene_update(t_ns, style, node_ids, cell_ids))
+            self._add(MARKER_TOPIC, t_ns, marker_array(t_ns, style, node_ids))
+        except OSError as exc:
+            raise _write_error(self.path, exc) from exc
+        self.steps += 1
+
+    def _add(self, topic: str, t_ns: int, data: bytes) -> None:
+        self._writer.add_message(self._channels[topic], t_ns, data, t_ns, self.steps)
+
+    def close(self) -> None:
+        """Finish the file (summary and indexes) and move it into place."""
+        if self._file is None:
+            return
+        file, self._file = self._file, None
+        try:
+            try:
+                self._writer.finish()
+            finally:
+                file.close()
+            self._staged.commit()
+        except BaseException as exc:
+            self._staged.discard()
+            if isinstance(exc, OSError):
+                raise _write_error(self.path, exc) from exc
+            raise
+
+    def abort(self) -> None:
+        """Throw the partial file away (the target stays as it was). Idempotent."""
+        file, self._file = getattr(self, "_file", None), None
+        if file is not None:
+            file.close()
+        self._staged.discard()
+
+    def __enter__(self) -> SceneMcapWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+
+def _write_error(path: Path, exc: OSError) -> ExportWriteError:
+    return ExportWriteError(
+        f"cannot write {path}: {exc.strerror or exc}",
+        hint="choose a writable folder with free space for -o",
+    )
+
+
+# -- foxglove.SceneUpdate ------------------------------------------------------------------
+
+
+def _yaw(angle: float) -> tuple[float, float, float, float]:
+    """Quaternion (x, y, z, w) of a rotation by ``angle`` about +z."""
+    return 0.0, 0.0, math.sin(angle / 2.0), math.cos(angle / 2.0)
+
+
+def _meta(value: float, digits: int = 4) -> str:
+    return f"{value:.{digits}g}" if math.isfinite(value) else "null"
+
+
+def scene_update(
+    t_ns: int, style: SceneStyle, node_ids: Sequence[str], cell_ids: Sequence[str]
+) -> bytes:
+    """The serialized ``foxglove.SceneUpdate`` of one step (see the module docstring)."""
+    from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
+    from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    update = SceneUpdate()
+    sec, nanos = divmod(int(t_ns), 1_000_000_000)
+    deletion = update.deletions.add(type=SceneEntityDeletion.ALL)
+    deletion.timestamp.seconds, deletion.timestamp.nanos = sec, nanos
+    delta = style.cell_size
+
+    def entity(entity_id: str, meta: Sequence[tuple[str, str]]) -> Any:
+        e = update.entities.add(id=entity_id, frame_id=FRAME)
+        e.timestamp.seconds, e.timestamp.nanos = sec, nanos
+        for key, value in meta:
+            e.metadata.add(key=key, value=value)
+        return e
+
+    xyz, colors = style.nodes_xyz.tolist(), style.colors.tolist()
+    diameters = (2.0 * style.radii).tolist()
+    arrow = np.isfinite(style.arrow_angle) & (style.arrow_length > 0)
+    angle_deg = np.degrees(style.angle).tolist()
+    for i, node in enumerate(node_ids):
+        e = entity(
+            node,
+            (
+                ("kind", "node"),
+                ("flow", _meta(float(style.node_flow[i]))),
+                ("entropy", _meta(float(style.node_entropy[i]))),
+                ("direction_deg", _meta(angle_deg[i], 5)),
+            ),
+        )
+        (x, y, z), (r, g, b), d = xyz[i], colors[i], diameters[i]
+        s = e.spheres.add()
+        s.pose.position.x, s.pose.position.y, s.pose.position.z = x, y, z
+        s.pose.orientation.w = 1.0
+        s.size.x = s.size.y = s.size.z = d
+        s.color.r, s.color.g, s.color.b, s.color.a = r, g, b, 1.0
+        if arrow[i]:
+            length, width = float(style.arrow_length[i]), style.arrow_width
+            a = e.arrows.add(
+                shaft_length=0.75 * length,
+                shaft_diameter=2.0 * width,
+                head_length=0.25 * length,
+                head_diameter=4.0 * width,
+            )
+            a.pose.position.x, a.pose.position.y, a.pose.position.z = x, y, z
+            o = a.pose.orientation
+            o.x, o.y, o.z, o.w = _yaw(float(style.arrow_angle[i]))
+            a.color.r, a.color.g, a.color.b, a.color.a = r, g, b, 1.0
+    c_xyz, c_colors = style.cells_xyz.tolist(), style.cell_colors.tolist()
+    for i, cell in enumerate(cell_ids):
+        e = entity(
+            cell,
+            (
+                ("kind", "cell"),
+                ("flow", _meta(float(style.cells_flow[i]))),
+                ("entropy", _meta(float(style.cells_entropy[i]))),
+            ),
+        )
+        c = e.cubes.add()
+        c.pose.position.x, c.pose.position.y, c.pose.position.z = c_xyz[i]
+        c.pose.orientation.w = 1.0
+        c.size.x, c.size.y, c.size.z = delta, delta, CELL_THICKNESS * delta
+        c.color.r, c.color.g, c.color.b = c_colors[i]
+        c.color.a = 1.0
+    lines = (
+        ("aion/edges", LinePrimitive.LINE_LIST, style.edges.reshape(-1, 3), EDGE_WIDTH, EDGE_GREY),
+        ("aion/path", LinePrimitive.LINE_STRIP, style.path, PATH_WIDTH, PATH_GREEN),
+    )
+    for name, kind, points, width, color in lines:
+        if len(points) < 2:
+            continue
+        line = entity(name, ()).lines.add(type=kind, thickness=width * delta)
+        line.pose.orientation.w = 1.0
+        line.color.r, line.color.g, line.color.b, line.color.a = (*color, 1.0)
+        for x, y, z in points.tolist():
+            line.points.add(x=x, y=y, z=z)
+    mesh = style.mesh
+    if len(mesh.faces):
+        tri = entity("aion/mesh", ()).triangles.add()
+        tri.pose.orientation.w = 1.0
+        for x, y, z in mesh.vertices.tolist():
+            tri.points.add(x=x, y=y, z=z)
+        for r, g, b in np.clip(mesh.colors, 0.0, 1.0).tolist():
+            tri.colors.add(r=r, g=g, b=b, a=1.0)
+        tri.indices.extend(mesh.faces.reshape(-1).tolist())
+    return bytes(update.SerializeToString())

@@ -1,0 +1,257 @@
+"""``aion export --format mcap``: a day series of the sample map read back with the Foxglove
+protobuf and mcap-ros2 decoders and compared with ``aion predict`` / ``aion plan``; the API's
+``Map.export(format="mcap")``; bad outputs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory as Ros2Decoders
+
+import aion_cli as aion
+from aion_cli.timeparse import parse_time, resolve_zone
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+
+REPO = Path(__file__).resolve().parents[2]
+SAMPLE = REPO / "samples" / "office.mcap"
+TIMES = ["2026-01-12 07:00", "2026-01-12 08:00", "2026-01-12 09:00"]
+UTC = resolve_zone("UTC")
+
+
+@pytest.fixture(scope="module")
+def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The bundled sample (places, two hash cells, a mesh, varied flows and entropies)."""
+    folder = tmp_path_factory.mktemp("sample")
+    out = folder / "office.aion"
+    result = run("build", SAMPLE, "-o", out, "-q")
+    assert result.exit_code == 0, result.stderr
+    return out
+
+
+def series_args(map_path: Path, out: Path, *extra: str) -> list[str | Path]:
+    return [
+        "export",
+        map_path,
+        "--from",
+        TIMES[0],
+        "--to",
+        TIMES[-1],
+        "--step",
+        "1h",
+        "--tz",
+        "UTC",
+        "--format",
+        "mcap",
+        "-o",
+        out,
+        *extra,
+    ]
+
+
+def scene_updates(path: Path) -> list[tuple[int, Any]]:
+    """(log time, SceneUpdate) per message of /aion/scene, parsed from the raw bytes."""
+    with path.open("rb") as fh:
+        return [
+            (m.log_time, SceneUpdate.FromString(m.data))
+            for _, _, m in make_reader(fh).iter_messages(topics=["/aion/scene"])
+        ]
+
+
+def ros_messages(path: Path, topic: str) -> list[Any]:
+    with path.open("rb") as fh:
+        reader = make_reader(fh, decoder_factories=[Ros2Decoders()])
+        return [d for _, _, _, d in reader.iter_decoded_messages(topics=[topic])]
+
+
+@pytest.fixture(scope="module")
+def series(sample_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("mcap") / "day.mcap"
+    result = run(*series_args(sample_map, out, "--path-from", "p103", "--path-to", "p2"))
+    assert result.exit_code == 0, result.stderr
+    assert "day.mcap" in result.stderr  # the summary goes to stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def predicted(sample_map: Path) -> list[dict[str, Any]]:
+    """``aion predict --format json`` entries at each time of the series, by id."""
+    return [
+        {
+            e["id"]: e
+            for e in run_json(
+                "predict", sample_map, "--time", t, "--tz", "UTC", "--format", "json"
+            )["entries"]
+        }
+        for t in TIMES
+    ]
+
+
+def test_one_scene_per_step_at_its_time(series: Path) -> None:
+    updates = scene_updates(series)
+    assert [t for t, _ in updates] == [parse_time(t, UTC) for t in TIMES]
+    assert len(ros_messages(series, "/aion/markers")) == len(TIMES)
+
+
+def test_entities_are_the_entries_of_predict(series: Path, predicted: list[dict[str, Any]]) -> None:
+    ids_per_step = []
+    for (_, update), entries in zip(scene_updates(series), predicted, strict=True):
+        spheres = [e.id for e in update.entities if e.spheres]
+        cubes = [e.id for e in update.entities if e.cubes]
+        assert sorted(spheres) == sorted(i for i, e in entries.items() if e["kind"] == "node")
+        assert sorted(cubes) == sorted(i for i, e in entries.items() if e["kind"] == "cell")
+        assert len(cubes) == 2
+        assert all(len(e.spheres) == 1 for e in update.entities if e.spheres)
+        for entity in update.entities:
+            if entity.spheres or entity.cubes:
+                meta = {m.key: m.value for m in entity.metadata}
+                flow = entries[entity.id]["flow"]
+                assert float(meta["flow"]) == pytest.approx(flow, rel=1e-3, abs=1e-12)
+        ids_per_step.append([e.id for e in update.entities])
+    assert ids_per_step[0] == ids_per_step[1] == ids_per_step[2]
+    assert {"aion/edges", "aion/mesh", "aion/path"} <= set(ids_per_step[0])
+
+
+def test_colours_follow_entropy_and_sizes_follow_flow(
+    series: Path, predicted: list[dict[str, Any]], sample_map: Path
+) -> None:
+    delta = aion.Map.load(sample_map).config.cell_size
+    node_flows = [
+        e["flow"] or 0.0 for step in predicted for e in step.values() if e["kind"] == "node"
+    ]
+    scale = max(node_flows)  # one scale for the whole series
+    for (_, update), entries in zip(scene_updates(series), predicted, strict=True):
+        nodes = [e for e in update.entities if e.spheres]
+        entropy = {e.id: entries[e.id]["entropy"] for e in nodes}
+        known = [e for e in nodes if entropy[e.id] is not None]
+        reddest = max(known, key=lambda e: e.spheres[0].color.r - e.spheres[0].color.b)
+        assert entropy[reddest.id] == max(entropy[e.id] for e in known)
+        for e in known:
+            c = e.spheres[0].color
+            assert (c.r, c.g, c.b) == pytest.approx((entropy[e.id], 0.0, 1.0 - entropy[e.id]))
+        flow = np.array([entries[e.id]["flow"] or 0.0 for e in nodes])
+        size = np.array([e.spheres[0].size.x for e in nodes])
+        np.testing.assert_allclose(size, 2 * delta * (0.2 + 0.8 * np.minimum(flow / scale, 1)))
+        order = np.argsort(flow, kind="stable")
+        assert np.all(np.diff(size[order]) >= 0)
+    biggest = max(
+        e.spheres[0].size.x for _, u in scene_updates(series) for e in u.entities if e.spheres
+    )
+    assert biggest == pytest.approx(2 * delta)  # the busiest node of the day at full size
+
+
+def test_markers_have_the_same_content(series: Path) -> None:
+    for (_, update), markers in zip(
+        scene_updates(series), ros_messages(series, "/aion/markers"), strict=True
+    ):
+        assert markers.markers[0].action == 3  # DELETEALL first
+        nodes = [m for m in markers.markers if m.ns == "nodes"]
+        spheres = {e.id: e.spheres[0] for e in update.entities if e.spheres}
+        assert [m.text for m in nodes] == list(spheres)
+        assert [m.id for m in nodes] == list(range(len(nodes)))
+        for m in nodes:
+            assert m.scale.x == pytest.approx(spheres[m.text].size.x)
+            assert m.color.r == pytest.approx(spheres[m.text].color.r, abs=1e-6)
+        arrows = [m.text for m in markers.markers if m.ns == "arrows"]
+        assert arrows == [e.id for e in update.entities if e.arrows]
+        (cells,) = [m for m in markers.markers if m.ns == "cells"]
+        assert len(cells.points) == sum(1 for e in update.entities if e.cubes)
+        assert {m.ns for m in markers.markers} == {
+            "",
+            "nodes",
+            "arrows",
+            "cells",
+            "edges",
+            "mesh",
+            "path",
+        }
+    (tf,) = ros_messages(series, "/tf_static")
+    assert [(t.header.frame_id, t.child_frame_id) for t in tf.transforms] == [("world", "map")]
+
+
+def test_the_path_is_the_plan_at_each_step(
+    series: Path, sample_map: Path, predicted: list[dict[str, Any]]
+) -> None:
+    for (_, update), t, entries in zip(scene_updates(series), TIMES, predicted, strict=True):
+        plan = run_json(
+            "plan", sample_map, "--from", "p103", "--to", "p2", "--time", t, "--tz", "UTC",
+            "--format", "json",
+        )  # fmt: skip
+        (path,) = [e.lines[0] for e in update.entities if e.id == "aion/path"]
+        points = [(p.x, p.y, p.z) for p in path.points]
+        nodes = plan["temporal"]["path"]
+        assert len(points) == len(nodes)
+        want = [(entries[n]["x"], entries[n]["y"], entries[n]["z"]) for n in nodes]
+        np.testing.assert_allclose(points, want, atol=1e-6)
+
+
+def test_no_path_historical_and_the_api(sample_map: Path, tmp_path: Path) -> None:
+    out = tmp_path / "hist.mcap"
+    result = run("export", sample_map, "--historical", "--format", "mcap", "-o", out)
+    assert result.exit_code == 0, result.stderr
+    ((_, update),) = scene_updates(out)
+    ids = [e.id for e in update.entities]
+    assert "aion/path" not in ids
+    history = run_json("predict", sample_map, "--historical", "--format", "json")["entries"]
+    assert sorted(i for i in ids if not i.startswith("aion/")) == sorted(e["id"] for e in history)
+    # the API writes the same scene as the CLI
+    cli = tmp_path / "cli.mcap"
+    run("export", sample_map, "--time", TIMES[1], "--tz", "UTC", "--format", "mcap", "-o", cli)
+    files = aion.Map.load(sample_map).export(
+        tmp_path / "api.mcap", time=TIMES[1], tz="UTC", format="mcap"
+    )
+    assert files == [tmp_path / "api.mcap"]
+    assert scene_updates(files[0]) == scene_updates(cli)
+
+
+def test_existing_mcap_is_replaced_other_files_refused(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "scene.mcap"
+    for _ in range(2):  # the second run replaces the first file
+        result = run("export", office.map, "--historical", "--format", "mcap", "-o", out)
+        assert result.exit_code == 0, result.stderr
+    assert len(scene_updates(out)) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.mcap"]
+    notes = tmp_path / "notes.mcap"
+    notes.write_text("keep me")
+    result = run("export", office.map, "--historical", "--format", "mcap", "-o", notes)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "not an MCAP file")
+    assert notes.read_text() == "keep me"
+
+
+@pytest.mark.parametrize(
+    ("target", "fragment"),
+    [
+        ("folder", "is a folder"),
+        ("scene.ply", ".mcap"),
+        ("blocker/scene.mcap", "cannot write"),
+    ],
+)
+def test_bad_outputs(office: Office, tmp_path: Path, target: str, fragment: str) -> None:
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "folder" / "keep.txt").write_text("x")
+    (tmp_path / "blocker").write_text("a file where a folder is needed")
+    result = run(
+        "export", office.map, "--time", "2026-11-23 08:30", "--format", "mcap",
+        "-o", tmp_path / target,
+    )  # fmt: skip
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, fragment)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker", "folder"]
+    assert [p.name for p in (tmp_path / "folder").iterdir()] == ["keep.txt"]
+
+
+def test_bad_path_ids_fail_before_writing(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    result = run(
+        "export", office.map, "--time", "2026-11-23 08:30", "--format", "mcap", "-o", out,
+        "--path-from", "p0", "--path-to", "p77",
+    )  # fmt: skip
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "p77")
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []
