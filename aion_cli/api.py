@@ -300,11 +300,13 @@ class Map:
     ) -> list[Path]:
         """Write the scene (PLY or PCD) and ``entries.csv`` / ``entries.json`` at ``time``
         (or as observed) into ``folder``, optionally with the path planned between
-        ``path = (start, goal)``; the files written (as ``aion export``)."""
+        ``path = (start, goal)``; the files written (as ``aion export``). ``format="mcap"``
+        writes the scene as the one MCAP file ``folder`` names (``scene.mcap``, for Foxglove
+        and RViz; as ``aion export --format mcap``)."""
         from aion_cli.exports import export_frames, path_ends
 
-        if format not in ("ply", "pcd"):
-            raise InputError(f"unknown export format {format!r}", hint="ply or pcd")
+        if format not in ("ply", "pcd", "mcap"):
+            raise InputError(f"unknown export format {format!r}", hint="ply, pcd or mcap")
         if historical and time is not None:
             raise InputError("choose time or historical=True, not both")
         times: list[int | None]
@@ -319,6 +321,10 @@ class Map:
             ends = path_ends(self._loaded, str(path[0]), str(path[1]))
         out = Path(os.fspath(folder))
         label = str(self.path) if self.path is not None else "<memory>"
+        if format == "mcap":
+            from aion_cli.scene_frames import export_mcap
+
+            return [export_mcap(self._loaded, label, out, times, zone, ends)]
         return export_frames(self._loaded, label, out, times, zone, format, ends)
 
     # -- saving ------------------------------------------------------------------------------
