@@ -1,0 +1,165 @@
+"""``aion export --format png`` and ``aion plan --png``: PNG pictures of the office map read
+back (matplotlib's PNG reader), panels counted, path colours found, bad targets refused."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from aion_cli.formats.export import PATH_GREEN
+from aion_cli.pictures.plan import DISTANCE_ORANGE, TEMPORAL_GREEN
+from aion_cli.pictures.render import PNG_MAGIC
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
+from tests.pictures.pixels import count_near, panel_count, read_png
+
+AT = "2026-11-23 08:30"
+BLUE = (0.0, 0.0, 1.0)
+
+
+def test_one_time_is_one_panel_with_the_flows(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "map.png"
+    result = run("export", office.map, "--time", AT, "--format", "png", "-o", out)
+    assert result.exit_code == 0, result.stderr
+    assert f"wrote {out}" in result.stderr.replace("\n", "")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["map.png"]
+    image = read_png(out)
+    assert panel_count(image) == 1
+    # track 1 walks +x past p1 all the time: one direction, entropy ~0, drawn blue
+    predicted = run_json("predict", office.map, "--time", AT, "--node", "p1", "--format", "json")
+    assert predicted["entries"][0]["entropy"] < 0.2
+    assert count_near(image, BLUE, tol=0.25) > 20
+
+
+def test_series_is_small_multiples_with_the_path(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "day.png"
+    result = run(
+        "export",
+        office.map,
+        "--from",
+        "2026-11-23 08:00",
+        "--to",
+        "2026-11-23 09:00",
+        "--step",
+        "30m",
+        "--format",
+        "png",
+        "-o",
+        out,
+        "--path-from",
+        "p0",
+        "--path-to",
+        "p4",
+    )
+    assert result.exit_code == 0, result.stderr
+    image = read_png(out)
+    assert panel_count(image) == 3
+    assert count_near(image, PATH_GREEN, tol=0.1) > 3 * 50  # the path in every panel
+    single = tmp_path / "one.png"
+    assert run("export", office.map, "--historical", "--format", "png", "-o", single).exit_code == 0
+    assert count_near(read_png(single), PATH_GREEN, tol=0.1) == 0  # no path asked for
+
+
+def test_an_existing_png_is_replaced(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "map.png"
+    out.write_bytes(PNG_MAGIC + b"old")
+    assert run("export", office.map, "--historical", "--format", "png", "-o", out).exit_code == 0
+    assert panel_count(read_png(out)) == 1
+
+
+@pytest.mark.parametrize(
+    ("target", "fragment"),
+    [
+        ("folder", "is a folder"),
+        ("missing/map.png", "does not exist"),
+        ("map.jpg", ".png"),
+        ("notes.png", "not a PNG file"),
+    ],
+)
+def test_bad_png_targets_exit_2(office: Office, tmp_path: Path, target: str, fragment: str) -> None:
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "notes.png").write_text("keep me")
+    result = run("export", office.map, "--time", AT, "--format", "png", "-o", tmp_path / target)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, fragment)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder", "notes.png"]
+    assert (tmp_path / "notes.png").read_text() == "keep me"
+    assert list((tmp_path / "folder").iterdir()) == []
+
+
+def test_too_many_panels_hints_a_larger_step(office: Office, tmp_path: Path) -> None:
+    whole_day = run(
+        "export", office.map, "--from", "2026-11-23 00:00", "--to", "2026-11-23 23:00",
+        "--format", "png", "-o", tmp_path / "24.png",
+    )  # fmt: skip
+    assert whole_day.exit_code == 0, whole_day.stderr  # 24 hourly panels: the most there is
+    assert panel_count(read_png(tmp_path / "24.png")) == 24
+    (tmp_path / "24.png").unlink()
+    result = run(
+        "export",
+        office.map,
+        "--from",
+        "2026-11-23 06:00",
+        "--to",
+        "2026-11-23 20:00",
+        "--step",
+        "30m",
+        "--format",
+        "png",
+        "-o",
+        tmp_path / "day.png",
+    )
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "29 panels", "24")
+    assert "--step" in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_plan_png_shows_both_routes(office: Office, tmp_path: Path) -> None:
+    out = tmp_path / "plan.png"
+    args: list[str | Path] = [
+        "plan",
+        office.map,
+        "--from",
+        "p0",
+        "--to",
+        "p4",
+        "--time",
+        AT,
+        "--format",
+        "json",
+    ]
+    doc = run_json(*args, "--png", out)
+    assert doc["png"] == str(out)
+    plain = run_json(*args)
+    assert {k: v for k, v in doc.items() if k != "png"} == plain  # the same plan
+    image = read_png(out)
+    assert panel_count(image) == 1
+    assert count_near(image, TEMPORAL_GREEN, tol=0.1) > 50
+    assert count_near(image, DISTANCE_ORANGE, tol=0.1) > 50
+
+
+def test_plan_png_into_a_missing_folder_exits_2_before_planning(
+    office: Office, tmp_path: Path
+) -> None:
+    result = run(
+        "plan", office.map, "--from", "p0", "--to", "p4", "--time", AT,
+        "--png", tmp_path / "nowhere" / "plan.png",
+    )  # fmt: skip
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "--png", "does not exist")
+    assert result.stdout == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_plan_png_in_a_subprocess(office: Office, tmp_path: Path) -> None:
+    """The console script draws without a display (Agg, no pyplot)."""
+    out = tmp_path / "plan.png"
+    proc = run_process(
+        "plan", office.map, "--from", "p0", "--to", "p3", "--time", AT, "--png", out,
+        "--format", "json",
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["png"] == str(out)
+    assert out.read_bytes().startswith(PNG_MAGIC)

@@ -1,0 +1,76 @@
+"""Writing pictures: the PNG target rules (exit-2 input errors before any work) and the
+atomic write (no partial file, no staging folder left behind)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from aion_cli.errors import InputError
+from aion_cli.formats.outputs import OutputPathError
+from aion_cli.pictures.render import PNG_MAGIC, check_png_target, save_png, time_title
+from aion_cli.pictures.topdown import topdown_figure
+from aion_cli.timeparse import parse_time, resolve_zone
+from tests.pictures.pixels import synthetic_scene
+
+
+def _figure() -> object:
+    return topdown_figure([synthetic_scene()], ["t"], dpi=40)
+
+
+def test_writes_a_png_and_replaces_only_pngs(tmp_path: Path) -> None:
+    out = tmp_path / "map.png"
+    save_png(_figure(), out)
+    first = out.read_bytes()
+    assert first.startswith(PNG_MAGIC)
+    save_png(_figure(), out)  # an existing PNG is replaced
+    assert out.read_bytes().startswith(PNG_MAGIC)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["map.png"]  # no staging left
+    other = tmp_path / "notes.png"
+    other.write_text("my notes")
+    with pytest.raises(OutputPathError, match="not a PNG file"):
+        save_png(_figure(), other)
+    assert other.read_text() == "my notes"
+
+
+@pytest.mark.parametrize(
+    ("name", "error", "fragment"),
+    [
+        ("folder", OutputPathError, "is a folder"),
+        ("missing/map.png", OutputPathError, "does not exist"),
+        ("map.jpg", InputError, ".png"),
+    ],
+)
+def test_bad_targets(tmp_path: Path, name: str, error: type, fragment: str) -> None:
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(error, match=fragment):
+        check_png_target(tmp_path / name, "--png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"]
+
+
+def test_a_device_is_refused() -> None:
+    with pytest.raises(OutputPathError, match="device"):
+        check_png_target(Path("/dev/null"))
+
+
+def test_a_failed_draw_leaves_nothing(tmp_path: Path) -> None:
+    class Broken:
+        dpi = 40
+
+        def savefig(self, path: Path, **kwargs: object) -> None:
+            Path(path).write_bytes(PNG_MAGIC)  # half a picture, then the disk fills
+            raise OSError(28, "No space left on device")
+
+    with pytest.raises(InputError, match="No space left"):
+        save_png(Broken(), tmp_path / "map.png")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_titles_are_in_the_maps_zone() -> None:
+    zone = resolve_zone("Europe/Berlin")
+    t = parse_time("2026-01-12 08:40", zone)
+    assert time_title(t, zone) == "Mon 2026-01-12 08:40 Europe/Berlin"
+    assert time_title(t, resolve_zone("UTC")) == "Mon 2026-01-12 07:40 UTC"
+    assert time_title(t, zone, clock_only=True) == "08:40"
+    assert "historical" in time_title(None, None)

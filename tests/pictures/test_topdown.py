@@ -1,0 +1,152 @@
+"""The top-down picture, checked by its pixels: a synthetic scene of known geometry is drawn
+at a fixed dpi, written as PNG, read back, and the pixels at the data -> pixel positions of
+its places, arrows and empty space are compared with what the drawing rules say."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from aion_cli.errors import InputError
+from aion_cli.formats.export import entropy_colors
+from aion_cli.pictures.render import save_png
+from aion_cli.pictures.topdown import ARROW_CELLS, ENTROPY_LABEL, MAX_PANELS, topdown_figure
+from aion_cli.scene import Scene
+from tests.pictures.pixels import (
+    F64,
+    darkest,
+    is_blank,
+    most_coloured,
+    panel_count,
+    pixel_of,
+    read_png,
+    synthetic_scene,
+)
+
+DPI = 100
+L = ARROW_CELLS * 0.5  # the full arrow length of the synthetic scene (cell 0.5 m)
+
+
+def _drawn(
+    tmp_path: Path, scenes: list[Scene], name: str = "map.png"
+) -> tuple[Any, list[Any], F64]:
+    fig = topdown_figure(scenes, [f"panel {i}" for i in range(len(scenes))], dpi=DPI)
+    out = save_png(fig, tmp_path / name)
+    image = read_png(out)
+    assert image.shape[:2] == (
+        round(fig.get_figheight() * DPI),
+        round(fig.get_figwidth() * DPI),
+    )
+    panels = [ax for ax in fig.axes if ax.get_title().startswith("panel")]
+    return fig, panels, image
+
+
+def test_arrows_are_drawn_along_the_dominant_direction_and_empty_space_is_blank(
+    tmp_path: Path,
+) -> None:
+    _, (ax,), image = _drawn(tmp_path, [synthetic_scene()])
+    # A points along +x: its shaft is coloured halfway along, nothing behind it
+    assert not is_blank(image, *pixel_of(ax, image, L / 2, 0.0))
+    assert is_blank(image, *pixel_of(ax, image, -L / 2 - 0.3, 0.0))
+    # B points along +y
+    assert not is_blank(image, *pixel_of(ax, image, 8.0, L / 2))
+    assert is_blank(image, *pixel_of(ax, image, 8.0, -L / 2 - 0.3))
+    # nothing lives around (7, 7) and beyond the last place
+    assert is_blank(image, *pixel_of(ax, image, 7.0, 7.0))
+    assert is_blank(image, *pixel_of(ax, image, 6.0, 9.0))
+    # the edge A-C is a grey line, the mesh triangle light grey, the cell purple
+    edge = darkest(image, *pixel_of(ax, image, 0.0, 4.0), half=1)
+    assert edge.max() - edge.min() < 0.05
+    assert edge.max() < 0.85
+    mesh = image[pixel_of(ax, image, -3.0, 4.7)]
+    assert np.allclose(mesh, 0.9, atol=0.02)
+    cell = image[pixel_of(ax, image, 4.0, 6.0)]
+    assert abs(cell[0] - cell[2]) < 0.05  # purple: as red as blue
+    assert cell[1] < 0.3
+    assert cell[0] > 0.4
+
+
+def test_arrow_colour_follows_entropy(tmp_path: Path) -> None:
+    _, (ax,), image = _drawn(tmp_path, [synthetic_scene(entropy_a=0.1, entropy_b=0.9)])
+    low = most_coloured(image, *pixel_of(ax, image, L / 2, 0.0))
+    high = most_coloured(image, *pixel_of(ax, image, 8.0, L / 2))
+    assert low[0] - low[2] < -0.5  # blue: one direction
+    assert high[0] - high[2] > 0.5  # red: every direction
+    assert high[0] - high[2] > low[0] - low[2]
+    # the exact colours of formats.export.entropy_colors
+    assert np.allclose(low, entropy_colors([0.1])[0], atol=0.12)
+    assert np.allclose(high, entropy_colors([0.9])[0], atol=0.12)
+
+
+def test_colour_bar_is_labelled_and_axes_are_metres(tmp_path: Path) -> None:
+    fig, (ax,), _ = _drawn(tmp_path, [synthetic_scene()])
+    labels = [a.get_ylabel() for a in fig.axes if a is not ax]
+    assert ENTROPY_LABEL in labels
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (m)", "y (m)")
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    box = ax.get_window_extent()
+    assert box.width / (x1 - x0) == pytest.approx(box.height / (y1 - y0), rel=0.01)  # equal
+
+
+def test_small_multiples_share_the_flow_scale(tmp_path: Path) -> None:
+    """Five panels; the flows are 10 in the first and 5 in the others, so on the shared
+    scale node A's arrow is full length in the first panel and half as long in the others
+    (each panel on its own scale would draw it full length in every panel)."""
+    scenes = [synthetic_scene(flow_a=10.0 if k == 0 else 5.0, flow_b=5.0) for k in range(5)]
+    fig, panels, image = _drawn(tmp_path, scenes)
+    assert len(panels) == 5
+    assert panel_count(image) == 5
+    far = [is_blank(image, *pixel_of(ax, image, 0.8 * L, 0.0), half=1) for ax in panels]
+    near = [is_blank(image, *pixel_of(ax, image, 0.25 * L, 0.0), half=1) for ax in panels]
+    assert far == [False, True, True, True, True]
+    assert near == [False] * 5
+    limits = {(ax.get_xlim(), ax.get_ylim()) for ax in panels}
+    assert len(limits) == 1  # shared axes
+    bars = [a for a in fig.axes if a.get_ylabel() == ENTROPY_LABEL]
+    assert len(bars) == 1  # one colour bar for all panels
+
+
+@pytest.mark.parametrize("n", [1, 3, 7])
+def test_panel_count_is_the_number_of_scenes(tmp_path: Path, n: int) -> None:
+    _, panels, image = _drawn(tmp_path, [synthetic_scene() for _ in range(n)])
+    assert len(panels) == n
+    assert panel_count(image) == n
+
+
+def test_too_many_panels_is_an_input_error() -> None:
+    with pytest.raises(InputError, match="25 panels"):
+        topdown_figure([synthetic_scene()] * (MAX_PANELS + 1), ["t"] * (MAX_PANELS + 1))
+    with pytest.raises(InputError):
+        topdown_figure([], [])
+
+
+def test_a_scene_without_flow_or_graph_draws(tmp_path: Path) -> None:
+    """A map of hash cells only (no graph, no flow): cells are grey squares, no arrows."""
+    import dataclasses
+
+    empty = np.zeros((0, 3))
+    scene = dataclasses.replace(
+        synthetic_scene(),
+        node_ids=np.zeros(0, np.uint64),
+        nodes_xyz=empty,
+        node_flow=np.zeros(0),
+        node_entropy=np.zeros(0),
+        node_angle=np.zeros(0),
+        node_concentration=np.zeros(0),
+        cells_flow=np.array([0.0]),
+        places_xyz=empty,
+        edges_xyz=np.zeros((0, 2, 3)),
+        room_ids=np.zeros(0, np.uint64),
+        room_labels=(),
+        room_xyz=empty,
+        place_room=np.zeros(0, np.int64),
+        mesh=None,
+    )
+    _, (ax,), image = _drawn(tmp_path, [scene])
+    grey = image[pixel_of(ax, image, 4.0, 6.0)]
+    assert grey.max() - grey.min() < 0.03  # no flow: grey
+    assert grey.max() < 0.7
