@@ -6,6 +6,7 @@
     t.records()                                          # dicts, as predict --format json
     p = m.plan("p12", "p87", time="2026-11-23 08:30")    # -> aion.Plan (+ .distance_only)
     m.export("out/", time="2026-11-23 08:30")
+    m.picture("map.png", time="2026-11-23 08:30")       # the map from above, as PNG
     m.save("copy.aion")
 
 Paths are ``str`` or ``os.PathLike``. Times are aion time strings (``"2026-11-23 08:30"``,
@@ -326,6 +327,31 @@ class Map:
 
             return [export_mcap(self._loaded, label, out, times, zone, ends)]
         return export_frames(self._loaded, label, out, times, zone, format, ends)
+
+    def picture(
+        self,
+        file: PathLike,
+        *,
+        time: TimeLike | None = None,
+        historical: bool = False,
+        tz: str | None = None,
+        path: tuple[str | int, str | int] | None = None,
+    ) -> Path:
+        """The map from above at ``time`` (or as observed) as the PNG file ``file``, with the
+        path planned between ``path = (start, goal)``; the file written (as ``aion export
+        --format png``)."""
+        from aion_cli.exports import path_ends
+        from aion_cli.pictures.render import export_png
+
+        if historical and time is not None:
+            raise InputError("choose time or historical=True, not both")
+        when: int | None = None
+        zone = None
+        if not historical:
+            when, zone = self._time("now" if time is None else time, tz)
+        ends = None if path is None else path_ends(self._loaded, str(path[0]), str(path[1]))
+        name = self.path.name if self.path is not None else "<memory>"
+        return export_png(self._loaded, name, Path(os.fspath(file)), [when], zone, ends)
 
     # -- saving ------------------------------------------------------------------------------
 
