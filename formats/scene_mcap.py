@@ -18,7 +18,8 @@ timeline scrubs through the day:
   (``LINE_STRIP``). A node's marker id is its position in the map's entry order, which is
   the same at every step of a file.
 - ``/tf_static``: one ``tf2_msgs/msg/TFMessage``, the identity ``world -> map``, so RViz and
-  Foxglove know the frame ``map`` every scene is drawn in.
+  Foxglove know the frame ``map`` every scene is drawn in (its channel carries rosbag2's
+  latched QoS, for ``ros2 bag play``).
 
 Sizes and colours come from :class:`formats.scene_style.SceneStyle` (as for PLY); line widths
 are the diameters of the PLY tubes. The file is written beside the target and renamed into
@@ -53,6 +54,14 @@ TF_STATIC_TOPIC = "/tf_static"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 MCAP_MAGIC = b"\x89MCAP0\r\n"
+_NO_LIMIT = "\n    sec: 0\n    nsec: 0"
+LATCHED_QOS = (
+    "- history: 1\n  depth: 1\n  reliability: 1\n  durability: 1\n"
+    f"  deadline:{_NO_LIMIT}\n  lifespan:{_NO_LIMIT}\n  liveliness: 1\n"
+    f"  liveliness_lease_duration:{_NO_LIMIT}\n  avoid_ros_namespace_conventions: false\n"
+)
+"""rosbag2's QoS of ``/tf_static`` (keep last 1, reliable, transient local: latched), so a
+``ros2 bag play`` of the file offers it as a static transform publisher does."""
 
 
 def check_scene_target(path: Path) -> None:
@@ -118,7 +127,8 @@ class SceneMcapWriter:
         for topic, msgtype in ((MARKER_TOPIC, MARKER_ARRAY), (TF_STATIC_TOPIC, TF_MESSAGE)):
             text = msgdefs.definition(msgtype, 2).encode()
             schema = self._writer.register_schema(msgtype, "ros2msg", text)
-            channels[topic] = self._writer.register_channel(topic, "cdr", schema)
+            latched = {"offered_qos_profiles": LATCHED_QOS} if topic == TF_STATIC_TOPIC else {}
+            channels[topic] = self._writer.register_channel(topic, "cdr", schema, latched)
         return channels
 
     def write_step(

@@ -26,7 +26,7 @@ Examples:
   aion export office.aion --time "2026-11-23 08:30" --format png -o map.png
   aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 2h \
       --format png -o day.png
-  aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h \
+  aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h \\
       --format mcap -o day.mcap --path-from p12 --path-to p87
 
 \b
@@ -88,7 +88,7 @@ def _step_seconds(text: str) -> float:
 
 @click.command(
     "export",
-    short_help="Write PLY/PCD scenes and CSV/JSON tables.",
+    short_help="Write PLY/PCD/MCAP scenes, PNG pictures and CSV/JSON tables.",
     cls=AionCommand,
     epilog=EPILOG,
     advanced=("tz",),
@@ -137,7 +137,7 @@ def command(
     path_from: str | None,
     path_to: str | None,
 ) -> None:
-    """Export MAP as 3D scenes (PLY/PCD) and tables (CSV/JSON) for viewers and scripts."""
+    """Export MAP as 3D scenes (PLY/PCD, MCAP over time), pictures (PNG) and tables (CSV/JSON)."""
     from aion_cli.cli.common import load
     from aion_cli.cli.console import console, progress
     from aion_cli.cli.output import markup_safe

@@ -4,6 +4,8 @@ protobuf and mcap-ros2 decoders and compared with ``aion predict`` / ``aion plan
 
 from __future__ import annotations
 
+import importlib.abc
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -255,3 +257,25 @@ def test_bad_path_ids_fail_before_writing(office: Office, tmp_path: Path) -> Non
     assert_one_line_error(result.stderr, "p77")
     assert not out.exists()
     assert list(tmp_path.iterdir()) == []
+
+
+class _NoOpen3d(importlib.abc.MetaPathFinder):
+    """A core install: the ``export`` extra (open3d) is not there."""
+
+    def find_spec(self, fullname: str, path: object, target: object = None) -> None:
+        if fullname == "open3d" or fullname.startswith("open3d."):
+            raise ModuleNotFoundError(f"No module named {fullname!r}", name=fullname)
+
+
+def test_mcap_needs_no_open3d(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A core install (no ``aion[export]``) writes MCAP scenes: only PLY/PCD need open3d."""
+    for name in [n for n in sys.modules if n == "open3d" or n.startswith("open3d.")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setattr(sys, "meta_path", [_NoOpen3d(), *sys.meta_path])
+    out = tmp_path / "s.mcap"
+    result = run("export", office.map, "--time", "2026-11-23 08:30", "--format", "mcap", "-o", out)
+    assert result.exit_code == 0, result.stderr
+    assert len(scene_updates(out)) == 1
+    assert "open3d" not in sys.modules

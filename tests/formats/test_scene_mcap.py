@@ -15,6 +15,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoders
 from mcap_ros2.decoder import DecoderFactory as Ros2Decoders
+from ruamel.yaml import YAML
 
 from aion_cli.engine.types import Mesh
 from aion_cli.formats import msgdefs
@@ -101,6 +102,8 @@ def test_topics_schemas_and_one_message_per_step(tmp_path: Path) -> None:
         "/aion/markers": ("visualization_msgs/msg/MarkerArray", "ros2msg"),
         "/tf_static": ("tf2_msgs/msg/TFMessage", "ros2msg"),
     }
+    qos = YAML(typ="safe").load(channels["/tf_static"].metadata["offered_qos_profiles"])
+    assert [(q["durability"], q["reliability"], q["depth"]) for q in qos] == [(1, 1, 1)]  # latched
     assert {t: c.message_encoding for t, c in channels.items()} == {
         "/aion/scene": "protobuf",
         "/aion/markers": "cdr",
