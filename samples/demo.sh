@@ -17,9 +17,12 @@ step "$BIN/aion" info "$LOG"
 step "$BIN/aion" build "$LOG" -o "$MAP"
 step "$BIN/aion" predict "$MAP" --time "2026-01-12 08:40" --tz UTC --top 8
 step "$BIN/aion" predict "$MAP" --time "2026-01-12 17:30" --tz UTC --layer rooms
-step "$BIN/aion" plan "$MAP" --from p103 --to p2 --time "2026-01-12 08:40" --tz UTC
+step "$BIN/aion" plan "$MAP" --from p103 --to p2 --time "2026-01-12 08:40" --tz UTC \
+    --png "$OUT/plan.png"
 step "$BIN/aion" export "$MAP" --time "2026-01-12 08:40" --tz UTC -o "$OUT/export" \
     --path-from p103 --path-to p2
+step "$BIN/aion" export "$MAP" --from "2026-01-12 06:00" --to "2026-01-12 20:00" --step 2h --tz UTC \
+    --format png -o "$OUT/map.png"
 step "$BIN/aion" report "$MAP" --time "2026-01-12 08:40" --tz UTC -o "$OUT/report"
 step "$BIN/aion" export "$MAP" --from "2026-01-12 06:00" --to "2026-01-12 20:00" --step 1h --tz UTC \
     --format mcap -o "$OUT/scene.mcap" --path-from p103 --path-to p2
