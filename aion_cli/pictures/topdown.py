@@ -97,8 +97,7 @@ def entropy_cmap() -> Any:
     from matplotlib.colors import LinearSegmentedColormap
 
     cmap = LinearSegmentedColormap.from_list("aion_entropy", [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0)])
-    cmap.set_bad(NO_FLOW_GREY)
-    return cmap
+    return cmap.with_extremes(bad=NO_FLOW_GREY)
 
 
 def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Extent:

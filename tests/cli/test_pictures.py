@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from aion_cli.errors import InputError
 from aion_cli.formats.export import PATH_GREEN
 from aion_cli.pictures.plan import DISTANCE_ORANGE, TEMPORAL_GREEN
 from aion_cli.pictures.render import PNG_MAGIC
@@ -163,3 +164,19 @@ def test_plan_png_in_a_subprocess(office: Office, tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["png"] == str(out)
     assert out.read_bytes().startswith(PNG_MAGIC)
+
+
+def test_the_api_draws_what_the_cli_draws(office: Office, tmp_path: Path) -> None:
+    from aion_cli.api import Map
+
+    cli_out = tmp_path / "cli.png"
+    args = ["--time", AT, "--tz", "UTC", "--path-from", "p0", "--path-to", "p4"]
+    assert run("export", office.map, *args, "--format", "png", "-o", cli_out).exit_code == 0
+    m = Map.load(office.map)
+    out = m.picture(tmp_path / "api.png", time=AT, tz="UTC", path=("p0", "p4"))
+    assert out == tmp_path / "api.png"
+    assert out.read_bytes() == cli_out.read_bytes()
+    with pytest.raises(InputError, match="not both"):
+        m.picture(tmp_path / "x.png", time=AT, historical=True)
+    with pytest.raises(InputError, match="is a folder"):
+        m.picture(tmp_path, historical=True)
