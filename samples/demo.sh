@@ -26,4 +26,4 @@ step "$BIN/aion" export "$MAP" --from "2026-01-12 06:00" --to "2026-01-12 20:00"
 step "$BIN/aion" report "$MAP" --time "2026-01-12 08:40" --tz UTC -o "$OUT/report"
 step "$BIN/aion" export "$MAP" --from "2026-01-12 06:00" --to "2026-01-12 20:00" --step 1h --tz UTC \
     --format mcap -o "$OUT/scene.mcap" --path-from p103 --path-to p2
-printf '\nDone. Open the PLY files in %s/export with any viewer (MeshLab, CloudCompare, Open3D),\nthe report in %s/report/index.html with a browser, and %s/scene.mcap in Foxglove\n(https://app.foxglove.dev: open the file, add a 3D panel, scrub the timeline through the day).\n' "$OUT" "$OUT" "$OUT"
+printf '\nDone. Open the PLY files in %s/export with any viewer (MeshLab, CloudCompare, Open3D),\nthe report in %s/report/index.html with a browser, and %s/scene.mcap in Foxglove\n(https://app.foxglove.dev: open the file, add a 3D panel, scrub the timeline through the day).\nThe pictures: %s/map.png (the day from above) and %s/plan.png (both paths).\n' "$OUT" "$OUT" "$OUT" "$OUT" "$OUT"
