@@ -36,6 +36,7 @@ if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
+    from aion_cli.merging import MergeReport
     from aion_cli.routes import Route, Routes
     from aion_cli.timeparse import Zone
 
@@ -167,11 +168,11 @@ class Map:
         self,
         loaded: LoadedMap,
         path: Path | None = None,
-        report: BuildReport | None = None,
+        report: BuildReport | MergeReport | None = None,
     ) -> None:
         self._loaded = loaded
         self.path = path
-        #: what the build did, for a map returned by :func:`build` (else None)
+        #: what the build (:func:`build`) or the merge (:func:`merge`) did (else None)
         self.report = report
 
     @classmethod
@@ -459,6 +460,36 @@ def build(
         detections_mapping=opt(detections_mapping),
     )
     report = build_map(opts, progress)
+    made = Map.load(report.output)
+    made.report = report
+    return made
+
+
+def merge(
+    paths: Sequence[PathLike],
+    output: PathLike,
+    *,
+    graph: PathLike | None = None,
+    lineage: str = "auto",
+    nav_layer: str | None = None,
+    progress: ProgressSink | None = None,
+) -> Map:
+    """Merge map files of disjoint time into ``output``, as ``aion merge``
+    (:func:`aion_cli.merging.merge_map_files`: same model parameters, no log in two maps,
+    ``lineage`` auto / same / different, ``graph`` a Hydra graph file to bind to); the merged
+    map, with what the merge did in ``Map.report`` (a ``MergeReport``)."""
+    from aion_cli.merging import merge_map_files
+
+    if isinstance(paths, (str, os.PathLike)):
+        raise InputError("merge takes a list of map files", hint="merge([a, b], output)")
+    report = merge_map_files(
+        [Path(os.fspath(p)) for p in paths],
+        Path(os.fspath(output)),
+        None if graph is None else Path(os.fspath(graph)),
+        lineage,
+        progress,
+        nav_layer,
+    )
     made = Map.load(report.output)
     made.report = report
     return made

@@ -1,0 +1,536 @@
+"""Merging map files (``aion merge A.aion B.aion ... -o OUT.aion``; no click).
+
+:func:`merge_map_files` reads the maps, checks that they can be merged, folds them in time
+order with the engine's :func:`~aion_cli.engine.merge.merge_maps` and writes the result
+atomically with a manifest that accounts for every log. The rules:
+
+* **Same model.** Every map must have been built with the same model parameters (time zone
+  included): :class:`~aion_cli.errors.ConfigError` naming the parameters that differ.
+* **Provenance.** The output's ``inputs`` are every input map's logs (path, name, size,
+  sha256), in time order. A log (by sha256) that two maps hold is refused, naming both maps
+  and the log: its detections would be counted twice, and a log is never counted twice. The
+  same map file given twice (by path or by content) is refused too, and so is ``-o`` naming
+  one of the inputs. ``merged_from`` lists the input map files (name, path, size, sha256) and
+  ``lineage`` the lineage used.
+* **Lineage.** Node ids mean the same place only within one scene-graph session
+  (:mod:`aion_cli.engine.rebind`). ``"same"``: the maps' node entries add by id (the engine's
+  merge, exact for disjoint time but for the approximations its docstring lists; the notes
+  say which applied). ``"different"``: every map first releases its node entries to the hash
+  cells at their positions (the release rule, counts conserved), the cell-only maps merge by
+  key, and the result binds to the target graph by the usual ownership rules, the target's
+  nodes treated as stable at merge time (the merged map's log time). ``"auto"`` decides from
+  the graphs: consecutive maps (in time order) share a lineage when more than half of the
+  node ids both latest graphs hold lie within ``bind_radius`` of each other; a map without a
+  scene graph beside maps with one makes the merge ``"different"`` (its cells then bind to
+  the target graph); maps without any graph merge as hash cells (``"same"``).
+* **Target graph.** ``graph_file`` (a Hydra ``dsg.json`` / ``.sparkdsg``, read as ``aion
+  build --graph FILE`` reads it) replaces the merged graph in either lineage (nodes it lacks
+  release to hash cells, cells in reach of its nodes bind); without it, a ``"different"``
+  merge binds to the newest input map's latest graph and a ``"same"`` one keeps it.
+* **Time.** Maps are ordered by their manifests' time spans (else their open windows). Maps
+  whose times overlap merge (two robots at once), with a note: windows both observed count
+  twice.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from functools import reduce
+from itertools import pairwise
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.engine.entries import NODE
+from aion_cli.errors import ConfigError, InputError
+from aion_cli.manifest import InputLog, Manifest, add_counts
+
+if TYPE_CHECKING:
+    from aion_cli.build_report import ProgressSink
+    from aion_cli.engine.state import MapState
+    from aion_cli.engine.types import GraphSnapshot
+    from aion_cli.mapquery import LoadedMap
+
+LINEAGES = ("auto", "same", "different")
+
+_HINT = "aion merge A.aion B.aion ... -o OUT.aion"
+
+
+@dataclass(frozen=True)
+class MergedInput:
+    """One input map: its file's provenance, time span, logs and detections."""
+
+    file: InputLog
+    start_ns: int | None
+    end_ns: int | None
+    logs: int
+    detections: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return self.file.to_dict() | {
+            "start_ns": self.start_ns,
+            "end_ns": self.end_ns,
+            "logs": self.logs,
+            "detections": self.detections,
+        }
+
+
+@dataclass
+class MergeReport:
+    """What a merge did; ``to_dict`` is ``aion merge --format json``."""
+
+    output: Path
+    inputs: list[MergedInput] = field(default_factory=list)
+    lineage: str = "same"
+    lineage_reason: str = ""
+    graph_source: str = "none"
+    released: int = 0
+    rebound: int = 0
+    detections: int = 0
+    logs: int = 0
+    cells: int = 0
+    nodes: int = 0
+    nodes_with_flow: int = 0
+    bound_cells: int = 0
+    windows: int = 0
+    start_ns: int | None = None
+    end_ns: int | None = None
+    notes: list[str] = field(default_factory=list)
+    map_bytes: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        span = None
+        if self.start_ns is not None and self.end_ns is not None:
+            span = (self.end_ns - self.start_ns) / 1e9
+        return {
+            "map": str(self.output),
+            "map_bytes": self.map_bytes,
+            "inputs": [i.to_dict() for i in self.inputs],
+            "lineage": self.lineage,
+            "lineage_reason": self.lineage_reason,
+            "graph_source": self.graph_source,
+            "released_nodes": self.released,
+            "rebound_cells": self.rebound,
+            "detections": self.detections,
+            "logs": self.logs,
+            "cells": self.cells,
+            "nodes": self.nodes,
+            "nodes_with_flow": self.nodes_with_flow,
+            "bound_cells": self.bound_cells,
+            "windows": self.windows,
+            "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns, "seconds": span},
+            "notes": list(self.notes),
+        }
+
+
+@dataclass
+class _Input:
+    path: Path
+    loaded: LoadedMap
+    manifest: Manifest
+    file: InputLog
+    graph: GraphSnapshot | None
+    detections: int
+
+    @property
+    def state(self) -> MapState:
+        return self.loaded.state
+
+    @property
+    def name(self) -> str:
+        return self.path.name
+
+    def start(self) -> int | None:
+        """The map's first time: its manifest's span, else its open window's start."""
+        if self.manifest.start_ns is not None:
+            return self.manifest.start_ns
+        w = self.state.open_window
+        return None if w is None else w * self.state.window_ns
+
+
+def merge_map_files(
+    paths: list[Path] | tuple[Path, ...],
+    out: Path,
+    graph_file: Path | None = None,
+    lineage: str = "auto",
+    progress: ProgressSink | None = None,
+    nav_layer: str | None = None,
+) -> MergeReport:
+    """Merge the map files ``paths`` into ``out`` (see the module docstring); the report."""
+    from aion_cli.build_report import NoProgress
+    from aion_cli.formats.mapfile import check_map_target, map_lock
+
+    sink = progress or NoProgress()
+    paths = [Path(p) for p in paths]
+    out = Path(out)
+    if lineage not in LINEAGES:
+        raise InputError(f"unknown lineage {lineage!r}", hint=f"one of {', '.join(LINEAGES)}")
+    if len(paths) < 2:
+        raise InputError("a merge needs at least two maps", hint=_HINT)
+    _check_paths(paths, out)
+    check_map_target(out)
+    target = _target_graph(graph_file, nav_layer)
+    report = MergeReport(out)
+    with map_lock(out):  # one writer per map, from the checks to the write
+        if out.exists():
+            report.notes.append(f"{out.name} existed and is replaced")
+        maps = _read(paths, sink)
+        _check_compatible(maps)
+        maps.sort(key=lambda m: (m.start() is not None, m.start() or 0))
+        inputs = _check_logs(maps)
+        report.lineage, report.lineage_reason = _lineage(maps, lineage, report.notes)
+        merged = _fold(maps, report, sink)
+        _bind_target(merged, maps, target, graph_file, report)
+        _write(merged, maps, inputs, report)
+    return report
+
+
+# -- checks -------------------------------------------------------------------------------------
+
+
+def _check_paths(paths: list[Path], out: Path) -> None:
+    """Every input exists once; ``out`` is none of them; its folder exists."""
+    from aion_cli.formats.mapfile import MapWriteError
+
+    seen: dict[Path, Path] = {}
+    for p in paths:
+        if not p.exists():
+            raise InputError(f"map file not found: {p}", hint="build one with `aion build LOG`")
+        if p.is_dir():
+            raise InputError(f"{p} is a folder, not a map file", hint=_HINT)
+        real = p.resolve()
+        if real in seen:
+            raise InputError(f"the map {p} is given twice", hint="give each map once")
+        seen[real] = p
+        if out.resolve() == real or (out.exists() and os.path.samefile(out, p)):
+            raise InputError(
+                f"the output {out} is one of the input maps",
+                hint="write the merged map to a new file with -o",
+            )
+    folder = out.parent if str(out.parent) else Path(".")
+    if not folder.is_dir():
+        raise MapWriteError(
+            f"cannot write map {out}: folder {folder} does not exist",
+            hint="create the folder first or choose another output path",
+        )
+
+
+def _target_graph(graph_file: Path | None, nav_layer: str | None) -> GraphSnapshot | None:
+    """The ``--graph FILE`` snapshot (read before any map, so a bad file fails first)."""
+    if graph_file is None:
+        return None
+    from aion_cli.formats.dsg import load_graph
+
+    if not Path(graph_file).is_file():
+        raise InputError(f"scene-graph file not found: {graph_file}", hint="check the path")
+    return load_graph(graph_file, 0, nav_layer).snapshot
+
+
+def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
+    """Load every map (writable: the merge changes copies it owns) and hash its file."""
+    from aion_cli.mapquery import load_map
+    from aion_cli.provenance import provenance
+
+    sink.start("reading maps", len(paths), "maps")
+    maps: list[_Input] = []
+    first_of: dict[str, Path] = {}
+    for p in paths:
+        file = InputLog.from_dict(provenance(p))
+        if file.sha256 in first_of:
+            raise InputError(
+                f"{first_of[file.sha256]} and {p} are the same map (same sha256)",
+                hint="give each map once",
+            )
+        first_of[file.sha256] = p
+        loaded = load_map(p, writable=True)
+        manifest = Manifest.from_dict(loaded.manifest)
+        state = loaded.state
+        maps.append(_Input(p, loaded, manifest, file, loaded.graph, int(state.accepted)))
+        sink.advance(1)
+    return maps
+
+
+def _check_compatible(maps: list[_Input]) -> None:
+    """Same model parameters and time zone in every map (ConfigError naming what differs)."""
+    first = maps[0]
+    base = first.state.config.to_dict()
+    for m in maps[1:]:
+        other = m.state.config.to_dict()
+        differ = sorted(k for k in base.keys() | other.keys() if base.get(k) != other.get(k))
+        if differ:
+            shown = ", ".join(f"{k} {base.get(k)!r} vs {other.get(k)!r}" for k in differ[:3])
+            more = f" and {len(differ) - 3} more" if len(differ) > 3 else ""
+            raise ConfigError(
+                f"cannot merge {first.name} and {m.name}: they were built with different "
+                f"model parameters ({shown}{more})",
+                hint="rebuild one of them with the other's config (aion info MAP shows it; "
+                "aion build --config FILE)",
+            )
+        if m.manifest.timezone != first.manifest.timezone:
+            raise ConfigError(
+                f"cannot merge {first.name} ({first.manifest.timezone}) and {m.name} "
+                f"({m.manifest.timezone}): their days follow different time zones",
+                hint="rebuild one of them with the other's --tz",
+            )
+
+
+def _check_logs(maps: list[_Input]) -> tuple[InputLog, ...]:
+    """Every map's logs, in time order; a log (by sha256) in two maps is an InputError."""
+    owner: dict[str, tuple[_Input, InputLog]] = {}
+    inputs: list[InputLog] = []
+    for m in maps:
+        for log in m.manifest.inputs:
+            seen = owner.get(log.sha256)
+            if seen is not None and seen[0] is not m:
+                raise InputError(
+                    f"the log {log.name} (sha256 {log.sha256[:12]}) is in both {seen[0].name} "
+                    f"and {m.name}: a log is never counted twice",
+                    hint="merge maps built from different logs (aion info MAP lists a map's "
+                    "logs), or build one map from all the logs",
+                )
+            owner[log.sha256] = (m, log)
+            inputs.append(log)
+    return tuple(inputs)
+
+
+# -- lineage ------------------------------------------------------------------------------------
+
+
+def _lineage(maps: list[_Input], lineage: str, notes: list[str]) -> tuple[str, str]:
+    """The lineage to use and why (``lineage`` given, or decided from the graphs)."""
+    auto, why = _auto_lineage(maps)
+    if lineage == "auto":
+        return auto, why
+    if lineage != auto:
+        notes.append(f"--lineage {lineage} given; auto would choose {auto} ({why})")
+    return lineage, "given with --lineage"
+
+
+def _auto_lineage(maps: list[_Input]) -> tuple[str, str]:
+    from aion_cli.engine.rebind import graph_agreement
+
+    without = [m.name for m in maps if m.graph is None]
+    if len(without) == len(maps):
+        return "same", "no map has a scene graph (hash cells only)"
+    if without:
+        return "different", f"{without[0]} has no scene graph: its cells bind to the target graph"
+    tolerance = maps[0].state.config.bind_radius
+    shared = agreeing = 0
+    for early, late in pairwise(maps):
+        agreement = graph_agreement(early.graph, late.graph, tolerance)
+        what = (
+            f"of the {agreement.shared} node ids both {early.name} and {late.name} hold, "
+            f"{agreement.agreeing} lie within {tolerance:g} m"
+        )
+        if not agreement.same:
+            if agreement.shared == 0:
+                what = f"{early.name} and {late.name} share no node id"
+            return "different", what + " (different scene-graph sessions)"
+        shared += agreement.shared
+        agreeing += agreement.agreeing
+    return "same", f"{agreeing} of {shared} shared node ids lie within {tolerance:g} m"
+
+
+# -- merging ------------------------------------------------------------------------------------
+
+
+def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapState:
+    """The maps merged in time order (released to hash cells first for ``"different"``),
+    with a note for each approximation of the engine's merge that applies."""
+    from aion_cli.engine.merge import merge_maps
+    from aion_cli.engine.rebind import release_all
+
+    states = [m.state for m in maps]
+    if report.lineage == "different":
+        report.released = sum(release_all(s) for s in states)
+        report.notes.append(
+            f"{report.released} node entries released to the hash cells at their places"
+        )
+    for early, late in pairwise(maps):
+        report.notes.extend(_pair_notes(early, late))
+    report.notes.extend(_approximation_notes(states, report.lineage))
+    sink.start("merging", len(states) - 1, "maps")
+
+    def step(acc: MapState, nxt: MapState) -> MapState:
+        out = merge_maps(acc, nxt)
+        sink.advance(1)
+        return out
+
+    return reduce(step, states)
+
+
+def _pair_notes(early: _Input, late: _Input) -> list[str]:
+    """Overlapping times, and approximation (4): a day both maps hold is scored twice."""
+    notes = []
+    end, start = early.manifest.end_ns, late.start()
+    if end is not None and start is not None and end > start:
+        notes.append(
+            f"the times of {early.name} and {late.name} overlap: windows both observed count "
+            "twice (merge maps of disjoint time)"
+        )
+    w = early.state.open_window
+    if w is not None and start is not None and _same_day(early.state, w, start):
+        notes.append(
+            f"{early.name} ends on the day {late.name} starts: that day is scored as two "
+            "days (merge approximation 4)"
+        )
+    return notes
+
+
+def _same_day(state: MapState, window: int, t_ns: int) -> bool:
+    """Whether window ``window`` and the window at ``t_ns`` lie on one local day."""
+    return state.window_day(window) == state.window_day(t_ns // state.window_ns)
+
+
+def _approximation_notes(states: list[MapState], lineage: str) -> list[str]:
+    """Approximations (1), (2) and (3) of :mod:`aion_cli.engine.merge` that apply."""
+    notes = []
+    only = 0
+    moved = 0
+    for early, late in pairwise(states):
+        only += _unseen_entries(early, late)
+        if lineage == "same":
+            moved += _moved_nodes(early, late)
+    if only:
+        notes.append(
+            f"{only} entries are in one map only, or appear in the later map after it began: "
+            "the windows in which the other map's robot saw them empty are not known (merge "
+            "approximation 1)"
+        )
+    if any(_closed_a_day(s) for s in states[1:]):
+        notes.append(
+            "day-ahead scores add: the later maps scored their closed days against their own "
+            "history only, not the earlier maps', so the forecast families may differ from one "
+            "build of all logs (merge approximation 2)"
+        )
+    if moved:
+        notes.append(
+            f"{moved} nodes moved between the maps: their stability timers restart "
+            "(merge approximation 3)"
+        )
+    return notes
+
+
+def _unseen_entries(early: MapState, late: MapState) -> int:
+    """Entries whose robot-observed empty windows one of two maps cannot know: those only
+    one map has, and those of both that the later map first observed after its own first
+    robot-observed window (created there late, so its earlier windows passed them by)."""
+    ea, el = early.entries, late.entries
+    cells = np.setxor1d(ea.key[ea.cell_rows()], el.key[el.cell_rows()])
+    nodes = np.setxor1d(ea.node_id[ea.node_rows()], el.node_id[el.node_rows()])
+    rows = el.canonical_order()
+    first = late.query_temporal().obs.first[rows]  # model seconds, NaN: never robot-observed
+    if not np.isfinite(first).any():
+        return int(cells.size + nodes.size)
+    in_early = np.where(
+        el.kind[rows] == NODE,
+        np.isin(el.node_id[rows], ea.node_id[ea.node_rows()]),
+        np.isin(el.key[rows], ea.key[ea.cell_rows()]),
+    )
+    late_first = first > np.nanmin(first)  # NaN compares False
+    return int(cells.size + nodes.size + np.count_nonzero(in_early & late_first))
+
+
+def _closed_a_day(state: MapState) -> bool:
+    """Whether a map has closed (and so scored) any day: windows in its accumulators."""
+    t = state.temporal
+    return bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
+
+
+def _moved_nodes(early: MapState, late: MapState) -> int:
+    """Nodes in both node tables whose reference positions differ by more than
+    ``stable_move_tolerance`` (the earlier stability start is then not kept)."""
+    _, at_e, at_l = np.intersect1d(early.nodes.ids, late.nodes.ids, return_indices=True)
+    gap = np.linalg.norm(early.nodes.ref_xyz[at_e] - late.nodes.ref_xyz[at_l], axis=1)
+    return int(np.count_nonzero(gap > late.config.stable_move_tolerance))
+
+
+def _bind_target(
+    merged: MapState,
+    maps: list[_Input],
+    target: GraphSnapshot | None,
+    graph_file: Path | None,
+    report: MergeReport,
+) -> None:
+    """Bind the merged map to its target graph (see the module docstring) and say where its
+    graph comes from."""
+    from aion_cli.engine.rebind import bind_to_graph
+
+    newest = next((m for m in reversed(maps) if m.graph is not None), None)
+    if target is None and report.lineage == "different" and newest is not None:
+        target = newest.graph
+        report.graph_source = f"{newest.name}'s latest graph"
+    elif target is not None and graph_file is not None:
+        report.graph_source = f"file {graph_file.name}"
+    elif maps[-1].graph is not None:
+        report.graph_source = f"{maps[-1].name}'s latest graph"
+    if target is None:
+        return
+    t_ns = merged.log_time_ns
+    if t_ns is None:
+        t_ns = max((m.manifest.end_ns for m in maps if m.manifest.end_ns is not None), default=0)
+    before = len(merged.entries.node_rows())
+    report.rebound = bind_to_graph(merged, target, t_ns)
+    report.notes.append(
+        f"{report.rebound} hash cells bound to the {len(target.places)} places of "
+        f"{report.graph_source} (its places taken as stable at the merge time; "
+        f"{before} node entries before, {len(merged.entries.node_rows())} after)"
+    )
+
+
+def _write(
+    merged: MapState, maps: list[_Input], inputs: tuple[InputLog, ...], report: MergeReport
+) -> None:
+    """The merged map file (atomic; the caller holds the output's lock) and the report's
+    figures."""
+    from aion_cli.formats.mapfile import write_map
+    from aion_cli.mapquery import state_counts
+
+    starts = [m.manifest.start_ns for m in maps if m.manifest.start_ns is not None]
+    ends = [m.manifest.end_ns for m in maps if m.manifest.end_ns is not None]
+    report.start_ns = min(starts) if starts else None
+    report.end_ns = max(ends) if ends else None
+    counts: dict[str, Any] = {}
+    for m in maps:
+        c = m.manifest.counts
+        counts = add_counts(
+            counts,
+            {
+                "read": int(c.get("read", 0)),
+                "used": int(c.get("used", 0)),
+                "dropped": dict(c.get("dropped", {})),
+            },
+        )
+    stats = state_counts(merged)
+    observations = sorted({m.manifest.observation for m in maps})
+    arrays, meta = merged.to_arrays(lazy=True)
+    manifest = Manifest(
+        state=meta,
+        config=merged.config.to_dict(),
+        inputs=inputs,
+        start_ns=report.start_ns,
+        end_ns=report.end_ns,
+        counts=counts | stats,
+        graph_source=f"merge: {report.graph_source}",
+        observation=observations[0] if len(observations) == 1 else " + ".join(observations),
+        timezone=maps[0].manifest.timezone,
+        families=merged.family_summary(),
+    )
+    document = manifest.to_dict() | {
+        "merged_from": [m.file.to_dict() for m in maps],
+        "lineage": report.lineage,
+    }
+    write_map(report.output, arrays, document, lock=False)  # merge_map_files holds the lock
+    report.inputs = [
+        MergedInput(
+            m.file, m.manifest.start_ns, m.manifest.end_ns, len(m.manifest.inputs), m.detections
+        )
+        for m in maps
+    ]
+    report.detections = int(merged.accepted)
+    report.logs = len(inputs)
+    for key in ("cells", "nodes", "nodes_with_flow", "bound_cells", "windows"):
+        setattr(report, key, int(stats[key]))
+    report.map_bytes = report.output.stat().st_size

@@ -1,0 +1,467 @@
+"""Merging map files (:mod:`aion_cli.merging`): exactness against one build, conservation of
+counts in either lineage, the different-session release and re-bind, provenance, bad inputs.
+
+Maps are built in memory with the engine's Mapper (the logs of tests/engine/test_state.py) and
+written as map files with a manifest naming their (made-up) logs, so every rule of the file
+layer is exercised without decoding a log; tests/cli/test_merge.py does the same from real logs
+through the command line."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import tempfile
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.mapper import Mapper
+from aion_cli.engine.state import MapState
+from aion_cli.errors import ConfigError, InputError, MapFileError
+from aion_cli.formats.mapfile import read_manifest, write_map
+from aion_cli.manifest import InputLog, Manifest
+from aion_cli.mapquery import load_map, state_counts
+from aion_cli.merging import merge_map_files
+from tests.engine.engine_builders import (
+    T0,
+    S,
+    check_invariants,
+    closed_counts,
+    detections,
+    graph,
+    pending_counts,
+    pid,
+)
+from tests.engine.test_state import CFG, DAY, Step, W, _log, _pending_sorted, _plain, _run
+
+
+def _logs(*names: str) -> tuple[InputLog, ...]:
+    return tuple(
+        InputLog(f"/logs/{n}", n, 1000 + k, hashlib.sha256(n.encode()).hexdigest())
+        for k, n in enumerate(names)
+    )
+
+
+def _save(
+    state: MapState,
+    path: Path,
+    logs: tuple[str, ...],
+    span: tuple[int, int],
+    timezone: str | None = "UTC",
+) -> Path:
+    """``state`` as a map file whose manifest says it was built from ``logs`` over ``span``."""
+    arrays, meta = state.to_arrays()
+    manifest = Manifest(
+        state=meta,
+        config=state.config.to_dict(),
+        inputs=_logs(*logs),
+        start_ns=span[0],
+        end_ns=span[1],
+        counts={"read": state.accepted, "used": state.accepted, "dropped": {"nan": 0}}
+        | state_counts(state),
+        graph_source="test",
+        observation="fixed sensor",
+        timezone=timezone,
+        families=state.family_summary(),
+    )
+    write_map(path, arrays, manifest.to_dict())
+    return path
+
+
+def _span(start: int, windows: int = 6) -> tuple[int, int]:
+    return start, start + windows * W
+
+
+def _entry_sums(state: MapState) -> tuple[float, float, float]:
+    """Σ over live entries of directed + undirected counts, of speed samples, of speed sums."""
+    e, rows = state.entries, state.entries.live_rows()
+    return (
+        float(e.counts[rows].sum() + e.nodir[rows].sum()),
+        float(e.speed_n[rows].sum()),
+        float(e.speed_sum[rows].sum()),
+    )
+
+
+# -- same lineage: exact ----------------------------------------------------------------------
+
+
+def test_merging_two_map_files_equals_building_from_both_logs(tmp_path: Path) -> None:
+    """merge(map(A), map(B)) == build(A, B), every member compared (ints exactly, floats to
+    rtol 1e-12), under the conditions in which engine.merge.merge_maps is exact:
+
+    * the logs are disjoint in time and on different days (B starts two days after A), so no
+      window is shared and no day is split between the maps (approximation 4);
+    * both logs see the same graph (same node ids at the same positions: one lineage) and
+      touch the same places from their first window on (``spots``), so no entry exists in one
+      map only (approximation 1) and no node moves between them (approximation 3);
+    * A's map holds one day and B's day is pending: the only day closed is A's, against the
+      same (empty) history in both, so no day-ahead score differs (approximation 2).
+    """
+    spots = np.c_[np.random.default_rng(9).uniform(-1, 8, (40, 2)), np.zeros(40)]
+    a_steps = _log(T0, seed=4, spots=spots)
+    b_steps = _log(T0 + 2 * DAY, seed=5, spots=spots)
+    both = _run(a_steps + b_steps).state
+    a = _save(_run(a_steps).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    b = _save(_run(b_steps).state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY))
+    report = merge_map_files([b, a], tmp_path / "ab.aion")  # any order: sorted by time
+    assert report.lineage == "same"
+    assert report.lineage_reason == "5 of 5 shared node ids lie within 1 m"
+    assert [i.file.name for i in report.inputs] == ["a.aion", "b.aion"]
+    merged = load_map(tmp_path / "ab.aion", writable=True).state
+    check_invariants(merged)
+    xa, ma = both.to_arrays()
+    xm, mm = merged.to_arrays()
+    assert mm == ma
+    pa, pm = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xm))
+    assert sorted(pa) == sorted(pm)
+    # the one difference: the merged map keeps the later map's fixed-sensor intervals only;
+    # the earlier ones cover windows closed in both maps, which never close again
+    open_start = ma["open_window"] * W
+    for name in ("obs_fixed_start", "obs_fixed_end"):
+        kept = np.isin(pa[name], pm[name])
+        assert (pa["obs_fixed_end"][~kept] <= open_start).all()
+        assert kept.sum() == len(pm[name])
+        pa[name], pm[name] = pa[name][kept], pm[name]
+    for name in pa:
+        assert pa[name].dtype == pm[name].dtype, name
+        if pa[name].dtype.kind in "fc":
+            np.testing.assert_allclose(pm[name], pa[name], rtol=1e-12, atol=0, err_msg=name)
+        else:
+            np.testing.assert_array_equal(pm[name], pa[name], err_msg=name)
+    assert len(pa["redirect_keys"]) > 0
+    assert np.any(pa["entry_kind"] == 0)
+    assert pa["temporal_glob_n"][0] == 6  # A's day is closed (B's is pending), in both
+    assert report.notes == []  # no approximation applied
+
+
+def test_the_output_manifest_accounts_for_every_log_and_map(tmp_path: Path) -> None:
+    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a1.mcap", "a2.mcap"), _span(T0))
+    b = _save(
+        _run(_log(T0 + DAY * 3, seed=2)).state,
+        tmp_path / "b.aion",
+        ("b.mcap",),
+        _span(T0 + 3 * DAY),
+    )
+    report = merge_map_files([a, b], tmp_path / "out.aion")
+    doc = read_manifest(tmp_path / "out.aion")
+    manifest = Manifest.from_dict(doc)
+    assert [i.name for i in manifest.inputs] == ["a1.mcap", "a2.mcap", "b.mcap"]
+    assert [i.sha256 for i in manifest.inputs] == [
+        i.sha256 for i in _logs("a1.mcap", "a2.mcap") + _logs("b.mcap")
+    ]
+    assert (manifest.start_ns, manifest.end_ns) == (T0, T0 + 3 * DAY + 6 * W)
+    accepted = load_map(a).state.accepted + load_map(b).state.accepted
+    assert manifest.counts["read"] == manifest.counts["used"] == accepted == report.detections
+    assert manifest.counts["dropped"] == {"nan": 0}
+    assert manifest.counts["nodes"] == 5
+    assert manifest.timezone == "UTC"
+    assert set(manifest.families) == {"flow", "direction", "reconciled", "scored_windows"}
+    files = {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in (a, b)}
+    assert [(m["name"], m["sha256"]) for m in doc["merged_from"]] == list(files.items())
+    assert doc["lineage"] == "same"
+    assert not (tmp_path / "out.aion.lock").exists()
+
+
+# -- counts are conserved in either lineage ---------------------------------------------------
+
+
+def _random_log(start: int, seed: int, windows: int, nodes: np.ndarray) -> list[Step]:
+    """A fixed sensor over the log, a graph of ``nodes`` (ids p0..), detections anywhere."""
+    rng = np.random.default_rng(seed)
+    end = start + windows * W
+    ids = list(range(len(nodes)))
+    steps: list[Step] = [
+        lambda m: m.set_fixed_sensor(start, end),
+        lambda m: m.add_graph(graph(start, ids, nodes)),
+    ]
+    for w in range(windows):
+        n = int(rng.integers(1, 40))
+        t = start + w * W + np.sort(rng.integers(0, W, n))
+        xyz = np.c_[rng.uniform(-2, 9, (n, 2)), np.zeros(n)]
+        heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
+        speed = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(0.1, 2, n))
+        steps.append(partial(Mapper.add_detections, batch=detections(t, xyz, heading, speed)))
+    return steps
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seeds=st.lists(st.integers(0, 2**31), min_size=2, max_size=3),
+    gaps=st.lists(st.integers(1, 4), min_size=3, max_size=3),
+    windows=st.integers(1, 8),
+    lineage=st.sampled_from(["auto", "same", "different"]),
+    sessions=st.booleans(),
+)
+def test_counts_are_conserved_through_any_merge(
+    seeds: list[int], gaps: list[int], windows: int, lineage: str, sessions: bool
+) -> None:
+    """Σ counts, Σ speed samples and the detections accepted of the merged map are the sums of
+    the inputs', in the same lineage and across sessions (each map's graph a new session:
+    node ids p0.. at random positions), and the temporal model holds every detection once."""
+    with tempfile.TemporaryDirectory() as folder:
+        paths, sums = [], np.zeros(3)
+        start, accepted = T0, 0
+        for k, seed in enumerate(seeds):
+            rng = np.random.default_rng(seed)
+            nodes = (
+                np.c_[rng.uniform(-1, 8, (5, 2)), np.zeros(5)]
+                if sessions
+                else np.array([[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]])
+            )
+            state = _run(_random_log(start, seed, windows, nodes)).state
+            sums += _entry_sums(state)
+            accepted += state.accepted
+            paths.append(
+                _save(state, Path(folder) / f"m{k}.aion", (f"log{k}",), _span(start, windows))
+            )
+            start += gaps[k] * DAY
+        report = merge_map_files(paths, Path(folder) / "out.aion", lineage=lineage)
+        merged = load_map(Path(folder) / "out.aion", writable=True).state
+    check_invariants(merged)  # Σ entries == accepted == Σ temporal (closed + pending + open)
+    assert merged.accepted == accepted == report.detections
+    got = _entry_sums(merged)
+    assert got[:2] == (sums[0], sums[1])  # integer-valued: exact
+    assert got[2] == pytest.approx(sums[2], rel=1e-12)
+    if lineage != "auto":
+        assert report.lineage == lineage
+    elif not sessions:
+        assert report.lineage == "same"
+
+
+# -- different sessions: released and re-bound ------------------------------------------------
+
+#: Two sessions: session A has p0 at (0.25, 0.25) and p1 at (10.25, 0.25); session B reuses the
+#: ids, p0 at (20.25, 0.25) and p1 at (0.25, 0.25) (cell centres of the 0.5 m hash).
+A_NODES = np.array([[0.25, 0.25, 0.0], [10.25, 0.25, 0.0]])
+B_NODES = np.array([[20.25, 0.25, 0.0], [0.25, 0.25, 0.0]])
+
+
+def _session(start: int, nodes: np.ndarray, spots: dict[tuple[float, float], int]) -> MapState:
+    """A map of one session: its graph, a fixed sensor over two windows, ``n`` detections at
+    each spot in the first window (after the nodes have been stable for 30 s)."""
+    m = Mapper(CFG)
+    m.set_fixed_sensor(start, start + 2 * W)
+    m.add_graph(graph(start, [0, 1], nodes))
+    xyz = [(x, y, 0.0) for (x, y), n in spots.items() for _ in range(n)]
+    m.add_detections(detections(start + 60 * S, xyz))
+    m.advance(start + 2 * W)
+    return m.state
+
+
+def _node_counts(state: MapState) -> dict[str, float]:
+    rows = state.entries.node_rows()
+    ids = state.entries.node_id[rows]
+    labels = {int(pid(i)): f"p{i}" for i in range(2)}
+    return {
+        labels[int(i)]: float(state.entries.counts[r].sum()) for i, r in zip(ids, rows, strict=True)
+    }
+
+
+def test_maps_of_different_sessions_are_released_and_rebound(tmp_path: Path) -> None:
+    """Known answer: every place of the target graph (B's, the newest) holds the detections
+    near it from both maps, whatever node id held them in A; the rest stay hash cells."""
+    a_state = _session(T0, A_NODES, {(0.3, 0.2): 5, (10.2, 0.3): 6, (20.3, 0.2): 3})
+    b_state = _session(T0 + 2 * DAY, B_NODES, {(0.2, 0.3): 4, (20.2, 0.2): 2, (10.3, 0.2): 7})
+    assert _node_counts(a_state) == {"p0": 5, "p1": 6}  # bound in A: p0 near (0, 0)
+    assert _node_counts(b_state) == {"p0": 2, "p1": 4}  # in B, p1 is near (0, 0)
+    a = _save(a_state, tmp_path / "a.aion", ("a.mcap",), _span(T0, 2))
+    b = _save(b_state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY, 2))
+    report = merge_map_files([a, b], tmp_path / "ab.aion")
+    assert report.lineage == "different"
+    assert report.lineage_reason.startswith("of the 2 node ids both a.aion and b.aion hold, 0")
+    assert report.released == 4
+    merged = load_map(tmp_path / "ab.aion", writable=True).state
+    check_invariants(merged)
+    assert _node_counts(merged) == {"p1": 5 + 4, "p0": 3 + 2}  # near (0, 0); near (20, 0)
+    cells = merged.entries.cell_rows()
+    assert merged.entries.counts[cells].sum() == 6 + 7  # near (10, 0): no place in B there
+    assert merged.graph is not None
+    np.testing.assert_array_equal(merged.graph.places.xyz, B_NODES)
+    # the detections' windows follow them: A's day is closed, B's pending
+    p1 = merged.node_entry_rows(pid([1]))
+    assert closed_counts(merged, p1).sum() == 5
+    assert pending_counts(merged)[p1].sum() == 4
+    # and the ids alone would have put A's flow at B's unrelated places
+    merge_map_files([a, b], tmp_path / "same.aion", lineage="same")
+    wrong = _node_counts(load_map(tmp_path / "same.aion", writable=True).state)
+    # (A's p1 at (10, 0) adds into B's p1 at (0, 0), and A's redirect of the cell at (10, 0)
+    # to p1 pulls B's 7 detections there along; A's p0 at (0, 0) adds into B's p0 at (20, 0))
+    assert wrong == {"p1": 4 + 6 + 7, "p0": 2 + 5 + 3}
+
+
+def test_a_map_without_graph_beside_one_with_a_graph_binds_to_it(tmp_path: Path) -> None:
+    cells_only = Mapper(CFG)
+    cells_only.set_fixed_sensor(T0, T0 + W)
+    cells_only.add_detections(detections(T0 + S, [[20.3, 0.2, 0.0]] * 3))
+    cells_only.advance(T0 + W)
+    a = _save(cells_only.state, tmp_path / "a.aion", ("a.mcap",), _span(T0, 1))
+    b = _save(
+        _session(T0 + DAY, B_NODES, {(0.2, 0.3): 4}),
+        tmp_path / "b.aion",
+        ("b.mcap",),
+        _span(T0 + DAY, 2),
+    )
+    report = merge_map_files([a, b], tmp_path / "ab.aion")
+    assert report.lineage == "different"
+    assert report.lineage_reason.startswith("a.aion has no scene graph")
+    assert _node_counts(load_map(tmp_path / "ab.aion", writable=True).state) == {"p0": 3, "p1": 4}
+
+
+# -- provenance and bad input -----------------------------------------------------------------
+
+
+@pytest.fixture
+def two_maps(tmp_path: Path) -> tuple[Path, Path]:
+    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    b = _save(
+        _run(_log(T0 + 2 * DAY, seed=2)).state,
+        tmp_path / "b.aion",
+        ("b.mcap",),
+        _span(T0 + 2 * DAY),
+    )
+    return a, b
+
+
+def test_a_log_in_two_maps_is_refused(tmp_path: Path) -> None:
+    a = _save(
+        _run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap", "shared.mcap"), _span(T0)
+    )
+    b = _save(
+        _run(_log(T0 + 2 * DAY, seed=2)).state,
+        tmp_path / "b.aion",
+        ("shared.mcap",),
+        _span(T0 + 2 * DAY),
+    )
+    with pytest.raises(InputError, match=r"shared\.mcap .* in both a\.aion and b\.aion") as exc:
+        merge_map_files([a, b], tmp_path / "out.aion")
+    assert "never counted twice" in exc.value.message
+    assert not (tmp_path / "out.aion").exists()
+    assert not (tmp_path / "out.aion.lock").exists()
+
+
+def test_the_same_map_twice_is_refused(two_maps: tuple[Path, Path], tmp_path: Path) -> None:
+    a, _ = two_maps
+    with pytest.raises(InputError, match="given twice"):
+        merge_map_files([a, tmp_path / "." / "a.aion"], tmp_path / "out.aion")
+    copy = tmp_path / "copy.aion"
+    copy.write_bytes(a.read_bytes())
+    with pytest.raises(InputError, match="are the same map"):
+        merge_map_files([a, copy], tmp_path / "out.aion")
+
+
+def test_bad_inputs_are_typed_errors(two_maps: tuple[Path, Path], tmp_path: Path) -> None:
+    a, b = two_maps
+    with pytest.raises(InputError, match="at least two maps"):
+        merge_map_files([a], tmp_path / "out.aion")
+    with pytest.raises(InputError, match="one of the input maps"):
+        merge_map_files([a, b], a)
+    with pytest.raises(InputError, match="not found"):
+        merge_map_files([a, tmp_path / "missing.aion"], tmp_path / "out.aion")
+    with pytest.raises(InputError, match="unknown lineage"):
+        merge_map_files([a, b], tmp_path / "out.aion", lineage="maybe")
+    text = tmp_path / "notes.txt"
+    text.write_text("not a map")
+    with pytest.raises(MapFileError):
+        merge_map_files([a, text], tmp_path / "out.aion")
+    with pytest.raises(MapFileError, match="not an aion map"):
+        merge_map_files([a, b], text)  # never written over
+    assert text.read_text() == "not a map"
+    with pytest.raises(InputError, match="scene-graph file not found"):
+        merge_map_files([a, b], tmp_path / "out.aion", graph_file=tmp_path / "nope.json")
+    assert not (tmp_path / "out.aion").exists()
+
+
+def test_maps_of_different_models_or_zones_are_refused(tmp_path: Path) -> None:
+    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    other = _run(_log(T0 + 2 * DAY, seed=2), Mapper(CFG.replace(bind_radius=2.0))).state
+    b = _save(other, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY))
+    with pytest.raises(ConfigError, match=r"bind_radius 1\.0 vs 2\.0") as exc:
+        merge_map_files([a, b], tmp_path / "out.aion")
+    assert exc.value.hint is not None
+    assert "config" in exc.value.hint
+    c = _save(
+        _run(_log(T0 + 2 * DAY, seed=2)).state,
+        tmp_path / "c.aion",
+        ("c.mcap",),
+        _span(T0 + 2 * DAY),
+        timezone="Europe/Berlin",
+    )
+    with pytest.raises(ConfigError, match="different time zones"):
+        merge_map_files([a, c], tmp_path / "out.aion")
+
+
+def test_overlapping_maps_merge_with_a_note(tmp_path: Path) -> None:
+    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    b = _save(
+        _run(_log(T0 + 3 * W, seed=2)).state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 3 * W)
+    )
+    report = merge_map_files([a, b], tmp_path / "out.aion")
+    assert any("overlap" in n and "count twice" in n for n in report.notes), report.notes
+    assert any("approximation 4" in n for n in report.notes)  # and the same day twice
+    assert json.loads(json.dumps(report.to_dict()))["detections"] == report.detections
+
+
+def test_the_notes_name_the_approximations_that_apply(tmp_path: Path) -> None:
+    """Detections anywhere (entries in one map only: approximation 1), and a later map of two
+    days, the first closed and scored on its own (approximation 2)."""
+    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    late = _run(_log(T0 + 2 * DAY, seed=2) + _log(T0 + 3 * DAY, seed=3)).state
+    b = _save(late, tmp_path / "b.aion", ("b.mcap",), (T0 + 2 * DAY, T0 + 3 * DAY + 6 * W))
+    notes = merge_map_files([a, b], tmp_path / "out.aion").notes
+    assert [n for n in notes if "approximation" in n] == [
+        next(n for n in notes if n.endswith("(merge approximation 1)")),
+        next(n for n in notes if n.endswith("(merge approximation 2)")),
+    ]
+
+
+def test_configs_compare_as_parameters(tmp_path: Path) -> None:
+    """A map and one built with an equal config (a fresh object) merge."""
+    same = ModelConfig(window_s=600.0, stability_s=30.0)
+    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    b = _save(
+        _run(_log(T0 + 2 * DAY, seed=2), Mapper(same)).state,
+        tmp_path / "b.aion",
+        ("b.mcap",),
+        _span(T0 + 2 * DAY),
+    )
+    assert merge_map_files([a, b], tmp_path / "out.aion").lineage == "same"
+
+
+def test_the_api_merges_as_docs_api_md_shows(tmp_path: Path) -> None:
+    """docs/API.md's merge example, run as written beside two maps of those names."""
+    _save(_run(_log(T0, seed=1)).state, tmp_path / "monday.aion", ("mon.mcap",), _span(T0))
+    _save(
+        _run(_log(T0 + 2 * DAY, seed=2)).state,
+        tmp_path / "wednesday.aion",
+        ("wed.mcap",),
+        _span(T0 + 2 * DAY),
+    )
+    text = (Path(__file__).resolve().parents[1] / "docs" / "API.md").read_text()
+    block = next(b for b in re.findall(r"```python\n(.*?)```", text, flags=re.S) if "merge(" in b)
+    cwd = Path.cwd()
+    os.chdir(tmp_path)
+    try:
+        scope: dict[str, object] = {}
+        exec(compile(block, "docs/API.md", "exec"), scope)
+    finally:
+        os.chdir(cwd)
+    week = scope["week"]
+    from aion_cli.api import Map, merge
+    from aion_cli.merging import MergeReport
+
+    assert isinstance(week, Map)
+    assert isinstance(week.report, MergeReport)
+    assert week.path == Path("week.aion")
+    assert (tmp_path / "week.aion").is_file()
+    assert week.report.lineage == "same"
+    assert [i.name for i in week.manifest.inputs] == ["mon.mcap", "wed.mcap"]
+    assert week.state.accepted == week.report.detections
+    with pytest.raises(InputError, match="list of map files"):
+        merge(str(tmp_path / "monday.aion"), tmp_path / "x.aion")
