@@ -1,0 +1,136 @@
+"""``aion merge``: one map from maps of disjoint time (``aion_cli.merging``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from aion_cli.cli.graph_options import nav_layer_option
+from aion_cli.cli.output import AionCommand, format_option, to_json
+
+EPILOG = """\b
+Examples:
+  aion merge monday.aion tuesday.aion -o week.aion
+  aion merge robot1.aion robot2.aion -o office.aion --graph dsg.json
+  aion merge old.aion new.aion -o both.aion --lineage different
+
+\b
+The maps must share their model parameters and time zone, and no log may be in two of
+them (a log is never counted twice). They are merged in time order: counts, speed sums and
+the temporal model add (the same as building from all the logs at once for maps of one
+scene-graph session, but for the approximations the notes name). Maps from different
+scene-graph sessions (node ids reused at unrelated positions; --lineage auto finds them from
+the graphs) first release every place's state to the hash cells at its position; the merged
+cells then bind to the target graph (--graph FILE, else the newest map's), its places taken
+as stable at the merge time. The output lists every input log and the maps it was merged
+from; an existing map at -o is replaced atomically, anything else is refused.
+
+\b
+JSON keys (--format json): map, map_bytes, inputs[{path, name, size, sha256, start_ns,
+end_ns, logs, detections}], lineage, lineage_reason, graph_source, released_nodes,
+rebound_cells, detections, logs, cells, nodes, nodes_with_flow, bound_cells, windows,
+time_span{start_ns, end_ns, seconds}, notes.
+"""
+
+
+@click.command(
+    "merge",
+    short_help="Merge maps of disjoint time into one.",
+    cls=AionCommand,
+    epilog=EPILOG,
+    advanced=("nav_layer",),
+)
+@click.argument("maps", nargs=-1, type=click.Path(path_type=Path))
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="Map file to write (a new file, or an existing map to replace).",
+)
+@click.option(
+    "--graph",
+    "graph_file",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="Scene graph saved by Hydra (dsg.json, .sparkdsg) to bind the merged map to.",
+)
+@click.option(
+    "--lineage",
+    type=click.Choice(["auto", "same", "different"]),
+    default="auto",
+    show_default=True,
+    help="Whether the maps come from one scene-graph session (node ids add by id) or from "
+    "different ones (released to hash cells, then re-bound); auto decides from the graphs.",
+)
+@nav_layer_option
+@click.option("-q", "--quiet", is_flag=True, help="No progress and no summary table.")
+@format_option(choices=("table", "json"))
+def command(
+    maps: tuple[Path, ...],
+    output: Path,
+    graph_file: Path | None,
+    lineage: str,
+    nav_layer: str | None,
+    quiet: bool,
+    fmt: str,
+) -> None:
+    """Merge the map files MAPS (two or more, built from different logs) into one map."""
+    from aion_cli.cli.build import _RichProgress
+    from aion_cli.errors import InputError
+    from aion_cli.merging import merge_map_files
+
+    if len(maps) < 2:
+        raise InputError(
+            f"a merge needs at least two maps, got {len(maps)}",
+            hint="aion merge A.aion B.aion ... -o OUT.aion",
+        )
+    with _RichProgress(quiet or fmt == "json") as progress:
+        report = merge_map_files(list(maps), output, graph_file, lineage, progress, nav_layer)
+    summary = report.to_dict()
+    if fmt == "json":
+        click.echo(to_json(summary))
+    elif not quiet:
+        print_summary(summary)
+
+
+def print_summary(summary: dict[str, Any]) -> None:
+    """The closing table (on stderr, like ``aion build``'s) and the notes; every name from a
+    map or path is shown as plain text."""
+    from rich.table import Table
+
+    from aion_cli.cli.build_summary import span_text
+    from aion_cli.cli.console import console
+    from aion_cli.cli.output import human_size, markup_safe
+    from aion_cli.log_times import iso
+
+    table = Table(
+        title=f"map {markup_safe(summary['map'])}", show_header=False, title_justify="left"
+    )
+    table.add_column("what", style="bold")
+    table.add_column("value", justify="right")
+    for item in summary["inputs"]:
+        table.add_row(
+            f"input {markup_safe(item['name'])}",
+            f"{item['detections']:,} detections, {item['logs']} log(s)",
+        )
+    table.add_row("lineage", markup_safe(summary["lineage"]))
+    table.add_row("graph", markup_safe(summary["graph_source"]))
+    table.add_row("logs", f"{summary['logs']:,}")
+    table.add_row("detections", f"{summary['detections']:,}")
+    table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
+    table.add_row("hash cells", f"{summary['cells']:,}")
+    table.add_row("bound cells", f"{summary['bound_cells']:,}")
+    table.add_row("windows observed", f"{summary['windows']:,}")
+    span = summary["time_span"]
+    if span["start_ns"] is not None and span["end_ns"] is not None:
+        table.add_row("first time", iso(span["start_ns"]))
+        table.add_row("last time", iso(span["end_ns"]))
+    table.add_row("time span", span_text(span["seconds"]))
+    table.add_row("map size", human_size(summary["map_bytes"]))
+    console().print(table)
+    out = console()
+    out.print(f"[dim]lineage: {markup_safe(summary['lineage_reason'])}[/dim]", soft_wrap=True)
+    for message in summary["notes"]:
+        out.print(f"[yellow]note:[/yellow] {markup_safe(message)}", soft_wrap=True)

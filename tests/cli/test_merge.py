@@ -1,0 +1,218 @@
+"""``aion merge`` from real logs: the office log (tests/cli/logdata.py) on two days, built by
+``aion build`` into two maps and merged; compared with ``aion build`` of both logs, with a
+graph of another session (the same ids at other places), and every bad input."""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.state import MapState
+from aion_cli.formats.mapfile import read_manifest
+from aion_cli.mapquery import load_map
+from tests.cli.conftest import assert_one_line_error, run, run_json, run_process
+from tests.cli.logdata import EDGES, PLACES, save_graph_file, sym, write_office_log
+from tests.engine.test_state import _pending_sorted, _plain
+
+DAY_S = 86_400
+
+
+@dataclass(frozen=True)
+class Days:
+    """The office log on Monday and on Wednesday, their maps, and one map of both."""
+
+    logs: tuple[Path, Path]
+    maps: tuple[Path, Path]
+    both: Path
+    per_track: dict[int, int]
+    folder: Path
+
+
+@pytest.fixture(scope="module")
+def days(tmp_path_factory: pytest.TempPathFactory) -> Days:
+    folder = tmp_path_factory.mktemp("days")
+    mon, wed = folder / "monday.mcap", folder / "wednesday.mcap"
+    expected = write_office_log(mon)
+    write_office_log(wed, shift_s=2 * DAY_S)
+    for log in (mon, wed):
+        assert run("build", log, "-o", log.with_suffix(".aion"), "-q").exit_code == 0
+    both = folder / "both.aion"
+    assert run("build", mon, wed, "-o", both, "-q").exit_code == 0
+    return Days(
+        (mon, wed),
+        (mon.with_suffix(".aion"), wed.with_suffix(".aion")),
+        both,
+        expected.per_track,
+        folder,
+    )
+
+
+def _state(path: Path) -> MapState:
+    return load_map(path, writable=True).state
+
+
+def _node_counts(path: Path) -> dict[int, float]:
+    """Detections per place (by office index) of a map."""
+    state = _state(path)
+    rows = state.entries.node_rows()
+    index = {sym("p", i): i for i in PLACES}
+    return {
+        index[int(node)]: float(state.entries.counts[r].sum() + state.entries.nodir[r])
+        for node, r in zip(state.entries.node_id[rows], rows, strict=True)
+    }
+
+
+def test_merging_the_two_days_equals_building_from_both_logs(days: Days, tmp_path: Path) -> None:
+    """merge(map(Mon), map(Wed)) == build(Mon, Wed), every member (ints exactly, floats to
+    rtol 1e-12). The documented exactness conditions of engine.merge.merge_maps hold: the
+    logs are disjoint, on different days; they carry the same scene graph (one session) and
+    each sees the same three people at the same places from its first window on, with the
+    robot at the same spot, so no entry is in one map only; Wednesday's day is still pending,
+    so only Monday's day is closed (against the same empty history in both)."""
+    out = tmp_path / "merged.aion"
+    summary = run_json("merge", days.maps[1], days.maps[0], "-o", out, "--format", "json")
+    assert summary["lineage"] == "same"
+    assert summary["lineage_reason"] == "7 of 7 shared node ids lie within 1 m"
+    assert summary["detections"] == 2 * sum(days.per_track.values())
+    assert [i["name"] for i in summary["inputs"]] == ["monday.aion", "wednesday.aion"]
+    assert summary["notes"] == []
+    xa, ma = _state(days.both).to_arrays()
+    xm, mm = _state(out).to_arrays()
+    assert mm == ma
+    pa, pm = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xm))
+    assert sorted(pa) == sorted(pm)
+    for name in pa:
+        if pa[name].dtype.kind in "fc":
+            np.testing.assert_allclose(pm[name], pa[name], rtol=1e-12, atol=0, err_msg=name)
+        else:
+            np.testing.assert_array_equal(pm[name], pa[name], err_msg=name)
+    # the manifest lists both logs, with the sha256 of their bytes, and the maps merged
+    doc = read_manifest(out)
+    sha = {log.name: hashlib.sha256(log.read_bytes()).hexdigest() for log in days.logs}
+    assert [(i["name"], i["sha256"]) for i in doc["inputs"]] == list(sha.items())
+    assert [m["name"] for m in doc["merged_from"]] == ["monday.aion", "wednesday.aion"]
+    assert doc["merged_from"][0]["sha256"] == hashlib.sha256(days.maps[0].read_bytes()).hexdigest()
+    both = read_manifest(days.both)
+    assert doc["time_span"] == both["time_span"]
+    assert doc["counts"] == both["counts"]
+    assert doc["families"] == both["families"]
+    # and the merged map answers like the built one
+    predicted = run_json("predict", out, "--time", "2026-11-30 08:05", "--format", "json")
+    expected = run_json("predict", days.both, "--time", "2026-11-30 08:05", "--format", "json")
+    assert predicted["entries"] == expected["entries"]
+
+
+def test_maps_of_another_session_are_released_and_rebound(days: Days, tmp_path: Path) -> None:
+    """Wednesday's map is built with a graph of another session: the same ids p0..p6 at other
+    places (p0 where Monday's p1 is, p2 where Monday's p4 is ...). The merged map's places
+    are Wednesday's, each holding the people near it on both days (known answer)."""
+    perm = {0: 1, 1: 0, 2: 4, 3: 3, 4: 2, 5: 6, 6: 5}  # Wednesday's p_i is at Monday's p_perm[i]
+    graph = save_graph_file(tmp_path / "other.json", {i: PLACES[perm[i]] for i in PLACES}, EDGES)
+    other = tmp_path / "wednesday-other.aion"
+    assert run("build", days.logs[1], "--graph", graph, "-o", other, "-q").exit_code == 0
+    n1, n2, n3 = (days.per_track[k] for k in (1, 2, 3))
+    assert _node_counts(other) == {0: n1, 2: n2, 3: n3}  # track 1 at p0, track 2 at p2 now
+    out = tmp_path / "merged.aion"
+    summary = run_json("merge", days.maps[0], other, "-o", out, "--format", "json")
+    assert summary["lineage"] == "different"
+    assert (
+        "of the 7 node ids both monday.aion and wednesday-other.aion hold, 1 lie"
+        in (summary["lineage_reason"])
+    )
+    assert summary["released_nodes"] == 6  # three places with flow in each map
+    assert _node_counts(out) == {0: 2 * n1, 2: 2 * n2, 3: 2 * n3}
+    # the table names the lineage and the release
+    result = run("merge", days.maps[0], other, "-o", tmp_path / "again.aion")
+    assert result.exit_code == 0
+    assert "different" in result.stderr
+    assert "released" in result.stderr
+    # forced to add by id, Monday's people would sit at the wrong places
+    run_json("merge", days.maps[0], other, "-o", out, "--lineage", "same", "--format", "json")
+    wrong = _node_counts(out)
+    assert wrong[0] == n1
+    assert wrong[1] == n1
+    assert wrong[2] == n2
+    assert wrong[4] == n2
+
+
+def test_a_graph_file_is_the_merged_maps_graph(days: Days, tmp_path: Path) -> None:
+    """--graph FILE with one place at (2, 0): track 1 of both days binds to it; the places the
+    file lacks release their people to hash cells."""
+    graph = save_graph_file(tmp_path / "one.json", {0: (2.0, 0.0, 0.0)}, [])
+    out = tmp_path / "merged.aion"
+    summary = run_json("merge", *days.maps, "-o", out, "--graph", graph, "--format", "json")
+    assert summary["graph_source"] == "file one.json"
+    assert summary["nodes"] == 1
+    assert _node_counts(out) == {0: 2 * days.per_track[1]}
+    state = _state(out)
+    cells = state.entries.cell_rows()
+    assert state.entries.counts[cells].sum() == 2 * (days.per_track[2] + days.per_track[3])
+
+
+def test_a_log_in_both_maps_is_refused(days: Days, tmp_path: Path) -> None:
+    out = tmp_path / "out.aion"
+    result = run("merge", days.maps[0], days.both, "-o", out)
+    assert result.exit_code == 2
+    assert_one_line_error(
+        result.stderr, "monday.mcap", "monday.aion", "both.aion", "never counted twice"
+    )
+    assert not out.exists()
+
+
+def test_bad_inputs_are_one_line_errors(days: Days, tmp_path: Path) -> None:
+    mon, wed = days.maps
+    out = tmp_path / "out.aion"
+    cases = [
+        (("merge", mon, "-o", out), ["at least two maps"]),
+        (("merge", mon, tmp_path / "missing.aion", "-o", out), ["not found", "missing.aion"]),
+        (("merge", mon, days.logs[1], "-o", out), ["wednesday.mcap", "not a readable aion map"]),
+        (("merge", mon, mon, "-o", out), ["given twice"]),
+        (("merge", mon, wed, "-o", mon), ["one of the input maps"]),
+        (("merge", mon, wed, "-o", days.logs[0]), ["not an aion map"]),
+        (("merge", mon, wed, "-o", out, "--lineage", "maybe"), ["maybe"]),
+        (("merge", mon, wed, "-o", out, "--graph", tmp_path / "no.json"), ["no.json"]),
+        (("merge", mon, wed), ["-o"]),
+    ]
+    for args, fragments in cases:
+        result = run(*args)
+        assert result.exit_code == 2, (args, result.stderr)
+        assert_one_line_error(result.stderr, *fragments)
+    assert not out.exists()
+    assert days.logs[0].stat().st_size > 0
+    assert mon.exists()
+
+
+def test_maps_of_different_models_are_refused(days: Days, tmp_path: Path) -> None:
+    config = tmp_path / "model.toml"
+    config.write_text(ModelConfig().replace(bind_radius=2.0).to_toml())
+    other = tmp_path / "wide.aion"
+    assert run("build", days.logs[1], "--config", config, "-o", other, "-q").exit_code == 0
+    result = run("merge", days.maps[0], other, "-o", tmp_path / "out.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "different model parameters", "bind_radius 1.0 vs 2.0")
+    assert "hint: rebuild one of them" in result.stderr
+    zoned = tmp_path / "tokyo.aion"
+    assert run("build", days.logs[1], "--tz", "Asia/Tokyo", "-o", zoned, "-q").exit_code == 0
+    result = run("merge", days.maps[0], zoned, "-o", tmp_path / "out.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "different model parameters", "timezone")
+
+
+def test_the_installed_command_merges_and_has_help(days: Days, tmp_path: Path) -> None:
+    out = tmp_path / "week.aion"
+    done = run_process("merge", *days.maps, "-o", out)
+    assert done.returncode == 0, done.stderr
+    assert "lineage" in done.stderr
+    assert "detections" in done.stderr
+    assert "600" in done.stderr  # 2 x 300 detections
+    info = run_json("info", out, "--format", "json")
+    assert [i["name"] for i in info["inputs"]] == ["monday.mcap", "wednesday.mcap"]
+    helped = run("merge", "--help")
+    assert helped.exit_code == 0
+    assert "aion merge " in helped.stdout.split("Examples:")[1]
+    assert "merge" in run("--help").stdout
