@@ -30,6 +30,9 @@ atomically with a manifest that accounts for every log. The rules:
 * **Time.** Maps are ordered by their manifests' time spans (else their open windows). Maps
   whose times overlap merge (two robots at once), with a note: windows both observed count
   twice.
+
+The report's notes name the approximations of the engine's merge that apply
+(:mod:`aion_cli.merge_notes`).
 """
 
 from __future__ import annotations
@@ -41,9 +44,6 @@ from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from aion_cli.engine.entries import NODE
 from aion_cli.errors import ConfigError, InputError
 from aion_cli.manifest import InputLog, Manifest, add_counts
 
@@ -341,6 +341,7 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
     with a note for each approximation of the engine's merge that applies."""
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
+    from aion_cli.merge_notes import approximation_notes, pair_notes
 
     states = [m.state for m in maps]
     if report.lineage == "different":
@@ -349,8 +350,10 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
             f"{report.released} node entries released to the hash cells at their places"
         )
     for early, late in pairwise(maps):
-        report.notes.extend(_pair_notes(early, late))
-    report.notes.extend(_approximation_notes(states, report.lineage))
+        report.notes.extend(
+            pair_notes(early.name, early.manifest.end_ns, early.state, late.name, late.start())
+        )
+    report.notes.extend(approximation_notes(states, report.lineage))
     sink.start("merging", len(states) - 1, "maps")
 
     def step(acc: MapState, nxt: MapState) -> MapState:
@@ -359,92 +362,6 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
         return out
 
     return reduce(step, states)
-
-
-def _pair_notes(early: _Input, late: _Input) -> list[str]:
-    """Overlapping times, and approximation (4): a day both maps hold is scored twice."""
-    notes = []
-    end, start = early.manifest.end_ns, late.start()
-    if end is not None and start is not None and end > start:
-        notes.append(
-            f"the times of {early.name} and {late.name} overlap: windows both observed count "
-            "twice (merge maps of disjoint time)"
-        )
-    w = early.state.open_window
-    if w is not None and start is not None and _same_day(early.state, w, start):
-        notes.append(
-            f"{early.name} ends on the day {late.name} starts: that day is scored as two "
-            "days (merge approximation 4)"
-        )
-    return notes
-
-
-def _same_day(state: MapState, window: int, t_ns: int) -> bool:
-    """Whether window ``window`` and the window at ``t_ns`` lie on one local day."""
-    return state.window_day(window) == state.window_day(t_ns // state.window_ns)
-
-
-def _approximation_notes(states: list[MapState], lineage: str) -> list[str]:
-    """Approximations (1), (2) and (3) of :mod:`aion_cli.engine.merge` that apply."""
-    notes = []
-    only = 0
-    moved = 0
-    for early, late in pairwise(states):
-        only += _unseen_entries(early, late)
-        if lineage == "same":
-            moved += _moved_nodes(early, late)
-    if only:
-        notes.append(
-            f"{only} entries are in one map only, or appear in the later map after it began: "
-            "the windows in which the other map's robot saw them empty are not known (merge "
-            "approximation 1)"
-        )
-    if any(_closed_a_day(s) for s in states[1:]):
-        notes.append(
-            "day-ahead scores add: the later maps scored their closed days against their own "
-            "history only, not the earlier maps', so the forecast families may differ from one "
-            "build of all logs (merge approximation 2)"
-        )
-    if moved:
-        notes.append(
-            f"{moved} nodes moved between the maps: their stability timers restart "
-            "(merge approximation 3)"
-        )
-    return notes
-
-
-def _unseen_entries(early: MapState, late: MapState) -> int:
-    """Entries whose robot-observed empty windows one of two maps cannot know: those only
-    one map has, and those of both that the later map first observed after its own first
-    robot-observed window (created there late, so its earlier windows passed them by)."""
-    ea, el = early.entries, late.entries
-    cells = np.setxor1d(ea.key[ea.cell_rows()], el.key[el.cell_rows()])
-    nodes = np.setxor1d(ea.node_id[ea.node_rows()], el.node_id[el.node_rows()])
-    rows = el.canonical_order()
-    first = late.query_temporal().obs.first[rows]  # model seconds, NaN: never robot-observed
-    if not np.isfinite(first).any():
-        return int(cells.size + nodes.size)
-    in_early = np.where(
-        el.kind[rows] == NODE,
-        np.isin(el.node_id[rows], ea.node_id[ea.node_rows()]),
-        np.isin(el.key[rows], ea.key[ea.cell_rows()]),
-    )
-    late_first = first > np.nanmin(first)  # NaN compares False
-    return int(cells.size + nodes.size + np.count_nonzero(in_early & late_first))
-
-
-def _closed_a_day(state: MapState) -> bool:
-    """Whether a map has closed (and so scored) any day: windows in its accumulators."""
-    t = state.temporal
-    return bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
-
-
-def _moved_nodes(early: MapState, late: MapState) -> int:
-    """Nodes in both node tables whose reference positions differ by more than
-    ``stable_move_tolerance`` (the earlier stability start is then not kept)."""
-    _, at_e, at_l = np.intersect1d(early.nodes.ids, late.nodes.ids, return_indices=True)
-    gap = np.linalg.norm(early.nodes.ref_xyz[at_e] - late.nodes.ref_xyz[at_l], axis=1)
-    return int(np.count_nonzero(gap > late.config.stable_move_tolerance))
 
 
 def _bind_target(

@@ -1,0 +1,105 @@
+"""The notes of ``aion merge``: which approximations of the engine's merge
+(:mod:`aion_cli.engine.merge`, numbered as in its docstring) apply to the maps at hand, so a
+merged map says where it may differ from one build of all the logs. Read-only: nothing here
+changes a state (a later map's query view is prepared, as any query would)."""
+
+from __future__ import annotations
+
+from itertools import pairwise
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from aion_cli.engine.entries import NODE
+
+if TYPE_CHECKING:
+    from aion_cli.engine.state import MapState
+
+
+def pair_notes(
+    early: str, end_ns: int | None, early_state: MapState, late: str, start_ns: int | None
+) -> list[str]:
+    """Two consecutive maps (names ``early`` and ``late``; the earlier one ends at
+    ``end_ns``, the later starts at ``start_ns``): overlapping times, and approximation (4),
+    a day both maps hold is scored as two."""
+    notes = []
+    if end_ns is not None and start_ns is not None and end_ns > start_ns:
+        notes.append(
+            f"the times of {early} and {late} overlap: windows both observed count twice "
+            "(merge maps of disjoint time)"
+        )
+    w = early_state.open_window
+    if w is not None and start_ns is not None and _same_day(early_state, w, start_ns):
+        notes.append(
+            f"{early} ends on the day {late} starts: that day is scored as two days (merge "
+            "approximation 4)"
+        )
+    return notes
+
+
+def _same_day(state: MapState, window: int, t_ns: int) -> bool:
+    """Whether window ``window`` and the window at ``t_ns`` lie on one local day."""
+    return state.window_day(window) == state.window_day(t_ns // state.window_ns)
+
+
+def approximation_notes(states: list[MapState], lineage: str) -> list[str]:
+    """Approximations (1), (2) and (3) of :mod:`aion_cli.engine.merge` that apply."""
+    notes = []
+    only = 0
+    moved = 0
+    for early, late in pairwise(states):
+        only += _unseen_entries(early, late)
+        if lineage == "same":
+            moved += _moved_nodes(early, late)
+    if only:
+        notes.append(
+            f"{only} entries are in one map only, or appear in the later map after it began: "
+            "the windows in which the other map's robot saw them empty are not known (merge "
+            "approximation 1)"
+        )
+    if any(_closed_a_day(s) for s in states[1:]):
+        notes.append(
+            "day-ahead scores add: the later maps scored their closed days against their own "
+            "history only, not the earlier maps', so the forecast families may differ from one "
+            "build of all logs (merge approximation 2)"
+        )
+    if moved:
+        notes.append(
+            f"{moved} nodes moved between the maps: their stability timers restart "
+            "(merge approximation 3)"
+        )
+    return notes
+
+
+def _unseen_entries(early: MapState, late: MapState) -> int:
+    """Entries whose robot-observed empty windows one of two maps cannot know: those only
+    one map has, and those of both that the later map first observed after its own first
+    robot-observed window (created there late, so its earlier windows passed them by)."""
+    ea, el = early.entries, late.entries
+    cells = np.setxor1d(ea.key[ea.cell_rows()], el.key[el.cell_rows()])
+    nodes = np.setxor1d(ea.node_id[ea.node_rows()], el.node_id[el.node_rows()])
+    rows = el.canonical_order()
+    first = late.query_temporal().obs.first[rows]  # model seconds, NaN: never robot-observed
+    if not np.isfinite(first).any():
+        return int(cells.size + nodes.size)
+    in_early = np.where(
+        el.kind[rows] == NODE,
+        np.isin(el.node_id[rows], ea.node_id[ea.node_rows()]),
+        np.isin(el.key[rows], ea.key[ea.cell_rows()]),
+    )
+    late_first = first > np.nanmin(first)  # NaN compares False
+    return int(cells.size + nodes.size + np.count_nonzero(in_early & late_first))
+
+
+def _closed_a_day(state: MapState) -> bool:
+    """Whether a map has closed (and so scored) any day: windows in its accumulators."""
+    t = state.temporal
+    return bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
+
+
+def _moved_nodes(early: MapState, late: MapState) -> int:
+    """Nodes in both node tables whose reference positions differ by more than
+    ``stable_move_tolerance`` (the earlier stability start is then not kept)."""
+    _, at_e, at_l = np.intersect1d(early.nodes.ids, late.nodes.ids, return_indices=True)
+    gap = np.linalg.norm(early.nodes.ref_xyz[at_e] - late.nodes.ref_xyz[at_l], axis=1)
+    return int(np.count_nonzero(gap > late.config.stable_move_tolerance))
