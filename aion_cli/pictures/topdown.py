@@ -3,9 +3,10 @@
 
 What is drawn, back to front:
 
-- **mesh** footprint: the scene graph's triangles projected to x-y, light grey;
+- **mesh** footprint: the scene graph's triangles projected to x-y, light grey (rendered
+  once per picture as an image, :func:`mesh_footprint`);
 - **rooms**: the convex hull of each room's places (padded by one cell), dashed, with the
-  room's label (or id) at the centroid of its places;
+  room's label (or id) at the centroid of its places (up to :data:`MAX_ROOM_LABELS` rooms);
 - **edges**: the place edges as thin grey lines; **places** as small grey dots;
 - **cells**: an unbound hash cell as a δ×δ square coloured by its direction entropy (grey
   without flow);
@@ -46,6 +47,8 @@ PANEL_ARROW_WIDTH = 0.006
 MESH_GREY: Color = (0.9, 0.9, 0.9)
 ROOM_GREY: Color = (0.45, 0.45, 0.45)
 LABEL_GREY: Color = (0.3, 0.3, 0.3)
+MAX_ROOM_LABELS = 60
+"""Rooms are labelled up to this many (outlined always)."""
 ENTROPY_LABEL = "direction entropy"
 DPI = 120
 MAX_PANELS = 24
@@ -141,21 +144,28 @@ def draw_topdown(
     arrow_width: float = ARROW_WIDTH,
     dot_size: float = 12.0,
     label_size: float = 7.0,
+    footprint: Footprint | None = None,
+    rooms: RoomOutlines | None = None,
 ) -> None:
     """Draw ``scene`` top-down into the matplotlib axes ``ax`` (see the module docstring).
     ``flow_scale``: the flow drawn at full arrow length (default: the scene's largest);
     ``extent``: the window shown (default: the scene's own); ``arrow_width`` (fraction of the
-    panel width), ``dot_size`` (points²) and ``label_size`` (points) for small panels."""
+    panel width), ``dot_size`` (points²) and ``label_size`` (points) for small panels;
+    ``footprint`` / ``rooms``: the mesh already rendered (:func:`mesh_footprint`) and the
+    room outlines already computed (:func:`room_outlines`); default: made here."""
     from matplotlib.collections import LineCollection, PolyCollection
 
     scale = flow_scale if flow_scale is not None and flow_scale > 0 else scene.max_flow
     scale = scale if scale > 0 else 1.0
-    _draw_mesh(ax, scene)
-    _draw_rooms(ax, scene, label_size)
+    box = extent or scene_extent([scene], paths)
+    if footprint is None:
+        footprint = mesh_footprint(scene, box, round(ax.get_window_extent().width))
+    _draw_footprint(ax, footprint)
+    _draw_rooms(ax, rooms if rooms is not None else room_outlines(scene), label_size)
     if len(scene.edges_xyz):
         ax.add_collection(
             LineCollection(
-                list(scene.edges_xyz[:, :, :2]), colors=[EDGE_GREY], linewidths=0.6, zorder=2
+                _arrays(scene.edges_xyz[:, :, :2]), colors=[EDGE_GREY], linewidths=0.6, zorder=2
             )
         )
     if len(scene.cells_xyz):
@@ -165,7 +175,11 @@ def draw_topdown(
         ent = np.where(scene.cells_flow > 0, scene.cells_entropy, np.nan)
         ax.add_collection(
             PolyCollection(
-                squares, facecolors=entropy_colors(ent), edgecolors="none", alpha=0.85, zorder=3
+                _arrays(squares),
+                facecolors=entropy_colors(ent),
+                edgecolors="none",
+                alpha=0.85,
+                zorder=3,
             )
         )
     if len(scene.places_xyz):
@@ -219,7 +233,6 @@ def draw_topdown(
             label=m.label,
             zorder=20,
         )
-    box = extent or scene_extent([scene], paths)
     ax.set_xlim(box.x0, box.x1)
     ax.set_ylim(box.y0, box.y1)
     ax.set_aspect("equal", adjustable="box")
@@ -229,57 +242,122 @@ def draw_topdown(
         ax.set_title(title, fontsize=10)
 
 
-def _draw_mesh(ax: Any, scene: Scene) -> None:
+def _arrays(polygons: F64) -> Any:
+    """Polygons f64[n,k,2] as handed to a matplotlib collection: the 3-d array itself, which
+    matplotlib turns into paths on its fast path (typed as a sequence, hence ``Any``)."""
+    return polygons
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """A mesh's footprint rendered once as an RGBA image covering ``extent`` (transparent
+    where there is no triangle), drawn into every panel with ``imshow``: a mesh of 10^5..10^6
+    triangles costs one rendering per picture, not one per panel."""
+
+    image: npt.NDArray[np.uint8]
+    extent: Extent
+
+
+def mesh_footprint(scene: Scene, extent: Extent, pixels: int) -> Footprint | None:
+    """The footprint of ``scene``'s mesh (triangles projected to x-y, :data:`MESH_GREY`) over
+    ``extent``, ``pixels`` wide; None without a mesh."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.collections import PolyCollection
+    from matplotlib.figure import Figure
 
     mesh = scene.mesh
     if mesh is None or len(mesh.faces) == 0:
-        return
+        return None
     v = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)[:, :2]
     f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     f = f[((f >= 0) & (f < len(v))).all(axis=1)]
+    width = max(int(pixels), 16)
+    height = max(round(width * extent.aspect), 16)
+    fig = Figure(figsize=(width / 100.0, height / 100.0), dpi=100)
+    canvas = FigureCanvasAgg(fig)
+    fig.patch.set_alpha(0.0)
+    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
+    ax.set_axis_off()
     ax.add_collection(
-        PolyCollection(list(v[f]), facecolors=[MESH_GREY], edgecolors="none", antialiased=False)
-    ).set_zorder(0)
+        PolyCollection(_arrays(v[f]), facecolors=[MESH_GREY], edgecolors="none", antialiased=False)
+    )
+    ax.set_xlim(extent.x0, extent.x1)
+    ax.set_ylim(extent.y0, extent.y1)
+    canvas.draw()
+    return Footprint(np.asarray(canvas.buffer_rgba()).copy(), extent)
 
 
-def _draw_rooms(ax: Any, scene: Scene, label_size: float) -> None:
-    """Each room's outline (the padded convex hull of its places) and its label."""
-    import matplotlib.patheffects as effects
-    from matplotlib.patches import Polygon
+def _draw_footprint(ax: Any, footprint: Footprint | None) -> None:
+    if footprint is None:
+        return
+    box = footprint.extent
+    ax.imshow(
+        footprint.image,
+        extent=(box.x0, box.x1, box.y0, box.y1),
+        origin="upper",
+        interpolation="nearest",
+        zorder=0,
+    )
 
+
+@dataclass(frozen=True)
+class RoomOutlines:
+    """Each room's outline (the convex hull of its places, padded by one cell; rooms with
+    fewer than three places off one line have none) and its label at the centroid of its
+    places; computed once per picture (the panels of a series share the map's rooms)."""
+
+    hulls: tuple[F64, ...]
+    label_xy: F64
+    labels: tuple[str, ...]
+
+
+def room_outlines(scene: Scene) -> RoomOutlines:
+    """The :class:`RoomOutlines` of ``scene``; labels only up to :data:`MAX_ROOM_LABELS`
+    rooms (more could not be read)."""
     from aion_cli.engine.node_ids import node_label
 
     n_rooms = len(scene.room_ids)
-    if n_rooms == 0:
-        return
     room = scene.place_room
     order = np.argsort(room, kind="stable")
     bounds = np.searchsorted(room[order], np.arange(n_rooms + 1))
-    halo = [effects.withStroke(linewidth=2.5, foreground="white")]
+    hulls: list[F64] = []
+    label_xy: list[F64] = []
+    labels: list[str] = []
     for r in range(n_rooms):  # one hull per room: rooms are few
         xy = scene.places_xyz[order[bounds[r] : bounds[r + 1]], :2]
         hull = _padded_hull(xy, scene.cell_size)
         if hull is not None:
-            ax.add_patch(
-                Polygon(
-                    hull,
-                    closed=True,
-                    fill=False,
-                    edgecolor=ROOM_GREY,
-                    linestyle="--",
-                    linewidth=0.8,
-                    zorder=1,
-                )
-            )
+            hulls.append(hull)
         centre = xy.mean(axis=0) if len(xy) else scene.room_xyz[r, :2]
-        if not np.isfinite(centre).all():
-            continue
-        label = scene.room_labels[r] if r < len(scene.room_labels) else ""
+        if n_rooms <= MAX_ROOM_LABELS and np.isfinite(centre).all():
+            name = scene.room_labels[r] if r < len(scene.room_labels) else ""
+            label_xy.append(centre)
+            labels.append(name or node_label(int(scene.room_ids[r])))
+    xy_all = np.asarray(label_xy, dtype=np.float64).reshape(-1, 2)
+    return RoomOutlines(tuple(hulls), xy_all, tuple(labels))
+
+
+def _draw_rooms(ax: Any, rooms: RoomOutlines, label_size: float) -> None:
+    import matplotlib.patheffects as effects
+    from matplotlib.collections import PolyCollection
+
+    if rooms.hulls:
+        ax.add_collection(
+            PolyCollection(
+                list(rooms.hulls),
+                facecolors="none",
+                edgecolors=[ROOM_GREY],
+                linestyles="--",
+                linewidths=0.8,
+                zorder=1,
+            )
+        )
+    halo = [effects.withStroke(linewidth=2.5, foreground="white")]
+    for (x, y), label in zip(rooms.label_xy.tolist(), rooms.labels, strict=True):
         ax.text(
-            float(centre[0]),
-            float(centre[1]),
-            label or node_label(int(scene.room_ids[r])),
+            x,
+            y,
+            label,
             fontsize=label_size,
             color=LABEL_GREY,
             ha="center",
@@ -304,6 +382,25 @@ def _padded_hull(xy: F64, pad: float) -> F64 | None:
     out = corners - corners.mean(axis=0)
     norm = np.linalg.norm(out, axis=1, keepdims=True)
     return np.asarray(corners + out / np.maximum(norm, 1e-12) * pad)
+
+
+def _same_geometry(a: Scene, b: Scene) -> bool:
+    """Whether two scenes have the same mesh, places and rooms (the times of one map)."""
+    same_mesh = a.mesh is b.mesh or (
+        a.mesh is not None
+        and b.mesh is not None
+        and np.array_equal(a.mesh.vertices, b.mesh.vertices)
+        and np.array_equal(a.mesh.faces, b.mesh.faces)
+    )
+    return (
+        same_mesh
+        and a.cell_size == b.cell_size
+        and a.room_labels == b.room_labels
+        and np.array_equal(a.room_ids, b.room_ids)
+        and np.array_equal(a.place_room, b.place_room)
+        and np.array_equal(a.places_xyz, b.places_xyz)
+        and np.array_equal(a.room_xyz, b.room_xyz, equal_nan=True)
+    )
 
 
 def _grid(n: int, aspect: float) -> tuple[int, int, float, float]:
@@ -360,14 +457,20 @@ def topdown_figure(
     )
     FigureCanvasAgg(fig)
     grid = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)
+    shared: tuple[Scene, Footprint | None, RoomOutlines] | None = None
     used = []
     for i, ax in enumerate(grid.flat):
         if i >= n:
             ax.remove()
             continue
+        if shared is None or not _same_geometry(shared[0], scenes[i]):
+            footprint = mesh_footprint(scenes[i], extent, round(width * dpi))
+            shared = (scenes[i], footprint, room_outlines(scenes[i]))
         draw_topdown(
             ax,
             scenes[i],
+            footprint=shared[1],
+            rooms=shared[2],
             flow_scale=scale,
             extent=extent,
             paths=per_panel[i],

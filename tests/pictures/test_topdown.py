@@ -150,3 +150,24 @@ def test_a_scene_without_flow_or_graph_draws(tmp_path: Path) -> None:
     grey = image[pixel_of(ax, image, 4.0, 6.0)]
     assert grey.max() - grey.min() < 0.03  # no flow: grey
     assert grey.max() < 0.7
+
+
+def test_room_outlines_are_padded_hulls_labelled_at_the_centroid() -> None:
+    import dataclasses
+
+    from aion_cli.pictures.topdown import room_outlines
+
+    scene = synthetic_scene()
+    rooms = room_outlines(scene)
+    (hull,) = rooms.hulls
+    places = scene.places_xyz[:, :2]
+    gap = np.linalg.norm(hull[:, None, :] - places[None, :, :], axis=2).min(axis=1)
+    assert np.allclose(gap, scene.cell_size)  # each corner one cell out from its place
+    assert rooms.labels == ("lab",)
+    assert np.allclose(rooms.label_xy, [places.mean(axis=0)])
+    # a room on one line has no hull; an unnamed room is labelled by its id
+    line = dataclasses.replace(
+        scene, places_xyz=np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]]), room_labels=("",)
+    )
+    assert room_outlines(line).hulls == ()
+    assert room_outlines(line).labels == ("R0",)
