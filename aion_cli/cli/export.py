@@ -24,7 +24,7 @@ Examples:
   aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h -o series/
   aion export office.aion --time now --path-from p12 --path-to p87 -o out/
   aion export office.aion --time "2026-11-23 08:30" --format png -o map.png
-  aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 2h \
+  aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 2h \\
       --format png -o day.png
   aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h \\
       --format mcap -o day.mcap --path-from p12 --path-to p87
