@@ -74,6 +74,7 @@ cost in the legend.
 @click.option(
     "--png",
     "png_path",
+    metavar="FILE",
     type=click.Path(path_type=Path),
     help="Also draw both paths over the flow map at the departure into this .png file.",
 )
