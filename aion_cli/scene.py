@@ -33,12 +33,12 @@ class Scene:
     ``nodes_xyz`` f64[n,3], ``node_flow`` (expected detections per window, 0 where unknown),
     ``node_entropy`` (0..1, NaN without flow), ``node_angle`` (dominant direction, rad from +x,
     NaN without one), ``node_concentration`` (0..1, NaN without flow). Unbound hash cells:
-    ``cells_xyz`` (centres), ``cells_flow``, ``cells_entropy``. From the scene graph (empty
-    for a map of hash cells only): ``places_xyz`` (every place, with or without an entry),
-    ``edges_xyz`` f64[k,2,3] (place edge end points), ``room_ids`` / ``room_labels`` /
-    ``room_xyz`` (one per room; a label is "" when the graph names none), ``place_room`` (the
-    room row of each place, -1 for none) and ``mesh``. ``cell_size`` is the map's hash-cell
-    edge (m), ``window_s`` its window (the flows are per window)."""
+    ``cells_xyz`` (centres), ``cells_flow``, ``cells_entropy``, ``cells_angle``. From the
+    scene graph (empty for a map of hash cells only): ``places_xyz`` (every place, with or
+    without an entry), ``edges_xyz`` f64[k,2,3] (place edge end points), ``room_ids`` /
+    ``room_labels`` / ``room_xyz`` (one per room; a label is "" when the graph names none),
+    ``place_room`` (the room row of each place, -1 for none) and ``mesh``. ``cell_size`` is
+    the map's hash-cell edge (m), ``window_s`` its window (the flows are per window)."""
 
     t_ns: int | None
     cell_size: float
@@ -52,6 +52,7 @@ class Scene:
     cells_xyz: F64
     cells_flow: F64
     cells_entropy: F64
+    cells_angle: F64
     places_xyz: F64
     edges_xyz: F64
     room_ids: U64
@@ -115,6 +116,7 @@ def scene_of_table(loaded: LoadedMap, table: Any, t_ns: int | None = None) -> Sc
         cells_xyz=xyz[cells],
         cells_flow=flow[cells],
         cells_entropy=entropy[cells],
+        cells_angle=np.asarray(d.dominant_angle, dtype=np.float64)[cells],
         places_xyz=places_xyz,
         edges_xyz=edges_xyz,
         room_ids=room_ids,

@@ -10,7 +10,8 @@ What is drawn, back to front:
 - **edges**: the place edges as thin grey lines; **places** as small grey dots;
 - **cells**: an unbound hash cell as a δ×δ square coloured by its direction entropy (grey
   without flow);
-- **arrows**: one per node with flow, from the node along its dominant direction, length
+- **arrows**: one per node or unbound cell with flow, from its centre along its dominant
+  direction, length
   ``ARROW_CELLS·δ·busy`` (busy = ``min(flow / flow_scale, 1)``, ``formats.export``'s
   ``busy_fraction``: proportional to flow, the busiest ``ARROW_CELLS`` cells long), coloured
   by entropy with ``formats.export.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
@@ -187,17 +188,21 @@ def draw_topdown(
     busy = busy_fraction(scene.node_flow, scale)
     has = busy > 0
     if has.any():
-        xy = scene.nodes_xyz[has, :2]
         colors = entropy_colors(scene.node_entropy[has])
-        ax.scatter(*xy.T, s=dot_size, c=colors, linewidths=0, zorder=5)
-        angle = scene.node_angle[has]
-        arrow = np.isfinite(angle)
-        length = ARROW_CELLS * scene.cell_size * busy[has][arrow]
+        ax.scatter(*scene.nodes_xyz[has, :2].T, s=dot_size, c=colors, linewidths=0, zorder=5)
+    # arrows for nodes and unbound cells alike (a map of cells only shows its directions too)
+    xy = np.concatenate([scene.nodes_xyz[:, :2], scene.cells_xyz[:, :2]])
+    busy = busy_fraction(np.concatenate([scene.node_flow, scene.cells_flow]), scale)
+    angle = np.concatenate([scene.node_angle, scene.cells_angle])
+    arrow = (busy > 0) & np.isfinite(angle)
+    if arrow.any():
+        colors = entropy_colors(np.concatenate([scene.node_entropy, scene.cells_entropy])[arrow])
+        length = ARROW_CELLS * scene.cell_size * busy[arrow]
         ax.quiver(
             *xy[arrow].T,
             length * np.cos(angle[arrow]),
             length * np.sin(angle[arrow]),
-            color=colors[arrow],
+            color=colors,
             angles="xy",
             scale_units="xy",
             scale=1.0,

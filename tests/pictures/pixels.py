@@ -90,8 +90,8 @@ def synthetic_scene(
 ) -> Scene:
     """Places A (0,0), B (8,0), C (0,8) in room "lab", edges A-C and B-C; node A flows along
     +x with low entropy, node B along +y with high entropy, C has no flow; one hash cell at
-    (4,6) with entropy 0.5; a mesh triangle around (-3,5). The quadrant around (7,7) holds
-    nothing."""
+    (4,6) with entropy 0.5 and flow 5 along -x; a mesh triangle around (-3,5). The quadrant
+    around (7,7) holds nothing."""
     places = np.array([[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [0.0, 8.0, 0.0]])
     nan = np.nan
     return Scene(
@@ -105,8 +105,9 @@ def synthetic_scene(
         node_angle=np.array([0.0, np.pi / 2, nan]),
         node_concentration=np.array([0.9, 0.2, nan]),
         cells_xyz=np.array([[4.0, 6.0, 0.0]]),
-        cells_flow=np.array([1.0]),
+        cells_flow=np.array([5.0]),
         cells_entropy=np.array([0.5]),
+        cells_angle=np.array([np.pi]),
         places_xyz=places,
         edges_xyz=places[np.array([[0, 2], [1, 2]])],
         room_ids=np.array([(ord("R") << 56) | 0], dtype=np.uint64),

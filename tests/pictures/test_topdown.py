@@ -67,6 +67,11 @@ def test_arrows_are_drawn_along_the_dominant_direction_and_empty_space_is_blank(
     assert abs(cell[0] - cell[2]) < 0.05  # purple: as red as blue
     assert cell[1] < 0.3
     assert cell[0] > 0.4
+    # the cell's arrow (flow 5 of 10: half length) points along -x
+    behind = most_coloured(image, *pixel_of(ax, image, 4.0 - 0.35 * L, 6.0))
+    assert abs(behind[0] - behind[2]) < 0.1
+    assert behind[0] > 0.3
+    assert is_blank(image, *pixel_of(ax, image, 4.0 + 0.35 * L, 6.0), half=1)
 
 
 def test_arrow_colour_follows_entropy(tmp_path: Path) -> None:
