@@ -117,8 +117,9 @@ def series_flow_scale(loaded: LoadedMap, times: Sequence[int | None]) -> float |
 
 def _log_time(loaded: LoadedMap, t_ns: int | None) -> int:
     """A step's log time: its time; for the historical scene, the end of the map's data."""
+    from aion_cli.manifest import Manifest
+
     if t_ns is not None:
         return int(t_ns)
-    span = loaded.manifest.get("time_span")
-    end = span.get("end_ns") if isinstance(span, dict) else None
-    return int(end) if isinstance(end, int) and end >= 0 else 0
+    end = Manifest.from_dict(loaded.manifest).end_ns
+    return end if end is not None and end >= 0 else 0

@@ -36,7 +36,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from aion_cli.formats.export import EDGE_GREY, PATH_GREEN, ExportWriteError
+from aion_cli.formats.export import EDGE_GREY, PATH_GREEN, ExportError, ExportWriteError
 from aion_cli.formats.outputs import OutputPathError, Staged, check_output, file_starts_with
 from aion_cli.formats.scene_markers import (
     CELL_THICKNESS,
@@ -143,7 +143,7 @@ class SceneMcapWriter:
                 hint="choose times after 1970",
             )
         if len(node_ids) != len(style.nodes_xyz) or len(cell_ids) != len(style.cells_xyz):
-            raise ExportWriteError("one id per node and per cell is needed")
+            raise ExportError("write_step needs one id per node and per cell")  # a caller bug
         try:
             if self.steps == 0:
                 self._add(TF_STATIC_TOPIC, t_ns, tf_static(t_ns))

@@ -195,7 +195,8 @@ def test_no_path_historical_and_the_api(sample_map: Path, tmp_path: Path) -> Non
     out = tmp_path / "hist.mcap"
     result = run("export", sample_map, "--historical", "--format", "mcap", "-o", out)
     assert result.exit_code == 0, result.stderr
-    ((_, update),) = scene_updates(out)
+    ((log_time, update),) = scene_updates(out)
+    assert log_time == aion.Map.load(sample_map).manifest.end_ns  # the end of the map's data
     ids = [e.id for e in update.entities]
     assert "aion/path" not in ids
     history = run_json("predict", sample_map, "--historical", "--format", "json")["entries"]

@@ -19,7 +19,7 @@ from ruamel.yaml import YAML
 
 from aion_cli.engine.types import Mesh
 from aion_cli.formats import msgdefs
-from aion_cli.formats.export import ExportWriteError
+from aion_cli.formats.export import ExportError, ExportWriteError
 from aion_cli.formats.outputs import OutputPathError
 from aion_cli.formats.scene_markers import marker_array, tf_static
 from aion_cli.formats.scene_mcap import SceneMcapWriter, check_scene_target
@@ -294,7 +294,7 @@ def test_bad_steps_are_typed_errors(tmp_path: Path) -> None:
     with SceneMcapWriter(tmp_path / "s.mcap", {}) as writer:
         with pytest.raises(ExportWriteError, match="1970"):
             writer.write_step(-1, scene(), NODE_IDS, CELL_IDS)
-        with pytest.raises(ExportWriteError, match="one id"):
+        with pytest.raises(ExportError, match="one id"):
             writer.write_step(T0, scene(), NODE_IDS[:2], CELL_IDS)
         writer.write_step(T0, scene(), NODE_IDS, CELL_IDS)
     blocker = tmp_path / "file"
