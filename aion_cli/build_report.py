@@ -101,6 +101,8 @@ class BuildReport:
     by_topic: dict[str, dict[str, Any]] = field(default_factory=dict)
     time_dropped: dict[str, dict[str, int]] = field(default_factory=dict)
     tf_undecodable: int = 0
+    #: a parallel build's shards: logs, worker, seconds, peak memory, detections used
+    workers: list[dict[str, Any]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         span = (
@@ -143,6 +145,7 @@ class BuildReport:
             "tf_undecodable": self.tf_undecodable,
             "headings": {k: int(self.headings.get(k, 0)) for k in HEADING_SOURCES},
             "inputs": self.inputs,
+            "workers": self.workers,
             "notes": self.notes,
             "warnings": self.warnings,
         }

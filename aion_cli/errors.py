@@ -7,6 +7,8 @@ a hint. :class:`InputError` and its subclasses are the user's to fix (exit code 
 
 from __future__ import annotations
 
+from typing import Any
+
 
 class AionError(Exception):
     """Base of every error aion raises on purpose.
@@ -18,6 +20,18 @@ class AionError(Exception):
         super().__init__(message)
         self.message = message
         self.hint = hint
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled whole (message, hint and any field of a subclass), whatever the subclass's
+        constructor: errors of a parallel build's workers reach the parent intact."""
+        return (_rebuild_error, (type(self), self.args, self.__dict__))
+
+
+def _rebuild_error(cls: type[AionError], args: tuple[Any, ...], fields: dict[str, Any]) -> Any:
+    error = cls.__new__(cls)
+    error.args = args
+    error.__dict__.update(fields)
+    return error
 
 
 class MissingSystemLibraryError(AionError):

@@ -78,6 +78,7 @@ from aion_cli.topics import TopicPlan, no_detection_topic, select_topics
 
 if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.state import MapState
     from aion_cli.formats.raw import RawMessage
     from aion_cli.formats.tf import TfBuffer
 
@@ -112,6 +113,11 @@ class BuildOptions:
     #: internal switch (tests): a payload identical to the last decoded one reuses its graph
     #: instead of being decoded again (same map either way)
     skip_identical_graphs: bool = True
+    #: ``--workers``: processes building independent groups of logs at once (1: in this
+    #: process; 0: one per core), see :mod:`aion_cli.parallel_build`
+    workers: int = 1
+    #: ``--scheduler``: a Dask scheduler's address; the shards run on its cluster
+    scheduler: str | None = None
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""
@@ -125,11 +131,26 @@ class BuildOptions:
 
 
 class _Build:
-    """One run of ``aion build`` (state shared by the phases)."""
+    """One run of ``aion build`` (state shared by the phases).
 
-    def __init__(self, opts: BuildOptions, progress: ProgressSink) -> None:
+    ``shard``: a part of a parallel build (:mod:`aion_cli.parallel_build`): the logs are
+    learnt into a map whose closed days are held for the join (``deferred``) or not (the first
+    part), starting from ``start`` (a map in memory) if given, and nothing is hashed, checked
+    for usable detections or written: :meth:`learn` returns the state."""
+
+    def __init__(
+        self,
+        opts: BuildOptions,
+        progress: ProgressSink,
+        shard: bool = False,
+        deferred: bool = False,
+        start: MapState | None = None,
+    ) -> None:
         self.opts = opts
         self.progress = progress
+        self.shard = shard
+        self.deferred = deferred
+        self.start = start
         self.counts = DetectionCounts()
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
@@ -148,6 +169,15 @@ class _Build:
         self._map_open: int | None = None  # a continued map's open window when loaded
         self._used = np.zeros(0, np.int64)  # detections used, per detection topic
         self._mapper_drops = np.zeros((0, 0), np.int64)  # per topic x DROP_REASONS
+
+    @property
+    def logs(self) -> tuple[Path, ...]:
+        """The distinct logs of this build (after hashing, :meth:`_inputs`)."""
+        return self._logs
+
+    def set_logs(self, logs: tuple[Path, ...]) -> None:
+        """A part of a parallel build: the parent hashed and de-duplicated the logs."""
+        self._logs = tuple(logs)
 
     def config(self) -> ModelConfig:
         """The model config: ``--config`` (or the defaults) with ``--tz`` as its time zone
@@ -203,9 +233,6 @@ class _Build:
             return self._run()
 
     def _run(self) -> BuildReport:
-        from aion_cli.engine.mapper import Mapper
-        from aion_cli.formats.logs import open_logs
-
         opts = self.opts
         if opts.continue_from is not None:
             self.previous = load_map(opts.continue_from, writable=True)
@@ -219,12 +246,26 @@ class _Build:
             self.report.notes.append(
                 f"{out.name} existed and is replaced (use --map {out.name} to extend a map)"
             )
+        if opts.workers != 1 or opts.scheduler is not None:
+            from aion_cli.parallel_build import ParallelBuild
+
+            state = ParallelBuild(self, config).run()
+        else:
+            state = self.learn(config).state
+        self._write(state, config, inputs)
+        return self.report
+
+    def learn(self, config: ModelConfig) -> Mapper:
+        """Read the logs and learn them into a Mapper (steps 1-4 of the module docstring)."""
+        from aion_cli.formats.logs import open_logs
+
+        opts = self.opts
         mappings = _load_mappings(opts.detections_mapping)
         with open_logs(list(self._logs), opts.log_format) as logset:
             plan = select_topics(
                 logset.topics, opts.detection_topics, opts.graph_topic, mappings
             )
-            if not plan.detections:
+            if not plan.detections and not self.shard:  # a part of a build may have none
                 raise no_detection_topic(logset, plan)
             self.report.detection_topics = sorted(plan.names("detections"))
             self.report.notes.extend(getattr(logset, "warnings", []))
@@ -240,7 +281,7 @@ class _Build:
                 }
                 for info in plan.detections
             }
-            mapper = Mapper(config, self.previous.state if self.previous else None)
+            mapper = self._mapper(config)
             tf = self._read_times(logset, plan)
             self._observation(mapper, tf, plan, logset)
             fixed_graph = self._fixed_graph(logset, plan, tf, config)
@@ -254,8 +295,20 @@ class _Build:
             self._span()
             # readers also warn while streaming (a corrupt chunk ends a file early)
             self.report.notes.extend(w for w in logset.warnings if w not in self.report.notes)
-        self._write(mapper, config, inputs)
-        return self.report
+        return mapper
+
+    def _mapper(self, config: ModelConfig) -> Mapper:
+        """The Mapper the logs go into: the continued map's, a shard's, or a new one."""
+        from aion_cli.engine.mapper import Mapper
+        from aion_cli.engine.state import MapState
+
+        if self.start is not None:
+            return Mapper(config, self.start)
+        if self.deferred:
+            from aion_cli.engine.shards import start_shard
+
+            return Mapper(config, start_shard(MapState.empty(config)))
+        return Mapper(config, self.previous.state if self.previous else None)
 
     def _read_times(self, logset: Any, plan: TopicPlan) -> TfBuffer | None:
         """TF into a buffer and the log times of every topic the build uses, then the
@@ -442,7 +495,8 @@ class _Build:
                 f"{c.log_times:,} detections came from messages without a header (as mapped): "
                 "their messages' log times were used"
             )
-        check_usable(self.report, c, self.previous_manifest)
+        if not self.shard:  # a parallel build checks the total of its parts
+            check_usable(self.report, c, self.previous_manifest)
         if use_agents and self.report.graph_messages == 0:
             self.report.observation = fixed_sensor_windows(
                 mapper, logset, self._times, self.report.notes
@@ -512,7 +566,10 @@ class _Build:
         """The map's time span: the first and last message the build used (detections, scene
         graphs, dynamic TF; strays and out-of-range times left out), joined with a continued
         map's."""
-        start, end = self._times.start_ns, self._times.end_ns
+        self.join_span(self._times.start_ns, self._times.end_ns)
+
+    def join_span(self, start: int | None, end: int | None) -> None:
+        """The report's span: ``start``..``end`` joined with the continued map's."""
         old = self.previous_manifest
         if old is not None:
             if old.start_ns is not None:
@@ -528,14 +585,13 @@ class _Build:
             return new
         return add_counts(self.previous_manifest.counts, new)
 
-    def _write(self, mapper: Mapper, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:
+    def _write(self, state: MapState, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:
         """The map file: the state's arrays and the :class:`~aion_cli.manifest.Manifest`
         (config, inputs of every build, time span, counts over every build and of this one,
         where the graph and the observation came from, the default time zone of ``predict`` /
         ``plan`` / ``export``, the model families in use)."""
         from aion_cli.formats.mapfile import write_map
 
-        state = mapper.state
         arrays, meta = state.to_arrays(lazy=True)
         stats = state_counts(state)
         self.report.cells = stats["cells"]

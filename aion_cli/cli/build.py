@@ -22,6 +22,8 @@ Examples:
   aion build run.bag --detections-mapping people.toml   people of another message type
   aion build run.mcap --nav-layer PLACES       3D places even where the graph has 2D ones
   aion build hydra.mcap --graph-period 0       every scene graph of a live Hydra stream
+  aion build day*.mcap -o site.aion --workers 4   four processes, the same map
+  aion build day*.mcap -o site.aion --scheduler tcp://10.0.0.5:8786   on a Dask cluster
   aion build --print-config > model.toml       dump every model parameter, edit, then
   aion build run.mcap --config model.toml      build with it
 
@@ -38,7 +40,10 @@ messages used; a message logged more than a day away from its topic's others (a 
 10 messages and 5 % of the topic), or outside 1900..2261, is dropped with a warning. Logs
 must be added to a --map in time order; a log given twice is used once. Warnings are printed
 also with -q and --format json (on stderr). An interrupted or failed build leaves an existing
-map untouched.
+map untouched. Several logs are built in parallel (--workers, default one process per core)
+when they form groups that share no time window; the groups' maps are joined into exactly the
+map a sequential build makes (a group whose join could not be exact is learnt in sequence,
+and the summary says so).
 
 \b
 JSON keys (--format json): map, map_bytes, continued, detections{read, used,
@@ -50,7 +55,8 @@ the last payload again), skipped_period (left out by --graph-period), period_s, 
 topics}, detection_topics, detection_decoding{topic: {type, why,
 decoder (fast|generic|mapping), messages, undecodable}}, log_times_dropped{topic:
 {out_of_range, stray}}, tf_undecodable, headings{velocity, track, linked, pose_yaw, none},
-inputs[{path, name, size, sha256}], notes, warnings.
+inputs[{path, name, size, sha256}], workers[{shard, logs, worker, seconds, peak_rss_mb,
+detections_used}] (a parallel build's groups of logs), notes, warnings.
 """
 
 
@@ -83,6 +89,19 @@ class _RichProgress:
     def advance(self, n: int) -> None:
         if self._task is not None:
             self._progress.advance(self._task, n)
+
+    def part(self, key: int, description: str, total: int, unit: str = "msgs") -> None:
+        """A parallel build's worker started a phase: its own bar (replacing its last)."""
+        bars = self.__dict__.setdefault("_parts", {})
+        old = bars.get(key)
+        if old is not None:
+            self._progress.remove_task(old)
+        bars[key] = self._progress.add_task(description, total=max(int(total), 1), unit=unit)
+
+    def part_advance(self, key: int, n: int) -> None:
+        task = self.__dict__.get("_parts", {}).get(key)
+        if task is not None:
+            self._progress.advance(task, n)
 
 
 def _load_config(path: Path | None) -> Any:
@@ -209,6 +228,20 @@ def _load_config(path: Path | None) -> Any:
     "export [default: UTC; a continued map keeps its own].",
 )
 @click.option(
+    "--workers",
+    metavar="N",
+    default=0,
+    type=click.IntRange(min=0),
+    help="Processes building groups of logs that share no time at once, joined into the map "
+    "the sequential build makes (0: one per core; 1: in this process) [default: 0].",
+)
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    help="Run the groups of logs on a Dask cluster (e.g. tcp://10.0.0.5:8786; every worker "
+    "reads the logs by path). Needs pip install 'aion[dask]'.",
+)
+@click.option(
     "-q", "--quiet", is_flag=True, help="No progress bar and no summary table (warnings stay)."
 )
 @format_option(choices=("table", "json"))
@@ -231,6 +264,8 @@ def command(
     log_format: str | None,
     batch_size: int,
     timezone: str | None,
+    workers: int,
+    scheduler: str | None,
     quiet: bool,
     fmt: str,
 ) -> None:
@@ -270,6 +305,8 @@ def command(
         timezone=None if timezone is None else resolve_zone(timezone).name,
         detections_mapping=detections_mapping,
         graph_period_ns=DEFAULT_GRAPH_PERIOD_NS if graph_period_ns is None else graph_period_ns,
+        workers=workers,
+        scheduler=scheduler,
     )
     with _RichProgress(quiet or fmt == "json") as progress:
         report = build_map(options, progress)

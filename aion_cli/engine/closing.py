@@ -83,7 +83,8 @@ def close_windows(state: MapState, stop: int) -> None:
     _record(state, np.array(segment, np.int64), w0, delta, count_rows)
     state.entries.clear_window()
     state.open_window = int(stop)
-    state.observation.prune(int(window_start_ns(stop, delta)))
+    if state.deferred is None:  # a shard keeps its poses for the join (engine.shards)
+        state.observation.prune(int(window_start_ns(stop, delta)))
     if (
         state.pending
         and state.pending.day is not None

@@ -26,7 +26,7 @@ error but count shared windows twice.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -53,11 +53,11 @@ def merge_maps(a: MapState, b: MapState) -> MapState:
         close_windows(early, early.open_window + 1)
     early.close_day()
     out = _copy(later)
-    _merge_timers(out, early)
+    merge_timers(out, early)
     src_rows = early.entries.canonical_order()
-    dst = _destinations(out, early, src_rows)
-    _add_entries(out, early, src_rows, dst)
-    _adopt_redirects(out, early)
+    dst = destinations(out, early, src_rows)
+    add_entries(out, early, src_rows, dst)
+    adopt_redirects(out, early)
     out.accepted += early.accepted
     for reason, count in early.dropped.items():
         out.dropped[reason] = out.dropped.get(reason, 0) + count
@@ -78,7 +78,7 @@ def _copy(state: MapState) -> MapState:
     return type(state).from_arrays(arrays, meta)
 
 
-def _destinations(out: MapState, early: MapState, rows: np.ndarray) -> np.ndarray:
+def destinations(out: MapState, early: MapState, rows: np.ndarray) -> np.ndarray:
     """Rows of ``out`` receiving each of ``early``'s entries (created where needed)."""
     dst = np.full(len(rows), -1, np.int64)
     kind = early.entries.kind[rows]
@@ -98,22 +98,29 @@ def _destinations(out: MapState, early: MapState, rows: np.ndarray) -> np.ndarra
     return dst
 
 
-def _add_entries(out: MapState, early: MapState, src: np.ndarray, dst: np.ndarray) -> None:
-    """out[dst] += early[src] for every quantity; windows observed add across the maps."""
+def add_entries(
+    out: MapState,
+    early: MapState,
+    src: np.ndarray,
+    dst: np.ndarray,
+    observation: Literal["max", "add"] = "add",
+) -> None:
+    """out[dst] += early[src] for every quantity; windows observed add across the maps
+    (``observation="max"``: the larger, as an ownership move within one map does)."""
     e, o = early.entries, out.entries
     for name in ("counts", "window_counts", "speed_sum", "speed_n", "nodir", "window_nodir"):
         np.add.at(getattr(o, name), dst, getattr(e, name)[src])
     n_rows = out.temporal.n_rows
     part = early.temporal.take(src)
     joined = type(out.temporal).concat([out.temporal, part])
-    joined.add_rows(n_rows + np.arange(part.n_rows, dtype=np.int64), dst, observation="add")
+    joined.add_rows(n_rows + np.arange(part.n_rows, dtype=np.int64), dst, observation=observation)
     joined.resize(n_rows)
     joined.glob.add_block(np.array([0]), early.temporal.glob)
     joined.touch()
     out.temporal = joined
 
 
-def _adopt_redirects(out: MapState, early: MapState) -> None:
+def adopt_redirects(out: MapState, early: MapState) -> None:
     """Keep the earlier map's redirects to nodes that live (with an entry) in ``out``."""
     keys, nodes = early.redirects.keys, early.redirects.nodes
     rows = out.node_entry_rows(nodes)
@@ -130,7 +137,7 @@ def _adopt_redirects(out: MapState, early: MapState) -> None:
     out.redirects.add(keys, nodes)
 
 
-def _merge_timers(out: MapState, early: MapState) -> None:
+def merge_timers(out: MapState, early: MapState) -> None:
     """Nodes in both tables that have not moved keep the earlier stability start."""
     ids = out.nodes.ids
     at = np.searchsorted(early.nodes.ids, ids)

@@ -146,12 +146,25 @@ class ObservationSource:
             return np.ones(len(entry_xy), dtype=bool)
         return self.robot_observed(entry_xy, window, delta_ns, sensor_range)
 
+    def join(self, earlier: ObservationSource) -> None:
+        """Take in the poses and fixed-sensor intervals of an earlier source (a shard join)."""
+        t_all = np.concatenate([earlier.pose_t, self.pose_t])
+        xy_all = np.concatenate([earlier.pose_xy, self.pose_xy])
+        order = np.argsort(t_all, kind="stable")
+        self.pose_t, self.pose_xy = t_all[order], xy_all[order]
+        self.fixed_start = np.concatenate([earlier.fixed_start, self.fixed_start])
+        self.fixed_end = np.concatenate([earlier.fixed_end, self.fixed_end])
+        self._merged = None
+
     def to_arrays(self, prefix: str = "obs_") -> dict[str, np.ndarray]:
+        """The poses and the fixed-sensor intervals as :meth:`merged_fixed` (so one interval
+        declared whole or in touching parts saves the same)."""
+        starts, ends = self.merged_fixed()
         return {
             f"{prefix}pose_t": self.pose_t.copy(),
             f"{prefix}pose_xy": self.pose_xy.copy(),
-            f"{prefix}fixed_start": self.fixed_start.copy(),
-            f"{prefix}fixed_end": self.fixed_end.copy(),
+            f"{prefix}fixed_start": starts.copy(),
+            f"{prefix}fixed_end": ends.copy(),
         }
 
     @classmethod

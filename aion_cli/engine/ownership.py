@@ -60,6 +60,8 @@ def apply_graph(state: MapState, snapshot: GraphSnapshot) -> None:
     )
     state.nodes = table
     state.graph = snapshot
+    if state.deferred is not None and state.deferred.first_graph is None:
+        state.deferred.first_graph = snapshot.places.ids.copy()  # for the join (engine.shards)
     rows = state.entries.node_rows()
     ids = state.entries.node_id[rows]
     pos = np.minimum(np.searchsorted(table.ids, ids), max(len(table) - 1, 0))
@@ -95,6 +97,9 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     which makes the answer cost the cells that are new since the last check, not every cell)."""
     cfg = state.config
     stable = stable_nodes(state, t_ns)
+    if state.deferred is not None and state.deferred.first_stable is None and stable.any():
+        # a shard remembers the first stable nodes it bound to (engine.shards)
+        state.deferred.remember_stable(state.nodes.ids[stable], state.nodes.xyz[stable])
     cells = state.entries.cell_rows()
     if not stable.any() or len(cells) == 0:
         return None

@@ -29,7 +29,7 @@ from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.groups import entry_groups
 from aion_cli.engine.temporal.params import TemporalParams
-from aion_cli.engine.temporal.pending import DayWindows, PendingDay
+from aion_cli.engine.temporal.pending import DayWindows, DeferredDays, PendingDay
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
 from aion_cli.engine.windows import window_ns
 from aion_cli.errors import MapCorruptError, MapFileError
@@ -60,6 +60,9 @@ class MapState:
     dropped: dict[str, int] = field(default_factory=lambda: dict.fromkeys(DROP_REASONS, 0))
     routes: RouteTable = field(default_factory=RouteTable)
     writable: bool = True
+    #: a shard of a parallel build (:mod:`aion_cli.engine.shards`): closed days are held
+    #: here, unscored, instead of being scored and absorbed (None: an ordinary map)
+    deferred: DeferredDays | None = None
     params: TemporalParams = field(init=False, repr=False, compare=False)
     _view: tuple[tuple[int, int, int | None, int], TemporalState] | None = field(
         default=None, init=False, repr=False, compare=False
@@ -107,6 +110,8 @@ class MapState:
         self.entries.add_into(src, dst)
         self.temporal.add_rows(src, dst, observation="max")
         self.pending.remap(np.asarray(src, np.int64), np.asarray(dst, np.int64))
+        if self.deferred is not None:
+            self.deferred.remap(np.asarray(src, np.int64), np.asarray(dst, np.int64))
         self.delete(src)
 
     def delete(self, rows: I64) -> None:
@@ -165,11 +170,18 @@ class MapState:
         t = self.temporal
         return bool(self.pending) or bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
 
-    def close_day(self) -> None:
-        """Score the pending day against the model before it, then absorb it."""
+    def close_day(self, rows: I64 | None = None) -> None:
+        """Score the pending day against the model before it, then absorb it; a shard
+        (:attr:`deferred`) holds it instead. ``rows``: the live entries that pool the
+        forecasts (default: those live now)."""
         if not self.pending:
             return
-        rows = self.entries.live_rows()
+        if self.deferred is not None:
+            self.deferred.hold(self.pending, self.entries.live_rows())
+            self.pending = PendingDay(self.params.values)
+            return
+        if rows is None:
+            rows = self.entries.live_rows()
         groups, n_groups = self.groups(rows)
         temporal_model.close_pending(
             self.params, self.temporal, self.pending, rows, groups, n_groups, self.window_ns

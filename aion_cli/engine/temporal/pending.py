@@ -87,6 +87,13 @@ class PendingDay:
             self._cnt_slot.append(np.full(rows.size, slot, np.int64))
             self._cnt_values.append(vals)
 
+    def add_observed(self, slot: int, rows: I64) -> None:
+        """Entries ``rows`` were observed in the held window ``slot`` too."""
+        if not 0 <= slot < len(self.windows):
+            raise ValueError(f"no held window {slot}")
+        self._obs_entry.append(np.asarray(rows, np.int64))
+        self._obs_slot.append(np.full(len(rows), slot, np.int64))
+
     def remap(self, src: I64, dst: I64) -> None:
         """Entries ``src`` were moved into ``dst``: held observations and counts follow."""
         if not self.windows or src.size == 0:
@@ -99,6 +106,32 @@ class PendingDay:
                 hit = keys[pos] == arr
                 if hit.any():
                     chunks[i] = np.where(hit, targets[pos], arr)
+
+    def extend(self, later: PendingDay) -> None:
+        """Append the windows of ``later`` (the same day, every window after this one's)."""
+        if not later.windows:
+            return
+        if self.windows and (later.day != self.day or later.windows[0] <= self.windows[-1]):
+            raise ValueError("only later windows of the same day can extend a pending day")
+        offset = len(self.windows)
+        self.day = later.day
+        self.windows.extend(later.windows)
+        self.fixed.extend(later.fixed)
+        self._obs_entry.extend(later._obs_entry)
+        self._obs_slot.extend(a + offset for a in later._obs_slot)
+        self._cnt_entry.extend(later._cnt_entry)
+        self._cnt_slot.extend(a + offset for a in later._cnt_slot)
+        self._cnt_values.extend(later._cnt_values)
+
+    def relabelled(self, row_map: I64) -> PendingDay:
+        """A copy with every entry row ``r`` replaced by ``row_map[r]`` (into another map)."""
+        out = PendingDay(self.values, self.day, list(self.windows), list(self.fixed))
+        out._obs_entry = [row_map[a] for a in self._obs_entry]
+        out._obs_slot = [a.copy() for a in self._obs_slot]
+        out._cnt_entry = [row_map[a] for a in self._cnt_entry]
+        out._cnt_slot = [a.copy() for a in self._cnt_slot]
+        out._cnt_values = [a.copy() for a in self._cnt_values]
+        return out
 
     def entries(self) -> I64:
         """Every entry row the held windows mention."""
@@ -208,3 +241,55 @@ class PendingDay:
 
 def _cat(chunks: list[I64]) -> I64:
     return np.concatenate(chunks) if chunks else np.zeros(0, np.int64)
+
+
+@dataclass
+class HeldDay:
+    """A closed day of a shard, unscored: its windows and the entries live when it closed
+    (the population a single pass would have pooled its forecasts over)."""
+
+    pending: PendingDay
+    live: I64
+
+
+@dataclass
+class DeferredDays:
+    """The closed days of a parallel build's shard, in time order, held for the join that
+    scores them against the history of every earlier shard (:mod:`aion_cli.engine.shards`).
+    Ownership transfer re-labels them as it does the pending day."""
+
+    days: list[HeldDay] = field(default_factory=list)
+    #: the node ids and positions of the shard's first bind check with a stable node: the
+    #: graph the earlier shards' cells met first in a single pass
+    first_stable: tuple[npt.NDArray[np.uint64], F64] | None = None
+    #: the place ids of the first scene graph the shard applied (None: none yet)
+    first_graph: npt.NDArray[np.uint64] | None = None
+    #: whether that first check came after a held day (its binds came late)
+    first_stable_late: bool = False
+    #: whether ownership moved an entry that a held day had live (that day's forecast would
+    #: have pooled over the entries as they were then: the join cannot be exact)
+    moved_after_hold: bool = False
+
+    def hold(self, pending: PendingDay, live: I64) -> None:
+        self.days.append(HeldDay(pending, np.asarray(live, np.int64).copy()))
+
+    def remember_stable(self, ids: npt.NDArray[np.uint64], xyz: F64) -> None:
+        """The shard's first bind check with a stable node (see :attr:`first_stable`)."""
+        if self.first_stable is None:
+            self.first_stable = (ids.copy(), xyz.copy())
+            self.first_stable_late = bool(self.days)
+
+    def remap(self, src: I64, dst: I64) -> None:
+        """Entries ``src`` were moved into ``dst``: every held day follows."""
+        if src.size == 0:
+            return
+        if self.days and np.isin(src, np.concatenate([d.live for d in self.days])).any():
+            self.moved_after_hold = True
+        order = np.argsort(src, kind="stable")
+        keys, targets = src[order], dst[order]
+        for held in self.days:
+            held.pending.remap(src, dst)
+            pos = np.minimum(np.searchsorted(keys, held.live), keys.size - 1)
+            hit = keys[pos] == held.live
+            if hit.any():
+                held.live = np.unique(np.where(hit, targets[pos], held.live))

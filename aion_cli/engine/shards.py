@@ -1,0 +1,246 @@
+"""Joining the shards of a parallel build into the map one pass would have made.
+
+A parallel build (``aion build --workers N``) splits its logs into *shards*: groups of logs
+that share no time window, built independently, each from an empty map. Counts, speed sums,
+observed windows and the temporal accumulators add across disjoint time; what does not is the
+day-ahead score, because a single pass scores every day against the model of *all* earlier
+days, other shards' included. So a shard is built with :attr:`MapState.deferred` set: each
+closed day is held unscored (with the entries live when it closed, the population its forecast
+pools over), re-labelled by ownership transfer like the pending day. :func:`join_shard` then
+folds a shard into the map of every earlier shard, in time order:
+
+1. the earlier map's open window is closed, as the shard's first message would have closed it;
+   its pending day is closed (scored against its own history) unless the shard starts on the
+   same local day, in which case the two parts of that day are scored together;
+2. the shard is the base (its graph, node table, redirects, open window and pending poses are
+   the newest) and the earlier map's entries are added where their state belongs in it, exactly
+   as :func:`aion_cli.engine.merge.merge_maps` does;
+3. the shard's held days are scored and absorbed one by one, in time order, each against the
+   accumulators of everything before it and pooled over the entries live at its close (the
+   shard's then-live entries and every entry of the earlier map); the shard's last day stays
+   pending, as in a single pass.
+
+The earlier map's entries were live all along in a single pass, so in the shard's robot-covered
+windows they are recorded as observed where the robot's sensor range reached them (the shard
+keeps its poses for this; a single pass forgets them as windows close).
+
+The result equals a single pass over all the shards' logs (ints exact, floats to rounding;
+``tests/engine/test_shards.py``, ``tests/test_parallel_build.py``) for fixed sensors and robot
+trajectories, a shared graph and one that moves. What a shard cannot know, and so the join
+approximates: (a) a node's stability timer restarts at the shard's first graph (binds in its
+first ``stability_s`` go through cells first; the counts end in the node either way); (b) when
+the graph's rooms change inside a shard, its held days are pooled by the rooms at its end.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from aion_cli.engine.closing import close_windows
+from aion_cli.engine.entries import CELL, NODE
+from aion_cli.engine.merge import add_entries, adopt_redirects, destinations, merge_timers
+from aion_cli.engine.nodes import nearest_nodes
+from aion_cli.engine.ownership import BindPlan, apply_binds, plan_binds, stable_nodes
+from aion_cli.engine.temporal.pending import DeferredDays, HeldDay, PendingDay
+from aion_cli.engine.types import F64, I64, U64
+from aion_cli.engine.windows import window_start_ns
+from aion_cli.errors import ConfigError
+
+if TYPE_CHECKING:
+    from aion_cli.engine.state import MapState
+
+
+def start_shard(state: MapState) -> MapState:
+    """Make an empty map a shard: its closed days are held for :func:`join_shard`."""
+    if state.recorded_anything() or state.open_window is not None:
+        raise ValueError("only an empty map can start a shard")
+    state.deferred = DeferredDays()
+    return state
+
+
+def join_blocker(acc: MapState, shard: MapState) -> str | None:
+    """Why joining ``shard`` onto ``acc`` would not equal a single pass (None: it would).
+
+    The join is exact unless ownership in the shard depended on history it did not have, or
+    changed what its held days were scored on: the caller then learns the shard's logs onto
+    ``acc`` in sequence instead."""
+    held = shard.deferred
+    if held is None:
+        return "the shard was not built for a join"
+    if held.moved_after_hold:
+        return (
+            "ownership changed inside these logs after one of their days had closed (the scene "
+            "graph changed), which the day-ahead scores of that day depend on"
+        )
+    if acc.graph is not None and shard.graph is None:
+        return "these logs carry no scene graph of their own, and the map before them has one"
+    theirs, found = shard.redirects.lookup(acc.redirects.keys)
+    if (found & (theirs != acc.redirects.nodes)).any():
+        return (
+            "these logs bound cells to other places than the map before them did (one pass "
+            "keeps the earlier binding)"
+        )
+    early = acc.entries.live_rows()
+    nodes = early[acc.entries.kind[early] == NODE]
+    first = held.first_graph
+    if first is not None and not np.isin(acc.entries.node_id[nodes], first).all():
+        return (
+            "the first scene graph of these logs lacks places of the map before them (one "
+            "pass releases them there)"
+        )
+    gone = nodes[~np.isin(acc.entries.node_id[nodes], shard.nodes.ids)]
+    if gone.size and shard.graph is not None:
+        return "places of the map before these logs left the scene graph during them"
+    cells = early[acc.entries.kind[early] == CELL]
+    if cells.size and len(shard.nodes):
+        cfg = shard.config
+        xyz = acc.entries.xyz[cells]
+        first_hit = np.zeros(cells.size, bool)
+        if held.first_stable is not None:
+            first_hit = (
+                nearest_nodes(
+                    xyz, held.first_stable[1], cfg.bind_radius, cfg.bind_vertical_tolerance
+                )
+                >= 0
+            )
+            if first_hit.any() and held.first_stable_late:
+                return "the scene graph of these logs became stable only after their first day"
+        stable = stable_nodes(shard, int(shard.log_time_ns or 0))
+        last_hit = (
+            nearest_nodes(
+                xyz, shard.nodes.xyz[stable], cfg.bind_radius, cfg.bind_vertical_tolerance
+            )
+            >= 0
+            if stable.any()
+            else np.zeros(cells.size, bool)
+        )
+        if (last_hit & ~first_hit).any():
+            return (
+                "the scene graph of these logs reached cells of the map before them only "
+                "later on (a single pass would have bound them then)"
+            )
+    return None
+
+
+def join_shard(acc: MapState, shard: MapState) -> MapState:
+    """``acc`` (an ordinary map) followed in time by ``shard`` (built with
+    :func:`start_shard`): the map a single pass over both would have made. Both inputs are
+    consumed (the result is built in ``shard``)."""
+    if shard.deferred is None:
+        raise ValueError("join_shard needs a shard built with start_shard")
+    if acc.deferred is not None:
+        raise ValueError("the map a shard joins must be an ordinary map")
+    if acc.config != shard.config:
+        raise ConfigError(
+            "cannot join shards built with different model parameters",
+            hint="every shard of a build uses the build's config",
+        )
+    first_day = _first_day(shard)
+    if acc.open_window is not None and shard.open_window is not None:
+        close_windows(acc, acc.open_window + 1)
+    if acc.pending and acc.pending.day != first_day:
+        acc.close_day()
+    out = shard
+    merge_timers(out, acc)
+    src = acc.entries.canonical_order()
+    dst = destinations(out, acc, src)
+    # the shard's accumulators are empty (its days are held), so the earlier entries that a
+    # single pass would have moved into one entry combine as such a move does
+    add_entries(out, acc, src, dst, observation="max")
+    early_rows = np.unique(dst)
+    held = out.deferred
+    assert held is not None
+    for day in held.days:
+        _cover(out, day.pending, early_rows)
+        day.live = np.union1d(day.live, early_rows)
+    _cover(out, out.pending, early_rows)
+    if acc.pending:  # the same local day as the shard's first: its windows come first
+        row_map = np.full(acc.entries.capacity, -1, np.int64)
+        row_map[src] = dst
+        carried = acc.pending.relabelled(row_map)
+        if held.days:
+            carried.extend(held.days[0].pending)
+            held.days[0].pending = carried
+        else:
+            carried.extend(out.pending)
+            out.pending = carried
+    out.observation.join(acc.observation)
+    adopt_redirects(out, acc)  # ownership moves re-label the held days and the pending day
+    _bind_early_cells(out, early_rows, held.first_stable)
+    _replay(out, held)
+    out.accepted += acc.accepted
+    for reason, count in acc.dropped.items():
+        out.dropped[reason] = out.dropped.get(reason, 0) + count
+    if acc.log_time_ns is not None:
+        out.log_time_ns = max(out.log_time_ns or acc.log_time_ns, acc.log_time_ns)
+    if out.open_window is not None:  # what a single pass would have forgotten by now
+        out.observation.prune(int(window_start_ns(out.open_window, out.window_ns)))
+    out.rebuild_routes()
+    return out
+
+
+def _bind_early_cells(out: MapState, rows: I64, first: tuple[U64, F64] | None) -> None:
+    """Bind the cells holding the earlier map's cells (``rows``) that a stable node covers,
+    as a single pass would have bound them once the node was stable (and then routed the
+    shard's detections there to the node): against the shard's first stable nodes (``first``,
+    where they still exist), then its last."""
+    cells = rows[out.entries.kind[rows] == CELL]
+    if first is not None and cells.size:
+        ids, xyz = first
+        alive = np.isin(ids, out.nodes.ids)
+        ids, xyz = ids[alive], xyz[alive]
+        cfg = out.config
+        hit = nearest_nodes(
+            out.entries.xyz[cells], xyz, cfg.bind_radius, cfg.bind_vertical_tolerance
+        )
+        bound = hit >= 0
+        if bound.any():
+            picked = cells[bound]
+            order = np.argsort(out.entries.key[picked], kind="stable")
+            at = np.searchsorted(out.nodes.ids, ids[hit[bound]][order])
+            apply_binds(out, BindPlan(picked[order], ids[hit[bound]][order], out.nodes.xyz[at]))
+            cells = np.setdiff1d(cells, picked)
+    if cells.size == 0 or out.log_time_ns is None:
+        return
+    plan = plan_binds(out, int(out.log_time_ns))
+    if plan is None:
+        return
+    keep = np.isin(plan.cells, cells)
+    if keep.any():
+        apply_binds(out, BindPlan(plan.cells[keep], plan.node_ids[keep], plan.node_xyz[keep]))
+
+
+def _cover(out: MapState, day: PendingDay, rows: I64) -> None:
+    """Record, in the day's robot-covered windows, the entries of ``rows`` (the earlier map's:
+    a single pass had them all along, the shard perhaps not yet) that the robot observed;
+    pairs the shard recorded already are merged by the pending day."""
+    if not day or rows.size == 0:
+        return
+    xy = out.entries.xyz[rows, :2]
+    for slot, (window, fixed) in enumerate(zip(day.windows, day.fixed, strict=True)):
+        if fixed:
+            continue  # every entry was observed: the global block counts it
+        mask = out.observation.robot_observed(xy, window, out.window_ns, out.config.sensor_range)
+        if mask.any():
+            day.add_observed(slot, rows[mask])
+
+
+def _first_day(shard: MapState) -> int | None:
+    """The local day of the shard's first recorded window (None: it recorded none)."""
+    assert shard.deferred is not None
+    if shard.deferred.days:
+        return shard.deferred.days[0].pending.day
+    return shard.pending.day
+
+
+def _replay(out: MapState, held: DeferredDays) -> None:
+    """Score and absorb the held days in time order; the shard's last day stays pending."""
+    last = out.pending
+    out.deferred = None
+    days: list[HeldDay] = held.days
+    for day in days:
+        out.pending = day.pending
+        out.close_day(rows=np.intersect1d(day.live, out.entries.live_rows()))
+    out.pending = last if last else PendingDay(out.params.values)

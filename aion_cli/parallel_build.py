@@ -1,0 +1,359 @@
+"""Parallel builds: ``aion build LOG... --workers N`` and ``--scheduler ADDRESS`` (Dask).
+
+The plan (:func:`plan_shards`): the logs, ordered by time, are cut into *shards*, groups of
+logs that share no time window (logs that overlap, or touch within a window or a few
+seconds, stay together: a single pass interleaves their messages). Each shard is built in a
+worker process (or a Dask task, which reads the logs by path) exactly as a sequential build
+reads it, except that its closed days are held unscored (:mod:`aion_cli.engine.shards`); the
+first shard of a new map is built as an ordinary map. The parent then folds the shards into
+one map in time order (:func:`fold`): each is joined onto the map of every shard before it,
+which scores its held days against all of that history, so the result equals the sequential
+build.
+
+Where a shard cannot be joined exactly (:func:`aion_cli.engine.shards.join_blocker`: its
+ownership changed after one of its days closed, it has no scene graph of its own while the
+map has one, ...), the fold rebuilds that shard's logs in sequence onto the map so far (a
+note says which and why): the result is exact either way, only slower. Builds that need all
+logs at once (``--derive-graph``) run sequentially, as do builds whose logs form one shard.
+
+Ctrl-C (or any error) stops every worker; nothing is written until the fold is complete, so
+the previous map stays intact. Progress shows every worker's own bar.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aion_cli.build_report import BuildReport, ProgressSink, check_usable
+from aion_cli.errors import InputError
+
+if TYPE_CHECKING:
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.state import MapState
+    from aion_cli.pipeline import BuildOptions, _Build
+
+#: logs closer than this in time stay in one shard (headings link tracks across small gaps)
+TOUCH_NS = 10 * 10**9
+
+
+@dataclass(frozen=True)
+class ShardTask:
+    """One shard: its logs (in time order), whether its days are held for the join, and the
+    build's options and config (every shard learns with the same)."""
+
+    index: int
+    logs: tuple[Path, ...]
+    deferred: bool
+    opts: BuildOptions
+    config: ModelConfig
+
+
+@dataclass
+class ShardResult:
+    """A built shard: its map state and build report, with the worker's cost."""
+
+    index: int
+    state: MapState | None
+    report: BuildReport
+    seconds: float = 0.0
+    peak_rss_mb: float = 0.0
+    worker: str = ""
+
+    def without_state(self) -> ShardResult:
+        """The result's summary, once its state is folded (states are the large part)."""
+        return dataclasses.replace(self, state=None)
+
+
+@dataclass
+class Folded:
+    """The map so far and what the fold noted (shards rebuilt in sequence, and why)."""
+
+    state: MapState | None
+    notes: list[str] = field(default_factory=list)
+    reports: list[BuildReport] = field(default_factory=list)
+
+
+def worker_count(requested: int) -> int:
+    """``--workers``: 0 means one per core."""
+    if requested < 0:
+        raise InputError(f"--workers must be 0 (one per core) or more, got {requested}")
+    return requested or (os.cpu_count() or 1)
+
+
+def plan_shards(spans: list[tuple[Path, int, int]], window_ns: int) -> list[tuple[Path, ...]]:
+    """Groups of logs (each in time order, the groups too) that share no time window:
+    ``spans`` are (log, first, last message time). A log joins the group before it when it
+    starts before that group's last window ends or within :data:`TOUCH_NS` of its end."""
+    groups: list[list[Path]] = []
+    group_end = 0
+    for path, start, end in sorted(spans, key=lambda s: (s[1], s[2], str(s[0]))):
+        if groups:
+            window_end = (group_end // window_ns + 1) * window_ns
+            if start < window_end or start - group_end <= TOUCH_NS:
+                groups[-1].append(path)
+                group_end = max(group_end, end)
+                continue
+        groups.append([path])
+        group_end = end
+    return [tuple(g) for g in groups]
+
+
+def build_shard(task: ShardTask, progress: ProgressSink | None = None) -> ShardResult:
+    """Learn one shard's logs (in a worker process or a Dask task)."""
+    from aion_cli.build_report import NoProgress
+    from aion_cli.pipeline import _Build
+
+    begin = time.perf_counter()
+    opts = dataclasses.replace(
+        task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
+    )
+    build = _Build(opts, progress or NoProgress(), shard=True, deferred=task.deferred)
+    build.set_logs(task.logs)
+    state = build.learn(task.config).state
+    return ShardResult(
+        task.index,
+        state,
+        build.report,
+        time.perf_counter() - begin,
+        _peak_rss_mb(),
+        f"{os.uname().nodename}:{os.getpid()}",
+    )
+
+
+def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
+    """Join one shard onto the map so far (in time order), or rebuild its logs onto it in
+    sequence where a join would not be exact."""
+    from aion_cli.engine.shards import join_blocker, join_shard
+
+    state = result.state
+    if state is None:
+        raise ValueError("this shard's state was folded already")
+    if folded.state is None:
+        if state.deferred is not None:
+            raise ValueError("the first shard of a new map is built as an ordinary map")
+        return Folded(state, folded.notes, [*folded.reports, result.report])
+    _check_order(folded.state, result, task)
+    blocker = join_blocker(folded.state, state)
+    if blocker is None:
+        joined = join_shard(folded.state, state)
+        return Folded(joined, folded.notes, [*folded.reports, result.report])
+    note = (
+        f"{_names(task.logs)} were learnt in sequence onto the map (not joined in parallel): "
+        f"{blocker}"
+    )
+    rebuilt = rebuild_onto(folded.state, task)
+    return Folded(rebuilt.state, [*folded.notes, note], [*folded.reports, rebuilt.report])
+
+
+def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
+    """A continued map has closed every window before its open one: logs with data there
+    must come in time order (as a sequential build's ``_check_after_map`` says)."""
+    from aion_cli.engine.windows import window_ns
+    from aion_cli.log_times import iso
+
+    start = result.report.start_ns
+    if acc.open_window is None or start is None:
+        return
+    open_start = acc.open_window * window_ns(acc.config.window_s)
+    if start < open_start:
+        raise InputError(
+            f"the messages of {_names(task.logs)} start at {iso(start)}, but the map has "
+            f"already closed every window before {iso(open_start)}: logs must be added to a "
+            "map in time order; nothing was added",
+            hint="rebuild the map from all logs at once",
+        )
+
+
+def rebuild_onto(state: MapState, task: ShardTask) -> ShardResult:
+    """The shard's logs learnt onto ``state`` in sequence (exactly as one pass continues)."""
+    from aion_cli.build_report import NoProgress
+    from aion_cli.pipeline import _Build
+
+    opts = dataclasses.replace(
+        task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
+    )
+    build = _Build(opts, NoProgress(), shard=True, start=state)
+    build.set_logs(task.logs)
+    return ShardResult(task.index, build.learn(task.config).state, build.report)
+
+
+def _names(logs: tuple[Path, ...]) -> str:
+    names = [p.name for p in logs[:3]] + (["..."] if len(logs) > 3 else [])
+    return ", ".join(names)
+
+
+def _peak_rss_mb() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+class ParallelBuild:
+    """The parallel part of one ``aion build`` run (see the module docstring)."""
+
+    def __init__(self, build: _Build, config: ModelConfig) -> None:
+        self.build = build
+        self.config = config
+        self.opts: BuildOptions = build.opts
+        self.groups: list[tuple[Path, ...]] = []
+
+    def run(self) -> MapState:
+        """The learnt map state (the caller writes it); the report is filled in."""
+        opts, report = self.opts, self.build.report
+        logs = self.build.logs
+        if opts.derive_graph:
+            report.notes.append("--derive-graph needs every log at once: built in sequence")
+            return self.build.learn(self.config).state
+        groups = self.groups = plan_shards(self._spans(logs), _window_ns(self.config))
+        workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
+        if len(groups) < 2 or (workers < 2 and opts.scheduler is None):
+            if len(groups) < 2 and len(logs) > 1:
+                report.notes.append(
+                    "the logs overlap in time (one shard): built in sequence, not in parallel"
+                )
+            return self.build.learn(self.config).state
+        previous = self.build.previous.state if self.build.previous is not None else None
+        tasks = [
+            ShardTask(i, group, previous is not None or i > 0, opts, self.config)
+            for i, group in enumerate(groups)
+        ]
+        if opts.scheduler is not None:
+            from aion_cli.dask_build import run_on_cluster
+
+            folded, results = run_on_cluster(opts.scheduler, tasks, previous, self.build.progress)
+        else:
+            from aion_cli.process_pool import run_in_processes
+
+            folded, results = run_in_processes(
+                tasks, min(workers, len(tasks)), previous, self.build.progress
+            )
+        self._report(folded, results, len(tasks), workers)
+        assert folded.state is not None
+        return folded.state
+
+    def _spans(self, logs: tuple[Path, ...]) -> list[tuple[Path, int, int]]:
+        from aion_cli.formats.logs import open_logs
+
+        spans = []
+        for path in logs:
+            with open_logs([path], self.opts.log_format) as logset:
+                spans.append((path, int(logset.start_ns), int(logset.end_ns)))
+        return spans
+
+    def _report(
+        self, folded: Folded, results: list[ShardResult], shards: int, workers: int
+    ) -> None:
+        """The shards' reports as one (the sequential build's fields) plus the cost per
+        worker, and the checks a sequential build makes over all its logs."""
+        report = self.build.report
+        combine_reports(report, folded.reports)
+        starts = [p.start_ns for p in folded.reports if p.start_ns is not None]
+        ends = [p.end_ns for p in folded.reports if p.end_ns is not None]
+        self.build.join_span(min(starts, default=None), max(ends, default=None))
+        report.notes.extend(folded.notes)
+        where = "Dask cluster" if self.opts.scheduler else f"{workers} worker processes"
+        slowest = max((r.seconds for r in results), default=0.0)
+        peak = max((r.peak_rss_mb for r in results), default=0.0)
+        report.notes.append(
+            f"built {shards} shards on {where} (slowest {slowest:.1f} s, peak memory per "
+            f"worker {peak:.0f} MB)"
+        )
+        report.workers = [
+            {
+                "shard": r.index,
+                "logs": [p.name for p in self.groups[r.index]],
+                "worker": r.worker,
+                "seconds": round(r.seconds, 3),
+                "peak_rss_mb": round(r.peak_rss_mb, 1),
+                "detections_used": r.report.detections_used,
+            }
+            for r in sorted(results, key=lambda r: r.index)
+        ]
+        check_usable(report, _counts_of(report), self.build.previous_manifest)
+
+
+def _window_ns(config: ModelConfig) -> int:
+    from aion_cli.engine.windows import window_ns
+
+    return window_ns(config.window_s)
+
+
+def _counts_of(report: BuildReport) -> Any:
+    from aion_cli.detection_feed import DetectionCounts
+
+    counts = DetectionCounts()
+    counts.read = report.detections_read
+    counts.used = report.detections_used
+    return counts
+
+
+def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
+    """Fill ``out`` (the parent's report) from the shards' reports, in time order."""
+    if not parts:
+        return
+    kinds = {p.observation.split(" ")[0] for p in parts}
+    if len(kinds) > 1:
+        out.warnings.append(
+            "the logs' observation sources differ (" + ", ".join(sorted(kinds)) + "): each "
+            "group of logs used its own"
+        )
+    out.observation = parts[0].observation
+    for p in parts:
+        out.detections_read += p.detections_read
+        out.detections_used += p.detections_used
+        _add(out.dropped, p.dropped)
+        _add(out.headings, p.headings)
+        out.graph_messages += p.graph_messages
+        out.graph_skipped += p.graph_skipped
+        out.graph_decoded += p.graph_decoded
+        out.graphs_skipped_identical += p.graphs_skipped_identical
+        out.graphs_skipped_period += p.graphs_skipped_period
+        out.tf_undecodable += p.tf_undecodable
+        for topic, stats in p.by_topic.items():
+            mine = out.by_topic.setdefault(topic, {})
+            _add_nested(mine, stats)
+        for topic, stats in p.time_dropped.items():
+            _add(out.time_dropped.setdefault(topic, {}), stats)
+        for topic, info in p.detection_decoding.items():
+            have = out.detection_decoding.get(topic)
+            if have is None:
+                out.detection_decoding[topic] = dict(info)
+            else:
+                _add_nested(have, {k: v for k, v in info.items() if isinstance(v, int)})
+        for line in p.notes:
+            if line not in out.notes:
+                out.notes.append(line)
+        for line in p.warnings:
+            if line not in out.warnings:
+                out.warnings.append(line)
+        if p.graph_source != "none":
+            out.graph_source = p.graph_source
+        out.graph_layer = out.graph_layer or p.graph_layer
+        out.dsg_version = out.dsg_version or p.dsg_version
+        out.graph_period_ns = p.graph_period_ns
+    out.detection_topics = sorted({t for p in parts for t in p.detection_topics})
+    out.graph_topics = sorted({t for p in parts for t in p.graph_topics})
+
+
+def _add(into: dict[str, int], more: dict[str, int]) -> None:
+    for key, value in more.items():
+        into[key] = into.get(key, 0) + int(value)
+
+
+def _add_nested(into: dict[str, Any], more: dict[str, Any]) -> None:
+    for key, value in more.items():
+        if isinstance(value, dict):
+            _add_nested(into.setdefault(key, {}), value)
+        elif isinstance(value, bool) or not isinstance(value, int | float):
+            into.setdefault(key, value)
+        else:
+            into[key] = into.get(key, 0) + value
+
+
+Runner = Callable[..., tuple[Folded, list[ShardResult]]]

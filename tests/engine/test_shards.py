@@ -1,0 +1,207 @@
+"""Parallel-build shards joined in time order equal one pass over all their logs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.mapper import Mapper
+from aion_cli.engine.shards import join_blocker, join_shard, start_shard
+from aion_cli.engine.state import MapState
+from tests.engine.engine_builders import T0_DAY_END, check_invariants
+from tests.engine.test_state import CFG, DAY, HOUR, Step, W, _assert_same, _log, _run
+
+
+def _days(start: int, seed: int, days: int, windows: int = 5) -> list[Step]:
+    """A multi-day log: ``windows`` windows from 08:00 on each of ``days`` days."""
+    steps: list[Step] = []
+    for d in range(days):
+        steps += _log(start + d * DAY, seed=seed * 100 + d, windows=windows)
+    return steps
+
+
+def _moving(start: int, seed: int, days: int, extra: bool = False, move: bool = True) -> list[Step]:
+    """Fixed-sensor days whose graph (five places, or six with ``extra``: one more at
+    (9, 9), where people also walk) moves by 0.6 m halfway through each day (with ``move``)
+    and back at the start of the next."""
+    from functools import partial
+
+    from tests.engine.engine_builders import detections, graph
+    from tests.engine.test_state import NODES
+
+    nodes = np.array([*NODES, [9.0, 9.0, 0.0]] if extra else NODES)
+    ids = list(range(len(nodes)))
+    rng = np.random.default_rng(seed)
+    steps: list[Step] = []
+    for d in range(days):
+        t0 = start + d * DAY
+        steps.append(lambda m, t0=t0: m.set_fixed_sensor(t0, t0 + 6 * W))
+        steps.append(lambda m, t0=t0: m.add_graph(graph(t0, ids, nodes)))
+        for w in range(6):
+            n = int(rng.integers(5, 60))
+            t = t0 + w * W + np.sort(rng.integers(0, W, n))
+            xyz = np.c_[rng.uniform(-1, 10, (n, 2)), np.zeros(n)]
+            batch = detections(t, xyz, rng.uniform(-np.pi, np.pi, n), rng.uniform(0.2, 2, n))
+            steps.append(partial(Mapper.add_detections, batch=batch))
+            if w == 3 and move:
+                moved = graph(t0 + w * W + W // 2, ids, nodes + np.array([0.6, 0, 0]))
+                steps.append(partial(Mapper.add_graph, snapshot=moved))
+    return steps
+
+
+def _joined(
+    logs: list[list[Step]], acc: MapState | None = None, blockers: list[str | None] | None = None
+) -> MapState:
+    """The logs built as shards and joined in order; what :func:`join_blocker` said about
+    each join goes to ``blockers`` (the joins that must be exact expect None)."""
+    state = acc if acc is not None else MapState.empty(CFG)
+    for steps in logs:
+        shard = _run(steps, Mapper(CFG, start_shard(MapState.empty(CFG)))).state
+        reason = join_blocker(state, shard)
+        if blockers is None:
+            assert reason is None, reason
+        else:
+            blockers.append(reason)
+        state = join_shard(state, shard)
+    return state
+
+
+MORNING = T0_DAY_END + 8 * HOUR
+
+
+@pytest.mark.parametrize(
+    "logs",
+    [
+        # three multi-day logs with gaps of days between them
+        [_days(MORNING, 1, 3), _days(MORNING + 5 * DAY, 2, 2), _days(MORNING + 9 * DAY, 3, 3)],
+        # back to back: the next log starts on the day the previous one ends
+        [
+            _days(MORNING, 4, 2),
+            _log(MORNING + DAY + 10 * W, seed=5),
+            _days(MORNING + 2 * DAY, 6, 1),
+        ],
+        # one day each
+        [_log(MORNING, seed=7), _log(MORNING + DAY, seed=8), _log(MORNING + 3 * DAY, seed=9)],
+    ],
+    ids=["gaps", "same-day", "single-days"],
+)
+def test_shards_joined_in_time_order_equal_one_pass(logs: list[list[Step]]) -> None:
+    whole = _run([step for steps in logs for step in steps]).state
+    joined = _joined(logs)
+    check_invariants(joined)
+    assert whole.temporal.flow_scored.sum() > 0  # days were scored: the join had to rescore
+    _assert_same(whole, joined)
+
+
+def test_a_shard_joined_onto_a_continued_map_equals_one_pass() -> None:
+    first, second = _days(MORNING, 11, 3), _days(MORNING + 4 * DAY, 12, 2)
+    whole = _run(first + second).state
+    joined = _joined([second], acc=_run(first).state)
+    _assert_same(whole, joined)
+
+
+def test_a_shard_without_the_other_shards_scores_differently() -> None:
+    """The join is not trivially equal: scoring the later log against its own history only
+    (an ordinary build of it, merged) gives other day-ahead scores than one pass."""
+    first, second = _days(MORNING, 13, 3), _days(MORNING + 4 * DAY, 14, 3)
+    whole = _run(first + second).state
+    alone = _run(second).state
+    shard_scores = alone.temporal.flow_score.sum()
+    joined = _joined([first, second])
+    assert joined.temporal.flow_score.sum() == pytest.approx(whole.temporal.flow_score.sum())
+    assert whole.temporal.flow_score.sum() != pytest.approx(
+        _run(first).state.temporal.flow_score.sum() + shard_scores
+    )
+
+
+def test_only_an_empty_map_starts_a_shard_and_only_shards_join() -> None:
+    busy = _run(_log(MORNING, seed=15)).state
+    with pytest.raises(ValueError, match="empty map"):
+        start_shard(busy)
+    with pytest.raises(ValueError, match="start_shard"):
+        join_shard(MapState.empty(CFG), _run(_log(MORNING, seed=16)).state)
+    np.testing.assert_equal(busy.deferred, None)
+
+
+def _robot_log(start: int, seed: int, windows: int = 6, days: int = 1) -> list[Step]:
+    """A robot's log: it drives along a line through the floor (sensor range covers part of
+    it), people appear everywhere; a graph of five places."""
+    from functools import partial
+
+    from aion_cli.engine.types import Trajectory
+    from tests.engine.engine_builders import detections, graph
+    from tests.engine.test_state import NODES
+
+    rng = np.random.default_rng(seed)
+    steps: list[Step] = []
+    for d in range(days):
+        t0 = start + d * DAY
+        t = t0 + np.arange(0, windows * W, 20 * 10**9)
+        x = 4 + 4 * np.sin(np.arange(t.size) / 7.0 + seed)
+        traj = Trajectory(t, np.c_[x, np.full(t.size, 1.0), np.zeros(t.size)])
+        steps.append(partial(Mapper.add_trajectory, trajectory=traj))
+        steps.append(lambda m, t0=t0: m.add_graph(graph(t0, list(range(5)), np.array(NODES))))
+        for w in range(windows):
+            n = int(rng.integers(5, 40))
+            tw = t0 + w * W + np.sort(rng.integers(0, W, n))
+            xyz = np.c_[rng.uniform(-1, 12, (n, 2)), np.zeros(n)]
+            batch = detections(tw, xyz, rng.uniform(-np.pi, np.pi, n), rng.uniform(0.2, 2, n))
+            steps.append(partial(Mapper.add_detections, batch=batch))
+    return steps
+
+
+def test_robot_shards_record_the_empty_windows_of_cells_earlier_shards_made() -> None:
+    logs = [_robot_log(MORNING, 21, days=2), _robot_log(MORNING + 3 * DAY, 22, days=2)]
+    whole = _run([step for steps in logs for step in steps]).state
+    joined = _joined(logs)
+    check_invariants(joined)
+    _assert_same(whole, joined)
+
+
+def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> None:
+    """The second log's graph has a place more, at (9, 9), where the first log left unbound
+    cells: the join binds them to it, as one pass does once the place is stable."""
+    logs = [
+        _moving(MORNING, 40, days=1, move=False),
+        _moving(MORNING + 3 * DAY, 41, 2, True, False),
+    ]
+    whole = _run([step for steps in logs for step in steps]).state
+    joined = _joined(logs)
+    _assert_same(whole, joined)
+    node = joined.node_entry_rows(joined.nodes.ids[-1:])
+    assert node[0] >= 0
+    assert joined.entries.counts[node].sum() > 0
+
+
+@pytest.mark.parametrize(
+    ("logs", "reason"),
+    [
+        (  # every place moves halfway through each day and back the next morning
+            [_moving(MORNING, 30, days=2), _moving(MORNING + 3 * DAY, 32, days=2, extra=True)],
+            "ownership changed inside these logs",
+        ),
+        (  # a place leaves the graph every day and returns the next
+            [
+                [st for d in range(2) for st in _log(MORNING + d * DAY, seed=30 + d, move=0.6)],
+                [st for d in range(2) for st in _log(MORNING + (3 + d) * DAY, 32 + d, move=0.6)],
+            ],
+            "ownership changed inside these logs",
+        ),
+    ],
+    ids=["moving-places", "vanishing-place"],
+)
+def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: str) -> None:
+    """What engine/shards.py cannot join exactly is refused by join_blocker (the parallel
+    build then learns those logs in sequence). Forced anyway, the join still conserves
+    counts (and differs from one pass, or the blocker would be needless)."""
+    whole = _run([step for steps in logs for step in steps]).state
+    blockers: list[str | None] = []
+    joined = _joined(logs[1:], acc=_run(logs[0]).state, blockers=blockers)  # as a build does
+    assert blockers[0] is not None
+    assert reason in blockers[0]
+    check_invariants(joined)
+    live_w, live_j = whole.entries.live_rows(), joined.entries.live_rows()
+    assert joined.entries.counts[live_j].sum() == whole.entries.counts[live_w].sum()
+    assert joined.accepted == whole.accepted
+    with pytest.raises(AssertionError):
+        _assert_same(whole, joined)
