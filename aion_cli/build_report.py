@@ -103,6 +103,9 @@ class BuildReport:
     tf_undecodable: int = 0
     #: a parallel build's shards: logs, worker, seconds, peak memory, detections used
     workers: list[dict[str, Any]] = field(default_factory=list)
+    fold_seconds: float = 0.0  # the parent's joins of the shards
+    #: fixed-sensor observation: (windows, first window, last window, window ns)
+    fixed_windows: tuple[int, int, int, int] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         span = (

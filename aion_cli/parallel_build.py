@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 from aion_cli.build_report import BuildReport, ProgressSink, check_usable
 from aion_cli.errors import InputError
+from aion_cli.tf_feed import fixed_sensor_text
 
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
@@ -77,6 +78,7 @@ class Folded:
     state: MapState | None
     notes: list[str] = field(default_factory=list)
     reports: list[BuildReport] = field(default_factory=list)
+    seconds: float = 0.0  # spent folding (joins, and shards learnt in sequence)
 
 
 def worker_count(requested: int) -> int:
@@ -137,18 +139,20 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     if folded.state is None:
         if state.deferred is not None:
             raise ValueError("the first shard of a new map is built as an ordinary map")
-        return Folded(state, folded.notes, [*folded.reports, result.report])
+        return Folded(state, folded.notes, [*folded.reports, result.report], folded.seconds)
     _check_order(folded.state, result, task)
     blocker = join_blocker(folded.state, state)
     if blocker is None:
         joined = join_shard(folded.state, state)
-        return Folded(joined, folded.notes, [*folded.reports, result.report])
+        return Folded(joined, folded.notes, [*folded.reports, result.report], folded.seconds)
     note = (
         f"{_names(task.logs)} were learnt in sequence onto the map (not joined in parallel): "
         f"{blocker}"
     )
     rebuilt = rebuild_onto(folded.state, task)
-    return Folded(rebuilt.state, [*folded.notes, note], [*folded.reports, rebuilt.report])
+    return Folded(
+        rebuilt.state, [*folded.notes, note], [*folded.reports, rebuilt.report], folded.seconds
+    )
 
 
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
@@ -210,7 +214,11 @@ class ParallelBuild:
         if opts.derive_graph:
             report.notes.append("--derive-graph needs every log at once: built in sequence")
             return self.build.learn(self.config).state
-        groups = self.groups = plan_shards(self._spans(logs), _window_ns(self.config))
+        spans, empty = self._spans(logs)
+        groups = plan_shards(spans, _window_ns(self.config))
+        if empty and groups:
+            groups[0] = groups[0] + tuple(empty)
+        self.groups = groups
         workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
         if len(groups) < 2 or (workers < 2 and opts.scheduler is None):
             if len(groups) < 2 and len(logs) > 1:
@@ -228,6 +236,8 @@ class ParallelBuild:
 
             folded, results = run_on_cluster(opts.scheduler, tasks, previous, self.build.progress)
         else:
+            import aion_cli.detection_feed
+            import aion_cli.formats.logs  # noqa: F401
             from aion_cli.process_pool import run_in_processes
 
             folded, results = run_in_processes(
@@ -237,14 +247,22 @@ class ParallelBuild:
         assert folded.state is not None
         return folded.state
 
-    def _spans(self, logs: tuple[Path, ...]) -> list[tuple[Path, int, int]]:
+    def _spans(self, logs: tuple[Path, ...]) -> tuple[list[tuple[Path, int, int]], list[Path]]:
+        """Each log's first and last message time (from its index or summary), and the logs
+        without messages (they go with the first shard, whose build notes them)."""
         from aion_cli.formats.logs import open_logs
 
-        spans = []
-        for path in logs:
-            with open_logs([path], self.opts.log_format) as logset:
-                spans.append((path, int(logset.start_ns), int(logset.end_ns)))
-        return spans
+        with open_logs(list(logs), self.opts.log_format) as logset:
+            files = list(logset.files)
+        if len(files) != len(logs):  # one source per path, always; guard anyway
+            raise ValueError("a log path opened as several sources")
+        spans = [
+            (path, int(f.start_ns), int(f.end_ns))
+            for path, f in zip(logs, files, strict=True)
+            if f.message_count > 0
+        ]
+        empty = [path for path, f in zip(logs, files, strict=True) if f.message_count == 0]
+        return spans, empty
 
     def _report(
         self, folded: Folded, results: list[ShardResult], shards: int, workers: int
@@ -262,8 +280,9 @@ class ParallelBuild:
         peak = max((r.peak_rss_mb for r in results), default=0.0)
         report.notes.append(
             f"built {shards} shards on {where} (slowest {slowest:.1f} s, peak memory per "
-            f"worker {peak:.0f} MB)"
+            f"worker {peak:.0f} MB; joined in {folded.seconds:.1f} s)"
         )
+        report.fold_seconds = folded.seconds
         report.workers = [
             {
                 "shard": r.index,
@@ -304,6 +323,11 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
             "group of logs used its own"
         )
     out.observation = parts[0].observation
+    fixed = [p.fixed_windows for p in parts if p.fixed_windows is not None]
+    if fixed and len(kinds) == 1 and out.observation.startswith("fixed sensor over"):
+        count = sum(f[0] for f in fixed)
+        out.fixed_windows = (count, min(f[1] for f in fixed), max(f[2] for f in fixed), fixed[0][3])
+        out.observation = fixed_sensor_text(*out.fixed_windows)
     for p in parts:
         out.detections_read += p.detections_read
         out.detections_used += p.detections_used

@@ -386,7 +386,7 @@ class _Build:
             self.report.observation = "scene-graph agent layer"  # fed per snapshot
         else:
             self.report.observation = fixed_sensor_windows(
-                mapper, logset, self._times, self.report.notes
+                mapper, logset, self._times, self.report.notes, self.report
             )
             self.report.notes.append(
                 "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
@@ -499,7 +499,7 @@ class _Build:
             check_usable(self.report, c, self.previous_manifest)
         if use_agents and self.report.graph_messages == 0:
             self.report.observation = fixed_sensor_windows(
-                mapper, logset, self._times, self.report.notes
+                mapper, logset, self._times, self.report.notes, self.report
             )
 
     def _feed(self, mapper: Mapper, batch: DetectionBatch, topics: I64) -> None:

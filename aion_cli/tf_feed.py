@@ -230,7 +230,9 @@ def check_times(
     return checked
 
 
-def fixed_sensor_windows(mapper: Mapper, logset: Any, times: TimeCheck, notes: list[str]) -> str:
+def fixed_sensor_windows(
+    mapper: Mapper, logset: Any, times: TimeCheck, notes: list[str], report: Any = None
+) -> str:
     """The observation of a log without a robot trajectory (neither TF nor scene-graph
     agents), from its log times: a fixed sensor observes exactly the windows in which the logs
     recorded something (any message on any topic: a tracker that publishes only when it sees
@@ -258,8 +260,17 @@ def fixed_sensor_windows(mapper: Mapper, logset: Any, times: TimeCheck, notes: l
     mapper.set_fixed_windows(windows)
     if len(windows) == 0:
         return "fixed sensor (no message recorded)"
-    span = int(windows[-1] - windows[0] + 1)
+    summary = (len(windows), int(windows[0]), int(windows[-1]), delta)
+    if report is not None:  # a parallel build adds its shards' windows up
+        report.fixed_windows = summary
+    return fixed_sensor_text(*summary)
+
+
+def fixed_sensor_text(count: int, first: int, last: int, delta: int) -> str:
+    """The report's description of fixed-sensor observation: ``count`` windows of
+    ``delta`` ns with messages, from window ``first`` to ``last``."""
+    span = last - first + 1
     return (
-        f"fixed sensor over the {len(windows):,} windows with messages "
-        f"({len(windows) * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
+        f"fixed sensor over the {count:,} windows with messages "
+        f"({count * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
     )

@@ -110,14 +110,9 @@ def add_entries(
     e, o = early.entries, out.entries
     for name in ("counts", "window_counts", "speed_sum", "speed_n", "nodir", "window_nodir"):
         np.add.at(getattr(o, name), dst, getattr(e, name)[src])
-    n_rows = out.temporal.n_rows
-    part = early.temporal.take(src)
-    joined = type(out.temporal).concat([out.temporal, part])
-    joined.add_rows(n_rows + np.arange(part.n_rows, dtype=np.int64), dst, observation=observation)
-    joined.resize(n_rows)
-    joined.glob.add_block(np.array([0]), early.temporal.glob)
-    joined.touch()
-    out.temporal = joined
+    out.temporal.add_from(early.temporal, src, dst, observation)
+    out.temporal.glob.add_block(np.array([0]), early.temporal.glob)
+    out.temporal.touch()
 
 
 def adopt_redirects(out: MapState, early: MapState) -> None:

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from aion_cli.engine.compare import differences, pending_sorted, plain
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.query import historical_table, predict_table
@@ -86,35 +87,19 @@ def _reload(m: Mapper) -> Mapper:
 
 def _plain(arrays: dict[str, Any]) -> dict[str, np.ndarray]:
     """Every member as a numpy array (temporal members are streamed row blocks)."""
-    return {name: np.asarray(value) for name, value in arrays.items()}
+    return plain(arrays)
 
 
 def _pending_sorted(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The pending day's (entry position, slot) pairs sorted by position, then slot: the
-    content of the day independent of the order it was written in (the byte-exact export is
+    """The pending day's pairs in a canonical order (the byte-exact export is
     :func:`test_round_trip_is_exact_and_plain`'s business)."""
-    out = dict(arrays)
-    for kind, extra in (("obs", ()), ("cnt", ("cnt_values",))):
-        entry, slot = arrays[f"pending_{kind}_entry"], arrays[f"pending_{kind}_slot"]
-        order = np.lexsort((slot, entry))
-        for name in (f"{kind}_entry", f"{kind}_slot", *extra):
-            out["pending_" + name] = arrays["pending_" + name][order]
-    return out
+    return pending_sorted(arrays)
 
 
 def _assert_same(a: MapState, b: MapState, rtol: float = 1e-12) -> None:
     """Equal maps: metadata and integer members exactly, float members to ``rtol``."""
-    xa, ma = a.to_arrays()
-    xb, mb = b.to_arrays()
-    assert ma == mb
-    assert sorted(xa) == sorted(xb)
-    pa, pb = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xb))
-    for name in pa:
-        assert pa[name].dtype == pb[name].dtype, name
-        if pa[name].dtype.kind in "fc":
-            np.testing.assert_allclose(pa[name], pb[name], rtol=rtol, atol=0, err_msg=name)
-        else:
-            np.testing.assert_array_equal(pa[name], pb[name], err_msg=name)
+    problems = differences(a, b, rtol)
+    assert not problems, "\n".join(problems)
 
 
 def test_round_trip_is_exact_and_plain() -> None:

@@ -397,6 +397,49 @@ class TemporalState:
             for name in _ADDITIVE:
                 np.add.at(getattr(self, name), db, vals[name])
 
+    def add_from(
+        self,
+        other: TemporalState,
+        src: npt.ArrayLike,
+        dst: npt.ArrayLike,
+        observation: Literal["max", "add"],
+    ) -> None:
+        """``self[dst] += other[src]`` as :meth:`add_rows` does within one state (another
+        map's entries added into this one's), touching only the rows involved: no copy of
+        the whole state (a merge of a few entries into a large map stays cheap)."""
+        s = np.asarray(src, dtype=np.int64).reshape(-1)
+        d = np.asarray(dst, dtype=np.int64).reshape(-1)
+        if s.shape != d.shape:
+            raise ValueError("src and dst must have the same length")
+        if s.size == 0:
+            return
+        targets, slot, hits = np.unique(d, return_inverse=True, return_counts=True)
+        once = hits[slot.reshape(-1)] == 1
+        if once.any():  # one source per destination (the common case): in place
+            so, do = s[once], d[once]
+            theirs = other.obs.take(so)
+            if observation == "add":
+                self.obs.add_block(do, theirs)
+            else:  # the larger block; a tie keeps the destination's
+                larger = theirs.n > self.obs.n[do]
+                if larger.any():
+                    self.obs.put(do[larger], theirs.take(np.flatnonzero(larger)))
+            for name in _ADDITIVE:
+                getattr(self, name)[do] += getattr(other, name)[so]
+            self.touch(do)
+            s, d = s[~once], d[~once]
+            if s.size == 0:
+                return
+            targets, slot = np.unique(d, return_inverse=True)
+        small = TemporalState.concat([self.take(targets), other.take(s)])
+        small.high_water = small.n_rows
+        small.add_rows(targets.size + np.arange(s.size), slot.reshape(-1), observation)
+        head = np.arange(targets.size)
+        self.obs.put(targets, small.obs.take(head))
+        for name in _ADDITIVE:
+            getattr(self, name)[targets] = getattr(small, name)[: targets.size]
+        self.touch(targets)
+
     def _keep_larger_observation(self, s: I64, d: I64) -> None:
         targets = np.unique(d)
         cand_row = np.concatenate([targets, s])

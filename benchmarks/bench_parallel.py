@@ -1,0 +1,128 @@
+"""Issue 17: parallel builds (``aion build --workers N``) and merging maps.
+
+* **Speed-up** (:func:`run_speedup`). Four logs like the ratio logs of ``bench_build``
+  (spencer ``TrackedPersons`` at 10 Hz from a fixed tracker, 5 people per message, a
+  ``DsgUpdate`` of the same corridor graph every 10 minutes), each over ``days`` days, a day
+  apart: ``pipeline.build_map`` with ``workers=1`` (the sequential build, in this process) and
+  with ``workers=2`` (shards in worker processes, joined in time order). Reported: both wall
+  times and their ratio (target >= 1.6x for 2 workers on 4 logs), whether the maps are the same
+  (``engine.compare.differences``: ints exact, floats 1e-12), how many shards were joined
+  and how many learnt in sequence, the peak memory of each worker, the parent's fold time
+  (joins: merging entries and scoring the held days) and its cost per entry of the map.
+* **Merge cost** (:func:`run_merge`). ``engine.merge.merge_maps`` of two maps of 10^4 and 10^5
+  cell entries with two weeks of history (``bench_engine.build_state``): seconds per entry.
+
+Per-core rates for docs/SCALING.md come from the same rows (detections per second of one
+worker's shard, fold seconds per shard).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+from benchmarks.common import WORK, timed
+
+DAY_NS = 86_400 * 10**9
+
+
+def fleet_logs(logs: int = 4, days: int = 2, messages_per_day: int = 6000) -> list[Path]:
+    """``logs`` cached logs of ``days`` days each, one day apart (written once)."""
+    from benchmarks.bench_build import (
+        FLOOR,
+        StaticPayload,
+        burst_times,
+        places_graph,
+        write_log,
+    )
+
+    extent, spacing, step = FLOOR
+    xyz, edges = places_graph(extent, spacing, step)
+    out = []
+    for k in range(logs):
+        path = WORK / f"fleet_{k}of{logs}_{days}d_{messages_per_day}m.mcap"
+        if not path.exists():
+            times = burst_times(messages_per_day * days, days, seed=k) + k * (days + 1) * DAY_NS
+            write_log(path, times, 5, (extent, spacing), StaticPayload(xyz, edges), 600.0, k + 1)
+        out.append(path)
+    return out
+
+
+def _build(logs: list[Path], out: Path, workers: int) -> Any:
+    from aion_cli.pipeline import BuildOptions, build_map
+
+    out.unlink(missing_ok=True)
+    return build_map(BuildOptions(logs=tuple(logs), output=out, workers=workers))
+
+
+def run_speedup(logs: int = 4, days: int = 2, messages_per_day: int = 6000) -> dict[str, Any]:
+    """Sequential vs 2-worker build of the fleet logs (see the module docstring)."""
+    from aion_cli.engine.compare import differences
+    from aion_cli.mapquery import load_map
+
+    paths = fleet_logs(logs, days, messages_per_day)
+    seq_out, par_out = WORK / "fleet_seq.aion", WORK / "fleet_par.aion"
+    _build(paths[:1], seq_out, 1)  # imports and caches warm, for both timings alike
+    seq_s, seq_report = timed(lambda: _build(paths, seq_out, 1))
+    par_s, par_report = timed(lambda: _build(paths, par_out, 2))
+    a = load_map(seq_out, writable=True).state
+    b = load_map(par_out, writable=True).state
+    problems = differences(a, b)
+    sequenced = [n for n in par_report.notes if "learnt in sequence" in n]
+    fold = next((n for n in par_report.notes if n.startswith("built ")), "")
+    entries = len(b.entries.live_rows())
+    workers = par_report.workers
+    shard_rates = [w["detections_used"] / w["seconds"] for w in workers if w["seconds"] > 0]
+    row = {
+        "name": f"parallel build, {logs} logs x {days} days, 2 workers",
+        "logs": logs,
+        "days_per_log": days,
+        "detections": seq_report.detections_used,
+        "sequential_s": seq_s,
+        "workers2_s": par_s,
+        "speedup": seq_s / par_s,
+        "same_map": not problems,
+        "differences": problems[:5],
+        "shards": len(workers),
+        "shards_learnt_in_sequence": len(sequenced),
+        "worker_peak_rss_mb": [w["peak_rss_mb"] for w in workers],
+        "worker_seconds": [w["seconds"] for w in workers],
+        "shard_detections_per_s": shard_rates,
+        "sequential_detections_per_s": seq_report.detections_used / seq_s,
+        "fold_note": fold,
+        "fold_s": getattr(par_report, "fold_seconds", None),
+        "map_entries": entries,
+    }
+    if row["fold_s"] is not None and entries:
+        row["fold_s_per_entry"] = row["fold_s"] / entries
+    seq_out.unlink(missing_ok=True)
+    par_out.unlink(missing_ok=True)
+    return row
+
+
+def run_merge(sizes: tuple[int, ...] = (10**4, 10**5)) -> list[dict[str, Any]]:
+    """``merge_maps`` cost per entry for maps of ``sizes`` entries."""
+    from aion_cli.engine.merge import merge_maps
+    from benchmarks.bench_engine import build_state
+
+    rows = []
+    for n in sizes:
+        a, b = build_state(n), build_state(n)
+        begin = time.perf_counter()
+        merged = merge_maps(a, b)
+        seconds = time.perf_counter() - begin
+        entries = len(merged.entries.live_rows())
+        rows.append({
+            "name": f"merge_maps, {n:,} entries each",
+            "entries": entries,
+            "seconds": seconds,
+            "us_per_entry": seconds / max(entries, 1) * 1e6,
+        })
+    return rows
+
+
+def run(quick: bool = False) -> list[dict[str, Any]]:
+    if quick:
+        return [run_speedup(4, 1, 800), *run_merge((10**3,))]
+    return [run_speedup(), *run_merge()]
