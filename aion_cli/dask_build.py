@@ -11,6 +11,7 @@ Needs the ``dask`` extra (``pip install 'aion[dask]'``).
 
 from __future__ import annotations
 
+import time
 import uuid
 from typing import TYPE_CHECKING, Any
 
@@ -31,7 +32,7 @@ def _client(address: str) -> Any:
             hint="pip install 'aion[dask]'",
         ) from exc
     try:
-        return Client(address, timeout="10s", set_as_default=False)
+        return Client(address, timeout="5s", set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
         raise InputError(
             f"cannot reach the Dask scheduler at {address}: {exc}",
@@ -47,8 +48,6 @@ def run_on_cluster(
     address: str, tasks: list[ShardTask], previous: MapState | None, progress: ProgressSink
 ) -> tuple[Folded, list[ShardResult]]:
     """Build the shards as tasks on the cluster at ``address`` and fold them there."""
-    from distributed import as_completed
-
     tag = uuid.uuid4().hex[:8]
     client = _client(address)
     futures: list[Any] = []
@@ -65,8 +64,16 @@ def run_on_cluster(
         for task, shard in zip(tasks, shards, strict=True):
             acc = client.submit(fold, acc, shard, task, key=f"aion-fold-{tag}-{task.index}")
         futures = [*shards, *summaries, acc]
-        for _ in as_completed(summaries):
-            progress.advance(1)
+        shown = 0
+        while shown < len(summaries):  # the client is not the default one: poll the futures
+            done = sum(f.done() for f in summaries)
+            if done > shown:
+                progress.advance(done - shown)
+                shown = done
+            elif any(f.status == "error" for f in summaries):
+                break  # result() below raises the task's error
+            else:
+                time.sleep(0.2)
         folded: Folded = acc.result()
         results: list[ShardResult] = client.gather(summaries)
         return folded, results

@@ -120,7 +120,8 @@ def _score(
         sq_part = np.bincount(ce, n_total**2 / lam_pairs, minlength=candidates.size)
         n_part = np.bincount(ce, n_total, minlength=candidates.size)
         day_score[:, f] = log_part - sum_lam
-        state.flow_chi2[candidates, f] += sq_part - 2.0 * n_part + sum_lam
+        # Σ (n − λ)² / λ, expanded: it cannot be negative, but the expansion can round below 0
+        state.flow_chi2[candidates, f] += np.maximum(sq_part - 2.0 * n_part + sum_lam, 0.0)
     _add_day(
         day_score,
         params.flow.index("static"),

@@ -1,0 +1,204 @@
+"""``aion build --workers N`` / ``--scheduler``: the map of the sequential build, from shards.
+
+Every comparison is :func:`aion_cli.engine.compare.differences` of the two maps as saved
+(ints exact, floats 1e-12), on logs with known contents (``tests/cli/logdata.py``): a robot
+at a fixed pose (TF), people at fixed spots, the office graph in every ``DsgUpdate``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from aion_cli.engine.compare import differences
+from aion_cli.errors import InputError
+from aion_cli.mapquery import load_map
+from aion_cli.parallel_build import plan_shards
+from aion_cli.pipeline import BuildOptions, build_map
+from tests.cli.logdata import write_office_log
+
+HOUR_S = 3600
+DAY_S = 86_400
+W = 600 * 10**9
+
+
+def _logs(folder: Path, shifts_h: list[float], graph: list[bool] | None = None) -> list[Path]:
+    """Office logs of two hours each, starting ``shifts_h`` hours after Monday 08:00."""
+    paths = []
+    for k, shift in enumerate(shifts_h):
+        path = folder / f"day{k}.mcap"
+        with_graph = True if graph is None else graph[k]
+        write_office_log(path, shift_s=int(shift * HOUR_S), duration_s=2 * HOUR_S, graph=with_graph)
+        paths.append(path)
+    return paths
+
+
+def _build(logs: list[Path], out: Path, workers: int, **kw: object) -> object:
+    out.unlink(missing_ok=True)
+    return build_map(BuildOptions(logs=tuple(logs), output=out, workers=workers, **kw))  # type: ignore[arg-type]
+
+
+def _same_maps(a: Path, b: Path) -> list[str]:
+    return differences(load_map(a, writable=True).state, load_map(b, writable=True).state)
+
+
+def test_plan_shards_groups_logs_that_share_a_window_or_touch() -> None:
+    p = [Path(f"l{k}") for k in range(6)]
+    spans = [
+        (p[3], 50 * W, 51 * W),  # given out of order
+        (p[0], 0, 2 * W + 5),
+        (p[1], 2 * W + 100, 3 * W),  # starts in the window in which l0 ends: together
+        (p[2], 10 * W, 11 * W - 1),
+        (p[4], 11 * W + 3 * 10**9, 12 * W),  # 3 s after l2 (a new window, but touching)
+        (p[5], 30 * W, 31 * W),
+    ]
+    assert plan_shards(spans, W) == [(p[0], p[1]), (p[2], p[4]), (p[5],), (p[3],)]
+
+
+def test_workers_build_the_sequential_map(tmp_path: Path) -> None:
+    # Monday, Monday evening (the same day), Wednesday, Thursday: three shards, four logs
+    logs = _logs(tmp_path, [0, 10, 2 * 24, 3 * 24 + 2])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build(logs, seq, 1)
+    two = _build(logs, par, 2)
+    assert _same_maps(seq, par) == []
+    assert len(two.workers) == 4  # type: ignore[attr-defined]
+    assert not [n for n in two.notes if "in sequence" in n]  # type: ignore[attr-defined]
+    for key in ("detections", "detections_by_topic", "headings", "observation", "time_span"):
+        assert two.to_dict()[key] == one.to_dict()[key], key  # type: ignore[attr-defined]
+    assert one.to_dict()["workers"] == []  # type: ignore[attr-defined]
+    state = load_map(par).state
+    assert state.temporal.flow_scored.sum() > 0  # later days were scored at the joins
+
+
+def test_workers_continue_a_map_like_the_sequential_build(tmp_path: Path) -> None:
+    first, *rest = _logs(tmp_path, [0, 24, 2 * 24, 4 * 24])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build([first], seq, 1)
+    _build([first], par, 1)
+    build_map(BuildOptions(logs=tuple(rest), output=seq, continue_from=seq, workers=1))
+    report = build_map(BuildOptions(logs=tuple(rest), output=par, continue_from=par, workers=2))
+    assert len(report.workers) == 3
+    assert _same_maps(seq, par) == []
+
+
+def test_a_shard_that_cannot_be_joined_exactly_is_learnt_in_sequence(tmp_path: Path) -> None:
+    # the second log has no scene graph: one pass keeps using the first log's graph
+    logs = _logs(tmp_path, [0, 24, 48], graph=[True, False, True])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build(logs, seq, 1)
+    report = _build(logs, par, 2)
+    notes = [n for n in report.notes if "in sequence" in n]  # type: ignore[attr-defined]
+    assert len(notes) == 1
+    assert "day1.mcap" in notes[0]
+    assert "no scene graph" in notes[0]
+    assert _same_maps(seq, par) == []
+
+
+def test_overlapping_logs_are_one_shard_built_in_sequence(tmp_path: Path) -> None:
+    logs = _logs(tmp_path, [0, 1])  # two-hour logs one hour apart
+    report = _build(logs, tmp_path / "par.aion", 2)
+    assert report.workers == []  # type: ignore[attr-defined]
+    assert any("overlap in time" in n for n in report.notes)  # type: ignore[attr-defined]
+
+
+def test_a_log_out_of_time_order_fails_and_leaves_the_map(tmp_path: Path) -> None:
+    early, late, later = _logs(tmp_path, [0, 48, 72])
+    out = tmp_path / "map.aion"
+    _build([late], out, 1)
+    before = hashlib.sha256(out.read_bytes()).hexdigest()
+    for workers in (1, 2):
+        with pytest.raises(InputError, match="time order"):
+            build_map(
+                BuildOptions(logs=(early, later), output=out, continue_from=out, workers=workers)
+            )
+        assert hashlib.sha256(out.read_bytes()).hexdigest() == before
+
+
+def test_bad_worker_counts_are_refused(tmp_path: Path) -> None:
+    logs = _logs(tmp_path, [0, 48])
+    with pytest.raises(InputError, match="--workers"):
+        _build(logs, tmp_path / "m.aion", -1)
+
+
+def _children(pid: int) -> list[int]:
+    """Live processes whose parent is ``pid`` (from /proc)."""
+    out = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid and fields[0] != "Z":
+                out.append(int(entry.name))
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to list child processes")
+def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) -> None:
+    logs = []
+    for k in range(4):  # simulated patrols: seconds of work each
+        log = tmp_path / f"sim{k}.mcap"
+        subprocess.run(
+            [sys.executable, "-m", "aion_cli", "simulate", "-o", str(log), "--days", "0.5",
+             "--seed", str(k), "--start", f"2026-01-{5 + 2 * k:02d}", "-q"],
+            check=True,
+        )
+        logs.append(log)
+    out = tmp_path / "map.aion"
+    _build(logs[:1], out, 1)
+    before = hashlib.sha256(out.read_bytes()).hexdigest()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "aion_cli", "build", *map(str, logs[1:]), "--map", str(out),
+         "--workers", "2", "-q"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 30
+    while len(_children(proc.pid)) < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    workers = _children(proc.pid)
+    assert len(workers) >= 2, "the workers did not start"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert hashlib.sha256(out.read_bytes()).hexdigest() == before
+    time.sleep(0.5)
+    alive = [w for w in workers if Path(f"/proc/{w}").exists() and _children(proc.pid) != []]
+    assert alive == []
+    assert not list(tmp_path.glob("*.tmp*"))
+
+
+@pytest.mark.slow
+def test_a_dask_cluster_builds_the_sequential_map(tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    logs = _logs(tmp_path, [0, 24, 2 * 24, 3 * 24 + 2])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build(logs, seq, 1)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        host="127.0.0.1",
+    ) as cluster:
+        report = _build(logs, par, 1, scheduler=cluster.scheduler_address)
+        workers = {w["worker"] for w in report.workers}  # type: ignore[attr-defined]
+    assert len(report.workers) == 4  # type: ignore[attr-defined]
+    assert len(workers) == 2  # both cluster workers took shards
+    assert all(str(os.getpid()) not in w for w in workers)
+    assert _same_maps(seq, par) == []
+
+
+def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:
+    pytest.importorskip("distributed", reason="the dask extra is not installed")
+    logs = _logs(tmp_path, [0, 48])
+    with pytest.raises(InputError, match="cannot reach the Dask scheduler"):
+        _build(logs, tmp_path / "m.aion", 1, scheduler="tcp://127.0.0.1:9")
