@@ -82,6 +82,11 @@ class MapFileError(InputError):
     """A map file is invalid: not a map, corrupted, or from an unsupported version."""
 
 
+class PartMapError(MapFileError):
+    """A part map (``aion build --part``) holds days not yet scored: it forecasts nothing
+    until ``aion merge`` joins it with the parts before it."""
+
+
 class MapCorruptError(MapFileError):
     """A map member fails its checksum or cannot be parsed."""
 

@@ -88,6 +88,7 @@ class MergeReport:
     graph_source: str = "none"
     released: int = 0
     rebound: int = 0
+    parts: int = 0  # part maps (aion build --part) joined with their days scored at the merge
     detections: int = 0
     logs: int = 0
     cells: int = 0
@@ -109,6 +110,7 @@ class MergeReport:
             "map_bytes": self.map_bytes,
             "inputs": [i.to_dict() for i in self.inputs],
             "lineage": self.lineage,
+            "parts": self.parts,
             "lineage_reason": self.lineage_reason,
             "graph_source": self.graph_source,
             "released_nodes": self.released,
@@ -350,18 +352,42 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
             f"{report.released} node entries released to the hash cells at their places"
         )
     for early, late in pairwise(maps):
-        report.notes.extend(
-            pair_notes(early.name, early.manifest.end_ns, early.state, late.name, late.start())
-        )
-    report.notes.extend(approximation_notes(states, report.lineage))
+        if late.state.deferred is None:  # a part's join scores that day once (engine.shards)
+            report.notes.extend(
+                pair_notes(early.name, early.manifest.end_ns, early.state, late.name, late.start())
+            )
+    ordinary = [states[0], *(s for s in states[1:] if s.deferred is None)]
+    report.notes.extend(approximation_notes(ordinary, report.lineage))
     sink.start("merging", len(states) - 1, "maps")
+    names = {id(m.state): m.name for m in maps}
 
     def step(acc: MapState, nxt: MapState) -> MapState:
-        out = merge_maps(acc, nxt)
+        out = _join_part(acc, nxt, names, report) if nxt.deferred else merge_maps(acc, nxt)
         sink.advance(1)
         return out
 
-    return reduce(step, states)
+    first = states[0]
+    if first.deferred is not None:
+        first = _join_part(type(first).empty(first.config), first, names, report)
+    return reduce(step, states[1:], first)
+
+
+def _join_part(
+    acc: MapState, part: MapState, names: dict[int, str], report: MergeReport
+) -> MapState:
+    """A part map (``aion build --part``) joined onto the maps before it: its held days are
+    scored against all of their history, as one build of every log would
+    (:func:`aion_cli.engine.shards.join_shard`); a note when the join cannot be exact."""
+    from aion_cli.engine.shards import join_blocker, join_shard
+
+    name = names.get(id(part), "a part")
+    if acc.deferred is not None:
+        acc = join_shard(type(acc).empty(acc.config), acc)
+    reason = join_blocker(acc, part)
+    if reason is not None:
+        report.notes.append(f"{name} was joined, but not exactly as one build would: {reason}")
+    report.parts += 1
+    return join_shard(acc, part)
 
 
 def _bind_target(

@@ -118,6 +118,8 @@ class BuildOptions:
     workers: int = 1
     #: ``--scheduler``: a Dask scheduler's address; the shards run on its cluster
     scheduler: str | None = None
+    #: ``--part``: write a part map, its days held unscored for an exact ``aion merge``
+    part: bool = False
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""
@@ -246,7 +248,14 @@ class _Build:
             self.report.notes.append(
                 f"{out.name} existed and is replaced (use --map {out.name} to extend a map)"
             )
-        if opts.workers != 1 or opts.scheduler is not None:
+        if opts.part:
+            self._check_part()
+            state = self.learn(config).state
+            self.report.notes.append(
+                f"a part map: its {len(state.deferred.days) if state.deferred else 0} closed "
+                "day(s) are held unscored for `aion merge` (it cannot forecast on its own)"
+            )
+        elif opts.workers != 1 or opts.scheduler is not None:
             from aion_cli.parallel_build import ParallelBuild
 
             state = ParallelBuild(self, config).run()
@@ -297,6 +306,16 @@ class _Build:
             self.report.notes.extend(w for w in logset.warnings if w not in self.report.notes)
         return mapper
 
+    def _check_part(self) -> None:
+        """``--part`` starts a part map or continues one, never an ordinary map."""
+        if self.previous is not None and self.previous.state.deferred is None:
+            raise InputError(
+                "--part cannot continue an ordinary map",
+                hint="build the part into a new file (aion build LOG --part -o PART.aion)",
+            )
+        if self.opts.workers not in (0, 1) or self.opts.scheduler is not None:
+            self.report.notes.append("--part builds in this process (--workers ignored)")
+
     def _mapper(self, config: ModelConfig) -> Mapper:
         """The Mapper the logs go into: the continued map's, a shard's, or a new one."""
         from aion_cli.engine.mapper import Mapper
@@ -304,7 +323,7 @@ class _Build:
 
         if self.start is not None:
             return Mapper(config, self.start)
-        if self.deferred:
+        if self.deferred or (self.opts.part and self.previous is None):
             from aion_cli.engine.shards import start_shard
 
             return Mapper(config, start_shard(MapState.empty(config)))

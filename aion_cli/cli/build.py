@@ -24,6 +24,7 @@ Examples:
   aion build hydra.mcap --graph-period 0       every scene graph of a live Hydra stream
   aion build day*.mcap -o site.aion --workers 4   four processes, the same map
   aion build day*.mcap -o site.aion --scheduler tcp://10.0.0.5:8786   on a Dask cluster
+  aion build mon.mcap --part -o mon.part.aion  a part for an exact aion merge later
   aion build --print-config > model.toml       dump every model parameter, edit, then
   aion build run.mcap --config model.toml      build with it
 
@@ -242,6 +243,12 @@ def _load_config(path: Path | None) -> Any:
     "reads the logs by path). Needs pip install 'aion[dask]'.",
 )
 @click.option(
+    "--part",
+    is_flag=True,
+    help="Write a part map for an exact `aion merge` later: its closed days are held "
+    "unscored (it forecasts nothing on its own).",
+)
+@click.option(
     "-q", "--quiet", is_flag=True, help="No progress bar and no summary table (warnings stay)."
 )
 @format_option(choices=("table", "json"))
@@ -266,6 +273,7 @@ def command(
     timezone: str | None,
     workers: int,
     scheduler: str | None,
+    part: bool,
     quiet: bool,
     fmt: str,
 ) -> None:
@@ -307,6 +315,7 @@ def command(
         graph_period_ns=DEFAULT_GRAPH_PERIOD_NS if graph_period_ns is None else graph_period_ns,
         workers=workers,
         scheduler=scheduler,
+        part=part,
     )
     with _RichProgress(quiet or fmt == "json") as progress:
         report = build_map(options, progress)

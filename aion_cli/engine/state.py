@@ -32,7 +32,7 @@ from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, DeferredDays, PendingDay
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
 from aion_cli.engine.windows import window_ns
-from aion_cli.errors import MapCorruptError, MapFileError
+from aion_cli.errors import MapCorruptError, MapFileError, PartMapError
 
 STATE_VERSION = 2
 DROP_REASONS = ("nan", "out_of_range", "before_window")
@@ -190,6 +190,12 @@ class MapState:
     def query_temporal(self) -> TemporalState:
         """The accumulators as queries see them: pending day and open window absorbed,
         unscored (in place when the state is not ``writable``, else a cached copy)."""
+        if self.deferred is not None:
+            raise PartMapError(
+                "this is a part map (aion build --part): its days are held unscored for "
+                "aion merge, so it cannot forecast",
+                hint="aion merge PART1.aion PART2.aion ... -o MAP.aion joins the parts into a map",
+            )
         key = self._view_key()
         if self._view is not None and self._view[0] == key:
             return self._view[1]
@@ -300,6 +306,10 @@ class MapState:
         position[order] = np.arange(order.size)
         pending_arrays, pending_day = self.pending.to_arrays("pending_", position)
         arrays.update(pending_arrays)
+        deferred_meta = None
+        if self.deferred is not None:  # a part map (aion build --part): its held days
+            held_arrays, deferred_meta = self.deferred.to_arrays(position)
+            arrays.update(held_arrays)
         arrays.update(self.nodes.to_arrays())
         arrays.update(self.redirects.to_arrays())
         arrays.update(self.observation.to_arrays())
@@ -315,6 +325,8 @@ class MapState:
             "graph": graph_meta,
             "pending_day": pending_day,
         }
+        if deferred_meta is not None:
+            meta["deferred"] = deferred_meta
         return arrays, meta
 
     @classmethod
@@ -373,6 +385,9 @@ class MapState:
         if writable:
             temporal.resize(entries.capacity)
         pending = PendingDay.from_arrays(arrays, "pending_", pending_day, params.values, entries.n)
+        deferred = None
+        if meta.get("deferred") is not None:
+            deferred = DeferredDays.from_arrays(arrays, meta["deferred"], params.values, entries.n)
         try:
             state = cls(
                 config=config,
@@ -388,6 +403,7 @@ class MapState:
                 accepted=accepted,
                 dropped={**dict.fromkeys(DROP_REASONS, 0), **dropped},
                 writable=writable,
+                deferred=deferred,
             )
         except (KeyError, ValueError) as exc:
             raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc

@@ -293,3 +293,60 @@ class DeferredDays:
             hit = keys[pos] == held.live
             if hit.any():
                 held.live = np.unique(np.where(hit, targets[pos], held.live))
+
+    # -- persistence (a part map, ``aion build --part``) ----------------------------------
+    def to_arrays(self, position: I64) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Members ``held{k}_*`` per held day (rows as saved positions) and the meta."""
+        arrays: dict[str, np.ndarray] = {}
+        days = []
+        for k, held in enumerate(self.days):
+            part, day = held.pending.to_arrays(f"held{k}_", position)
+            arrays.update(part)
+            live = position[held.live]
+            arrays[f"held{k}_live"] = np.sort(live[live >= 0])
+            days.append(day)
+        if self.first_graph is not None:
+            arrays["held_first_graph"] = self.first_graph.copy()
+        if self.first_stable is not None:
+            arrays["held_first_stable_ids"] = self.first_stable[0].copy()
+            arrays["held_first_stable_xyz"] = self.first_stable[1].copy()
+        meta = {
+            "days": days,
+            "first_stable_late": bool(self.first_stable_late),
+            "moved_after_hold": bool(self.moved_after_hold),
+        }
+        return arrays, meta
+
+    @classmethod
+    def from_arrays(
+        cls, arrays: dict[str, np.ndarray], meta: Any, values: int, entries: int
+    ) -> DeferredDays:
+        """Inverse of :meth:`to_arrays` (:class:`MapCorruptError` for inconsistent input)."""
+        try:
+            days = list(meta["days"])
+            out = cls(
+                first_stable_late=bool(meta["first_stable_late"]),
+                moved_after_hold=bool(meta["moved_after_hold"]),
+            )
+        except (KeyError, TypeError) as exc:
+            raise MapCorruptError(f"held days metadata is incomplete: {exc}") from exc
+        for k, day in enumerate(days):
+            pending = PendingDay.from_arrays(arrays, f"held{k}_", day, values, entries)
+            if f"held{k}_live" not in arrays:
+                raise MapCorruptError(f"held day {k} incomplete, missing: held{k}_live")
+            live = np.asarray(arrays[f"held{k}_live"], dtype=np.int64).reshape(-1)
+            if live.size and (live.min() < 0 or live.max() >= entries):
+                raise MapCorruptError(f"held{k}_live indexes entries that do not exist")
+            if not pending:
+                raise MapCorruptError(f"held day {k} holds no window")
+            out.days.append(HeldDay(pending, live))
+        if "held_first_graph" in arrays:
+            out.first_graph = np.asarray(arrays["held_first_graph"], dtype=np.uint64).reshape(-1)
+        if "held_first_stable_ids" in arrays:
+            ids = np.asarray(arrays["held_first_stable_ids"], dtype=np.uint64).reshape(-1)
+            xyz = np.asarray(arrays.get("held_first_stable_xyz", np.zeros((0, 3))), np.float64)
+            if xyz.shape != (ids.size, 3):
+                raise MapCorruptError("held_first_stable_xyz does not match its ids")
+            out.first_stable = (ids, xyz)
+        return out
+

@@ -1,0 +1,106 @@
+"""Part maps (``aion build --part``) and their exact ``aion merge``.
+
+A part holds its closed days unscored; ``aion merge`` joins the parts in time order and scores
+each held day against everything before it, so merging parts gives the map of one build of all
+their logs (engine/shards.py), which merging ordinary maps cannot (each scored its own days).
+Logs: ``tests/cli/logdata.py`` (a robot at a fixed pose, people at fixed spots, the office
+graph in every scene-graph message), two hours each on different days.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from aion_cli.engine.compare import differences
+from aion_cli.mapquery import load_map
+from tests.cli.conftest import assert_one_line_error, run
+from tests.cli.logdata import write_office_log
+
+HOUR_S = 3600
+
+
+def _logs(folder: Path, days: list[float]) -> list[Path]:
+    paths = []
+    for k, day in enumerate(days):
+        path = folder / f"day{k}.mcap"
+        write_office_log(path, shift_s=int(day * 24 * HOUR_S), duration_s=2 * HOUR_S)
+        paths.append(path)
+    return paths
+
+
+def _state(path: Path) -> object:
+    return load_map(path, writable=True).state
+
+
+def test_merging_parts_equals_one_build_of_all_logs(tmp_path: Path) -> None:
+    logs = _logs(tmp_path, [0, 1, 3, 3.4])  # the last two on the same day
+    whole = tmp_path / "whole.aion"
+    assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
+    parts = []
+    for k, log in enumerate(logs):
+        part = tmp_path / f"part{k}.aion"
+        assert run("build", log, "--part", "-o", part, "-q").exit_code == 0
+        parts.append(part)
+    merged = tmp_path / "merged.aion"
+    result = run("merge", *reversed(parts), "-o", merged, "--format", "json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert doc["parts"] == 4
+    assert not [n for n in doc["notes"] if "not exactly" in n]
+    assert differences(_state(whole), _state(merged)) == []  # type: ignore[arg-type]
+    # ordinary maps of the same logs: each scored its own days, so the merge differs
+    ordinary = []
+    for k, log in enumerate(logs):
+        one = tmp_path / f"map{k}.aion"
+        assert run("build", log, "-o", one, "-q").exit_code == 0
+        ordinary.append(one)
+    assert run("merge", *ordinary, "-o", tmp_path / "ord.aion", "-q").exit_code == 0
+    assert differences(_state(whole), _state(tmp_path / "ord.aion")) != []  # type: ignore[arg-type]
+
+
+def test_a_part_map_saves_and_continues_its_held_days(tmp_path: Path) -> None:
+    a, b = _logs(tmp_path, [0, 2])
+    both = tmp_path / "both.aion"
+    assert run("build", a, b, "--part", "-o", both, "-q").exit_code == 0
+    cont = tmp_path / "cont.aion"
+    assert run("build", a, "--part", "-o", cont, "-q").exit_code == 0
+    assert run("build", b, "--map", cont, "-q").exit_code == 0  # a part continues as a part
+    state = _state(cont)
+    assert state.deferred is not None  # type: ignore[attr-defined]
+    assert len(state.deferred.days) == 1  # type: ignore[attr-defined]  # day 0; day 2 pending
+    assert differences(_state(both), state) == []  # type: ignore[arg-type]
+
+
+def test_a_part_map_cannot_forecast(tmp_path: Path) -> None:
+    (log,) = _logs(tmp_path, [0])
+    part = tmp_path / "part.aion"
+    assert run("build", log, "--part", "-o", part, "-q").exit_code == 0
+    result = run("predict", part, "--time", "2026-11-30 08:00")
+    assert result.exit_code == 2
+    assert_one_line_error(result.output, "part map", "aion merge")
+
+
+def test_part_cannot_continue_an_ordinary_map(tmp_path: Path) -> None:
+    a, b = _logs(tmp_path, [0, 2])
+    out = tmp_path / "map.aion"
+    assert run("build", a, "-o", out, "-q").exit_code == 0
+    result = run("build", b, "--map", out, "--part")
+    assert result.exit_code == 2
+    assert_one_line_error(result.output, "--part cannot continue an ordinary map")
+
+
+@pytest.mark.parametrize("member", ["held0_live", "held0_windows"])
+def test_a_part_map_with_a_broken_held_day_is_refused(tmp_path: Path, member: str) -> None:
+    from aion_cli.engine.state import MapState
+    from aion_cli.errors import MapCorruptError
+
+    a, b = _logs(tmp_path, [0, 2])
+    part = tmp_path / "part.aion"
+    assert run("build", a, b, "--part", "-o", part, "-q").exit_code == 0
+    arrays, meta = _state(part).to_arrays()  # type: ignore[attr-defined]
+    arrays = {k: v for k, v in arrays.items() if k != member}
+    with pytest.raises(MapCorruptError, match="held"):
+        MapState.from_arrays(arrays, meta)
