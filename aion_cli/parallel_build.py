@@ -211,6 +211,8 @@ class ParallelBuild:
         """The learnt map state (the caller writes it); the report is filled in."""
         opts, report = self.opts, self.build.report
         logs = self.build.logs
+        if len(logs) < 2:  # nothing to share out (and no second open of the log)
+            return self.build.learn(self.config).state
         if opts.derive_graph:
             report.notes.append("--derive-graph needs every log at once: built in sequence")
             return self.build.learn(self.config).state
