@@ -431,11 +431,17 @@ def build(
     nav_layer: str | None = None,
     detections_mapping: PathLike | None = None,
     log_format: str | None = None,
+    workers: int = 1,
+    scheduler: str | None = None,
+    part: bool = False,
     progress: ProgressSink | None = None,
 ) -> Map:
     """Build a map from logs (or extend ``continue_from`` with them) and write it to
     ``output`` (default: the first log's name with ``.aion``), as ``aion build``; the map,
-    with what the build did in ``Map.report``."""
+    with what the build did in ``Map.report``. ``workers`` / ``scheduler`` / ``part``: as
+    ``aion build --workers`` (0: one per core; worker processes fork from this one, so a
+    script that builds with workers needs the usual ``if __name__ == "__main__":`` guard on
+    platforms without ``fork``), ``--scheduler`` and ``--part``."""
     from aion_cli.pipeline import BuildOptions, build_map
 
     paths = [logs] if isinstance(logs, (str, os.PathLike)) else list(logs)
@@ -458,6 +464,9 @@ def build(
         continue_from=opt(continue_from),
         timezone=tz,
         detections_mapping=opt(detections_mapping),
+        workers=workers,
+        scheduler=scheduler,
+        part=part,
     )
     report = build_map(opts, progress)
     made = Map.load(report.output)
