@@ -1,8 +1,8 @@
 """Running a parallel build's shards in worker processes on this machine (``--workers N``).
 
-Workers are forked from the parent (``fork`` on Linux; elsewhere from a server process that
-has imported the build once, ``forkserver``), so starting one costs milliseconds, not a fresh
-interpreter's imports. Each reports its
+Workers are forked from the parent (``fork`` on Linux when it runs no other thread; else from a
+server process that has imported the build once, ``forkserver``), so starting one costs
+milliseconds, not a fresh interpreter's imports. Each reports its
 progress through a queue; the parent shows one bar per worker and folds finished shards in
 time order while the others are still running (:func:`aion_cli.parallel_build.fold`). Ctrl-C
 or an error in any shard terminates every worker before the error reaches the caller.
@@ -115,15 +115,27 @@ def run_in_processes(
 
 
 def _context() -> Any:
-    """``fork`` where there is one (Linux): the workers start with everything the parent
-    imported, in milliseconds; they touch no lock of the parent's threads (progress goes
-    through a queue). ``forkserver`` elsewhere, with the build's modules preloaded."""
+    """``fork`` on Linux while this process runs no other thread: the workers start with
+    everything the parent imported, in milliseconds. With other threads (a progress bar's
+    refresh, an event loop) a fork could copy a lock one of them holds, so the workers fork
+    from a single-threaded server process instead (``forkserver``, the build's modules
+    preloaded once), as on every other platform."""
     import multiprocessing as mp
+    import threading
 
-    if "fork" in mp.get_all_start_methods() and sys.platform.startswith("linux"):
+    single = threading.active_count() == 1
+    if single and "fork" in mp.get_all_start_methods() and sys.platform.startswith("linux"):
         return mp.get_context("fork")
     ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(["aion_cli.pipeline", "aion_cli.parallel_build"])
+    ctx.set_forkserver_preload(
+        [
+            "aion_cli.pipeline",
+            "aion_cli.parallel_build",
+            "aion_cli.detection_feed",
+            "aion_cli.formats.logs",
+            "aion_cli.engine.mapper",
+        ]
+    )
     return ctx
 
 

@@ -31,7 +31,7 @@ from typing import Any
 
 from benchmarks.common import ROOT, WORK, fmt_si, machine_info
 
-SECTIONS = ("ingest", "temporal", "engine", "memory", "queries", "scaling", "build")
+SECTIONS = ("ingest", "temporal", "engine", "memory", "queries", "scaling", "build", "parallel")
 RESULTS = ROOT / "benchmarks" / "results.json"
 
 
@@ -88,9 +88,15 @@ def _build(quick: bool) -> list[dict[str, Any]]:
     return bench_build.run(quick)
 
 
+def _parallel(quick: bool) -> list[dict[str, Any]]:
+    from benchmarks import bench_parallel
+
+    return bench_parallel.run(quick)
+
+
 RUNNERS: dict[str, Callable[[bool], list[dict[str, Any]]]] = {
     "ingest": _ingest, "temporal": _temporal, "engine": _engine, "memory": _memory,
-    "queries": _queries, "scaling": _scaling, "build": _build,
+    "queries": _queries, "scaling": _scaling, "build": _build, "parallel": _parallel,
 }
 
 
@@ -181,6 +187,24 @@ def summary(results: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
                 "~1 (linear)" if r["series"] == "detections" else "")
     _build_summary(results.get("build", []), add)
     return out
+
+
+def _parallel_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> None:
+    """The ``parallel`` section's rows (bench_parallel: issue 17's figures)."""
+    for r in rows:
+        name = str(r.get("name", ""))
+        if name.startswith("parallel build"):
+            add("parallel", f"{name}, {r['detections']:,} det: speed-up",
+                f"{r['speedup']:.2f}x ({r['workers2_s']:.2f} s vs {r['sequential_s']:.2f} s)",
+                f"same map: {r['same_map']}; {r['shards']} shards, "
+                f"{r['shards_learnt_in_sequence']} learnt in sequence; joins {r['fold_s']:.2f} s",
+                ">= 1.6x", r["speedup"] >= 1.6)
+            add("parallel", f"{name}: peak memory per worker",
+                f"{max(r['worker_peak_rss_mb']):.0f} MB",
+                f"{fmt_si(max(r['shard_detections_per_s']), 'det/s')} per worker (best shard)")
+        elif name.startswith("merge_maps"):
+            add("parallel", f"{name}: cost per entry", f"{r['us_per_entry']:.0f} us",
+                f"{r['seconds']:.2f} s for {r['entries']:,} entries")
 
 
 def _build_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> None:
@@ -300,6 +324,13 @@ def main(argv: list[str] | None = None) -> int:
         results[name] = RUNNERS[name](args.quick)
         seconds[name] = time.perf_counter() - t0
         print(f"[{name}] done in {seconds[name]:.0f} s", flush=True)
+    if args.only and out.exists():  # keep the sections not run this time
+        try:
+            old = json.loads(out.read_text())
+        except (OSError, ValueError):
+            old = {}
+        results = {**old.get("results", {}), **results}
+        seconds = {**old.get("section_seconds", {}), **seconds}
     table = summary(results)
     print()
     print_table(table)
