@@ -2,4 +2,5 @@
 
 from aion_cli.cli.main import main
 
-main()
+if __name__ == "__main__":  # not when a parallel build's worker process imports it
+    main()

@@ -91,7 +91,7 @@ def run_in_processes(
             finished, waiting = wait(waiting, timeout=0.2, return_when=FIRST_COMPLETED)
             bars.drain(queue)
             for future in finished:
-                result = future.result()  # a worker's error is raised here
+                result = _result(future)  # a worker's error is raised here
                 done_results[result.index] = result
             while next_index in done_results:  # in time order, as soon as possible
                 result = done_results.pop(next_index)
@@ -104,14 +104,44 @@ def run_in_processes(
         bars.drain(queue)
         return folded, summaries
     except BaseException:
-        for future in futures:
-            future.cancel()
-        for process in list(getattr(executor, "_processes", {}).values()):
-            process.terminate()
+        _stop(executor, futures)
         raise
+    else:
+        executor.shutdown(wait=True)
     finally:
-        executor.shutdown(wait=True, cancel_futures=True)
         queue.close()
+        queue.join_thread()
+
+
+def _result(future: Future[ShardResult]) -> ShardResult:
+    """A shard's result; a worker that died (killed, out of memory) is an :class:`AionError`
+    with what to do about it, not a bare ``BrokenProcessPool``."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from aion_cli.errors import AionError
+
+    try:
+        return future.result()
+    except BrokenProcessPool as exc:
+        raise AionError(
+            f"a worker process of the parallel build died ({exc})",
+            hint="rerun with --workers 1 to build in one process (nothing was written)",
+        ) from exc
+
+
+def _stop(executor: ProcessPoolExecutor, futures: list[Future[ShardResult]]) -> None:
+    """An error or Ctrl-C: cancel what has not started and stop the workers still busy (idle
+    ones leave with the pool's shutdown)."""
+    for future in futures:
+        future.cancel()
+    busy = any(f.running() for f in futures)
+    processes = list(getattr(executor, "_processes", {}).values())
+    executor.shutdown(wait=not busy, cancel_futures=True)
+    if busy:
+        for process in processes:
+            process.terminate()
+        for process in processes:
+            process.join(timeout=10)
 
 
 def _context() -> Any:
