@@ -48,6 +48,19 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row("time span", span_text(summary["time_span"]["seconds"]))
     table.add_row("observation", markup_safe(summary["observation"]))
     table.add_row("map size", human_size(summary["map_bytes"]))
+    workers: dict[str, list[float]] = {}
+    for shard in summary.get("workers", []):  # a parallel build: totals per worker
+        total = workers.setdefault(str(shard["worker"]), [0, 0.0, 0.0, 0])
+        total[0] += 1
+        total[1] += float(shard["seconds"])
+        total[2] = max(total[2], float(shard["peak_rss_mb"]))
+        total[3] += int(shard["detections_used"])
+    for k, (name, (shards, seconds, peak, used)) in enumerate(sorted(workers.items())):
+        table.add_row(
+            f"worker {k + 1}" if len(workers) > 1 else "worker",
+            f"{int(shards)} shards, {int(used):,} det, {seconds:.1f} s, {peak:.0f} MB  "
+            f"[dim]({markup_safe(name)})[/dim]",
+        )
     console().print(table)
     print_warnings(summary)
     for message in summary.get("notes", []):
