@@ -75,8 +75,8 @@ def _export_one(
     ends: tuple[Any, int, int] | None,
     map_path: Path,
 ) -> list[Path]:
-    from aion_cli.cli.output import to_csv, to_json
     from aion_cli.engine import query
+    from aion_cli.formats.serialize import to_csv, to_json
     from aion_cli.predictions import CSV_KEYS, document, rows_from_table
 
     folder.mkdir(parents=True, exist_ok=True)

@@ -57,6 +57,25 @@ def test_only_the_cli_knows_click_and_rich() -> None:
     assert bad == []
 
 
+def test_the_library_does_not_import_the_command_line() -> None:
+    """Only ``aion_cli.cli`` (and ``python -m aion_cli``) may import ``aion_cli.cli``: the
+    library layer and ``formats`` work without click and rich."""
+    bad = []
+    for folder in (PACKAGE, REPO / "formats"):
+        for path in _modules(folder):
+            rel = path.relative_to(REPO)
+            if rel.parts[:2] in {("aion_cli", "cli"), ("aion_cli", "formats")}:
+                continue
+            if rel == Path("aion_cli/__main__.py"):
+                continue
+            bad.extend(
+                f"{rel} imports {name}"
+                for name in _imports(path)
+                if name == "aion_cli.cli" or name.startswith("aion_cli.cli.")
+            )
+    assert bad == []
+
+
 def test_nothing_imports_a_top_level_formats_package() -> None:
     bad = []
     for folder in (PACKAGE, REPO / "formats", REPO / "tests", REPO / "benchmarks"):

@@ -7,9 +7,6 @@ value is unknown (NaN), CSV leaves the cell empty and flattens list fields into
 
 from __future__ import annotations
 
-import csv
-import io
-import json
 import math
 import re
 from collections.abc import Callable, Sequence
@@ -17,6 +14,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import click
+
+from aion_cli.formats.serialize import to_csv, to_json
 
 FORMATS = ("table", "json", "csv")
 
@@ -99,52 +98,6 @@ class Column:
     header: str
     fmt: Callable[[Any], str] = str
     justify: str = "right"
-
-
-def clean(value: Any) -> Any:
-    """JSON-safe copy: NaN/inf -> None, numpy scalars/arrays -> Python, tuples -> lists."""
-    if isinstance(value, dict):
-        return {str(k): clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [clean(v) for v in value]
-    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
-        return clean(value.tolist())
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def to_json(payload: Any) -> str:
-    """Indented, strict JSON (no NaN tokens)."""
-    return json.dumps(clean(payload), indent=2, allow_nan=False)
-
-
-def to_csv(rows: Sequence[dict[str, Any]], keys: Sequence[str]) -> str:
-    """CSV with a header; list values spread over ``key_i`` columns."""
-    cleaned = [clean(row) for row in rows]
-    header: list[str] = []
-    for key in keys:
-        width = max((len(r[key]) for r in cleaned if isinstance(r.get(key), list)), default=-1)
-        header.extend([f"{key}_{i}" for i in range(width)] if width >= 0 else [key])
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(header)
-    for row in cleaned:
-        out: list[Any] = []
-        for key in keys:
-            value = row.get(key)
-            if isinstance(value, list):
-                out.extend("" if v is None else _csv_value(v) for v in value)
-            else:
-                out.append("" if value is None else _csv_value(value))
-        writer.writerow(out)
-    return buf.getvalue()
-
-
-def _csv_value(value: Any) -> Any:
-    if isinstance(value, float):
-        return repr(round(value, 9))
-    return value
 
 
 def num(digits: int = 2) -> Callable[[Any], str]:
