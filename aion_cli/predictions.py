@@ -312,7 +312,7 @@ def flow_series(
     count as 0, as in the room sums."""
     import numpy as np
 
-    from aion_cli.engine.query import _parents, node_symbol
+    from aion_cli.engine.query import node_symbol, parent_ids
     from aion_cli.errors import InputError
 
     times = np.asarray(times_ns, dtype=np.int64).reshape(-1)
@@ -325,7 +325,7 @@ def flow_series(
                 "the map has no scene graph, so no rooms",
                 hint="build with a Hydra scene graph (--graph FILE) to get rooms and buildings",
             )
-        parent = _parents(graph.places.ids, graph.places.parent, state.entries.node_id[rows])
+        parent = parent_ids(graph.places.ids, graph.places.parent, state.entries.node_id[rows])
         parent[state.entries.kind[rows] != 1] = 0  # hash cells belong to no room
         members = np.flatnonzero(parent != 0)
         # every room holding a place of the graph (one without entries has zero flow)

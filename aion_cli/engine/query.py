@@ -128,10 +128,10 @@ def aggregate_table(
     """Sum the node rows of ``table`` into the graph's rooms (or buildings, via rooms)."""
     if level not in ("rooms", "buildings"):
         raise ValueError(f"level must be 'rooms' or 'buildings', got {level!r}")
-    parent = _parents(graph.places.ids, graph.places.parent, table.node_id)
+    parent = parent_ids(graph.places.ids, graph.places.parent, table.node_id)
     parent[table.kind != NODE] = 0
     if level == "buildings":
-        parent = _parents(graph.rooms.ids, graph.rooms.parent, parent)
+        parent = parent_ids(graph.rooms.ids, graph.rooms.parent, parent)
     target = graph.rooms if level == "rooms" else graph.buildings
     b = table.rate.shape[1]
     stacked = np.concatenate(
@@ -169,7 +169,7 @@ def aggregate_table(
     )
 
 
-def _parents(ids: U64, parent: U64, children: U64) -> U64:
+def parent_ids(ids: U64, parent: U64, children: U64) -> U64:
     """Parent id of each child (0 if the child is unknown or has none)."""
     if len(ids) == 0:
         return np.zeros(len(children), np.uint64)

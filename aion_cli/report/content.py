@@ -277,7 +277,7 @@ def busiest_entries(loaded: LoadedMap, t_ns: int | None) -> tuple[tuple[Busiest,
     flow family that forecasts it (the choice does not depend on the time), and how many
     entries the map has."""
     from aion_cli.engine.node_ids import parse_node_id
-    from aion_cli.engine.query import _parents, node_symbol
+    from aion_cli.engine.query import node_symbol, parent_ids
     from aion_cli.engine.windows import EPOCH_NS
     from aion_cli.predictions import entry_ids, entry_table, predicted_records
 
@@ -294,7 +294,7 @@ def busiest_entries(loaded: LoadedMap, t_ns: int | None) -> tuple[tuple[Busiest,
         labels = room_labels(loaded)
         nodes = [i for i, r in enumerate(rows) if r["kind"] == "node"]
         ids = np.asarray([parse_node_id(rows[i]["id"]) for i in nodes], dtype=np.uint64)
-        parents = _parents(graph.places.ids, graph.places.parent, ids)
+        parents = parent_ids(graph.places.ids, graph.places.parent, ids)
         for i, parent, symbol in zip(nodes, parents, node_symbol(parents), strict=True):
             if parent:
                 rooms[i] = f"{symbol} {labels.get(str(symbol), '')}".strip()
