@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.parallel_build import Folded, ShardResult, ShardTask, build_shard, fold
@@ -20,8 +19,6 @@ from aion_cli.parallel_build import Folded, ShardResult, ShardTask, build_shard,
 if TYPE_CHECKING:
     from aion_cli.build_report import ProgressSink
     from aion_cli.engine.state import MapState
-
-_QUEUE: Any = None  # the worker's progress queue (set by the pool's initializer)
 
 
 class QueueProgress:
@@ -35,7 +32,7 @@ class QueueProgress:
 
     def start(self, description: str, total: int, unit: str = "msgs") -> None:
         self._flush()
-        self.queue.put((self.key, "start", description, int(total), unit))
+        self.queue.put(("start", self.key, description, int(total), unit))
 
     def advance(self, n: int) -> None:
         self._unsent += int(n)
@@ -46,102 +43,109 @@ class QueueProgress:
 
     def _flush(self) -> None:
         if self._unsent:
-            self.queue.put((self.key, "advance", self._unsent))
+            self.queue.put(("advance", self.key, self._unsent))
             self._unsent = 0
 
     def close(self) -> None:
         self._flush()
 
 
-def _init_worker(queue: Any) -> None:
+def _worker(tasks: Any, out: Any) -> None:
+    """A worker process: shards from ``tasks`` until ``None``; each result (or error) and the
+    progress go to ``out`` as ``(kind, shard, payload)``."""
     import signal
 
-    global _QUEUE
-    _QUEUE = queue
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers on Ctrl-C
-
-
-def _run_task(task: ShardTask) -> ShardResult:
-    sink = QueueProgress(_QUEUE, task.index)
-    try:
-        return build_shard(task, sink)
-    finally:
+    while (task := tasks.get()) is not None:
+        sink = QueueProgress(out, task.index)
+        try:
+            result = build_shard(task, sink)
+        except BaseException as exc:
+            sink.close()
+            out.put(("error", task.index, _picklable(exc)))
+            continue
         sink.close()
+        out.put(("result", task.index, result))
+
+
+def _picklable(exc: BaseException) -> BaseException:
+    """``exc`` if it survives pickling, else a RuntimeError with its text."""
+    import pickle
+
+    try:
+        pickle.loads(pickle.dumps(exc))
+    except Exception:
+        return RuntimeError(f"{type(exc).__name__}: {exc}")
+    return exc
 
 
 def run_in_processes(
     tasks: list[ShardTask], workers: int, previous: MapState | None, progress: ProgressSink
 ) -> tuple[Folded, list[ShardResult]]:
     """Build the shards in ``workers`` processes and fold them onto ``previous``."""
+    from aion_cli.errors import AionError
+
     ctx = _context()
-    queue = ctx.Queue()
-    executor = ProcessPoolExecutor(
-        workers, mp_context=ctx, initializer=_init_worker, initargs=(queue,)
-    )
+    todo, out = ctx.SimpleQueue(), ctx.Queue()
+    for task in tasks:
+        todo.put(task)
+    procs = [ctx.Process(target=_worker, args=(todo, out), daemon=True) for _ in range(workers)]
+    for _ in procs:
+        todo.put(None)
     bars = _Bars(progress, tasks)
-    futures: list[Future[ShardResult]] = []
     try:
-        futures = [executor.submit(_run_task, task) for task in tasks]
-        done_results: dict[int, ShardResult] = {}
+        for proc in procs:
+            proc.start()
+        done: dict[int, ShardResult] = {}
         summaries: list[ShardResult] = []
         folded = Folded(previous)
         next_index = 0
-        waiting: set[Future[ShardResult]] = set(futures)
-        while waiting:
-            finished, waiting = wait(waiting, timeout=0.2, return_when=FIRST_COMPLETED)
-            bars.drain(queue)
-            for future in finished:
-                result = _result(future)  # a worker's error is raised here
-                done_results[result.index] = result
-            while next_index in done_results:  # in time order, as soon as possible
-                result = done_results.pop(next_index)
+        while next_index < len(tasks):
+            item = _next(out, procs)
+            if item is None:
+                raise AionError(
+                    "a worker process of the parallel build died",
+                    hint="rerun with --workers 1 to build in one process (nothing was written)",
+                )
+            kind, index = item[0], item[1]
+            if kind == "error":
+                raise item[2]
+            if kind != "result":
+                bars.show(item)
+                continue
+            done[index] = item[2]
+            while next_index in done:  # in time order, as soon as possible
+                result = done.pop(next_index)
                 begin = time.perf_counter()
                 folded = fold(folded, result, tasks[next_index])
                 folded.seconds += time.perf_counter() - begin
                 summaries.append(result.without_state())
                 bars.folded(next_index)
                 next_index += 1
-        bars.drain(queue)
         return folded, summaries
-    except BaseException:
-        _stop(executor, futures)
-        raise
-    else:
-        executor.shutdown(wait=True)
     finally:
-        queue.close()
-        queue.join_thread()
+        for proc in procs:  # done, failed or interrupted: no worker outlives the build
+            if proc.is_alive():
+                proc.terminate()
+        for proc in procs:
+            proc.join(timeout=10)
+        out.close()
+        out.cancel_join_thread()
 
 
-def _result(future: Future[ShardResult]) -> ShardResult:
-    """A shard's result; a worker that died (killed, out of memory) is an :class:`AionError`
-    with what to do about it, not a bare ``BrokenProcessPool``."""
-    from concurrent.futures.process import BrokenProcessPool
+def _next(out: Any, procs: list[Any]) -> Any:
+    """The next item from the workers; None when they have all ended without sending one."""
+    import queue as queues
 
-    from aion_cli.errors import AionError
-
-    try:
-        return future.result()
-    except BrokenProcessPool as exc:
-        raise AionError(
-            f"a worker process of the parallel build died ({exc})",
-            hint="rerun with --workers 1 to build in one process (nothing was written)",
-        ) from exc
-
-
-def _stop(executor: ProcessPoolExecutor, futures: list[Future[ShardResult]]) -> None:
-    """An error or Ctrl-C: cancel what has not started and stop the workers still busy (idle
-    ones leave with the pool's shutdown)."""
-    for future in futures:
-        future.cancel()
-    busy = any(f.running() for f in futures)
-    processes = list(getattr(executor, "_processes", {}).values())
-    executor.shutdown(wait=not busy, cancel_futures=True)
-    if busy:
-        for process in processes:
-            process.terminate()
-        for process in processes:
-            process.join(timeout=10)
+    while True:
+        try:
+            return out.get(timeout=0.2)
+        except queues.Empty:
+            if not any(p.is_alive() for p in procs):
+                try:
+                    return out.get(timeout=0.5)
+                except queues.Empty:
+                    return None
 
 
 def _context() -> Any:
@@ -179,19 +183,13 @@ class _Bars:
         self.names = {t.index: t.logs[0].name + (" ..." if len(t.logs) > 1 else "") for t in tasks}
         progress.start(f"joining {len(tasks)} shards", len(tasks), "shards")
 
-    def drain(self, queue: Any) -> None:
-        import queue as queues
-
-        while True:
-            try:
-                item = queue.get_nowait()
-            except queues.Empty:
-                return
-            key = item[0]
-            if item[1] == "start" and self.part is not None:
-                self.part(key, f"shard {key + 1} ({self.names[key]}): {item[2]}", item[3], item[4])
-            elif item[1] == "advance" and self.part_advance is not None:
-                self.part_advance(key, item[2])
+    def show(self, item: tuple[Any, ...]) -> None:
+        """A worker's progress message (``start`` or ``advance``)."""
+        kind, key = item[0], item[1]
+        if kind == "start" and self.part is not None:
+            self.part(key, f"shard {key + 1} ({self.names[key]}): {item[2]}", item[3], item[4])
+        elif kind == "advance" and self.part_advance is not None:
+            self.part_advance(key, item[2])
 
     def folded(self, index: int) -> None:
         self.progress.advance(1)
