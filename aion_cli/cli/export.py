@@ -165,63 +165,33 @@ def command(
     if path_from is not None and path_to is not None:
         ends = path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
     if fmt == "png":
-        _png(loaded, map_path, out_dir, times, zone, ends)
-        return
-    if fmt == "mcap":
-        _mcap(loaded, map_path, out_dir, times, zone, ends)
-        return
+        from aion_cli.pictures.render import export_png
+
+        def write(advance: Any) -> str:
+            export_png(loaded, map_path.name, out_dir, times, zone, ends, advance)
+            return f"wrote {markup_safe(out_dir)}"
+
+    elif fmt == "mcap":
+        from aion_cli.scene_frames import export_mcap
+
+        def write(advance: Any) -> str:
+            export_mcap(loaded, map_path, out_dir, times, zone, ends, advance)
+            steps = f"{len(times)} step(s); open it in Foxglove"
+            return f"wrote {markup_safe(out_dir)} ({steps})"
+
+    else:
+
+        def write(advance: Any) -> str:
+            files = export_frames(loaded, map_path, out_dir, times, zone, fmt, ends, advance)
+            return f"wrote {len(files)} file(s) to {markup_safe(out_dir)}"
+
     with progress(quiet=len(times) == 1) as bar:
         task = bar.add_task("exporting", total=len(times), unit="times")
-        written = export_frames(
-            loaded, map_path, out_dir, times, zone, fmt, ends, lambda: bar.advance(task)
-        )
+        done = write(lambda: bar.advance(task))
     if zone is not None and times[0] is not None:
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
         announce_time(times[0], zone, label)
-    console().print(f"wrote {len(written)} file(s) to {markup_safe(out_dir)}")
-
-
-def _png(
-    loaded: Any,
-    map_path: Path,
-    out: Path,
-    times: list[int | None],
-    zone: Zone | None,
-    ends: tuple[Any, int, int] | None,
-) -> None:
-    """``--format png``: one picture file (small multiples for a series)."""
-    from aion_cli.cli.console import console, progress
-    from aion_cli.cli.output import markup_safe
-    from aion_cli.pictures.render import export_png
-
-    with progress(quiet=len(times) == 1) as bar:
-        task = bar.add_task("drawing", total=len(times), unit="times")
-        export_png(loaded, map_path.name, out, times, zone, ends, lambda: bar.advance(task))
-    if zone is not None and times[0] is not None:
-        label = "time" if len(times) == 1 else f"series of {len(times)} from"
-        announce_time(times[0], zone, label)
-    console().print(f"wrote {markup_safe(out)}")
-
-
-def _mcap(
-    loaded: Any,
-    map_path: Path,
-    out: Path,
-    times: list[int | None],
-    zone: Zone | None,
-    ends: tuple[Any, int, int] | None,
-) -> None:
-    """``--format mcap``: one MCAP file with a scene per time (Foxglove / RViz)."""
-    from aion_cli.cli.console import console, progress
-    from aion_cli.cli.output import markup_safe
-    from aion_cli.scene_frames import export_mcap
-
-    with progress(quiet=len(times) == 1) as bar:
-        task = bar.add_task("exporting", total=len(times), unit="steps")
-        export_mcap(loaded, map_path, out, times, zone, ends, lambda: bar.advance(task))
-    if zone is not None and times[0] is not None:
-        announce_time(times[0], zone, "time" if len(times) == 1 else f"series of {len(times)} from")
-    console().print(f"wrote {markup_safe(out)} ({len(times)} step(s); open it in Foxglove)")
+    console().print(done)
 
 
 def _series(
