@@ -186,6 +186,7 @@ def summary(results: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
                 f"time {r['time_slope']:.2f}, memory {r['memory_slope']:.2f}", "",
                 "~1 (linear)" if r["series"] == "detections" else "")
     _build_summary(results.get("build", []), add)
+    _parallel_summary(results.get("parallel", []), add)
     return out
 
 
