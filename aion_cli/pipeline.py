@@ -27,9 +27,13 @@ steps' parts live beside it, each with its own rules. Steps of :func:`build_map`
    with the version and layer pinned and identical payloads reused (:mod:`aion_cli.graph_feed`);
    a continued map refuses data in the windows it has already closed (logs are added in time
    order);
-5. write the map atomically (``formats.mapfile.write_map``) with its typed manifest
-   (:class:`aion_cli.manifest.Manifest`: the config, the inputs' provenance (path, size,
-   sha256), the time span and the counts); a continued map's manifest is read the same way.
+5. write the map atomically (:mod:`aion_cli.build_output`, ``formats.mapfile.write_map``)
+   with its typed manifest (:class:`aion_cli.manifest.Manifest`: the config, the inputs'
+   provenance (path, size, sha256), the time span and the counts); a continued map's manifest
+   is read the same way.
+
+With ``--workers`` several groups of logs are learnt at once and joined into the same map
+(:mod:`aion_cli.parallel_build`); with ``--part`` the closed days are held for ``aion merge``.
 
 :func:`aion_cli.mapquery.load_map` reads a map back for ``predict``, ``plan`` and ``export``;
 :mod:`aion_cli.topics` and :mod:`aion_cli.provenance` hold the remaining steps' parts.
@@ -43,6 +47,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from aion_cli.build_output import write_build
 from aion_cli.build_report import (
     BuildReport,
     NoProgress,
@@ -64,9 +69,9 @@ from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
 from aion_cli.errors import ConfigError, InputError
 from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS, GraphFeed, GraphTimes, graph_source
 from aion_cli.log_times import TopicTimes, iso
-from aion_cli.manifest import InputLog, Manifest, add_counts
-from aion_cli.mapquery import LoadedMap, load_map, state_counts
-from aion_cli.provenance import check_log_path, provenance, provenance_size
+from aion_cli.manifest import InputLog, Manifest
+from aion_cli.mapquery import LoadedMap, load_map
+from aion_cli.provenance import distinct_logs
 from aion_cli.tf_feed import (
     check_tf,
     check_times,
@@ -349,37 +354,14 @@ class _Build:
         return tf
 
     def _inputs(self) -> tuple[InputLog, ...]:
-        """Provenance of the logs (checked, then hashed): a log given twice, or a byte-identical
-        copy, is used once (a note); a log the continued map holds already is an error. The
-        continued map's inputs come first: the manifest's ``inputs`` of every build."""
-        for path in self.opts.logs:
-            check_log_path(path)
-        sizes = [provenance_size(p) for p in self.opts.logs]
-        self.progress.start("hashing logs", max(sum(sizes) >> 20, 1), "MiB")
-        new: list[dict[str, Any]] = []
-        logs: list[Path] = []
-        first_of: dict[str, str] = {}
-        for path, size in zip(self.opts.logs, sizes, strict=True):
-            entry = provenance(path)
-            self.progress.advance(size >> 20)
-            seen = first_of.get(entry["sha256"])
-            if seen is not None:
-                self.report.notes.append(
-                    f"{path} is the same log as {seen} (same sha256): it is used once"
-                )
-                continue
-            first_of[entry["sha256"]] = str(path)
-            new.append(entry)
-            logs.append(path)
-        self._logs = tuple(logs)
+        """Provenance of the logs (:func:`aion_cli.provenance.distinct_logs`): the distinct
+        ones become :attr:`logs`; the continued map's inputs come first."""
         previous = self.previous_manifest
-        known = previous.input_hashes if previous is not None else set()
-        for entry in new:
-            if entry["sha256"] in known:
-                raise InputError(
-                    f"{entry['name']} is already in the map (same sha256)",
-                    hint="each log may be added to a map only once",
-                )
+        logs, new, notes = distinct_logs(
+            self.opts.logs, self.progress, previous.input_hashes if previous else set()
+        )
+        self._logs = logs
+        self.report.notes.extend(notes)
         self.report.inputs = new
         old = previous.inputs if previous is not None else ()
         return old + tuple(InputLog.from_dict(entry) for entry in new)
@@ -597,43 +579,9 @@ class _Build:
                 end = old.end_ns if end is None else max(end, old.end_ns)
         self.report.start_ns, self.report.end_ns = start, end
 
-    def _cumulative_counts(self) -> dict[str, Any]:
-        """Detections read / used / dropped over every build of the map."""
-        new = self.report.to_dict()["detections"]
-        if self.previous_manifest is None:
-            return new
-        return add_counts(self.previous_manifest.counts, new)
-
     def _write(self, state: MapState, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:
-        """The map file: the state's arrays and the :class:`~aion_cli.manifest.Manifest`
-        (config, inputs of every build, time span, counts over every build and of this one,
-        where the graph and the observation came from, the default time zone of ``predict`` /
-        ``plan`` / ``export``, the model families in use)."""
-        from aion_cli.formats.mapfile import write_map
-
-        arrays, meta = state.to_arrays(lazy=True)
-        stats = state_counts(state)
-        self.report.cells = stats["cells"]
-        self.report.nodes = stats["nodes"]
-        self.report.nodes_with_flow = stats["nodes_with_flow"]
-        self.report.bound_cells = stats["bound_cells"]
-        self.report.windows = stats["windows"]
-        manifest = Manifest(
-            state=meta,
-            config=config.to_dict(),
-            inputs=inputs,
-            start_ns=self.report.start_ns,
-            end_ns=self.report.end_ns,
-            counts=self._cumulative_counts() | stats,
-            last_build=self.report.to_dict()["detections"],
-            graph_source=self.report.graph_source,
-            observation=self.report.observation,
-            timezone=config.timezone,
-            families=state.family_summary(),
-        )
-        out = self.report.output
-        write_map(out, arrays, manifest.to_dict(), lock=False)  # run() holds the lock
-        self.report.map_bytes = out.stat().st_size
+        """The map file (:func:`aion_cli.build_output.write_build`; run() holds the lock)."""
+        write_build(state, config, inputs, self.report, self.previous_manifest)
 
 
 def _load_mappings(path: Path | None) -> list[Any]:

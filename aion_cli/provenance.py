@@ -56,3 +56,38 @@ def check_log_path(path: Path) -> None:
     if not path.exists():
         raise InputError(f"log not found: {path}", hint="check the path")
     check_regular_input(path, "log", hint="give a log file (MCAP, .bag) or a rosbag2 folder")
+
+
+def distinct_logs(
+    paths: tuple[Path, ...], progress: Any, known: set[str]
+) -> tuple[tuple[Path, ...], list[dict[str, Any]], list[str]]:
+    """The logs checked, then hashed: the distinct ones (a log given twice, or a byte-identical
+    copy, is used once: a note), their provenance entries and the notes. A log whose sha256
+    is in ``known`` (the continued map's inputs) is an :class:`InputError`. ``progress``: a
+    :class:`~aion_cli.build_report.ProgressSink` (MiB hashed)."""
+    for path in paths:
+        check_log_path(path)
+    sizes = [provenance_size(p) for p in paths]
+    progress.start("hashing logs", max(sum(sizes) >> 20, 1), "MiB")
+    new: list[dict[str, Any]] = []
+    logs: list[Path] = []
+    notes: list[str] = []
+    first_of: dict[str, str] = {}
+    for path, size in zip(paths, sizes, strict=True):
+        entry = provenance(path)
+        progress.advance(size >> 20)
+        seen = first_of.get(entry["sha256"])
+        if seen is not None:
+            notes.append(f"{path} is the same log as {seen} (same sha256): it is used once")
+            continue
+        first_of[entry["sha256"]] = str(path)
+        new.append(entry)
+        logs.append(path)
+    for entry in new:
+        if entry["sha256"] in known:
+            raise InputError(
+                f"{entry['name']} is already in the map (same sha256)",
+                hint="each log may be added to a map only once",
+            )
+    return tuple(logs), new, notes
+

@@ -1,0 +1,63 @@
+"""Writing a build's map file: the state's arrays and the typed manifest (``aion build``).
+
+The manifest (:class:`aion_cli.manifest.Manifest`) records the config, the inputs of every
+build, the time span, the counts over every build and of this one, where the graph and the
+observation came from, the default time zone of ``predict`` / ``plan`` / ``export`` and the
+model families in use.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from aion_cli.manifest import InputLog, Manifest, add_counts
+from aion_cli.mapquery import state_counts
+
+if TYPE_CHECKING:
+    from aion_cli.build_report import BuildReport
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.state import MapState
+
+
+def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[str, Any]:
+    """Detections read / used / dropped over every build of the map."""
+    new = report.to_dict()["detections"]
+    if previous is None:
+        return new
+    return add_counts(previous.counts, new)
+
+
+def write_build(
+    state: MapState,
+    config: ModelConfig,
+    inputs: tuple[InputLog, ...],
+    report: BuildReport,
+    previous: Manifest | None,
+) -> None:
+    """Write ``report.output`` (the caller holds its lock) and fill the report's counts and
+    size."""
+    from aion_cli.formats.mapfile import write_map
+
+    arrays, meta = state.to_arrays(lazy=True)
+    stats = state_counts(state)
+    report.cells = stats["cells"]
+    report.nodes = stats["nodes"]
+    report.nodes_with_flow = stats["nodes_with_flow"]
+    report.bound_cells = stats["bound_cells"]
+    report.windows = stats["windows"]
+    manifest = Manifest(
+        state=meta,
+        config=config.to_dict(),
+        inputs=inputs,
+        start_ns=report.start_ns,
+        end_ns=report.end_ns,
+        counts=cumulative_counts(report, previous) | stats,
+        last_build=report.to_dict()["detections"],
+        graph_source=report.graph_source,
+        observation=report.observation,
+        timezone=config.timezone,
+        families=state.family_summary(),
+    )
+    out = report.output
+    write_map(out, arrays, manifest.to_dict(), lock=False)
+    report.map_bytes = out.stat().st_size
