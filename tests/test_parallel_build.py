@@ -192,8 +192,8 @@ def test_a_dask_cluster_builds_the_sequential_map(tmp_path: Path) -> None:
         report = _build(logs, par, 1, scheduler=cluster.scheduler_address)
         workers = {w["worker"] for w in report.workers}  # type: ignore[attr-defined]
     assert len(report.workers) == 4  # type: ignore[attr-defined]
-    assert len(workers) == 2  # both cluster workers took shards
-    assert all(str(os.getpid()) not in w for w in workers)
+    assert workers  # the cluster's worker processes built them, never this one
+    assert all(w.split(":")[-1] != str(os.getpid()) for w in workers)
     assert _same_maps(seq, par) == []
 
 
