@@ -311,11 +311,11 @@ class Forecaster:
         def compute() -> F64:
             self._ensure_bins(e)
             table, inverse = self._rotation_table(t_s)
-            at = (inverse[:, None, None], self.bin_idx[e, :bins, :upto])
+            rot = table[inverse[:, None, None], self.bin_idx[e, :bins, :upto]]  # one gather
             coef = self.coef_bins[e, :bins, :upto]
             # 2 Re(γ e^{−iωt}) = 2 (Re γ cos ωt + Im γ sin ωt): real arithmetic throughout
-            terms = coef.real * table.real[at]
-            terms -= coef.imag * table.imag[at]
+            terms = coef.real * rot.real
+            terms -= coef.imag * rot.imag
             terms *= 2.0
             out: F64 = np.cumsum(terms, axis=2)
             return out
