@@ -134,7 +134,7 @@ def test_a_target_that_cannot_be_a_map_is_refused_before_hashing(
     def no_hashing(path: Path) -> dict[str, object]:
         raise AssertionError(f"hashed {path} before checking the target")
 
-    monkeypatch.setattr("aion_cli.pipeline.provenance", no_hashing)
+    monkeypatch.setattr("aion_cli.provenance.provenance", no_hashing)
     notes = tmp_path / "notes.txt"
     notes.write_text("my notes\n")
     fails(run("build", log, "-o", notes), "it exists and is not an aion map")
