@@ -57,6 +57,8 @@ def write_build(
         observation=report.observation,
         timezone=config.timezone,
         families=state.family_summary(),
+        merged_from=previous.merged_from if previous is not None else (),
+        lineage=previous.lineage if previous is not None else None,
     )
     out = report.output
     write_map(out, arrays, manifest.to_dict(), lock=False)

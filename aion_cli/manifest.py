@@ -59,6 +59,10 @@ class Manifest:
     observation: str = "fixed"
     timezone: str | None = None
     families: dict[str, Any] = field(default_factory=dict)
+    #: a merged map's input map files (name, path, size, sha256) and the lineage used
+    #: (``aion merge``); kept when the map is continued with ``aion build --map``
+    merged_from: tuple[dict[str, Any], ...] = ()
+    lineage: str | None = None
     container: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
@@ -84,6 +88,8 @@ class Manifest:
             observation=str(d.get("observation", "fixed")),
             timezone=zone if isinstance(zone, str) else None,
             families=_dict(d, "families"),
+            merged_from=_merged_from(d.get("merged_from")),
+            lineage=str(d["lineage"]) if isinstance(d.get("lineage"), str) else None,
             container={k: d[k] for k in ("format", "version", "creator", "created") if k in d},
         )
 
@@ -100,7 +106,11 @@ class Manifest:
             "observation": self.observation,
             "timezone": self.timezone,
             "families": self.families,
-        }
+        } | (
+            {"merged_from": list(self.merged_from), "lineage": self.lineage}
+            if self.merged_from
+            else {}
+        )
 
     def shown(self) -> dict[str, Any]:
         """What ``aion info MAP`` shows: the stored fields and the container's, without the
@@ -112,6 +122,14 @@ class Manifest:
     def input_hashes(self) -> set[str]:
         """The sha256 of every log already in the map (a log is added at most once)."""
         return {i.sha256 for i in self.inputs}
+
+
+def _merged_from(value: Any) -> tuple[dict[str, Any], ...]:
+    if value is None:
+        return ()
+    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+        raise _bad("merged_from", "expected a list of objects")
+    return tuple(value)
 
 
 def _bad(key: str, why: str) -> MapCorruptError:

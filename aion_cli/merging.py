@@ -460,12 +460,10 @@ def _write(
         observation=observations[0] if len(observations) == 1 else " + ".join(observations),
         timezone=maps[0].manifest.timezone,
         families=merged.family_summary(),
+        merged_from=tuple(m.file.to_dict() for m in maps),
+        lineage=report.lineage,
     )
-    document = manifest.to_dict() | {
-        "merged_from": [m.file.to_dict() for m in maps],
-        "lineage": report.lineage,
-    }
-    write_map(report.output, arrays, document, lock=False)  # merge_map_files holds the lock
+    write_map(report.output, arrays, manifest.to_dict(), lock=False)  # the caller holds the lock
     report.inputs = [
         MergedInput(
             m.file, m.manifest.start_ns, m.manifest.end_ns, len(m.manifest.inputs), m.detections

@@ -104,3 +104,25 @@ def test_a_part_map_with_a_broken_held_day_is_refused(tmp_path: Path, member: st
     arrays = {k: v for k, v in arrays.items() if k != member}
     with pytest.raises(MapCorruptError, match="held"):
         MapState.from_arrays(arrays, meta)
+
+
+def test_a_merged_map_keeps_its_merge_provenance_when_continued(tmp_path: Path) -> None:
+    """``merged_from`` / ``lineage`` are manifest fields: ``aion info`` shows them, and a
+    build that continues the merged map keeps them."""
+    a, b, c = _logs(tmp_path, [0, 2, 4])
+    maps = []
+    for k, log in enumerate((a, b)):
+        one = tmp_path / f"m{k}.aion"
+        assert run("build", log, "-o", one, "-q").exit_code == 0
+        maps.append(one)
+    merged = tmp_path / "merged.aion"
+    assert run("merge", *maps, "-o", merged, "-q").exit_code == 0
+    assert run("build", c, "--map", merged, "-q").exit_code == 0
+    info = run("info", merged, "--format", "json")
+    assert info.exit_code == 0, info.output
+    doc = json.loads(info.output)
+    text = json.dumps(doc)
+    assert "merged_from" in text
+    assert "m0.aion" in text
+    assert "m1.aion" in text
+    assert '"lineage": "same"' in text
