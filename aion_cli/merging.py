@@ -381,8 +381,6 @@ def _join_part(
     from aion_cli.engine.shards import join_blocker, join_shard
 
     name = names.get(id(part), "a part")
-    if acc.deferred is not None:
-        acc = join_shard(type(acc).empty(acc.config), acc)
     reason = join_blocker(acc, part)
     if reason is not None:
         report.notes.append(f"{name} was joined, but not exactly as one build would: {reason}")

@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -106,17 +105,25 @@ def plan_shards(spans: list[tuple[Path, int, int]], window_ns: int) -> list[tupl
     return [tuple(g) for g in groups]
 
 
-def build_shard(task: ShardTask, progress: ProgressSink | None = None) -> ShardResult:
-    """Learn one shard's logs (in a worker process or a Dask task)."""
-    from aion_cli.build_report import NoProgress
+def _shard_build(task: ShardTask, progress: ProgressSink, **part: Any) -> _Build:
+    """The build of one shard's logs (the parent hashed them), with ``part`` telling
+    :class:`~aion_cli.pipeline._Build` how it starts (``deferred``, or ``start`` state)."""
     from aion_cli.pipeline import _Build
 
-    begin = time.perf_counter()
     opts = dataclasses.replace(
         task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
     )
-    build = _Build(opts, progress or NoProgress(), shard=True, deferred=task.deferred)
+    build = _Build(opts, progress, shard=True, **part)
     build.set_logs(task.logs)
+    return build
+
+
+def build_shard(task: ShardTask, progress: ProgressSink | None = None) -> ShardResult:
+    """Learn one shard's logs (in a worker process or a Dask task)."""
+    from aion_cli.build_report import NoProgress
+
+    begin = time.perf_counter()
+    build = _shard_build(task, progress or NoProgress(), deferred=task.deferred)
     state = build.learn(task.config).state
     return ShardResult(
         task.index,
@@ -158,13 +165,12 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
     """A continued map has closed every window before its open one: logs with data there
     must come in time order (as a sequential build's ``_check_after_map`` says)."""
-    from aion_cli.engine.windows import window_ns
     from aion_cli.log_times import iso
 
     start = result.report.start_ns
     if acc.open_window is None or start is None:
         return
-    open_start = acc.open_window * window_ns(acc.config.window_s)
+    open_start = acc.open_window * acc.window_ns
     if start < open_start:
         raise InputError(
             f"the messages of {_names(task.logs)} start at {iso(start)}, but the map has "
@@ -177,13 +183,8 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
 def rebuild_onto(state: MapState, task: ShardTask) -> ShardResult:
     """The shard's logs learnt onto ``state`` in sequence (exactly as one pass continues)."""
     from aion_cli.build_report import NoProgress
-    from aion_cli.pipeline import _Build
 
-    opts = dataclasses.replace(
-        task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
-    )
-    build = _Build(opts, NoProgress(), shard=True, start=state)
-    build.set_logs(task.logs)
+    build = _shard_build(task, NoProgress(), start=state)
     return ShardResult(task.index, build.learn(task.config).state, build.report)
 
 
@@ -223,7 +224,7 @@ class ParallelBuild:
         self.groups = groups
         workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
         if len(groups) < 2 or (workers < 2 and opts.scheduler is None):
-            if len(groups) < 2 and len(logs) > 1:
+            if len(groups) < 2:
                 report.notes.append(
                     "the logs overlap in time (one shard): built in sequence, not in parallel"
                 )
@@ -238,6 +239,7 @@ class ParallelBuild:
 
             folded, results = run_on_cluster(opts.scheduler, tasks, previous, self.build.progress)
         else:
+            # imported once here, so the forked workers start with them
             import aion_cli.detection_feed
             import aion_cli.formats.logs  # noqa: F401
             from aion_cli.process_pool import run_in_processes
@@ -381,5 +383,3 @@ def _add_nested(into: dict[str, Any], more: dict[str, Any]) -> None:
         else:
             into[key] = into.get(key, 0) + value
 
-
-Runner = Callable[..., tuple[Folded, list[ShardResult]]]
