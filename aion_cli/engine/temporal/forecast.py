@@ -45,7 +45,7 @@ from aion_cli.engine.temporal.spectrum import admitted, top_periods
 from aion_cli.engine.types import F64, I64
 
 C128 = npt.NDArray[np.complex128]
-_BLOCK = 1 << 13
+_BLOCK = 1 << 10
 
 
 @dataclass(frozen=True)
@@ -225,10 +225,12 @@ class Forecaster:
         self.coef_total = np.zeros((e, m), dtype=np.complex128)
         self.bin_idx = np.zeros((e, v, m), dtype=np.int64)
         self.coef_bins = np.zeros((e, v, m), dtype=np.complex128)
-        self._bins_ready = np.zeros(e, dtype=bool)
+        self._bins_depth = np.zeros(e, dtype=np.int64)  # per-bin components computed so far
+        self._flat: dict[tuple[int, int], tuple[I64, F64, F64]] = {}
+        self._times: tuple[F64, C128] = (np.zeros(0), np.zeros((0, p.n_periods), complex))
         self._gate = admitted(first, last, p.min_span)
         if m == 0 or e == 0:
-            self._bins_ready[:] = True
+            self._bins_depth[:] = m
             return
         for a in range(0, e, _BLOCK):
             pos = np.arange(a, min(a + _BLOCK, e))
@@ -243,31 +245,64 @@ class Forecaster:
         r = self.rows[pos]
         balance = _rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
         counts = _rows_of(self.state.cnt_fourier, r)
-        gamma: C128 = counts - self.rate[pos, :, None] * balance[:, None, :]
+        gamma: C128 = self.rate[pos, :, None] * balance[:, None, :]
+        np.subtract(counts, gamma, out=gamma)
         gamma /= np.where(self.observed[pos], self.windows[pos], 1.0)[:, None, None]
         return gamma
 
-    def _ensure_bins(self, e: I64) -> None:
-        """Compute the per-bin FreMEn components of the entries ``e`` not done yet."""
-        todo = np.unique(e[~self._bins_ready[e]])
-        m, v, k = self.params.max_order, self.params.values, self.params.n_periods
+    def _flat_bins(self, bins: int, upto: int) -> tuple[I64, F64, F64]:
+        """The per-bin periods and 2·Re γ, 2·Im γ of the first ``bins`` bins and ``upto``
+        orders, one contiguous row per entry (int64/float64[E, bins·upto]): a pair's terms
+        are then row gathers (scaling by 2 is exact, so the terms equal 2 Re(γ e^{−iωt}))."""
+        key = (bins, upto)
+        parts = self._flat.get(key)
+        if parts is None:
+            coef = self.coef_bins[:, :bins, :upto]
+            parts = (
+                np.ascontiguousarray(self.bin_idx[:, :bins, :upto]).reshape(-1, bins * upto),
+                np.ascontiguousarray(2.0 * coef.real).reshape(-1, bins * upto),
+                np.ascontiguousarray(2.0 * coef.imag).reshape(-1, bins * upto),
+            )
+            self._flat[key] = parts
+        return parts
+
+    def _ensure_bins(self, e: I64, upto: int) -> None:
+        """Compute the first ``upto`` per-bin FreMEn components of the entries ``e`` not done
+        that far yet (the strongest periods are chosen greedily, so the first ``upto`` of a
+        longer choice are the same: directions need 2, per-bin rates all ``max_order``)."""
+        todo = np.unique(e[self._bins_depth[e] < upto])
+        v, k = self.params.values, self.params.n_periods
         for a in range(0, todo.size, _BLOCK):
             pos = todo[a : a + _BLOCK]
             n = pos.size
             gamma = self._gamma(pos).reshape(n * v, k)
-            idx, valid = top_periods(gamma, np.repeat(self._gate[pos], v, axis=0), m)
+            idx, valid = top_periods(gamma, np.repeat(self._gate[pos], v, axis=0), upto)
             coef = np.take_along_axis(gamma, idx, axis=1)
             coef[~valid] = 0.0
-            self.bin_idx[pos] = idx.reshape(n, v, m)
-            self.coef_bins[pos] = coef.reshape(n, v, m)
-        self._bins_ready[todo] = True
+            self.bin_idx[pos, :, :upto] = idx.reshape(n, v, upto)
+            self.coef_bins[pos, :, :upto] = coef.reshape(n, v, upto)
+            for (bins, depth), (f_idx, f_re, f_im) in self._flat.items():
+                if depth > upto:  # filled when a call needs that depth
+                    continue
+                part = self.coef_bins[pos, :bins, :depth]
+                f_idx[pos] = self.bin_idx[pos, :bins, :depth].reshape(n, -1)
+                f_re[pos] = (2.0 * part.real).reshape(n, -1)
+                f_im[pos] = (2.0 * part.imag).reshape(n, -1)
+        self._bins_depth[todo] = upto
 
     # -- evaluation at (entry, time) pairs --------------------------------------------------
     def _rotation_table(self, t_s: F64) -> tuple[C128, I64]:
         """e^{−iω_k t} for the distinct times of ``t_s`` (complex[T, K]) and each pair's row in
-        it: pairs share few times (a day's windows), so exponentials are computed per time."""
+        it: pairs share few times (a day's windows), so exponentials are computed per time, and
+        the table is kept for the next call while its times cover the pairs' (chunks of a day)."""
+        times, table = self._times
+        if times.size:
+            at = np.minimum(np.searchsorted(times, t_s), times.size - 1)
+            if np.array_equal(times[at], t_s):  # every time seen by the previous call
+                return table, at
         times, inverse = np.unique(t_s, return_inverse=True)
-        table: C128 = np.exp(-1j * np.multiply.outer(times, self.params.omega))
+        table = np.exp(-1j * np.multiply.outer(times, self.params.omega))
+        self._times = (times, table)
         return table, inverse.reshape(-1)
 
     def _memo(self, kind: str, e: I64, t_s: F64, compute: Any) -> Any:
@@ -309,15 +344,21 @@ class Forecaster:
         ``bins`` bins (memoised: the scoring asks for every order at the same pairs)."""
 
         def compute() -> F64:
-            self._ensure_bins(e)
+            self._ensure_bins(e, upto)
+            idx, twice_re, twice_im = self._flat_bins(bins, upto)
             table, inverse = self._rotation_table(t_s)
-            rot = table[inverse[:, None, None], self.bin_idx[e, :bins, :upto]]  # one gather
-            coef = self.coef_bins[e, :bins, :upto]
-            # 2 Re(γ e^{−iωt}) = 2 (Re γ cos ωt + Im γ sin ωt): real arithmetic throughout
-            terms = coef.real * rot.real
-            terms -= coef.imag * rot.imag
-            terms *= 2.0
-            out: F64 = np.cumsum(terms, axis=2)
+            k = table.shape[1]
+            re_z = np.ascontiguousarray(table.real).ravel()  # z = e^{−iωt}
+            im_z = np.ascontiguousarray(table.imag).ravel()
+            flat = idx[e]
+            flat += (inverse * k)[:, None]
+            # 2 Re(γ z) = 2 Re γ Re z − 2 Im γ Im z: real arithmetic and row gathers
+            terms = np.take(re_z, flat)
+            terms *= np.take(twice_re, e, axis=0)
+            minus = np.take(im_z, flat)
+            minus *= np.take(twice_im, e, axis=0)
+            terms -= minus
+            out: F64 = np.cumsum(terms.reshape(e.size, bins, upto), axis=2)
             return out
 
         full: F64 = self._memo(f"bins{bins}/{upto}", e, t_s, compute)
@@ -383,9 +424,9 @@ class Forecaster:
 
     def direction(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
         """Direction probabilities float64[P, B] of family ``family`` at pairs."""
-        hist = self.histogram[e]
+        hist: F64 = self.histogram[e]  # a gathered copy, the caller's to keep
         if family == "static":
-            return hist.copy()
+            return hist
         kappa_t = self.params.config.direction_time_prior
         b = self.params.bins
         if family == "profile":
@@ -393,7 +434,11 @@ class Forecaster:
         else:
             m = int(family.removeprefix("fremen"))
             terms = self._bin_terms(e, t_s, m, b, min(self.params.max_order, DIRECTION_ORDERS))
-            pseudo = np.maximum(self.rate[e, :b] + terms, 0.0)
+            pseudo = self.rate[e, :b] + terms  # a new array: the terms are memoised
+            np.maximum(pseudo, 0.0, out=pseudo)
             pseudo *= self.profile_windows[e, h][:, None]
-        out: F64 = (pseudo + kappa_t * hist) / (pseudo.sum(axis=1, keepdims=True) + kappa_t)
-        return out
+        denominator = pseudo.sum(axis=1, keepdims=True) + kappa_t
+        hist *= kappa_t
+        hist += pseudo
+        hist /= denominator
+        return hist

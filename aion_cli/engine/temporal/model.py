@@ -81,12 +81,20 @@ def learn(
     days = params.calendar.day(window_centre_ns(windows.windows, window_ns))
     cuts = np.flatnonzero(np.diff(days)) + 1
     bounds = np.concatenate([[0], cuts, [days.size]])
-    obs_order = np.argsort(windows.obs_slot, kind="stable")
-    cnt_order = np.argsort(windows.cnt_slot, kind="stable")
-    obs_slots, cnt_slots = windows.obs_slot[obs_order], windows.cnt_slot[cnt_order]
-    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
-        o = obs_order[np.searchsorted(obs_slots, a) : np.searchsorted(obs_slots, b)]
-        c = cnt_order[np.searchsorted(cnt_slots, a) : np.searchsorted(cnt_slots, b)]
+    # pairs grouped by day, each day's in their given order (a stable sort by the day's
+    # number: the (entry, slot) order of consolidated windows survives into every day)
+    small = bounds.size <= np.iinfo(np.int16).max  # numpy sorts small ints stably by radix
+    day_of_slot = np.repeat(
+        np.arange(bounds.size - 1, dtype=np.int16 if small else np.int64), np.diff(bounds)
+    )
+    obs_days, cnt_days = day_of_slot[windows.obs_slot], day_of_slot[windows.cnt_slot]
+    obs_order = np.argsort(obs_days, kind="stable")
+    cnt_order = np.argsort(cnt_days, kind="stable")
+    obs_cut = np.searchsorted(obs_days[obs_order], np.arange(bounds.size))
+    cnt_cut = np.searchsorted(cnt_days[cnt_order], np.arange(bounds.size))
+    for k, (a, b) in enumerate(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True)):
+        o = obs_order[obs_cut[k] : obs_cut[k + 1]]
+        c = cnt_order[cnt_cut[k] : cnt_cut[k + 1]]
         day = DayWindows(
             windows.windows[a:b],
             windows.fixed[a:b],

@@ -31,6 +31,11 @@ from aion_cli.engine.windows import to_model_seconds, window_centre_ns
 
 C128 = npt.NDArray[np.complex128]
 _PAIRS = 1 << 15
+_DIRECTION_PAIRS = 1 << 13
+"""Pairs whose direction probabilities are evaluated together (temporaries under 1 MB)."""
+_ENTRIES = 1 << 12
+"""Candidates scored together: a block's temporaries stay tens of MB whatever the map's size
+(whole-map temporaries of GB cost more in fresh pages than in arithmetic)."""
 _LOG_FLOOR = 1e-12
 """Probabilities below this count as it in log-likelihoods (raw histograms, κ = 0, have
 zeros)."""
@@ -84,7 +89,48 @@ def _score(
     if candidates.size == 0:
         return
     pool = PoolStats.of(params, state, live_rows, groups, n_groups)
-    fc = Forecaster(params, state, candidates, groups[position], pool)
+    obs_order, obs_cut = _pairs_by_block(candidates, day.obs_entry)
+    cnt_order, cnt_cut = _pairs_by_block(candidates, day.cnt_entry)
+    for k, a in enumerate(range(0, candidates.size, _ENTRIES)):
+        o = obs_order[obs_cut[k] : obs_cut[k + 1]]
+        c = cnt_order[cnt_cut[k] : cnt_cut[k + 1]]
+        block = DayWindows(
+            day.windows,
+            day.fixed,
+            day.obs_entry[o],
+            day.obs_slot[o],
+            day.cnt_entry[c],
+            day.cnt_slot[c],
+            day.cnt_values[c],
+        )
+        rows = candidates[a : a + _ENTRIES]
+        fc = Forecaster(params, state, rows, groups[position[a : a + _ENTRIES]], pool)
+        _score_block(params, state, block, rows, fc, t_s, h)
+
+
+def _pairs_by_block(candidates: I64, entries: I64) -> tuple[I64, I64]:
+    """The pairs of ``entries`` that belong to candidates, in candidate order (stable: each
+    entry's pairs keep their order, so per-entry sums are unchanged), and the cut of every
+    block of ``_ENTRIES`` candidates in that order."""
+    at = np.searchsorted(candidates, entries)
+    hit = (at < candidates.size) & (candidates[np.minimum(at, candidates.size - 1)] == entries)
+    pairs = np.flatnonzero(hit)
+    order = pairs[np.argsort(at[pairs], kind="stable")]
+    blocks = -(-candidates.size // _ENTRIES)
+    cut = np.searchsorted(at[order], np.arange(blocks + 1) * _ENTRIES)
+    return order, cut
+
+
+def _score_block(
+    params: TemporalParams,
+    state: TemporalState,
+    day: DayWindows,
+    candidates: I64,
+    fc: Forecaster,
+    t_s: F64,
+    h: I64,
+) -> None:
+    """Score one block of candidates (``day`` holds only their pairs)."""
     # observed windows of each candidate: the fixed slots plus its own pairs
     slot_of = np.searchsorted(candidates, day.obs_entry)
     own = (slot_of < candidates.size) & (
@@ -293,17 +339,15 @@ def _score_directions(
     rich = evidence[ce]
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
     rich_e, rich_h, rich_t, rich_n = ce[rich], pair_h[rich], pair_t[rich], directed[rich]
-    for d, name in enumerate(params.direction):
-        if not params.direction_enabled[d]:
-            continue
-        if d == static:
-            q = fc.direction(name, ce, pair_h, pair_t)
-            logp = (directed * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
-            day_score[:, d] = np.bincount(ce, logp, minlength=candidates.size)
-            continue
-        q = fc.direction(name, rich_e, rich_h, rich_t)
-        logp = (rich_n * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
-        day_score[:, d] = np.bincount(rich_e, logp, minlength=candidates.size)
+    timed = [d for d in range(len(params.direction)) if d != static and params.direction_enabled[d]]
+    if params.direction_enabled[static]:
+        logp = _pair_log_probs(fc, [params.direction[static]], ce, pair_h, pair_t, directed)
+        day_score[:, static] = np.bincount(ce, logp[:, 0], minlength=candidates.size)
+    if timed:
+        names = [params.direction[d] for d in timed]
+        logp = _pair_log_probs(fc, names, rich_e, rich_h, rich_t, rich_n)
+        for j, d in enumerate(timed):
+            day_score[:, d] = np.bincount(rich_e, logp[:, j], minlength=candidates.size)
     for d in range(len(params.direction)):
         if d != static and params.direction_enabled[d]:
             day_score[~evidence, d] = day_score[~evidence, static]
@@ -318,6 +362,25 @@ def _score_directions(
         state.dir_days,
     )
     state.dir_scored[candidates] += detections
+
+
+def _pair_log_probs(
+    fc: Forecaster, names: list[str], e: I64, h: I64, t_s: F64, directed: F64
+) -> F64:
+    """Σ_b n_b log q_b per pair for each direction family of ``names``: float64[P, len(names)].
+
+    Pairs are evaluated ``_DIRECTION_PAIRS`` at a time, every family on one chunk before the
+    next, so the per-bin FreMEn terms (memoised per chunk: one pass serves every order) and the
+    [P, B] temporaries stay small: whole-day temporaries of hundreds of MB cost more in fresh
+    pages than in arithmetic. Each pair's value does not depend on the chunking."""
+    out = np.empty((e.size, len(names)))
+    for a in range(0, e.size, _DIRECTION_PAIRS):
+        part = slice(a, a + _DIRECTION_PAIRS)
+        pe, ph, pt, pn = e[part], h[part], t_s[part], directed[part]
+        for j, name in enumerate(names):
+            q = fc.direction(name, pe, ph, pt)
+            out[part, j] = (pn * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
+    return out
 
 
 def _add_day(
@@ -353,34 +416,93 @@ def _absorb(
         )
         state.glob.add_block(np.array([0]), block)
     obs_e, obs_s = _drop_fixed(day.obs_entry, day.obs_slot, day.fixed)
-    if obs_e.size:
-        rows, inverse = np.unique(obs_e, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
-        fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
-        flat_bins = inverse * n_prof + h[obs_s]
-        prof = np.bincount(flat_bins, minlength=rows.size * n_prof).astype(np.float64)
-        prof = prof.reshape(rows.size, n_prof)
-        first = np.full(rows.size, np.inf)
-        np.minimum.at(first, inverse, t_s[obs_s])
-        last = np.full(rows.size, -np.inf)
-        np.maximum.at(last, inverse, t_s[obs_s])
-        state.obs.add_block(rows, ObsBlock(n, fourier, prof, first, last))
-    if day.cnt_entry.size:
-        pair, value = np.nonzero(day.cnt_values)
-        counts = day.cnt_values[pair, value]
-        rows = day.cnt_entry[pair]
-        slots = day.cnt_slot[pair]
-        flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
-        targets, which = np.unique(rows * params.values + value, return_inverse=True)
-        which = which.reshape(-1)
-        flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
-        flat_profile = state.cnt_profile.reshape(-1)
-        flat = (rows * params.values + value) * n_prof + h[slots]
-        keys, inverse = np.unique(flat, return_inverse=True)
-        flat_profile[keys] += np.bincount(inverse.reshape(-1), counts, minlength=keys.size)
-        state.touch(rows)
+    for o in _row_blocks(obs_e):
+        _absorb_observed(params, state, obs_e[o], obs_s[o], t_s, h, phasor)
+    for c in _row_blocks(day.cnt_entry):
+        _absorb_counts(
+            params, state, day.cnt_entry[c], day.cnt_slot[c], day.cnt_values[c], h, phasor
+        )
     state.touch(obs_e if obs_e.size else None)
+
+
+def _row_blocks(rows: I64) -> list[I64]:
+    """Indices of ``rows`` grouped by blocks of ``_ENTRIES`` consecutive row numbers, each
+    row's pairs in their order (a stable sort: sums per row are unchanged), so one block's
+    temporaries — e.g. a K-vector per (row, value bin) — stay small on any map."""
+    if rows.size == 0:
+        return []
+    order = np.argsort(rows, kind="stable")
+    block = rows[order] // _ENTRIES
+    cuts = np.flatnonzero(np.diff(block)) + 1
+    return np.split(order, cuts)
+
+
+def _absorb_observed(
+    params: TemporalParams,
+    state: TemporalState,
+    obs_e: I64,
+    obs_s: I64,
+    t_s: F64,
+    h: I64,
+    phasor: C128,
+) -> None:
+    """The entries' own observed windows into their observation blocks."""
+    n_prof = params.n_profile
+    rows, inverse = np.unique(obs_e, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
+    fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
+    flat_bins = inverse * n_prof + h[obs_s]
+    prof = np.bincount(flat_bins, minlength=rows.size * n_prof).astype(np.float64)
+    prof = prof.reshape(rows.size, n_prof)
+    first = np.full(rows.size, np.inf)
+    np.minimum.at(first, inverse, t_s[obs_s])
+    last = np.full(rows.size, -np.inf)
+    np.maximum.at(last, inverse, t_s[obs_s])
+    state.obs.add_block(rows, ObsBlock(n, fourier, prof, first, last))
+
+
+def _absorb_counts(
+    params: TemporalParams,
+    state: TemporalState,
+    cnt_entry: I64,
+    cnt_slot: I64,
+    cnt_values: F64,
+    h: I64,
+    phasor: C128,
+) -> None:
+    """Counts into ``cnt_fourier`` / ``cnt_profile``, by (entry, value bin) with detections."""
+    n_prof = params.n_profile
+    pair, value = np.nonzero(cnt_values)
+    counts = cnt_values[pair, value]
+    rows = cnt_entry[pair]
+    slots = cnt_slot[pair]
+    flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
+    targets, which = _unique(rows * params.values + value)
+    flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
+    flat_profile = state.cnt_profile.reshape(-1)
+    keys, inverse = _unique((rows * params.values + value) * n_prof + h[slots])
+    flat_profile[keys] += np.bincount(inverse, counts, minlength=keys.size)
+    state.touch(rows)
+
+
+def _unique(keys: I64) -> tuple[I64, I64]:
+    """``np.unique(keys, return_inverse=True)`` (sorted distinct keys and each key's index),
+    without a sort when the keys span a range a few times their number (one block's rows)."""
+    if keys.size == 0:
+        return keys, keys
+    low = int(keys.min())
+    span = int(keys.max()) - low + 1
+    if span > 8 * keys.size + (1 << 16):
+        distinct, inverse = np.unique(keys, return_inverse=True)
+        return distinct, inverse.reshape(-1)
+    local = keys - low
+    present = np.zeros(span, dtype=bool)
+    present[local] = True
+    found = np.flatnonzero(present)
+    lookup = np.empty(span, dtype=np.int64)
+    lookup[found] = np.arange(found.size)
+    return found + low, lookup[local]
 
 
 def _sum_phasors(row: I64, slot: I64, weight: F64, n_rows: int, phasor: C128) -> C128:

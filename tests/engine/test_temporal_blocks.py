@@ -1,0 +1,91 @@
+"""Day scoring in blocks: the scores and accumulators do not depend on how many entries,
+pairs or rows are evaluated together (the block sizes only bound the temporaries)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.temporal import forecast, scoring
+from aion_cli.engine.temporal import model as temporal
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pending import DayWindows
+
+S = 1_000_000_000
+WINDOW_NS = 600 * S
+DAY_WINDOWS = 144
+
+
+def _days(params: TemporalParams, entries: int, days: int, seed: int) -> DayWindows:
+    """Four days of a corridor: a fixed sensor on even days, a robot seeing a random part of
+    the entries on odd days; per entry a daily rhythm in its own walking direction."""
+    rng = np.random.default_rng(seed)
+    first = 20_000_000_000 * S // WINDOW_NS // DAY_WINDOWS * DAY_WINDOWS  # a UTC midnight
+    windows = np.arange(first, first + days * DAY_WINDOWS, dtype=np.int64)
+    slot = np.arange(windows.size)
+    fixed = (slot // DAY_WINDOWS) % 2 == 0
+    rhythm = 1.0 + np.cos(2 * np.pi * (slot % DAY_WINDOWS) / DAY_WINDOWS)
+    seen = rng.random((entries, windows.size)) < 0.4
+    obs_e, obs_s = np.nonzero(seen & ~fixed[None, :])
+    rate = rng.uniform(0.05, 0.6, entries)[:, None] * rhythm[None, :]
+    has = (rng.random((entries, windows.size)) < rate) & (seen | fixed[None, :])
+    cnt_e, cnt_s = np.nonzero(has)
+    values = np.zeros((cnt_e.size, params.values))
+    main = rng.integers(0, params.bins, entries)
+    values[np.arange(cnt_e.size), main[cnt_e]] = rng.integers(1, 6, cnt_e.size)
+    values[:, -1] = rng.integers(0, 2, cnt_e.size)
+    values[:, (main[cnt_e] + params.bins // 2) % params.bins] += rng.integers(0, 3, cnt_e.size)
+    return DayWindows(windows, fixed, obs_e, obs_s, cnt_e, cnt_s, values)
+
+
+def _learnt(params: TemporalParams, entries: int, days: DayWindows) -> Any:
+    state = temporal.empty_state(params, entries)
+    rows = np.arange(entries, dtype=np.int64)
+    temporal.learn(params, state, days, rows, rows // 5, (entries + 4) // 5, WINDOW_NS)
+    return state
+
+
+ARRAYS = (
+    "cnt_fourier", "cnt_profile", "flow_score", "flow_chi2", "flow_scored", "flow_days",
+    "flow_gain_sq", "dir_score", "dir_scored", "dir_days", "dir_gain_sq",
+)
+
+
+@pytest.mark.parametrize("sizes", [(7, 5, 3), (1, 1, 1), (64, 33, 2)])
+def test_block_sizes_do_not_change_the_learnt_state(
+    monkeypatch: pytest.MonkeyPatch, sizes: tuple[int, int, int]
+) -> None:
+    params = TemporalParams.from_config(ModelConfig())
+    days = _days(params, 40, 4, seed=11)
+    reference = _learnt(params, 40, days)
+    assert float(reference.dir_scored.sum()) > 0  # the directions were scored
+    entries, pairs, rows = sizes
+    monkeypatch.setattr(scoring, "_ENTRIES", entries)
+    monkeypatch.setattr(scoring, "_DIRECTION_PAIRS", pairs)
+    monkeypatch.setattr(forecast, "_BLOCK", rows)
+    blocked = _learnt(params, 40, days)
+    for name in ARRAYS:
+        np.testing.assert_allclose(
+            getattr(blocked, name), getattr(reference, name), rtol=1e-12, atol=1e-12, err_msg=name
+        )
+    np.testing.assert_array_equal(blocked.cnt_profile, reference.cnt_profile)  # integer sums
+    np.testing.assert_array_equal(blocked.obs.n, reference.obs.n)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.integers(min_value=-(2**40), max_value=2**40), max_size=200),
+    st.integers(min_value=0, max_value=2**20),
+)
+def test_unique_equals_numpy_unique(values: list[int], spread: int) -> None:
+    keys = np.asarray(values, dtype=np.int64) % (spread + 1)  # a narrow range: no sort
+    for k in (keys, np.asarray(values, dtype=np.int64)):  # and a wide one: numpy's
+        distinct, inverse = scoring._unique(k)
+        expect, expect_inverse = np.unique(k, return_inverse=True)
+        np.testing.assert_array_equal(distinct, expect)
+        np.testing.assert_array_equal(inverse, expect_inverse.reshape(-1))
