@@ -302,6 +302,12 @@ def _truth_scores(truth_npz: Path, state: Any, times_ns: npt.NDArray[np.int64]) 
     true histogram of all agents (every position, seen or not). ``flow_correlation``: Pearson
     correlation, over (place, time) pairs, between aion's predicted flow per window at the
     given times and the true count of agents in the window containing each time.
+
+    Two references bound what any forecast can reach on counts this sparse (a few agent
+    positions per place and window): ``flow_correlation_previous_day``, the true counts of all
+    agents (seen or not) one day earlier in the same window, used as the forecast; and
+    ``flow_correlation_oracle``, each place's true mean count at that hour of the day over
+    every simulated day, the evaluated day included (in-sample: it has seen the answer).
     """
     with np.load(truth_npz, allow_pickle=False) as z:
         ids, flow_counts, starts = z["place_ids"], z["flow_counts"], z["window_start_ns"]
@@ -317,22 +323,48 @@ def _truth_scores(truth_npz: Path, state: Any, times_ns: npt.NDArray[np.int64]) 
     true_hist = flow_counts[:, pairs[:, 1], :].sum(axis=0).astype(float)
     both = (aion_hist.sum(axis=1) > 0) & (true_hist.sum(axis=1) > 0)
     js = metrics.js_divergence(aion_hist[both], true_hist[both]) if np.any(both) else None
-    predicted, true = [], []
+    counts = flow_counts[:, pairs[:, 1], :].sum(axis=2).astype(float)  # (W, places)
+    predicted, true, previous, oracle = [], [], [], []
     for t in times_ns.tolist():
         w = int(np.searchsorted(starts, t, side="right")) - 1
         if w < 0:
             continue
         pred = predict_table(state, int(t))
         predicted.append(pred.descriptors.flow_per_window[pairs[:, 0]])
-        true.append(flow_counts[w, pairs[:, 1], :].sum(axis=1).astype(float))
-    p, q = np.concatenate(predicted), np.concatenate(true)
-    ok = np.isfinite(p)
-    corr = float(np.corrcoef(p[ok], q[ok])[0, 1]) if ok.sum() > 2 and q[ok].std() > 0 else math.nan
+        true.append(counts[w])
+        yesterday, hour_mean = reference_forecasts(counts, starts, w)
+        previous.append(yesterday)
+        oracle.append(hour_mean)
+    q = np.concatenate(true)
     return {
         "places_compared": float(len(pairs)),
         "direction_js": float(js.mean()) if js is not None else math.nan,
-        "flow_correlation": corr,
+        "flow_correlation": _correlation(np.concatenate(predicted), q),
+        "flow_correlation_previous_day": _correlation(np.concatenate(previous), q),
+        "flow_correlation_oracle": _correlation(np.concatenate(oracle), q),
     }
+
+
+def reference_forecasts(
+    counts: npt.NDArray[np.float64], starts: npt.NDArray[np.int64], w: int
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The two reference forecasts of window ``w`` from the true ``counts[W, places]``: the
+    counts one day earlier (NaN where the scene had not started) and each place's mean over
+    the windows at the same UTC hour of the day (every day, ``w``'s own included)."""
+    day, hour = 86_400_000_000_000, 3_600_000_000_000
+    before = int(np.searchsorted(starts, starts[w] - day))
+    known = before < w and int(starts[before]) == int(starts[w]) - day
+    previous = counts[before] if known else np.full(counts.shape[1], np.nan)
+    same_hour = (starts // hour) % 24 == (starts[w] // hour) % 24
+    return previous, counts[same_hour].mean(axis=0)
+
+
+def _correlation(p: npt.NDArray[np.float64], q: npt.NDArray[np.float64]) -> float:
+    """Pearson correlation over the pairs where ``p`` is known (NaN if undefined)."""
+    ok = np.isfinite(p)
+    if ok.sum() <= 2 or q[ok].std() == 0 or p[ok].std() == 0:
+        return math.nan
+    return float(np.corrcoef(p[ok], q[ok])[0, 1])
 
 
 def run_office(

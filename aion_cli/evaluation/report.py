@@ -59,10 +59,16 @@ def office_section(result: Any, out_dir: Path, scenes: int, days: float) -> list
     if truth:
         js = [t.get("direction_js", math.nan) for t in truth]
         corr = [t.get("flow_correlation", math.nan) for t in truth]
+        previous = [t.get("flow_correlation_previous_day", math.nan) for t in truth]
+        oracle = [t.get("flow_correlation_oracle", math.nan) for t in truth]
         lines += [
             "Against the simulator's ground truth (all people, seen or not): mean direction JS "
             f"{_num(sum(js) / len(js))}, mean correlation of predicted and true flow "
-            f"{_num(sum(corr) / len(corr))}.",
+            f"{_num(sum(corr) / len(corr))}. For scale, on the same places and windows: the "
+            "previous day's true counts of all people as the forecast correlate "
+            f"{_num(sum(previous) / len(previous))}, and each place's true mean at that hour "
+            "over all simulated days, the evaluated day included (in-sample), "
+            f"{_num(sum(oracle) / len(oracle))}.",
             "",
         ]
     sizes = [(s["aion_bytes"], s["grid_bytes"]) for s in result.scenes]

@@ -7,7 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from aion_cli.evaluation.office import PAPER_TABLE, MapView, compare_views, run_office
+from aion_cli.evaluation.office import (
+    PAPER_TABLE,
+    MapView,
+    compare_views,
+    reference_forecasts,
+    run_office,
+)
 
 
 def view(seed: int = 0, n: int = 50) -> MapView:
@@ -40,6 +46,26 @@ def test_cells_without_flow_are_left_out() -> None:
 
 
 @pytest.mark.slow
+def test_reference_forecasts_of_a_daily_pattern() -> None:
+    """Counts that repeat every day exactly: yesterday's counts and the hour-of-day mean are
+    both the truth; on the first day there is no yesterday."""
+    window, day = 600 * 10**9, 86_400 * 10**9
+    starts = np.arange(3 * 144, dtype=np.int64) * window + 10 * day
+    hours = (starts // 3_600_000_000_000) % 24
+    counts = np.stack([hours % 5, (hours * 7) % 3, np.zeros_like(hours)], axis=1).astype(float)
+    w = 2 * 144 + 50  # the third day
+    previous, hour_mean = reference_forecasts(counts, starts, w)
+    np.testing.assert_array_equal(previous, counts[w])
+    np.testing.assert_array_equal(hour_mean, counts[w])
+    first, _ = reference_forecasts(counts, starts, 10)
+    assert np.isnan(first).all()
+    noisy = counts.copy()
+    noisy[w - 144, 0] += 6.0  # yesterday differs at one place: the hour mean moves by 6/18
+    previous, hour_mean = reference_forecasts(noisy, starts, w)
+    assert previous[0] == counts[w, 0] + 6.0
+    assert hour_mean[0] == pytest.approx(counts[w, 0] + 6.0 / 18)  # 6 windows/hour x 3 days
+
+
 def test_one_small_office_scene_end_to_end() -> None:
     result = run_office(scenes=1, days=0.5, eval_hours=4)
     table = {(r["map_type"], r["data_type"]): r for r in result.table()}
