@@ -103,3 +103,20 @@ def test_the_wheel_holds_no_top_level_package_but_aion_cli() -> None:
     assert {p.split(".")[0] for p in packages} == {"aion_cli"}
     assert "aion_cli.formats" in packages
     assert "aion_cli.formats.detections" in packages
+
+
+def test_loading_a_map_imports_no_slow_scipy_module() -> None:
+    """Every query command loads a map first: scipy.special (with its array-API layer, about
+    half a second) and scipy.spatial are imported only by the functions that use them."""
+    import subprocess
+
+    code = (
+        "import sys; import aion_cli.mapquery, aion_cli.engine.state, aion_cli.engine.query, "
+        "aion_cli.cli.main; "
+        "print(sorted(m for m in ('scipy.special', 'scipy.spatial', 'scipy.stats') "
+        "if m in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.strip()
+    assert out == "[]"

@@ -14,11 +14,14 @@ every unbound cell at every check was 23 % of a build).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from aion_cli.engine.types import F64, I64, U64, BoolA
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 _CANDIDATES = 8
 """Nearest horizontal candidates checked against the vertical tolerance per cell."""
@@ -170,6 +173,7 @@ def nearest_nodes(
     """
     if len(points) == 0 or len(node_xyz) == 0:
         return np.full(len(points), -1, np.int64)
+    from scipy.spatial import cKDTree  # slow to import: only here
     return _query(cKDTree(node_xyz[:, :2]), node_xyz, points, radius, vertical_tolerance)
 
 
@@ -247,6 +251,7 @@ class BindIndex:
         if params != self._params or not np.array_equal(node_xyz, self._nodes):
             self._nodes = np.array(node_xyz, dtype=np.float64, copy=True)
             self._params = params
+            from scipy.spatial import cKDTree  # slow to import: only here
             self._tree = cKDTree(self._nodes[:, :2])
             self._forget(0)
         assert self._tree is not None

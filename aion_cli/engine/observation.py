@@ -14,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.engine.windows import window_index
@@ -136,6 +135,7 @@ class ObservationSource:
         if i1 <= i0 or n == 0:
             return np.zeros(n, dtype=bool)
         poses = np.unique(self.pose_xy[i0:i1], axis=0)
+        from scipy.spatial import cKDTree  # slow to import: only here
         dist, _ = cKDTree(poses).query(entry_xy, k=1, distance_upper_bound=sensor_range)
         mask: BoolA = dist <= sensor_range
         return mask

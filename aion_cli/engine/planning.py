@@ -44,7 +44,6 @@ import numpy as np
 import numpy.typing as npt
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.node_ids import node_label
@@ -167,6 +166,7 @@ class NavGraph:
         replacing the existing edges."""
         if not (math.isfinite(radius) and radius > 0):
             raise NavGraphError(f"radius must be positive, got {radius!r}")
+        from scipy.spatial import cKDTree  # slow to import: only here
         pairs = cKDTree(self.xyz).query_pairs(radius, output_type="ndarray")
         return NavGraph.build(self.ids, self.xyz, pairs.astype(np.int64).reshape(-1, 2))
 

@@ -203,13 +203,14 @@ class Forecaster:
     # -- precomputation ---------------------------------------------------------------------
     def _borrowed_shape(self, r: F64) -> F64:
         """s[e,h] = r_g[h] / r̄_e (the group's shape, normalised over the entry's windows)."""
-        w = self.profile_windows
+        weighted = self.profile_windows * r
         mean = np.divide(
-            (w * r).sum(axis=1), self.windows, out=np.zeros(len(r)), where=self.observed
+            weighted.sum(axis=1), self.windows, out=np.zeros(len(r)), where=self.observed
         )
-        ok = mean > 1e-12
-        shape = np.ones_like(r)
-        shape[ok] = r[ok] / mean[ok, None]
+        ok = (mean > 1e-12)[:, None]
+        # into the product's memory: the rows left at 1 are those whose mean is ~0
+        shape: F64 = np.divide(r, mean[:, None], out=weighted, where=ok)
+        shape[~ok[:, 0]] = 1.0
         return shape
 
     def _fremen(self, first: F64, last: F64) -> None:
