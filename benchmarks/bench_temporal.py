@@ -14,7 +14,7 @@ flow and direction family) and then absorbing it into the accumulators
   daily rhythm, half as busy at weekends; Poisson counts spread over a dominant walking
   direction, its opposite, the other bins and "no heading"). Timed: ``learn`` of ``days``
   days (default 2) of ``DayWindows`` on a state with ``HISTORY_DAYS`` of history, and the
-  absorption alone (``temporal.scoring.absorb``: observation and count accumulators, no
+  absorption alone (``temporal.absorption.absorb``: observation and count accumulators, no
   scoring) on an empty state whose rows were written once before (``first_touch_s``, timed
   apart: on this VM the first write to a fresh page costs ~40 µs, and an entry's accumulators
   are ~8 KB, so an absorption into never-touched rows measures page faults, not the model).
@@ -59,11 +59,11 @@ from typing import Any
 import numpy as np
 
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.temporal.absorption import absorb
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.model import Predictor, empty_state, learn
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
-from aion_cli.engine.temporal.scoring import absorb
 from aion_cli.engine.types import F64, I64
 from aion_cli.engine.windows import to_model_seconds, window_centre_ns, window_ns
 

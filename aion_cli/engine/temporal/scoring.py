@@ -12,9 +12,9 @@ closed form per profile bin, and for FreMEn from the day's Fourier sums wherever
 bound shows the floor cannot bite; only the rest is evaluated window by window). An entry with
 fewer directed detections before the day than ``direction_time_prior`` scores its time-varying
 direction families as its static one (their histograms cannot differ much from it). The
-accumulators then absorb the day: the fixed-sensor windows into the global observation
-block, other observed windows into the entries' own blocks, and the counts into
-``cnt_fourier`` / ``cnt_profile`` — sparse, by (entry, value bin) pairs with detections.
+accumulators then absorb the day (:mod:`~aion_cli.engine.temporal.absorption`). Candidates
+are scored in blocks of ``_ENTRIES``, each entry's pairs in their order, so the scores do not
+depend on the block size.
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.temporal.accumulators import ObsBlock, TemporalState
+from aion_cli.engine.temporal.absorption import absorb_day, drop_fixed
+from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
@@ -57,15 +58,7 @@ def close_day(
     t_s = to_model_seconds(centres)
     h = params.calendar.profile_bin(centres)
     _score(params, state, day, live_rows, groups, n_groups, t_s, h)
-    _absorb(params, state, day, t_s, h)
-
-
-def absorb(params: TemporalParams, state: TemporalState, day: DayWindows, window_ns: int) -> None:
-    """Absorb the day's windows without scoring them (a query's view of the state)."""
-    if day.windows.size == 0:
-        return
-    centres = window_centre_ns(day.windows, window_ns)
-    _absorb(params, state, day, to_model_seconds(centres), params.calendar.profile_bin(centres))
+    absorb_day(params, state, day, t_s, h)
 
 
 # -- scoring ------------------------------------------------------------------------------------
@@ -137,7 +130,7 @@ def _score_block(
         candidates[np.minimum(slot_of, candidates.size - 1)] == day.obs_entry
     )
     obs_e, obs_s = slot_of[own], day.obs_slot[own]
-    obs_e, obs_s = _drop_fixed(obs_e, obs_s, day.fixed)
+    obs_e, obs_s = drop_fixed(obs_e, obs_s, day.fixed)
     fixed_slots = np.flatnonzero(day.fixed)
     n_prof = params.n_profile
     per_bin = np.zeros((candidates.size, n_prof))
@@ -180,12 +173,6 @@ def _score_block(
     state.flow_scored[candidates] += windows
     _score_directions(params, state, fc, candidates, ce, cs, cv, t_s, h)
     state.touch(candidates)
-
-
-def _drop_fixed(obs_e: I64, obs_s: I64, fixed: npt.NDArray[np.bool_]) -> tuple[I64, I64]:
-    """Own observation pairs in fixed-sensor slots are already counted by the fixed slots."""
-    keep = ~fixed[obs_s]
-    return obs_e[keep], obs_s[keep]
 
 
 def _observed_sum(
@@ -397,119 +384,3 @@ def _add_day(
     score[candidates] += day_score
     gain_sq[candidates] += gain**2
     days[candidates] += scored
-
-
-# -- absorbing ----------------------------------------------------------------------------------
-def _absorb(
-    params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64
-) -> None:
-    n_prof = params.n_profile
-    phasor = np.exp(1j * np.multiply.outer(t_s, params.omega))  # (S, K): e^{iωt}
-    fixed = np.flatnonzero(day.fixed)
-    if fixed.size:
-        block = ObsBlock(
-            np.array([float(fixed.size)]),
-            phasor[fixed].sum(axis=0, keepdims=True),
-            np.bincount(h[fixed], minlength=n_prof)[None, :].astype(np.float64),
-            np.array([t_s[fixed].min()]),
-            np.array([t_s[fixed].max()]),
-        )
-        state.glob.add_block(np.array([0]), block)
-    obs_e, obs_s = _drop_fixed(day.obs_entry, day.obs_slot, day.fixed)
-    for o in _row_blocks(obs_e):
-        _absorb_observed(params, state, obs_e[o], obs_s[o], t_s, h, phasor)
-    for c in _row_blocks(day.cnt_entry):
-        _absorb_counts(
-            params, state, day.cnt_entry[c], day.cnt_slot[c], day.cnt_values[c], h, phasor
-        )
-    state.touch(obs_e if obs_e.size else None)
-
-
-def _row_blocks(rows: I64) -> list[I64]:
-    """Indices of ``rows`` grouped by blocks of ``_ENTRIES`` consecutive row numbers, each
-    row's pairs in their order (a stable sort: sums per row are unchanged), so one block's
-    temporaries — e.g. a K-vector per (row, value bin) — stay small on any map."""
-    if rows.size == 0:
-        return []
-    order = np.argsort(rows, kind="stable")
-    block = rows[order] // _ENTRIES
-    cuts = np.flatnonzero(np.diff(block)) + 1
-    return np.split(order, cuts)
-
-
-def _absorb_observed(
-    params: TemporalParams,
-    state: TemporalState,
-    obs_e: I64,
-    obs_s: I64,
-    t_s: F64,
-    h: I64,
-    phasor: C128,
-) -> None:
-    """The entries' own observed windows into their observation blocks."""
-    n_prof = params.n_profile
-    rows, inverse = np.unique(obs_e, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
-    fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
-    flat_bins = inverse * n_prof + h[obs_s]
-    prof = np.bincount(flat_bins, minlength=rows.size * n_prof).astype(np.float64)
-    prof = prof.reshape(rows.size, n_prof)
-    first = np.full(rows.size, np.inf)
-    np.minimum.at(first, inverse, t_s[obs_s])
-    last = np.full(rows.size, -np.inf)
-    np.maximum.at(last, inverse, t_s[obs_s])
-    state.obs.add_block(rows, ObsBlock(n, fourier, prof, first, last))
-
-
-def _absorb_counts(
-    params: TemporalParams,
-    state: TemporalState,
-    cnt_entry: I64,
-    cnt_slot: I64,
-    cnt_values: F64,
-    h: I64,
-    phasor: C128,
-) -> None:
-    """Counts into ``cnt_fourier`` / ``cnt_profile``, by (entry, value bin) with detections."""
-    n_prof = params.n_profile
-    pair, value = np.nonzero(cnt_values)
-    counts = cnt_values[pair, value]
-    rows = cnt_entry[pair]
-    slots = cnt_slot[pair]
-    flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
-    targets, which = _unique(rows * params.values + value)
-    flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
-    flat_profile = state.cnt_profile.reshape(-1)
-    keys, inverse = _unique((rows * params.values + value) * n_prof + h[slots])
-    flat_profile[keys] += np.bincount(inverse, counts, minlength=keys.size)
-    state.touch(rows)
-
-
-def _unique(keys: I64) -> tuple[I64, I64]:
-    """``np.unique(keys, return_inverse=True)`` (sorted distinct keys and each key's index),
-    without a sort when the keys span a range a few times their number (one block's rows)."""
-    if keys.size == 0:
-        return keys, keys
-    low = int(keys.min())
-    span = int(keys.max()) - low + 1
-    if span > 8 * keys.size + (1 << 16):
-        distinct, inverse = np.unique(keys, return_inverse=True)
-        return distinct, inverse.reshape(-1)
-    local = keys - low
-    present = np.zeros(span, dtype=bool)
-    present[local] = True
-    found = np.flatnonzero(present)
-    lookup = np.empty(span, dtype=np.int64)
-    lookup[found] = np.arange(found.size)
-    return found + low, lookup[local]
-
-
-def _sum_phasors(row: I64, slot: I64, weight: F64, n_rows: int, phasor: C128) -> C128:
-    """Σ over pairs (row, slot) of weight·phasor[slot] per row, complex[n_rows, K]: one sparse
-    (rows × slots) matrix times the day's (slots × K) phasors, no per-pair K-vectors."""
-    from scipy.sparse import csr_matrix
-
-    matrix = csr_matrix((weight, (row, slot)), shape=(n_rows, phasor.shape[0]))
-    out: C128 = np.asarray(matrix @ phasor, dtype=np.complex128)
-    return out

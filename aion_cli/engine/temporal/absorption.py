@@ -1,0 +1,155 @@
+"""Absorbing closed windows into the temporal accumulators (after scoring, or for a query).
+
+The fixed-sensor windows go into the global observation block, other observed windows into
+the entries' own blocks, and the counts into ``cnt_fourier`` / ``cnt_profile`` — sparse, by
+(entry, value bin) pairs with detections, in blocks of ``_ROWS`` consecutive rows so that a
+block's temporaries (a K-vector per (row, value bin)) stay small on any map. Every sum is
+taken per row in the pairs' order, so the accumulators do not depend on the block size.
+Scoring a day before it is absorbed is :mod:`~aion_cli.engine.temporal.scoring`'s job.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.temporal.accumulators import ObsBlock, TemporalState
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pending import DayWindows
+from aion_cli.engine.types import F64, I64
+from aion_cli.engine.windows import to_model_seconds, window_centre_ns
+
+C128 = npt.NDArray[np.complex128]
+_ROWS = 1 << 12
+"""Consecutive rows absorbed together."""
+
+
+def absorb(params: TemporalParams, state: TemporalState, day: DayWindows, window_ns: int) -> None:
+    """Absorb the day's windows without scoring them (a query's view of the state)."""
+    if day.windows.size == 0:
+        return
+    centres = window_centre_ns(day.windows, window_ns)
+    absorb_day(
+        params, state, day, to_model_seconds(centres), params.calendar.profile_bin(centres)
+    )
+
+
+def drop_fixed(obs_e: I64, obs_s: I64, fixed: npt.NDArray[np.bool_]) -> tuple[I64, I64]:
+    """Own observation pairs in fixed-sensor slots are already counted by the fixed slots."""
+    keep = ~fixed[obs_s]
+    return obs_e[keep], obs_s[keep]
+
+
+def absorb_day(
+    params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64
+) -> None:
+    n_prof = params.n_profile
+    phasor = np.exp(1j * np.multiply.outer(t_s, params.omega))  # (S, K): e^{iωt}
+    fixed = np.flatnonzero(day.fixed)
+    if fixed.size:
+        block = ObsBlock(
+            np.array([float(fixed.size)]),
+            phasor[fixed].sum(axis=0, keepdims=True),
+            np.bincount(h[fixed], minlength=n_prof)[None, :].astype(np.float64),
+            np.array([t_s[fixed].min()]),
+            np.array([t_s[fixed].max()]),
+        )
+        state.glob.add_block(np.array([0]), block)
+    obs_e, obs_s = drop_fixed(day.obs_entry, day.obs_slot, day.fixed)
+    for o in _row_blocks(obs_e):
+        _absorb_observed(params, state, obs_e[o], obs_s[o], t_s, h, phasor)
+    for c in _row_blocks(day.cnt_entry):
+        _absorb_counts(
+            params, state, day.cnt_entry[c], day.cnt_slot[c], day.cnt_values[c], h, phasor
+        )
+    state.touch(obs_e if obs_e.size else None)
+
+
+def _row_blocks(rows: I64) -> list[I64]:
+    """Indices of ``rows`` grouped by blocks of ``_ROWS`` consecutive row numbers, each
+    row's pairs in their order (a stable sort: sums per row are unchanged), so one block's
+    temporaries — e.g. a K-vector per (row, value bin) — stay small on any map."""
+    if rows.size == 0:
+        return []
+    order = np.argsort(rows, kind="stable")
+    block = rows[order] // _ROWS
+    cuts = np.flatnonzero(np.diff(block)) + 1
+    return np.split(order, cuts)
+
+
+def _absorb_observed(
+    params: TemporalParams,
+    state: TemporalState,
+    obs_e: I64,
+    obs_s: I64,
+    t_s: F64,
+    h: I64,
+    phasor: C128,
+) -> None:
+    """The entries' own observed windows into their observation blocks."""
+    n_prof = params.n_profile
+    rows, inverse = np.unique(obs_e, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
+    fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
+    flat_bins = inverse * n_prof + h[obs_s]
+    prof = np.bincount(flat_bins, minlength=rows.size * n_prof).astype(np.float64)
+    prof = prof.reshape(rows.size, n_prof)
+    first = np.full(rows.size, np.inf)
+    np.minimum.at(first, inverse, t_s[obs_s])
+    last = np.full(rows.size, -np.inf)
+    np.maximum.at(last, inverse, t_s[obs_s])
+    state.obs.add_block(rows, ObsBlock(n, fourier, prof, first, last))
+
+
+def _absorb_counts(
+    params: TemporalParams,
+    state: TemporalState,
+    cnt_entry: I64,
+    cnt_slot: I64,
+    cnt_values: F64,
+    h: I64,
+    phasor: C128,
+) -> None:
+    """Counts into ``cnt_fourier`` / ``cnt_profile``, by (entry, value bin) with detections."""
+    n_prof = params.n_profile
+    pair, value = np.nonzero(cnt_values)
+    counts = cnt_values[pair, value]
+    rows = cnt_entry[pair]
+    slots = cnt_slot[pair]
+    flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
+    targets, which = _unique(rows * params.values + value)
+    flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
+    flat_profile = state.cnt_profile.reshape(-1)
+    keys, inverse = _unique((rows * params.values + value) * n_prof + h[slots])
+    flat_profile[keys] += np.bincount(inverse, counts, minlength=keys.size)
+    state.touch(rows)
+
+
+def _unique(keys: I64) -> tuple[I64, I64]:
+    """``np.unique(keys, return_inverse=True)`` (sorted distinct keys and each key's index),
+    without a sort when the keys span a range a few times their number (one block's rows)."""
+    if keys.size == 0:
+        return keys, keys
+    low = int(keys.min())
+    span = int(keys.max()) - low + 1
+    if span > 8 * keys.size + (1 << 16):
+        distinct, inverse = np.unique(keys, return_inverse=True)
+        return distinct, inverse.reshape(-1)
+    local = keys - low
+    present = np.zeros(span, dtype=bool)
+    present[local] = True
+    found = np.flatnonzero(present)
+    lookup = np.empty(span, dtype=np.int64)
+    lookup[found] = np.arange(found.size)
+    return found + low, lookup[local]
+
+
+def _sum_phasors(row: I64, slot: I64, weight: F64, n_rows: int, phasor: C128) -> C128:
+    """Σ over pairs (row, slot) of weight·phasor[slot] per row, complex[n_rows, K]: one sparse
+    (rows × slots) matrix times the day's (slots × K) phasors, no per-pair K-vectors."""
+    from scipy.sparse import csr_matrix
+
+    matrix = csr_matrix((weight, (row, slot)), shape=(n_rows, phasor.shape[0]))
+    out: C128 = np.asarray(matrix @ phasor, dtype=np.complex128)
+    return out
