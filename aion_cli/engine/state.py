@@ -25,6 +25,7 @@ from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.routing import RouteTable
+from aion_cli.engine.state_checks import check_loaded, check_member_shapes
 from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.groups import entry_groups
@@ -368,7 +369,7 @@ class MapState:
             raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
         # the components' readers only look members up by name: any mapping will do
         arrays = cast(dict[str, np.ndarray], arrays)
-        _check_member_shapes(arrays)  # what the components' readers index without checking
+        check_member_shapes(arrays)  # what the components' readers index without checking
         entries = EntryStore.from_arrays(arrays, config.bins)
         params = TemporalParams.from_config(config)
         temporal = TemporalState.from_arrays(
@@ -408,7 +409,7 @@ class MapState:
         except (KeyError, ValueError) as exc:
             raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
         state.check_ownership()
-        _check_loaded(state, arrays)
+        check_loaded(state, arrays)
         state.rebuild_routes()
         return state
 
@@ -428,235 +429,6 @@ class MapState:
             problems.append("a redirect points at a node without an entry")
         if problems:
             raise MapCorruptError(f"map state is inconsistent: {'; '.join(problems)}")
-
-
-# -- load-time consistency checks --------------------------------------------------------------
-#
-# A map's members pass their sha256 checks when they are what its writer wrote; these checks
-# catch a map that another tool (or a bug) wrote consistently checksummed but inconsistent:
-# negative or non-finite counts, arrays of different lengths, indices out of range, pending
-# windows outside the pending day. Each would otherwise surface as negative flows or an
-# internal error (exit 1) in some later query; here it is one MapCorruptError (exit 2) that
-# names the member. The limits are what every map aion writes satisfies (see the invariants
-# in DESIGN.md §4 and the temporal accumulators' docstring).
-
-#: Relative slack of the count comparisons (sums of integer-valued floats are exact, merged
-#: maps add them in another order).
-_COUNT_SLACK = 1e-9
-
-
-def _check_member_shapes(arrays: Mapping[str, np.ndarray]) -> None:
-    """Members read together must agree in length (and shape) before the node table,
-    redirects, observation and graph are built from them."""
-    groups = [
-        ("node_ids", "node_xyz", "node_ref_xyz", "node_stable_since_ns"),
-        ("redirect_keys", "redirect_nodes"),
-        ("obs_pose_t", "obs_pose_xy"),
-        ("obs_fixed_start", "obs_fixed_end"),
-        ("graph_agents_t_ns", "graph_agents_xyz"),
-        *[(f"graph_{name}_ids", f"graph_{name}_xyz", f"graph_{name}_parent")
-          for name in ("places", "rooms", "buildings")],
-    ]
-    widths = {"xyz": 3, "ref_xyz": 3, "pose_xy": 2}
-    problems = []
-    for names in groups:
-        present = [n for n in names if n in arrays]
-        if not present:
-            continue
-        lengths = {n: np.shape(arrays[n])[0] if np.ndim(arrays[n]) else -1 for n in present}
-        if len(set(lengths.values())) > 1:
-            listed = ", ".join(f"{n} {lengths[n]}" for n in present)
-            problems.append(f"members of different lengths ({listed})")
-        for n in present:
-            width = next((w for suffix, w in widths.items() if n.endswith(suffix)), 0)
-            shape = np.shape(arrays[n])
-            empty = len(shape) == 1 and shape[0] == 0  # an empty member of any width
-            if not empty and shape[1:] != ((width,) if width else ()):
-                problems.append(f"{n} has shape {shape}")
-    if "graph_edges" in arrays and (
-        np.ndim(arrays["graph_edges"]) != 2 or np.shape(arrays["graph_edges"])[1] != 2
-    ):
-        problems.append(f"graph_edges has shape {np.shape(arrays['graph_edges'])}")
-    if problems:
-        raise MapCorruptError(f"map state is inconsistent: {'; '.join(problems[:3])}")
-
-
-def _first_bad(name: str, values: np.ndarray, nonnegative: bool) -> str | None:
-    """A problem with ``values`` (not finite, or negative where counts must not be), naming
-    the member, the value and its row; None when fine."""
-    v = np.asarray(values)
-    finite = np.isfinite(v)
-    if not finite.all():
-        row = np.unravel_index(int(np.flatnonzero(~finite.ravel())[0]), v.shape)[0]
-        return f"{name} holds {v.ravel()[~finite.ravel()][0]} (row {row})"
-    if nonnegative and v.size and v.real.min() < 0:
-        flat = int(np.argmin(v.real.ravel()))
-        row = np.unravel_index(flat, v.shape)[0]
-        return f"{name} holds {v.ravel()[flat]} (row {row}; counts cannot be negative)"
-    return None
-
-
-def _check_loaded(state: MapState, arrays: Mapping[str, np.ndarray]) -> None:
-    """:class:`MapCorruptError` naming the first problems of a loaded state (see above)."""
-    problems = [
-        *_entry_problems(state),
-        *_temporal_problems(state),
-        *_pending_problems(state, arrays),
-        *_table_problems(state),
-        *_graph_problems(state.graph),
-        *_meta_problems(state),
-    ]
-    if problems:
-        raise MapCorruptError(
-            f"map state is inconsistent: {'; '.join(problems[:3])}"
-            + (f" (and {len(problems) - 3} more)" if len(problems) > 3 else ""),
-            hint="the map was damaged or not written by aion; rebuild it with `aion build`",
-        )
-
-
-def _entry_problems(state: MapState) -> list[str]:
-    ent, n = state.entries, state.entries.n
-    out = [
-        p
-        for name in ("counts", "window_counts", "speed_sum", "speed_n", "nodir", "window_nodir")
-        if (p := _first_bad(f"entry_{name}", getattr(ent, name)[:n], True)) is not None
-    ]
-    if (p := _first_bad("entry_xyz", ent.xyz[:n], False)) is not None:
-        out.append(p)
-    if out:
-        return out
-    slack = _COUNT_SLACK * max(1.0, float(ent.counts[:n].max(initial=0.0)))
-    for part, whole in (("window_counts", "counts"), ("window_nodir", "nodir"),
-                        ("speed_n", "counts")):
-        over = getattr(ent, part)[:n] > getattr(ent, whole)[:n] + slack
-        if over.any():
-            row = int(np.flatnonzero(over.reshape(n, -1).any(axis=1))[0])
-            out.append(f"entry_{part} exceeds entry_{whole} (row {row})")
-    kind = ent.kind[:n]
-    cells = kind == CELL
-    if (ent.key[:n][cells] < 0).any():
-        out.append("a cell entry has a negative spatial-hash key")
-    if (ent.node_id[:n][cells] != 0).any():
-        out.append("a cell entry carries a node id")
-    orphans = ~np.isin(ent.node_id[:n][kind == NODE], state.nodes.ids)
-    if orphans.any():
-        out.append(f"{int(orphans.sum())} node entries belong to no node of the node table")
-    total = float(ent.counts[:n].sum() + ent.nodir[:n].sum())
-    if abs(total - state.accepted) > 0.5 + _COUNT_SLACK * max(total, 1.0):
-        out.append(f"the entries hold {total:g} detections but the map accepted {state.accepted}")
-    return out
-
-
-#: Temporal members that are sums of counts or of windows (never negative); the others
-#: (log-likelihood scores, Fourier sums) need only be finite.
-_NONNEGATIVE_TEMPORAL = (
-    "cnt_profile", "flow_chi2", "flow_scored", "flow_days", "flow_gain_sq", "dir_scored",
-    "dir_days", "dir_gain_sq",
-)
-
-
-def _temporal_problems(state: MapState) -> list[str]:
-    t, n = state.temporal, state.entries.n
-    out = []
-    # cnt_fourier, flow_score and dir_score need only be finite, and cnt_profile finite and
-    # non-negative, which TemporalState.from_arrays has checked on the stored members (a
-    # second pass over the largest members would cost more than reading them)
-    for name in _NONNEGATIVE_TEMPORAL[1:]:
-        values = getattr(t, name)[:n]
-        if (p := _first_bad(f"temporal_{name}", values, name in _NONNEGATIVE_TEMPORAL)):
-            out.append(p)
-    for block, rows in (("glob", slice(0, 1)), ("obs", slice(0, n))):
-        obs = getattr(t, block)
-        for name, nonneg in (("n", True), ("profile", True), ("fourier", False)):
-            p = _first_bad(f"temporal_{block}_{name}", getattr(obs, name)[rows], nonneg)
-            if p is not None:
-                out.append(p)
-        first, last, seen = obs.first[rows], obs.last[rows], obs.n[rows] > 0
-        bad = (np.isinf(first) | np.isinf(last)
-               | (seen & ~(np.isfinite(first) & np.isfinite(last))) | (first > last))
-        if bad.any():
-            out.append(f"temporal_{block}_first / _last are not an interval of observed time "
-                       f"(row {int(np.flatnonzero(bad)[0])})")
-    return out
-
-
-def _pending_problems(state: MapState, arrays: Mapping[str, np.ndarray]) -> list[str]:
-    out = []
-    values = np.asarray(arrays.get("pending_cnt_values", np.zeros((0, 1))))
-    if (p := _first_bad("pending_cnt_values", values, True)) is not None:
-        out.append(p)
-    windows = state.pending.windows
-    if windows:
-        w = np.asarray(windows, np.int64)
-        days = {state.window_day(int(x)) for x in (w.min(), w.max())}
-        if w.min() < 0 or days != {state.pending.day}:
-            out.append(f"pending_windows {w.min()}..{w.max()} are not windows of the pending "
-                       f"day {state.pending.day}")
-        if state.open_window is not None and w.max() >= state.open_window:
-            out.append(f"pending window {w.max()} is not before the open window "
-                       f"{state.open_window}")
-    return out
-
-
-def _table_problems(state: MapState) -> list[str]:
-    out = []
-    nodes = state.nodes
-    if len(nodes.ids) > 1 and not (nodes.ids[1:] > nodes.ids[:-1]).all():
-        out.append("node_ids are not sorted and unique")
-    for name in ("xyz", "ref_xyz"):
-        if (p := _first_bad(f"node_{name}", getattr(nodes, name), False)) is not None:
-            out.append(p)
-    red = state.redirects
-    if (red.keys < 0).any():
-        out.append("a redirected cell has a negative spatial-hash key")
-    if not np.isin(red.nodes, nodes.ids).all():
-        out.append("a redirect points at a node that is not in the node table")
-    obs = state.observation
-    if len(obs.pose_t) > 1 and (np.diff(obs.pose_t) < 0).any():
-        out.append("obs_pose_t is not sorted")
-    if (p := _first_bad("obs_pose_xy", obs.pose_xy, False)) is not None:
-        out.append(p)
-    if (obs.fixed_end < obs.fixed_start).any():
-        out.append("a fixed-sensor interval (obs_fixed_start/_end) ends before it starts")
-    return out
-
-
-def _graph_problems(graph: GraphSnapshot | None) -> list[str]:
-    if graph is None:
-        return []
-    out = []
-    for name in ("places", "rooms", "buildings"):
-        if (p := _first_bad(f"graph_{name}_xyz", getattr(graph, name).xyz, False)) is not None:
-            out.append(p)
-    n = len(graph.places.ids)
-    if graph.edges.size and (graph.edges.min() < 0 or graph.edges.max() >= n):
-        out.append(f"graph_edges refer to places outside 0..{n - 1}")
-    mesh = graph.mesh
-    if mesh is not None:
-        v = len(mesh.vertices)
-        if mesh.faces.size and (mesh.faces.min() < 0 or mesh.faces.max() >= v):
-            out.append(f"graph_mesh_faces refer to vertices outside 0..{v - 1}")
-        if len(mesh.colors) not in (0, v):
-            out.append(f"graph_mesh_colors has {len(mesh.colors)} rows for {v} vertices")
-        for name in ("vertices", "colors"):
-            if (p := _first_bad(f"graph_mesh_{name}", getattr(mesh, name), False)) is not None:
-                out.append(p)
-    return out
-
-
-def _meta_problems(state: MapState) -> list[str]:
-    out = []
-    limit = (2**63 - 1) // state.window_ns
-    if state.open_window is not None and not 0 <= state.open_window <= limit:
-        out.append(f"the open window {state.open_window} is outside 0..{limit}")
-    if state.log_time_ns is not None and not 0 <= state.log_time_ns <= 2**63 - 1:
-        out.append(f"the log time {state.log_time_ns} ns is outside 0..2^63-1")
-    if state.accepted < 0:
-        out.append(f"the map accepted {state.accepted} detections")
-    negative = {k: v for k, v in state.dropped.items() if v < 0}
-    if negative:
-        out.append(f"negative drop counts {negative}")
-    return out
 
 
 def _tally(names: np.ndarray) -> dict[str, int]:
