@@ -31,6 +31,7 @@ __all__ = [
     "ProgressSink",
     "check_decoding",
     "check_usable",
+    "record_detections",
     "topic_counts",
 ]
 
@@ -190,6 +191,39 @@ def topic_counts(
                 f"{topic}: {lost:,} of its {read:,} detections ({100 * lost / read:.0f} %) "
                 f"could not be used (dropped: {reasons})"
             )
+
+
+def record_detections(
+    report: BuildReport, feeders: TopicFeeders, used: I64, mapper_drops: I64, plan: TopicPlan
+) -> DetectionCounts:
+    """The stream's totals into the report: detections read, used (``used``: per topic) and
+    dropped (the feeders' reasons plus the Mapper's ``mapper_drops``), heading sources, the
+    decoding checks, the per-topic counts and notes on stamps taken from log times. Returns
+    the totals."""
+    from aion_cli.engine.state import DROP_REASONS
+
+    c = feeders.total()
+    c.used = int(used.sum())
+    for reason, n in zip(DROP_REASONS, mapper_drops.sum(axis=0).tolist(), strict=True):
+        if n:
+            c.dropped[reason] += int(n)
+    report.detections_read = c.read
+    report.detections_used = c.used
+    report.dropped = dict(c.dropped)
+    report.headings = dict(c.headings)
+    check_decoding(report, c, plan)
+    topic_counts(report, feeders, used, mapper_drops, c.used)
+    if c.stamp_fallbacks:
+        report.notes.append(
+            f"{c.stamp_fallbacks:,} detections had a zero header stamp: their messages' "
+            "log times were used"
+        )
+    if c.log_times:
+        report.notes.append(
+            f"{c.log_times:,} detections came from messages without a header (as mapped): "
+            "their messages' log times were used"
+        )
+    return c
 
 
 def check_decoding(report: BuildReport, counts: DetectionCounts, plan: TopicPlan) -> None:

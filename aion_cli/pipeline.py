@@ -41,20 +41,19 @@ With ``--workers`` several groups of logs are learnt at once and joined into the
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from aion_cli.build_options import MAP_SUFFIX, BuildOptions
 from aion_cli.build_output import write_build
 from aion_cli.build_report import (
     BuildReport,
     NoProgress,
     ProgressSink,
-    check_decoding,
     check_usable,
-    topic_counts,
+    record_detections,
 )
 from aion_cli.detection_feed import (
     DetectionCounts,
@@ -67,7 +66,7 @@ from aion_cli.detection_feed import (
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
 from aion_cli.errors import ConfigError, InputError
-from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS, GraphFeed, GraphTimes, graph_source
+from aion_cli.graph_feed import GraphFeed, GraphTimes, graph_source
 from aion_cli.log_times import TopicTimes, iso
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
@@ -88,54 +87,6 @@ if TYPE_CHECKING:
     from aion_cli.formats.tf import TfBuffer
 
 __all__ = ["MAP_SUFFIX", "BuildOptions", "build_map"]
-
-MAP_SUFFIX = ".aion"
-
-
-@dataclass(frozen=True)
-class BuildOptions:
-    """Everything ``aion build`` can be told. Empty / None fields mean "choose for me"."""
-
-    logs: tuple[Path, ...]
-    output: Path | None = None
-    config: ModelConfig | None = None
-    log_format: str | None = None
-    detection_topics: tuple[str, ...] = ()
-    graph_topic: str | None = None
-    map_frame: str = "map"
-    base_frame: str = "base_link"
-    graph_file: Path | None = None
-    nav_layer: str | None = None  # --nav-layer NAME|KEY (None: MESH_PLACES if any, else PLACES)
-    derive_graph: bool = False
-    continue_from: Path | None = None
-    dsg_version: str | None = None
-    batch_size: int = 4000
-    timezone: str | None = None
-    detections_mapping: Path | None = None
-    #: ``--graph-period``: log time between the scene graphs a build uses (0: every one);
-    #: see :func:`aion_cli.graph_feed.graph_schedule`
-    graph_period_ns: int = DEFAULT_GRAPH_PERIOD_NS
-    #: internal switch (tests): a payload identical to the last decoded one reuses its graph
-    #: instead of being decoded again (same map either way)
-    skip_identical_graphs: bool = True
-    #: ``--workers``: processes building independent groups of logs at once (1: in this
-    #: process; 0: one per core), see :mod:`aion_cli.parallel_build`
-    workers: int = 1
-    #: ``--scheduler``: a Dask scheduler's address; the shards run on its cluster
-    scheduler: str | None = None
-    #: ``--part``: write a part map, its days held unscored for an exact ``aion merge``
-    part: bool = False
-
-    def output_path(self) -> Path:
-        """``-o``, else the continued map, else the first log's name with ``.aion``."""
-        if self.output is not None:
-            return self.output
-        if self.continue_from is not None:
-            return self.continue_from
-        first = self.logs[0]
-        base = first.parent / (first.name.rstrip("/") if first.is_dir() else first.stem)
-        return base.with_name(base.name + MAP_SUFFIX)
-
 
 class _Build:
     """One run of ``aion build`` (state shared by the phases).
@@ -475,27 +426,9 @@ class _Build:
                 self._take_graph(logset, mapper, graph_msg, use_agents)
                 self.progress.advance(1)
         self.graphs.check_skips()
-        c = self.counts = feeders.total()
-        c.used = int(self._used.sum())
-        for reason, n in zip(DROP_REASONS, self._mapper_drops.sum(axis=0).tolist(), strict=True):
-            if n:
-                c.dropped[reason] += int(n)
-        self.report.detections_read = c.read
-        self.report.detections_used = c.used
-        self.report.dropped = dict(c.dropped)
-        self.report.headings = dict(c.headings)
-        check_decoding(self.report, c, plan)
-        topic_counts(self.report, feeders, self._used, self._mapper_drops, c.used)
-        if c.stamp_fallbacks:
-            self.report.notes.append(
-                f"{c.stamp_fallbacks:,} detections had a zero header stamp: their messages' "
-                "log times were used"
-            )
-        if c.log_times:
-            self.report.notes.append(
-                f"{c.log_times:,} detections came from messages without a header (as mapped): "
-                "their messages' log times were used"
-            )
+        c = self.counts = record_detections(
+            self.report, feeders, self._used, self._mapper_drops, plan
+        )
         if not self.shard:  # a parallel build checks the total of its parts
             check_usable(self.report, c, self.previous_manifest)
         if use_agents and self.report.graph_messages == 0:

@@ -1,0 +1,59 @@
+"""What ``aion build`` can be told (:class:`BuildOptions`), apart from how a build runs
+(:mod:`aion_cli.pipeline`): the CLI, the Python API and parallel shards all fill it in."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS
+
+__all__ = ["MAP_SUFFIX", "BuildOptions"]
+
+MAP_SUFFIX = ".aion"
+
+
+@dataclass(frozen=True)
+class BuildOptions:
+    """Everything ``aion build`` can be told. Empty / None fields mean "choose for me"."""
+
+    logs: tuple[Path, ...]
+    output: Path | None = None
+    config: ModelConfig | None = None
+    log_format: str | None = None
+    detection_topics: tuple[str, ...] = ()
+    graph_topic: str | None = None
+    map_frame: str = "map"
+    base_frame: str = "base_link"
+    graph_file: Path | None = None
+    nav_layer: str | None = None  # --nav-layer NAME|KEY (None: MESH_PLACES if any, else PLACES)
+    derive_graph: bool = False
+    continue_from: Path | None = None
+    dsg_version: str | None = None
+    batch_size: int = 4000
+    timezone: str | None = None
+    detections_mapping: Path | None = None
+    #: ``--graph-period``: log time between the scene graphs a build uses (0: every one);
+    #: see :func:`aion_cli.graph_feed.graph_schedule`
+    graph_period_ns: int = DEFAULT_GRAPH_PERIOD_NS
+    #: internal switch (tests): a payload identical to the last decoded one reuses its graph
+    #: instead of being decoded again (same map either way)
+    skip_identical_graphs: bool = True
+    #: ``--workers``: processes building independent groups of logs at once (1: in this
+    #: process; 0: one per core), see :mod:`aion_cli.parallel_build`
+    workers: int = 1
+    #: ``--scheduler``: a Dask scheduler's address; the shards run on its cluster
+    scheduler: str | None = None
+    #: ``--part``: write a part map, its days held unscored for an exact ``aion merge``
+    part: bool = False
+
+    def output_path(self) -> Path:
+        """``-o``, else the continued map, else the first log's name with ``.aion``."""
+        if self.output is not None:
+            return self.output
+        if self.continue_from is not None:
+            return self.continue_from
+        first = self.logs[0]
+        base = first.parent / (first.name.rstrip("/") if first.is_dir() else first.stem)
+        return base.with_name(base.name + MAP_SUFFIX)
