@@ -19,6 +19,7 @@ import pytest
 
 from aion_cli.engine.types import GraphSnapshot, Layer
 from aion_cli.formats import dsg as fdsg
+from aion_cli.formats import dsg_scan
 from tests.formats.dsg_builders import hydra_graph, legacy_mesh_graph
 from tests.shared_data import SHARED_DATA
 
@@ -93,7 +94,7 @@ def _assert_same_as_old(G: Any, monkeypatch: pytest.MonkeyPatch, layers: list[An
     for layer in layers:
         new = fdsg.navigation(G, 123, layer, clearance=True)
         with monkeypatch.context() as m:
-            m.setattr(fdsg, "_scan", _old_scan)
+            m.setattr(dsg_scan, "_scan", _old_scan)  # navigation() lives there
             old = fdsg.navigation(G, 123, layer, clearance=True)
         _snapshots_equal(new.snapshot, old.snapshot)
         assert new.frontiers == old.frontiers

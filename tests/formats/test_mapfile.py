@@ -27,7 +27,7 @@ from aion_cli.errors import (
     MapLockedError,
     MapVersionError,
 )
-from aion_cli.formats import mapfile
+from aion_cli.formats import mapfile, mapfile_write
 from aion_cli.formats.mapfile import (
     MapContentError,
     MapWriteError,
@@ -217,7 +217,7 @@ def test_old_map_survives_oserror_during_write(
     def disk_full(fd: int) -> None:
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(mapfile.os, "fsync", disk_full)
+    monkeypatch.setattr(mapfile_write.os, "fsync", disk_full)
     with pytest.raises(MapWriteError, match="No space left") as err:
         write_map(written, {"new": np.arange(10)}, {})
     assert isinstance(err.value, InputError)
@@ -241,7 +241,7 @@ def test_old_map_survives_keyboard_interrupt_mid_member(
             raise KeyboardInterrupt
         real_save(fh, arr, allow_pickle=allow_pickle)
 
-    monkeypatch.setattr(mapfile.np, "save", interrupted_save)
+    monkeypatch.setattr(mapfile_write.np, "save", interrupted_save)
     with pytest.raises(KeyboardInterrupt):
         write_map(written, {"a": np.arange(5), "b": np.arange(6)}, {})
     monkeypatch.undo()

@@ -163,12 +163,12 @@ def test_write_failure_mid_map_leaves_the_old_map(
 ) -> None:
     """The disk fills up while the map is written: one error line (exit 2), the previous map
     byte for byte, no temporary file or lock left."""
-    from aion_cli.formats import mapfile
+    from aion_cli.formats import mapfile_write
 
     target = office.copy_map(tmp_path / "m.aion")
     old = target.read_bytes()
     written = {"n": 0}
-    real_write = mapfile._HashingWriter.write
+    real_write = mapfile_write._HashingWriter.write
 
     def failing_write(self: Any, data: Any) -> int:
         written["n"] += len(data)
@@ -176,7 +176,7 @@ def test_write_failure_mid_map_leaves_the_old_map(
             raise OSError(err, os.strerror(err))
         return real_write(self, data)
 
-    monkeypatch.setattr(mapfile._HashingWriter, "write", failing_write)
+    monkeypatch.setattr(mapfile_write._HashingWriter, "write", failing_write)
     log = write_log(tmp_path / "w.mcap", walk(30))
     result = run("build", log, "-o", target)
     assert result.exit_code == 2, result.stderr
@@ -197,7 +197,7 @@ def test_failing_rename_leaves_the_old_map(
         raise PermissionError(errno.EPERM, "Operation not permitted", str(dst))
 
     log = write_log(tmp_path / "w.mcap", walk(30))  # before os.replace fails for everyone
-    monkeypatch.setattr("aion_cli.formats.mapfile.os.replace", no_rename)
+    monkeypatch.setattr("aion_cli.formats.mapfile_write.os.replace", no_rename)
     result = run("build", log, "-o", target)
     assert result.exit_code == 2
     assert_one_error(result.stderr, "cannot write map")

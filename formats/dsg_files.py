@@ -1,0 +1,210 @@
+"""Hydra's saved scene-graph files (``dsg.json``, ``.sparkdsg``...) -> spark_dsg graphs.
+
+:func:`read_dsg_file` checks the path, walks a binary file first (:mod:`formats.dsg_guard`),
+lets spark_dsg load it under the memory budget and falls back to the lenient JSON reader
+(:mod:`formats.dsg_json`); :func:`load_graph` adds the navigational graph. Files differ from
+DsgUpdate payloads (:mod:`formats.dsg_payload`) in carrying their version and in how they fail,
+so they have a module of their own.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from aion_cli.engine.types import GraphSnapshot
+from aion_cli.errors import InputError
+from aion_cli.formats.dsg_guard import _memory_budget, binary_problem
+from aion_cli.formats.dsg_layers import GraphLayerError
+from aion_cli.formats.dsg_payload import _native_output_silenced, _short, spark_header
+from aion_cli.formats.dsg_scan import NavGraph, navigation
+
+
+class GraphFileError(InputError):
+    """A scene-graph file is missing, unreadable or not a spark_dsg graph."""
+
+
+@dataclass(frozen=True)
+class GraphFile:
+    """A scene-graph file read into a spark_dsg graph, and how.
+
+    ``reader`` is ``"spark_dsg"``, or ``"lenient"`` when spark_dsg refused the (JSON) file for
+    ``refused`` and :mod:`formats.dsg_json` read it, skipping what ``skipped`` counts;
+    ``rebuilt`` means only the attributes aion uses were read. ``version`` is the file's
+    spark_dsg format version (``"1.1.3"``), None for a legacy JSON without a version header.
+    """
+
+    path: Path
+    graph: Any
+    reader: str = "spark_dsg"
+    refused: str | None = None
+    skipped: dict[str, int] = field(default_factory=dict)
+    rebuilt: bool = False
+    rebuild_reason: str | None = None
+    mesh_dropped: bool = False
+    version: str | None = None
+
+    @property
+    def format(self) -> str:
+        """``"spark_dsg JSON 1.1.3"``, ``"spark_dsg JSON (legacy, no version header)"``..."""
+        kind = "JSON" if self.path.suffix.lower() == ".json" else "binary"
+        if self.version is None:
+            return f"spark_dsg {kind} (legacy, no version header)"
+        return f"spark_dsg {kind} {self.version}"
+
+    def notes(self) -> list[str]:
+        """What the user must be told: the lenient read and what it skipped."""
+        if self.reader != "lenient":
+            return []
+        from aion_cli.formats.dsg_json import skipped_text
+
+        text = (
+            f"{self.path.name}: spark_dsg refused it ({self.refused}); read leniently: "
+            f"{skipped_text(self.skipped)}"
+        )
+        if self.rebuilt:
+            text += (
+                f"; spark_dsg refused the repaired file too ({self.rebuild_reason}), so only "
+                "positions, names, labels, place distances and agent stamps were read"
+            )
+            if self.mesh_dropped:
+                text += " (the mesh was left out)"
+        return [text]
+
+
+@dataclass(frozen=True)
+class LoadedGraph:
+    """A scene-graph file and its navigational graph (what every command reads from a file)."""
+
+    file: GraphFile
+    nav: NavGraph
+
+    @property
+    def snapshot(self) -> GraphSnapshot:
+        return self.nav.snapshot
+
+    def notes(self) -> list[str]:
+        return self.file.notes()
+
+
+def _file_version(path: Path) -> str | None:
+    """The spark_dsg version in the file's header (None: a legacy file without one).
+
+    Binary files start with the 29-byte header of :func:`spark_header`; JSON files with a
+    version header start with ``"SPARK_DSG_header"`` (spark_dsg sorts keys, upper case first).
+    """
+    with contextlib.suppress(OSError), path.open("rb") as fh:
+        head = fh.read(512)
+        if path.suffix.lower() != ".json":
+            if len(head) >= 29 and head[:14] == spark_header("0.0.0")[:14]:
+                return f"{head[24]}.{head[26]}.{head[28]}"
+            return None
+        m = re.search(
+            rb'"SPARK_DSG_header"\s*:\s*\{.*?"major"\s*:\s*(\d+)\s*,\s*"minor"\s*:\s*(\d+)'
+            rb'\s*,\s*"patch"\s*:\s*(\d+)',
+            head,
+            re.DOTALL,
+        )
+        if m:
+            return ".".join(g.decode() for g in m.groups())
+    return None
+
+
+def read_dsg_file(path: str | Path) -> GraphFile:
+    """Read a spark_dsg graph file (``.json``, ``.bson``, ``.sparkdsg``), with clear errors.
+
+    A JSON file spark_dsg refuses is read leniently (:func:`formats.dsg_json.read_lenient`);
+    a binary file spark_dsg refuses, or a file that is not a graph at all, is a
+    :class:`GraphFileError`.
+    """
+    import spark_dsg
+
+    p = Path(path)
+    if not p.is_file():
+        raise GraphFileError(f"scene-graph file not found: {p}", hint="check the path")
+    suffix = p.suffix.lower()
+    if suffix not in (".json", ".bson", ".sparkdsg"):
+        raise GraphFileError(
+            f"unsupported scene-graph file extension {p.suffix!r}: {p}",
+            hint="Hydra saves graphs as dsg.json, dsg_with_mesh.json or .sparkdsg",
+        )
+    size = p.stat().st_size
+    if size == 0:
+        raise GraphFileError(f"scene-graph file is empty: {p}")
+    if suffix == ".sparkdsg":
+        _check_binary_file(p)
+    version = _file_version(p)
+    budget: int | None = None
+    try:
+        # legacy (header-less) JSON files warn on stdout
+        with _native_output_silenced(), _memory_budget(size) as budget:
+            return GraphFile(p, spark_dsg.DynamicSceneGraph.load(str(p)), version=version)
+    except (RuntimeError, ValueError, IndexError, TypeError, MemoryError) as exc:
+        if suffix != ".json":
+            why = _short(exc)
+            if isinstance(exc, MemoryError) or "bad_alloc" in why:
+                limit = f" {budget / 1024**3:.1f} GiB" if budget else ""
+                why = f"it asks for more than the{limit} of memory a graph of its size may take"
+            raise GraphFileError(
+                f"cannot read scene-graph file {p}: {why} (damaged?)",
+                hint="expected a spark_dsg graph saved by Hydra (dsg.json / .sparkdsg)",
+            ) from exc
+        refused = _short(exc)
+    from aion_cli.formats.dsg_json import read_lenient
+
+    got = read_lenient(p)
+    return GraphFile(
+        p,
+        got.graph,
+        reader="lenient",
+        refused=refused,
+        skipped=got.skipped,
+        rebuilt=got.rebuilt,
+        rebuild_reason=got.rebuild_reason,
+        mesh_dropped=got.mesh_dropped,
+        version=version,
+    )
+
+
+def _check_binary_file(path: Path) -> None:
+    """:class:`GraphFileError` for a ``.sparkdsg`` file whose bytes are no valid spark_dsg
+    token stream (:func:`binary_problem`), before spark_dsg reads it."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise GraphFileError(f"cannot read scene-graph file {path}: {exc.strerror}") from exc
+    problem = binary_problem(data)
+    if problem is not None:
+        raise GraphFileError(
+            f"cannot read scene-graph file {path}: it is damaged: {problem}",
+            hint="the file is truncated or corrupt; save the graph again from Hydra or spark_dsg",
+        )
+
+
+def load_dsg_file(path: str | Path) -> Any:
+    """The spark_dsg graph of a file (:func:`read_dsg_file` without the reading report)."""
+    return read_dsg_file(path).graph
+
+
+def load_graph(
+    path: str | Path, t_ns: int = 0, layer: str | int | None = None, clearance: bool = False
+) -> LoadedGraph:
+    """Read a Hydra graph file and its navigational graph, stamped ``t_ns`` (files carry no
+    time). ``layer`` is ``--nav-layer`` (None: choose by name); ``clearance`` also collects
+    each place's ``distance`` (the simulator's free space)."""
+    file = read_dsg_file(path)
+    try:
+        nav = navigation(file.graph, t_ns, layer, clearance)
+    except GraphLayerError as exc:
+        raise GraphLayerError(f"{file.path.name}: {exc.message}", hint=exc.hint) from exc
+    return LoadedGraph(file, nav)
+
+
+def load_graph_file(
+    path: str | Path, t_ns: int = 0, layer: str | int | None = None
+) -> GraphSnapshot:
+    """Read a Hydra graph file into a snapshot stamped ``t_ns`` (files carry no time)."""
+    return load_graph(path, t_ns, layer).snapshot
