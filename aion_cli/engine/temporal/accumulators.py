@@ -33,11 +33,22 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal, cast
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.temporal.stored_layout import (
+    ROW_BLOCK,
+    first_nonfinite,
+    lists_all,
+    narrowed,
+    nonzero_pairs,
+    sparse_layout,
+    stored_index,
+    stored_member,
+    stored_positions,
+)
 from aion_cli.engine.types import F64, I64, RowTake
 from aion_cli.errors import MapCorruptError
 
@@ -56,73 +67,7 @@ _SCORES = (
     "dir_gain_sq",
 )
 _ADDITIVE = ("cnt_fourier", "cnt_profile", *_SCORES)
-_ROW_BLOCK = 1 << 14
 _TALLIES = ("flow_scored", "flow_days", "dir_scored", "dir_days")
-_UINT32_MAX = float(np.iinfo(np.uint32).max)
-
-
-@dataclass(frozen=True)
-class _Pairs:
-    """(entry, value bin) pairs: flat positions ``pos·V + v`` and flat state rows."""
-
-    positions: I64
-    rows: I64
-
-
-def _nonzero_pairs(flat_profile: F64, rows: I64, values: int) -> _Pairs:
-    """The (entry, value bin) pairs of ``rows`` whose profile counts are not all zero, found
-    block by block (bounded temporaries)."""
-    positions, state_rows = [], []
-    v = np.arange(values, dtype=np.int64)
-    for a in range(0, rows.size, _ROW_BLOCK):
-        r = rows[a : a + _ROW_BLOCK]
-        flat = (r[:, None] * values + v[None, :]).reshape(-1)
-        keep = flat_profile[flat].any(axis=1)
-        pos = ((a + np.arange(r.size))[:, None] * values + v[None, :]).reshape(-1)
-        positions.append(pos[keep])
-        state_rows.append(flat[keep])
-    empty = np.zeros(0, np.int64)
-    return _Pairs(
-        np.concatenate(positions) if positions else empty,
-        np.concatenate(state_rows) if state_rows else empty,
-    )
-
-
-def _narrowed(source: F64, rows: I64) -> RowTake:
-    """``RowTake`` of ``source[rows]``, stored as the narrowest of uint8 / uint16 / uint32 that
-    holds every value exactly when all are whole numbers (window tallies and detection counts
-    are), else as float64."""
-    top = 0.0
-    for a in range(0, rows.size, _ROW_BLOCK):
-        block = source[rows[a : a + _ROW_BLOCK]]
-        if not block.size:
-            continue
-        if not (block.min() >= 0.0 and np.all(block == np.rint(block))):
-            return RowTake(source, rows)
-        top = max(top, float(block.max()))
-    if top > _UINT32_MAX:
-        return RowTake(source, rows)
-    narrow = next(t for t in (np.uint8, np.uint16, np.uint32) if top <= np.iinfo(t).max)
-    return RowTake(source, rows, cast=np.dtype(narrow))
-
-
-def _positions(index: I64, limit: int) -> I64:
-    """A stored index as uint32 when every position fits (lossless: readers widen it), else
-    int64."""
-    return index.astype(np.uint32) if limit <= np.iinfo(np.uint32).max + 1 else index
-
-
-def _index(arrays: Mapping[str, np.ndarray], name: str, limit: int) -> I64:
-    """A stored index member: int64, strictly increasing, within [0, limit)."""
-    if name not in arrays:
-        raise MapCorruptError(f"temporal state incomplete, missing: {name}")
-    value = np.asarray(arrays[name])
-    if value.ndim != 1 or value.dtype.kind not in "iu":
-        raise MapCorruptError(f"temporal member {name} must be a 1-D integer array")
-    out = value.astype(np.int64)
-    if out.size and (out[0] < 0 or out[-1] >= limit or np.any(np.diff(out) <= 0)):
-        raise MapCorruptError(f"temporal member {name} holds positions out of order or range")
-    return out
 
 
 @dataclass
@@ -190,71 +135,10 @@ class ObsBlock:
             "first": (rows,),
             "last": (rows,),
         }
-        vals = {f: _member(arrays, prefix + f, shape, copy) for f, shape in shapes.items()}
+        vals = {f: stored_member(arrays, prefix + f, shape, copy) for f, shape in shapes.items()}
         if vals["fourier"].dtype != np.complex128:
             raise MapCorruptError(f"{prefix}fourier must be complex128")
         return cls(**vals)
-
-
-def _member(
-    arrays: Mapping[str, np.ndarray], name: str, shape: tuple[int, ...], copy: bool = True
-) -> Any:
-    """A stored temporal member as a float64/complex128 array of ``shape`` that the state
-    may own and change: a copy, unless ``copy`` is False (the caller hands over freshly read
-    arrays) and the member is already native, contiguous and writable."""
-    if name not in arrays:
-        raise MapCorruptError(f"temporal state incomplete, missing: {name}")
-    value = np.asarray(arrays[name])
-    if value.shape != shape or value.dtype.kind not in "fcu":
-        raise MapCorruptError(
-            f"temporal member {name} has shape {value.shape} and dtype {value.dtype}, "
-            f"expected {shape}"
-        )
-    if value.dtype != np.float64 and value.dtype.kind in "fu":
-        return value.astype(np.float64)  # a fresh copy already
-    if not copy and value.flags.writeable and value.flags.c_contiguous and value.dtype.isnative:
-        return value  # a member freshly read from a map: no second copy
-    return np.array(value)
-
-
-def _sparse_layout(
-    arrays: Mapping[str, np.ndarray], prefix: str, rows: int, values: int
-) -> Mapping[str, np.ndarray]:
-    """The members in the sparse layout: a map written before the layout was sparse (format
-    2.0 of aion before 2026-12-01: every row stored, ``cnt_fourier`` as [R, V, K], no
-    ``*_index`` members) reads as one whose indices list every row and pair."""
-    fourier = prefix + "cnt_fourier"
-    if prefix + "obs_index" in arrays or fourier not in arrays:
-        return arrays
-    from collections import ChainMap
-
-    dense: dict[str, np.ndarray] = {
-        prefix + "obs_index": np.arange(rows, dtype=np.int64),
-        prefix + "cnt_index": np.arange(rows * values, dtype=np.int64),
-        prefix + "score_index": np.arange(rows, dtype=np.int64),
-    }
-    for name in (fourier, prefix + "cnt_profile"):
-        value = np.asarray(arrays[name])
-        if value.ndim == 3 and value.shape[:2] == (rows, values):
-            dense[name] = value.reshape(rows * values, value.shape[2])
-    # reads go through to ``arrays`` (a lazily read map stays lazy)
-    return ChainMap(dense, cast(dict[str, np.ndarray], arrays))
-
-
-def _is_all(index: I64, size: int) -> bool:
-    """Whether a stored index (strictly increasing, in range) lists every position."""
-    return bool(index.size == size)
-
-
-def _first_nonfinite(named: dict[str, Any]) -> list[str]:
-    """Names of the arrays holding a NaN or an infinity. A finite sum proves every value
-    finite (NaN and infinities propagate) without a boolean temporary of the array's size;
-    only an infinite sum (a NaN, an infinity, or an overflow) is checked value by value."""
-    return [
-        name
-        for name, v in named.items()
-        if v.size and not np.isfinite(v.sum()) and not np.isfinite(v).all()
-    ]
 
 
 @dataclass
@@ -391,8 +275,8 @@ class TemporalState:
             self.obs.add_block(d, self.obs.take(s))
         else:
             self._keep_larger_observation(s, d)
-        for a in range(0, s.size, _ROW_BLOCK):
-            sb, db = s[a : a + _ROW_BLOCK], d[a : a + _ROW_BLOCK]
+        for a in range(0, s.size, ROW_BLOCK):
+            sb, db = s[a : a + ROW_BLOCK], d[a : a + ROW_BLOCK]
             vals = {name: getattr(self, name)[sb] for name in _ADDITIVE}
             for name in _ADDITIVE:
                 np.add.at(getattr(self, name), db, vals[name])
@@ -520,23 +404,23 @@ class TemporalState:
         pos = np.arange(r.size, dtype=np.int64)
         out: dict[str, Any] = self.glob.to_arrays(prefix + "glob_")
         own = self.obs.n[r] > 0
-        out[prefix + "obs_index"] = _positions(pos[own], r.size)
+        out[prefix + "obs_index"] = stored_positions(pos[own], r.size)
         out.update(self.obs.to_arrays(prefix + "obs_", r[own]))
-        out[prefix + "obs_profile"] = _narrowed(self.obs.profile, r[own])
+        out[prefix + "obs_profile"] = narrowed(self.obs.profile, r[own])
         v, k, h = self.n_values, self.n_periods, self.n_bins
         flat_profile = self.cnt_profile.reshape(-1, h)
-        pairs = _nonzero_pairs(flat_profile, r, v)
-        out[prefix + "cnt_index"] = _positions(pairs.positions, r.size * v)
+        pairs = nonzero_pairs(flat_profile, r, v)
+        out[prefix + "cnt_index"] = stored_positions(pairs.positions, r.size * v)
         out[prefix + "cnt_fourier"] = RowTake(self.cnt_fourier.reshape(-1, k), pairs.rows)
-        out[prefix + "cnt_profile"] = _narrowed(flat_profile, pairs.rows)
+        out[prefix + "cnt_profile"] = narrowed(flat_profile, pairs.rows)
         scored = (self.flow_days[r] > 0) | (self.dir_days[r] > 0)
         scored |= (self.flow_scored[r] > 0) | (self.dir_scored[r] > 0)
-        out[prefix + "score_index"] = _positions(pos[scored], r.size)
+        out[prefix + "score_index"] = stored_positions(pos[scored], r.size)
         for name in _SCORES:
             source = getattr(self, name)
             tally = name in _TALLIES  # windows, detections and days scored: whole numbers
             out[prefix + name] = (
-                _narrowed(source, r[scored]) if tally else RowTake(source, r[scored])
+                narrowed(source, r[scored]) if tally else RowTake(source, r[scored])
             )
         return out
 
@@ -559,28 +443,28 @@ class TemporalState:
         ``copy=False``: the members are fresh arrays the state may keep (a map just read);
         members that cover every row (a dense map) then become the state's arrays as they
         are, without a scatter into zeros or a second copy."""
-        arrays = _sparse_layout(arrays, prefix, rows, values)
+        arrays = sparse_layout(arrays, prefix, rows, values)
         out = cls.empty(rows, values, periods, bins, flow_families, dir_families)
         out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
-        own = _index(arrays, prefix + "obs_index", rows)
+        own = stored_index(arrays, prefix + "obs_index", rows)
         block = ObsBlock.from_arrays(arrays, prefix + "obs_", own.size, periods, bins, copy)
-        if _is_all(own, rows):
+        if lists_all(own, rows):
             out.obs = block
         else:
             out.obs.put(own, block)
-        pairs = _index(arrays, prefix + "cnt_index", rows * values)
-        fourier = _member(arrays, prefix + "cnt_fourier", (pairs.size, periods), copy)
+        pairs = stored_index(arrays, prefix + "cnt_index", rows * values)
+        fourier = stored_member(arrays, prefix + "cnt_fourier", (pairs.size, periods), copy)
         if fourier.dtype != np.complex128:
             raise MapCorruptError(f"{prefix}cnt_fourier must be complex128")
-        profile = _member(arrays, prefix + "cnt_profile", (pairs.size, bins), copy)
+        profile = stored_member(arrays, prefix + "cnt_profile", (pairs.size, bins), copy)
         stored: dict[str, Any] = {"cnt_fourier": fourier, "cnt_profile": profile}
-        if _is_all(pairs, rows * values):  # every pair counted: the members are the arrays
+        if lists_all(pairs, rows * values):  # every pair counted: the members are the arrays
             out.cnt_fourier = fourier.reshape(rows, values, periods)
             out.cnt_profile = profile.reshape(rows, values, bins)
         else:
             out.cnt_fourier.reshape(-1, periods)[pairs] = fourier
             out.cnt_profile.reshape(-1, bins)[pairs] = profile
-        scored = _index(arrays, prefix + "score_index", rows)
+        scored = stored_index(arrays, prefix + "score_index", rows)
         shapes = {
             "flow_score": (flow_families,),
             "flow_chi2": (flow_families,),
@@ -592,9 +476,9 @@ class TemporalState:
             "dir_days": (),
             "dir_gain_sq": (dir_families,),
         }
-        dense = _is_all(scored, rows)
+        dense = lists_all(scored, rows)
         for name, tail in shapes.items():
-            value = _member(arrays, prefix + name, (scored.size, *tail), copy)
+            value = stored_member(arrays, prefix + name, (scored.size, *tail), copy)
             if value.dtype.kind != "f":
                 raise MapCorruptError(f"{prefix}{name} must be real")
             stored[name] = value
@@ -603,7 +487,7 @@ class TemporalState:
             else:
                 getattr(out, name)[scored] = value
         # the stored values are checked (the rows not stored are zeros)
-        bad = _first_nonfinite(stored)
+        bad = first_nonfinite(stored)
         if bad or np.any(profile < 0) or np.any(block.n < 0) or out.glob.n[0] < 0:
             raise MapCorruptError(
                 f"temporal state holds non-finite or negative values ({', '.join(bad) or 'counts'})"

@@ -1,0 +1,148 @@
+"""How the temporal accumulators are stored in a map file: sparse, narrowed, and checked.
+
+:meth:`~aion_cli.engine.temporal.accumulators.TemporalState.to_arrays` writes only the rows
+and (entry, value bin) pairs that hold something, with integral tallies in the narrowest
+exact unsigned type; :meth:`~aion_cli.engine.temporal.accumulators.TemporalState.from_arrays`
+reads them back through the helpers here, which check every index and member (a map file is
+untrusted input) and read the dense layout of older maps as a sparse one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, cast
+
+import numpy as np
+
+from aion_cli.engine.types import F64, I64, RowTake
+from aion_cli.errors import MapCorruptError
+
+ROW_BLOCK = 1 << 14
+"""Rows gathered at a time when storing (bounded temporaries)."""
+_UINT32_MAX = float(np.iinfo(np.uint32).max)
+
+
+@dataclass(frozen=True)
+class Pairs:
+    """(entry, value bin) pairs: flat positions ``pos·V + v`` and flat state rows."""
+
+    positions: I64
+    rows: I64
+
+
+def nonzero_pairs(flat_profile: F64, rows: I64, values: int) -> Pairs:
+    """The (entry, value bin) pairs of ``rows`` whose profile counts are not all zero, found
+    block by block (bounded temporaries)."""
+    positions, state_rows = [], []
+    v = np.arange(values, dtype=np.int64)
+    for a in range(0, rows.size, ROW_BLOCK):
+        r = rows[a : a + ROW_BLOCK]
+        flat = (r[:, None] * values + v[None, :]).reshape(-1)
+        keep = flat_profile[flat].any(axis=1)
+        pos = ((a + np.arange(r.size))[:, None] * values + v[None, :]).reshape(-1)
+        positions.append(pos[keep])
+        state_rows.append(flat[keep])
+    empty = np.zeros(0, np.int64)
+    return Pairs(
+        np.concatenate(positions) if positions else empty,
+        np.concatenate(state_rows) if state_rows else empty,
+    )
+
+
+def narrowed(source: F64, rows: I64) -> RowTake:
+    """``RowTake`` of ``source[rows]``, stored as the narrowest of uint8 / uint16 / uint32 that
+    holds every value exactly when all are whole numbers (window tallies and detection counts
+    are), else as float64."""
+    top = 0.0
+    for a in range(0, rows.size, ROW_BLOCK):
+        block = source[rows[a : a + ROW_BLOCK]]
+        if not block.size:
+            continue
+        if not (block.min() >= 0.0 and np.all(block == np.rint(block))):
+            return RowTake(source, rows)
+        top = max(top, float(block.max()))
+    if top > _UINT32_MAX:
+        return RowTake(source, rows)
+    narrow = next(t for t in (np.uint8, np.uint16, np.uint32) if top <= np.iinfo(t).max)
+    return RowTake(source, rows, cast=np.dtype(narrow))
+
+
+def stored_positions(index: I64, limit: int) -> I64:
+    """A stored index as uint32 when every position fits (lossless: readers widen it), else
+    int64."""
+    return index.astype(np.uint32) if limit <= np.iinfo(np.uint32).max + 1 else index
+
+
+def stored_index(arrays: Mapping[str, np.ndarray], name: str, limit: int) -> I64:
+    """A stored index member: int64, strictly increasing, within [0, limit)."""
+    if name not in arrays:
+        raise MapCorruptError(f"temporal state incomplete, missing: {name}")
+    value = np.asarray(arrays[name])
+    if value.ndim != 1 or value.dtype.kind not in "iu":
+        raise MapCorruptError(f"temporal member {name} must be a 1-D integer array")
+    out = value.astype(np.int64)
+    if out.size and (out[0] < 0 or out[-1] >= limit or np.any(np.diff(out) <= 0)):
+        raise MapCorruptError(f"temporal member {name} holds positions out of order or range")
+    return out
+
+
+def stored_member(
+    arrays: Mapping[str, np.ndarray], name: str, shape: tuple[int, ...], copy: bool = True
+) -> Any:
+    """A stored temporal member as a float64/complex128 array of ``shape`` that the state
+    may own and change: a copy, unless ``copy`` is False (the caller hands over freshly read
+    arrays) and the member is already native, contiguous and writable."""
+    if name not in arrays:
+        raise MapCorruptError(f"temporal state incomplete, missing: {name}")
+    value = np.asarray(arrays[name])
+    if value.shape != shape or value.dtype.kind not in "fcu":
+        raise MapCorruptError(
+            f"temporal member {name} has shape {value.shape} and dtype {value.dtype}, "
+            f"expected {shape}"
+        )
+    if value.dtype != np.float64 and value.dtype.kind in "fu":
+        return value.astype(np.float64)  # a fresh copy already
+    if not copy and value.flags.writeable and value.flags.c_contiguous and value.dtype.isnative:
+        return value  # a member freshly read from a map: no second copy
+    return np.array(value)
+
+
+def sparse_layout(
+    arrays: Mapping[str, np.ndarray], prefix: str, rows: int, values: int
+) -> Mapping[str, np.ndarray]:
+    """The members in the sparse layout: a map written before the layout was sparse (format
+    2.0 of aion before 2026-12-01: every row stored, ``cnt_fourier`` as [R, V, K], no
+    ``*stored_index`` members) reads as one whose indices list every row and pair."""
+    fourier = prefix + "cnt_fourier"
+    if prefix + "obs_index" in arrays or fourier not in arrays:
+        return arrays
+    from collections import ChainMap
+
+    dense: dict[str, np.ndarray] = {
+        prefix + "obs_index": np.arange(rows, dtype=np.int64),
+        prefix + "cnt_index": np.arange(rows * values, dtype=np.int64),
+        prefix + "score_index": np.arange(rows, dtype=np.int64),
+    }
+    for name in (fourier, prefix + "cnt_profile"):
+        value = np.asarray(arrays[name])
+        if value.ndim == 3 and value.shape[:2] == (rows, values):
+            dense[name] = value.reshape(rows * values, value.shape[2])
+    # reads go through to ``arrays`` (a lazily read map stays lazy)
+    return ChainMap(dense, cast(dict[str, np.ndarray], arrays))
+
+
+def lists_all(index: I64, size: int) -> bool:
+    """Whether a stored index (strictly increasing, in range) lists every position."""
+    return bool(index.size == size)
+
+
+def first_nonfinite(named: dict[str, Any]) -> list[str]:
+    """Names of the arrays holding a NaN or an infinity. A finite sum proves every value
+    finite (NaN and infinities propagate) without a boolean temporary of the array's size;
+    only an infinite sum (a NaN, an infinity, or an overflow) is checked value by value."""
+    return [
+        name
+        for name, v in named.items()
+        if v.size and not np.isfinite(v.sum()) and not np.isfinite(v).all()
+    ]
