@@ -5,11 +5,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from aion_cli.engine.config import ModelConfig
+from aion_cli.errors import ConfigError
 from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS
 
-__all__ = ["MAP_SUFFIX", "BuildOptions"]
+__all__ = ["MAP_SUFFIX", "BuildOptions", "load_mappings", "resolve_config"]
 
 MAP_SUFFIX = ".aion"
 
@@ -57,3 +59,43 @@ class BuildOptions:
         first = self.logs[0]
         base = first.parent / (first.name.rstrip("/") if first.is_dir() else first.stem)
         return base.with_name(base.name + MAP_SUFFIX)
+
+
+def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelConfig:
+    """The model config of a build: ``--config`` (or the defaults) with ``--tz`` as its time
+    zone for a new map; for a continued one the map's own, ``previous`` (which neither may
+    change: a mismatch is a :class:`~aion_cli.errors.ConfigError`)."""
+    given = opts.config
+    zone = opts.timezone
+    if previous is None:
+        config = given or ModelConfig()
+        if zone is None or zone == config.timezone:
+            return config
+        if given is not None and given.timezone != ModelConfig().timezone:
+            raise ConfigError(
+                f"--tz {zone} differs from the config's timezone {given.timezone}",
+                hint="give the zone once, with --tz or in the config file",
+            )
+        return config.replace(timezone=zone)
+    old = previous
+    if given is not None and given != old:
+        raise ConfigError(
+            "--config differs from the config the map was built with",
+            hint="a map keeps its model parameters; build a new map to change them",
+        )
+    if zone is not None and zone != old.timezone:
+        raise ConfigError(
+            f"the map's days and profiles follow the time zone {old.timezone}; "
+            f"--tz {zone} differs",
+            hint="a map keeps its time zone; build a new map to change it",
+        )
+    return old
+
+
+def load_mappings(path: Path | None) -> list[Any]:
+    """The [[topic]] tables of ``--detections-mapping`` (none without it)."""
+    if path is None:
+        return []
+    from aion_cli.formats.detections.mapping import load_mapping
+
+    return load_mapping(Path(path))

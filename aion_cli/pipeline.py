@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from aion_cli.build_options import MAP_SUFFIX, BuildOptions
+from aion_cli.build_options import MAP_SUFFIX, BuildOptions, load_mappings, resolve_config
 from aion_cli.build_output import write_build
 from aion_cli.build_report import (
     BuildReport,
@@ -65,7 +65,7 @@ from aion_cli.detection_feed import (
 )
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
-from aion_cli.errors import ConfigError, InputError
+from aion_cli.errors import InputError
 from aion_cli.graph_feed import GraphFeed, GraphTimes, graph_source
 from aion_cli.log_times import TopicTimes, iso
 from aion_cli.manifest import InputLog, Manifest
@@ -138,33 +138,8 @@ class _Build:
         self._logs = tuple(logs)
 
     def config(self) -> ModelConfig:
-        """The model config: ``--config`` (or the defaults) with ``--tz`` as its time zone
-        for a new map; the map's own for a continued one (which neither may change)."""
-        given = self.opts.config
-        zone = self.opts.timezone
-        if self.previous is None:
-            config = given or ModelConfig()
-            if zone is None or zone == config.timezone:
-                return config
-            if given is not None and given.timezone != ModelConfig().timezone:
-                raise ConfigError(
-                    f"--tz {zone} differs from the config's timezone {given.timezone}",
-                    hint="give the zone once, with --tz or in the config file",
-                )
-            return config.replace(timezone=zone)
-        old = self.previous.config
-        if given is not None and given != old:
-            raise ConfigError(
-                "--config differs from the config the map was built with",
-                hint="a map keeps its model parameters; build a new map to change them",
-            )
-        if zone is not None and zone != old.timezone:
-            raise ConfigError(
-                f"the map's days and profiles follow the time zone {old.timezone}; "
-                f"--tz {zone} differs",
-                hint="a map keeps its time zone; build a new map to change it",
-            )
-        return old
+        """The model config (:func:`aion_cli.build_options.resolve_config`)."""
+        return resolve_config(self.opts, self.previous.config if self.previous else None)
 
     def run(self) -> BuildReport:
         """The build, holding the output map's lock from start to end."""
@@ -225,7 +200,7 @@ class _Build:
         from aion_cli.formats.logs import open_logs
 
         opts = self.opts
-        mappings = _load_mappings(opts.detections_mapping)
+        mappings = load_mappings(opts.detections_mapping)
         with open_logs(list(self._logs), opts.log_format) as logset:
             plan = select_topics(
                 logset.topics, opts.detection_topics, opts.graph_topic, mappings
@@ -515,15 +490,6 @@ class _Build:
     def _write(self, state: MapState, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:
         """The map file (:func:`aion_cli.build_output.write_build`; run() holds the lock)."""
         write_build(state, config, inputs, self.report, self.previous_manifest)
-
-
-def _load_mappings(path: Path | None) -> list[Any]:
-    """The [[topic]] tables of ``--detections-mapping`` (none without it)."""
-    if path is None:
-        return []
-    from aion_cli.formats.detections.mapping import load_mapping
-
-    return load_mapping(Path(path))
 
 
 def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> BuildReport:
