@@ -19,19 +19,34 @@ cost of a decode (joining payloads, reading headers, estimating headings) is pai
 thousand messages however often graphs come, and the worker thread runs ahead across graphs.
 Every stateful step treats each piece as a call of its own would, so the batches are the
 same as decoding piece by piece.
+
+This module holds :class:`DetectionFeeder` (one feeder's decode: adapters, uninformative yaws,
+TF, track linking, headings) and :func:`log_adapters`; the rest lives beside it and is
+re-exported here: :mod:`aion_cli.detection_counts` (:class:`DetectionCounts`,
+:class:`TopicCounts`, :data:`HEADING_SOURCES`), :mod:`aion_cli.detection_jobs` (the segment
+bookkeeping of a decode job, :class:`TopicFeeders`) and :mod:`aion_cli.detection_chunks`
+(:class:`Chunk`, :func:`chunks`, :func:`decoded_chunks`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections import Counter
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
 from operator import attrgetter
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aion_cli.detection_chunks import MAX_CHUNK_BYTES, Chunk, chunks, decoded_chunks
+from aion_cli.detection_counts import HEADING_SOURCES, DetectionCounts, TopicCounts
+from aion_cli.detection_jobs import (
+    TopicFeeders,
+    _first_in_segment,
+    _flatten,
+    _groups,
+    _split,
+    _time_order,
+)
 from aion_cli.engine.types import I64, DetectionBatch
 from aion_cli.errors import TransformError
 
@@ -41,47 +56,11 @@ if TYPE_CHECKING:
     from aion_cli.formats.raw import RawMessage
     from aion_cli.formats.tf import TfBuffer
 
-#: Heading sources counted by :class:`DetectionCounts` (the build summary's order).
-HEADING_SOURCES: tuple[str, ...] = ("velocity", "track", "linked", "pose_yaw", "none")
-
 _VARIES = float("nan")
 _SAME_YAW = 1e-9  # rad: yaws closer than this are one orientation
 
 #: Builds the adapter of one (topic, message type, encoding) the first time it is seen.
 AdapterFactory = Callable[[str, str, str], "DetectionAdapter"]
-
-
-@dataclass
-class TopicCounts:
-    """One detection topic: messages decoded, messages that could not be decoded, and the
-    first decode failure (its message)."""
-
-    messages: int = 0
-    undecodable: int = 0
-    first_error: str | None = None
-    first_hint: str | None = None
-
-
-@dataclass
-class DetectionCounts:
-    """Detections decoded (``read``), accepted by the Mapper (``used``), dropped by reason, how
-    many had a zero header stamp and took their message's log time (``stamp_fallbacks``), how
-    many came from header-less messages and took it by design (``log_times``), headings by
-    source (:data:`HEADING_SOURCES`) and per-topic message counts."""
-
-    read: int = 0
-    used: int = 0
-    dropped: Counter[str] = field(default_factory=Counter)
-    stamp_fallbacks: int = 0
-    log_times: int = 0
-    headings: Counter[str] = field(default_factory=Counter)
-    topics: dict[str, TopicCounts] = field(default_factory=dict)
-
-    def topic(self, name: str) -> TopicCounts:
-        got = self.topics.get(name)
-        if got is None:
-            got = self.topics[name] = TopicCounts()
-        return got
 
 
 def _default_factory(topic: str, msgtype: str, encoding: str) -> DetectionAdapter:
@@ -376,289 +355,6 @@ class DetectionFeeder:
         return moved.select(ok) if n_bad else moved
 
 
-K = TypeVar("K")
-
-
-def _groups(messages: list[RawMessage], key: Callable[[RawMessage], K]) -> dict[K, list[int]]:
-    """Message positions by ``key``, groups in order of first appearance. A job of one topic
-    and type (the usual case) is recognised by a C-level pass, without a Python loop over its
-    messages (which would hold the GIL the reading thread needs)."""
-    keys = list(map(key, messages))
-    if len(set(keys)) <= 1:
-        return {keys[0]: list(range(len(keys)))} if keys else {}
-    groups: dict[K, list[int]] = {}
-    for i, k in enumerate(keys):
-        groups.setdefault(k, []).append(i)
-    return groups
-
-
-def _flatten(chunks: Sequence[list[RawMessage]]) -> tuple[list[RawMessage], I64]:
-    """The messages of ``chunks`` in order, and the chunk (segment) of each."""
-    messages = [m for chunk in chunks for m in chunk]
-    lengths = np.fromiter(map(len, chunks), np.int64, len(chunks))
-    return messages, np.repeat(np.arange(len(chunks), dtype=np.int64), lengths)
-
-
-def _split(
-    batch: DetectionBatch, rows_segment: I64, chunks: Sequence[list[RawMessage]]
-) -> list[DetectionBatch | None]:
-    """``batch`` (rows in segment order) cut into one batch per chunk (views; None for an empty
-    chunk, an empty batch for a chunk without detections)."""
-    bounds = np.searchsorted(rows_segment, np.arange(len(chunks) + 1)).tolist()
-    out: list[DetectionBatch | None] = []
-    for k, chunk in enumerate(chunks):
-        a, b = bounds[k], bounds[k + 1]
-        out.append(None if not chunk else _rows(batch, a, b))
-    return out
-
-
-def _rows(batch: DetectionBatch, a: int, b: int) -> DetectionBatch:
-    """Rows ``a:b`` as a batch of their own (a distinct object per piece, even when empty:
-    :meth:`TopicFeeders.topics_of` finds a piece's labels by identity)."""
-    if a == 0 and b == len(batch) > 0:
-        return batch
-    return DetectionBatch(
-        batch.t_ns[a:b], batch.xyz[a:b], batch.heading[a:b], batch.speed[a:b],
-        batch.track_id[a:b],
-    )
-
-
-def _first_in_segment(index: I64, segment: I64) -> I64:
-    """Per segment value (dense, up to the largest), the position of the first of a group's
-    messages (``index``: their positions in the job, ``segment``: theirs) in that segment; a
-    large value where the group has none. Decoding one segment alone concatenates its groups
-    in this order."""
-    top = int(segment.max(initial=-1)) + 1
-    out = np.full(top, np.iinfo(np.int64).max, np.int64)
-    if len(index):
-        starts = np.flatnonzero(np.r_[True, segment[1:] != segment[:-1]])
-        out[segment[starts]] = index[starts]
-    return out
-
-
-def _time_order(
-    t: I64, segment: I64, part_segments: list[I64], firsts: list[I64]
-) -> I64 | None:
-    """The order that puts concatenated parts' rows as decoding each segment alone would: by
-    segment, then time, ties by the part that came first in the segment, then by row (a
-    stable sort); None when the rows are in that order already."""
-    if len(part_segments) == 1:
-        if t.size < 2 or bool(np.all((segment[1:] != segment[:-1]) | (t[1:] >= t[:-1]))):
-            return None
-        return np.lexsort((t, segment))
-    rank = np.concatenate([f[s] for f, s in zip(firsts, part_segments, strict=True)])
-    return np.lexsort((rank, t, segment))
-
-
-class TopicFeeders:
-    """One :class:`DetectionFeeder` per detection topic, so the build knows what became of
-    each topic's detections (its own counts, its own heading estimator and track linker: the
-    track ids of two sensors are unrelated), with the rows merged in time order for the
-    Mapper as one feeder would give them.
-
-    :meth:`decode` and :meth:`decode_segments` have the feeder's signatures
-    (:func:`decoded_chunks` runs them in its worker thread); :meth:`topics_of` then gives the
-    topic index of each row of a returned batch."""
-
-    def __init__(self, make: Callable[[DetectionCounts], DetectionFeeder], topics: list[str]):
-        self.topics = topics
-        self.index = {topic: i for i, topic in enumerate(topics)}
-        self.counts = {topic: DetectionCounts() for topic in topics}
-        self.feeders = {topic: make(self.counts[topic]) for topic in topics}
-        self._labels: dict[int, I64] = {}
-
-    def decode(self, messages: list[RawMessage]) -> DetectionBatch:
-        """One chunk (see :meth:`DetectionFeeder.decode`)."""
-        got = self._decode_job([messages])[0]
-        return DetectionBatch.empty() if got is None else got
-
-    def decode_segments(self, chunks: Sequence[list[RawMessage]]) -> list[DetectionBatch | None]:
-        """Every chunk's batch (None for an empty chunk), as decoding the chunks one after
-        the other gives them, with one decode per topic for all of them
-        (:meth:`DetectionFeeder.decode_rows`)."""
-        return self._decode_job(chunks)
-
-    def _decode_job(self, chunks: Sequence[list[RawMessage]]) -> list[DetectionBatch | None]:
-        messages, segment = _flatten(chunks)
-        groups = _groups(messages, attrgetter("topic"))
-        batches, labels, segs, firsts = [], [], [], []
-        for topic, index in groups.items():
-            idx = np.asarray(index, np.int64)
-            one = len(groups) == 1
-            batch, rseg = self.feeders[topic].decode_rows(
-                messages if one else [messages[i] for i in index], segment if one else
-                segment[idx],
-            )
-            batches.append(batch)
-            labels.append(np.full(len(batch), self.index[topic], np.int64))
-            segs.append(rseg)
-            firsts.append(_first_in_segment(idx, segment[idx]))
-        if not batches:
-            return [None if not c else DetectionBatch.empty() for c in chunks]
-        if len(batches) == 1:
-            batch, label, rows_segment = batches[0], labels[0], segs[0]
-        else:
-            batch = DetectionBatch.concat(batches)
-            label, rows_segment = np.concatenate(labels), np.concatenate(segs)
-            order = np.lexsort((
-                np.concatenate([f[s] for f, s in zip(firsts, segs, strict=True)]),
-                batch.t_ns, rows_segment,
-            ))
-            batch = DetectionBatch(
-                batch.t_ns[order], batch.xyz[order], batch.heading[order], batch.speed[order],
-                batch.track_id[order],
-            )
-            label, rows_segment = label[order], rows_segment[order]
-        out = _split(batch, rows_segment, chunks)
-        bounds = np.searchsorted(rows_segment, np.arange(len(chunks) + 1)).tolist()
-        for k, piece in enumerate(out):
-            if piece is not None:
-                self._labels[id(piece)] = label[bounds[k] : bounds[k + 1]]
-        return out
-
-    def topics_of(self, batch: DetectionBatch) -> I64:
-        """The topic index (into :attr:`topics`) of each row of a batch :meth:`decode` or
-        :meth:`decode_segments` gave (an empty batch, which may be a chunk no topic decoded
-        anything from, has no rows to label)."""
-        labels = self._labels.pop(id(batch), None)
-        if labels is None:
-            if len(batch):
-                raise KeyError("topics_of: a batch this TopicFeeders did not decode")
-            return np.zeros(0, np.int64)
-        return labels
-
-    def total(self) -> DetectionCounts:
-        """Every topic's counts added up (``used`` is the caller's)."""
-        out = DetectionCounts()
-        for counts in self.counts.values():
-            out.read += counts.read
-            out.stamp_fallbacks += counts.stamp_fallbacks
-            out.log_times += counts.log_times
-            out.dropped.update(counts.dropped)
-            out.headings.update(counts.headings)
-            out.topics.update(counts.topics)
-        return out
-
-
-MAX_CHUNK_BYTES = 32 * 1024**2
-"""Payload bytes after which a chunk ends whatever its message count: with large messages
-(many people each, or point clouds inside detections) ``size`` messages alone could hold
-gigabytes, and the decoders copy the payloads once more."""
-
-
-class Chunk(list["RawMessage"]):
-    """The detection messages of one item of :func:`chunks` (a list), and whether a decode
-    job ends with it (``closes``): the messages since the last job reached the size or byte
-    limit, or the stream ended. Items between two closing ones are decoded together."""
-
-    closes: bool = True
-
-
-def chunks(
-    messages: Iterator[RawMessage],
-    graph_topics: set[str],
-    size: int,
-    max_bytes: int = MAX_CHUNK_BYTES,
-) -> Iterator[tuple[list[RawMessage], RawMessage | None]]:
-    """(detection chunk, graph message or None): chunks end at a graph message, at ``size``
-    messages or at ``max_bytes`` of payload -- the pieces the Mapper is fed, in order.
-
-    Each chunk is a :class:`Chunk`; a *decode job* ends with the first chunk by which ``size``
-    detection messages or ``max_bytes`` of payload (detections and graphs: a job holds both
-    until it is fed) have come since the last job, wherever the graphs fall: a scene graph
-    every few messages cuts the Mapper's pieces, not the decoding."""
-    chunk = Chunk()
-    nbytes = 0
-    job_count = job_bytes = 0
-    for msg in messages:
-        job_bytes += len(msg.data)
-        if msg.topic in graph_topics:
-            chunk.closes = job_count >= size or job_bytes >= max_bytes
-            yield chunk, msg
-            nbytes = 0
-        else:
-            chunk.append(msg)
-            nbytes += len(msg.data)
-            job_count += 1
-            if len(chunk) < size and nbytes < max_bytes:
-                continue
-            yield chunk, None  # closes
-            nbytes = 0
-        if chunk.closes:
-            job_count = job_bytes = 0
-        chunk = Chunk()
-    if chunk:
-        yield chunk, None
-
-
-def decoded_chunks(
-    stream: Iterator[tuple[list[RawMessage], RawMessage | None]],
-    feeder: DetectionFeeder,
-    ahead: int = 2,
-) -> Iterator[tuple[DetectionBatch | None, int, RawMessage | None]]:
-    """(decoded batch or None, messages in it, graph message or None) for every item of
-    ``stream`` (see :func:`chunks`), in order, decoding up to ``ahead`` jobs in a worker
-    thread while the caller reads the next messages and feeds the Mapper.
-
-    A job is the items up to one whose chunk closes (:class:`Chunk`; a plain list closes):
-    with ``decode_segments`` (:meth:`DetectionFeeder.decode_segments`) the feeder decodes them
-    at once and splits the rows back per item, so a graph between two items costs no decode
-    of its own; a feeder with only ``decode`` decodes the items one after the other in the
-    same job. Either way the worker runs ahead across graph messages: the caller receives a
-    graph only after the detections before it, and the detections after it only then.
-
-    Decoding is numpy work that mostly releases the GIL, so on two cores reading and decoding
-    overlap. One worker keeps the jobs' order (the heading estimator and the counters are
-    stateful); an error in a job is raised here, when its first item's turn comes."""
-    from collections import deque
-    from concurrent.futures import Future, ThreadPoolExecutor
-
-    decode_all = getattr(feeder, "decode_segments", None)
-
-    def run(parts: list[list[RawMessage]]) -> list[DetectionBatch | None]:
-        if len(parts) == 1 or decode_all is None:
-            return [feeder.decode(p) if p else None for p in parts]
-        result: list[DetectionBatch | None] = decode_all(parts)
-        return result
-
-    Job = tuple["Future[list[DetectionBatch | None]] | None", list[tuple[int, Any]]]
-    queue: deque[Job] = deque()
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="aion-decode") as pool:
-        try:
-            parts: list[list[RawMessage]] = []
-            items: list[tuple[int, Any]] = []
-
-            def submit() -> None:
-                job = pool.submit(run, parts) if any(parts) else None
-                queue.append((job, items))
-
-            for chunk, graph_msg in stream:
-                parts.append(chunk)
-                items.append((len(chunk), graph_msg))
-                if getattr(chunk, "closes", True):
-                    submit()
-                    parts, items = [], []
-                while len(queue) > ahead:
-                    yield from _ready(queue.popleft())
-            if items:
-                submit()
-            while queue:
-                yield from _ready(queue.popleft())
-        finally:
-            for job, _ in queue:
-                if job is not None:
-                    job.cancel()
-
-
-def _ready(
-    item: tuple[Any, list[tuple[int, RawMessage | None]]],
-) -> Iterator[tuple[DetectionBatch | None, int, RawMessage | None]]:
-    job, items = item
-    batches = [None] * len(items) if job is None else job.result()
-    for batch, (n, graph_msg) in zip(batches, items, strict=True):
-        yield batch, n, graph_msg
-
-
 def log_adapters(
     logset: Any, topics: list[Any], mappings: Mapping[str, Any]
 ) -> tuple[dict[tuple[str, str, str], DetectionAdapter], AdapterFactory, list[str]]:
@@ -700,3 +396,18 @@ def log_adapters(
                 "of aion's fast decoder; its messages are decoded with the log's own definition"
             )
     return adapters, factory, notes
+
+
+__all__ = [
+    "HEADING_SOURCES",
+    "MAX_CHUNK_BYTES",
+    "AdapterFactory",
+    "Chunk",
+    "DetectionCounts",
+    "DetectionFeeder",
+    "TopicCounts",
+    "TopicFeeders",
+    "chunks",
+    "decoded_chunks",
+    "log_adapters",
+]

@@ -7,72 +7,44 @@ type from the typestore's field definitions (missing fields become zero values),
 with the typestore of :mod:`formats.msgdefs` (CDR for ROS 2 containers, ROS 1 serialization for
 ROS 1 containers) and writes them with the container's own library. Connections, schemas and
 converters are cached, so writing 10^5 small messages takes seconds.
+
+Converting dicts lives in :mod:`formats.message_convert` (:func:`to_message`, :func:`stamp`),
+output-path checks in :mod:`formats.log_target` (:func:`check_log_target`,
+:func:`is_own_log`); both are re-exported here.
 """
 
 from __future__ import annotations
 
 import contextlib
-import os
-import stat
-from collections.abc import Callable, Mapping
-from functools import cache
+from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, BinaryIO, Literal, get_args
+from typing import Any, BinaryIO, Literal, get_args
 
-import numpy as np
-
-from aion_cli.errors import InputError, LogFormatError
 from aion_cli.formats import msgdefs
-from aion_cli.formats.outputs import (
-    OutputPathError,
-    Staged,
-    check_output,
-    file_starts_with,
-    folder_entries,
+from aion_cli.formats.log_target import (
+    BAG_MAGIC,
+    MCAP_MAGIC,
+    LogTargetError,
+    LogWriteError,
+    check_log_target,
+    is_own_log,
+    is_own_rosbag2,
 )
+from aion_cli.formats.message_convert import (
+    Converter,
+    MessageEncodeError,
+    _converters_for,
+    stamp,
+    to_message,
+)
+from aion_cli.formats.outputs import Staged
 from aion_cli.formats.raw import normalize_msgtype
-
-if TYPE_CHECKING:
-    from rosbags.typesys.store import Typestore
 
 Container = Literal["mcap", "mcap-ros1", "bag", "rosbag2-sqlite3", "rosbag2-mcap"]
 CONTAINERS: tuple[str, ...] = get_args(Container)
 
 _ROS1_CONTAINERS = frozenset({"mcap-ros1", "bag"})
-
-# rosbags field-definition node types (rosbags.typesys.base.Nodetype).
-_BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4
-
-_DTYPES: dict[str, type[np.generic]] = {
-    "bool": np.bool_,
-    "byte": np.uint8,
-    "char": np.uint8,
-    "int8": np.int8,
-    "uint8": np.uint8,
-    "int16": np.int16,
-    "uint16": np.uint16,
-    "int32": np.int32,
-    "uint32": np.uint32,
-    "int64": np.int64,
-    "uint64": np.uint64,
-    "float32": np.float32,
-    "float64": np.float64,
-}
-
-Converter = Callable[[Any], Any]
-
-
-class LogWriteError(LogFormatError):
-    """A log cannot be created (existing path, unknown container)."""
-
-
-class MessageEncodeError(InputError):
-    """A message dict does not fit its type (unknown field, wrong value type)."""
-
-
-class LogTargetError(LogWriteError, OutputPathError):
-    """The output path is refused: special file, current folder, exists, or not aion's log."""
 
 
 class LogTimeError(LogWriteError):
@@ -81,237 +53,6 @@ class LogTimeError(LogWriteError):
 
 MAX_LOG_TIME_NS = 2**63 - 1
 """The latest log time a container stores (int64 nanoseconds: 2262-04-11)."""
-
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-BAG_MAGIC = b"#ROSBAG V2.0\n"
-_MAX_METADATA_BYTES = 16 * 1024**2
-
-
-def is_own_log(path: Path, container: str) -> bool:
-    """True when ``path`` is a log of ``container``'s kind that ``--force`` may replace: an MCAP
-    file (magic bytes) for ``mcap`` / ``mcap-ros1``, a ROS 1 bag (its version line) for
-    ``bag``, and for the rosbag2 containers a folder holding only ``metadata.yaml`` and the
-    storage files it names (no other file, no subfolder), as :class:`LogWriter` writes it."""
-    if container in ("mcap", "mcap-ros1"):
-        return file_starts_with(path, MCAP_MAGIC)
-    if container == "bag":
-        return file_starts_with(path, BAG_MAGIC)
-    return is_own_rosbag2(path)
-
-
-def is_own_rosbag2(path: Path) -> bool:
-    """A rosbag2 folder of ``metadata.yaml`` plus exactly the storage files it names (see
-    :func:`is_own_log`); anything else in it (a CSV, a subfolder, a symlink) says no."""
-    names = folder_entries(path)
-    if names is None or "metadata.yaml" not in names:
-        return False
-    meta = path / "metadata.yaml"
-    try:
-        st = os.lstat(meta)
-        if not stat.S_ISREG(st.st_mode) or st.st_size > _MAX_METADATA_BYTES:
-            return False
-        from ruamel.yaml import YAML  # rosbags' own YAML library
-
-        doc = YAML(typ="safe").load(meta.read_text(encoding="utf-8"))
-        files = doc["rosbag2_bagfile_information"]["relative_file_paths"]
-    except Exception:  # unreadable, not YAML, not rosbag2 metadata: not ours
-        return False
-    if not isinstance(files, list) or not all(isinstance(f, str) and f for f in files):
-        return False
-    allowed = {"metadata.yaml", *files}
-    if any("/" in f or f in (".", "..") for f in files) or set(names) - allowed:
-        return False
-    for name in names:
-        try:
-            if not stat.S_ISREG(os.lstat(path / name).st_mode):
-                return False
-        except OSError:
-            return False
-    return True
-
-
-def _log_kind(container: str) -> str:
-    if container in ("mcap", "mcap-ros1"):
-        return "an MCAP log"
-    if container == "bag":
-        return "a ROS 1 bag"
-    return "a rosbag2 folder"
-
-
-def check_log_target(path: str | os.PathLike[str], container: str, *, overwrite: bool) -> bool:
-    """Refuse an output path before anything is written (see :mod:`formats.outputs`): a device,
-    FIFO or socket, the current folder, an existing path without ``overwrite``, or an existing
-    path that is not a log of ``container``'s kind (:func:`is_own_log`). Returns whether an
-    existing log will be replaced. Raises :class:`LogTargetError` (exit 2)."""
-    try:
-        return check_output(
-            path,
-            overwrite=overwrite,
-            recognise=lambda p: is_own_log(p, container),
-            what=_log_kind(container),
-            folder=container.startswith("rosbag2"),
-        )
-    except OutputPathError as exc:
-        raise LogTargetError(exc.message, exc.hint) from None
-
-
-# --- dict -> rosbags message conversion -----------------------------------------------------
-
-
-def _scalar_converter(basetype: str) -> tuple[Converter, Any]:
-    """Converter and zero value of one primitive field."""
-    if basetype.startswith("string"):
-        return (lambda v: "" if v is None else str(v)), ""
-    if basetype == "bool":
-        return (lambda v: False if v is None else bool(v)), False
-    if basetype.startswith("float"):
-        return (lambda v: 0.0 if v is None else float(v)), 0.0
-    return (lambda v: 0 if v is None else int(v)), 0
-
-
-def _primitive_array_converter(basetype: str, length: int) -> Converter:
-    """Converter of a numeric array (fixed ``length`` > 0) or sequence (``length`` 0)."""
-    dtype = np.dtype(_DTYPES[basetype])
-    empty = np.zeros(length, dtype=dtype)
-
-    def convert(value: Any) -> Any:
-        if value is None:
-            return empty
-        if isinstance(value, bytes | bytearray | memoryview):
-            arr = np.frombuffer(value, dtype=np.uint8).view(dtype)
-        else:
-            arr = np.asarray(value, dtype=dtype)
-        if arr.ndim != 1 or (length and arr.shape[0] != length):
-            want = f"{length} values" if length else "a 1-D sequence"
-            raise ValueError(f"expected {want} of {basetype}, got shape {arr.shape}")
-        return arr
-
-    return convert
-
-
-class _Converters:
-    """Per-typestore cache of dict -> message converters, built from the field definitions."""
-
-    def __init__(self, store: Typestore) -> None:
-        self.store = store
-        self.cache: dict[str, Converter] = {}
-
-    def get(self, msgtype: str) -> Converter:
-        """The converter of ``msgtype`` (normalised name), building it on first use."""
-        conv = self.cache.get(msgtype)
-        if conv is None:
-            conv = self._build(msgtype)
-            self.cache[msgtype] = conv
-        return conv
-
-    def _field(self, desc: tuple[int, Any]) -> Converter:
-        nodetype, args = desc
-        if nodetype == _BASE:
-            return _scalar_converter(args[0])[0]
-        if nodetype == _NAME:
-            return self.get(args)
-        (subtype, subargs), length = args
-        fixed = length if nodetype == _ARRAY else 0
-        if subtype == _BASE and subargs[0] in _DTYPES:
-            return _primitive_array_converter(subargs[0], fixed)
-        item = _scalar_converter(subargs[0])[0] if subtype == _BASE else self.get(subargs)
-
-        def convert_list(value: Any) -> list[Any]:
-            if value is None:
-                return [item(None) for _ in range(fixed)]
-            out = [item(v) for v in value]
-            if fixed and len(out) != fixed:
-                raise ValueError(f"expected {fixed} items, got {len(out)}")
-            return out
-
-        return convert_list
-
-    def _build(self, msgtype: str) -> Converter:
-        if msgtype not in self.store.fielddefs:
-            raise msgdefs.UnknownMessageTypeError(
-                f"unknown message type {msgtype!r}",
-                hint="see formats.msgdefs.SUPPORTED_MSGTYPES for the shipped definitions",
-            )
-        cls = self.store.types[msgtype]
-        fielddefs: list[tuple[str, Any]] = list(self.store.fielddefs[msgtype][1])
-        fields = [(name, self._field(desc)) for name, desc in fielddefs]
-        names = frozenset(name for name, _ in fields)
-        default: list[Any] = []
-
-        def make_default() -> Any:
-            if not default:
-                default.append(cls(*[c(None) for _, c in fields]))
-            return default[0]
-
-        def slow(value: Any) -> Any:
-            if isinstance(value, cls):
-                return value
-            if isinstance(value, Mapping):
-                return convert(dict(value))
-            raise TypeError(f"{msgtype}: expected a dict, got {type(value).__name__}")
-
-        def unknown(value: dict[str, Any]) -> None:
-            extra = sorted(set(value) - names)
-            raise KeyError(f"{msgtype} has no field(s) {extra}; fields: {sorted(names)}")
-
-        # One generated function per type: scalar conversions inline, one call per nested
-        # field. About twice as fast as looping over per-field closures.
-        namespace: dict[str, Any] = {
-            "cls": cls,
-            "names": names,
-            "make_default": make_default,
-            "slow": slow,
-            "unknown": unknown,
-        }
-        args = []
-        for i, ((name, desc), (_, conv)) in enumerate(zip(fielddefs, fields, strict=True)):
-            if desc[0] == _BASE and not desc[1][0].startswith("string"):
-                zero, cast = _scalar_source(desc[1][0])
-                args.append(f"{zero} if (v := get({name!r})) is None else {cast}(v)")
-            else:
-                namespace[f"c{i}"] = conv
-                args.append(f"c{i}(get({name!r}))")
-        source = (
-            "def convert(value):\n"
-            "    if value is None:\n"
-            "        return make_default()\n"
-            "    if value.__class__ is not dict:\n"
-            "        return slow(value)\n"
-            "    if not names.issuperset(value):\n"
-            "        unknown(value)\n"
-            "    get = value.get\n"
-            f"    return cls({', '.join(args)})\n"
-        )
-        exec(compile(source, f"<aion converter {msgtype}>", "exec"), namespace)
-        convert: Converter = namespace["convert"]
-        return convert
-
-
-def _scalar_source(basetype: str) -> tuple[str, str]:
-    """Zero literal and cast function name of a numeric or bool field, for generated code."""
-    if basetype == "bool":
-        return "False", "bool"
-    if basetype.startswith("float"):
-        return "0.0", "float"
-    return "0", "int"
-
-
-@cache
-def _converters_for(ros_version: int) -> _Converters:
-    return _Converters(msgdefs.typestore(1 if ros_version == 1 else 2))
-
-
-def to_message(msgtype: str, message: Mapping[str, Any] | Any, ros_version: int = 2) -> Any:
-    """The rosbags message object of the ROS ``ros_version`` typestore for ``message`` (a nested
-    dict in ROS 2 naming; missing fields become zero values; message objects pass through)."""
-    msgtype = normalize_msgtype(msgtype)
-    try:
-        return _converters_for(ros_version).get(msgtype)(message)
-    except (TypeError, ValueError, KeyError, OverflowError) as exc:
-        raise MessageEncodeError(
-            f"cannot encode a {msgtype} message: {exc}",
-            hint="give fields in ROS 2 naming (header.stamp.sec/nanosec); omit fields to zero",
-        ) from exc
 
 
 # --- containers -----------------------------------------------------------------------------
@@ -577,7 +318,21 @@ class LogWriter:
             self.abort()  # an exception mid-write never leaves a partial log
 
 
-def stamp(t_ns: int) -> dict[str, int]:
-    """``{"sec", "nanosec"}`` of a nanosecond time, for message headers."""
-    sec, nanosec = divmod(int(t_ns), 1_000_000_000)
-    return {"sec": sec, "nanosec": nanosec}
+
+__all__ = [
+    "BAG_MAGIC",
+    "CONTAINERS",
+    "MAX_LOG_TIME_NS",
+    "MCAP_MAGIC",
+    "Container",
+    "LogTargetError",
+    "LogTimeError",
+    "LogWriteError",
+    "LogWriter",
+    "MessageEncodeError",
+    "check_log_target",
+    "is_own_log",
+    "is_own_rosbag2",
+    "stamp",
+    "to_message",
+]

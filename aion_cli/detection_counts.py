@@ -1,0 +1,47 @@
+"""What became of a build's detections: :class:`DetectionCounts` (read, used, dropped by
+reason, stamp fallbacks, headings by source) and its per-topic :class:`TopicCounts`.
+
+Filled by :class:`aion_cli.detection_feed.DetectionFeeder` while it decodes, read by the build
+summary (:mod:`aion_cli.build_report`).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+#: Heading sources counted by :class:`DetectionCounts` (the build summary's order).
+HEADING_SOURCES: tuple[str, ...] = ("velocity", "track", "linked", "pose_yaw", "none")
+
+
+@dataclass
+class TopicCounts:
+    """One detection topic: messages decoded, messages that could not be decoded, and the
+    first decode failure (its message)."""
+
+    messages: int = 0
+    undecodable: int = 0
+    first_error: str | None = None
+    first_hint: str | None = None
+
+
+@dataclass
+class DetectionCounts:
+    """Detections decoded (``read``), accepted by the Mapper (``used``), dropped by reason, how
+    many had a zero header stamp and took their message's log time (``stamp_fallbacks``), how
+    many came from header-less messages and took it by design (``log_times``), headings by
+    source (:data:`HEADING_SOURCES`) and per-topic message counts."""
+
+    read: int = 0
+    used: int = 0
+    dropped: Counter[str] = field(default_factory=Counter)
+    stamp_fallbacks: int = 0
+    log_times: int = 0
+    headings: Counter[str] = field(default_factory=Counter)
+    topics: dict[str, TopicCounts] = field(default_factory=dict)
+
+    def topic(self, name: str) -> TopicCounts:
+        got = self.topics.get(name)
+        if got is None:
+            got = self.topics[name] = TopicCounts()
+        return got
