@@ -53,6 +53,7 @@ import numpy.typing as npt
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, direction_bins
+from aion_cli.engine.grouping import split_by_key
 from aion_cli.engine.ownership import apply_graph, bind_cells
 from aion_cli.engine.spatial_hash import cell_centres, hashable_indices, pack_keys_unchecked
 from aion_cli.engine.state import DROP_REASONS, MapState
@@ -212,9 +213,7 @@ class Mapper:
         if window.min() == window.max():
             groups = [(int(window[0]), np.arange(len(window)))]
         else:
-            order = np.argsort(window, kind="stable")
-            cuts = np.flatnonzero(np.diff(window[order])) + 1
-            groups = [(int(window[idx[0]]), idx) for idx in np.split(order, cuts)]
+            groups = [(int(window[idx[0]]), idx) for idx in split_by_key(window)]
         whole = len(groups) == 1
         for w, idx in groups:
             close_windows(st, w)

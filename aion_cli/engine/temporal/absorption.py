@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.grouping import split_by_key
 from aion_cli.engine.temporal.accumulators import ObsBlock, TemporalState
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
@@ -69,12 +70,7 @@ def _row_blocks(rows: I64) -> list[I64]:
     """Indices of ``rows`` grouped by blocks of ``_ROWS`` consecutive row numbers, each
     row's pairs in their order (a stable sort: sums per row are unchanged), so one block's
     temporaries — e.g. a K-vector per (row, value bin) — stay small on any map."""
-    if rows.size == 0:
-        return []
-    order = np.argsort(rows, kind="stable")
-    block = rows[order] // _ROWS
-    cuts = np.flatnonzero(np.diff(block)) + 1
-    return np.split(order, cuts)
+    return split_by_key(rows // _ROWS)
 
 
 def _absorb_observed(

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.temporal.absorption import absorb
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.choice import choose_families, dispersion
@@ -85,14 +86,12 @@ def learn(
     # pairs grouped by day, each day's in their given order (a stable sort by the day's
     # number: the (entry, slot) order of consolidated windows survives into every day)
     small = bounds.size <= np.iinfo(np.int16).max  # numpy sorts small ints stably by radix
-    day_of_slot = np.repeat(
+    day_of_slot: npt.NDArray[np.integer] = np.repeat(
         np.arange(bounds.size - 1, dtype=np.int16 if small else np.int64), np.diff(bounds)
     )
-    obs_days, cnt_days = day_of_slot[windows.obs_slot], day_of_slot[windows.cnt_slot]
-    obs_order = np.argsort(obs_days, kind="stable")
-    cnt_order = np.argsort(cnt_days, kind="stable")
-    obs_cut = np.searchsorted(obs_days[obs_order], np.arange(bounds.size))
-    cnt_cut = np.searchsorted(cnt_days[cnt_order], np.arange(bounds.size))
+    day_starts = np.arange(bounds.size)
+    obs_order, obs_cut = cut_by_key(day_of_slot[windows.obs_slot], day_starts)
+    cnt_order, cnt_cut = cut_by_key(day_of_slot[windows.cnt_slot], day_starts)
     for k, (a, b) in enumerate(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True)):
         o = obs_order[obs_cut[k] : obs_cut[k + 1]]
         c = cnt_order[cnt_cut[k] : cnt_cut[k + 1]]

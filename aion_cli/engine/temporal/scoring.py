@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.temporal.absorption import absorb_day, drop_fixed
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
@@ -108,10 +109,9 @@ def _pairs_by_block(candidates: I64, entries: I64) -> tuple[I64, I64]:
     at = np.searchsorted(candidates, entries)
     hit = (at < candidates.size) & (candidates[np.minimum(at, candidates.size - 1)] == entries)
     pairs = np.flatnonzero(hit)
-    order = pairs[np.argsort(at[pairs], kind="stable")]
     blocks = -(-candidates.size // _ENTRIES)
-    cut = np.searchsorted(at[order], np.arange(blocks + 1) * _ENTRIES)
-    return order, cut
+    order, cut = cut_by_key(at[pairs], np.arange(blocks + 1) * _ENTRIES)
+    return pairs[order], cut
 
 
 def _score_block(

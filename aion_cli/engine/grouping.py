@@ -1,0 +1,32 @@
+"""Grouping rows by a key, keeping each group's rows in their order.
+
+A stable sort by the key puts equal keys together without reordering them, so sums taken
+group by group run in the rows' own order (and equal what one pass over all rows gives per
+group). :func:`split_by_key` returns the non-empty groups; :func:`cut_by_key` returns the
+sorted order and where each of given key bounds falls in it, so groups without rows (a block
+of candidates none of whose entries has a pair) are slices of length 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.types import I64
+
+
+def split_by_key(keys: npt.NDArray[np.integer]) -> list[I64]:
+    """Indices of ``keys`` per distinct key, keys ascending, each group's in their order."""
+    if keys.size == 0:
+        return []
+    order = np.argsort(keys, kind="stable")
+    cuts = np.flatnonzero(np.diff(keys[order])) + 1
+    return np.split(order, cuts)
+
+
+def cut_by_key(keys: npt.NDArray[np.integer], bounds: npt.ArrayLike) -> tuple[I64, I64]:
+    """Indices of ``keys`` sorted stably by key, and the position in that order of every
+    bound (the first key not below it): group k is ``order[cut[k] : cut[k + 1]]``."""
+    order = np.argsort(keys, kind="stable")
+    cut: I64 = np.searchsorted(keys[order], bounds)
+    return order, cut

@@ -1,0 +1,35 @@
+"""Grouping by key: every index once, equal keys together, each group in its own order."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from aion_cli.engine.grouping import cut_by_key, split_by_key
+
+KEYS = st.lists(st.integers(min_value=-5, max_value=5), max_size=60)
+
+
+@given(KEYS)
+def test_split_by_key_groups_equal_keys_in_order(values: list[int]) -> None:
+    keys = np.asarray(values, dtype=np.int64)
+    groups = split_by_key(keys)
+    assert sorted(np.concatenate(groups).tolist() if groups else []) == list(range(keys.size))
+    assert [int(keys[g[0]]) for g in groups] == sorted(set(values))
+    for g in groups:
+        assert np.all(keys[g] == keys[g[0]])
+        assert np.all(np.diff(g) > 0)  # the rows' own order within a group
+
+
+@given(KEYS)
+def test_cut_by_key_slices_every_bound_even_empty_ones(values: list[int]) -> None:
+    keys = np.asarray(values, dtype=np.int64)
+    bounds = np.arange(-6, 8, 2)  # groups [-6,-4), [-4,-2), ... [4,6); some empty
+    order, cut = cut_by_key(keys, bounds)
+    for k in range(bounds.size - 1):
+        part = order[cut[k] : cut[k + 1]]
+        expect = np.flatnonzero((keys >= bounds[k]) & (keys < bounds[k + 1]))
+        np.testing.assert_array_equal(np.sort(part), expect)
+        for key in np.unique(keys[part]).tolist():  # equal keys keep their own order
+            assert np.all(np.diff(part[keys[part] == key]) > 0)
