@@ -45,6 +45,7 @@ from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.query import EntryTable, historical_table, predict_table
 from aion_cli.engine.types import DetectionBatch, Trajectory
 from aion_cli.evaluation import metrics
+from aion_cli.evaluation.baselines import DAY_HOURS, HOUR_NS
 from aion_cli.evaluation.grid import GridMoD, GridSpec, expected_counts_per_window
 
 F64 = npt.NDArray[np.float64]
@@ -351,11 +352,11 @@ def reference_forecasts(
     """The two reference forecasts of window ``w`` from the true ``counts[W, places]``: the
     counts one day earlier (NaN where the scene had not started) and each place's mean over
     the windows at the same UTC hour of the day (every day, ``w``'s own included)."""
-    day, hour = 86_400_000_000_000, 3_600_000_000_000
+    day, hour = DAY_HOURS * HOUR_NS, HOUR_NS
     before = int(np.searchsorted(starts, starts[w] - day))
-    known = before < w and int(starts[before]) == int(starts[w]) - day
+    known = int(starts[before]) == int(starts[w]) - day  # before <= w: starts increase
     previous = counts[before] if known else np.full(counts.shape[1], np.nan)
-    same_hour = (starts // hour) % 24 == (starts[w] // hour) % 24
+    same_hour = (starts // hour) % DAY_HOURS == (starts[w] // hour) % DAY_HOURS
     return previous, counts[same_hour].mean(axis=0)
 
 
