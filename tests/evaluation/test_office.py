@@ -9,8 +9,10 @@ import pytest
 
 from aion_cli.evaluation.office import (
     PAPER_TABLE,
+    FlowSeries,
     MapView,
     compare_views,
+    expected_flow_correlations,
     reference_forecasts,
     run_office,
 )
@@ -64,6 +66,55 @@ def test_reference_forecasts_of_a_daily_pattern() -> None:
     previous, hour_mean = reference_forecasts(noisy, starts, w)
     assert previous[0] == counts[w, 0] + 6.0
     assert hour_mean[0] == pytest.approx(counts[w, 0] + 6.0 / 18)  # 6 windows/hour x 3 days
+
+
+def _series(counts: np.ndarray, predicted: np.ndarray, ids: list[int]) -> FlowSeries:
+    """A scene over windows 0..W-1 (starts 600 s apart) whose forecasts cover every pair."""
+    w, m = counts.shape
+    starts = np.arange(w, dtype=np.int64) * 600 * 10**9
+    return FlowSeries(
+        place=np.tile(np.array(ids, np.uint64), w),
+        window_start=np.repeat(starts, m),
+        predicted=predicted.ravel().astype(float),
+        place_ids=np.array(ids, np.uint64),
+        starts=starts,
+        counts=counts.astype(float),
+    )
+
+
+def test_expected_flow_is_the_other_scenes_mean() -> None:
+    """Three scenes: the leave-one-out mean of the others' counts is the expected flow, so a
+    forecast that is an affine function of it correlates 1, one that is its negation -1; place
+    ids listed in another order are matched by id; fewer than two scenes give NaN."""
+    rng = np.random.default_rng(3)
+    counts = [rng.poisson(3.0, (6, 4)).astype(float) for _ in range(3)]
+    ids = [11, 5, 7, 2]
+    expected0 = (counts[1] + counts[2]) / 2
+    shuffled = [2, 0, 3, 1]  # scene 2 lists its places in another order
+    scene2 = _series(counts[2][:, shuffled], np.zeros((6, 4)), [ids[k] for k in shuffled])
+    series = [
+        _series(counts[0], 2.0 * expected0 + 1.0, ids),
+        _series(counts[1], -((counts[0] + counts[2]) / 2), ids),
+        scene2,
+    ]
+    corr = expected_flow_correlations(series)
+    assert corr[0] == pytest.approx(1.0)
+    assert corr[1] == pytest.approx(-1.0)
+    assert math.isnan(corr[2])  # a constant forecast has no correlation
+    assert all(math.isnan(c) for c in expected_flow_correlations(series[:1]))
+
+
+def test_expected_flow_leaves_out_pairs_no_other_scene_has() -> None:
+    """A scene's pair that no other scene recorded (a window past their end) is not scored."""
+    rng = np.random.default_rng(4)
+    short = rng.poisson(2.0, (4, 3)).astype(float)
+    long_counts = rng.poisson(2.0, (6, 3)).astype(float)
+    truth = np.vstack([short, np.zeros((2, 3))])
+    wild = truth.copy()
+    wild[4:] = 99.0  # the forecast is wrong where nothing can check it
+    series = [_series(long_counts, wild, [1, 2, 3]), _series(short, np.ones((4, 3)), [1, 2, 3])]
+    corr = expected_flow_correlations(series)
+    assert corr[0] == pytest.approx(1.0)
 
 
 def test_one_small_office_scene_end_to_end() -> None:
