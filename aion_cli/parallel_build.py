@@ -239,7 +239,11 @@ class ParallelBuild:
 
             folded, results = run_on_cluster(opts.scheduler, tasks, previous, self.build.progress)
         else:
-            # imported once here, so the forked workers start with them
+            # imported once here, so the forked workers start with them (scipy.spatial: every
+            # shard binds cells with a KD-tree, and the joins here bind again; one import
+            # before the fork instead of one per worker and one more here)
+            import scipy.spatial  # noqa: F401
+
             import aion_cli.detection_feed
             import aion_cli.formats.logs  # noqa: F401
             from aion_cli.process_pool import run_in_processes

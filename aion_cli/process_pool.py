@@ -168,6 +168,7 @@ def _context() -> Any:
             "aion_cli.detection_feed",
             "aion_cli.formats.logs",
             "aion_cli.engine.mapper",
+            "scipy.spatial",
         ]
     )
     return ctx

@@ -200,6 +200,12 @@ def _parallel_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> N
                 f"same map: {r['same_map']}; {r['shards']} shards, "
                 f"{r['shards_learnt_in_sequence']} learnt in sequence; joins {r['fold_s']:.2f} s",
                 ">= 1.6x", r["speedup"] >= 1.6)
+            if "machine_two_shard_throughput" in r:
+                add("parallel", f"{name}: this machine's two-process ceiling",
+                    f"{r['machine_two_shard_throughput']:.2f}x",
+                    f"one shard alone {r['one_shard_alone_s']:.2f} s, two at once "
+                    f"{r['two_shards_at_once_s']:.2f} s; the speed-up is "
+                    f"{r['speedup_of_ceiling']:.0%} of it")
             add("parallel", f"{name}: peak memory per worker",
                 f"{max(r['worker_peak_rss_mb']):.0f} MB",
                 f"{fmt_si(max(r['shard_detections_per_s']), 'det/s')} per worker (best shard)")

@@ -216,12 +216,26 @@ class BindIndex:
     """
 
     def __init__(self) -> None:
+        self._reset()
+        self.queried = 0
+        """Cells queried so far (how much work the memo did not save; for tests)."""
+
+    def _reset(self) -> None:
+        """Nothing memoised: no nodes, no tree, no cell known unbound."""
         self._nodes = np.zeros((0, 3))
         self._params: tuple[float, float] | None = None
         self._tree: cKDTree | None = None
         self._forget(0)
-        self.queried = 0
-        """Cells queried so far (how much work the memo did not save; for tests)."""
+
+    def __getstate__(self) -> dict[str, int]:
+        """A memo travels empty (a parallel build's shard states are pickled): rebuilding it
+        costs less than sending the tree and its rows, and unpickling a tree would import
+        scipy.spatial in a process that may not need it."""
+        return {"queried": self.queried}
+
+    def __setstate__(self, state: dict[str, int]) -> None:
+        self._reset()
+        self.queried = int(state.get("queried", 0))
 
     def _forget(self, rows: int) -> None:
         """No cell known unbound (room for ``rows`` entry rows)."""

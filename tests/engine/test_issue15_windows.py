@@ -352,3 +352,22 @@ def test_node_table_update_by_an_unchanged_graph_keeps_the_table(seed: int, kind
         np.testing.assert_array_equal(fast.stable_since_ns, np.zeros(n, np.int64))
     if kind == "beyond":
         assert fast.stable_since_ns[0] == 10 * S
+
+
+def test_bind_index_travels_empty_and_answers_alike() -> None:
+    """A pickled memo (a parallel build's shard state) arrives empty, without its KD-tree,
+    and gives the same answers as before and as :func:`nearest_nodes`."""
+    import pickle
+
+    rng = np.random.default_rng(5)
+    nodes = rng.uniform(0, 20, (40, 3))
+    cells = rng.uniform(0, 20, (300, 3))
+    rows = np.arange(300)
+    keys = np.arange(300)
+    index = BindIndex()
+    before = index.nearest(rows, keys, cells, nodes, 1.5, 0.5)
+    copy = pickle.loads(pickle.dumps(index))
+    assert copy._tree is None
+    assert not copy._known.any()
+    np.testing.assert_array_equal(copy.nearest(rows, keys, cells, nodes, 1.5, 0.5), before)
+    np.testing.assert_array_equal(before, nearest_nodes(cells, nodes, 1.5, 0.5))

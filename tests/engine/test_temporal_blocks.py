@@ -90,3 +90,25 @@ def test_unique_equals_numpy_unique(values: list[int], spread: int) -> None:
         expect, expect_inverse = np.unique(k, return_inverse=True)
         np.testing.assert_array_equal(distinct, expect)
         np.testing.assert_array_equal(inverse, expect_inverse.reshape(-1))
+
+
+def test_pickled_state_sends_only_written_rows_and_arrives_equal() -> None:
+    """A learnt state with unwritten capacity pickles to the written rows only and unpickles
+    to equal arrays of the full capacity (a parallel build's shards travel this way)."""
+    import pickle
+
+    params = TemporalParams(ModelConfig())
+    state = _learnt(params, 40, _days(params, 40, 3, seed=11))
+    state.resize(400)  # reserved capacity, never written
+    assert state.high_water == 40
+    copy = pickle.loads(pickle.dumps(state))
+    assert copy.n_rows == 400
+    assert copy.high_water == 40
+    for name in ARRAYS:
+        np.testing.assert_array_equal(getattr(copy, name), getattr(state, name))
+    for block in ("glob", "obs"):
+        for f in ("n", "fourier", "profile", "first", "last"):
+            np.testing.assert_array_equal(
+                getattr(getattr(copy, block), f), getattr(getattr(state, block), f)
+            )
+    assert len(pickle.dumps(state)) < state.nbytes / 5  # 40 of 400 rows

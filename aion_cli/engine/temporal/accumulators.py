@@ -345,6 +345,37 @@ class TemporalState:
             getattr(self, name)[r] = 0.0
         self.touch()
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled with the rows below the high-water mark only: the rest were never written
+        (a parallel build's shards send their states to the parent, and a shard whose days
+        are held has written none)."""
+        keep = self.high_water
+        state: dict[str, Any] = {name: getattr(self, name)[:keep] for name in _ADDITIVE}
+        state["obs"] = ObsBlock(*(getattr(self.obs, f)[:keep] for f in _OBS_FIELDS))
+        state["glob"] = self.glob
+        state["rows"], state["high_water"] = self.n_rows, keep
+        state["generation"] = self.generation
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        keep = int(state["high_water"])
+        obs: ObsBlock = state["obs"]
+        full = TemporalState.empty(
+            int(state["rows"]),
+            state["cnt_profile"].shape[1],
+            obs.fourier.shape[1],
+            obs.profile.shape[1],
+            state["flow_score"].shape[1],
+            state["dir_score"].shape[1],
+        )
+        for name in _OBS_FIELDS:
+            getattr(full.obs, name)[:keep] = getattr(obs, name)
+        for name in _ADDITIVE:
+            getattr(full, name)[:keep] = state[name]
+        full.glob = state["glob"]
+        full.high_water, full.generation = keep, int(state["generation"])
+        self.__dict__.update(full.__dict__)
+
     def resize(self, rows: int) -> None:
         """Truncate to, or extend with empty rows up to, ``rows`` rows (in place); rows past
         the high-water mark are not copied."""
