@@ -38,6 +38,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.temporal.observation_block import _OBS_FIELDS, C128, ObsBlock
 from aion_cli.engine.temporal.stored_layout import (
     ROW_BLOCK,
     first_nonfinite,
@@ -52,9 +53,8 @@ from aion_cli.engine.temporal.stored_layout import (
 from aion_cli.engine.types import F64, I64, RowTake
 from aion_cli.errors import MapCorruptError
 
-C128 = npt.NDArray[np.complex128]
+__all__ = ["C128", "ObsBlock", "TemporalState"]
 
-_OBS_FIELDS = ("n", "fourier", "profile", "first", "last")
 _SCORES = (
     "flow_score",
     "flow_chi2",
@@ -68,77 +68,6 @@ _SCORES = (
 )
 _ADDITIVE = ("cnt_fourier", "cnt_profile", *_SCORES)
 _TALLIES = ("flow_scored", "flow_days", "dir_scored", "dir_days")
-
-
-@dataclass
-class ObsBlock:
-    """Observation sums of R rows over K periods and H profile bins (see module docstring)."""
-
-    n: F64
-    fourier: C128
-    profile: F64
-    first: F64
-    last: F64
-
-    @classmethod
-    def empty(cls, rows: int, periods: int, bins: int) -> ObsBlock:
-        return cls(
-            np.zeros(rows),
-            np.zeros((rows, periods), np.complex128),
-            np.zeros((rows, bins)),
-            np.full(rows, np.nan),
-            np.full(rows, np.nan),
-        )
-
-    def take(self, rows: npt.ArrayLike) -> ObsBlock:
-        r = np.asarray(rows, dtype=np.int64)
-        return ObsBlock(*(getattr(self, f)[r].copy() for f in _OBS_FIELDS))
-
-    def put(self, rows: I64, other: ObsBlock) -> None:
-        for f in _OBS_FIELDS:
-            getattr(self, f)[rows] = getattr(other, f)
-
-    def add_block(self, rows: I64, other: ObsBlock) -> None:
-        """``self[rows] += other`` (repeated rows accumulate; first = min, last = max)."""
-        np.add.at(self.n, rows, other.n)
-        np.add.at(self.fourier, rows, other.fourier)
-        np.add.at(self.profile, rows, other.profile)
-        np.fmin.at(self.first, rows, other.first)
-        np.fmax.at(self.last, rows, other.last)
-
-    def zero(self, rows: I64) -> None:
-        self.n[rows] = 0.0
-        self.fourier[rows] = 0.0
-        self.profile[rows] = 0.0
-        self.first[rows] = np.nan
-        self.last[rows] = np.nan
-
-    def to_arrays(self, prefix: str, rows: I64 | None = None) -> dict[str, Any]:
-        if rows is None:
-            return {prefix + f: getattr(self, f) for f in _OBS_FIELDS}
-        return {prefix + f: RowTake(getattr(self, f), rows) for f in _OBS_FIELDS}
-
-    @classmethod
-    def from_arrays(
-        cls,
-        arrays: Mapping[str, np.ndarray],
-        prefix: str,
-        rows: int,
-        periods: int,
-        bins: int,
-        copy: bool = True,
-    ) -> ObsBlock:
-        shapes = {
-            "n": (rows,),
-            "fourier": (rows, periods),
-            "profile": (rows, bins),
-            "first": (rows,),
-            "last": (rows,),
-        }
-        vals = {f: stored_member(arrays, prefix + f, shape, copy) for f, shape in shapes.items()}
-        if vals["fourier"].dtype != np.complex128:
-            raise MapCorruptError(f"{prefix}fourier must be complex128")
-        return cls(**vals)
 
 
 @dataclass
