@@ -20,6 +20,12 @@ What is drawn, back to front:
 
 A colour bar labelled "direction entropy" shows the same blue-to-red scale (0..1). Several
 scenes (a series of times) become small multiples sharing axes, flow scale and colour bar.
+
+**Where the code is.** This module draws the flows (:func:`draw_topdown`) and lays out the
+panels (:func:`topdown_figure`); the backdrop they are drawn over -- the window
+(:class:`Extent`), the mesh footprint (:class:`Footprint`, :func:`mesh_footprint`) and the room
+outlines (:class:`RoomOutlines`, :func:`room_outlines`), computed once per picture -- lives in
+:mod:`.backdrop` and is re-exported here for :mod:`.plan`, :mod:`.render` and the tests.
 """
 
 from __future__ import annotations
@@ -34,10 +40,25 @@ import numpy.typing as npt
 
 from aion_cli.errors import InputError
 from aion_cli.formats.export import EDGE_GREY, NO_FLOW_GREY, busy_fraction, entropy_colors
+from aion_cli.pictures.backdrop import (
+    LABEL_GREY,
+    MAX_ROOM_LABELS,
+    MESH_GREY,
+    ROOM_GREY,
+    Color,
+    Extent,
+    Footprint,
+    RoomOutlines,
+    _arrays,
+    _draw_footprint,
+    _draw_rooms,
+    _same_geometry,
+    mesh_footprint,
+    room_outlines,
+)
 from aion_cli.scene import Scene
 
 F64 = npt.NDArray[np.float64]
-Color = tuple[float, float, float]
 
 ARROW_CELLS = 4.0
 """The arrow of the busiest flow is this many hash cells long."""
@@ -45,11 +66,6 @@ ARROW_WIDTH = 0.0035
 """Arrow shaft width as a fraction of the panel width (one large panel; small multiples
 draw them relatively wider, :data:`PANEL_ARROW_WIDTH`, so they stay visible)."""
 PANEL_ARROW_WIDTH = 0.006
-MESH_GREY: Color = (0.9, 0.9, 0.9)
-ROOM_GREY: Color = (0.45, 0.45, 0.45)
-LABEL_GREY: Color = (0.3, 0.3, 0.3)
-MAX_ROOM_LABELS = 60
-"""Rooms are labelled up to this many (outlined always)."""
 ENTROPY_LABEL = "direction entropy"
 DPI = 120
 MAX_PANELS = 24
@@ -78,21 +94,6 @@ class Marker:
     symbol: str = "o"
     color: Color = (0.0, 0.0, 0.0)
     size: float = 90.0
-
-
-@dataclass(frozen=True)
-class Extent:
-    """The x-y window a picture shows (m)."""
-
-    x0: float
-    x1: float
-    y0: float
-    y1: float
-
-    @property
-    def aspect(self) -> float:
-        """Height over width."""
-        return (self.y1 - self.y0) / (self.x1 - self.x0)
 
 
 def entropy_cmap() -> Any:
@@ -247,167 +248,6 @@ def draw_topdown(
         ax.set_title(title, fontsize=10)
 
 
-def _arrays(polygons: F64) -> Any:
-    """Polygons f64[n,k,2] as handed to a matplotlib collection: the 3-d array itself, which
-    matplotlib turns into paths on its fast path (typed as a sequence, hence ``Any``)."""
-    return polygons
-
-
-@dataclass(frozen=True)
-class Footprint:
-    """A mesh's footprint rendered once as an RGBA image covering ``extent`` (transparent
-    where there is no triangle), drawn into every panel with ``imshow``: a mesh of 10^5..10^6
-    triangles costs one rendering per picture, not one per panel."""
-
-    image: npt.NDArray[np.uint8]
-    extent: Extent
-
-
-def mesh_footprint(scene: Scene, extent: Extent, pixels: int) -> Footprint | None:
-    """The footprint of ``scene``'s mesh (triangles projected to x-y, :data:`MESH_GREY`) over
-    ``extent``, ``pixels`` wide; None without a mesh."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.collections import PolyCollection
-    from matplotlib.figure import Figure
-
-    mesh = scene.mesh
-    if mesh is None or len(mesh.faces) == 0:
-        return None
-    v = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)[:, :2]
-    f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
-    f = f[((f >= 0) & (f < len(v))).all(axis=1)]
-    width = max(int(pixels), 16)
-    height = max(round(width * extent.aspect), 16)
-    fig = Figure(figsize=(width / 100.0, height / 100.0), dpi=100)
-    canvas = FigureCanvasAgg(fig)
-    fig.patch.set_alpha(0.0)
-    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
-    ax.set_axis_off()
-    ax.add_collection(
-        PolyCollection(_arrays(v[f]), facecolors=[MESH_GREY], edgecolors="none", antialiased=False)
-    )
-    ax.set_xlim(extent.x0, extent.x1)
-    ax.set_ylim(extent.y0, extent.y1)
-    canvas.draw()
-    return Footprint(np.asarray(canvas.buffer_rgba()).copy(), extent)
-
-
-def _draw_footprint(ax: Any, footprint: Footprint | None) -> None:
-    if footprint is None:
-        return
-    box = footprint.extent
-    ax.imshow(
-        footprint.image,
-        extent=(box.x0, box.x1, box.y0, box.y1),
-        origin="upper",
-        interpolation="nearest",
-        zorder=0,
-    )
-
-
-@dataclass(frozen=True)
-class RoomOutlines:
-    """Each room's outline (the convex hull of its places, padded by one cell; rooms with
-    fewer than three places off one line have none) and its label at the centroid of its
-    places; computed once per picture (the panels of a series share the map's rooms)."""
-
-    hulls: tuple[F64, ...]
-    label_xy: F64
-    labels: tuple[str, ...]
-
-
-def room_outlines(scene: Scene) -> RoomOutlines:
-    """The :class:`RoomOutlines` of ``scene``; labels only up to :data:`MAX_ROOM_LABELS`
-    rooms (more could not be read)."""
-    from aion_cli.engine.node_ids import node_label
-
-    n_rooms = len(scene.room_ids)
-    room = scene.place_room
-    order = np.argsort(room, kind="stable")
-    bounds = np.searchsorted(room[order], np.arange(n_rooms + 1))
-    hulls: list[F64] = []
-    label_xy: list[F64] = []
-    labels: list[str] = []
-    for r in range(n_rooms):  # one hull per room: rooms are few
-        xy = scene.places_xyz[order[bounds[r] : bounds[r + 1]], :2]
-        hull = _padded_hull(xy, scene.cell_size)
-        if hull is not None:
-            hulls.append(hull)
-        centre = xy.mean(axis=0) if len(xy) else scene.room_xyz[r, :2]
-        if n_rooms <= MAX_ROOM_LABELS and np.isfinite(centre).all():
-            name = scene.room_labels[r] if r < len(scene.room_labels) else ""
-            label_xy.append(centre)
-            labels.append(name or node_label(int(scene.room_ids[r])))
-    xy_all = np.asarray(label_xy, dtype=np.float64).reshape(-1, 2)
-    return RoomOutlines(tuple(hulls), xy_all, tuple(labels))
-
-
-def _draw_rooms(ax: Any, rooms: RoomOutlines, label_size: float) -> None:
-    import matplotlib.patheffects as effects
-    from matplotlib.collections import PolyCollection
-
-    if rooms.hulls:
-        ax.add_collection(
-            PolyCollection(
-                list(rooms.hulls),
-                facecolors="none",
-                edgecolors=[ROOM_GREY],
-                linestyles="--",
-                linewidths=0.8,
-                zorder=1,
-            )
-        )
-    halo = [effects.withStroke(linewidth=2.5, foreground="white")]
-    for (x, y), label in zip(rooms.label_xy.tolist(), rooms.labels, strict=True):
-        ax.text(
-            x,
-            y,
-            label,
-            fontsize=label_size,
-            color=LABEL_GREY,
-            ha="center",
-            va="center",
-            zorder=15,
-            path_effects=halo,
-        )
-
-
-def _padded_hull(xy: F64, pad: float) -> F64 | None:
-    """The convex hull of ``xy`` pushed out by ``pad`` from its centroid; None for fewer than
-    three points not on one line."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    xy = np.unique(xy[np.isfinite(xy).all(axis=1)], axis=0)
-    if len(xy) < 3:
-        return None
-    try:
-        corners = xy[ConvexHull(xy).vertices]
-    except QhullError:  # all on one line
-        return None
-    out = corners - corners.mean(axis=0)
-    norm = np.linalg.norm(out, axis=1, keepdims=True)
-    return np.asarray(corners + out / np.maximum(norm, 1e-12) * pad)
-
-
-def _same_geometry(a: Scene, b: Scene) -> bool:
-    """Whether two scenes have the same mesh, places and rooms (the times of one map)."""
-    same_mesh = a.mesh is b.mesh or (
-        a.mesh is not None
-        and b.mesh is not None
-        and np.array_equal(a.mesh.vertices, b.mesh.vertices)
-        and np.array_equal(a.mesh.faces, b.mesh.faces)
-    )
-    return (
-        same_mesh
-        and a.cell_size == b.cell_size
-        and a.room_labels == b.room_labels
-        and np.array_equal(a.room_ids, b.room_ids)
-        and np.array_equal(a.place_room, b.place_room)
-        and np.array_equal(a.places_xyz, b.places_xyz)
-        and np.array_equal(a.room_xyz, b.room_xyz, equal_nan=True)
-    )
-
-
 def _grid(n: int, aspect: float) -> tuple[int, int, float, float]:
     """Rows, columns and panel size (inches) for ``n`` panels of height/width ``aspect``: one
     wide panel, or the column count that makes the page closest to 3:2 landscape."""
@@ -511,3 +351,31 @@ def topdown_figure(
         color=LABEL_GREY,
     )
     return fig
+
+
+__all__ = [
+    "ARROW_CELLS",
+    "ARROW_WIDTH",
+    "DPI",
+    "ENTROPY_LABEL",
+    "LABEL_GREY",
+    "MAX_PANELS",
+    "MAX_ROOM_LABELS",
+    "MESH_GREY",
+    "PANEL_ARROW_WIDTH",
+    "PANEL_WIDTH_IN",
+    "ROOM_GREY",
+    "SINGLE_WIDTH_IN",
+    "Color",
+    "Extent",
+    "Footprint",
+    "Marker",
+    "PathLine",
+    "RoomOutlines",
+    "draw_topdown",
+    "entropy_cmap",
+    "mesh_footprint",
+    "room_outlines",
+    "scene_extent",
+    "topdown_figure",
+]

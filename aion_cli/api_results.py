@@ -1,0 +1,136 @@
+"""The results of the Python API's queries: :class:`Table` (``Map.predict``, the records of
+``aion predict``) and :class:`Plan` (``Map.plan``, the paths of ``aion plan``).
+
+They are plain frozen values that need no map once made (``to_dict`` gives the document the
+CLI prints as JSON), so they live apart from :mod:`aion_cli.api`'s :class:`~aion_cli.api.Map`,
+which makes them; :mod:`aion_cli.api` re-exports both, and ``aion_cli.api.Table`` /
+``aion_cli.api.Plan`` (and ``aion.Table`` / ``aion.Plan``) stay the names to use.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from aion_cli.errors import InputError
+
+if TYPE_CHECKING:
+    from aion_cli.routes import Route, Routes
+    from aion_cli.timeparse import Zone
+
+
+@dataclass(frozen=True)
+class Table:
+    """Flows per entry at one time (or as observed): the records of ``aion predict``.
+
+    ``time_ns`` is None for a historical table; ``entries`` are the records, busiest first,
+    with the fields of ``aion predict --format json`` (``id``, ``kind``, ``x`` .. ``flow``,
+    ``histogram``, ``family`` ...)."""
+
+    map: str
+    time_ns: int | None
+    time: str | None
+    zone: str | None
+    bins: int
+    entries: tuple[dict[str, Any], ...]
+
+    def records(self) -> list[dict[str, Any]]:
+        """The entries as a list of fresh dicts (safe to change)."""
+        return [dict(e, histogram=list(e["histogram"])) for e in self.entries]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The document ``aion predict --format json`` prints."""
+        from aion_cli.predictions import document
+
+        doc = document(self.map, self.bins, self.records(), self.time_ns, None)
+        doc.update(
+            mode="historical" if self.time_ns is None else "predicted",
+            time=self.time,
+            zone=self.zone,
+        )
+        return doc
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        return iter(self.records())
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A planned path (``aion plan``): node labels, length, walking time, temporal cost and
+    arrival times; ``distance_only`` is the shortest path beside it, with the temporal cost
+    it would have had."""
+
+    start: str
+    goal: str
+    depart: str
+    depart_ns: int
+    zone: str
+    speed_mps: float
+    nodes: list[str]
+    length_m: float
+    duration_s: float
+    cost: float
+    arrival: list[str]
+    distance_only: Plan | None = None
+    snapped: list[dict[str, Any]] = field(default_factory=list)
+
+    @classmethod
+    def from_routes(
+        cls, routes: Routes, zone: Zone, snapped: Sequence[dict[str, Any]] = ()
+    ) -> Plan:
+        """The plan of :func:`aion_cli.routes.plan_routes`' two routes, times shown in
+        ``zone`` (``aion plan`` prints its :meth:`to_dict`)."""
+        from aion_cli.engine.node_ids import node_label
+        from aion_cli.timeparse import format_ns
+
+        depart = routes.depart_ns
+        if depart is None:
+            raise InputError("a plan departs at a time")
+
+        def of(route: Route, other: Plan | None) -> Plan:
+            return cls(
+                node_label(routes.start),
+                node_label(routes.goal),
+                format_ns(depart, zone),
+                depart,
+                zone.name,
+                routes.speed_mps,
+                route.nodes,
+                route.length_m,
+                route.duration_s,
+                route.cost,
+                [format_ns(t, zone) for t in route.arrival_ns],
+                other,
+                [dict(x) for x in snapped],
+            )
+
+        return of(routes.temporal, of(routes.distance_only, None))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The document ``aion plan --format json`` prints (without ``map``)."""
+        other = self.distance_only or self
+
+        def part(p: Plan) -> dict[str, Any]:
+            return {
+                "path": list(p.nodes),
+                "length_m": p.length_m,
+                "duration_s": p.duration_s,
+                "cost": p.cost,
+                "arrival": list(p.arrival),
+            }
+
+        return {
+            "from": self.start,
+            "to": self.goal,
+            "depart": self.depart,
+            "depart_ns": self.depart_ns,
+            "zone": self.zone,
+            "speed_mps": self.speed_mps,
+            "temporal": part(self),
+            "distance_only": part(other),
+            "snapped": [dict(s) for s in self.snapped],
+        }
