@@ -7,14 +7,17 @@ every detection's direction bin, each predicted by the model as it stood before 
 The choice prefers the simpler family (families are listed simplest first) unless the
 evidence is clear: a family replaces the default only if its score beats the default's by more
 than ``family_margin`` nats, and — for an entry choosing against ``static`` — only if it won
-consistently, day after day (its mean daily gain at least :data:`T_CONSISTENT` standard errors
-above zero once two or more days were scored), so one lucky day cannot make an entry's
-forecast time-dependent. Defaults pool evidence up the hierarchy: the map chooses from the
-sum of all entries' scores (default ``static``), each group from its members' sums (default:
-the map's choice), and an entry from its own scores with the default *borrowed* from its group —
-``shape`` (its static rate times the group's periodic shape) when the group's flow varies in
-time, ``static`` otherwise; for directions the entry's default is ``static`` (its histogram is
-already pooled toward the group's). Disabled families (``ModelConfig.families``) never win.
+consistently, day after day: once two or more days were scored, its daily gains must pass a
+one-sided Student t-test at the 5 % level (:func:`t_critical`; mean daily gain over its
+standard error with the sample variance, n − 1 degrees of freedom), so a few lucky days cannot
+make an entry's forecast time-dependent — the fewer the days, the clearer the win must be.
+
+Defaults pool evidence up the hierarchy: the map chooses from the sum of all entries' scores
+(default ``static``), each group from its members' sums (default: the map's choice), and an
+entry from its own scores with the default *borrowed* from its group — ``shape`` (its static
+rate times the group's periodic shape) when the group's flow varies in time, ``static``
+otherwise; for directions the entry's default is ``static`` (its histogram is already pooled
+toward the group's). Disabled families (``ModelConfig.families``) never win.
 
 The predictive spread: the Pearson dispersion φ = χ² / windows of the chosen flow family's
 day-ahead residuals, pooled toward the map's with 10 pseudo-windows and at least 1 (Poisson);
@@ -30,9 +33,23 @@ from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.types import F64, I64
 
 _DISPERSION_PRIOR = 10.0
-T_CONSISTENT = 2.0
-"""A family replaces ``static`` for an entry only if its mean daily gain is at least this many
-standard errors above zero (over two or more scored days)."""
+_T95 = (
+    6.314, 2.920, 2.353, 2.132, 2.015, 1.943, 1.895, 1.860, 1.833, 1.812,
+    1.796, 1.782, 1.771, 1.761, 1.753, 1.746, 1.740, 1.734, 1.729, 1.725,
+    1.721, 1.717, 1.714, 1.711, 1.708, 1.706, 1.703, 1.701, 1.699, 1.697,
+)  # fmt: skip
+"""One-sided 95 % quantiles of Student's t with 1..30 degrees of freedom (standard tables)."""
+
+
+def t_critical(df: npt.ArrayLike) -> F64:
+    """One-sided 5 % critical value of Student's t with ``df`` >= 1 degrees of freedom: the
+    table up to 30, then the normal quantile 1.645 with the first Cornish–Fisher term
+    (z³ + z) / (4 df), which meets the table at 30 (1.696 against 1.697)."""
+    d = np.asarray(df, dtype=np.int64)
+    table = np.array(_T95)
+    tail = 1.645 + 1.524 / np.maximum(d, 1)
+    out: F64 = np.where(d <= len(_T95), table[np.clip(d, 1, len(_T95)) - 1], tail)
+    return out
 
 
 def _choose(
@@ -45,8 +62,8 @@ def _choose(
     """Per row: the best enabled family if it beats ``default`` by more than ``margin``.
 
     ``consistency`` = (Σ_days gain², days, static index): against ``static``, a family must
-    also win consistently over the scored days — mean daily gain at least
-    :data:`T_CONSISTENT` standard errors above zero — once there are two days or more."""
+    also win consistently over the scored days — its daily gains pass the one-sided t-test of
+    the module docstring — once there are two days or more."""
     masked = np.where(enabled[None, :], scores, -np.inf)
     rows = np.arange(len(default))
     best = masked.argmax(axis=1)
@@ -58,9 +75,10 @@ def _choose(
         if vs_static.any():
             n = days[vs_static]
             mean = (scores[vs_static, best[vs_static]] - scores[vs_static, static]) / n
-            var = np.maximum(gain_sq[vs_static, best[vs_static]] / n - mean**2, 0.0)
-            t = mean * np.sqrt(n) / np.sqrt(np.maximum(var, 1e-300))
-            ok[vs_static] &= t >= T_CONSISTENT
+            sum_sq = gain_sq[vs_static, best[vs_static]]
+            sample_var = np.maximum(sum_sq - n * mean**2, 0.0) / (n - 1)
+            t = mean * np.sqrt(n) / np.sqrt(np.maximum(sample_var, 1e-300))
+            ok[vs_static] &= t >= t_critical(np.round(n).astype(np.int64) - 1)
     out: I64 = np.where(ok, best, default)
     return out
 
