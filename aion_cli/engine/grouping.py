@@ -4,7 +4,8 @@ A stable sort by the key puts equal keys together without reordering them, so su
 group by group run in the rows' own order (and equal what one pass over all rows gives per
 group). :func:`split_by_key` returns the non-empty groups; :func:`cut_by_key` returns the
 sorted order and where each of given key bounds falls in it, so groups without rows (a block
-of candidates none of whose entries has a pair) are slices of length 0.
+of candidates none of whose entries has a pair) are slices of length 0;
+:func:`lexicographic_ranks` numbers rows of several keys (the temporal pooling groups).
 """
 
 from __future__ import annotations
@@ -30,3 +31,21 @@ def cut_by_key(keys: npt.NDArray[np.integer], bounds: npt.ArrayLike) -> tuple[I6
     order = np.argsort(keys, kind="stable")
     cut: I64 = np.searchsorted(keys[order], bounds)
     return order, cut
+
+
+def lexicographic_ranks(keys: I64) -> tuple[I64, int]:
+    """Per row of ``keys[n, k]``, the index of its distinct row in lexicographic order, and the
+    number of distinct rows: ``np.unique(keys, axis=0, return_inverse=True)``, with one
+    ``lexsort`` instead of sorting rows as structured values (~10x faster on 10^5 rows; a
+    query of a large map pays it once)."""
+    n = len(keys)
+    if n == 0:
+        return np.zeros(0, np.int64), 0
+    order = np.lexsort(keys.T[::-1])
+    ranked = keys[order]
+    new = np.ones(n, dtype=bool)
+    new[1:] = np.any(ranked[1:] != ranked[:-1], axis=1)
+    ids = np.cumsum(new) - 1
+    inverse = np.empty(n, dtype=np.int64)
+    inverse[order] = ids
+    return inverse, int(ids[-1]) + 1

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from aion_cli.engine.grouping import cut_by_key, split_by_key
+from aion_cli.engine.grouping import cut_by_key, lexicographic_ranks, split_by_key
 
 KEYS = st.lists(st.integers(min_value=-5, max_value=5), max_size=60)
 
@@ -33,3 +33,22 @@ def test_cut_by_key_slices_every_bound_even_empty_ones(values: list[int]) -> Non
         np.testing.assert_array_equal(np.sort(part), expect)
         for key in np.unique(keys[part]).tolist():  # equal keys keep their own order
             assert np.all(np.diff(part[keys[part] == key]) > 0)
+
+
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 1), st.integers(-3, 3), st.integers(-2**62, 2**62)),
+        max_size=60,
+    )
+)
+def test_lexicographic_ranks_equal_unique_rows(rows: list[tuple[int, int, int]]) -> None:
+    """The group numbering equals ``np.unique(axis=0)``'s inverse and count, signed keys
+    included."""
+    keys = np.array(rows, dtype=np.int64).reshape(-1, 3)
+    inverse, count = lexicographic_ranks(keys)
+    if len(keys) == 0:
+        assert count == 0
+        return
+    distinct, expected = np.unique(keys, axis=0, return_inverse=True)
+    np.testing.assert_array_equal(inverse, expected.reshape(-1))
+    assert count == len(distinct)

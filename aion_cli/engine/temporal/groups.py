@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.grouping import lexicographic_ranks
 from aion_cli.engine.types import F64, I64, U64
 
 _NODE = 1
@@ -47,5 +48,5 @@ def entry_groups(
     )
     if n == 0:
         return np.zeros(0, np.int64), 0
-    uniq, inverse = np.unique(keys, axis=0, return_inverse=True)
-    return inverse.reshape(-1).astype(np.int64), len(uniq)
+    return lexicographic_ranks(keys)
+
