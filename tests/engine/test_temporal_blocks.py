@@ -112,3 +112,29 @@ def test_pickled_state_sends_only_written_rows_and_arrives_equal() -> None:
                 getattr(getattr(copy, block), f), getattr(getattr(state, block), f)
             )
     assert len(pickle.dumps(state)) < state.nbytes / 5  # 40 of 400 rows
+
+
+def test_total_spectrum_is_computed_on_first_use_and_equals_the_eager_one() -> None:
+    """``Forecaster`` computes an entry's FreMEn total spectrum only when a FreMEn flow is
+    asked for it; the components of any subset, asked in any order, equal those of all
+    entries computed at once (bit for bit: every step is row by row)."""
+    params = TemporalParams.from_config(ModelConfig())
+    state = _learnt(params, 40, _days(params, 40, 4, seed=5))
+    rows = np.arange(40, dtype=np.int64)
+    groups = rows // 5
+    pool = forecast.PoolStats.of(params, state, rows, groups, 8)
+    eager = forecast.Forecaster(params, state, rows, groups, pool)
+    eager.ensure_total()
+    lazy = forecast.Forecaster(params, state, rows, groups, pool)
+    assert not lazy._total_done.any()
+    h, t_s = np.zeros(3, np.int64), np.full(3, 1.0e6)
+    some = np.array([31, 2, 17])
+    lazy.flow("static", some, h, t_s)
+    lazy.flow("profile", some, h, t_s)
+    assert not lazy._total_done.any()  # no FreMEn asked: nothing computed
+    got = lazy.flow("fremen2", some, h, t_s)
+    assert sorted(np.flatnonzero(lazy._total_done).tolist()) == [2, 17, 31]
+    np.testing.assert_array_equal(got, eager.flow("fremen2", some, h, t_s))
+    np.testing.assert_array_equal(lazy.coef_total, eager.coef_total)  # the rest on access
+    np.testing.assert_array_equal(lazy.period_idx, eager.period_idx)
+    assert lazy._total_done.all()

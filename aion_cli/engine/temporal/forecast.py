@@ -214,32 +214,58 @@ class Forecaster:
         return shape
 
     def _fremen(self, first: F64, last: F64) -> None:
-        """FreMEn components: the M strongest admitted periods of each entry's *total*
-        spectrum with their coefficients (``period_idx``, ``coef_total``: the flow family),
-        and — computed on first use, per entry — each value bin's own M strongest
-        (``bin_idx``, ``coef_bins`` complex[E, V, M]: per-bin rates and directions, so opposite
-        flows that cancel in the total, east in the morning and west in the evening, keep
-        their rhythm)."""
+        """FreMEn components, each computed on first use, per entry: the M strongest admitted
+        periods of each entry's *total* spectrum with their coefficients (``period_idx``,
+        ``coef_total``: the flow family; :meth:`ensure_total`), and each value bin's own M
+        strongest (``bin_idx``, ``coef_bins`` complex[E, V, M]: per-bin rates and directions,
+        so opposite flows that cancel in the total, east in the morning and west in the
+        evening, keep their rhythm). A query of a large map then reads the Fourier sums of
+        only the entries whose chosen family is FreMEn; every computation is row by row, so
+        what is computed does not depend on which rows are asked together."""
         p = self.params
         m, e, v = p.max_order, self.rows.size, p.values
-        self.period_idx = np.zeros((e, m), dtype=np.int64)
-        self.coef_total = np.zeros((e, m), dtype=np.complex128)
+        self._period_idx = np.zeros((e, m), dtype=np.int64)
+        self._coef_total = np.zeros((e, m), dtype=np.complex128)
         self.bin_idx = np.zeros((e, v, m), dtype=np.int64)
         self.coef_bins = np.zeros((e, v, m), dtype=np.complex128)
         self._bins_depth = np.zeros(e, dtype=np.int64)  # per-bin components computed so far
         self._flat: dict[tuple[int, int], tuple[I64, F64, F64]] = {}
         self._times: tuple[F64, C128] = (np.zeros(0), np.zeros((0, p.n_periods), complex))
         self._gate = admitted(first, last, p.min_span)
+        self._total_done = np.zeros(e, dtype=bool)
         if m == 0 or e == 0:
             self._bins_depth[:] = m
-            return
-        for a in range(0, e, _BLOCK):
-            pos = np.arange(a, min(a + _BLOCK, e))
+            self._total_done[:] = True
+
+    def ensure_total(self, e: I64 | None = None) -> None:
+        """Compute ``period_idx`` / ``coef_total`` of entry positions ``e`` (every entry if
+        None) where not yet computed, in blocks of :data:`_BLOCK` entries."""
+        if e is None:
+            todo = np.flatnonzero(~self._total_done)
+        else:
+            e = np.asarray(e, dtype=np.int64)
+            todo = np.unique(e[~self._total_done[e]])
+        m = self.params.max_order
+        for a in range(0, todo.size, _BLOCK):
+            pos = todo[a : a + _BLOCK]
             total = self._gamma(pos).sum(axis=1)
             idx, valid = top_periods(total, self._gate[pos], m)
             coef = np.take_along_axis(total, idx, axis=1)
             coef[~valid] = 0.0
-            self.period_idx[pos], self.coef_total[pos] = idx, coef
+            self._period_idx[pos], self._coef_total[pos] = idx, coef
+        self._total_done[todo] = True
+
+    @property
+    def period_idx(self) -> I64:
+        """The M strongest admitted periods of every entry's total spectrum, int64[E, M]."""
+        self.ensure_total()
+        return self._period_idx
+
+    @property
+    def coef_total(self) -> C128:
+        """Their coefficients γ, complex128[E, M] (0 where fewer periods are admitted)."""
+        self.ensure_total()
+        return self._coef_total
 
     def _gamma(self, pos: I64) -> C128:
         """γ_{v,k} = (A − μ B) / W of entries at positions ``pos``: complex[n, V, K]."""
@@ -321,9 +347,10 @@ class Forecaster:
         """Cumulative FreMEn terms of the total, float64[P, M]: column j sums periods 0..j."""
 
         def compute() -> F64:
+            self.ensure_total(e)
             table, inverse = self._rotation_table(t_s)
-            rot = table[inverse[:, None], self.period_idx[e]]
-            out: F64 = np.cumsum(2.0 * (self.coef_total[e] * rot).real, axis=1)
+            rot = table[inverse[:, None], self._period_idx[e]]
+            out: F64 = np.cumsum(2.0 * (self._coef_total[e] * rot).real, axis=1)
             return out
 
         out: F64 = self._memo("total", e, t_s, compute)
@@ -420,7 +447,8 @@ class Forecaster:
         """A lower bound of the FreMEn forecast over all times: μ − Σ 2|γ| (for skipping the
         per-window clamp where it cannot bite)."""
         m = int(family.removeprefix("fremen"))
-        out: F64 = self.rate_total[e] - 2.0 * np.abs(self.coef_total[e, :m]).sum(axis=1)
+        self.ensure_total(e)
+        out: F64 = self.rate_total[e] - 2.0 * np.abs(self._coef_total[e, :m]).sum(axis=1)
         return out
 
     def direction(self, family: str, e: I64, h: I64, t_s: F64) -> F64:

@@ -99,6 +99,7 @@ def _score(
         )
         rows = candidates[a : a + _ENTRIES]
         fc = Forecaster(params, state, rows, groups[position[a : a + _ENTRIES]], pool)
+        fc.ensure_total()  # every family of every candidate is scored
         _score_block(params, state, block, rows, fc, t_s, h)
 
 
