@@ -240,12 +240,15 @@ def office(
       aion evaluate office --scenes 20 --days 2 --format json > table1.json
     """
     from aion_cli.cli.console import note
-    from aion_cli.evaluation.office import run_office
+    from aion_cli.evaluation.office import run_office, truth_sentence
 
     result = run_office(scenes, days, agents, seed, _config(config_path), radius,
                         work_dir=work_dir, progress=note)
     emit(fmt, result.table(), TABLE_I_COLUMNS, json_payload=result.to_dict(),
          title=f"aion vs grid, {scenes} office scenes x {agents} people, {days:g} days each")
+    means = result.truth_means()
+    if fmt.lower() == "table" and means:
+        click.echo(truth_sentence(means))
 
 
 @evaluate.command("report")

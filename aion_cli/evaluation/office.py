@@ -151,6 +151,45 @@ class OfficeResult:
     def to_dict(self) -> dict[str, Any]:
         return {"table": self.table(), "scenes": self.scenes}
 
+    def truth_means(self) -> dict[str, float]:
+        """The mean over scenes of each ground-truth figure (:data:`TRUTH_FIELDS`; NaN-skipping,
+        NaN where no scene has it); empty when no scene was compared with the truth."""
+        truth = [s["truth"] for s in self.scenes if s.get("truth", {}).get("places_compared")]
+        if not truth:
+            return {}
+        out = {}
+        for key in TRUTH_FIELDS:
+            values = np.array([t.get(key, math.nan) for t in truth], dtype=float)
+            out[key] = float(np.nanmean(values)) if np.isfinite(values).any() else math.nan
+        return out
+
+
+TRUTH_FIELDS = (
+    "direction_js",
+    "flow_correlation",
+    "flow_correlation_expected",
+    "flow_correlation_previous_day",
+    "flow_correlation_oracle",
+)
+"""The per-scene ground-truth figures (see :func:`_truth_scores`)."""
+
+
+def truth_sentence(means: dict[str, float]) -> str:
+    """One line for people: aion's forecast against the truth, with the two references."""
+
+    def num(key: str) -> str:
+        value = means.get(key, math.nan)
+        return "n/a" if not math.isfinite(value) else f"{value:.3f}"
+
+    return (
+        "against the ground truth (mean over scenes): predicted flow per place and window "
+        f"correlates {num('flow_correlation')} with one day's true counts and "
+        f"{num('flow_correlation_expected')} with the expected flow (the other scenes' mean); "
+        f"references: the previous day's true counts {num('flow_correlation_previous_day')}, "
+        f"each place's in-sample hour mean {num('flow_correlation_oracle')}; direction JS "
+        f"{num('direction_js')}"
+    )
+
 
 def compare_scalar(a: F64, g: F64) -> dict[str, float]:
     """JS and Bhattacharyya between spatial distributions; W1 between max-normalised values."""

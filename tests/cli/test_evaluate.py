@@ -37,3 +37,17 @@ def test_missing_data_folder_is_a_one_line_error(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert proc.stderr.startswith("error: ATC data folder not found")
     assert "Traceback" not in proc.stderr
+
+
+def test_office_table_says_how_the_forecast_meets_the_truth() -> None:
+    """`aion evaluate office` in table form prints Table I and one line against the ground
+    truth whose figures are the JSON's scene means."""
+    result = CliRunner().invoke(
+        cli,
+        ["evaluate", "office", "--scenes", "2", "--days", "0.5", "--format", "table"],
+        standalone_mode=False,
+    )
+    assert result.exception is None, result.output
+    line = next(x for x in result.stdout.splitlines() if x.startswith("against the ground truth"))
+    assert "with the expected flow" in line
+    assert "previous day" in line

@@ -131,3 +131,30 @@ def test_one_small_office_scene_end_to_end() -> None:
     assert scene["truth"]["places_compared"] > 0
     assert scene["grid_bytes"] > 0
     assert result.figure is not None
+
+
+def test_truth_means_skip_missing_figures() -> None:
+    """Scene means of the truth figures: NaN-skipping, NaN where no scene has a figure, empty
+    without any compared scene; the sentence shows them rounded and n/a for NaN."""
+    from aion_cli.evaluation.office import OfficeResult, truth_sentence
+
+    none = OfficeResult(scenes=[{"truth": {"places_compared": 0.0}}])
+    assert none.truth_means() == {}
+    result = OfficeResult(
+        scenes=[
+            {"truth": {"places_compared": 5.0, "flow_correlation": 0.2, "direction_js": 0.4,
+                       "flow_correlation_expected": math.nan}},
+            {"truth": {"places_compared": 7.0, "flow_correlation": 0.4, "direction_js": 0.2,
+                       "flow_correlation_previous_day": 0.1}},
+            {"truth": {"places_compared": 0.0, "flow_correlation": 9.0}},  # not compared
+        ]
+    )
+    means = result.truth_means()
+    assert means["flow_correlation"] == pytest.approx(0.3)
+    assert means["direction_js"] == pytest.approx(0.3)
+    assert means["flow_correlation_previous_day"] == pytest.approx(0.1)
+    assert math.isnan(means["flow_correlation_expected"])
+    assert math.isnan(means["flow_correlation_oracle"])
+    text = truth_sentence(means)
+    assert "correlates 0.300 with one day's true counts" in text
+    assert "n/a with the expected flow" in text
