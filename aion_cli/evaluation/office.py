@@ -23,7 +23,8 @@ Per scene (``docs/EVALUATION.md`` has the full definition):
 The mean ± standard deviation over scenes forms the table; the paper's numbers are printed beside.
 Ground truth: the simulator's true flow per place and window (every agent, seen or not) is
 compared with aion's predictions per node (direction JS divergence, correlation of flow with
-one day's true counts and with the expected counts, the other scenes' mean).
+one day's true counts and with the expected counts, the other scenes' mean): that comparison
+lives in :mod:`.office_truth` and is re-exported here.
 """
 
 from __future__ import annotations
@@ -46,8 +47,15 @@ from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.query import EntryTable, historical_table, predict_table
 from aion_cli.engine.types import DetectionBatch, Trajectory
 from aion_cli.evaluation import metrics
-from aion_cli.evaluation.baselines import DAY_HOURS, HOUR_NS
 from aion_cli.evaluation.grid import GridMoD, GridSpec, expected_counts_per_window
+from aion_cli.evaluation.office_truth import (
+    TRUTH_FIELDS,
+    FlowSeries,
+    _truth_scores,
+    expected_flow_correlations,
+    reference_forecasts,
+    truth_sentence,
+)
 
 F64 = npt.NDArray[np.float64]
 BoolA = npt.NDArray[np.bool_]
@@ -108,21 +116,6 @@ class MapView:
         return np.isfinite(self.flow) & (self.flow > 0)
 
 
-@dataclass(frozen=True)
-class FlowSeries:
-    """One scene's flow forecasts beside the truth they are scored on: aion's predicted flow
-    per window ``predicted[k]`` for environment place ``place[k]`` in the window starting at
-    ``window_start[k]``, and the scene's true counts of all agents ``counts[W, m]`` per window
-    start ``starts[W]`` and environment place ``place_ids[m]``."""
-
-    place: npt.NDArray[np.uint64]
-    window_start: npt.NDArray[np.int64]
-    predicted: F64
-    place_ids: npt.NDArray[np.uint64]
-    starts: npt.NDArray[np.int64]
-    counts: F64
-
-
 @dataclass
 class OfficeResult:
     scenes: list[dict[str, Any]] = field(default_factory=list)
@@ -162,33 +155,6 @@ class OfficeResult:
             values = np.array([t.get(key, math.nan) for t in truth], dtype=float)
             out[key] = float(np.nanmean(values)) if np.isfinite(values).any() else math.nan
         return out
-
-
-TRUTH_FIELDS = (
-    "direction_js",
-    "flow_correlation",
-    "flow_correlation_expected",
-    "flow_correlation_previous_day",
-    "flow_correlation_oracle",
-)
-"""The per-scene ground-truth figures (see :func:`_truth_scores`)."""
-
-
-def truth_sentence(means: dict[str, float]) -> str:
-    """One line for people: aion's forecast against the truth, with the two references."""
-
-    def num(key: str) -> str:
-        value = means.get(key, math.nan)
-        return "n/a" if not math.isfinite(value) else f"{value:.3f}"
-
-    return (
-        "against the ground truth (mean over scenes): predicted flow per place and window "
-        f"correlates {num('flow_correlation')} with one day's true counts and "
-        f"{num('flow_correlation_expected')} with the expected flow (the other scenes' mean); "
-        f"references: the previous day's true counts {num('flow_correlation_previous_day')}, "
-        f"each place's in-sample hour mean {num('flow_correlation_oracle')}; direction JS "
-        f"{num('direction_js')}"
-    )
 
 
 def compare_scalar(a: F64, g: F64) -> dict[str, float]:
@@ -354,127 +320,6 @@ def _robot_observation(data: Any) -> ObservationSource | None:
     return source
 
 
-def _truth_scores(
-    truth_npz: Path, state: Any, times_ns: npt.NDArray[np.int64]
-) -> tuple[dict[str, float], FlowSeries | None]:
-    """aion against the simulator's ground truth, per place that became an aion node; and the
-    forecasts with the scene's true counts, for :func:`expected_flow_correlations`.
-
-    ``direction_js``: mean JS divergence between aion's historical direction histogram and the
-    true histogram of all agents (every position, seen or not). ``flow_correlation``: Pearson
-    correlation, over (place, time) pairs, between aion's predicted flow per window at the
-    given times and the true count of agents in the window containing each time.
-
-    Two references bound what any forecast can reach on counts this sparse (a few agent
-    positions per place and window): ``flow_correlation_previous_day``, the true counts of all
-    agents (seen or not) one day earlier in the same window, used as the forecast; and
-    ``flow_correlation_oracle``, each place's true mean count at that hour of the day over
-    every simulated day, the evaluated day included (in-sample: it has seen the answer).
-    """
-    with np.load(truth_npz, allow_pickle=False) as z:
-        ids, flow_counts, starts = z["place_ids"], z["flow_counts"], z["window_start_ns"]
-    table = historical_table(state)
-    row_of = {int(n): i for i, n in enumerate(table.node_id.tolist()) if n}
-    pairs = np.array(
-        [(row_of[int(p)], k) for k, p in enumerate(ids.tolist()) if int(p) in row_of],
-        dtype=np.int64,
-    ).reshape(-1, 2)
-    if len(pairs) == 0:
-        return {"places_compared": 0.0}, None
-    aion_hist = table.rate[pairs[:, 0]]
-    true_hist = flow_counts[:, pairs[:, 1], :].sum(axis=0).astype(float)
-    both = (aion_hist.sum(axis=1) > 0) & (true_hist.sum(axis=1) > 0)
-    js = metrics.js_divergence(aion_hist[both], true_hist[both]) if np.any(both) else None
-    counts = flow_counts[:, pairs[:, 1], :].sum(axis=2).astype(float)  # (W, places)
-    predicted, true, previous, oracle, windows = [], [], [], [], []
-    for t in times_ns.tolist():
-        w = int(np.searchsorted(starts, t, side="right")) - 1
-        if w < 0:
-            continue
-        windows.append(np.full(len(pairs), starts[w], np.int64))
-        pred = predict_table(state, int(t))
-        predicted.append(pred.descriptors.flow_per_window[pairs[:, 0]])
-        true.append(counts[w])
-        yesterday, hour_mean = reference_forecasts(counts, starts, w)
-        previous.append(yesterday)
-        oracle.append(hour_mean)
-    q = np.concatenate(true)
-    scores = {
-        "places_compared": float(len(pairs)),
-        "direction_js": float(js.mean()) if js is not None else math.nan,
-        "flow_correlation": _correlation(np.concatenate(predicted), q),
-        "flow_correlation_previous_day": _correlation(np.concatenate(previous), q),
-        "flow_correlation_oracle": _correlation(np.concatenate(oracle), q),
-    }
-    series = FlowSeries(
-        place=np.tile(ids[pairs[:, 1]].astype(np.uint64), len(windows)),
-        window_start=np.concatenate(windows) if windows else np.zeros(0, np.int64),
-        predicted=np.concatenate(predicted),
-        place_ids=ids.astype(np.uint64),
-        starts=starts.astype(np.int64),
-        counts=flow_counts.sum(axis=2).astype(float),
-    )
-    return scores, series
-
-
-def expected_flow_correlations(series: list[FlowSeries]) -> list[float]:
-    """Per scene, the correlation of aion's predicted flow with the *expected* true flow.
-
-    A single day's true counts are a few agent positions per place and window, so their
-    noise caps what any forecast can correlate with them (see the oracle in
-    :func:`_truth_scores`). The scenes share the office, its routine and their calendar and
-    differ only in their random draws, so the mean of the *other* scenes' true counts in the
-    same window at the same place estimates the expected flow there, independently of the
-    scene scored (leave-one-out). NaN where fewer than two scenes are given or a scene's pair
-    is missing from every other scene."""
-    if len(series) < 2:
-        return [math.nan] * len(series)
-    out = []
-    for k, s in enumerate(series):
-        others = np.vstack(
-            [_counts_at(o, s.window_start, s.place) for j, o in enumerate(series) if j != k]
-        )
-        n = np.isfinite(others).sum(axis=0)
-        expected = np.nansum(others, axis=0) / np.maximum(n, 1)
-        known = n > 0
-        out.append(_correlation(np.where(known, s.predicted, np.nan), expected))
-    return out
-
-
-def _counts_at(
-    series: FlowSeries, window_start: npt.NDArray[np.int64], place: npt.NDArray[np.uint64]
-) -> F64:
-    """``series``' true counts at each (window start, place) pair; NaN where it has none."""
-    w = np.searchsorted(series.starts, window_start).clip(0, max(len(series.starts) - 1, 0))
-    order = np.argsort(series.place_ids, kind="stable")
-    at = np.searchsorted(series.place_ids[order], place).clip(0, max(len(order) - 1, 0))
-    m = order[at]
-    found = (series.starts[w] == window_start) & (series.place_ids[m] == place)
-    return np.where(found, series.counts[w, m], np.nan)
-
-
-def reference_forecasts(
-    counts: npt.NDArray[np.float64], starts: npt.NDArray[np.int64], w: int
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """The two reference forecasts of window ``w`` from the true ``counts[W, places]``: the
-    counts one day earlier (NaN where the scene had not started) and each place's mean over
-    the windows at the same UTC hour of the day (every day, ``w``'s own included)."""
-    day, hour = DAY_HOURS * HOUR_NS, HOUR_NS
-    before = int(np.searchsorted(starts, starts[w] - day))
-    known = int(starts[before]) == int(starts[w]) - day  # before <= w: starts increase
-    previous = counts[before] if known else np.full(counts.shape[1], np.nan)
-    same_hour = (starts // hour) % DAY_HOURS == (starts[w] // hour) % DAY_HOURS
-    return previous, counts[same_hour].mean(axis=0)
-
-
-def _correlation(p: npt.NDArray[np.float64], q: npt.NDArray[np.float64]) -> float:
-    """Pearson correlation over the pairs where ``p`` is known (NaN if undefined)."""
-    ok = np.isfinite(p)
-    if ok.sum() <= 2 or q[ok].std() == 0 or p[ok].std() == 0:
-        return math.nan
-    return float(np.corrcoef(p[ok], q[ok])[0, 1])
-
-
 def run_office(
     scenes: int = 20,
     days: float = 3.0,
@@ -509,3 +354,18 @@ def run_office(
     ):
         scene_figures["truth"]["flow_correlation_expected"] = corr
     return result
+
+
+__all__ = [
+    "PAPER_TABLE",
+    "TRUTH_FIELDS",
+    "FlowSeries",
+    "MapView",
+    "OfficeResult",
+    "compare_views",
+    "expected_flow_correlations",
+    "reference_forecasts",
+    "run_office",
+    "run_scene",
+    "truth_sentence",
+]
