@@ -99,7 +99,6 @@ def _score(
         )
         rows = candidates[a : a + _ENTRIES]
         fc = Forecaster(params, state, rows, groups[position[a : a + _ENTRIES]], pool)
-        fc.ensure_total()  # every family of every candidate is scored
         _score_block(params, state, block, rows, fc, t_s, h)
 
 
@@ -124,14 +123,11 @@ def _score_block(
     t_s: F64,
     h: I64,
 ) -> None:
-    """Score one block of candidates (``day`` holds only their pairs)."""
+    """Score one block of candidates (sorted; ``day`` holds only their pairs, as
+    :func:`_pairs_by_block` cut them, so every pair's entry is found among them)."""
     # observed windows of each candidate: the fixed slots plus its own pairs
-    slot_of = np.searchsorted(candidates, day.obs_entry)
-    own = (slot_of < candidates.size) & (
-        candidates[np.minimum(slot_of, candidates.size - 1)] == day.obs_entry
-    )
-    obs_e, obs_s = slot_of[own], day.obs_slot[own]
-    obs_e, obs_s = drop_fixed(obs_e, obs_s, day.fixed)
+    obs_e = np.searchsorted(candidates, day.obs_entry)
+    obs_e, obs_s = drop_fixed(obs_e, day.obs_slot, day.fixed)
     fixed_slots = np.flatnonzero(day.fixed)
     n_prof = params.n_profile
     per_bin = np.zeros((candidates.size, n_prof))
@@ -140,12 +136,8 @@ def _score_block(
         candidates.size, n_prof
     )
     windows = per_bin.sum(axis=1)
-    # count pairs of candidates
-    at = np.searchsorted(candidates, day.cnt_entry)
-    hit = (at < candidates.size) & (
-        candidates[np.minimum(at, candidates.size - 1)] == day.cnt_entry
-    )
-    ce, cs, cv = at[hit], day.cnt_slot[hit], day.cnt_values[hit]
+    # count pairs, by candidate position
+    ce, cs, cv = np.searchsorted(candidates, day.cnt_entry), day.cnt_slot, day.cnt_values
     n_total = cv.sum(axis=1)
     floor = params.config.rate_floor
     day_score = np.zeros((candidates.size, len(params.flow)))
