@@ -44,6 +44,7 @@ def drop_fixed(obs_e: I64, obs_s: I64, fixed: npt.NDArray[np.bool_]) -> tuple[I6
 def absorb_day(
     params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64
 ) -> None:
+    """Absorb the day's windows (model times ``t_s``, profile bins ``h`` per slot)."""
     n_prof = params.n_profile
     phasor = np.exp(1j * np.multiply.outer(t_s, params.omega))  # (S, K): e^{iωt}
     fixed = np.flatnonzero(day.fixed)
@@ -84,8 +85,7 @@ def _absorb_observed(
 ) -> None:
     """The entries' own observed windows into their observation blocks."""
     n_prof = params.n_profile
-    rows, inverse = np.unique(obs_e, return_inverse=True)
-    inverse = inverse.reshape(-1)
+    rows, inverse = _unique(obs_e)
     n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
     fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
     flat_bins = inverse * n_prof + h[obs_s]
