@@ -46,7 +46,4 @@ def entry_groups(
             np.where(in_room, 0, cell[:, 1]),
         ]
     )
-    if n == 0:
-        return np.zeros(0, np.int64), 0
-    return lexicographic_ranks(keys)
-
+    return lexicographic_ranks(keys)  # (no rows: none and 0)
