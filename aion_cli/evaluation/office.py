@@ -267,11 +267,10 @@ def run_scene(
         "Historical": (discretise(historical_table(state), centres, radius), grid_view(grid, None))
     }
     last_day = data.end_ns - np.arange(eval_hours)[::-1] * (86_400_000_000_000 // eval_hours)
+    tables = [predict_table(state, int(t)) for t in last_day]  # for the grid and the truth
     predicted = [
-        compare_views(
-            discretise(predict_table(state, int(t)), centres, radius), grid_view(grid, int(t))
-        )
-        for t in last_day
+        compare_views(discretise(table, centres, radius), grid_view(grid, int(t)))
+        for t, table in zip(last_day, tables, strict=True)
     ]
     table = {f"{k}/Historical": v for k, v in compare_views(*views["Historical"]).items()}
     for kind in ("Entropy", "Flow", "Direction"):
@@ -279,7 +278,7 @@ def run_scene(
             m: float(np.nanmean([p[kind].get(m, math.nan) for p in predicted]))
             for m in predicted[0][kind]
         }
-    truth, series = _truth_scores(written.truth_npz, state, last_day)
+    truth, series = _truth_scores(written.truth_npz, state, last_day, tables)
     figure = None
     if keep_figure:
         aion_view, grid_v = views["Historical"]

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.query import historical_table, predict_table
+from aion_cli.engine.query import EntryTable, historical_table
 from aion_cli.evaluation import metrics
 from aion_cli.evaluation.baselines import DAY_HOURS, HOUR_NS
 
@@ -68,10 +68,11 @@ def truth_sentence(means: dict[str, float]) -> str:
 
 
 def _truth_scores(
-    truth_npz: Path, state: Any, times_ns: npt.NDArray[np.int64]
+    truth_npz: Path, state: Any, times_ns: npt.NDArray[np.int64], tables: list[EntryTable]
 ) -> tuple[dict[str, float], FlowSeries | None]:
     """aion against the simulator's ground truth, per place that became an aion node; and the
     forecasts with the scene's true counts, for :func:`expected_flow_correlations`.
+    ``tables``: aion's predictions at ``times_ns`` (``predict_table``, one per time).
 
     ``direction_js``: mean JS divergence between aion's historical direction histogram and the
     true histogram of all agents (every position, seen or not). ``flow_correlation``: Pearson
@@ -98,14 +99,14 @@ def _truth_scores(
     true_hist = flow_counts[:, pairs[:, 1], :].sum(axis=0).astype(float)
     both = (aion_hist.sum(axis=1) > 0) & (true_hist.sum(axis=1) > 0)
     js = metrics.js_divergence(aion_hist[both], true_hist[both]) if np.any(both) else None
-    counts = flow_counts[:, pairs[:, 1], :].sum(axis=2).astype(float)  # (W, places)
+    all_counts = flow_counts.sum(axis=2).astype(float)  # (W, environment places)
+    counts = all_counts[:, pairs[:, 1]]  # (W, compared places)
     predicted, true, previous, oracle, windows = [], [], [], [], []
-    for t in times_ns.tolist():
+    for t, pred in zip(times_ns.tolist(), tables, strict=True):
         w = int(np.searchsorted(starts, t, side="right")) - 1
         if w < 0:
             continue
         windows.append(np.full(len(pairs), starts[w], np.int64))
-        pred = predict_table(state, int(t))
         predicted.append(pred.descriptors.flow_per_window[pairs[:, 0]])
         true.append(counts[w])
         yesterday, hour_mean = reference_forecasts(counts, starts, w)
@@ -125,7 +126,7 @@ def _truth_scores(
         predicted=np.concatenate(predicted),
         place_ids=ids.astype(np.uint64),
         starts=starts.astype(np.int64),
-        counts=flow_counts.sum(axis=2).astype(float),
+        counts=all_counts,
     )
     return scores, series
 
