@@ -287,23 +287,17 @@ class TemporalState:
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
+        """The written rows, extended to the full capacity by :meth:`resize`."""
         keep = int(state["high_water"])
-        obs: ObsBlock = state["obs"]
-        full = TemporalState.empty(
-            int(state["rows"]),
-            state["cnt_profile"].shape[1],
-            obs.fourier.shape[1],
-            obs.profile.shape[1],
-            state["flow_score"].shape[1],
-            state["dir_score"].shape[1],
+        written = TemporalState(
+            glob=state["glob"],
+            obs=state["obs"],
+            **{name: state[name] for name in _ADDITIVE},
+            high_water=keep,
         )
-        for name in _OBS_FIELDS:
-            getattr(full.obs, name)[:keep] = getattr(obs, name)
-        for name in _ADDITIVE:
-            getattr(full, name)[:keep] = state[name]
-        full.glob = state["glob"]
-        full.high_water, full.generation = keep, int(state["generation"])
-        self.__dict__.update(full.__dict__)
+        written.resize(int(state["rows"]))
+        written.generation = int(state["generation"])
+        self.__dict__.update(written.__dict__)
 
     def resize(self, rows: int) -> None:
         """Truncate to, or extend with empty rows up to, ``rows`` rows (in place); rows past
