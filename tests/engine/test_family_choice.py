@@ -1,26 +1,42 @@
-"""Family choice against ``static``: the margin, and the small-sample t-test on daily gains."""
+"""Family choice against ``static``: the margin, and the small-sample t-test on daily gains
+with the false-discovery rate held over the entries tested."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from aion_cli.engine.temporal.choice import _choose, t_critical
+from aion_cli.engine.temporal.choice import _choose, benjamini_hochberg, student_t_sf
 from aion_cli.engine.types import F64
 
 
-def test_t_critical_matches_the_tables() -> None:
-    """One-sided 5 % quantiles of Student's t (standard tables), the normal's in the limit,
-    decreasing with the degrees of freedom."""
-    assert t_critical(1) == pytest.approx(6.314)
-    assert t_critical(2) == pytest.approx(2.920)
-    assert t_critical(10) == pytest.approx(1.812)
-    assert t_critical(30) == pytest.approx(1.697)
-    assert t_critical(60) == pytest.approx(1.671, abs=2e-3)
-    assert t_critical(120) == pytest.approx(1.658, abs=2e-3)
-    assert t_critical(10**6) == pytest.approx(1.645, abs=1e-3)
-    values = t_critical(np.arange(1, 500))
-    assert np.all(np.diff(values) < 0)
+@pytest.mark.parametrize("df", [1, 2, 3, 4, 5, 10, 29, 30, 31, 120, 401])
+def test_student_t_sf_matches_scipy(df: int) -> None:
+    """The closed-form tail equals scipy's Student t survival function, both tails and zero."""
+    from scipy import stats
+
+    t = np.array([-8.0, -2.0, -0.3, 0.0, 0.3, 1.0, 1.7, 2.92, 6.314, 12.0, 40.0])
+    np.testing.assert_allclose(student_t_sf(t, df), stats.t.sf(t, df), rtol=1e-9, atol=1e-15)
+
+
+def test_student_t_sf_known_quantiles_and_mixed_degrees() -> None:
+    """Table quantiles give 5 %; one call may mix degrees of freedom; df = 0 is refused."""
+    quantiles = np.array([6.314, 2.920, 1.812, 1.697])
+    np.testing.assert_allclose(student_t_sf(quantiles, [1, 2, 10, 30]), 0.05, atol=2e-4)
+    assert student_t_sf(0.0, 7) == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="degrees of freedom"):
+        student_t_sf(1.0, 0)
+
+
+def test_benjamini_hochberg_by_hand() -> None:
+    """m = 5 at rate 0.05: thresholds 0.01, 0.02, 0.03, 0.04, 0.05. p_(3) = 0.025 <= 0.03 is
+    the largest that passes, so the three smallest are rejected — 0.015 among them although it
+    is above its own threshold 0.01 — and 0.045 (> 0.04) and 0.9 are not."""
+    p = np.array([0.9, 0.015, 0.001, 0.045, 0.025])
+    np.testing.assert_array_equal(benjamini_hochberg(p), [False, True, True, False, True])
+    assert not benjamini_hochberg(np.array([0.02, 0.9, 0.9, 0.9])).any()  # 0.02 > 0.05 / 4
+    assert benjamini_hochberg(np.array([0.04])).tolist() == [True]  # m = 1: the plain test
+    assert benjamini_hochberg(np.array([])).size == 0
 
 
 def _entries(daily_gains: list[list[float]]) -> tuple[F64, tuple[F64, F64, int]]:
@@ -59,3 +75,22 @@ def test_the_margin_still_applies() -> None:
     disabled = _choose(scores * 10, np.zeros(1, np.int64), np.array([True, False]), 3.0,
                        consistency)
     assert disabled.tolist() == [0]
+
+
+def test_many_entries_tested_at_once_hold_the_false_discovery_rate() -> None:
+    """A thousand entries whose daily gains are pure noise (mean 0) let dozens through a plain
+    5 % test on the lucky side; with the rate held over all of them, the twenty entries with a
+    real, consistent gain still switch and at most a false one or two come with them."""
+    rng = np.random.default_rng(7)
+    noise = rng.normal(0.0, 5.0, size=(1000, 4))
+    real = rng.normal(6.0, 0.5, size=(20, 4))
+    gains = np.vstack([noise, real]).tolist()
+    scores, consistency = _entries(gains)
+    enabled = np.array([True, True])
+    chosen = _choose(scores, np.zeros(len(gains), np.int64), enabled, 3.0, consistency)
+    assert chosen[1000:].tolist() == [1] * 20
+    assert chosen[:1000].sum() <= 2
+    alone = [_choose(scores[i : i + 1], np.zeros(1, np.int64), enabled, 3.0,
+                     (consistency[0][i : i + 1], consistency[1][i : i + 1], 0))[0]
+             for i in range(1000)]
+    assert sum(alone) > 20  # the same noise tested one entry at a time does get through
