@@ -62,10 +62,31 @@ def _usage_hint(exc: click.ClickException) -> str:
     return f"see '{path} --help'"
 
 
+def _interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` is an interrupt (Ctrl-C, SIGTERM, end of input at a prompt) or was
+    raised while Ctrl-C unwound (its ``__context__`` chain holds one): e.g. a zip writer
+    stopped half-way by Ctrl-C then refuses to close its archive — the user pressed Ctrl-C, it
+    is not a fault of aion. (An EOFError deeper in the chain is a truncated file, not this.)"""
+    if isinstance(exc, EOFError):
+        return True
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        if isinstance(current, (KeyboardInterrupt, click.Abort)):
+            return True
+        seen.add(id(current))
+        current = current.__context__
+    return False
+
+
 def report(exc: BaseException, debug: bool) -> int:
     """Print ``exc`` for the user and return the exit code."""
-    if debug and not isinstance(exc, (click.exceptions.Exit, KeyboardInterrupt, click.Abort)):
+    interrupted = _interrupted(exc)
+    if debug and not interrupted and not isinstance(exc, click.exceptions.Exit):
         traceback.print_exception(exc, file=sys.stderr)
+    if interrupted:
+        _emit("interrupted", "an existing map is left unchanged; rerun the command to finish")
+        return EXIT_INTERRUPTED
     if isinstance(exc, TopicNotFoundError):
         _emit(exc.message, _topic_hint(exc))
         return EXIT_INPUT
@@ -78,9 +99,6 @@ def report(exc: BaseException, debug: bool) -> int:
     if isinstance(exc, click.ClickException):
         _emit(exc.format_message(), _usage_hint(exc))
         return EXIT_INPUT
-    if isinstance(exc, (KeyboardInterrupt, click.Abort, EOFError)):
-        _emit("interrupted", "an existing map is left unchanged; rerun the command to finish")
-        return EXIT_INTERRUPTED
     if isinstance(exc, OSError):
         return _report_os_error(exc)
     _emit(

@@ -91,10 +91,39 @@ def test_subprocess_missing_map_is_one_line_exit_2(tmp_path: Path) -> None:
     assert proc.stdout == ""
 
 
+def _raised_while_handling(outer: BaseException, inner: BaseException) -> BaseException:
+    """``outer`` as Python raises it inside an ``except`` of ``inner`` (``__context__`` set)."""
+    try:
+        try:
+            raise inner
+        except BaseException:
+            raise outer  # noqa: B904 - the implicit chain is what is under test
+    except BaseException as exc:
+        return exc
+
+
+def test_a_fault_raised_while_ctrl_c_unwinds_is_an_interrupt(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """zipfile refusing to close an archive whose member writer Ctrl-C stopped half-way
+    (ValueError in the unwinding) is exit 130, not an internal error; a truncated file's
+    EOFError behind an input error stays an input error."""
+    zip_fault = ValueError("Can't close the ZIP file while there is an open writing handle")
+    assert report(_raised_while_handling(zip_fault, KeyboardInterrupt()), debug=True) == 130
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "interrupted")
+    assert "Traceback" not in err
+    truncated = _raised_while_handling(InputError("log is truncated"), EOFError("end of stream"))
+    assert report(truncated, debug=False) == 2
+    assert_one_line_error(capsys.readouterr().err, "truncated")
+
+
 def test_interrupt_is_exit_130_and_broken_pipe_is_quiet(capsys: pytest.CaptureFixture[str]) -> None:
     assert report(KeyboardInterrupt(), debug=False) == 130
     err = capsys.readouterr().err
     assert_one_line_error(err, "interrupted")
+    assert report(EOFError(), debug=False) == 130  # end of input at a prompt
+    assert_one_line_error(capsys.readouterr().err, "interrupted")
     assert report(BrokenPipeError(32, "Broken pipe"), debug=False) == 0
     assert capsys.readouterr().err == ""
     assert report(PermissionError(13, "Permission denied", "/root/x.aion"), debug=False) == 2
