@@ -58,11 +58,12 @@ def student_t_sf(t: npt.ArrayLike, df: npt.ArrayLike) -> F64:
     odd = nu % 2 == 1
     # odd: Σ_{j>=1} c_j cos^{2j-1}, c_1 = 1, c_{j+1} = c_j (2j) / (2j + 1), up to j = (df-1)/2
     # even: Σ_{j>=0} c_j cos^{2j}, c_0 = 1, c_{j+1} = c_j (2j + 1) / (2j + 2), up to j = (df-2)/2
+    last = (nu - 2 - odd) // 2  # the loop's last step for each df: (df-3)/2 odd, (df-2)/2 even
     term = np.where(odd, np.sqrt(cos2), 1.0)
     total = np.where(odd & (nu < 3), 0.0, term)
     for j in range(1, int(nu.max(initial=1)) // 2):
         term = term * cos2 * np.where(odd, 2.0 * j / (2.0 * j + 1.0), (2.0 * j - 1.0) / (2.0 * j))
-        total += np.where(np.where(odd, j <= (nu - 3) // 2, j <= (nu - 2) // 2), term, 0.0)
+        total += np.where(j <= last, term, 0.0)
     inner = np.where(odd, (2.0 / np.pi) * (theta + sin * total), sin * total)
     out: F64 = np.clip(0.5 * (1.0 - inner), 0.0, 1.0)
     return out
