@@ -39,8 +39,12 @@ class LoadedMap:
         return iter((self.state, self.graph, self.manifest))
 
 
-def load_map(path: Path, writable: bool = False) -> LoadedMap:
+def load_map(path: Path, writable: bool = False, forecast_only: bool = False) -> LoadedMap:
     """Read ``path`` (checksums and version checked) into a :class:`LoadedMap`.
+
+    ``forecast_only`` (queries: ``predict``, ``plan``, ``export``, ``report``): the per-entry
+    Fourier sums are not read when the map stores the FreMEn components its forecasts use
+    (``engine.temporal.components``); predictions are the same, the state cannot be saved.
 
     ``writable``: the state will be continued and saved (``aion build --map``); otherwise
     queries may fold the map's pending day into its accumulators in place, and the state
@@ -61,7 +65,9 @@ def load_map(path: Path, writable: bool = False) -> LoadedMap:
         meta = manifest.get("state")
         if not isinstance(meta, dict):
             raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
-        state = MapState.from_arrays(members, meta, writable=writable, copy=False)
+        state = MapState.from_arrays(
+            members, meta, writable=writable, copy=False, forecast_only=forecast_only
+        )
     return LoadedMap(state, latest_graph(state), manifest)
 
 

@@ -218,9 +218,11 @@ def loop_flows(predictor: Predictor, entries: list[int], t_ns: int) -> tuple[flo
     omega = [float(w) for w in params.omega]
     names = [params.flow[int(f)] for f in predictor.flow_choice[entries]]
     mu = fc.rate_total[entries].tolist()
-    shape = fc.shape[entries, h].tolist()
-    s_h = fc.profile_total[entries, h].tolist()
-    w_h = fc.profile_windows[entries, h].tolist()
+    e = np.asarray(entries, np.int64)
+    at = np.full(e.size, h)
+    shape = fc.shape_at(e, at).tolist()
+    s_h = fc.profile_total_at(e, at).tolist()
+    w_h = fc.profile_windows_at(e, at).tolist()
     coef = fc.coef_total[entries].tolist()
     idx = fc.period_idx[entries].tolist()
     out = []

@@ -53,7 +53,8 @@ def announce_time(t_ns: int, zone: Zone, label: str = "time") -> None:
 
 
 def load(map_path: Path) -> Any:
-    """Read a map (``aion_cli.mapquery.load_map``)."""
+    """Read a map for a query (``aion_cli.mapquery.load_map``): without the Fourier sums
+    when the map stores the FreMEn components its forecasts use."""
     from aion_cli.mapquery import load_map
 
-    return load_map(map_path)
+    return load_map(map_path, forecast_only=True)

@@ -26,8 +26,10 @@ from aion_cli.engine.nodes import NodeTable, Redirects
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.routing import RouteTable
 from aion_cli.engine.state_checks import check_loaded, check_member_shapes
+from aion_cli.engine.temporal import components as fremen_components
 from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.components import FremenComponents
 from aion_cli.engine.temporal.groups import entry_groups
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, DeferredDays, PendingDay
@@ -64,6 +66,9 @@ class MapState:
     #: a shard of a parallel build (:mod:`aion_cli.engine.shards`): closed days are held
     #: here, unscored, instead of being scored and absorbed (None: an ordinary map)
     deferred: DeferredDays | None = None
+    #: FreMEn components read from the map file, for a query's state read without its
+    #: Fourier sums (``TemporalState.fourier_loaded`` false; ``engine.temporal.components``)
+    components: FremenComponents | None = field(default=None, repr=False, compare=False)
     params: TemporalParams = field(init=False, repr=False, compare=False)
     _view: tuple[tuple[int, int, int | None, int], TemporalState] | None = field(
         default=None, init=False, repr=False, compare=False
@@ -252,11 +257,30 @@ class MapState:
         rows = self.entries.canonical_order()
         if self._predictor is None or self._predictor[0] != key:
             groups, n_groups = self.groups(rows)
+            stored = None if view.fourier_loaded else self.components
             self._predictor = (
                 key,
-                temporal_model.Predictor.of(self.params, view, rows, groups, n_groups),
+                temporal_model.Predictor.of(self.params, view, rows, groups, n_groups, stored),
             )
         return rows, self._predictor[1]
+
+    def forecast_components(self, order: I64) -> FremenComponents:
+        """The FreMEn components a query of the entries ``order`` (canonical) will use,
+        computed from the state as the query sees it (``engine.temporal.components``)."""
+        groups, n_groups = self.groups(order)
+        flow, direction, map_flow = temporal_model.choose(
+            self.params, self.temporal, order, groups, n_groups
+        )
+        name = self.params.flow[map_flow]
+        map_family = name if self.config.reconcile and name != "static" else None
+        total, bins = fremen_components.needed(self.params, flow, direction, map_family)
+        parts = [self.pending.consolidated()] if self.pending else []
+        open_window = self._open_window_record()
+        if open_window is not None:
+            parts.append(open_window)
+        return fremen_components.compute(
+            self.params, self.temporal, parts, order, total, bins, self.window_ns
+        )
 
     def family_summary(self) -> dict[str, Any]:
         """How many entries forecast with each family (flow and direction), and whether the
@@ -303,6 +327,8 @@ class MapState:
         order = self.entries.canonical_order()
         arrays: dict[str, Any] = self.entries.to_arrays(order)
         arrays.update(self.temporal.to_arrays("temporal_", order))
+        if self.deferred is None:  # a part map forecasts nothing
+            arrays.update(self.forecast_components(order).to_arrays(self.params.n_periods))
         position = np.full(self.entries.capacity, -1, np.int64)
         position[order] = np.arange(order.size)
         pending_arrays, pending_day = self.pending.to_arrays("pending_", position)
@@ -337,8 +363,13 @@ class MapState:
         meta: dict[str, Any],
         writable: bool = True,
         copy: bool = True,
+        forecast_only: bool = False,
     ) -> MapState:
         """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` for inconsistent input.
+
+        ``forecast_only`` (a query's state, not ``writable``): when the map stores its FreMEn
+        components, the per-entry Fourier sums are not read (most of a map's bytes); the
+        forecasts are the same.
 
         ``arrays`` may be any mapping (e.g. a map file's lazily read members). ``copy=False``:
         the arrays are fresh (just read from a file) and the state may keep them instead of
@@ -372,6 +403,9 @@ class MapState:
         check_member_shapes(arrays)  # what the components' readers index without checking
         entries = EntryStore.from_arrays(arrays, config.bins)
         params = TemporalParams.from_config(config)
+        components = None
+        if forecast_only and not writable and meta.get("deferred") is None:
+            components = fremen_components.FremenComponents.from_arrays(arrays, entries.n, params)
         temporal = TemporalState.from_arrays(
             arrays,
             "temporal_",
@@ -382,6 +416,7 @@ class MapState:
             len(params.flow),
             len(params.direction),
             copy=copy,
+            fourier=components is None,
         )
         if writable:
             temporal.resize(entries.capacity)
@@ -405,6 +440,7 @@ class MapState:
                 dropped={**dict.fromkeys(DROP_REASONS, 0), **dropped},
                 writable=writable,
                 deferred=deferred,
+                components=components,
             )
         except (KeyError, ValueError) as exc:
             raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
@@ -419,9 +455,9 @@ class MapState:
         cell_keys = ent.key[ent.cell_rows()]
         node_ids = ent.node_id[ent.node_rows()]
         problems = []
-        if len(np.unique(cell_keys)) != len(cell_keys):
+        if not _distinct(cell_keys):
             problems.append("two cell entries share a key")
-        if len(np.unique(node_ids)) != len(node_ids):
+        if not _distinct(node_ids):
             problems.append("two node entries share a node id")
         if np.isin(self.redirects.keys, cell_keys).any():
             problems.append("a redirected cell also has an entry")
@@ -429,6 +465,17 @@ class MapState:
             problems.append("a redirect points at a node without an entry")
         if problems:
             raise MapCorruptError(f"map state is inconsistent: {'; '.join(problems)}")
+
+
+def _distinct(values: np.ndarray) -> bool:
+    """Whether no value repeats: a map read back holds its keys in canonical (increasing)
+    order, which one comparison of neighbours proves; anything else is sorted first."""
+    if values.size < 2:
+        return True
+    if not bool(np.all(values[1:] > values[:-1])):
+        values = np.sort(values)
+        return bool(np.all(values[1:] != values[:-1]))
+    return True
 
 
 def _tally(names: np.ndarray) -> dict[str, int]:

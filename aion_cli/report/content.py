@@ -153,7 +153,7 @@ def observed_coverage(loaded: LoadedMap, shown: dict[str, Any]) -> Observed:
     state = loaded.state
     rows = state.entries.live_rows()
     view = state.query_temporal()
-    obs = view.observation(rows)
+    obs = view.observation(rows, fourier=False)
     calendar = state.params.calendar
     per_day = calendar.bins_per_day
     if rows.size:

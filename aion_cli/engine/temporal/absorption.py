@@ -44,7 +44,10 @@ def drop_fixed(obs_e: I64, obs_s: I64, fixed: npt.NDArray[np.bool_]) -> tuple[I6
 def absorb_day(
     params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64
 ) -> None:
-    """Absorb the day's windows (model times ``t_s``, profile bins ``h`` per slot)."""
+    """Absorb the day's windows (model times ``t_s``, profile bins ``h`` per slot). A query's
+    state read without its per-entry Fourier sums (``TemporalState.fourier_loaded`` false)
+    absorbs everything else: its FreMEn components were computed with the windows when the
+    map was written (:mod:`~aion_cli.engine.temporal.components`)."""
     n_prof = params.n_profile
     phasor = np.exp(1j * np.multiply.outer(t_s, params.omega))  # (S, K): e^{iωt}
     fixed = np.flatnonzero(day.fixed)
@@ -87,7 +90,10 @@ def _absorb_observed(
     n_prof = params.n_profile
     rows, inverse = _unique(obs_e)
     n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
-    fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
+    if state.fourier_loaded:
+        fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
+    else:
+        fourier = np.zeros((rows.size, 0), np.complex128)
     flat_bins = inverse * n_prof + h[obs_s]
     prof = np.bincount(flat_bins, minlength=rows.size * n_prof).astype(np.float64)
     prof = prof.reshape(rows.size, n_prof)
@@ -113,13 +119,29 @@ def _absorb_counts(
     counts = cnt_values[pair, value]
     rows = cnt_entry[pair]
     slots = cnt_slot[pair]
-    flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
-    targets, which = _unique(rows * params.values + value)
-    flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
-    flat_profile = state.cnt_profile.reshape(-1)
+    if state.fourier_loaded:
+        flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
+        targets, which = _unique(rows * params.values + value)
+        flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
     keys, inverse = _unique((rows * params.values + value) * n_prof + h[slots])
-    flat_profile[keys] += np.bincount(inverse, counts, minlength=keys.size)
+    added: F64 = np.bincount(inverse, counts, minlength=keys.size).astype(np.float64)
+    flat_profile = _profile_for(state, keys, added)
+    flat_profile[keys] += added.astype(flat_profile.dtype, copy=False)
     state.touch(rows)
+
+
+def _profile_for(state: TemporalState, keys: I64, added: F64) -> F64:
+    """``state.cnt_profile`` flat, ready to add ``added`` at ``keys``: a query's counts read
+    narrow (``TemporalState.from_arrays`` without Fourier sums) are widened to float64 first
+    when a sum would not be a whole number that fits their type."""
+    profile: np.ndarray = state.cnt_profile
+    if profile.dtype.kind == "u":
+        top = float(profile.reshape(-1)[keys].max(initial=0)) + float(added.max(initial=0.0))
+        whole = bool(np.all(added == np.rint(added))) and bool(np.all(added >= 0))
+        if not whole or top > int(np.iinfo(profile.dtype).max):
+            state.cnt_profile = profile = profile.astype(np.float64)
+    out: F64 = profile.reshape(-1)
+    return out
 
 
 def _unique(keys: I64) -> tuple[I64, I64]:

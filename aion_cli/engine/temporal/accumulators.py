@@ -92,6 +92,12 @@ class TemporalState:
     capacity stays unbacked by memory). −1 at construction means every row."""
     generation: int = field(default=0, compare=False, repr=False)
     """Bumped by every change (invalidates cached forecasts)."""
+    fourier_loaded: bool = field(default=True, compare=False, repr=False)
+    """False for a query's state read without the per-entry Fourier sums (``cnt_fourier`` and
+    the entries' own ``obs.fourier`` then have no period axis: shape ``(R, V, 0)`` /
+    ``(R, 0)``): its FreMEn components come from the map file
+    (:mod:`~aion_cli.engine.temporal.components`), it absorbs windows without their phasors,
+    and it cannot be written back (:meth:`to_arrays` refuses)."""
 
     def __post_init__(self) -> None:
         if self.high_water < 0:
@@ -136,21 +142,25 @@ class TemporalState:
 
     @property
     def n_periods(self) -> int:
-        return int(self.obs.fourier.shape[1])
+        """K, the FreMEn periods (from the global block, which every state reads whole)."""
+        return int(self.glob.fourier.shape[1])
 
     @property
     def n_bins(self) -> int:
         return int(self.obs.profile.shape[1])
 
     def _like(self, rows: int) -> TemporalState:
-        return TemporalState.empty(
+        out = TemporalState.empty(
             rows,
             self.n_values,
-            self.n_periods,
+            int(self.cnt_fourier.shape[2]),  # 0 in a query's state without the sums
             self.n_bins,
             self.flow_score.shape[1],
             self.dir_score.shape[1],
         )
+        out.glob = self.glob.take([0])
+        out.fourier_loaded = self.fourier_loaded
+        return out
 
     @property
     def nbytes(self) -> int:
@@ -165,11 +175,15 @@ class TemporalState:
             self.high_water = max(self.high_water, int(rows.max()) + 1)
 
     # -- reading ----------------------------------------------------------------------------
-    def observation(self, rows: npt.ArrayLike) -> ObsBlock:
-        """The observation of entries ``rows``: the global block plus their own."""
-        out = self.obs.take(rows)
+    def observation(self, rows: npt.ArrayLike, fourier: bool = True) -> ObsBlock:
+        """The observation of entries ``rows``: the global block plus their own. Without
+        ``fourier`` the Fourier sums are left out (shape ``(n, 0)``): a forecast reads them
+        per block of entries where it needs them, and copying them for every entry would cost
+        more than the rest of the observation."""
+        out = self.obs.take(rows, fourier)
         out.n += self.glob.n[0]
-        out.fourier += self.glob.fourier[0]
+        if fourier:
+            out.fourier += self.glob.fourier[0]
         out.profile += self.glob.profile[0]
         out.first = np.fmin(out.first, self.glob.first[0])
         out.last = np.fmax(out.last, self.glob.last[0])
@@ -323,6 +337,7 @@ class TemporalState:
             glob=self.glob.take([0]),
             obs=self.obs.take(r),
             **{name: getattr(self, name)[r].copy() for name in _ADDITIVE},
+            fourier_loaded=self.fourier_loaded,
         )
 
     def copy(self) -> TemporalState:
@@ -337,7 +352,8 @@ class TemporalState:
         joined: dict[str, Any] = {
             name: np.concatenate([getattr(s, name) for s in states]) for name in _ADDITIVE
         }
-        return cls(glob=states[0].glob.take([0]), obs=obs, **joined)
+        loaded = all(s.fourier_loaded for s in states)
+        return cls(glob=states[0].glob.take([0]), obs=obs, **joined, fourier_loaded=loaded)
 
     # -- persistence ------------------------------------------------------------------------
     def to_arrays(self, prefix: str, rows: I64) -> dict[str, Any]:
@@ -354,6 +370,10 @@ class TemporalState:
         Integral counts and window tallies (profiles, windows, detections and days scored)
         are stored as ``uint8``, ``uint16`` or ``uint32`` (lossless; float64 when a value is
         not a whole number below 2^32), indices as ``uint32`` when they fit."""
+        if not self.fourier_loaded:
+            raise ValueError(
+                "a temporal state read for queries (without its Fourier sums) cannot be stored"
+            )
         r = np.asarray(rows, dtype=np.int64)
         pos = np.arange(r.size, dtype=np.int64)
         out: dict[str, Any] = self.glob.to_arrays(prefix + "glob_")
@@ -390,33 +410,52 @@ class TemporalState:
         flow_families: int,
         dir_families: int,
         copy: bool = True,
+        fourier: bool = True,
     ) -> TemporalState:
         """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` on missing or
         inconsistent members (shapes must match the config, indices must be in range).
 
         ``copy=False``: the members are fresh arrays the state may keep (a map just read);
         members that cover every row (a dense map) then become the state's arrays as they
-        are, without a scatter into zeros or a second copy."""
+        are, without a scatter into zeros or a second copy. Without ``fourier`` the
+        per-entry Fourier sums (``cnt_fourier``, ``obs_fourier``: most of a map's bytes) are
+        not read, and the state is a query's (:attr:`fourier_loaded`): its ``cnt_profile``
+        keeps the unsigned integer type it was stored in (exact whole counts; absorbing a
+        day widens it only when a count would not fit)."""
         arrays = sparse_layout(arrays, prefix, rows, values)
-        out = cls.empty(rows, values, periods, bins, flow_families, dir_families)
+        own_periods = periods if fourier else 0
+        out = cls.empty(rows, values, own_periods, bins, flow_families, dir_families)
         out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
         own = stored_index(arrays, prefix + "obs_index", rows)
-        block = ObsBlock.from_arrays(arrays, prefix + "obs_", own.size, periods, bins, copy)
+        block = ObsBlock.from_arrays(
+            arrays, prefix + "obs_", own.size, periods, bins, copy, fourier
+        )
         if lists_all(own, rows):
             out.obs = block
         else:
             out.obs.put(own, block)
         pairs = stored_index(arrays, prefix + "cnt_index", rows * values)
-        fourier = stored_member(arrays, prefix + "cnt_fourier", (pairs.size, periods), copy)
-        if fourier.dtype != np.complex128:
-            raise MapCorruptError(f"{prefix}cnt_fourier must be complex128")
-        profile = stored_member(arrays, prefix + "cnt_profile", (pairs.size, bins), copy)
-        stored: dict[str, Any] = {"cnt_fourier": fourier, "cnt_profile": profile}
-        if lists_all(pairs, rows * values):  # every pair counted: the members are the arrays
-            out.cnt_fourier = fourier.reshape(rows, values, periods)
+        profile = stored_member(
+            arrays, prefix + "cnt_profile", (pairs.size, bins), copy, keep_narrow=not fourier
+        )
+        stored: dict[str, Any] = {"cnt_profile": profile}
+        dense_pairs = lists_all(pairs, rows * values)
+        if fourier:
+            sums = stored_member(arrays, prefix + "cnt_fourier", (pairs.size, periods), copy)
+            if sums.dtype != np.complex128:
+                raise MapCorruptError(f"{prefix}cnt_fourier must be complex128")
+            stored["cnt_fourier"] = sums
+            if dense_pairs:  # every pair counted: the members are the arrays
+                out.cnt_fourier = sums.reshape(rows, values, periods)
+            else:
+                out.cnt_fourier.reshape(-1, periods)[pairs] = sums
+        else:
+            out.fourier_loaded = False
+        if dense_pairs:
             out.cnt_profile = profile.reshape(rows, values, bins)
         else:
-            out.cnt_fourier.reshape(-1, periods)[pairs] = fourier
+            if profile.dtype != out.cnt_profile.dtype:  # a query's narrow counts stay narrow
+                out.cnt_profile = np.zeros(out.cnt_profile.shape, profile.dtype)
             out.cnt_profile.reshape(-1, bins)[pairs] = profile
         scored = stored_index(arrays, prefix + "score_index", rows)
         shapes = {

@@ -34,7 +34,7 @@ counts, never zero.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -43,9 +43,15 @@ from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.params import DIRECTION_ORDERS, TemporalParams
 from aion_cli.engine.temporal.spectrum import admitted, top_periods
 from aion_cli.engine.types import F64, I64
+from aion_cli.errors import MapCorruptError, MapFileError
+
+if TYPE_CHECKING:
+    from aion_cli.engine.temporal.components import FremenComponents
 
 C128 = npt.NDArray[np.complex128]
 _BLOCK = 1 << 10
+_POOL_BLOCK = 1 << 13
+"""Entries pooled together (a block's temporaries stay a few MB)."""
 
 
 @dataclass(frozen=True)
@@ -71,14 +77,21 @@ class PoolStats:
         s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
         c_g = np.zeros((n_groups, b))
         glob = state.glob.profile[0]
-        for a in range(0, rows.size, _BLOCK):
-            r, g = rows[a : a + _BLOCK], groups[a : a + _BLOCK]
+        for a in range(0, rows.size, _POOL_BLOCK):
+            r, g = rows[a : a + _POOL_BLOCK], groups[a : a + _POOL_BLOCK]
             block = _rows_of(state.cnt_profile, r)
-            s_g += _group_sums(g, n_groups, block.sum(axis=1))
+            s_g += _group_sums(g, n_groups, _count_sums(block, 1))
             w_g += _group_sums(g, n_groups, _rows_of(state.obs.profile, r) + glob)
-            c_g += _group_sums(g, n_groups, block[:, :b].sum(axis=2))
+            c_g += _group_sums(g, n_groups, _count_sums(block, 2)[:, :b])
         shapes, map_shape = _group_shapes(params.config.profile_prior, s_g, w_g)
         return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
+
+
+def _borrowed(r: F64, mean: F64) -> F64:
+    """r / r̄ per pair, 1 where r̄ is ~0 (an entry observed nowhere its group is busy)."""
+    ok = mean > 1e-12
+    out: F64 = np.divide(r, mean, out=np.ones(np.broadcast(r, mean).shape), where=ok)
+    return out
 
 
 def _rows_of(values: Any, rows: I64) -> Any:
@@ -91,14 +104,26 @@ def _rows_of(values: Any, rows: I64) -> Any:
     return values[rows]
 
 
+def _count_sums(counts: Any, axis: int) -> Any:
+    """Sums of whole counts along ``axis``: counts held as small unsigned integers (a query's,
+    read narrow) are summed in a 32- or 64-bit integer accumulator, which is exact and
+    faster than widening them first; float counts as they are (whole numbers: exact too)."""
+    if counts.dtype.kind == "u":
+        wide = np.uint32 if counts.dtype.itemsize <= 2 else np.uint64
+        return counts.sum(axis=axis, dtype=wide)
+    return counts.sum(axis=axis)
+
+
 def _group_sums(groups: I64, n_groups: int, values: F64) -> F64:
     """Σ of the rows of ``values`` per group, float64[G, C]: each group's rows added in row
     order from zero, as the sparse indicator product this replaces added them (so the sums
-    are the same to the bit), one ``bincount`` per column and without importing
-    ``scipy.sparse`` (a fifth of a second, for a query)."""
-    out = np.empty((n_groups, values.shape[1]))
-    for c in range(values.shape[1]):
-        out[:, c] = np.bincount(groups, weights=values[:, c], minlength=n_groups)
+    are the same to the bit), in one ``bincount`` over (group, column) keys and without
+    importing ``scipy.sparse`` (a fifth of a second, for a query)."""
+    c = values.shape[1]
+    keys = (groups[:, None] * c + np.arange(c, dtype=np.int64)).reshape(-1)
+    weights = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
+    sums = np.bincount(keys, weights=weights, minlength=n_groups * c)
+    out: F64 = sums.astype(np.float64, copy=False).reshape(n_groups, c)
     return out
 
 
@@ -169,49 +194,77 @@ class Forecaster:
         rows: I64,
         groups: I64,
         pool: PoolStats,
+        components: FremenComponents | None = None,
     ) -> None:
         self.params = params
         self.state = state
         self.rows = np.asarray(rows, dtype=np.int64)
         groups = np.asarray(groups, dtype=np.int64)
-        e, v, b, h = self.rows.size, params.values, params.bins, params.n_profile
-        obs = state.observation(self.rows)
-        self.windows = obs.n
-        self.profile_windows = obs.profile  # W[e, h]
-        self.counts = np.empty((e, v))  # N[e, v]
-        self.profile_total = np.empty((e, h))  # S[e, h], all value bins
-        for a in range(0, e, _BLOCK):
-            block = _rows_of(state.cnt_profile, self.rows[a : a + _BLOCK])
-            self.counts[a : a + _BLOCK] = block.sum(axis=2)
-            self.profile_total[a : a + _BLOCK] = block.sum(axis=1)
+        e, v, b = self.rows.size, params.values, params.bins
+        r = self.rows
+        glob = state.glob
+        self.groups = groups
+        self.pool = pool
+        self._glob_profile = glob.profile[0]
+        # the observation (``TemporalState.observation``), read per entry; W[e, h] per pair
+        self.windows = state.obs.n[r] + glob.n[0]
+        first = np.fmin(state.obs.first[r], glob.first[0])
+        last = np.fmax(state.obs.last[r], glob.last[0])
         self.observed = self.windows > 0
+        self.counts = np.empty((e, v))  # N[e, v]
+        shape_sum, map_sum = np.empty(e), np.empty(e)
+        for a in range(0, e, _BLOCK):  # one pass, block by block: no [E, H] temporaries
+            rows = r[a : a + _BLOCK]
+            self.counts[a : a + _BLOCK] = _count_sums(_rows_of(state.cnt_profile, rows), 2)
+            w = _rows_of(state.obs.profile, rows) + self._glob_profile  # W of the block
+            shape_sum[a : a + _BLOCK] = (w * pool.shape[groups[a : a + _BLOCK]]).sum(axis=1)
+            map_sum[a : a + _BLOCK] = (w * pool.map_shape).sum(axis=1)
         safe_n = np.where(self.observed, self.windows, 1.0)
         self.rate = self.counts / safe_n[:, None]  # μ[e, v]
         self.rate_total = self.rate.sum(axis=1)
         total = self.counts.sum(axis=1)
         directed = self.counts[:, :b].sum(axis=1)
         self.directed_share = np.divide(directed, total, out=np.zeros(e), where=total > 0)
-        self.shape = self._borrowed_shape(pool.shape[groups])
-        self.map_shape = self._borrowed_shape(np.broadcast_to(pool.map_shape, self.shape.shape))
+        self._shape_mean = self._mean(shape_sum)
+        self._map_mean = self._mean(map_sum)
         self.raw_histogram = _normalised(self.counts[:, :b])
         self.histogram = _posterior(
             self.counts[:, :b], pool.histogram[groups], params.config.direction_prior
         )
         self._cache: dict[str, Any] = {}
-        self._fremen(obs.first, obs.last)
+        self._fremen(first, last)
+        if components is not None:
+            self._preset(components)
 
     # -- precomputation ---------------------------------------------------------------------
-    def _borrowed_shape(self, r: F64) -> F64:
-        """s[e,h] = r_g[h] / r̄_e (the group's shape, normalised over the entry's windows)."""
-        weighted = self.profile_windows * r
-        mean = np.divide(
-            weighted.sum(axis=1), self.windows, out=np.zeros(len(r)), where=self.observed
+    def _mean(self, weighted_sum: F64) -> F64:
+        """r̄_e = Σ_h W[e,h] r[e,h] / W_e (0 for an entry never observed)."""
+        out: F64 = np.divide(
+            weighted_sum, self.windows, out=np.zeros(weighted_sum.size), where=self.observed
         )
-        ok = (mean > 1e-12)[:, None]
-        # into the product's memory: the rows left at 1 are those whose mean is ~0
-        shape: F64 = np.divide(r, mean[:, None], out=weighted, where=ok)
-        shape[~ok[:, 0]] = 1.0
-        return shape
+        return out
+
+    # -- per (entry, profile bin) pairs -------------------------------------------------------
+    def profile_windows_at(self, e: I64, h: I64) -> F64:
+        """W[e, h]: the windows in which entry positions ``e`` were observed in profile bins
+        ``h`` (pairs)."""
+        out: F64 = self.state.obs.profile[self.rows[e], h] + self._glob_profile[h]
+        return out
+
+    def profile_total_at(self, e: I64, h: I64) -> F64:
+        """S[e, h]: their detections there, all value bins (whole numbers: exact in any
+        order, whatever type the counts are held in)."""
+        out: F64 = self.state.cnt_profile[self.rows[e], :, h].sum(axis=1, dtype=np.float64)
+        return out
+
+    def shape_at(self, e: I64, h: I64) -> F64:
+        """s[e, h] = r_g[h] / r̄_e: the group's shape, normalised over the entry's windows (1
+        where r̄_e is ~0)."""
+        return _borrowed(self.pool.shape[self.groups[e], h], self._shape_mean[e])
+
+    def map_shape_at(self, e: I64, h: I64) -> F64:
+        """The same with the map's pooled shape r_map[h]."""
+        return _borrowed(self.pool.map_shape[h], self._map_mean[e])
 
     def _fremen(self, first: F64, last: F64) -> None:
         """FreMEn components, each computed on first use, per entry: the M strongest admitted
@@ -236,6 +289,27 @@ class Forecaster:
         if m == 0 or e == 0:
             self._bins_depth[:] = m
             self._total_done[:] = True
+
+    def _preset(self, stored: FremenComponents) -> None:
+        """Components read from the map file (computed when it was written, from this very
+        view: :mod:`~aion_cli.engine.temporal.components`) instead of from the sums."""
+        depth = stored.bins_depth
+        if stored.total_pos.size and int(stored.total_pos.max()) >= self.rows.size:
+            raise MapCorruptError("forecast components name entries the map does not have")
+        if stored.bins_pos.size and int(stored.bins_pos.max()) >= self.rows.size:
+            raise MapCorruptError("forecast components name entries the map does not have")
+        self._period_idx[stored.total_pos] = stored.period_idx
+        self._coef_total[stored.total_pos] = stored.coef_total
+        self._total_done[stored.total_pos] = True
+        self.bin_idx[stored.bins_pos, :, :depth] = stored.bin_idx
+        self.coef_bins[stored.bins_pos, :, :depth] = stored.coef_bins
+        self._bins_depth[stored.bins_pos] = np.maximum(self._bins_depth[stored.bins_pos], depth)
+
+    def total_components(self, e: I64) -> tuple[I64, C128]:
+        """The total-spectrum periods and coefficients of entry positions ``e`` (computed
+        where not yet), int64[n, M] and complex128[n, M]."""
+        self.ensure_total(e)
+        return self._period_idx[e], self._coef_total[e]
 
     def ensure_total(self, e: I64 | None = None) -> None:
         """Compute ``period_idx`` / ``coef_total`` of entry positions ``e`` (every entry if
@@ -269,6 +343,12 @@ class Forecaster:
 
     def _gamma(self, pos: I64) -> C128:
         """γ_{v,k} = (A − μ B) / W of entries at positions ``pos``: complex[n, V, K]."""
+        if not self.state.fourier_loaded:
+            raise MapFileError(
+                "this map was read for queries without its Fourier sums, and its stored "
+                "forecast components do not cover what was asked",
+                hint="read the map whole (aion_cli.mapquery.load_map(path, forecast_only=False))",
+            )
         r = self.rows[pos]
         balance = _rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
         counts = _rows_of(self.state.cnt_fourier, r)
@@ -293,7 +373,7 @@ class Forecaster:
             self._flat[key] = parts
         return parts
 
-    def _ensure_bins(self, e: I64, upto: int) -> None:
+    def ensure_bins(self, e: I64, upto: int) -> None:
         """Compute the first ``upto`` per-bin FreMEn components of the entries ``e`` not done
         that far yet (the strongest periods are chosen greedily, so the first ``upto`` of a
         longer choice are the same: directions need 2, per-bin rates all ``max_order``)."""
@@ -362,7 +442,7 @@ class Forecaster:
         pooled shape (the total then follows the map's own profile, estimated from all its
         detections at once); for FreMEn and ``static`` the family itself."""
         if family in ("shape", "profile"):
-            out: F64 = self.rate_total[e] * self.map_shape[e, h]
+            out: F64 = self.rate_total[e] * self.map_shape_at(e, h)
             return out
         return np.maximum(self.flow(family, e, h, t_s), 0.0)
 
@@ -372,7 +452,7 @@ class Forecaster:
         ``bins`` bins (memoised: the scoring asks for every order at the same pairs)."""
 
         def compute() -> F64:
-            self._ensure_bins(e, upto)
+            self.ensure_bins(e, upto)
             idx, twice_re, twice_im = self._flat_bins(bins, upto)
             table, inverse = self._rotation_table(t_s)
             k = table.shape[1]
@@ -401,12 +481,12 @@ class Forecaster:
         if family == "static":
             return mu.copy()
         if family == "shape":
-            out: F64 = mu * self.shape[e, h]
+            out: F64 = mu * self.shape_at(e, h)
             return out
         if family == "profile":
             c = self.params.config.profile_prior
-            m = mu * self.shape[e, h]
-            return shrunk_rate(self.profile_total[e, h], self.profile_windows[e, h], m, c)
+            m = mu * self.shape_at(e, h)
+            return shrunk_rate(self.profile_total_at(e, h), self.profile_windows_at(e, h), m, c)
         m = int(family.removeprefix("fremen"))
         out = mu + self._total_terms(e, t_s)[:, m - 1]
         return out
@@ -418,11 +498,11 @@ class Forecaster:
         if family == "static":
             return mu.copy()
         if family == "shape":
-            out: F64 = mu * self.shape[e, h][:, None]
+            out: F64 = mu * self.shape_at(e, h)[:, None]
             return out
         if family == "profile":
             c = self.params.config.profile_prior
-            m = self.rate_total[e] * self.shape[e, h]
+            m = self.rate_total[e] * self.shape_at(e, h)
             share = np.divide(
                 mu,
                 self.rate_total[e][:, None],
@@ -430,11 +510,11 @@ class Forecaster:
                 where=self.rate_total[e][:, None] > 0,
             )
             own = self.state.cnt_profile[self.rows[e], :, h]
-            den = m * self.profile_windows[e, h] + c
+            den = m * self.profile_windows_at(e, h) + c
             out = np.divide(
                 m[:, None] * (own + c * share),
                 den[:, None],
-                out=np.zeros_like(own),
+                out=np.zeros(own.shape),  # float64 whatever type the counts are held in
                 where=den[:, None] > 0,
             )
             return out
@@ -465,7 +545,7 @@ class Forecaster:
             terms = self._bin_terms(e, t_s, m, b, min(self.params.max_order, DIRECTION_ORDERS))
             pseudo = self.rate[e, :b] + terms  # a new array: the terms are memoised
             np.maximum(pseudo, 0.0, out=pseudo)
-            pseudo *= self.profile_windows[e, h][:, None]
+            pseudo *= self.profile_windows_at(e, h)[:, None]
         denominator = pseudo.sum(axis=1, keepdims=True) + kappa_t
         hist *= kappa_t
         hist += pseudo

@@ -24,6 +24,7 @@ from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.temporal.absorption import absorb
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.choice import choose_families, dispersion
+from aion_cli.engine.temporal.components import FremenComponents
 from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, PendingDay
@@ -191,9 +192,13 @@ class Predictor:
         rows: I64,
         groups: I64,
         n_groups: int,
+        components: FremenComponents | None = None,
     ) -> Predictor:
+        """The forecasts of entries ``rows`` of ``state`` (a query view); ``components``:
+        FreMEn components stored in the map for these very rows (a state read without its
+        Fourier sums)."""
         pool = PoolStats.of(params, state, rows, groups, n_groups)
-        fc = Forecaster(params, state, rows, groups, pool)
+        fc = Forecaster(params, state, rows, groups, pool, components)
         flow_choice, dir_choice, map_choice = choose(params, state, rows, groups, n_groups)
         phi = dispersion(state.flow_chi2[rows], state.flow_scored[rows], flow_choice)
         name = params.flow[map_choice]

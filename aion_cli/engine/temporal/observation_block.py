@@ -45,9 +45,19 @@ class ObsBlock:
             np.full(rows, np.nan),
         )
 
-    def take(self, rows: npt.ArrayLike) -> ObsBlock:
+    def take(self, rows: npt.ArrayLike, fourier: bool = True) -> ObsBlock:
+        """Copies of rows ``rows``; without ``fourier`` the Fourier sums are left out (shape
+        ``(n, 0)``)."""
         r = np.asarray(rows, dtype=np.int64)
-        return ObsBlock(*(getattr(self, f)[r].copy() for f in _OBS_FIELDS))
+        if fourier:
+            return ObsBlock(*(getattr(self, f)[r].copy() for f in _OBS_FIELDS))
+        return ObsBlock(
+            self.n[r].copy(),
+            np.zeros((r.size, 0), np.complex128),
+            self.profile[r].copy(),
+            self.first[r].copy(),
+            self.last[r].copy(),
+        )
 
     def put(self, rows: I64, other: ObsBlock) -> None:
         for f in _OBS_FIELDS:
@@ -82,7 +92,10 @@ class ObsBlock:
         periods: int,
         bins: int,
         copy: bool = True,
+        fourier: bool = True,
     ) -> ObsBlock:
+        """Inverse of :meth:`to_arrays`; without ``fourier`` the Fourier member is not read
+        (the block's sums then have shape ``(rows, 0)``)."""
         shapes = {
             "n": (rows,),
             "fourier": (rows, periods),
@@ -90,7 +103,11 @@ class ObsBlock:
             "first": (rows,),
             "last": (rows,),
         }
+        if not fourier:
+            del shapes["fourier"]
         vals = {f: stored_member(arrays, prefix + f, shape, copy) for f, shape in shapes.items()}
+        if not fourier:
+            vals["fourier"] = np.zeros((rows, 0), np.complex128)
         if vals["fourier"].dtype != np.complex128:
             raise MapCorruptError(f"{prefix}fourier must be complex128")
         return cls(**vals)

@@ -88,11 +88,17 @@ def stored_index(arrays: Mapping[str, np.ndarray], name: str, limit: int) -> I64
 
 
 def stored_member(
-    arrays: Mapping[str, np.ndarray], name: str, shape: tuple[int, ...], copy: bool = True
+    arrays: Mapping[str, np.ndarray],
+    name: str,
+    shape: tuple[int, ...],
+    copy: bool = True,
+    keep_narrow: bool = False,
 ) -> Any:
     """A stored temporal member as a float64/complex128 array of ``shape`` that the state
     may own and change: a copy, unless ``copy`` is False (the caller hands over freshly read
-    arrays) and the member is already native, contiguous and writable."""
+    arrays) and the member is already native, contiguous and writable. ``keep_narrow``: a
+    member stored as unsigned integers stays so (a query's counts: exact, and widening the
+    largest member to float64 would cost more than the rest of the query)."""
     if name not in arrays:
         raise MapCorruptError(f"temporal state incomplete, missing: {name}")
     value = np.asarray(arrays[name])
@@ -101,6 +107,8 @@ def stored_member(
             f"temporal member {name} has shape {value.shape} and dtype {value.dtype}, "
             f"expected {shape}"
         )
+    if keep_narrow and value.dtype.kind == "u" and value.dtype.isnative:
+        return value if not copy and value.flags.writeable else np.array(value)
     if value.dtype != np.float64 and value.dtype.kind in "fu":
         return value.astype(np.float64)  # a fresh copy already
     if not copy and value.flags.writeable and value.flags.c_contiguous and value.dtype.isnative:
