@@ -232,6 +232,7 @@ class Forecaster:
             self.counts[:, :b], pool.histogram[groups], params.config.direction_prior
         )
         self._cache: dict[str, Any] = {}
+        self._profiles: tuple[F64, F64] | None = None  # W, S of every entry (cache_profiles)
         self._fremen(first, last)
         if components is not None:
             self._preset(components)
@@ -245,15 +246,35 @@ class Forecaster:
         return out
 
     # -- per (entry, profile bin) pairs -------------------------------------------------------
+    def cache_profiles(self) -> None:
+        """Hold W[e, h] and S[e, h] of every entry (float64[E, H] each): a day's scoring asks
+        for every profile bin of every entry, a query for one bin, which is cheaper read per
+        pair from the accumulators."""
+        if self._profiles is not None:
+            return
+        e, h = self.rows.size, self.params.n_profile
+        windows, total = np.empty((e, h)), np.empty((e, h))
+        for a in range(0, e, _BLOCK):
+            rows = self.rows[a : a + _BLOCK]
+            windows[a : a + _BLOCK] = _rows_of(self.state.obs.profile, rows) + self._glob_profile
+            total[a : a + _BLOCK] = _count_sums(_rows_of(self.state.cnt_profile, rows), 1)
+        self._profiles = (windows, total)
+
     def profile_windows_at(self, e: I64, h: I64) -> F64:
         """W[e, h]: the windows in which entry positions ``e`` were observed in profile bins
         ``h`` (pairs)."""
+        if self._profiles is not None:
+            held: F64 = self._profiles[0][e, h]
+            return held
         out: F64 = self.state.obs.profile[self.rows[e], h] + self._glob_profile[h]
         return out
 
     def profile_total_at(self, e: I64, h: I64) -> F64:
         """S[e, h]: their detections there, all value bins (whole numbers: exact in any
         order, whatever type the counts are held in)."""
+        if self._profiles is not None:
+            held: F64 = self._profiles[1][e, h]
+            return held
         out: F64 = self.state.cnt_profile[self.rows[e], :, h].sum(axis=1, dtype=np.float64)
         return out
 

@@ -99,6 +99,7 @@ def _score(
         )
         rows = candidates[a : a + _ENTRIES]
         fc = Forecaster(params, state, rows, groups[position[a : a + _ENTRIES]], pool)
+        fc.cache_profiles()  # every profile bin of every candidate is asked for
         _score_block(params, state, block, rows, fc, t_s, h)
 
 
