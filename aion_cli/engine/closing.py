@@ -57,9 +57,12 @@ def close_windows(state: MapState, stop: int) -> None:
     delta = window_ns(state.config.window_s)
     count_rows = state.entries.window_rows()
     recorded = state.observation.covered_windows(w0, stop, delta)
-    if count_rows.size:
-        recorded = np.union1d(recorded, np.array([w0], np.int64))
-    days = state.params.calendar.day(window_centre_ns(recorded, delta)).tolist()
+    if count_rows.size and (recorded.size == 0 or recorded[0] != w0):  # w0 is the first
+        recorded = np.concatenate([np.array([w0], np.int64), recorded])
+    if recorded.size <= 4:  # a build's usual step: one window, its day remembered
+        days = [state.window_day(w) for w in recorded.tolist()]
+    else:
+        days = state.params.calendar.day(window_centre_ns(recorded, delta)).tolist()
     segment: list[int] = []
     segment_day: int | None = None
     stable_seen = -1

@@ -93,10 +93,14 @@ class ObservationSource:
         gap between recordings is skipped by binary search, never walked window by window."""
         lo, hi = int(first) * delta_ns, int(stop) * delta_ns
         i0, i1 = np.searchsorted(self.pose_t, [lo, hi], side="left")
-        parts = [np.unique(window_index(self.pose_t[i0:i1], delta_ns))]
         starts, ends = self.merged_fixed()
         k0 = int(np.searchsorted(ends, lo, side="right"))  # first interval ending after lo
         k1 = int(np.searchsorted(starts, hi, side="left"))  # intervals starting before hi
+        if stop - first == 1:  # one window (a build's usual step): covered or not
+            covered = i1 > i0 or k1 > k0
+            return np.array([first] if covered else [], np.int64)
+        poses = window_index(self.pose_t[i0:i1], delta_ns)  # sorted: the poses are
+        parts = [poses[np.concatenate([[True], poses[1:] != poses[:-1]])] if poses.size else poses]
         if k1 > k0:
             w0 = np.maximum(starts[k0:k1] // delta_ns, first)
             w1 = np.minimum(-((-ends[k0:k1]) // delta_ns), stop)  # ceil(e / Δ)
@@ -106,6 +110,8 @@ class ObservationSource:
                 # every window of every interval: w0 repeated, plus 0, 1, ... within each
                 offsets = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(size) - size, size)
                 parts.append(np.repeat(w0, size) + offsets)
+        if len(parts) == 1 or parts[0].size == 0:  # each part is sorted and distinct
+            return parts[-1].astype(np.int64)
         return np.unique(np.concatenate(parts)).astype(np.int64)
 
     def fixed_covers(self, window: int, delta_ns: int) -> bool:

@@ -76,6 +76,7 @@ class MapState:
     _predictor: tuple[tuple[int, int, int | None, int], temporal_model.Predictor] | None = field(
         default=None, init=False, repr=False, compare=False
     )
+    _days: dict[int, int] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.params = TemporalParams.from_config(self.config)
@@ -158,15 +159,22 @@ class MapState:
         )
 
     def window_day(self, window: int) -> int:
-        """The local day (``timezone``) of a window, by its centre."""
-        return temporal_model.window_day(self.params, window, self.window_ns)
+        """The local day (``timezone``) of a window, by its centre (remembered for the last
+        windows asked: a build asks for each window several times as it closes)."""
+        days = self._days
+        day = days.get(window)
+        if day is None:
+            if len(days) >= 4096:
+                days.clear()
+            day = days[window] = temporal_model.window_day(self.params, window, self.window_ns)
+        return day
 
     def record_window(
         self, window: int, fixed: bool, observed: I64, count_rows: I64, counts: F64
     ) -> None:
         """One closed window for the temporal model (a window of a new day first closes the
         pending day: see :mod:`aion_cli.engine.temporal.model`)."""
-        day = temporal_model.window_day(self.params, window, self.window_ns)
+        day = self.window_day(window)
         if self.pending and self.pending.day != day:
             self.close_day()
         self.pending.add_window(day, window, fixed, observed, count_rows, counts)

@@ -183,8 +183,9 @@ def test_loaded_store_knows_its_open_window_rows() -> None:
 def _per_window_sums_pairwise(fc: Any, entries: np.ndarray, fixed_slots: np.ndarray,
                               obs_e: np.ndarray, obs_s: np.ndarray, rot: np.ndarray,
                               floor: float) -> np.ndarray:
-    """The pre-issue-15 ``scoring._per_window_sums`` verbatim: every (entry, window) pair as
-    a row, summed chunk by chunk with ``np.bincount``."""
+    """The pre-issue-15 ``scoring._per_window_sums``: every (entry, window) pair as a row,
+    summed chunk by chunk with ``np.bincount``; each pair's term 2 Re(γ z) in the real form
+    the block evaluation uses (Re γ · 2 Re z − Im γ · 2 Im z, no complex product)."""
     slot_of = np.full(fc.rows.size, -1, np.int64)
     slot_of[entries] = np.arange(entries.size)
     pair_e = [np.repeat(entries, fixed_slots.size)]
@@ -197,7 +198,8 @@ def _per_window_sums_pairwise(fc: Any, entries: np.ndarray, fixed_slots: np.ndar
     total = np.zeros((m_max, entries.size))
     for a in range(0, pe.size, scoring._PAIRS):
         e, s = pe[a : a + scoring._PAIRS], ps[a : a + scoring._PAIRS]
-        terms = np.cumsum(2.0 * (fc.coef_total[e] * rot[s[:, None], fc.period_idx[e]]).real, axis=1)
+        z, coef = rot[s[:, None], fc.period_idx[e]], fc.coef_total[e]
+        terms = np.cumsum(coef.real * (2.0 * z.real) - coef.imag * (2.0 * z.imag), axis=1)
         lam = np.maximum(fc.rate_total[e][:, None] + terms, floor)
         local = slot_of[e]
         for j in range(m_max):

@@ -343,7 +343,7 @@ class Forecaster:
         m = self.params.max_order
         for a in range(0, todo.size, _BLOCK):
             pos = todo[a : a + _BLOCK]
-            total = self._gamma(pos).sum(axis=1)
+            total = self._gamma_total(pos)
             idx, valid = top_periods(total, self._gate[pos], m)
             coef = np.take_along_axis(total, idx, axis=1)
             coef[~valid] = 0.0
@@ -364,12 +364,7 @@ class Forecaster:
 
     def _gamma(self, pos: I64) -> C128:
         """γ_{v,k} = (A − μ B) / W of entries at positions ``pos``: complex[n, V, K]."""
-        if not self.state.fourier_loaded:
-            raise MapFileError(
-                "this map was read for queries without its Fourier sums, and its stored "
-                "forecast components do not cover what was asked",
-                hint="read the map whole (aion_cli.mapquery.load_map(path, forecast_only=False))",
-            )
+        self._check_sums()
         r = self.rows[pos]
         balance = _rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
         counts = _rows_of(self.state.cnt_fourier, r)
@@ -377,6 +372,28 @@ class Forecaster:
         np.subtract(counts, gamma, out=gamma)
         gamma /= np.where(self.observed[pos], self.windows[pos], 1.0)[:, None, None]
         return gamma
+
+    def _gamma_total(self, pos: I64) -> C128:
+        """γ_k of the entries' total series (all value bins), complex[n, K]: (Σ_v A_v − μ B)
+        / W with μ the total rate — the sum over v of :meth:`_gamma`, without its per-bin
+        [n, V, K] temporaries (a day's scoring asks it of every candidate)."""
+        self._check_sums()
+        r = self.rows[pos]
+        balance = _rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
+        gamma: C128 = _rows_of(self.state.cnt_fourier, r).sum(axis=1)
+        gamma -= self.rate_total[pos, None] * balance
+        gamma /= np.where(self.observed[pos], self.windows[pos], 1.0)[:, None]
+        return gamma
+
+    def _check_sums(self) -> None:
+        """:class:`MapFileError` when the Fourier sums were not read (a query's state) and a
+        component the map did not store is asked for."""
+        if not self.state.fourier_loaded:
+            raise MapFileError(
+                "this map was read for queries without its Fourier sums, and its stored "
+                "forecast components do not cover what was asked",
+                hint="read the map whole (aion_cli.mapquery.load_map(path, forecast_only=False))",
+            )
 
     def _flat_bins(self, bins: int, upto: int) -> tuple[I64, F64, F64]:
         """The per-bin periods and 2·Re γ, 2·Im γ of the first ``bins`` bins and ``upto``

@@ -259,7 +259,12 @@ def _per_window_sums(
     fixed_pairs = entries.size * n_fixed
     n_pairs = fixed_pairs + own_e.size
     coef, rate, idx = fc.coef_total[entries], fc.rate_total[entries], fc.period_idx[entries]
-    rot_by_period = np.ascontiguousarray(rot[fixed_slots].T)  # (K, S): a period's slots
+    # 2 Re(γ z) = Re γ · 2 Re z − Im γ · 2 Im z, z = e^{−iωt}: real arithmetic on a period's
+    # slots (rows of (K, S) tables), no complex temporaries
+    fixed_rot = rot[fixed_slots].T
+    cos2 = np.ascontiguousarray(2.0 * fixed_rot.real)
+    sin2 = np.ascontiguousarray(2.0 * fixed_rot.imag)
+    coef_re, coef_im = np.ascontiguousarray(coef.real), np.ascontiguousarray(coef.imag)
     slot = np.arange(n_fixed)
     total = np.zeros((m_max, entries.size))
     for a in range(0, n_pairs, _PAIRS):
@@ -271,22 +276,26 @@ def _per_window_sums(
             pair = np.arange(i0, i1)[:, None] * n_fixed + slot[None, :]  # (nb, S)
             inside = (pair >= a) & (pair < fb)
             whole = bool(inside.all())
-            terms = np.zeros(0)
+            terms = np.zeros((i1 - i0, n_fixed))
+            lam = np.empty_like(terms)
             for j in range(m_max):  # the running sum over orders (cumsum's order)
-                part = 2.0 * (coef[i0:i1, j, None] * rot_by_period[idx[i0:i1, j]]).real
-                terms = part if j == 0 else terms + part
-                lam = np.maximum(rate[i0:i1, None] + terms, floor)  # (nb, S)
+                k = idx[i0:i1, j]
+                part = coef_re[i0:i1, j, None] * cos2[k]
+                part -= coef_im[i0:i1, j, None] * sin2[k]
+                terms += part
+                np.add(rate[i0:i1, None], terms, out=lam)
+                np.maximum(lam, floor, out=lam)  # (nb, S)
                 if not whole:  # adding 0.0 leaves a sum of positive terms unchanged
-                    lam = np.where(inside, lam, 0.0)
+                    lam[~inside] = 0.0
                 # along the slots in pair order: an accumulation is sequential by
                 # definition (a sum may be pairwise), as bincount's running sums are
                 chunk[j, i0:i1] = np.add.accumulate(lam, axis=1)[:, -1]
         if b > fixed_pairs:
             e = own_e[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
             s = own_s[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
-            terms = np.cumsum(
-                2.0 * (fc.coef_total[e] * rot[s[:, None], fc.period_idx[e]]).real, axis=1
-            )
+            z = rot[s[:, None], fc.period_idx[e]]  # (P, M), as the fixed slots' terms
+            coef_e = fc.coef_total[e]
+            terms = np.cumsum(coef_e.real * (2.0 * z.real) - coef_e.imag * (2.0 * z.imag), axis=1)
             lam_own = np.maximum(fc.rate_total[e][:, None] + terms, floor)  # (P, M)
             local = slot_of[e]
             for j in range(m_max):
