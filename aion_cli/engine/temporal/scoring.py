@@ -181,12 +181,16 @@ def _observed_sum(
     if name.startswith("fremen"):
         out: F64 = fremen[int(name.removeprefix("fremen")) - 1]
         return out
-    e = np.arange(per_bin.shape[0])
+    n = per_bin.shape[0]
     bins = np.flatnonzero(per_bin.any(axis=0))
-    total = np.zeros(e.size)
-    for b in bins.tolist():
-        lam = np.maximum(fc.flow(name, e, np.full(e.size, b), np.zeros(e.size)), floor)
-        total += lam * per_bin[:, b]
+    # every (entry, bin) pair in one evaluation, then the bins added in order
+    pair_e = np.repeat(np.arange(n), bins.size)
+    pair_h = np.tile(bins, n)
+    lam = np.maximum(fc.flow(name, pair_e, pair_h, np.zeros(pair_e.size)), floor)
+    lam = lam.reshape(n, bins.size)
+    total = np.zeros(n)
+    for j, b in enumerate(bins.tolist()):
+        total += lam[:, j] * per_bin[:, b]
     return total
 
 
@@ -261,7 +265,10 @@ def _per_window_sums(
     coef, rate, idx = fc.coef_total[entries], fc.rate_total[entries], fc.period_idx[entries]
     # 2 Re(γ z) = Re γ · 2 Re z − Im γ · 2 Im z, z = e^{−iωt}: real arithmetic on a period's
     # slots (rows of (K, S) tables), no complex temporaries
-    fixed_rot = rot[fixed_slots].T
+    # (S, K) tables, entries along the columns of each block: a block's sum over its slots is
+    # then a reduction over the outer axis, which adds the slots in order (as bincount's
+    # running sums do) without an accumulation's full output
+    fixed_rot = rot[fixed_slots]
     cos2 = np.ascontiguousarray(2.0 * fixed_rot.real)
     sin2 = np.ascontiguousarray(2.0 * fixed_rot.imag)
     coef_re, coef_im = np.ascontiguousarray(coef.real), np.ascontiguousarray(coef.imag)
@@ -273,23 +280,21 @@ def _per_window_sums(
         if a < fixed_pairs:  # entries [i0, i1) have fixed pairs in [a, min(b, fixed_pairs))
             fb = min(b, fixed_pairs)
             i0, i1 = a // n_fixed, (fb - 1) // n_fixed + 1
-            pair = np.arange(i0, i1)[:, None] * n_fixed + slot[None, :]  # (nb, S)
+            pair = slot[:, None] + np.arange(i0, i1)[None, :] * n_fixed  # (S, nb)
             inside = (pair >= a) & (pair < fb)
             whole = bool(inside.all())
-            terms = np.zeros((i1 - i0, n_fixed))
+            terms = np.zeros((n_fixed, i1 - i0))
             lam = np.empty_like(terms)
             for j in range(m_max):  # the running sum over orders (cumsum's order)
                 k = idx[i0:i1, j]
-                part = coef_re[i0:i1, j, None] * cos2[k]
-                part -= coef_im[i0:i1, j, None] * sin2[k]
+                part = coef_re[None, i0:i1, j] * cos2.take(k, axis=1)
+                part -= coef_im[None, i0:i1, j] * sin2.take(k, axis=1)
                 terms += part
-                np.add(rate[i0:i1, None], terms, out=lam)
-                np.maximum(lam, floor, out=lam)  # (nb, S)
+                np.add(rate[None, i0:i1], terms, out=lam)
+                np.maximum(lam, floor, out=lam)  # (S, nb)
                 if not whole:  # adding 0.0 leaves a sum of positive terms unchanged
                     lam[~inside] = 0.0
-                # along the slots in pair order: an accumulation is sequential by
-                # definition (a sum may be pairwise), as bincount's running sums are
-                chunk[j, i0:i1] = np.add.accumulate(lam, axis=1)[:, -1]
+                chunk[j, i0:i1] = _sum_in_order(lam)
         if b > fixed_pairs:
             e = own_e[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
             s = own_s[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
@@ -302,6 +307,18 @@ def _per_window_sums(
                 np.add.at(chunk[j], local, lam_own[:, j])  # in pair order, after the fixed
         total += chunk
     return total
+
+
+def _sum_in_order(values: F64) -> F64:
+    """Column sums of ``values`` (S, n) adding the rows one after the other, as running sums
+    do: numpy reduces over the outer axis of a 2-D array that way (a sum along a contiguous
+    row may be pairwise), except for a single column, which it reduces as a contiguous run
+    (tested against the pair-by-pair sums bit for bit)."""
+    if values.shape[1] == 1:
+        out: F64 = np.add.accumulate(values[:, 0])[-1:]
+        return out
+    summed: F64 = np.add.reduce(values, axis=0)
+    return summed
 
 
 def _score_directions(
