@@ -23,7 +23,9 @@ are written only through this class's methods (a loaded store re-derives the fla
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +39,8 @@ CELL = 0
 NODE = 1
 
 _PER_BIN = ("counts", "window_counts", "speed_sum", "speed_n")
+_VERSIONS = itertools.count(1)
+"""Numbers for :attr:`EntryStore.cells_version`, never given twice in a process."""
 _SCALAR = ("nodir", "window_nodir")
 
 
@@ -79,6 +83,19 @@ class EntryStore:
     )
     """Per row slot: the open-window counts may be non-zero (a superset of the rows that
     have detections in the open window; see the module docstring)."""
+    cells_version: int = field(
+        default_factory=lambda: next(_VERSIONS), compare=False, repr=False
+    )
+    """A number that no other set of cell rows (in any store of this process) has had:
+    renewed whenever rows become or stop being cells (:meth:`allocate`, :meth:`delete`; a
+    cell's key and position never change otherwise), so a bind check that found nothing to
+    bind knows nothing changed while it and the stable nodes stay the same."""
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled or copied: a version of this process's own (another process numbered
+        its stores independently)."""
+        self.__dict__.update(state)
+        self.cells_version = next(_VERSIONS)
 
     def __post_init__(self) -> None:
         if len(self.window_mark) != len(self.kind):  # built without flags: derive them
@@ -146,6 +163,7 @@ class EntryStore:
         self.key[rows] = key
         self.node_id[rows] = node_id
         self.xyz[rows] = xyz
+        self.cells_version = next(_VERSIONS)
         for name in (*_PER_BIN, *_SCALAR):
             getattr(self, name)[rows] = 0.0
         return rows
@@ -163,6 +181,7 @@ class EntryStore:
         self.kind[rows] = FREE
         self.key[rows] = -1
         self.free = np.union1d(self.free, rows).astype(np.int64)
+        self.cells_version = next(_VERSIONS)
 
     def live_rows(self) -> I64:
         """Rows holding an entry (cell or node), ascending."""

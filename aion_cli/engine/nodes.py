@@ -226,6 +226,24 @@ class BindIndex:
         self._params: tuple[float, float] | None = None
         self._tree: cKDTree | None = None
         self._forget(0)
+        self._none_at: int | None = None  # cells version of the last check that bound none
+
+    def bound_none(self, cells_version: int) -> None:
+        """The last check (with :attr:`_nodes`) found no cell to bind among the cells of
+        ``cells_version`` (``EntryStore.cells_version``)."""
+        self._none_at = cells_version
+
+    def nothing_new(
+        self, cells_version: int, node_xyz: F64, radius: float, vertical_tolerance: float
+    ) -> bool:
+        """Whether a check would bind nothing again: the same stable nodes, bind parameters
+        and cells as a check that bound none (a build checks twice at a graph that lands on
+        a window's end, and at every window end whether new cells came or not)."""
+        return (
+            self._none_at == cells_version
+            and self._params == (float(radius), float(vertical_tolerance))
+            and np.array_equal(node_xyz, self._nodes)
+        )
 
     def __getstate__(self) -> dict[str, int]:
         """A memo travels empty (a parallel build's shard states are pickled): rebuilding it
@@ -268,6 +286,7 @@ class BindIndex:
             from scipy.spatial import cKDTree  # slow to import: only here
             self._tree = cKDTree(self._nodes[:, :2])
             self._forget(0)
+            self._none_at = None
         assert self._tree is not None
         top = int(rows.max()) + 1
         if top > self._key.size:  # grow (doubling), keeping what is known

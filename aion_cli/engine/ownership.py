@@ -120,6 +120,9 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     index = state.nodes.bind_index
     if index is None:
         index = state.nodes.bind_index = BindIndex()
+    version = state.entries.cells_version
+    if index.nothing_new(version, xyz, cfg.bind_radius, cfg.bind_vertical_tolerance):
+        return None
     hit = index.nearest(
         cells,
         state.entries.key,
@@ -130,6 +133,7 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     )
     bound = hit >= 0
     if not bound.any():
+        index.bound_none(version)
         return None
     cells, hit = cells[bound], hit[bound]
     order = np.argsort(state.entries.key[cells], kind="stable")  # canonical: by cell key

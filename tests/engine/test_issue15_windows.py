@@ -122,6 +122,38 @@ def test_bind_index_reuses_the_tree_and_queries_only_new_cells() -> None:
     assert index.queried == 8
 
 
+def test_a_bind_check_with_nothing_new_asks_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A check that bound no cell is not redone while the cells and the stable nodes stay the
+    same (EntryStore.cells_version): the memo is not even consulted; a new cell is looked
+    at again."""
+    calls = []
+    nearest = BindIndex.nearest
+
+    def counted(self: BindIndex, *args: Any) -> np.ndarray:
+        calls.append(1)
+        return nearest(self, *args)
+
+    monkeypatch.setattr(BindIndex, "nearest", counted)
+    cfg = ModelConfig(stability_s=0.0, cell_size=0.5, bind_radius=1.0)
+    m = Mapper(cfg)
+    t0 = T0_DAY_END - 3600 * S
+    m.add_graph(graph(t0, [1], [[0.0, 0.0, 0.0]]))
+    m.add_detections(detections(t0 + S, [[20.0, 20.0, 0.0]]))  # far from the node
+    state = m.state
+    assert ownership.plan_binds(state, t0 + 2 * S) is None
+    index = state.nodes.bind_index
+    assert index is not None
+    asked, checks = index.queried, len(calls)
+    assert ownership.plan_binds(state, t0 + 3 * S) is None
+    assert len(calls) == checks  # nothing changed: no look-up at all
+    m.add_detections(detections(t0 + 4 * S, [[0.3, 0.1, 0.0]]))  # a new cell near the node
+    plan = ownership.plan_binds(state, t0 + 5 * S)
+    assert plan is not None
+    assert len(plan.cells) == 1
+    assert len(calls) == checks + 1
+    assert index.queried == asked + 1
+
+
 # -- the open-window row flags --------------------------------------------------------------
 
 
