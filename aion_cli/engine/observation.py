@@ -110,8 +110,9 @@ class ObservationSource:
                 # every window of every interval: w0 repeated, plus 0, 1, ... within each
                 offsets = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(size) - size, size)
                 parts.append(np.repeat(w0, size) + offsets)
-        if len(parts) == 1 or parts[0].size == 0:  # each part is sorted and distinct
-            return parts[-1].astype(np.int64)
+        if len(parts) == 1:  # the poses' windows alone: sorted and distinct already
+            return parts[0].astype(np.int64)
+        # intervals may share a window (two merged intervals within one window)
         return np.unique(np.concatenate(parts)).astype(np.int64)
 
     def fixed_covers(self, window: int, delta_ns: int) -> bool:
