@@ -15,6 +15,7 @@ are steps of their own. Only the values a snapshot needs are captured (position,
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -153,13 +154,22 @@ class Fixed:
             self.captures + tuple((n, o + s, d) for n, o, d in other.captures),
         )
 
+    @functools.cached_property
+    def _compare(self) -> tuple[I64, U8, U8]:
+        """The checked offsets, a mask OR-ed into the bytes read (1 where either bool tag
+        is fine: FALSE | 1 == TRUE) and the bytes expected then."""
+        offsets = np.array([o for o, _ in self.checks], dtype=np.int64)
+        either = np.array([b == BOOL for _, b in self.checks], dtype=bool)
+        want = np.array([TRUE if b == BOOL else b for _, b in self.checks], dtype=np.uint8)
+        return offsets, either.astype(np.uint8), want
+
     def run(self, c: Cursors, out: Values) -> None:
         base = c.base(self.size)
-        offsets = np.array([o for o, _ in self.checks], dtype=np.int64)
-        want = np.array([b for _, b in self.checks], dtype=np.int64)
-        rows = c.buf[base[:, None] + offsets].astype(np.int64)
-        rows = np.where(want == BOOL, rows | 1, rows)
-        c.ok &= (rows == np.where(want == BOOL, TRUE, want)).all(axis=1)
+        offsets, either, want = self._compare
+        rows = c.buf[base[:, None] + offsets]
+        if either.any():
+            rows |= either
+        c.ok &= (rows == want).all(axis=1)
         for name, offset, dtype in self.captures:
             if dtype == "bool":
                 out[name] = c.buf[base + offset] == TRUE
@@ -191,8 +201,9 @@ def booleans(n: int, capture: str | None = None) -> Fixed:
 
 def header(count: int) -> Fixed:
     """An ARR32 header of a fixed count (a fixed-size array follows)."""
-    body = count.to_bytes(4, "little")
-    return Fixed(5, ((0, ARR), *((1 + i, body[i]) for i in range(4))))
+    return Fixed(
+        5, ((0, ARR), *((1 + i, b) for i, b in enumerate(count.to_bytes(4, "little"))))
+    )
 
 
 def position() -> Fixed:
@@ -207,6 +218,19 @@ def quaternion() -> Fixed:
 
 def name(c: Cursors, out: Values) -> None:
     out["name_start"], out["name_len"] = c.string()
+
+
+def fixed_matrix(tag: int, rows: int, cols: int) -> Fixed:
+    """A fixed-size Eigen matrix (:func:`matrix` of exactly ``rows`` x ``cols``): its header,
+    dimensions and entry tags are all fixed bytes."""
+    dims = _constant(I64_, rows) + _constant(I64_, cols)
+    return header(rows * cols + 2) + dims + scalars(*([tag] * (rows * cols)))
+
+
+def _constant(tag: int, value: int) -> Fixed:
+    """A scalar that must have one value (every byte of it checked)."""
+    body = value.to_bytes(WIDTH[tag], "little")
+    return Fixed(1 + len(body), ((0, tag), *((1 + i, b) for i, b in enumerate(body))))
 
 
 def matrix(tag: int, rows: int | None = None, cols: int | None = None) -> Step:
@@ -322,7 +346,7 @@ _SEMANTIC: list[Step] = [
     name,
     scalars(U8_, U8_, U8_, U8_),  # color
     header(4) + scalar(I32) + scalars(F32, F32, F32, F32, F32, F32),  # bounding box ...
-    matrix(F32, 3, 3),  # ... world_R_center
+    fixed_matrix(F32, 3, 3),  # ... world_R_center
     scalar(U32),  # semantic_label
     matrix(F32),  # semantic_feature
 ]
@@ -355,8 +379,8 @@ PROGRAMS: dict[str, list[Step]] = {
             *_SEMANTIC,
             vector(27, [(0, F64), (9, F64), (18, F64)]),  # boundary (Vector3d elements)
             scalars(F64, F64, F64),  # ellipse_centroid
-            matrix(F64, 2, 2),  # ellipse_matrix_compress
-            matrix(F64, 2, 2),  # ellipse_matrix_expand
+            fixed_matrix(F64, 2, 2),  # ellipse_matrix_compress
+            fixed_matrix(F64, 2, 2),  # ellipse_matrix_expand
             scalar_vector(U64),  # pcl_boundary_connections
             *_CONNECTIONS,
             booleans(2),  # need_cleanup_splitting, has_active_mesh_indices
