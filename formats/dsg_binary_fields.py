@@ -124,8 +124,11 @@ class Cursors:
                 self.ok[np.unique(owner[bad])] = False
         self.pos += count * size
 
-    def each(self, count: I64, step: Callable[[Cursors], None]) -> None:
-        """``count`` elements of variable size per record: element k of every record at once."""
+    def each(self, count: I64, step: Callable[[Cursors], None], least: int) -> None:
+        """``count`` elements of variable size (``least`` bytes at least) per record: element
+        k of every record at once. A count the bytes left cannot hold fails at once (a
+        damaged length must not cost a loop of that many rounds)."""
+        self.ok &= self.pos + count * least <= self.n
         count = np.where(self.ok, count, 0)
         for k in range(int(count.max()) if len(count) else 0):
             rows = (count > k) & self.ok
@@ -306,7 +309,7 @@ def nearest_vertices(c: Cursors, out: Values) -> None:
         done |= good
     if not done.all():
         sub = c.subset(~done)
-        sub.each(count[~done], _nvi_element)
+        sub.each(count[~done], _nvi_element, 67)
         c.merge(~done, sub)
 
 
@@ -317,7 +320,7 @@ def _probability(c: Cursors) -> None:
 
 def class_probabilities(c: Cursors, out: Values) -> None:
     """A map<string, double> (room class probabilities): entry k of every record at once."""
-    c.each(c.length(), _probability)
+    c.each(c.length(), _probability, 14)
 
 
 def compile_steps(steps: Sequence[Step]) -> list[Step]:

@@ -4,6 +4,9 @@
 :class:`GraphSnapshot` every command uses, whether the graph came from a file or a DsgUpdate
 payload. spark_dsg has no bulk accessors, so this is the per-node pass whose cost is counted
 in binding calls; it is kept apart from how graphs are read and how the layer is chosen.
+DsgUpdate payloads usually skip it: :mod:`formats.dsg_fast` builds the same snapshot from the
+payload's bytes (reusing :func:`_labels` and :class:`NavGraph`), this pass serves graph files
+and the payloads that reader leaves to spark_dsg.
 """
 
 from __future__ import annotations
