@@ -109,6 +109,25 @@ def test_hydra_shaped_graphs() -> None:
         assert _assert_same(_with_mesh(G, colors=False).to_binary(True), [None]) == 1
 
 
+def test_graphs_that_name_their_own_layers() -> None:
+    """Layer keys and names only from the payload (spark_dsg decodes into an empty graph): a
+    graph naming one layer FOO, one naming none, one naming PLACES another key."""
+    import spark_dsg as dsg
+
+    shapes = [([7], {"FOO": 7}), ([], {}), ([3, 9], {"PLACES": 9, "ROOMS": 3})]
+    for keys, names in shapes:
+        G = dsg.DynamicSceneGraph(
+            [dsg.LayerKey(k) for k in keys], {n: dsg.LayerKey(k) for n, k in names.items()}
+        )
+        for i in range(6):
+            a = dsg.PlaceNodeAttributes()
+            a.position = np.array([float(i), 1.0, 2.0])
+            G.add_node(7 if keys == [7] else 3 + 6 * (i % 2), sym("p", i), a)
+        G.insert_edge(sym("p", 0), sym("p", 2))
+        G.insert_edge(sym("p", 1), sym("p", 2))  # a parent across layers 9 > 3
+        assert _assert_same(G.to_binary(False), [None, "FOO", "7", "9", "PLACES", "ROOMS"]) >= 2
+
+
 def test_live_hydra_benchmark_graphs() -> None:
     """The 1 Hz stream of benchmarks/bench_build.py (every payload different)."""
     from benchmarks.bench_build import SITE, MovingPayload, places_graph
