@@ -49,13 +49,14 @@ memory logs are deleted after use. :func:`profile_build` gives a cProfile of one
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -350,10 +351,33 @@ def _payloads(path: Path, limit: int) -> list[tuple[int, Any]]:
     return out
 
 
+def _message_reading(path: Path, limit: int, repeats: int) -> dict[str, float]:
+    """Per DsgUpdate message: rosbags' decode of the whole message (what ``GraphFeed`` did to
+    get the payload and stamp) and ``formats.dsg_update_fast.read_dsg_update`` (the header
+    stamp and a view of the payload, straight from the bytes)."""
+    from aion_cli.formats.dsg_update_fast import read_dsg_update
+    from aion_cli.formats.logs import open_logs
+
+    with open_logs([path]) as logs:
+        msgs = []
+        for msg in logs.messages({GRAPH_TOPIC}):
+            msgs.append(msg)
+            if len(msgs) >= limit:
+                break
+        k = max(len(msgs), 1)
+        rosbags_s = best_of(lambda: [logs.decode(m) for m in msgs], repeats)
+        fast_s = best_of(lambda: [read_dsg_update(m.data, m.encoding) for m in msgs], repeats)
+    return {"payload_rosbags_s_per_graph": rosbags_s / k,
+            "payload_fast_s_per_graph": fast_s / k}
+
+
 def graph_parts(path: Path, samples: int = 10, repeats: int = 3) -> dict[str, Any]:
-    """Per payload: spark_dsg ``from_binary``, ``formats.dsg.decode_dsg`` and
-    ``Mapper.add_graph`` on the decoded snapshots (a mapper holding one minute of detections,
-    all snapshots inside one window: ownership only, no window close)."""
+    """Per payload: spark_dsg ``from_binary``, ``formats.dsg.decode_dsg`` through spark_dsg
+    (``fast=False``: ``from_binary`` and the per-node scan, the path before the numpy reader)
+    and through the numpy reader (the default), the message reading before and after
+    (:func:`_message_reading`) and ``Mapper.add_graph`` on the decoded snapshots (a mapper
+    holding one minute of detections, all snapshots inside one window: ownership only, no
+    window close). The decode paths are timed interleaved, best of ``repeats``."""
     import spark_dsg as dsg
 
     from aion_cli.engine.config import ModelConfig
@@ -365,8 +389,13 @@ def graph_parts(path: Path, samples: int = 10, repeats: int = 3) -> dict[str, An
     if not payloads:
         return {}
     raw = [bytes(p) for _, p in payloads]
-    spark_s = best_of(lambda: [dsg.DynamicSceneGraph.from_binary(b) for b in raw], repeats)
-    decode_s = best_of(lambda: [decode_dsg(p, t) for t, p in payloads], repeats)
+    spark_s = slow_s = fast_s = float("inf")
+    for _ in range(max(1, repeats)):
+        spark_s = min(spark_s, best_of(
+            lambda: [dsg.DynamicSceneGraph.from_binary(b) for b in raw], 1))
+        slow_s = min(slow_s, best_of(
+            lambda: [decode_dsg(p, t, fast=False) for t, p in payloads], 1))
+        fast_s = min(fast_s, best_of(lambda: [decode_dsg(p, t) for t, p in payloads], 1))
     base = T0_NS // WINDOW_NS * WINDOW_NS
     snaps = [dataclasses.replace(decode_dsg(p, t).snapshot, t_ns=base + 10**9 * (i + 1))
              for i, (t, p) in enumerate(payloads)]
@@ -390,13 +419,31 @@ def graph_parts(path: Path, samples: int = 10, repeats: int = 3) -> dict[str, An
     k = len(payloads)
     return {"payload_bytes": len(raw[0]), "places": len(snaps[0].places),
             "spark_from_binary_s_per_graph": spark_s / k,
-            "decode_dsg_s_per_graph": decode_s / k,
+            "decode_dsg_spark_s_per_graph": slow_s / k,
+            "decode_dsg_s_per_graph": fast_s / k,
+            "decode_speedup": slow_s / fast_s,
+            **_message_reading(path, samples, repeats),
             "add_graph_s_per_graph": own_s / max(k - 1, 1)}
 
 
-def run_graphs(places: int = 5000, seconds: float = 3600.0, repeats: int = 1
-               ) -> list[dict[str, Any]]:
-    """The graphs' share of a build of a live-Hydra log, and their cost per message."""
+@contextlib.contextmanager
+def without_fast_graph_readers() -> Iterator[None]:
+    """Builds inside read scene graphs as before the numpy readers: every DsgUpdate decoded
+    by rosbags for its payload and stamp, every payload by spark_dsg and the per-node scan
+    (``formats.dsg_update_fast.read_dsg_update`` declines, ``decode_dsg`` takes its
+    ``fast=False`` path). For the before/after ratio in one process."""
+    from unittest import mock
+
+    with mock.patch("aion_cli.formats.dsg_update_fast.read_dsg_update", return_value=None), \
+            mock.patch("aion_cli.formats.dsg_payload._fast_applies", return_value=False):
+        yield
+
+
+def run_graphs(places: int = 5000, seconds: float = 3600.0, repeats: int = 1,
+               compare_spark: bool = True) -> list[dict[str, Any]]:
+    """The graphs' share of a build of a live-Hydra log, and their cost per message; with
+    ``compare_spark`` also the build reading the graphs as before the numpy readers
+    (:func:`without_fast_graph_readers`) and its share, in the same process."""
     t0 = time.perf_counter()
     with_g, without = graph_logs(places, seconds)
     gen_s = time.perf_counter() - t0
@@ -426,6 +473,12 @@ def run_graphs(places: int = 5000, seconds: float = 3600.0, repeats: int = 1
         / max(without_s + raw_s - raw_without_s, 1e-12),
         "build_vs_raw": with_s / raw_s, "graph_period_option": graph_period_default(),
     }
+    if compare_spark:
+        with without_fast_graph_readers():
+            spark_s, _ = best_build(with_g, repeats)
+        row.update({"build_spark_dsg_s": spark_s,
+                    "graph_share_spark_dsg": (spark_s - without_s) / spark_s,
+                    "graph_s_per_message_spark_dsg": (spark_s - without_s) / max(graphs, 1)})
     row.update(graph_parts(with_g))
     return [row]
 
@@ -632,12 +685,22 @@ if __name__ == "__main__":
     parser.add_argument("--places", type=int, default=5000, help="graph stream: places")
     parser.add_argument("--seconds", type=float, default=3600.0, help="graph stream: length")
     parser.add_argument("--dump", type=Path, default=None, help="also write raw .prof files")
+    parser.add_argument("--only", choices=("ratio", "graphs", "map", "memory"), default=None,
+                        help="one part (graphs: the stream of --places / --seconds)")
     args = parser.parse_args()
     if args.profile == "ratio":
         log = ratio_log(5, 3_001, 2) if args.quick else ratio_log(5, 62_501, 20)
         print(profile_build(log, dump=args.dump))
     elif args.profile == "graphs":
         print(profile_build(graph_logs(args.places, args.seconds)[0], dump=args.dump))
+    elif args.only == "graphs":
+        for row in run_graphs(args.places, args.seconds):
+            print(row)
+    elif args.only is not None:
+        parts: dict[str, Callable[[], list[dict[str, Any]]]] = {
+            "ratio": run_ratio, "map": run_map, "memory": run_memory}
+        for row in parts[args.only]():
+            print(row)
     else:
         for row in run(args.quick):
             print(row)

@@ -17,6 +17,13 @@ Three entry points:
 - :func:`navigation` (behind all of them, and :func:`snapshot_from_dsg`) turns any spark_dsg graph
   into the navigational :class:`GraphSnapshot`.
 
+**Payloads without spark_dsg.** A live Hydra sends a DsgUpdate every second; building it as
+spark_dsg objects and reading them back node by node cost ~50 ms for 5,000 places.
+:func:`decode_dsg` therefore first reads a payload in the installed spark_dsg's own layout with
+numpy (:mod:`formats.dsg_binary`, :mod:`formats.dsg_fast`: ~8 ms) and gives spark_dsg every
+payload that reader does not vouch for, so results and errors are the same either way
+(``tests/formats/test_dsg_fast.py``).
+
 **One navigational layer rule for every command that reads a scene graph** (build, simulate and
 the evaluation through it, info; predict / plan / export read the graph stored in the map):
 layers are spark_dsg *keys*, a layer id and a partition (``3[1]``). Without a choice, the 2D
@@ -46,8 +53,10 @@ re-exported from the module that does the work — :mod:`formats.dsg_payload` (p
 versions, the versioned-header fallback, :func:`decode_dsg`), :mod:`formats.dsg_guard` (the
 damaged-input defences), :mod:`formats.dsg_files` (graph files, :func:`load_graph`),
 :mod:`formats.dsg_layers` (the navigational-layer rule) and :mod:`formats.dsg_scan`
-(:func:`navigation`: nodes, edges, mesh and agents as arrays). The underscore names are
-re-exported for :mod:`formats.dsg_json` and the tests, which reach into the parts.
+(:func:`navigation`: nodes, edges, mesh and agents as arrays), with the numpy payload reader in
+:mod:`formats.dsg_binary` / :mod:`formats.dsg_binary_fields` and :mod:`formats.dsg_fast`. The
+underscore names are re-exported for :mod:`formats.dsg_json` and the tests, which reach into
+the parts.
 """
 
 from __future__ import annotations

@@ -216,9 +216,25 @@ def _short(exc: Exception) -> str:
 
 
 def decode_dsg(
-    payload: PayloadLike, t_ns: int, version: str | None = None, layer: str | int | None = None
+    payload: PayloadLike,
+    t_ns: int,
+    version: str | None = None,
+    layer: str | int | None = None,
+    fast: bool = True,
 ) -> DecodedGraph:
-    """Decode a payload to a snapshot at ``t_ns`` and say which format version read it."""
+    """Decode a payload to a snapshot at ``t_ns`` and say which format version read it.
+
+    ``fast`` (the default): a payload in the layout of the installed spark_dsg's own version
+    (when that is the one :mod:`formats.dsg_binary` reads, and ``version`` asks for no
+    other) is read from its bytes with numpy (:func:`formats.dsg_fast.fast_navigation`),
+    ~10x faster; spark_dsg decodes whatever that reader does not vouch for, so the result
+    is the same either way."""
+    if fast and _fast_applies(version):
+        from aion_cli.formats.dsg_fast import fast_navigation
+
+        nav = fast_navigation(payload, t_ns, layer)
+        if nav is not None:
+            return DecodedGraph(nav.snapshot, installed_version(), nav.layer)
     graph, used = read_dsg_payload(payload, version)
     try:
         nav = navigation(graph, t_ns, layer)
@@ -229,6 +245,16 @@ def decode_dsg(
             hint="the payload is damaged",
         ) from exc
     return DecodedGraph(nav.snapshot, used, nav.layer)
+
+
+def _fast_applies(version: str | None) -> bool:
+    """Whether the numpy reader reads payloads as spark_dsg would here: the installed
+    spark_dsg reads payloads in the layout of :data:`formats.dsg_binary.BINARY_VERSION`, and
+    no other version is asked for."""
+    from aion_cli.formats.dsg_binary import BINARY_VERSION
+
+    native = installed_version()
+    return native == BINARY_VERSION and (version is None or version.strip() == native)
 
 
 def decode_dsg_update(

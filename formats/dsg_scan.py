@@ -4,6 +4,9 @@
 :class:`GraphSnapshot` every command uses, whether the graph came from a file or a DsgUpdate
 payload. spark_dsg has no bulk accessors, so this is the per-node pass whose cost is counted
 in binding calls; it is kept apart from how graphs are read and how the layer is chosen.
+DsgUpdate payloads usually skip it: :mod:`formats.dsg_fast` builds the same snapshot from the
+payload's bytes (reusing :func:`_labels` and :class:`NavGraph`), this pass serves graph files
+and the payloads that reader leaves to spark_dsg.
 """
 
 from __future__ import annotations
@@ -92,13 +95,15 @@ def _labels(ids: npt.NDArray[np.uint64], names: list[Any]) -> tuple[str, ...]:
     n = len(ids)
     if n == 0:
         return ()
-    uniq = np.unique(ids >> np.uint64(_SYMBOL_INDEX_BITS))
-    if len(uniq) == 1 and int(uniq[0]) < 128 and chr(int(uniq[0])).isalpha():
-        char = chr(int(uniq[0]))
-        index = list(map(str, (ids & np.uint64(_SYMBOL_INDEX_MASK)).tolist()))
-        shorts = [char + i for i in index]
+    cats = ids >> np.uint64(_SYMBOL_INDEX_BITS)
+    first = int(cats[0])  # one category in the layer? (np.unique's hashing is slower)
+    if first < 128 and chr(first).isalpha() and bool((cats == cats[0]).all()):
+        char = chr(first)
+        indices = (ids & np.uint64(_SYMBOL_INDEX_MASK)).tolist()
         if not any(names):
-            return tuple(shorts)
+            return tuple([char + str(i) for i in indices])
+        index = list(map(str, indices))
+        shorts = [char + i for i in index]
         return tuple(
             name if (name and name != short and name != f"{char}({i})") else short
             for name, short, i in zip(names, shorts, index, strict=True)

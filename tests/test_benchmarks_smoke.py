@@ -142,6 +142,11 @@ def test_build_small() -> None:
     assert 2 <= g["graph_messages_used"] <= 5
     assert g["nodes"] == g["places"] == 40
     assert g["detections"] >= 50
+    # the build reading graphs as before the numpy readers, and both decode paths per graph
+    assert g["build_spark_dsg_s"] > 0
+    assert g["decode_dsg_s_per_graph"] > 0
+    assert g["decode_dsg_spark_s_per_graph"] > 0
+    assert g["payload_fast_s_per_graph"] > 0
     maps = bench_build.run_map(sizes=(200,), repeats=1)
     size, predict, info = maps
     assert size["entries"] > 150
