@@ -22,7 +22,8 @@ internal error). So a build takes its time span only from the messages it uses, 
   such a log alone keeps everything).
 
 The same rule (:func:`stray_mask`) drops robot poses far from the rest of the trajectory.
-Everything here is numpy over int64 arrays; the per-message part is one ``array.append``.
+Everything here is numpy over int64 arrays; the per-message part is one ``array.append``, or
+none where the times come as arrays from a log's index (:meth:`TopicTimes.add_stream`).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from collections import Counter
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,7 +41,10 @@ from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS, TIME_RANGE_TEXT
 from aion_cli.engine.types import I64, BoolA
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
+
     from aion_cli.formats.raw import RawMessage
+    from aion_cli.formats.stream_times import StreamTimes
 
 STRAY_GAP_NS = 86_400 * 1_000_000_000
 """Gap between consecutive messages of a topic that starts a new run (one day)."""
@@ -53,6 +57,13 @@ STRAY_SHARE = 0.05
 def in_range(t_ns: int) -> bool:
     """Whether a log time lies in the representable range (inclusive)."""
     return MIN_TIME_NS <= t_ns <= MAX_TIME_NS
+
+
+def in_range_mask(t_ns: npt.NDArray[Any]) -> BoolA:
+    """:func:`in_range` over an array of log times: int64, or uint64 as MCAP stores them."""
+    if t_ns.dtype == np.uint64:
+        return t_ns <= np.uint64(MAX_TIME_NS)  # every uint64 lies above MIN_TIME_NS (< 0)
+    return (t_ns >= MIN_TIME_NS) & (t_ns <= MAX_TIME_NS)
 
 
 def iso(t_ns: int) -> str:
@@ -120,6 +131,24 @@ class TopicTimes:
         self.out_of_range[topic] += 1
         self.first_out_of_range.setdefault(topic, t_ns)
         return False
+
+    def add_array(self, topic: str, t_ns: npt.NDArray[Any]) -> npt.NDArray[np.bool_]:
+        """Record the log times ``t_ns`` (int64, or uint64 as MCAP stores them) of messages of
+        ``topic`` in read order, as :meth:`add` does one by one; returns which were in range."""
+        t = np.asarray(t_ns)
+        ok = in_range_mask(t)
+        bad = int(t.size - np.count_nonzero(ok))
+        if bad:
+            self.out_of_range[topic] += bad
+            self.first_out_of_range.setdefault(topic, int(t[~ok][0]))
+        self._times[topic].frombytes(t[ok].astype(np.int64).tobytes())
+        return ok
+
+    def add_stream(self, times: StreamTimes) -> None:
+        """Record log times read from a log's index (:mod:`formats.stream_times`), topic by
+        topic in stream order."""
+        for k, topic in enumerate(times.topics):
+            self.add_array(topic, times.t[times.code == k])
 
     def check(self, span_topics: Iterable[str]) -> TimeCheck:
         """The strays of ``span_topics`` (the topics whose times matter: a static transform's

@@ -41,6 +41,7 @@ With ``--workers`` several groups of logs are learnt at once and joined into the
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
@@ -65,7 +66,7 @@ from aion_cli.detection_feed import (
 )
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
-from aion_cli.errors import InputError
+from aion_cli.errors import InputError, StaleIndexError
 from aion_cli.graph_feed import GraphFeed, GraphTimes, graph_source
 from aion_cli.log_times import TopicTimes, iso
 from aion_cli.manifest import InputLog, Manifest
@@ -113,13 +114,10 @@ class _Build:
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
         self.previous_manifest: Manifest | None = None  # the continued map's
-        self.graphs = GraphFeed(
-            self.report,
-            opts.dsg_version,
-            opts.nav_layer,
-            opts.graph_period_ns,
-            opts.skip_identical_graphs,
-        )
+        self.graphs = self._graph_feed()
+        # log times from the logs' indexes (formats.stream_times) unless a read showed one
+        # stale, or the Mapper starts from a state in memory that a second try cannot restore
+        self._use_index = start is None
         self._adapters: dict[tuple[str, str, str], Any] = {}
         self._factory: Any = None
         self._logs: tuple[Path, ...] = tuple(opts.logs)  # the distinct logs (by sha256)
@@ -127,6 +125,16 @@ class _Build:
         self._map_open: int | None = None  # a continued map's open window when loaded
         self._used = np.zeros(0, np.int64)  # detections used, per detection topic
         self._mapper_drops = np.zeros((0, 0), np.int64)  # per topic x DROP_REASONS
+
+    def _graph_feed(self) -> GraphFeed:
+        opts = self.opts
+        return GraphFeed(
+            self.report,
+            opts.dsg_version,
+            opts.nav_layer,
+            opts.graph_period_ns,
+            opts.skip_identical_graphs,
+        )
 
     @property
     def logs(self) -> tuple[Path, ...]:
@@ -196,7 +204,29 @@ class _Build:
         return self.report
 
     def learn(self, config: ModelConfig) -> Mapper:
-        """Read the logs and learn them into a Mapper (steps 1-4 of the module docstring)."""
+        """Read the logs and learn them into a Mapper (steps 1-4 of the module docstring).
+
+        The log times of step 2 come from the logs' indexes where they say exactly what the
+        stream will yield (:meth:`formats.logs.LogSet.index_times`). Only reading a chunk
+        shows that it fails its CRC: when the build meets such a chunk whose times it took
+        from the index (:class:`~aion_cli.errors.StaleIndexError`), it starts over from the
+        same report and map, reading every message as before (a continued map is loaded
+        again: the Mapper changed it in place)."""
+        if not self._use_index:
+            return self._learn(config)
+        report = copy.deepcopy(self.report)
+        try:
+            return self._learn(config)
+        except StaleIndexError:
+            self._use_index = False
+            self.report = report
+            self.graphs = self._graph_feed()
+            self.counts = DetectionCounts()
+            if self.previous is not None and self.opts.continue_from is not None:
+                self.previous = load_map(self.opts.continue_from, writable=True)
+            return self._learn(config)
+
+    def _learn(self, config: ModelConfig) -> Mapper:
         from aion_cli.formats.logs import open_logs
 
         opts = self.opts
@@ -269,7 +299,9 @@ class _Build:
         graphs = plan.names("graph") if self.opts.graph_file is None else set()
         timed = plan.names("detections") | graphs
         thinned = graphs if self.opts.graph_period_ns > 0 else set()
-        tf, times, stats = read_tf_and_times(logset, plan, timed, self.progress, thinned)
+        tf, times, stats = read_tf_and_times(
+            logset, plan, timed, self.progress, thinned, use_index=self._use_index
+        )
         tf_topics = plan.names("tf") if plan.tf else set()
         self._times = check_times(times, plan, timed, self.report)
         if isinstance(times, GraphTimes):

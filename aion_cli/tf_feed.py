@@ -55,6 +55,8 @@ def read_tf_and_times(
     timed: set[str],
     progress: ProgressSink,
     graph_topics: set[str] | None = None,
+    *,
+    use_index: bool = True,
 ) -> tuple[TfBuffer | None, TopicTimes, TfStats]:
     """One read of the TF topics and of the other topics in ``timed`` (those the build uses):
     every TF message into one buffer, and the log time of every message of ``timed``
@@ -67,9 +69,12 @@ def read_tf_and_times(
     with the log's own definitions, and a message that cannot be decoded is skipped and
     counted (like a bad detection or scene-graph message). A TF message whose log time is out
     of the representable range is not decoded. The other topics' payloads are not decoded
-    here: MCAP chunks interleave topics, so reading them with TF costs little more than TF.
-    With ``graph_topics`` the times are a :class:`GraphTimes`, which also keeps those topics'
-    log times in read order (for :func:`aion_cli.graph_feed.graph_schedule`)."""
+    here. Where the logs' indexes give the log times the stream will yield
+    (:meth:`formats.logs.LogSet.index_times`, ``use_index``) only the TF topics are read, and
+    the other topics' times come as arrays from the index, without a message; otherwise
+    every message of those topics is read with TF. With ``graph_topics`` the times are a
+    :class:`GraphTimes`, which also keeps those topics' log times in read order (for
+    :func:`aion_cli.graph_feed.graph_schedule`)."""
     import logging
 
     from aion_cli.formats.tf import TfBuffer
@@ -85,6 +90,10 @@ def read_tf_and_times(
     topics = tf_topics | timed
     if not topics:
         return None, times, stats
+    indexed = logset.index_times(timed - tf_topics) if use_index and timed - tf_topics else None
+    if indexed is not None:
+        times.add_stream(indexed)
+        topics = tf_topics
     progress.start(
         "reading TF and log times" if tf_topics else "reading log times", logset.total(topics)
     )
@@ -131,7 +140,7 @@ def read_tf_and_times(
 
     chunk: list[RawMessage] = []
     done = 0
-    for msg in logset.messages(topics):
+    for msg in logset.messages(topics) if topics else ():
         done += 1
         if done == 4096:
             progress.advance(done)
