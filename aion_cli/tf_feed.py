@@ -13,6 +13,7 @@ failure rules (:func:`check_tf`), none of which the build orchestration
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import compress
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -101,11 +102,10 @@ def read_tf_and_times(
     generic = 0
     fast_ok: dict[tuple[str, str, str], bool] = {}
 
-    def fast(m: RawMessage) -> bool:
-        key = (m.topic, m.msgtype, m.encoding)
+    def fast(key: tuple[str, str, str]) -> bool:
         ok = fast_ok.get(key)
         if ok is None:
-            ok = fast_ok[key] = layout_matches(m.msgtype, m.encoding, *logset.definition(*key))
+            ok = fast_ok[key] = layout_matches(key[1], key[2], *logset.definition(*key))
         return ok
 
     def add(chunk: list[RawMessage]) -> None:
@@ -114,7 +114,7 @@ def read_tf_and_times(
         stats.messages += len(chunk)
         static = np.fromiter((m.topic.endswith("_static") for m in chunk), bool, len(chunk))
         try:
-            if not all(map(fast, chunk)):
+            if not all(map(fast, {(m.topic, m.msgtype, m.encoding) for m in chunk})):
                 raise MessageDecodeError("the log defines TF in another layout")
             arrays = decode_tf_messages(chunk)
         except MessageDecodeError:
@@ -138,25 +138,52 @@ def read_tf_and_times(
                         parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
                     )
 
-    chunk: list[RawMessage] = []
+    pending: list[RawMessage] = []  # TF messages whose times are not recorded yet
+    ready: list[RawMessage] = []  # TF messages in range, decoded 4096 at a time
     done = 0
     for msg in logset.messages(topics) if topics else ():
         done += 1
         if done == 4096:
             progress.advance(done)
             done = 0
-        if not times.add(msg.topic, msg.log_time_ns) or msg.topic not in tf_topics:
+        if msg.topic not in tf_topics:
+            times.add(msg.topic, msg.log_time_ns)
             continue
-        chunk.append(msg)
-        if len(chunk) == 4096:
-            add(chunk)
-            chunk = []
-    if chunk:
-        add(chunk)
+        pending.append(msg)
+        if len(pending) == 4096:
+            ready += _in_range(times, pending)
+            pending = []
+            while len(ready) >= 4096:
+                add(ready[:4096])
+                ready = ready[4096:]
+    ready += _in_range(times, pending)
+    for start in range(0, len(ready), 4096):
+        add(ready[start : start + 4096])
     progress.advance(done)
     if generic:
         logging.getLogger(__name__).info("TF: %d chunk(s) read by the generic decoder", generic)
     return buffer, times, stats
+
+
+def _in_range(times: TopicTimes, messages: list[RawMessage]) -> list[RawMessage]:
+    """Record the log times of ``messages`` (TF, in read order) topic by topic as arrays
+    (:meth:`TopicTimes.add_array`); the messages whose times are in range."""
+    if not messages:
+        return messages
+    t = np.array([m.log_time_ns for m in messages])
+    if t.dtype.kind not in "iu":  # ints beyond both int64 and uint64: one by one
+        return [m for m in messages if times.add(m.topic, m.log_time_ns)]
+    topics = [m.topic for m in messages]
+    names = set(topics)
+    if len(names) == 1:
+        ok = times.add_array(topics[0], t)
+    else:
+        of = np.array(topics)
+        ok = np.empty(len(messages), bool)
+        for name in sorted(names):
+            mine = of == name
+            ok[mine] = times.add_array(name, t[mine])
+    return messages if ok.all() else list(compress(messages, ok.tolist()))
 
 
 def robot_trajectory(

@@ -17,13 +17,15 @@ What an index cannot show is a chunk that fails its CRC or does not decompress: 
 :class:`~aion_cli.errors.StaleIndexError` if it later meets one it cannot read; the build
 starts over then (``pipeline._Build.learn``).
 
-Everything here is numpy over whole arrays; no file is opened.
+Everything here is numpy over whole arrays (and the query of a rosbag2 sqlite3 file on its open
+connection); no file is opened here.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -113,3 +115,38 @@ def _keys(t: Times) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.int64]]:
         high = t >= _TOP
         return high, np.where(high, t - _TOP, t).astype(np.int64)
     return np.zeros(t.size, bool), t.astype(np.int64)
+
+
+def bag_index(
+    indexes: Mapping[int, Sequence[tuple[int, ...]]], connections: Sequence[int]
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """``(log times, connection ids, chunk positions)`` of the entries of a ROS 1 bag index as
+    rosbags loads it at open (per connection, ``(time, chunk_pos, offset)`` sorted) in the
+    order :meth:`formats.bag_reader.BagReader.iter_messages` merges them for ``connections``:
+    by time, ties in the order of ``connections``. About 20 ns per entry, no chunk read."""
+    lists = [indexes.get(cid, ()) for cid in connections]
+    n = sum(len(entries) for entries in lists)
+    flat = np.fromiter(
+        chain.from_iterable(chain.from_iterable(lists)), np.int64, 3 * n
+    ).reshape(n, 3)
+    cids = np.repeat(np.array(connections, np.int64), [len(entries) for entries in lists])
+    order = np.argsort(flat[:, 0], kind="stable")
+    return flat[order, 0], cids[order], flat[order, 1]
+
+
+def sqlite_times(
+    connection: Any, topic_ids: Sequence[int]
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """``(log times, topic ids, payload sizes)`` of the messages on ``topic_ids`` of a rosbag2
+    sqlite3 storage file (``connection``: an open sqlite3 or apsw connection), in the order
+    rosbags' sqlite3 reader yields them: the same query, with the payloads' lengths in place
+    of the payloads (SQLite reads a blob's length from its record header)."""
+    marks = ",".join("?" for _ in topic_ids)
+    rows = connection.execute(
+        "SELECT topics.id,messages.timestamp,length(messages.data) "
+        "FROM messages JOIN topics ON messages.topic_id=topics.id "
+        f"WHERE topics.id IN ({marks}) ORDER BY timestamp",
+        tuple(topic_ids),
+    )
+    flat = np.fromiter(chain.from_iterable(rows), np.int64).reshape(-1, 3)
+    return flat[:, 1], flat[:, 0], flat[:, 2]
