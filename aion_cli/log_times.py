@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from array import array
 from collections import Counter
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from typing import TYPE_CHECKING, Any
@@ -39,8 +39,11 @@ import numpy as np
 
 from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS, TIME_RANGE_TEXT
 from aion_cli.engine.types import I64, BoolA
+from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     import numpy.typing as npt
 
     from aion_cli.formats.raw import RawMessage
@@ -282,3 +285,29 @@ class TimeCheck:
                 "docs/ROBUSTNESS.md, time sanity)"
             )
         return out
+
+
+def check_after_open(
+    t_ns: I64,
+    open_start: int,
+    what: str,
+    map_inputs: list[str],
+    logs: Sequence[Path],
+    map_name: str,
+) -> None:
+    """A continued map (``map_name``, built from ``map_inputs``) has closed every window before
+    its open one, which starts at ``open_start``: ``what``s of ``logs`` there (log times
+    ``t_ns``) would be lost (``before_window``) and yet the logs recorded as added, so they
+    could never be added again. :class:`InputError` instead, before anything is written."""
+    early = int(np.count_nonzero(t_ns < open_start))
+    if early == 0:
+        return
+    listed = " ".join([*map_inputs[:3], *(["..."] if len(map_inputs) > 3 else [])])
+    listed += " " + " ".join(str(p) for p in logs[:3])
+    raise InputError(
+        f"the {what}s of {', '.join(p.name for p in logs)} start at "
+        f"{iso(int(t_ns.min()))}, but {map_name} has already closed every "
+        f"window before {iso(open_start)}: logs must be added to a map in time order; "
+        "nothing was added",
+        hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",
+    )

@@ -12,6 +12,7 @@ failure rules (:func:`check_tf`), none of which the build orchestration
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import compress
 from typing import TYPE_CHECKING, Any
@@ -36,6 +37,7 @@ __all__ = [
     "check_tf",
     "check_times",
     "fixed_sensor_windows",
+    "observe",
     "read_tf_and_times",
     "robot_trajectory",
 ]
@@ -211,6 +213,41 @@ def robot_trajectory(
         keep = ~stray
         traj = Trajectory(t[keep], np.asarray(traj.xyz)[keep])
     return traj
+
+
+def observe(
+    mapper: Mapper,
+    tf: TfBuffer | None,
+    frames: tuple[str, str],
+    graph_agents: Callable[[], bool],
+    logset: Any,
+    times: TimeCheck,
+    report: BuildReport,
+) -> None:
+    """The observation of a build, said in ``report.observation``: the robot trajectory
+    ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
+    graphs' agent layer when the first graph has one (``graph_agents``; its poses are fed
+    per snapshot); else a fixed sensor over the windows it recorded in
+    (:func:`fixed_sensor_windows`)."""
+    map_frame, base_frame = frames
+    traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
+    if tf is not None and traj is None:
+        report.notes.append(
+            f"TF has no {map_frame}->{base_frame} chain for the robot trajectory (frames: "
+            f"{', '.join(sorted(tf.frames)[:12])}); see --map-frame / --base-frame"
+        )
+    if traj is not None:
+        mapper.add_trajectory(traj)
+        report.observation = f"tf {map_frame}->{base_frame}"
+    elif graph_agents():
+        report.observation = "scene-graph agent layer"  # fed per snapshot
+    else:
+        report.observation = fixed_sensor_windows(mapper, logset, times, report.notes, report)
+        report.notes.append(
+            "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
+            "treated as a fixed sensor that saw everything in the windows in which it "
+            "recorded any message, within the time of the topics aion uses"
+        )
 
 
 def check_tf(stats: TfStats, tf_topics: set[str], report: BuildReport) -> None:
