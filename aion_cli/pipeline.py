@@ -214,7 +214,7 @@ class _Build:
             return self._learn(config)
         except StaleIndexError:
             self._use_index = False
-            self.report = report
+            vars(self.report).update(vars(report))  # the same object: others hold it
             self.graphs = self._graph_feed()
             self.counts = DetectionCounts()
             if self.previous is not None and self.opts.continue_from is not None:

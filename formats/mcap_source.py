@@ -342,6 +342,8 @@ class _McapSource(_McapLinearRead):
         from aion_cli.formats import mcap_times, stream_times
 
         wanted = {cid: t for cid, (t, _, _) in self._channels.items() if t in topics}
+        if not wanted:
+            return stream_times.empty()
         if self._unzstd:
             return None
         if self._chunk_indexes is None:
