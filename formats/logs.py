@@ -23,7 +23,8 @@ read through a decompressed temporary copy (:mod:`formats.rosbag2_storage`), rem
 
 :meth:`LogSet.recorded_windows` says which time windows the logs recorded anything in, from the
 same indexes (:mod:`formats.recorded`), without reading message payloads where a container
-indexes its messages.
+indexes its messages; :meth:`LogSet.index_times` gives the log times :meth:`LogSet.messages`
+will yield, in its order, from them (:mod:`formats.stream_times`), where they say exactly that.
 
 This module is the public front: :func:`open_logs`, :class:`LogSet` and the time-ordered merge
 of many files, and the opening of one path into its sources. The readers live one module per
