@@ -60,6 +60,14 @@ class LogFormatError(InputError):
     """A log file cannot be opened or read (unknown format, corrupt, empty)."""
 
 
+class StaleIndexError(AionError):
+    """Log times taken from a container's index are not those of the messages its stream
+    yields: a chunk the index vouched for cannot be read after all (a CRC or decompression
+    failure only reading it shows). Raised by the readers when they meet such a chunk; the
+    build (``pipeline._Build.learn``) starts over reading the logs in full, so the user never
+    sees it."""
+
+
 class TopicNotFoundError(InputError):
     """No usable topic, or the named topic is missing; ``candidates`` lists what the log has."""
 

@@ -27,12 +27,13 @@ import numpy.typing as npt
 
 from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
 from aion_cli.errors import MessageDecodeError
-from aion_cli.log_times import TopicTimes
+from aion_cli.log_times import TopicTimes, in_range_mask
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.mapper import Mapper
     from aion_cli.formats.raw import RawMessage
+    from aion_cli.formats.stream_times import StreamTimes
     from aion_cli.topics import TopicPlan
 
 __all__ = [
@@ -125,6 +126,16 @@ class GraphTimes(TopicTimes):
             self.graph_t.append(t_ns)
             self.graph_topic.append(k)
         return ok
+
+    def add_stream(self, times: StreamTimes) -> None:
+        """Record log times read from a log's index (:meth:`TopicTimes.add_stream`), the
+        scene-graph ones also in stream order, with their topics, as :meth:`add` does."""
+        super().add_stream(times)
+        graph_of = np.array([self._index.get(topic, -1) for topic in times.topics], np.int16)
+        topic = graph_of[times.code] if len(times) else np.zeros(0, np.int16)
+        keep = (topic >= 0) & in_range_mask(times.t)
+        self.graph_t.frombytes(times.t[keep].astype(np.int64).tobytes())
+        self.graph_topic.frombytes(topic[keep].tobytes())
 
     def stream_times(self, strays: dict[str, I64]) -> I64:
         """The graph log times in the order the build's stream yields them: the strays the

@@ -22,25 +22,32 @@ internal error). So a build takes its time span only from the messages it uses, 
   such a log alone keeps everything).
 
 The same rule (:func:`stray_mask`) drops robot poses far from the rest of the trajectory.
-Everything here is numpy over int64 arrays; the per-message part is one ``array.append``.
+Everything here is numpy over int64 arrays; the per-message part is one ``array.append``, or
+none where the times come as arrays from a log's index (:meth:`TopicTimes.add_stream`).
 """
 
 from __future__ import annotations
 
 from array import array
 from collections import Counter
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS, TIME_RANGE_TEXT
 from aion_cli.engine.types import I64, BoolA
+from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
+    import numpy.typing as npt
+
     from aion_cli.formats.raw import RawMessage
+    from aion_cli.formats.stream_times import StreamTimes
 
 STRAY_GAP_NS = 86_400 * 1_000_000_000
 """Gap between consecutive messages of a topic that starts a new run (one day)."""
@@ -53,6 +60,13 @@ STRAY_SHARE = 0.05
 def in_range(t_ns: int) -> bool:
     """Whether a log time lies in the representable range (inclusive)."""
     return MIN_TIME_NS <= t_ns <= MAX_TIME_NS
+
+
+def in_range_mask(t_ns: npt.NDArray[Any]) -> BoolA:
+    """:func:`in_range` over an array of log times: int64, or uint64 as MCAP stores them."""
+    if t_ns.dtype == np.uint64:
+        return t_ns <= np.uint64(MAX_TIME_NS)  # every uint64 lies above MIN_TIME_NS (< 0)
+    return (t_ns >= MIN_TIME_NS) & (t_ns <= MAX_TIME_NS)
 
 
 def iso(t_ns: int) -> str:
@@ -120,6 +134,24 @@ class TopicTimes:
         self.out_of_range[topic] += 1
         self.first_out_of_range.setdefault(topic, t_ns)
         return False
+
+    def add_array(self, topic: str, t_ns: npt.NDArray[Any]) -> npt.NDArray[np.bool_]:
+        """Record the log times ``t_ns`` (int64, or uint64 as MCAP stores them) of messages of
+        ``topic`` in read order, as :meth:`add` does one by one; returns which were in range."""
+        t = np.asarray(t_ns)
+        ok = in_range_mask(t)
+        bad = int(t.size - np.count_nonzero(ok))
+        if bad:
+            self.out_of_range[topic] += bad
+            self.first_out_of_range.setdefault(topic, int(t[~ok][0]))
+        self._times[topic].frombytes(t[ok].astype(np.int64).tobytes())
+        return ok
+
+    def add_stream(self, times: StreamTimes) -> None:
+        """Record log times read from a log's index (:mod:`formats.stream_times`), topic by
+        topic in stream order."""
+        for k, topic in enumerate(times.topics):
+            self.add_array(topic, times.t[times.code == k])
 
     def check(self, span_topics: Iterable[str]) -> TimeCheck:
         """The strays of ``span_topics`` (the topics whose times matter: a static transform's
@@ -253,3 +285,29 @@ class TimeCheck:
                 "docs/ROBUSTNESS.md, time sanity)"
             )
         return out
+
+
+def check_after_open(
+    t_ns: I64,
+    open_start: int,
+    what: str,
+    map_inputs: list[str],
+    logs: Sequence[Path],
+    map_name: str,
+) -> None:
+    """A continued map (``map_name``, built from ``map_inputs``) has closed every window before
+    its open one, which starts at ``open_start``: ``what``s of ``logs`` there (log times
+    ``t_ns``) would be lost (``before_window``) and yet the logs recorded as added, so they
+    could never be added again. :class:`InputError` instead, before anything is written."""
+    early = int(np.count_nonzero(t_ns < open_start))
+    if early == 0:
+        return
+    listed = " ".join([*map_inputs[:3], *(["..."] if len(map_inputs) > 3 else [])])
+    listed += " " + " ".join(str(p) for p in logs[:3])
+    raise InputError(
+        f"the {what}s of {', '.join(p.name for p in logs)} start at "
+        f"{iso(int(t_ns.min()))}, but {map_name} has already closed every "
+        f"window before {iso(open_start)}: logs must be added to a map in time order; "
+        "nothing was added",
+        hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",
+    )

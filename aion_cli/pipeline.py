@@ -8,13 +8,15 @@ steps' parts live beside it, each with its own rules. Steps of :func:`build_map`
 1. open the logs (``formats.logs.open_logs``) and pick topics by type (:func:`select_topics`):
    detection topics with a supported adapter (all of them, or those named), the scene-graph
    topic(s) (``hydra_msgs/DsgUpdate``), ``/tf`` and ``/tf_static``;
-2. read TF first into a ``TfBuffer``, and in the same pass the log times of every topic the
-   build uses (:mod:`aion_cli.tf_feed`); the time-sanity rules (:mod:`aion_cli.log_times`)
-   drop messages with stray or unrepresentable log times (counted, warned) and give the
-   build's time span (from the messages used, never from other topics or a summary); the
-   observation mask comes from the robot trajectory ``map -> base_link``, else from the scene
-   graph's agent layer, else the log is treated as a fixed sensor over the windows in which
-   it recorded any message within that span (the report says which);
+2. read TF first into a ``TfBuffer``, and the log times of every topic the build uses (from
+   the logs' indexes where they give exactly the stream's, else in the same pass;
+   :mod:`aion_cli.tf_feed`, :mod:`formats.stream_times`); the time-sanity rules
+   (:mod:`aion_cli.log_times`) drop messages with stray or unrepresentable log times
+   (counted, warned) and give the build's time span (from the messages used, never from
+   other topics or a summary); the observation mask comes from the robot trajectory
+   ``map -> base_link``, else from the scene graph's agent layer, else the log is treated as
+   a fixed sensor over the windows in which it recorded any message within that span (the
+   report says which);
 3. with ``--derive-graph`` and no scene graph, one extra pass counts where people walk and
    :mod:`aion_cli.derive_graph` turns that into a navigational graph;
 4. stream detection and scene-graph messages in log-time order: detection messages are
@@ -41,6 +43,7 @@ With ``--workers`` several groups of logs are learnt at once and joined into the
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
@@ -65,9 +68,9 @@ from aion_cli.detection_feed import (
 )
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
-from aion_cli.errors import InputError
+from aion_cli.errors import InputError, StaleIndexError
 from aion_cli.graph_feed import GraphFeed, GraphTimes, graph_source
-from aion_cli.log_times import TopicTimes, iso
+from aion_cli.log_times import TopicTimes, check_after_open
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
 from aion_cli.provenance import distinct_logs
@@ -75,8 +78,8 @@ from aion_cli.tf_feed import (
     check_tf,
     check_times,
     fixed_sensor_windows,
+    observe,
     read_tf_and_times,
-    robot_trajectory,
 )
 from aion_cli.topics import TopicPlan, no_detection_topic, select_topics
 
@@ -113,13 +116,10 @@ class _Build:
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
         self.previous_manifest: Manifest | None = None  # the continued map's
-        self.graphs = GraphFeed(
-            self.report,
-            opts.dsg_version,
-            opts.nav_layer,
-            opts.graph_period_ns,
-            opts.skip_identical_graphs,
-        )
+        self.graphs = self._graph_feed()
+        # log times from the logs' indexes (formats.stream_times) unless a read showed one
+        # stale, or the Mapper starts from a state in memory that a second try cannot restore
+        self._use_index = start is None
         self._adapters: dict[tuple[str, str, str], Any] = {}
         self._factory: Any = None
         self._logs: tuple[Path, ...] = tuple(opts.logs)  # the distinct logs (by sha256)
@@ -127,6 +127,12 @@ class _Build:
         self._map_open: int | None = None  # a continued map's open window when loaded
         self._used = np.zeros(0, np.int64)  # detections used, per detection topic
         self._mapper_drops = np.zeros((0, 0), np.int64)  # per topic x DROP_REASONS
+
+    def _graph_feed(self) -> GraphFeed:
+        o = self.opts
+        return GraphFeed(
+            self.report, o.dsg_version, o.nav_layer, o.graph_period_ns, o.skip_identical_graphs
+        )
 
     @property
     def logs(self) -> tuple[Path, ...]:
@@ -196,7 +202,26 @@ class _Build:
         return self.report
 
     def learn(self, config: ModelConfig) -> Mapper:
-        """Read the logs and learn them into a Mapper (steps 1-4 of the module docstring)."""
+        """Read the logs and learn them into a Mapper (steps 1-4 of the module docstring).
+        Step 2 takes its log times from the logs' indexes where it can
+        (:meth:`formats.logs.LogSet.index_times`); a chunk that then turns out unreadable
+        (:class:`~aion_cli.errors.StaleIndexError`) makes it start over from the same report
+        and map (a continued map loaded again), reading every message."""
+        if not self._use_index:
+            return self._learn(config)
+        report = copy.deepcopy(self.report)
+        try:
+            return self._learn(config)
+        except StaleIndexError:
+            self._use_index = False
+            vars(self.report).update(vars(report))  # the same object: others hold it
+            self.graphs = self._graph_feed()
+            self.counts = DetectionCounts()
+            if self.previous is not None and self.opts.continue_from is not None:
+                self.previous = load_map(self.opts.continue_from, writable=True)
+            return self._learn(config)
+
+    def _learn(self, config: ModelConfig) -> Mapper:
         from aion_cli.formats.logs import open_logs
 
         opts = self.opts
@@ -269,7 +294,9 @@ class _Build:
         graphs = plan.names("graph") if self.opts.graph_file is None else set()
         timed = plan.names("detections") | graphs
         thinned = graphs if self.opts.graph_period_ns > 0 else set()
-        tf, times, stats = read_tf_and_times(logset, plan, timed, self.progress, thinned)
+        tf, times, stats = read_tf_and_times(
+            logset, plan, timed, self.progress, thinned, use_index=self._use_index
+        )
         tf_topics = plan.names("tf") if plan.tf else set()
         self._times = check_times(times, plan, timed, self.report)
         if isinstance(times, GraphTimes):
@@ -295,37 +322,17 @@ class _Build:
     def _observation(
         self, mapper: Mapper, tf: TfBuffer | None, plan: TopicPlan, logset: Any
     ) -> None:
-        traj = robot_trajectory(
-            tf, self.opts.map_frame, self.opts.base_frame, self.report.warnings
-        )
-        if tf is not None and traj is None:
-            frames = ", ".join(sorted(tf.frames)[:12])
-            self.report.notes.append(
-                f"TF has no {self.opts.map_frame}->{self.opts.base_frame} chain for the robot "
-                f"trajectory (frames: {frames}); see --map-frame / --base-frame"
-            )
-        if traj is not None:
-            mapper.add_trajectory(traj)
-            self.report.observation = f"tf {self.opts.map_frame}->{self.opts.base_frame}"
-        elif plan.graph and self.opts.graph_file is None and self._first_graph_has_agents(
-            logset, plan
-        ):
-            self.report.observation = "scene-graph agent layer"  # fed per snapshot
-        else:
-            self.report.observation = fixed_sensor_windows(
-                mapper, logset, self._times, self.report.notes, self.report
-            )
-            self.report.notes.append(
-                "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
-                "treated as a fixed sensor that saw everything in the windows in which it "
-                "recorded any message, within the time of the topics aion uses"
-            )
+        """Which windows the map observed (:func:`aion_cli.tf_feed.observe`); the first
+        scene graph's agent layer is asked for only without a robot trajectory."""
 
-    def _first_graph_has_agents(self, logset: Any, plan: TopicPlan) -> bool:
-        """Whether the first scene graph of the log carries robot poses (its agent layer;
-        :meth:`aion_cli.graph_feed.GraphFeed.first_has_agents`)."""
-        messages = self._times.filter(logset.messages(plan.names("graph")))
-        return self.graphs.first_has_agents(logset, next(iter(messages), None))
+        def graph_agents() -> bool:
+            if not plan.graph or self.opts.graph_file is not None:
+                return False
+            messages = self._times.filter(logset.messages(plan.names("graph")))
+            return self.graphs.first_has_agents(logset, next(iter(messages), None))
+
+        frames = (self.opts.map_frame, self.opts.base_frame)
+        observe(mapper, tf, frames, graph_agents, logset, self._times, self.report)
 
     def _fixed_graph(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig
@@ -433,28 +440,21 @@ class _Build:
             self._mapper_drops += pairs
 
     def _check_after_map(self, t_ns: I64, what: str) -> None:
-        """A continued map has closed every window before its open one: a log with data
-        there would lose it (``before_window``) and yet be recorded as added, so it can never
-        be added again. The build stops instead, before anything is written."""
+        """A continued map's closed windows take no data (:func:`aion_cli.log_times.
+        check_after_open`)."""
         if self._map_open is None or len(t_ns) == 0:
             return
         from aion_cli.engine.windows import window_ns
 
         delta = window_ns(self.previous.config.window_s) if self.previous else 1
-        open_start = self._map_open * delta
-        early = int(np.count_nonzero(t_ns < open_start))
-        if early == 0:
-            return
         inputs = self.previous_manifest.inputs if self.previous_manifest else ()
-        names = [entry.name for entry in inputs]
-        listed = " ".join([*names[:3], *(["..."] if len(names) > 3 else [])])
-        listed += " " + " ".join(str(p) for p in self._logs[:3])
-        raise InputError(
-            f"the {what}s of {', '.join(p.name for p in self._logs)} start at "
-            f"{iso(int(t_ns.min()))}, but {self.report.output.name} has already closed every "
-            f"window before {iso(open_start)}: logs must be added to a map in time order; "
-            "nothing was added",
-            hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",
+        check_after_open(
+            t_ns,
+            self._map_open * delta,
+            what,
+            [entry.name for entry in inputs],
+            self._logs,
+            self.report.output.name,
         )
 
     def _take_graph(self, logset: Any, mapper: Mapper, msg: RawMessage, use_agents: bool) -> None:

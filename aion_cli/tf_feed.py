@@ -12,7 +12,9 @@ failure rules (:func:`check_tf`), none of which the build orchestration
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import compress
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -35,6 +37,7 @@ __all__ = [
     "check_tf",
     "check_times",
     "fixed_sensor_windows",
+    "observe",
     "read_tf_and_times",
     "robot_trajectory",
 ]
@@ -55,6 +58,8 @@ def read_tf_and_times(
     timed: set[str],
     progress: ProgressSink,
     graph_topics: set[str] | None = None,
+    *,
+    use_index: bool = True,
 ) -> tuple[TfBuffer | None, TopicTimes, TfStats]:
     """One read of the TF topics and of the other topics in ``timed`` (those the build uses):
     every TF message into one buffer, and the log time of every message of ``timed``
@@ -67,9 +72,12 @@ def read_tf_and_times(
     with the log's own definitions, and a message that cannot be decoded is skipped and
     counted (like a bad detection or scene-graph message). A TF message whose log time is out
     of the representable range is not decoded. The other topics' payloads are not decoded
-    here: MCAP chunks interleave topics, so reading them with TF costs little more than TF.
-    With ``graph_topics`` the times are a :class:`GraphTimes`, which also keeps those topics'
-    log times in read order (for :func:`aion_cli.graph_feed.graph_schedule`)."""
+    here. Where the logs' indexes give the log times the stream will yield
+    (:meth:`formats.logs.LogSet.index_times`, ``use_index``) only the TF topics are read, and
+    the other topics' times come as arrays from the index, without a message; otherwise
+    every message of those topics is read with TF. With ``graph_topics`` the times are a
+    :class:`GraphTimes`, which also keeps those topics' log times in read order (for
+    :func:`aion_cli.graph_feed.graph_schedule`)."""
     import logging
 
     from aion_cli.formats.tf import TfBuffer
@@ -85,6 +93,10 @@ def read_tf_and_times(
     topics = tf_topics | timed
     if not topics:
         return None, times, stats
+    indexed = logset.index_times(timed - tf_topics) if use_index and timed - tf_topics else None
+    if indexed is not None:
+        times.add_stream(indexed)
+        topics = tf_topics
     progress.start(
         "reading TF and log times" if tf_topics else "reading log times", logset.total(topics)
     )
@@ -92,11 +104,10 @@ def read_tf_and_times(
     generic = 0
     fast_ok: dict[tuple[str, str, str], bool] = {}
 
-    def fast(m: RawMessage) -> bool:
-        key = (m.topic, m.msgtype, m.encoding)
+    def fast(key: tuple[str, str, str]) -> bool:
         ok = fast_ok.get(key)
         if ok is None:
-            ok = fast_ok[key] = layout_matches(m.msgtype, m.encoding, *logset.definition(*key))
+            ok = fast_ok[key] = layout_matches(key[1], key[2], *logset.definition(*key))
         return ok
 
     def add(chunk: list[RawMessage]) -> None:
@@ -105,7 +116,7 @@ def read_tf_and_times(
         stats.messages += len(chunk)
         static = np.fromiter((m.topic.endswith("_static") for m in chunk), bool, len(chunk))
         try:
-            if not all(map(fast, chunk)):
+            if not all(map(fast, {(m.topic, m.msgtype, m.encoding) for m in chunk})):
                 raise MessageDecodeError("the log defines TF in another layout")
             arrays = decode_tf_messages(chunk)
         except MessageDecodeError:
@@ -129,25 +140,52 @@ def read_tf_and_times(
                         parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
                     )
 
-    chunk: list[RawMessage] = []
+    pending: list[RawMessage] = []  # TF messages whose times are not recorded yet
+    ready: list[RawMessage] = []  # TF messages in range, decoded 4096 at a time
     done = 0
-    for msg in logset.messages(topics):
+    for msg in logset.messages(topics) if topics else ():
         done += 1
         if done == 4096:
             progress.advance(done)
             done = 0
-        if not times.add(msg.topic, msg.log_time_ns) or msg.topic not in tf_topics:
+        if msg.topic not in tf_topics:
+            times.add(msg.topic, msg.log_time_ns)
             continue
-        chunk.append(msg)
-        if len(chunk) == 4096:
-            add(chunk)
-            chunk = []
-    if chunk:
-        add(chunk)
+        pending.append(msg)
+        if len(pending) == 4096:
+            ready += _in_range(times, pending)
+            pending = []
+            while len(ready) >= 4096:
+                add(ready[:4096])
+                ready = ready[4096:]
+    ready += _in_range(times, pending)
+    for start in range(0, len(ready), 4096):
+        add(ready[start : start + 4096])
     progress.advance(done)
     if generic:
         logging.getLogger(__name__).info("TF: %d chunk(s) read by the generic decoder", generic)
     return buffer, times, stats
+
+
+def _in_range(times: TopicTimes, messages: list[RawMessage]) -> list[RawMessage]:
+    """Record the log times of ``messages`` (TF, in read order) topic by topic as arrays
+    (:meth:`TopicTimes.add_array`); the messages whose times are in range."""
+    if not messages:
+        return messages
+    t = np.array([m.log_time_ns for m in messages])
+    if t.dtype.kind not in "iu":  # ints beyond both int64 and uint64: one by one
+        return [m for m in messages if times.add(m.topic, m.log_time_ns)]
+    topics = [m.topic for m in messages]
+    names = set(topics)
+    if len(names) == 1:
+        ok = times.add_array(topics[0], t)
+    else:
+        of = np.array(topics)
+        ok = np.empty(len(messages), bool)
+        for name in sorted(names):
+            mine = of == name
+            ok[mine] = times.add_array(name, t[mine])
+    return messages if ok.all() else list(compress(messages, ok.tolist()))
 
 
 def robot_trajectory(
@@ -175,6 +213,41 @@ def robot_trajectory(
         keep = ~stray
         traj = Trajectory(t[keep], np.asarray(traj.xyz)[keep])
     return traj
+
+
+def observe(
+    mapper: Mapper,
+    tf: TfBuffer | None,
+    frames: tuple[str, str],
+    graph_agents: Callable[[], bool],
+    logset: Any,
+    times: TimeCheck,
+    report: BuildReport,
+) -> None:
+    """The observation of a build, said in ``report.observation``: the robot trajectory
+    ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
+    graphs' agent layer when the first graph has one (``graph_agents``; its poses are fed
+    per snapshot); else a fixed sensor over the windows it recorded in
+    (:func:`fixed_sensor_windows`)."""
+    map_frame, base_frame = frames
+    traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
+    if tf is not None and traj is None:
+        report.notes.append(
+            f"TF has no {map_frame}->{base_frame} chain for the robot trajectory (frames: "
+            f"{', '.join(sorted(tf.frames)[:12])}); see --map-frame / --base-frame"
+        )
+    if traj is not None:
+        mapper.add_trajectory(traj)
+        report.observation = f"tf {map_frame}->{base_frame}"
+    elif graph_agents():
+        report.observation = "scene-graph agent layer"  # fed per snapshot
+    else:
+        report.observation = fixed_sensor_windows(mapper, logset, times, report.notes, report)
+        report.notes.append(
+            "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
+            "treated as a fixed sensor that saw everything in the windows in which it "
+            "recorded any message, within the time of the topics aion uses"
+        )
 
 
 def check_tf(stats: TfStats, tf_topics: set[str], report: BuildReport) -> None:

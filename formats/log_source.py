@@ -21,6 +21,7 @@ from aion_cli.formats.raw import Encoding, RawMessage
 
 if TYPE_CHECKING:
     from aion_cli.formats.recorded import Windows
+    from aion_cli.formats.stream_times import StreamTimes
 
 
 _MESSAGE_ENCODINGS: dict[str, Encoding] = {"cdr": "cdr", "ros1": "ros1"}
@@ -71,6 +72,17 @@ class _Source:
         them."""
         raise NotImplementedError
 
+    def index_times(self, topics: set[str]) -> StreamTimes | None:
+        """The log times :meth:`messages` would yield on ``topics``, in its order, read from
+        the container's index without the messages (:mod:`formats.stream_times`); None when
+        the index cannot say exactly that (the default: read the messages)."""
+        return None
+
+    def vouch(self, chunks: frozenset[int]) -> None:
+        """Log times of :meth:`index_times` are used: a chunk of ``chunks`` that later cannot
+        be read raises :class:`~aion_cli.errors.StaleIndexError` (the default: nothing to
+        vouch for)."""
+
     def close(self) -> None:
         """Release the file handles."""
 
@@ -103,6 +115,12 @@ class _Unpacked(_Source):
 
     def recorded_windows(self, window_ns: int) -> Windows:
         return self.inner.recorded_windows(window_ns)
+
+    def index_times(self, topics: set[str]) -> StreamTimes | None:
+        return self.inner.index_times(topics)
+
+    def vouch(self, chunks: frozenset[int]) -> None:
+        self.inner.vouch(chunks)
 
     def close(self) -> None:
         try:

@@ -23,7 +23,8 @@ read through a decompressed temporary copy (:mod:`formats.rosbag2_storage`), rem
 
 :meth:`LogSet.recorded_windows` says which time windows the logs recorded anything in, from the
 same indexes (:mod:`formats.recorded`), without reading message payloads where a container
-indexes its messages.
+indexes its messages; :meth:`LogSet.index_times` gives the log times :meth:`LogSet.messages`
+will yield, in its order, from them (:mod:`formats.stream_times`), where they say exactly that.
 
 This module is the public front: :func:`open_logs`, :class:`LogSet` and the time-ordered merge
 of many files, and the opening of one path into its sources. The readers live one module per
@@ -59,6 +60,7 @@ if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
     from aion_cli.formats.recorded import Windows
+    from aion_cli.formats.stream_times import StreamTimes
 
 
 # --- the merged set -------------------------------------------------------------------------
@@ -163,6 +165,29 @@ class LogSet:
             raise ValueError("recorded_windows() on a closed LogSet")
         size = recorded.window_size(window_ns)
         return [(s.file, s.recorded_windows(size)) for s in self._sources]
+
+    def index_times(self, topics: Iterable[str]) -> StreamTimes | None:
+        """The log times :meth:`messages` would yield on ``topics``, in its order, read from
+        the containers' indexes without the messages (:mod:`formats.stream_times`), or None
+        when one file's index cannot say exactly that. Each reader then vouches for the
+        chunks whose times came from their index alone: reading one of them later fails with
+        :class:`~aion_cli.errors.StaleIndexError` (a damaged chunk only reading shows)."""
+        if self._closed:
+            raise ValueError("index_times() on a closed LogSet")
+        from aion_cli.formats import stream_times
+
+        selected = set(topics)
+        parts = []
+        for source in self._sources:
+            part = source.index_times(selected)
+            if part is None:
+                return None
+            parts.append(part)
+        found = stream_times.merged(parts)
+        if found is not None:
+            for source, part in zip(self._sources, parts, strict=True):
+                source.vouch(part.chunks)
+        return found
 
     def decode(self, msg: RawMessage) -> Any:
         """``msg`` as a rosbags message object, decoded with the definition the log embeds for

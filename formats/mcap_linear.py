@@ -55,7 +55,8 @@ class _McapLinearRead(_Source):
     _bad_chunks: dict[int, str]
     _chunk_counts: dict[int, dict[int, int]]
     _stop_offset: int | None
-    _scanned_times: npt.NDArray[np.int64] | None
+    _scanned_times: npt.NDArray[np.uint64] | None
+    _scanned_channels: npt.NDArray[np.uint16] | None
     _later_min: npt.NDArray[np.int64] | None
     _profile: str
     _pending_big: list[tuple[int, int, int]] | None
@@ -63,15 +64,16 @@ class _McapLinearRead(_Source):
     # -- linear scan -----------------------------------------------------------------------
 
     def _scan(self) -> tuple[Any, Any, dict[int, int], int, int]:
-        """Read the whole file linearly to count messages and keep their log times (for
-        :meth:`recorded_windows`); note where an unreadable record stops the read (truncated
-        or corrupt file)."""
+        """Read the whole file linearly to count messages and keep their log times and
+        channels (for :meth:`recorded_windows` and :meth:`index_times`); note where an
+        unreadable record stops the read (truncated or corrupt file)."""
         from mcap.records import Channel, Header, Schema
 
         channels: dict[int, Any] = {}
         schemas: dict[int, Any] = {}
         counts: dict[int, int] = {}
         times = array("Q")
+        channel_ids = array("H")
         group_starts = array("Q")  # earliest log time of each record group holding messages
         start, end, n = 2**63 - 1, 0, 0
         for group in self._linear_groups(None, scanning=True):
@@ -81,6 +83,7 @@ class _McapLinearRead(_Source):
                     log_time, cid = record[0], record[1]
                     counts[cid] = counts.get(cid, 0) + 1
                     times.append(log_time)
+                    channel_ids.append(cid)
                     first = min(first, log_time)
                     end = max(end, log_time)
                     n += 1
@@ -93,8 +96,9 @@ class _McapLinearRead(_Source):
             if first != 2**64 - 1:
                 group_starts.append(first)
                 start = min(start, first)
-        self._scanned_times = np.frombuffer(times, dtype=np.uint64).astype(np.int64)
-        if np.any(np.diff(self._scanned_times) < 0):
+        self._scanned_times = np.frombuffer(times, dtype=np.uint64)
+        self._scanned_channels = np.frombuffer(channel_ids, dtype=np.uint16)
+        if np.any(np.diff(self._scanned_times.astype(np.int64)) < 0):
             # messages out of log-time order in the file: what a linear read may still hold
             # back is bounded by the earliest message of every later group
             starts = np.frombuffer(group_starts, dtype=np.uint64).astype(np.int64)
@@ -272,6 +276,22 @@ class _McapLinearRead(_Source):
         while heap:
             log_time, _, channel_id, data = heapq.heappop(heap)
             yield log_time, channel_id, data
+
+    def _linear_times(self, wanted: set[int]) -> tuple[npt.NDArray[np.uint64], npt.NDArray[Any]]:
+        """``(log times, channel ids)`` of the messages on ``wanted`` channels in the order
+        :meth:`_records_linear` yields them, from what the opening scan kept (no second read):
+        the scan's order, which is file order with each chunk sorted by log time; when the scan
+        found messages out of order, the heap of :meth:`_records_linear` sorts them by log
+        time, ties in file order (its bound only ever holds messages back)."""
+        times, channels = self._scanned_times, self._scanned_channels
+        if times is None or channels is None:
+            return np.zeros(0, np.uint64), np.zeros(0, np.uint16)
+        keep = np.isin(channels, np.fromiter(wanted, np.int64, len(wanted)))
+        times, channels = times[keep], channels[keep]
+        if self._later_min is not None:
+            order = np.argsort(times, kind="stable")
+            times, channels = times[order], channels[order]
+        return times, channels
 
     # -- warnings --------------------------------------------------------------------------
 

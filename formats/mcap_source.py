@@ -8,7 +8,8 @@ read through the chunk indexes in time order, chunks without requested channels 
 decompressing them, overlapping chunks merged, a chunk that cannot be read skipped alone with a
 warning. Otherwise the file is read linearly (:mod:`formats.mcap_linear`, the other half of the
 class). :meth:`_McapSource.recorded_windows` answers from the chunk indexes and MessageIndex
-records where it can.
+records where it can, and :meth:`_McapSource.index_times` gives the log times its stream will
+yield from them (:mod:`formats.mcap_times`), or from the opening scan of a file read linearly.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
     from aion_cli.formats.recorded import Windows
+    from aion_cli.formats.stream_times import StreamTimes
 
 
 def _schema_encoding_ok(encoding: str) -> bool:
@@ -84,7 +86,11 @@ class _McapSource(_McapLinearRead):
         self._stop_offset: int | None = None
         # log times of every message, kept by the linear scan of a file without a usable
         # summary: recorded_windows then needs no second read (8 bytes per message)
-        self._scanned_times: npt.NDArray[np.int64] | None = None
+        self._scanned_times: npt.NDArray[np.uint64] | None = None
+        self._scanned_channels: npt.NDArray[np.uint16] | None = None
+        # chunks whose log times a build took from their index without reading them
+        # (formats.stream_times): reading one that fails raises StaleIndexError
+        self._vouched: frozenset[int] = frozenset()
         # with messages out of order in a file read linearly: the earliest log time of each
         # group of records holding messages and of all after it (see _records_linear)
         self._later_min: npt.NDArray[np.int64] | None = None
@@ -300,6 +306,7 @@ class _McapSource(_McapLinearRead):
         except ValueError as exc:  # ChunkError and the head's ValueError
             self._bad_chunks[offset] = _why(exc)
             self._chunk_lost(offset)
+            self._stale(offset)
             return []
         self._oversized(big)
         return selected
@@ -325,6 +332,54 @@ class _McapSource(_McapLinearRead):
             log_time, _, channel_id, data = heapq.heappop(heap)
             yield log_time, channel_id, data
 
+    # -- log times from the indexes --------------------------------------------------------
+
+    def index_times(self, topics: set[str]) -> StreamTimes | None:
+        """The log times :meth:`messages` would yield on ``topics``, in its order, without
+        reading a message (:mod:`formats.mcap_times`: from the MessageIndex records; a file
+        read linearly: from its opening scan); None where the indexes cannot say that
+        exactly, and for payloads compressed one by one (one may expand over the cap)."""
+        from aion_cli.formats import mcap_times, stream_times
+
+        wanted = {cid: t for cid, (t, _, _) in self._channels.items() if t in topics}
+        if not wanted:
+            return stream_times.empty()
+        if self._unzstd:
+            return None
+        if self._chunk_indexes is None:
+            times, channels = self._linear_times(set(wanted))
+            return stream_times.from_channels(times, channels, wanted, frozenset())
+        with self.path.open("rb") as f:
+            found = mcap_times.indexed_times(
+                f,
+                self._size,
+                self._chunk_indexes,
+                self._bad_chunks,
+                self._chunk_counts,
+                self._limits.max_message_bytes,
+                set(wanted),
+            )
+        if found is None:
+            return None
+        return stream_times.from_channels(*found[:2], wanted, found[2])
+
+    def vouch(self, chunks: frozenset[int]) -> None:
+        """The build uses log times taken from the index of ``chunks`` (offsets): reading one
+        of them that fails raises :class:`~aion_cli.errors.StaleIndexError`."""
+        self._vouched = self._vouched | chunks
+
+    def _stale(self, offset: int) -> None:
+        """A chunk could not be read: if the build took its times from its index, they are
+        not the stream's (the build starts over)."""
+        if offset in self._vouched:
+            from aion_cli.errors import StaleIndexError
+
+            raise StaleIndexError(
+                f"{self.path.name}: the chunk at byte {offset} cannot be read, but its log "
+                "times were taken from its index",
+                hint="aion reads the log again in full",
+            )
+
     # -- recorded windows ------------------------------------------------------------------
 
     def recorded_windows(self, window_ns: int) -> Windows:
@@ -334,8 +389,8 @@ class _McapSource(_McapLinearRead):
         is decompressed only when it has none or they are damaged). Chunks that cannot be read
         record nothing. Without a summary, the log times the opening scan kept."""
         if self._chunk_indexes is None:
-            times = self._scanned_times
-            return recorded.windows_of(times if times is not None else [], window_ns)
+            scanned = self._scanned_times
+            return recorded.windows_of(scanned if scanned is not None else [], window_ns)
         indexes = self._chunk_indexes
         n = len(indexes)
         # uint64 in the file: as int64, like every time in aion
@@ -379,6 +434,7 @@ class _McapSource(_McapLinearRead):
         except ValueError as exc:  # ChunkError, the head's and record_log_times' ValueError
             self._bad_chunks[offset] = _why(exc)
             self._chunk_lost(offset)
+            self._stale(offset)
             return None
 
     def close(self) -> None:

@@ -99,8 +99,19 @@ def message_index_times(block: bytes | memoryview, offsets: Iterable[int]) -> np
     """Log times listed by the MCAP MessageIndex records that start at ``offsets`` (relative to
     ``block``, the bytes after a chunk). :class:`ValueError` when a record is not a
     MessageIndex or overruns the block (a damaged or differently laid out index)."""
+    parts = [entries["log_time"].astype(np.int64) for entries in message_index(block, offsets)]
+    if not parts:
+        return np.zeros(0, dtype=np.int64)
+    return np.concatenate(parts)
+
+
+def message_index(block: bytes | memoryview, offsets: Iterable[int]) -> list[npt.NDArray[Any]]:
+    """The entries (``log_time``, ``offset``: uint64 fields) of each MCAP MessageIndex record
+    that starts at ``offsets`` (relative to ``block``, the bytes after a chunk), in the order
+    of ``offsets``; views into ``block``. :class:`ValueError` when a record is not a
+    MessageIndex or overruns the block."""
     size = len(block)
-    parts = []
+    out = []
     for rel in offsets:
         if rel < 0 or rel + _RECORD_HEAD.size + _MESSAGE_INDEX_HEAD.size > size:
             raise ValueError(f"message index at +{rel} lies outside the index block")
@@ -115,13 +126,12 @@ def message_index_times(block: bytes | memoryview, offsets: Iterable[int]) -> np
             or body + length > size
         ):
             raise ValueError(f"no valid message index record at +{rel}")
-        entries = np.frombuffer(
-            block, _INDEX_ENTRY, count=entries_len // _INDEX_ENTRY.itemsize, offset=first
+        out.append(
+            np.frombuffer(
+                block, _INDEX_ENTRY, count=entries_len // _INDEX_ENTRY.itemsize, offset=first
+            )
         )
-        parts.append(entries["log_time"].astype(np.int64))
-    if not parts:
-        return np.zeros(0, dtype=np.int64)
-    return np.concatenate(parts)
+    return out
 
 
 def record_log_times(buf: bytes | memoryview) -> npt.NDArray[np.int64]:

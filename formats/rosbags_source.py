@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aion_cli.errors import LogFormatError
+from aion_cli.errors import LogFormatError, StaleIndexError
 from aion_cli.formats import recorded
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import (
@@ -41,6 +41,10 @@ if TYPE_CHECKING:
     from aion_cli.formats.rosbag2_reindex import (
         _ReindexedSqliteSource,  # annotations only: no cycle
     )
+    from aion_cli.formats.stream_times import StreamTimes
+
+
+_NO: frozenset[int] = frozenset()
 
 
 class _RosbagsSource(_Source):
@@ -53,6 +57,9 @@ class _RosbagsSource(_Source):
         self._reader = _open_rosbags(path, kind, self._limits)
         reader = self._reader
         self._index_times: npt.NDArray[np.int64] | None = None
+        # bag chunks whose log times a build took from the index (formats.stream_times):
+        # one that cannot be read raises StaleIndexError
+        self._vouched: frozenset[int] = frozenset()
         self.topics = {}
         for conn in reader.connections:
             encoding: Encoding
@@ -185,6 +192,12 @@ class _RosbagsSource(_Source):
             warning = self._chunk_skipped(pos, why, lost, names)
             if warning not in self.warnings:
                 self.warnings.append(warning)
+            if pos in self._vouched:
+                raise StaleIndexError(
+                    f"{self.path.name}: the chunk at byte {pos} cannot be read, but its log "
+                    "times were taken from the bag's index",
+                    hint="aion reads the log again in full",
+                )
 
         def oversized(conn: Any, t_ns: int, size: int) -> None:
             from aion_cli.formats import limits as caps
@@ -202,7 +215,7 @@ class _RosbagsSource(_Source):
             for conn, t_ns, data in reader.iter_messages(conns, bad_chunk, oversized):
                 topic, msgtype, encoding = meta[conn.id]
                 yield RawMessage(topic, msgtype, t_ns, data, encoding)
-        except LogFormatError:
+        except (LogFormatError, StaleIndexError):
             raise
         except Exception as exc:  # rosbags raises its own errors, OSError, struct errors
             raise LogFormatError(
@@ -223,6 +236,52 @@ class _RosbagsSource(_Source):
             f"{self.path.name}: chunk at byte {pos} skipped: {why}; "
             f"{total:,} message{'s' if total != 1 else ''} lost ({per})"
         )
+
+    def index_times(self, topics: set[str]) -> StreamTimes | None:
+        """The log times :meth:`messages` would yield on ``topics``, without reading a
+        message (:mod:`formats.stream_times`). ROS 1 bags: from the index rosbags loaded at
+        open; None when a chunk holding those messages may hold one over the message cap (or
+        declares no size). rosbag2 folders: per sqlite3 storage file, its ``timestamp``
+        column in rosbags' own query; None for mcap storage read through rosbags, payloads
+        compressed one by one, and a payload over the cap (the stream skips those)."""
+        from aion_cli.formats import stream_times
+
+        if self.file.format == "bag":
+            conns = [c for i in self.topics.values() if i.topic in topics for c in i.keys]
+            t, cids, chunks = stream_times.bag_index(self._reader.indexes, [c.id for c in conns])
+            positions = frozenset(np.unique(chunks).tolist())
+            if any(self._chunk_room(pos) > self._limits.max_message_bytes for pos in positions):
+                return None
+            return stream_times.from_channels(t, cids, {c.id: c.topic for c in conns}, positions)
+        storages = getattr(self._reader.storage, "storages", None)
+        if not isinstance(storages, list) or self._reader.compression_mode == "message":
+            return None
+        wanted = _wanted_types(self.topics, topics)
+        parts = []
+        for storage in storages:
+            conns = [
+                c for c in storage.connections if (c.topic, normalize_msgtype(c.msgtype)) in wanted
+            ]
+            if not conns:
+                continue
+            db = getattr(storage, "dbconn", None)
+            if db is None:
+                return None
+            t, ids, sizes = stream_times.sqlite_times(db, [c.id for c in conns])
+            if (sizes > self._limits.max_message_bytes).any():
+                return None
+            parts.append(stream_times.from_channels(t, ids, {c.id: c.topic for c in conns}, _NO))
+        return stream_times.merged(parts) if parts else stream_times.empty()
+
+    def _chunk_room(self, pos: int) -> int:
+        """The most bytes the records of the bag chunk at ``pos`` may take."""
+        compression, declared = self._reader.chunk_meta[pos]
+        if compression == "none":
+            return int(self._reader.chunks[pos].datasize)
+        return int(declared) or 2**63
+
+    def vouch(self, chunks: frozenset[int]) -> None:
+        self._vouched = self._vouched | chunks
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """ROS 1 bags: the message times of the index rosbags loaded at open (no chunk is

@@ -77,12 +77,16 @@ class _Backend:
 class _McapBackend(_Backend):
     """Raw MCAP writer with ``ros2msg``/``cdr`` or ``ros1msg``/``ros1`` schemas and channels."""
 
-    def __init__(self, path: Path, ros_version: int) -> None:
+    def __init__(self, path: Path, ros_version: int, chunk_size: int | None = None) -> None:
         from mcap.writer import CompressionType, Writer
 
         self.ros_version = ros_version
         self.file: BinaryIO = path.open("wb")
-        self.writer = Writer(self.file, compression=CompressionType.ZSTD)
+        self.writer = Writer(
+            self.file,
+            compression=CompressionType.ZSTD,
+            chunk_size=1024 * 1024 if chunk_size is None else chunk_size,  # mcap's default
+        )
         self.writer.start(profile="ros1" if ros_version == 1 else "ros2", library="aion")
         self.schemas: dict[str, int] = {}
 
@@ -112,10 +116,12 @@ class _McapBackend(_Backend):
 class _Rosbag1Backend(_Backend):
     """``rosbags.rosbag1.Writer``; ``/tf_static`` is written as a latched connection."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, chunk_size: int | None = None) -> None:
         from rosbags.rosbag1 import Writer
 
         self.writer = Writer(path)
+        if chunk_size is not None:
+            self.writer.chunk_threshold = chunk_size
         self.writer.open()
 
     def channel(self, topic: str, msgtype: str) -> Any:
@@ -175,10 +181,19 @@ class LogWriter:
     ``path`` untouched. An existing ``path`` is an error unless ``overwrite`` is set, and even
     then only a log of this container's kind is replaced (:func:`check_log_target`: never a
     folder holding other files, never a device, FIFO or socket). Log times must lie in
-    ``0 .. 2^63 - 1`` ns (:class:`LogTimeError` otherwise).
+    ``0 .. 2^63 - 1`` ns (:class:`LogTimeError` otherwise). ``chunk_size``: bytes of records
+    per chunk of an MCAP file or ROS 1 bag (the libraries' default, 1 MiB, when None; tests
+    use small ones for many chunks).
     """
 
-    def __init__(self, path: Path | str, container: str = "mcap", *, overwrite: bool = False):
+    def __init__(
+        self,
+        path: Path | str,
+        container: str = "mcap",
+        *,
+        overwrite: bool = False,
+        chunk_size: int | None = None,
+    ):
         if container not in CONTAINERS:
             raise LogWriteError(
                 f"unknown log container {container!r}", hint=f"use one of {', '.join(CONTAINERS)}"
@@ -187,6 +202,7 @@ class LogWriter:
         self.container = container
         self.overwrite = overwrite
         self.ros_version = 1 if container in _ROS1_CONTAINERS else 2
+        self.chunk_size = chunk_size
         self.encoding = "ros1" if self.ros_version == 1 else "cdr"
         check_log_target(self.path, container, overwrite=overwrite)  # before anything is written
         self._store = msgdefs.typestore(self.ros_version)
@@ -204,9 +220,9 @@ class LogWriter:
 
     def _open(self, path: Path) -> _Backend:
         if self.container in ("mcap", "mcap-ros1"):
-            return _McapBackend(path, self.ros_version)
+            return _McapBackend(path, self.ros_version, self.chunk_size)
         if self.container == "bag":
-            return _Rosbag1Backend(path)
+            return _Rosbag1Backend(path, self.chunk_size)
         return _Rosbag2Backend(path, self.container.removeprefix("rosbag2-"))
 
     def _channel(self, topic: str, msgtype: str) -> _Channel:
