@@ -100,12 +100,21 @@ class PendingDay:
             return
         order = np.argsort(src, kind="stable")
         keys, targets = src[order], dst[order]
+        self._compact()  # one array per list: a bind costs one search, not one per window
         for chunks in (self._obs_entry, self._cnt_entry):
             for i, arr in enumerate(chunks):
                 pos = np.minimum(np.searchsorted(keys, arr), keys.size - 1)
                 hit = keys[pos] == arr
                 if hit.any():
                     chunks[i] = np.where(hit, targets[pos], arr)
+
+    def _compact(self) -> None:
+        """Each list of held per-window arrays as one array (pairs in the same order, so
+        :meth:`consolidated` gives the same day)."""
+        for name in ("_obs_entry", "_obs_slot", "_cnt_entry", "_cnt_slot", "_cnt_values"):
+            parts = getattr(self, name)
+            if len(parts) > 1:
+                setattr(self, name, [np.concatenate(parts)])
 
     def extend(self, later: PendingDay) -> None:
         """Append the windows of ``later`` (the same day, every window after this one's)."""
