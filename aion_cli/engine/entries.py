@@ -31,6 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.descriptors import bin_of
+from aion_cli.engine.grouping import unique_inverse
 from aion_cli.engine.types import F64, I64, U64
 from aion_cli.errors import MapCorruptError
 
@@ -216,7 +217,7 @@ class EntryStore:
         if self.n * b <= 4 * len(rows):  # dense: histogram over every row slot
             target, local, m = slice(0, self.n), rows, self.n
         else:  # sparse: histogram over the rows this batch touches
-            target, local = np.unique(rows, return_inverse=True)
+            target, local = unique_inverse(rows)
             m = len(target)
         directed = bins >= 0
         flat_dir = local[directed] * b + bins[directed]

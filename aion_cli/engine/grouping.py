@@ -5,7 +5,9 @@ group by group run in the rows' own order (and equal what one pass over all rows
 group). :func:`split_by_key` returns the non-empty groups; :func:`cut_by_key` returns the
 sorted order and where each of given key bounds falls in it, so groups without rows (a block
 of candidates none of whose entries has a pair) are slices of length 0;
-:func:`lexicographic_ranks` numbers rows of several keys (the temporal pooling groups).
+:func:`lexicographic_ranks` numbers rows of several keys (the temporal pooling groups);
+:func:`unique_inverse` is ``np.unique(..., return_inverse=True)`` without a sort for keys of a
+narrow range (a block's rows, the entries a batch of detections touched).
 """
 
 from __future__ import annotations
@@ -49,3 +51,22 @@ def lexicographic_ranks(keys: I64) -> tuple[I64, int]:
     inverse = np.empty(n, dtype=np.int64)
     inverse[order] = ids
     return inverse, int(ids[-1]) + 1
+
+
+def unique_inverse(keys: I64) -> tuple[I64, I64]:
+    """``np.unique(keys, return_inverse=True)`` (sorted distinct keys and each key's index),
+    without a sort when the keys span a range a few times their number (one block's rows)."""
+    if keys.size == 0:
+        return keys, keys
+    low = int(keys.min())
+    span = int(keys.max()) - low + 1
+    if span > 8 * keys.size + (1 << 16):
+        distinct, inverse = np.unique(keys, return_inverse=True)
+        return distinct, inverse.reshape(-1)
+    local = keys - low
+    present = np.zeros(span, dtype=bool)
+    present[local] = True
+    found = np.flatnonzero(present)
+    lookup = np.empty(span, dtype=np.int64)
+    lookup[found] = np.arange(found.size)
+    return found + low, lookup[local]

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.grouping import unique_inverse
 from aion_cli.engine.temporal import absorption, forecast, scoring
 from aion_cli.engine.temporal import model as temporal
 from aion_cli.engine.temporal.params import TemporalParams
@@ -86,7 +87,7 @@ def test_block_sizes_do_not_change_the_learnt_state(
 def test_unique_equals_numpy_unique(values: list[int], spread: int) -> None:
     keys = np.asarray(values, dtype=np.int64) % (spread + 1)  # a narrow range: no sort
     for k in (keys, np.asarray(values, dtype=np.int64)):  # and a wide one: numpy's
-        distinct, inverse = absorption._unique(k)
+        distinct, inverse = unique_inverse(k)
         expect, expect_inverse = np.unique(k, return_inverse=True)
         np.testing.assert_array_equal(distinct, expect)
         np.testing.assert_array_equal(inverse, expect_inverse.reshape(-1))

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.grouping import split_by_key
+from aion_cli.engine.grouping import split_by_key, unique_inverse
 from aion_cli.engine.temporal.accumulators import ObsBlock, TemporalState
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
@@ -88,7 +88,7 @@ def _absorb_observed(
 ) -> None:
     """The entries' own observed windows into their observation blocks."""
     n_prof = params.n_profile
-    rows, inverse = _unique(obs_e)
+    rows, inverse = unique_inverse(obs_e)
     n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
     if state.fourier_loaded:
         fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
@@ -121,9 +121,9 @@ def _absorb_counts(
     slots = cnt_slot[pair]
     if state.fourier_loaded:
         flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
-        targets, which = _unique(rows * params.values + value)
+        targets, which = unique_inverse(rows * params.values + value)
         flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
-    keys, inverse = _unique((rows * params.values + value) * n_prof + h[slots])
+    keys, inverse = unique_inverse((rows * params.values + value) * n_prof + h[slots])
     added: F64 = np.bincount(inverse, counts, minlength=keys.size).astype(np.float64)
     flat_profile = _profile_for(state, keys, added)
     flat_profile[keys] += added.astype(flat_profile.dtype, copy=False)
@@ -142,25 +142,6 @@ def _profile_for(state: TemporalState, keys: I64, added: F64) -> F64:
             state.cnt_profile = profile = profile.astype(np.float64)
     out: F64 = profile.reshape(-1)
     return out
-
-
-def _unique(keys: I64) -> tuple[I64, I64]:
-    """``np.unique(keys, return_inverse=True)`` (sorted distinct keys and each key's index),
-    without a sort when the keys span a range a few times their number (one block's rows)."""
-    if keys.size == 0:
-        return keys, keys
-    low = int(keys.min())
-    span = int(keys.max()) - low + 1
-    if span > 8 * keys.size + (1 << 16):
-        distinct, inverse = np.unique(keys, return_inverse=True)
-        return distinct, inverse.reshape(-1)
-    local = keys - low
-    present = np.zeros(span, dtype=bool)
-    present[local] = True
-    found = np.flatnonzero(present)
-    lookup = np.empty(span, dtype=np.int64)
-    lookup[found] = np.arange(found.size)
-    return found + low, lookup[local]
 
 
 def _sum_phasors(row: I64, slot: I64, weight: F64, n_rows: int, phasor: C128) -> C128:
