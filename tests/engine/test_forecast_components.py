@@ -41,7 +41,7 @@ def map_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
     rng = np.random.default_rng(5)
     n = 40
     t = MONDAY + 21 * DAY + np.sort(rng.integers(0, 10 * HOUR + 5 * 60 * 10**9, n))
-    xy = rng.uniform((0.0, 0.0), (3.0, 1.0), (n, 2))
+    xy = rng.uniform((0.0, 0.0), (1.5, 1.0), (n, 2))  # half the corridor: the rest untouched
     mapper.state.observation.set_fixed_sensor(MONDAY + 21 * DAY, MONDAY + 22 * DAY)
     mapper.add_detections(
         DetectionBatch.from_arrays(t, np.column_stack([xy, np.zeros(n)]), np.zeros(n), np.ones(n))
@@ -72,6 +72,31 @@ def test_forecasts_without_the_sums_equal_the_whole_maps(map_path: Path) -> None
             np.testing.assert_array_equal(getattr(whole, name), getattr(light, name))
     families = set(whole.flow_family.tolist()) | set(whole.direction_family.tolist())
     assert any(f.startswith("fremen") for f in families), families  # the case under test
+
+
+def test_stored_components_equal_the_query_views(map_path: Path) -> None:
+    """The components written (rows the pending day touched: copied and absorbed; the
+    others: read in place with the global block absorbed) equal a forecaster's on the whole
+    query view, and both kinds of rows are there."""
+    from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
+
+    state = load_map(map_path, writable=True).state
+    rows = state.entries.canonical_order()
+    stored = state.forecast_components(rows)
+    touched = np.union1d(state.pending.consolidated().cnt_entry, state.entries.window_rows())
+    at_rows = rows[stored.total_pos]
+    assert np.isin(at_rows, touched).any()
+    assert (~np.isin(at_rows, touched)).any()
+    view = state.query_temporal()
+    groups = np.zeros(rows.size, np.int64)
+    pool = PoolStats.of(state.params, view, rows, groups, 1)
+    fc = Forecaster(state.params, view, rows, groups, pool)
+    idx, coef = fc.total_components(stored.total_pos)
+    np.testing.assert_array_equal(idx, stored.period_idx)
+    np.testing.assert_array_equal(coef, stored.coef_total)
+    depth = stored.bins_depth
+    fc.ensure_bins(stored.bins_pos, depth)
+    np.testing.assert_array_equal(fc.coef_bins[stored.bins_pos, :, :depth], stored.coef_bins)
 
 
 def test_the_query_reads_no_fourier_sums(map_path: Path) -> None:

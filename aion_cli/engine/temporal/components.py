@@ -29,6 +29,7 @@ Members (``prefix`` + name, positions in the map's canonical entry order): ``tot
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -145,28 +146,73 @@ def compute(
 ) -> FremenComponents:
     """The components of the positions ``total`` / ``bins`` of ``rows`` (the query's entries,
     canonical order) from ``state`` with ``parts`` (the pending day and the open window, as
-    the query view absorbs them) absorbed into a copy of only those rows."""
+    the query view absorbs them) absorbed: into a copy of the rows the parts touch, while
+    every other row is read in place with the global block as absorbed (a fixed sensor's
+    windows are the only thing the parts change for them), so writing a map costs a copy of
+    the day's entries, never of the whole state."""
+    pos = np.flatnonzero(total | bins)
+    touched = np.zeros(state.n_rows, dtype=bool)
+    for part in parts:
+        touched[part.obs_entry] = True
+        touched[part.cnt_entry] = True
+    moved = touched[rows[pos]]
+    groups = (pos[moved], pos[~moved])
+    pieces = [
+        _components(params, state, parts, rows[g], total[g], bins[g], copy, window_ns)
+        for g, copy in zip(groups, (True, False), strict=True)
+    ]
+    # each piece lists its rows in position order: merged, they list every position in order
+    at_total = np.concatenate([g[total[g]] for g in groups])
+    at_bins = np.concatenate([g[bins[g]] for g in groups])
+    by_total, by_bins = np.argsort(at_total), np.argsort(at_bins)
+    return FremenComponents(
+        at_total[by_total],
+        np.concatenate([p[0] for p in pieces])[by_total],
+        np.concatenate([p[1] for p in pieces])[by_total],
+        at_bins[by_bins],
+        np.concatenate([p[2] for p in pieces])[by_bins],
+        np.concatenate([p[3] for p in pieces])[by_bins],
+    )
+
+
+def _components(
+    params: TemporalParams,
+    state: TemporalState,
+    parts: list[DayWindows],
+    rows: I64,
+    total: BoolA,
+    bins: BoolA,
+    copy: bool,
+    window_ns: int,
+) -> tuple[I64, C128, I64, C128]:
+    """Components of entry ``rows`` (``total`` / ``bins``: which of them need which) from
+    ``state`` with ``parts`` absorbed: into a copy of the rows (``copy``), or, for rows the
+    parts do not touch, into the global block alone (the rows read in place)."""
     from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
 
-    pos = np.flatnonzero(total | bins)
-    sub = state.take(rows[pos])
     local = np.full(state.n_rows, -1, np.int64)
-    local[rows[pos]] = np.arange(pos.size)
-    for part in parts:
-        absorb(params, sub, _restricted(part, local), window_ns)
-    every = np.arange(pos.size, dtype=np.int64)
-    one_group = np.zeros(pos.size, dtype=np.int64)
-    fc = Forecaster(params, sub, every, one_group, PoolStats.of(params, sub, every, one_group, 1))
-    at_total = np.flatnonzero(total[pos])
-    at_bins = np.flatnonzero(bins[pos])
+    if copy:
+        view = state.take(rows)
+        local[rows] = np.arange(rows.size)
+        fc_rows = np.arange(rows.size, dtype=np.int64)
+    else:  # the rows as they are, with the parts' fixed-sensor windows in the global block
+        glob = state.take(np.zeros(0, np.int64))
+        for part in parts:
+            absorb(params, glob, _restricted(part, local), window_ns)
+        view = dataclasses.replace(state, glob=glob.glob)
+        fc_rows = rows
+    for part in parts if copy else []:
+        absorb(params, view, _restricted(part, local), window_ns)
+    h, b = params.n_profile, params.bins
+    flat = PoolStats(np.ones((1, h)), np.full((1, b), 1.0 / b), np.ones(h))  # unused here
+    fc = Forecaster(params, view, fc_rows, np.zeros(rows.size, np.int64), flat)
+    at_total, at_bins = np.flatnonzero(total), np.flatnonzero(bins)
     period_idx, coef_total = fc.total_components(at_total)
     depth = min(params.max_order, DIRECTION_ORDERS)
     fc.ensure_bins(at_bins, depth)
-    return FremenComponents(
-        pos[at_total],
+    return (
         period_idx,
         coef_total,
-        pos[at_bins],
         fc.bin_idx[at_bins, :, :depth],
         fc.coef_bins[at_bins, :, :depth],
     )
