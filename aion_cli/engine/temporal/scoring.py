@@ -379,14 +379,18 @@ def _pair_log_probs(
     Pairs are evaluated ``_DIRECTION_PAIRS`` at a time, every family on one chunk before the
     next, so the per-bin FreMEn terms (memoised per chunk: one pass serves every order) and the
     [P, B] temporaries stay small: whole-day temporaries of hundreds of MB cost more in fresh
-    pages than in arithmetic. Each pair's value does not depend on the chunking."""
+    pages than in arithmetic. Each pair's value does not depend on the chunking. Only the
+    bins a pair has detections in are logged (a pair's detections fill one or two of B)."""
     out = np.empty((e.size, len(names)))
     for a in range(0, e.size, _DIRECTION_PAIRS):
         part = slice(a, a + _DIRECTION_PAIRS)
         pe, ph, pt, pn = e[part], h[part], t_s[part], directed[part]
+        pair, b = np.nonzero(pn)
+        n = pn[pair, b]
         for j, name in enumerate(names):
             q = fc.direction(name, pe, ph, pt)
-            out[part, j] = (pn * np.log(np.maximum(q, _LOG_FLOOR))).sum(axis=1)
+            logp = n * np.log(np.maximum(q[pair, b], _LOG_FLOOR))
+            out[part, j] = np.bincount(pair, logp, minlength=pe.size)
     return out
 
 
