@@ -31,7 +31,8 @@ def _fixed_day(totals: F64) -> DayWindows:
     values = np.zeros((int(has.sum()), 9))
     values[:, 8] = totals[has]
     none = np.zeros(0, np.int64)
-    return DayWindows(slots, np.ones(totals.size, bool), none, none, slots[has] * 0, slots[has], values)
+    fixed = np.ones(totals.size, bool)
+    return DayWindows(slots, fixed, none, none, slots[has] * 0, slots[has], values)
 
 
 def _phi(days: list[DayWindows]) -> float:
