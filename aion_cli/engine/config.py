@@ -70,8 +70,10 @@ class ModelConfig:
     more complex family only when it beats the simpler one by ``family_margin`` nats; with
     ``reconcile`` the entries' total follows the map's pooled profile. Days and
     the periodic ``profile`` (``day``, ``day_weekend`` or ``week`` with bins of
-    ``profile_bin_s``) follow the local clock of ``timezone``. Profiles and shapes are shrunk
-    toward their parent's with ``profile_prior`` pseudo-detections per bin.
+    ``profile_bin_s``) follow the local clock of ``timezone``. An entry's profile is shrunk
+    toward its borrowed shape with ``profile_prior`` pseudo-detections per bin; the map's and
+    the groups' shapes by a strength estimated from the map itself (how bursty its window
+    counts are and how much its bins vary beyond that: ``temporal.shape_prior``).
     FreMEn: ``periods``, a period counts once an entry's observed span >= ``span_factor`` * T,
     orders 1..``max_order``. Directions: a Dirichlet prior of ``direction_prior``
     pseudo-detections toward the parent's histogram (room, else the ``pool_size``-metre

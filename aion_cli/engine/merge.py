@@ -112,6 +112,7 @@ def add_entries(
         np.add.at(getattr(o, name), dst, getattr(e, name)[src])
     out.temporal.add_from(early.temporal, src, dst, observation)
     out.temporal.glob.add_block(np.array([0]), early.temporal.glob)
+    out.temporal.window_chi2 += early.temporal.window_chi2
     out.temporal.touch()
 
 

@@ -55,3 +55,37 @@ def total_flow(mapper: Mapper, t_ns: int) -> float:
     from aion_cli.engine.query import predict_table
 
     return float(np.nansum(predict_table(mapper.state, int(t_ns)).flow))
+
+
+def bursty_corridor(
+    days: int,
+    passes_per_hour: Callable[[int, int], float],
+    burst: int,
+    seed: int = 0,
+    cells: tuple[float, float] = (10.0, 2.0),
+    first_hour: int = 0,
+) -> Mapper:
+    """A fixed sensor watching a corridor from ``first_hour`` on the first day to the end of
+    day ``days``: in hour h of day d a Poisson number of people (mean
+    ``passes_per_hour(d, h)``) walk 2 m east within 10 s, each detected ``burst`` times — the
+    detections of a window come in bursts, as a tracker's do (one person, many detections,
+    several cells)."""
+    rng = np.random.default_rng(seed)
+    mapper = Mapper(ModelConfig())
+    mapper.set_fixed_sensor(start_ns := MONDAY + first_hour * HOUR, MONDAY + days * DAY)
+    for d in range(days):
+        for h in range(24):
+            n = int(rng.poisson(passes_per_hour(d, h)))
+            start = MONDAY + d * DAY + h * HOUR
+            if n == 0 or start < start_ns:
+                continue
+            t0 = start + np.sort(rng.integers(0, HOUR - 60 * S, n))
+            t = (t0[:, None] + np.arange(burst)[None, :] * (10 * S // burst)).reshape(-1)
+            x0 = rng.uniform(0.0, cells[0] - 2.0, n)
+            x = (x0[:, None] + np.linspace(0.0, 2.0, burst)[None, :]).reshape(-1)
+            y = np.repeat(rng.uniform(0.0, cells[1], n), burst)
+            k = t.size
+            xyz = np.column_stack([x, y, np.zeros(k)])
+            mapper.add_detections(DetectionBatch.from_arrays(t, xyz, np.zeros(k), np.ones(k)))
+    mapper.advance(MONDAY + days * DAY)
+    return mapper

@@ -4,7 +4,9 @@ The fixed-sensor windows go into the global observation block, other observed wi
 the entries' own blocks, and the counts into ``cnt_fourier`` / ``cnt_profile`` — sparse, by
 (entry, value bin) pairs with detections, in blocks of ``_ROWS`` consecutive rows so that a
 block's temporaries (a K-vector per (row, value bin)) stay small on any map. Every sum is
-taken per row in the pairs' order, so the accumulators do not depend on the block size.
+taken per row in the pairs' order, so the accumulators do not depend on the block size. How
+bursty the day's window totals were is added to ``window_chi2``
+(:mod:`~aion_cli.engine.temporal.shape_prior`).
 Scoring a day before it is absorbed is :mod:`~aion_cli.engine.temporal.scoring`'s job.
 """
 
@@ -17,6 +19,7 @@ from aion_cli.engine.grouping import split_by_key, unique_inverse
 from aion_cli.engine.temporal.accumulators import ObsBlock, TemporalState
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
+from aion_cli.engine.temporal.shape_prior import day_chi2
 from aion_cli.engine.types import F64, I64
 from aion_cli.engine.windows import to_model_seconds, window_centre_ns
 
@@ -60,6 +63,7 @@ def absorb_day(
             np.array([t_s[fixed].max()]),
         )
         state.glob.add_block(np.array([0]), block)
+    state.window_chi2 += day_chi2(day, h, n_prof)  # how bursty the day's window totals are
     obs_e, obs_s = drop_fixed(day.obs_entry, day.obs_slot, day.fixed)
     for o in _row_blocks(obs_e):
         _absorb_observed(params, state, obs_e[o], obs_s[o], t_s, h, phasor)

@@ -26,7 +26,8 @@ Every field is a sum (or min/max), so states of disjoint time add exactly
 (:meth:`TemporalState.add_rows` with ``observation="add"``). When ownership moves a cell into
 a node (same time span) counts and scores add, and the observation of whichever had more
 windows is kept (``observation="max"``): the two were seen in nearly the same windows, and a
-sum would divide the node's rate by the number of cells it absorbed.
+sum would divide the node's rate by the number of cells it absorbed. The map as a whole keeps
+``window_chi2``, how bursty its window totals are (:mod:`.shape_prior`; maps' sums add).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.temporal import shape_prior
 from aion_cli.engine.temporal.observation_block import _OBS_FIELDS, C128, ObsBlock
 from aion_cli.engine.temporal.stored_layout import (
     ROW_BLOCK,
@@ -87,6 +89,8 @@ class TemporalState:
     dir_scored: F64
     dir_days: F64
     dir_gain_sq: F64
+    window_chi2: F64 = field(default_factory=lambda: np.zeros(2), compare=False)
+    """Σ χ² and Σ degrees of freedom of the map's window totals (:mod:`.shape_prior`)."""
     high_water: int = field(default=-1, compare=False, repr=False)
     """Rows from here on were never written: :meth:`resize` does not copy them (reserved
     capacity stays unbacked by memory). −1 at construction means every row."""
@@ -158,7 +162,7 @@ class TemporalState:
             self.flow_score.shape[1],
             self.dir_score.shape[1],
         )
-        out.glob = self.glob.take([0])
+        out.glob, out.window_chi2 = self.glob.take([0]), self.window_chi2.copy()
         out.fourier_loaded = self.fourier_loaded
         return out
 
@@ -295,7 +299,7 @@ class TemporalState:
         keep = self.high_water
         state: dict[str, Any] = {name: getattr(self, name)[:keep] for name in _ADDITIVE}
         state["obs"] = ObsBlock(*(getattr(self.obs, f)[:keep] for f in _OBS_FIELDS))
-        state["glob"] = self.glob
+        state["glob"], state["window_chi2"] = self.glob, self.window_chi2
         state["rows"], state["high_water"] = self.n_rows, keep
         state["generation"] = self.generation
         return state
@@ -307,6 +311,7 @@ class TemporalState:
             glob=state["glob"],
             obs=state["obs"],
             **{name: state[name] for name in _ADDITIVE},
+            window_chi2=state["window_chi2"],
             high_water=keep,
         )
         written.resize(int(state["rows"]))
@@ -324,7 +329,7 @@ class TemporalState:
             getattr(new.obs, name)[:keep] = getattr(self.obs, name)[:keep]
         for name in _ADDITIVE:
             getattr(new, name)[:keep] = getattr(self, name)[:keep]
-        self.obs = new.obs
+        self.obs, self.window_chi2 = new.obs, new.window_chi2
         for name in _ADDITIVE:
             setattr(self, name, getattr(new, name))
         self.high_water = keep
@@ -337,6 +342,7 @@ class TemporalState:
             glob=self.glob.take([0]),
             obs=self.obs.take(r),
             **{name: getattr(self, name)[r].copy() for name in _ADDITIVE},
+            window_chi2=self.window_chi2.copy(),
             fourier_loaded=self.fourier_loaded,
         )
 
@@ -345,7 +351,8 @@ class TemporalState:
 
     @classmethod
     def concat(cls, states: list[TemporalState]) -> TemporalState:
-        """Rows of every state in order; the global block is the first state's."""
+        """Rows of every state in order; the global block (and ``window_chi2``) is the first
+        state's."""
         if not states:
             raise ValueError("concat needs at least one state")
         obs = ObsBlock(*(np.concatenate([getattr(s.obs, f) for s in states]) for f in _OBS_FIELDS))
@@ -353,7 +360,8 @@ class TemporalState:
             name: np.concatenate([getattr(s, name) for s in states]) for name in _ADDITIVE
         }
         loaded = all(s.fourier_loaded for s in states)
-        return cls(glob=states[0].glob.take([0]), obs=obs, **joined, fourier_loaded=loaded)
+        chi2 = states[0].window_chi2.copy()
+        return cls(states[0].glob.take([0]), obs, **joined, window_chi2=chi2, fourier_loaded=loaded)
 
     # -- persistence ------------------------------------------------------------------------
     def to_arrays(self, prefix: str, rows: I64) -> dict[str, Any]:
@@ -377,6 +385,7 @@ class TemporalState:
         r = np.asarray(rows, dtype=np.int64)
         pos = np.arange(r.size, dtype=np.int64)
         out: dict[str, Any] = self.glob.to_arrays(prefix + "glob_")
+        out[prefix + shape_prior.MEMBER] = self.window_chi2.copy()
         own = self.obs.n[r] > 0
         out[prefix + "obs_index"] = stored_positions(pos[own], r.size)
         out.update(self.obs.to_arrays(prefix + "obs_", r[own]))
@@ -426,6 +435,7 @@ class TemporalState:
         own_periods = periods if fourier else 0
         out = cls.empty(rows, values, own_periods, bins, flow_families, dir_families)
         out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
+        out.window_chi2 = shape_prior.stored_window_chi2(arrays, prefix)
         own = stored_index(arrays, prefix + "obs_index", rows)
         block = ObsBlock.from_arrays(
             arrays, prefix + "obs_", own.size, periods, bins, copy, fourier

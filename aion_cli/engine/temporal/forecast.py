@@ -10,9 +10,12 @@ day-ahead scoring (built from the state before the day) and queries.
 Shapes (``params`` docstring for the families). With W[e,h] the entry's observed windows in
 profile bin h, S[e,h] its detections there and μ its static rate:
 
-every rate is a Gamma-Poisson posterior mean with c = ``profile_prior`` pseudo-detections at
-its parent's rate m, :func:`shrunk_rate` ``m (S + c) / (m W + c)`` (its own rate once its
-detections outweigh c):
+every rate is a Gamma-Poisson posterior mean with c pseudo-detections at its parent's rate m,
+:func:`shrunk_rate` ``m (S + c) / (m W + c)`` (its own rate once its detections outweigh c):
+for the map's and the groups' shapes c = α·φ, with φ how bursty the map's window counts are
+and α how much the bins really vary beyond that, both estimated from the map
+(:mod:`~aion_cli.engine.temporal.shape_prior`); for an entry's own profile c =
+``profile_prior``:
 
 * map rate per entry-window ρ_map[h] with parent rate ρ_map (flat), shape r_map = ρ_map[h] / ρ_map;
 * group g: ρ_g[h] with parent rate ρ_g·r_map[h], shape r_g = ρ_g[h] / ρ_g (the map's shape for
@@ -41,6 +44,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.params import DIRECTION_ORDERS, TemporalParams
+from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion, shrunk_rate
 from aion_cli.engine.temporal.spectrum import admitted, top_periods
 from aion_cli.engine.types import F64, I64
 from aion_cli.errors import MapCorruptError, MapFileError
@@ -83,7 +87,8 @@ class PoolStats:
             s_g += _group_sums(g, n_groups, _count_sums(block, 1))
             w_g += _group_sums(g, n_groups, _rows_of(state.obs.profile, r) + glob)
             c_g += _group_sums(g, n_groups, _count_sums(block, 2)[:, :b])
-        shapes, map_shape = _group_shapes(params.config.profile_prior, s_g, w_g)
+        phi = overdispersion(state.window_chi2)
+        shapes, map_shape = group_shapes(s_g, w_g, phi)
         return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
 
 
@@ -125,39 +130,6 @@ def _group_sums(groups: I64, n_groups: int, values: F64) -> F64:
     sums = np.bincount(keys, weights=weights, minlength=n_groups * c)
     out: F64 = sums.astype(np.float64, copy=False).reshape(n_groups, c)
     return out
-
-
-def shrunk_rate(counts: F64, windows: F64, prior_rate: F64, prior_counts: float) -> F64:
-    """Gamma-Poisson posterior mean rate: ``prior_counts`` pseudo-detections at
-    ``prior_rate``, ``m (S + c) / (m W + c)`` — the own rate once the detections outweigh
-    ``c``, the prior while they do not (so a sparse series leans on its parent); the prior
-    rate where nothing was observed (or it is 0)."""
-    m = np.asarray(prior_rate, dtype=np.float64)
-    num = m * (counts + prior_counts)
-    den = m * windows + prior_counts
-    fallback = np.broadcast_to(m, np.broadcast(num, den).shape).astype(np.float64)
-    out: F64 = np.divide(num, den, out=fallback, where=den > 0)
-    return out
-
-
-def _group_shapes(c: float, s_g: F64, w_g: F64) -> tuple[F64, F64]:
-    """The groups' shapes r_g[G, H] (each shrunk toward the map's) and the map's r_map[H]."""
-    s_map, w_map = s_g.sum(axis=0), w_g.sum(axis=0)
-    rho_map = s_map.sum() / w_map.sum() if w_map.sum() > 0 else 0.0
-    if rho_map <= 0:
-        return np.ones_like(s_g), np.ones(s_g.shape[1])
-    r_map = shrunk_rate(s_map, w_map, np.full(s_map.shape, rho_map), c) / rho_map
-    w_tot = w_g.sum(axis=1)
-    rho_g = np.divide(s_g.sum(axis=1), w_tot, out=np.zeros(len(w_tot)), where=w_tot > 0)
-    prior = rho_g[:, None] * r_map[None, :]
-    r_g = np.divide(
-        shrunk_rate(s_g, w_g, prior, c),
-        rho_g[:, None],
-        out=np.zeros_like(s_g),
-        where=rho_g[:, None] > 0,
-    )
-    out: F64 = np.where((rho_g > 0)[:, None], r_g, r_map[None, :])
-    return out, r_map
 
 
 def _group_histograms(kappa: float, c_g: F64) -> F64:
