@@ -188,7 +188,8 @@ def _components(
     """Components of entry ``rows`` (``total`` / ``bins``: which of them need which) from
     ``state`` with ``parts`` absorbed: into a copy of the rows (``copy``), or, for rows the
     parts do not touch, into the global block alone (the rows read in place)."""
-    from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
+    from aion_cli.engine.temporal.forecast import Forecaster
+    from aion_cli.engine.temporal.pooling import PoolStats
 
     local = np.full(state.n_rows, -1, np.int64)
     if copy:

@@ -36,7 +36,6 @@ counts, never zero.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -44,7 +43,15 @@ import numpy.typing as npt
 
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.params import DIRECTION_ORDERS, TemporalParams
-from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion, shrunk_rate
+from aion_cli.engine.temporal.pooling import (
+    PoolStats,
+    borrowed,
+    count_sums,
+    normalised,
+    posterior,
+    rows_of,
+)
+from aion_cli.engine.temporal.shape_prior import shrunk_rate
 from aion_cli.engine.temporal.spectrum import admitted, top_periods
 from aion_cli.engine.types import F64, I64
 from aion_cli.errors import MapCorruptError, MapFileError
@@ -54,106 +61,6 @@ if TYPE_CHECKING:
 
 C128 = npt.NDArray[np.complex128]
 _BLOCK = 1 << 10
-_POOL_BLOCK = 1 << 13
-"""Entries pooled together (a block's temporaries stay a few MB)."""
-
-
-@dataclass(frozen=True)
-class PoolStats:
-    """What entries borrow from their parents: each group's periodic shape ``shape[G, H]``
-    and direction histogram ``histogram[G, B]`` (see the module docstring)."""
-
-    shape: F64
-    histogram: F64
-    map_shape: F64
-
-    @classmethod
-    def of(
-        cls,
-        params: TemporalParams,
-        state: TemporalState,
-        rows: I64,
-        groups: I64,
-        n_groups: int,
-    ) -> PoolStats:
-        """Pool the entries ``rows`` (all live entries) into their groups."""
-        b, h = params.bins, params.n_profile
-        s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
-        c_g = np.zeros((n_groups, b))
-        glob = state.glob.profile[0]
-        for a in range(0, rows.size, _POOL_BLOCK):
-            r, g = rows[a : a + _POOL_BLOCK], groups[a : a + _POOL_BLOCK]
-            block = _rows_of(state.cnt_profile, r)
-            s_g += _group_sums(g, n_groups, _count_sums(block, 1))
-            w_g += _group_sums(g, n_groups, _rows_of(state.obs.profile, r) + glob)
-            c_g += _group_sums(g, n_groups, _count_sums(block, 2)[:, :b])
-        phi = overdispersion(state.window_chi2)
-        shapes, map_shape = group_shapes(s_g, w_g, phi)
-        return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
-
-
-def _borrowed(r: F64, mean: F64) -> F64:
-    """r / r̄ per pair, 1 where r̄ is ~0 (an entry observed nowhere its group is busy)."""
-    ok = mean > 1e-12
-    out: F64 = np.divide(r, mean, out=np.ones(np.broadcast(r, mean).shape), where=ok)
-    return out
-
-
-def _rows_of(values: Any, rows: I64) -> Any:
-    """``values[rows]`` for reading: a view (no copy) when ``rows`` are consecutive, as the
-    rows of a map read back are (its entries are stored in canonical order), so preparing
-    a forecast does not copy the largest accumulators block by block."""
-    n = rows.size
-    if n and int(rows[-1]) - int(rows[0]) == n - 1 and (n == 1 or bool(np.all(np.diff(rows) == 1))):
-        return values[int(rows[0]) : int(rows[-1]) + 1]
-    return values[rows]
-
-
-def _count_sums(counts: Any, axis: int) -> Any:
-    """Sums of whole counts along ``axis``: counts held as small unsigned integers (a query's,
-    read narrow) are summed in a 32- or 64-bit integer accumulator, which is exact and
-    faster than widening them first; float counts as they are (whole numbers: exact too)."""
-    if counts.dtype.kind == "u":
-        wide = np.uint32 if counts.dtype.itemsize <= 2 else np.uint64
-        return counts.sum(axis=axis, dtype=wide)
-    return counts.sum(axis=axis)
-
-
-def _group_sums(groups: I64, n_groups: int, values: F64) -> F64:
-    """Σ of the rows of ``values`` per group, float64[G, C]: each group's rows added in row
-    order from zero, as the sparse indicator product this replaces added them (so the sums
-    are the same to the bit), in one ``bincount`` over (group, column) keys and without
-    importing ``scipy.sparse`` (a fifth of a second, for a query)."""
-    c = values.shape[1]
-    keys = (groups[:, None] * c + np.arange(c, dtype=np.int64)).reshape(-1)
-    weights = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
-    sums = np.bincount(keys, weights=weights, minlength=n_groups * c)
-    out: F64 = sums.astype(np.float64, copy=False).reshape(n_groups, c)
-    return out
-
-
-def _group_histograms(kappa: float, c_g: F64) -> F64:
-    b = c_g.shape[1]
-    total = c_g.sum(axis=0)
-    p_map = (total + 1.0) / (total.sum() + b)
-    return _posterior(c_g, np.broadcast_to(p_map, c_g.shape), kappa)
-
-
-def _normalised(counts: F64) -> F64:
-    """Rows divided by their sums (zeros where a row has no count)."""
-    total = counts.sum(axis=1, keepdims=True)
-    out: F64 = np.divide(counts, total, out=np.zeros_like(counts), where=total > 0)
-    return out
-
-
-def _posterior(counts: F64, prior: F64, kappa: float) -> F64:
-    """Dirichlet posterior mean (counts + κ·prior) / (N + κ); with κ = 0 the raw proportions
-    where there are counts, the prior elsewhere."""
-    total = counts.sum(axis=1, keepdims=True)
-    if kappa > 0:
-        out: F64 = (counts + kappa * prior) / (total + kappa)
-        return out
-    return np.where(total > 0, _normalised(counts), prior)
 
 
 class Forecaster:
@@ -187,8 +94,8 @@ class Forecaster:
         shape_sum, map_sum = np.empty(e), np.empty(e)
         for a in range(0, e, _BLOCK):  # one pass, block by block: no [E, H] temporaries
             rows = r[a : a + _BLOCK]
-            self.counts[a : a + _BLOCK] = _count_sums(_rows_of(state.cnt_profile, rows), 2)
-            w = _rows_of(state.obs.profile, rows) + self._glob_profile  # W of the block
+            self.counts[a : a + _BLOCK] = count_sums(rows_of(state.cnt_profile, rows), 2)
+            w = rows_of(state.obs.profile, rows) + self._glob_profile  # W of the block
             shape_sum[a : a + _BLOCK] = (w * pool.shape[groups[a : a + _BLOCK]]).sum(axis=1)
             map_sum[a : a + _BLOCK] = (w * pool.map_shape).sum(axis=1)
         safe_n = np.where(self.observed, self.windows, 1.0)
@@ -199,8 +106,8 @@ class Forecaster:
         self.directed_share = np.divide(directed, total, out=np.zeros(e), where=total > 0)
         self._shape_mean = self._mean(shape_sum)
         self._map_mean = self._mean(map_sum)
-        self.raw_histogram = _normalised(self.counts[:, :b])
-        self.histogram = _posterior(
+        self.raw_histogram = normalised(self.counts[:, :b])
+        self.histogram = posterior(
             self.counts[:, :b], pool.histogram[groups], params.config.direction_prior
         )
         self._cache: dict[str, Any] = {}
@@ -228,8 +135,8 @@ class Forecaster:
         windows, total = np.empty((e, h)), np.empty((e, h))
         for a in range(0, e, _BLOCK):
             rows = self.rows[a : a + _BLOCK]
-            windows[a : a + _BLOCK] = _rows_of(self.state.obs.profile, rows) + self._glob_profile
-            total[a : a + _BLOCK] = _count_sums(_rows_of(self.state.cnt_profile, rows), 1)
+            windows[a : a + _BLOCK] = rows_of(self.state.obs.profile, rows) + self._glob_profile
+            total[a : a + _BLOCK] = count_sums(rows_of(self.state.cnt_profile, rows), 1)
         self._profiles = (windows, total)
 
     def profile_windows_at(self, e: I64, h: I64) -> F64:
@@ -253,11 +160,11 @@ class Forecaster:
     def shape_at(self, e: I64, h: I64) -> F64:
         """s[e, h] = r_g[h] / r̄_e: the group's shape, normalised over the entry's windows (1
         where r̄_e is ~0)."""
-        return _borrowed(self.pool.shape[self.groups[e], h], self._shape_mean[e])
+        return borrowed(self.pool.shape[self.groups[e], h], self._shape_mean[e])
 
     def map_shape_at(self, e: I64, h: I64) -> F64:
         """The same with the map's pooled shape r_map[h]."""
-        return _borrowed(self.pool.map_shape[h], self._map_mean[e])
+        return borrowed(self.pool.map_shape[h], self._map_mean[e])
 
     def _fremen(self, first: F64, last: F64) -> None:
         """FreMEn components, each computed on first use, per entry: the M strongest admitted
@@ -338,8 +245,8 @@ class Forecaster:
         """γ_{v,k} = (A − μ B) / W of entries at positions ``pos``: complex[n, V, K]."""
         self._check_sums()
         r = self.rows[pos]
-        balance = _rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
-        counts = _rows_of(self.state.cnt_fourier, r)
+        balance = rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
+        counts = rows_of(self.state.cnt_fourier, r)
         gamma: C128 = self.rate[pos, :, None] * balance[:, None, :]
         np.subtract(counts, gamma, out=gamma)
         gamma /= np.where(self.observed[pos], self.windows[pos], 1.0)[:, None, None]
@@ -351,8 +258,8 @@ class Forecaster:
         [n, V, K] temporaries (a day's scoring asks it of every candidate)."""
         self._check_sums()
         r = self.rows[pos]
-        balance = _rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
-        gamma: C128 = _rows_of(self.state.cnt_fourier, r).sum(axis=1)
+        balance = rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
+        gamma: C128 = rows_of(self.state.cnt_fourier, r).sum(axis=1)
         gamma -= self.rate_total[pos, None] * balance
         gamma /= np.where(self.observed[pos], self.windows[pos], 1.0)[:, None]
         return gamma

@@ -25,9 +25,10 @@ from aion_cli.engine.temporal.absorption import absorb
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.choice import choose_families, dispersion
 from aion_cli.engine.temporal.components import FremenComponents
-from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
+from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, PendingDay
+from aion_cli.engine.temporal.pooling import PoolStats
 from aion_cli.engine.temporal.scoring import close_day
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.engine.windows import to_model_seconds, window_centre_ns

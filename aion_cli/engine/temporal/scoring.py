@@ -25,9 +25,10 @@ import numpy.typing as npt
 from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.temporal.absorption import absorb_day, drop_fixed
 from aion_cli.engine.temporal.accumulators import TemporalState
-from aion_cli.engine.temporal.forecast import Forecaster, PoolStats
+from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
+from aion_cli.engine.temporal.pooling import PoolStats
 from aion_cli.engine.types import F64, I64
 from aion_cli.engine.windows import to_model_seconds, window_centre_ns
 
