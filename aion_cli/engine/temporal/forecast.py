@@ -347,8 +347,7 @@ class Forecaster:
             self.ensure_total(e)
             table, inverse = self._rotation_table(t_s)
             rot = table[inverse[:, None], self._period_idx[e]]
-            out: F64 = np.cumsum(2.0 * (self._coef_total[e] * rot).real, axis=1)
-            return out
+            return _running_sum(2.0 * (self._coef_total[e] * rot).real)
 
         out: F64 = self._memo("total", e, t_s, compute)
         return out
@@ -383,8 +382,7 @@ class Forecaster:
             minus = np.take(im_z, flat)
             minus *= np.take(twice_im, e, axis=0)
             terms -= minus
-            out: F64 = np.cumsum(terms.reshape(e.size, bins, upto), axis=2)
-            return out
+            return _running_sum(terms.reshape(e.size, bins, upto))
 
         full: F64 = self._memo(f"bins{bins}/{upto}", e, t_s, compute)
         out: F64 = full[:, :, m - 1]
@@ -454,17 +452,51 @@ class Forecaster:
         if family == "static":
             return hist
         kappa_t = self.params.config.direction_time_prior
-        b = self.params.bins
-        if family == "profile":
-            pseudo = self.state.cnt_profile[self.rows[e], :b, h]
-        else:
-            m = int(family.removeprefix("fremen"))
-            terms = self._bin_terms(e, t_s, m, b, min(self.params.max_order, DIRECTION_ORDERS))
-            pseudo = self.rate[e, :b] + terms  # a new array: the terms are memoised
-            np.maximum(pseudo, 0.0, out=pseudo)
-            pseudo *= self.profile_windows_at(e, h)[:, None]
+        pseudo = self._pseudo_counts(family, e, h, t_s)
         denominator = pseudo.sum(axis=1, keepdims=True) + kappa_t
         hist *= kappa_t
         hist += pseudo
         hist /= denominator
         return hist
+
+    def direction_at(
+        self, family: str, e: I64, h: I64, t_s: F64, pair: I64, b: I64
+    ) -> F64:
+        """``direction(family, e, h, t_s)[pair, b]`` — the same operations in the same order,
+        so equal to the bit — computed at those (pair, bin) positions only: the day-ahead
+        scoring asks for the one or two bins each pair has detections in, and a time-varying
+        family needs its whole rows only for their sums."""
+        hist: F64 = self.histogram[e[pair], b]
+        if family == "static":
+            return hist
+        kappa_t = self.params.config.direction_time_prior
+        pseudo = self._pseudo_counts(family, e, h, t_s)
+        denominator = pseudo.sum(axis=1) + kappa_t
+        hist *= kappa_t
+        hist += pseudo[pair, b]
+        hist /= denominator[pair]
+        return hist
+
+    def _pseudo_counts(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
+        """The time-varying family's directed pseudo-counts c_b(t) float64[P, B] (module
+        docstring): the profile bin's counts, or FreMEn's clamped per-bin rates × W[e, h]."""
+        b = self.params.bins
+        if family == "profile":
+            counts: F64 = self.state.cnt_profile[self.rows[e], :b, h]
+            return counts
+        m = int(family.removeprefix("fremen"))
+        terms = self._bin_terms(e, t_s, m, b, min(self.params.max_order, DIRECTION_ORDERS))
+        pseudo: F64 = self.rate[e, :b] + terms  # a new array: the terms are memoised
+        np.maximum(pseudo, 0.0, out=pseudo)
+        pseudo *= self.profile_windows_at(e, h)[:, None]
+        return pseudo
+
+
+def _running_sum(terms: F64) -> F64:
+    """``np.cumsum(terms, axis=-1)`` computed in ``terms`` itself (a fresh array of the
+    caller's), one order at a time: the same additions in the same order (s_j = s_{j−1} +
+    t_j), so equal to the bit, but as a few whole-array adds — numpy's cumsum along a short
+    last axis (the 2–4 FreMEn orders) loops per row."""
+    for j in range(1, terms.shape[-1]):
+        terms[..., j] += terms[..., j - 1]
+    return terms

@@ -19,6 +19,8 @@ depend on the block size.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import numpy.typing as npt
 
@@ -346,14 +348,15 @@ def _score_directions(
     evidence = fc.counts[:, :b].sum(axis=1) >= params.config.direction_time_prior
     rich = evidence[ce]
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
-    rich_e, rich_h, rich_t, rich_n = ce[rich], pair_h[rich], pair_t[rich], directed[rich]
+    rich_e, rich_h, rich_t = ce[rich], pair_h[rich], pair_t[rich]
+    counted = _DetectionBins.of(directed)
     timed = [d for d in range(len(params.direction)) if d != static and params.direction_enabled[d]]
     if params.direction_enabled[static]:
-        logp = _pair_log_probs(fc, [params.direction[static]], ce, pair_h, pair_t, directed)
+        logp = _pair_log_probs(fc, [params.direction[static]], ce, pair_h, pair_t, counted)
         day_score[:, static] = np.bincount(ce, logp[:, 0], minlength=candidates.size)
     if timed:
         names = [params.direction[d] for d in timed]
-        logp = _pair_log_probs(fc, names, rich_e, rich_h, rich_t, rich_n)
+        logp = _pair_log_probs(fc, names, rich_e, rich_h, rich_t, counted.subset(rich))
         for j, d in enumerate(timed):
             day_score[:, d] = np.bincount(rich_e, logp[:, j], minlength=candidates.size)
     for d in range(len(params.direction)):
@@ -372,8 +375,36 @@ def _score_directions(
     state.dir_scored[candidates] += detections
 
 
+@dataclass(frozen=True)
+class _DetectionBins:
+    """The nonzero entries of a [P, B] array of directed counts, in row-major order: pair
+    ``pair`` (ascending) has ``count`` detections in bin ``bin``. Found once per block and
+    shared by every direction family (a pair's detections fill one or two of B bins)."""
+
+    pairs: int
+    pair: I64
+    bin: I64
+    count: F64
+
+    @classmethod
+    def of(cls, directed: F64) -> _DetectionBins:
+        b = directed.shape[1]
+        flat = np.ascontiguousarray(directed).reshape(-1)
+        at = np.flatnonzero(flat)
+        pair, column = np.divmod(at, b)
+        return cls(directed.shape[0], pair, column, flat[at])
+
+    def subset(self, keep: npt.NDArray[np.bool_]) -> _DetectionBins:
+        """The same for the pairs where ``keep`` holds, renumbered in their order."""
+        new_index = np.cumsum(keep) - 1
+        on = keep[self.pair]
+        return _DetectionBins(
+            int(keep.sum()), new_index[self.pair[on]], self.bin[on], self.count[on]
+        )
+
+
 def _pair_log_probs(
-    fc: Forecaster, names: list[str], e: I64, h: I64, t_s: F64, directed: F64
+    fc: Forecaster, names: list[str], e: I64, h: I64, t_s: F64, counted: _DetectionBins
 ) -> F64:
     """Σ_b n_b log q_b per pair for each direction family of ``names``: float64[P, len(names)].
 
@@ -381,16 +412,18 @@ def _pair_log_probs(
     next, so the per-bin FreMEn terms (memoised per chunk: one pass serves every order) and the
     [P, B] temporaries stay small: whole-day temporaries of hundreds of MB cost more in fresh
     pages than in arithmetic. Each pair's value does not depend on the chunking. Only the
-    bins a pair has detections in are logged (a pair's detections fill one or two of B)."""
+    bins a pair has detections in are evaluated and logged (``Forecaster.direction_at``)."""
     out = np.empty((e.size, len(names)))
-    for a in range(0, e.size, _DIRECTION_PAIRS):
+    starts = np.arange(0, e.size + _DIRECTION_PAIRS, _DIRECTION_PAIRS)
+    cut = np.searchsorted(counted.pair, starts)
+    for k, a in enumerate(range(0, e.size, _DIRECTION_PAIRS)):
         part = slice(a, a + _DIRECTION_PAIRS)
-        pe, ph, pt, pn = e[part], h[part], t_s[part], directed[part]
-        pair, b = np.nonzero(pn)
-        n = pn[pair, b]
+        pe, ph, pt = e[part], h[part], t_s[part]
+        nz = slice(int(cut[k]), int(cut[k + 1]))
+        pair, b, n = counted.pair[nz] - a, counted.bin[nz], counted.count[nz]
         for j, name in enumerate(names):
-            q = fc.direction(name, pe, ph, pt)
-            logp = n * np.log(np.maximum(q[pair, b], _LOG_FLOOR))
+            q = fc.direction_at(name, pe, ph, pt, pair, b)
+            logp = n * np.log(np.maximum(q, _LOG_FLOOR))
             out[part, j] = np.bincount(pair, logp, minlength=pe.size)
     return out
 
