@@ -48,7 +48,7 @@ def _by_row(rows: np.ndarray, keys: np.ndarray, pts: np.ndarray, seed: int = 0
 
 
 step = st.tuples(
-    st.sampled_from(["add", "drop", "reuse", "nodes", "same", "move"]),
+    st.sampled_from(["add", "drop", "reuse", "nodes", "same", "move", "shift"]),
     st.integers(0, 2**31 - 1),
 )
 
@@ -86,6 +86,12 @@ def test_bind_index_answers_equal_nearest_nodes(seed: int, steps: list[tuple[str
             pts[i] = _points(r, 1)[0]
         elif kind == "nodes":
             nodes = _points(r, int(r.integers(0, 12)))
+        elif kind == "shift":  # a live graph: some nodes move a little, leave or appear
+            nodes = nodes[r.random(len(nodes)) < 0.8].copy()
+            moved = r.random(len(nodes)) < 0.4
+            nodes[moved, :2] += r.normal(0.0, 0.5, (int(moved.sum()), 2))
+            nodes = np.r_[nodes, _points(r, int(r.integers(0, 3)))]
+            nodes = nodes[r.permutation(len(nodes))]
         radius, vtol = (1.0, 1.0) if s % 5 else (2.0, 0.5)
         order = r.permutation(rows.size)  # callers pass cells in any row order
         key_of_row, xyz_of_row = _by_row(rows, keys, pts, s)
