@@ -193,17 +193,16 @@ def _components(
 
     local = np.full(state.n_rows, -1, np.int64)
     if copy:
-        view = state.take(rows)
         local[rows] = np.arange(rows.size)
-        fc_rows = np.arange(rows.size, dtype=np.int64)
-    else:  # the rows as they are, with the parts' fixed-sensor windows in the global block
-        glob = state.take(np.zeros(0, np.int64))
-        for part in parts:
-            absorb(params, glob, _restricted(part, local), window_ns)
-        view = dataclasses.replace(state, glob=glob.glob)
-        fc_rows = rows
-    for part in parts if copy else []:
-        absorb(params, view, _restricted(part, local), window_ns)
+    # into a copy of the rows, or (no local rows) a state of no rows: only its global block
+    # takes the parts' fixed-sensor windows, and the rows are read in place beside it
+    target = state.take(rows if copy else np.zeros(0, np.int64))
+    for part in parts:
+        absorb(params, target, _restricted(part, local), window_ns)
+    if copy:
+        view, fc_rows = target, np.arange(rows.size, dtype=np.int64)
+    else:
+        view, fc_rows = dataclasses.replace(state, glob=target.glob), rows
     h, b = params.n_profile, params.bins
     flat = PoolStats(np.ones((1, h)), np.full((1, b), 1.0 / b), np.ones(h))  # unused here
     fc = Forecaster(params, view, fc_rows, np.zeros(rows.size, np.int64), flat)
