@@ -381,7 +381,6 @@ class _DetectionBins:
     ``pair`` (ascending) has ``count`` detections in bin ``bin``. Found once per block and
     shared by every direction family (a pair's detections fill one or two of B bins)."""
 
-    pairs: int
     pair: I64
     bin: I64
     count: F64
@@ -392,15 +391,13 @@ class _DetectionBins:
         flat = np.ascontiguousarray(directed).reshape(-1)
         at = np.flatnonzero(flat)
         pair, column = np.divmod(at, b)
-        return cls(directed.shape[0], pair, column, flat[at])
+        return cls(pair, column, flat[at])
 
     def subset(self, keep: npt.NDArray[np.bool_]) -> _DetectionBins:
         """The same for the pairs where ``keep`` holds, renumbered in their order."""
         new_index = np.cumsum(keep) - 1
         on = keep[self.pair]
-        return _DetectionBins(
-            int(keep.sum()), new_index[self.pair[on]], self.bin[on], self.count[on]
-        )
+        return _DetectionBins(new_index[self.pair[on]], self.bin[on], self.count[on])
 
 
 def _pair_log_probs(
