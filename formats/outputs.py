@@ -189,10 +189,15 @@ def interrupts_held() -> Iterator[None]:
     between them would leave something nobody removes.
     """
     try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, ())  # the mask now (runs pending handlers)
     except (AttributeError, OSError, ValueError):  # no pthread_sigmask on this platform
         yield
         return
+    try:  # a handler that raises *inside* this call must not leave the two signals blocked
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    except BaseException:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        raise
     try:
         yield
     finally:

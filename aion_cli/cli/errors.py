@@ -79,6 +79,21 @@ def _interrupted(exc: BaseException) -> bool:
     return False
 
 
+def quiet_finalizers() -> None:
+    """Silence errors of finalizers for the rest of an interrupted process.
+
+    Ctrl-C or SIGTERM can land inside a constructor: ``zipfile.ZipFile.__init__`` stopped
+    before it set ``_writing`` later fails in ``__del__`` with an AttributeError, which Python
+    prints as "Exception ignored ... Traceback" beneath the one ``error: interrupted`` line.
+    Only for a process that exits right after: every later unraisable error is dropped.
+    """
+    sys.unraisablehook = _drop_unraisable
+
+
+def _drop_unraisable(unraisable: object) -> None:
+    """A ``sys.unraisablehook`` that prints nothing."""
+
+
 def report(exc: BaseException, debug: bool) -> int:
     """Print ``exc`` for the user and return the exit code."""
     interrupted = _interrupted(exc)

@@ -19,7 +19,7 @@ import click
 from aion_cli import __version__
 from aion_cli.cli import build, convert, export, info, merge, plan, predict
 from aion_cli.cli import report as report_command
-from aion_cli.cli.errors import EXIT_OK, report
+from aion_cli.cli.errors import EXIT_INTERRUPTED, EXIT_OK, quiet_finalizers, report
 from aion_cli.cli.evaluate import evaluate as evaluate_group
 from aion_cli.cli.simulate import simulate as simulate_command
 
@@ -78,6 +78,8 @@ class AionGroup(click.Group):
             if isinstance(exc, SystemExit):
                 raise
             code = report(exc, _debug_requested(argv))
+            if code == EXIT_INTERRUPTED and standalone_mode:
+                quiet_finalizers()  # before ``exc`` and the frames it holds are freed
         if not standalone_mode:
             return code
         sys.exit(code)

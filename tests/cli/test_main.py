@@ -128,3 +128,43 @@ def test_interrupt_is_exit_130_and_broken_pipe_is_quiet(capsys: pytest.CaptureFi
     assert capsys.readouterr().err == ""
     assert report(PermissionError(13, "Permission denied", "/root/x.aion"), debug=False) == 2
     assert_one_line_error(capsys.readouterr().err, "Permission denied", "/root/x.aion")
+
+
+_HALF_BUILT_ZIP_ON_CTRL_C = """
+import sys, zipfile
+
+class InterruptedInConstructor(zipfile.ZipFile):
+    def __init__(self, file, mode="r", *args, **kwargs):
+        if mode == "w":
+            self.fp = file  # a signal after __init__ took the file, before it set _writing
+            raise KeyboardInterrupt
+        super().__init__(file, mode, *args, **kwargs)
+
+zipfile.ZipFile = InterruptedInConstructor
+from aion_cli.cli.main import main
+sys.argv = ["aion", "build", sys.argv[1], "-o", sys.argv[2], "-q"]
+main()
+"""
+
+
+def test_ctrl_c_inside_a_constructor_prints_one_error_and_no_finalizer_traceback(
+    tmp_path: Path,
+) -> None:
+    """A signal that lands inside ``ZipFile.__init__`` (seen in CI: SIGINT while the map was
+    being written) leaves an object whose ``__del__`` raises AttributeError when the
+    interrupted frames are freed; Python would print that traceback below the error line."""
+    import subprocess
+    import sys
+
+    sample = Path(__file__).resolve().parents[2] / "samples" / "office.mcap"
+    done = subprocess.run(
+        [sys.executable, "-c", _HALF_BUILT_ZIP_ON_CTRL_C, str(sample), str(tmp_path / "m.aion")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=Path(__file__).resolve().parents[2],
+    )
+    assert done.returncode == 130, done.stderr
+    assert "Exception ignored" not in done.stderr
+    assert_one_line_error(done.stderr, "interrupted")
+    assert not (tmp_path / "m.aion").exists()
