@@ -362,7 +362,10 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
     names = {id(m.state): m.name for m in maps}
 
     def step(acc: MapState, nxt: MapState) -> MapState:
-        out = _join_part(acc, nxt, names, report) if nxt.deferred else merge_maps(acc, nxt)
+        if nxt.deferred:
+            out = _join_part(acc, nxt, names, report)
+        else:  # each loaded state is merged once and then dropped: no copies needed
+            out = merge_maps(acc, nxt, consume=True)
         sink.advance(1)
         return out
 

@@ -14,7 +14,8 @@
   more two processes of this very work get done per second than one. On a shared VM the two
   "cores" are not independent; the speed-up is read against this figure.
 * **Merge cost** (:func:`run_merge`). ``engine.merge.merge_maps`` of two maps of 10^4 and 10^5
-  cell entries with two weeks of history (``bench_engine.build_state``): seconds per entry.
+  cell entries with two weeks of history (``bench_engine.build_state``): seconds per entry,
+  copying the inputs (the library default) and in place (``aion merge``).
 
 Per-core rates for docs/SCALING.md come from the same rows (detections per second of one
 worker's shard, fold seconds per shard).
@@ -161,23 +162,29 @@ def run_speedup(
 
 
 def run_merge(sizes: tuple[int, ...] = (10**4, 10**5)) -> list[dict[str, Any]]:
-    """``merge_maps`` cost per entry for maps of ``sizes`` entries."""
+    """``merge_maps`` cost per entry for maps of ``sizes`` entries: the library's default,
+    which copies both inputs first, and ``consume=True`` (what ``aion merge`` runs: the loaded
+    maps are merged in place), on the same two maps (the copying merge leaves them as they
+    were)."""
     from aion_cli.engine.merge import merge_maps
     from benchmarks.bench_engine import build_state
 
     rows = []
     for n in sizes:
         a, b = build_state(n), build_state(n)
-        begin = time.perf_counter()
-        merged = merge_maps(a, b)
-        seconds = time.perf_counter() - begin
-        entries = len(merged.entries.live_rows())
-        rows.append({
-            "name": f"merge_maps, {n:,} entries each",
-            "entries": entries,
-            "seconds": seconds,
-            "us_per_entry": seconds / max(entries, 1) * 1e6,
-        })
+        for consume in (False, True):
+            begin = time.perf_counter()
+            merged = merge_maps(a, b, consume=consume)
+            seconds = time.perf_counter() - begin
+            entries = len(merged.entries.live_rows())
+            how = "in place (aion merge)" if consume else "inputs copied"
+            rows.append({
+                "name": f"merge_maps, {n:,} entries each, {how}",
+                "entries": entries,
+                "seconds": seconds,
+                "us_per_entry": seconds / max(entries, 1) * 1e6,
+            })
+            del merged
     return rows
 
 

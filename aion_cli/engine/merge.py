@@ -40,19 +40,21 @@ if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
 
 
-def merge_maps(a: MapState, b: MapState) -> MapState:
-    """A new map holding both maps' dynamics (inputs are not modified)."""
+def merge_maps(a: MapState, b: MapState, *, consume: bool = False) -> MapState:
+    """A map holding both maps' dynamics. The inputs are not modified unless ``consume``:
+    then the result is built in the later one and the earlier one is changed too (a caller
+    that drops both, as ``aion merge`` does, saves the two copies: most of a merge's cost)."""
     if a.config != b.config:
         raise ConfigError(
             "cannot merge maps built with different model parameters",
             hint="rebuild one of them with the other's config",
         )
     earlier, later = sorted((a, b), key=_start_order)
-    early = _copy(earlier)
+    early = earlier if consume else _copy(earlier)
     if early.open_window is not None:
         close_windows(early, early.open_window + 1)
     early.close_day()
-    out = _copy(later)
+    out = later if consume else _copy(later)
     merge_timers(out, early)
     src_rows = early.entries.canonical_order()
     dst = destinations(out, early, src_rows)

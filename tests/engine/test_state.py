@@ -13,6 +13,7 @@ import pytest
 from aion_cli.engine.compare import differences, pending_sorted, plain
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
+from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.state import MapState, merge_states
 from aion_cli.engine.temporal.pending import PendingDay
@@ -205,6 +206,27 @@ def test_merging_disjoint_maps_equals_building_from_both() -> None:
     assert pa["temporal_cnt_profile"].sum() > 0
     assert len(pa["redirect_keys"]) > 0  # ownership transfer happened in both builds
     assert np.any(pa["entry_kind"] == 0)  # and some cells stayed unbound
+
+
+def test_a_consuming_merge_equals_the_copying_one_which_leaves_its_inputs_alone() -> None:
+    """``merge_maps(..., consume=True)`` (``aion merge``: no copies of the loaded maps) builds
+    the same map as the default merge, which must not change either input."""
+    spots = np.c_[np.random.default_rng(3).uniform(-1, 8, (40, 2)), np.zeros(40)]
+    early_steps = _log(T0, seed=7, spots=spots)
+    late_steps = _log(T0 + 3 * DAY, seed=8, spots=spots)
+    early, late = _run(early_steps).state, _run(late_steps).state
+    before = (early.to_arrays(), late.to_arrays())
+    copied = merge_maps(late, early)
+    for state, (arrays, meta) in zip((early, late), before, strict=True):
+        again, again_meta = state.to_arrays()
+        assert again_meta == meta
+        assert arrays.keys() == again.keys()
+        for name in arrays:
+            np.testing.assert_array_equal(np.asarray(again[name]), np.asarray(arrays[name]))
+    consumed = merge_maps(late, early, consume=True)
+    assert consumed is late  # built in the later map
+    assert differences(copied, consumed) == []
+    check_invariants(consumed)
 
 
 def test_merge_adds_the_fixed_sensor_windows_of_both_maps_for_every_entry() -> None:
