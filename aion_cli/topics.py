@@ -220,6 +220,11 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
         hint = (
             f"{plan.reasons[first.topic]}; or map another type with --detections-mapping FILE"
         )
+    elif not found:  # channels that are not ROS (other encodings), or none at all
+        hint = (
+            "it has no ROS topic aion can read (only other encodings, or no channels); "
+            "`aion info LOG` lists what was skipped and why"
+        )
     else:
         hint = (
             "the log has: "

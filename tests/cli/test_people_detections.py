@@ -254,6 +254,28 @@ def test_generic_types_are_taken_only_from_topics_that_suggest_people(tmp_path: 
     assert named["detections"]["read"] == 10
 
 
+def test_a_log_without_ros_topics_is_refused_with_a_hint_that_says_so(tmp_path: Path) -> None:
+    """An MCAP whose only channel is JSON (not ROS): the hint says there is no ROS topic
+    (it listed an empty topic list before: "the log has: ; map a type ...")."""
+    from mcap.writer import Writer
+
+    log = tmp_path / "json_only.mcap"
+    with log.open("wb") as f:
+        writer = Writer(f)
+        writer.start()
+        schema = writer.register_schema("Person", "jsonschema", b"{}")
+        channel = writer.register_channel("/people", "json", schema)
+        for k in range(3):
+            writer.add_message(channel, k * 10**9, b'{"x": 1}', k * 10**9)
+        writer.finish()
+    result = run("build", log, "-o", tmp_path / "json.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no people-detection topic of a supported type")
+    assert "hint: it has no ROS topic aion can read" in result.stderr
+    assert "the log has: ;" not in result.stderr
+    assert not (tmp_path / "json.aion").exists()
+
+
 def test_a_log_of_navigation_goals_only_is_refused_with_the_reason(tmp_path: Path) -> None:
     log = nav_log(tmp_path / "goals.mcap", people=False)
     result = run("build", log, "-o", tmp_path / "goals.aion")
