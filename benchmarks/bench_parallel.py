@@ -1,6 +1,6 @@
 """Issue 17: parallel builds (``aion build --workers N``) and merging maps.
 
-* **Speed-up** (:func:`run_speedup`). Four logs like the ratio logs of ``bench_build``
+* **Speed-up** (:func:`run_speedup`). Four logs like the ratio logs of ``build_logs``
   (spencer ``TrackedPersons`` at 10 Hz from a fixed tracker, 5 people per message, a
   ``DsgUpdate`` of the same corridor graph every 10 minutes), each over ``days`` days, a day
   apart: ``pipeline.build_map`` with ``workers=1`` (the sequential build, in this process) and
@@ -34,7 +34,7 @@ DAY_NS = 86_400 * 10**9
 
 def fleet_logs(logs: int = 4, days: int = 2, messages_per_day: int = 6000) -> list[Path]:
     """``logs`` cached logs of ``days`` days each, one day apart (written once)."""
-    from benchmarks.bench_build import (
+    from benchmarks.build_logs import (
         FLOOR,
         StaticPayload,
         burst_times,

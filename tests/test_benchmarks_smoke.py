@@ -126,7 +126,7 @@ def test_runner_quick_only(tmp_path: Path) -> None:
 def test_build_small() -> None:
     """Issue 15's section at tiny sizes: every part runs and its rows hold what the runner's
     summary reads; the generated logs hold what was asked (counts read back by the build)."""
-    from benchmarks import bench_build, run
+    from benchmarks import bench_build, bench_build_scale, run
 
     ratio = bench_build.run_ratio(per_messages=(3,), messages=200, days=1, repeats=1)
     (r,) = ratio
@@ -147,13 +147,13 @@ def test_build_small() -> None:
     assert g["decode_dsg_s_per_graph"] > 0
     assert g["decode_dsg_spark_s_per_graph"] > 0
     assert g["payload_fast_s_per_graph"] > 0
-    maps = bench_build.run_map(sizes=(200,), repeats=1)
+    maps = bench_build_scale.run_map(sizes=(200,), repeats=1)
     size, predict, info = maps
     assert size["entries"] > 150
     assert sum(size["bytes_per_entry_by_kind"].values()) * size["entries"] <= size["map_bytes"]
     assert predict["seconds"] > 0
     assert info["seconds"] > 0
-    memory = bench_build.run_memory(sizes_gb=(0.002, 0.004))
+    memory = bench_build_scale.run_memory(sizes_gb=(0.002, 0.004))
     assert memory[0]["peak_rss_bytes"] > memory[0]["base_rss_bytes"] > 0
     assert memory[-1]["name"] == "stream memory fit"
     assert memory[-1]["extrapolated"]

@@ -129,8 +129,8 @@ def test_graphs_that_name_their_own_layers() -> None:
 
 
 def test_live_hydra_benchmark_graphs() -> None:
-    """The 1 Hz stream of benchmarks/bench_build.py (every payload different)."""
-    from benchmarks.bench_build import SITE, MovingPayload, places_graph
+    """The 1 Hz stream of benchmarks/build_logs.py (every payload different)."""
+    from benchmarks.build_logs import SITE, MovingPayload, places_graph
 
     xyz, edges = places_graph(*SITE, 400)
     stream = MovingPayload(xyz, edges, moved=20)

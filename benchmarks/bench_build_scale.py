@@ -1,0 +1,171 @@
+"""Issue 15 at scale: queries on big maps at once, and a build's memory on big logs.
+
+Two of the issue's targets (the other two, build vs reading and the scene-graph cost, are
+``bench_build``'s; its :func:`~benchmarks.bench_build.run` runs all four as the runner's
+``build`` section):
+
+* **Map size and queries** (:func:`run_map`). Maps of 10^4 and 10^5 cell entries with two weeks
+  of fixed-sensor history (``bench_engine.build_state``), written with
+  ``formats.mapfile.write_map``: bytes per entry, by member kind (``entry``, ``temporal_cnt``,
+  ...), against :data:`BASELINE_BYTES_PER_ENTRY` (measured before issue 15; target >= 4x
+  smaller). ``aion predict MAP --top 10`` and ``aion info MAP`` on the largest map as whole
+  processes (subprocess wall time, best of k; target <= 1 s for predict), against the
+  interpreter's own start (``python -c pass``) and ``aion --help``.
+* **Streaming memory** (:func:`run_memory`). Peak RSS of ``build_map`` in a fresh interpreter
+  (``benchmarks.common.peak_rss`` running :func:`build_for_rss`) on uncompressed
+  TrackedPersons MCAPs of growing size (``bench_stream_memory.write_log``: 40 people per
+  message), fitted linearly against the log size: the slope in MB per GB of log and the peak
+  extrapolated to 10 GB (target <= 500 MB) when the largest log measured is smaller.
+
+Maps are rebuilt every run (their format is what is being changed); the memory logs are
+deleted after use.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.bench_build import build
+from benchmarks.build_logs import T0_NS
+from benchmarks.common import WORK, peak_rss
+
+#: bytes per entry of the 10^5-entry query map before issue 15 (run_map at commit 57fb219:
+#: 952,767,408 bytes for 100,405 entries, 83 % of it temporal_cnt)
+BASELINE_BYTES_PER_ENTRY = 9_489.0
+
+
+# -- map size and query processes -------------------------------------------------------------
+def _kind(name: str) -> str:
+    parts = name.split("_")
+    return "_".join(parts[:2]) if parts[0] == "temporal" and len(parts) > 2 else parts[0]
+
+
+def write_query_map(n_entries: int, path: Path) -> dict[str, Any]:
+    """A map of ~``n_entries`` cell entries with two weeks of history (``bench_engine``'s
+    query map) written with ``write_map`` and the manifest fields the CLI shows; returns its
+    size, entry count and bytes per member kind."""
+    from aion_cli.formats.mapfile import read_manifest, write_map
+    from benchmarks.bench_engine import build_state
+
+    state = build_state(n_entries)
+    entries = len(state.entries.live_rows())
+    arrays, meta = state.to_arrays()
+    path.unlink(missing_ok=True)
+    day = 86_400 * 10**9
+    write_map(path, arrays, {
+        "state": meta, "config": state.config.to_dict(), "inputs": [],
+        "time_span": {"start_ns": T0_NS - 14 * day, "end_ns": T0_NS},
+        "timezone": state.config.timezone, "graph_source": "none", "observation": "fixed",
+    })
+    del state, arrays
+    members = read_manifest(path)["members"]
+    kinds: dict[str, int] = {}
+    for name, rec in members.items():
+        kinds[_kind(name)] = kinds.get(_kind(name), 0) + int(rec["size"])
+    size = path.stat().st_size
+    return {"entries": entries, "map_bytes": size, "bytes_per_entry": size / entries,
+            "members": len(members),
+            "bytes_per_entry_by_kind": {k: v / entries for k, v in
+                                        sorted(kinds.items(), key=lambda kv: -kv[1])}}
+
+
+def process_s(args: list[str], repeats: int) -> tuple[float, str]:
+    """Best wall time of a subprocess (must exit 0) and its last stdout line, after one
+    untimed run. The processes run as an installed aion does: with Python's bytecode cache
+    (``PYTHONDONTWRITEBYTECODE`` is dropped from their environment; a development shell that
+    sets it would otherwise make every run compile aion's modules again, ~0.1 s)."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    subprocess.run(args, capture_output=True, check=False, env=env)
+    best, out = float("inf"), ""
+    for _ in range(max(1, repeats)):
+        t0 = time.perf_counter()
+        proc = subprocess.run(args, capture_output=True, text=True, check=False, env=env)
+        best = min(best, time.perf_counter() - t0)
+        if proc.returncode != 0:
+            raise RuntimeError(f"{' '.join(args)} failed ({proc.returncode}): {proc.stderr}")
+        out = proc.stdout.strip().splitlines()[-1] if proc.stdout.strip() else ""
+    return best, out
+
+
+def run_map(sizes: tuple[int, ...] = (10**4, 10**5), repeats: int = 3) -> list[dict[str, Any]]:
+    """Bytes per entry for each size; predict / info process times on the largest map."""
+    WORK.mkdir(parents=True, exist_ok=True)
+    rows = []
+    path = WORK / "build_query.aion"
+    for n in sizes:
+        t0 = time.perf_counter()
+        info = write_query_map(n, path)
+        info["write_s"] = time.perf_counter() - t0
+        rows.append({"name": f"map size {n:.0e} entries",
+                     "vs_baseline": BASELINE_BYTES_PER_ENTRY / info["bytes_per_entry"], **info})
+    aion = str(Path(sys.executable).with_name("aion"))
+    when = "2023-11-16 12:00"  # the day after the map's window (UTC)
+    python_s, _ = process_s([sys.executable, "-c", "pass"], repeats)
+    help_s, _ = process_s([aion, "--help"], repeats)
+    predict_s, line = process_s(
+        [aion, "predict", str(path), "--top", "10", "--time", when, "--format", "csv"], repeats)
+    info_s, _ = process_s([aion, "info", str(path), "--format", "json"], repeats)
+    top = rows[-1]
+    common = {"entries": top["entries"], "map_bytes": top["map_bytes"],
+              "python_start_s": python_s, "aion_help_s": help_s}
+    rows.append({"name": "aion predict MAP --top 10", "seconds": predict_s,
+                 "vs_aion_help": predict_s / help_s, "last_line": line[:200], **common})
+    rows.append({"name": "aion info MAP", "seconds": info_s, "vs_aion_help": info_s / help_s,
+                 **common})
+    path.unlink(missing_ok=True)
+    return rows
+
+
+# -- streaming memory -----------------------------------------------------------------------------
+def build_for_rss(log: str, out: str) -> dict[str, Any]:
+    """Child side of :func:`run_memory`: one build; its wall time and counts."""
+    t0 = time.perf_counter()
+    report = build(Path(log), Path(out))
+    s = time.perf_counter() - t0
+    Path(out).unlink(missing_ok=True)
+    return {"build_s": s, "detections": int(report.detections_read),
+            "windows": int(report.windows), "map_bytes": int(report.map_bytes)}
+
+
+def run_memory(sizes_gb: tuple[float, ...] = (0.5, 2.0, 10.0), folder: Path | None = None
+               ) -> list[dict[str, Any]]:
+    """Peak RSS of a build per log size (a fresh interpreter each), the linear fit (MB per GB
+    of log) and the peak at 10 GB (measured, or extrapolated from the fit)."""
+    from benchmarks.bench_stream_memory import write_log as write_stream_log
+
+    folder = folder or WORK / "stream_memory"
+    folder.mkdir(parents=True, exist_ok=True)
+    rows = []
+    try:
+        for gb in sizes_gb:
+            log = folder / f"stream_{gb:g}gb.mcap"
+            t0 = time.perf_counter()
+            counts = write_stream_log(log, int(gb * 1e9))
+            write_s = time.perf_counter() - t0
+            r = peak_rss("benchmarks.bench_build_scale:build_for_rss", timeout=7200.0, log=str(log),
+                         out=str(folder / "out.aion"))
+            log.unlink()
+            rows.append({"name": f"stream memory {gb:g} GB", "log_bytes": counts["bytes"],
+                         "messages": counts["messages"], "write_s": write_s, **r})
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    log_gb = np.array([r["log_bytes"] / 1e9 for r in rows])
+    mb = np.array([r["peak_rss_bytes"] / 1e6 for r in rows])
+    slope, intercept = np.polyfit(log_gb, mb, 1) if len(rows) > 1 else (float("nan"), mb[0])
+    big = int(log_gb.argmax())
+    largest = float(log_gb[big])
+    at10 = float(mb[big]) if largest >= 10.0 else float(intercept + slope * 10.0)
+    rows.append({"name": "stream memory fit", "mb_per_gb": float(slope),
+                 "intercept_mb": float(intercept), "largest_gb": largest,
+                 "largest_peak_mb": float(mb[big]), "peak_mb_at_10gb": at10,
+                 "extrapolated": largest < 10.0})
+    return rows
