@@ -1,10 +1,12 @@
-"""open_logs / LogSet: every container read back (topics, counts, time range, raw messages,
-decoding), several files merged in time order, and each kind of bad input."""
+"""open_logs / LogSet reading well-formed logs: every container read back (topics, counts, time
+range, raw messages, decoding), several files merged in time order, the format guessed or
+forced, decoding with the log's own or aion's shipped definitions, and the MCAP layouts (no
+chunks, overlapping chunks, chunk compressions, interleaved iterations). Bad and damaged input:
+``test_logs_bad_input.py``."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
@@ -12,39 +14,11 @@ import pytest
 from aion_cli.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
 from aion_cli.formats.logs import LogSet, open_logs
 from aion_cli.formats.raw import RawMessage
-from aion_cli.formats.writers import CONTAINERS, LogWriter, stamp
+from aion_cli.formats.writers import CONTAINERS, LogWriter
+from tests.formats.log_builders import T0, _write, _write_plain_mcap
 
-T0 = 1_700_000_000_000_000_000
 FILE_NAMES = {"mcap": "log.mcap", "mcap-ros1": "log.mcap", "bag": "log.bag"}
 FORMAT_NAMES = {"mcap": "mcap-ros2", "mcap-ros1": "mcap-ros1"}
-
-
-def _people(t: int, xs: list[float]) -> dict[str, Any]:
-    return {
-        "header": {"stamp": stamp(t), "frame_id": "odom"},
-        "people": [
-            {"name": f"p{i}", "position": {"x": x, "y": 2.0 * i}, "velocity": {"x": 0.5}}
-            for i, x in enumerate(xs)
-        ],
-    }
-
-
-def _write(path: Path, container: str, offset: int = 0, n: int = 4) -> Path:
-    """n people messages every 100 ns, a DSG update every 2nd, one static TF."""
-    with LogWriter(path, container) as w:
-        w.write(
-            "/tf_static",
-            "tf2_msgs/TFMessage",
-            {"transforms": [{"header": {"frame_id": "map"}, "child_frame_id": "odom"}]},
-            T0 + offset,
-        )
-        for k in range(n):
-            t = T0 + offset + 100 * k
-            w.write("/people", "people_msgs/People", _people(t, [k, k + 0.5]), t)
-            if k % 2 == 0:
-                dsg = {"header": {"stamp": stamp(t)}, "layer_contents": bytes([k, 1, 2])}
-                w.write("/hydra/backend/dsg", "hydra_msgs/DsgUpdate", dsg, t + 1)
-    return path
 
 
 def _path(tmp_path: Path, container: str) -> Path:
@@ -209,15 +183,6 @@ def test_decode_falls_back_to_shipped_definitions(tmp_path: Path) -> None:
             logs.decode(second)
 
 
-def test_decode_reports_garbage_payloads(tmp_path: Path) -> None:
-    path = _write(tmp_path / "a.mcap", "mcap", n=1)
-    with open_logs([path]) as logs:
-        (msg,) = logs.messages(["/people"])
-        broken = RawMessage(msg.topic, msg.msgtype, msg.log_time_ns, msg.data[:9], msg.encoding)
-        with pytest.raises(MessageDecodeError, match="cannot decode a people_msgs/msg/People"):
-            logs.decode(broken)
-
-
 def test_mcap_without_chunks_or_summary_is_read_linearly(tmp_path: Path) -> None:
     from mcap.writer import Writer
 
@@ -260,122 +225,6 @@ def test_overlapping_chunks_still_come_out_in_time_order(tmp_path: Path) -> None
         assert [m.log_time_ns - T0 for m in logs.messages()] == [0, 10, 20, 30, 40, 50]
 
 
-def test_truncated_mcap_keeps_the_readable_part_and_warns(tmp_path: Path) -> None:
-    from mcap.writer import Writer
-
-    path = tmp_path / "full.mcap"
-    with path.open("wb") as f:
-        w = Writer(f, chunk_size=4096)
-        w.start(profile="ros2")
-        schema = w.register_schema("std_msgs/msg/Empty", "ros2msg", b"")
-        channel = w.register_channel("/e", "cdr", schema)
-        for k in range(40):
-            payload = b"\x00\x01\x00\x00" + k.to_bytes(4, "little") * 256
-            w.add_message(channel, T0 + k, payload, T0 + k)
-        w.finish()
-    whole = path.read_bytes()
-    cut = tmp_path / "cut.mcap"
-    cut.write_bytes(whole[: len(whole) // 2])
-    with open_logs([cut]) as logs:
-        (warning,) = logs.warnings
-        assert "truncated or corrupt MCAP" in warning
-        assert "cut.mcap" in warning
-        assert "read stopped at byte" in warning
-        n = logs.total()
-        assert 0 < n < 40
-        assert f"after {n} messages" in warning
-        msgs = list(logs.messages())
-        assert [m.log_time_ns - T0 for m in msgs] == list(range(n))
-        assert all(m.data[4:8] == k.to_bytes(4, "little") for k, m in enumerate(msgs))
-
-
-def test_missing_path(tmp_path: Path) -> None:
-    with pytest.raises(LogFormatError, match="no such file or folder") as info:
-        open_logs([tmp_path / "nothing.mcap"])
-    assert info.value.hint
-
-
-def test_folder_that_is_not_a_bag(tmp_path: Path) -> None:
-    (tmp_path / "notes.txt").write_text("hello")
-    with pytest.raises(LogFormatError, match="not a rosbag2 bag") as info:
-        open_logs([tmp_path])
-    assert "notes.txt" in (info.value.hint or "")
-
-
-@pytest.mark.parametrize("name", ["empty.mcap", "empty.bag", "empty"])
-def test_empty_file(tmp_path: Path, name: str) -> None:
-    path = tmp_path / name
-    path.write_bytes(b"")
-    with pytest.raises(LogFormatError, match=r"is empty \(0 bytes\)"):
-        open_logs([path])
-
-
-def test_non_log_files(tmp_path: Path) -> None:
-    text = tmp_path / "readme.txt"
-    text.write_text("not a log\n" * 10)
-    with pytest.raises(LogFormatError, match="cannot tell the log format") as info:
-        open_logs([text])
-    assert "--log-format" in (info.value.hint or "")
-    fake = tmp_path / "fake.mcap"
-    fake.write_text("not a log either\n")
-    with pytest.raises(LogFormatError, match="not an MCAP file"):
-        open_logs([fake])
-
-
-def test_log_without_messages(tmp_path: Path) -> None:
-    from mcap.writer import Writer
-
-    path = tmp_path / "nomsg.mcap"
-    with path.open("wb") as f:
-        w = Writer(f)
-        w.start(profile="ros2")
-        w.register_channel("/x", "cdr", w.register_schema("std_msgs/msg/Empty", "ros2msg", b""))
-        w.finish()
-    with pytest.raises(LogFormatError, match="no messages"):
-        open_logs([path])
-    bag = tmp_path / "nomsg.bag"
-    with LogWriter(bag, "bag"):
-        pass
-    with pytest.raises(LogFormatError, match="no messages"):
-        open_logs([bag])
-
-
-def test_empty_file_among_good_ones_is_a_warning(tmp_path: Path) -> None:
-    good = _write(tmp_path / "a.mcap", "mcap")
-    empty = tmp_path / "b.bag"
-    with LogWriter(empty, "bag"):
-        pass
-    with open_logs([good, empty]) as logs:
-        assert logs.total() == 7
-        assert logs.warnings == [f"{empty}: no messages"]
-
-
-def test_corrupted_bag(tmp_path: Path) -> None:
-    path = _write(tmp_path / "a.bag", "bag")
-    data = bytearray(path.read_bytes())
-    truncated = tmp_path / "truncated.bag"
-    truncated.write_bytes(bytes(data[: len(data) // 2]))
-    with pytest.raises(LogFormatError, match="not a readable ROS 1 bag") as info:
-        open_logs([truncated])
-    assert "reindex" in (info.value.hint or "")
-    garbage = tmp_path / "garbage.bag"
-    garbage.write_bytes(b"#ROSBAG V2.0\n" + bytes(range(256)) * 4)
-    with pytest.raises(LogFormatError, match="not a readable ROS 1 bag"):
-        open_logs([garbage])
-
-
-def test_unknown_format_value(tmp_path: Path) -> None:
-    path = _write(tmp_path / "a.mcap", "mcap")
-    with pytest.raises(LogFormatError, match="unknown log format 'ros3'") as info:
-        open_logs([path], fmt="ros3")
-    assert "mcap, bag, rosbag2" in (info.value.hint or "")
-
-
-def test_no_paths() -> None:
-    with pytest.raises(LogFormatError, match="no log given"):
-        open_logs([])
-
-
 def test_logset_closes_its_files(tmp_path: Path) -> None:
     path = _write(tmp_path / "a.mcap", "mcap")
     logs: LogSet = open_logs([path])
@@ -383,22 +232,6 @@ def test_logset_closes_its_files(tmp_path: Path) -> None:
         assert logs.total() == 7
     with pytest.raises(ValueError, match="closed"):
         list(logs.messages())
-
-
-def _write_plain_mcap(path: Path, compression: str, n: int = 30, chunk_size: int = 2048) -> None:
-    """n std_msgs/Empty-typed messages whose payload carries their index; two channels."""
-    from mcap.writer import CompressionType, Writer
-
-    with path.open("wb") as f:
-        w = Writer(f, chunk_size=chunk_size, compression=CompressionType[compression])
-        w.start(profile="ros2")
-        schema = w.register_schema("std_msgs/msg/Empty", "ros2msg", b"")
-        even = w.register_channel("/even", "cdr", schema)
-        odd = w.register_channel("/odd", "cdr", schema)
-        for k in range(n):
-            payload = b"\x00\x01\x00\x00" + k.to_bytes(4, "little") * 64
-            w.add_message(odd if k % 2 else even, T0 + k, payload, T0 + k)
-        w.finish()
 
 
 @pytest.mark.parametrize("compression", ["NONE", "LZ4", "ZSTD"])
@@ -412,32 +245,6 @@ def test_chunk_compressions(compression: str, tmp_path: Path) -> None:
         assert all(len(m.data) == 4 + 256 for m in odd)
         assert {m.topic for m in odd} == {"/odd"}
         assert len(list(logs.messages())) == 30
-
-
-def test_corrupt_chunk_in_an_indexed_mcap_is_skipped_alone_with_a_warning(tmp_path: Path) -> None:
-    from mcap.reader import make_reader
-
-    path = tmp_path / "c.mcap"
-    _write_plain_mcap(path, "NONE")
-    with path.open("rb") as f:
-        summary = make_reader(f).get_summary()
-    assert summary is not None
-    chunks = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
-    assert len(chunks) >= 3
-    bad = chunks[1]
-    data = bytearray(path.read_bytes())
-    # overwrite the records inside the second chunk: the record lengths become nonsense
-    start = bad.chunk_start_offset + bad.chunk_length - bad.compressed_size
-    data[start : start + bad.compressed_size] = b"\xff" * bad.compressed_size
-    path.write_bytes(bytes(data))
-    lost = set(range(bad.message_start_time - T0, bad.message_end_time - T0 + 1))
-    with open_logs([path]) as logs:
-        msgs = list(logs.messages())
-        # every chunk but the damaged one (issue 14: it no longer stops the read)
-        assert [m.log_time_ns - T0 for m in msgs] == [k for k in range(30) if k not in lost]
-        (warning,) = logs.warnings
-        assert f"corrupt chunk at byte {bad.chunk_start_offset} skipped" in warning
-        assert f"{len(lost)} messages lost" in warning
 
 
 def test_one_topic_with_two_types_is_listed_twice(tmp_path: Path) -> None:
@@ -493,26 +300,3 @@ def test_rosbag2_storage_file_without_metadata(tmp_path: Path) -> None:
     db3.unlink()
     with pytest.raises(LogFormatError, match="not a rosbag2 bag"):
         open_logs([folder])
-
-
-def test_rosbag2_mcap_folder_is_read_with_the_mcap_reader_even_when_truncated(
-    tmp_path: Path,
-) -> None:
-    folder = _write(tmp_path / "rec", "rosbag2-mcap")
-    with open_logs([folder]) as logs:
-        (f,) = logs.files
-        assert f.format == "rosbag2-mcap"
-        assert f.path == folder / "rec.mcap"
-        assert logs.total() == 7
-    # a recording killed mid-way: the storage file lacks its end; rosbags refuses it
-    (storage,) = folder.glob("*.mcap")
-    _write_plain_mcap(storage.with_name("full.mcap"), "ZSTD", n=40, chunk_size=512)
-    whole = storage.with_name("full.mcap").read_bytes()
-    storage.with_name("full.mcap").unlink()
-    storage.write_bytes(whole[: len(whole) // 2])
-    with open_logs([folder]) as logs:
-        assert logs.files[0].format == "rosbag2-mcap"
-        n = logs.total()
-        assert 0 < n < 40
-        assert "truncated or corrupt MCAP" in logs.warnings[0]
-        assert [m.log_time_ns - T0 for m in logs.messages()] == list(range(n))

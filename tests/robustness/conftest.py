@@ -156,6 +156,13 @@ def assert_one_error(stderr: str, *fragments: str) -> None:
         assert fragment in lines[0], (fragment, stderr)
 
 
+
+def fails(result: Any, *fragments: str) -> None:
+    """A CLI result that is an input error (exit 2) with exactly one ``error:`` line naming
+    ``fragments`` (:func:`assert_one_error`)."""
+    assert result.exit_code == 2, result.stderr
+    assert_one_error(result.stderr, *fragments)
+
 # -- map surgery -----------------------------------------------------------------------------
 
 

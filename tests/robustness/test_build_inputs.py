@@ -29,6 +29,7 @@ from tests.robustness.conftest import (
     assert_one_error,
     assert_same_arrays,
     build_json,
+    fails,
     map_arrays,
     person,
     robot_tf,
@@ -41,11 +42,6 @@ from tests.robustness.mcap_edit import copy_with
 
 NAN = float("nan")
 ESC = "\x1b"
-
-
-def fails(result: object, *fragments: str) -> None:
-    assert getattr(result, "exit_code", None) == 2, getattr(result, "stderr", result)
-    assert_one_error(result.stderr, *fragments)  # type: ignore[attr-defined]
 
 
 # -- --map with an older log ------------------------------------------------------------------
