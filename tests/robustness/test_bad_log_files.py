@@ -82,6 +82,15 @@ def test_truncated_mcap_builds_from_the_readable_part_and_says_where_it_stopped(
     assert report["time_span"]["end_ns"] == T0 + (read - 1) * S  # exactly the first `read` s
 
 
+def _messages_in(chunk: Any) -> int:
+    """How many of the spread log's messages (one a second from ``T0``) ``chunk`` holds."""
+    return sum(
+        1
+        for k in range(N_SPREAD)
+        if chunk.message_start_time <= T0 + k * S <= chunk.message_end_time
+    )
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_corrupt_mcap_chunk_is_skipped_alone_and_named(
     seed: int, spread_log: Path, tmp_path: Path
@@ -100,11 +109,7 @@ def test_corrupt_mcap_chunk_is_skipped_alone_and_named(
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(data))
     report = build_json(bad, "-o", tmp_path / "bad.aion")
-    inside = sum(
-        1
-        for k in range(N_SPREAD)
-        if victim.message_start_time <= T0 + k * S <= victim.message_end_time
-    )
+    inside = _messages_in(victim)
     assert report["detections"]["read"] == N_SPREAD - inside
     assert any(
         f"corrupt chunk at byte {victim.chunk_start_offset} skipped" in n
@@ -124,11 +129,7 @@ def test_corrupt_chunk_in_an_mcap_without_summary_is_skipped_by_the_linear_read(
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(data))
     report = build_json(bad, "-o", tmp_path / "bad.aion")
-    inside = sum(
-        1
-        for k in range(N_SPREAD)
-        if victim.message_start_time <= T0 + k * S <= victim.message_end_time
-    )
+    inside = _messages_in(victim)
     before_last = sum(1 for k in range(N_SPREAD) if T0 + k * S < chunks[-1].message_start_time)
     assert report["detections"]["read"] == before_last - inside  # the chunks after it too
     assert any(
