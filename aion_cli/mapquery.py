@@ -1,8 +1,9 @@
 """Reading a map back and the queries predict / plan / export share (no click).
 
 :func:`load_map` gives the model state, its navigational graph (None for a map of hash cells
-only) and the manifest; :func:`nav_graph` and :func:`node_cost_fn` feed ``engine.planning``;
-:func:`export_map` hands an entry table to ``formats.export``.
+only) and the manifest (:func:`load_map_head` the manifest, graph and config alone);
+:func:`nav_graph` and :func:`node_cost_fn` feed ``engine.planning``; :func:`export_map` hands
+an entry table to ``formats.export``.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -56,19 +57,70 @@ def load_map(path: Path, writable: bool = False, forecast_only: bool = False) ->
     from aion_cli.engine.state import MapState
     from aion_cli.formats.mapfile import open_map
 
-    if not path.exists():
-        raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
-    if path.is_dir():
-        raise MapFileError(f"{path} is a folder, not a map file")
+    _check_map_path(path)
     with open_map(path, in_place=not writable) as members:
         manifest = members.manifest
-        meta = manifest.get("state")
-        if not isinstance(meta, dict):
-            raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
+        meta = _state_meta(path, manifest)
         state = MapState.from_arrays(
             members, meta, writable=writable, copy=False, forecast_only=forecast_only
         )
     return LoadedMap(state, latest_graph(state), manifest)
+
+
+@dataclass(frozen=True)
+class MapHead:
+    """What a map file says of itself without its model state: the manifest, the latest
+    graph (None: hash cells only), the model parameters, the open window, the detections it
+    used and whether it is a part map (``aion build --part``: days held for a merge)."""
+
+    manifest: dict[str, Any]
+    graph: GraphSnapshot | None
+    config: ModelConfig
+    open_window: int | None
+    accepted: int
+    part: bool
+
+
+def load_map_head(path: Path) -> MapHead:
+    """Read ``path``'s manifest and graph members only (checksummed as read; the entries and
+    accumulators, most of a map, stay unread): what ``aion merge`` plans with before it reads
+    each map's state in turn."""
+    from aion_cli.engine.graph_arrays import graph_from_arrays
+    from aion_cli.engine.state_checks import check_state_version
+    from aion_cli.errors import MapCorruptError
+    from aion_cli.formats.mapfile import open_map
+
+    _check_map_path(path)
+    with open_map(path) as members:
+        manifest = members.manifest
+        meta = _state_meta(path, manifest)
+        check_state_version(meta)
+        try:
+            config = ModelConfig.from_stored(meta["config"])
+            window = meta["open_window"]
+            accepted = int(meta["accepted"])
+            # the graph's reader only looks members up by name: any mapping will do
+            graph = graph_from_arrays(cast(dict[str, np.ndarray], members), meta["graph"])
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
+    if graph is not None and len(graph.places) == 0:
+        graph = None  # as latest_graph
+    part = meta.get("deferred") is not None
+    return MapHead(manifest, graph, config, None if window is None else int(window), accepted, part)
+
+
+def _check_map_path(path: Path) -> None:
+    if not path.exists():
+        raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
+    if path.is_dir():
+        raise MapFileError(f"{path} is a folder, not a map file")
+
+
+def _state_meta(path: Path, manifest: dict[str, Any]) -> dict[str, Any]:
+    meta = manifest.get("state")
+    if not isinstance(meta, dict):
+        raise MapFileError(f"{path} has no model state", hint="rebuild it with `aion build`")
+    return meta
 
 
 def latest_graph(state: MapState) -> GraphSnapshot | None:

@@ -5,10 +5,11 @@ changes a state (a later map's query view is prepared, as any query would)."""
 
 from __future__ import annotations
 
-from itertools import pairwise
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from aion_cli.engine.entries import NODE
 
@@ -42,50 +43,85 @@ def _same_day(state: MapState, window: int, t_ns: int) -> bool:
     return state.window_day(window) == state.window_day(t_ns // state.window_ns)
 
 
-def approximation_notes(states: list[MapState], lineage: str) -> list[str]:
-    """Approximations (1), (2) and (3) of :mod:`aion_cli.engine.merge` that apply."""
-    notes = []
-    only = 0
-    moved = 0
-    for early, late in pairwise(states):
-        only += _unseen_entries(early, late)
-        if lineage == "same":
-            moved += _moved_nodes(early, late)
-    if only:
-        notes.append(
-            f"{only} entries are in one map only, or appear in the later map after it began: "
-            "the windows in which the other map's robot saw them empty are not known (merge "
-            "approximation 1)"
+@dataclass(frozen=True)
+class Footprint:
+    """What the notes need of an earlier map once it is merged away (copies, so the merge
+    may change the state): its cells' keys, its node entries' ids, and its node table."""
+
+    cell_keys: npt.NDArray[np.int64]
+    node_entry_ids: npt.NDArray[np.uint64]
+    node_ids: npt.NDArray[np.uint64]
+    node_ref_xyz: npt.NDArray[np.float64]
+
+    @classmethod
+    def of(cls, state: MapState) -> Footprint:
+        e = state.entries
+        return cls(
+            e.key[e.cell_rows()].copy(),
+            e.node_id[e.node_rows()].copy(),
+            state.nodes.ids.copy(),
+            state.nodes.ref_xyz.copy(),
         )
-    if any(_closed_a_day(s) for s in states[1:]):
-        notes.append(
-            "day-ahead scores add: the later maps scored their closed days against their own "
-            "history only, not the earlier maps', so the forecast families may differ from one "
-            "build of all logs (merge approximation 2)"
-        )
-    if moved:
-        notes.append(
-            f"{moved} nodes moved between the maps: their stability timers restart "
-            "(merge approximation 3)"
-        )
-    return notes
 
 
-def _unseen_entries(early: MapState, late: MapState) -> int:
+class ApproximationTally:
+    """Approximations (1), (2) and (3) of :mod:`aion_cli.engine.merge` over the ordinary maps
+    of a merge, in time order, one map at a time (``aion merge`` holds no more than the maps
+    it is merging): :meth:`add` each before it is merged, then :meth:`notes`."""
+
+    def __init__(self, lineage: str) -> None:
+        self.lineage = lineage
+        self.only = 0
+        self.moved = 0
+        self.closed = False
+        self._last: Footprint | None = None
+
+    def add(self, state: MapState) -> None:
+        """The next ordinary map (the first map of a merge counts as one, part or not)."""
+        if self._last is not None:
+            self.only += _unseen_entries(self._last, state)
+            if self.lineage == "same":
+                self.moved += _moved_nodes(self._last, state)
+            self.closed = self.closed or _closed_a_day(state)
+        self._last = Footprint.of(state)
+
+    def notes(self) -> list[str]:
+        notes = []
+        if self.only:
+            notes.append(
+                f"{self.only} entries are in one map only, or appear in the later map after it "
+                "began: the windows in which the other map's robot saw them empty are not known "
+                "(merge approximation 1)"
+            )
+        if self.closed:
+            notes.append(
+                "day-ahead scores add: the later maps scored their closed days against their "
+                "own history only, not the earlier maps', so the forecast families may differ "
+                "from one build of all logs (merge approximation 2)"
+            )
+        if self.moved:
+            notes.append(
+                f"{self.moved} nodes moved between the maps: their stability timers restart "
+                "(merge approximation 3)"
+            )
+        return notes
+
+
+def _unseen_entries(early: Footprint, late: MapState) -> int:
     """Entries whose robot-observed empty windows one of two maps cannot know: those only
     one map has, and those of both that the later map first observed after its own first
     robot-observed window (created there late, so its earlier windows passed them by)."""
-    ea, el = early.entries, late.entries
-    cells = np.setxor1d(ea.key[ea.cell_rows()], el.key[el.cell_rows()])
-    nodes = np.setxor1d(ea.node_id[ea.node_rows()], el.node_id[el.node_rows()])
+    el = late.entries
+    cells = np.setxor1d(early.cell_keys, el.key[el.cell_rows()])
+    nodes = np.setxor1d(early.node_entry_ids, el.node_id[el.node_rows()])
     rows = el.canonical_order()
     first = late.query_temporal().obs.first[rows]  # model seconds, NaN: never robot-observed
     if not np.isfinite(first).any():
         return int(cells.size + nodes.size)
     in_early = np.where(
         el.kind[rows] == NODE,
-        np.isin(el.node_id[rows], ea.node_id[ea.node_rows()]),
-        np.isin(el.key[rows], ea.key[ea.cell_rows()]),
+        np.isin(el.node_id[rows], early.node_entry_ids),
+        np.isin(el.key[rows], early.cell_keys),
     )
     late_first = first > np.nanmin(first)  # NaN compares False
     return int(cells.size + nodes.size + np.count_nonzero(in_early & late_first))
@@ -97,9 +133,9 @@ def _closed_a_day(state: MapState) -> bool:
     return bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
 
 
-def _moved_nodes(early: MapState, late: MapState) -> int:
+def _moved_nodes(early: Footprint, late: MapState) -> int:
     """Nodes in both node tables whose reference positions differ by more than
     ``stable_move_tolerance`` (the earlier stability start is then not kept)."""
-    _, at_e, at_l = np.intersect1d(early.nodes.ids, late.nodes.ids, return_indices=True)
-    gap = np.linalg.norm(early.nodes.ref_xyz[at_e] - late.nodes.ref_xyz[at_l], axis=1)
+    _, at_e, at_l = np.intersect1d(early.node_ids, late.nodes.ids, return_indices=True)
+    gap = np.linalg.norm(early.node_ref_xyz[at_e] - late.nodes.ref_xyz[at_l], axis=1)
     return int(np.count_nonzero(gap > late.config.stable_move_tolerance))

@@ -33,123 +33,78 @@ atomically with a manifest that accounts for every log. The rules:
 
 The report's notes name the approximations of the engine's merge that apply
 (:mod:`aion_cli.merge_notes`).
+
+**Memory.** The checks above need only each map's head (manifest, graph, config:
+:func:`aion_cli.mapquery.load_map_head`); the fold then reads one map's state at a time and
+merges it in place into the map so far, so a merge of any number of maps holds two states.
 """
 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
-from functools import reduce
+from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import ConfigError, InputError
 from aion_cli.manifest import InputLog, Manifest, add_counts
+from aion_cli.merge_report import MergedInput, MergeReport
 
 if TYPE_CHECKING:
     from aion_cli.build_report import ProgressSink
     from aion_cli.engine.state import MapState
     from aion_cli.engine.types import GraphSnapshot
-    from aion_cli.mapquery import LoadedMap
+    from aion_cli.mapquery import MapHead
 
 LINEAGES = ("auto", "same", "different")
 
 _HINT = "aion merge A.aion B.aion ... -o OUT.aion"
 
 
-@dataclass(frozen=True)
-class MergedInput:
-    """One input map: its file's provenance, time span, logs and detections."""
-
-    file: InputLog
-    start_ns: int | None
-    end_ns: int | None
-    logs: int
-    detections: int
-
-    def to_dict(self) -> dict[str, Any]:
-        return self.file.to_dict() | {
-            "start_ns": self.start_ns,
-            "end_ns": self.end_ns,
-            "logs": self.logs,
-            "detections": self.detections,
-        }
-
-
-@dataclass
-class MergeReport:
-    """What a merge did; ``to_dict`` is ``aion merge --format json``."""
-
-    output: Path
-    inputs: list[MergedInput] = field(default_factory=list)
-    lineage: str = "same"
-    lineage_reason: str = ""
-    graph_source: str = "none"
-    released: int = 0
-    rebound: int = 0
-    parts: int = 0  # part maps (aion build --part) joined with their days scored at the merge
-    detections: int = 0
-    logs: int = 0
-    cells: int = 0
-    nodes: int = 0
-    nodes_with_flow: int = 0
-    bound_cells: int = 0
-    windows: int = 0
-    start_ns: int | None = None
-    end_ns: int | None = None
-    notes: list[str] = field(default_factory=list)
-    map_bytes: int = 0
-
-    def to_dict(self) -> dict[str, Any]:
-        span = None
-        if self.start_ns is not None and self.end_ns is not None:
-            span = (self.end_ns - self.start_ns) / 1e9
-        return {
-            "map": str(self.output),
-            "map_bytes": self.map_bytes,
-            "inputs": [i.to_dict() for i in self.inputs],
-            "lineage": self.lineage,
-            "parts": self.parts,
-            "lineage_reason": self.lineage_reason,
-            "graph_source": self.graph_source,
-            "released_nodes": self.released,
-            "rebound_cells": self.rebound,
-            "detections": self.detections,
-            "logs": self.logs,
-            "cells": self.cells,
-            "nodes": self.nodes,
-            "nodes_with_flow": self.nodes_with_flow,
-            "bound_cells": self.bound_cells,
-            "windows": self.windows,
-            "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns, "seconds": span},
-            "notes": list(self.notes),
-        }
-
-
 @dataclass
 class _Input:
+    """An input map as the merge plans with it: its head (manifest, graph, config; read
+    first) and provenance. Its state is read only when the fold reaches it
+    (:meth:`load`), so a merge holds the maps it is merging, not all of them."""
+
     path: Path
-    loaded: LoadedMap
+    head: MapHead
     manifest: Manifest
     file: InputLog
-    graph: GraphSnapshot | None
-    detections: int
-
-    @property
-    def state(self) -> MapState:
-        return self.loaded.state
 
     @property
     def name(self) -> str:
         return self.path.name
 
+    @property
+    def graph(self) -> GraphSnapshot | None:
+        return self.head.graph
+
+    @property
+    def detections(self) -> int:
+        return self.head.accepted
+
     def start(self) -> int | None:
         """The map's first time: its manifest's span, else its open window's start."""
+        from aion_cli.engine.windows import window_ns
+
         if self.manifest.start_ns is not None:
             return self.manifest.start_ns
-        w = self.state.open_window
-        return None if w is None else w * self.state.window_ns
+        w = self.head.open_window
+        return None if w is None else w * window_ns(self.head.config.window_s)
+
+    def load(self) -> MapState:
+        """The map's state, read whole (writable: the merge changes it; it is not kept)."""
+        from aion_cli.mapquery import load_map
+
+        loaded = load_map(self.path, writable=True)
+        if loaded.manifest != self.head.manifest:
+            raise InputError(
+                f"{self.path} changed while it was being merged",
+                hint="merge maps no other process is writing",
+            )
+        return loaded.state
 
 
 def merge_map_files(
@@ -231,8 +186,8 @@ def _target_graph(graph_file: Path | None, nav_layer: str | None) -> GraphSnapsh
 
 
 def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
-    """Load every map (writable: the merge changes copies it owns) and hash its file."""
-    from aion_cli.mapquery import load_map
+    """Hash every map file and read its head (:func:`aion_cli.mapquery.load_map_head`)."""
+    from aion_cli.mapquery import load_map_head
     from aion_cli.provenance import provenance
 
     sink.start("reading maps", len(paths), "maps")
@@ -246,10 +201,8 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
                 hint="give each map once",
             )
         first_of[file.sha256] = p
-        loaded = load_map(p, writable=True)
-        manifest = Manifest.from_dict(loaded.manifest)
-        state = loaded.state
-        maps.append(_Input(p, loaded, manifest, file, loaded.graph, int(state.accepted)))
+        head = load_map_head(p)
+        maps.append(_Input(p, head, Manifest.from_dict(head.manifest), file))
         sink.advance(1)
     return maps
 
@@ -257,9 +210,9 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
 def _check_compatible(maps: list[_Input]) -> None:
     """Same model parameters and time zone in every map (ConfigError naming what differs)."""
     first = maps[0]
-    base = first.state.config.to_dict()
+    base = first.head.config.to_dict()
     for m in maps[1:]:
-        other = m.state.config.to_dict()
+        other = m.head.config.to_dict()
         differ = sorted(k for k in base.keys() | other.keys() if base.get(k) != other.get(k))
         if differ:
             shown = ", ".join(f"{k} {base.get(k)!r} vs {other.get(k)!r}" for k in differ[:3])
@@ -318,7 +271,7 @@ def _auto_lineage(maps: list[_Input]) -> tuple[str, str]:
         return "same", "no map has a scene graph (hash cells only)"
     if without:
         return "different", f"{without[0]} has no scene graph: its cells bind to the target graph"
-    tolerance = maps[0].state.config.bind_radius
+    tolerance = maps[0].head.config.bind_radius
     shared = agreeing = 0
     for early, late in pairwise(maps):
         agreement = graph_agreement(early.graph, late.graph, tolerance)
@@ -340,53 +293,55 @@ def _auto_lineage(maps: list[_Input]) -> tuple[str, str]:
 
 def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapState:
     """The maps merged in time order (released to hash cells first for ``"different"``),
-    with a note for each approximation of the engine's merge that applies."""
+    with a note for each approximation of the engine's merge that applies. Each map's state
+    is read when its turn comes and merged in place (``merge_maps(consume=True)``): memory
+    holds the merged map and the one being added, whatever the number of maps."""
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
-    from aion_cli.merge_notes import approximation_notes, pair_notes
+    from aion_cli.engine.state import MapState
+    from aion_cli.merge_notes import ApproximationTally, pair_notes
 
-    states = [m.state for m in maps]
+    tally = ApproximationTally(report.lineage)
+    pairs: list[str] = []
+    joins: list[str] = []
+    sink.start("merging", len(maps), "maps")
+    acc: MapState | None = None
+    for k, m in enumerate(maps):
+        state = m.load()
+        if report.lineage == "different":
+            report.released += release_all(state)
+        late = maps[k + 1] if k + 1 < len(maps) else None
+        if late is not None and not late.head.part:  # a part's join scores that day once
+            pairs.extend(pair_notes(m.name, m.manifest.end_ns, state, late.name, late.start()))
+        if k == 0 or state.deferred is None:
+            tally.add(state)
+        if state.deferred is not None:
+            base = acc if acc is not None else MapState.empty(state.config)
+            acc = _join_part(base, state, m.name, report, joins)
+        else:
+            acc = state if acc is None else merge_maps(acc, state, consume=True)
+        del state
+        sink.advance(1)
+    assert acc is not None  # a merge has two maps at least
     if report.lineage == "different":
-        report.released = sum(release_all(s) for s in states)
         report.notes.append(
             f"{report.released} node entries released to the hash cells at their places"
         )
-    for early, late in pairwise(maps):
-        if late.state.deferred is None:  # a part's join scores that day once (engine.shards)
-            report.notes.extend(
-                pair_notes(early.name, early.manifest.end_ns, early.state, late.name, late.start())
-            )
-    ordinary = [states[0], *(s for s in states[1:] if s.deferred is None)]
-    report.notes.extend(approximation_notes(ordinary, report.lineage))
-    sink.start("merging", len(states) - 1, "maps")
-    names = {id(m.state): m.name for m in maps}
-
-    def step(acc: MapState, nxt: MapState) -> MapState:
-        if nxt.deferred:
-            out = _join_part(acc, nxt, names, report)
-        else:  # each loaded state is merged once and then dropped: no copies needed
-            out = merge_maps(acc, nxt, consume=True)
-        sink.advance(1)
-        return out
-
-    first = states[0]
-    if first.deferred is not None:
-        first = _join_part(type(first).empty(first.config), first, names, report)
-    return reduce(step, states[1:], first)
+    report.notes.extend(pairs + tally.notes() + joins)
+    return acc
 
 
 def _join_part(
-    acc: MapState, part: MapState, names: dict[int, str], report: MergeReport
+    acc: MapState, part: MapState, name: str, report: MergeReport, notes: list[str]
 ) -> MapState:
     """A part map (``aion build --part``) joined onto the maps before it: its held days are
     scored against all of their history, as one build of every log would
     (:func:`aion_cli.engine.shards.join_shard`); a note when the join cannot be exact."""
     from aion_cli.engine.shards import join_blocker, join_shard
 
-    name = names.get(id(part), "a part")
     reason = join_blocker(acc, part)
     if reason is not None:
-        report.notes.append(f"{name} was joined, but not exactly as one build would: {reason}")
+        notes.append(f"{name} was joined, but not exactly as one build would: {reason}")
     report.parts += 1
     return join_shard(acc, part)
 

@@ -25,7 +25,12 @@ from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.routing import RouteTable
-from aion_cli.engine.state_checks import check_loaded, check_member_shapes
+from aion_cli.engine.state_checks import (
+    STATE_VERSION,
+    check_loaded,
+    check_member_shapes,
+    check_state_version,
+)
 from aion_cli.engine.temporal import components as fremen_components
 from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal.accumulators import TemporalState
@@ -35,9 +40,8 @@ from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, DeferredDays, PendingDay
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
 from aion_cli.engine.windows import window_ns
-from aion_cli.errors import MapCorruptError, MapFileError, PartMapError
+from aion_cli.errors import MapCorruptError, PartMapError
 
-STATE_VERSION = 2
 DROP_REASONS = ("nan", "out_of_range", "before_window")
 
 
@@ -384,18 +388,7 @@ class MapState:
         copying. A state that is not ``writable`` (a query's) keeps its temporal rows as
         stored: no room is reserved for new entries (``EntryStore`` capacity), which would
         copy every accumulator once more."""
-        try:
-            version = int(meta["state_version"])
-        except (KeyError, TypeError, ValueError) as exc:
-            raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
-        if version < STATE_VERSION:
-            raise MapFileError(
-                f"the map was written by an older aion (model state version {version}, "
-                "before flows became rates)",
-                hint="rebuild the map from its logs with `aion build`",
-            )
-        if version > STATE_VERSION:
-            raise MapCorruptError(f"map state version {version} is newer than {STATE_VERSION}")
+        check_state_version(meta)
         try:
             config = ModelConfig.from_stored(meta["config"])  # MapCorruptError if invalid
             open_window = meta["open_window"]

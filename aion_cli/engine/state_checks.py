@@ -10,16 +10,37 @@ A map file is untrusted input: :meth:`~aion_cli.engine.state.MapState.from_array
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.types import GraphSnapshot
-from aion_cli.errors import MapCorruptError
+from aion_cli.errors import MapCorruptError, MapFileError
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
+
+STATE_VERSION = 2
+"""The version of the model state a map stores (``state_version`` in its manifest)."""
+
+
+def check_state_version(meta: Mapping[str, Any]) -> None:
+    """:class:`MapFileError` for a state an older aion wrote, :class:`MapCorruptError` for a
+    missing or newer version (the first check of every reader of a map's state)."""
+    try:
+        version = int(meta["state_version"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
+    if version < STATE_VERSION:
+        raise MapFileError(
+            f"the map was written by an older aion (model state version {version}, "
+            "before flows became rates)",
+            hint="rebuild the map from its logs with `aion build`",
+        )
+    if version > STATE_VERSION:
+        raise MapCorruptError(f"map state version {version} is newer than {STATE_VERSION}")
+
 
 # A map's members pass their sha256 checks when they are what its writer wrote; these checks
 # catch a map that another tool (or a bug) wrote consistently checksummed but inconsistent:
