@@ -21,6 +21,7 @@ import numpy as np
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, NODE, EntryStore
 from aion_cli.engine.graph_arrays import graph_from_arrays, graph_to_arrays
+from aion_cli.engine.grouping import contained
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
 from aion_cli.engine.observation import ObservationSource
@@ -460,9 +461,9 @@ class MapState:
             problems.append("two cell entries share a key")
         if not _distinct(node_ids):
             problems.append("two node entries share a node id")
-        if np.isin(self.redirects.keys, cell_keys).any():
+        if contained(cell_keys, self.redirects.keys).any():
             problems.append("a redirected cell also has an entry")
-        if not np.isin(self.redirects.nodes, node_ids).all():
+        if not contained(node_ids, self.redirects.nodes).all():
             problems.append("a redirect points at a node without an entry")
         if problems:
             raise MapCorruptError(f"map state is inconsistent: {'; '.join(problems)}")

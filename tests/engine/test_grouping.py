@@ -6,7 +6,13 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from aion_cli.engine.grouping import cut_by_key, lexicographic_ranks, split_by_key
+from aion_cli.engine.grouping import (
+    contained,
+    cut_by_key,
+    distinct,
+    lexicographic_ranks,
+    split_by_key,
+)
 
 KEYS = st.lists(st.integers(min_value=-5, max_value=5), max_size=60)
 
@@ -52,3 +58,26 @@ def test_lexicographic_ranks_equal_unique_rows(rows: list[tuple[int, int, int]])
     distinct, expected = np.unique(keys, axis=0, return_inverse=True)
     np.testing.assert_array_equal(inverse, expected.reshape(-1))
     assert count == len(distinct)
+
+
+@given(KEYS, KEYS, st.booleans())
+def test_contained_equals_numpy_isin(values: list[int], queries: list[int], ordered: bool) -> None:
+    """Sorted values (a map's keys, read back) and any others (sorted first) alike."""
+    v = np.asarray(sorted(values) if ordered else values, dtype=np.int64)
+    q = np.asarray(queries, dtype=np.int64)
+    np.testing.assert_array_equal(contained(v, q), np.isin(q, v))
+    unsigned = np.asarray([x + 5 for x in values], dtype=np.uint64)  # node ids are uint64
+    q_unsigned = np.asarray([x + 5 for x in queries], dtype=np.uint64)
+    np.testing.assert_array_equal(contained(unsigned, q_unsigned), np.isin(q_unsigned, unsigned))
+
+
+@given(KEYS, st.sampled_from([0, 1 << 20, -(1 << 40)]))
+def test_distinct_equals_numpy_unique(values: list[int], offset: int) -> None:
+    """Narrow keys (the bitmap) and keys spread far apart (the sort) alike."""
+    keys = np.asarray(values, dtype=np.int64)
+    spread = np.concatenate([keys, keys + offset])
+    for k in (keys, spread):
+        got = distinct(k)
+        assert got.dtype == k.dtype
+        np.testing.assert_array_equal(got, np.unique(k))
+

@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.grouping import distinct
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.params import DIRECTION_ORDERS, TemporalParams
 from aion_cli.engine.temporal.pooling import (
@@ -218,7 +219,7 @@ class Forecaster:
             todo = np.flatnonzero(~self._total_done)
         else:
             e = np.asarray(e, dtype=np.int64)
-            todo = np.unique(e[~self._total_done[e]])
+            todo = distinct(e[~self._total_done[e]])
         m = self.params.max_order
         for a in range(0, todo.size, _BLOCK):
             pos = todo[a : a + _BLOCK]
@@ -294,7 +295,7 @@ class Forecaster:
         """Compute the first ``upto`` per-bin FreMEn components of the entries ``e`` not done
         that far yet (the strongest periods are chosen greedily, so the first ``upto`` of a
         longer choice are the same: directions need 2, per-bin rates all ``max_order``)."""
-        todo = np.unique(e[self._bins_depth[e] < upto])
+        todo = distinct(e[self._bins_depth[e] < upto])
         v, k = self.params.values, self.params.n_periods
         for a in range(0, todo.size, _BLOCK):
             pos = todo[a : a + _BLOCK]
