@@ -48,6 +48,7 @@ from aion_cli.engine.temporal.pooling import (
     PoolStats,
     borrowed,
     count_sums,
+    entry_counts,
     normalised,
     posterior,
     rows_of,
@@ -75,12 +76,13 @@ class Forecaster:
         groups: I64,
         pool: PoolStats,
         components: FremenComponents | None = None,
+        counts: F64 | None = None,
     ) -> None:
         self.params = params
         self.state = state
         self.rows = np.asarray(rows, dtype=np.int64)
         groups = np.asarray(groups, dtype=np.int64)
-        e, v, b = self.rows.size, params.values, params.bins
+        e, b = self.rows.size, params.bins
         r = self.rows
         glob = state.glob
         self.groups = groups
@@ -91,11 +93,10 @@ class Forecaster:
         first = np.fmin(state.obs.first[r], glob.first[0])
         last = np.fmax(state.obs.last[r], glob.last[0])
         self.observed = self.windows > 0
-        self.counts = np.empty((e, v))  # N[e, v]
+        self.counts = entry_counts(state, r, _BLOCK) if counts is None else counts  # N[e, v]
         shape_sum, map_sum = np.empty(e), np.empty(e)
         for a in range(0, e, _BLOCK):  # one pass, block by block: no [E, H] temporaries
             rows = r[a : a + _BLOCK]
-            self.counts[a : a + _BLOCK] = count_sums(rows_of(state.cnt_profile, rows), 2)
             w = rows_of(state.obs.profile, rows) + self._glob_profile  # W of the block
             shape_sum[a : a + _BLOCK] = (w * pool.shape[groups[a : a + _BLOCK]]).sum(axis=1)
             map_sum[a : a + _BLOCK] = (w * pool.map_shape).sum(axis=1)

@@ -39,8 +39,11 @@ class PoolStats:
         rows: I64,
         groups: I64,
         n_groups: int,
+        counts: F64 | None = None,
     ) -> PoolStats:
-        """Pool the entries ``rows`` (all live entries) into their groups."""
+        """Pool the entries ``rows`` (all live entries) into their groups. ``counts``: their
+        :func:`entry_counts`, when the caller has them already (a query's forecast needs them
+        for every entry too; a day's scoring builds them block by block instead)."""
         b, h = params.bins, params.n_profile
         s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
         c_g = np.zeros((n_groups, b))
@@ -50,10 +53,22 @@ class PoolStats:
             block = rows_of(state.cnt_profile, r)
             s_g += _group_sums(g, n_groups, count_sums(block, 1))
             w_g += _group_sums(g, n_groups, rows_of(state.obs.profile, r) + glob)
-            c_g += _group_sums(g, n_groups, count_sums(block, 2)[:, :b])
+            directed = (
+                count_sums(block, 2)[:, :b] if counts is None else counts[a : a + _POOL_BLOCK, :b]
+            )
+            c_g += _group_sums(g, n_groups, directed)
         phi = overdispersion(state.window_chi2)
         shapes, map_shape = group_shapes(s_g, w_g, phi)
         return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
+
+
+def entry_counts(state: TemporalState, rows: I64, block: int = 1 << 10) -> F64:
+    """N[e, v]: the detections of entries ``rows`` in each value bin (their profile bins
+    summed, exactly), float64[E, V], block by block (no [E, V, H] temporary)."""
+    out = np.empty((rows.size, state.cnt_profile.shape[1]))
+    for a in range(0, rows.size, block):
+        out[a : a + block] = count_sums(rows_of(state.cnt_profile, rows[a : a + block]), 2)
+    return out
 
 
 def borrowed(r: F64, mean: F64) -> F64:
