@@ -61,11 +61,11 @@ def unique_inverse(keys: I64) -> tuple[I64, I64]:
     without a sort when the keys span a range a few times their number (one block's rows)."""
     if keys.size == 0:
         return keys, keys
-    low = int(keys.min())
-    span = int(keys.max()) - low + 1
-    if span > 8 * keys.size + (1 << 16):
+    narrow = _narrow_range(keys)
+    if narrow is None:
         distinct, inverse = np.unique(keys, return_inverse=True)
         return distinct, inverse.reshape(-1)
+    low, span = narrow
     local = keys - low
     present = np.zeros(span, dtype=bool)
     present[local] = True
@@ -95,15 +95,22 @@ def distinct(keys: I64) -> I64:
     neighbours."""
     if keys.size == 0:
         return keys.copy()
-    low = int(keys.min())
-    span = int(keys.max()) - low + 1
-    if span > 8 * keys.size + (1 << 16):
+    narrow = _narrow_range(keys)
+    if narrow is None:
         ordered = np.sort(keys)
         keep = np.ones(ordered.size, dtype=bool)
         keep[1:] = ordered[1:] != ordered[:-1]
         return ordered[keep]
+    low, span = narrow
     present = np.zeros(span, dtype=bool)
     present[keys - low] = True
     out: I64 = (np.flatnonzero(present) + low).astype(keys.dtype, copy=False)
     return out
 
+
+def _narrow_range(keys: I64) -> tuple[int, int] | None:
+    """(lowest key, span) of non-empty ``keys`` when the span is a few times their number
+    (a bitmap over it beats a sort), else None."""
+    low = int(keys.min())
+    span = int(keys.max()) - low + 1
+    return None if span > 8 * keys.size + (1 << 16) else (low, span)
