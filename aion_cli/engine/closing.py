@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aion_cli.engine.ownership import apply_binds, plan_binds, stable_nodes
+from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.types import I64
 from aion_cli.engine.windows import window_centre_ns, window_ns, window_start_ns
 
@@ -124,3 +125,33 @@ def _record(state: MapState, windows: I64, w0: int, delta: int, count_rows: I64)
             state.record_window(int(w), fixed, observed, count_rows, counts)
         else:
             state.record_window(int(w), fixed, observed, none, no_counts)
+
+
+def open_window_record(state: MapState) -> DayWindows | None:
+    """The open window as closing it now would record it (:func:`_record`): observed by every
+    entry under a fixed sensor, else by the robot and where detections are (None: nothing
+    would be recorded). Queries absorb it so the latest detections count."""
+    w = state.open_window
+    if w is None:
+        return None
+    entries = state.entries
+    rows = entries.live_rows()
+    counts = np.column_stack([entries.window_counts[rows], entries.window_nodir[rows]])
+    seen = counts.sum(axis=1) > 0
+    fixed = state.observation.fixed_covers(w, state.window_ns)
+    observed = np.zeros(0, np.int64)
+    if not fixed:
+        xy = entries.xyz[rows, :2]
+        mask = state.observation.robot_observed(xy, w, state.window_ns, state.config.sensor_range)
+        observed = rows[mask | seen]
+    if not fixed and observed.size == 0:
+        return None
+    return DayWindows(
+        np.array([w], np.int64),
+        np.array([fixed]),
+        observed,
+        np.zeros(observed.size, np.int64),
+        rows[seen],
+        np.zeros(int(seen.sum()), np.int64),
+        counts[seen],
+    )

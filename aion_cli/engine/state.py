@@ -18,10 +18,10 @@ from typing import Any, cast
 
 import numpy as np
 
+from aion_cli.engine.closing import open_window_record
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, NODE, EntryStore
 from aion_cli.engine.graph_arrays import graph_from_arrays, graph_to_arrays
-from aion_cli.engine.grouping import contained
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
 from aion_cli.engine.observation import ObservationSource
@@ -30,6 +30,7 @@ from aion_cli.engine.state_checks import (
     STATE_VERSION,
     check_loaded,
     check_member_shapes,
+    check_ownership,
     check_state_version,
 )
 from aion_cli.engine.temporal import components as fremen_components
@@ -38,7 +39,8 @@ from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.components import FremenComponents
 from aion_cli.engine.temporal.groups import entry_groups
 from aion_cli.engine.temporal.params import TemporalParams
-from aion_cli.engine.temporal.pending import DayWindows, DeferredDays, PendingDay
+from aion_cli.engine.temporal.pending import DeferredDays, PendingDay
+from aion_cli.engine.temporal.provisional import ProvisionalScores
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
 from aion_cli.engine.windows import window_ns
 from aion_cli.errors import MapCorruptError, PartMapError
@@ -79,6 +81,9 @@ class MapState:
         default=None, init=False, repr=False, compare=False
     )
     _predictor: tuple[tuple[int, int, int | None, int], temporal_model.Predictor] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
+    _provisional: tuple[tuple[int, ...], ProvisionalScores | None] | None = field(
         default=None, init=False, repr=False, compare=False
     )
     _days: dict[int, int] = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -218,49 +223,51 @@ class MapState:
         key = self._view_key()
         if self._view is not None and self._view[0] == key:
             return self._view[1]
+        provisional = self.provisional_scores()  # before the view absorbs the pending day
         view = temporal_model.query_view(
             self.params,
             self.temporal,
             self.pending,
-            self._open_window_record(),
+            open_window_record(self),
             self.window_ns,
             in_place=not self.writable,
         )
+        if provisional is not None:
+            provisional.add_into(view)
         if not self.writable:  # the open window now counts as closed for this state's queries
             self.entries.clear_window()
             key = self._view_key()
         self._view = (key, view)
         return view
 
-    def _open_window_record(self) -> DayWindows | None:
-        """The open window as closing it now would record it (``closing._record``): observed
-        by every entry under a fixed sensor, else by the robot and where detections are."""
-        w = self.open_window
-        if w is None:
+    def provisional_scores(self) -> ProvisionalScores | None:
+        """The pending day's day-ahead scores as closing it now would add them, which queries
+        choose families by (:mod:`aion_cli.engine.temporal.provisional`). None for a part
+        map, without a pending day, and for a query's state read without its Fourier sums
+        from a map that stores none (an older map: it chooses as it was written)."""
+        if self.deferred is not None or not self.pending:
+            return None
+        key = self._provisional_key()
+        if self._provisional is not None and self._provisional[0] == key:
+            return self._provisional[1]
+        if not self.temporal.fourier_loaded:
             return None
         rows = self.entries.live_rows()
-        counts = np.column_stack(
-            [self.entries.window_counts[rows], self.entries.window_nodir[rows]]
+        groups, n_groups = self.groups(rows)
+        scores = ProvisionalScores.of_pending(
+            self.params, self.temporal, self.pending, rows, groups, n_groups, self.window_ns
         )
-        seen = counts.sum(axis=1) > 0
-        fixed = self.observation.fixed_covers(w, self.window_ns)
-        observed = np.zeros(0, np.int64)
-        if not fixed:
-            xy = self.entries.xyz[rows, :2]
-            mask = self.observation.robot_observed(xy, w, self.window_ns, self.config.sensor_range)
-            observed = rows[mask | seen]
-        if not fixed and observed.size == 0:
-            return None
-        zeros = np.zeros(observed.size, np.int64)
-        return DayWindows(
-            np.array([w], np.int64),
-            np.array([fixed]),
-            observed,
-            zeros,
-            rows[seen],
-            np.zeros(int(seen.sum()), np.int64),
-            counts[seen],
-        )
+        self._provisional = (key, scores)
+        return scores
+
+    def _provisional_key(self) -> tuple[int, ...]:
+        return (self.temporal.generation, len(self.pending.windows), self.accepted, id(self.graph))
+
+    def scored_temporal(self) -> TemporalState:
+        """The accumulators with the pending day's provisional scores added to copies of
+        their scores (what queries choose families by)."""
+        provisional = self.provisional_scores()
+        return self.temporal if provisional is None else provisional.applied_to(self.temporal)
 
     def predictor(self) -> tuple[I64, temporal_model.Predictor]:
         """Live entries in canonical order and their forecasts (cached while the state is
@@ -282,13 +289,13 @@ class MapState:
         computed from the state as the query sees it (``engine.temporal.components``)."""
         groups, n_groups = self.groups(order)
         flow, direction, map_flow = temporal_model.choose(
-            self.params, self.temporal, order, groups, n_groups
+            self.params, self.scored_temporal(), order, groups, n_groups
         )
         name = self.params.flow[map_flow]
         map_family = name if self.config.reconcile and name != "static" else None
         total, bins = fremen_components.needed(self.params, flow, direction, map_family)
         parts = [self.pending.consolidated()] if self.pending else []
-        open_window = self._open_window_record()
+        open_window = open_window_record(self)
         if open_window is not None:
             parts.append(open_window)
         return fremen_components.compute(
@@ -301,7 +308,7 @@ class MapState:
         The choice depends only on the day-ahead scores, so no forecast is prepared."""
         rows = self.entries.canonical_order()
         groups, n_groups = self.groups(rows)
-        t = self.temporal
+        t = self.scored_temporal()
         flow, direction, map_flow = temporal_model.choose(self.params, t, rows, groups, n_groups)
         reconciled = self.config.reconcile and self.params.flow[map_flow] != "static"
         return {
@@ -340,10 +347,13 @@ class MapState:
         order = self.entries.canonical_order()
         arrays: dict[str, Any] = self.entries.to_arrays(order)
         arrays.update(self.temporal.to_arrays("temporal_", order))
-        if self.deferred is None:  # a part map forecasts nothing
-            arrays.update(self.forecast_components(order).to_arrays(self.params.n_periods))
         position = np.full(self.entries.capacity, -1, np.int64)
         position[order] = np.arange(order.size)
+        if self.deferred is None:  # a part map forecasts nothing
+            arrays.update(self.forecast_components(order).to_arrays(self.params.n_periods))
+            provisional = self.provisional_scores()
+            if provisional is not None:
+                arrays.update(provisional.to_arrays(position))
         pending_arrays, pending_day = self.pending.to_arrays("pending_", position)
         arrays.update(pending_arrays)
         deferred_meta = None
@@ -446,38 +456,13 @@ class MapState:
             )
         except (KeyError, ValueError) as exc:
             raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
-        state.check_ownership()
+        provisional = ProvisionalScores.from_arrays(arrays, entries.n, params)
+        if provisional is not None and state.pending and deferred is None:
+            state._provisional = (state._provisional_key(), provisional)
+        check_ownership(state)
         check_loaded(state, arrays)
         state.rebuild_routes()
         return state
-
-    def check_ownership(self) -> None:
-        """:class:`MapCorruptError` unless every key and node has exactly one owner."""
-        ent = self.entries
-        cell_keys = ent.key[ent.cell_rows()]
-        node_ids = ent.node_id[ent.node_rows()]
-        problems = []
-        if not _distinct(cell_keys):
-            problems.append("two cell entries share a key")
-        if not _distinct(node_ids):
-            problems.append("two node entries share a node id")
-        if contained(cell_keys, self.redirects.keys).any():
-            problems.append("a redirected cell also has an entry")
-        if not contained(node_ids, self.redirects.nodes).all():
-            problems.append("a redirect points at a node without an entry")
-        if problems:
-            raise MapCorruptError(f"map state is inconsistent: {'; '.join(problems)}")
-
-
-def _distinct(values: np.ndarray) -> bool:
-    """Whether no value repeats: a map read back holds its keys in canonical (increasing)
-    order, which one comparison of neighbours proves; anything else is sorted first."""
-    if values.size < 2:
-        return True
-    if not bool(np.all(values[1:] > values[:-1])):
-        values = np.sort(values)
-        return bool(np.all(values[1:] != values[:-1]))
-    return True
 
 
 def _tally(names: np.ndarray) -> dict[str, int]:

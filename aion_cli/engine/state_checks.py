@@ -15,14 +15,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.engine.entries import CELL, NODE
+from aion_cli.engine.grouping import contained
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.errors import MapCorruptError, MapFileError
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
 
-STATE_VERSION = 2
-"""The version of the model state a map stores (``state_version`` in its manifest)."""
+STATE_VERSION = 3
+"""The version of the model state a map stores (``state_version`` in its manifest). 3 added
+the pending day's provisional scores (``provisional_*`` members); a version-2 map is read as
+it was written, its queries choosing families by its closed days alone."""
+OLDEST_READABLE = 2
+"""The oldest state this aion reads (1: before flows became rates)."""
 
 
 def check_state_version(meta: Mapping[str, Any]) -> None:
@@ -32,7 +37,7 @@ def check_state_version(meta: Mapping[str, Any]) -> None:
         version = int(meta["state_version"])
     except (KeyError, TypeError, ValueError) as exc:
         raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
-    if version < STATE_VERSION:
+    if version < OLDEST_READABLE:
         raise MapFileError(
             f"the map was written by an older aion (model state version {version}, "
             "before flows became rates)",
@@ -269,3 +274,32 @@ def _meta_problems(state: MapState) -> list[str]:
     return out
 
 
+
+
+def check_ownership(state: MapState) -> None:
+    """:class:`MapCorruptError` unless every key and node has exactly one owner."""
+    ent = state.entries
+    cell_keys = ent.key[ent.cell_rows()]
+    node_ids = ent.node_id[ent.node_rows()]
+    problems = []
+    if not _distinct(cell_keys):
+        problems.append("two cell entries share a key")
+    if not _distinct(node_ids):
+        problems.append("two node entries share a node id")
+    if contained(cell_keys, state.redirects.keys).any():
+        problems.append("a redirected cell also has an entry")
+    if not contained(node_ids, state.redirects.nodes).all():
+        problems.append("a redirect points at a node without an entry")
+    if problems:
+        raise MapCorruptError(f"map state is inconsistent: {'; '.join(problems)}")
+
+
+def _distinct(values: np.ndarray) -> bool:
+    """Whether no value repeats: a map read back holds its keys in canonical (increasing)
+    order, which one comparison of neighbours proves; anything else is sorted first."""
+    if values.size < 2:
+        return True
+    if not bool(np.all(values[1:] > values[:-1])):
+        values = np.sort(values)
+        return bool(np.all(values[1:] != values[:-1]))
+    return True

@@ -25,17 +25,20 @@ def corridor(
     cells: tuple[float, float] = (10.0, 2.0),
     start_ns: int = MONDAY,
     heading: Callable[[int, int], float] | None = None,
+    end_ns: int | None = None,
 ) -> Mapper:
     """A fixed sensor over ``days`` days watching a corridor of ``cells`` metres; in hour h of
     day d a Poisson number of people (mean ``rate_per_hour(d, h)``) is detected at uniform
-    random places and times, walking ``heading(d, h)`` (default east)."""
+    random places and times, walking ``heading(d, h)`` (default east). ``end_ns``: the
+    recording stops there instead (at an hour's start), the last day left pending."""
     rng = np.random.default_rng(seed)
     mapper = Mapper(config or ModelConfig())
-    mapper.set_fixed_sensor(start_ns, start_ns + days * DAY)
+    stop = start_ns + days * DAY if end_ns is None else end_ns
+    mapper.set_fixed_sensor(start_ns, stop)
     for d in range(days):
         for h in range(24):
             n = int(rng.poisson(rate_per_hour(d, h)))
-            if n == 0:
+            if n == 0 or start_ns + d * DAY + h * HOUR >= stop:
                 continue
             t = start_ns + d * DAY + h * HOUR + np.sort(rng.integers(0, HOUR, n))
             xy = rng.uniform((0.0, 0.0), cells, size=(n, 2))
@@ -46,7 +49,7 @@ def corridor(
                 t, np.column_stack([xy, np.zeros(n)]), head, np.ones(n)
             )
             mapper.add_detections(batch)
-    mapper.advance(start_ns + days * DAY)
+    mapper.advance(stop)
     return mapper
 
 

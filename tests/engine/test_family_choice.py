@@ -59,12 +59,26 @@ def test_a_family_must_win_consistently_the_more_so_the_fewer_the_days() -> None
         [10.0, 10.5],  # t = 41 > 6.31: switches
         [4.0, 8.0],  # t = 3.0 < 6.31: stays static
         [6.0] * 8,  # no spread at all: switches
-        [30.0],  # one day: the margin alone decides
+        [30.0],  # one day shows no consistency, however large its gain: stays static
     ]
     scores, consistency = _entries(gains)
     chosen = _choose(scores, np.zeros(len(gains), np.int64), np.array([True, True]), 3.0,
                      consistency)
-    np.testing.assert_array_equal(chosen, [1, 0, 1, 0, 1, 1])
+    np.testing.assert_array_equal(chosen, [1, 0, 1, 0, 1, 0])
+
+
+def test_one_scored_day_moves_an_entry_only_away_from_a_borrowed_default() -> None:
+    """Families (static, shape, fremen), one scored day. An entry whose default is static
+    keeps it whatever the day's gain; an entry borrowing its room's shape as default may
+    leave it for a family that beats it by more than the margin (no t-test: the consistency
+    rule guards only against leaving ``static``)."""
+    scores = np.array([[0.0, 20.0, 30.0], [0.0, 20.0, 30.0], [0.0, 20.0, 22.0]])
+    gain_sq = scores**2
+    days = np.ones(3)
+    default = np.array([0, 1, 1], np.int64)
+    enabled = np.array([True, True, True])
+    chosen = _choose(scores, default, enabled, 3.0, (gain_sq, days, 0))
+    assert chosen.tolist() == [0, 2, 1]  # static kept; fremen by 10 nats; 2 nats: shape kept
 
 
 def test_the_margin_still_applies() -> None:

@@ -319,13 +319,20 @@ def test_loaded_map_predicts_like_the_built_one(writable: bool) -> None:
     h_a, h_b = historical_table(m.state), historical_table(loaded)
     np.testing.assert_allclose(h_b.flow, h_a.flow, rtol=1e-12, atol=0)
     np.testing.assert_allclose(h_b.rate, h_a.rate, rtol=1e-12, atol=0)
-    # ... and a query absorbs it unscored: in place for a read-only map, in a copy otherwise
+    # ... and a query absorbs it, scored provisionally (engine.temporal.provisional): in place
+    # for a read-only map, in a copy otherwise; the built map's own scores stay as they were
     assert bool(loaded.pending) == writable
     assert m.state.pending
+    provisional = m.state.provisional_scores()
+    assert provisional is not None
+    assert provisional.rows.size > 0
+    expected = m.state.temporal if writable else m.state.scored_temporal()
     np.testing.assert_array_equal(
         np.sort(loaded.temporal.flow_scored[loaded.entries.live_rows()]),
-        np.sort(m.state.temporal.flow_scored[m.state.entries.live_rows()]),
+        np.sort(expected.flow_scored[m.state.entries.live_rows()]),
     )
+    before = m.state.temporal.flow_scored[provisional.rows]
+    assert (m.state.scored_temporal().flow_scored[provisional.rows] > before).all()
 
 
 def test_from_arrays_rejects_broken_ownership() -> None:

@@ -7,7 +7,9 @@ every detection's direction bin, each predicted by the model as it stood before 
 The choice prefers the simpler family (families are listed simplest first) unless the
 evidence is clear: a family replaces the default only if its score beats the default's by more
 than ``family_margin`` nats, and — for an entry choosing against ``static`` — only if it won
-consistently, day after day: once two or more days were scored, its daily gains must pass a
+consistently, day after day: it needs two scored days or more (one day's win shows no
+consistency, and a query scores the map's last day as well: see
+:mod:`~aion_cli.engine.temporal.provisional`), and its daily gains must pass a
 one-sided Student t-test (mean daily gain over its standard error with the sample variance,
 n − 1 degrees of freedom; :func:`student_t_sf`), so a few lucky days cannot make an entry's
 forecast time-dependent — the fewer the days, the clearer the win must be. The tests of all
@@ -96,8 +98,8 @@ def _choose(
     """Per row: the best enabled family if it beats ``default`` by more than ``margin``.
 
     ``consistency`` = (Σ_days gain², days, static index): against ``static``, a family must
-    also win consistently over the scored days once there are two days or more — its daily
-    gains pass the one-sided t-test of the module docstring, with the false-discovery rate held
+    also win consistently over two scored days or more — its daily gains pass the one-sided
+    t-test of the module docstring, with the false-discovery rate held
     over all the rows so tested (:func:`benjamini_hochberg`)."""
     masked = np.where(enabled[None, :], scores, -np.inf)
     rows = np.arange(len(default))
@@ -106,6 +108,7 @@ def _choose(
     ok = gain > margin
     if consistency is not None:
         gain_sq, days, static = consistency
+        ok &= (default != static) | (days >= 2)  # one day shows no consistency
         tested = np.flatnonzero((default == static) & (days >= 2))
         p_value = np.ones(len(tested))
         candidate = (best[tested] != static) & ok[tested]

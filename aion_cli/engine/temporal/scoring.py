@@ -65,6 +65,25 @@ def close_day(
     absorb_day(params, state, day, t_s, h)
 
 
+def score_day(
+    params: TemporalParams,
+    state: TemporalState,
+    day: DayWindows,
+    live_rows: I64,
+    groups: I64,
+    n_groups: int,
+    window_ns: int,
+) -> I64:
+    """Only the scoring half of :func:`close_day`: the day's scores are added to ``state``'s
+    score arrays, its accumulators are left as they are. Returns the rows scored."""
+    if day.windows.size == 0:
+        return np.zeros(0, np.int64)
+    centres = window_centre_ns(day.windows, window_ns)
+    t_s = to_model_seconds(centres)
+    h = params.calendar.profile_bin(centres)
+    return _score(params, state, day, live_rows, groups, n_groups, t_s, h)
+
+
 # -- scoring ------------------------------------------------------------------------------------
 def _score(
     params: TemporalParams,
@@ -75,7 +94,8 @@ def _score(
     n_groups: int,
     t_s: F64,
     h: I64,
-) -> None:
+) -> I64:
+    """Score the day for every live entry observed on it and before it; returns those rows."""
     if day.fixed.any():
         candidates = live_rows
     else:
@@ -84,7 +104,7 @@ def _score(
     prior = state.windows_observed(candidates) > 0
     candidates, position = candidates[prior], position[prior]
     if candidates.size == 0:
-        return
+        return candidates
     pool = PoolStats.of(params, state, live_rows, groups, n_groups)
     obs_order, obs_cut = _pairs_by_block(candidates, day.obs_entry)
     cnt_order, cnt_cut = _pairs_by_block(candidates, day.cnt_entry)
@@ -104,6 +124,7 @@ def _score(
         fc = Forecaster(params, state, rows, groups[position[a : a + _ENTRIES]], pool)
         fc.cache_profiles()  # every profile bin of every candidate is asked for
         _score_block(params, state, block, rows, fc, t_s, h)
+    return candidates
 
 
 def _pairs_by_block(candidates: I64, entries: I64) -> tuple[I64, I64]:

@@ -1,0 +1,129 @@
+"""The pending day's day-ahead scores, for queries: the map's latest evidence, used at once.
+
+A build scores a day only when it closes, when log time reaches the next local day: the last
+day of a map stays *pending* (a later log may still add windows to it), unscored. Its windows
+are data the model before it has not seen, so they are day-ahead evidence like any closed
+day's — and without them a map of two days has no scored day at all, and forecasts with its
+static rates whatever its rhythm. So a query scores the pending day as closing it would,
+against the accumulators before it, *provisionally*: the contributions are added to the
+scores the query chooses families by (:meth:`ProvisionalScores.applied_to`), never to the
+map's own accumulators, which stay additive and exact for ``--map`` continuation and merges;
+the day is scored for good when it closes.
+
+The contributions are sums over the rows scored (``rows``, the live entries observed on the
+day and before it) of the nine score fields of
+:class:`~aion_cli.engine.temporal.accumulators.TemporalState`, computed on a scratch state that
+shares the accumulators and starts its scores at zero. A map file stores them
+(``provisional_*`` members, rows as positions in canonical order), so a query of a map read
+without its Fourier sums — which FreMEn's scores need — chooses exactly as one of the map in
+memory.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from aion_cli.engine.temporal.accumulators import _SCORES, _TALLIES, TemporalState
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pending import PendingDay
+from aion_cli.engine.temporal.scoring import score_day
+from aion_cli.engine.types import I64
+from aion_cli.errors import MapCorruptError
+
+PREFIX = "provisional_"
+ROWS = PREFIX + "rows"
+
+
+@dataclass(frozen=True)
+class ProvisionalScores:
+    """The pending day's score contributions: ``rows`` (sorted entry rows) and, per score
+    field of :data:`_SCORES`, its values for those rows."""
+
+    rows: I64
+    fields: dict[str, np.ndarray]
+
+    @classmethod
+    def of_pending(
+        cls,
+        params: TemporalParams,
+        state: TemporalState,
+        pending: PendingDay,
+        live_rows: I64,
+        groups: I64,
+        n_groups: int,
+        window_ns: int,
+    ) -> ProvisionalScores | None:
+        """Score ``pending`` as closing it would (None when there is nothing to score)."""
+        if not pending:
+            return None
+        # zeros are allocated lazily: only the scored rows' pages are ever touched
+        zeros: dict[str, Any] = {name: np.zeros(getattr(state, name).shape) for name in _SCORES}
+        scratch = dataclasses.replace(state, **zeros)
+        rows = score_day(
+            params, scratch, pending.consolidated(), live_rows, groups, n_groups, window_ns
+        )
+        if rows.size == 0:
+            return None
+        return cls(rows, {name: getattr(scratch, name)[rows] for name in _SCORES})
+
+    def add_into(self, state: TemporalState) -> None:
+        """Add the contributions to ``state``'s scores, in place."""
+        for name in _SCORES:
+            getattr(state, name)[self.rows] += self.fields[name]
+        state.touch()
+
+    def applied_to(self, state: TemporalState) -> TemporalState:
+        """``state`` with the contributions added to copies of its scores (the accumulators
+        are shared, not copied: the result is for reading scores only)."""
+        copies: dict[str, Any] = {name: getattr(state, name).copy() for name in _SCORES}
+        out = dataclasses.replace(state, **copies)
+        self.add_into(out)
+        return out
+
+    # -- persistence ------------------------------------------------------------------------
+    def to_arrays(self, position: I64) -> dict[str, np.ndarray]:
+        """Members for a map whose entries are written in canonical order (``position``:
+        entry row -> index in that order)."""
+        at = position[self.rows]
+        order = np.argsort(at, kind="stable")
+        out = {ROWS: at[order].astype(np.int64)}
+        out.update({PREFIX + name: self.fields[name][order] for name in _SCORES})
+        return out
+
+    @classmethod
+    def from_arrays(
+        cls, arrays: Mapping[str, np.ndarray], n_entries: int, params: TemporalParams
+    ) -> ProvisionalScores | None:
+        """The stored contributions (None when the map has none); entry rows are the
+        canonical positions, as a map read back numbers its entries.
+        :class:`MapCorruptError` when they are inconsistent."""
+        if ROWS not in arrays:
+            return None
+        rows = np.asarray(arrays[ROWS])
+        widths = {"flow": len(params.flow), "dir": len(params.direction)}
+        try:
+            fields = {name: np.asarray(arrays[PREFIX + name], np.float64) for name in _SCORES}
+        except KeyError as exc:
+            raise MapCorruptError(f"the map's provisional scores lack {exc}") from exc
+        problem = None
+        if rows.ndim != 1 or rows.dtype.kind not in "iu":
+            problem = "their rows are not a list of integers"
+        elif rows.size and (rows[0] < 0 or rows[-1] >= n_entries or np.any(np.diff(rows) <= 0)):
+            problem = "their rows are not increasing positions of the map's entries"
+        for name, values in fields.items():
+            width = widths[name.split("_")[0]]
+            shape = (rows.size,) if name in _TALLIES else (rows.size, width)
+            if problem is None and values.shape != shape:
+                problem = f"{name} has shape {values.shape}, expected {shape}"
+            elif problem is None and not np.isfinite(values).all():
+                problem = f"{name} has values that are not finite"
+            elif problem is None and name in _TALLIES and (values < 0).any():
+                problem = f"{name} has negative values"
+        if problem is not None:
+            raise MapCorruptError(f"the map's provisional scores are inconsistent: {problem}")
+        return cls(rows.astype(np.int64), fields)
