@@ -165,29 +165,48 @@ ACTIVITY_COLUMNS = (
 @click.option("--config", "config_path", type=click.Path(exists=True, path_type=Path),
               help="TOML model parameters (see aion build --print-config) [default: the "
               "defaults with timezone Europe/London].")
+@click.option("--train", "train_days", metavar="DAY,...",
+              help="Training days (UTC dates, comma-separated) [default: 2017-05-24, -25, "
+              "-26, -31].")
+@click.option("--test", "test_day", metavar="DAY", help="The test day [default: 2017-06-09].")
 @format_option(("table", "json"))
-def lincoln(data_dir: Path, radius: float, config_path: Path | None, fmt: str) -> None:
+def lincoln(
+    data_dir: Path,
+    radius: float,
+    config_path: Path | None,
+    train_days: str | None,
+    test_day: str | None,
+    fmt: str,
+) -> None:
     """Forecast a real multi-day corridor: train on four days of May 2017, predict June 9 —
     heading NLL and hourly activity (Spearman, Poisson deviance, MAE) of aion against static,
-    hour-of-day and STeF-style grid baselines.
+    hour-of-day and STeF-style grid baselines. --train / --test choose another split of the
+    recorded days.
 
     \b
-    Example:
+    Examples:
       aion evaluate lincoln --format json > lincoln.json
+      aion evaluate lincoln --train 2017-05-24,2017-05-25 --test 2017-05-26
     """
     from aion_cli.cli.console import note
-    from aion_cli.evaluation.lincoln import ZONE, run_lincoln
+    from aion_cli.evaluation.lincoln import TEST_DAY, TRAIN_DAYS, ZONE, run_lincoln
 
     config = None if config_path is None else _config(config_path)
-    result = run_lincoln(_existing_dir(data_dir, "Lincoln data"), config, radius, progress=note)
+    train: tuple[str, ...] = TRAIN_DAYS
+    if train_days is not None:
+        train = tuple(d.strip() for d in train_days.split(",") if d.strip())
+    result = run_lincoln(
+        _existing_dir(data_dir, "Lincoln data"), config, radius, progress=note,
+        train_days=train, test_day=test_day or TEST_DAY,
+    )
     flows = ", ".join(f"{k} {v:,}" for k, v in sorted(result.families["flow"].items()))
     note(f"aion's flow models: {flows}")
     if fmt == "json":
         emit(fmt, [], (), json_payload=result.to_dict())
         return
     emit(fmt, result.headings, SCORE_COLUMNS,
-         title=f"Lincoln, heading NLL on {result.data['2017-06-09']['detections']:,} test "
-         f"detections (zone {ZONE})")
+         title=f"Lincoln {result.test}, heading NLL on "
+         f"{result.data[result.test]['detections']:,} test detections (zone {ZONE})")
     emit(fmt, result.activity, ACTIVITY_COLUMNS,
          title="Lincoln, hourly activity of the test day")
 

@@ -46,6 +46,7 @@ from scipy.stats import spearmanr
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import DetectionBatch
+from aion_cli.errors import InputError
 from aion_cli.evaluation.baselines import StaticHistogram, TimeOfDayHistogram
 from aion_cli.evaluation.grid import GridMoD, GridSpec
 from aion_cli.evaluation.heading import (
@@ -84,9 +85,12 @@ class LincolnResult:
     families: dict[str, dict[str, int]] = field(default_factory=dict)
     data: dict[str, Any] = field(default_factory=dict)
 
+    train: tuple[str, ...] = TRAIN_DAYS
+    test: str = TEST_DAY
+
     def to_dict(self) -> dict[str, Any]:
         return {
-            "protocol": {"train": list(TRAIN_DAYS), "test": TEST_DAY, "zone": ZONE},
+            "protocol": {"train": list(self.train), "test": self.test, "zone": ZONE},
             "data": self.data,
             "headings": self.headings,
             "activity": self.activity,
@@ -191,24 +195,38 @@ def run_lincoln(
     config: ModelConfig | None = None,
     radius: float = 1.0,
     progress: Callable[[str], None] | None = None,
+    train_days: tuple[str, ...] = TRAIN_DAYS,
+    test_day: str = TEST_DAY,
 ) -> LincolnResult:
-    """Train on the four May days, forecast June 9 (see the module docstring)."""
+    """Train on ``train_days`` (default: the four May days), forecast ``test_day`` (June 9);
+    see the module docstring. Other splits of the recorded days check that a result is not
+    one split's luck. :class:`InputError` for a day the files do not hold, a test day among
+    the training days, or no training day."""
     cfg = config or ModelConfig(timezone=ZONE)
     say = progress or (lambda _msg: None)
     days = load_days(data_dir)
-    missing = [d for d in (*TRAIN_DAYS, TEST_DAY) if d not in days]
+    recorded = ", ".join(sorted(days))
+    missing = [d for d in (*train_days, test_day) if d not in days]
     if missing:
-        raise FileNotFoundError(f"Lincoln days missing from {data_dir}: {', '.join(missing)}")
-    train = [days[d] for d in TRAIN_DAYS]
-    test = days[TEST_DAY]
+        raise InputError(
+            f"Lincoln days not in {data_dir}: {', '.join(missing)}",
+            hint=f"the files hold {recorded}",
+        )
+    if not train_days or test_day in train_days:
+        raise InputError(
+            "the Lincoln evaluation needs training days and a test day that is not one of them",
+            hint=f"the files hold {recorded}",
+        )
+    train = [days[d] for d in sorted(set(train_days))]
+    test = days[test_day]
     window_ns = round(cfg.window_s * 1e9)
-    result = LincolnResult()
+    result = LincolnResult(train=tuple(d.day for d in train), test=test_day)
     result.data = {
         d.day: {"detections": len(d.batch), "file": d.source, "observed_h": round(
             sum(b - a for a, b in d.spans) / 3.6e12, 2)}
         for d in (*train, test)
     }
-    say("building aion from the four training days (convert + build)")
+    say(f"building aion from the {len(train)} training days (convert + build)")
     with tempfile.TemporaryDirectory(prefix="aion-lincoln-") as tmp:
         state = _build_aion(train, cfg, Path(tmp))
     train_batch = DetectionBatch.concat([d.batch for d in train])

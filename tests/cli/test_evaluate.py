@@ -51,3 +51,17 @@ def test_office_table_says_how_the_forecast_meets_the_truth() -> None:
     line = next(x for x in result.stdout.splitlines() if x.startswith("against the ground truth"))
     assert "with the expected flow" in line
     assert "previous day" in line
+
+
+@needs(DATA / "lincoln" / "2017-06-09.txt", "the Lincoln corridor data")
+def test_a_lincoln_day_not_recorded_is_a_one_line_error() -> None:
+    proc = subprocess.run(
+        [str(AION), "evaluate", "lincoln", "--data", str(DATA / "lincoln"),
+         "--train", "2017-05-24, 2017-05-25", "--test", "2017-06-10"],
+        capture_output=True, text=True, check=False,
+    )
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert lines[0] == f"error: Lincoln days not in {DATA / 'lincoln'}: 2017-06-10"
+    assert lines[1].startswith("hint: the files hold 2017-05-24, 2017-05-25")
+    assert "Traceback" not in proc.stderr

@@ -62,3 +62,40 @@ def test_the_corridor_forecast_beats_the_historical_map_and_a_static_rate() -> N
     assert act["aion"]["poisson_deviance"] < act["static"]["poisson_deviance"]
     assert len(result.hours) == len(result.series["truth"]) >= 8
     assert sum(result.families["flow"].values()) > 0
+
+
+@needs_lincoln
+def test_two_training_days_already_forecast_the_day_not_the_static_rate() -> None:
+    """Trained on two days, the second still pending in the map: its day-ahead evidence
+    (scored provisionally) makes the map follow its daily shape, so the hourly totals of the
+    next day are far closer than a static rate's; and one scored day is not evidence enough
+    for any entry to leave its static direction histogram."""
+    result = lincoln.run_lincoln(
+        DATA, train_days=("2017-05-24", "2017-05-25"), test_day="2017-05-26"
+    )
+    assert result.to_dict()["protocol"]["test"] == "2017-05-26"
+    act = {a["model"]: a for a in result.activity}
+    assert act["aion"]["mae"] < 0.5 * act["static"]["mae"]
+    assert act["aion"]["poisson_deviance"] < 0.5 * act["static"]["poisson_deviance"]
+    nll = {h["model"]: h["nll_all"] for h in result.headings}
+    assert nll["aion"] <= nll["aion static"]
+    assert set(result.families["direction"]) == {"static"}
+
+
+@needs_lincoln
+@pytest.mark.parametrize(
+    ("train", "test", "message"),
+    [
+        (("2017-05-24",), "2017-06-10", "2017-06-10"),
+        (("2017-05-24", "2017-05-25"), "2017-05-25", "not one of them"),
+        ((), "2017-05-26", "needs training days"),
+    ],
+)
+def test_a_split_of_days_the_files_do_not_hold_is_refused(
+    train: tuple[str, ...], test: str, message: str
+) -> None:
+    from aion_cli.errors import InputError
+
+    with pytest.raises(InputError, match=message) as err:
+        lincoln.run_lincoln(DATA, train_days=train, test_day=test)
+    assert "2017-05-24" in str(err.value.hint)  # the days the files hold
