@@ -13,7 +13,7 @@ from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.query import predict_table
 from aion_cli.engine.state import MapState
 from aion_cli.engine.temporal.accumulators import _SCORES
-from aion_cli.engine.temporal.provisional import PREFIX, ROWS
+from aion_cli.engine.temporal.provisional import PREFIX, ROWS, STORED, ProvisionalScores
 from aion_cli.errors import MapCorruptError
 from aion_cli.formats.mapfile import open_map, write_map
 from aion_cli.mapquery import load_map
@@ -82,8 +82,19 @@ def test_the_map_file_stores_the_provisional_scores(two_days: Mapper, tmp_path: 
     as the map in memory does, from the stored scores."""
     path = _write(two_days.state, tmp_path / "two.aion")
     with open_map(path) as members:
-        names = set(members)
-    assert {ROWS, *(PREFIX + name for name in _SCORES)} <= names
+        names = {n for n in members if n.startswith(PREFIX)}
+        stored = ProvisionalScores.from_arrays(
+            members, len(two_days.state.entries.live_rows()), two_days.state.params
+        )
+    assert names == {ROWS, *(PREFIX + name for name in STORED)}  # gains and days derived
+    computed = two_days.state.provisional_scores()
+    assert stored is not None
+    assert computed is not None
+    as_rows = two_days.state.entries.canonical_order()[stored.rows]  # stored: positions
+    by_row = np.argsort(as_rows)
+    np.testing.assert_array_equal(as_rows[by_row], computed.rows)
+    for name in _SCORES:  # every field, the derived ones too, to the bit
+        np.testing.assert_array_equal(stored.fields[name][by_row], computed.fields[name])
     light = load_map(path, forecast_only=True).state
     assert not light.temporal.fourier_loaded
     t = MONDAY + 2 * DAY + 9 * HOUR
@@ -111,8 +122,8 @@ def test_a_version_2_map_is_read_as_written(two_days: Mapper, tmp_path: Path) ->
         (ROWS, lambda a: a.astype(np.float64), "not a list of integers"),
         (PREFIX + "flow_score", lambda a: a[:, :2].copy(), "flow_score has shape"),
         (PREFIX + "dir_score", lambda a: np.full_like(a, np.nan), "not finite"),
-        (PREFIX + "flow_days", lambda a: -a, "negative"),
-        (PREFIX + "dir_gain_sq", None, "lack"),
+        (PREFIX + "flow_scored", lambda a: -a.astype(np.float64), "negative"),
+        (PREFIX + "dir_scored", None, "lack"),
     ],
 )
 def test_damaged_provisional_scores_are_refused(

@@ -16,7 +16,8 @@ day and before it) of the nine score fields of
 shares the accumulators and starts its scores at zero. A map file stores them
 (``provisional_*`` members, rows as positions in canonical order), so a query of a map read
 without its Fourier sums — which FreMEn's scores need — chooses exactly as one of the map in
-memory.
+memory. One day's gains and day tallies follow from its scores and scored tallies, so only
+those are stored (:data:`STORED`); the rest is derived on reading, bit for bit.
 """
 
 from __future__ import annotations
@@ -32,11 +33,14 @@ from aion_cli.engine.temporal.accumulators import _SCORES, _TALLIES, TemporalSta
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.temporal.scoring import score_day
+from aion_cli.engine.temporal.stored_layout import narrowed, stored_positions
 from aion_cli.engine.types import I64
 from aion_cli.errors import MapCorruptError
 
 PREFIX = "provisional_"
 ROWS = PREFIX + "rows"
+STORED = ("flow_score", "flow_chi2", "flow_scored", "dir_score", "dir_scored")
+"""The fields a map stores; ``*_gain_sq`` and ``*_days`` are derived (:func:`_one_day`)."""
 
 
 @dataclass(frozen=True)
@@ -91,8 +95,12 @@ class ProvisionalScores:
         entry row -> index in that order)."""
         at = position[self.rows]
         order = np.argsort(at, kind="stable")
-        out = {ROWS: at[order].astype(np.int64)}
-        out.update({PREFIX + name: self.fields[name][order] for name in _SCORES})
+        out = {ROWS: stored_positions(at[order].astype(np.int64), position.size)}
+        for name in STORED:
+            values = self.fields[name][order]
+            if name in _TALLIES:
+                values = np.asarray(narrowed(values, np.arange(values.size)))
+            out[PREFIX + name] = values
         return out
 
     @classmethod
@@ -107,14 +115,16 @@ class ProvisionalScores:
         rows = np.asarray(arrays[ROWS])
         widths = {"flow": len(params.flow), "dir": len(params.direction)}
         try:
-            fields = {name: np.asarray(arrays[PREFIX + name], np.float64) for name in _SCORES}
+            fields = {name: np.asarray(arrays[PREFIX + name], np.float64) for name in STORED}
         except KeyError as exc:
             raise MapCorruptError(f"the map's provisional scores lack {exc}") from exc
         problem = None
         if rows.ndim != 1 or rows.dtype.kind not in "iu":
             problem = "their rows are not a list of integers"
-        elif rows.size and (rows[0] < 0 or rows[-1] >= n_entries or np.any(np.diff(rows) <= 0)):
-            problem = "their rows are not increasing positions of the map's entries"
+        else:  # stored narrow (uint32): differences must not wrap around
+            rows = rows.astype(np.int64)
+            if rows.size and (rows[0] < 0 or rows[-1] >= n_entries or np.any(np.diff(rows) <= 0)):
+                problem = "their rows are not increasing positions of the map's entries"
         for name, values in fields.items():
             width = widths[name.split("_")[0]]
             shape = (rows.size,) if name in _TALLIES else (rows.size, width)
@@ -126,4 +136,17 @@ class ProvisionalScores:
                 problem = f"{name} has negative values"
         if problem is not None:
             raise MapCorruptError(f"the map's provisional scores are inconsistent: {problem}")
+        static = (params.flow.index("static"), params.direction.index("static"))
+        fields.update(_one_day(fields, "flow", static[0]))
+        fields.update(_one_day(fields, "dir", static[1]))
         return cls(rows.astype(np.int64), fields)
+
+
+def _one_day(fields: dict[str, np.ndarray], kind: str, static: int) -> dict[str, np.ndarray]:
+    """One day's ``{kind}_gain_sq`` and ``{kind}_days`` from its scores and tally, as
+    scoring adds them (``scoring._add_day``: the squared gain over ``static``, and a day for
+    every row that had something scored), so the stored contributions need not hold them."""
+    score = fields[f"{kind}_score"]
+    gain = score - score[:, static : static + 1]
+    days = (fields[f"{kind}_scored"] > 0).astype(np.float64)
+    return {f"{kind}_gain_sq": gain**2, f"{kind}_days": days}
