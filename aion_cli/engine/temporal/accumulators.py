@@ -39,21 +39,11 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.temporal import shape_prior
 from aion_cli.engine.temporal.observation_block import _OBS_FIELDS, C128, ObsBlock
 from aion_cli.engine.temporal.stored_layout import (
     ROW_BLOCK,
-    first_nonfinite,
-    lists_all,
-    narrowed,
-    nonzero_pairs,
-    sparse_layout,
-    stored_index,
-    stored_member,
-    stored_positions,
 )
-from aion_cli.engine.types import F64, I64, RowTake
-from aion_cli.errors import MapCorruptError
+from aion_cli.engine.types import F64, I64
 
 __all__ = ["C128", "ObsBlock", "TemporalState"]
 
@@ -255,8 +245,12 @@ class TemporalState:
                 larger = theirs.n > self.obs.n[do]
                 if larger.any():
                     self.obs.put(do[larger], theirs.take(np.flatnonzero(larger)))
-            for name in _ADDITIVE:
-                getattr(self, name)[do] += getattr(other, name)[so]
+            if int(do.min()) >= self.high_water:  # rows never written hold zeros: assign
+                for name in _ADDITIVE:
+                    getattr(self, name)[do] = getattr(other, name)[so]
+            else:
+                for name in _ADDITIVE:
+                    getattr(self, name)[do] += getattr(other, name)[so]
             self.touch(do)
             s, d = s[~once], d[~once]
             if s.size == 0:
@@ -363,49 +357,12 @@ class TemporalState:
         chi2 = states[0].window_chi2.copy()
         return cls(states[0].glob.take([0]), obs, **joined, window_chi2=chi2, fourier_loaded=loaded)
 
-    # -- persistence ------------------------------------------------------------------------
+    # -- persistence (:mod:`.accumulator_files`) --------------------------------------------
     def to_arrays(self, prefix: str, rows: I64) -> dict[str, Any]:
-        """Members ``prefix + name`` for rows ``rows``, sparse and gathered block by block
-        when written (no second copy of the state):
+        """Members ``prefix + name`` for rows ``rows`` (``state_to_arrays``)."""
+        from aion_cli.engine.temporal.accumulator_files import state_to_arrays
 
-        * ``obs_index`` — positions (in ``rows``) of entries with windows of their own, and
-          their observation blocks (a fixed sensor's map has none: its windows are global);
-        * ``cnt_index`` — flat positions ``pos·V + v`` of the (entry, value bin) pairs that
-          ever counted a detection, with their ``cnt_fourier`` and ``cnt_profile`` rows (a
-          direction nobody walked costs nothing);
-        * ``score_index`` — positions of entries with day-ahead scores, and the scores.
-
-        Integral counts and window tallies (profiles, windows, detections and days scored)
-        are stored as ``uint8``, ``uint16`` or ``uint32`` (lossless; float64 when a value is
-        not a whole number below 2^32), indices as ``uint32`` when they fit."""
-        if not self.fourier_loaded:
-            raise ValueError(
-                "a temporal state read for queries (without its Fourier sums) cannot be stored"
-            )
-        r = np.asarray(rows, dtype=np.int64)
-        pos = np.arange(r.size, dtype=np.int64)
-        out: dict[str, Any] = self.glob.to_arrays(prefix + "glob_")
-        out[prefix + shape_prior.MEMBER] = self.window_chi2.copy()
-        own = self.obs.n[r] > 0
-        out[prefix + "obs_index"] = stored_positions(pos[own], r.size)
-        out.update(self.obs.to_arrays(prefix + "obs_", r[own]))
-        out[prefix + "obs_profile"] = narrowed(self.obs.profile, r[own])
-        v, k, h = self.n_values, self.n_periods, self.n_bins
-        flat_profile = self.cnt_profile.reshape(-1, h)
-        pairs = nonzero_pairs(flat_profile, r, v)
-        out[prefix + "cnt_index"] = stored_positions(pairs.positions, r.size * v)
-        out[prefix + "cnt_fourier"] = RowTake(self.cnt_fourier.reshape(-1, k), pairs.rows)
-        out[prefix + "cnt_profile"] = narrowed(flat_profile, pairs.rows)
-        scored = (self.flow_days[r] > 0) | (self.dir_days[r] > 0)
-        scored |= (self.flow_scored[r] > 0) | (self.dir_scored[r] > 0)
-        out[prefix + "score_index"] = stored_positions(pos[scored], r.size)
-        for name in _SCORES:
-            source = getattr(self, name)
-            tally = name in _TALLIES  # windows, detections and days scored: whole numbers
-            out[prefix + name] = (
-                narrowed(source, r[scored]) if tally else RowTake(source, r[scored])
-            )
-        return out
+        return state_to_arrays(self, prefix, rows)
 
     @classmethod
     def from_arrays(
@@ -421,79 +378,8 @@ class TemporalState:
         copy: bool = True,
         fourier: bool = True,
     ) -> TemporalState:
-        """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` on missing or
-        inconsistent members (shapes must match the config, indices must be in range).
+        """Inverse of :meth:`to_arrays` (``state_from_arrays``)."""
+        from aion_cli.engine.temporal.accumulator_files import state_from_arrays
 
-        ``copy=False``: the members are fresh arrays the state may keep (a map just read);
-        members that cover every row (a dense map) then become the state's arrays as they
-        are, without a scatter into zeros or a second copy. Without ``fourier`` the
-        per-entry Fourier sums (``cnt_fourier``, ``obs_fourier``: most of a map's bytes) are
-        not read, and the state is a query's (:attr:`fourier_loaded`): its ``cnt_profile``
-        keeps the unsigned integer type it was stored in (exact whole counts; absorbing a
-        day widens it only when a count would not fit)."""
-        arrays = sparse_layout(arrays, prefix, rows, values)
-        own_periods = periods if fourier else 0
-        out = cls.empty(rows, values, own_periods, bins, flow_families, dir_families)
-        out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
-        out.window_chi2 = shape_prior.stored_window_chi2(arrays, prefix)
-        own = stored_index(arrays, prefix + "obs_index", rows)
-        block = ObsBlock.from_arrays(
-            arrays, prefix + "obs_", own.size, periods, bins, copy, fourier
-        )
-        if lists_all(own, rows):
-            out.obs = block
-        else:
-            out.obs.put(own, block)
-        pairs = stored_index(arrays, prefix + "cnt_index", rows * values)
-        profile = stored_member(
-            arrays, prefix + "cnt_profile", (pairs.size, bins), copy, keep_narrow=not fourier
-        )
-        stored: dict[str, Any] = {"cnt_profile": profile}
-        dense_pairs = lists_all(pairs, rows * values)
-        if fourier:
-            sums = stored_member(arrays, prefix + "cnt_fourier", (pairs.size, periods), copy)
-            if sums.dtype != np.complex128:
-                raise MapCorruptError(f"{prefix}cnt_fourier must be complex128")
-            stored["cnt_fourier"] = sums
-            if dense_pairs:  # every pair counted: the members are the arrays
-                out.cnt_fourier = sums.reshape(rows, values, periods)
-            else:
-                out.cnt_fourier.reshape(-1, periods)[pairs] = sums
-        else:
-            out.fourier_loaded = False
-        if dense_pairs:
-            out.cnt_profile = profile.reshape(rows, values, bins)
-        else:
-            if profile.dtype != out.cnt_profile.dtype:  # a query's narrow counts stay narrow
-                out.cnt_profile = np.zeros(out.cnt_profile.shape, profile.dtype)
-            out.cnt_profile.reshape(-1, bins)[pairs] = profile
-        scored = stored_index(arrays, prefix + "score_index", rows)
-        shapes = {
-            "flow_score": (flow_families,),
-            "flow_chi2": (flow_families,),
-            "flow_scored": (),
-            "flow_days": (),
-            "flow_gain_sq": (flow_families,),
-            "dir_score": (dir_families,),
-            "dir_scored": (),
-            "dir_days": (),
-            "dir_gain_sq": (dir_families,),
-        }
-        dense = lists_all(scored, rows)
-        for name, tail in shapes.items():
-            value = stored_member(arrays, prefix + name, (scored.size, *tail), copy)
-            if value.dtype.kind != "f":
-                raise MapCorruptError(f"{prefix}{name} must be real")
-            stored[name] = value
-            if dense:
-                setattr(out, name, value)
-            else:
-                getattr(out, name)[scored] = value
-        # the stored values are checked (the rows not stored are zeros)
-        bad = first_nonfinite(stored)
-        if bad or np.any(profile < 0) or np.any(block.n < 0) or out.glob.n[0] < 0:
-            raise MapCorruptError(
-                f"temporal state holds non-finite or negative values ({', '.join(bad) or 'counts'})"
-            )
-        out.high_water = rows
-        return out
+        shape = (rows, values, periods, bins, flow_families, dir_families)
+        return state_from_arrays(arrays, prefix, *shape, copy=copy, fourier=fourier)
