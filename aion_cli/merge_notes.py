@@ -1,7 +1,7 @@
 """The notes of ``aion merge``: which approximations of the engine's merge
 (:mod:`aion_cli.engine.merge`, numbered as in its docstring) apply to the maps at hand, so a
 merged map says where it may differ from one build of all the logs. Read-only: nothing here
-changes a state (a later map's query view is prepared, as any query would)."""
+changes a state."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.entries import NODE
+from aion_cli.engine.grouping import contained
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
@@ -115,16 +116,36 @@ def _unseen_entries(early: Footprint, late: MapState) -> int:
     cells = np.setxor1d(early.cell_keys, el.key[el.cell_rows()])
     nodes = np.setxor1d(early.node_entry_ids, el.node_id[el.node_rows()])
     rows = el.canonical_order()
-    first = late.query_temporal().obs.first[rows]  # model seconds, NaN: never robot-observed
+    first = _first_observed(late)[rows]  # model seconds, NaN: never robot-observed
     if not np.isfinite(first).any():
         return int(cells.size + nodes.size)
     in_early = np.where(
         el.kind[rows] == NODE,
-        np.isin(el.node_id[rows], early.node_entry_ids),
-        np.isin(el.key[rows], early.cell_keys),
+        contained(early.node_entry_ids, el.node_id[rows]),
+        contained(early.cell_keys, el.key[rows]),
     )
     late_first = first > np.nanmin(first)  # NaN compares False
     return int(cells.size + nodes.size + np.count_nonzero(in_early & late_first))
+
+
+def _first_observed(state: MapState) -> npt.NDArray[np.float64]:
+    """Per entry row, the first window (model seconds) in which a robot observed it, as a
+    query sees it (pending day and open window included; NaN: never), without preparing the
+    query's copy of the whole state: absorbing a window only lowers ``obs.first`` of the
+    entries the robot saw in it (fixed-sensor windows go to the global block)."""
+    from aion_cli.engine.closing import open_window_record
+    from aion_cli.engine.temporal.absorption import drop_fixed
+    from aion_cli.engine.windows import to_model_seconds, window_centre_ns
+
+    first = state.temporal.obs.first.copy()
+    parts = [state.pending.consolidated() if state.pending else None, open_window_record(state)]
+    for day in parts:
+        if day is None or day.windows.size == 0:
+            continue
+        entry, slot = drop_fixed(day.obs_entry, day.obs_slot, day.fixed)
+        t_s = to_model_seconds(window_centre_ns(day.windows, state.window_ns))
+        np.fmin.at(first, entry, t_s[slot])
+    return first
 
 
 def _closed_a_day(state: MapState) -> bool:

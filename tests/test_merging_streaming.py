@@ -111,3 +111,25 @@ def test_a_map_that_changes_during_the_merge_is_refused(
 def test_a_missing_map_is_refused_by_the_head_reader(tmp_path: Path) -> None:
     with pytest.raises(MapFileError, match="not found"):
         load_map_head(tmp_path / "none.aion")
+
+
+def test_first_robot_windows_for_the_notes_equal_the_query_views() -> None:
+    """The merge notes read each entry's first robot-observed window without preparing a
+    query's copy of the state: the same values as the query view (pending day and open
+    window absorbed), on a robot's map whose last day is pending and window open."""
+    import numpy as np
+
+    from aion_cli.merge_notes import _first_observed
+    from tests.engine.test_shards import MORNING, _robot_log
+    from tests.engine.test_state import _run
+
+    state = _run(_robot_log(MORNING, 31, days=2)).state
+    assert state.pending
+    assert state.open_window is not None
+    first = _first_observed(state)
+    view = state.query_temporal().obs.first
+    rows = state.entries.live_rows()
+    assert np.isfinite(view[rows]).sum() > 5  # robot-observed entries are there
+    stored = state.temporal.obs.first[rows]
+    assert not np.array_equal(stored, view[rows], equal_nan=True)  # the pending day matters
+    np.testing.assert_array_equal(first[rows], view[rows])
