@@ -86,7 +86,7 @@ def load_map_head(path: Path) -> MapHead:
     accumulators, most of a map, stay unread): what ``aion merge`` plans with before it reads
     each map's state in turn."""
     from aion_cli.engine.graph_arrays import graph_from_arrays
-    from aion_cli.engine.state_checks import check_state_version
+    from aion_cli.engine.state_checks import parse_state_meta
     from aion_cli.errors import MapCorruptError
     from aion_cli.formats.mapfile import open_map
 
@@ -94,19 +94,15 @@ def load_map_head(path: Path) -> MapHead:
     with open_map(path) as members:
         manifest = members.manifest
         meta = _state_meta(path, manifest)
-        check_state_version(meta)
-        try:
-            config = ModelConfig.from_stored(meta["config"])
-            window = meta["open_window"]
-            accepted = int(meta["accepted"])
-            # the graph's reader only looks members up by name: any mapping will do
-            graph = graph_from_arrays(cast(dict[str, np.ndarray], members), meta["graph"])
+        head = parse_state_meta(meta)
+        try:  # the graph's reader only looks members up by name: any mapping will do
+            graph = graph_from_arrays(cast(dict[str, np.ndarray], members), head.graph)
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
     if graph is not None and len(graph.places) == 0:
         graph = None  # as latest_graph
     part = meta.get("deferred") is not None
-    return MapHead(manifest, graph, config, None if window is None else int(window), accepted, part)
+    return MapHead(manifest, graph, head.config, head.open_window, head.accepted, part)
 
 
 def _check_map_path(path: Path) -> None:

@@ -31,7 +31,7 @@ from aion_cli.engine.state_checks import (
     check_loaded,
     check_member_shapes,
     check_ownership,
-    check_state_version,
+    parse_state_meta,
 )
 from aion_cli.engine.temporal import components as fremen_components
 from aion_cli.engine.temporal import model as temporal_model
@@ -399,17 +399,8 @@ class MapState:
         copying. A state that is not ``writable`` (a query's) keeps its temporal rows as
         stored: no room is reserved for new entries (``EntryStore`` capacity), which would
         copy every accumulator once more."""
-        check_state_version(meta)
-        try:
-            config = ModelConfig.from_stored(meta["config"])  # MapCorruptError if invalid
-            open_window = meta["open_window"]
-            log_time = meta["log_time_ns"]
-            accepted = int(meta["accepted"])
-            dropped = {str(k): int(v) for k, v in meta["dropped"].items()}
-            graph_meta = meta["graph"]
-            pending_day = meta.get("pending_day")
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
+        head = parse_state_meta(meta)
+        config = head.config
         # the components' readers only look members up by name: any mapping will do
         arrays = cast(dict[str, np.ndarray], arrays)
         check_member_shapes(arrays)  # what the components' readers index without checking
@@ -432,7 +423,9 @@ class MapState:
         )
         if writable:
             temporal.resize(entries.capacity)
-        pending = PendingDay.from_arrays(arrays, "pending_", pending_day, params.values, entries.n)
+        pending = PendingDay.from_arrays(
+            arrays, "pending_", head.pending_day, params.values, entries.n
+        )
         deferred = None
         if meta.get("deferred") is not None:
             deferred = DeferredDays.from_arrays(arrays, meta["deferred"], params.values, entries.n)
@@ -445,11 +438,11 @@ class MapState:
                 nodes=NodeTable.from_arrays(arrays),
                 redirects=Redirects.from_arrays(arrays),
                 observation=ObservationSource.from_arrays(arrays),
-                graph=graph_from_arrays(arrays, graph_meta),
-                open_window=None if open_window is None else int(open_window),
-                log_time_ns=None if log_time is None else int(log_time),
-                accepted=accepted,
-                dropped={**dict.fromkeys(DROP_REASONS, 0), **dropped},
+                graph=graph_from_arrays(arrays, head.graph),
+                open_window=head.open_window,
+                log_time_ns=head.log_time_ns,
+                accepted=head.accepted,
+                dropped={**dict.fromkeys(DROP_REASONS, 0), **head.dropped},
                 writable=writable,
                 deferred=deferred,
                 components=components,

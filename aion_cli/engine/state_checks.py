@@ -10,6 +10,7 @@ A map file is untrusted input: :meth:`~aion_cli.engine.state.MapState.from_array
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -20,6 +21,7 @@ from aion_cli.engine.types import GraphSnapshot
 from aion_cli.errors import MapCorruptError, MapFileError
 
 if TYPE_CHECKING:
+    from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
 
 STATE_VERSION = 3
@@ -28,6 +30,41 @@ the pending day's provisional scores (``provisional_*`` members); a version-2 ma
 it was written, its queries choosing families by its closed days alone."""
 OLDEST_READABLE = 2
 """The oldest state this aion reads (1: before flows became rates)."""
+
+
+@dataclass(frozen=True)
+class StateMeta:
+    """The scalar part of a map's state (its manifest's ``state``), parsed and checked."""
+
+    config: ModelConfig
+    open_window: int | None
+    log_time_ns: int | None
+    accepted: int
+    dropped: dict[str, int]
+    graph: Any
+    pending_day: Any
+
+
+def parse_state_meta(meta: Mapping[str, Any]) -> StateMeta:
+    """The state meta of a map this aion can read (:func:`check_state_version` first);
+    :class:`MapCorruptError` when a field is missing or invalid. One parser for every
+    reader (``MapState.from_arrays`` and ``mapquery.load_map_head``)."""
+    from aion_cli.engine.config import ModelConfig
+
+    check_state_version(meta)
+    try:
+        window, log_time = meta["open_window"], meta["log_time_ns"]
+        return StateMeta(
+            config=ModelConfig.from_stored(meta["config"]),  # MapCorruptError if invalid
+            open_window=None if window is None else int(window),
+            log_time_ns=None if log_time is None else int(log_time),
+            accepted=int(meta["accepted"]),
+            dropped={str(k): int(v) for k, v in meta["dropped"].items()},
+            graph=meta["graph"],
+            pending_day=meta.get("pending_day"),
+        )
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise MapCorruptError(f"map state metadata is incomplete or invalid: {exc}") from exc
 
 
 def check_state_version(meta: Mapping[str, Any]) -> None:
