@@ -19,7 +19,7 @@ from aion_cli.mapquery import load_map, load_map_head
 from aion_cli.merging import merge_map_files
 from tests.engine.engine_builders import T0
 from tests.engine.test_state import DAY
-from tests.formats.test_map_lazy import _flip
+from tests.formats.map_damage import flip_member_byte
 from tests.test_merging import _random_log, _run, _save, _span
 
 NODES = np.array([[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]])
@@ -80,7 +80,7 @@ def test_a_damaged_state_member_is_found_when_the_fold_reads_it(tmp_path: Path) 
     """The head does not read the accumulators; the merge still refuses the damaged map
     (when it reads that map's state) and writes nothing."""
     first, second = _maps(tmp_path, 2)
-    bad = _flip(second, "temporal_cnt_profile", tmp_path / "bad.aion")
+    bad = flip_member_byte(second, "temporal_cnt_profile", tmp_path / "bad.aion")
     assert load_map_head(bad).accepted == load_map(second).state.accepted  # head reads fine
     with pytest.raises(MapCorruptError, match="temporal_cnt_profile"):
         merge_map_files([first, bad], tmp_path / "out.aion")

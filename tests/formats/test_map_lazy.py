@@ -18,6 +18,7 @@ from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.errors import MapCorruptError
 from aion_cli.formats.mapfile import open_map, read_map, write_map
 from aion_cli.mapquery import load_map
+from tests.formats.map_damage import flip_member_byte
 
 T0_NS = 1_700_006_400 * 10**9  # the benchmark map's window (2023-11-15 00:00 UTC)
 DAY_NS = 86_400 * 10**9
@@ -34,20 +35,6 @@ def built(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Path]:
     path = tmp_path_factory.mktemp("lazy") / "q.aion"
     write_map(path, arrays, {"state": meta})
     return state, path
-
-
-def _flip(path: Path, member: str, out: Path) -> Path:
-    """A copy of ``path`` with one byte of ``member``'s array data inverted (its zip CRC and
-    sha256 no longer match; the archive is otherwise intact)."""
-    data = bytearray(path.read_bytes())
-    with zipfile.ZipFile(path) as zf:
-        info = zf.getinfo(member + ".npy")
-        header = data[info.header_offset : info.header_offset + 30]
-        start = (info.header_offset + 30 + int.from_bytes(header[26:28], "little")
-                 + int.from_bytes(header[28:30], "little"))
-    data[start + info.file_size - 1] ^= 0xFF  # the last byte: array data, not the header
-    out.write_bytes(bytes(data))
-    return out
 
 
 def test_members_are_read_when_first_accessed_and_equal_numpys_own(built: tuple) -> None:
@@ -70,7 +57,7 @@ def test_members_are_read_when_first_accessed_and_equal_numpys_own(built: tuple)
 
 def test_a_flipped_byte_fails_when_its_member_is_read(built: tuple, tmp_path: Path) -> None:
     _, path = built
-    bad = _flip(path, "temporal_cnt_fourier", tmp_path / "bad.aion")
+    bad = flip_member_byte(path, "temporal_cnt_fourier", tmp_path / "bad.aion")
     with open_map(bad) as members:  # the archive's own checks pass
         members["entry_counts"]
         with pytest.raises(MapCorruptError, match="temporal_cnt_fourier fails its sha256"):
@@ -83,7 +70,7 @@ def test_a_flipped_byte_fails_when_its_member_is_read(built: tuple, tmp_path: Pa
 
 def test_predict_refuses_a_map_with_a_flipped_byte(built: tuple, tmp_path: Path) -> None:
     _, path = built
-    bad = _flip(path, "temporal_cnt_profile", tmp_path / "bad.aion")
+    bad = flip_member_byte(path, "temporal_cnt_profile", tmp_path / "bad.aion")
     proc = subprocess.run(
         [sys.executable, "-m", "aion_cli", "predict", str(bad), "--top", "3", "--time",
          "2023-11-16 12:00", "--format", "csv"],
