@@ -76,9 +76,13 @@ class ProvisionalScores:
         return cls(rows, {name: getattr(scratch, name)[rows] for name in _SCORES})
 
     def add_into(self, state: TemporalState) -> None:
-        """Add the contributions to ``state``'s scores, in place."""
+        """Add the contributions to ``state``'s scores, in place (the same additions as
+        closing the day makes). Rows 0..n−1 (a fixed sensor's day scores every entry) are
+        added as one slice, without gathering and scattering them."""
+        n = self.rows.size
+        every = slice(0, n) if n and int(self.rows[-1]) == n - 1 else self.rows  # increasing
         for name in _SCORES:
-            getattr(state, name)[self.rows] += self.fields[name]
+            getattr(state, name)[every] += self.fields[name]
         state.touch()
 
     def applied_to(self, state: TemporalState) -> TemporalState:
