@@ -58,9 +58,7 @@ def close_day(
     """Score the day's windows (see the module docstring), then absorb them into ``state``."""
     if day.windows.size == 0:
         return
-    centres = window_centre_ns(day.windows, window_ns)
-    t_s = to_model_seconds(centres)
-    h = params.calendar.profile_bin(centres)
+    t_s, h = _slot_times(params, day, window_ns)
     _score(params, state, day, live_rows, groups, n_groups, t_s, h)
     absorb_day(params, state, day, t_s, h)
 
@@ -78,10 +76,14 @@ def score_day(
     score arrays, its accumulators are left as they are. Returns the rows scored."""
     if day.windows.size == 0:
         return np.zeros(0, np.int64)
-    centres = window_centre_ns(day.windows, window_ns)
-    t_s = to_model_seconds(centres)
-    h = params.calendar.profile_bin(centres)
+    t_s, h = _slot_times(params, day, window_ns)
     return _score(params, state, day, live_rows, groups, n_groups, t_s, h)
+
+
+def _slot_times(params: TemporalParams, day: DayWindows, window_ns: int) -> tuple[F64, I64]:
+    """Each window slot's model time (its centre) and profile bin."""
+    centres = window_centre_ns(day.windows, window_ns)
+    return to_model_seconds(centres), params.calendar.profile_bin(centres)
 
 
 # -- scoring ------------------------------------------------------------------------------------
