@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from aion_cli.engine.temporal.forecast import Forecaster, _running_sum
+from aion_cli.engine.temporal.forecast import Forecaster
+from aion_cli.engine.temporal.fremen_parts import _running_sum
 from aion_cli.engine.temporal.pooling import PoolStats
 from aion_cli.engine.temporal.scoring import _DetectionBins
 from aion_cli.engine.windows import to_model_seconds

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.grouping import unique_inverse
-from aion_cli.engine.temporal import absorption, forecast, scoring
+from aion_cli.engine.temporal import absorption, forecast, fremen_parts, scoring
 from aion_cli.engine.temporal import model as temporal
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
@@ -69,7 +69,8 @@ def test_block_sizes_do_not_change_the_learnt_state(
     monkeypatch.setattr(scoring, "_ENTRIES", entries)
     monkeypatch.setattr(absorption, "_ROWS", entries)
     monkeypatch.setattr(scoring, "_DIRECTION_PAIRS", pairs)
-    monkeypatch.setattr(forecast, "_BLOCK", rows)
+    monkeypatch.setattr(forecast, "BLOCK", rows)
+    monkeypatch.setattr(fremen_parts, "BLOCK", rows)
     blocked = _learnt(params, 40, days)
     for name in ARRAYS:
         np.testing.assert_allclose(
