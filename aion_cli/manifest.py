@@ -118,6 +118,14 @@ class Manifest:
         out = {k: v for k, v in self.to_dict().items() if k != "state"}
         return self.container | out
 
+    def joined_span(self, start: int | None, end: int | None) -> tuple[int | None, int | None]:
+        """``start``..``end`` widened to this map's time span (a continued build's)."""
+        if self.start_ns is not None:
+            start = self.start_ns if start is None else min(start, self.start_ns)
+        if self.end_ns is not None:
+            end = self.end_ns if end is None else max(end, self.end_ns)
+        return start, end
+
     @property
     def input_hashes(self) -> set[str]:
         """The sha256 of every log already in the map (a log is added at most once)."""

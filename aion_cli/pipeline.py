@@ -479,12 +479,8 @@ class _Build:
 
     def join_span(self, start: int | None, end: int | None) -> None:
         """The report's span: ``start``..``end`` joined with the continued map's."""
-        old = self.previous_manifest
-        if old is not None:
-            if old.start_ns is not None:
-                start = old.start_ns if start is None else min(start, old.start_ns)
-            if old.end_ns is not None:
-                end = old.end_ns if end is None else max(end, old.end_ns)
+        if self.previous_manifest is not None:
+            start, end = self.previous_manifest.joined_span(start, end)
         self.report.start_ns, self.report.end_ns = start, end
 
     def _write(self, state: MapState, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:

@@ -145,3 +145,12 @@ def test_a_log_the_continued_map_holds_is_refused_by_its_typed_inputs(
                 continue_from=maps["second"].output,
             )
         )
+
+
+def test_a_continued_builds_span_is_widened_to_the_maps() -> None:
+    old = Manifest.from_dict({"state": {}, "time_span": {"start_ns": 100, "end_ns": 200}})
+    assert old.joined_span(150, 300) == (100, 300)
+    assert old.joined_span(50, 120) == (50, 200)
+    assert old.joined_span(None, None) == (100, 200)  # no message used: the map's own span
+    empty = Manifest.from_dict({"state": {}, "time_span": {}})
+    assert empty.joined_span(None, 7) == (None, 7)
