@@ -1,4 +1,5 @@
-"""MapState persistence: round trip, continuing a build, merging maps of disjoint time."""
+"""MapState persistence: round trip, continuing a build, loading, the query view (merges:
+``test_state_merge``)."""
 
 from __future__ import annotations
 
@@ -13,9 +14,8 @@ import pytest
 from aion_cli.engine.compare import differences, pending_sorted, plain
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
-from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.query import historical_table, predict_table
-from aion_cli.engine.state import MapState, merge_states
+from aion_cli.engine.state import MapState
 from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.types import Mesh, Trajectory
 from aion_cli.errors import MapCorruptError, MapFileError
@@ -24,11 +24,9 @@ from tests.engine.engine_builders import (
     T0_DAY_END,
     S,
     check_invariants,
-    closed_counts,
     detections,
     graph,
     pending_counts,
-    pid,
 )
 
 CFG = ModelConfig(window_s=600.0, stability_s=30.0)
@@ -176,87 +174,6 @@ def test_a_map_saved_mid_day_and_continued_closes_the_day_exactly_as_a_single_pa
     check_invariants(continued.state)
 
 
-def test_merging_disjoint_maps_equals_building_from_both() -> None:
-    # Exact when both logs touch the same places from their first window on: a map built from
-    # one log alone cannot know the observed-empty windows of entries only the other log made.
-    spots = np.c_[np.random.default_rng(9).uniform(-1, 8, (40, 2)), np.zeros(40)]
-    a_steps = _log(T0, seed=4, spots=spots)
-    b_steps = _log(T0 + 2 * DAY, seed=5, spots=spots)
-    both = _run(a_steps + b_steps).state
-    merged = merge_states(_run(b_steps).state, _run(a_steps).state)  # order does not matter
-    check_invariants(merged)
-    xa, ma = both.to_arrays()
-    xm, mm = merged.to_arrays()
-    pa, pm = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xm))
-    assert ma["accepted"] == mm["accepted"]
-    assert ma["open_window"] == mm["open_window"]
-    assert ma["pending_day"] == mm["pending_day"] == (T0 + 2 * DAY) // DAY
-    exact = ["entry_key", "entry_node_id", "entry_kind", "entry_counts", "entry_nodir",
-             "entry_window_counts", "entry_speed_n", "redirect_keys", "redirect_nodes",
-             "temporal_glob_n", "temporal_glob_profile", "temporal_obs_n",
-             "temporal_obs_profile", "temporal_cnt_profile", "pending_windows",
-             "pending_fixed", "pending_obs_entry", "pending_cnt_entry", "pending_cnt_slot",
-             "pending_cnt_values"]
-    for name in exact:
-        np.testing.assert_array_equal(pm[name], pa[name], err_msg=name)
-    for name in ["entry_speed_sum", "temporal_glob_fourier", "temporal_glob_first",
-                 "temporal_glob_last", "temporal_obs_fourier", "temporal_cnt_fourier"]:
-        np.testing.assert_allclose(pm[name], pa[name], rtol=1e-12, atol=0, err_msg=name)
-    assert pa["temporal_glob_n"][0] == 6  # the first log's windows; the second's are pending
-    assert pa["temporal_cnt_profile"].sum() > 0
-    assert len(pa["redirect_keys"]) > 0  # ownership transfer happened in both builds
-    assert np.any(pa["entry_kind"] == 0)  # and some cells stayed unbound
-
-
-def test_a_consuming_merge_equals_the_copying_one_which_leaves_its_inputs_alone() -> None:
-    """``merge_maps(..., consume=True)`` (``aion merge``: no copies of the loaded maps) builds
-    the same map as the default merge, which must not change either input."""
-    spots = np.c_[np.random.default_rng(3).uniform(-1, 8, (40, 2)), np.zeros(40)]
-    early_steps = _log(T0, seed=7, spots=spots)
-    late_steps = _log(T0 + 3 * DAY, seed=8, spots=spots)
-    early, late = _run(early_steps).state, _run(late_steps).state
-    before = (early.to_arrays(), late.to_arrays())
-    copied = merge_maps(late, early)
-    for state, (arrays, meta) in zip((early, late), before, strict=True):
-        again, again_meta = state.to_arrays()
-        assert again_meta == meta
-        assert arrays.keys() == again.keys()
-        for name in arrays:
-            np.testing.assert_array_equal(np.asarray(again[name]), np.asarray(arrays[name]))
-    consumed = merge_maps(late, early, consume=True)
-    assert consumed is late  # built in the later map
-    assert differences(copied, consumed) == []
-    check_invariants(consumed)
-
-
-def test_merge_adds_the_fixed_sensor_windows_of_both_maps_for_every_entry() -> None:
-    """An entry only the later map has still counts as observed-empty over the earlier map's
-    fixed-sensor windows, as a single pass would."""
-    early = Mapper(CFG)
-    early.set_fixed_sensor(T0, T0 + 3 * W)
-    early.add_detections(detections(T0 + S, [[0.1, 0.1, 0]] * 2))
-    early.advance(T0 + 3 * W)
-    late = Mapper(CFG)
-    late.set_fixed_sensor(T0 + 2 * DAY, T0 + 2 * DAY + 2 * W)
-    late.add_detections(detections(T0 + 2 * DAY + S, [[5.1, 5.1, 0]] * 4))
-    late.advance(T0 + 2 * DAY + 2 * W)
-    merged = merge_states(early.state, late.state)
-    assert merged.temporal.glob.n[0] == 3  # the earlier map's day, scored and absorbed
-    rows = merged.entries.live_rows()
-    np.testing.assert_array_equal(merged.windows_observed(rows), [5, 5])  # 3 + 2 pending
-    table = historical_table(merged)
-    flows = dict(zip(table.ids.tolist(), table.flow.tolist(), strict=True))
-    assert sorted(flows.values()) == pytest.approx([2 / 5, 4 / 5])
-    check_invariants(merged)
-
-
-def test_merge_rejects_different_configs() -> None:
-    a = MapState.empty(CFG)
-    b = MapState.empty(CFG.replace(cell_size=0.3))
-    with pytest.raises(Exception, match="different model parameters"):
-        merge_states(a, b)
-
-
 def test_from_arrays_rejects_corrupt_input() -> None:
     closed = _run(_log(T0, seed=6, windows=2)).state
     closed.close_day()  # the counts move from the pending day into the (sparse) accumulators
@@ -368,36 +285,6 @@ def test_advancing_to_the_end_of_a_then_continuing_equals_one_pass() -> None:
     continued = _run(b_steps, _reload(first))
     _assert_same(whole.state, continued.state)
     assert len(whole.state.redirects) > 0
-
-
-def test_merge_releases_nodes_the_later_graph_no_longer_has() -> None:
-    cfg = CFG.replace(stability_s=0.0)
-
-    def build(start: int, nodes: list[int]) -> MapState:
-        m = Mapper(cfg)
-        m.set_fixed_sensor(start, start + 2 * W)
-        m.add_graph(graph(start, nodes, np.array(NODES)[nodes]))
-        m.add_detections(detections(start + S, [[0.2, 0.2, 0], [3.2, 0.2, 0], [3.3, 0.1, 0]]))
-        m.advance(start + W)
-        return m.state
-
-    early, late = build(T0, [0, 1]), build(T0 + DAY, [0])
-    assert len(early.entries.node_rows()) == 2
-    merged = merge_states(early, late)
-    check_invariants(merged)
-    assert merged.accepted == 6
-    np.testing.assert_array_equal(merged.entries.node_id[merged.entries.node_rows()], pid([0]))
-    p0 = merged.node_entry_rows(pid([0]))[0]
-    assert merged.entries.counts[p0].sum() == 2
-    cells = merged.entries.cell_rows()
-    assert merged.entries.counts[cells].sum() == 4  # p1's 2 released + the later map's 2 there
-    assert closed_counts(merged, cells).sum() == 2  # the earlier day's, absorbed
-    assert pending_counts(merged)[cells].sum() == 2  # the later map's day, still pending
-    np.testing.assert_array_equal(np.unique(merged.entries.key[cells]).size, cells.size)
-    arrays, meta = merged.to_arrays()
-    other = {**meta, "config": cfg.replace(periods=[3600.0]).to_dict()}
-    with pytest.raises(MapCorruptError, match="temporal member"):
-        MapState.from_arrays(arrays, other)
 
 
 def test_queries_do_not_change_what_a_build_learns() -> None:
