@@ -68,23 +68,23 @@ def rows_from_table(table: Any, index: Any = None) -> list[dict[str, Any]]:
 
     from aion_cli.engine.temporal.quantiles import count_quantiles
 
-    d = table.descriptors
     picked = np.arange(len(table.xyz)) if index is None else np.asarray(index, dtype=np.int64)
+    d = table.descriptors_of(picked)  # of the rows returned only
     flow, var = np.asarray(table.flow)[picked], np.asarray(table.flow_var)[picked]
     p10, p90 = count_quantiles(flow, var, 0.1), count_quantiles(flow, var, 0.9)
     labels = entry_ids(table, picked)
     rows = []
     for i, e in enumerate(picked.tolist()):
         kind = _kind(table, e)
-        probabilities = d.probabilities[e]
-        speeds = d.mean_speed[e]
+        probabilities = d.probabilities[i]
+        speeds = d.mean_speed[i]
         known = np.isfinite(speeds) & (probabilities > 0)
         mean_speed = (
             float((speeds[known] * probabilities[known]).sum() / probabilities[known].sum())
             if known.any()
             else None
         )
-        angle = _finite(float(d.dominant_angle[e]))
+        angle = _finite(float(d.dominant_angle[i]))
         rows.append(
             {
                 "id": str(labels[i]),
@@ -93,14 +93,14 @@ def rows_from_table(table: Any, index: Any = None) -> list[dict[str, Any]]:
                 "x": float(table.xyz[e, 0]),
                 "y": float(table.xyz[e, 1]),
                 "z": float(table.xyz[e, 2]),
-                "flow": _finite(float(d.flow_per_window[e])),
-                "flow_per_hour": _finite(float(d.flow_per_hour[e])),
+                "flow": _finite(float(d.flow_per_window[i])),
+                "flow_per_hour": _finite(float(d.flow_per_hour[i])),
                 "flow_p10": _finite(float(p10[i])),
                 "flow_p90": _finite(float(p90[i])),
                 "direction_deg": None if angle is None else math.degrees(angle),
-                "direction_bin": int(d.dominant_bin[e]),
-                "concentration": _finite(float(d.concentration[e])),
-                "entropy": _finite(float(d.entropy[e])),
+                "direction_bin": int(d.dominant_bin[i]),
+                "concentration": _finite(float(d.concentration[i])),
+                "entropy": _finite(float(d.entropy[i])),
                 "mean_speed": mean_speed,
                 "histogram": [float(p) for p in probabilities],
                 "speed_per_bin": [_finite(float(s)) for s in speeds],
@@ -141,7 +141,7 @@ def ordered_rows(table: Any, index: Any, top: int | None) -> Any:
 
 
     picked = np.asarray(index, dtype=np.int64)
-    flow = np.asarray(table.descriptors.flow_per_window, dtype=np.float64)[picked]
+    flow = np.asarray(table.flow, dtype=np.float64)[picked]  # the descriptors' flow
     key = np.where(np.isfinite(flow), -flow, np.inf)  # unknown flows last, then by id
     if top is not None and top < picked.size:
         threshold = np.partition(key, top - 1)[top - 1]

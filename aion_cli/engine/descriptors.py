@@ -74,6 +74,17 @@ def _argmax_columns(x: F64) -> npt.NDArray[np.int64]:
     return arg
 
 
+def _dot_columns(x: F64, v: F64) -> F64:
+    """``x @ v`` for a few columns, summed column by column in order: every row's value is
+    the same whichever rows are computed together (a BLAS product may sum a row in another
+    order, by the last bit, when the matrix has another number of rows), so describing ten
+    rows of a table equals describing all of it."""
+    out: F64 = x[:, 0] * v[0]
+    for b in range(1, x.shape[1]):
+        out += x[:, b] * v[b]
+    return out
+
+
 def _from_distribution(
     flow_per_window: F64, weights: F64, window_s: float, mean_speed: F64
 ) -> Descriptors:
@@ -84,8 +95,8 @@ def _from_distribution(
     probs = np.zeros((e, b))
     np.divide(weights, total[:, None], out=probs, where=flowing[:, None])
     centres = bin_centres(b)
-    c = probs @ np.cos(centres)
-    s = probs @ np.sin(centres)
+    c = _dot_columns(probs, np.cos(centres))
+    s = _dot_columns(probs, np.sin(centres))
     concentration = np.where(flowing, np.hypot(c, s), 0.0)
     angle = np.where(flowing, np.arctan2(s, c), np.nan)
     h = _entropy_nats(probs)

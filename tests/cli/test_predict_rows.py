@@ -47,7 +47,6 @@ def test_array_order_is_the_dict_order_with_ties_and_unknown_flows(office: Offic
         # ties: every flow equal, then every flow unknown: the order is by id alone
         for value in (0.0, np.nan):
             flat = np.full(len(table), value)
-            desc = dataclasses.replace(table.descriptors, flow_per_window=flat)
-            tied = dataclasses.replace(table, flow=flat, descriptors=desc)
+            tied = dataclasses.replace(table, flow=flat)  # its descriptors follow the flow
             want = sorted(range(len(table)), key=lambda e: str(table.ids[e]))
             assert ordered_rows(tied, every, 4).tolist() == want[:4]

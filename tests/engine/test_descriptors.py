@@ -122,3 +122,23 @@ def test_argmax_columns_equals_numpy_argmax_with_ties(rows: int, cols: int, seed
     rng = np.random.default_rng(seed)
     x = rng.integers(0, 3, (rows, cols)).astype(np.float64)  # many ties: the first one wins
     np.testing.assert_array_equal(descriptors._argmax_columns(x), np.argmax(x, axis=1))
+
+
+def test_describing_some_rows_equals_describing_them_among_all() -> None:
+    """``predict --top N`` describes only the rows it prints: every descriptor of a row must
+    be the same to the bit whichever rows are computed with it (a matrix product of another
+    shape may sum a row in another order)."""
+    from aion_cli.engine.descriptors import historical
+
+    rng = np.random.default_rng(3)
+    for n in (12, 50, 1000, 20_000):  # BLAS took another order on some of these (1-4 rows)
+        counts = rng.gamma(0.5, 3.0, size=(n, 8)) * (rng.random((n, 8)) < 0.6)
+        speed_sum, speed_n = counts * 1.3, counts
+        windows = rng.integers(0, 40, n).astype(float)
+        whole = historical(counts, speed_sum, speed_n, windows, 600.0)
+        for k in (1, 2, 3, 5, 10):
+            rows = rng.choice(n, k, replace=False)
+            part = historical(counts[rows], speed_sum[rows], speed_n[rows], windows[rows], 600.0)
+            for name in ("flow_per_window", "probabilities", "dominant_bin", "dominant_angle",
+                         "concentration", "entropy", "mean_speed"):
+                np.testing.assert_array_equal(getattr(part, name), getattr(whole, name)[rows])
