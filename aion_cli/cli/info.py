@@ -297,6 +297,11 @@ def _print_map(report: dict[str, Any]) -> None:
         if tally:
             text = ", ".join(f"{name} {count:,}" for name, count in sorted(tally.items()))
             table.add_row(f"{kind} models", safe(text))
+    if "scored_days" in families:
+        days = int(families["scored_days"])
+        last = " (the last, still open to more logs, provisionally)" if families.get(
+            "last_day_provisional") else ""
+        table.add_row("days scored", f"{days:,}{last}")
     if families:
         table.add_row(
             "reconciled", "yes: totals follow the map's own forecast" if families.get("reconciled")

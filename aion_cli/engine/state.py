@@ -316,6 +316,8 @@ class MapState:
             "direction": _tally(np.asarray(self.params.direction)[direction]),
             "reconciled": bool(reconciled),
             "scored_windows": float(t.flow_scored[rows].sum()),
+            "scored_days": int(t.flow_days[rows].max(initial=0.0)),
+            "last_day_provisional": self.provisional_scores() is not None,
         }
 
     def _view_key(self) -> tuple[int, int, int | None, int]:

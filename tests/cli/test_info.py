@@ -99,14 +99,16 @@ def test_info_on_a_map(office: Office) -> None:
 
 def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> None:
     """The manifest tallies the entries forecast by each family. One day: nothing is scored
-    yet (the last day of a build stays pending), so the three entries with data (p1, p3, p4)
-    are all ``static``; the table shows the same."""
+    (the day is pending, and has no earlier day to be scored against even provisionally), so
+    the three entries with data (p1, p3, p4) are all ``static``; the table shows the same."""
     doc = run_json("info", office.map, "--format", "json")
     assert doc["families"] == {
         "flow": {"static": 3},
         "direction": {"static": 3},
         "reconciled": False,
         "scored_windows": 0.0,
+        "scored_days": 0,
+        "last_day_provisional": False,
     }
     assert doc["timezone"] == "UTC"
     table = run("info", office.map)
@@ -114,6 +116,7 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
     lines = table.stdout.splitlines()
     assert any("flow models" in line and "static 3" in line for line in lines)
     assert any("direction models" in line and "static 3" in line for line in lines)
+    assert any("days scored" in line and line.split("│")[2].strip() == "0" for line in lines)
 
 
 def test_families_after_a_scored_day(tmp_path: Path) -> None:
@@ -131,6 +134,10 @@ def test_families_after_a_scored_day(tmp_path: Path) -> None:
     run_json("build", *logs, "-o", out, "--format", "json")
     families = run_json("info", out, "--format", "json")["families"]
     assert families["scored_windows"] == 6.0 + 3.0
+    assert families["scored_days"] == 2  # the middle day, and the last provisionally
+    assert families["last_day_provisional"] is True
+    shown = run("info", out).stdout
+    assert any("days scored" in line and "provisionally" in line for line in shown.splitlines())
     assert sum(families["flow"].values()) == 3
     assert sum(families["direction"].values()) == 3
     assert set(families["flow"]) <= {"static", "shape", "profile", "fremen1", "fremen2"} | {
