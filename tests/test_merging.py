@@ -162,7 +162,9 @@ def test_the_output_manifest_accounts_for_every_log_and_map(tmp_path: Path) -> N
     assert manifest.counts["dropped"] == {"nan": 0}
     assert manifest.counts["nodes"] == 5
     assert manifest.timezone == "UTC"
-    assert set(manifest.families) == {"flow", "direction", "reconciled", "scored_windows"}
+    assert set(manifest.families) == {
+        "flow", "direction", "reconciled", "scored_windows", "scored_days", "last_day_provisional"
+    }
     files = {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in (a, b)}
     assert [(m["name"], m["sha256"]) for m in doc["merged_from"]] == list(files.items())
     assert doc["lineage"] == "same"
