@@ -28,14 +28,18 @@ _ROWS = 1 << 12
 """Consecutive rows absorbed together."""
 
 
+def slot_times(params: TemporalParams, day: DayWindows, window_ns: int) -> tuple[F64, I64]:
+    """Each window slot's model time (the window's centre, model seconds) and profile bin:
+    what absorbing and scoring a day index its slots by."""
+    centres = window_centre_ns(day.windows, window_ns)
+    return to_model_seconds(centres), params.calendar.profile_bin(centres)
+
+
 def absorb(params: TemporalParams, state: TemporalState, day: DayWindows, window_ns: int) -> None:
     """Absorb the day's windows without scoring them (a query's view of the state)."""
     if day.windows.size == 0:
         return
-    centres = window_centre_ns(day.windows, window_ns)
-    absorb_day(
-        params, state, day, to_model_seconds(centres), params.calendar.profile_bin(centres)
-    )
+    absorb_day(params, state, day, *slot_times(params, day, window_ns))
 
 
 def drop_fixed(obs_e: I64, obs_s: I64, fixed: npt.NDArray[np.bool_]) -> tuple[I64, I64]:

@@ -25,14 +25,13 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.grouping import cut_by_key
-from aion_cli.engine.temporal.absorption import absorb_day, drop_fixed
+from aion_cli.engine.temporal.absorption import absorb_day, drop_fixed, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.pooling import PoolStats
 from aion_cli.engine.types import F64, I64
-from aion_cli.engine.windows import to_model_seconds, window_centre_ns
 
 C128 = npt.NDArray[np.complex128]
 _PAIRS = 1 << 15
@@ -58,7 +57,7 @@ def close_day(
     """Score the day's windows (see the module docstring), then absorb them into ``state``."""
     if day.windows.size == 0:
         return
-    t_s, h = _slot_times(params, day, window_ns)
+    t_s, h = slot_times(params, day, window_ns)
     _score(params, state, day, live_rows, groups, n_groups, t_s, h)
     absorb_day(params, state, day, t_s, h)
 
@@ -76,14 +75,8 @@ def score_day(
     score arrays, its accumulators are left as they are. Returns the rows scored."""
     if day.windows.size == 0:
         return np.zeros(0, np.int64)
-    t_s, h = _slot_times(params, day, window_ns)
+    t_s, h = slot_times(params, day, window_ns)
     return _score(params, state, day, live_rows, groups, n_groups, t_s, h)
-
-
-def _slot_times(params: TemporalParams, day: DayWindows, window_ns: int) -> tuple[F64, I64]:
-    """Each window slot's model time (its centre) and profile bin."""
-    centres = window_centre_ns(day.windows, window_ns)
-    return to_model_seconds(centres), params.calendar.profile_bin(centres)
 
 
 # -- scoring ------------------------------------------------------------------------------------
