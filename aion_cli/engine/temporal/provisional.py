@@ -32,7 +32,7 @@ import numpy as np
 from aion_cli.engine.temporal.accumulators import _SCORES, _TALLIES, TemporalState
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import PendingDay
-from aion_cli.engine.temporal.scoring import score_day
+from aion_cli.engine.temporal.scoring import score_day, squared_gains
 from aion_cli.engine.temporal.stored_layout import narrowed, stored_positions
 from aion_cli.engine.types import I64
 from aion_cli.errors import MapCorruptError
@@ -150,7 +150,5 @@ def _one_day(fields: dict[str, np.ndarray], kind: str, static: int) -> dict[str,
     """One day's ``{kind}_gain_sq`` and ``{kind}_days`` from its scores and tally, as
     scoring adds them (``scoring._add_day``: the squared gain over ``static``, and a day for
     every row that had something scored), so the stored contributions need not hold them."""
-    score = fields[f"{kind}_score"]
-    gain = score - score[:, static : static + 1]
     days = (fields[f"{kind}_scored"] > 0).astype(np.float64)
-    return {f"{kind}_gain_sq": gain**2, f"{kind}_days": days}
+    return {f"{kind}_gain_sq": squared_gains(fields[f"{kind}_score"], static), f"{kind}_days": days}

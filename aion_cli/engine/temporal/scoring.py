@@ -451,7 +451,14 @@ def _add_day(
     days: F64,
 ) -> None:
     """Add one day's scores, the squares of the day's gains over ``static`` and the day."""
-    gain = day_score - day_score[:, static : static + 1]
     score[candidates] += day_score
-    gain_sq[candidates] += gain**2
+    gain_sq[candidates] += squared_gains(day_score, static)
     days[candidates] += scored
+
+
+def squared_gains(day_score: F64, static: int) -> F64:
+    """One day's squared gain of every family over ``static``, per row: what ``*_gain_sq``
+    adds for the day (and what a map's stored provisional scores derive it from)."""
+    gain = day_score - day_score[:, static : static + 1]
+    out: F64 = gain**2
+    return out
