@@ -46,6 +46,7 @@ from aion_cli.engine.windows import window_ns
 from aion_cli.errors import MapCorruptError, PartMapError
 
 DROP_REASONS = ("nan", "out_of_range", "before_window")
+_StateKey = tuple[int, int, int | None, int, int]
 
 
 @dataclass
@@ -77,13 +78,13 @@ class MapState:
     #: Fourier sums (``TemporalState.fourier_loaded`` false; ``engine.temporal.components``)
     components: FremenComponents | None = field(default=None, repr=False, compare=False)
     params: TemporalParams = field(init=False, repr=False, compare=False)
-    _view: tuple[tuple[int, int, int | None, int], TemporalState] | None = field(
+    _view: tuple[_StateKey, TemporalState] | None = field(
         default=None, init=False, repr=False, compare=False
     )
-    _predictor: tuple[tuple[int, int, int | None, int], temporal_model.Predictor] | None = field(
+    _predictor: tuple[_StateKey, temporal_model.Predictor] | None = field(
         default=None, init=False, repr=False, compare=False
     )
-    _provisional: tuple[tuple[int, ...], ProvisionalScores | None] | None = field(
+    _provisional: tuple[_StateKey, ProvisionalScores | None] | None = field(
         default=None, init=False, repr=False, compare=False
     )
     _days: dict[int, int] = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -247,7 +248,7 @@ class MapState:
         from a map that stores none (an older map: it chooses as it was written)."""
         if self.deferred is not None or not self.pending:
             return None
-        key = self._provisional_key()
+        key = self._view_key()
         if self._provisional is not None and self._provisional[0] == key:
             return self._provisional[1]
         if not self.temporal.fourier_loaded:
@@ -259,9 +260,6 @@ class MapState:
         )
         self._provisional = (key, scores)
         return scores
-
-    def _provisional_key(self) -> tuple[int, ...]:
-        return (self.temporal.generation, len(self.pending.windows), self.accepted, id(self.graph))
 
     def scored_temporal(self) -> TemporalState:
         """The accumulators with the pending day's provisional scores added to copies of
@@ -317,15 +315,19 @@ class MapState:
             "reconciled": bool(reconciled),
             "scored_windows": float(t.flow_scored[rows].sum()),
             "scored_days": int(t.flow_days[rows].max(initial=0.0)),
-            "last_day_provisional": self.provisional_scores() is not None,
+            "last_day_provisional": self.provisional_scores() is not None,  # cached
         }
 
-    def _view_key(self) -> tuple[int, int, int | None, int]:
+    def _view_key(self) -> _StateKey:
+        """What the cached query view, forecasts and provisional scores depend on: the
+        accumulators, the pending day, the open window, the detections taken, and the graph
+        (its rooms pool the forecasts)."""
         return (
             self.temporal.generation,
             len(self.pending.windows),
             self.open_window,
             self.accepted,
+            id(self.graph),
         )
 
     def windows_observed(self, rows: I64) -> F64:
@@ -453,7 +455,7 @@ class MapState:
             raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
         provisional = ProvisionalScores.from_arrays(arrays, entries.n, params)
         if provisional is not None and state.pending and deferred is None:
-            state._provisional = (state._provisional_key(), provisional)
+            state._provisional = (state._view_key(), provisional)
         check_ownership(state)
         check_loaded(state, arrays)
         state.rebuild_routes()

@@ -392,3 +392,26 @@ def test_a_query_sees_the_open_window_as_closing_it_would_record_it(source: str)
     np.testing.assert_allclose(table.flow, view.flow, rtol=1e-12, atol=0)
     np.testing.assert_allclose(table.rate, view.rate, rtol=1e-12, atol=0)
     assert state.open_window == T0 // W + 5  # the built map is unchanged
+
+
+def test_a_new_graph_is_seen_by_the_next_query_though_nothing_else_changed() -> None:
+    """The rooms pool the forecasts: a scene graph that only regroups the places into rooms
+    must reach the next query, not a forecast cached for the previous graph."""
+    import dataclasses
+
+    from aion_cli.engine.types import Layer
+    from tests.engine.engine_builders import pid
+
+    state = _run(_three_days()).state
+    assert state.graph is not None
+    t = T0_DAY_END + DAY + 12 * HOUR
+    before = predict_table(state, t)
+    places = state.graph.places
+    rooms = np.where(places.xyz[:, 0] < 2.0, 1, 2).tolist()  # two rooms, split by x
+    regrouped = Layer(places.ids, places.xyz, pid(rooms, "R"))
+    state.graph = dataclasses.replace(state.graph, places=regrouped)
+    after = predict_table(state, t)
+    arrays, meta = state.to_arrays()
+    fresh = predict_table(MapState.from_arrays(arrays, json.loads(json.dumps(meta))), t)
+    assert not np.array_equal(after.rate, before.rate)  # the rooms changed the forecast
+    np.testing.assert_allclose(after.rate, fresh.rate, rtol=1e-12, atol=0)
