@@ -78,10 +78,9 @@ class EntryTable:
         """The descriptors of rows ``rows`` only (None: every row), row by row as
         :attr:`descriptors` computes them: ``predict --top 10`` of a map of 10^5 entries
         describes ten."""
-        if rows is None:
-            return _descriptors(self.rate, self.flow, self.speed_sum, self.speed_n, self.window_s)
+        pick: slice | npt.NDArray[np.int64] = slice(None) if rows is None else rows  # views
         return _descriptors(
-            self.rate[rows], self.flow[rows], self.speed_sum[rows], self.speed_n[rows],
+            self.rate[pick], self.flow[pick], self.speed_sum[pick], self.speed_n[pick],
             self.window_s,
         )
 

@@ -311,8 +311,6 @@ def _meta_problems(state: MapState) -> list[str]:
     return out
 
 
-
-
 def check_ownership(state: MapState) -> None:
     """:class:`MapCorruptError` unless every key and node has exactly one owner."""
     ent = state.entries
