@@ -40,9 +40,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.temporal.observation_block import _OBS_FIELDS, C128, ObsBlock
-from aion_cli.engine.temporal.stored_layout import (
-    ROW_BLOCK,
-)
+from aion_cli.engine.temporal.stored_layout import ROW_BLOCK
 from aion_cli.engine.types import F64, I64
 
 __all__ = ["C128", "ObsBlock", "TemporalState"]
