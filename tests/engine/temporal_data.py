@@ -17,6 +17,11 @@ DAY = 24 * HOUR
 MONDAY = int(datetime(2026, 11, 2, tzinfo=UTC).timestamp()) * S  # a Monday, 00:00 UTC
 
 
+def rush(d: int, h: int) -> float:
+    """People only 08-10 h and 17-19 h, 300 an hour."""
+    return 300.0 if h in (8, 9, 17, 18) else 0.0
+
+
 def corridor(
     days: int,
     rate_per_hour: Callable[[int, int], float],

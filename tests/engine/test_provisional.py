@@ -17,12 +17,7 @@ from aion_cli.engine.temporal.provisional import PREFIX, ROWS, STORED, Provision
 from aion_cli.errors import MapCorruptError
 from aion_cli.formats.mapfile import open_map, write_map
 from aion_cli.mapquery import load_map
-from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor, total_flow
-
-
-def rush(d: int, h: int) -> float:
-    """People only 08-10 h and 17-19 h, 300 an hour."""
-    return 300.0 if h in (8, 9, 17, 18) else 0.0
+from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor, rush, total_flow
 
 
 def _two_days() -> Mapper:

@@ -10,12 +10,7 @@ from scipy import stats
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.temporal.choice import count_quantiles
-from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor, total_flow
-
-
-def rush(d: int, h: int) -> float:
-    """People only 08-10 h and 17-19 h, 300 an hour."""
-    return 300.0 if h in (8, 9, 17, 18) else 0.0
+from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor, rush, total_flow
 
 
 def test_night_flow_is_at_most_5_percent_of_the_rush() -> None:
