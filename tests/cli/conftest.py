@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from click.testing import CliRunner, Result
 
@@ -57,6 +58,15 @@ def run_process(*args: str | Path, cwd: Path | None = None) -> subprocess.Comple
         timeout=120,
         check=False,
     )
+
+
+def map_cells(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cell centres (x, y), detections per direction bin, undirected detections of a map."""
+    from aion_cli.mapquery import load_map
+
+    entries = load_map(path).state.entries
+    rows = entries.cell_rows()
+    return entries.xyz[rows, :2], entries.counts[rows], entries.nodir[rows]
 
 
 def assert_one_line_error(stderr: str, *fragments: str) -> None:

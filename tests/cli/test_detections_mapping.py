@@ -1,0 +1,195 @@
+"""TOML mappings of custom people messages from the command line (``--detections-mapping``,
+``--suggest-mapping``, the README's examples), on logs with known contents: a
+``leg_tracker/msg/Person`` bag whose walkers are counted back, bad mappings as one-line
+errors, and an agent array whose suggested mapping builds."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.cli.conftest import assert_one_line_error, map_cells, run, run_json
+from tests.cli.own_definitions import Message, OwnTypes, write_mcap
+
+S = 1_000_000_000
+T0 = 1_700_000_400 * S  # aligned to 600-s windows
+README = Path(__file__).resolve().parents[2] / "README.md"
+
+PERSON = "leg_tracker/msg/Person"
+
+
+def person_bag(path: Path) -> Path:
+    """``leg_tracker/msg/Person`` messages (a Pose and a uint32 id, no header) on /people in
+    a ROS 1 bag: person 4 walks +x from (0, 0), person 9 walks -x from (10, 5), 0.5 m per
+    second, one message per person per second."""
+    from aion_cli.formats.writers import LogWriter
+
+    with LogWriter(path, "bag") as w:
+        for k in range(20):
+            t = T0 + k * S
+            for pid, x, y in ((4, 0.5 * k, 0.0), (9, 10.0 - 0.5 * k, 5.0)):
+                pose = {"position": {"x": x, "y": y}}
+                w.write("/people", PERSON, {"pose": pose, "id": pid}, t + pid)
+    return path
+
+
+def test_person_messages_need_a_mapping_and_suggest_mapping_writes_one(tmp_path: Path) -> None:
+    log = person_bag(tmp_path / "legs.bag")
+    out = tmp_path / "legs.aion"
+    refused = run("build", log, "-o", out)
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "no people-detection topic of a supported type")
+    assert "--detections-mapping" in refused.stderr
+    suggested = run("info", log, "--suggest-mapping", "/people")
+    assert suggested.exit_code == 0, suggested.stderr
+    text = suggested.stdout
+    for line in ('topic = "/people"', f'msgtype = "{PERSON}"', 'position = "pose.position"',
+                 'orientation = "pose.orientation"', 'id = "id"', 'frame_override = "map"'):
+        assert line in text, line  # fmt: skip
+    assert "array =" not in text.replace("# no array", "")
+    mapping = tmp_path / "legs.toml"
+    mapping.write_text(text)
+    info = run_json("info", log, "--detections-mapping", mapping, "--format", "json")
+    (people,) = [t for t in info["topics"] if t["topic"] == "/people"]
+    assert (people["used"], people["why"], people["role"]) == (
+        True, "--detections-mapping", "detections"
+    )
+    report = run_json("build", log, "-o", out, "--detections-mapping", mapping, "--format",
+                      "json")  # fmt: skip
+    assert report["detections"] == {"read": 40, "used": 40, "dropped": {}}
+    assert report["detection_decoding"]["/people"]["decoder"] == "mapping"
+    # ids 4 and 9 differenced; a zero quaternion (the writer's default) is no heading
+    assert report["headings"] == {"velocity": 0, "track": 38, "linked": 0, "pose_yaw": 0,
+                                  "none": 2}  # fmt: skip
+    assert "40 detections came from messages without a header" in " ".join(report["notes"])
+    _, counts, nodir = map_cells(out)
+    assert counts.sum(axis=0).tolist() == [19, 0, 0, 0, 19, 0, 0, 0]  # -x: bin 0, +x: bin 4
+    assert nodir.sum() == 2
+
+
+@pytest.mark.parametrize(
+    ("change", "fragments"),
+    [
+        (('frame_override = "map"', ""), ("has no header", "frame")),
+        (('topic = "/people"', 'topic = "/persons"'), ("names topic '/persons'",)),
+        ((f'msgtype = "{PERSON}"', 'msgtype = "leg_tracker/msg/PersonArray"'),
+         ("carries leg_tracker/msg/Person",)),
+        (('position = "pose.position"', 'position = "pos"'),
+         ("has no field 'pos'", "available: pose, id")),
+        (("[[topic]]", "[topic]"), ("no [[topic]] tables",)),
+    ],
+)
+def test_bad_mappings_are_clear_errors(
+    tmp_path: Path, change: tuple[str, str], fragments: tuple[str, ...]
+) -> None:
+    log = person_bag(tmp_path / "legs.bag")
+    text = run("info", log, "--suggest-mapping", "/people").stdout
+    assert change[0] in text
+    mapping = tmp_path / "bad.toml"
+    mapping.write_text(text.replace(*change))
+    for command in ("build", "info"):
+        args = ["-o", tmp_path / "x.aion"] if command == "build" else []
+        result = run(command, log, *args, "--detections-mapping", mapping)
+        assert result.exit_code == 2, (command, result.stderr)
+        assert_one_line_error(result.stderr, *fragments)
+    missing = run("build", log, "--detections-mapping", tmp_path / "absent.toml")
+    assert missing.exit_code == 2
+    assert_one_line_error(missing.stderr, "cannot read mapping file")
+
+
+def test_suggest_mapping_errors(tmp_path: Path) -> None:
+    from aion_cli.formats.writers import LogWriter
+
+    log = tmp_path / "chat.mcap"
+    with LogWriter(log, "mcap") as w:
+        w.write("/chatter", "std_msgs/msg/String", {"data": "hi"}, T0)
+    result = run("info", log, "--suggest-mapping", "/chatter")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no field aion can read as a position")
+    result = run("info", log, "--suggest-mapping", "/nope")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "topic '/nope' is not in the log")
+
+
+AGENTS = "my_sim/msg/AgentArray"
+AGENT_TYPES = {
+    "my_sim/msg/Agent": "string name\nstring kind\nfloat64[3] position\n"
+    "geometry_msgs/Vector3 velocity\n",
+    AGENTS: "std_msgs/Header header\nmy_sim/Agent[] agents\n",
+}
+
+
+def readme_mapping() -> str:
+    """The TOML examples of the README's "People detections" section, as one file."""
+    text = README.read_text(encoding="utf-8")
+    section = text[text.index("**People detections**") :]
+    blocks = re.findall(r"```toml\n(.*?)```", section, re.DOTALL)
+    assert len(blocks) >= 2, "the README shows the mapping examples as ```toml blocks"
+    return "\n".join(blocks)
+
+
+def two_mapped_topics(path: Path) -> Path:
+    """One ROS 2 MCAP with the README's two examples: ``leg_tracker/msg/Person`` on /people
+    (headerless, positions in base_laser; one person walking +y) and a simulator's
+    ``my_sim/msg/AgentArray`` on /sim/agents (a person walking -x with velocity (-1, 0),
+    and a robot that the filter drops)."""
+    from aion_cli.formats.writers import LogWriter
+
+    own = OwnTypes(AGENT_TYPES)
+    T = own.T
+    msgs = []
+    with LogWriter(path.with_suffix(".tmp.mcap"), "mcap") as w:  # for its CDR of Person
+        for k in range(10):
+            t = T0 + k * S
+            data = w.serialize(PERSON, {"pose": {"position": {"x": 2.0, "y": 0.5 * k}}, "id": 7})
+            msgs.append(Message("/people", PERSON, data, t))
+            vector = T["geometry_msgs/msg/Vector3"]
+            agents = [
+                T["my_sim/msg/Agent"](
+                    name="alice", kind="person", position=np.array([20.0 - 1.0 * k, 3.0, 0.0]),
+                    velocity=vector(x=-1.0, y=0.0, z=0.0),
+                ),
+                T["my_sim/msg/Agent"](
+                    name="r2", kind="robot", position=np.array([0.0, 9.0, 0.0]),
+                    velocity=vector(x=0.0, y=0.0, z=0.0),
+                ),
+            ]  # fmt: skip
+            arr = T[AGENTS](header=own.header(t, "base_laser"), agents=agents)
+            msgs.append(Message("/sim/agents", AGENTS, own.cdr(arr, AGENTS), t))
+    return write_mcap(path, msgs, {AGENTS: own.definition(AGENTS)})
+
+
+def test_the_readme_mapping_examples_read_both_topics(tmp_path: Path) -> None:
+    log = two_mapped_topics(tmp_path / "mapped.mcap")
+    mapping = tmp_path / "readme.toml"
+    mapping.write_text(readme_mapping())
+    out = tmp_path / "mapped.aion"
+    report = run_json("build", log, "-o", out, "--detections-mapping", mapping,
+                      "--map-frame", "base_laser", "--format", "json")  # fmt: skip
+    assert report["detection_topics"] == ["/people", "/sim/agents"]
+    assert report["detections"] == {"read": 20, "used": 20, "dropped": {"filter": 10}}
+    assert report["headings"] == {"velocity": 10, "track": 9, "linked": 0, "pose_yaw": 0,
+                                  "none": 1}  # fmt: skip
+    _, counts, nodir = map_cells(out)
+    # alice heads π (velocity -x) -> bin 0; the Person walks +y -> bin 6
+    assert counts.sum(axis=0).tolist() == [10, 0, 0, 0, 0, 0, 9, 0]
+    assert nodir.sum() == 1
+
+
+def test_suggested_mapping_of_an_agent_array_builds(tmp_path: Path) -> None:
+    log = two_mapped_topics(tmp_path / "mapped.mcap")
+    result = run("info", log, "--suggest-mapping", "/sim/agents")
+    assert result.exit_code == 0, result.stderr
+    text = result.stdout
+    for line in ('array = "agents"', 'position = "position[0..2]"', 'velocity = "velocity"',
+                 'id = "name"'):
+        assert line in text, line  # fmt: skip
+    mapping = tmp_path / "agents.toml"
+    mapping.write_text(text)
+    report = run_json("build", log, "-o", tmp_path / "a.aion", "--detections-mapping", mapping,
+                      "--map-frame", "base_laser", "--format", "json")  # fmt: skip
+    assert report["detection_topics"] == ["/sim/agents"]
+    assert report["detections"]["read"] == 20  # no filter in a suggestion: the robot too
