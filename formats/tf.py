@@ -29,59 +29,16 @@ import numpy.typing as npt
 
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.errors import TransformError
+from aion_cli.formats.quaternions import quat_to_matrix, slerp
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
 LOOKUP_BLOCK_ROWS = 16_384
 """Query times composed at once by :meth:`TfBuffer.lookup` (about 16 MB of temporaries)."""
-_DOT_NLERP = 0.9995  # above this cosine, slerp's sin(θ) is ill-conditioned: normalised lerp
 
 
 def normalize_frame(frame_id: str) -> str:
     """Frame ids without the leading slash ROS 1 tools sometimes add."""
     return frame_id.strip().lstrip("/")
-
-
-#: Each rotation-matrix entry of a unit quaternion (x, y, z, w) as a quadratic form: "+xy" is
-#: +q_x q_y. Diagonals use x² + y² + z² + w² = 1, so no constant terms are needed.
-_R_TERMS = (
-    "+xx -yy -zz +ww", "+xy -zw +yx -wz", "+xz +yw +zx +wy",
-    "+xy +zw +yx +wz", "-xx +yy -zz +ww", "+yz -xw +zy -wx",
-    "+xz -yw +zx -wy", "+yz +xw +zy +wx", "-xx -yy +zz +ww",
-)  # fmt: skip
-
-
-def _quadratic_form() -> F64:
-    """(16, 9) matrix T with ``R.ravel() = outer(q, q).ravel() @ T`` for a unit quaternion."""
-    axis = {"x": 0, "y": 1, "z": 2, "w": 3}
-    T = np.zeros((16, 9))
-    for k, entry in enumerate(_R_TERMS):
-        for term in entry.split():
-            T[4 * axis[term[1]] + axis[term[2]], k] += 1.0 if term[0] == "+" else -1.0
-    return T
-
-
-_QT = _quadratic_form()
-
-
-def quat_to_matrix(q: F64) -> F64:
-    """Rotation matrices float64[n,3,3] of unit quaternions float64[n,4] (x, y, z, w)."""
-    outer = (q[:, :, None] * q[:, None, :]).reshape(-1, 16)
-    return (outer @ _QT).reshape(-1, 3, 3)
-
-
-def slerp(q0: F64, q1: F64, alpha: F64) -> F64:
-    """Shortest-arc spherical interpolation of unit quaternions, row by row (tf2 semantics)."""
-    dot = np.einsum("ij,ij->i", q0, q1)
-    q1 = np.where((dot < 0)[:, None], -q1, q1)
-    dot = np.abs(dot)
-    theta = np.arccos(np.minimum(dot, 1.0))
-    sin_t = np.sin(theta)
-    near = dot > _DOT_NLERP
-    safe = np.where(near, 1.0, sin_t)
-    w0 = np.where(near, 1 - alpha, np.sin((1 - alpha) * theta) / safe)
-    w1 = np.where(near, alpha, np.sin(alpha * theta) / safe)
-    out = w0[:, None] * q0 + w1[:, None] * q1
-    return out / np.sqrt(np.einsum("ij,ij->i", out, out))[:, None]
 
 
 class _EdgeSeries:
