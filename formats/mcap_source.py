@@ -46,7 +46,7 @@ class _McapSource(_McapLinearRead):
     """An MCAP file read with aion's own record reader (:mod:`formats.mcap_records`; both ROS
     profiles), holding no file open between reads.
 
-    The summary is used only after :func:`formats.mcap_records.check_summary` found it in
+    The summary is used only after :func:`formats.mcap_summary.check_summary` found it in
     agreement with the data section: then chunks are visited in time order through the chunk
     indexes, skipping chunks without requested channels, and a chunk that cannot be read
     (CRC mismatch, unknown compression, over the size cap, damaged) is skipped alone with a
@@ -67,7 +67,7 @@ class _McapSource(_McapLinearRead):
         ``compression_mode: message``), each decompressed within the message cap."""
         from mcap.exceptions import McapError
 
-        from aion_cli.formats import mcap_records
+        from aion_cli.formats import mcap_summary
 
         self.path = path
         self.warnings = []
@@ -103,7 +103,7 @@ class _McapSource(_McapLinearRead):
             check = None
             if summary is not None:
                 names = {cid: c.topic for cid, c in summary.channels.items()}
-                check = mcap_records.check_summary(
+                check = mcap_summary.check_summary(
                     f, self._size, summary.chunk_indexes, summary.statistics, names
                 )
         distrust = check is not None and (bool(check.problems) or check.unsure)

@@ -2,7 +2,7 @@
 chunk (:class:`formats.stream_times.StreamTimes`; used by
 :meth:`formats.mcap_source._McapSource.index_times`).
 
-A file with a summary :func:`formats.mcap_records.check_summary` agreed with is read through its
+A file with a summary :func:`formats.mcap_summary.check_summary` agreed with is read through its
 chunk indexes (:mod:`formats.mcap_source`): chunks in the order of their index (start time,
 then offset), each chunk's messages sorted by log time (ties in record order), merged over
 chunks that overlap. The MessageIndex records after each chunk list, per channel, the log
