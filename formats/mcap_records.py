@@ -19,13 +19,13 @@ summary indexes without checking it against the data. Here:
 from __future__ import annotations
 
 import struct
-import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import IO
 
 from aion_cli.formats import limits as caps
+from aion_cli.formats.crc import crc32
 
 OP_HEADER = 0x01
 OP_FOOTER = 0x02
@@ -161,7 +161,7 @@ def read_chunk(
     if len(data) < head.data_length:
         raise caps.ChunkError("the file ends inside its data")
     buf = decompress(data, head.compression, head.uncompressed_size, limit)
-    if head.crc and zlib.crc32(buf) != head.crc:
+    if head.crc and crc32(buf) != head.crc:
         # a flipped bit in compressed data often still decompresses: into garbage
         raise caps.ChunkError("its records fail their CRC-32 check")
     return buf
