@@ -213,6 +213,12 @@ class ParallelBuild:
         opts, report = self.opts, self.build.report
         logs = self.build.logs
         if len(logs) < 2:  # nothing to share out (and no second open of the log)
+            if opts.workers > 1 or opts.scheduler is not None:
+                report.notes.append(
+                    "one log: built in one process (--workers and --scheduler share out "
+                    "logs that record different times; a single log is not cut into time "
+                    "shards)"
+                )
             return self.build.learn(self.config).state
         if opts.derive_graph:
             report.notes.append("--derive-graph needs every log at once: built in sequence")
