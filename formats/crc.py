@@ -4,8 +4,9 @@ Every MCAP chunk aion reads is checked against its CRC-32 (a flipped bit in comp
 often still decompresses, into garbage). ``zlib.crc32`` runs at about 2.4 GB/s on the
 development machine, which made the check about 5 % of a build at 25 people per message and
 a quarter of reading a log of large scene graphs (docs/BENCHMARKS.md); Intel's ISA-L
-(``isal``, carry-less multiply) computes the same value at about 10 GB/s. :func:`crc32` uses it where its wheel is installed
-(x86-64 and ARM64) and ``zlib.crc32`` elsewhere: the same checksum either way (tested).
+(``isal``, carry-less multiply) computes the same value at about 10 GB/s. :func:`crc32` uses
+it where its wheel is installed (x86-64 and ARM64) and ``zlib.crc32`` elsewhere: the same
+checksum either way (tested).
 """
 
 from __future__ import annotations
