@@ -69,7 +69,8 @@ def rows_from_table(table: Any, index: Any = None) -> list[dict[str, Any]]:
     from aion_cli.engine.temporal.quantiles import count_quantiles
 
     picked = np.arange(len(table.xyz)) if index is None else np.asarray(index, dtype=np.int64)
-    d = table.descriptors_of(picked)  # of the rows returned only
+    # every row: the table's own (cached, shared with a scene export); else those returned
+    d = table.descriptors if index is None else table.descriptors_of(picked)
     flow, var = np.asarray(table.flow)[picked], np.asarray(table.flow_var)[picked]
     p10, p90 = count_quantiles(flow, var, 0.1), count_quantiles(flow, var, 0.9)
     labels = entry_ids(table, picked)
