@@ -87,6 +87,7 @@ class BuildReport:
     graph_skipped: int = 0  # damaged, skipped
     graph_decoded: int = 0  # spark_dsg decodes
     graphs_skipped_identical: int = 0  # applied without decoding: the last payload again
+    graphs_read_by_changes: int = 0  # of graph_decoded: only the node records changed re-read
     graphs_skipped_period: int = 0  # within --graph-period of the graph before: not applied
     graph_period_ns: int = 0
     graph_layer: str | None = None  # the navigational layer taken, e.g. "MESH_PLACES (3[1])"
@@ -138,6 +139,7 @@ class BuildReport:
                 "skipped": self.graph_skipped,
                 "decoded": self.graph_decoded,
                 "skipped_identical": self.graphs_skipped_identical,
+                "read_by_changes": self.graphs_read_by_changes,
                 "skipped_period": self.graphs_skipped_period,
                 "period_s": self.graph_period_ns / 1e9,
                 "dsg_version": self.dsg_version,

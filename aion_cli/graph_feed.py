@@ -27,6 +27,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
 from aion_cli.errors import MessageDecodeError
+from aion_cli.formats.dsg_delta import GraphReader
 from aion_cli.log_times import TopicTimes, in_range_mask
 
 if TYPE_CHECKING:
@@ -192,6 +193,7 @@ class GraphFeed:
         self._last: tuple[memoryview, GraphSnapshot] | None = None  # payload, snapshot
         self._first: tuple[str, int, GraphSnapshot] | None = None  # decoded early
         self._fast_layout: dict[tuple[str, str, str], bool] = {}  # (topic, type, encoding)
+        self._reader = GraphReader()  # re-reads only the node records a payload changed
 
     def schedule(self, times: GraphTimes, strays: dict[str, I64], window_ns: int) -> None:
         """Decide which graphs the stream uses (:func:`graph_schedule` over the graph log
@@ -315,11 +317,11 @@ class GraphFeed:
                 return dataclasses.replace(last[1], t_ns=t_ns)
         layer = self.nav_layer or self._nav_pin
         try:
-            result = decode_dsg(payload, t_ns, self.dsg_version, layer)
+            result = decode_dsg(payload, t_ns, self.dsg_version, layer, reader=self._reader)
         except GraphLayerError as exc:
             if self.nav_layer is not None or self._nav_pin is None:
                 raise GraphLayerError(f"{msg.topic}: {exc.message}", hint=exc.hint) from exc
-            result = decode_dsg(payload, t_ns, self.dsg_version)
+            result = decode_dsg(payload, t_ns, self.dsg_version, reader=self._reader)
         if self.dsg_version is None:  # pin the version that worked for the rest of the log
             self.dsg_version = result.version
         if self.nav_layer is None and self._nav_pin is None and len(result.snapshot.places):
@@ -327,6 +329,7 @@ class GraphFeed:
         self.report.dsg_version = result.version
         self.report.graph_layer = str(result.layer)
         self.report.graph_decoded += 1
+        self.report.graphs_read_by_changes = self._reader.delta_reads
         if self.skip_identical:
             self._last = (payload, result.snapshot)
         return result.snapshot

@@ -351,6 +351,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         out.graph_skipped += p.graph_skipped
         out.graph_decoded += p.graph_decoded
         out.graphs_skipped_identical += p.graphs_skipped_identical
+        out.graphs_read_by_changes += p.graphs_read_by_changes
         out.graphs_skipped_period += p.graphs_skipped_period
         out.tf_undecodable += p.tf_undecodable
         for topic, stats in p.by_topic.items():

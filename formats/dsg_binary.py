@@ -77,7 +77,9 @@ class BinaryGraph:
     ``name_start``/``name_len`` its ``name`` bytes in ``data`` (-1: the type has no name),
     ``real_place`` (True unless a ``PlaceNodeAttributes`` says otherwise) and ``stamp_ns``
     (an agent's timestamp, 0 for other types). ``mesh`` is None without a mesh, else
-    ``(points float32[v,3], colors uint8[c,4], faces uint64[f,3])``."""
+    ``(points float32[v,3], colors uint8[c,4], faces uint64[f,3])``. ``node_start`` /
+    ``node_end`` are where each node record's bytes begin and end in ``data`` (consecutive:
+    one record ends where the next begins), what :mod:`formats.dsg_delta` re-reads."""
 
     data: U8
     layer_keys: list[tuple[int, int]]
@@ -95,6 +97,8 @@ class BinaryGraph:
     edge_source: U64
     edge_target: U64
     mesh: tuple[npt.NDArray[np.float32], U8, U64] | None
+    node_start: I64
+    node_end: I64
 
 
 # -- the whole payload ---------------------------------------------------------------------
@@ -221,12 +225,29 @@ _EDGE_KINDS = ["EdgeAttributes"]
 def _nodes(buf: U8, first: int, arrays: I64, kinds: list[str]) -> tuple[Values, int]:
     """Every node record from ``first`` (after the dynamic array's start byte; ``arrays``:
     the positions of every ARR32 tag from there): the values of :class:`BinaryGraph` per
-    node, and the position of the array's end byte."""
+    node (with ``start``/``end``, each record's bytes), and the position of the array's end
+    byte."""
     cand = _candidates(buf, arrays, _NODE_HEAD)
-    m = len(cand)
-    c = Cursors(buf, cand + 30)
-    kind = buf[cand + 29].astype(np.int64)
-    meta_start, meta_len = c.string()
+    cols, ends, ok, meta = node_records(buf, cand, kinds)
+    order, end = _chain(buf, first, cand, ends, ok)
+    if not _metadata_ok(buf, meta[0][order], meta[1][order]):
+        raise _OutsideError
+    nodes = {name: values[order] for name, values in cols.items()}
+    nodes["start"], nodes["end"] = cand[order], ends[order]
+    return nodes, end
+
+
+def node_records(
+    buf: U8, starts: I64, kinds: list[str]
+) -> tuple[Values, I64, Bool, tuple[I64, I64]]:
+    """The node records beginning at ``starts`` read in lock-step: their values (positions,
+    names, ``real_place``, stamps, layer, id, partition and kind), where each ends, whether
+    each read as a record, and where each one's metadata text lies (start, length). The
+    fixed head bytes of a record (:data:`_NODE_HEAD`) are the caller's to have checked."""
+    m = len(starts)
+    c = Cursors(buf, starts + 30)
+    kind = buf[starts + 29].astype(np.int64)
+    meta = c.string()
     cols: Values = {
         "x": np.zeros(m), "y": np.zeros(m), "z": np.zeros(m),
         "name_start": np.full(m, -1, np.int64), "name_len": np.zeros(m, np.int64),
@@ -244,16 +265,20 @@ def _nodes(buf: U8, first: int, arrays: I64, kinds: list[str]) -> tuple[Values, 
         c.merge(rows, sub)
         for name, values in out.items():
             cols[name][rows] = values
-    order, end = _chain(buf, first, cand, c.pos, c.ok)
-    if not _metadata_ok(buf, meta_start[order], meta_len[order]):
-        raise _OutsideError
-    at = cand[order]
-    nodes = {name: values[order] for name, values in cols.items()}
-    nodes["layer"] = _gather(buf, at + 6, "<i8")
-    nodes["ids"] = _gather(buf, at + 15, "<u8")
-    nodes["partition"] = _gather(buf, at + 24, "<u4").astype(np.int64)
-    nodes["kind"] = kind[order]
-    return nodes, end
+    cols["layer"] = _gather(buf, starts + 6, "<i8")
+    cols["ids"] = _gather(buf, starts + 15, "<u8")
+    cols["partition"] = _gather(buf, starts + 24, "<u4").astype(np.int64)
+    cols["kind"] = kind
+    return cols, c.pos, c.ok, meta
+
+
+def head_ok(buf: U8, starts: I64) -> Bool:
+    """Whether a node record's fixed head bytes (:data:`_NODE_HEAD`) are at each of
+    ``starts`` (which must leave room for them)."""
+    ok = np.ones(len(starts), dtype=bool)
+    for off, byte in _NODE_HEAD:
+        ok &= buf[starts + off] == byte
+    return ok
 
 
 def _gather(buf: U8, pos: I64, dtype: str) -> npt.NDArray[np.generic]:
@@ -363,4 +388,5 @@ def _read(buf: U8, data: memoryview) -> BinaryGraph:
         xyz.reshape(-1, 3), nodes["name_start"].astype(np.int64),
         nodes["name_len"].astype(np.int64), nodes["real_place"].astype(bool),
         nodes["stamp_ns"].astype(np.int64), source, target, mesh,
+        nodes["start"].astype(np.int64), nodes["end"].astype(np.int64),
     )  # fmt: skip

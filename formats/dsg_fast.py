@@ -22,7 +22,7 @@ messages of those cases.
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +37,9 @@ from aion_cli.formats.dsg_layers import (
     choose_nav_layer,
 )
 from aion_cli.formats.dsg_scan import NavGraph, _labels
+
+if TYPE_CHECKING:
+    from aion_cli.formats.dsg_delta import GraphReader
 
 I64 = npt.NDArray[np.int64]
 U64 = npt.NDArray[np.uint64]
@@ -245,11 +248,14 @@ def fast_navigation(
     payload: bytes | bytearray | memoryview | npt.NDArray[np.uint8],
     t_ns: int,
     layer: str | int | None,
+    reader: GraphReader | None = None,
 ) -> NavGraph | None:
     """:func:`formats.dsg_scan.navigation` of the graph spark_dsg would decode from a DsgUpdate
     payload, or None when this module cannot vouch for the result (see the module
-    docstring). ``clearance`` is not read (the stream never asks for it)."""
-    g = read_graph(payload)
+    docstring). ``clearance`` is not read (the stream never asks for it). ``reader``: a
+    stream's :class:`formats.dsg_delta.GraphReader`, which re-reads only what changed since
+    its last payload (the same graph)."""
+    g = reader.read(payload) if reader is not None else read_graph(payload)
     if g is None:
         return None
     try:

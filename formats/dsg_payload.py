@@ -19,7 +19,7 @@ import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +29,9 @@ from aion_cli.errors import MessageDecodeError
 from aion_cli.formats.dsg_guard import _memory_budget
 from aion_cli.formats.dsg_layers import PLACES_LAYER, NavLayer
 from aion_cli.formats.dsg_scan import navigation
+
+if TYPE_CHECKING:
+    from aion_cli.formats.dsg_delta import GraphReader
 
 #: Older payload versions tried, newest first, when the installed spark_dsg cannot read a payload.
 #: Before 1.0.2 (kimera_dsg era) spark_dsg itself refuses to read.
@@ -221,6 +224,7 @@ def decode_dsg(
     version: str | None = None,
     layer: str | int | None = None,
     fast: bool = True,
+    reader: GraphReader | None = None,
 ) -> DecodedGraph:
     """Decode a payload to a snapshot at ``t_ns`` and say which format version read it.
 
@@ -228,11 +232,12 @@ def decode_dsg(
     (when that is the one :mod:`formats.dsg_binary` reads, and ``version`` asks for no
     other) is read from its bytes with numpy (:func:`formats.dsg_fast.fast_navigation`),
     ~10x faster; spark_dsg decodes whatever that reader does not vouch for, so the result
-    is the same either way."""
+    is the same either way. ``reader``: a stream's :class:`formats.dsg_delta.GraphReader`
+    (the numpy reader re-reads only the node records changed since its last payload)."""
     if fast and _fast_applies(version):
         from aion_cli.formats.dsg_fast import fast_navigation
 
-        nav = fast_navigation(payload, t_ns, layer)
+        nav = fast_navigation(payload, t_ns, layer, reader)
         if nav is not None:
             return DecodedGraph(nav.snapshot, installed_version(), nav.layer)
     graph, used = read_dsg_payload(payload, version)

@@ -1,0 +1,110 @@
+"""Reading a live Hydra stream's scene graphs by what changed since the last one.
+
+Why: a live Hydra sends its whole scene graph every second, and between two of them its
+backend optimisation moves a few dozen places by millimetres and stamps them; the rest of the
+1.9 MB payload of a 5,000-place graph is the same bytes. :func:`formats.dsg_binary.read_graph`
+reads every record again (~10 ms); :class:`GraphReader` compares the payload with the last one
+it read (one vectorised comparison) and, when every byte that differs lies inside node
+records, reads only those records again and keeps every other value of the last graph.
+
+**Exact, or not used.** A node record is read from its own bytes only, and the records are
+consecutive (one ends where the next begins). So when the payload has the last one's length,
+the bytes before the first node and after the last are unchanged, and every re-read record
+reads as a record (its fixed head bytes, its attribute fields, its metadata JSON) and ends
+exactly where it ended before, the whole payload parses into the same chain of records, and
+:func:`read_graph` would return the last graph's values with those records' values replaced:
+that is what is returned. Anything else — another length, a change in the layer table, the
+edges or the mesh, a record that grew, shrank or no longer reads, a node id repeated — reads
+the payload whole (``tests/formats/test_dsg_delta.py`` compares both on edited graphs).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from aion_cli.formats.dsg_binary import (
+    U8,
+    BinaryGraph,
+    _metadata_ok,
+    head_ok,
+    node_records,
+    read_graph,
+)
+
+
+class GraphReader:
+    """:func:`read_graph` for a stream of payloads, re-reading only the node records that
+    changed since the last payload (module docstring). ``delta_reads`` counts the payloads
+    read that way, ``whole_reads`` those read in full (the first, and every other change)."""
+
+    def __init__(self) -> None:
+        self._last: BinaryGraph | None = None
+        self.delta_reads = 0
+        self.whole_reads = 0
+
+    def read(self, payload: bytes | bytearray | memoryview | U8) -> BinaryGraph | None:
+        """The graph of ``payload`` as :func:`read_graph` reads it (None: not one the numpy
+        reader vouches for). The payload's bytes must stay unchanged while they are the last
+        ones read (the graph views them, as :func:`read_graph`'s does)."""
+        buf = np.frombuffer(payload, dtype=np.uint8)
+        graph = _changed_records(buf, self._last) if self._last is not None else None
+        if graph is not None:
+            self.delta_reads += 1
+        else:
+            graph = read_graph(buf)
+            self.whole_reads += 1
+        self._last = graph
+        return graph
+
+
+def _changed_records(buf: U8, last: BinaryGraph) -> BinaryGraph | None:
+    """``buf``'s graph from ``last`` and the node records whose bytes differ, or None when
+    the payload must be read whole (see the module docstring)."""
+    old = last.data
+    starts, ends = last.node_start, last.node_end
+    if len(buf) != len(old) or len(starts) == 0:
+        return None
+    differ = np.flatnonzero(buf != old)
+    if len(differ) == 0:
+        return dataclasses.replace(last, data=buf)
+    if differ[0] < starts[0] or differ[-1] >= ends[-1]:
+        return None  # the layer table, the edges or the mesh changed
+    touched = np.unique(np.searchsorted(starts, differ, side="right") - 1)
+    at = starts[touched]
+    if not head_ok(buf, at).all():
+        return None
+    cols, record_ends, ok, (meta_start, meta_len) = node_records(buf, at, last.kinds)
+    if not ok.all() or not np.array_equal(record_ends, ends[touched]):
+        return None
+    if not _metadata_ok(buf, meta_start, meta_len):
+        return None
+    ids = last.ids.copy()
+    ids[touched] = cols["ids"]
+    if not np.array_equal(ids[touched], last.ids[touched]):
+        ordered = np.sort(ids)
+        if (ordered[1:] == ordered[:-1]).any():
+            return None  # read whole: read_graph decides what a repeated id means
+    xyz = last.xyz.copy()
+    xyz[touched] = np.column_stack([cols["x"], cols["y"], cols["z"]])
+    return dataclasses.replace(
+        last,
+        data=buf,
+        layer=_replaced(last.layer, touched, cols["layer"]),
+        partition=_replaced(last.partition, touched, cols["partition"]),
+        ids=ids,
+        kind=_replaced(last.kind, touched, cols["kind"]),
+        xyz=xyz,
+        name_start=_replaced(last.name_start, touched, cols["name_start"]),
+        name_len=_replaced(last.name_len, touched, cols["name_len"]),
+        real_place=_replaced(last.real_place, touched, cols["real_place"]),
+        stamp_ns=_replaced(last.stamp_ns, touched, cols["stamp_ns"]),
+    )
+
+
+def _replaced(values: np.ndarray, rows: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """A copy of ``values`` with ``rows`` set to ``new`` (cast to ``values``' dtype)."""
+    out = values.copy()
+    out[rows] = new
+    return out

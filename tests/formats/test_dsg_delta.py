@@ -1,0 +1,197 @@
+"""Reading a stream of scene graphs by what changed (:mod:`formats.dsg_delta`) gives exactly
+what reading each payload whole gives (:func:`formats.dsg_binary.read_graph`, itself tested
+against spark_dsg in ``test_dsg_fast.py``), and reads by changes only where that is exact.
+
+Every comparison is field by field, dtypes included: a live stream's edits (places moved and
+stamped, a name renamed, a node added, an edge added, the mesh changed), every single-byte
+change of a payload (hypothesis: any position, any value), and a build of a moving stream
+whose map must equal the build that reads every graph whole.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aion_cli.formats import dsg_delta
+from aion_cli.formats.dsg_binary import BinaryGraph, read_graph
+from aion_cli.formats.dsg_delta import GraphReader
+from tests.formats.dsg_builders import hydra_graph, sym
+
+
+def assert_same_graph(a: BinaryGraph | None, b: BinaryGraph | None) -> None:
+    assert (a is None) == (b is None)
+    if a is None or b is None:
+        return
+    for f in dataclasses.fields(BinaryGraph):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if f.name == "mesh":
+            assert (x is None) == (y is None)
+            if x is not None:
+                for u, v in zip(x, y, strict=True):
+                    assert u.dtype == v.dtype
+                    np.testing.assert_array_equal(u, v)
+        elif isinstance(x, np.ndarray):
+            assert x.dtype == y.dtype, f.name
+            assert x.shape == y.shape, f.name
+            np.testing.assert_array_equal(x, y, err_msg=f.name)
+        else:
+            assert x == y, f.name
+
+
+def _graph() -> Any:
+    return hydra_graph()
+
+
+def _payload(G: Any) -> bytes:
+    return bytes(G.to_binary(True))
+
+
+def _move(G: Any, ids: list[int], dx: float, stamp: int) -> Any:
+    for i in ids:
+        attrs = G.get_node(i).attributes
+        attrs.position = np.asarray(attrs.position) + np.array([dx, -dx, 0.0])
+        attrs.last_update_time_ns = stamp
+    return G
+
+
+def _places(G: Any) -> list[int]:
+    return sorted(n.id.value for n in G.get_layer("MESH_PLACES").nodes)
+
+
+def _read_after(first: bytes, then: bytes) -> tuple[BinaryGraph | None, GraphReader]:
+    reader = GraphReader()
+    reader.read(first)
+    return reader.read(then), reader
+
+
+def test_moved_places_are_read_by_changes_and_equal_a_whole_read() -> None:
+    G = _graph()
+    first = _payload(G)
+    moved = _places(G)[::3]
+    then = _payload(_move(G, moved, 0.004, 1_700_000_000_123_456_789))
+    got, reader = _read_after(first, then)
+    assert reader.delta_reads == 1
+    assert reader.whole_reads == 1
+    whole = read_graph(then)
+    assert_same_graph(got, whole)
+    assert got is not None
+    before = read_graph(first)
+    assert before is not None
+    changed = np.flatnonzero((got.xyz != before.xyz).any(axis=1))
+    assert sorted(got.ids[changed].tolist()) == moved  # the moves, nothing else
+
+
+def test_a_long_stream_stays_equal() -> None:
+    """Ten graphs in a row, each moving other places (each read against the one before)."""
+    G = _graph()
+    reader = GraphReader()
+    places = _places(G)
+    rng = np.random.default_rng(3)
+    for k in range(10):
+        which = rng.choice(places, 4, replace=False).tolist()
+        payload = _payload(_move(G, which, float(rng.uniform(-0.01, 0.01)), 10**18 + k))
+        assert_same_graph(reader.read(payload), read_graph(payload))
+    assert reader.delta_reads == 9
+
+
+def test_a_renamed_node_of_the_same_length_is_read_by_changes() -> None:
+    G = _graph()
+    renamed = _places(G)[2]
+    node = G.get_node(renamed).attributes
+    node.name = "kitchen"
+    first = _payload(G)
+    node.name = "hallway"
+    then = _payload(G)
+    got, reader = _read_after(first, then)
+    assert reader.delta_reads == 1
+    assert_same_graph(got, read_graph(then))
+    assert got is not None
+    row = int(np.flatnonzero(got.ids == renamed)[0])
+    start = int(got.name_start[row])
+    assert bytes(got.data[start : start + 7]) == b"hallway"
+
+
+@pytest.mark.parametrize("edit", ["add node", "add edge", "longer name", "mesh", "remove node"])
+def test_structural_changes_are_read_whole(edit: str) -> None:
+    import spark_dsg as dsg
+
+    G = _graph()
+    first = _payload(G)
+    places = _places(G)
+    if edit == "add node":
+        a = dsg.PlaceNodeAttributes()
+        a.position = np.array([1.0, 2.0, 0.0])
+        G.add_node(G.get_node(places[0]).layer, sym("p", 9999), a)
+    elif edit == "add edge":
+        G.insert_edge(places[0], places[-1])
+    elif edit == "longer name":
+        G.get_node(places[1]).attributes.name = "a much longer name than before"
+    elif edit == "mesh":
+        m = dsg.Mesh()
+        m.set_vertices(np.ones((6, 3)))
+        m.set_faces(np.zeros((3, 1), dtype=np.int32))
+        G.mesh = m
+    else:
+        G.remove_node(places[4])
+    then = _payload(G)
+    got, reader = _read_after(first, then)
+    assert reader.delta_reads == 0
+    assert reader.whole_reads == 2
+    assert_same_graph(got, read_graph(then))
+
+
+def test_an_identical_payload_reuses_the_graph() -> None:
+    first = _payload(_graph())
+    got, reader = _read_after(first, bytes(first))
+    assert reader.delta_reads == 1
+    assert_same_graph(got, read_graph(first))
+
+
+_FIRST = _payload(_graph())
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, len(_FIRST) - 1), st.integers(0, 255))
+def test_any_changed_byte_reads_as_a_whole_read(at: int, value: int) -> None:
+    """Whatever byte changes to whatever value — a tag, a length, a kind, an id, a value, a
+    metadata character — reading by changes gives what the whole read gives (None included:
+    then spark_dsg decodes)."""
+    changed = bytearray(_FIRST)
+    changed[at] = value
+    got, _ = _read_after(_FIRST, bytes(changed))
+    assert_same_graph(got, read_graph(bytes(changed)))
+
+
+def test_a_build_of_a_moving_stream_equals_reading_every_graph_whole(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The live-Hydra stream of the benchmarks (places moved by millimetres every second):
+    the map is the same, and the graphs after the first were read by changes."""
+    from aion_cli.formats.mapfile import read_map
+    from aion_cli.pipeline import BuildOptions, build_map
+    from benchmarks.build_logs import SITE, MovingPayload, places_graph, steady_times, write_log
+
+    xyz, edges = places_graph(*SITE, 300)
+    log = tmp_path / "moving.mcap"
+    write_log(log, steady_times(120.0), 2, (SITE[0], SITE[1]), MovingPayload(xyz, edges), 1.0)
+    opts = {"logs": (log,), "graph_period_ns": 0}
+    changes = build_map(BuildOptions(output=tmp_path / "changes.aion", **opts))
+    monkeypatch.setattr(dsg_delta, "_changed_records", lambda buf, last: None)
+    whole = build_map(BuildOptions(output=tmp_path / "whole.aion", **opts))
+    assert changes.graph_decoded == whole.graph_decoded >= 100
+    assert changes.graphs_read_by_changes == changes.graph_decoded - 1
+    assert whole.graphs_read_by_changes == 0
+    assert changes.to_dict()["graph"]["read_by_changes"] == changes.graph_decoded - 1
+    a, ma = read_map(tmp_path / "changes.aion")
+    b, mb = read_map(tmp_path / "whole.aion")
+    assert sorted(a) == sorted(b)
+    for name in a:
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    assert ma["state"] == mb["state"]
