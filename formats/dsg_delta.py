@@ -25,6 +25,7 @@ import dataclasses
 import numpy as np
 
 from aion_cli.formats.dsg_binary import (
+    I64,
     U8,
     BinaryGraph,
     _metadata_ok,
@@ -66,12 +67,16 @@ def _changed_records(buf: U8, last: BinaryGraph) -> BinaryGraph | None:
     starts, ends = last.node_start, last.node_end
     if len(buf) != len(old) or len(starts) == 0:
         return None
-    differ = np.flatnonzero(buf != old)
-    if len(differ) == 0:
+    span = _differing_span(buf, old)
+    if span is None:
         return dataclasses.replace(last, data=buf)
-    if differ[0] < starts[0] or differ[-1] >= ends[-1]:
+    first, last_byte = span
+    if first[0] < starts[0] or last_byte[-1] >= ends[-1]:
         return None  # the layer table, the edges or the mesh changed
-    touched = np.unique(np.searchsorted(starts, differ, side="right") - 1)
+    touched = np.zeros(len(starts), dtype=bool)  # records holding a differing word's bytes
+    touched[np.searchsorted(starts, first, side="right") - 1] = True
+    touched[np.searchsorted(starts, last_byte, side="right") - 1] = True
+    touched = np.flatnonzero(touched)
     at = starts[touched]
     if not head_ok(buf, at).all():
         return None
@@ -101,6 +106,21 @@ def _changed_records(buf: U8, last: BinaryGraph) -> BinaryGraph | None:
         real_place=_replaced(last.real_place, touched, cols["real_place"]),
         stamp_ns=_replaced(last.stamp_ns, touched, cols["stamp_ns"]),
     )
+
+
+def _differing_span(buf: U8, old: U8) -> tuple[I64, I64] | None:
+    """Where two payloads of one length differ, compared 8 bytes at a time (8x fewer
+    elements than bytes): the first and last byte of every differing 8-byte word (and of
+    every differing byte of the tail that is no whole word), ascending; None when the payloads
+    are equal. A word may also hold unchanged bytes of a neighbouring record, which
+    is then re-read too (the same values)."""
+    whole = len(buf) // 8 * 8
+    words = np.flatnonzero(buf[:whole].view(np.uint64) != old[:whole].view(np.uint64))
+    tail = np.flatnonzero(buf[whole:] != old[whole:]) + whole
+    if len(words) == 0 and len(tail) == 0:
+        return None
+    first = np.concatenate([words * 8, tail]).astype(np.int64)
+    return first, np.concatenate([words * 8 + 7, tail]).astype(np.int64)
 
 
 def _replaced(values: np.ndarray, rows: np.ndarray, new: np.ndarray) -> np.ndarray:
