@@ -89,7 +89,10 @@ class NodeTable:
     def _same(self, xyz: F64) -> NodeTable:
         """A copy of this table (positions ``xyz``, equal to its own), memo kept."""
         return NodeTable(
-            self.ids.copy(), xyz.copy(), self.ref_xyz.copy(), self.stable_since_ns.copy(),
+            self.ids.copy(),
+            xyz.copy(),
+            self.ref_xyz.copy(),
+            self.stable_since_ns.copy(),
             self.bind_index,
         )
 
@@ -161,9 +164,7 @@ class Redirects:
         return out
 
 
-def nearest_nodes(
-    points: F64, node_xyz: F64, radius: float, vertical_tolerance: float
-) -> I64:
+def nearest_nodes(points: F64, node_xyz: F64, radius: float, vertical_tolerance: float) -> I64:
     """Per point, the index of the nearest node horizontally within ``radius`` whose height
     differs by at most ``vertical_tolerance``; -1 where there is none.
 
@@ -174,6 +175,7 @@ def nearest_nodes(
     if len(points) == 0 or len(node_xyz) == 0:
         return np.full(len(points), -1, np.int64)
     from scipy.spatial import cKDTree  # slow to import: only here
+
     return _query(cKDTree(node_xyz[:, :2]), node_xyz, points, radius, vertical_tolerance)
 
 
@@ -201,18 +203,26 @@ def _query(
 class BindIndex:
     """:func:`nearest_nodes` for repeated bind checks: equal answers, less work.
 
-    A build checks ownership twice per window, almost always with the same stable nodes and
-    the same cells, nearly all of which have no node in reach (they never bind). This memo
-    keeps, for one set of stable nodes (positions compared exactly on every call) and one
-    ``radius`` / ``vertical_tolerance``:
+    A build checks ownership twice per window and at every scene graph, almost always with
+    nearly the same stable nodes and the same cells, nearly all of which have no node in
+    reach (they never bind). This memo keeps, for one ``radius`` / ``vertical_tolerance``:
 
-    * the nodes' horizontal KD-tree (rebuilt only when the stable nodes change);
-    * per entry row, the key and position of the cell found there without a node in reach.
+    * the KD-tree of the stable nodes of the last check (rebuilt when they change and a cell
+      must be queried);
+    * per entry row, the key and position of the cell found there without a node in reach,
+      the node set it was found with (a version, bumped whenever the nodes change) and its
+      *slack*: how much farther than ``radius`` its horizontally nearest node was, less how
+      far the nodes had moved by then from a *reference* set (:attr:`_ref`).
 
-    A cell's answer depends only on its position and the stable nodes, so a cell found
-    unbound with the same key, position and nodes is unbound again: only the other cells
-    (new since the last check, or all of them after the nodes changed) are queried. Answers
-    are exactly those of :func:`nearest_nodes` (same tree input, same query; tested).
+    A cell's answer depends only on its position and the stable nodes. So a cell found
+    unbound with the same key and position is unbound again with the same nodes; and when a
+    live graph moved the nodes — the same number of them, each at most ``D`` horizontally from
+    its reference position, in order — every cell's nearest node is at most ``D`` nearer than
+    it was to the reference, so a cell whose slack exceeds ``D`` is still unbound. Only the
+    other cells (new, moved, in reach, or with too little slack) are queried. When the nodes
+    change otherwise, or ``D`` reaches half of :data:`_SLACK_REACH`, the reference becomes the
+    current nodes and every cell is queried again. Answers are exactly those of
+    :func:`nearest_nodes` (the binding query is the same; tested).
     """
 
     def __init__(self) -> None:
@@ -223,6 +233,8 @@ class BindIndex:
     def _reset(self) -> None:
         """Nothing memoised: no nodes, no tree, no cell known unbound."""
         self._nodes = np.zeros((0, 3))
+        self._ref = np.zeros((0, 2))  # reference node positions (horizontal) of the slacks
+        self._version = 0  # bumped whenever the nodes change
         self._params: tuple[float, float] | None = None
         self._tree: cKDTree | None = None
         self._forget(0)
@@ -260,6 +272,34 @@ class BindIndex:
         self._known = np.zeros(rows, bool)  # per row: a cell found unbound there ...
         self._key = np.full(rows, -1, np.int64)  # ... with this key
         self._xyz = np.full((rows, 3), np.nan)  # ... at this position
+        self._seen_at = np.full(rows, -1, np.int64)  # ... with the nodes of this version
+        self._slack = np.full(rows, -np.inf)  # ... and this slack (class docstring)
+
+    def _grow(self, top: int) -> None:
+        """Room for rows below ``top`` (doubling), keeping what is known."""
+        if top <= self._key.size:
+            return
+        old = (self._known, self._key, self._xyz, self._seen_at, self._slack)
+        n = old[1].size
+        self._forget(max(top, 2 * n))
+        for new, kept in zip(
+            (self._known, self._key, self._xyz, self._seen_at, self._slack), old, strict=True
+        ):
+            new[:n] = kept
+
+    def _displacement(self, node_xyz: F64, params: tuple[float, float]) -> float:
+        """How far (horizontally, at most) the nodes are from the reference set; a new
+        reference (and every cell forgotten) when they are not the same nodes moved a
+        little."""
+        if params == self._params and len(node_xyz) == len(self._ref):
+            step = node_xyz[:, :2] - self._ref
+            moved = float(np.sqrt(np.max(np.einsum("ij,ij->i", step, step), initial=0.0)))
+            if moved < 0.5 * _SLACK_REACH:
+                return moved
+        self._params = params
+        self._ref = np.array(node_xyz[:, :2], dtype=np.float64, copy=True)
+        self._forget(0)
+        return 0.0
 
     def nearest(
         self,
@@ -279,20 +319,14 @@ class BindIndex:
         n = rows.size
         if n == 0 or len(node_xyz) == 0:
             return np.full(n, -1, np.int64)
-        params = (float(radius), float(vertical_tolerance))
-        if params != self._params or not np.array_equal(node_xyz, self._nodes):
+        moved = self._displacement(node_xyz, (float(radius), float(vertical_tolerance)))
+        if not np.array_equal(node_xyz, self._nodes):
             self._nodes = np.array(node_xyz, dtype=np.float64, copy=True)
-            self._params = params
-            from scipy.spatial import cKDTree  # slow to import: only here
-            self._tree = cKDTree(self._nodes[:, :2])
-            self._forget(0)
+            self._version += 1
+            self._tree = None
             self._none_at = None
-        assert self._tree is not None
         top = int(rows.max()) + 1
-        if top > self._key.size:  # grow (doubling), keeping what is known
-            known, key, xyz = self._known, self._key, self._xyz
-            self._forget(max(top, 2 * key.size))
-            self._known[: key.size], self._key[: key.size], self._xyz[: key.size] = known, key, xyz
+        self._grow(top)
         same_xyz = self._xyz[:top] == xyz_of_row[:top]
         same = (
             self._known[:top]
@@ -300,17 +334,37 @@ class BindIndex:
             & same_xyz[:, 0]
             & same_xyz[:, 1]
             & same_xyz[:, 2]
+            & ((self._seen_at[:top] == self._version) | (self._slack[:top] > moved + _EPS))
         )
         hit = np.full(n, -1, np.int64)
         ask = np.flatnonzero(~same[rows])
         self.queried += int(ask.size)
         if ask.size:
+            if self._tree is None:
+                from scipy.spatial import cKDTree  # slow to import: only here
+
+                self._tree = cKDTree(self._nodes[:, :2])
             at = rows[ask]
-            found = _query(
-                self._tree, self._nodes, xyz_of_row[at], radius, vertical_tolerance
-            )
+            points = xyz_of_row[at]
+            found = _query(self._tree, self._nodes, points, radius, vertical_tolerance)
             hit[ask] = found
-            self._known[at] = found < 0
+            unbound = found < 0
+            self._known[at] = unbound
             self._key[at] = key_of_row[at]
-            self._xyz[at] = xyz_of_row[at]
+            self._xyz[at] = points
+            self._seen_at[at] = self._version
+            reach = radius + _SLACK_REACH
+            nearest = np.full(len(at), reach)
+            if unbound.any():
+                dist, _ = self._tree.query(points[unbound, :2], k=1, distance_upper_bound=reach)
+                nearest[unbound] = np.minimum(dist, reach)
+            self._slack[at] = np.where(unbound, nearest - radius - moved, -np.inf)
         return hit
+
+
+_SLACK_REACH = 1.0
+"""How far beyond ``bind_radius`` :class:`BindIndex` measures a cell's nearest node (m): the
+nodes may move half of it (a live graph's optimisation moves places by millimetres) before
+every cell is queried again."""
+_EPS = 1e-9
+"""Margin (m) on the slack comparison, for the rounding of the distances."""

@@ -47,8 +47,12 @@ def _by_row(rows: np.ndarray, keys: np.ndarray, pts: np.ndarray, seed: int = 0
     return key, xyz
 
 
+def radius_of(s: int) -> float:
+    return 1.0 if s % 5 else 2.0
+
+
 step = st.tuples(
-    st.sampled_from(["add", "drop", "reuse", "nodes", "same", "move", "shift"]),
+    st.sampled_from(["add", "drop", "reuse", "nodes", "same", "move", "shift", "jitter"]),
     st.integers(0, 2**31 - 1),
 )
 
@@ -92,7 +96,12 @@ def test_bind_index_answers_equal_nearest_nodes(seed: int, steps: list[tuple[str
             nodes[moved, :2] += r.normal(0.0, 0.5, (int(moved.sum()), 2))
             nodes = np.r_[nodes, _points(r, int(r.integers(0, 3)))]
             nodes = nodes[r.permutation(len(nodes))]
-        radius, vtol = (1.0, 1.0) if s % 5 else (2.0, 0.5)
+        elif kind == "jitter":  # Hydra's optimisation: the same nodes moved by millimetres
+            nodes = nodes.copy()
+            nodes[:, :2] += r.uniform(-0.003, 0.003, (len(nodes), 2))
+            if len(nodes) and rows.size and r.random() < 0.3:
+                nodes[0, :2] = pts[0, :2] + [radius_of(s), 0.0]  # exactly at the bind radius
+        radius, vtol = (radius_of(s), 1.0 if s % 5 else 0.5)
         order = r.permutation(rows.size)  # callers pass cells in any row order
         key_of_row, xyz_of_row = _by_row(rows, keys, pts, s)
         got = index.nearest(rows[order], key_of_row, xyz_of_row, nodes, radius, vtol)
@@ -126,6 +135,34 @@ def test_bind_index_reuses_the_tree_and_queries_only_new_cells() -> None:
     moved = nodes + np.array([[0.0, 0.0, 0.0], [-4.9, 5.0, 0.0]])
     np.testing.assert_array_equal(index.nearest(rows2, key2, xyz2, moved, 1.0, 1.0), [1, -1, -1])
     assert index.queried == 8
+
+
+def test_nodes_moved_by_millimetres_ask_only_the_cells_near_reach() -> None:
+    """A live graph's optimisation moves every node a little: a cell whose nearest node was
+    farther than the radius by more than the nodes moved is not asked again; a cell that the
+    move brings into reach is (and binds), as a fresh query says."""
+    rng = np.random.default_rng(4)
+    nodes = np.c_[rng.uniform(-20, 20, (50, 2)), np.zeros(50)]
+    pts = np.c_[rng.uniform(-25, 25, (2000, 2)), np.zeros(2000)]
+    pts[0, :2] = nodes[7, :2] + [1.0005, 0.0]  # just out of reach (radius 1 m)
+    rows, keys = np.arange(2000), np.arange(2000) + 100
+    key, xyz = _by_row(rows, keys, pts)
+    index = BindIndex()
+    first = index.nearest(rows, key, xyz, nodes, 1.0, 1.0)
+    np.testing.assert_array_equal(first, nearest_nodes(pts, nodes, 1.0, 1.0))
+    assert first[0] == -1
+    asked = index.queried
+    for step in range(5):
+        nodes = nodes.copy()
+        nodes[:, :2] += rng.uniform(-0.0002, 0.0002, nodes[:, :2].shape)
+        if step == 3:
+            nodes[7, 0] += 0.001  # now cell 0 is in reach
+        got = index.nearest(rows, key, xyz, nodes, 1.0, 1.0)
+        np.testing.assert_array_equal(got, nearest_nodes(pts, nodes, 1.0, 1.0))
+        near = int(np.count_nonzero(first >= 0))
+        assert index.queried - asked <= near + 5  # the bound cells and the ones at the edge
+        asked = index.queried
+    assert got[0] == 7
 
 
 def test_a_bind_check_with_nothing_new_asks_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
