@@ -38,10 +38,15 @@ from aion_cli.formats.dsg_binary import (
 class GraphReader:
     """:func:`read_graph` for a stream of payloads, re-reading only the node records that
     changed since the last payload (module docstring). ``delta_reads`` counts the payloads
-    read that way, ``whole_reads`` those read in full (the first, and every other change)."""
+    read that way, ``whole_reads`` those read in full (the first, and every other change);
+    ``labels`` keeps the stream's layer labels for :func:`formats.dsg_fast.fast_navigation`."""
 
     def __init__(self) -> None:
+        from aion_cli.formats.dsg_fast import LabelMemo  # dsg_fast imports this module's type
+
         self._last: BinaryGraph | None = None
+        self.labels = LabelMemo()
+        """The labels of the stream's layers (:class:`formats.dsg_fast.LabelMemo`)."""
         self.delta_reads = 0
         self.whole_reads = 0
 

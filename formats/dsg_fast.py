@@ -44,6 +44,7 @@ if TYPE_CHECKING:
 I64 = npt.NDArray[np.int64]
 U64 = npt.NDArray[np.uint64]
 
+
 class _Key(NamedTuple):
     layer: int
     partition: int
@@ -102,8 +103,9 @@ class _UnsureError(Exception):
 class _Graph:
     """A :class:`BinaryGraph` with the lookups the snapshot needs (rows by id, parents)."""
 
-    def __init__(self, g: BinaryGraph) -> None:
+    def __init__(self, g: BinaryGraph, labels: LabelMemo | None = None) -> None:
         self.g = g
+        self.labels = labels
         self.counts: dict[tuple[int, int], int] = {}  # nodes per layer key
         for layer in _distinct(g.layer).tolist():
             parts, n = _distinct(g.partition[g.layer == layer], counts=True)
@@ -174,7 +176,27 @@ class _Graph:
             return Layer.empty()
         g = self.g
         ids = g.ids[rows]
-        return Layer(ids, g.xyz[rows], self.parent[rows], _labels(ids, self.names(rows)))
+        names = self.names(rows)
+        labels = self.labels.get(ids, names) if self.labels is not None else _labels(ids, names)
+        return Layer(ids, g.xyz[rows], self.parent[rows], labels)
+
+
+class LabelMemo:
+    """The labels of the last few layers a stream's graphs gave (:func:`dsg_scan._labels` of
+    their ids and names, 1.5 ms for 5,000 places): a live graph repeats its layers' ids and
+    names, so they are compared (exactly) instead of made again."""
+
+    def __init__(self, size: int = 4) -> None:
+        self.size = size
+        self._kept: list[tuple[U64, list[str], tuple[str, ...]]] = []
+
+    def get(self, ids: U64, names: list[str]) -> tuple[str, ...]:
+        for kept_ids, kept_names, labels in self._kept:
+            if np.array_equal(kept_ids, ids) and kept_names == names:
+                return labels
+        labels = _labels(ids, names)
+        self._kept = [(ids.copy(), names, labels), *self._kept[: self.size - 1]]
+        return labels
 
 
 def _distinct(a: npt.NDArray[Any], counts: bool = False) -> Any:
@@ -259,13 +281,15 @@ def fast_navigation(
     if g is None:
         return None
     try:
-        return _navigation(g, t_ns, layer)
+        return _navigation(g, t_ns, layer, reader.labels if reader is not None else None)
     except (_UnsureError, GraphLayerError):
         return None
 
 
-def _navigation(g: BinaryGraph, t_ns: int, layer: str | int | None) -> NavGraph:
-    gr = _Graph(g)
+def _navigation(
+    g: BinaryGraph, t_ns: int, layer: str | int | None, labels: LabelMemo | None = None
+) -> NavGraph:
+    gr = _Graph(g, labels)
     layers = _Layers(g, gr.counts)
     nav = choose_nav_layer(layers, layer)
     buildings = gr.layer(gr.layer_rows(layers.named("BUILDINGS", (BUILDINGS_LAYER, 0))))

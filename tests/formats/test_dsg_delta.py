@@ -195,3 +195,37 @@ def test_a_build_of_a_moving_stream_equals_reading_every_graph_whole(
     for name in a:
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
     assert ma["state"] == mb["state"]
+
+
+def test_a_stream_read_by_changes_gives_the_snapshots_of_whole_reads() -> None:
+    """Through :func:`fast_navigation` with the stream's reader (records re-read by changes,
+    layer labels kept between graphs): every snapshot equals the one read alone — places
+    moved, a place named, renamed and unnamed again, a room renamed."""
+    from aion_cli.formats.dsg_fast import fast_navigation
+    from tests.formats.test_dsg_scan_fast import _snapshots_equal
+
+    G = _graph()
+    places = _places(G)
+    rooms = sorted(n.id.value for n in G.get_layer("ROOMS").nodes)
+    edits = [
+        lambda: _move(G, places[:5], 0.002, 10**18),
+        lambda: setattr(G.get_node(places[3]).attributes, "name", "kitchen"),
+        lambda: setattr(G.get_node(places[3]).attributes, "name", "hallway"),
+        lambda: _move(G, places[3:9], -0.001, 10**18 + 1),
+        lambda: setattr(G.get_node(places[3]).attributes, "name", ""),
+        lambda: setattr(G.get_node(rooms[0]).attributes, "name", "lab"),
+    ]
+    reader = GraphReader()
+    labels = set()
+    for k, edit in enumerate([lambda: None, *edits]):
+        edit()
+        payload = _payload(G)
+        streamed = fast_navigation(payload, 100 + k, None, reader)
+        alone = fast_navigation(payload, 100 + k, None)
+        assert streamed is not None
+        assert alone is not None
+        _snapshots_equal(streamed.snapshot, alone.snapshot)
+        assert streamed.layer == alone.layer
+        labels.add(streamed.snapshot.places.labels)
+    assert reader.delta_reads >= 3
+    assert len(labels) >= 3  # the names did reach the labels
