@@ -5,7 +5,7 @@ hands over ``dict[str, ndarray]`` and a manifest dict of its own fields (config,
 span, counts...). The format is specified in ``formats/MAPFILE.md``; in short:
 
 - members are stored uncompressed (fast to read, and no decompression bombs in our own files),
-  each with its sha256, size, dtype and shape in the manifest's ``members`` table;
+  each with its sha256, CRC-32, size, dtype and shape in the manifest's ``members`` table;
 - arrays are written with ``allow_pickle=False`` and read with ``allow_pickle=False``: a map file
   never executes code, and object arrays are refused on write;
 - writing goes to a temporary file in the same folder, is flushed and fsync'd, then atomically

@@ -29,6 +29,7 @@ from aion_cli.formats.mapfile_format import (
 )
 
 _SHA_RE = re.compile(r"^[0-9a-f]{64}$")
+_CRC_RE = re.compile(r"^[0-9a-f]{8}$")
 
 
 def _not_a_map(path: Path, why: str) -> MapFileError:
@@ -72,6 +73,9 @@ def validate_manifest(manifest: object, path: Path) -> dict[str, Any]:
         _require(isinstance(rec, dict), path, f"member {name!r} record is not an object")
         sha, size, dtype, shape = (rec.get(k) for k in ("sha256", "size", "dtype", "shape"))
         _require(isinstance(sha, str) and bool(_SHA_RE.match(sha)), path, f"{name}: sha256")
+        crc = rec.get("crc32")  # maps written before 2026-12-03 have none
+        _require(crc is None or (isinstance(crc, str) and bool(_CRC_RE.match(crc))), path,
+                 f"{name}: crc32")
         _require(_is_int(size) and size >= 0, path, f"{name}: size")
         _require(isinstance(dtype, str), path, f"{name}: dtype")
         _require(

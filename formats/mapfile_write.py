@@ -24,6 +24,7 @@ from typing import IO, Any
 import numpy as np
 
 from aion_cli import __version__
+from aion_cli.formats.crc import crc32
 from aion_cli.formats.mapfile_format import (
     _LOCAL_HEADER_SIZE,
     ALIGN,
@@ -41,15 +42,18 @@ from aion_cli.formats.outputs import fsync_dir, interrupts_held
 
 
 class _HashingWriter:
-    """A write-only file object that feeds a zip member and a sha256 at once (no extra copy)."""
+    """A write-only file object that feeds a zip member, a sha256 and a CRC-32 at once (no
+    extra copy)."""
 
     def __init__(self, sink: IO[bytes]) -> None:
         self.sink = sink
         self.sha = hashlib.sha256()
+        self.crc = 0
         self.size = 0
 
     def write(self, data: bytes | bytearray | memoryview) -> int:
         self.sha.update(data)
+        self.crc = crc32(data, self.crc)
         self.sink.write(data)
         self.size += len(data)
         return len(data)
@@ -141,6 +145,7 @@ def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, Any], manifest: Any) -> 
                         writer.write(block.tobytes())
             members[name] = {
                 "sha256": writer.sha.hexdigest(),
+                "crc32": f"{writer.crc:08x}",
                 "size": writer.size,
                 "dtype": arr.dtype.str,
                 "shape": list(arr.shape),

@@ -2,8 +2,20 @@
 
 from __future__ import annotations
 
+import hashlib
 import zipfile
 from pathlib import Path
+from typing import Any
+
+from aion_cli.formats.crc import crc32
+
+
+def declare_member(rec: dict[str, Any], data: bytes, **fields: Any) -> None:
+    """A manifest member record made to match ``data`` (size, sha256 and CRC-32), so that
+    the reader's later checks (header, dtype, shape, values) are the ones that see a change;
+    ``fields`` are set after."""
+    rec.update(size=len(data), sha256=hashlib.sha256(data).hexdigest(),
+               crc32=f"{crc32(data):08x}", **fields)
 
 
 def flip_member_byte(path: Path, member: str, out: Path) -> Path:

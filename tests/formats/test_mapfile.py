@@ -9,6 +9,7 @@ import os
 import subprocess
 import sys
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +59,7 @@ def test_manifest_carries_container_and_caller_fields(written: Path) -> None:
         )
     assert rec["size"] == len(raw)
     assert rec["sha256"] == hashlib.sha256(raw).hexdigest()
+    assert rec["crc32"] == f"{zlib.crc32(raw):08x}"
     assert read_manifest(written) == manifest
 
 

@@ -17,6 +17,7 @@ import pytest
 from aion_cli.errors import MapCorruptError, MapFileError, MapVersionError
 from aion_cli.formats.mapfile import read_manifest, read_map, write_map
 from tests.formats.conftest import assert_same, sample_arrays
+from tests.formats.map_damage import declare_member
 
 
 def rewrite(
@@ -69,7 +70,7 @@ def test_flipped_byte_in_member_is_corruption_naming_it(tmp_path: Path) -> None:
 def test_checksum_mismatch_with_valid_zip_crc_names_member(written: Path, tmp_path: Path) -> None:
     forged = tmp_path / "forged.aion"
     rewrite(written, forged, {"i8.npy": npy_bytes(np.array([1, 2, 3], dtype=np.int8))})
-    with pytest.raises(MapCorruptError, match="i8 fails its sha256"):
+    with pytest.raises(MapCorruptError, match="i8 fails its crc32"):
         read_map(forged)
 
 
@@ -129,6 +130,7 @@ def test_newer_major_is_a_version_error_newer_minor_reads(written: Path, tmp_pat
         (lambda m: m["members"]["i8"].update(size=-1), "size"),
         (lambda m: m["members"]["i8"].update(size=True), "size"),
         (lambda m: m["members"]["i8"].update(sha256="xyz"), "sha256"),
+        (lambda m: m["members"]["i8"].update(crc32="0x12345678"), "crc32"),
         (lambda m: m["members"]["i8"].update(shape=[3.0]), "shape"),
         (lambda m: m["members"].update(i8=[1, 2]), "not an object"),
     ],
@@ -159,7 +161,7 @@ def test_dtype_or_shape_disagreeing_with_manifest_is_corruption(
     data = npy_bytes(np.array([1, 2, 3], dtype=np.int16))
 
     def declare(m: dict[str, Any]) -> None:
-        m["members"]["i8"].update(size=len(data), sha256=hashlib.sha256(data).hexdigest())
+        declare_member(m["members"]["i8"], data)
 
     bad = tmp_path / "bad.aion"
     rewrite(written, bad, {"i8.npy": data}, manifest_edit=declare)
@@ -256,7 +258,7 @@ def test_pickled_member_never_loads(written: Path, tmp_path: Path) -> None:
     data = buf.getvalue()
 
     def declare(m: dict[str, Any]) -> None:
-        m["members"]["i8"].update(size=len(data), sha256=hashlib.sha256(data).hexdigest())
+        declare_member(m["members"]["i8"], data)
 
     bad = tmp_path / "bad.aion"
     rewrite(written, bad, {"i8.npy": data}, manifest_edit=declare)

@@ -15,7 +15,6 @@ NaN, inf, huge, an index past the end) with valid checksums.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import random
 import shutil
@@ -26,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from tests.formats.map_damage import declare_member
 from tests.robustness.fuzz_mutate import _rezip, mutate
 
 
@@ -356,7 +356,6 @@ def mutate_map_values(seed: Path, rng: random.Random, out: Path) -> None:
         data = buf.getvalue()
         contents[name] = data
         rec = manifest["members"][name[: -len(".npy")]]
-        rec["sha256"] = hashlib.sha256(data).hexdigest()
-        rec["size"] = len(data)
+        declare_member(rec, data)
     contents["manifest.json"] = json.dumps(manifest).encode()
     _rezip(contents, out)

@@ -7,12 +7,13 @@ updated), so the checks behind the zip CRC are reached.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import random
 import shutil
 import zipfile
 from pathlib import Path
+
+from tests.formats.map_damage import declare_member
 
 
 def mutate(data: bytes, rng: random.Random) -> bytes:
@@ -79,7 +80,6 @@ def mutate_map(seed: Path, rng: random.Random, out: Path) -> None:
         contents[name] = data
         manifest = json.loads(contents["manifest.json"])
         rec = manifest["members"][name[: -len(".npy")]]
-        rec["sha256"] = hashlib.sha256(data).hexdigest()
-        rec["size"] = len(data)
+        declare_member(rec, data)
         contents["manifest.json"] = json.dumps(manifest).encode()
     _rezip(contents, out)

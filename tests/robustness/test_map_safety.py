@@ -9,7 +9,6 @@ trusts oversized, path-traversing or invalid content.
 from __future__ import annotations
 
 import errno
-import hashlib
 import io
 import os
 import random
@@ -23,6 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from tests.formats.map_damage import declare_member
 from tests.robustness.conftest import (
     AION,
     T0,
@@ -287,13 +287,38 @@ def refused(path: Path, *fragments: str) -> None:
 
 
 def test_checksums_catch_a_changed_array(office: Office, tmp_path: Path) -> None:
-    """An array changed inside a well-formed zip (fresh zip CRC): the manifest's sha256 catches
-    it and names the member."""
+    """An array changed inside a well-formed zip (fresh zip CRC): the manifest's CRC-32
+    catches it and names the member."""
     name = _member(office.map)
     with zipfile.ZipFile(office.map) as zf:
         data = bytearray(zf.read(name))
     data[-1] ^= 0x01
     bad = rewrite_map(office.map, tmp_path / "bad.aion", {name: bytes(data)})
+    refused(bad, "corrupted", name[: -len(".npy")], "crc32")
+
+
+def _without_crc32(manifest: dict[str, Any]) -> None:
+    """A manifest as aion wrote it before members had a CRC-32 (sha256 only)."""
+    for rec in manifest["members"].values():
+        rec.pop("crc32")
+
+
+def test_maps_without_crc32_are_checked_by_sha256(office: Office, tmp_path: Path) -> None:
+    """Maps written before the CRC-32 (their members have a sha256 only) load and predict
+    alike, and a changed array is still caught, by its sha256."""
+    from aion_cli.mapquery import load_map
+
+    old = rewrite_map(office.map, tmp_path / "old.aion", manifest_edit=_without_crc32)
+    now = run("predict", office.map, "--time", "2024-01-01 12:00", "--format", "csv")
+    before = run("predict", old, "--time", "2024-01-01 12:00", "--format", "csv")
+    assert now.exit_code == before.exit_code == 0, before.stderr
+    assert before.stdout == now.stdout
+    assert load_map(old).state.entries.n == load_map(office.map).state.entries.n
+    name = _member(office.map)
+    with zipfile.ZipFile(office.map) as zf:
+        data = bytearray(zf.read(name))
+    data[-1] ^= 0x01
+    bad = rewrite_map(office.map, tmp_path / "bad.aion", {name: bytes(data)}, _without_crc32)
     refused(bad, "corrupted", name[: -len(".npy")], "sha256")
 
 
@@ -329,7 +354,7 @@ def test_a_pickled_member_is_refused_and_never_runs(office: Office, tmp_path: Pa
 
     def declare(manifest: dict[str, Any]) -> None:
         rec = manifest["members"][name[: -len(".npy")]]
-        rec.update(size=len(data), sha256=hashlib.sha256(data).hexdigest(), dtype="|O")
+        declare_member(rec, data, dtype="|O")
 
     bad = rewrite_map(office.map, tmp_path / "pickle.aion", {name: data}, declare)
     refused(bad, "not a valid .npy")
@@ -372,6 +397,8 @@ def test_a_zip_bomb_member_is_refused(office: Office, tmp_path: Path) -> None:
         (lambda m: m.update(format="not-aion"), "invalid manifest"),
         (lambda m: m.update(members=[]), "invalid manifest"),
         (lambda m: next(iter(m["members"].values())).update(sha256="xyz"), "sha256"),
+        (lambda m: next(iter(m["members"].values())).update(crc32="12345"), "crc32"),
+        (lambda m: next(iter(m["members"].values())).update(crc32=123), "crc32"),
         (lambda m: m.update(version="1"), "invalid version"),
         (lambda m: m.pop("state"), "no model state"),
         (lambda m: m["state"].update(open_window="soon"), "invalid"),
