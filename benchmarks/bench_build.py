@@ -158,6 +158,49 @@ def _message_reading(path: Path, limit: int, repeats: int) -> dict[str, float]:
             "payload_fast_s_per_graph": fast_s / k}
 
 
+def _stream_reading(path: Path, samples: int, repeats: int) -> dict[str, float]:
+    """Per payload the build uses from a 1 Hz stream with the default ``--graph-period`` (every
+    fifth): ``read_graph`` of the whole payload against the stream's
+    ``formats.dsg_delta.GraphReader`` (only the node records changed since the payload before
+    re-read), and ``decode_dsg`` to a snapshot without and with that reader (its layer labels
+    kept too). Interleaved, best of ``repeats``."""
+    from aion_cli.formats.dsg import decode_dsg
+    from aion_cli.formats.dsg_binary import read_graph
+    from aion_cli.formats.dsg_delta import GraphReader
+
+    used = _payloads(path, 5 * samples + 1)[::5]
+    if len(used) < 2:
+        return {}
+    first, rest = used[0], used[1:]
+
+    def by_changes(decode: bool) -> float:
+        reader = GraphReader()
+        if decode:
+            decode_dsg(first[1], first[0], reader=reader)
+        else:
+            reader.read(first[1])
+        t0 = time.perf_counter()
+        for t, p in rest:
+            if decode:
+                decode_dsg(p, t, reader=reader)
+            else:
+                reader.read(p)
+        return time.perf_counter() - t0
+
+    whole_s = changes_s = decode_s = stream_s = float("inf")
+    for _ in range(max(1, repeats)):
+        whole_s = min(whole_s, best_of(lambda: [read_graph(p) for _, p in rest], 1))
+        changes_s = min(changes_s, by_changes(False))
+        decode_s = min(decode_s, best_of(lambda: [decode_dsg(p, t) for t, p in rest], 1))
+        stream_s = min(stream_s, by_changes(True))
+    k = len(rest)
+    return {"read_whole_s_per_graph": whole_s / k,
+            "read_by_changes_s_per_graph": changes_s / k,
+            "read_by_changes_speedup": whole_s / changes_s,
+            "decode_dsg_alone_s_per_graph": decode_s / k,
+            "decode_dsg_stream_s_per_graph": stream_s / k}
+
+
 def graph_parts(path: Path, samples: int = 10, repeats: int = 3) -> dict[str, Any]:
     """Per payload: spark_dsg ``from_binary``, ``formats.dsg.decode_dsg`` through spark_dsg
     (``fast=False``: ``from_binary`` and the per-node scan, the path before the numpy reader)
@@ -210,6 +253,7 @@ def graph_parts(path: Path, samples: int = 10, repeats: int = 3) -> dict[str, An
             "decode_dsg_s_per_graph": fast_s / k,
             "decode_speedup": slow_s / fast_s,
             **_message_reading(path, samples, repeats),
+            **_stream_reading(path, samples, repeats),
             "add_graph_s_per_graph": own_s / max(k - 1, 1)}
 
 

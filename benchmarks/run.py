@@ -253,7 +253,9 @@ def _build_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> None
                 f"{r['build_without_graphs_s']:.1f} s without)",
                 f"{1e3 * r['graph_s_per_message']:.1f} ms/graph msg; spark_dsg "
                 f"{1e3 * r.get('spark_from_binary_s_per_graph', float('nan')):.1f} ms, "
-                f"decode_dsg {1e3 * r.get('decode_dsg_s_per_graph', float('nan')):.1f} ms, "
+                f"decode_dsg {1e3 * r.get('decode_dsg_s_per_graph', float('nan')):.1f} ms "
+                f"({1e3 * r.get('decode_dsg_stream_s_per_graph', float('nan')):.1f} ms "
+                "reading a stream by changes), "
                 f"add_graph {1e3 * r.get('add_graph_s_per_graph', float('nan')):.1f} ms",
                 "<= 25 %", r["graph_share"] <= 0.25)
             if "graph_share_floor_reading" in r:
