@@ -2,8 +2,8 @@
 
 :class:`MapMembers` reads and verifies one member at a time on first access (size limits,
 CRC-32 or sha256, ``.npy`` header without pickle, dtype, shape), stored members with one
-positioned read or in place over a copy-on-write mapping. The archive-level checks it runs on opening
-are :mod:`formats.mapfile_check`.
+positioned read or in place over a copy-on-write mapping. The archive-level checks it runs on
+opening are :mod:`formats.mapfile_check`.
 """
 
 from __future__ import annotations
