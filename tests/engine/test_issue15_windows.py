@@ -358,6 +358,8 @@ def _plain(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every issue-15 shortcut replaced by its plain version."""
     monkeypatch.setattr(ownership, "plan_binds", ownership.plan_binds_plain)
     monkeypatch.setattr(closing, "plan_binds", ownership.plan_binds_plain)
+    monkeypatch.setattr(ownership, "apply_binds", ownership.apply_binds_plain)
+    monkeypatch.setattr(closing, "apply_binds", ownership.apply_binds_plain)
     monkeypatch.setattr(scoring, "_per_window_sums", _per_window_sums_pairwise)
 
     def window_rows(self: EntryStore) -> np.ndarray:
@@ -448,3 +450,26 @@ def test_bind_index_travels_empty_and_answers_alike() -> None:
     assert not copy._known.any()
     np.testing.assert_array_equal(copy.nearest(rows, keys, cells, nodes, 1.5, 0.5), before)
     np.testing.assert_array_equal(before, nearest_nodes(cells, nodes, 1.5, 0.5))
+
+
+@pytest.mark.parametrize("robot", [False, True])
+def test_binds_update_the_route_table_as_a_rebuild_would(
+    robot: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """After every bind of a build (at graphs and window closes), the route table updated in
+    place equals the one rebuilt from the live cells and the redirects."""
+    incremental = ownership.apply_binds
+    checked = []
+
+    def checking(state: Any, plan: Any) -> None:
+        incremental(state, plan)
+        keys, rows = state.routes.keys.copy(), state.routes.rows.copy()
+        state.rebuild_routes()
+        np.testing.assert_array_equal(keys, state.routes.keys)
+        np.testing.assert_array_equal(rows, state.routes.rows)
+        checked.append(len(plan.cells))
+
+    monkeypatch.setattr(ownership, "apply_binds", checking)
+    monkeypatch.setattr(closing, "apply_binds", checking)
+    _build(4, robot)
+    assert len(checked) >= 3
