@@ -56,6 +56,8 @@ class NodeTable:
         xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
         if self._unchanged_by(ids, xyz, move_tolerance):
             return self._same(xyz), np.zeros(len(self), bool)
+        if len(ids) == len(self) and np.array_equal(ids, self.ids):
+            return self._moved(xyz, t_ns, move_tolerance), np.zeros(len(self), bool)
         uniq, first = np.unique(ids, return_index=True)
         pos = xyz[first]
         old_at = np.searchsorted(self.ids, uniq)
@@ -85,6 +87,16 @@ class NodeTable:
             and np.array_equal(xyz, self.xyz)
             and bool(np.all(np.linalg.norm(xyz - self.ref_xyz, axis=1) <= move_tolerance))
         )
+
+    def _moved(self, xyz: F64, t_ns: int, move_tolerance: float) -> NodeTable:
+        """The table after a snapshot of exactly its nodes (the same sorted ids) at positions
+        ``xyz`` (a live graph's optimisation moved some): what the general path of
+        :meth:`updated` gives then, without its sort and searches."""
+        pos = xyz.copy()
+        still = np.linalg.norm(pos - self.ref_xyz, axis=1) <= move_tolerance
+        ref = np.where(still[:, None], self.ref_xyz, pos)
+        since = np.where(still, self.stable_since_ns, np.int64(t_ns)).astype(np.int64)
+        return NodeTable(self.ids.copy(), pos, ref, since, self.bind_index)
 
     def _same(self, xyz: F64) -> NodeTable:
         """A copy of this table (positions ``xyz``, equal to its own), memo kept."""

@@ -394,12 +394,16 @@ def test_builds_equal_the_plain_builds_bit_for_bit(
 # -- an unchanged graph ------------------------------------------------------------------------
 
 
-@given(st.integers(0, 2**31 - 1), st.sampled_from(["same", "moved", "beyond", "new", "gone"]))
+@given(
+    st.integers(0, 2**31 - 1),
+    st.sampled_from(["same", "moved", "beyond", "new", "gone", "moving"]),
+)
 @settings(max_examples=120, deadline=None)
 def test_node_table_update_by_an_unchanged_graph_keeps_the_table(seed: int, kind: str) -> None:
-    """A snapshot repeating the table's nodes (the shortcut) gives the table the full update
-    gives for the same snapshot in another order (which takes the general path), whatever
-    changed before: timers, references and the gone mask equal."""
+    """A snapshot repeating the table's nodes (the shortcuts: unchanged, or the same ids
+    moved) gives the table the full update gives for the same snapshot in another order
+    (which takes the general path), whatever changed before: timers, references and the gone
+    mask equal."""
     from aion_cli.engine.nodes import NodeTable
 
     rng = np.random.default_rng(seed)
@@ -418,6 +422,8 @@ def test_node_table_update_by_an_unchanged_graph_keeps_the_table(seed: int, kind
         snap_ids, snap_xyz = np.r_[ids, np.uint64(10**7)], np.r_[later, [[0.0, 0.0, 0.0]]]
     elif kind == "gone" and n > 1:
         snap_ids, snap_xyz = ids[1:], later[1:]
+    elif kind == "moving":  # the same nodes, every one moved: some within tolerance, some not
+        snap_xyz = later + rng.normal(0.0, 0.08, later.shape)
     perm = rng.permutation(len(snap_ids))
     fast, fast_gone = table.updated(snap_ids, snap_xyz, 20 * S, 0.1)
     full, full_gone = table.updated(snap_ids[perm][::-1].copy(), snap_xyz[perm][::-1].copy(),
