@@ -270,7 +270,8 @@ class GraphFeed:
         if r.graphs_skipped_period or r.graphs_skipped_identical:
             r.notes.append(
                 f"scene graphs: {r.graph_messages:,} of {seen:,} applied "
-                f"({r.graph_decoded:,} decoded, {r.graphs_skipped_identical:,} identical to "
+                f"({r.graph_decoded:,} decoded, {r.graphs_read_by_changes:,} of them by the "
+                f"nodes that changed; {r.graphs_skipped_identical:,} identical to "
                 f"the payload before and not decoded again); {r.graphs_skipped_period:,} left "
                 f"out by --graph-period {r.graph_period_ns / 1e9:g}s"
             )
