@@ -21,6 +21,7 @@ the payload whole (``tests/formats/test_dsg_delta.py`` compares both on edited g
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
@@ -47,6 +48,12 @@ class GraphReader:
         self._last: BinaryGraph | None = None
         self.labels = LabelMemo()
         """The labels of the stream's layers (:class:`formats.dsg_fast.LabelMemo`)."""
+        self.values_only = False
+        """Whether the last payload read changed node positions and stamps only (the same
+        nodes, layers, kinds, names and frontier flags as the payload before it)."""
+        self.navigation: Any = None
+        """The snapshot made from the last payload and how (``formats.dsg_fast`` keeps it
+        here, to move its nodes when the next payload changed values only)."""
         self.delta_reads = 0
         self.whole_reads = 0
 
@@ -55,26 +62,30 @@ class GraphReader:
         reader vouches for). The payload's bytes must stay unchanged while they are the last
         ones read (the graph views them, as :func:`read_graph`'s does)."""
         buf = np.frombuffer(payload, dtype=np.uint8)
-        graph = _changed_records(buf, self._last) if self._last is not None else None
-        if graph is not None:
+        changed = _changed_records(buf, self._last) if self._last is not None else None
+        graph: BinaryGraph | None
+        if changed is not None:
             self.delta_reads += 1
+            graph, self.values_only = changed
         else:
             graph = read_graph(buf)
             self.whole_reads += 1
+            self.values_only = False
         self._last = graph
         return graph
 
 
-def _changed_records(buf: U8, last: BinaryGraph) -> BinaryGraph | None:
-    """``buf``'s graph from ``last`` and the node records whose bytes differ, or None when
-    the payload must be read whole (see the module docstring)."""
+def _changed_records(buf: U8, last: BinaryGraph) -> tuple[BinaryGraph, bool] | None:
+    """``buf``'s graph from ``last`` and the node records whose bytes differ, and whether
+    only positions and stamps changed (:func:`_values_only`); None when the payload must be
+    read whole (see the module docstring)."""
     old = last.data
     starts, ends = last.node_start, last.node_end
     if len(buf) != len(old) or len(starts) == 0:
         return None
     span = _differing_span(buf, old)
     if span is None:
-        return dataclasses.replace(last, data=buf)
+        return dataclasses.replace(last, data=buf), True
     first, last_byte = span
     if first[0] < starts[0] or last_byte[-1] >= ends[-1]:
         return None  # the layer table, the edges or the mesh changed
@@ -98,7 +109,8 @@ def _changed_records(buf: U8, last: BinaryGraph) -> BinaryGraph | None:
             return None  # read whole: read_graph decides what a repeated id means
     xyz = last.xyz.copy()
     xyz[touched] = np.column_stack([cols["x"], cols["y"], cols["z"]])
-    return dataclasses.replace(
+    values_only = _values_only(buf, last, touched, cols)
+    graph = dataclasses.replace(
         last,
         data=buf,
         layer=_replaced(last.layer, touched, cols["layer"]),
@@ -111,6 +123,29 @@ def _changed_records(buf: U8, last: BinaryGraph) -> BinaryGraph | None:
         real_place=_replaced(last.real_place, touched, cols["real_place"]),
         stamp_ns=_replaced(last.stamp_ns, touched, cols["stamp_ns"]),
     )
+    return graph, values_only
+
+
+_SAME = ("layer", "partition", "ids", "kind", "name_start", "name_len", "real_place")
+"""The node values a snapshot's structure depends on (all but positions and stamps)."""
+
+
+def _values_only(buf: U8, last: BinaryGraph, touched: I64, cols: dict[str, Any]) -> bool:
+    """Whether the re-read records ``touched`` kept every value but their positions and
+    stamps: the same key, id, kind, frontier flag and name (its bytes too)."""
+    for name in _SAME:
+        if not np.array_equal(
+            np.asarray(cols[name]).astype(getattr(last, name).dtype), getattr(last, name)[touched]
+        ):
+            return False
+    named = touched[last.name_len[touched] > 0]
+    old = last.data
+    for start, length in zip(
+        last.name_start[named].tolist(), last.name_len[named].tolist(), strict=True
+    ):
+        if not np.array_equal(buf[start : start + length], old[start : start + length]):
+            return False
+    return True
 
 
 def _differing_span(buf: U8, old: U8) -> tuple[I64, I64] | None:

@@ -22,6 +22,7 @@ messages of those cases.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -248,9 +249,8 @@ def _mesh(g: BinaryGraph) -> Mesh | None:
     )
 
 
-def _agents(gr: _Graph, layers: _Layers) -> Trajectory | None:
-    """The lowest non-empty agent partition (robot 'a') as a trajectory, stamps truncated to
-    microseconds as spark_dsg's ``timedelta`` has them."""
+def _agent_rows(gr: _Graph, layers: _Layers) -> I64 | None:
+    """The rows of the lowest non-empty agent partition (robot 'a'), or None."""
     agents = layers.named("AGENTS", (AGENTS_LAYER, 0))[0]
     parts = sorted(p for (k, p), n in gr.counts.items() if k == agents and p != 0 and n > 0)
     if not parts:
@@ -259,6 +259,14 @@ def _agents(gr: _Graph, layers: _Layers) -> Trajectory | None:
     g = gr.g
     if g.kinds and (np.asarray(g.kinds, dtype=object)[g.kind[rows]] != "AgentNodeAttributes").any():
         raise _UnsureError  # spark_dsg's nodes would have no timestamp
+    return rows
+
+
+def _trajectory(g: BinaryGraph, rows: I64 | None) -> Trajectory | None:
+    """The agents at ``rows`` as a trajectory, stamps truncated to microseconds as
+    spark_dsg's ``timedelta`` has them."""
+    if rows is None:
+        return None
     ns = g.stamp_ns[rows]
     us = ns // 1000 + ((ns < 0) & (ns % 1000 != 0))  # toward zero, as pybind's timedelta
     t = us * 1000
@@ -280,26 +288,36 @@ def fast_navigation(
     g = reader.read(payload) if reader is not None else read_graph(payload)
     if g is None:
         return None
+    kept = reader.navigation if reader is not None and reader.values_only else None
+    if isinstance(kept, _Moved) and kept.layer_asked == layer:
+        return kept.at(g, t_ns)
+    if reader is not None:
+        reader.navigation = None
     try:
-        return _navigation(g, t_ns, layer, reader.labels if reader is not None else None)
+        nav, moved = _navigation(g, t_ns, layer, reader.labels if reader is not None else None)
     except (_UnsureError, GraphLayerError):
         return None
+    if reader is not None:
+        reader.navigation = moved
+    return nav
 
 
 def _navigation(
     g: BinaryGraph, t_ns: int, layer: str | int | None, labels: LabelMemo | None = None
-) -> NavGraph:
+) -> tuple[NavGraph, _Moved]:
     gr = _Graph(g, labels)
     layers = _Layers(g, gr.counts)
     nav = choose_nav_layer(layers, layer)
-    buildings = gr.layer(gr.layer_rows(layers.named("BUILDINGS", (BUILDINGS_LAYER, 0))))
-    rooms = gr.layer(gr.layer_rows(layers.named("ROOMS", (ROOMS_LAYER, 0))))
-    rooms = _keep_parents_in(rooms, buildings)
+    building_rows = gr.layer_rows(layers.named("BUILDINGS", (BUILDINGS_LAYER, 0)))
+    room_rows = gr.layer_rows(layers.named("ROOMS", (ROOMS_LAYER, 0)))
+    buildings = gr.layer(building_rows)
+    rooms = _keep_parents_in(gr.layer(room_rows), buildings)
     rows = gr.layer_rows((nav.layer, nav.partition))
     place_kind = g.kinds.index("PlaceNodeAttributes") if "PlaceNodeAttributes" in g.kinds else -1
     frontier = (g.kind[rows] == place_kind) & ~g.real_place[rows]
     rows = rows[~frontier]
     places = _keep_parents_in(gr.layer(rows), rooms)
+    agent_rows = _agent_rows(gr, layers)
     snapshot = GraphSnapshot(
         t_ns=int(t_ns),
         places=places,
@@ -307,7 +325,54 @@ def _navigation(
         rooms=rooms,
         buildings=buildings,
         mesh=_mesh(g),
-        agents=_agents(gr, layers),
+        agents=_trajectory(g, agent_rows),
         layer_name=nav.snapshot_name,
     )
-    return NavGraph(snapshot, nav, int(frontier.sum()), None)
+    out = NavGraph(snapshot, nav, int(frontier.sum()), None)
+    return out, _Moved(layer, out, rows, room_rows, building_rows, agent_rows)
+
+
+class _Moved:
+    """A snapshot and the payload rows its layers came from, for the next payload of a
+    stream that changed node positions and stamps only (``GraphReader.values_only``): the
+    layers, parents, labels, edges and mesh are then the same, and only the positions and
+    the agents' trajectory are read again — what :func:`_navigation` would make."""
+
+    def __init__(
+        self,
+        layer_asked: str | int | None,
+        nav: NavGraph,
+        places: I64,
+        rooms: I64,
+        buildings: I64,
+        agents: I64 | None,
+    ) -> None:
+        self.layer_asked = layer_asked
+        self.nav = nav
+        self.rows = (places, rooms, buildings)
+        self.agents = agents
+
+    def at(self, g: BinaryGraph, t_ns: int) -> NavGraph:
+        """The snapshot of ``g`` (the same nodes, moved) at ``t_ns``."""
+        before = self.nav.snapshot
+        places, rooms, buildings = (
+            _moved(layer, g, rows)
+            for layer, rows in zip(
+                (before.places, before.rooms, before.buildings), self.rows, strict=True
+            )
+        )
+        snapshot = dataclasses.replace(
+            before,
+            t_ns=int(t_ns),
+            places=places,
+            rooms=rooms,
+            buildings=buildings,
+            agents=_trajectory(g, self.agents),
+        )
+        return NavGraph(snapshot, self.nav.layer, self.nav.frontiers, None)
+
+
+def _moved(layer: Layer, g: BinaryGraph, rows: I64) -> Layer:
+    if len(rows) == 0:
+        return layer
+    return Layer(layer.ids, g.xyz[rows], layer.parent, layer.labels)

@@ -229,3 +229,77 @@ def test_a_stream_read_by_changes_gives_the_snapshots_of_whole_reads() -> None:
         labels.add(streamed.snapshot.places.labels)
     assert reader.delta_reads >= 3
     assert len(labels) >= 3  # the names did reach the labels
+
+
+def _with_agents(G: Any, n: int = 4) -> Any:
+    """``G`` with a robot's agent nodes (partition 'a' of the agents layer)."""
+    import datetime
+
+    import spark_dsg as dsg
+
+    for i in range(n):
+        a = dsg.AgentNodeAttributes()
+        a.position = np.array([float(i), 1.0, 0.0])
+        a.timestamp = datetime.timedelta(microseconds=1000 * (i + 1))
+        G.add_node(2, sym("a", i), a, ord("a"))
+    return G
+
+
+def test_snapshots_of_moved_nodes_are_moved_not_made_again(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A payload that moved and re-stamped nodes only (places, rooms, agents) gives the last
+    snapshot with the new positions and trajectory, made without a new layer scan; a rename
+    or a frontier flag changed makes it again. Every snapshot equals the one read alone."""
+    import datetime
+
+    from aion_cli.formats import dsg_fast
+    from tests.formats.test_dsg_scan_fast import _snapshots_equal
+
+    made = []
+    scan = dsg_fast._navigation
+
+    def counting(*args: Any) -> Any:
+        made.append(1)
+        return scan(*args)
+
+    monkeypatch.setattr(dsg_fast, "_navigation", counting)
+    G = _with_agents(_graph())
+    places = _places(G)
+    rooms = sorted(n.id.value for n in G.get_layer("ROOMS").nodes)
+
+    def agents_moved() -> None:
+        for i in range(2):
+            a = G.get_node(sym("a", i)).attributes
+            a.position = np.asarray(a.position) + 0.25
+            a.timestamp = datetime.timedelta(microseconds=9000 - i)  # reorders the trajectory
+
+    def room_moved() -> None:
+        a = G.get_node(rooms[0]).attributes
+        a.position = np.asarray(a.position) + 0.5
+
+    steps: list[tuple[Any, bool]] = [
+        (lambda: None, False),  # the first graph: made
+        (lambda: _move(G, places[:7], 0.003, 10**18), True),
+        (agents_moved, True),
+        (room_moved, True),
+        (lambda: setattr(G.get_node(places[2]).attributes, "name", "lab"), False),
+        (lambda: _move(G, places[1:3], -0.002, 10**18 + 5), True),
+    ]
+    reader = GraphReader()
+    for k, (edit, moved) in enumerate(steps):
+        edit()
+        payload = _payload(G)
+        before = len(made)
+        streamed = dsg_fast.fast_navigation(payload, 500 + k, None, reader)
+        assert reader.values_only == moved, k
+        assert (len(made) == before) == moved, k  # moved: no new scan
+        alone = scan(read_graph(payload), 500 + k, None)[0]
+        assert streamed is not None
+        _snapshots_equal(streamed.snapshot, alone.snapshot)
+        assert streamed.snapshot.t_ns == 500 + k
+        assert streamed.frontiers == alone.frontiers
+        assert streamed.snapshot.agents is not None
+        assert alone.snapshot.agents is not None
+        np.testing.assert_array_equal(streamed.snapshot.agents.t_ns, alone.snapshot.agents.t_ns)
+        np.testing.assert_array_equal(streamed.snapshot.agents.xyz, alone.snapshot.agents.xyz)
