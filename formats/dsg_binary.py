@@ -151,13 +151,13 @@ def _strings(s: _Scalar, limit: int = 256) -> list[str]:
 
 
 def _candidates(buf: U8, arrays: I64, fixed: Sequence[tuple[int, int]]) -> I64:
-    """The ARR32 tags (positions ``arrays``) followed by the bytes of ``fixed`` (offset,
-    value; offsets from the tag) with the whole span inside the buffer."""
+    """The positions of ``arrays`` (ARR32 tags, or records' starts) at which the bytes of
+    ``fixed`` are (offset, value; offsets from the position), with the whole span inside the
+    buffer."""
     span = max(o for o, _ in fixed) + 1
     idx = arrays[arrays <= len(buf) - span]
     for off, byte in fixed:
-        if off:
-            idx = idx[buf[idx + off] == byte]
+        idx = idx[buf[idx + off] == byte]
     return idx.astype(np.int64)
 
 
@@ -272,13 +272,10 @@ def node_records(
     return cols, c.pos, c.ok, meta
 
 
-def head_ok(buf: U8, starts: I64) -> Bool:
-    """Whether a node record's fixed head bytes (:data:`_NODE_HEAD`) are at each of
-    ``starts`` (which must leave room for them)."""
-    ok = np.ones(len(starts), dtype=bool)
-    for off, byte in _NODE_HEAD:
-        ok &= buf[starts + off] == byte
-    return ok
+def heads_ok(buf: U8, starts: I64) -> bool:
+    """Whether a node record's fixed head bytes (:data:`_NODE_HEAD`) are at every one of
+    ``starts`` (the check :func:`_candidates` makes of every possible start)."""
+    return len(_candidates(buf, starts, _NODE_HEAD)) == len(starts)
 
 
 def _gather(buf: U8, pos: I64, dtype: str) -> npt.NDArray[np.generic]:

@@ -30,7 +30,7 @@ from aion_cli.formats.dsg_binary import (
     U8,
     BinaryGraph,
     _metadata_ok,
-    head_ok,
+    heads_ok,
     node_records,
     read_graph,
 )
@@ -94,7 +94,7 @@ def _changed_records(buf: U8, last: BinaryGraph) -> tuple[BinaryGraph, bool] | N
     touched[np.searchsorted(starts, last_byte, side="right") - 1] = True
     touched = np.flatnonzero(touched)
     at = starts[touched]
-    if not head_ok(buf, at).all():
+    if not heads_ok(buf, at):
         return None
     cols, record_ends, ok, (meta_start, meta_len) = node_records(buf, at, last.kinds)
     if not ok.all() or not np.array_equal(record_ends, ends[touched]):
