@@ -161,36 +161,27 @@ def plan_binds_plain(state: MapState, t_ns: int) -> BindPlan | None:
 def apply_binds(state: MapState, plan: BindPlan) -> None:
     """Move the planned cells into their nodes' entries and record the redirects.
 
-    The route table is updated in place: the moved cells' keys now lead to their nodes' rows,
-    and nothing else changes (no other entry moves, node rows are new or kept), which is what
-    rebuilding it from the live cells and the redirects gives (``apply_binds_plain``; tested
-    equal). Where the table does not route the moved keys to the moved cells (it was not
-    current), it is rebuilt."""
-    dst = node_rows_creating(state, plan.node_ids, plan.node_xyz)
-    keys = state.entries.key[plan.cells].copy()
-    routes = state.routes
-    at = np.searchsorted(routes.keys, keys) if len(routes.keys) else np.zeros(0, np.int64)
-    current = len(at) == len(keys) and bool(
-        (at < len(routes.keys)).all()
-        and (routes.keys[np.minimum(at, len(routes.keys) - 1)] == keys).all()
-        and (routes.rows[np.minimum(at, len(routes.keys) - 1)] == plan.cells).all()
-    )
-    state.move(plan.cells, dst)
-    state.redirects.add(keys, plan.node_ids)
-    if current:
-        routes.rows[at] = dst
-    else:
-        state.rebuild_routes()
+    The route table is updated in place (``RouteTable.reroute``): the moved cells' keys now
+    lead to their nodes' rows, and nothing else changes (no other entry moves, node rows are
+    new or kept), which is what rebuilding it from the live cells and the redirects gives
+    (:func:`apply_binds_plain`; tested equal). Where the table does not route the moved keys
+    to the moved cells (it was not current), it is rebuilt."""
+    _apply_binds(state, plan, reroute=True)
 
 
 def apply_binds_plain(state: MapState, plan: BindPlan) -> None:
     """:func:`apply_binds` rebuilding the whole route table (the reference it is tested
     against)."""
+    _apply_binds(state, plan, reroute=False)
+
+
+def _apply_binds(state: MapState, plan: BindPlan, reroute: bool) -> None:
     dst = node_rows_creating(state, plan.node_ids, plan.node_xyz)
     keys = state.entries.key[plan.cells].copy()
     state.move(plan.cells, dst)
     state.redirects.add(keys, plan.node_ids)
-    state.rebuild_routes()
+    if not (reroute and state.routes.reroute(keys, plan.cells, dst)):
+        state.rebuild_routes()
 
 
 def bind_cells(state: MapState, t_ns: int) -> int:

@@ -102,6 +102,18 @@ class RouteTable:
             rows = grid[lin]
         return rows
 
+    def reroute(self, keys: I64, old_rows: I64, new_rows: I64) -> bool:
+        """Point ``keys``, which the table routes to ``old_rows``, to ``new_rows`` in place
+        (entries moved without other changes). False, and the table unchanged, when it does
+        not route every key so (the caller rebuilds it then)."""
+        if len(self.keys) == 0:
+            return len(keys) == 0
+        at = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
+        if not ((self.keys[at] == keys).all() and (self.rows[at] == old_rows).all()):
+            return False
+        self.rows[at] = new_rows
+        return True
+
     def insert(self, keys: I64, rows: I64) -> None:
         """Insert new keys (sorted, unique, not present) keeping the table sorted."""
         if len(keys) == 0:
