@@ -45,6 +45,22 @@ def assert_same_graph(a: BinaryGraph | None, b: BinaryGraph | None) -> None:
             assert x == y, f.name
 
 
+def streamed_equals_alone(payload: bytes, t_ns: int, reader: GraphReader) -> Any:
+    """The snapshot ``fast_navigation`` makes of ``payload`` through the stream's ``reader``,
+    checked equal to the one it makes of the payload alone (layer and frontiers too)."""
+    from aion_cli.formats.dsg_fast import fast_navigation
+    from tests.formats.test_dsg_scan_fast import _snapshots_equal
+
+    streamed = fast_navigation(payload, t_ns, None, reader)
+    alone = fast_navigation(payload, t_ns, None)
+    assert streamed is not None
+    assert alone is not None
+    _snapshots_equal(streamed.snapshot, alone.snapshot)
+    assert streamed.layer == alone.layer
+    assert streamed.frontiers == alone.frontiers
+    return streamed
+
+
 def _graph() -> Any:
     return hydra_graph()
 
@@ -201,9 +217,6 @@ def test_a_stream_read_by_changes_gives_the_snapshots_of_whole_reads() -> None:
     """Through :func:`fast_navigation` with the stream's reader (records re-read by changes,
     layer labels kept between graphs): every snapshot equals the one read alone — places
     moved, a place named, renamed and unnamed again, a room renamed."""
-    from aion_cli.formats.dsg_fast import fast_navigation
-    from tests.formats.test_dsg_scan_fast import _snapshots_equal
-
     G = _graph()
     places = _places(G)
     rooms = sorted(n.id.value for n in G.get_layer("ROOMS").nodes)
@@ -220,12 +233,7 @@ def test_a_stream_read_by_changes_gives_the_snapshots_of_whole_reads() -> None:
     for k, edit in enumerate([lambda: None, *edits]):
         edit()
         payload = _payload(G)
-        streamed = fast_navigation(payload, 100 + k, None, reader)
-        alone = fast_navigation(payload, 100 + k, None)
-        assert streamed is not None
-        assert alone is not None
-        _snapshots_equal(streamed.snapshot, alone.snapshot)
-        assert streamed.layer == alone.layer
+        streamed = streamed_equals_alone(payload, 100 + k, reader)
         labels.add(streamed.snapshot.places.labels)
     assert reader.delta_reads >= 3
     assert len(labels) >= 3  # the names did reach the labels
@@ -315,8 +323,6 @@ def test_real_hydra_graphs_moved_read_by_changes(name: str) -> None:
     renamed. Every graph and every snapshot equals the whole read's; the moves are read by
     changes (the rename too when the new name has the old one's length)."""
     from aion_cli.formats import dsg as fdsg
-    from aion_cli.formats.dsg_fast import fast_navigation
-    from tests.formats.test_dsg_scan_fast import _snapshots_equal
     from tests.shared_data import SHARED_DATA
 
     path = SHARED_DATA / "dsg" / name
@@ -337,11 +343,6 @@ def test_real_hydra_graphs_moved_read_by_changes(name: str) -> None:
             G.get_node(ids[0]).attributes.name = "x" * len(old_name) if old_name else "lab"
         payload = bytes(G.to_binary(True))
         assert_same_graph(graphs.read(payload), read_graph(payload))
-        streamed = fast_navigation(payload, 10 + k, None, snapshots)
-        alone = fast_navigation(payload, 10 + k, None)
-        assert streamed is not None
-        assert alone is not None
-        _snapshots_equal(streamed.snapshot, alone.snapshot)
-        assert streamed.frontiers == alone.frontiers
+        streamed_equals_alone(payload, 10 + k, snapshots)
     assert graphs.delta_reads == (3 if old_name else 2)
     assert snapshots.delta_reads == graphs.delta_reads
