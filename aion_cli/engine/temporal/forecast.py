@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.fremen_parts import BLOCK, FremenParts
 from aion_cli.engine.temporal.params import DIRECTION_ORDERS, TemporalParams
@@ -97,9 +98,9 @@ class Forecaster(FremenParts):
             map_sum[a : a + BLOCK] = (w * pool.map_shape).sum(axis=1)
         safe_n = np.where(self.observed, self.windows, 1.0)
         self.rate = self.counts / safe_n[:, None]  # μ[e, v]
-        self.rate_total = self.rate.sum(axis=1)
-        total = self.counts.sum(axis=1)
-        directed = self.counts[:, :b].sum(axis=1)
+        self.rate_total = row_sums(self.rate)
+        total = row_sums(self.counts)
+        directed = row_sums(self.counts[:, :b])
         self.directed_share = np.divide(directed, total, out=np.zeros(e), where=total > 0)
         self._shape_mean = self._mean(shape_sum)
         self._map_mean = self._mean(map_sum)
@@ -241,7 +242,7 @@ class Forecaster(FremenParts):
             return hist
         kappa_t = self.params.config.direction_time_prior
         pseudo = self._pseudo_counts(family, e, h, t_s)
-        denominator = pseudo.sum(axis=1, keepdims=True) + kappa_t
+        denominator = row_sums(pseudo, keepdims=True) + kappa_t
         hist *= kappa_t
         hist += pseudo
         hist /= denominator
@@ -259,7 +260,7 @@ class Forecaster(FremenParts):
             return hist
         kappa_t = self.params.config.direction_time_prior
         pseudo = self._pseudo_counts(family, e, h, t_s)
-        denominator = pseudo.sum(axis=1) + kappa_t
+        denominator = row_sums(pseudo) + kappa_t
         hist *= kappa_t
         hist += pseudo[pair, b]
         hist /= denominator[pair]

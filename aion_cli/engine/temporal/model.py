@@ -104,7 +104,7 @@ def learn(
             windows.obs_slot[o] - a,
             windows.cnt_entry[c],
             windows.cnt_slot[c] - a,
-            windows.cnt_values[c],
+            np.take(windows.cnt_values, c, axis=0),  # rows of V values: take is ~2x faster
         )
         close_day(params, state, day, rows, groups, n_groups, window_ns)
 

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion
@@ -120,7 +121,7 @@ def _group_histograms(kappa: float, c_g: F64) -> F64:
 
 def normalised(counts: F64) -> F64:
     """Rows divided by their sums (zeros where a row has no count)."""
-    total = counts.sum(axis=1, keepdims=True)
+    total = row_sums(counts, keepdims=True)
     out: F64 = np.divide(counts, total, out=np.zeros_like(counts), where=total > 0)
     return out
 
@@ -128,7 +129,7 @@ def normalised(counts: F64) -> F64:
 def posterior(counts: F64, prior: F64, kappa: float) -> F64:
     """Dirichlet posterior mean (counts + κ·prior) / (N + κ); with κ = 0 the raw proportions
     where there are counts, the prior elsewhere."""
-    total = counts.sum(axis=1, keepdims=True)
+    total = row_sums(counts, keepdims=True)
     if kappa > 0:
         out: F64 = (counts + kappa * prior) / (total + kappa)
         return out

@@ -25,6 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.grouping import cut_by_key
+from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.absorption import absorb_day, drop_fixed, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster
@@ -155,10 +156,10 @@ def _score_block(
     per_bin += np.bincount(obs_e * n_prof + h[obs_s], minlength=candidates.size * n_prof).reshape(
         candidates.size, n_prof
     )
-    windows = per_bin.sum(axis=1)
+    windows = row_sums(per_bin)
     # count pairs, by candidate position
     ce, cs, cv = np.searchsorted(candidates, day.cnt_entry), day.cnt_slot, day.cnt_values
-    n_total = cv.sum(axis=1)
+    n_total = row_sums(cv)
     floor = params.config.rate_floor
     day_score = np.zeros((candidates.size, len(params.flow)))
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
@@ -231,7 +232,7 @@ def _fremen_sums(
     out = np.zeros((m_max, e))
     if m_max == 0 or e == 0:
         return out
-    windows = per_bin.sum(axis=1)
+    windows = row_sums(per_bin)
     rot = np.exp(-1j * np.multiply.outer(t_s, fc.params.omega))  # (S, K): e^{−iωt}
     idx = fc.period_idx  # (E, M)
     picked = rot[fixed_slots].sum(axis=0)[idx]  # Σ e^{−iωt} at each entry's periods
@@ -353,7 +354,7 @@ def _score_directions(
 ) -> None:
     b = params.bins
     directed = cv[:, :b]
-    has = directed.sum(axis=1) > 0
+    has = row_sums(directed) > 0
     if not has.any():
         return
     ce, cs, directed = ce[has], cs[has], directed[has]
@@ -378,7 +379,7 @@ def _score_directions(
     for d in range(len(params.direction)):
         if d != static and params.direction_enabled[d]:
             day_score[~evidence, d] = day_score[~evidence, static]
-    detections = np.bincount(ce, directed.sum(axis=1), minlength=candidates.size)
+    detections = np.bincount(ce, row_sums(directed), minlength=candidates.size)
     _add_day(
         day_score,
         static,
