@@ -31,7 +31,7 @@ from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
-from aion_cli.engine.temporal.pooling import PoolStats
+from aion_cli.engine.temporal.pooling import PoolStats, entry_counts
 from aion_cli.engine.types import F64, I64
 
 C128 = npt.NDArray[np.complex128]
@@ -101,7 +101,10 @@ def _score(
     candidates, position = candidates[prior], position[prior]
     if candidates.size == 0:
         return candidates
-    pool = PoolStats.of(params, state, live_rows, groups, n_groups)
+    # every live entry's detections per value bin, summed once: the pooling and each block's
+    # forecaster read them (the same sums, row by row, as each would compute)
+    counts = entry_counts(state, live_rows)
+    pool = PoolStats.of(params, state, live_rows, groups, n_groups, counts)
     obs_order, obs_cut = _pairs_by_block(candidates, day.obs_entry)
     cnt_order, cnt_cut = _pairs_by_block(candidates, day.cnt_entry)
     for k, a in enumerate(range(0, candidates.size, _ENTRIES)):
@@ -117,7 +120,8 @@ def _score(
             day.cnt_values[c],
         )
         rows = candidates[a : a + _ENTRIES]
-        fc = Forecaster(params, state, rows, groups[position[a : a + _ENTRIES]], pool)
+        at = position[a : a + _ENTRIES]
+        fc = Forecaster(params, state, rows, groups[at], pool, counts=counts[at])
         fc.cache_profiles()  # every profile bin of every candidate is asked for
         _score_block(params, state, block, rows, fc, t_s, h)
     return candidates
