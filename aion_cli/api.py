@@ -17,10 +17,11 @@ as the CLI reports them. The CLI's ``predict``, ``plan`` and ``export`` are form
 the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
 :mod:`aion_cli.exports`), so results are equal to their JSON output.
 
-:class:`Map`, :func:`build`, :func:`merge` and :func:`to_ns` are here; the query results
-:class:`Table` and :class:`Plan` live in :mod:`aion_cli.api_results` and are re-exported here,
-so ``from aion_cli.api import Map, Plan, Table, build, merge, to_ns`` imports the whole API
-(``aion_cli`` itself re-exports all of them but ``merge``).
+:class:`Map`, :func:`build`, :func:`merge`, :func:`compact` and :func:`to_ns` are here; the
+query results :class:`Table` and :class:`Plan` live in :mod:`aion_cli.api_results` and are
+re-exported here, so ``from aion_cli.api import Map, Plan, Table, build, compact, merge,
+to_ns`` imports the whole API (``aion_cli`` itself re-exports all of them but ``merge`` and
+``compact``).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
+    from aion_cli.compact import CompactReport
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.manifest import Manifest
@@ -56,7 +58,7 @@ class Map:
         self,
         loaded: LoadedMap,
         path: Path | None = None,
-        report: BuildReport | MergeReport | None = None,
+        report: BuildReport | MergeReport | CompactReport | None = None,
     ) -> None:
         self._loaded = loaded
         self.path = path
@@ -387,6 +389,19 @@ def merge(
         progress,
         nav_layer,
     )
+    made = Map.load(report.output)
+    made.report = report
+    return made
+
+
+def compact(source: PathLike, output: PathLike) -> Map:
+    """Write the query-only copy of the map ``source`` to ``output``, as ``aion compact``
+    (:func:`aion_cli.compact.compact_map`: the same answers to every query, without the
+    Fourier sums that continuing and merging need); the copy, with what was done in
+    ``Map.report`` (a ``CompactReport``)."""
+    from aion_cli.compact import compact_map
+
+    report = compact_map(Path(os.fspath(source)), Path(os.fspath(output)))
     made = Map.load(report.output)
     made.report = report
     return made

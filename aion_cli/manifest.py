@@ -63,6 +63,9 @@ class Manifest:
     #: (``aion merge``); kept when the map is continued with ``aion build --map``
     merged_from: tuple[dict[str, Any], ...] = ()
     lineage: str | None = None
+    #: a query-only map's record (``aion compact``): the full map it was made from (name,
+    #: path, size, sha256) and the members left out; None for a full map
+    query_only: dict[str, Any] | None = None
     container: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
@@ -90,6 +93,7 @@ class Manifest:
             families=_dict(d, "families"),
             merged_from=_merged_from(d.get("merged_from")),
             lineage=str(d["lineage"]) if isinstance(d.get("lineage"), str) else None,
+            query_only=_query_only(d.get("query_only")),
             container={k: d[k] for k in ("format", "version", "creator", "created") if k in d},
         )
 
@@ -110,7 +114,7 @@ class Manifest:
             {"merged_from": list(self.merged_from), "lineage": self.lineage}
             if self.merged_from
             else {}
-        )
+        ) | ({"query_only": self.query_only} if self.query_only is not None else {})
 
     def shown(self) -> dict[str, Any]:
         """What ``aion info MAP`` shows: the stored fields and the container's, without the
@@ -130,6 +134,14 @@ class Manifest:
     def input_hashes(self) -> set[str]:
         """The sha256 of every log already in the map (a log is added at most once)."""
         return {i.sha256 for i in self.inputs}
+
+
+def _query_only(value: Any) -> dict[str, Any] | None:
+    if value is None:
+        return None
+    if not isinstance(value, dict) or not isinstance(value.get("left_out", []), list):
+        raise _bad("query_only", "expected an object with a list of members left out")
+    return value
 
 
 def _merged_from(value: Any) -> tuple[dict[str, Any], ...]:

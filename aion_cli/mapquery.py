@@ -53,14 +53,23 @@ def load_map(path: Path, writable: bool = False, forecast_only: bool = False) ->
     accumulators). Members are read and verified as the state asks for them
     (``formats.mapfile.open_map``): each is checksummed once, and the arrays read become the
     state's own (no second copy; a query's arrays view the file's pages in place, copied on
-    write)."""
+    write).
+
+    A query-only map (``aion compact``: no Fourier sums) is always read as ``forecast_only``,
+    and refused as ``writable`` (:class:`~aion_cli.errors.MapFileError` naming the full map it
+    was made from)."""
+    from aion_cli.compact import query_only_of, refuse_learning
     from aion_cli.engine.state import MapState
     from aion_cli.formats.mapfile import open_map
 
-    _check_map_path(path)
+    check_map_path(path)
     with open_map(path, in_place=not writable) as members:
         manifest = members.manifest
         meta = _state_meta(path, manifest)
+        if writable:
+            refuse_learning(path, manifest, "continued or merged")
+        # a query-only map (aion compact) has no Fourier sums: it is read as queries read maps
+        forecast_only = forecast_only or query_only_of(manifest) is not None
         state = MapState.from_arrays(
             members, meta, writable=writable, copy=False, forecast_only=forecast_only
         )
@@ -90,7 +99,7 @@ def load_map_head(path: Path) -> MapHead:
     from aion_cli.errors import MapCorruptError
     from aion_cli.formats.mapfile import open_map
 
-    _check_map_path(path)
+    check_map_path(path)
     with open_map(path) as members:
         manifest = members.manifest
         meta = _state_meta(path, manifest)
@@ -105,7 +114,7 @@ def load_map_head(path: Path) -> MapHead:
     return MapHead(manifest, graph, head.config, head.open_window, head.accepted, part)
 
 
-def _check_map_path(path: Path) -> None:
+def check_map_path(path: Path) -> None:
     if not path.exists():
         raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
     if path.is_dir():

@@ -8,9 +8,11 @@ Two of the issue's targets (the other two, build vs reading and the scene-graph 
   of fixed-sensor history (``bench_engine.build_state``), written with
   ``formats.mapfile.write_map``: bytes per entry, by member kind (``entry``, ``temporal_cnt``,
   ...), against :data:`BASELINE_BYTES_PER_ENTRY` (measured before issue 15; target >= 4x
-  smaller). ``aion predict MAP --top 10`` and ``aion info MAP`` on the largest map as whole
-  processes (subprocess wall time, best of k; target <= 1 s for predict), against the
-  interpreter's own start (``python -c pass``) and ``aion --help``.
+  smaller); and the largest map's query-only copy (``aion compact``: without the Fourier sums
+  only learning needs), with ``predict --top 10`` on it (the same last line as on the map).
+  ``aion predict MAP --top 10`` and ``aion info MAP`` on the largest map as whole processes
+  (subprocess wall time, best of k; target <= 1 s for predict), against the interpreter's
+  own start (``python -c pass``) and ``aion --help``.
 * **Streaming memory** (:func:`run_memory`). Peak RSS of ``build_map`` in a fresh interpreter
   (``benchmarks.common.peak_rss`` running :func:`build_for_rss`) on uncompressed
   TrackedPersons MCAPs of growing size (``bench_stream_memory.write_log``: 40 people per
@@ -107,6 +109,8 @@ def run_map(sizes: tuple[int, ...] = (10**4, 10**5), repeats: int = 3) -> list[d
         info["write_s"] = time.perf_counter() - t0
         rows.append({"name": f"map size {n:.0e} entries",
                      "vs_baseline": BASELINE_BYTES_PER_ENTRY / info["bytes_per_entry"], **info})
+    top = rows[-1]  # the largest map, which the processes below query
+    rows.append(_query_only_row(path, top))
     aion = str(Path(sys.executable).with_name("aion"))
     when = "2023-11-16 12:00"  # the day after the map's window (UTC)
     python_s, _ = process_s([sys.executable, "-c", "pass"], repeats)
@@ -114,15 +118,37 @@ def run_map(sizes: tuple[int, ...] = (10**4, 10**5), repeats: int = 3) -> list[d
     predict_s, line = process_s(
         [aion, "predict", str(path), "--top", "10", "--time", when, "--format", "csv"], repeats)
     info_s, _ = process_s([aion, "info", str(path), "--format", "json"], repeats)
-    top = rows[-1]
     common = {"entries": top["entries"], "map_bytes": top["map_bytes"],
               "python_start_s": python_s, "aion_help_s": help_s}
     rows.append({"name": "aion predict MAP --top 10", "seconds": predict_s,
                  "vs_aion_help": predict_s / help_s, "last_line": line[:200], **common})
     rows.append({"name": "aion info MAP", "seconds": info_s, "vs_aion_help": info_s / help_s,
                  **common})
+    small = path.with_name("build_query_robot.aion")
+    small_s, small_line = process_s(
+        [aion, "predict", str(small), "--top", "10", "--time", when, "--format", "csv"], repeats)
+    rows.append({"name": "aion predict MAP --top 10, query-only map", "seconds": small_s,
+                 "vs_aion_help": small_s / help_s, "same_answer": small_line == line, **common,
+                 "map_bytes": small.stat().st_size})
     path.unlink(missing_ok=True)
+    small.unlink(missing_ok=True)
     return rows
+
+
+def _query_only_row(path: Path, full: dict[str, Any]) -> dict[str, Any]:
+    """``aion compact`` of the map at ``path`` (kept beside it for the predict timing): its
+    bytes per entry against the baseline (the same predictions, the map cannot learn more)."""
+    from aion_cli.compact import compact_map
+
+    t0 = time.perf_counter()
+    report = compact_map(path, path.with_name("build_query_robot.aion"))
+    seconds = time.perf_counter() - t0
+    per_entry = report.map_bytes / full["entries"]
+    return {"name": f"map size {full['entries']:.0e} entries, query-only (aion compact)",
+            "entries": full["entries"], "map_bytes": report.map_bytes,
+            "bytes_per_entry": per_entry, "vs_baseline": BASELINE_BYTES_PER_ENTRY / per_entry,
+            "vs_full_map": full["bytes_per_entry"] / per_entry, "compact_s": seconds,
+            "bytes_per_entry_by_kind": {}}
 
 
 # -- streaming memory -----------------------------------------------------------------------------

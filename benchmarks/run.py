@@ -263,6 +263,12 @@ def _build_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> None
                     f"{100 * r['graph_share_floor_reading']:.0f} %",
                     f"reading graph bytes {r['graph_reading_s']:.2f} s of raw iteration "
                     f"{r['raw_iteration_s']:.2f} s")
+        elif name.startswith("map size") and "query-only" in name:
+            add("build", f"query-only map bytes per entry ({r['entries']:,} entries)",
+                f"{r['bytes_per_entry']:.0f} B ({r['map_bytes'] / 1e6:.0f} MB)",
+                f"{r['vs_baseline']:.2f}x smaller than before, {r['vs_full_map']:.2f}x smaller "
+                f"than the full map (aion compact, {r['compact_s']:.1f} s; same predictions, "
+                "cannot be continued or merged)", ">= 4x smaller", r["vs_baseline"] >= 4.0)
         elif name.startswith("map size"):
             kinds = ", ".join(f"{k} {v:.0f}" for k, v in
                               list(r["bytes_per_entry_by_kind"].items())[:3])
@@ -272,9 +278,11 @@ def _build_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> None
                 ">= 4x smaller", r["vs_baseline"] >= 4.0)
         elif name.startswith(("aion predict", "aion info")):
             predict = name.startswith("aion predict")
+            same = "" if "same_answer" not in r else (
+                "; same top 10 as the full map" if r["same_answer"] else "; ANSWER DIFFERS")
             add("build", f"{name} ({r['entries']:,} entries), whole process",
                 f"{r['seconds']:.2f} s",
-                f"{r['vs_aion_help']:.1f}x aion --help ({r['aion_help_s']:.2f} s)",
+                f"{r['vs_aion_help']:.1f}x aion --help ({r['aion_help_s']:.2f} s){same}",
                 "<= 1 s" if predict else "", (r["seconds"] <= 1.0) if predict else None)
         elif name == "stream memory fit":
             judged = r["largest_gb"] >= 1.0  # below, the chunk buffers are still filling

@@ -148,11 +148,15 @@ def test_build_small() -> None:
     assert g["decode_dsg_spark_s_per_graph"] > 0
     assert g["payload_fast_s_per_graph"] > 0
     maps = bench_build_scale.run_map(sizes=(200,), repeats=1)
-    size, predict, info = maps
+    size, compact, predict, info, predict_compact = maps
     assert size["entries"] > 150
     assert sum(size["bytes_per_entry_by_kind"].values()) * size["entries"] <= size["map_bytes"]
+    assert compact["entries"] == size["entries"]
+    assert compact["map_bytes"] < size["map_bytes"]  # the Fourier sums left out
+    assert compact["vs_full_map"] == pytest.approx(size["map_bytes"] / compact["map_bytes"])
     assert predict["seconds"] > 0
     assert info["seconds"] > 0
+    assert predict_compact["same_answer"]  # the query-only map's top 10 is the map's
     memory = bench_build_scale.run_memory(sizes_gb=(0.002, 0.004))
     assert memory[0]["peak_rss_bytes"] > memory[0]["base_rss_bytes"] > 0
     assert memory[-1]["name"] == "stream memory fit"
@@ -161,5 +165,6 @@ def test_build_small() -> None:
     _rows_ok(rows)
     table = run.summary({"build": rows})
     assert {t["section"] for t in table} == {"build"}
-    assert len(table) == 7  # build, graph share + its floor, map size, predict, info, memory
+    # build, graph share + its floor, map size (full, query-only), predict (both), info, memory
+    assert len(table) == 9
     assert [t["met"] for t in table][-1] is None  # memory not judged below 1 GB of log

@@ -291,6 +291,15 @@ def _print_map(report: dict[str, Any]) -> None:
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
     table.add_row("graph", safe(report.get("graph_source")))
     table.add_row("observation", safe(report.get("observation")))
+    query_only = report.get("query_only")
+    if isinstance(query_only, dict):
+        source = query_only.get("from") or {}
+        name = source.get("name", "?") if isinstance(source, dict) else "?"
+        table.add_row(
+            "query only",
+            safe(f"made from {name} by aion compact: answers queries, cannot be continued "
+                 "or merged"),
+        )
     families = report.get("families") or {}
     for kind in ("flow", "direction"):
         tally = families.get(kind) or {}

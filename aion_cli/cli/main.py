@@ -17,7 +17,7 @@ from typing import Any
 import click
 
 from aion_cli import __version__
-from aion_cli.cli import build, convert, export, info, merge, plan, predict
+from aion_cli.cli import build, compact, convert, export, info, merge, plan, predict
 from aion_cli.cli import report as report_command
 from aion_cli.cli.errors import EXIT_INTERRUPTED, EXIT_OK, quiet_finalizers, report
 from aion_cli.cli.evaluate import evaluate as evaluate_group
@@ -28,6 +28,7 @@ Examples:
   aion info run.mcap                                 what is in a log, what aion will use
   aion build run1.mcap run2.bag -o office.aion       learn a map (incremental with --map)
   aion merge mon.aion tue.aion -o week.aion          one map from maps of disjoint time
+  aion compact week.aion -o robot.aion               a smaller map for queries only
   aion predict office.aion --time "2026-11-23 08:30" flows per node at a time
   aion plan office.aion --from p12 --to p87 --time "tomorrow 12:00"
   aion export office.aion --time "+2h" -o out/       PLY/PCD scenes, CSV/JSON tables
@@ -134,7 +135,7 @@ def _apply_read_limits(max_chunk_mb: float | None, max_message_mb: float | None)
         os.environ[MESSAGE_ENV] = repr(limits.max_message_bytes / 2**20)
 
 
-for _module in (info, build, merge, predict, plan, export, report_command, convert):
+for _module in (info, build, merge, compact, predict, plan, export, report_command, convert):
     cli.add_command(_module.command)
 cli.add_command(simulate_command, "simulate")
 cli.add_command(evaluate_group, "evaluate")

@@ -1,0 +1,164 @@
+"""``aion compact``: a query-only copy of a map answers every query as the full map does, is
+smaller by the Fourier sums it leaves out, and refuses to learn (continue, merge) with a clear
+error; bad inputs are refused before anything is written."""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.api import Map
+from aion_cli.api import compact as api_compact
+from aion_cli.compact import LEFT_OUT
+from aion_cli.engine.query import predict_table
+from aion_cli.engine.temporal.components import PREFIX
+from aion_cli.errors import MapFileError
+from aion_cli.formats.mapfile import open_map, read_manifest, write_map
+from aion_cli.mapquery import load_map
+from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.logdata import write_office_log
+from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor
+from tests.engine.test_forecast_components import _heading, _rate
+
+
+@dataclass(frozen=True)
+class Maps:
+    full: Path
+    small: Path
+    summary: dict[str, object]
+
+
+@pytest.fixture(scope="module")
+def maps(tmp_path_factory: pytest.TempPathFactory) -> Maps:
+    """21 days of a 56 h rhythm (FreMEn's, per bin and in total) over a small corridor, a
+    pending day and an open window (what queries absorb first), saved, then compacted."""
+    folder = tmp_path_factory.mktemp("compact")
+    mapper = corridor(21, _rate, cells=(3.0, 1.0), heading=_heading)
+    mapper.state.observation.set_fixed_sensor(MONDAY + 21 * DAY, MONDAY + 22 * DAY)
+    mapper.advance(MONDAY + 21 * DAY + 9 * HOUR + 5 * 60 * 10**9)
+    full = folder / "rhythm.aion"
+    Map.from_state(mapper.state, timezone="UTC").save(full)
+    small = folder / "rhythm-robot.aion"
+    summary = run_json("compact", full, "-o", small, "--format", "json")
+    return Maps(full, small, summary)
+
+
+def _times() -> list[int]:
+    return [MONDAY + 21 * DAY + k * 5 * HOUR for k in range(14)]
+
+
+def test_every_forecast_is_the_full_maps_to_the_bit(maps: Maps) -> None:
+    whole = load_map(maps.full).state  # read whole: Fourier sums and all
+    light = load_map(maps.small).state  # a query-only map is read without them
+    assert whole.temporal.fourier_loaded
+    assert not light.temporal.fourier_loaded
+    families: set[str] = set()
+    for t in _times():
+        a, b = predict_table(whole, t), predict_table(light, t)
+        assert a.flow_family.tolist() == b.flow_family.tolist()
+        assert a.direction_family.tolist() == b.direction_family.tolist()
+        for name in ("flow", "flow_var", "rate"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+        families |= set(a.flow_family.tolist()) | set(a.direction_family.tolist())
+    assert any(f.startswith("fremen") for f in families), families  # the case under test
+
+
+def test_the_cli_and_the_api_answer_alike(maps: Maps) -> None:
+    at = "2026-11-23 14:00"  # day 22 of the rhythm, after the pending morning
+    a = run_json("predict", maps.full, "--time", at, "--tz", "UTC", "--format", "json")
+    b = run_json("predict", maps.small, "--time", at, "--tz", "UTC", "--format", "json")
+    assert a.pop("map") != b.pop("map")
+    assert a == b
+    x = Map.load(maps.full).predict(at, tz="UTC").records()
+    y = Map.load(maps.small).predict(at, tz="UTC").records()
+    assert x == y
+
+
+def test_it_leaves_out_the_fourier_sums_and_says_so(maps: Maps) -> None:
+    summary = maps.summary
+    assert set(summary["left_out"]) == set(LEFT_OUT)  # type: ignore[call-overload]
+    assert summary["map_bytes"] == maps.small.stat().st_size
+    assert summary["source_bytes"] == maps.full.stat().st_size
+    assert maps.small.stat().st_size < maps.full.stat().st_size
+    full, small = read_manifest(maps.full), read_manifest(maps.small)
+    assert set(full["members"]) - set(small["members"]) == set(LEFT_OUT)
+    record = small["query_only"]
+    assert record["from"]["sha256"] == hashlib.sha256(maps.full.read_bytes()).hexdigest()
+    assert set(record["left_out"]) == set(LEFT_OUT)
+    # every kept member is the full map's, byte for byte (same checksums)
+    for name in small["members"]:
+        assert small["members"][name]["sha256"] == full["members"][name]["sha256"], name
+    shown = run_json("info", maps.small, "--format", "json")
+    assert shown["query_only"]["from"]["name"] == maps.full.name
+    table = run("info", maps.small)
+    assert "query only" in table.stdout
+
+
+def test_a_query_only_map_refuses_to_learn(maps: Maps, tmp_path: Path) -> None:
+    before = maps.small.read_bytes()
+    log = tmp_path / "more.mcap"
+    write_office_log(log)
+    result = run("build", log, "--map", maps.small)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "query-only map", "cannot be continued")
+    assert maps.full.name in result.stderr  # the hint names the full map
+    assert maps.small.read_bytes() == before
+    merged = run("merge", maps.full, maps.small, "-o", tmp_path / "both.aion")
+    assert merged.exit_code == 2
+    assert_one_line_error(merged.stderr, "query-only map", "cannot be merged")
+    assert not (tmp_path / "both.aion").exists()
+    with pytest.raises(MapFileError, match="query-only"):
+        load_map(maps.small, writable=True)
+
+
+def test_the_api_compacts_too(maps: Maps, tmp_path: Path) -> None:
+    made = api_compact(maps.full, tmp_path / "api.aion")
+    assert made.report is not None
+    assert made.report.to_dict()["map_bytes"] == (tmp_path / "api.aion").stat().st_size
+    at = MONDAY + 21 * DAY + 15 * HOUR
+    np.testing.assert_array_equal(
+        predict_table(made.state, at).flow, predict_table(load_map(maps.full).state, at).flow
+    )
+
+
+def test_bad_inputs_are_refused_before_anything_is_written(maps: Maps, tmp_path: Path) -> None:
+    again = run("compact", maps.small, "-o", tmp_path / "again.aion")
+    assert again.exit_code == 2
+    assert_one_line_error(again.stderr, "query-only map already")
+    same = run("compact", maps.full, "-o", maps.full)
+    assert same.exit_code == 2
+    assert_one_line_error(same.stderr, "is the map being compacted")
+    missing = run("compact", tmp_path / "nope.aion", "-o", tmp_path / "out.aion")
+    assert missing.exit_code == 2
+    assert_one_line_error(missing.stderr, "not found")
+    text = tmp_path / "notes.txt"
+    text.write_text("mine")
+    other = run("compact", maps.full, "-o", text)
+    assert other.exit_code == 2
+    assert text.read_text() == "mine"
+    # a map written before the FreMEn components were stored: its forecasts need the sums
+    with open_map(maps.full) as members:
+        arrays = {n: members[n] for n in members if not n.startswith(PREFIX)}
+        manifest = {k: v for k, v in members.manifest.items() if k not in (
+            "format", "version", "creator", "created", "members")}
+    old = tmp_path / "old.aion"
+    write_map(old, arrays, manifest)
+    refused = run("compact", old, "-o", tmp_path / "old-robot.aion")
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "no FreMEn components")
+    assert not (tmp_path / "old-robot.aion").exists()
+
+
+def test_a_part_map_is_refused(tmp_path: Path) -> None:
+    log = tmp_path / "day.mcap"
+    write_office_log(log)
+    part = tmp_path / "part.aion"
+    assert run("build", log, "--part", "-o", part, "-q").exit_code == 0
+    result = run("compact", part, "-o", tmp_path / "robot.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "part map")
+    assert not (tmp_path / "robot.aion").exists()
