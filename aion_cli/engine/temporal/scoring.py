@@ -168,14 +168,15 @@ def _score_block(
     day_score = np.zeros((candidates.size, len(params.flow)))
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
     fremen = _fremen_sums(fc, per_bin, fixed_slots, obs_e, obs_s, t_s, floor)
+    n_part = np.bincount(ce, n_total, minlength=candidates.size)  # the same for every family
+    n_squared = n_total**2
     for f, name in enumerate(params.flow):
         if not params.flow_enabled[f]:
             continue
         lam_pairs = np.maximum(fc.flow(name, ce, pair_h, pair_t), floor)
         sum_lam = _observed_sum(fc, name, per_bin, floor, fremen)
         log_part = np.bincount(ce, n_total * np.log(lam_pairs), minlength=candidates.size)
-        sq_part = np.bincount(ce, n_total**2 / lam_pairs, minlength=candidates.size)
-        n_part = np.bincount(ce, n_total, minlength=candidates.size)
+        sq_part = np.bincount(ce, n_squared / lam_pairs, minlength=candidates.size)
         day_score[:, f] = log_part - sum_lam
         # Σ (n − λ)² / λ, expanded: it cannot be negative, but the expansion can round below 0
         state.flow_chi2[candidates, f] += np.maximum(sq_part - 2.0 * n_part + sum_lam, 0.0)
