@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.output import AionCommand, format_option, to_json
+from aion_cli.cli.output import AionCommand, format_option, map_output_option, to_json
 
 EPILOG = """\b
 Examples:
@@ -35,13 +35,7 @@ bytes_per_entry, left_out.
     epilog=EPILOG,
 )
 @click.argument("map_path", metavar="MAP", type=click.Path(path_type=Path))
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(path_type=Path, dir_okay=False),
-    help="Query-only map file to write (a new file, or an existing map to replace).",
-)
+@map_output_option("Query-only map file")
 @click.option("-q", "--quiet", is_flag=True, help="No summary.")
 @format_option(choices=("table", "json"))
 def command(map_path: Path, output: Path, quiet: bool, fmt: str) -> None:

@@ -8,7 +8,7 @@ from typing import Any
 import click
 
 from aion_cli.cli.graph_options import nav_layer_option
-from aion_cli.cli.output import AionCommand, format_option, to_json
+from aion_cli.cli.output import AionCommand, format_option, map_output_option, to_json
 
 EPILOG = """\b
 Examples:
@@ -43,13 +43,7 @@ time_span{start_ns, end_ns, seconds}, notes.
     advanced=("nav_layer",),
 )
 @click.argument("maps", nargs=-1, type=click.Path(path_type=Path))
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(path_type=Path, dir_okay=False),
-    help="Map file to write (a new file, or an existing map to replace).",
-)
+@map_output_option()
 @click.option(
     "--graph",
     "graph_file",

@@ -65,6 +65,20 @@ def format_option(choices: Sequence[str] = FORMATS, default: str = "table") -> A
     )
 
 
+def map_output_option(what: str = "Map file") -> Any:
+    """``-o/--output``, required, for the commands that write a map (``merge``, ``compact``):
+    a new file, or an existing map to replace (the writer refuses anything else)."""
+    from pathlib import Path
+
+    return click.option(
+        "-o",
+        "--output",
+        required=True,
+        type=click.Path(path_type=Path, dir_okay=False),
+        help=f"{what} to write (a new file, or an existing map to replace).",
+    )
+
+
 class AionCommand(click.Command):
     """A click command whose rarely used options get their own "Advanced options" section
     in ``--help`` (``advanced=`` names them by parameter name)."""
