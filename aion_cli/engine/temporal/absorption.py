@@ -72,9 +72,8 @@ def absorb_day(
     for o in _row_blocks(obs_e):
         _absorb_observed(params, state, obs_e[o], obs_s[o], t_s, h, phasor)
     for c in _row_blocks(day.cnt_entry):
-        _absorb_counts(
-            params, state, day.cnt_entry[c], day.cnt_slot[c], day.cnt_values[c], h, phasor
-        )
+        values = np.take(day.cnt_values, c, axis=0)  # rows of V values: take is ~2x faster
+        _absorb_counts(params, state, day.cnt_entry[c], day.cnt_slot[c], values, h, phasor)
     state.touch(obs_e if obs_e.size else None)
 
 

@@ -117,7 +117,7 @@ def _score(
             day.obs_slot[o],
             day.cnt_entry[c],
             day.cnt_slot[c],
-            day.cnt_values[c],
+            np.take(day.cnt_values, c, axis=0),  # rows of V values: take is ~2x faster
         )
         rows = candidates[a : a + _ENTRIES]
         at = position[a : a + _ENTRIES]
