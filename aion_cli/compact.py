@@ -62,9 +62,13 @@ class CompactReport:
 
 
 def query_only_of(manifest: dict[str, Any]) -> dict[str, Any] | None:
-    """The ``query_only`` record of a map's manifest (None: a full map)."""
-    value = manifest.get(FIELD)
-    return value if isinstance(value, dict) else None
+    """The ``query_only`` record of a map's manifest (None: a full map);
+    :class:`~aion_cli.errors.MapCorruptError` when the field is there but not a record."""
+    from aion_cli.manifest import Manifest
+
+    if manifest.get(FIELD) is None:
+        return None
+    return Manifest.from_dict(manifest).query_only  # validated as aion info reads it
 
 
 def refuse_learning(path: Path, manifest: dict[str, Any], what: str) -> None:

@@ -151,6 +151,17 @@ def test_bad_inputs_are_refused_before_anything_is_written(maps: Maps, tmp_path:
     assert refused.exit_code == 2
     assert_one_line_error(refused.stderr, "no FreMEn components")
     assert not (tmp_path / "old-robot.aion").exists()
+    # a manifest whose query_only field is not a record: refused by every reader alike
+    with open_map(maps.small) as members:
+        arrays = {n: members[n] for n in members}
+        manifest = {k: v for k, v in members.manifest.items() if k not in (
+            "format", "version", "creator", "created", "members")}
+    odd = tmp_path / "odd.aion"
+    write_map(odd, arrays, manifest | {"query_only": "yes"})
+    for args in (("predict", odd, "--time", "2026-11-23 14:00"), ("info", odd)):
+        result = run(*args)
+        assert result.exit_code == 2, args
+        assert_one_line_error(result.stderr, "query_only")
 
 
 def test_a_part_map_is_refused(tmp_path: Path) -> None:
