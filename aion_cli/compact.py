@@ -91,7 +91,7 @@ def compact_map(source: Path, output: Path) -> CompactReport:
     docstring); ``output`` must be a new file or an aion map other than ``source`` (replaced
     atomically)."""
     from aion_cli.engine.temporal import components
-    from aion_cli.formats.mapfile import open_map, write_map
+    from aion_cli.formats.mapfile import check_map_output, open_map, write_map
     from aion_cli.mapquery import check_map_path
     from aion_cli.provenance import provenance
 
@@ -101,6 +101,7 @@ def compact_map(source: Path, output: Path) -> CompactReport:
             f"the output {output} is the map being compacted",
             hint="write the query-only map to a new file with -o",
         )
+    check_map_output(output)  # before a large map is read and hashed
     with open_map(source, in_place=True) as members:
         manifest = members.manifest
         state = manifest.get("state")

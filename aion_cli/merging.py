@@ -149,7 +149,7 @@ def merge_map_files(
 
 def _check_paths(paths: list[Path], out: Path) -> None:
     """Every input exists once; ``out`` is none of them; its folder exists."""
-    from aion_cli.formats.mapfile import MapWriteError
+    from aion_cli.formats.mapfile import check_map_folder
 
     seen: dict[Path, Path] = {}
     for p in paths:
@@ -166,12 +166,7 @@ def _check_paths(paths: list[Path], out: Path) -> None:
                 f"the output {out} is one of the input maps",
                 hint="write the merged map to a new file with -o",
             )
-    folder = out.parent if str(out.parent) else Path(".")
-    if not folder.is_dir():
-        raise MapWriteError(
-            f"cannot write map {out}: folder {folder} does not exist",
-            hint="create the folder first or choose another output path",
-        )
+    check_map_folder(out)
 
 
 def _target_graph(graph_file: Path | None, nav_layer: str | None) -> GraphSnapshot | None:

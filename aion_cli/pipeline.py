@@ -149,15 +149,10 @@ class _Build:
 
     def run(self) -> BuildReport:
         """The build, holding the output map's lock from start to end."""
-        from aion_cli.formats.mapfile import MapWriteError, check_map_target, map_lock
+        from aion_cli.formats.mapfile import check_map_folder, check_map_target, map_lock
 
         out = self.report.output
-        folder = out.parent if str(out.parent) else Path(".")
-        if not folder.is_dir():
-            raise MapWriteError(
-                f"cannot write map {out}: folder {folder} does not exist",
-                hint="create the folder first or choose another output path",
-            )
+        check_map_folder(out)
         resolved = out.resolve()
         if any(resolved == p.resolve() for p in self.opts.logs):
             raise InputError(

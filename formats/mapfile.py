@@ -50,6 +50,8 @@ from aion_cli.formats.mapfile_format import (
 from aion_cli.formats.mapfile_read import MapMembers, open_map, read_map
 from aion_cli.formats.mapfile_target import (
     STALE_UNREADABLE_LOCK_S,
+    check_map_folder,
+    check_map_output,
     check_map_path,
     check_map_target,
     is_aion_map,
@@ -76,6 +78,8 @@ __all__ = [
     "MapContentError",
     "MapMembers",
     "MapWriteError",
+    "check_map_folder",
+    "check_map_output",
     "check_map_path",
     "check_map_target",
     "check_version",

@@ -71,6 +71,24 @@ def check_map_path(path: str | os.PathLike[str]) -> None:
         )
 
 
+def check_map_folder(path: str | os.PathLike[str]) -> None:
+    """:class:`MapWriteError` unless the folder a map at ``path`` goes to exists."""
+    p = Path(path)
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise MapWriteError(
+            f"cannot write map {p}: folder {folder} does not exist",
+            hint="create the folder first or choose another output path",
+        )
+
+
+def check_map_output(path: str | os.PathLike[str]) -> None:
+    """:func:`check_map_folder` and :func:`check_map_target`: what a command writing a map
+    checks before any work (reading logs or maps, hashing them)."""
+    check_map_folder(path)
+    check_map_target(path)
+
+
 def check_map_target(path: str | os.PathLike[str]) -> None:
     """Refuse a map output path that :func:`write_map` must not replace: everything
     :func:`check_map_path` refuses, and an existing regular file that is not an aion map

@@ -37,7 +37,7 @@ from aion_cli.formats.mapfile_format import (
     format_version,
     is_valid_member_name,
 )
-from aion_cli.formats.mapfile_target import check_map_target, map_lock
+from aion_cli.formats.mapfile_target import check_map_output, check_map_target, map_lock
 from aion_cli.formats.outputs import fsync_dir, interrupts_held
 
 
@@ -183,12 +183,7 @@ def write_map(
     target = Path(path)
     _check_arrays(arrays)
     folder = target.parent if str(target.parent) else Path(".")
-    if not folder.is_dir():
-        raise MapWriteError(
-            f"cannot write map {target}: folder {folder} does not exist",
-            hint="create the folder first or choose another output path",
-        )
-    check_map_target(target)
+    check_map_output(target)
     with map_lock(target) if lock else contextlib.nullcontext(target):
         tmp: Path | None = None
         try:

@@ -135,6 +135,9 @@ def test_bad_inputs_are_refused_before_anything_is_written(maps: Maps, tmp_path:
     missing = run("compact", tmp_path / "nope.aion", "-o", tmp_path / "out.aion")
     assert missing.exit_code == 2
     assert_one_line_error(missing.stderr, "not found")
+    nowhere = run("compact", maps.full, "-o", tmp_path / "no" / "such" / "robot.aion")
+    assert nowhere.exit_code == 2
+    assert_one_line_error(nowhere.stderr, "does not exist")
     text = tmp_path / "notes.txt"
     text.write_text("mine")
     other = run("compact", maps.full, "-o", text)
