@@ -33,8 +33,6 @@ LEFT_OUT = ("temporal_cnt_fourier", "temporal_obs_fourier")
 #: the manifest field that marks a query-only map
 FIELD = "query_only"
 
-_CONTAINER = ("format", "version", "creator", "created", "members")
-
 
 @dataclass
 class CompactReport:
@@ -63,22 +61,27 @@ class CompactReport:
 
 def query_only_of(manifest: dict[str, Any]) -> dict[str, Any] | None:
     """The ``query_only`` record of a map's manifest (None: a full map);
-    :class:`~aion_cli.errors.MapCorruptError` when the field is there but not a record."""
-    from aion_cli.manifest import Manifest
+    :class:`~aion_cli.errors.MapCorruptError` when the field is there but not a record (the
+    check ``Manifest.from_dict`` makes, so ``aion info`` and the loaders agree)."""
+    from aion_cli.manifest import parse_query_only
 
-    if manifest.get(FIELD) is None:
-        return None
-    return Manifest.from_dict(manifest).query_only  # validated as aion info reads it
+    return parse_query_only(manifest.get(FIELD))
 
 
-def refuse_learning(path: Path, manifest: dict[str, Any], what: str) -> None:
-    """:class:`MapFileError` when the map at ``path`` is query-only: it cannot be ``what``
-    (continued, merged): its Fourier sums were left out."""
-    record = query_only_of(manifest)
+def made_from(record: dict[str, Any]) -> str | None:
+    """The file name of the full map a query-only map was made from (None: not recorded)."""
+    source = record.get("from")
+    name = source.get("name") if isinstance(source, dict) else None
+    return name if isinstance(name, str) else None
+
+
+def refuse_learning(path: Path, record: dict[str, Any] | None, what: str) -> None:
+    """:class:`MapFileError` when the map at ``path`` is query-only (``record``, its
+    :func:`query_only_of`): it cannot be ``what`` (continued, merged), its Fourier sums were
+    left out."""
     if record is None:
         return
-    source = record.get("from", {})
-    name = source.get("name") if isinstance(source, dict) else None
+    name = made_from(record)
     raise MapFileError(
         f"{path} is a query-only map (made by aion compact): it answers queries, but cannot "
         f"be {what} (its Fourier sums were left out)",
@@ -91,11 +94,11 @@ def compact_map(source: Path, output: Path) -> CompactReport:
     docstring); ``output`` must be a new file or an aion map other than ``source`` (replaced
     atomically)."""
     from aion_cli.engine.temporal import components
-    from aion_cli.formats.mapfile import check_map_output, open_map, write_map
-    from aion_cli.mapquery import check_map_path
+    from aion_cli.formats.mapfile import RESERVED_KEYS, check_map_output, open_map, write_map
+    from aion_cli.mapquery import check_map_input
     from aion_cli.provenance import provenance
 
-    check_map_path(source)
+    check_map_input(source)
     if output.exists() and os.path.samefile(output, source):
         raise InputError(
             f"the output {output} is the map being compacted",
@@ -123,7 +126,7 @@ def compact_map(source: Path, output: Path) -> CompactReport:
         left_out = [n for n in names if n in LEFT_OUT]
         arrays = {n: members[n] for n in names if n not in LEFT_OUT}
         record = {"from": provenance(source), "left_out": left_out}
-        fields = {k: v for k, v in manifest.items() if k not in _CONTAINER}
+        fields = {k: v for k, v in manifest.items() if k not in RESERVED_KEYS}
         entries = int(arrays["entry_kind"].shape[0]) if "entry_kind" in arrays else 0
         write_map(output, arrays, fields | {FIELD: record})
     return CompactReport(

@@ -93,7 +93,7 @@ class Manifest:
             families=_dict(d, "families"),
             merged_from=_merged_from(d.get("merged_from")),
             lineage=str(d["lineage"]) if isinstance(d.get("lineage"), str) else None,
-            query_only=_query_only(d.get("query_only")),
+            query_only=parse_query_only(d.get("query_only")),
             container={k: d[k] for k in ("format", "version", "creator", "created") if k in d},
         )
 
@@ -136,7 +136,9 @@ class Manifest:
         return {i.sha256 for i in self.inputs}
 
 
-def _query_only(value: Any) -> dict[str, Any] | None:
+def parse_query_only(value: Any) -> dict[str, Any] | None:
+    """The ``query_only`` field (``aion compact``) checked: None, or an object whose
+    ``left_out`` is a list; :class:`MapCorruptError` otherwise."""
     if value is None:
         return None
     if not isinstance(value, dict) or not isinstance(value.get("left_out", []), list):

@@ -62,14 +62,15 @@ def load_map(path: Path, writable: bool = False, forecast_only: bool = False) ->
     from aion_cli.engine.state import MapState
     from aion_cli.formats.mapfile import open_map
 
-    check_map_path(path)
+    check_map_input(path)
     with open_map(path, in_place=not writable) as members:
         manifest = members.manifest
         meta = _state_meta(path, manifest)
+        query_only = query_only_of(manifest)
         if writable:
-            refuse_learning(path, manifest, "continued or merged")
+            refuse_learning(path, query_only, "continued or merged")
         # a query-only map (aion compact) has no Fourier sums: it is read as queries read maps
-        forecast_only = forecast_only or query_only_of(manifest) is not None
+        forecast_only = forecast_only or query_only is not None
         state = MapState.from_arrays(
             members, meta, writable=writable, copy=False, forecast_only=forecast_only
         )
@@ -99,7 +100,7 @@ def load_map_head(path: Path) -> MapHead:
     from aion_cli.errors import MapCorruptError
     from aion_cli.formats.mapfile import open_map
 
-    check_map_path(path)
+    check_map_input(path)
     with open_map(path) as members:
         manifest = members.manifest
         meta = _state_meta(path, manifest)
@@ -114,7 +115,9 @@ def load_map_head(path: Path) -> MapHead:
     return MapHead(manifest, graph, head.config, head.open_window, head.accepted, part)
 
 
-def check_map_path(path: Path) -> None:
+def check_map_input(path: Path) -> None:
+    """:class:`MapFileError` unless ``path`` names an existing file (a map to read; the
+    output side is ``formats.mapfile.check_map_output``)."""
     if not path.exists():
         raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
     if path.is_dir():

@@ -293,12 +293,12 @@ def _print_map(report: dict[str, Any]) -> None:
     table.add_row("observation", safe(report.get("observation")))
     query_only = report.get("query_only")
     if isinstance(query_only, dict):
-        source = query_only.get("from") or {}
-        name = source.get("name", "?") if isinstance(source, dict) else "?"
+        from aion_cli.compact import made_from
+
         table.add_row(
             "query only",
-            safe(f"made from {name} by aion compact: answers queries, cannot be continued "
-                 "or merged"),
+            safe(f"made from {made_from(query_only) or '?'} by aion compact: answers queries, "
+                 "cannot be continued or merged"),
         )
     families = report.get("families") or {}
     for kind in ("flow", "direction"):

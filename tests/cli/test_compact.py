@@ -17,7 +17,7 @@ from aion_cli.compact import LEFT_OUT
 from aion_cli.engine.query import predict_table
 from aion_cli.engine.temporal.components import PREFIX
 from aion_cli.errors import MapFileError
-from aion_cli.formats.mapfile import open_map, read_manifest, write_map
+from aion_cli.formats.mapfile import RESERVED_KEYS, open_map, read_manifest, write_map
 from aion_cli.mapquery import load_map
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.logdata import write_office_log
@@ -146,8 +146,7 @@ def test_bad_inputs_are_refused_before_anything_is_written(maps: Maps, tmp_path:
     # a map written before the FreMEn components were stored: its forecasts need the sums
     with open_map(maps.full) as members:
         arrays = {n: members[n] for n in members if not n.startswith(PREFIX)}
-        manifest = {k: v for k, v in members.manifest.items() if k not in (
-            "format", "version", "creator", "created", "members")}
+        manifest = {k: v for k, v in members.manifest.items() if k not in RESERVED_KEYS}
     old = tmp_path / "old.aion"
     write_map(old, arrays, manifest)
     refused = run("compact", old, "-o", tmp_path / "old-robot.aion")
@@ -157,8 +156,7 @@ def test_bad_inputs_are_refused_before_anything_is_written(maps: Maps, tmp_path:
     # a manifest whose query_only field is not a record: refused by every reader alike
     with open_map(maps.small) as members:
         arrays = {n: members[n] for n in members}
-        manifest = {k: v for k, v in members.manifest.items() if k not in (
-            "format", "version", "creator", "created", "members")}
+        manifest = {k: v for k, v in members.manifest.items() if k not in RESERVED_KEYS}
     odd = tmp_path / "odd.aion"
     write_map(odd, arrays, manifest | {"query_only": "yes"})
     for args in (("predict", odd, "--time", "2026-11-23 14:00"), ("info", odd)):
