@@ -182,7 +182,7 @@ def _target_graph(graph_file: Path | None, nav_layer: str | None) -> GraphSnapsh
 
 def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
     """Hash every map file and read its head (:func:`aion_cli.mapquery.load_map_head`)."""
-    from aion_cli.compact import query_only_of, refuse_learning
+    from aion_cli.compact import refuse_learning
     from aion_cli.mapquery import load_map_head
     from aion_cli.provenance import provenance
 
@@ -198,8 +198,9 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
             )
         first_of[file.sha256] = p
         head = load_map_head(p)
-        refuse_learning(p, query_only_of(head.manifest), "merged")
-        maps.append(_Input(p, head, Manifest.from_dict(head.manifest), file))
+        manifest = Manifest.from_dict(head.manifest)
+        refuse_learning(p, manifest.query_only, "merged")
+        maps.append(_Input(p, head, manifest, file))
         sink.advance(1)
     return maps
 
