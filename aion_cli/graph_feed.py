@@ -195,10 +195,26 @@ class GraphFeed:
         self._fast_layout: dict[tuple[str, str, str], bool] = {}  # (topic, type, encoding)
         self._reader = GraphReader()  # re-reads only the node records a payload changed
 
-    def schedule(self, times: GraphTimes, strays: dict[str, I64], window_ns: int) -> None:
+    def schedule(
+        self,
+        times: GraphTimes,
+        strays: dict[str, I64],
+        window_ns: int,
+        limits: tuple[int, int] | None = None,
+    ) -> None:
         """Decide which graphs the stream uses (:func:`graph_schedule` over the graph log
-        times read before the stream, without the ``strays`` the time check drops)."""
-        self.used = graph_schedule(times.stream_times(strays), self.period_ns, window_ns)
+        times read before the stream, without the ``strays`` the time check drops).
+
+        ``limits``: a time shard of a parallel build streams only the part ``[lo, hi)`` of
+        the log; it uses the graphs the whole log's schedule uses there, and feeds agent
+        poses from ``lo`` on (every snapshot repeats the trajectory before it)."""
+        t = times.stream_times(strays)
+        used = graph_schedule(t, self.period_ns, window_ns)
+        if limits is not None:
+            lo, hi = limits
+            used = used[(t >= lo) & (t < hi)]
+            self._agents_until = max(self._agents_until, lo - 1)
+        self.used = used
 
     def thin(
         self, messages: Iterator[RawMessage], graph_topics: set[str], progress: ProgressSink

@@ -31,7 +31,7 @@ from __future__ import annotations
 from array import array
 from collections import Counter
 from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime, timedelta
 from typing import TYPE_CHECKING, Any
 
@@ -153,6 +153,15 @@ class TopicTimes:
         for k, topic in enumerate(times.topics):
             self.add_array(topic, times.t[times.code == k])
 
+    def count_inside(self, topics: Iterable[str], lo: int, hi: int) -> int:
+        """Messages of ``topics`` (those recorded here) with log times in ``[lo, hi)``."""
+        total = 0
+        for topic in set(topics) & set(self._times):
+            raw = self._times[topic]
+            t = np.frombuffer(raw, dtype=np.int64) if len(raw) else np.zeros(0, np.int64)
+            total += int(np.count_nonzero((t >= lo) & (t < hi)))
+        return total
+
     def check(self, span_topics: Iterable[str]) -> TimeCheck:
         """The strays of ``span_topics`` (the topics whose times matter: a static transform's
         log time says nothing), and their runs and span; the other topics are only checked
@@ -192,7 +201,8 @@ class TimeCheck:
     """What :meth:`TopicTimes.check` found: stray log times per topic (sorted), messages out of
     range per topic (and the first such time), messages kept per topic, and the runs
     ``[first, last]`` of the topics that make the build's time span, and those topics' kept
-    log times (any order)."""
+    log times (any order). ``limits``: the part ``[lo, hi)`` of log time a time shard of a
+    parallel build learns (:meth:`limited`); None for a whole build."""
 
     strays: dict[str, I64]
     out_of_range: dict[str, int]
@@ -202,23 +212,59 @@ class TimeCheck:
     run_last: I64
     span_times: I64
     _pending: Counter[tuple[str, int]] = field(default_factory=Counter, repr=False)
+    limits: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         for topic, times in self.strays.items():
             self._pending.update((topic, int(t)) for t in times.tolist())
 
+    def limited(self, lo: int, hi: int) -> TimeCheck:
+        """This check for the part ``[lo, hi)`` of log time (a time shard of a parallel
+        build, :mod:`aion_cli.time_shards`): the runs clipped to it (so a fixed sensor
+        observes exactly the windows of the part that the whole log's runs cover), the span
+        from the messages inside it, and :meth:`filter` keeps only messages inside it. The
+        strays and the counts stay the whole log's (the rules look at every message)."""
+        keep = (self.run_last >= lo) & (self.run_first < hi)
+        inside = (self.span_times >= lo) & (self.span_times < hi)
+        return replace(
+            self,
+            run_first=np.maximum(self.run_first[keep], np.int64(lo)),
+            run_last=np.minimum(self.run_last[keep], np.int64(hi - 1)),
+            span_times=self.span_times[inside],
+            _pending=Counter(),
+            limits=(int(lo), int(hi)),
+        )
+
     @property
     def start_ns(self) -> int | None:
+        if self.limits is not None:  # runs are clipped to the limits: the messages say
+            return int(self.span_times.min()) if self.span_times.size else None
         return int(self.run_first.min()) if self.run_first.size else None
 
     @property
     def end_ns(self) -> int | None:
+        if self.limits is not None:
+            return int(self.span_times.max()) if self.span_times.size else None
         return int(self.run_last.max()) if self.run_last.size else None
 
     @property
     def clean(self) -> bool:
         """Nothing to drop: the stream filter can be skipped."""
-        return not self.strays and not any(self.out_of_range.values())
+        return not self.strays and not any(self.out_of_range.values()) and self.limits is None
+
+    def inside_limits(self, t_ns: I64) -> BoolA:
+        """Mask of the log times ``t_ns`` inside :attr:`limits` (all without limits)."""
+        t = np.asarray(t_ns, dtype=np.int64)
+        if self.limits is None:
+            return np.ones(t.shape, dtype=bool)
+        lo, hi = self.limits
+        return (t >= lo) & (t < hi)
+
+    def windows_inside_limits(self, windows: I64, delta_ns: int) -> BoolA:
+        """Mask of the windows (indices of ``delta_ns`` windows) that start inside
+        :attr:`limits` (all without limits; the limits lie on window starts)."""
+        w = np.asarray(windows, dtype=np.int64)
+        return self.inside_limits(w * np.int64(delta_ns))
 
     def filter(self, messages: Iterator[RawMessage]) -> Iterator[RawMessage]:
         """``messages`` without those out of range and without the strays (each stray
@@ -227,9 +273,10 @@ class TimeCheck:
             yield from messages
             return
         pending = Counter(self._pending)  # a fresh copy: the log may be read several times
+        lo, hi = self.limits if self.limits is not None else (MIN_TIME_NS, MAX_TIME_NS + 1)
         for msg in messages:
             t = msg.log_time_ns
-            if not MIN_TIME_NS <= t <= MAX_TIME_NS:
+            if not lo <= t < hi or not MIN_TIME_NS <= t <= MAX_TIME_NS:
                 continue
             if pending:
                 key = (msg.topic, t)

@@ -2,7 +2,9 @@
 
 The plan (:func:`plan_shards`): the logs, ordered by time, are cut into *shards*, groups of
 logs that share no time window (logs that overlap, or touch within a window or a few
-seconds, stay together: a single pass interleaves their messages). Each shard is built in a
+seconds, stay together: a single pass interleaves their messages). With fewer such groups than
+workers, a long log (or group) is cut further at quiet moments into *time shards* of its log
+time (:mod:`aion_cli.time_shards`), which join like separate logs. Each shard is built in a
 worker process (or a Dask task, which reads the logs by path) exactly as a sequential build
 reads it, except that its closed days are held unscored (:mod:`aion_cli.engine.shards`); the
 first shard of a new map is built as an ordinary map. The parent then folds the shards into
@@ -14,7 +16,8 @@ Where a shard cannot be joined exactly (:func:`aion_cli.engine.shards.join_block
 ownership changed after one of its days closed, it has no scene graph of its own while the
 map has one, ...), the fold rebuilds that shard's logs in sequence onto the map so far (a
 note says which and why): the result is exact either way, only slower. Builds that need all
-logs at once (``--derive-graph``) run sequentially, as do builds whose logs form one shard.
+logs at once (``--derive-graph``) run sequentially, as do builds whose logs form one shard
+that has no quiet moment to cut it at.
 
 Ctrl-C (or any error) stops every worker; nothing is written until the fold is complete, so
 the previous map stays intact. Progress shows every worker's own bar.
@@ -32,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.build_report import BuildReport, ProgressSink, check_usable
 from aion_cli.errors import InputError
 from aion_cli.tf_feed import fixed_sensor_text
+from aion_cli.time_shards import part_fields
 
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
@@ -45,13 +49,17 @@ TOUCH_NS = 10 * 10**9
 @dataclass(frozen=True)
 class ShardTask:
     """One shard: its logs (in time order), whether its days are held for the join, and the
-    build's options and config (every shard learns with the same)."""
+    build's options and config (every shard learns with the same); a time shard also has its
+    part ``[lo, hi)`` of log time and whether it is its logs' first part
+    (:mod:`aion_cli.time_shards`)."""
 
     index: int
     logs: tuple[Path, ...]
     deferred: bool
     opts: BuildOptions
     config: ModelConfig
+    part: tuple[int, int] | None = None
+    first_part: bool = True
 
 
 @dataclass
@@ -113,7 +121,9 @@ def _shard_build(task: ShardTask, progress: ProgressSink, **part: Any) -> _Build
     opts = dataclasses.replace(
         task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
     )
-    build = _Build(opts, progress, shard=True, **part)
+    build = _Build(
+        opts, progress, shard=True, part=task.part, first_part=task.first_part, **part
+    )
     build.set_logs(task.logs)
     return build
 
@@ -206,39 +216,45 @@ class ParallelBuild:
         self.build = build
         self.config = config
         self.opts: BuildOptions = build.opts
-        self.groups: list[tuple[Path, ...]] = []
+        self.groups: list[tuple[Path, ...]] = []  # per shard: its logs
+        self.parts: list[tuple[int, int] | None] = []  # per shard: its time part, if cut
 
     def run(self) -> MapState:
         """The learnt map state (the caller writes it); the report is filled in."""
         opts, report = self.opts, self.build.report
         logs = self.build.logs
-        if len(logs) < 2:  # nothing to share out (and no second open of the log)
-            if opts.workers > 1 or opts.scheduler is not None:
-                report.notes.append(
-                    "one log: built in one process (--workers and --scheduler share out "
-                    "logs that record different times; a single log is not cut into time "
-                    "shards)"
-                )
-            return self.build.learn(self.config).state
         if opts.derive_graph:
             report.notes.append("--derive-graph needs every log at once: built in sequence")
             return self.build.learn(self.config).state
-        spans, empty = self._spans(logs)
-        groups = plan_shards(spans, _window_ns(self.config))
-        if empty and groups:
-            groups[0] = groups[0] + tuple(empty)
-        self.groups = groups
         workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
-        if len(groups) < 2 or (workers < 2 and opts.scheduler is None):
-            if len(groups) < 2:
-                report.notes.append(
-                    "the logs overlap in time (one shard): built in sequence, not in parallel"
-                )
+        if workers < 2 and opts.scheduler is None:
             return self.build.learn(self.config).state
+        if len(logs) < 2:
+            groups = [tuple(logs)]
+        else:
+            spans, empty = self._spans(logs)
+            groups = plan_shards(spans, _window_ns(self.config))
+            if empty and groups:
+                groups[0] = groups[0] + tuple(empty)
+        from aion_cli.time_shards import SHARDS_PER_WORKER, split_groups
+
+        target = SHARDS_PER_WORKER * max(workers, 2)
+        shards, notes = split_groups(groups, opts, _window_ns(self.config), target)
+        report.notes.extend(notes)
+        if len(shards) < 2:
+            report.notes.append(
+                ("one log" if len(logs) < 2 else "the logs overlap in time (one shard)")
+                + ": built in sequence, not in parallel (no quiet moment to cut it at: a "
+                "window start with no detection message in the 10 s before it; "
+                "docs/SCALING.md)"
+            )
+            return self.build.learn(self.config).state
+        self.groups = [group for group, _, _ in shards]
+        self.parts = [part for _, part, _ in shards]
         previous = self.build.previous.state if self.build.previous is not None else None
         tasks = [
-            ShardTask(i, group, previous is not None or i > 0, opts, self.config)
-            for i, group in enumerate(groups)
+            ShardTask(i, group, previous is not None or i > 0, opts, self.config, part, first)
+            for i, (group, part, first) in enumerate(shards)
         ]
         if opts.scheduler is not None:
             from aion_cli.dask_build import run_on_cluster
@@ -301,6 +317,7 @@ class ParallelBuild:
             {
                 "shard": r.index,
                 "logs": [p.name for p in self.groups[r.index]],
+                **part_fields(self.parts[r.index]),
                 "worker": r.worker,
                 "seconds": round(r.seconds, 3),
                 "peak_rss_mb": round(r.peak_rss_mb, 1),

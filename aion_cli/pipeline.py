@@ -97,7 +97,10 @@ class _Build:
     ``shard``: a part of a parallel build (:mod:`aion_cli.parallel_build`): the logs are
     learnt into a map whose closed days are held for the join (``deferred``) or not (the first
     part), starting from ``start`` (a map in memory) if given, and nothing is hashed, checked
-    for usable detections or written: :meth:`learn` returns the state."""
+    for usable detections or written: :meth:`learn` returns the state. ``part``: a time shard
+    (:mod:`aion_cli.time_shards`) learns only the log time ``[lo, hi)`` of its logs, with the
+    whole logs' time rules, TF and graph schedule; ``first_part``: it is the first part of its
+    logs, whose report carries what those whole-log reads counted."""
 
     def __init__(
         self,
@@ -106,12 +109,16 @@ class _Build:
         shard: bool = False,
         deferred: bool = False,
         start: MapState | None = None,
+        part: tuple[int, int] | None = None,
+        first_part: bool = True,
     ) -> None:
         self.opts = opts
         self.progress = progress
         self.shard = shard
         self.deferred = deferred
         self.start = start
+        self.part = part
+        self.first_part = first_part
         self.counts = DetectionCounts()
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
@@ -124,6 +131,8 @@ class _Build:
         self._factory: Any = None
         self._logs: tuple[Path, ...] = tuple(opts.logs)  # the distinct logs (by sha256)
         self._times = TopicTimes(()).check(())
+        self._whole_times = self._times  # without a time shard's limits
+        self._part_total: int | None = None  # a time shard's messages to stream
         self._map_open: int | None = None  # a continued map's open window when loaded
         self._used = np.zeros(0, np.int64)  # detections used, per detection topic
         self._mapper_drops = np.zeros((0, 0), np.int64)  # per topic x DROP_REASONS
@@ -293,12 +302,20 @@ class _Build:
             logset, plan, timed, self.progress, thinned, use_index=self._use_index
         )
         tf_topics = plan.names("tf") if plan.tf else set()
-        self._times = check_times(times, plan, timed, self.report)
+        self._times = self._whole_times = check_times(times, plan, timed, self.report)
+        if self.part is not None:
+            self._times = self._whole_times.limited(*self.part)
+            self._part_total = times.count_inside(timed, *self.part)
         if isinstance(times, GraphTimes):
             from aion_cli.engine.windows import window_ns
 
-            self.graphs.schedule(times, self._times.strays, window_ns(self.config().window_s))
+            self.graphs.schedule(
+                times, self._times.strays, window_ns(self.config().window_s), self.part
+            )
         check_tf(stats, tf_topics, self.report)
+        if not self.first_part:  # the whole logs' counts: the first part reports them
+            self.report.time_dropped = {}
+            self.report.tf_undecodable = 0
         return tf
 
     def _inputs(self) -> tuple[InputLog, ...]:
@@ -323,7 +340,8 @@ class _Build:
         def graph_agents() -> bool:
             if not plan.graph or self.opts.graph_file is not None:
                 return False
-            messages = self._times.filter(logset.messages(plan.names("graph")))
+            # the first graph of the logs, also in a time shard (every part observes alike)
+            messages = self._whole_times.filter(logset.messages(plan.names("graph")))
             return self.graphs.first_has_agents(logset, next(iter(messages), None))
 
         frames = (self.opts.map_frame, self.opts.base_frame)
@@ -388,10 +406,11 @@ class _Build:
         self._mapper_drops = np.zeros((len(feeders.topics), len(DROP_REASONS)), np.int64)
         graph_topics = plan.names("graph")
         topics = plan.names("detections") | graph_topics
-        self.progress.start("building map", logset.total(topics))
+        total = logset.total(topics) if self._part_total is None else self._part_total
+        self.progress.start("building map", total)
         use_agents = self.report.observation.startswith("scene-graph")
         messages = self.graphs.thin(
-            self._times.filter(logset.messages(topics)), graph_topics, self.progress
+            self._times.filter(logset.messages(topics, self.part)), graph_topics, self.progress
         )
         stream = chunks(messages, graph_topics, self.opts.batch_size)
         # duck-typed: decoded_chunks only calls decode()
@@ -408,7 +427,8 @@ class _Build:
         )
         if not self.shard:  # a parallel build checks the total of its parts
             check_usable(self.report, c, self.previous_manifest)
-        if use_agents and self.report.graph_messages == 0:
+        # (a time shard without graphs of its own still observes with the logs' agents)
+        if use_agents and self.report.graph_messages == 0 and self.part is None:
             self.report.observation = fixed_sensor_windows(
                 mapper, logset, self._times, self.report.notes, self.report
             )

@@ -237,6 +237,9 @@ def observe(
             f"{', '.join(sorted(tf.frames)[:12])}); see --map-frame / --base-frame"
         )
     if traj is not None:
+        part = times.inside_limits(traj.t_ns)  # a time shard observes with its own poses
+        if not part.all():
+            traj = Trajectory(np.asarray(traj.t_ns)[part], np.asarray(traj.xyz)[part])
         mapper.add_trajectory(traj)
         report.observation = f"tf {map_frame}->{base_frame}"
     elif graph_agents():
@@ -321,6 +324,7 @@ def fixed_sensor_windows(
 
     delta = window_ns(mapper.state.config.window_s)
     recorded = logset.recorded_windows(delta)
+    recorded = recorded[times.windows_inside_limits(recorded, delta)]  # a time shard's part
     inside = times.within_runs(recorded, delta)
     outside = int(np.count_nonzero(~inside))
     if outside:

@@ -13,6 +13,11 @@
   forked process, then two shards built at once in two (no joins, no parent work): how much
   more two processes of this very work get done per second than one. On a shared VM the two
   "cores" are not independent; the speed-up is read against this figure.
+* **Time shards** (:func:`run_time_shards`). One log, the 20-day 5-per-message log of
+  ``bench_build`` (``build_logs.ratio_log``: bursts of people over 20 days): with
+  ``workers=2`` it is cut at quiet moments into two time shards (``aion_cli.time_shards``).
+  Sequential vs 2 workers, interleaved, best and median of ``repeats``; the same map or not,
+  the cuts, the joins' time.
 * **Merge cost** (:func:`run_merge`). ``engine.merge.merge_maps`` of two maps of 10^4 and 10^5
   cell entries with two weeks of history (``bench_engine.build_state``): seconds per entry,
   copying the inputs (the library default) and in place (``aion merge``).
@@ -161,6 +166,47 @@ def run_speedup(
     return row
 
 
+def run_time_shards(messages: int = 62_501, days: int = 20, repeats: int = 3) -> dict[str, Any]:
+    """Sequential vs 2-worker build of one log cut into time shards (module docstring)."""
+    from aion_cli.engine.compare import differences
+    from aion_cli.mapquery import load_map
+    from benchmarks.build_logs import ratio_log
+
+    log = ratio_log(5, messages, days)
+    seq_out, par_out = WORK / "tshard_seq.aion", WORK / "tshard_par.aion"
+    _build([log], seq_out, 1)  # imports and caches warm, for both timings alike
+    seq, par = [], []
+    for _ in range(repeats):  # interleaved: the machine is shared
+        s, seq_report = timed(lambda: _build([log], seq_out, 1))
+        seq.append(s)
+        s, par_report = timed(lambda: _build([log], par_out, 2))
+        par.append(s)
+    problems = differences(
+        load_map(seq_out, writable=True).state, load_map(par_out, writable=True).state
+    )
+    seq_out.unlink(missing_ok=True)
+    par_out.unlink(missing_ok=True)
+    return {
+        "name": f"time shards, one log of {days} days x {messages:,} msgs, 2 workers",
+        "detections": seq_report.detections_used,
+        "sequential_s": min(seq),
+        "workers2_s": min(par),
+        "sequential_median_s": sorted(seq)[len(seq) // 2],
+        "workers2_median_s": sorted(par)[len(par) // 2],
+        "speedup": min(seq) / min(par),
+        "speedup_median": sorted(seq)[len(seq) // 2] / sorted(par)[len(par) // 2],
+        "same_map": not problems,
+        "differences": problems[:5],
+        "shards": len(par_report.workers),
+        "cuts": [n for n in par_report.notes if "time shards" in n],
+        "shards_learnt_in_sequence": len(
+            [n for n in par_report.notes if "learnt in sequence" in n]
+        ),
+        "fold_s": getattr(par_report, "fold_seconds", None),
+        "worker_seconds": [w["seconds"] for w in par_report.workers],
+    }
+
+
 def run_merge(sizes: tuple[int, ...] = (10**4, 10**5)) -> list[dict[str, Any]]:
     """``merge_maps`` cost per entry for maps of ``sizes`` entries: the library's default,
     which copies both inputs first, and ``consume=True`` (what ``aion merge`` runs: the loaded
@@ -190,5 +236,14 @@ def run_merge(sizes: tuple[int, ...] = (10**4, 10**5)) -> list[dict[str, Any]]:
 
 def run(quick: bool = False) -> list[dict[str, Any]]:
     if quick:
-        return [run_speedup(4, 1, 800, repeats=1), *run_merge((10**3,))]
-    return [run_speedup(4, 2, 6000), run_speedup(4, 2, 30000, repeats=5), *run_merge()]
+        return [
+            run_speedup(4, 1, 800, repeats=1),
+            run_time_shards(3_001, 2, repeats=1),
+            *run_merge((10**3,)),
+        ]
+    return [
+        run_speedup(4, 2, 6000),
+        run_speedup(4, 2, 30000, repeats=5),
+        run_time_shards(),
+        *run_merge(),
+    ]

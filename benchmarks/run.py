@@ -227,6 +227,12 @@ def _parallel_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> N
             add("parallel", f"{name}: peak memory per worker",
                 f"{max(r['worker_peak_rss_mb']):.0f} MB",
                 f"{fmt_si(max(r['shard_detections_per_s']), 'det/s')} per worker (best shard)")
+        elif name.startswith("time shards"):
+            add("parallel", f"{name}, {r['detections']:,} det: speed-up",
+                f"{r['speedup']:.2f}x ({r['workers2_s']:.2f} s vs {r['sequential_s']:.2f} s)",
+                f"median {r['speedup_median']:.2f}x; same map: {r['same_map']}; "
+                f"{r['shards']} shards, {r['shards_learnt_in_sequence']} learnt in sequence; "
+                f"joins {r['fold_s'] or 0:.2f} s")
         elif name.startswith("merge_maps"):
             add("parallel", f"{name}: cost per entry", f"{r['us_per_entry']:.0f} us",
                 f"{r['seconds']:.2f} s for {r['entries']:,} entries")

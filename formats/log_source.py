@@ -62,8 +62,12 @@ class _Source:
     topics: dict[tuple[str, str], _Topic]  # by (topic, msgtype)
     warnings: list[str]
 
-    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
-        """This source's messages on ``topics`` (all when None), in log-time order."""
+    def messages(
+        self, topics: set[str] | None, between: tuple[int, int] | None = None
+    ) -> Iterator[RawMessage]:
+        """This source's messages on ``topics`` (all when None), in log-time order.
+        ``between``: only messages with log times in ``[lo, hi)`` are wanted, a hint a reader
+        may use to skip whole chunks (callers still filter: messages outside may come)."""
         raise NotImplementedError
 
     def recorded_windows(self, window_ns: int) -> Windows:
@@ -110,8 +114,10 @@ class _Unpacked(_Source):
         """Close ``source`` too when this one is closed (what keeps the copies alive)."""
         self._temps.append(_Closing(source))
 
-    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
-        return self.inner.messages(topics)
+    def messages(
+        self, topics: set[str] | None, between: tuple[int, int] | None = None
+    ) -> Iterator[RawMessage]:
+        return self.inner.messages(topics, between)
 
     def recorded_windows(self, window_ns: int) -> Windows:
         return self.inner.recorded_windows(window_ns)

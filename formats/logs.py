@@ -131,20 +131,23 @@ class LogSet:
         selected = None if topics is None else set(topics)
         return sum(t.count for t in self.topics if selected is None or t.topic in selected)
 
-    def messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
+    def messages(
+        self, topics: Iterable[str] | None = None, between: tuple[int, int] | None = None
+    ) -> Iterator[RawMessage]:
         """Messages on ``topics`` (all when None; names not in the log are ignored) of every
         file, merged in log-time order (ties keep file order).
 
         A file is opened only when the merged stream reaches the first message time its index
         gives, and closed when its messages are used up (an MCAP file with a summary is even
         opened per chunk), so a set of thousands of consecutive files holds few file handles
-        at a time."""
+        at a time. ``between``: only log times in ``[lo, hi)`` are wanted (a hint: readers
+        may skip chunks outside it; the caller filters)."""
         if self._closed:
             raise ValueError("messages() on a closed LogSet")
         selected = None if topics is None else set(topics)
         if len(self._sources) == 1:
-            return self._sources[0].messages(selected)
-        return _merge_by_start(self._sources, selected)
+            return self._sources[0].messages(selected, between)
+        return _merge_by_start(self._sources, selected, between)
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """Sorted unique window indices ``floor(t / window_ns)`` holding at least one message
@@ -243,7 +246,9 @@ class LogSet:
         self.close()
 
 
-def _merge_by_start(sources: list[_Source], topics: set[str] | None) -> Iterator[RawMessage]:
+def _merge_by_start(
+    sources: list[_Source], topics: set[str] | None, between: tuple[int, int] | None = None
+) -> Iterator[RawMessage]:
     """The messages of ``sources`` merged by log time, ties in source order; a source's
     stream is started only once the merge reaches its first message time (or nothing earlier
     is left), so files that follow one another are read one after the other."""
@@ -257,7 +262,7 @@ def _merge_by_start(sources: list[_Source], topics: set[str] | None) -> Iterator
         ):
             k = order[nxt]
             nxt += 1
-            stream = sources[k].messages(topics)
+            stream = sources[k].messages(topics, between)
             first = next(stream, None)
             if first is not None:
                 heapq.heappush(heap, (first.log_time_ns, k, seq, first, stream))

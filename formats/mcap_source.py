@@ -214,7 +214,11 @@ class _McapSource(_McapLinearRead):
 
     # -- reading ---------------------------------------------------------------------------
 
-    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+    def messages(
+        self, topics: set[str] | None, between: tuple[int, int] | None = None
+    ) -> Iterator[RawMessage]:
+        """See :meth:`_Source.messages`; with ``between``, indexed chunks whose messages all
+        lie outside it are not read."""
         wanted = {
             cid
             for cid, (topic, _, _) in self._channels.items()
@@ -222,16 +226,18 @@ class _McapSource(_McapLinearRead):
         }
         if not wanted:
             return iter(())
-        return self._raw_messages(wanted)
+        return self._raw_messages(wanted, between)
 
-    def _raw_messages(self, wanted: set[int]) -> Iterator[RawMessage]:
+    def _raw_messages(
+        self, wanted: set[int], between: tuple[int, int] | None = None
+    ) -> Iterator[RawMessage]:
         channels = self._channels
         if self._unzstd:
             yield from self._unzstd_messages(wanted)
             return
         if self._chunk_indexes is not None and not _chunks_overlap(self._chunk_indexes):
             # the hot path: a chunk's messages at a time, no generator step per message
-            for selected in self._chunk_batches(wanted):
+            for selected in self._chunk_batches(wanted, between):
                 for log_time, channel_id, data in selected:
                     topic, msgtype, encoding = channels[channel_id]
                     yield RawMessage(topic, msgtype, log_time, data, encoding)
@@ -283,11 +289,19 @@ class _McapSource(_McapLinearRead):
             return False
         return not (index.message_index_offsets and wanted.isdisjoint(index.message_index_offsets))
 
-    def _chunk_batches(self, wanted: set[int]) -> Iterator[list[tuple[int, int, bytes]]]:
+    def _chunk_batches(
+        self, wanted: set[int], between: tuple[int, int] | None = None
+    ) -> Iterator[list[tuple[int, int, bytes]]]:
         """Time order by chunk: chunk indexes sorted by start time do not overlap, so each
-        chunk's messages sorted by log time (one list per chunk) continue the stream."""
+        chunk's messages sorted by log time (one list per chunk) continue the stream. With
+        ``between`` (``[lo, hi)``), chunks whose index puts every message outside are
+        skipped."""
         assert self._chunk_indexes is not None
         for index in self._chunk_indexes:
+            if between is not None and (
+                index.message_end_time < between[0] or index.message_start_time >= between[1]
+            ):
+                continue
             if self._selected(index, wanted):
                 selected = self._read_indexed(index.chunk_start_offset, wanted)
                 if selected:

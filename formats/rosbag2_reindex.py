@@ -103,7 +103,9 @@ class _ReindexedSqliteSource(_Source):
         size = sum(o.stat().st_size for o in originals)
         self.file = LogFile(path, "rosbag2-sqlite3", size, start, end, total)
 
-    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+    def messages(
+        self, topics: set[str] | None, between: tuple[int, int] | None = None
+    ) -> Iterator[RawMessage]:
         wanted = _wanted_types(self.topics, topics)
         if not wanted:
             return iter(())

@@ -157,7 +157,9 @@ class _RosbagsSource(_Source):
             files.append((p, original))
         return files, mode == "message"
 
-    def messages(self, topics: set[str] | None) -> Iterator[RawMessage]:
+    def messages(
+        self, topics: set[str] | None, between: tuple[int, int] | None = None
+    ) -> Iterator[RawMessage]:
         if self.file.format != "bag":
             storages = getattr(self._reader.storage, "storages", None)
             if isinstance(storages, list):

@@ -168,3 +168,18 @@ def test_build_small() -> None:
     # build, graph share + its floor, map size (full, query-only), predict (both), info, memory
     assert len(table) == 9
     assert [t["met"] for t in table][-1] is None  # memory not judged below 1 GB of log
+
+
+def test_time_shards_small() -> None:
+    """Issue 17's time-shard row at a tiny size: the one-day log is cut in two and the
+    2-worker build gives the sequential build's map."""
+    from benchmarks import bench_parallel, run
+
+    row = bench_parallel.run_time_shards(200, 1, repeats=1)
+    assert row["same_map"]
+    assert row["shards"] == 2
+    assert row["shards_learnt_in_sequence"] == 0
+    assert len(row["cuts"]) == 1
+    _rows_ok([row])
+    (line,) = run.summary({"parallel": [row]})
+    assert "same map: True" in line["vs"]

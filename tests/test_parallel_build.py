@@ -109,11 +109,18 @@ def test_overlapping_logs_are_one_shard_built_in_sequence(tmp_path: Path) -> Non
     assert any("overlap in time" in n for n in report.notes)  # type: ignore[attr-defined]
 
 
-def test_one_log_with_workers_is_built_in_one_process_and_says_so(tmp_path: Path) -> None:
+def test_one_log_without_a_quiet_moment_is_built_in_one_process_and_says_so(
+    tmp_path: Path,
+) -> None:
+    # people every 10 s from start to end: no window start has 10 s without a detection
+    # message before it, so the log cannot be cut into time shards (tests/test_time_shards.py)
     (log,) = _logs(tmp_path, [0])
     report = _build([log], tmp_path / "par.aion", 2)
     assert report.workers == []  # type: ignore[attr-defined]
-    assert any("one log: built in one process" in n for n in report.notes)  # type: ignore[attr-defined]
+    assert any(
+        "one log: built in sequence" in n and "no quiet moment" in n
+        for n in report.notes  # type: ignore[attr-defined]
+    )
     quiet = _build([log], tmp_path / "seq.aion", 1)  # not asked for workers: no note
     assert not any("one log" in n for n in quiet.notes)  # type: ignore[attr-defined]
 

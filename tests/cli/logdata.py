@@ -167,9 +167,11 @@ def write_office_log(
     agents: bool = False,
     duration_s: int = DURATION_S,
     second_topic: str | None = None,
+    later_sessions_s: tuple[int, ...] = (),
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
-    holds."""
+    holds. ``later_sessions_s``: the same recording again in the same log, starting that many
+    seconds after the first (the log is silent in between)."""
     from aion_cli.formats.writers import LogWriter
 
     n_tracks = n_graph = n_tf = 0
@@ -187,54 +189,57 @@ def write_office_log(
     graph_obj = build_graph(PLACES, EDGES, ROOMS, poses) if graph else None
     payload = np.frombuffer(graph_obj.to_binary(False), dtype=np.uint8) if graph else None
     written: list[int] = []
+    starts = [t0] + [t0 + later * S for later in later_sessions_s]
     with LogWriter(path, container) as writer:
-        for t in range(t0, end, S):  # one pass over every second, in time order
-            if graph and (t - t0) % (60 * S) == 0:
-                writer.write(
-                    "/hydra/backend/dsg",
-                    "hydra_msgs/msg/DsgUpdate",
-                    {
-                        "header": {"stamp": _stamp(t), "frame_id": "map"},
-                        "layer_contents": payload,
-                        "full_update": True,
-                    },
-                    t,
-                )
-                n_graph += 1
-                written.append(t)
-            if tf and (t - t0) % (5 * S) == 0:
-                x, y, z = ROBOT_XYZ
-                writer.write(
-                    "/tf",
-                    "tf2_msgs/msg/TFMessage",
-                    {
-                        "transforms": [
-                            {
-                                "header": {"stamp": _stamp(t), "frame_id": "map"},
-                                "child_frame_id": "base_link",
-                                "transform": {
-                                    "translation": {"x": x, "y": y, "z": z},
-                                    "rotation": {"w": 1.0},
-                                },
-                            }
-                        ]
-                    },
-                    t,
-                )
-                n_tf += 1
-                written.append(t)
-            if (t - t0) % (MSG_PERIOD_S * S) == 5 * S:
-                for topic in ("/tracks", second_topic):
-                    if topic is not None:  # a second tracker publishing the same people
-                        writer.write(
-                            topic,
-                            "spencer_tracking_msgs/msg/TrackedPersons",
-                            _tracked_persons(t, t0, frame),
-                            t,
-                        )
-                n_tracks += 1
-                written.append(t)
-    per_track = {k: len(detection_times(k, duration_s)) for k in TRACKS}
+        # one pass over every second of each session, in time order
+        for t0, end in ((start, start + duration_s * S) for start in starts):
+            for t in range(t0, end, S):
+                if graph and (t - t0) % (60 * S) == 0:
+                    writer.write(
+                        "/hydra/backend/dsg",
+                        "hydra_msgs/msg/DsgUpdate",
+                        {
+                            "header": {"stamp": _stamp(t), "frame_id": "map"},
+                            "layer_contents": payload,
+                            "full_update": True,
+                        },
+                        t,
+                    )
+                    n_graph += 1
+                    written.append(t)
+                if tf and (t - t0) % (5 * S) == 0:
+                    x, y, z = ROBOT_XYZ
+                    writer.write(
+                        "/tf",
+                        "tf2_msgs/msg/TFMessage",
+                        {
+                            "transforms": [
+                                {
+                                    "header": {"stamp": _stamp(t), "frame_id": "map"},
+                                    "child_frame_id": "base_link",
+                                    "transform": {
+                                        "translation": {"x": x, "y": y, "z": z},
+                                        "rotation": {"w": 1.0},
+                                    },
+                                }
+                            ]
+                        },
+                        t,
+                    )
+                    n_tf += 1
+                    written.append(t)
+                if (t - t0) % (MSG_PERIOD_S * S) == 5 * S:
+                    for topic in ("/tracks", second_topic):
+                        if topic is not None:  # a second tracker publishing the same people
+                            writer.write(
+                                topic,
+                                "spencer_tracking_msgs/msg/TrackedPersons",
+                                _tracked_persons(t, t0, frame),
+                                t,
+                            )
+                    n_tracks += 1
+                    written.append(t)
+    per_track = {k: len(detection_times(k, duration_s)) * len(starts) for k in TRACKS}
     return Expected(
         detections=sum(per_track.values()),
         per_track=per_track,

@@ -143,11 +143,27 @@ def assert_index_is_the_stream(logs: LogSet, topics: set[str]) -> None:
     assert [(found.topics[c], int(t)) for c, t in zip(found.code, found.t, strict=True)] == stream
 
 
+def assert_between_only_skips(logs: LogSet, topics: set[str], lo: int, hi: int) -> None:
+    """``messages(topics, between=(lo, hi))`` yields every message of ``[lo, hi)`` that
+    ``messages(topics)`` yields, in the same order (a hint: it may skip what lies outside)."""
+
+    def inside(between: tuple[int, int] | None) -> list[tuple[str, int, bytes]]:
+        return [
+            (m.topic, m.log_time_ns, bytes(m.data))
+            for m in logs.messages(topics, between)
+            if lo <= m.log_time_ns < hi
+        ]
+
+    assert inside((lo, hi)) == inside(None)
+
+
 @settings(
     max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
-@given(spec=logs())
-def test_index_times_are_the_streams_times_and_the_first_pass_is_the_same(spec: Any) -> None:
+@given(spec=logs(), bounds=st.tuples(st.integers(-4, 40), st.integers(0, 40)))
+def test_index_times_are_the_streams_times_and_the_first_pass_is_the_same(
+    spec: Any, bounds: tuple[int, int]
+) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         paths = [
             write(Path(tmp) / f"log{k}", container, chunk, events)
@@ -156,7 +172,20 @@ def test_index_times_are_the_streams_times_and_the_first_pass_is_the_same(spec: 
         with open_logs(paths) as logs:
             assert_index_is_the_stream(logs, {"/tracks", "/tracks2", "/dsg", "/dsg2"})
             assert_index_is_the_stream(logs, {"/dsg2", "/tf"})
+            lo = T0 + bounds[0] * S // 4
+            assert_between_only_skips(logs, {"/tracks", "/dsg", "/tf"}, lo, lo + bounds[1] * S)
         assert_same_first_pass(paths)
+
+
+def test_an_indexed_mcap_skips_the_chunks_outside_a_time_range(tmp_path: Path) -> None:
+    # 200 messages a second apart in chunks of a few messages: a 10-s range reads the chunks
+    # that overlap it only, and yields every message inside it
+    path = _raw_mcap(tmp_path / "long.mcap", [(1, T0 + k * S) for k in range(200)])
+    with open_logs([path]) as logs:
+        got = [m.log_time_ns for m in logs.messages({"/a"}, (T0 + 50 * S, T0 + 60 * S))]
+    inside = [t for t in got if T0 + 50 * S <= t < T0 + 60 * S]
+    assert inside == [T0 + k * S for k in range(50, 60)]
+    assert len(got) < 30  # the other chunks were not read
 
 
 # -- MCAP specifics: huge times, a file read linearly, damaged indexes -----------------------

@@ -1,0 +1,185 @@
+"""Time shards: a long log cut at quiet moments, so that ``aion build --workers N`` shares it
+out like logs that record different times.
+
+A parallel build (:mod:`aion_cli.parallel_build`) learns groups of logs that share no time
+window in separate processes and joins them in time order. A single long log (or a group of
+logs that overlap in time) is one such group; here it is cut further, into *parts* of log time
+``[lo, hi)``, each learnt by a worker that reads the whole log's TF, time rules and scene-graph
+schedule but streams only its part (:class:`aion_cli.pipeline._Build` with ``part``). A part
+then equals what a separate log holding exactly those messages would give, and the join is
+exact for the same reasons. A cut is a window start ``W`` where:
+
+* no detection message lies in the :data:`QUIET_NS` (10 s) before ``W``: every track seen
+  before ``W`` has ended by then (headings and linked tracks start over after a gap of 5 s /
+  2 s in one pass too);
+* the part before ``W`` ends in the window just before ``W`` or, when that window holds no
+  message of any topic, in the window before it: no window that one pass would observe lies
+  between two parts for neither to close. The part's last window is one that holds a message
+  of the topics that make the build's time span (detections, scene graphs, dynamic TF);
+* such messages lie on both sides of ``W``, and detection messages too.
+
+The times come from the logs' indexes (:meth:`formats.logs.LogSet.index_times`), no message
+is read, and the build's own time rules drop the same strays and out-of-range times first.
+Among the candidates, the cuts split the detection messages into parts of about equal size.
+Logs without such an index, or without a quiet moment, are not cut (the build says so).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import pairwise
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from aion_cli.engine.types import I64
+
+if TYPE_CHECKING:
+    from aion_cli.pipeline import BuildOptions
+
+#: a detection message this close before a cut would carry a track across it
+QUIET_NS = 10 * 10**9
+#: a build with fewer groups of logs than this many per worker (and two at least) cuts them
+#: into time shards; one per worker measured faster than two on a 20-day log (each join
+#: scores its shard's held days in the parent, one after the other: docs/SCALING.md)
+SHARDS_PER_WORKER = 1
+
+Shard = tuple[tuple[Path, ...], tuple[int, int] | None, bool]
+"""A shard of a parallel build: its logs, its part of log time (None: all) and whether it is
+the first part of its logs (whose report carries what reading the whole logs counted)."""
+
+
+@dataclass(frozen=True)
+class GroupTimes:
+    """What the cuts of one group of logs are chosen from: the log times (sorted, strays and
+    out-of-range times left out) of its detection messages and of every topic of the build's
+    time span."""
+
+    detections: I64
+    span: I64
+    recorded: I64  # windows holding a message of any topic
+
+
+def cut_times(times: GroupTimes, window_ns: int, parts: int) -> list[int]:
+    """Up to ``parts - 1`` cut times (window starts, increasing; see the module docstring)
+    that split the detection messages into parts of about equal size."""
+    det, span = times.detections, times.span
+    if parts < 2 or det.size == 0 or span.size == 0:
+        return []
+    delta = np.int64(window_ns)
+    windows = np.unique(span // delta)  # windows holding span messages
+    last, following = windows[:-1], windows[1:]  # each, and the next such window
+    right_after = (last + 1) * delta
+    quiet = np.searchsorted(det, right_after - QUIET_NS) == np.searchsorted(det, right_after)
+    # else one window later, if the window between holds no message at all
+    later = (following >= last + 2) & ~np.isin(last + 1, times.recorded)
+    cand = np.where(quiet, right_after, right_after + delta)[quiet | later]
+    before = np.searchsorted(det, cand, "left")  # detection messages before each cut
+    useful = (before > 0) & (before < det.size)  # detections on both sides
+    cand, before = cand[useful], before[useful]
+    if cand.size == 0:
+        return []
+    targets = det.size * np.arange(1, parts, dtype=np.float64) / parts
+    right = np.clip(np.searchsorted(before, targets), 0, cand.size - 1)
+    left = np.clip(right - 1, 0, cand.size - 1)
+    nearer_left = np.abs(before[left] - targets) <= np.abs(before[right] - targets)
+    return sorted({int(t) for t in cand[np.where(nearer_left, left, right)]})
+
+
+def split_groups(
+    groups: list[tuple[Path, ...]], opts: BuildOptions, window_ns: int, target: int
+) -> tuple[list[Shard], list[str]]:
+    """The shards of a parallel build's groups of logs (each group's logs share no time window
+    with another's): each group whole or, while there are fewer than ``target`` groups, cut
+    into parts in proportion to its detection messages; and the report's notes on the cuts."""
+    if len(groups) >= target:
+        return [(group, None, True) for group in groups], []
+    times = [group_times(group, opts, window_ns) for group in groups]
+    counts = [t.detections.size if t is not None else 0 for t in times]
+    total = sum(counts)
+    shards: list[Shard] = []
+    notes = []
+    for group, found, count in zip(groups, times, counts, strict=True):
+        want = max(1, round(target * count / total)) if total else 1
+        cuts = cut_times(found, window_ns, want) if found is not None and want > 1 else []
+        if not cuts:
+            shards.append((group, None, True))
+            continue
+        shards += [(group, part, k == 0) for k, part in enumerate(parts_of(cuts))]
+        shown = ", ".join(_iso(t) for t in cuts[:3]) + (", ..." if len(cuts) > 3 else "")
+        names = ", ".join(p.name for p in group[:3]) + (", ..." if len(group) > 3 else "")
+        notes.append(f"{names}: cut into {len(cuts) + 1} time shards at quiet moments ({shown})")
+    return shards, notes
+
+
+def part_fields(part: tuple[int, int] | None) -> dict[str, str]:
+    """A time shard's part in the report's worker rows (its inner bounds, UTC)."""
+    if part is None:
+        return {}
+    from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS
+
+    lo, hi = part
+    return {
+        "from": _iso(lo) if lo > MIN_TIME_NS else "start",
+        "to": _iso(hi) if hi <= MAX_TIME_NS else "end",
+    }
+
+
+def _iso(t_ns: int) -> str:
+    from aion_cli.log_times import iso
+
+    return iso(t_ns)
+
+
+def parts_of(cuts: list[int]) -> list[tuple[int, int]]:
+    """The parts ``[lo, hi)`` that ``cuts`` make of all log time."""
+    from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS
+
+    return list(pairwise([MIN_TIME_NS, *cuts, MAX_TIME_NS + 1]))
+
+
+def group_times(
+    logs: tuple[Path, ...], opts: BuildOptions, window_ns: int
+) -> GroupTimes | None:
+    """:class:`GroupTimes` of ``logs`` from their indexes, with the topics the build would
+    choose; None when an index cannot give them (the logs are then not cut)."""
+    from aion_cli.build_options import load_mappings
+    from aion_cli.formats.logs import open_logs
+    from aion_cli.log_times import TopicTimes
+    from aion_cli.topics import select_topics
+
+    with open_logs(list(logs), opts.log_format) as logset:
+        plan = select_topics(
+            logset.topics,
+            opts.detection_topics,
+            opts.graph_topic,
+            load_mappings(opts.detections_mapping),
+        )
+        detections = plan.names("detections")
+        graphs = plan.names("graph") if opts.graph_file is None else set()
+        tf = {t for t in plan.names("tf") if not t.endswith("_static")} if plan.tf else set()
+        span_topics = detections | graphs | tf
+        if not detections:
+            return None
+        indexed = logset.index_times(span_topics)
+        recorded = logset.recorded_windows(window_ns)
+    if indexed is None:
+        return None
+    times = TopicTimes(span_topics)
+    times.add_stream(indexed)
+    checked = times.check(span_topics)
+    det = [_kept(indexed.of(t), checked.strays.get(t)) for t in indexed.topics if t in detections]
+    joined = np.sort(np.concatenate(det)) if det else np.zeros(0, np.int64)
+    return GroupTimes(joined, np.sort(checked.span_times), np.asarray(recorded, np.int64))
+
+
+def _kept(t: np.ndarray, strays: I64 | None) -> I64:
+    """One topic's log times from an index without out-of-range and stray times."""
+    from aion_cli.log_times import in_range_mask
+
+    t = np.asarray(t)
+    t = t[in_range_mask(t)].astype(np.int64)
+    if strays is not None and strays.size:
+        t = t[~np.isin(t, strays)]
+    return t

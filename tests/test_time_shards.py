@@ -1,0 +1,234 @@
+"""Time shards: ``aion build LOG --workers N`` cuts one long log at quiet moments and gives the
+map of the sequential build.
+
+The cut rule (:func:`aion_cli.time_shards.cut_times`) is checked on times worked out by hand;
+the builds compare the two maps as saved with :func:`aion_cli.engine.compare.differences`
+(ints exact, floats 1e-12), on office logs of known contents (``tests/cli/logdata.py``) that
+hold several two-hour sessions in one file, in every container and with every observation
+source (robot TF, fixed sensor, scene-graph agents).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.compare import differences
+from aion_cli.mapquery import load_map
+from aion_cli.pipeline import BuildOptions, build_map
+from aion_cli.time_shards import QUIET_NS, GroupTimes, cut_times, parts_of
+from tests.cli.logdata import T0, S, write_office_log
+
+HOUR_S = 3600
+W = 600 * S  # the default window
+# Monday 08:00 (the log's first session), Monday 18:00, Wednesday 08:00, Thursday 10:00
+LATER_S = (10 * HOUR_S, 48 * HOUR_S, 74 * HOUR_S)
+
+
+def _times(
+    detections: list[int], others: tuple[int, ...] = (), recorded: tuple[int, ...] = ()
+) -> GroupTimes:
+    det = np.sort(np.asarray(detections, np.int64))
+    span = np.sort(np.concatenate([det, np.asarray(others, np.int64)]))
+    windows = np.union1d(span // W, np.asarray(recorded, np.int64))
+    return GroupTimes(det, span, windows)
+
+
+def _every_10_s(start_s: int, stop_s: int) -> list[int]:
+    return [t * S for t in range(start_s, stop_s, 10)]
+
+
+# -- the cut rule -----------------------------------------------------------------------------
+def test_a_cut_is_the_window_start_after_a_burst_when_the_10_s_before_it_are_quiet() -> None:
+    # a burst until 995 s (window 1: 600..1200 s), the next one from 5,000 s
+    times = _times(_every_10_s(5, 1000) + _every_10_s(5005, 6000))
+    assert cut_times(times, W, 2) == [1200 * S]
+
+
+def test_a_burst_ending_within_10_s_of_a_window_start_is_cut_one_window_later() -> None:
+    # the last message at 1,195 s lies within 10 s of 1,200 s: the cut moves to 1,800 s,
+    # since window 2 (1,200..1,800 s) holds nothing at all
+    times = _times(_every_10_s(5, 1200) + _every_10_s(5005, 6000))
+    assert cut_times(times, W, 2) == [1800 * S]
+    # ... and cannot move when window 2 recorded something (e.g. a topic aion does not use):
+    # one pass observes that window, and neither part would close it
+    assert cut_times(_times(times.detections.tolist(), recorded=(2,)), W, 2) == []
+
+
+def test_a_stream_without_a_quiet_window_start_is_not_cut() -> None:
+    # people every 10 s at 5, 15, ... s: each window start has a message 5 s before it
+    assert cut_times(_times(_every_10_s(5, 20_000)), W, 4) == []
+    # a quiet moment only before the first detection: nothing on one side, no cut
+    quiet_first = _times(_every_10_s(1805, 4000), others=(0, 300 * S))
+    assert cut_times(quiet_first, W, 2) == []
+
+
+def test_cuts_split_the_detection_messages_evenly() -> None:
+    # three bursts of 100, 100 and 200 messages, hours apart: two parts are cut before the
+    # third (at the window start after b's last message, 10,995 s), four parts at both gaps
+    # (a burst is never cut inside)
+    a = _every_10_s(5, 1005)
+    b = _every_10_s(10_005, 11_005)
+    c = _every_10_s(20_005, 22_005)
+    times = _times(a + b + c)
+    assert cut_times(times, W, 2) == [11_400 * S]  # 200 before, 200 after
+    assert cut_times(times, W, 4) == [1200 * S, 11_400 * S]
+    assert cut_times(times, W, 1) == []
+
+
+def test_span_messages_other_than_detections_decide_where_a_part_ends() -> None:
+    # people until 1,195 s (too close to 1,200 s), then a TF message at 1,500 s in window 2:
+    # the cut cannot skip window 2 (it holds a message one pass observes with), so the part
+    # before the cut ends with it, and the cut is 1,800 s
+    times = _times(_every_10_s(5, 1200) + _every_10_s(5005, 6000), others=(1500 * S,))
+    assert cut_times(times, W, 2) == [1800 * S]
+    # with people until 995 s, 1,200 s is quiet and comes first (the TF message then opens
+    # the part after it)
+    times = _times(_every_10_s(5, 1000) + _every_10_s(5005, 6000), others=(1500 * S,))
+    assert cut_times(times, W, 2) == [1200 * S]
+    assert QUIET_NS == 10 * S
+
+
+def test_parts_cover_all_log_time() -> None:
+    parts = parts_of([1200 * S, 1800 * S])
+    assert [p[1] for p in parts[:-1]] == [p[0] for p in parts[1:]]
+    assert parts[1] == (1200 * S, 1800 * S)
+    assert parts[0][0] < 0 < 2**62 < parts[-1][1]
+
+
+# -- builds -----------------------------------------------------------------------------------
+def _build(logs: list[Path], out: Path, workers: int, **kw: object):  # type: ignore[no-untyped-def]
+    out.unlink(missing_ok=True)
+    return build_map(BuildOptions(logs=tuple(logs), output=out, workers=workers, **kw))  # type: ignore[arg-type]
+
+
+def _same_maps(a: Path, b: Path) -> list[str]:
+    return differences(load_map(a, writable=True).state, load_map(b, writable=True).state)
+
+
+def _same_reports(one: object, two: object) -> None:
+    a, b = one.to_dict(), two.to_dict()  # type: ignore[attr-defined]
+    for key in ("detections", "detections_by_topic", "headings", "observation", "time_span"):
+        assert a[key] == b[key], key
+    assert a["graph"]["messages"] == b["graph"]["messages"]
+
+
+@pytest.mark.parametrize(
+    ("container", "source"),
+    [
+        ("mcap", "tf"),
+        ("mcap", "fixed"),
+        ("mcap", "agents"),
+        ("bag", "tf"),
+        ("rosbag2-sqlite3", "fixed"),
+    ],
+)
+def test_one_log_is_cut_into_time_shards_and_gives_the_sequential_map(
+    tmp_path: Path, container: str, source: str
+) -> None:
+    names = {"bag": "log.bag", "rosbag2-sqlite3": "log"}  # a rosbag2 log is a folder
+    log = tmp_path / names.get(container, "log.mcap")
+    write_office_log(
+        log,
+        container,
+        tf=source == "tf",
+        agents=source == "agents",
+        duration_s=2 * HOUR_S,
+        later_sessions_s=LATER_S,
+    )
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert _same_maps(seq, par) == []
+    _same_reports(one, two)
+    rows = two.workers
+    assert [(r["from"], r["to"]) for r in rows] == [
+        ("start", "2026-11-23 20:10:00 UTC"),  # the sessions' detections split 2 + 2
+        ("2026-11-23 20:10:00 UTC", "end"),
+    ]
+    assert sum(r["detections_used"] for r in rows) == one.detections_used
+    assert any("cut into 2 time shards" in n for n in two.notes)
+    assert not any("in sequence" in n for n in two.notes)
+    assert load_map(par).state.temporal.flow_scored.sum() > 0  # held days scored at the join
+
+
+def test_time_shards_continue_a_map_like_the_sequential_build(tmp_path: Path) -> None:
+    first, rest = tmp_path / "first.mcap", tmp_path / "rest.mcap"
+    write_office_log(first, duration_s=2 * HOUR_S)
+    write_office_log(rest, shift_s=LATER_S[0], duration_s=2 * HOUR_S,
+                     later_sessions_s=tuple(s - LATER_S[0] for s in LATER_S[1:]))
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build([first], seq, 1)
+    _build([first], par, 1)
+    build_map(BuildOptions(logs=(rest,), output=seq, continue_from=seq, workers=1))
+    report = build_map(BuildOptions(logs=(rest,), output=par, continue_from=par, workers=2))
+    assert len(report.workers) == 2  # both parts held their days for the joins
+    assert _same_maps(seq, par) == []
+
+
+def _joined(out: Path, logs: list[Path]) -> Path:
+    """One log holding every message of ``logs`` (in log-time order)."""
+    from aion_cli.formats.logs import open_logs
+    from aion_cli.formats.writers import LogWriter
+
+    with open_logs(logs) as logset, LogWriter(out) as writer:
+        for msg in logset.messages():
+            writer.write_raw(msg.topic, msg.msgtype, msg.data, msg.log_time_ns)
+    return out
+
+
+def test_a_part_that_cannot_be_joined_is_learnt_in_sequence_onto_the_map(tmp_path: Path) -> None:
+    # the graph is published in the first two sessions only: the second part has none of its
+    # own while the map before it has one, so one pass's map needs it learnt in sequence
+    with_graph, without = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    write_office_log(with_graph, duration_s=2 * HOUR_S, later_sessions_s=LATER_S[:1])
+    write_office_log(without, graph=False, shift_s=LATER_S[1], duration_s=2 * HOUR_S,
+                     later_sessions_s=(LATER_S[2] - LATER_S[1],))
+    log = _joined(tmp_path / "log.mcap", [with_graph, without])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build([log], seq, 1)
+    report = _build([log], par, 2)
+    notes = [n for n in report.notes if "in sequence" in n]
+    assert len(notes) == 1
+    assert "no scene graph" in notes[0]
+    assert _same_maps(seq, par) == []
+
+
+def test_a_stray_message_is_dropped_and_counted_once(tmp_path: Path) -> None:
+    # one people message ten days after the log: the time rules drop it in every part, and
+    # the report counts it once, as the sequential build does
+    log, stray = tmp_path / "a.mcap", tmp_path / "stray.mcap"
+    write_office_log(log, duration_s=2 * HOUR_S, later_sessions_s=LATER_S)
+    from aion_cli.formats.writers import LogWriter
+
+    with LogWriter(stray) as writer:
+        from tests.cli.logdata import _tracked_persons
+
+        t = T0 + 10 * 86_400 * S
+        writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons",
+                     _tracked_persons(t, t, "map"), t)
+    joined = _joined(tmp_path / "log.mcap", [log, stray])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([joined], seq, 1)
+    two = _build([joined], par, 2)
+    assert one.time_dropped == {"/tracks": {"out_of_range": 0, "stray": 1}}
+    assert two.time_dropped == one.time_dropped
+    assert len(two.workers) == 2
+    assert _same_maps(seq, par) == []
+
+
+def test_a_dask_cluster_builds_time_shards(tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    log = tmp_path / "log.mcap"
+    write_office_log(log, duration_s=2 * HOUR_S, later_sessions_s=LATER_S)
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build([log], seq, 1)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        host="127.0.0.1",
+    ) as cluster:
+        report = _build([log], par, 1, scheduler=cluster.scheduler_address)
+    assert len(report.workers) == 2
+    assert _same_maps(seq, par) == []
