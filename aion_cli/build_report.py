@@ -106,6 +106,8 @@ class BuildReport:
     #: a parallel build's shards: logs, worker, seconds, peak memory, detections used
     workers: list[dict[str, Any]] = field(default_factory=list)
     fold_seconds: float = 0.0  # the parent's joins of the shards
+    # per detection topic: the orientation rule's (first, last) state (DetectionFeeder.yaw_rule)
+    yaw_rule: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: fixed-sensor observation: (windows, first window, last window, window ns)
     fixed_windows: tuple[int, int, int, int] | None = None
 
@@ -213,6 +215,8 @@ def record_detections(
     report.detections_used = c.used
     report.dropped = dict(c.dropped)
     report.headings = dict(c.headings)
+    for feeder in feeders.feeders.values():
+        report.yaw_rule.update(feeder.yaw_rule())
     check_decoding(report, c, plan)
     topic_counts(report, feeders, used, mapper_drops, c.used)
     if c.stamp_fallbacks:

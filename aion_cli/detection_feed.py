@@ -74,6 +74,28 @@ def _default_factory(topic: str, msgtype: str, encoding: str) -> DetectionAdapte
     return adapter
 
 
+def yaw_rule_blocker(
+    before: Mapping[str, float], rule: Mapping[str, tuple[float, float]]
+) -> str | None:
+    """Why a stream judged by the orientation rule from scratch (``rule``:
+    :meth:`DetectionFeeder.yaw_rule` of a shard of a parallel build) would not equal its
+    judgement in one pass, continuing from the state ``before`` it (per topic: the one yaw
+    seen so far, or NaN once they varied); None when it would. It differs only where the
+    shard set aside the yaws of its first segment while one pass had seen other yaws before
+    (one pass keeps them)."""
+    for topic, (first, _) in sorted(rule.items()):
+        prev = before.get(topic)
+        if prev is None or np.isnan(first):
+            continue
+        if np.isnan(prev) or abs(prev - first) > _SAME_YAW:
+            return (
+                f"the pose orientations on {topic} were all alike at the start of these logs, "
+                "and one pass judges them against the orientations before them (it sets aside "
+                "orientations that have never varied)"
+            )
+    return None
+
+
 class DetectionFeeder:
     """Decodes chunks of raw detection messages into map-frame DetectionBatches.
 
@@ -90,6 +112,7 @@ class DetectionFeeder:
         adapters: Mapping[tuple[str, str, str], DetectionAdapter] | None = None,
         factory: AdapterFactory | None = None,
         linker: LinkerConfig | bool | None = True,
+        yaw_seen: Mapping[str, float] | None = None,
     ) -> None:
         from aion_cli.engine.heading import HeadingEstimator
         from aion_cli.engine.tracking import LinkerConfig
@@ -111,8 +134,11 @@ class DetectionFeeder:
             max_gap_s=cfg.heading_span_s if cfg else 5.0,
         )
         self._linkers: dict[str, TrackLinker] = {}
-        # per topic: the one yaw its messages have shown so far (float), or _VARIES
-        self._yaw_seen: dict[str, float] = {}
+        # per topic: the one yaw its messages have shown so far (float), or _VARIES; a build
+        # that continues another's stream (a shard learnt in sequence) starts from its state
+        self._yaw_seen: dict[str, float] = dict(yaw_seen or {})
+        # per topic: what its first judged segment here gave (the yaw it unset, or _VARIES)
+        self._yaw_first: dict[str, float] = {}
 
     def adapter(self, topic: str, msgtype: str, encoding: str) -> DetectionAdapter:
         """The adapter of ``topic`` (built on first use)."""
@@ -230,6 +256,7 @@ class DetectionFeeder:
             return frames
         seen = self._yaw_seen.get(topic)
         if seen is not None and np.isnan(seen):
+            self._yaw_first.setdefault(topic, _VARIES)
             return frames  # the topic's orientations vary: they are real
         fseg = segment[finite]
         starts = np.flatnonzero(np.r_[True, fseg[1:] != fseg[:-1]])
@@ -240,8 +267,10 @@ class DetectionFeeder:
         for s, lo, hi in zip(fseg[starts].tolist(), lows, highs, strict=True):
             if hi - lo > _SAME_YAW or (seen is not None and abs(seen - lo) > _SAME_YAW):
                 self._yaw_seen[topic] = _VARIES
+                self._yaw_first.setdefault(topic, _VARIES)
                 break
             seen = self._yaw_seen[topic] = lo
+            self._yaw_first.setdefault(topic, lo)
             unset.append(s)
         if not unset:
             return frames
@@ -250,6 +279,13 @@ class DetectionFeeder:
         # the segments judged uniform lose their yaws, every row of them (as one call would)
         gone = np.isin(segment, np.asarray(unset, np.int64))
         return dataclasses.replace(frames, yaw=np.where(gone, np.nan, y))
+
+    def yaw_rule(self) -> dict[str, tuple[float, float]]:
+        """Per topic with a finite pose yaw: ``(first, last)``, what the orientation rule of
+        :meth:`_informative_yaws` made of the topic's first judged segment here and where it
+        ended (the one yaw seen so far, or NaN once they varied). A parallel build compares
+        a shard's ``first`` with the state before it (``aion_cli.parallel_build.fold``)."""
+        return {t: (first, self._yaw_seen[t]) for t, first in self._yaw_first.items()}
 
     def _link(self, topic: str, frames: Any, segment: I64) -> np.ndarray:
         """Linked track ids (-1 elsewhere) of the rows that have no other heading source: no

@@ -86,6 +86,15 @@ class Folded:
     notes: list[str] = field(default_factory=list)
     reports: list[BuildReport] = field(default_factory=list)
     seconds: float = 0.0  # spent folding (joins, and shards learnt in sequence)
+    # per detection topic: the orientation rule's state after the shards so far (the one yaw
+    # seen, NaN once they varied; aion_cli.detection_feed.DetectionFeeder.yaw_rule)
+    yaws: dict[str, float] = field(default_factory=dict)
+
+    def then(self, state: MapState | None, report: BuildReport, note: str | None = None) -> Folded:
+        """The fold after one more shard (its state and report; ``note``: how it went)."""
+        yaws = {**self.yaws, **{t: last for t, (_, last) in report.yaw_rule.items()}}
+        notes = [*self.notes, note] if note else self.notes
+        return Folded(state, notes, [*self.reports, report], self.seconds, yaws)
 
 
 def worker_count(requested: int) -> int:
@@ -148,6 +157,7 @@ def build_shard(task: ShardTask, progress: ProgressSink | None = None) -> ShardR
 def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     """Join one shard onto the map so far (in time order), or rebuild its logs onto it in
     sequence where a join would not be exact."""
+    from aion_cli.detection_feed import yaw_rule_blocker
     from aion_cli.engine.shards import join_blocker, join_shard
 
     state = result.state
@@ -156,20 +166,19 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     if folded.state is None:
         if state.deferred is not None:
             raise ValueError("the first shard of a new map is built as an ordinary map")
-        return Folded(state, folded.notes, [*folded.reports, result.report], folded.seconds)
+        return folded.then(state, result.report)
     _check_order(folded.state, result, task)
-    blocker = join_blocker(folded.state, state)
+    blocker = join_blocker(folded.state, state) or yaw_rule_blocker(
+        folded.yaws, result.report.yaw_rule
+    )
     if blocker is None:
-        joined = join_shard(folded.state, state)
-        return Folded(joined, folded.notes, [*folded.reports, result.report], folded.seconds)
+        return folded.then(join_shard(folded.state, state), result.report)
     note = (
         f"{_names(task.logs)} were learnt in sequence onto the map (not joined in parallel): "
         f"{blocker}"
     )
-    rebuilt = rebuild_onto(folded.state, task)
-    return Folded(
-        rebuilt.state, [*folded.notes, note], [*folded.reports, rebuilt.report], folded.seconds
-    )
+    rebuilt = rebuild_onto(folded.state, task, folded.yaws)
+    return folded.then(rebuilt.state, rebuilt.report, note)
 
 
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
@@ -190,11 +199,14 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
         )
 
 
-def rebuild_onto(state: MapState, task: ShardTask) -> ShardResult:
-    """The shard's logs learnt onto ``state`` in sequence (exactly as one pass continues)."""
+def rebuild_onto(
+    state: MapState, task: ShardTask, yaw_seen: dict[str, float] | None = None
+) -> ShardResult:
+    """The shard's logs learnt onto ``state`` in sequence (exactly as one pass continues;
+    ``yaw_seen``: the orientation rule's state the shards before left)."""
     from aion_cli.build_report import NoProgress
 
-    build = _shard_build(task, NoProgress(), start=state)
+    build = _shard_build(task, NoProgress(), start=state, yaw_seen=yaw_seen)
     return ShardResult(task.index, build.learn(task.config).state, build.report)
 
 

@@ -100,7 +100,9 @@ class _Build:
     for usable detections or written: :meth:`learn` returns the state. ``part``: a time shard
     (:mod:`aion_cli.time_shards`) learns only the log time ``[lo, hi)`` of its logs, with the
     whole logs' time rules, TF and graph schedule; ``first_part``: it is the first part of its
-    logs, whose report carries what those whole-log reads counted."""
+    logs, whose report carries what those whole-log reads counted; ``yaw_seen``: the state of
+    the pose-orientation rule per detection topic that the stream before these logs left (a
+    shard learnt in sequence onto the map of the shards before it continues their stream)."""
 
     def __init__(
         self,
@@ -111,6 +113,7 @@ class _Build:
         start: MapState | None = None,
         part: tuple[int, int] | None = None,
         first_part: bool = True,
+        yaw_seen: dict[str, float] | None = None,
     ) -> None:
         self.opts = opts
         self.progress = progress
@@ -119,6 +122,7 @@ class _Build:
         self.start = start
         self.part = part
         self.first_part = first_part
+        self.yaw_seen = yaw_seen
         self.counts = DetectionCounts()
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
@@ -391,7 +395,13 @@ class _Build:
         """A feeder with the adapters chosen for the log's detection topics; ``link``: link
         id-less detections into tracks (headings from motion)."""
         return DetectionFeeder(
-            tf, self.opts.map_frame, counts, self._adapters, self._factory, linker=link
+            tf,
+            self.opts.map_frame,
+            counts,
+            self._adapters,
+            self._factory,
+            linker=link,
+            yaw_seen=self.yaw_seen if link else None,
         )
 
     def _stream(

@@ -232,3 +232,59 @@ def test_a_dask_cluster_builds_time_shards(tmp_path: Path) -> None:
         report = _build([log], par, 1, scheduler=cluster.scheduler_address)
     assert len(report.workers) == 2
     assert _same_maps(seq, par) == []
+
+
+def _standing(path: Path, sessions: list[tuple[int, list[float]]]) -> Path:
+    """People standing still (no velocity) whose poses carry a yaw: per session (start
+    seconds after T0, one yaw per person), a message every 10 s for 20 minutes."""
+    from aion_cli.formats.writers import LogWriter
+
+    with LogWriter(path) as writer:
+        for start_s, yaws in sessions:
+            for k in range(120):
+                t = T0 + (start_s + 5 + 10 * k) * S
+                tracks = [
+                    {
+                        "track_id": i + 1,
+                        "is_matched": True,
+                        "pose": {"pose": {
+                            "position": {"x": 2.0 + 2 * i, "y": 0.5, "z": 0.0},
+                            "orientation": {"z": np.sin(yaw / 2), "w": np.cos(yaw / 2)},
+                        }},
+                        "twist": {"twist": {"linear": {"x": 0.0, "y": 0.0, "z": 0.0}}},
+                    }
+                    for i, yaw in enumerate(yaws)
+                ]
+                stamp = {"sec": t // S, "nanosec": t % S}
+                writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons",
+                             {"header": {"stamp": stamp, "frame_id": "map"}, "tracks": tracks}, t)
+    return path
+
+
+def test_orientations_judged_alike_at_a_part_start_are_learnt_in_sequence(tmp_path: Path) -> None:
+    # aion sets aside pose orientations that have never varied (a tracker leaving them at
+    # identity). The morning's two people face apart, so one pass keeps every yaw after it;
+    # the evening's one person, alone, faces one way: a part starting there, judged from
+    # scratch, would set the yaw aside. The join sees that and learns the part in sequence,
+    # continuing the rule's state: the map of one pass.
+    log = _standing(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7])])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert len(two.workers) == 2
+    notes = [n for n in two.notes if "in sequence" in n]
+    assert len(notes) == 1
+    assert "orientations on /tracks" in notes[0]
+    assert one.headings == two.headings
+    assert one.headings.get("pose_yaw", 0) == 120 * 3  # every yaw kept, the evening's too
+    assert _same_maps(seq, par) == []
+
+
+def test_orientations_that_vary_in_every_part_join_in_parallel(tmp_path: Path) -> None:
+    log = _standing(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7, -1.0])])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert len(two.workers) == 2
+    assert not [n for n in two.notes if "in sequence" in n]
+    assert _same_maps(seq, par) == []
