@@ -108,6 +108,8 @@ class BuildReport:
     fold_seconds: float = 0.0  # the parent's joins of the shards
     # per detection topic: the orientation rule's (first, last) state (DetectionFeeder.yaw_rule)
     yaw_rule: dict[str, tuple[float, float]] = field(default_factory=dict)
+    # the scene-graph version and layer the stream pinned (GraphFeed.pins)
+    graph_pins: tuple[str | None, str | None] = (None, None)
     #: fixed-sensor observation: (windows, first window, last window, window ns)
     fixed_windows: tuple[int, int, int, int] | None = None
 

@@ -162,6 +162,22 @@ class GraphTimes(TopicTimes):
         return t[keep]
 
 
+def pins_blocker(
+    before: tuple[str | None, str | None], shard: tuple[str | None, str | None]
+) -> str | None:
+    """Why graphs read with the pins ``shard`` chose from scratch (:attr:`GraphFeed.pins` of a
+    shard of a parallel build) would not be read as one pass reads them, with the pins the
+    graphs ``before`` them chose; None when they would (the same pins, or one side has none)."""
+    for what, mine, theirs in zip(("spark_dsg version", "navigational layer"), before, shard,
+                                  strict=True):
+        if mine is not None and theirs is not None and mine != theirs:
+            return (
+                f"their scene graphs chose another {what} ({theirs}) than the graphs before "
+                f"them ({mine}), which one pass keeps for the rest of the stream"
+            )
+    return None
+
+
 class GraphFeed:
     """The scene graphs of one build's stream, with the state they carry across the log.
 
@@ -179,6 +195,7 @@ class GraphFeed:
         nav_layer: str | None,
         period_ns: int,
         skip_identical: bool = True,
+        pins: tuple[str | None, str | None] = (None, None),
     ) -> None:
         self.report = report
         self.pinned_version = dsg_version is not None  # --dsg-version: failures stop the build
@@ -188,12 +205,25 @@ class GraphFeed:
         self.skip_identical = skip_identical
         self.used: npt.NDArray[np.bool_] | None = None  # graph_schedule (None: all)
         self._nav_pin: str | None = None  # the layer key the log's first graph chose
+        if pins[0] is not None and dsg_version is None:  # a stream continued (``pins``)
+            self.dsg_version = pins[0]
+        if pins[1] is not None and nav_layer is None:
+            self._nav_pin = pins[1]
         self._agents_until = np.iinfo(np.int64).min
         self._first_error: MessageDecodeError | None = None
         self._last: tuple[memoryview, GraphSnapshot] | None = None  # payload, snapshot
         self._first: tuple[str, int, GraphSnapshot] | None = None  # decoded early
         self._fast_layout: dict[tuple[str, str, str], bool] = {}  # (topic, type, encoding)
         self._reader = GraphReader()  # re-reads only the node records a payload changed
+
+    @property
+    def pins(self) -> tuple[str | None, str | None]:
+        """What the graphs so far pinned for the rest of the stream: the spark_dsg version
+        and the navigational layer's key (None where not yet, or given by an option)."""
+        return (
+            None if self.pinned_version else self.dsg_version,
+            None if self.nav_layer is not None else self._nav_pin,
+        )
 
     def schedule(
         self,

@@ -89,12 +89,18 @@ class Folded:
     # per detection topic: the orientation rule's state after the shards so far (the one yaw
     # seen, NaN once they varied; aion_cli.detection_feed.DetectionFeeder.yaw_rule)
     yaws: dict[str, float] = field(default_factory=dict)
+    # the scene-graph version and layer pinned so far (aion_cli.graph_feed.GraphFeed.pins)
+    pins: tuple[str | None, str | None] = (None, None)
 
     def then(self, state: MapState | None, report: BuildReport, note: str | None = None) -> Folded:
         """The fold after one more shard (its state and report; ``note``: how it went)."""
         yaws = {**self.yaws, **{t: last for t, (_, last) in report.yaw_rule.items()}}
+        pins = (
+            self.pins[0] if self.pins[0] is not None else report.graph_pins[0],
+            self.pins[1] if self.pins[1] is not None else report.graph_pins[1],
+        )
         notes = [*self.notes, note] if note else self.notes
-        return Folded(state, notes, [*self.reports, report], self.seconds, yaws)
+        return Folded(state, notes, [*self.reports, report], self.seconds, yaws, pins)
 
 
 def worker_count(requested: int) -> int:
@@ -159,6 +165,7 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     sequence where a join would not be exact."""
     from aion_cli.detection_feed import yaw_rule_blocker
     from aion_cli.engine.shards import join_blocker, join_shard
+    from aion_cli.graph_feed import pins_blocker
 
     state = result.state
     if state is None:
@@ -168,8 +175,10 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
             raise ValueError("the first shard of a new map is built as an ordinary map")
         return folded.then(state, result.report)
     _check_order(folded.state, result, task)
-    blocker = join_blocker(folded.state, state) or yaw_rule_blocker(
-        folded.yaws, result.report.yaw_rule
+    blocker = (
+        join_blocker(folded.state, state)
+        or yaw_rule_blocker(folded.yaws, result.report.yaw_rule)
+        or pins_blocker(folded.pins, result.report.graph_pins)
     )
     if blocker is None:
         return folded.then(join_shard(folded.state, state), result.report)
@@ -177,7 +186,7 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
         f"{_names(task.logs)} were learnt in sequence onto the map (not joined in parallel): "
         f"{blocker}"
     )
-    rebuilt = rebuild_onto(folded.state, task, folded.yaws)
+    rebuilt = rebuild_onto(folded.state, task, folded)
     return folded.then(rebuilt.state, rebuilt.report, note)
 
 
@@ -199,14 +208,14 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
         )
 
 
-def rebuild_onto(
-    state: MapState, task: ShardTask, yaw_seen: dict[str, float] | None = None
-) -> ShardResult:
-    """The shard's logs learnt onto ``state`` in sequence (exactly as one pass continues;
-    ``yaw_seen``: the orientation rule's state the shards before left)."""
+def rebuild_onto(state: MapState, task: ShardTask, before: Folded | None = None) -> ShardResult:
+    """The shard's logs learnt onto ``state`` in sequence, exactly as one pass continues
+    (``before``: the fold so far, whose stream's rules it continues: the orientation rule's
+    state and the scene graphs' pins)."""
     from aion_cli.build_report import NoProgress
 
-    build = _shard_build(task, NoProgress(), start=state, yaw_seen=yaw_seen)
+    carried = {"yaw_seen": before.yaws, "graph_pins": before.pins} if before else {}
+    build = _shard_build(task, NoProgress(), start=state, **carried)
     return ShardResult(task.index, build.learn(task.config).state, build.report)
 
 

@@ -102,7 +102,8 @@ class _Build:
     whole logs' time rules, TF and graph schedule; ``first_part``: it is the first part of its
     logs, whose report carries what those whole-log reads counted; ``yaw_seen``: the state of
     the pose-orientation rule per detection topic that the stream before these logs left (a
-    shard learnt in sequence onto the map of the shards before it continues their stream)."""
+    shard learnt in sequence onto the map of the shards before it continues their stream), and
+    ``graph_pins`` the scene-graph version and layer it pinned (:attr:`GraphFeed.pins`)."""
 
     def __init__(
         self,
@@ -114,6 +115,7 @@ class _Build:
         part: tuple[int, int] | None = None,
         first_part: bool = True,
         yaw_seen: dict[str, float] | None = None,
+        graph_pins: tuple[str | None, str | None] = (None, None),
     ) -> None:
         self.opts = opts
         self.progress = progress
@@ -123,6 +125,7 @@ class _Build:
         self.part = part
         self.first_part = first_part
         self.yaw_seen = yaw_seen
+        self.graph_pins = graph_pins
         self.counts = DetectionCounts()
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
@@ -144,7 +147,12 @@ class _Build:
     def _graph_feed(self) -> GraphFeed:
         o = self.opts
         return GraphFeed(
-            self.report, o.dsg_version, o.nav_layer, o.graph_period_ns, o.skip_identical_graphs
+            self.report,
+            o.dsg_version,
+            o.nav_layer,
+            o.graph_period_ns,
+            o.skip_identical_graphs,
+            self.graph_pins,
         )
 
     @property
@@ -432,6 +440,7 @@ class _Build:
                 self._take_graph(logset, mapper, graph_msg, use_agents)
                 self.progress.advance(1)
         self.graphs.check_skips()
+        self.report.graph_pins = self.graphs.pins
         c = self.counts = record_detections(
             self.report, feeders, self._used, self._mapper_drops, plan
         )

@@ -288,3 +288,55 @@ def test_orientations_that_vary_in_every_part_join_in_parallel(tmp_path: Path) -
     assert len(two.workers) == 2
     assert not [n for n in two.notes if "in sequence" in n]
     assert _same_maps(seq, par) == []
+
+
+def _hydra_sessions(path: Path, graphs: list[object]) -> Path:
+    """Sessions a day apart (20 minutes each, from Monday 08:00): people every 10 s (the
+    office log's), a robot pose every 5 s, and a Hydra graph (``graphs``, one per session)
+    every 60 s."""
+    from aion_cli.formats.writers import LogWriter
+    from tests.cli.logdata import _tracked_persons
+
+    with LogWriter(path) as writer:
+        for day, graph in enumerate(graphs):
+            payload = np.frombuffer(graph.to_binary(False), dtype=np.uint8)  # type: ignore[attr-defined]
+            start = T0 + day * 86_400 * S
+            for k in range(1200):
+                t = start + k * S
+                if k % 60 == 0:
+                    stamp = {"sec": t // S, "nanosec": t % S}
+                    writer.write("/hydra/backend/dsg", "hydra_msgs/msg/DsgUpdate",
+                                 {"header": {"stamp": stamp, "frame_id": "map"},
+                                  "layer_contents": payload, "full_update": True}, t)
+                if k % 10 == 5:
+                    writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons",
+                                 _tracked_persons(t, start, "map"), t)
+                if k % 5 == 0:  # the robot (so the first graph is not read for agents)
+                    stamp = {"sec": t // S, "nanosec": t % S}
+                    writer.write("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [{
+                        "header": {"stamp": stamp, "frame_id": "map"},
+                        "child_frame_id": "base_link",
+                        "transform": {"translation": {"x": 3.0}, "rotation": {"w": 1.0}},
+                    }]}, t)
+    return path
+
+
+def test_a_part_whose_graphs_would_pin_another_layer_is_learnt_in_sequence(
+    tmp_path: Path,
+) -> None:
+    # Monday's Hydra graphs hold 3D places only: one pass pins that layer for the rest of the
+    # log, so Tuesday's graphs (3D and 2D places) are read by their 3D places too. A part
+    # starting on Tuesday, alone, would choose the 2D places: the join sees the other layer,
+    # and the part is learnt in sequence with the pinned one.
+    from tests.formats.dsg_builders import hydra_graph
+
+    log = _hydra_sessions(tmp_path / "log.mcap", [hydra_graph(False), hydra_graph(True)])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert len(two.workers) == 2
+    notes = [n for n in two.notes if "in sequence" in n]
+    assert len(notes) == 1
+    assert "navigational layer" in notes[0]
+    assert one.graph_layer == two.graph_layer == "PLACES (3)"
+    assert _same_maps(seq, par) == []
