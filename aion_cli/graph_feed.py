@@ -237,14 +237,20 @@ class GraphFeed:
 
         ``limits``: a time shard of a parallel build streams only the part ``[lo, hi)`` of
         the log; it uses the graphs the whole log's schedule uses there, and feeds agent
-        poses from ``lo`` on (every snapshot repeats the trajectory before it)."""
+        poses from ``lo`` on (:meth:`agents_since`)."""
         t = times.stream_times(strays)
         used = graph_schedule(t, self.period_ns, window_ns)
         if limits is not None:
             lo, hi = limits
             used = used[(t >= lo) & (t < hi)]
-            self._agents_until = max(self._agents_until, lo - 1)
+            self.agents_since(lo)
         self.used = used
+
+    def agents_since(self, t_ns: int) -> None:
+        """Feed no agent pose logged before ``t_ns``. A shard of a parallel build starts
+        there (a window start): every Hydra snapshot repeats the session's trajectory, and one
+        pass fed the earlier poses with the earlier graphs, before those windows closed."""
+        self._agents_until = max(self._agents_until, int(t_ns) - 1)
 
     def thin(
         self, messages: Iterator[RawMessage], graph_topics: set[str], progress: ProgressSink

@@ -321,9 +321,11 @@ class _Build:
         if isinstance(times, GraphTimes):
             from aion_cli.engine.windows import window_ns
 
-            self.graphs.schedule(
-                times, self._times.strays, window_ns(self.config().window_s), self.part
-            )
+            delta = window_ns(self.config().window_s)
+            self.graphs.schedule(times, self._times.strays, delta, self.part)
+            start = self._times.start_ns
+            if self.deferred and start is not None:  # a shard after others: its own poses
+                self.graphs.agents_since(start // delta * delta)
         check_tf(stats, tf_topics, self.report)
         if not self.first_part:  # the whole logs' counts: the first part reports them
             self.report.time_dropped = {}

@@ -218,3 +218,22 @@ def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:
     logs = _logs(tmp_path, [0, 48])
     with pytest.raises(InputError, match="cannot reach the Dask scheduler"):
         _build(logs, tmp_path / "m.aion", 1, scheduler="tcp://127.0.0.1:9")
+
+
+def test_a_hydra_session_across_logs_joins_as_one_pass(tmp_path: Path) -> None:
+    # two recordings of one Hydra session, three hours apart, the robot's poses from the
+    # graphs' agent layer: every graph repeats the session's trajectory from its start, so the
+    # second log's graphs hold the first's poses again (one pass fed them with the first log's
+    # graphs). Its shard feeds only its own; the join closes the earlier map's windows those
+    # poses cover up to the shard's first, as the shard's first message does in one pass.
+    first, second = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    write_office_log(first, tf=False, agents=True, duration_s=2 * HOUR_S)
+    write_office_log(second, tf=False, agents=True, duration_s=2 * HOUR_S,
+                     shift_s=3 * HOUR_S, agents_since_s=0)
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([first, second], seq, 1)
+    two = _build([first, second], par, 2)
+    assert len(two.workers) == 2  # type: ignore[attr-defined]
+    assert one.observation == two.observation == "scene-graph agent layer"  # type: ignore[attr-defined]
+    assert not [n for n in two.notes if "in sequence" in n]  # type: ignore[attr-defined]
+    assert _same_maps(seq, par) == []

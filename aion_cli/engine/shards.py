@@ -139,7 +139,10 @@ def join_shard(acc: MapState, shard: MapState) -> MapState:
         )
     first_day = _first_day(shard)
     if acc.open_window is not None and shard.open_window is not None:
-        close_windows(acc, acc.open_window + 1)
+        # every window of the earlier map before the shard's first, as that window's first
+        # message closes them in one pass (an observation source may cover some after the
+        # earlier map's last message: scene-graph agent poses)
+        close_windows(acc, max(acc.open_window + 1, _first_window(shard)))
     if acc.pending and acc.pending.day != first_day:
         acc.close_day()
     out = shard
@@ -225,6 +228,14 @@ def _cover(out: MapState, day: PendingDay, rows: I64) -> None:
         mask = out.observation.robot_observed(xy, window, out.window_ns, out.config.sensor_range)
         if mask.any():
             day.add_observed(slot, rows[mask])
+
+
+def _first_window(shard: MapState) -> int:
+    """The shard's first recorded window (its open window when it recorded none)."""
+    assert shard.deferred is not None
+    assert shard.open_window is not None
+    day = shard.deferred.days[0].pending if shard.deferred.days else shard.pending
+    return int(day.windows[0]) if day else int(shard.open_window)
 
 
 def _first_day(shard: MapState) -> int | None:

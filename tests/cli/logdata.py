@@ -168,20 +168,24 @@ def write_office_log(
     duration_s: int = DURATION_S,
     second_topic: str | None = None,
     later_sessions_s: tuple[int, ...] = (),
+    agents_since_s: int | None = None,
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
     holds. ``later_sessions_s``: the same recording again in the same log, starting that many
-    seconds after the first (the log is silent in between)."""
+    seconds after the first (the log is silent in between). ``agents_since_s``: the agent
+    layer's trajectory starts that many seconds after T0 (a Hydra session that began before
+    this log: every graph repeats the poses since then), not at the log's start."""
     from aion_cli.formats.writers import LogWriter
 
     n_tracks = n_graph = n_tf = 0
     t0 = T0 + shift_s * S
     end = t0 + duration_s * S
     # agent-layer poses: the robot stands at ROBOT_XYZ for the first window, then far away
+    since = t0 if agents_since_s is None else T0 + agents_since_s * S
     poses = (
         [
-            (t, ROBOT_XYZ if t - t0 < 600 * S else (30.0, 0.0, 0.0))
-            for t in range(t0, end + 60 * S, 5 * S)
+            (t, ROBOT_XYZ if t - since < 600 * S else (30.0, 0.0, 0.0))
+            for t in range(since, end + 60 * S, 5 * S)
         ]
         if agents
         else None
