@@ -189,7 +189,7 @@ class DetectionFeeder:
             seg = segment if len(groups) == 1 else segment[np.asarray(index, np.int64)]
             frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
             self._count(topic, adapter, frames, len(msgs))
-            frames = self._informative_yaws(topic, frames, seg[frames.msg_index])
+            frames = self._informative_yaws(topic, frames, frames.msg_index)
             frames = self._to_map_frame(frames)
             rseg = seg[frames.msg_index]
             parts.append(frames)
@@ -240,16 +240,17 @@ class DetectionFeeder:
         if error is not None and per_topic.first_error is None:
             per_topic.first_error, per_topic.first_hint = error.message, error.hint
 
-    def _informative_yaws(self, topic: str, frames: Any, segment: I64) -> Any:
+    def _informative_yaws(self, topic: str, frames: Any, message: I64) -> Any:
         """``frames`` with its yaws unset while its topic's orientations have never varied
         (checked in the message frame, before TF turns them with the robot): a publisher
         that leaves every orientation at zero or at identity says nothing about where people
         walk, and a yaw of 0 for everyone would pose as a heading.
 
-        Judged per segment (``segment`` per row, non-decreasing), in order, as separate calls
-        would judge them: a segment is unset while its yaws and all before agree; from the
-        first segment that differs on, yaws are kept. The loop runs once per segment with
-        finite yaws (per scene graph, never per detection)."""
+        Judged message by message (``message`` per row, non-decreasing), in log order: a
+        message's yaws are unset while they and all before agree; from the first message that
+        differs on, yaws are kept. So the judgement depends on the messages only, never on
+        how the stream was cut into chunks or shards (a parallel build's join compares a
+        shard's first judgement with the state before it: :func:`yaw_rule_blocker`)."""
         y = frames.yaw
         finite = np.flatnonzero(np.isfinite(y))
         if finite.size == 0:
@@ -258,26 +259,25 @@ class DetectionFeeder:
         if seen is not None and np.isnan(seen):
             self._yaw_first.setdefault(topic, _VARIES)
             return frames  # the topic's orientations vary: they are real
-        fseg = segment[finite]
-        starts = np.flatnonzero(np.r_[True, fseg[1:] != fseg[:-1]])
+        fmsg = message[finite]
+        starts = np.flatnonzero(np.r_[True, fmsg[1:] != fmsg[:-1]])
         vals = y[finite]
-        lows = np.minimum.reduceat(vals, starts).tolist()
-        highs = np.maximum.reduceat(vals, starts).tolist()
-        unset = []
-        for s, lo, hi in zip(fseg[starts].tolist(), lows, highs, strict=True):
-            if hi - lo > _SAME_YAW or (seen is not None and abs(seen - lo) > _SAME_YAW):
-                self._yaw_seen[topic] = _VARIES
-                self._yaw_first.setdefault(topic, _VARIES)
-                break
-            seen = self._yaw_seen[topic] = lo
-            self._yaw_first.setdefault(topic, lo)
-            unset.append(s)
-        if not unset:
+        lows = np.minimum.reduceat(vals, starts)
+        highs = np.maximum.reduceat(vals, starts)
+        before = np.r_[lows[0] if seen is None else seen, lows[:-1]]  # each one's previous
+        differs = (highs - lows > _SAME_YAW) | (np.abs(lows - before) > _SAME_YAW)
+        alike = int(np.argmax(differs)) if differs.any() else len(starts)  # messages unset
+        if alike < len(starts):
+            self._yaw_seen[topic] = _VARIES
+        else:
+            self._yaw_seen[topic] = float(lows[-1])
+        self._yaw_first.setdefault(topic, float(lows[0]) if alike else _VARIES)
+        if alike == 0:
             return frames
-        if len(unset) == len(starts) and segment[0] == segment[-1]:
+        if alike == len(starts) and message[0] == message[-1]:
             return dataclasses.replace(frames, yaw=np.full(len(frames), np.nan))
-        # the segments judged uniform lose their yaws, every row of them (as one call would)
-        gone = np.isin(segment, np.asarray(unset, np.int64))
+        # the messages judged alike lose their yaws, every row of them
+        gone = np.isin(message, fmsg[starts[:alike]])
         return dataclasses.replace(frames, yaw=np.where(gone, np.nan, y))
 
     def yaw_rule(self) -> dict[str, tuple[float, float]]:
