@@ -9,27 +9,31 @@ schedule but streams only its part (:class:`aion_cli.pipeline._Build` with ``par
 then equals what a separate log holding exactly those messages would give, and the join is
 exact for the same reasons. A cut is a window start ``W`` where:
 
-* no detection message lies in the :data:`QUIET_NS` (10 s) before ``W``: every track seen
-  before ``W`` has ended by then (headings and linked tracks start over after a gap of 5 s /
-  2 s in one pass too);
+* no detection lies in the :data:`QUIET_NS` (10 s) before ``W``: every track seen before
+  ``W`` has ended by then (headings and linked tracks start over after a gap of 5 s / 2 s in
+  one pass too). Where no detection *message* lies there, the index says so; a tracker that
+  publishes empty messages at a fixed rate is probed instead: the window starts nearest to
+  an even split are decoded (those 10 s only, in logs that can be read a few seconds at a
+  time: indexed MCAP);
 * the part before ``W`` ends in the window just before ``W`` or, when that window holds no
   message of any topic, in the window before it: no window that one pass would observe lies
   between two parts for neither to close. The part's last window is one that holds a message
   of the topics that make the build's time span (detections, scene graphs, dynamic TF);
 * such messages lie on both sides of ``W``, and detection messages too.
 
-The times come from the logs' indexes (:meth:`formats.logs.LogSet.index_times`), no message
-is read, and the build's own time rules drop the same strays and out-of-range times first.
+The times come from the logs' indexes (:meth:`formats.logs.LogSet.index_times`), and the
+build's own time rules drop the same strays and out-of-range times first.
 Among the candidates, the cuts split the detection messages into parts of about equal size.
 Logs without such an index, or without a quiet moment, are not cut (the build says so).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -37,9 +41,13 @@ from aion_cli.engine.types import I64
 
 if TYPE_CHECKING:
     from aion_cli.pipeline import BuildOptions
+    from aion_cli.topics import TopicPlan
 
 #: a detection message this close before a cut would carry a track across it
 QUIET_NS = 10 * 10**9
+#: window starts decoded per cut (nearest to the even split first) when only decoding can
+#: tell whether a moment is quiet (a tracker publishing empty messages at a fixed rate)
+PROBES_PER_CUT = 48
 #: a build with fewer groups of logs than this many per worker (and two at least) cuts them
 #: into time shards; one per worker measured faster than two on a 20-day log (each join
 #: scores its shard's held days in the parent, one after the other: docs/SCALING.md)
@@ -61,9 +69,20 @@ class GroupTimes:
     recorded: I64  # windows holding a message of any topic
 
 
-def cut_times(times: GroupTimes, window_ns: int, parts: int) -> list[int]:
+def cut_times(
+    times: GroupTimes,
+    window_ns: int,
+    parts: int,
+    probe: Callable[[int], bool] | None = None,
+) -> list[int]:
     """Up to ``parts - 1`` cut times (window starts, increasing; see the module docstring)
-    that split the detection messages into parts of about equal size."""
+    that split the detection messages into parts of about equal size.
+
+    ``probe(W)``: whether the detection messages of the 10 s before ``W`` hold no detection
+    (decoded: a tracker that publishes empty messages at a fixed rate is quiet there although
+    its messages go on). Without it only moments without detection messages are quiet; with
+    it, the window starts nearest to each even split are probed too (at most
+    :data:`PROBES_PER_CUT` of them per cut)."""
     det, span = times.detections, times.span
     if parts < 2 or det.size == 0 or span.size == 0:
         return []
@@ -74,17 +93,34 @@ def cut_times(times: GroupTimes, window_ns: int, parts: int) -> list[int]:
     quiet = np.searchsorted(det, right_after - QUIET_NS) == np.searchsorted(det, right_after)
     # else one window later, if the window between holds no message at all
     later = (following >= last + 2) & ~np.isin(last + 1, times.recorded)
-    cand = np.where(quiet, right_after, right_after + delta)[quiet | later]
+    found = [right_after[quiet], right_after[~quiet & later] + delta]
+    if probe is not None:  # quiet or not only decoding can tell
+        found.append(right_after[~quiet])
+    cand = np.concatenate(found)
+    known = np.arange(cand.size) < found[0].size + found[1].size
+    order = np.argsort(cand, kind="stable")
+    cand, known = cand[order], known[order]
     before = np.searchsorted(det, cand, "left")  # detection messages before each cut
     useful = (before > 0) & (before < det.size)  # detections on both sides
-    cand, before = cand[useful], before[useful]
-    if cand.size == 0:
-        return []
+    cand, known, before = cand[useful], known[useful], before[useful]
     targets = det.size * np.arange(1, parts, dtype=np.float64) / parts
-    right = np.clip(np.searchsorted(before, targets), 0, cand.size - 1)
-    left = np.clip(right - 1, 0, cand.size - 1)
-    nearer_left = np.abs(before[left] - targets) <= np.abs(before[right] - targets)
-    return sorted({int(t) for t in cand[np.where(nearer_left, left, right)]})
+    probed: dict[int, bool] = {}
+    cuts = set()
+    for target in targets.tolist():
+        budget = PROBES_PER_CUT
+        for i in np.argsort(np.abs(before - target), kind="stable").tolist():
+            at = int(cand[i])
+            if not known[i]:
+                if at not in probed:
+                    if budget == 0 or probe is None:
+                        continue
+                    budget -= 1
+                    probed[at] = probe(at)
+                if not probed[at]:
+                    continue
+            cuts.add(at)
+            break
+    return sorted(cuts)
 
 
 def split_groups(
@@ -102,7 +138,7 @@ def split_groups(
     notes = []
     for group, found, count in zip(groups, times, counts, strict=True):
         want = max(1, round(target * count / total)) if total else 1
-        cuts = cut_times(found, window_ns, want) if found is not None and want > 1 else []
+        cuts = _group_cuts(group, opts, found, window_ns, want) if found and want > 1 else []
         if not cuts:
             shards.append((group, None, True))
             continue
@@ -111,6 +147,61 @@ def split_groups(
         names = ", ".join(p.name for p in group[:3]) + (", ..." if len(group) > 3 else "")
         notes.append(f"{names}: cut into {len(cuts) + 1} time shards at quiet moments ({shown})")
     return shards, notes
+
+
+def _group_cuts(
+    group: tuple[Path, ...], opts: BuildOptions, times: GroupTimes, window_ns: int, parts: int
+) -> list[int]:
+    """:func:`cut_times` of one group, probing by decoding where its logs can be read a few
+    seconds at a time (:meth:`formats.logs.LogSet.skips_by_time`)."""
+    from aion_cli.formats.logs import open_logs
+
+    with open_logs(list(group), opts.log_format) as logset:
+        return cut_times(times, window_ns, parts, _decoded_quiet(logset, opts))
+
+
+def _decoded_quiet(logset: Any, opts: BuildOptions) -> Callable[[int], bool] | None:
+    """A probe for :func:`cut_times`: whether the detection messages of the 10 s before a
+    time decode to no detection at all (with the build's own adapters; a message that does
+    not decode gives none, as in the build). None where reading those seconds would mean
+    reading the logs from their start."""
+    if not logset.skips_by_time():
+        return None
+    from aion_cli.detection_feed import log_adapters
+
+    plan = _plan(logset, opts)
+    adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
+    topics = plan.names("detections")
+
+    def quiet(at: int) -> bool:
+        lo = at - QUIET_NS
+        by_type: dict[tuple[str, str, str], list[Any]] = {}
+        for msg in logset.messages(topics, (lo, at)):
+            if msg.log_time_ns >= at:
+                break  # the stream is in log-time order
+            if msg.log_time_ns >= lo:
+                by_type.setdefault((msg.topic, msg.msgtype, msg.encoding), []).append(msg)
+        for key, messages in by_type.items():
+            adapter = adapters.get(key) or factory(*key)
+            if len(adapter.decode(messages, on_error="skip")):
+                return False
+        return True
+
+    return quiet
+
+
+def _plan(logset: Any, opts: BuildOptions) -> TopicPlan:
+    """The topics the build would choose in ``logset`` (:func:`aion_cli.topics.select_topics`
+    with the build's options)."""
+    from aion_cli.build_options import load_mappings
+    from aion_cli.topics import select_topics
+
+    return select_topics(
+        logset.topics,
+        opts.detection_topics,
+        opts.graph_topic,
+        load_mappings(opts.detections_mapping),
+    )
 
 
 def part_fields(part: tuple[int, int] | None) -> dict[str, str]:
@@ -144,18 +235,11 @@ def group_times(
 ) -> GroupTimes | None:
     """:class:`GroupTimes` of ``logs`` from their indexes, with the topics the build would
     choose; None when an index cannot give them (the logs are then not cut)."""
-    from aion_cli.build_options import load_mappings
     from aion_cli.formats.logs import open_logs
     from aion_cli.log_times import TopicTimes
-    from aion_cli.topics import select_topics
 
     with open_logs(list(logs), opts.log_format) as logset:
-        plan = select_topics(
-            logset.topics,
-            opts.detection_topics,
-            opts.graph_topic,
-            load_mappings(opts.detections_mapping),
-        )
+        plan = _plan(logset, opts)
         detections = plan.names("detections")
         graphs = plan.names("graph") if opts.graph_file is None else set()
         tf = {t for t in plan.names("tf") if not t.endswith("_static")} if plan.tf else set()

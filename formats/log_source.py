@@ -76,6 +76,11 @@ class _Source:
         them."""
         raise NotImplementedError
 
+    def skips_by_time(self) -> bool:
+        """Whether :meth:`messages` with ``between`` reads only the part of the source near
+        that time (the default: no, it reads from the start)."""
+        return False
+
     def index_times(self, topics: set[str]) -> StreamTimes | None:
         """The log times :meth:`messages` would yield on ``topics``, in its order, read from
         the container's index without the messages (:mod:`formats.stream_times`); None when
@@ -121,6 +126,9 @@ class _Unpacked(_Source):
 
     def recorded_windows(self, window_ns: int) -> Windows:
         return self.inner.recorded_windows(window_ns)
+
+    def skips_by_time(self) -> bool:
+        return self.inner.skips_by_time()
 
     def index_times(self, topics: set[str]) -> StreamTimes | None:
         return self.inner.index_times(topics)

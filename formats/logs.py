@@ -169,6 +169,12 @@ class LogSet:
         size = recorded.window_size(window_ns)
         return [(s.file, s.recorded_windows(size)) for s in self._sources]
 
+    def skips_by_time(self) -> bool:
+        """Whether ``messages(topics, between)`` reads only the files' parts near that time
+        (every file an indexed MCAP read by chunk), so that reading a few seconds here and
+        there costs a few chunks, not the files up to there."""
+        return all(source.skips_by_time() for source in self._sources)
+
     def index_times(self, topics: Iterable[str]) -> StreamTimes | None:
         """The log times :meth:`messages` would yield on ``topics``, in its order, read from
         the containers' indexes without the messages (:mod:`formats.stream_times`), or None

@@ -228,6 +228,15 @@ class _McapSource(_McapLinearRead):
             return iter(())
         return self._raw_messages(wanted, between)
 
+    def skips_by_time(self) -> bool:
+        """Chunk-indexed files read by chunk (payloads not compressed one by one) skip the
+        chunks outside ``between``."""
+        return (
+            not self._unzstd
+            and self._chunk_indexes is not None
+            and not _chunks_overlap(self._chunk_indexes)
+        )
+
     def _raw_messages(
         self, wanted: set[int], between: tuple[int, int] | None = None
     ) -> Iterator[RawMessage]:

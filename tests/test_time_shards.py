@@ -340,3 +340,65 @@ def test_a_part_whose_graphs_would_pin_another_layer_is_learnt_in_sequence(
     assert "navigational layer" in notes[0]
     assert one.graph_layer == two.graph_layer == "PLACES (3)"
     assert _same_maps(seq, par) == []
+
+
+def _fixed_rate(path: Path, container: str = "mcap") -> Path:
+    """A tracker publishing every 5 s from Monday 08:00 to 10:20, empty messages included:
+    the office's people from 08:00 to 08:20 and from 10:00 to 10:20, nobody in between."""
+    from aion_cli.formats.writers import LogWriter
+    from tests.cli.logdata import _tracked_persons
+
+    sessions = (T0, T0 + 2 * HOUR_S * S)
+    with LogWriter(path, container) as writer:
+        for k in range((2 * HOUR_S + 1200) // 5):
+            t = T0 + 5 * k * S
+            start = max(s for s in sessions if s <= t)
+            message = (
+                _tracked_persons(t, start, "map")
+                if t - start < 1200 * S
+                else {"header": {"stamp": {"sec": t // S, "nanosec": 0}, "frame_id": "map"},
+                      "tracks": []}
+            )
+            writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons", message, t)
+    return path
+
+
+def test_a_tracker_publishing_empty_messages_is_cut_where_decoding_finds_nobody(
+    tmp_path: Path,
+) -> None:
+    # its messages never pause, so the index shows no quiet moment; decoding the 10 s before
+    # the window starts nearest the even split finds them empty (an indexed MCAP reads just
+    # those seconds' chunks)
+    log = _fixed_rate(tmp_path / "log.mcap")
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert [(r["from"], r["to"]) for r in two.workers] == [
+        ("start", "2026-11-23 09:10:00 UTC"),  # half of the messages on either side
+        ("2026-11-23 09:10:00 UTC", "end"),
+    ]
+    assert _same_maps(seq, par) == []
+    _same_reports(one, two)
+
+
+def test_quiet_moments_that_only_decoding_finds_are_not_searched_in_a_bag(tmp_path: Path) -> None:
+    # a ROS 1 bag would be read from its start for every moment probed: built in one process
+    log = _fixed_rate(tmp_path / "log.bag", "bag")
+    report = _build([log], tmp_path / "par.aion", 2)
+    assert report.workers == []
+    assert any("no quiet moment" in n for n in report.notes)
+
+
+def test_a_probe_that_finds_people_everywhere_gives_no_cut() -> None:
+    # messages every 5 s for an hour: the index sees no quiet moment, and a probe that always
+    # decodes someone rules out every window start (each probed once, at most 48 per cut)
+    times = _times([t * S for t in range(0, 3600, 5)])
+    asked: list[int] = []
+
+    def busy(at: int) -> bool:
+        asked.append(at)
+        return False
+
+    assert cut_times(times, W, 2, busy) == []
+    assert len(asked) == len(set(asked)) == 5  # the window starts with messages on both sides
+    assert cut_times(times, W, 2, lambda at: at == 1800 * S) == [1800 * S]
