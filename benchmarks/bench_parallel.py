@@ -17,7 +17,8 @@
   ``bench_build`` (``build_logs.ratio_log``: bursts of people over 20 days): with
   ``workers=2`` it is cut at quiet moments into two time shards (``aion_cli.time_shards``).
   Sequential vs 2 workers, interleaved, best and median of ``repeats``; the same map or not,
-  the cuts, the joins' time.
+  the cuts, the joins' time. Also with the tracker publishing an empty message every 10 s
+  between the people (``build_logs.fixed_rate_log``): only decoding finds the quiet moments.
 * **Merge cost** (:func:`run_merge`). ``engine.merge.merge_maps`` of two maps of 10^4 and 10^5
   cell entries with two weeks of history (``bench_engine.build_state``): seconds per entry,
   copying the inputs (the library default) and in place (``aion merge``).
@@ -166,13 +167,20 @@ def run_speedup(
     return row
 
 
-def run_time_shards(messages: int = 62_501, days: int = 20, repeats: int = 3) -> dict[str, Any]:
-    """Sequential vs 2-worker build of one log cut into time shards (module docstring)."""
+def run_time_shards(
+    messages: int = 62_501, days: int = 20, repeats: int = 3, empty_every_s: float = 0.0
+) -> dict[str, Any]:
+    """Sequential vs 2-worker build of one log cut into time shards (module docstring); with
+    ``empty_every_s`` the tracker also publishes empty messages that often."""
     from aion_cli.engine.compare import differences
     from aion_cli.mapquery import load_map
-    from benchmarks.build_logs import ratio_log
+    from benchmarks.build_logs import fixed_rate_log, ratio_log
 
-    log = ratio_log(5, messages, days)
+    log = (
+        fixed_rate_log(5, messages, days, empty_every_s)
+        if empty_every_s
+        else ratio_log(5, messages, days)
+    )
     seq_out, par_out = WORK / "tshard_seq.aion", WORK / "tshard_par.aion"
     _build([log], seq_out, 1)  # imports and caches warm, for both timings alike
     seq, par = [], []
@@ -187,7 +195,9 @@ def run_time_shards(messages: int = 62_501, days: int = 20, repeats: int = 3) ->
     seq_out.unlink(missing_ok=True)
     par_out.unlink(missing_ok=True)
     return {
-        "name": f"time shards, one log of {days} days x {messages:,} msgs, 2 workers",
+        "name": f"time shards, one log of {days} days x {messages:,} msgs"
+        + (f" + an empty message every {empty_every_s:g} s" if empty_every_s else "")
+        + ", 2 workers",
         "detections": seq_report.detections_used,
         "sequential_s": min(seq),
         "workers2_s": min(par),
@@ -245,5 +255,6 @@ def run(quick: bool = False) -> list[dict[str, Any]]:
         run_speedup(4, 2, 6000),
         run_speedup(4, 2, 30000, repeats=5),
         run_time_shards(),
+        run_time_shards(empty_every_s=10.0),
         *run_merge(),
     ]

@@ -143,7 +143,7 @@ def steady_times(seconds: float) -> Any:
 
 def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float],
               graph: Callable[[int], bytes] | None = None, graph_period_s: float = 600.0,
-              seed: int = 1) -> dict[str, int]:
+              seed: int = 1, empty: Any = None) -> dict[str, int]:
     """Write (once; cached by ``path``) a TrackedPersons log, messages at ``times``, each with
     ``1 + Poisson(per_message - 1)`` people on the corridors of ``area`` (extent, spacing) in
     the map frame, velocity from heading and speed, and (with ``graph``) a DsgUpdate of
@@ -152,7 +152,9 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
     Messages are serialized with numpy through the project's own CDR helpers
     (``formats.tracks_log._tracked_person_records`` / ``_tracked_persons_bytes``) 20,000 at a time
     and written with ``formats.writers.LogWriter`` (MCAP, zstd chunks), which writes to a
-    staging name and renames on success, so an interrupted run leaves no truncated cache."""
+    staging name and renames on success, so an interrupted run leaves no truncated cache.
+    ``empty``: a mask over ``times`` of messages that hold nobody (a tracker publishing at a
+    fixed rate)."""
     from aion_cli.engine.types import DetectionBatch
     from aion_cli.formats.tracks_log import _tracked_person_records, _tracked_persons_bytes
     from aion_cli.formats.writers import LogWriter, stamp
@@ -163,6 +165,8 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
     rng = np.random.default_rng(seed)
     times = np.asarray(times, np.int64)
     counts = 1 + rng.poisson(max(per_message - 1, 0), len(times))
+    if empty is not None:
+        counts[np.asarray(empty, bool)] = 0
     graph_times: list[int] = []
     if graph is not None:
         period = round(graph_period_s * 1e9)
@@ -212,6 +216,26 @@ def ratio_log(per_message: int, messages: int, days: int) -> Path:
         xyz, edges = places_graph(extent, spacing, step)
         write_log(path, burst_times(messages, days), per_message, (extent, spacing),
                   StaticPayload(xyz, edges), 600.0)
+    return path
+
+
+def fixed_rate_log(per_message: int, messages: int, days: int, every_s: float = 10.0) -> Path:
+    """:func:`ratio_log`'s people, with the tracker also publishing an empty message every
+    ``every_s`` seconds in between (as trackers that publish at a fixed rate do): the log's
+    messages never pause, so only decoding finds its quiet moments (written once)."""
+    extent, spacing, step = FLOOR
+    path = WORK / (f"build_tp_{messages}m_{days}d_{per_message}pm_{int(extent)}m"
+                   f"_g{int(step)}s600_empty{int(every_s)}s.mcap")
+    if not path.exists():
+        people = burst_times(messages, days)
+        idle = T0_NS + np.arange(0, days * 86_400, every_s).astype(np.int64) * 10**9
+        idle = np.setdiff1d(idle, people)
+        times = np.concatenate([people, idle])
+        order = np.argsort(times, kind="stable")
+        empty = (np.arange(times.size) >= people.size)[order]
+        xyz, edges = places_graph(extent, spacing, step)
+        write_log(path, times[order], per_message, (extent, spacing),
+                  StaticPayload(xyz, edges), 600.0, empty=empty)
     return path
 
 
