@@ -42,9 +42,10 @@ messages used; a message logged more than a day away from its topic's others (a 
 must be added to a --map in time order; a log given twice is used once. Warnings are printed
 also with -q and --format json (on stderr). An interrupted or failed build leaves an existing
 map untouched. Several logs are built in parallel (--workers, default one process per core)
-when they form groups that share no time window; the groups' maps are joined into exactly the
-map a sequential build makes (a group whose join could not be exact is learnt in sequence,
-and the summary says so).
+when they form groups that share no time window, and a long log is cut into time shards at
+quiet moments (window starts with nobody seen in the 10 s before); the parts' maps are joined
+into exactly the map a sequential build makes (a part whose join could not be exact is learnt
+in sequence, and the summary says so).
 
 \b
 JSON keys (--format json): map, map_bytes, continued, detections{read, used,
@@ -57,8 +58,8 @@ the last payload again), skipped_period (left out by --graph-period), period_s, 
 topics}, detection_topics, detection_decoding{topic: {type, why,
 decoder (fast|generic|mapping), messages, undecodable}}, log_times_dropped{topic:
 {out_of_range, stray}}, tf_undecodable, headings{velocity, track, linked, pose_yaw, none},
-inputs[{path, name, size, sha256}], workers[{shard, logs, worker, seconds, peak_rss_mb,
-detections_used}] (a parallel build's groups of logs), notes, warnings.
+inputs[{path, name, size, sha256}], workers[{shard, logs, from, to (a time shard's part),
+worker, seconds, peak_rss_mb, detections_used}] (a parallel build's shards), notes, warnings.
 """
 
 
@@ -234,8 +235,9 @@ def _load_config(path: Path | None) -> Any:
     metavar="N",
     default=0,
     type=click.IntRange(min=0),
-    help="Processes building groups of logs that share no time at once, joined into the map "
-    "the sequential build makes (0: one per core; 1: in this process) [default: 0].",
+    help="Processes building groups of logs that share no time, or time shards of a long "
+    "log, at once, joined into the map the sequential build makes (0: one per core; 1: in "
+    "this process) [default: 0].",
 )
 @click.option(
     "--scheduler",
