@@ -11,6 +11,7 @@ source (robot TF, fixed sensor, scene-graph agents).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -234,6 +235,20 @@ def test_a_dask_cluster_builds_time_shards(tmp_path: Path) -> None:
     assert _same_maps(seq, par) == []
 
 
+def _second_part_in_sequence(tmp_path: Path, log: Path, why: str) -> tuple[Any, Any]:
+    """The sequential and the 2-worker build of ``log``: two time shards, the second learnt
+    in sequence onto the first for ``why`` (a note says so), the map of one pass."""
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert len(two.workers) == 2
+    notes = [n for n in two.notes if "in sequence" in n]
+    assert len(notes) == 1
+    assert why in notes[0]
+    assert _same_maps(seq, par) == []
+    return one, two
+
+
 def _standing(path: Path, sessions: list[tuple[int, list[float]]]) -> Path:
     """People standing still (no velocity) whose poses carry a yaw: per session (start
     seconds after T0, one yaw per person), a message every 10 s for 20 minutes."""
@@ -268,16 +283,9 @@ def test_orientations_judged_alike_at_a_part_start_are_learnt_in_sequence(tmp_pa
     # scratch, would set the yaw aside. The join sees that and learns the part in sequence,
     # continuing the rule's state: the map of one pass.
     log = _standing(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7])])
-    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
-    one = _build([log], seq, 1)
-    two = _build([log], par, 2)
-    assert len(two.workers) == 2
-    notes = [n for n in two.notes if "in sequence" in n]
-    assert len(notes) == 1
-    assert "orientations on /tracks" in notes[0]
+    one, two = _second_part_in_sequence(tmp_path, log, "orientations on /tracks")
     assert one.headings == two.headings
     assert one.headings.get("pose_yaw", 0) == 120 * 3  # every yaw kept, the evening's too
-    assert _same_maps(seq, par) == []
 
 
 def test_orientations_that_vary_in_every_part_join_in_parallel(tmp_path: Path) -> None:
@@ -331,15 +339,8 @@ def test_a_part_whose_graphs_would_pin_another_layer_is_learnt_in_sequence(
     from tests.formats.dsg_builders import hydra_graph
 
     log = _hydra_sessions(tmp_path / "log.mcap", [hydra_graph(False), hydra_graph(True)])
-    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
-    one = _build([log], seq, 1)
-    two = _build([log], par, 2)
-    assert len(two.workers) == 2
-    notes = [n for n in two.notes if "in sequence" in n]
-    assert len(notes) == 1
-    assert "navigational layer" in notes[0]
+    one, two = _second_part_in_sequence(tmp_path, log, "navigational layer")
     assert one.graph_layer == two.graph_layer == "PLACES (3)"
-    assert _same_maps(seq, par) == []
 
 
 def _fixed_rate(path: Path, container: str = "mcap") -> Path:
