@@ -162,6 +162,24 @@ class GraphTimes(TopicTimes):
         return t[keep]
 
 
+GRAPH_COUNTS_NOTE = "scene graphs: "
+
+
+def graph_counts_note(r: BuildReport) -> str | None:
+    """The note on the graphs a build applied, decoded, reused and left out (None when it
+    applied and decoded every one)."""
+    if not (r.graphs_skipped_period or r.graphs_skipped_identical):
+        return None
+    seen = r.graph_messages + r.graph_skipped + r.graphs_skipped_period
+    return (
+        f"{GRAPH_COUNTS_NOTE}{r.graph_messages:,} of {seen:,} applied "
+        f"({r.graph_decoded:,} decoded, {r.graphs_read_by_changes:,} of them by the "
+        f"nodes that changed; {r.graphs_skipped_identical:,} identical to "
+        f"the payload before and not decoded again); {r.graphs_skipped_period:,} left "
+        f"out by --graph-period {r.graph_period_ns / 1e9:g}s"
+    )
+
+
 def pins_blocker(
     before: tuple[str | None, str | None], shard: tuple[str | None, str | None]
 ) -> str | None:
@@ -311,25 +329,22 @@ class GraphFeed:
                 self._first_error = exc
             return None
 
-    def check_skips(self) -> None:
+    def check_skips(self, stop_if_none: bool = True) -> None:
         """Skipped graphs are a note; when no scene graph at all could be decoded the first
-        failure is the build's error (a map without the log's graph would mislead). Graphs
-        left out by ``--graph-period`` or reused unchanged are a note with the counts."""
+        failure is the build's error (a map without the log's graph would mislead; a shard of
+        a parallel build leaves that to the parent, ``stop_if_none=False``: another shard may
+        have decoded some). Graphs left out by ``--graph-period`` or reused unchanged are a
+        note with the counts (:func:`graph_counts_note`)."""
         r = self.report
         seen = r.graph_messages + r.graph_skipped + r.graphs_skipped_period
         if seen:
             r.graph_period_ns = self.period_ns
-        if r.graphs_skipped_period or r.graphs_skipped_identical:
-            r.notes.append(
-                f"scene graphs: {r.graph_messages:,} of {seen:,} applied "
-                f"({r.graph_decoded:,} decoded, {r.graphs_read_by_changes:,} of them by the "
-                f"nodes that changed; {r.graphs_skipped_identical:,} identical to "
-                f"the payload before and not decoded again); {r.graphs_skipped_period:,} left "
-                f"out by --graph-period {r.graph_period_ns / 1e9:g}s"
-            )
+        note = graph_counts_note(r)
+        if note is not None:
+            r.notes.append(note)
         if r.graph_skipped == 0 or self._first_error is None:
             return
-        if r.graph_messages == 0:
+        if r.graph_messages == 0 and stop_if_none:
             raise self._first_error
         r.notes.append(
             f"{r.graph_skipped:,} damaged scene-graph message(s) skipped (first: "

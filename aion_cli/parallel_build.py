@@ -33,7 +33,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.build_report import BuildReport, ProgressSink, check_usable
-from aion_cli.errors import InputError
+from aion_cli.errors import InputError, MessageDecodeError
+from aion_cli.graph_feed import GRAPH_COUNTS_NOTE, graph_counts_note
 from aion_cli.tf_feed import fixed_sensor_text
 from aion_cli.time_shards import part_fields
 
@@ -404,7 +405,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
             else:
                 _add_nested(have, {k: v for k, v in info.items() if isinstance(v, int)})
         for line in p.notes:
-            if line not in out.notes:
+            if line not in out.notes and not line.startswith(GRAPH_COUNTS_NOTE):
                 out.notes.append(line)
         for line in p.warnings:
             if line not in out.warnings:
@@ -413,7 +414,17 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
             out.graph_source = p.graph_source
         out.graph_layer = out.graph_layer or p.graph_layer
         out.dsg_version = out.dsg_version or p.dsg_version
-        out.graph_period_ns = p.graph_period_ns
+        out.graph_period_ns = p.graph_period_ns or out.graph_period_ns
+    note = graph_counts_note(out)  # the shards' counts added up
+    if note is not None:
+        out.notes.append(note)
+    if out.graph_skipped and not out.graph_messages:  # as one pass stops (check_skips)
+        first = next((n for n in out.notes if "damaged scene-graph message" in n), "")
+        raise MessageDecodeError(
+            f"none of the {out.graph_skipped:,} scene-graph messages could be decoded"
+            + (f": {first}" if first else ""),
+            hint="check --dsg-version and --nav-layer, or build without the graph topic",
+        )
     out.detection_topics = sorted({t for p in parts for t in p.detection_topics})
     out.graph_topics = sorted({t for p in parts for t in p.graph_topics})
 

@@ -441,7 +441,7 @@ class _Build:
             if graph_msg is not None:
                 self._take_graph(logset, mapper, graph_msg, use_agents)
                 self.progress.advance(1)
-        self.graphs.check_skips()
+        self.graphs.check_skips(stop_if_none=not self.shard)
         self.report.graph_pins = self.graphs.pins
         c = self.counts = record_detections(
             self.report, feeders, self._used, self._mapper_drops, plan

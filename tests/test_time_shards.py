@@ -124,12 +124,13 @@ def _same_reports(one: object, two: object) -> None:
         ("mcap", "agents"),
         ("bag", "tf"),
         ("rosbag2-sqlite3", "fixed"),
+        ("rosbag2-mcap", "tf"),
     ],
 )
 def test_one_log_is_cut_into_time_shards_and_gives_the_sequential_map(
     tmp_path: Path, container: str, source: str
 ) -> None:
-    names = {"bag": "log.bag", "rosbag2-sqlite3": "log"}  # a rosbag2 log is a folder
+    names = {"bag": "log.bag", "rosbag2-sqlite3": "log", "rosbag2-mcap": "log"}  # folders
     log = tmp_path / names.get(container, "log.mcap")
     write_office_log(
         log,
@@ -403,3 +404,39 @@ def test_a_probe_that_finds_people_everywhere_gives_no_cut() -> None:
     assert cut_times(times, W, 2, busy) == []
     assert len(asked) == len(set(asked)) == 5  # the window starts with messages on both sides
     assert cut_times(times, W, 2, lambda at: at == 1800 * S) == [1800 * S]
+
+
+class _Damaged:
+    """A graph whose payload no spark_dsg version decodes."""
+
+    def to_binary(self, _: bool) -> bytes:
+        return b"\x07not a scene graph" * 8
+
+
+def test_damaged_graphs_in_one_part_are_skipped_as_in_one_pass(tmp_path: Path) -> None:
+    # Tuesday's graphs are all damaged: one pass skips them (a note) and keeps Monday's graph;
+    # the part that holds them alone must not stop the build for having decoded none, and
+    # the counts are the whole log's
+    from tests.formats.dsg_builders import hydra_graph
+
+    log = _hydra_sessions(tmp_path / "log.mcap", [hydra_graph(False), _Damaged()])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert len(two.workers) == 2
+    assert (two.graph_messages, two.graph_skipped) == (one.graph_messages, one.graph_skipped)
+    assert one.graph_skipped == 20
+    counts = [n for n in two.notes if n.startswith("scene graphs: ")]
+    assert counts == [n for n in one.notes if n.startswith("scene graphs: ")]
+    assert counts[0].startswith("scene graphs: 20 of 40 applied")
+    assert _same_maps(seq, par) == []
+
+
+def test_a_log_whose_graphs_all_fail_stops_with_workers_too(tmp_path: Path) -> None:
+    from aion_cli.errors import MessageDecodeError
+
+    log = _hydra_sessions(tmp_path / "log.mcap", [_Damaged(), _Damaged()])
+    for workers in (1, 2):
+        with pytest.raises(MessageDecodeError):
+            _build([log], tmp_path / "m.aion", workers)
+        assert not (tmp_path / "m.aion").exists()
