@@ -440,3 +440,34 @@ def test_a_log_whose_graphs_all_fail_stops_with_workers_too(tmp_path: Path) -> N
         with pytest.raises(MessageDecodeError):
             _build([log], tmp_path / "m.aion", workers)
         assert not (tmp_path / "m.aion").exists()
+
+
+def test_a_time_check_limited_to_a_part_keeps_its_messages_and_clips_its_runs() -> None:
+    from aion_cli.formats.raw import RawMessage
+    from aion_cli.log_times import TopicTimes
+
+    # /a: a run from 0 to 3,000 s (messages every 500 s) and one stray 5 days later among 30
+    # messages; /b: the same run's windows at 100 s past each window
+    times = TopicTimes({"/a", "/b"})
+    for t in range(0, 3001, 500):
+        times.add("/a", t * S)
+    for _ in range(30):
+        times.add("/a", 1000 * S)
+    times.add("/a", 5 * 86_400 * S)
+    times.add("/b", 700 * S)
+    whole = times.check({"/a", "/b"})
+    assert whole.strays["/a"].tolist() == [5 * 86_400 * S]
+    part = whole.limited(1200 * S, 2400 * S)
+    assert (part.start_ns, part.end_ns) == (1500 * S, 2000 * S)  # its own messages
+    assert part.run_first.min() >= 1200 * S
+    assert part.run_last.max() == 2400 * S - 1
+    # a fixed sensor observes the part's windows the whole log's runs cover: 1,200..2,400 s
+    np.testing.assert_array_equal(part.windows(W), (np.array([2]), np.array([3])))
+    assert part.within_runs(np.arange(6), W).tolist() == [False, False, True, True, False, False]
+    stream = [RawMessage("/a", "t", t * S, b"", "cdr") for t in (1000, 1200, 2399, 2400)]
+    stream.append(RawMessage("/a", "t", 5 * 86_400 * S, b"", "cdr"))
+    assert [m.log_time_ns for m in part.filter(iter(stream))] == [1200 * S, 2399 * S]
+    kept = [m.log_time_ns for m in whole.filter(iter(stream))]
+    assert kept == [t * S for t in (1000, 1200, 2399, 2400)]
+    inside = part.windows_inside_limits(np.arange(6), W)
+    assert inside.tolist() == [False, False, True, True, False, False]
