@@ -29,6 +29,7 @@ from collections.abc import Callable, Collection, Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from rosbags.rosbag1 import Reader
 from rosbags.rosbag1.reader import (
     Chunk,
@@ -62,6 +63,7 @@ class BagReader(Reader):
         self.chunk_meta: dict[int, tuple[str, int]] = {}
         # chunks dropped at open: position -> (why, lost messages per connection id)
         self.refused: dict[int, tuple[str, dict[int, int]]] = {}
+        self._times: dict[int, np.ndarray] = {}  # per connection: its index entries' times
 
     def read_chunk(self) -> Chunk:
         """The chunk record header at the file position (as rosbags reads it), remembering its
@@ -127,11 +129,13 @@ class BagReader(Reader):
         connections: Collection[Any],
         bad_chunk: BadChunk,
         oversized: Oversized,
+        between: tuple[int, int] | None = None,
     ) -> Iterator[tuple[Any, int, bytes]]:
         """``(connection, log time, data)`` of the messages on ``connections`` in log-time
         order (the index merged as rosbags merges it: ties keep connection order). A chunk
         that cannot be decompressed or parsed is skipped: ``bad_chunk`` hears of it once, with
-        the messages of it not yet read; messages over the message cap go to ``oversized``."""
+        the messages of it not yet read; messages over the message cap go to ``oversized``.
+        ``between``: only the messages the index puts in ``[lo, hi)`` (their chunks only)."""
         assert self.bio is not None
         connmap = {c.id: c for c in self.connections}
         wanted = [c.id for c in connections]
@@ -146,7 +150,7 @@ class BagReader(Reader):
             return {c: counts[c] - read[at, c] for c in wanted if counts.get(c, 0) > read[at, c]}
 
         merged = heapq.merge(
-            *[[(e, cid) for e in self.indexes.get(cid, ())] for cid in wanted], key=_time
+            *[[(e, cid) for e in self._entries(cid, between)] for cid in wanted], key=_time
         )
         for entry, cid in merged:
             if entry.chunk_pos in bad:
@@ -174,6 +178,23 @@ class BagReader(Reader):
                 continue
             read[entry.chunk_pos, cid] += 1
             yield connmap[cid], entry.time, data
+
+    def _entries(self, cid: int, between: tuple[int, int] | None) -> list[Any]:
+        """The index entries of connection ``cid``, those in ``[lo, hi)`` with ``between``
+        (found by bisection: the entries of a connection are in time order)."""
+        entries = self.indexes.get(cid, [])
+        if between is None or not entries:
+            return list(entries)
+        times = self._times.get(cid)
+        if times is None:
+            times = self._times[cid] = np.fromiter(
+                (e.time for e in entries), np.int64, len(entries)
+            )
+        if np.any(times[1:] < times[:-1]):
+            return [e for e, t in zip(entries, times.tolist(), strict=True)
+                    if between[0] <= t < between[1]]
+        lo, hi = np.searchsorted(times, between, "left").tolist()
+        return list(entries[lo:hi])
 
     def _chunk_bytes(self, pos: int) -> bytes:
         """The decompressed records of the chunk at ``pos``, bounded by the chunk cap."""

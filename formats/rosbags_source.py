@@ -176,9 +176,16 @@ class _RosbagsSource(_Source):
         ]
         if not conns:
             return iter(())
-        return self._messages(conns)
+        return self._messages(conns, between)
 
-    def _messages(self, conns: list[Any]) -> Iterator[RawMessage]:
+    def skips_by_time(self) -> bool:
+        """ROS 1 bags find the messages of a time range in their index (rosbag2 logs read from
+        their start)."""
+        return self.file.format == "bag"
+
+    def _messages(
+        self, conns: list[Any], between: tuple[int, int] | None = None
+    ) -> Iterator[RawMessage]:
         """Through :class:`formats.bag_reader.BagReader` (ROS 1 bags): the file open while
         the iteration runs, chunks that cannot be read skipped with a warning."""
         meta = {
@@ -214,7 +221,7 @@ class _RosbagsSource(_Source):
 
         try:
             reader.resume()
-            for conn, t_ns, data in reader.iter_messages(conns, bad_chunk, oversized):
+            for conn, t_ns, data in reader.iter_messages(conns, bad_chunk, oversized, between):
                 topic, msgtype, encoding = meta[conn.id]
                 yield RawMessage(topic, msgtype, t_ns, data, encoding)
         except (LogFormatError, StaleIndexError):

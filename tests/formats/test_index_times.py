@@ -287,3 +287,13 @@ def test_the_index_is_not_used_where_a_message_may_be_over_the_cap(tmp_path: Pat
         assert logs.index_times({"/a"}) is None
     with open_logs([path]) as logs:
         assert logs.index_times({"/a"}) is not None
+
+
+def test_a_ros1_bag_reads_only_the_messages_of_a_time_range(tmp_path: Path) -> None:
+    # the bag's index gives every message's time: a 10-s range yields exactly its messages,
+    # reading only the chunks that hold them, and says it can (LogSet.skips_by_time)
+    path = write(tmp_path / "long", "bag", 300, [("/tracks", T0 + k * S) for k in range(200)])
+    with open_logs([path]) as logs:
+        assert logs.skips_by_time()
+        got = [m.log_time_ns for m in logs.messages({"/tracks"}, (T0 + 50 * S, T0 + 60 * S))]
+    assert got == [T0 + k * S for k in range(50, 60)]
