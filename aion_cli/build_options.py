@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -99,3 +100,19 @@ def load_mappings(path: Path | None) -> list[Any]:
     from aion_cli.formats.detections.mapping import load_mapping
 
     return load_mapping(Path(path))
+
+
+@dataclass(frozen=True)
+class ShardStart:
+    """Where a shard of a parallel build (:mod:`aion_cli.parallel_build`) starts in the
+    stream of one pass: ``part``, a time shard's log time ``[lo, hi)`` (:mod:`aion_cli.
+    time_shards`; None: its logs whole); ``first_part``, whether it is its logs' first part,
+    whose report carries what the whole-log reads counted; and, for a shard learnt in sequence
+    onto the shards before it, what their stream left: the pose-orientation rule's state per
+    detection topic (``yaw_seen``) and the scene graphs' pinned version and layer
+    (``graph_pins``, :attr:`aion_cli.graph_feed.GraphFeed.pins`)."""
+
+    part: tuple[int, int] | None = None
+    first_part: bool = True
+    yaw_seen: Mapping[str, float] | None = None
+    graph_pins: tuple[str | None, str | None] = (None, None)

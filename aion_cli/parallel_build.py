@@ -129,17 +129,22 @@ def plan_shards(spans: list[tuple[Path, int, int]], window_ns: int) -> list[tupl
     return [tuple(g) for g in groups]
 
 
-def _shard_build(task: ShardTask, progress: ProgressSink, **part: Any) -> _Build:
+def _shard_build(
+    task: ShardTask, progress: ProgressSink, before: Folded | None = None, **part: Any
+) -> _Build:
     """The build of one shard's logs (the parent hashed them), with ``part`` telling
-    :class:`~aion_cli.pipeline._Build` how it starts (``deferred``, or ``start`` state)."""
+    :class:`~aion_cli.pipeline._Build` how it starts (``deferred``, or ``start`` state) and
+    ``before`` the fold whose stream a shard learnt in sequence continues."""
+    from aion_cli.build_options import ShardStart
     from aion_cli.pipeline import _Build
 
     opts = dataclasses.replace(
         task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
     )
-    build = _Build(
-        opts, progress, shard=True, part=task.part, first_part=task.first_part, **part
-    )
+    at = ShardStart(task.part, task.first_part)
+    if before is not None:
+        at = dataclasses.replace(at, yaw_seen=before.yaws, graph_pins=before.pins)
+    build = _Build(opts, progress, shard=True, at=at, **part)
     build.set_logs(task.logs)
     return build
 
@@ -215,8 +220,7 @@ def rebuild_onto(state: MapState, task: ShardTask, before: Folded | None = None)
     state and the scene graphs' pins)."""
     from aion_cli.build_report import NoProgress
 
-    carried = {"yaw_seen": before.yaws, "graph_pins": before.pins} if before else {}
-    build = _shard_build(task, NoProgress(), start=state, **carried)
+    build = _shard_build(task, NoProgress(), before, start=state)
     return ShardResult(task.index, build.learn(task.config).state, build.report)
 
 

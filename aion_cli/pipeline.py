@@ -49,7 +49,13 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from aion_cli.build_options import MAP_SUFFIX, BuildOptions, load_mappings, resolve_config
+from aion_cli.build_options import (
+    MAP_SUFFIX,
+    BuildOptions,
+    ShardStart,
+    load_mappings,
+    resolve_config,
+)
 from aion_cli.build_output import write_build
 from aion_cli.build_report import (
     BuildReport,
@@ -97,13 +103,9 @@ class _Build:
     ``shard``: a part of a parallel build (:mod:`aion_cli.parallel_build`): the logs are
     learnt into a map whose closed days are held for the join (``deferred``) or not (the first
     part), starting from ``start`` (a map in memory) if given, and nothing is hashed, checked
-    for usable detections or written: :meth:`learn` returns the state. ``part``: a time shard
-    (:mod:`aion_cli.time_shards`) learns only the log time ``[lo, hi)`` of its logs, with the
-    whole logs' time rules, TF and graph schedule; ``first_part``: it is the first part of its
-    logs, whose report carries what those whole-log reads counted; ``yaw_seen``: the state of
-    the pose-orientation rule per detection topic that the stream before these logs left (a
-    shard learnt in sequence onto the map of the shards before it continues their stream), and
-    ``graph_pins`` the scene-graph version and layer it pinned (:attr:`GraphFeed.pins`)."""
+    for usable detections or written: :meth:`learn` returns the state. ``at``: where in one
+    pass's stream the shard starts (:class:`~aion_cli.build_options.ShardStart`): a time shard
+    learns only its part of log time, with the whole logs' time rules, TF and graph schedule."""
 
     def __init__(
         self,
@@ -112,20 +114,15 @@ class _Build:
         shard: bool = False,
         deferred: bool = False,
         start: MapState | None = None,
-        part: tuple[int, int] | None = None,
-        first_part: bool = True,
-        yaw_seen: dict[str, float] | None = None,
-        graph_pins: tuple[str | None, str | None] = (None, None),
+        at: ShardStart | None = None,
     ) -> None:
         self.opts = opts
         self.progress = progress
         self.shard = shard
         self.deferred = deferred
         self.start = start
-        self.part = part
-        self.first_part = first_part
-        self.yaw_seen = yaw_seen
-        self.graph_pins = graph_pins
+        self.at = at or ShardStart()
+        self.time_part = self.at.part  # a time shard's [lo, hi) of log time
         self.counts = DetectionCounts()
         self.report = BuildReport(output=opts.output_path())
         self.previous: LoadedMap | None = None
@@ -152,7 +149,7 @@ class _Build:
             o.nav_layer,
             o.graph_period_ns,
             o.skip_identical_graphs,
-            self.graph_pins,
+            self.at.graph_pins,
         )
 
     @property
@@ -315,19 +312,19 @@ class _Build:
         )
         tf_topics = plan.names("tf") if plan.tf else set()
         self._times = self._whole_times = check_times(times, plan, timed, self.report)
-        if self.part is not None:
-            self._times = self._whole_times.limited(*self.part)
-            self._part_total = times.count_inside(timed, *self.part)
+        if self.time_part is not None:
+            self._times = self._whole_times.limited(*self.time_part)
+            self._part_total = times.count_inside(timed, *self.time_part)
         if isinstance(times, GraphTimes):
             from aion_cli.engine.windows import window_ns
 
             delta = window_ns(self.config().window_s)
-            self.graphs.schedule(times, self._times.strays, delta, self.part)
+            self.graphs.schedule(times, self._times.strays, delta, self.time_part)
             start = self._times.start_ns
             if self.deferred and start is not None:  # a shard after others: its own poses
                 self.graphs.agents_since(start // delta * delta)
         check_tf(stats, tf_topics, self.report)
-        if not self.first_part:  # the whole logs' counts: the first part reports them
+        if not self.at.first_part:  # the whole logs' counts: the first part reports them
             self.report.time_dropped = {}
             self.report.tf_undecodable = 0
         return tf
@@ -411,7 +408,7 @@ class _Build:
             self._adapters,
             self._factory,
             linker=link,
-            yaw_seen=self.yaw_seen if link else None,
+            yaw_seen=self.at.yaw_seen if link else None,
         )
 
     def _stream(
@@ -430,7 +427,7 @@ class _Build:
         self.progress.start("building map", total)
         use_agents = self.report.observation.startswith("scene-graph")
         messages = self.graphs.thin(
-            self._times.filter(logset.messages(topics, self.part)), graph_topics, self.progress
+            self._times.filter(logset.messages(topics, self.time_part)), graph_topics, self.progress
         )
         stream = chunks(messages, graph_topics, self.opts.batch_size)
         # duck-typed: decoded_chunks only calls decode()
@@ -449,7 +446,7 @@ class _Build:
         if not self.shard:  # a parallel build checks the total of its parts
             check_usable(self.report, c, self.previous_manifest)
         # (a time shard without graphs of its own still observes with the logs' agents)
-        if use_agents and self.report.graph_messages == 0 and self.part is None:
+        if use_agents and self.report.graph_messages == 0 and self.time_part is None:
             self.report.observation = fixed_sensor_windows(
                 mapper, logset, self._times, self.report.notes, self.report
             )
