@@ -1,5 +1,6 @@
 """What became of a build's detections: :class:`DetectionCounts` (read, used, dropped by
-reason, stamp fallbacks, headings by source) and its per-topic :class:`TopicCounts`.
+reason, stamp fallbacks, headings by source), its per-topic :class:`TopicCounts`, and
+:class:`MapperTally` (what the Mapper accepted and dropped, per topic).
 
 Filled by :class:`aion_cli.detection_feed.DetectionFeeder` while it decodes, read by the build
 summary (:mod:`aion_cli.build_report`).
@@ -9,6 +10,9 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
 
 #: Heading sources counted by :class:`DetectionCounts` (the build summary's order).
 HEADING_SOURCES: tuple[str, ...] = ("velocity", "track", "linked", "pose_yaw", "none")
@@ -45,3 +49,28 @@ class DetectionCounts:
         if got is None:
             got = self.topics[name] = TopicCounts()
         return got
+
+
+class MapperTally:
+    """Per detection topic (by index), the detections the Mapper accepted (``used``) and those
+    it dropped per reason (``drops``, topics × ``DROP_REASONS``), from the per-row codes
+    :meth:`aion_cli.engine.mapper.Mapper.add_detections` gives."""
+
+    def __init__(self, topics: int) -> None:
+        from aion_cli.engine.state import DROP_REASONS
+
+        self.reasons = len(DROP_REASONS)
+        self.used = np.zeros(topics, np.int64)
+        self.drops = np.zeros((topics, self.reasons), np.int64)
+
+    def add(self, topics: npt.NDArray[np.int64], codes: npt.NDArray[np.int8]) -> None:
+        """One batch: each row's topic index and the Mapper's code for it."""
+        from aion_cli.engine.mapper import ACCEPTED
+
+        n = len(self.used)
+        self.used += np.bincount(topics[codes == ACCEPTED], minlength=n)
+        dropped = codes != ACCEPTED
+        if dropped.any():
+            self.drops += np.bincount(
+                topics[dropped] * self.reasons + codes[dropped], minlength=n * self.reasons
+            ).reshape(n, self.reasons)

@@ -64,6 +64,7 @@ from aion_cli.build_report import (
     check_usable,
     record_detections,
 )
+from aion_cli.detection_counts import MapperTally
 from aion_cli.detection_feed import (
     DetectionCounts,
     DetectionFeeder,
@@ -138,8 +139,7 @@ class _Build:
         self._whole_times = self._times  # without a time shard's limits
         self._part_total: int | None = None  # a time shard's messages to stream
         self._map_open: int | None = None  # a continued map's open window when loaded
-        self._used = np.zeros(0, np.int64)  # detections used, per detection topic
-        self._mapper_drops = np.zeros((0, 0), np.int64)  # per topic x DROP_REASONS
+        self._tally = MapperTally(0)  # what the Mapper accepted and dropped, per topic
 
     def _graph_feed(self) -> GraphFeed:
         o = self.opts
@@ -417,10 +417,7 @@ class _Build:
         feeders = TopicFeeders(
             lambda counts: self._feeder(tf, counts), sorted(plan.names("detections"))
         )
-        from aion_cli.engine.state import DROP_REASONS
-
-        self._used = np.zeros(len(feeders.topics), np.int64)
-        self._mapper_drops = np.zeros((len(feeders.topics), len(DROP_REASONS)), np.int64)
+        self._tally = MapperTally(len(feeders.topics))
         graph_topics = plan.names("graph")
         topics = plan.names("detections") | graph_topics
         total = logset.total(topics) if self._part_total is None else self._part_total
@@ -441,7 +438,7 @@ class _Build:
         self.graphs.check_skips(stop_if_none=not self.shard)
         self.report.graph_pins = self.graphs.pins
         c = self.counts = record_detections(
-            self.report, feeders, self._used, self._mapper_drops, plan
+            self.report, feeders, self._tally.used, self._tally.drops, plan
         )
         if not self.shard:  # a parallel build checks the total of its parts
             check_usable(self.report, c, self.previous_manifest)
@@ -454,23 +451,12 @@ class _Build:
     def _feed(self, mapper: Mapper, batch: DetectionBatch, topics: I64) -> None:
         """Detections to the Mapper; what it drops is counted per reason and per topic
         (``topics``: the topic index of each row)."""
-        from aion_cli.engine.mapper import ACCEPTED
-        from aion_cli.engine.state import DROP_REASONS
-
         if len(batch) == 0:
             return
         self._check_after_map(batch.t_ns, "detection")
         codes = np.empty(len(batch), np.int8)
         mapper.add_detections(batch, codes)
-        n_topics = len(self._used)
-        self._used += np.bincount(topics[codes == ACCEPTED], minlength=n_topics)
-        dropped = codes != ACCEPTED
-        if dropped.any():
-            pairs = np.bincount(
-                topics[dropped] * len(DROP_REASONS) + codes[dropped],
-                minlength=n_topics * len(DROP_REASONS),
-            ).reshape(n_topics, len(DROP_REASONS))
-            self._mapper_drops += pairs
+        self._tally.add(topics, codes)
 
     def _check_after_map(self, t_ns: I64, what: str) -> None:
         """A continued map's closed windows take no data (:func:`aion_cli.log_times.
