@@ -14,7 +14,7 @@ exact for the same reasons. A cut is a window start ``W`` where:
   one pass too). Where no detection *message* lies there, the index says so; a tracker that
   publishes empty messages at a fixed rate is probed instead: the window starts nearest to
   an even split are decoded (those 10 s only, in logs that can be read a few seconds at a
-  time: indexed MCAP, ROS 1 bags);
+  time: indexed MCAP, ROS 1 bags, rosbag2);
 * the part before ``W`` ends in the window just before ``W`` or, when that window holds no
   message of any topic, in the window before it: no window that one pass would observe lies
   between two parts for neither to close. The part's last window is one that holds a message

@@ -109,7 +109,11 @@ class _ReindexedSqliteSource(_Source):
         wanted = _wanted_types(self.topics, topics)
         if not wanted:
             return iter(())
-        return _storage_messages(self, self._storages, wanted, None)
+        return _storage_messages(self, self._storages, wanted, None, between)
+
+    def skips_by_time(self) -> bool:
+        """Its storage files select a time range themselves (sqlite3: a query)."""
+        return True
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """Per storage file, SQLite computes the windows over the indexed ``timestamp``

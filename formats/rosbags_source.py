@@ -167,7 +167,7 @@ class _RosbagsSource(_Source):
                 if not wanted:
                     return iter(())
                 unzstd = self._reader.compression_mode == "message"
-                return _storage_messages(self, storages, wanted, unzstd)
+                return _storage_messages(self, storages, wanted, unzstd, between)
         conns = [
             conn
             for info in self.topics.values()
@@ -179,9 +179,9 @@ class _RosbagsSource(_Source):
         return self._messages(conns, between)
 
     def skips_by_time(self) -> bool:
-        """ROS 1 bags find the messages of a time range in their index (rosbag2 logs read from
-        their start)."""
-        return self.file.format == "bag"
+        """ROS 1 bags find the messages of a time range in their index, rosbag2 storage files
+        with a query (sqlite3's timestamp column) or their chunk index (mcap)."""
+        return True
 
     def _messages(
         self, conns: list[Any], between: tuple[int, int] | None = None
@@ -352,9 +352,11 @@ def _storage_messages(
     storages: list[Any],
     wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
     unzstd: bool | None,
+    between: tuple[int, int] | None = None,
 ) -> Iterator[RawMessage]:
     """Messages of rosbag2 storage readers (rosbags' sqlite3 / mcap storage plugins), merged in
-    log-time order, on the ``wanted`` (topic, normalised type) pairs.
+    log-time order, on the ``wanted`` (topic, normalised type) pairs (``between``: only those
+    logged in ``[lo, hi)``, which the storage readers select themselves).
 
     Each storage file's own connections are matched by topic and type only. rosbags' folder
     reader also compares the QoS profiles of metadata.yaml with those the storage file keeps,
@@ -374,7 +376,7 @@ def _storage_messages(
             if (conn.topic, normalize_msgtype(conn.msgtype)) in wanted
         ]
         if conns:
-            streams.append(_one_storage(source, storage, conns, wanted, unzstd))
+            streams.append(_one_storage(source, storage, conns, wanted, unzstd, between))
     if not streams:
         return
     merged: Iterator[RawMessage] = (
@@ -397,13 +399,15 @@ def _one_storage(
     conns: list[Any],
     wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
     unzstd: bool | None,
+    between: tuple[int, int] | None = None,
 ) -> Iterator[RawMessage]:
     from aion_cli.formats.limits import OverLimitError
     from aion_cli.formats.mcap_records import iso
 
     meta = {conn.id: wanted[conn.topic, normalize_msgtype(conn.msgtype)] for conn in conns}
     cap = source._limits.max_message_bytes
-    for conn, t_ns, data in storage.messages(conns):
+    start, stop = between if between is not None else (None, None)
+    for conn, t_ns, data in storage.messages(conns, start, stop):
         topic, msgtype, encoding = meta[conn.id]
         if unzstd or (unzstd is None and data[:4] == _ZSTD_MAGIC):
             try:
