@@ -12,7 +12,7 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.errors import ConfigError
 from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS
 
-__all__ = ["MAP_SUFFIX", "BuildOptions", "load_mappings", "resolve_config"]
+__all__ = ["MAP_SUFFIX", "BuildOptions", "build_topics", "load_mappings", "resolve_config"]
 
 MAP_SUFFIX = ".aion"
 
@@ -91,6 +91,17 @@ def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelCon
             hint="a map keeps its time zone; build a new map to change it",
         )
     return old
+
+
+def build_topics(topics: list[Any], opts: BuildOptions) -> Any:
+    """The :class:`~aion_cli.topics.TopicPlan` of a build with ``opts`` among a log set's
+    ``topics``: :func:`aion_cli.topics.select_topics` with its topic options and
+    ``--detections-mapping`` (one choice for the build and for a parallel build's planning)."""
+    from aion_cli.topics import select_topics
+
+    return select_topics(
+        topics, opts.detection_topics, opts.graph_topic, load_mappings(opts.detections_mapping)
+    )
 
 
 def load_mappings(path: Path | None) -> list[Any]:

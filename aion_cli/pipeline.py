@@ -5,7 +5,8 @@ No click here: the CLI hands over :class:`BuildOptions` and a
 back. This module holds the order of the steps and the state they share (:class:`_Build`); the
 steps' parts live beside it, each with its own rules. Steps of :func:`build_map`:
 
-1. open the logs (``formats.logs.open_logs``) and pick topics by type (:func:`select_topics`):
+1. open the logs (``formats.logs.open_logs``) and pick topics by type
+   (:func:`aion_cli.build_options.build_topics`, :func:`aion_cli.topics.select_topics`):
    detection topics with a supported adapter (all of them, or those named), the scene-graph
    topic(s) (``hydra_msgs/DsgUpdate``), ``/tf`` and ``/tf_static``;
 2. read TF first into a ``TfBuffer``, and the log times of every topic the build uses (from
@@ -53,7 +54,7 @@ from aion_cli.build_options import (
     MAP_SUFFIX,
     BuildOptions,
     ShardStart,
-    load_mappings,
+    build_topics,
     resolve_config,
 )
 from aion_cli.build_output import write_build
@@ -88,7 +89,7 @@ from aion_cli.tf_feed import (
     observe,
     read_tf_and_times,
 )
-from aion_cli.topics import TopicPlan, no_detection_topic, select_topics
+from aion_cli.topics import TopicPlan, no_detection_topic
 
 if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
@@ -238,11 +239,8 @@ class _Build:
         from aion_cli.formats.logs import open_logs
 
         opts = self.opts
-        mappings = load_mappings(opts.detections_mapping)
         with open_logs(list(self._logs), opts.log_format) as logset:
-            plan = select_topics(
-                logset.topics, opts.detection_topics, opts.graph_topic, mappings
-            )
+            plan: TopicPlan = build_topics(logset.topics, opts)
             if not plan.detections and not self.shard:  # a part of a build may have none
                 raise no_detection_topic(logset, plan)
             self.report.detection_topics = sorted(plan.names("detections"))

@@ -41,7 +41,6 @@ from aion_cli.engine.types import I64
 
 if TYPE_CHECKING:
     from aion_cli.pipeline import BuildOptions
-    from aion_cli.topics import TopicPlan
 
 #: a detection message this close before a cut would carry a track across it
 QUIET_NS = 10 * 10**9
@@ -167,9 +166,10 @@ def _decoded_quiet(logset: Any, opts: BuildOptions) -> Callable[[int], bool] | N
     reading the logs from their start."""
     if not logset.skips_by_time():
         return None
+    from aion_cli.build_options import build_topics
     from aion_cli.detection_feed import log_adapters
 
-    plan = _plan(logset, opts)
+    plan = build_topics(logset.topics, opts)
     adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
     topics = plan.names("detections")
 
@@ -188,20 +188,6 @@ def _decoded_quiet(logset: Any, opts: BuildOptions) -> Callable[[int], bool] | N
         return True
 
     return quiet
-
-
-def _plan(logset: Any, opts: BuildOptions) -> TopicPlan:
-    """The topics the build would choose in ``logset`` (:func:`aion_cli.topics.select_topics`
-    with the build's options)."""
-    from aion_cli.build_options import load_mappings
-    from aion_cli.topics import select_topics
-
-    return select_topics(
-        logset.topics,
-        opts.detection_topics,
-        opts.graph_topic,
-        load_mappings(opts.detections_mapping),
-    )
 
 
 def part_fields(part: tuple[int, int] | None) -> dict[str, str]:
@@ -235,11 +221,12 @@ def group_times(
 ) -> GroupTimes | None:
     """:class:`GroupTimes` of ``logs`` from their indexes, with the topics the build would
     choose; None when an index cannot give them (the logs are then not cut)."""
+    from aion_cli.build_options import build_topics
     from aion_cli.formats.logs import open_logs
     from aion_cli.log_times import TopicTimes
 
     with open_logs(list(logs), opts.log_format) as logset:
-        plan = _plan(logset, opts)
+        plan = build_topics(logset.topics, opts)
         detections = plan.names("detections")
         graphs = plan.names("graph") if opts.graph_file is None else set()
         tf = {t for t in plan.names("tf") if not t.endswith("_static")} if plan.tf else set()
