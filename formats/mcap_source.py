@@ -77,6 +77,8 @@ class _McapSource(_McapLinearRead):
         # the mcap library reads the summary section (its errors: McapError)
         self._errors: tuple[type[BaseException], ...] = (McapError, *_MCAP_READ_ERRORS)
         self._chunk_indexes: list[Any] | None = None
+        # read chunk after chunk in time order: indexed chunks that do not overlap in time
+        self._by_chunk = False
         # chunks that cannot be read (offset -> why) and their message counts per channel
         # (from the message index records after each chunk)
         self._bad_chunks: dict[int, str] = {}
@@ -121,6 +123,7 @@ class _McapSource(_McapLinearRead):
             self._chunk_indexes = sorted(
                 summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
             )
+            self._by_chunk = not _chunks_overlap(self._chunk_indexes)
             self._bad_chunks.update(check.bad_chunks)
             for index in self._chunk_indexes:  # what the index says is refused already
                 why = _refused(index, self._limits)
@@ -231,11 +234,7 @@ class _McapSource(_McapLinearRead):
     def skips_by_time(self) -> bool:
         """Chunk-indexed files read by chunk (payloads not compressed one by one) skip the
         chunks outside ``between``."""
-        return (
-            not self._unzstd
-            and self._chunk_indexes is not None
-            and not _chunks_overlap(self._chunk_indexes)
-        )
+        return self._by_chunk and not self._unzstd
 
     def _raw_messages(
         self, wanted: set[int], between: tuple[int, int] | None = None
@@ -244,7 +243,7 @@ class _McapSource(_McapLinearRead):
         if self._unzstd:
             yield from self._unzstd_messages(wanted)
             return
-        if self._chunk_indexes is not None and not _chunks_overlap(self._chunk_indexes):
+        if self._by_chunk:
             # the hot path: a chunk's messages at a time, no generator step per message
             for selected in self._chunk_batches(wanted, between):
                 for log_time, channel_id, data in selected:
@@ -287,7 +286,7 @@ class _McapSource(_McapLinearRead):
         """The messages of the ``wanted`` channels by the fastest path the file allows."""
         if self._chunk_indexes is None:
             return self._records_linear(wanted)
-        if _chunks_overlap(self._chunk_indexes):
+        if not self._by_chunk:
             return self._records_merged(wanted)
         return (record for batch in self._chunk_batches(wanted) for record in batch)
 
