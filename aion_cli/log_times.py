@@ -223,7 +223,9 @@ class TimeCheck:
         build, :mod:`aion_cli.time_shards`): the runs clipped to it (so a fixed sensor
         observes exactly the windows of the part that the whole log's runs cover), the span
         from the messages inside it, and :meth:`filter` keeps only messages inside it. The
-        strays and the counts stay the whole log's (the rules look at every message)."""
+        strays and the counts stay the whole log's (the rules look at every message). The part
+        is kept within the representable range."""
+        lo, hi = max(int(lo), MIN_TIME_NS), min(int(hi), MAX_TIME_NS + 1)
         keep = (self.run_last >= lo) & (self.run_first < hi)
         inside = (self.span_times >= lo) & (self.span_times < hi)
         return replace(
@@ -232,7 +234,7 @@ class TimeCheck:
             run_last=np.minimum(self.run_last[keep], np.int64(hi - 1)),
             span_times=self.span_times[inside],
             _pending=Counter(),
-            limits=(int(lo), int(hi)),
+            limits=(lo, hi),
         )
 
     @property
@@ -260,12 +262,6 @@ class TimeCheck:
         lo, hi = self.limits
         return (t >= lo) & (t < hi)
 
-    def windows_inside_limits(self, windows: I64, delta_ns: int) -> BoolA:
-        """Mask of the windows (indices of ``delta_ns`` windows) that start inside
-        :attr:`limits` (all without limits; the limits lie on window starts)."""
-        w = np.asarray(windows, dtype=np.int64)
-        return self.inside_limits(w * np.int64(delta_ns))
-
     def filter(self, messages: Iterator[RawMessage]) -> Iterator[RawMessage]:
         """``messages`` without those out of range and without the strays (each stray
         ``(topic, log time)`` is dropped as often as it was counted)."""
@@ -273,10 +269,11 @@ class TimeCheck:
             yield from messages
             return
         pending = Counter(self._pending)  # a fresh copy: the log may be read several times
+        # the representable range, or a time shard's part of it
         lo, hi = self.limits if self.limits is not None else (MIN_TIME_NS, MAX_TIME_NS + 1)
         for msg in messages:
             t = msg.log_time_ns
-            if not lo <= t < hi or not MIN_TIME_NS <= t <= MAX_TIME_NS:
+            if not lo <= t < hi:
                 continue
             if pending:
                 key = (msg.topic, t)

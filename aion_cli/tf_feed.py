@@ -324,7 +324,7 @@ def fixed_sensor_windows(
 
     delta = window_ns(mapper.state.config.window_s)
     recorded = logset.recorded_windows(delta)
-    recorded = recorded[times.windows_inside_limits(recorded, delta)]  # a time shard's part
+    recorded = recorded[times.inside_limits(recorded * delta)]  # a time shard's (window starts)
     inside = times.within_runs(recorded, delta)
     outside = int(np.count_nonzero(~inside))
     if outside:
