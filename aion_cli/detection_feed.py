@@ -81,7 +81,7 @@ def yaw_rule_blocker(
     :meth:`DetectionFeeder.yaw_rule` of a shard of a parallel build) would not equal its
     judgement in one pass, continuing from the state ``before`` it (per topic: the one yaw
     seen so far, or NaN once they varied); None when it would. It differs only where the
-    shard set aside the yaws of its first segment while one pass had seen other yaws before
+    shard set aside the yaws of its first message while one pass had seen other yaws before
     (one pass keeps them)."""
     for topic, (first, _) in sorted(rule.items()):
         prev = before.get(topic)
@@ -137,7 +137,7 @@ class DetectionFeeder:
         # per topic: the one yaw its messages have shown so far (float), or _VARIES; a build
         # that continues another's stream (a shard learnt in sequence) starts from its state
         self._yaw_seen: dict[str, float] = dict(yaw_seen or {})
-        # per topic: what its first judged segment here gave (the yaw it unset, or _VARIES)
+        # per topic: what its first judged message here gave (the yaw it unset, or _VARIES)
         self._yaw_first: dict[str, float] = {}
 
     def adapter(self, topic: str, msgtype: str, encoding: str) -> DetectionAdapter:
@@ -282,7 +282,7 @@ class DetectionFeeder:
 
     def yaw_rule(self) -> dict[str, tuple[float, float]]:
         """Per topic with a finite pose yaw: ``(first, last)``, what the orientation rule of
-        :meth:`_informative_yaws` made of the topic's first judged segment here and where it
+        :meth:`_informative_yaws` made of the topic's first judged message here and where it
         ended (the one yaw seen so far, or NaN once they varied). A parallel build compares
         a shard's ``first`` with the state before it (``aion_cli.parallel_build.fold``)."""
         return {t: (first, self._yaw_seen[t]) for t, first in self._yaw_first.items()}

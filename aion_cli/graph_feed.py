@@ -163,6 +163,7 @@ class GraphTimes(TopicTimes):
 
 
 GRAPH_COUNTS_NOTE = "scene graphs: "
+DAMAGED_GRAPHS_NOTE = "damaged scene-graph message(s) skipped"
 
 
 def graph_counts_note(r: BuildReport) -> str | None:
@@ -347,7 +348,7 @@ class GraphFeed:
         if r.graph_messages == 0 and stop_if_none:
             raise self._first_error
         r.notes.append(
-            f"{r.graph_skipped:,} damaged scene-graph message(s) skipped (first: "
+            f"{r.graph_skipped:,} {DAMAGED_GRAPHS_NOTE} (first: "
             f"{self._first_error.message})"
         )
 

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 from aion_cli.build_report import BuildReport, ProgressSink, check_usable
 from aion_cli.errors import InputError, MessageDecodeError
-from aion_cli.graph_feed import GRAPH_COUNTS_NOTE, graph_counts_note
+from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
 from aion_cli.tf_feed import fixed_sensor_text
 from aion_cli.time_shards import part_fields
 
@@ -255,17 +255,17 @@ class ParallelBuild:
         workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
         if workers < 2 and opts.scheduler is None:
             return self.build.learn(self.config).state
+        window = _window_ns(self.config)
         if len(logs) < 2:
             groups = [tuple(logs)]
         else:
             spans, empty = self._spans(logs)
-            groups = plan_shards(spans, _window_ns(self.config))
+            groups = plan_shards(spans, window)
             if empty and groups:
                 groups[0] = groups[0] + tuple(empty)
-        from aion_cli.time_shards import SHARDS_PER_WORKER, split_groups
+        from aion_cli.time_shards import split_groups
 
-        target = SHARDS_PER_WORKER * max(workers, 2)
-        shards, notes = split_groups(groups, opts, _window_ns(self.config), target)
+        shards, notes = split_groups(groups, opts, window, workers)
         report.notes.extend(notes)
         if len(shards) < 2:
             report.notes.append(
@@ -423,7 +423,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     if note is not None:
         out.notes.append(note)
     if out.graph_skipped and not out.graph_messages:  # as one pass stops (check_skips)
-        first = next((n for n in out.notes if "damaged scene-graph message" in n), "")
+        first = next((n for n in out.notes if DAMAGED_GRAPHS_NOTE in n), "")
         raise MessageDecodeError(
             f"none of the {out.graph_skipped:,} scene-graph messages could be decoded"
             + (f": {first}" if first else ""),

@@ -123,11 +123,13 @@ def cut_times(
 
 
 def split_groups(
-    groups: list[tuple[Path, ...]], opts: BuildOptions, window_ns: int, target: int
+    groups: list[tuple[Path, ...]], opts: BuildOptions, window_ns: int, workers: int
 ) -> tuple[list[Shard], list[str]]:
     """The shards of a parallel build's groups of logs (each group's logs share no time window
-    with another's): each group whole or, while there are fewer than ``target`` groups, cut
-    into parts in proportion to its detection messages; and the report's notes on the cuts."""
+    with another's) for ``workers`` processes: each group whole or, while there are fewer
+    groups than :data:`SHARDS_PER_WORKER` per worker (two at least), cut into parts in
+    proportion to its detection messages; and the report's notes on the cuts."""
+    target = SHARDS_PER_WORKER * max(workers, 2)
     if len(groups) >= target:
         return [(group, None, True) for group in groups], []
     times = [group_times(group, opts, window_ns) for group in groups]
