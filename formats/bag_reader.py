@@ -25,7 +25,7 @@ import io
 import os
 import struct
 from collections import Counter
-from collections.abc import Callable, Collection, Iterator
+from collections.abc import Callable, Collection, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +63,8 @@ class BagReader(Reader):
         self.chunk_meta: dict[int, tuple[str, int]] = {}
         # chunks dropped at open: position -> (why, lost messages per connection id)
         self.refused: dict[int, tuple[str, dict[int, int]]] = {}
-        self._times: dict[int, np.ndarray] = {}  # per connection: its index entries' times
+        # per connection: its index entries' times, and whether they are in time order
+        self._times: dict[int, tuple[np.ndarray, bool]] = {}
 
     def read_chunk(self) -> Chunk:
         """The chunk record header at the file position (as rosbags reads it), remembering its
@@ -179,22 +180,23 @@ class BagReader(Reader):
             read[entry.chunk_pos, cid] += 1
             yield connmap[cid], entry.time, data
 
-    def _entries(self, cid: int, between: tuple[int, int] | None) -> list[Any]:
-        """The index entries of connection ``cid``, those in ``[lo, hi)`` with ``between``
-        (found by bisection: the entries of a connection are in time order)."""
+    def _entries(self, cid: int, between: tuple[int, int] | None) -> Sequence[Any]:
+        """The index entries of connection ``cid`` (not copied), those in ``[lo, hi)`` with
+        ``between`` (found by bisection where the entries are in time order, as rosbags
+        sorts them)."""
         entries = self.indexes.get(cid, [])
         if between is None or not entries:
-            return list(entries)
-        times = self._times.get(cid)
-        if times is None:
-            times = self._times[cid] = np.fromiter(
-                (e.time for e in entries), np.int64, len(entries)
-            )
-        if np.any(times[1:] < times[:-1]):
+            return entries
+        known = self._times.get(cid)
+        if known is None:
+            times = np.fromiter((e.time for e in entries), np.int64, len(entries))
+            known = self._times[cid] = (times, not np.any(times[1:] < times[:-1]))
+        times, in_order = known
+        if not in_order:
             return [e for e, t in zip(entries, times.tolist(), strict=True)
                     if between[0] <= t < between[1]]
         lo, hi = np.searchsorted(times, between, "left").tolist()
-        return list(entries[lo:hi])
+        return entries[lo:hi]
 
     def _chunk_bytes(self, pos: int) -> bytes:
         """The decompressed records of the chunk at ``pos``, bounded by the chunk cap."""
