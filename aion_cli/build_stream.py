@@ -1,0 +1,187 @@
+"""Step 4 of a build (:mod:`aion_cli.pipeline`): the stream of detection and scene-graph
+messages, in log-time order, into the Mapper; and the extra pass of ``--derive-graph``.
+
+Detection messages are collected into chunks of ``batch_size`` (flushed before every scene
+graph, so the Mapper sees everything in time order; decoded in jobs however often the graphs
+come, :mod:`aion_cli.detection_feed`), decoded per topic and type, transformed to the map
+frame, given headings and fed to the Mapper, which says per row what it dropped (tallied per
+topic, :class:`aion_cli.detection_counts.MapperTally`). Scene graphs are thinned by
+``--graph-period`` and decoded with their version and layer pinned
+(:mod:`aion_cli.graph_feed`). A continued map refuses data in the windows it has closed.
+
+:class:`StreamStep` holds these methods of :class:`aion_cli.pipeline._Build`, which inherits
+them: they share the build's state (its report, progress, time rules, graph feed), declared
+here for the type checker.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, cast
+
+import numpy as np
+
+from aion_cli.build_report import check_usable, record_detections
+from aion_cli.detection_counts import MapperTally
+from aion_cli.detection_feed import (
+    DetectionCounts,
+    DetectionFeeder,
+    TopicFeeders,
+    chunks,
+    decoded_chunks,
+)
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
+from aion_cli.log_times import check_after_open
+from aion_cli.tf_feed import fixed_sensor_windows
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from aion_cli.build_options import BuildOptions, ShardStart
+    from aion_cli.build_report import BuildReport, ProgressSink
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.formats.raw import RawMessage
+    from aion_cli.formats.tf import TfBuffer
+    from aion_cli.graph_feed import GraphFeed
+    from aion_cli.log_times import TimeCheck
+    from aion_cli.manifest import Manifest
+    from aion_cli.mapquery import LoadedMap
+    from aion_cli.topics import TopicPlan
+
+
+class StreamStep:
+    """The stream step's methods (module docstring); :class:`aion_cli.pipeline._Build`
+    sets the attributes below."""
+
+    opts: BuildOptions
+    progress: ProgressSink
+    report: BuildReport
+    graphs: GraphFeed
+    counts: DetectionCounts
+    shard: bool
+    at: ShardStart
+    time_part: tuple[int, int] | None
+    previous: LoadedMap | None
+    previous_manifest: Manifest | None
+    _times: TimeCheck
+    _part_total: int | None
+    _map_open: int | None
+    _logs: tuple[Path, ...]
+    _adapters: dict[tuple[str, str, str], Any]
+    _factory: Any
+    _tally: MapperTally
+
+    def _derive(
+        self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig, start: int
+    ) -> GraphSnapshot:
+        from aion_cli.derive_graph import OccupancyGrid
+
+        grid = OccupancyGrid(config.derive_spacing)
+        scratch = DetectionCounts()
+        feeder = self._feeder(tf, scratch, link=False)
+        topics = plan.names("detections")
+        self.progress.start("deriving graph", logset.total(topics))
+        messages = self._times.filter(logset.messages(topics))
+        for chunk, _ in chunks(messages, set(), self.opts.batch_size):
+            grid.add(feeder.decode(chunk).xyz)
+            self.progress.advance(len(chunk))
+        graph = grid.graph(config.derive_min_detections, start)
+        if len(graph.places) == 0:
+            self.report.notes.append(
+                "--derive-graph: no grid cell reached derive_min_detections; no graph derived"
+            )
+        return graph
+
+    def _feeder(
+        self, tf: TfBuffer | None, counts: DetectionCounts, link: bool = True
+    ) -> DetectionFeeder:
+        """A feeder with the adapters chosen for the log's detection topics; ``link``: link
+        id-less detections into tracks (headings from motion)."""
+        return DetectionFeeder(
+            tf,
+            self.opts.map_frame,
+            counts,
+            self._adapters,
+            self._factory,
+            linker=link,
+            yaw_seen=self.at.yaw_seen if link else None,
+        )
+
+    def _stream(
+        self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper, fixed: bool
+    ) -> None:
+        feeders = TopicFeeders(
+            lambda counts: self._feeder(tf, counts), sorted(plan.names("detections"))
+        )
+        self._tally = MapperTally(len(feeders.topics))
+        graph_topics = plan.names("graph")
+        topics = plan.names("detections") | graph_topics
+        total = logset.total(topics) if self._part_total is None else self._part_total
+        self.progress.start("building map", total)
+        use_agents = self.report.observation.startswith("scene-graph")
+        messages = self.graphs.thin(
+            self._times.filter(logset.messages(topics, self.time_part)), graph_topics, self.progress
+        )
+        stream = chunks(messages, graph_topics, self.opts.batch_size)
+        # duck-typed: decoded_chunks only calls decode()
+        for batch, n_messages, graph_msg in decoded_chunks(stream, cast(Any, feeders)):
+            if batch is not None:
+                self._feed(mapper, batch, feeders.topics_of(batch))
+                self.progress.advance(n_messages)
+            if graph_msg is not None:
+                self._take_graph(logset, mapper, graph_msg, use_agents)
+                self.progress.advance(1)
+        self.graphs.check_skips(stop_if_none=not self.shard)
+        self.report.graph_pins = self.graphs.pins
+        c = self.counts = record_detections(
+            self.report, feeders, self._tally.used, self._tally.drops, plan
+        )
+        if not self.shard:  # a parallel build checks the total of its parts
+            check_usable(self.report, c, self.previous_manifest)
+        # (a time shard without graphs of its own still observes with the logs' agents)
+        if use_agents and self.report.graph_messages == 0 and self.time_part is None:
+            self.report.observation = fixed_sensor_windows(
+                mapper, logset, self._times, self.report.notes, self.report
+            )
+
+    def _feed(self, mapper: Mapper, batch: DetectionBatch, topics: I64) -> None:
+        """Detections to the Mapper; what it drops is counted per reason and per topic
+        (``topics``: the topic index of each row)."""
+        if len(batch) == 0:
+            return
+        self._check_after_map(batch.t_ns, "detection")
+        codes = np.empty(len(batch), np.int8)
+        mapper.add_detections(batch, codes)
+        self._tally.add(topics, codes)
+
+    def _check_after_map(self, t_ns: I64, what: str) -> None:
+        """A continued map's closed windows take no data (:func:`aion_cli.log_times.
+        check_after_open`)."""
+        if self._map_open is None or len(t_ns) == 0:
+            return
+        from aion_cli.engine.windows import window_ns
+
+        delta = window_ns(self.previous.config.window_s) if self.previous else 1
+        inputs = self.previous_manifest.inputs if self.previous_manifest else ()
+        check_after_open(
+            t_ns,
+            self._map_open * delta,
+            what,
+            [entry.name for entry in inputs],
+            self._logs,
+            self.report.output.name,
+        )
+
+    def _take_graph(self, logset: Any, mapper: Mapper, msg: RawMessage, use_agents: bool) -> None:
+        """One scene-graph message of the stream (one :func:`graph_schedule` kept): decoded
+        (or its last payload's graph reused, :meth:`aion_cli.graph_feed.GraphFeed.decode`)
+        and applied to the map; damaged ones are skipped
+        (:meth:`aion_cli.graph_feed.GraphFeed.decode_or_skip`)."""
+        snapshot = self.graphs.decode_or_skip(logset, msg)
+        if snapshot is None:
+            return
+        self._check_after_map(np.array([snapshot.t_ns], np.int64), "scene graph")
+        mapper.add_graph(snapshot)
+        if use_agents:
+            self.graphs.add_agent_poses(mapper, snapshot.agents)
+        self.report.graph_messages += 1
