@@ -56,6 +56,10 @@ def _worker(tasks: Any, out: Any) -> None:
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers on Ctrl-C
+    # and it stops them with SIGTERM: a forked worker inherits the CLI's handler, which
+    # unwinds like Ctrl-C (for the parent's map file) and would print a worker's traceback
+    # under the parent's one-line error; a worker writes no file, so it ends at once
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     while (task := tasks.get()) is not None:
         sink = QueueProgress(out, task.index)
         try:

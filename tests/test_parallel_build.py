@@ -158,6 +158,33 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.skipif(not hasattr(signal, "SIGTERM") or sys.platform != "linux", reason="fork")
+def test_a_stopped_worker_ends_quietly(capfd: pytest.CaptureFixture[str]) -> None:
+    # The CLI turns SIGTERM into KeyboardInterrupt (so its map file is cleaned up), and a
+    # forked worker inherits that handler: when the parent stopped the workers after an error
+    # or Ctrl-C, each printed a KeyboardInterrupt traceback under the one-line error.
+    import multiprocessing as mp
+
+    from aion_cli.cli.main import _terminated
+    from aion_cli.process_pool import _worker
+
+    ctx = mp.get_context("fork")
+    tasks, out = ctx.SimpleQueue(), ctx.Queue()
+    previous = signal.signal(signal.SIGTERM, _terminated)
+    try:
+        worker = ctx.Process(target=_worker, args=(tasks, out), daemon=True)
+        worker.start()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    time.sleep(0.3)  # the worker waits for a task
+    worker.terminate()
+    worker.join(timeout=10)
+    err = capfd.readouterr().err
+    assert worker.exitcode == -signal.SIGTERM
+    assert "Traceback" not in err
+    assert "KeyboardInterrupt" not in err
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to list child processes")
 def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) -> None:
@@ -188,6 +215,7 @@ def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) ->
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
+    assert "Traceback" not in err, err  # the workers end quietly (one line from the parent)
     assert hashlib.sha256(out.read_bytes()).hexdigest() == before
     time.sleep(0.5)
     alive = [w for w in workers if Path(f"/proc/{w}").exists() and _children(proc.pid) != []]
