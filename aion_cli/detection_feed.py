@@ -75,16 +75,29 @@ def _default_factory(topic: str, msgtype: str, encoding: str) -> DetectionAdapte
 
 
 def yaw_rule_blocker(
-    before: Mapping[str, float], rule: Mapping[str, tuple[float, float]]
+    before: Mapping[str, float],
+    rule: Mapping[str, tuple[float, float]],
+    assumed: Mapping[str, float] | None = None,
 ) -> str | None:
-    """Why a stream judged by the orientation rule from scratch (``rule``:
-    :meth:`DetectionFeeder.yaw_rule` of a shard of a parallel build) would not equal its
-    judgement in one pass, continuing from the state ``before`` it (per topic: the one yaw
-    seen so far, or NaN once they varied); None when it would. It differs only where the
-    shard set aside the yaws of its first message while one pass had seen other yaws before
-    (one pass keeps them)."""
+    """Why a stream judged by the orientation rule (``rule``: :meth:`DetectionFeeder.yaw_rule`
+    of a shard of a parallel build) would not equal its judgement in one pass, continuing
+    from the state ``before`` it (per topic: the one yaw seen so far, or NaN once they
+    varied); None when it would. The shard started from ``assumed`` (topics whose
+    orientations the plan found varied before it, :mod:`aion_cli.shard_yaws`), else from
+    scratch. It differs where that assumption was wrong, and where the shard set aside the
+    yaws of its first message while one pass had seen other yaws before (one pass keeps
+    them)."""
+    assumed = assumed or {}
     for topic, (first, _) in sorted(rule.items()):
         prev = before.get(topic)
+        if topic in assumed:
+            if prev is None or not np.isnan(prev):
+                return (
+                    f"these logs were started as if the pose orientations on {topic} had "
+                    "varied before them, and in one pass they had not (the build's rules "
+                    "drop or cannot decode the messages where the plan saw them vary)"
+                )
+            continue
         if prev is None or np.isnan(first):
             continue
         if np.isnan(prev) or abs(prev - first) > _SAME_YAW:
@@ -189,7 +202,7 @@ class DetectionFeeder:
             seg = segment if len(groups) == 1 else segment[np.asarray(index, np.int64)]
             frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
             self._count(topic, adapter, frames, len(msgs))
-            frames = self._informative_yaws(topic, frames, frames.msg_index)
+            frames, _ = self._informative_yaws(topic, frames, frames.msg_index)
             frames = self._to_map_frame(frames)
             rseg = seg[frames.msg_index]
             parts.append(frames)
@@ -240,7 +253,7 @@ class DetectionFeeder:
         if error is not None and per_topic.first_error is None:
             per_topic.first_error, per_topic.first_hint = error.message, error.hint
 
-    def _informative_yaws(self, topic: str, frames: Any, message: I64) -> Any:
+    def _informative_yaws(self, topic: str, frames: Any, message: I64) -> tuple[Any, int | None]:
         """``frames`` with its yaws unset while its topic's orientations have never varied
         (checked in the message frame, before TF turns them with the robot): a publisher
         that leaves every orientation at zero or at identity says nothing about where people
@@ -250,15 +263,18 @@ class DetectionFeeder:
         message's yaws are unset while they and all before agree; from the first message that
         differs on, yaws are kept. So the judgement depends on the messages only, never on
         how the stream was cut into chunks or shards (a parallel build's join compares a
-        shard's first judgement with the state before it: :func:`yaw_rule_blocker`)."""
+        shard's first judgement with the state before it: :func:`yaw_rule_blocker`).
+
+        Also returns the message (``message``'s value) at which the topic's orientations
+        first varied, if that happened here (None otherwise)."""
         y = frames.yaw
         finite = np.flatnonzero(np.isfinite(y))
         if finite.size == 0:
-            return frames
+            return frames, None
         seen = self._yaw_seen.get(topic)
         if seen is not None and np.isnan(seen):
             self._yaw_first.setdefault(topic, _VARIES)
-            return frames  # the topic's orientations vary: they are real
+            return frames, None  # the topic's orientations vary: they are real
         fmsg = message[finite]
         starts = np.flatnonzero(np.r_[True, fmsg[1:] != fmsg[:-1]])
         vals = y[finite]
@@ -267,18 +283,36 @@ class DetectionFeeder:
         before = np.r_[lows[0] if seen is None else seen, lows[:-1]]  # each one's previous
         differs = (highs - lows > _SAME_YAW) | (np.abs(lows - before) > _SAME_YAW)
         alike = int(np.argmax(differs)) if differs.any() else len(starts)  # messages unset
+        varied = None
         if alike < len(starts):
             self._yaw_seen[topic] = _VARIES
+            varied = int(fmsg[starts[alike]])
         else:
             self._yaw_seen[topic] = float(lows[-1])
         self._yaw_first.setdefault(topic, float(lows[0]) if alike else _VARIES)
         if alike == 0:
-            return frames
+            return frames, varied
         if alike == len(starts) and message[0] == message[-1]:
-            return dataclasses.replace(frames, yaw=np.full(len(frames), np.nan))
+            return dataclasses.replace(frames, yaw=np.full(len(frames), np.nan)), varied
         # the messages judged alike lose their yaws, every row of them
         gone = np.isin(message, fmsg[starts[:alike]])
-        return dataclasses.replace(frames, yaw=np.where(gone, np.nan, y))
+        return dataclasses.replace(frames, yaw=np.where(gone, np.nan, y)), varied
+
+    def judge_orientations(self, messages: list[RawMessage]) -> dict[str, int]:
+        """Judge ``messages`` (in log order) by the orientation rule alone -- decoded, not
+        transformed, linked or counted -- and return the topics whose orientations first
+        varied among them, with the log time of the message where they did (a parallel
+        build's plan: :mod:`aion_cli.shard_yaws`)."""
+        out = {}
+        for (topic, msgtype, encoding), index in _groups(
+            messages, attrgetter("topic", "msgtype", "encoding")
+        ).items():
+            adapter = self.adapter(topic, msgtype, encoding)
+            frames = adapter.decode([messages[i] for i in index], on_error="skip")
+            _, varied = self._informative_yaws(topic, frames, frames.msg_index)
+            if varied is not None:
+                out[topic] = messages[index[varied]].log_time_ns
+        return out
 
     def yaw_rule(self) -> dict[str, tuple[float, float]]:
         """Per topic with a finite pose yaw: ``(first, last)``, what the orientation rule of

@@ -52,7 +52,8 @@ class ShardTask:
     """One shard: its logs (in time order), whether its days are held for the join, and the
     build's options and config (every shard learns with the same); a time shard also has its
     part ``[lo, hi)`` of log time and whether it is its logs' first part
-    (:mod:`aion_cli.time_shards`)."""
+    (:mod:`aion_cli.time_shards`); and the orientation rule's state it starts from
+    (:mod:`aion_cli.shard_yaws`)."""
 
     index: int
     logs: tuple[Path, ...]
@@ -61,6 +62,8 @@ class ShardTask:
     config: ModelConfig
     part: tuple[int, int] | None = None
     first_part: bool = True
+    # detection topics whose pose orientations varied before the shard (aion_cli.shard_yaws)
+    yaw_seen: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -141,7 +144,7 @@ def _shard_build(
     opts = dataclasses.replace(
         task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
     )
-    at = ShardStart(task.part, task.first_part)
+    at = ShardStart(task.part, task.first_part, yaw_seen=task.yaw_seen)
     if before is not None:
         at = dataclasses.replace(at, yaw_seen=before.yaws, graph_pins=before.pins)
     build = _Build(opts, progress, shard=True, at=at, **part)
@@ -183,7 +186,7 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     _check_order(folded.state, result, task)
     blocker = (
         join_blocker(folded.state, state)
-        or yaw_rule_blocker(folded.yaws, result.report.yaw_rule)
+        or yaw_rule_blocker(folded.yaws, result.report.yaw_rule, task.yaw_seen)
         or pins_blocker(folded.pins, result.report.graph_pins)
     )
     if blocker is None:
@@ -256,6 +259,7 @@ class ParallelBuild:
         if workers < 2 and opts.scheduler is None:
             return self.build.learn(self.config).state
         window = _window_ns(self.config)
+        spans: list[tuple[Path, int, int]] = []
         if len(logs) < 2:
             groups = [tuple(logs)]
         else:
@@ -278,9 +282,12 @@ class ParallelBuild:
         self.groups = [group for group, _, _ in shards]
         self.parts = [part for _, part, _ in shards]
         previous = self.build.previous.state if self.build.previous is not None else None
+        seeds = _yaw_seeds(list(logs), opts, shards, spans)
         tasks = [
-            ShardTask(i, group, previous is not None or i > 0, opts, self.config, part, first)
-            for i, (group, part, first) in enumerate(shards)
+            ShardTask(
+                i, group, previous is not None or i > 0, opts, self.config, part, first, seed
+            )
+            for i, ((group, part, first), seed) in enumerate(zip(shards, seeds, strict=True))
         ]
         if opts.scheduler is not None:
             from aion_cli.dask_build import run_on_cluster
@@ -352,6 +359,26 @@ class ParallelBuild:
             for r in sorted(results, key=lambda r: r.index)
         ]
         check_usable(report, _counts_of(report), self.build.previous_manifest)
+
+
+def _yaw_seeds(
+    logs: list[Path],
+    opts: BuildOptions,
+    shards: list[tuple[tuple[Path, ...], tuple[int, int] | None, bool]],
+    spans: list[tuple[Path, int, int]],
+) -> list[dict[str, float]]:
+    """Per shard, the detection topics whose orientations varied before it
+    (:mod:`aion_cli.shard_yaws`); its start is its part's, else its logs' first message."""
+    from aion_cli.shard_yaws import shard_seeds, varied_by
+
+    first = {path: start for path, start, _ in spans}
+    starts: list[int | None] = []
+    for group, part, _ in shards:
+        known = [first[p] for p in group if p in first]
+        starts.append(part[0] if part is not None else min(known, default=None))
+    if all(start is None for start in starts[1:]):
+        return [{} for _ in shards]
+    return shard_seeds(varied_by(logs, opts), starts)
 
 
 def _window_ns(config: ModelConfig) -> int:

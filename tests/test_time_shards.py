@@ -277,16 +277,69 @@ def _standing(path: Path, sessions: list[tuple[int, list[float]]]) -> Path:
     return path
 
 
-def test_orientations_judged_alike_at_a_part_start_are_learnt_in_sequence(tmp_path: Path) -> None:
+def test_orientations_judged_alike_at_a_part_start_join_once_the_plan_saw_them_vary(
+    tmp_path: Path,
+) -> None:
     # aion sets aside pose orientations that have never varied (a tracker leaving them at
     # identity). The morning's two people face apart, so one pass keeps every yaw after it;
     # the evening's one person, alone, faces one way: a part starting there, judged from
-    # scratch, would set the yaw aside. The join sees that and learns the part in sequence,
-    # continuing the rule's state: the map of one pass.
+    # scratch, would set the yaw aside. The plan reads the first messages, sees the
+    # orientations vary in the morning, and starts the evening's part as one pass reaches
+    # it: the parts join in parallel into the map of one pass.
+    log = _standing(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7])])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert len(two.workers) == 2
+    assert not [n for n in two.notes if "in sequence" in n]
+    assert _same_maps(seq, par) == []
+    assert one.headings == two.headings
+    assert one.headings.get("pose_yaw", 0) == 120 * 3  # every yaw kept, the evening's too
+
+
+def test_a_later_log_starts_with_the_orientations_of_the_logs_before(tmp_path: Path) -> None:
+    # The same across two logs a day apart (two shards of logs, not of time): the second
+    # log's one person would lose the yaw judged alone; the plan starts it as one pass does.
+    first = _standing(tmp_path / "a.mcap", [(0, [0.0, 1.5])])
+    second = _standing(tmp_path / "b.mcap", [(30 * HOUR_S, [0.7])])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    one = _build([first, second], seq, 1)
+    two = _build([first, second], par, 2)
+    assert len(two.workers) == 2
+    assert not [n for n in two.notes if "in sequence" in n]
+    assert _same_maps(seq, par) == []
+    assert one.headings.get("pose_yaw", 0) == two.headings.get("pose_yaw", 0) == 120 * 3
+
+
+def test_orientations_the_plan_did_not_read_are_learnt_in_sequence(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The same log with the plan's scan switched off: the evening's part is judged from
+    # scratch, the join sees that it set a yaw aside that one pass keeps, and learns the part
+    # in sequence, continuing the rule's state: the map of one pass.
+    import aion_cli.shard_yaws
+
+    monkeypatch.setattr(aion_cli.shard_yaws, "SCAN_MESSAGES", 0)
     log = _standing(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7])])
     one, two = _second_part_in_sequence(tmp_path, log, "orientations on /tracks")
     assert one.headings == two.headings
-    assert one.headings.get("pose_yaw", 0) == 120 * 3  # every yaw kept, the evening's too
+    assert one.headings.get("pose_yaw", 0) == 120 * 3
+
+
+def test_a_wrong_orientation_assumption_is_caught_at_the_join(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # One person facing one way all day: one pass sets every yaw aside. A plan that wrongly
+    # claims the orientations varied at the start would make the evening's part keep its
+    # yaws; the join checks the claim against the state the morning's part left, and learns
+    # the part in sequence instead: the map of one pass, no yaw kept.
+    import aion_cli.shard_yaws
+
+    monkeypatch.setattr(aion_cli.shard_yaws, "varied_by", lambda logs, opts: {"/tracks": T0})
+    log = _standing(tmp_path / "log.mcap", [(0, [0.7]), (10 * HOUR_S, [0.7])])
+    one, two = _second_part_in_sequence(tmp_path, log, "started as if the pose orientations")
+    assert one.headings == two.headings
+    assert one.headings.get("pose_yaw", 0) == 0
 
 
 def test_orientations_that_vary_in_every_part_join_in_parallel(tmp_path: Path) -> None:
