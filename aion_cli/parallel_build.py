@@ -191,9 +191,13 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     )
     if blocker is None:
         return folded.then(join_shard(folded.state, state), result.report)
+    what = _names(task.logs)
+    if task.part is not None:
+        what = f"the part of {what} from {part_fields(task.part)['from']}"
+    plural = len(task.logs) > 1 and task.part is None
     note = (
-        f"{_names(task.logs)} were learnt in sequence onto the map (not joined in parallel): "
-        f"{blocker}"
+        f"{what} {'were' if plural else 'was'} learnt in sequence onto the map (not joined in "
+        f"parallel): {blocker}"
     )
     rebuilt = rebuild_onto(folded.state, task, folded)
     return folded.then(rebuilt.state, rebuilt.report, note)
