@@ -286,7 +286,7 @@ class ParallelBuild:
         self.groups = [group for group, _, _ in shards]
         self.parts = [part for _, part, _ in shards]
         previous = self.build.previous.state if self.build.previous is not None else None
-        seeds = _yaw_seeds(list(logs), opts, shards, spans)
+        seeds, kd_trees = _plan_streams(list(logs), opts, shards, spans)
         tasks = [
             ShardTask(
                 i, group, previous is not None or i > 0, opts, self.config, part, first, seed
@@ -298,10 +298,15 @@ class ParallelBuild:
 
             folded, results = run_on_cluster(opts.scheduler, tasks, previous, self.build.progress)
         else:
-            # imported once here, so the forked workers start with them (scipy.spatial: every
-            # shard binds cells with a KD-tree, and the joins here bind again; one import
-            # before the fork instead of one per worker and one more here)
-            import scipy.spatial  # noqa: F401
+            # imported once here, so the forked workers start with them (scipy.sparse: every
+            # shard absorbs its days with it; scipy.spatial, where scene graphs or a robot
+            # trajectory need KD-trees: every shard binds or observes with them, and the
+            # joins here again; one import before the fork instead of one per worker and one
+            # more here, and none where nothing needs it)
+            import scipy.sparse
+
+            if kd_trees:
+                import scipy.spatial  # noqa: F401
 
             import aion_cli.detection_feed
             import aion_cli.formats.logs  # noqa: F401
@@ -365,14 +370,18 @@ class ParallelBuild:
         check_usable(report, _counts_of(report), self.build.previous_manifest)
 
 
-def _yaw_seeds(
+def _plan_streams(
     logs: list[Path],
     opts: BuildOptions,
     shards: list[tuple[tuple[Path, ...], tuple[int, int] | None, bool]],
     spans: list[tuple[Path, int, int]],
-) -> list[dict[str, float]]:
+) -> tuple[list[dict[str, float]], bool]:
     """Per shard, the detection topics whose orientations varied before it
-    (:mod:`aion_cli.shard_yaws`); its start is its part's, else its logs' first message."""
+    (:mod:`aion_cli.shard_yaws`; a shard starts at its part's start, else at its logs' first
+    message); and whether the build will look nodes or sensor ranges up in KD-trees (it has
+    scene graphs or a TF topic)."""
+    from aion_cli.build_options import build_topics
+    from aion_cli.formats.logs import open_logs
     from aion_cli.shard_yaws import shard_seeds, varied_by
 
     first = {path: start for path, start, _ in spans}
@@ -380,9 +389,12 @@ def _yaw_seeds(
     for group, part, _ in shards:
         known = [first[p] for p in group if p in first]
         starts.append(part[0] if part is not None else min(known, default=None))
-    if all(start is None for start in starts[1:]):
-        return [{} for _ in shards]
-    return shard_seeds(varied_by(logs, opts), starts)
+    with open_logs(logs, opts.log_format) as logset:
+        plan = build_topics(logset.topics, opts)
+        kd_trees = bool(plan.graph or plan.tf) or opts.graph_file is not None
+        if all(start is None for start in starts[1:]):
+            return [{} for _ in shards], kd_trees
+        return shard_seeds(varied_by(logset, plan, opts), starts), kd_trees
 
 
 def _window_ns(config: ModelConfig) -> int:

@@ -22,12 +22,13 @@ the map is the one pass's either way; the scan only decides how often that happe
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions
+    from aion_cli.formats.logs import LogSet
     from aion_cli.formats.raw import RawMessage
+    from aion_cli.topics import TopicPlan
 
 SCAN_MESSAGES = 5_000
 """Detection messages read from the start of the stream at most (decoding them takes
@@ -35,36 +36,32 @@ milliseconds; a topic whose orientations have not varied by then keeps the fold'
 _BATCH = 256
 
 
-def varied_by(logs: list[Path], opts: BuildOptions) -> dict[str, int]:
-    """Per detection topic, the log time of the message at which its orientations first
-    varied in one pass over ``logs``; a topic not seen to vary in the first
-    :data:`SCAN_MESSAGES` messages is left out."""
-    from aion_cli.build_options import build_topics
+def varied_by(logset: LogSet, plan: TopicPlan, opts: BuildOptions) -> dict[str, int]:
+    """Per detection topic of ``plan`` (the build's topics of the open ``logset``), the log
+    time of the message at which its orientations first varied in one pass; a topic not
+    seen to vary in the first :data:`SCAN_MESSAGES` messages is left out."""
     from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, log_adapters
-    from aion_cli.formats.logs import open_logs
 
     out: dict[str, int] = {}
-    with open_logs(logs, opts.log_format) as logset:
-        plan = build_topics(logset.topics, opts)
-        topics = plan.names("detections")
-        if not topics or SCAN_MESSAGES <= 0:
-            return out
-        adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
-        feeder = DetectionFeeder(
-            None, opts.map_frame, DetectionCounts(), adapters, factory, linker=None
-        )
-        batch: list[RawMessage] = []
-        read = 0
-        for msg in logset.messages(topics):
-            batch.append(msg)
-            read += 1
-            if len(batch) < _BATCH and read < SCAN_MESSAGES:
-                continue
-            out.update(feeder.judge_orientations(batch))
-            batch = []
-            if read >= SCAN_MESSAGES or out.keys() >= topics:
-                return out
+    topics = plan.names("detections")
+    if not topics or SCAN_MESSAGES <= 0:
+        return out
+    adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
+    feeder = DetectionFeeder(
+        None, opts.map_frame, DetectionCounts(), adapters, factory, linker=None
+    )
+    batch: list[RawMessage] = []
+    read = 0
+    for msg in logset.messages(topics):
+        batch.append(msg)
+        read += 1
+        if len(batch) < _BATCH and read < SCAN_MESSAGES:
+            continue
         out.update(feeder.judge_orientations(batch))
+        batch = []
+        if read >= SCAN_MESSAGES or out.keys() >= topics:
+            return out
+    out.update(feeder.judge_orientations(batch))
     return out
 
 

@@ -335,7 +335,8 @@ def test_a_wrong_orientation_assumption_is_caught_at_the_join(
     # the part in sequence instead: the map of one pass, no yaw kept.
     import aion_cli.shard_yaws
 
-    monkeypatch.setattr(aion_cli.shard_yaws, "varied_by", lambda logs, opts: {"/tracks": T0})
+    wrong = {"/tracks": T0}
+    monkeypatch.setattr(aion_cli.shard_yaws, "varied_by", lambda logset, plan, opts: wrong)
     log = _standing(tmp_path / "log.mcap", [(0, [0.7]), (10 * HOUR_S, [0.7])])
     one, two = _second_part_in_sequence(tmp_path, log, "started as if the pose orientations")
     assert one.headings == two.headings
