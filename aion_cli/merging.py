@@ -335,8 +335,16 @@ def _join_part(
     """A part map (``aion build --part``) joined onto the maps before it: its held days are
     scored against all of their history, as one build of every log would
     (:func:`aion_cli.engine.shards.join_shard`); a note when the join cannot be exact."""
-    from aion_cli.engine.shards import join_blocker, join_shard
+    from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
 
+    overlap = overlap_blocker(acc, part)
+    if overlap is not None:
+        raise InputError(
+            f"the part map {name} overlaps the maps before it in time: {overlap}; a part "
+            "joins only after them, nothing was written",
+            hint="build the overlapping logs into one part (aion build LOG1 LOG2 --part -o "
+            "PART.aion), or merge ordinary maps (windows both observed then count twice)",
+        )
     reason = join_blocker(acc, part)
     if reason is not None:
         notes.append(f"{name} was joined, but not exactly as one build would: {reason}")

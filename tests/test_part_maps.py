@@ -61,6 +61,27 @@ def test_merging_parts_equals_one_build_of_all_logs(tmp_path: Path) -> None:
     assert differences(_state(whole), _state(tmp_path / "ord.aion")) != []  # type: ignore[arg-type]
 
 
+def test_parts_that_overlap_in_time_are_refused(tmp_path: Path) -> None:
+    # two recordings of the same two hours (the second an hour later, so the two overlap):
+    # a part joins only after every window of the maps before it, so instead of an internal
+    # error deep in the join (as before) the merge says why and writes nothing
+    first = tmp_path / "a.mcap"
+    second = tmp_path / "b.mcap"
+    write_office_log(first, duration_s=2 * HOUR_S)
+    write_office_log(second, shift_s=HOUR_S, duration_s=2 * HOUR_S)
+    parts = []
+    for log in (first, second):
+        part = log.with_suffix(".aion")
+        assert run("build", log, "--part", "-o", part, "-q").exit_code == 0
+        parts.append(part)
+    merged = tmp_path / "merged.aion"
+    result = run("merge", *parts, "-o", merged)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "b.aion overlaps the maps before it in time")
+    assert "aion build LOG1 LOG2 --part" in result.stderr
+    assert not merged.exists()
+
+
 def test_a_part_map_saves_and_continues_its_held_days(tmp_path: Path) -> None:
     a, b = _logs(tmp_path, [0, 2])
     both = tmp_path / "both.aion"

@@ -311,6 +311,28 @@ def test_a_later_log_starts_with_the_orientations_of_the_logs_before(tmp_path: P
     assert one.headings.get("pose_yaw", 0) == two.headings.get("pose_yaw", 0) == 120 * 3
 
 
+def test_logs_that_start_in_a_continued_maps_open_window_are_learnt_in_sequence(
+    tmp_path: Path,
+) -> None:
+    # The map's last message and the new logs' first fall in one window: one pass continues
+    # that window with the new messages, which a join cannot (before: an internal error).
+    # The first group is learnt in sequence onto the map, the later one joins.
+    first = _standing(tmp_path / "a.mcap", [(0, [0.0, 1.5])])  # messages 5 .. 1195 s
+    second = _standing(tmp_path / "b.mcap", [(1192, [0.3, 1.0])])  # from 1197 s
+    third = _standing(tmp_path / "c.mcap", [(30 * HOUR_S, [0.7, 2.0])])
+    base = tmp_path / "base.aion"
+    _build([first], base, 1)
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build([second, third], seq, 1, continue_from=base)
+    two = _build([second, third], par, 2, continue_from=base)
+    assert len(two.workers) == 2
+    notes = [n for n in two.notes if "in sequence" in n]
+    assert len(notes) == 1
+    assert "b.mcap was learnt" in notes[0]
+    assert "a time window the map before them had already recorded" in notes[0]
+    assert _same_maps(seq, par) == []
+
+
 def test_orientations_the_plan_did_not_read_are_learnt_in_sequence(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

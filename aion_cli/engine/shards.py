@@ -69,6 +69,9 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
     held = shard.deferred
     if held is None:
         return "the shard was not built for a join"
+    overlap = overlap_blocker(acc, shard)
+    if overlap is not None:
+        return overlap
     if held.moved_after_hold:
         return (
             "ownership changed inside these logs after one of their days had closed (the scene "
@@ -124,6 +127,29 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
     return None
 
 
+def overlap_blocker(acc: MapState, shard: MapState) -> str | None:
+    """Why ``shard`` cannot follow ``acc`` in time (None: it can): a join needs the shard's
+    first recorded window after every window of ``acc``, whose open window one pass would
+    have continued with the shard's messages."""
+    if acc.open_window is None or shard.open_window is None or shard.deferred is None:
+        return None
+    first = _first_window(shard)
+    if first > acc.open_window:
+        return None
+    return (
+        "these logs start in a time window the map before them had already recorded (window "
+        f"starting {_iso(first, shard.window_ns)}; that map's last starts "
+        f"{_iso(acc.open_window, acc.window_ns)})"
+    )
+
+
+def _iso(window: int, window_ns: int) -> str:
+    from datetime import UTC, datetime
+
+    t_s = int(window_start_ns(window, window_ns)) / 1e9
+    return datetime.fromtimestamp(t_s, UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
 def join_shard(acc: MapState, shard: MapState) -> MapState:
     """``acc`` (an ordinary map) followed in time by ``shard`` (built with
     :func:`start_shard`): the map a single pass over both would have made. Both inputs are
@@ -137,6 +163,9 @@ def join_shard(acc: MapState, shard: MapState) -> MapState:
             "cannot join shards built with different model parameters",
             hint="every shard of a build uses the build's config",
         )
+    overlap = overlap_blocker(acc, shard)
+    if overlap is not None:
+        raise ValueError(f"a shard must follow the map it joins in time: {overlap}")
     first_day = _first_day(shard)
     if acc.open_window is not None and shard.open_window is not None:
         # every window of the earlier map before the shard's first, as that window's first
