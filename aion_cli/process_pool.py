@@ -2,11 +2,11 @@
 
 Workers are forked from the parent (``fork`` on Linux when it runs no other thread; else from a
 server process that has imported the build once, ``forkserver``), so starting one costs
-milliseconds, not a fresh interpreter's imports. Each reports its
-progress through a queue, and hands its result's large arrays over in a file
-(:mod:`aion_cli.result_files`: half the time of the pipe, no second copy); the parent shows one bar per worker and folds finished shards in
-time order while the others are still running (:func:`aion_cli.parallel_build.fold`). Ctrl-C
-or an error in any shard terminates every worker before the error reaches the caller.
+milliseconds, not a fresh interpreter's imports. Each reports its progress through a queue
+and hands its result's large arrays over in a file (:mod:`aion_cli.result_files`: half the
+time of the pipe, no second copy); the parent shows one bar per worker and folds finished
+shards in time order while the others are still running (:func:`aion_cli.parallel_build.fold`).
+Ctrl-C or an error in any shard terminates every worker before the error reaches the caller.
 """
 
 from __future__ import annotations
