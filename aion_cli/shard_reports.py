@@ -1,0 +1,108 @@
+"""The reports of a parallel build's shards as the one report a sequential build writes.
+
+Counts add (detections read and used, drops, headings, scene-graph messages and skips, TF
+failures, per topic); notes and warnings are kept once each; the observation source is the
+first shard's, with a warning when the shards' sources differ, and a fixed sensor's observed
+windows are summed into one line. The scene-graph counts note is written once, from the sums
+(:func:`aion_cli.graph_feed.graph_counts_note`), and the parent stops, as one pass does, only
+when no shard could decode any of its scene graphs.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from aion_cli.build_report import BuildReport
+from aion_cli.errors import MessageDecodeError
+from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
+from aion_cli.tf_feed import fixed_sensor_text
+
+
+def counts_of(report: BuildReport) -> Any:
+    """The detection counts of ``report`` (read, used), for the usable-detections check."""
+    from aion_cli.detection_feed import DetectionCounts
+
+    counts = DetectionCounts()
+    counts.read = report.detections_read
+    counts.used = report.detections_used
+    return counts
+
+
+def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
+    """Fill ``out`` (the parent's report) from the shards' reports, in time order."""
+    if not parts:
+        return
+    kinds = {p.observation.split(" ")[0] for p in parts}
+    if len(kinds) > 1:
+        out.warnings.append(
+            "the logs' observation sources differ (" + ", ".join(sorted(kinds)) + "): each "
+            "group of logs used its own"
+        )
+    out.observation = parts[0].observation
+    fixed = [p.fixed_windows for p in parts if p.fixed_windows is not None]
+    if fixed and len(kinds) == 1 and out.observation.startswith("fixed sensor over"):
+        count = sum(f[0] for f in fixed)
+        out.fixed_windows = (count, min(f[1] for f in fixed), max(f[2] for f in fixed), fixed[0][3])
+        out.observation = fixed_sensor_text(*out.fixed_windows)
+    for p in parts:
+        out.detections_read += p.detections_read
+        out.detections_used += p.detections_used
+        _add(out.dropped, p.dropped)
+        _add(out.headings, p.headings)
+        out.graph_messages += p.graph_messages
+        out.graph_skipped += p.graph_skipped
+        out.graph_decoded += p.graph_decoded
+        out.graphs_skipped_identical += p.graphs_skipped_identical
+        out.graphs_read_by_changes += p.graphs_read_by_changes
+        out.graphs_skipped_period += p.graphs_skipped_period
+        out.tf_undecodable += p.tf_undecodable
+        for topic, stats in p.by_topic.items():
+            mine = out.by_topic.setdefault(topic, {})
+            _add_nested(mine, stats)
+        for topic, stats in p.time_dropped.items():
+            _add(out.time_dropped.setdefault(topic, {}), stats)
+        for topic, info in p.detection_decoding.items():
+            have = out.detection_decoding.get(topic)
+            if have is None:
+                out.detection_decoding[topic] = dict(info)
+            else:
+                _add_nested(have, {k: v for k, v in info.items() if isinstance(v, int)})
+        for line in p.notes:
+            if line not in out.notes and not line.startswith(GRAPH_COUNTS_NOTE):
+                out.notes.append(line)
+        for line in p.warnings:
+            if line not in out.warnings:
+                out.warnings.append(line)
+        if p.graph_source != "none":
+            out.graph_source = p.graph_source
+        out.graph_layer = out.graph_layer or p.graph_layer
+        out.dsg_version = out.dsg_version or p.dsg_version
+        out.graph_period_ns = p.graph_period_ns or out.graph_period_ns
+    note = graph_counts_note(out)  # the shards' counts added up
+    if note is not None:
+        out.notes.append(note)
+    if out.graph_skipped and not out.graph_messages:  # as one pass stops (check_skips)
+        first = next((n for n in out.notes if DAMAGED_GRAPHS_NOTE in n), "")
+        raise MessageDecodeError(
+            f"none of the {out.graph_skipped:,} scene-graph messages could be decoded"
+            + (f": {first}" if first else ""),
+            hint="check --dsg-version and --nav-layer, or build without the graph topic",
+        )
+    out.detection_topics = sorted({t for p in parts for t in p.detection_topics})
+    out.graph_topics = sorted({t for p in parts for t in p.graph_topics})
+
+
+def _add(into: dict[str, int], more: dict[str, int]) -> None:
+    for key, value in more.items():
+        into[key] = into.get(key, 0) + int(value)
+
+
+def _add_nested(into: dict[str, Any], more: dict[str, Any]) -> None:
+    for key, value in more.items():
+        if isinstance(value, dict):
+            _add_nested(into.setdefault(key, {}), value)
+        elif isinstance(value, bool) or not isinstance(value, int | float):
+            into.setdefault(key, value)
+        else:
+            into[key] = into.get(key, 0) + value
+
