@@ -6,16 +6,16 @@ through rosbags (which refuses ROS 1-profile MCAP; the raw bytes are what the nu
 want). At open, the summary is checked against the data section; when it agrees, chunks are
 read through the chunk indexes in time order, chunks without requested channels skipped without
 decompressing them, overlapping chunks merged, a chunk that cannot be read skipped alone with a
-warning. Otherwise the file is read linearly (:mod:`formats.mcap_linear`, the other half of the
+warning. Otherwise the file is read linearly (:mod:`formats.mcap_linear`, another part of the
 class). :meth:`_McapSource.recorded_windows` answers from the chunk indexes and MessageIndex
 records where it can, and :meth:`_McapSource.index_times` gives the log times its stream will
-yield from them (:mod:`formats.mcap_times`), or from the opening scan of a file read linearly.
+yield from them, or from the opening scan of a file read linearly (:mod:`formats.mcap_indexed`,
+the third part).
 """
 
 from __future__ import annotations
 
 import heapq
-import io
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
@@ -25,24 +25,23 @@ import numpy as np
 from aion_cli.errors import LogFormatError
 
 # mcap_linear._decompress is looked up at call time (tests replace it)
-from aion_cli.formats import mcap_linear, recorded
+from aion_cli.formats import mcap_linear
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Topic, _unzstd
-from aion_cli.formats.mcap_linear import _MCAP_MAGIC, _MCAP_READ_ERRORS, _McapLinearRead, _why
+from aion_cli.formats.mcap_indexed import _McapIndexed
+from aion_cli.formats.mcap_linear import _MCAP_MAGIC, _MCAP_READ_ERRORS, _why
 from aion_cli.formats.raw import Encoding, RawMessage, normalize_msgtype
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-    from aion_cli.formats.recorded import Windows
-    from aion_cli.formats.stream_times import StreamTimes
 
 
 def _schema_encoding_ok(encoding: str) -> bool:
     return encoding in ("ros1msg", "ros2msg", "ros2idl", "")
 
 
-class _McapSource(_McapLinearRead):
+class _McapSource(_McapIndexed):
     """An MCAP file read with aion's own record reader (:mod:`formats.mcap_records`; both ROS
     profiles), holding no file open between reads.
 
@@ -353,111 +352,6 @@ class _McapSource(_McapLinearRead):
                 continue
             log_time, _, channel_id, data = heapq.heappop(heap)
             yield log_time, channel_id, data
-
-    # -- log times from the indexes --------------------------------------------------------
-
-    def index_times(self, topics: set[str]) -> StreamTimes | None:
-        """The log times :meth:`messages` would yield on ``topics``, in its order, without
-        reading a message (:mod:`formats.mcap_times`: from the MessageIndex records; a file
-        read linearly: from its opening scan); None where the indexes cannot say that
-        exactly, and for payloads compressed one by one (one may expand over the cap)."""
-        from aion_cli.formats import mcap_times, stream_times
-
-        wanted = {cid: t for cid, (t, _, _) in self._channels.items() if t in topics}
-        if not wanted:
-            return stream_times.empty()
-        if self._unzstd:
-            return None
-        if self._chunk_indexes is None:
-            times, channels = self._linear_times(set(wanted))
-            return stream_times.from_channels(times, channels, wanted, frozenset())
-        with self.path.open("rb") as f:
-            found = mcap_times.indexed_times(
-                f,
-                self._size,
-                self._chunk_indexes,
-                self._bad_chunks,
-                self._chunk_counts,
-                self._limits.max_message_bytes,
-                set(wanted),
-            )
-        if found is None:
-            return None
-        return stream_times.from_channels(*found[:2], wanted, found[2])
-
-    def vouch(self, chunks: frozenset[int]) -> None:
-        """The build uses log times taken from the index of ``chunks`` (offsets): reading one
-        of them that fails raises :class:`~aion_cli.errors.StaleIndexError`."""
-        self._vouched = self._vouched | chunks
-
-    def _stale(self, offset: int) -> None:
-        """A chunk could not be read: if the build took its times from its index, they are
-        not the stream's (the build starts over)."""
-        if offset in self._vouched:
-            from aion_cli.errors import StaleIndexError
-
-            raise StaleIndexError(
-                f"{self.path.name}: the chunk at byte {offset} cannot be read, but its log "
-                "times were taken from its index",
-                hint="aion reads the log again in full",
-            )
-
-    # -- recorded windows ------------------------------------------------------------------
-
-    def recorded_windows(self, window_ns: int) -> Windows:
-        """From the chunk indexes when the file has a summary: a chunk within one window or
-        two adjacent ones records the windows of its first and last message; only wider chunks
-        need their message times, from their MessageIndex records (a few bytes each; the chunk
-        is decompressed only when it has none or they are damaged). Chunks that cannot be read
-        record nothing. Without a summary, the log times the opening scan kept."""
-        if self._chunk_indexes is None:
-            scanned = self._scanned_times
-            return recorded.windows_of(scanned if scanned is not None else [], window_ns)
-        indexes = self._chunk_indexes
-        n = len(indexes)
-        # uint64 in the file: as int64, like every time in aion
-        starts = np.fromiter((c.message_start_time for c in indexes), np.uint64, n).astype(np.int64)
-        ends = np.fromiter((c.message_end_time for c in indexes), np.uint64, n).astype(np.int64)
-        indexed = np.fromiter((bool(c.message_index_offsets) for c in indexes), np.bool_, n)
-        bad = np.fromiter((c.chunk_start_offset in self._bad_chunks for c in indexes), np.bool_, n)
-        empty = (starts > ends) | bad  # some writers mark a chunk without messages so
-        # 0..0 without message indexes: a chunk without messages, or one message at t = 0
-        unsure = ~indexed & (starts == 0) & (ends == 0)
-        read = (recorded.wide_spans(starts, ends, window_ns) | unsure) & ~empty
-        parts = []
-        with self.path.open("rb") as stream:  # own handle, for this call only
-            for k in np.flatnonzero(read):
-                times = self._chunk_times(stream, indexes[k])
-                if times is not None:  # None: an unreadable chunk, skipped with a warning
-                    parts.append(recorded.windows_of(times, window_ns))
-        ends_only = ~read & ~empty
-        parts.append(recorded.end_windows(starts[ends_only], ends[ends_only], window_ns))
-        return recorded.union(parts)
-
-    def _chunk_times(self, stream: IO[bytes], index: Any) -> npt.NDArray[np.int64] | None:
-        """Log times of one chunk's messages: from its MessageIndex records, else from the
-        decompressed chunk; ``None`` (and a warning) when the chunk itself is unreadable."""
-        from aion_cli.formats import mcap_records as mr
-
-        if index.message_index_offsets and index.message_index_length > 0:
-            base = index.chunk_start_offset + index.chunk_length
-            try:
-                stream.seek(base, io.SEEK_SET)
-                block = stream.read(min(index.message_index_length, self._size - base))
-                offsets = [off - base for off in index.message_index_offsets.values()]
-                return recorded.message_index_times(block, offsets)
-            except self._errors:
-                pass  # a damaged index does not mean a damaged chunk: read the chunk
-        offset = index.chunk_start_offset
-        try:
-            head = mr.read_chunk_head(stream, offset, self._size, self._lengths.get(offset))
-            buf = mr.read_chunk(stream, head, self._limits, mcap_linear._decompress)
-            return recorded.record_log_times(buf)
-        except ValueError as exc:  # ChunkError, the head's and record_log_times' ValueError
-            self._bad_chunks[offset] = _why(exc)
-            self._chunk_lost(offset)
-            self._stale(offset)
-            return None
 
     def close(self) -> None:
         """Nothing to release: the file is open only while a read runs."""
