@@ -94,6 +94,8 @@ class Folded:
     yaws: dict[str, float] = field(default_factory=dict)
     # the scene-graph version and layer pinned so far (aion_cli.graph_feed.GraphFeed.pins)
     pins: tuple[str | None, str | None] = (None, None)
+    # shards learnt again in sequence because their scene graph bound cells otherwise
+    graph_fallbacks: int = 0
 
     def then(self, state: MapState | None, report: BuildReport, note: str | None = None) -> Folded:
         """The fold after one more shard (its state and report; ``note``: how it went)."""
@@ -103,7 +105,9 @@ class Folded:
             self.pins[1] if self.pins[1] is not None else report.graph_pins[1],
         )
         notes = [*self.notes, note] if note else self.notes
-        return Folded(state, notes, [*self.reports, report], self.seconds, yaws, pins)
+        return Folded(
+            state, notes, [*self.reports, report], self.seconds, yaws, pins, self.graph_fallbacks
+        )
 
 
 def worker_count(requested: int) -> int:
@@ -172,7 +176,7 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     """Join one shard onto the map so far (in time order), or rebuild its logs onto it in
     sequence where a join would not be exact."""
     from aion_cli.detection_feed import yaw_rule_blocker
-    from aion_cli.engine.shards import join_blocker, join_shard
+    from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
     from aion_cli.graph_feed import pins_blocker
 
     state = result.state
@@ -183,13 +187,20 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
             raise ValueError("the first shard of a new map is built as an ordinary map")
         return folded.then(state, result.report)
     _check_order(folded.state, result, task)
+    ownership = join_blocker(folded.state, state)
     blocker = (
-        join_blocker(folded.state, state)
+        ownership
         or yaw_rule_blocker(folded.yaws, result.report.yaw_rule, task.yaw_seen)
         or pins_blocker(folded.pins, result.report.graph_pins)
     )
     if blocker is None:
         return folded.then(join_shard(folded.state, state), result.report)
+    # its own scene graph bound cells, or moved places, otherwise than one pass would have
+    graph_changed = (
+        ownership is not None
+        and state.graph is not None
+        and overlap_blocker(folded.state, state) is None
+    )
     what = _names(task.logs)
     if task.part is not None:
         what = f"the part of {what} from {part_fields(task.part)['from']}"
@@ -199,7 +210,9 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
         f"parallel): {blocker}"
     )
     rebuilt = rebuild_onto(folded.state, task, folded)
-    return folded.then(rebuilt.state, rebuilt.report, note)
+    out = folded.then(rebuilt.state, rebuilt.report, note)
+    out.graph_fallbacks += graph_changed
+    return out
 
 
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
@@ -353,6 +366,13 @@ class ParallelBuild:
             f"built {shards} shards on {where} (slowest {slowest:.1f} s, peak memory per "
             f"worker {peak:.0f} MB; joined in {folded.seconds:.1f} s)"
         )
+        if folded.graph_fallbacks:
+            report.notes.append(
+                f"{folded.graph_fallbacks} of {shards} shards were built twice (in a worker, "
+                "then in sequence) because the scene graph changed between them: a Hydra graph "
+                "that grows or is corrected binds cells as it goes, which a shard built apart "
+                "cannot know; for such logs --workers 1 is faster (docs/SCALING.md)"
+            )
         report.fold_seconds = folded.seconds
         report.workers = [
             {

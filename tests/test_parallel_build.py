@@ -158,6 +158,36 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.slow
+def test_shards_whose_scene_graph_changed_are_named_with_a_hint(tmp_path: Path) -> None:
+    # Two simulated Hydra sessions of the office (their graphs grow and are corrected at loop
+    # closures): the second session's shard binds cells to the places of its own time, where
+    # one pass kept the first session's bindings. The fold learns it again in sequence (the
+    # map of one pass) and the report says so once, with the way round it.
+    logs = []
+    for k, start in enumerate(("2026-01-05", "2026-01-07")):
+        log = tmp_path / f"session{k}.mcap"
+        subprocess.run(
+            [sys.executable, "-m", "aion_cli", "simulate", "-o", str(log), "--days", "0.5",
+             "--seed", str(k + 1), "--start", start, "-q"],
+            check=True,
+        )
+        logs.append(log)
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build(logs, seq, 1)
+    report = _build(logs, par, 2)
+    assert _same_maps(seq, par) == []
+    notes = report.notes  # type: ignore[attr-defined]
+    assert [n for n in notes if "session1.mcap was learnt in sequence" in n]
+    hints = [n for n in notes if "built twice" in n]
+    assert hints == [
+        "1 of 2 shards were built twice (in a worker, then in sequence) because the scene graph "
+        "changed between them: a Hydra graph that grows or is corrected binds cells as it goes, "
+        "which a shard built apart cannot know; for such logs --workers 1 is faster "
+        "(docs/SCALING.md)"
+    ]
+
+
 @pytest.mark.skipif(not hasattr(signal, "SIGTERM") or sys.platform != "linux", reason="fork")
 def test_a_stopped_worker_ends_quietly(capfd: pytest.CaptureFixture[str]) -> None:
     # The CLI turns SIGTERM into KeyboardInterrupt (so its map file is cleaned up), and a
