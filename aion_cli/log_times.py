@@ -32,13 +32,13 @@ from array import array
 from collections import Counter
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
-from datetime import UTC, datetime, timedelta
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS, TIME_RANGE_TEXT
 from aion_cli.engine.types import I64, BoolA
+from aion_cli.engine.windows import iso
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
@@ -67,15 +67,6 @@ def in_range_mask(t_ns: npt.NDArray[Any]) -> BoolA:
     if t_ns.dtype == np.uint64:
         return t_ns <= np.uint64(MAX_TIME_NS)  # every uint64 lies above MIN_TIME_NS (< 0)
     return (t_ns >= MIN_TIME_NS) & (t_ns <= MAX_TIME_NS)
-
-
-def iso(t_ns: int) -> str:
-    """``2038-01-01 00:00:00 UTC`` for a UNIX-ns time (any Python int)."""
-    try:
-        when = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=t_ns // 1000)
-    except OverflowError:
-        return f"{t_ns} ns"
-    return when.strftime("%Y-%m-%d %H:%M:%S UTC")
 
 
 def stray_mask(times: I64) -> BoolA:

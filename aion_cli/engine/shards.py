@@ -45,7 +45,7 @@ from aion_cli.engine.nodes import nearest_nodes
 from aion_cli.engine.ownership import BindPlan, apply_binds, plan_binds, stable_nodes
 from aion_cli.engine.temporal.pending import DeferredDays, HeldDay, PendingDay
 from aion_cli.engine.types import F64, I64, U64
-from aion_cli.engine.windows import window_start_ns
+from aion_cli.engine.windows import iso, window_start_ns
 from aion_cli.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -138,16 +138,9 @@ def overlap_blocker(acc: MapState, shard: MapState) -> str | None:
         return None
     return (
         "these logs start in a time window the map before them had already recorded (window "
-        f"starting {_iso(first, shard.window_ns)}; that map's last starts "
-        f"{_iso(acc.open_window, acc.window_ns)})"
+        f"starting {iso(int(window_start_ns(first, shard.window_ns)))}; that map's last starts "
+        f"{iso(int(window_start_ns(acc.open_window, acc.window_ns)))})"
     )
-
-
-def _iso(window: int, window_ns: int) -> str:
-    from datetime import UTC, datetime
-
-    t_s = int(window_start_ns(window, window_ns)) / 1e9
-    return datetime.fromtimestamp(t_s, UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
 
 
 def join_shard(acc: MapState, shard: MapState) -> MapState:
