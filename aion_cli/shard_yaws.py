@@ -27,7 +27,6 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions
     from aion_cli.formats.logs import LogSet
-    from aion_cli.formats.raw import RawMessage
     from aion_cli.topics import TopicPlan
 
 SCAN_MESSAGES = 5_000
@@ -40,7 +39,14 @@ def varied_by(logset: LogSet, plan: TopicPlan, opts: BuildOptions) -> dict[str, 
     """Per detection topic of ``plan`` (the build's topics of the open ``logset``), the log
     time of the message at which its orientations first varied in one pass; a topic not
     seen to vary in the first :data:`SCAN_MESSAGES` messages is left out."""
-    from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, log_adapters
+    from itertools import islice
+
+    from aion_cli.detection_feed import (
+        DetectionCounts,
+        DetectionFeeder,
+        chunks,
+        log_adapters,
+    )
 
     out: dict[str, int] = {}
     topics = plan.names("detections")
@@ -50,18 +56,11 @@ def varied_by(logset: LogSet, plan: TopicPlan, opts: BuildOptions) -> dict[str, 
     feeder = DetectionFeeder(
         None, opts.map_frame, DetectionCounts(), adapters, factory, linker=None
     )
-    batch: list[RawMessage] = []
-    read = 0
-    for msg in logset.messages(topics):
-        batch.append(msg)
-        read += 1
-        if len(batch) < _BATCH and read < SCAN_MESSAGES:
-            continue
+    first = islice(logset.messages(topics), SCAN_MESSAGES)
+    for batch, _ in chunks(first, set(), _BATCH):
         out.update(feeder.judge_orientations(batch))
-        batch = []
-        if read >= SCAN_MESSAGES or out.keys() >= topics:
-            return out
-    out.update(feeder.judge_orientations(batch))
+        if out.keys() >= topics:
+            break
     return out
 
 
