@@ -107,9 +107,7 @@ class StreamStep:
             yaw_seen=self.at.yaw_seen if link else None,
         )
 
-    def _stream(
-        self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper, fixed: bool
-    ) -> None:
+    def _stream(self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper) -> None:
         feeders = TopicFeeders(
             lambda counts: self._feeder(tf, counts), sorted(plan.names("detections"))
         )

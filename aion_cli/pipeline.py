@@ -244,7 +244,7 @@ class _Build(StreamStep):
             fixed_graph = self._fixed_graph(logset, plan, tf, config)
             if fixed_graph is not None:
                 mapper.add_graph(fixed_graph)
-            self._stream(logset, plan, tf, mapper, fixed_graph is not None)
+            self._stream(logset, plan, tf, mapper)
             end = self._times.end_ns
             if end is not None:
                 # the last message aion uses, never a container's summary or another topic
