@@ -26,11 +26,9 @@ from typing import Any
 
 MIN_FILE_BYTES = 1 << 20
 """Results whose arrays hold less than this go through the queue (a file costs more)."""
-_SHM = Path("/dev/shm")
-
-
 SHM_ROOM = 256 << 20
 """``/dev/shm`` is used when it has this much room (a container's is often 64 MB)."""
+_SHM = Path("/dev/shm")
 
 
 @contextmanager
