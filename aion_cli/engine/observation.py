@@ -142,8 +142,9 @@ class ObservationSource:
         if i1 <= i0 or n == 0:
             return np.zeros(n, dtype=bool)
         poses = np.unique(self.pose_xy[i0:i1], axis=0)
-        from scipy.spatial import cKDTree  # slow to import: only here
-        dist, _ = cKDTree(poses).query(entry_xy, k=1, distance_upper_bound=sensor_range)
+        from aion_cli.engine.nodes import horizontal_tree
+
+        dist, _ = horizontal_tree(poses).query(entry_xy, k=1, distance_upper_bound=sensor_range)
         mask: BoolA = dist <= sensor_range
         return mask
 

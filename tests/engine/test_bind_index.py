@@ -205,3 +205,40 @@ def test_bind_index_travels_empty_and_answers_alike() -> None:
     assert not copy._known.any()
     np.testing.assert_array_equal(copy.nearest(rows, keys, cells, nodes, 1.5, 0.5), before)
     np.testing.assert_array_equal(before, nearest_nodes(cells, nodes, 1.5, 0.5))
+
+
+def _brute_force_nearest(points: np.ndarray, nodes: np.ndarray, radius: float,
+                         vertical: float) -> np.ndarray:
+    """The nearest node within ``radius`` horizontally and ``vertical`` in height, the lowest
+    index among equally near ones; -1 where none (a distance matrix, no tree)."""
+    d = np.hypot(*(points[:, None, :2] - nodes[None, :, :2]).transpose(2, 0, 1))
+    ok = (d <= radius) & (np.abs(points[:, None, 2] - nodes[None, :, 2]) <= vertical)
+    d = np.where(ok, d, np.inf)
+    best = np.argmin(d, axis=1)  # argmin takes the first (lowest index) of equal minima
+    return np.where(np.isfinite(d.min(axis=1)), best, -1)
+
+
+@pytest.mark.parametrize("order", ["grid", "reversed", "shuffled"])
+def test_equally_near_nodes_bind_by_index_whatever_the_tree(order: str) -> None:
+    """Cell centres of a 0.5 m hash halfway between the nodes of a 1 m grid are equally near
+    to two or four nodes; the answer is the lowest node index, as a brute-force search over
+    every node gives, in whatever order the nodes come (and so whatever tree is built), both
+    from ``nearest_nodes`` and from the memo."""
+    xs = np.arange(0.0, 6.0)
+    nodes = np.array([(x, y, 0.0) for x in xs for y in xs])
+    if order == "reversed":
+        nodes = nodes[::-1].copy()
+    elif order == "shuffled":
+        nodes = nodes[np.random.default_rng(3).permutation(len(nodes))]
+    cells = np.array([(x, y, 0.1) for x in np.arange(0.25, 5.0, 0.25)
+                      for y in np.arange(0.25, 5.0, 0.25)])
+    expected = _brute_force_nearest(cells, nodes, 1.0, 0.5)
+    ties = np.hypot(cells[:, 0] % 1 - 0.5, cells[:, 1] % 1 - 0.5) < 1e-12
+    assert ties.sum() >= 16  # four-way ties are asked
+    assert (expected[ties] >= 0).all()
+    np.testing.assert_array_equal(nearest_nodes(cells, nodes, 1.0, 0.5), expected)
+    rows = np.arange(len(cells), dtype=np.int64)
+    keys = np.arange(len(cells), dtype=np.int64)
+    np.testing.assert_array_equal(
+        BindIndex().nearest(rows, keys, cells, nodes, 1.0, 0.5), expected
+    )
