@@ -10,7 +10,7 @@ from typing import Any
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.errors import ConfigError
-from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS
+from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS
 
 __all__ = ["MAP_SUFFIX", "BuildOptions", "build_topics", "load_mappings", "resolve_config"]
 
@@ -38,7 +38,7 @@ class BuildOptions:
     timezone: str | None = None
     detections_mapping: Path | None = None
     #: ``--graph-period``: log time between the scene graphs a build uses (0: every one);
-    #: see :func:`aion_cli.graph_feed.graph_schedule`
+    #: see :func:`aion_cli.graph_schedule.graph_schedule`
     graph_period_ns: int = DEFAULT_GRAPH_PERIOD_NS
     #: internal switch (tests): a payload identical to the last decoded one reuses its graph
     #: instead of being decoded again (same map either way)

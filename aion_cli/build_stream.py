@@ -117,8 +117,11 @@ class StreamStep:
         total = logset.total(topics) if self._part_total is None else self._part_total
         self.progress.start("building map", total)
         use_agents = self.report.observation.startswith("scene-graph")
+        unread = self.graphs.unread_hint(graph_topics)  # graphs thin() drops
         messages = self.graphs.thin(
-            self._times.filter(logset.messages(topics, self.time_part)), graph_topics, self.progress
+            self._times.filter(logset.messages(topics, self.time_part, unread)),
+            graph_topics,
+            self.progress,
         )
         stream = chunks(messages, graph_topics, self.opts.batch_size)
         # duck-typed: decoded_chunks only calls decode()

@@ -64,7 +64,8 @@ from aion_cli.detection_feed import DetectionCounts, log_adapters
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.errors import InputError, StaleIndexError
-from aion_cli.graph_feed import GraphFeed, GraphTimes, graph_source
+from aion_cli.graph_feed import GraphFeed, graph_source
+from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TopicTimes
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map

@@ -22,7 +22,7 @@ import numpy as np
 from aion_cli.engine.mapper import TIME_RANGE_TEXT
 from aion_cli.engine.types import Trajectory
 from aion_cli.errors import InputError, MessageDecodeError, TransformError
-from aion_cli.graph_feed import GraphTimes
+from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TimeCheck, TopicTimes, iso, stray_mask
 
 if TYPE_CHECKING:
@@ -77,7 +77,7 @@ def read_tf_and_times(
     the other topics' times come as arrays from the index, without a message; otherwise
     every message of those topics is read with TF. With ``graph_topics`` the times are a
     :class:`GraphTimes`, which also keeps those topics' log times in read order (for
-    :func:`aion_cli.graph_feed.graph_schedule`)."""
+    :func:`aion_cli.graph_schedule.graph_schedule`)."""
     import logging
 
     from aion_cli.formats.tf import TfBuffer

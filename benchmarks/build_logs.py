@@ -143,7 +143,8 @@ def steady_times(seconds: float) -> Any:
 
 def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float],
               graph: Callable[[int], bytes] | None = None, graph_period_s: float = 600.0,
-              seed: int = 1, empty: Any = None) -> dict[str, int]:
+              seed: int = 1, empty: Any = None, chunk_size: int | None = None
+              ) -> dict[str, int]:
     """Write (once; cached by ``path``) a TrackedPersons log, messages at ``times``, each with
     ``1 + Poisson(per_message - 1)`` people on the corridors of ``area`` (extent, spacing) in
     the map frame, velocity from heading and speed, and (with ``graph``) a DsgUpdate of
@@ -154,7 +155,7 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
     and written with ``formats.writers.LogWriter`` (MCAP, zstd chunks), which writes to a
     staging name and renames on success, so an interrupted run leaves no truncated cache.
     ``empty``: a mask over ``times`` of messages that hold nobody (a tracker publishing at a
-    fixed rate)."""
+    fixed rate). ``chunk_size``: bytes per MCAP chunk (the writer's 1 MiB when None)."""
     from aion_cli.engine.types import DetectionBatch
     from aion_cli.formats.tracks_log import _tracked_person_records, _tracked_persons_bytes
     from aion_cli.formats.writers import LogWriter, stamp
@@ -173,7 +174,7 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
         graph_times = list(range(int(times[0]), int(times[-1]) + 1, period))
     burst = np.cumsum(np.r_[0, np.diff(times) > int(2e9 / RATE_HZ)])  # one id per burst
     block, g, detections = 20_000, 0, 0
-    with LogWriter(path, "mcap") as writer:
+    with LogWriter(path, "mcap", chunk_size=chunk_size) as writer:
         for a in range(0, len(times), block):
             c = counts[a : a + block]
             total = int(c.sum())

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.formats.raw import Encoding, RawMessage
+from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint
 
 if TYPE_CHECKING:
     from aion_cli.formats.recorded import Windows
@@ -63,11 +63,16 @@ class _Source:
     warnings: list[str]
 
     def messages(
-        self, topics: set[str] | None, between: tuple[int, int] | None = None
+        self,
+        topics: set[str] | None,
+        between: tuple[int, int] | None = None,
+        unread: UnreadHint | None = None,
     ) -> Iterator[RawMessage]:
         """This source's messages on ``topics`` (all when None), in log-time order.
         ``between``: only messages with log times in ``[lo, hi)`` are wanted, a hint a reader
-        may use to skip whole chunks (callers still filter: messages outside may come)."""
+        may use to skip whole chunks (callers still filter: messages outside may come).
+        ``unread``: messages the caller drops unread, which a reader may yield with
+        :data:`formats.raw.UNREAD` as their data (a hint too: they may come read)."""
         raise NotImplementedError
 
     def recorded_windows(self, window_ns: int) -> Windows:
@@ -120,9 +125,12 @@ class _Unpacked(_Source):
         self._temps.append(_Closing(source))
 
     def messages(
-        self, topics: set[str] | None, between: tuple[int, int] | None = None
+        self,
+        topics: set[str] | None,
+        between: tuple[int, int] | None = None,
+        unread: UnreadHint | None = None,
     ) -> Iterator[RawMessage]:
-        return self.inner.messages(topics, between)
+        return self.inner.messages(topics, between, unread)
 
     def recorded_windows(self, window_ns: int) -> Windows:
         return self.inner.recorded_windows(window_ns)

@@ -51,7 +51,7 @@ from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_format import FORMATS, guess_format
 from aion_cli.formats.log_source import LogFile, _Source, _Unpacked
 from aion_cli.formats.mcap_source import _open_mcap
-from aion_cli.formats.raw import RawMessage, TopicInfo
+from aion_cli.formats.raw import RawMessage, TopicInfo, UnreadHint
 from aion_cli.formats.rosbag2_reindex import _reindexed_sources
 from aion_cli.formats.rosbags_source import _metadata_warning, _RosbagsSource
 from aion_cli.formats.typestores import _store_with_definition
@@ -132,7 +132,10 @@ class LogSet:
         return sum(t.count for t in self.topics if selected is None or t.topic in selected)
 
     def messages(
-        self, topics: Iterable[str] | None = None, between: tuple[int, int] | None = None
+        self,
+        topics: Iterable[str] | None = None,
+        between: tuple[int, int] | None = None,
+        unread: UnreadHint | None = None,
     ) -> Iterator[RawMessage]:
         """Messages on ``topics`` (all when None; names not in the log are ignored) of every
         file, merged in log-time order (ties keep file order).
@@ -141,13 +144,15 @@ class LogSet:
         gives, and closed when its messages are used up (an MCAP file with a summary is even
         opened per chunk), so a set of thousands of consecutive files holds few file handles
         at a time. ``between``: only log times in ``[lo, hi)`` are wanted (a hint: readers
-        may skip chunks outside it; the caller filters)."""
+        may skip chunks outside it; the caller filters). ``unread``: messages the caller drops
+        without looking at them, which may come with :data:`formats.raw.UNREAD` as their data
+        (:class:`formats.raw.UnreadHint`)."""
         if self._closed:
             raise ValueError("messages() on a closed LogSet")
         selected = None if topics is None else set(topics)
         if len(self._sources) == 1:
-            return self._sources[0].messages(selected, between)
-        return _merge_by_start(self._sources, selected, between)
+            return self._sources[0].messages(selected, between, unread)
+        return _merge_by_start(self._sources, selected, between, unread)
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """Sorted unique window indices ``floor(t / window_ns)`` holding at least one message
@@ -253,7 +258,10 @@ class LogSet:
 
 
 def _merge_by_start(
-    sources: list[_Source], topics: set[str] | None, between: tuple[int, int] | None = None
+    sources: list[_Source],
+    topics: set[str] | None,
+    between: tuple[int, int] | None = None,
+    unread: UnreadHint | None = None,
 ) -> Iterator[RawMessage]:
     """The messages of ``sources`` merged by log time, ties in source order; a source's
     stream is started only once the merge reaches its first message time (or nothing earlier
@@ -268,7 +276,7 @@ def _merge_by_start(
         ):
             k = order[nxt]
             nxt += 1
-            stream = sources[k].messages(topics, between)
+            stream = sources[k].messages(topics, between, unread)
             first = next(stream, None)
             if first is not None:
                 heapq.heappush(heap, (first.log_time_ns, k, seq, first, stream))

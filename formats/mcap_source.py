@@ -30,11 +30,13 @@ from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Topic, _unzstd
 from aion_cli.formats.mcap_indexed import _McapIndexed
 from aion_cli.formats.mcap_linear import _MCAP_MAGIC, _MCAP_READ_ERRORS, _why
-from aion_cli.formats.raw import Encoding, RawMessage, normalize_msgtype
+from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint, normalize_msgtype
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
+_Skip = tuple[set[int], "npt.NDArray[np.int64]"]
+"""Messages a chunk read may leave unread: their channels and sorted log times."""
 
 
 def _schema_encoding_ok(encoding: str) -> bool:
@@ -217,10 +219,14 @@ class _McapSource(_McapIndexed):
     # -- reading ---------------------------------------------------------------------------
 
     def messages(
-        self, topics: set[str] | None, between: tuple[int, int] | None = None
+        self,
+        topics: set[str] | None,
+        between: tuple[int, int] | None = None,
+        unread: UnreadHint | None = None,
     ) -> Iterator[RawMessage]:
         """See :meth:`_Source.messages`; with ``between``, indexed chunks whose messages all
-        lie outside it are not read."""
+        lie outside it are not read; with ``unread``, a chunk read by index is decompressed
+        only up to a tail of such messages (:mod:`formats.mcap_partial`)."""
         wanted = {
             cid
             for cid, (topic, _, _) in self._channels.items()
@@ -228,7 +234,11 @@ class _McapSource(_McapIndexed):
         }
         if not wanted:
             return iter(())
-        return self._raw_messages(wanted, between)
+        skip: _Skip = (set(), np.zeros(0, np.int64))
+        if unread is not None and unread.times.size:
+            channels = {cid for cid in wanted if self._channels[cid][0] in unread.topics}
+            skip = (channels, unread.times)
+        return self._raw_messages(wanted, between, skip)
 
     def skips_by_time(self) -> bool:
         """Chunk-indexed files read by chunk (payloads not compressed one by one) skip the
@@ -236,7 +246,10 @@ class _McapSource(_McapIndexed):
         return self._by_chunk and not self._unzstd
 
     def _raw_messages(
-        self, wanted: set[int], between: tuple[int, int] | None = None
+        self,
+        wanted: set[int],
+        between: tuple[int, int] | None = None,
+        skip: _Skip | None = None,
     ) -> Iterator[RawMessage]:
         channels = self._channels
         if self._unzstd:
@@ -244,7 +257,7 @@ class _McapSource(_McapIndexed):
             return
         if self._by_chunk:
             # the hot path: a chunk's messages at a time, no generator step per message
-            for selected in self._chunk_batches(wanted, between):
+            for selected in self._chunk_batches(wanted, between, skip):
                 for log_time, channel_id, data in selected:
                     topic, msgtype, encoding = channels[channel_id]
                     yield RawMessage(topic, msgtype, log_time, data, encoding)
@@ -297,12 +310,16 @@ class _McapSource(_McapIndexed):
         return not (index.message_index_offsets and wanted.isdisjoint(index.message_index_offsets))
 
     def _chunk_batches(
-        self, wanted: set[int], between: tuple[int, int] | None = None
+        self,
+        wanted: set[int],
+        between: tuple[int, int] | None = None,
+        skip: _Skip | None = None,
     ) -> Iterator[list[tuple[int, int, bytes]]]:
         """Time order by chunk: chunk indexes sorted by start time do not overlap, so each
         chunk's messages sorted by log time (one list per chunk) continue the stream. With
         ``between`` (``[lo, hi)``), chunks whose index puts every message outside are
-        skipped."""
+        skipped; with ``skip`` (channels, sorted log times), a chunk's tail of such messages
+        is left unread (:func:`formats.mcap_partial.read_head`)."""
         assert self._chunk_indexes is not None
         for index in self._chunk_indexes:
             if between is not None and (
@@ -310,18 +327,29 @@ class _McapSource(_McapIndexed):
             ):
                 continue
             if self._selected(index, wanted):
-                selected = self._read_indexed(index.chunk_start_offset, wanted)
+                selected = self._read_indexed(index.chunk_start_offset, wanted, index, skip)
                 if selected:
                     yield selected
 
-    def _read_indexed(self, offset: int, wanted: set[int]) -> list[tuple[int, int, bytes]]:
+    def _read_indexed(
+        self, offset: int, wanted: set[int], index: Any = None, skip: _Skip | None = None
+    ) -> list[tuple[int, int, bytes]]:
         """The wanted messages of the indexed chunk at ``offset``, sorted by log time; [] (and
-        a warning) when it cannot be read. Opens the file for this chunk only."""
+        a warning) when it cannot be read. Opens the file for this chunk only. With ``index``
+        (its ChunkIndex) and ``skip``, only its head where a tail of messages on channels not
+        wanted or named by ``skip`` can be left unread (:func:`formats.mcap_partial.read_head`)."""
         from aion_cli.formats import mcap_records as mr
 
         try:
             with self.path.open("rb") as f:
                 head = mr.read_chunk_head(f, offset, self._size, self._lengths.get(offset))
+                if skip is not None and _may_leave_a_tail(index, wanted, skip[0]):
+                    from aion_cli.formats.mcap_partial import read_head
+
+                    part = read_head(f, index, head, wanted, *skip, self._limits)
+                    if part is not None:
+                        self._oversized(part[1])
+                        return part[0]
                 buf = mr.read_chunk(f, head, self._limits, mcap_linear._decompress)
             selected, big, _ = mr.chunk_messages(buf, wanted, self._limits.max_message_bytes)
         except ValueError as exc:  # ChunkError and the head's ValueError
@@ -368,6 +396,14 @@ def _refused(index: Any, limits: ReadLimits) -> str | None:
     if size > limits.max_chunk_bytes:
         return str(caps.chunk_over_limit(size, limits.max_chunk_bytes))
     return None
+
+
+def _may_leave_a_tail(index: Any, wanted: set[int], unread_channels: set[int]) -> bool:
+    """Whether the chunk of ``index`` holds messages a read may leave unread: on channels not
+    wanted, or on those of an unread hint (its MessageIndex records list its channels)."""
+    if index is None or not index.message_index_offsets:
+        return False
+    return any(c not in wanted or c in unread_channels for c in index.message_index_offsets)
 
 
 def _chunks_overlap(indexes: list[Any]) -> bool:

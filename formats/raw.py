@@ -9,6 +9,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
+import numpy as np
+import numpy.typing as npt
+
 from aion_cli.errors import InputError, LogFormatError
 
 Encoding = Literal["cdr", "ros1"]
@@ -49,6 +52,36 @@ class RawMessage:
     log_time_ns: int
     data: bytes
     encoding: Encoding
+
+
+class Unread(bytes):
+    """The payload of a message a reader yielded without reading it (:data:`UNREAD`)."""
+
+
+UNREAD = Unread()
+"""``RawMessage.data`` of a message an :class:`UnreadHint` said the caller drops unread: a
+reader may yield it with this instead of its bytes (and so skip decompressing them). Test
+with ``isinstance(data, Unread)``: it equals ``b""``."""
+
+
+@dataclass(frozen=True)
+class UnreadHint:
+    """Messages the caller will drop without looking at their payloads: those on ``topics``
+    logged at one of ``times`` (sorted, unique, log time ns). A reader may yield them with
+    :data:`UNREAD` as their data, in their place in the stream, where that saves reading
+    them (an MCAP chunk's tail, :mod:`formats.mcap_partial`); it may also yield them read."""
+
+    topics: frozenset[str]
+    times: npt.NDArray[np.int64]
+
+    def covers(self, t_ns: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+        """Mask of the log times ``t_ns`` listed in :attr:`times`."""
+        t = np.asarray(t_ns, dtype=np.int64)
+        if self.times.size == 0:
+            return np.zeros(t.shape, dtype=bool)
+        at = np.minimum(np.searchsorted(self.times, t), self.times.size - 1)
+        found: npt.NDArray[np.bool_] = self.times[at] == t
+        return found
 
 
 _SPECIAL_INPUTS = (

@@ -21,7 +21,7 @@ from aion_cli.formats import recorded
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, LogFile, _Source, _Topic, _Unpacked
 from aion_cli.formats.mcap_source import _open_mcap
-from aion_cli.formats.raw import RawMessage, normalize_msgtype
+from aion_cli.formats.raw import RawMessage, UnreadHint, normalize_msgtype
 from aion_cli.formats.rosbags_source import _storage_messages, _wanted_types
 
 if TYPE_CHECKING:
@@ -104,8 +104,12 @@ class _ReindexedSqliteSource(_Source):
         self.file = LogFile(path, "rosbag2-sqlite3", size, start, end, total)
 
     def messages(
-        self, topics: set[str] | None, between: tuple[int, int] | None = None
+        self,
+        topics: set[str] | None,
+        between: tuple[int, int] | None = None,
+        unread: UnreadHint | None = None,
     ) -> Iterator[RawMessage]:
+        """See :meth:`_Source.messages` (``unread`` is not used: every message is read)."""
         wanted = _wanted_types(self.topics, topics)
         if not wanted:
             return iter(())

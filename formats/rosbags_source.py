@@ -32,7 +32,7 @@ from aion_cli.formats.log_source import (
     _Topic,
     _unzstd,
 )
-from aion_cli.formats.raw import Encoding, RawMessage, normalize_msgtype
+from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint, normalize_msgtype
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -158,8 +158,12 @@ class _RosbagsSource(_Source):
         return files, mode == "message"
 
     def messages(
-        self, topics: set[str] | None, between: tuple[int, int] | None = None
+        self,
+        topics: set[str] | None,
+        between: tuple[int, int] | None = None,
+        unread: UnreadHint | None = None,
     ) -> Iterator[RawMessage]:
+        """See :meth:`_Source.messages` (``unread`` is not used: every message is read)."""
         if self.file.format != "bag":
             storages = getattr(self._reader.storage, "storages", None)
             if isinstance(storages, list):

@@ -25,7 +25,7 @@ import pytest
 from aion_cli.cli.graph_options import GRAPH_PERIOD_DEFAULT_TEXT, parse_period_ns
 from aion_cli.errors import InputError
 from aion_cli.formats.mapfile import read_map
-from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS, graph_schedule
+from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS, graph_schedule
 from aion_cli.pipeline import BuildOptions, build_map
 from tests.cli.logdata import EDGES, PLACES, ROBOT_XYZ, ROOMS, T0, S, _tracked_persons, sym
 from tests.cli.logdata import build_graph as office_graph
@@ -327,3 +327,47 @@ def test_cli_graph_period_option(stream_log: Path, tmp_path: Path) -> None:
     bad = run("build", stream_log, "-o", tmp_path / "c.aion", "--graph-period", "soon")
     assert bad.exit_code == 2
     assert "--graph-period" in bad.stderr or "period" in bad.stderr
+
+
+def test_graphs_left_out_are_not_decompressed_and_the_map_is_the_same(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A live-Hydra stream whose every chunk ends with its scene graph (300 moving places at
+    1 Hz, 16 KB chunks; the benchmarks' generator): with the default ``--graph-period`` the
+    chunks of the graphs left out are decompressed only up to their graph (read_head), and the
+    map and report equal those of a build that reads every chunk whole."""
+    from aion_cli.formats import mcap_partial
+    from aion_cli.graph_feed import GraphFeed
+    from benchmarks.build_logs import SITE, MovingPayload, places_graph, steady_times, write_log
+
+    xyz, edges = places_graph(*SITE, 300)
+    log = tmp_path / "live.mcap"
+    write_log(log, steady_times(60.0), 2, (SITE[0], SITE[1]), MovingPayload(xyz, edges), 1.0,
+              chunk_size=16_384)
+    real = mcap_partial.read_head
+    partial = []
+
+    def counting(*args: Any) -> Any:
+        got = real(*args)
+        partial.append(got is not None)
+        return got
+
+    monkeypatch.setattr(mcap_partial, "read_head", counting)
+    in_part = build_map(BuildOptions(logs=(log,), output=tmp_path / "part.aion"))
+    assert in_part.graphs_skipped_period >= 40
+    assert sum(partial) >= in_part.graphs_skipped_period - 2  # a left-out graph ends each
+    monkeypatch.setattr(GraphFeed, "unread_hint", lambda self, topics: None)
+    partial.clear()
+    whole = build_map(BuildOptions(logs=(log,), output=tmp_path / "whole.aion"))
+    assert not any(partial)
+    a, ma = read_map(tmp_path / "part.aion")
+    b, mb = read_map(tmp_path / "whole.aion")
+    assert sorted(a) == sorted(b)
+    for name in a:
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    assert ma["state"] == mb["state"]
+    ra, rb = in_part.to_dict(), whole.to_dict()
+    for report in (ra, rb):
+        report.pop("map")
+        report.pop("map_bytes")
+    assert ra == rb

@@ -288,7 +288,7 @@ def command(
     """
     from aion_cli.engine.config import ModelConfig
     from aion_cli.errors import InputError
-    from aion_cli.graph_feed import DEFAULT_GRAPH_PERIOD_NS
+    from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS
     from aion_cli.pipeline import BuildOptions, build_map
     from aion_cli.timeparse import resolve_zone
 

@@ -1,7 +1,7 @@
 """Scene-graph options: ``--nav-layer``, the one option that picks a scene graph's
 navigational layer (build, simulate, info; the rule behind it is
 :func:`formats.dsg.choose_nav_layer`), and build's ``--graph-period`` (how thinly a log's
-graph stream is used, :func:`aion_cli.graph_feed.graph_schedule`)."""
+graph stream is used, :func:`aion_cli.graph_schedule.graph_schedule`)."""
 
 from __future__ import annotations
 
@@ -93,7 +93,7 @@ GRAPH_PERIOD_DEFAULT_TEXT = "5s"
 
 def graph_period_option(func: F) -> F:
     """``--graph-period DURATION`` (log time), passed on as integer ns (None: the build's
-    default, :data:`aion_cli.graph_feed.DEFAULT_GRAPH_PERIOD_NS`)."""
+    default, :data:`aion_cli.graph_schedule.DEFAULT_GRAPH_PERIOD_NS`)."""
     return click.option(
         "--graph-period",
         "graph_period_ns",

@@ -22,7 +22,7 @@ from aion_cli.build_report import NoProgress
 from aion_cli.engine.mapper import MAX_TIME_NS
 from aion_cli.formats.logs import LogSet, open_logs
 from aion_cli.formats.writers import LogWriter
-from aion_cli.graph_feed import GraphTimes
+from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TopicTimes
 from aion_cli.tf_feed import read_tf_and_times
 from aion_cli.topics import select_topics

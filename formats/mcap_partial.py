@@ -1,0 +1,167 @@
+"""Reading an MCAP chunk only up to a tail its reader will drop unread.
+
+A live Hydra log holds a scene graph of megabytes in almost every chunk, and a recorder closes
+a chunk once it has outgrown its size, so that graph is the chunk's *last* record. A build that
+thins the graphs (``--graph-period``, every fifth of a 1 Hz stream by default) drops most of
+them without looking at them, yet decompressing the chunks for the detections between them
+decompressed every graph too: nearly all of the bytes read (issue 15).
+
+:func:`read_head` decompresses a chunk only up to its *droppable tail*: the longest run of
+messages at its end that the reader's caller does not want (other channels) or said it drops
+unread (:class:`formats.raw.UnreadHint`). Where the messages lie comes from the chunk's
+MessageIndex records (one read of the bytes after the chunk). The messages of the tail on
+wanted channels are yielded in their place with :data:`formats.raw.UNREAD` as their data, so
+the stream has the same messages in the same order as a whole read.
+
+A chunk read this way cannot be checked against its CRC-32 (which covers all of its
+decompressed bytes), so it is read in part only when the tail is at least half of it
+(:data:`_SMALLEST_TAIL`), and the head must agree with the index: its records end exactly where
+the tail begins and hold as many messages as the index lists before it. Anything else — no
+index, a damaged one, a head that disagrees — returns None, and the caller reads the whole
+chunk as before (CRC-checked).
+"""
+
+from __future__ import annotations
+
+from typing import IO, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.formats import limits as caps
+from aion_cli.formats import mcap_records as mr
+from aion_cli.formats import recorded
+from aion_cli.formats.raw import UNREAD
+
+_SMALLEST_TAIL = 0.5
+"""The least share of a chunk's decompressed bytes a droppable tail must have for the chunk to
+be read in part (the rest is read whole: CRC-checked)."""
+
+Selected = list[tuple[int, int, bytes]]
+
+
+def read_head(
+    f: IO[bytes],
+    index: Any,
+    head: mr.ChunkHead,
+    wanted: set[int],
+    unread_channels: set[int],
+    unread_times: npt.NDArray[np.int64],
+    limits: caps.ReadLimits,
+) -> tuple[Selected, list[mr.Oversized]] | None:
+    """The chunk's wanted messages as :func:`formats.mcap_records.chunk_messages` gives them
+    (sorted by log time, ``(log_time, channel_id, data)``; and those over the message cap),
+    with the droppable tail left compressed and its wanted messages' data :data:`UNREAD`;
+    None when the chunk is to be read whole (see the module docstring). ``index``: the chunk's
+    ChunkIndex record; ``head``: its chunk record (:func:`formats.mcap_records.read_chunk_head`);
+    messages on ``unread_channels`` logged at ``unread_times`` (sorted) may be left unread."""
+    size = int(head.uncompressed_size)
+    if size <= 0 or head.compression not in ("", "zstd", "lz4") or size > limits.max_chunk_bytes:
+        return None
+    entries = _entries(f, index)
+    if entries is None:
+        return None
+    channel, log_time, offset = entries
+    order = np.argsort(offset, kind="stable")
+    channel, log_time, offset = channel[order], log_time[order], offset[order]
+    if offset.size == 0 or np.any(offset[1:] <= offset[:-1]) or int(offset[-1]) >= size:
+        return None
+    is_wanted = np.isin(channel, np.fromiter(wanted, np.int64, len(wanted)))
+    unread = np.isin(channel, np.fromiter(unread_channels, np.int64, len(unread_channels)))
+    unread &= _listed(log_time, unread_times)
+    droppable = ~is_wanted | unread
+    keep = np.flatnonzero(~droppable)
+    first = int(keep[-1]) + 1 if keep.size else 0  # the tail: entries [first, n)
+    if first == offset.size:
+        return None
+    cut = int(offset[first])
+    if size - cut < _SMALLEST_TAIL * size:
+        return None
+    try:
+        buf = _decompressed_head(f, head, cut)
+    except Exception:  # zstandard.ZstdError, lz4's RuntimeError, OSError: read whole, which
+        return None  # says why with the whole read's checks and warnings
+    if buf is None:
+        return None
+    try:
+        selected, big, seen = mr.chunk_messages(buf, wanted, limits.max_message_bytes)
+    except caps.ChunkError:
+        return None
+    if seen + len(big) != first:
+        return None
+    tail = np.arange(first, offset.size)[is_wanted[first:]]
+    if tail.size:
+        selected.extend((int(log_time[k]), int(channel[k]), UNREAD) for k in tail.tolist())
+        selected.sort(key=_first)  # stable: the tail follows the head, as in the chunk
+    return selected, big
+
+
+def _first(item: tuple[int, int, bytes]) -> int:
+    return item[0]
+
+
+def _listed(t: npt.NDArray[np.int64], times: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+    """Mask of ``t`` found in the sorted ``times``."""
+    if times.size == 0:
+        return np.zeros(t.shape, dtype=bool)
+    at = np.minimum(np.searchsorted(times, t), times.size - 1)
+    found: npt.NDArray[np.bool_] = times[at] == t
+    return found
+
+
+def _entries(
+    f: IO[bytes], index: Any
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]] | None:
+    """Channel, log time and offset (in the decompressed chunk) of every message the chunk's
+    MessageIndex records list; None without them or when they cannot be read."""
+    offsets = index.message_index_offsets
+    if not offsets or index.message_index_length <= 0:
+        return None
+    base = index.chunk_start_offset + index.chunk_length
+    try:
+        f.seek(base)
+        block = f.read(index.message_index_length)
+        parts = recorded.message_index(block, [off - base for off in offsets.values()])
+    except (OSError, ValueError):
+        return None
+    channel = np.concatenate(
+        [np.full(len(p), cid, np.int64) for cid, p in zip(offsets, parts, strict=True)]
+    )
+    log_time = np.concatenate([p["log_time"] for p in parts]).astype(np.int64)
+    offset = np.concatenate([p["offset"] for p in parts]).astype(np.int64)
+    return channel, log_time, offset
+
+
+def _decompressed_head(f: IO[bytes], head: mr.ChunkHead, n: int) -> bytes | None:
+    """The first ``n`` decompressed bytes of the chunk; None when it holds fewer."""
+    if not head.compression:
+        f.seek(head.data_offset)
+        data = f.read(n) if n <= head.data_length else b""
+        return data if len(data) == n else None
+    f.seek(head.data_offset)
+    data = f.read(head.data_length)
+    if len(data) < head.data_length:
+        return None
+    out = _prefix(head.compression, data, n)
+    return out if len(out) == n else None
+
+
+def _prefix(compression: str, data: bytes, n: int) -> bytes:
+    """At most the first ``n`` bytes ``data`` decompresses to (streaming: the rest is left
+    compressed)."""
+    if compression == "zstd":
+        import zstandard
+
+        reader = zstandard.ZstdDecompressor().stream_reader(data, read_across_frames=True)
+        parts = []
+        got = 0
+        while got < n:
+            part = reader.read(n - got)
+            if not part:
+                break
+            parts.append(part)
+            got += len(part)
+        return b"".join(parts)
+    import lz4.frame  # type: ignore[import-untyped]
+
+    return bytes(lz4.frame.LZ4FrameDecompressor().decompress(data, max_length=n))

@@ -1,0 +1,171 @@
+"""MCAP chunks read up to a tail the caller drops unread (issue 15, :mod:`formats.mcap_partial`).
+
+A live Hydra log puts a large scene graph at the end of almost every chunk; a build that
+thins the graphs says which it drops (:class:`formats.raw.UnreadHint`). The stream with the
+hint has the same messages in the same order as the stream without it, every payload the
+same, except that the hinted graphs ending a chunk come as :data:`formats.raw.UNREAD` — and
+those chunks are decompressed only up to them (no whole read). Hinted messages inside a chunk
+come read. A tail on channels the caller did not ask for is left unread with no hint. An
+index that disagrees with the chunk makes the chunk read whole."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import aion_cli.formats.mcap_linear
+from aion_cli.formats import mcap_partial
+from aion_cli.formats.logs import open_logs
+from aion_cli.formats.raw import UNREAD, Unread, UnreadHint
+
+S = 1_000_000_000
+T0 = 1_700_006_400 * S
+GRAPH_BYTES = 6_000
+
+
+def _write(path: Path, compression: str, chunk_size: int, seconds: int = 12) -> list[int]:
+    """Tracks at 10 Hz (60-byte payloads) and a graph every second (6,000 bytes, after the
+    tracks of its second); returns the graph times. Payloads are distinct per message."""
+    from mcap.writer import CompressionType, Writer
+
+    kinds = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "": CompressionType.NONE}
+    rng = np.random.default_rng(7)
+    graphs = []
+    with path.open("wb") as f:
+        w = Writer(f, compression=kinds[compression], chunk_size=chunk_size)
+        w.start(profile="ros2", library="test")
+        tracks = w.register_schema("spencer_tracking_msgs/msg/TrackedPersons", "ros2msg", b"")
+        dsg = w.register_schema("hydra_msgs/msg/DsgUpdate", "ros2msg", b"")
+        c_tracks = w.register_channel("/tracks", "cdr", tracks)
+        c_dsg = w.register_channel("/dsg", "cdr", dsg)
+        for second in range(seconds):
+            for tenth in range(10):
+                t = T0 + second * S + tenth * S // 10
+                w.add_message(c_tracks, t, rng.bytes(60), t)
+            t = T0 + second * S + 950_000_000
+            w.add_message(c_dsg, t, rng.bytes(GRAPH_BYTES), t)
+            graphs.append(t)
+        w.finish()
+    return graphs
+
+
+def _stream(path: Path, hint: UnreadHint | None = None) -> list[tuple[str, int, bytes]]:
+    with open_logs([path]) as logs:
+        return [(m.topic, m.log_time_ns, m.data) for m in logs.messages(None, None, hint)]
+
+
+def _chunk_end_times(path: Path) -> set[int]:
+    """The log time of the last message of every chunk (from the summary's chunk indexes)."""
+    from mcap.reader import make_reader
+
+    with path.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    return {int(c.message_end_time) for c in summary.chunk_indexes}
+
+
+def _count_whole_reads(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Calls of the whole-chunk decompression (by compressed size)."""
+    calls: list[int] = []
+    real = aion_cli.formats.mcap_linear._decompress
+
+    def counting(data: Any, *args: Any) -> bytes:
+        calls.append(len(data))
+        return real(data, *args)
+
+    monkeypatch.setattr(aion_cli.formats.mcap_linear, "_decompress", counting)
+    return calls
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4", ""])
+def test_hinted_graphs_ending_chunks_come_unread_and_their_chunks_are_read_in_part(
+    tmp_path: Path, compression: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Chunks of one second (each ends with its graph); the hint names every graph but every
+    fourth: those come UNREAD, all else exactly as without the hint, and only the chunks of
+    the used graphs are decompressed whole."""
+    log = tmp_path / "live.mcap"
+    graphs = _write(log, compression, chunk_size=GRAPH_BYTES)
+    whole = _stream(log)
+    dropped = np.array([t for k, t in enumerate(graphs) if k % 4], np.int64)
+    calls = _count_whole_reads(monkeypatch)
+    hinted = _stream(log, UnreadHint(frozenset({"/dsg"}), dropped))
+    assert [(topic, t) for topic, t, _ in hinted] == [(topic, t) for topic, t, _ in whole]
+    unread = [(topic, t) for topic, t, data in hinted if isinstance(data, Unread)]
+    assert unread == [("/dsg", int(t)) for t in dropped]
+    assert set(graphs) <= _chunk_end_times(log)  # the layout the test is about
+    for (_, _, got), (_, _, expected) in zip(hinted, whole, strict=True):
+        assert isinstance(got, Unread) or got == expected
+    if compression:  # uncompressed chunks are not decompressed either way
+        assert len(calls) == len(graphs) - len(dropped)
+    assert UNREAD == b""
+
+
+def test_hinted_messages_inside_a_chunk_come_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Chunks of about four seconds: with the default threshold no tail (one graph, under
+    half of a chunk) is left unread, every chunk is read whole; with any tail allowed, only
+    the hinted graph that ends its chunk comes unread, the graphs followed by tracks in their
+    chunk come read, with their payloads."""
+    log = tmp_path / "live.mcap"
+    graphs = _write(log, "zstd", chunk_size=4 * GRAPH_BYTES)
+    whole = _stream(log)
+    hint = UnreadHint(frozenset({"/dsg"}), np.array(graphs, np.int64))
+    assert _stream(log, hint) == whole
+    monkeypatch.setattr(mcap_partial, "_SMALLEST_TAIL", 0.0)
+    hinted = _stream(log, hint)
+    assert [(topic, t) for topic, t, _ in hinted] == [(topic, t) for topic, t, _ in whole]
+    unread = [t for _, t, data in hinted if isinstance(data, Unread)]
+    read_graphs = [
+        t for topic, t, data in hinted if topic == "/dsg" and not isinstance(data, Unread)
+    ]
+    assert 2 <= len(unread) < len(graphs) / 2  # one per chunk
+    assert len(read_graphs) == len(graphs) - len(unread)
+    assert set(unread) <= _chunk_end_times(log)  # each the last message of its chunk
+    for (_, t, got), (_, _, expected) in zip(hinted, whole, strict=True):
+        if t not in unread:
+            assert got == expected
+
+
+def test_a_tail_on_channels_not_asked_for_is_left_unread(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Asking for the tracks only, without any hint: the graphs ending the chunks are on a
+    channel not asked for, so no chunk is decompressed whole, and the stream is the tracks,
+    read, as a whole read gives them."""
+    log = tmp_path / "live.mcap"
+    _write(log, "zstd", chunk_size=GRAPH_BYTES)
+    with open_logs([log]) as logs:
+        everything = [(m.log_time_ns, m.data) for m in logs.messages() if m.topic == "/tracks"]
+    calls = _count_whole_reads(monkeypatch)
+    with open_logs([log]) as logs:
+        tracks = [(m.log_time_ns, m.data) for m in logs.messages({"/tracks"})]
+    assert tracks == everything
+    assert len(tracks) == 120
+    assert calls == []
+
+
+def test_an_index_that_disagrees_with_its_chunk_makes_it_read_whole(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Offsets that do not fall on the chunk's records (a damaged or foreign index): the head
+    does not end where the index says the tail begins, so every chunk is read whole and the
+    stream is that of the whole reads, nothing unread."""
+    log = tmp_path / "live.mcap"
+    graphs = _write(log, "zstd", chunk_size=GRAPH_BYTES)
+    whole = _stream(log)
+    real = mcap_partial._entries
+
+    def shifted(f: Any, index: Any) -> Any:
+        got = real(f, index)
+        return None if got is None else (got[0], got[1], got[2] + 3)
+
+    monkeypatch.setattr(mcap_partial, "_entries", shifted)
+    calls = _count_whole_reads(monkeypatch)
+    hinted = _stream(log, UnreadHint(frozenset({"/dsg"}), np.array(graphs, np.int64)))
+    assert hinted == whole
+    assert len(calls) == len(graphs)
