@@ -148,15 +148,56 @@ def _run(
                 summaries.append(result.without_state())
                 bars.folded(next_index)
                 next_index += 1
+            if folded.graph_fallbacks and next_index < len(tasks):
+                _stop(procs)  # their shards would be built twice too: on these cores, twice
+                return _rest_in_sequence(folded, tasks, next_index, done, bars), summaries
         return folded, summaries
     finally:
-        for proc in procs:  # done, failed or interrupted: no worker outlives the build
-            if proc.is_alive():
-                proc.terminate()
-        for proc in procs:
-            proc.join(timeout=10)
+        _stop(procs)  # done, failed or interrupted: no worker outlives the build
         out.close()
         out.cancel_join_thread()
+
+
+def _stop(procs: list[Any]) -> None:
+    """End every worker still running and wait for them."""
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(timeout=10)
+
+
+def _rest_in_sequence(
+    folded: Folded, tasks: list[ShardTask], first: int, done: dict[int, ShardResult], bars: _Bars
+) -> Folded:
+    """The shards from ``first`` on, once a shard had to be learnt again in sequence because
+    the scene graph changed between shards (a Hydra graph that grows or is corrected binds
+    cells as it goes): the later shards' graphs change too, so the workers were stopped and
+    the rest is learnt here in sequence, each onto the map so far (the map of one pass),
+    instead of being built apart first and then again. A shard a worker had finished already
+    is folded as usual."""
+    from aion_cli.parallel_build import rebuild_onto
+
+    begin = time.perf_counter()
+    learnt = 0
+    for task in tasks[first:]:
+        result = done.pop(task.index, None)
+        if result is not None:
+            folded = fold(folded, result, task)
+        else:
+            assert folded.state is not None
+            rebuilt = rebuild_onto(folded.state, task, folded)
+            folded = folded.then(rebuilt.state, rebuilt.report)
+            learnt += 1
+        bars.folded(task.index)
+    if learnt:
+        folded.notes.append(
+            f"the scene graph changed between shards: the last {learnt} of {len(tasks)} shards "
+            "were learnt in sequence without waiting for the workers (their graphs would have "
+            "changed too)"
+        )
+    folded.seconds += time.perf_counter() - begin
+    return folded
 
 
 def _next(out: Any, procs: list[Any]) -> Any:

@@ -14,6 +14,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -164,15 +165,7 @@ def test_shards_whose_scene_graph_changed_are_named_with_a_hint(tmp_path: Path) 
     # closures): the second session's shard binds cells to the places of its own time, where
     # one pass kept the first session's bindings. The fold learns it again in sequence (the
     # map of one pass) and the report says so once, with the way round it.
-    logs = []
-    for k, start in enumerate(("2026-01-05", "2026-01-07")):
-        log = tmp_path / f"session{k}.mcap"
-        subprocess.run(
-            [sys.executable, "-m", "aion_cli", "simulate", "-o", str(log), "--days", "0.5",
-             "--seed", str(k + 1), "--start", start, "-q"],
-            check=True,
-        )
-        logs.append(log)
+    logs = _sessions(tmp_path, ("2026-01-05", "2026-01-07"))
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     _build(logs, seq, 1)
     report = _build(logs, par, 2)
@@ -186,6 +179,58 @@ def test_shards_whose_scene_graph_changed_are_named_with_a_hint(tmp_path: Path) 
         "which a shard built apart cannot know; for such logs --workers 1 is faster "
         "(docs/SCALING.md)"
     ]
+
+
+def _sessions(tmp_path: Path, starts: tuple[str, ...]) -> list[Path]:
+    """Simulated Hydra sessions of the office (half a day each, their graphs growing and
+    corrected at loop closures), one log per start date."""
+    logs = []
+    for k, start in enumerate(starts):
+        log = tmp_path / f"session{k}.mcap"
+        subprocess.run(
+            [sys.executable, "-m", "aion_cli", "simulate", "-o", str(log), "--days", "0.5",
+             "--seed", str(k + 1), "--start", start, "-q"],
+            check=True,
+        )
+        logs.append(log)
+    return logs
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(sys.platform != "linux", reason="the workers are forked with the patch")
+def test_after_a_graph_change_the_rest_is_learnt_in_sequence_without_the_workers(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Three sessions, two workers: the second session's shard falls back (its graph bound
+    # cells otherwise than one pass), so the third's graph changes too. The workers are then
+    # stopped and the third is learnt in sequence at once: the worker that took it (slowed
+    # here to a minute, then leaving a mark) never finishes it. The map is one pass's.
+    import aion_cli.process_pool as pool
+
+    logs = _sessions(tmp_path, ("2026-01-05", "2026-01-07", "2026-01-09"))
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build(logs, seq, 1)
+    mark = tmp_path / "third-shard-built-by-a-worker"
+    real = pool.build_shard
+
+    def slow_third(task: Any, sink: Any) -> Any:
+        if task.index >= 2:
+            time.sleep(60)
+            mark.touch()
+        return real(task, sink)
+
+    monkeypatch.setattr(pool, "build_shard", slow_third)
+    report = _build(logs, par, 2)
+    assert not mark.exists()
+    assert _same_maps(seq, par) == []
+    notes = report.notes  # type: ignore[attr-defined]
+    assert [n for n in notes if "session1.mcap was learnt in sequence" in n]
+    assert (
+        "the scene graph changed between shards: the last 1 of 3 shards were learnt in "
+        "sequence without waiting for the workers (their graphs would have changed too)"
+    ) in notes
+    assert [n for n in notes if n.startswith("1 of 3 shards were built twice")]
+    assert [row["shard"] for row in report.workers] == [0, 1]  # type: ignore[attr-defined]
 
 
 @pytest.mark.skipif(not hasattr(signal, "SIGTERM") or sys.platform != "linux", reason="fork")
