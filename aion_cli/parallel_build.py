@@ -176,7 +176,7 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     """Join one shard onto the map so far (in time order), or rebuild its logs onto it in
     sequence where a join would not be exact."""
     from aion_cli.detection_feed import yaw_rule_blocker
-    from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
+    from aion_cli.engine.shards import join_blocker, join_shard
     from aion_cli.graph_feed import pins_blocker
 
     state = result.state
@@ -195,12 +195,7 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     )
     if blocker is None:
         return folded.then(join_shard(folded.state, state), result.report)
-    # its own scene graph bound cells, or moved places, otherwise than one pass would have
-    graph_changed = (
-        ownership is not None
-        and state.graph is not None
-        and overlap_blocker(folded.state, state) is None
-    )
+    graph_changed = ownership is not None and scene_graph_changed(folded.state, state)
     what = _names(task.logs)
     if task.part is not None:
         what = f"the part of {what} from {part_fields(task.part)['from']}"
@@ -213,6 +208,18 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     out = folded.then(rebuilt.state, rebuilt.report, note)
     out.graph_fallbacks += graph_changed
     return out
+
+
+def scene_graph_changed(acc: MapState | None, shard: MapState | None) -> bool:
+    """Whether joining ``shard`` onto ``acc`` is refused because the shard's own scene graph
+    bound cells, or moved places, otherwise than one pass would have (not because it overlaps
+    ``acc`` in time): a Hydra graph that grows or is corrected, which will change for the
+    shards after it too."""
+    from aion_cli.engine.shards import join_blocker, overlap_blocker
+
+    if acc is None or shard is None or shard.graph is None or shard.deferred is None:
+        return False
+    return join_blocker(acc, shard) is not None and overlap_blocker(acc, shard) is None
 
 
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:

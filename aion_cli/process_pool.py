@@ -15,7 +15,14 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.parallel_build import Folded, ShardResult, ShardTask, build_shard, fold
+from aion_cli.parallel_build import (
+    Folded,
+    ShardResult,
+    ShardTask,
+    build_shard,
+    fold,
+    scene_graph_changed,
+)
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -142,6 +149,10 @@ def _run(
             done[index] = item[2] if kind == "result" else receive(item)
             while next_index in done:  # in time order, as soon as possible
                 result = done.pop(next_index)
+                if scene_graph_changed(folded.state, result.state):
+                    # this shard is learnt again in sequence, and the later shards' graphs
+                    # change too: stop the workers before they cost the fold their cores
+                    _stop(procs)
                 begin = time.perf_counter()
                 folded = fold(folded, result, tasks[next_index])
                 folded.seconds += time.perf_counter() - begin
@@ -149,7 +160,7 @@ def _run(
                 bars.folded(next_index)
                 next_index += 1
             if folded.graph_fallbacks and next_index < len(tasks):
-                _stop(procs)  # their shards would be built twice too: on these cores, twice
+                _stop(procs)
                 return _rest_in_sequence(folded, tasks, next_index, done, bars), summaries
         return folded, summaries
     finally:
