@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import aion_cli.formats.mcap_linear
 from aion_cli.formats import mcap_partial
@@ -212,3 +214,62 @@ def test_third_party_files_read_channel_by_channel_equal_their_whole_reads(
     assert files >= 10
     assert checked >= 30
     assert sum(in_part) >= 20
+
+
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(["/tracks", "/dsg", "/other"]), st.integers(0, 40),
+                  st.integers(0, 3000)),
+        min_size=1,
+        max_size=40,
+    ),
+    st.integers(200, 8000),
+    st.sets(st.integers(0, 40)),
+    st.sampled_from(["zstd", "lz4", ""]),
+)
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_any_chunking_and_hint_gives_the_whole_reads_stream(
+    events: list[tuple[str, int, int]], chunk_size: int, hinted: set[int], compression: str
+) -> None:
+    """Any messages (three channels, times out of order and tied, payloads of any size), any
+    chunk size, any hinted times on /dsg, reading /tracks and /dsg: the stream is the whole
+    read's, message for message and in the same order, except that some hinted /dsg messages
+    come UNREAD — and only hinted ones (/other, not asked for, may be left unread too). With
+    the half-chunk threshold off, so that every droppable tail is left unread."""
+    import tempfile
+
+    from mcap.writer import CompressionType, Writer
+
+    kinds = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "": CompressionType.NONE}
+    with tempfile.TemporaryDirectory() as tmp:
+        log = Path(tmp) / "any.mcap"
+        with log.open("wb") as f:
+            w = Writer(f, compression=kinds[compression], chunk_size=chunk_size)
+            w.start(profile="ros2", library="test")
+            schema = w.register_schema("std_msgs/msg/String", "ros2msg", b"")
+            channels = {name: w.register_channel(name, "cdr", schema) for name in
+                        ("/tracks", "/dsg", "/other")}
+            for k, (name, second, size) in enumerate(events):
+                t = T0 + second * S
+                w.add_message(channels[name], t, bytes([k % 251]) * size, t)
+            w.finish()
+        hint = UnreadHint(frozenset({"/dsg"}), np.array(sorted(T0 + h * S for h in hinted)))
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(mcap_partial, "_SMALLEST_TAIL", 0.0)
+            with open_logs([log]) as logs:
+                whole = [  # every channel asked for: nothing may be left unread
+                    (m.topic, m.log_time_ns, m.data)
+                    for m in logs.messages()
+                    if m.topic in ("/tracks", "/dsg")
+                ]
+                part = [
+                    (m.topic, m.log_time_ns, m.data)
+                    for m in logs.messages({"/tracks", "/dsg"}, None, hint)
+                ]
+    assert [(topic, t) for topic, t, _ in part] == [(topic, t) for topic, t, _ in whole]
+    for (topic, t, got), (_, _, expected) in zip(part, whole, strict=True):
+        if isinstance(got, Unread):
+            assert topic == "/dsg"
+            assert (t - T0) // S in hinted
+        else:
+            assert got == expected
