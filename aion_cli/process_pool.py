@@ -133,6 +133,7 @@ def _run(
         summaries: list[ShardResult] = []
         folded = Folded(previous)
         next_index = 0
+        stopped = False  # the workers, after a scene-graph change
         while next_index < len(tasks):
             item = _next(out, procs)
             if item is None:
@@ -149,17 +150,18 @@ def _run(
             done[index] = item[2] if kind == "result" else receive(item)
             while next_index in done:  # in time order, as soon as possible
                 result = done.pop(next_index)
-                if scene_graph_changed(folded.state, result.state):
+                if not stopped and scene_graph_changed(folded.state, result.state):
                     # this shard is learnt again in sequence, and the later shards' graphs
                     # change too: stop the workers before they cost the fold their cores
                     _stop(procs)
+                    stopped = True
                 begin = time.perf_counter()
                 folded = fold(folded, result, tasks[next_index])
                 folded.seconds += time.perf_counter() - begin
                 summaries.append(result.without_state())
                 bars.folded(next_index)
                 next_index += 1
-            if folded.graph_fallbacks and next_index < len(tasks):
+            if (stopped or folded.graph_fallbacks) and next_index < len(tasks):
                 _stop(procs)
                 return _rest_in_sequence(folded, tasks, next_index, done, bars), summaries
         return folded, summaries
