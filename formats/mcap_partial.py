@@ -58,10 +58,10 @@ def read_head(
     size = int(head.uncompressed_size)
     if size <= 0 or head.compression not in ("", "zstd", "lz4") or size > limits.max_chunk_bytes:
         return None
-    entries = _entries(f, index)
-    if entries is None:
-        return None
-    channel, log_time, offset = entries
+    parts = _index_parts(f, index)
+    if parts is None or not _last_droppable(parts, wanted, unread_channels, unread_times):
+        return None  # most chunks end with a message that is needed: decided in a few us
+    channel, log_time, offset = _entries(parts)
     order = np.argsort(offset, kind="stable")
     channel, log_time, offset = channel[order], log_time[order], offset[order]
     if offset.size == 0 or np.any(offset[1:] <= offset[:-1]) or int(offset[-1]) >= size:
@@ -118,11 +118,13 @@ def _listed(t: npt.NDArray[np.int64], times: npt.NDArray[np.int64]) -> npt.NDArr
     return found
 
 
-def _entries(
-    f: IO[bytes], index: Any
-) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]] | None:
-    """Channel, log time and offset (in the decompressed chunk) of every message the chunk's
-    MessageIndex records list; None without them or when they cannot be read."""
+IndexParts = list[tuple[int, npt.NDArray[Any]]]
+"""Per channel of a chunk, its MessageIndex entries (``log_time``, ``offset``)."""
+
+
+def _index_parts(f: IO[bytes], index: Any) -> IndexParts | None:
+    """The chunk's MessageIndex records, per channel; None without them or when they cannot
+    be read."""
     offsets = index.message_index_offsets
     if not offsets or index.message_index_length <= 0:
         return None
@@ -133,11 +135,34 @@ def _entries(
         parts = recorded.message_index(block, [off - base for off in offsets.values()])
     except (OSError, ValueError):
         return None
-    channel = np.concatenate(
-        [np.full(len(p), cid, np.int64) for cid, p in zip(offsets, parts, strict=True)]
-    )
-    log_time = np.concatenate([p["log_time"] for p in parts]).astype(np.int64)
-    offset = np.concatenate([p["offset"] for p in parts]).astype(np.int64)
+    return [(int(cid), p) for cid, p in zip(offsets, parts, strict=True) if len(p)]
+
+
+def _last_droppable(
+    parts: IndexParts, wanted: set[int], unread_channels: set[int], unread_times: npt.NDArray[Any]
+) -> bool:
+    """Whether the chunk's last message (the largest offset its index lists) may be left
+    unread: on a channel not wanted, or named by the hint at a listed time."""
+    if not parts:
+        return False
+    ends = [int(p["offset"].max()) for _, p in parts]
+    k = int(np.argmax(ends))
+    channel, entries = parts[k]
+    if channel not in wanted:
+        return True
+    if channel not in unread_channels:
+        return False
+    t = np.asarray(entries["log_time"][np.argmax(entries["offset"])], np.int64).reshape(1)
+    return bool(_listed(t, unread_times)[0])
+
+
+def _entries(
+    parts: IndexParts,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """Channel, log time and offset (in the decompressed chunk) of every message listed."""
+    channel = np.concatenate([np.full(len(p), cid, np.int64) for cid, p in parts])
+    log_time = np.concatenate([p["log_time"] for _, p in parts]).astype(np.int64)
+    offset = np.concatenate([p["offset"] for _, p in parts]).astype(np.int64)
     return channel, log_time, offset
 
 

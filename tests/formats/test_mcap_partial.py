@@ -161,13 +161,20 @@ def test_an_index_that_disagrees_with_its_chunk_makes_it_read_whole(
     log = tmp_path / "live.mcap"
     graphs = _write(log, "zstd", chunk_size=GRAPH_BYTES)
     whole = _stream(log)
-    real = mcap_partial._entries
+    real = mcap_partial._index_parts
 
     def shifted(f: Any, index: Any) -> Any:
         got = real(f, index)
-        return None if got is None else (got[0], got[1], got[2] + 3)
+        if got is None:
+            return None
+        out = []
+        for channel, entries in got:
+            moved = entries.copy()
+            moved["offset"] += 3
+            out.append((channel, moved))
+        return out
 
-    monkeypatch.setattr(mcap_partial, "_entries", shifted)
+    monkeypatch.setattr(mcap_partial, "_index_parts", shifted)
     calls = _count_whole_reads(monkeypatch)
     hinted = _stream(log, UnreadHint(frozenset({"/dsg"}), np.array(graphs, np.int64)))
     assert hinted == whole
