@@ -23,6 +23,7 @@ chunk as before (CRC-checked).
 
 from __future__ import annotations
 
+from operator import itemgetter
 from typing import IO, Any
 
 import numpy as np
@@ -91,12 +92,8 @@ def read_head(
     tail = np.arange(first, offset.size)[is_wanted[first:]]
     if tail.size:
         selected.extend((int(log_time[k]), int(channel[k]), UNREAD) for k in tail.tolist())
-        selected.sort(key=_first)  # stable: the tail follows the head, as in the chunk
+        selected.sort(key=itemgetter(0))  # stable: the tail follows the head, as in the chunk
     return selected, big
-
-
-def _first(item: tuple[int, int, bytes]) -> int:
-    return item[0]
 
 
 def _among(channel: npt.NDArray[np.int64], ids: set[int]) -> npt.NDArray[np.bool_]:

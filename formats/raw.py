@@ -74,15 +74,6 @@ class UnreadHint:
     topics: frozenset[str]
     times: npt.NDArray[np.int64]
 
-    def covers(self, t_ns: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
-        """Mask of the log times ``t_ns`` listed in :attr:`times`."""
-        t = np.asarray(t_ns, dtype=np.int64)
-        if self.times.size == 0:
-            return np.zeros(t.shape, dtype=bool)
-        at = np.minimum(np.searchsorted(self.times, t), self.times.size - 1)
-        found: npt.NDArray[np.bool_] = self.times[at] == t
-        return found
-
 
 _SPECIAL_INPUTS = (
     (stat.S_ISFIFO, "a FIFO (named pipe)"),
