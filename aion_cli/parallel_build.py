@@ -292,15 +292,18 @@ class ParallelBuild:
                 groups[0] = groups[0] + tuple(empty)
         from aion_cli.time_shards import split_groups
 
-        shards, notes = split_groups(groups, opts, window, workers)
+        shards, notes = split_groups(
+            groups, opts, window, workers, self.config.stable_move_tolerance
+        )
         report.notes.extend(notes)
-        if len(shards) < 2:
+        if len(shards) < 2 and not notes:  # (a note says why where a graph kept it whole)
             report.notes.append(
                 ("one log" if len(logs) < 2 else "the logs overlap in time (one shard)")
                 + ": built in sequence, not in parallel (no quiet moment to cut it at: a "
                 "window start with no detection message in the 10 s before it; "
                 "docs/SCALING.md)"
             )
+        if len(shards) < 2:
             return self.build.learn(self.config).state
         self.groups = [group for group, _, _ in shards]
         self.parts = [part for _, part, _ in shards]

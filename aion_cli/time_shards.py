@@ -30,7 +30,7 @@ Logs without such an index, or without a quiet moment, are not cut (the build sa
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -66,6 +66,7 @@ class GroupTimes:
     detections: I64
     span: I64
     recorded: I64  # windows holding a message of any topic
+    graphs: I64 = field(default_factory=lambda: np.zeros(0, np.int64))  # scene-graph messages
 
 
 def cut_times(
@@ -123,12 +124,18 @@ def cut_times(
 
 
 def split_groups(
-    groups: list[tuple[Path, ...]], opts: BuildOptions, window_ns: int, workers: int
+    groups: list[tuple[Path, ...]],
+    opts: BuildOptions,
+    window_ns: int,
+    workers: int,
+    tolerance: float = 0.25,
 ) -> tuple[list[Shard], list[str]]:
     """The shards of a parallel build's groups of logs (each group's logs share no time window
     with another's) for ``workers`` processes: each group whole or, while there are fewer
     groups than :data:`SHARDS_PER_WORKER` per worker (two at least), cut into parts in
-    proportion to its detection messages; and the report's notes on the cuts."""
+    proportion to its detection messages, unless the scene graph changes inside a part after
+    the first (:func:`aion_cli.shard_graphs.changing_part`; ``tolerance``: the model's
+    ``stable_move_tolerance``); and the report's notes on the cuts."""
     target = SHARDS_PER_WORKER * max(workers, 2)
     if len(groups) >= target:
         return [(group, None, True) for group in groups], []
@@ -139,26 +146,47 @@ def split_groups(
     notes = []
     for group, found, count in zip(groups, times, counts, strict=True):
         want = max(1, round(target * count / total)) if total else 1
-        cuts = _group_cuts(group, opts, found, window_ns, want) if found and want > 1 else []
+        cuts, changing = (
+            _group_cuts(group, opts, found, window_ns, want, tolerance)
+            if found and want > 1
+            else ([], None)
+        )
+        names = ", ".join(p.name for p in group[:3]) + (", ..." if len(group) > 3 else "")
+        if changing is not None:
+            notes.append(
+                f"{names}: not cut into time shards: its scene graph changes after "
+                f"{_iso(changing[0])} (places added, removed or moved), which a part built "
+                "apart cannot know, so that part would be learnt twice; built in sequence"
+            )
         if not cuts:
             shards.append((group, None, True))
             continue
         shards += [(group, part, k == 0) for k, part in enumerate(parts_of(cuts))]
         shown = ", ".join(_iso(t) for t in cuts[:3]) + (", ..." if len(cuts) > 3 else "")
-        names = ", ".join(p.name for p in group[:3]) + (", ..." if len(group) > 3 else "")
         notes.append(f"{names}: cut into {len(cuts) + 1} time shards at quiet moments ({shown})")
     return shards, notes
 
 
 def _group_cuts(
-    group: tuple[Path, ...], opts: BuildOptions, times: GroupTimes, window_ns: int, parts: int
-) -> list[int]:
+    group: tuple[Path, ...],
+    opts: BuildOptions,
+    times: GroupTimes,
+    window_ns: int,
+    parts: int,
+    tolerance: float,
+) -> tuple[list[int], tuple[int, int] | None]:
     """:func:`cut_times` of one group, probing by decoding where its logs can be read a few
-    seconds at a time (:meth:`formats.logs.LogSet.skips_by_time`)."""
+    seconds at a time (:meth:`formats.logs.LogSet.skips_by_time`); none, and the part whose
+    scene graph changes, where one does (:func:`aion_cli.shard_graphs.changing_part`)."""
     from aion_cli.formats.logs import open_logs
+    from aion_cli.shard_graphs import changing_part
 
     with open_logs(list(group), opts.log_format) as logset:
-        return cut_times(times, window_ns, parts, _decoded_quiet(logset, opts))
+        cuts = cut_times(times, window_ns, parts, _decoded_quiet(logset, opts))
+        changing = (
+            changing_part(logset, opts, times.graphs, parts_of(cuts), tolerance) if cuts else None
+        )
+    return ([], changing) if changing is not None else (cuts, None)
 
 
 def _decoded_quiet(logset: Any, opts: BuildOptions) -> Callable[[int], bool] | None:
@@ -244,7 +272,13 @@ def group_times(
     checked = times.check(span_topics)
     det = [_kept(indexed.of(t), checked.strays.get(t)) for t in indexed.topics if t in detections]
     joined = np.sort(np.concatenate(det)) if det else np.zeros(0, np.int64)
-    return GroupTimes(joined, np.sort(checked.span_times), np.asarray(recorded, np.int64))
+    graph = [_kept(indexed.of(t), checked.strays.get(t)) for t in indexed.topics if t in graphs]
+    return GroupTimes(
+        joined,
+        np.sort(checked.span_times),
+        np.asarray(recorded, np.int64),
+        np.sort(np.concatenate(graph)) if graph else np.zeros(0, np.int64),
+    )
 
 
 def _kept(t: np.ndarray, strays: I64 | None) -> I64:

@@ -377,17 +377,23 @@ def test_orientations_that_vary_in_every_part_join_in_parallel(tmp_path: Path) -
 
 def _hydra_sessions(path: Path, graphs: list[object]) -> Path:
     """Sessions a day apart (20 minutes each, from Monday 08:00): people every 10 s (the
-    office log's), a robot pose every 5 s, and a Hydra graph (``graphs``, one per session)
-    every 60 s."""
+    office log's), a robot pose every 5 s, and a Hydra graph (``graphs``, one per session, or
+    a list of them: the first for the session's first ten minutes, the second after) every
+    60 s."""
     from aion_cli.formats.writers import LogWriter
     from tests.cli.logdata import _tracked_persons
 
     with LogWriter(path) as writer:
         for day, graph in enumerate(graphs):
-            payload = np.frombuffer(graph.to_binary(False), dtype=np.uint8)  # type: ignore[attr-defined]
+            halves = graph if isinstance(graph, list) else [graph, graph]
+            payloads = [
+                np.frombuffer(g.to_binary(False), dtype=np.uint8)  # type: ignore[attr-defined]
+                for g in halves
+            ]
             start = T0 + day * 86_400 * S
             for k in range(1200):
                 t = start + k * S
+                payload = payloads[k >= 600]
                 if k % 60 == 0:
                     stamp = {"sec": t // S, "nanosec": t % S}
                     writer.write("/hydra/backend/dsg", "hydra_msgs/msg/DsgUpdate",
@@ -418,6 +424,67 @@ def test_a_part_whose_graphs_would_pin_another_layer_is_learnt_in_sequence(
     log = _hydra_sessions(tmp_path / "log.mcap", [hydra_graph(False), hydra_graph(True)])
     one, two = _second_part_in_sequence(tmp_path, log, "navigational layer")
     assert one.graph_layer == two.graph_layer == "PLACES (3)"
+
+
+def _grown(graph: Any, place: int = 99) -> Any:
+    """``graph`` with one more 3D place (as Hydra adds places while the robot explores)."""
+    import spark_dsg as dsg
+
+    attrs = dsg.PlaceNodeAttributes()
+    attrs.position = np.array([2.0, -2.0, 1.0])
+    attrs.distance = 0.5
+    attrs.real_place = True
+    graph.add_node(dsg.DsgLayers.PLACES, dsg.NodeSymbol("p", place), attrs)
+    return graph
+
+
+def test_a_log_whose_graph_changes_in_a_later_part_is_not_cut(tmp_path: Path) -> None:
+    # Tuesday's Hydra graph gains a place halfway through the session: a part starting on
+    # Tuesday, built apart, would bind cells as that graph changes after its first day,
+    # which its join cannot replay (it would be learnt twice). The planner compares the
+    # part's first and last graph, leaves the log whole and says why; the map is one pass's.
+    from tests.formats.dsg_builders import hydra_graph
+
+    tuesday = [hydra_graph(False), _grown(hydra_graph(False))]
+    log = _hydra_sessions(tmp_path / "log.mcap", [hydra_graph(False), tuesday])
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build([log], seq, 1)
+    two = _build([log], par, 2)
+    assert two.workers == []
+    assert [n for n in two.notes if "not cut into time shards: its scene graph changes after" in n]
+    assert not [n for n in two.notes if "no quiet moment" in n]
+    assert _same_maps(seq, par) == []
+
+
+def test_a_log_whose_graph_stays_in_each_later_part_is_still_cut(tmp_path: Path) -> None:
+    # The same log with Tuesday's graph the same all session (another than Monday's): the
+    # later part's first and last graph agree, so the log is cut and the parts join.
+    from tests.formats.dsg_builders import hydra_graph
+
+    log = _hydra_sessions(tmp_path / "log.mcap", [hydra_graph(False), _grown(hydra_graph(False))])
+    two = _build([log], tmp_path / "par.aion", 2)
+    assert len(two.workers) == 2
+    assert not [n for n in two.notes if "not cut" in n]
+
+
+def test_places_changed_compares_ids_and_moves_beyond_the_tolerance() -> None:
+    from aion_cli.engine.types import GraphSnapshot, Layer
+    from aion_cli.shard_graphs import places_changed
+
+    def snap(ids: list[int], xyz: list[tuple[float, float, float]]) -> GraphSnapshot:
+        layer = Layer(np.array(ids, np.uint64), np.array(xyz, float), np.zeros(len(ids), np.uint64))
+        return GraphSnapshot(0, layer, np.zeros((0, 2), np.int64))
+
+    a = snap([1, 2, 3], [(0, 0, 0), (1, 0, 0), (2, 0, 0)])
+    shuffled = snap([3, 1, 2], [(2, 0, 0), (0, 0, 0), (1, 0, 0)])
+    drifted = snap([1, 2, 3], [(0, 0.2, 0), (1, 0, 0), (2, 0, 0)])
+    moved = snap([1, 2, 3], [(0, 0.3, 0), (1, 0, 0), (2, 0, 0)])
+    grown = snap([1, 2, 3, 4], [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)])
+    assert not places_changed(a, shuffled, 0.25)
+    assert not places_changed(a, drifted, 0.25)
+    assert places_changed(a, moved, 0.25)
+    assert places_changed(a, grown, 0.25)
+    assert places_changed(grown, a, 0.25)
 
 
 def _fixed_rate(path: Path, container: str = "mcap") -> Path:
