@@ -19,6 +19,12 @@
   Sequential vs 2 workers, interleaved, best and median of ``repeats``; the same map or not,
   the cuts, the joins' time. Also with the tracker publishing an empty message every 10 s
   between the people (``build_logs.fixed_rate_log``): only decoding finds the quiet moments.
+* **Live Hydra logs** (:func:`run_hydra`). Simulated office sessions (``aion simulate``: a
+  Hydra graph that grows as the robot explores and is corrected at loop closures, people, a
+  patrolling robot's TF), several logs a day apart and one longer log: the scene graph
+  changes between shards and inside a later part, so nothing can be joined; what is
+  measured is that parallel building then costs no more than one process (the workers are
+  stopped at the first changed graph, a log is not cut where its graph changes).
 * **Merge cost** (:func:`run_merge`). ``engine.merge.merge_maps`` of two maps of 10^4 and 10^5
   cell entries with two weeks of history (``bench_engine.build_state``): seconds per entry,
   copying the inputs (the library default) and in place (``aion merge``).
@@ -217,6 +223,68 @@ def run_time_shards(
     }
 
 
+def hydra_logs(logs: int, days: float) -> list[Path]:
+    """``logs`` simulated office sessions of ``days`` days from 08:00, two days apart
+    (cached)."""
+    import datetime
+
+    from aion_cli.sim.scenario import ScenarioConfig, load_environment, run_scene
+
+    out = []
+    first = datetime.date(2026, 1, 5)
+    for k in range(logs):
+        start = first + datetime.timedelta(days=2 * k)
+        path = WORK / f"hydra_{k}of{logs}_{days:g}d.mcap"
+        if not path.exists():
+            config = ScenarioConfig(days=days, seed=k + 1, start=f"{start.isoformat()}T08:00")
+            run_scene(config, load_environment(config), 0, path)
+        out.append(path)
+    return out
+
+
+def run_hydra(logs: int, days: float, repeats: int = 3) -> dict[str, Any]:
+    """Sequential vs 2-worker build of simulated Hydra logs (module docstring), interleaved,
+    best and median of ``repeats``; the same map or not, and what the build did about the
+    changing graphs (shards learnt in sequence, logs not cut)."""
+    from aion_cli.engine.compare import differences
+    from aion_cli.mapquery import load_map
+
+    paths = hydra_logs(logs, days)
+    seq_out, par_out = WORK / "hydra_seq.aion", WORK / "hydra_par.aion"
+    _build(paths, seq_out, 1)  # imports and caches warm, for both timings alike
+    seq, par = [], []
+    for _ in range(repeats):
+        s, seq_report = timed(lambda: _build(paths, seq_out, 1))
+        seq.append(s)
+        s, par_report = timed(lambda: _build(paths, par_out, 2))
+        par.append(s)
+    problems = differences(
+        load_map(seq_out, writable=True).state, load_map(par_out, writable=True).state
+    )
+    seq_out.unlink(missing_ok=True)
+    par_out.unlink(missing_ok=True)
+    notes = par_report.notes
+    return {
+        "name": (
+            f"Hydra, {logs} simulated sessions x {days:g} day, 2 workers"
+            if logs > 1
+            else f"Hydra, one simulated log of {days:g} days, 2 workers"
+        ),
+        "detections": seq_report.detections_used,
+        "graph_messages": seq_report.graph_messages,
+        "sequential_s": min(seq),
+        "workers2_s": min(par),
+        "speedup": min(seq) / min(par),
+        "speedup_median": sorted(seq)[len(seq) // 2] / sorted(par)[len(par) // 2],
+        "same_map": not problems,
+        "differences": problems[:5],
+        "shards_built_by_workers": len(par_report.workers),
+        "shards_learnt_in_sequence": len([n for n in notes if "learnt in sequence onto" in n]),
+        "learnt_without_waiting": [n for n in notes if "without waiting for the workers" in n],
+        "not_cut": [n for n in notes if "not cut into time shards" in n],
+    }
+
+
 def run_merge(sizes: tuple[int, ...] = (10**4, 10**5)) -> list[dict[str, Any]]:
     """``merge_maps`` cost per entry for maps of ``sizes`` entries: the library's default,
     which copies both inputs first, and ``consume=True`` (what ``aion merge`` runs: the loaded
@@ -249,6 +317,7 @@ def run(quick: bool = False) -> list[dict[str, Any]]:
         return [
             run_speedup(4, 1, 800, repeats=1),
             run_time_shards(3_001, 2, repeats=1),
+            run_hydra(2, 0.1, repeats=1),
             *run_merge((10**3,)),
         ]
     return [
@@ -256,5 +325,7 @@ def run(quick: bool = False) -> list[dict[str, Any]]:
         run_speedup(4, 2, 30000, repeats=5),
         run_time_shards(),
         run_time_shards(empty_every_s=10.0),
+        run_hydra(4, 0.5),
+        run_hydra(1, 3.0),
         *run_merge(),
     ]

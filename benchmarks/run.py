@@ -233,6 +233,15 @@ def _parallel_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> N
                 f"median {r['speedup_median']:.2f}x; same map: {r['same_map']}; "
                 f"{r['shards']} shards, {r['shards_learnt_in_sequence']} learnt in sequence; "
                 f"joins {r['fold_s'] or 0:.2f} s")
+        elif name.startswith("Hydra"):
+            how = "; ".join(r["learnt_without_waiting"] + r["not_cut"]) or "joined"
+            add("parallel", f"{name}, {r['graph_messages']:,} graphs: speed-up",
+                f"{r['speedup']:.2f}x ({r['workers2_s']:.2f} s vs {r['sequential_s']:.2f} s)",
+                f"median {r['speedup_median']:.2f}x; same map: {r['same_map']}"
+                + (f" ({', '.join(d.split(':')[0] for d in r['differences'])})"
+                   if r["differences"] else "")
+                + f"; {r['shards_built_by_workers']} shards built by workers, "
+                f"{r['shards_learnt_in_sequence']} learnt again in sequence; {how[:120]}")
         elif name.startswith("merge_maps"):
             add("parallel", f"{name}: cost per entry", f"{r['us_per_entry']:.0f} us",
                 f"{r['seconds']:.2f} s for {r['entries']:,} entries")
