@@ -136,18 +136,28 @@ def adopt_redirects(out: MapState, early: MapState) -> None:
 
 
 def merge_timers(out: MapState, early: MapState) -> None:
-    """Nodes in both tables that have not moved keep the earlier stability start."""
+    """Nodes in both tables that have not moved keep the earlier stability start.
+
+    A node of ``out`` whose timer started after ``out``'s earliest one restarted inside
+    ``out``'s time (it moved beyond ``stable_move_tolerance`` there, or came back after
+    leaving the graph): one pass restarted it too, so it keeps its own timer and reference,
+    even where that reference lies near the earlier one (a node that drifted and was
+    re-referenced). Not exact in every case: one pass judges ``out``'s moves against the
+    earlier reference, ``out`` against its own first position, and where they disagree about
+    a restart the timers differ (docs/SCALING.md); counts and the temporal state do not."""
     ids = out.nodes.ids
     at = np.searchsorted(early.nodes.ids, ids)
     at_c = np.minimum(at, max(len(early.nodes) - 1, 0))
-    if len(early.nodes) == 0:
+    if len(early.nodes) == 0 or len(ids) == 0:
         return
     both = early.nodes.ids[at_c] == ids
     near = (
         np.linalg.norm(out.nodes.ref_xyz - early.nodes.ref_xyz[at_c], axis=1)
         <= out.config.stable_move_tolerance
     )
-    keep = both & near
+    since = out.nodes.stable_since_ns
+    unbroken = since == since.min()  # stable since out's first graph
+    keep = both & near & unbroken
     out.nodes.stable_since_ns[keep] = np.minimum(
         out.nodes.stable_since_ns[keep], early.nodes.stable_since_ns[at_c[keep]]
     )

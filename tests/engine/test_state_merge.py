@@ -134,3 +134,37 @@ def test_merge_releases_nodes_the_later_graph_no_longer_has() -> None:
     other = {**meta, "config": cfg.replace(periods=[3600.0]).to_dict()}
     with pytest.raises(MapCorruptError, match="temporal member"):
         MapState.from_arrays(arrays, other)
+
+
+def test_a_node_that_restarted_in_the_later_map_keeps_its_own_timer() -> None:
+    # Two nodes seen in both maps (the same ids), both first seen in the later map where
+    # the earlier one left them. p0 stays put: one pass keeps it stable since the earlier
+    # map (merged: the earlier timer and reference). p1 is moved away beyond the tolerance
+    # and back (a loop closure's correction, then another): one pass restarts it twice and
+    # ends re-referenced where the earlier map had it. The merge must keep that restart; it
+    # took the earlier timer before, as the two references agree.
+    tol = CFG.stable_move_tolerance
+    here = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
+
+    def feed(m: Mapper, start: int, moves: bool) -> None:
+        m.set_fixed_sensor(start, start + 2 * W)
+        for k in range(7):
+            xyz = here.copy()
+            if moves and k in (1, 2):
+                xyz[1, 0] += 1.2 * tol
+            m.add_graph(graph(start + k * 600 * S, [0, 1], xyz))
+        m.add_detections(detections(start + S, [[0.2, 0.2, 0], [5.1, 0.1, 0]]))
+        m.advance(start + W)
+
+    one = Mapper(CFG)
+    feed(one, T0, moves=False)
+    feed(one, T0 + DAY, moves=True)
+    early, late = Mapper(CFG), Mapper(CFG)
+    feed(early, T0, moves=False)
+    feed(late, T0 + DAY, moves=True)
+    merged = merge_states(early.state, late.state)
+    a, b = one.state.nodes, merged.nodes
+    np.testing.assert_array_equal(a.ids, b.ids)
+    np.testing.assert_array_equal(a.stable_since_ns, b.stable_since_ns)
+    np.testing.assert_allclose(a.ref_xyz, b.ref_xyz, rtol=0, atol=1e-12)
+    assert a.stable_since_ns[0] < T0 + DAY < a.stable_since_ns[1]  # the cases it is about
