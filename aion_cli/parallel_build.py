@@ -38,6 +38,8 @@ from aion_cli.shard_reports import combine_reports, counts_of
 from aion_cli.time_shards import part_fields
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.pipeline import BuildOptions, _Build
@@ -172,11 +174,20 @@ def build_shard(task: ShardTask, progress: ProgressSink | None = None) -> ShardR
     )
 
 
-def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
+def fold(
+    folded: Folded,
+    result: ShardResult,
+    task: ShardTask,
+    on_graph_change: Callable[[], None] | None = None,
+) -> Folded:
     """Join one shard onto the map so far (in time order), or rebuild its logs onto it in
-    sequence where a join would not be exact."""
+    sequence where a join would not be exact. ``on_graph_change`` is called before such a
+    rebuild when the shard's own scene graph bound cells, or moved places, otherwise than one
+    pass would have (not because it overlaps the map in time): a Hydra graph that grows or is
+    corrected, which will change for the shards after it too (the local pool stops its
+    workers then)."""
     from aion_cli.detection_feed import yaw_rule_blocker
-    from aion_cli.engine.shards import join_blocker, join_shard
+    from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
     from aion_cli.graph_feed import pins_blocker
 
     state = result.state
@@ -195,7 +206,13 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     )
     if blocker is None:
         return folded.then(join_shard(folded.state, state), result.report)
-    graph_changed = ownership is not None and scene_graph_changed(folded.state, state)
+    graph_changed = (
+        ownership is not None
+        and state.graph is not None
+        and overlap_blocker(folded.state, state) is None
+    )
+    if graph_changed and on_graph_change is not None:
+        on_graph_change()
     what = _names(task.logs)
     if task.part is not None:
         what = f"the part of {what} from {part_fields(task.part)['from']}"
@@ -208,18 +225,6 @@ def fold(folded: Folded, result: ShardResult, task: ShardTask) -> Folded:
     out = folded.then(rebuilt.state, rebuilt.report, note)
     out.graph_fallbacks += graph_changed
     return out
-
-
-def scene_graph_changed(acc: MapState | None, shard: MapState | None) -> bool:
-    """Whether joining ``shard`` onto ``acc`` is refused because the shard's own scene graph
-    bound cells, or moved places, otherwise than one pass would have (not because it overlaps
-    ``acc`` in time): a Hydra graph that grows or is corrected, which will change for the
-    shards after it too."""
-    from aion_cli.engine.shards import join_blocker, overlap_blocker
-
-    if acc is None or shard is None or shard.graph is None or shard.deferred is None:
-        return False
-    return join_blocker(acc, shard) is not None and overlap_blocker(acc, shard) is None
 
 
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:

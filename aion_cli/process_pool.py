@@ -15,14 +15,7 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.parallel_build import (
-    Folded,
-    ShardResult,
-    ShardTask,
-    build_shard,
-    fold,
-    scene_graph_changed,
-)
+from aion_cli.parallel_build import Folded, ShardResult, ShardTask, build_shard, fold
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -133,7 +126,14 @@ def _run(
         summaries: list[ShardResult] = []
         folded = Folded(previous)
         next_index = 0
-        stopped = False  # the workers, after a scene-graph change
+        stopped: list[bool] = []  # the workers, after a scene-graph change
+
+        def stop() -> None:
+            # the shard being folded is learnt again in sequence, and the later shards'
+            # graphs change too: stop the workers before they cost the fold their cores
+            _stop(procs)
+            stopped.append(True)
+
         while next_index < len(tasks):
             item = _next(out, procs)
             if item is None:
@@ -150,19 +150,13 @@ def _run(
             done[index] = item[2] if kind == "result" else receive(item)
             while next_index in done:  # in time order, as soon as possible
                 result = done.pop(next_index)
-                if not stopped and scene_graph_changed(folded.state, result.state):
-                    # this shard is learnt again in sequence, and the later shards' graphs
-                    # change too: stop the workers before they cost the fold their cores
-                    _stop(procs)
-                    stopped = True
                 begin = time.perf_counter()
-                folded = fold(folded, result, tasks[next_index])
+                folded = fold(folded, result, tasks[next_index], None if stopped else stop)
                 folded.seconds += time.perf_counter() - begin
                 summaries.append(result.without_state())
                 bars.folded(next_index)
                 next_index += 1
-            if (stopped or folded.graph_fallbacks) and next_index < len(tasks):
-                _stop(procs)
+            if stopped and next_index < len(tasks):
                 return _rest_in_sequence(folded, tasks, next_index, done, bars), summaries
         return folded, summaries
     finally:
