@@ -8,7 +8,6 @@ declared here when it opens the file; :mod:`formats.mcap_linear` is another.
 
 from __future__ import annotations
 
-import io
 from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
@@ -121,14 +120,15 @@ class _McapIndexed(_McapLinearRead):
         from aion_cli.formats import mcap_records as mr
 
         if index.message_index_offsets and index.message_index_length > 0:
-            base = index.chunk_start_offset + index.chunk_length
             try:
-                stream.seek(base, io.SEEK_SET)
-                block = stream.read(min(index.message_index_length, self._size - base))
-                offsets = [off - base for off in index.message_index_offsets.values()]
-                return recorded.message_index_times(block, offsets)
+                parts = recorded.read_message_index(
+                    stream, self._size, index, index.message_index_offsets
+                )
             except self._errors:
-                pass  # a damaged index does not mean a damaged chunk: read the chunk
+                parts = None
+            if parts is not None:  # a damaged index does not mean a damaged chunk: read it
+                times = [p["log_time"].astype(np.int64) for p in parts]
+                return np.concatenate(times) if times else np.zeros(0, np.int64)
         offset = index.chunk_start_offset
         try:
             head = mr.read_chunk_head(stream, offset, self._size, self._lengths.get(offset))

@@ -43,6 +43,7 @@ Selected = list[tuple[int, int, bytes]]
 
 def read_head(
     f: IO[bytes],
+    size_of_file: int,
     index: Any,
     head: mr.ChunkHead,
     wanted: set[int],
@@ -53,13 +54,14 @@ def read_head(
     """The chunk's wanted messages as :func:`formats.mcap_records.chunk_messages` gives them
     (sorted by log time, ``(log_time, channel_id, data)``; and those over the message cap),
     with the droppable tail left compressed and its wanted messages' data :data:`UNREAD`;
-    None when the chunk is to be read whole (see the module docstring). ``index``: the chunk's
+    None when the chunk is to be read whole (see the module docstring). ``size_of_file``: the
+    bytes of the file ``f`` reads; ``index``: the chunk's
     ChunkIndex record; ``head``: its chunk record (:func:`formats.mcap_records.read_chunk_head`);
     messages on ``unread_channels`` logged at ``unread_times`` (sorted) may be left unread."""
     size = int(head.uncompressed_size)
     if size <= 0 or head.compression not in ("", "zstd", "lz4") or size > limits.max_chunk_bytes:
         return None
-    parts = _index_parts(f, index)
+    parts = _index_parts(f, size_of_file, index)
     if parts is None or not _last_droppable(parts, wanted, unread_channels, unread_times):
         return None  # most chunks end with a message that is needed: decided in a few us
     channel, log_time, offset = _entries(parts)
@@ -119,18 +121,17 @@ IndexParts = list[tuple[int, npt.NDArray[Any]]]
 """Per channel of a chunk, its MessageIndex entries (``log_time``, ``offset``)."""
 
 
-def _index_parts(f: IO[bytes], index: Any) -> IndexParts | None:
-    """The chunk's MessageIndex records, per channel; None without them or when they cannot
-    be read."""
+def _index_parts(f: IO[bytes], size: int, index: Any) -> IndexParts | None:
+    """The chunk's MessageIndex records, per channel (of a file of ``size`` bytes); None
+    without them or when they cannot be read."""
     offsets = index.message_index_offsets
     if not offsets or index.message_index_length <= 0:
         return None
-    base = index.chunk_start_offset + index.chunk_length
     try:
-        f.seek(base)
-        block = f.read(index.message_index_length)
-        parts = recorded.message_index(block, [off - base for off in offsets.values()])
-    except (OSError, ValueError):
+        parts = recorded.read_message_index(f, size, index, offsets)
+    except OSError:
+        return None
+    if parts is None:
         return None
     return [(int(cid), p) for cid, p in zip(offsets, parts, strict=True) if len(p)]
 

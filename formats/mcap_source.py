@@ -346,7 +346,7 @@ class _McapSource(_McapIndexed):
                 if skip is not None and _may_leave_a_tail(index, wanted, skip[0]):
                     from aion_cli.formats.mcap_partial import read_head
 
-                    part = read_head(f, index, head, wanted, *skip, self._limits)
+                    part = read_head(f, self._size, index, head, wanted, *skip, self._limits)
                     if part is not None:
                         self._oversized(part[1])
                         return part[0]

@@ -102,15 +102,8 @@ def _chunk_entries(
     """The MessageIndex entries (``log_time``, ``offset``) of each of ``channels`` in the
     chunk of ``index``, with the channel; None when the records are damaged or list another
     number of messages than were counted after the chunk at open."""
-    base = index.chunk_start_offset + index.chunk_length
-    if base >= size:
-        return None
-    f.seek(base)
-    block = f.read(min(index.message_index_length, size - base))
-    listed = index.message_index_offsets
-    try:
-        records = recorded.message_index(block, [listed[c] - base for c in channels])
-    except ValueError:
+    records = recorded.read_message_index(f, size, index, channels)
+    if records is None:
         return None
     counted = counts.get(index.chunk_start_offset, {})
     if any(len(r) != counted.get(c, 0) for c, r in zip(channels, records, strict=True)):

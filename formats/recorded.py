@@ -9,7 +9,8 @@ The readers of :mod:`formats.mcap_source`, :mod:`formats.rosbags_source` and
 message indexes, the ROS 1 bag index, the rosbag2 sqlite3 ``timestamp`` column) and fall back to
 message log times only where nothing is indexed. This module holds the byte-level and numpy parts
 of that: window arithmetic, MessageIndex and chunk-record parsing, the SQL query. No file is
-opened here and nothing per message survives as a Python object.
+opened here (readers pass the streams they opened) and nothing per message survives as a Python
+object.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import struct
 from array import array
 from collections.abc import Iterable, Mapping, Sequence
 from itertools import chain
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -95,14 +96,24 @@ def end_windows(
     return np.unique(np.concatenate([starts // window_ns, ends // window_ns]))
 
 
-def message_index_times(block: bytes | memoryview, offsets: Iterable[int]) -> npt.NDArray[np.int64]:
-    """Log times listed by the MCAP MessageIndex records that start at ``offsets`` (relative to
-    ``block``, the bytes after a chunk). :class:`ValueError` when a record is not a
-    MessageIndex or overruns the block (a damaged or differently laid out index)."""
-    parts = [entries["log_time"].astype(np.int64) for entries in message_index(block, offsets)]
-    if not parts:
-        return np.zeros(0, dtype=np.int64)
-    return np.concatenate(parts)
+def read_message_index(
+    stream: IO[bytes], size: int, index: Any, channels: Iterable[int]
+) -> list[npt.NDArray[Any]] | None:
+    """The entries (``log_time``, ``offset``) of the MessageIndex records after the chunk of
+    ``index`` (an MCAP ChunkIndex) for each of ``channels``, in their order, read from
+    ``stream`` (a file of ``size`` bytes; one read of the records' block); None when the
+    block lies past the end of the file or its records are damaged. ``OSError`` from the
+    stream is the caller's."""
+    base = index.chunk_start_offset + index.chunk_length
+    listed = index.message_index_offsets
+    if base >= size:
+        return None
+    stream.seek(base)
+    block = stream.read(min(index.message_index_length, size - base))
+    try:
+        return message_index(block, [listed[c] - base for c in channels])
+    except (KeyError, ValueError):
+        return None
 
 
 def message_index(block: bytes | memoryview, offsets: Iterable[int]) -> list[npt.NDArray[Any]]:
