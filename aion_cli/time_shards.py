@@ -128,7 +128,7 @@ def split_groups(
     opts: BuildOptions,
     window_ns: int,
     workers: int,
-    tolerance: float = 0.25,
+    tolerance: float,
 ) -> tuple[list[Shard], list[str]]:
     """The shards of a parallel build's groups of logs (each group's logs share no time window
     with another's) for ``workers`` processes: each group whole or, while there are fewer

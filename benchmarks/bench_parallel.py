@@ -173,13 +173,36 @@ def run_speedup(
     return row
 
 
+def _alternated(
+    logs: list[Path], stem: str, repeats: int
+) -> tuple[list[float], list[float], Any, Any, list[str]]:
+    """Sequential and 2-worker builds of ``logs``, interleaved (the machine is shared) after
+    one warm-up build: the times of each, the last reports of each, and how the two maps
+    differ (``engine.compare.differences``; empty: the same map)."""
+    from aion_cli.engine.compare import differences
+    from aion_cli.mapquery import load_map
+
+    seq_out, par_out = WORK / f"{stem}_seq.aion", WORK / f"{stem}_par.aion"
+    _build(logs, seq_out, 1)  # imports and caches warm, for both timings alike
+    seq, par = [], []
+    for _ in range(repeats):
+        s, seq_report = timed(lambda: _build(logs, seq_out, 1))
+        seq.append(s)
+        s, par_report = timed(lambda: _build(logs, par_out, 2))
+        par.append(s)
+    problems = differences(
+        load_map(seq_out, writable=True).state, load_map(par_out, writable=True).state
+    )
+    seq_out.unlink(missing_ok=True)
+    par_out.unlink(missing_ok=True)
+    return seq, par, seq_report, par_report, problems
+
+
 def run_time_shards(
     messages: int = 62_501, days: int = 20, repeats: int = 3, empty_every_s: float = 0.0
 ) -> dict[str, Any]:
     """Sequential vs 2-worker build of one log cut into time shards (module docstring); with
     ``empty_every_s`` the tracker also publishes empty messages that often."""
-    from aion_cli.engine.compare import differences
-    from aion_cli.mapquery import load_map
     from benchmarks.build_logs import fixed_rate_log, ratio_log
 
     log = (
@@ -187,19 +210,7 @@ def run_time_shards(
         if empty_every_s
         else ratio_log(5, messages, days)
     )
-    seq_out, par_out = WORK / "tshard_seq.aion", WORK / "tshard_par.aion"
-    _build([log], seq_out, 1)  # imports and caches warm, for both timings alike
-    seq, par = [], []
-    for _ in range(repeats):  # interleaved: the machine is shared
-        s, seq_report = timed(lambda: _build([log], seq_out, 1))
-        seq.append(s)
-        s, par_report = timed(lambda: _build([log], par_out, 2))
-        par.append(s)
-    problems = differences(
-        load_map(seq_out, writable=True).state, load_map(par_out, writable=True).state
-    )
-    seq_out.unlink(missing_ok=True)
-    par_out.unlink(missing_ok=True)
+    seq, par, seq_report, par_report, problems = _alternated([log], "tshard", repeats)
     return {
         "name": f"time shards, one log of {days} days x {messages:,} msgs"
         + (f" + an empty message every {empty_every_s:g} s" if empty_every_s else "")
@@ -246,23 +257,10 @@ def run_hydra(logs: int, days: float, repeats: int = 3) -> dict[str, Any]:
     """Sequential vs 2-worker build of simulated Hydra logs (module docstring), interleaved,
     best and median of ``repeats``; the same map or not, and what the build did about the
     changing graphs (shards learnt in sequence, logs not cut)."""
-    from aion_cli.engine.compare import differences
-    from aion_cli.mapquery import load_map
 
-    paths = hydra_logs(logs, days)
-    seq_out, par_out = WORK / "hydra_seq.aion", WORK / "hydra_par.aion"
-    _build(paths, seq_out, 1)  # imports and caches warm, for both timings alike
-    seq, par = [], []
-    for _ in range(repeats):
-        s, seq_report = timed(lambda: _build(paths, seq_out, 1))
-        seq.append(s)
-        s, par_report = timed(lambda: _build(paths, par_out, 2))
-        par.append(s)
-    problems = differences(
-        load_map(seq_out, writable=True).state, load_map(par_out, writable=True).state
+    seq, par, seq_report, par_report, problems = _alternated(
+        hydra_logs(logs, days), "hydra", repeats
     )
-    seq_out.unlink(missing_ok=True)
-    par_out.unlink(missing_ok=True)
     notes = par_report.notes
     return {
         "name": (
