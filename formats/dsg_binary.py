@@ -79,7 +79,9 @@ class BinaryGraph:
     (an agent's timestamp, 0 for other types). ``mesh`` is None without a mesh, else
     ``(points float32[v,3], colors uint8[c,4], faces uint64[f,3])``. ``node_start`` /
     ``node_end`` are where each node record's bytes begin and end in ``data`` (consecutive:
-    one record ends where the next begins), what :mod:`formats.dsg_delta` re-reads."""
+    one record ends where the next begins), what :mod:`formats.dsg_delta` re-reads;
+    ``node_body`` where each record's attribute fields begin (after its metadata text), from
+    where :mod:`formats.dsg_delta` reads a record's new values in place."""
 
     data: U8
     layer_keys: list[tuple[int, int]]
@@ -99,6 +101,7 @@ class BinaryGraph:
     mesh: tuple[npt.NDArray[np.float32], U8, U64] | None
     node_start: I64
     node_end: I64
+    node_body: I64
 
 
 # -- the whole payload ---------------------------------------------------------------------
@@ -234,6 +237,7 @@ def _nodes(buf: U8, first: int, arrays: I64, kinds: list[str]) -> tuple[Values, 
         raise _OutsideError
     nodes = {name: values[order] for name, values in cols.items()}
     nodes["start"], nodes["end"] = cand[order], ends[order]
+    nodes["body"] = meta[0][order] + meta[1][order]
     return nodes, end
 
 
@@ -386,4 +390,5 @@ def _read(buf: U8, data: memoryview) -> BinaryGraph:
         nodes["name_len"].astype(np.int64), nodes["real_place"].astype(bool),
         nodes["stamp_ns"].astype(np.int64), source, target, mesh,
         nodes["start"].astype(np.int64), nodes["end"].astype(np.int64),
+        nodes["body"].astype(np.int64),
     )  # fmt: skip

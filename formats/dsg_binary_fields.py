@@ -398,3 +398,34 @@ PROGRAMS: dict[str, list[Step]] = {
         ],
     }.items()
 }
+
+
+@dataclass(frozen=True)
+class ValueBytes:
+    """The leading fixed-size fields of an attribute type (its program's first
+    :class:`Fixed` step: a node's position and update time, an agent's stamp and pose): their
+    ``size``, which of their bytes are values (``values[k]``: byte ``k`` is neither a tag nor
+    a bool, whose bytes the step checks) and the values captured there."""
+
+    size: int
+    values: Bool
+    captures: tuple[tuple[str, int, str], ...]
+
+
+@functools.cache
+def value_bytes(kind: str) -> ValueBytes | None:
+    """:class:`ValueBytes` of attribute type ``kind`` (None: no program, or none that starts
+    with fixed-size fields). A record whose bytes changed only there still reads as a record,
+    field for field as before, with only those values new: what :mod:`formats.dsg_delta`
+    reads in place."""
+    program = PROGRAMS.get(kind)
+    if not program or not isinstance(program[0], Fixed):
+        return None
+    step = program[0]
+    values = np.ones(step.size, dtype=bool)
+    values[[offset for offset, _ in step.checks]] = False
+    for _, offset, dtype in step.captures:
+        if dtype == "bool":
+            values[offset] = False  # (checked as a bool already; kept out explicitly)
+    values.flags.writeable = False
+    return ValueBytes(step.size, values, step.captures)

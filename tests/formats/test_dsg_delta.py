@@ -95,6 +95,7 @@ def test_moved_places_are_read_by_changes_and_equal_a_whole_read() -> None:
     got, reader = _read_after(first, then)
     assert reader.delta_reads == 1
     assert reader.whole_reads == 1
+    assert (reader.records_in_place, reader.records_parsed) == (len(moved), 0)  # not parsed
     whole = read_graph(then)
     assert_same_graph(got, whole)
     assert got is not None
@@ -127,6 +128,7 @@ def test_a_renamed_node_of_the_same_length_is_read_by_changes() -> None:
     then = _payload(G)
     got, reader = _read_after(first, then)
     assert reader.delta_reads == 1
+    assert (reader.records_in_place, reader.records_parsed) == (0, 1)  # a string: parsed
     assert_same_graph(got, read_graph(then))
     assert got is not None
     row = int(np.flatnonzero(got.ids == renamed)[0])
@@ -183,6 +185,31 @@ def test_any_changed_byte_reads_as_a_whole_read(at: int, value: int) -> None:
     changed[at] = value
     got, _ = _read_after(_FIRST, bytes(changed))
     assert_same_graph(got, read_graph(bytes(changed)))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, len(_FIRST) - 1), st.integers(0, 255)), max_size=8))
+def test_any_changed_bytes_read_as_a_whole_read(edits: list[tuple[int, int]]) -> None:
+    """A few bytes changed at once, anywhere — values of some records read in place, tags or
+    lengths of others parsed again in the same payload — give what the whole read gives."""
+    changed = bytearray(_FIRST)
+    for at, value in edits:
+        changed[at] = value
+    got, _ = _read_after(_FIRST, bytes(changed))
+    assert_same_graph(got, read_graph(bytes(changed)))
+
+
+def test_values_and_a_rename_in_one_payload() -> None:
+    """Places moved (read in place) and another renamed (parsed again) in one payload."""
+    G = _graph()
+    places = _places(G)
+    G.get_node(places[1]).attributes.name = "kitchen"
+    first = _payload(G)
+    G.get_node(places[1]).attributes.name = "hallway"
+    then = _payload(_move(G, places[4:10], 0.003, 10**18 + 7))
+    got, reader = _read_after(first, then)
+    assert (reader.records_in_place, reader.records_parsed) == (6, 1)
+    assert_same_graph(got, read_graph(then))
 
 
 def test_a_build_of_a_moving_stream_equals_reading_every_graph_whole(
@@ -295,6 +322,7 @@ def test_snapshots_of_moved_nodes_are_moved_not_made_again(
         (lambda: _move(G, places[1:3], -0.002, 10**18 + 5), True),
     ]
     reader = GraphReader()
+    parsed_before = 0
     for k, (edit, moved) in enumerate(steps):
         edit()
         payload = _payload(G)
@@ -302,6 +330,9 @@ def test_snapshots_of_moved_nodes_are_moved_not_made_again(
         streamed = dsg_fast.fast_navigation(payload, 500 + k, None, reader)
         assert reader.values_only == moved, k
         assert (len(made) == before) == moved, k  # moved: no new scan
+        if moved:  # agents (their pose and stamp) and rooms too: read in place
+            assert reader.records_parsed == parsed_before, k
+        parsed_before = reader.records_parsed
         alone = scan(read_graph(payload), 500 + k, None)[0]
         assert streamed is not None
         _snapshots_equal(streamed.snapshot, alone.snapshot)
