@@ -82,9 +82,14 @@ class ObservationSource:
         return self._merged
 
     def prune(self, before_ns: int) -> None:
-        """Forget poses before ``before_ns`` (their windows are closed)."""
-        keep = self.pose_t >= before_ns
-        self.pose_t, self.pose_xy = self.pose_t[keep], self.pose_xy[keep]
+        """Forget poses before ``before_ns`` (their windows are closed). The poses are sorted,
+        so they are the first ones: one binary search and views of the rest, nothing copied
+        (a build prunes at every window it closes, with perhaps a whole log's trajectory
+        pending: a mask and a copy of it cost a millisecond each time; the poses are never
+        written in place, :meth:`add_trajectory` makes new arrays)."""
+        cut = int(np.searchsorted(self.pose_t, np.int64(before_ns), side="left"))
+        if cut:
+            self.pose_t, self.pose_xy = self.pose_t[cut:], self.pose_xy[cut:]
 
     def covered_windows(self, first: int, stop: int, delta_ns: int) -> I64:
         """Sorted windows in ``[first, stop)`` covered by a pose or a fixed-sensor interval.
@@ -142,7 +147,7 @@ class ObservationSource:
         if i1 <= i0 or n == 0:
             return np.zeros(n, dtype=bool)
         poses = np.unique(self.pose_xy[i0:i1], axis=0)
-        from aion_cli.engine.nodes import horizontal_tree
+        from aion_cli.engine.nearest import horizontal_tree
 
         dist, _ = horizontal_tree(poses).query(entry_xy, k=1, distance_upper_bound=sensor_range)
         mask: BoolA = dist <= sensor_range
