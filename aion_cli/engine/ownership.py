@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aion_cli.engine.entries import CELL, NODE
-from aion_cli.engine.nodes import BindIndex, nearest_nodes
+from aion_cli.engine.nearest import BindIndex, nearest_nodes
 from aion_cli.engine.spatial_hash import (
     cell_centres,
     keys_for_points,
@@ -106,7 +106,7 @@ class BindPlan:
 
 def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     """The binds a check at log time ``t_ns`` would make (None if none); no state changes
-    (beyond the node table's memo of earlier checks, :class:`~aion_cli.engine.nodes.BindIndex`,
+    (beyond the node table's memo of earlier checks, :class:`~aion_cli.engine.nearest.BindIndex`,
     which makes the answer cost the cells that are new since the last check, not every cell)."""
     cfg = state.config
     stable = stable_nodes(state, t_ns)

@@ -41,7 +41,7 @@ import numpy as np
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.merge import add_entries, adopt_redirects, destinations, merge_timers
-from aion_cli.engine.nodes import nearest_nodes
+from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.ownership import BindPlan, apply_binds, plan_binds, stable_nodes
 from aion_cli.engine.temporal.pending import DeferredDays, HeldDay, PendingDay
 from aion_cli.engine.types import F64, I64, U64

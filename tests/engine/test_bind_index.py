@@ -1,21 +1,22 @@
-"""The bind-check memo (:class:`aion_cli.engine.nodes.BindIndex`, issue 15) answers exactly
-as :func:`~aion_cli.engine.nodes.nearest_nodes` does for any sequence of checks — cells
+"""The bind-check memo (:class:`aion_cli.engine.nearest.BindIndex`, issue 15) answers exactly
+as :func:`~aion_cli.engine.nearest.nearest_nodes` does for any sequence of checks — cells
 added, dropped, reused and moved; node sets changed, repeated, shifted and jittered by
 millimetres — while querying only the cells it must."""
 
 from __future__ import annotations
 
 from typing import Any
+from unittest import mock
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from aion_cli.engine import ownership
+from aion_cli.engine import nearest, ownership
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
-from aion_cli.engine.nodes import BindIndex, nearest_nodes
+from aion_cli.engine.nearest import BindIndex, nearest_nodes
 from tests.engine.engine_builders import T0_DAY_END, S, detections, graph
 
 # -- the bind-check memo --------------------------------------------------------------------
@@ -48,12 +49,25 @@ step = st.tuples(
 )
 
 
-@given(st.integers(0, 2**31 - 1), st.lists(step, min_size=1, max_size=25))
+@given(
+    st.integers(0, 2**31 - 1),
+    st.lists(step, min_size=1, max_size=25),
+    st.sampled_from([0, 40, nearest._ALL_PAIRS]),
+)
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-def test_bind_index_answers_equal_nearest_nodes(seed: int, steps: list[tuple[str, int]]) -> None:
+def test_bind_index_answers_equal_nearest_nodes(
+    seed: int, steps: list[tuple[str, int]], all_pairs: int
+) -> None:
     """Any sequence of checks: cells added (new rows), dropped, rows reused by other cells,
     cells moved in place, node sets changed or repeated: every answer equals a fresh
-    ``nearest_nodes`` over all cells, and cells seen unbound before are not queried again."""
+    ``nearest_nodes`` over all cells and a brute-force search, and cells seen unbound before
+    are not queried again. ``all_pairs``: up to how many pairs every pair is compared (0:
+    the KD-trees always, the reference tree of moved nodes too; 40: some checks each way)."""
+    with mock.patch.object(nearest, "_ALL_PAIRS", all_pairs):
+        _check_sequence(seed, steps)
+
+
+def _check_sequence(seed: int, steps: list[tuple[str, int]]) -> None:
     rng = np.random.default_rng(seed)
     index = BindIndex()
     nodes = _points(rng, 6)
@@ -98,6 +112,9 @@ def test_bind_index_answers_equal_nearest_nodes(seed: int, steps: list[tuple[str
         got = index.nearest(rows[order], key_of_row, xyz_of_row, nodes, radius, vtol)
         want = nearest_nodes(pts[order], nodes, radius, vtol)
         np.testing.assert_array_equal(got, want)
+        if len(nodes) and rows.size:
+            brute = _brute_force_nearest(pts[order], nodes, radius, vtol)
+            np.testing.assert_array_equal(want, brute)
         if kind == "same" and len(nodes) and rows.size:
             before = index.queried
             again = index.nearest(rows[order], key_of_row, xyz_of_row, nodes, radius, vtol)
@@ -242,3 +259,39 @@ def test_equally_near_nodes_bind_by_index_whatever_the_tree(order: str) -> None:
     np.testing.assert_array_equal(
         BindIndex().nearest(rows, keys, cells, nodes, 1.0, 0.5), expected
     )
+
+
+def test_a_node_moved_into_reach_is_found_through_the_reference_tree() -> None:
+    """The reference tree of nodes a live graph moved by millimetres is asked within the
+    radius widened by the move: a node 2 mm out of reach at its reference position, moved
+    3 mm toward a cell, binds it (as a fresh search finds), through the tree."""
+    nodes = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [0.0, 5.0, 0.0]])
+    cells = np.array([[1.002, 0.0, 0.0], [3.0, 3.0, 0.0]])
+    rows = np.arange(2, dtype=np.int64)
+    keys = np.array([7, 8], dtype=np.int64)
+    with mock.patch.object(nearest, "_ALL_PAIRS", 0):  # the trees, however small
+        index = BindIndex()
+        np.testing.assert_array_equal(index.nearest(rows, keys, cells, nodes, 1.0, 0.5), [-1, -1])
+        moved = nodes.copy()
+        moved[0, 0] += 0.003  # now 0.999 m from the first cell
+        got = index.nearest(rows, keys, cells, moved, 1.0, 0.5)
+        assert index._tree is not None  # the reference tree, kept
+        assert len(index._ref) == 3
+        np.testing.assert_array_equal(index._ref[0], nodes[0, :2])
+    np.testing.assert_array_equal(got, [0, -1])
+    np.testing.assert_array_equal(nearest_nodes(cells, moved, 1.0, 0.5), [0, -1])
+
+
+@pytest.mark.parametrize("all_pairs", [0, nearest._ALL_PAIRS])
+def test_many_nodes_of_another_floor_nearer_do_not_hide_the_floors_own(all_pairs: int) -> None:
+    """Twelve nodes of the floor above lie nearer to a cell than its own floor's node, which
+    is still in reach: the cell binds to its floor's node (every node in reach is weighed,
+    not only the few nearest horizontally)."""
+    above = np.c_[np.linspace(-0.1, 0.1, 12), np.zeros(12), np.full(12, 3.0)]
+    own = np.array([[0.0, 0.8, 0.0]])
+    nodes = np.r_[above, own]
+    cell = np.array([[0.0, 0.0, 0.1]])
+    with mock.patch.object(nearest, "_ALL_PAIRS", all_pairs):
+        np.testing.assert_array_equal(nearest_nodes(cell, nodes, 1.0, 0.5), [12])
+        got = BindIndex().nearest(np.array([0]), np.array([5]), cell, nodes, 1.0, 0.5)
+    np.testing.assert_array_equal(got, [12])

@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
-from aion_cli.engine.nodes import NodeTable, nearest_nodes
+from aion_cli.engine.nearest import nearest_nodes
+from aion_cli.engine.nodes import NodeTable
 from aion_cli.engine.query import historical_table
 from aion_cli.engine.spatial_hash import keys_for_points
 from aion_cli.engine.state import MapState
