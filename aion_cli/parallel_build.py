@@ -295,6 +295,11 @@ class ParallelBuild:
             groups = plan_shards(spans, window)
             if empty and groups:
                 groups[0] = groups[0] + tuple(empty)
+            from aion_cli.shard_graphs import kept_together
+
+            groups, note = kept_together(groups, opts, self.config.stable_move_tolerance)
+            if note:
+                report.notes.append(note)
         from aion_cli.time_shards import split_groups
 
         shards, notes = split_groups(

@@ -23,8 +23,9 @@
   Hydra graph that grows as the robot explores and is corrected at loop closures, people, a
   patrolling robot's TF), several logs a day apart and one longer log: the scene graph
   changes between shards and inside a later part, so nothing can be joined; what is
-  measured is that parallel building then costs no more than one process (the workers are
-  stopped at the first changed graph, a log is not cut where its graph changes).
+  measured is that parallel building then costs no more than one process (sessions whose
+  first graph lost places of the one before are kept together before any worker starts, the
+  workers are stopped at the first changed graph, a log is not cut where its graph changes).
 * **Merge cost** (:func:`run_merge`). ``engine.merge.merge_maps`` of two maps of 10^4 and 10^5
   cell entries with two weeks of history (``bench_engine.build_state``): seconds per entry,
   copying the inputs (the library default) and in place (``aion merge``).
@@ -280,6 +281,7 @@ def run_hydra(logs: int, days: float, repeats: int = 3) -> dict[str, Any]:
         "shards_learnt_in_sequence": len([n for n in notes if "learnt in sequence onto" in n]),
         "learnt_without_waiting": [n for n in notes if "without waiting for the workers" in n],
         "not_cut": [n for n in notes if "not cut into time shards" in n],
+        "kept_together": [n for n in notes if "first scene graph lacks places" in n],
     }
 
 

@@ -234,7 +234,11 @@ def _parallel_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> N
                 f"{r['shards']} shards, {r['shards_learnt_in_sequence']} learnt in sequence; "
                 f"joins {r['fold_s'] or 0:.2f} s")
         elif name.startswith("Hydra"):
-            how = "; ".join(r["learnt_without_waiting"] + r["not_cut"]) or "joined"
+            kept = r.get("kept_together", [])
+            how = "; ".join(
+                (["sessions kept together"] if kept else []) + r["learnt_without_waiting"]
+                + r["not_cut"]
+            ) or "joined"
             add("parallel", f"{name}, {r['graph_messages']:,} graphs: speed-up",
                 f"{r['speedup']:.2f}x ({r['workers2_s']:.2f} s vs {r['sequential_s']:.2f} s)",
                 f"median {r['speedup_median']:.2f}x; same map: {r['same_map']}"

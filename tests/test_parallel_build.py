@@ -160,11 +160,18 @@ def _children(pid: int) -> list[int]:
 
 
 @pytest.mark.slow
-def test_shards_whose_scene_graph_changed_are_named_with_a_hint(tmp_path: Path) -> None:
+def test_shards_whose_scene_graph_changed_are_named_with_a_hint(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     # Two simulated Hydra sessions of the office (their graphs grow and are corrected at loop
     # closures): the second session's shard binds cells to the places of its own time, where
     # one pass kept the first session's bindings. The fold learns it again in sequence (the
     # map of one pass) and the report says so once, with the way round it.
+    # (The planner keeps sessions whose first graph lacks places of the one before together
+    # (test below); the fold's fallback stays for what it cannot see: told none here.)
+    import aion_cli.shard_graphs as shard_graphs
+
+    monkeypatch.setattr(shard_graphs, "graph_breaks", _no_breaks)
     logs = _sessions(tmp_path, ("2026-01-05", "2026-01-07"))
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     _build(logs, seq, 1)
@@ -179,6 +186,20 @@ def test_shards_whose_scene_graph_changed_are_named_with_a_hint(tmp_path: Path) 
         "which a shard built apart cannot know; for such logs --workers 1 is faster "
         "(docs/SCALING.md)"
     ]
+
+
+def _no_breaks(groups: list[Any], *_: Any) -> list[bool]:
+    """``shard_graphs.graph_breaks`` telling no session boundary (the fold's fallback is
+    then what these tests see)."""
+    return [False] * (len(groups) - 1)
+
+
+_CLI_WITHOUT_BREAKS = (
+    "import aion_cli.shard_graphs as g; "
+    "g.graph_breaks = lambda groups, *_: [False] * (len(groups) - 1); "
+    "from aion_cli.cli.main import main; main()"
+)
+"""``aion`` in a process whose planner tells no session boundary (:func:`_no_breaks`)."""
 
 
 def _sessions(tmp_path: Path, starts: tuple[str, ...]) -> list[Path]:
@@ -206,7 +227,10 @@ def test_after_a_graph_change_the_rest_is_learnt_in_sequence_without_the_workers
     # stopped and the third is learnt in sequence at once: the worker that took it (slowed
     # here to a minute, then leaving a mark) never finishes it. The map is one pass's.
     import aion_cli.process_pool as pool
+    import aion_cli.shard_graphs as shard_graphs
 
+    # (the planner told no session boundary, as in the test above)
+    monkeypatch.setattr(shard_graphs, "graph_breaks", _no_breaks)
     logs = _sessions(tmp_path, ("2026-01-05", "2026-01-07", "2026-01-09"))
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     _build(logs, seq, 1)
@@ -231,6 +255,32 @@ def test_after_a_graph_change_the_rest_is_learnt_in_sequence_without_the_workers
     ) in notes
     assert [n for n in notes if n.startswith("1 of 3 shards were built twice")]
     assert [row["shard"] for row in report.workers] == [0, 1]  # type: ignore[attr-defined]
+
+
+@pytest.mark.slow
+def test_sessions_whose_first_graph_lost_places_are_built_in_sequence_from_the_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Three simulated sessions: each starts exploring again with a graph of its own, which
+    # lacks the places of the session before. The planner sees it in their first and last
+    # graphs and builds them in sequence at once: no worker builds a shard only for its join
+    # to be refused. The map is one pass's, and the note names the sessions.
+    import aion_cli.process_pool as pool
+
+    logs = _sessions(tmp_path, ("2026-01-05", "2026-01-07", "2026-01-09"))
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build(logs, seq, 1)
+
+    def no_workers(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("a worker pool was started")
+
+    monkeypatch.setattr(pool, "run_in_processes", no_workers)
+    report = _build(logs, par, 2)
+    assert _same_maps(seq, par) == []
+    notes = report.notes  # type: ignore[attr-defined]
+    assert [n for n in notes if n.startswith("session1.mcap, session2.mcap: their first scene")]
+    assert not [n for n in notes if "learnt in sequence" in n]
+    assert report.workers == []  # type: ignore[attr-defined]
 
 
 @pytest.mark.skipif(not hasattr(signal, "SIGTERM") or sys.platform != "linux", reason="fork")
@@ -275,9 +325,9 @@ def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) ->
     out = tmp_path / "map.aion"
     _build(logs[:1], out, 1)
     before = hashlib.sha256(out.read_bytes()).hexdigest()
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "aion_cli", "build", *map(str, logs[1:]), "--map", str(out),
-         "--workers", "2", "-q"],
+    proc = subprocess.Popen(  # (told no session boundary, so that the workers do start)
+        [sys.executable, "-c", _CLI_WITHOUT_BREAKS, "build", *map(str, logs[1:]), "--map",
+         str(out), "--workers", "2", "-q"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -487,6 +487,32 @@ def test_places_changed_compares_ids_and_moves_beyond_the_tolerance() -> None:
     assert places_changed(grown, a, 0.25)
 
 
+def test_places_lost_counts_places_gone_or_moved_not_added() -> None:
+    """Between two logs, a graph that grew keeps the join (its places are all still there);
+    one that lacks a place, or moved one beyond the tolerance, does not."""
+    from aion_cli.engine.types import GraphSnapshot, Layer
+    from aion_cli.shard_graphs import places_lost
+
+    def snap(ids: list[int], xyz: list[tuple[float, float, float]]) -> GraphSnapshot:
+        where = np.array(xyz, float).reshape(-1, 3)
+        layer = Layer(np.array(ids, np.uint64), where, np.zeros(len(ids), np.uint64))
+        return GraphSnapshot(0, layer, np.zeros((0, 2), np.int64))
+
+    a = snap([1, 2, 3], [(0, 0, 0), (1, 0, 0), (2, 0, 0)])
+    grown = snap([4, 3, 1, 2], [(3, 0, 0), (2, 0, 0), (0, 0.2, 0), (1, 0, 0)])
+    lacking = snap([1, 3], [(0, 0, 0), (2, 0, 0)])
+    moved = snap([1, 2, 3], [(0, 0, 0), (1, 0.3, 0), (2, 0, 0)])
+    other = snap([7, 8, 9], [(0, 0, 0), (1, 0, 0), (2, 0, 0)])
+    empty = snap([], [])
+    assert not places_lost(a, grown, 0.25)
+    assert places_lost(grown, a, 0.25)
+    assert places_lost(a, lacking, 0.25)
+    assert places_lost(a, moved, 0.25)
+    assert places_lost(a, other, 0.25)
+    assert places_lost(a, empty, 0.25)
+    assert not places_lost(empty, a, 0.25)
+
+
 def _fixed_rate(path: Path, container: str = "mcap") -> Path:
     """A tracker publishing every 5 s from Monday 08:00 to 10:20, empty messages included:
     the office's people from 08:00 to 08:20 and from 10:00 to 10:20, nobody in between."""
