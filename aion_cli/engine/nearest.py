@@ -30,6 +30,8 @@ if TYPE_CHECKING:
 
 _ALL_PAIRS = 1 << 16
 """Up to this many point-node pairs, every pair is compared (no tree)."""
+_POINTS_PER_BLOCK = 1 << 14
+"""Points asked of a KD-tree at a time (bounds the candidate pairs held at once)."""
 
 
 def nearest_nodes(points: F64, node_xyz: F64, radius: float, vertical_tolerance: float) -> I64:
@@ -41,9 +43,27 @@ def nearest_nodes(points: F64, node_xyz: F64, radius: float, vertical_tolerance:
         return np.full(n, -1, np.int64)
     if n * m <= _ALL_PAIRS:
         p, j = _all_pairs(n, m)
-    else:
-        p, j = _ball_pairs(horizontal_tree(node_xyz), points, _widened(radius))
-    return _closest(points, node_xyz, p, j, radius, vertical_tolerance)[0]
+        return _closest(points, node_xyz, p, j, radius, vertical_tolerance)[0]
+    tree = horizontal_tree(node_xyz)
+    return _by_tree(tree, points, node_xyz, _widened(radius), radius, vertical_tolerance)
+
+
+def _by_tree(
+    tree: cKDTree,
+    points: F64,
+    node_xyz: F64,
+    reach: float,
+    radius: float,
+    vertical_tolerance: float,
+) -> I64:
+    """:func:`_closest` over the pairs within ``reach`` that ``tree`` finds, a block of
+    points at a time (the pairs of a dense layer of places, tens per cell, stay a few MB)."""
+    hit = np.empty(len(points), np.int64)
+    for a in range(0, len(points), _POINTS_PER_BLOCK):
+        block = points[a : a + _POINTS_PER_BLOCK]
+        p, j = _ball_pairs(tree, block, reach)
+        hit[a : a + len(block)] = _closest(block, node_xyz, p, j, radius, vertical_tolerance)[0]
+    return hit
 
 
 def horizontal_tree(xyz: F64) -> cKDTree:
@@ -268,8 +288,8 @@ class BindIndex:
             return found, np.minimum(least, cap) - radius - moved
         if self._tree is None:
             self._tree = horizontal_tree(self._ref)
-        p, j = _ball_pairs(self._tree, points, _widened(radius + moved))
-        found, _ = _closest(points, nodes, p, j, radius, vertical_tolerance)
+        reach = _widened(radius + moved)
+        found = _by_tree(self._tree, points, nodes, reach, radius, vertical_tolerance)
         slack = np.full(len(points), -np.inf)
         unbound = found < 0
         if unbound.any():  # the reference nodes' own distance: the slack as defined

@@ -62,8 +62,12 @@ def test_bind_index_answers_equal_nearest_nodes(
     cells moved in place, node sets changed or repeated: every answer equals a fresh
     ``nearest_nodes`` over all cells and a brute-force search, and cells seen unbound before
     are not queried again. ``all_pairs``: up to how many pairs every pair is compared (0:
-    the KD-trees always, the reference tree of moved nodes too; 40: some checks each way)."""
-    with mock.patch.object(nearest, "_ALL_PAIRS", all_pairs):
+    the KD-trees always, the reference tree of moved nodes too; 40: some checks each way).
+    The trees are asked 7 points at a time (blocks)."""
+    with (
+        mock.patch.object(nearest, "_ALL_PAIRS", all_pairs),
+        mock.patch.object(nearest, "_POINTS_PER_BLOCK", 7),
+    ):
         _check_sequence(seed, steps)
 
 
