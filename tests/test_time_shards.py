@@ -651,3 +651,29 @@ def test_a_time_check_limited_to_a_part_keeps_its_messages_and_clips_its_runs() 
     assert kept == [t * S for t in (1000, 1200, 2399, 2400)]
     inside = part.inside_limits(np.arange(6) * W)  # the windows starting inside the part
     assert inside.tolist() == [False, False, True, True, False, False]
+
+
+def test_graph_breaks_between_logs(tmp_path: Path) -> None:
+    """Between two logs (each one Hydra session): a later log whose first graph lacks a
+    place of the earlier log's last is a break; one that grew, or repeats it, is not; one
+    whose graphs do not decode cannot tell (no break: the join decides)."""
+    from aion_cli.build_options import BuildOptions
+    from aion_cli.shard_graphs import graph_breaks
+    from tests.formats.dsg_builders import hydra_graph
+
+    def log(name: str, graph: object) -> Path:
+        return _hydra_sessions(tmp_path / f"{name}.mcap", [graph])
+
+    plain = log("plain", hydra_graph(False))
+    again = log("again", hydra_graph(False))
+    grown = log("grown", _grown(hydra_graph(False)))
+    damaged = log("damaged", _Damaged())
+    opts = BuildOptions(logs=(plain,), output=tmp_path / "x.aion")
+
+    def breaks(*logs: Path) -> list[bool]:
+        return graph_breaks([(p,) for p in logs], opts, 0.25)
+
+    assert breaks(plain, again, grown) == [False, False]
+    assert breaks(grown, plain) == [True]  # the grown graph's extra place is gone
+    assert breaks(plain, damaged, plain) == [False, False]
+    assert breaks(plain) == []
