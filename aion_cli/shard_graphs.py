@@ -22,6 +22,7 @@ sequence, before any worker starts.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -104,21 +105,42 @@ def graph_breaks(
     from the earlier ones cannot know them, so its join would be refused and its logs learnt
     again in sequence (``engine.shards.join_blocker``); the planner keeps such groups
     together instead. False where it cannot be told (no scene graph, no index, a graph that
-    does not decode): the join decides then, as before."""
+    does not decode): the join decides then, as before.
+
+    The two graphs are decoded only where their payloads differ: a fleet's logs that publish
+    one saved graph cost two small reads per log, no decoding."""
     if len(groups) < 2 or opts.graph_file is not None:
         return [False] * max(len(groups) - 1, 0)
-    ends = [_first_and_last_graph(group, opts) for group in groups]
-    return [
-        last is not None and first is not None and places_lost(last, first, tolerance)
-        for (_, last), (first, _) in pairwise(ends)
-    ]
+    ends = [_graph_ends(group, opts) for group in groups]
+    out = []
+    for k, (before, after) in enumerate(pairwise(ends)):
+        if before is None or after is None:
+            out.append(False)
+        elif before.last_payload is not None and before.last_payload == after.first_payload:
+            out.append(False)  # the same bytes: the same graph, nothing lost
+        else:
+            last = _decoded(groups[k], opts, before.last_ns)
+            first = _decoded(groups[k + 1], opts, after.first_ns)
+            out.append(
+                last is not None and first is not None and places_lost(last, first, tolerance)
+            )
+    return out
 
 
-def _first_and_last_graph(
-    group: tuple[Path, ...], opts: BuildOptions
-) -> tuple[GraphSnapshot | None, GraphSnapshot | None]:
-    """The first and the last scene graph of a group of logs, decoded as the build decodes
-    them (None where there is none, the logs cannot be read by time or it does not decode)."""
+@dataclass(frozen=True)
+class _GraphEnds:
+    """When a group's first and last scene graphs were logged, and their DsgUpdate payloads
+    where the fast reader knows the message's layout (None otherwise)."""
+
+    first_ns: int
+    last_ns: int
+    first_payload: bytes | None
+    last_payload: bytes | None
+
+
+def _graph_ends(group: tuple[Path, ...], opts: BuildOptions) -> _GraphEnds | None:
+    """:class:`_GraphEnds` of a group of logs; None where there is no scene graph or the logs
+    cannot be read by time."""
     from aion_cli.build_options import build_topics
     from aion_cli.errors import AionError
     from aion_cli.formats.logs import open_logs
@@ -127,15 +149,47 @@ def _first_and_last_graph(
         with open_logs(list(group), opts.log_format) as logset:
             topics = build_topics(logset.topics, opts).names("graph")
             if not topics or not logset.skips_by_time():
-                return None, None
+                return None
             found = logset.index_times(topics)
             if found is None or len(found) == 0:
-                return None, None
+                return None
             t = np.sort(np.asarray(found.t, dtype=np.int64))
-            first = _graph_at(logset, opts, topics, int(t[0]))
-            return first, _graph_at(logset, opts, topics, int(t[-1]))
+            first, last = int(t[0]), int(t[-1])
+            payloads = [_payload_at(logset, topics, at) for at in (first, last)]
+            return _GraphEnds(first, last, *payloads)
     except AionError:  # the build reports what it cannot read
-        return None, None
+        return None
+
+
+def _payload_at(logset: Any, topics: set[str], t_ns: int) -> bytes | None:
+    """The DsgUpdate payload logged at ``t_ns`` on ``topics``, read without decoding the
+    graph (None: none there, or a layout the fast reader does not know)."""
+    from aion_cli.formats.dsg_update_fast import layout_matches, read_dsg_update
+
+    for msg in logset.messages(topics, (t_ns, t_ns + 1)):
+        if msg.log_time_ns != t_ns or msg.topic not in topics:
+            continue
+        key = (msg.topic, msg.msgtype, msg.encoding)
+        if not layout_matches(msg.msgtype, msg.encoding, *logset.definition(*key)):
+            return None
+        fields = read_dsg_update(msg.data, msg.encoding)
+        return None if fields is None else bytes(fields.payload)
+    return None
+
+
+def _decoded(group: tuple[Path, ...], opts: BuildOptions, t_ns: int) -> GraphSnapshot | None:
+    """The scene graph a group of logs logged at ``t_ns``, decoded as the build decodes it
+    (None where it does not decode)."""
+    from aion_cli.build_options import build_topics
+    from aion_cli.errors import AionError
+    from aion_cli.formats.logs import open_logs
+
+    try:
+        with open_logs(list(group), opts.log_format) as logset:
+            topics = build_topics(logset.topics, opts).names("graph")
+            return _graph_at(logset, opts, topics, t_ns)
+    except AionError:
+        return None
 
 
 def places_lost(before: GraphSnapshot, after: GraphSnapshot, tolerance: float) -> bool:

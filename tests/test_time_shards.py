@@ -653,10 +653,12 @@ def test_a_time_check_limited_to_a_part_keeps_its_messages_and_clips_its_runs() 
     assert inside.tolist() == [False, False, True, True, False, False]
 
 
-def test_graph_breaks_between_logs(tmp_path: Path) -> None:
+def test_graph_breaks_between_logs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Between two logs (each one Hydra session): a later log whose first graph lacks a
-    place of the earlier log's last is a break; one that grew, or repeats it, is not; one
-    whose graphs do not decode cannot tell (no break: the join decides)."""
+    place of the earlier log's last is a break; one that grew, or repeats it, is not (a
+    repeated payload is not even decoded); one whose graphs do not decode cannot tell (no
+    break: the join decides)."""
+    import aion_cli.shard_graphs as shard_graphs
     from aion_cli.build_options import BuildOptions
     from aion_cli.shard_graphs import graph_breaks
     from tests.formats.dsg_builders import hydra_graph
@@ -673,7 +675,18 @@ def test_graph_breaks_between_logs(tmp_path: Path) -> None:
     def breaks(*logs: Path) -> list[bool]:
         return graph_breaks([(p,) for p in logs], opts, 0.25)
 
+    decoded: list[object] = []
+    real = shard_graphs._decoded
+
+    def counting(*args: Any) -> Any:
+        decoded.append(args)
+        return real(*args)
+
+    monkeypatch.setattr(shard_graphs, "_decoded", counting)
+    assert breaks(plain, again) == [False]
+    assert decoded == []  # the same payload bytes: no decoding
     assert breaks(plain, again, grown) == [False, False]
+    assert len(decoded) == 2  # the grown graph's payload differs: both ends decoded
     assert breaks(grown, plain) == [True]  # the grown graph's extra place is gone
     assert breaks(plain, damaged, plain) == [False, False]
     assert breaks(plain) == []
