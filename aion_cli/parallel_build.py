@@ -288,6 +288,7 @@ class ParallelBuild:
             return self.build.learn(self.config).state
         window = _window_ns(self.config)
         spans: list[tuple[Path, int, int]] = []
+        whole: frozenset[int] = frozenset()  # groups kept together across sessions
         if len(logs) < 2:
             groups = [tuple(logs)]
         else:
@@ -297,16 +298,16 @@ class ParallelBuild:
                 groups[0] = groups[0] + tuple(empty)
             from aion_cli.shard_graphs import kept_together
 
-            groups, note = kept_together(groups, opts, self.config.stable_move_tolerance)
+            groups, note, whole = kept_together(groups, opts, self.config.stable_move_tolerance)
             if note:
                 report.notes.append(note)
         from aion_cli.time_shards import split_groups
 
         shards, notes = split_groups(
-            groups, opts, window, workers, self.config.stable_move_tolerance
+            groups, opts, window, workers, self.config.stable_move_tolerance, whole
         )
         report.notes.extend(notes)
-        if len(shards) < 2 and not notes:  # (a note says why where a graph kept it whole)
+        if len(shards) < 2 and not notes and not whole:  # (else a note says why)
             report.notes.append(
                 ("one log" if len(logs) < 2 else "the logs overlap in time (one shard)")
                 + ": built in sequence, not in parallel (no quiet moment to cut it at: a "

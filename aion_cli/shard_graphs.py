@@ -69,19 +69,24 @@ def changing_part(
 
 def kept_together(
     groups: list[tuple[Path, ...]], opts: BuildOptions, tolerance: float
-) -> tuple[list[tuple[Path, ...]], str | None]:
+) -> tuple[list[tuple[Path, ...]], str | None, frozenset[int]]:
     """``groups`` with every group whose first scene graph lost places of the group before
     it (:func:`aion_cli.shard_graphs.graph_breaks`: another Hydra session) joined to that
-    group, and a note naming them: such a group's join would be refused and its logs learnt
-    again in sequence after a worker had built them (the parallel build of four simulated
-    sessions took 0.88x the time of one pass), so they are built in sequence at once."""
+    group, a note naming them, and the indices of the groups so joined: such a group's join
+    would be refused and its logs learnt again in sequence after a worker had built them (the
+    parallel build of four simulated sessions took 0.88x the time of one pass), so they are
+    built in sequence at once. A joined group is not cut into time shards either: a part
+    after the first would hold the session boundary or follow it, and its graph changes
+    there (:func:`changing_part` would refuse it after reading and decoding its times)."""
     breaks = graph_breaks(groups, opts, tolerance)
     if not any(breaks):
-        return groups, None
+        return groups, None, frozenset()
     out = [groups[0]]
+    joined = set()
     for group, lost in zip(groups[1:], breaks, strict=True):
         if lost:
             out[-1] = out[-1] + group
+            joined.add(len(out) - 1)
         else:
             out.append(group)
     later = [g[0].name for g, lost in zip(groups[1:], breaks, strict=True) if lost]
@@ -92,7 +97,7 @@ def kept_together(
         f"a shard built apart cannot know, so {'they are' if len(later) > 1 else 'it is'} "
         "built in sequence after the log before"
     )
-    return out, note
+    return out, note, frozenset(joined)
 
 
 def graph_breaks(

@@ -129,17 +129,23 @@ def split_groups(
     window_ns: int,
     workers: int,
     tolerance: float,
+    whole: frozenset[int],
 ) -> tuple[list[Shard], list[str]]:
     """The shards of a parallel build's groups of logs (each group's logs share no time window
     with another's) for ``workers`` processes: each group whole or, while there are fewer
     groups than :data:`SHARDS_PER_WORKER` per worker (two at least), cut into parts in
     proportion to its detection messages, unless the scene graph changes inside a part after
     the first (:func:`aion_cli.shard_graphs.changing_part`; ``tolerance``: the model's
-    ``stable_move_tolerance``); and the report's notes on the cuts."""
+    ``stable_move_tolerance``); and the report's notes on the cuts. The groups at indices
+    ``whole`` (kept together across sessions, :func:`aion_cli.shard_graphs.kept_together`)
+    are never cut, nor their times read."""
     target = SHARDS_PER_WORKER * max(workers, 2)
-    if len(groups) >= target:
+    if len(groups) >= target or len(whole) == len(groups):
         return [(group, None, True) for group in groups], []
-    times = [group_times(group, opts, window_ns) for group in groups]
+    times = [
+        None if k in whole else group_times(group, opts, window_ns)
+        for k, group in enumerate(groups)
+    ]
     counts = [t.detections.size if t is not None else 0 for t in times]
     total = sum(counts)
     shards: list[Shard] = []

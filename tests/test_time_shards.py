@@ -690,3 +690,25 @@ def test_graph_breaks_between_logs(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert breaks(grown, plain) == [True]  # the grown graph's extra place is gone
     assert breaks(plain, damaged, plain) == [False, False]
     assert breaks(plain) == []
+
+
+def test_groups_kept_together_are_not_cut_nor_their_times_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A group the planner kept together across sessions stays one shard: its times are not
+    read (nothing to cut); the other groups are planned as before."""
+    import aion_cli.time_shards as time_shards
+
+    read: list[object] = []
+
+    def times(group: Any, *_: Any) -> None:
+        read.append(group)
+
+    monkeypatch.setattr(time_shards, "group_times", times)
+    a, b = (Path("a.mcap"),), (Path("b.mcap"),)
+    opts = BuildOptions(logs=(a[0],), output=tmp_path / "x.aion")
+    shards, notes = time_shards.split_groups([a], opts, 600 * S, 2, 0.25, frozenset({0}))
+    assert (shards, notes, read) == ([(a, None, True)], [], [])
+    shards, notes = time_shards.split_groups([a, b], opts, 600 * S, 4, 0.25, frozenset({1}))
+    assert read == [a]  # only the other group's times (none found here: not cut)
+    assert shards == [(a, None, True), (b, None, True)]
