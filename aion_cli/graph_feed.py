@@ -286,7 +286,7 @@ class GraphFeed:
         if first is not None and first[:2] == (msg.topic, msg.log_time_ns):
             self._first = None  # decoded already, for the observation
             return first[2]
-        payload, t_ns = self._payload(logset, msg)
+        payload, t_ns = self.payload(logset, msg)
         if self.skip_identical:
             last = self._last
             if last is not None and _same_bytes(last[0], payload):
@@ -314,7 +314,7 @@ class GraphFeed:
             self._last = (payload, result.snapshot)
         return result.snapshot
 
-    def _payload(self, logset: Any, msg: RawMessage) -> tuple[memoryview, int]:
+    def payload(self, logset: Any, msg: RawMessage) -> tuple[memoryview, int]:
         """A DsgUpdate's payload (a view of the message's own bytes) and its time: the
         header stamp, the log time where the stamp is zero.
 

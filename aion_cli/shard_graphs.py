@@ -34,6 +34,8 @@ from aion_cli.engine.types import I64
 if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions
     from aion_cli.engine.types import GraphSnapshot
+    from aion_cli.formats.raw import RawMessage
+    from aion_cli.graph_feed import GraphFeed
 
 
 def changing_part(
@@ -135,7 +137,7 @@ def graph_breaks(
 @dataclass(frozen=True)
 class _GraphEnds:
     """When a group's first and last scene graphs were logged, and their DsgUpdate payloads
-    where the fast reader knows the message's layout (None otherwise)."""
+    (None where one does not read)."""
 
     first_ns: int
     last_ns: int
@@ -160,26 +162,25 @@ def _graph_ends(group: tuple[Path, ...], opts: BuildOptions) -> _GraphEnds | Non
                 return None
             t = np.sort(np.asarray(found.t, dtype=np.int64))
             first, last = int(t[0]), int(t[-1])
-            payloads = [_payload_at(logset, topics, at) for at in (first, last)]
+            payloads = [_payload_at(logset, opts, topics, at) for at in (first, last)]
             return _GraphEnds(first, last, *payloads)
     except AionError:  # the build reports what it cannot read
         return None
 
 
-def _payload_at(logset: Any, topics: set[str], t_ns: int) -> bytes | None:
-    """The DsgUpdate payload logged at ``t_ns`` on ``topics``, read without decoding the
-    graph (None: none there, or a layout the fast reader does not know)."""
-    from aion_cli.formats.dsg_update_fast import layout_matches, read_dsg_update
+def _payload_at(logset: Any, opts: BuildOptions, topics: set[str], t_ns: int) -> bytes | None:
+    """The DsgUpdate payload logged at ``t_ns`` on ``topics``, as the build reads it
+    (``GraphFeed.payload``), without decoding the graph (None: none there, or it does not
+    read)."""
+    from aion_cli.errors import AionError
 
-    for msg in logset.messages(topics, (t_ns, t_ns + 1)):
-        if msg.log_time_ns != t_ns or msg.topic not in topics:
-            continue
-        key = (msg.topic, msg.msgtype, msg.encoding)
-        if not layout_matches(msg.msgtype, msg.encoding, *logset.definition(*key)):
-            return None
-        fields = read_dsg_update(msg.data, msg.encoding)
-        return None if fields is None else bytes(fields.payload)
-    return None
+    msg = _message_at(logset, topics, t_ns)
+    if msg is None:
+        return None
+    try:
+        return bytes(_feed(opts).payload(logset, msg)[0])
+    except AionError:
+        return None
 
 
 def _decoded(group: tuple[Path, ...], opts: BuildOptions, t_ns: int) -> GraphSnapshot | None:
@@ -215,14 +216,8 @@ def places_lost(before: GraphSnapshot, after: GraphSnapshot, tolerance: float) -
 
 def places_changed(a: GraphSnapshot, b: GraphSnapshot, tolerance: float) -> bool:
     """Whether ``b``'s navigational places are not ``a``'s: other ids, or one moved farther
-    than ``tolerance`` (3D)."""
-    ids_a, ids_b = np.sort(a.places.ids), np.sort(b.places.ids)
-    if not np.array_equal(ids_a, ids_b):
-        return True
-    xyz_a = a.places.xyz[np.argsort(a.places.ids, kind="stable")]
-    xyz_b = b.places.xyz[np.argsort(b.places.ids, kind="stable")]
-    moved = np.sqrt(np.sum((xyz_a - xyz_b) ** 2, axis=1)) if len(xyz_a) else np.zeros(0)
-    return bool(np.any(moved > tolerance))
+    than ``tolerance`` (3D): places lost either way (:func:`places_lost`)."""
+    return places_lost(a, b, tolerance) or places_lost(b, a, tolerance)
 
 
 def _graph_at(
@@ -230,18 +225,31 @@ def _graph_at(
 ) -> GraphSnapshot | None:
     """The scene graph logged at ``t_ns`` (the first message of ``topics`` at that time),
     decoded as the build decodes it; None when there is none or it does not decode."""
-    from aion_cli.build_report import BuildReport
     from aion_cli.errors import AionError
-    from aion_cli.graph_feed import GraphFeed
 
+    msg = _message_at(logset, topics, t_ns)
+    if msg is None:
+        return None
+    try:
+        return _feed(opts).decode(logset, msg)
+    except AionError:
+        return None
+
+
+def _message_at(logset: Any, topics: set[str], t_ns: int) -> RawMessage | None:
+    """The first message of ``topics`` logged at ``t_ns`` (None: none)."""
     for msg in logset.messages(topics, (t_ns, t_ns + 1)):
         if msg.log_time_ns > t_ns:
             return None
         if msg.log_time_ns == t_ns and msg.topic in topics:
-            counts = BuildReport(Path())  # the decode's counts, not the build's
-            feed = GraphFeed(counts, opts.dsg_version, opts.nav_layer, 0)
-            try:
-                return feed.decode(logset, msg)
-            except AionError:
-                return None
+            return msg
     return None
+
+
+def _feed(opts: BuildOptions) -> GraphFeed:
+    """A graph reader with the build's version and layer choice, whose counts are its own
+    (not the build's)."""
+    from aion_cli.build_report import BuildReport
+    from aion_cli.graph_feed import GraphFeed
+
+    return GraphFeed(BuildReport(Path()), opts.dsg_version, opts.nav_layer, 0)
