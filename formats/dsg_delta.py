@@ -128,15 +128,14 @@ def _changed_records(
 
 def _differing_bytes(buf: U8, old: U8) -> I64 | None:
     """Every byte at which two payloads of one length differ, ascending (None: equal): the
-    8-byte words that differ (:func:`_differing_span`), then their bytes."""
-    span = _differing_span(buf, old)
-    if span is None:
-        return None
-    first, last_byte = span
-    at = (first[:, None] + np.arange(8)).reshape(-1)
-    at = at[at <= np.repeat(last_byte, 8)]
-    out: I64 = at[buf[at] != old[at]]
-    return out
+    payloads compared 8 bytes at a time (8x fewer elements than bytes), then the bytes of the
+    words that differ, and the tail that is no whole word byte by byte."""
+    whole = len(buf) // 8 * 8
+    words = np.flatnonzero(buf[:whole].view(np.uint64) != old[:whole].view(np.uint64))
+    at = (words[:, None] * 8 + np.arange(8)).reshape(-1)
+    tail = np.flatnonzero(buf[whole:] != old[whole:]) + whole
+    out: I64 = np.concatenate([at[buf[at] != old[at]], tail]).astype(np.int64)
+    return out if out.size else None
 
 
 def _value_changes(offset: I64, kind: I64, kinds: list[str]) -> Bool:
@@ -238,21 +237,6 @@ def _values_only(buf: U8, last: BinaryGraph, touched: I64, cols: dict[str, Any])
         if not np.array_equal(buf[start : start + length], old[start : start + length]):
             return False
     return True
-
-
-def _differing_span(buf: U8, old: U8) -> tuple[I64, I64] | None:
-    """Where two payloads of one length differ, compared 8 bytes at a time (8x fewer
-    elements than bytes): the first and last byte of every differing 8-byte word (and of
-    every differing byte of the tail that is no whole word), ascending; None when the payloads
-    are equal. A word may also hold unchanged bytes of a neighbouring record, which
-    is then re-read too (the same values)."""
-    whole = len(buf) // 8 * 8
-    words = np.flatnonzero(buf[:whole].view(np.uint64) != old[:whole].view(np.uint64))
-    tail = np.flatnonzero(buf[whole:] != old[whole:]) + whole
-    if len(words) == 0 and len(tail) == 0:
-        return None
-    first = np.concatenate([words * 8, tail]).astype(np.int64)
-    return first, np.concatenate([words * 8 + 7, tail]).astype(np.int64)
 
 
 def _replaced(values: np.ndarray, rows: np.ndarray, new: np.ndarray) -> np.ndarray:
