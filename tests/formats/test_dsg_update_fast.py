@@ -208,7 +208,7 @@ def test_another_layout_goes_to_the_generic_decoder(tmp_path: Path) -> None:
     feed = GraphFeed(BuildReport(output=tmp_path / "m.aion"), None, None, 0)
     with open_logs([path]) as logs:
         (m,) = logs.messages()
-        payload, t_ns = feed._payload(logs, m)
+        payload, t_ns = feed.payload(logs, m)
     assert feed._fast_layout == {("/dsg", DSG_UPDATE, "cdr"): False}
     assert bytes(payload) == bytes(range(9))
     assert t_ns == 12 * 10**9 + 34
