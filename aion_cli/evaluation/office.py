@@ -54,6 +54,7 @@ from aion_cli.evaluation.office_truth import (
     _truth_scores,
     expected_flow_correlations,
     reference_forecasts,
+    separable_flow_correlations,
     truth_sentence,
 )
 
@@ -348,10 +349,14 @@ def run_office(
             if figure is not None:
                 result.figure = figure
     with_series = [s for s in result.scenes if s["truth"].get("places_compared", 0) > 0]
-    for scene_figures, corr in zip(
-        with_series, expected_flow_correlations(result.series), strict=True
+    for scene_figures, corr, apart in zip(
+        with_series,
+        expected_flow_correlations(result.series),
+        separable_flow_correlations(result.series),
+        strict=True,
     ):
         scene_figures["truth"]["flow_correlation_expected"] = corr
+        scene_figures["truth"].update(apart)
     return result
 
 
@@ -366,5 +371,6 @@ __all__ = [
     "reference_forecasts",
     "run_office",
     "run_scene",
+    "separable_flow_correlations",
     "truth_sentence",
 ]

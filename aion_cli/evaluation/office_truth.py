@@ -4,8 +4,10 @@ Per scene, :func:`_truth_scores` compares aion's forecasts per node with the tru
 the scene's last day (direction JS divergence, correlation of flow) and with two reference
 forecasts made from the truth itself (:func:`reference_forecasts`); across scenes,
 :func:`expected_flow_correlations` compares each scene's forecasts with the *expected* flow,
-the other scenes' mean count (leave-one-out). Kept apart from :mod:`.office`, which runs the
-scenes and compares aion with the grid (Table I); :mod:`.office` re-exports these names.
+the other scenes' mean count (leave-one-out), and :func:`separable_flow_correlations` tells
+how much of what separates them is *where* the flow is and how much *when*. Kept apart from
+:mod:`.office`, which runs the scenes and compares aion with the grid (Table I); :mod:`.office`
+re-exports these names.
 """
 
 from __future__ import annotations
@@ -46,8 +48,13 @@ TRUTH_FIELDS = (
     "flow_correlation_expected",
     "flow_correlation_previous_day",
     "flow_correlation_oracle",
+    "flow_correlation_separable",
+    "flow_correlation_true_places",
+    "flow_correlation_true_times",
+    "flow_correlation_separable_oracle",
 )
-"""The per-scene ground-truth figures (see :func:`_truth_scores`)."""
+"""The per-scene ground-truth figures (see :func:`_truth_scores` and
+:func:`separable_flow_correlations`)."""
 
 
 def truth_sentence(means: dict[str, float]) -> str:
@@ -63,7 +70,11 @@ def truth_sentence(means: dict[str, float]) -> str:
         f"{num('flow_correlation_expected')} with the expected flow (the other scenes' mean); "
         f"references: the previous day's true counts {num('flow_correlation_previous_day')}, "
         f"each place's in-sample hour mean {num('flow_correlation_oracle')}; direction JS "
-        f"{num('direction_js')}"
+        f"{num('direction_js')}. Where and when apart (place mean x window mean, against the "
+        f"expected flow): aion's own {num('flow_correlation_separable')}, with the true places "
+        f"{num('flow_correlation_true_places')}, with the true times "
+        f"{num('flow_correlation_true_times')}, both true "
+        f"{num('flow_correlation_separable_oracle')}"
     )
 
 
@@ -145,13 +156,76 @@ def expected_flow_correlations(series: list[FlowSeries]) -> list[float]:
         return [math.nan] * len(series)
     out = []
     for k, s in enumerate(series):
-        others = np.vstack(
-            [_counts_at(o, s.window_start, s.place) for j, o in enumerate(series) if j != k]
+        expected = _expected(series, k)
+        out.append(_correlation(np.where(np.isfinite(expected), s.predicted, np.nan), expected))
+    return out
+
+
+SEPARABLE_FIELDS = (
+    "flow_correlation_separable",
+    "flow_correlation_true_places",
+    "flow_correlation_true_times",
+    "flow_correlation_separable_oracle",
+)
+"""The *where* and *when* of the expected-flow correlation apart
+(:func:`separable_flow_correlations`)."""
+
+
+def separable_flow_correlations(series: list[FlowSeries]) -> list[dict[str, float]]:
+    """Per scene, which part of the forecast limits its correlation with the expected flow:
+    *where* (each place's mean over the evaluated windows) or *when* (the mean over places
+    at each window, the map's daily shape). Each figure correlates a separable forecast
+    ``place mean × window mean`` with the expected flow (:func:`expected_flow_correlations`)
+    over the same pairs: ``_separable`` takes both from aion's forecast,
+    ``_true_places`` the expected flow's places with aion's times, ``_true_times`` aion's
+    places with the expected flow's times, ``_separable_oracle`` both from the expected flow
+    (what a separable forecast can reach at most; in-sample). A forecast whose true places
+    gain more than its true times errs more in where the flow is than in when."""
+    keys = SEPARABLE_FIELDS
+    if len(series) < 2:
+        return [dict.fromkeys(keys, math.nan) for _ in series]
+    out = []
+    for k, s in enumerate(series):
+        expected = _expected(series, k)
+        known = np.isfinite(expected)
+        if known.sum() <= 2:
+            out.append(dict.fromkeys(keys, math.nan))
+            continue
+        _, place = np.unique(s.place, return_inverse=True)
+        _, window = np.unique(s.window_start, return_inverse=True)
+        aion_where = _mean_by(place, s.predicted, known)
+        aion_when = _mean_by(window, s.predicted, known)
+        true_where = _mean_by(place, expected, known)
+        true_when = _mean_by(window, expected, known)
+        pairs = {
+            keys[0]: aion_where[place] * aion_when[window],
+            keys[1]: true_where[place] * aion_when[window],
+            keys[2]: aion_where[place] * true_when[window],
+            keys[3]: true_where[place] * true_when[window],
+        }
+        out.append(
+            {key: _correlation(np.where(known, f, np.nan), expected) for key, f in pairs.items()}
         )
-        n = np.isfinite(others).sum(axis=0)
-        expected = np.nansum(others, axis=0) / np.maximum(n, 1)
-        known = n > 0
-        out.append(_correlation(np.where(known, s.predicted, np.nan), expected))
+    return out
+
+
+def _expected(series: list[FlowSeries], k: int) -> F64:
+    """The expected flow at scene ``k``'s pairs: the other scenes' mean count there (NaN
+    where none of them has the pair)."""
+    s = series[k]
+    others = np.vstack(
+        [_counts_at(o, s.window_start, s.place) for j, o in enumerate(series) if j != k]
+    )
+    n = np.isfinite(others).sum(axis=0)
+    out: F64 = np.where(n > 0, np.nansum(others, axis=0) / np.maximum(n, 1), np.nan)
+    return out
+
+
+def _mean_by(group: npt.NDArray[np.intp], values: F64, known: npt.NDArray[np.bool_]) -> F64:
+    """The mean of ``values`` over the ``known`` pairs of each group (0 for a group with none)."""
+    n = np.bincount(group[known], minlength=int(group.max()) + 1)
+    sums = np.bincount(group[known], weights=values[known], minlength=n.size)
+    out: F64 = np.divide(sums, n, out=np.zeros(n.size), where=n > 0)
     return out
 
 

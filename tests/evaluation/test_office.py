@@ -15,6 +15,7 @@ from aion_cli.evaluation.office import (
     expected_flow_correlations,
     reference_forecasts,
     run_office,
+    separable_flow_correlations,
 )
 
 
@@ -102,6 +103,36 @@ def test_expected_flow_is_the_other_scenes_mean() -> None:
     assert corr[1] == pytest.approx(-1.0)
     assert math.isnan(corr[2])  # a constant forecast has no correlation
     assert all(math.isnan(c) for c in expected_flow_correlations(series[:1]))
+
+
+def test_where_and_when_apart() -> None:
+    """Every scene's counts are the same separable flow ``times[w] * places[i]``, so the
+    expected flow is that product. A forecast with the right places and wrong times gains
+    nothing from the true places and reaches 1 with the true times; one with the right times
+    and wrong places the other way round; both true is 1 for any forecast; fewer than two
+    scenes give NaN."""
+    rng = np.random.default_rng(5)
+    times, places = rng.uniform(1, 5, 6), rng.uniform(1, 5, 4)
+    other_times, other_places = rng.uniform(1, 5, 6), rng.uniform(1, 5, 4)
+    truth = np.outer(times, places)
+    ids = [3, 1, 4, 9]
+    series = [
+        _series(truth, np.outer(other_times, places), ids),  # right places, wrong times
+        _series(truth, np.outer(times, other_places), ids),  # right times, wrong places
+        _series(truth, np.ones((6, 4)), ids),
+    ]
+    wrong_times, wrong_places, _ = separable_flow_correlations(series)
+    assert wrong_times["flow_correlation_true_times"] == pytest.approx(1.0)
+    assert wrong_times["flow_correlation_true_places"] < 0.99
+    assert wrong_times["flow_correlation_true_places"] == pytest.approx(
+        wrong_times["flow_correlation_separable"]
+    )
+    assert wrong_places["flow_correlation_true_places"] == pytest.approx(1.0)
+    assert wrong_places["flow_correlation_true_times"] < 0.99
+    for scene in (wrong_times, wrong_places):
+        assert scene["flow_correlation_separable_oracle"] == pytest.approx(1.0)
+    alone = separable_flow_correlations(series[:1])
+    assert all(math.isnan(v) for v in alone[0].values())
 
 
 def test_expected_flow_leaves_out_pairs_no_other_scene_has() -> None:
