@@ -99,6 +99,8 @@ class BuildReport:
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     headings: dict[str, int] = field(default_factory=dict)
+    speed_micro: int = 0  # µm/s, over the detections with a speed (DetectionCounts)
+    speed_n: int = 0
     detection_decoding: dict[str, dict[str, Any]] = field(default_factory=dict)
     by_topic: dict[str, dict[str, Any]] = field(default_factory=dict)
     time_dropped: dict[str, dict[str, int]] = field(default_factory=dict)
@@ -112,6 +114,10 @@ class BuildReport:
     graph_pins: tuple[str | None, str | None] = (None, None)
     #: fixed-sensor observation: (windows, first window, last window, window ns)
     fixed_windows: tuple[int, int, int, int] | None = None
+
+    def mean_speed(self) -> float | None:
+        """The mean speed of the detections with one (m/s); None when none has."""
+        return self.speed_micro / 1e6 / self.speed_n if self.speed_n else None
 
     def to_dict(self) -> dict[str, Any]:
         span = (
@@ -154,6 +160,7 @@ class BuildReport:
             "log_times_dropped": self.time_dropped,
             "tf_undecodable": self.tf_undecodable,
             "headings": {k: int(self.headings.get(k, 0)) for k in HEADING_SOURCES},
+            "mean_speed_m_s": self.mean_speed(),
             "inputs": self.inputs,
             "workers": self.workers,
             "notes": self.notes,
@@ -217,6 +224,10 @@ def record_detections(
     report.detections_used = c.used
     report.dropped = dict(c.dropped)
     report.headings = dict(c.headings)
+    report.speed_micro, report.speed_n = c.speed_micro, c.speed_n
+    fast = fast_people_warning(report)
+    if fast is not None:
+        report.warnings.append(fast)
     for feeder in feeders.feeders.values():
         report.yaw_rule.update(feeder.yaw_rule())
     check_decoding(report, c, plan)
@@ -232,6 +243,31 @@ def record_detections(
             "their messages' log times were used"
         )
     return c
+
+
+#: the mean speed of a build's detections above which people cannot be walking (m/s; people
+#: walk at about 1.4 m/s, and even a running crowd's mean stays below this)
+PLAUSIBLE_SPEED_M_S = 3.0
+#: how :func:`fast_people_warning`'s line begins (a parallel build writes it once, from sums)
+FAST_PEOPLE_WARNING = "people move at "
+
+
+def fast_people_warning(report: BuildReport) -> str | None:
+    """A warning when the build's detections move faster on average than people can
+    (:data:`PLAUSIBLE_SPEED_M_S`): their times or positions are not what they seem, and the
+    map's speeds and counts per window with them. Real cases: a bag re-recorded faster than
+    real time whose messages carry no header stamps (log times used), positions in pixels or
+    millimetres. None when they are plausible or have no speed."""
+    mean = report.mean_speed()
+    if mean is None or mean <= PLAUSIBLE_SPEED_M_S:
+        return None
+    return (
+        f"{FAST_PEOPLE_WARNING}{mean:,.1f} m/s on average ({report.speed_n:,} detections "
+        "with a speed; people walk at about 1.4 m/s): the detections' times or positions are "
+        "probably not what they seem (a log recorded faster than real time whose messages' "
+        "log times stand in for missing header stamps, positions in pixels or millimetres), "
+        "and the map's speeds and flows per window are not people's"
+    )
 
 
 def check_decoding(report: BuildReport, counts: DetectionCounts, plan: TopicPlan) -> None:

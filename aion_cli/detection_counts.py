@@ -34,7 +34,9 @@ class DetectionCounts:
     """Detections decoded (``read``), accepted by the Mapper (``used``), dropped by reason, how
     many had a zero header stamp and took their message's log time (``stamp_fallbacks``), how
     many came from header-less messages and took it by design (``log_times``), headings by
-    source (:data:`HEADING_SOURCES`) and per-topic message counts."""
+    source (:data:`HEADING_SOURCES`), the sum and number of the speeds found with them
+    (``speed_micro``: µm/s, an integer, so the sum is the same however the detections were
+    batched; ``speed_n``) and per-topic message counts."""
 
     read: int = 0
     used: int = 0
@@ -42,6 +44,8 @@ class DetectionCounts:
     stamp_fallbacks: int = 0
     log_times: int = 0
     headings: Counter[str] = field(default_factory=Counter)
+    speed_micro: int = 0
+    speed_n: int = 0
     topics: dict[str, TopicCounts] = field(default_factory=dict)
 
     def topic(self, name: str) -> TopicCounts:
@@ -49,6 +53,19 @@ class DetectionCounts:
         if got is None:
             got = self.topics[name] = TopicCounts()
         return got
+
+
+#: speeds are summed in µm/s as integers, each clipped to this (m/s) so no sum can overflow
+SPEED_CLIP_M_S = 1e5
+
+
+def speed_micro(speed: npt.NDArray[np.float64]) -> tuple[int, int]:
+    """The sum of the finite ``speed`` values in whole µm/s (each clipped to
+    :data:`SPEED_CLIP_M_S`) and their number: an integer sum is exact, so it does not depend
+    on how the detections were batched."""
+    finite = speed[np.isfinite(speed)]
+    micro = np.rint(np.minimum(np.abs(finite), SPEED_CLIP_M_S) * 1e6).astype(np.int64)
+    return int(micro.sum()), int(finite.size)
 
 
 class MapperTally:

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.detection_chunks import MAX_CHUNK_BYTES, Chunk, chunks, decoded_chunks
-from aion_cli.detection_counts import HEADING_SOURCES, DetectionCounts, TopicCounts
+from aion_cli.detection_counts import HEADING_SOURCES, DetectionCounts, TopicCounts, speed_micro
 from aion_cli.detection_jobs import (
     TopicFeeders,
     _first_in_segment,
@@ -371,6 +371,9 @@ class DetectionFeeder:
             self._tally(lsrc, SOURCES, linked=True)
             sources = sources[~is_linked]
         self._tally(sources, SOURCES, linked=False)
+        micro, n = speed_micro(batch.speed)
+        self.counts.speed_micro += micro
+        self.counts.speed_n += n
         return batch
 
     def _tally(self, codes: np.ndarray, names: tuple[str, ...], linked: bool) -> None:

@@ -183,5 +183,7 @@ class TopicFeeders:
             out.log_times += counts.log_times
             out.dropped.update(counts.dropped)
             out.headings.update(counts.headings)
+            out.speed_micro += counts.speed_micro
+            out.speed_n += counts.speed_n
             out.topics.update(counts.topics)
         return out

@@ -1,7 +1,7 @@
 """The reports of a parallel build's shards as the one report a sequential build writes.
 
-Counts add (detections read and used, drops, headings, scene-graph messages and skips, TF
-failures, per topic); notes and warnings are kept once each; the observation source is the
+Counts add (detections read and used, drops, headings and speeds, scene-graph messages and
+skips, TF failures, per topic); notes and warnings are kept once each; the observation source is the
 first shard's, with a warning when the shards' sources differ, and a fixed sensor's observed
 windows are summed into one line. The scene-graph counts note is written once, from the sums
 (:func:`aion_cli.graph_feed.graph_counts_note`), and the parent stops, as one pass does, only
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from aion_cli.build_report import BuildReport
+from aion_cli.build_report import FAST_PEOPLE_WARNING, BuildReport, fast_people_warning
 from aion_cli.errors import MessageDecodeError
 from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
 from aion_cli.tf_feed import fixed_sensor_text
@@ -49,6 +49,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         out.detections_used += p.detections_used
         _add(out.dropped, p.dropped)
         _add(out.headings, p.headings)
+        out.speed_micro += p.speed_micro
+        out.speed_n += p.speed_n
         out.graph_messages += p.graph_messages
         out.graph_skipped += p.graph_skipped
         out.graph_decoded += p.graph_decoded
@@ -71,7 +73,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
             if line not in out.notes and not line.startswith(GRAPH_COUNTS_NOTE):
                 out.notes.append(line)
         for line in p.warnings:
-            if line not in out.warnings:
+            if line not in out.warnings and not line.startswith(FAST_PEOPLE_WARNING):
                 out.warnings.append(line)
         if p.graph_source != "none":
             out.graph_source = p.graph_source
@@ -81,6 +83,9 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     note = graph_counts_note(out)  # the shards' counts added up
     if note is not None:
         out.notes.append(note)
+    fast = fast_people_warning(out)  # from the shards' speeds added up
+    if fast is not None:
+        out.warnings.append(fast)
     if out.graph_skipped and not out.graph_messages:  # as one pass stops (check_skips)
         first = next((n for n in out.notes if DAMAGED_GRAPHS_NOTE in n), "")
         raise MessageDecodeError(
