@@ -32,7 +32,8 @@ class FlowSeries:
     """One scene's flow forecasts beside the truth they are scored on: aion's predicted flow
     per window ``predicted[k]`` for environment place ``place[k]`` in the window starting at
     ``window_start[k]``, and the scene's true counts of all agents ``counts[W, m]`` per window
-    start ``starts[W]`` and environment place ``place_ids[m]``."""
+    start ``starts[W]`` and environment place ``place_ids[m]``; ``seen_share[m]``: the share
+    of the scene's windows in which the robot's sensor covered each place (None: unknown)."""
 
     place: npt.NDArray[np.uint64]
     window_start: npt.NDArray[np.int64]
@@ -40,6 +41,7 @@ class FlowSeries:
     place_ids: npt.NDArray[np.uint64]
     starts: npt.NDArray[np.int64]
     counts: F64
+    seen_share: F64 | None = None
 
 
 TRUTH_FIELDS = (
@@ -52,6 +54,9 @@ TRUTH_FIELDS = (
     "flow_correlation_true_places",
     "flow_correlation_true_times",
     "flow_correlation_separable_oracle",
+    "place_correlation_seen_all_day",
+    "place_correlation_seen_in_part",
+    "places_seen_all_day",
 )
 """The per-scene ground-truth figures (see :func:`_truth_scores` and
 :func:`separable_flow_correlations`)."""
@@ -74,7 +79,9 @@ def truth_sentence(means: dict[str, float]) -> str:
         f"expected flow): aion's own {num('flow_correlation_separable')}, with the true places "
         f"{num('flow_correlation_true_places')}, with the true times "
         f"{num('flow_correlation_true_times')}, both true "
-        f"{num('flow_correlation_separable_oracle')}"
+        f"{num('flow_correlation_separable_oracle')}; place means against the expected: "
+        f"places seen all day {num('place_correlation_seen_all_day')}, seen in part "
+        f"{num('place_correlation_seen_in_part')}"
     )
 
 
@@ -98,6 +105,7 @@ def _truth_scores(
     """
     with np.load(truth_npz, allow_pickle=False) as z:
         ids, flow_counts, starts = z["place_ids"], z["flow_counts"], z["window_start_ns"]
+        seen_share = z["observed"].mean(axis=0) if "observed" in z.files else None
     table = historical_table(state)
     row_of = {int(n): i for i, n in enumerate(table.node_id.tolist()) if n}
     pairs = np.array(
@@ -138,6 +146,7 @@ def _truth_scores(
         place_ids=ids.astype(np.uint64),
         starts=starts.astype(np.int64),
         counts=all_counts,
+        seen_share=seen_share,
     )
     return scores, series
 
@@ -170,6 +179,17 @@ SEPARABLE_FIELDS = (
 """The *where* and *when* of the expected-flow correlation apart
 (:func:`separable_flow_correlations`)."""
 
+COVERAGE_FIELDS = (
+    "place_correlation_seen_all_day",
+    "place_correlation_seen_in_part",
+    "places_seen_all_day",
+)
+"""Where the flow is, by the robot's coverage of the places (:func:`_by_coverage`)."""
+
+SEEN_ALL_DAY = 0.9
+"""Places the robot's sensor covered in at least this share of the windows count as seen all
+day (around where it rests), the others as seen in part (where it roams)."""
+
 
 def separable_flow_correlations(series: list[FlowSeries]) -> list[dict[str, float]]:
     """Per scene, which part of the forecast limits its correlation with the expected flow:
@@ -180,16 +200,18 @@ def separable_flow_correlations(series: list[FlowSeries]) -> list[dict[str, floa
     ``_true_places`` the expected flow's places with aion's times, ``_true_times`` aion's
     places with the expected flow's times, ``_separable_oracle`` both from the expected flow
     (what a separable forecast can reach at most; in-sample). A forecast whose true places
-    gain more than its true times errs more in where the flow is than in when."""
+    gain more than its true times errs more in where the flow is than in when. With the robot's
+    coverage (``seen_share``), where the flow is is also judged apart for the places seen all
+    day and those seen in part (:data:`COVERAGE_FIELDS`)."""
     keys = SEPARABLE_FIELDS
     if len(series) < 2:
-        return [dict.fromkeys(keys, math.nan) for _ in series]
+        return [dict.fromkeys(keys + COVERAGE_FIELDS, math.nan) for _ in series]
     out = []
     for k, s in enumerate(series):
         expected = _expected(series, k)
         known = np.isfinite(expected)
         if known.sum() <= 2:
-            out.append(dict.fromkeys(keys, math.nan))
+            out.append(dict.fromkeys(keys + COVERAGE_FIELDS, math.nan))
             continue
         _, place = np.unique(s.place, return_inverse=True)
         _, window = np.unique(s.window_start, return_inverse=True)
@@ -203,10 +225,27 @@ def separable_flow_correlations(series: list[FlowSeries]) -> list[dict[str, floa
             keys[2]: aion_where[place] * true_when[window],
             keys[3]: true_where[place] * true_when[window],
         }
-        out.append(
-            {key: _correlation(np.where(known, f, np.nan), expected) for key, f in pairs.items()}
-        )
+        scene = {k: _correlation(np.where(known, f, np.nan), expected) for k, f in pairs.items()}
+        scene.update(_by_coverage(s, aion_where, true_where))
+        out.append(scene)
     return out
+
+
+def _by_coverage(s: FlowSeries, aion_where: F64, true_where: F64) -> dict[str, float]:
+    """Where the flow is, apart for the places the robot saw all day and those it saw in part
+    (:data:`SEEN_ALL_DAY`): the correlation of aion's place means with the expected flow's
+    over each group, and the number seen all day. NaN without the robot's coverage."""
+    if s.seen_share is None:
+        return dict.fromkeys(COVERAGE_FIELDS, math.nan)
+    places = np.unique(s.place)
+    order = np.argsort(s.place_ids, kind="stable")
+    at = order[np.searchsorted(s.place_ids[order], places)]
+    all_day = s.seen_share[at] >= SEEN_ALL_DAY
+    return {
+        COVERAGE_FIELDS[0]: _correlation(np.where(all_day, aion_where, np.nan), true_where),
+        COVERAGE_FIELDS[1]: _correlation(np.where(all_day, np.nan, aion_where), true_where),
+        COVERAGE_FIELDS[2]: float(all_day.sum()),
+    }
 
 
 def _expected(series: list[FlowSeries], k: int) -> F64:

@@ -135,6 +135,31 @@ def test_where_and_when_apart() -> None:
     assert all(math.isnan(v) for v in alone[0].values())
 
 
+def test_where_by_the_robots_coverage() -> None:
+    """Six places, three seen in every window and three in a third of them: a forecast right
+    at the first three and reversed at the others correlates 1 and -1 in the two groups;
+    without the coverage both are NaN."""
+    import dataclasses
+
+    times = np.linspace(1.0, 2.0, 6)
+    places = np.array([1.0, 2.0, 3.0, 1.0, 2.0, 3.0])
+    truth = np.outer(times, places)
+    guessed = np.outer(times, np.array([1.0, 2.0, 3.0, 3.0, 2.0, 1.0]))
+    ids = [10, 11, 12, 13, 14, 15]
+    share = np.array([1.0, 0.95, 0.9, 0.33, 0.33, 0.2])
+    series = [
+        dataclasses.replace(_series(truth, guessed, ids), seen_share=share),
+        dataclasses.replace(_series(truth, truth, ids), seen_share=share),
+    ]
+    scene = separable_flow_correlations(series)[0]
+    assert scene["places_seen_all_day"] == 3
+    assert scene["place_correlation_seen_all_day"] == pytest.approx(1.0)
+    assert scene["place_correlation_seen_in_part"] == pytest.approx(-1.0)
+    unknown = separable_flow_correlations([_series(truth, guessed, ids)] * 2)[0]
+    assert math.isnan(unknown["place_correlation_seen_all_day"])
+    assert math.isnan(unknown["places_seen_all_day"])
+
+
 def test_expected_flow_leaves_out_pairs_no_other_scene_has() -> None:
     """A scene's pair that no other scene recorded (a window past their end) is not scored."""
     rng = np.random.default_rng(4)
