@@ -32,6 +32,7 @@ import numpy as np
 
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import CELL, NODE
+from aion_cli.engine.node_drift import approximate_timers
 from aion_cli.engine.ownership import node_rows_creating, rows_for_keys
 from aion_cli.engine.spatial_hash import keys_for_points
 from aion_cli.errors import ConfigError
@@ -136,29 +137,7 @@ def adopt_redirects(out: MapState, early: MapState) -> None:
 
 
 def merge_timers(out: MapState, early: MapState) -> None:
-    """Nodes in both tables that have not moved keep the earlier stability start.
-
-    A node of ``out`` whose timer started after ``out``'s earliest one restarted inside
-    ``out``'s time (it moved beyond ``stable_move_tolerance`` there, or came back after
-    leaving the graph): one pass restarted it too, so it keeps its own timer and reference,
-    even where that reference lies near the earlier one (a node that drifted and was
-    re-referenced). Not exact in every case: one pass judges ``out``'s moves against the
-    earlier reference, ``out`` against its own first position, and where they disagree about
-    a restart the timers differ (docs/SCALING.md); counts and the temporal state do not."""
-    ids = out.nodes.ids
-    at = np.searchsorted(early.nodes.ids, ids)
-    at_c = np.minimum(at, max(len(early.nodes) - 1, 0))
-    if len(early.nodes) == 0 or len(ids) == 0:
-        return
-    both = early.nodes.ids[at_c] == ids
-    near = (
-        np.linalg.norm(out.nodes.ref_xyz - early.nodes.ref_xyz[at_c], axis=1)
-        <= out.config.stable_move_tolerance
-    )
-    since = out.nodes.stable_since_ns
-    unbroken = since == since.min()  # stable since out's first graph
-    keep = both & near & unbroken
-    out.nodes.stable_since_ns[keep] = np.minimum(
-        out.nodes.stable_since_ns[keep], early.nodes.stable_since_ns[at_c[keep]]
-    )
-    out.nodes.ref_xyz[keep] = early.nodes.ref_xyz[at_c[keep]]
+    """Nodes in both tables that have not moved keep the earlier stability start: the
+    approximation of :func:`aion_cli.engine.node_drift.approximate_timers` (ordinary maps
+    keep no drift of their nodes; a shard's join is exact, :mod:`aion_cli.engine.shards`)."""
+    approximate_timers(out.nodes, early.nodes, out.config.stable_move_tolerance)

@@ -28,6 +28,7 @@ import numpy as np
 
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.nearest import BindIndex, nearest_nodes
+from aion_cli.engine.node_drift import NodeDrift
 from aion_cli.engine.spatial_hash import (
     cell_centres,
     keys_for_points,
@@ -73,8 +74,13 @@ def apply_graph(state: MapState, snapshot: GraphSnapshot) -> None:
     )
     state.nodes = table
     state.graph = snapshot
-    if state.deferred is not None and state.deferred.first_graph is None:
-        state.deferred.first_graph = snapshot.places.ids.copy()  # for the join (engine.shards)
+    held = state.deferred
+    if held is not None:  # for the join (engine.shards)
+        if held.first_graph is None:
+            held.first_graph = snapshot.places.ids.copy()
+            held.drift = NodeDrift.start(table, int(snapshot.t_ns))
+        elif held.drift is not None:
+            held.drift.observe(table, int(snapshot.t_ns))
     rows = state.entries.node_rows()
     ids = state.entries.node_id[rows]
     pos = np.minimum(np.searchsorted(table.ids, ids), max(len(table) - 1, 0))

@@ -26,10 +26,12 @@ keeps its poses for this; a single pass forgets them as windows close).
 
 The result equals a single pass over all the shards' logs (ints exact, floats to rounding;
 ``tests/engine/test_shards.py``, ``tests/test_parallel_build.py``) for fixed sensors and robot
-trajectories, a shared graph and one that moves. What a shard cannot know, and so the join
-approximates: (a) a node's stability timer restarts at the shard's first graph (binds in its
-first ``stability_s`` go through cells first; the counts end in the node either way); (b) when
-the graph's rooms change inside a shard, its held days are pooled by the rooms at its end.
+trajectories, a shared graph and one that moves; the places' stability timers are those of
+one pass, or the join is refused (:mod:`aion_cli.engine.node_drift`). What a shard cannot
+know, and so the join approximates: (a) a node's stability timer restarts at the shard's
+first graph (binds in its first ``stability_s`` go through cells first; the counts end in the
+node either way); (b) when the graph's rooms change inside a shard, its held days are pooled
+by the rooms at its end.
 """
 
 from __future__ import annotations
@@ -40,8 +42,9 @@ import numpy as np
 
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import CELL, NODE
-from aion_cli.engine.merge import add_entries, adopt_redirects, destinations, merge_timers
+from aion_cli.engine.merge import add_entries, adopt_redirects, destinations
 from aion_cli.engine.nearest import nearest_nodes
+from aion_cli.engine.node_drift import join_timers, timers_blocker
 from aion_cli.engine.ownership import BindPlan, apply_binds, plan_binds, stable_nodes
 from aion_cli.engine.temporal.pending import DeferredDays, HeldDay, PendingDay
 from aion_cli.engine.types import F64, I64, U64
@@ -93,6 +96,11 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
             "the first scene graph of these logs lacks places of the map before them (one "
             "pass releases them there)"
         )
+    timers = timers_blocker(
+        shard.nodes, acc.nodes, held.drift, shard.config.stable_move_tolerance
+    )
+    if timers is not None:
+        return timers
     gone = nodes[~np.isin(acc.entries.node_id[nodes], shard.nodes.ids)]
     if gone.size and shard.graph is not None:
         return "places of the map before these logs left the scene graph during them"
@@ -168,7 +176,7 @@ def join_shard(acc: MapState, shard: MapState) -> MapState:
     if acc.pending and acc.pending.day != first_day:
         acc.close_day()
     out = shard
-    merge_timers(out, acc)
+    join_timers(out.nodes, acc.nodes, shard.deferred.drift, out.config.stable_move_tolerance)
     src = acc.entries.canonical_order()
     dst = destinations(out, acc, src)
     # the shard's accumulators are empty (its days are held), so the earlier entries that a

@@ -205,3 +205,61 @@ def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: s
     assert joined.accepted == whole.accepted
     with pytest.raises(AssertionError):
         _assert_same(whole, joined)
+
+
+def _drifting(start: int, seed: int) -> list[Step]:
+    """A one-day log whose first graph has place 0 0.2 m from where the earlier logs had it
+    and a later graph 0.4 m: within the stability tolerance (0.25 m) of the log's own first
+    position all along, beyond it from the earlier reference."""
+    from functools import partial
+
+    from tests.engine.engine_builders import graph
+    from tests.engine.test_state import NODES
+
+    steps = _log(start, seed=seed)
+    first, later = np.array(NODES, float), np.array(NODES, float)
+    first[0, 0] += 0.2
+    later[0, 0] += 0.4
+    steps[1] = partial(Mapper.add_graph, snapshot=graph(start, list(range(5)), first))
+    steps.insert(
+        4, partial(Mapper.add_graph, snapshot=graph(start + W + W // 2, list(range(5)), later))
+    )
+    return steps
+
+
+def test_a_place_that_drifts_from_the_earlier_reference_is_refused() -> None:
+    """One pass restarts place 0's stability timer at the second graph of the later log (it
+    is 0.4 m from the reference the earlier log left); the shard does not (0.2 m from its
+    own first position). The join gave the earlier timer silently; it is now refused, and
+    forced anyway it differs from one pass (in that timer)."""
+    logs = [_log(MORNING, seed=50), _drifting(MORNING + 3 * DAY, 51)]
+    whole = _run([step for steps in logs for step in steps]).state
+    blockers: list[str | None] = []
+    joined = _joined(logs[1:], acc=_run(logs[0]).state, blockers=blockers)
+    assert blockers[0] is not None
+    assert "stability timers" in blockers[0]
+    with pytest.raises(AssertionError, match="stable_since"):
+        _assert_same(whole, joined)
+
+
+def test_a_place_that_moves_within_the_tolerance_of_both_joins_exactly() -> None:
+    """The same later log with place 0 0.1 m off at first and 0.2 m later: within the
+    tolerance of the earlier reference all along, so one pass keeps the earlier timer and
+    the join gives it."""
+    from functools import partial
+
+    from tests.engine.engine_builders import graph
+    from tests.engine.test_state import NODES
+
+    start = MORNING + 3 * DAY
+    steps = _drifting(start, 52)
+    first, later = np.array(NODES, float), np.array(NODES, float)
+    first[0, 0] += 0.1
+    later[0, 0] += 0.2
+    steps[1] = partial(Mapper.add_graph, snapshot=graph(start, list(range(5)), first))
+    steps[4] = partial(Mapper.add_graph, snapshot=graph(start + W + W // 2, list(range(5)), later))
+    logs = [_log(MORNING, seed=50), steps]
+    whole = _run([step for steps in logs for step in steps]).state
+    joined = _joined(logs[1:], acc=_run(logs[0]).state)
+    _assert_same(whole, joined)
+    assert joined.nodes.stable_since_ns.min() < start  # the earlier timer, kept

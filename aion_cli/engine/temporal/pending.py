@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.node_drift import NodeDrift
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.errors import MapCorruptError
 
@@ -278,6 +279,10 @@ class DeferredDays:
     #: whether ownership moved an entry that a held day had live (that day's forecast would
     #: have pooled over the entries as they were then: the join cannot be exact)
     moved_after_hold: bool = False
+    #: how the nodes of the shard's first graph moved until their timers first restarted
+    #: (:mod:`aion_cli.engine.node_drift`; None before a graph, and in part maps of older
+    #: versions)
+    drift: NodeDrift | None = None
 
     def hold(self, pending: PendingDay, live: I64) -> None:
         self.days.append(HeldDay(pending, np.asarray(live, np.int64).copy()))
@@ -319,11 +324,14 @@ class DeferredDays:
         if self.first_stable is not None:
             arrays["held_first_stable_ids"] = self.first_stable[0].copy()
             arrays["held_first_stable_xyz"] = self.first_stable[1].copy()
-        meta = {
+        meta: dict[str, Any] = {
             "days": days,
             "first_stable_late": bool(self.first_stable_late),
             "moved_after_hold": bool(self.moved_after_hold),
         }
+        if self.drift is not None:
+            drift_arrays, meta["drift"] = self.drift.to_arrays("held_drift_")
+            arrays.update(drift_arrays)
         return arrays, meta
 
     @classmethod
@@ -357,5 +365,7 @@ class DeferredDays:
             if xyz.shape != (ids.size, 3):
                 raise MapCorruptError("held_first_stable_xyz does not match its ids")
             out.first_stable = (ids, xyz)
+        if meta.get("drift") is not None:
+            out.drift = NodeDrift.from_arrays(arrays, meta["drift"], "held_drift_")
         return out
 
