@@ -35,6 +35,7 @@ from aion_cli.engine.spatial_hash import (
     packable_mask,
     unpack_keys,
 )
+from aion_cli.engine.temporal.groups import sorted_group_keys
 from aion_cli.engine.types import F64, I64, U64, BoolA, GraphSnapshot
 from aion_cli.errors import CoordinateRangeError
 
@@ -81,6 +82,8 @@ def apply_graph(state: MapState, snapshot: GraphSnapshot) -> None:
             held.drift = NodeDrift.start(table, int(snapshot.t_ns))
         elif held.drift is not None:
             held.drift.observe(table, int(snapshot.t_ns))
+        if held.group_keys is not None:
+            held.graph_groups(sorted_group_keys(snapshot.places, cfg.pool_size))
     rows = state.entries.node_rows()
     ids = state.entries.node_id[rows]
     pos = np.minimum(np.searchsorted(table.ids, ids), max(len(table) - 1, 0))

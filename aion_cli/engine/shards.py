@@ -27,11 +27,12 @@ keeps its poses for this; a single pass forgets them as windows close).
 The result equals a single pass over all the shards' logs (ints exact, floats to rounding;
 ``tests/engine/test_shards.py``, ``tests/test_parallel_build.py``) for fixed sensors and robot
 trajectories, a shared graph and one that moves; the places' stability timers are those of
-one pass, or the join is refused (:mod:`aion_cli.engine.node_drift`). What a shard cannot
-know, and so the join approximates: (a) a node's stability timer restarts at the shard's
-first graph (binds in its first ``stability_s`` go through cells first; the counts end in the
-node either way); (b) when the graph's rooms change inside a shard, its held days are pooled
-by the rooms at its end.
+one pass, or the join is refused (:mod:`aion_cli.engine.node_drift`), and so is a shard whose
+graph moved a place to another pooling group (room, or neighbourhood) after one of its days
+was held (that day was pooled by the groups it had then; a day held before the shard's first
+graph, by the earlier map's graph). What a shard cannot know, and so the join approximates:
+a node's stability timer restarts at the shard's first graph (binds in its first
+``stability_s`` go through cells first; the counts end in the node either way).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ from aion_cli.engine.merge import add_entries, adopt_redirects, destinations
 from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.node_drift import join_timers, timers_blocker
 from aion_cli.engine.ownership import BindPlan, apply_binds, plan_binds, stable_nodes
+from aion_cli.engine.temporal.groups import groups_moved
 from aion_cli.engine.temporal.pending import DeferredDays, HeldDay, PendingDay
 from aion_cli.engine.types import F64, I64, U64
 from aion_cli.engine.windows import iso, window_start_ns
@@ -79,6 +81,15 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
         return (
             "ownership changed inside these logs after one of their days had closed (the scene "
             "graph changed), which the day-ahead scores of that day depend on"
+        )
+    before = acc.place_group_keys() if held.held_before_graph else None
+    after = shard.place_group_keys()
+    if held.groups_changed_after_hold or (
+        before is not None and after is not None and groups_moved(before, after)
+    ):
+        return (
+            "the scene graph moved places to other rooms (or neighbourhoods) inside these logs "
+            "after one of their days had closed, which that day's pooling depends on"
         )
     if acc.graph is not None and shard.graph is None:
         return "these logs carry no scene graph of their own, and the map before them has one"

@@ -37,7 +37,7 @@ from aion_cli.engine.temporal import components as fremen_components
 from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.components import FremenComponents
-from aion_cli.engine.temporal.groups import entry_groups
+from aion_cli.engine.temporal.groups import entry_groups, sorted_group_keys
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DeferredDays, PendingDay
 from aion_cli.engine.temporal.provisional import ProvisionalScores
@@ -169,6 +169,13 @@ class MapState:
             self.config.pool_size,
         )
 
+    def place_group_keys(self) -> tuple[U64, I64] | None:
+        """The current graph's place ids (sorted) and the group key of each
+        (:func:`~aion_cli.engine.temporal.groups.group_keys`); None without a graph."""
+        if self.graph is None:
+            return None
+        return sorted_group_keys(self.graph.places, self.config.pool_size)
+
     def window_day(self, window: int) -> int:
         """The local day (``timezone``) of a window, by its centre (remembered for the last
         windows asked: a build asks for each window several times as it closes)."""
@@ -202,7 +209,7 @@ class MapState:
         if not self.pending:
             return
         if self.deferred is not None:
-            self.deferred.hold(self.pending, self.entries.live_rows())
+            self.deferred.hold(self.pending, self.entries.live_rows(), self.place_group_keys())
             self.pending = PendingDay(self.params.values)
             return
         if rows is None:

@@ -263,3 +263,61 @@ def test_a_place_that_moves_within_the_tolerance_of_both_joins_exactly() -> None
     joined = _joined(logs[1:], acc=_run(logs[0]).state)
     _assert_same(whole, joined)
     assert joined.nodes.stable_since_ns.min() < start  # the earlier timer, kept
+
+
+def _rooms(
+    start: int, seed: int, parents: list[list[int]], where: tuple[float, float] = (-1, 7)
+) -> list[Step]:
+    """Fixed-sensor days, one per entry of ``parents``: each starts with the five places in
+    the rooms ``parents[d]`` (room index per place), then people walk in the square ``where``
+    (x and y range; the places lie in the default one)."""
+    from functools import partial
+
+    from tests.engine.engine_builders import detections, graph
+    from tests.engine.test_state import NODES
+
+    rng = np.random.default_rng(seed)
+    steps: list[Step] = []
+    for d, rooms in enumerate(parents):
+        t0 = start + d * DAY
+        steps.append(lambda m, t0=t0: m.set_fixed_sensor(t0, t0 + 6 * W))
+        steps.append(partial(Mapper.add_graph, snapshot=graph(t0, list(range(5)), NODES, rooms)))
+        for w in range(6):
+            n = int(rng.integers(20, 80))
+            t = t0 + w * W + np.sort(rng.integers(0, W, n))
+            xyz = np.c_[rng.uniform(*where, (n, 2)), np.zeros(n)]
+            batch = detections(t, xyz, rng.uniform(-np.pi, np.pi, n), rng.uniform(0.2, 2, n))
+            steps.append(partial(Mapper.add_detections, batch=batch))
+    return steps
+
+
+def test_a_shard_whose_rooms_change_after_a_held_day_is_refused() -> None:
+    """Place 2 moves from room 1 to room 0 at the start of the later log's second day: its
+    first day was held, and one pass pooled that day by the rooms it had then, the join by
+    the rooms at the end (forced, its direction scores differ). Refused; with the same rooms
+    on every day the join is exact."""
+    first = _rooms(MORNING, 60, [[0, 0, 1, 1, 1]])
+    moved = _rooms(MORNING + 3 * DAY, 61, [[0, 0, 1, 1, 1], [0, 0, 0, 1, 1], [0, 0, 0, 1, 1]])
+    blockers: list[str | None] = []
+    forced = _joined([moved], acc=_run(first).state, blockers=blockers)
+    assert blockers[0] is not None
+    assert "other rooms" in blockers[0]
+    with pytest.raises(AssertionError, match="temporal_dir_score"):  # the refusal is needed
+        _assert_same(_run(first + moved).state, forced)
+    same = _rooms(MORNING + 3 * DAY, 61, [[0, 0, 1, 1, 1]] * 3)
+    whole = _run(first + same).state
+    _assert_same(whole, _joined([same], acc=_run(first).state))
+
+
+def test_a_shard_that_held_a_day_before_its_first_graph_compares_the_earlier_rooms() -> None:
+    """The later log's first day has no graph and people far from the places (nothing binds:
+    one pass pooled that day by the earlier log's rooms); its graph, from the second day on,
+    puts place 2 in another room: refused."""
+    first = _rooms(MORNING, 62, [[0, 0, 1, 1, 1]])
+    later = _rooms(MORNING + 3 * DAY, 63, [[0, 0, 0, 1, 1]] * 2, where=(30, 40))
+    day = _rooms(MORNING + 2 * DAY, 64, [[0, 0, 0, 1, 1]], where=(30, 40))
+    no_graph = [step for k, step in enumerate(day) if k != 1]  # the day without its graph
+    blockers: list[str | None] = []
+    _joined([no_graph + later], acc=_run(first).state, blockers=blockers)
+    assert blockers[0] is not None
+    assert "other rooms" in blockers[0]

@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.node_drift import NodeDrift
+from aion_cli.engine.temporal.groups import groups_moved
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.errors import MapCorruptError
 
@@ -283,9 +284,34 @@ class DeferredDays:
     #: (:mod:`aion_cli.engine.node_drift`; None before a graph, and in part maps of older
     #: versions)
     drift: NodeDrift | None = None
+    #: the places' group keys (ids sorted, :func:`~aion_cli.engine.temporal.groups.group_keys`)
+    #: of the last graph since a day was held (None: no day held under a graph yet)
+    group_keys: tuple[npt.NDArray[np.uint64], I64] | None = None
+    #: whether a place changed its pooling group (room, or neighbourhood) after a day was
+    #: held: that day's forecast pooled over the groups as they were then (not exact)
+    groups_changed_after_hold: bool = False
+    #: whether a day was held before the shard's first graph (one pass pooled it by the
+    #: graph of the map before the shard: the join compares that graph's groups)
+    held_before_graph: bool = False
 
-    def hold(self, pending: PendingDay, live: I64) -> None:
+    def hold(
+        self, pending: PendingDay, live: I64, keys: tuple[npt.NDArray[np.uint64], I64] | None
+    ) -> None:
+        """Hold a closed day: its windows, the entries live at its close, and the places'
+        group keys then (``keys``; None without a graph)."""
         self.days.append(HeldDay(pending, np.asarray(live, np.int64).copy()))
+        if keys is None:
+            self.held_before_graph = True
+        elif self.group_keys is None:
+            self.group_keys = keys
+
+    def graph_groups(self, keys: tuple[npt.NDArray[np.uint64], I64]) -> None:
+        """A new graph's group keys: once a day is held, a place that changed its group
+        since the graph before marks the join as not exact."""
+        if self.group_keys is not None and groups_moved(self.group_keys, keys):
+            self.groups_changed_after_hold = True
+        if self.days:
+            self.group_keys = keys
 
     def remember_stable(self, ids: npt.NDArray[np.uint64], xyz: F64) -> None:
         """The shard's first bind check with a stable node (see :attr:`first_stable`)."""
@@ -332,6 +358,11 @@ class DeferredDays:
         if self.drift is not None:
             drift_arrays, meta["drift"] = self.drift.to_arrays("held_drift_")
             arrays.update(drift_arrays)
+        if self.group_keys is not None:
+            arrays["held_group_ids"] = self.group_keys[0].copy()
+            arrays["held_group_keys"] = self.group_keys[1].copy()
+        meta["groups_changed_after_hold"] = bool(self.groups_changed_after_hold)
+        meta["held_before_graph"] = bool(self.held_before_graph)
         return arrays, meta
 
     @classmethod
@@ -367,5 +398,13 @@ class DeferredDays:
             out.first_stable = (ids, xyz)
         if meta.get("drift") is not None:
             out.drift = NodeDrift.from_arrays(arrays, meta["drift"], "held_drift_")
+        out.groups_changed_after_hold = bool(meta.get("groups_changed_after_hold", False))
+        out.held_before_graph = bool(meta.get("held_before_graph", False))
+        if "held_group_ids" in arrays:
+            ids = np.asarray(arrays["held_group_ids"], np.uint64).reshape(-1)
+            keys = np.asarray(arrays.get("held_group_keys", np.zeros((0, 3))), np.int64)
+            if keys.shape != (ids.size, 3):
+                raise MapCorruptError("held_group_keys does not match its ids")
+            out.group_keys = (ids, keys)
         return out
 
