@@ -113,7 +113,9 @@ def test_part_cannot_continue_an_ordinary_map(tmp_path: Path) -> None:
     assert_one_line_error(result.output, "--part cannot continue an ordinary map")
 
 
-@pytest.mark.parametrize("member", ["held0_live", "held0_windows", "held_drift_low", "held_group_keys"])
+@pytest.mark.parametrize(
+    "member", ["held0_live", "held0_windows", "held_drift_low", "held_group_keys"]
+)
 def test_a_part_map_with_a_broken_held_day_is_refused(tmp_path: Path, member: str) -> None:
     from aion_cli.engine.state import MapState
     from aion_cli.errors import MapCorruptError
