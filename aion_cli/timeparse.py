@@ -11,7 +11,9 @@ machine's local zone) unless the text carries its own offset:
 * a day word and an optional wall-clock time: ``today 17:00``, ``tomorrow 12:00``,
   ``yesterday 08:15:30``, ``monday 08:30`` (the next Monday, today included), ``tomorrow``
   (now + 1 day), ``monday`` (next Monday, 00:00);
-* a bare wall-clock time ``08:30`` (today).
+* a bare wall-clock time ``08:30`` (today);
+* wherever a wall-clock time goes, its 12-hour form: ``9am``, ``9:30 pm``, ``tomorrow 9am``,
+  ``friday 5:45pm`` (``12am`` is midnight, ``12pm`` noon).
 
 Nothing here depends on click: errors are :class:`TimeFormatError` (an ``InputError``).
 """
@@ -40,7 +42,7 @@ RANGE_TEXT = "1900-01-01 .. 2261-01-01 UTC"
 
 FORMS_HINT = (
     'use ISO 8601 ("2026-11-23 08:30", "2026-11-23T08:30:00+01:00"), UNIX seconds '
-    '("1795420200"), a relative time ("now", "+2h", "-30m") or "tomorrow 12:00"'
+    '("1795420200"), a relative time ("now", "+2h", "-30m") or "tomorrow 12:00" / "tomorrow 9am"'
 )
 ZONE_HINT = 'use an IANA zone name ("Europe/Berlin", "UTC"), an offset ("+01:00") or "local"'
 
@@ -62,7 +64,8 @@ _WEEKDAYS = {
 }
 _CLOCK = r"(\d{1,2}):(\d{2})(?::(\d{2})(?:\.(\d{1,6}))?)?"
 _RE_CLOCK = re.compile(rf"^{_CLOCK}$")
-_RE_DAYWORD = re.compile(rf"^([a-z]+)(?:\s+{_CLOCK})?$")
+_RE_CLOCK12 = re.compile(r"^(\d{1,2})(?::(\d{2})(?::(\d{2}))?)?\s*(am|pm)$")
+_RE_DAYWORD = re.compile(r"^([a-z]+)(?:\s+(.+))?$")
 _RE_RELATIVE = re.compile(r"^(?:now\s*)?([+-])\s*((?:\d+(?:\.\d+)?\s*[a-z]+\s*)+)$")
 _RE_REL_PART = re.compile(r"(\d+(?:\.\d+)?)\s*([a-z]+)")
 _RE_UNIX = re.compile(r"^@?(-?\d+(?:\.\d+)?)\s*(s|ns)?$")
@@ -153,6 +156,24 @@ def format_ns(t_ns: int, zone: Zone) -> str:
 
 def _wall(day: date, clock: time, zone: Zone) -> datetime:
     return datetime.combine(day, clock).replace(tzinfo=zone.tz)
+
+
+def _wall_clock(part: str, text: str) -> time | None:
+    """The wall-clock time ``part`` (``08:30``, ``8:30:15.5``, ``9am``, ``9:30 pm``) of the
+    time ``text``; None if ``part`` is not one."""
+    match = _RE_CLOCK.match(part)
+    if match:
+        return _clock(match.groups(), text)
+    match = _RE_CLOCK12.match(part)
+    if not match:
+        return None
+    hour, minute, second, half = match.groups()
+    if not 1 <= int(hour) <= 12:
+        raise TimeFormatError(
+            f"invalid clock time in {text!r}: the hour of a 12-hour time is 1 to 12", FORMS_HINT
+        )
+    hour24 = int(hour) % 12 + (12 if half == "pm" else 0)
+    return _clock((str(hour24), minute, second, None), text)
 
 
 def _clock(groups: tuple[str | None, ...], text: str) -> time:
@@ -256,8 +277,11 @@ def _parse_dayword(text: str, zone: Zone, current: datetime) -> int | None:
     match = _RE_DAYWORD.match(text)
     if not match:
         return None
-    word, *clock_groups = match.groups()
-    has_clock = clock_groups[0] is not None
+    word, clock_text = match.groups()
+    has_clock = clock_text is not None
+    clock = _wall_clock(clock_text, text) if has_clock else time(0, 0)
+    if clock is None:
+        return None
     today = current.date()
     if word in ("today", "tomorrow", "yesterday"):
         shift = {"today": 0, "tomorrow": 1, "yesterday": -1}[word]
@@ -268,15 +292,14 @@ def _parse_dayword(text: str, zone: Zone, current: datetime) -> int | None:
         day = today + timedelta(days=(_WEEKDAYS[word] - today.weekday()) % 7)
     else:
         return None
-    clock = _clock(tuple(clock_groups), text) if has_clock else time(0, 0)
     return to_ns(_wall(day, clock, zone))
 
 
 def _parse_clock(text: str, zone: Zone, current: datetime) -> int | None:
-    match = _RE_CLOCK.match(text)
-    if not match:
+    clock = _wall_clock(text, text)
+    if clock is None:
         return None
-    return to_ns(_wall(current.date(), _clock(match.groups(), text), zone))
+    return to_ns(_wall(current.date(), clock, zone))
 
 
 def _parse_iso(text: str, zone: Zone, current: datetime) -> int | None:

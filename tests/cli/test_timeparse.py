@@ -108,9 +108,32 @@ def test_bare_clock_is_today() -> None:
     assert parse_time("08:00", BERLIN, late) == ns(2026, 11, 23, 7, 0)
 
 
+def test_twelve_hour_clocks_wherever_a_clock_goes() -> None:
+    assert parse_time("9am", UTCZ, NOW) == ns(2026, 11, 22, 9, 0)
+    assert parse_time("9:30 PM", UTCZ, NOW) == ns(2026, 11, 22, 21, 30)
+    assert parse_time("12am", UTCZ, NOW) == ns(2026, 11, 22, 0, 0)  # midnight
+    assert parse_time("12:15pm", UTCZ, NOW) == ns(2026, 11, 22, 12, 15)  # noon
+    assert parse_time("tomorrow 9am", BERLIN, NOW) == ns(2026, 11, 23, 8, 0)
+    assert parse_time("friday 5:45:10pm", UTCZ, NOW) == ns(2026, 11, 27, 17, 45, 10)
+    assert parse_time("tomorrow 9am UTC", BERLIN, NOW) == ns(2026, 11, 23, 9, 0)
+
+
 @pytest.mark.parametrize(
     "text",
-    ["", "   ", "yesterday-ish", "2026-13-01", "25:00", "tomorrow 12:99", "+2 parsecs", "soon"],
+    [
+        "",
+        "   ",
+        "yesterday-ish",
+        "2026-13-01",
+        "25:00",
+        "tomorrow 12:99",
+        "+2 parsecs",
+        "soon",
+        "13pm",
+        "0am",
+        "tomorrow 9",
+        "tomorrow noonish",
+    ],
 )
 def test_bad_times_raise_an_input_error_with_the_accepted_forms(text: str) -> None:
     with pytest.raises(TimeFormatError) as info:
