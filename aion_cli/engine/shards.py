@@ -82,11 +82,7 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
             "ownership changed inside these logs after one of their days had closed (the scene "
             "graph changed), which the day-ahead scores of that day depend on"
         )
-    before = acc.place_group_keys() if held.held_before_graph else None
-    after = shard.place_group_keys()
-    if held.groups_changed_after_hold or (
-        before is not None and after is not None and groups_moved(before, after)
-    ):
+    if held.groups_changed_after_hold or (held.held_before_graph and _groups_differ(acc, shard)):
         return (
             "the scene graph moved places to other rooms (or neighbourhoods) inside these logs "
             "after one of their days had closed, which that day's pooling depends on"
@@ -144,6 +140,12 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
                 "later on (a single pass would have bound them then)"
             )
     return None
+
+
+def _groups_differ(acc: MapState, shard: MapState) -> bool:
+    """Whether a place both maps' last graphs hold is in another pooling group in each."""
+    before, after = acc.place_group_keys(), shard.place_group_keys()
+    return before is not None and after is not None and groups_moved(before, after)
 
 
 def overlap_blocker(acc: MapState, shard: MapState) -> str | None:

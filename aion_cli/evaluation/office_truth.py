@@ -213,7 +213,7 @@ def separable_flow_correlations(series: list[FlowSeries]) -> list[dict[str, floa
         if known.sum() <= 2:
             out.append(dict.fromkeys(keys + COVERAGE_FIELDS, math.nan))
             continue
-        _, place = np.unique(s.place, return_inverse=True)
+        places, place = np.unique(s.place, return_inverse=True)
         _, window = np.unique(s.window_start, return_inverse=True)
         aion_where = _mean_by(place, s.predicted, known)
         aion_when = _mean_by(window, s.predicted, known)
@@ -226,18 +226,20 @@ def separable_flow_correlations(series: list[FlowSeries]) -> list[dict[str, floa
             keys[3]: true_where[place] * true_when[window],
         }
         scene = {k: _correlation(np.where(known, f, np.nan), expected) for k, f in pairs.items()}
-        scene.update(_by_coverage(s, aion_where, true_where))
+        scene.update(_by_coverage(s, places, aion_where, true_where))
         out.append(scene)
     return out
 
 
-def _by_coverage(s: FlowSeries, aion_where: F64, true_where: F64) -> dict[str, float]:
+def _by_coverage(
+    s: FlowSeries, places: npt.NDArray[np.uint64], aion_where: F64, true_where: F64
+) -> dict[str, float]:
     """Where the flow is, apart for the places the robot saw all day and those it saw in part
-    (:data:`SEEN_ALL_DAY`): the correlation of aion's place means with the expected flow's
-    over each group, and the number seen all day. NaN without the robot's coverage."""
+    (:data:`SEEN_ALL_DAY`): the correlation of aion's place means (``aion_where``, one per
+    place of ``places``, the series' places sorted) with the expected flow's over each group,
+    and the number seen all day. NaN without the robot's coverage."""
     if s.seen_share is None:
         return dict.fromkeys(COVERAGE_FIELDS, math.nan)
-    places = np.unique(s.place)
     order = np.argsort(s.place_ids, kind="stable")
     at = order[np.searchsorted(s.place_ids[order], places)]
     all_day = s.seen_share[at] >= SEEN_ALL_DAY

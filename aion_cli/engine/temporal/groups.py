@@ -53,7 +53,7 @@ def group_keys(room: U64, xyz: F64, pool_size: float) -> I64:
             np.where(in_room, parent.view(np.int64), cell[:, 0]),
             np.where(in_room, 0, cell[:, 1]),
         ]
-    ).astype(np.int64)
+    )
 
 
 def groups_moved(before: tuple[U64, I64], after: tuple[U64, I64]) -> bool:

@@ -306,12 +306,12 @@ class DeferredDays:
             self.group_keys = keys
 
     def graph_groups(self, keys: tuple[npt.NDArray[np.uint64], I64]) -> None:
-        """A new graph's group keys: once a day is held, a place that changed its group
-        since the graph before marks the join as not exact."""
+        """A new graph's group keys (asked for once :attr:`group_keys` is set, i.e. after a
+        day was held under a graph): a place that changed its group since the graph before
+        marks the join as not exact."""
         if self.group_keys is not None and groups_moved(self.group_keys, keys):
             self.groups_changed_after_hold = True
-        if self.days:
-            self.group_keys = keys
+        self.group_keys = keys
 
     def remember_stable(self, ids: npt.NDArray[np.uint64], xyz: F64) -> None:
         """The shard's first bind check with a stable node (see :attr:`first_stable`)."""
