@@ -37,6 +37,7 @@ def write_build(
     """Write ``report.output`` (the caller holds its lock) and fill the report's counts and
     size."""
     from aion_cli.formats.mapfile import write_map
+    from aion_cli.tf_feed import map_observation_text
 
     arrays, meta = state.to_arrays(lazy=True)
     stats = state_counts(state)
@@ -54,7 +55,11 @@ def write_build(
         counts=cumulative_counts(report, previous) | stats,
         last_build=report.to_dict()["detections"],
         graph_source=report.graph_source,
-        observation=report.observation,
+        observation=map_observation_text(
+            [previous.observation, report.observation] if previous else [report.observation],
+            state.observation,
+            state.window_ns,
+        ),
         timezone=config.timezone,
         families=state.family_summary(),
         merged_from=previous.merged_from if previous is not None else (),

@@ -392,6 +392,7 @@ def _write(
     figures."""
     from aion_cli.formats.mapfile import write_map
     from aion_cli.mapquery import state_counts
+    from aion_cli.tf_feed import map_observation_text
 
     starts = [m.manifest.start_ns for m in maps if m.manifest.start_ns is not None]
     ends = [m.manifest.end_ns for m in maps if m.manifest.end_ns is not None]
@@ -409,7 +410,9 @@ def _write(
             },
         )
     stats = state_counts(merged)
-    observations = sorted({m.manifest.observation for m in maps})
+    observation = map_observation_text(
+        [m.manifest.observation for m in maps], merged.observation, merged.window_ns
+    )
     arrays, meta = merged.to_arrays(lazy=True)
     manifest = Manifest(
         state=meta,
@@ -419,7 +422,7 @@ def _write(
         end_ns=report.end_ns,
         counts=counts | stats,
         graph_source=f"merge: {report.graph_source}",
-        observation=observations[0] if len(observations) == 1 else " + ".join(observations),
+        observation=observation,
         timezone=maps[0].manifest.timezone,
         families=merged.family_summary(),
         merged_from=tuple(m.file.to_dict() for m in maps),

@@ -28,9 +28,13 @@ from aion_cli.log_times import TimeCheck, TopicTimes, iso, stray_mask
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.observation import ObservationSource
     from aion_cli.formats.raw import RawMessage
     from aion_cli.formats.tf import TfBuffer
     from aion_cli.topics import TopicPlan
+
+FIXED_SENSOR_OVER = "fixed sensor over"
+"""How the description of a fixed sensor's recorded windows starts (:func:`fixed_sensor_text`)."""
 
 __all__ = [
     "TfStats",
@@ -343,11 +347,43 @@ def fixed_sensor_windows(
     return fixed_sensor_text(*summary)
 
 
+def map_observation_text(texts: list[str], observation: ObservationSource, delta: int) -> str:
+    """The observation of a map learnt in parts (``texts``: each part's description, in time
+    order: a continued map's and its new logs', or a merge's inputs'). When every part was a
+    fixed sensor, the windows it recorded are counted over the map's own fixed-sensor
+    intervals (the union of every part's), so the description is the one a single build of
+    every log gives; otherwise the parts' distinct descriptions, in order."""
+    if texts and all(t.startswith(FIXED_SENSOR_OVER) for t in texts):
+        summary = fixed_sensor_summary(observation, delta)
+        if summary is not None:
+            return fixed_sensor_text(*summary)
+    distinct = list(dict.fromkeys(texts))
+    return " + ".join(distinct) if distinct else "none"
+
+
+def fixed_sensor_summary(
+    observation: ObservationSource, delta: int
+) -> tuple[int, int, int, int] | None:
+    """(windows, first, last, ``delta``) of the windows of ``delta`` ns that the fixed-sensor
+    intervals of ``observation`` overlap (None: it has none); a window two intervals share
+    counts once."""
+    starts, ends = observation.merged_fixed()
+    if starts.size == 0:
+        return None
+    w0 = starts // np.int64(delta)
+    w1 = -((-ends) // np.int64(delta))  # exclusive: ceil(end / delta)
+    # sorted and disjoint in time, so only an interval's first window can be its
+    # predecessor's last
+    before = np.concatenate([[np.iinfo(np.int64).min], np.maximum.accumulate(w1)[:-1]])
+    count = int(np.maximum(w1 - np.maximum(w0, before), 0).sum())
+    return count, int(w0[0]), int(w1.max()) - 1, int(delta)
+
+
 def fixed_sensor_text(count: int, first: int, last: int, delta: int) -> str:
     """The report's description of fixed-sensor observation: ``count`` windows of
     ``delta`` ns with messages, from window ``first`` to ``last``."""
     span = last - first + 1
     return (
-        f"fixed sensor over the {count:,} windows with messages "
+        f"{FIXED_SENSOR_OVER} the {count:,} windows with messages "
         f"({count * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
     )

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from aion_cli.engine.compare import differences
@@ -149,3 +150,52 @@ def test_a_merged_map_keeps_its_merge_provenance_when_continued(tmp_path: Path) 
     assert "m0.aion" in text
     assert "m1.aion" in text
     assert '"lineage": "same"' in text
+
+
+def test_merged_and_continued_maps_describe_every_log_they_observed(tmp_path: Path) -> None:
+    """Without a robot trajectory each log is a fixed sensor over the windows it recorded:
+    a map merged from parts, or continued with ``--map``, describes all of them, as one build
+    of every log does (it used to keep one part's description, or join them with ``+``)."""
+    from aion_cli.formats.mapfile import read_manifest
+
+    logs = []
+    for k, day in enumerate([0, 1, 1.5]):
+        path = tmp_path / f"fixed{k}.mcap"
+        write_office_log(path, tf=False, shift_s=int(day * 24 * HOUR_S), duration_s=HOUR_S)
+        logs.append(path)
+    whole = tmp_path / "whole.aion"
+    assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
+    expected = read_manifest(whole)["observation"]
+    assert expected.startswith("fixed sensor over the 18 windows with messages (3.0 h of a ")
+    parts = []
+    for k, log in enumerate(logs):
+        part = tmp_path / f"p{k}.aion"
+        assert run("build", log, "--part", "-o", part, "-q").exit_code == 0
+        assert "the 6 windows" in read_manifest(part)["observation"]
+        parts.append(part)
+    merged = tmp_path / "merged.aion"
+    assert run("merge", *parts, "-o", merged, "-q").exit_code == 0
+    assert read_manifest(merged)["observation"] == expected
+    continued = tmp_path / "continued.aion"
+    assert run("build", logs[0], "-o", continued, "-q").exit_code == 0
+    for log in logs[1:]:
+        assert run("build", "--map", continued, log, "-q").exit_code == 0
+    assert read_manifest(continued)["observation"] == expected
+
+
+def test_a_map_observed_by_a_robot_and_a_fixed_sensor_names_both() -> None:
+    from aion_cli.engine.observation import ObservationSource
+    from aion_cli.tf_feed import fixed_sensor_summary, map_observation_text
+
+    delta = 600 * 10**9
+    source = ObservationSource()
+    assert fixed_sensor_summary(source, delta) is None
+    source.add_fixed_windows(np.array([3, 4, 5, 9]), delta)
+    # an interval that is not window-aligned shares window 9 with the one before it
+    source.set_fixed_sensor(9 * delta + delta // 2, 11 * delta + 1)
+    assert fixed_sensor_summary(source, delta) == (6, 3, 11, delta)  # windows 3-5, 9-11
+    fixed = "fixed sensor over the 1 windows with messages (0.2 h of a 0.2 h span)"
+    text = map_observation_text([fixed, fixed], source, delta)
+    assert text == "fixed sensor over the 6 windows with messages (1.0 h of a 1.5 h span)"
+    robot = "robot trajectory (TF map -> base_link)"
+    assert map_observation_text([robot, fixed, robot], source, delta) == f"{robot} + {fixed}"
