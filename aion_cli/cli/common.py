@@ -44,12 +44,19 @@ def resolve_time(text: str, tz: str | None, loaded: Any = None) -> tuple[int, Zo
     return parse_time(text, zone), zone
 
 
-def announce_time(t_ns: int, zone: Zone, label: str = "time") -> None:
+def announce_time(t_ns: int, zone: Zone, label: str = "time", loaded: Any = None) -> None:
     """Say on stderr which time and zone were used (after the command succeeded, so an error
-    stays the only output of a failed command)."""
+    stays the only output of a failed command), and, for a forecast from the map ``loaded``,
+    what it cannot say at that time (:mod:`aion_cli.forecast_notes`)."""
     from aion_cli.cli.console import note
 
     note(f"{label}: {format_ns(t_ns, zone)} ({zone.name})")
+    if loaded is not None:
+        from aion_cli.forecast_notes import forecast_notes
+        from aion_cli.manifest import Manifest
+
+        for line in forecast_notes(Manifest.from_dict(loaded.manifest), t_ns):
+            note(line)
 
 
 def load(map_path: Path) -> Any:

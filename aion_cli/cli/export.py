@@ -190,7 +190,7 @@ def command(
         done = write(lambda: bar.advance(task))
     if zone is not None and times[0] is not None:
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
-        announce_time(times[0], zone, label)
+        announce_time(times[0], zone, label, loaded)
     console().print(done)
 
 

@@ -119,7 +119,7 @@ def command(
 
         plan_png(loaded, routes, nav, zone, png_path)
         report["png"] = str(png_path)
-    announce_time(t_ns, zone, "departure")
+    announce_time(t_ns, zone, "departure", loaded)
     if fmt == "json":
         click.echo(to_json(report))
     else:

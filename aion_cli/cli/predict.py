@@ -98,7 +98,7 @@ def command(
     rows, count = predicted_records(loaded, t_ns, layer, nodes, at, shown)
     payload = document(map_path, loaded.config.bins, rows, t_ns, zone)
     if t_ns is not None and zone is not None:
-        announce_time(t_ns, zone)
+        announce_time(t_ns, zone, loaded=loaded)
     title = (
         "historical flows"
         if t_ns is None or zone is None

@@ -180,6 +180,19 @@ def test_table_output_and_the_zone_on_stderr(office: Office) -> None:
     assert "time: 2026-11-23 08:30:00+01:00 (Europe/Berlin)" in result.stderr
 
 
+def test_a_forecast_says_why_it_does_not_change_with_the_time(office: Office) -> None:
+    """The office map holds 20 minutes: no day was scored, so every entry keeps its static
+    rate, and a time two months before the log is named as such (stderr, beside the time)."""
+    result = run("predict", office.map, "--time", "2026-09-20 08:30", "--top", "1")
+    assert result.exit_code == 0, result.stderr
+    assert "every entry forecasts its static rate, whatever the time" in result.stderr
+    assert "this time is 9 weeks before the map's data (2026-11-23)" in result.stderr
+    assert "static rate" not in result.stdout
+    plan = run("plan", office.map, "--from", "p1", "--to", "p2", "--time", AT)
+    assert "every entry forecasts its static rate" in plan.stderr
+    assert "before the map's data" not in plan.stderr
+
+
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [
