@@ -160,7 +160,8 @@ def split_groups(
         names = ", ".join(p.name for p in group[:3]) + (", ..." if len(group) > 3 else "")
         if changing is not None:
             notes.append(
-                f"{names}: not cut into time shards: its scene graph changes after "
+                f"{names}: not cut into time shards: {'their' if len(group) > 1 else 'its'} "
+                f"scene graph changes after "
                 f"{_iso(changing[0])} (places added, removed or moved), which a part built "
                 "apart cannot know, so that part would be learnt twice; built in sequence"
             )
