@@ -384,6 +384,6 @@ def fixed_sensor_text(count: int, first: int, last: int, delta: int) -> str:
     ``delta`` ns with messages, from window ``first`` to ``last``."""
     span = last - first + 1
     return (
-        f"{FIXED_SENSOR_OVER} the {count:,} windows with messages "
+        f"{FIXED_SENSOR_OVER} the {count:,} window{'' if count == 1 else 's'} with messages "
         f"({count * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
     )

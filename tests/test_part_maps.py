@@ -185,16 +185,17 @@ def test_merged_and_continued_maps_describe_every_log_they_observed(tmp_path: Pa
 
 def test_a_map_observed_by_a_robot_and_a_fixed_sensor_names_both() -> None:
     from aion_cli.engine.observation import ObservationSource
-    from aion_cli.tf_feed import fixed_sensor_summary, map_observation_text
+    from aion_cli.tf_feed import fixed_sensor_summary, fixed_sensor_text, map_observation_text
 
     delta = 600 * 10**9
     source = ObservationSource()
     assert fixed_sensor_summary(source, delta) is None
+    assert fixed_sensor_text(1, 7, 7, delta).startswith("fixed sensor over the 1 window with")
     source.add_fixed_windows(np.array([3, 4, 5, 9]), delta)
     # an interval that is not window-aligned shares window 9 with the one before it
     source.set_fixed_sensor(9 * delta + delta // 2, 11 * delta + 1)
     assert fixed_sensor_summary(source, delta) == (6, 3, 11, delta)  # windows 3-5, 9-11
-    fixed = "fixed sensor over the 1 windows with messages (0.2 h of a 0.2 h span)"
+    fixed = "fixed sensor over the 1 window with messages (0.2 h of a 0.2 h span)"
     text = map_observation_text([fixed, fixed], source, delta)
     assert text == "fixed sensor over the 6 windows with messages (1.0 h of a 1.5 h span)"
     robot = "robot trajectory (TF map -> base_link)"
