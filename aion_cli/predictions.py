@@ -240,7 +240,12 @@ def select(
     order (``--node``: in the order given), as an int64 array."""
     import numpy as np
 
-    from aion_cli.engine.node_ids import node_label, parse_node_id, require_point
+    from aion_cli.engine.node_ids import (
+        node_label,
+        parse_node_id,
+        refuse_far_point,
+        require_point,
+    )
     from aion_cli.errors import UnknownNodeError
 
     index = np.arange(len(table.xyz), dtype=np.int64)
@@ -286,6 +291,9 @@ def select(
             close.tolist(),
             key=lambda e: math.dist(tuple(float(v) for v in table.xyz[e][:3]), (x, y, z)),
         )
+        distance = math.dist(tuple(float(v) for v in table.xyz[best][:3]), (x, y, z))
+        label = str(entry_ids(table, np.array([best]))[0])
+        refuse_far_point(at, distance, label, table.xyz, "entry")
         index = np.array([best], dtype=np.int64)
     return index
 

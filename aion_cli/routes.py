@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.node_ids import node_label, parse_node_id, parse_point
+from aion_cli.engine.node_ids import node_label, parse_node_id, parse_point, refuse_far_point
 
 if TYPE_CHECKING:
     from aion_cli.engine.planning import NavGraph, PlanResult
@@ -24,12 +24,6 @@ if TYPE_CHECKING:
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
-
-FAR_POINT_M = 10.0
-"""A typed point may lie this far from every place, or as far as the graph spans if that is
-more, and still snap to the nearest place; farther, it is refused (a point in another frame
-or unit snapped silently would plan a path nobody asked for)."""
-
 
 @dataclass(frozen=True)
 class Endpoint:
@@ -54,8 +48,8 @@ class Endpoint:
 def resolve_endpoint(where: str | int, nav: NavGraph) -> Endpoint:
     """A node id (``"p12"``, ``"p(12)"``, an int) or coordinates ``"x,y[,z]"`` snapped to the
     nearest node; :class:`~aion_cli.errors.UnknownNodeError` for an id not in the
-    graph, :class:`~aion_cli.errors.InputError` for a point farther from every node than
-    :data:`FAR_POINT_M` and the graph's own span."""
+    graph, :class:`~aion_cli.errors.InputError` for a point far from every node
+    (:func:`~aion_cli.engine.node_ids.refuse_far_point`)."""
     if isinstance(where, (int, np.integer)):
         nav.index_of(int(where))
         return Endpoint(int(where))
@@ -67,17 +61,7 @@ def resolve_endpoint(where: str | int, nav: NavGraph) -> Endpoint:
     row = nav.nearest(point)
     node_id = int(nav.ids[row])
     distance = math.dist(point, tuple(float(v) for v in nav.xyz[row]))
-    span = float(np.linalg.norm(np.ptp(nav.xyz, axis=0))) if len(nav.xyz) else 0.0
-    if distance > max(FAR_POINT_M, span):
-        from aion_cli.errors import InputError
-
-        raise InputError(
-            f"the point {where} is {distance:,.0f} m from the nearest place "
-            f"({node_label(node_id)}), farther than the whole graph spans ({span:,.0f} m): "
-            "coordinates in another frame or unit?",
-            hint="give map-frame coordinates in metres, or a place id "
-            "(aion predict MAP --layer places lists them)",
-        )
+    refuse_far_point(where, distance, node_label(node_id), nav.xyz)
     return Endpoint(node_id, point, distance)
 
 

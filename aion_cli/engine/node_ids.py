@@ -73,6 +73,30 @@ def require_point(text: str, option: str) -> tuple[float, float, float]:
     return point
 
 
+FAR_POINT_M = 10.0
+"""A typed point may lie this far from every entry, or as far as the entries span if that is
+more, and still stand for the nearest one; farther, it is refused (a point in another frame or
+unit, answered with the nearest entry at the map's edge, would answer a question nobody
+asked)."""
+
+
+def refuse_far_point(
+    text: str, distance: float, nearest: str, xyz: npt.ArrayLike, what: str = "place"
+) -> None:
+    """:class:`InputError` when the point ``text`` lies ``distance`` metres from the nearest
+    of the positions ``xyz`` (the ``what`` labelled ``nearest``), farther than
+    :data:`FAR_POINT_M` and than the positions span (``plan --from/--to``, ``predict --at``)."""
+    points = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    span = float(np.linalg.norm(np.ptp(points, axis=0))) if len(points) else 0.0
+    if distance > max(FAR_POINT_M, span):
+        raise InputError(
+            f"the point {text} is {distance:,.0f} m from the nearest {what} ({nearest}), "
+            f"farther than the whole map spans ({span:,.0f} m): coordinates in another frame "
+            "or unit?",
+            hint="give map-frame coordinates in metres",
+        )
+
+
 def node_labels(node_ids: npt.ArrayLike) -> npt.NDArray[np.str_]:
     """:func:`node_label` of many ids at once, with numpy (``["p12", "R3", ...]``): one
     string operation per array, not a Python call per id."""

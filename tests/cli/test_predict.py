@@ -201,6 +201,7 @@ def test_a_forecast_says_why_it_does_not_change_with_the_time(office: Office) ->
         (["--node", "p99"], "p99"),
         (["--node", "kitchen"], "kitchen"),
         (["--at", "1,2,3,4"], "--at"),
+        (["--at", "3900,1700"], "farther than the whole map spans"),  # millimetres?
         (["--layer", "floors"], "floors"),
     ],
 )
