@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from aion_cli.engine.compare import differences
 from aion_cli.mapquery import load_map
@@ -200,3 +202,31 @@ def test_a_map_observed_by_a_robot_and_a_fixed_sensor_names_both() -> None:
     assert text == "fixed sensor over the 6 windows with messages (1.0 h of a 1.5 h span)"
     robot = "robot trajectory (TF map -> base_link)"
     assert map_observation_text([robot, fixed, robot], source, delta) == f"{robot} + {fixed}"
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 50_000), st.integers(0, 5_000)), min_size=1, max_size=8
+    )
+)
+def test_the_windows_of_fixed_sensor_intervals_are_counted_once(
+    intervals: list[tuple[int, int]],
+) -> None:
+    """Any intervals (overlapping, touching, within one window, empty): the summary counts
+    each window some interval overlaps once, as a brute-force union of windows does."""
+    from aion_cli.engine.observation import ObservationSource
+    from aion_cli.tf_feed import fixed_sensor_summary
+
+    delta = 600
+    source = ObservationSource()
+    windows: set[int] = set()
+    for start, length in intervals:
+        source.set_fixed_sensor(start, start + length)
+        if length:
+            windows.update(range(start // delta, (start + length - 1) // delta + 1))
+    summary = fixed_sensor_summary(source, delta)
+    if not windows:
+        assert summary is None
+        return
+    assert summary == (len(windows), min(windows), max(windows), delta)
