@@ -27,6 +27,9 @@ atomically with a manifest that accounts for every log. The rules:
   build --graph FILE`` reads it) replaces the merged graph in either lineage (nodes it lacks
   release to hash cells, cells in reach of its nodes bind); without it, a ``"different"``
   merge binds to the newest input map's latest graph and a ``"same"`` one keeps it.
+* **One part map.** A part map (``aion build --part``) holds its days unscored; merged alone
+  (``aion merge PART.aion -o MAP.aion``) its days are scored in time order, which makes it the
+  map one build of its logs gives. An ordinary map alone is refused (nothing to merge).
 * **Time.** Maps are ordered by their manifests' time spans (else their open windows). Maps
   whose times overlap merge (two robots at once), with a note: windows both observed count
   twice.
@@ -124,8 +127,8 @@ def merge_map_files(
     out = Path(out)
     if lineage not in LINEAGES:
         raise InputError(f"unknown lineage {lineage!r}", hint=f"one of {', '.join(LINEAGES)}")
-    if len(paths) < 2:
-        raise InputError("a merge needs at least two maps", hint=_HINT)
+    if not paths:
+        raise InputError("a merge needs at least two maps (or one part map)", hint=_HINT)
     _check_paths(paths, out)
     check_map_target(out)
     target = _target_graph(graph_file, nav_layer)
@@ -134,6 +137,12 @@ def merge_map_files(
         if out.exists():
             report.notes.append(f"{out.name} existed and is replaced")
         maps = _read(paths, sink)
+        if len(maps) == 1 and not maps[0].head.part:
+            raise InputError(
+                f"{paths[0]} is a map already: a merge needs at least two maps (one part map, "
+                "aion build --part, alone is made a map)",
+                hint=_HINT,
+            )
         _check_compatible(maps)
         maps.sort(key=lambda m: (m.start() is not None, m.start() or 0))
         inputs = _check_logs(maps)
@@ -320,7 +329,7 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
             acc = state if acc is None else merge_maps(acc, state, consume=True)
         del state
         sink.advance(1)
-    assert acc is not None  # a merge has two maps at least
+    assert acc is not None  # a merge has one map at least
     if report.lineage == "different":
         report.notes.append(
             f"{report.released} node entries released to the hash cells at their places"

@@ -98,6 +98,24 @@ def test_a_part_map_saves_and_continues_its_held_days(tmp_path: Path) -> None:
     assert differences(_state(both), state) == []  # type: ignore[arg-type]
 
 
+def test_one_part_map_merged_alone_is_the_map_of_its_logs(tmp_path: Path) -> None:
+    """A part map holds its days unscored; ``aion merge PART -o MAP`` scores them in time
+    order: the map one build of the same logs gives. An ordinary map alone is refused."""
+    logs = _logs(tmp_path, [0, 1, 3])
+    part = tmp_path / "part.aion"
+    assert run("build", *logs, "--part", "-o", part, "-q").exit_code == 0
+    assert len(_state(part).deferred.days) == 2  # type: ignore[attr-defined]
+    whole = tmp_path / "whole.aion"
+    assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
+    alone = tmp_path / "alone.aion"
+    assert run("merge", part, "-o", alone, "-q").exit_code == 0
+    assert differences(_state(whole), _state(alone)) == []  # type: ignore[arg-type]
+    assert run("predict", alone, "--top", "1").exit_code == 0
+    refused = run("merge", whole, "-o", tmp_path / "again.aion")
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "whole.aion is a map already")
+
+
 def test_a_part_map_cannot_forecast(tmp_path: Path) -> None:
     (log,) = _logs(tmp_path, [0])
     part = tmp_path / "part.aion"

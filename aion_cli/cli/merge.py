@@ -15,6 +15,7 @@ Examples:
   aion merge monday.aion tuesday.aion -o week.aion
   aion merge robot1.aion robot2.aion -o office.aion --graph dsg.json
   aion merge old.aion new.aion -o both.aion --lineage different
+  aion merge part.aion -o map.aion          one part map (build --part): its days scored
 
 \b
 The maps must share their model parameters and time zone, and no log may be in two of
@@ -70,14 +71,15 @@ def command(
     quiet: bool,
     fmt: str,
 ) -> None:
-    """Merge the map files MAPS (two or more, built from different logs) into one map."""
+    """Merge the map files MAPS (two or more, built from different logs) into one map; or
+    turn one part map (aion build --part) into a map."""
     from aion_cli.cli.build import _RichProgress
     from aion_cli.errors import InputError
     from aion_cli.merging import merge_map_files
 
-    if len(maps) < 2:
+    if not maps:
         raise InputError(
-            f"a merge needs at least two maps, got {len(maps)}",
+            "a merge needs at least two maps (or one part map)",
             hint="aion merge A.aion B.aion ... -o OUT.aion",
         )
     with _RichProgress(quiet or fmt == "json") as progress:

@@ -226,7 +226,7 @@ class MapState:
             raise PartMapError(
                 "this is a part map (aion build --part): its days are held unscored for "
                 "aion merge, so it cannot forecast",
-                hint="aion merge PART1.aion PART2.aion ... -o MAP.aion joins the parts into a map",
+                hint="aion merge PART.aion [PART2.aion ...] -o MAP.aion scores its days into a map",
             )
         key = self._view_key()
         if self._view is not None and self._view[0] == key:
