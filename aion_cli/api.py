@@ -375,8 +375,9 @@ def merge(
 ) -> Map:
     """Merge map files of disjoint time into ``output``, as ``aion merge``
     (:func:`aion_cli.merging.merge_map_files`: same model parameters, no log in two maps,
-    ``lineage`` auto / same / different, ``graph`` a Hydra graph file to bind to); the merged
-    map, with what the merge did in ``Map.report`` (a ``MergeReport``)."""
+    ``lineage`` auto / same / different, ``graph`` a Hydra graph file to bind to; one part
+    map alone, ``aion build --part``, is made a map); the merged map, with what the merge did
+    in ``Map.report`` (a ``MergeReport``)."""
     from aion_cli.merging import merge_map_files
 
     if isinstance(paths, (str, os.PathLike)):
