@@ -118,8 +118,12 @@ class Manifest:
 
     def shown(self) -> dict[str, Any]:
         """What ``aion info MAP`` shows: the stored fields and the container's, without the
-        internal state table."""
+        internal state table (a part map's ``part``: how many days it holds unscored)."""
         out = {k: v for k, v in self.to_dict().items() if k != "state"}
+        deferred = self.state.get("deferred")
+        if isinstance(deferred, dict):  # a part map (aion build --part): its days held
+            days = deferred.get("days")
+            out["part"] = {"held_days": len(days) if isinstance(days, list) else 0}
         return self.container | out
 
     def joined_span(self, start: int | None, end: int | None) -> tuple[int | None, int | None]:

@@ -105,12 +105,16 @@ def test_one_part_map_merged_alone_is_the_map_of_its_logs(tmp_path: Path) -> Non
     part = tmp_path / "part.aion"
     assert run("build", *logs, "--part", "-o", part, "-q").exit_code == 0
     assert len(_state(part).deferred.days) == 2  # type: ignore[attr-defined]
+    shown = json.loads(run("info", part, "--format", "json").stdout)
+    assert shown["part"] == {"held_days": 2}
+    assert "2 days held unscored" in run("info", part).stdout
     whole = tmp_path / "whole.aion"
     assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
     alone = tmp_path / "alone.aion"
     assert run("merge", part, "-o", alone, "-q").exit_code == 0
     assert differences(_state(whole), _state(alone)) == []  # type: ignore[arg-type]
     assert run("predict", alone, "--top", "1").exit_code == 0
+    assert "part" not in json.loads(run("info", alone, "--format", "json").stdout)
     refused = run("merge", whole, "-o", tmp_path / "again.aion")
     assert refused.exit_code == 2
     assert_one_line_error(refused.stderr, "whole.aion is a map already")

@@ -300,6 +300,15 @@ def _print_map(report: dict[str, Any]) -> None:
             safe(f"made from {made_from(query_only) or '?'} by aion compact: answers queries, "
                  "cannot be continued or merged"),
         )
+    part = report.get("part")
+    if isinstance(part, dict):
+        held = int(part.get("held_days", 0))
+        table.add_row(
+            "part map",
+            safe(f"aion build --part: {held:,} day{'' if held == 1 else 's'} held unscored for "
+                 f"a merge; aion merge {Path(str(report['map'])).name} [more parts] -o MAP.aion "
+                 "scores them into a map"),
+        )
     families = report.get("families") or {}
     for kind in ("flow", "direction"):
         tally = families.get(kind) or {}
