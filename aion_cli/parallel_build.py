@@ -307,7 +307,9 @@ class ParallelBuild:
             groups, opts, window, workers, self.config.stable_move_tolerance, whole
         )
         report.notes.extend(notes)
-        if len(shards) < 2 and not notes and not whole:  # (else a note says why)
+        # (else a note says why); unasked (--workers not given), a log too short to cut
+        # is no news
+        if len(shards) < 2 and not notes and not whole and opts.workers >= 2:
             report.notes.append(
                 ("one log" if len(logs) < 2 else "the logs overlap in time (one shard)")
                 + ": built in sequence, not in parallel (no quiet moment to cut it at: a "

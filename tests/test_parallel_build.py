@@ -124,6 +124,8 @@ def test_one_log_without_a_quiet_moment_is_built_in_one_process_and_says_so(
     )
     quiet = _build([log], tmp_path / "seq.aion", 1)  # not asked for workers: no note
     assert not any("one log" in n for n in quiet.notes)  # type: ignore[attr-defined]
+    default = _build([log], tmp_path / "default.aion", 0)  # one per core, unasked: no note
+    assert not any("one log" in n for n in default.notes)  # type: ignore[attr-defined]
 
 
 def test_a_log_out_of_time_order_fails_and_leaves_the_map(tmp_path: Path) -> None:
