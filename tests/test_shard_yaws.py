@@ -14,7 +14,7 @@ from aion_cli.formats.logs import open_logs
 from aion_cli.pipeline import BuildOptions
 from aion_cli.shard_yaws import shard_seeds, varied_by
 from tests.cli.logdata import T0, S
-from tests.test_time_shards import HOUR_S, _standing
+from tests.time_shard_logs import HOUR_S, standing_log
 
 
 def _varied(log: Path) -> dict[str, int]:
@@ -26,12 +26,12 @@ def _varied(log: Path) -> dict[str, int]:
 def test_the_time_of_the_first_message_that_varies(tmp_path: Path) -> None:
     # one person facing one way for 20 minutes (alike), then two facing apart an hour later:
     # the first message of the second session (5 s after its start) is where they vary
-    log = _standing(tmp_path / "log.mcap", [(0, [0.7]), (HOUR_S, [0.0, 1.5])])
+    log = standing_log(tmp_path / "log.mcap", [(0, [0.7]), (HOUR_S, [0.0, 1.5])])
     assert _varied(log) == {"/tracks": T0 + (HOUR_S + 5) * S}
 
 
 def test_orientations_that_never_vary_are_left_out(tmp_path: Path) -> None:
-    log = _standing(tmp_path / "log.mcap", [(0, [0.7]), (HOUR_S, [0.7])])
+    log = standing_log(tmp_path / "log.mcap", [(0, [0.7]), (HOUR_S, [0.7])])
     assert _varied(log) == {}
 
 
@@ -39,7 +39,7 @@ def test_the_scan_reads_the_first_messages_only(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # 120 alike messages come first: a scan of 100 never reaches the variation
-    log = _standing(tmp_path / "log.mcap", [(0, [0.7]), (HOUR_S, [0.0, 1.5])])
+    log = standing_log(tmp_path / "log.mcap", [(0, [0.7]), (HOUR_S, [0.0, 1.5])])
     monkeypatch.setattr(shard_yaws, "SCAN_MESSAGES", 100)
     assert _varied(log) == {}
     monkeypatch.setattr(shard_yaws, "SCAN_MESSAGES", 121)

@@ -6,43 +6,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 
-from tests.cli.logdata import T0, S
+from tests.cli.logdata import T0
 from tests.time_shard_logs import (
     HOUR_S,
     build_logs,
     same_maps,
     second_part_in_sequence,
+    standing_log,
 )
-
-
-def _standing(path: Path, sessions: list[tuple[int, list[float]]]) -> Path:
-    """People standing still (no velocity) whose poses carry a yaw: per session (start
-    seconds after T0, one yaw per person), a message every 10 s for 20 minutes."""
-    from aion_cli.formats.writers import LogWriter
-
-    with LogWriter(path) as writer:
-        for start_s, yaws in sessions:
-            for k in range(120):
-                t = T0 + (start_s + 5 + 10 * k) * S
-                tracks = [
-                    {
-                        "track_id": i + 1,
-                        "is_matched": True,
-                        "pose": {"pose": {
-                            "position": {"x": 2.0 + 2 * i, "y": 0.5, "z": 0.0},
-                            "orientation": {"z": np.sin(yaw / 2), "w": np.cos(yaw / 2)},
-                        }},
-                        "twist": {"twist": {"linear": {"x": 0.0, "y": 0.0, "z": 0.0}}},
-                    }
-                    for i, yaw in enumerate(yaws)
-                ]
-                stamp = {"sec": t // S, "nanosec": t % S}
-                writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons",
-                             {"header": {"stamp": stamp, "frame_id": "map"}, "tracks": tracks}, t)
-    return path
 
 
 def test_orientations_judged_alike_at_a_part_start_join_once_the_plan_saw_them_vary(
@@ -54,7 +27,7 @@ def test_orientations_judged_alike_at_a_part_start_join_once_the_plan_saw_them_v
     # scratch, would set the yaw aside. The plan reads the first messages, sees the
     # orientations vary in the morning, and starts the evening's part as one pass reaches
     # it: the parts join in parallel into the map of one pass.
-    log = _standing(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7])])
+    log = standing_log(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7])])
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     one = build_logs([log], seq, 1)
     two = build_logs([log], par, 2)
@@ -68,8 +41,8 @@ def test_orientations_judged_alike_at_a_part_start_join_once_the_plan_saw_them_v
 def test_a_later_log_starts_with_the_orientations_of_the_logs_before(tmp_path: Path) -> None:
     # The same across two logs a day apart (two shards of logs, not of time): the second
     # log's one person would lose the yaw judged alone; the plan starts it as one pass does.
-    first = _standing(tmp_path / "a.mcap", [(0, [0.0, 1.5])])
-    second = _standing(tmp_path / "b.mcap", [(30 * HOUR_S, [0.7])])
+    first = standing_log(tmp_path / "a.mcap", [(0, [0.0, 1.5])])
+    second = standing_log(tmp_path / "b.mcap", [(30 * HOUR_S, [0.7])])
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     one = build_logs([first, second], seq, 1)
     two = build_logs([first, second], par, 2)
@@ -85,9 +58,9 @@ def test_logs_that_start_in_a_continued_maps_open_window_are_learnt_in_sequence(
     # The map's last message and the new logs' first fall in one window: one pass continues
     # that window with the new messages, which a join cannot (before: an internal error).
     # The first group is learnt in sequence onto the map, the later one joins.
-    first = _standing(tmp_path / "a.mcap", [(0, [0.0, 1.5])])  # messages 5 .. 1195 s
-    second = _standing(tmp_path / "b.mcap", [(1192, [0.3, 1.0])])  # from 1197 s
-    third = _standing(tmp_path / "c.mcap", [(30 * HOUR_S, [0.7, 2.0])])
+    first = standing_log(tmp_path / "a.mcap", [(0, [0.0, 1.5])])  # messages 5 .. 1195 s
+    second = standing_log(tmp_path / "b.mcap", [(1192, [0.3, 1.0])])  # from 1197 s
+    third = standing_log(tmp_path / "c.mcap", [(30 * HOUR_S, [0.7, 2.0])])
     base = tmp_path / "base.aion"
     build_logs([first], base, 1)
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
@@ -110,7 +83,7 @@ def test_orientations_the_plan_did_not_read_are_learnt_in_sequence(
     import aion_cli.shard_yaws
 
     monkeypatch.setattr(aion_cli.shard_yaws, "SCAN_MESSAGES", 0)
-    log = _standing(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7])])
+    log = standing_log(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7])])
     one, two = second_part_in_sequence(tmp_path, log, "orientations on /tracks")
     assert one.headings == two.headings
     assert one.headings.get("pose_yaw", 0) == 120 * 3
@@ -127,14 +100,14 @@ def test_a_wrong_orientation_assumption_is_caught_at_the_join(
 
     wrong = {"/tracks": T0}
     monkeypatch.setattr(aion_cli.shard_yaws, "varied_by", lambda logset, plan, opts: wrong)
-    log = _standing(tmp_path / "log.mcap", [(0, [0.7]), (10 * HOUR_S, [0.7])])
+    log = standing_log(tmp_path / "log.mcap", [(0, [0.7]), (10 * HOUR_S, [0.7])])
     one, two = second_part_in_sequence(tmp_path, log, "started as if the pose orientations")
     assert one.headings == two.headings
     assert one.headings.get("pose_yaw", 0) == 0
 
 
 def test_orientations_that_vary_in_every_part_join_in_parallel(tmp_path: Path) -> None:
-    log = _standing(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7, -1.0])])
+    log = standing_log(tmp_path / "log.mcap", [(0, [0.0, 1.5]), (10 * HOUR_S, [0.7, -1.0])])
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     build_logs([log], seq, 1)
     two = build_logs([log], par, 2)

@@ -7,10 +7,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from aion_cli.engine.compare import differences
 from aion_cli.mapquery import load_map
 from aion_cli.pipeline import BuildOptions, build_map
-from tests.cli.logdata import S
+from tests.cli.logdata import T0, S
 
 HOUR_S = 3600
 W = 600 * S  # the default window
@@ -50,3 +52,29 @@ def second_part_in_sequence(tmp_path: Path, log: Path, why: str) -> tuple[Any, A
     assert same_maps(seq, par) == []
     return one, two
 
+
+def standing_log(path: Path, sessions: list[tuple[int, list[float]]]) -> Path:
+    """People standing still (no velocity) whose poses carry a yaw: per session (start
+    seconds after T0, one yaw per person), a message every 10 s for 20 minutes."""
+    from aion_cli.formats.writers import LogWriter
+
+    with LogWriter(path) as writer:
+        for start_s, yaws in sessions:
+            for k in range(120):
+                t = T0 + (start_s + 5 + 10 * k) * S
+                tracks = [
+                    {
+                        "track_id": i + 1,
+                        "is_matched": True,
+                        "pose": {"pose": {
+                            "position": {"x": 2.0 + 2 * i, "y": 0.5, "z": 0.0},
+                            "orientation": {"z": np.sin(yaw / 2), "w": np.cos(yaw / 2)},
+                        }},
+                        "twist": {"twist": {"linear": {"x": 0.0, "y": 0.0, "z": 0.0}}},
+                    }
+                    for i, yaw in enumerate(yaws)
+                ]
+                stamp = {"sec": t // S, "nanosec": t % S}
+                writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons",
+                             {"header": {"stamp": stamp, "frame_id": "map"}, "tracks": tracks}, t)
+    return path
