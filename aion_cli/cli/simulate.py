@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -46,7 +46,7 @@ def _hours(text: str) -> tuple[float, float]:
 
 
 def _summary(results: list[SceneResult]) -> None:
-    from aion_cli.cli.console import console
+    from aion_cli.cli.console import console, warn
     from aion_cli.cli.output import markup_safe as safe  # names from the scene-graph file
 
     first = results[0].meta if results else {}
@@ -68,6 +68,30 @@ def _summary(results: list[SceneResult]) -> None:
             f"TF; {ev}; truth {r.truth_npz.name}",
             soft_wrap=True,
         )
+        empty = _empty_scene(m)
+        if empty is not None:
+            warn(f"{r.log.name}: {empty}")
+
+
+def _empty_scene(meta: dict[str, Any]) -> str | None:
+    """Why a scene has no detection (None: it has some): nobody came during it (the office
+    routine's hours), or people came and the robot saw none."""
+    if meta.get("detections", 0):
+        return None
+    config = meta.get("config", {})
+    scene = f"the scene runs {config.get('days', '?')} day(s) from {config.get('start', '?')}"
+    if not meta.get("true_samples", 0):
+        rhythm = config.get("rhythm", {})
+        return (
+            f"nobody was detected, and nobody came: people keep office hours (arriving about "
+            f"{rhythm.get('arrive_h', 8.5):g} h, leaving about {rhythm.get('leave_h', 17.5):g} h "
+            f"local time, few at weekends) and {scene}; give --start with a time of day "
+            "(e.g. 2026-01-05T08:00) or more --days"
+        )
+    return (
+        f"nobody was detected although people walked ({scene}): the robot saw none of them "
+        "(see --robot, --patrol-hours, --tour-every and --sensor-range)"
+    )
 
 
 def _event_counts(r: SceneResult) -> str:

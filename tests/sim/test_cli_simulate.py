@@ -47,6 +47,25 @@ def test_simulate_writes_log_and_truth(tmp_path: Path) -> None:
     assert code == 0
 
 
+def test_a_scene_nobody_came_to_says_why_it_has_no_detection(tmp_path: Path) -> None:
+    """Monday 00:00 to 00:14: the office routine brings nobody before 07:30, so the scene
+    has no detection, and a warning says so and what to give instead; 12:00 has people."""
+    code, output = _run("simulate", "-o", tmp_path / "night.mcap", "--days", "0.01", "--quiet")
+    assert code == 0, output
+    meta = json.loads((tmp_path / "night.mcap.truth.json").read_text())
+    assert meta["detections"] == 0
+    assert meta["true_samples"] == 0
+    assert "warning: night.mcap: nobody was detected, and nobody came" in " ".join(output.split())
+    assert "--start" in output
+    code, output = _run(
+        "simulate", "-o", tmp_path / "noon.mcap", "--days", "0.01", "--start", "2026-01-06T12:00",
+        "--robot", "fixed", "--quiet",
+    )
+    assert code == 0, output
+    assert json.loads((tmp_path / "noon.mcap.truth.json").read_text())["detections"] > 0
+    assert "nobody was detected" not in output
+
+
 def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
     cases = [
         ("--robot", "fixed", "--frame", "base_link"),
