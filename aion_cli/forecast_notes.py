@@ -75,14 +75,11 @@ def _outside(start_ns: int | None, end_ns: int | None, t_ns: int, static: bool) 
 def _duration(ns: int) -> str:
     """``ns`` rounded for reading: hours, days, weeks or years."""
     hours = ns / 3.6e12
-    if hours < 48:
-        return f"{hours:.0f} hours"
-    days = hours / 24
-    if days < 14:
-        return f"{days:.0f} days"
-    if days < 730:
-        return f"{days / 7:.0f} weeks"
-    return f"{days / 365.25:.1f} years"
+    for below_h, unit_h, unit in ((48, 1, "hour"), (14 * 24, 24, "day"), (730 * 24, 168, "week")):
+        if hours < below_h:
+            n = round(hours / unit_h)
+            return f"{n} {unit}{'' if n == 1 else 's'}"
+    return f"{hours / (365.25 * 24):.1f} years"
 
 
 def _day(t_ns: int) -> str:

@@ -38,6 +38,8 @@ def test_times_far_from_the_data_are_named() -> None:
     (before,) = forecast_notes(timed, START - 5 * 3600 * 10**9)
     assert before.startswith("this time is 5 hours before the map's data")
     assert before.endswith("repeats the rhythm the map learnt")
+    (hour,) = forecast_notes(timed, START - 3600 * 10**9)
+    assert hour.startswith("this time is 1 hour before the map's data")
     years = forecast_notes(timed, END + 800 * DAY_NS)
     assert "2.2 years after" in years[0]
     # a static map has no rhythm to repeat: only where the time lies
