@@ -245,6 +245,31 @@ def record_detections(
     return c
 
 
+#: share of a map's detections on hash cells, with a scene graph, above which the graph and
+#: the detections probably do not share a frame (:func:`far_from_graph_warning`)
+FAR_FROM_GRAPH_SHARE = 0.95
+
+
+def far_from_graph_warning(
+    on_cells: float, on_nodes: float, places: int, places_with_flow: int
+) -> str | None:
+    """A warning when a map with a scene graph holds nearly all of its detections on hash
+    cells, away from every place (``on_cells`` / ``on_nodes``: detections on each, ``places``
+    the graph's places, ``places_with_flow`` those holding any): the detections and the graph
+    are most likely in different frames or units (a graph file of another building, a
+    ``--map-frame`` that is not the graph's). None when the graph holds a fair share, or
+    there is no graph or no detection."""
+    total = on_cells + on_nodes
+    if places == 0 or total <= 0 or on_cells / total < FAR_FROM_GRAPH_SHARE:
+        return None
+    return (
+        f"{on_cells:,.0f} of the {total:,.0f} detections lie away from every place of the "
+        f"scene graph (on hash cells; {places_with_flow:,} of its {places:,} places hold any): are "
+        "the detections and the graph in the same frame and units? (--map-frame, --graph; "
+        "aion predict MAP --layer cells shows where the detections are)"
+    )
+
+
 #: the mean speed of a build's detections above which people cannot be walking (m/s; people
 #: walk at about 1.4 m/s, and even a running crowd's mean stays below this)
 PLAUSIBLE_SPEED_M_S = 3.0

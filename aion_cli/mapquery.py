@@ -154,6 +154,15 @@ def state_counts(state: MapState) -> dict[str, int]:
     }
 
 
+def detections_by_kind(state: MapState) -> tuple[float, float]:
+    """(detections on unbound hash cells, detections on graph nodes) of a state."""
+    entries = state.entries
+    sums = []
+    for rows in (entries.cell_rows(), entries.node_rows()):
+        sums.append(float(entries.counts[rows].sum() + entries.nodir[rows].sum()))
+    return sums[0], sums[1]
+
+
 def nav_graph(loaded: LoadedMap) -> Any:
     """The planning graph of a map (``engine.planning.NavGraph``)."""
     from aion_cli.engine.planning import NavGraph

@@ -155,6 +155,32 @@ def test_graph_file_and_derived_graph_without_tf(tmp_path: Path) -> None:
     assert report["cells"] == 3
 
 
+def test_a_graph_in_another_frame_is_warned_about(tmp_path: Path) -> None:
+    """The office graph file moved 500 m away: every detection stays on hash cells, away
+    from every place, and the build asks whether the two share a frame; the same graph in
+    place binds the detections and says nothing."""
+    log = tmp_path / "bare.mcap"
+    write_office_log(log, graph=False, tf=False)
+    far = {k: (x + 500.0, y, z) for k, (x, y, z) in PLACES.items()}
+    moved = save_graph_file(tmp_path / "moved.json", far)
+    report = run_json("build", log, "-o", tmp_path / "m.aion", "--graph", moved, "--format", "json")
+    (warning,) = [w for w in report["warnings"] if "away from every place" in w]
+    assert warning.startswith(f"{report['detections']['used']:,} of the ")
+    assert f"0 of its {len(PLACES)} places hold any" in warning
+    here = save_graph_file(tmp_path / "here.json")
+    report = run_json("build", log, "-o", tmp_path / "h.aion", "--graph", here, "--format", "json")
+    assert not [w for w in report["warnings"] if "away from every place" in w]
+
+
+def test_a_far_graph_warning_needs_nearly_every_detection_off_the_places() -> None:
+    from aion_cli.build_report import far_from_graph_warning
+
+    assert far_from_graph_warning(94.0, 6.0, 10, 3) is None  # 94 %: a graph of part of a site
+    assert far_from_graph_warning(95.0, 5.0, 10, 1) is not None
+    assert far_from_graph_warning(100.0, 0.0, 0, 0) is None  # no graph: hash cells only
+    assert far_from_graph_warning(0.0, 0.0, 10, 0) is None  # no detection
+
+
 def test_continuing_a_map_equals_building_at_once(tmp_path: Path) -> None:
     day1, day2 = tmp_path / "day1.mcap", tmp_path / "day2.mcap"
     write_office_log(day1)
