@@ -107,6 +107,23 @@ def test_merging_the_two_days_equals_building_from_both_logs(days: Days, tmp_pat
     assert predicted["entries"] == expected["entries"]
 
 
+def test_a_target_graph_away_from_the_maps_is_named(days: Days, tmp_path: Path) -> None:
+    """``--graph`` of another site (other place ids, 500 m away): the maps' places release
+    to hash cells and none binds, and the merge's notes ask whether the maps and the graph
+    share a frame; the office graph itself says nothing."""
+    moved = {k + 100: (x + 500.0, y, z) for k, (x, y, z) in PLACES.items()}
+    far = save_graph_file(
+        tmp_path / "moved.json", moved, [(a + 100, b + 100) for a, b in EDGES]
+    )
+    out = tmp_path / "far.aion"
+    summary = run_json("merge", *days.maps, "-o", out, "--graph", far, "--format", "json")
+    assert [n for n in summary["notes"] if "away from every place of the scene graph" in n]
+    here = save_graph_file(tmp_path / "here.json", PLACES, EDGES)
+    out = tmp_path / "here.aion"
+    summary = run_json("merge", *days.maps, "-o", out, "--graph", here, "--format", "json")
+    assert not [n for n in summary["notes"] if "away from every place" in n]
+
+
 def test_maps_of_another_session_are_released_and_rebound(days: Days, tmp_path: Path) -> None:
     """Wednesday's map is built with a graph of another session: the same ids p0..p6 at other
     places (p0 where Monday's p1 is, p2 where Monday's p4 is ...). The merged map's places
