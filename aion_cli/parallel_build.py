@@ -281,7 +281,8 @@ class ParallelBuild:
         opts, report = self.opts, self.build.report
         logs = self.build.logs
         if opts.derive_graph:
-            report.notes.append("--derive-graph needs every log at once: built in sequence")
+            if opts.workers >= 2 or opts.scheduler is not None:  # asked for, not the default
+                report.notes.append("--derive-graph needs every log at once: built in sequence")
             return self.build.learn(self.config).state
         workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
         if workers < 2 and opts.scheduler is None:

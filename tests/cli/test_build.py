@@ -148,6 +148,12 @@ def test_graph_file_and_derived_graph_without_tf(tmp_path: Path) -> None:
     # three standing people -> three occupied 1.5-m grid cells -> three derived places
     assert report["nodes"] == 3
     assert report["detections"]["used"] == 300
+    sequence = [n for n in report["notes"] if "--derive-graph needs every log at once" in n]
+    assert sequence == []  # --workers not given: one process is no news
+    asked = run_json(
+        "build", log, "--derive-graph", "-o", out, "--workers", "2", "--format", "json"
+    )
+    assert [n for n in asked["notes"] if "--derive-graph needs every log at once" in n]
 
     report = run_json("build", log, "-o", tmp_path / "cells.aion", "--format", "json")
     assert report["graph"]["source"] == "none"
