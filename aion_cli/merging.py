@@ -22,7 +22,11 @@ atomically with a manifest that accounts for every log. The rules:
   the graphs: consecutive maps (in time order) share a lineage when more than half of the
   node ids both latest graphs hold lie within ``bind_radius`` of each other; a map without a
   scene graph beside maps with one makes the merge ``"different"`` (its cells then bind to
-  the target graph); maps without any graph merge as hash cells (``"same"``).
+  the target graph); maps without any graph merge as hash cells (``"same"``). A ``--graph``
+  target is compared with the newest map's graph the same way: one that holds its node ids
+  at other places is another session (Hydra numbers every session's places from p0), so the
+  merge is ``"different"``, not a move of the maps' flows to the target's places of the same
+  ids.
 * **Target graph.** ``graph_file`` (a Hydra ``dsg.json`` / ``.sparkdsg``, read as ``aion
   build --graph FILE`` reads it) replaces the merged graph in either lineage (nodes it lacks
   release to hash cells, cells in reach of its nodes bind); without it, a ``"different"``
@@ -146,7 +150,9 @@ def merge_map_files(
         _check_compatible(maps)
         maps.sort(key=lambda m: (m.start() is not None, m.start() or 0))
         inputs = _check_logs(maps)
-        report.lineage, report.lineage_reason = _lineage(maps, lineage, report.notes)
+        report.lineage, report.lineage_reason = _lineage(
+            maps, lineage, report.notes, target, graph_file
+        )
         merged = _fold(maps, report, sink)
         _bind_target(merged, maps, target, graph_file, report)
         _write(merged, maps, inputs, report)
@@ -260,14 +266,47 @@ def _check_logs(maps: list[_Input]) -> tuple[InputLog, ...]:
 # -- lineage ------------------------------------------------------------------------------------
 
 
-def _lineage(maps: list[_Input], lineage: str, notes: list[str]) -> tuple[str, str]:
-    """The lineage to use and why (``lineage`` given, or decided from the graphs)."""
+def _lineage(
+    maps: list[_Input],
+    lineage: str,
+    notes: list[str],
+    target: GraphSnapshot | None = None,
+    graph_file: Path | None = None,
+) -> tuple[str, str]:
+    """The lineage to use and why (``lineage`` given, or decided from the graphs: the maps'
+    with each other, then a ``--graph`` target with the newest of them, which the merged
+    map binds to)."""
     auto, why = _auto_lineage(maps)
+    if auto == "same" and target is not None and graph_file is not None:
+        auto, why = _target_lineage(maps, target, graph_file, why)
     if lineage == "auto":
         return auto, why
     if lineage != auto:
         notes.append(f"--lineage {lineage} given; auto would choose {auto} ({why})")
     return lineage, "given with --lineage"
+
+
+def _target_lineage(
+    maps: list[_Input], target: GraphSnapshot, graph_file: Path, why: str
+) -> tuple[str, str]:
+    """``"different"`` when the ``--graph`` target holds the newest map's place ids at other
+    places (another scene-graph session numbers its places from p0 again: its p0 is not the
+    maps' p0), else ``"same"`` with ``why`` unchanged. Ids the target lacks release at the
+    bind either way."""
+    from aion_cli.engine.rebind import graph_agreement
+
+    newest = next((m for m in reversed(maps) if m.graph is not None), None)
+    if newest is None:
+        return "same", why
+    tolerance = maps[0].head.config.bind_radius
+    agreement = graph_agreement(newest.graph, target, tolerance)
+    if agreement.shared == 0 or agreement.same:
+        return "same", why
+    return "different", (
+        f"of the {agreement.shared} node ids both {newest.name} and the target graph "
+        f"{graph_file.name} hold, {agreement.agreeing} lie within {tolerance:g} m (the target "
+        "is another scene-graph session)"
+    )
 
 
 def _auto_lineage(maps: list[_Input]) -> tuple[str, str]:

@@ -124,6 +124,29 @@ def test_a_target_graph_away_from_the_maps_is_named(days: Days, tmp_path: Path) 
     assert not [n for n in summary["notes"] if "away from every place" in n]
 
 
+def test_a_target_graph_of_another_session_makes_the_merge_different(
+    days: Days, tmp_path: Path
+) -> None:
+    """``--graph`` holding the maps' place ids p0..p6, but 500 m away (another session
+    numbers its places from p0 again): --lineage auto releases the maps' places to hash
+    cells instead of moving their flows 500 m with the ids; nothing binds so far away. The
+    office graph itself keeps the lineage "same" and the flows on their places."""
+    moved = save_graph_file(
+        tmp_path / "moved.json", {k: (x + 500.0, y, z) for k, (x, y, z) in PLACES.items()}, EDGES
+    )
+    out = tmp_path / "moved.aion"
+    summary = run_json("merge", *days.maps, "-o", out, "--graph", moved, "--format", "json")
+    assert summary["lineage"] == "different"
+    assert "the target graph moved.json hold, 0 lie within" in summary["lineage_reason"]
+    assert _node_counts(out) == {}  # every detection on the hash cells where people walked
+    assert summary["cells"] > 0
+    here = save_graph_file(tmp_path / "office.json", PLACES, EDGES)
+    out = tmp_path / "office.aion"
+    summary = run_json("merge", *days.maps, "-o", out, "--graph", here, "--format", "json")
+    assert summary["lineage"] == "same"
+    assert _node_counts(out) == _node_counts(days.both)
+
+
 def test_maps_of_another_session_are_released_and_rebound(days: Days, tmp_path: Path) -> None:
     """Wednesday's map is built with a graph of another session: the same ids p0..p6 at other
     places (p0 where Monday's p1 is, p2 where Monday's p4 is ...). The merged map's places
