@@ -18,10 +18,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from aion_cli.engine.temporal.calendar import DAY_NS
+
 if TYPE_CHECKING:
     from aion_cli.manifest import Manifest
 
-DAY_NS = 86_400 * 10**9
 FAR_AFTER_NS = 7 * DAY_NS
 """Beyond this after a map's last data a forecast repeats a rhythm learnt long before; a
 week is one turn of the longest rhythm the default model learns."""

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.types import GraphSnapshot
+from aion_cli.engine.types import I64, GraphSnapshot
 from aion_cli.errors import InputError, MapFileError
 
 if TYPE_CHECKING:
@@ -157,10 +157,11 @@ def state_counts(state: MapState) -> dict[str, int]:
 def detections_by_kind(state: MapState) -> tuple[float, float]:
     """(detections on unbound hash cells, detections on graph nodes) of a state."""
     entries = state.entries
-    sums = []
-    for rows in (entries.cell_rows(), entries.node_rows()):
-        sums.append(float(entries.counts[rows].sum() + entries.nodir[rows].sum()))
-    return sums[0], sums[1]
+
+    def detections(rows: I64) -> float:
+        return float(entries.counts[rows].sum() + entries.nodir[rows].sum())
+
+    return detections(entries.cell_rows()), detections(entries.node_rows())
 
 
 def nav_graph(loaded: LoadedMap) -> Any:

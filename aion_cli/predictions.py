@@ -287,13 +287,12 @@ def select(
         nearest = float(dist.min())
         # candidates by numpy, the choice by math.dist as the rows' own floats give it
         close = index[dist <= nearest * (1 + 1e-9) + 1e-12] if math.isfinite(nearest) else index
-        best = min(
-            close.tolist(),
-            key=lambda e: math.dist(tuple(float(v) for v in table.xyz[e][:3]), (x, y, z)),
-        )
-        distance = math.dist(tuple(float(v) for v in table.xyz[best][:3]), (x, y, z))
+        def away(e: int) -> float:
+            return math.dist(tuple(float(v) for v in table.xyz[e][:3]), (x, y, z))
+
+        best = min(close.tolist(), key=away)
         label = str(entry_ids(table, np.array([best]))[0])
-        refuse_far_point(at, distance, label, table.xyz, "entry")
+        refuse_far_point(at, away(best), label, table.xyz, "entry")
         index = np.array([best], dtype=np.int64)
     return index
 

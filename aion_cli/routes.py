@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
 
+
 @dataclass(frozen=True)
 class Endpoint:
     """A plan's start or goal: its node id, and where a typed point was snapped from."""
