@@ -6,11 +6,23 @@ The Python API (docs/API.md)::
     m = aion.build(["run.mcap"], output="office.aion")
     table = m.predict("2026-11-23 08:30")
     plan = m.plan("p12", "p87", time="2026-11-23 08:30")
+    week = aion.merge(["monday.aion", "wednesday.aion"], "week.aion")
 """
 
 __version__ = "0.1.0"
 
-from aion_cli.api import Map, Plan, Table, build, to_ns
+from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns
 from aion_cli.errors import AionError, InputError
 
-__all__ = ["AionError", "InputError", "Map", "Plan", "Table", "__version__", "build", "to_ns"]
+__all__ = [
+    "AionError",
+    "InputError",
+    "Map",
+    "Plan",
+    "Table",
+    "__version__",
+    "build",
+    "compact",
+    "merge",
+    "to_ns",
+]

@@ -38,12 +38,12 @@ from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
-    from aion_cli.compact import CompactReport
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
     from aion_cli.merging import MergeReport
+    from aion_cli.query_only import CompactReport
     from aion_cli.timeparse import Zone
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -397,10 +397,10 @@ def merge(
 
 def compact(source: PathLike, output: PathLike) -> Map:
     """Write the query-only copy of the map ``source`` to ``output``, as ``aion compact``
-    (:func:`aion_cli.compact.compact_map`: the same answers to every query, without the
+    (:func:`aion_cli.query_only.compact_map`: the same answers to every query, without the
     Fourier sums that continuing and merging need); the copy, with what was done in
     ``Map.report`` (a ``CompactReport``)."""
-    from aion_cli.compact import compact_map
+    from aion_cli.query_only import compact_map
 
     report = compact_map(Path(os.fspath(source)), Path(os.fspath(output)))
     made = Map.load(report.output)

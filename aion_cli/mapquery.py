@@ -58,9 +58,9 @@ def load_map(path: Path, writable: bool = False, forecast_only: bool = False) ->
     A query-only map (``aion compact``: no Fourier sums) is always read as ``forecast_only``,
     and refused as ``writable`` (:class:`~aion_cli.errors.MapFileError` naming the full map it
     was made from)."""
-    from aion_cli.compact import query_only_of, refuse_learning
     from aion_cli.engine.state import MapState
     from aion_cli.formats.mapfile import open_map
+    from aion_cli.query_only import query_only_of, refuse_learning
 
     check_map_input(path)
     with open_map(path, in_place=not writable) as members:

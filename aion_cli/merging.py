@@ -197,9 +197,9 @@ def _target_graph(graph_file: Path | None, nav_layer: str | None) -> GraphSnapsh
 
 def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
     """Hash every map file and read its head (:func:`aion_cli.mapquery.load_map_head`)."""
-    from aion_cli.compact import refuse_learning
     from aion_cli.mapquery import load_map_head
     from aion_cli.provenance import provenance
+    from aion_cli.query_only import refuse_learning
 
     sink.start("reading maps", len(paths), "maps")
     maps: list[_Input] = []

@@ -138,7 +138,7 @@ def run_map(sizes: tuple[int, ...] = (10**4, 10**5), repeats: int = 3) -> list[d
 def _query_only_row(path: Path, full: dict[str, Any]) -> dict[str, Any]:
     """``aion compact`` of the map at ``path`` (kept beside it for the predict timing): its
     bytes per entry against the baseline (the same predictions, the map cannot learn more)."""
-    from aion_cli.compact import compact_map
+    from aion_cli.query_only import compact_map
 
     t0 = time.perf_counter()
     report = compact_map(path, path.with_name("build_query_robot.aion"))

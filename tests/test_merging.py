@@ -455,7 +455,8 @@ def test_the_api_merges_as_docs_api_md_shows(tmp_path: Path) -> None:
     finally:
         os.chdir(cwd)
     week = scope["week"]
-    from aion_cli.api import Map, merge
+    import aion_cli as aion
+    from aion_cli.api import Map, compact, merge
     from aion_cli.merging import MergeReport
 
     assert isinstance(week, Map)
@@ -465,5 +466,7 @@ def test_the_api_merges_as_docs_api_md_shows(tmp_path: Path) -> None:
     assert week.report.lineage == "same"
     assert [i.name for i in week.manifest.inputs] == ["mon.mcap", "wed.mcap"]
     assert week.state.accepted == week.report.detections
+    assert aion.merge is merge  # the top-level names
+    assert aion.compact is compact
     with pytest.raises(InputError, match="list of map files"):
-        merge(str(tmp_path / "monday.aion"), tmp_path / "x.aion")
+        aion.merge(str(tmp_path / "monday.aion"), tmp_path / "x.aion")

@@ -1,4 +1,4 @@
-"""``aion compact``: a query-only copy of a map (``aion_cli.compact``)."""
+"""``aion compact``: a query-only copy of a map (``aion_cli.query_only``)."""
 
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ bytes_per_entry, left_out.
 @format_option(choices=("table", "json"))
 def command(map_path: Path, output: Path, quiet: bool, fmt: str) -> None:
     """Write a copy of MAP for queries only: the same answers, without what learning needs."""
-    from aion_cli.compact import compact_map
+    from aion_cli.query_only import compact_map
 
     summary = compact_map(map_path, output).to_dict()
     if fmt == "json":

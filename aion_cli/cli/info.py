@@ -293,7 +293,7 @@ def _print_map(report: dict[str, Any]) -> None:
     table.add_row("observation", safe(report.get("observation")))
     query_only = report.get("query_only")
     if isinstance(query_only, dict):
-        from aion_cli.compact import made_from
+        from aion_cli.query_only import made_from
 
         table.add_row(
             "query only",

@@ -11,14 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import aion_cli as aion
 from aion_cli.api import Map
-from aion_cli.api import compact as api_compact
-from aion_cli.compact import LEFT_OUT
 from aion_cli.engine.query import predict_table
 from aion_cli.engine.temporal.components import PREFIX
 from aion_cli.errors import MapFileError
 from aion_cli.formats.mapfile import RESERVED_KEYS, open_map, read_manifest, write_map
 from aion_cli.mapquery import load_map
+from aion_cli.query_only import LEFT_OUT
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.logdata import write_office_log
 from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor
@@ -116,7 +116,7 @@ def test_a_query_only_map_refuses_to_learn(maps: Maps, tmp_path: Path) -> None:
 
 
 def test_the_api_compacts_too(maps: Maps, tmp_path: Path) -> None:
-    made = api_compact(maps.full, tmp_path / "api.aion")
+    made = aion.compact(maps.full, tmp_path / "api.aion")
     assert made.report is not None
     assert made.report.to_dict()["map_bytes"] == (tmp_path / "api.aion").stat().st_size
     at = MONDAY + 21 * DAY + 15 * HOUR
