@@ -136,11 +136,16 @@ def _check_file(path: Path, spec: _Spec, layout: str) -> None:
     if spec.header is None:
         return
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
-        first = fh.readline().strip().replace(" ", "")
-    if first != spec.header:
+        first = fh.readline().strip()
+    if first.replace(" ", "") != spec.header:
+        from aion_cli.formats.track_sniff import guess_layout
+
+        guess = guess_layout(path)
+        hint = f"is this another layout ({', '.join(LAYOUTS)})? pass it as the layout"
+        if guess is not None and layout not in guess.layouts:
+            hint = f"it looks like {guess.describe()}: pass --layout {guess.layout}"
         raise TracksFormatError(
-            f"{path}: line 1 must be the header {spec.header!r}, got {first[:80]!r}",
-            hint=f"is this another layout ({', '.join(LAYOUTS)})? pass it as the layout",
+            f"{path}: line 1 must be the header {spec.header!r}, got {first[:80]!r}", hint=hint
         )
 
 

@@ -174,9 +174,11 @@ def command(
     force: bool,
 ) -> None:
     """Convert the pedestrian tracks in TRACKS (CSV) into a log with people detections."""
-    from aion_cli.cli.console import console, note
+    from aion_cli.cli.console import console, note, warn
     from aion_cli.errors import InputError
     from aion_cli.formats.track_csv import STREAM_LAYOUTS
+    from aion_cli.formats.track_sniff import UNIX_SECONDS_FROM as UNIX_S
+    from aion_cli.formats.track_sniff import layout_mismatch
     from aion_cli.formats.track_types import merge_spans
     from aion_cli.formats.tracks import read_track_data
     from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
@@ -217,6 +219,9 @@ def command(
         notes = data.notes
     for line in notes:
         note(line)
+    mismatch = layout_mismatch(tracks, layout, shifted=start_text is not None)
+    if mismatch is not None:
+        warn(mismatch)
     if layout == "edinburgh":
         from aion_cli.timeparse import format_ns
 
@@ -224,7 +229,7 @@ def command(
             f"edinburgh: frame 0 taken as {format_ns(start_ns, zone)}, frames at "
             f"{fps or FRAME_LAYOUTS['edinburgh']:g} fps (the file has no clock time)"
         )
-    elif layout in RELATIVE_LAYOUTS and start_text is None:
+    elif layout in RELATIVE_LAYOUTS and start_text is None and summary.start_ns < 1e9 * UNIX_S:
         note(
             f"{layout}: the file's times count from 0 and were written from 1970-01-01 00:00 "
             "UTC; give --start for when it was recorded"

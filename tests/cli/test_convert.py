@@ -221,3 +221,51 @@ def test_bad_zone_and_start_with_lincoln(tmp_path: Path) -> None:
     )
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "--start")
+
+
+THOR_ROWS = "0.02,12001,-0.046,-3.443,0.141,2.356\n0.42,12001,-0.1,-3.4,0.1,2.3\n"
+ATC_ROWS = "1351038020.9,9190802,-22.3,1.8,0.3,-0.4\n1351038021.9,9190802,-22.0,1.9,0.3,-0.4\n"
+
+
+def test_a_file_of_another_layout_is_refused_naming_the_layout_it_looks_like(
+    tmp_path: Path,
+) -> None:
+    """Without --layout (canonical), a THÖR file is refused and the hint says --layout thor;
+    the error shows line 1 as it is written."""
+    tracks = tmp_path / "run.csv"
+    tracks.write_text("1496880000 1497225600\n-8 12\n-3 17\n1496999627.5 1.0 2.0\n")
+    result = run("convert", tracks, "-o", tmp_path / "x.mcap")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "'1496880000 1497225600'")
+    assert "hint: it looks like the lincoln layout" in result.stderr
+    assert "pass --layout lincoln" in result.stderr
+    tracks.write_text(THOR_ROWS)
+    result = run("convert", tracks, "-o", tmp_path / "x.mcap")
+    assert result.exit_code == 2
+    assert "pass --layout thor" in result.stderr
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_a_layout_that_fits_the_columns_but_not_the_content_is_warned(tmp_path: Path) -> None:
+    """THÖR times from 0 read as ATC (UNIX seconds): converted, with a warning naming thor;
+    ATC's UNIX times read as thor get no 'written from 1970' note, since they are not."""
+    thor, atc = tmp_path / "thor.csv", tmp_path / "atc.csv"
+    thor.write_text(THOR_ROWS)
+    atc.write_text(ATC_ROWS)
+    as_atc = run("convert", thor, "--layout", "atc", "-o", tmp_path / "a.mcap")
+    assert as_atc.exit_code == 0, as_atc.stderr
+    assert "warning: thor.csv was read as the atc layout" in as_atc.stderr
+    assert "--layout thor" in as_atc.stderr
+    shifted = run(
+        "convert", thor, "--layout", "atc", "--start", "2026-01-05 10:00", "--tz", "UTC",
+        "-o", tmp_path / "b.mcap",
+    )
+    assert shifted.exit_code == 0, shifted.stderr
+    assert "warning" not in shifted.stderr
+    as_thor = run("convert", thor, "--layout", "thor", "-o", tmp_path / "c.mcap")
+    assert "warning" not in as_thor.stderr
+    assert "written from 1970-01-01" in as_thor.stderr
+    atc_as_thor = run("convert", atc, "--layout", "thor", "-o", tmp_path / "d.mcap")
+    assert atc_as_thor.exit_code == 0, atc_as_thor.stderr
+    assert "looks like the atc layout" in atc_as_thor.stderr
+    assert "1970" not in atc_as_thor.stderr
