@@ -230,6 +230,12 @@ def entry_table(loaded: LoadedMap, t_ns: int | None, layer: str = "all") -> Any:
             )
         level: Literal["rooms", "buildings"] = "rooms" if layer == "rooms" else "buildings"
         table = query.aggregate_table(table, loaded.graph, level)
+        if len(table.xyz) == 0:  # an empty table would read as "nobody walks there"
+            raise InputError(
+                f"the map's scene graph has no {layer} that hold its places",
+                hint="--layer places answers per place; rooms and buildings come from a "
+                "Hydra scene graph that has them (a graph aion derives has places only)",
+            )
     return table
 
 

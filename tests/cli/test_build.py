@@ -154,6 +154,13 @@ def test_graph_file_and_derived_graph_without_tf(tmp_path: Path) -> None:
         "build", log, "--derive-graph", "-o", out, "--workers", "2", "--format", "json"
     )
     assert [n for n in asked["notes"] if "--derive-graph needs every log at once" in n]
+    # a derived graph has places only: rooms are refused, not answered with an empty table
+    for layer in ("rooms", "buildings"):
+        refused = run("predict", out, "--layer", layer, "--format", "json")
+        assert refused.exit_code == 2
+        assert refused.stdout == ""
+        assert_one_line_error(refused.stderr, f"has no {layer}")
+    assert len(run_json("predict", out, "--layer", "places", "--format", "json")["entries"]) == 3
 
     report = run_json("build", log, "-o", tmp_path / "cells.aion", "--format", "json")
     assert report["graph"]["source"] == "none"
