@@ -14,6 +14,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
+from aion_cli.cli.completion import complete_places
 from aion_cli.cli.output import AionCommand
 from aion_cli.timeparse import Zone
 
@@ -122,8 +123,13 @@ def _step_seconds(text: str) -> float:
     show_default=True,
     help="Point-cloud / scene format, png for a top-down picture, mcap for Foxglove/RViz.",
 )
-@click.option("--path-from", metavar="A", help="Also plan and draw a path from A (id or x,y).")
-@click.option("--path-to", metavar="B", help="... to B.")
+@click.option(
+    "--path-from",
+    metavar="A",
+    help="Also plan and draw a path from A (id or x,y).",
+    shell_complete=complete_places,
+)
+@click.option("--path-to", metavar="B", help="... to B.", shell_complete=complete_places)
 def command(
     map_path: Path,
     out_dir: Path,

@@ -14,6 +14,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
+from aion_cli.cli.completion import complete_places
 from aion_cli.cli.output import AionCommand, format_option, to_json
 
 EPILOG = """\b
@@ -48,8 +49,22 @@ cost in the legend.
     advanced=("tz",),
 )
 @map_argument
-@click.option("--from", "start", required=True, metavar="A", help="Start: node id or x,y[,z].")
-@click.option("--to", "goal", required=True, metavar="B", help="Goal: node id or x,y[,z].")
+@click.option(
+    "--from",
+    "start",
+    required=True,
+    metavar="A",
+    help="Start: node id or x,y[,z].",
+    shell_complete=complete_places,
+)
+@click.option(
+    "--to",
+    "goal",
+    required=True,
+    metavar="B",
+    help="Goal: node id or x,y[,z].",
+    shell_complete=complete_places,
+)
 @click.option(
     "-t",
     "--time",

@@ -13,6 +13,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
+from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.entries import COLUMNS
 from aion_cli.cli.output import AionCommand, emit, format_option
 from aion_cli.predictions import LAYERS
@@ -56,7 +57,12 @@ TABLE_LIMIT = 100
     help="What was observed (cumulative counts) instead of a prediction.",
 )
 @click.option(
-    "--node", "nodes", multiple=True, metavar="ID", help="Only this node (e.g. p12); repeatable."
+    "--node",
+    "nodes",
+    multiple=True,
+    metavar="ID",
+    help="Only this node (e.g. p12); repeatable.",
+    shell_complete=complete_nodes,
 )
 @click.option("--at", "at", metavar="X,Y[,Z]", help="Only the entry nearest to this point.")
 @click.option(

@@ -1,0 +1,98 @@
+"""Shell completion of node ids from the map on the command line.
+
+Click completes commands, options, choices and paths by itself (``eval "$(_AION_COMPLETE=
+bash_source aion)"``, README); this module adds the ids a map holds, so that ``aion plan
+office.aion --from p<TAB>`` lists the map's places and ``aion predict office.aion --node
+R<TAB>`` its rooms. The map is read lazily (the manifest and the graph member, about 0.15 s),
+and a completion never fails: whatever goes wrong (no map yet on the line, a damaged file)
+completes nothing rather than printing a traceback into the shell.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+from click.shell_completion import CompletionItem
+
+#: at most this many ids are offered (a shell lists them all)
+MOST = 500
+
+
+def node_ids_of(map_path: Path, rooms: bool) -> list[str]:
+    """The place ids of the map's scene graph and of its entries (and with ``rooms`` its room
+    and building ids), in natural order: p2 before p10."""
+    import numpy as np
+
+    from aion_cli.engine.node_ids import node_labels
+    from aion_cli.mapquery import load_map
+
+    loaded = load_map(map_path)
+    parts = [np.asarray(loaded.state.entries.node_id, dtype=np.uint64)]
+    graph = loaded.graph
+    if graph is not None:
+        parts.append(np.asarray(graph.places.ids, dtype=np.uint64))
+        if rooms:
+            parts += [np.asarray(graph.rooms.ids, np.uint64), np.asarray(graph.buildings.ids)]
+    ids = np.unique(np.concatenate([p.astype(np.uint64) for p in parts]))
+    ids = ids[ids != 0]  # hash cells have no node id
+    labels = node_labels(ids).tolist()
+    return sorted(labels, key=_natural)
+
+
+def _natural(label: str) -> tuple[str, int, str]:
+    head = label.rstrip("0123456789")
+    digits = label[len(head) :]
+    return (head, int(digits) if digits else -1, label)
+
+
+def _typed_map_path(ctx: click.Context, incomplete: str) -> str | None:
+    """The MAP already typed on the line. Click leaves ``ctx.params`` unset while an option
+    waits for its value (pallets/click#2184), so the words the shell passed (``COMP_WORDS``,
+    the same variable in every shell click supports) are parsed again without that option."""
+    import os
+
+    from click.shell_completion import split_arg_string
+
+    typed = ctx.params.get("map_path")
+    if typed is not None:
+        return str(typed)
+    words = split_arg_string(os.environ.get("COMP_WORDS", ""))
+    cword = os.environ.get("COMP_CWORD", "")
+    if cword.isdigit():
+        words = words[: int(cword)]
+    elif words and incomplete and words[-1] == incomplete:
+        words = words[:-1]  # fish passes the line up to the cursor, the current word last
+    if ctx.info_name not in words[1:]:
+        return None
+    args = words[words.index(ctx.info_name, 1) + 1 :]
+    if args and args[-1].startswith("-"):
+        args = args[:-1]  # the option whose value is being completed
+    parsed = ctx.command.make_context(
+        ctx.info_name, args, parent=ctx.parent, resilient_parsing=True
+    )
+    value = parsed.params.get("map_path")
+    return None if value is None else str(value)
+
+
+def _complete(ctx: click.Context, incomplete: str, rooms: bool) -> list[CompletionItem]:
+    try:
+        map_path = _typed_map_path(ctx, incomplete)
+        if map_path is None:
+            return []
+        labels = node_ids_of(Path(map_path), rooms)
+    except Exception:  # a completion must never break the shell line
+        return []
+    matching = [label for label in labels if label.startswith(incomplete)]
+    return [CompletionItem(label) for label in matching[:MOST]]
+
+
+def complete_places(ctx: click.Context, param: Any, incomplete: str) -> list[CompletionItem]:
+    """``--from``, ``--to``, ``--path-from``, ``--path-to``: the map's places."""
+    return _complete(ctx, incomplete, rooms=False)
+
+
+def complete_nodes(ctx: click.Context, param: Any, incomplete: str) -> list[CompletionItem]:
+    """``predict --node``: places, rooms and buildings."""
+    return _complete(ctx, incomplete, rooms=True)
