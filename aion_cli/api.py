@@ -175,7 +175,8 @@ class Map:
             raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
         t_ns, zone = self._time(time, tz)
         nav = nav_graph(self._loaded)
-        a, b = resolve_endpoint(start, nav), resolve_endpoint(goal, nav)
+        graph = self._loaded.graph
+        a, b = resolve_endpoint(start, nav, graph), resolve_endpoint(goal, nav, graph)
         routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
         snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
         return Plan.from_routes(routes, zone, snapped)

@@ -101,8 +101,8 @@ def path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int]
     from aion_cli.routes import plan_routes, resolve_endpoint
 
     nav = nav_graph(loaded)
-    a = resolve_endpoint(path_from, nav).node_id
-    b = resolve_endpoint(path_to, nav).node_id
+    a = resolve_endpoint(path_from, nav, loaded.graph).node_id
+    b = resolve_endpoint(path_to, nav, loaded.graph).node_id
     plan_routes(loaded, a, b, None, nav=nav)
     return nav, a, b
 

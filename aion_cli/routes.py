@@ -20,6 +20,7 @@ from aion_cli.engine.node_ids import node_label, parse_node_id, parse_point, ref
 
 if TYPE_CHECKING:
     from aion_cli.engine.planning import NavGraph, PlanResult
+    from aion_cli.engine.types import GraphSnapshot
     from aion_cli.mapquery import LoadedMap
 
 F64 = npt.NDArray[np.float64]
@@ -33,30 +34,42 @@ class Endpoint:
     node_id: int
     point: tuple[float, float, float] | None = None
     distance_m: float = 0.0
+    # the room or building (``("room", "R3")``) whose place this is, when one was asked for
+    within: tuple[str, str] | None = None
 
     def snapped(self, option: str) -> dict[str, Any] | None:
-        """The ``snapped`` record of ``aion plan --format json`` (None for a node id)."""
+        """The ``snapped`` record of ``aion plan --format json`` (None for a node id); for a
+        room or building, its id under ``room`` / ``building`` and ``point`` its centre."""
         if self.point is None:
             return None
-        return {
-            "option": option,
+        record: dict[str, Any] = {"option": option}
+        if self.within is not None:
+            record[self.within[0]] = self.within[1]
+        return record | {
             "point": list(self.point),
             "node": node_label(self.node_id),
             "distance_m": self.distance_m,
         }
 
 
-def resolve_endpoint(where: str | int, nav: NavGraph) -> Endpoint:
-    """A node id (``"p12"``, ``"p(12)"``, an int) or coordinates ``"x,y[,z]"`` snapped to the
-    nearest node; :class:`~aion_cli.errors.UnknownNodeError` for an id not in the
-    graph, :class:`~aion_cli.errors.InputError` for a point far from every node
-    (:func:`~aion_cli.engine.node_ids.refuse_far_point`)."""
+def resolve_endpoint(
+    where: str | int, nav: NavGraph, graph: GraphSnapshot | None = None
+) -> Endpoint:
+    """A node id (``"p12"``, ``"p(12)"``, an int), a room or building of ``graph`` (``"R3"``:
+    its place nearest the room's centre), or coordinates ``"x,y[,z]"`` snapped to the nearest
+    node; :class:`~aion_cli.errors.UnknownNodeError` for an id not in the graph (or a room
+    without a place in it), :class:`~aion_cli.errors.InputError` for a point far from every
+    node (:func:`~aion_cli.engine.node_ids.refuse_far_point`)."""
     if isinstance(where, (int, np.integer)):
         nav.index_of(int(where))
         return Endpoint(int(where))
     point = parse_point(where)
     if point is None:
         node_id = parse_node_id(where)
+        if graph is not None:
+            inside = _room_endpoint(node_id, nav, graph)
+            if inside is not None:
+                return inside
         nav.index_of(node_id)  # UnknownNodeError with examples
         return Endpoint(node_id)
     row = nav.nearest(point)
@@ -64,6 +77,41 @@ def resolve_endpoint(where: str | int, nav: NavGraph) -> Endpoint:
     distance = math.dist(point, tuple(float(v) for v in nav.xyz[row]))
     refuse_far_point(where, distance, node_label(node_id), nav.xyz)
     return Endpoint(node_id, point, distance)
+
+
+def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoint | None:
+    """The place of room (or building) ``node_id`` nearest its centre; None when ``node_id``
+    is neither."""
+    from aion_cli.errors import UnknownNodeError
+
+    wanted = np.uint64(node_id)
+    if np.any(graph.rooms.ids == wanted):
+        kind, layer = "room", graph.rooms
+        rooms = np.asarray([wanted], dtype=np.uint64)
+    elif np.any(graph.buildings.ids == wanted):
+        kind, layer = "building", graph.buildings
+        rooms = graph.rooms.ids[graph.rooms.parent == wanted]
+    else:
+        return None
+    label = node_label(node_id)
+    candidates = np.isin(nav.ids, graph.places.ids[np.isin(graph.places.parent, rooms)])
+    rows = np.flatnonzero(candidates)
+    if rows.size == 0:
+        raise UnknownNodeError(
+            f"{kind} {label} holds no place of the navigational graph",
+            hint="plan to a place (p12) or to a point x,y",
+        )
+    centre = layer.xyz[int(np.flatnonzero(layer.ids == wanted)[0])]
+    if not np.all(np.isfinite(centre)):
+        centre = nav.xyz[rows].mean(axis=0)
+    d2 = ((nav.xyz[rows] - centre) ** 2).sum(axis=1)
+    row = int(rows[int(np.argmin(d2))])
+    return Endpoint(
+        int(nav.ids[row]),
+        (float(centre[0]), float(centre[1]), float(centre[2])),
+        float(np.sqrt(d2.min())),
+        (kind, label),
+    )
 
 
 @dataclass(frozen=True)

@@ -2,10 +2,10 @@
 
 Click completes commands, options, choices and paths by itself (``eval "$(_AION_COMPLETE=
 bash_source aion)"``, README); this module adds the ids a map holds, so that ``aion plan
-office.aion --from p<TAB>`` lists the map's places and ``aion predict office.aion --node
-R<TAB>`` its rooms. The map is read lazily (the manifest and the graph member, about 0.15 s),
-and a completion never fails: whatever goes wrong (no map yet on the line, a damaged file)
-completes nothing rather than printing a traceback into the shell.
+office.aion --from p<TAB>`` lists the map's places and ``--from R<TAB>`` its rooms. The map
+is read lazily (the manifest and the graph member, about 0.15 s), and a completion never
+fails: whatever goes wrong (no map yet on the line, a damaged file) completes nothing rather
+than printing a traceback into the shell.
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from click.shell_completion import CompletionItem
 MOST = 500
 
 
-def node_ids_of(map_path: Path, rooms: bool) -> list[str]:
-    """The place ids of the map's scene graph and of its entries (and with ``rooms`` its room
-    and building ids), in natural order: p2 before p10."""
+def node_ids_of(map_path: Path) -> list[str]:
+    """The place, room and building ids of the map's scene graph and the node ids of its
+    entries, in natural order: p2 before p10."""
     import numpy as np
 
     from aion_cli.engine.node_ids import node_labels
@@ -32,9 +32,7 @@ def node_ids_of(map_path: Path, rooms: bool) -> list[str]:
     parts = [np.asarray(loaded.state.entries.node_id, dtype=np.uint64)]
     graph = loaded.graph
     if graph is not None:
-        parts.append(np.asarray(graph.places.ids, dtype=np.uint64))
-        if rooms:
-            parts += [np.asarray(graph.rooms.ids, np.uint64), np.asarray(graph.buildings.ids)]
+        parts += [graph.places.ids, graph.rooms.ids, graph.buildings.ids]
     ids = np.unique(np.concatenate([p.astype(np.uint64) for p in parts]))
     ids = ids[ids != 0]  # hash cells have no node id
     labels = node_labels(ids).tolist()
@@ -76,23 +74,19 @@ def _typed_map_path(ctx: click.Context, incomplete: str) -> str | None:
     return None if value is None else str(value)
 
 
-def _complete(ctx: click.Context, incomplete: str, rooms: bool) -> list[CompletionItem]:
+def _complete(ctx: click.Context, incomplete: str) -> list[CompletionItem]:
     try:
         map_path = _typed_map_path(ctx, incomplete)
         if map_path is None:
             return []
-        labels = node_ids_of(Path(map_path), rooms)
+        labels = node_ids_of(Path(map_path))
     except Exception:  # a completion must never break the shell line
         return []
     matching = [label for label in labels if label.startswith(incomplete)]
     return [CompletionItem(label) for label in matching[:MOST]]
 
 
-def complete_places(ctx: click.Context, param: Any, incomplete: str) -> list[CompletionItem]:
-    """``--from``, ``--to``, ``--path-from``, ``--path-to``: the map's places."""
-    return _complete(ctx, incomplete, rooms=False)
-
-
 def complete_nodes(ctx: click.Context, param: Any, incomplete: str) -> list[CompletionItem]:
-    """``predict --node``: places, rooms and buildings."""
-    return _complete(ctx, incomplete, rooms=True)
+    """``predict --node``, ``plan --from/--to``, ``export --path-from/--path-to``: the map's
+    places, rooms and buildings."""
+    return _complete(ctx, incomplete)

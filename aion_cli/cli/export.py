@@ -14,7 +14,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
-from aion_cli.cli.completion import complete_places
+from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.output import AionCommand
 from aion_cli.timeparse import Zone
 
@@ -126,10 +126,10 @@ def _step_seconds(text: str) -> float:
 @click.option(
     "--path-from",
     metavar="A",
-    help="Also plan and draw a path from A (id or x,y).",
-    shell_complete=complete_places,
+    help="Also plan and draw a path from A (place, room or building id, or x,y).",
+    shell_complete=complete_nodes,
 )
-@click.option("--path-to", metavar="B", help="... to B.", shell_complete=complete_places)
+@click.option("--path-to", metavar="B", help="... to B.", shell_complete=complete_nodes)
 def command(
     map_path: Path,
     out_dir: Path,

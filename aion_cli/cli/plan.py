@@ -14,7 +14,7 @@ from aion_cli.cli.common import (
     resolve_time,
     tz_option,
 )
-from aion_cli.cli.completion import complete_places
+from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.output import AionCommand, format_option, to_json
 
 EPILOG = """\b
@@ -54,16 +54,17 @@ cost in the legend.
     "start",
     required=True,
     metavar="A",
-    help="Start: node id or x,y[,z].",
-    shell_complete=complete_places,
+    help="Start: a place (p12), a room or building (R3: its place nearest the centre) "
+    "or a point x,y[,z].",
+    shell_complete=complete_nodes,
 )
 @click.option(
     "--to",
     "goal",
     required=True,
     metavar="B",
-    help="Goal: node id or x,y[,z].",
-    shell_complete=complete_places,
+    help="Goal: a place, room or building id, or a point x,y[,z].",
+    shell_complete=complete_nodes,
 )
 @click.option(
     "-t",
@@ -118,8 +119,8 @@ def command(
     loaded = load(map_path)
     t_ns, zone = resolve_time(time_text, tz, loaded)
     nav = nav_graph(loaded)
-    a = resolve_endpoint(start, nav)
-    b = resolve_endpoint(goal, nav)
+    a = resolve_endpoint(start, nav, loaded.graph)
+    b = resolve_endpoint(goal, nav, loaded.graph)
     routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)
     snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
     report = {"map": str(map_path), **Plan.from_routes(routes, zone, snapped).to_dict()}
@@ -149,6 +150,14 @@ def _print(report: dict[str, Any]) -> None:
     from aion_cli.cli.output import markup_safe, printable
 
     for snap in report["snapped"]:
+        within = next((k for k in ("room", "building") if k in snap), None)
+        if within is not None:
+            console().print(
+                f"[dim]{markup_safe(snap['option'])} {markup_safe(snap[within])}: its place "
+                f"nearest the {within}'s centre, {markup_safe(snap['node'])} "
+                f"({snap['distance_m']:.2f} m from it)[/dim]"
+            )
+            continue
         console().print(
             f"[dim]{markup_safe(snap['option'])} {markup_safe(snap['point'])} snapped to "
             f"{markup_safe(snap['node'])} ({snap['distance_m']:.2f} m away)[/dim]"

@@ -48,13 +48,13 @@ def test_plan_completes_the_maps_places(office: Office) -> None:
     assert _complete(f"aion export {office.map} --path-from p1") == with_one
 
 
-def test_predict_node_completes_rooms_and_buildings_too(office: Office) -> None:
+def test_rooms_and_buildings_are_completed_too(office: Office) -> None:
     graph = load_map(office.map).graph
     assert graph is not None
     rooms = _labels(graph.rooms.ids)
     assert rooms
     assert set(_complete(f"aion predict {office.map} --node R")) == rooms
-    assert _complete(f"aion plan {office.map} --from R") == []  # plan takes places only
+    assert set(_complete(f"aion plan {office.map} --from R")) == rooms  # plan takes rooms too
 
 
 def test_fish_passes_the_line_up_to_the_current_word(office: Office) -> None:

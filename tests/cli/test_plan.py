@@ -127,3 +127,25 @@ def test_subprocess_plan_with_export(office: Office, tmp_path: Path) -> None:
     assert doc["temporal"]["path"] == ["p0", "p1", "p2", "p4"]
     assert ply.read_bytes().startswith(b"ply\n")
     assert b"element vertex" in ply.read_bytes()[:400]
+
+
+def test_rooms_and_buildings_are_endpoints(office: Office) -> None:
+    """A room plans from its place nearest the room's centre, a building likewise (checked by
+    hand on the office graph: R1 holds p2 (4,0), p3 (6,0), p4 (4,2), centre (4.67, 0.67), so
+    p2 at 0.94 m; B0 stands at (10, 0, 3), 5 m from p3 (6, 0, 0))."""
+    doc = run_json(
+        "plan", office.map, "--from", "R1", "--to", "B0", "--time", AT, "--format", "json"
+    )
+    start, goal = doc["snapped"]
+    assert (start["option"], start["room"], start["node"]) == ("--from", "R1", "p2")
+    assert start["distance_m"] == pytest.approx(2**0.5 * 2 / 3)
+    assert start["point"] == pytest.approx([14 / 3, 2 / 3, 0.0])
+    assert (goal["option"], goal["building"], goal["node"]) == ("--to", "B0", "p3")
+    assert goal["distance_m"] == pytest.approx(5.0)
+    assert doc["distance_only"]["path"] == ["p2", "p3"]
+    table = run("plan", office.map, "--from", "R1", "--to", "p0", "--time", AT)
+    assert table.exit_code == 0, table.stderr
+    assert "--from R1: its place nearest the room's centre, p2" in table.stderr
+    missing = run("plan", office.map, "--from", "R9", "--to", "p0", "--time", AT)
+    assert missing.exit_code == 2
+    assert_one_line_error(missing.stderr, "R9")
