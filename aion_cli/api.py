@@ -43,6 +43,7 @@ if TYPE_CHECKING:
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
     from aion_cli.merging import MergeReport
+    from aion_cli.prediction_series import SeriesTable
     from aion_cli.query_only import CompactReport
     from aion_cli.timeparse import Zone
 
@@ -155,6 +156,39 @@ class Map:
             int(self.config.bins),
             tuple(rows),
         )
+
+    def predict_series(
+        self,
+        start: TimeLike,
+        end: TimeLike,
+        step: str | float = "1h",
+        *,
+        tz: str | None = None,
+        layer: str = "all",
+        nodes: Sequence[str | int] = (),
+        at: str | None = None,
+        top: int | None = None,
+    ) -> SeriesTable:
+        """Predicted flow of the entries asked for at ``start``, ``start + step``, ... up to
+        ``end`` (``step`` as ``"1h"``, ``"30m"`` or seconds), as ``aion predict --from --to
+        --step``: an :class:`aion_cli.prediction_series.SeriesTable` (``flow`` and
+        ``flow_per_hour`` as arrays entries x times; ``records()`` as its JSON); each value
+        equals :meth:`predict` at that time."""
+        from aion_cli.prediction_series import predict_series, series_times
+        from aion_cli.predictions import LAYERS
+        from aion_cli.timeparse import step_seconds
+
+        if layer not in LAYERS:
+            raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
+        if top is not None and top < 1:
+            raise InputError(f"top must be at least 1, got {top}")
+        seconds = step_seconds(step) if isinstance(step, str) else float(step)
+        if not seconds >= 1.0:
+            raise InputError(f"step must be at least 1 s, got {step!r}")
+        t0, _ = self._time(start, tz)
+        t1, _ = self._time(end, tz)
+        times = series_times(t0, t1, int(seconds * 1e9))
+        return predict_series(self._loaded, times, layer, nodes, at, top)
 
     def plan(
         self,

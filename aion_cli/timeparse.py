@@ -313,3 +313,30 @@ def _parse_iso(text: str, zone: Zone, current: datetime) -> int | None:
     if moment.tzinfo is None:
         moment = moment.replace(tzinfo=zone.tz)
     return to_ns(moment)
+
+
+def step_seconds(text: str) -> float:
+    """A series step ``"1h"``, ``"30m"``, ``"600s"``, ``"1h30m"`` or ``"600"`` -> seconds (at
+    least 1 s, at most the time range aion handles); :class:`TimeFormatError` otherwise."""
+    token = text.strip().lower()
+    if token.replace(".", "", 1).isdigit():
+        value = float(token)
+    else:
+        parts = _RE_REL_PART.findall(token)
+        if not parts or "".join(a + u for a, u in parts) != token.replace(" ", ""):
+            raise TimeFormatError(f"cannot read the step {text!r}", "e.g. --step 1h or 30m")
+        value = 0.0
+        for amount, unit in parts:
+            if unit not in _UNITS_S:
+                raise TimeFormatError(f"unknown unit {unit!r} in --step {text!r}", "w d h m s")
+            value += float(amount) * _UNITS_S[unit]
+    if not value >= 1.0:  # frames are named by the second (and a 0 s step never ends)
+        raise TimeFormatError(
+            f"--step must be at least 1 s, got {text!r}", "e.g. --step 1h, 30m or 600s"
+        )
+    if not value <= (MAX_TIME_NS - MIN_TIME_NS) / 1e9:
+        raise TimeFormatError(
+            f"--step {text!r} is longer than the time range aion handles ({RANGE_TEXT})",
+            "e.g. --step 1h, 30m or 600s",
+        )
+    return value

@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 
 import click
 
-from aion_cli.timeparse import Zone, format_ns, parse_time, resolve_zone
+from aion_cli.timeparse import Zone, format_ns, parse_time, resolve_zone, step_seconds
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -65,3 +65,15 @@ def load(map_path: Path) -> Any:
     from aion_cli.mapquery import load_map
 
     return load_map(map_path, forecast_only=True)
+
+
+def series_of(
+    t_from: str, t_to: str, step: str, tz: str | None, loaded: Any
+) -> tuple[list[int], Zone]:
+    """The times of ``--from`` .. ``--to`` (inclusive) every ``--step``, in the zone
+    :func:`resolve_time` reads them in (``export`` and ``predict`` series)."""
+    from aion_cli.prediction_series import series_times
+
+    start, zone = resolve_time(t_from, tz, loaded)
+    end, _ = resolve_time(t_to, tz, loaded)
+    return series_times(start, end, int(step_seconds(step) * 1e9)), zone

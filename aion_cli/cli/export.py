@@ -12,6 +12,7 @@ from aion_cli.cli.common import (
     announce_time,
     map_argument,
     resolve_time,
+    series_of,
     tz_option,
 )
 from aion_cli.cli.completion import complete_nodes
@@ -50,41 +51,6 @@ per entry named by its id, as `aion predict` prints it) or in RViz (/aion/marker
 visualization_msgs/MarkerArray; /tf_static declares the frame "map"): the same spheres,
 arrows, cells, edges, mesh and path as the PLY scene, sizes on one scale for the whole series.
 """
-
-
-def _step_seconds(text: str) -> float:
-    """``"1h"``, ``"30m"``, ``"600s"``, ``"600"`` -> seconds."""
-    from aion_cli.timeparse import (
-        _RE_REL_PART,
-        _UNITS_S,
-        MAX_TIME_NS,
-        MIN_TIME_NS,
-        RANGE_TEXT,
-        TimeFormatError,
-    )
-
-    token = text.strip().lower()
-    if token.replace(".", "", 1).isdigit():
-        value = float(token)
-    else:
-        parts = _RE_REL_PART.findall(token)
-        if not parts or "".join(a + u for a, u in parts) != token.replace(" ", ""):
-            raise TimeFormatError(f"cannot read the step {text!r}", "e.g. --step 1h or 30m")
-        value = 0.0
-        for amount, unit in parts:
-            if unit not in _UNITS_S:
-                raise TimeFormatError(f"unknown unit {unit!r} in --step {text!r}", "w d h m s")
-            value += float(amount) * _UNITS_S[unit]
-    if not value >= 1.0:  # frames are named by the second (and a 0 s step never ends)
-        raise TimeFormatError(
-            f"--step must be at least 1 s, got {text!r}", "e.g. --step 1h, 30m or 600s"
-        )
-    if not value <= (MAX_TIME_NS - MIN_TIME_NS) / 1e9:
-        raise TimeFormatError(
-            f"--step {text!r} is longer than the time range aion handles ({RANGE_TEXT})",
-            "e.g. --step 1h, 30m or 600s",
-        )
-    return value
 
 
 @click.command(
@@ -203,16 +169,7 @@ def command(
 def _series(
     t_from: str, t_to: str, step: str, tz: str | None, loaded: Any
 ) -> tuple[list[int | None], Zone]:
-    from aion_cli.errors import InputError
-
-    start, zone = resolve_time(t_from, tz, loaded)
-    end, _ = resolve_time(t_to, tz, loaded)
-    step_ns = int(_step_seconds(step) * 1e9)
-    if end < start:
-        raise InputError("--to is before --from")
-    count = (end - start) // step_ns + 1
-    if count > 1000:
-        raise InputError(f"the series would have {count} frames", hint="use a larger --step")
-    return [start + k * step_ns for k in range(int(count))], zone
+    times, zone = series_of(t_from, t_to, step, tz, loaded)
+    return list(times), zone
 
 

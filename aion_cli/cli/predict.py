@@ -16,6 +16,7 @@ from aion_cli.cli.common import (
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.entries import COLUMNS
 from aion_cli.cli.output import AionCommand, emit, format_option
+from aion_cli.cli.predict_series import check_series_options, run_series
 from aion_cli.predictions import LAYERS
 
 EPILOG = """\b
@@ -26,6 +27,8 @@ Examples:
   aion predict office.aion --time "+2h" --at 3.5,-1.0          the entry nearest a point
   aion predict office.aion --time "monday 08:30" --layer rooms
   aion predict office.aion --historical --format csv > hist.csv  what was observed
+  aion predict office.aion --node p12 --from "monday 06:00" --to "monday 20:00" --step 1h
+                                                               how busy p12 is over the day
 
 \b
 Fields (JSON keys, CSV columns): id, kind (node/cell/room/building), layer, x, y, z,
@@ -33,6 +36,10 @@ flow (expected detections per window), flow_per_hour, direction_deg (dominant di
 degrees counter-clockwise from +x), direction_bin, concentration (0..1), entropy (0..1,
 1 = people walk every way), mean_speed (m/s), histogram (B direction probabilities; bin b
 is centred at -180 + (b + 0.5)*360/B degrees), speed_per_bin (JSON only).
+A series (--from, --to, --step) prints one row per time and a column per entry (the
+busiest over the series); JSON lists each entry with its flow and flow_per_hour per time,
+CSV has one row per time and entry (time, time_ns, id, kind, layer, x, y, z, flow,
+flow_per_hour). Each value equals `predict --time` at that time.
 """
 
 TABLE_LIMIT = 100
@@ -73,6 +80,9 @@ TABLE_LIMIT = 100
     help="Places (nodes), hash cells, or aggregated rooms / buildings.",
 )
 @click.option("--top", type=click.IntRange(min=1), help="Only the N busiest entries.")
+@click.option("--from", "t_from", metavar="T", help="Start of a series of predictions.")
+@click.option("--to", "t_to", metavar="T", help="End of the series (inclusive).")
+@click.option("--step", metavar="DURATION", help="Series step: 1h, 30m, 600s [default: 1h].")
 @format_option()
 def command(
     map_path: Path,
@@ -83,6 +93,9 @@ def command(
     at: str | None,
     layer: str,
     top: int | None,
+    t_from: str | None,
+    t_to: str | None,
+    step: str | None,
     fmt: str,
 ) -> None:
     """Predict the flow dynamics of every place of MAP at a time.
@@ -95,7 +108,16 @@ def command(
     from aion_cli.predictions import CSV_KEYS, document, predicted_records
     from aion_cli.timeparse import format_ns
 
+    time_given = click.get_current_context().get_parameter_source("time_text") not in (
+        click.core.ParameterSource.DEFAULT,
+        None,
+    )
+    series = check_series_options(t_from, t_to, step, historical, time_given)
     loaded = load(map_path)
+    if series and t_from is not None and t_to is not None:
+        request = (layer, nodes, at, top)
+        run_series(map_path, loaded, t_from, t_to, step or "1h", tz, request, fmt)
+        return
     t_ns: int | None = None
     zone = None
     if not historical:

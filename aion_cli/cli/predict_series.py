@@ -1,0 +1,126 @@
+"""``aion predict MAP --from T0 --to T1 [--step 1h]``: the predicted flow of places over a
+series of times, as a table (one row per time, one column per entry), JSON or long CSV.
+
+The numbers are :mod:`aion_cli.prediction_series`'s; this module checks the options and
+formats them for people."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from aion_cli.timeparse import Zone
+
+#: entries a terminal table shows as columns (JSON and CSV have every entry)
+TABLE_COLUMNS = 8
+
+
+def check_series_options(
+    t_from: str | None,
+    t_to: str | None,
+    step: str | None,
+    historical: bool,
+    time_given: bool,
+) -> bool:
+    """Whether a series was asked for; an :class:`InputError` for options that contradict."""
+    from aion_cli.errors import InputError
+
+    if t_from is None and t_to is None:
+        if step is not None:
+            raise InputError("--step needs --from and --to", hint="e.g. --from 08:00 --to 18:00")
+        return False
+    if t_from is None or t_to is None:
+        raise InputError("a series needs both --from and --to", hint="e.g. --from 08:00 --to 18:00")
+    if historical:
+        raise InputError(
+            "--historical is what was observed, at no time: it has no series",
+            hint="leave out --from/--to, or --historical",
+        )
+    if time_given:
+        raise InputError("choose one of --time or --from/--to")
+    return True
+
+
+def run_series(
+    map_path: Path,
+    loaded: Any,
+    t_from: str,
+    t_to: str,
+    step: str,
+    tz: str | None,
+    request: tuple[str, tuple[str, ...], str | None, int | None],
+    fmt: str,
+) -> None:
+    """Predict at every time of the series and write it in ``fmt``; ``request`` is
+    (layer, nodes, at, top)."""
+    import click
+
+    from aion_cli.cli.common import announce_time, series_of
+    from aion_cli.cli.console import note
+    from aion_cli.cli.output import to_csv, to_json
+    from aion_cli.prediction_series import (
+        SERIES_CSV_KEYS,
+        predict_series,
+        series_document,
+    )
+    from aion_cli.timeparse import format_ns
+
+    times, zone = series_of(t_from, t_to, step, tz, loaded)
+    layer, nodes, at, top = request
+    table = predict_series(loaded, times, layer, nodes, at, top)
+    labels = [format_ns(t, zone) for t in times]
+    announce_time(times[0], zone, "from", loaded)
+    if fmt == "json":
+        click.echo(to_json(series_document(map_path, table, zone, labels)))
+    elif fmt == "csv":
+        click.echo(to_csv(table.long_rows(labels), SERIES_CSV_KEYS), nl=False)
+    else:
+        shown = len(table.entries) if top is not None else min(TABLE_COLUMNS, len(table.entries))
+        if top is None and shown < table.matched:
+            note(
+                f"showing the {shown} busiest of {table.matched:,} entries over the series: use "
+                "--node, --top N, --format csv or --format json for others"
+            )
+        _print(table, zone, shown)
+
+
+def short_labels(times_ns: list[int], zone: Zone) -> list[str]:
+    """Row labels for a terminal: ``08:30`` within one day, ``Mon 08:30`` within a week,
+    else ``2026-11-23 08:30``."""
+    from aion_cli.timeparse import from_ns
+
+    stamps = [from_ns(t, zone) for t in times_ns]
+    days = {s.date() for s in stamps}
+    if len(days) == 1:
+        form = "%H:%M"
+    elif (max(days) - min(days)).days < 7:
+        form = "%a %H:%M"
+    else:
+        form = "%Y-%m-%d %H:%M"
+    if any(s.second for s in stamps):
+        form += ":%S"
+    return [s.strftime(form) for s in stamps]
+
+
+def _print(table: Any, zone: Zone, shown: int) -> None:
+    from rich.table import Table
+    from rich.text import Text
+
+    from aion_cli.cli.console import data_console
+    from aion_cli.cli.output import printable
+    from aion_cli.timeparse import from_ns
+
+    days = sorted({from_ns(t, zone).date().isoformat() for t in table.times_ns})
+    when = days[0] if len(days) == 1 else f"{days[0]} .. {days[-1]}"
+    out = Table(title=Text(printable(f"predicted flow per window, {when} ({zone.name})")))
+    out.add_column("time", style="bold")
+    for entry in table.entries[:shown]:
+        out.add_column(printable(str(entry["id"])), justify="right")
+    for j, label in enumerate(short_labels(table.times_ns, zone)):
+        cells = [
+            f"{v:.2f}" if math.isfinite(v) else "–"  # unknown flow
+            for v in table.flow[:shown, j].tolist()
+        ]
+        out.add_row(label, *cells)
+    data_console().print(out)

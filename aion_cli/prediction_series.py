@@ -1,0 +1,150 @@
+"""Predicted flow of chosen entries over a series of times (``aion predict --from --to
+--step``, :meth:`aion_cli.Map.predict_series`).
+
+How busy is a corridor over the day, when is a room quiet? Each time of the series is the
+prediction ``aion predict --time`` makes at that time (the same entry table,
+:func:`aion_cli.predictions.entry_table`), so every value equals that command's ``flow`` and
+``flow_per_hour`` exactly. The entries are chosen as ``predict`` chooses them (``--layer``,
+``--node``, ``--at``), on the table of the first time (a map's rows are the same at every
+time), ordered busiest first by their mean flow over the series (entries without a known flow
+last, ties by id) and cut to ``top``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.timeparse import Zone
+
+if TYPE_CHECKING:
+    from aion_cli.mapquery import LoadedMap
+
+F64 = npt.NDArray[np.float64]
+
+#: the most times one series may have (as ``export --from --to``)
+MOST_TIMES = 1000
+
+#: CSV columns of a series: one row per (time, entry)
+SERIES_CSV_KEYS = ["time", "time_ns", "id", "kind", "layer", "x", "y", "z", "flow", "flow_per_hour"]
+
+
+@dataclass(frozen=True)
+class SeriesTable:
+    """The chosen entries (``entries``: id, kind, layer, x, y, z records) and their predicted
+    ``flow`` and ``flow_per_hour`` (float64[E, T], NaN where unknown) at ``times_ns``; how
+    many entries matched before ``top``."""
+
+    times_ns: list[int]
+    entries: list[dict[str, Any]]
+    flow: F64
+    flow_per_hour: F64
+    matched: int
+
+    def records(self) -> list[dict[str, Any]]:
+        """One record per entry with its series as lists (None where unknown): the
+        ``entries`` of ``aion predict --from --to --format json``."""
+        return [
+            entry | {"flow": _listed(self.flow[k]), "flow_per_hour": _listed(self.flow_per_hour[k])}
+            for k, entry in enumerate(self.entries)
+        ]
+
+    def long_rows(self, labels: Sequence[str]) -> list[dict[str, Any]]:
+        """One row per (time, entry), times outermost: ``--format csv`` (``labels``: each
+        time as text)."""
+        return [
+            {"time": labels[j], "time_ns": t}
+            | entry
+            | {
+                "flow": _value(self.flow[k, j]),
+                "flow_per_hour": _value(self.flow_per_hour[k, j]),
+            }
+            for j, t in enumerate(self.times_ns)
+            for k, entry in enumerate(self.entries)
+        ]
+
+
+def _value(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def _listed(row: F64) -> list[float | None]:
+    return [_value(x) for x in row.tolist()]
+
+
+def series_times(start_ns: int, end_ns: int, step_ns: int) -> list[int]:
+    """``start, start + step, ...`` up to ``end`` inclusive; :class:`InputError` for an end
+    before the start or more than :data:`MOST_TIMES` times."""
+    from aion_cli.errors import InputError
+
+    if step_ns <= 0:
+        raise InputError(f"the step must be positive, got {step_ns} ns")
+    if end_ns < start_ns:
+        raise InputError("--to is before --from")
+    count = (end_ns - start_ns) // step_ns + 1
+    if count > MOST_TIMES:
+        raise InputError(
+            f"the series would have {count:,} times (at most {MOST_TIMES:,})",
+            hint="use a larger --step or a shorter span",
+        )
+    return [start_ns + k * step_ns for k in range(int(count))]
+
+
+def predict_series(
+    loaded: LoadedMap,
+    times_ns: Sequence[int],
+    layer: str = "all",
+    nodes: Sequence[str | int] = (),
+    at: str | None = None,
+    top: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> SeriesTable:
+    """The series of the entries asked for (see the module doc); ``progress(k)`` after each
+    time."""
+    from aion_cli.predictions import entry_ids, entry_table, rows_from_table, select
+
+    times = [int(t) for t in times_ns]
+    if not times:
+        raise ValueError("a series needs at least one time")
+    first = entry_table(loaded, times[0], layer)
+    index = select(first, layer, nodes, at)
+    flow = np.empty((index.size, len(times)))
+    per_hour = np.empty_like(flow)
+    for j, t in enumerate(times):
+        table = first if j == 0 else entry_table(loaded, t, layer)
+        d = table.descriptors_of(index)
+        flow[:, j] = d.flow_per_window
+        per_hour[:, j] = d.flow_per_hour
+        if progress is not None:
+            progress(j + 1)
+    known = np.asarray(np.isfinite(flow).any(axis=1), dtype=bool)
+    mean = np.zeros(index.size)
+    if known.any():
+        mean[known] = np.nanmean(flow[known], axis=1)
+    ids = np.asarray([str(i) for i in entry_ids(first, index)], dtype=str)
+    order = np.lexsort((ids, np.where(known, -mean, np.inf))) if index.size else index
+    order = order[:top] if top is not None else order
+    static = ("id", "kind", "layer", "x", "y", "z")
+    entries = [
+        {key: row[key] for key in static} for row in rows_from_table(first, index[order])
+    ]
+    return SeriesTable(times, entries, flow[order], per_hour[order], int(index.size))
+
+
+def series_document(
+    map_path: Any, table: SeriesTable, zone: Zone, labels: Sequence[str]
+) -> dict[str, Any]:
+    """The JSON document of ``aion predict --from --to``: the times, then each entry with
+    its series."""
+    return {
+        "map": str(map_path),
+        "mode": "series",
+        "times": list(labels),
+        "times_ns": table.times_ns,
+        "zone": zone.name,
+        "entries": table.records(),
+    }
