@@ -75,5 +75,41 @@ def guess_format(path: Path) -> tuple[str, Path]:
         )
     raise LogFormatError(
         f"cannot tell the log format of {path}",
-        hint="aion reads .mcap, ROS 1 .bag and rosbag2 folders; use --log-format mcap|bag|rosbag2",
+        hint=_what_else(path)
+        or "aion reads .mcap, ROS 1 .bag and rosbag2 folders; use --log-format mcap|bag|rosbag2",
     )
+
+
+def _what_else(path: Path) -> str | None:
+    """A hint when ``path`` is another input aion reads, given where a log belongs: an aion
+    map, a scene-graph file, a tracks CSV."""
+    import zipfile
+
+    from aion_cli.formats.mapfile import MANIFEST_NAME
+    from aion_cli.formats.track_sniff import guess_layout
+
+    name = path.name
+    try:
+        if zipfile.is_zipfile(path):
+            with zipfile.ZipFile(path) as archive:
+                if MANIFEST_NAME in archive.namelist():
+                    return (
+                        f"{name} is an aion map, not a log: extend it with `aion build LOG --map "
+                        f"{name}`, query it with `aion predict {name}`"
+                    )
+        with path.open("rb") as fh:
+            head = fh.read(4096)
+    except (OSError, zipfile.BadZipFile):
+        return None
+    graph_words = (b'"nodes"', b'"edges"', b'"layer_ids"', b'"directed"')
+    if path.suffix.lower() == ".sparkdsg" or (
+        head.lstrip().startswith(b"{") and any(word in head for word in graph_words)
+    ):
+        return f"{name} looks like a scene-graph file: give it to `aion build` with --graph {name}"
+    guess = guess_layout(path)
+    if guess is not None:
+        return (
+            f"{name} looks like a tracks file in {guess.describe()}: make it a log first, "
+            f"`aion convert {name} --layout {guess.layout} -o {path.stem}.mcap`"
+        )
+    return None

@@ -87,6 +87,29 @@ def test_non_log_files(tmp_path: Path) -> None:
         open_logs([fake])
 
 
+def test_other_aion_inputs_given_as_a_log_are_named(tmp_path: Path) -> None:
+    """A map, a scene-graph file or a tracks CSV where a log belongs: the hint says what the
+    file is and where it goes."""
+    from aion_cli.api import Map
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.state import MapState
+
+    made = tmp_path / "week.aion"
+    Map.from_state(MapState.empty(ModelConfig())).save(made)
+    graph = tmp_path / "dsg.json"
+    graph.write_text('{"directed": false, "nodes": [], "edges": [], "layer_ids": [2, 3, 4, 5]}')
+    tracks = tmp_path / "run.csv"
+    tracks.write_text("0.02,12001,-0.046,-3.443,0.141,2.356\n0.42,12001,-0.1,-3.4,0.1,2.3\n")
+    for path, hint in (
+        (made, "week.aion is an aion map, not a log: extend it with `aion build LOG --map"),
+        (graph, "dsg.json looks like a scene-graph file: give it to `aion build` with --graph"),
+        (tracks, "`aion convert run.csv --layout thor -o run.mcap`"),
+    ):
+        with pytest.raises(LogFormatError, match="cannot tell the log format") as info:
+            open_logs([path])
+        assert hint in (info.value.hint or ""), info.value.hint
+
+
 def test_log_without_messages(tmp_path: Path) -> None:
     from mcap.writer import Writer
 
