@@ -101,10 +101,7 @@ def _what_else(path: Path) -> str | None:
             head = fh.read(4096)
     except (OSError, zipfile.BadZipFile):
         return None
-    graph_words = (b'"nodes"', b'"edges"', b'"layer_ids"', b'"directed"')
-    if path.suffix.lower() == ".sparkdsg" or (
-        head.lstrip().startswith(b"{") and any(word in head for word in graph_words)
-    ):
+    if looks_like_graph_file(path, head):
         return f"{name} looks like a scene-graph file: give it to `aion build` with --graph {name}"
     guess = guess_layout(path)
     if guess is not None:
@@ -113,3 +110,12 @@ def _what_else(path: Path) -> str | None:
             f"`aion convert {name} --layout {guess.layout} -o {path.stem}.mcap`"
         )
     return None
+
+
+def looks_like_graph_file(path: Path, head: bytes) -> bool:
+    """Whether ``path`` (whose first bytes are ``head``) looks like a saved spark_dsg graph:
+    a ``.sparkdsg`` file, or JSON with a graph's keys near its start."""
+    graph_words = (b'"nodes"', b'"edges"', b'"layer_ids"', b'"directed"')
+    return path.suffix.lower() == ".sparkdsg" or (
+        head.lstrip().startswith(b"{") and any(word in head for word in graph_words)
+    )

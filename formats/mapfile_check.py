@@ -35,9 +35,33 @@ _CRC_RE = re.compile(r"^[0-9a-f]{8}$")
 def _not_a_map(path: Path, why: str) -> MapFileError:
     return MapFileError(
         f"{path} is not a readable aion map: {why}",
-        hint="pass a file written by `aion build` (a .aion map); if it was, it may be "
+        hint=_what_it_is(path)
+        or "pass a file written by `aion build` (a .aion map); if it was, it may be "
         "truncated or damaged: rebuild it from the logs",
     )
+
+
+def _what_it_is(path: Path) -> str | None:
+    """A hint when ``path`` is an input aion reads elsewhere, given where a map belongs: a
+    log (build a map from it) or a scene-graph file."""
+    from aion_cli.formats.log_format import looks_like_graph_file
+    from aion_cli.formats.rosbag2_storage import sniff
+
+    try:
+        kind = sniff(path) if path.is_file() else None
+        with path.open("rb") as fh:
+            head = fh.read(4096)
+    except (OSError, ValueError):
+        return None
+    name = path.name
+    if kind is not None:
+        return f"{name} is a log: build a map from it first, `aion build {name} -o MAP.aion`"
+    if looks_like_graph_file(path, head):
+        return (
+            f"{name} looks like a scene-graph file: `aion info {name}` shows it; a map is built "
+            f"from logs with it, `aion build LOG --graph {name} -o MAP.aion`"
+        )
+    return None
 
 
 def _require(cond: bool, path: Path, what: str) -> None:

@@ -264,3 +264,24 @@ def test_pickled_member_never_loads(written: Path, tmp_path: Path) -> None:
     rewrite(written, bad, {"i8.npy": data}, manifest_edit=declare)
     with pytest.raises(MapCorruptError, match=r"not a valid \.npy"):
         read_map(bad)
+
+
+def test_a_log_or_a_graph_given_as_a_map_is_named(tmp_path: Path) -> None:
+    """Where a map belongs, a log says to build a map from it and a scene-graph file says
+    where it goes; other bytes keep the 'damaged' hint."""
+    from tests.formats.log_builders import _write_plain_mcap
+
+    log = tmp_path / "run.mcap"
+    _write_plain_mcap(log, "NONE")
+    graph = tmp_path / "dsg.json"
+    graph.write_text('{"directed": false, "edges": [], "nodes": []}')
+    other = tmp_path / "notes.txt"
+    other.write_text("a shopping list\n")
+    for path, hint in (
+        (log, "run.mcap is a log: build a map from it first, `aion build run.mcap -o MAP.aion`"),
+        (graph, "`aion build LOG --graph dsg.json -o MAP.aion`"),
+        (other, "truncated or damaged"),
+    ):
+        with pytest.raises(MapFileError, match="is not a readable aion map") as info:
+            read_manifest(path)
+        assert hint in (info.value.hint or ""), info.value.hint
