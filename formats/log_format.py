@@ -83,23 +83,18 @@ def guess_format(path: Path) -> tuple[str, Path]:
 def _what_else(path: Path) -> str | None:
     """A hint when ``path`` is another input aion reads, given where a log belongs: an aion
     map, a scene-graph file, a tracks CSV."""
-    import zipfile
-
-    from aion_cli.formats.mapfile import MANIFEST_NAME
-    from aion_cli.formats.track_sniff import guess_layout
+    from aion_cli.formats.track_sniff import guess_layout, other_input
 
     name = path.name
+    if other_input(path) == "map":
+        return (
+            f"{name} is an aion map, not a log: extend it with `aion build LOG --map {name}`, "
+            f"query it with `aion predict {name}`"
+        )
     try:
-        if zipfile.is_zipfile(path):
-            with zipfile.ZipFile(path) as archive:
-                if MANIFEST_NAME in archive.namelist():
-                    return (
-                        f"{name} is an aion map, not a log: extend it with `aion build LOG --map "
-                        f"{name}`, query it with `aion predict {name}`"
-                    )
         with path.open("rb") as fh:
             head = fh.read(4096)
-    except (OSError, zipfile.BadZipFile):
+    except OSError:
         return None
     if looks_like_graph_file(path, head):
         return f"{name} looks like a scene-graph file: give it to `aion build` with --graph {name}"

@@ -178,7 +178,7 @@ def command(
     from aion_cli.errors import InputError
     from aion_cli.formats.track_csv import STREAM_LAYOUTS
     from aion_cli.formats.track_sniff import UNIX_SECONDS_FROM as UNIX_S
-    from aion_cli.formats.track_sniff import layout_mismatch
+    from aion_cli.formats.track_sniff import layout_mismatch, other_input
     from aion_cli.formats.track_types import merge_spans
     from aion_cli.formats.tracks import read_track_data
     from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
@@ -187,6 +187,15 @@ def command(
 
     if not tracks.is_file():
         raise InputError(f"tracks file not found: {tracks}", hint="check the path")
+    kind_of_input = other_input(tracks)
+    if kind_of_input is not None:
+        raise InputError(
+            f"{tracks.name} is {'a log' if kind_of_input == 'log' else 'an aion map'}, "
+            "not a tracks file",
+            hint=f"build a map from it: aion build {tracks.name} -o MAP.aion"
+            if kind_of_input == "log"
+            else f"query it: aion predict {tracks.name}",
+        )
     kind = _container_for(output, container)
     # the target is refused (exists, device, FIFO, not aion's own log) before anything is read
     check_log_target(output, kind, overwrite=force)

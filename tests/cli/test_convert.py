@@ -10,7 +10,7 @@ import pytest
 
 from aion_cli.formats.detections.frame import FrameDetections
 from aion_cli.formats.tracks_log import OBSERVED_INTERVAL_NS
-from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 from tests.cli.logdata import T0, save_graph_file
 from tests.shared_data import SHARED_DATA
 
@@ -269,3 +269,17 @@ def test_a_layout_that_fits_the_columns_but_not_the_content_is_warned(tmp_path: 
     assert atc_as_thor.exit_code == 0, atc_as_thor.stderr
     assert "looks like the atc layout" in atc_as_thor.stderr
     assert "1970" not in atc_as_thor.stderr
+
+
+def test_a_log_or_a_map_given_as_tracks_is_named(office: Office, tmp_path: Path) -> None:
+    """A log or a map where a tracks CSV belongs is refused in one line that says what it is
+    and what to do with it, before any output exists."""
+    for source, fragments, hint in (
+        (office.log, ("office.mcap is a log", "not a tracks file"), "aion build office.mcap"),
+        (office.map, ("is an aion map", "not a tracks file"), "aion predict"),
+    ):
+        result = run("convert", source, "--layout", "atc", "-o", tmp_path / "x.mcap")
+        assert result.exit_code == 2
+        assert_one_line_error(result.stderr, *fragments)
+        assert hint in result.stderr
+        assert not (tmp_path / "x.mcap").exists()
