@@ -229,11 +229,13 @@ class Map:
         (or as observed) into ``folder``, optionally with the path planned between
         ``path = (start, goal)``; the files written (as ``aion export``). ``format="mcap"``
         writes the scene as the one MCAP file ``folder`` names (``scene.mcap``, for Foxglove
-        and RViz; as ``aion export --format mcap``)."""
+        and RViz; as ``aion export --format mcap``); ``format="dsg"`` the 4D scene graph as
+        the spark_dsg file ``folder`` names (``dsg.json`` or ``.sparkdsg``, dynamics in each
+        node's metadata; as ``aion export --format dsg``)."""
         from aion_cli.exports import export_frames, path_ends
 
-        if format not in ("ply", "pcd", "mcap"):
-            raise InputError(f"unknown export format {format!r}", hint="ply, pcd or mcap")
+        if format not in ("ply", "pcd", "mcap", "dsg"):
+            raise InputError(f"unknown export format {format!r}", hint="ply, pcd, mcap or dsg")
         if historical and time is not None:
             raise InputError("choose time or historical=True, not both")
         times: list[int | None]
@@ -248,6 +250,12 @@ class Map:
             ends = path_ends(self._loaded, str(path[0]), str(path[1]))
         out = Path(os.fspath(folder))
         label = str(self.path) if self.path is not None else "<memory>"
+        if format == "dsg":
+            from aion_cli.exports import export_dsg
+
+            if ends is not None:
+                raise InputError("a scene-graph file holds no path: leave out path")
+            return [export_dsg(self._loaded, label, out, times[0], zone).path]
         if format == "mcap":
             from aion_cli.scene_frames import export_mcap
 

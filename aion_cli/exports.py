@@ -144,3 +144,48 @@ def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) ->
         scratch.mkdir()
         files = write_scene(loaded, table, scratch, "ply", nav.xyz[path])
         next(f for f in files if f.name == "scene.ply").rename(staged.path)
+
+
+def export_dsg(
+    loaded: Any, map_path: Path | str, out: Path, t_ns: int | None, zone: Zone | None
+) -> Any:
+    """The map's scene graph with each place's and room's dynamics at ``t_ns`` (None: as
+    observed) in its node metadata, as the spark_dsg file ``out`` (``export --format dsg``,
+    :mod:`formats.dsg_export`); returns its ``DsgExportSummary``."""
+    from aion_cli.engine.node_ids import parse_node_id
+    from aion_cli.errors import InputError
+    from aion_cli.formats.dsg_export import check_dsg_target, write_dynamic_graph
+    from aion_cli.predictions import document, entry_table, rows_from_table, select
+
+    check_dsg_target(out)  # before anything is computed
+    graph = loaded.graph
+    if graph is None:
+        raise InputError(
+            "the map has no scene graph to write",
+            hint="build it with a scene graph (from the log or --graph FILE) or --derive-graph",
+        )
+    table = entry_table(loaded, t_ns)
+    places = select(table, "places")
+    node_ids = table.node_id[places].tolist()
+    records = {
+        int(n): _node_record(row)
+        for n, row in zip(node_ids, rows_from_table(table, places), strict=True)
+    }
+    if len(graph.rooms) or len(graph.buildings):
+        for layer in ("rooms", "buildings"):
+            try:
+                grouped = entry_table(loaded, t_ns, layer)
+            except InputError:  # the graph has none that hold places
+                continue
+            for row in rows_from_table(grouped):
+                records[parse_node_id(str(row["id"]))] = _node_record(row)
+    info = document(map_path, loaded.config.bins, [], t_ns, zone)
+    info.pop("entries")
+    info["map"] = Path(str(map_path)).name
+    info["nav_layer"] = graph.layer_name
+    return write_dynamic_graph(graph, records, info, out)
+
+
+def _node_record(row: dict[str, Any]) -> dict[str, Any]:
+    """A predict record without what the node itself holds (its position)."""
+    return {k: v for k, v in row.items() if k not in ("x", "y", "z")}

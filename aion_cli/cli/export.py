@@ -30,6 +30,7 @@ Examples:
       --format png -o day.png
   aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h \\
       --format mcap -o day.mcap --path-from p12 --path-to p87
+  aion export office.aion --time "2026-11-23 08:30" --format dsg -o office-4d.json
 
 \b
 Writes into OUT: the scene (nodes as spheres sized by flow and coloured by entropy, blue low
@@ -50,6 +51,11 @@ that time, to scrub through in Foxglove (topic /aion/scene, foxglove.SceneUpdate
 per entry named by its id, as `aion predict` prints it) or in RViz (/aion/markers,
 visualization_msgs/MarkerArray; /tf_static declares the frame "map"): the same spheres,
 arrows, cells, edges, mesh and path as the PLY scene, sizes on one scale for the whole series.
+
+\b
+--format dsg writes the 4D scene graph as a spark_dsg file, -o naming it (.json or .sparkdsg):
+the map's places, edges, rooms and buildings, each place and room with its dynamics at the
+time (the fields of `aion predict`) in its node metadata under "aion".
 """
 
 
@@ -84,10 +90,11 @@ arrows, cells, edges, mesh and path as the PLY scene, sizes on one scale for the
 @click.option(
     "--format",
     "fmt",
-    type=click.Choice(["ply", "pcd", "png", "mcap"]),
+    type=click.Choice(["ply", "pcd", "png", "mcap", "dsg"]),
     default="ply",
     show_default=True,
-    help="Point-cloud / scene format, png for a top-down picture, mcap for Foxglove/RViz.",
+    help="Point-cloud / scene format, png for a top-down picture, mcap for Foxglove/RViz, "
+    "dsg for the 4D scene graph as a spark_dsg file (.json / .sparkdsg).",
 )
 @click.option(
     "--path-from",
@@ -136,7 +143,25 @@ def command(
     ends = None
     if path_from is not None and path_to is not None:
         ends = path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
-    if fmt == "png":
+    if fmt == "dsg":
+        if len(times) != 1:
+            raise InputError(
+                "--format dsg writes the graph at one time", hint="use --time or --historical"
+            )
+        if ends is not None:
+            raise InputError("--format dsg holds no path: leave out --path-from/--path-to")
+        from aion_cli.exports import export_dsg
+
+        def write(advance: Any) -> str:
+            done = export_dsg(loaded, map_path, out_dir, times[0], zone)
+            advance()
+            return (
+                f"wrote {markup_safe(out_dir)}: {done.places:,} places "
+                f"({done.places_with_dynamics:,} with dynamics), {done.rooms} rooms, "
+                f"{done.buildings} buildings, {done.edges:,} place edges"
+            )
+
+    elif fmt == "png":
         from aion_cli.pictures.render import export_png
 
         def write(advance: Any) -> str:

@@ -1,0 +1,114 @@
+"""The 4D scene graph as a spark_dsg file (``aion export --format dsg``).
+
+The map's scene graph — places with their edges, rooms, buildings — written with spark_dsg
+as Hydra saves graphs (``.json``, or binary ``.sparkdsg``), each place and room carrying aion's
+dynamics at the export's time in its node **metadata** under ``"aion"`` (the fields of
+``aion predict --format json``: flow, flow_per_hour, flow_p10/p90, direction_deg, entropy,
+concentration, mean_speed, histogram, family...), and the graph's own metadata saying what
+the values are (map, time, zone, direction bins). A spark_dsg user reads them back with
+``G.get_node(NodeSymbol("p", 12)).attributes.metadata.get()["aion"]``; aion reads the file
+as any scene graph (``aion info``, ``build --graph``).
+
+Places go to the PLACES layer (3) whatever layer the map's graph took them from (named in the
+graph metadata, ``nav_layer``); a place of the map without an entry carries no ``"aion"``
+record. Hash cells are not nodes of the graph and are left out.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aion_cli.engine.types import GraphSnapshot
+from aion_cli.formats.outputs import OutputPathError, Staged, check_output
+
+#: suffixes spark_dsg saves (it chooses the encoding from the name)
+SUFFIXES = (".json", ".sparkdsg")
+#: the graph metadata key naming the writer; an existing file holding it may be replaced
+MARKER = "aion export"
+
+
+@dataclass(frozen=True)
+class DsgExportSummary:
+    """What was written: the file and how many nodes carry dynamics."""
+
+    path: Path
+    places: int
+    places_with_dynamics: int
+    rooms: int
+    buildings: int
+    edges: int
+
+
+def _written_by_aion(path: Path) -> bool:
+    try:
+        return MARKER.encode() in path.read_bytes()
+    except OSError:
+        return False
+
+
+def check_dsg_target(path: Path) -> None:
+    """Refuse ``-o`` before anything is computed: a folder, another suffix, a device, or an
+    existing file that is not a graph file aion exported."""
+    if path.is_dir():
+        raise OutputPathError(
+            f"-o {path} is a folder: --format dsg writes one file",
+            hint=f"name the file, e.g. -o {path / 'dsg.json'}",
+        )
+    if path.suffix.lower() not in SUFFIXES:
+        raise OutputPathError(
+            f"--format dsg writes a .json or .sparkdsg file, got -o {path.name!r}",
+            hint="e.g. -o dsg.json",
+        )
+    check_output(path, overwrite=True, recognise=_written_by_aion, what="a scene-graph file")
+
+
+def write_dynamic_graph(
+    graph: GraphSnapshot,
+    records: Mapping[int, dict[str, Any]],
+    info: dict[str, Any],
+    out: Path,
+) -> DsgExportSummary:
+    """Write ``graph`` to ``out`` with ``records[node id]`` (places, rooms, buildings) as each
+    node's ``"aion"`` metadata and ``info`` as the graph's; the file appears complete or not
+    at all."""
+    import spark_dsg
+
+    check_dsg_target(out)
+    dsg = spark_dsg.DynamicSceneGraph()
+
+    def add(layer: Any, attrs: Any, node_id: int, xyz: Any) -> None:
+        attrs.position = np.asarray(xyz, dtype=np.float64)
+        record = records.get(node_id)
+        if record is not None:
+            attrs.metadata.set({"aion": record})
+        dsg.add_node(layer, spark_dsg.NodeSymbol(node_id), attrs)
+
+    places = graph.places
+    for node_id, xyz in zip(places.ids.tolist(), places.xyz, strict=True):
+        attrs = spark_dsg.PlaceNodeAttributes()
+        attrs.real_place = True
+        add(spark_dsg.DsgLayers.PLACES, attrs, node_id, xyz)
+    for a, b in graph.edges.tolist():
+        dsg.insert_edge(
+            spark_dsg.NodeSymbol(int(places.ids[a])), spark_dsg.NodeSymbol(int(places.ids[b]))
+        )
+    for node_id, xyz in zip(graph.rooms.ids.tolist(), graph.rooms.xyz, strict=True):
+        add(spark_dsg.DsgLayers.ROOMS, spark_dsg.RoomNodeAttributes(), node_id, xyz)
+    for node_id, xyz in zip(graph.buildings.ids.tolist(), graph.buildings.xyz, strict=True):
+        add(spark_dsg.DsgLayers.BUILDINGS, spark_dsg.SemanticNodeAttributes(), node_id, xyz)
+    for layer in (places, graph.rooms):  # each node to its parent one layer up
+        for child, parent in zip(layer.ids.tolist(), layer.parent.tolist(), strict=True):
+            if parent and dsg.has_node(spark_dsg.NodeSymbol(parent)):
+                dsg.insert_edge(spark_dsg.NodeSymbol(child), spark_dsg.NodeSymbol(parent))
+    dsg.metadata.set({"aion": {"written_by": MARKER, **info}})
+    with Staged(out) as staged:
+        dsg.save(str(staged.path), include_mesh=False)
+    with_dynamics = sum(1 for node_id in places.ids.tolist() if node_id in records)
+    return DsgExportSummary(
+        out, len(places), with_dynamics, len(graph.rooms), len(graph.buildings), len(graph.edges)
+    )

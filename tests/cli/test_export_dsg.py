@@ -1,0 +1,128 @@
+"""``aion export --format dsg`` (formats/dsg_export.py): the map's scene graph as a spark_dsg
+file whose places and rooms carry ``aion predict``'s records in their metadata, read back with
+spark_dsg itself and with aion's own graph reader."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+import spark_dsg
+
+import aion_cli as aion
+from aion_cli.mapquery import load_map
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+
+AT = "2026-11-23 08:30"
+
+
+def _graph(path: Path) -> Any:
+    return spark_dsg.DynamicSceneGraph.load(str(path))
+
+
+def _record(graph: Any, label: str) -> dict[str, Any] | None:
+    node = graph.get_node(spark_dsg.NodeSymbol(label[0], int(label[1:])))
+    return node.attributes.metadata.get().get("aion")
+
+
+@pytest.mark.parametrize("name", ["dsg.json", "dsg.sparkdsg"])
+def test_every_place_and_room_carries_predict_records(
+    office: Office, tmp_path: Path, name: str
+) -> None:
+    out = tmp_path / name
+    result = run("export", office.map, "--time", AT, "--tz", "UTC", "--format", "dsg", "-o", out)
+    assert result.exit_code == 0, result.stderr
+    graph = _graph(out)
+    snapshot = load_map(office.map).graph
+    assert snapshot is not None
+    assert graph.get_layer(spark_dsg.DsgLayers.PLACES).num_nodes() == len(snapshot.places)
+    assert graph.get_layer(spark_dsg.DsgLayers.ROOMS).num_nodes() == len(snapshot.rooms)
+    assert graph.get_layer(spark_dsg.DsgLayers.PLACES).num_edges() == len(snapshot.edges)
+    places = run_json(
+        "predict", office.map, "--time", AT, "--tz", "UTC", "--layer", "places", "--format", "json"
+    )
+    assert places["entries"]
+    for row in places["entries"]:
+        record = _record(graph, row["id"])
+        assert record is not None, row["id"]
+        assert record == {k: v for k, v in row.items() if k not in ("x", "y", "z")}
+    rooms = run_json(
+        "predict", office.map, "--time", AT, "--tz", "UTC", "--layer", "rooms", "--format", "json"
+    )
+    for row in rooms["entries"]:
+        record = _record(graph, row["id"])
+        assert record is not None
+        assert record["flow"] == row["flow"]
+    meta = graph.metadata.get()["aion"]
+    assert (meta["mode"], meta["time"], meta["zone"]) == ("predicted", places["time"], "UTC")
+    assert meta["bins"] == places["bins"]
+    assert meta["written_by"] == "aion export"
+
+
+def test_historical_and_read_back_as_a_scene_graph(office: Office, tmp_path: Path) -> None:
+    """The exported file is a scene graph aion builds with: the same places bind the same
+    detections as the map's own graph did."""
+    out = tmp_path / "observed.json"
+    assert run("export", office.map, "--historical", "--format", "dsg", "-o", out).exit_code == 0
+    graph = _graph(out)
+    assert graph.metadata.get()["aion"]["mode"] == "historical"
+    observed = run_json("predict", office.map, "--historical", "--layer", "places", "--format",
+                        "json")
+    for row in observed["entries"]:
+        record = _record(graph, row["id"])
+        assert record is not None
+        assert record["flow"] == row["flow"]
+    info = run_json("info", out, "--format", "json")
+    assert info["places"] == len(observed["entries"])
+    rebuilt = run_json(
+        "build", office.log, "--graph", out, "-o", tmp_path / "again.aion", "--format", "json"
+    )
+    assert rebuilt["nodes"] == office.build["nodes"]
+    assert rebuilt["detections"]["used"] == office.build["detections"]["used"]
+
+
+def test_the_api_writes_it_too(office: Office, tmp_path: Path) -> None:
+    m = aion.Map.load(office.map)
+    (written,) = m.export(tmp_path / "api.json", time=AT, tz="UTC", format="dsg")
+    assert written == tmp_path / "api.json"
+    assert _graph(written).metadata.get()["aion"]["time"].startswith("2026-11-23 08:30")
+    with pytest.raises(aion.InputError, match="no path"):
+        m.export(tmp_path / "p.json", time=AT, format="dsg", path=("p0", "p2"))
+
+
+def test_bad_targets_and_options(office: Office, tmp_path: Path) -> None:
+    other = tmp_path / "mine.json"
+    other.write_text('{"mine": true}')
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    cases = [
+        (["--time", AT, "-o", tmp_path / "dsg.ply"], "writes a .json or .sparkdsg file"),
+        (["--time", AT, "-o", folder], "is a folder"),
+        (["--time", AT, "-o", other], "not a scene-graph file aion wrote"),
+        (["--from", "2026-11-23", "--to", "2026-11-24", "-o", tmp_path / "s.json"], "one time"),
+        (["--time", AT, "--path-from", "p0", "--path-to", "p2", "-o", tmp_path / "p.json"],
+         "no path"),
+    ]
+    for extra, fragment in cases:
+        result = run("export", office.map, "--format", "dsg", *map(str, extra))
+        assert result.exit_code == 2, (extra, result.stderr)
+        assert_one_line_error(result.stderr, fragment)
+    assert other.read_text() == '{"mine": true}'
+    again = tmp_path / "again.json"
+    for _ in range(2):  # an exported file is replaced by the next export
+        done = run("export", office.map, "--time", AT, "--format", "dsg", "-o", again)
+        assert done.exit_code == 0, done.stderr
+
+
+def test_a_map_without_a_graph_is_refused(tmp_path: Path) -> None:
+    from tests.cli.logdata import write_office_log
+
+    log = tmp_path / "bare.mcap"
+    write_office_log(log, graph=False)
+    bare = tmp_path / "bare.aion"
+    assert run("build", log, "-o", bare).exit_code == 0
+    result = run("export", bare, "--historical", "--format", "dsg", "-o", tmp_path / "g.json")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no scene graph")
+    assert not (tmp_path / "g.json").exists()
