@@ -28,7 +28,7 @@ def node_ids_of(map_path: Path) -> list[str]:
     from aion_cli.engine.node_ids import node_labels
     from aion_cli.mapquery import load_map
 
-    loaded = load_map(map_path)
+    loaded = load_map(map_path, forecast_only=True)  # as queries read it
     parts = [np.asarray(loaded.state.entries.node_id, dtype=np.uint64)]
     graph = loaded.graph
     if graph is not None:
