@@ -130,3 +130,17 @@ def test_a_mismatch_names_the_layout_the_file_looks_like(tmp_path: Path) -> None
     eth = _write(tmp_path, "780\t1.0\t8.46\t3.59\n790\t1.0\t9.57\t3.79\n", "e.txt")
     assert layout_mismatch(eth, "ucy", shifted=False) is None  # eth and ucy are one format
     assert layout_mismatch(eth, "lincoln", shifted=True) is not None
+
+
+@settings(max_examples=200, deadline=None)
+@given(content=st.binary(max_size=2048) | st.text(max_size=2048).map(str.encode))
+def test_any_bytes_give_a_guess_or_none_never_an_error(content: bytes) -> None:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "x.csv"
+        path.write_bytes(content)
+        guess = guess_layout(path)
+        mismatch = layout_mismatch(path, "canonical", shifted=False)
+    assert guess is None or (guess.layouts and guess.why)
+    assert mismatch is None or "--layout" in mismatch
