@@ -50,7 +50,18 @@ def describe_graph(path: Path, nav_layer: str | None = None) -> dict[str, Any]:
         ],
         "skipped": dict(file.skipped),
         "notes": loaded.notes(),
+        "aion": _aion_dynamics(file.graph),
     }
+
+
+def _aion_dynamics(graph: Any) -> dict[str, Any] | None:
+    """What ``aion export --format dsg`` recorded in the graph's metadata (the map, the time,
+    whether predicted or observed), or None for a graph that carries no aion dynamics."""
+    try:
+        record = graph.metadata.get().get("aion")
+    except Exception:  # no metadata interface, or metadata spark_dsg cannot give back
+        return None
+    return record if isinstance(record, dict) else None
 
 
 def print_graph(report: dict[str, Any]) -> None:
@@ -76,6 +87,17 @@ def print_graph(report: dict[str, Any]) -> None:
     table.add_row("rooms", f"{report['rooms']:,} ({report['places_with_room']:,} places in a room)")
     table.add_row("buildings", f"{report['buildings']:,}")
     table.add_row("agent poses", f"{report['agent_poses']:,}")
+    dynamics = report.get("aion")
+    if dynamics is not None:
+        when = (
+            f"predicted at {dynamics['time']} ({dynamics.get('zone') or '-'})"
+            if dynamics.get("time")
+            else "as observed"
+        )
+        table.add_row(
+            "aion dynamics",
+            f"flows {when} from {dynamics.get('map', '?')}, in each place's and room's metadata",
+        )
     mesh = report["mesh"]
     table.add_row(
         "mesh",

@@ -13,6 +13,7 @@ import spark_dsg
 import aion_cli as aion
 from aion_cli.mapquery import load_map
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+from tests.cli.logdata import save_graph_file
 
 AT = "2026-11-23 08:30"
 
@@ -75,6 +76,12 @@ def test_historical_and_read_back_as_a_scene_graph(office: Office, tmp_path: Pat
         assert record["flow"] == row["flow"]
     info = run_json("info", out, "--format", "json")
     assert info["places"] == len(observed["entries"])
+    assert info["aion"]["mode"] == "historical"
+    assert info["aion"]["map"] == office.map.name
+    shown = run("info", out)
+    assert "flows as observed from" in shown.stdout
+    plain = save_graph_file(tmp_path / "plain.json")  # a graph aion did not export
+    assert run_json("info", plain, "--format", "json")["aion"] is None
     rebuilt = run_json(
         "build", office.log, "--graph", out, "-o", tmp_path / "again.aion", "--format", "json"
     )
