@@ -162,7 +162,13 @@ def _print(report: dict[str, Any]) -> None:
             f"[dim]{markup_safe(snap['option'])} {markup_safe(snap['point'])} snapped to "
             f"{markup_safe(snap['node'])} ({snap['distance_m']:.2f} m away)[/dim]"
         )
-    title = f"{report['from']} -> {report['to']}, departing {report['depart']}"
+    named = {
+        snap["option"]: f"{snap.get('room') or snap.get('building')} ({snap['node']})"
+        for snap in report["snapped"]
+        if "room" in snap or "building" in snap
+    }
+    ends = named.get("--from", report["from"]), named.get("--to", report["to"])
+    title = f"{ends[0]} -> {ends[1]}, departing {report['depart']}"
     table = Table(title=Text(printable(title)))
     table.add_column("plan", style="bold")
     table.add_column("length", justify="right")

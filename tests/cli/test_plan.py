@@ -146,6 +146,7 @@ def test_rooms_and_buildings_are_endpoints(office: Office) -> None:
     table = run("plan", office.map, "--from", "R1", "--to", "p0", "--time", AT)
     assert table.exit_code == 0, table.stderr
     assert "--from R1: its place nearest the room's centre, p2" in table.stderr
+    assert "R1 (p2) -> p0" in table.stdout
     missing = run("plan", office.map, "--from", "R9", "--to", "p0", "--time", AT)
     assert missing.exit_code == 2
     assert_one_line_error(missing.stderr, "R9")
