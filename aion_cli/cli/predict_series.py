@@ -113,7 +113,8 @@ def _print(table: Any, zone: Zone, shown: int) -> None:
 
     days = sorted({from_ns(t, zone).date().isoformat() for t in table.times_ns})
     when = days[0] if len(days) == 1 else f"{days[0]} .. {days[-1]}"
-    out = Table(title=Text(printable(f"predicted flow per window, {when} ({zone.name})")))
+    title = printable(f"predicted flow per window, {when} ({zone.name})")
+    out = Table(title=Text(title), min_width=len(title))  # a narrow table keeps its title whole
     out.add_column("time", style="bold")
     for entry in table.entries[:shown]:
         out.add_column(printable(str(entry["id"])), justify="right")
