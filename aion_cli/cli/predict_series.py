@@ -57,7 +57,7 @@ def run_series(
     import click
 
     from aion_cli.cli.common import announce_time, series_of
-    from aion_cli.cli.console import note
+    from aion_cli.cli.console import note, progress
     from aion_cli.cli.output import to_csv, to_json
     from aion_cli.prediction_series import (
         SERIES_CSV_KEYS,
@@ -68,7 +68,11 @@ def run_series(
 
     times, zone = series_of(t_from, t_to, step, tz, loaded)
     layer, nodes, at, top = request
-    table = predict_series(loaded, times, layer, nodes, at, top)
+    with progress(quiet=len(times) == 1) as bar:
+        task = bar.add_task("predicting", total=len(times), unit="times")
+        table = predict_series(
+            loaded, times, layer, nodes, at, top, lambda done: bar.update(task, completed=done)
+        )
     labels = [format_ns(t, zone) for t in times]
     announce_time(times[0], zone, "from", loaded)
     if fmt == "json":
