@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from aion_cli.cli.common import AionPath
 from aion_cli.cli.graph_options import graph_period_option, nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, to_json
 
@@ -137,17 +138,17 @@ def _load_config(path: Path | None) -> Any:
         "timezone",
     ),
 )
-@click.argument("logs", nargs=-1, type=click.Path(path_type=Path))
+@click.argument("logs", nargs=-1, type=AionPath(path_type=Path))
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     help="Map file to write [default: the first log's name with .aion, or --map].",
 )
 @click.option(
     "--map",
     "continue_from",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     help="Continue this existing map with the logs (equals building from all logs).",
 )
 @click.option(
@@ -161,7 +162,7 @@ def _load_config(path: Path | None) -> Any:
 @click.option(
     "--detections-mapping",
     "detections_mapping",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     metavar="FILE",
     help="TOML mapping that reads people from other message types (README, People "
     "detections; `aion info LOG --suggest-mapping TOPIC` writes one).",
@@ -174,7 +175,7 @@ def _load_config(path: Path | None) -> Any:
 @click.option(
     "--graph",
     "graph_file",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     help="Scene graph saved by Hydra (dsg.json, .sparkdsg) instead of the log's.",
 )
 @nav_layer_option
@@ -199,7 +200,7 @@ def _load_config(path: Path | None) -> Any:
 @click.option(
     "--config",
     "config_file",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     help="TOML file of model parameters (see --print-config).",
 )
 @click.option(

@@ -18,9 +18,24 @@ TIME_HELP = (
 )
 
 
+class AionPath(click.Path):
+    """``click.Path`` that refuses an empty value: ``Path("")`` is the current folder, so an
+    unset shell variable (``aion build "$LOG"``) would otherwise read or write "here"."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str) and not value.strip():
+            self.fail(
+                "an empty path (an unset shell variable?): name the file or folder "
+                "('.' for the current folder)",
+                param,
+                ctx,
+            )
+        return super().convert(value, param, ctx)
+
+
 def map_argument(func: F) -> F:
     """The MAP positional argument (existence is checked by ``load_map`` with a clear error)."""
-    return click.argument("map_path", metavar="MAP", type=click.Path(path_type=Path))(func)
+    return click.argument("map_path", metavar="MAP", type=AionPath(path_type=Path))(func)
 
 
 def tz_option(func: F) -> F:

@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from aion_cli.cli.common import AionPath
 from aion_cli.cli.output import AionCommand, format_option, map_output_option, to_json
 
 EPILOG = """\b
@@ -34,7 +35,7 @@ bytes_per_entry, left_out.
     cls=AionCommand,
     epilog=EPILOG,
 )
-@click.argument("map_path", metavar="MAP", type=click.Path(path_type=Path))
+@click.argument("map_path", metavar="MAP", type=AionPath(path_type=Path))
 @map_output_option("Query-only map file")
 @click.option("-q", "--quiet", is_flag=True, help="No summary.")
 @format_option(choices=("table", "json"))

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from aion_cli.cli.common import AionPath
 from aion_cli.cli.output import AionCommand
 
 if TYPE_CHECKING:
@@ -81,12 +82,12 @@ def _container_for(output: Path, container: str | None) -> str:
     epilog=EPILOG,
     advanced=("container", "msgtype", "start_text", "tz", "fps", "length_unit"),
 )
-@click.argument("tracks", type=click.Path(path_type=Path))
+@click.argument("tracks", type=AionPath(path_type=Path))
 @click.option(
     "-o",
     "--output",
     required=True,
-    type=click.Path(path_type=Path),
+    type=AionPath(path_type=Path),
     help="Log to write: .mcap, .bag, or a rosbag2 folder (no suffix).",
 )
 @click.option(
@@ -106,7 +107,7 @@ def _container_for(output: Path, container: str | None) -> str:
 @click.option(
     "--graph",
     "graph_file",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     help="Scene graph (dsg.json, .sparkdsg) to publish in the log as well.",
 )
 @click.option(

@@ -11,6 +11,7 @@ from typing import Any
 
 import click
 
+from aion_cli.cli.common import AionPath
 from aion_cli.cli.output import Column, emit, format_option, num
 
 DEFAULT_DATA = Path("../shared/data")
@@ -64,7 +65,7 @@ SCORE_COLUMNS = (
 @click.option(
     "--data",
     "data_dir",
-    type=click.Path(path_type=Path),
+    type=AionPath(path_type=Path),
     default=_default_dir("atc"),
     show_default=True,
     help="Folder with atc-1024-H_{train,test}.csv.",
@@ -79,7 +80,7 @@ SCORE_COLUMNS = (
 )
 @click.option("--radius", type=float, default=1.0, show_default=True,
               help="Association radius (m) between a test detection and an aion entry.")
-@click.option("--config", "config_path", type=click.Path(exists=True, path_type=Path),
+@click.option("--config", "config_path", type=AionPath(exists=True, path_type=Path),
               help="TOML model parameters (see aion build --print-config).")
 @click.option("--per-hour", is_flag=True, help="One row per model and hour.")
 @format_option(("table", "json"))
@@ -109,7 +110,7 @@ def atc(
 @click.option(
     "--data",
     "data_dir",
-    type=click.Path(path_type=Path),
+    type=AionPath(path_type=Path),
     default=_default_dir("fremen_door"),
     show_default=True,
     help="Folder with training_data.txt and test_{times,data}_k.txt.",
@@ -155,14 +156,14 @@ ACTIVITY_COLUMNS = (
 @click.option(
     "--data",
     "data_dir",
-    type=click.Path(path_type=Path),
+    type=AionPath(path_type=Path),
     default=_default_dir("lincoln"),
     show_default=True,
     help="Folder with the Lincoln corridor files (2017-*.txt, 2017-05-31_heading.csv).",
 )
 @click.option("--radius", type=float, default=1.0, show_default=True,
               help="Association radius (m) between a test detection and an aion entry.")
-@click.option("--config", "config_path", type=click.Path(exists=True, path_type=Path),
+@click.option("--config", "config_path", type=AionPath(exists=True, path_type=Path),
               help="TOML model parameters (see aion build --print-config) [default: the "
               "defaults with timezone Europe/London].")
 @click.option("--train", "train_days", metavar="DAY,...",
@@ -242,9 +243,9 @@ TABLE_I_COLUMNS = (
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--radius", type=float, default=1.0, show_default=True,
               help="A grid cell takes the nearest aion entry within this radius (m).")
-@click.option("--config", "config_path", type=click.Path(exists=True, path_type=Path),
+@click.option("--config", "config_path", type=AionPath(exists=True, path_type=Path),
               help="TOML model parameters (see aion build --print-config).")
-@click.option("--keep", "work_dir", type=click.Path(path_type=Path),
+@click.option("--keep", "work_dir", type=AionPath(path_type=Path),
               help="Keep the simulated logs and maps in this folder.")
 @format_option(("table", "json"))
 def office(
@@ -271,9 +272,9 @@ def office(
 
 
 @evaluate.command("report")
-@click.option("-o", "--output", "out_dir", type=click.Path(path_type=Path), required=True,
+@click.option("-o", "--output", "out_dir", type=AionPath(path_type=Path), required=True,
               help="Folder for report.md and its PNG plots.")
-@click.option("--data", "data_dir", type=click.Path(path_type=Path), default=DEFAULT_DATA,
+@click.option("--data", "data_dir", type=AionPath(path_type=Path), default=DEFAULT_DATA,
               show_default=True, help="The shared data folder (atc/, lincoln/, fremen_door/).")
 @click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True)
 @click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True)

@@ -9,6 +9,7 @@ import click
 
 from aion_cli.cli.common import (
     TIME_HELP,
+    AionPath,
     announce_time,
     map_argument,
     resolve_time,
@@ -72,7 +73,7 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     "--output",
     "out_dir",
     required=True,
-    type=click.Path(path_type=Path),
+    type=AionPath(path_type=Path),
     help="Folder to write into (created if missing); for png and mcap, the file.",
 )
 @click.option("-t", "--time", "time_text", metavar="T", help="Prediction time. " + TIME_HELP)

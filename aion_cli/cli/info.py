@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from aion_cli.cli.common import AionPath
 from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import format_option, human_size, to_json
 
@@ -129,7 +130,7 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
 
 
 @click.command("info", short_help="What is in logs (or a map), what aion uses.", epilog=EPILOG)
-@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("logs", nargs=-1, required=True, type=AionPath(path_type=Path))
 @click.option(
     "--log-format",
     type=click.Choice(["mcap", "bag", "rosbag2"]),
@@ -138,7 +139,7 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
 @click.option(
     "--detections-mapping",
     "detections_mapping",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     metavar="FILE",
     help="TOML mapping of other message types to people (as aion build takes it).",
 )

@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from aion_cli.cli.common import AionPath
 from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, map_output_option, to_json
 
@@ -43,12 +44,12 @@ time_span{start_ns, end_ns, seconds}, notes.
     epilog=EPILOG,
     advanced=("nav_layer",),
 )
-@click.argument("maps", nargs=-1, type=click.Path(path_type=Path))
+@click.argument("maps", nargs=-1, type=AionPath(path_type=Path))
 @map_output_option()
 @click.option(
     "--graph",
     "graph_file",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     help="Scene graph saved by Hydra (dsg.json, .sparkdsg) to bind the merged map to.",
 )
 @click.option(

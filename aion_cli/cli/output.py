@@ -15,6 +15,7 @@ from typing import Any
 
 import click
 
+from aion_cli.cli.common import AionPath
 from aion_cli.formats.serialize import to_csv, to_json
 
 FORMATS = ("table", "json", "csv")
@@ -74,7 +75,7 @@ def map_output_option(what: str = "Map file") -> Any:
         "-o",
         "--output",
         required=True,
-        type=click.Path(path_type=Path, dir_okay=False),
+        type=AionPath(path_type=Path, dir_okay=False),
         help=f"{what} to write (a new file, or an existing map to replace).",
     )
 

@@ -9,6 +9,7 @@ import click
 
 from aion_cli.cli.common import (
     TIME_HELP,
+    AionPath,
     announce_time,
     map_argument,
     resolve_time,
@@ -84,14 +85,14 @@ cost in the legend.
 @click.option(
     "--export",
     "export_path",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=AionPath(path_type=Path, dir_okay=False),
     help="Also write the scene with the planned (temporal) path to this .ply file.",
 )
 @click.option(
     "--png",
     "png_path",
     metavar="FILE",
-    type=click.Path(path_type=Path),
+    type=AionPath(path_type=Path),
     help="Also draw both paths over the flow map at the departure into this .png file.",
 )
 @format_option(choices=("table", "json"))

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from aion_cli.cli.common import TIME_HELP, map_argument, tz_option
+from aion_cli.cli.common import TIME_HELP, AionPath, map_argument, tz_option
 from aion_cli.cli.output import AionCommand
 
 EPILOG = """\b
@@ -41,7 +41,7 @@ already in OUT that the report does not write are kept.
     "--output",
     "out_dir",
     required=True,
-    type=click.Path(path_type=Path),
+    type=AionPath(path_type=Path),
     help="Folder to write into (created if missing).",
 )
 @click.option(

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from aion_cli.cli.common import AionPath
 from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import AionCommand
 
@@ -129,7 +130,7 @@ def _event_counts(r: SceneResult) -> str:
     "-o",
     "--output",
     required=True,
-    type=click.Path(path_type=Path),
+    type=AionPath(path_type=Path),
     help="Log to write (.mcap, .bag, rosbag2 folder); a folder with --scenes > 1.",
 )
 @click.option("--days", type=float, default=1.0, show_default=True, help="Simulated days.")

@@ -131,6 +131,10 @@ def _mistakes(office: Office, folder: Path) -> dict[str, tuple[list[Any], str]]:
             "bogus_key",
         ),
         "locked map": (["build", office.log, "-o", _locked_map(office, folder)], "another process"),
+        # an unset shell variable: "" would be the current folder, read as a rosbag2 bag
+        "an empty log path": (["build", "", "-o", out], "an empty path"),
+        "an empty map path": (["predict", "", "--time", "now"], "an empty path"),
+        "an empty output path": (["build", office.log, "-o", ""], "an empty path"),
     }
 
 
@@ -157,6 +161,9 @@ CASES = (
     "a log given as the map",
     "config with an unknown key",
     "locked map",
+    "an empty log path",
+    "an empty map path",
+    "an empty output path",
 )
 
 
