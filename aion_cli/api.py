@@ -71,7 +71,7 @@ class Map:
         """Read a map file (checksums and version checked as members are used)."""
         from aion_cli.mapquery import load_map
 
-        p = Path(os.fspath(path))
+        p = as_path(path)
         return cls(load_map(p), p)
 
     @classmethod
@@ -248,7 +248,7 @@ class Map:
         ends = None
         if path is not None:
             ends = path_ends(self._loaded, str(path[0]), str(path[1]))
-        out = Path(os.fspath(folder))
+        out = as_path(folder)
         label = str(self.path) if self.path is not None else "<memory>"
         if format == "dsg":
             from aion_cli.exports import export_dsg
@@ -285,7 +285,7 @@ class Map:
             when, zone = self._time("now" if time is None else time, tz)
         ends = None if path is None else path_ends(self._loaded, str(path[0]), str(path[1]))
         name = self.path.name if self.path is not None else "<memory>"
-        return export_png(self._loaded, name, Path(os.fspath(file)), [when], zone, ends)
+        return export_png(self._loaded, name, as_path(file), [when], zone, ends)
 
     # -- saving ------------------------------------------------------------------------------
 
@@ -295,7 +295,7 @@ class Map:
         byte (its checksums stay valid); an in-memory map is written from its state."""
         from aion_cli.formats.mapfile import check_map_target, map_lock, write_map
 
-        target = Path(os.fspath(path))
+        target = as_path(path)
         if self.path is not None:
             if target.exists() and target.resolve() == self.path.resolve():
                 return target
@@ -328,6 +328,15 @@ class Map:
     def __repr__(self) -> str:
         where = str(self.path) if self.path is not None else "in memory"
         return f"<aion.Map {where}: {len(self.state.entries.kind)} entries>"
+
+
+def as_path(value: PathLike) -> Path:
+    """A path argument as a ``Path``; an empty one is an ``InputError`` (``Path("")`` is the
+    current folder: an unset variable must not mean "here", as on the command line)."""
+    text = os.fspath(value)
+    if not str(text).strip():
+        raise InputError("an empty path was given", hint="name the file or folder ('.' for here)")
+    return Path(text)
 
 
 def to_ns(time: TimeLike, zone: Zone) -> int:
@@ -380,10 +389,10 @@ def build(
     paths = [logs] if isinstance(logs, (str, os.PathLike)) else list(logs)
 
     def opt(p: PathLike | None) -> Path | None:
-        return None if p is None else Path(os.fspath(p))
+        return None if p is None else as_path(p)
 
     opts = BuildOptions(
-        logs=tuple(Path(os.fspath(p)) for p in paths),
+        logs=tuple(as_path(p) for p in paths),
         output=opt(output),
         config=config,
         log_format=log_format,
@@ -426,9 +435,9 @@ def merge(
     if isinstance(paths, (str, os.PathLike)):
         raise InputError("merge takes a list of map files", hint="merge([a, b], output)")
     report = merge_map_files(
-        [Path(os.fspath(p)) for p in paths],
-        Path(os.fspath(output)),
-        None if graph is None else Path(os.fspath(graph)),
+        [as_path(p) for p in paths],
+        as_path(output),
+        None if graph is None else as_path(graph),
         lineage,
         progress,
         nav_layer,
@@ -445,7 +454,7 @@ def compact(source: PathLike, output: PathLike) -> Map:
     ``Map.report`` (a ``CompactReport``)."""
     from aion_cli.query_only import compact_map
 
-    report = compact_map(Path(os.fspath(source)), Path(os.fspath(output)))
+    report = compact_map(as_path(source), as_path(output))
     made = Map.load(report.output)
     made.report = report
     return made

@@ -150,6 +150,17 @@ def test_bad_inputs_are_typed_errors(example: dict[str, Any], tmp_path: Path) ->
     with pytest.raises(aion.InputError):
         m.save(notes)  # never replaces a file that is not a map
     assert notes.read_text() == "mine"
+    for call in (  # an empty path is never the current folder
+        lambda: aion.build([""], output=tmp_path / "x.aion"),
+        lambda: aion.build(["samples/office.mcap"], output=""),
+        lambda: aion.Map.load(""),
+        lambda: m.save(""),
+        lambda: m.export("", time=AT),
+        lambda: aion.merge(["", ""], tmp_path / "y.aion"),
+    ):
+        with pytest.raises(aion.InputError, match="an empty path"):
+            call()
+    assert not (tmp_path / "x.aion").exists()
 
 
 def test_an_in_memory_state_is_saved_and_reloads_equal(tmp_path: Path) -> None:
