@@ -17,11 +17,11 @@ as the CLI reports them. The CLI's ``predict``, ``plan`` and ``export`` are form
 the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
 :mod:`aion_cli.exports`), so results are equal to their JSON output.
 
-:class:`Map`, :func:`build`, :func:`merge`, :func:`compact` and :func:`to_ns` are here; the
-query results :class:`Table` and :class:`Plan` live in :mod:`aion_cli.api_results` and are
-re-exported here, so ``from aion_cli.api import Map, Plan, Table, build, compact, merge,
-to_ns`` imports the whole API (``aion_cli`` itself re-exports all of them but ``merge`` and
-``compact``).
+:class:`Map` and :func:`to_ns` are here; the functions that make maps (:func:`build`,
+:func:`merge`, :func:`compact`) live in :mod:`aion_cli.api_make` and the query results
+:class:`Table` and :class:`Plan` in :mod:`aion_cli.api_results`; both are re-exported here, so
+``from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns`` imports the whole
+API (``aion_cli`` itself re-exports all of it).
 """
 
 from __future__ import annotations
@@ -33,11 +33,12 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Union
 
+from aion_cli.api_make import as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
-    from aion_cli.build_report import BuildReport, ProgressSink
+    from aion_cli.build_report import BuildReport
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.manifest import Manifest
@@ -46,6 +47,8 @@ if TYPE_CHECKING:
     from aion_cli.prediction_series import SeriesTable
     from aion_cli.query_only import CompactReport
     from aion_cli.timeparse import Zone
+
+__all__ = ["Map", "Plan", "Table", "as_path", "build", "compact", "merge", "to_ns"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 TimeLike = str | int | datetime
@@ -198,12 +201,16 @@ class Map:
         time: TimeLike = "now",
         tz: str | None = None,
         speed: float | None = None,
+        leave: tuple[TimeLike, TimeLike] | None = None,
+        step: str | float = "10m",
     ) -> Plan:
-        """A path from ``start`` to ``goal`` (node ids ``"p12"`` or coordinates ``"x,y"``)
-        departing at ``time``, avoiding busy and opposing flows, with the distance-only
-        path beside it (``Plan.distance_only``), as ``aion plan``."""
+        """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms ``"R3"`` or
+        coordinates ``"x,y"``) departing at ``time``, avoiding busy and opposing flows, with
+        the distance-only path beside it (``Plan.distance_only``), as ``aion plan``. With
+        ``leave=(earliest, latest)``: the best departure every ``step`` (``"10m"`` or
+        seconds) between them, every departure's cost in ``Plan.departures`` (``--leave``)."""
         from aion_cli.mapquery import nav_graph
-        from aion_cli.routes import plan_routes, resolve_endpoint
+        from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
 
         if speed is not None and not 0.01 <= speed <= 20.0:
             raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
@@ -211,9 +218,24 @@ class Map:
         nav = nav_graph(self._loaded)
         graph = self._loaded.graph
         a, b = resolve_endpoint(start, nav, graph), resolve_endpoint(goal, nav, graph)
-        routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
         snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
-        return Plan.from_routes(routes, zone, snapped)
+        if leave is None:
+            routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
+            return Plan.from_routes(routes, zone, snapped)
+        from dataclasses import replace
+
+        from aion_cli.api_results import departure_rows
+        from aion_cli.prediction_series import series_times
+        from aion_cli.timeparse import step_seconds
+
+        seconds = step_seconds(step) if isinstance(step, str) else float(step)
+        if not seconds >= 1.0:
+            raise InputError(f"step must be at least 1 s, got {step!r}")
+        earliest, latest = (self._time(t, tz)[0] for t in leave)
+        times = series_times(earliest, latest, int(seconds * 1e9))
+        plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
+        made = Plan.from_routes(plans[best], zone, snapped)
+        return replace(made, departures=departure_rows(plans, best, zone))
 
     def export(
         self,
@@ -330,15 +352,6 @@ class Map:
         return f"<aion.Map {where}: {len(self.state.entries.kind)} entries>"
 
 
-def as_path(value: PathLike) -> Path:
-    """A path argument as a ``Path``; an empty one is an ``InputError`` (``Path("")`` is the
-    current folder: an unset variable must not mean "here", as on the command line)."""
-    text = os.fspath(value)
-    if not str(text).strip():
-        raise InputError("an empty path was given", hint="name the file or folder ('.' for here)")
-    return Path(text)
-
-
 def to_ns(time: TimeLike, zone: Zone) -> int:
     """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (naive: in
     ``zone``) or integer nanoseconds; outside 1900 .. 2261 is an ``InputError``."""
@@ -355,106 +368,3 @@ def to_ns(time: TimeLike, zone: Zone) -> int:
     if isinstance(time, str):
         return parse_time(time, zone)
     raise InputError(f"not a time: {time!r}", hint="a time string, a datetime or nanoseconds")
-
-
-def build(
-    logs: PathLike | Sequence[PathLike],
-    output: PathLike | None = None,
-    *,
-    continue_from: PathLike | None = None,
-    config: ModelConfig | None = None,
-    graph: PathLike | None = None,
-    tz: str | None = None,
-    detection_topics: Sequence[str] = (),
-    graph_topic: str | None = None,
-    map_frame: str = "map",
-    base_frame: str = "base_link",
-    derive_graph: bool = False,
-    nav_layer: str | None = None,
-    detections_mapping: PathLike | None = None,
-    log_format: str | None = None,
-    workers: int = 1,
-    scheduler: str | None = None,
-    part: bool = False,
-    progress: ProgressSink | None = None,
-) -> Map:
-    """Build a map from logs (or extend ``continue_from`` with them) and write it to
-    ``output`` (default: the first log's name with ``.aion``), as ``aion build``; the map,
-    with what the build did in ``Map.report``. ``workers`` / ``scheduler`` / ``part``: as
-    ``aion build --workers`` (0: one per core; worker processes fork from this one, so a
-    script that builds with workers needs the usual ``if __name__ == "__main__":`` guard on
-    platforms without ``fork``), ``--scheduler`` and ``--part``."""
-    from aion_cli.pipeline import BuildOptions, build_map
-
-    paths = [logs] if isinstance(logs, (str, os.PathLike)) else list(logs)
-
-    def opt(p: PathLike | None) -> Path | None:
-        return None if p is None else as_path(p)
-
-    opts = BuildOptions(
-        logs=tuple(as_path(p) for p in paths),
-        output=opt(output),
-        config=config,
-        log_format=log_format,
-        detection_topics=tuple(detection_topics),
-        graph_topic=graph_topic,
-        map_frame=map_frame,
-        base_frame=base_frame,
-        graph_file=opt(graph),
-        nav_layer=nav_layer,
-        derive_graph=derive_graph,
-        continue_from=opt(continue_from),
-        timezone=tz,
-        detections_mapping=opt(detections_mapping),
-        workers=workers,
-        scheduler=scheduler,
-        part=part,
-    )
-    report = build_map(opts, progress)
-    made = Map.load(report.output)
-    made.report = report
-    return made
-
-
-def merge(
-    paths: Sequence[PathLike],
-    output: PathLike,
-    *,
-    graph: PathLike | None = None,
-    lineage: str = "auto",
-    nav_layer: str | None = None,
-    progress: ProgressSink | None = None,
-) -> Map:
-    """Merge map files of disjoint time into ``output``, as ``aion merge``
-    (:func:`aion_cli.merging.merge_map_files`: same model parameters, no log in two maps,
-    ``lineage`` auto / same / different, ``graph`` a Hydra graph file to bind to; one part
-    map alone, ``aion build --part``, is made a map); the merged map, with what the merge did
-    in ``Map.report`` (a ``MergeReport``)."""
-    from aion_cli.merging import merge_map_files
-
-    if isinstance(paths, (str, os.PathLike)):
-        raise InputError("merge takes a list of map files", hint="merge([a, b], output)")
-    report = merge_map_files(
-        [as_path(p) for p in paths],
-        as_path(output),
-        None if graph is None else as_path(graph),
-        lineage,
-        progress,
-        nav_layer,
-    )
-    made = Map.load(report.output)
-    made.report = report
-    return made
-
-
-def compact(source: PathLike, output: PathLike) -> Map:
-    """Write the query-only copy of the map ``source`` to ``output``, as ``aion compact``
-    (:func:`aion_cli.query_only.compact_map`: the same answers to every query, without the
-    Fourier sums that continuing and merging need); the copy, with what was done in
-    ``Map.report`` (a ``CompactReport``)."""
-    from aion_cli.query_only import compact_map
-
-    report = compact_map(as_path(source), as_path(output))
-    made = Map.load(report.output)
-    made.report = report
-    return made

@@ -77,6 +77,8 @@ class Plan:
     arrival: list[str]
     distance_only: Plan | None = None
     snapped: list[dict[str, Any]] = field(default_factory=list)
+    # with a departure span (``aion plan --leave``): every departure's cost, the best marked
+    departures: list[dict[str, Any]] = field(default_factory=list)
 
     @classmethod
     def from_routes(
@@ -133,4 +135,23 @@ class Plan:
             "temporal": part(self),
             "distance_only": part(other),
             "snapped": [dict(s) for s in self.snapped],
+        } | ({"departures": [dict(d) for d in self.departures]} if self.departures else {})
+
+
+def departure_rows(plans: list[Any], best: int, zone: Zone) -> list[dict[str, Any]]:
+    """One record per departure (JSON ``departures``): time, the temporal plan's cost, length
+    and walking time, the distance-only path's cost then, and which is the best."""
+    from aion_cli.timeparse import format_ns
+
+    return [
+        {
+            "depart": format_ns(p.depart_ns, zone),
+            "depart_ns": p.depart_ns,
+            "cost": p.temporal.cost,
+            "length_m": p.temporal.length_m,
+            "duration_s": p.temporal.duration_s,
+            "distance_only_cost": p.distance_only.cost,
+            "best": k == best,
         }
+        for k, p in enumerate(plans)
+    ]

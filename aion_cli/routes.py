@@ -190,3 +190,23 @@ def _route(result: PlanResult, cost: float, depart_ns: int | None, depart_s: flo
         float(cost),
         arrival,
     )
+
+
+def plan_departures(
+    loaded: LoadedMap,
+    start: int,
+    goal: int,
+    times_ns: list[int],
+    speed: float | None = None,
+    nav: NavGraph | None = None,
+) -> tuple[list[Routes], int]:
+    """:func:`plan_routes` for each departure of ``times_ns`` (``aion plan --leave``), and
+    the index of the best one: the least temporal cost, the earliest of equal ones."""
+    from aion_cli.mapquery import nav_graph
+
+    if not times_ns:
+        raise ValueError("no departure time")
+    nav = nav if nav is not None else nav_graph(loaded)
+    plans = [plan_routes(loaded, start, goal, t, speed, nav) for t in times_ns]
+    costs = [p.temporal.cost for p in plans]
+    return plans, costs.index(min(costs))

@@ -48,14 +48,19 @@ def tz_option(func: F) -> F:
     )(func)
 
 
-def resolve_time(text: str, tz: str | None, loaded: Any = None) -> tuple[int, Zone]:
-    """Parse ``text`` in zone ``tz``; without ``tz``, the zone the map was built for (if
-    any), else the machine's local zone (see :mod:`aion_cli.timeparse`)."""
+def map_zone(tz: str | None, loaded: Any = None) -> Zone:
+    """The zone ``tz``; without it, the zone the map was built for (if any), else the
+    machine's local zone (see :mod:`aion_cli.timeparse`)."""
     if tz is None and loaded is not None:
         from aion_cli.manifest import Manifest
 
         tz = Manifest.from_dict(loaded.manifest).timezone
-    zone = resolve_zone(tz)
+    return resolve_zone(tz)
+
+
+def resolve_time(text: str, tz: str | None, loaded: Any = None) -> tuple[int, Zone]:
+    """Parse ``text`` in :func:`map_zone`'s zone; the time and the zone."""
+    zone = map_zone(tz, loaded)
     return parse_time(text, zone), zone
 
 
@@ -92,3 +97,28 @@ def series_of(
     start, zone = resolve_time(t_from, tz, loaded)
     end, _ = resolve_time(t_to, tz, loaded)
     return series_times(start, end, int(step_seconds(step) * 1e9)), zone
+
+
+def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
+    """``START..END`` -> ``(start_ns, end_ns)`` for ``option`` (``--observed``, ``--leave``):
+    each side is any form ``aion_cli.timeparse`` reads (ISO with or without zone, UNIX
+    seconds, ...), in ``zone`` unless it names one; the end must be after the start."""
+    from aion_cli.errors import InputError
+    from aion_cli.timeparse import FORMS_HINT, TimeFormatError
+
+    parts = text.split("..")
+    if len(parts) != 2 or not all(p.strip() for p in parts):
+        raise InputError(
+            f"{option} {text!r}: expected START..END",
+            hint=f'e.g. {option} "2017-06-09 09:00..2017-06-09 18:30" (times: {FORMS_HINT})',
+        )
+    try:
+        start, end = (parse_time(p, zone) for p in parts)
+    except TimeFormatError as exc:
+        raise InputError(f"{option} {text!r}: {exc.message}", hint=exc.hint) from exc
+    if end <= start:
+        raise InputError(
+            f"{option} {text!r}: the end is not after the start",
+            hint="give the span as START..END with END later than START",
+        )
+    return start, end

@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import click
 
-from aion_cli.cli.common import AionPath
+from aion_cli.cli.common import AionPath, parse_span
 from aion_cli.cli.output import AionCommand
-
-if TYPE_CHECKING:
-    from aion_cli.timeparse import Zone
 
 EPILOG = """\b
 Examples:
@@ -202,7 +199,8 @@ def command(
     check_log_target(output, kind, overwrite=force)
     _check_layout_options(layout, date_text, start_text, fps, length_unit)
     zone = resolve_zone(tz)
-    spans = [_span(text, zone) for text in observed_text]  # bad spans fail before reading
+    # bad spans fail before reading
+    spans = [parse_span(text, zone, "--observed") for text in observed_text]
     start_ns = 0
     clock = date_text if layout == "edinburgh" else start_text
     if clock is not None:
@@ -309,27 +307,3 @@ def _check_layout_options(
             f"--length-unit does not apply to the {layout} layout",
             hint="only thor-magni files may be in millimetres",
         )
-
-
-def _span(text: str, zone: Zone) -> tuple[int, int]:
-    """``START..END`` -> ``(start_ns, end_ns)``; each side is any form ``aion_cli.timeparse``
-    reads (ISO with or without zone, UNIX seconds, ...), in ``zone`` unless it names one."""
-    from aion_cli.errors import InputError
-    from aion_cli.timeparse import FORMS_HINT, TimeFormatError, parse_time
-
-    parts = text.split("..")
-    if len(parts) != 2 or not all(p.strip() for p in parts):
-        raise InputError(
-            f"--observed {text!r}: expected START..END",
-            hint='e.g. --observed "2017-06-09 09:00..2017-06-09 18:30" (times: ' + FORMS_HINT + ")",
-        )
-    try:
-        start, end = (parse_time(p, zone) for p in parts)
-    except TimeFormatError as exc:
-        raise InputError(f"--observed {text!r}: {exc.message}", hint=exc.hint) from exc
-    if end <= start:
-        raise InputError(
-            f"--observed {text!r}: the end is not after the start",
-            hint="give the span as START..END with END later than START",
-        )
-    return start, end

@@ -12,6 +12,7 @@ from aion_cli.cli.common import (
     AionPath,
     announce_time,
     map_argument,
+    map_zone,
     resolve_time,
     tz_option,
 )
@@ -25,6 +26,8 @@ Examples:
   aion plan office.aion --from p12 --to p87 --format json
   aion plan office.aion --from p12 --to p87 --export path.ply   the scene with the path
   aion plan office.aion --from p12 --to p87 --png plan.png      both paths over the flows
+  aion plan office.aion --from R1 --to R4 --leave "08:00..10:00" --step 10m
+                                          when to leave: the departure of least cost
 
 \b
 --from/--to take node ids ("p12") or coordinates "x,y[,z]" snapped to the nearest node.
@@ -32,7 +35,8 @@ The temporal cost of each node is predicted at the time the walker is expected t
 there (departure + distance / speed). The distance-only path is always shown beside it,
 with the temporal cost it would have. JSON keys: from, to, depart, zone, speed_mps,
 temporal{path, length_m, duration_s, cost, arrival}, distance_only{path, length_m,
-duration_s, cost}, snapped (and export / png: the files written).
+duration_s, cost}, snapped (and export / png: the files written; with --leave,
+departures[{depart, depart_ns, cost, length_m, duration_s, distance_only_cost, best}]).
 
 \b
 --png draws the map from above at the departure (place edges, rooms, arrows along the
@@ -76,6 +80,15 @@ cost in the legend.
     show_default=True,
     help="Departure time. " + TIME_HELP,
 )
+@click.option(
+    "--leave",
+    metavar="START..END",
+    help="Find the best departure between these times (instead of --time): plans every "
+    "--step and keeps the one of least temporal cost.",
+)
+@click.option(
+    "--step", metavar="DURATION", help="Departures every DURATION with --leave [default: 10m]."
+)
 @tz_option
 @click.option(
     "--speed",
@@ -101,6 +114,8 @@ def command(
     start: str,
     goal: str,
     time_text: str,
+    leave: str | None,
+    step: str | None,
     tz: str | None,
     speed: float | None,
     export_path: Path | None,
@@ -109,22 +124,43 @@ def command(
 ) -> None:
     """Plan a path on the navigational graph of MAP from A to B, departing at a time."""
     from aion_cli.api import Plan
+    from aion_cli.api_results import departure_rows
     from aion_cli.cli.common import load
+    from aion_cli.cli.plan_departures import departure_times, print_departures
+    from aion_cli.errors import InputError
     from aion_cli.mapquery import nav_graph
-    from aion_cli.routes import plan_routes, resolve_endpoint
+    from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
 
+    time_given = click.get_current_context().get_parameter_source("time_text") not in (
+        click.core.ParameterSource.DEFAULT,
+        None,
+    )
+    if leave is not None and time_given:
+        raise InputError("choose one of --time or --leave")
+    if step is not None and leave is None:
+        raise InputError("--step needs --leave", hint='e.g. --leave "08:00..10:00" --step 10m')
     if png_path is not None:
         from aion_cli.pictures.render import check_png_target
 
         check_png_target(png_path, "--png")  # before any planning
     loaded = load(map_path)
-    t_ns, zone = resolve_time(time_text, tz, loaded)
+    zone = map_zone(tz, loaded)
+    leaving = None if leave is None else departure_times(leave, step or "10m", zone)
     nav = nav_graph(loaded)
     a = resolve_endpoint(start, nav, loaded.graph)
     b = resolve_endpoint(goal, nav, loaded.graph)
-    routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)
+    if leaving is None:
+        t_ns, _ = resolve_time(time_text, tz, loaded)
+        routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)
+        departures = None
+    else:
+        plans, best = plan_departures(loaded, a.node_id, b.node_id, leaving, speed, nav)
+        routes, t_ns = plans[best], leaving[best]
+        departures = departure_rows(plans, best, zone)
     snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
     report = {"map": str(map_path), **Plan.from_routes(routes, zone, snapped).to_dict()}
+    if departures is not None:
+        report["departures"] = departures
     temporal = routes.temporal
     if export_path is not None:
         from aion_cli.exports import export_plan_scene
@@ -136,10 +172,12 @@ def command(
 
         plan_png(loaded, routes, nav, zone, png_path)
         report["png"] = str(png_path)
-    announce_time(t_ns, zone, "departure", loaded)
+    announce_time(t_ns, zone, "departure" if departures is None else "best departure", loaded)
     if fmt == "json":
         click.echo(to_json(report))
     else:
+        if departures is not None:
+            print_departures(departures, zone)
         _print(report)
 
 

@@ -1,0 +1,55 @@
+"""``aion plan --leave START..END [--step 10m]``: when to leave. The same plan at every
+departure of the span (``routes.plan_departures``), the best one (least temporal cost) shown
+as ``aion plan --time`` shows a plan, after a table of every departure's cost."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from aion_cli.timeparse import Zone
+
+#: departures a terminal table lists (JSON has every one)
+TABLE_ROWS = 48
+
+
+def departure_times(text: str, step: str, zone: Zone) -> list[int]:
+    """The departures of ``--leave START..END`` every ``--step`` (END included when it falls
+    on a step; at most 1,000)."""
+    from aion_cli.cli.common import parse_span
+    from aion_cli.prediction_series import series_times
+    from aion_cli.timeparse import step_seconds
+
+    start, end = parse_span(text, zone, "--leave")
+    return series_times(start, end, int(step_seconds(step) * 1e9))
+
+
+def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
+    """The departures as a table (stdout), the best one marked."""
+    from rich.table import Table
+
+    from aion_cli.cli.console import data_console, note
+    from aion_cli.cli.predict_series import short_labels
+
+    best = next(k for k, row in enumerate(rows) if row["best"])
+    shown = list(range(len(rows)))
+    if len(rows) > TABLE_ROWS:  # around the best one
+        first = min(max(0, best - TABLE_ROWS // 2), len(rows) - TABLE_ROWS)
+        shown = shown[first : first + TABLE_ROWS]
+        note(f"showing {TABLE_ROWS} of {len(rows)} departures around the best: --format json "
+             "lists every one")
+    labels = short_labels([row["depart_ns"] for row in rows], zone)
+    title = "departures (temporal cost; lower is quieter)"
+    table = Table(title=title, min_width=len(title))
+    for name in ("leave", "cost", "length", "time", ""):
+        table.add_column(name, justify="left" if name in ("leave", "") else "right")
+    for k in shown:
+        row = rows[k]
+        table.add_row(
+            labels[k],
+            f"{row['cost']:.1f}",
+            f"{row['length_m']:.1f} m",
+            f"{row['duration_s']:.0f} s",
+            "best" if row["best"] else "",
+            style="bold green" if row["best"] else None,
+        )
+    data_console().print(table)

@@ -1,0 +1,102 @@
+"""``aion plan --leave START..END [--step]``: every departure is the plan ``--time`` makes
+then, and the one kept is the least temporal cost (the earliest of equal ones)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+
+SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "office.mcap"
+SPAN = "2026-01-12 06:00..2026-01-12 12:00"
+
+
+@pytest.fixture(scope="module")
+def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The bundled sample: five days of an office routine, so costs change over the day."""
+    out = tmp_path_factory.mktemp("departures") / "office.aion"
+    result = run("build", SAMPLE, "-o", out, "-q")
+    assert result.exit_code == 0, result.stderr
+    return out
+
+
+def _plan(map_path: Path, *extra: str, ends: tuple[str, str] = ("p103", "p2")) -> Any:
+    return run_json(
+        "plan", map_path, "--from", ends[0], "--to", ends[1], "--tz", "UTC", "--format", "json",
+        *extra,
+    )
+
+
+def test_each_departure_is_the_plan_at_that_time_and_the_least_cost_is_kept(
+    sample_map: Path,
+) -> None:
+    doc = _plan(sample_map, "--leave", SPAN, "--step", "1h")
+    rows = doc["departures"]
+    assert [r["depart"][11:16] for r in rows] == [f"{h:02d}:00" for h in range(6, 13)]
+    costs = [r["cost"] for r in rows]
+    assert len(set(costs)) > 1  # the routine makes the hours differ
+    best = min(range(len(rows)), key=lambda k: (costs[k], k))
+    assert [r["best"] for r in rows] == [k == best for k in range(len(rows))]
+    assert doc["depart"] == rows[best]["depart"]
+    for row in rows:  # every row is what --time says at that departure
+        single = _plan(sample_map, "--time", row["depart"])
+        assert single["temporal"]["cost"] == row["cost"]
+        assert single["temporal"]["length_m"] == row["length_m"]
+        assert single["distance_only"]["cost"] == row["distance_only_cost"]
+    chosen = _plan(sample_map, "--time", rows[best]["depart"])
+    assert doc["temporal"] == chosen["temporal"]
+
+
+def test_the_table_marks_the_best_departure(sample_map: Path) -> None:
+    result = run(
+        "plan", sample_map, "--from", "p103", "--to", "p2", "--tz", "UTC", "--leave", SPAN,
+        "--step", "2h",
+    )
+    assert result.exit_code == 0, result.stderr
+    assert "departures" in result.stdout
+    assert result.stdout.count("best") == 1
+    assert "best departure: 2026-01-12" in result.stderr
+
+
+def test_equal_costs_keep_the_earliest(office: Office) -> None:
+    """The 20-minute office map forecasts static rates: every departure costs the same."""
+    doc = _plan(
+        office.map, "--leave", "2026-11-23 08:00..2026-11-23 09:00", "--step", "20m",
+        ends=("p0", "p2"),
+    )
+    costs = {r["cost"] for r in doc["departures"]}
+    assert len(costs) == 1
+    assert doc["departures"][0]["best"]
+    assert doc["depart"].startswith("2026-11-23 08:00")
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragment"),
+    [
+        (["--leave", SPAN, "--time", "now"], "--time or --leave"),
+        (["--step", "1h"], "--step needs --leave"),
+        (["--leave", "2026-01-12 09:00"], "expected START..END"),
+        (["--leave", "2026-01-12 10:00..2026-01-12 09:00"], "not after the start"),
+        (["--leave", SPAN, "--step", "1s"], "at most 1,000"),
+    ],
+)
+def test_bad_departure_options(office: Office, extra: list[str], fragment: str) -> None:
+    result = run("plan", office.map, "--from", "p0", "--to", "p2", *extra)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, fragment)
+
+
+def test_the_api_finds_the_same_departure(sample_map: Path) -> None:
+    import aion_cli as aion
+
+    cli = _plan(sample_map, "--leave", SPAN, "--step", "1h")
+    cli.pop("map")
+    start, end = SPAN.split("..")
+    plan = aion.Map.load(sample_map).plan("p103", "p2", leave=(start, end), step="1h", tz="UTC")
+    assert plan.to_dict() == cli
+    assert sum(d["best"] for d in plan.departures) == 1
+    with pytest.raises(aion.InputError, match="step"):
+        aion.Map.load(sample_map).plan("p103", "p2", leave=(start, end), step=0.5)
