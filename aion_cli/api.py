@@ -31,9 +31,9 @@ import shutil
 from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Union
+from typing import TYPE_CHECKING
 
-from aion_cli.api_make import as_path, build, compact, merge
+from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
 
@@ -50,7 +50,6 @@ if TYPE_CHECKING:
 
 __all__ = ["Map", "Plan", "Table", "as_path", "build", "compact", "merge", "to_ns"]
 
-PathLike = Union[str, "os.PathLike[str]"]
 TimeLike = str | int | datetime
 
 
