@@ -106,12 +106,13 @@ def predict_series(
     """The series of the entries asked for (see the module doc); ``progress(k)`` after each
     time."""
     from aion_cli.predictions import entry_ids, entry_table, rows_from_table, select
+    from aion_cli.room_names import with_names_resolved
 
     times = [int(t) for t in times_ns]
     if not times:
         raise ValueError("a series needs at least one time")
     first = entry_table(loaded, times[0], layer)
-    index = select(first, layer, nodes, at)
+    index = select(first, layer, with_names_resolved(nodes, loaded.graph), at)
     flow = np.empty((index.size, len(times)))
     per_hour = np.empty_like(flow)
     for j, t in enumerate(times):

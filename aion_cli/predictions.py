@@ -206,8 +206,10 @@ def predicted_records(
     (None: historical), busiest first, the first ``top`` of them; and how many entries
     matched. Rows are ordered and cut on arrays, so dicts are made for the rows returned only
     (``aion predict`` and :meth:`aion_cli.Map.predict`)."""
+    from aion_cli.room_names import with_names_resolved
+
     table = entry_table(loaded, t_ns, layer)
-    index = select(table, layer, nodes, at)
+    index = select(table, layer, with_names_resolved(nodes, loaded.graph), at)
     return rows_from_table(table, ordered_rows(table, index, top)), len(index)
 
 

@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.node_ids import node_label, parse_node_id, parse_point, refuse_far_point
+from aion_cli.engine.node_ids import node_label, parse_point, refuse_far_point
+from aion_cli.room_names import named_node, parse_id_or_name
 
 if TYPE_CHECKING:
     from aion_cli.engine.planning import NavGraph, PlanResult
@@ -36,6 +37,7 @@ class Endpoint:
     distance_m: float = 0.0
     # the room or building (``("room", "R3")``) whose place this is, when one was asked for
     within: tuple[str, str] | None = None
+    name: str | None = None  # that room's name in the graph ("kitchen"), if it has one
 
     def snapped(self, option: str) -> dict[str, Any] | None:
         """The ``snapped`` record of ``aion plan --format json`` (None for a node id); for a
@@ -45,6 +47,8 @@ class Endpoint:
         record: dict[str, Any] = {"option": option}
         if self.within is not None:
             record[self.within[0]] = self.within[1]
+            if self.name is not None:
+                record["name"] = self.name
         return record | {
             "point": list(self.point),
             "node": node_label(self.node_id),
@@ -65,7 +69,8 @@ def resolve_endpoint(
         return Endpoint(int(where))
     point = parse_point(where)
     if point is None:
-        node_id = parse_node_id(where)
+        named = None if graph is None else named_node(where, graph)
+        node_id = named if named is not None else parse_id_or_name(where, graph)
         if graph is not None:
             inside = _room_endpoint(node_id, nav, graph)
             if inside is not None:
@@ -101,7 +106,9 @@ def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoin
             f"{kind} {label} holds no place of the navigational graph",
             hint="plan to a place (p12) or to a point x,y",
         )
-    centre = layer.xyz[int(np.flatnonzero(layer.ids == wanted)[0])]
+    at = int(np.flatnonzero(layer.ids == wanted)[0])
+    centre = layer.xyz[at]
+    name = layer.labels[at] if at < len(layer.labels) else ""
     if not np.all(np.isfinite(centre)):
         centre = nav.xyz[rows].mean(axis=0)
     d2 = ((nav.xyz[rows] - centre) ** 2).sum(axis=1)
@@ -111,6 +118,7 @@ def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoin
         (float(centre[0]), float(centre[1]), float(centre[2])),
         float(np.sqrt(d2.min())),
         (kind, label),
+        name if name and name != label else None,
     )
 
 

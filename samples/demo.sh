@@ -21,7 +21,8 @@ step "$BIN/aion" predict "$MAP" --layer rooms --from "2026-01-12 06:00" --to "20
     --step 2h --tz UTC
 step "$BIN/aion" plan "$MAP" --from p103 --to p2 --time "2026-01-12 08:40" --tz UTC \
     --png "$OUT/plan.png"
-step "$BIN/aion" plan "$MAP" --from R1 --to R4 --time "2026-01-12 17:30" --tz UTC
+step "$BIN/aion" plan "$MAP" --from kitchen --to "office 1" --leave "2026-01-12 07:00..2026-01-12 10:00" \
+    --step 30m --tz UTC
 step "$BIN/aion" export "$MAP" --time "2026-01-12 08:40" --tz UTC -o "$OUT/export" \
     --path-from p103 --path-to p2
 step "$BIN/aion" export "$MAP" --from "2026-01-12 06:00" --to "2026-01-12 20:00" --step 2h --tz UTC \

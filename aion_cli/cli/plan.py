@@ -26,7 +26,7 @@ Examples:
   aion plan office.aion --from p12 --to p87 --format json
   aion plan office.aion --from p12 --to p87 --export path.ply   the scene with the path
   aion plan office.aion --from p12 --to p87 --png plan.png      both paths over the flows
-  aion plan office.aion --from R1 --to R4 --leave "08:00..10:00" --step 10m
+  aion plan office.aion --from kitchen --to R4 --leave "08:00..10:00" --step 10m
                                           when to leave: the departure of least cost
 
 \b
@@ -59,8 +59,8 @@ cost in the legend.
     "start",
     required=True,
     metavar="A",
-    help="Start: a place (p12), a room or building (R3: its place nearest the centre) "
-    "or a point x,y[,z].",
+    help="Start: a place (p12), a room or building by id or name (R3, kitchen: its place "
+    "nearest the centre) or a point x,y[,z].",
     shell_complete=complete_nodes,
 )
 @click.option(
@@ -191,8 +191,9 @@ def _print(report: dict[str, Any]) -> None:
     for snap in report["snapped"]:
         within = next((k for k in ("room", "building") if k in snap), None)
         if within is not None:
+            asked = snap[within] if "name" not in snap else f"{snap['name']} ({snap[within]})"
             console().print(
-                f"[dim]{markup_safe(snap['option'])} {markup_safe(snap[within])}: its place "
+                f"[dim]{markup_safe(snap['option'])} {markup_safe(asked)}: its place "
                 f"nearest the {within}'s centre, {markup_safe(snap['node'])} "
                 f"({snap['distance_m']:.2f} m from it)[/dim]"
             )
@@ -202,7 +203,8 @@ def _print(report: dict[str, Any]) -> None:
             f"{markup_safe(snap['node'])} ({snap['distance_m']:.2f} m away)[/dim]"
         )
     named = {
-        snap["option"]: f"{snap.get('room') or snap.get('building')} ({snap['node']})"
+        snap["option"]: f"{snap.get('name') or snap.get('room') or snap.get('building')} "
+        f"({snap['node']})"
         for snap in report["snapped"]
         if "room" in snap or "building" in snap
     }

@@ -145,8 +145,29 @@ def test_rooms_and_buildings_are_endpoints(office: Office) -> None:
     assert doc["distance_only"]["path"] == ["p2", "p3"]
     table = run("plan", office.map, "--from", "R1", "--to", "p0", "--time", AT)
     assert table.exit_code == 0, table.stderr
-    assert "--from R1: its place nearest the room's centre, p2" in table.stderr
-    assert "R1 (p2) -> p0" in table.stdout
+    assert "--from room1 (R1): its place nearest the room's centre, p2" in table.stderr
+    assert "room1 (p2) -> p0" in table.stdout  # the graph names its rooms
     missing = run("plan", office.map, "--from", "R9", "--to", "p0", "--time", AT)
     assert missing.exit_code == 2
     assert_one_line_error(missing.stderr, "R9")
+
+
+def test_rooms_by_their_names(office: Office) -> None:
+    """The office graph names its rooms room0 .. room2 (Hydra's room labels): a name, in any
+    case, stands for the room, in plan and predict alike; an unknown one lists the names."""
+    by_id = run_json("plan", office.map, "--from", "R1", "--to", "p0", "--time", AT,
+                     "--format", "json")
+    by_name = run_json("plan", office.map, "--from", "ROOM1", "--to", "p0", "--time", AT,
+                       "--format", "json")
+    assert by_name["temporal"] == by_id["temporal"]
+    assert by_name["snapped"][0]["name"] == "room1"
+    assert by_name["snapped"][0]["room"] == "R1"
+    table = run("plan", office.map, "--from", "room1", "--to", "p0", "--time", AT)
+    assert "--from room1 (R1): its place nearest the room's centre, p2" in table.stderr
+    unknown = run("plan", office.map, "--from", "pantry", "--to", "p0", "--time", AT)
+    assert unknown.exit_code == 2
+    assert_one_line_error(unknown.stderr, "not a node id or room name: 'pantry'")
+    assert "room0, room1, room2" in unknown.stderr
+    rooms = run_json("predict", office.map, "--time", AT, "--layer", "rooms", "--node", "Room2",
+                     "--format", "json")
+    assert [r["id"] for r in rooms["entries"]] == ["R2"]

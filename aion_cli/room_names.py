@@ -1,0 +1,76 @@
+"""Rooms and buildings by their names in the scene graph (Hydra's room labels, such as
+"kitchen" or "office 1"), wherever a node id is accepted: ``plan --from/--to``,
+``export --path-from/--path-to``, ``predict --node`` and the Python API. A name matches in any
+case; a label that is only the node's id (``R3``) is not a name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+from aion_cli.engine.node_ids import node_label, parse_node_id
+
+if TYPE_CHECKING:
+    from aion_cli.engine.types import GraphSnapshot
+
+
+def parse_id_or_name(text: str, graph: GraphSnapshot | None) -> int:
+    """:func:`parse_node_id`, whose error also lists the graph's room names, if it has any."""
+    from aion_cli.errors import InputError
+
+    try:
+        return parse_node_id(text)
+    except InputError as exc:
+        names = [] if graph is None else room_names(graph)
+        if not names:
+            raise
+        raise InputError(
+            f"not a node id or room name: {text!r}",
+            hint='node ids look like "p12"; rooms and buildings by name: ' + ", ".join(names[:12]),
+        ) from exc
+
+
+def room_names(graph: GraphSnapshot) -> list[str]:
+    """The names of the graph's rooms and buildings (labels that are not their id)."""
+    return [
+        label
+        for layer in (graph.rooms, graph.buildings)
+        for node_id, label in zip(layer.ids.tolist(), layer.labels, strict=False)
+        if label and label != node_label(int(node_id))
+    ]
+
+
+def named_node(text: str, graph: GraphSnapshot) -> int | None:
+    """The room or building whose name is ``text`` (any case; Hydra's room names, such as
+    "kitchen"), or None when no name matches (then ``text`` is read as an id);
+    :class:`~aion_cli.errors.InputError` when two share the name."""
+    from aion_cli.errors import InputError
+
+    wanted = text.strip().casefold()
+    hits = [
+        int(node_id)
+        for layer in (graph.rooms, graph.buildings)
+        for node_id, label in zip(layer.ids.tolist(), layer.labels, strict=False)
+        if label and label.strip().casefold() == wanted
+    ]
+    if len(hits) > 1:
+        raise InputError(
+            f"{len(hits)} rooms are named {text!r}: "
+            + ", ".join(node_label(h) for h in hits),
+            hint="give the room's id instead",
+        )
+    return hits[0] if hits else None
+
+
+def with_names_resolved(
+    nodes: Sequence[str | int], graph: GraphSnapshot | None
+) -> list[str | int]:
+    """``nodes`` with every room or building name replaced by its id (others as given)."""
+    if graph is None:
+        return list(nodes)
+    out: list[str | int] = []
+    for node in nodes:
+        named = named_node(node, graph) if isinstance(node, str) else None
+        out.append(named if named is not None else node)
+    return out
