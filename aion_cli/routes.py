@@ -10,6 +10,7 @@ historical export) both are the distance-only path.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -207,14 +208,20 @@ def plan_departures(
     times_ns: list[int],
     speed: float | None = None,
     nav: NavGraph | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> tuple[list[Routes], int]:
     """:func:`plan_routes` for each departure of ``times_ns`` (``aion plan --leave``), and
-    the index of the best one: the least temporal cost, the earliest of equal ones."""
+    the index of the best one: the least temporal cost, the earliest of equal ones;
+    ``progress(k)`` after each departure."""
     from aion_cli.mapquery import nav_graph
 
     if not times_ns:
         raise ValueError("no departure time")
     nav = nav if nav is not None else nav_graph(loaded)
-    plans = [plan_routes(loaded, start, goal, t, speed, nav) for t in times_ns]
+    plans = []
+    for k, t in enumerate(times_ns, start=1):
+        plans.append(plan_routes(loaded, start, goal, t, speed, nav))
+        if progress is not None:
+            progress(k)
     costs = [p.temporal.cost for p in plans]
     return plans, costs.index(min(costs))

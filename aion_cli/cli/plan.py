@@ -126,6 +126,7 @@ def command(
     from aion_cli.api import Plan
     from aion_cli.api_results import departure_rows
     from aion_cli.cli.common import load
+    from aion_cli.cli.console import progress
     from aion_cli.cli.plan_departures import departure_times, print_departures
     from aion_cli.errors import InputError
     from aion_cli.mapquery import nav_graph
@@ -154,7 +155,12 @@ def command(
         routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)
         departures = None
     else:
-        plans, best = plan_departures(loaded, a.node_id, b.node_id, leaving, speed, nav)
+        with progress(quiet=len(leaving) == 1) as bar:
+            task = bar.add_task("planning", total=len(leaving), unit="departures")
+            plans, best = plan_departures(
+                loaded, a.node_id, b.node_id, leaving, speed, nav,
+                lambda done: bar.update(task, completed=done),
+            )
         routes, t_ns = plans[best], leaving[best]
         departures = departure_rows(plans, best, zone)
     snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
