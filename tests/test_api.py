@@ -101,6 +101,26 @@ def test_plan_equals_the_cli_json(example: dict[str, Any]) -> None:
     assert p.cost <= p.distance_only.cost + 1e-9  # the temporal plan is never costlier
 
 
+def test_departures_series_and_graph_equal_the_cli(example: dict[str, Any]) -> None:
+    folder: Path = example["folder"]
+    office = folder / "office.aion"
+    leave = _cli_json(
+        "plan", office, "--from", "kitchen", "--to", "office 1", "--tz", "UTC", "--leave",
+        "2026-01-12 07:00..2026-01-12 10:00", "--step", "30m", "--format", "json",
+    )
+    assert _jsonable(example["best"].to_dict()) == {k: v for k, v in leave.items() if k != "map"}
+    series = _cli_json(
+        "predict", office, "--layer", "rooms", "--tz", "UTC", "--from", "2026-01-12 06:00",
+        "--to", "2026-01-12 20:00", "--step", "1h", "--format", "json",
+    )
+    day = example["day"]
+    assert _jsonable(day.records()) == series["entries"]
+    assert day.flow.shape == (len(series["entries"]), 15)
+    (graph,) = example["graph"]
+    assert graph == Path("office-4d.json")
+    assert (folder / graph).stat().st_size > 0
+
+
 def test_export_writes_what_the_cli_writes(example: dict[str, Any], tmp_path: Path) -> None:
     folder: Path = example["folder"]
     files = example["files"]
