@@ -10,7 +10,7 @@ import pytest
 
 import aion_cli as aion
 from aion_cli.api import Map
-from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor
 
 DAYS = 14
@@ -131,3 +131,24 @@ def test_a_step_longer_than_the_span_is_one_time(rhythm: Path) -> None:
     )
     assert doc["times_ns"] == [T_DAY]
     assert math.isfinite(doc["entries"][0]["flow"][0])
+
+
+def test_places_without_data_and_every_layer_agree_with_predict(office: Office) -> None:
+    """The office graph has places no detection reached (flow 0 in predict's table): the
+    series says the same for them, and for cells and rooms, at each time."""
+    times = ["2026-11-23 07:00", "2026-11-23 08:30", "2026-11-23 12:00"]
+    for layer in ("all", "places", "cells", "rooms"):
+        doc = run_json(
+            "predict", office.map, "--layer", layer, "--tz", "UTC", "--from", times[0],
+            "--to", times[-1], "--step", "90m", "--format", "json",
+        )
+        for j, t_text in enumerate(["2026-11-23 07:00", "2026-11-23 08:30", "2026-11-23 10:00"]):
+            single = run_json("predict", office.map, "--layer", layer, "--tz", "UTC", "--time",
+                              t_text, "--format", "json")
+            flows = {row["id"]: (row["flow"], row["flow_per_hour"]) for row in single["entries"]}
+            assert {e["id"] for e in doc["entries"]} == set(flows)
+            for entry in doc["entries"]:
+                assert (entry["flow"][j], entry["flow_per_hour"][j]) == flows[entry["id"]]
+    places = run_json("predict", office.map, "--layer", "places", "--tz", "UTC", "--time",
+                      times[0], "--format", "json")["entries"]
+    assert any(row["flow"] == 0 for row in places)  # the case under test
