@@ -42,12 +42,42 @@ MAP_SUFFIX = ".aion"
 
 
 def describe_map(path: Path) -> dict[str, Any]:
-    """The manifest of a map file (cheap: no array is read), without the internal tables
-    (:meth:`aion_cli.manifest.Manifest.shown`)."""
+    """The manifest of a map file without the internal tables
+    (:meth:`aion_cli.manifest.Manifest.shown`), and the rooms of its scene graph with their
+    names (``plan --from kitchen`` takes them). Cheap: of the arrays only the graph's are
+    read, never the entries or accumulators."""
     from aion_cli.formats.mapfile import read_manifest
     from aion_cli.manifest import Manifest
 
-    return {"map": str(path)} | Manifest.from_dict(read_manifest(path)).shown()
+    shown = Manifest.from_dict(read_manifest(path)).shown()
+    return {"map": str(path)} | shown | {"rooms": _rooms(path)}
+
+
+def _rooms(path: Path) -> list[dict[str, Any]]:
+    """Each room of the map's latest scene graph: id, name (None when the graph gives none)
+    and how many places it holds; empty without a graph, or when the graph cannot be read
+    (the commands that use it say why)."""
+    import numpy as np
+
+    from aion_cli.engine.node_ids import node_label
+    from aion_cli.errors import AionError
+    from aion_cli.mapquery import load_map_head
+
+    try:
+        graph = load_map_head(path).graph
+    except AionError:
+        return []
+    if graph is None:
+        return []
+    rooms = graph.rooms
+    out = []
+    for k, node_id in enumerate(rooms.ids.tolist()):
+        label = node_label(int(node_id))
+        name = rooms.labels[k] if k < len(rooms.labels) else ""
+        places = int(np.count_nonzero(graph.places.parent == np.uint64(node_id)))
+        out.append({"id": label, "name": name if name and name != label else None,
+                    "places": places})
+    return out
 
 
 def describe(
@@ -291,6 +321,11 @@ def _print_map(report: dict[str, Any]) -> None:
     table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
     table.add_row("graph", safe(report.get("graph_source")))
+    rooms = report.get("rooms") or []
+    if rooms:
+        named = [f"{r['name']} ({r['id']})" if r.get("name") else str(r["id"]) for r in rooms]
+        more = f", … {len(named) - 12:,} more" if len(named) > 12 else ""
+        table.add_row("rooms", safe(f"{len(rooms):,}: {', '.join(named[:12])}{more}"))
     table.add_row("observation", safe(report.get("observation")))
     query_only = report.get("query_only")
     if isinstance(query_only, dict):

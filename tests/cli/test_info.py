@@ -145,3 +145,23 @@ def test_families_after_a_scored_day(tmp_path: Path) -> None:
         "fremen4",
     }
     assert isinstance(families["reconciled"], bool)
+
+
+def test_a_map_lists_its_rooms_with_their_names(office: Office, tmp_path: Path) -> None:
+    """The office graph (tests/cli/logdata.py) has rooms 0..2 named room0..room2, holding
+    places 0-1, 2-4 and 5-6: info lists them, with names plan and predict accept."""
+    report = run_json("info", office.map, "--format", "json")
+    assert report["rooms"] == [
+        {"id": "R0", "name": "room0", "places": 2},
+        {"id": "R1", "name": "room1", "places": 3},
+        {"id": "R2", "name": "room2", "places": 2},
+    ]
+    table = run("info", office.map)
+    assert "room0 (R0), room1 (R1), room2 (R2)" in table.stdout
+    from tests.cli.logdata import write_office_log
+
+    bare = tmp_path / "bare.mcap"
+    write_office_log(bare, graph=False)
+    cells = tmp_path / "cells.aion"
+    assert run("build", bare, "-o", cells).exit_code == 0
+    assert run_json("info", cells, "--format", "json")["rooms"] == []
