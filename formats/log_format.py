@@ -82,35 +82,23 @@ def guess_format(path: Path) -> tuple[str, Path]:
 
 def _what_else(path: Path) -> str | None:
     """A hint when ``path`` is another input aion reads, given where a log belongs: an aion
-    map, a scene-graph file, a tracks CSV."""
-    from aion_cli.formats.track_sniff import guess_layout, other_input
+    map, a scene-graph file, a tracks CSV (:func:`formats.input_kind.input_kind`)."""
+    from aion_cli.formats.input_kind import input_kind
+    from aion_cli.formats.track_sniff import guess_layout
 
     name = path.name
-    if other_input(path) == "map":
+    kind = input_kind(path)
+    if kind == "map":
         return (
             f"{name} is an aion map, not a log: extend it with `aion build LOG --map {name}`, "
             f"query it with `aion predict {name}`"
         )
-    try:
-        with path.open("rb") as fh:
-            head = fh.read(4096)
-    except OSError:
-        return None
-    if looks_like_graph_file(path, head):
+    if kind == "graph":
         return f"{name} looks like a scene-graph file: give it to `aion build` with --graph {name}"
-    guess = guess_layout(path)
+    guess = guess_layout(path) if kind is None else None
     if guess is not None:
         return (
             f"{name} looks like a tracks file in {guess.describe()}: make it a log first, "
             f"`aion convert {name} --layout {guess.layout} -o {path.stem}.mcap`"
         )
     return None
-
-
-def looks_like_graph_file(path: Path, head: bytes) -> bool:
-    """Whether ``path`` (whose first bytes are ``head``) looks like a saved spark_dsg graph:
-    a ``.sparkdsg`` file, or JSON with a graph's keys near its start."""
-    graph_words = (b'"nodes"', b'"edges"', b'"layer_ids"', b'"directed"')
-    return path.suffix.lower() == ".sparkdsg" or (
-        head.lstrip().startswith(b"{") and any(word in head for word in graph_words)
-    )

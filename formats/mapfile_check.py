@@ -43,20 +43,14 @@ def _not_a_map(path: Path, why: str) -> MapFileError:
 
 def _what_it_is(path: Path) -> str | None:
     """A hint when ``path`` is an input aion reads elsewhere, given where a map belongs: a
-    log (build a map from it) or a scene-graph file."""
-    from aion_cli.formats.log_format import looks_like_graph_file
-    from aion_cli.formats.rosbag2_storage import sniff
+    log (build a map from it) or a scene-graph file (:func:`formats.input_kind.input_kind`)."""
+    from aion_cli.formats.input_kind import input_kind
 
-    try:
-        kind = sniff(path) if path.is_file() else None
-        with path.open("rb") as fh:
-            head = fh.read(4096)
-    except (OSError, ValueError):
-        return None
     name = path.name
-    if kind is not None:
+    kind = input_kind(path)
+    if kind == "log":
         return f"{name} is a log: build a map from it first, `aion build {name} -o MAP.aion`"
-    if looks_like_graph_file(path, head):
+    if kind == "graph":
         return (
             f"{name} looks like a scene-graph file: `aion info {name}` shows it; a map is built "
             f"from logs with it, `aion build LOG --graph {name} -o MAP.aion`"

@@ -133,24 +133,3 @@ def layout_mismatch(path: str | Path, layout: str, shifted: bool) -> str | None:
         f"{guess.describe()}: convert it with --layout {guess.layout} if that is what it is"
     )
 
-
-def other_input(path: str | Path) -> str | None:
-    """What ``path`` is when it is another input of aion's rather than a tracks file: ``"log"``
-    (MCAP, ROS 1 bag, rosbag2 storage) or ``"map"`` (an aion map); None otherwise."""
-    import zipfile
-
-    from aion_cli.formats.mapfile import MANIFEST_NAME
-    from aion_cli.formats.rosbag2_storage import sniff
-
-    p = Path(path)
-    try:
-        if not p.is_file():
-            return None
-        if sniff(p) is not None:
-            return "log"
-        if zipfile.is_zipfile(p):
-            with zipfile.ZipFile(p) as archive:
-                return "map" if MANIFEST_NAME in archive.namelist() else None
-    except (OSError, ValueError, zipfile.BadZipFile):
-        return None
-    return None

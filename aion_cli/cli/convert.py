@@ -174,9 +174,10 @@ def command(
     """Convert the pedestrian tracks in TRACKS (CSV) into a log with people detections."""
     from aion_cli.cli.console import console, note, warn
     from aion_cli.errors import InputError
+    from aion_cli.formats.input_kind import input_kind
     from aion_cli.formats.track_csv import STREAM_LAYOUTS
     from aion_cli.formats.track_sniff import UNIX_SECONDS_FROM as UNIX_S
-    from aion_cli.formats.track_sniff import layout_mismatch, other_input
+    from aion_cli.formats.track_sniff import layout_mismatch
     from aion_cli.formats.track_types import merge_spans
     from aion_cli.formats.tracks import read_track_data
     from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
@@ -185,8 +186,8 @@ def command(
 
     if not tracks.is_file():
         raise InputError(f"tracks file not found: {tracks}", hint="check the path")
-    kind_of_input = other_input(tracks)
-    if kind_of_input is not None:
+    kind_of_input = input_kind(tracks)
+    if kind_of_input in ("log", "map"):
         raise InputError(
             f"{tracks.name} is {'a log' if kind_of_input == 'log' else 'an aion map'}, "
             "not a tracks file",
