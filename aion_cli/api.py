@@ -178,18 +178,16 @@ class Map:
         equals :meth:`predict` at that time."""
         from aion_cli.prediction_series import predict_series, series_times
         from aion_cli.predictions import LAYERS
-        from aion_cli.timeparse import step_seconds
+        from aion_cli.timeparse import step_ns
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
         if top is not None and top < 1:
             raise InputError(f"top must be at least 1, got {top}")
-        seconds = step_seconds(step) if isinstance(step, str) else float(step)
-        if not seconds >= 1.0:
-            raise InputError(f"step must be at least 1 s, got {step!r}")
+        every = step_ns(step)
         t0, _ = self._time(start, tz)
         t1, _ = self._time(end, tz)
-        times = series_times(t0, t1, int(seconds * 1e9))
+        times = series_times(t0, t1, every)
         return predict_series(self._loaded, times, layer, nodes, at, top)
 
     def plan(
@@ -225,13 +223,11 @@ class Map:
 
         from aion_cli.api_results import departure_rows
         from aion_cli.prediction_series import series_times
-        from aion_cli.timeparse import step_seconds
+        from aion_cli.timeparse import step_ns
 
-        seconds = step_seconds(step) if isinstance(step, str) else float(step)
-        if not seconds >= 1.0:
-            raise InputError(f"step must be at least 1 s, got {step!r}")
+        every = step_ns(step)
         earliest, latest = (self._time(t, tz)[0] for t in leave)
-        times = series_times(earliest, latest, int(seconds * 1e9))
+        times = series_times(earliest, latest, every)
         plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
         made = Plan.from_routes(plans[best], zone, snapped)
         return replace(made, departures=departure_rows(plans, best, zone))

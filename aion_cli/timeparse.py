@@ -340,3 +340,12 @@ def step_seconds(text: str) -> float:
             "e.g. --step 1h, 30m or 600s",
         )
     return value
+
+
+def step_ns(step: str | float) -> int:
+    """A series step in ns: text as :func:`step_seconds` reads it, or seconds as a number (at
+    least 1 s); :class:`InputError` otherwise (``--step``, and the API's ``step``)."""
+    seconds = step_seconds(step) if isinstance(step, str) else float(step)
+    if not seconds >= 1.0:
+        raise InputError(f"step must be at least 1 s, got {step!r}")
+    return int(seconds * 1e9)

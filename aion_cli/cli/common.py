@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 
 import click
 
-from aion_cli.timeparse import Zone, format_ns, parse_time, resolve_zone, step_seconds
+from aion_cli.timeparse import Zone, format_ns, parse_time, resolve_zone, step_ns
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -96,7 +96,7 @@ def series_of(
 
     start, zone = resolve_time(t_from, tz, loaded)
     end, _ = resolve_time(t_to, tz, loaded)
-    return series_times(start, end, int(step_seconds(step) * 1e9)), zone
+    return series_times(start, end, step_ns(step)), zone
 
 
 def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:

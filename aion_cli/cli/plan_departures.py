@@ -17,10 +17,10 @@ def departure_times(text: str, step: str, zone: Zone) -> list[int]:
     on a step; at most 1,000)."""
     from aion_cli.cli.common import parse_span
     from aion_cli.prediction_series import series_times
-    from aion_cli.timeparse import step_seconds
+    from aion_cli.timeparse import step_ns
 
     start, end = parse_span(text, zone, "--leave")
-    return series_times(start, end, int(step_seconds(step) * 1e9))
+    return series_times(start, end, step_ns(step))
 
 
 def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
