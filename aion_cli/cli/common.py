@@ -33,6 +33,13 @@ class AionPath(click.Path):
         return super().convert(value, param, ctx)
 
 
+def option_given(name: str) -> bool:
+    """Whether the current command's parameter ``name`` was given on the command line (or in
+    the environment), not left at its default: ``--time`` beside ``--from`` or ``--leave``."""
+    source = click.get_current_context().get_parameter_source(name)
+    return source not in (click.core.ParameterSource.DEFAULT, None)
+
+
 def map_argument(func: F) -> F:
     """The MAP positional argument (existence is checked by ``load_map`` with a clear error)."""
     return click.argument("map_path", metavar="MAP", type=AionPath(path_type=Path))(func)

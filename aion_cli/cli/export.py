@@ -18,7 +18,6 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.output import AionCommand
-from aion_cli.timeparse import Zone
 
 EPILOG = """\b
 Examples:
@@ -137,7 +136,8 @@ def command(
     if historical:
         times = [None]
     elif t_from is not None and t_to is not None:
-        times, zone = _series(t_from, t_to, step, tz, loaded)
+        series, zone = series_of(t_from, t_to, step, tz, loaded)
+        times = list(series)
     else:
         when, zone = resolve_time(time_text or "now", tz, loaded)
         times = [when]
@@ -190,12 +190,3 @@ def command(
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
         announce_time(times[0], zone, label, loaded)
     console().print(done)
-
-
-def _series(
-    t_from: str, t_to: str, step: str, tz: str | None, loaded: Any
-) -> tuple[list[int | None], Zone]:
-    times, zone = series_of(t_from, t_to, step, tz, loaded)
-    return list(times), zone
-
-

@@ -13,6 +13,7 @@ from aion_cli.cli.common import (
     announce_time,
     map_argument,
     map_zone,
+    option_given,
     resolve_time,
     tz_option,
 )
@@ -132,10 +133,7 @@ def command(
     from aion_cli.mapquery import nav_graph
     from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
 
-    time_given = click.get_current_context().get_parameter_source("time_text") not in (
-        click.core.ParameterSource.DEFAULT,
-        None,
-    )
+    time_given = option_given("time_text")
     if leave is not None and time_given:
         raise InputError("choose one of --time or --leave")
     if step is not None and leave is None:

@@ -10,6 +10,7 @@ from aion_cli.cli.common import (
     TIME_HELP,
     announce_time,
     map_argument,
+    option_given,
     resolve_time,
     tz_option,
 )
@@ -108,10 +109,7 @@ def command(
     from aion_cli.predictions import CSV_KEYS, document, predicted_records
     from aion_cli.timeparse import format_ns
 
-    time_given = click.get_current_context().get_parameter_source("time_text") not in (
-        click.core.ParameterSource.DEFAULT,
-        None,
-    )
+    time_given = option_given("time_text")
     series = check_series_options(t_from, t_to, step, historical, time_given)
     loaded = load(map_path)
     if series and t_from is not None and t_to is not None:
