@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from aion_cli.engine.node_ids import node_label, parse_node_id
 
 if TYPE_CHECKING:
-    from aion_cli.engine.types import GraphSnapshot
+    from aion_cli.engine.types import GraphSnapshot, Layer
 
 
 def parse_id_or_name(text: str, graph: GraphSnapshot | None) -> int:
@@ -31,14 +31,18 @@ def parse_id_or_name(text: str, graph: GraphSnapshot | None) -> int:
         ) from exc
 
 
+def name_of(layer: Layer, k: int) -> str | None:
+    """The name the graph gives node ``k`` of ``layer`` ("kitchen"); None when it gives none,
+    or only the node's id (``R3``)."""
+    label = layer.labels[k] if k < len(layer.labels) else ""
+    return label if label and label != node_label(int(layer.ids[k])) else None
+
+
 def room_names(graph: GraphSnapshot) -> list[str]:
-    """The names of the graph's rooms and buildings (labels that are not their id)."""
-    return [
-        label
-        for layer in (graph.rooms, graph.buildings)
-        for node_id, label in zip(layer.ids.tolist(), layer.labels, strict=False)
-        if label and label != node_label(int(node_id))
-    ]
+    """The names of the graph's rooms and buildings (:func:`name_of`)."""
+    layers = (graph.rooms, graph.buildings)
+    names = (name_of(layer, k) for layer in layers for k in range(len(layer)))
+    return [name for name in names if name is not None]
 
 
 def named_node(text: str, graph: GraphSnapshot) -> int | None:

@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.node_ids import node_label, parse_point, refuse_far_point
-from aion_cli.room_names import named_node, parse_id_or_name
+from aion_cli.room_names import name_of, named_node, parse_id_or_name
 
 if TYPE_CHECKING:
     from aion_cli.engine.planning import NavGraph, PlanResult
@@ -109,7 +109,6 @@ def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoin
         )
     at = int(np.flatnonzero(layer.ids == wanted)[0])
     centre = layer.xyz[at]
-    name = layer.labels[at] if at < len(layer.labels) else ""
     if not np.all(np.isfinite(centre)):
         centre = nav.xyz[rows].mean(axis=0)
     d2 = ((nav.xyz[rows] - centre) ** 2).sum(axis=1)
@@ -119,7 +118,7 @@ def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoin
         (float(centre[0]), float(centre[1]), float(centre[2])),
         float(np.sqrt(d2.min())),
         (kind, label),
-        name if name and name != label else None,
+        name_of(layer, at),
     )
 
 

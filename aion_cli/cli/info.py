@@ -62,6 +62,7 @@ def _rooms(path: Path) -> list[dict[str, Any]]:
     from aion_cli.engine.node_ids import node_label
     from aion_cli.errors import AionError
     from aion_cli.mapquery import load_map_head
+    from aion_cli.room_names import name_of
 
     try:
         graph = load_map_head(path).graph
@@ -70,14 +71,14 @@ def _rooms(path: Path) -> list[dict[str, Any]]:
     if graph is None:
         return []
     rooms = graph.rooms
-    out = []
-    for k, node_id in enumerate(rooms.ids.tolist()):
-        label = node_label(int(node_id))
-        name = rooms.labels[k] if k < len(rooms.labels) else ""
-        places = int(np.count_nonzero(graph.places.parent == np.uint64(node_id)))
-        out.append({"id": label, "name": name if name and name != label else None,
-                    "places": places})
-    return out
+    return [
+        {
+            "id": node_label(int(node_id)),
+            "name": name_of(rooms, k),
+            "places": int(np.count_nonzero(graph.places.parent == np.uint64(node_id))),
+        }
+        for k, node_id in enumerate(rooms.ids.tolist())
+    ]
 
 
 def describe(
