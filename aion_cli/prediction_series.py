@@ -2,12 +2,13 @@
 --step``, :meth:`aion_cli.Map.predict_series`).
 
 How busy is a corridor over the day, when is a room quiet? Each time of the series is the
-prediction ``aion predict --time`` makes at that time (the same entry table,
-:func:`aion_cli.predictions.entry_table`), so every value equals that command's ``flow`` and
-``flow_per_hour`` exactly. The entries are chosen as ``predict`` chooses them (``--layer``,
-``--node``, ``--at``), on the table of the first time (a map's rows are the same at every
-time), ordered busiest first by their mean flow over the series (entries without a known flow
-last, ties by id) and cut to ``top``.
+prediction ``aion predict --time`` makes at that time, so every value equals that command's
+``flow`` and ``flow_per_hour`` exactly: rooms and buildings from the same aggregated table
+(:func:`aion_cli.predictions.entry_table`), places and cells from the same predictor, evaluated
+for the chosen rows only (:func:`_entry_flows`). The entries are chosen as ``predict`` chooses
+them (``--layer``, ``--node``, ``--at``), on the table of the first time (a map's rows are the
+same at every time), ordered busiest first by their mean flow over the series (entries without
+a known flow last, ties by id) and cut to ``top``.
 """
 
 from __future__ import annotations

@@ -2,10 +2,10 @@
 
 Click completes commands, options, choices and paths by itself (``eval "$(_AION_COMPLETE=
 bash_source aion)"``, README); this module adds the ids a map holds, so that ``aion plan
-office.aion --from p<TAB>`` lists the map's places and ``--from R<TAB>`` its rooms. The map
-is read lazily (the manifest and the graph member, about 0.15 s), and a completion never
-fails: whatever goes wrong (no map yet on the line, a damaged file) completes nothing rather
-than printing a traceback into the shell.
+office.aion --from p<TAB>`` lists the map's places and ``--from R<TAB>`` its rooms. The map is
+read as queries read it (its graph and its entries' node ids; about 0.15 s for the sample
+office), and a completion never fails: whatever goes wrong (no map yet on the line, a damaged
+file) completes nothing rather than printing a traceback into the shell.
 """
 
 from __future__ import annotations
