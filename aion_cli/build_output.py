@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.manifest import InputLog, Manifest, add_counts
-from aion_cli.mapquery import detections_by_kind, state_counts
+from aion_cli.mapquery import state_counts
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport
@@ -36,15 +36,13 @@ def write_build(
 ) -> None:
     """Write ``report.output`` (the caller holds its lock) and fill the report's counts and
     size."""
-    from aion_cli.build_report import far_from_graph_warning
+    from aion_cli.build_report import far_from_graph_of
     from aion_cli.formats.mapfile import write_map
     from aion_cli.tf_feed import map_observation_text
 
     arrays, meta = state.to_arrays(lazy=True)
     stats = state_counts(state)
-    far = far_from_graph_warning(
-        *detections_by_kind(state), stats["nodes"], stats["nodes_with_flow"]
-    )
+    far = far_from_graph_of(state, stats)
     if far is not None:
         report.warnings.append(far)
     report.cells = stats["cells"]

@@ -270,6 +270,16 @@ def far_from_graph_warning(
     )
 
 
+def far_from_graph_of(state: Any, stats: dict[str, int]) -> str | None:
+    """:func:`far_from_graph_warning` of a map state about to be written (``stats``: its
+    :func:`aion_cli.mapquery.state_counts`): what ``build`` warns and ``merge`` notes."""
+    from aion_cli.mapquery import detections_by_kind
+
+    return far_from_graph_warning(
+        *detections_by_kind(state), stats["nodes"], stats["nodes_with_flow"]
+    )
+
+
 #: the mean speed of a build's detections above which people cannot be walking (m/s; people
 #: walk at about 1.4 m/s, and even a running crowd's mean stays below this)
 PLAUSIBLE_SPEED_M_S = 3.0

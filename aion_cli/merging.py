@@ -438,9 +438,9 @@ def _write(
 ) -> None:
     """The merged map file (atomic; the caller holds the output's lock) and the report's
     figures."""
-    from aion_cli.build_report import far_from_graph_warning
+    from aion_cli.build_report import far_from_graph_of
     from aion_cli.formats.mapfile import write_map
-    from aion_cli.mapquery import detections_by_kind, state_counts
+    from aion_cli.mapquery import state_counts
     from aion_cli.tf_feed import map_observation_text
 
     starts = [m.manifest.start_ns for m in maps if m.manifest.start_ns is not None]
@@ -459,9 +459,7 @@ def _write(
             },
         )
     stats = state_counts(merged)
-    far = far_from_graph_warning(
-        *detections_by_kind(merged), stats["nodes"], stats["nodes_with_flow"]
-    )
+    far = far_from_graph_of(merged, stats)
     if far is not None:  # a --graph FILE of another site, say
         report.notes.append(far)
     observation = map_observation_text(
