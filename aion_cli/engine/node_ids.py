@@ -89,8 +89,10 @@ def refuse_far_point(
     points = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     span = float(np.linalg.norm(np.ptp(points, axis=0))) if len(points) else 0.0
     if distance > max(FAR_POINT_M, span):
+        # a number of a typo's size reads as one, not as 300 digits
+        far = f"{distance:,.0f}" if distance < 1e9 else f"{distance:.3g}"
         raise InputError(
-            f"the point {text} is {distance:,.0f} m from the nearest {what} ({nearest}), "
+            f"the point {text} is {far} m from the nearest {what} ({nearest}), "
             f"farther than the whole map spans ({span:,.0f} m): coordinates in another frame "
             "or unit?",
             hint="give map-frame coordinates in metres",

@@ -202,6 +202,7 @@ def test_a_forecast_says_why_it_does_not_change_with_the_time(office: Office) ->
         (["--node", "kitchen"], "kitchen"),
         (["--at", "1,2,3,4"], "--at"),
         (["--at", "3900,1700"], "farther than the whole map spans"),  # millimetres?
+        (["--at", "1e300,0"], "is 1e+300 m from the nearest entry"),  # not 301 digits
         (["--layer", "floors"], "floors"),
     ],
 )
