@@ -248,6 +248,7 @@ def select(
     order (``--node``: in the order given), as an int64 array."""
     import numpy as np
 
+    from aion_cli.engine.nearest import distances_from
     from aion_cli.engine.node_ids import (
         node_label,
         parse_node_id,
@@ -291,7 +292,7 @@ def select(
         if not index.size:
             return index
         xyz = np.asarray(table.xyz, dtype=np.float64)[index]
-        dist = np.sqrt(((xyz - np.array([x, y, z])) ** 2).sum(axis=1))
+        dist = distances_from(xyz, (x, y, z))
         nearest = float(dist.min())
         # candidates by numpy, the choice by math.dist as the rows' own floats give it
         close = index[dist <= nearest * (1 + 1e-9) + 1e-12] if math.isfinite(nearest) else index

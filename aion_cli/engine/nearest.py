@@ -22,6 +22,7 @@ import itertools
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from aion_cli.engine.types import F64, I64
 
@@ -32,6 +33,16 @@ _ALL_PAIRS = 1 << 16
 """Up to this many point-node pairs, every pair is compared (no tree)."""
 _POINTS_PER_BLOCK = 1 << 14
 """Points asked of a KD-tree at a time (bounds the candidate pairs held at once)."""
+
+
+def distances_from(xyz: npt.ArrayLike, point: npt.ArrayLike) -> F64:
+    """3-D distance from ``point`` to every row of ``xyz``, finite for any finite input
+    (hypot, not the root of a sum of squares, which overflows to inf, with a warning, for a
+    typed point such as 1e300,0 and then cannot tell the nearest row)."""
+    d = np.asarray(xyz, dtype=np.float64).reshape(-1, 3) - np.asarray(
+        point, dtype=np.float64).reshape(1, 3)
+    out: F64 = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])
+    return out
 
 
 def nearest_nodes(points: F64, node_xyz: F64, radius: float, vertical_tolerance: float) -> I64:

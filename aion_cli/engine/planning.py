@@ -46,6 +46,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.nearest import distances_from
 from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.errors import AionError, InputError, NoPathError, UnknownNodeError
@@ -188,8 +189,7 @@ class NavGraph:
         """Row of the node nearest to ``point`` (x, y, z)."""
         if len(self.ids) == 0:
             raise UnknownNodeError("the navigational graph has no nodes")
-        d2 = ((self.xyz - np.asarray(point, dtype=np.float64).reshape(1, 3)) ** 2).sum(axis=1)
-        return int(np.argmin(d2))
+        return int(np.argmin(distances_from(self.xyz, point)))
 
     @cached_property
     def arcs(self) -> _Arcs:

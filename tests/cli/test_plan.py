@@ -88,6 +88,7 @@ def test_no_path_names_the_disconnected_parts(office: Office) -> None:
         (["--from", "p0", "--to", "p1", "--speed", "-1"], "--speed"),
         # millimetres, or another frame: far beyond the graph, not snapped to its edge
         (["--from", "p0", "--to", "3900,1700"], "farther than the whole map spans"),
+        (["--from", "1e300,0", "--to", "p0"], "is 1e+300 m from the nearest place"),  # no overflow
     ],
 )
 def test_bad_input_is_one_line_exit_2(office: Office, args: list[str], fragment: str) -> None:
