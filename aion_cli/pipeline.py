@@ -69,7 +69,7 @@ from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TopicTimes
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
-from aion_cli.provenance import distinct_logs
+from aion_cli.provenance import DistinctLogs, distinct_logs
 from aion_cli.tf_feed import check_tf, check_times, observe, read_tf_and_times
 from aion_cli.topics import TopicPlan, no_detection_topic
 
@@ -175,7 +175,18 @@ class _Build(StreamStep):
             self.report.continued = True
             self._map_open = self.previous.state.open_window
         config = self.config()
-        inputs = self._inputs()
+        hashes = self._distinct_logs().start()
+        try:
+            state = self._learn_state(config)
+        except BaseException:
+            hashes.cancel()
+            raise
+        self._write(state, config, self._inputs(hashes))
+        return self.report
+
+    def _learn_state(self, config: ModelConfig) -> MapState:
+        """The map state of the logs: in this process, in workers, or a part map."""
+        opts = self.opts
         out = self.report.output
         if out.exists() and self.previous is None:
             self.report.notes.append(
@@ -188,14 +199,12 @@ class _Build(StreamStep):
                 f"a part map: its {len(state.deferred.days) if state.deferred else 0} closed "
                 "day(s) are held unscored for `aion merge` (it cannot forecast on its own)"
             )
-        elif opts.workers != 1 or opts.scheduler is not None:
+            return state
+        if opts.workers != 1 or opts.scheduler is not None:
             from aion_cli.parallel_build import ParallelBuild
 
-            state = ParallelBuild(self, config).run()
-        else:
-            state = self.learn(config).state
-        self._write(state, config, inputs)
-        return self.report
+            return ParallelBuild(self, config).run()
+        return self.learn(config).state
 
     def learn(self, config: ModelConfig) -> Mapper:
         """Read the logs and learn them into a Mapper (steps 1-4 of the module docstring).
@@ -309,16 +318,22 @@ class _Build(StreamStep):
             self.report.tf_undecodable = 0
         return tf
 
-    def _inputs(self) -> tuple[InputLog, ...]:
-        """Provenance of the logs (:func:`aion_cli.provenance.distinct_logs`): the distinct
-        ones become :attr:`logs`; the continued map's inputs come first."""
+    def _distinct_logs(self) -> DistinctLogs:
+        """Which logs are distinct (:func:`aion_cli.provenance.distinct_logs`): they become
+        :attr:`logs`; their hashes may still be under way (:meth:`_inputs` waits)."""
         previous = self.previous_manifest
-        logs, new, notes = distinct_logs(
-            self.opts.logs, self.progress, previous.input_hashes if previous else set()
-        )
-        self._logs = logs
-        self.report.notes.extend(notes)
+        known = {i.sha256: i.size for i in previous.inputs} if previous else {}
+        hashes = distinct_logs(self.opts.logs, self.progress, known)
+        self._logs = hashes.logs
+        self.report.notes.extend(hashes.notes)
+        return hashes
+
+    def _inputs(self, hashes: DistinctLogs) -> tuple[InputLog, ...]:
+        """Provenance of the map's logs: the continued map's inputs first, then this build's
+        (waiting for the hashes still under way)."""
+        new = hashes.entries(self.progress)
         self.report.inputs = new
+        previous = self.previous_manifest
         old = previous.inputs if previous is not None else ()
         return old + tuple(InputLog.from_dict(entry) for entry in new)
 
