@@ -1,11 +1,13 @@
 """Rooms and buildings by their names in the scene graph (Hydra's room labels, such as
 "kitchen" or "office 1"), wherever a node id is accepted: ``plan --from/--to``,
 ``export --path-from/--path-to``, ``predict --node`` and the Python API. A name matches in any
-case; a label that is only the node's id (``R3``) is not a name.
+case, and with underscores for its spaces (``office_1``: one shell word, as shell completion
+offers it, :func:`shell_word`); a label that is only the node's id (``R3``) is not a name.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -45,18 +47,34 @@ def room_names(graph: GraphSnapshot) -> list[str]:
     return [name for name in names if name is not None]
 
 
+def _match_key(name: str) -> str:
+    """What two spellings of one name share: case, runs of spaces and underscores ignored."""
+    return " ".join(name.replace("_", " ").split()).casefold()
+
+
+_SHELL_SAFE = re.compile(r"[\w.+:@%,=-]+")
+
+
+def shell_word(name: str) -> str | None:
+    """``name`` as one word a shell passes through unquoted ("office 1" -> "office_1"), which
+    :func:`named_node` reads back; None for a name with characters a shell would interpret
+    (quotes, ``$``, ``*``, ...)."""
+    word = "_".join(name.split())
+    return word if _SHELL_SAFE.fullmatch(word) else None
+
+
 def named_node(text: str, graph: GraphSnapshot) -> int | None:
-    """The room or building whose name is ``text`` (any case; Hydra's room names, such as
-    "kitchen"), or None when no name matches (then ``text`` is read as an id);
-    :class:`~aion_cli.errors.InputError` when two share the name."""
+    """The room or building whose name is ``text`` (any case, ``_`` for a space; Hydra's
+    room names, such as "kitchen" or "office 1"), or None when no name matches (then ``text``
+    is read as an id); :class:`~aion_cli.errors.InputError` when two share the name."""
     from aion_cli.errors import InputError
 
-    wanted = text.strip().casefold()
+    wanted = _match_key(text)
     hits = [
         int(node_id)
         for layer in (graph.rooms, graph.buildings)
         for node_id, label in zip(layer.ids.tolist(), layer.labels, strict=False)
-        if label and label.strip().casefold() == wanted
+        if label and _match_key(label) == wanted
     ]
     if len(hits) > 1:
         raise InputError(

@@ -53,8 +53,9 @@ def test_rooms_and_buildings_are_completed_too(office: Office) -> None:
     assert graph is not None
     rooms = _labels(graph.rooms.ids)
     assert rooms
-    assert set(_complete(f"aion predict {office.map} --node R")) == rooms
-    assert set(_complete(f"aion plan {office.map} --from R")) == rooms  # plan takes rooms too
+    names = {"room0", "room1", "room2"}  # the graph's names: any case matches them
+    assert set(_complete(f"aion predict {office.map} --node R")) == rooms | names
+    assert set(_complete(f"aion plan {office.map} --from R")) == rooms | names  # plan too
 
 
 def test_fish_passes_the_line_up_to_the_current_word(office: Office) -> None:
@@ -69,3 +70,15 @@ def test_nothing_is_offered_without_a_readable_map(tmp_path: Path) -> None:
     damaged = tmp_path / "damaged.aion"
     damaged.write_bytes(b"PK\x03\x04 not really a map")
     assert _complete(f"aion predict {damaged} --node p") == []
+
+
+def test_room_names_are_completed_as_the_commands_read_them(office: Office) -> None:
+    """The office graph names its rooms room0 .. room2: offered after the ids, in any case,
+    and every one is accepted by plan as the room it names."""
+    graph = load_map(office.map).graph
+    assert graph is not None
+    offered = _complete(f"aion plan {office.map} --from ROOM")
+    assert offered == ["room0", "room1", "room2"]
+    assert _complete(f"aion predict {office.map} --node room1") == ["room1"]
+    everything = _complete(f"aion plan {office.map} --from ")
+    assert everything[-3:] == offered  # names after the ids

@@ -1,0 +1,58 @@
+"""Rooms by name (aion_cli/room_names.py): any case, and a name with spaces as one shell word
+with underscores, as shell completion offers it; names a shell would interpret are not
+offered."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.node_ids import node_label
+from aion_cli.engine.types import GraphSnapshot, Layer
+from aion_cli.errors import InputError
+from aion_cli.room_names import named_node, room_names, shell_word
+
+R = ord("R") << 56
+B = ord("B") << 56
+
+
+def _graph(room_labels: tuple[str, ...], building_labels: tuple[str, ...] = ()) -> GraphSnapshot:
+    def layer(base: int, labels: tuple[str, ...]) -> Layer:
+        n = len(labels)
+        ids = np.arange(n, dtype=np.uint64) + np.uint64(base)
+        return Layer(ids, np.zeros((n, 3)), np.zeros(n, np.uint64), labels)
+
+    places = Layer(np.zeros(0, np.uint64), np.zeros((0, 3)), np.zeros(0, np.uint64))
+    return GraphSnapshot(0, places, np.zeros((0, 2), np.int64),
+                         rooms=layer(R, room_labels), buildings=layer(B, building_labels))
+
+
+def test_a_name_with_spaces_is_found_by_its_shell_word_in_any_case() -> None:
+    graph = _graph(("office 1", "Meeting  Room", "kitchen", "R3"), ("main building",))
+    assert room_names(graph) == ["office 1", "Meeting  Room", "kitchen", "main building"]
+    for typed, room in [("office 1", R), ("office_1", R), ("OFFICE_1", R), (" office  1 ", R),
+                        ("meeting_room", R + 1), ("meeting room", R + 1), ("Kitchen", R + 2),
+                        ("main_building", B)]:
+        assert named_node(typed, graph) == room, typed
+    assert named_node("R3", graph) == R + 3  # a label that is the id: the same node either way
+    assert named_node("office_2", graph) is None
+    for name in room_names(graph):  # completion's word reads back as the same node
+        word = shell_word(name)
+        assert word is not None
+        assert " " not in word
+        assert named_node(word, graph) == named_node(name, graph)
+
+
+def test_names_a_shell_would_interpret_are_not_offered() -> None:
+    assert shell_word("office 1") == "office_1"
+    assert shell_word("lab-2.north") == "lab-2.north"
+    for name in ["coffee & tea", "bob's office", "store*", "$HOME", 'the "big" room', "a;b"]:
+        assert shell_word(name) is None, name
+
+
+def test_two_rooms_whose_names_differ_by_underscores_only_are_ambiguous() -> None:
+    graph = _graph(("office 1", "office_1"))
+    with pytest.raises(InputError, match="2 rooms are named 'office 1'") as err:
+        named_node("office 1", graph)
+    assert node_label(R) in str(err.value)
+    assert node_label(R + 1) in str(err.value)
