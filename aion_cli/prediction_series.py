@@ -3,9 +3,10 @@
 
 How busy is a corridor over the day, when is a room quiet? Each time of the series is the
 prediction ``aion predict --time`` makes at that time, so every value equals that command's
-``flow`` and ``flow_per_hour`` exactly: rooms and buildings from the same aggregated table
-(:func:`aion_cli.predictions.entry_table`), places and cells from the same predictor, evaluated
-for the chosen rows only (:func:`_entry_flows`). The entries are chosen as ``predict`` chooses
+``flow`` and ``flow_per_hour`` exactly: places and cells from the same predictor, evaluated
+for the chosen rows only (:func:`_entry_flows`); rooms and buildings as the sums of their
+places' flows in the order the aggregated table (:func:`aion_cli.predictions.entry_table`)
+adds them (:func:`_group_flows`). The entries are chosen as ``predict`` chooses
 them (``--layer``, ``--node``, ``--at``), on the table of the first time (a map's rows are the
 same at every time), ordered busiest first by their mean flow over the series (entries without
 a known flow last, ties by id) and cut to ``top``.
@@ -15,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -114,19 +115,11 @@ def predict_series(
         raise ValueError("a series needs at least one time")
     first = entry_table(loaded, times[0], layer)
     index = select(first, layer, with_names_resolved(nodes, loaded.graph), at)
-    if layer in ("rooms", "buildings"):  # sums over places: one aggregated table per time
-        flow = np.empty((index.size, len(times)))
-        per_hour = np.empty_like(flow)
-        for j, t in enumerate(times):
-            table = first if j == 0 else entry_table(loaded, t, layer)
-            d = table.descriptors_of(index)
-            flow[:, j] = d.flow_per_window
-            per_hour[:, j] = d.flow_per_hour
-            if progress is not None:
-                progress(j + 1)
+    if layer in ("rooms", "buildings"):  # sums over places, as the aggregated table's
+        flow = _group_flows(loaded, first.node_id[index], times, layer, progress)
     else:
         flow = _entry_flows(loaded, index, times, progress)
-        per_hour = flow * (3600.0 / first.window_s)  # as the table's descriptors compute it
+    per_hour = flow * (3600.0 / first.window_s)  # as the table's descriptors compute it
     known = np.asarray(np.isfinite(flow).any(axis=1), dtype=bool)
     mean = np.zeros(index.size)
     if known.any():
@@ -139,6 +132,32 @@ def predict_series(
         {key: row[key] for key in static} for row in rows_from_table(first, index[order])
     ]
     return SeriesTable(times, entries, flow[order], per_hour[order], int(index.size))
+
+
+def _group_flows(
+    loaded: LoadedMap,
+    group_ids: npt.NDArray[np.uint64],
+    times: list[int],
+    layer: str,
+    progress: Callable[[int], None] | None,
+) -> F64:
+    """The flow of the rooms or buildings ``group_ids`` at ``times``, float64[G, T]: every
+    entry's flow by the predictor's batch path, summed per group in entry order
+    (:func:`aion_cli.predictions.group_flow_series`), the sums the aggregated table makes
+    at each time, without a whole table per time."""
+    from aion_cli.predictions import SERIES_PAIRS, group_flow_series
+
+    level: Literal["rooms", "buildings"] = "rooms" if layer == "rooms" else "buildings"
+    out = np.zeros((group_ids.size, len(times)))
+    members = max(1, len(loaded.state.predictor()[0]))
+    per_call = max(1, SERIES_PAIRS // members) * 8  # a few of its blocks per progress step
+    for a in range(0, len(times), per_call):
+        block = times[a : a + per_call]
+        _, ids, flows = group_flow_series(loaded, block, level)
+        out[:, a : a + len(block)] = flows[:, np.searchsorted(ids, group_ids)].T
+        if progress is not None:
+            progress(a + len(block))
+    return out
 
 
 def _entry_flows(

@@ -317,16 +317,29 @@ histograms ``Predictor.pairs`` returns with the flows: pairs x bins floats)."""
 
 
 def flow_series(
-    loaded: LoadedMap, times_ns: Any, layer: Literal["rooms", "all"] = "rooms"
+    loaded: LoadedMap,
+    times_ns: Any,
+    layer: Literal["rooms", "buildings", "all"] = "rooms",
 ) -> tuple[Any, Any]:
     """Predicted flow (expected detections per window) at many times (``times_ns``, UNIX
-    ns, any int sequence or array), summed per room
-    (``layer="rooms"``) or over the whole map (``"all"``, one column): the display ids
-    (``R3``; ``"all"``) and ``float64[T, G]``. Each row equals the ``flow`` of
-    ``entry_table(loaded, t, "rooms")`` at that time (``aion predict --layer rooms``),
-    computed with the predictor's batch path (``Predictor.pairs`` over every entry x time
-    pair, a block of times at a time) instead of one table per time; entries never observed
-    count as 0, as in the room sums."""
+    ns, any int sequence or array), summed per room or building (``layer``) or over the
+    whole map (``"all"``, one column): the display ids (``R3``; ``"all"``) and
+    ``float64[T, G]``. Each row equals the ``flow`` of ``entry_table(loaded, t, layer)`` at
+    that time (``aion predict --layer rooms``), computed with the predictor's batch path
+    (``Predictor.pairs`` over every entry x time pair, a block of times at a time) instead of
+    one table per time; entries never observed count as 0, as in the room sums. With
+    :func:`group_flow_series` the ids as numbers."""
+    labels, _, out = group_flow_series(loaded, times_ns, layer)
+    return labels, out
+
+
+def group_flow_series(
+    loaded: LoadedMap,
+    times_ns: Any,
+    layer: Literal["rooms", "buildings", "all"] = "rooms",
+) -> tuple[Any, Any, Any]:
+    """:func:`flow_series` with the groups' node ids (``uint64[G]``, sorted; one 0 for
+    ``"all"``) beside their display ids: ``(labels, ids, flow)``."""
     import numpy as np
 
     from aion_cli.engine.query import node_symbol, parent_ids
@@ -336,27 +349,31 @@ def flow_series(
     state = loaded.state
     rows, predictor = state.predictor()
     graph = loaded.graph
-    if layer == "rooms":
+    if layer in ("rooms", "buildings"):
         if graph is None:
             raise InputError(
-                "the map has no scene graph, so no rooms",
+                f"the map has no scene graph, so no {layer}",
                 hint="build with a Hydra scene graph (--graph FILE) to get rooms and buildings",
             )
         parent = parent_ids(graph.places.ids, graph.places.parent, state.entries.node_id[rows])
         parent[state.entries.kind[rows] != 1] = 0  # hash cells belong to no room
+        above = graph.places.parent  # every group holding a place (without entries: 0 flow)
+        if layer == "buildings":  # via the rooms, as aggregate_table goes
+            parent = parent_ids(graph.rooms.ids, graph.rooms.parent, parent)
+            above = parent_ids(graph.rooms.ids, graph.rooms.parent, above)
         members = np.flatnonzero(parent != 0)
-        # every room holding a place of the graph (one without entries has zero flow)
-        ids = np.unique(np.concatenate([parent[members], graph.places.parent]))
+        ids = np.unique(np.concatenate([parent[members], above]))
         ids = ids[ids != 0]
         inverse = np.searchsorted(ids, parent[members])
         labels = node_symbol(ids)
     else:
         members = np.arange(rows.size)
         inverse = np.zeros(rows.size, np.int64)
+        ids = np.zeros(1, np.uint64)
         labels = np.asarray(["all"])
     out = np.zeros((times.size, labels.size))
     if members.size == 0 or times.size == 0:
-        return labels, out
+        return labels, ids, out
     per_step = max(1, SERIES_PAIRS // members.size)
     for a in range(0, times.size, per_step):
         block = times[a : a + per_step]
@@ -365,4 +382,4 @@ def flow_series(
         slot = (np.arange(block.size)[:, None] * labels.size + inverse[None, :]).reshape(-1)
         sums = np.bincount(slot, weights=np.nan_to_num(flow), minlength=block.size * labels.size)
         out[a : a + block.size] = sums.reshape(block.size, labels.size)
-    return labels, out
+    return labels, ids, out

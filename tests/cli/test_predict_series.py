@@ -135,9 +135,9 @@ def test_a_step_longer_than_the_span_is_one_time(rhythm: Path) -> None:
 
 def test_places_without_data_and_every_layer_agree_with_predict(office: Office) -> None:
     """The office graph has places no detection reached (flow 0 in predict's table): the
-    series says the same for them, and for cells and rooms, at each time."""
+    series says the same for them, and for cells, rooms and buildings, at each time."""
     times = ["2026-11-23 07:00", "2026-11-23 08:30", "2026-11-23 12:00"]
-    for layer in ("all", "places", "cells", "rooms"):
+    for layer in ("all", "places", "cells", "rooms", "buildings"):
         doc = run_json(
             "predict", office.map, "--layer", layer, "--tz", "UTC", "--from", times[0],
             "--to", times[-1], "--step", "90m", "--format", "json",
