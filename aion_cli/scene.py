@@ -61,12 +61,6 @@ class Scene:
     place_room: I64
     mesh: Mesh | None
 
-    @property
-    def max_flow(self) -> float:
-        """The largest flow of a node or cell (0 for a scene without flow)."""
-        flows = np.concatenate([self.node_flow, self.cells_flow])
-        return float(flows.max()) if len(flows) else 0.0
-
 
 def scene_at(loaded: LoadedMap, t_ns: int | None) -> Scene:
     """The scene at ``t_ns`` (None: historical), from the entry table of ``aion predict``."""

@@ -13,7 +13,8 @@ What is drawn, back to front:
 - **arrows**: one per node or unbound cell with flow, from its centre along its dominant
   direction, length
   ``ARROW_CELLS·δ·busy`` (busy = ``min(flow / flow_scale, 1)``, ``formats.export``'s
-  ``busy_fraction``: proportional to flow, the busiest ``ARROW_CELLS`` cells long), coloured
+  ``busy_fraction``: proportional to flow up to ``flow_scale``, drawn ``ARROW_CELLS`` cells
+  long; :func:`arrow_scale` chooses it), coloured
   by entropy with ``formats.export.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
   direction, red for every direction), on a dot of the same colour;
 - **paths** (:class:`PathLine`) and **markers** (:class:`Marker`, e.g. start and goal) on top.
@@ -66,6 +67,12 @@ ARROW_WIDTH = 0.0035
 """Arrow shaft width as a fraction of the panel width (one large panel; small multiples
 draw them relatively wider, :data:`PANEL_ARROW_WIDTH`, so they stay visible)."""
 PANEL_ARROW_WIDTH = 0.006
+ARROW_QUANTILE = 0.95
+"""Flows at or above this quantile of the flows drawn get full-length arrows when the busiest
+flow is far above it (:func:`arrow_scale`)."""
+ARROW_QUANTILE_FROM = 20
+"""The quantile rule applies from this many entries with flow (fewer: the busiest is full
+length)."""
 ENTROPY_LABEL = "direction entropy"
 DPI = 120
 MAX_PANELS = 24
@@ -134,6 +141,48 @@ def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Ext
     )
 
 
+@dataclass(frozen=True)
+class ArrowScale:
+    """The flow drawn at full arrow length (``flow``), the largest flow (``largest``), and
+    the legend that says how lengths read."""
+
+    flow: float
+    largest: float
+
+    def legend(self, window_s: float) -> str:
+        per = f"detections per {window_s:g}-s window"
+        if self.flow >= self.largest:
+            return (
+                f"arrows: dominant direction, length proportional to flow (the longest: "
+                f"{self.flow:.3g} {per}); grey: no flow"
+            )
+        share = round(100 * (1 - ARROW_QUANTILE))
+        return (
+            f"arrows: dominant direction, length proportional to flow up to {self.flow:.3g} "
+            f"{per} (the busiest {share} % drawn that long; the largest {self.largest:.3g}); "
+            "grey: no flow"
+        )
+
+
+def arrow_scale(scenes: Sequence[Scene]) -> ArrowScale:
+    """The arrow scale of one picture (every panel shares it). Linear in flow up to the
+    busiest flow; but real maps' flows are heavy-tailed (a mall entrance with 60 detections
+    a window, most places under 1), and then every other arrow would be a dot: when
+    :data:`ARROW_QUANTILE_FROM` or more entries have flow and the busiest is more than twice
+    their :data:`ARROW_QUANTILE` quantile, that quantile is drawn at full length instead (the
+    legend says so)."""
+    flows = np.concatenate([np.concatenate([s.node_flow, s.cells_flow]) for s in scenes])
+    flows = flows[np.isfinite(flows) & (flows > 0)]
+    largest = float(flows.max()) if flows.size else 0.0
+    if largest <= 0:
+        return ArrowScale(1.0, 1.0)
+    if flows.size >= ARROW_QUANTILE_FROM:
+        high = float(np.quantile(flows, ARROW_QUANTILE))
+        if high > 0 and 2.0 * high < largest:
+            return ArrowScale(high, largest)
+    return ArrowScale(largest, largest)
+
+
 def draw_topdown(
     ax: Any,
     scene: Scene,
@@ -150,15 +199,14 @@ def draw_topdown(
     rooms: RoomOutlines | None = None,
 ) -> None:
     """Draw ``scene`` top-down into the matplotlib axes ``ax`` (see the module docstring).
-    ``flow_scale``: the flow drawn at full arrow length (default: the scene's largest);
+    ``flow_scale``: the flow drawn at full arrow length (default: :func:`arrow_scale`'s);
     ``extent``: the window shown (default: the scene's own); ``arrow_width`` (fraction of the
     panel width), ``dot_size`` (points²) and ``label_size`` (points) for small panels;
     ``footprint`` / ``rooms``: the mesh already rendered (:func:`mesh_footprint`) and the
     room outlines already computed (:func:`room_outlines`); default: made here."""
     from matplotlib.collections import LineCollection, PolyCollection
 
-    scale = flow_scale if flow_scale is not None and flow_scale > 0 else scene.max_flow
-    scale = scale if scale > 0 else 1.0
+    scale = flow_scale if flow_scale is not None and flow_scale > 0 else arrow_scale([scene]).flow
     box = extent or scene_extent([scene], paths)
     if footprint is None:
         footprint = mesh_footprint(scene, box, round(ax.get_window_extent().width))
@@ -274,7 +322,7 @@ def topdown_figure(
     flow_scale: float | None = None,
 ) -> Any:
     """A matplotlib ``Figure`` (Agg canvas) with one panel per scene, titled by ``titles``:
-    shared axes, flow scale (default: the largest flow of all scenes) and entropy colour bar;
+    shared axes, flow scale (default: :func:`arrow_scale` of all scenes) and entropy colour bar;
     ``paths[i]`` drawn on panel ``i``, ``markers`` on every panel. At most
     :data:`MAX_PANELS` panels (an :class:`InputError` beyond)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -292,8 +340,10 @@ def topdown_figure(
         )
     per_panel = list(paths) if paths is not None else [[] for _ in scenes]
     extent = scene_extent(scenes, [p for ps in per_panel for p in ps])
-    scale = flow_scale if flow_scale is not None else max(s.max_flow for s in scenes)
-    scale = scale if scale > 0 else 1.0
+    arrows = arrow_scale(scenes)
+    if flow_scale is not None and flow_scale > 0:
+        arrows = ArrowScale(flow_scale, max(flow_scale, arrows.largest))
+    scale = arrows.flow
     rows, cols, width, height = _grid(n, extent.aspect)
     fig = Figure(
         figsize=(cols * width + 1.4, rows * height + (1.2 if n == 1 else 1.0)),
@@ -343,10 +393,8 @@ def topdown_figure(
     bar.set_label(ENTROPY_LABEL)
     if suptitle:
         fig.suptitle(suptitle, fontsize=12)
-    window = scenes[0].window_s
     fig.supxlabel(
-        f"arrows: dominant direction, length proportional to flow (the longest: {scale:.3g} "
-        f"detections per {window:g}-s window); grey: no flow",
+        arrows.legend(scenes[0].window_s),
         fontsize=7,
         color=LABEL_GREY,
     )
@@ -355,6 +403,8 @@ def topdown_figure(
 
 __all__ = [
     "ARROW_CELLS",
+    "ARROW_QUANTILE",
+    "ARROW_QUANTILE_FROM",
     "ARROW_WIDTH",
     "DPI",
     "ENTROPY_LABEL",
@@ -366,12 +416,14 @@ __all__ = [
     "PANEL_WIDTH_IN",
     "ROOM_GREY",
     "SINGLE_WIDTH_IN",
+    "ArrowScale",
     "Color",
     "Extent",
     "Footprint",
     "Marker",
     "PathLine",
     "RoomOutlines",
+    "arrow_scale",
     "draw_topdown",
     "entropy_cmap",
     "mesh_footprint",

@@ -13,7 +13,16 @@ import pytest
 from aion_cli.errors import InputError
 from aion_cli.formats.export import entropy_colors
 from aion_cli.pictures.render import save_png
-from aion_cli.pictures.topdown import ARROW_CELLS, ENTROPY_LABEL, MAX_PANELS, topdown_figure
+from aion_cli.pictures.topdown import (
+    ARROW_CELLS,
+    ARROW_QUANTILE,
+    ARROW_QUANTILE_FROM,
+    ENTROPY_LABEL,
+    MAX_PANELS,
+    ArrowScale,
+    arrow_scale,
+    topdown_figure,
+)
 from aion_cli.scene import Scene
 from tests.pictures.pixels import (
     F64,
@@ -176,3 +185,45 @@ def test_room_outlines_are_padded_hulls_labelled_at_the_centroid() -> None:
     )
     assert room_outlines(line).hulls == ()
     assert room_outlines(line).labels == ("R0",)
+
+
+def _many_cells(flows: F64) -> Scene:
+    """The synthetic scene plus a row of hash cells at y = -6, one per flow, 3 m apart,
+    pointing along +x."""
+    from dataclasses import replace
+
+    base = synthetic_scene()
+    n = len(flows)
+    xyz = np.column_stack([3.0 * np.arange(n), np.full(n, -6.0), np.zeros(n)])
+    return replace(
+        base,
+        node_flow=np.zeros(3),
+        cells_xyz=xyz,
+        cells_flow=np.asarray(flows, dtype=np.float64),
+        cells_entropy=np.full(n, 0.2),
+        cells_angle=np.zeros(n),
+    )
+
+
+def test_the_arrow_scale_is_the_busiest_flow_unless_one_dwarfs_the_rest() -> None:
+    even = np.linspace(1.0, 2.0, 30)
+    assert arrow_scale([_many_cells(even)]) == ArrowScale(2.0, 2.0)
+    tail = np.r_[np.ones(29), 100.0]  # one entrance with 100, the rest 1
+    scale = arrow_scale([_many_cells(tail)])
+    assert scale.largest == 100.0
+    assert scale.flow == pytest.approx(np.quantile(tail, ARROW_QUANTILE))
+    assert "the largest 100" in scale.legend(600.0)
+    few = np.r_[np.ones(ARROW_QUANTILE_FROM - 2), 100.0]  # too few entries to judge a tail
+    assert arrow_scale([_many_cells(few)]) == ArrowScale(100.0, 100.0)
+    # every panel of a series shares one scale: the pooled flows'
+    pooled = arrow_scale([_many_cells(np.ones(15)), _many_cells(np.r_[np.ones(14), 100.0])])
+    assert pooled.flow == pytest.approx(np.quantile(np.r_[np.ones(29), 100.0], ARROW_QUANTILE))
+
+
+def test_a_heavy_tail_leaves_the_other_arrows_visible(tmp_path: Path) -> None:
+    """With the busiest cell 100 times the others, scaled to the busiest their arrows would be
+    1 % of full length (a dot); scaled to the 95th percentile they are full length."""
+    flows = np.r_[np.ones(29), 100.0]
+    fig, (ax,), image = _drawn(tmp_path, [_many_cells(flows)])
+    assert not is_blank(image, *pixel_of(ax, image, 0.8 * L, -6.0), half=1)  # cell 0: flow 1
+    assert "the largest 100" in fig.get_supxlabel()
