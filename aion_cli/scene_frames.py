@@ -6,8 +6,10 @@ Each step is the scene of ``aion predict``'s entry table at its time
 ``formats.scene_style.style_scene`` and written by ``formats.scene_mcap``. Entities are named
 by the entry ids of ``aion predict`` (``p12``, ``c<key>``), in the map's entry order, which is
 the same at every step. Sphere sizes share one scale over the whole series
-(:func:`series_flow_scale`): the busiest node of the busiest step is drawn at full size, so a
-node that grows on the timeline is busier then (a PLY series scales each folder on its own).
+(:func:`series_flow_scale`): the busiest node of the busiest step is drawn at full size (or a
+high quantile of all steps' flows when it dwarfs them, ``formats.export.display_flow_scale``),
+so a node that grows on the timeline is busier then (a PLY series scales each folder on its
+own).
 """
 
 from __future__ import annotations
@@ -102,17 +104,18 @@ def step_scene(
 
 
 def series_flow_scale(loaded: LoadedMap, times: Sequence[int | None]) -> float | None:
-    """The largest node flow over the scenes at ``times``: the flow drawn at full size in
-    every step of a series; None when no node has flow (each step then scales on its own, as
-    a single export does)."""
+    """The flow drawn at full size in every step of a series: ``display_flow_scale`` of the
+    node flows of the scenes at ``times`` (the busiest, or a high quantile when the busiest
+    dwarfs the rest); None when no node has flow (each step then scales on its own, as a
+    single export does)."""
+    from aion_cli.formats.export import display_flow_scale
     from aion_cli.scene import scene_at
 
-    top = 0.0
-    for t_ns in times:
-        flow = scene_at(loaded, t_ns).node_flow
-        if len(flow):
-            top = max(top, float(flow.max()))
-    return top if top > 0 else None
+    flows = [scene_at(loaded, t_ns).node_flow for t_ns in times]
+    pooled = np.concatenate(flows) if flows else np.zeros(0)
+    if not (np.nan_to_num(pooled) > 0).any():
+        return None
+    return display_flow_scale(pooled)[0]
 
 
 def _log_time(loaded: LoadedMap, t_ns: int | None) -> int:

@@ -111,6 +111,34 @@ def entropy_colors(entropy: npt.ArrayLike) -> F64:
     return out
 
 
+DISPLAY_QUANTILE = 0.95
+"""Flows at or above this quantile get full size when the busiest flow dwarfs them
+(:func:`display_flow_scale`)."""
+DISPLAY_QUANTILE_FROM = 20
+"""The quantile rule applies from this many entries with flow (fewer: the busiest is full
+size)."""
+
+
+def display_flow_scale(flow: npt.ArrayLike) -> tuple[float, float]:
+    """The flow drawn at full size (arrow length, sphere radius) and the largest flow, for
+    ``flow`` (every entry drawn, over every step of a series). Sizes are linear in flow up to
+    the busiest flow; but real maps' flows are heavy-tailed (a mall entrance with 60
+    detections a window, most places under 1), and then every other entry would be a dot: when
+    :data:`DISPLAY_QUANTILE_FROM` or more entries have flow and the busiest is more than twice
+    their :data:`DISPLAY_QUANTILE` quantile, that quantile is drawn at full size instead.
+    ``(1, 1)`` without flow."""
+    f = np.asarray(flow, dtype=np.float64).reshape(-1)
+    f = f[np.isfinite(f) & (f > 0)]
+    if f.size == 0:
+        return 1.0, 1.0
+    largest = float(f.max())
+    if f.size >= DISPLAY_QUANTILE_FROM:
+        high = float(np.quantile(f, DISPLAY_QUANTILE))
+        if high > 0 and 2.0 * high < largest:
+            return high, largest
+    return largest, largest
+
+
 def busy_fraction(flow: npt.ArrayLike, flow_scale: float) -> F64:
     """``min(flow / flow_scale, 1)``, NaN and negative flow count as 0."""
     f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)

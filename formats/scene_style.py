@@ -23,6 +23,7 @@ from aion_cli.formats.export import (
     ExportError,
     TriMesh,
     busy_fraction,
+    display_flow_scale,
     entropy_colors,
     sphere_radii,
 )
@@ -157,9 +158,7 @@ def _flow_scale(flow: F64, flow_scale: float | None) -> float:
         if not (np.isfinite(flow_scale) and flow_scale > 0):
             raise ExportError(f"flow_scale must be positive, got {flow_scale!r}")
         return float(flow_scale)
-    finite = flow[np.isfinite(flow)]
-    top = float(finite.max()) if len(finite) else 0.0
-    return top if top > 0 else 1.0
+    return display_flow_scale(flow)[0]
 
 
 def _mesh_part(mesh: Mesh | None) -> TriMesh:

@@ -14,7 +14,7 @@ What is drawn, back to front:
   direction, length
   ``ARROW_CELLS·δ·busy`` (busy = ``min(flow / flow_scale, 1)``, ``formats.export``'s
   ``busy_fraction``: proportional to flow up to ``flow_scale``, drawn ``ARROW_CELLS`` cells
-  long; :func:`arrow_scale` chooses it), coloured
+  long; :func:`arrow_scale` chooses it, as the 3D scenes' sizes), coloured
   by entropy with ``formats.export.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
   direction, red for every direction), on a dot of the same colour;
 - **paths** (:class:`PathLine`) and **markers** (:class:`Marker`, e.g. start and goal) on top.
@@ -40,7 +40,14 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.errors import InputError
-from aion_cli.formats.export import EDGE_GREY, NO_FLOW_GREY, busy_fraction, entropy_colors
+from aion_cli.formats.export import (
+    DISPLAY_QUANTILE,
+    EDGE_GREY,
+    NO_FLOW_GREY,
+    busy_fraction,
+    display_flow_scale,
+    entropy_colors,
+)
 from aion_cli.pictures.backdrop import (
     LABEL_GREY,
     MAX_ROOM_LABELS,
@@ -67,12 +74,6 @@ ARROW_WIDTH = 0.0035
 """Arrow shaft width as a fraction of the panel width (one large panel; small multiples
 draw them relatively wider, :data:`PANEL_ARROW_WIDTH`, so they stay visible)."""
 PANEL_ARROW_WIDTH = 0.006
-ARROW_QUANTILE = 0.95
-"""Flows at or above this quantile of the flows drawn get full-length arrows when the busiest
-flow is far above it (:func:`arrow_scale`)."""
-ARROW_QUANTILE_FROM = 20
-"""The quantile rule applies from this many entries with flow (fewer: the busiest is full
-length)."""
 ENTROPY_LABEL = "direction entropy"
 DPI = 120
 MAX_PANELS = 24
@@ -156,7 +157,7 @@ class ArrowScale:
                 f"arrows: dominant direction, length proportional to flow (the longest: "
                 f"{self.flow:.3g} {per}); grey: no flow"
             )
-        share = round(100 * (1 - ARROW_QUANTILE))
+        share = round(100 * (1 - DISPLAY_QUANTILE))
         return (
             f"arrows: dominant direction, length proportional to flow up to {self.flow:.3g} "
             f"{per} (the busiest {share} % drawn that long; the largest {self.largest:.3g}); "
@@ -165,22 +166,11 @@ class ArrowScale:
 
 
 def arrow_scale(scenes: Sequence[Scene]) -> ArrowScale:
-    """The arrow scale of one picture (every panel shares it). Linear in flow up to the
-    busiest flow; but real maps' flows are heavy-tailed (a mall entrance with 60 detections
-    a window, most places under 1), and then every other arrow would be a dot: when
-    :data:`ARROW_QUANTILE_FROM` or more entries have flow and the busiest is more than twice
-    their :data:`ARROW_QUANTILE` quantile, that quantile is drawn at full length instead (the
-    legend says so)."""
+    """The arrow scale of one picture (every panel shares it): the flows of every node and
+    cell of ``scenes`` through :func:`formats.export.display_flow_scale` (linear up to the
+    busiest flow, or up to a high quantile when the busiest dwarfs the rest)."""
     flows = np.concatenate([np.concatenate([s.node_flow, s.cells_flow]) for s in scenes])
-    flows = flows[np.isfinite(flows) & (flows > 0)]
-    largest = float(flows.max()) if flows.size else 0.0
-    if largest <= 0:
-        return ArrowScale(1.0, 1.0)
-    if flows.size >= ARROW_QUANTILE_FROM:
-        high = float(np.quantile(flows, ARROW_QUANTILE))
-        if high > 0 and 2.0 * high < largest:
-            return ArrowScale(high, largest)
-    return ArrowScale(largest, largest)
+    return ArrowScale(*display_flow_scale(flows))
 
 
 def draw_topdown(
@@ -403,8 +393,6 @@ def topdown_figure(
 
 __all__ = [
     "ARROW_CELLS",
-    "ARROW_QUANTILE",
-    "ARROW_QUANTILE_FROM",
     "ARROW_WIDTH",
     "DPI",
     "ENTROPY_LABEL",

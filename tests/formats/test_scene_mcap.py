@@ -301,3 +301,22 @@ def test_bad_steps_are_typed_errors(tmp_path: Path) -> None:
     blocker.write_text("x")
     with pytest.raises(ExportWriteError, match="cannot write"):
         SceneMcapWriter(blocker / "s.mcap", {})
+
+
+def test_a_heavy_tail_is_sized_by_its_high_quantile() -> None:
+    """29 nodes with flow 1 and an entrance with 100: sized to the busiest, every other sphere
+    would be near the smallest; sized to the 95th percentile (the shared rule of pictures and
+    scenes, ``display_flow_scale``) they are full size, as is the entrance."""
+    from aion_cli.formats.export import DISPLAY_QUANTILE, display_flow_scale, sphere_radii
+
+    flow = np.r_[np.ones(29), 100.0]
+    n = flow.size
+    xyz = np.column_stack([np.arange(n, dtype=np.float64), np.zeros(n), np.zeros(n)])
+    style = style_scene(xyz, flow, np.full(n, 0.5), np.zeros(n), cell_size=DELTA)
+    high = float(np.quantile(flow, DISPLAY_QUANTILE))
+    assert display_flow_scale(flow) == (high, 100.0)
+    assert style.flow_scale == high
+    np.testing.assert_array_equal(style.radii, sphere_radii(np.ones(n), 1.0, DELTA))
+    few = style_scene(xyz[:4], np.r_[1.0, 1.0, 1.0, 100.0], np.full(4, 0.5), np.zeros(4),
+                      cell_size=DELTA)
+    assert few.flow_scale == 100.0  # four entries: no tail to judge, the busiest is full size

@@ -11,12 +11,10 @@ import numpy as np
 import pytest
 
 from aion_cli.errors import InputError
-from aion_cli.formats.export import entropy_colors
+from aion_cli.formats.export import DISPLAY_QUANTILE, DISPLAY_QUANTILE_FROM, entropy_colors
 from aion_cli.pictures.render import save_png
 from aion_cli.pictures.topdown import (
     ARROW_CELLS,
-    ARROW_QUANTILE,
-    ARROW_QUANTILE_FROM,
     ENTROPY_LABEL,
     MAX_PANELS,
     ArrowScale,
@@ -211,13 +209,13 @@ def test_the_arrow_scale_is_the_busiest_flow_unless_one_dwarfs_the_rest() -> Non
     tail = np.r_[np.ones(29), 100.0]  # one entrance with 100, the rest 1
     scale = arrow_scale([_many_cells(tail)])
     assert scale.largest == 100.0
-    assert scale.flow == pytest.approx(np.quantile(tail, ARROW_QUANTILE))
+    assert scale.flow == pytest.approx(np.quantile(tail, DISPLAY_QUANTILE))
     assert "the largest 100" in scale.legend(600.0)
-    few = np.r_[np.ones(ARROW_QUANTILE_FROM - 2), 100.0]  # too few entries to judge a tail
+    few = np.r_[np.ones(DISPLAY_QUANTILE_FROM - 2), 100.0]  # too few entries to judge a tail
     assert arrow_scale([_many_cells(few)]) == ArrowScale(100.0, 100.0)
     # every panel of a series shares one scale: the pooled flows'
     pooled = arrow_scale([_many_cells(np.ones(15)), _many_cells(np.r_[np.ones(14), 100.0])])
-    assert pooled.flow == pytest.approx(np.quantile(np.r_[np.ones(29), 100.0], ARROW_QUANTILE))
+    assert pooled.flow == pytest.approx(np.quantile(np.r_[np.ones(29), 100.0], DISPLAY_QUANTILE))
 
 
 def test_a_heavy_tail_leaves_the_other_arrows_visible(tmp_path: Path) -> None:
