@@ -11,6 +11,10 @@ Two situations surprise people and look like defects when unexplained:
 * **The time lies outside the map's data**: before its first detection, or more than a week
   after its last. The forecast is the rhythm the map learnt (its day and week), repeated; it
   knows nothing of what changed since.
+* **The time falls on a kind of day the map never saw**: a Saturday, from a map of weekdays
+  only. The profiles keep weekdays and weekends apart (``profile = "day_weekend"``, the
+  default, or every day of the week with ``"week"``), so the hours of a day kind without data
+  have nothing to follow: such a forecast is no weekend rhythm, however the week looks.
 """
 
 from __future__ import annotations
@@ -38,6 +42,9 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     where = _outside(manifest.start_ns, manifest.end_ns, int(t_ns), static is not None)
     if where is not None:
         notes.append(where)
+    unseen = None if static is not None else _unseen_day(manifest, int(t_ns))
+    if unseen is not None:
+        notes.append(unseen)
     return notes
 
 
@@ -61,7 +68,7 @@ def _outside(start_ns: int | None, end_ns: int | None, t_ns: int, static: bool) 
     if start <= t_ns <= end + FAR_AFTER_NS:
         return None
     before = t_ns < start
-    first, last = _day(start), _day(end)
+    first, last = _day(start), _day(max(start, end - 1))  # the span ends before ``end``
     text = (
         f"this time is {_duration(start - t_ns if before else t_ns - end)} "
         f"{'before' if before else 'after'} the map's data "
@@ -71,6 +78,60 @@ def _outside(start_ns: int | None, end_ns: int | None, t_ns: int, static: bool) 
         return text
     text += ": the forecast repeats the rhythm the map learnt"
     return text if before else text + " and knows nothing of what changed since"
+
+
+_WEEKDAYS = ("Monday", "Tuesday", "Wednesday", "Thursday", "Friday", "Saturday", "Sunday")
+
+
+def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
+    """The note for a time on a kind of day (weekend or weekday; with the weekly profile, a
+    day of the week) that no day of the map's data span is, in the map's zone; None when the
+    span holds one (it may still have recorded nothing that day: the span is all the manifest
+    knows) or the profile does not tell days apart."""
+    from aion_cli.engine.temporal.calendar import Calendar
+
+    start, end = manifest.start_ns, manifest.end_ns
+    profile = str(manifest.config.get("profile", "day_weekend"))
+    if start is None or end is None or profile not in ("day_weekend", "week"):
+        return None
+    zone = str(manifest.config.get("timezone", manifest.timezone or "UTC"))
+    try:
+        calendar = Calendar(zone, profile)
+    except Exception:  # a zone this machine does not know: say nothing rather than fail
+        return None
+    first, last, day = (int(d) for d in calendar.day([int(start), max(int(start), int(end) - 1),
+                                                      t_ns]))
+    if last - first >= 6:
+        return None  # every day of the week is in the span
+    seen = {(d + 3) % 7 for d in range(first, last + 1)}  # 1970-01-01 was a Thursday
+    weekday = (day + 3) % 7
+    if profile == "week":
+        if weekday in seen:
+            return None
+        kind = f"no {_WEEKDAYS[weekday]}"
+        follows = f"its hour-of-week profiles have nothing for a {_WEEKDAYS[weekday]} to follow"
+    else:
+        weekend = weekday >= 5
+        if any((d >= 5) == weekend for d in seen):
+            return None
+        kind = "no weekend day" if weekend else "no weekday"
+        follows = (
+            f"its hour-of-day profiles know {'weekdays' if weekend else 'weekends'} only, so "
+            f"a forecast for a {_WEEKDAYS[weekday]} follows no "
+            f"{'weekend' if weekend else 'weekday'} rhythm"
+        )
+    return f"the map's data ({_span_days(first, last)}) holds {kind}: {follows}"
+
+
+def _span_days(first: int, last: int) -> str:
+    """``Mon 2026-01-05 to Fri 2026-01-09`` for local day indices."""
+    from datetime import date, timedelta
+
+    def name(d: int) -> str:
+        when = date(1970, 1, 1) + timedelta(days=d)
+        return f"{_WEEKDAYS[when.weekday()][:3]} {when.isoformat()}"
+
+    return name(first) if first == last else f"{name(first)} to {name(last)}"
 
 
 def _duration(ns: int) -> str:

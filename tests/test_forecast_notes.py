@@ -14,7 +14,8 @@ def _manifest(
     flow: dict[str, int] | None, reconciled: bool = False, days: int = 3
 ) -> Manifest:
     families = {} if flow is None else {"flow": flow, "reconciled": reconciled, "scored_days": days}
-    return Manifest({}, {}, start_ns=START, end_ns=END, families=families)
+    # the hour-of-day profile keeps no day kinds apart: no note about unseen weekdays here
+    return Manifest({}, {"profile": "day"}, start_ns=START, end_ns=END, families=families)
 
 
 def test_a_map_whose_entries_all_forecast_statically_says_so() -> None:
@@ -46,8 +47,51 @@ def test_times_far_from_the_data_are_named() -> None:
     static, where = forecast_notes(_manifest({"static": 3}), END + 9 * DAY_NS)
     assert static.startswith("every entry forecasts its static rate")
     assert where == "this time is 9 days after the map's data (2023-11-14 to 2023-11-17)"
-    one_day = Manifest({}, {}, start_ns=START, end_ns=START + 3600 * 10**9)
+    one_day = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=START + 3600 * 10**9)
     assert forecast_notes(one_day, START - 3 * DAY_NS) == [
         "this time is 3 days before the map's data (2023-11-14): the forecast repeats the "
         "rhythm the map learnt"
     ]
+
+
+MONDAY = 1_767_571_200 * 10**9  # 2026-01-05 00:00 UTC, a Monday
+HOUR_NS = 3600 * 10**9
+
+
+def _week_of(days: float, profile: str = "day_weekend", zone: str = "UTC") -> Manifest:
+    """A map with a rhythm whose data span starts Monday 00:00 and lasts ``days``."""
+    config = {"profile": profile, "timezone": zone}
+    return Manifest({}, config, start_ns=MONDAY, end_ns=MONDAY + round(days * DAY_NS),
+                    families={"flow": {"shape": 4}, "scored_days": 3})
+
+
+def test_a_kind_of_day_the_map_never_saw_is_named() -> None:
+    weekdays = _week_of(5)  # Monday 00:00 to Saturday 00:00: the weekdays only
+    saturday = MONDAY + 5 * DAY_NS + 10 * HOUR_NS
+    assert forecast_notes(weekdays, saturday) == [
+        "the map's data (Mon 2026-01-05 to Fri 2026-01-09) holds no weekend day: its "
+        "hour-of-day profiles know weekdays only, so a forecast for a Saturday follows no "
+        "weekend rhythm"
+    ]
+    assert forecast_notes(weekdays, MONDAY + 2 * DAY_NS) == []  # a Wednesday: seen
+    assert forecast_notes(_week_of(6), saturday) == []  # the span holds Saturday
+    weekend = Manifest({}, {}, start_ns=MONDAY + 5 * DAY_NS, end_ns=MONDAY + 7 * DAY_NS,
+                       families={"flow": {"profile": 2}})
+    (line,) = forecast_notes(weekend, MONDAY + 8 * DAY_NS)
+    assert line.endswith("know weekends only, so a forecast for a Tuesday follows no weekday "
+                         "rhythm")
+    # the weekly profile names the day; a whole week leaves nothing unseen
+    (tuesday,) = forecast_notes(_week_of(1, "week"), MONDAY + 8 * DAY_NS)
+    assert "holds no Tuesday: its hour-of-week profiles have nothing" in tuesday
+    assert forecast_notes(_week_of(7, "week"), MONDAY + 12 * DAY_NS) == []
+    assert forecast_notes(_week_of(2, "day"), saturday) == []  # no day kinds to tell apart
+    # the map's zone decides the day: Friday 23:30 UTC is Saturday in Tokyo
+    late_friday = MONDAY + 4 * DAY_NS + 23 * HOUR_NS + 1800 * 10**9
+    assert forecast_notes(_week_of(5), late_friday) == []
+    (tokyo,) = forecast_notes(_week_of(4.5, zone="Asia/Tokyo"), late_friday)
+    assert "a forecast for a Saturday" in tokyo
+    # a static map says it is static, not which days it lacks
+    static = Manifest({}, {}, start_ns=MONDAY, end_ns=MONDAY + 3 * DAY_NS,
+                      families={"flow": {"static": 3}, "scored_days": 1})
+    (only,) = forecast_notes(static, saturday)
+    assert only.startswith("every entry forecasts its static rate")
