@@ -299,6 +299,26 @@ def _print(report: dict[str, Any]) -> None:
         console().print(f"[yellow]warning:[/yellow] {safe(warning)}", soft_wrap=True)
 
 
+def _span_with_days(length: str, start: Any, end: Any, report: dict[str, Any]) -> str:
+    """``120h00m00s: Mon 2026-01-05 00:00 to Sat 2026-01-10 00:00 UTC``: the span's ends in
+    the map's zone with their weekdays (which kinds of day the map can know); the length
+    alone for a zone this machine does not know or a map without data."""
+    from aion_cli.errors import AionError
+    from aion_cli.timeparse import from_ns, resolve_zone
+
+    if not isinstance(start, int) or not isinstance(end, int):
+        return length
+    try:
+        zone = resolve_zone(str(report.get("timezone") or "UTC"))
+    except AionError:
+        return length
+
+    def when(t_ns: int) -> str:
+        return from_ns(t_ns, zone).strftime("%a %Y-%m-%d %H:%M")
+
+    return f"{length}: {when(start)} to {when(end)} {zone.name}"
+
+
 def _print_map(report: dict[str, Any]) -> None:
     """The table of a map's manifest; its strings (input names, creator, sources, config
     values) are escaped like a log's (:func:`_print`): a map file is input too."""
@@ -318,7 +338,7 @@ def _print_map(report: dict[str, Any]) -> None:
     table.add_column("value")
     table.add_row("format", safe(f"{report.get('format')} {report.get('version')}"))
     table.add_row("created", safe(f"{report.get('created')} by {report.get('creator')}"))
-    table.add_row("time span", span_text(seconds))
+    table.add_row("time span", _span_with_days(span_text(seconds), start, end, report))
     table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
     table.add_row("graph", safe(report.get("graph_source")))

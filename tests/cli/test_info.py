@@ -92,6 +92,14 @@ def test_info_on_a_map(office: Office) -> None:
     table = run("info", office.map)
     assert table.exit_code == 0
     assert "office.mcap" in table.stdout
+    # the span's ends in the map's zone (UTC here), with their weekdays
+    from datetime import UTC, datetime
+
+    def when(t_ns: int) -> str:
+        return datetime.fromtimestamp(t_ns / 1e9, UTC).strftime("%a %Y-%m-%d %H:%M")
+
+    ends = f"{when(office.expected.start_ns)} to {when(office.expected.end_ns)} UTC"
+    assert ends in " ".join(table.stdout.replace("│", " ").split()), table.stdout  # wrapped
     mixed = run("info", office.map, office.log)
     assert mixed.exit_code == 2
     assert_one_line_error(mixed.stderr, "not both")
