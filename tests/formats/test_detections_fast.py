@@ -16,7 +16,7 @@ from aion_cli.formats.detections import FrameDetections, adapter_for, hash_id
 from aion_cli.formats.detections.frame import quat_yaw
 from aion_cli.formats.detections.wire import join_payloads
 from aion_cli.formats.raw import RawMessage, normalize_frame
-from tests.formats.test_detections_support import header, pose, raw, reference
+from tests.formats.ros_messages import header, pose, raw, reference
 
 SETTINGS = settings(
     max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow]
@@ -402,7 +402,7 @@ def test_huge_sequence_count_is_rejected_before_allocating() -> None:
 
 
 def test_big_endian_cdr_goes_through_the_generic_decoder() -> None:
-    from tests.formats.test_detections_support import serialize
+    from tests.formats.ros_messages import serialize
 
     msg = {"header": header(3, 4, "/odom"), "poses": [pose(1.5, -2.0, 0.25, (0, 0, 1, 0))]}
     le = RawMessage("/t", POSE_ARRAY, 0, serialize(POSE_ARRAY, msg, 2), "cdr")

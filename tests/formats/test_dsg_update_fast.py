@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from aion_cli.formats.dsg_update_fast import DSG_UPDATE, layout_matches, read_dsg_update
 from aion_cli.formats.logs import open_logs
 from aion_cli.formats.raw import RawMessage
-from tests.formats.test_detections_support import raw, reference
+from tests.formats.ros_messages import raw, reference
 from tests.shared_data import SHARED_DATA
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
