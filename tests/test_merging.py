@@ -1,7 +1,7 @@
 """Merging map files (:mod:`aion_cli.merging`): exactness against one build, conservation of
 counts in either lineage, the different-session release and re-bind, provenance, bad inputs.
 
-Maps are built in memory with the engine's Mapper (the logs of tests/engine/test_state.py) and
+Maps are built in memory with the engine's Mapper (the logs of tests/engine/state_logs.py) and
 written as map files with a manifest naming their (made-up) logs, so every rule of the file
 layer is exercised without decoding a log; tests/cli/test_merge.py does the same from real logs
 through the command line."""
@@ -21,6 +21,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from aion_cli.engine.compare import pending_sorted, plain
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.state import MapState
@@ -39,7 +40,7 @@ from tests.engine.engine_builders import (
     pending_counts,
     pid,
 )
-from tests.engine.test_state import CFG, DAY, Step, W, _log, _pending_sorted, _plain, _run
+from tests.engine.state_logs import CFG, DAY, Step, W, fixed_sensor_log, run_steps
 
 
 def _logs(*names: str) -> tuple[InputLog, ...]:
@@ -105,11 +106,11 @@ def test_merging_two_map_files_equals_building_from_both_logs(tmp_path: Path) ->
       same (empty) history in both, so no day-ahead score differs (approximation 2).
     """
     spots = np.c_[np.random.default_rng(9).uniform(-1, 8, (40, 2)), np.zeros(40)]
-    a_steps = _log(T0, seed=4, spots=spots)
-    b_steps = _log(T0 + 2 * DAY, seed=5, spots=spots)
-    both = _run(a_steps + b_steps).state
-    a = _save(_run(a_steps).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    b = _save(_run(b_steps).state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY))
+    a_steps = fixed_sensor_log(T0, seed=4, spots=spots)
+    b_steps = fixed_sensor_log(T0 + 2 * DAY, seed=5, spots=spots)
+    both = run_steps(a_steps + b_steps).state
+    a = _save(run_steps(a_steps).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    b = _save(run_steps(b_steps).state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY))
     report = merge_map_files([b, a], tmp_path / "ab.aion")  # any order: sorted by time
     assert report.lineage == "same"
     assert report.lineage_reason == "5 of 5 shared node ids lie within 1 m"
@@ -119,7 +120,7 @@ def test_merging_two_map_files_equals_building_from_both_logs(tmp_path: Path) ->
     xa, ma = both.to_arrays()
     xm, mm = merged.to_arrays()
     assert mm == ma
-    pa, pm = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xm))
+    pa, pm = pending_sorted(plain(xa)), pending_sorted(plain(xm))
     assert sorted(pa) == sorted(pm)
     # the one difference: the merged map keeps the later map's fixed-sensor intervals only;
     # the earlier ones cover windows closed in both maps, which never close again
@@ -142,9 +143,14 @@ def test_merging_two_map_files_equals_building_from_both_logs(tmp_path: Path) ->
 
 
 def test_the_output_manifest_accounts_for_every_log_and_map(tmp_path: Path) -> None:
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a1.mcap", "a2.mcap"), _span(T0))
+    a = _save(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a1.mcap", "a2.mcap"),
+        _span(T0),
+    )
     b = _save(
-        _run(_log(T0 + DAY * 3, seed=2)).state,
+        run_steps(fixed_sensor_log(T0 + DAY * 3, seed=2)).state,
         tmp_path / "b.aion",
         ("b.mcap",),
         _span(T0 + 3 * DAY),
@@ -217,7 +223,7 @@ def test_counts_are_conserved_through_any_merge(
                 if sessions
                 else np.array([[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]])
             )
-            state = _run(_random_log(start, seed, windows, nodes)).state
+            state = run_steps(_random_log(start, seed, windows, nodes)).state
             sums += _entry_sums(state)
             accepted += state.accepted
             paths.append(
@@ -321,9 +327,11 @@ def test_a_map_without_graph_beside_one_with_a_graph_binds_to_it(tmp_path: Path)
 
 @pytest.fixture
 def two_maps(tmp_path: Path) -> tuple[Path, Path]:
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    a = _save(
+        run_steps(fixed_sensor_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0)
+    )
     b = _save(
-        _run(_log(T0 + 2 * DAY, seed=2)).state,
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
         tmp_path / "b.aion",
         ("b.mcap",),
         _span(T0 + 2 * DAY),
@@ -333,10 +341,13 @@ def two_maps(tmp_path: Path) -> tuple[Path, Path]:
 
 def test_a_log_in_two_maps_is_refused(tmp_path: Path) -> None:
     a = _save(
-        _run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap", "shared.mcap"), _span(T0)
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a.mcap", "shared.mcap"),
+        _span(T0),
     )
     b = _save(
-        _run(_log(T0 + 2 * DAY, seed=2)).state,
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
         tmp_path / "b.aion",
         ("shared.mcap",),
         _span(T0 + 2 * DAY),
@@ -381,15 +392,19 @@ def test_bad_inputs_are_typed_errors(two_maps: tuple[Path, Path], tmp_path: Path
 
 
 def test_maps_of_different_models_or_zones_are_refused(tmp_path: Path) -> None:
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    other = _run(_log(T0 + 2 * DAY, seed=2), Mapper(CFG.replace(bind_radius=2.0))).state
+    a = _save(
+        run_steps(fixed_sensor_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0)
+    )
+    other = run_steps(
+        fixed_sensor_log(T0 + 2 * DAY, seed=2), Mapper(CFG.replace(bind_radius=2.0))
+    ).state
     b = _save(other, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY))
     with pytest.raises(ConfigError, match=r"bind_radius 1\.0 vs 2\.0") as exc:
         merge_map_files([a, b], tmp_path / "out.aion")
     assert exc.value.hint is not None
     assert "config" in exc.value.hint
     c = _save(
-        _run(_log(T0 + 2 * DAY, seed=2)).state,
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
         tmp_path / "c.aion",
         ("c.mcap",),
         _span(T0 + 2 * DAY),
@@ -400,9 +415,14 @@ def test_maps_of_different_models_or_zones_are_refused(tmp_path: Path) -> None:
 
 
 def test_overlapping_maps_merge_with_a_note(tmp_path: Path) -> None:
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    a = _save(
+        run_steps(fixed_sensor_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0)
+    )
     b = _save(
-        _run(_log(T0 + 3 * W, seed=2)).state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 3 * W)
+        run_steps(fixed_sensor_log(T0 + 3 * W, seed=2)).state,
+        tmp_path / "b.aion",
+        ("b.mcap",),
+        _span(T0 + 3 * W),
     )
     report = merge_map_files([a, b], tmp_path / "out.aion")
     assert any("overlap" in n and "count twice" in n for n in report.notes), report.notes
@@ -413,8 +433,12 @@ def test_overlapping_maps_merge_with_a_note(tmp_path: Path) -> None:
 def test_the_notes_name_the_approximations_that_apply(tmp_path: Path) -> None:
     """Detections anywhere (entries in one map only: approximation 1), and a later map of two
     days, the first closed and scored on its own (approximation 2)."""
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    late = _run(_log(T0 + 2 * DAY, seed=2) + _log(T0 + 3 * DAY, seed=3)).state
+    a = _save(
+        run_steps(fixed_sensor_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0)
+    )
+    late = run_steps(
+        fixed_sensor_log(T0 + 2 * DAY, seed=2) + fixed_sensor_log(T0 + 3 * DAY, seed=3)
+    ).state
     b = _save(late, tmp_path / "b.aion", ("b.mcap",), (T0 + 2 * DAY, T0 + 3 * DAY + 6 * W))
     notes = merge_map_files([a, b], tmp_path / "out.aion").notes
     assert [n for n in notes if "approximation" in n] == [
@@ -426,9 +450,11 @@ def test_the_notes_name_the_approximations_that_apply(tmp_path: Path) -> None:
 def test_configs_compare_as_parameters(tmp_path: Path) -> None:
     """A map and one built with an equal config (a fresh object) merge."""
     same = ModelConfig(window_s=600.0, stability_s=30.0)
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
+    a = _save(
+        run_steps(fixed_sensor_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0)
+    )
     b = _save(
-        _run(_log(T0 + 2 * DAY, seed=2), Mapper(same)).state,
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2), Mapper(same)).state,
         tmp_path / "b.aion",
         ("b.mcap",),
         _span(T0 + 2 * DAY),
@@ -438,9 +464,14 @@ def test_configs_compare_as_parameters(tmp_path: Path) -> None:
 
 def test_the_api_merges_as_docs_api_md_shows(tmp_path: Path) -> None:
     """docs/API.md's merge example, run as written beside two maps of those names."""
-    _save(_run(_log(T0, seed=1)).state, tmp_path / "monday.aion", ("mon.mcap",), _span(T0))
     _save(
-        _run(_log(T0 + 2 * DAY, seed=2)).state,
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "monday.aion",
+        ("mon.mcap",),
+        _span(T0),
+    )
+    _save(
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
         tmp_path / "wednesday.aion",
         ("wed.mcap",),
         _span(T0 + 2 * DAY),
