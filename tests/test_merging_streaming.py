@@ -20,7 +20,7 @@ from aion_cli.merging import merge_map_files
 from tests.engine.engine_builders import T0
 from tests.engine.state_logs import DAY, run_steps
 from tests.formats.map_damage import flip_member_byte
-from tests.test_merging import _random_log, _save, _span
+from tests.merging_logs import log_span, random_log, save_map
 
 NODES = np.array([[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]])
 
@@ -28,11 +28,11 @@ NODES = np.array([[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]])
 def _maps(folder: Path, count: int) -> list[Path]:
     """``count`` maps of one scene-graph session, two days apart."""
     return [
-        _save(
-            run_steps(_random_log(T0 + 2 * k * DAY, 10 + k, 4, NODES)).state,
+        save_map(
+            run_steps(random_log(T0 + 2 * k * DAY, 10 + k, 4, NODES)).state,
             folder / f"m{k}.aion",
             (f"log{k}",),
-            _span(T0 + 2 * k * DAY, 4),
+            log_span(T0 + 2 * k * DAY, 4),
         )
         for k in range(count)
     ]
