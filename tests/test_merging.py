@@ -1,10 +1,10 @@
 """Merging map files (:mod:`aion_cli.merging`): exactness against one build, conservation of
 counts in either lineage, the different-session release and re-bind, provenance, bad inputs.
 
-Maps are built in memory with the engine's Mapper (the logs of tests/engine/test_state.py) and
-written as map files with a manifest naming their (made-up) logs, so every rule of the file
-layer is exercised without decoding a log; tests/cli/test_merge.py does the same from real logs
-through the command line."""
+Maps are built in memory with the engine's Mapper (the logs of tests/engine/state_logs.py) and
+written as map files with a manifest naming their (made-up) logs (tests/merging_logs.py), so
+every rule of the file layer is exercised without decoding a log; tests/cli/test_merge.py does
+the same from real logs through the command line."""
 
 from __future__ import annotations
 
@@ -13,7 +13,6 @@ import json
 import os
 import re
 import tempfile
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -21,13 +20,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from aion_cli.engine.compare import pending_sorted, plain
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.state import MapState
 from aion_cli.errors import ConfigError, InputError, MapFileError
-from aion_cli.formats.mapfile import read_manifest, write_map
-from aion_cli.manifest import InputLog, Manifest
-from aion_cli.mapquery import load_map, state_counts
+from aion_cli.formats.mapfile import read_manifest
+from aion_cli.manifest import Manifest
+from aion_cli.mapquery import load_map
 from aion_cli.merging import merge_map_files
 from tests.engine.engine_builders import (
     T0,
@@ -39,44 +39,8 @@ from tests.engine.engine_builders import (
     pending_counts,
     pid,
 )
-from tests.engine.test_state import CFG, DAY, Step, W, _log, _pending_sorted, _plain, _run
-
-
-def _logs(*names: str) -> tuple[InputLog, ...]:
-    return tuple(
-        InputLog(f"/logs/{n}", n, 1000 + k, hashlib.sha256(n.encode()).hexdigest())
-        for k, n in enumerate(names)
-    )
-
-
-def _save(
-    state: MapState,
-    path: Path,
-    logs: tuple[str, ...],
-    span: tuple[int, int],
-    timezone: str | None = "UTC",
-) -> Path:
-    """``state`` as a map file whose manifest says it was built from ``logs`` over ``span``."""
-    arrays, meta = state.to_arrays()
-    manifest = Manifest(
-        state=meta,
-        config=state.config.to_dict(),
-        inputs=_logs(*logs),
-        start_ns=span[0],
-        end_ns=span[1],
-        counts={"read": state.accepted, "used": state.accepted, "dropped": {"nan": 0}}
-        | state_counts(state),
-        graph_source="test",
-        observation="fixed sensor",
-        timezone=timezone,
-        families=state.family_summary(),
-    )
-    write_map(path, arrays, manifest.to_dict())
-    return path
-
-
-def _span(start: int, windows: int = 6) -> tuple[int, int]:
-    return start, start + windows * W
+from tests.engine.state_logs import CFG, DAY, W, fixed_sensor_log, run_steps
+from tests.merging_logs import input_logs, log_span, random_log, save_map
 
 
 def _entry_sums(state: MapState) -> tuple[float, float, float]:
@@ -105,11 +69,11 @@ def test_merging_two_map_files_equals_building_from_both_logs(tmp_path: Path) ->
       same (empty) history in both, so no day-ahead score differs (approximation 2).
     """
     spots = np.c_[np.random.default_rng(9).uniform(-1, 8, (40, 2)), np.zeros(40)]
-    a_steps = _log(T0, seed=4, spots=spots)
-    b_steps = _log(T0 + 2 * DAY, seed=5, spots=spots)
-    both = _run(a_steps + b_steps).state
-    a = _save(_run(a_steps).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    b = _save(_run(b_steps).state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY))
+    a_steps = fixed_sensor_log(T0, seed=4, spots=spots)
+    b_steps = fixed_sensor_log(T0 + 2 * DAY, seed=5, spots=spots)
+    both = run_steps(a_steps + b_steps).state
+    a = save_map(run_steps(a_steps).state, tmp_path / "a.aion", ("a.mcap",), log_span(T0))
+    b = save_map(run_steps(b_steps).state, tmp_path / "b.aion", ("b.mcap",), log_span(T0 + 2 * DAY))
     report = merge_map_files([b, a], tmp_path / "ab.aion")  # any order: sorted by time
     assert report.lineage == "same"
     assert report.lineage_reason == "5 of 5 shared node ids lie within 1 m"
@@ -119,7 +83,7 @@ def test_merging_two_map_files_equals_building_from_both_logs(tmp_path: Path) ->
     xa, ma = both.to_arrays()
     xm, mm = merged.to_arrays()
     assert mm == ma
-    pa, pm = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xm))
+    pa, pm = pending_sorted(plain(xa)), pending_sorted(plain(xm))
     assert sorted(pa) == sorted(pm)
     # the one difference: the merged map keeps the later map's fixed-sensor intervals only;
     # the earlier ones cover windows closed in both maps, which never close again
@@ -142,19 +106,24 @@ def test_merging_two_map_files_equals_building_from_both_logs(tmp_path: Path) ->
 
 
 def test_the_output_manifest_accounts_for_every_log_and_map(tmp_path: Path) -> None:
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a1.mcap", "a2.mcap"), _span(T0))
-    b = _save(
-        _run(_log(T0 + DAY * 3, seed=2)).state,
+    a = save_map(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a1.mcap", "a2.mcap"),
+        log_span(T0),
+    )
+    b = save_map(
+        run_steps(fixed_sensor_log(T0 + DAY * 3, seed=2)).state,
         tmp_path / "b.aion",
         ("b.mcap",),
-        _span(T0 + 3 * DAY),
+        log_span(T0 + 3 * DAY),
     )
     report = merge_map_files([a, b], tmp_path / "out.aion")
     doc = read_manifest(tmp_path / "out.aion")
     manifest = Manifest.from_dict(doc)
     assert [i.name for i in manifest.inputs] == ["a1.mcap", "a2.mcap", "b.mcap"]
     assert [i.sha256 for i in manifest.inputs] == [
-        i.sha256 for i in _logs("a1.mcap", "a2.mcap") + _logs("b.mcap")
+        i.sha256 for i in input_logs("a1.mcap", "a2.mcap") + input_logs("b.mcap")
     ]
     assert (manifest.start_ns, manifest.end_ns) == (T0, T0 + 3 * DAY + 6 * W)
     accepted = load_map(a).state.accepted + load_map(b).state.accepted
@@ -172,25 +141,6 @@ def test_the_output_manifest_accounts_for_every_log_and_map(tmp_path: Path) -> N
 
 
 # -- counts are conserved in either lineage ---------------------------------------------------
-
-
-def _random_log(start: int, seed: int, windows: int, nodes: np.ndarray) -> list[Step]:
-    """A fixed sensor over the log, a graph of ``nodes`` (ids p0..), detections anywhere."""
-    rng = np.random.default_rng(seed)
-    end = start + windows * W
-    ids = list(range(len(nodes)))
-    steps: list[Step] = [
-        lambda m: m.set_fixed_sensor(start, end),
-        lambda m: m.add_graph(graph(start, ids, nodes)),
-    ]
-    for w in range(windows):
-        n = int(rng.integers(1, 40))
-        t = start + w * W + np.sort(rng.integers(0, W, n))
-        xyz = np.c_[rng.uniform(-2, 9, (n, 2)), np.zeros(n)]
-        heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
-        speed = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(0.1, 2, n))
-        steps.append(partial(Mapper.add_detections, batch=detections(t, xyz, heading, speed)))
-    return steps
 
 
 @settings(max_examples=25, deadline=None)
@@ -217,11 +167,11 @@ def test_counts_are_conserved_through_any_merge(
                 if sessions
                 else np.array([[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]])
             )
-            state = _run(_random_log(start, seed, windows, nodes)).state
+            state = run_steps(random_log(start, seed, windows, nodes)).state
             sums += _entry_sums(state)
             accepted += state.accepted
             paths.append(
-                _save(state, Path(folder) / f"m{k}.aion", (f"log{k}",), _span(start, windows))
+                save_map(state, Path(folder) / f"m{k}.aion", (f"log{k}",), log_span(start, windows))
             )
             start += gaps[k] * DAY
         report = merge_map_files(paths, Path(folder) / "out.aion", lineage=lineage)
@@ -273,8 +223,8 @@ def test_maps_of_different_sessions_are_released_and_rebound(tmp_path: Path) -> 
     b_state = _session(T0 + 2 * DAY, B_NODES, {(0.2, 0.3): 4, (20.2, 0.2): 2, (10.3, 0.2): 7})
     assert _node_counts(a_state) == {"p0": 5, "p1": 6}  # bound in A: p0 near (0, 0)
     assert _node_counts(b_state) == {"p0": 2, "p1": 4}  # in B, p1 is near (0, 0)
-    a = _save(a_state, tmp_path / "a.aion", ("a.mcap",), _span(T0, 2))
-    b = _save(b_state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY, 2))
+    a = save_map(a_state, tmp_path / "a.aion", ("a.mcap",), log_span(T0, 2))
+    b = save_map(b_state, tmp_path / "b.aion", ("b.mcap",), log_span(T0 + 2 * DAY, 2))
     report = merge_map_files([a, b], tmp_path / "ab.aion")
     assert report.lineage == "different"
     assert report.lineage_reason.startswith("of the 2 node ids both a.aion and b.aion hold, 0")
@@ -303,12 +253,12 @@ def test_a_map_without_graph_beside_one_with_a_graph_binds_to_it(tmp_path: Path)
     cells_only.set_fixed_sensor(T0, T0 + W)
     cells_only.add_detections(detections(T0 + S, [[20.3, 0.2, 0.0]] * 3))
     cells_only.advance(T0 + W)
-    a = _save(cells_only.state, tmp_path / "a.aion", ("a.mcap",), _span(T0, 1))
-    b = _save(
+    a = save_map(cells_only.state, tmp_path / "a.aion", ("a.mcap",), log_span(T0, 1))
+    b = save_map(
         _session(T0 + DAY, B_NODES, {(0.2, 0.3): 4}),
         tmp_path / "b.aion",
         ("b.mcap",),
-        _span(T0 + DAY, 2),
+        log_span(T0 + DAY, 2),
     )
     report = merge_map_files([a, b], tmp_path / "ab.aion")
     assert report.lineage == "different"
@@ -321,25 +271,33 @@ def test_a_map_without_graph_beside_one_with_a_graph_binds_to_it(tmp_path: Path)
 
 @pytest.fixture
 def two_maps(tmp_path: Path) -> tuple[Path, Path]:
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    b = _save(
-        _run(_log(T0 + 2 * DAY, seed=2)).state,
+    a = save_map(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a.mcap",),
+        log_span(T0),
+    )
+    b = save_map(
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
         tmp_path / "b.aion",
         ("b.mcap",),
-        _span(T0 + 2 * DAY),
+        log_span(T0 + 2 * DAY),
     )
     return a, b
 
 
 def test_a_log_in_two_maps_is_refused(tmp_path: Path) -> None:
-    a = _save(
-        _run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap", "shared.mcap"), _span(T0)
+    a = save_map(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a.mcap", "shared.mcap"),
+        log_span(T0),
     )
-    b = _save(
-        _run(_log(T0 + 2 * DAY, seed=2)).state,
+    b = save_map(
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
         tmp_path / "b.aion",
         ("shared.mcap",),
-        _span(T0 + 2 * DAY),
+        log_span(T0 + 2 * DAY),
     )
     with pytest.raises(InputError, match=r"shared\.mcap .* in both a\.aion and b\.aion") as exc:
         merge_map_files([a, b], tmp_path / "out.aion")
@@ -381,18 +339,25 @@ def test_bad_inputs_are_typed_errors(two_maps: tuple[Path, Path], tmp_path: Path
 
 
 def test_maps_of_different_models_or_zones_are_refused(tmp_path: Path) -> None:
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    other = _run(_log(T0 + 2 * DAY, seed=2), Mapper(CFG.replace(bind_radius=2.0))).state
-    b = _save(other, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 2 * DAY))
+    a = save_map(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a.mcap",),
+        log_span(T0),
+    )
+    other = run_steps(
+        fixed_sensor_log(T0 + 2 * DAY, seed=2), Mapper(CFG.replace(bind_radius=2.0))
+    ).state
+    b = save_map(other, tmp_path / "b.aion", ("b.mcap",), log_span(T0 + 2 * DAY))
     with pytest.raises(ConfigError, match=r"bind_radius 1\.0 vs 2\.0") as exc:
         merge_map_files([a, b], tmp_path / "out.aion")
     assert exc.value.hint is not None
     assert "config" in exc.value.hint
-    c = _save(
-        _run(_log(T0 + 2 * DAY, seed=2)).state,
+    c = save_map(
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
         tmp_path / "c.aion",
         ("c.mcap",),
-        _span(T0 + 2 * DAY),
+        log_span(T0 + 2 * DAY),
         timezone="Europe/Berlin",
     )
     with pytest.raises(ConfigError, match="different time zones"):
@@ -400,9 +365,17 @@ def test_maps_of_different_models_or_zones_are_refused(tmp_path: Path) -> None:
 
 
 def test_overlapping_maps_merge_with_a_note(tmp_path: Path) -> None:
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    b = _save(
-        _run(_log(T0 + 3 * W, seed=2)).state, tmp_path / "b.aion", ("b.mcap",), _span(T0 + 3 * W)
+    a = save_map(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a.mcap",),
+        log_span(T0),
+    )
+    b = save_map(
+        run_steps(fixed_sensor_log(T0 + 3 * W, seed=2)).state,
+        tmp_path / "b.aion",
+        ("b.mcap",),
+        log_span(T0 + 3 * W),
     )
     report = merge_map_files([a, b], tmp_path / "out.aion")
     assert any("overlap" in n and "count twice" in n for n in report.notes), report.notes
@@ -413,9 +386,16 @@ def test_overlapping_maps_merge_with_a_note(tmp_path: Path) -> None:
 def test_the_notes_name_the_approximations_that_apply(tmp_path: Path) -> None:
     """Detections anywhere (entries in one map only: approximation 1), and a later map of two
     days, the first closed and scored on its own (approximation 2)."""
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    late = _run(_log(T0 + 2 * DAY, seed=2) + _log(T0 + 3 * DAY, seed=3)).state
-    b = _save(late, tmp_path / "b.aion", ("b.mcap",), (T0 + 2 * DAY, T0 + 3 * DAY + 6 * W))
+    a = save_map(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a.mcap",),
+        log_span(T0),
+    )
+    late = run_steps(
+        fixed_sensor_log(T0 + 2 * DAY, seed=2) + fixed_sensor_log(T0 + 3 * DAY, seed=3)
+    ).state
+    b = save_map(late, tmp_path / "b.aion", ("b.mcap",), (T0 + 2 * DAY, T0 + 3 * DAY + 6 * W))
     notes = merge_map_files([a, b], tmp_path / "out.aion").notes
     assert [n for n in notes if "approximation" in n] == [
         next(n for n in notes if n.endswith("(merge approximation 1)")),
@@ -426,24 +406,34 @@ def test_the_notes_name_the_approximations_that_apply(tmp_path: Path) -> None:
 def test_configs_compare_as_parameters(tmp_path: Path) -> None:
     """A map and one built with an equal config (a fresh object) merge."""
     same = ModelConfig(window_s=600.0, stability_s=30.0)
-    a = _save(_run(_log(T0, seed=1)).state, tmp_path / "a.aion", ("a.mcap",), _span(T0))
-    b = _save(
-        _run(_log(T0 + 2 * DAY, seed=2), Mapper(same)).state,
+    a = save_map(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "a.aion",
+        ("a.mcap",),
+        log_span(T0),
+    )
+    b = save_map(
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2), Mapper(same)).state,
         tmp_path / "b.aion",
         ("b.mcap",),
-        _span(T0 + 2 * DAY),
+        log_span(T0 + 2 * DAY),
     )
     assert merge_map_files([a, b], tmp_path / "out.aion").lineage == "same"
 
 
 def test_the_api_merges_as_docs_api_md_shows(tmp_path: Path) -> None:
     """docs/API.md's merge example, run as written beside two maps of those names."""
-    _save(_run(_log(T0, seed=1)).state, tmp_path / "monday.aion", ("mon.mcap",), _span(T0))
-    _save(
-        _run(_log(T0 + 2 * DAY, seed=2)).state,
+    save_map(
+        run_steps(fixed_sensor_log(T0, seed=1)).state,
+        tmp_path / "monday.aion",
+        ("mon.mcap",),
+        log_span(T0),
+    )
+    save_map(
+        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
         tmp_path / "wednesday.aion",
         ("wed.mcap",),
-        _span(T0 + 2 * DAY),
+        log_span(T0 + 2 * DAY),
     )
     text = (Path(__file__).resolve().parents[1] / "docs" / "API.md").read_text()
     block = next(b for b in re.findall(r"```python\n(.*?)```", text, flags=re.S) if "merge(" in b)

@@ -18,9 +18,9 @@ from aion_cli.errors import InputError, MapCorruptError, MapFileError
 from aion_cli.mapquery import load_map, load_map_head
 from aion_cli.merging import merge_map_files
 from tests.engine.engine_builders import T0
-from tests.engine.test_state import DAY
+from tests.engine.state_logs import DAY, run_steps
 from tests.formats.map_damage import flip_member_byte
-from tests.test_merging import _random_log, _run, _save, _span
+from tests.merging_logs import log_span, random_log, save_map
 
 NODES = np.array([[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]])
 
@@ -28,11 +28,11 @@ NODES = np.array([[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]])
 def _maps(folder: Path, count: int) -> list[Path]:
     """``count`` maps of one scene-graph session, two days apart."""
     return [
-        _save(
-            _run(_random_log(T0 + 2 * k * DAY, 10 + k, 4, NODES)).state,
+        save_map(
+            run_steps(random_log(T0 + 2 * k * DAY, 10 + k, 4, NODES)).state,
             folder / f"m{k}.aion",
             (f"log{k}",),
-            _span(T0 + 2 * k * DAY, 4),
+            log_span(T0 + 2 * k * DAY, 4),
         )
         for k in range(count)
     ]
@@ -120,10 +120,9 @@ def test_first_robot_windows_for_the_notes_equal_the_query_views() -> None:
     import numpy as np
 
     from aion_cli.merge_notes import _first_observed
-    from tests.engine.test_shards import MORNING, _robot_log
-    from tests.engine.test_state import _run
+    from tests.engine.state_logs import MORNING, robot_log
 
-    state = _run(_robot_log(MORNING, 31, days=2)).state
+    state = run_steps(robot_log(MORNING, 31, days=2)).state
     assert state.pending
     assert state.open_window is not None
     first = _first_observed(state)

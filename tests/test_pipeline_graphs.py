@@ -27,104 +27,17 @@ from aion_cli.errors import InputError
 from aion_cli.formats.mapfile import read_map
 from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS, graph_schedule
 from aion_cli.pipeline import BuildOptions, build_map
-from tests.cli.logdata import EDGES, PLACES, ROBOT_XYZ, ROOMS, T0, S, _tracked_persons, sym
-from tests.cli.logdata import build_graph as office_graph
+from tests.cli.logdata import S, _tracked_persons, sym
+from tests.graph_stream_logs import (
+    N_GRAPHS,
+    START,
+    assert_same_map,
+    build_log,
+    office_graph_payload,
+    write_stream_log,
+)
 
-START = T0 + 570 * S  # 30 s before the window boundary at T0 + 600 s
-N_GRAPHS = 60
 PERIOD_5S_USED = [0, 5, 10, 15, 20, 25, 29, 30, 35, 40, 45, 50, 55, 59]
-
-
-def _p1_moves(k: int) -> int:
-    return int(k >= 3) + int(k >= 12)
-
-
-def _payload(moves: int, _cache: dict[int, bytes] = {}) -> bytes:  # noqa: B006
-    if moves not in _cache:
-        places = dict(PLACES)
-        x, y, z = places[1]
-        places[1] = (x, y + 0.5 * moves, z)
-        _cache[moves] = bytes(office_graph(places, EDGES, ROOMS).to_binary(False))
-    return _cache[moves]
-
-
-def write_stream_log(
-    path: Path,
-    graphs: list[int] | None = None,
-    *,
-    stray_graph: bool = False,
-) -> Path:
-    """The stream log with the graphs of index ``graphs`` (all 60 when None); people every
-    second, TF every 5 s, 63 s in all. ``stray_graph``: one more graph two days earlier (a
-    stray log time the build drops)."""
-    from aion_cli.formats.writers import LogWriter
-
-    keep = set(range(N_GRAPHS) if graphs is None else graphs)
-    with LogWriter(path, "mcap") as writer:
-
-        def graph(t: int, payload: bytes) -> None:
-            writer.write(
-                "/hydra/backend/dsg",
-                "hydra_msgs/msg/DsgUpdate",
-                {
-                    "header": {"stamp": {"sec": t // S, "nanosec": t % S}, "frame_id": "map"},
-                    "layer_contents": np.frombuffer(payload, np.uint8),
-                    "full_update": True,
-                },
-                t,
-            )
-
-        if stray_graph:
-            graph(START - 2 * 86_400 * S, _payload(2))
-        for s in range(63):
-            t = START + s * S
-            if s < N_GRAPHS and s in keep:
-                graph(t, _payload(_p1_moves(s)))
-            if s % 5 == 0:
-                x, y, z = ROBOT_XYZ
-                writer.write(
-                    "/tf",
-                    "tf2_msgs/msg/TFMessage",
-                    {
-                        "transforms": [
-                            {
-                                "header": {"stamp": {"sec": t // S}, "frame_id": "map"},
-                                "child_frame_id": "base_link",
-                                "transform": {
-                                    "translation": {"x": x, "y": y, "z": z},
-                                    "rotation": {"w": 1.0},
-                                },
-                            }
-                        ]
-                    },
-                    t,
-                )
-            writer.write(
-                "/tracks",
-                "spencer_tracking_msgs/msg/TrackedPersons",
-                _tracked_persons(t + S // 2, START, "map"),
-                t + S // 2,
-            )
-    return path
-
-
-def _build(log: Path, out: Path, **options: Any) -> Any:
-    return build_map(BuildOptions(logs=(log,), output=out, **options))
-
-
-def _map_content(path: Path) -> tuple[dict[str, np.ndarray], Any]:
-    arrays, manifest = read_map(path)
-    return arrays, manifest["state"]
-
-
-def _assert_same_map(a: Path, b: Path) -> None:
-    arrays_a, state_a = _map_content(a)
-    arrays_b, state_b = _map_content(b)
-    assert sorted(arrays_a) == sorted(arrays_b)
-    for name in arrays_a:
-        assert arrays_a[name].dtype == arrays_b[name].dtype, name
-        np.testing.assert_array_equal(arrays_a[name], arrays_b[name], err_msg=name)
-    assert state_a == state_b
 
 
 def _stable_since(path: Path, node: int) -> int:
@@ -211,8 +124,8 @@ def test_the_help_shows_the_builds_default() -> None:
 def test_identical_payloads_are_not_decoded_and_the_map_is_the_same(
     stream_log: Path, tmp_path: Path
 ) -> None:
-    fast = _build(stream_log, tmp_path / "fast.aion", graph_period_ns=0)
-    slow = _build(
+    fast = build_log(stream_log, tmp_path / "fast.aion", graph_period_ns=0)
+    slow = build_log(
         stream_log, tmp_path / "slow.aion", graph_period_ns=0, skip_identical_graphs=False
     )
     assert fast.graph_messages == slow.graph_messages == N_GRAPHS
@@ -221,7 +134,7 @@ def test_identical_payloads_are_not_decoded_and_the_map_is_the_same(
     assert slow.graph_decoded == N_GRAPHS
     assert slow.graphs_skipped_identical == 0
     assert fast.graphs_skipped_period == slow.graphs_skipped_period == 0
-    _assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
+    assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
     # p1's timer restarted at graph 12, where it moved the second time
     assert _stable_since(tmp_path / "fast.aion", sym("p", 1)) == START + 12 * S
     graph = fast.to_dict()["graph"]
@@ -245,7 +158,9 @@ def test_a_payload_that_comes_back_is_decoded_again(tmp_path: Path) -> None:
                     "hydra_msgs/msg/DsgUpdate",
                     {
                         "header": {"stamp": {"sec": t // S, "nanosec": 0}, "frame_id": "map"},
-                        "layer_contents": np.frombuffer(_payload(order[s // 10]), np.uint8),
+                        "layer_contents": np.frombuffer(
+                            office_graph_payload(order[s // 10]), np.uint8
+                        ),
                     },
                     t,
                 )
@@ -255,11 +170,11 @@ def test_a_payload_that_comes_back_is_decoded_again(tmp_path: Path) -> None:
                 _tracked_persons(t + S // 2, START, "map"),
                 t + S // 2,
             )
-    fast = _build(log, tmp_path / "fast.aion", graph_period_ns=0)
-    slow = _build(log, tmp_path / "slow.aion", graph_period_ns=0, skip_identical_graphs=False)
+    fast = build_log(log, tmp_path / "fast.aion", graph_period_ns=0)
+    slow = build_log(log, tmp_path / "slow.aion", graph_period_ns=0, skip_identical_graphs=False)
     assert (fast.graph_decoded, fast.graphs_skipped_identical) == (3, 1)
     assert slow.graph_decoded == 4
-    _assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
+    assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
 
 
 def test_the_first_graph_is_decoded_once_when_it_gives_the_observation(
@@ -271,31 +186,31 @@ def test_the_first_graph_is_decoded_once_when_it_gives_the_observation(
 
     log = tmp_path / "agents.mcap"
     expected = write_office_log(log, tf=False, agents=True)
-    slow = _build(log, tmp_path / "slow.aion", skip_identical_graphs=False)
+    slow = build_log(log, tmp_path / "slow.aion", skip_identical_graphs=False)
     assert slow.observation == "scene-graph agent layer"
     assert slow.graph_messages == expected.graph_messages
     assert slow.graph_decoded == expected.graph_messages  # not one more
-    fast = _build(log, tmp_path / "fast.aion")
+    fast = build_log(log, tmp_path / "fast.aion")
     assert fast.graph_decoded == 1  # the office repeats one payload
-    _assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
+    assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
 
 
 # -- --graph-period --------------------------------------------------------------------------------
 def test_period_build_equals_a_log_of_only_the_graphs_used(
     stream_log: Path, tmp_path: Path
 ) -> None:
-    thinned = _build(stream_log, tmp_path / "thinned.aion", graph_period_ns=5 * S)
+    thinned = build_log(stream_log, tmp_path / "thinned.aion", graph_period_ns=5 * S)
     assert thinned.graph_messages == len(PERIOD_5S_USED)
     assert thinned.graphs_skipped_period == N_GRAPHS - len(PERIOD_5S_USED)
     # decoded: 0 (p1 unmoved), 5 (moved once), 15 (moved twice); 10, 20, ... repeat them
     assert thinned.graph_decoded == 3
     only = write_stream_log(tmp_path / "only.mcap", PERIOD_5S_USED)
-    reference = _build(only, tmp_path / "reference.aion", graph_period_ns=0)
+    reference = build_log(only, tmp_path / "reference.aion", graph_period_ns=0)
     assert reference.graph_messages == len(PERIOD_5S_USED)
-    _assert_same_map(tmp_path / "thinned.aion", tmp_path / "reference.aion")
+    assert_same_map(tmp_path / "thinned.aion", tmp_path / "reference.aion")
     assert _stable_since(tmp_path / "thinned.aion", sym("p", 1)) == START + 15 * S
     # the thinning is visible: every graph gives p1 another stability time
-    every = _build(stream_log, tmp_path / "every.aion", graph_period_ns=0)
+    every = build_log(stream_log, tmp_path / "every.aion", graph_period_ns=0)
     assert every.graphs_skipped_period == 0
     assert _stable_since(tmp_path / "every.aion", sym("p", 1)) == START + 12 * S
     assert any("left out by --graph-period 5s" in n for n in thinned.notes)
@@ -306,12 +221,12 @@ def test_period_schedule_skips_the_graphs_the_time_check_drops(tmp_path: Path) -
     """A stray graph (two days before the others) is dropped from the stream; the schedule is
     decided on the same messages, so the map equals the one of the log without it."""
     stray = write_stream_log(tmp_path / "stray.mcap", stray_graph=True)
-    with_stray = _build(stray, tmp_path / "stray.aion", graph_period_ns=5 * S)
+    with_stray = build_log(stray, tmp_path / "stray.aion", graph_period_ns=5 * S)
     assert with_stray.time_dropped["/hydra/backend/dsg"]["stray"] == 1
     assert with_stray.graph_messages == len(PERIOD_5S_USED)
     clean = write_stream_log(tmp_path / "clean.mcap")
-    _build(clean, tmp_path / "clean.aion", graph_period_ns=5 * S)
-    _assert_same_map(tmp_path / "stray.aion", tmp_path / "clean.aion")
+    build_log(clean, tmp_path / "clean.aion", graph_period_ns=5 * S)
+    assert_same_map(tmp_path / "stray.aion", tmp_path / "clean.aion")
 
 
 def test_cli_graph_period_option(stream_log: Path, tmp_path: Path) -> None:
@@ -360,7 +275,7 @@ def test_graphs_left_out_are_not_decompressed_and_the_map_is_the_same(
     partial.clear()
     whole = build_map(BuildOptions(logs=(log,), output=tmp_path / "whole.aion"))
     assert not any(partial)
-    _assert_same_map(tmp_path / "part.aion", tmp_path / "whole.aion")
+    assert_same_map(tmp_path / "part.aion", tmp_path / "whole.aion")
     ra, rb = in_part.to_dict(), whole.to_dict()
     for report in (ra, rb):
         report.pop("map")

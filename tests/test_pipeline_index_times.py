@@ -25,6 +25,7 @@ from aion_cli.formats.writers import LogWriter
 from aion_cli.mapquery import load_map
 from aion_cli.pipeline import BuildOptions, _Build, build_map
 from tests.cli.logdata import write_office_log
+from tests.graph_stream_logs import write_stream_log
 from tests.robustness.conftest import (
     T0,
     S,
@@ -34,7 +35,6 @@ from tests.robustness.conftest import (
     scene_graph,
     walk,
 )
-from tests.test_pipeline_graphs import write_stream_log
 
 DAY = 86_400 * S
 SUFFIX = {"mcap": ".mcap", "mcap-ros1": ".mcap", "bag": ".bag"}

@@ -21,8 +21,7 @@ from aion_cli.mapquery import load_map
 from aion_cli.query_only import LEFT_OUT
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.logdata import write_office_log
-from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor
-from tests.engine.test_forecast_components import _heading, _rate
+from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor, heading_56h, rhythm_56h
 
 
 @dataclass(frozen=True)
@@ -37,7 +36,7 @@ def maps(tmp_path_factory: pytest.TempPathFactory) -> Maps:
     """21 days of a 56 h rhythm (FreMEn's, per bin and in total) over a small corridor, a
     pending day and an open window (what queries absorb first), saved, then compacted."""
     folder = tmp_path_factory.mktemp("compact")
-    mapper = corridor(21, _rate, cells=(3.0, 1.0), heading=_heading)
+    mapper = corridor(21, rhythm_56h, cells=(3.0, 1.0), heading=heading_56h)
     mapper.state.observation.set_fixed_sensor(MONDAY + 21 * DAY, MONDAY + 22 * DAY)
     mapper.advance(MONDAY + 21 * DAY + 9 * HOUR + 5 * 60 * 10**9)
     full = folder / "rhythm.aion"

@@ -11,7 +11,7 @@ import pytest
 
 from aion_cli.formats.detections.frame import FrameDetections
 from tests.cli.conftest import assert_one_line_error, run
-from tests.formats.test_datasets import EDINBURGH, ETH_UCY, _edinburgh_file, _magni
+from tests.formats.dataset_files import EDINBURGH, ETH_UCY, edinburgh_file, magni_file
 
 S = 1_000_000_000
 
@@ -60,7 +60,7 @@ def test_edinburgh_day_converts_at_its_date(tmp_path: Path) -> None:
 
 
 def test_edinburgh_date_with_a_time_and_fps(tmp_path: Path) -> None:
-    path = _edinburgh_file(tmp_path / "t.txt", {4: [(10, 20, 0), (12, 20, 5)]})
+    path = edinburgh_file(tmp_path / "t.txt", {4: [(10, 20, 0), (12, 20, 5)]})
     out = tmp_path / "t.mcap"
     result = run(
         "convert",
@@ -85,7 +85,7 @@ def test_edinburgh_date_with_a_time_and_fps(tmp_path: Path) -> None:
 
 
 def test_thor_magni_converts_helmets_in_metres(tmp_path: Path) -> None:
-    path = _magni(tmp_path / "THOR-Magni_120522_SC1A_R1.csv")
+    path = magni_file(tmp_path / "THOR-Magni_120522_SC1A_R1.csv")
     out = tmp_path / "magni.mcap"
     result = run(
         "convert",

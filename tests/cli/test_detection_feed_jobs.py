@@ -25,7 +25,7 @@ from aion_cli.detection_feed import (
 )
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.formats.raw import RawMessage
-from tests.formats.test_detections_support import header, pose, raw
+from tests.formats.ros_messages import header, pose, raw
 
 S = 1_000_000_000
 T0 = 1_700_000_000 * S

@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from aion_cli.engine.compare import pending_sorted, plain
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.state import MapState
 from aion_cli.formats.mapfile import read_manifest
 from aion_cli.mapquery import load_map
 from tests.cli.conftest import assert_one_line_error, run, run_json, run_process
 from tests.cli.logdata import EDGES, PLACES, save_graph_file, sym, write_office_log
-from tests.engine.test_state import _pending_sorted, _plain
 
 DAY_S = 86_400
 
@@ -84,7 +84,7 @@ def test_merging_the_two_days_equals_building_from_both_logs(days: Days, tmp_pat
     xa, ma = _state(days.both).to_arrays()
     xm, mm = _state(out).to_arrays()
     assert mm == ma
-    pa, pm = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xm))
+    pa, pm = pending_sorted(plain(xa)), pending_sorted(plain(xm))
     assert sorted(pa) == sorted(pm)
     for name in pa:
         if pa[name].dtype.kind in "fc":

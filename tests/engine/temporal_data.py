@@ -22,6 +22,20 @@ def rush(d: int, h: int) -> float:
     return 300.0 if h in (8, 9, 17, 18) else 0.0
 
 
+RHYTHM_PERIOD_H = 56.0
+
+
+def rhythm_56h(d: int, h: int) -> float:
+    """A 56 h rhythm (7 d / 3: a FreMEn period no hour-of-day profile can hold)."""
+    return 60.0 * (1.0 + np.cos(2 * np.pi * (d * 24 + h + 0.5) / RHYTHM_PERIOD_H))
+
+
+def heading_56h(d: int, h: int) -> float:
+    """East while the rhythm rises, west while it falls: per-bin rhythms that cancel in the
+    total (what per-bin FreMEn directions are for)."""
+    return 0.0 if np.sin(2 * np.pi * (d * 24 + h + 0.5) / RHYTHM_PERIOD_H) > 0 else np.pi
+
+
 def corridor(
     days: int,
     rate_per_hour: Callable[[int, int], float],

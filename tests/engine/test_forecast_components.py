@@ -17,27 +17,14 @@ from aion_cli.engine.types import DetectionBatch
 from aion_cli.errors import MapCorruptError, MapFileError
 from aion_cli.formats.mapfile import open_map, write_map
 from aion_cli.mapquery import load_map
-from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor
-
-PERIOD_H = 56.0
-
-
-def _rate(d: int, h: int) -> float:
-    """A 56 h rhythm (7 d / 3: a FreMEn period no hour-of-day profile can hold)."""
-    return 60.0 * (1.0 + np.cos(2 * np.pi * (d * 24 + h + 0.5) / PERIOD_H))
-
-
-def _heading(d: int, h: int) -> float:
-    """East while the rhythm rises, west while it falls: per-bin rhythms that cancel in the
-    total (what per-bin FreMEn directions are for)."""
-    return 0.0 if np.sin(2 * np.pi * (d * 24 + h + 0.5) / PERIOD_H) > 0 else np.pi
+from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor, heading_56h, rhythm_56h
 
 
 @pytest.fixture(scope="module")
 def map_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """21 days of a 56 h rhythm over a small corridor, then a morning of day 22 left in the
     pending day and an open window with detections (what a query absorbs first)."""
-    mapper = corridor(21, _rate, cells=(3.0, 1.0), heading=_heading)
+    mapper = corridor(21, rhythm_56h, cells=(3.0, 1.0), heading=heading_56h)
     rng = np.random.default_rng(5)
     n = 40
     t = MONDAY + 21 * DAY + np.sort(rng.integers(0, 10 * HOUR + 5 * 60 * 10**9, n))

@@ -8,15 +8,25 @@ import pytest
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.shards import join_blocker, join_shard, start_shard
 from aion_cli.engine.state import MapState
-from tests.engine.engine_builders import T0_DAY_END, check_invariants
-from tests.engine.test_state import CFG, DAY, HOUR, Step, W, _assert_same, _log, _run
+from tests.engine.engine_builders import check_invariants
+from tests.engine.state_logs import (
+    CFG,
+    DAY,
+    MORNING,
+    Step,
+    W,
+    assert_same_state,
+    fixed_sensor_log,
+    robot_log,
+    run_steps,
+)
 
 
 def _days(start: int, seed: int, days: int, windows: int = 5) -> list[Step]:
     """A multi-day log: ``windows`` windows from 08:00 on each of ``days`` days."""
     steps: list[Step] = []
     for d in range(days):
-        steps += _log(start + d * DAY, seed=seed * 100 + d, windows=windows)
+        steps += fixed_sensor_log(start + d * DAY, seed=seed * 100 + d, windows=windows)
     return steps
 
 
@@ -27,7 +37,7 @@ def _moving(start: int, seed: int, days: int, extra: bool = False, move: bool = 
     from functools import partial
 
     from tests.engine.engine_builders import detections, graph
-    from tests.engine.test_state import NODES
+    from tests.engine.state_logs import NODES
 
     nodes = np.array([*NODES, [9.0, 9.0, 0.0]] if extra else NODES)
     ids = list(range(len(nodes)))
@@ -56,7 +66,7 @@ def _joined(
     each join goes to ``blockers`` (the joins that must be exact expect None)."""
     state = acc if acc is not None else MapState.empty(CFG)
     for steps in logs:
-        shard = _run(steps, Mapper(CFG, start_shard(MapState.empty(CFG)))).state
+        shard = run_steps(steps, Mapper(CFG, start_shard(MapState.empty(CFG)))).state
         reason = join_blocker(state, shard)
         if blockers is None:
             assert reason is None, reason
@@ -64,9 +74,6 @@ def _joined(
             blockers.append(reason)
         state = join_shard(state, shard)
     return state
-
-
-MORNING = T0_DAY_END + 8 * HOUR
 
 
 @pytest.mark.parametrize(
@@ -77,85 +84,62 @@ MORNING = T0_DAY_END + 8 * HOUR
         # back to back: the next log starts on the day the previous one ends
         [
             _days(MORNING, 4, 2),
-            _log(MORNING + DAY + 10 * W, seed=5),
+            fixed_sensor_log(MORNING + DAY + 10 * W, seed=5),
             _days(MORNING + 2 * DAY, 6, 1),
         ],
         # one day each
-        [_log(MORNING, seed=7), _log(MORNING + DAY, seed=8), _log(MORNING + 3 * DAY, seed=9)],
+        [
+            fixed_sensor_log(MORNING, seed=7),
+            fixed_sensor_log(MORNING + DAY, seed=8),
+            fixed_sensor_log(MORNING + 3 * DAY, seed=9),
+        ],
     ],
     ids=["gaps", "same-day", "single-days"],
 )
 def test_shards_joined_in_time_order_equal_one_pass(logs: list[list[Step]]) -> None:
-    whole = _run([step for steps in logs for step in steps]).state
+    whole = run_steps([step for steps in logs for step in steps]).state
     joined = _joined(logs)
     check_invariants(joined)
     assert whole.temporal.flow_scored.sum() > 0  # days were scored: the join had to rescore
-    _assert_same(whole, joined)
+    assert_same_state(whole, joined)
 
 
 def test_a_shard_joined_onto_a_continued_map_equals_one_pass() -> None:
     first, second = _days(MORNING, 11, 3), _days(MORNING + 4 * DAY, 12, 2)
-    whole = _run(first + second).state
-    joined = _joined([second], acc=_run(first).state)
-    _assert_same(whole, joined)
+    whole = run_steps(first + second).state
+    joined = _joined([second], acc=run_steps(first).state)
+    assert_same_state(whole, joined)
 
 
 def test_a_shard_without_the_other_shards_scores_differently() -> None:
     """The join is not trivially equal: scoring the later log against its own history only
     (an ordinary build of it, merged) gives other day-ahead scores than one pass."""
     first, second = _days(MORNING, 13, 3), _days(MORNING + 4 * DAY, 14, 3)
-    whole = _run(first + second).state
-    alone = _run(second).state
+    whole = run_steps(first + second).state
+    alone = run_steps(second).state
     shard_scores = alone.temporal.flow_score.sum()
     joined = _joined([first, second])
     assert joined.temporal.flow_score.sum() == pytest.approx(whole.temporal.flow_score.sum())
     assert whole.temporal.flow_score.sum() != pytest.approx(
-        _run(first).state.temporal.flow_score.sum() + shard_scores
+        run_steps(first).state.temporal.flow_score.sum() + shard_scores
     )
 
 
 def test_only_an_empty_map_starts_a_shard_and_only_shards_join() -> None:
-    busy = _run(_log(MORNING, seed=15)).state
+    busy = run_steps(fixed_sensor_log(MORNING, seed=15)).state
     with pytest.raises(ValueError, match="empty map"):
         start_shard(busy)
     with pytest.raises(ValueError, match="start_shard"):
-        join_shard(MapState.empty(CFG), _run(_log(MORNING, seed=16)).state)
+        join_shard(MapState.empty(CFG), run_steps(fixed_sensor_log(MORNING, seed=16)).state)
     np.testing.assert_equal(busy.deferred, None)
 
 
-def _robot_log(start: int, seed: int, windows: int = 6, days: int = 1) -> list[Step]:
-    """A robot's log: it drives along a line through the floor (sensor range covers part of
-    it), people appear everywhere; a graph of five places."""
-    from functools import partial
-
-    from aion_cli.engine.types import Trajectory
-    from tests.engine.engine_builders import detections, graph
-    from tests.engine.test_state import NODES
-
-    rng = np.random.default_rng(seed)
-    steps: list[Step] = []
-    for d in range(days):
-        t0 = start + d * DAY
-        t = t0 + np.arange(0, windows * W, 20 * 10**9)
-        x = 4 + 4 * np.sin(np.arange(t.size) / 7.0 + seed)
-        traj = Trajectory(t, np.c_[x, np.full(t.size, 1.0), np.zeros(t.size)])
-        steps.append(partial(Mapper.add_trajectory, trajectory=traj))
-        steps.append(lambda m, t0=t0: m.add_graph(graph(t0, list(range(5)), np.array(NODES))))
-        for w in range(windows):
-            n = int(rng.integers(5, 40))
-            tw = t0 + w * W + np.sort(rng.integers(0, W, n))
-            xyz = np.c_[rng.uniform(-1, 12, (n, 2)), np.zeros(n)]
-            batch = detections(tw, xyz, rng.uniform(-np.pi, np.pi, n), rng.uniform(0.2, 2, n))
-            steps.append(partial(Mapper.add_detections, batch=batch))
-    return steps
-
-
 def test_robot_shards_record_the_empty_windows_of_cells_earlier_shards_made() -> None:
-    logs = [_robot_log(MORNING, 21, days=2), _robot_log(MORNING + 3 * DAY, 22, days=2)]
-    whole = _run([step for steps in logs for step in steps]).state
+    logs = [robot_log(MORNING, 21, days=2), robot_log(MORNING + 3 * DAY, 22, days=2)]
+    whole = run_steps([step for steps in logs for step in steps]).state
     joined = _joined(logs)
     check_invariants(joined)
-    _assert_same(whole, joined)
+    assert_same_state(whole, joined)
 
 
 def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> None:
@@ -165,9 +149,9 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
         _moving(MORNING, 40, days=1, move=False),
         _moving(MORNING + 3 * DAY, 41, 2, True, False),
     ]
-    whole = _run([step for steps in logs for step in steps]).state
+    whole = run_steps([step for steps in logs for step in steps]).state
     joined = _joined(logs)
-    _assert_same(whole, joined)
+    assert_same_state(whole, joined)
     node = joined.node_entry_rows(joined.nodes.ids[-1:])
     assert node[0] >= 0
     assert joined.entries.counts[node].sum() > 0
@@ -182,8 +166,16 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
         ),
         (  # a place leaves the graph every day and returns the next
             [
-                [st for d in range(2) for st in _log(MORNING + d * DAY, seed=30 + d, move=0.6)],
-                [st for d in range(2) for st in _log(MORNING + (3 + d) * DAY, 32 + d, move=0.6)],
+                [
+                    st
+                    for d in range(2)
+                    for st in fixed_sensor_log(MORNING + d * DAY, seed=30 + d, move=0.6)
+                ],
+                [
+                    st
+                    for d in range(2)
+                    for st in fixed_sensor_log(MORNING + (3 + d) * DAY, 32 + d, move=0.6)
+                ],
             ],
             "ownership changed inside these logs",
         ),
@@ -194,9 +186,9 @@ def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: s
     """What engine/shards.py cannot join exactly is refused by join_blocker (the parallel
     build then learns those logs in sequence). Forced anyway, the join still conserves
     counts (and differs from one pass, or the blocker would be needless)."""
-    whole = _run([step for steps in logs for step in steps]).state
+    whole = run_steps([step for steps in logs for step in steps]).state
     blockers: list[str | None] = []
-    joined = _joined(logs[1:], acc=_run(logs[0]).state, blockers=blockers)  # as a build does
+    joined = _joined(logs[1:], acc=run_steps(logs[0]).state, blockers=blockers)  # as a build does
     assert blockers[0] is not None
     assert reason in blockers[0]
     check_invariants(joined)
@@ -204,7 +196,7 @@ def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: s
     assert joined.entries.counts[live_j].sum() == whole.entries.counts[live_w].sum()
     assert joined.accepted == whole.accepted
     with pytest.raises(AssertionError):
-        _assert_same(whole, joined)
+        assert_same_state(whole, joined)
 
 
 def _drifting(start: int, seed: int) -> list[Step]:
@@ -214,9 +206,9 @@ def _drifting(start: int, seed: int) -> list[Step]:
     from functools import partial
 
     from tests.engine.engine_builders import graph
-    from tests.engine.test_state import NODES
+    from tests.engine.state_logs import NODES
 
-    steps = _log(start, seed=seed)
+    steps = fixed_sensor_log(start, seed=seed)
     first, later = np.array(NODES, float), np.array(NODES, float)
     first[0, 0] += 0.2
     later[0, 0] += 0.4
@@ -232,14 +224,14 @@ def test_a_place_that_drifts_from_the_earlier_reference_is_refused() -> None:
     is 0.4 m from the reference the earlier log left); the shard does not (0.2 m from its
     own first position). The join gave the earlier timer silently; it is now refused, and
     forced anyway it differs from one pass (in that timer)."""
-    logs = [_log(MORNING, seed=50), _drifting(MORNING + 3 * DAY, 51)]
-    whole = _run([step for steps in logs for step in steps]).state
+    logs = [fixed_sensor_log(MORNING, seed=50), _drifting(MORNING + 3 * DAY, 51)]
+    whole = run_steps([step for steps in logs for step in steps]).state
     blockers: list[str | None] = []
-    joined = _joined(logs[1:], acc=_run(logs[0]).state, blockers=blockers)
+    joined = _joined(logs[1:], acc=run_steps(logs[0]).state, blockers=blockers)
     assert blockers[0] is not None
     assert "stability timers" in blockers[0]
     with pytest.raises(AssertionError, match="stable_since"):
-        _assert_same(whole, joined)
+        assert_same_state(whole, joined)
 
 
 def test_a_place_that_moves_within_the_tolerance_of_both_joins_exactly() -> None:
@@ -249,7 +241,7 @@ def test_a_place_that_moves_within_the_tolerance_of_both_joins_exactly() -> None
     from functools import partial
 
     from tests.engine.engine_builders import graph
-    from tests.engine.test_state import NODES
+    from tests.engine.state_logs import NODES
 
     start = MORNING + 3 * DAY
     steps = _drifting(start, 52)
@@ -258,10 +250,10 @@ def test_a_place_that_moves_within_the_tolerance_of_both_joins_exactly() -> None
     later[0, 0] += 0.2
     steps[1] = partial(Mapper.add_graph, snapshot=graph(start, list(range(5)), first))
     steps[4] = partial(Mapper.add_graph, snapshot=graph(start + W + W // 2, list(range(5)), later))
-    logs = [_log(MORNING, seed=50), steps]
-    whole = _run([step for steps in logs for step in steps]).state
-    joined = _joined(logs[1:], acc=_run(logs[0]).state)
-    _assert_same(whole, joined)
+    logs = [fixed_sensor_log(MORNING, seed=50), steps]
+    whole = run_steps([step for steps in logs for step in steps]).state
+    joined = _joined(logs[1:], acc=run_steps(logs[0]).state)
+    assert_same_state(whole, joined)
     assert joined.nodes.stable_since_ns.min() < start  # the earlier timer, kept
 
 
@@ -274,7 +266,7 @@ def _rooms(
     from functools import partial
 
     from tests.engine.engine_builders import detections, graph
-    from tests.engine.test_state import NODES
+    from tests.engine.state_logs import NODES
 
     rng = np.random.default_rng(seed)
     steps: list[Step] = []
@@ -299,14 +291,14 @@ def test_a_shard_whose_rooms_change_after_a_held_day_is_refused() -> None:
     first = _rooms(MORNING, 60, [[0, 0, 1, 1, 1]])
     moved = _rooms(MORNING + 3 * DAY, 61, [[0, 0, 1, 1, 1], [0, 0, 0, 1, 1], [0, 0, 0, 1, 1]])
     blockers: list[str | None] = []
-    forced = _joined([moved], acc=_run(first).state, blockers=blockers)
+    forced = _joined([moved], acc=run_steps(first).state, blockers=blockers)
     assert blockers[0] is not None
     assert "other rooms" in blockers[0]
     with pytest.raises(AssertionError, match="temporal_dir_score"):  # the refusal is needed
-        _assert_same(_run(first + moved).state, forced)
+        assert_same_state(run_steps(first + moved).state, forced)
     same = _rooms(MORNING + 3 * DAY, 61, [[0, 0, 1, 1, 1]] * 3)
-    whole = _run(first + same).state
-    _assert_same(whole, _joined([same], acc=_run(first).state))
+    whole = run_steps(first + same).state
+    assert_same_state(whole, _joined([same], acc=run_steps(first).state))
 
 
 def test_a_shard_that_held_a_day_before_its_first_graph_compares_the_earlier_rooms() -> None:
@@ -318,6 +310,6 @@ def test_a_shard_that_held_a_day_before_its_first_graph_compares_the_earlier_roo
     day = _rooms(MORNING + 2 * DAY, 64, [[0, 0, 0, 1, 1]], where=(30, 40))
     no_graph = [step for k, step in enumerate(day) if k != 1]  # the day without its graph
     blockers: list[str | None] = []
-    _joined([no_graph + later], acc=_run(first).state, blockers=blockers)
+    _joined([no_graph + later], acc=run_steps(first).state, blockers=blockers)
     assert blockers[0] is not None
     assert "other rooms" in blockers[0]

@@ -4,15 +4,12 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
-from functools import partial
 from typing import Any
 
 import numpy as np
 import pytest
 
-from aion_cli.engine.compare import differences, pending_sorted, plain
-from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.compare import plain
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.state import MapState
@@ -28,54 +25,16 @@ from tests.engine.engine_builders import (
     graph,
     pending_counts,
 )
-
-CFG = ModelConfig(window_s=600.0, stability_s=30.0)
-W = 600 * S
-DAY = 86400 * S
-HOUR = 3600 * S
-NODES = [[0, 0, 0], [3, 0, 0], [0, 3, 0], [3, 3, 0], [6, 6, 0.0]]
-
-Step = Callable[[Mapper], object]
-
-
-def _log(
-    start: int, seed: int, windows: int = 6, move: float = 0.0, spots: np.ndarray | None = None
-) -> list[Step]:
-    """One "log": a graph, a fixed sensor over its span, detections in several windows.
-
-    With ``spots`` every detection is at one of those positions and the first window visits
-    all of them (so every entry exists from the log's first window on).
-    """
-    rng = np.random.default_rng(seed)
-    steps: list[Step] = []
-    end = start + windows * W
-    steps.append(lambda m: m.set_fixed_sensor(start, end))
-    steps.append(lambda m: m.add_graph(graph(start, list(range(5)), np.array(NODES))))
-    for w in range(windows):
-        n = int(rng.integers(5, 60)) if spots is None else int(rng.integers(len(spots), 90))
-        t = start + w * W + np.sort(rng.integers(0, W, n))
-        if spots is None:
-            xyz = np.c_[rng.uniform(-1, 8, (n, 2)), np.zeros(n)]
-        else:
-            pick = rng.integers(0, len(spots), n)
-            if w == 0:
-                pick[: len(spots)] = np.arange(len(spots))
-            xyz = spots[pick]
-        heading = np.where(rng.random(n) < 0.1, np.nan, rng.uniform(-np.pi, np.pi, n))
-        batch = detections(t, xyz, heading, rng.uniform(0.2, 2, n))
-        steps.append(partial(Mapper.add_detections, batch=batch))
-        if w == windows // 2 and move:
-            moved = np.array(NODES) + np.array([move, 0, 0])
-            g_moved = graph(start + w * W + W // 2, [0, 1, 2, 3], moved[:4])
-            steps.append(partial(Mapper.add_graph, snapshot=g_moved))
-    return steps
-
-
-def _run(steps: list[Step], m: Mapper | None = None) -> Mapper:
-    m = m if m is not None else Mapper(CFG)
-    for step in steps:
-        step(m)
-    return m
+from tests.engine.state_logs import (
+    CFG,
+    DAY,
+    HOUR,
+    Step,
+    W,
+    assert_same_state,
+    fixed_sensor_log,
+    run_steps,
+)
 
 
 def _reload(m: Mapper) -> Mapper:
@@ -89,21 +48,9 @@ def _plain(arrays: dict[str, Any]) -> dict[str, np.ndarray]:
     return plain(arrays)
 
 
-def _pending_sorted(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The pending day's pairs in a canonical order (the byte-exact export is
-    :func:`test_round_trip_is_exact_and_plain`'s business)."""
-    return pending_sorted(arrays)
-
-
-def _assert_same(a: MapState, b: MapState, rtol: float = 1e-12) -> None:
-    """Equal maps: metadata and integer members exactly, float members to ``rtol``."""
-    problems = differences(a, b, rtol)
-    assert not problems, "\n".join(problems)
-
-
 def test_round_trip_is_exact_and_plain() -> None:
     # two days: the first absorbed, the second pending (the last day of a build waits)
-    m = _run(_log(T0, seed=1, move=0.6) + _log(T0 + 8 * W, seed=11))
+    m = run_steps(fixed_sensor_log(T0, seed=1, move=0.6) + fixed_sensor_log(T0 + 8 * W, seed=11))
     assert m.state.pending
     assert m.state.temporal.glob.n[0] > 0
     m.add_trajectory(Trajectory(np.array([T0 + 20 * W]), np.array([[1.0, 2.0, 0.0]])))
@@ -137,11 +84,11 @@ def test_round_trip_is_exact_and_plain() -> None:
 
 @pytest.mark.parametrize("cut", [3, 6, 9])
 def test_building_a_then_b_equals_building_both_at_once(cut: int) -> None:
-    steps = _log(T0, seed=2, move=0.6) + _log(T0 + 8 * W, seed=3)
-    whole = _run(steps)
-    first = _run(steps[:cut])
-    continued = _run(steps[cut:], _reload(first))
-    _assert_same(whole.state, continued.state)
+    steps = fixed_sensor_log(T0, seed=2, move=0.6) + fixed_sensor_log(T0 + 8 * W, seed=3)
+    whole = run_steps(steps)
+    first = run_steps(steps[:cut])
+    continued = run_steps(steps[cut:], _reload(first))
+    assert_same_state(whole.state, continued.state)
     check_invariants(continued.state)
 
 
@@ -150,9 +97,9 @@ def _three_days() -> list[Step]:
     on the day after: the middle day is closed, scored against the first, when the third
     one starts."""
     return (
-        _log(T0, seed=21)
-        + _log(T0_DAY_END + 8 * HOUR, seed=22, windows=12, move=0.6)
-        + _log(T0_DAY_END + DAY + 8 * HOUR, seed=23, windows=4)
+        fixed_sensor_log(T0, seed=21)
+        + fixed_sensor_log(T0_DAY_END + 8 * HOUR, seed=22, windows=12, move=0.6)
+        + fixed_sensor_log(T0_DAY_END + DAY + 8 * HOUR, seed=23, windows=4)
     )
 
 
@@ -161,21 +108,21 @@ def test_a_map_saved_mid_day_and_continued_closes_the_day_exactly_as_a_single_pa
     cut: int,
 ) -> None:
     steps = _three_days()
-    whole = _run(steps)
-    first = _run(steps[:cut])
+    whole = run_steps(steps)
+    first = run_steps(steps[:cut])
     assert first.state.pending.day == (T0_DAY_END + 8 * HOUR) // DAY  # saved mid-day
     assert first.state.temporal.flow_scored.sum() == 0  # nothing scored yet
-    continued = _run(steps[cut:], _reload(first))
+    continued = run_steps(steps[cut:], _reload(first))
     tmp = whole.state.temporal
     assert tmp.flow_scored.sum() > 0  # the second day was scored
     assert tmp.dir_scored.sum() > 0
     assert whole.state.pending.day == (T0_DAY_END + DAY + 8 * HOUR) // DAY
-    _assert_same(whole.state, continued.state)
+    assert_same_state(whole.state, continued.state)
     check_invariants(continued.state)
 
 
 def test_from_arrays_rejects_corrupt_input() -> None:
-    closed = _run(_log(T0, seed=6, windows=2)).state
+    closed = run_steps(fixed_sensor_log(T0, seed=6, windows=2)).state
     closed.close_day()  # the counts move from the pending day into the (sparse) accumulators
     counted, closed_meta = closed.to_arrays()
     counted = _plain(counted)
@@ -194,7 +141,7 @@ def test_from_arrays_rejects_corrupt_input() -> None:
     }
     with pytest.raises(MapCorruptError, match="negative"):
         MapState.from_arrays(negative, closed_meta)
-    arrays, meta = _run(_log(T0, seed=6, windows=2)).state.to_arrays()
+    arrays, meta = run_steps(fixed_sensor_log(T0, seed=6, windows=2)).state.to_arrays()
     arrays = _plain(arrays)
     missing = {k: v for k, v in arrays.items() if k != "node_ids"}
     with pytest.raises(MapCorruptError):
@@ -222,7 +169,7 @@ def test_from_arrays_rejects_corrupt_input() -> None:
 
 @pytest.mark.parametrize("writable", [True, False])
 def test_loaded_map_predicts_like_the_built_one(writable: bool) -> None:
-    m = _run(_three_days())
+    m = run_steps(_three_days())
     arrays, meta = m.state.to_arrays()
     loaded = MapState.from_arrays(arrays, json.loads(json.dumps(meta)), writable=writable)
     assert loaded.pending  # the last day waits in the map ...
@@ -253,7 +200,7 @@ def test_loaded_map_predicts_like_the_built_one(writable: bool) -> None:
 
 
 def test_from_arrays_rejects_broken_ownership() -> None:
-    arrays, meta = _run(_log(T0, seed=7, windows=2)).state.to_arrays()
+    arrays, meta = run_steps(fixed_sensor_log(T0, seed=7, windows=2)).state.to_arrays()
     assert len(arrays["redirect_keys"]) > 0
     dangling = {**arrays, "redirect_nodes": arrays["redirect_nodes"] + np.uint64(1000)}
     with pytest.raises(MapCorruptError, match="without an entry"):
@@ -276,14 +223,14 @@ def test_empty_state_round_trips_and_answers_queries() -> None:
 
 
 def test_advancing_to_the_end_of_a_then_continuing_equals_one_pass() -> None:
-    a_steps = _log(T0, seed=8, move=0.6)
-    b_steps = _log(T0 + 9 * W, seed=9)
-    whole = _run(a_steps + b_steps)
-    first = _run(a_steps)
+    a_steps = fixed_sensor_log(T0, seed=8, move=0.6)
+    b_steps = fixed_sensor_log(T0 + 9 * W, seed=9)
+    whole = run_steps(a_steps + b_steps)
+    first = run_steps(a_steps)
     first.advance(T0 + 6 * W + W // 3)  # what a build does at the end of a log
     assert first.state.open_window == (T0 + 6 * W) // W
-    continued = _run(b_steps, _reload(first))
-    _assert_same(whole.state, continued.state)
+    continued = run_steps(b_steps, _reload(first))
+    assert_same_state(whole.state, continued.state)
     assert len(whole.state.redirects) > 0
 
 
@@ -291,7 +238,7 @@ def test_queries_do_not_change_what_a_build_learns() -> None:
     """A query absorbs the pending day and the open window into a view (unscored); the map
     goes on as if nobody had asked."""
     steps = _three_days()
-    quiet = _run(steps).state
+    quiet = run_steps(steps).state
     m = Mapper(CFG)
     seen = 0
     for k, step in enumerate(steps):
@@ -301,11 +248,11 @@ def test_queries_do_not_change_what_a_build_learns() -> None:
             predict_table(m.state, T0 + 3 * DAY)
             seen += bool(m.state.pending)
     assert seen > 0  # some queries saw a pending day
-    _assert_same(quiet, m.state)
+    assert_same_state(quiet, m.state)
 
 
 def test_the_query_view_equals_the_map_with_its_day_closed() -> None:
-    m = _run(_log(T0, seed=31) + _log(T0 + 8 * W, seed=32))
+    m = run_steps(fixed_sensor_log(T0, seed=31) + fixed_sensor_log(T0 + 8 * W, seed=32))
     m.advance(T0 + 14 * W)  # the open window closes too: the view only absorbs the day
     state = m.state
     assert state.pending
@@ -402,7 +349,7 @@ def test_a_new_graph_is_seen_by_the_next_query_though_nothing_else_changed() -> 
     from aion_cli.engine.types import Layer
     from tests.engine.engine_builders import pid
 
-    state = _run(_three_days()).state
+    state = run_steps(_three_days()).state
     assert state.graph is not None
     t = T0_DAY_END + DAY + 12 * HOUR
     before = predict_table(state, t)

@@ -1,12 +1,12 @@
 """MapState merges: maps of disjoint time merged equal one build of both, configs checked,
-released nodes (test helpers from ``test_state``)."""
+released nodes (the logs of ``state_logs.py``)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from aion_cli.engine.compare import differences
+from aion_cli.engine.compare import differences, pending_sorted, plain
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.query import historical_table
@@ -22,21 +22,22 @@ from tests.engine.engine_builders import (
     pending_counts,
     pid,
 )
-from tests.engine.test_state import CFG, DAY, NODES, W, _log, _pending_sorted, _plain, _run
+from tests.engine.state_logs import CFG, DAY, NODES, W, fixed_sensor_log, run_steps
 
 
 def test_merging_disjoint_maps_equals_building_from_both() -> None:
     # Exact when both logs touch the same places from their first window on: a map built from
     # one log alone cannot know the observed-empty windows of entries only the other log made.
     spots = np.c_[np.random.default_rng(9).uniform(-1, 8, (40, 2)), np.zeros(40)]
-    a_steps = _log(T0, seed=4, spots=spots)
-    b_steps = _log(T0 + 2 * DAY, seed=5, spots=spots)
-    both = _run(a_steps + b_steps).state
-    merged = merge_states(_run(b_steps).state, _run(a_steps).state)  # order does not matter
+    a_steps = fixed_sensor_log(T0, seed=4, spots=spots)
+    b_steps = fixed_sensor_log(T0 + 2 * DAY, seed=5, spots=spots)
+    both = run_steps(a_steps + b_steps).state
+    # order does not matter
+    merged = merge_states(run_steps(b_steps).state, run_steps(a_steps).state)
     check_invariants(merged)
     xa, ma = both.to_arrays()
     xm, mm = merged.to_arrays()
-    pa, pm = _pending_sorted(_plain(xa)), _pending_sorted(_plain(xm))
+    pa, pm = pending_sorted(plain(xa)), pending_sorted(plain(xm))
     assert ma["accepted"] == mm["accepted"]
     assert ma["open_window"] == mm["open_window"]
     assert ma["pending_day"] == mm["pending_day"] == (T0 + 2 * DAY) // DAY
@@ -61,9 +62,9 @@ def test_a_consuming_merge_equals_the_copying_one_which_leaves_its_inputs_alone(
     """``merge_maps(..., consume=True)`` (``aion merge``: no copies of the loaded maps) builds
     the same map as the default merge, which must not change either input."""
     spots = np.c_[np.random.default_rng(3).uniform(-1, 8, (40, 2)), np.zeros(40)]
-    early_steps = _log(T0, seed=7, spots=spots)
-    late_steps = _log(T0 + 3 * DAY, seed=8, spots=spots)
-    early, late = _run(early_steps).state, _run(late_steps).state
+    early_steps = fixed_sensor_log(T0, seed=7, spots=spots)
+    late_steps = fixed_sensor_log(T0 + 3 * DAY, seed=8, spots=spots)
+    early, late = run_steps(early_steps).state, run_steps(late_steps).state
     before = (early.to_arrays(), late.to_arrays())
     copied = merge_maps(late, early)
     for state, (arrays, meta) in zip((early, late), before, strict=True):

@@ -9,26 +9,10 @@ import pytest
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.engine.types import DetectionBatch
 from aion_cli.engine.windows import EPOCH_NS
 from aion_cli.evaluation.baselines import StaticHistogram, TimeOfDayHistogram
 from aion_cli.evaluation.grid import GridMoD, GridSpec, expected_counts_per_window
-
-HOUR = 3_600_000_000_000
-
-
-def corridor_flow(hours: int, seed: int = 0) -> DetectionBatch:
-    """People walk +x along y = 0.5 in the morning hours and -x in the afternoon hours."""
-    rng = np.random.default_rng(seed)
-    t, x, h = [], [], []
-    for hour in range(hours):
-        n = 40
-        t.append(EPOCH_NS + hour * HOUR + rng.integers(0, HOUR, n))
-        x.append(rng.uniform(0.0, 10.0, n))
-        h.append(np.full(n, 0.0 if (hour % 24) < 12 else math.pi - 1e-9))
-    tt = np.concatenate(t)
-    xyz = np.column_stack([np.concatenate(x), np.full(len(tt), 0.5), np.zeros(len(tt))])
-    return DetectionBatch.from_arrays(tt, xyz, np.concatenate(h))
+from tests.evaluation.corridor_flows import HOUR, corridor_flow
 
 
 def test_grid_spec_covers_points_and_indexes_cells() -> None:

@@ -18,7 +18,7 @@ from aion_cli.evaluation.heading import (
     GridHeadingModel,
     score_headings,
 )
-from tests.evaluation.test_grid import HOUR, corridor_flow
+from tests.evaluation.corridor_flows import HOUR, corridor_flow
 
 
 class Uniform:

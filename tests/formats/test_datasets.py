@@ -15,11 +15,14 @@ import pytest
 
 from aion_cli.formats import datasets, track_types
 from aion_cli.formats import tracks as ft
-from tests.shared_data import SHARED_DATA
+from tests.formats.dataset_files import (
+    EDINBURGH,
+    ETH_UCY,
+    MAGNI_HEADER,
+    edinburgh_file,
+    magni_file,
+)
 
-DATA = SHARED_DATA / "tracks"
-EDINBURGH = DATA / "edinburgh" / "tracks.01Jul.txt"
-ETH_UCY = DATA / "eth_ucy"
 S = 1_000_000_000
 PX = 0.0247
 
@@ -55,22 +58,9 @@ def test_edinburgh_real_day() -> None:
     assert np.isfinite(batch.heading).mean() > 0.95
 
 
-def _edinburgh_file(
-    path: Path, tracks: dict[int, list[tuple[int, int, int]]], **props: int
-) -> Path:
-    lines = [f"% Total number of trajectories in file are  {len(tracks)} ", ""]
-    for rid, points in tracks.items():
-        n = props.get(f"R{rid}", len(points))
-        lines.append(f"Properties.R{rid}=[{n} {points[0][2]} {points[-1][2]} 1.5 2.0 3.0 ];")
-        body = ";".join(f"[{x} {y} {f}]" for x, y, f in points)
-        lines.append(f" TRACK.R{rid}=[{body}];")
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
 def test_edinburgh_synthetic_positions_times_and_headings(tmp_path: Path) -> None:
     # R7 walks +x (right in the image), R9 walks down the image (+py) = -y in the map
-    path = _edinburgh_file(
+    path = edinburgh_file(
         tmp_path / "tracks.test.txt",
         {7: [(100, 200, 18), (110, 200, 19), (120, 200, 20)], 9: [(50, 50, 0), (50, 62, 3)]},
     )
@@ -93,7 +83,7 @@ def test_edinburgh_synthetic_positions_times_and_headings(tmp_path: Path) -> Non
 
 
 def test_edinburgh_point_count_mismatch_is_a_note(tmp_path: Path) -> None:
-    path = _edinburgh_file(tmp_path / "t.txt", {1: [(1, 2, 3), (2, 2, 4)]}, R1=5)
+    path = edinburgh_file(tmp_path / "t.txt", {1: [(1, 2, 3), (2, 2, 4)]}, R1=5)
     data = ft.read_track_data(path, "edinburgh")
     assert len(data.batch) == 2
     assert len(data.notes) == 1
@@ -123,45 +113,15 @@ def test_bad_edinburgh_files(text: str, fragment: str, tmp_path: Path) -> None:
 def test_edinburgh_missing_file_and_bad_fps(tmp_path: Path) -> None:
     with pytest.raises(track_types.TracksFormatError, match="not found"):
         ft.read_tracks(tmp_path / "none.txt", "edinburgh")
-    path = _edinburgh_file(tmp_path / "t.txt", {1: [(1, 2, 3)]})
+    path = edinburgh_file(tmp_path / "t.txt", {1: [(1, 2, 3)]})
     with pytest.raises(track_types.TracksFormatError, match="fps must be > 0"):
         datasets.read_edinburgh(path, fps=0.0)
 
 
 # ----------------------------------------------------------------------------- THÖR-MAGNI
 
-MAGNI_HEADER = "Time,frame_id,x,y,z,ag_id,data_label,map_name,best_marker_id"
-
-
-def _magni_rows(n: int = 50) -> list[str]:
-    """100 Hz: Helmet_3 walks +x at 1.2 m/s from (1 m, 2 m), Helmet_11 walks +y at 0.8 m/s from
-    (5 m, -3 m) and is untracked on every 10th frame, the robot stands at the origin. Values
-    in millimetres, as in the dataset's files."""
-    rows = []
-    for k in range(n):
-        t = k / 100
-        rows.append(
-            f"{t:.2f},{k + 1},{1000 + 12 * k:.1f},2000.0,1700.2,Helmet_3,"
-            f'"Visitors-Group 2",1205_SC1A_map.png,1'
-        )
-        if k % 10 == 9:
-            rows.append(f'{t:.2f},{k + 1},,,,Helmet_11,"Carrier, Large Object",1205_SC1A_map.png,')
-        else:
-            rows.append(
-                f"{t:.2f},{k + 1},5000.0,{-3000 + 8 * k:.1f},1650.0,Helmet_11,"
-                f'"Carrier, Large Object",1205_SC1A_map.png,2'
-            )
-        rows.append(f"{t:.2f},{k + 1},0.0,0.0,400.0,DARKO_Robot,Robot,1205_SC1A_map.png,1")
-    return rows
-
-
-def _magni(path: Path, header: str = MAGNI_HEADER, rows: list[str] | None = None) -> Path:
-    path.write_text("\n".join([header, *(_magni_rows() if rows is None else rows)]) + "\n")
-    return path
-
-
 def test_thor_magni_synthetic(tmp_path: Path) -> None:
-    path = _magni(tmp_path / "THOR-Magni_120522_SC1A_R1.csv")
+    path = magni_file(tmp_path / "THOR-Magni_120522_SC1A_R1.csv")
     start = 1_652_342_400 * S
     data = ft.read_track_data(path, "thor-magni", start_ns=start)
     b = data.batch
@@ -187,7 +147,7 @@ def test_thor_magni_columns_by_name_units_and_ids(tmp_path: Path) -> None:
     # other column order, metres, no z, ids without unique trailing numbers
     header = "ag_id,Time,y,x,extra"
     rows = ["Helmet_A,0.0,1.0,2.0,q", "Helmet_B,0.0,3.0,4.0,q", "Helmet_A,0.5,1.5,2.0,q"]
-    path = _magni(tmp_path / "m.csv", header, rows)
+    path = magni_file(tmp_path / "m.csv", header, rows)
     data = ft.read_track_data(path, "thor-magni")
     b = data.batch
     np.testing.assert_allclose(b.xyz, [[2.0, 1.0, 0.0], [4.0, 3.0, 0.0], [2.0, 1.5, 0.0]])
@@ -200,7 +160,7 @@ def test_thor_magni_columns_by_name_units_and_ids(tmp_path: Path) -> None:
     assert not any("read as" in n for n in ft.read_track_data(path, "thor-magni", units="m").notes)
     # a file without helmets keeps every agent
     rows = ["0.0,1,1000,0,0,LO1,x,m,1", "0.1,2,1100,0,0,LO1,x,m,1"]
-    only = ft.read_track_data(_magni(tmp_path / "o.csv", rows=rows), "thor-magni")
+    only = ft.read_track_data(magni_file(tmp_path / "o.csv", rows=rows), "thor-magni")
     assert only.batch.track_id.tolist() == [1, 1]
 
 
@@ -221,7 +181,7 @@ def test_thor_magni_columns_by_name_units_and_ids(tmp_path: Path) -> None:
     ],
 )
 def test_bad_thor_magni_files(header: str, rows: list[str], fragment: str, tmp_path: Path) -> None:
-    path = _magni(tmp_path / "bad.csv", header, rows)
+    path = magni_file(tmp_path / "bad.csv", header, rows)
     with pytest.raises(track_types.TracksFormatError, match=re.escape(fragment)):
         ft.read_tracks(path, "thor-magni")
 
@@ -234,7 +194,7 @@ def test_thor_magni_missing_empty_and_unit(tmp_path: Path) -> None:
     with pytest.raises(track_types.TracksFormatError, match="no track rows"):
         ft.read_tracks(empty, "thor-magni")
     with pytest.raises(track_types.TracksFormatError, match="unknown length unit"):
-        datasets.read_thor_magni(_magni(tmp_path / "m.csv"), units="feet")
+        datasets.read_thor_magni(magni_file(tmp_path / "m.csv"), units="feet")
 
 
 # ----------------------------------------------------------------------------- ETH / UCY

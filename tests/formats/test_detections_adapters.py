@@ -12,7 +12,7 @@ import pytest
 
 from aion_cli.formats.detections import SUPPORTED_TYPES, AdapterOptions, adapter_for, hash_id
 from aion_cli.formats.raw import RawMessage
-from tests.formats.test_detections_support import header, pose, raw
+from tests.formats.ros_messages import header, pose, raw
 
 S = 1_000_000_000
 Q90 = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from aion_cli.formats.detections import FrameDetections, adapter_for
 from aion_cli.formats.raw import RawMessage
-from tests.formats.test_detections_fast import (
+from tests.formats.detection_strategies import (
     DET3D,
     PEOPLE,
     POSE_ARRAY,
@@ -26,7 +26,7 @@ from tests.formats.test_detections_fast import (
     poses,
     tracked,
 )
-from tests.formats.test_detections_support import raw
+from tests.formats.ros_messages import raw
 
 SETTINGS = settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

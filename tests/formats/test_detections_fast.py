@@ -16,34 +16,22 @@ from aion_cli.formats.detections import FrameDetections, adapter_for, hash_id
 from aion_cli.formats.detections.frame import quat_yaw
 from aion_cli.formats.detections.wire import join_payloads
 from aion_cli.formats.raw import RawMessage, normalize_frame
-from tests.formats.test_detections_support import header, pose, raw, reference
+from tests.formats.detection_strategies import (
+    DET3D,
+    PEOPLE,
+    POSE_ARRAY,
+    TRACKED,
+    detections,
+    headers,
+    persons,
+    poses,
+    tracked,
+)
+from tests.formats.ros_messages import header, pose, raw, reference
 
 SETTINGS = settings(
     max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow]
 )
-
-floats = st.floats(min_value=-1e12, max_value=1e12, allow_nan=False, width=64)
-unit = st.floats(min_value=-1.0, max_value=1.0, allow_nan=False)
-frames = st.text(alphabet="abcdefghijklmnopqrstuvwxyz_/0123456789", max_size=17)
-texts = st.text(
-    alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"),
-    max_size=12,
-)
-stamps = st.one_of(
-    st.just((0, 0)),
-    st.tuples(st.integers(0, 2**31 - 1), st.integers(0, 999_999_999)),
-)
-
-
-@st.composite
-def headers(draw: st.DrawFn) -> dict[str, Any]:
-    sec, nsec = draw(stamps)
-    return header(sec, nsec, draw(frames))
-
-
-@st.composite
-def poses(draw: st.DrawFn) -> dict[str, Any]:
-    return pose(draw(floats), draw(floats), draw(floats), tuple(draw(unit) for _ in range(4)))
 
 
 def _v3(d: Any) -> tuple[float, float, float]:
@@ -112,9 +100,6 @@ def _decode_both(msgtype: str, msgs: list[RawMessage], ros: int) -> FrameDetecti
 
 # --- PoseArray ----------------------------------------------------------------------------------
 
-POSE_ARRAY = "geometry_msgs/msg/PoseArray"
-
-
 @pytest.mark.parametrize("ros", [1, 2])
 @SETTINGS
 @given(data=st.data())
@@ -141,34 +126,6 @@ def test_pose_array_matches_rosbags(ros: int, data: st.DataObject) -> None:
 
 
 # --- spencer TrackedPersons ---------------------------------------------------------------------
-
-TRACKED = "spencer_tracking_msgs/msg/TrackedPersons"
-variances = st.sampled_from([0.0, 0.5, 99999.0, 1e6])
-
-
-@st.composite
-def tracked(draw: st.DrawFn) -> dict[str, Any]:
-    pcov = np.zeros(36)
-    pcov[35] = draw(variances)
-    tcov = np.zeros(36)
-    for k in (0, 7, 14):
-        tcov[k] = draw(variances)
-    return {
-        "track_id": draw(st.integers(0, 2**64 - 1)),
-        "is_occluded": draw(st.booleans()),
-        "is_matched": draw(st.booleans()),
-        "detection_id": draw(st.integers(0, 2**64 - 1)),
-        "age": {"sec": draw(st.integers(0, 1000)), "nanosec": draw(st.integers(0, 10**9 - 1))},
-        "pose": {"pose": draw(poses()), "covariance": pcov},
-        "twist": {
-            "twist": {
-                "linear": {"x": draw(floats), "y": draw(floats), "z": draw(floats)},
-                "angular": {"x": draw(floats), "y": 0.0, "z": draw(floats)},
-            },
-            "covariance": tcov,
-        },
-    }
-
 
 @pytest.mark.parametrize("ros", [1, 2])
 @SETTINGS
@@ -200,22 +157,6 @@ def test_tracked_persons_matches_rosbags(ros: int, data: st.DataObject) -> None:
 
 # --- people_msgs/People -------------------------------------------------------------------------
 
-PEOPLE = "people_msgs/msg/People"
-
-
-@st.composite
-def persons(draw: st.DrawFn) -> dict[str, Any]:
-    ntags = draw(st.integers(0, 3))
-    return {
-        "name": draw(texts),
-        "position": {"x": draw(floats), "y": draw(floats), "z": draw(floats)},
-        "velocity": {"x": draw(floats), "y": draw(floats), "z": draw(floats)},
-        "reliability": draw(floats),
-        "tagnames": draw(st.lists(texts, min_size=ntags, max_size=ntags)),
-        "tags": draw(st.lists(texts, max_size=3)),
-    }
-
-
 @pytest.mark.parametrize("ros", [1, 2])
 @SETTINGS
 @given(data=st.data())
@@ -239,45 +180,6 @@ def test_people_matches_rosbags(ros: int, data: st.DataObject) -> None:
 
 
 # --- vision_msgs/Detection3DArray ---------------------------------------------------------------
-
-DET3D = "vision_msgs/msg/Detection3DArray"
-
-
-@st.composite
-def detections(draw: st.DrawFn, ros: int) -> dict[str, Any]:
-    cov = np.arange(36.0) * draw(floats)
-    results = []
-    for _ in range(draw(st.integers(0, 3))):
-        if ros == 1:
-            hyp: dict[str, Any] = {"id": draw(st.integers(-(2**63), 2**63 - 1))}
-        else:
-            cls = draw(st.one_of(st.sampled_from(["person", "car", "persons", ""]), texts))
-            hyp = {"hypothesis": {"class_id": cls, "score": draw(floats)}}
-        results.append({**hyp, "pose": {"pose": draw(poses()), "covariance": cov}})
-    det: dict[str, Any] = {
-        "header": draw(headers()),
-        "results": results,
-        "bbox": {"center": draw(poses()), "size": {"x": draw(floats), "y": 1.0, "z": 2.0}},
-    }
-    if ros == 1:
-        nfields = draw(st.integers(0, 3))
-        det["source_cloud"] = {
-            "header": draw(headers()),
-            "height": 1,
-            "width": draw(st.integers(0, 9)),
-            "fields": [
-                {"name": draw(frames), "offset": k * 4, "datatype": 7, "count": 1}
-                for k in range(nfields)
-            ],
-            "point_step": 12,
-            "row_step": 12,
-            "data": bytes(draw(st.binary(max_size=40))),
-            "is_dense": draw(st.booleans()),
-        }
-    else:
-        det["id"] = draw(st.one_of(st.just(""), texts))
-    return det
-
 
 @pytest.mark.parametrize("ros", [1, 2])
 @SETTINGS
@@ -402,7 +304,7 @@ def test_huge_sequence_count_is_rejected_before_allocating() -> None:
 
 
 def test_big_endian_cdr_goes_through_the_generic_decoder() -> None:
-    from tests.formats.test_detections_support import serialize
+    from tests.formats.ros_messages import serialize
 
     msg = {"header": header(3, 4, "/odom"), "poses": [pose(1.5, -2.0, 0.25, (0, 0, 1, 0))]}
     le = RawMessage("/t", POSE_ARRAY, 0, serialize(POSE_ARRAY, msg, 2), "cdr")

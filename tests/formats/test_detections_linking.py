@@ -15,7 +15,7 @@ from aion_cli.engine.heading import SOURCES, HeadingEstimator
 from aion_cli.engine.tracking import LinkerConfig, TrackLinker, link_tracks
 from aion_cli.errors import InputError
 from aion_cli.formats.raw import RawMessage
-from tests.formats.test_detections_support import header, pose, raw
+from tests.formats.ros_messages import header, pose, raw
 
 S = 1_000_000_000
 T0 = 1_700_000_000 * S

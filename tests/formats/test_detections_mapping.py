@@ -14,7 +14,7 @@ from aion_cli.formats import msgdefs
 from aion_cli.formats.detections import adapter_for, hash_id
 from aion_cli.formats.detections.mapping import load_mapping
 from aion_cli.formats.raw import RawMessage
-from tests.formats.test_detections_support import header, pose, raw
+from tests.formats.ros_messages import header, pose, raw
 
 MSGTYPE = "my_tracker/msg/Tracks"
 

@@ -11,6 +11,7 @@ import pytest
 
 from aion_cli.errors import InputError, MessageDecodeError
 from aion_cli.formats import dsg as fdsg
+from tests.formats.dsg_builders import payload_pair_1_1_2, place_attributes
 from tests.shared_data import SHARED_DATA, needs, real_path
 
 DATA = SHARED_DATA / "dsg"
@@ -96,15 +97,6 @@ def test_real_graph_binary_round_trip_matches_file() -> None:
 # ----------------------------------------------------------------------------- a built graph
 
 
-def _place(xyz: tuple[float, float, float], real: bool = True) -> Any:
-    import spark_dsg
-
-    a = spark_dsg.PlaceNodeAttributes()
-    a.position = np.array(xyz)
-    a.real_place = real
-    return a
-
-
 def _build_graph() -> Any:
     """p0..p2 real places under room R3 (building B1), p9 a frontier; a mesh and 3 agent poses."""
     import spark_dsg
@@ -112,9 +104,11 @@ def _build_graph() -> Any:
     G = spark_dsg.DynamicSceneGraph()
     positions = {0: (0.0, 0.0, 1.0), 1: (2.0, 0.0, 1.0), 2: (2.0, 3.0, 1.5)}
     for i, xyz in positions.items():
-        G.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", i), _place(xyz))
+        G.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", i), place_attributes(xyz))
     G.add_node(
-        spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", 9), _place((9, 9, 9), real=False)
+        spark_dsg.DsgLayers.PLACES,
+        spark_dsg.NodeSymbol("p", 9),
+        place_attributes((9, 9, 9), real=False),
     )
     room = spark_dsg.RoomNodeAttributes()
     room.position = np.array([1.0, 1.0, 1.0])
@@ -203,7 +197,9 @@ def _mesh_places_graph() -> Any:
         "BUILDINGS": spark_dsg.LayerKey(5),
     }
     G = spark_dsg.DynamicSceneGraph(keys, names)
-    G.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", 0), _place((0, 0, 0)))
+    G.add_node(
+        spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", 0), place_attributes((0, 0, 0))
+    )
     for i in range(3):
         a = spark_dsg.Place2dNodeAttributes()
         a.position = np.array([float(i), 1.0, 0.0])
@@ -239,32 +235,8 @@ def test_missing_or_unknown_layer_errors() -> None:
 # ----------------------------------------------------------------------------- version fallback
 
 
-def _payload_1_1_2() -> tuple[bytes, bytes]:
-    """A 1.1.3 payload and the same graph as spark_dsg 1.1.2 writes it.
-
-    1.1.3 appended one field to PlaceNodeAttributes, ``anti_frontier`` (a bool after
-    ``num_frontier_voxels``, spark_dsg node_attributes.cpp). Marking ``num_frontier_voxels`` with a
-    unique value lets us find it (UINT64 tag 0xcf + 8 bytes) and drop the bool that follows.
-    """
-    import spark_dsg
-
-    G = spark_dsg.DynamicSceneGraph()
-    a = _place((1.0, 2.0, 3.0))
-    a.num_frontier_voxels = 0x0BADF00D
-    a.anti_frontier = True
-    G.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", 7), a)
-    new = G.to_binary()
-    marker = b"\xcf" + (0x0BADF00D).to_bytes(8, "little")
-    i = new.find(marker)
-    assert i > 0
-    assert new.count(marker) == 1
-    j = i + len(marker)
-    assert new[j] == 0xC3  # anti_frontier = True
-    return new, new[:j] + new[j + 1 :]
-
-
 def test_older_payload_decodes_through_fallback() -> None:
-    new, old = _payload_1_1_2()
+    new, old = payload_pair_1_1_2()
     import spark_dsg
 
     with pytest.raises(ValueError, match="bool"):
@@ -279,7 +251,7 @@ def test_older_payload_decodes_through_fallback() -> None:
 
 
 def test_pinned_wrong_version_fails_loudly() -> None:
-    new, old = _payload_1_1_2()
+    new, old = payload_pair_1_1_2()
     with pytest.raises(MessageDecodeError, match=r"1\.1\.2") as err:
         fdsg.decode_dsg_update(new, 0, version="1.1.2")
     assert "1.1.3" not in str(err.value)  # pinned: nothing else tried

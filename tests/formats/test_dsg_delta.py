@@ -49,13 +49,13 @@ def streamed_equals_alone(payload: bytes, t_ns: int, reader: GraphReader) -> Any
     """The snapshot ``fast_navigation`` makes of ``payload`` through the stream's ``reader``,
     checked equal to the one it makes of the payload alone (layer and frontiers too)."""
     from aion_cli.formats.dsg_fast import fast_navigation
-    from tests.formats.test_dsg_scan_fast import _snapshots_equal
+    from tests.formats.snapshot_checks import assert_same_snapshot
 
     streamed = fast_navigation(payload, t_ns, None, reader)
     alone = fast_navigation(payload, t_ns, None)
     assert streamed is not None
     assert alone is not None
-    _snapshots_equal(streamed.snapshot, alone.snapshot)
+    assert_same_snapshot(streamed.snapshot, alone.snapshot)
     assert streamed.layer == alone.layer
     assert streamed.frontiers == alone.frontiers
     return streamed
@@ -289,7 +289,7 @@ def test_snapshots_of_moved_nodes_are_moved_not_made_again(
     import datetime
 
     from aion_cli.formats import dsg_fast
-    from tests.formats.test_dsg_scan_fast import _snapshots_equal
+    from tests.formats.snapshot_checks import assert_same_snapshot
 
     made = []
     scan = dsg_fast._navigation
@@ -335,7 +335,7 @@ def test_snapshots_of_moved_nodes_are_moved_not_made_again(
         parsed_before = reader.records_parsed
         alone = scan(read_graph(payload), 500 + k, None)[0]
         assert streamed is not None
-        _snapshots_equal(streamed.snapshot, alone.snapshot)
+        assert_same_snapshot(streamed.snapshot, alone.snapshot)
         assert streamed.snapshot.t_ns == 500 + k
         assert streamed.frontiers == alone.frontiers
         assert streamed.snapshot.agents is not None

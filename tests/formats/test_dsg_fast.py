@@ -26,8 +26,14 @@ from aion_cli.errors import MessageDecodeError
 from aion_cli.formats import dsg as fdsg
 from aion_cli.formats.dsg_binary import read_graph
 from aion_cli.formats.dsg_fast import fast_navigation
-from tests.formats.dsg_builders import hydra_graph, legacy_mesh_graph, sym
-from tests.formats.test_dsg_scan_fast import _snapshots_equal, _tricky_graph
+from tests.formats.dsg_builders import (
+    hydra_graph,
+    legacy_mesh_graph,
+    payload_pair_1_1_2,
+    sym,
+    tricky_graph,
+)
+from tests.formats.snapshot_checks import assert_same_snapshot
 from tests.shared_data import SHARED_DATA
 
 DATA = SHARED_DATA / "dsg"
@@ -72,7 +78,7 @@ def _assert_same(payload: bytes, layers: list[str | None], expect_fast: bool = T
         if fast is None:
             assert not expect_fast, f"the fast reader stepped aside ({layer})"
             continue
-        _snapshots_equal(fast.snapshot, ref.snapshot)
+        assert_same_snapshot(fast.snapshot, ref.snapshot)
         _mesh_equal(fast.snapshot, ref.snapshot)
         assert fast.layer == ref.layer
         assert fast.frontiers == ref.frontiers
@@ -104,7 +110,7 @@ def test_real_hydra_graphs(name: str) -> None:
 
 
 def test_hydra_shaped_graphs() -> None:
-    for G in (hydra_graph(), legacy_mesh_graph(), _tricky_graph()):
+    for G in (hydra_graph(), legacy_mesh_graph(), tricky_graph()):
         assert _assert_same(G.to_binary(True), LAYERS) >= 3
         assert _assert_same(_with_mesh(G, colors=False).to_binary(True), [None]) == 1
 
@@ -297,9 +303,7 @@ def test_outside_the_reader_steps_aside() -> None:
     with pytest.raises(MessageDecodeError):
         fdsg.decode_dsg(bad, 0)
     # the layout of spark_dsg 1.1.2 (no anti_frontier): spark_dsg's versioned fallback reads it
-    from tests.formats.test_dsg import _payload_1_1_2
-
-    new, old = _payload_1_1_2()
+    new, old = payload_pair_1_1_2()
     assert read_graph(new) is not None
     assert read_graph(old) is None
     assert fdsg.decode_dsg(old, 1).version == "1.1.2"
@@ -355,7 +359,7 @@ def test_decode_dsg_fast_equals_spark(version: str | None) -> None:
     for payload in (_PAYLOAD, hydra_graph().to_binary(False)):
         a = fdsg.decode_dsg(payload, 5, version)
         b = fdsg.decode_dsg(payload, 5, version, fast=False)
-        _snapshots_equal(a.snapshot, b.snapshot)
+        assert_same_snapshot(a.snapshot, b.snapshot)
         _mesh_equal(a.snapshot, b.snapshot)
         assert (a.version, a.layer) == (b.version, b.layer)
     with pytest.raises(fdsg.GraphLayerError, match="no layer named NOPE"):

@@ -11,16 +11,16 @@ frontier places, nodes without parents, attribute types without ``name`` or ``re
 
 from __future__ import annotations
 
-import itertools
 from typing import Any
 
 import numpy as np
 import pytest
 
-from aion_cli.engine.types import GraphSnapshot, Layer
+from aion_cli.engine.types import Layer
 from aion_cli.formats import dsg as fdsg
 from aion_cli.formats import dsg_scan
-from tests.formats.dsg_builders import hydra_graph, legacy_mesh_graph
+from tests.formats.dsg_builders import hydra_graph, legacy_mesh_graph, tricky_graph
+from tests.formats.snapshot_checks import assert_same_snapshot
 from tests.shared_data import SHARED_DATA
 
 DATA = SHARED_DATA / "dsg"
@@ -64,29 +64,6 @@ def _old_scan(
     return fdsg._LayerScan(Layer(ids, xyz, parent, labels), neighbours, frontiers, dist)
 
 
-def _layers_equal(a: Layer, b: Layer) -> None:
-    assert a.ids.dtype == b.ids.dtype
-    np.testing.assert_array_equal(a.ids, b.ids)
-    np.testing.assert_array_equal(a.xyz, b.xyz)
-    assert a.xyz.dtype == b.xyz.dtype
-    np.testing.assert_array_equal(a.parent, b.parent)
-    assert a.labels == b.labels
-    assert all(type(x) is str for x in a.labels)
-
-
-def _snapshots_equal(a: GraphSnapshot, b: GraphSnapshot) -> None:
-    for name in ("places", "rooms", "buildings"):
-        _layers_equal(getattr(a, name), getattr(b, name))
-    np.testing.assert_array_equal(a.edges, b.edges)
-    assert a.edges.dtype == b.edges.dtype
-    assert a.layer_name == b.layer_name
-    assert a.t_ns == b.t_ns
-    assert (a.agents is None) == (b.agents is None)
-    if a.agents is not None and b.agents is not None:
-        np.testing.assert_array_equal(a.agents.t_ns, b.agents.t_ns)
-        np.testing.assert_array_equal(a.agents.xyz, b.agents.xyz)
-
-
 def _assert_same_as_old(G: Any, monkeypatch: pytest.MonkeyPatch, layers: list[Any]) -> int:
     """navigation() with the new scan equals it with the old one, for every layer asked;
     returns the places compared (so a test knows it compared something)."""
@@ -96,7 +73,7 @@ def _assert_same_as_old(G: Any, monkeypatch: pytest.MonkeyPatch, layers: list[An
         with monkeypatch.context() as m:
             m.setattr(dsg_scan, "_scan", _old_scan)  # navigation() lives there
             old = fdsg.navigation(G, 123, layer, clearance=True)
-        _snapshots_equal(new.snapshot, old.snapshot)
+        assert_same_snapshot(new.snapshot, old.snapshot)
         assert new.frontiers == old.frontiers
         assert new.layer == old.layer
         assert new.clearance is not None
@@ -133,50 +110,8 @@ def test_hydra_shaped_graphs_scan_as_before(monkeypatch: pytest.MonkeyPatch) -> 
     assert _assert_same_as_old(decoded, monkeypatch, [None]) == 96
 
 
-def _tricky_graph() -> Any:
-    """Places of several categories (letters, digits, a control byte, bytes >= 128), names
-    empty, equal to the short or long symbol form, or real; frontiers; parents in and out of
-    the room layer; rooms named and unnamed; a building without a name."""
-    import spark_dsg as dsg
-
-    G = dsg.DynamicSceneGraph()
-    b = dsg.SemanticNodeAttributes()
-    b.position = np.array([0.0, 0.0, 9.0])
-    G.add_node(dsg.DsgLayers.BUILDINGS, dsg.NodeSymbol("B", 7), b)
-    rooms = [(ord("R") << 56) | 0, (ord("R") << 56) | 1, (200 << 56) | 5]
-    for k, rid in enumerate(rooms):
-        r = dsg.RoomNodeAttributes()
-        r.position = np.array([float(k), 1.0, 2.0])
-        r.name = ["hall", "", str(dsg.NodeSymbol(rid))][k]
-        G.add_node(dsg.DsgLayers.ROOMS, rid, r)
-        if k < 2:
-            G.insert_edge(rid, dsg.NodeSymbol("B", 7))
-    cats = [ord("p"), ord("P"), ord("3"), 0, 1, 127, 128, 200, 255, ord("z")]
-    rng = np.random.default_rng(4)
-    ids = []
-    for k, (cat, index) in enumerate(
-        itertools.product(cats, [0, 1, 12, 2**32 + 5, 2**56 - 1])
-    ):
-        nid = (cat << 56) | index
-        a = dsg.PlaceNodeAttributes()
-        a.position = rng.normal(size=3)
-        a.distance = float(k) / 7.0
-        a.real_place = k % 9 != 4
-        sym = dsg.NodeSymbol(nid)
-        a.name = ["", sym.str(), str(sym), f"door {k}", "p(0)"][k % 5]
-        G.add_node(dsg.DsgLayers.PLACES, nid, a)
-        if k % 3:
-            G.insert_edge(nid, rooms[k % 3])
-        ids.append(nid)
-    for a, c in zip(ids, ids[1:] + ids[:1], strict=True):
-        G.insert_edge(a, c)
-    for a, c in zip(ids[::7], ids[3::7], strict=False):
-        G.insert_edge(a, c)
-    return G
-
-
 def test_tricky_ids_and_names_scan_as_before(monkeypatch: pytest.MonkeyPatch) -> None:
-    G = _tricky_graph()
+    G = tricky_graph()
     assert _assert_same_as_old(G, monkeypatch, [None, "ROOMS", "BUILDINGS"]) > 40
     decoded = fdsg.read_dsg_payload(G.to_binary(False))[0]
     assert _assert_same_as_old(decoded, monkeypatch, [None]) > 40

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from aion_cli.formats.dsg_update_fast import DSG_UPDATE, layout_matches, read_dsg_update
 from aion_cli.formats.logs import open_logs
 from aion_cli.formats.raw import RawMessage
-from tests.formats.test_detections_support import raw, reference
+from tests.formats.ros_messages import raw, reference
 from tests.shared_data import SHARED_DATA
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -220,7 +220,7 @@ def test_a_build_gives_the_same_map_without_the_fast_paths(
     """The graph stream of tests/test_pipeline_graphs.py built with the fast payload and graph
     readers, and with both turned off (rosbags decode, spark_dsg): the same map."""
     from aion_cli.formats import dsg_payload, dsg_update_fast
-    from tests.test_pipeline_graphs import _assert_same_map, _build, write_stream_log
+    from tests.graph_stream_logs import assert_same_map, build_log, write_stream_log
 
     log = write_stream_log(tmp_path / "stream.mcap")
     calls = {"spark": 0, "fields": 0}
@@ -237,11 +237,11 @@ def test_a_build_gives_the_same_map_without_the_fast_paths(
 
     monkeypatch.setattr(dsg_payload, "read_dsg_payload", spark_counted)
     monkeypatch.setattr(dsg_update_fast, "read_dsg_update", fields_counted)
-    fast = _build(log, tmp_path / "fast.aion", graph_period_ns=0)
+    fast = build_log(log, tmp_path / "fast.aion", graph_period_ns=0)
     assert calls == {"spark": 0, "fields": fast.graph_messages}
     monkeypatch.setattr(dsg_update_fast, "read_dsg_update", lambda data, encoding: None)
     monkeypatch.setattr(dsg_payload, "_fast_applies", lambda version: False)
-    slow = _build(log, tmp_path / "slow.aion", graph_period_ns=0)
+    slow = build_log(log, tmp_path / "slow.aion", graph_period_ns=0)
     assert calls["spark"] == slow.graph_decoded == fast.graph_decoded > 0
     assert fast.graph_messages == slow.graph_messages
-    _assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
+    assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")

@@ -10,7 +10,6 @@ their own ``metadata.yaml`` and from their storage files read with Python's ``sq
 from __future__ import annotations
 
 import bz2
-import sqlite3
 import struct
 from collections import Counter
 from pathlib import Path
@@ -20,6 +19,7 @@ import pytest
 
 from aion_cli.errors import LogFormatError
 from aion_cli.formats.logs import open_logs
+from tests.formats.rosbag2_reference import bag_metadata, mcap_messages, sqlite_messages
 from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs"
@@ -151,40 +151,9 @@ def test_rosbag_js_bag_without_messages_is_refused() -> None:
 # --- rosbag2 test bags: metadata.yaml and the storage files read directly ---------------------
 
 
-def _metadata(folder: Path) -> dict[str, Any]:
-    from ruamel.yaml import YAML
-
-    info: dict[str, Any] = YAML(typ="safe").load((folder / "metadata.yaml").read_text())
-    return info["rosbag2_bagfile_information"]
-
-
-def _sqlite_messages(*files: Path) -> list[tuple[str, int, bytes]]:
-    """``(topic, timestamp, data)`` of every message of rosbag2 sqlite3 files."""
-    out: list[tuple[str, int, bytes]] = []
-    for f in files:
-        with sqlite3.connect(f"file:{f}?mode=ro", uri=True) as db:
-            out += db.execute(
-                "SELECT topics.name, timestamp, data FROM messages "
-                "JOIN topics ON messages.topic_id = topics.id"
-            ).fetchall()
-    return sorted(out, key=lambda m: m[1])
-
-
-def _mcap_messages(*files: Path) -> list[tuple[str, int, bytes]]:
-    """The same, read with the mcap library's own reader."""
-    from mcap.reader import make_reader
-
-    out: list[tuple[str, int, bytes]] = []
-    for f in files:
-        with f.open("rb") as stream:
-            reader = make_reader(stream)
-            out += [(c.topic, m.log_time, m.data) for _, c, m in reader.iter_messages()]
-    return sorted(out, key=lambda m: m[1])
-
-
 def _storage_messages(folder: Path) -> list[tuple[str, int, bytes]]:
     db3 = sorted(folder.glob("*.db3"))
-    return _sqlite_messages(*db3) if db3 else _mcap_messages(*sorted(folder.glob("*.mcap")))
+    return sqlite_messages(*db3) if db3 else mcap_messages(*sorted(folder.glob("*.mcap")))
 
 
 ROSBAG2 = [
@@ -210,7 +179,7 @@ def _check_messages(logs: Any, expected: list[tuple[str, int, bytes]]) -> None:
 @pytest.mark.parametrize("name", ROSBAG2)
 def test_rosbag2_test_bags(name: str) -> None:
     folder = _real("rosbag2_tests", name)
-    meta = _metadata(folder)
+    meta = bag_metadata(folder)
     counts = {
         t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]
     }
@@ -253,7 +222,7 @@ def test_sqlite3_talker_yields_its_20_messages_like_its_mcap_twin() -> None:
 
 def test_empty_rosbag2_bag_is_refused() -> None:
     folder = _real("rosbag2_tests", "ros2bag_empty_bag")
-    assert _metadata(folder)["message_count"] == 0
+    assert bag_metadata(folder)["message_count"] == 0
     with pytest.raises(LogFormatError, match="no messages"):
         open_logs([folder])
 
@@ -263,7 +232,7 @@ def test_empty_rosbag2_bag_is_refused() -> None:
 )
 def test_rosbag2_cpp_storage_files_alone(name: str) -> None:
     path = _real("rosbag2_tests", "rosbag2_cpp_bags", name)
-    expected = _mcap_messages(path)
+    expected = mcap_messages(path)
     with open_logs([path]) as logs:
         assert logs.total() == len(expected) > 0
         _check_messages(logs, expected)

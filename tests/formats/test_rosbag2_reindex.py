@@ -20,7 +20,7 @@ from aion_cli.errors import LogFormatError
 from aion_cli.formats.logs import open_logs
 from aion_cli.formats.rosbag2_reindex import reindex
 from tests.cli.conftest import assert_one_line_error, run
-from tests.formats.test_real_containers import _metadata, _sqlite_messages
+from tests.formats.rosbag2_reference import bag_metadata, sqlite_messages
 from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs" / "rosbag2_tests"
@@ -56,7 +56,7 @@ def test_reindex_test_bag_folder_is_read_from_its_storage_files() -> None:
     files = sorted(folder.glob("*.db3"))
     assert len(files) == 3
     assert not (folder / "metadata.yaml").exists()
-    expected = _sqlite_messages(*files)
+    expected = sqlite_messages(*files)
     assert len(expected) == 3177  # 1324 + 1324 + 529 on /chatter
     with open_logs([folder]) as logs:
         (f,) = logs.files
@@ -87,7 +87,7 @@ def test_reindex_test_bag_folder_is_read_from_its_storage_files() -> None:
 )
 def test_one_storage_file_alone(parts: tuple[str, ...]) -> None:
     path = _real(*parts)
-    expected = _sqlite_messages(path)
+    expected = sqlite_messages(path)
     with open_logs([path]) as logs:
         (f,) = logs.files
         assert (f.path, f.format) == (path, "rosbag2-sqlite3")
@@ -104,7 +104,7 @@ def test_reindex_writes_what_the_bags_own_metadata_says(tmp_path: Path) -> None:
         copy.mkdir()
         for f in bag.glob("*.db3"):
             shutil.copy(f, copy / f.name)
-        meta, built = _metadata(bag), reindex(copy)
+        meta, built = bag_metadata(bag), reindex(copy)
         assert built["storage_identifier"] == meta["storage_identifier"] == "sqlite3"
         assert built["relative_file_paths"] == meta["relative_file_paths"]
         assert built["message_count"] == meta["message_count"]
@@ -120,16 +120,16 @@ def test_reindex_writes_what_the_bags_own_metadata_says(tmp_path: Path) -> None:
             }
 
         assert topics(built) == topics(meta)
-        expected = _sqlite_messages(*sorted(copy.glob("*.db3")))
+        expected = sqlite_messages(*sorted(copy.glob("*.db3")))
         assert built["starting_time"]["nanoseconds_since_epoch"] == expected[0][1]
         assert built["duration"]["nanoseconds"] == expected[-1][1] - expected[0][1]
         assert [f["message_count"] for f in built["files"]] == [
-            len(_sqlite_messages(copy / name)) for name in meta["relative_file_paths"]
+            len(sqlite_messages(copy / name)) for name in meta["relative_file_paths"]
         ]
         assert built["compression_mode"] == built["compression_format"] == ""
     # the talker's metadata.yaml has the right times (the wbag one states another bag's); the
     # QoS written is what the storage file keeps (it differs from the metadata.yaml's)
-    built, meta = reindex(tmp_path / talker.name), _metadata(talker)
+    built, meta = reindex(tmp_path / talker.name), bag_metadata(talker)
     assert built["starting_time"] == meta["starting_time"]
     assert built["duration"] == meta["duration"]
     with sqlite3.connect(talker / "talker.db3") as db:
@@ -148,7 +148,7 @@ def test_mcap_storage_files_without_metadata(tmp_path: Path) -> None:
     copy.mkdir()
     for f in bag.glob("*.mcap"):
         shutil.copy(f, copy / f.name)
-    meta = _metadata(bag)
+    meta = bag_metadata(bag)
     with open_logs([copy]) as logs:
         assert [f.path.name for f in logs.files] == meta["relative_file_paths"]
         assert {f.format for f in logs.files} == {"rosbag2-mcap"}
@@ -171,7 +171,7 @@ def test_unusable_metadata_yaml_falls_back_to_the_storage_files(tmp_path: Path) 
     (copy / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 4}\n")
     with open_logs([copy]) as logs:
         assert logs.total() == 20
-        assert _got(logs) == _sqlite_messages(talker / "talker.db3")
+        assert _got(logs) == sqlite_messages(talker / "talker.db3")
         assert "metadata.yaml not used (" in logs.warnings[-1]
         assert "indexed in memory from its 1 storage file" in logs.warnings[-1]
 
@@ -194,7 +194,7 @@ def test_compressed_storage_file_by_file_or_folder(
 ) -> None:
     bag = _real(f"rosbag2_py_{storage}_talker")
     (plain,) = bag.glob("talker.*[3p]")
-    expected = _sqlite_messages(bag / "talker.db3") if storage == "sqlite3" else None
+    expected = sqlite_messages(bag / "talker.db3") if storage == "sqlite3" else None
     folder = tmp_path / "compressed"
     folder.mkdir()
     packed = _zstd(plain, folder / f"{plain.name}.zstd")
@@ -255,7 +255,7 @@ def test_message_compressed_bag_with_and_without_metadata(tmp_path: Path) -> Non
         writer.write(conn, 1000 + k, data)
     writer.close()
     (db3,) = folder.glob("*.db3")
-    stored = _sqlite_messages(db3)
+    stored = sqlite_messages(db3)
     assert all(row[2][:4] == b"\x28\xb5\x2f\xfd" for row in stored)  # stored compressed
     with open_logs([folder]) as logs:
         assert [m.data for m in logs.messages()] == payloads

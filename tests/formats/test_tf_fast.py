@@ -15,7 +15,7 @@ from aion_cli.errors import MessageDecodeError
 from aion_cli.formats.raw import RawMessage
 from aion_cli.formats.tf import TfBuffer, normalize_frame
 from aion_cli.formats.tf_fast import TfArrays, decode_tf_messages
-from tests.formats.test_detections_support import raw, reference
+from tests.formats.ros_messages import raw, reference
 
 TF = "tf2_msgs/msg/TFMessage"
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.formats.dsg_builders import five_places_payload_1_1_2
 from tests.robustness.conftest import (
     T0,
     S,
@@ -120,29 +121,6 @@ def test_garbage_scene_graph_payload_is_a_clear_error_and_no_map(
     assert out.read_bytes() == b""
 
 
-def payload_1_1_2() -> bytes:
-    """Five places as spark_dsg 1.1.2 wrote them: 1.1.3 added a bool (``anti_frontier``) after
-    ``num_frontier_voxels``; unique voxel counts mark where to drop it (as in
-    tests/formats/test_dsg.py)."""
-    import spark_dsg
-
-    G = spark_dsg.DynamicSceneGraph()
-    for i in range(5):
-        attrs = spark_dsg.PlaceNodeAttributes()
-        attrs.position = np.array([2.0 * i, 0.0, 0.0])
-        attrs.real_place = True
-        attrs.num_frontier_voxels = 0x0BADF000 + i
-        attrs.anti_frontier = True
-        G.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", i), attrs)
-    data = G.to_binary()
-    for i in range(5):
-        marker = b"\xcf" + (0x0BADF000 + i).to_bytes(8, "little")
-        j = data.index(marker) + len(marker)
-        assert data[j] == 0xC3  # anti_frontier = True
-        data = data[:j] + data[j + 1 :]
-    return data
-
-
 def test_older_scene_graph_version_keeps_stdout_clean(
     tmp_path: Path, capfd: pytest.CaptureFixture[str]
 ) -> None:
@@ -150,7 +128,7 @@ def test_older_scene_graph_version_keeps_stdout_clean(
     per message): spark_dsg's C++ logger warns on stdout for every load, which corrupted
     ``--format json``; nothing may reach the file descriptors, and the report names the
     version used."""
-    old = payload_1_1_2()
+    old = five_places_payload_1_1_2()
     msgs = [scene_graph(T0 + k * 60 * S, old) for k in range(5)]
     log = write_log(tmp_path / "old.mcap", sorted([*msgs, *walk(300, 1)], key=lambda m: m[3]))
     native_output(capfd)

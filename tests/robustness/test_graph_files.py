@@ -22,8 +22,8 @@ import pytest
 
 from aion_cli.formats import dsg as fdsg
 from tests.cli.logdata import build_graph
+from tests.formats.dsg_builders import five_places_payload_1_1_2
 from tests.robustness.conftest import assert_one_error, run, walk, write_log
-from tests.robustness.test_bad_logs import payload_1_1_2
 from tests.shared_data import SHARED_DATA
 
 DATA = SHARED_DATA / "dsg"
@@ -155,7 +155,7 @@ def test_real_graphs_saved_as_binary_pass_the_walk(name: str, tmp_path: Path) ->
 def test_an_older_version_and_a_big_mesh_pass_the_walk(tmp_path: Path) -> None:
     import spark_dsg
 
-    older = fdsg.spark_header("1.1.2") + payload_1_1_2()
+    older = fdsg.spark_header("1.1.2") + five_places_payload_1_1_2()
     assert fdsg.binary_problem(older) is None
     g = build_graph()
     mesh = spark_dsg.Mesh()

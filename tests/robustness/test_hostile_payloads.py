@@ -23,7 +23,7 @@ from aion_cli.formats.detections import adapter_for, hash_id, wire
 from aion_cli.formats.detections.fast import decode_people
 from aion_cli.formats.detections.wire import join_payloads
 from aion_cli.formats.raw import RawMessage
-from tests.formats.test_detections_support import reference
+from tests.formats.ros_messages import reference
 
 PEOPLE = "people_msgs/msg/People"
 SEC, NSEC = 1_795_420_800, 5
@@ -175,7 +175,7 @@ def test_the_generic_decoder_refuses_payloads_over_its_limit(
     """Types without a numpy decoder go through rosbags objects (a Python loop per element):
     a payload over GENERIC_MAX_PAYLOAD is a decode error naming the limit, before rosbags."""
     monkeypatch.setattr(adapter_module, "GENERIC_MAX_PAYLOAD", 1000)
-    from tests.formats.test_detections_support import header, raw
+    from tests.formats.ros_messages import header, raw
 
     people: list[dict[str, Any]] = [{"pos": {"x": 1.0}, "object_id": "a"}] * 20
     msg = {"header": header(1, 2, "map"), "people": people}

@@ -13,25 +13,7 @@ from aion_cli.formats.logs import open_logs
 from aion_cli.formats.tf import TfBuffer
 from aion_cli.sim.scenario import SceneResult, simulate
 from tests.sim.conftest import PATROL
-
-DET = "/spencer/perception/tracked_persons"
-
-
-def _detections(result: SceneResult) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """(t_ns, xyz, velocity, frame per message) of every TrackedPerson in the log."""
-    t, xyz, vel, frames = [], [], [], []
-    with open_logs([result.log]) as logs:
-        for raw in logs.messages({DET}):
-            msg = logs.decode(raw)
-            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-            assert stamp == raw.log_time_ns
-            frames.append(msg.header.frame_id)
-            for tr in msg.tracks:
-                p, v = tr.pose.pose.position, tr.twist.twist.linear
-                t.append(stamp)
-                xyz.append((p.x, p.y, p.z))
-                vel.append((v.x, v.y, v.z))
-    return np.array(t, dtype=np.int64), np.array(xyz), np.array(vel), frames
+from tests.sim.logged_detections import DET, logged_detections
 
 
 def test_mcap_topics_types_and_counts(patrol_scene: SceneResult) -> None:
@@ -48,7 +30,7 @@ def test_mcap_topics_types_and_counts(patrol_scene: SceneResult) -> None:
 
 
 def test_frames_and_rows(patrol_scene: SceneResult) -> None:
-    t, _, _, frames = _detections(patrol_scene)
+    t, _, _, frames = logged_detections(patrol_scene)
     assert set(frames) == {"base_link"}
     assert len(t) == patrol_scene.meta["detections"]
     assert np.all(np.diff(t) >= 0)
@@ -72,8 +54,8 @@ def test_base_link_detections_through_tf_equal_map_frame_ones(
     patrol_scene: SceneResult, patrol_map_scene: SceneResult
 ) -> None:
     """Same seed, two frames: base_link rows transformed by the logged TF are the map rows."""
-    t_b, xyz_b, vel_b, _ = _detections(patrol_scene)
-    t_m, xyz_m, vel_m, frames = _detections(patrol_map_scene)
+    t_b, xyz_b, vel_b, _ = logged_detections(patrol_scene)
+    t_m, xyz_m, vel_m, frames = logged_detections(patrol_map_scene)
     assert set(frames) == {"map"}
     np.testing.assert_array_equal(t_b, t_m)
     tf = _tf_buffer(patrol_scene)

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from aion_cli.sim.ground_truth import direction_bin
 from aion_cli.sim.scenario import SceneResult, simulate
 from tests.sim.conftest import FIXED, load_truth
-from tests.sim.test_logs import _detections
+from tests.sim.logged_detections import logged_detections
 
 
 def test_direction_bin_convention() -> None:
@@ -27,7 +27,7 @@ def test_direction_bin_convention() -> None:
 def test_truth_equals_detections_of_an_all_seeing_sensor(fixed_scene: SceneResult) -> None:
     """Fixed sensor, map frame, no noise: binning the log's detections gives flow_counts."""
     truth = load_truth(fixed_scene)
-    t, xyz, vel, frames = _detections(fixed_scene)
+    t, xyz, vel, frames = logged_detections(fixed_scene)
     assert set(frames) == {"map"}
     assert len(t) == len(truth["agent_t_ns"]) > 100
     place = cKDTree(truth["place_xyz"]).query(xyz)[1]

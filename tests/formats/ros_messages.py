@@ -1,5 +1,6 @@
-"""Shared helpers for the detection tests (no tests here): build messages from dicts with
-``formats.writers.to_message`` and serialize them with rosbags into RawMessages."""
+"""ROS messages for the decoder tests (detections, TF, scene-graph updates): built from dicts
+with ``formats.writers.to_message``, serialized with rosbags into RawMessages, and rosbags' own
+deserialization of them as the independent reference."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ def serialize(msgtype: str, message: dict[str, Any], ros: int, little_endian: bo
 def raw(
     msgtype: str, message: dict[str, Any], ros: int, log_time_ns: int = 0, topic: str = "/t"
 ) -> RawMessage:
+    """``message`` serialized as a RawMessage on ``topic`` (ROS 1 or little-endian CDR)."""
     return RawMessage(
         topic, msgtype, log_time_ns, serialize(msgtype, message, ros), "ros1" if ros == 1 else "cdr"
     )
@@ -36,10 +38,12 @@ def reference(m: RawMessage) -> Any:
 
 
 def header(sec: int, nanosec: int, frame: str) -> dict[str, Any]:
+    """A ``std_msgs/Header`` dict stamped ``sec.nanosec`` in ``frame``."""
     return {"stamp": {"sec": sec, "nanosec": nanosec}, "frame_id": frame}
 
 
 def pose(x: float, y: float, z: float, q: tuple[float, float, float, float]) -> dict[str, Any]:
+    """A ``geometry_msgs/Pose`` dict at ``(x, y, z)`` with the quaternion ``q`` (x, y, z, w)."""
     return {
         "position": {"x": x, "y": y, "z": z},
         "orientation": {"x": q[0], "y": q[1], "z": q[2], "w": q[3]},
