@@ -16,7 +16,7 @@ from aion_cli.formats.mapfile import write_map
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import state_counts
 from tests.engine.engine_builders import detections, graph
-from tests.engine.state_logs import Step, W
+from tests.engine.state_logs import Step, W, fixed_sensor_log, run_steps
 
 
 def input_logs(*names: str) -> tuple[InputLog, ...]:
@@ -51,6 +51,20 @@ def save_map(
     )
     write_map(path, arrays, manifest.to_dict())
     return path
+
+
+def fixed_sensor_map(
+    path: Path,
+    logs: tuple[str, ...],
+    start: int,
+    seed: int,
+    mapper: Mapper | None = None,
+    timezone: str | None = "UTC",
+) -> Path:
+    """The map of one fixed-sensor log from ``start`` (``fixed_sensor_log(start, seed)``,
+    learnt by ``mapper`` or a default one) saved at ``path`` as built from ``logs``."""
+    state = run_steps(fixed_sensor_log(start, seed=seed), mapper).state
+    return save_map(state, path, logs, log_span(start), timezone)
 
 
 def log_span(start: int, windows: int = 6) -> tuple[int, int]:

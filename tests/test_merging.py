@@ -40,7 +40,7 @@ from tests.engine.engine_builders import (
     pid,
 )
 from tests.engine.state_logs import CFG, DAY, W, fixed_sensor_log, run_steps
-from tests.merging_logs import input_logs, log_span, random_log, save_map
+from tests.merging_logs import fixed_sensor_map, input_logs, log_span, random_log, save_map
 
 
 def _entry_sums(state: MapState) -> tuple[float, float, float]:
@@ -106,18 +106,8 @@ def test_merging_two_map_files_equals_building_from_both_logs(tmp_path: Path) ->
 
 
 def test_the_output_manifest_accounts_for_every_log_and_map(tmp_path: Path) -> None:
-    a = save_map(
-        run_steps(fixed_sensor_log(T0, seed=1)).state,
-        tmp_path / "a.aion",
-        ("a1.mcap", "a2.mcap"),
-        log_span(T0),
-    )
-    b = save_map(
-        run_steps(fixed_sensor_log(T0 + DAY * 3, seed=2)).state,
-        tmp_path / "b.aion",
-        ("b.mcap",),
-        log_span(T0 + 3 * DAY),
-    )
+    a = fixed_sensor_map(tmp_path / "a.aion", ("a1.mcap", "a2.mcap"), T0, seed=1)
+    b = fixed_sensor_map(tmp_path / "b.aion", ("b.mcap",), T0 + DAY * 3, seed=2)
     report = merge_map_files([a, b], tmp_path / "out.aion")
     doc = read_manifest(tmp_path / "out.aion")
     manifest = Manifest.from_dict(doc)
@@ -271,34 +261,14 @@ def test_a_map_without_graph_beside_one_with_a_graph_binds_to_it(tmp_path: Path)
 
 @pytest.fixture
 def two_maps(tmp_path: Path) -> tuple[Path, Path]:
-    a = save_map(
-        run_steps(fixed_sensor_log(T0, seed=1)).state,
-        tmp_path / "a.aion",
-        ("a.mcap",),
-        log_span(T0),
-    )
-    b = save_map(
-        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
-        tmp_path / "b.aion",
-        ("b.mcap",),
-        log_span(T0 + 2 * DAY),
-    )
+    a = fixed_sensor_map(tmp_path / "a.aion", ("a.mcap",), T0, seed=1)
+    b = fixed_sensor_map(tmp_path / "b.aion", ("b.mcap",), T0 + 2 * DAY, seed=2)
     return a, b
 
 
 def test_a_log_in_two_maps_is_refused(tmp_path: Path) -> None:
-    a = save_map(
-        run_steps(fixed_sensor_log(T0, seed=1)).state,
-        tmp_path / "a.aion",
-        ("a.mcap", "shared.mcap"),
-        log_span(T0),
-    )
-    b = save_map(
-        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
-        tmp_path / "b.aion",
-        ("shared.mcap",),
-        log_span(T0 + 2 * DAY),
-    )
+    a = fixed_sensor_map(tmp_path / "a.aion", ("a.mcap", "shared.mcap"), T0, seed=1)
+    b = fixed_sensor_map(tmp_path / "b.aion", ("shared.mcap",), T0 + 2 * DAY, seed=2)
     with pytest.raises(InputError, match=r"shared\.mcap .* in both a\.aion and b\.aion") as exc:
         merge_map_files([a, b], tmp_path / "out.aion")
     assert "never counted twice" in exc.value.message
@@ -339,12 +309,7 @@ def test_bad_inputs_are_typed_errors(two_maps: tuple[Path, Path], tmp_path: Path
 
 
 def test_maps_of_different_models_or_zones_are_refused(tmp_path: Path) -> None:
-    a = save_map(
-        run_steps(fixed_sensor_log(T0, seed=1)).state,
-        tmp_path / "a.aion",
-        ("a.mcap",),
-        log_span(T0),
-    )
+    a = fixed_sensor_map(tmp_path / "a.aion", ("a.mcap",), T0, seed=1)
     other = run_steps(
         fixed_sensor_log(T0 + 2 * DAY, seed=2), Mapper(CFG.replace(bind_radius=2.0))
     ).state
@@ -353,30 +318,16 @@ def test_maps_of_different_models_or_zones_are_refused(tmp_path: Path) -> None:
         merge_map_files([a, b], tmp_path / "out.aion")
     assert exc.value.hint is not None
     assert "config" in exc.value.hint
-    c = save_map(
-        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
-        tmp_path / "c.aion",
-        ("c.mcap",),
-        log_span(T0 + 2 * DAY),
-        timezone="Europe/Berlin",
+    c = fixed_sensor_map(
+        tmp_path / "c.aion", ("c.mcap",), T0 + 2 * DAY, seed=2, timezone="Europe/Berlin"
     )
     with pytest.raises(ConfigError, match="different time zones"):
         merge_map_files([a, c], tmp_path / "out.aion")
 
 
 def test_overlapping_maps_merge_with_a_note(tmp_path: Path) -> None:
-    a = save_map(
-        run_steps(fixed_sensor_log(T0, seed=1)).state,
-        tmp_path / "a.aion",
-        ("a.mcap",),
-        log_span(T0),
-    )
-    b = save_map(
-        run_steps(fixed_sensor_log(T0 + 3 * W, seed=2)).state,
-        tmp_path / "b.aion",
-        ("b.mcap",),
-        log_span(T0 + 3 * W),
-    )
+    a = fixed_sensor_map(tmp_path / "a.aion", ("a.mcap",), T0, seed=1)
+    b = fixed_sensor_map(tmp_path / "b.aion", ("b.mcap",), T0 + 3 * W, seed=2)
     report = merge_map_files([a, b], tmp_path / "out.aion")
     assert any("overlap" in n and "count twice" in n for n in report.notes), report.notes
     assert any("approximation 4" in n for n in report.notes)  # and the same day twice
@@ -386,12 +337,7 @@ def test_overlapping_maps_merge_with_a_note(tmp_path: Path) -> None:
 def test_the_notes_name_the_approximations_that_apply(tmp_path: Path) -> None:
     """Detections anywhere (entries in one map only: approximation 1), and a later map of two
     days, the first closed and scored on its own (approximation 2)."""
-    a = save_map(
-        run_steps(fixed_sensor_log(T0, seed=1)).state,
-        tmp_path / "a.aion",
-        ("a.mcap",),
-        log_span(T0),
-    )
+    a = fixed_sensor_map(tmp_path / "a.aion", ("a.mcap",), T0, seed=1)
     late = run_steps(
         fixed_sensor_log(T0 + 2 * DAY, seed=2) + fixed_sensor_log(T0 + 3 * DAY, seed=3)
     ).state
@@ -406,35 +352,17 @@ def test_the_notes_name_the_approximations_that_apply(tmp_path: Path) -> None:
 def test_configs_compare_as_parameters(tmp_path: Path) -> None:
     """A map and one built with an equal config (a fresh object) merge."""
     same = ModelConfig(window_s=600.0, stability_s=30.0)
-    a = save_map(
-        run_steps(fixed_sensor_log(T0, seed=1)).state,
-        tmp_path / "a.aion",
-        ("a.mcap",),
-        log_span(T0),
-    )
-    b = save_map(
-        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2), Mapper(same)).state,
-        tmp_path / "b.aion",
-        ("b.mcap",),
-        log_span(T0 + 2 * DAY),
+    a = fixed_sensor_map(tmp_path / "a.aion", ("a.mcap",), T0, seed=1)
+    b = fixed_sensor_map(
+        tmp_path / "b.aion", ("b.mcap",), T0 + 2 * DAY, seed=2, mapper=Mapper(same)
     )
     assert merge_map_files([a, b], tmp_path / "out.aion").lineage == "same"
 
 
 def test_the_api_merges_as_docs_api_md_shows(tmp_path: Path) -> None:
     """docs/API.md's merge example, run as written beside two maps of those names."""
-    save_map(
-        run_steps(fixed_sensor_log(T0, seed=1)).state,
-        tmp_path / "monday.aion",
-        ("mon.mcap",),
-        log_span(T0),
-    )
-    save_map(
-        run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2)).state,
-        tmp_path / "wednesday.aion",
-        ("wed.mcap",),
-        log_span(T0 + 2 * DAY),
-    )
+    fixed_sensor_map(tmp_path / "monday.aion", ("mon.mcap",), T0, seed=1)
+    fixed_sensor_map(tmp_path / "wednesday.aion", ("wed.mcap",), T0 + 2 * DAY, seed=2)
     text = (Path(__file__).resolve().parents[1] / "docs" / "API.md").read_text()
     block = next(b for b in re.findall(r"```python\n(.*?)```", text, flags=re.S) if "merge(" in b)
     cwd = Path.cwd()
