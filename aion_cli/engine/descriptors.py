@@ -6,9 +6,12 @@ predicted per-bin rates (with one window), so both give the same descriptors.
 
 Direction bins follow the paper: ``bin(θ) = floor((θ + π) / (2π/B)) mod B``; bin b covers
 ``[−π + b·2π/B, −π + (b+1)·2π/B)`` and is reported by its centre ``−π + (b + 0.5)·2π/B``. The
-dominant angle is the circular mean of the histogram placed on the bin centres, the
-concentration its mean resultant length (1 = all flow in one bin, 0 = balanced), the entropy the
-Shannon entropy divided by ln B (0 = one direction, 1 = uniform).
+dominant angle is the circular mean of the histogram, each bin placed at the mean direction of
+the headings it counted (the entries keep the sums of their unit vectors per bin; a bin without
+them, at its centre), the concentration its mean resultant length (1 = all flow in one
+direction, 0 = balanced), the entropy the Shannon entropy divided by ln B (0 = one direction,
+1 = uniform). The bins' edges fall on the axes, so without the sums a corridor along +x would
+be drawn at 22.5°, its bin's centre.
 """
 
 from __future__ import annotations
@@ -85,18 +88,55 @@ def _dot_columns(x: F64, v: F64) -> F64:
     return out
 
 
+def bin_directions(
+    bins: int, heading_cos: F64 | None, heading_sin: F64 | None, rows: int
+) -> tuple[F64, F64]:
+    """Unit vector of each row's bins, float64[rows, B] twice: the mean direction of the
+    headings counted in the bin (from the sums of their unit vectors), or the bin's centre
+    where the sums are zero or absent (a bin without directed detections, a map written
+    before the sums were kept)."""
+    centres = bin_centres(bins)
+    cx = np.broadcast_to(np.cos(centres), (rows, bins))
+    cy = np.broadcast_to(np.sin(centres), (rows, bins))
+    if heading_cos is None or heading_sin is None:
+        return cx, cy
+    hc = np.asarray(heading_cos, dtype=np.float64).reshape(rows, bins)
+    hs = np.asarray(heading_sin, dtype=np.float64).reshape(rows, bins)
+    norm = np.hypot(hc, hs)
+    known = norm > 0
+    ux = np.where(known, hc / np.where(known, norm, 1.0), cx)
+    uy = np.where(known, hs / np.where(known, norm, 1.0), cy)
+    return ux, uy
+
+
+def _dot_rows(x: F64, v: F64) -> F64:
+    """Row-wise ``Σ_b x[:, b] · v[:, b]``, summed column by column in order (as
+    :func:`_dot_columns`: a row's value does not depend on which rows are computed)."""
+    out: F64 = x[:, 0] * v[:, 0]
+    for b in range(1, x.shape[1]):
+        out += x[:, b] * v[:, b]
+    return out
+
+
 def _from_distribution(
-    flow_per_window: F64, weights: F64, window_s: float, mean_speed: F64
+    flow_per_window: F64,
+    weights: F64,
+    window_s: float,
+    mean_speed: F64,
+    heading_cos: F64 | None = None,
+    heading_sin: F64 | None = None,
 ) -> Descriptors:
-    """Descriptors from a flow magnitude and non-negative per-bin weights (any scale)."""
+    """Descriptors from a flow magnitude and non-negative per-bin weights (any scale); each
+    bin's direction is the mean direction of its headings where ``heading_cos`` /
+    ``heading_sin`` (per-bin sums of unit vectors) say it, else the bin's centre."""
     e, b = weights.shape
     total = weights.sum(axis=1)
     flowing = (total > 0) & (np.nan_to_num(flow_per_window) > 0)
     probs = np.zeros((e, b))
     np.divide(weights, total[:, None], out=probs, where=flowing[:, None])
-    centres = bin_centres(b)
-    c = _dot_columns(probs, np.cos(centres))
-    s = _dot_columns(probs, np.sin(centres))
+    ux, uy = bin_directions(b, heading_cos, heading_sin, e)
+    c = _dot_rows(probs, ux)
+    s = _dot_rows(probs, uy)
     concentration = np.where(flowing, np.hypot(c, s), 0.0)
     angle = np.where(flowing, np.arctan2(s, c), np.nan)
     h = _entropy_nats(probs)
@@ -120,10 +160,13 @@ def historical(
     speed_n: npt.ArrayLike,
     windows_observed: npt.ArrayLike,
     window_s: float,
+    heading_cos: npt.ArrayLike | None = None,
+    heading_sin: npt.ArrayLike | None = None,
 ) -> Descriptors:
     """Descriptors of what was seen: ``counts[E, B]`` detections per bin accumulated over
     ``windows_observed[E]`` observed windows of ``window_s`` seconds; mean speed per bin =
-    ``speed_sum / speed_n`` where ``speed_n > 0``."""
+    ``speed_sum / speed_n`` where ``speed_n > 0``; each bin's direction from the sums of its
+    headings' unit vectors where given (:func:`bin_directions`)."""
     cnt = np.asarray(counts, dtype=np.float64)
     if cnt.ndim != 2:
         raise ValueError("counts must have shape (E, B)")
@@ -136,7 +179,9 @@ def historical(
     np.divide(cnt.sum(axis=1), obs, out=flow, where=obs > 0)
     speed = np.full(cnt.shape, np.nan)
     np.divide(ssum, sn, out=speed, where=sn > 0)
-    return _from_distribution(flow, cnt, window_s, speed)
+    hc = None if heading_cos is None else np.asarray(heading_cos, dtype=np.float64)
+    hs = None if heading_sin is None else np.asarray(heading_sin, dtype=np.float64)
+    return _from_distribution(flow, cnt, window_s, speed, hc, hs)
 
 
 def _entropy_nats(probs: F64) -> F64:

@@ -10,7 +10,10 @@ the same entries give the same arrays whatever their internal row layout.
 Per entry, cumulative (including the open window) and for the open window only:
 ``counts[E,B]`` detections per direction bin, ``nodir[E]`` detections without a heading (they
 count for activity but not for a direction), ``speed_sum[E,B]`` / ``speed_n[E,B]`` (the motion
-descriptor λ: speed samples per bin). Which windows observed an entry, and its counts per window
+descriptor λ: speed samples per bin), ``heading_cos[E,B]`` / ``heading_sin[E,B]`` (the sums of
+the unit heading vectors per bin: where in its bin the flow goes, so a corridor along +x, which
+the bins' edges split at 0°, is drawn at 0° and not at the bin's centre, 22.5°; cumulative
+only). Which windows observed an entry, and its counts per window
 over time, live in the temporal model. Accumulation uses ``np.bincount`` on combined
 ``row·B + bin`` indices: no Python loop per detection.
 
@@ -39,10 +42,15 @@ FREE = -1
 CELL = 0
 NODE = 1
 
-_PER_BIN = ("counts", "window_counts", "speed_sum", "speed_n")
+_PER_BIN = ("counts", "window_counts", "speed_sum", "speed_n", "heading_cos", "heading_sin")
+HEADING_SUMS = ("heading_cos", "heading_sin")
+"""Per-bin arrays that may be negative, and that maps written before them lack (read as
+zeros: those bins are described by their centres)."""
 _VERSIONS = itertools.count(1)
 """Numbers for :attr:`EntryStore.cells_version`, never given twice in a process."""
 _SCALAR = ("nodir", "window_nodir")
+ADDITIVE = (*_PER_BIN, *_SCALAR)
+"""Every per-entry quantity that moves and merges by addition (``dst += src``)."""
 
 
 def direction_bins(heading: npt.ArrayLike, bins: int) -> I64:
@@ -77,6 +85,8 @@ class EntryStore:
     window_counts: F64
     speed_sum: F64
     speed_n: F64
+    heading_cos: F64
+    heading_sin: F64
     nodir: F64
     window_nodir: F64
     window_mark: npt.NDArray[np.bool_] = field(
@@ -118,6 +128,8 @@ class EntryStore:
             window_counts=np.zeros((cap, bins)),
             speed_sum=np.zeros((cap, bins)),
             speed_n=np.zeros((cap, bins)),
+            heading_cos=np.zeros((cap, bins)),
+            heading_sin=np.zeros((cap, bins)),
             nodir=np.zeros(cap),
             window_nodir=np.zeros(cap),
             window_mark=np.zeros(cap, bool),
@@ -165,7 +177,7 @@ class EntryStore:
         self.node_id[rows] = node_id
         self.xyz[rows] = xyz
         self.cells_version = next(_VERSIONS)
-        for name in (*_PER_BIN, *_SCALAR):
+        for name in ADDITIVE:
             getattr(self, name)[rows] = 0.0
         return rows
 
@@ -203,8 +215,9 @@ class EntryStore:
         return np.concatenate([cells, nodes])
 
     # -- accumulation (hot path) ------------------------------------------------------------
-    def accumulate(self, rows: I64, bins: I64, speed: F64) -> None:
-        """Add one detection per element: entry ``rows``, direction ``bins`` (-1 = no heading).
+    def accumulate(self, rows: I64, bins: I64, speed: F64, heading: F64 | None = None) -> None:
+        """Add one detection per element: entry ``rows``, direction ``bins`` (-1 = no heading)
+        of ``heading`` (radians; the unit vectors of directed detections are summed per bin).
 
         Directed detections go to ``counts``; undirected to ``nodir``. Speeds count only for
         directed detections with a finite speed. Both the cumulative and open-window arrays are
@@ -228,6 +241,12 @@ class EntryStore:
         self.window_mark[rows] = True
         self.nodir[target] += undirected
         self.window_nodir[target] += undirected
+        if heading is not None and directed.any():
+            theta = heading[directed]
+            for name, part in (("heading_cos", np.cos(theta)), ("heading_sin", np.sin(theta))):
+                getattr(self, name)[target] += np.bincount(
+                    flat_dir, weights=part, minlength=m * b
+                ).reshape(m, b)
         sp = speed[directed]
         has_speed = np.isfinite(sp)
         if has_speed.any():
@@ -264,7 +283,7 @@ class EntryStore:
     # -- moving state between entries (bind / release) --------------------------------------
     def add_into(self, src: I64, dst: I64) -> None:
         """dst += src for every per-entry quantity (``dst`` may repeat)."""
-        for name in (*_PER_BIN, "nodir", "window_nodir"):
+        for name in ADDITIVE:
             arr = getattr(self, name)
             np.add.at(arr, dst, arr[src])
         self.window_mark[dst[self.window_mark[src]]] = True  # (a repeated dst: any src)
@@ -288,6 +307,8 @@ class EntryStore:
             n = len(arrays[f"{prefix}kind"])
             store = cls.empty(bins, capacity=max(n, 64))
             for name in store._array_names():
+                if name in HEADING_SUMS and f"{prefix}{name}" not in arrays:
+                    continue  # a map written before them: zeros (bin centres)
                 src = np.asarray(arrays[f"{prefix}{name}"])
                 dst = getattr(store, name)
                 if src.shape != (n, *dst.shape[1:]):

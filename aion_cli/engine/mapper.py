@@ -225,7 +225,7 @@ class Mapper:
         st = self._state
         rows = self._route(pack_keys_unchecked(ijk), ijk)
         bins = direction_bins(batch.heading, st.config.bins)
-        st.entries.accumulate(rows, bins, batch.speed)
+        st.entries.accumulate(rows, bins, batch.speed, batch.heading)
         st.accepted += len(batch)
 
     def _route(self, keys: I64, ijk: I64) -> I64:

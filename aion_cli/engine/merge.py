@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from aion_cli.engine.closing import close_windows
-from aion_cli.engine.entries import CELL, NODE
+from aion_cli.engine.entries import ADDITIVE, CELL, NODE
 from aion_cli.engine.node_drift import approximate_timers
 from aion_cli.engine.ownership import node_rows_creating, rows_for_keys
 from aion_cli.engine.spatial_hash import keys_for_points
@@ -111,7 +111,7 @@ def add_entries(
     """out[dst] += early[src] for every quantity; windows observed add across the maps
     (``observation="max"``: the larger, as an ownership move within one map does)."""
     e, o = early.entries, out.entries
-    for name in ("counts", "window_counts", "speed_sum", "speed_n", "nodir", "window_nodir"):
+    for name in ADDITIVE:
         np.add.at(getattr(o, name), dst, getattr(e, name)[src])
     out.temporal.add_from(early.temporal, src, dst, observation)
     out.temporal.glob.add_block(np.array([0]), early.temporal.glob)

@@ -47,7 +47,9 @@ class EntryTable:
     """One row per entry. ``kind`` 0 cell, 1 node, 2 room, 3 building; ``layer`` names the
     layer ("cells", the graph's place layer name, "rooms", "buildings"); ``node_id`` is 0 for
     cells; ``rate``/``flow``/``speed_sum``/``speed_n`` are the additive quantities the
-    descriptors were computed from. ``key`` is a cell's spatial-hash key (−1 for other rows);
+    descriptors were computed from, with ``heading_cos``/``heading_sin`` (the per-bin sums of
+    the headings' unit vectors: where in each bin the flow goes; None: the bins' centres).
+    ``key`` is a cell's spatial-hash key (−1 for other rows);
     ``ids`` (``c<key>`` for cells, spark_dsg symbols such as ``p12`` otherwise) are formatted
     on first use, since turning 10^5 integers into strings costs more than the prediction."""
 
@@ -64,6 +66,8 @@ class EntryTable:
     flow_var: F64
     flow_family: StrA
     direction_family: StrA
+    heading_cos: F64 | None = None
+    heading_sin: F64 | None = None
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -79,9 +83,11 @@ class EntryTable:
         :attr:`descriptors` computes them: ``predict --top 10`` of a map of 10^5 entries
         describes ten."""
         pick: slice | npt.NDArray[np.int64] = slice(None) if rows is None else rows  # views
+        hc = None if self.heading_cos is None else self.heading_cos[pick]
+        hs = None if self.heading_sin is None else self.heading_sin[pick]
         return _descriptors(
             self.rate[pick], self.flow[pick], self.speed_sum[pick], self.speed_n[pick],
-            self.window_s,
+            self.window_s, hc, hs,
         )
 
     def flow_quantile(self, q: float) -> F64:
@@ -134,6 +140,8 @@ def _entry_table(state: MapState, rows: np.ndarray, pred: Prediction) -> EntryTa
         pred.variance,
         pred.flow_family,
         pred.direction_family,
+        ent.heading_cos[rows],
+        ent.heading_sin[rows],
     )
 
 
@@ -149,15 +157,19 @@ def aggregate_table(
         parent = parent_ids(graph.rooms.ids, graph.rooms.parent, parent)
     target = graph.rooms if level == "rooms" else graph.buildings
     b = table.rate.shape[1]
-    stacked = np.concatenate(
-        [table.rate, table.flow[:, None], table.speed_sum, table.speed_n, table.flow_var[:, None]],
-        axis=1,
-    )
-    ids, sums = aggregate(parent, np.nan_to_num(stacked))
+    parts = [table.rate, table.flow[:, None], table.speed_sum, table.speed_n,
+             table.flow_var[:, None]]
+    hc, hs = table.heading_cos, table.heading_sin
+    headings = hc is not None and hs is not None
+    if hc is not None and hs is not None:
+        parts += [hc, hs]  # a room's bins: its places' headings
+    ids, sums = aggregate(parent, np.nan_to_num(np.concatenate(parts, axis=1)))
     rate, flow = sums[:, :b], sums[:, b]
     speed_sum, speed_n = sums[:, b + 1 : 2 * b + 1], sums[:, 2 * b + 1 : 3 * b + 1]
     historical = bool(np.all(np.isnan(table.flow_var)))
     flow_var = np.full(len(ids), np.nan) if historical else sums[:, 3 * b + 1]
+    heading_cos = sums[:, 3 * b + 2 : 4 * b + 2] if headings else None
+    heading_sin = sums[:, 4 * b + 2 : 5 * b + 2] if headings else None
     xyz = np.full((len(ids), 3), np.nan)
     if len(target):  # graph layers need not be sorted by id
         order = np.argsort(target.ids)
@@ -179,6 +191,8 @@ def aggregate_table(
         flow_var=flow_var,
         flow_family=np.full(len(ids), "aggregate"),
         direction_family=np.full(len(ids), "aggregate"),
+        heading_cos=heading_cos,
+        heading_sin=heading_sin,
     )
 
 
@@ -193,11 +207,20 @@ def parent_ids(ids: U64, parent: U64, children: U64) -> U64:
 
 
 def _descriptors(
-    rate: F64, flow: F64, speed_sum: F64, speed_n: F64, window_s: float
+    rate: F64,
+    flow: F64,
+    speed_sum: F64,
+    speed_n: F64,
+    window_s: float,
+    heading_cos: F64 | None = None,
+    heading_sin: F64 | None = None,
 ) -> Descriptors:
-    """Descriptors from additive per-window rates; the flow includes undirected detections."""
+    """Descriptors from additive per-window rates; the flow includes undirected detections;
+    each bin's direction from the headings' sums where given."""
     windows = np.where(np.isfinite(flow), 1.0, 0.0)
-    desc = descriptors.historical(rate, speed_sum, speed_n, windows, window_s)
+    desc = descriptors.historical(
+        rate, speed_sum, speed_n, windows, window_s, heading_cos, heading_sin
+    )
     return replace(desc, flow_per_window=flow, flow_per_hour=flow * (3600.0 / window_s))
 
 
@@ -211,6 +234,8 @@ def _table(
     flow_var: F64,
     flow_family: StrA,
     direction_family: StrA,
+    heading_cos: F64,
+    heading_sin: F64,
 ) -> EntryTable:
     """Entries ``rows`` plus the latest graph's places without an entry (zero flow)."""
     ent, b = state.entries, state.bins
@@ -229,6 +254,8 @@ def _table(
         flow = np.concatenate([flow, np.zeros(k)])
         speed_sum = np.concatenate([speed_sum, np.zeros((k, b))])
         speed_n = np.concatenate([speed_n, np.zeros((k, b))])
+        heading_cos = np.concatenate([heading_cos, np.zeros((k, b))])
+        heading_sin = np.concatenate([heading_sin, np.zeros((k, b))])
         unknown = len(flow_var) > 0 and bool(np.all(np.isnan(flow_var)))  # historical
         flow_var = np.concatenate([flow_var, np.full(k, np.nan if unknown else 0.0)])
         flow_family = np.concatenate([flow_family, np.full(k, "none")])
@@ -252,4 +279,6 @@ def _table(
         flow_var,
         flow_family,
         direction_family,
+        heading_cos,
+        heading_sin,
     )

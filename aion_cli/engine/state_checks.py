@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aion_cli.engine.entries import CELL, NODE
+from aion_cli.engine.entries import ADDITIVE, CELL, HEADING_SUMS, NODE
 from aion_cli.engine.grouping import contained
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.errors import MapCorruptError, MapFileError
@@ -170,8 +170,9 @@ def _entry_problems(state: MapState) -> list[str]:
     ent, n = state.entries, state.entries.n
     out = [
         p
-        for name in ("counts", "window_counts", "speed_sum", "speed_n", "nodir", "window_nodir")
-        if (p := _first_bad(f"entry_{name}", getattr(ent, name)[:n], True)) is not None
+        for name in ADDITIVE
+        if (p := _first_bad(f"entry_{name}", getattr(ent, name)[:n], name not in HEADING_SUMS))
+        is not None
     ]
     if (p := _first_bad("entry_xyz", ent.xyz[:n], False)) is not None:
         out.append(p)

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -197,7 +197,9 @@ def discretise(table: EntryTable, centres: F64, radius: float) -> MapView:
         return MapView(entropy, flow, angle)
     dist, idx = cKDTree(table.xyz[:, :2]).query(centres, distance_upper_bound=radius)
     hit = np.isfinite(dist)
-    d = table.descriptors
+    # like with like: the grid knows its bins only by their centres, so aion's directions are
+    # compared as its bins' centres place them too (not at its headings' own mean directions)
+    d = replace(table, heading_cos=None, heading_sin=None).descriptors
     entropy[hit] = d.entropy[idx[hit]]
     flow[hit] = d.flow_per_window[idx[hit]]
     angle[hit] = d.dominant_angle[idx[hit]]

@@ -47,7 +47,8 @@ def test_convert_then_build_and_predict(tmp_path: Path) -> None:
     assert len(with_flow) == report["nodes_with_flow"] >= 1
     for entry in with_flow:
         assert entry["direction_bin"] == 4, entry  # heading 0 rad: bin [0, 45) degrees
-        assert entry["direction_deg"] == pytest.approx(22.5, abs=1.0)
+        # the headings' own direction, not the bin's centre (22.5 degrees)
+        assert entry["direction_deg"] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_convert_with_graph_into_a_bag(tmp_path: Path) -> None:

@@ -23,12 +23,23 @@ def entries(office: Office, *args: str) -> dict[str, dict[str, Any]]:
     return {e["id"]: e for e in doc["entries"]}
 
 
-def _circular_mean_deg(hist: list[float]) -> float:
-    """Circular mean of a B-bin histogram (bin b centred at -180 + (b + 0.5)·360/B degrees)."""
+WALKED = {4: 0.0, 2: -90.0, 0: 180.0}
+"""The tracks' headings (tests/cli/logdata.py: velocities +x, -y, -x), by the bin each falls
+in: the direction a bin's detections went, which the map keeps per bin."""
+
+
+def _circular_mean_deg(hist: list[float], walked: dict[int, float] | None = None) -> float:
+    """Circular mean of a B-bin histogram, bin b at ``walked[b]`` degrees where its
+    detections' direction is known, else at its centre -180 + (b + 0.5)·360/B degrees."""
     b = len(hist)
-    centres = [math.radians(-180.0 + (k + 0.5) * 360.0 / b) for k in range(b)]
-    z = sum(p * cmath.exp(1j * c) for p, c in zip(hist, centres, strict=True))
+    at = [(walked or {}).get(k, -180.0 + (k + 0.5) * 360.0 / b) for k in range(b)]
+    z = sum(p * cmath.exp(1j * math.radians(a)) for p, a in zip(hist, at, strict=True))
     return math.degrees(cmath.phase(z))
+
+
+def _same_angle(a: float, b: float, tol: float = 1e-9) -> bool:
+    """Equal as directions (180 and -180 degrees are the same)."""
+    return abs((a - b + 180.0) % 360.0 - 180.0) <= tol
 
 
 def _static_histograms(kappa: float) -> dict[str, list[float]]:
@@ -56,21 +67,23 @@ def _static_histograms(kappa: float) -> dict[str, list[float]]:
 def test_dominant_directions_are_the_walking_directions(office: Office) -> None:
     """The predicted histogram is the static posterior (one day: nothing scored yet, so every
     entry forecasts with ``static``), pulled toward the room's and the map's histograms by the
-    Dirichlet prior of the map's ``direction_prior`` κ; its circular mean moves off the bin
-    centre by that pull (p3 shares room R1 with p4, who walks at -67.5°). Historically the
-    raw proportions give the bin centre exactly."""
+    Dirichlet prior of the map's ``direction_prior`` κ; its circular mean moves off the
+    direction its detections went by that pull (p3 shares room R1 with p4, who walks at
+    -90°; the bins of no detection sit at their centres). Historically the raw proportions
+    give the walking direction exactly (not the bin's centre)."""
     kappa = run_json("info", office.map, "--format", "json")["config"]["direction_prior"]
     rows = entries(office, "--time", AT)
     hist = _static_histograms(kappa)
     historical = entries(office, "--historical")
-    # bin centres for B = 8: -157.5, -112.5, ..., 157.5 degrees
-    expected = {"p1": (4, 22.5), "p4": (2, -67.5), "p3": (0, -157.5)}
+    # the walking directions (bin centres for B = 8 would be 22.5, -67.5 and -157.5 degrees)
+    expected = {"p1": (4, 0.0), "p4": (2, -90.0), "p3": (0, 180.0)}
     for node, (bin_, angle) in expected.items():
         row = rows[node]
         assert row["kind"] == "node"
         assert row["direction_bin"] == bin_
         assert row["histogram"] == pytest.approx(hist[node], abs=1e-12)
-        assert row["direction_deg"] == pytest.approx(_circular_mean_deg(hist[node]), abs=1e-9)
+        # its own bin at the direction it saw walked; the bins the prior fills, at their centres
+        assert _same_angle(row["direction_deg"], _circular_mean_deg(hist[node], {bin_: angle}))
         assert max(row["histogram"]) == row["histogram"][bin_] > 0.5
         assert sum(row["histogram"]) == pytest.approx(1.0)
         assert row["mean_speed"] == pytest.approx(1.0)
@@ -78,7 +91,7 @@ def test_dominant_directions_are_the_walking_directions(office: Office) -> None:
         assert (row["family"], row["direction_family"]) == ("static", "static")
         past = historical[node]
         assert past["histogram"] == [1.0 if k == bin_ else 0.0 for k in range(8)]
-        assert past["direction_deg"] == pytest.approx(angle, abs=1e-9)
+        assert _same_angle(past["direction_deg"], angle)
     for node in ("p0", "p2", "p5", "p6"):  # nobody there
         assert rows[node]["flow"] == 0
         assert rows[node]["direction_deg"] is None
@@ -89,7 +102,7 @@ def test_static_model_without_prior_predicts_what_was_observed(
     office: Office, tmp_path: Path
 ) -> None:
     """``families = ["static"]`` and ``direction_prior = 0``: the prediction at any time equals
-    the historical table in flow and histogram (the walking directions' bin centres)."""
+    the historical table in flow and histogram (the walking directions' bins)."""
     from aion_cli.engine.config import ModelConfig
 
     config = tmp_path / "static.toml"
@@ -110,7 +123,7 @@ def test_static_model_without_prior_predicts_what_was_observed(
             assert row["histogram"] == pytest.approx(past[node]["histogram"], abs=1e-12), node
     bins = {"p1": 4, "p4": 2, "p3": 0}
     for node, bin_ in bins.items():
-        assert now[node]["direction_deg"] == pytest.approx(-157.5 + 45.0 * bin_, abs=1e-9)
+        assert _same_angle(now[node]["direction_deg"], WALKED[bin_])
         assert (now[node]["family"], now[node]["direction_family"]) == ("static", "static")
 
 
@@ -170,7 +183,7 @@ def test_csv_has_flat_histogram_columns(office: Office) -> None:
     assert row["id"] == "p1"
     assert float(row["histogram_4"]) > 0.9
     assert "histogram_7" in row
-    assert float(row["direction_deg"]) == pytest.approx(22.5, abs=1.0)
+    assert float(row["direction_deg"]) == pytest.approx(0.0, abs=1.0)  # along +x
 
 
 def test_table_output_and_the_zone_on_stderr(office: Office) -> None:
