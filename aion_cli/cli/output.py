@@ -128,10 +128,13 @@ def num(digits: int = 2) -> Callable[[Any], str]:
 
 
 def degrees(value: Any) -> str:
-    """Table formatter for an angle in radians shown in degrees; '-' when unknown."""
+    """Table formatter for an angle in radians shown in whole degrees; '-' when unknown.
+    A direction just below 0 reads +0° (not -0°), and -180° reads +180°: one direction, one
+    label."""
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-"
-    return f"{math.degrees(float(value)):+.0f}°"
+    whole = round(math.degrees(float(value)))
+    return f"{180 if whole == -180 else whole:+d}°"
 
 
 def render_table(
