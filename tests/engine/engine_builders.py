@@ -113,5 +113,7 @@ def check_invariants(state: MapState) -> None:
     assert not np.any(tmp.cnt_fourier[free]), "a free row keeps Fourier counts"
     assert tmp.flow_scored[free].sum() == 0, "a free row keeps scores"
     assert ent.counts[free].sum() == 0
+    assert not ent.heading_cos[free].any(), "a free row keeps heading sums"
+    assert not ent.heading_sin[free].any(), "a free row keeps heading sums"
     if state.pending:
         assert np.isin(state.pending.entries(), live).all(), "the pending day names a free row"
