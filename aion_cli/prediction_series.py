@@ -154,7 +154,10 @@ def _group_flows(
     for a in range(0, len(times), per_call):
         block = times[a : a + per_call]
         _, ids, flows = group_flow_series(loaded, block, level)
-        out[:, a : a + len(block)] = flows[:, np.searchsorted(ids, group_ids)].T
+        column = np.minimum(np.searchsorted(ids, group_ids), max(len(ids) - 1, 0))
+        if len(group_ids) and (len(ids) == 0 or (ids[column] != group_ids).any()):
+            raise ValueError("a room of the aggregated table has no series (a bug)")
+        out[:, a : a + len(block)] = flows[:, column].T
         if progress is not None:
             progress(a + len(block))
     return out
