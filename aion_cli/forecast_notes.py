@@ -89,6 +89,7 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     span holds one (it may still have recorded nothing that day: the span is all the manifest
     knows) or the profile does not tell days apart."""
     from aion_cli.engine.temporal.calendar import Calendar
+    from aion_cli.errors import AionError
 
     start, end = manifest.start_ns, manifest.end_ns
     profile = str(manifest.config.get("profile", "day_weekend"))
@@ -97,7 +98,7 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     zone = str(manifest.config.get("timezone", manifest.timezone or "UTC"))
     try:
         calendar = Calendar(zone, profile)
-    except Exception:  # a zone this machine does not know: say nothing rather than fail
+    except AionError:  # a zone this machine does not know: say nothing rather than fail
         return None
     first, last, day = (int(d) for d in calendar.day([int(start), max(int(start), int(end) - 1),
                                                       t_ns]))
