@@ -41,7 +41,6 @@ import numpy.typing as npt
 
 from aion_cli.errors import InputError
 from aion_cli.formats.export import (
-    DISPLAY_QUANTILE,
     EDGE_GREY,
     NO_FLOW_GREY,
     busy_fraction,
@@ -157,10 +156,9 @@ class ArrowScale:
                 f"arrows: dominant direction, length proportional to flow (the longest: "
                 f"{self.flow:.3g} {per}); grey: no flow"
             )
-        share = round(100 * (1 - DISPLAY_QUANTILE))
         return (
             f"arrows: dominant direction, length proportional to flow up to {self.flow:.3g} "
-            f"{per} (the busiest {share} % drawn that long; the largest {self.largest:.3g}); "
+            f"{per} (busier entries drawn that long; the largest {self.largest:.3g}); "
             "grey: no flow"
         )
 
