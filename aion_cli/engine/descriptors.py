@@ -77,17 +77,6 @@ def _argmax_columns(x: F64) -> npt.NDArray[np.int64]:
     return arg
 
 
-def _dot_columns(x: F64, v: F64) -> F64:
-    """``x @ v`` for a few columns, summed column by column in order: every row's value is
-    the same whichever rows are computed together (a BLAS product may sum a row in another
-    order, by the last bit, when the matrix has another number of rows), so describing ten
-    rows of a table equals describing all of it."""
-    out: F64 = x[:, 0] * v[0]
-    for b in range(1, x.shape[1]):
-        out += x[:, b] * v[b]
-    return out
-
-
 def bin_directions(
     bins: int, heading_cos: F64 | None, heading_sin: F64 | None, rows: int
 ) -> tuple[F64, F64]:
@@ -110,8 +99,10 @@ def bin_directions(
 
 
 def _dot_rows(x: F64, v: F64) -> F64:
-    """Row-wise ``Σ_b x[:, b] · v[:, b]``, summed column by column in order (as
-    :func:`_dot_columns`: a row's value does not depend on which rows are computed)."""
+    """Row-wise ``Σ_b x[:, b] · v[:, b]``, summed column by column in order: every row's
+    value is the same whichever rows are computed together (a BLAS product may sum a row in
+    another order, by the last bit, when the matrix has another number of rows), so
+    describing ten rows of a table equals describing all of it."""
     out: F64 = x[:, 0] * v[:, 0]
     for b in range(1, x.shape[1]):
         out += x[:, b] * v[:, b]
