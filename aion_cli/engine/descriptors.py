@@ -7,8 +7,9 @@ predicted per-bin rates (with one window), so both give the same descriptors.
 Direction bins follow the paper: ``bin(θ) = floor((θ + π) / (2π/B)) mod B``; bin b covers
 ``[−π + b·2π/B, −π + (b+1)·2π/B)`` and is reported by its centre ``−π + (b + 0.5)·2π/B``. The
 dominant angle is the circular mean of the histogram, each bin placed at the mean direction of
-the headings it counted (the entries keep the sums of their unit vectors per bin; a bin without
-them, at its centre), the concentration its mean resultant length (1 = all flow in one
+the headings it counted (the entries keep the sums of their unit vectors per bin; a bin a
+forecast fills from the entry's room or neighbourhood, where their headings went; a bin without
+any, at its centre), the concentration its mean resultant length (1 = all flow in one
 direction, 0 = balanced), the entropy the Shannon entropy divided by ln B (0 = one direction,
 1 = uniform). The bins' edges fall on the axes, so without the sums a corridor along +x would
 be drawn at 22.5°, its bin's centre.
@@ -96,6 +97,33 @@ def bin_directions(
     ux = np.where(known, hc / np.where(known, norm, 1.0), cx)
     uy = np.where(known, hs / np.where(known, norm, 1.0), cy)
     return ux, uy
+
+
+def pooled_heading_sums(
+    heading_cos: F64, heading_sin: F64, groups: npt.NDArray[np.int64], n_groups: int
+) -> tuple[F64, F64]:
+    """Per entry and bin, the heading sums that place the bin: the entry's own where it has
+    any, else its pooling group's (its room or neighbourhood, the group whose histogram fills
+    the entry's empty bins in a forecast), else the map's. A forecast gives an entry's bins
+    without detections of its own their share from the group's and the map's histograms, so
+    their direction is where the group's (or map's) detections went, not the bin's centre."""
+    own_c = np.asarray(heading_cos, dtype=np.float64)
+    own_s = np.asarray(heading_sin, dtype=np.float64)
+    rows, bins = own_c.shape
+    group_c = np.zeros((max(n_groups, 0), bins))
+    group_s = np.zeros((max(n_groups, 0), bins))
+    if rows:
+        np.add.at(group_c, groups, own_c)
+        np.add.at(group_s, groups, own_s)
+    out_c, out_s = own_c.copy(), own_s.copy()
+    empty = (own_c == 0) & (own_s == 0)
+    if rows and empty.any():
+        r, b = np.nonzero(empty)
+        out_c[r, b], out_s[r, b] = group_c[groups[r], b], group_s[groups[r], b]
+        still = (out_c == 0) & (out_s == 0)
+        r, b = np.nonzero(still)
+        out_c[r, b], out_s[r, b] = own_c.sum(axis=0)[b], own_s.sum(axis=0)[b]
+    return out_c, out_s
 
 
 def _dot_rows(x: F64, v: F64) -> F64:

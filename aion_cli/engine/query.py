@@ -48,8 +48,11 @@ class EntryTable:
     layer ("cells", the graph's place layer name, "rooms", "buildings"); ``node_id`` is 0 for
     cells; ``rate``/``flow``/``speed_sum``/``speed_n`` are the additive quantities the
     descriptors were computed from, with ``heading_cos``/``heading_sin`` (the per-bin sums of
-    the headings' unit vectors: where in each bin the flow goes; None: the bins' centres).
-    ``key`` is a cell's spatial-hash key (−1 for other rows);
+    the headings' unit vectors: where in each bin the flow goes; None: the bins' centres);
+    ``bin_cos``/``bin_sin``, where given, place the bins instead (the entries' own sums, their
+    group's or the map's where they have none: :func:`descriptors.pooled_heading_sums`; not
+    additive, so rooms sum ``heading_*``). ``key`` is a cell's spatial-hash key (−1 for other
+    rows);
     ``ids`` (``c<key>`` for cells, spark_dsg symbols such as ``p12`` otherwise) are formatted
     on first use, since turning 10^5 integers into strings costs more than the prediction."""
 
@@ -68,6 +71,8 @@ class EntryTable:
     direction_family: StrA
     heading_cos: F64 | None = None
     heading_sin: F64 | None = None
+    bin_cos: F64 | None = None
+    bin_sin: F64 | None = None
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -83,8 +88,10 @@ class EntryTable:
         :attr:`descriptors` computes them: ``predict --top 10`` of a map of 10^5 entries
         describes ten."""
         pick: slice | npt.NDArray[np.int64] = slice(None) if rows is None else rows  # views
-        hc = None if self.heading_cos is None else self.heading_cos[pick]
-        hs = None if self.heading_sin is None else self.heading_sin[pick]
+        cos = self.bin_cos if self.bin_cos is not None else self.heading_cos
+        sin = self.bin_sin if self.bin_sin is not None else self.heading_sin
+        hc = None if cos is None else cos[pick]
+        hs = None if sin is None else sin[pick]
         return _descriptors(
             self.rate[pick], self.flow[pick], self.speed_sum[pick], self.speed_n[pick],
             self.window_s, hc, hs,
@@ -130,7 +137,11 @@ def predict_table(state: MapState, t_ns: int) -> EntryTable:
 def _entry_table(state: MapState, rows: np.ndarray, pred: Prediction) -> EntryTable:
     rate = np.nan_to_num(pred.flow * pred.directed_share)[:, None] * pred.probabilities
     ent = state.entries
-    return _table(
+    groups, n_groups = state.groups(rows)
+    bin_cos, bin_sin = descriptors.pooled_heading_sums(
+        ent.heading_cos[rows], ent.heading_sin[rows], groups, n_groups
+    )
+    table = _table(
         state,
         rows,
         rate,
@@ -142,6 +153,12 @@ def _entry_table(state: MapState, rows: np.ndarray, pred: Prediction) -> EntryTa
         pred.direction_family,
         ent.heading_cos[rows],
         ent.heading_sin[rows],
+    )
+    extra = len(table) - len(rows)  # the graph's places without an entry: no flow
+    return replace(
+        table,
+        bin_cos=np.concatenate([bin_cos, np.zeros((extra, state.bins))]),
+        bin_sin=np.concatenate([bin_sin, np.zeros((extra, state.bins))]),
     )
 
 

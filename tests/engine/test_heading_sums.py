@@ -140,3 +140,29 @@ def test_moving_a_cell_into_its_node_moves_its_sums() -> None:
     nodes = np.flatnonzero(ent.kind[: ent.n] == 1)
     assert ent.heading_sin[nodes].sum() == pytest.approx(before)
     assert ent.heading_sin[nodes].sum() == pytest.approx(2 * math.sin(heading))
+
+
+def test_bins_filled_by_the_room_point_where_the_room_walked() -> None:
+    """p1 saw people at 100 degrees only; its forecast gives its other bins the room's
+    share, mostly bin [0, 45) where p0's people walk at exactly 0 degrees. That bin is placed
+    where the room's detections went (0), not at its centre (22.5)."""
+    rooms = Layer(pid([1], "R"), np.zeros((1, 3)), np.zeros(1, np.uint64))
+    places = [[0, 0, 0], [3, 0, 0]]
+    g = graph(T0, [0, 1], places, [1, 1], rooms)
+    m = Mapper(CFG)
+    m.set_fixed_sensor(T0, T0 + 2 * W)
+    m.add_graph(g)
+    east, north = [0.0] * 40, [math.radians(100.0)] * 2
+    m.add_detections(detections(T0 + S, [[0.1, 0.1, 0]] * len(east), heading=east))
+    m.add_detections(detections(T0 + S, [[3.1, 0.1, 0]] * len(north), heading=north))
+    m.add_graph(graph(T0 + 2 * S, [0, 1], places, [1, 1], rooms))
+    m.advance(T0 + W)
+    table = predict_table(m.state, T0 + 3 * W)
+    row = int(np.flatnonzero(table.node_id == pid(1))[0])
+    d = table.descriptors
+    p = d.probabilities[row]
+    assert p[4] > 0.2  # the room's share in the bin of p0's walkers
+    room_headings = np.array(east + north)
+    assert d.dominant_angle[row] == pytest.approx(_expected_angle(p, room_headings), abs=1e-12)
+    own_only = _expected_angle(p, np.array(north))  # bin 4 at its centre
+    assert abs(d.dominant_angle[row] - own_only) > math.radians(2.0)
