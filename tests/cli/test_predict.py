@@ -69,8 +69,9 @@ def test_dominant_directions_are_the_walking_directions(office: Office) -> None:
     entry forecasts with ``static``), pulled toward the room's and the map's histograms by the
     Dirichlet prior of the map's ``direction_prior`` κ; its circular mean moves off the
     direction its detections went by that pull (p3 shares room R1 with p4, who walks at
-    -90°; the bins of no detection sit at their centres). Historically the raw proportions
-    give the walking direction exactly (not the bin's centre)."""
+    -90°; a bin the prior fills sits where the room's or the map's people walked, a bin
+    nobody walked at its centre). Historically the raw proportions give the walking
+    direction exactly (not the bin's centre)."""
     kappa = run_json("info", office.map, "--format", "json")["config"]["direction_prior"]
     rows = entries(office, "--time", AT)
     hist = _static_histograms(kappa)
@@ -82,8 +83,9 @@ def test_dominant_directions_are_the_walking_directions(office: Office) -> None:
         assert row["kind"] == "node"
         assert row["direction_bin"] == bin_
         assert row["histogram"] == pytest.approx(hist[node], abs=1e-12)
-        # its own bin at the direction it saw walked; the bins the prior fills, at their centres
-        assert _same_angle(row["direction_deg"], _circular_mean_deg(hist[node], {bin_: angle}))
+        # every bin someone walked (its own, or filled from the room's or the map's) at that
+        # walking direction; the bins nobody walked, at their centres
+        assert _same_angle(row["direction_deg"], _circular_mean_deg(hist[node], WALKED))
         assert max(row["histogram"]) == row["histogram"][bin_] > 0.5
         assert sum(row["histogram"]) == pytest.approx(1.0)
         assert row["mean_speed"] == pytest.approx(1.0)
