@@ -214,3 +214,30 @@ def test_truth_means_skip_missing_figures() -> None:
     text = truth_sentence(means)
     assert "correlates 0.300 with one day's true counts" in text
     assert "n/a with the expected flow" in text
+
+
+def test_the_grid_comparison_places_aions_bins_at_their_centres() -> None:
+    """The grid knows its bins by their centres only, so Table I reads aion's directions the
+    same way, whatever heading sums (own, or filled from the room) the table carries: a
+    corridor along +x compares as the bin's centre, 22.5 degrees, on both sides."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.query import predict_table
+    from aion_cli.evaluation.office import discretise
+    from tests.engine.engine_builders import T0, S, detections
+
+    cfg = ModelConfig(window_s=600.0, stability_s=0.0)
+    m = Mapper(cfg)
+    m.set_fixed_sensor(T0, T0 + 1200 * S)
+    m.add_detections(detections(T0 + S, [[0.1, 0.1, 0.0]] * 20, heading=[0.0] * 20))
+    m.advance(T0 + 600 * S)
+    table = predict_table(m.state, T0 + 1800 * S)
+    assert table.bin_cos is not None  # the table itself places the bin at 0 degrees
+    (row,) = np.flatnonzero(np.nan_to_num(table.descriptors.flow_per_window) > 0)
+    assert abs(table.descriptors.dominant_angle[row]) < math.radians(1.0)  # (the prior's bins)
+    seen = discretise(table, table.xyz[[row], :2], radius=0.5)
+    p = table.descriptors.probabilities[row]
+    centres = -math.pi + (np.arange(len(p)) + 0.5) * 2 * math.pi / len(p)
+    expected = math.atan2(float(p @ np.sin(centres)), float(p @ np.cos(centres)))
+    assert seen.angle[0] == pytest.approx(expected, abs=1e-12)
+    assert expected > math.radians(15.0)  # the centre, not the walking direction
