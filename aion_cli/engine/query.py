@@ -34,7 +34,7 @@ from aion_cli.engine.hierarchy import aggregate
 from aion_cli.engine.node_ids import node_labels
 from aion_cli.engine.state import MapState
 from aion_cli.engine.temporal.choice import count_quantiles
-from aion_cli.engine.temporal.model import Prediction
+from aion_cli.engine.temporal.model import Prediction, Predictor
 from aion_cli.engine.types import F64, U64, GraphSnapshot
 
 ROOM = 2
@@ -125,21 +125,24 @@ def node_symbol(node_ids: npt.ArrayLike) -> StrA:
 def historical_table(state: MapState) -> EntryTable:
     """Descriptors of what was observed, per entry (see the module docstring)."""
     rows, predictor = state.predictor()
-    return _entry_table(state, rows, predictor.historical())
+    return _entry_table(state, rows, predictor, predictor.historical())
 
 
 def predict_table(state: MapState, t_ns: int) -> EntryTable:
     """Descriptors expected at ``t_ns`` (UNIX ns), per entry."""
     rows, predictor = state.predictor()
-    return _entry_table(state, rows, predictor.at(int(t_ns)))
+    return _entry_table(state, rows, predictor, predictor.at(int(t_ns)))
 
 
-def _entry_table(state: MapState, rows: np.ndarray, pred: Prediction) -> EntryTable:
+def _entry_table(
+    state: MapState, rows: np.ndarray, predictor: Predictor, pred: Prediction
+) -> EntryTable:
     rate = np.nan_to_num(pred.flow * pred.directed_share)[:, None] * pred.probabilities
     ent = state.entries
-    groups, n_groups = state.groups(rows)
+    # the pooling groups the forecast filled the entries' empty bins from (the predictor's own)
+    fc = predictor.forecaster
     bin_cos, bin_sin = descriptors.pooled_heading_sums(
-        ent.heading_cos[rows], ent.heading_sin[rows], groups, n_groups
+        ent.heading_cos[rows], ent.heading_sin[rows], fc.groups, len(fc.pool.histogram)
     )
     table = _table(
         state,
