@@ -145,21 +145,14 @@ def _group_flows(
     entry's flow by the predictor's batch path, summed per group in entry order
     (:func:`aion_cli.predictions.group_flow_series`), the sums the aggregated table makes
     at each time, without a whole table per time."""
-    from aion_cli.predictions import SERIES_PAIRS, group_flow_series
+    from aion_cli.predictions import group_flow_series
 
     level: Literal["rooms", "buildings"] = "rooms" if layer == "rooms" else "buildings"
-    out = np.zeros((group_ids.size, len(times)))
-    members = max(1, len(loaded.state.predictor()[0]))
-    per_call = max(1, SERIES_PAIRS // members) * 8  # a few of its blocks per progress step
-    for a in range(0, len(times), per_call):
-        block = times[a : a + per_call]
-        _, ids, flows = group_flow_series(loaded, block, level)
-        column = np.minimum(np.searchsorted(ids, group_ids), max(len(ids) - 1, 0))
-        if len(group_ids) and (len(ids) == 0 or (ids[column] != group_ids).any()):
-            raise ValueError("a room of the aggregated table has no series (a bug)")
-        out[:, a : a + len(block)] = flows[:, column].T
-        if progress is not None:
-            progress(a + len(block))
+    _, ids, flows = group_flow_series(loaded, times, level, progress)
+    column = np.minimum(np.searchsorted(ids, group_ids), max(len(ids) - 1, 0))
+    if len(group_ids) and (len(ids) == 0 or (ids[column] != group_ids).any()):
+        raise ValueError("a room of the aggregated table has no series (a bug)")
+    out: F64 = flows[:, column].T
     return out
 
 

@@ -22,7 +22,7 @@ nothing here knows click or rich.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
 from aion_cli.timeparse import Zone
@@ -337,9 +337,11 @@ def group_flow_series(
     loaded: LoadedMap,
     times_ns: Any,
     layer: Literal["rooms", "buildings", "all"] = "rooms",
+    progress: Callable[[int], None] | None = None,
 ) -> tuple[Any, Any, Any]:
     """:func:`flow_series` with the groups' node ids (``uint64[G]``, sorted; one 0 for
-    ``"all"``) beside their display ids: ``(labels, ids, flow)``."""
+    ``"all"``) beside their display ids: ``(labels, ids, flow)``; ``progress(k)`` after
+    each block of times, ``k`` the times done."""
     import numpy as np
 
     from aion_cli.engine.query import node_symbol, parent_ids
@@ -373,6 +375,8 @@ def group_flow_series(
         labels = np.asarray(["all"])
     out = np.zeros((times.size, labels.size))
     if members.size == 0 or times.size == 0:
+        if progress is not None:
+            progress(times.size)
         return labels, ids, out
     per_step = max(1, SERIES_PAIRS // members.size)
     for a in range(0, times.size, per_step):
@@ -382,4 +386,6 @@ def group_flow_series(
         slot = (np.arange(block.size)[:, None] * labels.size + inverse[None, :]).reshape(-1)
         sums = np.bincount(slot, weights=np.nan_to_num(flow), minlength=block.size * labels.size)
         out[a : a + block.size] = sums.reshape(block.size, labels.size)
+        if progress is not None:
+            progress(a + block.size)
     return labels, ids, out
