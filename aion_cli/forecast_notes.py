@@ -88,7 +88,9 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     day of the week) that no day of the map's data span is, in the map's zone; None when the
     span holds one (it may still have recorded nothing that day: the span is all the manifest
     knows) or the profile does not tell days apart."""
-    from aion_cli.engine.temporal.calendar import Calendar
+    import numpy as np
+
+    from aion_cli.engine.temporal.calendar import Calendar, weekday_of
     from aion_cli.errors import AionError
 
     start, end = manifest.start_ns, manifest.end_ns
@@ -104,8 +106,8 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
                                                       t_ns]))
     if last - first >= 6:
         return None  # every day of the week is in the span
-    seen = {(d + 3) % 7 for d in range(first, last + 1)}  # 1970-01-01 was a Thursday
-    weekday = (day + 3) % 7
+    seen = set(weekday_of(np.arange(first, last + 1)).tolist())
+    weekday = int(weekday_of(day))
     if profile == "week":
         if weekday in seen:
             return None

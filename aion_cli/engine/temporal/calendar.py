@@ -37,6 +37,12 @@ PROFILES = ("day", "day_weekend", "week")
 _DAYS_PER_PROFILE = {"day": 1, "day_weekend": 2, "week": 7}
 
 
+def weekday_of(day: npt.ArrayLike) -> I64:
+    """Weekday (0 = Monday) of local day indices (days since 1970-01-01, a Thursday)."""
+    out: I64 = np.mod(np.asarray(day, dtype=np.int64) + 3, 7)
+    return out
+
+
 @dataclass(frozen=True)
 class Calendar:
     """Local days and profile bins of UNIX-nanosecond times (see the module docstring)."""
@@ -92,7 +98,7 @@ class Calendar:
         day = np.floor_divide(local, DAY_NS)
         in_day = np.floor_divide(local - day * DAY_NS, round(self.bin_s * 1e9))
         in_day = np.minimum(in_day, self.bins_per_day - 1)  # 23:00 of a 25 h day stays in bin 23
-        weekday = np.mod(day + 3, 7)  # 1970-01-01 was a Thursday (weekday 3)
+        weekday = weekday_of(day)
         if self.profile == "day":
             out: I64 = in_day
         elif self.profile == "day_weekend":
