@@ -112,16 +112,19 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
         if weekday in seen:
             return None
         kind = f"no {_WEEKDAYS[weekday]}"
-        follows = f"its hour-of-week profiles have nothing for a {_WEEKDAYS[weekday]} to follow"
+        follows = (
+            f"its hour-of-week profiles have no {_WEEKDAYS[weekday]} of their own, so the "
+            "forecast follows the hours of the days it saw"
+        )
     else:
         weekend = weekday >= 5
         if any((d >= 5) == weekend for d in seen):
             return None
         kind = "no weekend day" if weekend else "no weekday"
+        seen_kind = "weekdays" if weekend else "weekends"
         follows = (
-            f"its hour-of-day profiles know {'weekdays' if weekend else 'weekends'} only, so "
-            f"a forecast for a {_WEEKDAYS[weekday]} follows no "
-            f"{'weekend' if weekend else 'weekday'} rhythm"
+            f"its hour-of-day profiles know {seen_kind} only, so a forecast for a "
+            f"{_WEEKDAYS[weekday]} follows the {seen_kind}' rhythm and level"
         )
     return f"the map's data ({_span_days(first, last)}) holds {kind}: {follows}"
 

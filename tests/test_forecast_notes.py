@@ -70,19 +70,19 @@ def test_a_kind_of_day_the_map_never_saw_is_named() -> None:
     saturday = MONDAY + 5 * DAY_NS + 10 * HOUR_NS
     assert forecast_notes(weekdays, saturday) == [
         "the map's data (Mon 2026-01-05 to Fri 2026-01-09) holds no weekend day: its "
-        "hour-of-day profiles know weekdays only, so a forecast for a Saturday follows no "
-        "weekend rhythm"
+        "hour-of-day profiles know weekdays only, so a forecast for a Saturday follows the "
+        "weekdays' rhythm and level"
     ]
     assert forecast_notes(weekdays, MONDAY + 2 * DAY_NS) == []  # a Wednesday: seen
     assert forecast_notes(_week_of(6), saturday) == []  # the span holds Saturday
     weekend = Manifest({}, {}, start_ns=MONDAY + 5 * DAY_NS, end_ns=MONDAY + 7 * DAY_NS,
                        families={"flow": {"profile": 2}})
     (line,) = forecast_notes(weekend, MONDAY + 8 * DAY_NS)
-    assert line.endswith("know weekends only, so a forecast for a Tuesday follows no weekday "
-                         "rhythm")
+    assert line.endswith("know weekends only, so a forecast for a Tuesday follows the "
+                         "weekends' rhythm and level")
     # the weekly profile names the day; a whole week leaves nothing unseen
     (tuesday,) = forecast_notes(_week_of(1, "week"), MONDAY + 8 * DAY_NS)
-    assert "holds no Tuesday: its hour-of-week profiles have nothing" in tuesday
+    assert "holds no Tuesday: its hour-of-week profiles have no Tuesday of their own" in tuesday
     assert forecast_notes(_week_of(7, "week"), MONDAY + 12 * DAY_NS) == []
     assert forecast_notes(_week_of(2, "day"), saturday) == []  # no day kinds to tell apart
     # the map's zone decides the day: Friday 23:30 UTC is Saturday in Tokyo

@@ -166,3 +166,37 @@ def test_window_chi2_is_stored_and_checked() -> None:
     for bad in (np.array([1.0, -1.0]), np.array([np.nan, 1.0]), np.zeros(3)):
         with pytest.raises(MapCorruptError, match="window_chi2"):
             TemporalState.from_arrays({**arrays, "t_window_chi2": bad}, "t_", *shape, *families)
+
+
+def test_an_unseen_kind_of_day_takes_the_hours_of_the_days_seen() -> None:
+    """Hour of day × weekday / weekend (48 bins), weekdays observed only: every weekend bin
+    takes the weekday bin of its hour (the pooled hour equals it, nothing else was seen), the
+    weekday bins are the shape computed without kinds, and an hour no kind observed is flat.
+    With both kinds observed nothing changes."""
+    rng = np.random.default_rng(3)
+    hour = np.arange(24)
+    busy = (hour >= 8) & (hour < 18)
+    weekday_s = np.where(busy, 20.0 * rng.poisson(8.0, 24), 0.0)
+    weekday_w = np.full(24, 300.0)
+    weekday_w[2] = 0.0  # 02:00 never observed on any day
+    weekday_s[2] = 0.0
+    s = np.concatenate([weekday_s, np.zeros(24)])[None, :]
+    w = np.concatenate([weekday_w, np.zeros(24)])[None, :]
+    groups, shape = group_shapes(s, w, 5.0, bins_per_day=24)
+    _, without_kinds = group_shapes(s, w, 5.0)
+    np.testing.assert_array_equal(shape[:24], without_kinds[:24])
+    np.testing.assert_array_equal(shape[24:], shape[:24])
+    assert shape[2] == shape[26] == pytest.approx(1.0)  # the flat rate: no kind saw 02:00
+    np.testing.assert_allclose(without_kinds[24:], 1.0)  # before: a flat weekend
+    assert shape[24 + 3] < 0.05 * shape[24 + 9]  # the weekend's night stays a night
+    np.testing.assert_array_equal(groups[0], shape)  # one group: the map's shape
+    # both kinds seen at every hour (a quiet weekend): bins_per_day changes nothing
+    both_w = np.concatenate([np.full(24, 300.0), np.full(24, 100.0)])[None, :]
+    both_s = np.concatenate([weekday_s, np.where(busy, 2.0, 0.0)])[None, :]
+    np.testing.assert_array_equal(
+        group_shapes(both_s, both_w, 5.0, bins_per_day=24)[1], group_shapes(both_s, both_w, 5.0)[1]
+    )
+    # 02:00 seen on the weekend only: the weekdays' 02:00 takes it
+    both_w[0, 2] = 0.0
+    shape = group_shapes(both_s, both_w, 5.0, bins_per_day=24)[1]
+    assert shape[2] == shape[26] < 0.05 * shape[9]  # its night, as the weekend saw it

@@ -126,3 +126,17 @@ def test_spread_brackets_the_predicted_flow() -> None:
     assert np.all(p10[ok] <= table.flow[ok] + 1e-9)
     assert np.all(p90[ok] >= np.floor(table.flow[ok]))
     assert np.all(np.isnan(historical_table(mapper.state).flow_quantile(0.9)))
+
+
+@pytest.mark.parametrize("profile", ["day_weekend", "week"])
+def test_a_kind_of_day_never_recorded_follows_the_rhythm_of_the_days_seen(profile: str) -> None:
+    """Five weekdays of rush hours, then a forecast for the Saturday after: the profile has
+    no Saturday bins of its own (and, by the week, no Saturday at all), so the forecast takes
+    the weekdays' hours — empty at night, the rush in the morning — not one flat mean rate
+    (which put 03:00 at the level of 09:00)."""
+    mapper = corridor(5, rush, config=ModelConfig(profile=profile))
+    saturday = MONDAY + 5 * DAY
+    night = total_flow(mapper, saturday + 3 * HOUR)
+    morning = total_flow(mapper, saturday + 9 * HOUR)
+    assert morning == pytest.approx(300.0 / 6, rel=0.15)
+    assert night <= 0.05 * morning

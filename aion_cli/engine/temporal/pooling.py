@@ -59,7 +59,7 @@ class PoolStats:
             )
             c_g += _group_sums(g, n_groups, directed)
         phi = overdispersion(state.window_chi2)
-        shapes, map_shape = group_shapes(s_g, w_g, phi)
+        shapes, map_shape = group_shapes(s_g, w_g, phi, params.calendar.bins_per_day)
         return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
 
 

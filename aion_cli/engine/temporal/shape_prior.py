@@ -118,10 +118,15 @@ def shrunk_rate(counts: F64, windows: F64, prior_rate: F64, prior_counts: float)
     return out
 
 
-def group_shapes(s_g: F64, w_g: F64, phi: float) -> tuple[F64, F64]:
+def group_shapes(
+    s_g: F64, w_g: F64, phi: float, bins_per_day: int | None = None
+) -> tuple[F64, F64]:
     """The groups' shapes r_g[G, H] (each shrunk toward the map's) and the map's r_map[H]
     (shrunk toward flat), with c = α·φ pseudo-detections at each level (module docstring);
-    a group without detections has the map's shape."""
+    a group without detections has the map's shape. ``bins_per_day``: the profile's bins
+    per day, when its H bins hold several kinds of day (weekday / weekend, or the days of
+    the week): a map bin no window observed takes its hour of the day from the kinds that
+    were (:func:`_unseen_kinds`), not the flat rate."""
     s_map, w_map = s_g.sum(axis=0), w_g.sum(axis=0)
     rho_map = s_map.sum() / w_map.sum() if w_map.sum() > 0 else 0.0
     if rho_map <= 0:
@@ -129,6 +134,8 @@ def group_shapes(s_g: F64, w_g: F64, phi: float) -> tuple[F64, F64]:
     flat = np.full(s_map.shape, rho_map)
     c = prior_strength(s_map, w_map, flat, phi)
     r_map = (shrunk_rate(s_map, w_map, flat, c) if np.isfinite(c) else flat) / rho_map
+    if bins_per_day is not None:
+        r_map = _unseen_kinds(r_map, s_map, w_map, rho_map, c, bins_per_day)
     w_tot = w_g.sum(axis=1)
     rho_g = np.divide(s_g.sum(axis=1), w_tot, out=np.zeros(len(w_tot)), where=w_tot > 0)
     prior = rho_g[:, None] * r_map[None, :]
@@ -142,6 +149,31 @@ def group_shapes(s_g: F64, w_g: F64, phi: float) -> tuple[F64, F64]:
     )
     out: F64 = np.where(busy[:, None], r_g, r_map[None, :])
     return out, r_map
+
+
+def _unseen_kinds(
+    r_map: F64, s_map: F64, w_map: F64, rho_map: float, c: float, bins_per_day: int
+) -> F64:
+    """r_map with every bin no window observed (a weekend when the data held weekdays only,
+    a Thursday under the weekly profile when it held none) set to the map's shape at the
+    same hour of the day pooled over the kinds of day observed then: the detections and
+    windows of that hour summed over them, shrunk toward the flat rate as the bins are (the
+    same c). People's routines follow the clock, so an unseen kind of day is forecast with
+    the rhythm of the days seen, not as flat as a day without hours (its level stays the
+    map's: nothing tells a quieter weekend). A bin whose hour no kind observed stays flat;
+    observed bins are unchanged, so the shape is today's wherever every kind was seen."""
+    kinds = r_map.size // bins_per_day
+    unseen = w_map <= 0
+    if kinds < 2 or r_map.size != kinds * bins_per_day or not unseen.any():
+        return r_map
+    s_hour = s_map.reshape(kinds, bins_per_day).sum(axis=0)
+    w_hour = w_map.reshape(kinds, bins_per_day).sum(axis=0)
+    flat = np.full(bins_per_day, rho_map)
+    by_hour = shrunk_rate(s_hour, w_hour, flat, c) if np.isfinite(c) else flat
+    out = r_map.copy()
+    hour = np.flatnonzero(unseen) % bins_per_day
+    out[unseen] = by_hour[hour] / rho_map  # an hour nobody saw: shrunk_rate's flat rate
+    return out
 
 
 def stored_window_chi2(arrays: Mapping[str, np.ndarray], prefix: str) -> F64:
