@@ -13,8 +13,10 @@ Two situations surprise people and look like defects when unexplained:
   knows nothing of what changed since.
 * **The time falls on a kind of day the map never saw**: a Saturday, from a map of weekdays
   only. The profiles keep weekdays and weekends apart (``profile = "day_weekend"``, the
-  default, or every day of the week with ``"week"``), so the hours of a day kind without data
-  have nothing to follow: such a forecast is no weekend rhythm, however the week looks.
+  default, or every day of the week with ``"week"``), so a kind of day without data has no
+  hours of its own: its forecast follows the hours and level of the kinds seen
+  (:func:`~aion_cli.engine.temporal.shape_prior.group_shapes`), which a quieter weekend
+  would not show.
 """
 
 from __future__ import annotations
