@@ -50,6 +50,9 @@ class BuildOptions:
     scheduler: str | None = None
     #: ``--part``: write a part map, its days held unscored for an exact ``aion merge``
     part: bool = False
+    #: ``--observed``: spans ``[lo, hi)`` of log time (ns) a fixed sensor was recording,
+    #: beside the windows with messages (a tracker that publishes only when it sees someone)
+    observed: tuple[tuple[int, int], ...] = ()
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""

@@ -142,7 +142,7 @@ class StreamStep:
         # (a time shard without graphs of its own still observes with the logs' agents)
         if use_agents and self.report.graph_messages == 0 and self.time_part is None:
             self.report.observation = fixed_sensor_windows(
-                mapper, logset, self._times, self.report.notes, self.report
+                mapper, logset, self._times, self.report.notes, self.report, self.opts.observed
             )
 
     def _feed(self, mapper: Mapper, batch: DetectionBatch, topics: I64) -> None:

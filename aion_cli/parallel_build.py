@@ -284,6 +284,12 @@ class ParallelBuild:
             if opts.workers >= 2 or opts.scheduler is not None:  # asked for, not the default
                 report.notes.append("--derive-graph needs every log at once: built in sequence")
             return self.build.learn(self.config).state
+        if opts.observed:
+            # the declared spans are clipped to the time of all the logs at once (a gap
+            # between two groups of logs, or at a time shard's cut, may be declared too)
+            if opts.workers >= 2 or opts.scheduler is not None:
+                report.notes.append("--observed spans the logs' whole time: built in sequence")
+            return self.build.learn(self.config).state
         workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
         if workers < 2 and opts.scheduler is None:
             return self.build.learn(self.config).state

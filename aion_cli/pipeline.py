@@ -351,7 +351,10 @@ class _Build(StreamStep):
             return self.graphs.first_has_agents(logset, next(iter(messages), None))
 
         frames = (self.opts.map_frame, self.opts.base_frame)
-        observe(mapper, tf, frames, graph_agents, logset, self._times, self.report)
+        observe(
+            mapper, tf, frames, graph_agents, logset, self._times, self.report,
+            self.opts.observed,
+        )
 
     def _fixed_graph(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.engine.mapper import TIME_RANGE_TEXT
-from aion_cli.engine.types import Trajectory
+from aion_cli.engine.types import I64, Trajectory
 from aion_cli.errors import InputError, MessageDecodeError, TransformError
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TimeCheck, TopicTimes, iso, stray_mask
@@ -227,12 +227,14 @@ def observe(
     logset: Any,
     times: TimeCheck,
     report: BuildReport,
+    declared: tuple[tuple[int, int], ...] = (),
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
     graphs' agent layer when the first graph has one (``graph_agents``; its poses are fed
-    per snapshot); else a fixed sensor over the windows it recorded in
-    (:func:`fixed_sensor_windows`)."""
+    per snapshot); else a fixed sensor over the windows it recorded in and the ``declared``
+    spans (:func:`fixed_sensor_windows`; with a robot's observation they are ignored, with
+    a warning: its poses say what it saw)."""
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
@@ -246,14 +248,26 @@ def observe(
             traj = Trajectory(np.asarray(traj.t_ns)[part], np.asarray(traj.xyz)[part])
         mapper.add_trajectory(traj)
         report.observation = f"tf {map_frame}->{base_frame}"
+        _ignored(declared, report.observation, report.warnings)
     elif graph_agents():
         report.observation = "scene-graph agent layer"  # fed per snapshot
+        _ignored(declared, report.observation, report.warnings)
     else:
-        report.observation = fixed_sensor_windows(mapper, logset, times, report.notes, report)
+        report.observation = fixed_sensor_windows(
+            mapper, logset, times, report.notes, report, declared
+        )
         report.notes.append(
             "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
             "treated as a fixed sensor that saw everything in the windows in which it "
             "recorded any message, within the time of the topics aion uses"
+        )
+
+
+def _ignored(declared: tuple[tuple[int, int], ...], observation: str, warnings: list[str]) -> None:
+    if declared:
+        warnings.append(
+            f"--observed ignored: the logs have a robot trajectory ({observation}), whose "
+            "poses say which places the sensor saw in each window"
         )
 
 
@@ -311,7 +325,12 @@ def check_times(
 
 
 def fixed_sensor_windows(
-    mapper: Mapper, logset: Any, times: TimeCheck, notes: list[str], report: Any = None
+    mapper: Mapper,
+    logset: Any,
+    times: TimeCheck,
+    notes: list[str],
+    report: Any = None,
+    declared: tuple[tuple[int, int], ...] = (),
 ) -> str:
     """The observation of a log without a robot trajectory (neither TF nor scene-graph
     agents), from its log times: a fixed sensor observes exactly the windows in which the logs
@@ -321,8 +340,11 @@ def fixed_sensor_windows(
     then ``--map B``. Only windows inside the runs of the topics aion uses count (``times``;
     one message of an unrelated topic years away must not become an observed empty window),
     plus the windows of those topics' own messages (the data, even where an index omits
-    them). Sets the Mapper's windows, adds a note for windows left out, and returns the
-    report's description of the observation."""
+    them). ``declared``: spans ``[lo, hi)`` of log time the user says the sensor was
+    recording (``build --observed``, for a tracker that publishes only when it sees someone):
+    their windows count too, within the time of the topics aion uses (first to last
+    message; a time shard's part). Sets the Mapper's windows, adds a note for windows left
+    out, and returns the report's description of the observation."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
 
@@ -338,6 +360,14 @@ def fixed_sensor_windows(
             f"not taken as observed (first: {iso(first)})"
         )
     windows = np.union1d(recorded[inside], windows_of(times.span_times, delta))
+    if declared:
+        extra = _declared_windows(declared, times, delta)
+        added = np.setdiff1d(extra, windows, assume_unique=True)
+        notes.append(
+            f"--observed: {added.size:,} window(s) without a message taken as observed "
+            f"({added.size * delta / 3.6e12:,.1f} h), within the time of the topics aion uses"
+        )
+        windows = np.union1d(windows, extra)
     mapper.set_fixed_windows(windows)
     if len(windows) == 0:
         return "fixed sensor (no message recorded)"
@@ -345,6 +375,26 @@ def fixed_sensor_windows(
     if report is not None:  # a parallel build adds its shards' windows up
         report.fixed_windows = summary
     return fixed_sensor_text(*summary)
+
+
+def _declared_windows(spans: tuple[tuple[int, int], ...], times: TimeCheck, delta: int) -> I64:
+    """The windows of ``delta`` ns that the spans ``[lo, hi)`` overlap, clipped to the first
+    and last window of the runs of the topics aion uses (a mistyped year adds no decades of
+    empty windows) and to a time shard's part (each part observes its own)."""
+    starts, ends = times.windows(delta)
+    if starts.size == 0:
+        return np.zeros(0, np.int64)
+    first, last = int(starts[0]), int(ends.max())
+    parts = []
+    for lo, hi in spans:
+        a = max(int(lo) // delta, first)
+        b = min(-(-int(hi) // delta) - 1, last)  # the last window [lo, hi) overlaps
+        if b >= a:
+            parts.append(np.arange(a, b + 1, dtype=np.int64))
+    if not parts:
+        return np.zeros(0, np.int64)
+    out: I64 = np.unique(np.concatenate(parts))
+    return out[times.inside_limits(out * delta)]
 
 
 def map_observation_text(texts: list[str], observation: ObservationSource, delta: int) -> str:

@@ -26,6 +26,8 @@ Examples:
   aion build day*.mcap -o site.aion --workers 4   four processes, the same map
   aion build day*.mcap -o site.aion --scheduler tcp://10.0.0.5:8786   on a Dask cluster
   aion build mon.mcap --part -o mon.part.aion  a part for an exact aion merge later
+  aion build legs.mcap --observed "2026-01-05..2026-01-12"   a tracker silent when
+                                               nobody is there: those days were observed
   aion build --print-config > model.toml       dump every model parameter, edit, then
   aion build run.mcap --config model.toml      build with it
 
@@ -37,7 +39,8 @@ ones you want with --detections-topic (repeatable), e.g. when a tracker publishe
 people twice. Other types: --detections-mapping FILE. Detections without ids are linked into
 short tracks, so their headings come from motion. Without a robot trajectory (TF
 map->base_link or the scene graph's agent layer) the log is treated as a fixed sensor over
-the windows in which it recorded messages; the summary says so. The time span comes from the
+the windows in which it recorded messages, and the spans --observed declares; the summary
+says so. The time span comes from the
 messages used; a message logged more than a day away from its topic's others (a run of at most
 10 messages and 5 % of the topic), or outside 1900..2261, is dropped with a warning. Logs
 must be added to a --map in time order; a log given twice is used once. Warnings are printed
@@ -253,6 +256,16 @@ def _load_config(path: Path | None) -> Any:
     "unscored (it forecasts nothing on its own).",
 )
 @click.option(
+    "--observed",
+    "observed_text",
+    metavar="START..END",
+    multiple=True,
+    help="Without a robot trajectory: a span the sensor was recording (repeatable), e.g. "
+    '"2026-01-05 00:00..2026-01-12 00:00": its windows without a message count as observed, '
+    "with nobody in them (a tracker that publishes only when it sees someone). Times in --tz, "
+    "else the continued map's zone, else UTC.",
+)
+@click.option(
     "-q", "--quiet", is_flag=True, help="No progress bar and no summary table (warnings stay)."
 )
 @format_option(choices=("table", "json"))
@@ -278,6 +291,7 @@ def command(
     workers: int,
     scheduler: str | None,
     part: bool,
+    observed_text: tuple[str, ...],
     quiet: bool,
     fmt: str,
 ) -> None:
@@ -299,6 +313,7 @@ def command(
         return
     if not logs:
         raise InputError("no log given", hint="aion build LOG... [-o MAP]; see aion build --help")
+    observed = _observed_spans(observed_text, timezone, continue_from)
     options = BuildOptions(
         logs=logs,
         output=output,
@@ -320,6 +335,7 @@ def command(
         workers=workers,
         scheduler=scheduler,
         part=part,
+        observed=observed,
     )
     with _RichProgress(quiet or fmt == "json") as progress:
         report = build_map(options, progress)
@@ -333,3 +349,26 @@ def command(
         print_summary(summary)
     else:
         print_warnings(summary)
+
+
+def _observed_spans(
+    texts: tuple[str, ...], timezone: str | None, continue_from: Path | None
+) -> tuple[tuple[int, int], ...]:
+    """``--observed`` spans in ns, read in ``--tz``, else the continued map's zone, else UTC
+    (a bad span fails before any log is read)."""
+    if not texts:
+        return ()
+    from aion_cli.cli.common import parse_span
+    from aion_cli.timeparse import resolve_zone
+
+    zone_name = timezone
+    if zone_name is None and continue_from is not None:
+        from aion_cli.errors import AionError
+        from aion_cli.formats.mapfile import read_manifest
+
+        try:
+            zone_name = str(read_manifest(continue_from).get("timezone") or "UTC")
+        except (AionError, OSError):
+            zone_name = None  # the build reports the map's own error
+    zone = resolve_zone(zone_name or "UTC")
+    return tuple(parse_span(text, zone, "--observed") for text in texts)

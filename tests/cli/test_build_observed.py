@@ -1,0 +1,118 @@
+"""``aion build --observed``: a fixed sensor's declared recording spans, for trackers that
+publish only when they see someone. Checked against window counts known from the generated
+logs and against the rhythm a silent night then shows."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.logdata import T0, write_office_log
+
+DAY_S = 86_400
+SESSIONS = 4
+"""The office log's 20-minute session (08:00-08:20 UTC, people for the first minutes) on four
+days in a row: a tracker that is silent when nobody is there records nothing in between."""
+
+
+@pytest.fixture(scope="module")
+def mornings(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    log = tmp_path_factory.mktemp("observed") / "mornings.mcap"
+    later = tuple(d * DAY_S for d in range(1, SESSIONS))
+    write_office_log(log, graph=False, tf=False, later_sessions_s=later)
+    return log
+
+
+def _total_flow(path: Path, when: str) -> float:
+    entries = run_json("predict", path, "--time", when, "--format", "json")["entries"]
+    return sum(float(e["flow"] or 0.0) for e in entries)
+
+
+def test_declared_spans_make_silent_windows_observed_empty(
+    mornings: Path, tmp_path: Path
+) -> None:
+    """Messages in two 10-minute windows a day (08:00-08:20): 8 windows observed. Declaring
+    the four days observed makes every window from the first message's to the last one's
+    observed: 3 days and 2 windows = 434 windows (the declared span reaches past the log's
+    time on both sides and is clipped to it)."""
+    silent = run_json("build", mornings, "-o", tmp_path / "a.aion", "--format", "json")
+    assert silent["observation"].startswith("fixed sensor over the 8 windows with messages")
+    declared = run_json(
+        "build", mornings, "-o", tmp_path / "b.aion", "--format", "json",
+        "--observed", "2026-11-22 00:00..2026-11-28 00:00",
+    )
+    assert declared["observation"].startswith("fixed sensor over the 434 windows")
+    added = "--observed: 426 window(s) without a message"
+    assert any(note.startswith(added) for note in declared["notes"])
+    assert declared["detections"] == silent["detections"]
+
+
+def test_a_silent_night_is_forecast_as_a_night(mornings: Path, tmp_path: Path) -> None:
+    """Without the declaration the nights were never observed, so nothing says they are
+    empty: 03:00 is forecast nearly as busy as 08:00. Declared, the nights are observed empty and
+    the morning rush stands out."""
+    silent, declared = tmp_path / "a.aion", tmp_path / "b.aion"
+    run_json("build", mornings, "-o", silent, "--format", "json")
+    run_json(
+        "build", mornings, "-o", declared, "--format", "json",
+        "--observed", f"{T0 // 10**9 - 8 * 3600}..{T0 // 10**9 + SESSIONS * DAY_S}",
+    )
+    after = "2026-11-27"
+    assert _total_flow(silent, f"{after} 03:00") > 0.5 * _total_flow(silent, f"{after} 08:05")
+    night = _total_flow(declared, f"{after} 03:00")
+    morning = _total_flow(declared, f"{after} 08:05")
+    assert morning > 0
+    assert night <= 0.05 * morning
+
+
+def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> None:
+    report = run_json(
+        "build", mornings, "-o", tmp_path / "m.aion", "--format", "json",
+        "--observed", "2030-01-01..2030-02-01",
+    )
+    assert report["observation"].startswith("fixed sensor over the 8 windows with messages")
+    assert "--observed: 0 window(s) without a message taken as observed (0.0 h), within the " \
+        "time of the topics aion uses" in report["notes"]
+
+
+def test_parallel_builds_with_declared_spans_run_in_sequence(
+    mornings: Path, tmp_path: Path
+) -> None:
+    report = run_json(
+        "build", mornings, "-o", tmp_path / "m.aion", "--format", "json", "--workers", "2",
+        "--observed", "2026-11-22..2026-11-28",
+    )
+    assert "--observed spans the logs' whole time: built in sequence" in report["notes"]
+    assert report["observation"].startswith("fixed sensor over the 434 windows")
+
+
+def test_a_robot_trajectory_overrides_declared_spans(tmp_path: Path) -> None:
+    log = tmp_path / "office.mcap"
+    write_office_log(log)  # TF map -> base_link: the robot's poses say what it saw
+    report = run_json(
+        "build", log, "-o", tmp_path / "m.aion", "--format", "json",
+        "--observed", "2026-11-23 07:00..2026-11-23 10:00",
+    )
+    assert report["observation"] == "tf map->base_link"
+    assert any(w.startswith("--observed ignored: the logs have a robot trajectory")
+               for w in report["warnings"])
+
+
+@pytest.mark.parametrize(
+    ("span", "fragment"),
+    [
+        ("2026-11-23 09:00", "expected START..END"),
+        ("2026-11-23 09:00..2026-11-23 08:00", "the end is not after the start"),
+        ("yesterday-ish..2026-11-23", "--observed 'yesterday-ish..2026-11-23'"),
+    ],
+)
+def test_bad_spans_are_one_line_errors(
+    mornings: Path, tmp_path: Path, span: str, fragment: str
+) -> None:
+    out = tmp_path / "m.aion"
+    result = run("build", mornings, "-o", out, "--observed", span)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, fragment)
+    assert not out.exists()
