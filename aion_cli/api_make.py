@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Union
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
-    from aion_cli.api import Map
+    from aion_cli.api import Map, TimeLike
     from aion_cli.build_report import ProgressSink
     from aion_cli.engine.config import ModelConfig
 
@@ -48,6 +48,7 @@ def build(
     workers: int = 1,
     scheduler: str | None = None,
     part: bool = False,
+    observed: Sequence[tuple[TimeLike, TimeLike]] = (),
     progress: ProgressSink | None = None,
 ) -> Map:
     """Build a map from logs (or extend ``continue_from`` with them) and write it to
@@ -55,11 +56,19 @@ def build(
     with what the build did in ``Map.report``. ``workers`` / ``scheduler`` / ``part``: as
     ``aion build --workers`` (0: one per core; worker processes fork from this one, so a
     script that builds with workers needs the usual ``if __name__ == "__main__":`` guard on
-    platforms without ``fork``), ``--scheduler`` and ``--part``."""
-    from aion_cli.api import Map
+    platforms without ``fork``), ``--scheduler`` and ``--part``. ``observed``: ``(start,
+    end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
+    ``Map.predict``, naive ones in ``tz``, else UTC)."""
+    from aion_cli.api import Map, to_ns
     from aion_cli.pipeline import BuildOptions, build_map
+    from aion_cli.timeparse import resolve_zone
 
     paths = [logs] if isinstance(logs, (str, os.PathLike)) else list(logs)
+    zone = resolve_zone(tz or "UTC")
+    spans = tuple((to_ns(a, zone), to_ns(b, zone)) for a, b in observed)
+    for (a, b), (ta, tb) in zip(spans, observed, strict=True):
+        if b <= a:
+            raise InputError(f"observed span {ta!r}..{tb!r}: the end is not after the start")
 
     def opt(p: PathLike | None) -> Path | None:
         return None if p is None else as_path(p)
@@ -82,6 +91,7 @@ def build(
         workers=workers,
         scheduler=scheduler,
         part=part,
+        observed=spans,
     )
     report = build_map(opts, progress)
     made = Map.load(report.output)

@@ -116,3 +116,14 @@ def test_bad_spans_are_one_line_errors(
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, fragment)
     assert not out.exists()
+
+
+def test_the_python_api_takes_the_same_spans(mornings: Path, tmp_path: Path) -> None:
+    import aion_cli as aion
+    from aion_cli.errors import InputError
+
+    made = aion.build(mornings, tmp_path / "api.aion",
+                      observed=[("2026-11-22 00:00", "2026-11-28 00:00")])
+    assert made.report.to_dict()["observation"].startswith("fixed sensor over the 434 windows")
+    with pytest.raises(InputError, match="the end is not after the start"):
+        aion.build(mornings, tmp_path / "bad.aion", observed=[("2026-11-24", "2026-11-23")])
