@@ -38,7 +38,7 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     """The notes for a forecast at ``t_ns`` (UNIX ns) from the map of ``manifest``; empty
     when there is nothing to say."""
     notes = []
-    static = _all_static(manifest.families)
+    static = _all_static(manifest.families, manifest.observation)
     if static is not None:
         notes.append(static)
     where = _outside(manifest.start_ns, manifest.end_ns, int(t_ns), static is not None)
@@ -50,17 +50,43 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     return notes
 
 
-def _all_static(families: Mapping[str, Any]) -> str | None:
+def _all_static(families: Mapping[str, Any], observation: str = "") -> str | None:
     flow = families.get("flow") or {}
     entries = sum(int(n) for n in flow.values())
     if entries == 0 or int(flow.get("static", 0)) != entries or families.get("reconciled"):
         return None
     days = int(families.get("scored_days", 0))
-    return (
-        f"every entry forecasts its static rate, whatever the time: the map has {days} scored "
-        f"day{'' if days == 1 else 's'}, and an entry needs two (each scored against the days "
-        "before it) to follow a daily or weekly rhythm; build from more days of logs"
+    text = "every entry forecasts its static rate, whatever the time: "
+    if days < 2:
+        return text + (
+            f"the map has {days} scored day{'' if days == 1 else 's'}, and an entry needs two "
+            "(each scored against the days before it) to follow a daily or weekly rhythm; "
+            "build from more days of logs"
+        )
+    text += (
+        f"on the map's {days} scored days no daily or weekly rhythm forecast the next day "
+        "better than that rate"
     )
+    share = _observed_share(observation)
+    if share is not None and share < 0.5:
+        text += (
+            f" (its fixed sensor observed {share:.0%} of the time: only the windows in which "
+            "a log recorded a message; if its tracker is silent when nobody is there, "
+            "declare the spans it was recording with aion build --observed)"
+        )
+    return text
+
+
+def _observed_share(observation: str) -> float | None:
+    """The share of the span a fixed sensor observed, from the manifest's description
+    (``fixed sensor over the N windows with messages (A h of a B h span)``), else None."""
+    import re
+
+    found = re.search(r"\(([\d.,]+) h of a ([\d.,]+) h span\)", observation)
+    if not observation.startswith("fixed sensor over") or found is None:
+        return None
+    seen, span = (float(g.replace(",", "")) for g in found.groups())
+    return seen / span if span > 0 else None
 
 
 def _outside(start_ns: int | None, end_ns: int | None, t_ns: int, static: bool) -> str | None:

@@ -28,6 +28,29 @@ def test_a_map_whose_entries_all_forecast_statically_says_so() -> None:
     assert forecast_notes(_manifest(None), START) == []  # a map without the tally
 
 
+def test_static_after_enough_days_says_no_rhythm_won_and_why_it_may_not_show() -> None:
+    """With scored days enough, more days is not the advice: no rhythm won. A fixed sensor
+    that observed a small share of its span (a tracker silent when nobody is there, so the
+    empty hours were never seen) is pointed to build --observed; a robot's map is not."""
+    families = {"flow": {"static": 7}, "reconciled": False, "scored_days": 6}
+    silent = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=END, families=families,
+                      observation="fixed sensor over the 168 windows with messages (28.0 h "
+                      "of a 155.0 h span)")
+    (line,) = forecast_notes(silent, START + DAY_NS)
+    assert line.startswith("every entry forecasts its static rate, whatever the time: on the "
+                           "map's 6 scored days no daily or weekly rhythm forecast the next day "
+                           "better than that rate (its fixed sensor observed 18% of the time")
+    assert line.endswith("declare the spans it was recording with aion build --observed)")
+    robot = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=END, families=families,
+                     observation="tf map->base_link")
+    (plain,) = forecast_notes(robot, START + DAY_NS)
+    assert plain.endswith("better than that rate")
+    steady = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=END, families=families,
+                      observation="fixed sensor over the 1,000 windows with messages (166.7 h "
+                      "of a 170.0 h span)")
+    assert forecast_notes(steady, START + DAY_NS) == [plain]
+
+
 def test_times_far_from_the_data_are_named() -> None:
     timed = _manifest({"shape": 5})
     assert forecast_notes(timed, END + 6 * DAY_NS) == []  # the week after the data
