@@ -38,7 +38,7 @@ def write_build(
     size."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.formats.mapfile import write_map
-    from aion_cli.tf_feed import map_observation_text
+    from aion_cli.tf_feed import SILENT_HINT, fixed_sensor_share, map_observation_text
 
     arrays, meta = state.to_arrays(lazy=True)
     stats = state_counts(state)
@@ -50,6 +50,18 @@ def write_build(
     report.nodes_with_flow = stats["nodes_with_flow"]
     report.bound_cells = stats["bound_cells"]
     report.windows = stats["windows"]
+    observation = map_observation_text(
+        [previous.observation, report.observation] if previous else [report.observation],
+        state.observation,
+        state.window_ns,
+    )
+    share = fixed_sensor_share(observation)
+    declared = any(note.startswith("--observed:") for note in report.notes)
+    if share is not None and share < 0.5 and not declared:
+        report.notes.append(
+            f"the fixed sensor observed {share:.0%} of the map's span (the windows in which a "
+            f"log recorded a message; the rest is unknown, not empty): {SILENT_HINT}"
+        )
     manifest = Manifest(
         state=meta,
         config=config.to_dict(),
@@ -59,11 +71,7 @@ def write_build(
         counts=cumulative_counts(report, previous) | stats,
         last_build=report.to_dict()["detections"],
         graph_source=report.graph_source,
-        observation=map_observation_text(
-            [previous.observation, report.observation] if previous else [report.observation],
-            state.observation,
-            state.window_ns,
-        ),
+        observation=observation,
         timezone=config.timezone,
         families=state.family_summary(),
         merged_from=previous.merged_from if previous is not None else (),

@@ -67,26 +67,15 @@ def _all_static(families: Mapping[str, Any], observation: str = "") -> str | Non
         f"on the map's {days} scored days no daily or weekly rhythm forecast the next day "
         "better than that rate"
     )
-    share = _observed_share(observation)
+    from aion_cli.tf_feed import SILENT_HINT, fixed_sensor_share
+
+    share = fixed_sensor_share(observation)
     if share is not None and share < 0.5:
         text += (
             f" (its fixed sensor observed {share:.0%} of the time: only the windows in which "
-            "a log recorded a message; if its tracker is silent when nobody is there, "
-            "declare the spans it was recording with aion build --observed)"
+            f"a log recorded a message; {SILENT_HINT})"
         )
     return text
-
-
-def _observed_share(observation: str) -> float | None:
-    """The share of the span a fixed sensor observed, from the manifest's description
-    (``fixed sensor over the N windows with messages (A h of a B h span)``), else None."""
-    import re
-
-    found = re.search(r"\(([\d.,]+) h of a ([\d.,]+) h span\)", observation)
-    if not observation.startswith("fixed sensor over") or found is None:
-        return None
-    seen, span = (float(g.replace(",", "")) for g in found.groups())
-    return seen / span if span > 0 else None
 
 
 def _outside(start_ns: int | None, end_ns: int | None, t_ns: int, static: bool) -> str | None:

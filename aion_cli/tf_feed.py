@@ -397,6 +397,26 @@ def _declared_windows(spans: tuple[tuple[int, int], ...], times: TimeCheck, delt
     return out[times.inside_limits(out * delta)]
 
 
+def fixed_sensor_share(observation: str) -> float | None:
+    """The share of its span a fixed sensor observed, read from a description that
+    :func:`fixed_sensor_text` wrote (``... (A h of a B h span)``); None for any other."""
+    import re
+
+    found = re.search(r"\(([\d.,]+) h of a ([\d.,]+) h span\)", observation)
+    if not observation.startswith(FIXED_SENSOR_OVER) or found is None:
+        return None
+    seen, span = (float(g.replace(",", "")) for g in found.groups())
+    return seen / span if span > 0 else None
+
+
+SILENT_HINT = (
+    "if its tracker is silent when nobody is there, declare the spans it was recording with "
+    "aion build --observed"
+)
+"""Where a fixed sensor observed little of its span: windows without any message are
+unknown, not empty, unless the user says the sensor was recording."""
+
+
 def map_observation_text(texts: list[str], observation: ObservationSource, delta: int) -> str:
     """The observation of a map learnt in parts (``texts``: each part's description, in time
     order: a continued map's and its new logs', or a merge's inputs'). When every part was a

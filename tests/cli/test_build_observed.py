@@ -39,6 +39,12 @@ def test_declared_spans_make_silent_windows_observed_empty(
     time on both sides and is clipped to it)."""
     silent = run_json("build", mornings, "-o", tmp_path / "a.aion", "--format", "json")
     assert silent["observation"].startswith("fixed sensor over the 8 windows with messages")
+    # 8 of 434 windows: the build says the rest is unknown and how to declare it
+    assert (
+        "the fixed sensor observed 2% of the map's span (the windows in which a log recorded "
+        "a message; the rest is unknown, not empty): if its tracker is silent when nobody is "
+        "there, declare the spans it was recording with aion build --observed"
+    ) in silent["notes"]
     declared = run_json(
         "build", mornings, "-o", tmp_path / "b.aion", "--format", "json",
         "--observed", "2026-11-22 00:00..2026-11-28 00:00",
@@ -47,6 +53,7 @@ def test_declared_spans_make_silent_windows_observed_empty(
     added = "--observed: 426 window(s) without a message"
     assert any(note.startswith(added) for note in declared["notes"])
     assert declared["detections"] == silent["detections"]
+    assert not any(note.startswith("the fixed sensor observed") for note in declared["notes"])
 
 
 def test_a_silent_night_is_forecast_as_a_night(mornings: Path, tmp_path: Path) -> None:
