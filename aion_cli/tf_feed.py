@@ -342,9 +342,9 @@ def fixed_sensor_windows(
     plus the windows of those topics' own messages (the data, even where an index omits
     them). ``declared``: spans ``[lo, hi)`` of log time the user says the sensor was
     recording (``build --observed``, for a tracker that publishes only when it sees someone):
-    their windows count too, within the time of the topics aion uses (first to last
-    message; a time shard's part). Sets the Mapper's windows, adds a note for windows left
-    out, and returns the report's description of the observation."""
+    their windows count too, within each log file's own time (:func:`_declared_windows`).
+    Sets the Mapper's windows, adds a note for windows left out, and returns the report's
+    description of the observation."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
 
@@ -361,11 +361,11 @@ def fixed_sensor_windows(
         )
     windows = np.union1d(recorded[inside], windows_of(times.span_times, delta))
     if declared:
-        extra = _declared_windows(declared, times, delta)
+        extra = _declared_windows(declared, logset, times, delta)
         added = np.setdiff1d(extra, windows, assume_unique=True)
         notes.append(
             f"--observed: {added.size:,} window(s) without a message taken as observed "
-            f"({added.size * delta / 3.6e12:,.1f} h), within the time of the topics aion uses"
+            f"({added.size * delta / 3.6e12:,.1f} h), within each log's own time"
         )
         windows = np.union1d(windows, extra)
     mapper.set_fixed_windows(windows)
@@ -377,20 +377,25 @@ def fixed_sensor_windows(
     return fixed_sensor_text(*summary)
 
 
-def _declared_windows(spans: tuple[tuple[int, int], ...], times: TimeCheck, delta: int) -> I64:
-    """The windows of ``delta`` ns that the spans ``[lo, hi)`` overlap, clipped to the first
-    and last window of the runs of the topics aion uses (a mistyped year adds no decades of
-    empty windows) and to a time shard's part (each part observes its own)."""
-    starts, ends = times.windows(delta)
-    if starts.size == 0:
-        return np.zeros(0, np.int64)
-    first, last = int(starts[0]), int(ends.max())
+def _declared_windows(
+    spans: tuple[tuple[int, int], ...], logset: Any, times: TimeCheck, delta: int
+) -> I64:
+    """The windows of ``delta`` ns that the spans ``[lo, hi)`` overlap within each log file's
+    own time: from its first to its last recorded window inside the runs of the topics aion
+    uses (so a stray message adds no decades of empty windows, and the time between two
+    files stays unobserved: building A and B at once then equals building A and continuing
+    with B), and within a time shard's part."""
     parts = []
-    for lo, hi in spans:
-        a = max(int(lo) // delta, first)
-        b = min(-(-int(hi) // delta) - 1, last)  # the last window [lo, hi) overlaps
-        if b >= a:
-            parts.append(np.arange(a, b + 1, dtype=np.int64))
+    for _, recorded in logset.recorded_windows_by_file(delta):
+        inside = recorded[times.within_runs(recorded, delta)]
+        if inside.size == 0:
+            continue
+        first, last = int(inside[0]), int(inside[-1])
+        for lo, hi in spans:
+            a = max(int(lo) // delta, first)
+            b = min(-(-int(hi) // delta) - 1, last)  # the last window [lo, hi) overlaps
+            if b >= a:
+                parts.append(np.arange(a, b + 1, dtype=np.int64))
     if not parts:
         return np.zeros(0, np.int64)
     out: I64 = np.unique(np.concatenate(parts))

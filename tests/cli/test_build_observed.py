@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from aion_cli.formats.mapfile import read_manifest
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.logdata import T0, write_office_log
 
@@ -80,8 +81,8 @@ def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> N
         "--observed", "2030-01-01..2030-02-01",
     )
     assert report["observation"].startswith("fixed sensor over the 8 windows with messages")
-    assert "--observed: 0 window(s) without a message taken as observed (0.0 h), within the " \
-        "time of the topics aion uses" in report["notes"]
+    assert "--observed: 0 window(s) without a message taken as observed (0.0 h), within " \
+        "each log's own time" in report["notes"]
 
 
 def test_parallel_builds_with_declared_spans_run_in_sequence(
@@ -134,3 +135,23 @@ def test_the_python_api_takes_the_same_spans(mornings: Path, tmp_path: Path) -> 
     assert made.report.to_dict()["observation"].startswith("fixed sensor over the 434 windows")
     with pytest.raises(InputError, match="the end is not after the start"):
         aion.build(mornings, tmp_path / "bad.aion", observed=[("2026-11-24", "2026-11-23")])
+
+
+def test_the_time_between_two_logs_stays_unobserved(tmp_path: Path) -> None:
+    """Two sessions of the office log twelve hours apart, in two files: a span declared over
+    both counts within each file's own time (two windows each), never the twelve hours
+    between the files, so building both at once equals building one and continuing."""
+    morning, evening = tmp_path / "morning.mcap", tmp_path / "evening.mcap"
+    write_office_log(morning, graph=False, tf=False)
+    write_office_log(evening, graph=False, tf=False, shift_s=DAY_S // 2)
+    span = "2026-11-23 00:00..2026-11-24 00:00"
+    both = run_json("build", morning, evening, "-o", tmp_path / "both.aion", "--format", "json",
+                    "--observed", span)
+    assert both["observation"].startswith("fixed sensor over the 4 windows")
+    step = tmp_path / "step.aion"
+    run_json("build", morning, "-o", step, "--format", "json", "--observed", span)
+    continued = run_json("build", evening, "--map", step, "--format", "json", "--observed", span)
+    assert continued["observation"].startswith("fixed sensor over the 2 windows")  # its own
+    assert continued["windows"] == both["windows"]
+    maps = (read_manifest(tmp_path / "both.aion"), read_manifest(step))
+    assert maps[0]["observation"] == maps[1]["observation"] == both["observation"]
