@@ -284,12 +284,6 @@ class ParallelBuild:
             if opts.workers >= 2 or opts.scheduler is not None:  # asked for, not the default
                 report.notes.append("--derive-graph needs every log at once: built in sequence")
             return self.build.learn(self.config).state
-        if opts.observed:
-            # the declared spans are clipped to the time of all the logs at once (a gap
-            # between two groups of logs, or at a time shard's cut, may be declared too)
-            if opts.workers >= 2 or opts.scheduler is not None:
-                report.notes.append("--observed spans the logs' whole time: built in sequence")
-            return self.build.learn(self.config).state
         workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
         if workers < 2 and opts.scheduler is None:
             return self.build.learn(self.config).state
@@ -310,10 +304,19 @@ class ParallelBuild:
                 report.notes.append(note)
         from aion_cli.time_shards import split_groups
 
+        if opts.observed:
+            # declared spans count within each file's own time, first to last message, which
+            # a time shard of the file cannot see whole: files are shards, never cut
+            whole = frozenset(range(len(groups)))
         shards, notes = split_groups(
             groups, opts, window, workers, self.config.stable_move_tolerance, whole
         )
         report.notes.extend(notes)
+        if opts.observed and len(shards) < 2 and opts.workers >= 2:
+            report.notes.append(
+                "--observed: a log is not cut into time shards (its declared spans count "
+                "from its first message to its last): built in sequence"
+            )
         # (else a note says why); unasked (--workers not given), a log too short to cut
         # is no news
         if len(shards) < 2 and not notes and not whole and opts.workers >= 2:

@@ -85,15 +85,40 @@ def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> N
         "each log's own time" in report["notes"]
 
 
-def test_parallel_builds_with_declared_spans_run_in_sequence(
+def test_a_log_with_declared_spans_is_not_cut_into_time_shards(
     mornings: Path, tmp_path: Path
 ) -> None:
     report = run_json(
         "build", mornings, "-o", tmp_path / "m.aion", "--format", "json", "--workers", "2",
         "--observed", "2026-11-22..2026-11-28",
     )
-    assert "--observed spans the logs' whole time: built in sequence" in report["notes"]
+    assert "--observed: a log is not cut into time shards (its declared spans count from its " \
+        "first message to its last): built in sequence" in report["notes"]
     assert report["observation"].startswith("fixed sensor over the 434 windows")
+
+
+def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Path) -> None:
+    """Each file is a shard of its own, observed over its own time as in one process: the
+    workers' map equals the sequential one (its forecast, entry by entry)."""
+    logs = []
+    for k in range(3):
+        log = tmp_path / f"day{k}.mcap"
+        write_office_log(log, graph=False, tf=False, shift_s=k * DAY_S,
+                         later_sessions_s=(4 * 3600,))  # 08:00 and 12:00, silent between
+        logs.append(log)
+    span = ("--observed", "2026-11-23..2026-11-27")
+    one = run_json("build", *logs, "-o", tmp_path / "one.aion", "--format", "json",
+                   "--workers", "1", *span)
+    two = run_json("build", *logs, "-o", tmp_path / "two.aion", "--format", "json",
+                   "--workers", "2", *span)
+    assert len(two["workers"]) == 3
+    # each file: 08:00 to 12:20, 26 windows, of which 4 with messages
+    assert one["observation"].startswith("fixed sensor over the 78 windows")
+    assert read_manifest(tmp_path / "two.aion")["observation"] == one["observation"]
+    at = "2026-11-26 10:00"
+    a = run_json("predict", tmp_path / "one.aion", "--time", at, "--format", "json")["entries"]
+    b = run_json("predict", tmp_path / "two.aion", "--time", at, "--format", "json")["entries"]
+    assert [(e["id"], e["flow"]) for e in a] == [(e["id"], e["flow"]) for e in b]
 
 
 def test_a_robot_trajectory_overrides_declared_spans(tmp_path: Path) -> None:
