@@ -30,7 +30,9 @@ skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping.
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
 size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
 role, encoding, rate_hz, used, why}], roles, dsg_versions, will_use{detections, scene_graph, tf},
-cannot_read, warnings. For a map (.aion): format, version, creator, created, inputs,
+cannot_read, warnings, fixed_sensor{windows_with_messages, span_windows, window_s} (only
+when the logs have neither TF nor a scene graph: build observes the windows with messages).
+For a map (.aion): format, version, creator, created, inputs,
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config.
 For a scene graph (.json, .sparkdsg): graph, size_bytes, format, version, reader (spark_dsg or
@@ -100,6 +102,8 @@ def describe(
         for info in plan.graph:
             summary.dsg_versions[info.topic] = _dsg_versions(logset, info.topic)
         report = summary.to_dict()
+        if plan.detections and not plan.graph and not plan.tf:
+            report["fixed_sensor"] = _fixed_sensor_windows(logset)
     used = plan.names("detections") | plan.names("graph") | plan.names("tf")
     for topic in report["topics"]:
         topic["used"] = topic["topic"] in used
@@ -112,6 +116,20 @@ def describe(
     }
     report["cannot_read"] = [f"{t.topic} ({t.msgtype})" for t in plan.ignored]
     return report
+
+
+def _fixed_sensor_windows(logset: Any) -> dict[str, Any]:
+    """How many of the default model's windows between the logs' first and last message
+    hold a message: without TF or a scene graph nothing else says what a build observed (it
+    also leaves out stray messages a day away, which this count keeps)."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.windows import window_ns
+
+    window_s = ModelConfig().window_s
+    windows = logset.recorded_windows(window_ns(window_s))
+    span = int(windows[-1] - windows[0]) + 1 if windows.size else 0
+    return {"windows_with_messages": int(windows.size), "span_windows": span,
+            "window_s": window_s}
 
 
 def _mappings(path: Path | None) -> list[Any]:
@@ -295,6 +313,20 @@ def _print(report: dict[str, Any]) -> None:
         console().print(
             "[yellow]note:[/yellow] no scene graph: build with --graph FILE or --derive-graph"
         )
+    fixed = report.get("fixed_sensor")
+    if fixed and fixed["span_windows"]:
+        share = fixed["windows_with_messages"] / fixed["span_windows"]
+        text = (
+            "no robot trajectory (no TF, no scene graph): `aion build` takes the log as a fixed "
+            f"sensor over the {fixed['windows_with_messages']:,} windows of "
+            f"{fixed['window_s'] / 60:g} min with messages, {share:.0%} of its span"
+        )
+        if share < 0.5:
+            text += (
+                "; the others are unknown, not empty: if the tracker is silent when nobody "
+                "is there, build with --observed START..END"
+            )
+        console().print(f"[yellow]note:[/yellow] {text}", soft_wrap=True)
     for warning in report["warnings"]:
         console().print(f"[yellow]warning:[/yellow] {safe(warning)}", soft_wrap=True)
 

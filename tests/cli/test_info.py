@@ -34,6 +34,29 @@ def test_json_lists_topics_roles_and_counts(office: Office) -> None:
 
     assert doc["dsg_versions"] == {"/hydra/backend/dsg": [installed_version()]}
     assert doc["files"][0]["size_bytes"] == office.log.stat().st_size
+    assert "fixed_sensor" not in doc  # TF and a scene graph: not a fixed sensor
+
+
+def test_a_fixed_sensor_log_says_how_much_of_its_span_holds_messages(tmp_path: Path) -> None:
+    """The office session (08:00-08:20, no TF, no graph) on three days in a row: 2 windows a
+    day hold messages, 6 of the 290 windows from the first to the last; the table names
+    --observed for a tracker that is silent when nobody is there. One session alone fills
+    its span: no such advice."""
+    from tests.cli.logdata import write_office_log
+
+    log = tmp_path / "mornings.mcap"
+    write_office_log(log, graph=False, tf=False, later_sessions_s=(86_400, 2 * 86_400))
+    doc = run_json("info", log, "--format", "json")
+    assert doc["fixed_sensor"] == {"windows_with_messages": 6, "span_windows": 290,
+                                   "window_s": 600.0}
+    table = run("info", log)
+    assert "fixed sensor over the 6 windows of 10 min with messages, 2% of its span; the " \
+        "others are unknown, not empty" in " ".join(table.stderr.split())
+    assert "--observed START..END" in table.stderr
+    one = tmp_path / "one.mcap"
+    write_office_log(one, graph=False, tf=False)
+    assert run_json("info", one, "--format", "json")["fixed_sensor"]["span_windows"] == 2
+    assert "--observed" not in run("info", one).stderr
 
 
 def test_unsupported_topics_are_listed(tmp_path: Path) -> None:
