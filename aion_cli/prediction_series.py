@@ -4,7 +4,7 @@
 How busy is a corridor over the day, when is a room quiet? Each time of the series is the
 prediction ``aion predict --time`` makes at that time, so every value equals that command's
 ``flow`` and ``flow_per_hour`` exactly: places and cells from the same predictor, evaluated
-for the chosen rows only (:func:`_entry_flows`); rooms and buildings as the sums of their
+for the chosen rows only (:func:`entry_flows`); rooms and buildings as the sums of their
 places' flows in the order the aggregated table (:func:`aion_cli.predictions.entry_table`)
 adds them (:func:`_group_flows`). The entries are chosen as ``predict`` chooses
 them (``--layer``, ``--node``, ``--at``), on the table of the first time (a map's rows are the
@@ -118,7 +118,7 @@ def predict_series(
     if layer in ("rooms", "buildings"):  # sums over places, as the aggregated table's
         flow = _group_flows(loaded, first.node_id[index], times, layer, progress)
     else:
-        flow = _entry_flows(loaded, index, times, progress)
+        flow = entry_flows(loaded, index, times, progress)
     per_hour = flow * (3600.0 / first.window_s)  # as the table's descriptors compute it
     known = np.asarray(np.isfinite(flow).any(axis=1), dtype=bool)
     mean = np.zeros(index.size)
@@ -156,7 +156,7 @@ def _group_flows(
     return out
 
 
-def _entry_flows(
+def entry_flows(
     loaded: LoadedMap,
     index: npt.NDArray[np.int64],
     times: list[int],

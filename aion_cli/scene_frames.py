@@ -107,11 +107,23 @@ def series_flow_scale(loaded: LoadedMap, times: Sequence[int | None]) -> float |
     """The flow drawn at full size in every step of a series: ``display_flow_scale`` of the
     node flows of the scenes at ``times`` (the busiest, or a high quantile when the busiest
     dwarfs the rest); None when no node has flow (each step then scales on its own, as a
-    single export does)."""
+    single export does). The predicted steps' node flows come from the predictor's batch
+    path for the node rows only (``prediction_series.entry_flows``: the tables' values,
+    element by element), not from a whole scene per step, which the export then builds once
+    more to draw it; a historical step (None) from its scene."""
+    from aion_cli.engine.entries import NODE
     from aion_cli.formats.export import display_flow_scale
+    from aion_cli.prediction_series import entry_flows
     from aion_cli.scene import scene_at
 
-    flows = [scene_at(loaded, t_ns).node_flow for t_ns in times]
+    flows = []
+    timed = [int(t) for t in times if t is not None]
+    if timed:
+        rows, _ = loaded.state.predictor()
+        nodes = np.flatnonzero(np.asarray(loaded.state.entries.kind)[rows] == NODE)
+        flows.append(entry_flows(loaded, nodes, timed, None).reshape(-1))
+    if len(timed) < len(times):
+        flows.append(scene_at(loaded, None).node_flow)
     pooled = np.concatenate(flows) if flows else np.zeros(0)
     if not (np.nan_to_num(pooled) > 0).any():
         return None

@@ -280,3 +280,20 @@ def test_mcap_needs_no_open3d(
     assert result.exit_code == 0, result.stderr
     assert len(scene_updates(out)) == 1
     assert "open3d" not in sys.modules
+
+
+def test_the_series_scale_is_the_scenes_own(sample_map: Path) -> None:
+    """The shared sphere scale, read from the predictor's batch path for the node rows, is
+    the one the steps' scenes give (pooled node flows of a scene per step), with a
+    historical step among the times too."""
+    from aion_cli.formats.export import display_flow_scale
+    from aion_cli.mapquery import load_map
+    from aion_cli.scene import scene_at
+    from aion_cli.scene_frames import series_flow_scale
+
+    loaded = load_map(sample_map)
+    start = parse_time("2026-01-12 05:00", UTC)
+    times: list[int | None] = [start + k * 3_600 * 10**9 for k in range(16)]
+    for steps in (times, [*times, None], [None]):
+        pooled = np.concatenate([scene_at(loaded, t).node_flow for t in steps])
+        assert series_flow_scale(loaded, steps) == display_flow_scale(pooled)[0]
