@@ -6,6 +6,8 @@ and returns its map state (pickled bytes, Dask's own serialisation); the fold ru
 cluster too, as a chain of tasks in time order (each joins one shard onto the map before it,
 or learns the shard's logs onto it in sequence where a join would not be exact), so the
 shards' maps never travel to the client: only the finished map and the shards' summaries do.
+After a fold whose scene graph changed, the later shards are learnt in sequence as one task
+and their builds cancelled, as the local pool stops its workers.
 Needs the ``dask`` extra (``pip install 'aion[dask]'``).
 """
 
@@ -16,7 +18,14 @@ import uuid
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import InputError, MissingPackageError
-from aion_cli.parallel_build import Folded, ShardResult, ShardTask, build_shard, fold
+from aion_cli.parallel_build import (
+    Folded,
+    ShardResult,
+    ShardTask,
+    build_shard,
+    fold,
+    learn_rest,
+)
 
 if TYPE_CHECKING:
     from aion_cli.build_report import ProgressSink
@@ -44,10 +53,21 @@ def _summary(result: ShardResult) -> ShardResult:
     return result.without_state()
 
 
+def _fallbacks(folded: Folded) -> int:
+    """The fold's count of shards learnt again because their scene graph changed (a small
+    result the client waits for after each fold)."""
+    return folded.graph_fallbacks
+
+
 def run_on_cluster(
     address: str, tasks: list[ShardTask], previous: MapState | None, progress: ProgressSink
 ) -> tuple[Folded, list[ShardResult]]:
-    """Build the shards as tasks on the cluster at ``address`` and fold them there."""
+    """Build the shards as tasks on the cluster at ``address`` and fold them there. The
+    folds are submitted one after the other (each needs the one before): when one had to
+    learn its shard again because the scene graph changed (a Hydra graph that grows or is
+    corrected), the later shards' graphs change too, so, as the local pool stops its
+    workers, their builds are cancelled and the rest is learnt in sequence as one task
+    (``parallel_build.learn_rest``) instead of being built apart and then again."""
     tag = uuid.uuid4().hex[:8]
     client = _client(address)
     futures: list[Any] = []
@@ -60,20 +80,24 @@ def run_on_cluster(
         summaries = [
             client.submit(_summary, s, key=f"aion-summary-{tag}-{i}") for i, s in enumerate(shards)
         ]
+        futures = [*shards, *summaries]
         acc: Any = Folded(previous)
-        for task, shard in zip(tasks, shards, strict=True):
+        fallbacks, shown = 0, 0
+        for k, (task, shard) in enumerate(zip(tasks, shards, strict=True)):
             acc = client.submit(fold, acc, shard, task, key=f"aion-fold-{tag}-{task.index}")
-        futures = [*shards, *summaries, acc]
-        shown = 0
-        while shown < len(summaries):  # the client is not the default one: poll the futures
-            done = sum(f.done() for f in summaries)
-            if done > shown:
-                progress.advance(done - shown)
-                shown = done
-            elif any(f.status == "error" for f in summaries):
-                break  # result() below raises the task's error
-            else:
-                time.sleep(0.2)
+            count = client.submit(_fallbacks, acc, key=f"aion-fallbacks-{tag}-{task.index}")
+            futures += [acc, count]
+            shown = _wait(count, summaries, shown, progress)
+            changed = int(count.result()) > fallbacks  # raises a shard's or the fold's error
+            fallbacks = int(count.result())
+            if changed and k + 1 < len(tasks):
+                client.cancel([*shards[k + 1 :], *summaries[k + 1 :]], force=True)
+                summaries = summaries[: k + 1]
+                acc = client.submit(
+                    learn_rest, acc, tasks[k + 1 :], len(tasks), key=f"aion-rest-{tag}"
+                )
+                futures.append(acc)
+                break
         folded: Folded = acc.result()
         results: list[ShardResult] = client.gather(summaries)
         return folded, results
@@ -83,3 +107,18 @@ def run_on_cluster(
         raise
     finally:
         client.close()
+
+
+def _wait(future: Any, summaries: list[Any], shown: int, progress: ProgressSink) -> int:
+    """Wait for ``future``, advancing the progress as the shards' summaries finish (the
+    client is not the default one: it polls); returns the summaries shown."""
+    while not future.done():
+        done = sum(f.done() for f in summaries)
+        if done > shown:
+            progress.advance(done - shown)
+            shown = done
+        time.sleep(0.05)
+    done = sum(f.done() for f in summaries)
+    if done > shown:
+        progress.advance(done - shown)
+    return max(done, shown)

@@ -227,6 +227,45 @@ def fold(
     return out
 
 
+def learn_rest(
+    folded: Folded,
+    tasks: list[ShardTask],
+    total: int,
+    done: dict[int, ShardResult] | None = None,
+    on_folded: Callable[[int], None] | None = None,
+) -> Folded:
+    """The shards ``tasks`` (the last of ``total``), once a shard had to be learnt again in
+    sequence because the scene graph changed between shards (a Hydra graph that grows or is
+    corrected binds cells as it goes): the later shards' graphs change too, so they are
+    learnt here in sequence, each onto the map so far (the map of one pass), instead of
+    being built apart first and then again. A shard already built (``done``, by index) is
+    folded as usual; ``on_folded(index)`` after each. The local pool runs this in the parent
+    once it stopped its workers, a Dask build as one task on the cluster."""
+    begin = time.perf_counter()
+    done = {} if done is None else done
+    learnt = 0
+    for task in tasks:
+        result = done.pop(task.index, None)
+        if result is not None:
+            folded = fold(folded, result, task)
+        else:
+            if folded.state is None:
+                raise ValueError("the rest of a fold needs the map so far")
+            rebuilt = rebuild_onto(folded.state, task, folded)
+            folded = folded.then(rebuilt.state, rebuilt.report)
+            learnt += 1
+        if on_folded is not None:
+            on_folded(task.index)
+    if learnt:
+        folded.notes.append(
+            f"the scene graph changed between shards: the last {learnt} of {total} shards "
+            "were learnt in sequence without waiting for the workers (their graphs would have "
+            "changed too)"
+        )
+    folded.seconds += time.perf_counter() - begin
+    return folded
+
+
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
     """A continued map has closed every window before its open one: logs with data there
     must come in time order (as a sequential build's ``_check_after_map`` says)."""

@@ -15,7 +15,14 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.parallel_build import Folded, ShardResult, ShardTask, build_shard, fold
+from aion_cli.parallel_build import (
+    Folded,
+    ShardResult,
+    ShardTask,
+    build_shard,
+    fold,
+    learn_rest,
+)
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -157,7 +164,8 @@ def _run(
                 bars.folded(next_index)
                 next_index += 1
             if stopped and next_index < len(tasks):
-                return _rest_in_sequence(folded, tasks, next_index, done, bars), summaries
+                rest = learn_rest(folded, tasks[next_index:], len(tasks), done, bars.folded)
+                return rest, summaries
         return folded, summaries
     finally:
         _stop(procs)  # done, failed or interrupted: no worker outlives the build
@@ -172,39 +180,6 @@ def _stop(procs: list[Any]) -> None:
             proc.terminate()
     for proc in procs:
         proc.join(timeout=10)
-
-
-def _rest_in_sequence(
-    folded: Folded, tasks: list[ShardTask], first: int, done: dict[int, ShardResult], bars: _Bars
-) -> Folded:
-    """The shards from ``first`` on, once a shard had to be learnt again in sequence because
-    the scene graph changed between shards (a Hydra graph that grows or is corrected binds
-    cells as it goes): the later shards' graphs change too, so the workers were stopped and
-    the rest is learnt here in sequence, each onto the map so far (the map of one pass),
-    instead of being built apart first and then again. A shard a worker had finished already
-    is folded as usual."""
-    from aion_cli.parallel_build import rebuild_onto
-
-    begin = time.perf_counter()
-    learnt = 0
-    for task in tasks[first:]:
-        result = done.pop(task.index, None)
-        if result is not None:
-            folded = fold(folded, result, task)
-        else:
-            assert folded.state is not None
-            rebuilt = rebuild_onto(folded.state, task, folded)
-            folded = folded.then(rebuilt.state, rebuilt.report)
-            learnt += 1
-        bars.folded(task.index)
-    if learnt:
-        folded.notes.append(
-            f"the scene graph changed between shards: the last {learnt} of {len(tasks)} shards "
-            "were learnt in sequence without waiting for the workers (their graphs would have "
-            "changed too)"
-        )
-    folded.seconds += time.perf_counter() - begin
-    return folded
 
 
 def _next(out: Any, procs: list[Any]) -> Any:

@@ -369,6 +369,36 @@ def test_a_dask_cluster_builds_the_sequential_map(tmp_path: Path) -> None:
     assert _same_maps(seq, par) == []
 
 
+@pytest.mark.slow
+def test_on_a_dask_cluster_the_rest_after_a_graph_change_is_learnt_in_sequence(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The three Hydra sessions of the local pool's test above, on a cluster: the second
+    # session's fold learns it again (its graph bound cells otherwise than one pass), so the
+    # third's build is cancelled and it is learnt in sequence as one task. The map is one
+    # pass's; the workers' rows list the shards they built and the fold used.
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    import aion_cli.shard_graphs as shard_graphs
+
+    monkeypatch.setattr(shard_graphs, "graph_breaks", _no_breaks)  # the planner, here
+    logs = _sessions(tmp_path, ("2026-01-05", "2026-01-07", "2026-01-09"))
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _build(logs, seq, 1)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        host="127.0.0.1",
+    ) as cluster:
+        report = _build(logs, par, 1, scheduler=cluster.scheduler_address)
+    assert _same_maps(seq, par) == []
+    notes = report.notes  # type: ignore[attr-defined]
+    assert [n for n in notes if "session1.mcap was learnt in sequence" in n]
+    assert (
+        "the scene graph changed between shards: the last 1 of 3 shards were learnt in "
+        "sequence without waiting for the workers (their graphs would have changed too)"
+    ) in notes
+    assert [row["shard"] for row in report.workers] == [0, 1]  # type: ignore[attr-defined]
+
+
 def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:
     pytest.importorskip("distributed", reason="the dask extra is not installed")
     logs = _logs(tmp_path, [0, 48])
