@@ -13,7 +13,7 @@ Needs the ``dask`` extra (``pip install 'aion[dask]'``).
 
 from __future__ import annotations
 
-import time
+import contextlib
 import uuid
 from typing import TYPE_CHECKING, Any
 
@@ -110,14 +110,15 @@ def run_on_cluster(
 
 
 def _wait(future: Any, summaries: list[Any], shown: int, progress: ProgressSink) -> int:
-    """Wait for ``future``, advancing the progress as the shards' summaries finish (the
-    client is not the default one: it polls); returns the summaries shown."""
+    """Wait for ``future`` (returning as soon as it is done), advancing the progress as the
+    shards' summaries finish; returns the summaries shown."""
     while not future.done():
         done = sum(f.done() for f in summaries)
         if done > shown:
             progress.advance(done - shown)
             shown = done
-        time.sleep(0.05)
+        with contextlib.suppress(TimeoutError):  # progress every 0.2 s meanwhile
+            future.result(timeout=0.2)  # (a failed task raises its error here)
     done = sum(f.done() for f in summaries)
     if done > shown:
         progress.advance(done - shown)
