@@ -24,6 +24,7 @@ from aion_cli.mapquery import load_map
 from aion_cli.parallel_build import plan_shards
 from aion_cli.pipeline import BuildOptions, build_map
 from tests.cli.logdata import write_office_log
+from tests.time_shard_logs import build_on_local_cluster
 
 HOUR_S = 3600
 DAY_S = 86_400
@@ -248,15 +249,21 @@ def test_after_a_graph_change_the_rest_is_learnt_in_sequence_without_the_workers
     monkeypatch.setattr(pool, "build_shard", slow_third)
     report = _build(logs, par, 2)
     assert not mark.exists()
+    _assert_the_rest_was_learnt_in_sequence(seq, par, report)
+    assert [n for n in report.notes if n.startswith("1 of 3 shards were built twice")]  # type: ignore[attr-defined]
+
+
+def _assert_the_rest_was_learnt_in_sequence(seq: Path, par: Path, report: Any) -> None:
+    """Three sessions, the second's shard learnt again: one pass's map, the third shard
+    learnt in sequence without a worker's build, only shards 0 and 1 built by workers."""
     assert _same_maps(seq, par) == []
-    notes = report.notes  # type: ignore[attr-defined]
+    notes = report.notes
     assert [n for n in notes if "session1.mcap was learnt in sequence" in n]
     assert (
         "the scene graph changed between shards: the last 1 of 3 shards were learnt in "
         "sequence without waiting for the workers (their graphs would have changed too)"
     ) in notes
-    assert [n for n in notes if n.startswith("1 of 3 shards were built twice")]
-    assert [row["shard"] for row in report.workers] == [0, 1]  # type: ignore[attr-defined]
+    assert [row["shard"] for row in report.workers] == [0, 1]
 
 
 @pytest.mark.slow
@@ -353,16 +360,11 @@ def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) ->
 
 @pytest.mark.slow
 def test_a_dask_cluster_builds_the_sequential_map(tmp_path: Path) -> None:
-    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
     logs = _logs(tmp_path, [0, 24, 2 * 24, 3 * 24 + 2])
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     _build(logs, seq, 1)
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-        host="127.0.0.1",
-    ) as cluster:
-        report = _build(logs, par, 1, scheduler=cluster.scheduler_address)
-        workers = {w["worker"] for w in report.workers}  # type: ignore[attr-defined]
+    report = build_on_local_cluster(logs, par)
+    workers = {w["worker"] for w in report.workers}
     assert len(report.workers) == 4  # type: ignore[attr-defined]
     assert workers  # the cluster's worker processes built them, never this one
     assert all(w.split(":")[-1] != str(os.getpid()) for w in workers)
@@ -377,26 +379,13 @@ def test_on_a_dask_cluster_the_rest_after_a_graph_change_is_learnt_in_sequence(
     # session's fold learns it again (its graph bound cells otherwise than one pass), so the
     # third's build is cancelled and it is learnt in sequence as one task. The map is one
     # pass's; the workers' rows list the shards they built and the fold used.
-    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
     import aion_cli.shard_graphs as shard_graphs
 
     monkeypatch.setattr(shard_graphs, "graph_breaks", _no_breaks)  # the planner, here
     logs = _sessions(tmp_path, ("2026-01-05", "2026-01-07", "2026-01-09"))
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     _build(logs, seq, 1)
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-        host="127.0.0.1",
-    ) as cluster:
-        report = _build(logs, par, 1, scheduler=cluster.scheduler_address)
-    assert _same_maps(seq, par) == []
-    notes = report.notes  # type: ignore[attr-defined]
-    assert [n for n in notes if "session1.mcap was learnt in sequence" in n]
-    assert (
-        "the scene graph changed between shards: the last 1 of 3 shards were learnt in "
-        "sequence without waiting for the workers (their graphs would have changed too)"
-    ) in notes
-    assert [row["shard"] for row in report.workers] == [0, 1]  # type: ignore[attr-defined]
+    _assert_the_rest_was_learnt_in_sequence(seq, par, build_on_local_cluster(logs, par))
 
 
 def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:

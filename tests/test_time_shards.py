@@ -24,6 +24,7 @@ from tests.time_shard_logs import (
     LATER_S,
     W,
     build_logs,
+    build_on_local_cluster,
     same_maps,
     same_reports,
 )
@@ -256,16 +257,11 @@ def test_a_stray_message_is_dropped_and_counted_once(tmp_path: Path) -> None:
 
 
 def test_a_dask_cluster_builds_time_shards(tmp_path: Path) -> None:
-    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
     log = tmp_path / "log.mcap"
     write_office_log(log, duration_s=2 * HOUR_S, later_sessions_s=LATER_S)
     seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
     build_logs([log], seq, 1)
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-        host="127.0.0.1",
-    ) as cluster:
-        report = build_logs([log], par, 1, scheduler=cluster.scheduler_address)
+    report = build_on_local_cluster([log], par)
     assert len(report.workers) == 2
     assert same_maps(seq, par) == []
 

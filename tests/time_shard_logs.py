@@ -26,6 +26,19 @@ def build_logs(logs: list[Path], out: Path, workers: int, **kw: object) -> Any:
     return build_map(BuildOptions(logs=tuple(logs), output=out, workers=workers, **kw))  # type: ignore[arg-type]
 
 
+def build_on_local_cluster(logs: list[Path], out: Path) -> Any:
+    """:func:`build_logs` with ``--scheduler`` on a real local Dask cluster (two worker
+    processes, localhost only); the test is skipped without the ``dask`` extra."""
+    import pytest
+
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        host="127.0.0.1",
+    ) as cluster:
+        return build_logs(logs, out, 1, scheduler=cluster.scheduler_address)
+
+
 def same_maps(a: Path, b: Path) -> list[str]:
     """What differs between the two saved maps (empty: the same map)."""
     return differences(load_map(a, writable=True).state, load_map(b, writable=True).state)
