@@ -15,7 +15,7 @@ from typing import Any
 from aion_cli.build_report import FAST_PEOPLE_WARNING, BuildReport, fast_people_warning
 from aion_cli.errors import MessageDecodeError
 from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
-from aion_cli.tf_feed import FIXED_SENSOR_OVER, fixed_sensor_text
+from aion_cli.tf_feed import DECLARED, FIXED_SENSOR_OVER, fixed_sensor_text
 
 
 def counts_of(report: BuildReport) -> Any:
@@ -43,7 +43,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     if fixed and len(kinds) == 1 and out.observation.startswith(FIXED_SENSOR_OVER):
         count = sum(f[0] for f in fixed)
         out.fixed_windows = (count, min(f[1] for f in fixed), max(f[2] for f in fixed), fixed[0][3])
-        out.observation = fixed_sensor_text(*out.fixed_windows)
+        declared = any(DECLARED in p.observation for p in parts)
+        out.observation = fixed_sensor_text(*out.fixed_windows, declared=declared)
     for p in parts:
         out.detections_read += p.detections_read
         out.detections_used += p.detections_used

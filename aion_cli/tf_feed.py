@@ -374,7 +374,7 @@ def fixed_sensor_windows(
     summary = (len(windows), int(windows[0]), int(windows[-1]), delta)
     if report is not None:  # a parallel build adds its shards' windows up
         report.fixed_windows = summary
-    return fixed_sensor_text(*summary)
+    return fixed_sensor_text(*summary, declared=bool(declared))
 
 
 def _declared_windows(
@@ -431,7 +431,7 @@ def map_observation_text(texts: list[str], observation: ObservationSource, delta
     if texts and all(t.startswith(FIXED_SENSOR_OVER) for t in texts):
         summary = fixed_sensor_summary(observation, delta)
         if summary is not None:
-            return fixed_sensor_text(*summary)
+            return fixed_sensor_text(*summary, declared=any(DECLARED in t for t in texts))
     distinct = list(dict.fromkeys(texts))
     return " + ".join(distinct) if distinct else "none"
 
@@ -454,11 +454,19 @@ def fixed_sensor_summary(
     return count, int(w0[0]), int(w1.max()) - 1, int(delta)
 
 
-def fixed_sensor_text(count: int, first: int, last: int, delta: int) -> str:
+DECLARED = "or --observed"
+"""In a fixed sensor's description when ``build --observed`` declared some of its windows."""
+
+
+def fixed_sensor_text(
+    count: int, first: int, last: int, delta: int, declared: bool = False
+) -> str:
     """The report's description of fixed-sensor observation: ``count`` windows of
-    ``delta`` ns with messages, from window ``first`` to ``last``."""
+    ``delta`` ns with messages (``declared``: or declared by ``--observed``), from window
+    ``first`` to ``last``."""
     span = last - first + 1
+    why = f"with messages {DECLARED}" if declared else "with messages"
     return (
-        f"{FIXED_SENSOR_OVER} the {count:,} window{'' if count == 1 else 's'} with messages "
+        f"{FIXED_SENSOR_OVER} the {count:,} window{'' if count == 1 else 's'} {why} "
         f"({count * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
     )

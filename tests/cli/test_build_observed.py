@@ -50,7 +50,9 @@ def test_declared_spans_make_silent_windows_observed_empty(
         "build", mornings, "-o", tmp_path / "b.aion", "--format", "json",
         "--observed", "2026-11-22 00:00..2026-11-28 00:00",
     )
-    assert declared["observation"].startswith("fixed sensor over the 434 windows")
+    assert declared["observation"] == (
+        "fixed sensor over the 434 windows with messages or --observed (72.3 h of a 72.3 h span)"
+    )
     added = "--observed: 426 window(s) without a message"
     assert any(note.startswith(added) for note in declared["notes"])
     assert declared["detections"] == silent["detections"]
@@ -180,3 +182,5 @@ def test_the_time_between_two_logs_stays_unobserved(tmp_path: Path) -> None:
     assert continued["windows"] == both["windows"]
     maps = (read_manifest(tmp_path / "both.aion"), read_manifest(step))
     assert maps[0]["observation"] == maps[1]["observation"] == both["observation"]
+    assert both["observation"].startswith("fixed sensor over the 4 windows with messages or "
+                                          "--observed")
