@@ -64,8 +64,10 @@ def build(
     from aion_cli.timeparse import resolve_zone
 
     paths = [logs] if isinstance(logs, (str, os.PathLike)) else list(logs)
-    zone = resolve_zone(tz or "UTC")
-    spans = tuple((to_ns(a, zone), to_ns(b, zone)) for a, b in observed)
+    spans: tuple[tuple[int, int], ...] = ()
+    if observed:  # (a build without spans reads ``tz`` as before, in the build)
+        zone = resolve_zone(tz or "UTC")
+        spans = tuple((to_ns(a, zone), to_ns(b, zone)) for a, b in observed)
     for (a, b), (ta, tb) in zip(spans, observed, strict=True):
         if b <= a:
             raise InputError(f"observed span {ta!r}..{tb!r}: the end is not after the start")

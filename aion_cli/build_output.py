@@ -38,7 +38,12 @@ def write_build(
     size."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.formats.mapfile import write_map
-    from aion_cli.tf_feed import SILENT_HINT, fixed_sensor_share, map_observation_text
+    from aion_cli.tf_feed import (
+        DECLARED,
+        SILENT_HINT,
+        fixed_sensor_share,
+        map_observation_text,
+    )
 
     arrays, meta = state.to_arrays(lazy=True)
     stats = state_counts(state)
@@ -56,8 +61,8 @@ def write_build(
         state.window_ns,
     )
     share = fixed_sensor_share(observation)
-    declared = any(note.startswith("--observed:") for note in report.notes)
-    if share is not None and share < 0.5 and not declared:
+    # this build's own logs had spans declared (its text says so; a continued map's may too)
+    if share is not None and share < 0.5 and DECLARED not in report.observation:
         report.notes.append(
             f"the fixed sensor observed {share:.0%} of the map's span (the windows in which a "
             f"log recorded a message; the rest is unknown, not empty): {SILENT_HINT}"

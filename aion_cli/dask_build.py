@@ -88,8 +88,8 @@ def run_on_cluster(
             count = client.submit(_fallbacks, acc, key=f"aion-fallbacks-{tag}-{task.index}")
             futures += [acc, count]
             shown = _wait(count, summaries, shown, progress)
-            changed = int(count.result()) > fallbacks  # raises a shard's or the fold's error
-            fallbacks = int(count.result())
+            now = int(count.result())  # raises a shard's or the fold's error
+            changed, fallbacks = now > fallbacks, now
             if changed and k + 1 < len(tasks):
                 client.cancel([*shards[k + 1 :], *summaries[k + 1 :]], force=True)
                 summaries = summaries[: k + 1]
