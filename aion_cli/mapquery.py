@@ -141,10 +141,11 @@ def latest_graph(state: MapState) -> GraphSnapshot | None:
 
 def state_counts(state: MapState) -> dict[str, int]:
     """Unbound cells, graph nodes (and those holding flow), bound cells and windows observed
-    (the most any entry has seen) of a state, for summaries."""
+    (the most any entry has seen, the open window included as the flows count it) of a state,
+    for summaries."""
     entries = state.entries
     live = entries.live_rows()
-    observed = state.windows_observed(live)
+    observed = state.windows_observed(live, open_window=True)
     return {
         "cells": len(entries.cell_rows()),
         "nodes": 0 if state.graph is None else len(state.graph.places),

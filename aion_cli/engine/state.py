@@ -337,11 +337,15 @@ class MapState:
             id(self.graph),
         )
 
-    def windows_observed(self, rows: I64) -> F64:
-        """Windows in which each entry was observed so far (pending day included)."""
+    def windows_observed(self, rows: I64, open_window: bool = False) -> F64:
+        """Windows in which each entry was observed so far (pending day included); with
+        ``open_window`` the open window too, as queries count it (closed now), so a summary's
+        count is the denominator of the flows the map predicts."""
         out: F64 = self.temporal.windows_observed(rows)
-        if self.pending:
-            day = self.pending.consolidated()
+        days = [self.pending.consolidated()] if self.pending else []
+        if open_window and (record := open_window_record(self)) is not None:
+            days.append(record)
+        for day in days:
             fixed = float(day.fixed.sum())
             own = day.obs_entry[~day.fixed[day.obs_slot]]
             out = out + fixed + np.bincount(own, minlength=self.temporal.n_rows)[rows]

@@ -40,6 +40,7 @@ def test_declared_spans_make_silent_windows_observed_empty(
     time on both sides and is clipped to it)."""
     silent = run_json("build", mornings, "-o", tmp_path / "a.aion", "--format", "json")
     assert silent["observation"].startswith("fixed sensor over the 8 windows with messages")
+    assert silent["windows"] == 8  # the summary counts the open last window as the flows do
     # 8 of 434 windows: the build says the rest is unknown and how to declare it
     assert (
         "the fixed sensor observed 2% of the map's span (the windows in which a log recorded "
@@ -53,6 +54,7 @@ def test_declared_spans_make_silent_windows_observed_empty(
     assert declared["observation"] == (
         "fixed sensor over the 434 windows with messages or --observed (72.3 h of a 72.3 h span)"
     )
+    assert declared["windows"] == 434
     added = "--observed: 426 window(s) without a message"
     assert any(note.startswith(added) for note in declared["notes"])
     assert declared["detections"] == silent["detections"]
