@@ -91,10 +91,10 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     "--format",
     "fmt",
     type=click.Choice(["ply", "pcd", "png", "mcap", "dsg"]),
-    default="ply",
-    show_default=True,
+    default=None,
     help="Point-cloud / scene format, png for a top-down picture, mcap for Foxglove/RViz, "
-    "dsg for the 4D scene graph as a spark_dsg file (.json / .sparkdsg).",
+    "dsg for the 4D scene graph as a spark_dsg file (.json / .sparkdsg).  [default: from "
+    "-o's suffix: .png, .mcap, .json or .sparkdsg; else ply]",
 )
 @click.option(
     "--path-from",
@@ -112,7 +112,7 @@ def command(
     t_to: str | None,
     step: str,
     tz: str | None,
-    fmt: str,
+    fmt: str | None,
     path_from: str | None,
     path_to: str | None,
 ) -> None:
@@ -130,6 +130,7 @@ def command(
         raise InputError("a time series needs both --from and --to")
     if (path_from is None) != (path_to is None):
         raise InputError("a path needs both --path-from and --path-to")
+    fmt = export_format(fmt, out_dir)
     loaded = load(map_path)
     times: list[int | None]
     zone = None
@@ -190,3 +191,26 @@ def command(
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
         announce_time(times[0], zone, label, loaded)
     console().print(done)
+
+
+FILE_FORMATS = {".png": "png", ".mcap": "mcap", ".json": "dsg", ".sparkdsg": "dsg"}
+"""Output suffixes that name one file, and the format that writes it."""
+
+
+def export_format(fmt: str | None, out: Path) -> str:
+    """The format to write: ``--format`` if given, else the one ``-o``'s suffix names (a .png
+    picture, an .mcap series, a .json / .sparkdsg scene graph), else ply. ply and pcd write a
+    folder: an ``-o`` that names a file (a suffix of this list, or .ply / .pcd) and is not an
+    existing folder is refused rather than made a folder of that name."""
+    from aion_cli.errors import InputError
+
+    suffix = out.suffix.lower()
+    if fmt is None:
+        fmt = FILE_FORMATS.get(suffix, "ply" if suffix != ".pcd" else "pcd")
+    if fmt in ("ply", "pcd") and not out.is_dir() and suffix in {*FILE_FORMATS, ".ply", ".pcd"}:
+        raise InputError(
+            f"{fmt} scenes are written into a folder (the scene as .{fmt} files, entries.csv and "
+            f"entries.json), got -o {str(out)!r}",
+            hint="name a folder, e.g. -o out/; or --format png / mcap / dsg for one file",
+        )
+    return fmt

@@ -83,3 +83,41 @@ def test_bad_option_mixes(office: Office, tmp_path: Path, args: list[str], fragm
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, fragment)
     assert not (tmp_path / "out").exists()  # nothing half-written
+
+
+@pytest.mark.parametrize(
+    ("name", "magic"),
+    [("map.png", b"\x89PNG\r\n\x1a\n"), ("day.mcap", b"\x89MCAP0\r\n"), ("g.json", b"{")],
+)
+def test_the_format_follows_the_output_suffix(
+    office: Office, tmp_path: Path, name: str, magic: bytes
+) -> None:
+    """Without --format, -o naming a .png / .mcap / .json file writes that one file (it was
+    a folder of PLY scenes named map.png)."""
+    out = tmp_path / name
+    result = run("export", office.map, "-o", out, "--time", AT)
+    assert result.exit_code == 0, result.stderr
+    assert out.is_file()
+    assert out.read_bytes().startswith(magic)
+
+
+@pytest.mark.parametrize(
+    ("args", "name"),
+    [([], "scene.ply"), ([], "scene.pcd"), (["--format", "pcd"], "map.png")],
+)
+def test_a_folder_format_refuses_a_file_name(
+    office: Office, tmp_path: Path, args: list[str], name: str
+) -> None:
+    result = run("export", office.map, "-o", tmp_path / name, "--time", AT, *args)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "written into a folder", repr(str(tmp_path / name)))
+    assert not (tmp_path / name).exists()
+
+
+def test_an_existing_folder_keeps_its_name(office: Office, tmp_path: Path) -> None:
+    """--format ply into a folder that exists, whatever its name: the scene goes into it."""
+    out = tmp_path / "renders.png"
+    out.mkdir()
+    result = run("export", office.map, "-o", out, "--time", AT, "--format", "ply")
+    assert result.exit_code == 0, result.stderr
+    assert (out / "entries.csv").is_file()
