@@ -239,7 +239,7 @@ class Map:
         time: TimeLike | None = None,
         historical: bool = False,
         tz: str | None = None,
-        format: str = "ply",
+        format: str | None = None,
         path: tuple[str | int, str | int] | None = None,
     ) -> list[Path]:
         """Write the scene (PLY or PCD) and ``entries.csv`` / ``entries.json`` at ``time``
@@ -248,11 +248,19 @@ class Map:
         writes the scene as the one MCAP file ``folder`` names (``scene.mcap``, for Foxglove
         and RViz; as ``aion export --format mcap``); ``format="dsg"`` the 4D scene graph as
         the spark_dsg file ``folder`` names (``dsg.json`` or ``.sparkdsg``, dynamics in each
-        node's metadata; as ``aion export --format dsg``)."""
-        from aion_cli.exports import export_frames, path_ends
+        node's metadata; as ``aion export --format dsg``). Without ``format``, ``folder``'s
+        suffix chooses as in ``aion export``: ``.mcap``, ``.json`` / ``.sparkdsg`` (a ``.png``
+        is :meth:`picture`'s), else ply."""
+        from aion_cli.exports import export_format, export_frames, path_ends
 
-        if format not in ("ply", "pcd", "mcap", "dsg"):
+        if format not in (None, "ply", "pcd", "mcap", "dsg"):
             raise InputError(f"unknown export format {format!r}", hint="ply, pcd, mcap or dsg")
+        out = as_path(folder)
+        format = export_format(format, out)
+        if format == "png":
+            raise InputError(
+                f"{str(out)!r} names a picture", hint="Map.picture(file) writes the PNG"
+            )
         if historical and time is not None:
             raise InputError("choose time or historical=True, not both")
         times: list[int | None]
@@ -265,7 +273,6 @@ class Map:
         ends = None
         if path is not None:
             ends = path_ends(self._loaded, str(path[0]), str(path[1]))
-        out = as_path(folder)
         label = str(self.path) if self.path is not None else "<memory>"
         if format == "dsg":
             from aion_cli.exports import export_dsg

@@ -189,3 +189,26 @@ def export_dsg(
 def _node_record(row: dict[str, Any]) -> dict[str, Any]:
     """A predict record without what the node itself holds (its position)."""
     return {k: v for k, v in row.items() if k not in ("x", "y", "z")}
+
+
+FILE_FORMATS = {".png": "png", ".mcap": "mcap", ".json": "dsg", ".sparkdsg": "dsg"}
+"""Output suffixes that name one file, and the format that writes it."""
+
+
+def export_format(fmt: str | None, out: Path) -> str:
+    """The format to write: ``fmt`` if given (``--format``), else the one the output's suffix
+    names (a .png picture, an .mcap series, a .json / .sparkdsg scene graph), else ply. ply
+    and pcd write a folder: an output that names a file (a suffix of this list, or .ply /
+    .pcd) and is not an existing folder is refused rather than made a folder of that name."""
+    from aion_cli.errors import InputError
+
+    suffix = out.suffix.lower()
+    if fmt is None:
+        fmt = FILE_FORMATS.get(suffix, "ply" if suffix != ".pcd" else "pcd")
+    if fmt in ("ply", "pcd") and not out.is_dir() and suffix in {*FILE_FORMATS, ".ply", ".pcd"}:
+        raise InputError(
+            f"{fmt} scenes are written into a folder (the scene as .{fmt} files, entries.csv and "
+            f"entries.json), got {str(out)!r}",
+            hint="name a folder (e.g. out/), or write one file as png, mcap or dsg",
+        )
+    return fmt

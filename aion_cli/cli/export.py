@@ -121,7 +121,7 @@ def command(
     from aion_cli.cli.console import console, progress
     from aion_cli.cli.output import markup_safe
     from aion_cli.errors import InputError
-    from aion_cli.exports import export_frames, path_ends
+    from aion_cli.exports import export_format, export_frames, path_ends
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:
@@ -192,25 +192,3 @@ def command(
         announce_time(times[0], zone, label, loaded)
     console().print(done)
 
-
-FILE_FORMATS = {".png": "png", ".mcap": "mcap", ".json": "dsg", ".sparkdsg": "dsg"}
-"""Output suffixes that name one file, and the format that writes it."""
-
-
-def export_format(fmt: str | None, out: Path) -> str:
-    """The format to write: ``--format`` if given, else the one ``-o``'s suffix names (a .png
-    picture, an .mcap series, a .json / .sparkdsg scene graph), else ply. ply and pcd write a
-    folder: an ``-o`` that names a file (a suffix of this list, or .ply / .pcd) and is not an
-    existing folder is refused rather than made a folder of that name."""
-    from aion_cli.errors import InputError
-
-    suffix = out.suffix.lower()
-    if fmt is None:
-        fmt = FILE_FORMATS.get(suffix, "ply" if suffix != ".pcd" else "pcd")
-    if fmt in ("ply", "pcd") and not out.is_dir() and suffix in {*FILE_FORMATS, ".ply", ".pcd"}:
-        raise InputError(
-            f"{fmt} scenes are written into a folder (the scene as .{fmt} files, entries.csv and "
-            f"entries.json), got -o {str(out)!r}",
-            hint="name a folder, e.g. -o out/; or --format png / mcap / dsg for one file",
-        )
-    return fmt

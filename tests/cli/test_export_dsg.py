@@ -96,6 +96,13 @@ def test_the_api_writes_it_too(office: Office, tmp_path: Path) -> None:
     assert _graph(written).metadata.get()["aion"]["time"].startswith("2026-11-23 08:30")
     with pytest.raises(aion.InputError, match="no path"):
         m.export(tmp_path / "p.json", time=AT, format="dsg", path=("p0", "p2"))
+    # without format, the suffix chooses as in aion export
+    (guessed,) = m.export(tmp_path / "guessed.sparkdsg", time=AT, tz="UTC")
+    assert _graph(guessed).metadata.get()["aion"]["time"].startswith("2026-11-23 08:30")
+    for name, fragment in (("scene.ply", "written into a folder"), ("m.png", "picture")):
+        with pytest.raises(aion.InputError, match=fragment):
+            m.export(tmp_path / name, time=AT)
+        assert not (tmp_path / name).exists()
 
 
 def test_bad_targets_and_options(office: Office, tmp_path: Path) -> None:
