@@ -159,12 +159,31 @@ def select_topics(
     used = plan.names("detections") | plan.names("graph") | plan.names("tf")
     plan.ignored = [t for t in topics if t.topic not in used]
     for info in plan.ignored:
-        plan.reasons.setdefault(
-            info.topic,
-            f"skipped: {_short(info.msgtype)} is not a type aion reads (a TOML mapping can "
-            "read it: --detections-mapping)",
-        )
+        plan.reasons.setdefault(info.topic, _skipped_type(info.msgtype))
     return plan
+
+
+RAW_SENSOR_REASON = "is raw sensor data, not detected people"
+"""The end of a skipped raw-sensor topic's reason (``aion info`` checks for it)."""
+
+
+def _is_raw_sensor(msgtype: str) -> bool:
+    from aion_cli.formats.detections.registry import RAW_SENSOR_TYPES
+    from aion_cli.formats.raw import normalize_msgtype
+
+    return normalize_msgtype(msgtype) in RAW_SENSOR_TYPES
+
+
+def _skipped_type(msgtype: str) -> str:
+    """Why a topic of a type aion has no adapter for is skipped, and what would read it:
+    raw sensor data holds no people (a detector's output would); other types a TOML mapping
+    may read."""
+    if _is_raw_sensor(msgtype):
+        return f"skipped: {_short(msgtype)} {RAW_SENSOR_REASON}"
+    return (
+        f"skipped: {_short(msgtype)} is not a type aion reads (a TOML mapping can read it: "
+        "--detections-mapping)"
+    )
 
 
 def _mapped_topics(
@@ -220,6 +239,10 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
         hint = (
             f"{plan.reasons[first.topic]}; or map another type with --detections-mapping FILE"
         )
+    elif logset.topics and all(_is_raw_sensor(t.msgtype) for t in logset.topics):
+        from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
+
+        hint = f"it holds only raw sensor data ({', '.join(found[:4])}): {RAW_SENSOR_HINT}"
     elif not found:  # channels that are not ROS (other encodings), or none at all
         hint = (
             "it has no ROS topic aion can read (only other encodings, or no channels); "

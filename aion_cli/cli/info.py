@@ -303,10 +303,23 @@ def _print(report: dict[str, Any]) -> None:
     out.print(table)
     use = report["will_use"]
     if not use["detections"]:
+        from aion_cli.topics import RAW_SENSOR_REASON
+
+        raw = report["topics"] and all(
+            t.get("why", "").endswith(RAW_SENSOR_REASON) for t in report["topics"]
+        )
+        if raw:
+            from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
+
+            what = f"it holds only raw sensor data: {RAW_SENSOR_HINT}"
+        else:
+            what = (
+                "name a generic one with --detections-topic, or map another type: aion info "
+                "LOG --suggest-mapping TOPIC"
+            )
         console().print(
             "[yellow]note:[/yellow] no people-detection topic of a supported type: "
-            "`aion build` cannot learn flows from this log (name a generic one with "
-            "--detections-topic, or map another type: aion info LOG --suggest-mapping TOPIC)",
+            f"`aion build` cannot learn flows from this log ({safe(what)})",
             soft_wrap=True,
         )
     if not use["scene_graph"]:

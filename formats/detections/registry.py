@@ -44,6 +44,24 @@ SUPPORTED_TYPES: tuple[str, ...] = (
     "zed_msgs/msg/ObjectsStamped",
 )
 
+#: Raw sensor data (normalised names): no positions of people in them for a mapping to read;
+#: a people detector or tracker turns them into detections first. (sensor_msgs/PointCloud is
+#: not one: its Point32 array may hold people, and a mapping reads it.)
+RAW_SENSOR_TYPES: frozenset[str] = frozenset(
+    f"sensor_msgs/msg/{name}"
+    for name in (
+        "LaserScan", "MultiEchoLaserScan", "PointCloud2", "Image",
+        "CompressedImage", "CameraInfo", "Imu", "Range", "NavSatFix", "MagneticField",
+        "JointState", "Temperature", "FluidPressure", "RelativeHumidity", "Illuminance",
+        "BatteryState", "Joy", "LaserEcho", "TimeReference",
+    )
+)
+
+RAW_SENSOR_HINT = (
+    "record what a people detector or tracker makes of it (e.g. leg_tracker's /people_tracked, "
+    "spencer's TrackedPersons) and build from that"
+)
+
 
 def adapter_for(
     msgtype: str,

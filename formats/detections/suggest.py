@@ -229,6 +229,14 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
     found = _collect(store, item)
     positions = _positions(found.vec3)
     if not positions:
+        from aion_cli.formats.detections.registry import RAW_SENSOR_HINT, RAW_SENSOR_TYPES
+
+        if name in RAW_SENSOR_TYPES:
+            raise ConfigError(
+                f"{topic}: {name} is raw sensor data: it holds no positions of people for a "
+                "mapping to read",
+                hint=RAW_SENSOR_HINT,
+            )
         fields = ", ".join(n for n, _ in _fields(store, name))
         raise ConfigError(
             f"{topic}: {name} has no field aion can read as a position (a Point/Vector3-like "

@@ -276,6 +276,36 @@ def test_a_log_of_navigation_goals_only_is_refused_with_the_reason(tmp_path: Pat
     ) in " ".join(result.stderr.split())
 
 
+def test_a_log_of_raw_laser_scans_points_to_a_people_tracker(tmp_path: Path) -> None:
+    """A log of LaserScans only (as leg_tracker's demo bag): no mapping can read people from
+    a scan, so neither info, nor the build, nor --suggest-mapping offers one (all three
+    said a TOML mapping could read it)."""
+    from aion_cli.formats.writers import LogWriter, stamp
+
+    log = tmp_path / "scans.mcap"
+    with LogWriter(log, "mcap") as w:
+        for k in range(5):
+            t = T0 + k * S
+            scan = {"header": {"stamp": stamp(t), "frame_id": "laser"}, "ranges": [1.0, 2.0]}
+            w.write("/scan", "sensor_msgs/msg/LaserScan", scan, t)
+    info = run_json("info", log, "--format", "json")
+    (topic,) = info["topics"]
+    assert topic["why"] == "skipped: LaserScan is raw sensor data, not detected people"
+    table = run("info", log)
+    assert "it holds only raw sensor data" in " ".join(table.stderr.split())
+    tracker = "record what a people detector or tracker makes of it"
+    refused = run("build", log, "-o", tmp_path / "scans.aion")
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "no people-detection topic of a supported type")
+    hint = f"hint: it holds only raw sensor data (/scan (sensor_msgs/msg/LaserScan)): {tracker}"
+    assert hint in " ".join(refused.stderr.split())
+    suggested = run("info", log, "--suggest-mapping", "/scan")
+    assert suggested.exit_code == 2
+    assert_one_line_error(suggested.stderr, "raw sensor data")
+    assert tracker in suggested.stderr
+    assert not (tmp_path / "scans.aion").exists()
+
+
 # --- the real leg_tracker bags ----------------------------------------------------------------
 
 # Poses in /leg_cluster_positions per bag (counted with rosbags), and the laser frame.
