@@ -168,18 +168,23 @@ RAW_SENSOR_REASON = "is raw sensor data, not detected people"
 
 
 def _is_raw_sensor(msgtype: str) -> bool:
-    from aion_cli.formats.detections.registry import RAW_SENSOR_TYPES
-    from aion_cli.formats.raw import normalize_msgtype
+    from aion_cli.formats.detections.registry import unreadable_kind
 
-    return normalize_msgtype(msgtype) in RAW_SENSOR_TYPES
+    return unreadable_kind(msgtype) == "raw sensor data"
 
 
 def _skipped_type(msgtype: str) -> str:
     """Why a topic of a type aion has no adapter for is skipped, and what would read it:
-    raw sensor data holds no people (a detector's output would); other types a TOML mapping
-    may read."""
-    if _is_raw_sensor(msgtype):
+    raw sensor data and ROS plumbing hold no people (a detector's output would); other types
+    a TOML mapping may read."""
+    from aion_cli.formats.detections.registry import unreadable_kind
+
+    kind = unreadable_kind(msgtype)
+    if kind == "raw sensor data":
         return f"skipped: {_short(msgtype)} {RAW_SENSOR_REASON}"
+    if kind is not None:
+        package = msgtype.split("/", 1)[0]
+        return f"skipped: {_short(msgtype)} ({package}) holds no positions of people"
     return (
         f"skipped: {_short(msgtype)} is not a type aion reads (a TOML mapping can read it: "
         "--detections-mapping)"

@@ -57,6 +57,27 @@ RAW_SENSOR_TYPES: frozenset[str] = frozenset(
     )
 )
 
+#: Packages of ROS's own plumbing (logging, parameters, diagnostics, plain values): their
+#: types hold no positions for a mapping to read either.
+PLUMBING_PACKAGES: frozenset[str] = frozenset({
+    "std_msgs", "rcl_interfaces", "rosgraph_msgs", "diagnostic_msgs", "actionlib_msgs",
+    "lifecycle_msgs", "rosbag2_interfaces", "statistics_msgs", "service_msgs",
+    "type_description_interfaces", "bond", "dynamic_reconfigure", "roscpp",
+})
+
+
+def unreadable_kind(msgtype: str) -> str | None:
+    """What a type no adapter and no mapping can read people from is ("raw sensor data", or
+    "ROS plumbing": logging, parameters, plain values), None for a type a TOML mapping may
+    read."""
+    name = normalize_msgtype(msgtype)
+    if name in RAW_SENSOR_TYPES:
+        return "raw sensor data"
+    if name.split("/", 1)[0] in PLUMBING_PACKAGES:
+        return "ROS plumbing"
+    return None
+
+
 RAW_SENSOR_HINT = (
     "record what a people detector or tracker makes of it (e.g. leg_tracker's /people_tracked, "
     "spencer's TrackedPersons) and build from that"

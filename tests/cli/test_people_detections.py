@@ -306,6 +306,23 @@ def test_a_log_of_raw_laser_scans_points_to_a_people_tracker(tmp_path: Path) -> 
     assert not (tmp_path / "scans.aion").exists()
 
 
+def test_plumbing_topics_are_not_offered_a_mapping(tmp_path: Path) -> None:
+    """A std_msgs String holds no positions: it is skipped as such, while a type a mapping
+    may read (a navigation goal's PoseStamped, not named like people) keeps the pointer."""
+    from aion_cli.formats.writers import LogWriter, stamp
+
+    log = tmp_path / "chatter.mcap"
+    with LogWriter(log, "mcap") as w:
+        for k in range(3):
+            t = T0 + k * S
+            w.write("/chatter", "std_msgs/msg/String", {"data": f"hello {k}"}, t)
+            w.write("/odom_marker", "geometry_msgs/msg/PointStamped",
+                    {"header": {"stamp": stamp(t), "frame_id": "map"}}, t)
+    why = {t["topic"]: t["why"] for t in run_json("info", log, "--format", "json")["topics"]}
+    assert why["/chatter"] == "skipped: String (std_msgs) holds no positions of people"
+    assert "a TOML mapping can read it" in why["/odom_marker"]
+
+
 # --- the real leg_tracker bags ----------------------------------------------------------------
 
 # Poses in /leg_cluster_positions per bag (counted with rosbags), and the laser frame.
