@@ -332,6 +332,7 @@ class Map:
                 finally:
                     tmp.unlink(missing_ok=True)
             return target
+        from aion_cli.engine.family_summary import family_summary
         from aion_cli.manifest import Manifest
         from aion_cli.mapquery import state_counts
 
@@ -343,7 +344,7 @@ class Map:
             counts=state_counts(state),
             graph_source="memory",
             timezone=self.timezone,
-            families=state.family_summary(),
+            families=family_summary(state),
         )
         write_map(target, arrays, stored.to_dict())
         self.path = target

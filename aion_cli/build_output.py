@@ -37,6 +37,7 @@ def write_build(
     """Write ``report.output`` (the caller holds its lock) and fill the report's counts and
     size."""
     from aion_cli.build_report import far_from_graph_of
+    from aion_cli.engine.family_summary import family_summary
     from aion_cli.formats.mapfile import write_map
     from aion_cli.tf_feed import (
         DECLARED,
@@ -78,7 +79,7 @@ def write_build(
         graph_source=report.graph_source,
         observation=observation,
         timezone=config.timezone,
-        families=state.family_summary(),
+        families=family_summary(state),
         merged_from=previous.merged_from if previous is not None else (),
         lineage=previous.lineage if previous is not None else None,
     )

@@ -47,6 +47,9 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     unseen = None if static is not None else _unseen_day(manifest, int(t_ns))
     if unseen is not None:
         notes.append(unseen)
+    unobserved = _unobserved_hour(manifest, int(t_ns))
+    if unobserved is not None:
+        notes.append(unobserved)
     return notes
 
 
@@ -107,17 +110,14 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     knows) or the profile does not tell days apart."""
     import numpy as np
 
-    from aion_cli.engine.temporal.calendar import Calendar, weekday_of
-    from aion_cli.errors import AionError
+    from aion_cli.engine.temporal.calendar import weekday_of
 
     start, end = manifest.start_ns, manifest.end_ns
-    profile = str(manifest.config.get("profile", "day_weekend"))
-    if start is None or end is None or profile not in ("day_weekend", "week"):
+    calendar = _calendar(manifest.config, manifest.timezone)
+    if start is None or end is None or calendar is None:
         return None
-    zone = str(manifest.config.get("timezone", manifest.timezone or "UTC"))
-    try:
-        calendar = Calendar(zone, profile)
-    except AionError:  # a zone this machine does not know: say nothing rather than fail
+    profile = calendar.profile
+    if profile not in ("day_weekend", "week"):
         return None
     first, last, day = (int(d) for d in calendar.day([int(start), max(int(start), int(end) - 1),
                                                       t_ns]))
@@ -144,6 +144,87 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
             f"{_WEEKDAYS[weekday]} follows the {seen_kind}' rhythm and level"
         )
     return f"the map's data ({_span_days(first, last)}) holds {kind}: {follows}"
+
+
+def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
+    """The note for a time of day no log observed on any day (a tracker recorded only in
+    working hours, say): each entry's forecast there is extrapolated from the hours it saw.
+    None when some kind of day observed that hour (another kind's forecast follows it: see
+    :func:`_unseen_day`), or for a map that does not list its observed bins (older maps)."""
+    observed = manifest.families.get("observed_bins")
+    calendar = _calendar(manifest.config, manifest.timezone)
+    if not isinstance(observed, list) or not observed or calendar is None:
+        return None
+    per_day = calendar.bins_per_day
+    hours = sorted({int(b) % per_day for b in observed})
+    at = int(calendar.profile_bin(t_ns)) % per_day
+    if at in hours:
+        return None
+    return (
+        f"no log observed {_clock(at, calendar.bin_s)}-{_clock(at + 1, calendar.bin_s)} "
+        f"({calendar.timezone}) on any day (the map observed "
+        f"{_clock_ranges(hours, calendar.bin_s)}): the forecast at "
+        "this hour is extrapolated from the hours observed, not measured"
+    )
+
+
+def observed_hours(
+    families: Mapping[str, Any], config: Mapping[str, Any], timezone: str | None
+) -> str | None:
+    """The hours a map observed, per kind of day, for ``aion info``: ``weekdays 09:00-18:00;
+    weekends none (UTC)``; None for a map that does not list its observed bins."""
+    observed = families.get("observed_bins")
+    calendar = _calendar(config, timezone)
+    if not isinstance(observed, list) or calendar is None:
+        return None
+    per_day = calendar.bins_per_day
+    kinds = {"day": [""], "day_weekend": ["weekdays ", "weekends "]}.get(
+        calendar.profile, [f"{name[:3]} " for name in _WEEKDAYS]
+    )
+    by_kind: dict[str, list[str]] = {}
+    for k, label in enumerate(kinds):
+        hours = sorted(int(b) - k * per_day for b in observed if int(b) // per_day == k)
+        text = _clock_ranges(hours, calendar.bin_s) if hours else "none"
+        by_kind.setdefault(text, []).append(label.strip())
+    parts = [
+        (", ".join(labels) + " " if any(labels) else "") + text
+        for text, labels in by_kind.items()
+    ]
+    return f"{'; '.join(parts)} ({calendar.timezone})"
+
+
+def _calendar(config: Mapping[str, Any], timezone: str | None) -> Any:
+    """The map's calendar (zone, profile, bin length) from its config; None for a zone this
+    machine does not know (say nothing rather than fail) or a config it cannot read."""
+    from aion_cli.engine.temporal.calendar import Calendar
+    from aion_cli.errors import AionError
+
+    zone = str(config.get("timezone", timezone or "UTC"))
+    try:
+        return Calendar(
+            zone,
+            str(config.get("profile", "day_weekend")),
+            float(config.get("profile_bin_s", 3600.0)),
+        )
+    except (AionError, TypeError, ValueError):
+        return None
+
+
+def _clock(index: int, bin_s: float) -> str:
+    """``HH:MM`` of the start of in-day bin ``index`` (24:00 for the end of the day)."""
+    minutes = round(index * bin_s / 60.0)
+    return f"{minutes // 60:02d}:{minutes % 60:02d}"
+
+
+def _clock_ranges(bins: list[int], bin_s: float) -> str:
+    """``09:00-12:00, 13:00-18:00`` for sorted in-day bins, runs joined."""
+    runs: list[tuple[int, int]] = []
+    for b in bins:
+        if runs and b == runs[-1][1]:
+            runs[-1] = (runs[-1][0], b + 1)
+        else:
+            runs.append((b, b + 1))
+    return ", ".join(f"{_clock(a, bin_s)}-{_clock(b, bin_s)}" for a, b in runs)
 
 
 def _span_days(first: int, last: int) -> str:

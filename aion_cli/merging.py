@@ -439,6 +439,7 @@ def _write(
     """The merged map file (atomic; the caller holds the output's lock) and the report's
     figures."""
     from aion_cli.build_report import far_from_graph_of
+    from aion_cli.engine.family_summary import family_summary
     from aion_cli.formats.mapfile import write_map
     from aion_cli.mapquery import state_counts
     from aion_cli.tf_feed import map_observation_text
@@ -476,7 +477,7 @@ def _write(
         graph_source=f"merge: {report.graph_source}",
         observation=observation,
         timezone=maps[0].manifest.timezone,
-        families=merged.family_summary(),
+        families=family_summary(merged),
         merged_from=tuple(m.file.to_dict() for m in maps),
         lineage=report.lineage,
     )

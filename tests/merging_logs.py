@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aion_cli.engine.family_summary import family_summary
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.state import MapState
 from aion_cli.formats.mapfile import write_map
@@ -47,7 +48,7 @@ def save_map(
         graph_source="test",
         observation="fixed sensor",
         timezone=timezone,
-        families=state.family_summary(),
+        families=family_summary(state),
     )
     write_map(path, arrays, manifest.to_dict())
     return path

@@ -118,3 +118,54 @@ def test_a_kind_of_day_the_map_never_saw_is_named() -> None:
                       families={"flow": {"static": 3}, "scored_days": 1})
     (only,) = forecast_notes(static, saturday)
     assert only.startswith("every entry forecasts its static rate")
+
+
+def test_an_hour_no_log_observed_is_named() -> None:
+    """A map that observed weekday hours 09-12 and 13-18 (bins 9..11, 13..17 of the default
+    profile) and one Saturday morning hour (bin 24 + 10): 03:00 on any day and 12:00 on a
+    weekday were never observed; 10:00 on a Sunday was (on the Saturday: the weekday hours
+    are another kind of day, which the unseen-day note covers)."""
+    observed = [9, 10, 11, 13, 14, 15, 16, 17, 34]
+    manifest = Manifest({}, {"timezone": "UTC"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+                        families={"flow": {"profile": 4}, "scored_days": 5,
+                                  "observed_bins": observed})
+    (night,) = forecast_notes(manifest, MONDAY + 3 * HOUR_NS + 600 * 10**9)
+    assert night == (
+        "no log observed 03:00-04:00 (UTC) on any day (the map observed 09:00-12:00, "
+        "13:00-18:00): the forecast at this hour is extrapolated from the hours observed, "
+        "not measured"
+    )
+    (noon,) = forecast_notes(manifest, MONDAY + 12 * HOUR_NS)
+    assert noon.startswith("no log observed 12:00-13:00 (UTC)")
+    assert forecast_notes(manifest, MONDAY + 9 * HOUR_NS) == []
+    assert forecast_notes(manifest, MONDAY + 6 * DAY_NS + 10 * HOUR_NS) == []  # Sunday 10:00
+    # the map's zone tells the hour: 03:00 UTC is 12:00 in Tokyo, which was not observed
+    # either, while 02:00 UTC is 11:00 there, which was
+    tokyo = Manifest({}, {"timezone": "Asia/Tokyo"}, families=manifest.families)
+    (local,) = forecast_notes(tokyo, MONDAY + 3 * HOUR_NS)
+    assert local.startswith("no log observed 12:00-13:00 (Asia/Tokyo)")
+    assert forecast_notes(tokyo, MONDAY + 2 * HOUR_NS) == []
+    # half-hour bins read as such; a map without the list (an older map) says nothing
+    halves = Manifest({}, {"profile": "day", "profile_bin_s": 1800.0},
+                      families={"flow": {"profile": 1}, "observed_bins": [18, 19, 20]})
+    (half,) = forecast_notes(halves, MONDAY + 8 * HOUR_NS)
+    assert "08:00-08:30" in half
+    assert "(the map observed 09:00-10:30)" in half
+    older = Manifest({}, {}, families={"flow": {"profile": 1}})
+    assert forecast_notes(older, MONDAY + 3 * HOUR_NS) == []
+
+
+def test_the_hours_observed_read_per_kind_of_day() -> None:
+    from aion_cli.forecast_notes import observed_hours
+
+    families = {"observed_bins": [9, 10, 11, 13, 14, 15, 16, 17, 34]}
+    assert observed_hours(families, {}, "UTC") == (
+        "weekdays 09:00-12:00, 13:00-18:00; weekends 10:00-11:00 (UTC)"
+    )
+    # the weekly profile groups days with the same hours, in order
+    week = {"observed_bins": [24 * d + 8 for d in range(5)]}
+    assert observed_hours(week, {"profile": "week"}, "Europe/London") == (
+        "Mon, Tue, Wed, Thu, Fri 08:00-09:00; Sat, Sun none (Europe/London)"
+    )
+    assert observed_hours({"observed_bins": []}, {"profile": "day"}, None) == "none (UTC)"
+    assert observed_hours({}, {}, "UTC") is None  # an older map

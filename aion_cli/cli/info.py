@@ -422,6 +422,11 @@ def _print_map(report: dict[str, Any]) -> None:
         last = " (the last, still open to more logs, provisionally)" if families.get(
             "last_day_provisional") else ""
         table.add_row("days scored", f"{days:,}{last}")
+    from aion_cli.forecast_notes import observed_hours
+
+    hours = observed_hours(families, report.get("config") or {}, report.get("timezone"))
+    if hours is not None:
+        table.add_row("hours observed", safe(hours))
     if families:
         table.add_row(
             "reconciled", "yes: totals follow the map's own forecast" if families.get("reconciled")

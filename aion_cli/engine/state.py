@@ -307,24 +307,6 @@ class MapState:
             self.params, self.temporal, parts, order, total, bins, self.window_ns
         )
 
-    def family_summary(self) -> dict[str, Any]:
-        """How many entries forecast with each family (flow and direction), and whether the
-        map's total is reconciled to its own forecast (for the manifest and ``aion info``).
-        The choice depends only on the day-ahead scores, so no forecast is prepared."""
-        rows = self.entries.canonical_order()
-        groups, n_groups = self.groups(rows)
-        t = self.scored_temporal()
-        flow, direction, map_flow = temporal_model.choose(self.params, t, rows, groups, n_groups)
-        reconciled = self.config.reconcile and self.params.flow[map_flow] != "static"
-        return {
-            "flow": _tally(np.asarray(self.params.flow)[flow]),
-            "direction": _tally(np.asarray(self.params.direction)[direction]),
-            "reconciled": bool(reconciled),
-            "scored_windows": float(t.flow_scored[rows].sum()),
-            "scored_days": int(t.flow_days[rows].max(initial=0.0)),
-            "last_day_provisional": self.provisional_scores() is not None,  # cached
-        }
-
     def _view_key(self) -> _StateKey:
         """What the cached query view, forecasts and provisional scores depend on: the
         accumulators, the pending day, the open window, the detections taken, and the graph
@@ -471,11 +453,6 @@ class MapState:
         check_loaded(state, arrays)
         state.rebuild_routes()
         return state
-
-
-def _tally(names: np.ndarray) -> dict[str, int]:
-    values, counts = np.unique(names, return_counts=True)
-    return {str(v): int(c) for v, c in zip(values, counts, strict=True)}
 
 
 def merge_states(a: MapState, b: MapState) -> MapState:

@@ -77,6 +77,17 @@ def test_a_silent_night_is_forecast_as_a_night(mornings: Path, tmp_path: Path) -
     morning = _total_flow(declared, f"{after} 08:05")
     assert morning > 0
     assert night <= 0.05 * morning
+    # and the forecast says which: the silent map observed 08:00-09:00 only
+    assert read_manifest(silent)["families"]["observed_bins"] == [8]
+    # Monday to Thursday, every hour: the weekday bins
+    assert read_manifest(declared)["families"]["observed_bins"] == list(range(24))
+    unknown = run("predict", silent, "--time", f"{after} 03:00", "--tz", "UTC")
+    assert (
+        "no log observed 03:00-04:00 (UTC) on any day (the map observed 08:00-09:00): the "
+        "forecast at this hour is extrapolated from the hours observed, not measured"
+    ) in " ".join(unknown.stderr.split())
+    known = run("predict", declared, "--time", f"{after} 03:00", "--tz", "UTC")
+    assert "no log observed" not in known.stderr
 
 
 def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> None:

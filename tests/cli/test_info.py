@@ -140,6 +140,7 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
         "scored_windows": 0.0,
         "scored_days": 0,
         "last_day_provisional": False,
+        "observed_bins": [8],  # the office log's 20 minutes from Monday 08:00 UTC
     }
     assert doc["timezone"] == "UTC"
     table = run("info", office.map)
@@ -148,6 +149,8 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
     assert any("flow models" in line and "static 3" in line for line in lines)
     assert any("direction models" in line and "static 3" in line for line in lines)
     assert any("days scored" in line and line.split("│")[2].strip() == "0" for line in lines)
+    hours = "weekdays 08:00-09:00; weekends none (UTC)"
+    assert any("hours observed" in line and hours in line for line in lines)
 
 
 def test_families_after_a_scored_day(tmp_path: Path) -> None:

@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.grouping import cut_by_key
-from aion_cli.engine.temporal.absorption import absorb
+from aion_cli.engine.temporal.absorption import absorb, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.choice import choose_families, dispersion
 from aion_cli.engine.temporal.components import FremenComponents
@@ -130,6 +130,26 @@ def query_view(
     if in_place:
         pending.clear()
     return view
+
+
+def observed_bins(
+    params: TemporalParams,
+    state: TemporalState,
+    rows: I64,
+    parts: list[DayWindows],
+    window_ns: int,
+) -> I64:
+    """The profile bins (hour of day × kind of day) in which the map observed anything: a
+    window of the fixed sensor, any of ``rows``' own windows, or a window of ``parts`` (the
+    pending day, the open window: every window they hold was observed by something). A
+    forecast in any other bin is extrapolated from the bins observed, not measured."""
+    seen = state.glob.profile[0] > 0
+    if rows.size:
+        seen = seen | (state.obs.profile[rows] > 0).any(axis=0)
+    for part in parts:
+        if part.windows.size:
+            seen[slot_times(params, part, window_ns)[1]] = True
+    return np.flatnonzero(seen).astype(np.int64)
 
 
 @dataclass(frozen=True)
