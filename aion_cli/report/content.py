@@ -68,6 +68,9 @@ class Series:
     times_ns: Any
     names: tuple[str, ...]
     flows: Any
+    unobserved: Any = None
+    """Per time, whether its hour of the day (in the map's zone) was observed on no kind of
+    day: the forecast there is extrapolated (None: not known)."""
 
 
 @dataclass(frozen=True)
@@ -236,9 +239,20 @@ def activity_series(
     names, columns = _top_columns(loaded, [str(i) for i in ids], flows, times[-1].size)
     out, at = [], 0
     for (title, _, _, _), when in zip(spans, times, strict=True):
-        out.append(Series(title, when, names, columns[at : at + when.size]))
+        unobserved = _unobserved_hours(loaded, observed, when)
+        out.append(Series(title, when, names, columns[at : at + when.size], unobserved))
         at += when.size
     return tuple(out), notes
+
+
+def _unobserved_hours(loaded: LoadedMap, observed: Observed, times: Any) -> Any:
+    """Per time, whether no kind of day observed its hour (``observed.hours``, in the map's
+    zone): the hours a forecast note calls extrapolated."""
+    calendar = loaded.state.params.calendar
+    seen = np.asarray(observed.hours).sum(axis=0) > 0  # per in-day bin, any kind of day
+    if not seen.any():
+        return np.zeros(len(times), bool)
+    return ~seen[calendar.profile_bin(np.asarray(times, np.int64)) % calendar.bins_per_day]
 
 
 def _top_columns(

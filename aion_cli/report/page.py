@@ -202,9 +202,15 @@ def _activity(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]
     lines = "one line per room (the busiest, the others summed)"
     if c.activity[0].names == ("whole map",):
         lines = "the whole map's flow"
+    grey = ""
+    if any(s.unobserved is not None and s.unobserved.any() for s in c.activity):
+        grey = (
+            " Grey bands: hours of the day no log observed on any day; the forecast there is "
+            "extrapolated from the hours observed, not measured."
+        )
     out.append(
         f"<p>Predicted flow (expected detections per {window} window, summed over each room's "
-        f"places as <code>aion predict --layer rooms</code> sums them), {lines}.</p>"
+        f"places as <code>aion predict --layer rooms</code> sums them), {lines}.{grey}</p>"
     )
     roles = ("day_weekday", "day_weekend", "week")
     steps = ("every 15 minutes", "every 15 minutes", "every hour")

@@ -174,6 +174,7 @@ def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
             linewidth=1.4,
             linestyle="--" if name.startswith("other rooms") else "-",
         )
+    _shade_unobserved(ax, hours, series.unobserved)
     if week:
         start = from_ns(int(times[0]), zone).date()
         ax.set_xticks(np.arange(0, 7 * 24 + 1, 24))
@@ -189,6 +190,25 @@ def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
     ax.grid(color="#e3e3e3", linewidth=0.6)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
     return _save(fig, path)
+
+
+def _shade_unobserved(ax: Any, hours: Any, unobserved: Any) -> None:
+    """Grey bands over the runs of times whose hour no log observed (each time stands for
+    the step up to the next), labelled once in the legend."""
+    if unobserved is None or not np.any(unobserved) or len(hours) == 0:
+        return
+    flags = np.asarray(unobserved, bool)
+    step = float(hours[1] - hours[0]) if len(hours) > 1 else 1.0
+    edges = np.flatnonzero(np.diff(np.r_[0, flags.astype(np.int8), 0]))
+    for k, (a, b) in enumerate(zip(edges[::2], edges[1::2], strict=True)):
+        ax.axvspan(
+            float(hours[a]),
+            float(hours[b - 1]) + step,
+            color="#d9d9d9",
+            alpha=0.6,
+            linewidth=0,
+            label="hours no log observed (extrapolated)" if k == 0 else None,
+        )
 
 
 def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:

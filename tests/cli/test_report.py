@@ -304,3 +304,24 @@ def test_rooms_beyond_the_busiest_are_summed_into_one_line(
         assert cut.names == (*full.names[:2], f"other rooms ({len(full.names) - 2})")
         np.testing.assert_allclose(cut.flows[:, :2], full.flows[:, :2], rtol=0, atol=0)
         np.testing.assert_allclose(cut.flows[:, 2], full.flows[:, 2:].sum(axis=1), rtol=1e-12)
+
+
+def test_the_curves_mark_the_hours_no_log_observed(tmp_path: Path) -> None:
+    """Each activity time is marked unobserved exactly when the map's manifest lists no
+    observed profile bin at its hour of the day: a fixed sensor's 20 minutes from 08:00 UTC
+    (every other hour of the day extrapolated)."""
+    from aion_cli.formats.mapfile import read_manifest
+    from aion_cli.mapquery import load_map
+    from aion_cli.report.content import gather
+    from aion_cli.timeparse import resolve_zone
+    from tests.cli.logdata import write_office_log
+
+    log, out = tmp_path / "morning.mcap", tmp_path / "morning.aion"
+    write_office_log(log, graph=False, tf=False)
+    assert run("build", log, "-o", out, "-q").exit_code == 0
+    content = gather(load_map(out), out, resolve_zone("UTC"), None)
+    observed_hours = {b % 24 for b in read_manifest(out)["families"]["observed_bins"]}
+    assert observed_hours == {8}
+    for series in content.activity:
+        hour = (np.asarray(series.times_ns) // 3_600_000_000_000) % 24
+        np.testing.assert_array_equal(series.unobserved, hour != 8)
