@@ -146,24 +146,68 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     return f"the map's data ({_span_days(first, last)}) holds {kind}: {follows}"
 
 
+def series_notes(manifest: Manifest, times_ns: list[int]) -> list[str]:
+    """The notes for a series of forecasts: the first time's, with the hours no log observed
+    named for the whole series rather than for its first time only."""
+    notes = [n for n in forecast_notes(manifest, times_ns[0]) if not n.startswith(_NO_LOG)]
+    observed = hour_observed(manifest, times_ns)
+    calendar = _calendar(manifest.config, manifest.timezone)
+    if observed is None or all(observed) or calendar is None:
+        return notes
+    per_day = calendar.bins_per_day
+    missed = sorted({int(b) % per_day for b, seen in
+                     zip(calendar.profile_bin(times_ns), observed, strict=True) if not seen})
+    n = len(observed) - sum(observed)
+    notes.append(
+        f"{n} of the series' {len(observed)} times fall in hours no log observed on any day "
+        f"({_clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
+        f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): their forecast is "
+        "extrapolated from the hours observed, not measured"
+    )
+    return notes
+
+
+def hour_observed(manifest: Manifest, times_ns: list[int]) -> list[bool] | None:
+    """Per time, whether some day of the map's data observed its hour of the day (any kind
+    of day; the map's zone). None for a map that does not list its observed bins (older
+    maps) or has observed nothing."""
+    calendar = _calendar(manifest.config, manifest.timezone)
+    if calendar is None:
+        return None
+    per_day = calendar.bins_per_day
+    hours = _hours(manifest, per_day)
+    if not hours:
+        return None
+    at = calendar.profile_bin(list(times_ns)) % per_day
+    return [int(h) in hours for h in at]
+
+
+def _hours(manifest: Manifest, per_day: int) -> list[int]:
+    """The in-day bins the map observed on some kind of day (empty: not listed)."""
+    observed = manifest.families.get("observed_bins")
+    if not isinstance(observed, list):
+        return []
+    return sorted({int(b) % per_day for b in observed})
+
+
+_NO_LOG = "no log observed "
+
+
 def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
     """The note for a time of day no log observed on any day (a tracker recorded only in
     working hours, say): each entry's forecast there is extrapolated from the hours it saw.
     None when some kind of day observed that hour (another kind's forecast follows it: see
     :func:`_unseen_day`), or for a map that does not list its observed bins (older maps)."""
-    observed = manifest.families.get("observed_bins")
+    observed = hour_observed(manifest, [t_ns])
     calendar = _calendar(manifest.config, manifest.timezone)
-    if not isinstance(observed, list) or not observed or calendar is None:
+    if observed is None or observed[0] or calendar is None:
         return None
     per_day = calendar.bins_per_day
-    hours = sorted({int(b) % per_day for b in observed})
     at = int(calendar.profile_bin(t_ns)) % per_day
-    if at in hours:
-        return None
     return (
-        f"no log observed {_clock(at, calendar.bin_s)}-{_clock(at + 1, calendar.bin_s)} "
+        f"{_NO_LOG}{_clock(at, calendar.bin_s)}-{_clock(at + 1, calendar.bin_s)} "
         f"({calendar.timezone}) on any day (the map observed "
-        f"{_clock_ranges(hours, calendar.bin_s)}): the forecast at "
+        f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): the forecast at "
         "this hour is extrapolated from the hours observed, not measured"
     )
 

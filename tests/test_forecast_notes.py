@@ -169,3 +169,21 @@ def test_the_hours_observed_read_per_kind_of_day() -> None:
     )
     assert observed_hours({"observed_bins": []}, {"profile": "day"}, None) == "none (UTC)"
     assert observed_hours({}, {}, "UTC") is None  # an older map
+
+
+def test_a_series_names_every_hour_no_log_observed() -> None:
+    from aion_cli.forecast_notes import hour_observed, series_notes
+
+    manifest = Manifest({}, {"timezone": "UTC"}, start_ns=MONDAY, end_ns=MONDAY + 5 * DAY_NS,
+                        families={"flow": {"profile": 4}, "scored_days": 4,
+                                  "observed_bins": [9, 10, 11, 13]})
+    times = [MONDAY + 7 * DAY_NS + h * HOUR_NS for h in range(8, 15)]  # the next Monday
+    assert hour_observed(manifest, times) == [False, True, True, True, False, True, False]
+    assert series_notes(manifest, times) == [
+        "3 of the series' 7 times fall in hours no log observed on any day (08:00-09:00, "
+        "12:00-13:00, 14:00-15:00 UTC; the map observed 09:00-12:00, 13:00-14:00): their "
+        "forecast is extrapolated from the hours observed, not measured"
+    ]
+    # the first time's other notes stay; a series within the observed hours adds none
+    assert series_notes(manifest, times[1:4]) == []
+    assert hour_observed(Manifest({}, {}, families={}), times) is None

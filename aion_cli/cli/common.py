@@ -71,19 +71,37 @@ def resolve_time(text: str, tz: str | None, loaded: Any = None) -> tuple[int, Zo
     return parse_time(text, zone), zone
 
 
-def announce_time(t_ns: int, zone: Zone, label: str = "time", loaded: Any = None) -> None:
+def announce_time(
+    t_ns: int,
+    zone: Zone,
+    label: str = "time",
+    loaded: Any = None,
+    series: list[int] | None = None,
+) -> None:
     """Say on stderr which time and zone were used (after the command succeeded, so an error
     stays the only output of a failed command), and, for a forecast from the map ``loaded``,
-    what it cannot say at that time (:mod:`aion_cli.forecast_notes`)."""
+    what it cannot say at that time (:mod:`aion_cli.forecast_notes`), or over the whole
+    ``series`` of times that starts at ``t_ns``."""
     from aion_cli.cli.console import note
 
     note(f"{label}: {format_ns(t_ns, zone)} ({zone.name})")
     if loaded is not None:
-        from aion_cli.forecast_notes import forecast_notes
+        from aion_cli.forecast_notes import forecast_notes, series_notes
         from aion_cli.manifest import Manifest
 
-        for line in forecast_notes(Manifest.from_dict(loaded.manifest), t_ns):
+        manifest = Manifest.from_dict(loaded.manifest)
+        lines = series_notes(manifest, series) if series else forecast_notes(manifest, t_ns)
+        for line in lines:
             note(line)
+
+
+def hour_flags(loaded: Any, times_ns: list[int]) -> list[bool] | None:
+    """Per time, whether the map observed its hour of the day on some day (JSON
+    ``hour_observed``); None for a map that does not list its observed hours."""
+    from aion_cli.forecast_notes import hour_observed
+    from aion_cli.manifest import Manifest
+
+    return hour_observed(Manifest.from_dict(loaded.manifest), times_ns)
 
 
 def load(map_path: Path) -> Any:

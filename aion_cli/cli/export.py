@@ -189,6 +189,7 @@ def command(
         done = write(lambda: bar.advance(task))
     if zone is not None and times[0] is not None:
         label = "time" if len(times) == 1 else f"series of {len(times)} from"
-        announce_time(times[0], zone, label, loaded)
+        span = [int(t) for t in times if t is not None] if len(times) > 1 else None
+        announce_time(times[0], zone, label, loaded, series=span)
     console().print(done)
 

@@ -105,7 +105,7 @@ def command(
     direction, how ordered the flow is (entropy, concentration), their speed, and the
     histogram of directions.
     """
-    from aion_cli.cli.common import load
+    from aion_cli.cli.common import hour_flags, load
     from aion_cli.predictions import CSV_KEYS, document, predicted_records
     from aion_cli.timeparse import format_ns
 
@@ -124,6 +124,8 @@ def command(
     rows, count = predicted_records(loaded, t_ns, layer, nodes, at, shown)
     payload = document(map_path, loaded.config.bins, rows, t_ns, zone)
     if t_ns is not None and zone is not None:
+        if (flags := hour_flags(loaded, [t_ns])) is not None:
+            payload["hour_observed"] = flags[0]
         announce_time(t_ns, zone, loaded=loaded)
     title = (
         "historical flows"

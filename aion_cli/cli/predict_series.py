@@ -56,7 +56,7 @@ def run_series(
     (layer, nodes, at, top)."""
     import click
 
-    from aion_cli.cli.common import announce_time, series_of
+    from aion_cli.cli.common import announce_time, hour_flags, series_of
     from aion_cli.cli.console import note, progress
     from aion_cli.cli.output import to_csv, to_json
     from aion_cli.prediction_series import (
@@ -74,9 +74,12 @@ def run_series(
             loaded, times, layer, nodes, at, top, lambda done: bar.update(task, completed=done)
         )
     labels = [format_ns(t, zone) for t in times]
-    announce_time(times[0], zone, "from", loaded)
+    announce_time(times[0], zone, "from", loaded, series=times)
     if fmt == "json":
-        click.echo(to_json(series_document(map_path, table, zone, labels)))
+        doc = series_document(map_path, table, zone, labels)
+        if (flags := hour_flags(loaded, times)) is not None:
+            doc["hour_observed"] = flags
+        click.echo(to_json(doc))
     elif fmt == "csv":
         click.echo(to_csv(table.long_rows(labels), SERIES_CSV_KEYS), nl=False)
     else:

@@ -88,6 +88,14 @@ def test_a_silent_night_is_forecast_as_a_night(mornings: Path, tmp_path: Path) -
     ) in " ".join(unknown.stderr.split())
     known = run("predict", declared, "--time", f"{after} 03:00", "--tz", "UTC")
     assert "no log observed" not in known.stderr
+    # JSON says it per time
+    at = ("--time", f"{after} 03:00", "--tz", "UTC", "--format", "json")
+    assert run_json("predict", silent, *at)["hour_observed"] is False
+    assert run_json("predict", declared, *at)["hour_observed"] is True
+    day = ("--from", f"{after} 06:00", "--to", f"{after} 10:00", "--tz", "UTC", "--format",
+           "json")
+    assert run_json("predict", silent, *day)["hour_observed"] == [False, False, True, False,
+                                                                   False]
 
 
 def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> None:
