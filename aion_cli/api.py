@@ -157,7 +157,15 @@ class Map:
             None if zone is None else zone.name,
             int(self.config.bins),
             tuple(rows),
+            None if t_ns is None else self._hour_observed([t_ns]),
         )
+
+    def _hour_observed(self, times_ns: list[int]) -> bool | None:
+        from aion_cli.forecast_notes import hour_observed
+        from aion_cli.manifest import Manifest
+
+        flags = hour_observed(Manifest.from_dict(self._loaded.manifest or {}), times_ns)
+        return None if flags is None else flags[0]
 
     def predict_series(
         self,

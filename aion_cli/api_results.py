@@ -34,6 +34,10 @@ class Table:
     zone: str | None
     bins: int
     entries: tuple[dict[str, Any], ...]
+    hour_observed: bool | None = None
+    """Whether any day of the map's data observed the time's hour of the day (None:
+    historical, or a map that does not list its observed hours); where not, the forecast is
+    extrapolated."""
 
     def records(self) -> list[dict[str, Any]]:
         """The entries as a list of fresh dicts (safe to change)."""
@@ -49,6 +53,8 @@ class Table:
             time=self.time,
             zone=self.zone,
         )
+        if self.hour_observed is not None:
+            doc["hour_observed"] = self.hour_observed
         return doc
 
     def __len__(self) -> int:

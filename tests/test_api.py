@@ -209,3 +209,21 @@ def test_an_in_memory_state_is_saved_and_reloads_equal(tmp_path: Path) -> None:
     assert again.predict(at).records() == m.predict(at).records()
     assert again.manifest.graph_source == "memory"
     assert again.timezone == "UTC"
+
+
+def test_a_table_says_whether_its_hour_was_observed(tmp_path: Path) -> None:
+    """A fixed sensor's 20 minutes from 08:00 UTC: 08:30 was observed, 03:00 was not; the
+    table's to_dict is the CLI's document, flag included."""
+    from tests.cli.logdata import write_office_log
+
+    log = tmp_path / "morning.mcap"
+    write_office_log(log, graph=False, tf=False)
+    m = aion.build([log], output=tmp_path / "morning.aion")
+    assert m.predict("2026-11-24 08:30", tz="UTC").hour_observed is True
+    night = m.predict("2026-11-24 03:00", tz="UTC")
+    assert night.hour_observed is False
+    cli = _cli_json("predict", tmp_path / "morning.aion", "--time", "2026-11-24 03:00", "--tz",
+                    "UTC", "--format", "json")
+    assert cli["hour_observed"] is False
+    assert _jsonable(night.to_dict())["hour_observed"] is False
+    assert m.predict(historical=True).hour_observed is None
