@@ -38,6 +38,7 @@ def write_build(
     size."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
+    from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
     from aion_cli.tf_feed import (
         DECLARED,
@@ -86,3 +87,4 @@ def write_build(
     out = report.output
     write_map(out, arrays, manifest.to_dict(), lock=False)
     report.map_bytes = out.stat().st_size
+    report.hours_observed = observed_hours(manifest.families, manifest.config, config.timezone)

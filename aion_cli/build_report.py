@@ -78,6 +78,7 @@ class BuildReport:
     nodes_with_flow: int = 0
     bound_cells: int = 0
     windows: int = 0
+    hours_observed: str | None = None  # per kind of day, as aion info MAP shows them
     start_ns: int | None = None
     end_ns: int | None = None
     map_bytes: int = 0
@@ -140,6 +141,7 @@ class BuildReport:
             "nodes_with_flow": self.nodes_with_flow,
             "bound_cells": self.bound_cells,
             "windows": self.windows,
+            "hours_observed": self.hours_observed,
             "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns, "seconds": span},
             "observation": self.observation,
             "graph": {

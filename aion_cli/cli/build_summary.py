@@ -45,6 +45,8 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row("hash cells", f"{summary['cells']:,}")
     table.add_row("bound cells", f"{summary['bound_cells']:,}")
     table.add_row("windows observed", f"{summary['windows']:,}")
+    if summary.get("hours_observed"):
+        table.add_row("hours observed", markup_safe(summary["hours_observed"]))
     table.add_row("time span", span_text(summary["time_span"]["seconds"]))
     table.add_row("observation", markup_safe(summary["observation"]))
     table.add_row("map size", human_size(summary["map_bytes"]))

@@ -41,6 +41,7 @@ def test_declared_spans_make_silent_windows_observed_empty(
     silent = run_json("build", mornings, "-o", tmp_path / "a.aion", "--format", "json")
     assert silent["observation"].startswith("fixed sensor over the 8 windows with messages")
     assert silent["windows"] == 8  # the summary counts the open last window as the flows do
+    assert silent["hours_observed"] == "weekdays 08:00-09:00; weekends none (UTC)"
     # 8 of 434 windows: the build says the rest is unknown and how to declare it
     assert (
         "the fixed sensor observed 2% of the map's span (the windows in which a log recorded "
