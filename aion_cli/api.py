@@ -162,9 +162,8 @@ class Map:
 
     def _hour_observed(self, times_ns: list[int]) -> bool | None:
         from aion_cli.forecast_notes import hour_observed
-        from aion_cli.manifest import Manifest
 
-        flags = hour_observed(Manifest.from_dict(self._loaded.manifest or {}), times_ns)
+        flags = hour_observed(self.manifest, times_ns)
         return None if flags is None else flags[0]
 
     def predict_series(

@@ -122,8 +122,14 @@ def test_the_output_manifest_accounts_for_every_log_and_map(tmp_path: Path) -> N
     assert manifest.counts["nodes"] == 5
     assert manifest.timezone == "UTC"
     assert set(manifest.families) == {
-        "flow", "direction", "reconciled", "scored_windows", "scored_days", "last_day_provisional"
+        "flow", "direction", "reconciled", "scored_windows", "scored_days",
+        "last_day_provisional", "observed_bins",
     }
+    # the merged map observed the hours either input observed, and no other
+    inputs = [read_manifest(p)["families"]["observed_bins"] for p in (a, b)]
+    assert manifest.families["observed_bins"] == sorted(set(inputs[0]) | set(inputs[1]))
+    assert inputs[0]
+    assert inputs[1]
     files = {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in (a, b)}
     assert [(m["name"], m["sha256"]) for m in doc["merged_from"]] == list(files.items())
     assert doc["lineage"] == "same"

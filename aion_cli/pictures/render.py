@@ -105,6 +105,23 @@ def _panel_titles(times: Sequence[int | None], zone: Zone | None) -> list[str]:
     ]
 
 
+def _mark_unobserved(
+    loaded: LoadedMap, times: Sequence[int | None], titles: list[str]
+) -> list[str]:
+    """Panel titles, those at an hour no log observed on any day marked "(extrapolated)"
+    (as the forecast notes name them)."""
+    from aion_cli.forecast_notes import hour_observed
+    from aion_cli.manifest import Manifest
+
+    known = [int(t) for t in times if t is not None]
+    if len(known) != len(times):
+        return titles  # as observed: nothing forecast
+    flags = hour_observed(Manifest.from_dict(loaded.manifest or {}), known)
+    if flags is None:
+        return titles
+    return [t if seen else f"{t} (extrapolated)" for t, seen in zip(titles, flags, strict=True)]
+
+
 def _series_title(name: str, times: Sequence[int | None], zone: Zone | None) -> str:
     """``"office.aion: Mon 2026-01-12 06:00 to 20:00 UTC, 8 times"`` (the day once when the
     series stays in one day)."""
@@ -184,6 +201,7 @@ def export_png(
         if on_frame is not None:
             on_frame()
     titles = [time_title(times[0], zone)] if len(times) == 1 else _panel_titles(times, zone)
+    titles = _mark_unobserved(loaded, times, titles)
     fig = topdown_figure(
         scenes, titles, suptitle=_series_title(map_label, times, zone), paths=paths, dpi=dpi
     )

@@ -74,3 +74,26 @@ def test_titles_are_in_the_maps_zone() -> None:
     assert time_title(t, resolve_zone("UTC")) == "Mon 2026-01-12 07:40 UTC"
     assert time_title(t, zone, clock_only=True) == "08:40"
     assert "historical" in time_title(None, None)
+
+
+def test_panels_at_hours_no_log_observed_say_extrapolated() -> None:
+    """A map whose manifest lists only 08:00-09:00 (UTC) as observed: the 03:00 panel is
+    marked, the 08:30 one is not; a historical picture and an older map are left alone."""
+    from types import SimpleNamespace
+
+    from aion_cli.pictures.render import _mark_unobserved
+
+    day = 1_795_392_000 * 10**9  # 2026-11-23 00:00 UTC
+    families = {"flow": {"profile": 1}, "observed_bins": [8]}
+    loaded = SimpleNamespace(
+        manifest={"state": {}, "config": {"timezone": "UTC"}, "families": families}
+    )
+    times = [day + 3 * 3600 * 10**9, day + 8 * 3600 * 10**9 + 1800 * 10**9]
+    assert _mark_unobserved(loaded, times, ["03:00", "08:30"]) == [  # type: ignore[arg-type]
+        "03:00 (extrapolated)", "08:30"
+    ]
+    assert _mark_unobserved(loaded, [None], ["observed"]) == ["observed"]  # type: ignore[arg-type]
+    older = SimpleNamespace(
+        manifest={"state": {}, "config": {}, "families": {"flow": {"static": 1}}}
+    )
+    assert _mark_unobserved(older, times, ["a", "b"]) == ["a", "b"]  # type: ignore[arg-type]
