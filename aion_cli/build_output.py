@@ -40,12 +40,7 @@ def write_build(
     from aion_cli.engine.family_summary import family_summary
     from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
-    from aion_cli.tf_feed import (
-        DECLARED,
-        SILENT_HINT,
-        fixed_sensor_share,
-        map_observation_text,
-    )
+    from aion_cli.tf_feed import DECLARED, SILENT_HINT, map_observation_text
 
     arrays, meta = state.to_arrays(lazy=True)
     stats = state_counts(state)
@@ -62,12 +57,13 @@ def write_build(
         state.observation,
         state.window_ns,
     )
-    share = fixed_sensor_share(observation)
-    # this build's own logs had spans declared (its text says so; a continued map's may too)
+    share = _recording_share(report)
+    # this build's own logs had spans declared (its text says so)
     if share is not None and share < 0.5 and DECLARED not in report.observation:
         report.notes.append(
-            f"the fixed sensor observed {share:.0%} of the map's span (the windows in which a "
-            f"log recorded a message; the rest is unknown, not empty): {SILENT_HINT}"
+            f"the fixed sensor observed {share:.0%} of its logs' time (the windows in which a "
+            f"log recorded a message, each log from its first message to its last; the rest "
+            f"is unknown, not empty): {SILENT_HINT}"
         )
     manifest = Manifest(
         state=meta,
@@ -88,3 +84,15 @@ def write_build(
     write_map(out, arrays, manifest.to_dict(), lock=False)
     report.map_bytes = out.stat().st_size
     report.hours_observed = observed_hours(manifest.families, manifest.config, config.timezone)
+
+
+def _recording_share(report: BuildReport) -> float | None:
+    """The share of its logs' own time (each file from its first to its last recorded
+    window: the time between two files is not the sensor's) in which this build's fixed
+    sensor recorded a message; None without a fixed sensor."""
+    from aion_cli.tf_feed import recording_window_count
+
+    recording = recording_window_count(report.recording_spans)
+    if report.fixed_windows is None or recording <= 0:
+        return None
+    return min(1.0, report.fixed_windows[0] / recording)

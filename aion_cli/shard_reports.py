@@ -43,6 +43,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     if fixed and len(kinds) == 1 and out.observation.startswith(FIXED_SENSOR_OVER):
         count = sum(f[0] for f in fixed)
         out.fixed_windows = (count, min(f[1] for f in fixed), max(f[2] for f in fixed), fixed[0][3])
+        out.recording_spans = [span for p in parts for span in p.recording_spans]
         declared = any(DECLARED in p.observation for p in parts)
         out.observation = fixed_sensor_text(*out.fixed_windows, declared=declared)
     for p in parts:

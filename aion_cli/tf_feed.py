@@ -374,7 +374,36 @@ def fixed_sensor_windows(
     summary = (len(windows), int(windows[0]), int(windows[-1]), delta)
     if report is not None:  # a parallel build adds its shards' windows up
         report.fixed_windows = summary
+        report.recording_spans = _file_spans(logset, times, delta)
     return fixed_sensor_text(*summary, declared=bool(declared))
+
+
+def _file_spans(logset: Any, times: TimeCheck, delta: int) -> list[tuple[str, int, int]]:
+    """Each log file's own time as (path, first, last window): its first to its last
+    recorded window inside the runs of the topics aion uses (a time shard: of its part)."""
+    out = []
+    for file, recorded in logset.recorded_windows_by_file(delta):
+        inside = recorded[times.within_runs(recorded, delta)]
+        if inside.size:
+            out.append((str(file.path), int(inside[0]), int(inside[-1])))
+    return out
+
+
+def recording_window_count(spans: list[tuple[str, int, int]]) -> int:
+    """The windows of the logs' own time: each file from its first window to its last over
+    all the parts that read it (a log cut into time shards is one span again), then the
+    union over files (the time between two files is not a sensor's to observe)."""
+    by_file: dict[str, tuple[int, int]] = {}
+    for path, first, last in spans:
+        lo, hi = by_file.get(path, (first, last))
+        by_file[path] = (min(lo, first), max(hi, last))
+    count, reach = 0, None
+    for first, last in sorted(by_file.values()):
+        start = first if reach is None else max(first, reach + 1)
+        if last >= start:
+            count += last - start + 1
+        reach = last if reach is None else max(reach, last)
+    return count
 
 
 def _declared_windows(
@@ -386,11 +415,7 @@ def _declared_windows(
     files stays unobserved: building A and B at once then equals building A and continuing
     with B), and within a time shard's part."""
     parts = []
-    for _, recorded in logset.recorded_windows_by_file(delta):
-        inside = recorded[times.within_runs(recorded, delta)]
-        if inside.size == 0:
-            continue
-        first, last = int(inside[0]), int(inside[-1])
+    for _, first, last in _file_spans(logset, times, delta):
         for lo, hi in spans:
             a = max(int(lo) // delta, first)
             b = min(-(-int(hi) // delta) - 1, last)  # the last window [lo, hi) overlaps

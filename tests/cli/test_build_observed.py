@@ -44,9 +44,10 @@ def test_declared_spans_make_silent_windows_observed_empty(
     assert silent["hours_observed"] == "weekdays 08:00-09:00; weekends none (UTC)"
     # 8 of 434 windows: the build says the rest is unknown and how to declare it
     assert (
-        "the fixed sensor observed 2% of the map's span (the windows in which a log recorded "
-        "a message; the rest is unknown, not empty): if its tracker is silent when nobody is "
-        "there, declare the spans it was recording with aion build --observed"
+        "the fixed sensor observed 2% of its logs' time (the windows in which a log recorded "
+        "a message, each log from its first message to its last; the rest is unknown, not "
+        "empty): if its tracker is silent when nobody is there, declare the spans it was "
+        "recording with aion build --observed"
     ) in silent["notes"]
     declared = run_json(
         "build", mornings, "-o", tmp_path / "b.aion", "--format", "json",
@@ -206,3 +207,16 @@ def test_the_time_between_two_logs_stays_unobserved(tmp_path: Path) -> None:
     assert maps[0]["observation"] == maps[1]["observation"] == both["observation"]
     assert both["observation"].startswith("fixed sensor over the 4 windows with messages or "
                                           "--observed")
+
+
+def test_the_time_between_two_logs_is_no_sign_of_a_silent_tracker(tmp_path: Path) -> None:
+    """Two recordings twelve hours apart, each with messages in every window of its own
+    time: the 24 windows of the map's span hold 4 with messages, but the logs' own time is
+    those 4, so no note suggests a silent tracker (it did: "observed 3% of the map's span")."""
+    morning, evening = tmp_path / "morning.mcap", tmp_path / "evening.mcap"
+    write_office_log(morning, graph=False, tf=False)
+    write_office_log(evening, graph=False, tf=False, shift_s=DAY_S // 2)
+    both = run_json("build", morning, evening, "-o", tmp_path / "both.aion", "--format", "json")
+    assert both["observation"].startswith("fixed sensor over the 4 windows with messages")
+    assert "(0.7 h of a 12.3 h span)" in both["observation"]
+    assert not any(note.startswith("the fixed sensor observed") for note in both["notes"])

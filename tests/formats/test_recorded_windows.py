@@ -409,3 +409,32 @@ def test_mcap_conformance_files_match_their_expected_records(name: str) -> None:
     with open_logs([path]) as logs:  # their topics are not ROS: messages() skips them
         for window in (1, 2, 3, 5, S):
             assert np.array_equal(logs.recorded_windows(window), np.unique(times // window))
+
+
+def test_the_logs_own_time_counts_each_file_once_and_no_gap_between_files() -> None:
+    """``tf_feed.recording_window_count``: a file read in two time shards is one span from its
+    first window to its last; overlapping files count a window once; the time between files
+    counts not at all. Checked against the union of the windows spelled out."""
+    from hypothesis import given
+    from hypothesis import strategies as st
+
+    from aion_cli.tf_feed import recording_window_count
+
+    assert recording_window_count([]) == 0
+    # a.mcap cut in two parts (windows 0-3 and 10-12): 0..12; b.mcap 20-24; c.mcap 22-30
+    spans = [("a.mcap", 0, 3), ("a.mcap", 10, 12), ("b.mcap", 20, 24), ("c.mcap", 22, 30)]
+    assert recording_window_count(spans) == 13 + 11
+
+    span = st.tuples(st.sampled_from("abcd"), st.integers(0, 60), st.integers(0, 20))
+
+    @given(st.lists(span, max_size=8))
+    def matches_the_spelled_out_union(parts: list[tuple[str, int, int]]) -> None:
+        spans = [(name, first, first + length) for name, first, length in parts]
+        reach: dict[str, tuple[int, int]] = {}
+        for name, first, last in spans:
+            lo, hi = reach.get(name, (first, last))
+            reach[name] = (min(lo, first), max(hi, last))
+        windows = {w for lo, hi in reach.values() for w in range(lo, hi + 1)}
+        assert recording_window_count(spans) == len(windows)
+
+    matches_the_spelled_out_union()
