@@ -1,7 +1,7 @@
 """What a forecast at a time can and cannot say, from the map's manifest: the notes ``predict``,
 ``plan``, ``export`` and ``report`` print beside the time they used.
 
-Two situations surprise people and look like defects when unexplained:
+Situations that surprise people and look like defects when unexplained:
 
 * **Every entry forecasts its static rate**, so the tables at 03:30 and at 12:30 are the same.
   An entry chooses a time-varying family by its day-ahead scores, and needs two scored days
@@ -17,6 +17,11 @@ Two situations surprise people and look like defects when unexplained:
   hours of its own: its forecast follows the hours and level of the kinds seen
   (:func:`~aion_cli.engine.temporal.shape_prior.group_shapes`), which a quieter weekend
   would not show.
+* **No log observed the time's hour on any day** (a tracker that recorded 09:00-18:00 only,
+  asked about 03:00): the manifest lists the profile bins observed (``families.observed_bins``)
+  and the forecast there is extrapolated from the hours observed, not measured. A series
+  names every such hour (:func:`series_notes`); ``predict``'s JSON flags each time
+  (:func:`hour_observed`), and ``aion info`` lists the hours observed (:func:`observed_hours`).
 """
 
 from __future__ import annotations
