@@ -237,7 +237,7 @@ class Map:
         times = series_times(earliest, latest, every)
         plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
         made = Plan.from_routes(plans[best], zone, snapped)
-        return replace(made, departures=departure_rows(plans, best, zone))
+        return replace(made, departures=departure_rows(plans, best, zone, self.manifest))
 
     def export(
         self,

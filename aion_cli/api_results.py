@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
+    from aion_cli.manifest import Manifest
     from aion_cli.routes import Route, Routes
     from aion_cli.timeparse import Zone
 
@@ -144,12 +145,17 @@ class Plan:
         } | ({"departures": [dict(d) for d in self.departures]} if self.departures else {})
 
 
-def departure_rows(plans: list[Any], best: int, zone: Zone) -> list[dict[str, Any]]:
+def departure_rows(
+    plans: list[Any], best: int, zone: Zone, manifest: Manifest | None = None
+) -> list[dict[str, Any]]:
     """One record per departure (JSON ``departures``): time, the temporal plan's cost, length
-    and walking time, the distance-only path's cost then, and which is the best."""
+    and walking time, the distance-only path's cost then, and which is the best; with the
+    map's ``manifest``, also whether any day observed the departure's hour
+    (``hour_observed``; where not, its flows are extrapolated)."""
+    from aion_cli.forecast_notes import hour_observed
     from aion_cli.timeparse import format_ns
 
-    return [
+    rows = [
         {
             "depart": format_ns(p.depart_ns, zone),
             "depart_ns": p.depart_ns,
@@ -161,3 +167,8 @@ def departure_rows(plans: list[Any], best: int, zone: Zone) -> list[dict[str, An
         }
         for k, p in enumerate(plans)
     ]
+    flags = None if manifest is None else hour_observed(manifest, [p.depart_ns for p in plans])
+    if flags is not None:
+        for row, seen in zip(rows, flags, strict=True):
+            row["hour_observed"] = seen
+    return rows

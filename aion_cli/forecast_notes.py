@@ -151,10 +151,11 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     return f"the map's data ({_span_days(first, last)}) holds {kind}: {follows}"
 
 
-def series_notes(manifest: Manifest, times_ns: list[int]) -> list[str]:
-    """The notes for a series of forecasts: the first time's, with the hours no log observed
-    named for the whole series rather than for its first time only."""
-    notes = [n for n in forecast_notes(manifest, times_ns[0]) if not n.startswith(_NO_LOG)]
+def series_notes(manifest: Manifest, times_ns: list[int], at: int | None = None) -> list[str]:
+    """The notes for a series of forecasts: those of the time ``at`` (default: the first),
+    with the hours no log observed named for the whole series rather than for one time."""
+    when = times_ns[0] if at is None else int(at)
+    notes = [n for n in forecast_notes(manifest, when) if not n.startswith(_NO_LOG)]
     observed = hour_observed(manifest, times_ns)
     calendar = _calendar(manifest.config, manifest.timezone)
     if observed is None or all(observed) or calendar is None:

@@ -80,8 +80,8 @@ def announce_time(
 ) -> None:
     """Say on stderr which time and zone were used (after the command succeeded, so an error
     stays the only output of a failed command), and, for a forecast from the map ``loaded``,
-    what it cannot say at that time (:mod:`aion_cli.forecast_notes`), or over the whole
-    ``series`` of times that starts at ``t_ns``."""
+    what it cannot say at that time (:mod:`aion_cli.forecast_notes`) and at the hours of
+    the ``series`` of times it belongs to (a series, the departures of ``plan --leave``)."""
     from aion_cli.cli.console import note
 
     note(f"{label}: {format_ns(t_ns, zone)} ({zone.name})")
@@ -90,7 +90,9 @@ def announce_time(
         from aion_cli.manifest import Manifest
 
         manifest = Manifest.from_dict(loaded.manifest)
-        lines = series_notes(manifest, series) if series else forecast_notes(manifest, t_ns)
+        lines = (
+            series_notes(manifest, series, t_ns) if series else forecast_notes(manifest, t_ns)
+        )
         for line in lines:
             note(line)
 

@@ -24,7 +24,8 @@ def departure_times(text: str, step: str, zone: Zone) -> list[int]:
 
 
 def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
-    """The departures as a table (stdout), the best one marked."""
+    """The departures as a table (stdout), the best one marked, and those at an hour no day
+    observed (their flows extrapolated)."""
     from rich.table import Table
 
     from aion_cli.cli.console import data_console, note
@@ -49,7 +50,10 @@ def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
             f"{row['cost']:.1f}",
             f"{row['length_m']:.1f} m",
             f"{row['duration_s']:.0f} s",
-            "best" if row["best"] else "",
+            ", ".join(
+                (["best"] if row["best"] else [])
+                + (["extrapolated"] if row.get("hour_observed") is False else [])
+            ),
             style="bold green" if row["best"] else None,
         )
     data_console().print(table)

@@ -73,6 +73,21 @@ def test_equal_costs_keep_the_earliest(office: Office) -> None:
     assert doc["depart"].startswith("2026-11-23 08:00")
 
 
+def test_departures_at_hours_no_log_observed_are_marked(office: Office) -> None:
+    """The office log observed 08:00-08:20 (UTC) only: leaving at 07:00 or 09:00 plans on
+    extrapolated flows, which the JSON, the table and a note say."""
+    span = ("--leave", "2026-11-23 07:00..2026-11-23 09:00", "--step", "1h")
+    doc = _plan(office.map, *span, ends=("p0", "p2"))
+    assert [r["hour_observed"] for r in doc["departures"]] == [False, True, False]
+    table = run("plan", office.map, "--from", "p0", "--to", "p2", "--tz", "UTC", *span)
+    assert table.exit_code == 0, table.stderr
+    assert table.stdout.count("extrapolated") == 2
+    assert (
+        "2 of the series' 3 times fall in hours no log observed on any day (07:00-08:00, "
+        "09:00-10:00 UTC; the map observed 08:00-09:00)"
+    ) in " ".join(table.stderr.split())
+
+
 @pytest.mark.parametrize(
     ("extra", "fragment"),
     [
