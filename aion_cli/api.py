@@ -137,7 +137,7 @@ class Map:
     ) -> Table:
         """Flows per entry at ``time`` (``historical=True``: as observed), as ``aion predict``
         with ``--layer``, ``--node``, ``--at`` and ``--top``."""
-        from aion_cli.predictions import LAYERS, predicted_records
+        from aion_cli.predictions import LAYERS, hour_flags, predicted_records
         from aion_cli.timeparse import format_ns
 
         if layer not in LAYERS:
@@ -157,14 +157,8 @@ class Map:
             None if zone is None else zone.name,
             int(self.config.bins),
             tuple(rows),
-            None if t_ns is None else self._hour_observed([t_ns]),
+            hour_flags(self._loaded, [t_ns])[0],
         )
-
-    def _hour_observed(self, times_ns: list[int]) -> bool | None:
-        from aion_cli.forecast_notes import hour_observed
-
-        flags = hour_observed(self.manifest, times_ns)
-        return None if flags is None else flags[0]
 
     def predict_series(
         self,

@@ -48,14 +48,14 @@ class Table:
         """The document ``aion predict --format json`` prints."""
         from aion_cli.predictions import document
 
-        doc = document(self.map, self.bins, self.records(), self.time_ns, None)
+        doc = document(
+            self.map, self.bins, self.records(), self.time_ns, None, self.hour_observed
+        )
         doc.update(
             mode="historical" if self.time_ns is None else "predicted",
             time=self.time,
             zone=self.zone,
         )
-        if self.hour_observed is not None:
-            doc["hour_observed"] = self.hour_observed
         return doc
 
     def __len__(self) -> int:

@@ -77,7 +77,7 @@ def _export_one(
 ) -> list[Path]:
     from aion_cli.engine import query
     from aion_cli.formats.serialize import to_csv, to_json
-    from aion_cli.predictions import CSV_KEYS, document, rows_from_table
+    from aion_cli.predictions import CSV_KEYS, document, hour_flags, rows_from_table
 
     folder.mkdir(parents=True, exist_ok=True)
     table = (
@@ -89,7 +89,8 @@ def _export_one(
     path_rows = None if ends is None else planned_path(loaded, t_ns, ends)
     files = write_scene(loaded, table, folder, fmt, path_rows)
     (folder / "entries.csv").write_text(to_csv(rows, CSV_KEYS))
-    doc = document(map_path, loaded.config.bins, rows, t_ns, zone)
+    (seen,) = hour_flags(loaded, [t_ns])
+    doc = document(map_path, loaded.config.bins, rows, t_ns, zone, seen)
     (folder / "entries.json").write_text(to_json(doc))
     return [*files, folder / "entries.csv", folder / "entries.json"]
 
@@ -155,7 +156,7 @@ def export_dsg(
     from aion_cli.engine.node_ids import parse_node_id
     from aion_cli.errors import InputError
     from aion_cli.formats.dsg_export import check_dsg_target, write_dynamic_graph
-    from aion_cli.predictions import document, entry_table, rows_from_table, select
+    from aion_cli.predictions import document, entry_table, hour_flags, rows_from_table, select
 
     check_dsg_target(out)  # before anything is computed
     graph = loaded.graph
@@ -179,7 +180,8 @@ def export_dsg(
                 continue
             for row in rows_from_table(grouped):
                 records[parse_node_id(str(row["id"]))] = _node_record(row)
-    info = document(map_path, loaded.config.bins, [], t_ns, zone)
+    (seen,) = hour_flags(loaded, [t_ns])
+    info = document(map_path, loaded.config.bins, [], t_ns, zone, seen)
     info.pop("entries")
     info["map"] = Path(str(map_path)).name
     info["nav_layer"] = graph.layer_name

@@ -175,14 +175,20 @@ def sort_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def document(
-    map_path: Any, bins: int, rows: list[dict[str, Any]], t_ns: int | None, zone: Zone | None
+    map_path: Any,
+    bins: int,
+    rows: list[dict[str, Any]],
+    t_ns: int | None,
+    zone: Zone | None,
+    hour_observed: bool | None = None,
 ) -> dict[str, Any]:
     """The JSON document of ``predict`` and of ``export``'s entries.json: metadata and rows.
-    ``t_ns`` None means historical (what was observed)."""
+    ``t_ns`` None means historical (what was observed); ``hour_observed`` (when known:
+    :func:`hour_flags`) whether any day observed the time's hour of the day."""
     from aion_cli.timeparse import format_ns
 
     when = None if t_ns is None or zone is None else (format_ns(t_ns, zone), zone.name)
-    return {
+    doc: dict[str, Any] = {
         "map": str(map_path),
         "mode": "historical" if when is None else "predicted",
         "time": None if when is None else when[0],
@@ -190,8 +196,28 @@ def document(
         "zone": None if when is None else when[1],
         "bins": int(bins),
         "bin_centres_deg": [-180.0 + (b + 0.5) * 360.0 / bins for b in range(bins)],
-        "entries": rows,
     }
+    if hour_observed is not None:
+        doc["hour_observed"] = hour_observed
+    doc["entries"] = rows
+    return doc
+
+
+def hour_flags(loaded: LoadedMap, times_ns: Sequence[int | None]) -> list[bool | None]:
+    """Per time, whether the map observed its hour of the day on some day (JSON
+    ``hour_observed``; where not, the forecast is extrapolated); None for a time that is
+    None (as observed) and for every time of a map that does not list its observed hours."""
+    from aion_cli.forecast_notes import hour_observed
+    from aion_cli.manifest import Manifest
+
+    raw = dict(loaded.manifest or {})
+    raw.setdefault("state", {})
+    known = [int(t) for t in times_ns if t is not None]
+    flags = hour_observed(Manifest.from_dict(raw), known) if known else None
+    if flags is None:
+        return [None] * len(times_ns)
+    it = iter(flags)
+    return [None if t is None else next(it) for t in times_ns]
 
 
 def predicted_records(

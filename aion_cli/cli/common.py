@@ -97,15 +97,6 @@ def announce_time(
             note(line)
 
 
-def hour_flags(loaded: Any, times_ns: list[int]) -> list[bool] | None:
-    """Per time, whether the map observed its hour of the day on some day (JSON
-    ``hour_observed``); None for a map that does not list its observed hours."""
-    from aion_cli.forecast_notes import hour_observed
-    from aion_cli.manifest import Manifest
-
-    return hour_observed(Manifest.from_dict(loaded.manifest), times_ns)
-
-
 def load(map_path: Path) -> Any:
     """Read a map for a query (``aion_cli.mapquery.load_map``): without the Fourier sums
     when the map stores the FreMEn components its forecasts use."""

@@ -105,8 +105,8 @@ def command(
     direction, how ordered the flow is (entropy, concentration), their speed, and the
     histogram of directions.
     """
-    from aion_cli.cli.common import hour_flags, load
-    from aion_cli.predictions import CSV_KEYS, document, predicted_records
+    from aion_cli.cli.common import load
+    from aion_cli.predictions import CSV_KEYS, document, hour_flags, predicted_records
     from aion_cli.timeparse import format_ns
 
     time_given = option_given("time_text")
@@ -122,10 +122,9 @@ def command(
         t_ns, zone = resolve_time(time_text, tz, loaded)
     shown = TABLE_LIMIT if fmt == "table" and top is None else top
     rows, count = predicted_records(loaded, t_ns, layer, nodes, at, shown)
-    payload = document(map_path, loaded.config.bins, rows, t_ns, zone)
+    (seen,) = hour_flags(loaded, [t_ns])
+    payload = document(map_path, loaded.config.bins, rows, t_ns, zone, seen)
     if t_ns is not None and zone is not None:
-        if (flags := hour_flags(loaded, [t_ns])) is not None:
-            payload["hour_observed"] = flags[0]
         announce_time(t_ns, zone, loaded=loaded)
     title = (
         "historical flows"

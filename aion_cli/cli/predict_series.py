@@ -56,7 +56,7 @@ def run_series(
     (layer, nodes, at, top)."""
     import click
 
-    from aion_cli.cli.common import announce_time, hour_flags, series_of
+    from aion_cli.cli.common import announce_time, series_of
     from aion_cli.cli.console import note, progress
     from aion_cli.cli.output import to_csv, to_json
     from aion_cli.prediction_series import (
@@ -64,6 +64,7 @@ def run_series(
         predict_series,
         series_document,
     )
+    from aion_cli.predictions import hour_flags
     from aion_cli.timeparse import format_ns
 
     times, zone = series_of(t_from, t_to, step, tz, loaded)
@@ -77,7 +78,7 @@ def run_series(
     announce_time(times[0], zone, "from", loaded, series=times)
     if fmt == "json":
         doc = series_document(map_path, table, zone, labels)
-        if (flags := hour_flags(loaded, times)) is not None:
+        if None not in (flags := hour_flags(loaded, times)):
             doc["hour_observed"] = flags
         click.echo(to_json(doc))
     elif fmt == "csv":

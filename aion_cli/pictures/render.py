@@ -110,16 +110,13 @@ def _mark_unobserved(
 ) -> list[str]:
     """Panel titles, those at an hour no log observed on any day marked "(extrapolated)"
     (as the forecast notes name them)."""
-    from aion_cli.forecast_notes import hour_observed
-    from aion_cli.manifest import Manifest
+    from aion_cli.predictions import hour_flags
 
-    known = [int(t) for t in times if t is not None]
-    if len(known) != len(times):
-        return titles  # as observed: nothing forecast
-    flags = hour_observed(Manifest.from_dict(loaded.manifest or {}), known)
-    if flags is None:
-        return titles
-    return [t if seen else f"{t} (extrapolated)" for t, seen in zip(titles, flags, strict=True)]
+    flags = hour_flags(loaded, times)
+    return [
+        f"{title} (extrapolated)" if seen is False else title
+        for title, seen in zip(titles, flags, strict=True)
+    ]
 
 
 def _series_title(name: str, times: Sequence[int | None], zone: Zone | None) -> str:

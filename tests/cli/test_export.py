@@ -121,3 +121,16 @@ def test_an_existing_folder_keeps_its_name(office: Office, tmp_path: Path) -> No
     result = run("export", office.map, "-o", out, "--time", AT, "--format", "ply")
     assert result.exit_code == 0, result.stderr
     assert (out / "entries.csv").is_file()
+
+
+def test_the_tables_say_whether_the_hour_was_observed(office: Office, tmp_path: Path) -> None:
+    """The office log observed 08:00-08:20 UTC: entries.json at 08:30 says its hour was
+    observed, at 03:00 that it was not; historically there is no hour to speak of."""
+    for when, seen in ((AT, True), ("2026-11-23 03:00", False)):
+        out = tmp_path / when[-5:].replace(":", "")
+        result = run("export", office.map, "--time", when, "--tz", "UTC", "-o", out)
+        assert result.exit_code == 0, result.stderr
+        assert json.loads((out / "entries.json").read_text())["hour_observed"] is seen
+    past = tmp_path / "historical"
+    assert run("export", office.map, "--historical", "-o", past).exit_code == 0
+    assert "hour_observed" not in json.loads((past / "entries.json").read_text())

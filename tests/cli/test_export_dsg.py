@@ -98,7 +98,9 @@ def test_the_api_writes_it_too(office: Office, tmp_path: Path) -> None:
         m.export(tmp_path / "p.json", time=AT, format="dsg", path=("p0", "p2"))
     # without format, the suffix chooses as in aion export
     (guessed,) = m.export(tmp_path / "guessed.sparkdsg", time=AT, tz="UTC")
-    assert _graph(guessed).metadata.get()["aion"]["time"].startswith("2026-11-23 08:30")
+    about = _graph(guessed).metadata.get()["aion"]
+    assert about["time"].startswith("2026-11-23 08:30")
+    assert about["hour_observed"] is True  # the office log observed 08:00-08:20
     for name, fragment in (("scene.ply", "written into a folder"), ("m.png", "picture")):
         with pytest.raises(aion.InputError, match=fragment):
             m.export(tmp_path / name, time=AT)
