@@ -20,8 +20,13 @@ if TYPE_CHECKING:
 
 
 def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[str, Any]:
-    """Detections read / used / dropped over every build of the map."""
+    """Detections read / used / dropped over every build of the map, and a fixed sensor's
+    logs' own time in windows (``recording_windows``)."""
+    from aion_cli.tf_feed import recording_window_count
+
     new = report.to_dict()["detections"]
+    if report.fixed_windows is not None and report.recording_spans:
+        new["recording_windows"] = recording_window_count(report.recording_spans)
     if previous is None:
         return new
     return add_counts(previous.counts, new)

@@ -43,7 +43,7 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     """The notes for a forecast at ``t_ns`` (UNIX ns) from the map of ``manifest``; empty
     when there is nothing to say."""
     notes = []
-    static = _all_static(manifest.families, manifest.observation)
+    static = _all_static(manifest)
     if static is not None:
         notes.append(static)
     where = _outside(manifest.start_ns, manifest.end_ns, int(t_ns), static is not None)
@@ -58,7 +58,8 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     return notes
 
 
-def _all_static(families: Mapping[str, Any], observation: str = "") -> str | None:
+def _all_static(manifest: Manifest) -> str | None:
+    families = manifest.families
     flow = families.get("flow") or {}
     entries = sum(int(n) for n in flow.values())
     if entries == 0 or int(flow.get("static", 0)) != entries or families.get("reconciled"):
@@ -77,11 +78,13 @@ def _all_static(families: Mapping[str, Any], observation: str = "") -> str | Non
     )
     from aion_cli.tf_feed import SILENT_HINT, fixed_sensor_share
 
-    share = fixed_sensor_share(observation)
+    recording = manifest.counts.get("recording_windows")
+    share = fixed_sensor_share(manifest.observation, recording)
     if share is not None and share < 0.5:
+        whose = "its logs'" if recording else "the"
         text += (
-            f" (its fixed sensor observed {share:.0%} of the time: only the windows in which "
-            f"a log recorded a message; {SILENT_HINT})"
+            f" (its fixed sensor observed {share:.0%} of {whose} time: only the windows in "
+            f"which a log recorded a message; {SILENT_HINT})"
         )
     return text
 

@@ -184,12 +184,18 @@ def _optional_int(value: Any, key: str) -> int | None:
 def add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     """The detections read / used / dropped (by reason) of a map's earlier builds (``old``,
     its manifest's ``counts``) plus those of a new build (``new``): the ``counts`` a continued
-    map stores."""
+    map stores. ``recording_windows`` (a fixed sensor's logs' own time, in windows) adds up
+    while every part has it (``old`` empty: the first part), and is left out otherwise."""
     dropped = dict(old.get("dropped", {}))
     for reason, n in new["dropped"].items():
         dropped[reason] = int(dropped.get(reason, 0)) + int(n)
-    return {
+    out = {
         "read": int(old.get("read", 0)) + new["read"],
         "used": int(old.get("used", 0)) + new["used"],
         "dropped": dict(sorted(dropped.items())),
     }
+    if "recording_windows" in new and (not old or "recording_windows" in old):
+        out["recording_windows"] = int(old.get("recording_windows", 0)) + int(
+            new["recording_windows"]
+        )
+    return out

@@ -451,14 +451,14 @@ def _write(
     counts: dict[str, Any] = {}
     for m in maps:
         c = m.manifest.counts
-        counts = add_counts(
-            counts,
-            {
-                "read": int(c.get("read", 0)),
-                "used": int(c.get("used", 0)),
-                "dropped": dict(c.get("dropped", {})),
-            },
-        )
+        part = {
+            "read": int(c.get("read", 0)),
+            "used": int(c.get("used", 0)),
+            "dropped": dict(c.get("dropped", {})),
+        }
+        if "recording_windows" in c:
+            part["recording_windows"] = int(c["recording_windows"])
+        counts = add_counts(counts, part)
     stats = state_counts(merged)
     far = far_from_graph_of(merged, stats)
     if far is not None:  # a --graph FILE of another site, say

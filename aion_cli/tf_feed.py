@@ -427,14 +427,19 @@ def _declared_windows(
     return out[times.inside_limits(out * delta)]
 
 
-def fixed_sensor_share(observation: str) -> float | None:
-    """The share of its span a fixed sensor observed, read from a description that
-    :func:`fixed_sensor_text` wrote (``... (A h of a B h span)``); None for any other."""
+def fixed_sensor_share(observation: str, recording_windows: int | None = None) -> float | None:
+    """The share of its time a fixed sensor observed, read from a description that
+    :func:`fixed_sensor_text` wrote (``the N windows ... (A h of a B h span)``): of its logs'
+    own time when ``recording_windows`` says how long that was (a manifest's
+    ``counts.recording_windows``), else of the span; None for any other description."""
     import re
 
     found = re.search(r"\(([\d.,]+) h of a ([\d.,]+) h span\)", observation)
     if not observation.startswith(FIXED_SENSOR_OVER) or found is None:
         return None
+    windows = re.search(r"the ([\d,]+) windows?", observation)
+    if recording_windows and windows is not None:
+        return min(1.0, int(windows.group(1).replace(",", "")) / int(recording_windows))
     seen, span = (float(g.replace(",", "")) for g in found.groups())
     return seen / span if span > 0 else None
 

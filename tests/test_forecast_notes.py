@@ -49,6 +49,14 @@ def test_static_after_enough_days_says_no_rhythm_won_and_why_it_may_not_show() -
                       observation="fixed sensor over the 1,000 windows with messages (166.7 h "
                       "of a 170.0 h span)")
     assert forecast_notes(steady, START + DAY_NS) == [plain]
+    # logs recorded apart (days between the files): measured against the logs' own time
+    apart = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=END, families=families,
+                     observation=silent.observation, counts={"recording_windows": 180})
+    assert forecast_notes(apart, START + DAY_NS) == [plain]  # 168 of 180 windows
+    quiet = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=END, families=families,
+                     observation=silent.observation, counts={"recording_windows": 840})
+    (line,) = forecast_notes(quiet, START + DAY_NS)
+    assert "(its fixed sensor observed 20% of its logs' time: only the windows" in line
 
 
 def test_times_far_from_the_data_are_named() -> None:

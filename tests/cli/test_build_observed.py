@@ -220,3 +220,15 @@ def test_the_time_between_two_logs_is_no_sign_of_a_silent_tracker(tmp_path: Path
     assert both["observation"].startswith("fixed sensor over the 4 windows with messages")
     assert "(0.7 h of a 12.3 h span)" in both["observation"]
     assert not any(note.startswith("the fixed sensor observed") for note in both["notes"])
+    # the manifest keeps the logs' own time (2 windows each), summed by continuation and merge
+    assert read_manifest(tmp_path / "both.aion")["counts"]["recording_windows"] == 4
+    first, second = tmp_path / "first.aion", tmp_path / "second.aion"
+    run_json("build", morning, "-o", first, "--format", "json")
+    run_json("build", evening, "-o", second, "--format", "json")
+    assert read_manifest(first)["counts"]["recording_windows"] == 2
+    run_json("build", evening, "--map", first, "--format", "json")
+    assert read_manifest(first)["counts"]["recording_windows"] == 4
+    single = tmp_path / "single.aion"
+    run_json("build", morning, "-o", single, "--format", "json")
+    assert run("merge", single, second, "-o", tmp_path / "merged.aion").exit_code == 0
+    assert read_manifest(tmp_path / "merged.aion")["counts"]["recording_windows"] == 4
