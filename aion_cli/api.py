@@ -224,6 +224,7 @@ class Map:
 
         from aion_cli.api_results import departure_rows
         from aion_cli.prediction_series import series_times
+        from aion_cli.predictions import hour_flags
         from aion_cli.timeparse import step_ns
 
         every = step_ns(step)
@@ -231,7 +232,8 @@ class Map:
         times = series_times(earliest, latest, every)
         plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
         made = Plan.from_routes(plans[best], zone, snapped)
-        return replace(made, departures=departure_rows(plans, best, zone, self.manifest))
+        observed = hour_flags(self._loaded, times)
+        return replace(made, departures=departure_rows(plans, best, zone, observed))
 
     def export(
         self,

@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
-    from aion_cli.manifest import Manifest
     from aion_cli.routes import Route, Routes
     from aion_cli.timeparse import Zone
 
@@ -146,13 +145,13 @@ class Plan:
 
 
 def departure_rows(
-    plans: list[Any], best: int, zone: Zone, manifest: Manifest | None = None
+    plans: list[Any], best: int, zone: Zone, observed: Sequence[bool | None] = ()
 ) -> list[dict[str, Any]]:
     """One record per departure (JSON ``departures``): time, the temporal plan's cost, length
-    and walking time, the distance-only path's cost then, and which is the best; with the
-    map's ``manifest``, also whether any day observed the departure's hour
-    (``hour_observed``; where not, its flows are extrapolated)."""
-    from aion_cli.forecast_notes import hour_observed
+    and walking time, the distance-only path's cost then, and which is the best; with
+    ``observed`` (``predictions.hour_flags`` of the departures), also whether any day
+    observed the departure's hour (``hour_observed``; where not, its flows are
+    extrapolated)."""
     from aion_cli.timeparse import format_ns
 
     rows = [
@@ -167,8 +166,7 @@ def departure_rows(
         }
         for k, p in enumerate(plans)
     ]
-    flags = None if manifest is None else hour_observed(manifest, [p.depart_ns for p in plans])
-    if flags is not None:
-        for row, seen in zip(rows, flags, strict=True):
+    for row, seen in zip(rows, observed, strict=False):
+        if seen is not None:
             row["hour_observed"] = seen
     return rows

@@ -192,4 +192,3 @@ def command(
         span = [int(t) for t in times if t is not None] if len(times) > 1 else None
         announce_time(times[0], zone, label, loaded, series=span)
     console().print(done)
-

@@ -130,8 +130,8 @@ def command(
     from aion_cli.cli.console import progress
     from aion_cli.cli.plan_departures import departure_times, print_departures
     from aion_cli.errors import InputError
-    from aion_cli.manifest import Manifest
     from aion_cli.mapquery import nav_graph
+    from aion_cli.predictions import hour_flags
     from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
 
     time_given = option_given("time_text")
@@ -161,7 +161,7 @@ def command(
                 lambda done: bar.update(task, completed=done),
             )
         routes, t_ns = plans[best], leaving[best]
-        departures = departure_rows(plans, best, zone, Manifest.from_dict(loaded.manifest))
+        departures = departure_rows(plans, best, zone, hour_flags(loaded, leaving))
     snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
     report = {"map": str(map_path), **Plan.from_routes(routes, zone, snapped).to_dict()}
     if departures is not None:
