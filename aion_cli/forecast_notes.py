@@ -79,6 +79,8 @@ def _all_static(manifest: Manifest) -> str | None:
     from aion_cli.tf_feed import SILENT_HINT, fixed_sensor_share
 
     recording = manifest.counts.get("recording_windows")
+    if type(recording) is not int or recording <= 0:  # none, or a damaged manifest's
+        recording = None
     share = fixed_sensor_share(manifest.observation, recording)
     if share is not None and share < 0.5:
         whose = "its logs'" if recording else "the"
@@ -193,10 +195,16 @@ def hour_observed(manifest: Manifest, times_ns: list[int]) -> list[bool] | None:
 
 def _hours(manifest: Manifest, per_day: int) -> list[int]:
     """The in-day bins the map observed on some kind of day (empty: not listed)."""
-    observed = manifest.families.get("observed_bins")
+    return sorted({b % per_day for b in _observed_bins(manifest.families)})
+
+
+def _observed_bins(families: Mapping[str, Any]) -> list[int]:
+    """The manifest's ``observed_bins``: whole numbers from 0 (a map file is untrusted input:
+    anything else in the list is left out, a list that is not one reads as empty)."""
+    observed = families.get("observed_bins")
     if not isinstance(observed, list):
         return []
-    return sorted({int(b) % per_day for b in observed})
+    return [b for b in observed if type(b) is int and 0 <= b < 1 << 20]
 
 
 _NO_LOG = "no log observed "
@@ -226,17 +234,17 @@ def observed_hours(
 ) -> str | None:
     """The hours a map observed, per kind of day, for ``aion info``: ``weekdays 09:00-18:00;
     weekends none (UTC)``; None for a map that does not list its observed bins."""
-    observed = families.get("observed_bins")
     calendar = _calendar(config, timezone)
-    if not isinstance(observed, list) or calendar is None:
+    if not isinstance(families.get("observed_bins"), list) or calendar is None:
         return None
+    observed = _observed_bins(families)
     per_day = calendar.bins_per_day
     kinds = {"day": [""], "day_weekend": ["weekdays ", "weekends "]}.get(
         calendar.profile, [f"{name[:3]} " for name in _WEEKDAYS]
     )
     by_kind: dict[str, list[str]] = {}
     for k, label in enumerate(kinds):
-        hours = sorted(int(b) - k * per_day for b in observed if int(b) // per_day == k)
+        hours = sorted(b - k * per_day for b in observed if b // per_day == k)
         text = _clock_ranges(hours, calendar.bin_s) if hours else "none"
         by_kind.setdefault(text, []).append(label.strip())
     parts = [

@@ -194,8 +194,9 @@ def add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
         "used": int(old.get("used", 0)) + new["used"],
         "dropped": dict(sorted(dropped.items())),
     }
-    if "recording_windows" in new and (not old or "recording_windows" in old):
-        out["recording_windows"] = int(old.get("recording_windows", 0)) + int(
-            new["recording_windows"]
-        )
+    before, added = old.get("recording_windows", 0 if not old else None), new.get(
+        "recording_windows"
+    )
+    if type(before) is int and type(added) is int:  # a damaged manifest's value is left out
+        out["recording_windows"] = before + added
     return out

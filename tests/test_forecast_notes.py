@@ -195,3 +195,18 @@ def test_a_series_names_every_hour_no_log_observed() -> None:
     # the first time's other notes stay; a series within the observed hours adds none
     assert series_notes(manifest, times[1:4]) == []
     assert hour_observed(Manifest({}, {}, families={}), times) is None
+
+
+def test_a_damaged_list_of_observed_hours_is_read_safely() -> None:
+    """A map file is untrusted input: values that are not whole bin numbers are left out,
+    never a crash (``int("x")``, ``int(None)``) or a wrong hour (``True`` read as 1)."""
+    from aion_cli.forecast_notes import hour_observed, observed_hours
+
+    junk = {"flow": {"profile": 1}, "observed_bins": ["x", None, True, 9.5, [1], -3, 10]}
+    manifest = Manifest({}, {"timezone": "UTC", "profile": "day"}, families=junk)
+    assert hour_observed(manifest, [MONDAY + 10 * HOUR_NS, MONDAY + HOUR_NS]) == [True, False]
+    assert observed_hours(junk, {"profile": "day"}, "UTC") == "10:00-11:00 (UTC)"
+    (line,) = forecast_notes(manifest, MONDAY + HOUR_NS)
+    assert "(the map observed 10:00-11:00)" in line
+    not_a_list = Manifest({}, {}, families={"flow": {"profile": 1}, "observed_bins": "9"})
+    assert forecast_notes(not_a_list, MONDAY + HOUR_NS) == []

@@ -157,3 +157,20 @@ def test_a_continued_builds_span_is_widened_to_the_maps() -> None:
     assert old.joined_span(None, None) == (100, 200)  # no message used: the map's own span
     empty = Manifest.from_dict({"state": {}, "time_span": {}})
     assert empty.joined_span(None, 7) == (None, 7)
+
+
+def test_recording_windows_add_up_while_every_part_has_them() -> None:
+    """``counts.recording_windows`` sums over builds and merges; a part without it (an older
+    map, a robot's) or with a damaged value drops it rather than understate the logs' time."""
+    from aion_cli.manifest import add_counts
+
+    part = {"read": 3, "used": 3, "dropped": {}}
+    first = add_counts({}, part | {"recording_windows": 10})
+    assert first["recording_windows"] == 10
+    assert add_counts(first, part | {"recording_windows": 4})["recording_windows"] == 14
+    assert "recording_windows" not in add_counts(first, part)  # the new part has none
+    older = {"read": 1, "used": 1, "dropped": {}}
+    assert "recording_windows" not in add_counts(older, part | {"recording_windows": 4})
+    damaged = first | {"recording_windows": "ten"}
+    assert "recording_windows" not in add_counts(damaged, part | {"recording_windows": 4})
+    assert add_counts(first, part | {"recording_windows": 4})["read"] == 6
