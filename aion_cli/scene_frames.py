@@ -41,6 +41,7 @@ def export_mcap(
     between ``ends`` (``exports.path_ends``) planned at each step; ``on_frame`` after each
     step. ``out`` is checked before anything is computed and appears complete or not at all."""
     from aion_cli.formats.scene_mcap import SceneMcapWriter, check_scene_target
+    from aion_cli.predictions import hour_flags
     from aion_cli.timeparse import format_ns
 
     check_scene_target(out)
@@ -54,6 +55,12 @@ def export_mcap(
         "last": format_ns(steps[-1], zone) if steps and zone is not None else "",
         "zone": zone.name if zone is not None else "",
         "frame": "map",
+        # the steps at an hour no day observed (their flows extrapolated), comma-separated
+        "extrapolated": ", ".join(
+            format_ns(t, zone)
+            for t, seen in zip(steps, hour_flags(loaded, steps), strict=True)
+            if seen is False and zone is not None
+        ),
     }
     with SceneMcapWriter(out, metadata) as writer:
         for t_ns in times:

@@ -297,3 +297,22 @@ def test_the_series_scale_is_the_scenes_own(sample_map: Path) -> None:
     for steps in (times, [*times, None], [None]):
         pooled = np.concatenate([scene_at(loaded, t).node_flow for t in steps])
         assert series_flow_scale(loaded, steps) == display_flow_scale(pooled)[0]
+
+
+def test_the_metadata_names_the_steps_at_hours_no_log_observed(
+    office: Office, tmp_path: Path
+) -> None:
+    """The office log observed 08:00-08:20 UTC: of a 07:00-09:00 series, the 07:00 and 09:00
+    steps are extrapolated, which the file's aion metadata lists."""
+    out = tmp_path / "three.mcap"
+    result = run(
+        "export", office.map, "--from", "2026-11-23 07:00", "--to", "2026-11-23 09:00",
+        "--step", "1h", "--tz", "UTC", "--format", "mcap", "-o", out,
+    )
+    assert result.exit_code == 0, result.stderr
+    with out.open("rb") as fh:
+        (record,) = [m for m in make_reader(fh).iter_metadata() if m.name == "aion"]
+    assert record.metadata["extrapolated"] == (
+        "2026-11-23 07:00:00+00:00, 2026-11-23 09:00:00+00:00"
+    )
+    assert record.metadata["steps"] == "3"
