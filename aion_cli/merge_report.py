@@ -50,6 +50,7 @@ class MergeReport:
     nodes_with_flow: int = 0
     bound_cells: int = 0
     windows: int = 0
+    hours_observed: str | None = None  # per kind of day, as aion info MAP shows them
     start_ns: int | None = None
     end_ns: int | None = None
     notes: list[str] = field(default_factory=list)
@@ -76,6 +77,7 @@ class MergeReport:
             "nodes_with_flow": self.nodes_with_flow,
             "bound_cells": self.bound_cells,
             "windows": self.windows,
+            "hours_observed": self.hours_observed,
             "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns, "seconds": span},
             "notes": list(self.notes),
         }

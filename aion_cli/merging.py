@@ -440,6 +440,7 @@ def _write(
     figures."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
+    from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
     from aion_cli.mapquery import state_counts
     from aion_cli.tf_feed import map_observation_text
@@ -493,3 +494,6 @@ def _write(
     for key in ("cells", "nodes", "nodes_with_flow", "bound_cells", "windows"):
         setattr(report, key, int(stats[key]))
     report.map_bytes = report.output.stat().st_size
+    report.hours_observed = observed_hours(
+        manifest.families, manifest.config, merged.config.timezone
+    )

@@ -120,6 +120,8 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row("hash cells", f"{summary['cells']:,}")
     table.add_row("bound cells", f"{summary['bound_cells']:,}")
     table.add_row("windows observed", f"{summary['windows']:,}")
+    if summary.get("hours_observed"):
+        table.add_row("hours observed", markup_safe(summary["hours_observed"]))
     span = summary["time_span"]
     if span["start_ns"] is not None and span["end_ns"] is not None:
         table.add_row("first time", iso(span["start_ns"]))

@@ -230,5 +230,8 @@ def test_the_time_between_two_logs_is_no_sign_of_a_silent_tracker(tmp_path: Path
     assert read_manifest(first)["counts"]["recording_windows"] == 4
     single = tmp_path / "single.aion"
     run_json("build", morning, "-o", single, "--format", "json")
-    assert run("merge", single, second, "-o", tmp_path / "merged.aion").exit_code == 0
+    merged = run_json("merge", single, second, "-o", tmp_path / "merged.aion", "--format",
+                      "json")
     assert read_manifest(tmp_path / "merged.aion")["counts"]["recording_windows"] == 4
+    # 08:00 and 20:00 on a Monday: the merge's summary lists both hours
+    assert merged["hours_observed"] == "weekdays 08:00-09:00, 20:00-21:00; weekends none (UTC)"
