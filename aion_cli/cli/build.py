@@ -55,7 +55,8 @@ in sequence, and the summary says so).
 JSON keys (--format json): map, map_bytes, continued, detections{read, used,
 dropped{reason: n}}, detections_by_topic{topic: {read, used, dropped{reason: n}}}, cells
 (unbound hash cells), nodes, nodes_with_flow, bound_cells, windows (most windows any entry
-observed), time_span{start_ns, end_ns, seconds}, observation, graph{source, layer,
+observed, the open one included), hours_observed (per kind of day), time_span{start_ns,
+end_ns, seconds}, observation, graph{source, layer,
 messages (applied), skipped (damaged), decoded, read_by_changes (of decoded: only the node
 records changed since the last payload re-read), skipped_identical (applied without decoding:
 the last payload again), skipped_period (left out by --graph-period), period_s, dsg_version,
