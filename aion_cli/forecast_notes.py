@@ -156,9 +156,12 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     return f"the map's data ({_span_days(first, last)}) holds {kind}: {follows}"
 
 
-def series_notes(manifest: Manifest, times_ns: list[int], at: int | None = None) -> list[str]:
+def series_notes(
+    manifest: Manifest, times_ns: list[int], at: int | None = None, noun: str = "times"
+) -> list[str]:
     """The notes for a series of forecasts: those of the time ``at`` (default: the first),
-    with the hours no log observed named for the whole series rather than for one time."""
+    with the hours no log observed named for the whole series rather than for one time
+    (``noun``: what the times are, e.g. "departures")."""
     when = times_ns[0] if at is None else int(at)
     notes = [n for n in forecast_notes(manifest, when) if not n.startswith(_NO_LOG)]
     observed = hour_observed(manifest, times_ns)
@@ -170,7 +173,7 @@ def series_notes(manifest: Manifest, times_ns: list[int], at: int | None = None)
                      zip(calendar.profile_bin(times_ns), observed, strict=True) if not seen})
     n = len(observed) - sum(observed)
     notes.append(
-        f"{n} of the series' {len(observed)} times fall in hours no log observed on any day "
+        f"{n} of the {len(observed)} {noun} fall in hours no log observed on any day "
         f"({_clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
         f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): their forecast is "
         "extrapolated from the hours observed, not measured"

@@ -188,7 +188,7 @@ def test_a_series_names_every_hour_no_log_observed() -> None:
     times = [MONDAY + 7 * DAY_NS + h * HOUR_NS for h in range(8, 15)]  # the next Monday
     assert hour_observed(manifest, times) == [False, True, True, True, False, True, False]
     assert series_notes(manifest, times) == [
-        "3 of the series' 7 times fall in hours no log observed on any day (08:00-09:00, "
+        "3 of the 7 times fall in hours no log observed on any day (08:00-09:00, "
         "12:00-13:00, 14:00-15:00 UTC; the map observed 09:00-12:00, 13:00-14:00): their "
         "forecast is extrapolated from the hours observed, not measured"
     ]

@@ -77,11 +77,13 @@ def announce_time(
     label: str = "time",
     loaded: Any = None,
     series: list[int] | None = None,
+    noun: str = "times",
 ) -> None:
     """Say on stderr which time and zone were used (after the command succeeded, so an error
     stays the only output of a failed command), and, for a forecast from the map ``loaded``,
     what it cannot say at that time (:mod:`aion_cli.forecast_notes`) and at the hours of
-    the ``series`` of times it belongs to (a series, the departures of ``plan --leave``)."""
+    the ``series`` of times it belongs to (a series, the departures of ``plan --leave``:
+    ``noun`` says which)."""
     from aion_cli.cli.console import note
 
     note(f"{label}: {format_ns(t_ns, zone)} ({zone.name})")
@@ -91,7 +93,9 @@ def announce_time(
 
         manifest = Manifest.from_dict(loaded.manifest)
         lines = (
-            series_notes(manifest, series, t_ns) if series else forecast_notes(manifest, t_ns)
+            series_notes(manifest, series, t_ns, noun)
+            if series
+            else forecast_notes(manifest, t_ns)
         )
         for line in lines:
             note(line)

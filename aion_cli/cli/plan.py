@@ -178,7 +178,8 @@ def command(
         plan_png(loaded, routes, nav, zone, png_path)
         report["png"] = str(png_path)
     announce_time(
-        t_ns, zone, "departure" if departures is None else "best departure", loaded, leaving
+        t_ns, zone, "departure" if departures is None else "best departure", loaded, leaving,
+        "departures",
     )
     if fmt == "json":
         click.echo(to_json(report))

@@ -83,7 +83,7 @@ def test_departures_at_hours_no_log_observed_are_marked(office: Office) -> None:
     assert table.exit_code == 0, table.stderr
     assert table.stdout.count("extrapolated") == 2
     assert (
-        "2 of the series' 3 times fall in hours no log observed on any day (07:00-08:00, "
+        "2 of the 3 departures fall in hours no log observed on any day (07:00-08:00, "
         "09:00-10:00 UTC; the map observed 08:00-09:00)"
     ) in " ".join(table.stderr.split())
 
