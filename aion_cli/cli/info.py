@@ -30,7 +30,8 @@ skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping.
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
 size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
 role, encoding, rate_hz, used, why}], roles, dsg_versions, will_use{detections, scene_graph, tf},
-cannot_read, warnings, fixed_sensor{windows_with_messages, span_windows, window_s} (only
+cannot_read, warnings, fixed_sensor{windows_with_messages, span_windows, window_s,
+hours_with_messages} (only
 when the logs have neither TF nor a scene graph: build observes the windows with messages).
 For a map (.aion): format, version, creator, created, inputs,
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
@@ -120,16 +121,25 @@ def describe(
 
 def _fixed_sensor_windows(logset: Any) -> dict[str, Any]:
     """How many of the default model's windows between the logs' first and last message
-    hold a message: without TF or a scene graph nothing else says what a build observed (it
-    also leaves out stray messages a day away, which this count keeps)."""
-    from aion_cli.engine.config import ModelConfig
-    from aion_cli.engine.windows import window_ns
+    hold a message, and at which hours of the day (UTC: the default model's zone, per kind
+    of day): without TF or a scene graph nothing else says what a build observed (it also
+    leaves out stray messages a day away, which this count keeps)."""
+    import numpy as np
 
-    window_s = ModelConfig().window_s
-    windows = logset.recorded_windows(window_ns(window_s))
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.temporal.calendar import Calendar
+    from aion_cli.engine.windows import window_centre_ns, window_ns
+    from aion_cli.forecast_notes import observed_hours
+
+    config = ModelConfig()
+    delta = window_ns(config.window_s)
+    windows = logset.recorded_windows(delta)
     span = int(windows[-1] - windows[0]) + 1 if windows.size else 0
+    calendar = Calendar(config.timezone, config.profile, config.profile_bin_s)
+    bins = np.unique(calendar.profile_bin(window_centre_ns(windows, delta)))
+    hours = observed_hours({"observed_bins": bins.tolist()}, config.to_dict(), config.timezone)
     return {"windows_with_messages": int(windows.size), "span_windows": span,
-            "window_s": window_s}
+            "window_s": config.window_s, "hours_with_messages": hours}
 
 
 def _mappings(path: Path | None) -> list[Any]:
@@ -340,6 +350,11 @@ def _print(report: dict[str, Any]) -> None:
                 "is there, build with --observed START..END"
             )
         console().print(f"[yellow]note:[/yellow] {text}", soft_wrap=True)
+        if fixed.get("hours_with_messages"):
+            console().print(
+                f"[yellow]note:[/yellow] hours with messages: {safe(fixed['hours_with_messages'])}",
+                soft_wrap=True,
+            )
     for warning in report["warnings"]:
         console().print(f"[yellow]warning:[/yellow] {safe(warning)}", soft_wrap=True)
 

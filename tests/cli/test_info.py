@@ -48,10 +48,16 @@ def test_a_fixed_sensor_log_says_how_much_of_its_span_holds_messages(tmp_path: P
     write_office_log(log, graph=False, tf=False, later_sessions_s=(86_400, 2 * 86_400))
     doc = run_json("info", log, "--format", "json")
     assert doc["fixed_sensor"] == {"windows_with_messages": 6, "span_windows": 290,
-                                   "window_s": 600.0}
+                                   "window_s": 600.0,
+                                   # Monday to Wednesday, 08:00-08:20 UTC
+                                   "hours_with_messages": "weekdays 08:00-09:00; weekends "
+                                                          "none (UTC)"}
     table = run("info", log)
     assert "fixed sensor over the 6 windows of 10 min with messages, 2% of its span; the " \
         "others are unknown, not empty" in " ".join(table.stderr.split())
+    assert "note: hours with messages: weekdays 08:00-09:00; weekends none (UTC)" in " ".join(
+        table.stderr.split()
+    )
     assert "--observed START..END" in table.stderr
     one = tmp_path / "one.mcap"
     write_office_log(one, graph=False, tf=False)
