@@ -252,9 +252,17 @@ class Map:
         and RViz; as ``aion export --format mcap``); ``format="dsg"`` the 4D scene graph as
         the spark_dsg file ``folder`` names (``dsg.json`` or ``.sparkdsg``, dynamics in each
         node's metadata; as ``aion export --format dsg``). Without ``format``, ``folder``'s
-        suffix chooses as in ``aion export``: ``.mcap``, ``.json`` / ``.sparkdsg`` (a ``.png``
-        is :meth:`picture`'s), else ply."""
-        from aion_cli.exports import export_format, export_frames, path_ends
+        suffix chooses as in ``aion export``: ``.mcap``, ``.json`` / ``.sparkdsg``, ``.ply`` /
+        ``.pcd`` (the whole scene as one file) (a ``.png`` is :meth:`picture`'s), else a ply
+        folder."""
+        from aion_cli.exports import (
+            export_format,
+            export_frames,
+            export_scene_file,
+            path_ends,
+            planned_path,
+            scene_file,
+        )
 
         if format not in (None, "ply", "pcd", "mcap", "dsg"):
             raise InputError(f"unknown export format {format!r}", hint="ply, pcd, mcap or dsg")
@@ -287,6 +295,9 @@ class Map:
             from aion_cli.scene_frames import export_mcap
 
             return [export_mcap(self._loaded, label, out, times, zone, ends)]
+        if scene_file(format, out):
+            path_xyz = None if ends is None else planned_path(self._loaded, times[0], ends)
+            return [export_scene_file(self._loaded, times[0], out, format, path_xyz)]
         return export_frames(self._loaded, label, out, times, zone, format, ends)
 
     def picture(

@@ -128,23 +128,51 @@ def write_scene(
 
 def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) -> None:
     """The whole scene at ``t_ns`` with a planned path, as the one PLY file ``out``
-    (``aion plan --export``): written beside ``out`` and renamed into place; an existing
-    ``out`` is replaced only when it is a PLY file (never a device, FIFO or other file)."""
-    from aion_cli.engine import query
+    (``aion plan --export``; see :func:`export_scene_file`)."""
     from aion_cli.errors import InputError
-    from aion_cli.formats.outputs import check_output, file_starts_with
 
     if out.suffix.lower() != ".ply":
         raise InputError(f"--export writes a .ply file, got {out.name!r}")
+    export_scene_file(loaded, t_ns, out, "ply", nav.xyz[path])
+
+
+_SCENE_MAGIC = {"ply": b"ply", "pcd": b"# .PCD"}
+
+
+def scene_file(fmt: str, out: Path) -> bool:
+    """Whether a PLY / PCD export names one scene file (``-o scene.ply``: the whole scene in
+    one file, as ``scene.ply`` of a folder export) rather than a folder to write into."""
+    return fmt in _SCENE_MAGIC and out.suffix.lower() == f".{fmt}" and not out.is_dir()
+
+
+def export_scene_file(
+    loaded: Any, t_ns: int | None, out: Path, fmt: str, path_xyz: Any | None
+) -> Path:
+    """The whole scene at ``t_ns`` (None: as observed), with the path ``path_xyz`` if given,
+    as the one PLY or PCD file ``out``: written beside ``out`` and renamed into place; an
+    existing ``out`` is replaced only when it is a file of that format (never a device, FIFO
+    or other file)."""
+    from aion_cli.engine import query
+    from aion_cli.formats.outputs import check_output, file_starts_with
+
+    magic = _SCENE_MAGIC[fmt]
     check_output(
-        out, overwrite=True, recognise=lambda p: file_starts_with(p, b"ply"), what="a PLY file"
+        out,
+        overwrite=True,
+        recognise=lambda p: file_starts_with(p, magic),
+        what=f"a {fmt.upper()} file",
     )
-    table = query.predict_table(loaded.state, t_ns)
+    table = (
+        query.historical_table(loaded.state)
+        if t_ns is None
+        else query.predict_table(loaded.state, t_ns)
+    )
     with Staged(out) as staged:
         scratch = staged.folder / "scene"  # the other files are dropped with the staging
         scratch.mkdir()
-        files = write_scene(loaded, table, scratch, "ply", nav.xyz[path])
-        next(f for f in files if f.name == "scene.ply").rename(staged.path)
+        files = write_scene(loaded, table, scratch, fmt, path_xyz)
+        next(f for f in files if f.name == f"scene.{fmt}").rename(staged.path)
+    return out
 
 
 def export_dsg(
@@ -199,18 +227,20 @@ FILE_FORMATS = {".png": "png", ".mcap": "mcap", ".json": "dsg", ".sparkdsg": "ds
 
 def export_format(fmt: str | None, out: Path) -> str:
     """The format to write: ``fmt`` if given (``--format``), else the one the output's suffix
-    names (a .png picture, an .mcap series, a .json / .sparkdsg scene graph), else ply. ply
-    and pcd write a folder: an output that names a file (a suffix of this list, or .ply /
-    .pcd) and is not an existing folder is refused rather than made a folder of that name."""
+    names (a .png picture, an .mcap series, a .json / .sparkdsg scene graph, a .ply / .pcd
+    scene file: :func:`scene_file`), else ply (a folder). A PLY / PCD export to an output
+    named as another format's file (``--format pcd -o map.png``) and not an existing folder
+    is refused rather than made a folder of that name."""
     from aion_cli.errors import InputError
 
     suffix = out.suffix.lower()
     if fmt is None:
-        fmt = FILE_FORMATS.get(suffix, "ply" if suffix != ".pcd" else "pcd")
-    if fmt in ("ply", "pcd") and not out.is_dir() and suffix in {*FILE_FORMATS, ".ply", ".pcd"}:
+        fmt = FILE_FORMATS.get(suffix, "pcd" if suffix == ".pcd" else "ply")
+    other = {*FILE_FORMATS, ".ply", ".pcd"} - {f".{fmt}"}
+    if fmt in _SCENE_MAGIC and not out.is_dir() and suffix in other:
         raise InputError(
             f"{fmt} scenes are written into a folder (the scene as .{fmt} files, entries.csv and "
-            f"entries.json), got {str(out)!r}",
-            hint="name a folder (e.g. out/), or write one file as png, mcap or dsg",
+            f"entries.json) or one .{fmt} file, got {str(out)!r}",
+            hint=f"name a folder (e.g. out/) or a .{fmt} file",
         )
     return fmt

@@ -22,6 +22,7 @@ from aion_cli.cli.output import AionCommand
 EPILOG = """\b
 Examples:
   aion export office.aion --time "2026-11-23 08:30" -o out/
+  aion export office.aion --time "2026-11-23 08:30" -o scene.ply
   aion export office.aion --historical -o out/ --format pcd
   aion export office.aion --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h -o series/
   aion export office.aion --time now --path-from p12 --path-to p87 -o out/
@@ -73,7 +74,8 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     "out_dir",
     required=True,
     type=AionPath(path_type=Path),
-    help="Folder to write into (created if missing); for png and mcap, the file.",
+    help="Folder to write into (created if missing); for png, mcap and dsg the file, and a "
+    ".ply / .pcd name writes the whole scene as that one file.",
 )
 @click.option("-t", "--time", "time_text", metavar="T", help="Prediction time. " + TIME_HELP)
 @click.option("--historical", is_flag=True, help="Export what was observed instead.")
@@ -121,7 +123,7 @@ def command(
     from aion_cli.cli.console import console, progress
     from aion_cli.cli.output import markup_safe
     from aion_cli.errors import InputError
-    from aion_cli.exports import export_format, export_frames, path_ends
+    from aion_cli.exports import export_format, export_frames, path_ends, scene_file
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:
@@ -177,6 +179,21 @@ def command(
             export_mcap(loaded, map_path, out_dir, times, zone, ends, advance)
             steps = f"{len(times)} step(s); open it in Foxglove"
             return f"wrote {markup_safe(out_dir)} ({steps})"
+
+    elif scene_file(fmt, out_dir):
+        if len(times) != 1:
+            raise InputError(
+                f"a series writes one {fmt} scene per time into a folder, got a file: "
+                f"-o {out_dir}",
+                hint="name a folder (e.g. -o series/), or --format png / mcap for one file",
+            )
+        from aion_cli.exports import export_scene_file, planned_path
+
+        def write(advance: Any) -> str:
+            path_xyz = None if ends is None else planned_path(loaded, times[0], ends)
+            export_scene_file(loaded, times[0], out_dir, fmt, path_xyz)
+            advance()
+            return f"wrote {markup_safe(out_dir)} (the whole scene in one {fmt} file)"
 
     else:
 

@@ -102,16 +102,40 @@ def test_the_format_follows_the_output_suffix(
 
 
 @pytest.mark.parametrize(
-    ("args", "name"),
-    [([], "scene.ply"), ([], "scene.pcd"), (["--format", "pcd"], "map.png")],
+    ("fmt", "name"), [("pcd", "map.png"), ("ply", "scene.pcd"), ("ply", "graph.json")]
 )
-def test_a_folder_format_refuses_a_file_name(
-    office: Office, tmp_path: Path, args: list[str], name: str
+def test_a_scene_format_refuses_another_formats_file_name(
+    office: Office, tmp_path: Path, fmt: str, name: str
 ) -> None:
-    result = run("export", office.map, "-o", tmp_path / name, "--time", AT, *args)
+    result = run("export", office.map, "-o", tmp_path / name, "--time", AT, "--format", fmt)
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "written into a folder", repr(str(tmp_path / name)))
     assert not (tmp_path / name).exists()
+
+
+@pytest.mark.parametrize("fmt", ["ply", "pcd"])
+def test_a_scene_file_name_writes_the_whole_scene_in_one_file(
+    office: Office, tmp_path: Path, fmt: str
+) -> None:
+    """``-o scene.ply`` (or .pcd) writes the one file a folder export calls scene.ply, byte
+    for byte; a series needs a folder; another kind of file is never replaced."""
+    folder = tmp_path / "folder"
+    assert run("export", office.map, "--time", AT, "--format", fmt, "-o", folder).exit_code == 0
+    one = tmp_path / f"one.{fmt}"
+    result = run("export", office.map, "--time", AT, "-o", one)
+    assert result.exit_code == 0, result.stderr
+    assert one.read_bytes() == (folder / f"scene.{fmt}").read_bytes()
+    again = run("export", office.map, "--time", AT, "-o", one)  # its own file: replaced
+    assert again.exit_code == 0, again.stderr
+    series = run("export", office.map, "--from", AT, "--to", "2026-11-23 09:30", "-o",
+                 tmp_path / f"day.{fmt}")
+    assert series.exit_code == 2
+    assert_one_line_error(series.stderr, "a series writes one")
+    notes = tmp_path / f"notes.{fmt}"
+    notes.write_text("mine")
+    refused = run("export", office.map, "--time", AT, "-o", notes)
+    assert refused.exit_code == 2
+    assert notes.read_text() == "mine"
 
 
 def test_an_existing_folder_keeps_its_name(office: Office, tmp_path: Path) -> None:

@@ -101,10 +101,15 @@ def test_the_api_writes_it_too(office: Office, tmp_path: Path) -> None:
     about = _graph(guessed).metadata.get()["aion"]
     assert about["time"].startswith("2026-11-23 08:30")
     assert about["hour_observed"] is True  # the office log observed 08:00-08:20
-    for name, fragment in (("scene.ply", "written into a folder"), ("m.png", "picture")):
-        with pytest.raises(aion.InputError, match=fragment):
-            m.export(tmp_path / name, time=AT)
-        assert not (tmp_path / name).exists()
+    with pytest.raises(aion.InputError, match="picture"):
+        m.export(tmp_path / "m.png", time=AT)
+    assert not (tmp_path / "m.png").exists()
+    # a .ply name: the whole scene in that one file, as the CLI writes it
+    (scene,) = m.export(tmp_path / "scene.ply", time=AT, tz="UTC")
+    assert scene == tmp_path / "scene.ply"
+    assert scene.read_bytes().startswith(b"ply")
+    with pytest.raises(aion.InputError, match="written into a folder"):
+        m.export(tmp_path / "scene.pcd", time=AT, format="ply")
 
 
 def test_bad_targets_and_options(office: Office, tmp_path: Path) -> None:
