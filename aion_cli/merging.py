@@ -457,8 +457,8 @@ def _write(
             "used": int(c.get("used", 0)),
             "dropped": dict(c.get("dropped", {})),
         }
-        if "recording_windows" in c:
-            part["recording_windows"] = int(c["recording_windows"])
+        if "recording_windows" in c:  # as stored: add_counts leaves a damaged value out
+            part["recording_windows"] = c["recording_windows"]
         counts = add_counts(counts, part)
     stats = state_counts(merged)
     far = far_from_graph_of(merged, stats)

@@ -394,3 +394,24 @@ def test_the_api_merges_as_docs_api_md_shows(tmp_path: Path) -> None:
     assert aion.compact is compact
     with pytest.raises(InputError, match="list of map files"):
         aion.merge(str(tmp_path / "monday.aion"), tmp_path / "x.aion")
+
+
+def test_a_damaged_recording_windows_count_is_left_out_of_a_merge(tmp_path: Path) -> None:
+    """An input map whose manifest holds ``counts.recording_windows = "ten"`` merges; the
+    output leaves the count out rather than fail in ``int()`` (a map file is untrusted)."""
+    import json
+    import zipfile
+
+    a = fixed_sensor_map(tmp_path / "a.aion", ("a1.mcap",), T0, seed=1)
+    b = fixed_sensor_map(tmp_path / "b.aion", ("b.mcap",), T0 + DAY * 3, seed=2)
+    damaged = tmp_path / "damaged.aion"
+    with zipfile.ZipFile(a) as src, zipfile.ZipFile(damaged, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "manifest.json":
+                doc = json.loads(data)
+                doc["counts"]["recording_windows"] = "ten"
+                data = json.dumps(doc).encode()
+            dst.writestr(item, data)
+    merge_map_files([damaged, b], tmp_path / "out.aion")
+    assert "recording_windows" not in read_manifest(tmp_path / "out.aion")["counts"]
