@@ -19,14 +19,14 @@ if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
 
 
-def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[str, Any]:
+def cumulative_counts(
+    report: BuildReport, previous: Manifest | None, recording: int | None = None
+) -> dict[str, Any]:
     """Detections read / used / dropped over every build of the map, and a fixed sensor's
-    logs' own time in windows (``recording_windows``)."""
-    from aion_cli.tf_feed import recording_window_count
-
+    logs' own time in windows (``recording_windows``; this build's: ``recording``)."""
     new = report.to_dict()["detections"]
-    if report.fixed_windows is not None and report.recording_spans:
-        new["recording_windows"] = recording_window_count(report.recording_spans)
+    if recording is not None:
+        new["recording_windows"] = recording
     if previous is None:
         return new
     return add_counts(previous.counts, new)
@@ -62,7 +62,9 @@ def write_build(
         state.observation,
         state.window_ns,
     )
-    share = _recording_share(report)
+    recording = _recording_windows(report)
+    fixed = report.fixed_windows
+    share = None if not recording or fixed is None else min(1.0, fixed[0] / recording)
     # this build's own logs had spans declared (its text says so)
     if share is not None and share < 0.5 and DECLARED not in report.observation:
         report.notes.append(
@@ -76,7 +78,7 @@ def write_build(
         inputs=inputs,
         start_ns=report.start_ns,
         end_ns=report.end_ns,
-        counts=cumulative_counts(report, previous) | stats,
+        counts=cumulative_counts(report, previous, recording) | stats,
         last_build=report.to_dict()["detections"],
         graph_source=report.graph_source,
         observation=observation,
@@ -91,13 +93,12 @@ def write_build(
     report.hours_observed = observed_hours(manifest.families, manifest.config, config.timezone)
 
 
-def _recording_share(report: BuildReport) -> float | None:
-    """The share of its logs' own time (each file from its first to its last recorded
-    window: the time between two files is not the sensor's) in which this build's fixed
-    sensor recorded a message; None without a fixed sensor."""
+def _recording_windows(report: BuildReport) -> int | None:
+    """This build's logs' own time in windows (each file from its first to its last recorded
+    window: the time between two files is not the sensor's to observe); None without a fixed
+    sensor."""
     from aion_cli.tf_feed import recording_window_count
 
-    recording = recording_window_count(report.recording_spans)
-    if report.fixed_windows is None or recording <= 0:
+    if report.fixed_windows is None or not report.recording_spans:
         return None
-    return min(1.0, report.fixed_windows[0] / recording)
+    return recording_window_count(report.recording_spans)
