@@ -239,20 +239,22 @@ def activity_series(
     names, columns = _top_columns(loaded, [str(i) for i in ids], flows, times[-1].size)
     out, at = [], 0
     for (title, _, _, _), when in zip(spans, times, strict=True):
-        unobserved = _unobserved_hours(loaded, observed, when)
+        unobserved = _unobserved_hours(loaded, when)
         out.append(Series(title, when, names, columns[at : at + when.size], unobserved))
         at += when.size
     return tuple(out), notes
 
 
-def _unobserved_hours(loaded: LoadedMap, observed: Observed, times: Any) -> Any:
-    """Per time, whether no kind of day observed its hour (``observed.hours``, in the map's
-    zone): the hours a forecast note calls extrapolated."""
-    calendar = loaded.state.params.calendar
-    seen = np.asarray(observed.hours).sum(axis=0) > 0  # per in-day bin, any kind of day
-    if not seen.any():
-        return np.zeros(len(times), bool)
-    return ~seen[calendar.profile_bin(np.asarray(times, np.int64)) % calendar.bins_per_day]
+def _unobserved_hours(loaded: LoadedMap, times: Any) -> Any:
+    """Per time, whether no kind of day observed its hour: the hours the forecast notes and
+    ``hour_observed`` call extrapolated (``predictions.hour_flags``); None for a map that
+    does not list its observed hours."""
+    from aion_cli.predictions import hour_flags
+
+    flags = hour_flags(loaded, [int(t) for t in times])
+    if any(seen is None for seen in flags):
+        return None
+    return ~np.asarray(flags, bool)
 
 
 def _top_columns(
