@@ -27,21 +27,106 @@ ROOM_GREY: Color = (0.45, 0.45, 0.45)
 LABEL_GREY: Color = (0.3, 0.3, 0.3)
 MAX_ROOM_LABELS = 60
 """Rooms are labelled up to this many (outlined always)."""
+OUTLIER_SHARE = 0.0025
+"""A picture may leave out groups of hash cells apart from the rest that each hold at most
+this share of the cells' flow (a few stray detections far from where people walk)..."""
+OUTLIER_TOTAL = 0.01
+"""...at most this share of the flow in all..."""
+OUTLIER_SPAN = 1.5
+"""...and only where the cells' whole span is more than this many times the span of the cells
+kept, on x or y: a map with nothing far out is shown whole."""
+LINK_CELLS = 4
+"""Cells within about this many cells of each other (and at least :data:`LINK_M`) form one
+group: a corridor's sparse tail stays with the corridor."""
+LINK_M = 2.0
 
 
 @dataclass(frozen=True)
 class Extent:
-    """The x-y window a picture shows (m)."""
+    """The x-y window a picture shows (m), and the hash cells it leaves out (outliers,
+    :func:`outlying_cells`): how many, and their share of the cells' flow."""
 
     x0: float
     x1: float
     y0: float
     y1: float
+    left_out: int = 0
+    left_out_share: float = 0.0
 
     @property
     def aspect(self) -> float:
         """Height over width."""
         return (self.y1 - self.y0) / (self.x1 - self.x0)
+
+    def caption(self) -> str:
+        """What the window leaves out, for the picture's legend ("" when nothing)."""
+        if not self.left_out:
+            return ""
+        cells = f"{self.left_out:,} outlying hash cell{'s' if self.left_out > 1 else ''}"
+        return (
+            f"{cells} ({100.0 * self.left_out_share:.2g} % of the flow) "
+            f"{'lie' if self.left_out > 1 else 'lies'} outside the view"
+        )
+
+
+def outlying_cells(xy: F64, weight: F64, cell_size: float) -> npt.NDArray[np.bool_]:
+    """Which of the hash cells at ``xy`` f64[n,2] (centres) a picture leaves out: the groups
+    of cells apart from the rest that hold little of the flow ``weight`` (NaN and negative
+    count as 0; all zero: every cell alike).
+
+    Cells are grouped by touching squares of side ``max(LINK_CELLS·cell_size, LINK_M)``
+    (8-neighbours; sparse keys, so a cell kilometres away costs nothing). The smallest
+    groups, each with at most :data:`OUTLIER_SHARE` of the flow, are left out while they
+    hold at most :data:`OUTLIER_TOTAL` together, and only where the cells kept span less
+    than ``1 / OUTLIER_SPAN`` of all on x or y: one stray detection 100 m from a 20 m
+    corridor would otherwise shrink the corridor to a few pixels, while a corridor's thin
+    arms, which touch it, stay."""
+    n = len(xy)
+    none = np.zeros(n, bool)
+    if n < 2:
+        return none
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    w = np.where(np.isfinite(weight) & (weight > 0), weight, 0.0)
+    if not w.sum() > 0:
+        w = np.ones(n)
+    side = max(LINK_CELLS * cell_size, LINK_M)
+    square = np.floor((xy - xy.min(axis=0)) / side).astype(np.int64)
+    keys, of_cell = np.unique(square, axis=0, return_inverse=True)
+    of_cell = of_cell.reshape(-1)
+    m = len(keys)
+    width = int(keys[:, 1].max()) + 3
+    flat = (keys[:, 0] + 1) * width + keys[:, 1] + 1  # sorted, as keys are
+    rows, cols = [], []
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            if dx == dy == 0:
+                continue
+            target = flat + dx * width + dy
+            pos = np.minimum(np.searchsorted(flat, target), m - 1)
+            hit = flat[pos] == target
+            rows.append(np.flatnonzero(hit))
+            cols.append(pos[hit])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(r.size), (r, c)), shape=(m, m))
+    groups, label = connected_components(graph, directed=False)
+    if groups < 2:
+        return none
+    group_of_cell = label[of_cell]
+    share = np.bincount(group_of_cell, weights=w, minlength=groups) / float(w.sum())
+    order = np.argsort(share, kind="stable")
+    small = share[order] <= OUTLIER_SHARE
+    running = np.cumsum(share[order])
+    out_groups = order[small & (running <= OUTLIER_TOTAL)]
+    if out_groups.size == 0 or out_groups.size == groups:
+        return none
+    out = np.isin(group_of_cell, out_groups)
+    kept = xy[~out]
+    whole = xy.max(axis=0) - xy.min(axis=0)
+    if not np.any(whole > OUTLIER_SPAN * (kept.max(axis=0) - kept.min(axis=0))):
+        return none
+    return out
 
 
 def _arrays(polygons: F64) -> Any:

@@ -61,6 +61,7 @@ from aion_cli.pictures.backdrop import (
     _draw_rooms,
     _same_geometry,
     mesh_footprint,
+    outlying_cells,
     room_outlines,
 )
 from aion_cli.scene import Scene
@@ -113,17 +114,26 @@ def entropy_cmap() -> Any:
 
 
 def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Extent:
-    """The window holding every place, node, cell, mesh vertex and path of ``scenes``, with a
-    margin for the arrows (at least 1 m each way)."""
+    """The window holding every place, node, mesh vertex and path of ``scenes`` and their hash
+    cells but outliers (:func:`.backdrop.outlying_cells`: a few stray cells far away, which
+    the extent counts as left out), with a margin for the arrows (at least 1 m each way)."""
     points: list[F64] = []
     margin = 0.0
+    cells = [s.cells_xyz[:, :2] for s in scenes]
+    flows = [s.cells_flow for s in scenes]
+    cell_xy = np.concatenate(cells) if cells else np.zeros((0, 2))
+    cell_flow = np.concatenate(flows) if flows else np.zeros(0)
+    finite = np.isfinite(cell_xy).all(axis=1)
+    cell_xy, cell_flow = cell_xy[finite], cell_flow[finite]
+    cell = min((s.cell_size for s in scenes), default=1.0)
+    kept = ~outlying_cells(cell_xy, cell_flow, cell)
     for s in scenes:
-        half = s.cell_size / 2.0
         points += [s.places_xyz[:, :2], s.nodes_xyz[:, :2]]
-        points += [s.cells_xyz[:, :2] - half, s.cells_xyz[:, :2] + half]
         if s.mesh is not None:
             points.append(np.asarray(s.mesh.vertices, dtype=np.float64).reshape(-1, 3)[:, :2])
         margin = max(margin, ARROW_CELLS * s.cell_size)
+    half = max((s.cell_size / 2.0 for s in scenes), default=0.0)
+    points += [cell_xy[kept] - half, cell_xy[kept] + half]
     points += [np.asarray(p.xyz, dtype=np.float64).reshape(-1, 3)[:, :2] for p in paths]
     xy = np.concatenate([p for p in points if len(p)] or [np.zeros((1, 2))])
     xy = xy[np.isfinite(xy).all(axis=1)]
@@ -133,12 +143,16 @@ def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Ext
     pad = max(margin, 0.04 * float((hi - lo).max()))
     centre = (lo + hi) / 2.0
     half_span = np.maximum((hi - lo) / 2.0 + pad, 1.0)
-    return Extent(
-        float(centre[0] - half_span[0]),
-        float(centre[0] + half_span[0]),
-        float(centre[1] - half_span[1]),
-        float(centre[1] + half_span[1]),
-    )
+    x0, x1 = float(centre[0] - half_span[0]), float(centre[0] + half_span[0])
+    y0, y1 = float(centre[1] - half_span[1]), float(centre[1] + half_span[1])
+    x, y = cell_xy[:, 0], cell_xy[:, 1]
+    inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+    flow = np.where(np.isfinite(cell_flow) & (cell_flow > 0), cell_flow, 0.0)
+    total = float(flow.sum())
+    share = float(flow[~inside].sum()) / total if total > 0 else 0.0
+    # the panels of a series hold the same cells: each counted once, by its centre
+    left_out = len(np.unique(cell_xy[~inside], axis=0))
+    return Extent(x0, x1, y0, y1, left_out, share)
 
 
 @dataclass(frozen=True)
@@ -382,7 +396,7 @@ def topdown_figure(
     if suptitle:
         fig.suptitle(suptitle, fontsize=12)
     fig.supxlabel(
-        arrows.legend(scenes[0].window_s),
+        "\n".join(filter(None, (arrows.legend(scenes[0].window_s), extent.caption()))),
         fontsize=7,
         color=LABEL_GREY,
     )

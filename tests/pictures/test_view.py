@@ -1,0 +1,179 @@
+"""The window a top-down picture shows: every place, node and path, and the hash cells but a
+few outlying ones (stray detections far from where people walk), which the picture counts and
+names in its legend. Checked on scenes whose geometry says by hand what must be left out."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aion_cli.pictures.backdrop import OUTLIER_SHARE, OUTLIER_TOTAL, outlying_cells
+from aion_cli.pictures.topdown import PathLine, scene_extent, topdown_figure
+from aion_cli.scene import Scene
+from tests.pictures.pixels import synthetic_scene
+
+CELL = 0.5
+
+
+def _corridor(length_m: float = 20.0, width_m: float = 2.0) -> np.ndarray:
+    """Cell centres filling a corridor along +x from the origin."""
+    xs = np.arange(CELL / 2, length_m, CELL)
+    ys = np.arange(CELL / 2, width_m, CELL)
+    return np.array([(x, y) for x in xs for y in ys])
+
+
+def _cells_scene(xy: np.ndarray, flow: np.ndarray) -> Scene:
+    """The synthetic scene without its graph and mesh, holding only the cells ``xy``."""
+    n = len(xy)
+    empty3 = np.zeros((0, 3))
+    return replace(
+        synthetic_scene(),
+        node_ids=np.zeros(0, np.uint64),
+        nodes_xyz=empty3,
+        node_flow=np.zeros(0),
+        node_entropy=np.zeros(0),
+        node_angle=np.zeros(0),
+        node_concentration=np.zeros(0),
+        cells_xyz=np.column_stack([xy, np.zeros(n)]),
+        cells_flow=flow,
+        cells_entropy=np.full(n, 0.5),
+        cells_angle=np.zeros(n),
+        places_xyz=empty3,
+        edges_xyz=np.zeros((0, 2, 3)),
+        room_ids=np.zeros(0, np.uint64),
+        room_labels=(),
+        room_xyz=empty3,
+        place_room=np.zeros(0, np.int64),
+        mesh=None,
+    )
+
+
+def test_a_stray_cell_far_away_is_left_out_and_named() -> None:
+    corridor = _corridor()
+    xy = np.vstack([corridor, [[150.0, -30.0]]])
+    flow = np.r_[np.full(len(corridor), 5.0), 0.01]
+    scene = _cells_scene(xy, flow)
+    box = scene_extent([scene])
+    assert box.x1 < 30.0  # the corridor fills the view
+    assert box.y0 > -5.0
+    assert box.x0 <= 0.0  # all of it
+    assert box.x1 >= 20.0
+    assert box.y1 >= 2.0
+    assert box.left_out == 1
+    assert box.left_out_share == 0.01 / flow.sum()
+    assert box.caption().startswith("1 outlying hash cell (")
+    fig = topdown_figure([scene], ["t"])
+    assert "1 outlying hash cell" in fig._supxlabel.get_text()
+
+
+def test_a_thin_arm_that_touches_the_corridor_stays() -> None:
+    """A side corridor walked by few (far below the outliers' share) is part of the place:
+    its cells touch the main corridor's, so the view keeps it."""
+    corridor = _corridor()
+    arm = np.array([(10.25, y) for y in np.arange(2.25, 15.0, CELL)])
+    xy = np.vstack([corridor, arm])
+    flow = np.r_[np.full(len(corridor), 50.0), np.full(len(arm), 0.001)]
+    assert not outlying_cells(xy, flow, CELL).any()
+    box = scene_extent([_cells_scene(xy, flow)])
+    assert box.y1 >= 15.0
+    assert box.left_out == 0
+    assert box.caption() == ""
+
+
+def test_two_busy_sites_far_apart_are_both_shown() -> None:
+    a = _corridor()
+    xy = np.vstack([a, a + np.array([200.0, 0.0])])
+    flow = np.ones(len(xy))
+    assert not outlying_cells(xy, flow, CELL).any()
+    box = scene_extent([_cells_scene(xy, flow)])
+    assert box.x0 <= 0.0
+    assert box.x1 >= 220.0
+
+
+def test_a_busy_cell_far_away_is_shown() -> None:
+    """Far but holding a share of the flow above the outliers' share: not an outlier."""
+    corridor = _corridor()
+    xy = np.vstack([corridor, [[150.0, 0.0]]])
+    flow = np.r_[np.ones(len(corridor)), 3 * OUTLIER_SHARE * len(corridor)]
+    assert not outlying_cells(xy, flow, CELL).any()
+    assert scene_extent([_cells_scene(xy, flow)]).x1 >= 150.0
+
+
+def test_a_near_stray_is_not_worth_leaving_out() -> None:
+    """Apart from the corridor but within its span's reach: showing it costs little."""
+    corridor = _corridor()
+    xy = np.vstack([corridor, [[25.0, 1.0]]])  # 5 m beyond a 20 m corridor
+    flow = np.r_[np.ones(len(corridor)), 1e-6]
+    assert not outlying_cells(xy, flow, CELL).any()
+
+
+def test_places_nodes_and_paths_are_always_in_view() -> None:
+    """Only hash cells are ever left out: the graph and a planned path stay whole."""
+    corridor = _corridor()
+    xy = np.vstack([corridor, [[150.0, -30.0]]])
+    flow = np.r_[np.ones(len(corridor)), 1e-6]
+    far_place = np.array([[0.0, 80.0, 0.0]])
+    scene = replace(_cells_scene(xy, flow), places_xyz=far_place)
+    path = PathLine(np.array([[0.0, 0.0, 0.0], [-60.0, 0.0, 0.0]]), "path", (0.0, 0.0, 0.0))
+    box = scene_extent([scene], [path])
+    assert box.y1 >= 80.0
+    assert box.x0 <= -60.0
+    assert box.left_out == 1  # the stray cell is still left out
+
+
+def test_a_series_counts_each_cell_once() -> None:
+    corridor = _corridor()
+    xy = np.vstack([corridor, [[150.0, -30.0], [-120.0, 40.0]]])
+    flow = np.r_[np.ones(len(corridor)), 1e-4, 1e-4]
+    scene = _cells_scene(xy, flow)
+    box = scene_extent([scene, scene, scene])
+    assert box.left_out == 2
+    assert box.caption().startswith("2 outlying hash cells (")
+
+
+def test_no_flow_anywhere_weighs_every_cell_alike() -> None:
+    """Then a group's share is its share of the cells: one of 801 is an outlier, one of 161
+    is not."""
+    for length, stray in ((100.0, True), (20.0, False)):
+        corridor = _corridor(length)
+        xy = np.vstack([corridor, [[400.0, -30.0]]])
+        out = outlying_cells(xy, np.zeros(len(xy)), CELL)
+        assert out.tolist() == [False] * len(corridor) + [stray]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(-500, 500, allow_nan=False),
+            st.floats(-500, 500, allow_nan=False),
+            st.floats(0, 100, allow_nan=False),
+        ),
+        min_size=0,
+        max_size=60,
+    ),
+    st.floats(0.1, 2.0),
+)
+def test_what_is_left_out_is_little_and_apart(cells: list[tuple[float, float, float]],
+                                              cell: float) -> None:
+    """Whatever the cells: the flow left out is at most the documented total, and every kept
+    cell lies inside the picture's window."""
+    xy = np.array([(x, y) for x, y, _ in cells]).reshape(-1, 2)
+    flow = np.array([f for _, _, f in cells])
+    out = outlying_cells(xy, flow, cell)
+    assert out.shape == (len(xy),)
+    weights = flow if flow.sum() > 0 else np.ones(len(flow))
+    if len(xy):
+        assert weights[out].sum() <= OUTLIER_TOTAL * weights.sum() + 1e-9
+        assert not out.all()
+    scene = replace(_cells_scene(xy, flow), cell_size=cell)
+    box = scene_extent([scene])
+    kept = xy[~out]
+    assert (kept[:, 0] >= box.x0).all()
+    assert (kept[:, 0] <= box.x1).all()
+    assert (kept[:, 1] >= box.y0).all()
+    assert (kept[:, 1] <= box.y1).all()
+    assert box.left_out <= len(np.unique(xy[out], axis=0))  # those drawn are not left out
