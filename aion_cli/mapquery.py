@@ -221,7 +221,7 @@ def node_cost_fn(loaded: LoadedMap, node_ids: np.ndarray) -> Any:
         have = rows >= 0
         d = table.descriptors
         costs = NodeCosts.zeros(len(node_ids))
-        for name in ("entropy", "flow_per_window", "dominant_angle", "concentration"):
+        for name in ("entropy", "flow_per_window", "mean_angle", "concentration"):
             getattr(costs, name)[have] = np.asarray(getattr(d, name))[rows[have]]
         flow = costs.flow_per_window
         flow[~np.isfinite(flow)] = 0.0

@@ -4,8 +4,9 @@ Field names (stable, documented in ``aion predict --help``):
 
 ``id`` ("p12", "R3", or "c<key>" for a hash cell), ``kind`` (node, cell, room, building), ``layer``,
 ``x``/``y``/``z`` (m), ``flow`` (expected detections per window), ``flow_per_hour``,
-``direction_deg`` (dominant direction, circular mean, degrees from +x counter-clockwise; null
-without flow), ``direction_bin`` (argmax bin, -1 without flow), ``concentration`` (0..1),
+``direction_deg`` (dominant direction: the direction of the argmax bin, degrees from +x
+counter-clockwise; null without flow), ``direction_bin`` (that bin, -1 without flow),
+``concentration`` (0..1, the mean resultant length of the histogram),
 ``entropy`` (normalised directional entropy 0..1, null without flow), ``mean_speed`` (m/s
 over bins with known speed, null if unknown), ``histogram`` (B direction probabilities, bin b
 centred at -180 + (b + 0.5)·360/B degrees), ``speed_per_bin`` (m/s per bin, JSON only),

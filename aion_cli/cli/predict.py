@@ -33,8 +33,9 @@ Examples:
 
 \b
 Fields (JSON keys, CSV columns): id, kind (node/cell/room/building), layer, x, y, z,
-flow (expected detections per window), flow_per_hour, direction_deg (dominant direction,
-degrees counter-clockwise from +x), direction_bin, concentration (0..1), entropy (0..1,
+flow (expected detections per window), flow_per_hour, direction_deg (dominant direction:
+where most people walk, degrees counter-clockwise from +x), direction_bin (its bin),
+concentration (0..1, 1 = everyone walks one way, 0 = balanced, e.g. both ways), entropy (0..1,
 1 = people walk every way), mean_speed (m/s), histogram (B direction probabilities; bin b
 is centred at -180 + (b + 0.5)*360/B degrees), speed_per_bin (JSON only).
 A series (--from, --to, --step) prints one row per time and a column per entry (the

@@ -10,9 +10,12 @@ Cost (the paper, section IV "Planning"), for travelling the edge from node i to 
   the predicted flow in expected detections per window. ``c̄_t`` is the mean over i and j.
 - ``c_d(i, j)`` is the mean over i and j of the per-node directional penalty
   ``plan_w_direction · (1 − cos(α − θ_n)) / 2 · κ_n · f_n``, with ``α`` the horizontal travel
-  direction of the edge (i -> j), ``θ_n`` the node's dominant flow direction and ``κ_n`` its
-  concentration (mean resultant length, 0..1). Walking against a concentrated busy flow costs
-  the most (``w_direction``), walking with it costs nothing, crossing it half. A node without
+  direction of the edge (i -> j), ``θ_n`` the node's mean flow direction (the circular mean
+  of its direction histogram) and ``κ_n`` its concentration (that mean's resultant length,
+  0..1): ``κ_n (1 − cos(α − θ_n))`` is ``κ_n`` minus the mean flow vector along the edge.
+  Walking against a concentrated busy flow costs the most (``w_direction``), walking with it
+  costs nothing, crossing it half; in a corridor walked both ways alike (κ ≈ 0) neither way
+  costs more. A node without
   flow (NaN angle / entropy) contributes no penalty; a purely vertical edge has no direction.
 
 Every term is >= 0, so ``cost(i, j) >= d(i, j)``: the Euclidean heuristic is admissible and
@@ -71,13 +74,16 @@ class NodeCosts:
 
     ``entropy`` normalised directional entropy 0..1 (NaN = no flow), ``flow_per_window``
     expected detections per window (raw: the planner normalises by ``plan_flow_scale``),
-    ``dominant_angle`` radians (NaN = no flow), ``concentration`` mean resultant length 0..1.
-    These are the fields of the engine's ``Descriptors`` with the same meaning.
+    ``mean_angle`` radians, the circular mean of the direction histogram (NaN = no flow),
+    ``concentration`` its mean resultant length 0..1. These are the fields of the engine's
+    ``Descriptors`` with the same meaning (not its ``dominant_angle``, the most frequent
+    direction: in a corridor walked both ways the penalty follows the mean flow vector, which
+    is short there).
     """
 
     entropy: F64
     flow_per_window: F64
-    dominant_angle: F64
+    mean_angle: F64
     concentration: F64
 
     @classmethod
@@ -212,7 +218,7 @@ class NavGraph:
 
 def _checked(costs: NodeCosts, m: int) -> tuple[F64, F64, F64, F64]:
     """Validated copies with NaN -> no flow, bounded to their ranges."""
-    arrays = (costs.entropy, costs.flow_per_window, costs.dominant_angle, costs.concentration)
+    arrays = (costs.entropy, costs.flow_per_window, costs.mean_angle, costs.concentration)
     out = []
     for name, a in zip(("entropy", "flow", "angle", "concentration"), arrays, strict=True):
         arr = np.asarray(a, dtype=np.float64)
@@ -226,7 +232,7 @@ def _checked(costs: NodeCosts, m: int) -> tuple[F64, F64, F64, F64]:
 
 
 def node_terms(costs: NodeCosts, m: int, config: ModelConfig) -> tuple[F64, F64, F64]:
-    """Per node: ``c_t``, the directional weight ``w_d · κ · f`` and the dominant angle."""
+    """Per node: ``c_t``, the directional weight ``w_d · κ · f`` and the mean flow angle."""
     entropy, flow, angle, conc = _checked(costs, m)
     busy = np.minimum(flow / config.plan_flow_scale, 1.0)
     c_t = config.plan_w_entropy * entropy + config.plan_w_flow * busy

@@ -262,9 +262,9 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
     )
     caption = (
         "The dominant direction of each: the histogram of the directions people walked, as "
-        "bars around the place (east = +x, counter-clockwise), the red arrow the circular "
-        "mean, as long as the flow is concentrated along it (short when people walk both "
-        "ways)."
+        "bars around the place (east = +x, counter-clockwise), the red arrow the dominant "
+        "direction (where most people walk, as the table gives it), as long as the flow is "
+        "concentrated (short when people walk both ways)."
     )
     return [
         "<h2>Busiest places</h2>",

@@ -224,7 +224,7 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
         ax.bar(centres, hist, width=2 * np.pi / bins * 0.9, color="#2c6fbb", alpha=0.85)
         angle = row.record.get("direction_deg")
         length = hist.max() * float(row.record.get("concentration") or 0.0)
-        if angle is not None and length > 0:  # the circular mean, as long as it is strong
+        if angle is not None and length > 0:  # the dominant direction, as long as it is strong
             ax.annotate(
                 "",
                 xy=(np.radians(angle), length),
@@ -235,6 +235,15 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
         ax.set_theta_direction(1)
         ax.set_yticklabels([])
         ax.tick_params(labelsize=7)
-        title = row.record["id"] + (f"  ({row.room})" if row.room else "")
+        title = rose_title(row.record) + (f"  ({row.room})" if row.room else "")
         ax.set_title(plain(title), fontsize=9)
     return _save(fig, path)
+
+
+def rose_title(record: dict[str, Any]) -> str:
+    """A rose's title: a node's id (``p12``); a hash cell by where it is, ``cell at (x, y)``
+    in metres (its id is a 19-digit spatial-hash key, which says nothing to a reader)."""
+    x, y = record.get("x"), record.get("y")
+    if record.get("kind") == "cell" and x is not None and y is not None:
+        return f"cell at ({float(x):.1f}, {float(y):.1f}) m"
+    return str(record["id"])

@@ -64,21 +64,43 @@ def test_circular_mean_wraps_at_plus_minus_pi() -> None:
     counts[0, [0, B - 1]] = 1.0  # centres -7π/8 and +7π/8: the mean points at ±π
     counts[1, 0], counts[1, B - 1] = 3.0, 1.0  # weighted towards -7π/8
     d = _hist(counts.tolist())
-    assert math.cos(d.dominant_angle[0]) == pytest.approx(-1.0)
-    assert math.sin(d.dominant_angle[0]) == pytest.approx(0.0, abs=1e-12)
+    assert math.cos(d.mean_angle[0]) == pytest.approx(-1.0)
+    assert math.sin(d.mean_angle[0]) == pytest.approx(0.0, abs=1e-12)
     assert d.concentration[0] == pytest.approx(math.cos(math.pi / 8))
     assert d.entropy[0] == pytest.approx(math.log(2) / math.log(B))
     # hand: c = cos(7π/8), s = -sin(π/8)/2 -> atan2(s, c) = -π + atan(tan(π/8)/2)
-    assert d.dominant_angle[1] == pytest.approx(-math.pi + math.atan(math.tan(math.pi / 8) / 2))
+    assert d.mean_angle[1] == pytest.approx(-math.pi + math.atan(math.tan(math.pi / 8) / 2))
     assert d.dominant_bin[1] == 0
+    assert d.dominant_angle[1] == pytest.approx(-7 * math.pi / 8)  # the most frequent bin
     c, s = math.cos(7 * math.pi / 8), -math.sin(math.pi / 8) / 2
     assert d.concentration[1] == pytest.approx(math.hypot(c, s))
+
+
+def test_a_corridor_walked_both_ways_points_along_the_corridor_not_across() -> None:
+    """The dominant direction is where most people walk. In a corridor along +x walked 52 %
+    east and 48 % west, with a few crossing north, the circular mean (the mean angle) points
+    north, across the corridor: the east and west vectors nearly cancel and the crossers
+    decide it. The dominant angle stays east; the concentration says the flow is balanced."""
+    east, west, north = 4, 0, 6  # bin centres: -π/8 + π/4·k; bin 4 = [0, π/4), 0 = [-π, -3π/4)
+    counts = np.zeros((1, B))
+    counts[0, east], counts[0, west], counts[0, north] = 52.0, 48.0, 10.0
+    cos = np.zeros((1, B))
+    sin = np.zeros((1, B))
+    cos[0, east], cos[0, west] = 52.0, -48.0  # headings exactly along ±x
+    cos[0, north], sin[0, north] = 0.0, 10.0  # and exactly along +y
+    d = historical(counts, np.zeros((1, B)), np.zeros((1, B)), np.array([1.0]), 600.0, cos, sin)
+    assert d.dominant_bin[0] == east
+    assert d.dominant_angle[0] == pytest.approx(0.0, abs=1e-12)
+    # mean vector (4, 10) / 110: 68° from +x, across the corridor, and short
+    assert d.mean_angle[0] == pytest.approx(math.atan2(10.0, 4.0))
+    assert d.concentration[0] == pytest.approx(math.hypot(4.0, 10.0) / 110.0)
 
 
 def test_no_flow_and_unobserved_entries() -> None:
     d = _hist([[0.0] * B, [1.0] + [0.0] * (B - 1)], windows=[5.0, 0.0])
     assert d.dominant_bin[0] == -1
     assert math.isnan(d.dominant_angle[0])
+    assert math.isnan(d.mean_angle[0])
     assert math.isnan(d.entropy[0])
     assert d.concentration[0] == 0.0
     assert d.flow_per_window[0] == 0.0
@@ -106,7 +128,7 @@ def test_per_window_rates_give_the_descriptors_of_the_counts() -> None:
     np.testing.assert_allclose(b.flow_per_window, [3.0, 0.0, 2.0], rtol=1e-12)
     np.testing.assert_allclose(b.flow_per_hour, [18.0, 0.0, 12.0], rtol=1e-12)
     for name in ("flow_per_window", "flow_per_hour", "probabilities", "entropy",
-                 "concentration", "dominant_angle", "mean_speed"):
+                 "concentration", "dominant_angle", "mean_angle", "mean_speed"):
         np.testing.assert_allclose(getattr(b, name), getattr(a, name), rtol=1e-12,
                                    atol=1e-15, equal_nan=True, err_msg=name)
     np.testing.assert_array_equal(b.dominant_bin, a.dominant_bin)
@@ -140,5 +162,5 @@ def test_describing_some_rows_equals_describing_them_among_all() -> None:
             rows = rng.choice(n, k, replace=False)
             part = historical(counts[rows], speed_sum[rows], speed_n[rows], windows[rows], 600.0)
             for name in ("flow_per_window", "probabilities", "dominant_bin", "dominant_angle",
-                         "concentration", "entropy", "mean_speed"):
+                         "mean_angle", "concentration", "entropy", "mean_speed"):
                 np.testing.assert_array_equal(getattr(part, name), getattr(whole, name)[rows])

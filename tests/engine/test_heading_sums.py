@@ -60,14 +60,20 @@ def test_a_corridor_along_x_points_along_x_not_at_the_bins_centre() -> None:
     rng = np.random.default_rng(3)
     east = rng.normal(0.0, math.radians(4.0), 200)
     d = historical_table(_corridor(list(east)).state).descriptors
-    angle = _only_row(d.dominant_angle, d.flow_per_window)
+    angle = _only_row(d.mean_angle, d.flow_per_window)
     row = np.flatnonzero(np.nan_to_num(d.flow_per_window) > 0)[0]
     assert angle == pytest.approx(_expected_angle(d.probabilities[row], east), abs=1e-9)
     assert abs(math.degrees(angle)) < 1.5  # the bins' centres would say 22.5 or -22.5
+    # the dominant direction: the mean heading of the larger side, a few degrees off 0
+    larger = east[east >= 0] if (east >= 0).sum() > (east < 0).sum() else east[east < 0]
+    dominant = _only_row(d.dominant_angle, d.flow_per_window)
+    assert dominant == pytest.approx(math.atan2(np.sin(larger).sum(), np.cos(larger).sum()))
+    assert abs(math.degrees(dominant)) < 6.0
     # all of them on one side of the edge: the mean of the headings, not 22.5 degrees
     ten = math.radians(10.0)
     d = historical_table(_corridor([ten] * 5).state).descriptors
     assert _only_row(d.dominant_angle, d.flow_per_window) == pytest.approx(ten, abs=1e-12)
+    assert _only_row(d.mean_angle, d.flow_per_window) == pytest.approx(ten, abs=1e-12)
     assert _only_row(d.concentration, d.flow_per_window) == pytest.approx(1.0)
 
 
@@ -77,11 +83,13 @@ def test_the_predicted_direction_keeps_the_headings_too() -> None:
     headings = np.radians([10.0] * 5 + [-170.0] * 2)
     m = _corridor(list(headings))
     d = predict_table(m.state, T0 + 3 * W).descriptors
-    angle = _only_row(d.dominant_angle, d.flow_per_window)
+    angle = _only_row(d.mean_angle, d.flow_per_window)
     row = np.flatnonzero(np.nan_to_num(d.flow_per_window) > 0)[0]
     assert angle == pytest.approx(_expected_angle(d.probabilities[row], headings), abs=1e-12)
     centres_only = _expected_angle(d.probabilities[row], np.zeros(0))
     assert abs(angle - centres_only) > math.radians(5.0)  # the headings made a difference
+    # the most frequent bin, [0, 45), where five walked at exactly 10 degrees
+    assert _only_row(d.dominant_angle, d.flow_per_window) == pytest.approx(math.radians(10.0))
 
 
 def test_bins_without_sums_are_described_by_their_centres() -> None:
@@ -94,7 +102,9 @@ def test_bins_without_sums_are_described_by_their_centres() -> None:
     centres = bin_centres(8)
     c = (3 * np.cos(centres[4]) + np.cos(centres[5])) / 4
     s = (3 * np.sin(centres[4]) + np.sin(centres[5])) / 4
-    assert before.dominant_angle[0] == pytest.approx(math.atan2(s, c), abs=1e-12)
+    assert before.mean_angle[0] == pytest.approx(math.atan2(s, c), abs=1e-12)
+    assert with_zero_sums.mean_angle[0] == before.mean_angle[0]
+    assert before.dominant_angle[0] == pytest.approx(centres[4], abs=1e-12)  # 22.5 degrees
     assert with_zero_sums.dominant_angle[0] == before.dominant_angle[0]
     # a store read from arrays without the members has zeros there
     m = _corridor([0.3] * 4)
@@ -163,6 +173,6 @@ def test_bins_filled_by_the_room_point_where_the_room_walked() -> None:
     p = d.probabilities[row]
     assert p[4] > 0.2  # the room's share in the bin of p0's walkers
     room_headings = np.array(east + north)
-    assert d.dominant_angle[row] == pytest.approx(_expected_angle(p, room_headings), abs=1e-12)
+    assert d.mean_angle[row] == pytest.approx(_expected_angle(p, room_headings), abs=1e-12)
     own_only = _expected_angle(p, np.array(north))  # bin 4 at its centre
-    assert abs(d.dominant_angle[row] - own_only) > math.radians(2.0)
+    assert abs(d.mean_angle[row] - own_only) > math.radians(2.0)

@@ -137,3 +137,18 @@ def test_the_days_the_curves_show(
     anchor: int, zone: str, inside: bool, expected: tuple[date, date, date]
 ) -> None:
     assert series_days(anchor, resolve_zone(zone), inside) == expected
+
+
+def test_a_rose_of_a_hash_cell_is_titled_by_where_it_is(fixed_map: tuple[Path, LoadedMap]) -> None:
+    """The map of cells only: the roses name each cell by its position, not by its 19-digit
+    spatial-hash id; a node keeps its id."""
+    from aion_cli.predictions import entry_table, rows_from_table
+    from aion_cli.report.plots import rose_title
+
+    _, loaded = fixed_map
+    cells = [e for e in rows_from_table(entry_table(loaded, None)) if e["kind"] == "cell"]
+    assert cells
+    for e in cells:
+        assert rose_title(e) == f"cell at ({e['x']:.1f}, {e['y']:.1f}) m"
+        assert e["id"] not in rose_title(e)
+    assert rose_title({"id": "p12", "kind": "node", "x": 1.0, "y": 2.0}) == "p12"
