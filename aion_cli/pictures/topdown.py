@@ -17,6 +17,8 @@ What is drawn, back to front:
   long; :func:`arrow_scale` chooses it, as the 3D scenes' sizes), coloured
   by entropy with ``formats.export.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
   direction, red for every direction), on a dot of the same colour;
+  where the picture cannot resolve one arrow per entry, one per block instead
+  (:mod:`.arrows`), over fainter cells;
 - **paths** (:class:`PathLine`) and **markers** (:class:`Marker`, e.g. start and goal) on top.
 
 A colour bar labelled "direction entropy" shows the same blue-to-red scale (0..1). Several
@@ -47,6 +49,7 @@ from aion_cli.formats.export import (
     display_flow_scale,
     entropy_colors,
 )
+from aion_cli.pictures.arrows import ARROW_CELLS, ArrowField, arrow_block, arrow_field
 from aion_cli.pictures.backdrop import (
     LABEL_GREY,
     MAX_ROOM_LABELS,
@@ -68,8 +71,6 @@ from aion_cli.scene import Scene
 
 F64 = npt.NDArray[np.float64]
 
-ARROW_CELLS = 4.0
-"""The arrow of the busiest flow is this many hash cells long."""
 ARROW_WIDTH = 0.0035
 """Arrow shaft width as a fraction of the panel width (one large panel; small multiples
 draw them relatively wider, :data:`PANEL_ARROW_WIDTH`, so they stay visible)."""
@@ -199,13 +200,15 @@ def draw_topdown(
     label_size: float = 7.0,
     footprint: Footprint | None = None,
     rooms: RoomOutlines | None = None,
+    arrows: ArrowField | None = None,
 ) -> None:
     """Draw ``scene`` top-down into the matplotlib axes ``ax`` (see the module docstring).
     ``flow_scale``: the flow drawn at full arrow length (default: :func:`arrow_scale`'s);
     ``extent``: the window shown (default: the scene's own); ``arrow_width`` (fraction of the
     panel width), ``dot_size`` (points²) and ``label_size`` (points) for small panels;
     ``footprint`` / ``rooms``: the mesh already rendered (:func:`mesh_footprint`) and the
-    room outlines already computed (:func:`room_outlines`); default: made here."""
+    room outlines already computed (:func:`room_outlines`); default: made here; ``arrows``:
+    the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry)."""
     from matplotlib.collections import LineCollection, PolyCollection
 
     scale = flow_scale if flow_scale is not None and flow_scale > 0 else arrow_scale([scene]).flow
@@ -220,6 +223,7 @@ def draw_topdown(
                 _arrays(scene.edges_xyz[:, :, :2]), colors=[EDGE_GREY], linewidths=0.6, zorder=2
             )
         )
+    field = arrows if arrows is not None else arrow_field(scene)
     if len(scene.cells_xyz):
         half = scene.cell_size / 2.0
         square = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
@@ -230,7 +234,8 @@ def draw_topdown(
                 _arrays(squares),
                 facecolors=entropy_colors(ent),
                 edgecolors="none",
-                alpha=0.85,
+                # fainter under merged arrows, which stand on many cells of their colours
+                alpha=0.85 if field.block is None else 0.35,
                 zorder=3,
             )
         )
@@ -241,18 +246,18 @@ def draw_topdown(
     if has.any():
         colors = entropy_colors(scene.node_entropy[has])
         ax.scatter(*scene.nodes_xyz[has, :2].T, s=dot_size, c=colors, linewidths=0, zorder=5)
-    # arrows for nodes and unbound cells alike (a map of cells only shows its directions too)
-    xy = np.concatenate([scene.nodes_xyz[:, :2], scene.cells_xyz[:, :2]])
-    busy = busy_fraction(np.concatenate([scene.node_flow, scene.cells_flow]), scale)
-    angle = np.concatenate([scene.node_angle, scene.cells_angle])
-    arrow = (busy > 0) & np.isfinite(angle)
+    # arrows for nodes and unbound cells alike (a map of cells only shows its directions too),
+    # merged over blocks where the picture cannot resolve one per entry (.arrows)
+    busy = busy_fraction(field.flow, scale)
+    arrow = busy > 0
     if arrow.any():
-        colors = entropy_colors(np.concatenate([scene.node_entropy, scene.cells_entropy])[arrow])
-        length = ARROW_CELLS * scene.cell_size * busy[arrow]
+        colors = entropy_colors(field.entropy[arrow])
+        length = field.full_length(scene.cell_size) * busy[arrow]
+        angle = field.angle[arrow]
         ax.quiver(
-            *xy[arrow].T,
-            length * np.cos(angle[arrow]),
-            length * np.sin(angle[arrow]),
+            *field.xy[arrow].T,
+            length * np.cos(angle),
+            length * np.sin(angle),
             color=colors,
             angles="xy",
             scale_units="xy",
@@ -342,11 +347,16 @@ def topdown_figure(
         )
     per_panel = list(paths) if paths is not None else [[] for _ in scenes]
     extent = scene_extent(scenes, [p for ps in per_panel for p in ps])
-    arrows = arrow_scale(scenes)
+    rows, cols, width, height = _grid(n, extent.aspect)
+    block = arrow_block(extent, width, min(s.cell_size for s in scenes))
+    fields = [arrow_field(s, block) for s in scenes]
+    if block is None:
+        arrows = arrow_scale(scenes)
+    else:  # merged arrows: the scale of the blocks' summed flows
+        arrows = ArrowScale(*display_flow_scale(np.concatenate([f.flow for f in fields])))
     if flow_scale is not None and flow_scale > 0:
         arrows = ArrowScale(flow_scale, max(flow_scale, arrows.largest))
     scale = arrows.flow
-    rows, cols, width, height = _grid(n, extent.aspect)
     fig = Figure(
         figsize=(cols * width + 1.4, rows * height + (1.2 if n == 1 else 1.0)),
         dpi=dpi,
@@ -376,6 +386,7 @@ def topdown_figure(
             arrow_width=ARROW_WIDTH if n == 1 else PANEL_ARROW_WIDTH,
             dot_size=12.0 if n == 1 else 5.0,
             label_size=7.0 if n == 1 else 5.5,
+            arrows=fields[i],
         )
         last_in_column = i + cols >= n
         ax.xaxis.set_tick_params(labelbottom=last_in_column)
@@ -396,7 +407,11 @@ def topdown_figure(
     if suptitle:
         fig.suptitle(suptitle, fontsize=12)
     fig.supxlabel(
-        "\n".join(filter(None, (arrows.legend(scenes[0].window_s), extent.caption()))),
+        "\n".join(
+            filter(
+                None, (arrows.legend(scenes[0].window_s), fields[0].legend(), extent.caption())
+            )
+        ),
         fontsize=7,
         color=LABEL_GREY,
     )

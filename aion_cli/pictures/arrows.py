@@ -1,0 +1,110 @@
+"""The arrows of a top-down picture: one per node and unbound hash cell with flow, or, where
+the picture cannot resolve that many, one per block of a coarser grid.
+
+A map of 10^5 hash cells over 160 m drawn eight inches wide gives each cell a twentieth of a
+pixel: one arrow per cell is a solid carpet. When the picture's arrow spacing
+(:data:`ARROWS_PER_INCH` arrows per inch of panel width) is more than :data:`MERGE_FROM` times
+the map's cell size, the arrows of each square block of that spacing (a grid anchored at the
+origin, so every panel of a series has the same blocks) become one:
+
+- at the flow-weighted centroid of the block's entries,
+- as long as their flows summed (the picture's arrow scale is then that of the blocks),
+- along the direction most of that flow takes: the entries' dominant directions binned in
+  eight bins (as the map bins headings by default), weighted by flow, and the flow-weighted
+  mean direction of the largest bin (as an entry's dominant direction is its largest bin's;
+  a flow-weighted mean of all of them would point across a corridor walked both ways),
+- coloured by the flow-weighted mean of their direction entropies.
+
+The cells' squares, the nodes' dots and the graph are drawn as always; only arrows merge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.descriptors import bin_of
+from aion_cli.pictures.backdrop import Extent
+from aion_cli.scene import Scene
+
+F64 = npt.NDArray[np.float64]
+
+ARROWS_PER_INCH = 7.0
+"""The densest arrows a picture draws, per inch of panel width (about 17 pixels apart at the
+pictures' 120 dpi)."""
+MERGE_FROM = 3.0
+"""Arrows merge into blocks when the block would be more than this many cells wide (one arrow
+per cell would then be under six pixels from the next; a 45 m corridor of 0.5 m cells, 1.7
+cells per block, keeps one per cell)."""
+ARROW_CELLS = 4.0
+"""The arrow of the busiest flow is this many hash cells long (one arrow per entry)."""
+BLOCK_ARROW = 0.9
+"""A merged arrow at full length spans this share of its block (when that is longer)."""
+
+
+@dataclass(frozen=True)
+class ArrowField:
+    """The arrows to draw: tails ``xy`` f64[n,2], ``flow`` (detections per window), dominant
+    ``angle`` (rad from +x), direction ``entropy`` (0..1), and ``block``, the edge of the
+    blocks they were merged over (m; None: one arrow per entry)."""
+
+    xy: F64
+    flow: F64
+    angle: F64
+    entropy: F64
+    block: float | None
+
+    def full_length(self, cell_size: float) -> float:
+        """The length of an arrow at full flow (m)."""
+        if self.block is None:
+            return ARROW_CELLS * cell_size
+        return max(ARROW_CELLS * cell_size, BLOCK_ARROW * self.block)
+
+    def legend(self) -> str:
+        """How the arrows were merged, for the picture's legend ("" when they were not)."""
+        if self.block is None:
+            return ""
+        return (
+            f"one arrow per {self.block:.2g} m block (the flow of its places and cells summed, "
+            "along the direction most of it takes)"
+        )
+
+
+def arrow_block(extent: Extent, panel_width_in: float, cell_size: float) -> float | None:
+    """The edge of the blocks the arrows of a panel ``panel_width_in`` inches wide showing
+    ``extent`` merge over, or None where one arrow per entry can be seen."""
+    block = (extent.x1 - extent.x0) / (panel_width_in * ARROWS_PER_INCH)
+    return float(block) if block > MERGE_FROM * cell_size else None
+
+
+def arrow_field(scene: Scene, block: float | None = None, bins: int = 8) -> ArrowField:
+    """The arrows of ``scene``: every node and unbound cell with flow and a direction, merged
+    over blocks of ``block`` metres when given (the module docstring)."""
+    xy = np.concatenate([scene.nodes_xyz[:, :2], scene.cells_xyz[:, :2]])
+    flow = np.nan_to_num(
+        np.concatenate([scene.node_flow, scene.cells_flow]), nan=0.0, posinf=0.0, neginf=0.0
+    )
+    angle = np.concatenate([scene.node_angle, scene.cells_angle])
+    entropy = np.concatenate([scene.node_entropy, scene.cells_entropy])
+    has = (flow > 0) & np.isfinite(angle) & np.isfinite(xy).all(axis=1)
+    xy, flow, angle, entropy = xy[has], flow[has], angle[has], entropy[has]
+    if block is None or len(flow) == 0:
+        return ArrowField(xy, flow, angle, entropy, None)
+    keys = np.floor(xy / block).astype(np.int64)
+    _, of = np.unique(keys, axis=0, return_inverse=True)
+    of = of.reshape(-1)
+    n = int(of.max()) + 1
+    total: F64 = np.bincount(of, flow, minlength=n).astype(np.float64)
+    centroid = np.column_stack(
+        [np.bincount(of, flow * xy[:, k], minlength=n) / total for k in range(2)]
+    )
+    heading_bin = bin_of(angle, bins)
+    per_bin = np.bincount(of * bins + heading_bin, flow, minlength=n * bins).reshape(n, bins)
+    top = np.argmax(per_bin, axis=1)
+    major = heading_bin == top[of]
+    c = np.bincount(of[major], flow[major] * np.cos(angle[major]), minlength=n)
+    s = np.bincount(of[major], flow[major] * np.sin(angle[major]), minlength=n)
+    mean_entropy = np.bincount(of, flow * np.nan_to_num(entropy, nan=1.0), minlength=n) / total
+    return ArrowField(centroid, total, np.arctan2(s, c), mean_entropy, float(block))

@@ -1,0 +1,104 @@
+"""Arrows merged over blocks where a picture cannot resolve one per entry: the flow of a
+block is the sum of its entries', its arrow points the way most of that flow goes (not
+across a corridor walked both ways), and small maps keep one arrow per entry."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from aion_cli.pictures.arrows import MERGE_FROM, arrow_block, arrow_field
+from aion_cli.pictures.backdrop import Extent
+from aion_cli.pictures.topdown import SINGLE_WIDTH_IN, scene_extent, topdown_figure
+from aion_cli.scene import Scene
+from tests.pictures.pixels import synthetic_scene
+
+
+def _cells(xy: np.ndarray, flow: np.ndarray, angle: np.ndarray, entropy: np.ndarray) -> Scene:
+    n = len(xy)
+    return replace(
+        synthetic_scene(),
+        node_ids=np.zeros(0, np.uint64),
+        nodes_xyz=np.zeros((0, 3)),
+        node_flow=np.zeros(0),
+        node_entropy=np.zeros(0),
+        node_angle=np.zeros(0),
+        node_concentration=np.zeros(0),
+        cells_xyz=np.column_stack([xy, np.zeros(n)]),
+        cells_flow=flow,
+        cells_entropy=entropy,
+        cells_angle=angle,
+    )
+
+
+def test_one_arrow_per_entry_without_blocks() -> None:
+    scene = synthetic_scene()  # nodes A and B flow, C does not; one cell flows
+    field = arrow_field(scene)
+    assert field.block is None
+    assert field.flow.tolist() == [10.0, 10.0, 5.0]
+    assert field.xy.tolist() == [[0.0, 0.0], [8.0, 0.0], [4.0, 6.0]]
+    assert field.angle.tolist() == [0.0, math.pi / 2, math.pi]
+    assert field.legend() == ""
+
+
+def test_a_block_sums_its_flow_and_follows_the_majority() -> None:
+    """Block [0, 2) x [0, 2): three cells walked east (flows 1, 1, 2) and two walked west
+    (flows 1.5, 1.5): 4 against 3, so the arrow points east although the flow-weighted mean
+    of the five directions is short; block [2, 4) x [0, 2): one cell north."""
+    xy = np.array([[0.25, 0.25], [0.75, 0.25], [1.25, 0.75], [0.25, 1.75], [1.75, 1.75],
+                   [2.5, 0.5]])
+    flow = np.array([1.0, 1.0, 2.0, 1.5, 1.5, 0.5])
+    east, west = math.radians(3.0), math.pi - math.radians(1.0)
+    angle = np.array([east, east, east, west, west, math.pi / 2])
+    entropy = np.array([0.2, 0.2, 0.2, 0.6, 0.6, 0.1])
+    field = arrow_field(_cells(xy, flow, angle, entropy), block=2.0)
+    assert field.block == 2.0
+    assert field.flow.tolist() == [7.0, 0.5]
+    assert field.flow.sum() == flow.sum()  # conserved
+    np.testing.assert_allclose(field.xy[0], (flow[:5, None] * xy[:5]).sum(axis=0) / 7.0)
+    np.testing.assert_allclose(field.xy[1], [2.5, 0.5])
+    assert field.angle[0] == pytest.approx(east)
+    assert field.angle[1] == pytest.approx(math.pi / 2)
+    assert field.entropy[0] == pytest.approx((4 * 0.2 + 3 * 0.6) / 7)
+    assert "one arrow per 2 m block" in field.legend()
+    # more walked west: the arrow turns
+    flow[3:5] = 2.5
+    assert arrow_field(_cells(xy, flow, angle, entropy), block=2.0).angle[0] == pytest.approx(west)
+
+
+def test_blocks_are_anchored_at_the_origin() -> None:
+    """Every panel of a series merges over the same blocks, whatever its flows."""
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(-20, 20, (300, 2))
+    angle = rng.uniform(-math.pi, math.pi, 300)
+    a = arrow_field(_cells(xy, rng.uniform(0.1, 1, 300), angle, np.full(300, 0.5)), 4.0)
+    b = arrow_field(_cells(xy, rng.uniform(0.1, 1, 300), angle, np.full(300, 0.5)), 4.0)
+    np.testing.assert_array_equal(np.floor(a.xy / 4.0), np.floor(b.xy / 4.0))
+
+
+def test_small_maps_keep_one_arrow_per_entry() -> None:
+    office = Extent(-2.0, 42.0, -2.0, 26.0)
+    assert arrow_block(office, 8.0, 0.5) is None
+    campus = Extent(0.0, 160.0, 0.0, 160.0)
+    block = arrow_block(campus, 8.0, 0.5)
+    assert block is not None
+    assert block > MERGE_FROM * 0.5
+
+
+def test_a_dense_map_is_drawn_with_merged_arrows() -> None:
+    side = np.arange(0.25, 100.0, 0.5)
+    xy = np.array([(x, y) for x in side for y in side])
+    n = len(xy)
+    scene = _cells(xy, np.ones(n), np.zeros(n), np.full(n, 0.3))
+    fig = topdown_figure([scene], ["t"])
+    (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+    (quiver,) = [c for c in ax.collections if type(c).__name__ == "Quiver"]
+    block = arrow_block(scene_extent([scene]), SINGLE_WIDTH_IN, 0.5)  # as the figure's
+    assert block is not None
+    drawn = int(quiver.N)
+    assert drawn == len(arrow_field(scene, block).flow)
+    assert drawn <= n / 16  # blocks of 4 x 4 cells or more
+    assert f"one arrow per {block:.2g} m block" in fig._supxlabel.get_text()
