@@ -176,9 +176,7 @@ def entry_flows(
     for a in range(0, len(times), per_step):
         block = np.asarray(times[a : a + per_step], dtype=np.int64)
         if members.size:
-            flow, _ = predictor.pairs(
-                np.tile(members, block.size), np.repeat(block, members.size)
-            )
+            flow = predictor.flows(np.tile(members, block.size), np.repeat(block, members.size))
             out[own, a : a + block.size] = flow.reshape(block.size, members.size).T
         if progress is not None:
             progress(a + block.size)

@@ -408,7 +408,7 @@ def group_flow_series(
     per_step = max(1, SERIES_PAIRS // members.size)
     for a in range(0, times.size, per_step):
         block = times[a : a + per_step]
-        flow, _ = predictor.pairs(np.tile(members, block.size), np.repeat(block, members.size))
+        flow = predictor.flows(np.tile(members, block.size), np.repeat(block, members.size))
         # per (time, room), summed in entry order as hierarchy.aggregate sums a room's places
         slot = (np.arange(block.size)[:, None] * labels.size + inverse[None, :]).reshape(-1)
         sums = np.bincount(slot, weights=np.nan_to_num(flow), minlength=block.size * labels.size)

@@ -33,6 +33,9 @@ from aion_cli.engine.temporal.scoring import close_day
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.engine.windows import to_model_seconds, window_centre_ns
 
+_SCALE_PAIRS = 1 << 18
+"""(entry, time) pairs :meth:`Predictor.scale` evaluates at once (bounded temporaries)."""
+
 
 def empty_state(params: TemporalParams, rows: int) -> TemporalState:
     return TemporalState.empty(
@@ -279,26 +282,43 @@ class Predictor:
         times, inverse = np.unique(t, return_inverse=True)
         bins = self.params.calendar.profile_bin(times)
         secs = to_model_seconds(times)
+        raw, target = np.zeros(times.size), np.zeros(times.size)
+        # a block of times at once: every observed entry at each (sums per time, each over
+        # the entries in order, as one time's sum is)
+        step = max(1, _SCALE_PAIRS // max(everyone.size, 1))
+        for a in range(0, times.size, step):
+            k = min(step, times.size - a)
+            e = np.tile(everyone, k)
+            h = np.repeat(bins[a : a + k], everyone.size)
+            t_s = np.repeat(secs[a : a + k], everyone.size)
+            raw[a : a + k] = self._flows(e, h, t_s).reshape(k, everyone.size).sum(axis=1)
+            total = fc.map_total(self.map_family, e, h, t_s).reshape(k, everyone.size)
+            target[a : a + k] = total.sum(axis=1)
         factor = np.ones(times.size)
-        for i in range(times.size):
-            h = np.full(everyone.size, int(bins[i]))
-            t_s = np.full(everyone.size, float(secs[i]))
-            raw = self._flows(everyone, h, t_s).sum()
-            target = float(fc.map_total(self.map_family, everyone, h, t_s).sum())
-            if raw > 0:
-                factor[i] = target / raw
+        np.divide(target, raw, out=factor, where=raw > 0)
         out[:] = factor[inverse.reshape(-1)]
+        return out
+
+    def flows(self, e: I64, t_ns: npt.ArrayLike) -> F64:
+        """The chosen families' flow at (entry position, time) pairs, float64[P] (NaN for an
+        entry never observed): :meth:`pairs` without the direction histograms, for series of
+        totals."""
+        t = np.asarray(t_ns, dtype=np.int64).reshape(-1)
+        h = self.params.calendar.profile_bin(t)
+        return self._flow_pairs(e, t, h, to_model_seconds(t))
+
+    def _flow_pairs(self, e: I64, t: I64, h: I64, t_s: F64) -> F64:
+        flow = self._flows(e, h, t_s) * self.scale(t)
+        out: F64 = np.where(self.forecaster.observed[e], flow, np.nan)
         return out
 
     def pairs(self, e: I64, t_ns: npt.ArrayLike) -> tuple[F64, F64]:
         """Chosen families at (entry position, time) pairs: flow float64[P] and direction
         probabilities float64[P, B] (e.g. every held-out detection at its own window)."""
-        fc = self.forecaster
         t = np.asarray(t_ns, dtype=np.int64).reshape(-1)
         h = self.params.calendar.profile_bin(t)
         t_s = to_model_seconds(t)
-        flow = self._flows(e, h, t_s) * self.scale(t)
-        return np.where(fc.observed[e], flow, np.nan), self._directions(e, h, t_s)
+        return self._flow_pairs(e, t, h, t_s), self._directions(e, h, t_s)
 
     def at(self, t_ns: int) -> Prediction:
         """Each entry's chosen families evaluated at ``t_ns``."""
