@@ -133,3 +133,20 @@ def test_damaged_provisional_scores_are_refused(
     write_map(path, arrays, {"state": meta})
     with pytest.raises(MapCorruptError, match=message):
         load_map(path, forecast_only=True)
+
+
+def test_flows_alone_equal_the_flows_of_the_pairs(two_days: Mapper) -> None:
+    """Series of totals ask ``Predictor.flows`` (no direction histograms); it must be the
+    flow ``pairs`` gives, to the bit, and the reconciliation factor of a block of times the
+    factor of each time alone."""
+    rows, predictor = two_days.state.predictor()
+    assert predictor.map_family is not None  # totals are reconciled: the factor matters
+    times = MONDAY + 2 * DAY + np.arange(0, DAY, HOUR // 2)
+    e = np.tile(np.arange(rows.size), times.size)
+    t = np.repeat(times, rows.size)
+    flow, _ = predictor.pairs(e, t)
+    np.testing.assert_array_equal(predictor.flows(e, t), flow)
+    together = predictor.scale(times)
+    alone = np.array([predictor.scale(np.array([x]))[0] for x in times])
+    np.testing.assert_array_equal(together, alone)
+    assert len(set(together.tolist())) > 1  # the factor varies over the day
