@@ -29,7 +29,8 @@ MAX_ROOM_LABELS = 60
 """Rooms are labelled up to this many (outlined always)."""
 OUTLIER_SHARE = 0.0025
 """A picture may leave out groups of hash cells apart from the rest that each hold at most
-this share of the cells' flow (a few stray detections far from where people walk)..."""
+this share of all the flow, nodes' included (a few stray detections far from where people
+walk)..."""
 OUTLIER_TOTAL = 0.01
 """...at most this share of the flow in all..."""
 OUTLIER_SPAN = 1.5
@@ -44,7 +45,7 @@ LINK_M = 2.0
 @dataclass(frozen=True)
 class Extent:
     """The x-y window a picture shows (m), and the hash cells it leaves out (outliers,
-    :func:`outlying_cells`): how many, and their share of the cells' flow."""
+    :func:`outlying_cells`): how many, and their share of all the flow."""
 
     x0: float
     x1: float
@@ -69,32 +70,80 @@ class Extent:
         )
 
 
-def outlying_cells(xy: F64, weight: F64, cell_size: float) -> npt.NDArray[np.bool_]:
+def outlying_cells(
+    xy: F64,
+    weight: F64,
+    cell_size: float,
+    anchors: F64 | None = None,
+    anchor_weight: F64 | None = None,
+) -> npt.NDArray[np.bool_]:
     """Which of the hash cells at ``xy`` f64[n,2] (centres) a picture leaves out: the groups
-    of cells apart from the rest that hold little of the flow ``weight`` (NaN and negative
-    count as 0; all zero: every cell alike).
+    of cells apart from everything else that hold little of the flow.
 
-    Cells are grouped by touching squares of side ``max(LINK_CELLS·cell_size, LINK_M)``
-    (8-neighbours; sparse keys, so a cell kilometres away costs nothing). The smallest
-    groups, each with at most :data:`OUTLIER_SHARE` of the flow, are left out while they
-    hold at most :data:`OUTLIER_TOTAL` together, and only where the cells kept span less
-    than ``1 / OUTLIER_SPAN`` of all on x or y: one stray detection 100 m from a 20 m
-    corridor would otherwise shrink the corridor to a few pixels, while a corridor's thin
-    arms, which touch it, stay."""
+    ``weight`` is each cell's flow; ``anchors`` f64[a,2] are the points a picture always
+    shows (places, nodes, mesh, paths), ``anchor_weight`` their flow (a node's; 0 for the
+    rest). NaN and negative flow count as 0; with no flow anywhere every cell weighs alike.
+    Cells and anchors are grouped by touching squares of side
+    ``max(LINK_CELLS·cell_size, LINK_M)`` (8-neighbours; the squares' coordinates are
+    compressed, so a cell kilometres away costs nothing). The smallest groups without an
+    anchor, each with at most :data:`OUTLIER_SHARE` of all the flow, are left out while they
+    hold at most :data:`OUTLIER_TOTAL` together, and only where what is kept spans less than
+    ``1 / OUTLIER_SPAN`` of all on x or y: one stray detection 100 m from a 20 m corridor
+    would otherwise shrink the corridor to a few pixels, while a corridor's thin arms, which
+    touch it, stay, and so does a cell beside a place."""
     n = len(xy)
     none = np.zeros(n, bool)
-    if n < 2:
+    fixed = np.zeros((0, 2)) if anchors is None else np.asarray(anchors, dtype=np.float64)
+    fixed = fixed.reshape(-1, 2)
+    fixed_w = np.zeros(len(fixed)) if anchor_weight is None else anchor_weight
+    points = np.concatenate([xy, fixed])
+    w = np.concatenate([weight, fixed_w])
+    w = np.where(np.isfinite(w) & (w > 0), w, 0.0)
+    finite = np.isfinite(points).all(axis=1)
+    if n == 0 or len(points) < 2 or not finite.all():
         return none
+    if not w.sum() > 0:
+        w = np.r_[np.ones(n), np.zeros(len(fixed))]
+    groups, label = _touching_groups(points, max(LINK_CELLS * cell_size, LINK_M))
+    if groups < 2:
+        return none
+    share = np.bincount(label, weights=w, minlength=groups) / float(w.sum())
+    anchored = np.zeros(groups, bool)
+    anchored[label[n:]] = True
+    order = np.argsort(share, kind="stable")
+    order = order[~anchored[order]]
+    small = share[order] <= OUTLIER_SHARE
+    running = np.cumsum(share[order])
+    out_groups = order[small & (running <= OUTLIER_TOTAL)]
+    if out_groups.size == 0:
+        return none
+    out_points = np.isin(label, out_groups)
+    if out_points.all():
+        return none
+    kept = points[~out_points]
+    whole = points.max(axis=0) - points.min(axis=0)
+    if not np.any(whole > OUTLIER_SPAN * (kept.max(axis=0) - kept.min(axis=0))):
+        return none
+    out: npt.NDArray[np.bool_] = out_points[:n]
+    return out
+
+
+def _touching_groups(points: F64, side: float) -> tuple[int, npt.NDArray[np.int64]]:
+    """Connected groups of ``points`` whose squares of ``side`` metres touch (8-neighbours):
+    the number of groups and each point's group. Each axis's square indices are compressed
+    (a gap of two or more squares becomes two), which keeps which squares touch and bounds
+    the keys whatever the coordinates."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    w = np.where(np.isfinite(weight) & (weight > 0), weight, 0.0)
-    if not w.sum() > 0:
-        w = np.ones(n)
-    side = max(LINK_CELLS * cell_size, LINK_M)
-    square = np.floor((xy - xy.min(axis=0)) / side).astype(np.int64)
-    keys, of_cell = np.unique(square, axis=0, return_inverse=True)
-    of_cell = of_cell.reshape(-1)
+    compressed = []
+    for axis in range(2):
+        values, inverse = np.unique(np.floor(points[:, axis] / side), return_inverse=True)
+        step = np.where(np.diff(values) == 1.0, 1, 2)
+        compressed.append(np.r_[0, np.cumsum(step)][inverse.reshape(-1)])
+    square = np.column_stack(compressed).astype(np.int64)
+    keys, of_point = np.unique(square, axis=0, return_inverse=True)
+    of_point = of_point.reshape(-1)
     m = len(keys)
     width = int(keys[:, 1].max()) + 3
     flat = (keys[:, 0] + 1) * width + keys[:, 1] + 1  # sorted, as keys are
@@ -111,22 +160,7 @@ def outlying_cells(xy: F64, weight: F64, cell_size: float) -> npt.NDArray[np.boo
     r, c = np.concatenate(rows), np.concatenate(cols)
     graph = coo_matrix((np.ones(r.size), (r, c)), shape=(m, m))
     groups, label = connected_components(graph, directed=False)
-    if groups < 2:
-        return none
-    group_of_cell = label[of_cell]
-    share = np.bincount(group_of_cell, weights=w, minlength=groups) / float(w.sum())
-    order = np.argsort(share, kind="stable")
-    small = share[order] <= OUTLIER_SHARE
-    running = np.cumsum(share[order])
-    out_groups = order[small & (running <= OUTLIER_TOTAL)]
-    if out_groups.size == 0 or out_groups.size == groups:
-        return none
-    out = np.isin(group_of_cell, out_groups)
-    kept = xy[~out]
-    whole = xy.max(axis=0) - xy.min(axis=0)
-    if not np.any(whole > OUTLIER_SPAN * (kept.max(axis=0) - kept.min(axis=0))):
-        return none
-    return out
+    return int(groups), np.asarray(label, dtype=np.int64)[of_point]
 
 
 def _arrays(polygons: F64) -> Any:

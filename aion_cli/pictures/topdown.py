@@ -116,8 +116,9 @@ def entropy_cmap() -> Any:
 
 def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Extent:
     """The window holding every place, node, mesh vertex and path of ``scenes`` and their hash
-    cells but outliers (:func:`.backdrop.outlying_cells`: a few stray cells far away, which
-    the extent counts as left out), with a margin for the arrows (at least 1 m each way)."""
+    cells but outliers (:func:`.backdrop.outlying_cells`: a few stray cells far from all of
+    those, which the extent counts as left out, with their share of all the flow, nodes'
+    included), with a margin for the arrows (at least 1 m each way)."""
     points: list[F64] = []
     margin = 0.0
     cells = [s.cells_xyz[:, :2] for s in scenes]
@@ -126,16 +127,26 @@ def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Ext
     cell_flow = np.concatenate(flows) if flows else np.zeros(0)
     finite = np.isfinite(cell_xy).all(axis=1)
     cell_xy, cell_flow = cell_xy[finite], cell_flow[finite]
-    cell = min((s.cell_size for s in scenes), default=1.0)
-    kept = ~outlying_cells(cell_xy, cell_flow, cell)
+    weights: list[F64] = []  # the anchors' flow: a node's, 0 for the rest
     for s in scenes:
         points += [s.places_xyz[:, :2], s.nodes_xyz[:, :2]]
+        weights += [np.zeros(len(s.places_xyz)), s.node_flow]
         if s.mesh is not None:
             points.append(np.asarray(s.mesh.vertices, dtype=np.float64).reshape(-1, 3)[:, :2])
+            weights.append(np.zeros(len(points[-1])))
         margin = max(margin, ARROW_CELLS * s.cell_size)
+    for p in paths:
+        points.append(np.asarray(p.xyz, dtype=np.float64).reshape(-1, 3)[:, :2])
+        weights.append(np.zeros(len(points[-1])))
+    anchors = np.concatenate([p for p in points if len(p)] or [np.zeros((0, 2))])
+    anchor_flow = np.concatenate([w for w in weights if len(w)] or [np.zeros(0)])
+    finite_anchor = np.isfinite(anchors).all(axis=1)
+    cell = min((s.cell_size for s in scenes), default=1.0)
+    kept = ~outlying_cells(
+        cell_xy, cell_flow, cell, anchors[finite_anchor], anchor_flow[finite_anchor]
+    )
     half = max((s.cell_size / 2.0 for s in scenes), default=0.0)
     points += [cell_xy[kept] - half, cell_xy[kept] + half]
-    points += [np.asarray(p.xyz, dtype=np.float64).reshape(-1, 3)[:, :2] for p in paths]
     xy = np.concatenate([p for p in points if len(p)] or [np.zeros((1, 2))])
     xy = xy[np.isfinite(xy).all(axis=1)]
     if len(xy) == 0:
@@ -149,7 +160,8 @@ def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Ext
     x, y = cell_xy[:, 0], cell_xy[:, 1]
     inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
     flow = np.where(np.isfinite(cell_flow) & (cell_flow > 0), cell_flow, 0.0)
-    total = float(flow.sum())
+    node_flow = np.where(np.isfinite(anchor_flow) & (anchor_flow > 0), anchor_flow, 0.0)
+    total = float(flow.sum() + node_flow.sum())
     share = float(flow[~inside].sum()) / total if total > 0 else 0.0
     # the panels of a series hold the same cells: each counted once, by its centre
     left_out = len(np.unique(cell_xy[~inside], axis=0))

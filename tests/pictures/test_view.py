@@ -124,6 +124,33 @@ def test_places_nodes_and_paths_are_always_in_view() -> None:
     assert box.left_out == 1  # the stray cell is still left out
 
 
+def test_stray_cells_beside_a_graph_are_left_out_by_all_the_flow() -> None:
+    """A map whose places hold nearly all the flow and a few unbound cells: the cells far
+    from every place are outliers by their share of all the flow (although they are most of
+    the unbound cells' own), a cell beside a place is not, and every place stays."""
+    places = np.array([[x, y, 0.0] for x in range(0, 21, 2) for y in (0.0, 2.0)])
+    n = len(places)
+    cells = np.array([[150.0, -30.0], [-80.0, 10.0], [4.3, 0.2]])
+    scene = replace(
+        _cells_scene(cells, np.array([0.1, 0.1, 0.1])),
+        places_xyz=places,
+        nodes_xyz=places.copy(),
+        node_ids=np.arange(1, n + 1, dtype=np.uint64),
+        node_flow=np.full(n, 50.0),
+        node_entropy=np.full(n, 0.5),
+        node_angle=np.zeros(n),
+        node_concentration=np.full(n, 0.5),
+    )
+    out = outlying_cells(cells, scene.cells_flow, CELL, places[:, :2], scene.node_flow)
+    assert out.tolist() == [True, True, False]
+    box = scene_extent([scene])
+    assert box.left_out == 2
+    assert box.left_out_share == 0.2 / (0.3 + 50.0 * n)
+    assert box.x0 > -10.0
+    assert box.x1 < 30.0
+    assert box.x1 >= 20.0  # every place
+
+
 def test_a_series_counts_each_cell_once() -> None:
     corridor = _corridor()
     xy = np.vstack([corridor, [[150.0, -30.0], [-120.0, 40.0]]])
