@@ -247,6 +247,7 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
                 None if r.get("entropy") is None else f"{r['entropy']:.3f}",
                 None if direction is None else f"{direction:+.1f}",
                 b.family,
+                f"{r['x']:.1f}, {r['y']:.1f}",
             )
         )
     headers = (
@@ -259,6 +260,7 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
         "entropy",
         "direction (deg)",
         "family",
+        "where (x, y m)",
     )
     caption = (
         "The dominant direction of each: the histogram of the directions people walked, as "

@@ -161,6 +161,7 @@ def test_the_busiest_row_is_predicts_top_entry(sample_map: Path, report_dir: Pat
     assert first[6] == f"{entry['entropy']:.3f}"
     assert first[7] == f"{entry['direction_deg']:+.1f}"
     assert first[8] == forecast["entries"][0]["family"]  # the family that forecasts it
+    assert first[9] == f"{entry['x']:.1f}, {entry['y']:.1f}"  # where it is
 
 
 def _room_of(map_path: Path, place: str) -> str:
@@ -194,6 +195,7 @@ def test_at_a_time_the_busiest_row_is_predicts_top_entry_then(
         f"{e['entropy']:.3f}",
         f"{e['direction_deg']:+.1f}",
         e["family"],
+        f"{e['x']:.1f}, {e['y']:.1f}",
     ]
     rooms = run_json(
         "predict", sample_map, "--layer", "rooms", "--time", WHEN, "--tz", "UTC", "--format", "json"
