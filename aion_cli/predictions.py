@@ -311,7 +311,16 @@ def select(
             else:
                 kind_names = [_kind_name(table, e) for e in index.tolist()]
                 ids = [i for i, k in zip(labels, kind_names, strict=True) if k != "cell"][:8]
-                hint = f"ids include {', '.join(ids)}" if ids else "the map has no nodes"
+                cells = len(labels) - sum(k != "cell" for k in kind_names)
+                if ids:
+                    hint = f"ids include {', '.join(ids)}"
+                elif cells:  # a map of hash cells: their ids are spatial-hash keys
+                    hint = (
+                        f"the map has no nodes, only {cells:,} hash cells: pick one by "
+                        "position with --at X,Y, or list ids with --top 10"
+                    )
+                else:
+                    hint = "the map has no entries"
             raise UnknownNodeError(f"node {', '.join(missing)} is not in the map", hint=hint)
         index = np.asarray([by_id[w] for w in wanted], dtype=np.int64)
     if at is not None:

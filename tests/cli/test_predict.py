@@ -405,3 +405,28 @@ def test_a_map_of_format_1_must_be_rebuilt(office: Office, tmp_path: Path) -> No
     assert proc.returncode == 2
     assert_one_line_error(proc.stderr, "older")
     assert "rebuild" in proc.stderr
+
+
+def test_an_unknown_id_in_a_map_of_cells_points_to_at_and_top(tmp_path: Path) -> None:
+    """A map without a scene graph holds hash cells only, whose ids are spatial-hash keys: a
+    wrong id is told how to find a cell (by position, or from --top), not that the map is
+    empty."""
+    import numpy as np
+
+    from aion_cli.engine.types import DetectionBatch
+    from aion_cli.formats.tracks_log import tracks_to_log
+
+    n = 60
+    t = 1_762_070_400 * 10**9 + np.arange(n) * 10**9
+    xyz = np.column_stack([np.linspace(0.0, 3.0, n), np.zeros(n), np.zeros(n)])
+    log = tmp_path / "cells.mcap"
+    tracks_to_log(DetectionBatch.from_arrays(t, xyz, np.zeros(n), np.ones(n), np.zeros(n)), log)
+    out = tmp_path / "cells.aion"
+    assert run("build", log, "-o", out, "-q").exit_code == 0
+    cells = len(run_json("predict", out, "--historical", "--format", "json")["entries"])
+    assert cells > 1
+    result = run("predict", out, "--historical", "--node", "c123")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "c123")
+    assert f"only {cells:,} hash cells" in result.stderr
+    assert "--at X,Y" in result.stderr
