@@ -184,7 +184,7 @@ def export_png(
     if len(times) > MAX_PANELS:
         raise InputError(
             f"the picture would have {len(times)} panels, more than {MAX_PANELS}",
-            hint="use a larger --step (or a shorter --from/--to)",
+            hint=_fitting_step_hint(times),
         )
     scenes = []
     paths: list[list[PathLine]] = []
@@ -203,6 +203,27 @@ def export_png(
         scenes, titles, suptitle=_series_title(map_label, times, zone), paths=paths, dpi=dpi
     )
     return save_png(fig, out)
+
+
+_NICE_STEPS_S = (60, 300, 600, 900, 1200, 1800, 3600, 7200, 10800, 14400, 21600, 43200,
+                 86400, 172800, 604800)
+
+
+def _fitting_step_hint(times: Sequence[int | None]) -> str:
+    """The hint for a series of too many panels: the smallest round ``--step`` that draws
+    the same span in at most :data:`MAX_PANELS` panels."""
+    known = [t for t in times if t is not None]
+    span_s = (max(known) - min(known)) / 1e9 if known else 0.0
+    for step in _NICE_STEPS_S:
+        panels = int(span_s // step) + 1
+        if panels <= MAX_PANELS:
+            unit = (
+                f"{step // 86400}d" if step % 86400 == 0
+                else f"{step // 3600}h" if step % 3600 == 0
+                else f"{step // 60}m"
+            )
+            return f"--step {unit} draws this span in {panels} panels (or shorten --from/--to)"
+    return "use a larger --step (or a shorter --from/--to)"
 
 
 def plan_png(

@@ -158,3 +158,26 @@ def test_the_tables_say_whether_the_hour_was_observed(office: Office, tmp_path: 
     past = tmp_path / "historical"
     assert run("export", office.map, "--historical", "-o", past).exit_code == 0
     assert "hour_observed" not in json.loads((past / "entries.json").read_text())
+
+
+@pytest.mark.parametrize(
+    ("span", "step", "hint"),
+    [
+        (("2026-11-23 06:00", "2026-11-24 06:00"), "10m", "--step 2h draws this span in 13 panels"),
+        (("2026-11-23 06:00", "2026-11-23 18:00"), "10m", "--step 1h draws this span in 13 panels"),
+        (("2026-11-23 00:00", "2026-12-23 00:00"), "1h", "--step 2d draws this span in 16 panels"),
+    ],
+)
+def test_too_many_panels_names_a_step_that_fits(
+    office: Office, tmp_path: Path, span: tuple[str, str], step: str, hint: str
+) -> None:
+    """24 h at 10 min is 145 panels: the error says which round step draws the same span in
+    at most 24 (1 h would be 25), and nothing is written."""
+    out = tmp_path / "day.png"
+    result = run(
+        "export", office.map, "--from", span[0], "--to", span[1], "--step", step, "-o", out
+    )
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "more than 24")
+    assert hint in result.stderr
+    assert not out.exists()
