@@ -119,3 +119,38 @@ def synthetic_scene(
             np.array([[0, 1, 2]], dtype=np.int32),
         ),
     )
+
+
+def cells_only_scene(
+    xy: npt.ArrayLike,
+    flow: npt.ArrayLike,
+    angle: npt.ArrayLike | None = None,
+    entropy: npt.ArrayLike | None = None,
+) -> Scene:
+    """A map of hash cells only (no graph, no nodes, no mesh): cells at ``xy`` f64[n,2] with
+    ``flow``, dominant ``angle`` (default 0) and ``entropy`` (default 0.5)."""
+    from dataclasses import replace
+
+    cells = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    n = len(cells)
+    empty3 = np.zeros((0, 3))
+    return replace(
+        synthetic_scene(),
+        node_ids=np.zeros(0, np.uint64),
+        nodes_xyz=empty3,
+        node_flow=np.zeros(0),
+        node_entropy=np.zeros(0),
+        node_angle=np.zeros(0),
+        node_concentration=np.zeros(0),
+        cells_xyz=np.column_stack([cells, np.zeros(n)]),
+        cells_flow=np.asarray(flow, dtype=np.float64),
+        cells_entropy=np.full(n, 0.5) if entropy is None else np.asarray(entropy, float),
+        cells_angle=np.zeros(n) if angle is None else np.asarray(angle, dtype=np.float64),
+        places_xyz=empty3,
+        edges_xyz=np.zeros((0, 2, 3)),
+        room_ids=np.zeros(0, np.uint64),
+        room_labels=(),
+        room_xyz=empty3,
+        place_room=np.zeros(0, np.int64),
+        mesh=None,
+    )

@@ -5,7 +5,6 @@ across a corridor walked both ways), and small maps keep one arrow per entry."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,25 +12,7 @@ import pytest
 from aion_cli.pictures.arrows import MERGE_FROM, arrow_block, arrow_field
 from aion_cli.pictures.backdrop import Extent
 from aion_cli.pictures.topdown import SINGLE_WIDTH_IN, scene_extent, topdown_figure
-from aion_cli.scene import Scene
-from tests.pictures.pixels import synthetic_scene
-
-
-def _cells(xy: np.ndarray, flow: np.ndarray, angle: np.ndarray, entropy: np.ndarray) -> Scene:
-    n = len(xy)
-    return replace(
-        synthetic_scene(),
-        node_ids=np.zeros(0, np.uint64),
-        nodes_xyz=np.zeros((0, 3)),
-        node_flow=np.zeros(0),
-        node_entropy=np.zeros(0),
-        node_angle=np.zeros(0),
-        node_concentration=np.zeros(0),
-        cells_xyz=np.column_stack([xy, np.zeros(n)]),
-        cells_flow=flow,
-        cells_entropy=entropy,
-        cells_angle=angle,
-    )
+from tests.pictures.pixels import cells_only_scene, synthetic_scene
 
 
 def test_one_arrow_per_entry_without_blocks() -> None:
@@ -54,7 +35,7 @@ def test_a_block_sums_its_flow_and_follows_the_majority() -> None:
     east, west = math.radians(3.0), math.pi - math.radians(1.0)
     angle = np.array([east, east, east, west, west, math.pi / 2])
     entropy = np.array([0.2, 0.2, 0.2, 0.6, 0.6, 0.1])
-    field = arrow_field(_cells(xy, flow, angle, entropy), block=2.0)
+    field = arrow_field(cells_only_scene(xy, flow, angle, entropy), block=2.0)
     assert field.block == 2.0
     assert field.flow.tolist() == [7.0, 0.5]
     assert field.flow.sum() == flow.sum()  # conserved
@@ -66,7 +47,8 @@ def test_a_block_sums_its_flow_and_follows_the_majority() -> None:
     assert "one arrow per 2 m block" in field.legend()
     # more walked west: the arrow turns
     flow[3:5] = 2.5
-    assert arrow_field(_cells(xy, flow, angle, entropy), block=2.0).angle[0] == pytest.approx(west)
+    turned = arrow_field(cells_only_scene(xy, flow, angle, entropy), block=2.0)
+    assert turned.angle[0] == pytest.approx(west)
 
 
 def test_blocks_are_anchored_at_the_origin() -> None:
@@ -74,8 +56,8 @@ def test_blocks_are_anchored_at_the_origin() -> None:
     rng = np.random.default_rng(1)
     xy = rng.uniform(-20, 20, (300, 2))
     angle = rng.uniform(-math.pi, math.pi, 300)
-    a = arrow_field(_cells(xy, rng.uniform(0.1, 1, 300), angle, np.full(300, 0.5)), 4.0)
-    b = arrow_field(_cells(xy, rng.uniform(0.1, 1, 300), angle, np.full(300, 0.5)), 4.0)
+    a = arrow_field(cells_only_scene(xy, rng.uniform(0.1, 1, 300), angle, np.full(300, 0.5)), 4.0)
+    b = arrow_field(cells_only_scene(xy, rng.uniform(0.1, 1, 300), angle, np.full(300, 0.5)), 4.0)
     np.testing.assert_array_equal(np.floor(a.xy / 4.0), np.floor(b.xy / 4.0))
 
 
@@ -92,7 +74,7 @@ def test_a_dense_map_is_drawn_with_merged_arrows() -> None:
     side = np.arange(0.25, 100.0, 0.5)
     xy = np.array([(x, y) for x in side for y in side])
     n = len(xy)
-    scene = _cells(xy, np.ones(n), np.zeros(n), np.full(n, 0.3))
+    scene = cells_only_scene(xy, np.ones(n), np.zeros(n), np.full(n, 0.3))
     fig = topdown_figure([scene], ["t"])
     (ax,) = [a for a in fig.axes if a.get_title() == "t"]
     (quiver,) = [c for c in ax.collections if type(c).__name__ == "Quiver"]
@@ -100,5 +82,5 @@ def test_a_dense_map_is_drawn_with_merged_arrows() -> None:
     assert block is not None
     drawn = int(quiver.N)
     assert drawn == len(arrow_field(scene, block).flow)
-    assert drawn <= n / 16  # blocks of 4 x 4 cells or more
+    assert drawn <= n / MERGE_FROM**2  # blocks of more than 3 x 3 cells
     assert f"one arrow per {block:.2g} m block" in fig._supxlabel.get_text()

@@ -24,6 +24,7 @@ from aion_cli.pictures.topdown import (
 from aion_cli.scene import Scene
 from tests.pictures.pixels import (
     F64,
+    cells_only_scene,
     darkest,
     is_blank,
     most_coloured,
@@ -138,26 +139,7 @@ def test_too_many_panels_is_an_input_error() -> None:
 
 def test_a_scene_without_flow_or_graph_draws(tmp_path: Path) -> None:
     """A map of hash cells only (no graph, no flow): cells are grey squares, no arrows."""
-    import dataclasses
-
-    empty = np.zeros((0, 3))
-    scene = dataclasses.replace(
-        synthetic_scene(),
-        node_ids=np.zeros(0, np.uint64),
-        nodes_xyz=empty,
-        node_flow=np.zeros(0),
-        node_entropy=np.zeros(0),
-        node_angle=np.zeros(0),
-        node_concentration=np.zeros(0),
-        cells_flow=np.array([0.0]),
-        places_xyz=empty,
-        edges_xyz=np.zeros((0, 2, 3)),
-        room_ids=np.zeros(0, np.uint64),
-        room_labels=(),
-        room_xyz=empty,
-        place_room=np.zeros(0, np.int64),
-        mesh=None,
-    )
+    scene = cells_only_scene([[4.0, 6.0]], [0.0])
     _, (ax,), image = _drawn(tmp_path, [scene])
     grey = image[pixel_of(ax, image, 4.0, 6.0)]
     assert grey.max() - grey.min() < 0.03  # no flow: grey

@@ -12,8 +12,7 @@ from hypothesis import strategies as st
 
 from aion_cli.pictures.backdrop import OUTLIER_SHARE, OUTLIER_TOTAL, outlying_cells
 from aion_cli.pictures.topdown import PathLine, scene_extent, topdown_figure
-from aion_cli.scene import Scene
-from tests.pictures.pixels import synthetic_scene
+from tests.pictures.pixels import cells_only_scene
 
 CELL = 0.5
 
@@ -25,37 +24,11 @@ def _corridor(length_m: float = 20.0, width_m: float = 2.0) -> np.ndarray:
     return np.array([(x, y) for x in xs for y in ys])
 
 
-def _cells_scene(xy: np.ndarray, flow: np.ndarray) -> Scene:
-    """The synthetic scene without its graph and mesh, holding only the cells ``xy``."""
-    n = len(xy)
-    empty3 = np.zeros((0, 3))
-    return replace(
-        synthetic_scene(),
-        node_ids=np.zeros(0, np.uint64),
-        nodes_xyz=empty3,
-        node_flow=np.zeros(0),
-        node_entropy=np.zeros(0),
-        node_angle=np.zeros(0),
-        node_concentration=np.zeros(0),
-        cells_xyz=np.column_stack([xy, np.zeros(n)]),
-        cells_flow=flow,
-        cells_entropy=np.full(n, 0.5),
-        cells_angle=np.zeros(n),
-        places_xyz=empty3,
-        edges_xyz=np.zeros((0, 2, 3)),
-        room_ids=np.zeros(0, np.uint64),
-        room_labels=(),
-        room_xyz=empty3,
-        place_room=np.zeros(0, np.int64),
-        mesh=None,
-    )
-
-
 def test_a_stray_cell_far_away_is_left_out_and_named() -> None:
     corridor = _corridor()
     xy = np.vstack([corridor, [[150.0, -30.0]]])
     flow = np.r_[np.full(len(corridor), 5.0), 0.01]
-    scene = _cells_scene(xy, flow)
+    scene = cells_only_scene(xy, flow)
     box = scene_extent([scene])
     assert box.x1 < 30.0  # the corridor fills the view
     assert box.y0 > -5.0
@@ -77,7 +50,7 @@ def test_a_thin_arm_that_touches_the_corridor_stays() -> None:
     xy = np.vstack([corridor, arm])
     flow = np.r_[np.full(len(corridor), 50.0), np.full(len(arm), 0.001)]
     assert not outlying_cells(xy, flow, CELL).any()
-    box = scene_extent([_cells_scene(xy, flow)])
+    box = scene_extent([cells_only_scene(xy, flow)])
     assert box.y1 >= 15.0
     assert box.left_out == 0
     assert box.caption() == ""
@@ -88,7 +61,7 @@ def test_two_busy_sites_far_apart_are_both_shown() -> None:
     xy = np.vstack([a, a + np.array([200.0, 0.0])])
     flow = np.ones(len(xy))
     assert not outlying_cells(xy, flow, CELL).any()
-    box = scene_extent([_cells_scene(xy, flow)])
+    box = scene_extent([cells_only_scene(xy, flow)])
     assert box.x0 <= 0.0
     assert box.x1 >= 220.0
 
@@ -99,7 +72,7 @@ def test_a_busy_cell_far_away_is_shown() -> None:
     xy = np.vstack([corridor, [[150.0, 0.0]]])
     flow = np.r_[np.ones(len(corridor)), 3 * OUTLIER_SHARE * len(corridor)]
     assert not outlying_cells(xy, flow, CELL).any()
-    assert scene_extent([_cells_scene(xy, flow)]).x1 >= 150.0
+    assert scene_extent([cells_only_scene(xy, flow)]).x1 >= 150.0
 
 
 def test_a_near_stray_is_not_worth_leaving_out() -> None:
@@ -116,7 +89,7 @@ def test_places_nodes_and_paths_are_always_in_view() -> None:
     xy = np.vstack([corridor, [[150.0, -30.0]]])
     flow = np.r_[np.ones(len(corridor)), 1e-6]
     far_place = np.array([[0.0, 80.0, 0.0]])
-    scene = replace(_cells_scene(xy, flow), places_xyz=far_place)
+    scene = replace(cells_only_scene(xy, flow), places_xyz=far_place)
     path = PathLine(np.array([[0.0, 0.0, 0.0], [-60.0, 0.0, 0.0]]), "path", (0.0, 0.0, 0.0))
     box = scene_extent([scene], [path])
     assert box.y1 >= 80.0
@@ -132,7 +105,7 @@ def test_stray_cells_beside_a_graph_are_left_out_by_all_the_flow() -> None:
     n = len(places)
     cells = np.array([[150.0, -30.0], [-80.0, 10.0], [4.3, 0.2]])
     scene = replace(
-        _cells_scene(cells, np.array([0.1, 0.1, 0.1])),
+        cells_only_scene(cells, np.array([0.1, 0.1, 0.1])),
         places_xyz=places,
         nodes_xyz=places.copy(),
         node_ids=np.arange(1, n + 1, dtype=np.uint64),
@@ -155,7 +128,7 @@ def test_a_series_counts_each_cell_once() -> None:
     corridor = _corridor()
     xy = np.vstack([corridor, [[150.0, -30.0], [-120.0, 40.0]]])
     flow = np.r_[np.ones(len(corridor)), 1e-4, 1e-4]
-    scene = _cells_scene(xy, flow)
+    scene = cells_only_scene(xy, flow)
     box = scene_extent([scene, scene, scene])
     assert box.left_out == 2
     assert box.caption().startswith("2 outlying hash cells (")
@@ -196,7 +169,7 @@ def test_what_is_left_out_is_little_and_apart(cells: list[tuple[float, float, fl
     if len(xy):
         assert weights[out].sum() <= OUTLIER_TOTAL * weights.sum() + 1e-9
         assert not out.all()
-    scene = replace(_cells_scene(xy, flow), cell_size=cell)
+    scene = replace(cells_only_scene(xy, flow), cell_size=cell)
     box = scene_extent([scene])
     kept = xy[~out]
     assert (kept[:, 0] >= box.x0).all()
