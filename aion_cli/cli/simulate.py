@@ -112,6 +112,7 @@ def _event_counts(r: SceneResult) -> str:
     epilog=EPILOG,
     advanced=(
         "nav_layer",
+        "tz",
         "utc_offset",
         "rate",
         "noise",
@@ -187,11 +188,18 @@ def _event_counts(r: SceneResult) -> str:
     help="Local date (and time) the scene starts; the default is a Monday midnight.",
 )
 @click.option(
+    "--tz",
+    metavar="ZONE",
+    default=None,
+    help="Local time zone of the scene: an IANA name (Europe/London: people keep their "
+    "hours across daylight-saving changes) or an offset (+09:00). Build with the same --tz.",
+)
+@click.option(
     "--utc-offset",
     type=float,
     default=0.0,
     show_default=True,
-    help="Local time minus UTC, in hours.",
+    help="Local time minus UTC, in hours (a fixed offset; --tz for a zone).",
 )
 @click.option(
     "--rate",
@@ -267,6 +275,7 @@ def simulate(
     fmt: str,
     detection_type: str,
     start: str,
+    tz: str | None,
     utc_offset: float,
     rate: float,
     noise: float,
@@ -306,6 +315,7 @@ def simulate(
         detection_type=detection_type,
         start=start,
         utc_offset_h=utc_offset,
+        timezone=tz,
         rate_hz=rate,
         noise=noise,
         window_s=window,

@@ -13,12 +13,14 @@ transformed through TF and the scene graph's place positions alike.
 
 from __future__ import annotations
 
+import datetime as _dt
 from dataclasses import dataclass
 
 import numpy as np
 
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.sim.agents import walk_path
+from aion_cli.sim.clock import SceneClock
 from aion_cli.sim.environment import Environment
 from aion_cli.sim.geometry import se2_compose, se2_inverse
 
@@ -73,15 +75,20 @@ class RobotTrack:
         return ok
 
 
-def _tour_starts(cfg: PatrolConfig, days: float, offset_s: float) -> F64:
+def _tour_starts(
+    cfg: PatrolConfig, days: float, offset_s: float, clock: SceneClock | None = None
+) -> F64:
     """Planned tour start times (s since the scene start, ``offset_s`` after local midnight)
-    inside the patrol hours; tours start on a fixed grid from one minute past midnight."""
-    t = np.arange(60.0, offset_s + days * 86400.0, cfg.tour_every_s)
+    inside the patrol hours (local, on ``clock``: a zone's daylight saving moves them in
+    elapsed time); tours start on a fixed grid of wall time from one minute past midnight."""
+    clock = clock or SceneClock(_dt.date(2000, 1, 1), offset_s)
+    end = float(clock.wall([days * 86400.0])[0])
+    t = np.arange(60.0, end, cfg.tour_every_s)
     hour = (t % 86400.0) / 3600.0
     lo, hi = cfg.hours
     inside = (hour >= lo) & (hour < hi) if lo <= hi else (hour >= lo) | (hour < hi)
     t = t[inside & (t >= offset_s)]
-    return t - offset_s
+    return clock.elapsed(t)
 
 
 def simulate_robot(
@@ -92,10 +99,12 @@ def simulate_robot(
     n_ticks: int,
     days: float,
     offset_s: float = 0.0,
+    clock: SceneClock | None = None,
 ) -> RobotTrack:
     """Drive the patrol tours, integrate drift, close loops at the dock.
 
-    Tick 0 is ``offset_s`` seconds after local midnight (a scene may start at any time of day).
+    Tick 0 is ``offset_s`` seconds after local midnight (a scene may start at any time of day);
+    ``clock`` (default: a fixed offset) places the local patrol hours in elapsed time.
     """
     route = env.polyline(env.roles.patrol)
     route = route.copy()
@@ -109,7 +118,7 @@ def simulate_robot(
     closures: list[int] = []
     starts: list[int] = []
     free = 0.0
-    for t in _tour_starts(cfg, days, offset_s):
+    for t in _tour_starts(cfg, days, offset_s, clock):
         if t < free:
             continue
         ticks, xyz, heading = walk_path(route, float(t), cfg.speed, dt_s, n_ticks)

@@ -18,6 +18,7 @@ import numpy as np
 
 from aion_cli.errors import InputError
 from aion_cli.sim.agents import AgentSamples, agent_speeds, simulate_agents
+from aion_cli.sim.clock import SceneClock
 from aion_cli.sim.environment import Environment, load_graph_environment
 from aion_cli.sim.graphstream import GraphFrames, StreamConfig, build_frames
 from aion_cli.sim.ground_truth import WindowGrid, truth_arrays, write_truth
@@ -57,6 +58,7 @@ class ScenarioConfig:
     detection_type: str = "tracked_persons"
     start: str = "2026-01-05"  # local date (or date and time) the scene starts; a Monday
     utc_offset_h: float = 0.0
+    timezone: str | None = None  # a zone with its daylight saving (--tz), else the offset
     rate_hz: float = 2.0
     noise: float = 0.05
     window_s: float = 600.0
@@ -107,8 +109,19 @@ class ScenarioConfig:
                 "a fixed sensor publishes in the map frame",
                 hint="drop --frame base_link or use --robot patrol",
             )
+        if self.timezone is not None and self.utc_offset_h != 0.0:
+            raise InputError(
+                "give --tz or --utc-offset, not both",
+                hint="--tz Europe/London keeps the zone's daylight saving; --utc-offset 1 is "
+                "a fixed offset",
+            )
         detection_msgtype(self.detection_type)
-        start_ns(self.start, self.utc_offset_h)
+        start_ns(self.start, self.utc_offset_h, self.timezone)
+
+    def clock(self) -> SceneClock:
+        """The scene's local clock (:mod:`aion_cli.sim.clock`)."""
+        day, seconds = parse_start(self.start)
+        return SceneClock(day, seconds, self.utc_offset_h, self.timezone)
 
 
 @dataclass(frozen=True)
@@ -132,15 +145,18 @@ def parse_start(start: str) -> tuple[_dt.date, float]:
     if when.tzinfo is not None:
         raise InputError(
             f"bad --start {start!r}: give local time without a zone",
-            hint="use --utc-offset for the zone",
+            hint="use --tz (or --utc-offset) for the zone",
         )
     seconds = when.hour * 3600.0 + when.minute * 60.0 + when.second
     return when.date(), seconds
 
 
-def start_ns(start: str, utc_offset_h: float) -> int:
-    """UNIX ns of the ``start`` instant (local time, ``utc_offset_h`` hours ahead of UTC)."""
+def start_ns(start: str, utc_offset_h: float, timezone: str | None = None) -> int:
+    """UNIX ns of the ``start`` instant (local time in ``timezone``, or ``utc_offset_h`` hours
+    ahead of UTC)."""
     day, seconds = parse_start(start)
+    if timezone is not None:
+        return round(SceneClock(day, seconds, 0.0, timezone).start_unix_s() * 1e9)
     midnight = _dt.datetime(day.year, day.month, day.day, tzinfo=_dt.UTC)
     local = int(midnight.timestamp()) * 1_000_000_000 + round(seconds * 1e9)
     return local - round(utc_offset_h * 3600e9)
@@ -189,13 +205,16 @@ def build_scene(
         np.random.default_rng(s) for s in np.random.SeedSequence([config.seed, scene]).spawn(5)
     )
     day, offset_s = parse_start(config.start)
-    t0 = start_ns(config.start, config.utc_offset_h)
+    clock = config.clock()
+    t0 = start_ns(config.start, config.utc_offset_h, config.timezone)
     dt_ns = round(1e9 / config.rate_hz)
     dt_s = dt_ns / 1e9
     n_ticks = int(config.days * 86400.0 / dt_s) + 1
     if progress is not None:
         progress("people", 0, 0)
     days_planned = float(np.ceil((offset_s + config.days * 86400.0) / 86400.0))
+    if config.timezone is not None:  # a day of 25 hours moves the last wall day on
+        days_planned += 1.0
     moves = plan_moves(
         rng_sched,
         config.agents,
@@ -205,7 +224,7 @@ def build_scene(
         env.n_places,
         config.rhythm,
     )
-    moves = replace(moves, t_s=moves.t_s - offset_s)
+    moves = replace(moves, t_s=clock.elapsed(moves.t_s))
     samples = simulate_agents(
         env, moves, agent_speeds(rng_walk, config.agents), rng_walk, dt_s, n_ticks
     )
@@ -213,7 +232,9 @@ def build_scene(
     if config.robot == "patrol":
         if progress is not None:
             progress("robot", 0, 0)
-        robot = simulate_robot(env, config.patrol, rng_robot, dt_s, n_ticks, config.days, offset_s)
+        robot = simulate_robot(
+            env, config.patrol, rng_robot, dt_s, n_ticks, config.days, offset_s, clock
+        )
     if progress is not None:
         progress("scene graph", 0, 0)
     frames = build_frames(env, robot, config.stream, rng_graph, t0, dt_ns, n_ticks)
