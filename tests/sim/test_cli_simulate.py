@@ -75,6 +75,8 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
         ("--environment", str(tmp_path / "missing.json")),
         ("--patrol-hours", "7to20"),
         ("--days", "400"),
+        ("--tz", "Mars/Olympus"),
+        ("--tz", "Europe/London", "--utc-offset", "1"),
     ]
     for extra in cases:
         code, output = _run("simulate", "-o", tmp_path / "x.mcap", "--quiet", *extra)
