@@ -53,10 +53,13 @@ def unsigned_ids(u: npt.NDArray[np.uint64]) -> I64:
 
 def stamps_or_log_time(sec: I64, nsec: I64, log_time_ns: I64) -> tuple[I64, int]:
     """Header stamps in ns, falling back to the log time where the stamp is zero (unset by
-    the publisher). Returns the times and how many fell back."""
+    the publisher). Returns the times and how many fell back: those whose time the log time
+    changed (a stamp of 0 logged at 0, the first frame of a dataset whose clock starts at
+    1970-01-01, is that time either way, and no fallback to report)."""
     t = np.asarray(sec, np.int64) * 1_000_000_000 + np.asarray(nsec, np.int64)
+    log = np.asarray(log_time_ns, np.int64)
     zero = t == 0
-    return np.where(zero, np.asarray(log_time_ns, np.int64), t), int(zero.sum())
+    return np.where(zero, log, t), int((zero & (log != 0)).sum())
 
 
 class FrameTable:

@@ -342,3 +342,16 @@ def test_garbage_gives_message_decode_error_for_every_type(msgtype: str) -> None
             m = RawMessage("/t", msgtype, 0, data, encoding)  # type: ignore[arg-type]
             with contextlib.suppress(MessageDecodeError):
                 adapter.decode([m])
+
+
+def test_a_zero_stamp_logged_at_zero_is_no_fallback() -> None:
+    """A dataset whose clock starts at 1970-01-01 (ETH/UCY converted without --start) has its
+    first frame stamped 0 and logged at 0: that time is right either way, so the build does
+    not report it as a stamp that fell back to the log time; a zero stamp logged later does."""
+    from aion_cli.formats.detections.frame import stamps_or_log_time
+
+    sec = np.array([0, 0, 5])
+    nsec = np.array([0, 0, 7])
+    t, fell_back = stamps_or_log_time(sec, nsec, np.array([0, 9 * S, 11 * S]))
+    np.testing.assert_array_equal(t, [0, 9 * S, 5 * S + 7])
+    assert fell_back == 1
