@@ -205,8 +205,8 @@ def _activity(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]
     grey = ""
     if any(s.unobserved is not None and s.unobserved.any() for s in c.activity):
         grey = (
-            " Grey bands: hours of the day no log observed on any day; the forecast there is "
-            "extrapolated from the hours observed, not measured."
+            " Grey bands, dotted curves: hours of the day no log observed on any day; the "
+            "forecast there is extrapolated from the hours observed, not measured."
         )
     out.append(
         f"<p>Predicted flow (expected detections per {window} window, summed over each room's "

@@ -166,14 +166,30 @@ def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
     times = np.asarray(series.times_ns, dtype=np.int64)
     hours = (times - times[0]).astype(np.float64) / 3600 / _NS if times.size else times
     week = times.size and hours[-1] > 24
+    guessed = (
+        np.zeros(times.size, bool)
+        if series.unobserved is None
+        else np.asarray(series.unobserved, bool).reshape(-1)
+    )
+    # the extrapolated stretches dotted, joined to the measured ones at their ends
+    near = guessed | np.r_[guessed[1:], False] | np.r_[False, guessed[:-1]]
     for k, name in enumerate(series.names):
-        ax.plot(
+        flow = np.asarray(series.flows[:, k], dtype=np.float64)
+        (line,) = ax.plot(
             hours,
-            series.flows[:, k],
+            np.where(guessed, np.nan, flow),
             label=plain(name),
             linewidth=1.4,
             linestyle="--" if name.startswith("other rooms") else "-",
         )
+        if guessed.any():
+            ax.plot(
+                hours,
+                np.where(near, flow, np.nan),
+                color=line.get_color(),
+                linewidth=1.0,
+                linestyle=":",
+            )
     _shade_unobserved(ax, hours, series.unobserved)
     if week:
         start = from_ns(int(times[0]), zone).date()
@@ -207,7 +223,7 @@ def _shade_unobserved(ax: Any, hours: Any, unobserved: Any) -> None:
             color="#d9d9d9",
             alpha=0.6,
             linewidth=0,
-            label="hours no log observed (extrapolated)" if k == 0 else None,
+            label="hours no log observed (extrapolated, dotted)" if k == 0 else None,
         )
 
 

@@ -152,3 +152,30 @@ def test_a_rose_of_a_hash_cell_is_titled_by_where_it_is(fixed_map: tuple[Path, L
         assert rose_title(e) == f"cell at ({e['x']:.1f}, {e['y']:.1f}) m"
         assert e["id"] not in rose_title(e)
     assert rose_title({"id": "p12", "kind": "node", "x": 1.0, "y": 2.0}) == "p12"
+
+
+def test_the_curves_are_dotted_where_the_forecast_is_extrapolated(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A day of hourly values observed 09:00-18:00: the solid curve holds those hours only,
+    the dotted one the others, joined to the solid at 08:00-09:00 and 18:00-19:00, both in
+    the line's colour."""
+    from aion_cli.report import plots
+    from aion_cli.report.content import Series
+
+    figures: list[object] = []
+    monkeypatch.setattr(plots, "_save", lambda fig, path: figures.append(fig) or path)
+    times = T0 - 8 * HOUR + np.arange(24) * HOUR  # midnight on, hourly
+    unobserved = (np.arange(24) < 9) | (np.arange(24) >= 19)
+    flows = np.arange(24, dtype=np.float64)[:, None] + 1.0
+    series = Series("a day", times, ("whole map",), flows, unobserved)
+    plots.activity_png(series, "detections", tmp_path / "day.png", resolve_zone("UTC"))
+    (ax,) = figures[0].axes  # type: ignore[attr-defined]
+    solid, dotted = ax.get_lines()
+    assert solid.get_linestyle() == "-"
+    assert dotted.get_linestyle() == ":"
+    assert solid.get_color() == dotted.get_color()
+    drawn = np.isfinite(np.asarray(solid.get_ydata(), dtype=float))
+    assert drawn.tolist() == (~unobserved).tolist()
+    near = np.isfinite(np.asarray(dotted.get_ydata(), dtype=float))
+    assert np.flatnonzero(near).tolist() == [*range(10), *range(18, 24)]
