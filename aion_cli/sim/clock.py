@@ -74,6 +74,14 @@ class SceneClock:
         """UNIX seconds of the scene's start."""
         return float(self.wall_to_unix_s([self.offset_s])[0])
 
+    def start_ns(self) -> int:
+        """UNIX ns of the scene's start: in integers for a fixed offset (exact), else through
+        the zone's rules."""
+        if self.timezone is not None:
+            return round(self.start_unix_s() * 1e9)
+        midnight = int(self._midnight_utc_s()) * 1_000_000_000
+        return midnight + round(self.offset_s * 1e9) - round(self.utc_offset_h * 3600e9)
+
     def elapsed(self, wall_s: npt.ArrayLike) -> F64:
         """Seconds since the scene's start of wall times (seconds after local midnight of
         ``day``)."""

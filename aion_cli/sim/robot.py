@@ -75,13 +75,12 @@ class RobotTrack:
         return ok
 
 
-def _tour_starts(
-    cfg: PatrolConfig, days: float, offset_s: float, clock: SceneClock | None = None
-) -> F64:
-    """Planned tour start times (s since the scene start, ``offset_s`` after local midnight)
-    inside the patrol hours (local, on ``clock``: a zone's daylight saving moves them in
-    elapsed time); tours start on a fixed grid of wall time from one minute past midnight."""
-    clock = clock or SceneClock(_dt.date(2000, 1, 1), offset_s)
+def _tour_starts(cfg: PatrolConfig, days: float, clock: SceneClock) -> F64:
+    """Planned tour start times (s since the scene start, ``clock.offset_s`` after local
+    midnight) inside the patrol hours (local, on ``clock``: a zone's daylight saving moves
+    them in elapsed time); tours start on a fixed grid of wall time from one minute past
+    midnight."""
+    offset_s = clock.offset_s
     end = float(clock.wall([days * 86400.0])[0])
     t = np.arange(60.0, end, cfg.tour_every_s)
     hour = (t % 86400.0) / 3600.0
@@ -98,14 +97,16 @@ def simulate_robot(
     dt_s: float,
     n_ticks: int,
     days: float,
-    offset_s: float = 0.0,
     clock: SceneClock | None = None,
 ) -> RobotTrack:
     """Drive the patrol tours, integrate drift, close loops at the dock.
 
-    Tick 0 is ``offset_s`` seconds after local midnight (a scene may start at any time of day);
-    ``clock`` (default: a fixed offset) places the local patrol hours in elapsed time.
+    ``clock`` is the scene's local clock: tick 0 is ``clock.offset_s`` seconds after local
+    midnight (a scene may start at any time of day), and it places the local patrol hours in
+    elapsed time (default: a scene starting at midnight, at a fixed offset, whose date then
+    does not matter).
     """
+    clock = clock or SceneClock(_dt.date(1970, 1, 1), 0.0)
     route = env.polyline(env.roles.patrol)
     route = route.copy()
     route[:, 2] = 0.0  # the robot base drives on the floor
@@ -118,7 +119,7 @@ def simulate_robot(
     closures: list[int] = []
     starts: list[int] = []
     free = 0.0
-    for t in _tour_starts(cfg, days, offset_s, clock):
+    for t in _tour_starts(cfg, days, clock):
         if t < free:
             continue
         ticks, xyz, heading = walk_path(route, float(t), cfg.speed, dt_s, n_ticks)

@@ -155,11 +155,7 @@ def start_ns(start: str, utc_offset_h: float, timezone: str | None = None) -> in
     """UNIX ns of the ``start`` instant (local time in ``timezone``, or ``utc_offset_h`` hours
     ahead of UTC)."""
     day, seconds = parse_start(start)
-    if timezone is not None:
-        return round(SceneClock(day, seconds, 0.0, timezone).start_unix_s() * 1e9)
-    midnight = _dt.datetime(day.year, day.month, day.day, tzinfo=_dt.UTC)
-    local = int(midnight.timestamp()) * 1_000_000_000 + round(seconds * 1e9)
-    return local - round(utc_offset_h * 3600e9)
+    return SceneClock(day, seconds, utc_offset_h, timezone).start_ns()
 
 
 def load_environment(config: ScenarioConfig) -> Environment:
@@ -204,9 +200,9 @@ def build_scene(
     rng_sched, rng_walk, rng_robot, rng_graph, rng_noise = (
         np.random.default_rng(s) for s in np.random.SeedSequence([config.seed, scene]).spawn(5)
     )
-    day, offset_s = parse_start(config.start)
     clock = config.clock()
-    t0 = start_ns(config.start, config.utc_offset_h, config.timezone)
+    day, offset_s = clock.day, clock.offset_s
+    t0 = clock.start_ns()
     dt_ns = round(1e9 / config.rate_hz)
     dt_s = dt_ns / 1e9
     n_ticks = int(config.days * 86400.0 / dt_s) + 1
@@ -232,9 +228,7 @@ def build_scene(
     if config.robot == "patrol":
         if progress is not None:
             progress("robot", 0, 0)
-        robot = simulate_robot(
-            env, config.patrol, rng_robot, dt_s, n_ticks, config.days, offset_s, clock
-        )
+        robot = simulate_robot(env, config.patrol, rng_robot, dt_s, n_ticks, config.days, clock)
     if progress is not None:
         progress("scene graph", 0, 0)
     frames = build_frames(env, robot, config.stream, rng_graph, t0, dt_ns, n_ticks)
