@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.temporal.calendar import Calendar
 from aion_cli.engine.temporal.zones import zone_of
 
 F64 = npt.NDArray[np.float64]
@@ -99,17 +100,7 @@ class SceneClock:
         if self.timezone is None:
             fixed: F64 = t + self.offset_s
             return fixed
-        unix = self.start_unix_s() + t
-        tz = self._tz()
-        hours, inverse = np.unique(np.floor(unix / _HOUR_S), return_inverse=True)
-        offsets = np.array(
-            [
-                (
-                    _dt.datetime.fromtimestamp(float(h) * _HOUR_S, tz).utcoffset()
-                    or _dt.timedelta(0)
-                ).total_seconds()
-                for h in hours.tolist()
-            ]
-        )
-        out: F64 = unix + offsets[inverse.reshape(-1)] - self._midnight_utc_s()
+        unix_ns = np.round((self.start_unix_s() + t) * 1e9).astype(np.int64)
+        local_s = Calendar(self.timezone).local_ns(unix_ns) / 1e9  # the maps' UTC -> local
+        out: F64 = local_s - self._midnight_utc_s()
         return out
