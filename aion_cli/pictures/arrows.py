@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.pictures.backdrop import Extent
+from aion_cli.pictures.backdrop import Extent, squares_of
 from aion_cli.scene import Scene
 
 F64 = npt.NDArray[np.float64]
@@ -92,10 +92,8 @@ def arrow_field(scene: Scene, block: float | None = None, bins: int = 8) -> Arro
     xy, flow, angle, entropy = xy[has], flow[has], angle[has], entropy[has]
     if block is None or len(flow) == 0:
         return ArrowField(xy, flow, angle, entropy, None)
-    keys = np.floor(xy / block).astype(np.int64)
-    _, of = np.unique(keys, axis=0, return_inverse=True)
-    of = of.reshape(-1)
-    n = int(of.max()) + 1
+    squares, of = squares_of(xy, block)
+    n = len(squares)
     total: F64 = np.bincount(of, flow, minlength=n).astype(np.float64)
     centroid = np.column_stack(
         [np.bincount(of, flow * xy[:, k], minlength=n) / total for k in range(2)]

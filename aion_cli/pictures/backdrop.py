@@ -132,14 +132,22 @@ def outlying_cells(
     return out
 
 
-def _per_square(points: F64, weight: F64, side: float) -> tuple[F64, F64]:
-    """One point per occupied square of ``side`` metres (its centre) with the summed
-    ``weight`` of the points in it (squares found by sorting ``x + iy`` square indices as
-    complex numbers, several times faster than ``np.unique(axis=0)``)."""
+def squares_of(points: F64, side: float) -> tuple[F64, npt.NDArray[np.int64]]:
+    """The occupied squares of ``side`` metres (a grid anchored at the origin) among
+    ``points`` f64[n,2]: their indices f64[m,2] (sorted by x, then y) and each point's square
+    (found by sorting ``x + iy`` square indices as complex numbers, several times faster than
+    ``np.unique(axis=0)``)."""
     square = np.floor(points / side)
     key, of = np.unique(square[:, 0] + 1j * square[:, 1], return_inverse=True)
-    summed: F64 = np.bincount(of.reshape(-1), weight, minlength=key.size).astype(np.float64)
-    centres: F64 = (np.column_stack([key.real, key.imag]) + 0.5) * side
+    return np.column_stack([key.real, key.imag]), np.asarray(of, np.int64).reshape(-1)
+
+
+def _per_square(points: F64, weight: F64, side: float) -> tuple[F64, F64]:
+    """One point per occupied square of ``side`` metres (its centre) with the summed
+    ``weight`` of the points in it."""
+    key, of = squares_of(points, side)
+    summed: F64 = np.bincount(of, weight, minlength=len(key)).astype(np.float64)
+    centres: F64 = (key + 0.5) * side
     return centres, summed
 
 
