@@ -261,6 +261,7 @@ def office(
     """
     from aion_cli.cli.console import note
     from aion_cli.evaluation.office import run_office, truth_sentence
+    from aion_cli.evaluation.office_directions import direction_truth_sentence
 
     result = run_office(scenes, days, agents, seed, _config(config_path), radius,
                         work_dir=work_dir, progress=note)
@@ -269,6 +270,9 @@ def office(
     means = result.truth_means()
     if fmt.lower() == "table" and means:
         click.echo(truth_sentence(means))
+    directions = result.directions()
+    if fmt.lower() == "table" and directions and directions[0]["scenes"]:
+        click.echo(direction_truth_sentence(directions))
 
 
 @evaluate.command("report")

@@ -48,11 +48,17 @@ from aion_cli.engine.query import EntryTable, historical_table, predict_table
 from aion_cli.engine.types import DetectionBatch, Trajectory
 from aion_cli.evaluation import metrics
 from aion_cli.evaluation.grid import GridMoD, GridSpec, expected_counts_per_window
+from aion_cli.evaluation.office_directions import (
+    direction_truth_scores,
+    direction_truth_table,
+    mean_normalised,
+)
 from aion_cli.evaluation.office_truth import (
     TRUTH_FIELDS,
     FlowSeries,
     _truth_scores,
     expected_flow_correlations,
+    place_rows,
     reference_forecasts,
     separable_flow_correlations,
     truth_sentence,
@@ -143,7 +149,12 @@ class OfficeResult:
         return rows
 
     def to_dict(self) -> dict[str, Any]:
-        return {"table": self.table(), "scenes": self.scenes}
+        return {"table": self.table(), "directions": self.directions(), "scenes": self.scenes}
+
+    def directions(self) -> list[dict[str, Any]]:
+        """aion's and the grid's directions against the truth, mean and std over the scenes
+        (:func:`~aion_cli.evaluation.office_directions.direction_truth_table`)."""
+        return direction_truth_table(self.scenes)
 
     def truth_means(self) -> dict[str, float]:
         """The mean over scenes of each ground-truth figure (:data:`TRUTH_FIELDS`; NaN-skipping,
@@ -282,6 +293,7 @@ def run_scene(
             for m in predicted[0][kind]
         }
     truth, series = _truth_scores(written.truth_npz, state, last_day, tables)
+    directions = _direction_scores(written.truth_npz, state, grid, last_day, tables)
     figure = None
     if keep_figure:
         aion_view, grid_v = views["Historical"]
@@ -295,12 +307,49 @@ def run_scene(
             "bound_cells": report.bound_cells,
             "table": table,
             "truth": truth,
+            "directions": directions,
             "grid_bytes": grid.stored_bytes(),
             "aion_bytes": report.map_bytes,
         },
         figure,
         series,
     )
+
+
+def _direction_scores(
+    truth_npz: Path,
+    state: Any,
+    grid: GridMoD,
+    times_ns: npt.NDArray[np.int64],
+    tables: list[EntryTable],
+) -> dict[str, Any]:
+    """aion's and the grid's direction histograms, historical and predicted, at each place that
+    became an aion node, against the true histogram of every agent over the evaluated day (the
+    windows from the first evaluated time's on): :mod:`.office_directions`."""
+    with np.load(truth_npz, allow_pickle=False) as z:
+        ids, flow_counts, starts = z["place_ids"], z["flow_counts"], z["window_start_ns"]
+    table = historical_table(state)
+    pairs = place_rows(ids, table.node_id)
+    if len(pairs) == 0:
+        return direction_truth_scores(np.zeros((0, grid.bins)), {})
+    rows, columns = pairs[:, 0], pairs[:, 1]
+    first = max(int(np.searchsorted(starts, int(times_ns[0]), side="right")) - 1, 0)
+    truth = flow_counts[first:, columns, :].sum(axis=0).astype(np.float64)
+    cells = grid.spec.cell_of(table.xyz[rows, :2])
+    inside = cells >= 0
+
+    def at_places(values: F64) -> F64:  # the grid's rows at the places (zeros outside it)
+        out = np.zeros((len(rows), grid.bins))
+        out[inside] = values[cells[inside], : grid.bins]
+        return out
+
+    maps = {
+        "aion historical": table.rate[rows],
+        "aion predicted": mean_normalised([t.rate[rows] for t in tables]),
+        "grid historical": at_places(grid.historical()),
+        "grid predicted": mean_normalised([at_places(grid.predict(int(t))) for t in times_ns]),
+    }
+    return direction_truth_scores(truth, maps)
 
 
 def _detections(data: Any) -> DetectionBatch:

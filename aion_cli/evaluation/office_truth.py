@@ -85,6 +85,17 @@ def truth_sentence(means: dict[str, float]) -> str:
     )
 
 
+def place_rows(place_ids: npt.ArrayLike, node_id: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """(aion row, truth column) of each simulated place that became an aion node, int64[n, 2]
+    in the truth's order (``node_id``: the table's node id per row, 0 for cells)."""
+    row_of = {int(n): i for i, n in enumerate(np.asarray(node_id).tolist()) if n}
+    return np.array(
+        [(row_of[int(p)], k) for k, p in enumerate(np.asarray(place_ids).tolist())
+         if int(p) in row_of],
+        dtype=np.int64,
+    ).reshape(-1, 2)
+
+
 def _truth_scores(
     truth_npz: Path, state: Any, times_ns: npt.NDArray[np.int64], tables: list[EntryTable]
 ) -> tuple[dict[str, float], FlowSeries | None]:
@@ -107,11 +118,7 @@ def _truth_scores(
         ids, flow_counts, starts = z["place_ids"], z["flow_counts"], z["window_start_ns"]
         seen_share = z["observed"].mean(axis=0) if "observed" in z.files else None
     table = historical_table(state)
-    row_of = {int(n): i for i, n in enumerate(table.node_id.tolist()) if n}
-    pairs = np.array(
-        [(row_of[int(p)], k) for k, p in enumerate(ids.tolist()) if int(p) in row_of],
-        dtype=np.int64,
-    ).reshape(-1, 2)
+    pairs = place_rows(ids, table.node_id)
     if len(pairs) == 0:
         return {"places_compared": 0.0}, None
     aion_hist = table.rate[pairs[:, 0]]

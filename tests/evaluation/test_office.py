@@ -17,6 +17,7 @@ from aion_cli.evaluation.office import (
     run_office,
     separable_flow_correlations,
 )
+from aion_cli.evaluation.office_directions import DIRECTION_MAPS
 
 
 def view(seed: int = 0, n: int = 50) -> MapView:
@@ -187,6 +188,13 @@ def test_one_small_office_scene_end_to_end() -> None:
     assert scene["truth"]["places_compared"] > 0
     assert scene["grid_bytes"] > 0
     assert result.figure is not None
+    directions = {r["map"]: r for r in result.directions()}
+    assert set(directions) == set(DIRECTION_MAPS)
+    assert 0 < scene["directions"]["places"] <= scene["truth"]["places_compared"]
+    for row in directions.values():
+        assert row["scenes"] == 1
+        assert 0.0 <= row["js"][0] <= 1.0
+        assert 0.0 <= row["dominant_deg"][0] <= 180.0
 
 
 def test_truth_means_skip_missing_figures() -> None:
