@@ -197,16 +197,24 @@ def _next(out: Any, procs: list[Any]) -> Any:
                     return None
 
 
+FORK_SAFE_THREADS = frozenset({"aion-hash-logs"})
+"""aion's own threads that a worker may be forked beside: the build's log hashing
+(:class:`aion_cli.provenance.DistinctLogs`) only reads its files and updates its sha256
+objects, which a worker never touches, so no lock a worker needs can be held by it."""
+
+
 def _context() -> Any:
-    """``fork`` on Linux while this process runs no other thread: the workers start with
-    everything the parent imported, in milliseconds. With other threads (a progress bar's
-    refresh, an event loop) a fork could copy a lock one of them holds, so the workers fork
-    from a single-threaded server process instead (``forkserver``, the build's modules
-    preloaded once), as on every other platform."""
+    """``fork`` on Linux while this process runs no other thread (but those of
+    :data:`FORK_SAFE_THREADS`): the workers start with everything the parent imported, in
+    milliseconds. With other threads (a progress bar's refresh, an event loop) a fork could
+    copy a lock one of them holds, so the workers fork from a single-threaded server process
+    instead (``forkserver``, the build's modules preloaded once), as on every other
+    platform."""
     import multiprocessing as mp
     import threading
 
-    single = threading.active_count() == 1
+    main = threading.main_thread()
+    single = all(t is main or t.name in FORK_SAFE_THREADS for t in threading.enumerate())
     if single and "fork" in mp.get_all_start_methods() and sys.platform.startswith("linux"):
         return mp.get_context("fork")
     ctx = mp.get_context("forkserver")

@@ -218,6 +218,12 @@ def _parallel_summary(rows: list[dict[str, Any]], add: Callable[..., None]) -> N
                 f"same map: {r['same_map']}; {r['shards']} shards, "
                 f"{r['shards_learnt_in_sequence']} learnt in sequence; joins {r['fold_s']:.2f} s",
                 ">= 1.6x", r["speedup"] >= 1.6)
+            if "speedup_bound_2_cores" in r:
+                add("parallel", f"{name}: bound on two cores",
+                    f"{r['speedup_bound_2_cores']:.2f}x",
+                    f"CPU: sequential {r['sequential_cpu_s']:.2f} s "
+                    f"({r['sequential_cores_used']:.2f} cores), 2 workers "
+                    f"{r['workers2_cpu_s']:.2f} s in all")
             if "machine_two_shard_throughput" in r:
                 add("parallel", f"{name}: this machine's two-process ceiling",
                     f"{r['machine_two_shard_throughput']:.2f}x",

@@ -320,6 +320,28 @@ def test_a_stopped_worker_ends_quietly(capfd: pytest.CaptureFixture[str]) -> Non
     assert "KeyboardInterrupt" not in err
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="workers fork only on Linux")
+def test_workers_fork_beside_the_log_hashing_thread_only() -> None:
+    # The build hashes its logs in a thread while it learns; a parallel build that found it
+    # still running started its workers from a forkserver (a fresh process importing the
+    # build's modules), slower, and only when the hash had not finished: a race.
+    import threading
+
+    from aion_cli.process_pool import _context
+
+    assert _context().get_start_method() == "fork"
+    release = threading.Event()
+    for name, method in (("aion-hash-logs", "fork"), ("progress-refresh", "forkserver")):
+        thread = threading.Thread(target=release.wait, name=name, daemon=True)
+        thread.start()
+        try:
+            assert _context().get_start_method() == method, name
+        finally:
+            release.set()
+            thread.join()
+            release.clear()
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to list child processes")
 def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) -> None:
