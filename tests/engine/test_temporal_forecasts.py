@@ -140,3 +140,47 @@ def test_a_kind_of_day_never_recorded_follows_the_rhythm_of_the_days_seen(profil
     morning = total_flow(mapper, saturday + 9 * HOUR)
     assert morning == pytest.approx(300.0 / 6, rel=0.15)
     assert night <= 0.05 * morning
+
+
+@pytest.mark.parametrize("families", [None, ["static", "fremen"]])
+def test_an_hour_never_observed_forecasts_the_static_rate(families: list[str] | None) -> None:
+    """A sensor that records 08–18 h only, two weeks of a daily rhythm inside those hours:
+    at 03:00, an hour no day observed, every entry forecasts its static rate (no scored
+    family was ever tried there: FreMEn's sinusoids would swing anywhere), unreconciled, and
+    names the static family; at 13:00 the learnt rhythm stands (with FreMEn alone beside
+    static, FreMEn's)."""
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.types import DetectionBatch
+
+    rng = np.random.default_rng(3)
+    mapper = Mapper(ModelConfig() if families is None else ModelConfig(families=families))
+    window = 600 * 10**9
+    days = 14
+    windows = [
+        np.arange((MONDAY + d * DAY + 8 * HOUR) // window, (MONDAY + d * DAY + 18 * HOUR) // window)
+        for d in range(days)
+    ]
+    mapper.set_fixed_windows(np.concatenate(windows))
+    for d in range(days):
+        for h in range(8, 18):
+            n = int(rng.poisson(80.0 if 11 <= h < 15 else 5.0))
+            t = MONDAY + d * DAY + h * HOUR + np.sort(rng.integers(0, HOUR, n))
+            xy = rng.uniform((0.0, 0.0), (6.0, 2.0), size=(n, 2))
+            head = rng.normal(0.0, 0.3, n)
+            mapper.add_detections(
+                DetectionBatch.from_arrays(t, np.column_stack([xy, np.zeros(n)]), head, np.ones(n))
+            )
+    mapper.advance(MONDAY + days * DAY)
+    state = mapper.state
+    after = MONDAY + days * DAY
+    night = predict_table(state, after + 3 * HOUR)
+    noon = predict_table(state, after + 13 * HOUR)
+    hist = historical_table(state)
+    assert set(night.flow_family.tolist()) == {"static"}
+    assert set(night.direction_family.tolist()) == {"static"}
+    np.testing.assert_allclose(night.flow, hist.flow, rtol=1e-12, atol=1e-12)
+    assert set(noon.flow_family.tolist()) != {"static"}  # the rhythm was learnt
+    assert total_flow(mapper, after + 13 * HOUR) > 1.5 * float(np.nansum(night.flow))
+    # an hour observed on some day is not extrapolated: 17:00 follows the rhythm too
+    late = predict_table(state, after + 17 * HOUR)
+    assert set(late.flow_family.tolist()) == set(noon.flow_family.tolist())

@@ -199,7 +199,18 @@ class Predictor:
     periodic profile of the whole map for the periodic families, the entries' FreMEn sum for
     FreMEn) — the best-supported forecast of *how busy the whole map is* — while each entry
     keeps its own family's share of it. Sparse entries that chose ``static`` on noisy evidence then
-    still follow the map's rhythm, and the map's total is never diluted by them."""
+    still follow the map's rhythm, and the map's total is never diluted by them.
+
+    Extrapolation (``extrapolated``, per profile bin): at an hour of the day that the map
+    observed on no day at all — a robot that never ran at night — no family's forecast was
+    ever scored, and FreMEn's sinusoids, fitted to the hours observed, can swing anywhere
+    there (a corridor cell empty all day but at 17–19 h was forecast at 2.7 times its mean at
+    03:00). There every entry forecasts with ``static`` (its rate per observed window and its
+    static histogram), unreconciled: where people generally are, at the level they generally
+    are, which is what the hours observed support. A kind of day never observed at an hour
+    seen on others (a Saturday morning after weekdays only) is not extrapolated in this
+    sense: the families carry the other days' rhythm there (the profile falls back to the
+    hour of the day)."""
 
     params: TemporalParams
     forecaster: Forecaster
@@ -207,6 +218,8 @@ class Predictor:
     direction_choice: I64
     phi: F64
     map_family: str | None
+    extrapolated: BoolA
+    phi_static: F64
 
     @classmethod
     def of(
@@ -226,9 +239,32 @@ class Predictor:
         fc = Forecaster(params, state, rows, groups, pool, components, counts)
         flow_choice, dir_choice, map_choice = choose(params, state, rows, groups, n_groups)
         phi = dispersion(state.flow_chi2[rows], state.flow_scored[rows], flow_choice)
+        static = np.full_like(flow_choice, params.flow.index("static"))
+        phi_static = dispersion(state.flow_chi2[rows], state.flow_scored[rows], static)
         name = params.flow[map_choice]
         map_family = name if params.config.reconcile and name != "static" else None
-        return cls(params, fc, flow_choice, dir_choice, phi, map_family)
+        per_day = params.calendar.bins_per_day
+        hours = np.zeros(per_day, dtype=bool)  # the hours of the day observed on any day
+        hours[observed_bins(params, state, rows, [], 0) % per_day] = True
+        seen = np.tile(hours, params.n_profile // per_day)
+        extrapolated = ~seen if seen.any() else seen  # nothing observed: nothing to fall to
+        return cls(
+            params, fc, flow_choice, dir_choice, phi, map_family, extrapolated, phi_static
+        )
+
+    def _flow_choice(self, e: I64, h: I64) -> I64:
+        """Each pair's flow family: the entry's choice, ``static`` in extrapolated bins."""
+        choice = self.flow_choice[e]
+        if self.extrapolated.any():
+            choice = np.where(self.extrapolated[h], self.params.flow.index("static"), choice)
+        return choice
+
+    def _direction_choice(self, e: I64, h: I64) -> I64:
+        choice = self.direction_choice[e]
+        if self.extrapolated.any():
+            static = self.params.direction.index("static")
+            choice = np.where(self.extrapolated[h], static, choice)
+        return choice
 
     @property
     def reconcile(self) -> bool:
@@ -256,8 +292,9 @@ class Predictor:
         """The chosen flow families at pairs, before reconciliation (clamped at 0)."""
         fc = self.forecaster
         flow = np.zeros(e.size)
+        choice = self._flow_choice(e, h)
         for f, name in enumerate(self.params.flow):
-            pick = np.flatnonzero(self.flow_choice[e] == f)
+            pick = np.flatnonzero(choice == f)
             if pick.size:
                 flow[pick] = np.maximum(fc.flow(name, e[pick], h[pick], t_s[pick]), 0.0)
         return flow
@@ -265,8 +302,9 @@ class Predictor:
     def _directions(self, e: I64, h: I64, t_s: F64) -> F64:
         fc = self.forecaster
         probs = np.zeros((e.size, self.params.bins))
+        choice = self._direction_choice(e, h)
         for d, name in enumerate(self.params.direction):
-            pick = np.flatnonzero(self.direction_choice[e] == d)
+            pick = np.flatnonzero(choice == d)
             if pick.size:
                 probs[pick] = fc.direction(name, e[pick], h[pick], t_s[pick])
         return probs
@@ -295,7 +333,7 @@ class Predictor:
             total = fc.map_total(self.map_family, e, h, t_s).reshape(k, everyone.size)
             target[a : a + k] = total.sum(axis=1)
         factor = np.ones(times.size)
-        np.divide(target, raw, out=factor, where=raw > 0)
+        np.divide(target, raw, out=factor, where=(raw > 0) & ~self.extrapolated[bins])
         out[:] = factor[inverse.reshape(-1)]
         return out
 
@@ -325,13 +363,15 @@ class Predictor:
         fc = self.forecaster
         n = fc.rows.size
         everyone = np.arange(n)
-        flow, probs = self.pairs(everyone, np.full(n, int(t_ns), np.int64))
+        t = np.full(n, int(t_ns), np.int64)
+        flow, probs = self.pairs(everyone, t)
+        h = self.params.calendar.profile_bin(t)
         return Prediction(
             flow,
             probs,
             fc.directed_share,
-            np.asarray(self.params.flow, dtype=str)[self.flow_choice],
-            np.asarray(self.params.direction, dtype=str)[self.direction_choice],
-            self.phi * flow,
+            np.asarray(self.params.flow, dtype=str)[self._flow_choice(everyone, h)],
+            np.asarray(self.params.direction, dtype=str)[self._direction_choice(everyone, h)],
+            np.where(self.extrapolated[h], self.phi_static, self.phi) * flow,
             fc.observed,
         )
