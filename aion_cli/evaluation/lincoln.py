@@ -33,7 +33,6 @@ from a grid of the same kind fed raw counts).
 
 from __future__ import annotations
 
-import math
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -42,7 +41,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.stats import spearmanr
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import DetectionBatch
@@ -55,6 +53,7 @@ from aion_cli.evaluation.heading import (
     HeadingModel,
     score_headings,
 )
+from aion_cli.evaluation.metrics import activity_scores
 
 TRAIN_DAYS = ("2017-05-24", "2017-05-25", "2017-05-26", "2017-05-31")
 TEST_DAY = "2017-06-09"
@@ -177,19 +176,6 @@ def _mean_per_hour_of_day(train: list[DayData]) -> np.ndarray:
     return out
 
 
-def _activity_scores(truth: np.ndarray, predicted: np.ndarray) -> dict[str, float]:
-    ok = np.isfinite(predicted)
-    y, mu = truth[ok], np.maximum(predicted[ok], 1e-9)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        term = np.where(y > 0, y * np.log(y / mu), 0.0)
-    rho = spearmanr(y, mu).statistic if len(y) > 2 else math.nan
-    return {
-        "spearman": float(rho),
-        "poisson_deviance": float(2.0 * np.sum(term - (y - mu))),
-        "mae": float(np.mean(np.abs(y - mu))),
-    }
-
-
 def run_lincoln(
     data_dir: Path,
     config: ModelConfig | None = None,
@@ -306,7 +292,7 @@ def _activity(
     for name, values in per_window.items():
         hourly = np.bincount(inverse, values)
         result.series[name] = hourly.tolist()
-        result.activity.append({"model": name, **_activity_scores(truth, hourly)})
+        result.activity.append({"model": name, **activity_scores(truth, hourly)})
     table = predict_table(state, int(centres[len(centres) // 2]))
     fam, cnt = np.unique(table.flow_family[table.flow_family != "none"], return_counts=True)
     dfam, dcnt = np.unique(

@@ -18,6 +18,10 @@ The paper reports these metrics without formulas; every choice is pinned here an
   as a density over [0, 2π): ``-(log P(bin) + log(B / 2π))``, probabilities floored at
   ``NLL_FLOOR`` and renormalised; a uniform model gives exactly ``log(2π)``.
 - Chi-square histogram distance ``Σ (x-y)² / (x+y)`` over bins where ``x+y > 0``.
+- Activity of a series of counts ``y`` against forecasts ``μ`` (``activity_scores``, e.g.
+  detections per hour): Spearman rank correlation, Poisson deviance
+  ``2 Σ [y ln(y/μ) − (y − μ)]`` (μ floored at 1e-9) and mean absolute error, over the
+  entries whose forecast is finite.
 """
 
 from __future__ import annotations
@@ -134,3 +138,21 @@ def chi_square_distance(x: npt.ArrayLike, y: npt.ArrayLike, axis: int = -1) -> F
     total = xa + ya
     terms = np.divide((xa - ya) ** 2, total, out=np.zeros_like(total), where=total > 0)
     return np.sum(terms, axis=axis)
+
+
+def activity_scores(truth: npt.ArrayLike, predicted: npt.ArrayLike) -> dict[str, float]:
+    """Spearman correlation, Poisson deviance and MAE of ``predicted`` counts against
+    ``truth`` (see the module docstring), over the pairs whose forecast is finite."""
+    from scipy.stats import spearmanr
+
+    y_all, mu_all = np.asarray(truth, dtype=np.float64), np.asarray(predicted, dtype=np.float64)
+    ok = np.isfinite(mu_all)
+    y, mu = y_all[ok], np.maximum(mu_all[ok], 1e-9)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        term = np.where(y > 0, y * np.log(y / mu), 0.0)
+    rho = spearmanr(y, mu).statistic if len(y) > 2 else math.nan
+    return {
+        "spearman": float(rho),
+        "poisson_deviance": float(2.0 * np.sum(term - (y - mu))),
+        "mae": float(np.mean(np.abs(y - mu))) if len(y) else math.nan,
+    }

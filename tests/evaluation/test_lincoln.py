@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from aion_cli.evaluation import lincoln
+from aion_cli.evaluation.metrics import activity_scores
 from tests.shared_data import SHARED_DATA
 
 DATA = SHARED_DATA / "lincoln"
@@ -20,7 +21,7 @@ needs_lincoln = pytest.mark.skipif(
 def test_activity_scores_match_their_definitions() -> None:
     truth = np.array([10.0, 0.0, 5.0, 20.0])
     pred = np.array([8.0, 1.0, 5.0, 25.0])
-    got = lincoln._activity_scores(truth, pred)
+    got = activity_scores(truth, pred)
     deviance = 2 * (10 * math.log(10 / 8) - 2 + 1 + 0 + 20 * math.log(20 / 25) + 5)
     assert got["poisson_deviance"] == pytest.approx(deviance)
     assert got["mae"] == pytest.approx((2 + 1 + 0 + 5) / 4)
