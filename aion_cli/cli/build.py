@@ -314,7 +314,7 @@ def command(
         return
     if not logs:
         raise InputError("no log given", hint="aion build LOG... [-o MAP]; see aion build --help")
-    observed = _observed_spans(observed_text, timezone, continue_from)
+    observed = observed_spans(observed_text, timezone, continue_from)
     options = BuildOptions(
         logs=logs,
         output=output,
@@ -352,11 +352,12 @@ def command(
         print_warnings(summary)
 
 
-def _observed_spans(
+def observed_spans(
     texts: tuple[str, ...], timezone: str | None, continue_from: Path | None
 ) -> tuple[tuple[int, int], ...]:
-    """``--observed`` spans in ns, read in ``--tz``, else the continued map's zone, else UTC
-    (a bad span fails before any log is read)."""
+    """``--observed`` spans in ns, read in ``--tz``, else the zone of the map
+    ``continue_from`` (the continued map; ``evaluate holdout``'s map), else UTC (a bad span
+    fails before any log is read)."""
     if not texts:
         return ()
     from aion_cli.cli.common import parse_span

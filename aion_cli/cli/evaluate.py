@@ -39,7 +39,8 @@ def _existing_dir(path: Path, what: str) -> Path:
 
 @click.group("evaluate")
 def evaluate() -> None:
-    """Evaluate aion: against a grid Map of Dynamics, on real tracks, and FreMEn itself.
+    """Evaluate aion: against a grid Map of Dynamics, on real tracks, FreMEn itself, and your
+    own map on your own held-out logs.
 
     \b
     Examples:
@@ -48,6 +49,7 @@ def evaluate() -> None:
       aion evaluate lincoln                       forecasts on a real multi-day corridor
       aion evaluate door                          FreMEn on a real periodic door signal
       aion evaluate report -o report/             all of it as markdown with PNG plots
+      aion evaluate holdout site.aion later.mcap  your map's forecast on your held-out logs
     """
 
 
@@ -210,6 +212,60 @@ def lincoln(
          f"{result.data[result.test]['detections']:,} test detections (zone {ZONE})")
     emit(fmt, result.activity, ACTIVITY_COLUMNS,
          title="Lincoln, hourly activity of the test day")
+
+
+@evaluate.command("holdout")
+@click.argument("map_path", metavar="MAP", type=AionPath(exists=True, path_type=Path))
+@click.argument("logs", metavar="LOG...", nargs=-1, required=True,
+                type=AionPath(exists=True, path_type=Path))
+@click.option("--radius", type=float, default=1.0, show_default=True,
+              help="Association radius (m) between a test detection and a map entry.")
+@click.option("--detections-topic", "detection_topics", multiple=True, metavar="TOPIC",
+              help="Read people from this topic of the test logs (repeatable) [default: as "
+              "aion build chooses].")
+@click.option("--map-frame", default="map", show_default=True,
+              help="The frame the map's positions are in (TF target of the detections).")
+@click.option("--observed", "observed", multiple=True, metavar="START..END",
+              help="A span the test logs' sensor was recording (repeatable; as aion build "
+              "--observed, times in the map's zone).")
+@format_option(("table", "json"))
+def holdout(
+    map_path: Path, logs: tuple[Path, ...], radius: float, detection_topics: tuple[str, ...],
+    map_frame: str, observed: tuple[str, ...], fmt: str,
+) -> None:
+    """Judge a map's forecast on your own held-out logs: heading NLL of every test detection
+    and the hourly activity of the windows a fixed sensor covered, for aion's forecast
+    against its static rates, its own hour-of-day profile and a uniform heading. Build the
+    map from earlier logs, keep later ones back.
+
+    \b
+    Examples:
+      aion build monday.mcap tuesday.mcap -o site.aion
+      aion evaluate holdout site.aion wednesday.mcap
+      aion evaluate holdout site.aion wednesday.mcap --format json > wednesday.json
+    """
+    from aion_cli.build_options import BuildOptions
+    from aion_cli.cli.build import observed_spans
+    from aion_cli.cli.console import note
+    from aion_cli.evaluation.holdout import run_holdout
+
+    spans = observed_spans(observed, None, map_path)  # in the map's zone
+    opts = BuildOptions(logs=logs, detection_topics=detection_topics, map_frame=map_frame,
+                        observed=spans)
+    result = run_holdout(map_path, opts, radius, progress=note)
+    for line in result.notes:
+        note(line)
+    if fmt == "json":
+        emit(fmt, [], (), json_payload=result.to_dict())
+        return
+    test = result.test
+    emit(fmt, result.headings, SCORE_COLUMNS,
+         title=f"{map_path.name} on {len(logs)} held-out log(s): heading NLL of "
+         f"{test['with_heading']:,} detections with a heading")
+    if result.activity:
+        emit(fmt, result.activity, ACTIVITY_COLUMNS,
+             title=f"hourly activity over {test['fixed_sensor_windows']:,} observed windows "
+             f"({len(result.hours)} hours)")
 
 
 def _pair(value: Any) -> str:

@@ -1,0 +1,240 @@
+"""A map's forecast judged on your own held-out logs: ``aion evaluate holdout MAP LOG...``.
+
+The public protocols (Lincoln, ATC, the office) judge aion on data someone else recorded. A
+user's question is whether *their* map forecasts *their* site: build the map from some logs,
+keep later ones back, and score the map's forecast on them. The test logs are read exactly as
+``aion build`` would read them into the map (:func:`aion_cli.held_out.read_held_out`: map
+frame, headings, time rules, observed windows), so the comparison is like with like. Scores,
+per model:
+
+- **heading NLL** of every test detection with a heading (association radius ``radius``
+  metres to the nearest entry; unmatched detections count as uniform; the floor of
+  ``evaluation.heading``): ``aion`` (each entry's chosen direction family at the detection's
+  time), ``aion static`` (its static histogram, pooled toward its parents), ``aion
+  historical`` (the raw proportions ``predict --historical`` shows) and ``uniform``
+  (``log 2π``, knowing nothing);
+- **hourly activity** over the windows a fixed sensor covered in the test logs (a log without
+  a robot trajectory counts as one in the windows it recorded anything; ``--observed`` at
+  build time declares more): the detections per hour against the map's forecast summed over
+  its entries at each window's centre — Spearman, Poisson deviance and MAE
+  (``metrics.activity_scores``) — for ``aion``, ``aion static`` (the entries' rates per
+  observed window, the same every hour) and ``hour-of-day profile`` (the map's own detections
+  per observed window in each profile bin, hour of the day by kind of day, unshrunk: the
+  baseline a temporal model has to beat). Windows observed only by a moving robot saw part of
+  the map each, so they are left out of the activity (a note says how many).
+
+A test log that overlaps the map's own data in time is scored all the same, with a note: the
+map has seen those detections.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.evaluation.heading import UNIFORM_NLL, AionHeadingModel, score_headings
+from aion_cli.evaluation.metrics import activity_scores
+
+if TYPE_CHECKING:
+    from aion_cli.build_options import BuildOptions
+    from aion_cli.engine.state import MapState
+    from aion_cli.held_out import HeldOut
+
+HOUR_NS = 3_600 * 10**9
+_PAIRS = 1 << 20
+"""(entry, window) pairs whose flow is evaluated together."""
+
+
+@dataclass
+class HoldoutResult:
+    """Scores per model (headings, activity), the hourly series, and what was tested."""
+
+    headings: list[dict[str, Any]] = field(default_factory=list)
+    activity: list[dict[str, Any]] = field(default_factory=list)
+    hours: list[str] = field(default_factory=list)
+    series: dict[str, list[float]] = field(default_factory=dict)
+    test: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "test": self.test,
+            "headings": self.headings,
+            "activity": self.activity,
+            "hours": self.hours,
+            "hourly_series": self.series,
+            "notes": self.notes,
+        }
+
+
+def run_holdout(
+    map_path: Path,
+    opts: BuildOptions,
+    radius: float = 1.0,
+    progress: Callable[[str], None] | None = None,
+) -> HoldoutResult:
+    """Score the map at ``map_path`` on the logs of ``opts`` (read with the map's model
+    config; see the module docstring). :class:`~aion_cli.errors.InputError` when the map or
+    the logs cannot be read, or the logs hold no detection the map could take."""
+    from aion_cli.held_out import read_held_out
+    from aion_cli.mapquery import load_map
+
+    say = progress or (lambda _msg: None)
+    loaded = load_map(map_path)
+    state = loaded.state
+    held = read_held_out(opts, state.config)
+    result = HoldoutResult()
+    result.test = _test_summary(held, state)
+    result.notes = _notes(held, loaded.manifest)
+    say("scoring headings")
+    for model in (
+        AionHeadingModel(state, radius),
+        AionHeadingModel(state, radius, static=True, name="aion static"),
+        AionHeadingModel(state, radius, historical=True, name="aion historical"),
+    ):
+        result.headings.append(
+            score_headings(model, held.batch, state.bins, window_s=state.config.window_s)
+            .to_dict()
+        )
+    result.headings.append(_uniform(held))
+    say("forecasting the test logs' hourly activity")
+    _activity(result, state, held)
+    return result
+
+
+def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
+    batch = held.batch
+    directed = int(np.count_nonzero(np.isfinite(batch.heading)))
+    span = (int(batch.t_ns.min()), int(batch.t_ns.max())) if len(batch) else None
+    return {
+        "detections": len(batch),
+        "with_heading": directed,
+        "windows": int(held.windows.size),
+        "fixed_sensor_windows": int(np.count_nonzero(held.fixed)),
+        "window_s": state.config.window_s,
+        "start_ns": span[0] if span else None,
+        "end_ns": span[1] if span else None,
+        "observation": held.report.observation,
+        "detection_topics": list(held.report.detection_topics),
+    }
+
+
+def _notes(held: HeldOut, manifest: dict[str, Any]) -> list[str]:
+    """What the reader should know about the test: the logs' own notes, an overlap with the
+    map's data, windows left out of the activity."""
+    notes = [n for n in held.notes if "scene graph" not in n]  # the map has its own
+    span = manifest.get("time_span") or {}
+    start, end = span.get("start_ns"), span.get("end_ns")
+    t = held.batch.t_ns
+    if isinstance(start, int) and isinstance(end, int) and len(t):
+        inside = int(np.count_nonzero((t >= start) & (t <= end)))
+        if inside:
+            notes.append(
+                f"{inside:,} of {len(t):,} test detections lie within the map's own time span: "
+                "the map has seen them (build the map from logs before the test logs only)"
+            )
+    robot_only = int(np.count_nonzero(~held.fixed))
+    if robot_only:
+        notes.append(
+            f"{robot_only:,} of {held.windows.size:,} test windows were observed by a moving robot "
+            "only (each saw part of the map): left out of the hourly activity"
+        )
+    return notes
+
+
+def _uniform(held: HeldOut) -> dict[str, Any]:
+    """The reference that knows nothing: every heading equally likely."""
+    n = int(np.count_nonzero(np.isfinite(held.batch.heading)))
+    nll = UNIFORM_NLL if n else math.nan
+    return {"model": "uniform", "detections": n, "matched": n, "unmatched": 0,
+            "nll_matched": nll, "nll_all": nll, "chi_square": math.nan}
+
+
+def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
+    """Detections per hour over the fixed-sensor windows against each model's forecast."""
+    windows = held.windows[held.fixed]
+    if windows.size == 0:
+        result.notes.append(
+            "no test window was covered by a fixed sensor: the hourly activity needs one "
+            "(a log without a robot trajectory is one; see aion build --observed)"
+        )
+        return
+    w_ns = state.window_ns
+    detected = held.batch.t_ns // w_ns
+    at = np.searchsorted(windows, detected)
+    hit = (at < windows.size) & (windows[np.minimum(at, windows.size - 1)] == detected)
+    truth_w = np.bincount(at[hit], minlength=windows.size).astype(np.float64)
+    centres = windows * w_ns + w_ns // 2
+    per_window = {
+        "aion": _forecast_totals(state, centres),
+        "aion static": np.full(windows.size, _static_total(state)),
+        "hour-of-day profile": _profile_totals(state, centres),
+    }
+    hour_of = (windows * w_ns) // HOUR_NS
+    hours, inverse = np.unique(hour_of, return_inverse=True)
+    truth = np.bincount(inverse, truth_w)
+    result.hours = [_hour_label(int(h), state.config.timezone) for h in hours.tolist()]
+    result.series["truth"] = truth.tolist()
+    for name, values in per_window.items():
+        hourly = np.bincount(inverse, values)
+        result.series[name] = hourly.tolist()
+        result.activity.append({"model": name, **activity_scores(truth, hourly)})
+
+
+def _forecast_totals(state: MapState, centres: np.ndarray) -> np.ndarray:
+    """The map's forecast summed over its entries at each time (``Predictor.flows``, entries
+    never observed left out), a block of times at once."""
+    rows, predictor = state.predictor()
+    n = len(rows)
+    out = np.zeros(centres.size)
+    if n == 0:
+        return out
+    step = max(1, _PAIRS // n)
+    everyone = np.arange(n)
+    for a in range(0, centres.size, step):
+        t = centres[a : a + step]
+        flows = predictor.flows(np.tile(everyone, t.size), np.repeat(t, n))
+        out[a : a + t.size] = np.nansum(flows.reshape(t.size, n), axis=1)
+    return out
+
+
+def _static_total(state: MapState) -> float:
+    from aion_cli.engine.query import historical_table
+
+    return float(np.nansum(historical_table(state).flow))
+
+
+def _profile_totals(state: MapState, centres: np.ndarray) -> np.ndarray:
+    """The map's own detections per observed window in each profile bin, summed over its
+    entries (each entry's counts in the bin over the windows it was observed in the bin; an
+    entry never observed in a bin adds its static rate there), at each time's bin."""
+    from aion_cli.engine.temporal.pooling import count_sums, rows_of
+
+    rows = state.entries.canonical_order()
+    view = state.query_temporal()
+    counts = np.asarray(count_sums(rows_of(view.cnt_profile, rows), 1), dtype=np.float64)
+    observed = rows_of(view.obs.profile, rows) + view.glob.profile[0]
+    static = np.divide(
+        counts.sum(axis=1), observed.sum(axis=1),
+        out=np.zeros(rows.size), where=observed.sum(axis=1) > 0,
+    )
+    rate = np.where(
+        observed > 0, counts / np.maximum(observed, 1e-300), static[:, None]
+    )
+    per_bin = rate.sum(axis=0)
+    bins = state.params.calendar.profile_bin(centres)
+    out: np.ndarray = per_bin[bins]
+    return out
+
+
+def _hour_label(hour: int, timezone: str) -> str:
+    """The start of an hour (UNIX hours) in the map's zone, ISO 8601 to the minute."""
+    from zoneinfo import ZoneInfo
+
+    return datetime.fromtimestamp(hour * 3600, ZoneInfo(timezone)).isoformat(timespec="minutes")

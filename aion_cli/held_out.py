@@ -1,0 +1,119 @@
+"""Held-out logs read as a build reads them, for judging a map's forecast on them.
+
+``aion evaluate holdout MAP LOG...`` needs the test logs' detections exactly as ``aion build``
+would take them into a map — in the map frame, with the headings the build estimates (id-less
+detections linked into tracks), after the same time and topic rules — and the windows the logs
+observed. :func:`read_held_out` runs the build's own reading (:class:`aion_cli.pipeline._Build`
+with the map's model config) into a Mapper whose state records instead of learning: every
+batch the map accepted, and every window it recorded with whether a fixed sensor covered it.
+Nothing is written and no day is scored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
+
+import numpy as np
+
+from aion_cli.engine.state import MapState
+from aion_cli.engine.types import I64, DetectionBatch
+from aion_cli.pipeline import _Build
+
+if TYPE_CHECKING:
+    from aion_cli.build_options import BuildOptions
+    from aion_cli.build_report import BuildReport, ProgressSink
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.mapper import Mapper
+
+
+@dataclass
+class HeldOut:
+    """What the test logs hold for a map: the detections it would accept (``batch``), the
+    windows they recorded (``windows``, sorted window indices, and ``fixed``, whether a fixed
+    sensor covered each: then every place was observed in it) and the build's report (its
+    observation, notes, topics)."""
+
+    batch: DetectionBatch
+    windows: I64
+    fixed: np.ndarray
+    report: BuildReport
+    notes: list[str] = field(default_factory=list)
+
+
+class _RecordingState(MapState):
+    """A map state that keeps the windows it records and forgets each day instead of
+    scoring it (the held-out logs teach nothing)."""
+
+    recorded: list[tuple[int, bool]]
+
+    def record_window(
+        self, window: int, fixed: bool, observed: I64, count_rows: I64, counts: Any
+    ) -> None:
+        self.recorded.append((int(window), bool(fixed)))
+        super().record_window(window, fixed, observed, count_rows, counts)
+
+    def close_day(self, rows: I64 | None = None) -> None:
+        self.pending.clear()
+
+
+class _Reading(_Build):
+    """The build's reading into a recording Mapper (no previous map, no shards)."""
+
+    batches: list[DetectionBatch]
+    state: _RecordingState
+
+    def _mapper(self, config: ModelConfig) -> Mapper:
+        from aion_cli.engine.mapper import ACCEPTED, Mapper
+
+        state = cast(_RecordingState, _RecordingState.empty(config))  # cls(...): a recorder
+        state.recorded = []
+        self.state = state
+        batches = self.batches = []
+
+        class Recorder(Mapper):
+            def add_detections(
+                self, batch: DetectionBatch, codes: np.ndarray | None = None
+            ) -> dict[str, int]:
+                if codes is None:
+                    codes = np.empty(len(batch), dtype=np.int8)
+                drops = super().add_detections(batch, codes)
+                kept = codes == ACCEPTED
+                if kept.any():
+                    batches.append(batch if kept.all() else batch.select(kept))
+                return drops
+
+        return Recorder(config, state)
+
+
+def read_held_out(
+    opts: BuildOptions, config: ModelConfig, progress: ProgressSink | None = None
+) -> HeldOut:
+    """The logs of ``opts`` read as a build of a map with ``config`` would read them (see the
+    module docstring). :class:`~aion_cli.errors.InputError` as a build raises it (no log, no
+    detection topic, nothing readable)."""
+    from dataclasses import replace
+
+    from aion_cli.build_report import NoProgress
+    from aion_cli.errors import InputError
+
+    if not opts.logs:
+        raise InputError("no test log given", hint="aion evaluate holdout MAP LOG...")
+    reading = _Reading(replace(opts, config=config, workers=1), progress or NoProgress())
+    reading._distinct_logs()  # the distinct logs (a copy given twice is read once)
+    reading.learn(reading.config())
+    state = reading.state
+    batch = DetectionBatch.concat(reading.batches)
+    recorded = sorted(set(state.recorded))
+    last = state.open_window  # still open at the logs' end: recorded as a query would
+    if last is not None:
+        at = np.array([last], np.int64)
+        fixed_last = bool(state.observation.fixed_mask(at, state.window_ns)[0])
+        if fixed_last or bool(np.any(batch.t_ns // state.window_ns == last)):
+            recorded.append((int(last), fixed_last))
+    windows = np.array([w for w, _ in recorded], dtype=np.int64)
+    fixed = np.array([f for _, f in recorded], dtype=bool)
+    if windows.size and np.any(np.diff(windows) == 0):  # a window recorded twice: keep one
+        keep = np.concatenate([[True], np.diff(windows) != 0])
+        windows, fixed = windows[keep], fixed[keep]
+    return HeldOut(batch, windows, fixed, reading.report, list(reading.report.notes))

@@ -1,0 +1,143 @@
+"""``aion evaluate holdout MAP LOG...``: a map's forecast scored on logs it has not seen.
+
+A corridor recorded 08:00-18:00 (declared with ``aion convert --observed``) for six days, then
+a seventh day kept back. People walk east in the morning and west in the afternoon, with a
+rush at 09:00, so the answer is known: the test day's hourly counts are the generated ones,
+a forecast that learnt the rhythm beats the static rates on activity, and one that learnt the
+turn of direction beats the static histogram on headings.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.build_report import BuildReport
+from aion_cli.engine.types import DetectionBatch
+from aion_cli.evaluation.holdout import HoldoutResult, _activity, _notes
+from aion_cli.held_out import HeldOut
+from tests.cli.conftest import assert_one_line_error, run, run_json
+
+S = 10**9
+HOUR = 3600 * S
+DAY = 24 * HOUR
+MONDAY = 1_767_571_200 * S  # 2026-01-05 00:00 UTC, a Monday
+STEPS = 5  # detections per walk, 1 s apart, 1 m/s
+
+
+def people_per_hour(hour: int) -> int:
+    return 40 if hour == 9 else 8
+
+
+def write_days(path: Path, first: int, days: int) -> dict[int, int]:
+    """Canonical tracks CSV of ``days`` days from day ``first``; returns the detections per
+    UNIX hour."""
+    rng = np.random.default_rng(first)
+    lines = ["t_ns,track_id,x,y,z,heading_rad,speed_mps"]
+    per_hour: dict[int, int] = {}
+    track = first * 100_000
+    for d in range(first, first + days):
+        for hour in range(8, 18):
+            east = hour < 13
+            for start in np.sort(rng.integers(0, 3_500, people_per_hour(hour))).tolist():
+                track += 1
+                y = float(rng.uniform(0.0, 2.0))
+                t0 = MONDAY + d * DAY + hour * HOUR + int(start) * S
+                for k in range(STEPS):
+                    x = 1.0 + k if east else 5.0 - k
+                    heading = 0.0 if east else math.pi
+                    lines.append(f"{t0 + k * S},{track},{x:.2f},{y:.2f},0.0,{heading},1.0")
+                key = (t0 // HOUR)
+                per_hour[key] = per_hour.get(key, 0) + STEPS
+    path.write_text("\n".join(lines) + "\n")
+    return per_hour
+
+
+def convert(csv: Path, first: int, days: int) -> Path:
+    log = csv.with_suffix(".mcap")
+    spans = []
+    for d in range(first, first + days):
+        lo, hi = MONDAY + d * DAY + 8 * HOUR, MONDAY + d * DAY + 18 * HOUR
+        spans += ["--observed", f"{lo / S:.0f}..{hi / S:.0f}"]
+    result = run("convert", csv, "-o", log, *spans)
+    assert result.exit_code == 0, result.stderr
+    return log
+
+
+@pytest.fixture(scope="module")
+def corridor(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path, dict[int, int]]:
+    folder = tmp_path_factory.mktemp("holdout")
+    write_days(folder / "train.csv", 0, 6)
+    truth = write_days(folder / "test.csv", 6, 1)
+    train = convert(folder / "train.csv", 0, 6)
+    test = convert(folder / "test.csv", 6, 1)
+    site = folder / "site.aion"
+    result = run("build", train, "-o", site, "--tz", "UTC", "-q")
+    assert result.exit_code == 0, result.stderr
+    return site, train, test, truth
+
+
+def test_the_held_out_day_is_read_as_a_build_reads_it(corridor: tuple) -> None:
+    site, _train, test, truth = corridor
+    doc = run_json("evaluate", "holdout", site, test, "--format", "json")
+    assert doc["test"]["detections"] == sum(truth.values())
+    assert doc["test"]["with_heading"] == sum(truth.values())
+    assert doc["test"]["fixed_sensor_windows"] == 60  # 08:00-18:00 in 10-minute windows
+    assert doc["notes"] == [] or all("time span" not in n for n in doc["notes"])
+    # the hourly truth is the generated count of every hour
+    expected = [truth[h] for h in sorted(truth)]
+    assert doc["hourly_series"]["truth"] == expected
+    assert doc["hours"][0] == "2026-01-11T08:00+00:00"
+
+
+def test_a_learnt_rhythm_beats_the_static_rates(corridor: tuple) -> None:
+    site, _train, test, _truth = corridor
+    doc = run_json("evaluate", "holdout", site, test, "--format", "json")
+    headings = {h["model"]: h for h in doc["headings"]}
+    assert headings["uniform"]["nll_all"] == pytest.approx(math.log(2 * math.pi))
+    assert headings["aion"]["nll_all"] < headings["aion static"]["nll_all"]  # the turn
+    assert headings["aion static"]["nll_all"] < headings["uniform"]["nll_all"]
+    activity = {a["model"]: a for a in doc["activity"]}
+    assert activity["aion"]["mae"] < 0.5 * activity["aion static"]["mae"]
+    assert activity["aion"]["spearman"] > 0.5
+    assert activity["hour-of-day profile"]["spearman"] > 0.5  # the rush hour leads both
+    rush = doc["hours"].index("2026-01-11T09:00+00:00")
+    series = doc["hourly_series"]["aion"]
+    assert series[rush] == max(series)
+
+
+def test_a_training_log_as_test_is_named_in_a_note(corridor: tuple) -> None:
+    site, train, _test, _truth = corridor
+    result = run("evaluate", "holdout", site, train)
+    assert result.exit_code == 0, result.stderr
+    assert "within the map's own time span: the map has seen them" in result.stderr
+    assert "heading NLL" in result.stdout
+
+
+def test_bad_inputs_are_one_line_errors(corridor: tuple, tmp_path: Path) -> None:
+    site, _train, test, _truth = corridor
+    result = run("evaluate", "holdout", site, tmp_path / "missing.mcap")
+    assert result.exit_code == 2  # click: the path does not exist
+    result = run("evaluate", "holdout", site, site)  # a map is not a log
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr)
+    not_a_map = tmp_path / "x.aion"
+    not_a_map.write_bytes(b"not a map")
+    result = run("evaluate", "holdout", not_a_map, test)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr)
+
+
+def test_windows_a_robot_saw_are_left_out_of_the_activity() -> None:
+    batch = DetectionBatch.from_arrays([MONDAY + S], [[0.0, 0.0, 0.0]], [0.0], [1.0])
+    window = np.array([MONDAY // (600 * S)])
+    held = HeldOut(batch, window, np.array([False]), BuildReport(Path("x.aion")))
+    notes = _notes(held, {})
+    assert any("observed by a moving robot only" in n for n in notes)
+    result = HoldoutResult()
+    _activity(result, object(), held)  # type: ignore[arg-type]  # never read: no window
+    assert result.activity == []
+    assert any("fixed sensor" in n for n in result.notes)
