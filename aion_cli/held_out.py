@@ -5,8 +5,10 @@ would take them into a map — in the map frame, with the headings the build est
 detections linked into tracks), after the same time and topic rules — and the windows the logs
 observed. :func:`read_held_out` runs the build's own reading (:class:`aion_cli.pipeline._Build`
 with the map's model config) into a Mapper whose state records instead of learning: every
-batch the map accepted, and every window it recorded with whether a fixed sensor covered it.
-Nothing is written and no day is scored.
+batch the map accepted, every window it recorded with whether a fixed sensor covered it, and,
+in a window only a moving robot observed, which of the map's own places (``watch``: their
+positions) were within its sensor range then — the build's own observation rule, applied to
+the map being judged. Nothing is written and no day is scored.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from aion_cli.engine.state import MapState
-from aion_cli.engine.types import I64, DetectionBatch
+from aion_cli.engine.types import F64, I64, DetectionBatch
 from aion_cli.pipeline import _Build
 
 if TYPE_CHECKING:
@@ -39,6 +41,9 @@ class HeldOut:
     fixed: np.ndarray
     report: BuildReport
     notes: list[str] = field(default_factory=list)
+    #: per window only a robot observed: the indices (into ``watch``) of the map's places
+    #: within its sensor range then
+    seen: dict[int, I64] = field(default_factory=dict)
 
 
 class _RecordingState(MapState):
@@ -46,12 +51,26 @@ class _RecordingState(MapState):
     scoring it (the held-out logs teach nothing)."""
 
     recorded: list[tuple[int, bool]]
+    watch: F64 | None
+    seen: dict[int, I64]
 
     def record_window(
         self, window: int, fixed: bool, observed: I64, count_rows: I64, counts: Any
     ) -> None:
         self.recorded.append((int(window), bool(fixed)))
+        if not fixed:
+            self.note_seen(int(window))
         super().record_window(window, fixed, observed, count_rows, counts)
+
+    def note_seen(self, window: int) -> None:
+        """The watched places within the robot's range in ``window`` (its poses are still
+        held: they are pruned only once the window is recorded)."""
+        if self.watch is None or window in self.seen:
+            return
+        mask = self.observation.robot_observed(
+            self.watch, window, self.window_ns, self.config.sensor_range
+        )
+        self.seen[window] = np.flatnonzero(mask).astype(np.int64)
 
     def close_day(self, rows: I64 | None = None) -> None:
         self.pending.clear()
@@ -62,12 +81,15 @@ class _Reading(_Build):
 
     batches: list[DetectionBatch]
     state: _RecordingState
+    watch: F64 | None = None
 
     def _mapper(self, config: ModelConfig) -> Mapper:
         from aion_cli.engine.mapper import ACCEPTED, Mapper
 
         state = cast(_RecordingState, _RecordingState.empty(config))  # cls(...): a recorder
         state.recorded = []
+        state.watch = self.watch
+        state.seen = {}
         self.state = state
         batches = self.batches = []
 
@@ -87,11 +109,15 @@ class _Reading(_Build):
 
 
 def read_held_out(
-    opts: BuildOptions, config: ModelConfig, progress: ProgressSink | None = None
+    opts: BuildOptions,
+    config: ModelConfig,
+    progress: ProgressSink | None = None,
+    watch: F64 | None = None,
 ) -> HeldOut:
     """The logs of ``opts`` read as a build of a map with ``config`` would read them (see the
-    module docstring). :class:`~aion_cli.errors.InputError` as a build raises it (no log, no
-    detection topic, nothing readable)."""
+    module docstring); ``watch``: the map's places (x, y), whose robot coverage is noted per
+    window. :class:`~aion_cli.errors.InputError` as a build raises it (no log, no detection
+    topic, nothing readable)."""
     from dataclasses import replace
 
     from aion_cli.build_report import NoProgress
@@ -100,6 +126,7 @@ def read_held_out(
     if not opts.logs:
         raise InputError("no test log given", hint="aion evaluate holdout MAP LOG...")
     reading = _Reading(replace(opts, config=config, workers=1), progress or NoProgress())
+    reading.watch = watch
     reading._distinct_logs()  # the distinct logs (a copy given twice is read once)
     reading.learn(reading.config())
     state = reading.state
@@ -111,9 +138,12 @@ def read_held_out(
         fixed_last = bool(state.observation.fixed_mask(at, state.window_ns)[0])
         if fixed_last or bool(np.any(batch.t_ns // state.window_ns == last)):
             recorded.append((int(last), fixed_last))
+            if not fixed_last:
+                state.note_seen(int(last))
     windows = np.array([w for w, _ in recorded], dtype=np.int64)
     fixed = np.array([f for _, f in recorded], dtype=bool)
     if windows.size and np.any(np.diff(windows) == 0):  # a window recorded twice: keep one
         keep = np.concatenate([[True], np.diff(windows) != 0])
         windows, fixed = windows[keep], fixed[keep]
-    return HeldOut(batch, windows, fixed, reading.report, list(reading.report.notes))
+    seen = {w: state.seen[w] for w in windows[~fixed].tolist() if w in state.seen}
+    return HeldOut(batch, windows, fixed, reading.report, list(reading.report.notes), seen)

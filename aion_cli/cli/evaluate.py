@@ -264,7 +264,7 @@ def holdout(
          f"{test['with_heading']:,} detections with a heading")
     if result.activity:
         emit(fmt, result.activity, ACTIVITY_COLUMNS,
-             title=f"hourly activity over {test['fixed_sensor_windows']:,} observed windows "
+             title=f"hourly activity over {test['windows']:,} observed windows "
              f"({len(result.hours)} hours)")
 
 

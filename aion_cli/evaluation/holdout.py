@@ -13,15 +13,16 @@ per model:
   time), ``aion static`` (its static histogram, pooled toward its parents), ``aion
   historical`` (the raw proportions ``predict --historical`` shows) and ``uniform``
   (``log 2π``, knowing nothing);
-- **hourly activity** over the windows a fixed sensor covered in the test logs (a log without
-  a robot trajectory counts as one in the windows it recorded anything; ``--observed`` at
-  build time declares more): the detections per hour against the map's forecast summed over
-  its entries at each window's centre — Spearman, Poisson deviance and MAE
-  (``metrics.activity_scores``) — for ``aion``, ``aion static`` (the entries' rates per
-  observed window, the same every hour) and ``hour-of-day profile`` (the map's own detections
-  per observed window in each profile bin, hour of the day by kind of day, unshrunk: the
-  baseline a temporal model has to beat). Windows observed only by a moving robot saw part of
-  the map each, so they are left out of the activity (a note says how many).
+- **hourly activity** over the windows the test logs observed: the detections per hour
+  against the map's forecast at each window's centre, summed over the places observed then —
+  every place in a window a fixed sensor covered (a log without a robot trajectory counts as
+  one in the windows it recorded anything; ``--observed`` declares more), the places within
+  ``sensor_range`` of the robot's poses in a window only a robot observed (the build's own
+  rule, applied to the map's places) — Spearman, Poisson deviance and MAE
+  (``metrics.activity_scores``), for ``aion``, ``aion static`` (the places' rates per observed
+  window) and ``hour-of-day profile`` (each place's own detections per observed window in each
+  profile bin, hour of the day by kind of day, unshrunk: the baseline a temporal model has to
+  beat).
 
 A test log that overlaps the map's own data in time is scored all the same, with a note: the
 map has seen those detections.
@@ -88,10 +89,11 @@ def run_holdout(
     say = progress or (lambda _msg: None)
     loaded = load_map(map_path)
     state = loaded.state
-    held = read_held_out(opts, state.config)
+    watch = state.entries.xyz[state.entries.canonical_order(), :2]  # the predictor's order
+    held = read_held_out(opts, state.config, watch=watch)
     result = HoldoutResult()
     result.test = _test_summary(held, state)
-    result.notes = _notes(held, loaded.manifest)
+    result.notes = _notes(held, loaded.manifest, state.config.sensor_range)
     say("scoring headings")
     for model in (
         AionHeadingModel(state, radius),
@@ -109,6 +111,7 @@ def run_holdout(
 
 
 def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
+    """What the test logs held for the map (counts, windows, span, observation)."""
     batch = held.batch
     directed = int(np.count_nonzero(np.isfinite(batch.heading)))
     span = (int(batch.t_ns.min()), int(batch.t_ns.max())) if len(batch) else None
@@ -117,6 +120,7 @@ def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
         "with_heading": directed,
         "windows": int(held.windows.size),
         "fixed_sensor_windows": int(np.count_nonzero(held.fixed)),
+        "robot_windows": int(np.count_nonzero(~held.fixed)),
         "window_s": state.config.window_s,
         "start_ns": span[0] if span else None,
         "end_ns": span[1] if span else None,
@@ -125,7 +129,7 @@ def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
     }
 
 
-def _notes(held: HeldOut, manifest: dict[str, Any]) -> list[str]:
+def _notes(held: HeldOut, manifest: dict[str, Any], sensor_range: float) -> list[str]:
     """What the reader should know about the test: the logs' own notes, an overlap with the
     map's data, windows left out of the activity."""
     notes = [n for n in held.notes if "scene graph" not in n]  # the map has its own
@@ -139,11 +143,12 @@ def _notes(held: HeldOut, manifest: dict[str, Any]) -> list[str]:
                 f"{inside:,} of {len(t):,} test detections lie within the map's own time span: "
                 "the map has seen them (build the map from logs before the test logs only)"
             )
-    robot_only = int(np.count_nonzero(~held.fixed))
-    if robot_only:
+    robot = int(np.count_nonzero(~held.fixed))
+    if robot:
         notes.append(
-            f"{robot_only:,} of {held.windows.size:,} test windows were observed by a moving robot "
-            "only (each saw part of the map): left out of the hourly activity"
+            f"{robot:,} of {held.windows.size:,} test windows were observed by a moving robot: "
+            "there the activity sums the map's places within its sensor range "
+            f"({sensor_range:g} m) then"
         )
     return notes
 
@@ -157,12 +162,15 @@ def _uniform(held: HeldOut) -> dict[str, Any]:
 
 
 def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
-    """Detections per hour over the fixed-sensor windows against each model's forecast."""
-    windows = held.windows[held.fixed]
+    """Detections per hour over the observed windows against each model's forecast, summed
+    over every place in a fixed sensor's windows and over the places within the robot's
+    range in a robot's (``HeldOut.seen``)."""
+    known = held.fixed | np.isin(held.windows, np.fromiter(held.seen, np.int64, len(held.seen)))
+    windows, fixed = held.windows[known], held.fixed[known]
     if windows.size == 0:
         result.notes.append(
-            "no test window was covered by a fixed sensor: the hourly activity needs one "
-            "(a log without a robot trajectory is one; see aion build --observed)"
+            "no test window was observed by a fixed sensor or a robot whose range the map "
+            "could follow: the hourly activity needs one (see aion build --observed)"
         )
         return
     w_ns = state.window_ns
@@ -171,10 +179,19 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
     hit = (at < windows.size) & (windows[np.minimum(at, windows.size - 1)] == detected)
     truth_w = np.bincount(at[hit], minlength=windows.size).astype(np.float64)
     centres = windows * w_ns + w_ns // 2
+    bins = state.params.calendar.profile_bin(centres)
+    rows, predictor = state.predictor()
+    n = len(rows)
+    static = np.nan_to_num(predictor.historical().flow)  # per place, canonical order
+    profile = _profile_rates(state, rows, static)  # (places, profile bins)
+    # (place, window) pairs: every place in a fixed sensor's window, the robot's in its own
+    place, window = _pairs(fixed, windows, held.seen, n)
     per_window = {
-        "aion": _forecast_totals(state, centres),
-        "aion static": np.full(windows.size, _static_total(state)),
-        "hour-of-day profile": _profile_totals(state, centres),
+        "aion": _summed(place, window, windows.size, predictor, centres),
+        "aion static": np.bincount(window, static[place], minlength=windows.size),
+        "hour-of-day profile": np.bincount(
+            window, profile[place, bins[window]], minlength=windows.size
+        ),
     }
     hour_of = (windows * w_ns) // HOUR_NS
     hours, inverse = np.unique(hour_of, return_inverse=True)
@@ -187,50 +204,48 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
         result.activity.append({"model": name, **activity_scores(truth, hourly)})
 
 
-def _forecast_totals(state: MapState, centres: np.ndarray) -> np.ndarray:
-    """The map's forecast summed over its entries at each time (``Predictor.flows``, entries
-    never observed left out), a block of times at once."""
-    rows, predictor = state.predictor()
-    n = len(rows)
-    out = np.zeros(centres.size)
-    if n == 0:
-        return out
-    step = max(1, _PAIRS // n)
-    everyone = np.arange(n)
-    for a in range(0, centres.size, step):
-        t = centres[a : a + step]
-        flows = predictor.flows(np.tile(everyone, t.size), np.repeat(t, n))
-        out[a : a + t.size] = np.nansum(flows.reshape(t.size, n), axis=1)
+def _pairs(
+    fixed: np.ndarray, windows: np.ndarray, seen: dict[int, np.ndarray], n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(place, window position) pairs of the observation: all ``n`` places in a fixed
+    window, the places ``seen`` lists in a robot's."""
+    places, positions = [], []
+    everyone = np.arange(n, dtype=np.int64)
+    for k, (w, is_fixed) in enumerate(zip(windows.tolist(), fixed.tolist(), strict=True)):
+        part = everyone if is_fixed else seen[w]
+        places.append(part)
+        positions.append(np.full(part.size, k, np.int64))
+    if not places:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.concatenate(places), np.concatenate(positions)
+
+
+def _summed(
+    place: np.ndarray, window: np.ndarray, n_windows: int, predictor: Any, centres: np.ndarray
+) -> np.ndarray:
+    """The map's forecast (``Predictor.flows``; places never observed add nothing) summed
+    per window over the pairs, a block of pairs at a time."""
+    out = np.zeros(n_windows)
+    for a in range(0, place.size, _PAIRS):
+        p, k = place[a : a + _PAIRS], window[a : a + _PAIRS]
+        flows = np.nan_to_num(predictor.flows(p, centres[k]))
+        out += np.bincount(k, flows, minlength=n_windows)
     return out
 
 
-def _static_total(state: MapState) -> float:
-    from aion_cli.engine.query import historical_table
-
-    return float(np.nansum(historical_table(state).flow))
-
-
-def _profile_totals(state: MapState, centres: np.ndarray) -> np.ndarray:
-    """The map's own detections per observed window in each profile bin, summed over its
-    entries (each entry's counts in the bin over the windows it was observed in the bin; an
-    entry never observed in a bin adds its static rate there), at each time's bin."""
+def _profile_rates(state: MapState, rows: np.ndarray, static: np.ndarray) -> np.ndarray:
+    """Each place's detections per observed window in each profile bin (its counts in the bin
+    over the windows it was observed in the bin; its static rate in a bin it was never
+    observed in): float64[places, profile bins], canonical order."""
     from aion_cli.engine.temporal.pooling import count_sums, rows_of
 
-    rows = state.entries.canonical_order()
     view = state.query_temporal()
     counts = np.asarray(count_sums(rows_of(view.cnt_profile, rows), 1), dtype=np.float64)
     observed = rows_of(view.obs.profile, rows) + view.glob.profile[0]
-    static = np.divide(
-        counts.sum(axis=1), observed.sum(axis=1),
-        out=np.zeros(rows.size), where=observed.sum(axis=1) > 0,
-    )
-    rate = np.where(
+    rate: np.ndarray = np.where(
         observed > 0, counts / np.maximum(observed, 1e-300), static[:, None]
     )
-    per_bin = rate.sum(axis=0)
-    bins = state.params.calendar.profile_bin(centres)
-    out: np.ndarray = per_bin[bins]
-    return out
+    return rate
 
 
 def _hour_label(hour: int, timezone: str) -> str:

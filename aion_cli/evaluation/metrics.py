@@ -150,7 +150,8 @@ def activity_scores(truth: npt.ArrayLike, predicted: npt.ArrayLike) -> dict[str,
     y, mu = y_all[ok], np.maximum(mu_all[ok], 1e-9)
     with np.errstate(divide="ignore", invalid="ignore"):
         term = np.where(y > 0, y * np.log(y / mu), 0.0)
-    rho = spearmanr(y, mu).statistic if len(y) > 2 else math.nan
+    varied = len(y) > 2 and np.ptp(y) > 0 and np.ptp(mu) > 0  # else no rank correlation
+    rho = spearmanr(y, mu).statistic if varied else math.nan
     return {
         "spearman": float(rho),
         "poisson_deviance": float(2.0 * np.sum(term - (y - mu))),

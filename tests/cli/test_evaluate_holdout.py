@@ -131,13 +131,45 @@ def test_bad_inputs_are_one_line_errors(corridor: tuple, tmp_path: Path) -> None
     assert_one_line_error(result.stderr)
 
 
-def test_windows_a_robot_saw_are_left_out_of_the_activity() -> None:
+def test_a_window_without_coverage_is_left_out_of_the_activity() -> None:
     batch = DetectionBatch.from_arrays([MONDAY + S], [[0.0, 0.0, 0.0]], [0.0], [1.0])
     window = np.array([MONDAY // (600 * S)])
-    held = HeldOut(batch, window, np.array([False]), BuildReport(Path("x.aion")))
-    notes = _notes(held, {})
-    assert any("observed by a moving robot only" in n for n in notes)
+    held = HeldOut(batch, window, np.array([False]), BuildReport(Path("x.aion")))  # no seen
+    notes = _notes(held, {}, 8.0)
+    assert any("observed by a moving robot" in n and "(8 m)" in n for n in notes)
     result = HoldoutResult()
     _activity(result, object(), held)  # type: ignore[arg-type]  # never read: no window
     assert result.activity == []
-    assert any("fixed sensor" in n for n in result.notes)
+    assert any("needs one" in n for n in result.notes)
+
+
+def test_a_patrolling_robot_counts_the_places_in_its_range(tmp_path: Path) -> None:
+    """Simulated office days (a robot patrolling, detections in its frame): the held-out day's
+    windows are all robot-observed, and the activity sums, per window, the places within
+    its sensor range then — all of them while it tours, fewer while it rests."""
+    logs = []
+    sessions = (("train", "2", "1", "2026-01-05"), ("test", "1", "2", "2026-01-07"))
+    for name, days, seed, start in sessions:
+        log = tmp_path / f"{name}.mcap"
+        result = run("simulate", "-o", log, "--days", days, "--seed", seed, "--start", start)
+        assert result.exit_code == 0, result.stderr
+        logs.append(log)
+    site = tmp_path / "office.aion"
+    assert run("build", logs[0], "-o", site, "-q").exit_code == 0
+    doc = run_json("evaluate", "holdout", site, logs[1], "--format", "json")
+    test = doc["test"]
+    assert test["robot_windows"] == test["windows"] == 144  # one day of 10-minute windows
+    assert sum(doc["hourly_series"]["truth"]) == test["detections"]  # each in a window seen
+    assert any("moving robot" in n for n in doc["notes"])
+    activity = {a["model"]: a for a in doc["activity"]}
+    assert activity["aion"]["poisson_deviance"] < activity["aion static"]["poisson_deviance"]
+
+    from aion_cli.build_options import BuildOptions
+    from aion_cli.held_out import read_held_out
+    from aion_cli.mapquery import load_map
+
+    state = load_map(site).state
+    watch = state.entries.xyz[state.entries.canonical_order(), :2]
+    held = read_held_out(BuildOptions(logs=(logs[1],)), state.config, watch=watch)
+    sizes = {len(v) for v in held.seen.values()}
+    assert max(sizes) == len(watch) > min(sizes) > 0  # touring sees all, resting a part
