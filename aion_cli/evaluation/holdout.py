@@ -40,14 +40,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.evaluation.heading import UNIFORM_NLL, AionHeadingModel, score_headings
-from aion_cli.evaluation.metrics import activity_scores
+from aion_cli.evaluation.metrics import hourly_activity
 
 if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions
     from aion_cli.engine.state import MapState
     from aion_cli.held_out import HeldOut
 
-HOUR_NS = 3_600 * 10**9
 _PAIRS = 1 << 20
 """(entry, window) pairs whose flow is evaluated together."""
 
@@ -193,15 +192,8 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
             window, profile[place, bins[window]], minlength=windows.size
         ),
     }
-    hour_of = (windows * w_ns) // HOUR_NS
-    hours, inverse = np.unique(hour_of, return_inverse=True)
-    truth = np.bincount(inverse, truth_w)
+    hours, result.series, result.activity = hourly_activity(windows * w_ns, truth_w, per_window)
     result.hours = [_hour_label(int(h), state.config.timezone) for h in hours.tolist()]
-    result.series["truth"] = truth.tolist()
-    for name, values in per_window.items():
-        hourly = np.bincount(inverse, values)
-        result.series[name] = hourly.tolist()
-        result.activity.append({"model": name, **activity_scores(truth, hourly)})
 
 
 def _pairs(

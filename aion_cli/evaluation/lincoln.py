@@ -53,7 +53,7 @@ from aion_cli.evaluation.heading import (
     HeadingModel,
     score_headings,
 )
-from aion_cli.evaluation.metrics import activity_scores
+from aion_cli.evaluation.metrics import hourly_activity
 
 TRAIN_DAYS = ("2017-05-24", "2017-05-25", "2017-05-26", "2017-05-31")
 TEST_DAY = "2017-06-09"
@@ -267,9 +267,6 @@ def _activity(
     det_w = test.batch.t_ns // window_ns
     truth_w = np.array([np.count_nonzero(det_w == w) for w in windows.tolist()], dtype=float)
     centres = windows * window_ns + window_ns // 2
-    hour_of = (windows * window_ns) // HOUR_NS
-    hours, inverse = np.unique(hour_of, return_inverse=True)
-    truth = np.bincount(inverse, truth_w)
     per_window: dict[str, np.ndarray] = {}
     aion = np.array([np.nansum(predict_table(state, int(t)).flow) for t in centres.tolist()])
     per_window["aion"] = aion
@@ -287,12 +284,9 @@ def _activity(
     per_window["grid"] = np.array(
         [counts_grid.predict(int(t)).sum() for t in centres.tolist()]
     )
+    starts = windows * window_ns
+    hours, result.series, result.activity = hourly_activity(starts, truth_w, per_window)
     result.hours = [int(h % 24) for h in hours.tolist()]
-    result.series["truth"] = truth.tolist()
-    for name, values in per_window.items():
-        hourly = np.bincount(inverse, values)
-        result.series[name] = hourly.tolist()
-        result.activity.append({"model": name, **activity_scores(truth, hourly)})
     table = predict_table(state, int(centres[len(centres) // 2]))
     fam, cnt = np.unique(table.flow_family[table.flow_family != "none"], return_counts=True)
     dfam, dcnt = np.unique(

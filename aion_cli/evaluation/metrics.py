@@ -27,6 +27,7 @@ The paper reports these metrics without formulas; every choice is pinned here an
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 import numpy.typing as npt
@@ -157,3 +158,24 @@ def activity_scores(truth: npt.ArrayLike, predicted: npt.ArrayLike) -> dict[str,
         "poisson_deviance": float(2.0 * np.sum(term - (y - mu))),
         "mae": float(np.mean(np.abs(y - mu))) if len(y) else math.nan,
     }
+
+
+HOUR_NS = 3_600 * 10**9
+
+
+def hourly_activity(
+    window_start_ns: npt.ArrayLike, truth: npt.ArrayLike, forecasts: Mapping[str, npt.ArrayLike]
+) -> tuple[npt.NDArray[np.int64], dict[str, list[float]], list[dict[str, float | str]]]:
+    """Counts per window (``truth``) and each model's forecasts per window, summed per clock
+    hour (UNIX hours, the windows' starts): the hours, the hourly series (``truth`` first)
+    and each model's :func:`activity_scores` as ``{"model": name, ...}`` rows."""
+    hour_of = np.asarray(window_start_ns, dtype=np.int64) // HOUR_NS
+    hours, inverse = np.unique(hour_of, return_inverse=True)
+    hourly_truth = np.bincount(inverse, np.asarray(truth, dtype=np.float64))
+    series = {"truth": hourly_truth.tolist()}
+    rows: list[dict[str, float | str]] = []
+    for name, values in forecasts.items():
+        hourly = np.bincount(inverse, np.asarray(values, dtype=np.float64))
+        series[name] = hourly.tolist()
+        rows.append({"model": name, **activity_scores(hourly_truth, hourly)})
+    return hours.astype(np.int64), series, rows
