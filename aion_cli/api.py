@@ -41,6 +41,7 @@ if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
+    from aion_cli.evaluation.holdout import HoldoutResult
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
     from aion_cli.merging import MergeReport
@@ -324,6 +325,21 @@ class Map:
         ends = None if path is None else path_ends(self._loaded, str(path[0]), str(path[1]))
         name = self.path.name if self.path is not None else "<memory>"
         return export_png(self._loaded, name, as_path(file), [when], zone, ends)
+
+    def holdout(
+        self, logs: Sequence[PathLike] | PathLike, *, radius: float = 1.0, **options: object
+    ) -> HoldoutResult:
+        """This map's forecast scored on held-out logs, read as ``aion build`` would read
+        them into it (as ``aion evaluate holdout``): ``result.headings`` (heading NLL per
+        model), ``result.activity`` (hourly Spearman, Poisson deviance, MAE), ``result.series``,
+        ``result.notes``, ``result.to_dict()`` (its JSON). ``options``: the build's reading
+        options (``detection_topics``, ``map_frame``, ``observed`` spans in ns, ...)."""
+        from aion_cli.build_options import BuildOptions
+        from aion_cli.evaluation.holdout import score_held_out
+
+        paths = [logs] if isinstance(logs, str | os.PathLike) else list(logs)
+        opts = BuildOptions(logs=tuple(as_path(p) for p in paths), **options)  # type: ignore[arg-type]
+        return score_held_out(self._loaded, opts, radius)
 
     # -- saving ------------------------------------------------------------------------------
 

@@ -46,6 +46,7 @@ if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions
     from aion_cli.engine.state import MapState
     from aion_cli.held_out import HeldOut
+    from aion_cli.mapquery import LoadedMap
 
 _PAIRS = 1 << 20
 """(entry, window) pairs whose flow is evaluated together."""
@@ -82,11 +83,21 @@ def run_holdout(
     """Score the map at ``map_path`` on the logs of ``opts`` (read with the map's model
     config; see the module docstring). :class:`~aion_cli.errors.InputError` when the map or
     the logs cannot be read, or the logs hold no detection the map could take."""
-    from aion_cli.held_out import read_held_out
     from aion_cli.mapquery import load_map
 
+    return score_held_out(load_map(map_path), opts, radius, progress)
+
+
+def score_held_out(
+    loaded: LoadedMap,
+    opts: BuildOptions,
+    radius: float = 1.0,
+    progress: Callable[[str], None] | None = None,
+) -> HoldoutResult:
+    """:func:`run_holdout` for a map already loaded (or built in memory)."""
+    from aion_cli.held_out import read_held_out
+
     say = progress or (lambda _msg: None)
-    loaded = load_map(map_path)
     state = loaded.state
     watch = state.entries.xyz[state.entries.canonical_order(), :2]  # the predictor's order
     held = read_held_out(opts, state.config, watch=watch)

@@ -109,6 +109,22 @@ def test_a_learnt_rhythm_beats_the_static_rates(corridor: tuple) -> None:
     assert series[rush] == max(series)
 
 
+def test_the_python_api_gives_the_commands_figures(corridor: tuple) -> None:
+    import aion_cli as aion
+
+    site, _train, test, _truth = corridor
+    doc = run_json("evaluate", "holdout", site, test, "--format", "json")
+    result = aion.Map.load(site).holdout(test)
+    assert result.headings == doc["headings"] or all(
+        a["model"] == b["model"] and a["nll_all"] == pytest.approx(b["nll_all"], rel=1e-12)
+        for a, b in zip(result.headings, doc["headings"], strict=True)
+    )
+    assert [a["mae"] for a in result.activity] == pytest.approx(
+        [a["mae"] for a in doc["activity"]], rel=1e-12
+    )
+    assert result.series["truth"] == doc["hourly_series"]["truth"]
+
+
 def test_a_training_log_as_test_is_named_in_a_note(corridor: tuple) -> None:
     site, train, _test, _truth = corridor
     result = run("evaluate", "holdout", site, train)
