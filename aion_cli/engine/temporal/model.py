@@ -260,6 +260,7 @@ class Predictor:
         return choice
 
     def _direction_choice(self, e: I64, h: I64) -> I64:
+        """Each pair's direction family: the entry's, ``static`` in extrapolated bins."""
         choice = self.direction_choice[e]
         if self.extrapolated.any():
             static = self.params.direction.index("static")
