@@ -233,10 +233,11 @@ def holdout(
     map_path: Path, logs: tuple[Path, ...], radius: float, detection_topics: tuple[str, ...],
     map_frame: str, observed: tuple[str, ...], fmt: str,
 ) -> None:
-    """Judge a map's forecast on your own held-out logs: heading NLL of every test detection
-    and the hourly activity of the windows a fixed sensor covered, for aion's forecast
-    against its static rates, its own hour-of-day profile and a uniform heading. Build the
-    map from earlier logs, keep later ones back.
+    """Judge a map's forecast on your own held-out logs: heading NLL of every test
+    detection, and the hourly activity of the windows the logs observed (summed over every
+    place under a fixed sensor, over the places in the robot's range in a robot's window),
+    for aion's forecast against its static rates, its own hour-of-day profile and a uniform
+    heading. Build the map from earlier logs, keep later ones back.
 
     \b
     Examples:
