@@ -228,10 +228,12 @@ def lincoln(
 @click.option("--observed", "observed", multiple=True, metavar="START..END",
               help="A span the test logs' sensor was recording (repeatable; as aion build "
               "--observed, times in the map's zone).")
+@click.option("--png", "png", type=AionPath(path_type=Path), metavar="FILE",
+              help="Also draw the hourly truth and forecasts as a PNG.")
 @format_option(("table", "json"))
 def holdout(
     map_path: Path, logs: tuple[Path, ...], radius: float, detection_topics: tuple[str, ...],
-    map_frame: str, observed: tuple[str, ...], fmt: str,
+    map_frame: str, observed: tuple[str, ...], png: Path | None, fmt: str,
 ) -> None:
     """Judge a map's forecast on your own held-out logs: heading NLL of every test
     detection, and the hourly activity of the windows the logs observed (summed over every
@@ -244,6 +246,7 @@ def holdout(
       aion build monday.mcap tuesday.mcap -o site.aion
       aion evaluate holdout site.aion wednesday.mcap
       aion evaluate holdout site.aion wednesday.mcap --format json > wednesday.json
+      aion evaluate holdout site.aion wednesday.mcap --png wednesday.png
     """
     from aion_cli.build_options import BuildOptions
     from aion_cli.cli.build import observed_spans
@@ -256,6 +259,11 @@ def holdout(
     result = run_holdout(map_path, opts, radius, progress=note)
     for line in result.notes:
         note(line)
+    if png is not None:
+        from aion_cli.evaluation.holdout import hourly_picture
+
+        title = f"{map_path.name} on {', '.join(p.name for p in logs)}: detections per hour"
+        note(f"wrote {hourly_picture(result, png, title)}")
     if fmt == "json":
         emit(fmt, [], (), json_payload=result.to_dict())
         return

@@ -132,6 +132,7 @@ def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
         "fixed_sensor_windows": int(np.count_nonzero(held.fixed)),
         "robot_windows": int(np.count_nonzero(~held.fixed)),
         "window_s": state.config.window_s,
+        "timezone": state.config.timezone,
         "start_ns": span[0] if span else None,
         "end_ns": span[1] if span else None,
         "observation": held.report.observation,
@@ -256,3 +257,20 @@ def _hour_label(hour: int, timezone: str) -> str:
     from zoneinfo import ZoneInfo
 
     return datetime.fromtimestamp(hour * 3600, ZoneInfo(timezone)).isoformat(timespec="minutes")
+
+
+def hourly_picture(result: HoldoutResult, path: Path, title: str) -> Path:
+    """The hourly truth (bars) and each model's forecast (lines) as a PNG: ticks ``HH`` in the
+    map's zone, ``MM-DD HH`` when the test spans several days."""
+    from aion_cli.errors import InputError
+    from aion_cli.evaluation import plots
+
+    if not result.hours:
+        raise InputError(
+            "no hourly activity to draw: the test logs observed no window the map could follow",
+            hint="see the notes above",
+        )
+    days = {h[:10] for h in result.hours}
+    labels = [h[11:13] if len(days) == 1 else f"{h[5:10]} {h[11:13]}" for h in result.hours]
+    zone = result.test.get("timezone", "UTC")
+    return plots.hourly_activity(labels, result.series, path, title, f"hour ({zone})")

@@ -97,18 +97,26 @@ def door_weeks(weeks: list[dict[str, Any]], path: Path) -> Path:
 
 
 def hourly_activity(
-    hours: list[int], series: dict[str, list[float]], path: Path, title: str
+    hours: list[int] | list[str],
+    series: dict[str, list[float]],
+    path: Path,
+    title: str,
+    xlabel: str = "hour (UTC)",
 ) -> Path:
-    """Detections per hour: the truth as bars, every model's forecast as a line."""
+    """Detections per hour: the truth as bars, every model's forecast as a line. ``hours``:
+    hours of the day (ticks ``HH``) or tick labels as they are; every tick is labelled up to
+    24 hours, fewer beyond."""
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7.5, 3.8))
+    fig, ax = plt.subplots(figsize=(7.5 if len(hours) <= 24 else 11.0, 3.8))
     x = np.arange(len(hours))
     ax.bar(x, series["truth"], color="0.8", label="truth")
     for name, values in series.items():
         if name != "truth":
             ax.plot(x, values, marker="o", ms=3, label=name)
-    ax.set_xticks(x, [f"{h:02d}" for h in hours])
-    ax.set_xlabel("hour (UTC)")
+    labels = [f"{h:02d}" if isinstance(h, int) else str(h) for h in hours]
+    every = max(1, -(-len(labels) // 24))
+    ax.set_xticks(x[::every], labels[::every], rotation=0 if every == 1 else 45)
+    ax.set_xlabel(xlabel)
     ax.set_ylabel("detections per hour")
     ax.set_title(title)
     ax.legend(fontsize=7, ncol=2)

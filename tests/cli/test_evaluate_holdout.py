@@ -125,6 +125,26 @@ def test_the_python_api_gives_the_commands_figures(corridor: tuple) -> None:
     assert result.series["truth"] == doc["hourly_series"]["truth"]
 
 
+def test_the_hourly_picture(corridor: tuple, tmp_path: Path) -> None:
+    site, _train, test, _truth = corridor
+    png = tmp_path / "hours.png"
+    result = run("evaluate", "holdout", site, test, "--png", png)
+    assert result.exit_code == 0, result.stderr
+    assert f"wrote {png}" in result.stderr
+    data = png.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    assert (width, height) == (825, 418)  # 7.5 x 3.8 inches at 110 dpi: ten hours fit
+
+
+def test_no_hours_no_picture() -> None:
+    from aion_cli.errors import InputError
+    from aion_cli.evaluation.holdout import hourly_picture
+
+    with pytest.raises(InputError, match="no hourly activity to draw"):
+        hourly_picture(HoldoutResult(), Path("never.png"), "title")
+
+
 def test_a_training_log_as_test_is_named_in_a_note(corridor: tuple) -> None:
     site, train, _test, _truth = corridor
     result = run("evaluate", "holdout", site, train)
