@@ -333,11 +333,14 @@ class Map:
         them into it (as ``aion evaluate holdout``): ``result.headings`` (heading NLL per
         model), ``result.activity`` (hourly Spearman, Poisson deviance, MAE), ``result.series``,
         ``result.notes``, ``result.to_dict()`` (its JSON). ``options``: the build's reading
-        options (``detection_topics``, ``map_frame``, ``observed`` spans in ns, ...)."""
+        options (``detection_topics``, ``observed`` spans in ns, ``map_frame``: default the
+        frame the map records, else ``map``)."""
         from aion_cli.build_options import BuildOptions
         from aion_cli.evaluation.holdout import score_held_out
 
         paths = [logs] if isinstance(logs, str | os.PathLike) else list(logs)
+        frame = options.pop("map_frame", None)
+        options["map_frame"] = frame if isinstance(frame, str) else self.manifest.map_frame or "map"
         opts = BuildOptions(logs=tuple(as_path(p) for p in paths), **options)  # type: ignore[arg-type]
         return score_held_out(self._loaded, opts, radius)
 

@@ -39,7 +39,7 @@ def build(
     tz: str | None = None,
     detection_topics: Sequence[str] = (),
     graph_topic: str | None = None,
-    map_frame: str = "map",
+    map_frame: str | None = None,
     base_frame: str = "base_link",
     derive_graph: bool = False,
     nav_layer: str | None = None,
@@ -60,6 +60,7 @@ def build(
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
     ``Map.predict``, naive ones in ``tz``, else UTC)."""
     from aion_cli.api import Map, to_ns
+    from aion_cli.build_options import map_frame_of
     from aion_cli.pipeline import BuildOptions, build_map
     from aion_cli.timeparse import resolve_zone
 
@@ -82,7 +83,7 @@ def build(
         log_format=log_format,
         detection_topics=tuple(detection_topics),
         graph_topic=graph_topic,
-        map_frame=map_frame,
+        map_frame=map_frame_of(map_frame, opt(continue_from)),
         base_frame=base_frame,
         graph_file=opt(graph),
         nav_layer=nav_layer,

@@ -12,9 +12,38 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.errors import ConfigError
 from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS
 
-__all__ = ["MAP_SUFFIX", "BuildOptions", "build_topics", "load_mappings", "resolve_config"]
+__all__ = [
+    "DEFAULT_MAP_FRAME",
+    "MAP_SUFFIX",
+    "BuildOptions",
+    "build_topics",
+    "load_mappings",
+    "map_frame_of",
+    "resolve_config",
+]
 
 MAP_SUFFIX = ".aion"
+DEFAULT_MAP_FRAME = "map"
+
+
+def map_frame_of(given: str | None, map_path: Path | None) -> str:
+    """The map frame to read logs into: ``given`` (``--map-frame``), else the frame the map
+    at ``map_path`` records (the continued map of ``aion build --map``, the map ``aion
+    evaluate holdout`` judges), else ``map``. A map that cannot be read here falls back to
+    ``map``: its own reader reports what is wrong with it."""
+    if given is not None:
+        return given
+    if map_path is not None:
+        from aion_cli.errors import AionError
+        from aion_cli.formats.mapfile import read_manifest
+
+        try:
+            frame = read_manifest(map_path).get("map_frame")
+        except (AionError, OSError):
+            frame = None
+        if isinstance(frame, str) and frame:
+            return frame
+    return DEFAULT_MAP_FRAME
 
 
 @dataclass(frozen=True)

@@ -38,9 +38,10 @@ def write_build(
     inputs: tuple[InputLog, ...],
     report: BuildReport,
     previous: Manifest | None,
+    map_frame: str | None = None,
 ) -> None:
     """Write ``report.output`` (the caller holds its lock) and fill the report's counts and
-    size."""
+    size. ``map_frame``: the frame the positions are in, recorded in the manifest."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
     from aion_cli.forecast_notes import observed_hours
@@ -86,6 +87,7 @@ def write_build(
         families=family_summary(state),
         merged_from=previous.merged_from if previous is not None else (),
         lineage=previous.lineage if previous is not None else None,
+        map_frame=map_frame,
     )
     out = report.output
     write_map(out, arrays, manifest.to_dict(), lock=False)

@@ -66,6 +66,9 @@ class Manifest:
     #: a query-only map's record (``aion compact``): the full map it was made from (name,
     #: path, size, sha256) and the members left out; None for a full map
     query_only: dict[str, Any] | None = None
+    #: the fixed frame the map's positions are in (``aion build --map-frame``); None for maps
+    #: written before it was recorded, and for a merge of maps in different frames
+    map_frame: str | None = None
     container: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
@@ -94,6 +97,7 @@ class Manifest:
             merged_from=_merged_from(d.get("merged_from")),
             lineage=str(d["lineage"]) if isinstance(d.get("lineage"), str) else None,
             query_only=parse_query_only(d.get("query_only")),
+            map_frame=str(d["map_frame"]) if isinstance(d.get("map_frame"), str) else None,
             container={k: d[k] for k in ("format", "version", "creator", "created") if k in d},
         )
 
@@ -114,7 +118,9 @@ class Manifest:
             {"merged_from": list(self.merged_from), "lineage": self.lineage}
             if self.merged_from
             else {}
-        ) | ({"query_only": self.query_only} if self.query_only is not None else {})
+        ) | ({"query_only": self.query_only} if self.query_only is not None else {}) | (
+            {"map_frame": self.map_frame} if self.map_frame is not None else {}
+        )
 
     def shown(self) -> dict[str, Any]:
         """What ``aion info MAP`` shows: the stored fields and the container's, without the

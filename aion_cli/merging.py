@@ -481,6 +481,7 @@ def _write(
         families=family_summary(merged),
         merged_from=tuple(m.file.to_dict() for m in maps),
         lineage=report.lineage,
+        map_frame=_common_frame([m.manifest.map_frame for m in maps]),
     )
     write_map(report.output, arrays, manifest.to_dict(), lock=False)  # the caller holds the lock
     report.inputs = [
@@ -497,3 +498,9 @@ def _write(
     report.hours_observed = observed_hours(
         manifest.families, manifest.config, merged.config.timezone
     )
+
+
+def _common_frame(frames: list[str | None]) -> str | None:
+    """The map frame every input records (None when one records none or they differ)."""
+    first = frames[0] if frames else None
+    return first if first is not None and all(f == first for f in frames) else None

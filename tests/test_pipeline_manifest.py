@@ -44,6 +44,7 @@ STORED_KEYS = [
     "observation",
     "timezone",
     "families",
+    "map_frame",  # since 2026-12-05: the frame the positions are in
     "members",
 ]
 CONTAINER_KEYS = ("format", "version", "creator", "created", "members")

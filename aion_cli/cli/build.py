@@ -191,9 +191,9 @@ def _load_config(path: Path | None) -> Any:
 )
 @click.option(
     "--map-frame",
-    default="map",
-    show_default=True,
-    help="Fixed frame of the map; detections are transformed into it with TF.",
+    default=None,
+    help="Fixed frame of the map; detections are transformed into it with TF [default: the "
+    "continued map's (--map), else map].",
 )
 @click.option(
     "--base-frame",
@@ -281,7 +281,7 @@ def command(
     nav_layer: str | None,
     graph_period_ns: int | None,
     derive_graph: bool,
-    map_frame: str,
+    map_frame: str | None,
     base_frame: str,
     config_file: Path | None,
     print_config: bool,
@@ -302,6 +302,7 @@ def command(
     stream, learns per place and hash cell how many people walk in which direction and how
     that changes over the day and week, and writes everything to a single map file.
     """
+    from aion_cli.build_options import map_frame_of
     from aion_cli.engine.config import ModelConfig
     from aion_cli.errors import InputError
     from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS
@@ -322,7 +323,7 @@ def command(
         log_format=log_format,
         detection_topics=detection_topics,
         graph_topic=graph_topic,
-        map_frame=map_frame,
+        map_frame=map_frame_of(map_frame, continue_from),
         base_frame=base_frame,
         graph_file=graph_file,
         nav_layer=nav_layer,

@@ -223,8 +223,9 @@ def lincoln(
 @click.option("--detections-topic", "detection_topics", multiple=True, metavar="TOPIC",
               help="Read people from this topic of the test logs (repeatable) [default: as "
               "aion build chooses].")
-@click.option("--map-frame", default="map", show_default=True,
-              help="The frame the map's positions are in (TF target of the detections).")
+@click.option("--map-frame", default=None,
+              help="The frame the map's positions are in (TF target of the detections) "
+              "[default: the frame the map records, else map].")
 @click.option("--observed", "observed", multiple=True, metavar="START..END",
               help="A span the test logs' sensor was recording (repeatable; as aion build "
               "--observed, times in the map's zone).")
@@ -233,7 +234,7 @@ def lincoln(
 @format_option(("table", "json"))
 def holdout(
     map_path: Path, logs: tuple[Path, ...], radius: float, detection_topics: tuple[str, ...],
-    map_frame: str, observed: tuple[str, ...], png: Path | None, fmt: str,
+    map_frame: str | None, observed: tuple[str, ...], png: Path | None, fmt: str,
 ) -> None:
     """Judge a map's forecast on your own held-out logs: heading NLL of every test
     detection, and the hourly activity of the windows the logs observed (summed over every
@@ -248,14 +249,14 @@ def holdout(
       aion evaluate holdout site.aion wednesday.mcap --format json > wednesday.json
       aion evaluate holdout site.aion wednesday.mcap --png wednesday.png
     """
-    from aion_cli.build_options import BuildOptions
+    from aion_cli.build_options import BuildOptions, map_frame_of
     from aion_cli.cli.build import observed_spans
     from aion_cli.cli.console import note
     from aion_cli.evaluation.holdout import run_holdout
 
     spans = observed_spans(observed, None, map_path)  # in the map's zone
-    opts = BuildOptions(logs=logs, detection_topics=detection_topics, map_frame=map_frame,
-                        observed=spans)
+    opts = BuildOptions(logs=logs, detection_topics=detection_topics,
+                        map_frame=map_frame_of(map_frame, map_path), observed=spans)
     result = run_holdout(map_path, opts, radius, progress=note)
     for line in result.notes:
         note(line)

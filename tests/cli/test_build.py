@@ -288,6 +288,31 @@ def test_frames_without_tf_and_map_frame_option(tmp_path: Path) -> None:
     assert report["detections"]["used"] == 300
 
 
+def test_a_map_remembers_its_frame_for_the_logs_after(tmp_path: Path) -> None:
+    """A map built with --map-frame records it: continuing it (aion build --map) and judging
+    it on later logs (aion evaluate holdout) read those logs into the same frame without the
+    option again; a map without the record (older maps) still defaults to 'map'."""
+    from aion_cli.formats.mapfile import read_manifest
+
+    first, later = tmp_path / "first.mcap", tmp_path / "later.mcap"
+    write_office_log(first, tf=False, frame="odom")
+    write_office_log(later, tf=False, frame="odom", shift_s=3 * 86_400)
+    site = tmp_path / "site.aion"
+    assert run("build", first, "--map-frame", "odom", "-o", site, "-q").exit_code == 0
+    assert read_manifest(site)["map_frame"] == "odom"
+    doc = run_json("evaluate", "holdout", site, later, "--format", "json")
+    assert doc["test"]["detections"] == 300
+    report = run_json("build", later, "--map", site, "--format", "json")
+    assert report["detections"]["used"] == 300
+    assert read_manifest(site)["map_frame"] == "odom"
+    third = tmp_path / "third.mcap"
+    write_office_log(third, tf=False, frame="odom", shift_s=6 * 86_400)
+    other = tmp_path / "other.aion"  # an explicit frame still wins
+    result = run("build", third, "--map", site, "--map-frame", "map", "-o", other)
+    assert result.exit_code == 2
+    assert "'odom'" in result.stderr
+
+
 def test_dsg_version_pin(office: Office, tmp_path: Path) -> None:
     from aion_cli.formats.dsg import installed_version
 
