@@ -415,3 +415,12 @@ def test_a_damaged_recording_windows_count_is_left_out_of_a_merge(tmp_path: Path
             dst.writestr(item, data)
     merge_map_files([damaged, b], tmp_path / "out.aion")
     assert "recording_windows" not in read_manifest(tmp_path / "out.aion")["counts"]
+
+
+def test_a_merge_keeps_the_map_frame_its_inputs_share() -> None:
+    from aion_cli.merging import _common_frame
+
+    assert _common_frame(["odom", "odom"]) == "odom"
+    assert _common_frame(["odom", "map"]) is None  # different frames: none recorded
+    assert _common_frame(["odom", None]) is None  # a map from before the record
+    assert _common_frame([]) is None
