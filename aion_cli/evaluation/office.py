@@ -56,6 +56,7 @@ from aion_cli.evaluation.office_directions import (
 from aion_cli.evaluation.office_truth import (
     TRUTH_FIELDS,
     FlowSeries,
+    SceneTruth,
     _truth_scores,
     expected_flow_correlations,
     place_rows,
@@ -292,8 +293,9 @@ def run_scene(
             m: float(np.nanmean([p[kind].get(m, math.nan) for p in predicted]))
             for m in predicted[0][kind]
         }
-    truth, series = _truth_scores(written.truth_npz, state, last_day, tables)
-    directions = _direction_scores(written.truth_npz, state, grid, last_day, tables)
+    scene_truth = SceneTruth.load(written.truth_npz)
+    truth, series = _truth_scores(scene_truth, state, last_day, tables)
+    directions = _direction_scores(scene_truth, state, grid, last_day, tables)
     figure = None
     if keep_figure:
         aion_view, grid_v = views["Historical"]
@@ -317,7 +319,7 @@ def run_scene(
 
 
 def _direction_scores(
-    truth_npz: Path,
+    scene: SceneTruth,
     state: Any,
     grid: GridMoD,
     times_ns: npt.NDArray[np.int64],
@@ -326,15 +328,14 @@ def _direction_scores(
     """aion's and the grid's direction histograms, historical and predicted, at each place that
     became an aion node, against the true histogram of every agent over the evaluated day (the
     windows from the first evaluated time's on): :mod:`.office_directions`."""
-    with np.load(truth_npz, allow_pickle=False) as z:
-        ids, flow_counts, starts = z["place_ids"], z["flow_counts"], z["window_start_ns"]
+    starts = scene.window_start_ns
     table = historical_table(state)
-    pairs = place_rows(ids, table.node_id)
+    pairs = place_rows(scene.place_ids, table.node_id)
     if len(pairs) == 0:
         return direction_truth_scores(np.zeros((0, grid.bins)), {})
     rows, columns = pairs[:, 0], pairs[:, 1]
     first = max(int(np.searchsorted(starts, int(times_ns[0]), side="right")) - 1, 0)
-    truth = flow_counts[first:, columns, :].sum(axis=0).astype(np.float64)
+    truth = scene.flow_counts[first:, columns, :].sum(axis=0).astype(np.float64)
     cells = grid.spec.cell_of(table.xyz[rows, :2])
     inside = cells >= 0
 

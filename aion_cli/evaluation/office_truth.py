@@ -85,6 +85,24 @@ def truth_sentence(means: dict[str, float]) -> str:
     )
 
 
+@dataclass(frozen=True)
+class SceneTruth:
+    """A scene's ground truth as the simulator wrote it (``<log>.truth.npz``), read once for
+    every comparison: the places' ids, the true counts per window, place and direction bin,
+    the windows' starts and, where recorded, the share of windows the robot saw each place."""
+
+    place_ids: npt.NDArray[np.int64]
+    flow_counts: npt.NDArray[np.int64]
+    window_start_ns: npt.NDArray[np.int64]
+    seen_share: F64 | None
+
+    @classmethod
+    def load(cls, truth_npz: Path) -> SceneTruth:
+        with np.load(truth_npz, allow_pickle=False) as z:
+            seen = z["observed"].mean(axis=0) if "observed" in z.files else None
+            return cls(z["place_ids"], z["flow_counts"], z["window_start_ns"], seen)
+
+
 def place_rows(place_ids: npt.ArrayLike, node_id: npt.ArrayLike) -> npt.NDArray[np.int64]:
     """(aion row, truth column) of each simulated place that became an aion node, int64[n, 2]
     in the truth's order (``node_id``: the table's node id per row, 0 for cells)."""
@@ -97,7 +115,7 @@ def place_rows(place_ids: npt.ArrayLike, node_id: npt.ArrayLike) -> npt.NDArray[
 
 
 def _truth_scores(
-    truth_npz: Path, state: Any, times_ns: npt.NDArray[np.int64], tables: list[EntryTable]
+    scene: SceneTruth, state: Any, times_ns: npt.NDArray[np.int64], tables: list[EntryTable]
 ) -> tuple[dict[str, float], FlowSeries | None]:
     """aion against the simulator's ground truth, per place that became an aion node; and the
     forecasts with the scene's true counts, for :func:`expected_flow_correlations`.
@@ -114,9 +132,8 @@ def _truth_scores(
     ``flow_correlation_oracle``, each place's true mean count at that hour of the day over
     every simulated day, the evaluated day included (in-sample: it has seen the answer).
     """
-    with np.load(truth_npz, allow_pickle=False) as z:
-        ids, flow_counts, starts = z["place_ids"], z["flow_counts"], z["window_start_ns"]
-        seen_share = z["observed"].mean(axis=0) if "observed" in z.files else None
+    ids, flow_counts, starts = scene.place_ids, scene.flow_counts, scene.window_start_ns
+    seen_share = scene.seen_share
     table = historical_table(state)
     pairs = place_rows(ids, table.node_id)
     if len(pairs) == 0:
