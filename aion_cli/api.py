@@ -335,12 +335,14 @@ class Map:
         ``result.notes``, ``result.to_dict()`` (its JSON). ``options``: the build's reading
         options (``detection_topics``, ``observed`` spans in ns, ``map_frame``: default the
         frame the map records, else ``map``)."""
-        from aion_cli.build_options import BuildOptions
+        from aion_cli.build_options import DEFAULT_MAP_FRAME, BuildOptions
         from aion_cli.evaluation.holdout import score_held_out
 
         paths = [logs] if isinstance(logs, str | os.PathLike) else list(logs)
         frame = options.pop("map_frame", None)
-        options["map_frame"] = frame if isinstance(frame, str) else self.manifest.map_frame or "map"
+        options["map_frame"] = (
+            frame if isinstance(frame, str) else self.manifest.map_frame or DEFAULT_MAP_FRAME
+        )
         opts = BuildOptions(logs=tuple(as_path(p) for p in paths), **options)  # type: ignore[arg-type]
         return score_held_out(self._loaded, opts, radius)
 

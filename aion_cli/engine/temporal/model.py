@@ -254,18 +254,17 @@ class Predictor:
 
     def _flow_choice(self, e: I64, h: I64) -> I64:
         """Each pair's flow family: the entry's choice, ``static`` in extrapolated bins."""
-        choice = self.flow_choice[e]
-        if self.extrapolated.any():
-            choice = np.where(self.extrapolated[h], self.params.flow.index("static"), choice)
-        return choice
+        return self._at_pairs(self.flow_choice[e], self.params.flow.index("static"), h)
 
     def _direction_choice(self, e: I64, h: I64) -> I64:
         """Each pair's direction family: the entry's, ``static`` in extrapolated bins."""
-        choice = self.direction_choice[e]
-        if self.extrapolated.any():
-            static = self.params.direction.index("static")
-            choice = np.where(self.extrapolated[h], static, choice)
-        return choice
+        return self._at_pairs(self.direction_choice[e], self.params.direction.index("static"), h)
+
+    def _at_pairs(self, choice: I64, static: int, h: I64) -> I64:
+        if not self.extrapolated.any():
+            return choice
+        out: I64 = np.where(self.extrapolated[h], static, choice)
+        return out
 
     @property
     def reconcile(self) -> bool:
