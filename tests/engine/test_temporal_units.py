@@ -155,6 +155,56 @@ def test_pending_windows_follow_a_moved_entry() -> None:
         pending.add_window(7, 101, False, [], [], np.zeros((0, 3)))
 
 
+def test_a_consolidated_day_is_kept_until_its_windows_change() -> None:
+    """A map's write asks for the pending day several times: it is consolidated once,
+    read-only, and again after every change (a window, an observation, a move, a reload)."""
+    pending = PendingDay(values=2)
+    pending.add_window(7, 100, False, [1], [1, 1], [[1, 0], [2, 0]])
+    first = pending.consolidated()
+    assert pending.consolidated() is first
+    assert not first.cnt_values.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        first.cnt_values[0, 0] = 9.0
+    np.testing.assert_array_equal(first.cnt_values, [[3, 0]])
+    pending.add_window(7, 101, False, [3], [3], [[0, 4]])
+    second = pending.consolidated()
+    assert second is not first
+    np.testing.assert_array_equal(second.cnt_entry, [1, 3])
+    pending.add_observed(0, np.array([5]))
+    third = pending.consolidated()
+    np.testing.assert_array_equal(third.obs_entry, [1, 3, 5])
+    pending.remap(np.array([3]), np.array([1]))
+    fourth = pending.consolidated()
+    np.testing.assert_array_equal(fourth.cnt_entry, [1, 1])
+    np.testing.assert_array_equal(fourth.cnt_values, [[3, 0], [0, 4]])
+    pending.relabel(np.arange(10)[::-1])
+    np.testing.assert_array_equal(pending.consolidated().cnt_entry, [8, 8])
+    pending.clear()
+    assert pending.consolidated().cnt_entry.size == 0
+
+
+@given(st.integers(0, 2**32 - 1))
+@settings(max_examples=25, deadline=None)
+def test_consolidated_counts_are_np_add_at_bit_for_bit(seed: int) -> None:
+    """Repeated (entry, slot) pairs are summed in their order from 0.0, as ``np.add.at`` on
+    zeros sums them: the same floats, not merely close ones."""
+    rng = np.random.default_rng(seed)
+    pending = PendingDay(values=4)
+    parts = []
+    for w in range(int(rng.integers(1, 5))):
+        rows = rng.integers(0, 6, int(rng.integers(1, 30)))
+        vals = rng.random((rows.size, 4)) * 10.0 ** rng.integers(-8, 8, (rows.size, 4))
+        pending.add_window(3, 50 + w, False, [], rows, vals)
+        parts.append((rows, np.full(rows.size, w), vals))
+    rows, slots, vals = (np.concatenate(p) for p in zip(*parts, strict=True))
+    keys, inverse = np.unique(rows * 100 + slots, return_inverse=True)
+    expected = np.zeros((keys.size, 4))
+    np.add.at(expected, inverse, vals)
+    day = pending.consolidated()
+    assert day.cnt_values.tobytes() == expected.tobytes()
+    np.testing.assert_array_equal(day.cnt_entry * 100 + day.cnt_slot, keys)
+
+
 def test_learning_is_independent_of_how_days_are_batched() -> None:
     """Three days learnt in one call equal the days learnt one by one (scores included)."""
     rng = np.random.default_rng(3)
