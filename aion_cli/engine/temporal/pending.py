@@ -175,9 +175,7 @@ class PendingDay:
         cnt_e, cnt_s = _cat(self._cnt_entry), _cat(self._cnt_slot)
         vals = np.concatenate(self._cnt_values) if self._cnt_values else np.zeros((0, self.values))
         if cnt_e.size:
-            keys, inverse = np.unique(cnt_e * slots + cnt_s, return_inverse=True)
-            summed = _sum_by(inverse.reshape(-1), vals, keys.size)
-            cnt_e, cnt_s, vals = *np.divmod(keys, slots), summed
+            cnt_e, cnt_s, vals = _summed_pairs(cnt_e * slots + cnt_s, vals, slots)
         day = DayWindows(
             np.asarray(self.windows, dtype=np.int64),
             np.asarray(self.fixed, dtype=bool),
@@ -268,6 +266,22 @@ class PendingDay:
         self._changed()
         self._obs_entry = [row_of_position[a] for a in self._obs_entry]
         self._cnt_entry = [row_of_position[a] for a in self._cnt_entry]
+
+
+def _summed_pairs(key: I64, values: F64, slots: int) -> tuple[I64, I64, F64]:
+    """Entries, slots and summed rows of ``values`` per distinct ``key`` (entry·slots +
+    slot), by key. Each window holds an entry's counts once, so repeated keys come only
+    from moves; without any, the rows are only sorted (``+ 0.0``: as a sum from 0.0 would,
+    a −0.0 reads 0.0)."""
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    if sorted_key.size < 2 or bool(np.all(sorted_key[1:] != sorted_key[:-1])):
+        entry, slot = np.divmod(sorted_key, slots)
+        summed: F64 = values[order] + 0.0
+        return entry, slot, summed
+    keys, inverse = np.unique(key, return_inverse=True)
+    entry, slot = np.divmod(keys, slots)
+    return entry, slot, _sum_by(inverse.reshape(-1), values, keys.size)
 
 
 def _sum_by(group: I64, values: F64, n_groups: int) -> F64:
