@@ -176,13 +176,12 @@ def _train_models(
     grid.fit(train)
     tod = TimeOfDayHistogram(spec, cfg.bins, utc_offset_h=JST_OFFSET_H)
     tod.fit(train)
+    aion, aion_static, aion_historical = AionHeadingModel.readings(cells, radius)
     return {
-        "aion": (AionHeadingModel(cells, radius), _state_bytes(cells)),
+        "aion": (aion, _state_bytes(cells)),
         "aion+graph": (AionHeadingModel(graph, radius, name="aion+graph"), _state_bytes(graph)),
-        "aion static": (AionHeadingModel(cells, radius, static=True, name="aion static"), 0),
-        "aion historical": (
-            AionHeadingModel(cells, radius, historical=True, name="aion historical"), 0
-        ),
+        "aion static": (aion_static, 0),
+        "aion historical": (aion_historical, 0),
         "grid": (GridHeadingModel(grid), grid.stored_bytes()),
         "time-of-day": (tod, int(tod.counts.nbytes)),
     }

@@ -16,6 +16,7 @@ near it. Scores, all documented in ``docs/EVALUATION.md``:
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import asdict, dataclass
 from typing import Any, Protocol
@@ -83,6 +84,26 @@ class AionHeadingModel:
         self.rows, self.predictor = state.predictor()
         xy = state.entries.xyz[self.rows, :2]
         self.tree = cKDTree(xy) if len(self.rows) else None
+
+    def variant(
+        self, name: str, static: bool = False, historical: bool = False
+    ) -> AionHeadingModel:
+        """The same map read another way (its static or raw histograms), sharing this
+        model's predictor and KD-tree instead of building them again."""
+        out = copy.copy(self)
+        out.name, out.static, out.historical = name, static, historical
+        return out
+
+    @classmethod
+    def readings(cls, state: MapState, radius: float) -> list[AionHeadingModel]:
+        """aion's forecast ("aion"), its static histograms ("aion static") and the raw
+        proportions ``predict --historical`` shows ("aion historical"), on one tree."""
+        model = cls(state, radius)
+        return [
+            model,
+            model.variant("aion static", static=True),
+            model.variant("aion historical", historical=True),
+        ]
 
     def probabilities(self, xyz: F64, t_ns: I64) -> tuple[F64, BoolA]:
         bins = self.state.bins

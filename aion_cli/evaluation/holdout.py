@@ -105,11 +105,7 @@ def score_held_out(
     result.test = _test_summary(held, state)
     result.notes = _notes(held, loaded.manifest, state.config.sensor_range)
     say("scoring headings")
-    for model in (
-        AionHeadingModel(state, radius),
-        AionHeadingModel(state, radius, static=True, name="aion static"),
-        AionHeadingModel(state, radius, historical=True, name="aion historical"),
-    ):
+    for model in AionHeadingModel.readings(state, radius):
         result.headings.append(
             score_headings(model, held.batch, state.bins, window_s=state.config.window_s)
             .to_dict()

@@ -239,9 +239,7 @@ def _heading_models(
     static = StaticHistogram(spec, cfg.bins)
     static.fit(train_batch)
     return [
-        AionHeadingModel(state, radius),
-        AionHeadingModel(state, radius, static=True, name="aion static"),
-        AionHeadingModel(state, radius, historical=True, name="aion historical"),
+        *AionHeadingModel.readings(state, radius),
         tod,
         static,
         GridHeadingModel(grid),

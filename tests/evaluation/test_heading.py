@@ -67,6 +67,29 @@ def test_learned_models_beat_uniform_and_unmatched_are_counted() -> None:
     assert 0.0 <= g.chi_square < 1.0
 
 
+def test_the_three_readings_of_a_map_share_one_tree_and_answer_as_built_apart() -> None:
+    """``AionHeadingModel.readings``: forecast, static and raw histograms of one map on one
+    KD-tree and predictor, each scoring exactly as the model built on its own."""
+    batch = corridor_flow(4)
+    train, test = split(batch)
+    mapper = Mapper(ModelConfig())
+    mapper.set_fixed_sensor(int(train.t_ns.min()), int(train.t_ns.max()) + 1)
+    mapper.add_detections(train.sorted_by_time())
+    mapper.advance(int(test.t_ns.max()))
+    readings = AionHeadingModel.readings(mapper.state, radius=1.0)
+    assert [m.name for m in readings] == ["aion", "aion static", "aion historical"]
+    assert readings[1].tree is readings[0].tree is readings[2].tree
+    apart = [
+        AionHeadingModel(mapper.state, radius=1.0),
+        AionHeadingModel(mapper.state, radius=1.0, static=True, name="aion static"),
+        AionHeadingModel(mapper.state, radius=1.0, historical=True, name="aion historical"),
+    ]
+    for shared, own in zip(readings, apart, strict=True):
+        assert score_headings(shared, test, bins=8) == score_headings(own, test, bins=8)
+    hist = [m.probabilities(test.xyz, test.t_ns)[0] for m in readings]
+    assert not np.array_equal(hist[1], hist[2])  # pooled static histograms, not the raw ones
+
+
 class OneBin:
     name = "one bin"
 
