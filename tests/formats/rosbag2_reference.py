@@ -17,11 +17,19 @@ def bag_metadata(folder: Path) -> dict[str, Any]:
     return info["rosbag2_bagfile_information"]
 
 
+def read_only(path: Path) -> sqlite3.Connection:
+    """A connection that cannot change the file or anything beside it: ``mode=ro`` alone
+    still creates ``-wal`` / ``-shm`` files next to a database it reads (a third party's
+    bag under ``../shared/data`` must stay as it is); ``immutable=1`` takes no locks and
+    keeps no journal."""
+    return sqlite3.connect(f"file:{path}?mode=ro&immutable=1", uri=True)
+
+
 def sqlite_messages(*files: Path) -> list[tuple[str, int, bytes]]:
     """``(topic, timestamp, data)`` of every message of rosbag2 sqlite3 files."""
     out: list[tuple[str, int, bytes]] = []
     for f in files:
-        with sqlite3.connect(f"file:{f}?mode=ro", uri=True) as db:
+        with read_only(f) as db:
             out += db.execute(
                 "SELECT topics.name, timestamp, data FROM messages "
                 "JOIN topics ON messages.topic_id = topics.id"

@@ -20,7 +20,7 @@ from aion_cli.errors import LogFormatError
 from aion_cli.formats.logs import open_logs
 from aion_cli.formats.rosbag2_reindex import reindex
 from tests.cli.conftest import assert_one_line_error, run
-from tests.formats.rosbag2_reference import bag_metadata, sqlite_messages
+from tests.formats.rosbag2_reference import bag_metadata, read_only, sqlite_messages
 from tests.shared_data import SHARED_DATA, real
 
 DATA = SHARED_DATA / "logs" / "rosbag2_tests"
@@ -132,7 +132,7 @@ def test_reindex_writes_what_the_bags_own_metadata_says(tmp_path: Path) -> None:
     built, meta = reindex(tmp_path / talker.name), bag_metadata(talker)
     assert built["starting_time"] == meta["starting_time"]
     assert built["duration"] == meta["duration"]
-    with sqlite3.connect(talker / "talker.db3") as db:
+    with read_only(talker / "talker.db3") as db:
         qos = dict(db.execute("SELECT name, offered_qos_profiles FROM topics").fetchall())
     got = {
         t["topic_metadata"]["name"]: t["topic_metadata"]["offered_qos_profiles"]
