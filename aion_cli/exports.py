@@ -132,7 +132,10 @@ def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) ->
     from aion_cli.errors import InputError
 
     if out.suffix.lower() != ".ply":
-        raise InputError(f"--export writes a .ply file, got {out.name!r}")
+        raise InputError(
+            f"--export writes a .ply file, got {out.name!r}",
+            hint=f"name it {out.with_suffix('.ply').name}",
+        )
     export_scene_file(loaded, t_ns, out, "ply", nav.xyz[path])
 
 

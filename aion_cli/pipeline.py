@@ -235,7 +235,7 @@ class _Build(StreamStep):
             if not plan.detections and not self.shard:  # a part of a build may have none
                 raise no_detection_topic(logset, plan)
             self.report.detection_topics = sorted(plan.names("detections"))
-            self.report.notes.extend(getattr(logset, "warnings", []))
+            self.report.warnings.extend(getattr(logset, "warnings", []))  # lost or odd input
             self._adapters, self._factory, notes = log_adapters(
                 logset, plan.detections, plan.mappings
             )
@@ -260,8 +260,9 @@ class _Build(StreamStep):
                 # the last message aion uses, never a container's summary or another topic
                 mapper.advance(end)
             self._span()
-            # readers also warn while streaming (a corrupt chunk ends a file early)
-            self.report.notes.extend(w for w in logset.warnings if w not in self.report.notes)
+            # readers warn while streaming too (a corrupt chunk ends a file early): lost or
+            # unusual input is a warning, shown with -q and under "warnings" in JSON
+            self.report.warnings.extend(w for w in logset.warnings if w not in self.report.warnings)
         return mapper
 
     def _check_part(self) -> None:

@@ -86,7 +86,10 @@ def series_times(start_ns: int, end_ns: int, step_ns: int) -> list[int]:
     if step_ns <= 0:
         raise InputError(f"the step must be positive, got {step_ns} ns")
     if end_ns < start_ns:
-        raise InputError("--to is before --from")
+        raise InputError(
+            "--to is before --from",
+            hint='give a later --to, e.g. --from "2026-01-12 06:00" --to "2026-01-12 20:00"',
+        )
     count = (end_ns - start_ns) // step_ns + 1
     if count > MOST_TIMES:
         raise InputError(

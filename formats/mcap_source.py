@@ -442,6 +442,6 @@ def _open_mcap(
     if head != _MCAP_MAGIC:
         raise LogFormatError(
             f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)",
-            hint="check the file, or pass --format bag|rosbag2 if it is another log type",
+            hint="check the file, or pass --log-format bag|rosbag2 if it is another log type",
         )
     return _McapSource(path, fmt_name, limits, unzstd=unzstd)

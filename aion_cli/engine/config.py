@@ -300,7 +300,10 @@ class ModelConfig:
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"invalid TOML: {exc}") from exc
+            raise ConfigError(
+                f"invalid TOML: {exc}",
+                hint="aion build --print-config > model.toml writes a valid file to edit",
+            ) from exc
         if "model" in data and isinstance(data["model"], dict):
             data = data["model"]
         return cls.from_dict(data)

@@ -57,7 +57,10 @@ def parse_point(text: str) -> tuple[float, float, float] | None:
     except ValueError:
         return None
     if not all(math.isfinite(v) for v in values):
-        raise InputError(f"coordinates must be finite numbers: {text!r}")
+        raise InputError(
+            f"coordinates must be finite numbers: {text!r}",
+            "give metres in the map frame, x,y or x,y,z (e.g. 3.5,-1.2)",
+        )
     if len(values) == 2:
         values.append(0.0)
     return (values[0], values[1], values[2])

@@ -47,7 +47,10 @@ def check_png_target(out: Path, option: str = "-o") -> None:
             hint=f"name the picture, e.g. {option} {out / 'map.png'}",
         )
     if out.suffix.lower() != ".png":
-        raise InputError(f"{option} writes a .png file, got {out.name!r}")
+        raise InputError(
+            f"{option} writes a .png file, got {out.name!r}",
+            hint=f"name it {out.with_suffix('.png').name}",
+        )
     parent = out.absolute().parent
     if not parent.is_dir():
         raise OutputPathError(

@@ -74,12 +74,16 @@ def test_truncated_mcap_builds_from_the_readable_part_and_says_where_it_stopped(
     report = build_json(cut, "-o", tmp_path / "cut.aion")
     read = report["detections"]["read"]
     assert 1000 < read < N_SPREAD
-    note = next(n for n in report["notes"] if "truncated or corrupt MCAP" in n)
-    stopped = int(note.split("read stopped at byte ")[1].split()[0])
+    # lost data is a warning (not a note): it stays with -q, and JSON lists it as one
+    warning = next(n for n in report["warnings"] if "truncated or corrupt MCAP" in n)
+    stopped = int(warning.split("read stopped at byte ")[1].split()[0])
     assert 0 < stopped <= len(data) * 6 // 10
-    assert f"after {read} messages" in note
+    assert f"after {read} messages" in warning
     assert map_arrays(tmp_path / "cut.aion")  # a complete, checksummed map
     assert report["time_span"]["end_ns"] == T0 + (read - 1) * S  # exactly the first `read` s
+    quiet = run("build", cut, "-o", tmp_path / "quiet.aion", "-q")
+    assert quiet.exit_code == 0
+    assert f"warning: {warning}" in " ".join(quiet.stderr.split())
 
 
 def _messages_in(chunk: Any) -> int:
@@ -170,12 +174,12 @@ def test_log_without_messages_is_a_clear_error(container: str, tmp_path: Path) -
     fails(run("build", empty, "-o", tmp_path / "e.aion"), "no messages")
 
 
-def test_empty_log_among_good_ones_is_a_note(tmp_path: Path) -> None:
+def test_empty_log_among_good_ones_is_a_warning(tmp_path: Path) -> None:
     good = write_log(tmp_path / "good.mcap", walk(30))
     empty = write_log(tmp_path / "empty.mcap", [])
     report = build_json(good, empty, "-o", tmp_path / "m.aion")
     assert report["detections"]["read"] == 30
-    assert any("empty.mcap: no messages" in n for n in report["notes"])
+    assert any("empty.mcap: no messages" in n for n in report["warnings"])
 
 
 def test_log_with_no_usable_topic_is_an_error_naming_the_way_out(tmp_path: Path) -> None:

@@ -189,6 +189,36 @@ def test_user_mistake_is_one_error_line_exit_2(case: str, mistakes: dict[str, An
     assert debug.stderr.count("error: ") == 1
 
 
+@pytest.mark.parametrize("case", CASES)
+def test_every_option_a_hint_names_exists(case: str, mistakes: dict[str, Any]) -> None:
+    """A hint that says "pass --x" names an option of the command it is about (``aion info
+    garbage.mcap`` once said ``--format bag|rosbag2``, which is info's output format)."""
+    import re
+
+    args, _fragment = mistakes["cases"][case]
+    top = run("--help").stdout
+    commands = set(re.findall(r"^  (\w+)  ", top.split("Commands:")[1], flags=re.MULTILINE))
+    hints = [line for line in run(*args).stderr.splitlines() if line.startswith("hint:")]
+    for hint in hints:
+        named = [c for c in re.findall(r"aion (\w+)", hint) if c in commands]
+        command = named[0] if named else str(args[0])
+        options = set(re.findall(r"(?<![\w-])(--[a-z][a-z-]*)", hint))
+        help_text = run(command, "--help").stdout
+        missing = sorted(o for o in options if o not in help_text)
+        assert not missing, f"{case}: {hint!r} names {missing}, not options of aion {command}"
+
+
+def test_a_file_that_is_not_an_mcap_hints_at_the_log_format_option(tmp_path: Path) -> None:
+    text = tmp_path / "readme.mcap"
+    text.write_text("not a log\n")
+    for command in ("info", "build"):
+        extra = ["-o", str(tmp_path / "x.aion")] if command == "build" else []
+        result = run(command, text, *extra)
+        assert result.exit_code == 2
+        assert "--log-format bag|rosbag2" in result.stderr
+        assert "--log-format" in run(command, "--help").stdout
+
+
 # One mistake of each kind (log, map, config, lock): each subprocess pays aion's ~1 s
 # start-up, and the in-process test above already runs every case.
 SUBPROCESS_CASES = (
