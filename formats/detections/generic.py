@@ -17,7 +17,14 @@ import numpy as np
 
 from aion_cli.errors import ConfigError
 from aion_cli.formats.detections.frame import hash_id
-from aion_cli.formats.detections.paths import FieldPath, quat4, stamp_ns, vec3
+from aion_cli.formats.detections.paths import (
+    FieldPath,
+    quat4,
+    scalar,
+    stamp_ns,
+    vec3,
+    yaw_quaternion,
+)
 
 NAN_Q = (math.nan, math.nan, math.nan, math.nan)
 NAN_V = (math.nan, math.nan, math.nan)
@@ -98,10 +105,13 @@ class ItemSpec:
     ``array`` is the sequence of people (None: the message itself is one detection);
     ``position``/``velocity``/``orientation``/``track_id`` are relative to an item; ``stamp``
     and ``frame`` to the message; ``item_stamp``/``item_frame`` (per-item header) override
-    them where set (non-zero stamp, non-empty frame); ``fixed_frame`` replaces both."""
+    them where set (non-zero stamp, non-empty frame); ``fixed_frame`` replaces both.
+    ``position`` is one path (a Point-like or planar message, 2 or 3 numbers) or a path per
+    coordinate (x, y and optionally z: numbers); ``yaw`` (a number, radians about z) stands
+    for the orientation of a planar pose."""
 
     array: FieldPath | None
-    position: FieldPath
+    position: FieldPath | tuple[FieldPath, ...]
     velocity: FieldPath | None = None
     orientation: FieldPath | None = None
     track_id: FieldPath | None = None
@@ -112,12 +122,13 @@ class ItemSpec:
     keep: Keep | None = None
     adjust: Adjust | None = None
     fixed_frame: str | None = None
+    yaw: FieldPath | None = None
 
     @classmethod
     def of(
         cls,
         array: str | None,
-        position: str,
+        position: str | list[str] | tuple[str, ...],
         velocity: str | None = None,
         orientation: str | None = None,
         track_id: str | None = None,
@@ -128,8 +139,13 @@ class ItemSpec:
         adjust: Adjust | None = None,
     ) -> ItemSpec:
         """Build a spec from path strings (``item_header`` sets both item paths)."""
+        where: FieldPath | tuple[FieldPath, ...] = (
+            FieldPath.parse(position)
+            if isinstance(position, str)
+            else tuple(FieldPath.parse(p) for p in position)
+        )
         return cls(
-            _opt(array), FieldPath.parse(position), _opt(velocity), _opt(orientation),
+            _opt(array), where, _opt(velocity), _opt(orientation),
             _opt(track_id), _opt(stamp), _opt(frame),
             _opt(f"{item_header}.stamp" if item_header else None),
             _opt(f"{item_header}.frame_id" if item_header else None),
@@ -153,18 +169,29 @@ class ItemSpec:
                 f = self.fixed_frame
             vel = vec3(self.velocity.get(it), self.velocity.text) if self.velocity else NAN_V
             o = self.orientation
-            q = quat4(o.get(it), o.text) if o else NAN_Q
+            if self.yaw is not None:
+                q = yaw_quaternion(scalar(self.yaw.get(it), self.yaw.text))
+            else:
+                q = quat4(o.get(it), o.text) if o else NAN_Q
             if self.adjust is not None:
                 vel, q = self.adjust(it, vel, q)
             rows.add(
                 owner,
                 t or stamp,
                 f or frame,
-                vec3(self.position.get(it), self.position.text),
+                self._position(it),
                 vel,
                 q,
                 track_id_of(self.track_id.get(it)) if self.track_id else -1,
             )
+
+
+    def _position(self, item: Any) -> tuple[float, float, float]:
+        where = self.position
+        if isinstance(where, FieldPath):
+            return vec3(where.get(item), where.text)
+        xyz = [scalar(path.get(item), path.text) for path in where]
+        return xyz[0], xyz[1], xyz[2] if len(xyz) == 3 else 0.0
 
 
 Extractor = Callable[[Any, int, Rows], None]

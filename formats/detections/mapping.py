@@ -7,6 +7,7 @@ Example (one ``[[topic]]`` table per topic)::
     msgtype = "my_tracker/msg/Tracks"       # pkg/Type or pkg/msg/Type
     array = "tracks"                        # the sequence of people; omit: one per message
     position = "pose.pose.position"         # Point-like, or 3 numbers: "position[0..2]"
+                                            # planar: "pose2d" (x, y), ["x", "y"] or 2 numbers
     velocity = "twist.twist.linear"         # optional
     orientation = "pose.pose.orientation"   # optional (x, y, z, w)
     id = "track_id"                         # optional: integer, string or UUID bytes
@@ -15,6 +16,12 @@ Example (one ``[[topic]]`` table per topic)::
     item_header = "header"                  # optional per-item header (overrides when set)
     frame_override = "map"                  # optional: ignore the message's frame
     filter = { field = "label", equals = ["person", "pedestrian"] }   # optional, per item
+    # yaw = "theta"                         # instead of orientation: radians about z
+
+A planar tracker (turtlesim's ``x, y, theta``, ``geometry_msgs/Pose2D``) maps with
+``position = ["x", "y"]`` (a path per coordinate, each a number; a third is z) or a path to a
+message with ``x`` and ``y``, and ``yaw = "theta"``: z is 0 and the yaw is the pose's
+orientation about z.
 
 Paths are dotted field names with ``[i]`` indices and inclusive ``[i..j]`` ranges. Item paths
 (position, velocity, orientation, id, item_header, filter.field) are relative to one element of
@@ -45,8 +52,8 @@ if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
 _KEYS = {
-    "topic", "msgtype", "array", "position", "velocity", "orientation", "id", "stamp", "frame",
-    "item_header", "frame_override", "filter",
+    "topic", "msgtype", "array", "position", "velocity", "orientation", "yaw", "id", "stamp",
+    "frame", "item_header", "frame_override", "filter",
 }
 # rosbags field-definition node types.
 _BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4
@@ -88,12 +95,18 @@ class TopicMapping:
         r = self.raw
         if "array" in r:
             item = _element(typestore, _walk(typestore, root, r["array"], "array"), r["array"])
-        _vector(typestore, _walk(typestore, item, r["position"], "position"), 3, "position")
+        if isinstance(r["position"], list):
+            for path in r["position"]:
+                _number(_walk(typestore, item, path, "position"), path, "position")
+        else:
+            _vector(typestore, _walk(typestore, item, r["position"], "position"), 3, "position")
         if "velocity" in r:
             _vector(typestore, _walk(typestore, item, r["velocity"], "velocity"), 3, "velocity")
         if "orientation" in r:
             node = _walk(typestore, item, r["orientation"], "orientation")
             _vector(typestore, node, 4, "orientation")
+        if "yaw" in r:
+            _number(_walk(typestore, item, r["yaw"], "yaw"), r["yaw"], "yaw")
         if "id" in r:
             _walk(typestore, item, r["id"], "id")
         for key, default in (("stamp", "header.stamp"), ("frame", "header.frame_id")):
@@ -162,12 +175,28 @@ def _parse_topic(t: dict[str, Any], where: str) -> TopicMapping:
     unknown = set(t) - _KEYS
     if unknown:
         raise ConfigError(f"{where}: unknown keys {sorted(unknown)}; known: {sorted(_KEYS)}")
+    position: Any = t.get("position")
+    planar = isinstance(position, list)
+    if planar and not (
+        2 <= len(position) <= 3 and all(isinstance(p, str) and p for p in position)
+    ):
+        raise ConfigError(
+            f"{where}: 'position' as a list names 2 or 3 number fields (x, y[, z]), got "
+            f"{position!r}",
+            hint='e.g. position = ["x", "y"] for a planar pose',
+        )
     for key in ("topic", "msgtype", "position"):
+        if key == "position" and planar:
+            continue
         if not isinstance(t.get(key), str) or not t[key]:
             raise ConfigError(f"{where}: {key!r} is required (a string)")
-    for key in _KEYS - {"filter"}:
+    for key in _KEYS - {"filter", "position"}:
         if key in t and not isinstance(t[key], str):
             raise ConfigError(f"{where}: {key!r} must be a string")
+    if "yaw" in t and "orientation" in t:
+        raise ConfigError(
+            f"{where}: give 'orientation' (a quaternion) or 'yaw' (radians), not both"
+        )
     keep = _filter(t["filter"], where) if "filter" in t else None
     spec = ItemSpec.of(
         t.get("array"), t["position"], t.get("velocity"), t.get("orientation"), t.get("id"),
@@ -176,6 +205,8 @@ def _parse_topic(t: dict[str, Any], where: str) -> TopicMapping:
     )
     if "frame_override" in t:
         spec = replace(spec, fixed_frame=t["frame_override"])
+    if "yaw" in t:
+        spec = replace(spec, yaw=FieldPath.parse(t["yaw"]))
     return TopicMapping(t["topic"], normalize_msgtype(t["msgtype"]), spec, dict(t))
 
 
@@ -243,18 +274,42 @@ def _element(store: Typestore, node: Node, text: str) -> Node:
 
 
 def _vector(store: Typestore, node: Node, size: int, what: str) -> None:
-    names = "xyz" if size == 3 else "xyzw"
+    """A Point/Vector3-like message or 3 numbers (a planar one too: ``x, y`` or 2 numbers),
+    or for ``size`` 4 a Quaternion-like message or 4 numbers."""
+    names = "xy" if size == 3 else "xyzw"
     if node[0] == _NAME:
         fields = dict(_fields(store, node[1]))
         if all(c in fields for c in names):
             return
         raise ConfigError(
             f"{what} must be a {'Point/Vector3' if size == 3 else 'Quaternion'}; {node[1]} has "
-            f"fields {', '.join(fields)}"
+            f"fields {', '.join(fields)}",
+            hint='a path per coordinate reads number fields: position = ["x", "y"]'
+            if size == 3
+            else None,
         )
-    if node[0] in (_ARRAY, _SEQUENCE) and node[1][0][0] == _BASE and node[1][1] == size:
+    sizes = (2, 3) if size == 3 else (size,)
+    if node[0] in (_ARRAY, _SEQUENCE) and node[1][0][0] == _BASE and node[1][1] in sizes:
         return
-    raise ConfigError(f"{what} must point to {size} numbers or a message, not a {_describe(node)}")
+    raise ConfigError(
+        f"{what} must point to {size} numbers or a message, not a {_describe(node)}",
+        hint='a path per coordinate reads number fields: position = ["x", "y"]'
+        if size == 3
+        else None,
+    )
+
+
+_NUMBERS = frozenset({
+    "float32", "float64", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
+    "uint64",
+})  # fmt: skip
+
+
+def _number(node: Node, path: str, what: str) -> None:
+    """``path`` must lead to one number (a position coordinate or a yaw)."""
+    if node[0] == _BASE and node[1][0] in _NUMBERS:
+        return
+    raise ConfigError(f"{what} path {path!r} must lead to a number, not a {_describe(node)}")
 
 
 def _describe(node: Node) -> str:

@@ -7,6 +7,7 @@ the path and the fields that do exist (:class:`ConfigError`).
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
@@ -105,16 +106,34 @@ def field_names(obj: Any) -> list[str]:
 
 
 def vec3(value: Any, what: str) -> tuple[float, float, float]:
-    """x, y, z from a Point/Vector3-like object or a 3-element numeric array."""
-    if hasattr(value, "x") and hasattr(value, "y") and hasattr(value, "z"):
-        return float(value.x), float(value.y), float(value.z)
+    """x, y, z from a Point/Vector3-like object or a 3-element numeric array; a planar one
+    (``x, y`` only: a Pose2D, turtlesim's Pose; or 2 numbers) has z = 0."""
+    if hasattr(value, "x") and hasattr(value, "y"):
+        z = float(value.z) if hasattr(value, "z") else 0.0
+        return float(value.x), float(value.y), z
     arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    if arr.shape == (2,):
+        return float(arr[0]), float(arr[1]), 0.0
     if arr.shape != (3,):
         raise ConfigError(
-            f"{what} must point to a Point/Vector3 or 3 numbers, got {type(value).__name__} "
-            f"of {arr.size} values"
+            f"{what} must point to a Point/Vector3, x and y, or 2 or 3 numbers, got "
+            f"{type(value).__name__} of {arr.size} values"
         )
     return float(arr[0]), float(arr[1]), float(arr[2])
+
+
+def scalar(value: Any, what: str) -> float:
+    """One number (a float or integer field)."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{what} must point to a number, got {type(value).__name__}") from None
+
+
+def yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
+    """The rotation by ``yaw`` radians about z, as (x, y, z, w)."""
+    half = 0.5 * yaw
+    return 0.0, 0.0, math.sin(half), math.cos(half)
 
 
 def quat4(value: Any, what: str) -> tuple[float, float, float, float]:

@@ -12,6 +12,10 @@ named as a candidate:
   names are never positions;
 - **velocity**: a vector whose path says ``vel`` (or a Twist's ``linear``);
 - **orientation**: a Quaternion-like message (``x, y, z, w``);
+- a **planar** pose, when nothing holds three coordinates: a message with numeric ``x, y``
+  (``geometry_msgs/Pose2D``) as the position, or the item's own ``x, y`` number fields
+  (turtlesim's ``Pose``) as ``position = ["x", "y"]``, and a number named like a yaw
+  (``theta``, ``yaw``, ``heading``) as ``yaw``;
 - **id**: an integer, string or UUID field named like an id (``track_id``, ``id``, ``uuid``,
   ``object_id``, ``name``, ...);
 - **stamp / frame**: the message's ``header`` (the defaults), a per-item ``header``
@@ -66,6 +70,7 @@ class _Candidates:
     vec3: list[str] = field(default_factory=list)
     quat: list[str] = field(default_factory=list)
     ids: list[str] = field(default_factory=list)
+    vec2: list[str] = field(default_factory=list)  # messages with numeric x, y only
 
 
 def _fields(store: Typestore, typename: str) -> list[tuple[str, tuple[int, Any]]]:
@@ -83,6 +88,58 @@ def _is_vector(store: Typestore, typename: str, names: str) -> bool:
     if names == "xyz" and "w" in fields:
         return False
     return all(fields[c][0] == _BASE and fields[c][1][0] in _FLOATS for c in names)
+
+
+def _number_fields(store: Typestore, typename: str) -> set[str]:
+    return {
+        name
+        for name, node in _fields(store, typename)
+        if node[0] == _BASE and (node[1][0] in _FLOATS or node[1][0] in _INTS)
+    }
+
+
+def _is_planar(store: Typestore, typename: str) -> bool:
+    """A planar point or pose: numeric ``x`` and ``y``, no ``z`` or ``w``."""
+    numbers = _number_fields(store, typename)
+    names = set(_field_names(store, typename))
+    return {"x", "y"} <= numbers and not names & {"z", "w"}
+
+
+#: yaw field names, best first
+_YAW_NAMES = ("yaw", "theta", "heading", "angle", "phi")
+
+
+def _yaws(store: Typestore, typename: str, prefix: str = "") -> list[str]:
+    floats = {
+        name
+        for name, node in _fields(store, typename)
+        if node[0] == _BASE and node[1][0] in _FLOATS
+    }
+    return [prefix + n for n in _YAW_NAMES if n in floats]
+
+
+def _planar(store: Typestore, item: str, found: _Candidates) -> tuple[str | list[str], list[str]]:
+    """A planar position (a path to an ``x, y`` message, or the item's own ``x, y`` fields)
+    and the yaw candidates beside it; ``("", [])`` when there is none."""
+    usable = [p for p in found.vec2 if not any(w in p.lower() for w in _NOT_POSITION)]
+    if usable:
+        path = sorted(usable, key=_position_rank)[0]
+        node = _walk_to(store, item, path)
+        return path, _yaws(store, node, path + ".") if node else []
+    numbers = _number_fields(store, item)
+    if {"x", "y"} <= numbers:
+        return ["x", "y", "z"] if "z" in numbers else ["x", "y"], _yaws(store, item)
+    return "", []
+
+
+def _walk_to(store: Typestore, typename: str, path: str) -> str | None:
+    """The message type at a dotted ``path`` of plain field names (None otherwise)."""
+    for step in path.split("."):
+        node = _field_names(store, typename).get(step)
+        if node is None or node[0] != _NAME:
+            return None
+        typename = str(node[1])
+    return typename
 
 
 def _is_uuid(store: Typestore, node: tuple[int, Any]) -> bool:
@@ -114,6 +171,8 @@ def _walk(
                 yield path, "quat"
             elif _is_vector(store, sub, "xyz"):
                 yield path, "vec3"
+            elif _is_planar(store, sub):
+                yield path, "vec2"
             elif _is_uuid(store, node):
                 yield path, "id"
             else:
@@ -136,7 +195,7 @@ def _walk(
 def _collect(store: Typestore, typename: str, prefix: str = "") -> _Candidates:
     out = _Candidates()
     for path, kind in _walk(store, typename, prefix):
-        {"vec3": out.vec3, "quat": out.quat, "id": out.ids}[kind].append(path)
+        {"vec3": out.vec3, "quat": out.quat, "id": out.ids, "vec2": out.vec2}[kind].append(path)
     return out
 
 
@@ -228,7 +287,8 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
     item = _element(store, name, array) if array else name
     found = _collect(store, item)
     positions = _positions(found.vec3)
-    if not positions:
+    planar, yaws = ("", []) if positions else _planar(store, item, found)
+    if not positions and not planar:
         from aion_cli.formats.detections.registry import RAW_SENSOR_HINT, RAW_SENSOR_TYPES
 
         if name in RAW_SENSOR_TYPES:
@@ -240,7 +300,8 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
         fields = ", ".join(n for n, _ in _fields(store, name))
         raise ConfigError(
             f"{topic}: {name} has no field aion can read as a position (a Point/Vector3-like "
-            f"message or 3 numbers, directly or in an array of messages); its fields: {fields}",
+            "message, 3 numbers, or numeric x and y, directly or in an array of messages); its "
+            f"fields: {fields}",
             hint="write the mapping by hand (formats/detections/mapping.py, README)",
         )
     velocities = _velocities(found.vec3)
@@ -261,12 +322,20 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
         lines.append(_line("array", array, _others(array, arrays) or "the people"))
     else:
         lines.append("# no array of people found: one detection per message")
-    lines.append(_line("position", positions[0], _others(positions[0], positions)))
+    if positions:
+        lines.append(_line("position", positions[0], _others(positions[0], positions)))
+    elif isinstance(planar, list):
+        names = ", ".join(_toml_string(p) for p in planar)
+        lines.append(f"{'position = [' + names + ']':<40} # planar: z is 0 unless given")
+    else:
+        lines.append(_line("position", planar, "planar (x, y): z is 0"))
     if velocities:
         lines.append(_line("velocity", velocities[0], _others(velocities[0], velocities)))
     else:
         lines.append("# velocity: no candidate (headings come from tracks, or from linking)")
-    if found.quat:
+    if not found.quat and yaws:
+        lines.append(_line("yaw", yaws[0], _others(yaws[0], yaws) or "radians about z"))
+    elif found.quat:
         comment = "a pose yaw counts only when the quaternion is set"
         other = _others(found.quat[0], found.quat)
         comment = f"{comment}; {other}" if other else comment
