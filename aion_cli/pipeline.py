@@ -57,12 +57,13 @@ from aion_cli.build_options import (
     resolve_config,
 )
 from aion_cli.build_output import write_build
-from aion_cli.build_report import BuildReport, NoProgress, ProgressSink
+from aion_cli.build_report import BuildReport, NoProgress, ProgressSink, overlap_warnings
 from aion_cli.build_stream import StreamStep
 from aion_cli.detection_counts import MapperTally
 from aion_cli.detection_feed import DetectionCounts, log_adapters
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import GraphSnapshot
+from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, StaleIndexError
 from aion_cli.graph_feed import GraphFeed, graph_source
 from aion_cli.graph_schedule import GraphTimes
@@ -236,6 +237,9 @@ class _Build(StreamStep):
                 raise no_detection_topic(logset, plan)
             self.report.detection_topics = sorted(plan.names("detections"))
             self.report.warnings.extend(getattr(logset, "warnings", []))  # lost or odd input
+            self.report.warnings.extend(
+                overlap_warnings(logset, plan.names("detections"), window_ns(config.window_s))
+            )
             self._adapters, self._factory, notes = log_adapters(
                 logset, plan.detections, plan.mappings
             )
@@ -306,8 +310,6 @@ class _Build(StreamStep):
             self._times = self._whole_times.limited(*self.time_part)
             self._part_total = times.count_inside(timed, *self.time_part)
         if isinstance(times, GraphTimes):
-            from aion_cli.engine.windows import window_ns
-
             delta = window_ns(self.config().window_s)
             self.graphs.schedule(times, self._times.strays, delta, self.time_part)
             start = self._times.start_ns

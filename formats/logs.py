@@ -40,6 +40,7 @@ from __future__ import annotations
 import heapq
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
 from operator import attrgetter
 from pathlib import Path
 from types import TracebackType
@@ -64,6 +65,18 @@ if TYPE_CHECKING:
 
 
 # --- the merged set -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Overlap:
+    """Two files of a :class:`LogSet` on the same topics at the same time
+    (:meth:`LogSet.overlaps`): ``[start_ns, end_ns]`` is the time both cover."""
+
+    first: LogFile
+    second: LogFile
+    start_ns: int
+    end_ns: int
+    topics: tuple[str, ...]
 
 
 class LogSet:
@@ -115,6 +128,25 @@ class LogSet:
     @property
     def duration_ns(self) -> int:
         return max(self.end_ns - self.start_ns, 0)
+
+    def overlaps(self, topics: set[str], at_least_ns: int) -> list[Overlap]:
+        """Pairs of files that both carry a topic of ``topics`` and whose time ranges (first
+        to last message) share at least ``at_least_ns``: two logs of one moment on the same
+        topic (two robots at once, or one recording twice: a copy, an excerpt, a merged
+        file), in file order."""
+        carried = [
+            sorted({t.topic for t in s.topics.values() if t.topic in topics and t.count})
+            for s in self._sources
+        ]
+        out: list[Overlap] = []
+        for i, a in enumerate(self.files):
+            for j in range(i + 1, len(self.files)):
+                b = self.files[j]
+                shared = sorted(set(carried[i]) & set(carried[j]))
+                lo, hi = max(a.start_ns, b.start_ns), min(a.end_ns, b.end_ns)
+                if shared and hi - lo >= at_least_ns:
+                    out.append(Overlap(a, b, lo, hi, tuple(shared)))
+        return out
 
     def topic(self, name: str) -> TopicInfo:
         """The topic called ``name``; :class:`TopicNotFoundError` lists the log's topics."""

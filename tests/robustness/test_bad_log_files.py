@@ -182,6 +182,27 @@ def test_empty_log_among_good_ones_is_a_warning(tmp_path: Path) -> None:
     assert any("empty.mcap: no messages" in n for n in report["warnings"])
 
 
+def test_logs_holding_the_same_topic_at_the_same_time_are_a_warning(tmp_path: Path) -> None:
+    """One recording given twice under two names (an excerpt beside the whole, as Lincoln's
+    2017-05-24_25 and 2017-05-25 files are) counts its people twice: the build says so. Logs
+    one after the other, or overlapping for less than a window, do not warn."""
+    whole = write_log(tmp_path / "whole.mcap", walk(1800))  # 30 min
+    excerpt = write_log(tmp_path / "excerpt.mcap", walk(900, start_s=600))  # its minutes 10-25
+    later = write_log(tmp_path / "later.mcap", walk(700, start_s=1900))
+    brush = write_log(tmp_path / "brush.mcap", walk(300, start_s=1700))  # 100 s of overlap
+    report = build_json(whole, excerpt, "-o", tmp_path / "twice.aion", "--workers", "1")
+    (warning,) = [w for w in report["warnings"] if "count twice" in w]
+    assert warning.startswith("whole.mcap and excerpt.mcap both hold /tracks from ")
+    assert "(0.2 h)" in warning
+    assert report["detections"]["used"] == 2700  # what the warning is about: counted twice
+    for apart in ((whole, later), (whole, brush)):
+        report = build_json(*apart, "-o", tmp_path / "apart.aion", "--workers", "1")
+        assert not [w for w in report["warnings"] if "count twice" in w]
+    quiet = run("build", whole, excerpt, "-o", tmp_path / "q.aion", "-q")  # parallel too
+    assert quiet.exit_code == 0
+    assert "count twice" in quiet.stderr
+
+
 def test_log_with_no_usable_topic_is_an_error_naming_the_way_out(tmp_path: Path) -> None:
     chatter = [("/chatter", "std_msgs/msg/String", {"data": "hi"}, T0 + k * S) for k in range(5)]
     log = write_log(tmp_path / "chatter.mcap", [*chatter, robot_tf(T0)])
