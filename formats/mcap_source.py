@@ -157,8 +157,10 @@ class _McapSource(_McapIndexed):
             encoding = _MESSAGE_ENCODINGS.get(channel.message_encoding)
             if schema is None or encoding is None or not _schema_encoding_ok(schema.encoding):
                 enc = schema.encoding if schema is not None else "none"
+                n = counts.get(cid, 0)
                 self.warnings.append(
-                    f"{path.name}: topic {channel.topic} skipped: message encoding "
+                    f"{path.name}: topic {channel.topic} skipped ({n:,} message"
+                    f"{'' if n == 1 else 's'}): message encoding "
                     f"{channel.message_encoding!r} with schema encoding {enc!r} is not ROS"
                 )
                 continue

@@ -284,11 +284,15 @@ def _print(report: dict[str, Any]) -> None:
 
     out = data_console()
     names = safe(", ".join(Path(f["path"]).name for f in report["files"]))
+    held = sum(int(f["messages"]) for f in report["files"])
+    messages = f"{report['messages']:,}"
+    if held > report["messages"]:  # the rest on topics no ROS reader can decode (warnings)
+        messages = f"{messages} readable of {held:,} (see the warnings)"
     out.print(
         f"[bold]{names}[/bold]  format: {safe(report['format'] or '?')}  "
         f"size: {human_size(report['size_bytes'])}  "
         f"duration: {report['duration_s']:,.1f} s ({report['start']} .. {report['end']})  "
-        f"messages: {report['messages']:,}",
+        f"messages: {messages}",
         soft_wrap=True,
     )
     table = Table(show_lines=False, header_style="bold")

@@ -97,7 +97,7 @@ def test_reader_yields_exactly_the_listed_messages(name: str) -> None:
 @pytest.mark.parametrize("name", _cases() or ["none"])
 def test_logset_lists_no_topic_of_a_non_ros_file(name: str) -> None:
     path = DATA / name
-    messages, _ = _expected(path)
+    messages, channels = _expected(path)
     if not messages:  # NoData, OneAttachment, OneMetadata: a log without messages is refused
         with pytest.raises(LogFormatError, match="no messages"):
             open_logs([path])
@@ -107,6 +107,25 @@ def test_logset_lists_no_topic_of_a_non_ros_file(name: str) -> None:
         assert list(logs.messages()) == []
         assert logs.files[0].message_count == len(messages)
         assert any("is not ROS" in w for w in logs.warnings)
+        # the warning says how many messages the skipped topics held
+        counts: dict[str, int] = {}
+        for _t, channel, _data in messages:
+            counts[channels[channel]] = counts.get(channels[channel], 0) + 1
+        for topic, n in counts.items():
+            assert any(f"topic {topic} skipped ({n:,} message" in w for w in logs.warnings)
+
+
+def test_info_says_how_many_messages_it_cannot_read() -> None:
+    """``aion info`` of a log whose only topic is not ROS: none of its 10 messages readable,
+    said in the header line, not "messages: 0" beside a file of 10."""
+    from tests.cli.conftest import run
+
+    path = real_path("logs", "mcap_conformance", "TenMessages", "TenMessages.mcap")
+    if not path.exists():
+        pytest.skip(f"{path} is not here: the real data of ../shared/data is absent")
+    result = run("info", path)
+    assert result.exit_code == 0, result.stderr
+    assert "messages: 0 readable of 10 (see the warnings)" in " ".join(result.stdout.split())
 
 
 # --- the same layouts with ROS channels, through LogSet -----------------------------------------
