@@ -179,7 +179,7 @@ def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSum
             count=t.count,
             role=role_of(t.topic, t.msgtype, known),
             encoding=t.encoding,
-            rate_hz=t.count / span_s if span_s > 0 else None,
+            rate_hz=t.count / span_s if span_s > 0 and t.count > 1 else None,  # one: no rate
         )
         for t in logset.topics
     ]

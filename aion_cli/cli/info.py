@@ -345,7 +345,8 @@ def _print(report: dict[str, Any]) -> None:
         share = fixed["windows_with_messages"] / fixed["span_windows"]
         text = (
             "no robot trajectory (no TF, no scene graph): `aion build` takes the log as a fixed "
-            f"sensor over the {fixed['windows_with_messages']:,} windows of "
+            f"sensor over the {fixed['windows_with_messages']:,} "
+            f"window{'' if fixed['windows_with_messages'] == 1 else 's'} of "
             f"{fixed['window_s'] / 60:g} min with messages, {share:.0%} of its span"
         )
         if share < 0.5:
