@@ -308,7 +308,11 @@ def _parse_iso(text: str, zone: Zone, current: datetime) -> int | None:
         candidate = candidate[:-2] + "Z"
     try:
         moment = datetime.fromisoformat(candidate)
-    except ValueError:
+    except ValueError as exc:
+        reason = str(exc)
+        if re.match(r"\d{4}-\d{2}-\d{2}", candidate) and ("range" in reason or "must be" in reason):
+            # the form is right, a field is not: say which ("2026-02-30 12:00")
+            raise TimeFormatError(f"invalid date or time {text!r}: {reason}", FORMS_HINT) from None
         return None
     if moment.tzinfo is None:
         moment = moment.replace(tzinfo=zone.tz)

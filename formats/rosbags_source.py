@@ -13,6 +13,7 @@ with aion's MCAP reader instead (:meth:`_RosbagsSource.mcap_storage` says which 
 from __future__ import annotations
 
 import heapq
+import re
 from collections import Counter
 from collections.abc import Iterator, Mapping
 from operator import attrgetter
@@ -454,8 +455,15 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
     try:
         reader.open()
     except Exception as exc:  # rosbags ReaderError and the errors of its storage plugins
-        raise LogFormatError(f"{path}: not a readable {what} ({exc})", hint=hint) from exc
+        raise LogFormatError(f"{path}: not a readable {what} ({_plain(exc)})", hint=hint) from exc
     return reader
+
+
+def _plain(exc: Exception) -> str:
+    """An exception's text with the tuples rosbags wraps inner reasons in unwrapped:
+    ``Bag index looks damaged: ('Header could not be read from file.',)`` reads
+    ``Bag index looks damaged: Header could not be read from file.``."""
+    return re.sub(r"\('((?:[^'\\]|\\.)*)',\)", r"\1", str(exc))
 
 
 def _metadata_warning(

@@ -142,6 +142,19 @@ def test_bad_times_raise_an_input_error_with_the_accepted_forms(text: str) -> No
     assert info.value.hint
 
 
+@pytest.mark.parametrize(
+    ("text", "reason"),
+    [
+        ("2026-02-30 12:00", "day is out of range for month"),
+        ("2026-13-01", "month must be in 1..12"),
+        ("2026-01-12 25:00", "hour must be in 0..23"),
+    ],
+)
+def test_a_date_of_the_right_form_says_which_field_is_wrong(text: str, reason: str) -> None:
+    with pytest.raises(TimeFormatError, match=f"invalid date or time '{text}': {reason}"):
+        parse_time(text, UTCZ, NOW)
+
+
 def test_zones_by_name_offset_and_local(monkeypatch: pytest.MonkeyPatch) -> None:
     assert resolve_zone("UTC").name == "UTC"
     plus_one = resolve_zone("+01:00")

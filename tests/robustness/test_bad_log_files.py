@@ -147,7 +147,9 @@ def test_truncated_bag_is_a_clear_error_and_writes_no_map(tmp_path: Path) -> Non
     data = bag.read_bytes()
     cut = tmp_path / "cut.bag"
     cut.write_bytes(data[: len(data) // 2])
-    fails(run("build", cut, "-o", tmp_path / "cut.aion"), "not a readable ROS 1 bag")
+    result = run("build", cut, "-o", tmp_path / "cut.aion")
+    fails(result, "not a readable ROS 1 bag")
+    assert "',)" not in result.stderr  # rosbags' reason unwrapped, not a Python tuple
     assert not (tmp_path / "cut.aion").exists()
 
 
