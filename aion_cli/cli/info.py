@@ -56,6 +56,20 @@ def describe_map(path: Path) -> dict[str, Any]:
     return {"map": str(path)} | shown | {"rooms": _rooms(path)}
 
 
+def verify_map(path: Path) -> dict[str, Any]:
+    """``info --verify``: every member read and checked against its checksum (a query reads,
+    and so checks, only the members it needs), then the state loaded and checked for
+    consistency. :class:`~aion_cli.errors.InputError` (corrupt, inconsistent) otherwise."""
+    from aion_cli.formats.mapfile import read_map
+    from aion_cli.mapquery import load_map
+
+    arrays, _manifest = read_map(path)
+    members, size = len(arrays), sum(int(a.nbytes) for a in arrays.values())
+    del arrays
+    load_map(path)
+    return {"members": members, "bytes": size, "consistent": True}
+
+
 def _rooms(path: Path) -> list[dict[str, Any]]:
     """Each room of the map's latest scene graph: id, name (None when the graph gives none)
     and how many places it holds; empty without a graph, or when the graph cannot be read
@@ -209,6 +223,12 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
     help="Print a ready-to-edit TOML mapping for TOPIC, from the log's own definition of "
     "its type, and exit.",
 )
+@click.option(
+    "--verify",
+    is_flag=True,
+    help="Maps: read every member and check its checksum and the state's consistency (info "
+    "alone reads only the manifest and the graph).",
+)
 @nav_layer_option
 @format_option(choices=("table", "json"))
 def command(
@@ -218,6 +238,7 @@ def command(
     nav_layer: str | None = None,
     detections_mapping: Path | None = None,
     suggest_topic: str | None = None,
+    verify: bool = False,
 ) -> None:
     """Show the format, duration and topics of LOGS and what aion will use from them.
 
@@ -234,8 +255,16 @@ def command(
     maps = [p for p in logs if p.suffix == MAP_SUFFIX and p.is_file()]
     if maps and len(maps) != len(logs):
         raise InputError("give either logs or maps, not both")
+    if verify and not maps:
+        raise InputError(
+            "--verify checks map files (.aion)",
+            hint="a log's chunks are checked as a build reads them",
+        )
     if maps:
         reports = [describe_map(p) for p in maps]
+        if verify:
+            for path, report in zip(maps, reports, strict=True):
+                report["verified"] = verify_map(path)
         if fmt == "json":
             click.echo(to_json(reports[0] if len(reports) == 1 else reports))
         else:
@@ -451,6 +480,13 @@ def _print_map(report: dict[str, Any]) -> None:
         table.add_row(
             "reconciled", "yes: totals follow the map's own forecast" if families.get("reconciled")
             else "no"
+        )
+    verified = report.get("verified")
+    if isinstance(verified, dict):
+        table.add_row(
+            "verified",
+            f"every member ({verified['members']:,}, {human_size(verified['bytes'])}) matches "
+            "its checksum; the state is consistent",
         )
     defaults = ModelConfig().to_dict()
     changed = {k: v for k, v in report.get("config", {}).items() if defaults.get(k) != v}

@@ -26,6 +26,7 @@ from tests.robustness.conftest import (
     S,
     assert_one_error,
     build_json,
+    fails,
     person,
     robot_tf,
     run,
@@ -320,3 +321,24 @@ def test_build_summary_reports_drops_by_reason(tmp_path: Path) -> None:
 def test_a_clean_build_reports_no_drops(tmp_path: Path) -> None:
     report = build_json(write_log(tmp_path / "clean.mcap", walk(30)), "-o", tmp_path / "c.aion")
     assert report["detections"] == {"read": 30, "used": 30, "dropped": {}}
+
+
+def test_info_verify_reads_every_member_where_info_alone_reads_few(
+    office: Office, tmp_path: Path
+) -> None:
+    """A byte flipped inside an array only queries read: plain ``info`` (manifest and graph)
+    does not see it, ``info --verify`` does (exit 2, the member named); a whole map verifies,
+    and ``--verify`` of a log is refused."""
+    import json
+
+    good = run("info", office.map, "--verify", "--format", "json")
+    assert good.exit_code == 0, good.stderr
+    verified = json.loads(good.stdout)["verified"]
+    with zipfile.ZipFile(office.map) as zf:
+        assert verified["members"] == len([n for n in zf.namelist() if n.endswith(".npy")])
+    assert verified["consistent"] is True
+    assert "matches its checksum" in " ".join(run("info", office.map, "--verify").stdout.split())
+    damaged = _corrupted_map(office, tmp_path)
+    assert run("info", damaged).exit_code == 0  # the manifest alone reads fine
+    fails(run("info", damaged, "--verify"), "corrupt", "checksum")
+    fails(run("info", office.log, "--verify"), "--verify checks map files")
