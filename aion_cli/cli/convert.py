@@ -261,6 +261,12 @@ def command(
             "no observed spans: the build counts only windows with a detection as observed; "
             "give the spans the sensor was recording with --observed START..END"
         )
+    if tz is not None and zone.name != "UTC":
+        # a log holds UNIX times only: the map's days and hours follow build's own --tz
+        note(
+            f"the log's times are absolute; build with --tz {zone.name} for a map whose days "
+            f"and hours of the day are {zone.name}'s (aion build {output.name} --tz {zone.name})"
+        )
 
 
 def _check_layout_options(
