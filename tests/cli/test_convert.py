@@ -198,7 +198,7 @@ def test_lincoln_excerpt_converts_with_its_declared_span(tmp_path: Path) -> None
         ("..1700000000", "expected START..END"),
         ("1..2..3", "expected START..END"),
         ("1700000000..bogus", "cannot read the time 'bogus'"),
-        ("2026-13-45 10:00..2026-11-23 11:00", "cannot read the time"),
+        ("2026-13-45 10:00..2026-11-23 11:00", "'2026-13-45 10:00': month must be in 1..12"),
     ],
 )
 def test_bad_observed_values(tmp_path: Path, observed: str, fragment: str) -> None:
