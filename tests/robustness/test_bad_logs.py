@@ -10,6 +10,7 @@ what aion must keep, drop (and count), or refuse with a one-line error.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +79,14 @@ def test_frame_without_any_tf_is_an_error_suggesting_map_frame(tmp_path: Path) -
         build_json(log, "--map-frame", "odom", "-o", tmp_path / "o.aion")["detections"]["used"]
         == 20
     )
+    # info says it before the build fails: it reads the frames of the first messages
+    info = run("info", log, "--format", "json")
+    assert json.loads(info.stdout)["frames_without_tf"] == {"/tracks": ["odom"]}
+    table = " ".join(run("info", log).stderr.split())
+    assert "/tracks holds detections in frame 'odom' and the log has no TF to 'map'" in table
+    assert "build with --map-frame odom" in table
+    in_map = write_log(tmp_path / "map.mcap", [person(T0 + k * S, (1, 2, 0)) for k in range(5)])
+    assert json.loads(run("info", in_map, "--format", "json").stdout)["frames_without_tf"] == {}
 
 
 def test_known_frame_outside_the_tf_time_range_is_counted(tmp_path: Path) -> None:
