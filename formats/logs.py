@@ -452,7 +452,11 @@ def _open_compressed(path: Path, kind: str, limits: ReadLimits) -> list[_Source]
 
 
 def open_logs(
-    paths: Iterable[Path | str], fmt: str | None = None, *, limits: ReadLimits | None = None
+    paths: Iterable[Path | str],
+    fmt: str | None = None,
+    *,
+    limits: ReadLimits | None = None,
+    allow_empty: bool = False,
 ) -> LogSet:
     """Open ``paths`` (files or rosbag2 folders) as one :class:`LogSet`; ``fmt`` (``"mcap"``,
     ``"bag"``, ``"rosbag2"``) overrides the format guessed from each path. ``limits``: what
@@ -460,7 +464,8 @@ def open_logs(
     default: ``AION_MAX_CHUNK_MB`` / ``AION_MAX_MESSAGE_MB`` or 512 / 256 MiB).
 
     Special files (FIFOs, devices, sockets) are refused before anything is read from them.
-    Raises :class:`LogFormatError` for missing, empty, unreadable or message-less logs.
+    Raises :class:`LogFormatError` for missing, empty, unreadable or message-less logs
+    (``allow_empty``: a well-formed recording without messages opens, for ``aion info``).
     """
     read_limits = limits if limits is not None else ReadLimits.from_env()
     sources: list[_Source] = []
@@ -470,7 +475,7 @@ def open_logs(
         if not sources:
             raise LogFormatError("no log given", hint="pass at least one log file or folder")
         logset = LogSet(sources)
-        if all(f.message_count == 0 for f in logset.files):
+        if not allow_empty and all(f.message_count == 0 for f in logset.files):
             names = ", ".join(str(f.path) for f in logset.files)
             detail = "; ".join(logset.warnings)
             raise LogFormatError(

@@ -112,7 +112,7 @@ def describe(
     from aion_cli.topics import select_topics
 
     mappings = _mappings(mapping)
-    with open_logs(paths, log_format) as logset:
+    with open_logs(paths, log_format, allow_empty=True) as logset:
         summary = summarize(logset, [m.msgtype for m in mappings])
         plan = select_topics(logset.topics, mappings=mappings)
         _check_mappings(logset, plan)
@@ -359,10 +359,13 @@ def _print(report: dict[str, Any]) -> None:
     messages = f"{report['messages']:,}"
     if held > report["messages"]:  # the rest on topics no ROS reader can decode (warnings)
         messages = f"{messages} readable of {held:,} (see the warnings)"
+    duration = f"{report['duration_s']:,.1f} s ({report['start']} .. {report['end']})"
+    if held == 0:  # an empty recording (info opens it; build refuses it)
+        duration = "none (no messages)"
     out.print(
         f"[bold]{names}[/bold]  format: {safe(report['format'] or '?')}  "
         f"size: {human_size(report['size_bytes'])}  "
-        f"duration: {report['duration_s']:,.1f} s ({report['start']} .. {report['end']})  "
+        f"duration: {duration}  "
         f"messages: {messages}",
         soft_wrap=True,
     )

@@ -10,6 +10,7 @@ what aion must keep, drop (and count), or refuse with a one-line error.
 
 from __future__ import annotations
 
+import json
 import random
 import struct
 import tracemalloc
@@ -172,8 +173,19 @@ def test_bag_with_a_broken_index_is_a_clear_error(
 
 @pytest.mark.parametrize("container", ["mcap", "bag"])
 def test_log_without_messages_is_a_clear_error(container: str, tmp_path: Path) -> None:
+    """An empty recording: nothing to build from (exit 2, no map), but ``info`` describes it
+    (0 messages, a warning), as it is a well-formed file."""
     empty = write_log(tmp_path / f"empty.{container}", [], container)
     fails(run("build", empty, "-o", tmp_path / "e.aion"), "no messages")
+    assert not (tmp_path / "e.aion").exists()
+    info = run("info", empty)
+    assert info.exit_code == 0, info.stderr
+    assert "duration: none (no messages) messages: 0" in " ".join(info.stdout.split())
+    assert "warning:" in info.stderr
+    assert "no messages" in info.stderr
+    doc = json.loads(run("info", empty, "--format", "json").stdout)
+    assert doc["messages"] == 0
+    assert any("no messages" in w for w in doc["warnings"])
 
 
 def test_empty_log_among_good_ones_is_a_warning(tmp_path: Path) -> None:
