@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.cli.info import describe_map
+from aion_cli.cli.info_map import describe_map
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.formats.mapfile import read_manifest
 from aion_cli.formats.tracks_log import tracks_to_log

@@ -9,6 +9,7 @@ import click
 
 from aion_cli.cli.common import AionPath
 from aion_cli.cli.graph_options import nav_layer_option
+from aion_cli.cli.info_map import describe_map, print_map, verify_map
 from aion_cli.cli.output import format_option, human_size, to_json
 
 EPILOG = """\b
@@ -44,60 +45,6 @@ buildings, agent_poses, mesh{vertices, faces}, layers[{key, name, nodes}], skipp
 """
 
 MAP_SUFFIX = ".aion"
-
-
-def describe_map(path: Path) -> dict[str, Any]:
-    """The manifest of a map file without the internal tables
-    (:meth:`aion_cli.manifest.Manifest.shown`), and the rooms of its scene graph with their
-    names (``plan --from kitchen`` takes them). Cheap: of the arrays only the graph's are
-    read, never the entries or accumulators."""
-    from aion_cli.formats.mapfile import read_manifest
-    from aion_cli.manifest import Manifest
-
-    shown = Manifest.from_dict(read_manifest(path)).shown()
-    return {"map": str(path)} | shown | {"rooms": _rooms(path)}
-
-
-def verify_map(path: Path) -> dict[str, Any]:
-    """``info --verify``: every member read and checked against its checksum (a query reads,
-    and so checks, only the members it needs), then the state loaded and checked for
-    consistency. :class:`~aion_cli.errors.InputError` (corrupt, inconsistent) otherwise."""
-    from aion_cli.formats.mapfile import read_map
-    from aion_cli.mapquery import load_map
-
-    arrays, _manifest = read_map(path)
-    members, size = len(arrays), sum(int(a.nbytes) for a in arrays.values())
-    del arrays
-    load_map(path)
-    return {"members": members, "bytes": size, "consistent": True}
-
-
-def _rooms(path: Path) -> list[dict[str, Any]]:
-    """Each room of the map's latest scene graph: id, name (None when the graph gives none)
-    and how many places it holds; empty without a graph, or when the graph cannot be read
-    (the commands that use it say why)."""
-    import numpy as np
-
-    from aion_cli.engine.node_ids import node_label
-    from aion_cli.errors import AionError
-    from aion_cli.mapquery import load_map_head
-    from aion_cli.room_names import name_of
-
-    try:
-        graph = load_map_head(path).graph
-    except AionError:
-        return []
-    if graph is None:
-        return []
-    rooms = graph.rooms
-    return [
-        {
-            "id": node_label(int(node_id)),
-            "name": name_of(rooms, k),
-            "places": int(np.count_nonzero(graph.places.parent == np.uint64(node_id))),
-        }
-        for k, node_id in enumerate(rooms.ids.tolist())
-    ]
 
 
 def describe(
@@ -311,7 +258,7 @@ def command(
             click.echo(to_json(reports[0] if len(reports) == 1 else reports))
         else:
             for report in reports:
-                _print_map(report)
+                print_map(report)
         return
     if suggest_topic is not None:
         click.echo(suggest(list(logs), log_format, suggest_topic), nl=False)
@@ -444,111 +391,3 @@ def _print(report: dict[str, Any]) -> None:
             )
     for warning in report["warnings"]:
         console().print(f"[yellow]warning:[/yellow] {safe(warning)}", soft_wrap=True)
-
-
-def _span_with_days(length: str, start: Any, end: Any, report: dict[str, Any]) -> str:
-    """``120h00m00s: Mon 2026-01-05 00:00 to Sat 2026-01-10 00:00 UTC``: the span's ends in
-    the map's zone with their weekdays (which kinds of day the map can know); the length
-    alone for a zone this machine does not know or a map without data."""
-    from aion_cli.errors import AionError
-    from aion_cli.timeparse import from_ns, resolve_zone
-
-    if not isinstance(start, int) or not isinstance(end, int):
-        return length
-    try:
-        zone = resolve_zone(str(report.get("timezone") or "UTC"))
-    except AionError:
-        return length
-
-    def when(t_ns: int) -> str:
-        return from_ns(t_ns, zone).strftime("%a %Y-%m-%d %H:%M")
-
-    return f"{length}: {when(start)} to {when(end)} {zone.name}"
-
-
-def _print_map(report: dict[str, Any]) -> None:
-    """The table of a map's manifest; its strings (input names, creator, sources, config
-    values) are escaped like a log's (:func:`_print`): a map file is input too."""
-    from rich.table import Table
-
-    from aion_cli.cli.build_summary import span_text
-    from aion_cli.cli.console import data_console
-    from aion_cli.cli.output import markup_safe as safe
-    from aion_cli.engine.config import ModelConfig
-
-    span = report.get("time_span", {})
-    start, end = span.get("start_ns"), span.get("end_ns")
-    seconds = None if start is None or end is None else (end - start) / 1e9
-    counts = report.get("counts", {})
-    table = Table(title=f"map {safe(report['map'])}", show_header=False, title_justify="left")
-    table.add_column("what", style="bold")
-    table.add_column("value")
-    table.add_row("format", safe(f"{report.get('format')} {report.get('version')}"))
-    table.add_row("created", safe(f"{report.get('created')} by {report.get('creator')}"))
-    table.add_row("time span", _span_with_days(span_text(seconds), start, end, report))
-    table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
-    table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
-    table.add_row("graph", safe(report.get("graph_source")))
-    rooms = report.get("rooms") or []
-    if rooms:
-        named = [f"{r['name']} ({r['id']})" if r.get("name") else str(r["id"]) for r in rooms]
-        more = f", … {len(named) - 12:,} more" if len(named) > 12 else ""
-        table.add_row("rooms", safe(f"{len(rooms):,}: {', '.join(named[:12])}{more}"))
-    table.add_row("observation", safe(report.get("observation")))
-    query_only = report.get("query_only")
-    if isinstance(query_only, dict):
-        from aion_cli.query_only import made_from
-
-        table.add_row(
-            "query only",
-            safe(f"made from {made_from(query_only) or '?'} by aion compact: answers queries, "
-                 "cannot be continued or merged"),
-        )
-    part = report.get("part")
-    if isinstance(part, dict):
-        held = int(part.get("held_days", 0))
-        table.add_row(
-            "part map",
-            safe(f"aion build --part: {held:,} day{'' if held == 1 else 's'} held unscored for "
-                 f"a merge; aion merge {Path(str(report['map'])).name} [more parts] -o MAP.aion "
-                 "scores them into a map"),
-        )
-    families = report.get("families") or {}
-    for kind in ("flow", "direction"):
-        tally = families.get(kind) or {}
-        if tally:
-            text = ", ".join(f"{name} {count:,}" for name, count in sorted(tally.items()))
-            table.add_row(f"{kind} models", safe(text))
-    if "scored_days" in families:
-        days = int(families["scored_days"])
-        last = " (the last, still open to more logs, provisionally)" if families.get(
-            "last_day_provisional") else ""
-        table.add_row("days scored", f"{days:,}{last}")
-    from aion_cli.forecast_notes import observed_hours
-
-    hours = observed_hours(families, report.get("config") or {}, report.get("timezone"))
-    if hours is not None:
-        table.add_row("hours observed", safe(hours))
-    if families:
-        table.add_row(
-            "reconciled", "yes: totals follow the map's own forecast" if families.get("reconciled")
-            else "no"
-        )
-    verified = report.get("verified")
-    if isinstance(verified, dict):
-        table.add_row(
-            "verified",
-            f"every member ({verified['members']:,}, {human_size(verified['bytes'])}) matches "
-            "its checksum; the state is consistent",
-        )
-    defaults = ModelConfig().to_dict()
-    changed = {k: v for k, v in report.get("config", {}).items() if defaults.get(k) != v}
-    table.add_row(
-        "config", safe(", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults")
-    )
-    for entry in report.get("inputs", []):
-        table.add_row(
-            "input",
-            safe(f"{entry['name']}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"),
-        )
-    data_console().print(table)
