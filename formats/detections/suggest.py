@@ -232,7 +232,9 @@ def _arrays(store: Typestore, typename: str) -> list[str]:
     for name, (kind, detail) in _fields(store, typename):
         if kind not in (_SEQUENCE, _ARRAY) or int(detail[0][0]) != _NAME:
             continue
-        if _positions(_collect(store, str(detail[0][1])).vec3):
+        element = str(detail[0][1])
+        found_in = _collect(store, element)
+        if _positions(found_in.vec3) or _planar(store, element, found_in)[0]:
             found.append(name)
     rank = {n: i for i, n in enumerate(_ARRAY_NAMES)}
     return sorted(found, key=lambda n: rank.get(n.lower(), len(rank)))

@@ -326,3 +326,16 @@ def test_turtlesim_poses_of_a_real_bag_map_as_suggested() -> None:
     theta = np.array([p.theta for p in poses], np.float64)  # turtlesim's grows past pi
     np.testing.assert_allclose(np.angle(np.exp(1j * (got.yaw - theta))), 0.0, atol=1e-6)
     assert got.frame_names() == ["map"] * 1344
+
+
+def test_a_suggested_mapping_finds_an_array_of_planar_people(planar_store: Any) -> None:
+    """``crowd/Planar``: ``Person[] people``, each a Pose2D and an id: the suggestion names
+    the array, the Pose2D as the position and its theta as the yaw, and it decodes."""
+    from aion_cli.formats.detections.suggest import suggest_mapping
+
+    text = suggest_mapping("/crowd", "crowd/msg/Planar", planar_store)
+    assert 'array = "people"' in text
+    assert 'position = "pose"' in text
+    assert 'yaw = "pose.theta"' in text
+    (m,) = load_mapping(text)
+    m.check(planar_store)
