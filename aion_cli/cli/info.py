@@ -32,9 +32,9 @@ JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns,
 size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
 role, encoding, rate_hz, used, why}], roles, dsg_versions, will_use{detections, scene_graph, tf},
 cannot_read, warnings, fixed_sensor{windows_with_messages, span_windows, window_s,
-hours_with_messages} and frames_without_tf{topic: [frames other than 'map' in its first
-messages]} (only when the logs have neither TF nor a scene graph: build observes the windows
-with messages, and needs --map-frame for detections in another frame).
+hours_with_messages} (only when the logs have neither TF nor a scene graph: build observes
+the windows with messages), frames_without_tf{topic: [frames of its first messages that the
+log's TF does not connect to 'map']} (aion_cli.frame_check: a build would need --map-frame).
 For a map (.aion): format, version, creator, created, inputs,
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config, and with
@@ -68,7 +68,10 @@ def describe(
         report = summary.to_dict()
         if plan.detections and not plan.graph and not plan.tf:
             report["fixed_sensor"] = _fixed_sensor_windows(logset)
-            report["frames_without_tf"] = _frames_without_tf(logset, plan, mappings)
+        if plan.detections:
+            from aion_cli.frame_check import unconnected_frames
+
+            report["frames_without_tf"] = unconnected_frames(logset, plan, mappings)
     used = plan.names("detections") | plan.names("graph") | plan.names("tf")
     for topic in report["topics"]:
         topic["used"] = topic["topic"] in used
@@ -81,45 +84,6 @@ def describe(
     }
     report["cannot_read"] = [f"{t.topic} ({t.msgtype})" for t in plan.ignored]
     return report
-
-
-#: detection messages per topic whose frames ``info`` reads when the log has no TF
-_FRAME_SAMPLE = 20
-
-
-def _frames_without_tf(logset: Any, plan: Any, mappings: list[Any]) -> dict[str, list[str]]:
-    """In a log without TF: per detection topic, the frames of its first messages other than
-    the default map frame, which a build cannot move into the map frame (it would stop with
-    "no TF to 'map'"): ``info`` says so first. Topics it cannot decode are left out (the
-    build reports those)."""
-    from aion_cli.build_options import DEFAULT_MAP_FRAME
-    from aion_cli.detection_feed import log_adapters
-    from aion_cli.errors import AionError
-
-    out: dict[str, list[str]] = {}
-    try:
-        adapters, _factory, _notes = log_adapters(
-            logset, plan.detections, {m.topic: m for m in mappings}
-        )
-    except AionError:
-        return out
-    for info in plan.detections:
-        sample = []
-        for message in logset.messages([info.topic]):
-            sample.append(message)
-            if len(sample) >= _FRAME_SAMPLE:
-                break
-        adapter = adapters.get((info.topic, info.msgtype, info.encoding))
-        if adapter is None or not sample:
-            continue
-        try:
-            frames = set(adapter.decode(sample).frame_names())
-        except AionError:
-            continue
-        others = sorted(f for f in frames if f and f != DEFAULT_MAP_FRAME)
-        if others:
-            out[info.topic] = others
-    return out
 
 
 def _fixed_sensor_windows(logset: Any) -> dict[str, Any]:
@@ -361,12 +325,21 @@ def _print(report: dict[str, Any]) -> None:
         console().print(
             "[yellow]note:[/yellow] no scene graph: build with --graph FILE or --derive-graph"
         )
+    from aion_cli.frame_check import TF_SAMPLE
+
+    has_tf = bool(report.get("will_use", {}).get("tf"))
     for topic, frames in (report.get("frames_without_tf") or {}).items():
         named = ", ".join(f"'{f}'" for f in frames)
+        apart = (
+            f"which the log's TF (its first {TF_SAMPLE} messages per TF topic) does not connect "
+            "to 'map'"
+            if has_tf
+            else "and the log has no TF to 'map'"
+        )
         console().print(
-            f"[yellow]note:[/yellow] {safe(topic)} holds detections in frame {safe(named)} and the "
-            f"log has no TF to 'map': build with --map-frame {safe(frames[0])} (if it is a fixed "
-            "frame) or give the TF",
+            f"[yellow]note:[/yellow] {safe(topic)} holds detections in frame {safe(named)}, "
+            f"{apart}: build with --map-frame {safe(frames[0])} (if it is a fixed frame) or give "
+            "the TF",
             soft_wrap=True,
         )
     fixed = report.get("fixed_sensor")

@@ -83,10 +83,29 @@ def test_frame_without_any_tf_is_an_error_suggesting_map_frame(tmp_path: Path) -
     info = run("info", log, "--format", "json")
     assert json.loads(info.stdout)["frames_without_tf"] == {"/tracks": ["odom"]}
     table = " ".join(run("info", log).stderr.split())
-    assert "/tracks holds detections in frame 'odom' and the log has no TF to 'map'" in table
+    assert "/tracks holds detections in frame 'odom', and the log has no TF to 'map'" in table
     assert "build with --map-frame odom" in table
     in_map = write_log(tmp_path / "map.mcap", [person(T0 + k * S, (1, 2, 0)) for k in range(5)])
     assert json.loads(run("info", in_map, "--format", "json").stdout)["frames_without_tf"] == {}
+
+
+def test_info_names_detection_frames_the_tf_does_not_connect_to_map(tmp_path: Path) -> None:
+    """With TF: detections in 'laser', the TF joining map -> base_link only: info names
+    'laser' (and the --map-frame that builds the log); once the TF joins laser too, nothing."""
+    people = [person(T0 + k * S, (1, 2, 0), frame="laser") for k in range(10)]
+    apart = write_log(tmp_path / "apart.mcap", people + [robot_tf(T0 + k * S) for k in range(10)])
+    doc = json.loads(run("info", apart, "--format", "json").stdout)
+    assert doc["frames_without_tf"] == {"/tracks": ["laser"]}
+    table = " ".join(run("info", apart).stderr.split())
+    assert "holds detections in frame 'laser', which the log's TF (its first 500 messages" in table
+    assert "build with --map-frame laser" in table
+    fails(run("build", apart, "-o", tmp_path / "a.aion"), "laser")  # what info foresaw
+    joined = write_log(
+        tmp_path / "joined.mcap",
+        people + [robot_tf(T0 + k * S) for k in range(10)]
+        + [robot_tf(T0 + k * S, child="laser") for k in range(10)],
+    )
+    assert json.loads(run("info", joined, "--format", "json").stdout)["frames_without_tf"] == {}
 
 
 def test_known_frame_outside_the_tf_time_range_is_counted(tmp_path: Path) -> None:
