@@ -11,6 +11,7 @@ read).
 
 from __future__ import annotations
 
+from itertools import islice
 from typing import Any
 
 from aion_cli.build_options import DEFAULT_MAP_FRAME
@@ -68,36 +69,15 @@ def detection_frames(logset: Any, plan: Any, mappings: list[Any]) -> dict[str, s
 
 def _connected_to_map(logset: Any, plan: Any) -> set[str]:
     """The frames the first :data:`TF_SAMPLE` messages of each TF topic join to ``map``
-    (``map`` itself included; only ``map`` when the log has no TF or it cannot be read)."""
-    from aion_cli.errors import AionError
-    from aion_cli.formats.tf import normalize_frame
-    from aion_cli.formats.tf_fast import decode_tf_messages
+    (read as a build reads TF: :class:`aion_cli.tf_feed.TfReader`), ``map`` included."""
+    from aion_cli.formats.tf import TfBuffer
+    from aion_cli.tf_feed import TfReader, TfStats
 
-    neighbours: dict[str, set[str]] = {}
+    reader = TfReader(logset, TfBuffer(), TfStats())
     for info in plan.tf:
-        sample = _first(logset, info.topic, TF_SAMPLE)
-        try:
-            arrays = decode_tf_messages(sample)
-        except AionError:
-            continue
-        for parent, child in zip(arrays.parent, arrays.child, strict=True):
-            a, b = normalize_frame(parent), normalize_frame(child)
-            neighbours.setdefault(a, set()).add(b)
-            neighbours.setdefault(b, set()).add(a)
-    seen = {DEFAULT_MAP_FRAME}
-    todo = [DEFAULT_MAP_FRAME]
-    while todo:
-        for nxt in neighbours.get(todo.pop(), ()):
-            if nxt not in seen:
-                seen.add(nxt)
-                todo.append(nxt)
-    return seen
+        reader.add(_first(logset, info.topic, TF_SAMPLE))
+    return reader.buffer.connected(DEFAULT_MAP_FRAME)
 
 
 def _first(logset: Any, topic: str, n: int) -> list[Any]:
-    out = []
-    for message in logset.messages([topic]):
-        out.append(message)
-        if len(out) >= n:
-            break
-    return out
+    return list(islice(logset.messages([topic]), n))

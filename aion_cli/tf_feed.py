@@ -37,6 +37,7 @@ FIXED_SENSOR_OVER = "fixed sensor over"
 """How the description of a fixed sensor's recorded windows starts (:func:`fixed_sensor_text`)."""
 
 __all__ = [
+    "TfReader",
     "TfStats",
     "check_tf",
     "check_times",
@@ -85,7 +86,6 @@ def read_tf_and_times(
     import logging
 
     from aion_cli.formats.tf import TfBuffer
-    from aion_cli.formats.tf_fast import decode_tf_messages, layout_matches
 
     tf_topics = plan.names("tf") if plan.tf else set()
     times = (
@@ -104,45 +104,12 @@ def read_tf_and_times(
     progress.start(
         "reading TF and log times" if tf_topics else "reading log times", logset.total(topics)
     )
-    buffer = TfBuffer() if tf_topics else None
-    generic = 0
-    fast_ok: dict[tuple[str, str, str], bool] = {}
-
-    def fast(key: tuple[str, str, str]) -> bool:
-        ok = fast_ok.get(key)
-        if ok is None:
-            ok = fast_ok[key] = layout_matches(key[1], key[2], *logset.definition(*key))
-        return ok
+    reader = TfReader(logset, TfBuffer(), stats) if tf_topics else None
+    buffer = reader.buffer if reader is not None else None
 
     def add(chunk: list[RawMessage]) -> None:
-        nonlocal generic
-        assert buffer is not None
-        stats.messages += len(chunk)
-        static = np.fromiter((m.topic.endswith("_static") for m in chunk), bool, len(chunk))
-        try:
-            if not all(map(fast, {(m.topic, m.msgtype, m.encoding) for m in chunk})):
-                raise MessageDecodeError("the log defines TF in another layout")
-            arrays = decode_tf_messages(chunk)
-        except MessageDecodeError:
-            generic += 1
-            for m, st in zip(chunk, static.tolist(), strict=True):
-                try:
-                    decoded = logset.decode(m)
-                except MessageDecodeError as exc:
-                    stats.undecodable += 1
-                    if stats.first_error is None:
-                        stats.first_error = exc
-                    continue
-                buffer.add_message(decoded, static=st)
-        else:
-            rows_static = static[arrays.msg_index]
-            for flag in (True, False):  # like TfBuffer's own batches: static rows first
-                for parent, child, rows in arrays.select(
-                    arrays.usable() & (rows_static == flag)
-                ).by_edge():
-                    buffer.add_transforms(
-                        parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
-                    )
+        assert reader is not None
+        reader.add(chunk)
 
     pending: list[RawMessage] = []  # TF messages whose times are not recorded yet
     ready: list[RawMessage] = []  # TF messages in range, decoded 4096 at a time
@@ -166,9 +133,67 @@ def read_tf_and_times(
     for start in range(0, len(ready), 4096):
         add(ready[start : start + 4096])
     progress.advance(done)
-    if generic:
-        logging.getLogger(__name__).info("TF: %d chunk(s) read by the generic decoder", generic)
+    if reader is not None and reader.generic:
+        logging.getLogger(__name__).info(
+            "TF: %d chunk(s) read by the generic decoder", reader.generic
+        )
     return buffer, times, stats
+
+
+class TfReader:
+    """TF messages into ``buffer``, a chunk at a time: decoded with numpy
+    (:mod:`formats.tf_fast`) where the log's definition of the TF type is the layout that
+    decoder reads, else (and for a chunk it rejects) message by message with the log's own
+    definitions, a message that cannot be decoded skipped and counted in ``stats``. Topics
+    named ``*_static`` hold static transforms."""
+
+    def __init__(self, logset: Any, buffer: TfBuffer, stats: TfStats) -> None:
+        self.logset = logset
+        self.buffer = buffer
+        self.stats = stats
+        self.generic = 0  # chunks read by the generic decoder
+        self._fast_ok: dict[tuple[str, str, str], bool] = {}
+
+    def _fast(self, key: tuple[str, str, str]) -> bool:
+        from aion_cli.formats.tf_fast import layout_matches
+
+        ok = self._fast_ok.get(key)
+        if ok is None:
+            ok = self._fast_ok[key] = layout_matches(
+                key[1], key[2], *self.logset.definition(*key)
+            )
+        return ok
+
+    def add(self, chunk: list[RawMessage]) -> None:
+        from aion_cli.formats.tf_fast import decode_tf_messages
+
+        stats, buffer = self.stats, self.buffer
+        stats.messages += len(chunk)
+        static = np.fromiter((m.topic.endswith("_static") for m in chunk), bool, len(chunk))
+        try:
+            if not all(map(self._fast, {(m.topic, m.msgtype, m.encoding) for m in chunk})):
+                raise MessageDecodeError("the log defines TF in another layout")
+            arrays = decode_tf_messages(chunk)
+        except MessageDecodeError:
+            self.generic += 1
+            for m, st in zip(chunk, static.tolist(), strict=True):
+                try:
+                    decoded = self.logset.decode(m)
+                except MessageDecodeError as exc:
+                    stats.undecodable += 1
+                    if stats.first_error is None:
+                        stats.first_error = exc
+                    continue
+                buffer.add_message(decoded, static=st)
+        else:
+            rows_static = static[arrays.msg_index]
+            for flag in (True, False):  # like TfBuffer's own batches: static rows first
+                for parent, child, rows in arrays.select(
+                    arrays.usable() & (rows_static == flag)
+                ).by_edge():
+                    buffer.add_transforms(
+                        parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
+                    )
 
 
 def _in_range(times: TopicTimes, messages: list[RawMessage]) -> list[RawMessage]:

@@ -306,14 +306,7 @@ class TfBuffer:
                     f"unknown frame {f!r}; frames known: {', '.join(self.frames) or '(none)'}",
                     hint="check --map-frame / the detections' frame_id, and that the log has /tf",
                 )
-        prev: dict[str, str | None] = {target: None}
-        queue = deque([target])
-        while queue and source not in prev:
-            frame = queue.popleft()
-            for nxt in sorted(self._neighbours[frame]):
-                if nxt not in prev:
-                    prev[nxt] = frame
-                    queue.append(nxt)
+        prev = self._search(target, source)
         if source not in prev:
             raise TransformError(
                 f"no transform chain between {target!r} and {source!r}; frames connected to "
@@ -328,6 +321,26 @@ class TfBuffer:
         path.reverse()
         self._paths[(target, source)] = path
         return path
+
+    def connected(self, frame: str) -> set[str]:
+        """Every frame the transforms join to ``frame``, ``frame`` included (just it when the
+        buffer does not know it)."""
+        self._flush()
+        return set(self._search(normalize_frame(frame), None))
+
+    def _search(self, target: str, source: str | None) -> dict[str, str | None]:
+        """Breadth-first from ``target`` over the undirected frame tree, until ``source`` is
+        reached (every connected frame when None): each frame found, with the frame it was
+        reached from (None for ``target``)."""
+        prev: dict[str, str | None] = {target: None}
+        queue = deque([target])
+        while queue and source not in prev:
+            frame = queue.popleft()
+            for nxt in sorted(self._neighbours.get(frame, ())):
+                if nxt not in prev:
+                    prev[nxt] = frame
+                    queue.append(nxt)
+        return prev
 
     def _edge(self, parent: str, child: str, t: I64) -> _Tf:
         """``parent_T_child`` at times ``t`` (a single transform for a static edge)."""

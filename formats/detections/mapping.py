@@ -277,6 +277,7 @@ def _vector(store: Typestore, node: Node, size: int, what: str) -> None:
     """A Point/Vector3-like message or 3 numbers (a planar one too: ``x, y`` or 2 numbers),
     or for ``size`` 4 a Quaternion-like message or 4 numbers."""
     names = "xy" if size == 3 else "xyzw"
+    hint = 'a path per coordinate reads number fields: position = ["x", "y"]' if size == 3 else None
     if node[0] == _NAME:
         fields = dict(_fields(store, node[1]))
         if all(c in fields for c in names):
@@ -284,18 +285,13 @@ def _vector(store: Typestore, node: Node, size: int, what: str) -> None:
         raise ConfigError(
             f"{what} must be a {'Point/Vector3' if size == 3 else 'Quaternion'}; {node[1]} has "
             f"fields {', '.join(fields)}",
-            hint='a path per coordinate reads number fields: position = ["x", "y"]'
-            if size == 3
-            else None,
+            hint=hint,
         )
     sizes = (2, 3) if size == 3 else (size,)
     if node[0] in (_ARRAY, _SEQUENCE) and node[1][0][0] == _BASE and node[1][1] in sizes:
         return
     raise ConfigError(
-        f"{what} must point to {size} numbers or a message, not a {_describe(node)}",
-        hint='a path per coordinate reads number fields: position = ["x", "y"]'
-        if size == 3
-        else None,
+        f"{what} must point to {size} numbers or a message, not a {_describe(node)}", hint=hint
     )
 
 

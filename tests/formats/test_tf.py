@@ -322,3 +322,18 @@ def test_queued_messages_are_visible_to_queries_and_bad_frames_counted() -> None
     buf.add_message(_tf_msg(SimpleNamespace(sec=0, nanosec=0), "map", "odom", (5, 0, 0)), True)
     buf.add_transforms("map", "odom", [0], [[7, 0, 0]], [[0, 0, 0, 1]], static=True)
     np.testing.assert_allclose(buf.lookup("map", "odom", [0])[1][0], [7, 0, 0])
+
+
+def test_connected_frames_are_the_tree_around_a_frame() -> None:
+    """``TfBuffer.connected``: map joins odom and base_link (one static, one dynamic edge),
+    not the laser of a second tree; an unknown frame is alone."""
+    buf = TfBuffer()
+    ident = ((0.0, 0.0, 0.0),), ((0.0, 0.0, 0.0, 1.0),)
+    buf.add_transforms("map", "odom", [0], *ident, static=True)
+    buf.add_transforms("/odom", "base_link", [5], *ident)
+    buf.add_transforms("cart", "laser", [5], *ident)
+    assert buf.connected("map") == {"map", "odom", "base_link"}
+    assert buf.connected("/laser") == {"laser", "cart"}
+    assert buf.connected("nowhere") == {"nowhere"}
+    with pytest.raises(TransformError, match="no transform chain"):
+        buf.lookup("map", "laser", [5])
