@@ -44,9 +44,9 @@ def write_build(
     size. ``map_frame``: the frame the positions are in, recorded in the manifest."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
+    from aion_cli.fixed_sensor import DECLARED, SILENT_HINT, map_observation_text
     from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
-    from aion_cli.tf_feed import DECLARED, SILENT_HINT, map_observation_text
 
     arrays, meta = state.to_arrays(lazy=True)
     stats = state_counts(state)
@@ -99,7 +99,7 @@ def _recording_windows(report: BuildReport) -> int | None:
     """This build's logs' own time in windows (each file from its first to its last recorded
     window: the time between two files is not the sensor's to observe); None without a fixed
     sensor."""
-    from aion_cli.tf_feed import recording_window_count
+    from aion_cli.fixed_sensor import recording_window_count
 
     if report.fixed_windows is None or not report.recording_spans:
         return None

@@ -116,7 +116,7 @@ class BuildReport:
     #: fixed-sensor observation: (windows, first window, last window, window ns)
     fixed_windows: tuple[int, int, int, int] | None = None
     #: fixed sensor: each log file's own time, (path, first window, last window) from its
-    #: first to its last recorded window (``tf_feed.recording_window_count`` adds them up)
+    #: first to its last recorded window (``fixed_sensor.recording_window_count`` adds them up)
     recording_spans: list[tuple[str, int, int]] = field(default_factory=list)
 
     def mean_speed(self) -> float | None:

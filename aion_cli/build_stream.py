@@ -31,8 +31,8 @@ from aion_cli.detection_feed import (
 )
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
+from aion_cli.fixed_sensor import fixed_sensor_windows
 from aion_cli.log_times import check_after_open
-from aion_cli.tf_feed import fixed_sensor_windows
 
 if TYPE_CHECKING:
     from pathlib import Path

@@ -76,7 +76,7 @@ def _all_static(manifest: Manifest) -> str | None:
         f"on the map's {days} scored days no daily or weekly rhythm forecast the next day "
         "better than that rate"
     )
-    from aion_cli.tf_feed import SILENT_HINT, fixed_sensor_share
+    from aion_cli.fixed_sensor import SILENT_HINT, fixed_sensor_share
 
     recording = manifest.counts.get("recording_windows")
     if type(recording) is not int or recording <= 0:  # none, or a damaged manifest's

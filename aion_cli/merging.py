@@ -12,21 +12,21 @@ atomically with a manifest that accounts for every log. The rules:
   same map file given twice (by path or by content) is refused too, and so is ``-o`` naming
   one of the inputs. ``merged_from`` lists the input map files (name, path, size, sha256) and
   ``lineage`` the lineage used.
-* **Lineage.** Node ids mean the same place only within one scene-graph session
-  (:mod:`aion_cli.engine.rebind`). ``"same"``: the maps' node entries add by id (the engine's
-  merge, exact for disjoint time but for the approximations its docstring lists; the notes
-  say which applied). ``"different"``: every map first releases its node entries to the hash
-  cells at their positions (the release rule, counts conserved), the cell-only maps merge by
-  key, and the result binds to the target graph by the usual ownership rules, the target's
-  nodes treated as stable at merge time (the merged map's log time). ``"auto"`` decides from
-  the graphs: consecutive maps (in time order) share a lineage when more than half of the
-  node ids both latest graphs hold lie within ``bind_radius`` of each other; a map without a
-  scene graph beside maps with one makes the merge ``"different"`` (its cells then bind to
-  the target graph); maps without any graph merge as hash cells (``"same"``). A ``--graph``
-  target is compared with the newest map's graph the same way: one that holds its node ids
-  at other places is another session (Hydra numbers every session's places from p0), so the
-  merge is ``"different"``, not a move of the maps' flows to the target's places of the same
-  ids.
+* **Lineage** (:mod:`aion_cli.merge_lineage`). Node ids mean the same place only within one
+  scene-graph session (:mod:`aion_cli.engine.rebind`). ``"same"``: the maps' node entries add
+  by id (the engine's merge, exact for disjoint time but for the approximations its docstring
+  lists; the notes say which applied). ``"different"``: every map first releases its node
+  entries to the hash cells at their positions (the release rule, counts conserved), the
+  cell-only maps merge by key, and the result binds to the target graph by the usual ownership
+  rules, the target's nodes treated as stable at merge time (the merged map's log time).
+  ``"auto"`` decides from the graphs: consecutive maps (in time order) share a lineage when
+  more than half of the node ids both latest graphs hold lie within ``bind_radius`` of each
+  other; a map without a scene graph beside maps with one makes the merge ``"different"`` (its
+  cells then bind to the target graph); maps without any graph merge as hash cells
+  (``"same"``). A ``--graph`` target is compared with the newest map's graph the same way: one
+  that holds its node ids at other places is another session (Hydra numbers every session's
+  places from p0), so the merge is ``"different"``, not a move of the maps' flows to the
+  target's places of the same ids.
 * **Target graph.** ``graph_file`` (a Hydra ``dsg.json`` / ``.sparkdsg``, read as ``aion
   build --graph FILE`` reads it) replaces the merged graph in either lineage (nodes it lacks
   release to hash cells, cells in reach of its nodes bind); without it, a ``"different"``
@@ -50,12 +50,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import ConfigError, InputError
 from aion_cli.manifest import InputLog, Manifest, add_counts
+from aion_cli.merge_lineage import LINEAGES, choose_lineage
 from aion_cli.merge_report import MergedInput, MergeReport
 
 if TYPE_CHECKING:
@@ -63,8 +63,6 @@ if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.mapquery import MapHead
-
-LINEAGES = ("auto", "same", "different")
 
 _HINT = "aion merge A.aion B.aion ... -o OUT.aion"
 
@@ -150,7 +148,7 @@ def merge_map_files(
         _check_compatible(maps)
         maps.sort(key=lambda m: (m.start() is not None, m.start() or 0))
         inputs = _check_logs(maps)
-        report.lineage, report.lineage_reason = _lineage(
+        report.lineage, report.lineage_reason = choose_lineage(
             maps, lineage, report.notes, target, graph_file
         )
         merged = _fold(maps, report, sink)
@@ -263,77 +261,6 @@ def _check_logs(maps: list[_Input]) -> tuple[InputLog, ...]:
     return tuple(inputs)
 
 
-# -- lineage ------------------------------------------------------------------------------------
-
-
-def _lineage(
-    maps: list[_Input],
-    lineage: str,
-    notes: list[str],
-    target: GraphSnapshot | None = None,
-    graph_file: Path | None = None,
-) -> tuple[str, str]:
-    """The lineage to use and why (``lineage`` given, or decided from the graphs: the maps'
-    with each other, then a ``--graph`` target with the newest of them, which the merged
-    map binds to)."""
-    auto, why = _auto_lineage(maps)
-    if auto == "same" and target is not None and graph_file is not None:
-        auto, why = _target_lineage(maps, target, graph_file, why)
-    if lineage == "auto":
-        return auto, why
-    if lineage != auto:
-        notes.append(f"--lineage {lineage} given; auto would choose {auto} ({why})")
-    return lineage, "given with --lineage"
-
-
-def _target_lineage(
-    maps: list[_Input], target: GraphSnapshot, graph_file: Path, why: str
-) -> tuple[str, str]:
-    """``"different"`` when the ``--graph`` target holds the newest map's place ids at other
-    places (another scene-graph session numbers its places from p0 again: its p0 is not the
-    maps' p0), else ``"same"`` with ``why`` unchanged. Ids the target lacks release at the
-    bind either way."""
-    from aion_cli.engine.rebind import graph_agreement
-
-    newest = next((m for m in reversed(maps) if m.graph is not None), None)
-    if newest is None:
-        return "same", why
-    tolerance = maps[0].head.config.bind_radius
-    agreement = graph_agreement(newest.graph, target, tolerance)
-    if agreement.shared == 0 or agreement.same:
-        return "same", why
-    return "different", (
-        f"of the {agreement.shared} node ids both {newest.name} and the target graph "
-        f"{graph_file.name} hold, {agreement.agreeing} lie within {tolerance:g} m (the target "
-        "is another scene-graph session)"
-    )
-
-
-def _auto_lineage(maps: list[_Input]) -> tuple[str, str]:
-    from aion_cli.engine.rebind import graph_agreement
-
-    without = [m.name for m in maps if m.graph is None]
-    if len(without) == len(maps):
-        return "same", "no map has a scene graph (hash cells only)"
-    if without:
-        return "different", f"{without[0]} has no scene graph: its cells bind to the target graph"
-    tolerance = maps[0].head.config.bind_radius
-    shared = agreeing = 0
-    for early, late in pairwise(maps):
-        agreement = graph_agreement(early.graph, late.graph, tolerance)
-        what = (
-            f"of the {agreement.shared} node ids both {early.name} and {late.name} hold, "
-            f"{agreement.agreeing} lie within {tolerance:g} m"
-        )
-        if not agreement.same:
-            if agreement.shared == 0:
-                what = f"{early.name} and {late.name} share no node id"
-            return "different", what + " (different scene-graph sessions)"
-        shared += agreement.shared
-        agreeing += agreement.agreeing
-    return "same", f"{agreeing} of {shared} shared node ids lie within {tolerance:g} m"
-
-
 # -- merging ------------------------------------------------------------------------------------
 
 
@@ -440,10 +367,10 @@ def _write(
     figures."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
+    from aion_cli.fixed_sensor import map_observation_text
     from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
     from aion_cli.mapquery import state_counts
-    from aion_cli.tf_feed import map_observation_text
 
     starts = [m.manifest.start_ns for m in maps if m.manifest.start_ns is not None]
     ends = [m.manifest.end_ns for m in maps if m.manifest.end_ns is not None]

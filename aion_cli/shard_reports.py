@@ -14,8 +14,8 @@ from typing import Any
 
 from aion_cli.build_report import FAST_PEOPLE_WARNING, BuildReport, fast_people_warning
 from aion_cli.errors import MessageDecodeError
+from aion_cli.fixed_sensor import DECLARED, FIXED_SENSOR_OVER, fixed_sensor_text
 from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
-from aion_cli.tf_feed import DECLARED, FIXED_SENSOR_OVER, fixed_sensor_text
 
 
 def counts_of(report: BuildReport) -> Any:

@@ -209,7 +209,7 @@ def test_merged_and_continued_maps_describe_every_log_they_observed(tmp_path: Pa
 
 def test_a_map_observed_by_a_robot_and_a_fixed_sensor_names_both() -> None:
     from aion_cli.engine.observation import ObservationSource
-    from aion_cli.tf_feed import fixed_sensor_summary, fixed_sensor_text, map_observation_text
+    from aion_cli.fixed_sensor import fixed_sensor_summary, fixed_sensor_text, map_observation_text
 
     delta = 600 * 10**9
     source = ObservationSource()
@@ -238,7 +238,7 @@ def test_the_windows_of_fixed_sensor_intervals_are_counted_once(
     """Any intervals (overlapping, touching, within one window, empty): the summary counts
     each window some interval overlaps once, as a brute-force union of windows does."""
     from aion_cli.engine.observation import ObservationSource
-    from aion_cli.tf_feed import fixed_sensor_summary
+    from aion_cli.fixed_sensor import fixed_sensor_summary
 
     delta = 600
     source = ObservationSource()

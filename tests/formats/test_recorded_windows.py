@@ -412,13 +412,13 @@ def test_mcap_conformance_files_match_their_expected_records(name: str) -> None:
 
 
 def test_the_logs_own_time_counts_each_file_once_and_no_gap_between_files() -> None:
-    """``tf_feed.recording_window_count``: a file read in two time shards is one span from its
+    """``fixed_sensor.recording_window_count``: a file read in two time shards is one span from its
     first window to its last; overlapping files count a window once; the time between files
     counts not at all. Checked against the union of the windows spelled out."""
     from hypothesis import given
     from hypothesis import strategies as st
 
-    from aion_cli.tf_feed import recording_window_count
+    from aion_cli.fixed_sensor import recording_window_count
 
     assert recording_window_count([]) == 0
     # a.mcap cut in two parts (windows 0-3 and 10-12): 0..12; b.mcap 20-24; c.mcap 22-30

@@ -1,0 +1,220 @@
+"""What a fixed sensor observed: a build's observation when its logs have no robot trajectory.
+
+Without TF ``map -> base_link`` or a scene graph's agents, a log is a fixed sensor that saw
+everything in the windows in which it recorded any message (and in the spans the user
+declared with ``--observed``), never the time between two recordings. This module finds
+those windows (:func:`fixed_sensor_windows`), counts them over maps learnt in parts
+(:func:`fixed_sensor_summary`, :func:`map_observation_text`) and writes and reads the
+one-line description the report and the manifest carry (:func:`fixed_sensor_text`,
+:func:`fixed_sensor_share`).
+
+Why apart from :mod:`aion_cli.tf_feed`: the TF feed reads transforms and decides *which*
+observation a build has; what a fixed sensor's observation is, and how it is described and
+added up across builds, merges and time shards, is a job of its own.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.engine.types import I64
+from aion_cli.log_times import TimeCheck, iso
+
+if TYPE_CHECKING:
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.observation import ObservationSource
+
+FIXED_SENSOR_OVER = "fixed sensor over"
+"""How the description of a fixed sensor's recorded windows starts (:func:`fixed_sensor_text`)."""
+
+__all__ = [
+    "DECLARED",
+    "FIXED_SENSOR_OVER",
+    "SILENT_HINT",
+    "fixed_sensor_share",
+    "fixed_sensor_summary",
+    "fixed_sensor_text",
+    "fixed_sensor_windows",
+    "map_observation_text",
+    "recording_window_count",
+]
+
+
+def fixed_sensor_windows(
+    mapper: Mapper,
+    logset: Any,
+    times: TimeCheck,
+    notes: list[str],
+    report: Any = None,
+    declared: tuple[tuple[int, int], ...] = (),
+) -> str:
+    """The observation of a log without a robot trajectory (neither TF nor scene-graph
+    agents), from its log times: a fixed sensor observes exactly the windows in which the logs
+    recorded something (any message on any topic: a tracker that publishes only when it sees
+    someone still records its laser's scans) — never the time between two recordings, within
+    one file or across files — so ``build A B`` records the same empty windows as ``build A``
+    then ``--map B``. Only windows inside the runs of the topics aion uses count (``times``;
+    one message of an unrelated topic years away must not become an observed empty window),
+    plus the windows of those topics' own messages (the data, even where an index omits
+    them). ``declared``: spans ``[lo, hi)`` of log time the user says the sensor was
+    recording (``build --observed``, for a tracker that publishes only when it sees someone):
+    their windows count too, within each log file's own time (:func:`_declared_windows`).
+    Sets the Mapper's windows, adds a note for windows left out, and returns the report's
+    description of the observation."""
+    from aion_cli.engine.windows import window_ns
+    from aion_cli.formats.recorded import windows_of
+
+    delta = window_ns(mapper.state.config.window_s)
+    recorded = logset.recorded_windows(delta)
+    recorded = recorded[times.inside_limits(recorded * delta)]  # a time shard's (window starts)
+    inside = times.within_runs(recorded, delta)
+    outside = int(np.count_nonzero(~inside))
+    if outside:
+        first = int(recorded[~inside][0]) * delta
+        notes.append(
+            f"{outside:,} recorded window(s) outside the time of the topics aion uses are "
+            f"not taken as observed (first: {iso(first)})"
+        )
+    windows = np.union1d(recorded[inside], windows_of(times.span_times, delta))
+    if declared:
+        extra = _declared_windows(declared, logset, times, delta)
+        added = np.setdiff1d(extra, windows, assume_unique=True)
+        notes.append(
+            f"--observed: {added.size:,} window(s) without a message taken as observed "
+            f"({added.size * delta / 3.6e12:,.1f} h), within each log's own time"
+        )
+        windows = np.union1d(windows, extra)
+    mapper.set_fixed_windows(windows)
+    if len(windows) == 0:
+        return "fixed sensor (no message recorded)"
+    summary = (len(windows), int(windows[0]), int(windows[-1]), delta)
+    if report is not None:  # a parallel build adds its shards' windows up
+        report.fixed_windows = summary
+        report.recording_spans = _file_spans(logset, times, delta)
+    return fixed_sensor_text(*summary, declared=bool(declared))
+
+
+def _file_spans(logset: Any, times: TimeCheck, delta: int) -> list[tuple[str, int, int]]:
+    """Each log file's own time as (path, first, last window): its first to its last
+    recorded window inside the runs of the topics aion uses (a time shard: of its part)."""
+    out = []
+    for file, recorded in logset.recorded_windows_by_file(delta):
+        inside = recorded[times.within_runs(recorded, delta)]
+        if inside.size:
+            out.append((str(file.path), int(inside[0]), int(inside[-1])))
+    return out
+
+
+def recording_window_count(spans: list[tuple[str, int, int]]) -> int:
+    """The windows of the logs' own time: each file from its first window to its last over
+    all the parts that read it (a log cut into time shards is one span again), then the
+    union over files (the time between two files is not a sensor's to observe)."""
+    by_file: dict[str, tuple[int, int]] = {}
+    for path, first, last in spans:
+        lo, hi = by_file.get(path, (first, last))
+        by_file[path] = (min(lo, first), max(hi, last))
+    count, reach = 0, None
+    for first, last in sorted(by_file.values()):
+        start = first if reach is None else max(first, reach + 1)
+        if last >= start:
+            count += last - start + 1
+        reach = last if reach is None else max(reach, last)
+    return count
+
+
+def _declared_windows(
+    spans: tuple[tuple[int, int], ...], logset: Any, times: TimeCheck, delta: int
+) -> I64:
+    """The windows of ``delta`` ns that the spans ``[lo, hi)`` overlap within each log file's
+    own time: from its first to its last recorded window inside the runs of the topics aion
+    uses (so a stray message adds no decades of empty windows, and the time between two
+    files stays unobserved: building A and B at once then equals building A and continuing
+    with B), and within a time shard's part."""
+    parts = []
+    for _, first, last in _file_spans(logset, times, delta):
+        for lo, hi in spans:
+            a = max(int(lo) // delta, first)
+            b = min(-(-int(hi) // delta) - 1, last)  # the last window [lo, hi) overlaps
+            if b >= a:
+                parts.append(np.arange(a, b + 1, dtype=np.int64))
+    if not parts:
+        return np.zeros(0, np.int64)
+    out: I64 = np.unique(np.concatenate(parts))
+    return out[times.inside_limits(out * delta)]
+
+
+def fixed_sensor_share(observation: str, recording_windows: int | None = None) -> float | None:
+    """The share of its time a fixed sensor observed, read from a description that
+    :func:`fixed_sensor_text` wrote (``the N windows ... (A h of a B h span)``): of its logs'
+    own time when ``recording_windows`` says how long that was (a manifest's
+    ``counts.recording_windows``), else of the span; None for any other description."""
+    import re
+
+    found = re.search(r"\(([\d.,]+) h of a ([\d.,]+) h span\)", observation)
+    if not observation.startswith(FIXED_SENSOR_OVER) or found is None:
+        return None
+    windows = re.search(r"the ([\d,]+) windows?", observation)
+    if recording_windows and windows is not None:
+        return min(1.0, int(windows.group(1).replace(",", "")) / int(recording_windows))
+    seen, span = (float(g.replace(",", "")) for g in found.groups())
+    return seen / span if span > 0 else None
+
+
+SILENT_HINT = (
+    "if its tracker is silent when nobody is there, declare the spans it was recording with "
+    "aion build --observed"
+)
+"""Where a fixed sensor observed little of its span: windows without any message are
+unknown, not empty, unless the user says the sensor was recording."""
+
+
+def map_observation_text(texts: list[str], observation: ObservationSource, delta: int) -> str:
+    """The observation of a map learnt in parts (``texts``: each part's description, in time
+    order: a continued map's and its new logs', or a merge's inputs'). When every part was a
+    fixed sensor, the windows it recorded are counted over the map's own fixed-sensor
+    intervals (the union of every part's), so the description is the one a single build of
+    every log gives; otherwise the parts' distinct descriptions, in order."""
+    if texts and all(t.startswith(FIXED_SENSOR_OVER) for t in texts):
+        summary = fixed_sensor_summary(observation, delta)
+        if summary is not None:
+            return fixed_sensor_text(*summary, declared=any(DECLARED in t for t in texts))
+    distinct = list(dict.fromkeys(texts))
+    return " + ".join(distinct) if distinct else "none"
+
+
+def fixed_sensor_summary(
+    observation: ObservationSource, delta: int
+) -> tuple[int, int, int, int] | None:
+    """(windows, first, last, ``delta``) of the windows of ``delta`` ns that the fixed-sensor
+    intervals of ``observation`` overlap (None: it has none); a window two intervals share
+    counts once."""
+    starts, ends = observation.merged_fixed()
+    if starts.size == 0:
+        return None
+    w0 = starts // np.int64(delta)
+    w1 = -((-ends) // np.int64(delta))  # exclusive: ceil(end / delta)
+    # sorted and disjoint in time, so only an interval's first window can be its
+    # predecessor's last
+    before = np.concatenate([[np.iinfo(np.int64).min], np.maximum.accumulate(w1)[:-1]])
+    count = int(np.maximum(w1 - np.maximum(w0, before), 0).sum())
+    return count, int(w0[0]), int(w1.max()) - 1, int(delta)
+
+
+DECLARED = "or --observed"
+"""In a fixed sensor's description when ``build --observed`` declared some of its windows."""
+
+
+def fixed_sensor_text(
+    count: int, first: int, last: int, delta: int, declared: bool = False
+) -> str:
+    """The report's description of fixed-sensor observation: ``count`` windows of
+    ``delta`` ns with messages (``declared``: or declared by ``--observed``), from window
+    ``first`` to ``last``."""
+    span = last - first + 1
+    why = f"with messages {DECLARED}" if declared else "with messages"
+    return (
+        f"{FIXED_SENSOR_OVER} the {count:,} window{'' if count == 1 else 's'} {why} "
+        f"({count * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
+    )
