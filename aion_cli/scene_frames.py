@@ -7,10 +7,9 @@ Each step is the scene of ``aion predict``'s entry table at its time
 by the entry ids of ``aion predict`` (``p12``, ``c<key>``), in the map's entry order, which is
 the same at every step. Sphere sizes share one scale over the whole series
 (:func:`series_flow_scale`): the busiest node of the busiest step is drawn at full size (or a
-high quantile of all steps' flows when it dwarfs them, ``formats.export.display_flow_scale``),
-so a node that grows on the timeline is busier then (a PLY series scales each folder on its
-own).
-"""
+high quantile of all steps' flows when it dwarfs them,
+``formats.scene_colours.display_flow_scale``), so a node that grows on the timeline is busier
+then (a PLY series scales each folder on its own)."""
 
 from __future__ import annotations
 
@@ -119,7 +118,7 @@ def series_flow_scale(loaded: LoadedMap, times: Sequence[int | None]) -> float |
     element by element), not from a whole scene per step, which the export then builds once
     more to draw it; a historical step (None) from its scene."""
     from aion_cli.engine.entries import NODE
-    from aion_cli.formats.export import display_flow_scale
+    from aion_cli.formats.scene_colours import display_flow_scale
     from aion_cli.prediction_series import entry_flows
     from aion_cli.scene import scene_at
 

@@ -26,8 +26,8 @@ PCD form. Parts with nothing in them are not written. Files are binary; every na
 ``prefix`` in front (e.g. ``t0830_nodes.ply`` for a time series).
 
 Sizes and colours are computed once per scene by :func:`formats.scene_style.style_scene`
-(with this module's :func:`entropy_colors`, :func:`sphere_radii` and :func:`busy_fraction`),
-which the MCAP export (:mod:`formats.scene_mcap`) shares.
+(with the rules of :mod:`formats.scene_colours`), which the MCAP export
+(:mod:`formats.scene_mcap`) shares.
 
 Geometry is instanced with numpy (one template sphere / arrow / tube transformed for every item),
 so exporting 10^4 nodes does not build 10^4 open3d objects.
@@ -50,6 +50,7 @@ from aion_cli.errors import (
     MissingPackageError,
     MissingSystemLibraryError,
 )
+from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
@@ -57,11 +58,6 @@ I64 = npt.NDArray[np.int64]
 SPHERE_RESOLUTION = 8
 ARROW_RESOLUTION = 8
 TUBE_RESOLUTION = 6
-NO_FLOW_GREY = (0.5, 0.5, 0.5)
-EDGE_GREY = (0.6, 0.6, 0.6)
-PATH_GREEN = (0.1, 0.8, 0.2)
-RADIUS_MIN_FACTOR = 0.2
-RADIUS_MAX_FACTOR = 1.0
 
 
 class ExportError(AionError, ValueError):
@@ -95,61 +91,6 @@ class TriMesh:
             np.concatenate([p.faces + off for p, off in zip(parts, offsets, strict=True)]),
             np.concatenate([p.colors for p in parts]),
         )
-
-
-# -- colours and sizes -----------------------------------------------------------------------
-
-
-def entropy_colors(entropy: npt.ArrayLike) -> F64:
-    """``(H, 0, 1 − H)`` per row (H clipped to 0..1); grey for NaN (no flow)."""
-    h = np.asarray(entropy, dtype=np.float64).reshape(-1)
-    out = np.empty((len(h), 3))
-    known = np.isfinite(h)
-    hc = np.clip(h[known], 0.0, 1.0)
-    out[known] = np.stack([hc, np.zeros_like(hc), 1.0 - hc], axis=1)
-    out[~known] = NO_FLOW_GREY
-    return out
-
-
-DISPLAY_QUANTILE = 0.95
-"""Flows at or above this quantile get full size when the busiest flow dwarfs them
-(:func:`display_flow_scale`)."""
-DISPLAY_QUANTILE_FROM = 20
-"""The quantile rule applies from this many entries with flow (fewer: the busiest is full
-size)."""
-
-
-def display_flow_scale(flow: npt.ArrayLike) -> tuple[float, float]:
-    """The flow drawn at full size (arrow length, sphere radius) and the largest flow, for
-    ``flow`` (every entry drawn, over every step of a series). Sizes are linear in flow up to
-    the busiest flow; but real maps' flows are heavy-tailed (a mall entrance with 60
-    detections a window, most places under 1), and then every other entry would be a dot: when
-    :data:`DISPLAY_QUANTILE_FROM` or more entries have flow and the busiest is more than twice
-    their :data:`DISPLAY_QUANTILE` quantile, that quantile is drawn at full size instead.
-    ``(1, 1)`` without flow."""
-    f = np.asarray(flow, dtype=np.float64).reshape(-1)
-    f = f[np.isfinite(f) & (f > 0)]
-    if f.size == 0:
-        return 1.0, 1.0
-    largest = float(f.max())
-    if f.size >= DISPLAY_QUANTILE_FROM:
-        high = float(np.quantile(f, DISPLAY_QUANTILE))
-        if high > 0 and 2.0 * high < largest:
-            return high, largest
-    return largest, largest
-
-
-def busy_fraction(flow: npt.ArrayLike, flow_scale: float) -> F64:
-    """``min(flow / flow_scale, 1)``, NaN and negative flow count as 0."""
-    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
-    return np.clip(f / flow_scale, 0.0, 1.0)
-
-
-def sphere_radii(flow: npt.ArrayLike, flow_scale: float, cell_size: float) -> F64:
-    """Radius per node: ``δ·(0.2 + 0.8·busy)``."""
-    busy = busy_fraction(flow, flow_scale)
-    lo, hi = RADIUS_MIN_FACTOR * cell_size, RADIUS_MAX_FACTOR * cell_size
-    return lo + (hi - lo) * busy
 
 
 # -- instancing ------------------------------------------------------------------------------

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.formats.export import EDGE_GREY, PATH_GREEN
+from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
 from aion_cli.formats.scene_style import SceneStyle
 
 FRAME = "map"

@@ -36,8 +36,9 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from aion_cli.formats.export import EDGE_GREY, PATH_GREEN, ExportError, ExportWriteError
+from aion_cli.formats.export import ExportError, ExportWriteError
 from aion_cli.formats.outputs import OutputPathError, Staged, check_output, file_starts_with
+from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
 from aion_cli.formats.scene_markers import (
     CELL_THICKNESS,
     EDGE_WIDTH,

@@ -2,9 +2,8 @@
 :mod:`formats.export`, MCAP in :mod:`formats.scene_mcap`).
 
 :func:`style_scene` checks the plain arrays of a scene (nodes, unbound cells, edges, mesh,
-path) and applies the drawing rules of :mod:`formats.export`'s docstring with its
-:func:`~formats.export.entropy_colors`, :func:`~formats.export.sphere_radii` and
-:func:`~formats.export.busy_fraction`: sphere radius and colour per node, the arrow along its
+path) and applies the drawing rules of :mod:`formats.scene_colours` (what is drawn:
+:mod:`formats.export`'s docstring): sphere radius and colour per node, the arrow along its
 dominant direction, colour per cell. Writers draw a :class:`SceneStyle`; none sizes or
 colours anything itself, so a PLY and an MCAP export of the same time agree.
 """
@@ -17,11 +16,9 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.types import Mesh
-from aion_cli.formats.export import (
-    F64,
+from aion_cli.formats.export import F64, ExportError, TriMesh
+from aion_cli.formats.scene_colours import (
     NO_FLOW_GREY,
-    ExportError,
-    TriMesh,
     busy_fraction,
     display_flow_scale,
     entropy_colors,

@@ -148,7 +148,7 @@ def render_map_png(
 ) -> Path:
     """The top-down picture of ``loaded`` at ``t_ns`` (None: as observed) as the PNG file
     ``out``, with the path ``path_xyz`` f64[p,3] if given; returns ``out``."""
-    from aion_cli.formats.export import PATH_GREEN
+    from aion_cli.formats.scene_colours import PATH_GREEN
     from aion_cli.scene import scene_at
 
     check_png_target(out)
@@ -180,7 +180,7 @@ def export_png(
     scale and colour bar), with the path planned between ``ends`` (from
     ``exports.path_ends``) at each time."""
     from aion_cli.exports import planned_path
-    from aion_cli.formats.export import PATH_GREEN
+    from aion_cli.formats.scene_colours import PATH_GREEN
     from aion_cli.scene import scene_at
 
     check_png_target(out)

@@ -12,10 +12,10 @@ What is drawn, back to front:
   without flow);
 - **arrows**: one per node or unbound cell with flow, from its centre along its dominant
   direction, length
-  ``ARROW_CELLS·δ·busy`` (busy = ``min(flow / flow_scale, 1)``, ``formats.export``'s
+  ``ARROW_CELLS·δ·busy`` (busy = ``min(flow / flow_scale, 1)``, ``formats.scene_colours``'
   ``busy_fraction``: proportional to flow up to ``flow_scale``, drawn ``ARROW_CELLS`` cells
   long; :func:`arrow_scale` chooses it, as the 3D scenes' sizes), coloured
-  by entropy with ``formats.export.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
+  by entropy with ``formats.scene_colours.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
   direction, red for every direction), on a dot of the same colour;
   where the picture cannot resolve one arrow per entry, one per block instead
   (:mod:`.arrows`), over fainter cells;
@@ -42,7 +42,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.errors import InputError
-from aion_cli.formats.export import (
+from aion_cli.formats.scene_colours import (
     EDGE_GREY,
     NO_FLOW_GREY,
     busy_fraction,
@@ -190,7 +190,7 @@ class ArrowScale:
 
 def arrow_scale(scenes: Sequence[Scene]) -> ArrowScale:
     """The arrow scale of one picture (every panel shares it): the flows of every node and
-    cell of ``scenes`` through :func:`formats.export.display_flow_scale` (linear up to the
+    cell of ``scenes`` through :func:`formats.scene_colours.display_flow_scale` (linear up to the
     busiest flow, or up to a high quantile when the busiest dwarfs the rest)."""
     flows = np.concatenate([np.concatenate([s.node_flow, s.cells_flow]) for s in scenes])
     return ArrowScale(*display_flow_scale(flows))

@@ -286,7 +286,7 @@ def test_the_series_scale_is_the_scenes_own(sample_map: Path) -> None:
     """The shared sphere scale, read from the predictor's batch path for the node rows, is
     the one the steps' scenes give (pooled node flows of a scene per step), with a
     historical step among the times too."""
-    from aion_cli.formats.export import display_flow_scale
+    from aion_cli.formats.scene_colours import display_flow_scale
     from aion_cli.mapquery import load_map
     from aion_cli.scene import scene_at
     from aion_cli.scene_frames import series_flow_scale

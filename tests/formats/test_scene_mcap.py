@@ -307,7 +307,7 @@ def test_a_heavy_tail_is_sized_by_its_high_quantile() -> None:
     """29 nodes with flow 1 and an entrance with 100: sized to the busiest, every other sphere
     would be near the smallest; sized to the 95th percentile (the shared rule of pictures and
     scenes, ``display_flow_scale``) they are full size, as is the entrance."""
-    from aion_cli.formats.export import DISPLAY_QUANTILE, display_flow_scale, sphere_radii
+    from aion_cli.formats.scene_colours import DISPLAY_QUANTILE, display_flow_scale, sphere_radii
 
     flow = np.r_[np.ones(29), 100.0]
     n = flow.size

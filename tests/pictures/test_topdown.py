@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from aion_cli.errors import InputError
-from aion_cli.formats.export import DISPLAY_QUANTILE, DISPLAY_QUANTILE_FROM, entropy_colors
+from aion_cli.formats.scene_colours import DISPLAY_QUANTILE, DISPLAY_QUANTILE_FROM, entropy_colors
 from aion_cli.pictures.render import save_png
 from aion_cli.pictures.topdown import (
     ARROW_CELLS,
@@ -89,7 +89,7 @@ def test_arrow_colour_follows_entropy(tmp_path: Path) -> None:
     assert low[0] - low[2] < -0.5  # blue: one direction
     assert high[0] - high[2] > 0.5  # red: every direction
     assert high[0] - high[2] > low[0] - low[2]
-    # the exact colours of formats.export.entropy_colors
+    # the exact colours of formats.scene_colours.entropy_colors
     assert np.allclose(low, entropy_colors([0.1])[0], atol=0.12)
     assert np.allclose(high, entropy_colors([0.9])[0], atol=0.12)
 

@@ -1,0 +1,80 @@
+"""The drawing rules every picture and scene format shares: colours and sizes from flow and
+entropy (DESIGN.md §7; the PLY / PCD export's docstring, :mod:`formats.export`, says what is
+drawn with them).
+
+* entropy ``H`` (0..1) is the colour ``(H, 0, 1 − H)``: blue for one direction, red for every
+  direction, grey without flow (:func:`entropy_colors`);
+* flow is drawn linearly up to ``flow_scale`` (:func:`busy_fraction`), the busiest flow or,
+  where it dwarfs the rest, a high quantile (:func:`display_flow_scale`); a node's sphere
+  grows from ``0.2·δ`` to ``δ`` with it (:func:`sphere_radii`);
+* edges are grey, a planned path green.
+
+Why a module of its own: the scene styles (:mod:`formats.scene_style`), the MCAP markers and
+the top-down pictures (``aion_cli.pictures``) draw by the same rules, and none of them needs
+the open3d writers of :mod:`formats.export`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+F64 = npt.NDArray[np.float64]
+
+NO_FLOW_GREY = (0.5, 0.5, 0.5)
+EDGE_GREY = (0.6, 0.6, 0.6)
+PATH_GREEN = (0.1, 0.8, 0.2)
+RADIUS_MIN_FACTOR = 0.2
+RADIUS_MAX_FACTOR = 1.0
+
+
+def entropy_colors(entropy: npt.ArrayLike) -> F64:
+    """``(H, 0, 1 − H)`` per row (H clipped to 0..1); grey for NaN (no flow)."""
+    h = np.asarray(entropy, dtype=np.float64).reshape(-1)
+    out = np.empty((len(h), 3))
+    known = np.isfinite(h)
+    hc = np.clip(h[known], 0.0, 1.0)
+    out[known] = np.stack([hc, np.zeros_like(hc), 1.0 - hc], axis=1)
+    out[~known] = NO_FLOW_GREY
+    return out
+
+
+DISPLAY_QUANTILE = 0.95
+"""Flows at or above this quantile get full size when the busiest flow dwarfs them
+(:func:`display_flow_scale`)."""
+DISPLAY_QUANTILE_FROM = 20
+"""The quantile rule applies from this many entries with flow (fewer: the busiest is full
+size)."""
+
+
+def display_flow_scale(flow: npt.ArrayLike) -> tuple[float, float]:
+    """The flow drawn at full size (arrow length, sphere radius) and the largest flow, for
+    ``flow`` (every entry drawn, over every step of a series). Sizes are linear in flow up to
+    the busiest flow; but real maps' flows are heavy-tailed (a mall entrance with 60
+    detections a window, most places under 1), and then every other entry would be a dot: when
+    :data:`DISPLAY_QUANTILE_FROM` or more entries have flow and the busiest is more than twice
+    their :data:`DISPLAY_QUANTILE` quantile, that quantile is drawn at full size instead.
+    ``(1, 1)`` without flow."""
+    f = np.asarray(flow, dtype=np.float64).reshape(-1)
+    f = f[np.isfinite(f) & (f > 0)]
+    if f.size == 0:
+        return 1.0, 1.0
+    largest = float(f.max())
+    if f.size >= DISPLAY_QUANTILE_FROM:
+        high = float(np.quantile(f, DISPLAY_QUANTILE))
+        if high > 0 and 2.0 * high < largest:
+            return high, largest
+    return largest, largest
+
+
+def busy_fraction(flow: npt.ArrayLike, flow_scale: float) -> F64:
+    """``min(flow / flow_scale, 1)``, NaN and negative flow count as 0."""
+    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
+    return np.clip(f / flow_scale, 0.0, 1.0)
+
+
+def sphere_radii(flow: npt.ArrayLike, flow_scale: float, cell_size: float) -> F64:
+    """Radius per node: ``δ·(0.2 + 0.8·busy)``."""
+    busy = busy_fraction(flow, flow_scale)
+    lo, hi = RADIUS_MIN_FACTOR * cell_size, RADIUS_MAX_FACTOR * cell_size
+    return lo + (hi - lo) * busy
