@@ -166,8 +166,8 @@ def detections_by_kind(state: MapState) -> tuple[float, float]:
 
 
 def nav_graph(loaded: LoadedMap) -> Any:
-    """The planning graph of a map (``engine.planning.NavGraph``)."""
-    from aion_cli.engine.planning import NavGraph
+    """The planning graph of a map (``engine.nav_graph.NavGraph``)."""
+    from aion_cli.engine.nav_graph import NavGraph
 
     if loaded.graph is None:
         raise InputError(

@@ -21,7 +21,8 @@ from aion_cli.engine.node_ids import node_label, parse_point, refuse_far_point
 from aion_cli.room_names import name_of, named_node, parse_id_or_name
 
 if TYPE_CHECKING:
-    from aion_cli.engine.planning import NavGraph, PlanResult
+    from aion_cli.engine.nav_graph import NavGraph
+    from aion_cli.engine.planning import PlanResult
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.mapquery import LoadedMap
 

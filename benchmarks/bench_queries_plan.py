@@ -20,7 +20,8 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.planning import NavGraph, NodeCosts, arc_costs, plan
+from aion_cli.engine.nav_graph import NavGraph
+from aion_cli.engine.planning import NodeCosts, arc_costs, plan
 from aion_cli.formats.mapfile import read_map, write_map
 
 GRID_SIDE = 317  # 317^2 = 100 489 nodes

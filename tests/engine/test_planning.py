@@ -14,10 +14,9 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.nav_graph import NavGraph, NavGraphError
 from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.planning import (
-    NavGraph,
-    NavGraphError,
     NodeCosts,
     PlanResult,
     arc_costs,
