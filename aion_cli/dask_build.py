@@ -18,7 +18,7 @@ import uuid
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import InputError, MissingPackageError
-from aion_cli.parallel_build import (
+from aion_cli.shard_fold import (
     Folded,
     ShardResult,
     ShardTask,
@@ -67,7 +67,7 @@ def run_on_cluster(
     learn its shard again because the scene graph changed (a Hydra graph that grows or is
     corrected), the later shards' graphs change too, so, as the local pool stops its
     workers, their builds are cancelled and the rest is learnt in sequence as one task
-    (``parallel_build.learn_rest``) instead of being built apart and then again."""
+    (``shard_fold.learn_rest``) instead of being built apart and then again."""
     tag = uuid.uuid4().hex[:8]
     client = _client(address)
     futures: list[Any] = []

@@ -318,7 +318,7 @@ class DetectionFeeder:
         """Per topic with a finite pose yaw: ``(first, last)``, what the orientation rule of
         :meth:`_informative_yaws` made of the topic's first judged message here and where it
         ended (the one yaw seen so far, or NaN once they varied). A parallel build compares
-        a shard's ``first`` with the state before it (``aion_cli.parallel_build.fold``)."""
+        a shard's ``first`` with the state before it (``aion_cli.shard_fold.fold``)."""
         return {t: (first, self._yaw_seen[t]) for t, first in self._yaw_first.items()}
 
     def _link(self, topic: str, frames: Any, segment: I64) -> np.ndarray:

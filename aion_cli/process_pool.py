@@ -5,7 +5,7 @@ server process that has imported the build once, ``forkserver``), so starting on
 milliseconds, not a fresh interpreter's imports. Each reports its progress through a queue
 and hands its result's large arrays over in a file (:mod:`aion_cli.result_files`: half the
 time of the pipe, no second copy); the parent shows one bar per worker and folds finished
-shards in time order while the others are still running (:func:`aion_cli.parallel_build.fold`).
+shards in time order while the others are still running (:func:`aion_cli.shard_fold.fold`).
 Ctrl-C or an error in any shard terminates every worker before the error reaches the caller.
 """
 
@@ -15,7 +15,7 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.parallel_build import (
+from aion_cli.shard_fold import (
     Folded,
     ShardResult,
     ShardTask,

@@ -82,8 +82,8 @@ def _timed_shard(index: int, logs: tuple[Path, ...], queue: Any) -> None:
     """In a forked child: build shard ``index`` (its days held, as a worker does); put the
     wall time on ``queue``."""
     from aion_cli.engine.config import ModelConfig
-    from aion_cli.parallel_build import ShardTask, build_shard
     from aion_cli.pipeline import BuildOptions
+    from aion_cli.shard_fold import ShardTask, build_shard
 
     opts = BuildOptions(logs=logs, output=WORK / "unused.aion")
     begin = time.perf_counter()

@@ -1,0 +1,266 @@
+"""One shard of a parallel build, and the fold that joins the shards into one map.
+
+The worker side (:func:`build_shard`): a :class:`ShardTask` — a group of logs, or a time part
+of one, with the build's options and config — learnt as a sequential build reads it, its
+closed days held unscored (:mod:`aion_cli.engine.shards`), into a :class:`ShardResult`. The
+parent side (:func:`fold`, :func:`learn_rest`): each result joined onto the map of every shard
+before it, in time order, or its logs learnt again in sequence onto that map where a join
+would not be exact (:class:`Folded` keeps the map so far, the notes saying which and why, and
+the stream's rules a later shard continues).
+
+Why apart from :mod:`aion_cli.parallel_build` (which plans the shards and runs them): the
+local process pool (:mod:`aion_cli.process_pool`) and a Dask cluster
+(:mod:`aion_cli.dask_build`) run these same tasks and folds, each in its own way.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aion_cli.build_report import BuildReport, ProgressSink
+from aion_cli.errors import InputError
+from aion_cli.time_shards import part_fields
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.state import MapState
+    from aion_cli.pipeline import BuildOptions, _Build
+
+
+@dataclass(frozen=True)
+class ShardTask:
+    """One shard: its logs (in time order), whether its days are held for the join, and the
+    build's options and config (every shard learns with the same); a time shard also has its
+    part ``[lo, hi)`` of log time and whether it is its logs' first part
+    (:mod:`aion_cli.time_shards`); and the orientation rule's state it starts from
+    (:mod:`aion_cli.shard_yaws`)."""
+
+    index: int
+    logs: tuple[Path, ...]
+    deferred: bool
+    opts: BuildOptions
+    config: ModelConfig
+    part: tuple[int, int] | None = None
+    first_part: bool = True
+    # detection topics whose pose orientations varied before the shard (aion_cli.shard_yaws)
+    yaw_seen: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class ShardResult:
+    """A built shard: its map state and build report, with the worker's cost."""
+
+    index: int
+    state: MapState | None
+    report: BuildReport
+    seconds: float = 0.0
+    peak_rss_mb: float = 0.0
+    worker: str = ""
+
+    def without_state(self) -> ShardResult:
+        """The result's summary, once its state is folded (states are the large part)."""
+        return dataclasses.replace(self, state=None)
+
+
+@dataclass
+class Folded:
+    """The map so far and what the fold noted (shards rebuilt in sequence, and why)."""
+
+    state: MapState | None
+    notes: list[str] = field(default_factory=list)
+    reports: list[BuildReport] = field(default_factory=list)
+    seconds: float = 0.0  # spent folding (joins, and shards learnt in sequence)
+    # per detection topic: the orientation rule's state after the shards so far (the one yaw
+    # seen, NaN once they varied; aion_cli.detection_feed.DetectionFeeder.yaw_rule)
+    yaws: dict[str, float] = field(default_factory=dict)
+    # the scene-graph version and layer pinned so far (aion_cli.graph_feed.GraphFeed.pins)
+    pins: tuple[str | None, str | None] = (None, None)
+    # shards learnt again in sequence because their scene graph bound cells otherwise
+    graph_fallbacks: int = 0
+
+    def then(self, state: MapState | None, report: BuildReport, note: str | None = None) -> Folded:
+        """The fold after one more shard (its state and report; ``note``: how it went)."""
+        yaws = {**self.yaws, **{t: last for t, (_, last) in report.yaw_rule.items()}}
+        pins = (
+            self.pins[0] if self.pins[0] is not None else report.graph_pins[0],
+            self.pins[1] if self.pins[1] is not None else report.graph_pins[1],
+        )
+        notes = [*self.notes, note] if note else self.notes
+        return Folded(
+            state, notes, [*self.reports, report], self.seconds, yaws, pins, self.graph_fallbacks
+        )
+
+
+def _shard_build(
+    task: ShardTask, progress: ProgressSink, before: Folded | None = None, **part: Any
+) -> _Build:
+    """The build of one shard's logs (the parent hashed them), with ``part`` telling
+    :class:`~aion_cli.pipeline._Build` how it starts (``deferred``, or ``start`` state) and
+    ``before`` the fold whose stream a shard learnt in sequence continues."""
+    from aion_cli.build_options import ShardStart
+    from aion_cli.pipeline import _Build
+
+    opts = dataclasses.replace(
+        task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
+    )
+    at = ShardStart(task.part, task.first_part, yaw_seen=task.yaw_seen)
+    if before is not None:
+        at = dataclasses.replace(at, yaw_seen=before.yaws, graph_pins=before.pins)
+    build = _Build(opts, progress, shard=True, at=at, **part)
+    build.set_logs(task.logs)
+    return build
+
+
+def build_shard(task: ShardTask, progress: ProgressSink | None = None) -> ShardResult:
+    """Learn one shard's logs (in a worker process or a Dask task)."""
+    from aion_cli.build_report import NoProgress
+
+    begin = time.perf_counter()
+    build = _shard_build(task, progress or NoProgress(), deferred=task.deferred)
+    state = build.learn(task.config).state
+    return ShardResult(
+        task.index,
+        state,
+        build.report,
+        time.perf_counter() - begin,
+        _peak_rss_mb(),
+        f"{os.uname().nodename}:{os.getpid()}",
+    )
+
+
+def fold(
+    folded: Folded,
+    result: ShardResult,
+    task: ShardTask,
+    on_graph_change: Callable[[], None] | None = None,
+) -> Folded:
+    """Join one shard onto the map so far (in time order), or rebuild its logs onto it in
+    sequence where a join would not be exact. ``on_graph_change`` is called before such a
+    rebuild when the shard's own scene graph bound cells, or moved places, otherwise than one
+    pass would have (not because it overlaps the map in time): a Hydra graph that grows or is
+    corrected, which will change for the shards after it too (the local pool stops its
+    workers then)."""
+    from aion_cli.detection_feed import yaw_rule_blocker
+    from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
+    from aion_cli.graph_feed import pins_blocker
+
+    state = result.state
+    if state is None:
+        raise ValueError("this shard's state was folded already")
+    if folded.state is None:
+        if state.deferred is not None:
+            raise ValueError("the first shard of a new map is built as an ordinary map")
+        return folded.then(state, result.report)
+    _check_order(folded.state, result, task)
+    ownership = join_blocker(folded.state, state)
+    blocker = (
+        ownership
+        or yaw_rule_blocker(folded.yaws, result.report.yaw_rule, task.yaw_seen)
+        or pins_blocker(folded.pins, result.report.graph_pins)
+    )
+    if blocker is None:
+        return folded.then(join_shard(folded.state, state), result.report)
+    graph_changed = (
+        ownership is not None
+        and state.graph is not None
+        and overlap_blocker(folded.state, state) is None
+    )
+    if graph_changed and on_graph_change is not None:
+        on_graph_change()
+    what = _names(task.logs)
+    if task.part is not None:
+        what = f"the part of {what} from {part_fields(task.part)['from']}"
+    plural = len(task.logs) > 1 and task.part is None
+    note = (
+        f"{what} {'were' if plural else 'was'} learnt in sequence onto the map (not joined in "
+        f"parallel): {blocker}"
+    )
+    rebuilt = rebuild_onto(folded.state, task, folded)
+    out = folded.then(rebuilt.state, rebuilt.report, note)
+    out.graph_fallbacks += graph_changed
+    return out
+
+
+def learn_rest(
+    folded: Folded,
+    tasks: list[ShardTask],
+    total: int,
+    done: dict[int, ShardResult] | None = None,
+    on_folded: Callable[[int], None] | None = None,
+) -> Folded:
+    """The shards ``tasks`` (the last of ``total``), once a shard had to be learnt again in
+    sequence because the scene graph changed between shards (a Hydra graph that grows or is
+    corrected binds cells as it goes): the later shards' graphs change too, so they are
+    learnt here in sequence, each onto the map so far (the map of one pass), instead of
+    being built apart first and then again. A shard already built (``done``, by index) is
+    folded as usual; ``on_folded(index)`` after each. The local pool runs this in the parent
+    once it stopped its workers, a Dask build as one task on the cluster."""
+    begin = time.perf_counter()
+    done = {} if done is None else done
+    learnt = 0
+    for task in tasks:
+        result = done.pop(task.index, None)
+        if result is not None:
+            folded = fold(folded, result, task)
+        else:
+            if folded.state is None:
+                raise ValueError("the rest of a fold needs the map so far")
+            rebuilt = rebuild_onto(folded.state, task, folded)
+            folded = folded.then(rebuilt.state, rebuilt.report)
+            learnt += 1
+        if on_folded is not None:
+            on_folded(task.index)
+    if learnt:
+        folded.notes.append(
+            f"the scene graph changed between shards: the last {learnt} of {total} shards "
+            "were learnt in sequence without waiting for the workers (their graphs would have "
+            "changed too)"
+        )
+    folded.seconds += time.perf_counter() - begin
+    return folded
+
+
+def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
+    """A continued map has closed every window before its open one: logs with data there
+    must come in time order (as a sequential build's ``_check_after_map`` says)."""
+    from aion_cli.log_times import iso
+
+    start = result.report.start_ns
+    if acc.open_window is None or start is None:
+        return
+    open_start = acc.open_window * acc.window_ns
+    if start < open_start:
+        raise InputError(
+            f"the messages of {_names(task.logs)} start at {iso(start)}, but the map has "
+            f"already closed every window before {iso(open_start)}: logs must be added to a "
+            "map in time order; nothing was added",
+            hint="rebuild the map from all logs at once",
+        )
+
+
+def rebuild_onto(state: MapState, task: ShardTask, before: Folded | None = None) -> ShardResult:
+    """The shard's logs learnt onto ``state`` in sequence, exactly as one pass continues
+    (``before``: the fold so far, whose stream's rules it continues: the orientation rule's
+    state and the scene graphs' pins)."""
+    from aion_cli.build_report import NoProgress
+
+    build = _shard_build(task, NoProgress(), before, start=state)
+    return ShardResult(task.index, build.learn(task.config).state, build.report)
+
+
+def _names(logs: tuple[Path, ...]) -> str:
+    names = [p.name for p in logs[:3]] + (["..."] if len(logs) > 3 else [])
+    return ", ".join(names)
+
+
+def _peak_rss_mb() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
