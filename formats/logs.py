@@ -27,18 +27,17 @@ indexes its messages; :meth:`LogSet.index_times` gives the log times :meth:`LogS
 will yield, in its order, from them (:mod:`formats.stream_times`), where they say exactly that.
 
 This module is the public front: :func:`open_logs`, :class:`LogSet` and the time-ordered merge
-of many files, and the opening of one path into its sources. The readers live one module per
-container source: :mod:`formats.mcap_source` (with its linear read, :mod:`formats.mcap_linear`),
-:mod:`formats.rosbags_source` (ROS 1 bags, rosbag2 folders), :mod:`formats.rosbag2_reindex`
-(rosbag2 storage files without metadata.yaml, :func:`~formats.rosbag2_reindex.reindex`), on the
-interface of :mod:`formats.log_source`; format guessing is :mod:`formats.log_format`, decoding
-with the logs' own definitions :mod:`formats.typestores`.
-"""
+of many files; :mod:`formats.log_paths` opens one path into its sources. The readers live one
+module per container source: :mod:`formats.mcap_source` (with its linear read,
+:mod:`formats.mcap_linear`), :mod:`formats.rosbags_source` (ROS 1 bags, rosbag2 folders),
+:mod:`formats.rosbag2_reindex` (rosbag2 storage files without metadata.yaml,
+:func:`~formats.rosbag2_reindex.reindex`), on the interface of :mod:`formats.log_source`;
+format guessing is :mod:`formats.log_format`, decoding with the logs' own definitions
+:mod:`formats.typestores`."""
 
 from __future__ import annotations
 
 import heapq
-from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from operator import attrgetter
@@ -49,12 +48,9 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
 from aion_cli.formats import recorded
 from aion_cli.formats.limits import ReadLimits
-from aion_cli.formats.log_format import FORMATS, guess_format
-from aion_cli.formats.log_source import LogFile, _Source, _Unpacked
-from aion_cli.formats.mcap_source import _open_mcap
+from aion_cli.formats.log_paths import open_sources
+from aion_cli.formats.log_source import LogFile, _Source
 from aion_cli.formats.raw import RawMessage, TopicInfo, UnreadHint
-from aion_cli.formats.rosbag2_reindex import _reindexed_sources
-from aion_cli.formats.rosbags_source import _metadata_warning, _RosbagsSource
 from aion_cli.formats.typestores import _store_with_definition
 
 if TYPE_CHECKING:
@@ -324,133 +320,6 @@ def _merge_by_start(
             seq += 1
 
 
-# --- opening paths -------------------------------------------------------------------------
-
-
-def _open_sources(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]:
-    """The sources of one path: one file, the storage files of a rosbag2 folder, or storage
-    files without metadata.yaml (reindexed in memory)."""
-    from aion_cli.formats import rosbag2_storage as storage
-
-    if fmt is not None and fmt not in FORMATS:
-        raise LogFormatError(
-            f"unknown log format {fmt!r}", hint=f"use one of: {', '.join(FORMATS)}"
-        )
-    guessed, target = guess_format(path)
-    kind = fmt or guessed
-    if (
-        target.is_file()
-        and storage.is_zstd(target)
-        and not (kind == "rosbag2" and (target.parent / "metadata.yaml").is_file())
-    ):
-        return _open_compressed(target, kind, limits)
-    if kind == "mcap":
-        if target.is_dir():
-            files = sorted(target.glob("*.mcap"))
-            if len(files) != 1:
-                raise LogFormatError(
-                    f"{target} holds {len(files)} .mcap files", hint="pass one .mcap file"
-                )
-            target = files[0]
-        return [_open_mcap(target, limits=limits)]
-    if kind == "bag":
-        return [_RosbagsSource(target, "bag", limits)]
-    folder = target.parent if target.is_file() else target
-    if not (folder / "metadata.yaml").is_file():
-        if target.is_file():
-            return _reindexed_sources([target], target, limits)  # one storage file alone
-        sources = _reindexed_sources(storage.storage_files(folder), folder, limits)
-        sources[-1].warnings.append(
-            f"{folder}: no metadata.yaml; indexed in memory from its {_files(sources)}, "
-            "as `ros2 bag reindex` would"
-        )
-        return sources
-    try:
-        source = _RosbagsSource(folder, "rosbag2", limits)
-    except LogFormatError as exc:
-        # A recording killed before it finished leaves mcap storage files without a summary,
-        # which rosbags refuses, or a metadata.yaml that does not match the files: index the
-        # storage files themselves; the mcap reader recovers what was written.
-        files = storage.storage_files(folder)
-        if not files:
-            raise
-        try:
-            sources = _reindexed_sources(files, folder, limits)
-        except LogFormatError:
-            raise exc from None
-        sources[-1].warnings.append(
-            f"{folder}: metadata.yaml not used ({exc.message}); indexed in memory from its "
-            f"{_files(sources)}"
-        )
-        return sources
-    found = source.mcap_storage()
-    if found is not None:
-        # rosbag2 with mcap storage: aion's MCAP reader (faster than rosbags' mcap plugin,
-        # and bounded); a whole-file compressed bag is read from rosbags' decompressed copies,
-        # which live until the last of these sources is closed
-        mcap_files, unzstd = found
-        keep = any(original is not None for _, original in mcap_files)
-        if not keep:
-            source.close()
-        mcaps: list[_Source] = []
-        try:
-            for plain, original in mcap_files:
-                mcap = _open_mcap(plain, fmt_name="rosbag2-mcap", limits=limits, unzstd=unzstd)
-                mcaps.append(mcap if original is None else _Unpacked(mcap, [], original))
-            if keep:
-                last = mcaps[-1]
-                assert isinstance(last, _Unpacked)
-                last.owns(source)
-        except BaseException:
-            for opened in mcaps:
-                opened.close()
-            if keep:
-                source.close()
-            raise
-        counted: Counter[tuple[str, str]] = Counter()
-        for opened in mcaps:
-            for key, t in opened.topics.items():
-                counted[key] += t.count
-        busy = [m.file for m in mcaps if m.file.message_count]
-        warning = _metadata_warning(
-            folder,
-            min((f.start_ns for f in busy), default=0),
-            max((f.end_ns for f in busy), default=0),
-            sum(counted.values()),
-            counted,
-        )
-        if warning:
-            mcaps[0].warnings.append(warning)
-        return mcaps
-    return [source]
-
-
-def _files(sources: list[_Source]) -> str:
-    n = sum(getattr(s, "file_count", 1) for s in sources)
-    return f"{n} storage file" + ("" if n == 1 else "s")
-
-
-def _open_compressed(path: Path, kind: str, limits: ReadLimits) -> list[_Source]:
-    """A zstd-compressed file given alone (a rosbag2 storage file from a bag recorded with
-    ``compression_mode: file``, or a compressed .bag / .mcap): read through a decompressed
-    temporary copy that closing the source removes."""
-    from aion_cli.formats import rosbag2_storage as storage
-
-    if kind == "rosbag2":
-        return _reindexed_sources([path], path, limits)
-    tmp, inner = storage.decompress_to_temp(path)
-    try:
-        source: _Source = (
-            _open_mcap(inner, limits=limits)
-            if kind == "mcap"
-            else _RosbagsSource(inner, "bag", limits)
-        )
-    except BaseException:
-        tmp.cleanup()
-        raise
-    return [_Unpacked(source, [tmp], path)]
-
-
 def open_logs(
     paths: Iterable[Path | str],
     fmt: str | None = None,
@@ -471,7 +340,7 @@ def open_logs(
     sources: list[_Source] = []
     try:
         for p in paths:
-            sources.extend(_open_sources(Path(p), fmt, read_limits))
+            sources.extend(open_sources(Path(p), fmt, read_limits))
         if not sources:
             raise LogFormatError("no log given", hint="pass at least one log file or folder")
         logset = LogSet(sources)

@@ -1,0 +1,151 @@
+"""One path given to ``open_logs`` opened into its sources: a file, the storage files of a
+rosbag2 folder, or storage files without a usable metadata.yaml (indexed in memory).
+
+The rules, in order: a zstd-compressed file given alone is read through a decompressed
+temporary copy (:func:`_open_compressed`); an MCAP file (or a folder holding exactly one) is
+read by aion's MCAP reader; a ROS 1 bag by rosbags; a rosbag2 folder by rosbags, except that
+its mcap storage files go to aion's MCAP reader too (faster, and bounded by the read limits),
+and a folder without metadata.yaml, or one whose metadata.yaml rosbags refuses (a recording
+killed before it finished), is indexed from the storage files themselves, with a warning that
+says so.
+
+Why apart from :mod:`formats.logs`: that module merges many sources into one time-ordered
+stream and knows nothing of containers; this one knows every container's quirks of opening.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+from aion_cli.errors import LogFormatError
+from aion_cli.formats.limits import ReadLimits
+from aion_cli.formats.log_format import FORMATS, guess_format
+from aion_cli.formats.log_source import _Source, _Unpacked
+from aion_cli.formats.mcap_source import _open_mcap
+from aion_cli.formats.rosbag2_reindex import _reindexed_sources
+from aion_cli.formats.rosbags_source import _metadata_warning, _RosbagsSource
+
+
+def open_sources(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]:
+    """The sources of one path: one file, the storage files of a rosbag2 folder, or storage
+    files without metadata.yaml (reindexed in memory)."""
+    from aion_cli.formats import rosbag2_storage as storage
+
+    if fmt is not None and fmt not in FORMATS:
+        raise LogFormatError(
+            f"unknown log format {fmt!r}", hint=f"use one of: {', '.join(FORMATS)}"
+        )
+    guessed, target = guess_format(path)
+    kind = fmt or guessed
+    if (
+        target.is_file()
+        and storage.is_zstd(target)
+        and not (kind == "rosbag2" and (target.parent / "metadata.yaml").is_file())
+    ):
+        return _open_compressed(target, kind, limits)
+    if kind == "mcap":
+        if target.is_dir():
+            files = sorted(target.glob("*.mcap"))
+            if len(files) != 1:
+                raise LogFormatError(
+                    f"{target} holds {len(files)} .mcap files", hint="pass one .mcap file"
+                )
+            target = files[0]
+        return [_open_mcap(target, limits=limits)]
+    if kind == "bag":
+        return [_RosbagsSource(target, "bag", limits)]
+    folder = target.parent if target.is_file() else target
+    if not (folder / "metadata.yaml").is_file():
+        if target.is_file():
+            return _reindexed_sources([target], target, limits)  # one storage file alone
+        sources = _reindexed_sources(storage.storage_files(folder), folder, limits)
+        sources[-1].warnings.append(
+            f"{folder}: no metadata.yaml; indexed in memory from its {_files(sources)}, "
+            "as `ros2 bag reindex` would"
+        )
+        return sources
+    try:
+        source = _RosbagsSource(folder, "rosbag2", limits)
+    except LogFormatError as exc:
+        # A recording killed before it finished leaves mcap storage files without a summary,
+        # which rosbags refuses, or a metadata.yaml that does not match the files: index the
+        # storage files themselves; the mcap reader recovers what was written.
+        files = storage.storage_files(folder)
+        if not files:
+            raise
+        try:
+            sources = _reindexed_sources(files, folder, limits)
+        except LogFormatError:
+            raise exc from None
+        sources[-1].warnings.append(
+            f"{folder}: metadata.yaml not used ({exc.message}); indexed in memory from its "
+            f"{_files(sources)}"
+        )
+        return sources
+    found = source.mcap_storage()
+    if found is not None:
+        # rosbag2 with mcap storage: aion's MCAP reader (faster than rosbags' mcap plugin,
+        # and bounded); a whole-file compressed bag is read from rosbags' decompressed copies,
+        # which live until the last of these sources is closed
+        mcap_files, unzstd = found
+        keep = any(original is not None for _, original in mcap_files)
+        if not keep:
+            source.close()
+        mcaps: list[_Source] = []
+        try:
+            for plain, original in mcap_files:
+                mcap = _open_mcap(plain, fmt_name="rosbag2-mcap", limits=limits, unzstd=unzstd)
+                mcaps.append(mcap if original is None else _Unpacked(mcap, [], original))
+            if keep:
+                last = mcaps[-1]
+                assert isinstance(last, _Unpacked)
+                last.owns(source)
+        except BaseException:
+            for opened in mcaps:
+                opened.close()
+            if keep:
+                source.close()
+            raise
+        counted: Counter[tuple[str, str]] = Counter()
+        for opened in mcaps:
+            for key, t in opened.topics.items():
+                counted[key] += t.count
+        busy = [m.file for m in mcaps if m.file.message_count]
+        warning = _metadata_warning(
+            folder,
+            min((f.start_ns for f in busy), default=0),
+            max((f.end_ns for f in busy), default=0),
+            sum(counted.values()),
+            counted,
+        )
+        if warning:
+            mcaps[0].warnings.append(warning)
+        return mcaps
+    return [source]
+
+
+def _files(sources: list[_Source]) -> str:
+    n = sum(getattr(s, "file_count", 1) for s in sources)
+    return f"{n} storage file" + ("" if n == 1 else "s")
+
+
+def _open_compressed(path: Path, kind: str, limits: ReadLimits) -> list[_Source]:
+    """A zstd-compressed file given alone (a rosbag2 storage file from a bag recorded with
+    ``compression_mode: file``, or a compressed .bag / .mcap): read through a decompressed
+    temporary copy that closing the source removes."""
+    from aion_cli.formats import rosbag2_storage as storage
+
+    if kind == "rosbag2":
+        return _reindexed_sources([path], path, limits)
+    tmp, inner = storage.decompress_to_temp(path)
+    try:
+        source: _Source = (
+            _open_mcap(inner, limits=limits)
+            if kind == "mcap"
+            else _RosbagsSource(inner, "bag", limits)
+        )
+    except BaseException:
+        tmp.cleanup()
+        raise
+    return [_Unpacked(source, [tmp], path)]
