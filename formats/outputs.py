@@ -71,6 +71,18 @@ def _exists(path: Path) -> bool:
     return os.path.lexists(path)
 
 
+def refuse_current_folder(target: Path, example: str) -> None:
+    """:class:`OutputPathError` when ``target`` is the current folder or one of its parents
+    (``-o .``): an output is named inside it, never the folder itself (``example``: the
+    name the hint suggests, e.g. ``out.mcap``)."""
+    if _is_cwd_or_parent(target):
+        raise OutputPathError(
+            f"{target} is the current folder (or one of its parents): aion does not write "
+            "into it as an output of its own",
+            hint=f"name an output inside it, e.g. -o {example}",
+        )
+
+
 def _is_cwd_or_parent(path: Path) -> bool:
     try:
         target = path.resolve()
@@ -143,11 +155,7 @@ def check_output(
             "does not write to it",
             hint="choose a path for a new file (or one aion wrote)",
         )
-    if _is_cwd_or_parent(target):
-        raise OutputPathError(
-            f"{target} is the current folder (or one of its parents): aion does not replace it",
-            hint="name an output inside it, e.g. -o out.mcap",
-        )
+    refuse_current_folder(target, "out.mcap")
     if not _exists(target):
         return False
     if not overwrite:

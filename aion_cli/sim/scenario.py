@@ -311,7 +311,10 @@ def simulate(
     config: ScenarioConfig, output: Path, progress: Progress | None = None, overwrite: bool = False
 ) -> list[SceneResult]:
     """Simulate ``config.scenes`` scenes into ``output`` (a log path, or a folder of scenes)."""
+    from aion_cli.formats.outputs import refuse_current_folder
+
     config.validate()
+    refuse_current_folder(output, "office.mcap" if config.scenes == 1 else "scenes")
     paths = scene_paths(output, config)
     check_outputs(output, paths, FORMATS[config.format][0], overwrite)  # nothing is deleted
     env = load_environment(config)

@@ -122,7 +122,7 @@ def test_convert_force_replaces_only_a_log_of_its_own_kind(tmp_path: Path) -> No
     assert message_count(target) == 9
 
 
-@pytest.mark.parametrize("command", ["convert", "simulate"])
+@pytest.mark.parametrize("command", ["convert", "simulate", "simulate-mcap"])
 def test_the_current_folder_is_refused(
     command: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -132,9 +132,11 @@ def test_the_current_folder_is_refused(
     before = digest(tmp_path)
     if command == "convert":
         args: tuple[Any, ...] = ("convert", csv, "-o", ".", "--force")
-    else:
+    elif command == "simulate":
         args = ("simulate", "-o", ".", "--format", "rosbag2", "--days", "0.01", "--quiet",
                 "--force")  # fmt: skip
+    else:  # one scene into an MCAP file, whose name ".mcap" would be appended to "."
+        args = ("simulate", "-o", ".", "--days", "0.01", "--quiet")
     result = run(*args)
     assert result.exit_code == 2, result.stderr
     assert_one_error(result.stderr, "is the current folder")
