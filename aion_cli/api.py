@@ -387,7 +387,8 @@ class Map:
 
     def __repr__(self) -> str:
         where = str(self.path) if self.path is not None else "in memory"
-        return f"<aion.Map {where}: {len(self.state.entries.kind)} entries>"
+        entries = len(self.state.entries.live_rows())  # not the table's reserved capacity
+        return f"<aion.Map {where}: {entries:,} entr{'y' if entries == 1 else 'ies'}>"
 
 
 def to_ns(time: TimeLike, zone: Zone) -> int:

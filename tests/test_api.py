@@ -209,6 +209,12 @@ def test_an_in_memory_state_is_saved_and_reloads_equal(tmp_path: Path) -> None:
     assert again.predict(at).records() == m.predict(at).records()
     assert again.manifest.graph_source == "memory"
     assert again.timezone == "UTC"
+    # its repr counts the live entries (the cells the 400 detections fell in), not the
+    # table's reserved rows
+    cells = len({tuple(k) for k in np.floor(xyz[:, :2] / 0.5).astype(int).tolist()})
+    assert repr(again) == f"<aion.Map {saved}: {cells:,} entries>"
+    empty = aion.Map.from_state(Mapper(ModelConfig()).state, timezone="UTC")
+    assert repr(empty) == "<aion.Map in memory: 0 entries>"
 
 
 def test_a_table_says_whether_its_hour_was_observed(tmp_path: Path) -> None:
