@@ -14,11 +14,31 @@ import click
 from aion_cli.cli.common import AionPath
 from aion_cli.cli.output import Column, emit, format_option, num
 
-DEFAULT_DATA = Path("../shared/data")
+DATA_ENV = "AION_SHARED_DATA"
+DATA_DEFAULT_TEXT = f"${DATA_ENV}, else ../shared/data"
 
 
-def _default_dir(sub: str) -> Path:
-    return DEFAULT_DATA / sub
+def shared_data() -> Path:
+    """The shared data folder: ``$AION_SHARED_DATA``, else ``../shared/data`` from the current
+    folder (beside a checkout), else ``shared/data`` beside the checkout aion runs from (so
+    the examples work from any folder of a development install)."""
+    import os
+
+    env = os.environ.get(DATA_ENV)
+    if env:
+        return Path(env)
+    here = Path("../shared/data")
+    if here.is_dir():
+        return here
+    beside = Path(__file__).resolve().parents[3] / "shared" / "data"
+    return beside if beside.is_dir() else here
+
+
+def _data(data_dir: Path | None, sub: str = "") -> Path:
+    """``--data`` as given, else the shared data's ``sub`` folder."""
+    if data_dir is not None:
+        return data_dir
+    return shared_data() / sub if sub else shared_data()
 
 
 def _config(path: Path | None) -> Any:
@@ -33,7 +53,10 @@ def _existing_dir(path: Path, what: str) -> Path:
     from aion_cli.errors import InputError
 
     if not path.is_dir():
-        raise InputError(f"{what} folder not found: {path}", hint="pass it with --data DIR")
+        raise InputError(
+            f"{what} folder not found: {path}",
+            hint=f"pass it with --data DIR, or point ${DATA_ENV} at the shared data folder",
+        )
     return path
 
 
@@ -68,8 +91,8 @@ SCORE_COLUMNS = (
     "--data",
     "data_dir",
     type=AionPath(path_type=Path),
-    default=_default_dir("atc"),
-    show_default=True,
+    default=None,
+    show_default=DATA_DEFAULT_TEXT + "/atc",
     help="Folder with atc-1024-H_{train,test}.csv.",
 )
 @click.option(
@@ -87,7 +110,7 @@ SCORE_COLUMNS = (
 @click.option("--per-hour", is_flag=True, help="One row per model and hour.")
 @format_option(("table", "json"))
 def atc(
-    data_dir: Path, protocol: str, radius: float, config_path: Path | None, per_hour: bool,
+    data_dir: Path | None, protocol: str, radius: float, config_path: Path | None, per_hour: bool,
     fmt: str,
 ) -> None:
     """Heading NLL of aion, aion+graph, aion static, the grid and a time-of-day histogram
@@ -100,8 +123,8 @@ def atc(
     from aion_cli.cli.console import note
     from aion_cli.evaluation.atc import run_atc
 
-    result = run_atc(_existing_dir(data_dir, "ATC data"), protocol, _config(config_path),
-                     radius, progress=note)
+    data = _existing_dir(_data(data_dir, "atc"), "ATC data")
+    result = run_atc(data, protocol, _config(config_path), radius, progress=note)
     rows = result.rows if per_hour else result.summary()
     columns = ((Column("hour", "hour"),) if per_hour else ()) + SCORE_COLUMNS
     emit(fmt, rows, columns, json_payload=result.to_dict(),
@@ -113,12 +136,12 @@ def atc(
     "--data",
     "data_dir",
     type=AionPath(path_type=Path),
-    default=_default_dir("fremen_door"),
-    show_default=True,
+    default=None,
+    show_default=DATA_DEFAULT_TEXT + "/fremen_door",
     help="Folder with training_data.txt and test_{times,data}_k.txt.",
 )
 @format_option(("table", "json"))
-def door(data_dir: Path, fmt: str) -> None:
+def door(data_dir: Path | None, fmt: str) -> None:
     """FreMEn on a real periodic door signal: per test week, the mean absolute error of the
     prediction against the static mean's.
 
@@ -129,7 +152,7 @@ def door(data_dir: Path, fmt: str) -> None:
     from aion_cli.cli.console import note
     from aion_cli.evaluation.door import run_door
 
-    result = run_door(_existing_dir(data_dir, "door data"))
+    result = run_door(_existing_dir(_data(data_dir, "fremen_door"), "door data"))
     note(
         f"FreMEn order {result['fremen_order']} (best day-ahead score); the model itself "
         f"chooses {result['chosen_family']}; strongest periods (h): "
@@ -159,8 +182,8 @@ ACTIVITY_COLUMNS = (
     "--data",
     "data_dir",
     type=AionPath(path_type=Path),
-    default=_default_dir("lincoln"),
-    show_default=True,
+    default=None,
+    show_default=DATA_DEFAULT_TEXT + "/lincoln",
     help="Folder with the Lincoln corridor files (2017-*.txt, 2017-05-31_heading.csv).",
 )
 @click.option("--radius", type=float, default=1.0, show_default=True,
@@ -174,7 +197,7 @@ ACTIVITY_COLUMNS = (
 @click.option("--test", "test_day", metavar="DAY", help="The test day [default: 2017-06-09].")
 @format_option(("table", "json"))
 def lincoln(
-    data_dir: Path,
+    data_dir: Path | None,
     radius: float,
     config_path: Path | None,
     train_days: str | None,
@@ -199,7 +222,7 @@ def lincoln(
     if train_days is not None:
         train = tuple(d.strip() for d in train_days.split(",") if d.strip())
     result = run_lincoln(
-        _existing_dir(data_dir, "Lincoln data"), config, radius, progress=note,
+        _existing_dir(_data(data_dir, "lincoln"), "Lincoln data"), config, radius, progress=note,
         train_days=train, test_day=test_day or TEST_DAY,
     )
     flows = ", ".join(f"{k} {v:,}" for k, v in sorted(result.families["flow"].items()))
@@ -344,13 +367,16 @@ def office(
 @evaluate.command("report")
 @click.option("-o", "--output", "out_dir", type=AionPath(path_type=Path), required=True,
               help="Folder for report.md and its PNG plots.")
-@click.option("--data", "data_dir", type=AionPath(path_type=Path), default=DEFAULT_DATA,
-              show_default=True, help="The shared data folder (atc/, lincoln/, fremen_door/).")
+@click.option("--data", "data_dir", type=AionPath(path_type=Path), default=None,
+              show_default=DATA_DEFAULT_TEXT,
+              help="The shared data folder (atc/, lincoln/, fremen_door/).")
 @click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True)
 @click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True)
 @click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "lincoln", "door"]),
               help="Leave a section out (repeatable).")
-def report(out_dir: Path, data_dir: Path, scenes: int, days: float, skip: tuple[str, ...]) -> None:
+def report(
+    out_dir: Path, data_dir: Path | None, scenes: int, days: float, skip: tuple[str, ...]
+) -> None:
     """Run every protocol and write a markdown report with PNG plots.
 
     \b
@@ -360,6 +386,6 @@ def report(out_dir: Path, data_dir: Path, scenes: int, days: float, skip: tuple[
     from aion_cli.cli.console import note
     from aion_cli.evaluation.report import write_report
 
-    path = write_report(out_dir, data_dir, scenes=scenes, days=days, skip=set(skip),
+    path = write_report(out_dir, _data(data_dir), scenes=scenes, days=days, skip=set(skip),
                         progress=note)
     note(f"wrote {path}")

@@ -65,3 +65,30 @@ def test_a_lincoln_day_not_recorded_is_a_one_line_error() -> None:
     assert lines[0] == f"error: Lincoln days not in {DATA / 'lincoln'}: 2017-06-10"
     assert lines[1].startswith("hint: the files hold 2017-05-24, 2017-05-25")
     assert "Traceback" not in proc.stderr
+
+
+@needs(DATA / "fremen_door", "the FreMEn door data")
+def test_the_data_folder_is_found_from_any_folder(tmp_path: Path) -> None:
+    """Without --data, from a folder with no ../shared/data beside it: $AION_SHARED_DATA,
+    else the shared data beside the checkout aion runs from; a wrong variable is named."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "AION_SHARED_DATA"}
+    far = tmp_path / "a" / "b"
+    far.mkdir(parents=True)
+    for extra in ({}, {"AION_SHARED_DATA": str(DATA)}):
+        proc = subprocess.run(
+            [str(AION), "evaluate", "door", "--format", "json"],
+            capture_output=True, text=True, check=False, cwd=far, env={**env, **extra},
+        )
+        if not extra and not (Path(__file__).resolve().parents[3] / "shared" / "data").is_dir():
+            continue  # a checkout without shared data beside it: only the variable finds it
+        assert proc.returncode == 0, proc.stderr
+        assert json.loads(proc.stdout)["fremen_wins"] == 9
+    proc = subprocess.run(
+        [str(AION), "evaluate", "door"], capture_output=True, text=True, check=False, cwd=far,
+        env={**env, "AION_SHARED_DATA": str(tmp_path / "none")},
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.startswith(f"error: door data folder not found: {tmp_path / 'none'}")
+    assert "AION_SHARED_DATA" in proc.stderr
