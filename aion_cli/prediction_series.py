@@ -110,14 +110,22 @@ def predict_series(
 ) -> SeriesTable:
     """The series of the entries asked for (see the module doc); ``progress(k)`` after each
     time."""
-    from aion_cli.predictions import entry_ids, entry_table, rows_from_table, select
+    from aion_cli.predictions import (
+        entry_ids,
+        entry_table,
+        layer_of_nodes,
+        rows_from_table,
+        select,
+    )
     from aion_cli.room_names import with_names_resolved
 
     times = [int(t) for t in times_ns]
     if not times:
         raise ValueError("a series needs at least one time")
+    wanted = with_names_resolved(nodes, loaded.graph)
+    layer = layer_of_nodes(layer, wanted, loaded.graph)
     first = entry_table(loaded, times[0], layer)
-    index = select(first, layer, with_names_resolved(nodes, loaded.graph), at)
+    index = select(first, layer, wanted, at)
     if layer in ("rooms", "buildings"):  # sums over places, as the aggregated table's
         flow = _group_flows(loaded, first.node_id[index], times, layer, progress)
     else:

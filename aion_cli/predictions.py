@@ -235,9 +235,31 @@ def predicted_records(
     (``aion predict`` and :meth:`aion_cli.Map.predict`)."""
     from aion_cli.room_names import with_names_resolved
 
+    wanted = with_names_resolved(nodes, loaded.graph)
+    layer = layer_of_nodes(layer, wanted, loaded.graph)
     table = entry_table(loaded, t_ns, layer)
-    index = select(table, layer, with_names_resolved(nodes, loaded.graph), at)
+    index = select(table, layer, wanted, at)
     return rows_from_table(table, ordered_rows(table, index, top)), len(index)
+
+
+def layer_of_nodes(layer: str, nodes: Sequence[str | int], graph: Any) -> str:
+    """The layer that answers ``--node`` without ``--layer``: ``rooms`` when every node asked
+    for is a room of the map's scene graph (by id or name, already resolved), ``buildings``
+    when every one is a building; else ``layer`` as given (places and cells, or a mix, which
+    :func:`select` then reports)."""
+    from aion_cli.engine.node_ids import parse_node_id
+    from aion_cli.errors import InputError
+
+    if layer != "all" or not nodes or graph is None:
+        return layer
+    try:
+        ids = {n if isinstance(n, int) else parse_node_id(n) for n in nodes}
+    except InputError:
+        return layer  # select names the id it cannot read
+    for name, part in (("rooms", graph.rooms), ("buildings", graph.buildings)):
+        if len(part) and ids <= {int(i) for i in part.ids}:
+            return name
+    return layer
 
 
 def entry_table(loaded: LoadedMap, t_ns: int | None, layer: str = "all") -> Any:
@@ -307,7 +329,10 @@ def select(
         missing = [w for w in wanted if w not in by_id]
         if missing:
             if layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
-                hint = "rooms and buildings are answered with --layer rooms / --layer buildings"
+                hint = (
+                    "rooms and buildings are answered when asked for alone, or with --layer "
+                    "rooms / --layer buildings, not beside places and cells"
+                )
             else:
                 kind_names = [_kind_name(table, e) for e in index.tolist()]
                 ids = [i for i, k in zip(labels, kind_names, strict=True) if k != "cell"][:8]

@@ -162,9 +162,13 @@ def test_node_at_top_and_layer_selection(office: Office) -> None:
     assert row["id"] == "p4"
     (row,) = entries(office, "--time", AT, "--layer", "rooms", "--node", "R1").values()
     assert row["kind"] == "room"
-    result = run("predict", office.map, "--time", AT, "--node", "R1")
-    assert result.exit_code == 2
-    assert "--layer rooms" in result.stderr
+    # rooms and buildings asked for alone are answered on their layer without --layer
+    assert entries(office, "--time", AT, "--node", "R1") == {"R1": row}
+    (building,) = entries(office, "--time", AT, "--node", "B0").values()
+    assert building["kind"] == "building"
+    result = run("predict", office.map, "--time", AT, "--node", "R1", "--node", "p4")
+    assert result.exit_code == 2  # a room beside a place: one table cannot hold both
+    assert "asked for alone" in result.stderr
     (row,) = entries(office, "--time", AT, "--at", "5.8,0.3").values()
     assert row["id"] == "p3"
     top = entries(office, "--time", AT, "--top", "2")
