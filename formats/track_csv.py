@@ -121,11 +121,16 @@ def _first_problem(path: Path, spec: _Spec) -> str | None:
 
 
 def _fail(path: Path, spec: _Spec, layout: str, detail: str | None = None) -> TracksFormatError:
+    """The refusal of a file that does not read as ``layout``: its first problem, and a hint
+    naming the layout it looks like (``track_sniff``), else ``layout``'s columns."""
+    from aion_cli.formats.track_sniff import guess_layout
+
     problem = _first_problem(path, spec) or detail or "unreadable data"
-    return TracksFormatError(
-        f"{path}: not a valid {layout} tracks file: {problem}",
-        hint=f"{layout} columns: {', '.join(spec.columns)}",
-    )
+    guess = guess_layout(path)
+    hint = f"{layout} columns: {', '.join(spec.columns)}"
+    if guess is not None and layout not in guess.layouts:
+        hint = f"it looks like {guess.describe()}: pass --layout {guess.layout}"
+    return TracksFormatError(f"{path}: not a valid {layout} tracks file: {problem}", hint=hint)
 
 
 def _check_file(path: Path, spec: _Spec, layout: str) -> None:

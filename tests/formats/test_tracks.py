@@ -479,3 +479,26 @@ def test_tracks_to_log_observed_without_detections_and_bad_spans(tmp_path: Path)
     summary = tracks_log.tracks_to_log(one, tmp_path / "d.mcap")
     assert (summary.observed_messages, summary.observed_spans) == (0, 0)
     assert _log_messages(tmp_path / "d.mcap")[0] == [S]
+
+
+def test_a_file_of_another_layout_is_refused_naming_the_one_it_looks_like(
+    tmp_path: Path,
+) -> None:
+    """Read with a layout it does not fit, a file's refusal names the layout it resembles
+    (any layout given, not only the default)."""
+    eth = _write(tmp_path, "eth.txt", "".join(f"{10 * k}\t{k % 3}\t1.5\t2.5\n" for k in range(8)))
+    with pytest.raises(track_types.TracksFormatError) as caught:
+        ft.read_tracks(eth, "atc")
+    assert caught.value.hint == (
+        "it looks like the eth or ucy layout (rows `frame ped_id x y`): pass --layout eth"
+    )
+    atc = _write(tmp_path, "atc.csv", "1351038020.969,9190802,-22.311,1.883,0.324,-0.45\n" * 3)
+    with pytest.raises(track_types.TracksFormatError) as caught:
+        ft.read_tracks(atc, "eth")
+    assert caught.value.hint is not None
+    assert "pass --layout atc" in caught.value.hint
+    odd = _write(tmp_path, "odd.csv", "a,b\n")  # like no layout: the columns of the one given
+    with pytest.raises(track_types.TracksFormatError) as caught:
+        ft.read_tracks(odd, "atc")
+    assert caught.value.hint is not None
+    assert caught.value.hint.startswith("atc columns: ")
