@@ -116,14 +116,15 @@ class ParallelBuild:
             groups, opts, window, workers, self.config.stable_move_tolerance, whole
         )
         report.notes.extend(notes)
-        if opts.observed and len(shards) < 2 and opts.workers >= 2:
+        if opts.observed and len(shards) < 2 and (opts.workers >= 2 or opts.scheduler):
             report.notes.append(
                 "--observed: a log is not cut into time shards (its declared spans count "
                 "from its first message to its last): built in sequence"
             )
         # (else a note says why); unasked (--workers not given), a log too short to cut
         # is no news
-        if len(shards) < 2 and not notes and not whole and opts.workers >= 2:
+        asked = opts.workers >= 2 or opts.scheduler is not None
+        if len(shards) < 2 and not notes and not whole and asked:
             report.notes.append(
                 ("one log" if len(logs) < 2 else "the logs overlap in time (one shard)")
                 + ": built in sequence, not in parallel (no quiet moment to cut it at: a "
@@ -131,6 +132,11 @@ class ParallelBuild:
                 "docs/SCALING.md)"
             )
         if len(shards) < 2:
+            if opts.scheduler is not None:  # asked for a cluster: say it was not used
+                report.notes.append(
+                    f"--scheduler {opts.scheduler}: not contacted, the build is one shard and "
+                    "ran in this process"
+                )
             return self.build.learn(self.config).state
         self.groups = [group for group, _, _ in shards]
         self.parts = [part for _, part, _ in shards]

@@ -417,6 +417,16 @@ def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:
         _build(logs, tmp_path / "m.aion", 1, scheduler="tcp://127.0.0.1:9")
 
 
+def test_a_scheduler_not_needed_is_said_not_silently_ignored(tmp_path: Path) -> None:
+    """One log of two hours has no quiet moment to cut it at: it is one shard and runs here,
+    and the report says the scheduler (unreachable: a contact would fail) was not used."""
+    (log,) = _logs(tmp_path, [0])
+    report = _build([log], tmp_path / "m.aion", 1, scheduler="tcp://127.0.0.1:9")
+    notes = report.notes  # type: ignore[attr-defined]
+    assert any(n.startswith("--scheduler tcp://127.0.0.1:9: not contacted") for n in notes)
+    assert any("built in sequence, not in parallel" in n for n in notes)
+
+
 def test_a_hydra_session_across_logs_joins_as_one_pass(tmp_path: Path) -> None:
     # two recordings of one Hydra session, three hours apart, the robot's poses from the
     # graphs' agent layer: every graph repeats the session's trajectory from its start, so the
