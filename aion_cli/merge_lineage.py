@@ -86,6 +86,8 @@ def _target_lineage(
 def _auto_lineage(maps: Sequence[LineageInput]) -> tuple[str, str]:
     from aion_cli.engine.rebind import graph_agreement
 
+    if len(maps) == 1:  # a part map merged alone: nothing to compare
+        return "same", "one map"
     without = [m.name for m in maps if m.graph is None]
     if len(without) == len(maps):
         return "same", "no map has a scene graph (hash cells only)"

@@ -111,7 +111,9 @@ def test_one_part_map_merged_alone_is_the_map_of_its_logs(tmp_path: Path) -> Non
     whole = tmp_path / "whole.aion"
     assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
     alone = tmp_path / "alone.aion"
-    assert run("merge", part, "-o", alone, "-q").exit_code == 0
+    merged = run("merge", part, "-o", alone, "-q", "--format", "json")
+    assert merged.exit_code == 0, merged.stderr
+    assert json.loads(merged.stdout)["lineage_reason"] == "one map"  # not "0 of 0 ids"
     assert differences(_state(whole), _state(alone)) == []  # type: ignore[arg-type]
     assert run("predict", alone, "--top", "1").exit_code == 0
     assert "part" not in json.loads(run("info", alone, "--format", "json").stdout)

@@ -31,9 +31,9 @@ from; an existing map at -o is replaced atomically, anything else is refused.
 
 \b
 JSON keys (--format json): map, map_bytes, inputs[{path, name, size, sha256, start_ns,
-end_ns, logs, detections}], lineage, lineage_reason, graph_source, released_nodes,
-rebound_cells, detections, logs, cells, nodes, nodes_with_flow, bound_cells, windows,
-hours_observed, time_span{start_ns, end_ns, seconds}, notes.
+end_ns, logs, detections}], lineage, parts (part maps joined), lineage_reason, graph_source,
+released_nodes, rebound_cells, detections, logs, cells, nodes, nodes_with_flow, bound_cells,
+windows, hours_observed, time_span{start_ns, end_ns, seconds}, notes.
 """
 
 

@@ -255,4 +255,9 @@ def test_the_installed_command_merges_and_has_help(days: Days, tmp_path: Path) -
     helped = run("merge", "--help")
     assert helped.exit_code == 0
     assert "aion merge " in helped.stdout.split("Examples:")[1]
+    from aion_cli.merge_report import MergeReport
+
+    listed = " ".join(helped.stdout.split("JSON keys (--format json):")[1].split())
+    for key in MergeReport(out).to_dict():  # every key the JSON has is named in the help
+        assert f" {key}" in f" {listed}" or f"{key}," in listed, key
     assert "merge" in run("--help").stdout
