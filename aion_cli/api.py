@@ -27,15 +27,15 @@ API (``aion_cli`` itself re-exports all of it).
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Sequence
-from datetime import datetime
+from datetime import datetime, tzinfo
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from aion_cli import api_checks as check
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
-from aion_cli.errors import InputError
+from aion_cli.errors import InputError, MapFileError
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport
@@ -68,6 +68,7 @@ class Map:
         self.path = path
         #: what the build (:func:`build`) or the merge (:func:`merge`) did (else None)
         self.report = report
+        self._file: _PinnedFile | None = None if path is None else _PinnedFile(path)
 
     @classmethod
     def load(cls, path: PathLike) -> Map:
@@ -80,9 +81,25 @@ class Map:
     @classmethod
     def from_state(cls, state: MapState, timezone: str | None = None) -> Map:
         """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g.
-        to :meth:`save` it; its scene graph is the state's latest."""
+        to :meth:`save` it; its scene graph is the state's latest. A loaded map's state is
+        refused: its queries count its pending day and open window as closed, in place, so
+        it cannot be written again (:meth:`save` copies a loaded map)."""
+        from aion_cli.engine.state import MapState
         from aion_cli.manifest import Manifest
         from aion_cli.mapquery import LoadedMap, latest_graph
+
+        if not isinstance(state, MapState):
+            raise InputError(
+                f"from_state needs an engine MapState, got {type(state).__name__}",
+                hint="aion_cli.engine.mapper.Mapper(config).state, after feeding it",
+            )
+        if not state.writable:
+            raise InputError(
+                "this state was read from a map file for queries and cannot be written",
+                hint="save the loaded map itself (Map.save copies it), or load it with "
+                "aion_cli.mapquery.load_map(path, writable=True) to continue it",
+            )
+        timezone = check.zone_name(timezone, "timezone")
 
         manifest = Manifest(state={}, config=state.config.to_dict(), timezone=timezone)
         return cls(LoadedMap(state, latest_graph(state), manifest.to_dict()))
@@ -114,43 +131,53 @@ class Map:
         zone = self._loaded.manifest.get("timezone")
         return zone if isinstance(zone, str) else None
 
-    def _zone(self, tz: str | None) -> Zone:
+    def _zone(self, tz: object) -> Zone:
         from aion_cli.timeparse import resolve_zone
 
-        return resolve_zone(tz if tz is not None else self.timezone)
+        name = check.zone_name(tz)
+        return resolve_zone(name if name is not None else self.timezone)
 
-    def _time(self, time: TimeLike, tz: str | None) -> tuple[int, Zone]:
+    def _time(self, time: TimeLike, tz: object) -> tuple[int, Zone]:
+        self._check_file()
         zone = self._zone(tz)
         return to_ns(time, zone), zone
+
+    def _check_file(self) -> None:
+        """:class:`MapFileError` when the file this map was loaded from was overwritten in
+        place since (its members would be read from the new bytes, or past its end)."""
+        if self._file is not None:
+            self._file.check()
 
     # -- queries -----------------------------------------------------------------------------
 
     def predict(
         self,
-        time: TimeLike = "now",
+        time: TimeLike | None = None,
         *,
         historical: bool = False,
         tz: str | None = None,
         layer: str = "all",
-        nodes: Sequence[str | int] = (),
-        at: str | tuple[float, ...] | None = None,
+        nodes: Sequence[str | int] | str = (),
+        at: str | Sequence[float] | None = None,
         top: int | None = None,
     ) -> Table:
-        """Flows per entry at ``time`` (``historical=True``: as observed), as ``aion predict``
-        with ``--layer``, ``--node``, ``--at`` and ``--top``."""
+        """Flows per entry at ``time`` (default now; ``historical=True``: as observed), as
+        ``aion predict`` with ``--layer``, ``--node`` (``nodes``: ids, or one id), ``--at``
+        (``"x,y"`` or numbers) and ``--top``."""
         from aion_cli.predictions import LAYERS, hour_flags, predicted_records
         from aion_cli.timeparse import format_ns
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
-        if top is not None and top < 1:
-            raise InputError(f"top must be at least 1, got {top}")
+        if historical and time is not None:
+            raise InputError("choose time or historical=True, not both")
+        wanted, point, top = _selection(nodes, at, top)
+        self._check_file()
         t_ns: int | None = None
         zone = None
         if not historical:
-            t_ns, zone = self._time(time, tz)
-        point = ",".join(str(float(v)) for v in at) if isinstance(at, tuple) else at
-        rows, _ = predicted_records(self._loaded, t_ns, layer, nodes, point, top)
+            t_ns, zone = self._time("now" if time is None else time, tz)
+        rows, _ = predicted_records(self._loaded, t_ns, layer, wanted, point, top)
         return Table(
             str(self.path) if self.path is not None else "<memory>",
             t_ns,
@@ -169,8 +196,8 @@ class Map:
         *,
         tz: str | None = None,
         layer: str = "all",
-        nodes: Sequence[str | int] = (),
-        at: str | None = None,
+        nodes: Sequence[str | int] | str = (),
+        at: str | Sequence[float] | None = None,
         top: int | None = None,
     ) -> SeriesTable:
         """Predicted flow of the entries asked for at ``start``, ``start + step``, ... up to
@@ -184,20 +211,19 @@ class Map:
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
-        if top is not None and top < 1:
-            raise InputError(f"top must be at least 1, got {top}")
-        every = step_ns(step)
+        wanted, point, top = _selection(nodes, at, top)
+        every = step_ns(_step(step))
         t0, _ = self._time(start, tz)
         t1, _ = self._time(end, tz)
-        times = series_times(t0, t1, every)
-        return predict_series(self._loaded, times, layer, nodes, at, top)
+        times = series_times(t0, t1, every, ("start", "end"))
+        return predict_series(self._loaded, times, layer, wanted, point, top)
 
     def plan(
         self,
         start: str | int,
         goal: str | int,
         *,
-        time: TimeLike = "now",
+        time: TimeLike | None = None,
         tz: str | None = None,
         speed: float | None = None,
         leave: tuple[TimeLike, TimeLike] | None = None,
@@ -211,9 +237,12 @@ class Map:
         from aion_cli.mapquery import nav_graph
         from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
 
-        if speed is not None and not 0.01 <= speed <= 20.0:
+        start, goal = _endpoint(start, "start"), _endpoint(goal, "goal")
+        if speed is not None and not 0.01 <= check.real(speed, "speed") <= 20.0:
             raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
-        t_ns, zone = self._time(time, tz)
+        if leave is not None and time is not None:
+            raise InputError("choose time or leave=(earliest, latest), not both")
+        t_ns, zone = self._time("now" if time is None else time, tz)
         nav = nav_graph(self._loaded)
         graph = self._loaded.graph
         a, b = resolve_endpoint(start, nav, graph), resolve_endpoint(goal, nav, graph)
@@ -228,9 +257,11 @@ class Map:
         from aion_cli.predictions import hour_flags
         from aion_cli.timeparse import step_ns
 
-        every = step_ns(step)
-        earliest, latest = (self._time(t, tz)[0] for t in leave)
-        times = series_times(earliest, latest, every)
+        every = step_ns(_step(step))
+        earliest, latest = (
+            self._time(t, tz)[0] for t in check.pair(leave, "leave", "earliest, latest")
+        )
+        times = series_times(earliest, latest, every, ("leave[0]", "leave[1]"))
         plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
         made = Plan.from_routes(plans[best], zone, snapped)
         observed = hour_flags(self._loaded, times)
@@ -284,7 +315,8 @@ class Map:
             times = [when]
         ends = None
         if path is not None:
-            ends = path_ends(self._loaded, str(path[0]), str(path[1]))
+            a, b = check.pair(path, "path", "start, goal")
+            ends = path_ends(self._loaded, str(_endpoint(a, "path")), str(_endpoint(b, "path")))
         label = str(self.path) if self.path is not None else "<memory>"
         if format == "dsg":
             from aion_cli.exports import export_dsg
@@ -322,7 +354,10 @@ class Map:
         zone = None
         if not historical:
             when, zone = self._time("now" if time is None else time, tz)
-        ends = None if path is None else path_ends(self._loaded, str(path[0]), str(path[1]))
+        ends = None
+        if path is not None:
+            a, b = check.pair(path, "path", "start, goal")
+            ends = path_ends(self._loaded, str(_endpoint(a, "path")), str(_endpoint(b, "path")))
         name = self.path.name if self.path is not None else "<memory>"
         return export_png(self._loaded, name, as_path(file), [when], zone, ends)
 
@@ -333,17 +368,19 @@ class Map:
         them into it (as ``aion evaluate holdout``): ``result.headings`` (heading NLL per
         model), ``result.activity`` (hourly Spearman, Poisson deviance, MAE), ``result.series``,
         ``result.notes``, ``result.to_dict()`` (its JSON). ``options``: the build's reading
-        options (``detection_topics``, ``observed`` spans in ns, ``map_frame``: default the
-        frame the map records, else ``map``)."""
-        from aion_cli.build_options import DEFAULT_MAP_FRAME, BuildOptions
+        options, as :func:`build` takes them (``detection_topics``, ``observed`` spans,
+        ``map_frame``: default the frame the map records, else ``map``; ``base_frame``,
+        ``graph_topic``, ``log_format``, ``detections_mapping``)."""
+        from aion_cli.api_make import reading_options
+        from aion_cli.build_options import DEFAULT_MAP_FRAME
         from aion_cli.evaluation.holdout import score_held_out
 
-        paths = [logs] if isinstance(logs, str | os.PathLike) else list(logs)
+        self._check_file()
         frame = options.pop("map_frame", None)
         options["map_frame"] = (
             frame if isinstance(frame, str) else self.manifest.map_frame or DEFAULT_MAP_FRAME
         )
-        opts = BuildOptions(logs=tuple(as_path(p) for p in paths), **options)  # type: ignore[arg-type]
+        opts = reading_options(logs, options, self.timezone)
         return score_held_out(self._loaded, opts, radius)
 
     # -- saving ------------------------------------------------------------------------------
@@ -355,14 +392,15 @@ class Map:
         from aion_cli.formats.mapfile import check_map_target, map_lock, write_map
 
         target = as_path(path)
-        if self.path is not None:
-            if target.exists() and target.resolve() == self.path.resolve():
-                return target
+        if self._file is not None:
+            self._file.check()
+            if target.exists() and os.path.samestat(os.stat(target), os.fstat(self._file.fd)):
+                return target  # the very file: nothing to write
             check_map_target(target)
             tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
             with map_lock(target):  # as write_map: one writer per map at a time
                 try:
-                    shutil.copyfile(self.path, tmp)
+                    self._file.copy_to(tmp)  # the bytes loaded, even if the path was replaced
                     os.replace(tmp, target)
                 finally:
                     tmp.unlink(missing_ok=True)
@@ -391,14 +429,18 @@ class Map:
         return f"<aion.Map {where}: {entries:,} entr{'y' if entries == 1 else 'ies'}>"
 
 
-def to_ns(time: TimeLike, zone: Zone) -> int:
+def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
     """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (naive: in
-    ``zone``) or integer nanoseconds; outside 1900 .. 2261 is an ``InputError``."""
-    from aion_cli.timeparse import check_range, parse_time
+    ``zone``, a name such as ``"Europe/London"``, a ``ZoneInfo`` or an aion ``Zone``; default
+    UTC, None: the machine's) or integer nanoseconds (one below 10^16, which would lie in
+    1970's first months, is refused as likely seconds); outside 1900 .. 2261 is an
+    ``InputError``."""
+    from aion_cli.timeparse import Zone, check_range, parse_time, resolve_zone
     from aion_cli.timeparse import to_ns as datetime_ns
 
-    if isinstance(time, bool):
-        raise InputError(f"not a time: {time!r}")
+    if not isinstance(zone, Zone):
+        zone = resolve_zone(check.zone_name(zone, "zone"))
+    time = check.time_value(time)  # type: ignore[assignment]
     if isinstance(time, int):
         return check_range(int(time), f"{time} ns")
     if isinstance(time, datetime):
@@ -407,3 +449,78 @@ def to_ns(time: TimeLike, zone: Zone) -> int:
     if isinstance(time, str):
         return parse_time(time, zone)
     raise InputError(f"not a time: {time!r}", hint="a time string, a datetime or nanoseconds")
+
+
+def _selection(
+    nodes: object, at: object, top: object
+) -> tuple[list[str | int], str | None, int | None]:
+    """``nodes``, ``at`` and ``top`` of a query, checked (one node id given alone is one
+    node; ``at`` as text or numbers); nodes and a point at once are refused (the point would
+    be ignored)."""
+    wanted = check.node_list(nodes)
+    point = check.point(at)
+    if wanted and point is not None:
+        raise InputError("choose nodes or at, not both")
+    return wanted, point, check.count(top, "top")
+
+
+def _step(step: object) -> str | float:
+    """A series step: text (``"10m"``) or seconds."""
+    if isinstance(step, str):
+        return step
+    return check.real(step, "step")
+
+
+def _endpoint(node: object, what: str) -> str | int:
+    """A plan's end: a node id, room or name, or ``"x,y"`` (numbers: a point)."""
+    if isinstance(node, str):
+        return node
+    if isinstance(node, bool) or node is None:
+        raise InputError(f"{what} must be a node id, a room name or a point, got {node!r}")
+    import numbers
+
+    if isinstance(node, numbers.Integral):
+        return int(node)
+    point = check.point(node, what)
+    assert point is not None
+    return point
+
+
+class _PinnedFile:
+    """The file a map was loaded from, held open (its bytes stay readable, even once
+    replaced or deleted, for :meth:`Map.save`) with its size and modification time then:
+    a map file overwritten in place (``cp other.aion map.aion``) would make the memory-mapped
+    members read new bytes, or past the file's end (a bus error), so it is refused."""
+
+    def __init__(self, path: Path) -> None:
+        import weakref
+
+        self.path = path
+        self.fd = os.open(path, os.O_RDONLY)
+        weakref.finalize(self, os.close, self.fd)
+        self.stamp = self._stamp()
+
+    def _stamp(self) -> tuple[int, int]:
+        st = os.fstat(self.fd)
+        return st.st_size, st.st_mtime_ns
+
+    def check(self) -> None:
+        if self._stamp() != self.stamp:
+            raise MapFileError(
+                f"{self.path} was overwritten in place since it was loaded",
+                hint="load it again (aion.Map.load); aion's own writers replace a map "
+                "atomically, which a loaded map survives",
+            )
+
+    def copy_to(self, target: Path) -> None:
+        """The bytes as loaded into ``target`` (a temporary name; the caller renames it)."""
+        self.check()
+        with open(target, "wb") as out:
+            offset, size = 0, self.stamp[0]
+            while offset < size:
+                chunk = os.pread(self.fd, min(1 << 24, size - offset), offset)
+                if not chunk:
+                    break
+                out.write(chunk)
+                offset += len(chunk)
+        self.check()  # not changed while copied

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Union
 
@@ -14,17 +15,21 @@ from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
     from aion_cli.api import Map, TimeLike
+    from aion_cli.build_options import BuildOptions
     from aion_cli.build_report import ProgressSink
     from aion_cli.engine.config import ModelConfig
 
 PathLike = Union[str, "os.PathLike[str]"]
 
 
-def as_path(value: PathLike) -> Path:
+def as_path(value: PathLike, what: str = "path") -> Path:
     """A path argument as a ``Path``; an empty one is an ``InputError`` (``Path("")`` is the
-    current folder: an unset variable must not mean "here", as on the command line)."""
-    text = os.fspath(value)
-    if not str(text).strip():
+    current folder: an unset variable must not mean "here", as on the command line), and so
+    is anything but ``str`` or ``os.PathLike``."""
+    from aion_cli.api_checks import path_text
+
+    text = path_text(value, what)
+    if not text.strip():
         raise InputError("an empty path was given", hint="name the file or folder ('.' for here)")
     return Path(text)
 
@@ -59,42 +64,37 @@ def build(
     platforms without ``fork``), ``--scheduler`` and ``--part``. ``observed``: ``(start,
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
     ``Map.predict``, naive ones in ``tz``, else UTC)."""
-    from aion_cli.api import Map, to_ns
+    from aion_cli.api import Map
+    from aion_cli.api_checks import count, zone_name
     from aion_cli.build_options import map_frame_of
-    from aion_cli.pipeline import BuildOptions, build_map
-    from aion_cli.timeparse import resolve_zone
+    from aion_cli.pipeline import build_map
 
-    paths = [logs] if isinstance(logs, (str, os.PathLike)) else list(logs)
-    spans: tuple[tuple[int, int], ...] = ()
-    if observed:  # (a build without spans reads ``tz`` as before, in the build)
-        zone = resolve_zone(tz or "UTC")
-        spans = tuple((to_ns(a, zone), to_ns(b, zone)) for a, b in observed)
-    for (a, b), (ta, tb) in zip(spans, observed, strict=True):
-        if b <= a:
-            raise InputError(f"observed span {ta!r}..{tb!r}: the end is not after the start")
-
-    def opt(p: PathLike | None) -> Path | None:
-        return None if p is None else as_path(p)
-
-    opts = BuildOptions(
-        logs=tuple(as_path(p) for p in paths),
-        output=opt(output),
-        config=config,
-        log_format=log_format,
-        detection_topics=tuple(detection_topics),
-        graph_topic=graph_topic,
-        map_frame=map_frame_of(map_frame, opt(continue_from)),
-        base_frame=base_frame,
-        graph_file=opt(graph),
+    tz = zone_name(tz)
+    opts = reading_options(
+        logs,
+        {
+            "log_format": log_format,
+            "detection_topics": detection_topics,
+            "graph_topic": graph_topic,
+            "base_frame": base_frame,
+            "detections_mapping": detections_mapping,
+            "observed": observed,
+        },
+        tz,
+    )
+    opts = replace(
+        opts,
+        output=_optional_path(output, "output"),
+        config=_config(config),
+        map_frame=map_frame_of(map_frame, _optional_path(continue_from, "continue_from")),
+        graph_file=_optional_path(graph, "graph"),
         nav_layer=nav_layer,
-        derive_graph=derive_graph,
-        continue_from=opt(continue_from),
+        derive_graph=bool(derive_graph),
+        continue_from=_optional_path(continue_from, "continue_from"),
         timezone=tz,
-        detections_mapping=opt(detections_mapping),
-        workers=workers,
+        workers=count(workers, "workers", minimum=0) or 0,
         scheduler=scheduler,
-        part=part,
-        observed=spans,
+        part=bool(part),
     )
     report = build_map(opts, progress)
     made = Map.load(report.output)
@@ -146,3 +146,77 @@ def compact(source: PathLike, output: PathLike) -> Map:
     made = Map.load(report.output)
     made.report = report
     return made
+
+
+READING = (
+    "log_format", "detection_topics", "graph_topic", "map_frame", "base_frame",
+    "detections_mapping", "observed",
+)  # fmt: skip
+"""How logs are read, the options :meth:`aion_cli.api.Map.holdout` shares with :func:`build`."""
+
+
+def reading_options(
+    logs: object, options: dict[str, object], tz: str | None
+) -> BuildOptions:
+    """The ``BuildOptions`` that read ``logs`` as :func:`build` reads them, from the reading
+    ``options`` (:data:`READING`; others are an ``InputError`` naming the ones there are):
+    one topic given alone is one topic, ``observed`` spans are times as in ``Map.predict``
+    (naive ones in ``tz``, else UTC), paths ``str`` or ``os.PathLike``."""
+    from aion_cli.api import to_ns
+    from aion_cli.api_checks import spans as span_pairs
+    from aion_cli.pipeline import BuildOptions
+    from aion_cli.timeparse import resolve_zone
+
+    unknown = sorted(set(options) - set(READING))
+    if unknown:
+        raise InputError(
+            f"unknown option(s): {', '.join(unknown)}",
+            hint=f"reading options: {', '.join(READING)}",
+        )
+    if logs is None or (not isinstance(logs, str | os.PathLike) and not isinstance(logs, Sequence)):
+        raise InputError(f"logs must be a path or a list of paths, got {logs!r}")
+    paths = [logs] if isinstance(logs, str | os.PathLike) else list(logs)
+    if not paths:
+        raise InputError("no log given", hint="pass at least one log file or folder")
+    topics = options.get("detection_topics") or ()
+    if isinstance(topics, str):
+        topics = (topics,)
+    if not isinstance(topics, Sequence):
+        raise InputError(f"detection_topics must be topic names, got {topics!r}")
+    given = span_pairs(options.get("observed"))
+    spans: tuple[tuple[int, int], ...] = ()
+    if given:  # (a build without spans reads ``tz`` as before, in the build)
+        zone = resolve_zone(tz or "UTC")
+        spans = tuple((to_ns(a, zone), to_ns(b, zone)) for a, b in given)
+    for (a, b), (ta, tb) in zip(spans, given, strict=True):
+        if b <= a:
+            raise InputError(f"observed span {ta!r}..{tb!r}: the end is not after the start")
+    fields: dict[str, object] = {
+        "log_format": options.get("log_format"),
+        "detection_topics": tuple(str(t) for t in topics),
+        "graph_topic": options.get("graph_topic"),
+        "base_frame": options.get("base_frame") or "base_link",
+        "detections_mapping": _optional_path(options.get("detections_mapping"), "mapping"),
+        "observed": spans,
+    }
+    if options.get("map_frame") is not None:
+        fields["map_frame"] = options["map_frame"]
+    return BuildOptions(logs=tuple(as_path(p, "log") for p in paths), **fields)  # type: ignore[arg-type]
+
+
+def _optional_path(value: object, what: str) -> Path | None:
+    return None if value is None else as_path(value, what)  # type: ignore[arg-type]
+
+
+def _config(config: object) -> ModelConfig | None:
+    """``ModelConfig``, a dict of its parameters (as ``--config``'s TOML), or None."""
+    from aion_cli.engine.config import ModelConfig
+
+    if config is None or isinstance(config, ModelConfig):
+        return config
+    if isinstance(config, dict):
+        return ModelConfig.from_dict(config)
+    raise InputError(
+        f"config must be a ModelConfig or a dict of its parameters, got {config!r}",
+        hint="aion_cli.engine.config.ModelConfig(...), or e.g. {\"bins\": 8}",
+    )

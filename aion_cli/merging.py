@@ -183,8 +183,14 @@ def _check_paths(paths: list[Path], out: Path) -> None:
 
 
 def _target_graph(graph_file: Path | None, nav_layer: str | None) -> GraphSnapshot | None:
-    """The ``--graph FILE`` snapshot (read before any map, so a bad file fails first)."""
+    """The ``--graph FILE`` snapshot (read before any map, so a bad file fails first);
+    ``--nav-layer`` chooses its navigational layer, and without the file means nothing."""
     if graph_file is None:
+        if nav_layer is not None:
+            raise InputError(
+                f"--nav-layer {nav_layer} chooses the layer of a --graph FILE, and none is given",
+                hint="the maps' own graphs keep the layers they were built with",
+            )
         return None
     from aion_cli.formats.dsg import load_graph
 

@@ -78,17 +78,23 @@ def _listed(row: F64) -> list[float | None]:
     return [_value(x) for x in row.tolist()]
 
 
-def series_times(start_ns: int, end_ns: int, step_ns: int) -> list[int]:
+def series_times(
+    start_ns: int, end_ns: int, step_ns: int, names: tuple[str, str] = ("--from", "--to")
+) -> list[int]:
     """``start, start + step, ...`` up to ``end`` inclusive; :class:`InputError` for an end
-    before the start or more than :data:`MOST_TIMES` times."""
+    before the start or more than :data:`MOST_TIMES` times. ``names``: what the caller
+    calls the start and the end (the CLI's options, or the API's arguments)."""
     from aion_cli.errors import InputError
 
     if step_ns <= 0:
         raise InputError(f"the step must be positive, got {step_ns} ns")
     if end_ns < start_ns:
+        first, last = names
         raise InputError(
-            "--to is before --from",
-            hint='give a later --to, e.g. --from "2026-01-12 06:00" --to "2026-01-12 20:00"',
+            f"{last} is before {first}",
+            hint=f'give a later {last}, e.g. {first} "2026-01-12 06:00" {last} "2026-01-12 20:00"'
+            if first.startswith("--")
+            else f"give a later {last}",
         )
     count = (end_ns - start_ns) // step_ns + 1
     if count > MOST_TIMES:

@@ -242,6 +242,19 @@ def predicted_records(
     return rows_from_table(table, ordered_rows(table, index, top)), len(index)
 
 
+def _wanted_label(node: str | int, by_id: dict[str, int]) -> str:
+    """The entry id a ``--node`` value names: an id as ``predict`` prints it (``p12``,
+    ``R2``, a hash cell's ``c<key>``), or a node id in any form ``parse_node_id`` reads."""
+    from aion_cli.engine.node_ids import node_label, parse_node_id
+
+    if isinstance(node, str):
+        text = node.strip()
+        if text in by_id or (text[:1] == "c" and text[1:].isdigit()):  # a cell: c<key>
+            return text
+        return node_label(parse_node_id(text))
+    return node_label(node)
+
+
 def layer_of_nodes(layer: str, nodes: Sequence[str | int], graph: Any) -> str:
     """The layer that answers ``--node`` without ``--layer``: ``rooms`` when every node asked
     for is a room of the map's scene graph (by id or name, already resolved), ``buildings``
@@ -299,12 +312,10 @@ def select(
 
     from aion_cli.engine.nearest import distances_from
     from aion_cli.engine.node_ids import (
-        node_label,
-        parse_node_id,
         refuse_far_point,
         require_point,
     )
-    from aion_cli.errors import UnknownNodeError
+    from aion_cli.errors import InputError, UnknownNodeError
 
     index = np.arange(len(table.xyz), dtype=np.int64)
     if layer in ("places", "cells"):
@@ -320,15 +331,18 @@ def select(
             index = index[np.isin(kind, codes)]
         else:
             index = index[kind == want]
+    if nodes and at is not None:
+        raise InputError("choose --node or --at, not both (the point would be ignored)")
     if nodes:
-        wanted = [
-            node_label(n if isinstance(n, int) else parse_node_id(n)) for n in nodes
-        ]
         labels = [str(i) for i in entry_ids(table, index)]
         by_id = dict(zip(labels, index.tolist(), strict=True))
+        wanted = [_wanted_label(n, by_id) for n in nodes]
         missing = [w for w in wanted if w not in by_id]
         if missing:
-            if layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
+            everyone = {str(i) for i in entry_ids(table, np.arange(len(table.xyz)))}
+            if layer in ("places", "cells") and set(missing) <= everyone:
+                hint = f"--layer {layer} leaves {', '.join(missing)} out: ask without --layer"
+            elif layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
                 hint = (
                     "rooms and buildings are answered when asked for alone, or with --layer "
                     "rooms / --layer buildings, not beside places and cells"

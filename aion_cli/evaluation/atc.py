@@ -37,6 +37,7 @@ from aion_cli.evaluation.heading import (
     AionHeadingModel,
     GridHeadingModel,
     HeadingModel,
+    association_radius,
     score_headings,
 )
 from aion_cli.formats.tracks import read_tracks
@@ -141,6 +142,7 @@ def run_atc(
     """Train and score every model on ATC under ``protocol``."""
     if protocol not in PROTOCOLS:
         raise ValueError(f"protocol must be one of {PROTOCOLS}, got {protocol!r}")
+    radius = association_radius(radius)
     cfg = config or ModelConfig(timezone=JST)
     say = progress or (lambda _msg: None)
     files = atc_files(data_dir)

@@ -37,6 +37,22 @@ BoolA = npt.NDArray[np.bool_]
 
 UNIFORM_NLL = math.log(2 * math.pi)
 FLOOR = 0.01
+
+
+def association_radius(radius: object) -> float:
+    """The association radius (metres, a finite number above 0) every heading score matches
+    test detections to the model's entries within; :class:`InputError` otherwise (a
+    negative one would match nothing, or everything, silently)."""
+    from aion_cli.errors import InputError
+
+    if isinstance(radius, bool) or not isinstance(radius, int | float):
+        raise InputError(f"the association radius must be a number of metres, got {radius!r}")
+    if not (math.isfinite(radius) and radius > 0):
+        raise InputError(
+            f"the association radius must be a positive number of metres, got {radius!r}",
+            hint="e.g. 1.0 (the default): a test detection is matched within it",
+        )
+    return float(radius)
 """Every model's histogram is floored at this probability and renormalised before scoring, so
 sparse count histograms are not punished with near-zero probabilities."""
 

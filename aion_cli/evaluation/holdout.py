@@ -39,7 +39,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aion_cli.evaluation.heading import UNIFORM_NLL, AionHeadingModel, score_headings
+from aion_cli.evaluation.heading import (
+    UNIFORM_NLL,
+    AionHeadingModel,
+    association_radius,
+    score_headings,
+)
 from aion_cli.evaluation.metrics import hourly_activity
 
 if TYPE_CHECKING:
@@ -97,6 +102,7 @@ def score_held_out(
     """:func:`run_holdout` for a map already loaded (or built in memory)."""
     from aion_cli.held_out import read_held_out
 
+    radius = association_radius(radius)
     say = progress or (lambda _msg: None)
     state = loaded.state
     watch = state.entries.xyz[state.entries.canonical_order(), :2]  # the predictor's order
@@ -260,7 +266,10 @@ def hourly_picture(result: HoldoutResult, path: Path, title: str) -> Path:
     map's zone, ``MM-DD HH`` when the test spans several days."""
     from aion_cli.errors import InputError
     from aion_cli.evaluation import plots
+    from aion_cli.pictures.render import check_png_target
 
+    path = Path(path)
+    check_png_target(path, "the picture")  # a folder, another suffix, a missing folder
     if not result.hours:
         raise InputError(
             "no hourly activity to draw: the test logs observed no window the map could follow",

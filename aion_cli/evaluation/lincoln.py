@@ -51,6 +51,7 @@ from aion_cli.evaluation.heading import (
     AionHeadingModel,
     GridHeadingModel,
     HeadingModel,
+    association_radius,
     score_headings,
 )
 from aion_cli.evaluation.metrics import hourly_activity
@@ -188,6 +189,7 @@ def run_lincoln(
     see the module docstring. Other splits of the recorded days check that a result is not
     one split's luck. :class:`InputError` for a day the files do not hold, a test day among
     the training days, or no training day."""
+    radius = association_radius(radius)
     cfg = config or ModelConfig(timezone=ZONE)
     say = progress or (lambda _msg: None)
     days = load_days(data_dir)

@@ -145,6 +145,22 @@ def test_no_hours_no_picture() -> None:
         hourly_picture(HoldoutResult(), Path("never.png"), "title")
 
 
+@pytest.mark.parametrize(
+    ("name", "fragment"), [(".", "is a folder"), ("notes.txt", "writes a .png file"),
+                           ("no/such/x.png", "does not exist")],
+)
+def test_the_hourly_picture_target_is_checked_first(
+    corridor: tuple, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str, fragment: str
+) -> None:
+    """A bad --png target is refused before anything is drawn (no hidden ``./.png``)."""
+    site, _train, test, _truth = corridor
+    monkeypatch.chdir(tmp_path)
+    result = run("evaluate", "holdout", site, test, "--png", name)
+    assert result.exit_code == 2, result.stderr
+    assert fragment in result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
 def test_a_training_log_as_test_is_named_in_a_note(corridor: tuple) -> None:
     site, train, _test, _truth = corridor
     result = run("evaluate", "holdout", site, train)

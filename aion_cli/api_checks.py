@@ -1,0 +1,155 @@
+"""The Python API's arguments checked where they come in: a wrong type or value is an
+:class:`~aion_cli.errors.InputError` naming the argument, never a ``TypeError`` or
+``AttributeError`` from deep inside, and a plausible slip is read as meant (one node id as a
+string, not its characters; a ``ZoneInfo`` as its name; ``(x, y)`` as a point).
+
+Why a module of its own: :mod:`aion_cli.api` and :mod:`aion_cli.api_make` take the same kinds
+of arguments (zones, node lists, counts, spans); one place reads them alike.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+from collections.abc import Sequence
+from datetime import datetime, tzinfo
+from typing import Any
+
+from aion_cli.errors import InputError
+
+SECONDS_LIKE_NS = 10**16
+"""Integer times are nanoseconds: below this (1970-04-26) one is far more likely UNIX seconds,
+milliseconds or microseconds than a time of 1970's first months."""
+
+
+def zone_name(tz: object, what: str = "tz") -> str | None:
+    """``tz`` as a zone name: None, a name (``"Europe/London"``, ``"UTC+02:00"``), a
+    ``zoneinfo.ZoneInfo`` (its key) or ``datetime.timezone.utc``."""
+    if tz is None or isinstance(tz, str):
+        return tz
+    key = getattr(tz, "key", None)
+    if isinstance(key, str):  # zoneinfo.ZoneInfo
+        return key
+    if isinstance(tz, tzinfo):
+        offset = tz.utcoffset(None)
+        if offset is not None and tz.dst(None) in (None, offset - offset):
+            minutes = int(offset.total_seconds() // 60)
+            if minutes == 0:
+                return "UTC"
+            sign = "+" if minutes > 0 else "-"
+            return f"UTC{sign}{abs(minutes) // 60:02d}:{abs(minutes) % 60:02d}"
+    raise InputError(
+        f"{what} must be a zone name or a ZoneInfo, got {tz!r}",
+        hint='e.g. "Europe/London", "UTC" or zoneinfo.ZoneInfo("Europe/London")',
+    )
+
+
+def node_list(nodes: object, what: str = "nodes") -> list[str | int]:
+    """Node ids as a list: a single id (a string or an integer) is one node, not its
+    characters; None is none."""
+    if nodes is None:
+        return []
+    if isinstance(nodes, str | numbers.Integral):
+        nodes = [nodes]
+    if not isinstance(nodes, Sequence | set | frozenset) and not hasattr(nodes, "__iter__"):
+        raise InputError(f"{what} must be node ids (a list of them, or one), got {nodes!r}")
+    out: list[str | int] = []
+    for node in nodes:
+        if isinstance(node, bool) or not isinstance(node, str | numbers.Integral):
+            raise InputError(
+                f"{what}: {node!r} is not a node id",
+                hint='node ids are strings such as "p12", "R2", "kitchen" or cell ids "c<key>"',
+            )
+        out.append(node if isinstance(node, str) else int(node))
+    return out
+
+
+def count(value: object, what: str, minimum: int = 1) -> int | None:
+    """An optional whole number at least ``minimum`` (``top``, ``workers``)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InputError(f"{what} must be a whole number, got {value!r}")
+    if int(value) < minimum:
+        raise InputError(f"{what} must be at least {minimum}, got {value}")
+    return int(value)
+
+
+def real(value: object, what: str) -> float:
+    """A finite real number."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{what} must be a number, got {value!r}")
+    out = float(value)
+    if not math.isfinite(out):
+        raise InputError(f"{what} must be finite, got {value!r}")
+    return out
+
+
+def point(at: object, what: str = "at") -> str | None:
+    """A point as the ``"x,y[,z]"`` text the CLI reads: text as given, or 2 or 3 numbers."""
+    if at is None or isinstance(at, str):
+        return at
+    try:
+        values = [real(v, what) for v in at]  # type: ignore[attr-defined]
+    except TypeError:
+        values = []
+    if len(values) not in (2, 3):
+        raise InputError(
+            f"{what} must be a point: \"x,y\" or 2 or 3 numbers, got {at!r}",
+            hint='e.g. at=(3.5, -1.0) or at="3.5,-1.0"',
+        )
+    return ",".join(repr(v) for v in values)
+
+
+def pair(value: object, what: str, names: str) -> tuple[Any, Any]:
+    """Exactly two items (``leave=(earliest, latest)``, ``path=(start, goal)``)."""
+    if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
+        raise InputError(f"{what} must be two items ({names}), got {value!r}")
+    return value[0], value[1]
+
+
+def spans(observed: object, what: str = "observed") -> list[tuple[Any, Any]]:
+    """``(start, end)`` pairs: a list of them, or one pair."""
+    if observed is None:
+        return []
+    if isinstance(observed, str) or not isinstance(observed, Sequence):
+        raise InputError(
+            f"{what} must be (start, end) pairs, got {observed!r}",
+            hint='e.g. observed=[("2026-01-06 08:00", "2026-01-06 18:00")]',
+        )
+    if len(observed) == 2 and not any(isinstance(v, Sequence | set) and not isinstance(
+        v, str) for v in observed):
+        observed = [observed]  # one span given alone
+    return [pair(span, f"{what} span", "start, end") for span in observed]
+
+
+def time_value(time: object) -> object:
+    """A time argument checked for what :func:`aion_cli.api.to_ns` cannot read or would read
+    wrongly: integers are nanoseconds, so one below :data:`SECONDS_LIKE_NS` is refused."""
+    if isinstance(time, bool):
+        raise InputError(f"not a time: {time!r}")
+    if isinstance(time, numbers.Integral):
+        value = int(time)
+        if -SECONDS_LIKE_NS < value < SECONDS_LIKE_NS:
+            raise InputError(
+                f"{value} is read as nanoseconds since 1970, i.e. within 1970's first "
+                "four months",
+                hint=f"UNIX seconds: give {value} * 10**9, or the string \"{value}\"",
+            )
+        return value
+    if isinstance(time, str | datetime):
+        return time
+    raise InputError(
+        f"not a time: {time!r}", hint="a time string, a datetime or integer nanoseconds"
+    )
+
+
+def path_text(value: object, what: str) -> str:
+    """A path argument's text: ``str`` or ``os.PathLike``, not empty."""
+    if not isinstance(value, str | os.PathLike):
+        raise InputError(f"{what} must be a path (str or pathlib.Path), got {value!r}")
+    text = os.fspath(value)
+    if isinstance(text, bytes):
+        raise InputError(f"{what} must be a text path, got bytes {value!r}")
+    return text

@@ -1,0 +1,225 @@
+"""The Python API at its boundary: wrong types and values are one typed ``InputError`` naming
+the argument (never a ``TypeError`` or ``AttributeError`` from inside), plausible slips are
+read as meant, nothing is silently ignored, and a loaded map is saved as it was loaded."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from datetime import UTC, datetime, timedelta, timezone
+from pathlib import Path
+from zoneinfo import ZoneInfo
+
+import numpy as np
+import pytest
+
+import aion_cli as aion
+from aion_cli.errors import InputError, MapFileError
+from tests.cli.conftest import Office
+
+T = "2026-01-12 08:40"  # the office log's Monday (tests/cli/logdata.py)
+
+
+@pytest.fixture(scope="module")
+def m(office: Office) -> aion.Map:
+    return aion.Map.load(office.map)
+
+
+def _ids(table: aion.Table) -> list[str]:
+    return [r["id"] for r in table.records()]
+
+
+def test_one_node_id_alone_is_one_node(m: aion.Map) -> None:
+    assert _ids(m.predict(T, tz="UTC", nodes="p4")) == ["p4"]
+    assert _ids(m.predict(T, tz="UTC", nodes=["p4"])) == ["p4"]
+    series = m.predict_series(T, "2026-01-12 09:40", "30m", tz="UTC", nodes="p4")
+    assert [r["id"] for r in series.records()] == ["p4"]
+
+
+def test_zones_as_names_zoneinfo_and_timezone_objects(m: aion.Map) -> None:
+    expected = m.predict(T, tz="UTC").records()
+    for tz in (ZoneInfo("UTC"), UTC, timezone(timedelta(0))):
+        assert m.predict(T, tz=tz).records() == expected  # type: ignore[arg-type]
+    london = m.predict(T, tz=ZoneInfo("Europe/London"))  # type: ignore[arg-type]
+    assert london.zone == "Europe/London"
+    plus_two = m.predict("2026-01-12 10:40", tz=timezone(timedelta(hours=2)))  # type: ignore[arg-type]
+    assert plus_two.time_ns == m.predict(T, tz="UTC").time_ns
+    with pytest.raises(InputError, match="tz must be a zone name"):
+        m.predict(T, tz=5)  # type: ignore[arg-type]
+
+
+def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
+    ns = int(datetime(2026, 1, 12, 8, 40, tzinfo=UTC).timestamp()) * 10**9
+    assert aion.to_ns(T, "UTC") == ns
+    assert aion.to_ns(T) == ns  # UTC by default
+    assert aion.to_ns(datetime(2026, 1, 12, 9, 40), "Europe/Berlin") == ns
+    assert aion.to_ns(datetime(2026, 1, 12, 8, 40), ZoneInfo("UTC")) == ns  # type: ignore[arg-type]
+    assert aion.to_ns(np.int64(ns)) == ns  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="read as nanoseconds") as caught:
+        aion.to_ns(ns // 10**9)
+    assert caught.value.hint is not None
+    assert "* 10**9" in caught.value.hint
+    with pytest.raises(InputError, match="not a time"):
+        aion.to_ns(12.5)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("call", "fragment"),
+    [
+        (lambda m: m.predict(T, nodes=[12.0]), "not a node id"),
+        (lambda m: m.predict(T, nodes=[None]), "not a node id"),
+        (lambda m: m.predict(T, top=2.5), "top must be a whole number"),
+        (lambda m: m.predict(T, top="5"), "top must be a whole number"),
+        (lambda m: m.predict(T, top=0), "top must be at least 1"),
+        (lambda m: m.predict(T, at=[1.0]), "at must be a point"),
+        (lambda m: m.predict(T, at=[1.0, float("nan")]), "must be finite"),
+        (lambda m: m.predict(T, nodes=["p4"], at=(1.0, 2.0)), "not both"),
+        (lambda m: m.predict(T, historical=True), "not both"),
+        (lambda m: m.predict(ns_seconds()), "read as nanoseconds"),
+        (lambda m: m.predict_series(T, T, step=float("inf")), "step must be finite"),
+        (lambda m: m.predict_series(T, T, step=None), "step must be a number"),
+        (lambda m: m.predict_series("2026-01-12 10:00", T, tz="UTC"), "end is before start"),
+        (lambda m: m.plan("p1", "p2", speed="1.2"), "speed must be a number"),
+        (lambda m: m.plan(None, "p2"), "start must be a node id"),
+        (lambda m: m.plan((0.0,), "p2"), "start must be a point"),
+        (lambda m: m.plan("p1", "p2", leave=(T,)), "leave must be two items"),
+        (lambda m: m.plan("p1", "p2", leave="08:00..09:00"), "leave must be two items"),
+        (lambda m: m.plan("p1", "p2", time=T, leave=(T, T)), "not both"),
+        (lambda m: m.holdout([], radius=1.0), "no log given"),
+        (lambda m: m.holdout(None), "logs must be a path"),
+        (lambda m: m.holdout(["x.mcap"], frob=1), "unknown option"),
+        (lambda m: m.holdout(["x.mcap"], radius=-5), "association radius"),
+        (lambda m: m.holdout(["x.mcap"], radius=float("nan")), "association radius"),
+        (lambda m: m.holdout(["x.mcap"], radius="1"), "association radius"),
+    ],
+)
+def test_bad_arguments_are_one_typed_error(m: aion.Map, call: object, fragment: str) -> None:
+    with pytest.raises(InputError, match=fragment):
+        call(m)  # type: ignore[operator]
+
+
+def ns_seconds() -> int:
+    return int(datetime(2026, 1, 12, 8, 40, tzinfo=UTC).timestamp())  # seconds, not ns
+
+
+def test_points_as_numbers_and_integer_node_ids(m: aion.Map) -> None:
+    assert m.predict(T, tz="UTC", at=(5.8, 0.3)).records() == m.predict(
+        T, tz="UTC", at="5.8,0.3"
+    ).records()
+    assert _ids(m.predict(T, tz="UTC", at=np.array([5.8, 0.3]))) == ["p3"]
+    p4 = (ord("p") << 56) | 4
+    assert _ids(m.predict(T, tz="UTC", nodes=[np.uint64(p4)])) == ["p4"]
+
+
+def test_cell_ids_as_predict_prints_them_are_read_back() -> None:
+    """A map of hash cells only (a fixed sensor fed in memory): the ids predict prints
+    (``c<key>``) select those cells again."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.types import DetectionBatch
+
+    t0 = aion.to_ns(T)
+    mapper = Mapper(ModelConfig())
+    mapper.set_fixed_sensor(t0, t0 + 3600 * 10**9)
+    xyz = np.array([[0.2, 0.2, 0.0], [3.1, 1.2, 0.0], [3.2, 1.3, 0.0]])
+    mapper.add_detections(DetectionBatch.from_arrays(t0 + np.arange(3) * 10**9, xyz, np.zeros(3)))
+    mapper.advance(t0 + 3600 * 10**9)
+    cells = aion.Map.from_state(mapper.state, timezone="UTC")
+    ids = _ids(cells.predict(historical=True))
+    assert len(ids) == 2
+    assert all(i.startswith("c") for i in ids)
+    for cell in ids:
+        assert _ids(cells.predict(historical=True, nodes=[cell])) == [cell]
+    with pytest.raises(InputError, match="c123 is not in the map"):
+        cells.predict(historical=True, nodes=["c123"])
+
+
+def test_paths_must_be_paths(tmp_path: Path, m: aion.Map) -> None:
+    for bad in (None, 3, ["x"], b"x.aion"):
+        with pytest.raises(InputError, match="must be a"):
+            aion.Map.load(bad)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="must be a"):
+        m.save(None)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="path must be two items"):
+        m.export(tmp_path / "out", time=T, path=("p1", "p2", "p3"))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="path must be two items"):
+        m.picture(tmp_path / "m.png", time=T, path=("p1",))  # type: ignore[arg-type]
+
+
+def test_build_arguments(office: Office, tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="logs must be a path"):
+        aion.build(None)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="must be a"):
+        aion.build([None])  # type: ignore[list-item]
+    with pytest.raises(InputError, match="workers must be a whole number"):
+        aion.build(office.log, tmp_path / "w.aion", workers=2.5)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="observed span must be two items"):
+        aion.build(office.log, tmp_path / "o.aion", observed=[("2026-01-12 08:00",)])  # type: ignore[list-item]
+    with pytest.raises(InputError, match="config must be a ModelConfig"):
+        aion.build(office.log, tmp_path / "c.aion", config=[1])  # type: ignore[arg-type]
+    # one topic alone is a topic, a dict is a config, one span alone is one span
+    built = aion.build(
+        office.log,
+        tmp_path / "ok.aion",
+        detection_topics="/tracks",
+        config={"bins": 8},
+        observed=("2026-01-12 08:00", "2026-01-12 09:00"),
+        tz=ZoneInfo("UTC"),  # type: ignore[arg-type]
+    )
+    assert built.report is not None
+    assert built.report.detection_topics == ["/tracks"]  # type: ignore[union-attr]
+
+
+def test_merge_refuses_a_nav_layer_without_a_graph(office: Office, tmp_path: Path) -> None:
+    other = tmp_path / "other.aion"
+    aion.build(office.log, other, config={"bins": 8, "cell_size": 0.25})
+    with pytest.raises(InputError, match="--nav-layer NOPE chooses the layer of a --graph"):
+        aion.merge([office.map, other], tmp_path / "x.aion", nav_layer="NOPE")
+
+
+def test_a_loaded_state_is_not_written_again(m: aion.Map, tmp_path: Path) -> None:
+    """Its queries counted its open window as closed in place: writing it would add that
+    window again at every round trip (674, 675, 676 windows...)."""
+    m.predict(T, tz="UTC")
+    with pytest.raises(InputError, match="read from a map file for queries"):
+        aion.Map.from_state(m.state)
+    with pytest.raises(InputError, match="needs an engine MapState"):
+        aion.Map.from_state({})  # type: ignore[arg-type]
+    copy = m.save(tmp_path / "copy.aion")
+    assert copy.read_bytes() == Path(m.path).read_bytes()  # type: ignore[arg-type]
+    again = aion.Map.load(copy)
+    assert again.predict(T, tz="UTC").records() == m.predict(T, tz="UTC").records()
+    assert again.manifest.counts == m.manifest.counts
+
+
+def test_save_writes_the_map_as_loaded_and_an_overwritten_file_is_refused(
+    office: Office, tmp_path: Path
+) -> None:
+    live = tmp_path / "live.aion"
+    shutil.copy(office.map, live)
+    loaded = aion.Map.load(live)
+    before = live.read_bytes()
+    answer = loaded.predict(T, tz="UTC").records()
+    # replaced atomically (as aion writes maps): the loaded map answers and saves as loaded
+    other = tmp_path / "other.aion"
+    shutil.copy(office.map, other)
+    with other.open("r+b") as fh:  # a different file of the same kind
+        fh.seek(0, os.SEEK_END)
+        fh.write(b"\0" * 7)
+    os.replace(other, live)
+    assert loaded.predict(T, tz="UTC").records() == answer
+    saved = loaded.save(tmp_path / "snap.aion")
+    assert saved.read_bytes() == before
+    live.unlink()  # deleted: still saved as loaded
+    assert loaded.save(tmp_path / "snap2.aion").read_bytes() == before
+    # overwritten in place (cp over it): refused, never read (a bus error with a memory map)
+    victim = tmp_path / "victim.aion"
+    shutil.copy(office.map, victim)
+    held = aion.Map.load(victim)
+    with victim.open("r+b") as fh:
+        fh.truncate(100)
+    with pytest.raises(MapFileError, match="overwritten in place"):
+        held.predict(T, tz="UTC")
+    with pytest.raises(MapFileError, match="overwritten in place"):
+        held.save(tmp_path / "never.aion")
+    assert not (tmp_path / "never.aion").exists()
