@@ -203,20 +203,24 @@ class Map:
         """Predicted flow of the entries asked for at ``start``, ``start + step``, ... up to
         ``end`` (``step`` as ``"1h"``, ``"30m"`` or seconds), as ``aion predict --from --to
         --step``: an :class:`aion_cli.prediction_series.SeriesTable` (``flow`` and
-        ``flow_per_hour`` as arrays entries x times; ``records()`` as its JSON); each value
-        equals :meth:`predict` at that time."""
-        from aion_cli.prediction_series import predict_series, series_times
-        from aion_cli.predictions import LAYERS
-        from aion_cli.timeparse import step_ns
+        ``flow_per_hour`` as arrays entries x times; ``records()`` as its JSON's entries,
+        ``to_dict()`` as the whole document, with ``times``, ``zone`` and ``hour_observed``);
+        each value equals :meth:`predict` at that time."""
+        from aion_cli.prediction_series import described, predict_series, series_times
+        from aion_cli.predictions import LAYERS, hour_flags
+        from aion_cli.timeparse import format_ns, step_ns
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
         wanted, point, top = _selection(nodes, at, top)
         every = step_ns(_step(step))
-        t0, _ = self._time(start, tz)
+        t0, zone = self._time(start, tz)
         t1, _ = self._time(end, tz)
         times = series_times(t0, t1, every, ("start", "end"))
-        return predict_series(self._loaded, times, layer, wanted, point, top)
+        table = predict_series(self._loaded, times, layer, wanted, point, top)
+        labels = [format_ns(t, zone) for t in times]
+        label = str(self.path) if self.path is not None else "<memory>"
+        return described(table, label, zone, labels, hour_flags(self._loaded, times))
 
     def plan(
         self,

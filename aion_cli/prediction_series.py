@@ -46,6 +46,27 @@ class SeriesTable:
     flow: F64
     flow_per_hour: F64
     matched: int
+    #: what the JSON document says beside the entries (:meth:`to_dict`); the API fills them
+    map: str = ""
+    zone: str | None = None
+    times: tuple[str, ...] = ()
+    hour_observed: tuple[bool | None, ...] | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON document of ``aion predict --from --to --format json``: the times (as
+        text in the zone, and in ns), the zone, each entry with its series, and whether any
+        day of the map's data observed each time's hour (when the map lists its hours)."""
+        doc: dict[str, Any] = {
+            "map": self.map,
+            "mode": "series",
+            "times": list(self.times),
+            "times_ns": self.times_ns,
+            "zone": self.zone,
+            "entries": self.records(),
+        }
+        if self.hour_observed is not None and None not in self.hour_observed:
+            doc["hour_observed"] = list(self.hour_observed)
+        return doc
 
     def records(self) -> list[dict[str, Any]]:
         """One record per entry with its series as lists (None where unknown): the
@@ -200,16 +221,17 @@ def entry_flows(
     return out
 
 
-def series_document(
-    map_path: Any, table: SeriesTable, zone: Zone, labels: Sequence[str]
-) -> dict[str, Any]:
-    """The JSON document of ``aion predict --from --to``: the times, then each entry with
-    its series."""
-    return {
-        "map": str(map_path),
-        "mode": "series",
-        "times": list(labels),
-        "times_ns": table.times_ns,
-        "zone": zone.name,
-        "entries": table.records(),
-    }
+def described(
+    table: SeriesTable,
+    map_path: Any,
+    zone: Zone,
+    labels: Sequence[str],
+    hour_observed: Sequence[bool | None] | None,
+) -> SeriesTable:
+    """``table`` with what its JSON document says beside the entries (:meth:`to_dict`)."""
+    from dataclasses import replace
+
+    flags = None if hour_observed is None else tuple(hour_observed)
+    return replace(
+        table, map=str(map_path), zone=zone.name, times=tuple(labels), hour_observed=flags
+    )

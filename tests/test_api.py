@@ -116,6 +116,12 @@ def test_departures_series_and_graph_equal_the_cli(example: dict[str, Any]) -> N
     day = example["day"]
     assert _jsonable(day.records()) == series["entries"]
     assert day.flow.shape == (len(series["entries"]), 15)
+    document = _jsonable(day.to_dict())  # the whole document, its times, zone and hours
+    assert {k: v for k, v in document.items() if k != "map"} == {
+        k: v for k, v in series.items() if k != "map"
+    }
+    assert document["times"][0] == "2026-01-12 06:00:00+00:00"
+    assert len(document["hour_observed"]) == 15
     (graph,) = example["graph"]
     assert graph == Path("office-4d.json")
     assert (folder / graph).stat().st_size > 0

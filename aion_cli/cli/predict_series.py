@@ -59,11 +59,7 @@ def run_series(
     from aion_cli.cli.common import announce_time, series_of
     from aion_cli.cli.console import note, progress
     from aion_cli.cli.output import to_csv, to_json
-    from aion_cli.prediction_series import (
-        SERIES_CSV_KEYS,
-        predict_series,
-        series_document,
-    )
+    from aion_cli.prediction_series import SERIES_CSV_KEYS, described, predict_series
     from aion_cli.predictions import hour_flags
     from aion_cli.timeparse import format_ns
 
@@ -77,9 +73,7 @@ def run_series(
     labels = [format_ns(t, zone) for t in times]
     announce_time(times[0], zone, "from", loaded, series=times)
     if fmt == "json":
-        doc = series_document(map_path, table, zone, labels)
-        if None not in (flags := hour_flags(loaded, times)):
-            doc["hour_observed"] = flags
+        doc = described(table, map_path, zone, labels, hour_flags(loaded, times)).to_dict()
         click.echo(to_json(doc))
     elif fmt == "csv":
         click.echo(to_csv(table.long_rows(labels), SERIES_CSV_KEYS), nl=False)

@@ -69,14 +69,19 @@ class HoldoutResult:
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        """``aion evaluate holdout --format json``: JSON-safe (a score that cannot be
+        computed, NaN here, is None there)."""
+        from aion_cli.formats.serialize import clean
+
+        out: dict[str, Any] = clean({
             "test": self.test,
             "headings": self.headings,
             "activity": self.activity,
             "hours": self.hours,
             "hourly_series": self.series,
             "notes": self.notes,
-        }
+        })
+        return out
 
 
 def run_holdout(

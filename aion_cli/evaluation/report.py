@@ -227,17 +227,7 @@ def write_report(
         payload["door"] = door
     path = out_dir / "report.md"
     path.write_text("\n".join(lines) + "\n")
-    (out_dir / "results.json").write_text(json.dumps(_jsonable(payload), indent=1))
+    from aion_cli.formats.serialize import clean
+
+    (out_dir / "results.json").write_text(json.dumps(clean(payload), indent=1))
     return path
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    return value

@@ -9,6 +9,7 @@ turn of direction beats the static histogram on headings.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -123,6 +124,10 @@ def test_the_python_api_gives_the_commands_figures(corridor: tuple) -> None:
         [a["mae"] for a in doc["activity"]], rel=1e-12
     )
     assert result.series["truth"] == doc["hourly_series"]["truth"]
+    # to_dict is the command's JSON document: no NaN where the JSON has null
+    assert result.to_dict() == json.loads(json.dumps(result.to_dict(), allow_nan=False))
+    assert result.to_dict()["headings"][-1]["chi_square"] is None  # uniform has none
+    assert doc["headings"][-1]["chi_square"] is None
 
 
 def test_the_hourly_picture(corridor: tuple, tmp_path: Path) -> None:
