@@ -35,7 +35,8 @@ from typing import TYPE_CHECKING
 from aion_cli import api_checks as check
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
-from aion_cli.errors import InputError, MapFileError
+from aion_cli.errors import InputError
+from aion_cli.pinned_file import PinnedFile
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport
@@ -68,7 +69,7 @@ class Map:
         self.path = path
         #: what the build (:func:`build`) or the merge (:func:`merge`) did (else None)
         self.report = report
-        self._file: _PinnedFile | None = None if path is None else _PinnedFile(path)
+        self._file: PinnedFile | None = None if path is None else PinnedFile(path)
 
     @classmethod
     def load(cls, path: PathLike) -> Map:
@@ -171,7 +172,7 @@ class Map:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
         if historical and time is not None:
             raise InputError("choose time or historical=True, not both")
-        wanted, point, top = _selection(nodes, at, top)
+        wanted, point, top = check.selection(nodes, at, top)
         self._check_file()
         t_ns: int | None = None
         zone = None
@@ -212,8 +213,8 @@ class Map:
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
-        wanted, point, top = _selection(nodes, at, top)
-        every = step_ns(_step(step))
+        wanted, point, top = check.selection(nodes, at, top)
+        every = step_ns(check.step(step))
         t0, zone = self._time(start, tz)
         t1, _ = self._time(end, tz)
         times = series_times(t0, t1, every, ("start", "end"))
@@ -241,7 +242,7 @@ class Map:
         from aion_cli.mapquery import nav_graph
         from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
 
-        start, goal = _endpoint(start, "start"), _endpoint(goal, "goal")
+        start, goal = check.endpoint(start, "start"), check.endpoint(goal, "goal")
         if speed is not None and not 0.01 <= check.real(speed, "speed") <= 20.0:
             raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
         if leave is not None and time is not None:
@@ -261,7 +262,7 @@ class Map:
         from aion_cli.predictions import hour_flags
         from aion_cli.timeparse import step_ns
 
-        every = step_ns(_step(step))
+        every = step_ns(check.step(step))
         earliest, latest = (
             self._time(t, tz)[0] for t in check.pair(leave, "leave", "earliest, latest")
         )
@@ -302,6 +303,7 @@ class Map:
 
         if format not in (None, "ply", "pcd", "mcap", "dsg"):
             raise InputError(f"unknown export format {format!r}", hint="ply, pcd, mcap or dsg")
+        self._check_file()
         out = as_path(folder)
         format = export_format(format, out)
         if format == "png":
@@ -320,7 +322,8 @@ class Map:
         ends = None
         if path is not None:
             a, b = check.pair(path, "path", "start, goal")
-            ends = path_ends(self._loaded, str(_endpoint(a, "path")), str(_endpoint(b, "path")))
+            a, b = check.endpoint(a, "path"), check.endpoint(b, "path")
+            ends = path_ends(self._loaded, str(a), str(b))
         label = str(self.path) if self.path is not None else "<memory>"
         if format == "dsg":
             from aion_cli.exports import export_dsg
@@ -354,6 +357,7 @@ class Map:
 
         if historical and time is not None:
             raise InputError("choose time or historical=True, not both")
+        self._check_file()
         when: int | None = None
         zone = None
         if not historical:
@@ -361,7 +365,8 @@ class Map:
         ends = None
         if path is not None:
             a, b = check.pair(path, "path", "start, goal")
-            ends = path_ends(self._loaded, str(_endpoint(a, "path")), str(_endpoint(b, "path")))
+            a, b = check.endpoint(a, "path"), check.endpoint(b, "path")
+            ends = path_ends(self._loaded, str(a), str(b))
         name = self.path.name if self.path is not None else "<memory>"
         return export_png(self._loaded, name, as_path(file), [when], zone, ends)
 
@@ -454,77 +459,3 @@ def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
         return parse_time(time, zone)
     raise InputError(f"not a time: {time!r}", hint="a time string, a datetime or nanoseconds")
 
-
-def _selection(
-    nodes: object, at: object, top: object
-) -> tuple[list[str | int], str | None, int | None]:
-    """``nodes``, ``at`` and ``top`` of a query, checked (one node id given alone is one
-    node; ``at`` as text or numbers); nodes and a point at once are refused (the point would
-    be ignored)."""
-    wanted = check.node_list(nodes)
-    point = check.point(at)
-    if wanted and point is not None:
-        raise InputError("choose nodes or at, not both")
-    return wanted, point, check.count(top, "top")
-
-
-def _step(step: object) -> str | float:
-    """A series step: text (``"10m"``) or seconds."""
-    if isinstance(step, str):
-        return step
-    return check.real(step, "step")
-
-
-def _endpoint(node: object, what: str) -> str | int:
-    """A plan's end: a node id, room or name, or ``"x,y"`` (numbers: a point)."""
-    if isinstance(node, str):
-        return node
-    if isinstance(node, bool) or node is None:
-        raise InputError(f"{what} must be a node id, a room name or a point, got {node!r}")
-    import numbers
-
-    if isinstance(node, numbers.Integral):
-        return int(node)
-    point = check.point(node, what)
-    assert point is not None
-    return point
-
-
-class _PinnedFile:
-    """The file a map was loaded from, held open (its bytes stay readable, even once
-    replaced or deleted, for :meth:`Map.save`) with its size and modification time then:
-    a map file overwritten in place (``cp other.aion map.aion``) would make the memory-mapped
-    members read new bytes, or past the file's end (a bus error), so it is refused."""
-
-    def __init__(self, path: Path) -> None:
-        import weakref
-
-        self.path = path
-        self.fd = os.open(path, os.O_RDONLY)
-        weakref.finalize(self, os.close, self.fd)
-        self.stamp = self._stamp()
-
-    def _stamp(self) -> tuple[int, int]:
-        st = os.fstat(self.fd)
-        return st.st_size, st.st_mtime_ns
-
-    def check(self) -> None:
-        if self._stamp() != self.stamp:
-            raise MapFileError(
-                f"{self.path} was overwritten in place since it was loaded",
-                hint="load it again (aion.Map.load); aion's own writers replace a map "
-                "atomically, which a loaded map survives",
-            )
-
-    def copy_to(self, target: Path) -> None:
-        """The bytes as loaded into ``target`` (a temporary name; the caller renames it)."""
-        self.check()
-        with open(target, "wb") as out:
-            offset, size = 0, self.stamp[0]
-            while offset < size:
-                chunk = os.pread(self.fd, min(1 << 24, size - offset), offset)
-                if not chunk:
-                    break
-                out.write(chunk)
-                offset += len(chunk)
-        self.check()  # not changed while copied

@@ -153,3 +153,36 @@ def path_text(value: object, what: str) -> str:
     if isinstance(text, bytes):
         raise InputError(f"{what} must be a text path, got bytes {value!r}")
     return text
+
+
+def selection(
+    nodes: object, at: object, top: object
+) -> tuple[list[str | int], str | None, int | None]:
+    """``nodes``, ``at`` and ``top`` of a query, checked (one node id given alone is one
+    node; ``at`` as text or numbers); nodes and a point at once are refused (the point would
+    be ignored)."""
+    wanted = node_list(nodes)
+    where = point(at)
+    if wanted and where is not None:
+        raise InputError("choose nodes or at, not both")
+    return wanted, where, count(top, "top")
+
+
+def step(value: object) -> str | float:
+    """A series step: text (``"10m"``) or seconds."""
+    if isinstance(value, str):
+        return value
+    return real(value, "step")
+
+
+def endpoint(node: object, what: str) -> str | int:
+    """A plan's end: a node id, room or name, or ``"x,y"`` (numbers: a point)."""
+    if isinstance(node, str):
+        return node
+    if isinstance(node, bool) or node is None:
+        raise InputError(f"{what} must be a node id, a room name or a point, got {node!r}")
+    if isinstance(node, numbers.Integral):
+        return int(node)
+    where = point(node, what)
+    assert where is not None
+    return where
