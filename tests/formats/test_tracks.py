@@ -12,7 +12,7 @@ import pytest
 
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.errors import InputError
-from aion_cli.formats import track_csv, track_types, tracks_log
+from aion_cli.formats import track_csv, tracks_log
 from aion_cli.formats import tracks as ft
 from aion_cli.formats.detections.frame import FrameDetections
 from tests.shared_data import SHARED_DATA, needs, real_path
@@ -150,58 +150,6 @@ def _write(tmp_path: Path, name: str, text: str) -> Path:
     p = tmp_path / name
     p.write_text(text)
     return p
-
-
-def test_bad_files_name_the_line(tmp_path: Path) -> None:
-    good = "1.0,5,0.1,0.2,0.3,0.4\n"
-    cols = _write(tmp_path, "cols.csv", good * 3 + "2.0,5,0.1,0.2,0.3\n")
-    with pytest.raises(track_types.TracksFormatError, match=r"line 4: expected 6 columns .* got 5"):
-        ft.read_tracks(cols, "atc")
-    text = _write(tmp_path, "text.csv", good + "\n" + "2.0,5,abc,0.2,0.3,0.4\n")
-    with pytest.raises(track_types.TracksFormatError, match=r"line 3, column 3 \(x_m\): 'abc'"):
-        ft.read_tracks(text, "atc")
-    frac = _write(tmp_path, "frac.csv", good + "2.0,5.5,0,0,0,0\n")
-    with pytest.raises(
-        track_types.TracksFormatError, match=r"line 2, column 2 \(person_id\).*integer"
-    ):
-        ft.read_tracks(frac, "thor")
-    nan_t = _write(tmp_path, "nan.csv", "nan,5,0,0,0,0\n")
-    with pytest.raises(track_types.TracksFormatError, match=r"line 1, column 1 \(time_s\).*finite"):
-        ft.read_tracks(nan_t, "atc")
-    eth = _write(tmp_path, "eth.txt", "10 1 0.5 0.5\n20 1 0.5\n")
-    with pytest.raises(track_types.TracksFormatError, match=r"line 2: expected 4 columns"):
-        ft.read_tracks(eth, "eth")
-
-
-def test_empty_missing_and_wrong_layout(tmp_path: Path) -> None:
-    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
-        ft.read_tracks(_write(tmp_path, "empty.csv", ""), "atc")
-    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
-        ft.read_tracks(_write(tmp_path, "empty2.csv", ""))
-    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
-        ft.read_tracks(_write(tmp_path, "hdr.csv", track_csv.CANONICAL_HEADER + "\n"))
-    with pytest.raises(track_types.TracksFormatError, match="no track rows"):
-        ft.read_tracks(_write(tmp_path, "blank.csv", "\n\n# comment only\n"), "atc")
-    one_col = _write(tmp_path, "one.csv", "1\n2\n3\n4\n5\n6\n")
-    with pytest.raises(track_types.TracksFormatError, match=r"line 1: expected 6 columns .* got 1"):
-        ft.read_tracks(one_col, "atc")
-    single = ft.read_tracks(_write(tmp_path, "single.csv", "1.5,3,0.1,0.2,0.3,0.4\n"), "atc")
-    assert single.t_ns.tolist() == [1_500_000_000]
-    assert single.track_id.tolist() == [3]
-    with pytest.raises(track_types.TracksFormatError, match="not found"):
-        ft.read_tracks(tmp_path / "missing.csv", "atc")
-    atc_rows = _write(tmp_path, "atc.csv", "1351038020.969,9190802,-22.311,1.883,0.324,-0.45\n")
-    with pytest.raises(track_types.TracksFormatError, match="header"):
-        ft.read_tracks(atc_rows)  # an ATC file read as canonical
-    bad_canon = _write(tmp_path, "c.csv", track_csv.CANONICAL_HEADER + "\n1.5,1,0,0,0,0,0\n")
-    with pytest.raises(track_types.TracksFormatError, match=r"line 2, column 1 \(t_ns\).*integer"):
-        ft.read_tracks(bad_canon)
-    with pytest.raises(track_types.TracksFormatError, match="unknown tracks layout"):
-        ft.read_tracks(atc_rows, "csv")
-    assert issubclass(track_types.TracksFormatError, InputError)
-
-
-# ----------------------------------------------------------------------------- logs
 
 
 def _read_log(path: Path) -> list[tuple[str, int, object]]:
@@ -479,26 +427,3 @@ def test_tracks_to_log_observed_without_detections_and_bad_spans(tmp_path: Path)
     summary = tracks_log.tracks_to_log(one, tmp_path / "d.mcap")
     assert (summary.observed_messages, summary.observed_spans) == (0, 0)
     assert _log_messages(tmp_path / "d.mcap")[0] == [S]
-
-
-def test_a_file_of_another_layout_is_refused_naming_the_one_it_looks_like(
-    tmp_path: Path,
-) -> None:
-    """Read with a layout it does not fit, a file's refusal names the layout it resembles
-    (any layout given, not only the default)."""
-    eth = _write(tmp_path, "eth.txt", "".join(f"{10 * k}\t{k % 3}\t1.5\t2.5\n" for k in range(8)))
-    with pytest.raises(track_types.TracksFormatError) as caught:
-        ft.read_tracks(eth, "atc")
-    assert caught.value.hint == (
-        "it looks like the eth or ucy layout (rows `frame ped_id x y`): pass --layout eth"
-    )
-    atc = _write(tmp_path, "atc.csv", "1351038020.969,9190802,-22.311,1.883,0.324,-0.45\n" * 3)
-    with pytest.raises(track_types.TracksFormatError) as caught:
-        ft.read_tracks(atc, "eth")
-    assert caught.value.hint is not None
-    assert "pass --layout atc" in caught.value.hint
-    odd = _write(tmp_path, "odd.csv", "a,b\n")  # like no layout: the columns of the one given
-    with pytest.raises(track_types.TracksFormatError) as caught:
-        ft.read_tracks(odd, "atc")
-    assert caught.value.hint is not None
-    assert caught.value.hint.startswith("atc columns: ")
