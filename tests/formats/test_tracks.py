@@ -146,12 +146,6 @@ def test_finite_difference_central_on_curve() -> None:
 # ----------------------------------------------------------------------------- bad files
 
 
-def _write(tmp_path: Path, name: str, text: str) -> Path:
-    p = tmp_path / name
-    p.write_text(text)
-    return p
-
-
 def _read_log(path: Path) -> list[tuple[str, int, object]]:
     from rosbags.highlevel import AnyReader
 
