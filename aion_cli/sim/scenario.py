@@ -9,6 +9,7 @@ date and the tick grid — never the wall clock — so a seed gives byte-identic
 from __future__ import annotations
 
 import datetime as _dt
+import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -42,6 +43,13 @@ Progress = Callable[[str, int, int], None]
 MAX_TICKS = 6_000_000  # ~35 days at 2 Hz: per-tick robot arrays stay below ~300 MB
 
 
+MAX_AGENTS = 1000
+"""People per scene at most (each is simulated per tick, in memory)."""
+MAX_SCENES = 1000
+MIN_PERIOD_S = 0.1
+"""The shortest scene-graph, TF or patrol period (seconds)."""
+
+
 @dataclass(frozen=True)
 class ScenarioConfig:
     """Every option of a simulation run (the CLI maps its flags onto these fields)."""
@@ -73,16 +81,35 @@ class ScenarioConfig:
 
     def validate(self) -> None:
         """Raise :class:`InputError` for impossible combinations (before any work is done)."""
+        finite = (
+            self.days, self.utc_offset_h, self.rate_hz, self.noise, self.window_s,
+            self.tf_idle_s, self.stream.period_s, self.stream.idle_period_s,
+            self.patrol.tour_every_s, self.patrol.sensor_range,
+        )  # fmt: skip
+        if not all(math.isfinite(v) for v in finite):
+            raise InputError("simulate's numbers must be finite (no nan or inf)")
+        periods = (
+            self.tf_idle_s, self.stream.period_s, self.stream.idle_period_s,
+            self.patrol.tour_every_s,
+        )  # fmt: skip
         checks = [
             (self.days > 0, "--days must be positive"),
-            (self.agents >= 0, "--agents must be zero or more"),
-            (self.scenes >= 1, "--scenes must be at least 1"),
-            (self.rate_hz > 0, "--rate must be positive"),
-            (self.noise >= 0, "--noise must be zero or more"),
+            (0 <= self.seed < 2**63, "--seed must be a whole number from 0"),
+            (0 <= self.agents <= MAX_AGENTS, f"--agents must be 0 .. {MAX_AGENTS}"),
+            (1 <= self.scenes <= MAX_SCENES, f"--scenes must be 1 .. {MAX_SCENES}"),
+            (0.01 <= self.rate_hz <= 100.0, "--rate must be 0.01 .. 100 Hz"),
+            (0 <= self.noise <= 10.0, "--noise must be 0 .. 10 m"),
+            (-14.0 <= self.utc_offset_h <= 14.0, "--utc-offset must be -14 .. 14 hours"),
+            (
+                min(periods) >= MIN_PERIOD_S and max(periods) <= (self.days + 1) * 86400.0,
+                f"scene-graph, TF and patrol periods must be {MIN_PERIOD_S:g} s .. the "
+                "simulated days",
+            ),
+            (60.0 <= self.window_s <= 86400.0, "--window must be 60 .. 86400 s"),
             (self.robot in ("patrol", "fixed"), "--robot must be patrol or fixed"),
             (self.resolved_frame() in ("base_link", "map"), "--frame must be base_link or map"),
             (self.format in FORMATS, f"--format must be one of {', '.join(FORMATS)}"),
-            (self.window_s > 0 and self.bins >= 1, "window and bins must be positive"),
+            (self.bins >= 1, "bins must be positive"),
             (
                 self.stream.period_s > 0 and self.stream.idle_period_s > 0,
                 "scene-graph periods must be positive",

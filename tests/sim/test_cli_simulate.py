@@ -77,6 +77,19 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
         ("--days", "400"),
         ("--tz", "Mars/Olympus"),
         ("--tz", "Europe/London", "--utc-offset", "1"),
+        # numbers out of any sense (each was an internal error or a log of NaN positions)
+        ("--seed", "-1"),
+        ("--agents", "99999999999999999999"),
+        ("--rate", "1e-300"),
+        ("--noise", "1e300"),
+        ("--noise", "inf"),
+        ("--tour-every", "1e-300"),
+        ("--dsg-period", "inf"),
+        ("--window", "1e-300"),
+        ("--window", "inf"),
+        ("--utc-offset", "nan"),
+        ("--utc-offset", "25"),
+        ("--scenes", "99999999999999999999"),
     ]
     for extra in cases:
         code, output = _run("simulate", "-o", tmp_path / "x.mcap", "--quiet", *extra)
