@@ -46,6 +46,10 @@ def map_frame_of(given: str | None, map_path: Path | None) -> str:
     return DEFAULT_MAP_FRAME
 
 
+MAX_WORKERS = 4096
+"""The most worker processes a build asks for (``--workers``; more would only fail to start)."""
+
+
 @dataclass(frozen=True)
 class BuildOptions:
     """Everything ``aion build`` can be told. Empty / None fields mean "choose for me"."""

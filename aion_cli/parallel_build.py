@@ -29,6 +29,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from aion_cli.build_options import MAX_WORKERS
 from aion_cli.build_report import check_usable
 from aion_cli.errors import InputError
 from aion_cli.shard_fold import Folded, ShardResult, ShardTask
@@ -47,8 +48,10 @@ TOUCH_NS = 10 * 10**9
 
 def worker_count(requested: int) -> int:
     """``--workers``: 0 means one per core."""
-    if requested < 0:
-        raise InputError(f"--workers must be 0 (one per core) or more, got {requested}")
+    if not 0 <= requested <= MAX_WORKERS:
+        raise InputError(
+            f"--workers must be 0 (one per core) .. {MAX_WORKERS}, got {requested}"
+        )
     return requested or (os.cpu_count() or 1)
 
 

@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from aion_cli.build_options import MAX_WORKERS
 from aion_cli.cli.common import AionPath
 from aion_cli.cli.graph_options import graph_period_option, nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, to_json
@@ -239,7 +240,7 @@ def _load_config(path: Path | None) -> Any:
     "--workers",
     metavar="N",
     default=0,
-    type=click.IntRange(min=0),
+    type=click.IntRange(min=0, max=MAX_WORKERS),
     help="Processes building groups of logs that share no time, or time shards of a long "
     "log, at once, joined into the map the sequential build makes (0: one per core; 1: in "
     "this process) [default: 0].",

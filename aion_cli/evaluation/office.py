@@ -383,8 +383,25 @@ def run_office(
     work_dir: Path | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> OfficeResult:
-    """Run the comparison over ``scenes`` simulated office scenes."""
+    """Run the comparison over ``scenes`` simulated office scenes. :class:`InputError`
+    for numbers it cannot run with (the simulator's own checks, a radius that is not a
+    positive number of metres, a model of other than 8 direction bins: the simulator's truth
+    and the grid are kept in 8)."""
+    from aion_cli.errors import InputError
+    from aion_cli.evaluation.heading import association_radius
+
     cfg = config or ModelConfig()
+    radius = association_radius(radius)
+    if not (math.isfinite(days) and days > 0):
+        raise InputError(f"--days must be a positive number, got {days!r}")
+    if seed < 0:
+        raise InputError(f"--seed must be a whole number from 0, got {seed}")
+    if cfg.bins != 8:
+        raise InputError(
+            f"the office comparison keeps 8 direction bins (its truth and the grid), got "
+            f"bins = {cfg.bins} in the config",
+            hint="leave bins out of the config for evaluate office",
+        )
     say = progress or (lambda _msg: None)
     result = OfficeResult()
     with tempfile.TemporaryDirectory(prefix="aion-office-") as tmp:

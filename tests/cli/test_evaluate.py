@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from aion_cli.cli.main import cli
@@ -92,3 +93,29 @@ def test_the_data_folder_is_found_from_any_folder(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert proc.stderr.startswith(f"error: door data folder not found: {tmp_path / 'none'}")
     assert "AION_SHARED_DATA" in proc.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["office", "--days", "nan"], "--days must be a positive number"),
+        (["office", "--seed", "-1"], "--seed must be a whole number"),
+        (["office", "--radius", "-1"], "association radius"),
+        (["office", "--radius", "nan"], "association radius"),
+        (["office", "--config", "BINS4"], "keeps 8 direction bins"),
+    ],
+)
+def test_evaluate_office_refuses_numbers_it_cannot_run_with(
+    args: list[str], fragment: str, tmp_path: Path
+) -> None:
+    """Each was an internal error, or a table computed with a nonsense radius."""
+    config = tmp_path / "bins4.toml"
+    config.write_text("bins = 4\n")
+    argv = [str(config) if a == "BINS4" else a for a in args]
+    proc = subprocess.run(
+        [str(AION), "evaluate", *argv, "--scenes", "1"], capture_output=True, text=True,
+        check=False,
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert fragment in proc.stderr
+    assert "Traceback" not in proc.stderr
