@@ -54,6 +54,21 @@ def default_periods() -> tuple[float, ...]:
     return tuple(sorted(periods, reverse=True))
 
 
+BOUNDED = {
+    "rate_floor": (1e-12, 1.0),
+    "plan_speed": (0.01, 20.0),
+    "pool_size": (0.1, 1000.0),
+}
+"""Parameters with a range beyond being positive: outside it the map builds but cannot be
+scored (a floor above one detection per window) or planned with (``aion plan --speed``'s
+range), or pools nothing (a neighbourhood smaller than a hand)."""
+BOUNDED_WHY = {
+    "rate_floor": "the smallest rate a log-likelihood uses, in detections per window (1e-3)",
+    "plan_speed": "walking speed in m/s, as aion plan --speed takes it",
+    "pool_size": "metres: the neighbourhood a sparse entry borrows from (4)",
+}
+
+
 @dataclass(frozen=True)
 class ModelConfig:
     """Model parameters. Lengths in metres, times in seconds.
@@ -140,6 +155,7 @@ class ModelConfig:
             "plan_flow_scale",
             "plan_connect_radius",
             "derive_spacing",
+            "direction_time_prior",
         )
         for name in positive:
             value = getattr(self, name)
@@ -152,7 +168,6 @@ class ModelConfig:
             "profile_prior",
             "family_margin",
             "direction_prior",
-            "direction_time_prior",
             "plan_w_entropy",
             "plan_w_flow",
             "plan_w_direction",
@@ -161,6 +176,12 @@ class ModelConfig:
             value = getattr(self, name)
             if not (_is_number(value) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be a number >= 0, got {value!r}")
+        for name, (lo, hi) in BOUNDED.items():
+            value = getattr(self, name)
+            if not lo <= value <= hi:
+                raise ConfigError(
+                    f"{name} must be {lo:g} .. {hi:g}, got {value!r}", hint=BOUNDED_WHY[name]
+                )
         if not (_is_int(self.bins) and 2 <= self.bins <= 64):
             raise ConfigError(f"bins must be an integer in 2..64, got {self.bins!r}")
         if not (_is_int(self.max_order) and 0 <= self.max_order <= 16):

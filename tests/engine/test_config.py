@@ -34,7 +34,10 @@ def test_unknown_parameter_lists_valid_ones() -> None:
 @pytest.mark.parametrize(
     ("key", "value"),
     [("cell_size", 0.0), ("cell_size", float("nan")), ("bins", 1), ("window_s", -5.0),
-     ("direction_floor", 0.5), ("periods", [])],
+     ("direction_floor", 0.5), ("periods", []),
+     # each built a map that could not be scored, predicted or planned with
+     ("direction_time_prior", 0.0), ("rate_floor", 1e300), ("rate_floor", 2.0),
+     ("plan_speed", 1e-300), ("plan_speed", 21.0), ("pool_size", 1e-300)],
 )
 def test_invalid_values_are_rejected(key: str, value: object) -> None:
     with pytest.raises(ConfigError):
