@@ -395,7 +395,7 @@ def _write_tracks(
     away). The rows of a chunk's last message are held back until the next chunk shows it is
     complete, so the messages are those of the concatenated rows."""
     from aion_cli.formats.raw import normalize_msgtype
-    from aion_cli.formats.writers import LogWriter
+    from aion_cli.formats.writers import LogWriter, check_stamps
 
     kind = normalize_msgtype(msgtype)
     if kind not in (SPENCER_TRACKED, POSE_ARRAY):
@@ -407,6 +407,8 @@ def _write_tracks(
     spans = merge_spans(observed)
     marks = observed_stamps(spans)
     _check_log_times(marks, "the observed spans")
+    if len(marks):
+        check_stamps(int(marks.max()), container, "the observed spans")
     payload = _graph_payload(graph_file) if graph_file is not None else None
     rows = groups = 0
     track_ids = np.zeros(0, np.int64)
@@ -420,6 +422,7 @@ def _write_tracks(
             if len(chunk) == 0:
                 continue
             _check_chunk(chunk, kind, held)
+            check_stamps(int(chunk.t_ns[-1]), container, "the tracks")
             t0 = int(chunk.t_ns[0]) if t0 is None else t0
             track_ids = np.union1d(track_ids, chunk.track_id)
             data = chunk if held is None else DetectionBatch.concat([held, chunk])

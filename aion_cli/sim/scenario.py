@@ -43,6 +43,8 @@ Progress = Callable[[str, int, int], None]
 MAX_TICKS = 6_000_000  # ~35 days at 2 Hz: per-tick robot arrays stay below ~300 MB
 
 
+LAST_START_NS = 9_183_110_400 * 10**9
+"""2261-01-01 UTC: the last time aion reads (``engine.mapper.TIME_RANGE_TEXT``)."""
 MAX_AGENTS = 1000
 """People per scene at most (each is simulated per tick, in memory)."""
 MAX_SCENES = 1000
@@ -143,7 +145,15 @@ class ScenarioConfig:
                 "a fixed offset",
             )
         detection_msgtype(self.detection_type)
-        start_ns(self.start, self.utc_offset_h, self.timezone)
+        try:
+            first = start_ns(self.start, self.utc_offset_h, self.timezone)
+        except (OverflowError, OSError, ValueError) as exc:
+            raise InputError(f"--start {self.start!r} cannot be simulated: {exc}") from exc
+        if not 0 <= first <= LAST_START_NS - int(self.days * 86400e9):
+            raise InputError(
+                f"--start {self.start!r}: the simulated days must lie in 1970 .. 2261",
+                hint="choose an earlier start",
+            )
 
     def clock(self) -> SceneClock:
         """The scene's local clock (:mod:`aion_cli.sim.clock`)."""

@@ -92,3 +92,26 @@ def test_a_file_of_another_layout_is_refused_naming_the_one_it_looks_like(
         ft.read_tracks(odd, "atc")
     assert caught.value.hint is not None
     assert caught.value.hint.startswith("atc columns: ")
+
+
+def test_times_beyond_a_containers_header_stamps_are_refused(tmp_path: Path) -> None:
+    """ROS 2 stamps hold seconds as int32 (to 2038-01-19), ROS 1 as uint32 (to 2106): a
+    later time is a LogTimeError naming the limit, not a struct error, and nothing is
+    written; a ROS 1 log takes 2040."""
+    import numpy as np
+
+    from aion_cli.engine.types import DetectionBatch
+    from aion_cli.formats import tracks_log
+    from aion_cli.formats.writers import LogTimeError, max_stamp_ns
+
+    t2040 = 2_208_988_800 * 10**9
+    batch = DetectionBatch.from_arrays(
+        t2040 + np.arange(3) * 10**9, np.zeros((3, 3)), np.zeros(3), track_id=np.arange(3)
+    )
+    with pytest.raises(LogTimeError, match="2038-01-19 03:14:07 UTC"):
+        tracks_log.tracks_to_log(batch, tmp_path / "late.mcap")
+    assert not (tmp_path / "late.mcap").exists()
+    summary = tracks_log.tracks_to_log(batch, tmp_path / "late.bag", container="bag")
+    assert summary.detection_messages == 3
+    assert max_stamp_ns("bag") == (2**32 - 1) * 10**9 + 999_999_999
+    assert max_stamp_ns("mcap") == (2**31 - 1) * 10**9 + 999_999_999

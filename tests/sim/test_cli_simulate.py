@@ -90,6 +90,8 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
         ("--utc-offset", "nan"),
         ("--utc-offset", "25"),
         ("--scenes", "99999999999999999999"),
+        ("--start", "2039-01-01"),  # beyond a ROS 2 stamp (int32 seconds): was internal
+        ("--start", "2262-06-01"),  # beyond int64 nanoseconds
     ]
     for extra in cases:
         code, output = _run("simulate", "-o", tmp_path / "x.mcap", "--quiet", *extra)
