@@ -120,9 +120,13 @@ def _zone_name_from_system() -> str | None:
 
 
 def resolve_zone(name: str | None) -> Zone:
-    """``--tz`` value -> zone. ``None`` or "local" is the machine's local zone."""
-    if name is None or name.strip().lower() in ("", "local"):
+    """``--tz`` value -> zone. ``None`` or "local" is the machine's local zone; an empty
+    value is a :class:`TimeFormatError` (an unset shell variable must not silently mean the
+    machine's zone instead of the map's)."""
+    if name is None or name.strip().lower() == "local":
         return local_zone()
+    if not name.strip():
+        raise TimeFormatError("empty time zone", ZONE_HINT)
     text = name.strip()
     try:
         tz = zone_of(text)

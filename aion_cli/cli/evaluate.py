@@ -49,6 +49,15 @@ def _config(path: Path | None) -> Any:
     return ModelConfig.from_toml_text(path.read_text())
 
 
+def _day(text: str) -> str:
+    """``--test DAY`` as given, stripped; an empty one is an error, not the default day."""
+    from aion_cli.errors import InputError
+
+    if not text.strip():
+        raise InputError("--test names no day", hint="e.g. --test 2017-06-09")
+    return text.strip()
+
+
 def _existing_dir(path: Path, what: str) -> Path:
     from aion_cli.errors import InputError
 
@@ -223,7 +232,7 @@ def lincoln(
         train = tuple(d.strip() for d in train_days.split(",") if d.strip())
     result = run_lincoln(
         _existing_dir(_data(data_dir, "lincoln"), "Lincoln data"), config, radius, progress=note,
-        train_days=train, test_day=test_day or TEST_DAY,
+        train_days=train, test_day=TEST_DAY if test_day is None else _day(test_day),
     )
     flows = ", ".join(f"{k} {v:,}" for k, v in sorted(result.families["flow"].items()))
     note(f"aion's flow models: {flows}")

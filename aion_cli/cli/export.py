@@ -142,7 +142,7 @@ def command(
         series, zone = series_of(t_from, t_to, step, tz, loaded)
         times = list(series)
     else:
-        when, zone = resolve_time(time_text or "now", tz, loaded)
+        when, zone = resolve_time("now" if time_text is None else time_text, tz, loaded)
         times = [when]
     ends = None
     if path_from is not None and path_to is not None:

@@ -145,7 +145,8 @@ def command(
         check_png_target(png_path, "--png")  # before any planning
     loaded = load(map_path)
     zone = map_zone(tz, loaded)
-    leaving = None if leave is None else departure_times(leave, step or "10m", zone)
+    every = "10m" if step is None else step
+    leaving = None if leave is None else departure_times(leave, every, zone)
     nav = nav_graph(loaded)
     a = resolve_endpoint(start, nav, loaded.graph)
     b = resolve_endpoint(goal, nav, loaded.graph)

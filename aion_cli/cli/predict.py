@@ -115,7 +115,7 @@ def command(
     loaded = load(map_path)
     if series and t_from is not None and t_to is not None:
         request = (layer, nodes, at, top)
-        run_series(map_path, loaded, t_from, t_to, step or "1h", tz, request, fmt)
+        run_series(map_path, loaded, t_from, t_to, "1h" if step is None else step, tz, request, fmt)
         return
     t_ns: int | None = None
     zone = None

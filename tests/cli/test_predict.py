@@ -434,3 +434,27 @@ def test_an_unknown_id_in_a_map_of_cells_points_to_at_and_top(tmp_path: Path) ->
     assert_one_line_error(result.stderr, "c123")
     assert f"only {cells:,} hash cells" in result.stderr
     assert "--at X,Y" in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["predict", "MAP", "--time", AT, "--tz", ""], "empty time zone"),
+        (["predict", "MAP", "--time", AT, "--tz", " "], "empty time zone"),
+        (["predict", "MAP", "--node", "p4", "--from", AT, "--to", AT, "--step", ""],
+         "cannot read the step"),
+        (["plan", "MAP", "--from", "p1", "--to", "p2", "--leave", f"{AT}..+1h", "--step", ""],
+         "cannot read the step"),
+        (["export", "MAP", "--time", "", "-o", "OUT"], "empty time"),
+    ],
+)
+def test_an_empty_value_is_an_error_not_the_default(
+    office: Office, tmp_path: Path, args: list[str], fragment: str
+) -> None:
+    """An unset shell variable ("$TZ" empty) must not silently mean the machine's zone, the
+    default step or now."""
+    argv = [office.map if a == "MAP" else tmp_path / "out" if a == "OUT" else a for a in args]
+    result = run(*argv)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, fragment)
+    assert not (tmp_path / "out").exists()
