@@ -23,6 +23,7 @@ from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.windows import to_model_seconds
+from aion_cli.errors import InputError
 
 WINDOW_NS = 60_000_000_000
 _ONE = np.zeros(1, np.int64)
@@ -35,7 +36,7 @@ def door_config() -> ModelConfig:
 
 def train_door(data_dir: Path) -> tuple[TemporalParams, TemporalState]:
     """The door signal learnt as one always-observed entry (see the module docstring)."""
-    train = np.loadtxt(Path(data_dir) / "training_data.txt", ndmin=2)
+    train = _table(Path(data_dir) / "training_data.txt", 2, "time_s state")
     params = TemporalParams.from_config(door_config())
     state = temporal.empty_state(params, 1)
     windows = np.floor_divide(np.round(train[:, 0]).astype(np.int64) * 10**9, WINDOW_NS)
@@ -64,6 +65,33 @@ def _mae(fc: Forecaster, family: str, t_ns: np.ndarray, truth: np.ndarray) -> fl
     return float(np.mean(np.abs(pred - truth)))
 
 
+def _table(path: Path, columns: int, names: str) -> np.ndarray:
+    """The numbers of one door file (``columns`` per line: ``names``), finite and not
+    empty; :class:`InputError` naming the file otherwise."""
+    import warnings
+
+    if not path.is_file():
+        raise InputError(f"door data file not found: {path}", hint="pass the folder with --data")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
+            table = np.loadtxt(path, ndmin=2 if columns > 1 else 1)
+    except ValueError as exc:
+        raise InputError(
+            f"{path}: not a table of numbers ({exc})", hint=f"each line holds: {names}"
+        ) from exc
+    shape_ok = table.ndim == (2 if columns > 1 else 1) and (
+        columns == 1 or table.shape[1] == columns
+    )
+    if table.size == 0 or not shape_ok or not np.isfinite(table).all():
+        raise InputError(
+            f"{path}: {'no rows' if table.size == 0 else 'rows that are not finite numbers'}"
+            f" (each line holds: {names})"
+        )
+    out: np.ndarray = table
+    return out
+
+
 def run_door(data_dir: Path, weeks: range = range(1, 10)) -> dict[str, Any]:
     """Per test week: MAE of FreMEn (best order), of the static mean and of the model's own
     choice, and who wins."""
@@ -76,8 +104,13 @@ def run_door(data_dir: Path, weeks: range = range(1, 10)) -> dict[str, Any]:
     chosen = params.flow[int(predictor.flow_choice[0])]
     rows = []
     for k in weeks:
-        times = np.loadtxt(Path(data_dir) / f"test_times_{k}.txt", ndmin=1)
-        truth = np.loadtxt(Path(data_dir) / f"test_data_{k}.txt", ndmin=1)
+        times = _table(Path(data_dir) / f"test_times_{k}.txt", 1, "time_s")
+        truth = _table(Path(data_dir) / f"test_data_{k}.txt", 1, "state")
+        if len(times) != len(truth):
+            raise InputError(
+                f"test week {k}: {len(times):,} times but {len(truth):,} states",
+                hint="test_times_k.txt and test_data_k.txt hold one line per minute each",
+            )
         t_ns = np.round(times).astype(np.int64) * 10**9 + WINDOW_NS // 2
         row: dict[str, Any] = {"week": k, "samples": len(truth)}
         for key, family in (

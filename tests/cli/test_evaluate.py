@@ -119,3 +119,33 @@ def test_evaluate_office_refuses_numbers_it_cannot_run_with(
     assert proc.returncode == 2, proc.stderr
     assert fragment in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+@needs(DATA / "fremen_door", "the FreMEn door data")
+@pytest.mark.parametrize(
+    ("name", "text", "fragment"),
+    [
+        ("training_data.txt", "", "no rows"),
+        ("training_data.txt", "KEEP\nnan\n", "not a table of numbers"),
+        ("test_data_1.txt", "abc\n", "not a table of numbers"),
+        ("test_data_1.txt", "0\n1\n0\n1\n0\n", "times but 5 states"),
+        ("test_times_1.txt", "", "no rows"),
+    ],
+)
+def test_damaged_door_files_are_one_line_errors(
+    tmp_path: Path, name: str, text: str, fragment: str
+) -> None:
+    """Each was an internal error (or a success table of a week without samples)."""
+    import shutil
+
+    data = tmp_path / "door"
+    shutil.copytree(DATA / "fremen_door", data)
+    original = (data / name).read_text()
+    (data / name).write_text(text.replace("KEEP\n", original))
+    proc = subprocess.run(
+        [str(AION), "evaluate", "door", "--data", str(data)],
+        capture_output=True, text=True, check=False,
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert fragment in proc.stderr
+    assert "Traceback" not in proc.stderr
