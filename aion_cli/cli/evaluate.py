@@ -286,6 +286,10 @@ def holdout(
     from aion_cli.cli.console import note
     from aion_cli.evaluation.holdout import run_holdout
 
+    if png is not None:  # a bad target fails before the evaluation runs
+        from aion_cli.pictures.render import check_png_target
+
+        check_png_target(png, "--png")
     spans = observed_spans(observed, None, map_path)  # in the map's zone
     opts = BuildOptions(logs=logs, detection_topics=detection_topics,
                         map_frame=map_frame_of(map_frame, map_path), observed=spans)

@@ -274,7 +274,7 @@ def hourly_picture(result: HoldoutResult, path: Path, title: str) -> Path:
     from aion_cli.pictures.render import check_png_target
 
     path = Path(path)
-    check_png_target(path, "the picture")  # a folder, another suffix, a missing folder
+    check_png_target(path, "--png")  # a folder, another suffix, a missing folder
     if not result.hours:
         raise InputError(
             "no hourly activity to draw: the test logs observed no window the map could follow",

@@ -163,6 +163,7 @@ def test_the_hourly_picture_target_is_checked_first(
     result = run("evaluate", "holdout", site, test, "--png", name)
     assert result.exit_code == 2, result.stderr
     assert fragment in result.stderr
+    assert "scoring" not in result.stderr  # refused before the evaluation ran
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
