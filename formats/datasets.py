@@ -73,8 +73,8 @@ def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_F
     each track. ``Properties.Rn`` (whose first value is the number of points) is checked
     against the track where present: a mismatch is a note, not an error.
     """
-    if not fps > 0:
-        raise TracksFormatError(f"fps must be > 0, got {fps}")
+    if not 0 < fps <= 10_000:  # also NaN and inf
+        raise TracksFormatError(f"fps must be 0 .. 10,000, got {fps}")
     p = Path(path)
     if not p.is_file():
         raise TracksFormatError(f"tracks file not found: {p}")

@@ -338,8 +338,8 @@ def finite_difference(t_ns: I64, track_id: I64, xy: F64) -> tuple[F64, F64]:
 
 def read_eth(path: str | Path, fps: float = 25.0, start_ns: int = 0) -> DetectionBatch:
     """ETH/UCY ``frame ped_id x y`` (whitespace separated); ``t = start + frame / fps``."""
-    if not fps > 0:
-        raise TracksFormatError(f"fps must be > 0, got {fps}")
+    if not 0 < fps <= 10_000:  # also NaN and inf
+        raise TracksFormatError(f"fps must be 0 .. 10,000, got {fps}")
     p = Path(path)
     a = _plain_columns(p, _SPECS["eth"], "eth")
     t_ns = _seconds_to_ns(a[:, 0] / fps, start_ns, p)

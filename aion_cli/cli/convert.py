@@ -307,8 +307,8 @@ def _check_layout_options(
                 f"--fps does not apply to the {layout} layout",
                 hint=f"only {', '.join(FRAME_LAYOUTS)} files have frame numbers",
             )
-        if not fps > 0:  # also NaN
-            raise InputError(f"--fps must be a positive number of frames per second, not {fps}")
+        if not 0 < fps <= 10_000:  # also NaN and inf: frames of no duration
+            raise InputError(f"--fps must be 0 .. 10,000 frames per second, not {fps}")
     if length_unit is not None and layout != "thor-magni":
         raise InputError(
             f"--length-unit does not apply to the {layout} layout",

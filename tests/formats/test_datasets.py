@@ -114,8 +114,9 @@ def test_edinburgh_missing_file_and_bad_fps(tmp_path: Path) -> None:
     with pytest.raises(track_types.TracksFormatError, match="not found"):
         ft.read_tracks(tmp_path / "none.txt", "edinburgh")
     path = edinburgh_file(tmp_path / "t.txt", {1: [(1, 2, 3)]})
-    with pytest.raises(track_types.TracksFormatError, match="fps must be > 0"):
-        datasets.read_edinburgh(path, fps=0.0)
+    for fps in (0.0, float("inf"), float("nan"), 1e300):  # inf: every frame at one instant
+        with pytest.raises(track_types.TracksFormatError, match=r"fps must be 0 \.\. 10,000"):
+            datasets.read_edinburgh(path, fps=fps)
 
 
 # ----------------------------------------------------------------------------- THÖR-MAGNI
