@@ -126,6 +126,14 @@ def _load_config(path: Path | None) -> Any:
     return ModelConfig.from_toml_text(text)
 
 
+def _frame_name(value: str | None, option: str, example: str) -> str | None:
+    """A TF frame name as given (None: not given); an empty one is an error (an unset shell
+    variable would otherwise make a robot's log a fixed sensor without a word)."""
+    if value is not None and not value.strip():
+        raise click.BadParameter(f"a frame name, e.g. {example}", param_hint=option)
+    return value
+
+
 @click.command(
     "build",
     short_help="Learn (or extend) a map from logs.",
@@ -193,6 +201,7 @@ def _load_config(path: Path | None) -> Any:
 @click.option(
     "--map-frame",
     default=None,
+    callback=lambda _ctx, _param, value: _frame_name(value, "--map-frame", "map"),
     help="Fixed frame of the map; detections are transformed into it with TF [default: the "
     "continued map's (--map), else map].",
 )
@@ -200,6 +209,7 @@ def _load_config(path: Path | None) -> Any:
     "--base-frame",
     default="base_link",
     show_default=True,
+    callback=lambda _ctx, _param, value: _frame_name(value, "--base-frame", "base_link"),
     help="Robot frame whose TF trajectory gives what the sensor observed.",
 )
 @click.option(

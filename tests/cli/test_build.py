@@ -9,6 +9,8 @@ import shutil
 import tomllib
 from pathlib import Path
 
+import pytest
+
 from aion_cli.engine.config import ModelConfig
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
 from tests.cli.logdata import (
@@ -420,3 +422,19 @@ def test_time_zone_given_twice_must_agree(tmp_path: Path) -> None:
         "build", log, "--config", config, "--tz", "Europe/Berlin", "-o", out, "--format", "json"
     )
     assert run_json("info", out, "--format", "json")["timezone"] == "Europe/Berlin"
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "example"),
+    [("--base-frame", "", "base_link"), ("--base-frame", " ", "base_link"),
+     ("--map-frame", "", "map")],
+)
+def test_an_empty_frame_is_refused(
+    office: Office, tmp_path: Path, option: str, value: str, example: str
+) -> None:
+    """An empty --base-frame made the robot's log a fixed sensor with only a note."""
+    out = tmp_path / "m.aion"
+    result = run("build", office.log, "-o", out, option, value)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, option, f"e.g. {example}")
+    assert not out.exists()
