@@ -132,12 +132,41 @@ def _silence_stdout() -> None:
         pass
 
 
+def _shown_path(name: object) -> str:
+    """A path for the message: a staged output's hidden temporary name (``.x.ply.<tag>.tmp``,
+    ``formats.outputs.Staged``) shown as the output it stands for."""
+    text = os.fsdecode(name) if isinstance(name, str | bytes | os.PathLike) else str(name)
+    folder, base = os.path.split(text)
+    if base.startswith(".") and base.endswith(".tmp") and base.count(".") >= 3:
+        base = base[1:].rsplit(".", 2)[0]
+    return os.path.join(folder, base) if folder else base
+
+
+def _file_in_the_way(name: object) -> str | None:
+    """The first folder of the path ``name`` that is a regular file (so nothing below it can
+    be made), or None."""
+    from pathlib import Path
+
+    text = os.fsdecode(name) if isinstance(name, str | bytes | os.PathLike) else str(name)
+    for folder in reversed(Path(os.path.abspath(text)).parents):
+        if folder.is_file():
+            return str(folder)
+    return None
+
+
 def _report_os_error(exc: OSError) -> int:
     if exc.errno == errno.EPIPE:  # stdout closed early (e.g. `| head`): not a failure
         _silence_stdout()
         return EXIT_OK
     what = exc.strerror or str(exc)
-    where = f": {exc.filename}" if exc.filename else ""
+    where = f": {_shown_path(exc.filename)}" if exc.filename else ""
+    blocked = _file_in_the_way(exc.filename) if exc.filename else None
+    if blocked is None and isinstance(exc, FileExistsError) and exc.filename:
+        named = _shown_path(exc.filename)  # a folder to make where a file is (mkdir)
+        blocked = named if os.path.isfile(named) else None
+    if blocked is not None and isinstance(exc, FileExistsError | NotADirectoryError):
+        _emit(f"{blocked} is a file, not a folder", "choose a path whose folders are folders")
+        return EXIT_INPUT
     user_side = (
         FileNotFoundError,
         PermissionError,

@@ -434,3 +434,24 @@ def test_only_a_folder_exactly_as_aion_writes_it_counts_as_its_rosbag2(tmp_path:
         assert is_own_rosbag2(copy)
         damage(copy)
         assert not is_own_rosbag2(copy), name
+
+
+def test_a_file_where_a_folder_should_be_is_named(office: Office, tmp_path: Path) -> None:
+    """``-o afile/x`` where ``afile`` is a file: the file is named as not a folder (it said
+    "File exists: afile"), and an unwritable output is named as given, never by its hidden
+    temporary name."""
+    blocker = tmp_path / "afile"
+    blocker.write_text("keep\n")
+    for args in (
+        ("export", office.map, "--historical", "-o", blocker / "scene"),
+        ("report", office.map, "-o", blocker / "report"),
+        ("plan", office.map, "--from", "p1", "--to", "p2", "--export", blocker / "x.ply"),
+    ):
+        result = run(*args)
+        assert result.exit_code == 2, result.stderr
+        assert_one_error(result.stderr, f"{blocker} is a file, not a folder")
+    assert blocker.read_text() == "keep\n"
+    result = run("export", office.map, "--historical", "-o", "/proc/aion-test.ply")
+    assert result.exit_code == 2, result.stderr
+    assert ".tmp" not in result.stderr
+    assert "/proc/aion-test.ply" in result.stderr
