@@ -170,6 +170,8 @@ def _check_paths(paths: list[Path], out: Path) -> None:
             raise InputError(f"map file not found: {p}", hint="build one with `aion build LOG`")
         if p.is_dir():
             raise InputError(f"{p} is a folder, not a map file", hint=_HINT)
+        if not p.is_file():  # a device or FIFO: hashing it would block or never end
+            raise InputError(f"{p} is not a regular file, not a map file", hint=_HINT)
         real = p.resolve()
         if real in seen:
             raise InputError(f"the map {p} is given twice", hint="give each map once")

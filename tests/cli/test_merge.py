@@ -217,6 +217,8 @@ def test_bad_inputs_are_one_line_errors(days: Days, tmp_path: Path) -> None:
         (("merge", mon, wed, "-o", out, "--lineage", "maybe"), ["maybe"]),
         (("merge", mon, wed, "-o", out, "--graph", tmp_path / "no.json"), ["no.json"]),
         (("merge", mon, wed), ["-o"]),
+        (("merge", mon, "/dev/null", "-o", out), ["/dev/null is not a regular file, not a map"]),
+        (("merge", mon, wed, "-o", out, "--nav-layer", "NOPE"), ["--nav-layer NOPE", "--graph"]),
     ]
     for args, fragments in cases:
         result = run(*args)
