@@ -100,7 +100,7 @@ def report(exc: BaseException, debug: bool) -> int:
     if debug and not interrupted and not isinstance(exc, click.exceptions.Exit):
         traceback.print_exception(exc, file=sys.stderr)
     if interrupted:
-        _emit("interrupted", "an existing map is left unchanged; rerun the command to finish")
+        _emit("interrupted", "an existing output is left unchanged; rerun the command to finish")
         return EXIT_INTERRUPTED
     if isinstance(exc, TopicNotFoundError):
         _emit(exc.message, _topic_hint(exc))

@@ -84,9 +84,8 @@ time (the fields of `aion predict`) in its node metadata under "aion".
 @click.option(
     "--step",
     metavar="DURATION",
-    default="1h",
-    show_default=True,
-    help="Time-series step: 1h, 30m, 600s.",
+    default=None,
+    help="Time-series step: 1h, 30m, 600s [default: 1h; with --from and --to].",
 )
 @tz_option
 @click.option(
@@ -112,7 +111,7 @@ def command(
     historical: bool,
     t_from: str | None,
     t_to: str | None,
-    step: str,
+    step: str | None,
     tz: str | None,
     fmt: str | None,
     path_from: str | None,
@@ -128,6 +127,8 @@ def command(
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:
         raise InputError("choose one of --time, --historical or --from/--to")
+    if step is not None and t_from is None and t_to is None:
+        raise InputError("--step needs --from and --to", hint="a series: --from T --to T --step 1h")
     if (t_from is None) != (t_to is None):
         raise InputError("a time series needs both --from and --to")
     if (path_from is None) != (path_to is None):
@@ -139,7 +140,7 @@ def command(
     if historical:
         times = [None]
     elif t_from is not None and t_to is not None:
-        series, zone = series_of(t_from, t_to, step, tz, loaded)
+        series, zone = series_of(t_from, t_to, "1h" if step is None else step, tz, loaded)
         times = list(series)
     else:
         when, zone = resolve_time("now" if time_text is None else time_text, tz, loaded)

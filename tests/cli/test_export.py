@@ -76,6 +76,7 @@ def test_time_series_and_path(office: Office, tmp_path: Path) -> None:
         (["--time", AT, "--path-from", "p0", "--path-to", "p77"], "p77"),
         (["--time", AT, "--path-from", "p0", "--path-to", "p6"], "no path"),
         (["--time", AT, "--format", "obj"], "obj"),
+        (["--time", AT, "--step", "1h"], "--step needs --from and --to"),  # was ignored
     ],
 )
 def test_bad_option_mixes(office: Office, tmp_path: Path, args: list[str], fragment: str) -> None:
