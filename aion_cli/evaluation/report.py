@@ -192,11 +192,25 @@ def write_report(
     progress: Callable[[str], None] | None = None,
 ) -> Path:
     """Run the protocols not in ``skip`` and write ``out_dir/report.md`` (+ PNGs, JSON)."""
+    from aion_cli.errors import InputError
     from aion_cli.evaluation.atc import run_atc
     from aion_cli.evaluation.door import run_door
     from aion_cli.evaluation.office import run_office
 
     skip = skip or set()
+    sections = ("office", "atc", "lincoln", "door")
+    if set(sections) <= skip:
+        raise InputError("every section is skipped: the report would be empty",
+                         hint=f"leave out at least one --skip of {', '.join(sections)}")
+    if not (math.isfinite(days) and days > 0):
+        raise InputError(f"--days must be a positive number, got {days!r}")
+    wanted = {"atc": "atc", "lincoln": "lincoln", "door": "fremen_door"}
+    for section, folder in wanted.items():  # before anything runs or is written
+        if section not in skip and not (data_dir / folder).is_dir():
+            raise InputError(
+                f"{section} data folder not found: {data_dir / folder}",
+                hint=f"pass the shared data folder with --data, or --skip {section}",
+            )
     say = progress or (lambda _m: None)
     out_dir.mkdir(parents=True, exist_ok=True)
     lines = ["# aion evaluation report", ""]

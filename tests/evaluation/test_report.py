@@ -36,3 +36,23 @@ def test_atc_section_plots_nll_per_hour(tmp_path: Path) -> None:
     lines = atc_section({"random": result}, tmp_path)
     assert any(line.startswith("| aion |") for line in lines)
     assert (tmp_path / "atc_random_nll.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "fragment"),
+    [
+        ({"skip": {"office", "atc", "lincoln", "door"}}, "every section is skipped"),
+        ({"skip": {"office"}, "data": "none"}, "atc data folder not found"),
+        ({"skip": {"atc", "lincoln", "door"}, "days": float("nan")}, "--days must be"),
+    ],
+)
+def test_a_report_that_cannot_be_made_writes_nothing(
+    tmp_path: Path, kwargs: dict[str, object], fragment: str
+) -> None:
+    from aion_cli.errors import InputError
+
+    out = tmp_path / "report"
+    data = tmp_path / "none" if kwargs.pop("data", None) else DATA
+    with pytest.raises(InputError, match=fragment):
+        write_report(out, data, scenes=1, **kwargs)  # type: ignore[arg-type]
+    assert not out.exists()  # no empty folder left behind
