@@ -53,6 +53,11 @@ def write_build(
     far = far_from_graph_of(state, stats)
     if far is not None:
         report.warnings.append(far)
+    if state.graph is not None and stats["nodes"] == 0:
+        report.warnings.append(
+            "the scene graph's navigational layer has no places: every detection stays on "
+            "hash cells (see --nav-layer; aion info LOG lists the graph's layers)"
+        )
     report.cells = stats["cells"]
     report.nodes = stats["nodes"]
     report.nodes_with_flow = stats["nodes_with_flow"]

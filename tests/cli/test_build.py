@@ -438,3 +438,16 @@ def test_an_empty_frame_is_refused(
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, option, f"e.g. {example}")
     assert not out.exists()
+
+
+def test_a_navigational_layer_without_places_is_a_warning(tmp_path: Path) -> None:
+    """--nav-layer naming a layer with no places (the sample graph's objects, layer 2) built a
+    map of 0 nodes without a word."""
+    sample = Path(__file__).resolve().parents[2] / "samples" / "office.mcap"
+    report = run_json("build", sample, "-o", tmp_path / "m.aion", "--nav-layer", "2",
+                      "--format", "json")
+    assert report["nodes"] == 0
+    assert any("navigational layer has no places" in w for w in report["warnings"])
+    plain = run_json("build", sample, "-o", tmp_path / "p.aion", "--format", "json")
+    assert plain["nodes"] > 0
+    assert not any("navigational layer has no places" in w for w in plain["warnings"])
