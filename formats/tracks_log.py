@@ -56,6 +56,11 @@ class TracksLogSummary:
 OBSERVED_INTERVAL_NS = 30 * 1_000_000_000
 
 
+MOST_OBSERVED_MARKS = 10_000_000
+"""Empty marker messages one log takes for ``--observed`` spans (at one every 30 s, about
+9.5 years): beyond, a span is a typo (a 1970 start), not a recording."""
+
+
 def observed_stamps(
     spans: Iterable[tuple[int, int]], interval_ns: int = OBSERVED_INTERVAL_NS
 ) -> I64:
@@ -65,9 +70,21 @@ def observed_stamps(
     either end still gets a message. Sorted, unique."""
     if not interval_ns > 0:
         raise InputError(f"the observed-message interval must be > 0 ns, got {interval_ns}")
+    merged = merge_spans(spans)
+    total = sum(b - a for a, b in merged)
+    if total // interval_ns > MOST_OBSERVED_MARKS:
+        years = total / (365.25 * 86400e9)
+        raise InputError(
+            f"the observed spans cover {years:,.1f} years: more than one log's empty marker "
+            f"messages hold (at most {MOST_OBSERVED_MARKS:,}, one every "
+            f"{interval_ns / 1e9:g} s: about {MOST_OBSERVED_MARKS * interval_ns / 3.1557e16:.1f}"
+            " years)",
+            hint="give the spans the sensor was really recording, e.g. --observed "
+            '"2026-01-06 08:00..2026-01-06 18:00"',
+        )
     parts = [
         np.append(np.arange(a, b, interval_ns, dtype=np.int64), np.int64(b - 1))
-        for a, b in merge_spans(spans)
+        for a, b in merged
     ]
     return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
 

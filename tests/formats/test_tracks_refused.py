@@ -115,3 +115,15 @@ def test_times_beyond_a_containers_header_stamps_are_refused(tmp_path: Path) -> 
     assert summary.detection_messages == 3
     assert max_stamp_ns("bag") == (2**32 - 1) * 10**9 + 999_999_999
     assert max_stamp_ns("mcap") == (2**31 - 1) * 10**9 + 999_999_999
+
+
+def test_observed_spans_of_decades_are_refused_before_anything_is_written() -> None:
+    """A 1970 start (a typo) asked for 59 million empty marker messages and ran for minutes."""
+    from aion_cli.formats.tracks_log import MOST_OBSERVED_MARKS, observed_stamps
+
+    day = 86_400 * 10**9
+    with pytest.raises(InputError, match=r"cover 56\.0 years"):
+        observed_stamps([(0, 20_454 * day)])  # 1970-01-01 .. 2026-01-01
+    year = observed_stamps([(0, 365 * day)])  # a year is fine
+    assert year.size == 365 * 2880 + 1
+    assert year.size < MOST_OBSERVED_MARKS
