@@ -30,7 +30,7 @@ import os
 from collections.abc import Sequence
 from datetime import datetime, tzinfo
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from aion_cli import api_checks as check
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
@@ -139,9 +139,18 @@ class Map:
         return resolve_zone(name if name is not None else self.timezone)
 
     def _time(self, time: TimeLike, tz: object) -> tuple[int, Zone]:
-        self._check_file()
         zone = self._zone(tz)
         return to_ns(time, zone), zone
+
+    def _path_ends(self, path: object) -> Any:
+        """The ends of ``path = (start, goal)`` for an export or a picture (None: no path)."""
+        from aion_cli.exports import path_ends
+
+        if path is None:
+            return None
+        a, b = check.pair(path, "path", "start, goal")
+        a, b = check.endpoint(a, "path"), check.endpoint(b, "path")
+        return path_ends(self._loaded, str(a), str(b))
 
     def _check_file(self) -> None:
         """:class:`MapFileError` when the file this map was loaded from was overwritten in
@@ -214,6 +223,7 @@ class Map:
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
         wanted, point, top = check.selection(nodes, at, top)
+        self._check_file()
         every = step_ns(check.step(step))
         t0, zone = self._time(start, tz)
         t1, _ = self._time(end, tz)
@@ -247,6 +257,7 @@ class Map:
             raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
         if leave is not None and time is not None:
             raise InputError("choose time or leave=(earliest, latest), not both")
+        self._check_file()
         t_ns, zone = self._time("now" if time is None else time, tz)
         nav = nav_graph(self._loaded)
         graph = self._loaded.graph
@@ -296,7 +307,6 @@ class Map:
             export_format,
             export_frames,
             export_scene_file,
-            path_ends,
             planned_path,
             scene_file,
         )
@@ -319,11 +329,7 @@ class Map:
         else:
             when, zone = self._time("now" if time is None else time, tz)
             times = [when]
-        ends = None
-        if path is not None:
-            a, b = check.pair(path, "path", "start, goal")
-            a, b = check.endpoint(a, "path"), check.endpoint(b, "path")
-            ends = path_ends(self._loaded, str(a), str(b))
+        ends = self._path_ends(path)
         label = str(self.path) if self.path is not None else "<memory>"
         if format == "dsg":
             from aion_cli.exports import export_dsg
@@ -352,7 +358,6 @@ class Map:
         """The map from above at ``time`` (or as observed) as the PNG file ``file``, with the
         path planned between ``path = (start, goal)``; the file written (as ``aion export
         --format png``)."""
-        from aion_cli.exports import path_ends
         from aion_cli.pictures.render import export_png
 
         if historical and time is not None:
@@ -362,11 +367,7 @@ class Map:
         zone = None
         if not historical:
             when, zone = self._time("now" if time is None else time, tz)
-        ends = None
-        if path is not None:
-            a, b = check.pair(path, "path", "start, goal")
-            a, b = check.endpoint(a, "path"), check.endpoint(b, "path")
-            ends = path_ends(self._loaded, str(a), str(b))
+        ends = self._path_ends(path)
         name = self.path.name if self.path is not None else "<memory>"
         return export_png(self._loaded, name, as_path(file), [when], zone, ends)
 

@@ -52,7 +52,7 @@ def node_list(nodes: object, what: str = "nodes") -> list[str | int]:
         return []
     if isinstance(nodes, str | numbers.Integral):
         nodes = [nodes]
-    if not isinstance(nodes, Sequence | set | frozenset) and not hasattr(nodes, "__iter__"):
+    if not hasattr(nodes, "__iter__"):
         raise InputError(f"{what} must be node ids (a list of them, or one), got {nodes!r}")
     out: list[str | int] = []
     for node in nodes:

@@ -70,6 +70,7 @@ def build(
     from aion_cli.pipeline import build_map
 
     tz = zone_name(tz)
+    continued = _optional_path(continue_from, "continue_from")
     opts = reading_options(
         logs,
         {
@@ -86,11 +87,11 @@ def build(
         opts,
         output=_optional_path(output, "output"),
         config=_config(config),
-        map_frame=map_frame_of(map_frame, _optional_path(continue_from, "continue_from")),
+        map_frame=map_frame_of(map_frame, continued),
         graph_file=_optional_path(graph, "graph"),
         nav_layer=nav_layer,
         derive_graph=bool(derive_graph),
-        continue_from=_optional_path(continue_from, "continue_from"),
+        continue_from=continued,
         timezone=tz,
         workers=count(workers, "workers", minimum=0) or 0,
         scheduler=scheduler,
