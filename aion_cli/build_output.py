@@ -58,6 +58,12 @@ def write_build(
             "the scene graph's navigational layer has no places: every detection stays on "
             "hash cells (see --nav-layer; aion info LOG lists the graph's layers)"
         )
+    if state.graph is None and report.graph_source == "log" and report.graph_topics:
+        topics = ", ".join(report.graph_topics)
+        report.warnings.append(
+            f"no scene graph of {topics} could be used (see the warnings above): the map has "
+            "hash cells only, no places"
+        )
     report.cells = stats["cells"]
     report.nodes = stats["nodes"]
     report.nodes_with_flow = stats["nodes_with_flow"]

@@ -344,12 +344,17 @@ def open_logs(
         if not sources:
             raise LogFormatError("no log given", hint="pass at least one log file or folder")
         logset = LogSet(sources)
-        if not allow_empty and all(f.message_count == 0 for f in logset.files):
+        # an empty recording opens for ``aion info`` (allow_empty); one whose messages were
+        # all lost (chunks over the limit, damage: the warnings say) never does
+        if (not allow_empty or logset.warnings) and all(
+            f.message_count == 0 for f in logset.files
+        ):
             names = ", ".join(str(f.path) for f in logset.files)
-            detail = "; ".join(logset.warnings)
             raise LogFormatError(
-                f"{names}: no messages" + (f" ({detail})" if detail else ""),
-                hint="the recording holds no readable messages",
+                f"{names}: no messages" + _first_reasons(logset.warnings),
+                hint="the recording holds no readable messages"
+                if not logset.warnings
+                else "none of its messages could be read: see the reason above",
             )
         for f in logset.files:
             if f.message_count == 0:
@@ -359,3 +364,12 @@ def open_logs(
         for source in sources:
             source.close()
         raise
+
+
+def _first_reasons(warnings: list[str]) -> str:
+    """`` (the first warning; and N more)`` for an error line, ``""`` without warnings: the
+    error of a log with 50 skipped chunks names one and counts the others."""
+    if not warnings:
+        return ""
+    more = len(warnings) - 1
+    return f" ({warnings[0]}" + (f"; and {more:,} more warnings like it)" if more else ")")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from aion_cli.cli.console import console, warn
+from aion_cli.cli.console import console, warn_each
 from aion_cli.cli.output import human_size, markup_safe
 
 
@@ -72,8 +72,7 @@ def print_summary(summary: dict[str, Any]) -> None:
 def print_warnings(summary: dict[str, Any]) -> None:
     """The report's warnings on stderr, one line each (also with ``-q`` and ``--format
     json``: a build that lost data must say so however it is run)."""
-    for message in summary.get("warnings", []):
-        warn(message)
+    warn_each(list(summary.get("warnings", [])))
 
 
 def heading_text(headings: dict[str, int]) -> str:

@@ -8,6 +8,7 @@ data (tables asked for with ``--format table``, JSON, CSV) goes to stdout throug
 
 from __future__ import annotations
 
+import re
 import sys
 from typing import TYPE_CHECKING
 
@@ -52,6 +53,35 @@ def warn(message: str) -> None:
     from aion_cli.cli.output import markup_safe
 
     console().print(f"[yellow]warning:[/yellow] {markup_safe(message)}", soft_wrap=True)
+
+
+#: how many warnings of one shape are printed before the rest are counted in one line
+WARNINGS_PER_SHAPE = 3
+_NUMBERS = re.compile(r"\d[\d,.:_TZ+-]*")
+
+
+def warning_shape(message: str) -> str:
+    """``message`` with every number, time and byte offset replaced by ``#``: warnings that
+    differ only there (one per skipped chunk or message) have the same shape."""
+    return _NUMBERS.sub("#", message)
+
+
+def warn_each(messages: list[str], limit: int = WARNINGS_PER_SHAPE) -> None:
+    """Print ``messages`` as warnings, at most ``limit`` of each :func:`warning_shape` and then
+    one line counting the rest, so 500 skipped messages do not bury the summary (the JSON
+    output keeps every one)."""
+    counts: dict[str, int] = {}
+    first: dict[str, str] = {}
+    for message in messages:
+        shape = warning_shape(message)
+        counts[shape] = counts.get(shape, 0) + 1
+        first.setdefault(shape, message)
+        if counts[shape] <= limit:
+            warn(message)
+    for shape, count in counts.items():
+        if count > limit:
+            example = first[shape] if len(first[shape]) <= 60 else first[shape][:57] + "..."
+            warn(f"{count - limit:,} more like {example!r} (--format json lists every one)")
 
 
 def progress(quiet: bool = False) -> Progress:

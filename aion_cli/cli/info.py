@@ -261,7 +261,7 @@ def _print(report: dict[str, Any]) -> None:
     instead of clearing the screen, and ``[bold]`` in a name is shown, not applied."""
     from rich.table import Table
 
-    from aion_cli.cli.console import console, data_console
+    from aion_cli.cli.console import console, data_console, warn_each
     from aion_cli.cli.output import markup_safe as safe
 
     out = data_console()
@@ -362,5 +362,4 @@ def _print(report: dict[str, Any]) -> None:
                 f"[yellow]note:[/yellow] hours with messages: {safe(fixed['hours_with_messages'])}",
                 soft_wrap=True,
             )
-    for warning in report["warnings"]:
-        console().print(f"[yellow]warning:[/yellow] {safe(warning)}", soft_wrap=True)
+    warn_each(list(report["warnings"]))
