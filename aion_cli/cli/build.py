@@ -9,7 +9,7 @@ from typing import Any
 import click
 
 from aion_cli.build_options import MAX_WORKERS
-from aion_cli.cli.common import AionPath
+from aion_cli.cli.common import AionPath, base_frame_option, map_frame_option
 from aion_cli.cli.graph_options import graph_period_option, nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, to_json
 
@@ -126,14 +126,6 @@ def _load_config(path: Path | None) -> Any:
     return ModelConfig.from_toml_text(text)
 
 
-def _frame_name(value: str | None, option: str, example: str) -> str | None:
-    """A TF frame name as given (None: not given); an empty one is an error (an unset shell
-    variable would otherwise make a robot's log a fixed sensor without a word)."""
-    if value is not None and not value.strip():
-        raise click.BadParameter(f"a frame name, e.g. {example}", param_hint=option)
-    return value
-
-
 @click.command(
     "build",
     short_help="Learn (or extend) a map from logs.",
@@ -198,20 +190,11 @@ def _frame_name(value: str | None, option: str, example: str) -> str | None:
     is_flag=True,
     help="Without any scene graph, derive places from where people walk.",
 )
-@click.option(
-    "--map-frame",
-    default=None,
-    callback=lambda _ctx, _param, value: _frame_name(value, "--map-frame", "map"),
-    help="Fixed frame of the map; detections are transformed into it with TF [default: the "
-    "continued map's (--map), else map].",
+@map_frame_option(
+    "Fixed frame of the map; detections are transformed into it with TF [default: the "
+    "continued map's (--map), else map]."
 )
-@click.option(
-    "--base-frame",
-    default="base_link",
-    show_default=True,
-    callback=lambda _ctx, _param, value: _frame_name(value, "--base-frame", "base_link"),
-    help="Robot frame whose TF trajectory gives what the sensor observed.",
-)
+@base_frame_option
 @click.option(
     "--config",
     "config_file",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -29,6 +30,11 @@ class AionPath(click.Path):
                 "('.' for the current folder)",
                 param,
                 ctx,
+            )
+        if isinstance(value, str) and not self.dir_okay and value.endswith(("/", os.sep)):
+            # Path() drops the separator: x.ply/ would quietly write the file x.ply
+            self.fail(
+                f"{value!r} ends in '/', which names a folder: give a file name", param, ctx
             )
         return super().convert(value, param, ctx)
 
@@ -144,3 +150,32 @@ def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
             hint="give the span as START..END with END later than START",
         )
     return start, end
+
+
+def _frame_name(value: str | None, option: str, example: str) -> str | None:
+    """A TF frame name as given (None: not given); an empty one is an error (an unset shell
+    variable would otherwise make a robot's log a fixed sensor without a word)."""
+    if value is not None and not value.strip():
+        raise click.BadParameter(f"a frame name, e.g. {example}", param_hint=option)
+    return value
+
+
+def map_frame_option(help_text: str) -> Callable[[F], F]:
+    """``--map-frame FRAME`` (default None: the command's own), refusing an empty name."""
+    return click.option(
+        "--map-frame",
+        default=None,
+        callback=lambda _ctx, _param, value: _frame_name(value, "--map-frame", "map"),
+        help=help_text,
+    )
+
+
+def base_frame_option(func: F) -> F:
+    """``--base-frame FRAME``: the robot frame of the TF trajectory (what the sensor saw)."""
+    return click.option(
+        "--base-frame",
+        default="base_link",
+        show_default=True,
+        callback=lambda _ctx, _param, value: _frame_name(value, "--base-frame", "base_link"),
+        help="Robot frame whose TF trajectory gives what the sensor observed.",
+    )(func)

@@ -48,6 +48,11 @@ CONTAINERS = ("mcap", "mcap-ros1", "bag", "rosbag2-sqlite3", "rosbag2-mcap")
 LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "edinburgh")
 #: layouts with frame numbers, and their frame rate when --fps is not given
 FRAME_LAYOUTS = {"eth": 25.0, "ucy": 25.0, "edinburgh": 9.0}
+#: layouts whose times are absolute already (--start is refused), and what their times are
+ABSOLUTE_TIMES = {
+    "canonical": "its t_ns column is nanoseconds since 1970 (UTC)",
+    "lincoln": "Lincoln times are UNIX seconds",
+}
 #: layouts whose times count from the recording's start: --start says when that was
 RELATIVE_LAYOUTS = ("thor", "thor-magni", "eth", "ucy")
 
@@ -55,9 +60,10 @@ RELATIVE_LAYOUTS = ("thor", "thor-magni", "eth", "ucy")
 def _container_for(output: Path, container: str | None) -> str:
     """``--container``, else from the suffix: .bag -> ROS 1 bag, .mcap -> ROS 2 MCAP,
     no suffix -> a rosbag2 folder (sqlite3)."""
-    if container is not None:
-        return container
     suffix = output.suffix.lower()
+    if container is not None:
+        _check_suffix(output, suffix, container)
+        return container
     if suffix == ".bag":
         return "bag"
     if suffix == ".mcap":
@@ -70,6 +76,24 @@ def _container_for(output: Path, container: str | None) -> str:
         f"cannot tell the log format from {output.name!r}",
         hint="name it .mcap or .bag, or give --container",
     )
+
+
+#: the containers a file of each suffix may hold: ``aion`` and other tools read a file's
+#: format from its suffix, so an MCAP named .bag could not be read back as written
+_SUFFIX_CONTAINERS = {".mcap": ("mcap", "mcap-ros1"), ".bag": ("bag",)}
+
+
+def _check_suffix(output: Path, suffix: str, container: str) -> None:
+    """:class:`InputError` when ``--container`` contradicts the output's suffix (``x.mcap``
+    written as a ROS 1 bag)."""
+    from aion_cli.errors import InputError
+
+    allowed = _SUFFIX_CONTAINERS.get(suffix)
+    if allowed is not None and container not in allowed:
+        raise InputError(
+            f"--container {container} does not match the output name {output.name!r}",
+            hint=f"name the output for its container, or give --container {allowed[0]}",
+        )
 
 
 @click.command(
@@ -245,8 +269,9 @@ def command(
         )
     span = (summary.end_ns - summary.start_ns) / 1e9
     console().print(
-        f"wrote {summary.path}: {summary.detections:,} detections of {summary.tracks:,} tracks in "
-        f"{summary.detection_messages:,} messages over {span:,.0f} s"
+        f"wrote {summary.path}: {_count(summary.detections, 'detection')} of "
+        f"{_count(summary.tracks, 'track')} in {_count(summary.detection_messages, 'message')} "
+        f"over {span:,.0f} s"
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,
     )
@@ -279,10 +304,10 @@ def _check_layout_options(
     """The options that apply to ``layout`` only, checked before anything is read."""
     from aion_cli.errors import InputError
 
-    if layout == "lincoln" and start_text is not None:
+    if layout in ABSOLUTE_TIMES and start_text is not None:
         raise InputError(
-            "--start does not apply to the lincoln layout",
-            hint="Lincoln times are UNIX seconds already; drop --start",
+            f"--start does not apply to the {layout} layout",
+            hint=f"{ABSOLUTE_TIMES[layout]} already; drop --start",
         )
     if layout == "edinburgh":
         if start_text is not None:
@@ -314,3 +339,8 @@ def _check_layout_options(
             f"--length-unit does not apply to the {layout} layout",
             hint="only thor-magni files may be in millimetres",
         )
+
+
+def _count(n: int, noun: str) -> str:
+    """``1 track``, ``2,000 tracks``."""
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"

@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import AionPath
+from aion_cli.cli.common import AionPath, base_frame_option, map_frame_option
 from aion_cli.cli.output import Column, emit, format_option, num
 
 DATA_ENV = "AION_SHARED_DATA"
@@ -255,18 +255,19 @@ def lincoln(
 @click.option("--detections-topic", "detection_topics", multiple=True, metavar="TOPIC",
               help="Read people from this topic of the test logs (repeatable) [default: as "
               "aion build chooses].")
-@click.option("--map-frame", default=None,
-              help="The frame the map's positions are in (TF target of the detections) "
-              "[default: the frame the map records, else map].")
+@map_frame_option("The frame the map's positions are in (TF target of the detections) "
+                  "[default: the frame the map records, else map].")
+@base_frame_option
 @click.option("--observed", "observed", multiple=True, metavar="START..END",
               help="A span the test logs' sensor was recording (repeatable; as aion build "
               "--observed, times in the map's zone).")
-@click.option("--png", "png", type=AionPath(path_type=Path), metavar="FILE",
+@click.option("--png", "png", type=AionPath(path_type=Path, dir_okay=False), metavar="FILE",
               help="Also draw the hourly truth and forecasts as a PNG.")
 @format_option(("table", "json"))
 def holdout(
     map_path: Path, logs: tuple[Path, ...], radius: float, detection_topics: tuple[str, ...],
-    map_frame: str | None, observed: tuple[str, ...], png: Path | None, fmt: str,
+    map_frame: str | None, base_frame: str, observed: tuple[str, ...], png: Path | None,
+    fmt: str,
 ) -> None:
     """Judge a map's forecast on your own held-out logs: heading NLL of every test
     detection, and the hourly activity of the windows the logs observed (summed over every
@@ -292,7 +293,8 @@ def holdout(
         check_png_target(png, "--png")
     spans = observed_spans(observed, None, map_path)  # in the map's zone
     opts = BuildOptions(logs=logs, detection_topics=detection_topics,
-                        map_frame=map_frame_of(map_frame, map_path), observed=spans)
+                        map_frame=map_frame_of(map_frame, map_path), base_frame=base_frame,
+                        observed=spans)
     result = run_holdout(map_path, opts, radius, progress=note)
     for line in result.notes:
         note(line)

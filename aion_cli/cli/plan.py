@@ -106,7 +106,7 @@ cost in the legend.
     "--png",
     "png_path",
     metavar="FILE",
-    type=AionPath(path_type=Path),
+    type=AionPath(path_type=Path, dir_okay=False),
     help="Also draw both paths over the flow map at the departure into this .png file.",
 )
 @format_option(choices=("table", "json"))

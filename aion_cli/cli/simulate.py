@@ -43,6 +43,11 @@ def _hours(text: str) -> tuple[float, float]:
         raise InputError(f"bad --patrol-hours {text!r}", hint="give START-END, e.g. 7-20") from exc
     if not (0 <= lo <= 24 and 0 <= hi <= 24):
         raise InputError(f"bad --patrol-hours {text!r}", hint="hours lie in 0..24")
+    if lo == hi:
+        raise InputError(
+            f"--patrol-hours {text!r} is an empty span: no tour would start",
+            hint="0-24 is all day; START after END wraps past midnight (22-6)",
+        )
     return lo, hi
 
 

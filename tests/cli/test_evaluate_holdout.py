@@ -151,8 +151,9 @@ def test_no_hours_no_picture() -> None:
 
 
 @pytest.mark.parametrize(
-    ("name", "fragment"), [(".", "is a folder"), ("notes.txt", "writes a .png file"),
-                           ("no/such/x.png", "does not exist")],
+    ("name", "fragment"),
+    [(".", "is a directory"), ("x.png/", "names a folder"), ("notes.txt", "writes a .png file"),
+     ("no/such/x.png", "does not exist")],
 )
 def test_the_hourly_picture_target_is_checked_first(
     corridor: tuple, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str, fragment: str
@@ -231,3 +232,13 @@ def test_a_patrolling_robot_counts_the_places_in_its_range(tmp_path: Path) -> No
     held = read_held_out(BuildOptions(logs=(logs[1],)), state.config, watch=watch)
     sizes = {len(v) for v in held.seen.values()}
     assert max(sizes) == len(watch) > min(sizes) > 0  # touring sees all, resting a part
+
+    # --base-frame reaches the reading (as aion build's does): a frame TF does not have
+    # leaves no trajectory, so the same day is a fixed sensor's; an empty one is refused
+    other = run_json("evaluate", "holdout", site, logs[1], "--base-frame", "nowhere",
+                     "--format", "json")
+    assert other["test"]["robot_windows"] == 0
+    assert other["test"]["observation"].startswith("fixed sensor")
+    empty = run("evaluate", "holdout", site, logs[1], "--base-frame", "")
+    assert empty.exit_code == 2
+    assert_one_line_error(empty.stderr, "--base-frame")

@@ -136,6 +136,11 @@ def _mistakes(office: Office, folder: Path) -> dict[str, tuple[list[Any], str]]:
         "an empty log path": (["build", "", "-o", out], "an empty path"),
         "an empty map path": (["predict", "", "--time", "now"], "an empty path"),
         "an empty output path": (["build", office.log, "-o", ""], "an empty path"),
+        # Path() drops the '/': the file x.ply was written where a folder was meant
+        "an output file ending in '/'": (
+            ["plan", office.map, "--from", "p1", "--to", "p2", "--export", f"{folder}/x.ply/"],
+            "ends in '/', which names a folder",
+        ),
     }
 
 
@@ -165,6 +170,7 @@ CASES = (
     "an empty log path",
     "an empty map path",
     "an empty output path",
+    "an output file ending in '/'",
 )
 
 

@@ -74,6 +74,7 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
         ("--days", "0"),
         ("--environment", str(tmp_path / "missing.json")),
         ("--patrol-hours", "7to20"),
+        ("--patrol-hours", "8-8"),  # an empty span: a robot that never tours, silently
         ("--days", "400"),
         ("--tz", "Mars/Olympus"),
         ("--tz", "Europe/London", "--utc-offset", "1"),
