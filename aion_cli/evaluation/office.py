@@ -269,6 +269,14 @@ def run_scene(
     env = load_environment(sim)
     log = work / f"scene_{scene:02d}.mcap"
     written = write_scene(sim, env, scene, log)
+    if not written.meta.get("detections"):
+        from aion_cli.errors import InputError
+
+        raise InputError(
+            f"scene {scene + 1}: the robot detected nobody in {days:g} simulated day(s) from "
+            "midnight (the office's people come in from about 7:00 on weekdays)",
+            hint="give --days 1 or more",
+        )
     data = build_scene(sim, env, scene)
     report = build_map(
         BuildOptions(logs=(log,), output=work / f"scene_{scene:02d}.aion", config=config)

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from aion_cli.errors import InputError
+from aion_cli.formats.serialize import clean
 from aion_cli.sim.agents import AgentSamples, agent_speeds, simulate_agents
 from aion_cli.sim.clock import SceneClock
 from aion_cli.sim.environment import Environment, load_graph_environment
@@ -316,7 +317,7 @@ def run_scene(
     meta = {
         "scene": scene,
         "log": log_path.name,
-        "config": _jsonable(asdict(replace(config, scenes=1))),
+        "config": clean(asdict(replace(config, scenes=1))),
         "environment": env.name,
         "nav_layer": env.layer or None,
         "environment_notes": list(env.notes),
@@ -334,14 +335,6 @@ def run_scene(
     }
     npz, js = write_truth(log_path, arrays, meta, overwrite=overwrite)
     return SceneResult(log_path, npz, js, meta)
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    return value
 
 
 def simulate(

@@ -103,6 +103,8 @@ def test_the_data_folder_is_found_from_any_folder(tmp_path: Path) -> None:
         (["office", "--radius", "-1"], "association radius"),
         (["office", "--radius", "nan"], "association radius"),
         (["office", "--config", "BINS4"], "keeps 8 direction bins"),
+        # 00:00-02:24: nobody at work yet (the hint named --detections-topic, not an option)
+        (["office", "--days", "0.1"], "the robot detected nobody in 0.1 simulated day(s)"),
     ],
 )
 def test_evaluate_office_refuses_numbers_it_cannot_run_with(
