@@ -129,14 +129,18 @@ def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelCon
     return old
 
 
-def build_topics(topics: list[Any], opts: BuildOptions) -> Any:
-    """The :class:`~aion_cli.topics.TopicPlan` of a build with ``opts`` among a log set's
-    ``topics``: :func:`aion_cli.topics.select_topics` with its topic options and
+def build_topics(logset: Any, opts: BuildOptions) -> Any:
+    """The :class:`~aion_cli.topics.TopicPlan` of a build with ``opts`` among the topics of
+    ``logset``: :func:`aion_cli.topics.select_topics` with its topic options and
     ``--detections-mapping`` (one choice for the build and for a parallel build's planning)."""
     from aion_cli.topics import select_topics
 
     return select_topics(
-        topics, opts.detection_topics, opts.graph_topic, load_mappings(opts.detections_mapping)
+        logset.topics,
+        opts.detection_topics,
+        opts.graph_topic,
+        load_mappings(opts.detections_mapping),
+        unreadable=logset.unreadable_topics,
     )
 
 

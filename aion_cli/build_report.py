@@ -278,11 +278,22 @@ def far_from_graph_warning(
 def far_from_graph_of(state: Any, stats: dict[str, int]) -> str | None:
     """:func:`far_from_graph_warning` of a map state about to be written (``stats``: its
     :func:`aion_cli.mapquery.state_counts`): what ``build`` warns and ``merge`` notes."""
+    from aion_cli.engine.ownership import stable_nodes
     from aion_cli.mapquery import detections_by_kind
 
-    return far_from_graph_warning(
-        *detections_by_kind(state), stats["nodes"], stats["nodes_with_flow"]
-    )
+    on_cells, on_nodes = detections_by_kind(state)
+    warning = far_from_graph_warning(on_cells, on_nodes, stats["nodes"], stats["nodes_with_flow"])
+    end = state.log_time_ns
+    if warning is not None and end is not None and not stable_nodes(state, end).any():
+        # not the frame: no place was stable long enough to take over its cells
+        stability = state.config.stability_s
+        return (
+            f"{on_cells:,.0f} of the {on_cells + on_nodes:,.0f} detections stay on hash cells: "
+            f"none of the scene graph's {stats['nodes']:,} places had been stable for "
+            f"{stability:g} s of log time when the log ended (a place takes over its cells "
+            "then; stability_s in --config), so the map's flows are on its cells"
+        )
+    return warning
 
 
 #: the mean speed of a build's detections above which people cannot be walking (m/s; people

@@ -132,6 +132,7 @@ class DetectionFeeder:
 
         self.tf = tf
         self.map_frame = map_frame
+        self._map_frame_seen = False  # detections were already given in the map frame
         self.counts = counts
         self.adapters: dict[tuple[str, str, str], DetectionAdapter] = dict(adapters or {})
         self.factory = factory or _default_factory
@@ -389,6 +390,7 @@ class DetectionFeeder:
             return frames
         target = self.map_frame
         if all(name in ("", target) for name in frames.frames):  # nothing to move
+            self._map_frame_seen = True
             if frames.frames == (target,):
                 return frames
             return dataclasses.replace(
@@ -405,6 +407,13 @@ class DetectionFeeder:
             if len(rows) == 0:
                 continue
             if self.tf is None:
+                if self._map_frame_seen or target in frames.frames:
+                    raise TransformError(
+                        f"the detections are in two frames, {target!r} and {name!r}, and the "
+                        "logs have no TF between them",
+                        hint="build the logs of each frame into a map of its own (--map-frame "
+                        "names the frame)",
+                    )
                 raise TransformError(
                     f"detections are in frame {name!r} but the log has no TF to {target!r}",
                     hint=f"if {name!r} is a fixed frame, build with --map-frame {name}",

@@ -255,7 +255,7 @@ def _plan_streams(
         known = [first[p] for p in group if p in first]
         starts.append(part[0] if part is not None else min(known, default=None))
     with open_logs(logs, opts.log_format) as logset:
-        plan = build_topics(logset.topics, opts)
+        plan = build_topics(logset, opts)
         kd_trees = bool(plan.graph or plan.tf) or opts.graph_file is not None
         if all(start is None for start in starts[1:]):
             return [{} for _ in shards], kd_trees

@@ -232,7 +232,7 @@ class _Build(StreamStep):
 
         opts = self.opts
         with open_logs(list(self._logs), opts.log_format) as logset:
-            plan: TopicPlan = build_topics(logset.topics, opts)
+            plan: TopicPlan = build_topics(logset, opts)
             if not plan.detections and not self.shard:  # a part of a build may have none
                 raise no_detection_topic(logset, plan)
             self.report.detection_topics = sorted(plan.names("detections"))

@@ -150,6 +150,41 @@ def _refuse_known(entries: list[dict[str, Any]], known: Collection[str]) -> None
             )
 
 
+def one_per_recording(paths: tuple[Path, ...]) -> tuple[tuple[Path, ...], list[str]]:
+    """``paths`` without those another given path reads already, and a note for each: a
+    storage file inside a bag folder also given, and a storage file beside its bag's
+    metadata.yaml (which opens the whole bag) when that bag is given too, as its folder or
+    as another of its files. The same path twice is left to the sha256 check."""
+    from aion_cli.errors import LogFormatError
+    from aion_cli.formats.log_format import guess_format
+
+    def opens(path: Path) -> Path:
+        try:
+            return guess_format(path)[1].resolve()
+        except LogFormatError:
+            return path.resolve()  # reported when it is opened
+
+    roots = [opens(p) for p in paths]
+    folders = {root: path for root, path in zip(roots, paths, strict=True) if path.is_dir()}
+    kept: list[Path] = []
+    notes: list[str] = []
+    first: dict[Path, Path] = {}
+    for path, root in zip(paths, roots, strict=True):
+        outer = next((f for f in folders if f in root.parents), None)
+        if outer is not None:
+            notes.append(f"{path} is part of {folders[outer]}, also given: it is used once")
+            continue
+        widened = root != path.resolve()
+        if root in first and (widened or first[root].resolve() != root):
+            notes.append(
+                f"{path} opens the same rosbag2 bag as {first[root]} ({root}): it is used once"
+            )
+            continue
+        first.setdefault(root, path)
+        kept.append(path)
+    return tuple(kept), notes
+
+
 def distinct_logs(
     paths: tuple[Path, ...], progress: Any, known: Mapping[str, int]
 ) -> DistinctLogs:
@@ -162,6 +197,7 @@ def distinct_logs(
     :meth:`DistinctLogs.start` beside the build."""
     for path in paths:
         check_log_path(path)
+    paths, notes = one_per_recording(paths)
     sizes = [provenance_size(p) for p in paths]
     taken = Counter(sizes)
     taken.update(set(known.values()))  # a size of the map's counts as taken by another
@@ -171,7 +207,6 @@ def distinct_logs(
     slots: list[dict[str, Any] | None] = []
     pending: list[tuple[int, Path]] = []
     logs: list[Path] = []
-    notes: list[str] = []
     first_of: dict[str, str] = {}
     for i, path in enumerate(paths):
         if taken[sizes[i]] == 1:

@@ -53,7 +53,7 @@ def changing_part(
         return None
     from aion_cli.build_options import build_topics
 
-    topics = build_topics(logset.topics, opts).names("graph")
+    topics = build_topics(logset, opts).names("graph")
     if not topics:
         return None
     for lo, hi in parts[1:]:
@@ -154,7 +154,7 @@ def _graph_ends(group: tuple[Path, ...], opts: BuildOptions) -> _GraphEnds | Non
 
     try:
         with open_logs(list(group), opts.log_format) as logset:
-            topics = build_topics(logset.topics, opts).names("graph")
+            topics = build_topics(logset, opts).names("graph")
             if not topics or not logset.skips_by_time():
                 return None
             found = logset.index_times(topics)
@@ -192,7 +192,7 @@ def _decoded(group: tuple[Path, ...], opts: BuildOptions, t_ns: int) -> GraphSna
 
     try:
         with open_logs(list(group), opts.log_format) as logset:
-            topics = build_topics(logset.topics, opts).names("graph")
+            topics = build_topics(logset, opts).names("graph")
             return _graph_at(logset, opts, topics, t_ns)
     except AionError:
         return None

@@ -206,7 +206,7 @@ def _decoded_quiet(logset: Any, opts: BuildOptions) -> Callable[[int], bool] | N
     from aion_cli.build_options import build_topics
     from aion_cli.detection_feed import log_adapters
 
-    plan = build_topics(logset.topics, opts)
+    plan = build_topics(logset, opts)
     adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
     topics = plan.names("detections")
 
@@ -263,7 +263,7 @@ def group_times(
     from aion_cli.log_times import TopicTimes
 
     with open_logs(list(logs), opts.log_format) as logset:
-        plan = build_topics(logset.topics, opts)
+        plan = build_topics(logset, opts)
         detections = plan.names("detections")
         graphs = plan.names("graph") if opts.graph_file is None else set()
         tf = {t for t in plan.names("tf") if not t.endswith("_static")} if plan.tf else set()

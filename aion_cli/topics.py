@@ -12,7 +12,7 @@ topic's name suggests people (:func:`name_suggests_people`) or the user names th
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -100,13 +100,15 @@ def select_topics(
     detection_topics: tuple[str, ...] = (),
     graph_topic: str | None = None,
     mappings: Sequence[TopicMapping] = (),
+    unreadable: Mapping[str, str] | None = None,
 ) -> TopicPlan:
     """Pick topics by message type (see the module docstring); named and mapped topics must
     exist and have a usable type.
 
     Several detection topics are all used unless ``detection_topics`` names some: people
     trackers often publish the same people on more than one topic, so the report lists them
-    and ``--detections-topic`` narrows the choice.
+    and ``--detections-topic`` narrows the choice. ``unreadable``: topics the log holds in
+    encodings aion cannot decode, and why (a named one is said to be there, unreadable).
     """
     from aion_cli.formats.detections import adapter_for
 
@@ -118,6 +120,13 @@ def select_topics(
     if detection_topics:
         for name in detection_topics:
             info = by_name.get(name)
+            why = (unreadable or {}).get(name)
+            if info is None and why is not None:
+                raise TopicNotFoundError(
+                    f"topic {name!r} is in the log, but aion cannot read it: {why}",
+                    candidates=[f"--detections-topic {t.topic}" for t in supported],
+                    hint="aion reads ROS messages (ROS 1 or CDR-encoded ROS 2 MCAP channels)",
+                )
             if info is None or (name not in mapped and adapter_for(info.msgtype) is None):
                 raise TopicNotFoundError(
                     f"no people-detection topic {name!r} in the log"
@@ -235,6 +244,14 @@ def _candidate_hint(option: str, infos: list[TopicInfo], what: str) -> str:
     return "use one of: " + "  ".join(f"{option} {t.topic}" for t in infos)
 
 
+def _mappable(topics: Sequence[TopicInfo]) -> list[TopicInfo]:
+    """The topics whose types a TOML mapping might read people from (not raw sensor data,
+    not ROS plumbing such as std_msgs or rcl_interfaces)."""
+    from aion_cli.formats.detections.registry import unreadable_kind
+
+    return [t for t in topics if unreadable_kind(t.msgtype) is None]
+
+
 def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
     """The error for a log with no detection topic to use: what it has, why generic topics
     were skipped, and how to read another type."""
@@ -248,17 +265,26 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
         from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
 
         hint = f"it holds only raw sensor data ({', '.join(found[:4])}): {RAW_SENSOR_HINT}"
+    elif logset.topics and not _mappable(logset.topics):
+        from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
+
+        hint = (
+            f"none of its topics holds positions of people ({', '.join(found[:4])}"
+            f"{', ...' if len(found) > 4 else ''}: sensor data, logging, parameters or plain "
+            f"values): {RAW_SENSOR_HINT}"
+        )
     elif not found:  # channels that are not ROS (other encodings), or none at all
         hint = (
             "it has no ROS topic aion can read (only other encodings, or no channels); "
             "`aion info LOG` lists what was skipped and why"
         )
     else:
+        first = _mappable(logset.topics)[0]
         hint = (
             "the log has: "
             + ", ".join(found[:8] + (["..."] if len(found) > 8 else []))
             + "; map a type with --detections-mapping FILE (`aion info LOG --suggest-mapping "
-            "TOPIC` writes one)"
+            f"{first.topic}` writes one)"
         )
     return TopicNotFoundError(
         "the log has no people-detection topic of a supported type", candidates=found, hint=hint

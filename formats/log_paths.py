@@ -29,7 +29,31 @@ from aion_cli.formats.rosbags_source import _metadata_warning, _RosbagsSource
 
 def open_sources(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]:
     """The sources of one path: one file, the storage files of a rosbag2 folder, or storage
-    files without metadata.yaml (reindexed in memory)."""
+    files without metadata.yaml (reindexed in memory). A storage file beside its bag's
+    metadata.yaml opens the whole bag, which a warning says when the bag has more files."""
+    sources = _open_path(path, fmt, limits)
+    if path.is_file() and sources:
+        files = sum(_storage_files_read(s) for s in sources)
+        if files > 1:
+            sources[-1].warnings.append(
+                f"{path.name} is read with its whole rosbag2 bag {path.parent} ({files} "
+                "storage files): give the folder to say so, or copy the file alone to read it "
+                "alone"
+            )
+    return sources
+
+
+def _storage_files_read(source: _Source) -> int:
+    """How many storage files ``source`` reads (a rosbags reader of a bag of several)."""
+    storage = getattr(getattr(source, "_reader", None), "storage", None)
+    opened = getattr(storage, "storages", None)  # rosbags' rosbag2 reader: one per file
+    if isinstance(opened, list):
+        return max(1, len(opened))
+    return int(getattr(source, "file_count", 1))
+
+
+def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]:
+    """:func:`open_sources` without the note on a widened storage file."""
     from aion_cli.formats import rosbag2_storage as storage
 
     if fmt is not None and fmt not in FORMATS:

@@ -61,6 +61,8 @@ class _Source:
     file: LogFile
     topics: dict[tuple[str, str], _Topic]  # by (topic, msgtype)
     warnings: list[str]
+    #: topics the file holds but no ROS reader can decode (other encodings), and why
+    unreadable_topics: dict[str, str] = {}  # noqa: RUF012  (read-only default; set per instance)
 
     def messages(
         self,
@@ -110,6 +112,7 @@ class _Unpacked(_Source):
         self.inner = inner
         self.topics = inner.topics
         self.warnings = inner.warnings
+        self.unreadable_topics = inner.unreadable_topics
         self.file_count = getattr(inner, "file_count", 1)
         self._temps = temps
         f = inner.file

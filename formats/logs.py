@@ -122,6 +122,12 @@ class LogSet:
         return [w for s in self._sources for w in s.warnings]
 
     @property
+    def unreadable_topics(self) -> dict[str, str]:
+        """Topics the files hold in encodings no ROS reader decodes, and why (``aion info``
+        warns of them; naming one is an error that says so, not "not in the log")."""
+        return {t: why for s in self._sources for t, why in s.unreadable_topics.items()}
+
+    @property
     def duration_ns(self) -> int:
         return max(self.end_ns - self.start_ns, 0)
 
@@ -149,6 +155,12 @@ class LogSet:
         for info in self.topics:
             if info.topic == name:
                 return info
+        unreadable = self.unreadable_topics.get(name)
+        if unreadable is not None:
+            raise TopicNotFoundError(
+                f"topic {name!r} is in the log, but aion cannot read it: {unreadable}",
+                hint="aion reads ROS messages (ROS 1 or CDR-encoded ROS 2 MCAP channels)",
+            )
         candidates = [f"{t.topic} ({t.msgtype})" for t in self.topics]
         raise TopicNotFoundError(
             f"topic {name!r} is not in the log", candidates=candidates, hint="see `aion info LOG`"
@@ -339,8 +351,20 @@ def open_logs(
     read_limits = limits if limits is not None else ReadLimits.from_env()
     sources: list[_Source] = []
     try:
+        read_from: dict[Path, Path] = {}  # each file or bag read, and the path given for it
         for p in paths:
-            sources.extend(open_sources(Path(p), fmt, read_limits))
+            for source in open_sources(Path(p), fmt, read_limits):
+                key = source.file.path.resolve()
+                if key in read_from:  # a bag's folder and its storage file, or two of them
+                    source.close()
+                    warning = (
+                        f"{p}: {source.file.path} is read already (given as "
+                        f"{read_from[key]}): it is used once"
+                    )
+                    (sources[-1].warnings if sources else []).append(warning)
+                    continue
+                read_from[key] = Path(p)
+                sources.append(source)
         if not sources:
             raise LogFormatError("no log given", hint="pass at least one log file or folder")
         logset = LogSet(sources)

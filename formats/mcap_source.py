@@ -158,6 +158,11 @@ class _McapSource(_McapIndexed):
             if schema is None or encoding is None or not _schema_encoding_ok(schema.encoding):
                 enc = schema.encoding if schema is not None else "none"
                 n = counts.get(cid, 0)
+                self.unreadable_topics = {
+                    **self.unreadable_topics,
+                    channel.topic: f"message encoding {channel.message_encoding!r} with schema "
+                    f"encoding {enc!r} is not ROS",
+                }
                 self.warnings.append(
                     f"{path.name}: topic {channel.topic} skipped ({n:,} message"
                     f"{'' if n == 1 else 's'}): message encoding "

@@ -307,10 +307,21 @@ def _print(report: dict[str, Any]) -> None:
         raw = report["topics"] and all(
             t.get("why", "").endswith(RAW_SENSOR_REASON) for t in report["topics"]
         )
+        from aion_cli.formats.detections.registry import unreadable_kind
+
         if raw:
             from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
 
             what = f"it holds only raw sensor data: {RAW_SENSOR_HINT}"
+        elif not report["topics"]:  # no messages, or channels in other encodings only
+            what = "it has no ROS topic"
+            if report["warnings"]:
+                what += " aion can read: see the warnings"
+        elif all(unreadable_kind(t["type"]) is not None for t in report["topics"]):
+            what = (
+                "none of its topics holds positions of people: logging, parameters or plain "
+                "values"
+            )
         else:
             what = (
                 "name a generic one with --detections-topic, or map another type: aion info "

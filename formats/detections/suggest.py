@@ -304,7 +304,8 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
             f"{topic}: {name} has no field aion can read as a position (a Point/Vector3-like "
             "message, 3 numbers, or numeric x and y, directly or in an array of messages); its "
             f"fields: {fields}",
-            hint="write the mapping by hand (formats/detections/mapping.py, README)",
+            hint="a mapping reads positions: choose a topic whose messages carry where people "
+            "are (`aion info LOG` lists the topics and types)",
         )
     velocities = _velocities(found.vec3)
     ids = _ids(found.ids)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from aion_cli.derive_graph import OccupancyGrid
+from tests.robustness.conftest import T0, S, build_json, person, write_log
 
 
 def test_occupied_cells_become_nodes_joined_to_their_8_neighbours() -> None:
@@ -42,3 +45,26 @@ def test_empty_grid_gives_an_empty_graph() -> None:
     snap = OccupancyGrid(0.5).graph(1, 0)
     assert len(snap.places) == 0
     assert snap.edges.shape == (0, 2)
+
+
+def test_a_log_shorter_than_the_stability_wait_says_why_its_places_hold_nothing(
+    tmp_path: Path,
+) -> None:
+    """10 s of one person walking, places derived from it: no place is stable for 30 s of
+    log time before the log ends, so every detection stays on a hash cell. The warning says
+    so; it said "are the detections and the graph in the same frame?", of a graph derived
+    from those very detections. A log long enough binds its cells (no warning)."""
+    msgs = [person(T0 + k * S // 10, (0.1 * k, 0.0, 0.0)) for k in range(100)]
+    short = build_json(write_log(tmp_path / "short.mcap", msgs), "--derive-graph",
+                       "-o", tmp_path / "short.aion")
+    assert short["nodes"] > 0
+    assert short["bound_cells"] == 0
+    (warning,) = [w for w in short["warnings"] if "hash cells" in w]
+    assert warning.startswith("100 of the 100 detections stay on hash cells: none of the "
+                              f"scene graph's {short['nodes']} places had been stable for 30 s")
+    assert "same frame" not in warning
+    slow = [person(T0 + k * S, (0.1 * (k % 100), 0.0, 0.0)) for k in range(300)]
+    long = build_json(write_log(tmp_path / "long.mcap", slow), "--derive-graph",
+                      "-o", tmp_path / "long.aion")
+    assert long["bound_cells"] > 0
+    assert not any("hash cells" in w for w in long["warnings"])

@@ -321,6 +321,58 @@ def test_plumbing_topics_are_not_offered_a_mapping(tmp_path: Path) -> None:
     why = {t["topic"]: t["why"] for t in run_json("info", log, "--format", "json")["topics"]}
     assert why["/chatter"] == "skipped: String (std_msgs) holds no positions of people"
     assert "a TOML mapping can read it" in why["/odom_marker"]
+    # the build's hint offers the topic a mapping may read, by name
+    refused = run("build", log, "-o", tmp_path / "x.aion")
+    assert refused.exit_code == 2
+    assert "`aion info LOG --suggest-mapping /odom_marker` writes one" in refused.stderr
+
+
+def test_a_log_of_plumbing_only_is_not_sent_to_a_mapping(tmp_path: Path) -> None:
+    """Only strings and logging: no mapping can read people from them, so neither build's
+    hint nor info's note offers one (both did, and --suggest-mapping then refused)."""
+    from aion_cli.formats.writers import LogWriter
+
+    log = tmp_path / "talker.mcap"
+    with LogWriter(log, "mcap") as w:
+        for k in range(3):
+            w.write("/chatter", "std_msgs/msg/String", {"data": f"hello {k}"}, T0 + k * S)
+    refused = run("build", log, "-o", tmp_path / "x.aion")
+    assert refused.exit_code == 2
+    text = " ".join(refused.stderr.split())
+    assert "hint: none of its topics holds positions of people (/chatter" in text
+    assert "--detections-mapping" not in text
+    described = run("info", log)
+    note = " ".join(described.stderr.split())
+    assert "none of its topics holds positions of people" in note
+    assert "--suggest-mapping" not in note
+    suggested = run("info", log, "--suggest-mapping", "/chatter")
+    assert suggested.exit_code == 2
+    assert "formats/detections" not in suggested.stderr  # no source path as a hint
+
+
+def test_a_topic_in_another_encoding_is_said_to_be_there(tmp_path: Path) -> None:
+    """An MCAP channel in a non-ROS encoding (the MCAP conformance suite's TenMessages: 'a'
+    with schema encoding 'c'): named, it is in the log but unreadable, not "not in the log"."""
+    from mcap.writer import Writer
+
+    log = tmp_path / "other.mcap"
+    with log.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="test")
+        schema = writer.register_schema("Example", "c", b"")
+        channel = writer.register_channel("example", "a", schema)
+        for k in range(3):
+            writer.add_message(channel, T0 + k * S, b"x", T0 + k * S)
+        writer.finish()
+    expected = "topic 'example' is in the log, but aion cannot read it: message encoding 'a'"
+    for args in (["build", log, "--detections-topic", "example", "-o", tmp_path / "x.aion"],
+                 ["info", log, "--suggest-mapping", "example"]):
+        result = run(*args)
+        assert result.exit_code == 2, result.stderr
+        assert_one_line_error(result.stderr, expected)
+    note = " ".join(run("info", log).stderr.split())
+    assert "it has no ROS topic aion can read: see the warnings" in note
+    assert "--detections-topic" not in note
 
 
 # --- the real leg_tracker bags ----------------------------------------------------------------
@@ -366,3 +418,21 @@ def test_leg_tracker_bags_build_with_linked_headings(name: str, tmp_path: Path) 
     bins = counts.sum(axis=0)
     along_x = bins[[0, 3, 4, 7]].sum()  # bins touching θ = ±π and θ = 0
     assert along_x >= 0.8 * bins.sum()
+
+
+def test_leg_bags_of_two_unconnected_laser_frames_are_said_so(tmp_path: Path) -> None:
+    """positive_1 (right_laser) and positive_6 (rear_laser) without TF: whichever frame is the
+    map's, the error names both frames (its hint named the other one, whose build then
+    named the first: round and round)."""
+    logs = [real("logs", "leg_tracker", n) for n in ("positive_1_extracted.bag",
+                                                      "positive_6_extracted.bag")]
+    for frame, other in (("right_laser", "rear_laser"), ("rear_laser", "right_laser")):
+        result = run("build", *logs, "--map-frame", frame, "--workers", "1",
+                     "-o", tmp_path / "x.aion")
+        assert result.exit_code == 2
+        assert_one_line_error(
+            result.stderr,
+            f"the detections are in two frames, {frame!r} and {other!r}, and the logs have no "
+            "TF between them",
+        )
+        assert "--map-frame names the frame" in result.stderr
