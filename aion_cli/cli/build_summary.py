@@ -60,7 +60,8 @@ def print_summary(summary: dict[str, Any]) -> None:
     for k, (name, (shards, seconds, peak, used)) in enumerate(sorted(workers.items())):
         table.add_row(
             f"worker {k + 1}" if len(workers) > 1 else "worker",
-            f"{int(shards)} shards, {int(used):,} det, {seconds:.1f} s, {peak:.0f} MB  "
+            f"{int(shards)} shard{'' if int(shards) == 1 else 's'}, {int(used):,} det, "
+            f"{seconds:.1f} s, {peak:.0f} MB  "
             f"[dim]({markup_safe(name)})[/dim]",
         )
     console().print(table)

@@ -261,6 +261,7 @@ def _print(report: dict[str, Any]) -> None:
     instead of clearing the screen, and ``[bold]`` in a name is shown, not applied."""
     from rich.table import Table
 
+    from aion_cli.cli.build_summary import span_text
     from aion_cli.cli.console import console, data_console, warn_each
     from aion_cli.cli.output import markup_safe as safe
 
@@ -270,7 +271,11 @@ def _print(report: dict[str, Any]) -> None:
     messages = f"{report['messages']:,}"
     if held > report["messages"]:  # the rest on topics no ROS reader can decode (warnings)
         messages = f"{messages} readable of {held:,} (see the warnings)"
-    duration = f"{report['duration_s']:,.1f} s ({report['start']} .. {report['end']})"
+    seconds = float(report["duration_s"])
+    readable = f" = {seconds / 86400:,.1f} days" if seconds >= 2 * 86400 else (
+        f" = {span_text(seconds)}" if seconds >= 3600 else ""
+    )
+    duration = f"{seconds:,.1f} s{readable} ({report['start']} .. {report['end']})"
     if held == 0:  # an empty recording (info opens it; build refuses it)
         duration = "none (no messages)"
     out.print(
