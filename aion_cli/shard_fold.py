@@ -159,11 +159,12 @@ def fold(
             raise ValueError("the first shard of a new map is built as an ordinary map")
         return folded.then(state, result.report)
     _check_order(folded.state, result, task)
-    ownership = join_blocker(folded.state, state)
+    # another navigational layer first: its places differ from the map's, which the
+    # ownership checks would otherwise report as a graph that changed
+    pins = pins_blocker(folded.pins, result.report.graph_pins)
+    ownership = None if pins is not None else join_blocker(folded.state, state)
     blocker = (
-        ownership
-        or yaw_rule_blocker(folded.yaws, result.report.yaw_rule, task.yaw_seen)
-        or pins_blocker(folded.pins, result.report.graph_pins)
+        pins or ownership or yaw_rule_blocker(folded.yaws, result.report.yaw_rule, task.yaw_seen)
     )
     if blocker is None:
         return folded.then(join_shard(folded.state, state), result.report)

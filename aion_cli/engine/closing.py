@@ -38,7 +38,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aion_cli.engine.ownership import apply_binds, plan_binds, stable_nodes
+from aion_cli.engine.ownership import (
+    apply_binds,
+    enter_stable_nodes,
+    plan_binds,
+    stable_nodes,
+    unentered_stable_nodes,
+)
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.types import I64
 from aion_cli.engine.windows import window_centre_ns, window_ns, window_start_ns
@@ -78,10 +84,12 @@ def close_windows(state: MapState, stop: int) -> None:
         if n_stable != stable_seen:
             stable_seen = n_stable
             plan = plan_binds(state, end)
-            if plan is not None:
+            if plan is not None or unentered_stable_nodes(state, end).any():
                 _record(state, np.array(segment, np.int64), w0, delta, count_rows)
                 segment = []
-                apply_binds(state, plan)
+                enter_stable_nodes(state, end)  # observed from here on, with or without people
+                if plan is not None:
+                    apply_binds(state, plan)
                 count_rows = state.entries.window_rows()  # the counts moved with the cells
         segment.append(w)
     _record(state, np.array(segment, np.int64), w0, delta, count_rows)

@@ -366,3 +366,32 @@ def test_invariants_hold_for_any_sequence(ops: list[tuple[str, int, float]]) -> 
             event("a day closed")
         if m.state.pending and m.state.temporal.glob.n[0] > 0:
             event("a day closed and the next one pending")
+
+
+def test_a_place_the_robot_watched_empty_counts_those_windows() -> None:
+    """A robot parked beside place p0 for ten windows, one person there in the ninth: p0's
+    entry is observed in all ten (it has one from when the place became stable), so its
+    historical flow is 4 detections over 10 windows. Its entry once began with its first
+    detection: 2 windows observed, 2.0 per window, five times too high. Under a fixed
+    sensor the windows count for every entry anyway, so no empty entry is made there."""
+    from aion_cli.engine.types import Trajectory
+
+    m = Mapper(CFG)
+    m.add_graph(graph(T0, [0, 1], [[0.0, 0.0, 0.0], [40.0, 0.0, 0.0]]))  # p1: out of range
+    t = T0 + np.arange(0, 10 * W, 10 * S, dtype=np.int64)
+    m.add_trajectory(Trajectory(t, np.tile([1.0, 0.0, 0.0], (len(t), 1))))
+    m.add_detections(detections(T0 + 8 * W + S, [[0.3, 0.3, 0.0]] * 4))
+    m.advance(T0 + 10 * W)
+    st_ = m.state
+    p0, p1 = st_.node_entry_rows(pid([0, 1])).tolist()
+    assert p0 >= 0
+    assert p1 >= 0  # stable too: entered, never observed (the robot is 39 m away)
+    assert st_.windows_observed(np.array([p0, p1])).tolist() == [10.0, 0.0]
+    table = historical_table(st_)
+    at = {int(i): k for k, i in enumerate(table.node_id)}
+    assert table.flow[at[int(pid([0])[0])]] == pytest.approx(0.4)
+    check_invariants(st_)
+
+    fixed = _one_node_mapper()  # a fixed sensor: the node gets an entry with its first bind
+    fixed.advance(T0 + 3 * W)
+    assert fixed.state.node_entry_rows(pid([0]))[0] == -1
