@@ -20,7 +20,7 @@ from tests.time_shard_logs import HOUR_S, standing_log
 def _varied(log: Path) -> dict[str, int]:
     opts = BuildOptions(logs=(log,), output=log.with_suffix(".aion"))
     with open_logs([log], None) as logset:
-        return varied_by(logset, build_topics(logset.topics, opts), opts)
+        return varied_by(logset, build_topics(logset, opts), opts)
 
 
 def test_the_time_of_the_first_message_that_varies(tmp_path: Path) -> None:

@@ -40,7 +40,7 @@ import numpy as np
 
 from aion_cli.engine.ownership import (
     apply_binds,
-    enter_stable_nodes,
+    enter_observed_nodes,
     plan_binds,
     stable_nodes,
     unentered_stable_nodes,
@@ -73,10 +73,16 @@ def close_windows(state: MapState, stop: int) -> None:
     segment: list[int] = []
     segment_day: int | None = None
     stable_seen = -1
+    waiting = np.zeros(0, np.int64)  # stable nodes the robot has not observed yet: no entry
+
+    def record() -> None:
+        nonlocal waiting
+        waiting = _record(state, np.array(segment, np.int64), w0, delta, count_rows, waiting)
+        segment.clear()
+
     for w, day in zip(recorded.tolist(), days, strict=True):
         if segment and day != segment_day:  # a day is over: record it and close it
-            _record(state, np.array(segment, np.int64), w0, delta, count_rows)
-            segment = []
+            record()
             state.close_day()
         segment_day = day
         end = int(window_start_ns(w + 1, delta))
@@ -84,15 +90,15 @@ def close_windows(state: MapState, stop: int) -> None:
         if n_stable != stable_seen:
             stable_seen = n_stable
             plan = plan_binds(state, end)
-            if plan is not None or unentered_stable_nodes(state, end).any():
-                _record(state, np.array(segment, np.int64), w0, delta, count_rows)
-                segment = []
-                enter_stable_nodes(state, end)  # observed from here on, with or without people
+            newly = unentered_stable_nodes(state, end)
+            if plan is not None or not np.array_equal(newly, waiting):
+                record()  # the windows before, with the nodes waiting before
+                waiting = newly
                 if plan is not None:
                     apply_binds(state, plan)
                 count_rows = state.entries.window_rows()  # the counts moved with the cells
         segment.append(w)
-    _record(state, np.array(segment, np.int64), w0, delta, count_rows)
+    record()
     state.entries.clear_window()
     state.open_window = int(stop)
     if state.deferred is None:  # a shard keeps its poses for the join (engine.shards)
@@ -105,14 +111,19 @@ def close_windows(state: MapState, stop: int) -> None:
         state.close_day()  # log time is in a later day: the pending day is over
 
 
-def _record(state: MapState, windows: I64, w0: int, delta: int, count_rows: I64) -> None:
+def _record(
+    state: MapState, windows: I64, w0: int, delta: int, count_rows: I64, waiting: I64
+) -> I64:
     """Record consecutive recorded windows on the current entries (``count_rows``: those
-    with detections in ``w0``, ``EntryStore.window_rows``).
+    with detections in ``w0``, ``EntryStore.window_rows``); a stable node of ``waiting``
+    (node-table indices) that the robot observes in one of them gets its entry first
+    (:func:`~aion_cli.engine.ownership.enter_observed_nodes`). Returns the nodes still
+    waiting.
 
     Costs the entries with detections in ``w0`` plus, for the windows no fixed sensor
-    covered, the robot-coverage test over the live entries."""
+    covered, the robot-coverage test over the live entries (and the waiting nodes)."""
     if len(windows) == 0:
-        return
+        return waiting
     ent = state.entries
     counts = np.column_stack([ent.window_counts[count_rows], ent.window_nodir[count_rows]])
     none = np.zeros(0, np.int64)
@@ -122,10 +133,17 @@ def _record(state: MapState, windows: I64, w0: int, delta: int, count_rows: I64)
     if not all(fixed_mask):
         rows = ent.live_rows()
         xy = ent.xyz[rows, :2]
+    reach = state.config.sensor_range
     for w, fixed in zip(windows.tolist(), fixed_mask, strict=True):
         observed = none
+        if not fixed and waiting.size:
+            seen = state.observation.robot_observed(state.nodes.xyz[waiting, :2], w, delta, reach)
+            if seen.any():
+                waiting = enter_observed_nodes(state, waiting, seen)
+                rows = ent.live_rows()
+                xy = ent.xyz[rows, :2]
         if not fixed and len(rows):
-            mask = state.observation.robot_observed(xy, int(w), delta, state.config.sensor_range)
+            mask = state.observation.robot_observed(xy, int(w), delta, reach)
             observed = rows[mask]
         if w == w0:
             if not fixed:
@@ -133,6 +151,7 @@ def _record(state: MapState, windows: I64, w0: int, delta: int, count_rows: I64)
             state.record_window(int(w), fixed, observed, count_rows, counts)
         else:
             state.record_window(int(w), fixed, observed, none, no_counts)
+    return waiting
 
 
 def open_window_record(state: MapState) -> DayWindows | None:

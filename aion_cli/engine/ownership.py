@@ -193,34 +193,35 @@ def _apply_binds(state: MapState, plan: BindPlan, reroute: bool) -> None:
         state.rebuild_routes()
 
 
-def unentered_stable_nodes(state: MapState, t_ns: int) -> BoolA:
-    """Mask over the node table: stable nodes at log time ``t_ns`` without an entry yet, while
-    a robot trajectory says what was observed (a fixed sensor's windows count for every
-    entry, created later or not: none is needed there)."""
-    stable = stable_nodes(state, t_ns)
-    if stable.any() and state.observation.pose_t.size == 0:
-        stable[:] = False
-    elif stable.any():
-        stable[stable] = state.node_entry_rows(state.nodes.ids[stable]) < 0
-    return stable
+def unentered_stable_nodes(state: MapState, t_ns: int) -> I64:
+    """Node-table indices of the nodes stable at log time ``t_ns`` without an entry yet,
+    while a robot trajectory says what was observed (none under a fixed sensor alone: its
+    windows count for every entry, created later or not). :func:`enter_observed_nodes`
+    enters them when the robot first observes them."""
+    if state.observation.pose_t.size == 0:
+        return np.zeros(0, np.int64)
+    stable = np.flatnonzero(stable_nodes(state, t_ns))
+    if stable.size == 0:
+        return stable
+    out: I64 = stable[state.node_entry_rows(state.nodes.ids[stable]) < 0]
+    return out
 
 
-def enter_stable_nodes(state: MapState, t_ns: int) -> int:
-    """Under a robot's observation, give every node stable at ``t_ns`` an entry (an empty one
-    where it has none), so the windows in which the robot observes it from then on count for
-    it, with nobody seen there too; returns how many were created. Without it a place's entry
-    began with its first detection, and every window the robot had watched it empty before
-    was lost (its rate per observed window came out too high)."""
-    new = unentered_stable_nodes(state, t_ns)
-    if new.any():
+def enter_observed_nodes(state: MapState, waiting: I64, observed: BoolA) -> I64:
+    """Give the nodes ``waiting[observed]`` (node-table indices) empty entries, so the window
+    the robot first observes a stable place in, and every later one, count for it with nobody
+    seen there too; returns the nodes still waiting. Without it a place's entry began with
+    its first detection, and every window the robot had watched it empty before was lost
+    (its rate per observed window came out too high)."""
+    new = waiting[observed]
+    if new.size:
         node_rows_creating(state, state.nodes.ids[new], state.nodes.xyz[new])
-    return int(np.count_nonzero(new))
+    rest: I64 = waiting[~observed]
+    return rest
 
 
 def bind_cells(state: MapState, t_ns: int) -> int:
-    """Bind every cell that has a stable node nearby at log time ``t_ns`` (every stable node
-    entered first: :func:`enter_stable_nodes`); returns how many cells."""
-    enter_stable_nodes(state, t_ns)
+    """Bind every cell that has a stable node nearby at log time ``t_ns``; returns how many."""
     plan = plan_binds(state, t_ns)
     if plan is None:
         return 0

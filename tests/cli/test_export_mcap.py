@@ -106,7 +106,9 @@ def test_entities_are_the_entries_of_predict(series: Path, predicted: list[dict[
         cubes = [e.id for e in update.entities if e.cubes]
         assert sorted(spheres) == sorted(i for i, e in entries.items() if e["kind"] == "node")
         assert sorted(cubes) == sorted(i for i, e in entries.items() if e["kind"] == "cell")
-        assert len(cubes) == 2
+        # 2 cells with people, 3 the scene graph released (places merged away by loop
+        # closures, which the robot had watched empty: their entries go to the hash cells)
+        assert len(cubes) == 5
         assert all(len(e.spheres) == 1 for e in update.entities if e.spheres)
         for entity in update.entities:
             if entity.spheres or entity.cubes:

@@ -137,11 +137,12 @@ def test_info_on_a_map(office: Office) -> None:
 def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> None:
     """The manifest tallies the entries forecast by each family. One day: nothing is scored
     (the day is pending, and has no earlier day to be scored against even provisionally), so
-    the three entries with data (p1, p3, p4) are all ``static``; the table shows the same."""
+    the five places the robot watched (p1, p3, p4 with people, p0 and p2 without) are all
+    ``static``; p5 and p6, out of its range, have no entry. The table shows the same."""
     doc = run_json("info", office.map, "--format", "json")
     assert doc["families"] == {
-        "flow": {"static": 3},
-        "direction": {"static": 3},
+        "flow": {"static": 5},
+        "direction": {"static": 5},
         "reconciled": False,
         "scored_windows": 0.0,
         "scored_days": 0,
@@ -152,8 +153,8 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
     table = run("info", office.map)
     assert table.exit_code == 0, table.stderr
     lines = table.stdout.splitlines()
-    assert any("flow models" in line and "static 3" in line for line in lines)
-    assert any("direction models" in line and "static 3" in line for line in lines)
+    assert any("flow models" in line and "static 5" in line for line in lines)
+    assert any("direction models" in line and "static 5" in line for line in lines)
     assert any("days scored" in line and line.split("│")[2].strip() == "0" for line in lines)
     hours = "weekdays 08:00-09:00; weekends none (UTC)"
     assert any("hours observed" in line and hours in line for line in lines)
@@ -161,9 +162,9 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
 
 def test_families_after_a_scored_day(tmp_path: Path) -> None:
     """Three daily copies of the office log: the middle day is scored against the first, in
-    the 2 windows the robot watched each of the 3 entries (6 entry-windows); the last day
-    stays pending and is scored provisionally in its one closed window (its second is still
-    open: 3 entry-windows more). Every entry is counted once per kind."""
+    the 2 windows the robot watched each of the 5 places in its range (10 entry-windows);
+    the last day stays pending and is scored provisionally in its one closed window (its
+    second is still open: 5 entry-windows more). Every entry is counted once per kind."""
     from tests.cli.logdata import write_office_log
 
     logs = []
@@ -173,13 +174,13 @@ def test_families_after_a_scored_day(tmp_path: Path) -> None:
     out = tmp_path / "three.aion"
     run_json("build", *logs, "-o", out, "--format", "json")
     families = run_json("info", out, "--format", "json")["families"]
-    assert families["scored_windows"] == 6.0 + 3.0
+    assert families["scored_windows"] == 10.0 + 5.0
     assert families["scored_days"] == 2  # the middle day, and the last provisionally
     assert families["last_day_provisional"] is True
     shown = run("info", out).stdout
     assert any("days scored" in line and "provisionally" in line for line in shown.splitlines())
-    assert sum(families["flow"].values()) == 3
-    assert sum(families["direction"].values()) == 3
+    assert sum(families["flow"].values()) == 5
+    assert sum(families["direction"].values()) == 5
     assert set(families["flow"]) <= {"static", "shape", "profile", "fremen1", "fremen2"} | {
         "fremen3",
         "fremen4",

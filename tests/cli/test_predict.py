@@ -327,9 +327,10 @@ def test_subprocess_bad_inputs_are_one_line_exit_2(office: Office, tmp_path: Pat
 
 
 def test_rows_name_their_families_and_a_predictive_interval(office: Office) -> None:
-    """One day of log: nothing scored yet, so every entry with data forecasts with ``static``
-    and the dispersion is 1: the interval is the Poisson one around the flow (p1 and p4 at 120
-    detections in 2 windows: Poisson(60); p3 at 60 in 2: Poisson(30))."""
+    """One day of log: nothing scored yet, so every entry forecasts with ``static`` and the
+    dispersion is 1: the interval is the Poisson one around the flow (p1 and p4 at 120
+    detections in 2 windows: Poisson(60); p3 at 60 in 2: Poisson(30)); p0 and p2, which the
+    robot watched empty, at 0."""
     from scipy import stats
 
     rows = entries(office, "--time", AT)
@@ -341,7 +342,12 @@ def test_rows_name_their_families_and_a_predictive_interval(office: Office) -> N
         assert row["flow_p10"] == stats.poisson.ppf(0.1, flow)
         assert row["flow_p90"] == stats.poisson.ppf(0.9, flow)
         assert row["flow_p10"] <= row["flow"] <= row["flow_p90"]
-    for node in ("p0", "p2", "p5", "p6"):  # no entry: nothing to forecast, an empty window
+    for node in ("p0", "p2"):  # watched by the robot, nobody there: static, 0 per window
+        row = rows[node]
+        assert row["flow"] == 0.0
+        assert (row["family"], row["direction_family"]) == ("static", "static")
+        assert row["flow_p10"] == row["flow_p90"] == 0.0
+    for node in ("p5", "p6"):  # 17 m from the robot: never observed, no entry
         row = rows[node]
         assert (row["family"], row["direction_family"]) == ("none", "none")
         assert row["flow_p10"] == row["flow_p90"] == 0.0

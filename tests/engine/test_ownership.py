@@ -369,8 +369,9 @@ def test_invariants_hold_for_any_sequence(ops: list[tuple[str, int, float]]) -> 
 
 
 def test_a_place_the_robot_watched_empty_counts_those_windows() -> None:
-    """A robot parked beside place p0 for ten windows, one person there in the ninth: p0's
-    entry is observed in all ten (it has one from when the place became stable), so its
+    """A robot parked beside place p0 for ten windows, four people there in the ninth: p0's
+    entry is observed in all ten (it has one from the first window the robot observed it
+    in, once the place was stable), so its
     historical flow is 4 detections over 10 windows. Its entry once began with its first
     detection: 2 windows observed, 2.0 per window, five times too high. Under a fixed
     sensor the windows count for every entry anyway, so no empty entry is made there."""
@@ -385,8 +386,8 @@ def test_a_place_the_robot_watched_empty_counts_those_windows() -> None:
     st_ = m.state
     p0, p1 = st_.node_entry_rows(pid([0, 1])).tolist()
     assert p0 >= 0
-    assert p1 >= 0  # stable too: entered, never observed (the robot is 39 m away)
-    assert st_.windows_observed(np.array([p0, p1])).tolist() == [10.0, 0.0]
+    assert p1 == -1  # stable too, never observed (the robot is 39 m away): no entry, no NaN
+    assert st_.windows_observed(np.array([p0])).tolist() == [10.0]
     table = historical_table(st_)
     at = {int(i): k for k, i in enumerate(table.node_id)}
     assert table.flow[at[int(pid([0])[0])]] == pytest.approx(0.4)
