@@ -384,6 +384,11 @@ def graph_source(
         report.notes.append("--nav-layer ignored: no scene graph is read")
     if continued_graph:
         report.graph_source = "continued map"
+        if opts.derive_graph:
+            report.notes.append(
+                "--derive-graph ignored: the continued map keeps its places (derived from the "
+                "logs of its first build); to derive places from every log, build them at once"
+            )
         return None
     if not opts.derive_graph:
         report.notes.append(

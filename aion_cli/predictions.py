@@ -312,6 +312,7 @@ def select(
 
     from aion_cli.engine.nearest import distances_from
     from aion_cli.engine.node_ids import (
+        point_distance,
         refuse_far_point,
         require_point,
     )
@@ -372,7 +373,7 @@ def select(
         # candidates by numpy, the choice by math.dist as the rows' own floats give it
         close = index[dist <= nearest * (1 + 1e-9) + 1e-12] if math.isfinite(nearest) else index
         def away(e: int) -> float:
-            return math.dist(tuple(float(v) for v in table.xyz[e][:3]), (x, y, z))
+            return point_distance(tuple(float(v) for v in table.xyz[e][:3]), (x, y, z))
 
         best = min(close.tolist(), key=away)
         label = str(entry_ids(table, np.array([best]))[0])

@@ -9,7 +9,6 @@ historical export) both are the distance-only path.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -17,7 +16,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.node_ids import node_label, parse_point, refuse_far_point
+from aion_cli.engine.node_ids import (
+    node_label,
+    parse_point,
+    point_distance,
+    refuse_far_point,
+    shown_point,
+)
 from aion_cli.room_names import name_of, named_node, parse_id_or_name
 
 if TYPE_CHECKING:
@@ -52,7 +57,7 @@ class Endpoint:
             if self.name is not None:
                 record["name"] = self.name
         return record | {
-            "point": list(self.point),
+            "point": shown_point(self.point),
             "node": node_label(self.node_id),
             "distance_m": self.distance_m,
         }
@@ -81,7 +86,7 @@ def resolve_endpoint(
         return Endpoint(node_id)
     row = nav.nearest(point)
     node_id = int(nav.ids[row])
-    distance = math.dist(point, tuple(float(v) for v in nav.xyz[row]))
+    distance = point_distance(tuple(float(v) for v in nav.xyz[row]), point)
     refuse_far_point(where, distance, node_label(node_id), nav.xyz)
     return Endpoint(node_id, point, distance)
 

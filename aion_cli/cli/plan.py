@@ -31,7 +31,8 @@ Examples:
                                           when to leave: the departure of least cost
 
 \b
---from/--to take node ids ("p12") or coordinates "x,y[,z]" snapped to the nearest node.
+--from/--to take node ids ("p12") or coordinates "x,y[,z]" snapped to the nearest node
+(horizontally for x,y: a spot on the floor plan).
 The temporal cost of each node is predicted at the time the walker is expected to arrive
 there (departure + distance / speed). The distance-only path is always shown beside it,
 with the temporal cost it would have. JSON keys: from, to, depart, zone, speed_mps,

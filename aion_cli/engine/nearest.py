@@ -36,12 +36,15 @@ _POINTS_PER_BLOCK = 1 << 14
 
 
 def distances_from(xyz: npt.ArrayLike, point: npt.ArrayLike) -> F64:
-    """3-D distance from ``point`` to every row of ``xyz``, finite for any finite input
+    """3-D distance from ``point`` to every row of ``xyz`` (horizontal when its z is NaN: a
+    point typed without a height), finite for any finite input
     (hypot, not the root of a sum of squares, which overflows to inf, with a warning, for a
     typed point such as 1e300,0 and then cannot tell the nearest row)."""
-    d = np.asarray(xyz, dtype=np.float64).reshape(-1, 3) - np.asarray(
-        point, dtype=np.float64).reshape(1, 3)
-    out: F64 = np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2])
+    p = np.asarray(point, dtype=np.float64).reshape(1, 3)
+    d = np.asarray(xyz, dtype=np.float64).reshape(-1, 3) - p
+    out: F64 = np.hypot(d[:, 0], d[:, 1])
+    if not np.isnan(p[0, 2]):  # a point typed as x,y has no height: horizontal distances
+        out = np.hypot(out, d[:, 2])
     return out
 
 

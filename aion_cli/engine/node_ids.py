@@ -48,7 +48,10 @@ def parse_node_id(text: str) -> int:
 
 
 def parse_point(text: str) -> tuple[float, float, float] | None:
-    """``"x,y"`` or ``"x,y,z"`` -> a point (z = 0 when omitted); None if ``text`` is not one."""
+    """``"x,y"`` or ``"x,y,z"`` -> a point; None if ``text`` is not one. z is NaN when
+    omitted: distances from such a point are horizontal (:func:`point_distance`,
+    ``nearest.distances_from``), so a typed x,y finds the place above or below it, not the
+    one nearest to height 0."""
     parts = [p.strip() for p in text.split(",")]
     if len(parts) not in (2, 3):
         return None
@@ -62,8 +65,20 @@ def parse_point(text: str) -> tuple[float, float, float] | None:
             "give metres in the map frame, x,y or x,y,z (e.g. 3.5,-1.2)",
         )
     if len(values) == 2:
-        values.append(0.0)
+        values.append(math.nan)
     return (values[0], values[1], values[2])
+
+
+def point_distance(xyz: tuple[float, ...], point: tuple[float, float, float]) -> float:
+    """Distance from a typed ``point`` to ``xyz``: horizontal when the point has no z."""
+    if math.isnan(point[2]):
+        return math.dist(xyz[:2], point[:2])
+    return math.dist(xyz[:3], point)
+
+
+def shown_point(point: tuple[float, float, float]) -> list[float]:
+    """A typed point as reports show it: [x, y] when no z was given, else [x, y, z]."""
+    return list(point[:2]) if math.isnan(point[2]) else list(point)
 
 
 def require_point(text: str, option: str) -> tuple[float, float, float]:

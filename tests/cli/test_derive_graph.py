@@ -68,3 +68,16 @@ def test_a_log_shorter_than_the_stability_wait_says_why_its_places_hold_nothing(
                       "-o", tmp_path / "long.aion")
     assert long["bound_cells"] > 0
     assert not any("hash cells" in w for w in long["warnings"])
+
+
+def test_continuing_a_derived_map_keeps_its_places_and_says_so(tmp_path: Path) -> None:
+    """Places are derived from the logs of one build: a continued map keeps them, so
+    --derive-graph with --map has no effect, which a note says (it was silent)."""
+    walk_a = [person(T0 + k * S, (0.1 * (k % 100), 0.0, 0.0)) for k in range(300)]
+    walk_b = [person(T0 + (3600 + k) * S, (0.1 * (k % 100), 0.0, 0.0)) for k in range(300)]
+    first = tmp_path / "a.aion"
+    build_json(write_log(tmp_path / "a.mcap", walk_a), "--derive-graph", "-o", first)
+    later = build_json(write_log(tmp_path / "b.mcap", walk_b), "--map", first, "--derive-graph")
+    assert later["graph"]["source"] == "continued map"
+    assert any(n.startswith("--derive-graph ignored: the continued map keeps its places")
+               for n in later["notes"])

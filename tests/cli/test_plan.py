@@ -172,3 +172,26 @@ def test_rooms_by_their_names(office: Office) -> None:
     rooms = run_json("predict", office.map, "--time", AT, "--layer", "rooms", "--node", "Room2",
                      "--format", "json")
     assert [r["id"] for r in rooms["entries"]] == ["R2"]
+
+
+def test_a_point_without_a_height_snaps_horizontally(office: Office) -> None:
+    """``--from x,y`` names a spot on the floor plan: the place above or below it is
+    0 m away (it was measured from height 0, so a place 1 m up on a real map was 1 m
+    further, and another place could win). ``x,y,z`` is measured in 3-D (p1 at (2, 0, 0))."""
+    import math
+
+    from aion_cli.engine.nearest import distances_from
+    from aion_cli.engine.node_ids import parse_point, shown_point
+
+    flat = run_json("plan", office.map, "--from", "2,0", "--to", "p3", "--time", AT,
+                    "--format", "json")["snapped"][0]
+    assert (flat["node"], flat["distance_m"], flat["point"]) == ("p1", 0.0, [2.0, 0.0])
+    high = run_json("plan", office.map, "--from", "2,0,5", "--to", "p3", "--time", AT,
+                    "--format", "json")["snapped"][0]
+    assert (high["node"], high["distance_m"], high["point"]) == ("p1", 5.0, [2.0, 0.0, 5.0])
+    point = parse_point("3,4")
+    assert point is not None
+    assert math.isnan(point[2])
+    assert shown_point(point) == [3.0, 4.0]
+    assert distances_from([[0.0, 0.0, 12.0]], point).tolist() == [5.0]
+    assert distances_from([[0.0, 0.0, 12.0]], (3.0, 4.0, 0.0)).tolist() == [13.0]
