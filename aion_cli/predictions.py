@@ -2,7 +2,8 @@
 
 Field names (stable, documented in ``aion predict --help``):
 
-``id`` ("p12", "R3", or "c<key>" for a hash cell), ``kind`` (node, cell, room, building), ``layer``,
+``id`` ("p12", "R3", or "c<key>" for a hash cell), ``name`` (a room's or building's name in
+the scene graph, "kitchen"; null for the rest), ``kind`` (node, cell, room, building), ``layer``,
 ``x``/``y``/``z`` (m), ``flow`` (expected detections per window), ``flow_per_hour``,
 ``direction_deg`` (dominant direction: the direction of the argmax bin, degrees from +x
 counter-clockwise; null without flow), ``direction_bin`` (that bin, -1 without flow),
@@ -23,7 +24,7 @@ nothing here knows click or rich.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
 from aion_cli.timeparse import Zone
@@ -54,6 +55,7 @@ CSV_KEYS = [
     "histogram",
     "family",
     "direction_family",
+    "name",
 ]
 
 
@@ -61,10 +63,14 @@ def _finite(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 
-def rows_from_table(table: Any, index: Any = None) -> list[dict[str, Any]]:
+def rows_from_table(
+    table: Any, index: Any = None, names: Mapping[str, str] | None = None
+) -> list[dict[str, Any]]:
     """One dict per entry of an engine ``EntryTable``, for the rows ``index`` (an array of
     row numbers, in that order; default every row): a query that prints ten rows of a map of
-    10^5 entries builds ten dicts, and computes the count quantiles of those ten only."""
+    10^5 entries builds ten dicts, and computes the count quantiles of those ten only.
+    ``names``: the graph's names of rooms and buildings by id ("R2": "kitchen"), the rows'
+    ``name`` (None for the rest)."""
     import numpy as np
 
     from aion_cli.engine.temporal.quantiles import count_quantiles
@@ -90,6 +96,7 @@ def rows_from_table(table: Any, index: Any = None) -> list[dict[str, Any]]:
         rows.append(
             {
                 "id": str(labels[i]),
+                "name": (names or {}).get(str(labels[i])),
                 "kind": kind,
                 "layer": _layer(table, e, kind),
                 "x": float(table.xyz[e, 0]),
@@ -233,13 +240,14 @@ def predicted_records(
     (None: historical), busiest first, the first ``top`` of them; and how many entries
     matched. Rows are ordered and cut on arrays, so dicts are made for the rows returned only
     (``aion predict`` and :meth:`aion_cli.Map.predict`)."""
-    from aion_cli.room_names import with_names_resolved
+    from aion_cli.room_names import names_by_id, with_names_resolved
 
     wanted = with_names_resolved(nodes, loaded.graph)
     layer = layer_of_nodes(layer, wanted, loaded.graph)
     table = entry_table(loaded, t_ns, layer)
     index = select(table, layer, wanted, at)
-    return rows_from_table(table, ordered_rows(table, index, top)), len(index)
+    names = {} if loaded.graph is None else names_by_id(loaded.graph)
+    return rows_from_table(table, ordered_rows(table, index, top), names), len(index)
 
 
 def _wanted_label(node: str | int, by_id: dict[str, int]) -> str:

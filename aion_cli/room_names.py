@@ -40,6 +40,18 @@ def name_of(layer: Layer, k: int) -> str | None:
     return label if label and label != node_label(int(layer.ids[k])) else None
 
 
+def names_by_id(graph: GraphSnapshot) -> dict[str, str]:
+    """The graph's names of its rooms and buildings by id as predict prints it ("R2":
+    "kitchen"); those without a name of their own are left out."""
+    out: dict[str, str] = {}
+    for layer in (graph.rooms, graph.buildings):
+        for k in range(len(layer)):
+            name = name_of(layer, k)
+            if name is not None:
+                out[node_label(int(layer.ids[k]))] = name
+    return out
+
+
 def room_names(graph: GraphSnapshot) -> list[str]:
     """The names of the graph's rooms and buildings (:func:`name_of`)."""
     layers = (graph.rooms, graph.buildings)

@@ -161,9 +161,9 @@ def command(
             done = export_dsg(loaded, map_path, out_dir, times[0], zone)
             advance()
             return (
-                f"wrote {markup_safe(out_dir)}: {done.places:,} places "
-                f"({done.places_with_dynamics:,} with dynamics), {done.rooms} rooms, "
-                f"{done.buildings} buildings, {done.edges:,} place edges"
+                f"wrote {markup_safe(out_dir)}: {_n(done.places, 'place')} "
+                f"({done.places_with_dynamics:,} with dynamics), {_n(done.rooms, 'room')}, "
+                f"{_n(done.buildings, 'building')}, {_n(done.edges, 'place edge')}"
             )
 
     elif fmt == "png":
@@ -210,3 +210,8 @@ def command(
         span = [int(t) for t in times if t is not None] if len(times) > 1 else None
         announce_time(times[0], zone, label, loaded, series=span)
     console().print(done)
+
+
+def _n(count: int, noun: str) -> str:
+    """``1 building``, ``3 rooms``."""
+    return f"{count:,} {noun}{'' if count == 1 else 's'}"

@@ -16,7 +16,7 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.entries import COLUMNS
-from aion_cli.cli.output import AionCommand, emit, format_option
+from aion_cli.cli.output import AionCommand, Column, emit, format_option
 from aion_cli.cli.predict_series import check_series_options, run_series
 from aion_cli.predictions import LAYERS
 
@@ -139,4 +139,8 @@ def command(
             f"showing the {TABLE_LIMIT} busiest of {count:,} entries: use --top N, "
             "--format csv or --format json for all"
         )
-    emit(fmt, rows, COLUMNS, json_payload=payload, csv_keys=CSV_KEYS, title=title)
+    columns = COLUMNS
+    if any(row.get("name") for row in rows):  # rooms the graph names: a column for them
+        columns = [COLUMNS[0], Column("name", "name", lambda v: v or "", justify="left"),
+                   *COLUMNS[1:]]
+    emit(fmt, rows, columns, json_payload=payload, csv_keys=CSV_KEYS, title=title)

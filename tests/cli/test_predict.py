@@ -464,3 +464,21 @@ def test_an_empty_value_is_an_error_not_the_default(
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, fragment)
     assert not (tmp_path / "out").exists()
+
+
+def test_rooms_carry_the_names_the_graph_gives_them(office: Office) -> None:
+    """The test office's graph names its rooms room0..room2 (Hydra-like labels): predict's
+    rows say so in JSON, CSV and the table; places and cells have none."""
+    rows = run_json("predict", office.map, "--time", AT, "--layer", "rooms", "--format",
+                    "json")["entries"]
+    names = {row["id"]: row["name"] for row in rows}
+    assert names["R1"] == "room1"
+    places = run_json("predict", office.map, "--time", AT, "--format", "json")["entries"]
+    assert {row["name"] for row in places} == {None}
+    csv_text = run("predict", office.map, "--time", AT, "--layer", "rooms", "--format",
+                   "csv").stdout
+    header, first = csv_text.splitlines()[:2]
+    assert header.split(",")[-1] == "name"
+    assert first.split(",")[-1].startswith("room")
+    table = run("predict", office.map, "--time", AT, "--layer", "rooms").stdout
+    assert "room1" in table
