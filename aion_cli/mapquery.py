@@ -268,4 +268,5 @@ def export_map(
         cell_size=scene.cell_size,
         prefix=prefix,
         node_concentration=scene.node_concentration,
+        cells_dominant_angle=scene.cells_angle,
     )

@@ -20,8 +20,9 @@ PLY: one file per part (``nodes.ply``, ``arrows.ply``, ``cells.ply``, ``edges.pl
 plus ``scene.ply``, one triangle mesh with everything (edges and path drawn as thin tubes, since
 a triangle mesh cannot hold lines). PCD: a PCD file holds points only, no triangles or lines, so
 the PCD export writes coloured point clouds: ``nodes.pcd`` (node centres, entropy colours,
-normals = unit dominant direction or 0), ``cells.pcd`` (cell centres), ``mesh.pcd`` (mesh
-vertices), ``path.pcd`` (path points) and ``scene.pcd`` (all of them); arrows and edges have no
+normals = unit dominant direction or 0), ``cells.pcd`` (cell centres, normals likewise),
+``mesh.pcd`` (mesh vertices), ``path.pcd`` (path points) and ``scene.pcd`` (all of them, the
+mesh's and the path's normals 0); arrows and edges have no
 PCD form. Parts with nothing in them are not written. Files are binary; every name gets
 ``prefix`` in front (e.g. ``t0830_nodes.ply`` for a time series).
 
@@ -309,13 +310,15 @@ def export_scene(
     *,
     node_concentration: npt.ArrayLike | None = None,
     flow_scale: float | None = None,
+    cells_dominant_angle: npt.ArrayLike | None = None,
 ) -> list[Path]:
     """Write the scene's parts (and a combined scene) to ``out_dir``; returns the files written.
 
     Per node: ``nodes_xyz`` f64[n,3], ``node_flow`` (expected detections per window),
     ``node_entropy`` (0..1, NaN = no flow), ``node_dominant_angle`` (rad, NaN = none) and
     optionally ``node_concentration`` (0..1). Per unbound cell: ``cells_xyz`` (centres),
-    ``cells_flow`` (cells without flow are drawn grey) and ``cells_entropy``.
+    ``cells_flow`` (cells without flow are drawn grey), ``cells_entropy`` and
+    ``cells_dominant_angle`` (rad, NaN = none; PCD normals, as the nodes').
     ``edges_xyz_pairs`` f64[k,2,3] (or [k,6]) segment end points, ``path_xyz`` f64[p,3] a
     planned path. ``flow_scale`` is the flow drawn at full size
     (default: the largest node flow, so the busiest node has radius δ). ``out_dir`` is created.
@@ -360,8 +363,19 @@ def export_scene(
         ) from exc
     if fmt == "ply":
         return _write_ply(out, prefix, scene, cell_size)
+    c_angle = np.full(len(style.cells_xyz), np.nan)
+    if cells_dominant_angle is not None:
+        c_angle = np.asarray(cells_dominant_angle, dtype=np.float64).reshape(-1)
+        if len(c_angle) != len(style.cells_xyz):
+            raise ExportError(
+                f"cells_dominant_angle has {len(c_angle)} rows, cells_xyz {len(style.cells_xyz)}"
+            )
     return _write_pcd(
-        out, prefix, scene, xyz, colors, style.angle, style.cells_xyz, style.cell_colors
+        out,
+        prefix,
+        scene,
+        (xyz, colors, _direction_normals(style.angle)),
+        (style.cells_xyz, style.cell_colors, _direction_normals(c_angle)),
     )
 
 
@@ -405,34 +419,45 @@ def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[
     return written
 
 
+def _direction_normals(angle: F64) -> F64:
+    """Unit vectors along ``angle`` (rad from +x) in the ground plane; 0 where it is NaN."""
+    finite = np.isfinite(angle)
+    normals = np.zeros((len(angle), 3))
+    normals[finite] = np.c_[np.cos(angle[finite]), np.sin(angle[finite]), np.zeros(finite.sum())]
+    return normals
+
+
 def _write_pcd(
     out: Path,
     prefix: str,
     scene: _Scene,
-    xyz: F64,
-    colors: F64,
-    angle: F64,
-    c_xyz: F64,
-    c_colors: F64,
+    nodes: tuple[F64, F64, F64],
+    cells: tuple[F64, F64, F64],
 ) -> list[Path]:
-    finite = np.isfinite(angle)
-    normals = np.zeros((len(xyz), 3))
-    normals[finite] = np.c_[np.cos(angle[finite]), np.sin(angle[finite]), np.zeros(finite.sum())]
+    """``nodes`` / ``cells``: points, colours and normals (dominant directions, 0 where
+    none); the mesh and the path have none (0), and ``scene.pcd`` holds every part."""
     path_colors = np.tile(np.asarray(PATH_GREEN), (len(scene.path), 1))
+    mesh_xyz = np.asarray(scene.mesh.vertices, dtype=np.float64).reshape(-1, 3)
     clouds = [
-        ("nodes", xyz, colors, normals),
-        ("cells", c_xyz, c_colors, None),
-        ("mesh", scene.mesh.vertices, scene.mesh.colors, None),
-        ("path", scene.path, path_colors, None),
+        ("nodes", *nodes),
+        ("cells", *cells),
+        ("mesh", mesh_xyz, scene.mesh.colors, np.zeros((len(mesh_xyz), 3))),
+        ("path", scene.path, path_colors, np.zeros((len(scene.path), 3))),
     ]
     written: list[Path] = []
     for part, pts, cols, nrm in clouds:
         if len(pts):
+            normals = nrm if part in ("nodes", "cells") else None
             written.append(
-                _write(out / f"{prefix}{part}.pcd", "points", _o3d_points(pts, cols, nrm))
+                _write(out / f"{prefix}{part}.pcd", "points", _o3d_points(pts, cols, normals))
             )
     all_pts = np.concatenate([c[1] for c in clouds])
     if len(all_pts):
         all_cols = np.concatenate([c[2] for c in clouds])
-        written.append(_write(out / f"{prefix}scene.pcd", "points", _o3d_points(all_pts, all_cols)))
+        all_normals = np.concatenate([c[3] for c in clouds])
+        written.append(
+            _write(
+                out / f"{prefix}scene.pcd", "points", _o3d_points(all_pts, all_cols, all_normals)
+            )
+        )
     return written

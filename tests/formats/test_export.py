@@ -221,6 +221,23 @@ def test_pcd_writes_coloured_point_clouds(tmp_path: Path) -> None:
     assert len(o3d.io.read_point_cloud(tmp_path / "cells.pcd").points) == len(CELLS)
     scene = o3d.io.read_point_cloud(tmp_path / "scene.pcd")
     assert len(scene.points) == len(NODES) + len(CELLS) + len(MESH.vertices) + len(PATH)
+    # the combined cloud keeps the nodes' directions (the mesh and the path have none)
+    np.testing.assert_allclose(np.asarray(scene.normals)[: len(NODES)], normals, atol=1e-6)
+    assert not np.asarray(scene.normals)[len(NODES):].any()
+
+
+def test_pcd_cells_carry_their_directions_as_normals(tmp_path: Path) -> None:
+    """Cells have dominant directions too (they were written without normals, also in
+    scene.pcd): one along -x, one without a direction."""
+    export_scene(tmp_path, NODES, FLOW, ENTROPY, ANGLE, CELLS, CELL_FLOW, CELL_ENTROPY,
+                 fmt="pcd", cell_size=DELTA, cells_dominant_angle=[math.pi, np.nan])
+    cells = np.asarray(o3d.io.read_point_cloud(tmp_path / "cells.pcd").normals)
+    np.testing.assert_allclose(cells, [[-1.0, 0.0, 0.0], [0.0, 0.0, 0.0]], atol=1e-6)
+    scene = np.asarray(o3d.io.read_point_cloud(tmp_path / "scene.pcd").normals)
+    np.testing.assert_allclose(scene[len(NODES):len(NODES) + 2], cells, atol=1e-6)
+    with pytest.raises(ExportError, match="cells_dominant_angle has 1 rows"):
+        export_scene(tmp_path, NODES, FLOW, ENTROPY, ANGLE, CELLS, fmt="pcd",
+                     cells_dominant_angle=[0.0])
 
 
 def test_empty_parts_are_not_written(tmp_path: Path) -> None:
