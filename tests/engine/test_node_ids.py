@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -37,7 +39,9 @@ def test_bad_ids_are_input_errors(text: str) -> None:
 
 
 def test_points() -> None:
-    assert parse_point("3.5,-1") == (3.5, -1.0, 0.0)
+    x, y, z = parse_point("3.5,-1") or (0.0, 0.0, 0.0)
+    assert (x, y) == (3.5, -1.0)
+    assert math.isnan(z)  # no height given: distances from it are horizontal
     assert parse_point("1,2,3") == (1.0, 2.0, 3.0)
     assert parse_point("p12") is None
     with pytest.raises(InputError):
