@@ -9,8 +9,12 @@ from aion_cli.cli.output import human_size, markup_safe
 
 
 def span_text(seconds: float | None) -> str:
+    """``120h00m00s``, ``5m07s``; a span under a minute in seconds (``0.3 s``: a 0.3 s log
+    read ``0m00s``)."""
     if seconds is None:
         return "-"
+    if seconds < 59.5:
+        return f"{seconds:.1f} s"
     whole = round(seconds)
     hours, rest = divmod(whole, 3600)
     minutes, secs = divmod(rest, 60)

@@ -451,3 +451,13 @@ def test_a_navigational_layer_without_places_is_a_warning(tmp_path: Path) -> Non
     plain = run_json("build", sample, "-o", tmp_path / "p.aion", "--format", "json")
     assert plain["nodes"] > 0
     assert not any("navigational layer has no places" in w for w in plain["warnings"])
+
+
+def test_time_spans_read_in_seconds_under_a_minute() -> None:
+    from aion_cli.cli.build_summary import span_text
+
+    assert span_text(0.3) == "0.3 s"
+    assert span_text(59.4) == "59.4 s"
+    assert span_text(59.6) == "1m00s"
+    assert span_text(432000.0) == "120h00m00s"
+    assert span_text(None) == "-"
