@@ -54,9 +54,7 @@ def names_by_id(graph: GraphSnapshot) -> dict[str, str]:
 
 def room_names(graph: GraphSnapshot) -> list[str]:
     """The names of the graph's rooms and buildings (:func:`name_of`)."""
-    layers = (graph.rooms, graph.buildings)
-    names = (name_of(layer, k) for layer in layers for k in range(len(layer)))
-    return [name for name in names if name is not None]
+    return list(names_by_id(graph).values())
 
 
 def _match_key(name: str) -> str:

@@ -122,10 +122,10 @@ def select_topics(
             info = by_name.get(name)
             why = (unreadable or {}).get(name)
             if info is None and why is not None:
-                raise TopicNotFoundError(
-                    f"topic {name!r} is in the log, but aion cannot read it: {why}",
-                    candidates=[f"--detections-topic {t.topic}" for t in supported],
-                    hint="aion reads ROS messages (ROS 1 or CDR-encoded ROS 2 MCAP channels)",
+                from aion_cli.formats.logs import unreadable_topic_error
+
+                raise unreadable_topic_error(
+                    name, why, [f"--detections-topic {t.topic}" for t in supported]
                 )
             if info is None or (name not in mapped and adapter_for(info.msgtype) is None):
                 raise TopicNotFoundError(
@@ -256,6 +256,7 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
     """The error for a log with no detection topic to use: what it has, why generic topics
     were skipped, and how to read another type."""
     found = [f"{t.topic} ({t.msgtype})" for t in logset.topics]
+    mappable = _mappable(logset.topics)
     if plan.skipped:
         first = plan.skipped[0]
         hint = (
@@ -265,7 +266,7 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
         from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
 
         hint = f"it holds only raw sensor data ({', '.join(found[:4])}): {RAW_SENSOR_HINT}"
-    elif logset.topics and not _mappable(logset.topics):
+    elif logset.topics and not mappable:
         from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
 
         hint = (
@@ -279,12 +280,11 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
             "`aion info LOG` lists what was skipped and why"
         )
     else:
-        first = _mappable(logset.topics)[0]
         hint = (
             "the log has: "
             + ", ".join(found[:8] + (["..."] if len(found) > 8 else []))
             + "; map a type with --detections-mapping FILE (`aion info LOG --suggest-mapping "
-            f"{first.topic}` writes one)"
+            f"{mappable[0].topic}` writes one)"
         )
     return TopicNotFoundError(
         "the log has no people-detection topic of a supported type", candidates=found, hint=hint

@@ -12,9 +12,10 @@ and :func:`_unzstd`, the bounded decompression of one zstd-compressed message pa
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint
@@ -61,8 +62,9 @@ class _Source:
     file: LogFile
     topics: dict[tuple[str, str], _Topic]  # by (topic, msgtype)
     warnings: list[str]
-    #: topics the file holds but no ROS reader can decode (other encodings), and why
-    unreadable_topics: dict[str, str] = {}  # noqa: RUF012  (read-only default; set per instance)
+    #: topics the file holds but no ROS reader can decode (other encodings), and why (none,
+    #: read-only, unless a reader sets its own)
+    unreadable_topics: Mapping[str, str] = MappingProxyType({})
 
     def messages(
         self,

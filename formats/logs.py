@@ -157,10 +157,7 @@ class LogSet:
                 return info
         unreadable = self.unreadable_topics.get(name)
         if unreadable is not None:
-            raise TopicNotFoundError(
-                f"topic {name!r} is in the log, but aion cannot read it: {unreadable}",
-                hint="aion reads ROS messages (ROS 1 or CDR-encoded ROS 2 MCAP channels)",
-            )
+            raise unreadable_topic_error(name, unreadable)
         candidates = [f"{t.topic} ({t.msgtype})" for t in self.topics]
         raise TopicNotFoundError(
             f"topic {name!r} is not in the log", candidates=candidates, hint="see `aion info LOG`"
@@ -361,7 +358,7 @@ def open_logs(
                         f"{p}: {source.file.path} is read already (given as "
                         f"{read_from[key]}): it is used once"
                     )
-                    (sources[-1].warnings if sources else []).append(warning)
+                    sources[-1].warnings.append(warning)  # the first path's never repeat
                     continue
                 read_from[key] = Path(p)
                 sources.append(source)
@@ -388,6 +385,18 @@ def open_logs(
         for source in sources:
             source.close()
         raise
+
+
+def unreadable_topic_error(
+    name: str, why: str, candidates: list[str] | None = None
+) -> TopicNotFoundError:
+    """The error for topic ``name``, which the log holds in an encoding no ROS reader decodes
+    (``why``, from :attr:`LogSet.unreadable_topics`): it is there, not missing."""
+    return TopicNotFoundError(
+        f"topic {name!r} is in the log, but aion cannot read it: {why}",
+        candidates=candidates or [],
+        hint="aion reads ROS messages (ROS 1 or CDR-encoded ROS 2 MCAP channels)",
+    )
 
 
 def _first_reasons(warnings: list[str]) -> str:

@@ -152,17 +152,18 @@ class _McapSource(_McapIndexed):
         pending, self._pending_big = self._pending_big, None
         self._oversized(pending or [])
         self.topics = {}
+        unreadable: dict[str, str] = {}
+        self.unreadable_topics = unreadable
         for cid, channel in sorted(channels.items()):
             schema = schemas.get(channel.schema_id)
             encoding = _MESSAGE_ENCODINGS.get(channel.message_encoding)
             if schema is None or encoding is None or not _schema_encoding_ok(schema.encoding):
                 enc = schema.encoding if schema is not None else "none"
                 n = counts.get(cid, 0)
-                self.unreadable_topics = {
-                    **self.unreadable_topics,
-                    channel.topic: f"message encoding {channel.message_encoding!r} with schema "
-                    f"encoding {enc!r} is not ROS",
-                }
+                unreadable[channel.topic] = (
+                    f"message encoding {channel.message_encoding!r} with schema encoding "
+                    f"{enc!r} is not ROS"
+                )
                 self.warnings.append(
                     f"{path.name}: topic {channel.topic} skipped ({n:,} message"
                     f"{'' if n == 1 else 's'}): message encoding "

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from aion_cli.cli.console import console, warn_each
-from aion_cli.cli.output import human_size, markup_safe
+from aion_cli.cli.output import counted, human_size, markup_safe
 
 
 def span_text(seconds: float | None) -> str:
@@ -64,7 +64,7 @@ def print_summary(summary: dict[str, Any]) -> None:
     for k, (name, (shards, seconds, peak, used)) in enumerate(sorted(workers.items())):
         table.add_row(
             f"worker {k + 1}" if len(workers) > 1 else "worker",
-            f"{int(shards)} shard{'' if int(shards) == 1 else 's'}, {int(used):,} det, "
+            f"{counted(int(shards), 'shard')}, {int(used):,} det, "
             f"{seconds:.1f} s, {peak:.0f} MB  "
             f"[dim]({markup_safe(name)})[/dim]",
         )

@@ -8,7 +8,7 @@ from typing import Any
 import click
 
 from aion_cli.cli.common import AionPath, parse_span
-from aion_cli.cli.output import AionCommand
+from aion_cli.cli.output import AionCommand, counted
 
 EPILOG = """\b
 Examples:
@@ -269,8 +269,8 @@ def command(
         )
     span = (summary.end_ns - summary.start_ns) / 1e9
     console().print(
-        f"wrote {summary.path}: {_count(summary.detections, 'detection')} of "
-        f"{_count(summary.tracks, 'track')} in {_count(summary.detection_messages, 'message')} "
+        f"wrote {summary.path}: {counted(summary.detections, 'detection')} of "
+        f"{counted(summary.tracks, 'track')} in {counted(summary.detection_messages, 'message')} "
         f"over {span:,.0f} s"
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,
@@ -339,8 +339,3 @@ def _check_layout_options(
             f"--length-unit does not apply to the {layout} layout",
             hint="only thor-magni files may be in millimetres",
         )
-
-
-def _count(n: int, noun: str) -> str:
-    """``1 track``, ``2,000 tracks``."""
-    return f"{n:,} {noun}{'' if n == 1 else 's'}"

@@ -17,7 +17,7 @@ from aion_cli.cli.common import (
     tz_option,
 )
 from aion_cli.cli.completion import complete_nodes
-from aion_cli.cli.output import AionCommand
+from aion_cli.cli.output import AionCommand, counted
 
 EPILOG = """\b
 Examples:
@@ -161,9 +161,9 @@ def command(
             done = export_dsg(loaded, map_path, out_dir, times[0], zone)
             advance()
             return (
-                f"wrote {markup_safe(out_dir)}: {_n(done.places, 'place')} "
-                f"({done.places_with_dynamics:,} with dynamics), {_n(done.rooms, 'room')}, "
-                f"{_n(done.buildings, 'building')}, {_n(done.edges, 'place edge')}"
+                f"wrote {markup_safe(out_dir)}: {counted(done.places, 'place')} "
+                f"({done.places_with_dynamics:,} with dynamics), {counted(done.rooms, 'room')}, "
+                f"{counted(done.buildings, 'building')}, {counted(done.edges, 'place edge')}"
             )
 
     elif fmt == "png":
@@ -210,8 +210,3 @@ def command(
         span = [int(t) for t in times if t is not None] if len(times) > 1 else None
         announce_time(times[0], zone, label, loaded, series=span)
     console().print(done)
-
-
-def _n(count: int, noun: str) -> str:
-    """``1 building``, ``3 rooms``."""
-    return f"{count:,} {noun}{'' if count == 1 else 's'}"

@@ -272,9 +272,11 @@ def _print(report: dict[str, Any]) -> None:
     if held > report["messages"]:  # the rest on topics no ROS reader can decode (warnings)
         messages = f"{messages} readable of {held:,} (see the warnings)"
     seconds = float(report["duration_s"])
-    readable = f" = {seconds / 86400:,.1f} days" if seconds >= 2 * 86400 else (
-        f" = {span_text(seconds)}" if seconds >= 3600 else ""
-    )
+    readable = ""  # a long span also in days or hours
+    if seconds >= 2 * 86400:
+        readable = f" = {seconds / 86400:,.1f} days"
+    elif seconds >= 3600:
+        readable = f" = {span_text(seconds)}"
     duration = f"{seconds:,.1f} s{readable} ({report['start']} .. {report['end']})"
     if held == 0:  # an empty recording (info opens it; build refuses it)
         duration = "none (no messages)"

@@ -182,6 +182,11 @@ def emit(
         render_table(rows, columns, title)
 
 
+def counted(n: int, noun: str) -> str:
+    """``n`` with ``noun``, plural unless 1: ``1 track``, ``2,000 tracks``."""
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"
+
+
 def human_size(n: int) -> str:
     """Bytes as B / KiB / MiB / GiB."""
     value = float(n)
