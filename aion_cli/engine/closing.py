@@ -136,15 +136,17 @@ def _record(
     reach = state.config.sensor_range
     for w, fixed in zip(windows.tolist(), fixed_mask, strict=True):
         observed = none
-        if not fixed and waiting.size:
-            seen = state.observation.robot_observed(state.nodes.xyz[waiting, :2], w, delta, reach)
-            if seen.any():
-                waiting = enter_observed_nodes(state, waiting, seen)
-                rows = ent.live_rows()
+        if not fixed and (waiting.size or len(rows)):
+            # one coverage test per window over the waiting nodes and the live entries
+            k = waiting.size
+            points = np.concatenate([state.nodes.xyz[waiting, :2], xy]) if k else xy
+            mask = state.observation.robot_observed(points, w, delta, reach)
+            observed = rows[mask[k:]]
+            if mask[:k].any():  # their new entries are observed in this window too
+                waiting = enter_observed_nodes(state, waiting, mask[:k])
+                before, rows = rows, ent.live_rows()
                 xy = ent.xyz[rows, :2]
-        if not fixed and len(rows):
-            mask = state.observation.robot_observed(xy, int(w), delta, reach)
-            observed = rows[mask]
+                observed = np.sort(np.concatenate([observed, np.setdiff1d(rows, before)]))
         if w == w0:
             if not fixed:
                 observed = np.union1d(observed, count_rows)
