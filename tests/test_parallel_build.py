@@ -321,24 +321,37 @@ def test_a_stopped_worker_ends_quietly(capfd: pytest.CaptureFixture[str]) -> Non
 
 
 @pytest.mark.skipif(sys.platform != "linux", reason="workers fork only on Linux")
-def test_workers_fork_beside_the_log_hashing_thread_only() -> None:
+def test_workers_fork_beside_the_log_hashing_thread_only(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     # The build hashes its logs in a thread while it learns; a parallel build that found it
     # still running started its workers from a forkserver (a fresh process importing the
-    # build's modules), slower, and only when the hash had not finished: a race.
+    # build's modules), slower, and only when the hash had not finished: a race. The threads
+    # the choice sees are given here: a thread another test left finishing in the background
+    # must not decide this test (it did, once).
     import threading
 
     from aion_cli.process_pool import _context
 
-    assert _context().get_start_method() == "fork"
+    main = threading.main_thread()
     release = threading.Event()
-    for name, method in (("aion-hash-logs", "fork"), ("progress-refresh", "forkserver")):
-        thread = threading.Thread(target=release.wait, name=name, daemon=True)
-        thread.start()
+    for names, method in (
+        ((), "fork"),
+        (("aion-hash-logs",), "fork"),
+        (("progress-refresh",), "forkserver"),
+        (("aion-hash-logs", "progress-refresh"), "forkserver"),
+    ):
+        threads = [threading.Thread(target=release.wait, name=n, daemon=True) for n in names]
+        for thread in threads:
+            thread.start()
+        monkeypatch.setattr(threading, "enumerate", lambda ts=threads: [main, *ts])
         try:
-            assert _context().get_start_method() == method, name
+            assert _context().get_start_method() == method, names
         finally:
+            monkeypatch.undo()
             release.set()
-            thread.join()
+            for thread in threads:
+                thread.join()
             release.clear()
 
 

@@ -131,3 +131,22 @@ def test_detection_topic_exists_even_when_nobody_walks(tmp_path: Path) -> None:
         sizes = {len(logs.decode(r).tracks) for r in logs.messages({DET})}
     assert topics[DET] == result.meta["messages"]["detections"] >= 15 * 60 // 10
     assert sizes == {0}
+
+
+def test_a_scene_ends_before_the_next_one_starts(tmp_path: Path) -> None:
+    """A scene of d days covers [start, start + d): the scene that starts where it ends shares
+    no instant with it, so the two build into parts that merge (a last tick at the end had put
+    both days' scenes at midnight)."""
+    config = replace(PATROL, agents=0, days=0.25 / 24, start="2026-01-05T03:00")
+    first = simulate(config, tmp_path / "a.mcap")[0]
+    second = simulate(replace(config, start="2026-01-05T03:15"), tmp_path / "b.mcap")[0]
+    spans = []
+    for result in (first, second):
+        with open_logs([result.log]) as logs:
+            times = np.array([r.log_time_ns for r in logs.messages(None)], dtype=np.int64)
+        spans.append((int(times.min()), int(times.max())))
+    start = np.datetime64("2026-01-05T03:00", "ns").astype(np.int64)
+    quarter = 15 * 60 * 10**9
+    assert spans[0][0] == start
+    assert spans[1][0] == start + quarter
+    assert start + quarter - 10**9 <= spans[0][1] < start + quarter  # ends within its last second
