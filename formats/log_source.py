@@ -31,8 +31,9 @@ _ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
 
 @dataclass(frozen=True)
 class LogFile:
-    """One opened file: container format (``mcap-ros2``, ``mcap-ros1``, ``bag``,
-    ``rosbag2-sqlite3``, ``rosbag2-mcap``), size on disk, time range and message count."""
+    """One opened file: container format (``mcap-ros2``, ``mcap-ros1``, ``mcap`` for an MCAP
+    with neither a ROS profile nor a ROS topic, ``bag``, ``rosbag2-sqlite3``,
+    ``rosbag2-mcap``), size on disk, time range and message count."""
 
     path: Path
     format: str

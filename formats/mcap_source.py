@@ -185,6 +185,8 @@ class _McapSource(_McapIndexed):
             fmt = fmt_name
         elif self._profile == "ros1" or (not self._profile and _all_ros1(self.topics)):
             fmt = "mcap-ros1"
+        elif not self._profile and not self.topics:
+            fmt = "mcap"  # neither a ROS profile nor a ROS topic: not a ROS 2 log either
         else:
             fmt = "mcap-ros2"
         total = sum(counts.values())

@@ -5,6 +5,7 @@ types and the real leg_tracker bags (id-less PoseArrays with zero quaternions: l
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -370,6 +371,8 @@ def test_a_topic_in_another_encoding_is_said_to_be_there(tmp_path: Path) -> None
         result = run(*args)
         assert result.exit_code == 2, result.stderr
         assert_one_line_error(result.stderr, expected)
+    described = run("info", log, "--format", "json")
+    assert json.loads(described.stdout)["files"][0]["format"] == "mcap"  # not "mcap-ros2"
     note = " ".join(run("info", log).stderr.split())
     assert "it has no ROS topic aion can read: see the warnings" in note
     assert "--detections-topic" not in note
