@@ -49,6 +49,9 @@ class TracksLogSummary:
     observed_ns: int = 0
     #: distinct track ids among the detections
     tracks: int = 0
+    #: times of the first and the last detection (None: the log holds none)
+    first_detection_ns: int | None = None
+    last_detection_ns: int | None = None
 
 
 #: interval of the empty detection messages over an observed span: far below any sane
@@ -435,12 +438,14 @@ def _write_tracks(
         )
         held: DetectionBatch | None = None  # the rows of the last, maybe unfinished, message
         t0: int | None = None
+        last_detection: int | None = None
         for chunk in chunks:
             if len(chunk) == 0:
                 continue
             _check_chunk(chunk, kind, held)
             check_stamps(int(chunk.t_ns[-1]), container, "the tracks")
             t0 = int(chunk.t_ns[0]) if t0 is None else t0
+            last_detection = int(chunk.t_ns[-1])
             track_ids = np.union1d(track_ids, chunk.track_id)
             data = chunk if held is None else DetectionBatch.concat([held, chunk])
             keys = _group_keys(data.t_ns, group_ns, t0)
@@ -471,6 +476,8 @@ def _write_tracks(
         observed_spans=len(spans),
         observed_ns=sum(b - a for a, b in spans),
         tracks=len(track_ids),
+        first_detection_ns=t0,
+        last_detection_ns=last_detection,
     )
 
 

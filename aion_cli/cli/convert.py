@@ -275,6 +275,7 @@ def command(
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,
     )
+    _warn_spans_without_detections(spans, summary, zone)
     if summary.observed_spans:
         console().print(
             f"observed: {summary.observed_spans} span(s), {summary.observed_ns / 3.6e12:,.2f} h, "
@@ -291,6 +292,27 @@ def command(
         note(
             f"the log's times are absolute; build with --tz {zone.name} for a map whose days "
             f"and hours of the day are {zone.name}'s (aion build {output.name} --tz {zone.name})"
+        )
+
+
+def _warn_spans_without_detections(
+    spans: list[tuple[int, int]], summary: Any, zone: Any
+) -> None:
+    """A warning for each ``--observed`` span that lies wholly before the first detection or
+    after the last: most likely a span typed in the wrong zone or hour (it is still written:
+    a sensor may well have recorded nobody then)."""
+    first, last = summary.first_detection_ns, summary.last_detection_ns
+    if first is None or last is None:
+        return
+    from aion_cli.cli.console import warn
+    from aion_cli.timeparse import format_ns
+
+    outside = [(a, b) for a, b in spans if b <= first or a > last]
+    for a, b in outside[:3]:
+        warn(
+            f"--observed {format_ns(a, zone)}..{format_ns(b, zone)} holds no detection: "
+            f"the detections run from {format_ns(first, zone)} to {format_ns(last, zone)} "
+            "(a span in another time zone or hour?)"
         )
 
 

@@ -26,6 +26,11 @@ def check_series_options(
     """Whether a series was asked for; an :class:`InputError` for options that contradict."""
     from aion_cli.errors import InputError
 
+    if historical and time_given:
+        raise InputError(
+            "--historical is what was observed, at no time: it takes no --time",
+            hint="leave out --time, or --historical",
+        )
     if t_from is None and t_to is None:
         if step is not None:
             raise InputError("--step needs --from and --to", hint="e.g. --from 08:00 --to 18:00")

@@ -240,6 +240,17 @@ def grid_view(grid: GridMoD, t_ns: int | None) -> MapView:
     return MapView(d.entropy, flow, d.dominant_angle)
 
 
+def evaluated_times(scene_end_ns: int, eval_hours: int) -> npt.NDArray[np.int64]:
+    """The times a scene is evaluated at: ``eval_hours`` evenly spaced over its last 24 hours
+    (the day before ``scene_end_ns``, exclusive), the first at that day's start, so each
+    falls at the start of its window and hour (at 24 a day: 00:00, 01:00, ..., 23:00)."""
+    day = 86_400_000_000_000
+    out: npt.NDArray[np.int64] = scene_end_ns - day + np.arange(eval_hours, dtype=np.int64) * (
+        day // eval_hours
+    )
+    return out
+
+
 def scene_config(scene_days: float, agents: int, seed: int) -> Any:
     """The simulator settings of the comparison (map-frame detections, see module doc)."""
     from aion_cli.sim.scenario import ScenarioConfig
@@ -289,7 +300,7 @@ def run_scene(
     views = {
         "Historical": (discretise(historical_table(state), centres, radius), grid_view(grid, None))
     }
-    last_day = data.end_ns - np.arange(eval_hours)[::-1] * (86_400_000_000_000 // eval_hours)
+    last_day = evaluated_times(data.t0_ns + data.n_ticks * data.dt_ns, eval_hours)
     tables = [predict_table(state, int(t)) for t in last_day]  # for the grid and the truth
     predicted = [
         compare_views(discretise(table, centres, radius), grid_view(grid, int(t)))

@@ -133,6 +133,10 @@ def test_observed_spans_become_empty_messages(tmp_path: Path) -> None:
     assert f"{marks:,} empty detection messages" in result.stderr
     # the zone read the spans; the map's days follow build's own --tz, which the log cannot hold
     assert "build with --tz Europe/Berlin" in " ".join(result.stderr.split())
+    # the second span lies hours after the minute of detections: a likely typo, said once
+    warned = [line for line in result.stderr.splitlines() if "holds no detection" in line]
+    assert len(warned) == 1
+    assert "2026-11-23 14:00:00+01:00..2026-11-23 14:30:00+01:00" in warned[0]
     times, frames, windows = read_back(log)
     assert times == sorted(times)
     assert len(times) == 60 + marks

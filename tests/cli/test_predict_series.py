@@ -112,6 +112,7 @@ def test_the_api_series_equals_the_cli(rhythm: Path) -> None:
         (["--from", "2026-01-02", "--to", "2026-01-01"], "--to is before --from"),
         (["--from", "2026-01-01", "--to", "2026-01-02", "--historical"], "--historical"),
         (["--from", "2026-01-01", "--to", "2026-01-02", "--time", "now"], "--time or --from"),
+        (["--historical", "--time", "now"], "it takes no --time"),
         (["--from", "2026-01-01", "--to", "2026-01-02", "--step", "0"], "at least 1 s"),
         (["--from", "2026-01-01", "--to", "2026-01-02", "--step", "fast"], "cannot read the step"),
         (["--from", "2026-01-01", "--to", "2026-03-01", "--step", "1m"], "at most 1,000"),

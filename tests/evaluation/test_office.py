@@ -12,6 +12,7 @@ from aion_cli.evaluation.office import (
     FlowSeries,
     MapView,
     compare_views,
+    evaluated_times,
     expected_flow_correlations,
     reference_forecasts,
     run_office,
@@ -249,3 +250,15 @@ def test_the_grid_comparison_places_aions_bins_at_their_centres() -> None:
     expected = math.atan2(float(p @ np.sin(centres)), float(p @ np.cos(centres)))
     assert seen.angle[0] == pytest.approx(expected, abs=1e-12)
     assert expected > math.radians(15.0)  # the centre, not the walking direction
+
+
+def test_a_scene_is_evaluated_at_the_hours_of_its_last_day() -> None:
+    """Two days from Monday 00:00 (ticks up to 23:59:59.5 on Tuesday): Tuesday 00:00 .. 23:00,
+    each at the start of its hour (they had been the last tick and the 23 hours before it,
+    half a second before each hour: the hour before's forecast)."""
+    t0 = int(np.datetime64("2026-01-05T00:00", "ns").astype(np.int64))
+    hour = 3_600_000_000_000
+    dt = 500_000_000
+    n_ticks = 2 * 24 * 3600 * 2
+    times = evaluated_times(t0 + n_ticks * dt, 24)
+    assert times.tolist() == [t0 + 24 * hour + k * hour for k in range(24)]
