@@ -136,10 +136,11 @@ def read_held_out(
     if last is not None:
         at = np.array([last], np.int64)
         fixed_last = bool(state.observation.fixed_mask(at, state.window_ns)[0])
-        if fixed_last or bool(np.any(batch.t_ns // state.window_ns == last)):
+        if not fixed_last:  # the robot's places in range then, as for every other window
+            state.note_seen(int(last))
+        robot_saw = int(last) in state.seen and state.seen[int(last)].size > 0
+        if fixed_last or robot_saw or bool(np.any(batch.t_ns // state.window_ns == last)):
             recorded.append((int(last), fixed_last))
-            if not fixed_last:
-                state.note_seen(int(last))
     windows = np.array([w for w, _ in recorded], dtype=np.int64)
     fixed = np.array([f for _, f in recorded], dtype=bool)
     if windows.size and np.any(np.diff(windows) == 0):  # a window recorded twice: keep one
