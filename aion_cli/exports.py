@@ -204,13 +204,18 @@ def export_dsg(
         for n, row in zip(node_ids, rows_from_table(table, places), strict=True)
     }
     if len(graph.rooms) or len(graph.buildings):
+        from aion_cli.room_names import names_by_id
+
+        names = names_by_id(graph)
         for layer in ("rooms", "buildings"):
             try:
                 grouped = entry_table(loaded, t_ns, layer)
             except InputError:  # the graph has none that hold places
                 continue
             for row in rows_from_table(grouped):
-                records[parse_node_id(str(row["id"]))] = _node_record(row)
+                record = _node_record(row)
+                record["name"] = names.get(str(row["id"]))  # as predict's records carry it
+                records[parse_node_id(str(row["id"]))] = record
     (seen,) = hour_flags(loaded, [t_ns])
     info = document(map_path, loaded.config.bins, [], t_ns, zone, seen)
     info.pop("entries")

@@ -67,6 +67,18 @@ def check_dsg_target(path: Path) -> None:
     check_output(path, overwrite=True, recognise=_written_by_aion, what="a scene-graph file")
 
 
+def _names(layer: Any) -> list[str]:
+    """The name of each node of ``layer`` as the graph gave it ("kitchen"), "" where it gave
+    none or only the node's id ("R3", which the reader derives from the id anyway)."""
+    from aion_cli.engine.node_ids import node_label
+
+    labels = list(layer.labels) + [""] * (len(layer) - len(layer.labels))
+    return [
+        label if label and label != node_label(node_id) else ""
+        for node_id, label in zip(layer.ids.tolist(), labels, strict=False)
+    ]
+
+
 def write_dynamic_graph(
     graph: GraphSnapshot,
     records: Mapping[int, dict[str, Any]],
@@ -97,10 +109,14 @@ def write_dynamic_graph(
         dsg.insert_edge(
             spark_dsg.NodeSymbol(int(places.ids[a])), spark_dsg.NodeSymbol(int(places.ids[b]))
         )
-    for node_id, xyz in zip(graph.rooms.ids.tolist(), graph.rooms.xyz, strict=True):
-        add(spark_dsg.DsgLayers.ROOMS, spark_dsg.RoomNodeAttributes(), node_id, xyz)
-    for node_id, xyz in zip(graph.buildings.ids.tolist(), graph.buildings.xyz, strict=True):
-        add(spark_dsg.DsgLayers.BUILDINGS, spark_dsg.SemanticNodeAttributes(), node_id, xyz)
+    for layer, kind, make in (
+        (graph.rooms, spark_dsg.DsgLayers.ROOMS, spark_dsg.RoomNodeAttributes),
+        (graph.buildings, spark_dsg.DsgLayers.BUILDINGS, spark_dsg.SemanticNodeAttributes),
+    ):
+        for node_id, xyz, name in zip(layer.ids.tolist(), layer.xyz, _names(layer), strict=True):
+            attrs = make()
+            attrs.name = name  # Hydra's room label ("kitchen"), read back by build --graph
+            add(kind, attrs, node_id, xyz)
     for layer in (places, graph.rooms):  # each node to its parent one layer up
         for child, parent in zip(layer.ids.tolist(), layer.parent.tolist(), strict=True):
             if parent and dsg.has_node(spark_dsg.NodeSymbol(parent)):

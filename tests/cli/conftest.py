@@ -21,6 +21,8 @@ from click.testing import CliRunner, Result
 from aion_cli.cli.main import cli
 from tests.cli.logdata import Expected, write_office_log
 
+SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "office.mcap"
+
 AION = Path(sys.executable).with_name("aion")
 
 
@@ -94,3 +96,13 @@ def office(tmp_path_factory: pytest.TempPathFactory) -> Office:
 def _utc(monkeypatch: pytest.MonkeyPatch) -> None:
     """Times without a zone are read in UTC unless a test says otherwise."""
     monkeypatch.setenv("TZ", "UTC")
+
+
+@pytest.fixture(scope="session")
+def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A map of the bundled sample (five workdays of the office, named rooms, a mesh, varied
+    flows and entropies), built once."""
+    out = tmp_path_factory.mktemp("sample") / "office.aion"
+    result = run("build", SAMPLE, "-o", out, "-q")
+    assert result.exit_code == 0, result.stderr
+    return out

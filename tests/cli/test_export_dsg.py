@@ -147,3 +147,26 @@ def test_a_map_without_a_graph_is_refused(tmp_path: Path) -> None:
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "no scene graph")
     assert not (tmp_path / "g.json").exists()
+
+
+def test_room_names_are_written_and_read_back(sample_map: Path, tmp_path: Path) -> None:
+    """The sample's rooms keep their names (Hydra's labels) in the file, as node names and in
+    the records, and a map built with the file as its graph plans from a room by its name."""
+    out = tmp_path / "named.json"
+    assert run("export", sample_map, "--historical", "--format", "dsg", "-o", out).exit_code == 0
+    graph = _graph(out)
+    rooms = run_json("predict", sample_map, "--historical", "--layer", "rooms", "--format",
+                     "json")["entries"]
+    named = {row["id"]: row["name"] for row in rooms}
+    assert named["R2"] == "kitchen"  # the sample's kitchen (samples/README.md)
+    for node_id, name in named.items():
+        node = graph.get_node(spark_dsg.NodeSymbol(node_id[0], int(node_id[1:])))
+        assert node.attributes.name == name
+        assert _record(graph, node_id)["name"] == name  # type: ignore[index]
+    rebuilt = tmp_path / "again.aion"
+    from tests.cli.conftest import SAMPLE
+
+    assert run("build", SAMPLE, "--graph", out, "-o", rebuilt, "-q").exit_code == 0
+    assert run("plan", rebuilt, "--from", "kitchen", "--to", "p2").exit_code == 0
+    again = run_json("predict", rebuilt, "--historical", "--layer", "rooms", "--format", "json")
+    assert {row["id"]: row["name"] for row in again["entries"]} == named

@@ -25,16 +25,6 @@ TIMES = ["2026-01-12 07:00", "2026-01-12 08:00", "2026-01-12 09:00"]
 UTC = resolve_zone("UTC")
 
 
-@pytest.fixture(scope="module")
-def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The bundled sample (places, two hash cells, a mesh, varied flows and entropies)."""
-    folder = tmp_path_factory.mktemp("sample")
-    out = folder / "office.aion"
-    result = run("build", SAMPLE, "-o", out, "-q")
-    assert result.exit_code == 0, result.stderr
-    return out
-
-
 def series_args(map_path: Path, out: Path, *extra: str) -> list[str | Path]:
     return [
         "export",

@@ -10,17 +10,7 @@ import pytest
 
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 
-SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "office.mcap"
 SPAN = "2026-01-12 06:00..2026-01-12 12:00"
-
-
-@pytest.fixture(scope="module")
-def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The bundled sample: five days of an office routine, so costs change over the day."""
-    out = tmp_path_factory.mktemp("departures") / "office.aion"
-    result = run("build", SAMPLE, "-o", out, "-q")
-    assert result.exit_code == 0, result.stderr
-    return out
 
 
 def _plan(map_path: Path, *extra: str, ends: tuple[str, str] = ("p103", "p2")) -> Any:
