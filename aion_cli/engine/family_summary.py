@@ -37,10 +37,35 @@ def family_summary(state: MapState) -> dict[str, Any]:
         "direction": _tally(np.asarray(params.direction)[direction]),
         "reconciled": bool(reconciled),
         "scored_windows": float(t.flow_scored[rows].sum()),
-        "scored_days": int(t.flow_days[rows].max(initial=0.0)),
+        "scored_days": _scored_days(state, t, rows),
         "last_day_provisional": state.provisional_scores() is not None,  # cached
         "observed_bins": observed.tolist(),
     }
+
+
+def _scored_days(state: MapState, t: Any, rows: Any) -> int:
+    """The days the map scored: the most any entry counts, but never more than the local days
+    its observation spans less the first (which nothing before it forecasts). An entry that
+    absorbed another over the same days (a cell bound to a node, places merged) counts their
+    days twice — its day-ahead test pools the two entries' days as separate samples — which is
+    no figure for the map."""
+    most = int(t.flow_days[rows].max(initial=0.0))
+    if most == 0 or rows.size == 0:
+        return most
+    from aion_cli.engine.windows import EPOCH_NS
+
+    obs = t.observation(rows, fourier=False)
+    first, last = np.fmin.reduce(obs.first), np.fmax.reduce(obs.last)
+    if not np.isfinite(first):
+        return most
+    ends = [EPOCH_NS + round(float(first) * 1e9)]
+    if np.isfinite(last):
+        ends.append(EPOCH_NS + round(float(last) * 1e9))
+    held = state.pending.consolidated().windows if state.pending else np.zeros(0, np.int64)
+    if held.size:  # the pending day, scored provisionally, is in no entry's observation yet
+        ends.append(int(held.max()) * state.window_ns)
+    days = state.params.calendar.day(np.array(ends, np.int64))
+    return min(most, max(int(days.max()) - int(days.min()), 0))
 
 
 def _tally(names: np.ndarray) -> dict[str, int]:

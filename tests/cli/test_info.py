@@ -206,3 +206,16 @@ def test_a_map_lists_its_rooms_with_their_names(office: Office, tmp_path: Path) 
     cells = tmp_path / "cells.aion"
     assert run("build", bare, "-o", cells).exit_code == 0
     assert run_json("info", cells, "--format", "json")["rooms"] == []
+
+
+def test_days_scored_are_the_map_s_days_not_an_entry_s_sum(sample_map: Path) -> None:
+    """The sample's five workdays: four scored (Tuesday..Friday, Friday provisionally). Cells
+    bound to a node over the same days make that node count their days too (the sample has
+    such nodes), which is not how many days the map scored."""
+    from aion_cli.mapquery import load_map
+
+    state = load_map(sample_map).state
+    rows = state.entries.canonical_order()
+    assert int(state.scored_temporal().flow_days[rows].max()) > 4  # what "days scored" said
+    families = run_json("info", sample_map, "--format", "json")["families"]
+    assert families["scored_days"] == 4
