@@ -115,18 +115,19 @@ class ParallelBuild:
             # declared spans count within each file's own time, first to last message, which
             # a time shard of the file cannot see whole: files are shards, never cut
             whole = frozenset(range(len(groups)))
+        # unasked (--workers not given), a log left whole is no news: the notes say why
+        # only when parallel workers were asked for
+        asked = opts.workers >= 2 or opts.scheduler is not None
         shards, notes = split_groups(
-            groups, opts, window, workers, self.config.stable_move_tolerance, whole
+            groups, opts, window, workers, self.config.stable_move_tolerance, whole, asked
         )
         report.notes.extend(notes)
-        if opts.observed and len(shards) < 2 and (opts.workers >= 2 or opts.scheduler):
+        if opts.observed and len(shards) < 2 and asked:
             report.notes.append(
                 "--observed: a log is not cut into time shards (its declared spans count "
                 "from its first message to its last): built in sequence"
             )
-        # (else a note says why); unasked (--workers not given), a log too short to cut
-        # is no news
-        asked = opts.workers >= 2 or opts.scheduler is not None
+        # (else a note says why)
         if len(shards) < 2 and not notes and not whole and asked:
             report.notes.append(
                 ("one log" if len(logs) < 2 else "the logs overlap in time (one shard)")

@@ -130,6 +130,7 @@ def split_groups(
     workers: int,
     tolerance: float,
     whole: frozenset[int],
+    explain: bool = True,
 ) -> tuple[list[Shard], list[str]]:
     """The shards of a parallel build's groups of logs (each group's logs share no time window
     with another's) for ``workers`` processes: each group whole or, while there are fewer
@@ -138,7 +139,8 @@ def split_groups(
     the first (:func:`aion_cli.shard_graphs.changing_part`; ``tolerance``: the model's
     ``stable_move_tolerance``); and the report's notes on the cuts. The groups at indices
     ``whole`` (kept together across sessions, :func:`aion_cli.shard_graphs.kept_together`)
-    are never cut, nor their times read."""
+    are never cut, nor their times read. Without ``explain`` (workers not asked for) a group
+    left whole is no news: only the cuts made are noted."""
     target = SHARDS_PER_WORKER * max(workers, 2)
     if len(groups) >= target or len(whole) == len(groups):
         return [(group, None, True) for group in groups], []
@@ -158,7 +160,7 @@ def split_groups(
             else ([], None)
         )
         names = ", ".join(p.name for p in group[:3]) + (", ..." if len(group) > 3 else "")
-        if changing is not None:
+        if changing is not None and explain:
             notes.append(
                 f"{names}: not cut into time shards: {'their' if len(group) > 1 else 'its'} "
                 f"scene graph changes after "

@@ -98,6 +98,9 @@ def test_a_log_whose_graph_changes_in_a_later_part_is_not_cut(tmp_path: Path) ->
     assert [n for n in two.notes if "not cut into time shards: its scene graph changes after" in n]
     assert not [n for n in two.notes if "no quiet moment" in n]
     assert same_maps(seq, par) == []
+    # workers not asked for (the default): a log left whole is no news
+    unasked = build_logs([log], tmp_path / "auto.aion", 0)  # one per core, as the CLI
+    assert not [n for n in unasked.notes if "time shards" in n]
 
 
 def test_a_log_whose_graph_stays_in_each_later_part_is_still_cut(tmp_path: Path) -> None:
