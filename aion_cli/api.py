@@ -211,23 +211,25 @@ class Map:
         top: int | None = None,
     ) -> SeriesTable:
         """Predicted flow of the entries asked for at ``start``, ``start + step``, ... up to
-        ``end`` (``step`` as ``"1h"``, ``"30m"`` or seconds), as ``aion predict --from --to
-        --step``: an :class:`aion_cli.prediction_series.SeriesTable` (``flow`` and
+        ``end`` inclusive (``step`` as ``"1h"``, ``"30m"`` or seconds of elapsed time, or
+        ``"1d"`` / ``"1w"``: calendar days in ``tz``, the same wall-clock time every day across
+        a daylight-saving change), as ``aion predict --from --to --step``: an
+        :class:`aion_cli.prediction_series.SeriesTable` (``flow`` and
         ``flow_per_hour`` as arrays entries x times; ``records()`` as its JSON's entries,
         ``to_dict()`` as the whole document, with ``times``, ``zone`` and ``hour_observed``);
         each value equals :meth:`predict` at that time."""
         from aion_cli.prediction_series import described, predict_series, series_times
         from aion_cli.predictions import LAYERS, hour_flags
-        from aion_cli.timeparse import format_ns, step_ns
+        from aion_cli.timeparse import format_ns, parse_step
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
         wanted, point, top = check.selection(nodes, at, top)
         self._check_file()
-        every = step_ns(check.step(step))
+        every = parse_step(check.step(step))
         t0, zone = self._time(start, tz)
         t1, _ = self._time(end, tz)
-        times = series_times(t0, t1, every, ("start", "end"))
+        times = series_times(t0, t1, every, zone, ("start", "end"))
         table = predict_series(self._loaded, times, layer, wanted, point, top)
         labels = [format_ns(t, zone) for t in times]
         label = str(self.path) if self.path is not None else "<memory>"
@@ -271,13 +273,13 @@ class Map:
         from aion_cli.api_results import departure_rows
         from aion_cli.prediction_series import series_times
         from aion_cli.predictions import hour_flags
-        from aion_cli.timeparse import step_ns
+        from aion_cli.timeparse import parse_step
 
-        every = step_ns(check.step(step))
+        every = parse_step(check.step(step))
         earliest, latest = (
             self._time(t, tz)[0] for t in check.pair(leave, "leave", "earliest, latest")
         )
-        times = series_times(earliest, latest, every, ("leave[0]", "leave[1]"))
+        times = series_times(earliest, latest, every, zone, ("leave[0]", "leave[1]"))
         plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
         made = Plan.from_routes(plans[best], zone, snapped)
         observed = hour_flags(self._loaded, times)

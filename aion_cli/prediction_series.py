@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.timeparse import Zone
+from aion_cli.timeparse import Step, Zone
 
 if TYPE_CHECKING:
     from aion_cli.mapquery import LoadedMap
@@ -100,15 +100,24 @@ def _listed(row: F64) -> list[float | None]:
 
 
 def series_times(
-    start_ns: int, end_ns: int, step_ns: int, names: tuple[str, str] = ("--from", "--to")
+    start_ns: int,
+    end_ns: int,
+    step: Step,
+    zone: Zone,
+    names: tuple[str, str] = ("--from", "--to"),
 ) -> list[int]:
-    """``start, start + step, ...`` up to ``end`` inclusive; :class:`InputError` for an end
-    before the start or more than :data:`MOST_TIMES` times. ``names``: what the caller
-    calls the start and the end (the CLI's options, or the API's arguments)."""
+    """``start, start + step, ...`` up to ``end`` inclusive (an end that falls on a step is
+    one of the times), each time :func:`aion_cli.timeparse.step_time`'s: a step in days or
+    weeks keeps the wall-clock time of ``start`` in ``zone`` across a daylight-saving change,
+    hours, minutes and seconds are elapsed time. The one place the series of ``predict``,
+    ``export``, ``plan --leave`` and the API's are made. :class:`InputError` for an end before
+    the start or more than :data:`MOST_TIMES` times. ``names``: what the caller calls the
+    start and the end (the CLI's options, or the API's arguments)."""
     from aion_cli.errors import InputError
+    from aion_cli.timeparse import step_time
 
-    if step_ns <= 0:
-        raise InputError(f"the step must be positive, got {step_ns} ns")
+    if step.days < 0 or step.exact_ns < 0 or step.nominal_ns <= 0:
+        raise InputError(f"the step must be positive, got {step}")
     if end_ns < start_ns:
         first, last = names
         raise InputError(
@@ -117,13 +126,23 @@ def series_times(
             if first.startswith("--")
             else f"give a later {last}",
         )
-    count = (end_ns - start_ns) // step_ns + 1
+    # the last step at or before the end: exact for elapsed steps; for calendar days the
+    # estimate of 24 h a day is off by the zone's changes of offset, which the loops correct
+    steps = (end_ns - start_ns) // step.nominal_ns
+    if step.days:
+        while steps > 0 and step_time(start_ns, step, steps, zone) > end_ns:
+            steps -= 1
+        while step_time(start_ns, step, steps + 1, zone) <= end_ns:
+            steps += 1
+    count = steps + 1
     if count > MOST_TIMES:
         raise InputError(
             f"the series would have {count:,} times (at most {MOST_TIMES:,})",
             hint="use a larger --step or a shorter span",
         )
-    return [start_ns + k * step_ns for k in range(int(count))]
+    # a zone that skips a whole calendar day (Pacific/Apia, 2011-12-30) maps that day's
+    # wall-clock time to the next day's instant: the time is taken once
+    return list(dict.fromkeys(step_time(start_ns, step, k, zone) for k in range(count)))
 
 
 def predict_series(

@@ -9,7 +9,7 @@ from typing import Any, TypeVar
 
 import click
 
-from aion_cli.timeparse import Zone, format_ns, parse_time, resolve_zone, step_ns
+from aion_cli.timeparse import Zone, format_ns, parse_step, parse_time, resolve_zone
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -17,6 +17,12 @@ TIME_HELP = (
     'When: "2026-11-23 08:30", "2026-11-23T08:30:00+01:00", "2026-11-23 08:30 Europe/Berlin", '
     'UNIX seconds, "now", "+2h", "-30m", "tomorrow 12:00", "monday 08:30".'
 )
+
+STEP_HELP = (
+    "1h, 30m, 600s (elapsed time), or 1d, 1w (calendar days in the zone: the same "
+    "wall-clock time every day, across a daylight-saving change)"
+)
+"""What ``--step`` reads, for its help (``predict``, ``export``, ``plan``)."""
 
 
 class AionPath(click.Path):
@@ -119,12 +125,13 @@ def series_of(
     t_from: str, t_to: str, step: str, tz: str | None, loaded: Any
 ) -> tuple[list[int], Zone]:
     """The times of ``--from`` .. ``--to`` (inclusive) every ``--step``, in the zone
-    :func:`resolve_time` reads them in (``export`` and ``predict`` series)."""
+    :func:`resolve_time` reads them in, which is also the zone whose calendar days a step in
+    days or weeks counts (``export`` and ``predict`` series)."""
     from aion_cli.prediction_series import series_times
 
     start, zone = resolve_time(t_from, tz, loaded)
     end, _ = resolve_time(t_to, tz, loaded)
-    return series_times(start, end, step_ns(step)), zone
+    return series_times(start, end, parse_step(step), zone), zone
 
 
 def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:

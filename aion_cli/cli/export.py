@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from aion_cli.cli.common import (
+    STEP_HELP,
     TIME_HELP,
     AionPath,
     announce_time,
@@ -38,7 +39,9 @@ Writes into OUT: the scene (nodes as spheres sized by flow and coloured by entro
 to red high, arrows along the dominant direction, flat squares for hash cells, edges as
 lines, the scene graph's mesh, a planned path) as PLY or PCD, plus entries.csv and
 entries.json with the same fields as `aion predict`. --from/--to/--step writes one
-subfolder per time (named by the time) for animations.
+subfolder per time (named by the time) for animations; --to is included when it falls on a
+step, and a step of days or weeks (1d, 1w) keeps the wall-clock time across a daylight-saving
+change.
 
 \b
 --format png writes one picture, -o naming the file: the map from above (place edges, rooms,
@@ -85,7 +88,7 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     "--step",
     metavar="DURATION",
     default=None,
-    help="Time-series step: 1h, 30m, 600s [default: 1h; with --from and --to].",
+    help=f"Time-series step: {STEP_HELP} [default: 1h; with --from and --to].",
 )
 @tz_option
 @click.option(

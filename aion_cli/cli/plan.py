@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from aion_cli.cli.common import (
+    STEP_HELP,
     TIME_HELP,
     AionPath,
     announce_time,
@@ -89,7 +90,9 @@ cost in the legend.
     "--step and keeps the one of least temporal cost.",
 )
 @click.option(
-    "--step", metavar="DURATION", help="Departures every DURATION with --leave [default: 10m]."
+    "--step",
+    metavar="DURATION",
+    help=f"Departures every DURATION with --leave: {STEP_HELP} [default: 10m].",
 )
 @tz_option
 @click.option(

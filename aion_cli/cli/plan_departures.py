@@ -14,13 +14,13 @@ TABLE_ROWS = 48
 
 def departure_times(text: str, step: str, zone: Zone) -> list[int]:
     """The departures of ``--leave START..END`` every ``--step`` (END included when it falls
-    on a step; at most 1,000)."""
+    on a step; a step in days or weeks counts calendar days in ``zone``; at most 1,000)."""
     from aion_cli.cli.common import parse_span
     from aion_cli.prediction_series import series_times
-    from aion_cli.timeparse import step_ns
+    from aion_cli.timeparse import parse_step
 
     start, end = parse_span(text, zone, "--leave")
-    return series_times(start, end, step_ns(step))
+    return series_times(start, end, parse_step(step), zone)
 
 
 def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:

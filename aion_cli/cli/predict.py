@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from aion_cli.cli.common import (
+    STEP_HELP,
     TIME_HELP,
     announce_time,
     map_argument,
@@ -44,7 +45,11 @@ graph; empty for the rest).
 A series (--from, --to, --step) prints one row per time and a column per entry (the
 busiest over the series); JSON lists each entry with its flow and flow_per_hour per time,
 CSV has one row per time and entry (time, time_ns, id, kind, layer, x, y, z, flow,
-flow_per_hour). Each value equals `predict --time` at that time.
+flow_per_hour). Each value equals `predict --time` at that time. The series includes --to
+when it falls on a step. A step of days or weeks (1d, 1w) keeps the wall-clock time in the
+zone across a daylight-saving change; 24h is 24 elapsed hours. A day's time the change skips
+(02:30 on the spring change) is read as --time reads it: as late as the clocks jump (03:30);
+one it repeats is its first occurrence.
 """
 
 TABLE_LIMIT = 100
@@ -87,7 +92,7 @@ TABLE_LIMIT = 100
 @click.option("--top", type=click.IntRange(min=1), help="Only the N busiest entries.")
 @click.option("--from", "t_from", metavar="T", help="Start of a series of predictions.")
 @click.option("--to", "t_to", metavar="T", help="End of the series (inclusive).")
-@click.option("--step", metavar="DURATION", help="Series step: 1h, 30m, 600s [default: 1h].")
+@click.option("--step", metavar="DURATION", help=f"Series step: {STEP_HELP} [default: 1h].")
 @format_option()
 def command(
     map_path: Path,

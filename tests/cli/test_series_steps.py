@@ -1,0 +1,208 @@
+"""The times of a series (``predict``/``export --from --to --step``, ``plan --leave``, the
+API's ``predict_series``) across the daylight-saving changes of Europe/Berlin in 2026: a step
+in days or weeks keeps the wall-clock time, one in hours is elapsed time, and ``--to`` is a
+time of the series when it falls on a step.
+
+Known answers: Berlin is UTC+01:00 until 2026-03-29 02:00, when the clocks jump to 03:00
+(UTC+02:00), and back from 03:00 to 02:00 (UTC+01:00) on 2026-10-25. Every expected instant
+below is written as a UTC time (``_utc``), independently of aion's zone arithmetic.
+"""
+
+from __future__ import annotations
+
+import itertools
+from datetime import UTC, datetime
+from pathlib import Path
+
+import pytest
+
+import aion_cli as aion
+from aion_cli.api import Map
+from aion_cli.timeparse import Step, parse_step
+from tests.cli.conftest import Office, run, run_json
+from tests.engine.temporal_data import DAY, HOUR, corridor
+
+BERLIN = "Europe/Berlin"
+
+
+def _utc(text: str) -> int:
+    """``"2026-03-29 10:00"`` read as UTC -> ns since the epoch."""
+    moment = datetime.fromisoformat(text).replace(tzinfo=UTC)
+    return int(moment.timestamp()) * 10**9
+
+
+@pytest.fixture(scope="module")
+def berlin(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small map whose zone is Europe/Berlin (``aion build --tz Europe/Berlin``)."""
+    mapper = corridor(2, lambda day, hour: 4.0, cells=(2.0, 1.0))
+    path = tmp_path_factory.mktemp("berlin") / "berlin.aion"
+    Map.from_state(mapper.state, timezone=BERLIN).save(path)
+    return path
+
+
+def _series(map_path: Path, start: str, end: str, step: str) -> tuple[list[str], list[int]]:
+    doc = run_json(
+        "predict", map_path, "--from", start, "--to", end, "--step", step, "--top", "1",
+        "--format", "json",
+    )
+    assert doc["zone"] == BERLIN  # the map's zone: no --tz given
+    return doc["times"], doc["times_ns"]
+
+
+def test_a_daily_step_keeps_noon_across_the_spring_change_and_includes_the_end(
+    berlin: Path,
+) -> None:
+    times, times_ns = _series(berlin, "2026-03-27 12:00", "2026-03-31 12:00", "1d")
+    assert times == [
+        "2026-03-27 12:00:00+01:00",
+        "2026-03-28 12:00:00+01:00",
+        "2026-03-29 12:00:00+02:00",
+        "2026-03-30 12:00:00+02:00",
+        "2026-03-31 12:00:00+02:00",  # --to, on a step: included (it was missing)
+    ]
+    assert times_ns == [
+        _utc("2026-03-27 11:00"),
+        _utc("2026-03-28 11:00"),
+        _utc("2026-03-29 10:00"),  # 23 hours after the day before
+        _utc("2026-03-30 10:00"),
+        _utc("2026-03-31 10:00"),
+    ]
+
+
+def test_a_daily_step_keeps_noon_across_the_autumn_change(berlin: Path) -> None:
+    times, times_ns = _series(berlin, "2026-10-23 12:00", "2026-10-27 12:00", "1d")
+    assert times == [
+        "2026-10-23 12:00:00+02:00",
+        "2026-10-24 12:00:00+02:00",
+        "2026-10-25 12:00:00+01:00",
+        "2026-10-26 12:00:00+01:00",
+        "2026-10-27 12:00:00+01:00",
+    ]
+    assert [b - a for a, b in itertools.pairwise(times_ns)] == [
+        DAY, DAY + HOUR, DAY, DAY  # the day of the change has 25 hours
+    ]
+
+
+def test_a_weekly_step_keeps_nine_oclock(berlin: Path) -> None:
+    times, _ = _series(berlin, "2026-03-20 09:00", "2026-04-03 09:00", "1w")
+    assert times == [
+        "2026-03-20 09:00:00+01:00",
+        "2026-03-27 09:00:00+01:00",
+        "2026-04-03 09:00:00+02:00",  # was 10:00, and the end was dropped
+    ]
+
+
+def test_hours_stay_elapsed_time(berlin: Path) -> None:
+    times, _ = _series(berlin, "2026-03-27 12:00", "2026-03-31 12:00", "24h")
+    assert times == [  # 24 elapsed hours: 13:00 after the change, and --to is off the steps
+        "2026-03-27 12:00:00+01:00",
+        "2026-03-28 12:00:00+01:00",
+        "2026-03-29 13:00:00+02:00",
+        "2026-03-30 13:00:00+02:00",
+    ]
+    times, times_ns = _series(berlin, "2026-10-25 01:00", "2026-10-25 04:00", "1h")
+    assert times == [  # the repeated hour twice, an hour apart
+        "2026-10-25 01:00:00+02:00",
+        "2026-10-25 02:00:00+02:00",
+        "2026-10-25 02:00:00+01:00",
+        "2026-10-25 03:00:00+01:00",
+        "2026-10-25 04:00:00+01:00",
+    ]
+    assert times_ns == [_utc("2026-10-24 23:00") + k * HOUR for k in range(5)]
+
+
+def test_a_day_and_hours_step_is_a_calendar_day_then_elapsed_hours(berlin: Path) -> None:
+    times, _ = _series(berlin, "2026-03-28 12:00", "2026-03-31 12:00", "1d12h")
+    assert times == [
+        "2026-03-28 12:00:00+01:00",
+        "2026-03-30 00:00:00+02:00",  # 2026-03-29 12:00, then 12 hours
+        "2026-03-31 12:00:00+02:00",
+    ]
+
+
+def test_wall_clock_times_the_changes_skip_or_repeat(berlin: Path) -> None:
+    times, times_ns = _series(berlin, "2026-03-28 02:30", "2026-03-30 02:30", "1d")
+    assert times == [
+        "2026-03-28 02:30:00+01:00",
+        "2026-03-29 03:30:00+02:00",  # 02:30 does not exist: as late as the clocks jump
+        "2026-03-30 02:30:00+02:00",  # and the next day is 02:30 again
+    ]
+    single = run_json("predict", berlin, "--time", "2026-03-29 02:30", "--top", "1",
+                      "--format", "json")
+    assert times_ns[1] == single["time_ns"] == _utc("2026-03-29 01:30")  # as --time reads it
+    times, _ = _series(berlin, "2026-10-24 02:30", "2026-10-26 02:30", "1d")
+    assert times == [
+        "2026-10-24 02:30:00+02:00",
+        "2026-10-25 02:30:00+02:00",  # 02:30 happens twice: the first one
+        "2026-10-26 02:30:00+01:00",
+    ]
+    times, _ = _series(berlin, "2026-10-25 02:30+01:00", "2026-10-27 03:00", "1d")
+    assert times == [
+        "2026-10-25 02:30:00+01:00",  # the start as given (the second 02:30)
+        "2026-10-26 02:30:00+01:00",
+        "2026-10-27 02:30:00+01:00",
+    ]
+
+
+def test_the_api_series_equals_the_cli_across_the_change(berlin: Path) -> None:
+    m = aion.Map.load(berlin)
+    days = m.predict_series("2026-03-27 12:00", "2026-03-31 12:00", "1d", top=1)
+    _, cli_ns = _series(berlin, "2026-03-27 12:00", "2026-03-31 12:00", "1d")
+    assert days.times_ns == cli_ns
+    assert days.times[-1] == "2026-03-31 12:00:00+02:00"
+    seconds = m.predict_series("2026-03-27 12:00", "2026-03-31 12:00", 86400.0, top=1)
+    assert seconds.times_ns == [_utc("2026-03-27 11:00") + k * DAY for k in range(4)]
+
+
+def test_plan_departures_every_day_keep_the_wall_clock_time(office: Office) -> None:
+    doc = run_json(
+        "plan", office.map, "--from", "p0", "--to", "p4", "--tz", BERLIN, "--leave",
+        "2026-03-27 12:00..2026-03-31 12:00", "--step", "1d", "--format", "json",
+    )
+    assert [row["depart"] for row in doc["departures"]] == [
+        f"2026-03-{d} 12:00:00{'+01:00' if d < 29 else '+02:00'}" for d in range(27, 32)
+    ]
+    m = aion.Map.load(office.map)
+    plan = m.plan("p0", "p4", tz=BERLIN, leave=("2026-03-27 12:00", "2026-03-31 12:00"),
+                  step="1d")
+    assert [row["depart_ns"] for row in plan.departures] == [
+        row["depart_ns"] for row in doc["departures"]
+    ]
+
+
+def test_an_export_series_every_day_names_its_folders_by_the_same_local_noon(
+    office: Office, tmp_path: Path
+) -> None:
+    out = tmp_path / "series"
+    done = run(
+        "export", office.map, "--tz", BERLIN, "--from", "2026-10-23 12:00", "--to",
+        "2026-10-27 12:00", "--step", "1d", "-o", out,
+    )
+    assert done.exit_code == 0, done.stderr
+    assert sorted(p.name for p in out.iterdir()) == [
+        "20261023T100000Z",
+        "20261024T100000Z",
+        "20261025T110000Z",
+        "20261026T110000Z",
+        "20261027T110000Z",
+    ]
+
+
+@pytest.mark.parametrize(
+    ("text", "step"),
+    [
+        ("1d", Step(1, 0)),
+        ("2d", Step(2, 0)),
+        ("1w", Step(7, 0)),
+        ("1w2d", Step(9, 0)),
+        ("24h", Step(0, DAY)),
+        ("1d12h", Step(1, 12 * HOUR)),
+        ("1.5d", Step(1, 12 * HOUR)),
+        ("0.5d", Step(0, 12 * HOUR)),
+        ("90m", Step(0, 90 * 60 * 10**9)),
+        ("600", Step(0, 600 * 10**9)),
+        (86400.0, Step(0, DAY)),
+    ],
+)
+def test_which_steps_are_calendar_days(text: str | float, step: Step) -> None:
+    assert parse_step(text) == step
