@@ -315,7 +315,8 @@ def select(
     table: Any, layer: str = "all", nodes: Sequence[str | int] = (), at: str | None = None
 ) -> Any:
     """Row numbers of the entries asked for (``--layer``, ``--node``, ``--at``), in table
-    order (``--node``: in the order given), as an int64 array."""
+    order (``--node``: in the order given, an entry named twice once, where first named:
+    ``--node p2 --node p2`` or ``--node kitchen --node R2`` is one row), as an int64 array."""
     import numpy as np
 
     from aion_cli.engine.nearest import distances_from
@@ -370,7 +371,7 @@ def select(
                 else:
                     hint = "the map has no entries"
             raise UnknownNodeError(f"node {', '.join(missing)} is not in the map", hint=hint)
-        index = np.asarray([by_id[w] for w in wanted], dtype=np.int64)
+        index = np.asarray(list(dict.fromkeys(by_id[w] for w in wanted)), dtype=np.int64)
     if at is not None:
         x, y, z = require_point(at, "--at")
         if not index.size:

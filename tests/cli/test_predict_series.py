@@ -13,6 +13,7 @@ from aion_cli.api import Map
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor
 
+AT = "2026-11-23 08:30"
 DAYS = 14
 T_DAY = MONDAY + DAYS * DAY  # the Monday after two weeks of data
 
@@ -153,3 +154,23 @@ def test_places_without_data_and_every_layer_agree_with_predict(office: Office) 
     places = run_json("predict", office.map, "--layer", "places", "--tz", "UTC", "--time",
                       times[0], "--format", "json")["entries"]
     assert any(row["flow"] == 0 for row in places)  # the case under test
+
+
+def test_a_node_asked_for_twice_is_one_entry(office: Office) -> None:
+    """Repeated ``--node`` ids (or a room by name and by id) are taken once: the rows of p4
+    and p1, busiest first as always, not p4, p1, p4 (each was printed as often as given)."""
+    def ids(*args: str) -> list[str]:
+        doc = run_json("predict", office.map, *args, "--format", "json")
+        return [e["id"] for e in doc["entries"]]
+
+    assert ids("--time", AT, "--node", "p4", "--node", "p4") == ["p4"]
+    both = ids("--time", AT, "--node", "p4", "--node", "p1")
+    assert sorted(both) == ["p1", "p4"]
+    assert ids("--time", AT, "--node", "p4", "--node", "p1", "--node", "p4") == both
+    assert ids("--time", AT, "--node", "room1", "--node", "R1") == ["R1"]
+    series = ids("--from", AT, "--to", "2026-11-23 10:30", "--node", "p4", "--node", "p4")
+    assert series == ["p4"]
+    m = aion.Map.load(office.map)
+    assert [r["id"] for r in m.predict(AT, nodes=["p1", "p4", "p1"]).entries] == both
+    table = m.predict_series(AT, "2026-11-23 10:30", nodes=["p1", "p1"])
+    assert table.flow.shape == (1, 3)
