@@ -27,16 +27,22 @@ def export_frames(
     fmt: str = "ply",
     ends: tuple[Any, int, int] | None = None,
     on_frame: Callable[[], None] | None = None,
+    *,
+    series: bool = False,
 ) -> list[Path]:
-    """Write one frame per time of ``times`` (None: historical) into ``out_dir`` (a series:
-    one subfolder per time, named by it), with the path between ``ends`` (from
-    :func:`path_ends`) drawn in each; the files written."""
+    """Write one frame per time of ``times`` (None: historical) into ``out_dir``, with the
+    path between ``ends`` (from :func:`path_ends`) drawn in each; the files written. A
+    ``series`` (``--from/--to``) writes one subfolder per time, named by it, however many
+    times it has (a series that happens to hold one time keeps the layout a script reading
+    the series expects); one time that is not a series goes straight into ``out_dir``."""
+    if not series and len(times) != 1:
+        raise ValueError("times other than one are a series (a bug)")
     check_out_dir(out_dir)
     written: list[Path] = []
     with Staged(out_dir, merge=True) as staged:
         staged.path.mkdir()
         for t_ns in times:
-            folder = staged.path if len(times) == 1 else staged.path / frame_name(t_ns)
+            folder = staged.path / frame_name(t_ns) if series else staged.path
             written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
             if on_frame is not None:
                 on_frame()

@@ -39,9 +39,9 @@ Writes into OUT: the scene (nodes as spheres sized by flow and coloured by entro
 to red high, arrows along the dominant direction, flat squares for hash cells, edges as
 lines, the scene graph's mesh, a planned path) as PLY or PCD, plus entries.csv and
 entries.json with the same fields as `aion predict`. --from/--to/--step writes one
-subfolder per time (named by the time) for animations; --to is included when it falls on a
-step, and a step of days or weeks (1d, 1w) keeps the wall-clock time across a daylight-saving
-change.
+subfolder per time (named by the time in UTC, e.g. 20261123T060000Z) for animations, a series of
+one time (--from T --to T) too; --to is included when it falls on a step, and a step of days
+or weeks (1d, 1w) keeps the wall-clock time across a daylight-saving change.
 
 \b
 --format png writes one picture, -o naming the file: the map from above (place edges, rooms,
@@ -143,18 +143,20 @@ def command(
     if historical:
         times = [None]
     elif t_from is not None and t_to is not None:
-        series, zone = series_of(t_from, t_to, "1h" if step is None else step, tz, loaded)
-        times = list(series)
+        steps, zone = series_of(t_from, t_to, "1h" if step is None else step, tz, loaded)
+        times = list(steps)
     else:
         when, zone = resolve_time("now" if time_text is None else time_text, tz, loaded)
         times = [when]
     ends = None
     if path_from is not None and path_to is not None:
         ends = path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
+    series = t_from is not None  # a series, even of one time (--from T --to T)
     if fmt == "dsg":
-        if len(times) != 1:
+        if series:
             raise InputError(
-                "--format dsg writes the graph at one time", hint="use --time or --historical"
+                "--format dsg writes the graph at one time, not a series (--from/--to)",
+                hint="use --time or --historical",
             )
         if ends is not None:
             raise InputError("--format dsg holds no path: leave out --path-from/--path-to")
@@ -185,11 +187,12 @@ def command(
             return f"wrote {markup_safe(out_dir)} ({steps})"
 
     elif scene_file(fmt, out_dir):
-        if len(times) != 1:
+        if series:
             raise InputError(
                 f"a series writes one {fmt} scene per time into a folder, got a file: "
                 f"-o {out_dir}",
-                hint="name a folder (e.g. -o series/), or --format png / mcap for one file",
+                hint="name a folder (e.g. -o series/), give --time for one scene, or "
+                "--format png / mcap for one file",
             )
         from aion_cli.exports import export_scene_file, planned_path
 
@@ -202,14 +205,16 @@ def command(
     else:
 
         def write(advance: Any) -> str:
-            files = export_frames(loaded, map_path, out_dir, times, zone, fmt, ends, advance)
+            files = export_frames(
+                loaded, map_path, out_dir, times, zone, fmt, ends, advance, series=series
+            )
             return f"wrote {len(files)} file(s) to {markup_safe(out_dir)}"
 
     with progress(quiet=len(times) == 1) as bar:
         task = bar.add_task("exporting", total=len(times), unit="times")
         done = write(lambda: bar.advance(task))
     if zone is not None and times[0] is not None:
-        label = "time" if len(times) == 1 else f"series of {len(times)} from"
-        span = [int(t) for t in times if t is not None] if len(times) > 1 else None
+        label = f"series of {len(times)} from" if series else "time"
+        span = [int(t) for t in times if t is not None] if series else None
         announce_time(times[0], zone, label, loaded, series=span)
     console().print(done)

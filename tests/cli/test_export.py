@@ -182,3 +182,26 @@ def test_too_many_panels_names_a_step_that_fits(
     assert_one_line_error(result.stderr, "more than 24")
     assert hint in result.stderr
     assert not out.exists()
+
+
+def test_a_series_of_one_time_is_written_as_a_series(office: Office, tmp_path: Path) -> None:
+    """``--from T --to T`` is a series that has one time: its frame goes into the subfolder
+    named by the time, as every series' frames do (it went straight into -o, as ``--time``
+    writes); a series' file formats refuse it as they refuse any series."""
+    out = tmp_path / "one"
+    result = run("export", office.map, "--from", AT, "--to", AT, "-o", out)
+    assert result.exit_code == 0, result.stderr
+    assert [p.name for p in out.iterdir()] == ["20261123T083000Z"]  # AT is read in UTC
+    frame = out / "20261123T083000Z"
+    assert (frame / "entries.csv").is_file()
+    assert (frame / "scene.ply").is_file()
+    assert json.loads((frame / "entries.json").read_text())["time_ns"] == 1795422600 * 10**9
+    single = tmp_path / "single"
+    assert run("export", office.map, "--time", AT, "-o", single).exit_code == 0
+    assert (single / "entries.csv").is_file()  # one --time: straight into -o
+    assert (single / "entries.csv").read_bytes() == (frame / "entries.csv").read_bytes()
+    for name, fragment in (("one.ply", "a series writes one"), ("one.json", "not a series")):
+        refused = run("export", office.map, "--from", AT, "--to", AT, "-o", tmp_path / name)
+        assert refused.exit_code == 2
+        assert_one_line_error(refused.stderr, fragment)
+        assert not (tmp_path / name).exists()
