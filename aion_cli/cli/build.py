@@ -64,6 +64,7 @@ the last payload again), skipped_period (left out by --graph-period), period_s, 
 topics}, detection_topics, detection_decoding{topic: {type, why,
 decoder (fast|generic|mapping), messages, undecodable}}, log_times_dropped{topic:
 {out_of_range, stray}}, tf_undecodable, headings{velocity, track, linked, pose_yaw, none},
+mean_speed_m_s (of the detections with a speed),
 inputs[{path, name, size, sha256}], workers[{shard, logs, from, to (a time shard's part),
 worker, seconds, peak_rss_mb, detections_used}] (a parallel build's shards), notes, warnings.
 """

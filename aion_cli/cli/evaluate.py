@@ -239,9 +239,11 @@ def lincoln(
     if fmt == "json":
         emit(fmt, [], (), json_payload=result.to_dict())
         return
+    total = int(result.data[result.test]["detections"])
+    scored = int(result.headings[0]["detections"]) if result.headings else 0
     emit(fmt, result.headings, SCORE_COLUMNS,
-         title=f"Lincoln {result.test}, heading NLL on "
-         f"{result.data[result.test]['detections']:,} test detections (zone {ZONE})")
+         title=f"Lincoln {result.test}, heading NLL on the {scored:,} test detections with a "
+         f"heading (of {total:,}; zone {ZONE})")
     emit(fmt, result.activity, ACTIVITY_COLUMNS,
          title="Lincoln, hourly activity of the test day")
 

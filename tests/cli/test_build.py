@@ -49,6 +49,28 @@ def test_counts_and_provenance(office: Office) -> None:
     assert report["windows"] == 2  # 20 minutes: one closed 600-s window and the open one
 
 
+def test_help_names_every_json_key(office: Office) -> None:
+    """``build --help`` lists the JSON report's keys: every key the report has, nested ones
+    included, is named there (mean_speed_m_s was missing)."""
+    import re
+
+    shown = " ".join(run("build", "--help").stdout.split())
+
+    def keys(doc: object) -> set[str]:
+        if not isinstance(doc, dict):
+            return set()
+        out = set()
+        for key, value in doc.items():
+            if key not in ("dropped", "detections_by_topic", "detection_decoding",
+                           "log_times_dropped"):  # keyed by reasons and topics: their values
+                out.add(key)
+                out |= keys(value) if key != "inputs" else set()
+        return out
+
+    missing = sorted(k for k in keys(office.build) if not re.search(rf"\b{k}\b", shown))
+    assert missing == []
+
+
 def test_default_output_is_the_first_log_name(office: Office, tmp_path: Path) -> None:
     log = tmp_path / "run7.mcap"
     shutil.copy(office.log, log)

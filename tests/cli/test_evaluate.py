@@ -151,3 +151,18 @@ def test_damaged_door_files_are_one_line_errors(
     assert proc.returncode == 2, proc.stderr
     assert fragment in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+@needs(DATA / "lincoln" / "2017-05-25.txt", "the Lincoln corridor data")
+def test_the_lincoln_title_counts_the_detections_it_scores() -> None:
+    """The heading table scores the test detections with a heading; its title says how many
+    of the day's (it gave the day's total as the number scored)."""
+    runner = CliRunner()
+    args = ["evaluate", "lincoln", "--data", str(DATA / "lincoln"), "--train", "2017-05-24",
+            "--test", "2017-05-25"]
+    doc = json.loads(runner.invoke(cli, [*args, "--format", "json"]).stdout)
+    scored = doc["headings"][0]["detections"]
+    total = doc["data"]["2017-05-25"]["detections"]
+    assert 0 < scored < total
+    shown = " ".join(runner.invoke(cli, [*args, "--format", "table"]).stdout.split())
+    assert f"on the {scored:,} test detections with a heading (of {total:,}" in shown
