@@ -65,6 +65,13 @@ class Map:
         path: Path | None = None,
         report: BuildReport | MergeReport | CompactReport | None = None,
     ) -> None:
+        from aion_cli.mapquery import LoadedMap
+
+        if not isinstance(loaded, LoadedMap):  # Map("office.aion"): a path, not a loaded map
+            raise InputError(
+                f"Map() takes a loaded map, got {type(loaded).__name__}",
+                hint="read a file with aion.Map.load(path)",
+            )
         self._loaded = loaded
         self.path = path
         #: what the build (:func:`build`) or the merge (:func:`merge`) did (else None)
@@ -371,7 +378,7 @@ class Map:
             when, zone = self._time("now" if time is None else time, tz)
         ends = self._path_ends(path)
         name = self.path.name if self.path is not None else "<memory>"
-        return export_png(self._loaded, name, as_path(file), [when], zone, ends)
+        return export_png(self._loaded, name, as_path(file), [when], zone, ends, option="file")
 
     def holdout(
         self, logs: Sequence[PathLike] | PathLike, *, radius: float = 1.0, **options: object

@@ -342,7 +342,10 @@ def select(
         else:
             index = index[kind == want]
     if nodes and at is not None:
-        raise InputError("choose --node or --at, not both (the point would be ignored)")
+        raise InputError(
+            "choose --node or --at, not both (the point would be ignored)",
+            hint="--at X,Y gives the entry nearest the point; --node names entries",
+        )
     if nodes:
         labels = [str(i) for i in entry_ids(table, index)]
         by_id = dict(zip(labels, index.tolist(), strict=True))

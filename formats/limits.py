@@ -61,7 +61,7 @@ def _megabytes(value: object, name: str) -> int:
     if not (math.isfinite(mb) and 0 < mb <= _MAX_MB):
         raise ConfigError(
             f"{name} must be a positive number of megabytes (MiB), got {value!r}",
-            hint=f"e.g. {name}=2048 to allow 2 GiB",
+            hint=f"e.g. {name}=2048 to allow 2 GiB" if name.isupper() else "e.g. 2048 for 2 GiB",
         )
     return max(int(mb * MIB), 1)
 

@@ -187,6 +187,10 @@ def test_bad_inputs_are_typed_errors(example: dict[str, Any], tmp_path: Path) ->
         with pytest.raises(aion.InputError, match="an empty path"):
             call()
     assert not (tmp_path / "x.aion").exists()
+    with pytest.raises(aion.InputError, match="takes a loaded map"):  # a path where a map goes
+        aion.Map("office.aion")  # type: ignore[arg-type]
+    with pytest.raises(aion.InputError, match=r"^file writes a \.png file"):  # the API's name
+        m.picture(tmp_path / "map.jpg")
 
 
 def test_an_in_memory_state_is_saved_and_reloads_equal(tmp_path: Path) -> None:

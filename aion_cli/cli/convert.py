@@ -355,7 +355,10 @@ def _check_layout_options(
                 hint=f"only {', '.join(FRAME_LAYOUTS)} files have frame numbers",
             )
         if not 0 < fps <= 10_000:  # also NaN and inf: frames of no duration
-            raise InputError(f"--fps must be 0 .. 10,000 frames per second, not {fps}")
+            raise InputError(
+                f"--fps must be above 0 and at most 10,000 frames per second, not {fps}",
+                hint="e.g. --fps 2.5 (the ETH / UCY annotation rate)",
+            )
     if length_unit is not None and layout != "thor-magni":
         raise InputError(
             f"--length-unit does not apply to the {layout} layout",

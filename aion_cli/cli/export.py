@@ -129,13 +129,19 @@ def command(
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:
-        raise InputError("choose one of --time, --historical or --from/--to")
+        raise InputError(
+            "choose one of --time, --historical or --from/--to",
+            hint="--time T: the forecast at T; --historical: what was observed; --from/--to: "
+            "a series",
+        )
     if step is not None and t_from is None and t_to is None:
         raise InputError("--step needs --from and --to", hint="a series: --from T --to T --step 1h")
     if (t_from is None) != (t_to is None):
         raise InputError("a time series needs both --from and --to")
     if (path_from is None) != (path_to is None):
-        raise InputError("a path needs both --path-from and --path-to")
+        raise InputError(
+            "a path needs both --path-from and --path-to", hint="e.g. --path-from p1 --path-to p12"
+        )
     fmt = export_format(fmt, out_dir)
     loaded = load(map_path)
     times: list[int | None]

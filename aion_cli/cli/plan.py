@@ -140,7 +140,10 @@ def command(
 
     time_given = option_given("time_text")
     if leave is not None and time_given:
-        raise InputError("choose one of --time or --leave")
+        raise InputError(
+            "choose one of --time or --leave",
+            hint="--time T: leave at T; --leave START..END: compare departures in that span",
+        )
     if step is not None and leave is None:
         raise InputError("--step needs --leave", hint='e.g. --leave "08:00..10:00" --step 10m')
     if png_path is not None:

@@ -183,7 +183,10 @@ class ModelConfig:
                     f"{name} must be {lo:g} .. {hi:g}, got {value!r}", hint=BOUNDED_WHY[name]
                 )
         if not (_is_int(self.bins) and 2 <= self.bins <= 64):
-            raise ConfigError(f"bins must be an integer in 2..64, got {self.bins!r}")
+            raise ConfigError(
+                f"bins must be an integer in 2..64, got {self.bins!r}",
+                hint="the direction bins of a full turn: 8 (45 degrees each) is the default",
+            )
         if not (_is_int(self.max_order) and 0 <= self.max_order <= 16):
             raise ConfigError(f"max_order must be an integer in 0..16, got {self.max_order!r}")
         lo, hi = CELL_SIZE_RANGE

@@ -202,7 +202,10 @@ class _BucketTables:
 
 def _check_motion(speed: float, depart_s: float, bucket_s: float) -> None:
     if not (math.isfinite(speed) and speed > 0):
-        raise InputError(f"speed must be a positive number of m/s, got {speed!r}")
+        raise InputError(
+            f"speed must be a positive number of m/s, got {speed!r}",
+            hint="a walking speed such as 1.0 (the default)",
+        )
     if not math.isfinite(depart_s):
         raise InputError(f"departure time must be finite, got {depart_s!r}")
     if not (math.isfinite(bucket_s) and bucket_s > 0):

@@ -174,8 +174,10 @@ def export_png(
     ends: tuple[Any, int, int] | None = None,
     on_frame: Callable[[], None] | None = None,
     dpi: float = DPI,
+    option: str = "-o",
 ) -> Path:
-    """One PNG file ``out``: the map at one time, or small multiples of a series (one panel
+    """One PNG file ``out`` (named in errors as ``option``: the CLI's ``-o``, the API's
+    ``file``): the map at one time, or small multiples of a series (one panel
     per time, at most :data:`~aion_cli.pictures.topdown.MAX_PANELS`, sharing axes, flow
     scale and colour bar), with the path planned between ``ends`` (from
     ``exports.path_ends``) at each time."""
@@ -183,7 +185,7 @@ def export_png(
     from aion_cli.formats.scene_colours import PATH_GREEN
     from aion_cli.scene import scene_at
 
-    check_png_target(out)
+    check_png_target(out, option)
     if len(times) > MAX_PANELS:
         raise InputError(
             f"the picture would have {len(times)} panels, more than {MAX_PANELS}",
@@ -205,7 +207,7 @@ def export_png(
     fig = topdown_figure(
         scenes, titles, suptitle=_series_title(map_label, times, zone), paths=paths, dpi=dpi
     )
-    return save_png(fig, out)
+    return save_png(fig, out, option)
 
 
 _NICE_STEPS_S = (60, 300, 600, 900, 1200, 1800, 3600, 7200, 10800, 14400, 21600, 43200,

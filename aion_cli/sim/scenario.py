@@ -127,7 +127,7 @@ class ScenarioConfig:
         ]
         for ok, message in checks:
             if not ok:
-                raise InputError(message)
+                raise InputError(message, hint="see aion simulate --help for every option's range")
         if self.days * 86400.0 * self.rate_hz > MAX_TICKS:
             raise InputError(
                 f"{self.days:g} days at {self.rate_hz:g} Hz is more than one scene holds "

@@ -1,0 +1,37 @@
+"""Every error the CLI prints for a user's mistake comes with a ``hint:`` saying what to type
+instead (README: "one line ``error: ...`` plus a hint"); these had none."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import SAMPLE, Office, assert_one_line_error, run
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["predict", "{map}", "--node", "p1", "--at", "1,2"], "choose --node or --at"),
+        (["plan", "{map}", "--from", "p1", "--to", "p3", "--speed", "nan"], "speed must be"),
+        (["plan", "{map}", "--from", "p1", "--to", "p3", "--time", "now", "--leave",
+          "08:00..09:00"], "choose one of --time or --leave"),
+        (["export", "{map}", "--path-from", "p1", "-o", "{tmp}/x.png"], "needs both --path-from"),
+        (["export", "{map}", "--historical", "--time", "now", "-o", "{tmp}/x.png"],
+         "choose one of --time, --historical"),
+        (["simulate", "-o", "{tmp}/s.mcap", "--days", "0"], "--days must be positive"),
+        (["--max-chunk-mb", "0", "info", str(SAMPLE)], "the chunk limit must be"),
+        (["build", str(SAMPLE), "--config", "{tmp}/bins.toml", "-o", "{tmp}/b.aion"],
+         "bins must be an integer"),
+    ],
+)
+def test_an_error_comes_with_a_hint(
+    office: Office, tmp_path: Path, args: list[str], fragment: str
+) -> None:
+    (tmp_path / "bins.toml").write_text("bins = 1\n")
+    filled = [a.format(map=office.map, tmp=tmp_path) for a in args]
+    result = run(*filled)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, fragment)
+    assert any(line.startswith("hint: ") for line in result.stderr.splitlines()), result.stderr
