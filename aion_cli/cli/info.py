@@ -203,11 +203,24 @@ def command(
     for path in logs:
         if not path.exists():
             raise InputError(f"not found: {path}", hint="check the path")
+    given = {
+        "--log-format": log_format is not None,
+        "--detections-mapping": detections_mapping is not None,
+        "--suggest-mapping": suggest_topic is not None,
+        "--verify": verify,
+        "--nav-layer": nav_layer is not None,
+    }
+    from aion_cli.cli.info_graph import is_graph_file
+
+    if logs and all(is_graph_file(p) for p in logs):
+        _refuse_options(given, ("--nav-layer",), "a scene-graph file")
     if _show_graph_files(logs, nav_layer, fmt):
         return
     maps = [p for p in logs if p.suffix == MAP_SUFFIX and p.is_file()]
     if maps and len(maps) != len(logs):
         raise InputError("give either logs or maps, not both")
+    if maps:
+        _refuse_options(given, ("--verify",), "a map")
     if verify and not maps:
         raise InputError(
             "--verify checks map files (.aion)",
@@ -232,6 +245,20 @@ def command(
         click.echo(to_json(report))
     else:
         _print(report)
+
+
+def _refuse_options(given: dict[str, bool], applies: tuple[str, ...], what: str) -> None:
+    """An :class:`InputError` naming the options given that do nothing for ``what`` (only
+    ``applies`` do): an option silently ignored looks as if it had been taken."""
+    from aion_cli.errors import InputError
+
+    ignored = [name for name, on in given.items() if on and name not in applies]
+    if ignored:
+        raise InputError(
+            f"{', '.join(ignored)} {'does' if len(ignored) == 1 else 'do'} not apply to {what}",
+            hint=f"of these options only {', '.join(applies)} applies to {what}; the others "
+            "are for logs",
+        )
 
 
 def _show_graph_files(paths: tuple[Path, ...], nav_layer: str | None, fmt: str) -> bool:

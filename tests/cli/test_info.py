@@ -219,3 +219,22 @@ def test_days_scored_are_the_map_s_days_not_an_entry_s_sum(sample_map: Path) -> 
     assert int(state.scored_temporal().flow_days[rows].max()) > 4  # what "days scored" said
     families = run_json("info", sample_map, "--format", "json")["families"]
     assert families["scored_days"] == 4
+
+
+def test_options_that_do_not_apply_are_refused(office: Office, tmp_path: Path) -> None:
+    """Options for logs given with a map or a scene-graph file did nothing, exit 0; --verify
+    with a scene-graph file too. They are refused, naming what would apply."""
+    from tests.cli.logdata import save_graph_file
+
+    graph = save_graph_file(tmp_path / "plain.json")
+    for args, fragment in (
+        ([office.map, "--suggest-mapping", "/tf"], "--suggest-mapping does not apply to a map"),
+        ([office.map, "--nav-layer", "99"], "--nav-layer does not apply to a map"),
+        ([office.map, "--log-format", "mcap"], "--log-format does not apply to a map"),
+        ([graph, "--verify"], "--verify does not apply to a scene-graph file"),
+    ):
+        result = run("info", *args)
+        assert result.exit_code == 2, result.stderr
+        assert_one_line_error(result.stderr, fragment)
+    assert run("info", office.map, "--verify").exit_code == 0
+    assert run("info", graph, "--nav-layer", "places").exit_code == 0
