@@ -86,6 +86,8 @@ def _empty_scene(meta: dict[str, Any]) -> str | None:
         return None
     config = meta.get("config", {})
     scene = f"the scene runs {config.get('days', '?')} day(s) from {config.get('start', '?')}"
+    if config.get("agents") == 0:
+        return "nobody was detected: --agents 0 simulates no people (the robot and its graph only)"
     if not meta.get("true_samples", 0):
         rhythm = config.get("rhythm", {})
         return (

@@ -203,11 +203,27 @@ def load_environment(config: ScenarioConfig) -> Environment:
     return load_graph_environment(Path(config.environment), max(config.agents, 1), config.nav_layer)
 
 
+_OTHER_FILES = frozenset(
+    {".mcap", ".bag", ".db3", ".aion", ".json", ".npz", ".ply", ".pcd", ".png", ".csv", ".txt"}
+)
+"""Suffixes of files a log of another format, or no log at all: ``-o`` naming one of them
+with the wrong ``--format`` is refused rather than given the format's suffix on top."""
+
+
 def scene_paths(output: Path, config: ScenarioConfig) -> list[Path]:
     """Log path of every scene: ``output`` itself for one scene, else ``output/scene_XX``."""
     suffix = FORMATS[config.format][1]
     if config.scenes == 1:
-        if suffix and output.suffix != suffix:
+        given = output.suffix.lower()
+        if suffix and given != suffix and given in _OTHER_FILES:
+            # apt.bag with the default --format mcap would be written as apt.bag.mcap
+            formats = [f for f, (_, s) in FORMATS.items() if s == given]
+            raise InputError(
+                f"--format {config.format} writes a {suffix} log, not -o {output.name}",
+                hint=f"--format {formats[0]}" if formats
+                else f"-o {output.with_suffix(suffix).name}",
+            )
+        if suffix and given != suffix:
             output = output.with_name(output.name + suffix)
         return [output]
     return [output / f"scene_{i:02d}{suffix}" for i in range(config.scenes)]

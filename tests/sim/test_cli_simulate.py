@@ -64,6 +64,31 @@ def test_a_scene_nobody_came_to_says_why_it_has_no_detection(tmp_path: Path) -> 
     assert code == 0, output
     assert json.loads((tmp_path / "noon.mcap.truth.json").read_text())["detections"] > 0
     assert "nobody was detected" not in output
+    code, output = _run(  # nobody asked for: said so, not blamed on office hours
+        "simulate", "-o", tmp_path / "none.mcap", "--days", "0.01", "--agents", "0", "--quiet"
+    )
+    assert code == 0, output
+    assert "--agents 0 simulates no people" in " ".join(output.split())
+    assert "office hours" not in output
+
+
+def test_an_output_named_as_another_file_kind_is_refused(tmp_path: Path) -> None:
+    """-o apt.bag with the default --format mcap wrote apt.bag.mcap; a name with another
+    log's or file's suffix is refused with the format or name to give; an unknown or no
+    suffix still gets the format's."""
+    for name, hint in (("apt.bag", "--format bag"), ("apt.png", "-o apt.mcap")):
+        code, output = _run("simulate", "-o", tmp_path / name, "--days", "0.01", "--quiet")
+        assert code == 2, output
+        assert "--format mcap writes a .mcap log" in output
+        assert hint in output
+        assert not list(tmp_path.iterdir())
+    code, output = _run("simulate", "-o", tmp_path / "apt.bag", "--format", "bag", "--days",
+                        "0.01", "--quiet")
+    assert code == 0, output
+    assert (tmp_path / "apt.bag").is_file()
+    code, output = _run("simulate", "-o", tmp_path / "plain", "--days", "0.01", "--quiet")
+    assert code == 0, output
+    assert (tmp_path / "plain.mcap").is_file()
 
 
 def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
