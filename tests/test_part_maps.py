@@ -107,7 +107,9 @@ def test_one_part_map_merged_alone_is_the_map_of_its_logs(tmp_path: Path) -> Non
     assert len(_state(part).deferred.days) == 2  # type: ignore[attr-defined]
     shown = json.loads(run("info", part, "--format", "json").stdout)
     assert shown["part"] == {"held_days": 2}
-    assert "2 days held unscored" in run("info", part).stdout
+    assert "2 closed days held unscored, and the last day open" in " ".join(
+        run("info", part).stdout.split()
+    )
     whole = tmp_path / "whole.aion"
     assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
     alone = tmp_path / "alone.aion"

@@ -128,9 +128,10 @@ def print_map(report: dict[str, Any]) -> None:
         held = int(part.get("held_days", 0))
         table.add_row(
             "part map",
-            safe(f"aion build --part: {held:,} day{'' if held == 1 else 's'} held unscored for "
-                 f"a merge; aion merge {Path(str(report['map'])).name} [more parts] -o MAP.aion "
-                 "scores them into a map"),
+            safe(f"aion build --part: {held:,} closed day{'' if held == 1 else 's'} held "
+                 f"unscored, and the last day open, for a merge; aion merge "
+                 f"{Path(str(report['map'])).name} [more parts] -o MAP.aion scores them into a "
+                 "map"),
         )
     families = report.get("families") or {}
     for kind in ("flow", "direction"):
