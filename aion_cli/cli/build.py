@@ -9,7 +9,14 @@ from typing import Any
 import click
 
 from aion_cli.build_options import MAX_WORKERS
-from aion_cli.cli.common import AionPath, base_frame_option, map_frame_option
+from aion_cli.cli.common import (
+    AionPath,
+    base_frame_option,
+    detections_mapping_option,
+    graph_topic_option,
+    log_format_option,
+    map_frame_option,
+)
 from aion_cli.cli.graph_options import graph_period_option, nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, to_json
 
@@ -165,19 +172,8 @@ def _load_config(path: Path | None) -> Any:
     help="People-detection topic to use (repeatable) [default: every people type, and "
     "generic types on topics whose name suggests people].",
 )
-@click.option(
-    "--detections-mapping",
-    "detections_mapping",
-    type=AionPath(path_type=Path, dir_okay=False),
-    metavar="FILE",
-    help="TOML mapping that reads people from other message types (README, People "
-    "detections; `aion info LOG --suggest-mapping TOPIC` writes one).",
-)
-@click.option(
-    "--graph-topic",
-    metavar="TOPIC",
-    help="Scene-graph (hydra_msgs/DsgUpdate) topic [default: found by type].",
-)
+@detections_mapping_option
+@graph_topic_option
 @click.option(
     "--graph",
     "graph_file",
@@ -210,11 +206,7 @@ def _load_config(path: Path | None) -> Any:
     metavar="X.Y.Z",
     help="spark_dsg payload version of the scene graphs [default: detected].",
 )
-@click.option(
-    "--log-format",
-    type=click.Choice(["mcap", "bag", "rosbag2"]),
-    help="Container format [default: guessed from the path].",
-)
+@log_format_option
 @click.option(
     "--batch-size",
     default=4000,

@@ -186,3 +186,33 @@ def base_frame_option(func: F) -> F:
         callback=lambda _ctx, _param, value: _frame_name(value, "--base-frame", "base_link"),
         help="Robot frame whose TF trajectory gives what the sensor observed.",
     )(func)
+
+
+def log_format_option(func: F) -> F:
+    """``--log-format``: the container, where its path does not say (build, info, holdout)."""
+    return click.option(
+        "--log-format",
+        type=click.Choice(["mcap", "bag", "rosbag2"]),
+        help="Container format [default: guessed from the path].",
+    )(func)
+
+
+def detections_mapping_option(func: F) -> F:
+    """``--detections-mapping FILE``: a TOML mapping of other message types to people."""
+    return click.option(
+        "--detections-mapping",
+        "detections_mapping",
+        type=AionPath(path_type=Path, dir_okay=False),
+        metavar="FILE",
+        help="TOML mapping that reads people from other message types (README, People "
+        "detections; `aion info LOG --suggest-mapping TOPIC` writes one).",
+    )(func)
+
+
+def graph_topic_option(func: F) -> F:
+    """``--graph-topic TOPIC``: the scene-graph topic, where finding it by type will not do."""
+    return click.option(
+        "--graph-topic",
+        metavar="TOPIC",
+        help="Scene-graph (hydra_msgs/DsgUpdate) topic [default: found by type].",
+    )(func)

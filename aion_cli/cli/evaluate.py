@@ -11,7 +11,14 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import AionPath, base_frame_option, map_frame_option
+from aion_cli.cli.common import (
+    AionPath,
+    base_frame_option,
+    detections_mapping_option,
+    graph_topic_option,
+    log_format_option,
+    map_frame_option,
+)
 from aion_cli.cli.output import Column, emit, format_option, num
 
 DATA_ENV = "AION_SHARED_DATA"
@@ -260,6 +267,9 @@ def lincoln(
 @map_frame_option("The frame the map's positions are in (TF target of the detections) "
                   "[default: the frame the map records, else map].")
 @base_frame_option
+@detections_mapping_option
+@graph_topic_option
+@log_format_option
 @click.option("--observed", "observed", multiple=True, metavar="START..END",
               help="A span the test logs' sensor was recording (repeatable; as aion build "
               "--observed, times in the map's zone).")
@@ -268,8 +278,9 @@ def lincoln(
 @format_option(("table", "json"))
 def holdout(
     map_path: Path, logs: tuple[Path, ...], radius: float, detection_topics: tuple[str, ...],
-    map_frame: str | None, base_frame: str, observed: tuple[str, ...], png: Path | None,
-    fmt: str,
+    map_frame: str | None, base_frame: str, detections_mapping: Path | None,
+    graph_topic: str | None, log_format: str | None, observed: tuple[str, ...],
+    png: Path | None, fmt: str,
 ) -> None:
     """Judge a map's forecast on your own held-out logs: heading NLL of every test
     detection, and the hourly activity of the windows the logs observed (summed over every
@@ -296,7 +307,8 @@ def holdout(
     spans = observed_spans(observed, None, map_path)  # in the map's zone
     opts = BuildOptions(logs=logs, detection_topics=detection_topics,
                         map_frame=map_frame_of(map_frame, map_path), base_frame=base_frame,
-                        observed=spans)
+                        observed=spans, detections_mapping=detections_mapping,
+                        graph_topic=graph_topic, log_format=log_format)
     result = run_holdout(map_path, opts, radius, progress=note)
     for line in result.notes:
         note(line)

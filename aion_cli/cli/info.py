@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import AionPath
+from aion_cli.cli.common import AionPath, detections_mapping_option, log_format_option
 from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.info_map import describe_map, print_map, verify_map
 from aion_cli.cli.output import format_option, human_size, to_json
@@ -157,18 +157,8 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
 
 @click.command("info", short_help="What is in logs (or a map), what aion uses.", epilog=EPILOG)
 @click.argument("logs", nargs=-1, required=True, type=AionPath(path_type=Path))
-@click.option(
-    "--log-format",
-    type=click.Choice(["mcap", "bag", "rosbag2"]),
-    help="Container format [default: guessed from the path].",
-)
-@click.option(
-    "--detections-mapping",
-    "detections_mapping",
-    type=AionPath(path_type=Path, dir_okay=False),
-    metavar="FILE",
-    help="TOML mapping of other message types to people (as aion build takes it).",
-)
+@log_format_option
+@detections_mapping_option
 @click.option(
     "--suggest-mapping",
     "suggest_topic",

@@ -68,6 +68,12 @@ def test_person_messages_need_a_mapping_and_suggest_mapping_writes_one(tmp_path:
     _, counts, nodir = map_cells(out)
     assert counts.sum(axis=0).tolist() == [19, 0, 0, 0, 19, 0, 0, 0]  # -x: bin 0, +x: bin 4
     assert nodir.sum() == 2
+    # a held-out log of the same type is read with the same mapping (as the API's holdout)
+    held = run_json("evaluate", "holdout", out, log, "--detections-mapping", mapping,
+                    "--format", "json")  # fmt: skip
+    assert held["test"]["detections"] == 40
+    unmapped = run("evaluate", "holdout", out, log)
+    assert unmapped.exit_code == 2
 
 
 @pytest.mark.parametrize(
