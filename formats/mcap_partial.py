@@ -170,12 +170,58 @@ def _decompressed_head(f: IO[bytes], head: mr.ChunkHead, n: int) -> bytes | None
         f.seek(head.data_offset)
         data = f.read(n) if n <= head.data_length else b""
         return data if len(data) == n else None
+    if head.compression == "zstd":  # read only as much of the compressed data as the head needs
+        out = _zstd_prefix(_Window(f, head.data_offset, head.data_length), n)
+        return out if len(out) == n else None
     f.seek(head.data_offset)
     data = f.read(head.data_length)
     if len(data) < head.data_length:
         return None
     out = _prefix(head.compression, data, n)
     return out if len(out) == n else None
+
+
+class _Window:
+    """The ``length`` bytes of ``f`` from ``start``, as a file the zstd stream reader pulls
+    from: it never reads past them (the next record is no part of the frame)."""
+
+    def __init__(self, f: IO[bytes], start: int, length: int) -> None:
+        self.f, self.pos, self.end = f, start, start + length
+
+    def read(self, size: int = -1) -> bytes:
+        left = self.end - self.pos
+        if size < 0 or size > left:
+            size = left
+        if size <= 0:
+            return b""
+        self.f.seek(self.pos)
+        data = self.f.read(size)
+        self.pos += len(data)
+        return data
+
+
+_ZSTD_READ = 1 << 14
+"""Compressed bytes the zstd stream reader takes at a time for a chunk's head: a tracker's
+messages before a scene graph compress to a few KiB, so one or two reads instead of the
+chunk's whole compressed data (megabytes of graph)."""
+
+
+def _zstd_prefix(source: _Window, n: int) -> bytes:
+    """At most the first ``n`` bytes the zstd data in ``source`` decompresses to."""
+    import zstandard
+
+    reader = zstandard.ZstdDecompressor().stream_reader(
+        source, read_size=_ZSTD_READ, read_across_frames=True, closefd=False
+    )
+    parts = []
+    got = 0
+    while got < n:
+        part = reader.read(n - got)
+        if not part:
+            break
+        parts.append(part)
+        got += len(part)
+    return b"".join(parts)
 
 
 def _prefix(compression: str, data: bytes, n: int) -> bytes:

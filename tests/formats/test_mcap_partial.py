@@ -280,3 +280,35 @@ def test_any_chunking_and_hint_gives_the_whole_reads_stream(
             assert (t - T0) // S in hinted
         else:
             assert got == expected
+
+
+def test_a_zstd_head_reads_only_what_it_needs_and_never_past_its_data() -> None:
+    """The head of a chunk whose tail is megabytes of graph: the first bytes come out right,
+    only a few reads of compressed data are taken (not the whole chunk), nothing past the
+    chunk's data (the next record) is read, and data cut short gives fewer bytes."""
+    import io
+    import os
+
+    import zstandard
+
+    raw = b"head" * 500 + os.urandom(1 << 20)  # a compressible head, an incompressible tail
+    frame = zstandard.ZstdCompressor().compress(raw)
+    after = b"next record, not zstd"
+    f = io.BytesIO(b"x" * 7 + frame + after)
+    reads = []
+    window = mcap_partial._Window(f, 7, len(frame))
+    original = window.read
+
+    def counted(size: int = -1) -> bytes:
+        data = original(size)
+        reads.append(len(data))
+        return data
+
+    window.read = counted  # type: ignore[method-assign]
+    assert mcap_partial._zstd_prefix(window, 2000) == raw[:2000]
+    assert sum(reads) <= 2 * mcap_partial._ZSTD_READ < len(frame)
+    whole = mcap_partial._Window(f, 7, len(frame))
+    assert mcap_partial._zstd_prefix(whole, len(raw) + 10) == raw  # stops at the data's end
+    assert whole.pos == 7 + len(frame)
+    short = mcap_partial._Window(f, 7, len(frame) // 2)
+    assert len(mcap_partial._zstd_prefix(short, len(raw))) < len(raw)
