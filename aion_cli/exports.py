@@ -5,12 +5,15 @@ One frame per time: the scene files (``formats.export`` through ``mapquery.expor
 ``entries.csv`` / ``entries.json`` with the records of ``aion predict``. Everything is written
 into a hidden staging folder beside ``OUT`` and moved in when complete, so a failure (a bad
 time, a full disk, Ctrl-C) leaves no partial export behind; files already in ``OUT`` that the
-export does not write are kept.
+export does not write are kept, and a same-named file is replaced only when it is one an
+export wrote (:func:`is_export_file`): nothing is moved in otherwise.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+import os
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +42,7 @@ def export_frames(
         raise ValueError("times other than one are a series (a bug)")
     check_out_dir(out_dir)
     written: list[Path] = []
-    with Staged(out_dir, merge=True) as staged:
+    with naming(out_dir), Staged(out_dir, merge=True, recognise=is_export_file) as staged:
         staged.path.mkdir()
         for t_ns in times:
             folder = staged.path / frame_name(t_ns) if series else staged.path
@@ -47,6 +50,25 @@ def export_frames(
             if on_frame is not None:
                 on_frame()
     return [out_dir / p.relative_to(staged.path) for p in written]
+
+
+@contextlib.contextmanager
+def naming(target: Path) -> Iterator[None]:
+    """A scene file that could not be written (``ExportWriteError``, named by its file name
+    in the hidden staging folder), or a write that failed without naming its file (closing a
+    file on a full disk), reported with the output the user named."""
+    from aion_cli.formats.export import ExportWriteError
+
+    try:
+        yield
+    except ExportWriteError as exc:
+        raise ExportWriteError(
+            f"{exc.message}; nothing was written to {target}", hint=exc.hint
+        ) from exc
+    except OSError as exc:
+        if exc.filename is None:  # a failed close (a full disk) names no file
+            exc.filename = str(target)
+        raise
 
 
 def check_out_dir(out_dir: Path) -> None:
@@ -62,6 +84,33 @@ def check_out_dir(out_dir: Path) -> None:
         raise OutputPathError(
             f"-o {out_dir} is a file, not a folder", hint="give a folder to write into"
         )
+
+
+def is_export_file(path: Path) -> bool:
+    """Whether ``path`` is a file an export of aion wrote, which a new export may replace:
+    a PLY / PCD scene file with aion's marker (:mod:`formats.scene_files`), an
+    ``entries.csv`` beginning with the columns of ``aion predict``, an ``entries.json``
+    holding a predict document (its ``map`` and ``entries``)."""
+    import json
+    import re
+
+    from aion_cli.formats.scene_files import is_aion_scene_file
+    from aion_cli.predictions import CSV_KEYS
+
+    if path.suffix.lower() in (".ply", ".pcd"):
+        return is_aion_scene_file(path)
+    try:
+        if path.name == "entries.csv":
+            with open(path, encoding="utf-8", errors="replace") as fh:
+                columns = fh.readline().rstrip("\r\n").split(",")
+            keys = [re.sub(r"_\d+$", "", c) for c in columns]  # histogram_0.. -> histogram
+            return [k for i, k in enumerate(keys) if i == 0 or k != keys[i - 1]] == CSV_KEYS
+        if path.name == "entries.json":
+            doc = json.loads(path.read_bytes())
+            return isinstance(doc, dict) and {"map", "entries"} <= doc.keys()
+    except (OSError, ValueError, RecursionError):
+        return False
+    return False
 
 
 def frame_name(t_ns: int | None) -> str:
@@ -159,24 +208,25 @@ def export_scene_file(
 ) -> Path:
     """The whole scene at ``t_ns`` (None: as observed), with the path ``path_xyz`` if given,
     as the one PLY or PCD file ``out``: written beside ``out`` and renamed into place; an
-    existing ``out`` is replaced only when it is a file of that format (never a device, FIFO
-    or other file)."""
+    existing ``out`` is replaced only when an export wrote it (never a device, FIFO, or a
+    PLY / PCD file of someone else's)."""
     from aion_cli.engine import query
-    from aion_cli.formats.outputs import check_output, file_starts_with
+    from aion_cli.formats.outputs import check_output
+    from aion_cli.formats.scene_files import is_aion_scene_file
 
-    magic = _SCENE_MAGIC[fmt]
     check_output(
         out,
         overwrite=True,
-        recognise=lambda p: file_starts_with(p, magic),
-        what=f"a {fmt.upper()} file",
+        recognise=is_aion_scene_file,
+        what=f"a {fmt.upper()} scene",
+        option=None,
     )
     table = (
         query.historical_table(loaded.state)
         if t_ns is None
         else query.predict_table(loaded.state, t_ns)
     )
-    with Staged(out) as staged:
+    with naming(out), Staged(out) as staged:
         scratch = staged.folder / "scene"  # the other files are dropped with the staging
         scratch.mkdir()
         files = write_scene(loaded, table, scratch, fmt, path_xyz)
@@ -193,6 +243,7 @@ def export_dsg(
     from aion_cli.engine.node_ids import parse_node_id
     from aion_cli.errors import InputError
     from aion_cli.formats.dsg_export import check_dsg_target, write_dynamic_graph
+    from aion_cli.formats.outputs import safe_text
     from aion_cli.predictions import document, entry_table, hour_flags, rows_from_table, select
 
     check_dsg_target(out)  # before anything is computed
@@ -225,7 +276,7 @@ def export_dsg(
     (seen,) = hour_flags(loaded, [t_ns])
     info = document(map_path, loaded.config.bins, [], t_ns, zone, seen)
     info.pop("entries")
-    info["map"] = Path(str(map_path)).name
+    info["map"] = safe_text(Path(os.fsdecode(map_path)).name)
     info["nav_layer"] = graph.layer_name
     return write_dynamic_graph(graph, records, info, out)
 

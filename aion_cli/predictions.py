@@ -193,11 +193,12 @@ def document(
     """The JSON document of ``predict`` and of ``export``'s entries.json: metadata and rows.
     ``t_ns`` None means historical (what was observed); ``hour_observed`` (when known:
     :func:`hour_flags`) whether any day observed the time's hour of the day."""
+    from aion_cli.formats.outputs import safe_text
     from aion_cli.timeparse import format_ns
 
     when = None if t_ns is None or zone is None else (format_ns(t_ns, zone), zone.name)
     doc: dict[str, Any] = {
-        "map": str(map_path),
+        "map": safe_text(map_path),  # UTF-8 in the JSON whatever the file name's bytes
         "mode": "historical" if when is None else "predicted",
         "time": None if when is None else when[0],
         "time_ns": t_ns,

@@ -39,6 +39,7 @@ def export_mcap(
     time logged at that time (a historical step at the end of the map's data), with the path
     between ``ends`` (``exports.path_ends``) planned at each step; ``on_frame`` after each
     step. ``out`` is checked before anything is computed and appears complete or not at all."""
+    from aion_cli.formats.outputs import safe_text
     from aion_cli.formats.scene_mcap import SceneMcapWriter, check_scene_target
     from aion_cli.predictions import hour_flags
     from aion_cli.timeparse import format_ns
@@ -47,7 +48,7 @@ def export_mcap(
     scale = series_flow_scale(loaded, times)
     steps = [t for t in times if t is not None]
     metadata = {
-        "map": str(map_path),
+        "map": safe_text(map_path),
         "mode": "predicted" if steps else "historical",
         "steps": str(len(times)),
         "first": format_ns(steps[0], zone) if steps and zone is not None else "",

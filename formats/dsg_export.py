@@ -64,7 +64,38 @@ def check_dsg_target(path: Path) -> None:
             f"--format dsg writes a .json or .sparkdsg file, got -o {path.name!r}",
             hint="e.g. -o dsg.json",
         )
-    check_output(path, overwrite=True, recognise=_written_by_aion, what="a scene-graph file")
+    check_output(
+        path, overwrite=True, recognise=_written_by_aion, what="a scene-graph file", option=None
+    )
+
+
+def _check_saved(path: Path, out: Path, dsg: Any) -> None:
+    """:class:`ExportWriteError` unless the file spark_dsg saved at ``path`` is whole:
+    spark_dsg reports no write error (a full disk leaves a cut-off or empty file). A
+    ``.json`` file must parse; a ``.sparkdsg`` file must end with the graph's binary form
+    (``DynamicSceneGraph.to_binary``; the file adds a header in front)."""
+    import json
+
+    from aion_cli.formats.export import ExportWriteError
+
+    try:
+        data = path.read_bytes()
+        if out.suffix.lower() == ".json":
+            json.loads(data)
+            whole = True
+        else:
+            body = dsg.to_binary(include_mesh=False)
+            whole = len(data) > len(body) and data.endswith(body)
+    except (OSError, ValueError) as exc:
+        whole = False
+        reason = getattr(exc, "strerror", None) or "the file came out incomplete"
+    else:
+        reason = "the file came out incomplete"
+    if not whole:
+        raise ExportWriteError(
+            f"cannot write {out}: {reason}",
+            hint="check free disk space on the output's file system",
+        )
 
 
 def _names(layer: Any) -> list[str]:
@@ -124,6 +155,7 @@ def write_dynamic_graph(
     dsg.metadata.set({"aion": {"written_by": MARKER, **info}})
     with Staged(out) as staged:
         dsg.save(str(staged.path), include_mesh=False)
+        _check_saved(staged.path, out, dsg)
     with_dynamics = sum(1 for node_id in places.ids.tolist() if node_id in records)
     return DsgExportSummary(
         out, len(places), with_dynamics, len(graph.rooms), len(graph.buildings), len(graph.edges)

@@ -264,6 +264,11 @@ def _o3d_points(xyz: F64, colors: F64, normals: F64 | None = None) -> Any:
 
 
 def _write(path: Path, kind: str, geometry: Any) -> Path:
+    """Write ``geometry`` with open3d beside ``path`` (a hidden name of the same suffix, which
+    chooses the format), then check it complete and mark it as aion's
+    (:func:`formats.scene_files.seal`): open3d's return value misses a full disk."""
+    from aion_cli.formats.scene_files import native_stderr_quiet, seal
+
     o3d = open3d()
 
     writers: dict[str, Any] = {
@@ -271,12 +276,15 @@ def _write(path: Path, kind: str, geometry: Any) -> Path:
         "lines": o3d.io.write_line_set,
         "points": o3d.io.write_point_cloud,
     }
-    ok = writers[kind](str(path), geometry, write_ascii=False)
+    raw = path.with_name(f".open3d.{path.name}")
+    with native_stderr_quiet():
+        ok = writers[kind](str(raw), geometry, write_ascii=False)
     if not ok:
+        raw.unlink(missing_ok=True)
         raise ExportWriteError(
             f"cannot write {path}", hint="check that the output folder is writable"
         )
-    return path
+    return seal(raw, path)
 
 
 # -- the scene -------------------------------------------------------------------------------

@@ -13,19 +13,27 @@ truth) follows the same three rules, so that no option, typo or interruption can
    storage files it names, a map by its manifest...). Anything else, a folder holding other
    files in particular, is refused with the reason. A 0-byte regular file (and, where the
    output is a folder, an empty folder) holds no data and counts as replaceable.
+   Commands that replace their own outputs without ``--force`` (``export``, ``report``,
+   maps) apply the same recognisers; a folder written *into* (``export -o DIR``) replaces
+   only same-named files its recogniser accepts (:class:`Staged` ``recognise``).
 3. **Outputs appear complete or not at all.** :class:`Staged` writes into a hidden folder
    ``.<name>.<random>.tmp`` beside the target and renames the result into place when it is
    complete: an exception (disk full, Ctrl-C, a bad record) leaves the previous output as it
    was and removes the staging folder. Replacing a file is one atomic ``rename``; replacing a
    folder is two (old out of the way, new in), with the old one put back if the second fails.
+   Writers whose library does not report errors (open3d, spark_dsg) check the staged file
+   before it is committed.
 
 Only a SIGKILL leaves a staging folder behind (nothing can run then); its name starts with a
-dot and the target's name, so it is easy to recognise and delete.
+dot and the target's name, so it is easy to recognise and delete. Hidden and lock names keep
+within the 255 bytes a file name may have: a long target name is cut and ends in ``~`` and 8
+hex digits of its hash (:func:`fitted_name`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import shutil
 import signal
@@ -47,8 +55,52 @@ _SPECIAL = (
 )
 
 
+NAME_MAX = 255
+"""Bytes a file name may have on the file systems aion writes to (ext4, xfs, btrfs, tmpfs)."""
+
+STAGING_ROOM = 14
+"""Bytes a hidden staging name adds to its target's name: ``.`` + ``.`` + 8 random + ``.tmp``."""
+
+
 class OutputPathError(InputError):
     """An output path aion refuses to write or replace (exit 2); nothing was written."""
+
+
+def fitted_name(name: str, room: int) -> str:
+    """``name`` when it and ``room`` more bytes fit in a file name (:data:`NAME_MAX`), else
+    its longest leading part that does, then ``~`` and 8 hex digits of the whole name's hash:
+    the hidden staging and lock names of a legal 255-byte target stay legal, start like it
+    and differ between targets that share a long beginning."""
+    raw = os.fsencode(name)
+    if len(raw) + room <= NAME_MAX:
+        return name
+    tag = "~" + hashlib.sha256(raw).hexdigest()[:8]
+    keep = name[: NAME_MAX - room - len(tag)]
+    while keep and len(os.fsencode(keep)) + len(tag) + room > NAME_MAX:
+        keep = keep[:-1]  # a multi-byte character (or an undecodable byte) at the end
+    return keep + tag
+
+
+def staging_prefix(name: str) -> str:
+    """The start of a hidden temporary name beside the target ``name`` (``.<name>.``; a
+    random part and ``.tmp`` follow): the whole is a legal file name."""
+    return f".{fitted_name(name, STAGING_ROOM)}."
+
+
+def safe_text(name: object) -> str:
+    """A file name (a path, bytes or text holding one) as text every encoder accepts: a
+    name's bytes that are not UTF-8 (``map\\xff.aion``) become U+FFFD. For names written into
+    an output's content (a picture's title, JSON, an MCAP record, a web page), which must be
+    UTF-8 where the file system's names need not be."""
+    if isinstance(name, str | bytes | os.PathLike):
+        text = os.fsdecode(name)
+    else:
+        text = str(name)
+    try:
+        raw = text.encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:  # a lone surrogate that is not an undecodable byte (from JSON)
+        raw = text.encode("utf-8", "replace")
+    return raw.decode("utf-8", "replace")
 
 
 def special_kind(path: Path) -> str | None:
@@ -138,6 +190,7 @@ def check_output(
     recognise: Recogniser,
     what: str,
     folder: bool = False,
+    option: str | None = "--force",
 ) -> bool:
     """Validate the output target ``path`` before anything is written.
 
@@ -145,7 +198,9 @@ def check_output(
     Raises :class:`OutputPathError` for a special file, the current folder or a parent of it,
     an existing target without ``overwrite``, and an existing target that ``recognise`` does not
     accept as ``what`` (e.g. ``"an MCAP log"``). ``folder``: the output is a folder (a rosbag2
-    bag), which changes only the wording of the refusal.
+    bag), which changes only the wording of the refusal. ``option``: what lets the user replace
+    an output (``--force``), or None for a command that replaces its own outputs unasked
+    (``export``): the hints name only options the command has.
     """
     target = Path(path)
     kind = special_kind(target)
@@ -161,17 +216,26 @@ def check_output(
     if not overwrite:
         raise OutputPathError(
             f"{target} exists already",
-            hint="remove it, choose another path, or add --force (which replaces only "
-            f"{what} aion wrote)",
+            hint=f"remove it, choose another path, or add {option or '--force'} (which "
+            f"replaces only {what} aion wrote)",
         )
     if is_empty_file(target) or (folder and is_empty_folder(target)) or recognise(target):
         return True
     raise OutputPathError(
         f"{target} exists and is {_what_it_is(target)}, not {what} aion wrote: refusing to "
         "replace it",
-        hint="--force replaces only aion's own outputs; choose another path or remove it "
-        "yourself",
+        hint=refusal_hint(option),
     )
+
+
+def refusal_hint(option: str | None = "--force") -> str:
+    """The hint under a refusal to replace something aion did not write."""
+    lead = (
+        f"{option} replaces only aion's own outputs"
+        if option
+        else "aion replaces only files it wrote itself"
+    )
+    return f"{lead}; choose another path or remove it yourself"
 
 
 def _what_it_is(path: Path) -> str:
@@ -249,19 +313,30 @@ class Staged:
     of the target's name that does not exist yet), then :meth:`commit` it or :meth:`discard`
     it. As a context manager it commits on success and discards on any exception.
     ``merge``: the target is a folder to write *into* (``aion export``): the staged folder's
-    files replace the same-named files of an existing target folder, others stay.
+    files replace the same-named files of an existing target folder, others stay; with
+    ``recognise``, only files it accepts as aion's own (or empty ones) are replaced, and one it
+    refuses stops the commit before any file moves (:class:`OutputPathError`).
     """
 
-    def __init__(self, target: str | os.PathLike[str], *, merge: bool = False) -> None:
+    def __init__(
+        self,
+        target: str | os.PathLike[str],
+        *,
+        merge: bool = False,
+        recognise: Recogniser | None = None,
+    ) -> None:
         self.target = Path(os.path.abspath(target))
         self.merge = merge
+        self.recognise = recognise
         parent = self.target.parent
         if merge and self.target.is_dir():  # stage inside the folder written into (-o .)
             parent = self.target
         parent.mkdir(parents=True, exist_ok=True)
         with interrupts_held():
             self.folder = Path(
-                tempfile.mkdtemp(dir=parent, prefix=f".{self.target.name}.", suffix=".tmp")
+                tempfile.mkdtemp(
+                    dir=parent, prefix=staging_prefix(self.target.name), suffix=".tmp"
+                )
             )
         self.path = self.folder / self.target.name
         self.done = False
@@ -276,6 +351,8 @@ class Staged:
                 raise OutputPathError(f"nothing was written for {self.target}")
             _fsync_tree(self.path)
             if self.merge and self.target.is_dir():
+                if self.recognise is not None:
+                    _check_replaced(self.path, self.target, self.recognise)
                 _merge_into(self.path, self.target)
             elif self.target.is_dir() and not self.target.is_symlink():
                 old = self.folder / ".replaced"
@@ -304,6 +381,21 @@ class Staged:
             self.commit()
         else:
             self.discard()
+
+
+def _check_replaced(src: Path, dst: Path, recognise: Recogniser) -> None:
+    """:class:`OutputPathError` when a file of folder ``src`` would replace a file of
+    ``dst`` that is neither empty nor accepted by ``recognise`` (nothing is moved)."""
+    for entry in sorted(src.iterdir()):
+        dest = dst / entry.name
+        if entry.is_dir() and dest.is_dir() and not dest.is_symlink():
+            _check_replaced(entry, dest, recognise)
+        elif _exists(dest) and not (is_empty_file(dest) or recognise(dest)):
+            raise OutputPathError(
+                f"{dest} exists and is {_what_it_is(dest)}, not a file aion wrote: refusing "
+                "to replace it; nothing was written",
+                hint=refusal_hint(None),
+            )
 
 
 def _merge_into(src: Path, dst: Path) -> None:

@@ -37,7 +37,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from aion_cli.formats.export import ExportError, ExportWriteError
-from aion_cli.formats.outputs import OutputPathError, Staged, check_output, file_starts_with
+from aion_cli.formats.outputs import OutputPathError, Staged, check_output
 from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
 from aion_cli.formats.scene_markers import (
     CELL_THICKNESS,
@@ -65,10 +65,45 @@ LATCHED_QOS = (
 ``ros2 bag play`` of the file offers it as a static transform publisher does."""
 
 
+def library_of(path: Path) -> tuple[str, str] | None:
+    """(profile, library) of the MCAP file ``path``'s header record, None when it is not an
+    MCAP file or cannot be read (reads the first few hundred bytes only)."""
+    import struct
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(len(MCAP_MAGIC) + 9 + 2 * (4 + 256))
+    except OSError:
+        return None
+    body = head[len(MCAP_MAGIC) + 9 :]
+    if not head.startswith(MCAP_MAGIC) or head[len(MCAP_MAGIC) : len(MCAP_MAGIC) + 1] != b"\x01":
+        return None
+    texts: list[str] = []
+    at = 0
+    for _ in range(2):  # the Header record: profile, then library
+        if len(body) < at + 4:
+            return None
+        (n,) = struct.unpack_from("<I", body, at)
+        if len(body) < at + 4 + n:
+            return None
+        texts.append(body[at + 4 : at + 4 + n].decode("utf-8", "replace"))
+        at += 4 + n
+    return texts[0], texts[1]
+
+
+def is_scene_mcap(path: Path) -> bool:
+    """Whether ``path`` is an MCAP file ``aion export`` wrote (no profile, library
+    ``aion <version>``): a recorded log (profile ``ros2``...; ``aion convert``'s say library
+    ``aion``) is never one."""
+    header = library_of(path)
+    return header is not None and header[0] == "" and header[1].startswith("aion ")
+
+
 def check_scene_target(path: Path) -> None:
     """Refuse ``-o`` before anything is computed: a folder (``--format mcap`` writes one
     file), a name without ``.mcap``, a device, FIFO or socket, or an existing file that is not
-    an MCAP file (an MCAP file is replaced, as a re-export replaces its PLY files)."""
+    an MCAP file an export wrote (:func:`is_scene_mcap`; such a file is replaced, as a
+    re-export replaces its PLY files; a recorded log never is)."""
     if path.is_dir():
         raise OutputPathError(
             f"-o {path} is a folder: --format mcap writes one file",
@@ -79,10 +114,7 @@ def check_scene_target(path: Path) -> None:
             f"--format mcap writes an .mcap file, got -o {path.name!r}", hint="e.g. -o scene.mcap"
         )
     check_output(
-        path,
-        overwrite=True,
-        recognise=lambda p: file_starts_with(p, MCAP_MAGIC),
-        what="an MCAP file",
+        path, overwrite=True, recognise=is_scene_mcap, what="an MCAP scene", option=None
     )
 
 
@@ -177,9 +209,11 @@ class SceneMcapWriter:
     def abort(self) -> None:
         """Throw the partial file away (the target stays as it was). Idempotent."""
         file, self._file = getattr(self, "_file", None), None
-        if file is not None:
-            file.close()
-        self._staged.discard()
+        try:
+            if file is not None:
+                file.close()  # may fail again on a full disk
+        finally:
+            self._staged.discard()
 
     def __enter__(self) -> SceneMcapWriter:
         return self

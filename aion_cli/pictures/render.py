@@ -4,7 +4,8 @@
 The scene at each time comes from :func:`aion_cli.scene.scene_at` (the entry table of
 ``aion predict``), paths from :mod:`aion_cli.routes` (the plans ``aion plan`` prints). A
 picture is written beside its target and renamed into place (``formats.outputs.Staged``), so
-a failure leaves no partial file; an existing target is replaced only when it is a PNG file.
+a failure leaves no partial file; an existing target is replaced only when it is a picture
+aion drew (its PNG ``Software`` text is :data:`PNG_SOFTWARE`: :func:`is_aion_png`).
 """
 
 from __future__ import annotations
@@ -25,16 +26,31 @@ if TYPE_CHECKING:
     from aion_cli.timeparse import Zone
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+PNG_SOFTWARE = "aion"
+"""The ``Software`` text chunk of every PNG aion draws (matplotlib writes it before the
+pixels): what tells a picture aion may replace from someone else's."""
+
+
+def is_aion_png(path: Path) -> bool:
+    """Whether ``path`` is a PNG file aion drew (:data:`PNG_SOFTWARE`; reads 4 KiB)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return False
+    tag = b"tEXtSoftware\x00" + PNG_SOFTWARE.encode() + b"\x00"  # the chunk's CRC follows
+    return head.startswith(PNG_MAGIC) and tag[:-1] in head
 
 
 def check_png_target(out: Path, option: str = "-o") -> None:
-    """Refuse, before anything is computed, a target that is not a new or existing PNG file
-    in an existing folder (a folder, a device, another kind of file, a missing folder): an
-    existing PNG file (or an empty file) is replaced, nothing else."""
+    """Refuse, before anything is computed, a target that is not a new PNG file or one aion
+    drew, in an existing folder (a folder, a device, another file, a PNG picture of someone
+    else's, a missing folder): a picture aion drew (or an empty file) is replaced, nothing
+    else."""
     from aion_cli.formats.outputs import (
         OutputPathError,
-        file_starts_with,
         is_empty_file,
+        refusal_hint,
         special_kind,
     )
 
@@ -57,10 +73,10 @@ def check_png_target(out: Path, option: str = "-o") -> None:
             f"{option} {out}: the folder {parent} does not exist",
             hint="create it first, or choose another path",
         )
-    if os.path.lexists(out) and not (is_empty_file(out) or file_starts_with(out, PNG_MAGIC)):
+    if os.path.lexists(out) and not (is_empty_file(out) or is_aion_png(out)):
         raise OutputPathError(
-            f"{option} {out} exists and is not a PNG file: refusing to replace it",
-            hint="choose another path, or remove it yourself",
+            f"{option} {out} exists and is not a picture aion drew: refusing to replace it",
+            hint=refusal_hint(None),
         )
 
 
@@ -72,10 +88,17 @@ def save_png(fig: Any, out: Path, option: str = "-o") -> Path:
     check_png_target(out, option)
     try:
         with Staged(out) as staged:
-            fig.savefig(staged.path, format="png", dpi=fig.dpi, facecolor="white")
+            fig.savefig(
+                staged.path,
+                format="png",
+                dpi=fig.dpi,
+                facecolor="white",
+                metadata={"Software": PNG_SOFTWARE},
+            )
     except OSError as exc:
         raise ExportWriteError(
-            f"cannot write {out}: {exc.strerror or exc}", hint="check the folder is writable"
+            f"cannot write {out}: {exc.strerror or exc}",
+            hint="check free disk space and that the folder is writable",
         ) from exc
     return out
 

@@ -42,6 +42,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.errors import InputError
+from aion_cli.formats.outputs import safe_text
 from aion_cli.formats.scene_colours import (
     EDGE_GREY,
     NO_FLOW_GREY,
@@ -310,7 +311,7 @@ def draw_topdown(
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     if title is not None:
-        ax.set_title(title, fontsize=10)
+        ax.set_title(safe_text(title), fontsize=10)
 
 
 def _grid(n: int, aspect: float) -> tuple[int, int, float, float]:
@@ -414,8 +415,8 @@ def topdown_figure(
         aspect=30,
     )
     bar.set_label(ENTROPY_LABEL)
-    if suptitle:
-        fig.suptitle(suptitle, fontsize=12)
+    if suptitle:  # it may hold a file name: UTF-8 text whatever the name's bytes
+        fig.suptitle(safe_text(suptitle), fontsize=12)
     fig.supxlabel(
         "\n".join(
             filter(

@@ -2,19 +2,27 @@
 
 The page refers only to the pictures written beside it (relative names handed in by the
 writer). Every string that comes from the map (its file name, input names, room labels, ids,
-config values, notes) goes through :func:`html.escape`, so a log named ``<b>&x.mcap`` shows
-as written and never becomes markup.
+config values, notes) goes through :func:`escape`, so a log named ``<b>&x.mcap`` shows
+as written and never becomes markup, and a name whose bytes are not UTF-8 (a map or log named
+``map\\xff.aion``) shows U+FFFD for them instead of making the page unwritable.
 """
 
 from __future__ import annotations
 
+import html
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from html import escape
 from typing import Any
 
+from aion_cli.formats.outputs import safe_text
 from aion_cli.report.content import ReportContent
 from aion_cli.timeparse import Zone, format_ns
+
+
+def escape(text: str) -> str:
+    """``text`` as HTML text: markup characters escaped, undecodable name bytes as U+FFFD
+    (:func:`formats.outputs.safe_text`; the page is written as UTF-8)."""
+    return html.escape(safe_text(text))
 
 CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; color: #1d2733;

@@ -32,8 +32,12 @@ _MAX_DAY_ROWS = 120
 
 
 def plain(text: object) -> str:
-    """``text`` as literal matplotlib text: ``$`` escaped (mathtext is off for it)."""
-    return str(text).replace("$", r"\$")
+    """``text`` as literal matplotlib text: ``$`` escaped (mathtext is off for it), a name's
+    bytes that are not UTF-8 as U+FFFD (:func:`formats.outputs.safe_text`; matplotlib
+    refuses them)."""
+    from aion_cli.formats.outputs import safe_text
+
+    return safe_text(text).replace("$", r"\$")
 
 
 def _figure(width: float, height: float) -> Any:
@@ -46,7 +50,9 @@ def _save(fig: Any, path: Path) -> Path:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     FigureCanvasAgg(fig)
-    fig.savefig(path, format="png", dpi=DPI, metadata={"Software": None})
+    from aion_cli.pictures.render import PNG_SOFTWARE
+
+    fig.savefig(path, format="png", dpi=DPI, metadata={"Software": PNG_SOFTWARE})
     return path
 
 

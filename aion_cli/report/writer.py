@@ -3,7 +3,8 @@
 Everything is written into a hidden staging folder beside ``OUT`` (``formats.outputs.Staged``,
 as ``aion export`` does) and moved in when complete, so a failure (a bad map, a full disk,
 Ctrl-C) leaves no partial report behind; files already in ``OUT`` that the report does not
-write are kept.
+write are kept, and a same-named file is replaced only when a report wrote it
+(:func:`is_report_file`): nothing is moved in otherwise.
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from aion_cli.report.content import ROSES, ReportContent, gather
 from aion_cli.timeparse import Zone
 
 PAGE = "index.html"
+FOOTER = "<footer>written by aion "
+"""How the page's last line begins (``report.page.render``): it marks a page as aion's."""
 STEPS = 8
 """Calls of ``on_step`` a report makes (for a progress bar's total)."""
 
@@ -45,7 +48,7 @@ def write_report(
     check_out_dir(out_dir)
     content = gather(loaded, map_path, zone, t_ns)
     step("read the map")
-    with Staged(out_dir, merge=True) as staged:
+    with Staged(out_dir, merge=True, recognise=is_report_file) as staged:
         folder = staged.path
         folder.mkdir()
         pictures: dict[str, str | None] = {}
@@ -77,6 +80,29 @@ def write_report(
         step("page")
         written = [folder / PAGE, *(folder / n for n in pictures.values() if n is not None)]
     return [out_dir / p.relative_to(folder) for p in written]
+
+
+def is_report_file(path: Path) -> bool:
+    """Whether ``path`` is a file a report wrote, which a new report may replace: a page with
+    the report's footer, a picture aion drew, or a picture such a page beside it shows (the
+    pictures of reports written before aion marked its pictures)."""
+    from aion_cli.pictures.render import is_aion_png
+
+    if path.suffix.lower() != ".png":
+        return FOOTER.encode() in _page_bytes(path)
+    if is_aion_png(path):
+        return True
+    page = _page_bytes(path.parent / PAGE)
+    return FOOTER.encode() in page and f'src="{path.name}"'.encode() in page
+
+
+def _page_bytes(path: Path) -> bytes:
+    """The first 4 MiB of a page (b"" when it cannot be read)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(1 << 22)
+    except OSError:
+        return b""
 
 
 def top_down_picture(loaded: Any, content: ReportContent, path: Path) -> Path:

@@ -214,7 +214,7 @@ def test_existing_mcap_is_replaced_other_files_refused(office: Office, tmp_path:
     notes.write_text("keep me")
     result = run("export", office.map, "--historical", "--format", "mcap", "-o", notes)
     assert result.exit_code == 2
-    assert_one_line_error(result.stderr, "not an MCAP file")
+    assert_one_line_error(result.stderr, "not an MCAP scene aion wrote")
     assert notes.read_text() == "keep me"
 
 

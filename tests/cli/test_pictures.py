@@ -62,11 +62,19 @@ def test_series_is_small_multiples_with_the_path(office: Office, tmp_path: Path)
     assert count_near(read_png(single), PATH_GREEN, tol=0.1) == 0  # no path asked for
 
 
-def test_an_existing_png_is_replaced(office: Office, tmp_path: Path) -> None:
+def test_a_picture_aion_drew_is_replaced_another_png_is_not(
+    office: Office, tmp_path: Path
+) -> None:
     out = tmp_path / "map.png"
-    out.write_bytes(PNG_MAGIC + b"old")
-    assert run("export", office.map, "--historical", "--format", "png", "-o", out).exit_code == 0
+    for _ in range(2):  # the second run replaces the picture the first drew
+        assert run("export", office.map, "--historical", "-o", out).exit_code == 0
     assert panel_count(read_png(out)) == 1
+    other = tmp_path / "photo.png"
+    other.write_bytes(PNG_MAGIC + b"someone else's")
+    result = run("export", office.map, "--historical", "-o", other)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "not a picture aion drew")
+    assert other.read_bytes() == PNG_MAGIC + b"someone else's"
 
 
 @pytest.mark.parametrize(
@@ -75,7 +83,7 @@ def test_an_existing_png_is_replaced(office: Office, tmp_path: Path) -> None:
         ("folder", "is a folder"),
         ("missing/map.png", "does not exist"),
         ("map.jpg", ".png"),
-        ("notes.png", "not a PNG file"),
+        ("notes.png", "not a picture aion drew"),
     ],
 )
 def test_bad_png_targets_exit_2(office: Office, tmp_path: Path, target: str, fragment: str) -> None:
