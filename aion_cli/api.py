@@ -409,6 +409,7 @@ class Map:
         atomically; anything else is refused). A map loaded from a file is copied byte for
         byte (its checksums stay valid); an in-memory map is written from its state."""
         from aion_cli.formats.mapfile import check_map_target, map_lock, write_map
+        from aion_cli.formats.outputs import staging_prefix
 
         target = as_path(path)
         if self._file is not None:
@@ -416,7 +417,7 @@ class Map:
             if target.exists() and os.path.samestat(os.stat(target), os.fstat(self._file.fd)):
                 return target  # the very file: nothing to write
             check_map_target(target)
-            tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+            tmp = target.with_name(f"{staging_prefix(target.name)}{os.getpid()}.tmp")
             with map_lock(target):  # as write_map: one writer per map at a time
                 try:
                     self._file.copy_to(tmp)  # the bytes loaded, even if the path was replaced

@@ -170,8 +170,14 @@ class StreamStep:
             what,
             [entry.name for entry in inputs],
             self._logs,
-            self.report.output.name,
+            self._continued_name(),
         )
+
+    def _continued_name(self) -> str:
+        """The name of the map being continued (``--map``), which closed the windows; the
+        output (``-o``) may be another file."""
+        continued = self.opts.continue_from
+        return continued.name if continued is not None else self.report.output.name
 
     def _take_graph(self, logset: Any, mapper: Mapper, msg: RawMessage, use_agents: bool) -> None:
         """One scene-graph message of the stream (one :func:`graph_schedule` kept): decoded

@@ -151,7 +151,12 @@ class _Build(StreamStep):
 
     def run(self) -> BuildReport:
         """The build, holding the output map's lock from start to end."""
-        from aion_cli.formats.mapfile import check_map_folder, check_map_target, map_lock
+        from aion_cli.formats.mapfile import (
+            check_map_folder,
+            check_map_target,
+            map_lock,
+            read_manifest,
+        )
 
         out = self.report.output
         check_map_folder(out)
@@ -161,6 +166,8 @@ class _Build(StreamStep):
                 f"the map would overwrite the log {out}",
                 hint="choose another output with -o (maps end in .aion)",
             )
+        if self.opts.continue_from is not None:  # the input first: without -o it is the
+            read_manifest(self.opts.continue_from)  # output too, judged below as a target
         check_map_target(out)  # a device, FIFO or foreign file fails now, not after hashing
         # Held from reading a continued map to writing the result: two builds extending the
         # same map would otherwise both start from the old map, and the later write would

@@ -111,8 +111,7 @@ def parse_document(path: Path) -> dict[str, Any]:
         ) from exc
     except json.JSONDecodeError as exc:
         raise GraphFileError(
-            f"cannot read scene-graph file {path}: not valid JSON ({exc.msg} at line "
-            f"{exc.lineno} column {exc.colno})",
+            f"cannot read scene-graph file {path}: not valid JSON ({_json_error(exc)})",
             hint="the file is truncated or damaged; " + hint,
         ) from exc
     except (RecursionError, MemoryError) as exc:
@@ -342,3 +341,10 @@ def _add_edge(spark_dsg: Any, graph: Any, edge: dict[str, Any]) -> bool:
         return bool(graph.insert_edge(int(edge["source"]), int(edge["target"]), info))
     except (RuntimeError, ValueError, TypeError, OverflowError):
         return False
+
+
+def _json_error(exc: json.JSONDecodeError) -> str:
+    """``"Unterminated string starting at line 1 column 5"``: json's messages that end in
+    "at" (which it follows with ": line ...") take no second "at"."""
+    msg = exc.msg if exc.msg.endswith(" at") else f"{exc.msg} at"
+    return f"{msg} line {exc.lineno} column {exc.colno}"

@@ -112,9 +112,12 @@ def check_map_target(path: str | os.PathLike[str]) -> None:
 
 
 def lock_path(path: str | os.PathLike[str]) -> Path:
-    """``office.aion`` -> ``office.aion.lock``."""
+    """``office.aion`` -> ``office.aion.lock`` (a name too long for the suffix is cut and
+    ends in its hash: :func:`formats.outputs.fitted_name`)."""
+    from aion_cli.formats.outputs import fitted_name
+
     p = Path(path)
-    return p.with_name(p.name + ".lock")
+    return p.with_name(fitted_name(p.name, len(".lock")) + ".lock")
 
 
 def _pid_alive(pid: int) -> bool:
@@ -149,12 +152,20 @@ def _lock_is_stale(lock: Path) -> bool:
 
 
 def _try_create_lock(lock: Path) -> bool:
+    """Create ``lock`` holding ``"<pid> <host>"``; False when it exists. A lock whose pid
+    could not be written (a full disk) is removed before the error propagates: an empty lock
+    left behind would block the next run as "written by another process (unknown)"."""
     try:
         fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
     except FileExistsError:
         return False
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(f"{os.getpid()} {socket.gethostname()}\n")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(f"{os.getpid()} {socket.gethostname()}\n")  # may fail when closed
+    except BaseException:
+        with contextlib.suppress(OSError):
+            lock.unlink()
+        raise
     return True
 
 
@@ -181,7 +192,7 @@ def map_lock(path: str | os.PathLike[str]) -> Iterator[Path]:
         else:
             raise MapWriteError(
                 f"cannot create lock file {lock}: {exc.strerror or exc}",
-                hint="check write permissions on the map's folder",
+                hint="check free disk space and write permissions on the map's folder",
             ) from exc
     if not acquired:
         holder = ""

@@ -38,7 +38,7 @@ from aion_cli.formats.mapfile_format import (
     is_valid_member_name,
 )
 from aion_cli.formats.mapfile_target import check_map_output, check_map_target, map_lock
-from aion_cli.formats.outputs import fsync_dir, interrupts_held
+from aion_cli.formats.outputs import fsync_dir, interrupts_held, staging_prefix
 
 
 class _HashingWriter:
@@ -189,7 +189,7 @@ def write_map(
         try:
             with interrupts_held():  # else Ctrl-C right after mkstemp leaves the file behind
                 fd, tmp_name = tempfile.mkstemp(
-                    dir=folder, prefix=f".{target.name}.", suffix=".tmp"
+                    dir=folder, prefix=staging_prefix(target.name), suffix=".tmp"
                 )
                 tmp = Path(tmp_name)
             os.chmod(tmp, _new_file_mode(target))  # mkstemp makes 0600; maps are shareable

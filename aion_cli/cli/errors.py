@@ -4,7 +4,9 @@ Every failure becomes exactly one ``error: ...`` line on stderr, usually followe
 ``hint: ...`` line, and an exit code:
 
 * 2 — the user's to fix: :class:`~aion_cli.errors.InputError` (bad file, option, value),
-  click usage errors (unknown option, missing argument), missing or unreadable files;
+  click usage errors (unknown option, missing argument), missing or unreadable files, and
+  the machine's limits: a full disk or quota, a read-only file system, a name or path too
+  long (:data:`ENVIRONMENT`);
 * 1 — anything else (an internal fault): the hint asks to rerun with ``--debug``;
 * 130 — interrupted with Ctrl-C.
 
@@ -132,25 +134,57 @@ def _silence_stdout() -> None:
         pass
 
 
+ENVIRONMENT = {
+    errno.ENOSPC: "free some disk space or write to another place; an existing output is "
+    "left unchanged",
+    errno.EDQUOT: "free some space within your quota or write to another place; an existing "
+    "output is left unchanged",
+    errno.EFBIG: "the file system cannot hold a file this large; write to another place",
+    errno.EROFS: "the file system is read-only; write to another place",
+    errno.ENAMETOOLONG: "use a shorter path: each name at most 255 bytes, the whole path at "
+    "most 4096",
+}
+"""OS errors of the machine rather than of aion (exit 2), with the hint for each."""
+
+SHOWN_PATH_CHARS = 200
+"""A longer path is shown by its start and end (a path over 4096 bytes would fill a page)."""
+
+
 def _shown_path(name: object) -> str:
     """A path for the message: a staged output's hidden temporary name (``.x.ply.<tag>.tmp``,
-    ``formats.outputs.Staged``) shown as the output it stands for."""
+    ``formats.outputs.Staged``) shown as the output it stands for; a very long path shortened
+    in its middle."""
     text = os.fsdecode(name) if isinstance(name, str | bytes | os.PathLike) else str(name)
-    folder, base = os.path.split(text)
-    if base.startswith(".") and base.endswith(".tmp") and base.count(".") >= 3:
-        base = base[1:].rsplit(".", 2)[0]
-    return os.path.join(folder, base) if folder else base
+    parts = text.split(os.sep)
+    for i, part in enumerate(parts):
+        if part.startswith(".") and part.endswith(".tmp") and part.count(".") >= 3:
+            target = part[1:].rsplit(".", 2)[0]
+            inner = parts[i + 1] if i + 1 < len(parts) else None
+            parts[i] = target  # ".out.<tag>.tmp/out/x.csv" -> "out/x.csv"
+            if inner is not None and inner.startswith(target.rsplit("~", 1)[0]):
+                del parts[i + 1]
+                parts[i] = inner  # the full name (a long one is cut in the staging name)
+            break
+    shown = os.sep.join(parts)
+    if len(shown) > SHOWN_PATH_CHARS:
+        half = SHOWN_PATH_CHARS // 2
+        shown = f"{shown[:half]}...{shown[-half:]} ({len(os.fsencode(text)):,} bytes)"
+    return shown
 
 
 def _file_in_the_way(name: object) -> str | None:
     """The first folder of the path ``name`` that is a regular file (so nothing below it can
-    be made), or None."""
+    be made), or None. A folder that cannot be looked at (its name too long, no permission)
+    ends the search: this runs while an error is reported and must not raise another."""
     from pathlib import Path
 
     text = os.fsdecode(name) if isinstance(name, str | bytes | os.PathLike) else str(name)
-    for folder in reversed(Path(os.path.abspath(text)).parents):
-        if folder.is_file():
-            return str(folder)
+    try:
+        for folder in reversed(Path(os.path.abspath(text)).parents):
+            if folder.is_file():
+                return str(folder)
+    except (OSError, ValueError):
+        return None
     return None
 
 
@@ -176,6 +210,9 @@ def _report_os_error(exc: OSError) -> int:
     )
     if isinstance(exc, user_side):
         _emit(f"{what}{where}", "check the path and its permissions")
+        return EXIT_INPUT
+    if exc.errno in ENVIRONMENT:
+        _emit(f"{what}{where}", ENVIRONMENT[exc.errno])
         return EXIT_INPUT
     _emit(f"{what}{where}", "rerun with --debug for the traceback")
     return EXIT_FAULT
