@@ -87,11 +87,18 @@ def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def report_dir(sample_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A report written into a folder that already holds an unrelated file and a stale copy
-    of one of the report's pictures (both older than the run)."""
+    of one of the report's pictures, drawn by aion (both older than the run). A same-named
+    file aion did not draw would be refused (tests/robustness/test_export_targets.py)."""
+    from matplotlib.figure import Figure
+
+    from aion_cli.pictures.render import PNG_SOFTWARE
+
     out = tmp_path_factory.mktemp("out") / "report"
     out.mkdir()
     (out / "unrelated.png").write_bytes(PNG_MAGIC)
-    (out / "observed.png").write_bytes(b"stale")
+    Figure(figsize=(1, 1)).savefig(
+        out / "observed.png", format="png", metadata={"Software": PNG_SOFTWARE}
+    )
     for name in ("unrelated.png", "observed.png"):
         os.utime(out / name, (1_000_000_000, 1_000_000_000))
     result = run("report", sample_map, "-o", out, "-q")
