@@ -265,11 +265,18 @@ def test_target_checks(tmp_path: Path) -> None:
         check_scene_target(tmp_path / "scene.ply")
     other = tmp_path / "notes.mcap"
     other.write_text("my notes")
-    with pytest.raises(OutputPathError, match="not an MCAP file"):
+    with pytest.raises(OutputPathError, match="not an MCAP scene aion wrote"):
         check_scene_target(other)
     assert other.read_text() == "my notes"
-    check_scene_target(write(tmp_path / "old.mcap", 1))  # an MCAP file may be replaced
+    check_scene_target(write(tmp_path / "old.mcap", 1))  # a scene aion exported may be replaced
     check_scene_target(tmp_path / "new.mcap")
+    from aion_cli.formats.writers import LogWriter
+
+    log = tmp_path / "log.mcap"  # a robot log (as convert writes them): never replaced
+    with LogWriter(log, "mcap") as writer:
+        writer.write("/chatter", "std_msgs/msg/String", {"data": "hi"}, 1)
+    with pytest.raises(OutputPathError, match="not an MCAP scene aion wrote"):
+        check_scene_target(log)
 
 
 def test_failure_leaves_the_previous_file_and_no_staging(tmp_path: Path) -> None:
