@@ -24,7 +24,7 @@ chunk as before (CRC-checked).
 from __future__ import annotations
 
 from operator import itemgetter
-from typing import IO, Any
+from typing import IO, Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -211,8 +211,8 @@ def _zstd_prefix(source: _Window, n: int) -> bytes:
     import zstandard
 
     reader = zstandard.ZstdDecompressor().stream_reader(
-        source, read_size=_ZSTD_READ, read_across_frames=True, closefd=False
-    )
+        cast("IO[bytes]", source), read_size=_ZSTD_READ, read_across_frames=True, closefd=False
+    )  # it calls read(size) only
     parts = []
     got = 0
     while got < n:
