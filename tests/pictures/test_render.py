@@ -29,9 +29,14 @@ def test_writes_a_png_and_replaces_only_pngs(tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["map.png"]  # no staging left
     other = tmp_path / "notes.png"
     other.write_text("my notes")
-    with pytest.raises(OutputPathError, match="not a PNG file"):
+    with pytest.raises(OutputPathError, match="not a picture aion drew"):
         save_png(_figure(), other)
     assert other.read_text() == "my notes"
+    foreign = tmp_path / "photo.png"  # a real PNG, drawn by someone else
+    foreign.write_bytes(PNG_MAGIC + b"\x00\x00\x00\rIHDR" + bytes(17))
+    with pytest.raises(OutputPathError, match="not a picture aion drew"):
+        save_png(_figure(), foreign)
+    assert foreign.read_bytes().startswith(PNG_MAGIC + b"\x00\x00\x00\rIHDR")
 
 
 @pytest.mark.parametrize(
