@@ -177,7 +177,7 @@ def _decompressed_head(f: IO[bytes], head: mr.ChunkHead, n: int) -> bytes | None
     data = f.read(head.data_length)
     if len(data) < head.data_length:
         return None
-    out = _prefix(head.compression, data, n)
+    out = _lz4_prefix(data, n)
     return out if len(out) == n else None
 
 
@@ -224,22 +224,9 @@ def _zstd_prefix(source: _Window, n: int) -> bytes:
     return b"".join(parts)
 
 
-def _prefix(compression: str, data: bytes, n: int) -> bytes:
-    """At most the first ``n`` bytes ``data`` decompresses to (streaming: the rest is left
-    compressed)."""
-    if compression == "zstd":
-        import zstandard
-
-        reader = zstandard.ZstdDecompressor().stream_reader(data, read_across_frames=True)
-        parts = []
-        got = 0
-        while got < n:
-            part = reader.read(n - got)
-            if not part:
-                break
-            parts.append(part)
-            got += len(part)
-        return b"".join(parts)
+def _lz4_prefix(data: bytes, n: int) -> bytes:
+    """At most the first ``n`` bytes the lz4 ``data`` decompresses to (the rest is left
+    compressed; zstd is read from the file by :func:`_zstd_prefix`)."""
     import lz4.frame  # type: ignore[import-untyped]
 
     return bytes(lz4.frame.LZ4FrameDecompressor().decompress(data, max_length=n))
