@@ -241,6 +241,9 @@ def _atc_rows(path: Path, layout: str, data: F64, start_ns: int) -> DetectionBat
     xyz = np.zeros((len(a), 3))
     xyz[:, :2] = a[:, 2:4]
     heading = np.mod(a[:, 5] + np.pi, 2 * np.pi) - np.pi
+    # a zero speed with a zero angle is no direction measured (THÖR writes both for a person
+    # standing still), not a walk due east
+    heading[(a[:, 4] == 0.0) & (a[:, 5] == 0.0)] = np.nan
     return DetectionBatch.from_arrays(
         _seconds_to_ns(a[:, 0], start_ns, path), xyz, heading, a[:, 4], a[:, 1].astype(np.int64)
     )

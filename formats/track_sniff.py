@@ -126,7 +126,7 @@ def layout_mismatch(path: str | Path, layout: str, shifted: bool) -> str | None:
     guess = guess_layout(path)
     if guess is None or layout in guess.layouts:
         return None
-    if shifted and {layout, guess.layout} == {"atc", "thor"}:
+    if shifted and layout == "atc" and guess.layout == "thor":
         return None
     return (
         f"{Path(path).name} was read as the {layout} layout but looks like "

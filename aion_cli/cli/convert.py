@@ -52,6 +52,7 @@ FRAME_LAYOUTS = {"eth": 25.0, "ucy": 25.0, "edinburgh": 9.0}
 ABSOLUTE_TIMES = {
     "canonical": "its t_ns column is nanoseconds since 1970 (UTC)",
     "lincoln": "Lincoln times are UNIX seconds",
+    "atc": "ATC times are UNIX seconds",
 }
 #: layouts whose times count from the recording's start: --start says when that was
 RELATIVE_LAYOUTS = ("thor", "thor-magni", "eth", "ucy")
@@ -148,8 +149,8 @@ def _check_suffix(output: Path, suffix: str, container: str) -> None:
     "--start",
     "start_text",
     metavar="T",
-    help="Shift dataset times (ATC / THÖR / THÖR-MAGNI / ETH / UCY seconds) to start at this "
-    "time.",
+    help="When the recording began: THÖR / THÖR-MAGNI / ETH / UCY times count from 0 and are "
+    "shifted to start at this time (ATC, Lincoln and canonical times are absolute already).",
 )
 @click.option(
     "--fps",
@@ -222,6 +223,8 @@ def command(
     kind = _container_for(output, container)
     # the target is refused (exists, device, FIFO, not aion's own log) before anything is read
     check_log_target(output, kind, overwrite=force)
+    if start_text is not None:
+        _check_start_applies(tracks, layout)
     _check_layout_options(layout, date_text, start_text, fps, length_unit)
     zone = resolve_zone(tz)
     # bad spans fail before reading
@@ -250,6 +253,8 @@ def command(
             data.batch, output, observed=merge_spans([*data.observed, *spans]), **options
         )
         notes = data.notes
+        if layout in FRAME_LAYOUTS:
+            _warn_fast_walkers(data.batch.speed, layout, fps)
     for line in notes:
         note(line)
     mismatch = layout_mismatch(tracks, layout, shifted=start_text is not None)
@@ -295,6 +300,32 @@ def command(
         )
 
 
+FAST_WALK_MPS = 2.0
+"""A mean walking speed above this (people walk about 1.3 m/s) says a frame-numbered file's
+frame rate is not the one assumed."""
+
+
+def _warn_fast_walkers(speed: Any, layout: str, fps: float | None) -> None:
+    """A warning when the people of a frame-numbered file walk faster on average than
+    :data:`FAST_WALK_MPS` at the frame rate used: frames annotated at another rate than the
+    default (the Social-GAN copy of ETH's biwi_eth.txt is 15 fps, not 25) make everyone fast."""
+    import numpy as np
+
+    from aion_cli.cli.console import warn
+
+    moving = speed[np.isfinite(speed) & (speed > 0)]
+    if moving.size == 0:
+        return
+    mean = float(moving.mean())
+    if mean > FAST_WALK_MPS:
+        rate = fps or FRAME_LAYOUTS[layout]
+        warn(
+            f"people walk {mean:.2f} m/s on average at {rate:g} frames per second, where "
+            f"walking is about 1.3 m/s: if the file's frames are another rate, give --fps "
+            f"(at {rate * 1.3 / mean:.3g} fps they would walk 1.3 m/s)"
+        )
+
+
 def _warn_spans_without_detections(
     spans: list[tuple[int, int]], summary: Any, zone: Any
 ) -> None:
@@ -313,6 +344,30 @@ def _warn_spans_without_detections(
             f"--observed {format_ns(a, zone)}..{format_ns(b, zone)} holds no detection: "
             f"the detections run from {format_ns(first, zone)} to {format_ns(last, zone)} "
             "(a span in another time zone or hour?)"
+        )
+
+
+def _check_start_applies(tracks: Path, layout: str) -> None:
+    """``--start`` where the file and the layout disagree on whether its times count from 0,
+    refused before anything is written: an ATC file given as ``--layout thor`` would be moved
+    decades on, and a THÖR file given as ``--layout atc`` needs ``--layout thor``."""
+    from aion_cli.errors import InputError
+    from aion_cli.formats.track_sniff import guess_layout
+
+    guess = guess_layout(tracks)
+    if guess is None or layout in guess.layouts:
+        return
+    if guess.layout in ABSOLUTE_TIMES and layout in RELATIVE_LAYOUTS:
+        raise InputError(
+            f"--start would shift {tracks.name}'s times, but they are UNIX seconds already: "
+            f"it looks like {guess.describe()}",
+            hint=f"convert it with --layout {guess.layout} and without --start",
+        )
+    if guess.layout == "thor" and layout == "atc":  # the same columns, another clock
+        raise InputError(
+            f"{tracks.name}'s times count from 0, which --layout {layout} reads as absolute: it "
+            f"looks like {guess.describe()}",
+            hint=f"convert it with --layout {guess.layout} --start T",
         )
 
 
@@ -346,7 +401,8 @@ def _check_layout_options(
     elif date_text is not None:
         raise InputError(
             f"--date applies to the edinburgh layout only, not {layout}",
-            hint="shift the times of atc, thor, thor-magni, eth and ucy files with --start",
+            hint="thor, thor-magni, eth and ucy times count from --start; atc, lincoln and "
+            "canonical times are absolute",
         )
     if fps is not None:
         if layout not in FRAME_LAYOUTS:

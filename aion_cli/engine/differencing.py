@@ -74,9 +74,10 @@ def difference_tracks(
     away, looking at most ``max_span_ns`` away in time (``None``: the whole track). The
     velocity is the central difference ``(xy[q] - xy[p]) / (t[q] - t[p])`` when both exist,
     else the one-sided difference to the one that does. Rows with neither have no heading
-    (NaN) and the neighbour difference as speed (NaN for a single-row track). Zero time steps
-    give NaN. With ``min_step = 0`` this is the plain central / one-sided neighbour
-    difference. Rows may come in any order; the outputs are aligned with them. Vectorized.
+    (NaN) and the neighbour difference as speed (NaN for a single-row track), and so do rows
+    whose neighbours stand where they do (speed 0: no direction). Zero time steps give NaN.
+    With ``min_step = 0`` this is the plain central / one-sided neighbour difference. Rows may
+    come in any order; the outputs are aligned with them. Vectorized.
     """
     n = len(t_ns)
     heading = np.full(n, np.nan)
@@ -109,6 +110,9 @@ def difference_tracks(
         sb = np.where(last[still] > still, still + 1, still)
         sv, sok = _velocity(t, p, sa, sb)
         s[still[sok]] = np.hypot(sv[sok, 0], sv[sok, 1])
-    h = np.where(moved, np.arctan2(v[:, 1], v[:, 0]), np.nan)
+    # no displacement between the neighbours (a person standing, min_step 0): speed 0 and no
+    # heading, not atan2(0, 0) = 0, a walk due east
+    went = moved & ((v[:, 0] != 0.0) | (v[:, 1] != 0.0))
+    h = np.where(went, np.arctan2(v[:, 1], v[:, 0]), np.nan)
     heading[order], speed[order] = h, s
     return heading, speed

@@ -263,12 +263,23 @@ def test_a_layout_that_fits_the_columns_but_not_the_content_is_warned(tmp_path: 
     assert as_atc.exit_code == 0, as_atc.stderr
     assert "warning: thor.csv was read as the atc layout" in as_atc.stderr
     assert "--layout thor" in as_atc.stderr
-    shifted = run(
-        "convert", thor, "--layout", "atc", "--start", "2026-01-05 10:00", "--tz", "UTC",
-        "-o", tmp_path / "b.mcap",
-    )
-    assert shifted.exit_code == 0, shifted.stderr
-    assert "warning" not in shifted.stderr
+    # --start with times of the other kind: a THÖR clock read as ATC's UNIX seconds, ATC's
+    # UNIX seconds read as a THÖR clock (it put them in 2061), ATC's own (2068): refused
+    # before anything is written, naming the layout and what to give
+    for source, layout, fragment, hint in (
+        (thor, "atc", "times count from 0, which --layout atc reads as absolute",
+         "--layout thor --start T"),
+        (atc, "thor", "but they are UNIX seconds already", "--layout atc and without --start"),
+        (atc, "atc", "--start does not apply to the atc layout", "drop --start"),
+    ):
+        shifted = run(
+            "convert", source, "--layout", layout, "--start", "2026-01-05 10:00", "--tz", "UTC",
+            "-o", tmp_path / "b.bag",
+        )
+        assert shifted.exit_code == 2, shifted.stderr
+        assert_one_line_error(shifted.stderr, fragment)
+        assert hint in shifted.stderr
+        assert not (tmp_path / "b.bag").exists()
     as_thor = run("convert", thor, "--layout", "thor", "-o", tmp_path / "c.mcap")
     assert "warning" not in as_thor.stderr
     assert "written from 1970-01-01" in as_thor.stderr

@@ -160,6 +160,7 @@ def test_ucy_and_eth_files_convert(tmp_path: Path) -> None:
         (["--layout", "atc", "--fps", "10"], "--fps does not apply to the atc"),
         (["--start", "2026-01-05 12:00"], "--start does not apply to the canonical layout"),
         (["--layout", "lincoln", "--start", "0"], "--start does not apply to the lincoln"),
+        (["--layout", "atc", "--start", "0"], "--start does not apply to the atc"),
         (["--container", "bag"], "--container bag does not match the output name 'x.mcap'"),
         (["--container", "rosbag2-mcap"], "--container rosbag2-mcap does not match"),
         (["--layout", "eth", "--fps", "0"], "--fps must be above 0 and at most 10,000"),
@@ -180,3 +181,21 @@ def test_bad_options_and_files(args: list[str], fragment: str, tmp_path: Path) -
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, fragment)
     assert not out.exists()
+
+
+def test_people_walking_too_fast_for_the_frame_rate_are_warned(tmp_path: Path) -> None:
+    """Two people stepping 1 m every 10 frames: 2.5 m/s at the default 25 fps (warned, with
+    the rate at which they would walk 1.3 m/s: 13 fps); 1 m/s at --fps 10 (no warning)."""
+    rows = [f"{10 * k} {pid} {float(k)} {float(pid)}" for k in range(20) for pid in (1, 2)]
+    path = tmp_path / "fast.txt"
+    path.write_text("\n".join(rows) + "\n")
+    fast = run("convert", path, "--layout", "eth", "--start", "2026-01-05 12:00", "--tz", "UTC",
+               "-o", tmp_path / "a.mcap")
+    assert fast.exit_code == 0, fast.stderr
+    shown = " ".join(fast.stderr.split())
+    assert "people walk 2.50 m/s on average at 25 frames per second" in shown
+    assert "at 13 fps they would walk 1.3 m/s" in shown
+    slow = run("convert", path, "--layout", "eth", "--fps", "10", "--start", "2026-01-05 12:00",
+               "--tz", "UTC", "-o", tmp_path / "b.mcap")
+    assert slow.exit_code == 0, slow.stderr
+    assert "m/s on average" not in slow.stderr

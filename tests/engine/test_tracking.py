@@ -313,3 +313,18 @@ def test_difference_is_the_plain_neighbour_difference_with_min_step_zero() -> No
     for heading, speed in (difference_tracks(t, tid, xy), finite_difference(t, tid, xy)):
         np.testing.assert_allclose(heading, np.arctan2(v[:, 1], v[:, 0]), equal_nan=True)
         np.testing.assert_allclose(speed, np.hypot(v[:, 0], v[:, 1]), equal_nan=True)
+
+
+def test_a_person_standing_between_walks_has_no_heading() -> None:
+    """A track walks east, stands for three samples at x = 2, then walks north: where both
+    neighbours stand where the row does, speed 0 and no heading (atan2(0, 0) = 0 had made
+    them walk due east); the rows at the edges of the stand keep the walk's direction."""
+    t = np.arange(8, dtype=np.int64) * S
+    tid = np.zeros(8, np.int64)
+    xy = np.array([[0, 0], [1, 0], [2, 0], [2, 0], [2, 0], [2, 0], [2, 1], [2, 2]], float)
+    heading, speed = difference_tracks(t, tid, xy)
+    assert np.isnan(heading[[3, 4]]).all()
+    np.testing.assert_allclose(speed[[3, 4]], 0.0)
+    np.testing.assert_allclose(heading[[0, 1, 2]], 0.0)  # east: (2,0) - (1,0) at row 2
+    np.testing.assert_allclose(heading[[5, 6, 7]], np.pi / 2)  # north
+    np.testing.assert_allclose(speed[[2, 5]], 0.5)  # half a metre a second over two steps

@@ -69,7 +69,11 @@ def test_thor_real_files_with_start_offset(path: Path) -> None:
     assert len(batch) == len(rows)
     assert batch.t_ns[0] == start + round(min(float(r[0]) for r in rows) * 1e6) * 1000
     assert batch.t_ns[-1] - batch.t_ns[0] < 300 * S  # a ~4 minute run
-    assert (np.abs(batch.heading) <= np.pi).all()
+    standing = np.array([float(r[4]) == 0.0 and float(r[5]) == 0.0 for r in rows])
+    # a zero speed with a zero angle is no direction: NaN there (as many rows as the file
+    # has), every other heading an angle
+    assert int(np.isnan(batch.heading).sum()) == int(standing.sum())
+    assert (np.abs(batch.heading[np.isfinite(batch.heading)]) <= np.pi).all()
     assert np.isclose(batch.speed.sum(), sum(float(r[4]) for r in rows))
 
 
@@ -192,6 +196,7 @@ def test_tracks_to_log_round_trip_with_graph(tmp_path: Path) -> None:
     assert np.array(rows_id)[got].tolist() == batch.track_id[order].tolist()
     np.testing.assert_allclose(np.array(rows_xyz)[got], batch.xyz[order])
     vel = np.stack([np.cos(batch.heading), np.sin(batch.heading)], 1) * batch.speed[:, None]
+    vel[~np.isfinite(batch.heading)] = 0.0  # no direction: written as zero, flagged unset
     np.testing.assert_allclose(np.array(rows_v)[got], vel[order], atol=1e-12)
 
     from aion_cli.formats.dsg import decode_dsg_update
@@ -421,3 +426,13 @@ def test_tracks_to_log_observed_without_detections_and_bad_spans(tmp_path: Path)
     summary = tracks_log.tracks_to_log(one, tmp_path / "d.mcap")
     assert (summary.observed_messages, summary.observed_spans) == (0, 0)
     assert _log_messages(tmp_path / "d.mcap")[0] == [S]
+
+
+def test_a_zero_speed_with_a_zero_angle_is_no_heading(tmp_path: Path) -> None:
+    """THÖR writes speed 0.0 and angle 0.0 for a person standing: no direction, not a walk due
+    east; a zero speed with an angle (ATC's tracker gives one) keeps it."""
+    path = tmp_path / "t.csv"
+    path.write_text("0.0,1,0.0,0.0,0.0,0.0\n0.1,1,0.0,0.0,0.0,0.5\n0.2,1,0.1,0.0,1.0,0.0\n")
+    batch = ft.read_tracks(path, "thor", start_ns=1_600_000_000 * S)
+    assert np.isnan(batch.heading[0])
+    np.testing.assert_allclose(batch.heading[1:], [0.5, 0.0])
