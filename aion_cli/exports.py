@@ -269,10 +269,8 @@ def export_dsg(
                 grouped = entry_table(loaded, t_ns, layer)
             except InputError:  # the graph has none that hold places
                 continue
-            for row in rows_from_table(grouped):
-                record = _node_record(row)
-                record["name"] = names.get(str(row["id"]))  # as predict's records carry it
-                records[parse_node_id(str(row["id"]))] = record
+            for row in rows_from_table(grouped, None, names):  # with names, as predict's
+                records[parse_node_id(str(row["id"]))] = _node_record(row)
     (seen,) = hour_flags(loaded, [t_ns])
     info = document(map_path, loaded.config.bins, [], t_ns, zone, seen)
     info.pop("entries")

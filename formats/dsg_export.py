@@ -100,14 +100,10 @@ def _check_saved(path: Path, out: Path, dsg: Any) -> None:
 
 def _names(layer: Any) -> list[str]:
     """The name of each node of ``layer`` as the graph gave it ("kitchen"), "" where it gave
-    none or only the node's id ("R3", which the reader derives from the id anyway)."""
-    from aion_cli.engine.node_ids import node_label
+    none or only the node's id (:func:`aion_cli.room_names.name_of`)."""
+    from aion_cli.room_names import name_of
 
-    labels = list(layer.labels) + [""] * (len(layer) - len(layer.labels))
-    return [
-        label if label and label != node_label(node_id) else ""
-        for node_id, label in zip(layer.ids.tolist(), labels, strict=False)
-    ]
+    return [name_of(layer, k) or "" for k in range(len(layer))]
 
 
 def write_dynamic_graph(

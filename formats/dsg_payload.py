@@ -11,12 +11,9 @@ and how to call spark_dsg quietly; which layer becomes the navigational graph is
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import functools
 import os
-import sys
 import tempfile
-from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any
@@ -127,36 +124,14 @@ def _candidate_versions(payload: bytes) -> list[str]:
     return ordered
 
 
-@contextlib.contextmanager
-def _native_output_silenced() -> Iterator[None]:
-    """Send file descriptors 1 and 2 to /dev/null for the block.
+def _native_output_silenced() -> contextlib.AbstractContextManager[None]:
+    """stdout and stderr to /dev/null for the block
+    (:func:`formats.native_output.native_output_silenced`): spark_dsg's C++ logger prints
+    "Loading file with outdated encoding" on *stdout* for every load of an older version, which
+    would corrupt ``--format json`` output; aion reports the version it used instead."""
+    from aion_cli.formats.native_output import native_output_silenced
 
-    spark_dsg's C++ logger prints "Loading file with outdated encoding" on *stdout* for every
-    load of an older version, which would corrupt ``--format json`` output (and flood the
-    terminal: one line per scene-graph message). aion reports the version it used instead.
-    """
-    for stream in (sys.stdout, sys.stderr):
-        with contextlib.suppress(Exception):
-            stream.flush()
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-    except OSError:
-        yield
-        return
-    saved: list[tuple[int, int]] = []
-    try:
-        for fd in (1, 2):
-            with contextlib.suppress(OSError):
-                saved.append((fd, os.dup(fd)))
-                os.dup2(devnull, fd)
-        yield
-    finally:
-        with contextlib.suppress(Exception):
-            ctypes.CDLL(None).fflush(None)  # C stdio buffers still hold the C++ output
-        for fd, copy in saved:
-            os.dup2(copy, fd)
-            os.close(copy)
-        os.close(devnull)
+    return native_output_silenced()
 
 
 def _load_with_header(payload: bytes, version: str) -> Any:

@@ -33,11 +33,16 @@ _MAX_METADATA_BYTES = 16 * 1024**2
 
 def is_own_log(path: Path, container: str) -> bool:
     """True when ``path`` is a log of ``container``'s kind that ``--force`` may replace: an MCAP
-    file (magic bytes) for ``mcap`` / ``mcap-ros1``, a ROS 1 bag (its version line) for
-    ``bag``, and for the rosbag2 containers a folder holding only ``metadata.yaml`` and the
-    storage files it names (no other file, no subfolder), as :class:`LogWriter` writes it."""
+    file whose header names aion as its library (what :class:`LogWriter` writes; a robot's
+    recording names its recorder) for ``mcap`` / ``mcap-ros1``, a ROS 1 bag (its version
+    line: a bag names no writer) for ``bag``, and for the rosbag2 containers a folder holding
+    only ``metadata.yaml`` and the storage files it names (no other file, no subfolder), as
+    :class:`LogWriter` writes it."""
     if container in ("mcap", "mcap-ros1"):
-        return file_starts_with(path, MCAP_MAGIC)
+        from aion_cli.formats.scene_mcap import library_of
+
+        header = library_of(path)
+        return header is not None and header[1].split(" ")[0] == "aion"
     if container == "bag":
         return file_starts_with(path, BAG_MAGIC)
     return is_own_rosbag2(path)

@@ -35,6 +35,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import re
 import shutil
 import signal
 import stat
@@ -96,11 +97,14 @@ def safe_text(name: object) -> str:
         text = os.fsdecode(name)
     else:
         text = str(name)
-    try:
-        raw = text.encode("utf-8", "surrogateescape")
-    except UnicodeEncodeError:  # a lone surrogate that is not an undecodable byte (from JSON)
-        raw = text.encode("utf-8", "replace")
-    return raw.decode("utf-8", "replace")
+    # a lone surrogate that stands for no undecodable byte (from JSON, say) is replaced
+    # first, so that the escaped bytes still become U+FFFD and not "?"
+    text = _LONE_SURROGATE.sub("\ufffd", text)
+    return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+
+
+_LONE_SURROGATE = re.compile("[\ud800-\udc7f\udd00-\udfff]")
+"""Surrogates that ``surrogateescape`` did not make (it makes U+DC80..U+DCFF, one per byte)."""
 
 
 def special_kind(path: Path) -> str | None:

@@ -18,7 +18,6 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
-from collections.abc import Iterator
 from pathlib import Path
 from typing import BinaryIO
 
@@ -175,23 +174,10 @@ def _pcd_layout(head: bytes) -> tuple[int | None, int | None]:
     return end, end + points * sum(s * c for s, c in zip(sizes, counts, strict=False))
 
 
-@contextlib.contextmanager
-def native_stderr_quiet() -> Iterator[None]:
+def native_stderr_quiet() -> contextlib.AbstractContextManager[None]:
     """Send what native code prints to file descriptor 2 (open3d's ``RPly: Failed writing``
     lines, thousands on a full disk) to /dev/null for the block: :func:`seal` reports the
     failure as one error instead."""
-    try:
-        saved = os.dup(2)
-    except OSError:
-        yield
-        return
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        try:
-            os.dup2(devnull, 2)
-        finally:
-            os.close(devnull)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
+    from aion_cli.formats.native_output import native_output_silenced
+
+    return native_output_silenced((2,))

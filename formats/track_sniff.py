@@ -119,14 +119,12 @@ def _numeric_guess(lines: list[str]) -> LayoutGuess | None:
     return None
 
 
-def layout_mismatch(path: str | Path, layout: str, shifted: bool) -> str | None:
+def layout_mismatch(path: str | Path, layout: str) -> str | None:
     """A warning when ``path`` was read as ``layout`` but looks like another layout; None
-    when it fits. ``shifted``: times were moved by ``--start`` (then THÖR-like times read as
-    ATC, the same columns, are what the user meant)."""
+    when it fits. (``convert --start`` with a clock of the other kind is refused before:
+    ``cli.convert._check_start_applies``.)"""
     guess = guess_layout(path)
     if guess is None or layout in guess.layouts:
-        return None
-    if shifted and layout == "atc" and guess.layout == "thor":
         return None
     return (
         f"{Path(path).name} was read as the {layout} layout but looks like "

@@ -257,7 +257,7 @@ def command(
             _warn_fast_walkers(data.batch.speed, layout, fps)
     for line in notes:
         note(line)
-    mismatch = layout_mismatch(tracks, layout, shifted=start_text is not None)
+    mismatch = layout_mismatch(tracks, layout)
     if mismatch is not None:
         warn(mismatch)
     if layout == "edinburgh":
@@ -413,7 +413,7 @@ def _check_layout_options(
         if not 0 < fps <= 10_000:  # also NaN and inf: frames of no duration
             raise InputError(
                 f"--fps must be above 0 and at most 10,000 frames per second, not {fps}",
-                hint="e.g. --fps 2.5 (the ETH / UCY annotation rate)",
+                hint="e.g. --fps 25 (ETH / UCY frame numbers), --fps 9 (Edinburgh)",
             )
     if length_unit is not None and layout != "thor-magni":
         raise InputError(

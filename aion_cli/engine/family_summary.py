@@ -54,18 +54,17 @@ def _scored_days(state: MapState, t: Any, rows: Any) -> int:
         return most
     from aion_cli.engine.windows import EPOCH_NS
 
-    obs = t.observation(rows, fourier=False)
-    first, last = np.fmin.reduce(obs.first), np.fmax.reduce(obs.last)
-    if not np.isfinite(first):
+    first = np.fmin(t.obs.first[rows], t.glob.first[0])  # the observation's ends only
+    last = np.fmax(t.obs.last[rows], t.glob.last[0])
+    if not np.isfinite(first).any():
         return most
-    ends = [EPOCH_NS + round(float(first) * 1e9)]
-    if np.isfinite(last):
-        ends.append(EPOCH_NS + round(float(last) * 1e9))
-    held = state.pending.consolidated().windows if state.pending else np.zeros(0, np.int64)
-    if held.size:  # the pending day, scored provisionally, is in no entry's observation yet
-        ends.append(int(held.max()) * state.window_ns)
-    days = state.params.calendar.day(np.array(ends, np.int64))
-    return min(most, max(int(days.max()) - int(days.min()), 0))
+    ends = [EPOCH_NS + round(float(np.nanmin(first)) * 1e9)]
+    if np.isfinite(last).any():
+        ends.append(EPOCH_NS + round(float(np.nanmax(last)) * 1e9))
+    days = [int(d) for d in state.params.calendar.day(np.array(ends, np.int64))]
+    if state.pending is not None and state.pending.day is not None:
+        days.append(int(state.pending.day))  # scored provisionally, in no observation yet
+    return min(most, max(max(days) - min(days), 0))
 
 
 def _tally(names: np.ndarray) -> dict[str, int]:

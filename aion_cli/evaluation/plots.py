@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.pictures.render import PNG_SOFTWARE  # marks the pictures as aion's own
+from aion_cli.pictures.png_mark import save_marked_png  # marks the pictures as aion's own
 
 F64 = npt.NDArray[np.float64]
 
@@ -40,7 +40,7 @@ def nll_per_hour(rows: list[dict[str, Any]], path: Path, title: str) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, metadata={"Software": PNG_SOFTWARE})
+    save_marked_png(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -76,7 +76,7 @@ def flow_maps_side_by_side(
         ax.grid(alpha=0.2)
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, metadata={"Software": PNG_SOFTWARE})
+    save_marked_png(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -93,7 +93,7 @@ def door_weeks(weeks: list[dict[str, Any]], path: Path) -> Path:
     ax.set_title("FreMEn on the door signal")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=110, metadata={"Software": PNG_SOFTWARE})
+    save_marked_png(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -123,6 +123,6 @@ def hourly_activity(
     ax.set_title(title)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, metadata={"Software": PNG_SOFTWARE})
+    save_marked_png(fig, path, dpi=110)
     plt.close(fig)
     return path

@@ -5,7 +5,7 @@ The scene at each time comes from :func:`aion_cli.scene.scene_at` (the entry tab
 ``aion predict``), paths from :mod:`aion_cli.routes` (the plans ``aion plan`` prints). A
 picture is written beside its target and renamed into place (``formats.outputs.Staged``), so
 a failure leaves no partial file; an existing target is replaced only when it is a picture
-aion drew (its PNG ``Software`` text is :data:`PNG_SOFTWARE`: :func:`is_aion_png`).
+aion drew (:mod:`aion_cli.pictures.png_mark`).
 """
 
 from __future__ import annotations
@@ -18,29 +18,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.errors import InputError
+from aion_cli.pictures.png_mark import is_aion_png, save_marked_png
 from aion_cli.pictures.topdown import DPI, MAX_PANELS, PathLine, topdown_figure
 
 if TYPE_CHECKING:
     from aion_cli.mapquery import LoadedMap
     from aion_cli.routes import Routes
     from aion_cli.timeparse import Zone
-
-PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-PNG_SOFTWARE = "aion"
-"""The ``Software`` text chunk of every PNG aion draws (matplotlib writes it before the
-pixels): what tells a picture aion may replace from someone else's."""
-
-
-def is_aion_png(path: Path) -> bool:
-    """Whether ``path`` is a PNG file aion drew (:data:`PNG_SOFTWARE`; reads 4 KiB)."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(4096)
-    except OSError:
-        return False
-    tag = b"tEXtSoftware\x00" + PNG_SOFTWARE.encode() + b"\x00"  # the chunk's CRC follows
-    return head.startswith(PNG_MAGIC) and tag[:-1] in head
-
 
 def check_png_target(out: Path, option: str = "-o") -> None:
     """Refuse, before anything is computed, a target that is not a new PNG file or one aion
@@ -88,13 +72,7 @@ def save_png(fig: Any, out: Path, option: str = "-o") -> Path:
     check_png_target(out, option)
     try:
         with Staged(out) as staged:
-            fig.savefig(
-                staged.path,
-                format="png",
-                dpi=fig.dpi,
-                facecolor="white",
-                metadata={"Software": PNG_SOFTWARE},
-            )
+            save_marked_png(fig, staged.path, dpi=fig.dpi, facecolor="white")
     except OSError as exc:
         raise ExportWriteError(
             f"cannot write {out}: {exc.strerror or exc}",

@@ -18,6 +18,10 @@ from aion_cli.formats.outputs import safe_text
 from aion_cli.report.content import ReportContent
 from aion_cli.timeparse import Zone, format_ns
 
+FOOTER = "<footer>written by aion "
+"""How the page's last line begins: it marks a page as aion's (``report.writer`` replaces only
+pages that carry it)."""
+
 
 def escape(text: str) -> str:
     """``text`` as HTML text: markup characters escaped, undecodable name bytes as U+FFFD
@@ -65,7 +69,7 @@ def render(
         *_observed(c, pictures),
         *_activity(c, pictures),
         *_busiest(c, pictures),
-        f"<footer>written by aion {escape(version)} on {escape(generated)}</footer>",
+        f"{FOOTER}{escape(version)} on {escape(generated)}</footer>",
         "</body></html>",
     ]
     return "\n".join(parts) + "\n"

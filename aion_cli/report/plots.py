@@ -50,9 +50,9 @@ def _save(fig: Any, path: Path) -> Path:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     FigureCanvasAgg(fig)
-    from aion_cli.pictures.render import PNG_SOFTWARE
+    from aion_cli.pictures.png_mark import save_marked_png
 
-    fig.savefig(path, format="png", dpi=DPI, metadata={"Software": PNG_SOFTWARE})
+    save_marked_png(fig, path, dpi=DPI)
     return path
 
 

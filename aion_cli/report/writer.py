@@ -16,11 +16,10 @@ from typing import Any
 from aion_cli.exports import check_out_dir
 from aion_cli.formats.outputs import Staged
 from aion_cli.report.content import ROSES, ReportContent, gather
+from aion_cli.report.page import FOOTER
 from aion_cli.timeparse import Zone
 
 PAGE = "index.html"
-FOOTER = "<footer>written by aion "
-"""How the page's last line begins (``report.page.render``): it marks a page as aion's."""
 STEPS = 8
 """Calls of ``on_step`` a report makes (for a progress bar's total)."""
 
@@ -86,7 +85,7 @@ def is_report_file(path: Path) -> bool:
     """Whether ``path`` is a file a report wrote, which a new report may replace: a page with
     the report's footer, a picture aion drew, or a picture such a page beside it shows (the
     pictures of reports written before aion marked its pictures)."""
-    from aion_cli.pictures.render import is_aion_png
+    from aion_cli.pictures.png_mark import is_aion_png
 
     if path.suffix.lower() != ".png":
         return FOOTER.encode() in _page_bytes(path)

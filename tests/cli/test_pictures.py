@@ -11,7 +11,7 @@ import pytest
 from aion_cli.errors import InputError
 from aion_cli.formats.scene_colours import PATH_GREEN
 from aion_cli.pictures.plan import DISTANCE_ORANGE, TEMPORAL_GREEN
-from aion_cli.pictures.render import PNG_MAGIC
+from aion_cli.pictures.png_mark import PNG_MAGIC
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
 from tests.pictures.pixels import count_near, panel_count, read_png
 

@@ -91,7 +91,7 @@ def report_dir(sample_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Pa
     file aion did not draw would be refused (tests/robustness/test_export_targets.py)."""
     from matplotlib.figure import Figure
 
-    from aion_cli.pictures.render import PNG_SOFTWARE
+    from aion_cli.pictures.png_mark import PNG_SOFTWARE
 
     out = tmp_path_factory.mktemp("out") / "report"
     out.mkdir()

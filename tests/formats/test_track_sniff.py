@@ -38,7 +38,7 @@ def test_real_dataset_files_look_like_their_layout(parts: tuple[str, ...], layou
     guess = guess_layout(real(*parts))
     assert guess is not None
     assert layout in guess.layouts
-    assert layout_mismatch(real(*parts), layout, shifted=False) is None
+    assert layout_mismatch(real(*parts), layout) is None
 
 
 def _write(tmp_path: Path, text: str, name: str = "t.csv") -> Path:
@@ -87,7 +87,7 @@ def test_what_fits_no_layout_is_none(tmp_path: Path, content: bytes) -> None:
     path = tmp_path / "x.csv"
     path.write_bytes(content)
     assert guess_layout(path) is None
-    assert layout_mismatch(path, "atc", shifted=False) is None
+    assert layout_mismatch(path, "atc") is None
     assert guess_layout(tmp_path / "missing.csv") is None
 
 
@@ -120,16 +120,14 @@ def test_six_numbers_are_atc_or_thor_by_their_clock(t0: float, ids: list[int]) -
 
 def test_a_mismatch_names_the_layout_the_file_looks_like(tmp_path: Path) -> None:
     thor = _write(tmp_path, "0.02,12001,-0.046,-3.443,0.141,2.356\n0.42,12001,-0.1,-3.4,0.1,2.3\n")
-    message = layout_mismatch(thor, "atc", shifted=False)
+    message = layout_mismatch(thor, "atc")
     assert message is not None
     assert "read as the atc layout" in message
     assert "--layout thor" in message
-    # with --start the THÖR clock is shifted: read as atc it is what the user meant
-    assert layout_mismatch(thor, "atc", shifted=True) is None
-    assert layout_mismatch(thor, "thor", shifted=False) is None
+    assert layout_mismatch(thor, "thor") is None
     eth = _write(tmp_path, "780\t1.0\t8.46\t3.59\n790\t1.0\t9.57\t3.79\n", "e.txt")
-    assert layout_mismatch(eth, "ucy", shifted=False) is None  # eth and ucy are one format
-    assert layout_mismatch(eth, "lincoln", shifted=True) is not None
+    assert layout_mismatch(eth, "ucy") is None  # eth and ucy are one format
+    assert layout_mismatch(eth, "lincoln") is not None
 
 
 @settings(max_examples=200, deadline=None)
@@ -141,6 +139,6 @@ def test_any_bytes_give_a_guess_or_none_never_an_error(content: bytes) -> None:
         path = Path(folder) / "x.csv"
         path.write_bytes(content)
         guess = guess_layout(path)
-        mismatch = layout_mismatch(path, "canonical", shifted=False)
+        mismatch = layout_mismatch(path, "canonical")
     assert guess is None or (guess.layouts and guess.why)
     assert mismatch is None or "--layout" in mismatch

@@ -9,7 +9,8 @@ import pytest
 
 from aion_cli.errors import InputError
 from aion_cli.formats.outputs import OutputPathError
-from aion_cli.pictures.render import PNG_MAGIC, check_png_target, save_png, time_title
+from aion_cli.pictures.png_mark import PNG_MAGIC
+from aion_cli.pictures.render import check_png_target, save_png, time_title
 from aion_cli.pictures.topdown import topdown_figure
 from aion_cli.timeparse import parse_time, resolve_zone
 from tests.pictures.pixels import synthetic_scene
@@ -102,3 +103,27 @@ def test_panels_at_hours_no_log_observed_say_extrapolated() -> None:
         manifest={"state": {}, "config": {}, "families": {"flow": {"static": 1}}}
     )
     assert _mark_unobserved(older, times, ["a", "b"]) == ["a", "b"]  # type: ignore[arg-type]
+
+
+def test_only_aion_s_own_software_text_marks_a_picture(tmp_path: Path) -> None:
+    """A PNG whose Software text merely starts with "aion" ("aionic tools") is someone else's
+    and is not replaced; one aion drew is."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from aion_cli.pictures.png_mark import is_aion_png
+
+    theirs = tmp_path / "theirs.png"
+    fig = plt.figure(figsize=(1, 1))
+    fig.savefig(theirs, format="png", metadata={"Software": "aionic tools"})
+    plt.close(fig)
+    assert not is_aion_png(theirs)
+    before = theirs.read_bytes()
+    with pytest.raises(OutputPathError, match="not a picture aion drew"):
+        save_png(_figure(), theirs)
+    assert theirs.read_bytes() == before
+    ours = tmp_path / "ours.png"
+    save_png(_figure(), ours)
+    assert is_aion_png(ours)

@@ -260,7 +260,9 @@ def test_safe_text_replaces_only_undecodable_bytes() -> None:
 
     assert safe_text(Path(os.fsdecode(b"a\xffb.aion"))) == "a\ufffdb.aion"
     assert safe_text(b"caf\xc3\xa9.aion") == "café.aion"
-    assert safe_text("lone \ud800 surrogate") == "lone ? surrogate"
+    assert safe_text("lone \ud800 surrogate") == "lone \ufffd surrogate"
+    # both at once: the escaped byte is U+FFFD too (it had become "?")
+    assert safe_text("a" + os.fsdecode(b"\xff") + "b \ud800") == "a\ufffdb \ufffd"
     assert safe_text(3) == "3"
 
 

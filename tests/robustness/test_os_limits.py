@@ -86,6 +86,9 @@ def test_a_staging_path_is_shown_as_the_output() -> None:
 
     assert _shown_path("tiny/.out.ab12cd34.tmp/out/entries.csv") == "tiny/out/entries.csv"
     assert _shown_path("tiny/.g.json.ab12cd34.tmp") == "tiny/g.json"
+    assert _shown_path("out/.map.aion.4242.tmp") == "out/map.aion"  # the API's save
+    # a folder of the user's that only looks like one is shown as it is
+    assert _shown_path("/home/u/.cache.d.tmp/data/x.mcap") == "/home/u/.cache.d.tmp/data/x.mcap"
 
 
 # -- a legal 255-byte name can be written ----------------------------------------------------------

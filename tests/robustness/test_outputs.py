@@ -81,6 +81,27 @@ def test_convert_force_never_deletes_a_folder_holding_the_input(tmp_path: Path) 
     assert hidden(tmp_path) == []
 
 
+def test_convert_force_never_replaces_a_recorded_mcap(tmp_path: Path) -> None:
+    """An MCAP log a robot recorded (its header names another library) is not aion's to
+    replace, --force or not; one aion wrote is."""
+    from mcap.writer import Writer
+
+    recorded = tmp_path / "robot.mcap"
+    with recorded.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="rosbag2 jazzy")
+        writer.finish()
+    before = recorded.read_bytes()
+    csv = tracks_csv(tmp_path / "tracks.csv")
+    result = run("convert", csv, "-o", recorded, "--force")
+    assert result.exit_code == 2, result.stderr
+    assert_one_error(result.stderr, "not an MCAP log aion wrote")
+    assert recorded.read_bytes() == before
+    ours = tmp_path / "ours.mcap"
+    assert run("convert", csv, "-o", ours).exit_code == 0
+    assert run("convert", csv, "-o", ours, "--force").exit_code == 0
+
+
 def test_convert_force_replaces_a_rosbag2_folder_it_wrote(tmp_path: Path) -> None:
     out = tmp_path / "bag"
     out.mkdir()  # an empty folder holds nothing to lose: --force may use it
