@@ -194,13 +194,13 @@ def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) ->
     export_scene_file(loaded, t_ns, out, "ply", nav.xyz[path])
 
 
-_SCENE_MAGIC = {"ply": b"ply", "pcd": b"# .PCD"}
+SCENE_FORMATS = ("ply", "pcd")
 
 
 def scene_file(fmt: str, out: Path) -> bool:
     """Whether a PLY / PCD export names one scene file (``-o scene.ply``: the whole scene in
     one file, as ``scene.ply`` of a folder export) rather than a folder to write into."""
-    return fmt in _SCENE_MAGIC and out.suffix.lower() == f".{fmt}" and not out.is_dir()
+    return fmt in SCENE_FORMATS and out.suffix.lower() == f".{fmt}" and not out.is_dir()
 
 
 def export_scene_file(
@@ -300,7 +300,7 @@ def export_format(fmt: str | None, out: Path) -> str:
     if fmt is None:
         fmt = FILE_FORMATS.get(suffix, "pcd" if suffix == ".pcd" else "ply")
     other = {*FILE_FORMATS, ".ply", ".pcd"} - {f".{fmt}"}
-    if fmt in _SCENE_MAGIC and not out.is_dir() and suffix in other:
+    if fmt in SCENE_FORMATS and not out.is_dir() and suffix in other:
         raise InputError(
             f"{fmt} scenes are written into a folder (the scene as .{fmt} files, entries.csv and "
             f"entries.json) or one .{fmt} file, got {str(out)!r}",

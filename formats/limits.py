@@ -51,9 +51,10 @@ class UnknownCompressionError(ChunkError):
     """A chunk compressed with a method aion cannot decompress."""
 
 
-def _megabytes(value: object, name: str) -> int:
+def _megabytes(value: object, name: str, example: str = "2048") -> int:
     """``value`` (MiB, a number or its text) as bytes; :class:`ConfigError` when it is not a
-    positive number."""
+    positive number, with ``example`` as the hint's (``AION_MAX_CHUNK_MB=2048`` for the
+    environment variable, the number alone for an option or argument)."""
     try:
         mb = float(str(value).strip())
     except ValueError:
@@ -61,7 +62,7 @@ def _megabytes(value: object, name: str) -> int:
     if not (math.isfinite(mb) and 0 < mb <= _MAX_MB):
         raise ConfigError(
             f"{name} must be a positive number of megabytes (MiB), got {value!r}",
-            hint=f"e.g. {name}=2048 to allow 2 GiB" if name.isupper() else "e.g. 2048 for 2 GiB",
+            hint=f"e.g. {example} for 2 GiB",
         )
     return max(int(mb * MIB), 1)
 
@@ -80,8 +81,10 @@ class ReadLimits:
         env = os.environ if environ is None else environ
         chunk, message = env.get(CHUNK_ENV, "").strip(), env.get(MESSAGE_ENV, "").strip()
         return cls(
-            _megabytes(chunk, CHUNK_ENV) if chunk else DEFAULT_MAX_CHUNK_MB * MIB,
-            _megabytes(message, MESSAGE_ENV) if message else DEFAULT_MAX_MESSAGE_MB * MIB,
+            _megabytes(chunk, CHUNK_ENV, f"{CHUNK_ENV}=2048") if chunk
+            else DEFAULT_MAX_CHUNK_MB * MIB,
+            _megabytes(message, MESSAGE_ENV, f"{MESSAGE_ENV}=2048") if message
+            else DEFAULT_MAX_MESSAGE_MB * MIB,
         )
 
     @classmethod

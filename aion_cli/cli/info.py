@@ -246,8 +246,9 @@ def _refuse_options(given: dict[str, bool], applies: tuple[str, ...], what: str)
     if ignored:
         raise InputError(
             f"{', '.join(ignored)} {'does' if len(ignored) == 1 else 'do'} not apply to {what}",
-            hint=f"of these options only {', '.join(applies)} applies to {what}; the others "
-            "are for logs",
+            hint=f"for {what} only {', '.join(applies)} applies"
+            + ("; the others read logs" if what != "a scene-graph file" else "; --verify "
+               "checks maps, the others read logs"),
         )
 
 

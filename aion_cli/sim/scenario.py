@@ -206,8 +206,9 @@ def load_environment(config: ScenarioConfig) -> Environment:
 _OTHER_FILES = frozenset(
     {".mcap", ".bag", ".db3", ".aion", ".json", ".npz", ".ply", ".pcd", ".png", ".csv", ".txt"}
 )
-"""Suffixes of files a log of another format, or no log at all: ``-o`` naming one of them
-with the wrong ``--format`` is refused rather than given the format's suffix on top."""
+"""Suffixes of logs of another format and of files that are no log at all: ``-o`` ending in
+one of them that is not ``--format``'s own is refused rather than given the format's suffix on
+top (``apt.bag`` with ``--format mcap`` would become ``apt.bag.mcap``)."""
 
 
 def scene_paths(output: Path, config: ScenarioConfig) -> list[Path]:

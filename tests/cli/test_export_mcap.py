@@ -19,8 +19,6 @@ import aion_cli as aion
 from aion_cli.timeparse import parse_time, resolve_zone
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 
-REPO = Path(__file__).resolve().parents[2]
-SAMPLE = REPO / "samples" / "office.mcap"
 TIMES = ["2026-01-12 07:00", "2026-01-12 08:00", "2026-01-12 09:00"]
 UTC = resolve_zone("UTC")
 

@@ -35,3 +35,4 @@ def test_an_error_comes_with_a_hint(
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, fragment)
     assert any(line.startswith("hint: ") for line in result.stderr.splitlines()), result.stderr
+    assert "limit=" not in result.stderr  # the read limits' hint read "e.g. the chunk limit=2048"

@@ -16,10 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.conftest import SAMPLE, assert_one_line_error, run, run_json
 
-REPO = Path(__file__).resolve().parents[2]
-SAMPLE = REPO / "samples" / "office.mcap"
 LOG_NAME = 'off<i>&amp;"ce.mcap'
 WHEN = "2026-01-12 08:40"
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -74,7 +72,8 @@ def _parse(path: Path) -> _Page:
 
 
 @pytest.fixture(scope="module")
-def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def named_log_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The sample built from a copy of its log under a name the page must escape."""
     folder = tmp_path_factory.mktemp("report")
     log = folder / LOG_NAME
     shutil.copyfile(SAMPLE, log)
@@ -85,7 +84,7 @@ def sample_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def report_dir(sample_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def report_dir(named_log_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A report written into a folder that already holds an unrelated file and a stale copy
     of one of the report's pictures, drawn by aion (both older than the run). A same-named
     file aion did not draw would be refused (tests/robustness/test_export_targets.py)."""
@@ -101,7 +100,7 @@ def report_dir(sample_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Pa
     )
     for name in ("unrelated.png", "observed.png"):
         os.utime(out / name, (1_000_000_000, 1_000_000_000))
-    result = run("report", sample_map, "-o", out, "-q")
+    result = run("report", named_log_map, "-o", out, "-q")
     assert result.exit_code == 0, result.stderr
     return out
 
@@ -156,15 +155,15 @@ def test_a_robot_map_draws_no_fixed_sensor_intervals(report_dir: Path) -> None:
     assert grey.sum() > 1000
 
 
-def test_the_busiest_row_is_predicts_top_entry(sample_map: Path, report_dir: Path) -> None:
+def test_the_busiest_row_is_predicts_top_entry(named_log_map: Path, report_dir: Path) -> None:
     first = _parse(report_dir / "index.html").tables["busiest"][0]
-    top = run_json("predict", sample_map, "--historical", "--top", "1", "--format", "json")
+    top = run_json("predict", named_log_map, "--historical", "--top", "1", "--format", "json")
     entry = top["entries"][0]
     forecast = run_json(
-        "predict", sample_map, "--time", WHEN, "--node", entry["id"], "--format", "json"
+        "predict", named_log_map, "--time", WHEN, "--node", entry["id"], "--format", "json"
     )
     assert [first[1], first[2], first[4]] == [entry["id"], entry["kind"], f"{entry['flow']:.3f}"]
-    assert first[3] == _room_of(sample_map, entry["id"])
+    assert first[3] == _room_of(named_log_map, entry["id"])
     assert first[6] == f"{entry['entropy']:.3f}"
     assert first[7] == f"{entry['direction_deg']:+.1f}"
     assert first[8] == forecast["entries"][0]["family"]  # the family that forecasts it
@@ -185,14 +184,14 @@ def _room_of(map_path: Path, place: str) -> str:
 
 
 def test_at_a_time_the_busiest_row_is_predicts_top_entry_then(
-    sample_map: Path, tmp_path: Path
+    named_log_map: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "at"
-    result = run("report", sample_map, "-o", out, "--time", WHEN, "--tz", "UTC", "-q")
+    result = run("report", named_log_map, "-o", out, "--time", WHEN, "--tz", "UTC", "-q")
     assert result.exit_code == 0, result.stderr
     rows = _parse(out / "index.html").tables["busiest"]
     top = run_json(
-        "predict", sample_map, "--time", WHEN, "--tz", "UTC", "--top", "10", "--format", "json"
+        "predict", named_log_map, "--time", WHEN, "--tz", "UTC", "--top", "10", "--format", "json"
     )["entries"]
     assert [r[1] for r in rows] == [e["id"] for e in top]
     e = top[0]
@@ -205,14 +204,15 @@ def test_at_a_time_the_busiest_row_is_predicts_top_entry_then(
         f"{e['x']:.1f}, {e['y']:.1f}",
     ]
     rooms = run_json(
-        "predict", sample_map, "--layer", "rooms", "--time", WHEN, "--tz", "UTC", "--format", "json"
+        "predict", named_log_map, "--layer", "rooms", "--time", WHEN, "--tz", "UTC", "--format",
+        "json",
     )["entries"]
     labels = {r[3].split()[0] for r in rows if r[3] != "-"}
     assert labels <= {r["id"] for r in rooms}
 
 
-def test_the_family_counts_are_infos(sample_map: Path, report_dir: Path) -> None:
-    info = run_json("info", sample_map, "--format", "json")
+def test_the_family_counts_are_infos(named_log_map: Path, report_dir: Path) -> None:
+    info = run_json("info", named_log_map, "--format", "json")
     rows = _parse(report_dir / "index.html").tables["families"]
     shown = {name: (int(flow), int(direction)) for name, flow, direction in rows}
     families = info["families"]
@@ -238,24 +238,24 @@ def test_the_maps_strings_are_escaped(report_dir: Path) -> None:
     assert '&amp;"' not in text
 
 
-def test_bad_output_and_missing_map_exit_2(sample_map: Path, tmp_path: Path) -> None:
+def test_bad_output_and_missing_map_exit_2(named_log_map: Path, tmp_path: Path) -> None:
     a_file = tmp_path / "taken.txt"
     a_file.write_text("keep me")
-    result = run("report", sample_map, "-o", a_file)
+    result = run("report", named_log_map, "-o", a_file)
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "is a file, not a folder")
     assert a_file.read_text() == "keep me"
     result = run("report", tmp_path / "missing.aion", "-o", tmp_path / "r")
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "map file not found")
-    result = run("report", sample_map, "-o", tmp_path / "r", "--time", "not a time")
+    result = run("report", named_log_map, "-o", tmp_path / "r", "--time", "not a time")
     assert result.exit_code == 2
     assert_one_line_error(result.stderr)
     assert not (tmp_path / "r").exists()
 
 
 def test_a_failure_leaves_nothing_behind(
-    sample_map: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    named_log_map: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from aion_cli.report import plots
 
@@ -264,12 +264,12 @@ def test_a_failure_leaves_nothing_behind(
 
     monkeypatch.setattr(plots, "roses_png", broken)
     out = tmp_path / "report"
-    result = run("report", sample_map, "-o", out, "-q")
+    result = run("report", named_log_map, "-o", out, "-q")
     assert result.exit_code != 0
     assert list(tmp_path.iterdir()) == []  # neither the folder nor a staging folder
 
 
-def test_the_room_curves_are_predicts_room_flows(sample_map: Path) -> None:
+def test_the_room_curves_are_predicts_room_flows(named_log_map: Path) -> None:
     """The activity curves (``flow_series``, one batch over every time) at a few of their
     times equal ``aion predict --layer rooms`` run at each time."""
     from aion_cli.mapquery import load_map
@@ -277,14 +277,14 @@ def test_the_room_curves_are_predicts_room_flows(sample_map: Path) -> None:
     from aion_cli.timeparse import format_ns, resolve_zone
 
     zone = resolve_zone("UTC")
-    content = gather(load_map(sample_map), sample_map, zone, None)
+    content = gather(load_map(named_log_map), named_log_map, zone, None)
     weekday, weekend, week = content.activity
     assert weekday.names[:2] == ("R1 hallway", "R0 workspace")  # the busiest rooms first
     for series, k in ((weekday, 35), (weekend, 50), (week, 100)):
         t = int(series.times_ns[k])
         rooms = run_json(
             "predict",
-            sample_map,
+            named_log_map,
             "--layer",
             "rooms",
             "--time",
@@ -299,16 +299,16 @@ def test_the_room_curves_are_predicts_room_flows(sample_map: Path) -> None:
 
 
 def test_rooms_beyond_the_busiest_are_summed_into_one_line(
-    sample_map: Path, monkeypatch: pytest.MonkeyPatch
+    named_log_map: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from aion_cli.mapquery import load_map
     from aion_cli.report import content as module
     from aion_cli.timeparse import resolve_zone
 
-    loaded = load_map(sample_map)
-    every = module.gather(loaded, sample_map, resolve_zone("UTC"), None).activity
+    loaded = load_map(named_log_map)
+    every = module.gather(loaded, named_log_map, resolve_zone("UTC"), None).activity
     monkeypatch.setattr(module, "TOP_ROOMS", 2)
-    two = module.gather(loaded, sample_map, resolve_zone("UTC"), None).activity
+    two = module.gather(loaded, named_log_map, resolve_zone("UTC"), None).activity
     for full, cut in zip(every, two, strict=True):
         assert cut.names == (*full.names[:2], f"other rooms ({len(full.names) - 2})")
         np.testing.assert_allclose(cut.flows[:, :2], full.flows[:, :2], rtol=0, atol=0)

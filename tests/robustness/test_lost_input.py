@@ -17,9 +17,8 @@ import pytest
 
 from aion_cli.cli.console import warn_each, warning_shape
 from aion_cli.formats.limits import CHUNK_ENV, MESSAGE_ENV
+from tests.cli.conftest import SAMPLE
 from tests.robustness.conftest import assert_one_error, run
-
-SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "office.mcap"
 
 
 @pytest.fixture(autouse=True)
