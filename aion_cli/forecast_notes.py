@@ -46,7 +46,9 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     static = _all_static(manifest)
     if static is not None:
         notes.append(static)
-    where = _outside(manifest.start_ns, manifest.end_ns, int(t_ns), static is not None)
+    where = _outside(
+        manifest.start_ns, manifest.end_ns, int(t_ns), static is not None, manifest.timezone
+    )
     if where is not None:
         notes.append(where)
     unseen = None if static is not None else _unseen_day(manifest, int(t_ns))
@@ -91,14 +93,18 @@ def _all_static(manifest: Manifest) -> str | None:
     return text
 
 
-def _outside(start_ns: int | None, end_ns: int | None, t_ns: int, static: bool) -> str | None:
+def _outside(
+    start_ns: int | None, end_ns: int | None, t_ns: int, static: bool, zone: str | None = None
+) -> str | None:
+    """A note when ``t_ns`` lies before the map's data or over a week after it; the data's
+    days are given in the map's zone (``zone``, UTC when None), as ``info`` shows them."""
     if start_ns is None or end_ns is None:
         return None
     start, end = int(start_ns), int(end_ns)
     if start <= t_ns <= end + FAR_AFTER_NS:
         return None
     before = t_ns < start
-    first, last = _day(start), _day(max(start, end - 1))  # the span ends before ``end``
+    first, last = _day(start, zone), _day(max(start, end - 1), zone)  # the span ends before end
     text = (
         f"this time is {_duration(start - t_ns if before else t_ns - end)} "
         f"{'before' if before else 'after'} the map's data "
@@ -312,7 +318,13 @@ def _duration(ns: int) -> str:
     return f"{hours / (365.25 * 24):.1f} years"
 
 
-def _day(t_ns: int) -> str:
-    from aion_cli.engine.windows import iso
+def _day(t_ns: int, zone: str | None = None) -> str:
+    """The date of ``t_ns`` in ``zone`` (UTC when None), ``YYYY-MM-DD``."""
+    from aion_cli.errors import AionError
+    from aion_cli.timeparse import format_ns, resolve_zone
 
-    return iso(t_ns)[:10]
+    try:
+        resolved = resolve_zone(zone or "UTC")
+    except AionError:  # a damaged manifest's zone: the note still reads, in UTC
+        resolved = resolve_zone("UTC")
+    return format_ns(t_ns, resolved)[:10]

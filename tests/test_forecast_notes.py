@@ -78,6 +78,11 @@ def test_times_far_from_the_data_are_named() -> None:
     static, where = forecast_notes(_manifest({"static": 3}), END + 9 * DAY_NS)
     assert static.startswith("every entry forecasts its static rate")
     assert where == "this time is 9 days after the map's data (2023-11-14 to 2023-11-17)"
+    # the data's days in the map's zone: 22:13 UTC on the 14th is the 15th in Kolkata
+    kolkata = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=END,
+                       families={"flow": {"shape": 5}}, timezone="Asia/Kolkata")
+    (local,) = forecast_notes(kolkata, END + 30 * DAY_NS)
+    assert "(2023-11-15 to 2023-11-18)" in local
     one_day = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=START + 3600 * 10**9)
     assert forecast_notes(one_day, START - 3 * DAY_NS) == [
         "this time is 3 days before the map's data (2023-11-14): the forecast repeats the "

@@ -44,6 +44,22 @@ def test_profile_bins_follow_the_local_clock_and_weekends() -> None:
     assert Calendar("+09:00", "day").profile_bin([ns(2012, 10, 24, 0, 20)])[0] == 9
 
 
+def test_a_change_at_a_utc_half_hour_is_taken_when_it_happens() -> None:
+    """St John's leaves summer time on 2026-11-01 at 02:00 NDT = 04:30 UTC (-02:30 to
+    -03:30). 04:40 UTC is 01:10 NST, hour bin 1 (a lookup per UTC hour kept -02:30 until
+    05:00: 02:10, bin 2); 04:20 UTC is still 01:50 NDT. The spring change, 2026-03-08 at
+    02:00 NST = 05:30 UTC: 05:40 UTC is 03:10 NDT (not 02:10, an hour that day has not)."""
+    from zoneinfo import ZoneInfo
+
+    cal = Calendar("America/St_Johns", "day")
+    zone = ZoneInfo("America/St_Johns")
+    times = [ns(2026, 11, 1, 4, 40), ns(2026, 11, 1, 4, 20), ns(2026, 3, 8, 5, 40),
+             ns(2026, 3, 8, 5, 20)]
+    expected = [datetime.fromtimestamp(t / S, tz=zone).hour for t in times]
+    assert expected == [1, 1, 3, 1]
+    assert cal.profile_bin(times).tolist() == expected
+
+
 @pytest.mark.parametrize(
     ("kwargs", "fragment"),
     [

@@ -14,9 +14,10 @@ Profiles (``ModelConfig.profile``), with bins of ``profile_bin_s`` seconds (an h
 * ``week``: H = 168, the hour of the week, Monday 00:00 first.
 
 Local days are counted from 1970-01-01 in local time (``day(t)``); weekday 0 is Monday. Offsets
-are looked up once per distinct UTC hour of the input (zone rules change on the hour or half
-hour in practice; a change at another minute is taken at the start of its UTC hour), so a whole
-array of window times costs a handful of ``zoneinfo`` calls.
+are looked up once per distinct UTC quarter hour of the input (zone rules change on a quarter
+hour: St John's and Adelaide change at a UTC half hour, which a lookup per UTC hour took half an
+hour late; a change at another minute would be taken at the start of its quarter), so a whole
+array of window times costs a few ``zoneinfo`` calls per hour it spans.
 """
 
 from __future__ import annotations
@@ -33,6 +34,9 @@ from aion_cli.errors import ConfigError
 
 DAY_NS = 86_400 * 1_000_000_000
 HOUR_NS = 3_600 * 1_000_000_000
+QUARTER_NS = HOUR_NS // 4
+"""Offsets are looked up per UTC quarter hour: every zone's offsets are whole quarter hours
+and its rules change on a local quarter hour (St John's and Adelaide at a UTC half hour)."""
 PROFILES = ("day", "day_weekend", "week")
 _DAYS_PER_PROFILE = {"day": 1, "day_weekend": 2, "week": 7}
 
@@ -75,15 +79,17 @@ class Calendar:
         t = np.asarray(t_ns, dtype=np.int64)
         if self.tz is UTC or t.size == 0:
             return t.copy()
-        hours, inverse = np.unique(np.floor_divide(t, HOUR_NS), return_inverse=True)
+        quarters, inverse = np.unique(np.floor_divide(t, QUARTER_NS), return_inverse=True)
         offsets = np.fromiter(
-            (self._offset_ns(int(h)) for h in hours.tolist()), dtype=np.int64, count=hours.size
+            (self._offset_ns(int(q)) for q in quarters.tolist()),
+            dtype=np.int64,
+            count=quarters.size,
         )
         out: I64 = t + offsets[inverse.reshape(t.shape)]
         return out
 
-    def _offset_ns(self, utc_hour: int) -> int:
-        moment = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(hours=utc_hour)
+    def _offset_ns(self, utc_quarter: int) -> int:
+        moment = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(minutes=15 * utc_quarter)
         delta = moment.astimezone(self.tz).utcoffset() or timedelta(0)
         return round(delta.total_seconds() * 1e9)
 
