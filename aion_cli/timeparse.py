@@ -231,12 +231,25 @@ def check_range(t_ns: int, text: str) -> int:
     return t_ns
 
 
+_NOT_ZONES = frozenset(
+    {"am", "pm", "noon", "midnight", "now", "today", "tomorrow", "yesterday", "local"}
+)
+"""Trailing words of a time that are no zone (``9:30 pm``), whatever ``zoneinfo`` knows."""
+
+
 def _split_zone(text: str, zone: Zone) -> tuple[str, Zone]:
-    """A trailing zone name overrides ``zone``: ``2026-11-23 08:30 Europe/Berlin``, ``... UTC``."""
+    """A trailing zone overrides ``zone``, in any form ``--tz`` takes but ``local``:
+    ``2026-11-23 08:30 Europe/Berlin``, ``... UTC``, ``... UTC+05:30``, ``... CET``. A name
+    with a ``/`` that is no zone is an error; another last word is part of the time."""
     head, _, last = text.rpartition(" ")
-    if head and ("/" in last or last.lower() in ("utc", "gmt")):
+    if not head or not any(c.isalpha() for c in last) or last.lower() in _NOT_ZONES:
+        return text, zone
+    if "/" in last:
         return head, resolve_zone(last)
-    return text, zone
+    try:
+        return head, resolve_zone(last)
+    except TimeFormatError:  # a weekday, a word of the time: not a zone
+        return text, zone
 
 
 def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:

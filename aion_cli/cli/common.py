@@ -63,13 +63,14 @@ def tz_option(func: F) -> F:
         "--tz",
         metavar="ZONE",
         help="Time zone for times without an offset: IANA name, UTC, +01:00 "
-        "[default: the map's zone (aion build --tz), else the machine's local zone].",
+        "[default: the map's zone: UTC unless aion build --tz gave another].",
     )(func)
 
 
 def map_zone(tz: str | None, loaded: Any = None) -> Zone:
-    """The zone ``tz``; without it, the zone the map was built for (if any), else the
-    machine's local zone (see :mod:`aion_cli.timeparse`)."""
+    """The zone ``tz``; without it, the zone the map was built for (UTC unless ``build --tz``
+    gave another), else (no map, or one that records no zone) the machine's local zone (see
+    :mod:`aion_cli.timeparse`)."""
     if tz is None and loaded is not None:
         from aion_cli.manifest import Manifest
 

@@ -186,3 +186,11 @@ def test_one_digit_hour_and_a_trailing_zone_name() -> None:
     assert parse_time("tomorrow 12:00 UTC", BERLIN, NOW) == ns(2026, 11, 23, 12, 0)
     with pytest.raises(TimeFormatError):
         parse_time("2026-11-23 08:30 Mars/Olympus", UTCZ, NOW)
+    # every zone form --tz takes (README: "any form followed by a zone name")
+    assert parse_time("2026-11-23 08:30 UTC+05:30", UTCZ, NOW) == ns(2026, 11, 23, 3, 0)
+    assert parse_time("2026-11-23 08:30 CET", UTCZ, NOW) == ns(2026, 11, 23, 7, 30)
+    assert parse_time("2026-11-23 08:30 EST5EDT", UTCZ, NOW) == ns(2026, 11, 23, 13, 30)
+    # a last word that is no zone is part of the time
+    assert parse_time("9:30 pm", UTCZ, NOW) == parse_time("21:30", UTCZ, NOW)
+    with pytest.raises(TimeFormatError):
+        parse_time("2026-11-23 08:30 Narnia", UTCZ, NOW)
