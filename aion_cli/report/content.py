@@ -191,6 +191,24 @@ def local_midnight(day: date, zone: Zone) -> int:
     return to_ns(datetime.combine(day, time(0)).replace(tzinfo=zone.tz))
 
 
+def wall_steps(day: date, zone: Zone, step_s: int, length_s: int) -> Any:
+    """UNIX ns of the wall-clock times ``day`` 00:00, then every ``step_s`` seconds of the
+    clock for ``length_s`` (a day of 96 quarter hours, a week of 168 hours), in ``zone``: on a
+    day whose clock changes the curve keeps to the clock (the times a change skips are left
+    out; a repeated hour is shown once, its first time), where steps of elapsed time from
+    midnight would draw every point after the change an hour off."""
+    from aion_cli.timeparse import from_ns, to_ns
+
+    start = datetime.combine(day, time(0))
+    out = []
+    for k in range(length_s // step_s):
+        wall = start + timedelta(seconds=k * step_s)
+        t = to_ns(wall.replace(tzinfo=zone.tz))
+        if from_ns(t, zone).replace(tzinfo=None) == wall:  # else a time the clock skipped
+            out.append(t)
+    return np.array(out, dtype=np.int64)
+
+
 def series_days(anchor_ns: int, zone: Zone, inside: bool) -> tuple[date, date, date]:
     """The week (its Monday), weekday and weekend day the activity curves show, in ``zone``:
     the week holding ``anchor_ns`` and, when it is one, that day itself (``inside``: the
@@ -222,14 +240,11 @@ def activity_series(
         return (), ["the map has observed nothing yet: no activity to forecast"]
     monday, weekday, weekend = series_days(anchor, zone, t_ns is not None)
     spans = (
-        (f"{weekday:%A %Y-%m-%d}", local_midnight(weekday, zone), DAY_STEP_S, 86_400),
-        (f"{weekend:%A %Y-%m-%d}", local_midnight(weekend, zone), DAY_STEP_S, 86_400),
-        (f"week of Monday {monday:%Y-%m-%d}", local_midnight(monday, zone), WEEK_STEP_S, 604_800),
+        (f"{weekday:%A %Y-%m-%d}", weekday, DAY_STEP_S, 86_400),
+        (f"{weekend:%A %Y-%m-%d}", weekend, DAY_STEP_S, 86_400),
+        (f"week of Monday {monday:%Y-%m-%d}", monday, WEEK_STEP_S, 604_800),
     )
-    times = [
-        start + np.arange(length // step, dtype=np.int64) * (step * _NS)
-        for _, start, step, length in spans
-    ]
+    times = [wall_steps(day, zone, step, length) for _, day, step, length in spans]
     layer: Literal["rooms", "all"] = (
         "rooms" if loaded.graph is not None and len(loaded.graph.rooms) else "all"
     )

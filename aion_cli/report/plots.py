@@ -164,13 +164,27 @@ def _profile_panel(fig: Any, ax: Any, observed: Observed) -> None:
     bar.set_label("hours observed")
 
 
+def _clock_hours(times: Any, zone: Zone) -> Any:
+    """Hours of the wall clock in ``zone`` since the first time's local midnight, per time (a
+    day's curve reads 0..24 by the clock on a day of 23 or 25 hours too)."""
+    if not times.size:
+        return times.astype(np.float64)
+    first = from_ns(int(times[0]), zone).date()
+    out = []
+    for t in times.tolist():
+        local = from_ns(int(t), zone)
+        days = (local.date() - first).days
+        out.append(days * 24 + local.hour + local.minute / 60 + local.second / 3600)
+    return np.asarray(out, dtype=np.float64)
+
+
 def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
     """One line per column of ``series`` against the time (hours of the day for a day, days
     of the week for a week; in ``zone``)."""
     fig = _figure(10.0, 3.6)
     ax = fig.add_subplot()
     times = np.asarray(series.times_ns, dtype=np.int64)
-    hours = (times - times[0]).astype(np.float64) / 3600 / _NS if times.size else times
+    hours = _clock_hours(times, zone)
     week = times.size and hours[-1] > 24
     guessed = (
         np.zeros(times.size, bool)

@@ -334,3 +334,29 @@ def test_the_curves_mark_the_hours_no_log_observed(tmp_path: Path) -> None:
     for series in content.activity:
         hour = (np.asarray(series.times_ns) // 3_600_000_000_000) % 24
         np.testing.assert_array_equal(series.unobserved, hour != 8)
+
+
+def test_the_activity_curves_keep_to_the_clock_on_a_day_it_changes() -> None:
+    """Berlin, 2026-03-29 (02:00 skipped) and 2026-10-25 (02:00-03:00 twice): the day's
+    points are the wall clock's quarter hours, drawn at their clock hour. Steps of elapsed
+    time from midnight had drawn every point after the change an hour off, and let the
+    spring day run into Monday."""
+    from datetime import date
+
+    from aion_cli.report.content import wall_steps
+    from aion_cli.report.plots import _clock_hours
+    from aion_cli.timeparse import from_ns, resolve_zone
+
+    zone = resolve_zone("Europe/Berlin")
+    spring = wall_steps(date(2026, 3, 29), zone, 900, 86_400)
+    assert spring.size == 92  # 02:00..02:45 do not exist that day
+    hours = _clock_hours(spring, zone)
+    expected = [q / 4 for q in range(96) if not 8 <= q < 12]
+    assert hours.tolist() == expected
+    assert from_ns(int(spring[-1]), zone).isoformat() == "2026-03-29T23:45:00+02:00"
+    autumn = wall_steps(date(2026, 10, 25), zone, 900, 86_400)
+    assert autumn.size == 96
+    assert _clock_hours(autumn, zone).tolist() == [q / 4 for q in range(96)]
+    assert from_ns(int(autumn[-1]), zone).isoformat() == "2026-10-25T23:45:00+01:00"
+    week = wall_steps(date(2026, 10, 19), zone, 3600, 7 * 86_400)  # the week of the change
+    assert _clock_hours(week, zone).tolist() == list(range(168))
