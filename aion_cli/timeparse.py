@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, date, datetime, time, timedelta, tzinfo
 from decimal import Decimal, InvalidOperation
@@ -147,6 +148,21 @@ def to_ns(moment: datetime) -> int:
     """An aware datetime -> exact int nanoseconds since the UNIX epoch."""
     delta = moment - EPOCH
     return (delta.days * 86400 + delta.seconds) * NS_PER_S + delta.microseconds * 1000
+
+
+def clock_labels(times_ns: Sequence[int], zone: Zone, form: str) -> list[str]:
+    """``strftime(form)`` of each time in ``zone``; where two different times read the same
+    (the hour a clock change repeats: 01:30 twice), their UTC offsets are added
+    (``01:30 +02:00``, ``01:30 +01:00``), so no two rows or panels look alike."""
+    stamps = [from_ns(int(t), zone) for t in times_ns]
+    labels = [s.strftime(form) for s in stamps]
+    instants: dict[str, set[int]] = {}
+    for label, t in zip(labels, times_ns, strict=True):
+        instants.setdefault(label, set()).add(int(t))
+    return [
+        f"{label} {s.isoformat()[-6:]}" if len(instants[label]) > 1 else label
+        for label, s in zip(labels, stamps, strict=True)
+    ]
 
 
 def from_ns(t_ns: int, zone: Zone) -> datetime:

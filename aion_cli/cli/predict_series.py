@@ -95,7 +95,7 @@ def run_series(
 def short_labels(times_ns: list[int], zone: Zone) -> list[str]:
     """Row labels for a terminal: ``08:30`` within one day, ``Mon 08:30`` within a week,
     else ``2026-11-23 08:30``."""
-    from aion_cli.timeparse import from_ns
+    from aion_cli.timeparse import clock_labels, from_ns
 
     stamps = [from_ns(t, zone) for t in times_ns]
     days = {s.date() for s in stamps}
@@ -107,7 +107,7 @@ def short_labels(times_ns: list[int], zone: Zone) -> list[str]:
         form = "%Y-%m-%d %H:%M"
     if any(s.second for s in stamps):
         form += ":%S"
-    return [s.strftime(form) for s in stamps]
+    return clock_labels(times_ns, zone, form)
 
 
 def _print(table: Any, zone: Zone, shown: int) -> None:

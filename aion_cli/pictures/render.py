@@ -97,16 +97,13 @@ def time_title(t_ns: int | None, zone: Zone | None, clock_only: bool = False) ->
 
 def _panel_titles(times: Sequence[int | None], zone: Zone | None) -> list[str]:
     """Panel titles of a series: the clock when every time is on one day, else the day too."""
-    from aion_cli.timeparse import from_ns, resolve_zone
+    from aion_cli.timeparse import clock_labels, from_ns, resolve_zone
 
     where = zone if zone is not None else resolve_zone("UTC")
     known = [t for t in times if t is not None]
     days = {from_ns(t, where).date() for t in known}
-    if len(days) <= 1:
-        return [time_title(t, zone, clock_only=True) for t in times]
-    return [
-        "historical" if t is None else from_ns(t, where).strftime("%a %m-%d %H:%M") for t in times
-    ]
+    labels = iter(clock_labels(known, where, "%H:%M" if len(days) <= 1 else "%a %m-%d %H:%M"))
+    return ["as observed (historical)" if t is None else next(labels) for t in times]
 
 
 def _mark_unobserved(

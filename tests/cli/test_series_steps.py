@@ -206,3 +206,18 @@ def test_an_export_series_every_day_names_its_folders_by_the_same_local_noon(
 )
 def test_which_steps_are_calendar_days(text: str | float, step: Step) -> None:
     assert parse_step(text) == step
+
+
+def test_a_repeated_hour_is_labelled_by_its_offset() -> None:
+    """London, 2026-10-25: 01:00 and 01:30 come twice (BST, then GMT). Rows and panel titles
+    of the same wall time had read alike; they now carry the offset, the others stay bare."""
+    from aion_cli.cli.predict_series import short_labels
+    from aion_cli.pictures.render import _panel_titles
+    from aion_cli.timeparse import parse_time, resolve_zone
+
+    zone = resolve_zone("Europe/London")
+    start = parse_time("2026-10-25T00:00Z", zone)
+    times = [start + k * 1800 * 10**9 for k in range(6)]
+    expected = ["01:00 +01:00", "01:30 +01:00", "01:00 +00:00", "01:30 +00:00", "02:00", "02:30"]
+    assert short_labels(times, zone) == expected
+    assert _panel_titles(times, zone) == expected
