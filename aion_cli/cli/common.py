@@ -153,8 +153,13 @@ def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
     except TimeFormatError as exc:
         raise InputError(f"{option} {text!r}: {exc.message}", hint=exc.hint) from exc
     if end <= start:
+        from aion_cli.timeparse import format_ns
+
+        read = f" (read as {format_ns(start, zone)} .. {format_ns(end, zone)}"
+        changed = end == start and parts[0].strip() != parts[1].strip()  # two times, one instant
+        read += ": a clock change skips or repeats an hour there)" if changed else ")"
         raise InputError(
-            f"{option} {text!r}: the end is not after the start",
+            f"{option} {text!r}: the end is not after the start{read}",
             hint="give the span as START..END with END later than START",
         )
     return start, end
