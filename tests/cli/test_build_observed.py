@@ -163,9 +163,10 @@ def test_a_robot_trajectory_overrides_declared_spans(tmp_path: Path) -> None:
     [
         ("2026-11-23 09:00", "expected START..END"),
         ("2026-11-23 09:00..2026-11-23 08:00", "the end is not after the start (read as"),
-        # Berlin skips 02:00..03:00 that day: both ends are 03:00 CEST, and it is said why
+        # Berlin skips 02:00..03:00 that day: both ends are 03:00 CEST (01:00 UTC, the zone
+        # the span is shown in), and it is said why
         ("2026-03-29 02:00 Europe/Berlin..2026-03-29 03:00 Europe/Berlin",
-         "03:00:00+02:00: a clock change skips or repeats an hour there"),
+         "01:00:00+00:00: a clock change skips or repeats an hour there"),
         ("yesterday-ish..2026-11-23", "--observed 'yesterday-ish..2026-11-23'"),
     ],
 )
