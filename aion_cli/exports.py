@@ -41,6 +41,7 @@ def export_frames(
     if not series and len(times) != 1:
         raise ValueError("times other than one are a series (a bug)")
     check_out_dir(out_dir)
+    _check_names_free(out_dir, [frame_name(t) for t in times] if series else [""], fmt)
     written: list[Path] = []
     with naming(out_dir), Staged(out_dir, merge=True, recognise=is_export_file) as staged:
         staged.path.mkdir()
@@ -69,6 +70,21 @@ def naming(target: Path) -> Iterator[None]:
         if exc.filename is None:  # a failed close (a full disk) names no file
             exc.filename = str(target)
         raise
+
+
+def _check_names_free(out_dir: Path, folders: Sequence[str], fmt: str) -> None:
+    """Before any frame is computed: a file of someone else's in ``out_dir`` (or its
+    subfolders ``folders``: a series' frames) under a name the export may write refuses the
+    export (the staged commit checks the names it did write again)."""
+    from aion_cli.formats.export import SCENE_PARTS
+    from aion_cli.formats.outputs import check_replaceable
+
+    if not out_dir.is_dir():
+        return
+    names = [f"{part}.{fmt}" for part in SCENE_PARTS] + ["entries.csv", "entries.json"]
+    check_replaceable(
+        (out_dir / folder / name for folder in folders for name in names), is_export_file
+    )
 
 
 def check_out_dir(out_dir: Path) -> None:

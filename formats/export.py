@@ -387,6 +387,10 @@ def export_scene(
     )
 
 
+SCENE_PARTS = ("nodes", "arrows", "cells", "mesh", "edges", "path", "scene")
+"""The names of the scene files an export may write (``<part>.ply`` / ``<part>.pcd``)."""
+
+
 def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[Path]:
     written: list[Path] = []
     for part, tri in (

@@ -40,7 +40,7 @@ import shutil
 import signal
 import stat
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from aion_cli.errors import InputError
@@ -394,7 +394,16 @@ def _check_replaced(src: Path, dst: Path, recognise: Recogniser) -> None:
         dest = dst / entry.name
         if entry.is_dir() and dest.is_dir() and not dest.is_symlink():
             _check_replaced(entry, dest, recognise)
-        elif _exists(dest) and not (is_empty_file(dest) or recognise(dest)):
+        else:
+            check_replaceable([dest], recognise)
+
+
+def check_replaceable(paths: Iterable[Path], recognise: Recogniser) -> None:
+    """:class:`OutputPathError` for the first of ``paths`` that exists and is neither empty
+    nor accepted by ``recognise``: what a folder written *into* checks before any work, for
+    the names it may write (the commit checks the names it did write again)."""
+    for dest in paths:
+        if _exists(dest) and not (is_empty_file(dest) or recognise(dest)):
             raise OutputPathError(
                 f"{dest} exists and is {_what_it_is(dest)}, not a file aion wrote: refusing "
                 "to replace it; nothing was written",

@@ -45,6 +45,13 @@ def write_report(
             on_step(what)
 
     check_out_dir(out_dir)
+    if out_dir.is_dir():  # a file of someone else's under a name the report writes: refused
+        from aion_cli.formats.outputs import check_replaceable  # before anything is drawn
+
+        names = [PAGE, "observed.png", "roses.png", "map.png"] + [
+            f"activity_{role}.png" for role in ("day_weekday", "day_weekend", "week")
+        ]
+        check_replaceable((out_dir / name for name in names), is_report_file)
     content = gather(loaded, map_path, zone, t_ns)
     step("read the map")
     with Staged(out_dir, merge=True, recognise=is_report_file) as staged:

@@ -297,3 +297,37 @@ def test_a_report_replaces_its_own_pictures_never_someone_elses(
     assert run("report", office.map, "-o", out).exit_code == 0
     again = run("report", office.map, "-o", out)  # its own page and pictures: replaced
     assert again.exit_code == 0, again.stderr
+
+
+def test_a_foreign_file_is_refused_before_anything_is_computed(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A file of someone else's under a name the export or the report writes (in the folder,
+    or in a series' frame folder) refuses the command before a frame is computed or a
+    picture drawn: a 1,000-frame series was computed, then thrown away."""
+    import aion_cli.exports
+    import aion_cli.report.writer
+
+    def computed(*_: Any, **__: Any) -> Any:
+        raise AssertionError("computed before the refusal")
+
+    monkeypatch.setattr(aion_cli.exports, "_export_one", computed)
+    monkeypatch.setattr(aion_cli.report.writer, "gather", computed)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "cells.ply").write_text("a scan of mine\n")
+    refused(export(office, out), "cells.ply exists", "nothing was written")
+    frame = out / "20261123T083000Z"
+    frame.mkdir()
+    (frame / "entries.json").write_text('{"mine": 1}')
+    (out / "cells.ply").unlink()
+    refused(
+        run("export", office.map, "-o", out, "--from", "2026-11-23 08:00", "--to",
+            "2026-11-23 09:00", "--step", "30m", "--tz", "UTC"),
+        "20261123T083000Z/entries.json exists",
+    )
+    rep = tmp_path / "rep"
+    rep.mkdir()
+    (rep / "index.html").write_text("<p>my page</p>")
+    refused(run("report", office.map, "-o", rep), "index.html exists", "nothing was written")
+    assert (rep / "index.html").read_text() == "<p>my page</p>"
