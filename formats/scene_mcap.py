@@ -66,29 +66,35 @@ LATCHED_QOS = (
 
 
 def library_of(path: Path) -> tuple[str, str] | None:
-    """(profile, library) of the MCAP file ``path``'s header record, None when it is not an
-    MCAP file or cannot be read (reads the first few hundred bytes only)."""
+    """(profile, library) of the MCAP file ``path``'s Header record, None when it is not an
+    MCAP file or its header cannot be read (reads that record only, parsed as the log
+    readers parse it: :func:`formats.mcap_linear._parse_record`)."""
     import struct
 
+    from mcap.records import Header
+
+    from aion_cli.formats.limits import ChunkError
+    from aion_cli.formats.mcap_linear import _parse_record
+
+    most = 16 * 1024  # a header is two short strings
     try:
         with open(path, "rb") as fh:
-            head = fh.read(len(MCAP_MAGIC) + 9 + 2 * (4 + 256))
-    except OSError:
+            head = fh.read(len(MCAP_MAGIC) + 9)
+            if not head.startswith(MCAP_MAGIC) or head[len(MCAP_MAGIC)] != 0x01:
+                return None
+            (length,) = struct.unpack_from("<Q", head, len(MCAP_MAGIC) + 1)
+            if length > most:
+                return None
+            body = fh.read(length)
+    except (OSError, IndexError, struct.error):
         return None
-    body = head[len(MCAP_MAGIC) + 9 :]
-    if not head.startswith(MCAP_MAGIC) or head[len(MCAP_MAGIC) : len(MCAP_MAGIC) + 1] != b"\x01":
+    if len(body) < length:
         return None
-    texts: list[str] = []
-    at = 0
-    for _ in range(2):  # the Header record: profile, then library
-        if len(body) < at + 4:
-            return None
-        (n,) = struct.unpack_from("<I", body, at)
-        if len(body) < at + 4 + n:
-            return None
-        texts.append(body[at + 4 : at + 4 + n].decode("utf-8", "replace"))
-        at += 4 + n
-    return texts[0], texts[1]
+    try:
+        record = _parse_record(Header, body)
+    except ChunkError:
+        return None
+    return str(record.profile), str(record.library)
 
 
 def is_scene_mcap(path: Path) -> bool:
