@@ -19,12 +19,22 @@ from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_co
 
 
 def counts_of(report: BuildReport) -> Any:
-    """The detection counts of ``report`` (read, used), for the usable-detections check."""
+    """The detection counts of ``report`` for the usable-detections check: read, used, the
+    drops by reason and each topic's messages (from the shards' combined per-topic figures;
+    without them the check of a parallel build said "in the 0 messages" of a topic of
+    thousands)."""
     from aion_cli.detection_feed import DetectionCounts
 
     counts = DetectionCounts()
     counts.read = report.detections_read
     counts.used = report.detections_used
+    for topic, info in report.detection_decoding.items():
+        mine = counts.topic(topic)
+        mine.messages = int(info.get("messages", 0) or 0)
+        mine.undecodable = int(info.get("undecodable", 0) or 0)
+    for stats in report.by_topic.values():
+        for reason, n in (stats.get("dropped") or {}).items():
+            counts.dropped[reason] += int(n)
     return counts
 
 

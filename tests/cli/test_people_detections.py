@@ -116,6 +116,21 @@ def test_no_usable_detection_is_never_a_success(tmp_path: Path) -> None:
     assert not out.exists()
 
 
+def test_a_tracker_that_saw_nobody_is_counted_in_parallel_too(tmp_path: Path) -> None:
+    """Six hours of a fixed sensor's empty messages (every 10 s: 2,160), cut into time shards
+    by two workers: the refusal counts the topic's messages as one pass does (the parallel
+    check rebuilt its counts from the shards' reports without the topics: "in the 0
+    messages")."""
+    log = tmp_path / "empty.mcap"
+    made = run("simulate", "-o", log, "--days", "0.25", "--robot", "fixed", "--agents", "0",
+               "-q")  # fmt: skip
+    assert made.exit_code == 0, made.stderr
+    for workers in ("1", "2"):
+        result = run("build", log, "-o", tmp_path / "e.aion", "--workers", workers)
+        assert result.exit_code == 2
+        assert_one_line_error(result.stderr, "no people detection in the 2,160 messages")
+
+
 def test_detections_without_a_transform_are_never_a_success(tmp_path: Path) -> None:
     """TF exists but only long after the detections: every detection is a counted drop, and
     a map of nothing is an error that says so."""
