@@ -61,6 +61,9 @@ def merge_maps(a: MapState, b: MapState, *, consume: bool = False) -> MapState:
     dst = destinations(out, early, src_rows)
     add_entries(out, early, src_rows, dst)
     adopt_redirects(out, early)
+    # the earlier map's fixed-sensor intervals (and any poses left): the merged map observed
+    # what both did, as one build does (its description counted the later map's alone)
+    out.observation.join(early.observation)
     out.accepted += early.accepted
     for reason, count in early.dropped.items():
         out.dropped[reason] = out.dropped.get(reason, 0) + count

@@ -265,3 +265,23 @@ def test_the_installed_command_merges_and_has_help(days: Days, tmp_path: Path) -
     for key in MergeReport(out).to_dict():  # every key the JSON has is named in the help
         assert f" {key}" in f" {listed}" or f"{key}," in listed, key
     assert "merge" in run("--help").stdout
+
+
+def test_a_merge_of_fixed_sensor_maps_describes_both_maps_windows(tmp_path: Path) -> None:
+    """Two fixed sensors' maps merged: the manifest's observation counts the windows of both,
+    as a build of both logs says (it described the later map's windows alone, while its
+    window count was both maps')."""
+    logs = []
+    for k, start in enumerate(("2026-01-05T09:00", "2026-01-07T09:00")):
+        log = tmp_path / f"day{k}.mcap"
+        made = run("simulate", "-o", log, "--days", "0.05", "--start", start, "--robot",
+                   "fixed", "--seed", str(k), "-q")  # fmt: skip
+        assert made.exit_code == 0, made.stderr
+        assert run("build", log, "-o", log.with_suffix(".aion"), "-q").exit_code == 0
+        logs.append(log)
+    merged, both = tmp_path / "merged.aion", tmp_path / "both.aion"
+    assert run("merge", *[p.with_suffix(".aion") for p in logs], "-o", merged, "-q").exit_code == 0
+    assert run("build", *logs, "-o", both, "-q").exit_code == 0
+    said = read_manifest(merged)["observation"]
+    assert said == read_manifest(both)["observation"]
+    assert said.startswith("fixed sensor over the 16 windows")  # 8 ten-minute windows a log
