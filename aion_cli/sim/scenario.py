@@ -260,9 +260,11 @@ def build_scene(
     t0 = clock.start_ns()
     dt_ns = round(1e9 / config.rate_hz)
     dt_s = dt_ns / 1e9
-    # ticks k·dt for k·dt < days: a scene of whole days ends just before midnight, so the
-    # next day's scene (--start a day later) follows it without sharing an instant
-    n_ticks = max(1, int(np.ceil(config.days * 86400.0 / dt_s - 1e-9)))
+    # ticks k·dt before the wall clock has run ``days`` days: a scene of whole days ends just
+    # before midnight (after 23 or 25 hours on a day the clocks change), so the next day's
+    # scene (--start a day later) follows it without sharing an instant
+    span_s = float(clock.elapsed([offset_s + config.days * 86400.0])[0])
+    n_ticks = max(1, int(np.ceil(span_s / dt_s - 1e-9)))
     if progress is not None:
         progress("people", 0, 0)
     days_planned = float(np.ceil((offset_s + config.days * 86400.0) / 86400.0))

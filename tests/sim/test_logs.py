@@ -150,3 +150,19 @@ def test_a_scene_ends_before_the_next_one_starts(tmp_path: Path) -> None:
     assert spans[0][0] == start
     assert spans[1][0] == start + quarter
     assert start + quarter - 10**9 <= spans[0][1] < start + quarter  # ends within its last second
+
+
+def test_a_day_the_clocks_go_forward_is_23_hours_of_ticks(tmp_path: Path) -> None:
+    """Berlin, Sunday 2026-03-29 (02:00 -> 03:00): one day from local midnight ends before
+    Monday's local midnight (23 hours of ticks), so Monday's scene follows it without sharing
+    an hour (a day of 24 elapsed hours ran to 01:00 on Monday)."""
+    from tests.sim.conftest import FIXED
+
+    config = replace(FIXED, agents=0, days=1.0, start="2026-03-29", timezone="Europe/Berlin")
+    result = simulate(config, tmp_path / "sunday.mcap")[0]
+    with open_logs([result.log]) as logs:
+        times = np.array([r.log_time_ns for r in logs.messages(None)], dtype=np.int64)
+    sunday = np.datetime64("2026-03-28T23:00", "ns").astype(np.int64)  # 00:00 CET
+    monday = np.datetime64("2026-03-29T22:00", "ns").astype(np.int64)  # 00:00 CEST
+    assert int(times.min()) == sunday
+    assert monday - 60 * 10**9 <= int(times.max()) < monday  # 23 hours of ticks, none after
