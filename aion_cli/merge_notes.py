@@ -25,10 +25,11 @@ def pair_notes(
     ``end_ns``, the later starts at ``start_ns``): overlapping times, and approximation (4),
     a day both maps hold is scored as two."""
     notes = []
-    if end_ns is not None and start_ns is not None and end_ns > start_ns:
+    if interleave(end_ns, start_ns):
         notes.append(
-            f"the times of {early} and {late} overlap: windows both observed count twice "
-            "(merge maps of disjoint time)"
+            f"the times of {early} and {late} overlap or interleave ({late} starts before "
+            f"{early} ends): a window both observed, if any, counts twice (merge maps of "
+            "disjoint time)"
         )
     w = early_state.open_window
     if w is not None and start_ns is not None and _same_day(early_state, w, start_ns):
@@ -37,6 +38,13 @@ def pair_notes(
             "approximation 4)"
         )
     return notes
+
+
+def interleave(end_ns: int | None, start_ns: int | None) -> bool:
+    """Whether a map ending at ``end_ns`` and the next starting at ``start_ns`` share time:
+    then each scored its days without the other's (merge approximation 2), whichever of
+    them closed a day."""
+    return end_ns is not None and start_ns is not None and end_ns > start_ns
 
 
 def _same_day(state: MapState, window: int, t_ns: int) -> bool:
@@ -76,6 +84,10 @@ class ApproximationTally:
         self.moved = 0
         self.closed = False
         self._last: Footprint | None = None
+
+    def interleaved(self) -> None:
+        """Two maps share time (:func:`interleave`): their days were scored apart."""
+        self.closed = True
 
     def add(self, state: MapState) -> None:
         """The next ordinary map (the first map of a merge counts as one, part or not)."""

@@ -35,8 +35,9 @@ atomically with a manifest that accounts for every log. The rules:
   (``aion merge PART.aion -o MAP.aion``) its days are scored in time order, which makes it the
   map one build of its logs gives. An ordinary map alone is refused (nothing to merge).
 * **Time.** Maps are ordered by their manifests' time spans (else their open windows). Maps
-  whose times overlap merge (two robots at once), with a note: windows both observed count
-  twice.
+  whose times overlap or interleave merge (two robots at once, or one map's days between
+  another's), with notes: windows both observed count twice, and each map scored its days
+  without the other's (approximation 2).
 
 The report's notes name the approximations of the engine's merge that apply
 (:mod:`aion_cli.merge_notes`).
@@ -280,7 +281,7 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
     from aion_cli.engine.state import MapState
-    from aion_cli.merge_notes import ApproximationTally, pair_notes
+    from aion_cli.merge_notes import ApproximationTally, interleave, pair_notes
 
     tally = ApproximationTally(report.lineage)
     pairs: list[str] = []
@@ -294,6 +295,8 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
         late = maps[k + 1] if k + 1 < len(maps) else None
         if late is not None and not late.head.part:  # a part's join scores that day once
             pairs.extend(pair_notes(m.name, m.manifest.end_ns, state, late.name, late.start()))
+            if interleave(m.manifest.end_ns, late.start()):
+                tally.interleaved()
         if k == 0 or state.deferred is None:
             tally.add(state)
         if state.deferred is not None:
