@@ -263,7 +263,9 @@ class Map:
 
         start, goal = check.endpoint(start, "start"), check.endpoint(goal, "goal")
         if speed is not None and not 0.01 <= check.real(speed, "speed") <= 20.0:
-            raise InputError(f"speed must be 0.01 .. 20 m/s, got {speed}")
+            raise InputError(
+                f"speed must be 0.01 .. 20 m/s, got {speed}", hint="a walking speed, e.g. 1.0"
+            )
         if leave is not None and time is not None:
             raise InputError("choose time or leave=(earliest, latest), not both")
         self._check_file()

@@ -53,7 +53,10 @@ def node_list(nodes: object, what: str = "nodes") -> list[str | int]:
     if isinstance(nodes, str | numbers.Integral):
         nodes = [nodes]
     if not hasattr(nodes, "__iter__"):
-        raise InputError(f"{what} must be node ids (a list of them, or one), got {nodes!r}")
+        raise InputError(
+            f"{what} must be node ids (a list of them, or one), got {nodes!r}",
+            hint=f'e.g. {what}="p12" or {what}=["p12", "kitchen"]',
+        )
     out: list[str | int] = []
     for node in nodes:
         if isinstance(node, bool) or not isinstance(node, str | numbers.Integral):
@@ -70,19 +73,26 @@ def count(value: object, what: str, minimum: int = 1) -> int | None:
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise InputError(f"{what} must be a whole number, got {value!r}")
+        raise InputError(
+            f"{what} must be a whole number, got {value!r}",
+            hint=f"e.g. {what}={max(minimum, 2)} (an int, not a float or a string)",
+        )
     if int(value) < minimum:
-        raise InputError(f"{what} must be at least {minimum}, got {value}")
+        raise InputError(
+            f"{what} must be at least {minimum}, got {value}", hint=f"e.g. {what}={minimum}"
+        )
     return int(value)
 
 
 def real(value: object, what: str) -> float:
     """A finite real number."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{what} must be a number, got {value!r}")
+        raise InputError(
+            f"{what} must be a number, got {value!r}", hint="an int or a float, not a string"
+        )
     out = float(value)
     if not math.isfinite(out):
-        raise InputError(f"{what} must be finite, got {value!r}")
+        raise InputError(f"{what} must be finite, got {value!r}", hint="no nan or inf")
     return out
 
 
@@ -105,7 +115,10 @@ def point(at: object, what: str = "at") -> str | None:
 def pair(value: object, what: str, names: str) -> tuple[Any, Any]:
     """Exactly two items (``leave=(earliest, latest)``, ``path=(start, goal)``)."""
     if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
-        raise InputError(f"{what} must be two items ({names}), got {value!r}")
+        raise InputError(
+            f"{what} must be two items ({names}), got {value!r}",
+            hint=f"a tuple or a list of two: ({names})",
+        )
     return value[0], value[1]
 
 
@@ -128,7 +141,10 @@ def time_value(time: object) -> object:
     """A time argument checked for what :func:`aion_cli.api.to_ns` cannot read or would read
     wrongly: integers are nanoseconds, so one below :data:`SECONDS_LIKE_NS` is refused."""
     if isinstance(time, bool):
-        raise InputError(f"not a time: {time!r}")
+        raise InputError(
+            f"not a time: {time!r}",
+            hint='a string ("2026-01-12 08:30", "now"), a datetime or UNIX nanoseconds',
+        )
     if isinstance(time, numbers.Integral):
         value = int(time)
         if -SECONDS_LIKE_NS < value < SECONDS_LIKE_NS:

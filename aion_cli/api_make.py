@@ -175,7 +175,10 @@ def reading_options(
             hint=f"reading options: {', '.join(READING)}",
         )
     if logs is None or (not isinstance(logs, str | os.PathLike) and not isinstance(logs, Sequence)):
-        raise InputError(f"logs must be a path or a list of paths, got {logs!r}")
+        raise InputError(
+            f"logs must be a path or a list of paths, got {logs!r}",
+            hint='e.g. "monday.mcap" or ["monday.mcap", "tuesday.mcap"]',
+        )
     paths = [logs] if isinstance(logs, str | os.PathLike) else list(logs)
     if not paths:
         raise InputError("no log given", hint="pass at least one log file or folder")
@@ -183,7 +186,10 @@ def reading_options(
     if isinstance(topics, str):
         topics = (topics,)
     if not isinstance(topics, Sequence):
-        raise InputError(f"detection_topics must be topic names, got {topics!r}")
+        raise InputError(
+            f"detection_topics must be topic names, got {topics!r}",
+            hint='e.g. detection_topics=["/people"] (aion info LOG lists the topics)',
+        )
     given = span_pairs(options.get("observed"))
     spans: tuple[tuple[int, int], ...] = ()
     if given:  # (a build without spans reads ``tz`` as before, in the build)
@@ -191,7 +197,10 @@ def reading_options(
         spans = tuple((to_ns(a, zone), to_ns(b, zone)) for a, b in given)
     for (a, b), (ta, tb) in zip(spans, given, strict=True):
         if b <= a:
-            raise InputError(f"observed span {ta!r}..{tb!r}: the end is not after the start")
+            raise InputError(
+                f"observed span {ta!r}..{tb!r}: the end is not after the start",
+                hint="give each span as (start, end) with end later than start",
+            )
     fields: dict[str, object] = {
         "log_format": options.get("log_format"),
         "detection_topics": tuple(str(t) for t in topics),

@@ -243,3 +243,21 @@ def test_a_table_says_whether_its_hour_was_observed(tmp_path: Path) -> None:
     assert cli["hour_observed"] is False
     assert _jsonable(night.to_dict())["hour_observed"] is False
     assert m.predict(historical=True).hour_observed is None
+
+
+def test_the_api_s_input_errors_carry_a_hint(example: dict[str, Any]) -> None:
+    """As the CLI's: a wrong type or value says what to give instead (top=2.5 and
+    workers="2" had no hint)."""
+    m = example["m"]
+    for call in (
+        lambda: m.predict(AT, top=2.5),
+        lambda: m.predict(AT, top=0),
+        lambda: m.predict(AT, nodes=3.5),
+        lambda: m.predict(True),
+        lambda: aion.build(["x.mcap"], workers="2"),
+        lambda: aion.build(42),
+        lambda: m.plan("p1", "p2", time=AT, speed=float("nan")),
+    ):
+        with pytest.raises(aion.InputError) as exc:
+            call()
+        assert exc.value.hint, exc.value.message
