@@ -260,12 +260,12 @@ def _split_zone(text: str, zone: Zone) -> tuple[str, Zone]:
     head, _, last = text.rpartition(" ")
     if not head or not any(c.isalpha() for c in last) or last.lower() in _NOT_ZONES:
         return text, zone
-    if "/" in last:
-        return head, resolve_zone(last)
     try:
         return head, resolve_zone(last)
-    except TimeFormatError:  # a weekday, a word of the time: not a zone
-        return text, zone
+    except TimeFormatError:
+        if "/" in last:  # meant as a zone name
+            raise
+        return text, zone  # a weekday, a word of the time: not a zone
 
 
 def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:

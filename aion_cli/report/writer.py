@@ -20,6 +20,9 @@ from aion_cli.report.page import FOOTER
 from aion_cli.timeparse import Zone
 
 PAGE = "index.html"
+TIMELINE, ROSES_PNG, MAP_PNG = "observed.png", "roses.png", "map.png"
+ACTIVITY, ACTIVITY_ROLES = "activity_{}.png", ("day_weekday", "day_weekend", "week")
+"""The files a report writes (named once: the check before drawing and the drawing use them)."""
 STEPS = 8
 """Calls of ``on_step`` a report makes (for a progress bar's total)."""
 
@@ -48,9 +51,7 @@ def write_report(
     if out_dir.is_dir():  # a file of someone else's under a name the report writes: refused
         from aion_cli.formats.outputs import check_replaceable  # before anything is drawn
 
-        names = [PAGE, "observed.png", "roses.png", "map.png"] + [
-            f"activity_{role}.png" for role in ("day_weekday", "day_weekend", "week")
-        ]
+        names = [PAGE, TIMELINE, ROSES_PNG, MAP_PNG, *(ACTIVITY.format(r) for r in ACTIVITY_ROLES)]
         check_replaceable((out_dir / name for name in names), is_report_file)
     content = gather(loaded, map_path, zone, t_ns)
     step("read the map")
@@ -59,25 +60,23 @@ def write_report(
         folder.mkdir()
         pictures: dict[str, str | None] = {}
         pictures["timeline"] = plots.timeline_png(
-            content.observed, zone, folder / "observed.png"
+            content.observed, zone, folder / TIMELINE
         ).name
         step("timeline")
         ylabel = f"detections per {content.window_s / 60:g} min"
-        for role, series in zip(
-            ("day_weekday", "day_weekend", "week"), content.activity, strict=False
-        ):
+        for role, series in zip(ACTIVITY_ROLES, content.activity, strict=False):
             pictures[role] = plots.activity_png(
-                series, ylabel, folder / f"activity_{role}.png", zone
+                series, ylabel, folder / ACTIVITY.format(role), zone
             ).name
             step(f"activity: {series.title}")
-        for _ in range(3 - len(content.activity)):
+        for _ in range(len(ACTIVITY_ROLES) - len(content.activity)):
             step("activity")
         roses = [b for b in content.busiest if b.record.get("flow")][:ROSES]
         pictures["roses"] = (
-            plots.roses_png(roses, content.bins, folder / "roses.png").name if roses else None
+            plots.roses_png(roses, content.bins, folder / ROSES_PNG).name if roses else None
         )
         step("direction roses")
-        pictures["topdown"] = top_down_picture(loaded, content, folder / "map.png").name
+        pictures["topdown"] = top_down_picture(loaded, content, folder / MAP_PNG).name
         step("map from above")
         stamp = datetime.now(UTC).isoformat(sep=" ", timespec="seconds")
         (folder / PAGE).write_text(
