@@ -88,6 +88,17 @@ def staging_prefix(name: str) -> str:
     return f".{fitted_name(name, STAGING_ROOM)}."
 
 
+_STAGED_NAME = re.compile(r"\.(.+)\.(?:[a-z0-9_]{8}|[0-9]+)\.tmp")
+
+
+def staged_target(name: str) -> str | None:
+    """The target a hidden staging name (:func:`staging_prefix`, then mkdtemp's or mkstemp's
+    8 random characters or the API's process id, and ``.tmp``) stands for, as fitted (a long
+    one cut, ``~`` and its hash); None for any other name (a ``.x.y.tmp`` of the user's)."""
+    staged = _STAGED_NAME.fullmatch(name)
+    return None if staged is None else staged.group(1)
+
+
 def safe_text(name: object) -> str:
     """A file name (a path, bytes or text holding one) as text every encoder accepts: a
     name's bytes that are not UTF-8 (``map\\xff.aion``) become U+FFFD. For names written into

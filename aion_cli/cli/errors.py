@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import errno
 import os
-import re
 import sys
 import traceback
 
@@ -151,22 +150,17 @@ SHOWN_PATH_CHARS = 200
 """A longer path is shown by its start and end (a path over 4096 bytes would fill a page)."""
 
 
-_STAGED = re.compile(r"\.(.+)\.(?:[a-z0-9_]{8}|[0-9]+)\.tmp")
-"""A hidden staging name (``formats.outputs.staging_prefix``): ``.<target>.`` then mkdtemp's or
-mkstemp's 8 random characters (or the API's process id) and ``.tmp``; any other ``.x.y.tmp``
-is a name of the user's, shown as it is."""
-
-
 def _shown_path(name: object) -> str:
     """A path for the message: a staged output's hidden temporary name (``.x.ply.<tag>.tmp``,
     ``formats.outputs.Staged``) shown as the output it stands for; a very long path shortened
     in its middle."""
+    from aion_cli.formats.outputs import staged_target
+
     text = os.fsdecode(name) if isinstance(name, str | bytes | os.PathLike) else str(name)
     parts = text.split(os.sep)
     for i, part in enumerate(parts):
-        staged = _STAGED.fullmatch(part)
-        if staged is not None:
-            target = staged.group(1)
+        target = staged_target(part)
+        if target is not None:
             inner = parts[i + 1] if i + 1 < len(parts) else None
             parts[i] = target  # ".out.<tag>.tmp/out/x.csv" -> "out/x.csv"
             if inner is not None and inner.startswith(target.rsplit("~", 1)[0]):
