@@ -160,6 +160,7 @@ def predict_series(
         entry_ids,
         entry_table,
         layer_of_nodes,
+        refuse_empty_layer,
         rows_from_table,
         select,
     )
@@ -171,7 +172,7 @@ def predict_series(
     wanted = with_names_resolved(nodes, loaded.graph)
     layer = layer_of_nodes(layer, wanted, loaded.graph)
     first = entry_table(loaded, times[0], layer)
-    index = select(first, layer, wanted, at)
+    index = refuse_empty_layer(first, layer, select(first, layer, wanted, at))
     if layer in ("rooms", "buildings"):  # sums over places, as the aggregated table's
         flow = _group_flows(loaded, first.node_id[index], times, layer, progress)
     else:

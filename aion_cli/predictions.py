@@ -246,9 +246,23 @@ def predicted_records(
     wanted = with_names_resolved(nodes, loaded.graph)
     layer = layer_of_nodes(layer, wanted, loaded.graph)
     table = entry_table(loaded, t_ns, layer)
-    index = select(table, layer, wanted, at)
+    index = refuse_empty_layer(table, layer, select(table, layer, wanted, at))
     names = {} if loaded.graph is None else names_by_id(loaded.graph)
     return rows_from_table(table, ordered_rows(table, index, top), names), len(index)
+
+
+def refuse_empty_layer(table: Any, layer: str, index: Any) -> Any:
+    """``index``, or an :class:`InputError` when ``--layer places`` chose no row of a map of
+    hash cells only (as :func:`entry_table` for rooms: empty reads as "nobody walks")."""
+    from aion_cli.errors import InputError
+
+    if len(index) or layer != "places" or len(table.xyz) == 0:
+        return index
+    raise InputError(
+        "the map has no places, only hash cells",
+        hint="build with a scene graph (--graph FILE or --derive-graph) to get places; "
+        "without --layer, predict answers per hash cell",
+    )
 
 
 def _wanted_label(node: str | int, by_id: dict[str, int]) -> str:
