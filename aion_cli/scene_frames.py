@@ -101,6 +101,7 @@ def step_scene(
         cell_size=scene.cell_size,
         node_concentration=scene.node_concentration,
         flow_scale=flow_scale,
+        cells_dominant_angle=scene.cells_angle,
     )
     kind = np.asarray(table.kind)
     ids = [

@@ -309,6 +309,7 @@ def scene_update(
             o.x, o.y, o.z, o.w = _yaw(float(style.arrow_angle[i]))
             a.color.r, a.color.g, a.color.b, a.color.a = r, g, b, 1.0
     c_xyz, c_colors = style.cells_xyz.tolist(), style.cell_colors.tolist()
+    cell_deg = np.degrees(style.cells_angle).tolist()
     for i, cell in enumerate(cell_ids):
         e = entity(
             cell,
@@ -316,6 +317,7 @@ def scene_update(
                 ("kind", "cell"),
                 ("flow", _meta(float(style.cells_flow[i]))),
                 ("entropy", _meta(float(style.cells_entropy[i]))),
+                ("direction_deg", _meta(cell_deg[i], 5)),
             ),
         )
         c = e.cubes.add()

@@ -30,7 +30,8 @@ from aion_cli.formats.scene_colours import (
 class SceneStyle:
     """The drawn scene, one source for every scene format (PLY, PCD and MCAP): per node its
     centre, sphere radius, colour and arrow (``arrow_angle`` NaN: no arrow; length from the
-    centre, shaft ``arrow_width`` thick), per unbound cell its centre and colour, the edges
+    centre, shaft ``arrow_width`` thick), per unbound cell its centre, colour and dominant
+    direction (``cells_angle``, rad, NaN: none; cells draw no arrow), the edges
     [k,2,3], the mesh and the path [p,3]; with the flow (NaN-free) and entropy they show and
     the ``flow_scale`` drawn at full size."""
 
@@ -46,6 +47,7 @@ class SceneStyle:
     cells_xyz: F64
     cells_flow: F64
     cells_entropy: F64  # NaN where the cell has no flow
+    cells_angle: F64  # dominant direction (rad, NaN: none)
     cell_colors: F64
     edges: F64
     mesh: TriMesh
@@ -69,6 +71,7 @@ def style_scene(
     *,
     node_concentration: npt.ArrayLike | None = None,
     flow_scale: float | None = None,
+    cells_dominant_angle: npt.ArrayLike | None = None,
 ) -> SceneStyle:
     """Check the arrays of :func:`export_scene` (same meaning) and size and colour every part
     (the module docstring's rules); an :class:`ExportError` for inconsistent arrays."""
@@ -98,6 +101,12 @@ def style_scene(
         (),
     )
     c_ent = np.where(np.nan_to_num(c_flow, nan=0.0) > 0, c_ent, np.nan)  # no flow: grey
+    c_angle = _rows(
+        "cells_dominant_angle",
+        cells_dominant_angle if cells_dominant_angle is not None else np.full(len(c_xyz), np.nan),
+        len(c_xyz),
+        (),
+    )
     scale = _flow_scale(flow, flow_scale)
     busy = busy_fraction(flow, scale)
     radii = sphere_radii(flow, scale, cell_size)
@@ -115,6 +124,7 @@ def style_scene(
         cells_xyz=c_xyz,
         cells_flow=np.nan_to_num(c_flow, nan=0.0),
         cells_entropy=c_ent,
+        cells_angle=c_angle,
         cell_colors=entropy_colors(c_ent),
         edges=_edge_pairs(edges_xyz_pairs),
         mesh=_mesh_part(mesh),

@@ -108,6 +108,26 @@ def test_entities_are_the_entries_of_predict(series: Path, predicted: list[dict[
     assert {"aion/edges", "aion/mesh", "aion/path"} <= set(ids_per_step[0])
 
 
+def test_every_entity_carries_the_direction_of_predict(
+    series: Path, predicted: list[dict[str, Any]]
+) -> None:
+    """Nodes and hash cells alike carry ``direction_deg`` (the README's "flow, entropy and
+    direction as metadata"): a cell's was left out."""
+    with_direction = 0
+    for (_, update), entries in zip(scene_updates(series), predicted, strict=True):
+        for entity in update.entities:
+            if not (entity.spheres or entity.cubes):
+                continue
+            meta = {m.key: m.value for m in entity.metadata}
+            want = entries[entity.id]["direction_deg"]
+            if want is None:
+                assert meta["direction_deg"] == "null", entity.id
+            else:
+                assert float(meta["direction_deg"]) == pytest.approx(want, abs=0.01), entity.id
+                with_direction += bool(entity.cubes)
+    assert with_direction >= 2  # the two cells with people
+
+
 def test_colours_follow_entropy_and_sizes_follow_flow(
     series: Path, predicted: list[dict[str, Any]], sample_map: Path
 ) -> None:
