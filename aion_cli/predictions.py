@@ -173,10 +173,6 @@ def _layer(table: Any, e: int, kind: str) -> str:
     return str(table.layer[e])
 
 
-def _label(table: Any, e: int, kind: str) -> str:
-    return str(table.ids[e])
-
-
 def sort_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Busiest first; entries without a known flow last; ties by id for a stable order."""
     return sorted(rows, key=lambda r: (r["flow"] is None, -(r["flow"] or 0.0), r["id"]))
@@ -281,20 +277,28 @@ def _wanted_label(node: str | int, by_id: dict[str, int]) -> str:
 def layer_of_nodes(layer: str, nodes: Sequence[str | int], graph: Any) -> str:
     """The layer that answers ``--node`` without ``--layer``: ``rooms`` when every node asked
     for is a room of the map's scene graph (by id or name, already resolved), ``buildings``
-    when every one is a building; else ``layer`` as given (places and cells, or a mix, which
-    :func:`select` then reports)."""
-    from aion_cli.engine.node_ids import parse_node_id
+    when every one is a building; else ``layer`` as given (places and cells, whose unknown ids
+    :func:`select` reports), or an :class:`InputError` for rooms or buildings in a mix."""
+    from aion_cli.engine.node_ids import node_label, parse_node_id
     from aion_cli.errors import InputError
 
-    if layer != "all" or not nodes or graph is None:
+    if layer in ("rooms", "buildings") or not nodes or graph is None:
         return layer
     try:
         ids = {n if isinstance(n, int) else parse_node_id(n) for n in nodes}
     except InputError:
         return layer  # select names the id it cannot read
     for name, part in (("rooms", graph.rooms), ("buildings", graph.buildings)):
-        if len(part) and ids <= {int(i) for i in part.ids}:
+        if layer == "all" and len(part) and ids <= {int(i) for i in part.ids}:
             return name
+    grouped = ids & {int(i) for part in (graph.rooms, graph.buildings) for i in part.ids}
+    if grouped:  # select would call them "not in the map"
+        raise InputError(
+            f"{', '.join(sorted(node_label(i) for i in grouped))}: rooms and buildings are "
+            "answered on their own layer, not beside places, cells or the other layer",
+            hint="rooms are answered when asked for alone (or with --layer rooms), buildings "
+            "likewise (--layer buildings)",
+        )
     return layer
 
 
@@ -371,10 +375,8 @@ def select(
             if layer in ("places", "cells") and set(missing) <= everyone:
                 hint = f"--layer {layer} leaves {', '.join(missing)} out: ask without --layer"
             elif layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
-                hint = (
-                    "rooms and buildings are answered when asked for alone, or with --layer "
-                    "rooms / --layer buildings, not beside places and cells"
-                )
+                # the graph's own rooms and buildings are answered (layer_of_nodes)
+                hint = "the map has no such room or building: aion info MAP lists its rooms"
             else:
                 kind_names = [_kind_name(table, e) for e in index.tolist()]
                 ids = [i for i, k in zip(labels, kind_names, strict=True) if k != "cell"][:8]

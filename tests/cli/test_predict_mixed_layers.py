@@ -1,0 +1,53 @@
+"""``predict --node`` with a room or building of the map beside a place, a cell or the other
+layer is refused for what it is (one table cannot hold both layers), not as "not in the map":
+R1 and B0 are in it. An id the graph does not have is "not in the map", with a hint that does
+not claim it would be answered alone."""
+
+from __future__ import annotations
+
+import pytest
+
+import aion_cli as aion
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+
+AT = ("--time", "2026-11-23 08:30")
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [
+        (["--node", "R1", "--node", "p4"], "R1"),
+        (["--node", "p4", "--node", "room1"], "R1"),  # by name
+        (["--node", "B0", "--node", "R1"], "B0, R1"),
+        (["--layer", "places", "--node", "R1"], "R1"),
+        (["--layer", "cells", "--node", "B0"], "B0"),
+    ],
+)
+def test_a_room_or_building_in_a_mix_is_named_as_such(
+    office: Office, args: list[str], named: str
+) -> None:
+    for when in (AT, ("--from", "2026-11-23 08:00", "--to", "2026-11-23 09:00")):
+        result = run("predict", office.map, *when, *args)
+        assert result.exit_code == 2, result.stdout
+        assert_one_line_error(result.stderr, f"{named}: rooms and buildings are answered")
+        assert "not in the map" not in result.stderr
+        assert "asked for alone" in result.stderr
+
+
+def test_alone_they_are_answered_and_unknown_ones_are_not_in_the_map(office: Office) -> None:
+    assert [e["id"] for e in run_json("predict", office.map, *AT, "--node", "R1", "--format",
+                                      "json")["entries"]] == ["R1"]
+    for args in (["--node", "R9"], ["--node", "p4", "--node", "R9"]):
+        result = run("predict", office.map, *AT, *args)
+        assert result.exit_code == 2
+        assert_one_line_error(result.stderr, "R9 is not in the map")
+        assert "no such room or building" in result.stderr
+        assert "asked for alone" not in result.stderr
+
+
+def test_the_api_says_the_same(office: Office) -> None:
+    m = aion.Map.load(office.map)
+    with pytest.raises(aion.InputError, match="R1: rooms and buildings are answered"):
+        m.predict(AT[1], nodes=["p4", "R1"])
+    with pytest.raises(aion.InputError, match="R1: rooms and buildings are answered"):
+        m.predict_series(AT[1], "2026-11-23 09:30", nodes=["R1", "p4"])
