@@ -85,6 +85,8 @@ class Plan:
     snapped: list[dict[str, Any]] = field(default_factory=list)
     # with a departure span (``aion plan --leave``): every departure's cost, the best marked
     departures: list[dict[str, Any]] = field(default_factory=list)
+    # the arrival times as UNIX nanoseconds (``arrival`` shows them to the second)
+    arrival_ns: list[int] = field(default_factory=list)
 
     @classmethod
     def from_routes(
@@ -114,6 +116,7 @@ class Plan:
                 [format_ns(t, zone) for t in route.arrival_ns],
                 other,
                 [dict(x) for x in snapped],
+                arrival_ns=[int(t) for t in route.arrival_ns],
             )
 
         return of(routes.temporal, of(routes.distance_only, None))
@@ -129,6 +132,7 @@ class Plan:
                 "duration_s": p.duration_s,
                 "cost": p.cost,
                 "arrival": list(p.arrival),
+                "arrival_ns": list(p.arrival_ns),
             }
 
         return {

@@ -38,9 +38,9 @@ The temporal cost of each node is predicted for the time the walker is expected 
 there (departure + distance / speed), read per model window: the forecast at the start of
 the arrival's window (at the departure time within the departure's window). The
 distance-only path is always shown beside it, with the temporal cost it would have.
-JSON keys: from, to, depart, zone, speed_mps,
-temporal{path, length_m, duration_s, cost, arrival}, distance_only{path, length_m,
-duration_s, cost}, snapped (and export / png: the files written; with --leave,
+JSON keys: from, to, depart, depart_ns, zone, speed_mps,
+temporal{path, length_m, duration_s, cost, arrival, arrival_ns}, distance_only{the same},
+snapped (and export / png: the files written; with --leave,
 departures[{depart, depart_ns, cost, length_m, duration_s, distance_only_cost, best}]).
 
 \b

@@ -29,6 +29,10 @@ def test_path_length_and_costs(office: Office) -> None:
     assert doc["depart"] == "2026-11-23 08:30:00+00:00"
     assert len(temporal["arrival"]) == 4
     assert temporal["arrival"][0] == doc["depart"]
+    # to the nanosecond: the steps are 2 m each (p0..p3 on a line), walked at speed_mps
+    step_ns = 2.0 / doc["speed_mps"] * 1e9
+    expected = [doc["depart_ns"] + round(k * step_ns) for k in range(4)]
+    assert temporal["arrival_ns"] == pytest.approx(expected, abs=2)
 
 
 def test_coordinates_snap_to_the_nearest_node_and_speed(office: Office) -> None:
