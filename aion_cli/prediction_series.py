@@ -32,12 +32,15 @@ F64 = npt.NDArray[np.float64]
 MOST_TIMES = 1000
 
 #: CSV columns of a series: one row per (time, entry)
-SERIES_CSV_KEYS = ["time", "time_ns", "id", "kind", "layer", "x", "y", "z", "flow", "flow_per_hour"]
+SERIES_CSV_KEYS = [
+    "time", "time_ns", "id", "name", "kind", "layer", "x", "y", "z", "flow", "flow_per_hour"
+]
 
 
 @dataclass(frozen=True)
 class SeriesTable:
-    """The chosen entries (``entries``: id, kind, layer, x, y, z records) and their predicted
+    """The chosen entries (``entries``: id, name, kind, layer, x, y, z records; ``name`` the
+    scene graph's room or building name, else None) and their predicted
     ``flow`` and ``flow_per_hour`` (float64[E, T], NaN where unknown) at ``times_ns``; how
     many entries matched before ``top``."""
 
@@ -164,7 +167,7 @@ def predict_series(
         rows_from_table,
         select,
     )
-    from aion_cli.room_names import with_names_resolved
+    from aion_cli.room_names import names_by_id, with_names_resolved
 
     times = [int(t) for t in times_ns]
     if not times:
@@ -185,9 +188,11 @@ def predict_series(
     ids = np.asarray([str(i) for i in entry_ids(first, index)], dtype=str)
     order = np.lexsort((ids, np.where(known, -mean, np.inf))) if index.size else index
     order = order[:top] if top is not None else order
-    static = ("id", "kind", "layer", "x", "y", "z")
+    static = ("id", "name", "kind", "layer", "x", "y", "z")
+    names = {} if loaded.graph is None else names_by_id(loaded.graph)
     entries = [
-        {key: row[key] for key in static} for row in rows_from_table(first, index[order])
+        {key: row[key] for key in static}
+        for row in rows_from_table(first, index[order], names)
     ]
     return SeriesTable(times, entries, flow[order], per_hour[order], int(index.size))
 

@@ -44,8 +44,8 @@ direction_family (the model that forecast the flow and the directions), flow_p10
 graph; empty for the rest).
 A series (--from, --to, --step) prints one row per time and a column per entry (the
 busiest over the series); JSON lists each entry with its flow and flow_per_hour per time,
-CSV has one row per time and entry (time, time_ns, id, kind, layer, x, y, z, flow,
-flow_per_hour). Each value equals `predict --time` at that time. The series includes --to
+CSV has one row per time and entry (time, time_ns, id, name, kind, layer, x, y, z,
+flow, flow_per_hour). Each value equals `predict --time` at that time. The series includes --to
 when it falls on a step. A step of days or weeks (1d, 1w) keeps the wall-clock time in the
 zone across a daylight-saving change; 24h is 24 elapsed hours. A day's time the change skips
 (02:30 on the spring change) is read as --time reads it: as late as the clocks jump (03:30);

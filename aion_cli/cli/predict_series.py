@@ -124,7 +124,8 @@ def _print(table: Any, zone: Zone, shown: int) -> None:
     out = Table(title=Text(title), min_width=len(title))  # a narrow table keeps its title whole
     out.add_column("time", style="bold")
     for entry in table.entries[:shown]:
-        out.add_column(printable(str(entry["id"])), justify="right")
+        head = str(entry["id"]) if not entry.get("name") else f"{entry['name']} ({entry['id']})"
+        out.add_column(printable(head), justify="right")
     for j, label in enumerate(short_labels(table.times_ns, zone)):
         cells = [
             f"{v:.2f}" if math.isfinite(v) else "–"  # unknown flow

@@ -79,7 +79,7 @@ def test_csv_and_table_forms(rhythm: Path) -> None:
     csv = run(*args, "--top", "3", "--format", "csv")
     assert csv.exit_code == 0, csv.stderr
     lines = csv.stdout.strip().splitlines()
-    assert lines[0] == "time,time_ns,id,kind,layer,x,y,z,flow,flow_per_hour"
+    assert lines[0] == "time,time_ns,id,name,kind,layer,x,y,z,flow,flow_per_hour"
     assert len(lines) == 1 + 4 * 3  # 06:00 .. 09:00 hourly, three entries each
     table = run(*args, "--top", "3")
     assert table.exit_code == 0, table.stderr
@@ -174,3 +174,23 @@ def test_a_node_asked_for_twice_is_one_entry(office: Office) -> None:
     assert [r["id"] for r in m.predict(AT, nodes=["p1", "p4", "p1"]).entries] == both
     table = m.predict_series(AT, "2026-11-23 10:30", nodes=["p1", "p1"])
     assert table.flow.shape == (1, 3)
+
+
+def test_a_series_names_the_rooms_as_predict_does(sample_map: Path) -> None:
+    """The sample's rooms carry names (samples/README.md): a series of rooms gives each entry
+    the name ``predict --time --layer rooms`` gives it, in JSON, CSV and the table's headers."""
+    span = ("--from", "2026-01-12 08:00", "--to", "2026-01-12 09:00", "--tz", "UTC")
+    series = run_json("predict", sample_map, "--layer", "rooms", *span, "--format", "json")
+    single = run_json(
+        "predict", sample_map, "--layer", "rooms", "--time", "2026-01-12 08:00", "--tz", "UTC",
+        "--format", "json",
+    )
+    named = {e["id"]: e["name"] for e in single["entries"]}
+    assert named["R2"] == "kitchen"
+    assert {e["id"]: e["name"] for e in series["entries"]} == named
+    csv = run("predict", sample_map, "--layer", "rooms", *span, "--format", "csv")
+    assert ",R2,kitchen,room,rooms," in csv.stdout
+    table = run("predict", sample_map, "--layer", "rooms", *span)
+    assert "kitchen (R2)" in table.stdout
+    places = run_json("predict", sample_map, *span, "--top", "2", "--format", "json")
+    assert [e["name"] for e in places["entries"]] == [None, None]  # places have no names
