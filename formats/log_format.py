@@ -80,6 +80,35 @@ def guess_format(path: Path) -> tuple[str, Path]:
     )
 
 
+#: what a log of each kind (:func:`formats.rosbag2_storage.sniff`) is, and the ``--log-format``
+#: that reads it
+_CONTENTS = {
+    "mcap": ("an MCAP file", "mcap"),
+    "bag": ("a ROS 1 bag", "bag"),
+    "sqlite3": ("an SQLite database, a rosbag2 storage file", "rosbag2"),
+}
+
+
+def other_log(path: Path, wanted: str) -> tuple[str, str] | None:
+    """``(what it is, --log-format that reads it)`` when ``path``, to be read as ``wanted``
+    (``"mcap"`` or ``"bag"``), is another kind of log: a folder (a rosbag2 bag) or a file whose
+    first bytes are another container's; None when it may be ``wanted`` or is no log aion
+    knows (the reader then says why it cannot read it)."""
+    from aion_cli.formats import rosbag2_storage as storage
+
+    if path.is_dir():
+        return "a rosbag2 bag folder", "rosbag2"
+    kind = storage.sniff(path)
+    if kind is None or _CONTENTS[kind][1] == wanted:
+        return None
+    return _CONTENTS[kind]
+
+
+def other_log_hint(fmt: str) -> str:
+    """The hint for a log that ``--log-format`` names wrongly: ``fmt`` reads it."""
+    return f"read it with --log-format {fmt}"
+
+
 def _what_else(path: Path) -> str | None:
     """A hint when ``path`` is another input aion reads, given where a log belongs: an aion
     map, a scene-graph file, a tracks CSV (:func:`formats.input_kind.input_kind`)."""

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from aion_cli.errors import LogFormatError
 from aion_cli.formats.limits import ReadLimits
-from aion_cli.formats.log_format import FORMATS, guess_format
+from aion_cli.formats.log_format import FORMATS, guess_format, other_log_hint
 from aion_cli.formats.log_source import _Source, _Unpacked
 from aion_cli.formats.mcap_source import _open_mcap
 from aion_cli.formats.rosbag2_reindex import _reindexed_sources
@@ -62,6 +62,8 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
         )
     guessed, target = guess_format(path)
     kind = fmt or guessed
+    if kind in ("mcap", "bag") and path.is_file() and path.name != "metadata.yaml":
+        target = path  # --log-format mcap|bag reads the file named, never its rosbag2 folder
     if (
         target.is_file()
         and storage.is_zstd(target)
@@ -71,9 +73,10 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
     if kind == "mcap":
         if target.is_dir():
             files = sorted(target.glob("*.mcap"))
-            if len(files) != 1:
+            if len(files) != 1:  # guess_format let only a rosbag2 folder through
                 raise LogFormatError(
-                    f"{target} holds {len(files)} .mcap files", hint="pass one .mcap file"
+                    f"{target} holds {len(files)} .mcap files",
+                    hint=f"pass one .mcap file, or the bag: {other_log_hint('rosbag2')}",
                 )
             target = files[0]
         return [_open_mcap(target, limits=limits)]

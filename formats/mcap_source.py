@@ -450,6 +450,14 @@ def _open_mcap(
     with path.open("rb") as f:
         head = f.read(len(_MCAP_MAGIC))
     if head != _MCAP_MAGIC:
+        from aion_cli.formats.log_format import other_log, other_log_hint
+
+        other = other_log(path, "mcap") if fmt_name is None else None
+        if other is not None:  # a renamed bag, --log-format mcap on a .db3
+            raise LogFormatError(
+                f"{path} is not an MCAP file (it is {other[0]})",
+                hint=other_log_hint(other[1]),
+            )
         raise LogFormatError(
             f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)",
             hint="check the file, or pass --log-format bag|rosbag2 if it is another log type",

@@ -442,7 +442,14 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
     with ``limits``), with rosbags errors turned into LogFormatError."""
     if kind == "bag":
         from aion_cli.formats.bag_reader import BagReader
+        from aion_cli.formats.log_format import other_log, other_log_hint
 
+        other = other_log(path, "bag")
+        if other is not None:  # a renamed MCAP, --log-format bag on a .db3 or a folder
+            raise LogFormatError(
+                f"{path}: not a readable ROS 1 bag (it is {other[0]})",
+                hint=other_log_hint(other[1]),
+            )
         reader: Any = BagReader(path, limits)
         what = "ROS 1 bag"
         hint = "the bag may be truncated or corrupt; try `rosbag reindex` on a copy"

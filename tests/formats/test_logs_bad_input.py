@@ -152,6 +152,37 @@ def test_corrupted_bag(tmp_path: Path) -> None:
         open_logs([garbage])
 
 
+def test_a_log_format_that_names_another_container_says_which_one_it_is(tmp_path: Path) -> None:
+    """--log-format bag on an MCAP, a rosbag2 folder or its .db3 (which it opened as the
+    folder: "Is a directory"), --log-format mcap on a bag or a .db3: the error says what the
+    file is and which --log-format reads it, not that a bag may be corrupt."""
+    mcap = _write(tmp_path / "a.mcap", "mcap")
+    bag = _write(tmp_path / "b.bag", "bag")
+    folder = _write(tmp_path / "c", "rosbag2-sqlite3")
+    (db3,) = folder.glob("*.db3")
+    cases = [
+        (mcap, "bag", f"{mcap}: not a readable ROS 1 bag (it is an MCAP file)", "mcap"),
+        (db3, "bag", f"{db3}: not a readable ROS 1 bag (it is an SQLite database", "rosbag2"),
+        (folder, "bag", f"{folder}: not a readable ROS 1 bag (it is a rosbag2 bag", "rosbag2"),
+        (bag, "mcap", f"{bag} is not an MCAP file (it is a ROS 1 bag)", "bag"),
+        (db3, "mcap", f"{db3} is not an MCAP file (it is an SQLite database", "rosbag2"),
+    ]
+    for path, fmt, message, right in cases:
+        with pytest.raises(LogFormatError) as info:
+            open_logs([path], fmt=fmt)
+        assert info.value.message.startswith(message), (fmt, info.value.message)
+        assert info.value.hint == f"read it with --log-format {right}"
+        with open_logs([path], fmt=right) as logs:
+            assert logs.total(["/people"]) == 4
+    renamed = tmp_path / "renamed.bag"  # no --log-format: the suffix said bag
+    renamed.write_bytes(mcap.read_bytes())
+    with pytest.raises(LogFormatError, match=r"\(it is an MCAP file\)"):
+        open_logs([renamed])
+    with pytest.raises(LogFormatError, match=r"holds 0 \.mcap files") as info:
+        open_logs([folder], fmt="mcap")
+    assert "--log-format rosbag2" in (info.value.hint or "")
+
+
 def test_unknown_format_value(tmp_path: Path) -> None:
     path = _write(tmp_path / "a.mcap", "mcap")
     with pytest.raises(LogFormatError, match="unknown log format 'ros3'") as info:
