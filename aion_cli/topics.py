@@ -184,13 +184,15 @@ def _is_raw_sensor(msgtype: str) -> bool:
 
 def _skipped_type(msgtype: str) -> str:
     """Why a topic of a type aion has no adapter for is skipped, and what would read it:
-    raw sensor data and ROS plumbing hold no people (a detector's output would); other types
-    a TOML mapping may read."""
-    from aion_cli.formats.detections.registry import unreadable_kind
+    raw sensor data, ROS plumbing and service events hold no people (a detector's output
+    would); other types a TOML mapping may read."""
+    from aion_cli.formats.detections.registry import SERVICE_EVENTS, unreadable_kind
 
     kind = unreadable_kind(msgtype)
     if kind == "raw sensor data":
         return f"skipped: {_short(msgtype)} {RAW_SENSOR_REASON}"
+    if kind == SERVICE_EVENTS:
+        return f"skipped: {_short(msgtype)} records the calls of a service, not people"
     if kind is not None:
         package = msgtype.split("/", 1)[0]
         return f"skipped: {_short(msgtype)} ({package}) holds no positions of people"
@@ -246,7 +248,7 @@ def _candidate_hint(option: str, infos: list[TopicInfo], what: str) -> str:
 
 def _mappable(topics: Sequence[TopicInfo]) -> list[TopicInfo]:
     """The topics whose types a TOML mapping might read people from (not raw sensor data,
-    not ROS plumbing such as std_msgs or rcl_interfaces)."""
+    not ROS plumbing such as std_msgs or rcl_interfaces, not service events)."""
     from aion_cli.formats.detections.registry import unreadable_kind
 
     return [t for t in topics if unreadable_kind(t.msgtype) is None]
@@ -271,8 +273,8 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
 
         hint = (
             f"none of its topics holds positions of people ({', '.join(found[:4])}"
-            f"{', ...' if len(found) > 4 else ''}: sensor data, logging, parameters or plain "
-            f"values): {RAW_SENSOR_HINT}"
+            f"{', ...' if len(found) > 4 else ''}: sensor data, logging, parameters, service "
+            f"calls or plain values): {RAW_SENSOR_HINT}"
         )
     elif not found:  # channels that are not ROS (other encodings), or none at all
         hint = (

@@ -129,11 +129,12 @@ def _check_mappings(logset: Any, plan: Any) -> None:
 def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
     """``--suggest-mapping TOPIC``: a TOML mapping from the log's own definition of the
     topic's type (:func:`formats.detections.suggest.suggest_mapping`)."""
-    from aion_cli.formats.detections.suggest import suggest_mapping
+    from aion_cli.formats.detections.suggest import refuse_service_events, suggest_mapping
     from aion_cli.formats.logs import open_logs
 
     with open_logs(paths, log_format) as logset:
         info = logset.topic(topic)
+        refuse_service_events(info.topic, info.msgtype)
         store = logset.typestore(info.topic, info.msgtype, info.encoding)
         return suggest_mapping(info.topic, info.msgtype, store)
 
@@ -344,8 +345,8 @@ def _print(report: dict[str, Any]) -> None:
                 what += " aion can read: see the warnings"
         elif all(unreadable_kind(t["type"]) is not None for t in report["topics"]):
             what = (
-                "none of its topics holds positions of people: logging, parameters or plain "
-                "values"
+                "none of its topics holds positions of people: logging, parameters, service "
+                "calls or plain values"
             )
         else:
             what = (

@@ -67,15 +67,23 @@ PLUMBING_PACKAGES: frozenset[str] = frozenset({
 
 
 def unreadable_kind(msgtype: str) -> str | None:
-    """What a type no adapter and no mapping can read people from is ("raw sensor data", or
-    "ROS plumbing": logging, parameters, plain values), None for a type a TOML mapping may
-    read."""
+    """What a type no adapter and no mapping can read people from is ("raw sensor data",
+    "ROS plumbing": logging, parameters, plain values, or :data:`SERVICE_EVENTS`), None for a
+    type a TOML mapping may read."""
     name = normalize_msgtype(msgtype)
     if name in RAW_SENSOR_TYPES:
         return "raw sensor data"
     if name.split("/", 1)[0] in PLUMBING_PACKAGES:
         return "ROS plumbing"
+    if "/srv/" in name and name.endswith("_Event"):
+        return SERVICE_EVENTS
     return None
+
+
+SERVICE_EVENTS = "service events"
+"""The kind of a ROS 2 service-introspection topic (``pkg/srv/Name_Event``, recorded calls of a
+service): the log defines its type as the service (request ``---`` response), which no
+mapping reads."""
 
 
 RAW_SENSOR_HINT = (

@@ -277,6 +277,21 @@ def _others(chosen: str, all_: list[str]) -> str:
     return ("other candidates: " + ", ".join(rest)) if rest else ""
 
 
+def refuse_service_events(topic: str, msgtype: str) -> None:
+    """:class:`ConfigError` for a service-introspection topic (``pkg/srv/Name_Event``): the log
+    defines it as the service (request ``---`` response), which is no message definition a
+    mapping could read (rosbags called it malformed)."""
+    from aion_cli.formats.detections.registry import SERVICE_EVENTS, unreadable_kind
+
+    if unreadable_kind(msgtype) == SERVICE_EVENTS:
+        raise ConfigError(
+            f"{topic}: {normalize_msgtype(msgtype)} records the calls of a service, not people: "
+            "no mapping reads it",
+            hint="choose a topic whose messages carry where people are (`aion info LOG` lists "
+            "the topics and types)",
+        )
+
+
 def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
     """A TOML mapping for ``topic`` carrying ``msgtype`` as ``store`` defines it (see the
     module docstring); :class:`ConfigError` when the type holds nothing usable as a

@@ -199,3 +199,28 @@ def test_suggested_mapping_of_an_agent_array_builds(tmp_path: Path) -> None:
                       "--map-frame", "base_laser", "--format", "json")  # fmt: skip
     assert report["detection_topics"] == ["/sim/agents"]
     assert report["detections"]["read"] == 20  # no filter in a suggestion: the robot too
+
+
+SERVICE_EVENT = "example_interfaces/srv/AddTwoInts_Event"
+
+
+def test_service_events_are_not_offered_a_mapping(tmp_path: Path) -> None:
+    """A ROS 2 service-introspection topic (rosbag2's test bags record them): the log defines
+    its type as the service, request --- response, which rosbags cannot parse. It was 'a type
+    a TOML mapping can read', the build's hint sent the user to --suggest-mapping it, and that
+    called the definition malformed; now it is skipped as the calls of a service."""
+    payload = b"\x00\x01\x00\x00" + bytes(16)
+    service = Message("/add_two_ints/_service_event", SERVICE_EVENT, payload, T0)
+    log = write_mcap(tmp_path / "services.mcap", [service],
+                     {SERVICE_EVENT: "int64 a\nint64 b\n---\nint64 sum\n"})  # fmt: skip
+    (topic,) = run_json("info", log, "--format", "json")["topics"]
+    assert topic["why"] == "skipped: AddTwoInts_Event records the calls of a service, not people"
+    note = " ".join(run("info", log).stderr.split())
+    assert "none of its topics holds positions of people: logging, parameters, service" in note
+    refused = run("build", log, "-o", tmp_path / "x.aion")
+    assert refused.exit_code == 2
+    assert "hint: none of its topics holds positions of people" in refused.stderr
+    assert "--suggest-mapping" not in refused.stderr
+    suggested = run("info", log, "--suggest-mapping", service.topic)
+    assert suggested.exit_code == 2
+    assert_one_line_error(suggested.stderr, "records the calls of a service, not people")
