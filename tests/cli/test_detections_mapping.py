@@ -224,3 +224,36 @@ def test_service_events_are_not_offered_a_mapping(tmp_path: Path) -> None:
     suggested = run("info", log, "--suggest-mapping", service.topic)
     assert suggested.exit_code == 2
     assert_one_line_error(suggested.stderr, "records the calls of a service, not people")
+
+
+TURTLE_POSE = "turtlesim/msg/Pose"
+
+
+def test_the_build_hint_names_a_topic_that_suggest_mapping_reads(tmp_path: Path) -> None:
+    """rosbag.js' turtlesim bag: the hint named the first topic of a type without an adapter,
+    /tf (which the build reads as TF), or a Twist that --suggest-mapping then refused; it
+    names the first topic whose type holds a position, the turtle's Pose."""
+    own = OwnTypes({TURTLE_POSE: "float32 x\nfloat32 y\nfloat32 theta\n"})
+    T = own.T
+    tf = T["tf2_msgs/msg/TFMessage"](transforms=[])
+    twist = T["geometry_msgs/msg/Twist"](
+        linear=T["geometry_msgs/msg/Vector3"](x=1.0, y=0.0, z=0.0),
+        angular=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.5),
+    )
+    pose = T[TURTLE_POSE](x=1.0, y=2.0, theta=0.5)
+    messages = [
+        Message("/tf", "tf2_msgs/msg/TFMessage", own.cdr(tf, "tf2_msgs/msg/TFMessage"), T0),
+        Message("/turtle1/cmd_vel", "geometry_msgs/msg/Twist",
+                own.cdr(twist, "geometry_msgs/msg/Twist"), T0),
+        Message("/turtle1/pose", TURTLE_POSE, own.cdr(pose, TURTLE_POSE), T0),
+    ]  # fmt: skip
+    log = write_mcap(tmp_path / "turtle.mcap", messages, {TURTLE_POSE: own.definition(TURTLE_POSE)})
+    refused = run("build", log, "-o", tmp_path / "x.aion")
+    assert refused.exit_code == 2
+    assert "`aion info LOG --suggest-mapping /turtle1/pose` writes one" in refused.stderr
+    assert run("info", log, "--suggest-mapping", "/turtle1/pose").exit_code == 0
+    only = write_mcap(tmp_path / "no-positions.mcap", messages[:2], {})
+    refused = run("build", only, "-o", tmp_path / "x.aion")
+    assert refused.exit_code == 2
+    assert "none of their types has a field a --detections-mapping could read" in refused.stderr
+    assert "--suggest-mapping" not in refused.stderr
