@@ -234,6 +234,12 @@ def _named_hint(name: str, info: TopicInfo | None, supported: list[TopicInfo]) -
     hint = _candidate_hint("--detections-topic", supported, "people detections")
     if info is None:
         return hint
+    if info.msgtype in TF_TYPES or info.msgtype in DSG_TYPES:
+        role = "TF" if info.msgtype in TF_TYPES else "the scene graph"
+        return f"{hint}; the build reads {name} as {role}, never as people"
+    reason = _skipped_type(info.msgtype)
+    if not reason.endswith("--detections-mapping)"):  # raw sensor data, plumbing, services
+        return f"{hint}; {name}: {reason.removeprefix('skipped: ')}"
     return (
         f"{hint}; or map {info.msgtype} with --detections-mapping FILE (`aion info LOG "
         f"--suggest-mapping {name}` writes one)"

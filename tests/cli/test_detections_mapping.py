@@ -257,3 +257,27 @@ def test_the_build_hint_names_a_topic_that_suggest_mapping_reads(tmp_path: Path)
     assert refused.exit_code == 2
     assert "none of their types has a field a --detections-mapping could read" in refused.stderr
     assert "--suggest-mapping" not in refused.stderr
+
+
+def test_naming_a_topic_no_mapping_reads_is_not_sent_to_a_mapping(tmp_path: Path) -> None:
+    """--detections-topic /tf, or a LaserScan: the hint offered `--suggest-mapping` of it
+    (TF as people; a LaserScan, which --suggest-mapping then refused as raw sensor data)."""
+    from aion_cli.formats.writers import LogWriter, stamp
+
+    log = tmp_path / "robot.mcap"
+    with LogWriter(log, "mcap") as w:
+        for k in range(3):
+            t = T0 + k * S
+            w.write("/tf", "tf2_msgs/msg/TFMessage", {"transforms": []}, t)
+            scan = {"header": {"stamp": stamp(t), "frame_id": "laser"}, "ranges": [1.0]}
+            w.write("/scan", "sensor_msgs/msg/LaserScan", scan, t)
+    expected = {
+        "/tf": "the build reads /tf as TF, never as people",
+        "/scan": "/scan: LaserScan is raw sensor data, not detected people",
+    }
+    for topic, fragment in expected.items():
+        refused = run("build", log, "-o", tmp_path / "x.aion", "--detections-topic", topic)
+        assert refused.exit_code == 2
+        assert_one_line_error(refused.stderr, f"no people-detection topic '{topic}'")
+        assert fragment in refused.stderr
+        assert "--suggest-mapping" not in refused.stderr
