@@ -260,28 +260,31 @@ def _mappable(topics: Sequence[TopicInfo]) -> list[TopicInfo]:
     return [t for t in topics if unreadable_kind(t.msgtype) is None]
 
 
-def _mapping_example(logset: Any, topics: Sequence[TopicInfo]) -> TopicInfo | None:
-    """The first of ``topics`` that ``aion info LOG --suggest-mapping`` writes a mapping for
-    (a field it reads as a position, in the log's own definition): never TF or a scene graph,
-    which the build reads as such, nor a type such as a Twist or a Color."""
+def mapping_example(logset: Any) -> str | None:
+    """The first topic of ``logset`` that ``aion info LOG --suggest-mapping`` writes a mapping
+    for (a field it reads as a position, in the log's own definition): never TF or a scene
+    graph, which the build reads as such, nor a type such as a Twist or a Color; ``"TOPIC"``
+    when the first :data:`_EXAMPLES_TRIED` hold none but more are left; None when no topic's
+    type holds a position."""
     from aion_cli.errors import InputError
     from aion_cli.formats.detections.suggest import suggest_mapping
 
-    for info in topics[:_EXAMPLES_TRIED]:
-        if info.msgtype in TF_TYPES or info.msgtype in DSG_TYPES:
-            continue
+    mappable = [
+        t for t in _mappable(logset.topics) if t.msgtype not in TF_TYPES | DSG_TYPES
+    ]
+    for info in mappable[:_EXAMPLES_TRIED]:
         try:
             suggest_mapping(
                 info.topic, info.msgtype, logset.typestore(info.topic, info.msgtype, info.encoding)
             )
         except InputError:  # no position field, or a definition that cannot be parsed
             continue
-        return info
-    return None
+        return info.topic
+    return "TOPIC" if len(mappable) > _EXAMPLES_TRIED else None
 
 
 _EXAMPLES_TRIED = 50
-"""Topics tried for the build hint's mapping example (each parses its type's definition)."""
+"""Topics :func:`mapping_example` tries (each parses its type's definition)."""
 
 
 def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
@@ -289,7 +292,7 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
     were skipped, and how to read another type."""
     found = [f"{t.topic} ({t.msgtype})" for t in logset.topics]
     mappable = _mappable(logset.topics)
-    example = _mapping_example(logset, mappable) if mappable and not plan.skipped else None
+    example = mapping_example(logset) if mappable and not plan.skipped else None
     if plan.skipped:
         first = plan.skipped[0]
         hint = (
@@ -312,7 +315,7 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
             "it has no ROS topic aion can read (only other encodings, or no channels); "
             "`aion info LOG` lists what was skipped and why"
         )
-    elif example is None and len(mappable) <= _EXAMPLES_TRIED:
+    elif example is None:
         from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
 
         hint = (
@@ -326,7 +329,7 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
             "the log has: "
             + ", ".join(found[:8] + (["..."] if len(found) > 8 else []))
             + "; map a type with --detections-mapping FILE (`aion info LOG --suggest-mapping "
-            f"{example.topic if example else 'TOPIC'}` writes one)"
+            f"{example}` writes one)"
         )
     return TopicNotFoundError(
         "the log has no people-detection topic of a supported type", candidates=found, hint=hint

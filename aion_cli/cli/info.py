@@ -34,7 +34,9 @@ role, encoding, rate_hz, used, why}], roles, dsg_versions, will_use{detections, 
 cannot_read, warnings, fixed_sensor{windows_with_messages, span_windows, window_s,
 hours_with_messages} (only when the logs have neither TF nor a scene graph: build observes
 the windows with messages), frames_without_tf{topic: [frames of its first messages that the
-log's TF does not connect to 'map']} (aion_cli.frame_check: a build would need --map-frame).
+log's TF does not connect to 'map']} (aion_cli.frame_check: a build would need --map-frame),
+mapping_example (without a detection topic: a topic --suggest-mapping writes a mapping for,
+or null).
 For a map (.aion): format, version, creator, created, inputs,
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config, and with
@@ -59,6 +61,7 @@ def describe(
     from aion_cli.topics import select_topics
 
     mappings = _mappings(mapping)
+    example: str | None = None
     with open_logs(paths, log_format, allow_empty=True) as logset:
         summary = summarize(logset, [m.msgtype for m in mappings])
         plan = select_topics(logset.topics, mappings=mappings)
@@ -72,6 +75,10 @@ def describe(
             from aion_cli.frame_check import unconnected_frames
 
             report["frames_without_tf"] = unconnected_frames(logset, plan, mappings)
+        else:
+            from aion_cli.topics import mapping_example
+
+            example = mapping_example(logset)
     used = plan.names("detections") | plan.names("graph") | plan.names("tf")
     for topic in report["topics"]:
         topic["used"] = topic["topic"] in used
@@ -83,7 +90,24 @@ def describe(
         "tf": sorted(plan.names("tf")),
     }
     report["cannot_read"] = [f"{t.topic} ({t.msgtype})" for t in plan.ignored]
+    if not plan.detections:
+        report["mapping_example"] = example
     return report
+
+
+def _unused_pointer(report: dict[str, Any]) -> str:
+    """What info's note on a log without a usable detection topic points to: the generic
+    topics skipped for their names, a topic `--suggest-mapping` writes a mapping for
+    (``mapping_example``), or that no type of the log holds a position."""
+    generic = any(t.get("why", "").endswith("--detections-topic)") for t in report["topics"])
+    example = report.get("mapping_example")
+    parts = ["name a generic one with --detections-topic"] if generic else []
+    if example is not None:
+        parts.append(f"map another type: aion info LOG --suggest-mapping {example}")
+    elif not generic:
+        parts.append("none of its types has a field a --detections-mapping could read as a "
+                     "position")  # fmt: skip
+    return ", or ".join(parts)
 
 
 def _fixed_sensor_windows(logset: Any) -> dict[str, Any]:
@@ -349,10 +373,7 @@ def _print(report: dict[str, Any]) -> None:
                 "calls or plain values"
             )
         else:
-            what = (
-                "name a generic one with --detections-topic, or map another type: aion info "
-                "LOG --suggest-mapping TOPIC"
-            )
+            what = _unused_pointer(report)
         console().print(
             "[yellow]note:[/yellow] no people-detection topic of a supported type: "
             f"`aion build` cannot learn flows from this log ({safe(what)})",

@@ -281,3 +281,26 @@ def test_naming_a_topic_no_mapping_reads_is_not_sent_to_a_mapping(tmp_path: Path
         assert_one_line_error(refused.stderr, f"no people-detection topic '{topic}'")
         assert fragment in refused.stderr
         assert "--suggest-mapping" not in refused.stderr
+
+
+def test_info_points_to_the_topic_suggest_mapping_reads(tmp_path: Path) -> None:
+    """info's note on a log without people detections said 'map another type: aion info LOG
+    --suggest-mapping TOPIC' whatever the log held; it names the topic the build's hint names
+    (JSON mapping_example), or says that no type holds a position."""
+    own = OwnTypes({TURTLE_POSE: "float32 x\nfloat32 y\nfloat32 theta\n"})
+    zero = own.T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
+    twist = own.T["geometry_msgs/msg/Twist"](linear=zero, angular=zero)
+    pose = own.T[TURTLE_POSE](x=1.0, y=2.0, theta=0.5)
+    cmd = Message("/cmd_vel", "geometry_msgs/msg/Twist",
+                  own.cdr(twist, "geometry_msgs/msg/Twist"), T0)  # fmt: skip
+    turtle = Message("/turtle1/pose", TURTLE_POSE, own.cdr(pose, TURTLE_POSE), T0)
+    defs = {TURTLE_POSE: own.definition(TURTLE_POSE)}
+    for name, messages, example, note in (
+        ("turtle", [cmd, turtle], "/turtle1/pose",
+         "(map another type: aion info LOG --suggest-mapping /turtle1/pose)"),
+        ("twist", [cmd], None,
+         "(none of its types has a field a --detections-mapping could read as a position)"),
+    ):  # fmt: skip
+        log = write_mcap(tmp_path / f"{name}.mcap", messages, defs)
+        assert run_json("info", log, "--format", "json")["mapping_example"] == example
+        assert note in " ".join(run("info", log).stderr.split())
