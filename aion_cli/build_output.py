@@ -19,14 +19,19 @@ if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
 
 
-def cumulative_counts(
-    report: BuildReport, previous: Manifest | None, recording: int | None = None
-) -> dict[str, Any]:
+def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[str, Any]:
     """Detections read / used / dropped over every build of the map, and a fixed sensor's
-    logs' own time in windows (``recording_windows``; this build's: ``recording``)."""
+    logs' own time in windows (``recording_windows``, the union over every build's logs: a
+    window the previous builds' logs reached, ``recording_reach``, is not counted again)."""
+    from aion_cli.fixed_sensor import recording_window_count
+
     new = report.to_dict()["detections"]
-    if recording is not None:
-        new["recording_windows"] = recording
+    before = previous.counts.get("recording_reach") if previous is not None else None
+    after = before if type(before) is int else None
+    if report.fixed_windows is not None and report.recording_spans:
+        new["recording_windows"] = recording_window_count(report.recording_spans, after)
+        reach = max(last for _, _, last in report.recording_spans)
+        new["recording_reach"] = reach if after is None else max(after, reach)
     if previous is None:
         return new
     return add_counts(previous.counts, new)
@@ -90,7 +95,7 @@ def write_build(
         inputs=inputs,
         start_ns=report.start_ns,
         end_ns=report.end_ns,
-        counts=cumulative_counts(report, previous, recording) | stats,
+        counts=cumulative_counts(report, previous) | stats,
         last_build=report.to_dict()["detections"],
         graph_source=report.graph_source,
         observation=observation,

@@ -107,15 +107,16 @@ def _file_spans(logset: Any, times: TimeCheck, delta: int) -> list[tuple[str, in
     return out
 
 
-def recording_window_count(spans: list[tuple[str, int, int]]) -> int:
+def recording_window_count(spans: list[tuple[str, int, int]], after: int | None = None) -> int:
     """The windows of the logs' own time: each file from its first window to its last over
     all the parts that read it (a log cut into time shards is one span again), then the
-    union over files (the time between two files is not a sensor's to observe)."""
+    union over files (the time between two files is not a sensor's to observe). ``after``:
+    count only the windows after that one (a continued map's logs reached it already)."""
     by_file: dict[str, tuple[int, int]] = {}
     for path, first, last in spans:
         lo, hi = by_file.get(path, (first, last))
         by_file[path] = (min(lo, first), max(hi, last))
-    count, reach = 0, None
+    count, reach = 0, after
     for first, last in sorted(by_file.values()):
         start = first if reach is None else max(first, reach + 1)
         if last >= start:

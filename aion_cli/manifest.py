@@ -191,7 +191,9 @@ def add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     """The detections read / used / dropped (by reason) of a map's earlier builds (``old``,
     its manifest's ``counts``) plus those of a new build (``new``): the ``counts`` a continued
     map stores. ``recording_windows`` (a fixed sensor's logs' own time, in windows) adds up
-    while every part has it (``old`` empty: the first part), and is left out otherwise."""
+    while every part has it (``old`` empty: the first part), and is left out otherwise;
+    ``recording_reach``, the last of those windows, is the latest of the parts' while every
+    part has it."""
     dropped = dict(old.get("dropped", {}))
     for reason, n in new["dropped"].items():
         dropped[reason] = int(dropped.get(reason, 0)) + int(n)
@@ -205,4 +207,7 @@ def add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     )
     if type(before) is int and type(added) is int:  # a damaged manifest's value is left out
         out["recording_windows"] = before + added
+        reaches = [c.get("recording_reach") for c in (old, new) if c]
+        if all(type(r) is int for r in reaches):  # older maps have none
+            out["recording_reach"] = max(int(r) for r in reaches if r is not None)
     return out

@@ -395,8 +395,9 @@ def _write(
             "used": int(c.get("used", 0)),
             "dropped": dict(c.get("dropped", {})),
         }
-        if "recording_windows" in c:  # as stored: add_counts leaves a damaged value out
-            part["recording_windows"] = c["recording_windows"]
+        for key in ("recording_windows", "recording_reach"):  # add_counts checks them
+            if key in c:
+                part[key] = c[key]
         counts = add_counts(counts, part)
     stats = state_counts(merged)
     far = far_from_graph_of(merged, stats)

@@ -239,3 +239,23 @@ def test_the_time_between_two_logs_is_no_sign_of_a_silent_tracker(tmp_path: Path
     assert read_manifest(tmp_path / "merged.aion")["counts"]["recording_windows"] == 4
     # 08:00 and 20:00 on a Monday: the merge's summary lists both hours
     assert merged["hours_observed"] == "weekdays 08:00-09:00, 20:00-21:00; weekends none (UTC)"
+
+
+def test_a_log_that_starts_in_the_window_the_map_ended_in_is_counted_once(
+    tmp_path: Path,
+) -> None:
+    """08:00-08:15 then 08:16-08:20: the logs' own time is the windows 08:00 and 08:10. A
+    continued map added each build's windows, 08:10 twice (3; as leg_tracker's positive_1
+    continued with positive_2, one window, gave 2), so continuing no longer equalled building
+    both at once and the silent-tracker note measured against too long a time."""
+    first, second = tmp_path / "first.mcap", tmp_path / "second.mcap"
+    write_office_log(first, graph=False, tf=False, duration_s=900)
+    write_office_log(second, graph=False, tf=False, shift_s=960, duration_s=240)
+    run_json("build", first, second, "-o", tmp_path / "both.aion", "--format", "json")
+    step = tmp_path / "step.aion"
+    run_json("build", first, "-o", step, "--format", "json")
+    run_json("build", second, "--map", step, "--format", "json")
+    both, continued = read_manifest(tmp_path / "both.aion"), read_manifest(step)
+    assert both["counts"]["recording_windows"] == 2
+    assert continued["counts"]["recording_windows"] == 2
+    assert continued["counts"]["recording_reach"] == both["counts"]["recording_reach"]
