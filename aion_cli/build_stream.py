@@ -32,7 +32,7 @@ from aion_cli.detection_feed import (
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
 from aion_cli.fixed_sensor import fixed_sensor_windows
-from aion_cli.log_times import check_after_open
+from aion_cli.log_times import check_after_open, overlap_note
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -172,6 +172,11 @@ class StreamStep:
             self._logs,
             self._continued_name(),
         )
+        end = self.previous_manifest.end_ns if self.previous_manifest else None
+        if not self.shard and end is not None and what == "detection":
+            note = overlap_note(t_ns, end, self._logs, self._continued_name())
+            if note is not None and note not in self.report.notes:
+                self.report.notes.append(note)
 
     def _continued_name(self) -> str:
         """The name of the map being continued (``--map``), which closed the windows; the

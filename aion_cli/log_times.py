@@ -346,3 +346,20 @@ def check_after_open(
         "nothing was added",
         hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",
     )
+
+
+def overlap_note(t_ns: I64, end_ns: int, logs: Sequence[Path], map_name: str) -> str | None:
+    """The note for a continued map (``map_name``, whose data ends at ``end_ns``) given logs
+    whose detections (log times ``t_ns``) start before that end, inside its open window
+    (:func:`check_after_open` refuses earlier ones): they are learnt after the map's own, not
+    interleaved with them, so the map is not the one of one build of all the logs (tracks of
+    the same topic are linked apart)."""
+    first = int(t_ns.min())
+    if first >= end_ns:
+        return None
+    return (
+        f"the detections of {', '.join(p.name for p in logs)} start at {iso(first)}, before "
+        f"{map_name}'s data ends ({iso(end_ns)}): they are learnt after the map's, not "
+        "interleaved with them, so the map differs from one build of all the logs (tracks "
+        "are linked apart); build all the logs at once for that map"
+    )

@@ -89,6 +89,26 @@ def test_a_log_reaching_back_into_closed_windows_is_refused(tmp_path: Path) -> N
     assert [i["name"] for i in read_manifest(target)["inputs"]] == ["a.mcap", "b.mcap"]
 
 
+def test_a_log_overlapping_the_maps_data_in_its_open_window_is_noted(tmp_path: Path) -> None:
+    """A log that starts before the map's data ends but inside its open window is accepted,
+    and the map then differs from one build of both (its detections come after the map's,
+    not between them): leg_tracker's positive_2 continuing positive_1, which it overlaps, said
+    nothing of it. A log that starts after the map's data gets no such note."""
+    first = write_log(tmp_path / "a.mcap", walk(1200))  # 08:00:00 .. 08:19:59, window 1 open
+    target = tmp_path / "m.aion"
+    build_json(first, "-o", target)
+    later = write_log(tmp_path / "later.mcap", walk(60, start_s=1200))
+    clean = build_json(later, "--map", target, "-o", tmp_path / "clean.aion")
+    assert not [n for n in clean["notes"] if "data ends" in n]
+    inside = write_log(tmp_path / "inside.mcap", walk(60, start_s=900))
+    report = build_json(inside, "--map", target, "-o", tmp_path / "inside.aion")
+    notes = " ".join(report["notes"])
+    assert (
+        "the detections of inside.mcap start at 2026-11-23 08:15:00 UTC, before m.aion's data "
+        "ends (2026-11-23 08:19:59 UTC): they are learnt after the map's" in notes
+    )
+
+
 # -- the same input twice ---------------------------------------------------------------------
 
 
