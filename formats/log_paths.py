@@ -32,7 +32,7 @@ def open_sources(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Sourc
     files without metadata.yaml (reindexed in memory). A storage file beside its bag's
     metadata.yaml opens the whole bag, which a warning says when the bag has more files."""
     sources = _open_path(path, fmt, limits)
-    if path.is_file() and sources:
+    if path.is_file() and path.name != "metadata.yaml" and sources:  # it names the whole bag
         files = sum(_storage_files_read(s) for s in sources)
         if files > 1:
             sources[-1].warnings.append(

@@ -14,9 +14,9 @@ import pytest
 
 from aion_cli.formats.logs import open_logs
 from tests.robustness.conftest import build_json, walk, write_log
+from tests.shared_data import shared
 
-SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "logs" / "rosbag2_tests"
-WBAG = SHARED / "rosbag2_py_sqlite3_wbag"
+WBAG = shared("logs", "rosbag2_tests", "rosbag2_py_sqlite3_wbag")
 
 
 @pytest.mark.parametrize("container", ["rosbag2-mcap", "rosbag2-sqlite3"])
@@ -56,5 +56,8 @@ def test_storage_files_of_one_bag_are_the_bag_once_and_said() -> None:
             "wbag_3.db3 is read with its whole rosbag2 bag" in w and "(5 storage files)" in w
             for w in one.warnings
         )
-    with open_logs([WBAG]) as folder:  # the folder given: nothing to say
-        assert not any("is read with its whole" in w for w in folder.warnings)
+    for path in (WBAG, WBAG / "metadata.yaml"):  # the bag given: nothing to say (its
+        # metadata.yaml was told to give the folder, or to copy the file to read it alone)
+        with open_logs([path]) as bag:
+            assert bag.total() == 6074
+            assert not any("is read with its whole" in w for w in bag.warnings)
