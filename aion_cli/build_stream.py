@@ -70,6 +70,7 @@ class StreamStep:
     _adapters: dict[tuple[str, str, str], Any]
     _factory: Any
     _tally: MapperTally
+    _overlap_checked: bool = False  # the first detections were checked for overlap_note
 
     def _derive(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig, start: int
@@ -173,10 +174,12 @@ class StreamStep:
             self._continued_name(),
         )
         end = self.previous_manifest.end_ns if self.previous_manifest else None
-        if not self.shard and end is not None and what == "detection":
-            note = overlap_note(t_ns, end, self._logs, self._continued_name())
-            if note is not None and note not in self.report.notes:
-                self.report.notes.append(note)
+        if self.shard or end is None or what != "detection" or self._overlap_checked:
+            return
+        self._overlap_checked = True  # the first batch holds the first detections
+        note = overlap_note(t_ns, end, self._logs, self._continued_name())
+        if note is not None:
+            self.report.notes.append(note)
 
     def _continued_name(self) -> str:
         """The name of the map being continued (``--map``), which closed the windows; the
