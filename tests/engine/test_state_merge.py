@@ -11,6 +11,7 @@ from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.query import historical_table
 from aion_cli.engine.state import MapState, merge_states
+from aion_cli.engine.types import Trajectory
 from aion_cli.errors import MapCorruptError
 from tests.engine.engine_builders import (
     T0,
@@ -169,3 +170,32 @@ def test_a_node_that_restarted_in_the_later_map_keeps_its_own_timer() -> None:
     np.testing.assert_array_equal(a.stable_since_ns, b.stable_since_ns)
     np.testing.assert_allclose(a.ref_xyz, b.ref_xyz, rtol=0, atol=1e-12)
     assert a.stable_since_ns[0] < T0 + DAY < a.stable_since_ns[1]  # the cases it is about
+
+
+def test_entries_of_one_map_merged_into_one_row_count_their_windows_once() -> None:
+    """Two places of the earlier map in one hash cell, both gone from the later graph, release
+    into that cell: the robot watched both in the same windows, so the cell counts them once
+    (their observation folds by the larger, as an ownership move does), not once per place
+    (8 here; a merged two-day map of the simulated office said 432 windows observed of 288)."""
+    cfg = CFG.replace(stability_s=0.0)
+
+    def build(start: int, nodes: list[int], xyz: list[list[float]], windows: int) -> MapState:
+        m = Mapper(cfg)
+        t = np.arange(start, start + windows * W, 30 * S)
+        m.add_trajectory(Trajectory(t, np.zeros((t.size, 3))))  # parked at the origin
+        m.add_graph(graph(start, nodes, np.array(xyz)))
+        for w in range(windows):
+            m.add_detections(detections(start + w * W + S, [[0.1, 0.1, 0], [0.3, 0.3, 0]]))
+        m.advance(start + windows * W)
+        return m.state
+
+    early = build(T0, [0, 1], [[0.1, 0.1, 0.0], [0.3, 0.3, 0.0]], windows=3)
+    late = build(T0 + DAY, [4], [[6.0, 6.0, 0.0]], windows=2)
+    np.testing.assert_array_equal(early.windows_observed(early.entries.node_rows()), [3, 3])
+    merged = merge_states(early, late)
+    check_invariants(merged)
+    rows = merged.entries.live_rows()
+    assert merged.entries.counts[rows].sum() + merged.entries.nodir[rows].sum() == 10
+    observed = merged.windows_observed(rows, open_window=True)
+    # the cell the later map saw them in: the earlier map's 3 windows and its own 2, once each
+    np.testing.assert_array_equal(observed, [5])
