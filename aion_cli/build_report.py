@@ -347,12 +347,18 @@ def check_decoding(report: BuildReport, counts: DetectionCounts, plan: TopicPlan
         )
 
 
-def check_usable(report: BuildReport, counts: DetectionCounts, previous: Manifest | None) -> None:
+def check_usable(
+    report: BuildReport,
+    counts: DetectionCounts,
+    previous: Manifest | None,
+    outcome: str | None = None,
+) -> None:
     """A build without a single usable detection is an error, never a success: it names
     what became of the detections read, and nothing is written (a continued map, whose
     manifest is ``previous``, is left as it was, its new logs not recorded, so they can be
     added once fixed). The one exception: a continued map that holds detections already may
-    take logs in which nobody was seen (a note: their observed windows are real zeros)."""
+    take logs in which nobody was seen (a note: their observed windows are real zeros).
+    ``outcome`` replaces the hint's words on the map (a reading that writes no map)."""
     c = counts
     if c.used > 0:
         return
@@ -365,7 +371,7 @@ def check_usable(report: BuildReport, counts: DetectionCounts, previous: Manifes
             "windows were added to the map"
         )
         return
-    written = (
+    written = outcome or (
         "no map was written"
         if previous is None
         else "the map was left as it was and the logs were not added"

@@ -71,6 +71,9 @@ class StreamStep:
     _factory: Any
     _tally: MapperTally
     _overlap_checked: bool = False  # the first detections were checked for overlap_note
+    #: what became of the output when no detection was usable (None: the build's own words,
+    #: "no map was written"; a held-out reading writes nothing to begin with)
+    unusable_outcome: str | None = None
 
     def _derive(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig, start: int
@@ -139,7 +142,7 @@ class StreamStep:
             self.report, feeders, self._tally.used, self._tally.drops, plan
         )
         if not self.shard:  # a parallel build checks the total of its parts
-            check_usable(self.report, c, self.previous_manifest)
+            check_usable(self.report, c, self.previous_manifest, self.unusable_outcome)
         # (a time shard without graphs of its own still observes with the logs' agents)
         if use_agents and self.report.graph_messages == 0 and self.time_part is None:
             self.report.observation = fixed_sensor_windows(

@@ -82,6 +82,7 @@ class _Reading(_Build):
     batches: list[DetectionBatch]
     state: _RecordingState
     watch: F64 | None = None
+    unusable_outcome = "the test logs hold nothing to score the map on"
 
     def _mapper(self, config: ModelConfig) -> Mapper:
         from aion_cli.engine.mapper import ACCEPTED, Mapper

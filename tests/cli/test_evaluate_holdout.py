@@ -190,6 +190,23 @@ def test_bad_inputs_are_one_line_errors(corridor: tuple, tmp_path: Path) -> None
     assert_one_line_error(result.stderr)
 
 
+def test_a_test_log_without_people_says_nothing_of_a_map_written(
+    corridor: tuple, tmp_path: Path
+) -> None:
+    """The build's words for no usable detection ("no map was written") do not fit a
+    reading that writes no map: the hint says the test logs hold nothing to score."""
+    site, _train, _test, _truth = corridor
+    empty = tmp_path / "empty.mcap"
+    made = run("simulate", "-o", empty, "--agents", "0", "--robot", "fixed", "--days", "0.02",
+               "--start", "2026-01-11T08:00", "-q")
+    assert made.exit_code == 0, made.stderr
+    result = run("evaluate", "holdout", site, empty)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no people detection")
+    assert "map was written" not in result.stderr
+    assert "the test logs hold nothing to score the map on" in result.stderr
+
+
 def test_a_window_without_coverage_is_left_out_of_the_activity() -> None:
     batch = DetectionBatch.from_arrays([MONDAY + S], [[0.0, 0.0, 0.0]], [0.0], [1.0])
     window = np.array([MONDAY // (600 * S)])
