@@ -25,7 +25,8 @@ per model:
   beat).
 
 A test log that overlaps the map's own data in time is scored all the same, with a note: the
-map has seen those detections.
+map has seen those detections; so is one before the map's data, with a note that the map
+learnt from later logs.
 """
 
 from __future__ import annotations
@@ -160,6 +161,13 @@ def _notes(held: HeldOut, manifest: dict[str, Any], sensor_range: float) -> list
             notes.append(
                 f"{inside:,} of {len(t):,} test detections lie within the map's own time span: "
                 "the map has seen them (build the map from logs before the test logs only)"
+            )
+        before = int(np.count_nonzero(t < start))
+        if before:
+            notes.append(
+                f"{before:,} of {len(t):,} test detections lie before the map's own time span: "
+                "the map learnt from later logs, so it is judged on the past, not on what it "
+                "forecasts (build the map from logs before the test logs only)"
             )
     robot = int(np.count_nonzero(~held.fixed))
     if robot:

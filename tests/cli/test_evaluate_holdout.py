@@ -176,6 +176,21 @@ def test_a_training_log_as_test_is_named_in_a_note(corridor: tuple) -> None:
     assert "heading NLL" in result.stdout
 
 
+def test_a_test_log_before_the_map_is_named_in_a_note(corridor: tuple, tmp_path: Path) -> None:
+    """A map built from the later day, judged on the six days before it: the figures are
+    those of the past, which the note says (it said nothing)."""
+    site, train, test, _truth = corridor
+    later = tmp_path / "later.aion"
+    built = run("build", test, "-o", later, "--tz", "UTC", "-q")
+    assert built.exit_code == 0, built.stderr
+    result = run("evaluate", "holdout", later, train)
+    assert result.exit_code == 0, result.stderr
+    assert "lie before the map's own time span: the map learnt from later logs" in result.stderr
+    assert "within the map's own time span" not in result.stderr
+    doc = run_json("evaluate", "holdout", site, test, "--format", "json")
+    assert all("before the map's own time span" not in n for n in doc["notes"])
+
+
 def test_bad_inputs_are_one_line_errors(corridor: tuple, tmp_path: Path) -> None:
     site, _train, test, _truth = corridor
     result = run("evaluate", "holdout", site, tmp_path / "missing.mcap")
