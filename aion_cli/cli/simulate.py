@@ -90,16 +90,53 @@ def _empty_scene(meta: dict[str, Any]) -> str | None:
         return "nobody was detected: --agents 0 simulates no people (the robot and its graph only)"
     if not meta.get("true_samples", 0):
         rhythm = config.get("rhythm", {})
+        arrive, leave = float(rhythm.get("arrive_h", 8.5)), float(rhythm.get("leave_h", 17.5))
+        hours = (
+            f"people keep office hours (arriving about {arrive:g} h, leaving about {leave:g} h "
+            "local time, few at weekends)"
+        )
+        start = str(config.get("start", "2026-01-05"))
+        day, _, clock = start.partition("T")  # the scene's own day in the example
+        at = _hour_of(clock)
+        if _weekday(day) >= 5:
+            return (
+                f"nobody was detected, and nobody came: {hours} and {scene}, a "
+                f"{['Saturday', 'Sunday'][_weekday(day) - 5]}; give a weekday --start "
+                "or more --days"
+            )
+        if at is not None and arrive <= at < leave:  # in the hours: a scene too short to walk
+            return (
+                f"nobody was detected, and nobody walked: {hours}, most of them at their "
+                f"desks, and {scene}; give more --days"
+            )
+        ask = "a --start within those hours" if at is not None else "--start with a time of day"
         return (
-            f"nobody was detected, and nobody came: people keep office hours (arriving about "
-            f"{rhythm.get('arrive_h', 8.5):g} h, leaving about {rhythm.get('leave_h', 17.5):g} h "
-            f"local time, few at weekends) and {scene}; give --start with a time of day "
-            "(e.g. 2026-01-05T08:00) or more --days"
+            f"nobody was detected, and nobody came: {hours} and {scene}; give {ask} "
+            f"(e.g. {day}T{int(arrive):02d}:00) or more --days"
         )
     return (
         f"nobody was detected although people walked ({scene}): the robot saw none of them "
         "(see --robot, --patrol-hours, --tour-every and --sensor-range)"
     )
+
+
+def _weekday(day: str) -> int:
+    """Monday 0 .. Sunday 6 of an ISO date (0 when it is not one)."""
+    from datetime import date
+
+    try:
+        return date.fromisoformat(day).weekday()
+    except ValueError:
+        return 0
+
+
+def _hour_of(clock: str) -> float | None:
+    """The hour of the day of ``HH:MM[:SS]`` (None: no time, or not one)."""
+    try:
+        parts = [float(p) for p in clock.split(":")[:2]] if clock else []
+    except ValueError:
+        return None
+    return parts[0] + (parts[1] / 60 if len(parts) > 1 else 0.0) if parts else None
 
 
 def _event_counts(r: SceneResult) -> str:

@@ -72,6 +72,46 @@ def test_a_scene_nobody_came_to_says_why_it_has_no_detection(tmp_path: Path) -> 
     assert "office hours" not in output
 
 
+def test_a_night_start_with_a_time_is_not_asked_for_a_time_of_day(tmp_path: Path) -> None:
+    """A --start that has a time of day (Monday 01:30, before anyone comes) is asked for one
+    within the office hours, on its own day: the warning asked for a time of day it had, on
+    the default's day (2026-01-05T08:00)."""
+    code, output = _run(
+        "simulate", "-o", tmp_path / "late.mcap", "--days", "0.01", "--start",
+        "2026-03-30T01:30", "--quiet",
+    )
+    assert code == 0, output
+    said = " ".join(output.split())
+    assert "nobody came" in said
+    assert "give a --start within those hours (e.g. 2026-03-30T08:00) or more --days" in said
+    assert "with a time of day" not in said
+    code, output = _run(
+        "simulate", "-o", tmp_path / "day.mcap", "--days", "0.01", "--start", "2026-03-30",
+        "--quiet",
+    )
+    assert code == 0, output
+    assert "give --start with a time of day (e.g. 2026-03-30T08:00)" in " ".join(output.split())
+    # within the hours, a few minutes in which nobody walked: more --days, not another time
+    code, output = _run(
+        "simulate", "-o", tmp_path / "desk.mcap", "--days", "0.006", "--start",
+        "2026-01-07T09:01", "--robot", "fixed", "--quiet",
+    )
+    assert code == 0, output
+    meta = json.loads((tmp_path / "desk.mcap.truth.json").read_text())
+    said = " ".join(output.split())
+    assert meta["true_samples"] == 0  # seed 0's people sit through these minutes
+    assert "nobody walked" in said
+    assert "give more --days" in said
+    assert "within those hours" not in said
+    assert "nobody came" not in said
+    code, output = _run(  # a Saturday: a weekday, not a time
+        "simulate", "-o", tmp_path / "sat.mcap", "--days", "0.01", "--start",
+        "2026-01-10T10:00", "--quiet",
+    )
+    said = " ".join(output.split())
+    assert "a Saturday; give a weekday --start or more --days" in said
+
+
 def test_an_output_named_as_another_file_kind_is_refused(tmp_path: Path) -> None:
     """-o apt.bag with the default --format mcap wrote apt.bag.mcap; a name with another
     log's or file's suffix is refused with the format or name to give; an unknown or no
