@@ -96,6 +96,12 @@ def run_door(data_dir: Path, weeks: range = range(1, 10)) -> dict[str, Any]:
     """Per test week: MAE of FreMEn (best order), of the static mean and of the model's own
     choice, and who wins."""
     params, state = train_door(data_dir)
+    if not state.flow_days[0]:  # every family's score 0: no "best" order, no choice to report
+        raise InputError(
+            f"{Path(data_dir) / 'training_data.txt'}: no day of the training data could be "
+            "scored against the days before it, so no FreMEn order or family can be chosen",
+            hint="give at least two days of 1-minute states (the door's file holds ten weeks)",
+        )
     predictor = temporal.Predictor.of(params, state, _ONE, _ONE, 1)
     fc = predictor.forecaster
     scores = state.flow_score[0]

@@ -153,6 +153,24 @@ def test_damaged_door_files_are_one_line_errors(
     assert "Traceback" not in proc.stderr
 
 
+@needs(DATA / "fremen_door", "the FreMEn door data")
+@pytest.mark.parametrize("rows", [3, 1440])
+def test_door_training_too_short_to_score_a_day_is_an_error(tmp_path: Path, rows: int) -> None:
+    """Three minutes, or the first day alone: no day is scored, every family's score is 0,
+    and the table called FreMEn order 1 'the best by day-ahead score' of periods of amplitude
+    0 (exit 0)."""
+    import shutil
+
+    data = tmp_path / "door"
+    shutil.copytree(DATA / "fremen_door", data)
+    lines = (data / "training_data.txt").read_text().splitlines(keepends=True)
+    (data / "training_data.txt").write_text("".join(lines[:rows]))
+    result = CliRunner().invoke(cli, ["evaluate", "door", "--data", str(data)])
+    assert result.exit_code == 2, result.output
+    assert "no day of the training data could be scored" in result.stderr
+    assert "best day-ahead score" not in result.output
+
+
 @needs(DATA / "lincoln" / "2017-05-25.txt", "the Lincoln corridor data")
 def test_the_lincoln_title_counts_the_detections_it_scores() -> None:
     """The heading table scores the test detections with a heading; its title says how many
