@@ -43,7 +43,7 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     """The notes for a forecast at ``t_ns`` (UNIX ns) from the map of ``manifest``; empty
     when there is nothing to say."""
     notes = []
-    static = _all_static(manifest)
+    static = all_static(manifest)
     if static is not None:
         notes.append(static)
     where = _outside(
@@ -60,7 +60,9 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     return notes
 
 
-def _all_static(manifest: Manifest) -> str | None:
+def all_static(manifest: Manifest) -> str | None:
+    """Why every entry of the map forecasts its static rate at every time (None: some do
+    not): too few scored days, or no rhythm that beat the rate on them."""
     families = manifest.families
     flow = families.get("flow") or {}
     entries = sum(int(n) for n in flow.values())

@@ -169,6 +169,9 @@ def _notes(held: HeldOut, manifest: dict[str, Any], sensor_range: float) -> list
                 "the map learnt from later logs, so it is judged on the past, not on what it "
                 "forecasts (build the map from logs before the test logs only)"
             )
+    static = _all_static(manifest)
+    if static is not None:  # why the rows of aion and aion static agree
+        notes.append(f"aion's figures are those of its static rates: {static}")
     robot = int(np.count_nonzero(~held.fixed))
     if robot:
         notes.append(
@@ -177,6 +180,16 @@ def _notes(held: HeldOut, manifest: dict[str, Any], sensor_range: float) -> list
             f"({sensor_range:g} m) then"
         )
     return notes
+
+
+def _all_static(manifest: dict[str, Any]) -> str | None:
+    """:func:`aion_cli.forecast_notes.all_static` of a map's manifest (None without one)."""
+    if not manifest:
+        return None
+    from aion_cli.forecast_notes import all_static
+    from aion_cli.manifest import Manifest
+
+    return all_static(Manifest.from_dict({"state": {}, **manifest}))
 
 
 def _uniform(held: HeldOut) -> dict[str, Any]:

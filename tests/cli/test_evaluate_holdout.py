@@ -191,6 +191,26 @@ def test_a_test_log_before_the_map_is_named_in_a_note(corridor: tuple, tmp_path:
     assert all("before the map's own time span" not in n for n in doc["notes"])
 
 
+def test_a_map_that_forecasts_its_static_rates_says_why_in_a_note(
+    corridor: tuple, tmp_path: Path
+) -> None:
+    """A map of one day has no scored day, so aion's rows are its static rates' to the
+    digit; a note says why (it left the reader to guess), and the six-day map has none."""
+    site, _train, test, _truth = corridor
+    csv = tmp_path / "day.csv"
+    write_days(csv, 0, 1)
+    one = tmp_path / "one.aion"
+    built = run("build", convert(csv, 0, 1), "-o", one, "--tz", "UTC", "-q")
+    assert built.exit_code == 0, built.stderr
+    doc = run_json("evaluate", "holdout", one, test, "--format", "json")
+    rows = {a["model"]: a for a in doc["activity"]}
+    assert rows["aion"]["mae"] == rows["aion static"]["mae"]
+    assert any(n.startswith("aion's figures are those of its static rates: every entry")
+               and "0 scored days" in n for n in doc["notes"])
+    six = run_json("evaluate", "holdout", site, test, "--format", "json")
+    assert all("static rates: every entry" not in n for n in six["notes"])
+
+
 def test_bad_inputs_are_one_line_errors(corridor: tuple, tmp_path: Path) -> None:
     site, _train, test, _truth = corridor
     result = run("evaluate", "holdout", site, tmp_path / "missing.mcap")
