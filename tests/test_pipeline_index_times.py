@@ -59,8 +59,13 @@ class Builds:
 
 
 def _comparable(report: dict[str, Any]) -> dict[str, Any]:
-    """The report without what names the output file."""
-    return {k: v for k, v in report.items() if k not in ("map", "map_bytes")}
+    """The report without what names the output file or the copy of the continued map."""
+    out = {k: v for k, v in report.items() if k not in ("map", "map_bytes")}
+    out["notes"] = [
+        n.replace("fast_start.aion", "START").replace("full_start.aion", "START")
+        for n in report.get("notes", [])
+    ]
+    return out
 
 
 def _build(logs: list[Path], out: Path, **options: Any) -> Built:
