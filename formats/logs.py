@@ -114,6 +114,8 @@ class LogSet:
         self.end_ns: int = max((f.end_ns for f in with_messages), default=0)
         self._decoders: dict[tuple[str, str, str], Callable[[bytes], Any]] = {}
         self._stores: dict[str, Typestore] = {}
+        #: the store of each (encoding, msgtype, definition, idl): topics of one type share it
+        self._typestores: dict[tuple[str, str, str, bool], Typestore] = {}
         self._closed = False
 
     @property
@@ -266,7 +268,12 @@ class LogSet:
         ``msgtype`` (aion's shipped definitions when the log embeds none);
         :class:`MessageDecodeError` when there is neither or the definition is malformed."""
         definition, idl = self.definition(topic, msgtype, encoding)
-        return _store_with_definition(self._stores, encoding, msgtype, definition, idl)
+        key = (encoding, msgtype, definition, idl)
+        store = self._typestores.get(key)
+        if store is None:
+            store = _store_with_definition(self._stores, encoding, msgtype, definition, idl)
+            self._typestores[key] = store
+        return store
 
     def _make_decoder(self, msg: RawMessage) -> Callable[[bytes], Any]:
         store = self.typestore(msg.topic, msg.msgtype, msg.encoding)
