@@ -55,8 +55,9 @@ def detection_frames(logset: Any, plan: Any, mappings: list[Any]) -> dict[str, s
     except AionError:
         return {}
     out: dict[str, set[str]] = {}
+    samples = first_of_each(logset, [info.topic for info in plan.detections], DETECTION_SAMPLE)
     for info in plan.detections:
-        sample = _first(logset, info.topic, DETECTION_SAMPLE)
+        sample = samples.get(info.topic, [])
         adapter = adapters.get((info.topic, info.msgtype, info.encoding))
         if adapter is None or not sample:
             continue
@@ -81,3 +82,42 @@ def _connected_to_map(logset: Any, plan: Any) -> set[str]:
 
 def _first(logset: Any, topic: str, n: int) -> list[Any]:
     return list(islice(logset.messages([topic]), n))
+
+
+def first_of_each(logset: Any, topics: list[str], n: int) -> dict[str, list[Any]]:
+    """The first ``n`` messages of each of ``topics``: what :func:`_first` gives per topic,
+    read in a few passes instead of one per topic (a log of 3,000 camera topics read its
+    chunks 3,000 times). A pass reads the topics not yet full from where the last pass
+    stopped; it stops once at most half of its topics are still short of ``n``, so a topic
+    with few messages is finished by a pass of short topics only (chunks without them
+    skipped by the index), as its own read did. A topic's messages come in the same order
+    whichever topics are read with it; the messages already taken at the resumed log time
+    are skipped by count."""
+    out: dict[str, list[Any]] = {t: [] for t in dict.fromkeys(topics)}
+    short = [t for t in out if n > 0]
+    since = 0  # log time the pass resumes at
+    while short:
+        taken_at = {t: sum(1 for m in out[t] if m.log_time_ns == since) for t in short}
+        stream = logset.messages(short, between=(since, 2**63 - 1))
+        left = set(short)
+        for msg in stream:
+            topic = msg.topic
+            if topic not in left or msg.log_time_ns < since:
+                continue
+            if msg.log_time_ns == since and taken_at[topic]:
+                taken_at[topic] -= 1
+                continue
+            got = out[topic]
+            got.append(msg)
+            since = msg.log_time_ns
+            if len(got) >= n:
+                left.discard(topic)
+                if 2 * len(left) <= len(short):
+                    break
+        else:
+            break  # the log is read to its end: every topic has what it holds
+        close = getattr(stream, "close", None)
+        if close is not None:
+            close()
+        short = [t for t in short if t in left]
+    return out
