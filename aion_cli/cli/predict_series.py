@@ -70,10 +70,12 @@ def run_series(
 
     times, zone = series_of(t_from, t_to, step, tz, loaded)
     layer, nodes, at, top = request
+    # a table shows the busiest TABLE_COLUMNS: only theirs are kept (the same entries)
+    keep = TABLE_COLUMNS if top is None and fmt not in ("json", "csv") else top
     with progress(quiet=len(times) == 1) as bar:
         task = bar.add_task("predicting", total=len(times), unit="times")
         table = predict_series(
-            loaded, times, layer, nodes, at, top, lambda done: bar.update(task, completed=done)
+            loaded, times, layer, nodes, at, keep, lambda done: bar.update(task, completed=done)
         )
     labels = [format_ns(t, zone) for t in times]
     announce_time(times[0], zone, "from", loaded, series=times)
