@@ -172,7 +172,8 @@ def door(data_dir: Path | None, fmt: str) -> None:
     note(
         f"FreMEn order {result['fremen_order']} (best day-ahead score); the model itself "
         f"chooses {result['chosen_family']}; strongest periods (h): "
-        f"{', '.join(str(p) for p in result['strongest_periods_h'])}"
+        f"{', '.join(str(p) for p in result['strongest_periods_h'])}; FreMEn beats the "
+        f"static mean on {result['fremen_wins']} of {len(result['weeks'])} test weeks"
     )
     columns = (
         Column("week", "test week"),

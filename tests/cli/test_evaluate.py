@@ -28,6 +28,10 @@ def test_door_json_reports_every_test_week() -> None:
     assert [w["week"] for w in payload["weeks"]] == list(range(1, 10))
     assert payload["fremen_wins"] == 9
     assert 24.0 in payload["strongest_periods_h"]
+    table = CliRunner().invoke(
+        cli, ["evaluate", "door", "--data", str(DATA / "fremen_door")], standalone_mode=False
+    )
+    assert "FreMEn beats the static mean on 9 of 9 test weeks" in table.stderr
 
 
 def test_missing_data_folder_is_a_one_line_error(tmp_path: Path) -> None:
