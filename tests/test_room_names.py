@@ -56,3 +56,13 @@ def test_two_rooms_whose_names_differ_by_underscores_only_are_ambiguous() -> Non
         named_node("office 1", graph)
     assert node_label(R) in str(err.value)
     assert node_label(R + 1) in str(err.value)
+
+
+def test_the_report_labels_a_room_whose_name_is_its_id_by_the_id_alone() -> None:
+    """MP3D graphs label each room with its id: the report's legend read "R0 R0"."""
+    from types import SimpleNamespace
+
+    from aion_cli.report.content import room_labels
+
+    loaded = SimpleNamespace(graph=_graph(("R0", "kitchen", "")))
+    assert room_labels(loaded) == {"R0": "", "R1": "kitchen", "R2": ""}  # type: ignore[arg-type]

@@ -47,7 +47,7 @@ class Observed:
     ns, None before any), the fixed-sensor intervals ``[start, end)`` (ns; none for a robot's
     coverage, which the map keeps only as tallies), and ``hours[D, H]``: the hours observed
     per profile bin (``D`` day types named ``day_types``, ``H`` bins a day, in the map's own
-    zone ``model_zone``) of the entry observed most."""
+    zone ``model_zone``): per bin, the most any entry was observed in it."""
 
     span: tuple[int | None, int | None]
     first_ns: int | None
@@ -292,14 +292,17 @@ def _top_columns(
 
 
 def room_labels(loaded: LoadedMap) -> dict[str, str]:
-    """Display id (``R3``) -> label of each room of the latest graph ("" when unnamed)."""
+    """Display id (``R3``) -> name of each room of the latest graph ("" when it has none, or
+    only its id: :func:`aion_cli.room_names.name_of`)."""
     from aion_cli.engine.query import node_symbol
+    from aion_cli.room_names import name_of
 
     graph = loaded.graph
     if graph is None or not len(graph.rooms):
         return {}
-    labels = list(graph.rooms.labels) + [""] * (len(graph.rooms) - len(graph.rooms.labels))
-    return dict(zip(node_symbol(graph.rooms.ids).tolist(), labels, strict=True))
+    rooms = graph.rooms
+    labels = [name_of(rooms, k) or "" for k in range(len(rooms))]
+    return dict(zip(node_symbol(rooms.ids).tolist(), labels, strict=True))
 
 
 def busiest_entries(loaded: LoadedMap, t_ns: int | None) -> tuple[tuple[Busiest, ...], int]:

@@ -194,9 +194,10 @@ def _observed(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]
     caption = (
         f"Left: one row per day ({escape(c.zone.name)}), time of day across; grey: the span of "
         f"the logs; {coverage}; red triangles: the first and last observed window. Right: the "
-        "hours observed in each profile bin (hour of the day, by day type) for the place "
-        "observed most; the periodic models learn their daily rhythm from these bins, so an "
-        "empty bin is one the map can only guess. Observation: "
+        "hours observed in each profile bin (hour of the day, by day type): the most any "
+        "place or cell of the map was observed in that bin; the periodic models learn their "
+        "daily rhythm from these bins, so an empty bin is one the map can only guess. "
+        "Observation: "
         f"<code>{escape(o.source)}</code>."
     )
     return [
