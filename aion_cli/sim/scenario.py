@@ -227,6 +227,14 @@ def scene_paths(output: Path, config: ScenarioConfig) -> list[Path]:
         if suffix and given != suffix:
             output = output.with_name(output.name + suffix)
         return [output]
+    if output.suffix.lower() in _OTHER_FILES and not output.is_dir():
+        # a folder named paper.mcap would hold the scenes' logs under a log's name
+        raise InputError(
+            f"with --scenes {config.scenes}, -o names the folder of the scenes' logs, not a "
+            f"file: {output.name}",
+            hint=f"-o {output.with_suffix('').name or 'scenes'}/ (it gets scene_00{suffix}, "
+            f"scene_01{suffix}, ...)",
+        )
     return [output / f"scene_{i:02d}{suffix}" for i in range(config.scenes)]
 
 

@@ -131,6 +131,22 @@ def test_an_output_named_as_another_file_kind_is_refused(tmp_path: Path) -> None
     assert (tmp_path / "plain.mcap").is_file()
 
 
+def test_several_scenes_are_refused_a_folder_named_as_a_log(tmp_path: Path) -> None:
+    """--scenes 2 -o paper.mcap made a folder named paper.mcap holding the scenes' logs."""
+    code, output = _run("simulate", "-o", tmp_path / "paper.mcap", "--scenes", "2", "--days",
+                        "0.01", "--quiet")
+    assert code == 2, output
+    assert "-o names the folder of the scenes' logs, not a file: paper.mcap" in output
+    assert "-o paper/" in output
+    assert not list(tmp_path.iterdir())
+    code, output = _run("simulate", "-o", tmp_path / "paper", "--scenes", "2", "--days",
+                        "0.01", "--quiet")
+    assert code == 0, output
+    assert sorted(p.name for p in (tmp_path / "paper").glob("*.mcap")) == [
+        "scene_00.mcap", "scene_01.mcap"
+    ]
+
+
 def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
     cases = [
         ("--robot", "fixed", "--frame", "base_link"),
