@@ -12,6 +12,8 @@ from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import AionCommand
 
 if TYPE_CHECKING:
+    from datetime import date
+
     from aion_cli.sim.scenario import SceneResult
 
 EPILOG = """\b
@@ -95,13 +97,11 @@ def _empty_scene(meta: dict[str, Any]) -> str | None:
             f"people keep office hours (arriving about {arrive:g} h, leaving about {leave:g} h "
             "local time, few at weekends)"
         )
-        start = str(config.get("start", "2026-01-05"))
-        day, _, clock = start.partition("T")  # the scene's own day in the example
-        at = _hour_of(clock)
-        if _weekday(day) >= 5:
+        day, at = _start_of(str(config.get("start", "2026-01-05")))  # as the scene read it
+        if day.weekday() >= 5:
             return (
                 f"nobody was detected, and nobody came: {hours} and {scene}, a "
-                f"{['Saturday', 'Sunday'][_weekday(day) - 5]}; give a weekday --start "
+                f"{['Saturday', 'Sunday'][day.weekday() - 5]}; give a weekday --start "
                 "or more --days"
             )
         if at is not None and arrive <= at < leave:  # in the hours: a scene too short to walk
@@ -112,7 +112,7 @@ def _empty_scene(meta: dict[str, Any]) -> str | None:
         ask = "a --start within those hours" if at is not None else "--start with a time of day"
         return (
             f"nobody was detected, and nobody came: {hours} and {scene}; give {ask} "
-            f"(e.g. {day}T{int(arrive):02d}:00) or more --days"
+            f"(e.g. {day.isoformat()}T{int(arrive):02d}:00) or more --days"
         )
     return (
         f"nobody was detected although people walked ({scene}): the robot saw none of them "
@@ -120,23 +120,19 @@ def _empty_scene(meta: dict[str, Any]) -> str | None:
     )
 
 
-def _weekday(day: str) -> int:
-    """Monday 0 .. Sunday 6 of an ISO date (0 when it is not one)."""
+def _start_of(start: str) -> tuple[date, float | None]:
+    """The local day of a scene's ``--start`` and its hour of the day (None: a date alone),
+    read by :func:`aion_cli.sim.scenario.parse_start` as the scene was (any ISO form)."""
     from datetime import date
 
-    try:
-        return date.fromisoformat(day).weekday()
-    except ValueError:
-        return 0
+    from aion_cli.sim.scenario import parse_start
 
-
-def _hour_of(clock: str) -> float | None:
-    """The hour of the day of ``HH:MM[:SS]`` (None: no time, or not one)."""
+    day, seconds = parse_start(start)
     try:
-        parts = [float(p) for p in clock.split(":")[:2]] if clock else []
+        date.fromisoformat(start)
     except ValueError:
-        return None
-    return parts[0] + (parts[1] / 60 if len(parts) > 1 else 0.0) if parts else None
+        return day, seconds / 3600.0
+    return day, None
 
 
 def _event_counts(r: SceneResult) -> str:

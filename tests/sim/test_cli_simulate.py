@@ -181,3 +181,18 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
         assert "error:" in output
         assert "Traceback" not in output
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_the_empty_scene_warning_reads_start_as_simulate_does(tmp_path: Path) -> None:
+    """--start in any ISO form simulate accepts (a space before the time, the basic form) is
+    read for the warning as the scene reads it: a night start on a Wednesday is asked for a
+    time within the hours on its own day (it was taken for a Monday without a time of day:
+    'e.g. 2026-01-07 01:30T08:00')."""
+    for start in ("2026-01-07 01:30", "20260107T0130"):
+        code, output = _run(
+            "simulate", "-o", tmp_path / "night.mcap", "--days", "0.01", "--start", start,
+            "--quiet", "--force",
+        )
+        assert code == 0, output
+        said = " ".join(output.split())
+        assert "give a --start within those hours (e.g. 2026-01-07T08:00)" in said, said
