@@ -349,6 +349,7 @@ def export_scene(
         cell_size,
         node_concentration=node_concentration,
         flow_scale=flow_scale,
+        cells_dominant_angle=cells_dominant_angle,
     )
     xyz, colors = style.nodes_xyz, style.colors
     scene = _Scene(
@@ -371,19 +372,12 @@ def export_scene(
         ) from exc
     if fmt == "ply":
         return _write_ply(out, prefix, scene, cell_size)
-    c_angle = np.full(len(style.cells_xyz), np.nan)
-    if cells_dominant_angle is not None:
-        c_angle = np.asarray(cells_dominant_angle, dtype=np.float64).reshape(-1)
-        if len(c_angle) != len(style.cells_xyz):
-            raise ExportError(
-                f"cells_dominant_angle has {len(c_angle)} rows, cells_xyz {len(style.cells_xyz)}"
-            )
     return _write_pcd(
         out,
         prefix,
         scene,
         (xyz, colors, _direction_normals(style.angle)),
-        (style.cells_xyz, style.cell_colors, _direction_normals(c_angle)),
+        (style.cells_xyz, style.cell_colors, _direction_normals(style.cells_angle)),
     )
 
 
