@@ -284,12 +284,15 @@ def layer_of_nodes(layer: str, nodes: Sequence[str | int], graph: Any) -> str:
 
     if layer in ("rooms", "buildings") or not nodes or graph is None:
         return layer
-    try:
-        ids = {n if isinstance(n, int) else parse_node_id(n) for n in nodes}
-    except InputError:
-        return layer  # select names the id it cannot read
+    ids: set[int] = set()
+    alone = layer == "all"  # every node asked for may be of one grouped layer
+    for n in nodes:
+        try:
+            ids.add(n if isinstance(n, int) else parse_node_id(n))
+        except InputError:  # a hash cell's c<key> (no node index), or an id select reports
+            alone = False
     for name, part in (("rooms", graph.rooms), ("buildings", graph.buildings)):
-        if layer == "all" and len(part) and ids <= {int(i) for i in part.ids}:
+        if alone and len(part) and ids <= {int(i) for i in part.ids}:
             return name
     grouped = ids & {int(i) for part in (graph.rooms, graph.buildings) for i in part.ids}
     if grouped:  # select would call them "not in the map"

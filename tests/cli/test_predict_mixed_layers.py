@@ -5,6 +5,9 @@ not claim it would be answered alone."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Any
+
 import pytest
 
 import aion_cli as aion
@@ -51,3 +54,21 @@ def test_the_api_says_the_same(office: Office) -> None:
         m.predict(AT[1], nodes=["p4", "R1"])
     with pytest.raises(aion.InputError, match="R1: rooms and buildings are answered"):
         m.predict_series(AT[1], "2026-11-23 09:30", nodes=["R1", "p4"])
+
+
+def test_a_room_beside_a_hash_cell_is_named_as_such(sample_map: Path) -> None:
+    """A hash cell's id (``c<key>``, a key larger than a node index) beside a room: the room is
+    refused for its layer, as beside a place (the cell's id could not be read as a node id, so
+    the room was called 'not in the map', with the hint that the map has no such room)."""
+    def first(layer: str) -> dict[str, Any]:
+        entries = run_json("predict", sample_map, *AT, "--layer", layer, "--top", "1",
+                           "--format", "json")["entries"]
+        assert entries, f"the sample's map has {layer}"
+        return dict(entries[0])
+
+    cell, room = first("cells"), first("rooms")
+    for asked in ([cell["id"], room["id"]], [room["name"] or room["id"], cell["id"]]):
+        result = run("predict", sample_map, *AT, *[a for n in asked for a in ("--node", n)])
+        assert result.exit_code == 2, result.stdout
+        assert_one_line_error(result.stderr, f"{room['id']}: rooms and buildings are answered")
+        assert "not in the map" not in result.stderr
