@@ -22,7 +22,8 @@ if TYPE_CHECKING:
 def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[str, Any]:
     """Detections read / used / dropped over every build of the map, and a fixed sensor's
     logs' own time in windows (``recording_windows``, the union over every build's logs: a
-    window the previous builds' logs reached, ``recording_reach``, is not counted again)."""
+    window the previous builds' logs reached, ``recording_reach``, is not counted again; the
+    first window they recorded, ``recording_first``, lets a merge do the same)."""
     from aion_cli.fixed_sensor import recording_window_count
 
     new = report.to_dict()["detections"]
@@ -32,6 +33,7 @@ def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[st
         new["recording_windows"] = recording_window_count(report.recording_spans, after)
         reach = max(last for _, _, last in report.recording_spans)
         new["recording_reach"] = reach if after is None else max(after, reach)
+        new["recording_first"] = min(first for _, first, _ in report.recording_spans)
     if previous is None:
         return new
     return add_counts(previous.counts, new)

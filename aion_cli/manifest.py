@@ -187,13 +187,15 @@ def _optional_int(value: Any, key: str) -> int | None:
     return value
 
 
-def add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+def add_counts(old: dict[str, Any], new: dict[str, Any], *, meet: bool = False) -> dict[str, Any]:
     """The detections read / used / dropped (by reason) of a map's earlier builds (``old``,
     its manifest's ``counts``) plus those of a new build (``new``): the ``counts`` a continued
     map stores. ``recording_windows`` (a fixed sensor's logs' own time, in windows) adds up
     while every part has it (``old`` empty: the first part), and is left out otherwise;
-    ``recording_reach``, the last of those windows, is the latest of the parts' while every
-    part has it."""
+    ``recording_reach`` and ``recording_first``, the last and the first of those windows, are
+    the latest and the earliest of the parts' while every part has them. ``meet`` (maps built
+    apart, merged): the window in which one part's logs end and the other's begin is counted
+    once (a continued build counts only the windows after the map's reach to begin with)."""
     dropped = dict(old.get("dropped", {}))
     for reason, n in new["dropped"].items():
         dropped[reason] = int(dropped.get(reason, 0)) + int(n)
@@ -207,7 +209,21 @@ def add_counts(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     )
     if type(before) is int and type(added) is int:  # a damaged manifest's value is left out
         out["recording_windows"] = before + added
-        reaches = [c.get("recording_reach") for c in (old, new) if c]
-        if all(type(r) is int for r in reaches):  # older maps have none
-            out["recording_reach"] = max(int(r) for r in reaches if r is not None)
+        parts = [c for c in (old, new) if c]
+        for key, pick in (("recording_reach", max), ("recording_first", min)):
+            values = [c.get(key) for c in parts]
+            if all(type(v) is int for v in values):  # older maps have none
+                out[key] = pick(int(v) for v in values if v is not None)
+        if meet and old and _meeting(old, new):
+            out["recording_windows"] -= 1
     return out
+
+
+def _meeting(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Whether the logs of counts ``a`` and ``b`` both recorded in one window: one's last
+    (``recording_reach``) is the other's first (``recording_first``); unknown for older maps."""
+    ends = [c.get(k) for c in (a, b) for k in ("recording_first", "recording_reach")]
+    if not all(type(v) is int for v in ends):
+        return False
+    a_first, a_reach, b_first, b_reach = ends
+    return bool(a_reach == b_first or b_reach == a_first)

@@ -49,6 +49,7 @@ merges it in place into the map so far, so a merge of any number of maps holds t
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -388,17 +389,18 @@ def _write(
     report.start_ns = min(starts) if starts else None
     report.end_ns = max(ends) if ends else None
     counts: dict[str, Any] = {}
-    for m in maps:
+    # in the order of their logs' time, so that the windows in which two meet count once
+    for m in sorted(maps, key=lambda m: _recording_first(m.manifest.counts)):
         c = m.manifest.counts
         part = {
             "read": int(c.get("read", 0)),
             "used": int(c.get("used", 0)),
             "dropped": dict(c.get("dropped", {})),
         }
-        for key in ("recording_windows", "recording_reach"):  # add_counts checks them
-            if key in c:
+        for key in ("recording_windows", "recording_reach", "recording_first"):
+            if key in c:  # add_counts checks them
                 part[key] = c[key]
-        counts = add_counts(counts, part)
+        counts = add_counts(counts, part, meet=True)
     stats = state_counts(merged)
     far = far_from_graph_of(merged, stats)
     if far is not None:  # a --graph FILE of another site, say
@@ -443,3 +445,9 @@ def _common_frame(frames: list[str | None]) -> str | None:
     """The map frame every input records (None when one records none or they differ)."""
     first = frames[0] if frames else None
     return first if first is not None and all(f == first for f in frames) else None
+
+
+def _recording_first(counts: dict[str, Any]) -> float:
+    """A map's first window of its logs' own time (infinite when its manifest has none)."""
+    first = counts.get("recording_first")
+    return float(first) if type(first) is int else math.inf

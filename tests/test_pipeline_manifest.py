@@ -175,3 +175,25 @@ def test_recording_windows_add_up_while_every_part_has_them() -> None:
     damaged = first | {"recording_windows": "ten"}
     assert "recording_windows" not in add_counts(damaged, part | {"recording_windows": 4})
     assert add_counts(first, part | {"recording_windows": 4})["read"] == 6
+
+
+def test_a_merge_counts_the_window_two_maps_meet_in_once() -> None:
+    """``add_counts(meet=True)``: one map's last recorded window being the other's first is
+    counted once, in either order; maps apart, or an older map without ``recording_first``
+    (unknown), add as they are; a continued build (no ``meet``) has left it out already."""
+    from aion_cli.manifest import add_counts
+
+    part = {"read": 3, "used": 2, "dropped": {}}
+    a = add_counts({}, part | {"recording_windows": 4, "recording_first": 10})
+    a["recording_reach"] = 13
+    b = part | {"recording_windows": 2, "recording_first": 13, "recording_reach": 14}
+    assert add_counts(a, b, meet=True)["recording_windows"] == 5
+    assert add_counts(add_counts({}, b), a, meet=True)["recording_windows"] == 5
+    both = add_counts(a, b, meet=True)
+    assert (both["recording_first"], both["recording_reach"]) == (10, 14)
+    assert add_counts(a, b)["recording_windows"] == 6
+    later = b | {"recording_first": 20, "recording_reach": 21}
+    assert add_counts(a, later, meet=True)["recording_windows"] == 6
+    older = {k: v for k, v in a.items() if k != "recording_first"}
+    assert add_counts(older, b, meet=True)["recording_windows"] == 6
+    assert "recording_first" not in add_counts(older, b, meet=True)

@@ -259,3 +259,22 @@ def test_a_log_that_starts_in_the_window_the_map_ended_in_is_counted_once(
     assert both["counts"]["recording_windows"] == 2
     assert continued["counts"]["recording_windows"] == 2
     assert continued["counts"]["recording_reach"] == both["counts"]["recording_reach"]
+
+
+def test_a_merge_of_maps_that_meet_in_one_window_counts_it_once(tmp_path: Path) -> None:
+    """The two logs above built apart and merged (in either order): the window both reach
+    (08:10, the first's last and the second's first) is counted once, as one build and the
+    continued map count it; the merge added the maps' windows (3)."""
+    first, second = tmp_path / "first.mcap", tmp_path / "second.mcap"
+    write_office_log(first, graph=False, tf=False, duration_s=900)
+    write_office_log(second, graph=False, tf=False, shift_s=960, duration_s=240)
+    run_json("build", first, "-o", tmp_path / "a.aion", "--format", "json")
+    run_json("build", second, "-o", tmp_path / "b.aion", "--format", "json")
+    for name, maps in (("ab", ("a", "b")), ("ba", ("b", "a"))):
+        out = tmp_path / f"{name}.aion"
+        run_json("merge", *(tmp_path / f"{m}.aion" for m in maps), "-o", out, "--format", "json")
+        counts = read_manifest(out)["counts"]
+        assert counts["recording_windows"] == 2, name
+    apart = [read_manifest(tmp_path / f"{m}.aion")["counts"] for m in ("a", "b")]
+    assert [c["recording_windows"] for c in apart] == [2, 1]
+    assert apart[0]["recording_reach"] == apart[1]["recording_first"]
