@@ -324,3 +324,37 @@ def test_fast_and_full_first_pass_agree_on_the_robot_trajectory(tmp_path: Path) 
         out.append(tf.trajectory("map", "base_link"))
     np.testing.assert_array_equal(out[0].t_ns, out[1].t_ns)
     np.testing.assert_array_equal(out[0].xyz, out[1].xyz)
+
+
+def test_a_build_that_starts_over_keeps_the_note_on_a_log_overlapping_the_map(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A continued map whose data ends 49 s into its open window, and a log from that
+    window's start: when the stream finds a stale index after its first detections and the
+    build starts over, the note that the log overlaps the map's data is made again (the
+    second pass took it as made, and the report it starts from had lost it)."""
+    from aion_cli.build_stream import StreamStep
+    from aion_cli.errors import StaleIndexError
+
+    base = tmp_path / "base.mcap"
+    with LogWriter(base, "mcap") as writer:
+        for topic, msgtype, msg, t in walk(100, start_s=-50):
+            writer.write(topic, msgtype, msg, t)
+    first = tmp_path / "first.aion"
+    build_map(BuildOptions(logs=(base,), output=first))
+    log = _timed_log(tmp_path / "timed")
+    fed, real = [0], StreamStep._feed
+
+    def feed(self: StreamStep, *args: Any) -> None:
+        fed[0] += 1
+        if fed[0] == 3:  # after the first detections: as a damaged chunk found by the stream
+            raise StaleIndexError("a chunk the index vouched for does not read")
+        real(self, *args)
+
+    monkeypatch.setattr(StreamStep, "_feed", feed)
+    report = build_map(BuildOptions(
+        logs=(log,), output=tmp_path / "out.aion", continue_from=first, graph_period_ns=0,
+        batch_size=5,
+    ))
+    assert fed[0] > 3
+    assert sum("before first.aion's data ends" in n for n in report.notes) == 1, report.notes
