@@ -118,6 +118,9 @@ class BuildReport:
     #: fixed sensor: each log file's own time, (path, first window, last window) from its
     #: first to its last recorded window (``fixed_sensor.recording_window_count`` adds them up)
     recording_spans: list[tuple[str, int, int]] = field(default_factory=list)
+    #: the earliest detection time of the first batch learnt (not in the JSON): whether the
+    #: logs start before a continued map's data ends (``log_times.overlap_note``)
+    first_detection_ns: int | None = None
 
     def mean_speed(self) -> float | None:
         """The mean speed of the detections with one (m/s); None when none has."""

@@ -70,7 +70,6 @@ class StreamStep:
     _adapters: dict[tuple[str, str, str], Any]
     _factory: Any
     _tally: MapperTally
-    _overlap_checked: bool = False  # the first detections were checked for overlap_note
     #: what became of the output when no detection was usable (None: the build's own words,
     #: "no map was written"; a held-out reading writes nothing to begin with)
     unusable_outcome: str | None = None
@@ -154,14 +153,19 @@ class StreamStep:
         (``topics``: the topic index of each row)."""
         if len(batch) == 0:
             return
-        self._check_after_map(batch.t_ns, "detection")
+        first = self.report.first_detection_ns is None  # the batch holds the first detections
+        if first:
+            self.report.first_detection_ns = int(batch.t_ns.min())
+        self._check_after_map(batch.t_ns, "detection", first)
         codes = np.empty(len(batch), np.int8)
         mapper.add_detections(batch, codes)
         self._tally.add(topics, codes)
 
-    def _check_after_map(self, t_ns: I64, what: str) -> None:
+    def _check_after_map(self, t_ns: I64, what: str, first: bool = False) -> None:
         """A continued map's closed windows take no data (:func:`aion_cli.log_times.
-        check_after_open`)."""
+        check_after_open`); the ``first`` detections are checked for the map's data
+        (:func:`aion_cli.log_times.overlap_note`; a parallel build's parent checks its
+        shards')."""
         if self._map_open is None or len(t_ns) == 0:
             return
         from aion_cli.engine.windows import window_ns
@@ -177,9 +181,8 @@ class StreamStep:
             self._continued_name(),
         )
         end = self.previous_manifest.end_ns if self.previous_manifest else None
-        if self.shard or end is None or what != "detection" or self._overlap_checked:
+        if self.shard or end is None or not first:
             return
-        self._overlap_checked = True  # the first batch holds the first detections
         note = overlap_note(t_ns, end, self._logs, self._continued_name())
         if note is not None:
             self.report.notes.append(note)

@@ -38,6 +38,7 @@ from aion_cli.time_shards import part_fields
 
 if TYPE_CHECKING:
 
+    from aion_cli.build_report import BuildReport
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.pipeline import BuildOptions, _Build
@@ -206,6 +207,7 @@ class ParallelBuild:
         ends = [p.end_ns for p in folded.reports if p.end_ns is not None]
         self.build.join_span(min(starts, default=None), max(ends, default=None))
         report.notes.extend(folded.notes)
+        self._overlap(folded.reports)
         where = "Dask cluster" if self.opts.scheduler else f"{workers} worker processes"
         slowest = max((r.seconds for r in results), default=0.0)
         peak = max((r.peak_rss_mb for r in results), default=0.0)
@@ -234,6 +236,23 @@ class ParallelBuild:
             for r in sorted(results, key=lambda r: r.index)
         ]
         check_usable(report, counts_of(report), self.build.previous_manifest)
+
+    def _overlap(self, reports: list[BuildReport]) -> None:
+        """The note a sequential build makes on logs whose first detections come before the
+        continued map's data ends (:func:`aion_cli.log_times.overlap_note`), from the shards'
+        first detections (a shard builds apart from the map and makes none)."""
+        import numpy as np
+
+        from aion_cli.log_times import overlap_note
+
+        manifest = self.build.previous_manifest
+        firsts = [r.first_detection_ns for r in reports if r.first_detection_ns is not None]
+        if manifest is None or manifest.end_ns is None or not firsts:
+            return
+        first = np.array([min(firsts)], dtype=np.int64)
+        note = overlap_note(first, manifest.end_ns, self.build.logs, self.build._continued_name())
+        if note is not None:
+            self.build.report.notes.append(note)
 
 
 def _plan_streams(

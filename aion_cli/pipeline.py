@@ -230,7 +230,6 @@ class _Build(StreamStep):
             vars(self.report).update(vars(report))  # the same object: others hold it
             self.graphs = self._graph_feed()
             self.counts = DetectionCounts()
-            self._overlap_checked = False  # the report's note on them went with it
             if self.previous is not None and self.opts.continue_from is not None:
                 self.previous = load_map(self.opts.continue_from, writable=True)
             return self._learn(config)

@@ -111,6 +111,24 @@ def test_a_log_overlapping_the_maps_data_in_its_open_window_is_noted(tmp_path: P
     )
 
 
+def test_a_parallel_build_notes_the_overlap_too(tmp_path: Path) -> None:
+    """The same overlapping log with a later one, built in two worker processes (the default
+    --workers on a machine of several cores): the shards are built apart from the map, so
+    their builds make no note; the parent makes the sequential build's, once (it said only
+    that the first shard was learnt in sequence onto the map)."""
+    first = write_log(tmp_path / "a.mcap", walk(1200))
+    target = tmp_path / "m.aion"
+    build_json(first, "-o", target)
+    inside = write_log(tmp_path / "inside.mcap", walk(240, start_s=900))
+    later = write_log(tmp_path / "later.mcap", walk(120, start_s=7200))
+    one = build_json(inside, later, "--map", target, "-o", tmp_path / "one.aion", "--workers", "1")
+    two = build_json(inside, later, "--map", target, "-o", tmp_path / "two.aion", "--workers", "2")
+    assert len(two["workers"]) == 2  # built in parallel
+    noted = [[n for n in r["notes"] if "data ends" in n] for r in (one, two)]
+    assert len(noted[0]) == 1, noted
+    assert noted[1] == noted[0]
+
+
 # -- the same input twice ---------------------------------------------------------------------
 
 
