@@ -6,28 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from aion_cli.formats.logs import open_logs
-from aion_cli.formats.writers import LogWriter
-
-STRING = "std_msgs/msg/String"
-
-
-def _write(path: Path, container: str, seed: int, topics: int, messages: int) -> list[str]:
-    """Topics of very different rates (some with a few messages, some with none in the
-    first half), log times with many ties (several topics at one instant)."""
-    rng = np.random.default_rng(seed)
-    names = [f"/cam{k}/people" for k in range(topics)]
-    rate = rng.choice([0.02, 0.2, 1.0], topics)
-    times = np.sort(rng.integers(1, messages // 3, messages)) * 10**6 + 10**18
-    with LogWriter(path, container, chunk_size=2048) as writer:
-        for i, t in enumerate(times.tolist()):
-            k = int(rng.integers(topics))
-            if rng.random() < rate[k] and not (k % 7 == 3 and i < messages // 2):
-                writer.write(names[k], STRING, {"data": f"{k}:{i}"}, t)
-    return names
+from tests.test_frame_check_sample import STRING, _write
 
 
 def test_one_parse_per_definition(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
