@@ -257,10 +257,11 @@ def export_dsg(
     observed) in its node metadata, as the spark_dsg file ``out`` (``export --format dsg``,
     :mod:`formats.dsg_export`); returns its ``DsgExportSummary``."""
     from aion_cli.engine.node_ids import parse_node_id
+    from aion_cli.entry_selection import select
     from aion_cli.errors import InputError
     from aion_cli.formats.dsg_export import check_dsg_target, write_dynamic_graph
     from aion_cli.formats.outputs import safe_text
-    from aion_cli.predictions import document, entry_table, hour_flags, rows_from_table, select
+    from aion_cli.predictions import document, entry_table, hour_flags, rows_from_table
 
     check_dsg_target(out)  # before anything is computed
     graph = loaded.graph

@@ -162,14 +162,8 @@ def predict_series(
 ) -> SeriesTable:
     """The series of the entries asked for (see the module doc); ``progress(k)`` after each
     time."""
-    from aion_cli.predictions import (
-        entry_ids,
-        entry_table,
-        layer_of_nodes,
-        refuse_empty_layer,
-        rows_from_table,
-        select,
-    )
+    from aion_cli.entry_selection import layer_of_nodes, refuse_empty_layer, select
+    from aion_cli.predictions import entry_ids, entry_table, rows_from_table
     from aion_cli.room_names import names_by_id, with_names_resolved
 
     times = [int(t) for t in times_ns]

@@ -1,0 +1,157 @@
+"""Which entries of an entry table ``aion predict``, ``export`` and ``Map.predict`` answer for:
+the layer that ``--node`` values name (:func:`layer_of_nodes`), the rows ``--layer``, ``--node``
+and ``--at`` choose (:func:`select`), and the refusal of a layer the map does not have
+(:func:`refuse_empty_layer`). The records themselves are :mod:`aion_cli.predictions`'."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from aion_cli.predictions import KINDS, entry_ids
+
+
+def refuse_empty_layer(table: Any, layer: str, index: Any) -> Any:
+    """``index``, or an :class:`InputError` when ``--layer places`` chose no row of a map of
+    hash cells only (as :func:`entry_table` for rooms: empty reads as "nobody walks")."""
+    from aion_cli.errors import InputError
+
+    if len(index) or layer != "places" or len(table.xyz) == 0:
+        return index
+    raise InputError(
+        "the map has no places, only hash cells",
+        hint="build with a scene graph (--graph FILE or --derive-graph) to get places; "
+        "without --layer, predict answers per hash cell",
+    )
+
+
+def _wanted_label(node: str | int, by_id: dict[str, int]) -> str:
+    """The entry id a ``--node`` value names: an id as ``predict`` prints it (``p12``,
+    ``R2``, a hash cell's ``c<key>``), or a node id in any form ``parse_node_id`` reads."""
+    from aion_cli.engine.node_ids import node_label, parse_node_id
+
+    if isinstance(node, str):
+        text = node.strip()
+        if text in by_id or (text[:1] == "c" and text[1:].isdigit()):  # a cell: c<key>
+            return text
+        return node_label(parse_node_id(text))
+    return node_label(node)
+
+
+def layer_of_nodes(layer: str, nodes: Sequence[str | int], graph: Any) -> str:
+    """The layer that answers ``--node`` without ``--layer``: ``rooms`` when every node asked
+    for is a room of the map's scene graph (by id or name, already resolved), ``buildings``
+    when every one is a building; else ``layer`` as given (places and cells, whose unknown ids
+    :func:`select` reports), or an :class:`InputError` for rooms or buildings in a mix."""
+    from aion_cli.engine.node_ids import node_label, parse_node_id
+    from aion_cli.errors import InputError
+
+    if layer in ("rooms", "buildings") or not nodes or graph is None:
+        return layer
+    ids: set[int] = set()
+    alone = layer == "all"  # every node asked for may be of one grouped layer
+    for n in nodes:
+        try:
+            ids.add(n if isinstance(n, int) else parse_node_id(n))
+        except InputError:  # a hash cell's c<key> (no node index), or an id select reports
+            alone = False
+    for name, part in (("rooms", graph.rooms), ("buildings", graph.buildings)):
+        if alone and len(part) and ids <= {int(i) for i in part.ids}:
+            return name
+    grouped = ids & {int(i) for part in (graph.rooms, graph.buildings) for i in part.ids}
+    if grouped:  # select would call them "not in the map"
+        raise InputError(
+            f"{', '.join(sorted(node_label(i) for i in grouped))}: rooms and buildings are "
+            "answered on their own layer, not beside places, cells or the other layer",
+            hint="rooms are answered when asked for alone (or with --layer rooms), buildings "
+            "likewise (--layer buildings)",
+        )
+    return layer
+
+
+def select(
+    table: Any, layer: str = "all", nodes: Sequence[str | int] = (), at: str | None = None
+) -> Any:
+    """Row numbers of the entries asked for (``--layer``, ``--node``, ``--at``), in table
+    order (``--node``: in the order given, an entry named twice once, where first named:
+    ``--node p2 --node p2`` or ``--node kitchen --node R2`` is one row), as an int64 array."""
+    import numpy as np
+
+    from aion_cli.engine.nearest import distances_from
+    from aion_cli.engine.node_ids import (
+        point_distance,
+        refuse_far_point,
+        require_point,
+    )
+    from aion_cli.errors import InputError, UnknownNodeError
+
+    index = np.arange(len(table.xyz), dtype=np.int64)
+    if layer in ("places", "cells"):
+        kind = np.asarray(table.kind)
+        names = (
+            np.asarray([KINDS.get(int(k), str(k)) for k in np.unique(kind)], dtype=object)
+            if kind.dtype.kind in "iu"
+            else None
+        )
+        want = "node" if layer == "places" else "cell"
+        if names is not None:
+            codes = np.unique(kind)[names == want]
+            index = index[np.isin(kind, codes)]
+        else:
+            index = index[kind == want]
+    if nodes and at is not None:
+        raise InputError(
+            "choose --node or --at, not both (the point would be ignored)",
+            hint="--at X,Y gives the entry nearest the point; --node names entries",
+        )
+    if nodes:
+        labels = [str(i) for i in entry_ids(table, index)]
+        by_id = dict(zip(labels, index.tolist(), strict=True))
+        wanted = [_wanted_label(n, by_id) for n in nodes]
+        missing = [w for w in wanted if w not in by_id]
+        if missing:
+            everyone = {str(i) for i in entry_ids(table, np.arange(len(table.xyz)))}
+            if layer in ("places", "cells") and set(missing) <= everyone:
+                hint = f"--layer {layer} leaves {', '.join(missing)} out: ask without --layer"
+            elif layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
+                # the graph's own rooms and buildings are answered (layer_of_nodes)
+                hint = "the map has no such room or building: aion info MAP lists its rooms"
+            else:
+                kind_names = [_kind_name(table, e) for e in index.tolist()]
+                ids = [i for i, k in zip(labels, kind_names, strict=True) if k != "cell"][:8]
+                cells = len(labels) - sum(k != "cell" for k in kind_names)
+                if ids:
+                    hint = f"ids include {', '.join(ids)}"
+                elif cells:  # a map of hash cells: their ids are spatial-hash keys
+                    hint = (
+                        f"the map has no nodes, only {cells:,} hash cells: pick one by "
+                        "position with --at X,Y, or list ids with --top 10"
+                    )
+                else:
+                    hint = "the map has no entries"
+            raise UnknownNodeError(f"node {', '.join(missing)} is not in the map", hint=hint)
+        index = np.asarray(list(dict.fromkeys(by_id[w] for w in wanted)), dtype=np.int64)
+    if at is not None:
+        x, y, z = require_point(at, "--at")
+        if not index.size:
+            return index
+        xyz = np.asarray(table.xyz, dtype=np.float64)[index]
+        dist = distances_from(xyz, (x, y, z))
+        nearest = float(dist.min())
+        # candidates by numpy, the choice by math.dist as the rows' own floats give it
+        close = index[dist <= nearest * (1 + 1e-9) + 1e-12] if math.isfinite(nearest) else index
+        def away(e: int) -> float:
+            return point_distance(tuple(float(v) for v in table.xyz[e][:3]), (x, y, z))
+
+        best = min(close.tolist(), key=away)
+        label = str(entry_ids(table, np.array([best]))[0])
+        refuse_far_point(at, away(best), label, table.xyz, "entry")
+        index = np.array([best], dtype=np.int64)
+    return index
+
+
+def _kind_name(table: Any, e: int) -> str:
+    kind = table.kind[e]
+    return kind if isinstance(kind, str) else KINDS.get(int(kind), str(kind))
+
