@@ -43,7 +43,8 @@ direction_family (the model that forecast the flow and the directions), flow_p10
 (the predictive spread of a window's count), name (a room's or building's name in the scene
 graph; empty for the rest).
 A series (--from, --to, --step) prints one row per time and a column per entry (the
-busiest over the series); JSON lists each entry with its flow and flow_per_hour per time,
+busiest over the series); JSON lists each entry (id, name, kind, layer, x, y, z) with its
+flow and flow_per_hour per time,
 CSV has one row per time and entry (time, time_ns, id, name, kind, layer, x, y, z,
 flow, flow_per_hour). Each value equals `predict --time` at that time. The series includes --to
 when it falls on a step. A step of days or weeks (1d, 1w) keeps the wall-clock time in the
