@@ -16,7 +16,10 @@ output-path checks in :mod:`formats.log_target` (:func:`check_log_target`,
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Mapping
+import errno
+import os
+import sqlite3
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import Any, BinaryIO, Literal, get_args
@@ -164,6 +167,24 @@ class _Rosbag1Backend(_Backend):
         self.writer.close()
 
 
+_SQLITE_FULL = 13
+"""SQLite's result code for "database or disk is full" (``sqlite3.OperationalError``)."""
+
+
+@contextlib.contextmanager
+def _full_disk_as_oserror(path: Path) -> Iterator[None]:
+    """SQLite reports a full disk (or quota) as ``OperationalError: database or disk is full``:
+    raise it as the ``OSError`` (ENOSPC) the other containers raise, which the command line
+    reports as the machine's limit (exit 2) and not as a fault of aion."""
+    try:
+        yield
+    except sqlite3.OperationalError as exc:
+        code = getattr(exc, "sqlite_errorcode", None)
+        if code != _SQLITE_FULL and "database or disk is full" not in str(exc):
+            raise
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path)) from exc
+
+
 class _Rosbag2Backend(_Backend):
     """``rosbags.rosbag2.Writer`` (bag version 9) with sqlite3 or mcap storage."""
 
@@ -171,17 +192,22 @@ class _Rosbag2Backend(_Backend):
         from rosbags.rosbag2 import StoragePlugin, Writer
 
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        self.path = path
         self.writer = Writer(path, version=9, storage_plugin=plugin)
-        self.writer.open()
+        with _full_disk_as_oserror(path):
+            self.writer.open()
 
     def channel(self, topic: str, msgtype: str) -> Any:
-        return self.writer.add_connection(topic, msgtype, typestore=msgdefs.typestore(2))
+        with _full_disk_as_oserror(self.path):
+            return self.writer.add_connection(topic, msgtype, typestore=msgdefs.typestore(2))
 
     def write(self, channel: Any, t_ns: int, data: bytes | memoryview, sequence: int) -> None:
-        self.writer.write(channel, t_ns, data)
+        with _full_disk_as_oserror(self.path):
+            self.writer.write(channel, t_ns, data)
 
     def close(self) -> None:
-        self.writer.close()
+        with _full_disk_as_oserror(self.path):
+            self.writer.close()
 
 
 class _Channel:

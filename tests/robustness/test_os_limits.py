@@ -213,3 +213,38 @@ def test_a_json_error_reads_once_at(tmp_path: Path) -> None:
     result = run("info", bad)
     fails(result, "Unterminated string starting at line 1 column 11")
     assert "at at" not in result.stderr
+
+
+# -- a full disk under SQLite ---------------------------------------------------------------------
+
+
+def test_a_full_disk_under_a_rosbag2_sqlite3_log_is_exit_2(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Before: ``convert ... -o full/bag`` (rosbag2, sqlite3 storage) on a full disk said
+    ``internal error: OperationalError: database or disk is full``, exit 1."""
+    import sqlite3
+
+    from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
+
+    def full(*args: Any, **kw: Any) -> None:
+        raise sqlite3.OperationalError("database or disk is full")
+
+    tracks = Path(__file__).parents[1] / "data" / "atc" / "atc-1024-9_test.csv"
+    out = tmp_path / "out"
+    out.mkdir()
+    with monkeypatch.context() as patch:
+        patch.setattr(Sqlite3Writer, "write", full)
+        result = run(
+            "convert",
+            tracks,
+            "--layout",
+            "atc",
+            "-o",
+            out / "bag",
+            "--container",
+            "rosbag2-sqlite3",
+        )
+    fails(result, "No space left on device", "out/bag")
+    assert "free some disk space" in result.stderr
+    assert os.listdir(out) == []
