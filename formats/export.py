@@ -51,6 +51,7 @@ from aion_cli.errors import (
     MissingPackageError,
     MissingSystemLibraryError,
 )
+from aion_cli.formats.outputs import interrupts_held
 from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
 
 F64 = npt.NDArray[np.float64]
@@ -101,9 +102,13 @@ def open3d() -> Any:
     """The ``open3d`` module, or :class:`MissingSystemLibraryError` naming the missing system
     library: open3d's wheel links against ``libusb-1.0.so.0`` (Debian/Ubuntu package
     ``libusb-1.0-0``), which minimal machines and containers lack; ``make install`` installs it
-    where it can."""
+    where it can. The import (about 0.4 s) holds Ctrl-C and SIGTERM back until it is done: one
+    landing inside open3d's C++ initialisation became ``ImportError: initialization failed``,
+    and the half-initialised library printed its memory statistics on stdout at exit and made
+    the process exit 1 instead of 130."""
     try:
-        import open3d as o3d
+        with interrupts_held():
+            import open3d as o3d
     except ModuleNotFoundError as exc:
         if exc.name != "open3d":
             raise
