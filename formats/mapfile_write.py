@@ -24,6 +24,7 @@ from typing import IO, Any
 import numpy as np
 
 from aion_cli import __version__
+from aion_cli.formats.committed import note_committed
 from aion_cli.formats.crc import crc32
 from aion_cli.formats.mapfile_format import (
     _LOCAL_HEADER_SIZE,
@@ -198,7 +199,9 @@ def write_map(
                 fh.flush()
                 os.fsync(fh.fileno())
             check_map_target(target)  # still a map (or nothing) after the write?
-            os.replace(tmp, target)
+            with interrupts_held():  # replaced and recorded as such, or neither
+                os.replace(tmp, target)
+                note_committed(target)
         except BaseException as exc:
             if tmp is not None:
                 with contextlib.suppress(OSError):

@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from aion_cli.errors import InputError
+from aion_cli.formats.committed import note_committed
 
 Recogniser = Callable[[Path], bool]
 """Says whether an existing path is an output the caller may replace (follows symlinks)."""
@@ -416,23 +417,28 @@ class Staged:
             if not _exists(self.path):
                 raise OutputPathError(f"nothing was written for {self.target}")
             _fsync_tree(self.path)
-            if self.merge and self.target.is_dir():
-                if self.recognise is not None:
-                    _check_replaced(self.path, self.target, self.recognise)
-                _merge_into(self.path, self.target)
-            elif self.target.is_dir() and not self.target.is_symlink():
-                old = self.folder / ".replaced"
-                os.rename(self.target, old)
-                try:
-                    os.rename(self.path, self.target)
-                except BaseException:
-                    os.rename(old, self.target)
-                    raise
-            else:
-                os.replace(self.path, self.target)
+            if self.merge and self.target.is_dir() and self.recognise is not None:
+                _check_replaced(self.path, self.target, self.recognise)
+            with interrupts_held():  # moved in and recorded as such (renames only), or neither
+                self._move_in()
+                note_committed(self.target)
         finally:
             self.discard()
         fsync_dir(self.target.parent)
+
+    def _move_in(self) -> None:
+        if self.merge and self.target.is_dir():
+            _merge_into(self.path, self.target)
+        elif self.target.is_dir() and not self.target.is_symlink():
+            old = self.folder / ".replaced"
+            os.rename(self.target, old)
+            try:
+                os.rename(self.path, self.target)
+            except BaseException:
+                os.rename(old, self.target)
+                raise
+        else:
+            os.replace(self.path, self.target)
 
     def discard(self) -> None:
         """Remove the staging folder and whatever was written in it. Idempotent."""

@@ -102,7 +102,7 @@ def report(exc: BaseException, debug: bool) -> int:
     if debug and not interrupted and not isinstance(exc, click.exceptions.Exit):
         traceback.print_exception(exc, file=sys.stderr)
     if interrupted:
-        _emit("interrupted", "an existing output is left unchanged; rerun the command to finish")
+        _report_interrupt()
         return EXIT_INTERRUPTED
     if isinstance(exc, TopicNotFoundError):
         _emit(exc.message, _topic_hint(exc))
@@ -123,6 +123,31 @@ def report(exc: BaseException, debug: bool) -> int:
         "this is a bug in aion; rerun with --debug for the traceback and report it",
     )
     return EXIT_FAULT
+
+
+def _report_interrupt() -> None:
+    """``error: interrupted``; when an output was already moved into place (complete) before
+    the interruption, the message names it instead of claiming it was left unchanged."""
+    from aion_cli.formats.committed import committed_outputs
+
+    written = list(dict.fromkeys(_shown_path(_relative(p)) for p in committed_outputs()))
+    if not written:
+        _emit("interrupted", "an existing output is left unchanged; rerun the command to finish")
+        return
+    _emit(
+        f"interrupted after {', '.join(written)} was written",
+        "what was written is complete; any other output of the command is left unchanged",
+    )
+
+
+def _relative(path: os.PathLike[str]) -> str:
+    """``path`` relative to the current folder when it lies inside it."""
+    text = os.fspath(path)
+    try:
+        rel = os.path.relpath(text)
+    except ValueError:
+        return text
+    return text if rel.startswith(os.pardir) else rel
 
 
 def _silence_stdout() -> None:

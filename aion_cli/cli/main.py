@@ -22,6 +22,7 @@ from aion_cli.cli import report as report_command
 from aion_cli.cli.errors import EXIT_INTERRUPTED, EXIT_OK, quiet_finalizers, report
 from aion_cli.cli.evaluate import evaluate as evaluate_group
 from aion_cli.cli.simulate import simulate as simulate_command
+from aion_cli.formats.committed import forget_committed
 
 EPILOG = """\b
 Examples:
@@ -68,6 +69,7 @@ class AionGroup(click.Group):
         **extra: Any,
     ) -> Any:
         argv = _hoist_debug(list(sys.argv[1:] if args is None else args))
+        forget_committed()  # what an interruption reports is this command's
         try:
             rv = super().main(
                 argv, prog_name or "aion", complete_var, standalone_mode=False, **extra

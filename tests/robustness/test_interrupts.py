@@ -7,13 +7,18 @@ from __future__ import annotations
 
 import importlib.abc
 import importlib.machinery
+import os
 import signal
 import sys
 import threading
 import time
+from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import pytest
+
+from tests.robustness.conftest import Office, assert_one_error, run, walk, write_log
 
 
 class _FakeOpen3d(importlib.abc.MetaPathFinder, importlib.abc.Loader):
@@ -67,3 +72,74 @@ def test_ctrl_c_during_the_open3d_import_waits_for_the_import(
             sys.modules["open3d"] = real
     assert fake.ready  # the import finished; the Ctrl-C was raised after it
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored
+
+
+# -- an interruption after the output was moved into place --------------------------------------
+
+
+def _interrupt(*args: Any, **kw: Any) -> None:
+    raise KeyboardInterrupt
+
+
+def test_ctrl_c_after_the_map_was_replaced_says_it_was_written(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Before: a Ctrl-C after the continued map was renamed into place (while its folder was
+    fsync'd, or the summary printed) said "an existing output is left unchanged; rerun the
+    command to finish"; the map had been replaced, and the rerun refused ("already in the
+    map")."""
+    from aion_cli.formats import mapfile_write
+
+    target = office.copy_map(tmp_path / "m.aion")
+    before = target.read_bytes()
+    second = write_log(tmp_path / "later.mcap", walk(1200, start_s=30 * 86400))
+    with monkeypatch.context() as patch:
+        patch.setattr(mapfile_write, "fsync_dir", _interrupt)
+        result = run("build", second, "--map", target, "-o", target, "-q")
+    assert result.exit_code == 130, result.stderr
+    assert_one_error(result.stderr, "interrupted after", "m.aion was written")
+    assert "left unchanged; rerun" not in result.stderr
+    assert target.read_bytes() != before
+    assert sorted(os.listdir(tmp_path)) == ["later.mcap", "m.aion"]  # no lock, no staging
+    assert run("info", "--verify", target).exit_code == 0
+
+
+def test_ctrl_c_before_the_map_was_replaced_says_it_is_unchanged(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The other side of the rename: the map as it was, and the message says so (also in a
+    later command of the same process, which starts a new record)."""
+    from aion_cli.formats import mapfile_write
+
+    target = office.copy_map(tmp_path / "m.aion")
+    before = target.read_bytes()
+    second = write_log(tmp_path / "later.mcap", walk(1200, start_s=30 * 86400))
+    with monkeypatch.context() as patch:
+        patch.setattr(mapfile_write, "fsync_dir", _interrupt)
+        assert run("compact", target, "-o", tmp_path / "q.aion").exit_code == 130
+        patch.setattr(mapfile_write, "check_map_target", _interrupt)
+        result = run("build", second, "--map", target, "-o", target, "-q")
+    assert result.exit_code == 130, result.stderr
+    assert_one_error(result.stderr, "interrupted")
+    assert "left unchanged" in result.stderr
+    assert "was written" not in result.stderr
+    assert target.read_bytes() == before
+    assert sorted(os.listdir(tmp_path)) == ["later.mcap", "m.aion", "q.aion"]
+
+
+def test_ctrl_c_after_a_staged_log_was_moved_in_says_it_was_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The same for outputs written beside their target and renamed (``convert``, ``export``,
+    ``report``, ``simulate``): ``formats.outputs.Staged``."""
+    from aion_cli.formats import outputs
+
+    tracks = Path(__file__).parents[1] / "data" / "atc" / "atc-1024-9_test.csv"
+    out = tmp_path / "o.mcap"
+    with monkeypatch.context() as patch:
+        patch.setattr(outputs, "fsync_dir", _interrupt)
+        result = run("convert", tracks, "--layout", "atc", "-o", out)
+    assert result.exit_code == 130, result.stderr
+    assert_one_error(result.stderr, "interrupted after", "o.mcap was written")
+    assert os.listdir(tmp_path) == ["o.mcap"]
+    assert run("info", out).exit_code == 0
