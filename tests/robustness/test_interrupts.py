@@ -143,3 +143,38 @@ def test_ctrl_c_after_a_staged_log_was_moved_in_says_it_was_written(
     assert_one_error(result.stderr, "interrupted after", "o.mcap was written")
     assert os.listdir(tmp_path) == ["o.mcap"]
     assert run("info", out).exit_code == 0
+
+
+# -- an interruption while the command line loads ---------------------------------------------
+
+
+class _InterruptedImport(importlib.abc.MetaPathFinder):
+    """Ctrl-C while ``aion_cli.cli.main`` (click, rich, the commands) is being imported."""
+
+    def find_spec(self, name: str, path: object, target: object = None) -> object:
+        if name == "aion_cli.cli.main":
+            raise KeyboardInterrupt
+        return None
+
+
+def test_ctrl_c_while_the_command_line_loads_is_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before: a Ctrl-C in the first 0.2-0.5 s of any command printed a KeyboardInterrupt
+    traceback from inside an import (the console script imported everything before aion's
+    error handling existed); a SIGTERM then killed it without a word."""
+    from aion_cli.cli import entry
+
+    previous = signal.getsignal(signal.SIGTERM)
+    monkeypatch.delitem(sys.modules, "aion_cli.cli.main")
+    monkeypatch.setattr(sys, "meta_path", [_InterruptedImport(), *sys.meta_path])
+    try:
+        with pytest.raises(SystemExit) as stop:
+            entry.main()
+        assert signal.getsignal(signal.SIGTERM) is entry._terminated  # SIGTERM unwinds too
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = sys.__unraisablehook__
+    assert stop.value.code == 130
+    err = capsys.readouterr().err
+    assert_one_error(err, "interrupted")
