@@ -173,7 +173,8 @@ def _try_create_lock(lock: Path) -> bool:
 def map_lock(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Hold ``<path>.lock`` (O_CREAT|O_EXCL, content ``"<pid> <host>"``) for the block.
 
-    A stale lock (its process is dead) is removed and taken over once. Another live writer is a
+    A stale lock (its process is dead) is removed and taken over once; temporary files a
+    killed writer left beside the map are removed then. Another live writer is a
     :class:`MapLockedError`. Known limit: two processes recovering the same stale lock at the
     same instant could both succeed; the window is the few microseconds between check and
     unlink.
@@ -202,8 +203,25 @@ def map_lock(path: str | os.PathLike[str]) -> Iterator[Path]:
             f"map {Path(path)} is being written by another process ({holder or 'unknown'})",
             hint=f"wait for it to finish; if no aion is running, delete {lock}",
         )
+    _remove_orphaned_staging(Path(path))
     try:
         yield lock
     finally:
         with contextlib.suppress(OSError):
             lock.unlink()
+
+
+def _remove_orphaned_staging(path: Path) -> None:
+    """Remove the hidden temporary files (``.<map>.<random>.tmp``) a writer of ``path`` killed
+    with SIGKILL (or by a power cut) left beside it. Every writer of a map holds its lock while
+    its temporary file exists, so once this process holds the lock no such file belongs to a
+    live writer. Best effort: only regular files of exactly that name pattern."""
+    from aion_cli.formats.outputs import STAGING_ROOM, fitted_name, staged_target
+
+    folder = path.parent if str(path.parent) else Path(".")
+    mine = fitted_name(path.name, STAGING_ROOM)
+    with contextlib.suppress(OSError), os.scandir(folder) as entries:
+        for entry in entries:
+            if staged_target(entry.name) == mine and entry.is_file(follow_symlinks=False):
+                with contextlib.suppress(OSError):
+                    os.unlink(entry.path)

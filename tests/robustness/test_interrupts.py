@@ -178,3 +178,30 @@ def test_ctrl_c_while_the_command_line_loads_is_one_line(
     assert stop.value.code == 130
     err = capsys.readouterr().err
     assert_one_error(err, "interrupted")
+
+
+# -- what a writer killed with SIGKILL left ------------------------------------------------------
+
+
+def test_a_killed_writers_temporary_map_is_removed_by_the_next_writer(
+    office: Office, tmp_path: Path
+) -> None:
+    """Before: every SIGKILL mid-write left a hidden ``.m.aion.<random>.tmp`` (up to a map's
+    size) for good; the stale lock was recovered, the file never. Only files of that exact
+    pattern go: a staging file of another target and a file of the user's stay."""
+    import socket
+    import subprocess
+
+    target = office.copy_map(tmp_path / "m.aion")
+    gone = subprocess.Popen(["true"])  # a process that has exited: the lock's holder died
+    gone.wait()
+    (tmp_path / "m.aion.lock").write_text(f"{gone.pid} {socket.gethostname()}\n")
+    orphan = tmp_path / ".m.aion.k7_x2q9a.tmp"
+    orphan.write_bytes(b"PK\x03\x04 half a map")
+    kept = [tmp_path / ".m.aion.x.abcdefgh.tmp", tmp_path / ".m.aion.notes.tmp"]
+    for path in kept:
+        path.write_text("not aion's to remove")
+    result = run("compact", office.map, "-o", target, "-q")
+    assert result.exit_code == 0, result.stderr
+    assert not orphan.exists()
+    assert sorted(os.listdir(tmp_path)) == sorted(["m.aion", *(p.name for p in kept)])
