@@ -138,15 +138,22 @@ def _load_with_header(payload: bytes, version: str) -> Any:
     """``DynamicSceneGraph.load`` of ``header(version) + payload`` via a temporary file."""
     import spark_dsg
 
-    fd, name = tempfile.mkstemp(suffix=".sparkdsg", prefix="aion-dsg-")
+    from aion_cli.formats.outputs import interrupts_held
+
+    name: str | None = None
     try:
-        with os.fdopen(fd, "wb") as fh:
+        with interrupts_held():  # created and named, or neither (a Ctrl-C between leaked it)
+            fd, name = tempfile.mkstemp(suffix=".sparkdsg", prefix="aion-dsg-")
+            handle = os.fdopen(fd, "wb")
+        with handle as fh:
             fh.write(spark_header(version))
             fh.write(payload)
         with _native_output_silenced(), _memory_budget(len(payload)):
             return spark_dsg.DynamicSceneGraph.load(name)
     finally:
-        os.unlink(name)
+        if name is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(name)
 
 
 def read_dsg_payload(payload: PayloadLike, version: str | None = None) -> tuple[Any, str]:

@@ -205,3 +205,26 @@ def test_a_killed_writers_temporary_map_is_removed_by_the_next_writer(
     assert result.exit_code == 0, result.stderr
     assert not orphan.exists()
     assert sorted(os.listdir(tmp_path)) == sorted(["m.aion", *(p.name for p in kept)])
+
+
+def test_a_ctrl_c_as_the_temporary_graph_file_is_made_leaves_no_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A spark_dsg payload is decoded through a temporary file: a Ctrl-C between its creation
+    and the ``try`` that removes it left /tmp/aion-dsg-*.sparkdsg behind."""
+    import tempfile
+
+    from aion_cli.formats import dsg_payload
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    real = tempfile.mkstemp
+
+    def interrupted(*args: Any, **kwargs: Any) -> tuple[int, str]:
+        made = real(*args, **kwargs)
+        signal.raise_signal(signal.SIGINT)  # the user's Ctrl-C, right after the file exists
+        return made
+
+    monkeypatch.setattr(tempfile, "mkstemp", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        dsg_payload._load_with_header(b"\x00" * 16, "1.1.0")
+    assert list(tmp_path.iterdir()) == []
