@@ -180,10 +180,17 @@ class StreamStep:
             self._logs,
             self._continued_name(),
         )
+        if first:
+            self.note_overlap(int(t_ns.min()))
+
+    def note_overlap(self, first_ns: int) -> None:
+        """The note on logs whose first detection (``first_ns``) comes before the continued
+        map's data ends (:func:`aion_cli.log_times.overlap_note`); none in a shard, whose
+        parent makes it from its shards' first detections."""
         end = self.previous_manifest.end_ns if self.previous_manifest else None
-        if self.shard or end is None or not first:
+        if self.shard or end is None:
             return
-        note = overlap_note(t_ns, end, self._logs, self._continued_name())
+        note = overlap_note(first_ns, end, self._logs, self._continued_name())
         if note is not None:
             self.report.notes.append(note)
 

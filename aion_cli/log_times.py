@@ -348,13 +348,12 @@ def check_after_open(
     )
 
 
-def overlap_note(t_ns: I64, end_ns: int, logs: Sequence[Path], map_name: str) -> str | None:
+def overlap_note(first: int, end_ns: int, logs: Sequence[Path], map_name: str) -> str | None:
     """The note for a continued map (``map_name``, whose data ends at ``end_ns``) given logs
-    whose detections (log times ``t_ns``) start before that end, inside its open window
+    whose detections start (log time ``first``) before that end, inside its open window
     (:func:`check_after_open` refuses earlier ones): they are learnt after the map's own, not
     interleaved with them, so the map is not the one of one build of all the logs (tracks of
     the same topic are linked apart)."""
-    first = int(t_ns.min())
     if first >= end_ns:
         return None
     return (

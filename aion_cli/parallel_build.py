@@ -239,20 +239,11 @@ class ParallelBuild:
 
     def _overlap(self, reports: list[BuildReport]) -> None:
         """The note a sequential build makes on logs whose first detections come before the
-        continued map's data ends (:func:`aion_cli.log_times.overlap_note`), from the shards'
-        first detections (a shard builds apart from the map and makes none)."""
-        import numpy as np
-
-        from aion_cli.log_times import overlap_note
-
-        manifest = self.build.previous_manifest
+        continued map's data ends, from the shards' first detections (a shard builds apart
+        from the map and makes none)."""
         firsts = [r.first_detection_ns for r in reports if r.first_detection_ns is not None]
-        if manifest is None or manifest.end_ns is None or not firsts:
-            return
-        first = np.array([min(firsts)], dtype=np.int64)
-        note = overlap_note(first, manifest.end_ns, self.build.logs, self.build._continued_name())
-        if note is not None:
-            self.build.report.notes.append(note)
+        if firsts:
+            self.build.note_overlap(min(firsts))
 
 
 def _plan_streams(
