@@ -179,10 +179,18 @@ def _full_disk_as_oserror(path: Path) -> Iterator[None]:
     try:
         yield
     except sqlite3.OperationalError as exc:
-        code = getattr(exc, "sqlite_errorcode", None)
-        if code != _SQLITE_FULL and "database or disk is full" not in str(exc):
+        full = _as_full_disk(exc, path)
+        if full is None:
             raise
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path)) from exc
+        raise full from exc
+
+
+def _as_full_disk(exc: sqlite3.OperationalError, path: Path) -> OSError | None:
+    """The ``OSError`` (ENOSPC) for SQLite's full-disk error; None for any other."""
+    code = getattr(exc, "sqlite_errorcode", None)
+    if code != _SQLITE_FULL and "database or disk is full" not in str(exc):
+        return None
+    return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
 
 
 class _Rosbag2Backend(_Backend):
@@ -202,8 +210,13 @@ class _Rosbag2Backend(_Backend):
             return self.writer.add_connection(topic, msgtype, typestore=msgdefs.typestore(2))
 
     def write(self, channel: Any, t_ns: int, data: bytes | memoryview, sequence: int) -> None:
-        with _full_disk_as_oserror(self.path):
+        try:  # per message: a try costs nothing, a context manager a generator each time
             self.writer.write(channel, t_ns, data)
+        except sqlite3.OperationalError as exc:
+            full = _as_full_disk(exc, self.path)
+            if full is None:
+                raise
+            raise full from exc
 
     def close(self) -> None:
         with _full_disk_as_oserror(self.path):
