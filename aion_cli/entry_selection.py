@@ -1,15 +1,40 @@
 """Which entries of an entry table ``aion predict``, ``export`` and ``Map.predict`` answer for:
 the layer that ``--node`` values name (:func:`layer_of_nodes`), the rows ``--layer``, ``--node``
 and ``--at`` choose (:func:`select`), and the refusal of a layer the map does not have
-(:func:`refuse_empty_layer`). The records themselves are :mod:`aion_cli.predictions`'."""
+(:func:`refuse_empty_layer`), all at once for a query (:func:`chosen_entries`). The records
+themselves are :mod:`aion_cli.predictions`'."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from aion_cli.predictions import KINDS, entry_ids
+from aion_cli.predictions import KINDS, entry_ids, entry_table
+
+if TYPE_CHECKING:
+    from aion_cli.mapquery import LoadedMap
+
+
+def chosen_entries(
+    loaded: LoadedMap,
+    t_ns: int | None,
+    layer: str,
+    nodes: Sequence[str | int],
+    at: str | None,
+) -> tuple[Any, str, Any, dict[str, str]]:
+    """What a query (``--layer``, ``--node`` by id or room name, ``--at``) answers for at
+    ``t_ns``: the entry table of the layer it answers on, that layer, the rows chosen (a
+    layer the map lacks refused) and the graph's room and building names; ``predict``'s
+    records at one time and its series both start here."""
+    from aion_cli.room_names import names_by_id, with_names_resolved
+
+    wanted = with_names_resolved(nodes, loaded.graph)
+    layer = layer_of_nodes(layer, wanted, loaded.graph)
+    table = entry_table(loaded, t_ns, layer)
+    index = refuse_empty_layer(table, layer, select(table, layer, wanted, at))
+    names = {} if loaded.graph is None else names_by_id(loaded.graph)
+    return table, layer, index, names
 
 
 def refuse_empty_layer(table: Any, layer: str, index: Any) -> Any:

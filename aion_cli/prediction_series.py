@@ -162,17 +162,13 @@ def predict_series(
 ) -> SeriesTable:
     """The series of the entries asked for (see the module doc); ``progress(k)`` after each
     time."""
-    from aion_cli.entry_selection import layer_of_nodes, refuse_empty_layer, select
-    from aion_cli.predictions import entry_ids, entry_table, rows_from_table
-    from aion_cli.room_names import names_by_id, with_names_resolved
+    from aion_cli.entry_selection import chosen_entries
+    from aion_cli.predictions import entry_ids, rows_from_table
 
     times = [int(t) for t in times_ns]
     if not times:
         raise ValueError("a series needs at least one time")
-    wanted = with_names_resolved(nodes, loaded.graph)
-    layer = layer_of_nodes(layer, wanted, loaded.graph)
-    first = entry_table(loaded, times[0], layer)
-    index = refuse_empty_layer(first, layer, select(first, layer, wanted, at))
+    first, layer, index, names = chosen_entries(loaded, times[0], layer, nodes, at)
     if layer in ("rooms", "buildings"):  # sums over places, as the aggregated table's
         flow = _group_flows(loaded, first.node_id[index], times, layer, progress)
     else:
@@ -184,7 +180,6 @@ def predict_series(
     kept = flow[order]  # the rows of the kept entries, in their order
     per_hour = kept * (3600.0 / first.window_s)  # as the table's descriptors compute it
     static = ("id", "name", "kind", "layer", "x", "y", "z")
-    names = {} if loaded.graph is None else names_by_id(loaded.graph)
     entries = [
         {key: row[key] for key in static}
         for row in rows_from_table(first, index[order], names)

@@ -237,14 +237,9 @@ def predicted_records(
     (None: historical), busiest first, the first ``top`` of them; and how many entries
     matched. Rows are ordered and cut on arrays, so dicts are made for the rows returned only
     (``aion predict`` and :meth:`aion_cli.Map.predict`)."""
-    from aion_cli.entry_selection import layer_of_nodes, refuse_empty_layer, select
-    from aion_cli.room_names import names_by_id, with_names_resolved
+    from aion_cli.entry_selection import chosen_entries
 
-    wanted = with_names_resolved(nodes, loaded.graph)
-    layer = layer_of_nodes(layer, wanted, loaded.graph)
-    table = entry_table(loaded, t_ns, layer)
-    index = refuse_empty_layer(table, layer, select(table, layer, wanted, at))
-    names = {} if loaded.graph is None else names_by_id(loaded.graph)
+    table, _, index, names = chosen_entries(loaded, t_ns, layer, nodes, at)
     return rows_from_table(table, ordered_rows(table, index, top), names), len(index)
 
 
