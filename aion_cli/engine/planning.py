@@ -28,8 +28,9 @@ and the flow scale are the config's ``plan_*`` parameters.
 Beyond the paper, costs are time-dependent: a node's costs come from ``node_cost(t_s)`` evaluated
 at its estimated arrival time ``depart_s + g_distance / speed`` (``g_distance`` = path length
 from the start along the best-cost path found so far). ``node_cost`` is evaluated once per time
-bucket (default the model window ``config.window_s``; a bucket is evaluated at its start, or at
-the departure time for the departure bucket), and the per-edge cost terms of a bucket are
+bucket (default the model window ``config.window_s``, aligned as the map's windows are to the
+UNIX epoch; a bucket is evaluated at its start, or at the departure time for the departure
+bucket), and the per-edge cost terms of a bucket are
 computed for the whole graph with numpy, so the Python A* loop only adds numbers. A node is
 settled once, with the arrival time of its best-cost path (label-setting; exact for static
 costs, a standard approximation of the time-dependent shortest path otherwise).
@@ -50,6 +51,7 @@ from scipy.sparse.csgraph import connected_components
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.nav_graph import Arcs, NavGraph, NavGraphError
 from aion_cli.engine.node_ids import node_label
+from aion_cli.engine.windows import EPOCH_NS
 from aion_cli.errors import AionError, InputError, NoPathError
 
 F64 = npt.NDArray[np.float64]
@@ -175,8 +177,12 @@ class _BucketTables:
         self.graph, self.node_cost, self.config = graph, node_cost, config
         self.depart_s, self.speed, self.bucket_s = depart_s, speed, bucket_s
         self.tables: dict[int, tuple[F64, F64, list[float]]] = {}
+        # Buckets are the map's windows, aligned to the UNIX epoch, not to the model epoch
+        # (model seconds count from EPOCH_NS, which a window such as 700 s does not divide):
+        # bucket b starts at model second b·bucket_s − phase.
+        self.phase = math.fmod(EPOCH_NS / 1e9, bucket_s)
         # bucket(d) = floor(t0 + d·k): the A* loop inlines this exact formula.
-        self.t0 = depart_s / bucket_s
+        self.t0 = (depart_s + self.phase) / bucket_s
         self.k = 1.0 / (speed * bucket_s)
 
     def bucket(self, distance: float) -> int:
@@ -184,7 +190,7 @@ class _BucketTables:
         return math.floor(self.t0 + distance * self.k)
 
     def eval_time(self, bucket: int) -> float:
-        return max(bucket * self.bucket_s, self.depart_s)
+        return max(bucket * self.bucket_s - self.phase, self.depart_s)
 
     def get(self, bucket: int) -> tuple[F64, F64, list[float]]:
         """``(src_half, dst_half, full)`` per arc for ``bucket``; ``full`` (a list, for the hot

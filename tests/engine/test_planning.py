@@ -182,6 +182,30 @@ def test_time_bucket_is_configurable() -> None:
     assert len(calls) > 3
 
 
+def test_time_buckets_are_the_maps_windows_aligned_to_the_unix_epoch() -> None:
+    """A 700 s window does not divide the model epoch (2020-01-06, 1,578,268,800 s after
+    1970, 500 s past a multiple of 700): the buckets must still start where the map's windows
+    start, at UNIX multiples of 700 s, not at model-second multiples of 700."""
+    from aion_cli.engine.windows import EPOCH_NS
+
+    g = graph_of(CORRIDOR_XYZ, CORRIDOR_EDGES)
+    busy = corridor_costs(math.pi)
+    calls: list[float] = []
+
+    def fn(t_s: float) -> NodeCosts:
+        calls.append(t_s)
+        return busy
+
+    epoch_s = EPOCH_NS // 10**9
+    depart = 1000.0  # model seconds; the UNIX windows start at model seconds 200 + 700 k
+    plan(g, pid(0), pid(4), depart, 0.01, fn, CFG.replace(window_s=700.0))
+    assert calls[0] == depart
+    later = sorted(set(calls[1:]))
+    assert later, "a walk of 800 s crosses at least one window"
+    assert later[0] == 1600.0  # the next window, not model second 1400
+    assert all((epoch_s + round(t)) % 700 == 0 for t in later)
+
+
 def test_start_equals_goal() -> None:
     g = graph_of(CORRIDOR_XYZ, CORRIDOR_EDGES)
     res = plan(g, pid(2), pid(2), 5.0, 1.0, lambda t: corridor_costs(0.0), CFG)
