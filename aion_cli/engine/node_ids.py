@@ -20,6 +20,8 @@ from aion_cli.errors import InputError
 _RE_SYMBOL = re.compile(r"^([A-Za-z])(?:(\d+)|\((\d+)\))$")  # p12 or p(12), balanced
 INDEX_BITS = 56
 INDEX_MASK = (1 << INDEX_BITS) - 1
+MAX_NODE_ID = (1 << 64) - 1
+"""Node ids are uint64 (spark_dsg NodeSymbol values)."""
 
 
 def node_label(node_id: int) -> str:
@@ -40,8 +42,14 @@ def parse_node_id(text: str) -> int:
         if index > INDEX_MASK:
             raise InputError(f"node index too large in {text!r}")
         return (ord(match.group(1)) << 56) | index
-    if token.isdigit():
-        return int(token)
+    if token.isascii() and token.isdigit():  # not "²", which isdigit() but int() refuses
+        value = int(token)
+        if value > MAX_NODE_ID:
+            raise InputError(
+                f"node id too large in {text!r}: ids are 64-bit (at most {MAX_NODE_ID})",
+                'node ids look like "p12" (see `aion predict MAP`)',
+            )
+        return value
     raise InputError(
         f"not a node id: {text!r}", 'node ids look like "p12" (see `aion predict MAP`)'
     )

@@ -93,6 +93,9 @@ def test_no_path_names_the_disconnected_parts(office: Office) -> None:
         # millimetres, or another frame: far beyond the graph, not snapped to its edge
         (["--from", "p0", "--to", "3900,1700"], "farther than the whole map spans"),
         (["--from", "1e300,0", "--to", "p0"], "is 1e+300 m from the nearest place"),  # no overflow
+        # raw integer ids: past uint64, or a digit int() does not read (internal errors before)
+        (["--from", "9" * 30, "--to", "p0"], "9" * 30),
+        (["--from", "p0", "--to", "\u00b2"], "not a node id"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(office: Office, args: list[str], fragment: str) -> None:

@@ -32,7 +32,11 @@ def test_ids_without_a_printable_category_stay_numeric() -> None:
     assert node_label((200 << 56) | 3) == str((200 << 56) | 3)
 
 
-@pytest.mark.parametrize("text", ["", "p", "12p", "p-1", "pp12", "p(12"])
+@pytest.mark.parametrize(
+    "text",
+    # "²" is a digit to str.isdigit, not to int(); 2**64 does not fit a uint64 node id
+    ["", "p", "12p", "p-1", "pp12", "p(12", "²", "18446744073709551616", "9" * 30],
+)
 def test_bad_ids_are_input_errors(text: str) -> None:
     with pytest.raises(InputError):
         parse_node_id(text)
