@@ -198,6 +198,11 @@ def endpoint(node: object, what: str) -> str | int:
     if isinstance(node, bool) or node is None:
         raise InputError(f"{what} must be a node id, a room name or a point, got {node!r}")
     if isinstance(node, numbers.Integral):
+        if not 0 <= int(node) < 1 << 64:  # node ids are uint64
+            raise InputError(
+                f"{what} must be a node id (0 .. 2**64 - 1), a room name or a point, "
+                f"got {node!r}"
+            )
         return int(node)
     where = point(node, what)
     assert where is not None

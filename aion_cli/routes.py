@@ -71,24 +71,29 @@ def resolve_endpoint(
     node; :class:`~aion_cli.errors.UnknownNodeError` for an id not in the graph (or a room
     without a place in it), :class:`~aion_cli.errors.InputError` for a point far from every
     node (:func:`~aion_cli.engine.node_ids.refuse_far_point`)."""
-    if isinstance(where, (int, np.integer)):
-        nav.index_of(int(where))
-        return Endpoint(int(where))
+    if isinstance(where, (int, np.integer)):  # a NodeSymbol value: a place, room, ...
+        return _node_endpoint(int(where), nav, graph)
     point = parse_point(where)
     if point is None:
         named = None if graph is None else named_node(where, graph)
         node_id = named if named is not None else parse_id_or_name(where, graph)
-        if graph is not None:
-            inside = _room_endpoint(node_id, nav, graph)
-            if inside is not None:
-                return inside
-        nav.index_of(node_id)  # UnknownNodeError with examples
-        return Endpoint(node_id)
+        return _node_endpoint(node_id, nav, graph)
     row = nav.nearest(point)
     node_id = int(nav.ids[row])
     distance = point_distance(tuple(float(v) for v in nav.xyz[row]), point)
     refuse_far_point(where, distance, node_label(node_id), nav.xyz)
     return Endpoint(node_id, point, distance)
+
+
+def _node_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot | None) -> Endpoint:
+    """A room or building of ``graph`` (its place nearest the centre), else a place of
+    ``nav`` (:class:`~aion_cli.errors.UnknownNodeError` with examples when it is not)."""
+    if graph is not None:
+        inside = _room_endpoint(node_id, nav, graph)
+        if inside is not None:
+            return inside
+    nav.index_of(node_id)
+    return Endpoint(node_id)
 
 
 def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoint | None:

@@ -82,6 +82,8 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
         (lambda m: m.plan("p1", "p2", speed="1.2"), "speed must be a number"),
         (lambda m: m.plan(None, "p2"), "start must be a node id"),
         (lambda m: m.plan((0.0,), "p2"), "start must be a point"),
+        (lambda m: m.plan(-1, "p2"), "start must be a node id"),  # not an OverflowError
+        (lambda m: m.plan("p1", 1 << 64), "goal must be a node id"),
         (lambda m: m.plan("p1", "p2", leave=(T,)), "leave must be two items"),
         (lambda m: m.plan("p1", "p2", leave="08:00..09:00"), "leave must be two items"),
         (lambda m: m.plan("p1", "p2", time=T, leave=(T, T)), "not both"),
@@ -109,6 +111,15 @@ def test_points_as_numbers_and_integer_node_ids(m: aion.Map) -> None:
     assert _ids(m.predict(T, tz="UTC", at=np.array([5.8, 0.3]))) == ["p3"]
     p4 = (ord("p") << 56) | 4
     assert _ids(m.predict(T, tz="UTC", nodes=[np.uint64(p4)])) == ["p4"]
+
+
+def test_a_room_as_its_integer_id_is_a_room_for_plans(m: aion.Map) -> None:
+    """The integer NodeSymbol value of a room plans from its place nearest the centre, as
+    its id "R1" does (it was looked up among the places and refused)."""
+    r1 = (ord("R") << 56) | 1
+    by_int = m.plan(r1, "p0", time=T, tz="UTC")
+    assert by_int.to_dict() == m.plan("R1", "p0", time=T, tz="UTC").to_dict()
+    assert by_int.snapped[0]["room"] == "R1"
 
 
 def test_cell_ids_as_predict_prints_them_are_read_back() -> None:
