@@ -183,7 +183,7 @@ def plan_routes(
     depart_s = 0.0 if depart_ns is None else float(to_model_seconds(depart_ns))
     shortest = plan(nav, start, goal, depart_s, v, None, config)
     if depart_ns is None:
-        route = _route(shortest, shortest.cost, None, 0.0)
+        route = _route(shortest, shortest.cost, None, v)
         return Routes(start, goal, None, v, route, route)
     cost_fn = node_cost_fn(loaded, nav.ids)
     temporal = plan(nav, start, goal, depart_s, v, cost_fn, config)
@@ -193,14 +193,16 @@ def plan_routes(
         goal,
         depart_ns,
         v,
-        _route(temporal, temporal.cost, depart_ns, depart_s),
-        _route(shortest, shortest_cost, depart_ns, depart_s),
+        _route(temporal, temporal.cost, depart_ns, v),
+        _route(shortest, shortest_cost, depart_ns, v),
     )
 
 
-def _route(result: PlanResult, cost: float, depart_ns: int | None, depart_s: float) -> Route:
+def _route(result: PlanResult, cost: float, depart_ns: int | None, speed: float) -> Route:
+    # from the distance walked, not from model seconds: at ~2e8 s (2026) a float's step is
+    # 30 ns, which arrival_s - depart_s would carry into the nanoseconds
     base = 0 if depart_ns is None else depart_ns
-    arrival = tuple(base + round((float(a) - depart_s) * 1e9) for a in result.arrival_s)
+    arrival = tuple(base + round(float(w) / speed * 1e9) for w in result.walked_m)
     return Route(
         np.asarray(result.path, dtype=np.int64),
         tuple(int(i) for i in result.path_ids),

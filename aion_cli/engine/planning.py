@@ -94,7 +94,9 @@ class PlanResult:
     """A planned path. ``path`` are row indices into the graph, ``path_ids`` their node ids,
     ``arrival_s`` the estimated arrival time at each path node (model seconds), ``cost`` the
     total traversal cost (metres-equivalent; equals ``length_m`` for a distance-only plan),
-    ``expanded`` the number of nodes A* settled."""
+    ``expanded`` the number of nodes A* settled, ``walked_m`` the path length from the start
+    to each path node (``arrival_s - depart_s`` times the speed, without the float rounding of
+    model seconds: nanosecond arrival times are counted from it)."""
 
     path: I64
     path_ids: U64
@@ -103,6 +105,7 @@ class PlanResult:
     duration_s: float
     cost: float
     expanded: int
+    walked_m: F64
 
 
 # -- cost terms ------------------------------------------------------------------------------
@@ -335,15 +338,16 @@ def plan(
     if not closed[g_row]:
         raise _no_path(graph, s, g_row)
     path = _reconstruct(parent, g_row)
-    arrival = depart_s + np.asarray([dist[r] for r in path.tolist()]) / speed
+    walked = np.asarray([dist[r] for r in path.tolist()], dtype=np.float64)
     return PlanResult(
         path=path,
         path_ids=graph.ids[path],
-        arrival_s=arrival,
+        arrival_s=depart_s + walked / speed,
         length_m=dist[g_row],
         duration_s=dist[g_row] / speed,
         cost=best[g_row],
         expanded=expanded,
+        walked_m=walked,
     )
 
 

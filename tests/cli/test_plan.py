@@ -71,6 +71,11 @@ def test_temporal_path_avoids_the_crowd(tmp_path: Path) -> None:
     assert doc["temporal"]["path"] == ["p0", "p3", "p2"]
     assert doc["temporal"]["length_m"] == pytest.approx(2 * 8**0.5)
     assert doc["temporal"]["cost"] < doc["distance_only"]["cost"]
+    # to the nanosecond on steps of sqrt(8) m too (counted from model seconds, where a float's
+    # step is 30 ns in 2026, the last arrival was 15 ns off)
+    step_ns = 8**0.5 / doc["speed_mps"] * 1e9
+    expected = [doc["depart_ns"] + round(k * step_ns) for k in range(3)]
+    assert doc["temporal"]["arrival_ns"] == pytest.approx(expected, abs=1)
     table = run("plan", out, "--from", "p0", "--to", "p2", "--time", AT)
     assert table.exit_code == 0, table.stderr
     assert "p0 > p3 > p2" in table.stdout
