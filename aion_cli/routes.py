@@ -173,29 +173,55 @@ def plan_routes(
 ) -> Routes:
     """Both plans from node ``start`` to node ``goal`` departing at ``depart_ns`` (None: no
     time, both distance-only) at ``speed`` m/s (None: the map's ``plan_speed``)."""
-    from aion_cli.engine.planning import evaluate_path_cost, plan
-    from aion_cli.engine.windows import to_model_seconds
-    from aion_cli.mapquery import nav_graph, node_cost_fn, planning_config
+    return _Planning(loaded, start, goal, speed, nav).routes(depart_ns)
 
-    nav = nav if nav is not None else nav_graph(loaded)
-    config = planning_config(loaded)
-    v = float(speed if speed is not None else config.plan_speed)
-    depart_s = 0.0 if depart_ns is None else float(to_model_seconds(depart_ns))
-    shortest = plan(nav, start, goal, depart_s, v, None, config)
-    if depart_ns is None:
-        route = _route(shortest, shortest.cost, None, v)
-        return Routes(start, goal, None, v, route, route)
-    cost_fn = node_cost_fn(loaded, nav.ids)
-    temporal = plan(nav, start, goal, depart_s, v, cost_fn, config)
-    shortest_cost = evaluate_path_cost(nav, shortest.path, depart_s, v, cost_fn, config)
-    return Routes(
-        start,
-        goal,
-        depart_ns,
-        v,
-        _route(temporal, temporal.cost, depart_ns, v),
-        _route(shortest, shortest_cost, depart_ns, v),
-    )
+
+class _Planning:
+    """What the plans of one start, goal and speed share whatever the departure: the map's
+    planning config, the distance-only path (its nodes and lengths do not depend on the time)
+    and the node costs of the last few times asked for (``plan --leave``'s departures every
+    window read the same windows' forecasts)."""
+
+    def __init__(
+        self,
+        loaded: LoadedMap,
+        start: int,
+        goal: int,
+        speed: float | None,
+        nav: NavGraph | None,
+    ) -> None:
+        from functools import lru_cache
+
+        from aion_cli.engine.planning import plan
+        from aion_cli.mapquery import nav_graph, node_cost_fn, planning_config
+
+        self.loaded, self.start, self.goal = loaded, start, goal
+        self.nav = nav if nav is not None else nav_graph(loaded)
+        self.config = planning_config(loaded)
+        self.speed = float(speed if speed is not None else self.config.plan_speed)
+        self.shortest = plan(self.nav, start, goal, 0.0, self.speed, None, self.config)
+        self.cost_fn = lru_cache(maxsize=8)(node_cost_fn(loaded, self.nav.ids))
+
+    def routes(self, depart_ns: int | None) -> Routes:
+        from aion_cli.engine.planning import evaluate_path_cost, plan
+        from aion_cli.engine.windows import to_model_seconds
+
+        v, shortest = self.speed, self.shortest
+        if depart_ns is None:
+            route = _route(shortest, shortest.cost, None, v)
+            return Routes(self.start, self.goal, None, v, route, route)
+        depart_s = float(to_model_seconds(depart_ns))
+        nav, config, cost_fn = self.nav, self.config, self.cost_fn
+        temporal = plan(nav, self.start, self.goal, depart_s, v, cost_fn, config)
+        shortest_cost = evaluate_path_cost(nav, shortest.path, depart_s, v, cost_fn, config)
+        return Routes(
+            self.start,
+            self.goal,
+            depart_ns,
+            v,
+            _route(temporal, temporal.cost, depart_ns, v),
+            _route(shortest, shortest_cost, depart_ns, v),
+        )
 
 
 def _route(result: PlanResult, cost: float, depart_ns: int | None, speed: float) -> Route:
@@ -225,14 +251,12 @@ def plan_departures(
     """:func:`plan_routes` for each departure of ``times_ns`` (``aion plan --leave``), and
     the index of the best one: the least temporal cost, the earliest of equal ones;
     ``progress(k)`` after each departure."""
-    from aion_cli.mapquery import nav_graph
-
     if not times_ns:
         raise ValueError("no departure time")
-    nav = nav if nav is not None else nav_graph(loaded)
+    planning = _Planning(loaded, start, goal, speed, nav)
     plans = []
     for k, t in enumerate(times_ns, start=1):
-        plans.append(plan_routes(loaded, start, goal, t, speed, nav))
+        plans.append(planning.routes(t))
         if progress is not None:
             progress(k)
     costs = [p.temporal.cost for p in plans]

@@ -105,3 +105,35 @@ def test_the_api_finds_the_same_departure(sample_map: Path) -> None:
     assert sum(d["best"] for d in plan.departures) == 1
     with pytest.raises(aion.InputError, match="step"):
         aion.Map.load(sample_map).plan("p103", "p2", leave=(start, end), step=0.5)
+
+
+def test_departures_share_the_shortest_path_and_each_times_forecast(
+    sample_map: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The distance-only path does not depend on the departure and is searched once; each
+    window's forecast is predicted once for all departures, temporal plan and distance-only
+    cost alike (every departure searched both again and predicted each time twice: about 3x
+    slower on 10^5 places)."""
+    import aion_cli as aion
+    from aion_cli.engine import planning, query
+
+    searched: list[bool] = []
+    predicted: list[int] = []
+    real_plan, real_predict = planning.plan, query.predict_table
+
+    def plan_spy(*args: Any, **kwargs: Any) -> Any:
+        searched.append(args[5] is None)  # node_cost None: the distance-only search
+        return real_plan(*args, **kwargs)
+
+    def predict_spy(state: Any, t_ns: int) -> Any:
+        predicted.append(t_ns)
+        return real_predict(state, t_ns)
+
+    monkeypatch.setattr(planning, "plan", plan_spy)
+    monkeypatch.setattr(query, "predict_table", predict_spy)
+    m = aion.Map.load(sample_map)
+    best = m.plan("p103", "p2", leave=("2026-01-12 08:00", "2026-01-12 09:00"), tz="UTC")
+    assert len(best.departures) == 7
+    assert searched.count(True) == 1
+    assert searched.count(False) == 7
+    assert len(predicted) == len(set(predicted))
