@@ -214,13 +214,15 @@ class _Planning:
         nav, config, cost_fn = self.nav, self.config, self.cost_fn
         temporal = plan(nav, self.start, self.goal, depart_s, v, cost_fn, config)
         shortest_cost = evaluate_path_cost(nav, shortest.path, depart_s, v, cost_fn, config)
+        beside = _route(shortest, shortest_cost, depart_ns, v)
+        # The search keeps one arrival per node (label-setting), so with costs that change
+        # over time it can miss a path whose earlier arrivals pay off later. The distance-only
+        # path is one such path it may miss: never offer a plan dearer than it.
+        if shortest_cost < temporal.cost:
+            return Routes(self.start, self.goal, depart_ns, v, beside, beside)
         return Routes(
-            self.start,
-            self.goal,
-            depart_ns,
-            v,
-            _route(temporal, temporal.cost, depart_ns, v),
-            _route(shortest, shortest_cost, depart_ns, v),
+            self.start, self.goal, depart_ns, v, _route(temporal, temporal.cost, depart_ns, v),
+            beside,
         )
 
 

@@ -37,7 +37,8 @@ Examples:
 The temporal cost of each node is predicted for the time the walker is expected to arrive
 there (departure + distance / speed), read per model window: the forecast at the start of
 the arrival's window (at the departure time within the departure's window). The
-distance-only path is always shown beside it, with the temporal cost it would have.
+distance-only path is always shown beside it, with the temporal cost it would have (never
+less than the temporal plan's: where it would be, it is the temporal plan too).
 JSON keys: from, to, depart, depart_ns, zone, speed_mps,
 temporal{path, length_m, duration_s, cost, arrival, arrival_ns}, distance_only{the same},
 snapped (and export / png: the files written; with --leave,

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
@@ -207,3 +209,41 @@ def test_a_point_without_a_height_snaps_horizontally(office: Office) -> None:
     assert shown_point(point) == [3.0, 4.0]
     assert distances_from([[0.0, 0.0, 12.0]], point).tolist() == [5.0]
     assert distances_from([[0.0, 0.0, 12.0]], (3.0, 4.0, 0.0)).tolist() == [13.0]
+
+
+def test_the_temporal_plan_never_costs_more_than_the_distance_only_one(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """S(0) - X(2) directly (10 m) or by M(1) (10.2 m), then X - G(3) (10 m). S is busy, so
+    reaching X by M is cheaper and the search keeps only that arrival at X; but G turns busy
+    at 600 s, which the 0.2 m longer walk reaches G after and the direct one before. The
+    search's path costs 27.7, the distance-only path 25.0: the plan is the cheaper one (it
+    was the search's, dearer than the path printed beside it)."""
+    from types import SimpleNamespace
+
+    from aion_cli import mapquery
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.nav_graph import NavGraph
+    from aion_cli.engine.planning import NodeCosts
+    from aion_cli.engine.windows import EPOCH_NS
+    from aion_cli.routes import plan_departures, plan_routes
+
+    p = ord("p") << 56
+    xyz = np.array([[0, 0, 0], [5, 1, 0], [10, 0, 0], [20, 0, 0]], dtype=float)
+    nav = NavGraph.build(np.arange(4, dtype=np.uint64) + p, xyz, [(0, 2), (0, 1), (1, 2), (2, 3)])
+
+    def node_cost(t_s: float) -> NodeCosts:
+        flow = np.array([20.0, 0.0, 0.0, 20.0 if t_s >= 600.0 else 0.0])
+        return NodeCosts(np.where(flow > 0, 0.0, np.nan), flow, np.full(4, np.nan), np.zeros(4))
+
+    monkeypatch.setattr(mapquery, "node_cost_fn", lambda loaded, ids: node_cost)
+    monkeypatch.setattr(mapquery, "planning_config", lambda loaded: ModelConfig())
+    loaded: Any = SimpleNamespace()
+    depart_ns = EPOCH_NS + round((600 - 20.1) * 1e9)
+    routes = plan_routes(loaded, p, p + 3, depart_ns, 1.0, nav)
+    assert list(routes.distance_only.node_ids) == [p, p + 2, p + 3]
+    assert routes.distance_only.cost == pytest.approx(25.0)
+    assert routes.temporal.node_ids == routes.distance_only.node_ids
+    assert routes.temporal.cost == routes.distance_only.cost
+    plans, best = plan_departures(loaded, p, p + 3, [depart_ns], 1.0, nav)
+    assert plans[best].temporal.cost == pytest.approx(25.0)
