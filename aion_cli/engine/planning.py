@@ -40,7 +40,8 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Callable
+from array import array
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -179,7 +180,7 @@ class _BucketTables:
     ) -> None:
         self.graph, self.node_cost, self.config = graph, node_cost, config
         self.depart_s, self.speed, self.bucket_s = depart_s, speed, bucket_s
-        self.tables: dict[int, tuple[F64, F64, list[float]]] = {}
+        self.tables: dict[int, tuple[F64, F64, array[float]]] = {}
         # Buckets are the map's windows, aligned to the UNIX epoch, not to the model epoch
         # (model seconds count from EPOCH_NS, which a window such as 700 s does not divide):
         # bucket b starts at model second b·bucket_s − phase.
@@ -195,16 +196,21 @@ class _BucketTables:
     def eval_time(self, bucket: int) -> float:
         return max(bucket * self.bucket_s - self.phase, self.depart_s)
 
-    def get(self, bucket: int) -> tuple[F64, F64, list[float]]:
-        """``(src_half, dst_half, full)`` per arc for ``bucket``; ``full`` (a list, for the hot
-        loop) is the arc cost when both ends fall in this bucket, the common case; the halves
-        stay arrays, read only for arcs that cross into the next bucket."""
+    def get(self, bucket: int) -> tuple[F64, F64, array[float]]:
+        """``(src_half, dst_half, full)`` per arc for ``bucket``; ``full`` (a packed array, for
+        the hot loop) is the arc cost when both ends fall in this bucket, the common case; the
+        halves stay arrays, read only for arcs that cross into the next bucket."""
         table = self.tables.get(bucket)
         if table is None:
             costs = self.node_cost(self.eval_time(bucket))
             src_half, dst_half = arc_halves(self.graph, costs, self.config)
             full = self.graph.arcs.length * (1.0 + src_half + dst_half)
-            table = (src_half, dst_half, full.tolist())
+            # a packed array, not a list: as fast to index in the A* loop, but 8 bytes per arc
+            # instead of a float object and a pointer (32), times every bucket a slow walk
+            # crosses (a 10^5-place map at 0.02 m/s: 53 buckets, 1.6 GB before, 0.9 GB now)
+            packed = array("d")
+            packed.frombytes(full.tobytes())
+            table = (src_half, dst_half, packed)
             self.tables[bucket] = table
         return table
 
@@ -261,7 +267,8 @@ def _astar(arcs: Arcs, h: list[float], s: int, goal: int, tables: _BucketTables 
     pop, push, floor = heapq.heappop, heapq.heappush, math.floor
     expanded = 0
     # Distance-only: one "bucket" that never ends, whose full arc cost is the length.
-    src_half, full, d_next = arcs.length, length, math.inf
+    full: Sequence[float] = length
+    src_half, d_next = arcs.length, math.inf
     t0 = k = 0.0
     if tables is not None:
         t0, k = tables.t0, tables.k

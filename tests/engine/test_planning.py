@@ -206,6 +206,22 @@ def test_time_buckets_are_the_maps_windows_aligned_to_the_unix_epoch() -> None:
     assert all((epoch_s + round(t)) % 700 == 0 for t in later)
 
 
+def test_bucket_tables_hold_eight_bytes_per_arc() -> None:
+    """A slow walk on a large graph crosses many buckets, each with a table over every arc,
+    all kept for the search: the hot loop's arc costs are a packed float64 array (a list
+    held a float object and a pointer per arc: 1.6 GB instead of 0.9 GB on 10^5 places at
+    0.02 m/s)."""
+    from aion_cli.engine.planning import _BucketTables
+
+    g = graph_of(CORRIDOR_XYZ, CORRIDOR_EDGES)
+    tables = _BucketTables(g, lambda t: corridor_costs(math.pi), CFG, 0.0, 1.0, 600.0)
+    src_half, dst_half, full = tables.get(0)
+    assert not isinstance(full, list)
+    assert memoryview(full).itemsize == 8
+    assert len(full) == len(g.arcs.length)
+    np.testing.assert_array_equal(np.asarray(full), g.arcs.length * (1 + src_half + dst_half))
+
+
 def test_start_equals_goal() -> None:
     g = graph_of(CORRIDOR_XYZ, CORRIDOR_EDGES)
     res = plan(g, pid(2), pid(2), 5.0, 1.0, lambda t: corridor_costs(0.0), CFG)
