@@ -138,7 +138,7 @@ def _load_with_header(payload: bytes, version: str) -> Any:
     """``DynamicSceneGraph.load`` of ``header(version) + payload`` via a temporary file."""
     import spark_dsg
 
-    from aion_cli.formats.outputs import interrupts_held
+    from aion_cli.formats.interrupts import interrupts_held
 
     name: str | None = None
     try:

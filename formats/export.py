@@ -51,7 +51,7 @@ from aion_cli.errors import (
     MissingPackageError,
     MissingSystemLibraryError,
 )
-from aion_cli.formats.outputs import interrupts_held
+from aion_cli.formats.interrupts import interrupts_held
 from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
 
 F64 = npt.NDArray[np.float64]

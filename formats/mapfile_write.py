@@ -26,6 +26,7 @@ import numpy as np
 from aion_cli import __version__
 from aion_cli.formats.committed import note_committed
 from aion_cli.formats.crc import crc32
+from aion_cli.formats.interrupts import interrupts_held
 from aion_cli.formats.mapfile_format import (
     _LOCAL_HEADER_SIZE,
     ALIGN,
@@ -39,7 +40,7 @@ from aion_cli.formats.mapfile_format import (
     is_valid_member_name,
 )
 from aion_cli.formats.mapfile_target import check_map_output, check_map_target, map_lock
-from aion_cli.formats.outputs import fsync_dir, interrupts_held, staging_prefix
+from aion_cli.formats.outputs import fsync_dir, staging_prefix
 
 
 class _HashingWriter:
