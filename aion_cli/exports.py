@@ -88,8 +88,9 @@ def _check_names_free(out_dir: Path, folders: Sequence[str], fmt: str) -> None:
 
 
 def check_out_dir(out_dir: Path) -> None:
-    """OUT must be a folder or a new path: never a file, device, FIFO or socket."""
-    from aion_cli.formats.outputs import OutputPathError, special_kind
+    """OUT must be a folder or a new path in an existing folder: never a file, device, FIFO
+    or socket (OUT itself is made; the folders above it are not)."""
+    from aion_cli.formats.outputs import OutputPathError, check_output_folder, special_kind
 
     kind = special_kind(out_dir)
     if kind is not None:
@@ -100,6 +101,7 @@ def check_out_dir(out_dir: Path) -> None:
         raise OutputPathError(
             f"-o {out_dir} is a file, not a folder", hint="give a folder to write into"
         )
+    check_output_folder(out_dir)
 
 
 def is_export_file(path: Path) -> bool:

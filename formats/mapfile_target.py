@@ -72,14 +72,11 @@ def check_map_path(path: str | os.PathLike[str]) -> None:
 
 
 def check_map_folder(path: str | os.PathLike[str]) -> None:
-    """:class:`MapWriteError` unless the folder a map at ``path`` goes to exists."""
-    p = Path(path)
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.is_dir():
-        raise MapWriteError(
-            f"cannot write map {p}: folder {folder} does not exist",
-            hint="create the folder first or choose another output path",
-        )
+    """:class:`MapWriteError` unless the folder a map at ``path`` goes to exists (the rule of
+    every output: :func:`formats.outputs.check_output_folder`)."""
+    from aion_cli.formats.outputs import check_output_folder
+
+    check_output_folder(path, f"map {Path(path)}", MapWriteError)
 
 
 def check_map_output(path: str | os.PathLike[str]) -> None:

@@ -5,8 +5,10 @@ truth) follows the same three rules, so that no option, typo or interruption can
 
 1. **Special files are refused before anything is written.** A target that exists and is a
    character or block device (``/dev/null``), a FIFO, a socket, or the current folder (``-o .``)
-   or one of its parents is an :class:`OutputPathError` (exit 2). Symbolic links are judged by
-   what they point to; replacing one replaces the link, never the file it points to.
+   or one of its parents is an :class:`OutputPathError` (exit 2), and so is a target whose
+   folder does not exist (:func:`check_output_folder`: aion makes no folders above an output).
+   Symbolic links are judged by what they point to; replacing one replaces the link, never the
+   file it points to.
 2. **Only aion's own outputs are replaced.** An existing target is replaced only when the caller
    allows it (``--force``) *and* the caller's recogniser says it is an output of that kind
    (an MCAP file by its magic bytes, a rosbag2 folder holding only ``metadata.yaml`` and the
@@ -151,6 +153,30 @@ def refuse_current_folder(target: Path, example: str) -> None:
         )
 
 
+def check_output_folder(
+    target: str | os.PathLike[str],
+    named: str | None = None,
+    error: type[InputError] = OutputPathError,
+) -> None:
+    """``error`` (exit 2) unless the folder ``target`` goes into exists. aion never makes
+    the folders above an output: a mistyped ``-o`` would leave the output where nobody looks
+    (an output that is itself a folder, ``export -o DIR``, is made). ``named``: the output as
+    the message names it (``--png x.png``; default ``target``)."""
+    path = Path(target)
+    folder = path.parent
+    if folder.is_dir():
+        return
+    if os.path.lexists(folder):
+        raise error(
+            f"cannot write {named or path}: {folder} is a file, not a folder",
+            hint="choose a path whose folders are folders",
+        )
+    raise error(
+        f"cannot write {named or path}: the folder {folder} does not exist",
+        hint=f"create it first (mkdir -p {folder}) or choose another path",
+    )
+
+
 def _is_cwd_or_parent(path: Path) -> bool:
     try:
         target = path.resolve()
@@ -227,6 +253,7 @@ def check_output(
             hint="choose a path for a new file (or one aion wrote)",
         )
     refuse_current_folder(target, "out.mcap")
+    check_output_folder(target)
     if not _exists(target):
         return False
     if not overwrite:
@@ -301,8 +328,8 @@ def _fsync_file(path: Path) -> None:
 class Staged:
     """One output written beside its target and renamed into place (see the module docstring).
 
-    ``Staged(target)`` creates the hidden staging folder next to ``target`` (creating the
-    target's parent folders when missing); write the output at :attr:`path` (a file or folder
+    ``Staged(target)`` creates the hidden staging folder next to ``target`` (whose folder must
+    exist: :func:`check_output_folder`); write the output at :attr:`path` (a file or folder
     of the target's name that does not exist yet), then :meth:`commit` it or :meth:`discard`
     it. As a context manager it commits on success and discards on any exception.
     ``merge``: the target is a folder to write *into* (``aion export``): the staged folder's
@@ -324,7 +351,7 @@ class Staged:
         parent = self.target.parent
         if merge and self.target.is_dir():  # stage inside the folder written into (-o .)
             parent = self.target
-        parent.mkdir(parents=True, exist_ok=True)
+        check_output_folder(parent / self.target.name)  # never made here
         with interrupts_held():
             self.folder = Path(
                 tempfile.mkdtemp(

@@ -408,6 +408,7 @@ def run_office(
     and the grid are kept in 8)."""
     from aion_cli.errors import InputError
     from aion_cli.evaluation.heading import association_radius
+    from aion_cli.formats.outputs import check_output_folder
 
     cfg = config or ModelConfig()
     radius = association_radius(radius)
@@ -425,7 +426,8 @@ def run_office(
     result = OfficeResult()
     with tempfile.TemporaryDirectory(prefix="aion-office-") as tmp:
         work = Path(work_dir) if work_dir is not None else Path(tmp)
-        work.mkdir(parents=True, exist_ok=True)
+        check_output_folder(work, f"--keep {work}")  # --keep's folder is made, not those above
+        work.mkdir(exist_ok=True)
         for scene in range(scenes):
             say(f"scene {scene + 1}/{scenes}: simulate, build, compare")
             figures, figure, series = run_scene(

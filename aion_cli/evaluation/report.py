@@ -196,6 +196,7 @@ def write_report(
     from aion_cli.evaluation.atc import run_atc
     from aion_cli.evaluation.door import run_door
     from aion_cli.evaluation.office import run_office
+    from aion_cli.formats.outputs import check_output_folder
 
     skip = skip or set()
     sections = ("office", "atc", "lincoln", "door")
@@ -211,8 +212,9 @@ def write_report(
                 f"{section} data folder not found: {data_dir / folder}",
                 hint=f"pass the shared data folder with --data, or --skip {section}",
             )
+    check_output_folder(out_dir)  # the report's folder is made, not those above
     say = progress or (lambda _m: None)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(exist_ok=True)
     lines = ["# aion evaluation report", ""]
     payload: dict[str, Any] = {}
     if "office" not in skip:

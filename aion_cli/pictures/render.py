@@ -33,6 +33,7 @@ def check_png_target(out: Path, option: str = "-o") -> None:
     else."""
     from aion_cli.formats.outputs import (
         OutputPathError,
+        check_output_folder,
         is_empty_file,
         refusal_hint,
         special_kind,
@@ -51,12 +52,7 @@ def check_png_target(out: Path, option: str = "-o") -> None:
             f"{option} writes a .png file, got {out.name!r}",
             hint=f"name it {out.with_suffix('.png').name}",
         )
-    parent = out.absolute().parent
-    if not parent.is_dir():
-        raise OutputPathError(
-            f"{option} {out}: the folder {parent} does not exist",
-            hint="create it first, or choose another path",
-        )
+    check_output_folder(out, f"{option} {out}")
     if os.path.lexists(out) and not (is_empty_file(out) or is_aion_png(out)):
         raise OutputPathError(
             f"{option} {out} exists and is not a picture aion drew: refusing to replace it",

@@ -316,7 +316,6 @@ def run_scene(
     data = build_scene(config, env, scene, progress)
     msgtype = detection_msgtype(config.detection_type)
     container = FORMATS[config.format][0]
-    log_path.parent.mkdir(parents=True, exist_ok=True)
     report = None if progress is None else (lambda d, t: progress("writing", d, t))
     counts = write_scene_log(
         log_path,
@@ -377,6 +376,8 @@ def simulate(
     paths = scene_paths(output, config)
     check_outputs(output, paths, FORMATS[config.format][0], overwrite)  # nothing is deleted
     env = load_environment(config)
+    if len(paths) > 1:
+        output.mkdir(exist_ok=True)  # the folder of the scenes (the one above it exists)
     results = []
     for scene, path in enumerate(paths):
         if progress is not None:
@@ -389,9 +390,9 @@ def check_outputs(output: Path, paths: list[Path], container: str, overwrite: bo
     """Refuse ``-o`` and the scene logs' paths and their truth files before anything is
     simulated: a device, FIFO or socket (``-o /dev/null`` too, though ``.mcap`` is appended),
     an existing path without ``overwrite``, or one that is not aion's own log / truth file
-    (``--force`` never deletes a folder of other files).
+    (``--force`` never deletes a folder of other files), and a missing folder above ``-o``.
     :class:`formats.outputs.OutputPathError` (exit 2)."""
-    from aion_cli.formats.outputs import OutputPathError, special_kind
+    from aion_cli.formats.outputs import OutputPathError, check_output_folder, special_kind
     from aion_cli.formats.writers import check_log_target
     from aion_cli.sim.ground_truth import check_truth_targets
 
@@ -406,6 +407,9 @@ def check_outputs(output: Path, paths: list[Path], container: str, overwrite: bo
             f"{output} is a file, not a folder: --scenes {len(paths)} writes a folder of logs",
             hint="choose a folder path for the scenes",
         )
+    if len(paths) > 1 and not output.is_dir():
+        check_output_folder(output)  # a new folder of scenes: nothing in it to refuse
+        return
     for path in paths:
         check_log_target(path, container, overwrite=overwrite)
         check_truth_targets(path, overwrite)
