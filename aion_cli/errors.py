@@ -103,7 +103,11 @@ class MapVersionError(MapFileError):
     """A map file was written by a newer, incompatible aion."""
 
 
-class MapLockedError(InputError):
+class OutputLockedError(InputError):
+    """Another process is writing the same output (a log, an export): its lock is held."""
+
+
+class MapLockedError(OutputLockedError):
     """Another process is writing the same map file."""
 
 

@@ -49,16 +49,15 @@ from aion_cli.formats.mapfile_format import (
 )
 from aion_cli.formats.mapfile_read import MapMembers, open_map, read_map
 from aion_cli.formats.mapfile_target import (
-    STALE_UNREADABLE_LOCK_S,
     check_map_folder,
     check_map_output,
     check_map_path,
     check_map_target,
     is_aion_map,
-    lock_path,
     map_lock,
 )
 from aion_cli.formats.mapfile_write import write_map
+from aion_cli.formats.output_lock import STALE_UNREADABLE_LOCK_S, lock_path
 
 __all__ = [
     "ALIGN",

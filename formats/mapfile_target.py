@@ -11,9 +11,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import socket
 import stat
-import time
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -25,10 +23,6 @@ from aion_cli.formats.mapfile_format import (
     MAX_MANIFEST_BYTES,
     MapWriteError,
 )
-
-STALE_UNREADABLE_LOCK_S = 10.0
-"""A lock file with no readable pid older than this is treated as stale (crash mid-create)."""
-
 
 # -- output targets -------------------------------------------------------------------------
 
@@ -108,104 +102,18 @@ def check_map_target(path: str | os.PathLike[str]) -> None:
 # -- locking --------------------------------------------------------------------------------
 
 
-def lock_path(path: str | os.PathLike[str]) -> Path:
-    """``office.aion`` -> ``office.aion.lock`` (a name too long for the suffix is cut and
-    ends in its hash: :func:`formats.outputs.fitted_name`)."""
-    from aion_cli.formats.outputs import fitted_name
-
-    p = Path(path)
-    return p.with_name(fitted_name(p.name, len(".lock")) + ".lock")
-
-
-def _pid_alive(pid: int) -> bool:
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # exists, owned by someone else
-        return True
-    return True
-
-
-def _lock_is_stale(lock: Path) -> bool:
-    """A lock is stale if its pid (same host) is dead, or it has no pid and is old.
-
-    Locks from another host cannot be checked and count as live.
-    """
-    try:
-        text = lock.read_text(encoding="utf-8", errors="replace")
-        age = time.time() - lock.stat().st_mtime
-    except FileNotFoundError:
-        return True
-    lines = text.split()
-    if not lines or not lines[0].isdigit():
-        return age > STALE_UNREADABLE_LOCK_S
-    host = lines[1] if len(lines) > 1 else socket.gethostname()
-    if host != socket.gethostname():
-        return False
-    return not _pid_alive(int(lines[0]))
-
-
-def _try_create_lock(lock: Path) -> bool:
-    """Create ``lock`` holding ``"<pid> <host>"``; False when it exists. A lock whose pid
-    could not be written (a full disk) is removed before the error propagates: an empty lock
-    left behind would block the next run as "written by another process (unknown)"."""
-    try:
-        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-    except FileExistsError:
-        return False
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(f"{os.getpid()} {socket.gethostname()}\n")  # may fail when closed
-    except BaseException:
-        with contextlib.suppress(OSError):
-            lock.unlink()
-        raise
-    return True
-
-
 @contextlib.contextmanager
 def map_lock(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Hold ``<path>.lock`` (O_CREAT|O_EXCL, content ``"<pid> <host>"``) for the block.
+    """Hold ``<path>.lock`` for the block (:func:`formats.output_lock.output_lock`, the lock
+    of every writer): another live writer of the map is a :class:`MapLockedError`, a lock
+    that cannot be created a :class:`MapWriteError`. Once held, the temporary files a killed
+    writer of the map left beside it are removed."""
+    from aion_cli.formats.output_lock import output_lock
 
-    A stale lock (its process is dead) is removed and taken over once; temporary files a
-    killed writer left beside the map are removed then. Another live writer is a
-    :class:`MapLockedError`. Known limit: two processes recovering the same stale lock at the
-    same instant could both succeed; the window is the few microseconds between check and
-    unlink.
-    """
     check_map_path(path)  # never a lock beside /dev/null, a FIFO or a folder
-    lock = lock_path(path)
-    try:
-        acquired = _try_create_lock(lock)
-        if not acquired and _lock_is_stale(lock):
-            with contextlib.suppress(FileNotFoundError):
-                lock.unlink()
-            acquired = _try_create_lock(lock)
-    except OSError as exc:
-        if isinstance(exc, FileExistsError):
-            acquired = False
-        else:
-            raise MapWriteError(
-                f"cannot create lock file {lock}: {exc.strerror or exc}",
-                hint="check free disk space and write permissions on the map's folder",
-            ) from exc
-    if not acquired:
-        holder = ""
-        with contextlib.suppress(OSError):
-            holder = lock.read_text(encoding="utf-8", errors="replace").strip()
-        raise MapLockedError(
-            f"map {Path(path)} is being written by another process ({holder or 'unknown'})",
-            hint=f"wait for it to finish; if no aion is running, delete {lock}",
-        )
-    _remove_orphaned_staging(Path(path))
-    try:
+    with output_lock(path, what="map", locked=MapLockedError, failed=MapWriteError) as lock:
+        _remove_orphaned_staging(Path(path))
         yield lock
-    finally:
-        with contextlib.suppress(OSError):
-            lock.unlink()
 
 
 def _remove_orphaned_staging(path: Path) -> None:

@@ -1,0 +1,150 @@
+"""One writer per output: the ``<output>.lock`` file every command that writes holds.
+
+A second ``aion build`` of the same map, two ``aion convert`` runs to one log, a ``simulate``
+whose log and ground truth could come from two different runs, two exports mixing their
+frames in one folder: each writer holds the lock of its output from its checks to its
+commit, and a second writer is refused at once (:class:`aion_cli.errors.OutputLockedError`,
+exit 2) instead of racing it. The lock is a file created with ``O_CREAT|O_EXCL`` holding
+``"<pid> <host>"``; one whose process is dead (a SIGKILLed writer) is taken over. Maps use it
+through :func:`formats.mapfile_target.map_lock`; logs through
+:class:`formats.writers.LogWriter`, ``simulate`` through :func:`aion_cli.sim.scenario.simulate`,
+exports through :func:`aion_cli.exports.export_lock`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import socket
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+from aion_cli.errors import InputError, OutputLockedError
+
+STALE_UNREADABLE_LOCK_S = 10.0
+"""A lock file with no readable pid older than this is treated as stale (crash mid-create)."""
+
+INSIDE = ".aion.lock"
+"""The lock's name inside a folder written into (``export -o DIR`` of an existing ``DIR``)."""
+
+
+def lock_path(path: str | os.PathLike[str]) -> Path:
+    """``office.aion`` -> ``office.aion.lock`` (a name too long for the suffix is cut and
+    ends in its hash: :func:`formats.outputs.fitted_name`)."""
+    from aion_cli.formats.outputs import fitted_name
+
+    p = Path(path)
+    return p.with_name(fitted_name(p.name, len(".lock")) + ".lock")
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def _lock_is_stale(lock: Path) -> bool:
+    """A lock is stale if its pid (same host) is dead, or it has no pid and is old.
+
+    Locks from another host cannot be checked and count as live.
+    """
+    try:
+        text = lock.read_text(encoding="utf-8", errors="replace")
+        age = time.time() - lock.stat().st_mtime
+    except FileNotFoundError:
+        return True
+    lines = text.split()
+    if not lines or not lines[0].isdigit():
+        return age > STALE_UNREADABLE_LOCK_S
+    host = lines[1] if len(lines) > 1 else socket.gethostname()
+    if host != socket.gethostname():
+        return False
+    return not _pid_alive(int(lines[0]))
+
+
+def _try_create_lock(lock: Path) -> bool:
+    """Create ``lock`` holding ``"<pid> <host>"``; False when it exists. A lock whose pid
+    could not be written (a full disk) is removed before the error propagates: an empty lock
+    left behind would block the next run as "written by another process (unknown)"."""
+    try:
+        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+    except FileExistsError:
+        return False
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(f"{os.getpid()} {socket.gethostname()}\n")  # may fail when closed
+    except BaseException:
+        with contextlib.suppress(OSError):
+            lock.unlink()
+        raise
+    return True
+
+
+
+def lock_of(path: str | os.PathLike[str], into: bool = False) -> Path:
+    """The lock file of the output ``path``: :func:`lock_path` beside it, or, for a folder
+    written into (``into``) that exists, :data:`INSIDE` it (``export -o .`` must not need
+    the folder above the current one to be writable)."""
+    target = Path(path)
+    if into and target.is_dir():
+        return target / INSIDE
+    return lock_path(target)
+
+
+@contextlib.contextmanager
+def output_lock(
+    path: str | os.PathLike[str],
+    *,
+    into: bool = False,
+    what: str = "output",
+    locked: type[InputError] = OutputLockedError,
+    failed: type[InputError] | None = None,
+) -> Iterator[Path]:
+    """Hold the lock of the output ``path`` (:func:`lock_of`) for the block; yields it.
+
+    Another live writer is ``locked`` (exit 2, with the holder's pid and host and the lock to
+    delete should no aion be running); a lock that cannot be created (a full disk, a
+    read-only folder) is ``failed`` (default :class:`formats.outputs.OutputPathError`). A
+    stale lock (its process is dead) is removed and taken over once. ``what`` names the
+    output in the message (``"map"``). Known limit: two processes recovering the same stale
+    lock at the same instant could both succeed; the window is the few microseconds between
+    check and unlink.
+    """
+    if failed is None:
+        from aion_cli.formats.outputs import OutputPathError
+
+        failed = OutputPathError
+    lock = lock_of(path, into)
+    try:
+        acquired = _try_create_lock(lock)
+        if not acquired and _lock_is_stale(lock):
+            with contextlib.suppress(FileNotFoundError):
+                lock.unlink()
+            acquired = _try_create_lock(lock)
+    except OSError as exc:
+        if not isinstance(exc, FileExistsError):
+            raise failed(
+                f"cannot create lock file {lock}: {exc.strerror or exc}",
+                hint=f"check free disk space and write permissions on the {what}'s folder",
+            ) from exc
+        acquired = False
+    if not acquired:
+        holder = ""
+        with contextlib.suppress(OSError):
+            holder = lock.read_text(encoding="utf-8", errors="replace").strip()
+        raise locked(
+            f"{what} {Path(path)} is being written by another process ({holder or 'unknown'})",
+            hint=f"wait for it to finish; if no aion is running, delete {lock}",
+        )
+    try:
+        yield lock
+    finally:
+        with contextlib.suppress(OSError):
+            lock.unlink()
