@@ -314,13 +314,7 @@ class Map:
         suffix chooses as in ``aion export``: ``.mcap``, ``.json`` / ``.sparkdsg``, ``.ply`` /
         ``.pcd`` (the whole scene as one file) (a ``.png`` is :meth:`picture`'s), else a ply
         folder."""
-        from aion_cli.exports import (
-            export_format,
-            export_frames,
-            export_scene_file,
-            planned_path,
-            scene_file,
-        )
+        from aion_cli.exports import export_format, write_export
 
         if format not in (None, "ply", "pcd", "mcap", "dsg"):
             raise InputError(f"unknown export format {format!r}", hint="ply, pcd, mcap or dsg")
@@ -342,20 +336,9 @@ class Map:
             times = [when]
         ends = self._path_ends(path)
         label = str(self.path) if self.path is not None else "<memory>"
-        if format == "dsg":
-            from aion_cli.exports import export_dsg
-
-            if ends is not None:
-                raise InputError("a scene-graph file holds no path: leave out path")
-            return [export_dsg(self._loaded, label, out, times[0], zone).path]
-        if format == "mcap":
-            from aion_cli.scene_frames import export_mcap
-
-            return [export_mcap(self._loaded, label, out, times, zone, ends)]
-        if scene_file(format, out):
-            path_xyz = None if ends is None else planned_path(self._loaded, times[0], ends)
-            return [export_scene_file(self._loaded, times[0], out, format, path_xyz)]
-        return export_frames(self._loaded, label, out, times, zone, format, ends)
+        if format == "dsg" and ends is not None:
+            raise InputError("a scene-graph file holds no path: leave out path")
+        return write_export(self._loaded, label, out, times, zone, format, ends).files
 
     def picture(
         self,

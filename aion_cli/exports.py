@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import os
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -229,16 +230,8 @@ def export_scene_file(
     existing ``out`` is replaced only when an export wrote it (never a device, FIFO, or a
     PLY / PCD file of someone else's)."""
     from aion_cli.engine import query
-    from aion_cli.formats.outputs import check_output
-    from aion_cli.formats.scene_files import is_aion_scene_file
 
-    check_output(
-        out,
-        overwrite=True,
-        recognise=is_aion_scene_file,
-        what=f"a {fmt.upper()} scene",
-        option=None,
-    )
+    check_scene_file(out, fmt)
     table = (
         query.historical_table(loaded.state)
         if t_ns is None
@@ -250,6 +243,18 @@ def export_scene_file(
         files = write_scene(loaded, table, scratch, fmt, path_xyz)
         next(f for f in files if f.name == f"scene.{fmt}").rename(staged.path)
     return out
+
+
+def check_scene_file(out: Path, fmt: str) -> None:
+    """Refuse the one-file PLY / PCD target ``out`` before anything is computed: a device, a
+    missing folder, an existing file that is not a scene an export wrote."""
+    from aion_cli.formats.outputs import check_output
+    from aion_cli.formats.scene_files import is_aion_scene_file
+
+    check_output(
+        out, overwrite=True, recognise=is_aion_scene_file, what=f"a {fmt.upper()} scene",
+        option=None,
+    )  # fmt: skip
 
 
 def export_dsg(
@@ -326,3 +331,85 @@ def export_format(fmt: str | None, out: Path) -> str:
             hint=f"name a folder (e.g. out/) or a .{fmt} file",
         )
     return fmt
+
+
+@dataclass(frozen=True)
+class Exported:
+    """What :func:`write_export` wrote: the files, and for ``dsg`` the graph's summary
+    (``formats.dsg_export.DsgExportSummary``: its places, rooms, edges)."""
+
+    files: list[Path]
+    graph: Any = None
+
+
+def write_export(
+    loaded: Any,
+    label: Any,
+    out: Path,
+    times: Sequence[int | None],
+    zone: Zone | None,
+    fmt: str,
+    ends: tuple[Any, int, int] | None = None,
+    on_frame: Callable[[], None] | None = None,
+    *,
+    series: bool = False,
+) -> Exported:
+    """Write the export of ``fmt`` (:func:`export_format`) at ``times`` to ``out``: the
+    scene graph, a picture, an MCAP series, one scene file or a folder of frames, named
+    after the map ``label``. The one place ``aion export`` and :meth:`aion_cli.Map.export`
+    write: ``out`` is checked, then its lock (:func:`formats.output_lock.output_lock`) is
+    held until the export is in place, so a second export to the same ``out`` is refused
+    instead of mixing its files with this one's."""
+    from aion_cli.formats.output_lock import output_lock
+
+    check_export_target(out, fmt)  # a device or a missing folder gets no lock beside it
+    with output_lock(out, into=_into(out, fmt)):
+        if fmt == "dsg":
+            graph = export_dsg(loaded, label, out, times[0], zone)
+            if on_frame is not None:
+                on_frame()
+            return Exported([graph.path], graph)
+        if fmt == "png":
+            from aion_cli.pictures.render import export_png
+
+            name = Path(os.fsdecode(label)).name
+            return Exported([export_png(loaded, name, out, times, zone, ends, on_frame)])
+        if fmt == "mcap":
+            from aion_cli.scene_frames import export_mcap
+
+            return Exported([export_mcap(loaded, label, out, times, zone, ends, on_frame)])
+        if scene_file(fmt, out):
+            path_xyz = None if ends is None else planned_path(loaded, times[0], ends)
+            written = export_scene_file(loaded, times[0], out, fmt, path_xyz)
+            if on_frame is not None:
+                on_frame()
+            return Exported([written])
+        files = export_frames(
+            loaded, label, out, times, zone, fmt, ends, on_frame, series=series
+        )
+        return Exported(files)
+
+
+def _into(out: Path, fmt: str) -> bool:
+    """Whether ``out`` is a folder written into (PLY / PCD frames), not one file."""
+    return fmt in SCENE_FORMATS and not scene_file(fmt, out)
+
+
+def check_export_target(out: Path, fmt: str) -> None:
+    """The check of ``-o`` each writer of ``fmt`` makes before any work (see each)."""
+    if fmt == "dsg":
+        from aion_cli.formats.dsg_export import check_dsg_target
+
+        check_dsg_target(out)
+    elif fmt == "png":
+        from aion_cli.pictures.render import check_png_target
+
+        check_png_target(out)
+    elif fmt == "mcap":
+        from aion_cli.formats.scene_mcap import check_scene_target
+
+        check_scene_target(out)
+    elif scene_file(fmt, out):
+        check_scene_file(out, fmt)
+    else:
+        check_out_dir(out)

@@ -1,16 +1,16 @@
-"""One writer per output: the ``<output>.lock`` file every command that writes holds.
+"""One writer per output: the ``<output>.lock`` file a writer holds while it writes.
 
 A second ``aion build`` of the same map, two ``aion convert`` runs to one log, a ``simulate``
 whose log and ground truth could come from two different runs, two exports mixing their
-frames in one folder: each writer holds the lock of its output from its checks to its
-commit, and a second writer is refused at once (:class:`aion_cli.errors.OutputLockedError`,
-exit 2) instead of racing it. The lock is a file created with ``O_CREAT|O_EXCL`` holding
-``"<pid> <host>"``; one whose process is dead (a SIGKILLed writer) is taken over. Maps use it
-through :func:`formats.mapfile_target.map_lock`; logs through
-:class:`formats.writers.LogWriter`, ``simulate`` through :func:`aion_cli.sim.scenario.simulate`,
-exports through :func:`aion_cli.exports.export_lock`.
+frames in one folder: each writer holds the lock of its output until its output is in place,
+and a second writer is refused at once (:class:`aion_cli.errors.OutputLockedError`, exit 2)
+instead of racing it. The lock is a file created with ``O_CREAT|O_EXCL`` holding
+``"<pid> <host>"``; one whose process is dead (a SIGKILLed writer) is taken over. Maps take it
+through :func:`formats.mapfile_target.map_lock`, logs through
+:class:`formats.writers.LogWriter`, ``simulate`` through :func:`aion_cli.sim.scenario.simulate`
+(the log and its truth), exports through :func:`aion_cli.exports.write_export`, reports
+through :func:`aion_cli.report.writer.write_report`.
 """
-
 from __future__ import annotations
 
 import contextlib

@@ -41,6 +41,7 @@ from aion_cli.formats.message_convert import (
     stamp,
     to_message,
 )
+from aion_cli.formats.output_lock import output_lock
 from aion_cli.formats.outputs import Staged
 from aion_cli.formats.raw import normalize_msgtype
 
@@ -246,10 +247,13 @@ class LogWriter:
     ``with`` block (or :meth:`abort`) throws the partial log away and leaves whatever was at
     ``path`` untouched. An existing ``path`` is an error unless ``overwrite`` is set, and even
     then only a log of this container's kind is replaced (:func:`check_log_target`: never a
-    folder holding other files, never a device, FIFO or socket). Log times must lie in
-    ``0 .. 2^63 - 1`` ns (:class:`LogTimeError` otherwise). ``chunk_size``: bytes of records
-    per chunk of an MCAP file or ROS 1 bag (the libraries' default, 1 MiB, when None; tests
-    use small ones for many chunks).
+    folder holding other files, never a device, FIFO or socket). The writer holds the
+    output's lock (:func:`formats.output_lock.output_lock`) until the log is closed or
+    aborted, so a second writer of the same path is refused at once; ``lock=False``: the
+    caller holds it (``simulate`` holds it across the log and its ground truth). Log times
+    must lie in ``0 .. 2^63 - 1`` ns (:class:`LogTimeError` otherwise). ``chunk_size``:
+    bytes of records per chunk of an MCAP file or ROS 1 bag (the libraries' default, 1 MiB,
+    when None; tests use small ones for many chunks).
     """
 
     def __init__(
@@ -259,6 +263,7 @@ class LogWriter:
         *,
         overwrite: bool = False,
         chunk_size: int | None = None,
+        lock: bool = True,
     ):
         if container not in CONTAINERS:
             raise LogWriteError(
@@ -271,16 +276,23 @@ class LogWriter:
         self.chunk_size = chunk_size
         self.encoding = "ros1" if self.ros_version == 1 else "cdr"
         check_log_target(self.path, container, overwrite=overwrite)  # before anything is written
-        self._store = msgdefs.typestore(self.ros_version)
-        self._serialize = (
-            self._store.serialize_ros1 if self.ros_version == 1 else self._store.serialize_cdr
-        )
-        self._channels: dict[tuple[str, str], _Channel] = {}
-        self._staged = Staged(self.path)
+        self._lock = contextlib.ExitStack()  # released when the log is closed or aborted
+        if lock:
+            self._lock.enter_context(output_lock(self.path))
         try:
-            self._backend: _Backend | None = self._open(self._staged.path)
+            self._store = msgdefs.typestore(self.ros_version)
+            self._serialize = (
+                self._store.serialize_ros1 if self.ros_version == 1 else self._store.serialize_cdr
+            )
+            self._channels: dict[tuple[str, str], _Channel] = {}
+            self._staged = Staged(self.path)
+            try:
+                self._backend: _Backend | None = self._open(self._staged.path)
+            except BaseException:
+                self._staged.discard()
+                raise
         except BaseException:
-            self._staged.discard()
+            self._lock.close()
             raise
         self.count = 0
 
@@ -367,12 +379,15 @@ class LogWriter:
         if backend is None:
             return
         try:
-            backend.close()
-            check_log_target(self.path, self.container, overwrite=self.overwrite)  # unchanged?
-        except BaseException:
-            self._staged.discard()
-            raise
-        self._staged.commit()
+            try:
+                backend.close()
+                check_log_target(self.path, self.container, overwrite=self.overwrite)  # unchanged?
+            except BaseException:
+                self._staged.discard()
+                raise
+            self._staged.commit()
+        finally:
+            self._lock.close()
 
     def abort(self) -> None:
         """Stop writing and throw the partial log away: the target stays as it was (a previous
@@ -384,6 +399,7 @@ class LogWriter:
                     backend.close()
         finally:
             self._staged.discard()
+            self._lock.close()
 
     def __enter__(self) -> LogWriter:
         return self

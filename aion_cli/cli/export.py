@@ -123,9 +123,8 @@ def command(
     """Export MAP as 3D scenes (PLY/PCD, MCAP over time), pictures (PNG) and tables (CSV/JSON)."""
     from aion_cli.cli.common import load
     from aion_cli.cli.console import console, progress
-    from aion_cli.cli.output import markup_safe
     from aion_cli.errors import InputError
-    from aion_cli.exports import export_format, export_frames, path_ends, scene_file
+    from aion_cli.exports import export_format, path_ends, scene_file, write_export
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:
@@ -166,61 +165,41 @@ def command(
             )
         if ends is not None:
             raise InputError("--format dsg holds no path: leave out --path-from/--path-to")
-        from aion_cli.exports import export_dsg
-
-        def write(advance: Any) -> str:
-            done = export_dsg(loaded, map_path, out_dir, times[0], zone)
-            advance()
-            return (
-                f"wrote {markup_safe(out_dir)}: {counted(done.places, 'place')} "
-                f"({done.places_with_dynamics:,} with dynamics), {counted(done.rooms, 'room')}, "
-                f"{counted(done.buildings, 'building')}, {counted(done.edges, 'place edge')}"
-            )
-
-    elif fmt == "png":
-        from aion_cli.pictures.render import export_png
-
-        def write(advance: Any) -> str:
-            export_png(loaded, map_path.name, out_dir, times, zone, ends, advance)
-            return f"wrote {markup_safe(out_dir)}"
-
-    elif fmt == "mcap":
-        from aion_cli.scene_frames import export_mcap
-
-        def write(advance: Any) -> str:
-            export_mcap(loaded, map_path, out_dir, times, zone, ends, advance)
-            steps = f"{len(times)} step(s); open it in Foxglove"
-            return f"wrote {markup_safe(out_dir)} ({steps})"
-
-    elif scene_file(fmt, out_dir):
-        if series:
-            raise InputError(
-                f"a series writes one {fmt} scene per time into a folder, got a file: "
-                f"-o {out_dir}",
-                hint="name a folder (e.g. -o series/), give --time for one scene, or "
-                "--format png / mcap for one file",
-            )
-        from aion_cli.exports import export_scene_file, planned_path
-
-        def write(advance: Any) -> str:
-            path_xyz = None if ends is None else planned_path(loaded, times[0], ends)
-            export_scene_file(loaded, times[0], out_dir, fmt, path_xyz)
-            advance()
-            return f"wrote {markup_safe(out_dir)} (the whole scene in one {fmt} file)"
-
-    else:
-
-        def write(advance: Any) -> str:
-            files = export_frames(
-                loaded, map_path, out_dir, times, zone, fmt, ends, advance, series=series
-            )
-            return f"wrote {len(files)} file(s) to {markup_safe(out_dir)}"
-
+    elif scene_file(fmt, out_dir) and series:
+        raise InputError(
+            f"a series writes one {fmt} scene per time into a folder, got a file: -o {out_dir}",
+            hint="name a folder (e.g. -o series/), give --time for one scene, or "
+            "--format png / mcap for one file",
+        )
     with progress(quiet=len(times) == 1) as bar:
         task = bar.add_task("exporting", total=len(times), unit="times")
-        done = write(lambda: bar.advance(task))
+        written = write_export(
+            loaded, map_path, out_dir, times, zone, fmt, ends, lambda: bar.advance(task),
+            series=series,
+        )  # fmt: skip
     if zone is not None and times[0] is not None:
         label = f"series of {len(times)} from" if series else "time"
         span = [int(t) for t in times if t is not None] if series else None
         announce_time(times[0], zone, label, loaded, series=span)
-    console().print(done)
+    console().print(_written(written, fmt, out_dir, len(times)))
+
+
+def _written(written: Any, fmt: str, out: Path, steps: int) -> str:
+    """The closing line: what :func:`aion_cli.exports.write_export` wrote."""
+    from aion_cli.cli.output import markup_safe
+    from aion_cli.exports import scene_file
+
+    if written.graph is not None:
+        done = written.graph
+        return (
+            f"wrote {markup_safe(out)}: {counted(done.places, 'place')} "
+            f"({done.places_with_dynamics:,} with dynamics), {counted(done.rooms, 'room')}, "
+            f"{counted(done.buildings, 'building')}, {counted(done.edges, 'place edge')}"
+        )
+    if fmt == "png":
+        return f"wrote {markup_safe(out)}"
+    if fmt == "mcap":
+        return f"wrote {markup_safe(out)} ({steps} step(s); open it in Foxglove)"
+    if scene_file(fmt, out):
+        return f"wrote {markup_safe(out)} (the whole scene in one {fmt} file)"
+    return f"wrote {len(written.files)} file(s) to {markup_safe(out)}"

@@ -4,7 +4,8 @@ Everything is written into a hidden staging folder beside ``OUT`` (``formats.out
 as ``aion export`` does) and moved in when complete, so a failure (a bad map, a full disk,
 Ctrl-C) leaves no partial report behind; files already in ``OUT`` that the report does not
 write are kept, and a same-named file is replaced only when a report wrote it
-(:func:`is_report_file`): nothing is moved in otherwise.
+(:func:`is_report_file`): nothing is moved in otherwise. ``OUT``'s lock
+(:func:`formats.output_lock.output_lock`) is held meanwhile: a second report is refused.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from aion_cli.exports import check_out_dir
+from aion_cli.formats.output_lock import output_lock
 from aion_cli.formats.outputs import Staged
 from aion_cli.report.content import ROSES, ReportContent, gather
 from aion_cli.report.page import FOOTER
@@ -55,7 +57,10 @@ def write_report(
         check_replaceable((out_dir / name for name in names), is_report_file)
     content = gather(loaded, map_path, zone, t_ns)
     step("read the map")
-    with Staged(out_dir, merge=True, recognise=is_report_file) as staged:
+    with (
+        output_lock(out_dir, into=True),  # a second report into OUT is refused meanwhile
+        Staged(out_dir, merge=True, recognise=is_report_file) as staged,
+    ):
         folder = staged.path
         folder.mkdir()
         pictures: dict[str, str | None] = {}

@@ -8,6 +8,7 @@ date and the tick grid — never the wall clock — so a seed gives byte-identic
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import math
 from collections.abc import Callable
@@ -310,9 +311,27 @@ def run_scene(
     log_path: Path,
     progress: Progress | None = None,
     overwrite: bool = False,
+    lock: bool = True,
 ) -> SceneResult:
     """Simulate one scene and write its log and ground truth (``overwrite``: replace a log
-    and truth files of a previous run; each appears complete or not at all)."""
+    and truth files of a previous run; each appears complete or not at all). The log's lock
+    (:func:`formats.output_lock.output_lock`) is held across both, so a log and its truth
+    always come from one run; ``lock=False``: the caller holds it (:func:`simulate`)."""
+    from aion_cli.formats.output_lock import output_lock
+
+    with output_lock(log_path) if lock else contextlib.nullcontext():
+        return _write_scene(config, env, scene, log_path, progress, overwrite)
+
+
+def _write_scene(
+    config: ScenarioConfig,
+    env: Environment,
+    scene: int,
+    log_path: Path,
+    progress: Progress | None,
+    overwrite: bool,
+) -> SceneResult:
+    """:func:`run_scene` under the lock."""
     data = build_scene(config, env, scene, progress)
     msgtype = detection_msgtype(config.detection_type)
     container = FORMATS[config.format][0]
@@ -368,21 +387,26 @@ def run_scene(
 def simulate(
     config: ScenarioConfig, output: Path, progress: Progress | None = None, overwrite: bool = False
 ) -> list[SceneResult]:
-    """Simulate ``config.scenes`` scenes into ``output`` (a log path, or a folder of scenes)."""
+    """Simulate ``config.scenes`` scenes into ``output`` (a log path, or a folder of scenes),
+    holding the output's lock (:func:`formats.output_lock.output_lock`: the one log, or the
+    folder of scenes) from the checks to the last truth file: a second ``simulate`` of the
+    same output is refused rather than mixing its logs and truth with this one's."""
+    from aion_cli.formats.output_lock import output_lock
     from aion_cli.formats.outputs import refuse_current_folder
 
     config.validate()
     refuse_current_folder(output, "office.mcap" if config.scenes == 1 else "scenes")
     paths = scene_paths(output, config)
     check_outputs(output, paths, FORMATS[config.format][0], overwrite)  # nothing is deleted
-    env = load_environment(config)
-    if len(paths) > 1:
-        output.mkdir(exist_ok=True)  # the folder of the scenes (the one above it exists)
-    results = []
-    for scene, path in enumerate(paths):
-        if progress is not None:
-            progress(f"scene {scene + 1}/{len(paths)}", 0, 0)
-        results.append(run_scene(config, env, scene, path, progress, overwrite))
+    with output_lock(paths[0] if len(paths) == 1 else output, into=len(paths) > 1):
+        env = load_environment(config)
+        if len(paths) > 1:
+            output.mkdir(exist_ok=True)  # the folder of the scenes (the one above it exists)
+        results = []
+        for scene, path in enumerate(paths):
+            if progress is not None:
+                progress(f"scene {scene + 1}/{len(paths)}", 0, 0)
+            results.append(run_scene(config, env, scene, path, progress, overwrite, lock=False))
     return results
 
 

@@ -112,7 +112,7 @@ def write_scene_log(
     graph_topic = dsg_topic(container)
     total = len(order)
     builder = PayloadBuilder(env, frames, include_mesh)
-    with LogWriter(path, container, overwrite=overwrite) as log:
+    with LogWriter(path, container, overwrite=overwrite, lock=False) as log:  # run_scene's
         tf_bytes = TfEncoder(log).encode(t0_ns + tf_t * dt_ns, map_odom, odom_base)
         for n, o in enumerate(order):
             k, i = int(tick[o]), int(index[o])

@@ -1,0 +1,112 @@
+"""Two writers of one output: the second is refused (one ``error:`` line naming the holder,
+exit 2) and the output is left to the first. Maps had their lock; ``convert``, ``simulate``,
+``export`` and ``report`` wrote unlocked, so two runs raced to rename their outputs into place
+(two simulations could leave one run's log beside the other's ground truth, two exports mix
+their frames in one folder). They now hold :func:`formats.output_lock.output_lock` too.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.robustness.conftest import AION, Office, aion_env, fails, run
+from tests.robustness.test_outputs import tracks_csv
+
+WRITERS: dict[str, tuple[tuple[str, ...], str, bool]] = {
+    # name: (arguments, the output, whether it is a folder written into)
+    "convert": (("convert", "{csv}", "-o", "{out}"), "x.mcap", False),
+    "simulate": (("simulate", "-o", "{out}", "--days", "0.05", "-q"), "x.mcap", False),
+    "simulate --scenes": (
+        ("simulate", "-o", "{out}", "--scenes", "2", "--days", "0.05", "-q"), "scenes", True
+    ),
+    "export DIR": (("export", "{map}", "--historical", "-o", "{out}"), "scene", True),
+    "export .ply": (("export", "{map}", "--historical", "-o", "{out}"), "x.ply", False),
+    "export .png": (("export", "{map}", "--historical", "-o", "{out}"), "x.png", False),
+    "export .mcap": (("export", "{map}", "--historical", "-o", "{out}"), "x.mcap", False),
+    "export .json": (("export", "{map}", "--historical", "-o", "{out}"), "x.json", False),
+    "report": (("report", "{map}", "-o", "{out}"), "report", True),
+}
+
+
+def _args(name: str, office: Office, csv: Path, out: Path) -> list[str]:
+    names = {"map": office.map, "csv": csv, "out": out}
+    return [part.format(**names) for part in WRITERS[name][0]]
+
+
+CASES = [(name, False) for name in sorted(WRITERS)] + [
+    (name, True) for name in sorted(WRITERS) if WRITERS[name][2]
+]
+
+
+@pytest.mark.parametrize(("name", "existing"), CASES)
+def test_a_second_writer_of_one_output_is_refused(
+    office: Office, tmp_path: Path, name: str, existing: bool
+) -> None:
+    """While this process holds the output's lock (as a first writer does), the command is
+    refused before it writes anything; once the lock is released it runs, and leaves no
+    lock behind. ``existing``: a folder written into that exists (its lock is inside it)."""
+    from aion_cli.formats.output_lock import output_lock
+
+    _, output, into = WRITERS[name]
+    csv = tracks_csv(tmp_path / "tracks.csv")
+    out = tmp_path / output
+    if existing:
+        out.mkdir()
+    args = _args(name, office, csv, out)
+    with output_lock(out, into=into) as lock:
+        result = run(*args)
+        fails(result, f"{out} is being written by another process", str(os.getpid()))
+        assert str(lock) in result.stderr  # the hint: delete it if no aion is running
+        assert not out.exists() or (existing and os.listdir(out) == [lock.name])
+    assert sorted(os.listdir(tmp_path)) == sorted(["tracks.csv", *([output] if existing else [])])
+    result = run(*args)
+    assert result.exit_code == 0, result.stderr
+    assert out.exists()
+    assert not lock.exists()
+
+
+def test_two_simulations_of_one_log_keep_the_log_and_its_truth_together(
+    tmp_path: Path,
+) -> None:
+    """Simulation A (seed 1) runs in a subprocess; simulation B (seed 2, --force) starts
+    meanwhile and is refused: before, both wrote, and the log of one run could end up beside
+    the ground truth of the other. A's log and truth agree."""
+    from aion_cli.formats.logs import open_logs
+
+    out = tmp_path / "x.mcap"
+    lock = tmp_path / "x.mcap.lock"
+    common = ("--days", "1", "-q", "--force")
+    proc = subprocess.Popen(
+        [str(AION), "simulate", "-o", str(out), "--seed", "1", *common],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=aion_env(),
+    )
+    try:
+        deadline = time.monotonic() + 30
+        while not lock.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.005)
+        assert lock.exists(), "simulation A took no lock"
+        second = run("simulate", "-o", out, "--seed", "2", *common)
+        _, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    fails(second, "being written by another process", str(proc.pid))
+    truth = json.loads((tmp_path / "x.mcap.truth.json").read_text())
+    assert truth["config"]["seed"] == 1
+    with open_logs([out], None) as logset:
+        counts = {t.topic: t.count for t in logset.topics}
+    det = "/spencer/perception/tracked_persons"
+    assert counts[det] == truth["messages"]["detections"]  # the truth of this very log
+    assert counts["/tf"] == truth["messages"]["tf"]
+    assert not lock.exists()
