@@ -263,16 +263,23 @@ def _mappable(topics: Sequence[TopicInfo]) -> list[TopicInfo]:
 def mapping_example(logset: Any) -> str | None:
     """The first topic of ``logset`` that ``aion info LOG --suggest-mapping`` writes a mapping
     for (a field it reads as a position, in the log's own definition): never TF or a scene
-    graph, which the build reads as such, nor a type such as a Twist or a Color; ``"TOPIC"``
-    when the first :data:`_EXAMPLES_TRIED` hold none but more are left; None when no topic's
-    type holds a position."""
+    graph, which the build reads as such, nor a type such as a Twist or a Color; None when no
+    topic's type holds a position. Each definition is tried once (``suggest_mapping`` reads
+    only the definition, so topics sharing one share the answer): a log of a thousand topics
+    of a few types parses a few definitions, and every topic is considered (it said
+    ``"TOPIC"``, a placeholder no command takes, when its first 50 topics held no position)."""
     from aion_cli.errors import InputError
     from aion_cli.formats.detections.suggest import suggest_mapping
 
-    mappable = [
-        t for t in _mappable(logset.topics) if t.msgtype not in TF_TYPES | DSG_TYPES
-    ]
-    for info in mappable[:_EXAMPLES_TRIED]:
+    tried: set[tuple[str, str, str, bool]] = set()
+    for info in _mappable(logset.topics):
+        if info.msgtype in TF_TYPES | DSG_TYPES:
+            continue
+        definition, idl = logset.definition(info.topic, info.msgtype, info.encoding)
+        key = (info.encoding, info.msgtype, definition, idl)  # the typestore's own key
+        if key in tried:
+            continue
+        tried.add(key)
         try:
             suggest_mapping(
                 info.topic, info.msgtype, logset.typestore(info.topic, info.msgtype, info.encoding)
@@ -280,11 +287,7 @@ def mapping_example(logset: Any) -> str | None:
         except InputError:  # no position field, or a definition that cannot be parsed
             continue
         return info.topic
-    return "TOPIC" if len(mappable) > _EXAMPLES_TRIED else None
-
-
-_EXAMPLES_TRIED = 50
-"""Topics :func:`mapping_example` tries (each parses its type's definition)."""
+    return None
 
 
 def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:

@@ -304,3 +304,21 @@ def test_info_points_to_the_topic_suggest_mapping_reads(tmp_path: Path) -> None:
         log = write_mcap(tmp_path / f"{name}.mcap", messages, defs)
         assert run_json("info", log, "--format", "json")["mapping_example"] == example
         assert note in " ".join(run("info", log).stderr.split())
+
+
+def test_the_mapping_example_is_a_topic_past_the_first_fifty(tmp_path: Path) -> None:
+    """Sixty Twist topics before the one turtle pose: info's JSON ``mapping_example`` said
+    ``"TOPIC"`` (a placeholder no command takes: only the first 50 topics were tried) and the
+    note ``--suggest-mapping TOPIC``; every topic is considered now, each definition once."""
+    own = OwnTypes({TURTLE_POSE: "float32 x\nfloat32 y\nfloat32 theta\n"})
+    zero = own.T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
+    twist = own.cdr(own.T["geometry_msgs/msg/Twist"](linear=zero, angular=zero),
+                    "geometry_msgs/msg/Twist")  # fmt: skip
+    pose = own.cdr(own.T[TURTLE_POSE](x=1.0, y=2.0, theta=0.5), TURTLE_POSE)
+    messages = [Message(f"/a{k:02d}/cmd_vel", "geometry_msgs/msg/Twist", twist, T0)
+                for k in range(60)]  # fmt: skip
+    messages.append(Message("/z/turtle1/pose", TURTLE_POSE, pose, T0))
+    log = write_mcap(tmp_path / "many.mcap", messages, {TURTLE_POSE: own.definition(TURTLE_POSE)})
+    assert run_json("info", log, "--format", "json")["mapping_example"] == "/z/turtle1/pose"
+    note = "(map another type: aion info LOG --suggest-mapping /z/turtle1/pose)"
+    assert note in " ".join(run("info", log).stderr.split())
