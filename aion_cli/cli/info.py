@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,9 +33,10 @@ JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns,
 size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
 role, encoding, rate_hz, used, why}], roles, dsg_versions, will_use{detections, scene_graph, tf},
 cannot_read, warnings, fixed_sensor{windows_with_messages, span_windows, window_s,
-hours_with_messages} (only when the logs have neither TF nor a scene graph: build observes
-the windows with messages), frames_without_tf{topic: [frames of its first messages that the
-log's TF does not connect to 'map']} (aion_cli.frame_check: a build would need --map-frame),
+hours_with_messages} (only when the logs have no TF, and no scene graph or a first one without
+robot poses in its agent layer: build observes the windows with messages),
+frames_without_tf{topic: [frames of its first messages that the log's TF does not connect
+to 'map']} (aion_cli.frame_check: a build would need --map-frame),
 mapping_example (without a detection topic: a topic --suggest-mapping writes a mapping for,
 or null).
 For a map (.aion): format, version, creator, created, inputs,
@@ -66,10 +68,11 @@ def describe(
         summary = summarize(logset, [m.msgtype for m in mappings])
         plan = select_topics(logset.topics, mappings=mappings)
         _check_mappings(logset, plan)
-        for info in plan.graph:
-            summary.dsg_versions[info.topic] = _dsg_versions(logset, info.topic)
+        firsts = {info.topic: _first_graph(logset, info.topic) for info in plan.graph}
+        for topic, first in firsts.items():
+            summary.dsg_versions[topic] = first.versions
         report = summary.to_dict()
-        if plan.detections and not plan.graph and not plan.tf:
+        if plan.detections and not plan.tf and _no_graph_robot(firsts):
             report["fixed_sensor"] = _fixed_sensor_windows(logset)
         if plan.detections:
             from aion_cli.frame_check import unconnected_frames
@@ -163,8 +166,18 @@ def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
         return suggest_mapping(info.topic, info.msgtype, store)
 
 
-def _dsg_versions(logset: Any, topic: str) -> list[str]:
-    """spark_dsg payload version of the topic's first scene graph (decoding one message)."""
+@dataclass(frozen=True)
+class _FirstGraph:
+    """The first scene graph of a topic: its payload version (or why it is unreadable), its
+    log time, and whether its agent layer holds robot poses (None: unreadable)."""
+
+    versions: list[str]
+    t_ns: int | None = None
+    agents: bool | None = None
+
+
+def _first_graph(logset: Any, topic: str) -> _FirstGraph:
+    """The topic's first scene graph (decoding one message)."""
     import numpy as np
 
     from aion_cli.errors import InputError
@@ -172,12 +185,25 @@ def _dsg_versions(logset: Any, topic: str) -> list[str]:
 
     first = next(iter(logset.messages({topic})), None)
     if first is None:
-        return []
+        return _FirstGraph([])
     try:
         payload = np.asarray(logset.decode(first).layer_contents, dtype=np.uint8)
-        return [decode_dsg(payload, first.log_time_ns).version]
+        decoded = decode_dsg(payload, first.log_time_ns)
     except InputError as exc:
-        return [f"unreadable: {exc.message}"]
+        return _FirstGraph([f"unreadable: {exc.message}"], first.log_time_ns)
+    agents = decoded.snapshot.agents
+    has = agents is not None and len(agents) > 0
+    return _FirstGraph([decoded.version], first.log_time_ns, has)
+
+
+def _no_graph_robot(firsts: dict[str, _FirstGraph]) -> bool:
+    """Whether the build finds no robot trajectory in the scene graph: no graph at all, or
+    the logs' first graph carries no robot poses (the build asks that one only:
+    ``graph_feed.GraphFeed.first_has_agents``). An unreadable first graph says nothing."""
+    timed = [f for f in firsts.values() if f.t_ns is not None]
+    if not timed:
+        return True
+    return min(timed, key=lambda f: f.t_ns or 0).agents is False
 
 
 @click.command("info", short_help="What is in logs (or a map), what aion uses.", epilog=EPILOG)
@@ -403,8 +429,13 @@ def _print(report: dict[str, Any]) -> None:
     fixed = report.get("fixed_sensor")
     if fixed and fixed["span_windows"]:
         share = fixed["windows_with_messages"] / fixed["span_windows"]
+        why = (
+            "no TF, and the scene graph's agent layer holds no robot poses"
+            if use["scene_graph"]
+            else "no TF, no scene graph"
+        )
         text = (
-            "no robot trajectory (no TF, no scene graph): `aion build` takes the log as a fixed "
+            f"no robot trajectory ({why}): `aion build` takes the log as a fixed "
             f"sensor over the {fixed['windows_with_messages']:,} "
             f"window{'' if fixed['windows_with_messages'] == 1 else 's'} of "
             f"{fixed['window_s'] / 60:g} min with messages, {share:.0%} of its span"

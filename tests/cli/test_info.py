@@ -65,6 +65,32 @@ def test_a_fixed_sensor_log_says_how_much_of_its_span_holds_messages(tmp_path: P
     assert "--observed" not in run("info", one).stderr
 
 
+def test_a_scene_graph_without_robot_poses_and_no_tf_is_a_fixed_sensor(tmp_path: Path) -> None:
+    """A log with detections and a scene graph but no TF: the build takes it as a fixed sensor
+    unless the first graph's agent layer holds robot poses (test_build's
+    test_observation_from_the_scene_graph_agents_or_fixed). info gave the fixed-sensor note
+    and JSON ``fixed_sensor`` only to logs without a scene graph; now it follows the build."""
+    from tests.cli.logdata import write_office_log
+
+    fixed = tmp_path / "fixed.mcap"
+    write_office_log(fixed, tf=False, duration_s=1800)
+    doc = run_json("info", fixed, "--format", "json")
+    assert doc["will_use"]["scene_graph"] == ["/hydra/backend/dsg"]
+    assert doc["fixed_sensor"]["windows_with_messages"] == 3
+    note = " ".join(run("info", fixed).stderr.split())
+    assert "no robot trajectory (no TF, and the scene graph's agent layer holds no robot " \
+        "poses): `aion build` takes the log as a fixed sensor over the 3 windows" in note
+    agents = tmp_path / "agents.mcap"
+    write_office_log(agents, tf=False, agents=True, duration_s=1800)
+    assert "fixed_sensor" not in run_json("info", agents, "--format", "json")
+    assert "fixed sensor" not in run("info", agents).stderr
+    bare = tmp_path / "bare.mcap"  # neither TF nor a scene graph: as before
+    write_office_log(bare, graph=False, tf=False, duration_s=1800)
+    assert "no robot trajectory (no TF, no scene graph)" in " ".join(
+        run("info", bare).stderr.split()
+    )
+
+
 def test_unsupported_topics_are_listed(tmp_path: Path) -> None:
     from aion_cli.formats.writers import LogWriter
 
