@@ -157,6 +157,28 @@ class ScenarioConfig:
                 hint="choose an earlier start",
             )
 
+    def zone_name(self) -> str:
+        """The zone the scene's clock follows, as ``aion build --tz`` takes it: ``--tz``'s
+        (``Europe/London``, ``UTC+09:00``), else ``--utc-offset``'s fixed offset, else UTC."""
+        from aion_cli.timeparse import resolve_zone
+
+        if self.timezone is not None:
+            return resolve_zone(self.timezone).name
+        minutes = round(abs(self.utc_offset_h) * 60)
+        sign = "-" if self.utc_offset_h < 0 else "+"
+        return resolve_zone(f"{sign}{minutes // 60:02d}:{minutes % 60:02d}").name
+
+    def recorded(self) -> dict[str, Any]:
+        """The config as a scene's ground truth records it (one scene's), with one zone:
+        ``timezone`` is :meth:`zone_name` and ``utc_offset_h`` is left out. The two fields
+        side by side contradicted each other: with ``--tz Asia/Tokyo`` the file said
+        ``utc_offset_h: 0.0`` beside the zone (+9 h), and no single offset is right for a
+        zone with daylight saving (London is +1 h in summer)."""
+        record: dict[str, Any] = clean(asdict(replace(self, scenes=1)))
+        del record["utc_offset_h"]
+        record["timezone"] = self.zone_name()
+        return record
+
     def clock(self) -> SceneClock:
         """The scene's local clock (:mod:`aion_cli.sim.clock`)."""
         day, seconds = parse_start(self.start)
@@ -364,7 +386,7 @@ def _write_scene(
     meta = {
         "scene": scene,
         "log": log_path.name,
-        "config": clean(asdict(replace(config, scenes=1))),
+        "config": config.recorded(),
         "environment": env.name,
         "nav_layer": env.layer or None,
         "environment_notes": list(env.notes),

@@ -196,3 +196,23 @@ def test_the_empty_scene_warning_reads_start_as_simulate_does(tmp_path: Path) ->
         assert code == 0, output
         said = " ".join(output.split())
         assert "give a --start within those hours (e.g. 2026-01-07T08:00)" in said, said
+
+
+def test_the_truth_records_one_zone_the_clock_followed(tmp_path: Path) -> None:
+    """The truth's config carried ``utc_offset_h`` beside ``timezone``: 0.0 beside
+    ``Asia/Tokyo`` (+9 h) and beside ``Europe/London`` (+1 h in summer). It records one
+    zone, the one the clock followed, as ``aion build --tz`` takes it."""
+    cases = (
+        (("--tz", "Asia/Tokyo"), "Asia/Tokyo"),
+        (("--tz", "Europe/London"), "Europe/London"),
+        (("--utc-offset", "5.5"), "UTC+05:30"),
+        ((), "UTC"),
+    )
+    for n, (zone_args, zone) in enumerate(cases):
+        log = tmp_path / f"z{n}.mcap"
+        code, output = _run("simulate", "-o", log, "--days", "0.01", "--start",
+                             "2026-07-06T12:00", "-q", *zone_args)  # fmt: skip
+        assert code == 0, output
+        config = json.loads((tmp_path / f"z{n}.mcap.truth.json").read_text())["config"]
+        assert config["timezone"] == zone
+        assert "utc_offset_h" not in config
