@@ -52,7 +52,8 @@ def _written_by_aion(path: Path) -> bool:
 
 
 def check_dsg_target(path: Path) -> None:
-    """Refuse ``-o`` before anything is computed: a folder, another suffix, a device, or an
+    """Refuse ``-o`` before anything is computed: a folder, another suffix (``.JSON`` too:
+    spark_dsg saved nothing there and aion stopped with an internal error), a device, or an
     existing file that is not a graph file aion exported."""
     if path.is_dir():
         raise OutputPathError(
@@ -63,6 +64,12 @@ def check_dsg_target(path: Path) -> None:
         raise OutputPathError(
             f"--format dsg writes a .json or .sparkdsg file, got -o {path.name!r}",
             hint="e.g. -o dsg.json",
+        )
+    if path.suffix not in SUFFIXES:  # spark_dsg saves (and loads) no other spelling
+        raise OutputPathError(
+            f"--format dsg writes a {path.suffix.lower()} file in lower case, got -o "
+            f"{path.name!r}: spark_dsg reads no other spelling",
+            hint=f"-o {path.with_suffix(path.suffix.lower()).name}",
         )
     check_output(
         path, overwrite=True, recognise=_written_by_aion, what="a scene-graph file", option=None

@@ -119,6 +119,9 @@ def test_bad_targets_and_options(office: Office, tmp_path: Path) -> None:
     folder.mkdir()
     cases = [
         (["--time", AT, "-o", tmp_path / "dsg.ply"], "writes a .json or .sparkdsg file"),
+        # spark_dsg saves no .JSON: it was an internal error (exit 1) after the computation
+        (["--time", AT, "-o", tmp_path / "dsg.JSON"], "writes a .json file in lower case"),
+        (["--time", AT, "-o", tmp_path / "dsg.SparkDSG"], "a .sparkdsg file in lower case"),
         (["--time", AT, "-o", folder], "is a folder"),
         (["--time", AT, "-o", other], "not a scene-graph file aion wrote"),
         (["--from", "2026-11-23", "--to", "2026-11-24", "-o", tmp_path / "s.json"], "one time"),
@@ -129,6 +132,10 @@ def test_bad_targets_and_options(office: Office, tmp_path: Path) -> None:
         result = run("export", office.map, "--format", "dsg", *map(str, extra))
         assert result.exit_code == 2, (extra, result.stderr)
         assert_one_line_error(result.stderr, fragment)
+    assert "hint: -o dsg.json" in run(
+        "export", office.map, "--time", AT, "-o", tmp_path / "dsg.JSON"
+    ).stderr  # the suffix alone chose the format
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder", "mine.json"]
     assert other.read_text() == '{"mine": true}'
     again = tmp_path / "again.json"
     for _ in range(2):  # an exported file is replaced by the next export
