@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import click
 
@@ -19,6 +19,9 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.output import AionCommand, counted
+
+if TYPE_CHECKING:
+    from aion_cli.exports import Exported
 
 EPILOG = """\b
 Examples:
@@ -184,7 +187,7 @@ def command(
     console().print(_written(written, fmt, out_dir, len(times)))
 
 
-def _written(written: Any, fmt: str, out: Path, steps: int) -> str:
+def _written(written: Exported, fmt: str, out: Path, steps: int) -> str:
     """The closing line: what :func:`aion_cli.exports.write_export` wrote."""
     from aion_cli.cli.output import markup_safe
     from aion_cli.exports import scene_file
