@@ -93,6 +93,8 @@ def test_scenes_are_independent_logs(tmp_path: Path) -> None:
 @pytest.mark.parametrize("fmt", ["bag", "rosbag2", "rosbag2-sqlite3", "mcap-ros1"])
 def test_other_containers_are_deterministic_too(tmp_path: Path, fmt: str) -> None:
     config = replace(FIXED, days=0.2 / 24, robot="patrol", frame=None, format=fmt)
+    (tmp_path / "a").mkdir()  # simulate makes no folder above its output
+    (tmp_path / "b").mkdir()
     a = simulate(config, tmp_path / "a" / "log")[0]
     b = simulate(config, tmp_path / "b" / "log")[0]
     files_a = sorted(p for p in (tmp_path / "a").rglob("*") if p.is_file())
