@@ -80,8 +80,8 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     "out_dir",
     required=True,
     type=AionPath(path_type=Path),
-    help="Folder to write into (created if missing); for png, mcap and dsg the file, and a "
-    ".ply / .pcd name writes the whole scene as that one file.",
+    help="Folder to write into (made if missing, in an existing folder); for png, mcap and "
+    "dsg the file, and a .ply / .pcd name writes the whole scene as that one file.",
 )
 @click.option("-t", "--time", "time_text", metavar="T", help="Prediction time. " + TIME_HELP)
 @click.option("--historical", is_flag=True, help="Export what was observed instead.")

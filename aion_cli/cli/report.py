@@ -42,7 +42,7 @@ already in OUT that the report does not write are kept.
     "out_dir",
     required=True,
     type=AionPath(path_type=Path),
-    help="Folder to write into (created if missing).",
+    help="Folder to write into (made if missing, in an existing folder).",
 )
 @click.option(
     "-t",
