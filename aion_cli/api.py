@@ -251,13 +251,15 @@ class Map:
         tz: str | None = None,
         speed: float | None = None,
         leave: tuple[TimeLike, TimeLike] | None = None,
-        step: str | float = "10m",
+        step: str | float | None = None,
     ) -> Plan:
         """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms ``"R3"`` or
         coordinates ``"x,y"``) departing at ``time``, avoiding busy and opposing flows, with
         the distance-only path beside it (``Plan.distance_only``), as ``aion plan``. With
         ``leave=(earliest, latest)``: the best departure every ``step`` (``"10m"`` or
-        seconds) between them, every departure's cost in ``Plan.departures`` (``--leave``)."""
+        seconds; ``"10m"`` when not given) after ``earliest`` up to ``latest``, which must be
+        later, every departure's cost in ``Plan.departures`` (``--leave``); ``step`` without
+        ``leave`` is refused, as ``--step`` without ``--leave``."""
         from aion_cli.mapquery import nav_graph
         from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
 
@@ -268,6 +270,8 @@ class Map:
             )
         if leave is not None and time is not None:
             raise InputError("choose time or leave=(earliest, latest), not both")
+        if step is not None and leave is None:
+            raise InputError("step needs leave", hint='e.g. leave=("08:00", "10:00"), step="10m"')
         self._check_file()
         t_ns, zone = self._time("now" if time is None else time, tz)
         nav = nav_graph(self._loaded)
@@ -284,10 +288,15 @@ class Map:
         from aion_cli.predictions import hour_flags
         from aion_cli.timeparse import parse_step
 
-        every = parse_step(check.step(step))
+        every = parse_step(check.step("10m" if step is None else step))
         earliest, latest = (
             self._time(t, tz)[0] for t in check.pair(leave, "leave", "earliest, latest")
         )
+        if latest <= earliest:  # as --leave START..END: one departure is time=, not a span
+            raise InputError(
+                "leave: the latest departure is not after the earliest",
+                hint="give leave=(earliest, latest) with latest later, or time= for one departure",
+            )
         times = series_times(earliest, latest, every, zone, ("leave[0]", "leave[1]"))
         plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
         made = Plan.from_routes(plans[best], zone, snapped)

@@ -92,8 +92,28 @@ def _node_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot | None) -> 
         inside = _room_endpoint(node_id, nav, graph)
         if inside is not None:
             return inside
+        _refuse_unknown_room(node_id, graph)
     nav.index_of(node_id)
     return Endpoint(node_id)
+
+
+def _refuse_unknown_room(node_id: int, graph: GraphSnapshot) -> None:
+    """An id in a room's (``R``) or building's (``B``) category that ``graph`` does not hold:
+    :class:`~aion_cli.errors.UnknownNodeError` naming that layer's ids (the places' hint
+    would list places for a mistyped room)."""
+    from aion_cli.errors import UnknownNodeError
+
+    kinds = {"R": ("room", graph.rooms.ids), "B": ("building", graph.buildings.ids)}
+    label = node_label(node_id)
+    if label[:1] not in kinds or not label[1:].isdigit():
+        return
+    kind, ids = kinds[label[:1]]
+    examples = ", ".join(node_label(int(i)) for i in ids[:5])
+    raise UnknownNodeError(
+        f"{kind} {label} is not in the map",
+        hint=f"its {kind}s: {examples}" if examples else f"the map has no {kind}s: plan to a "
+        "place (p12) or to a point x,y",
+    )
 
 
 def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoint | None:

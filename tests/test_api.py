@@ -169,6 +169,10 @@ def test_bad_inputs_are_typed_errors(example: dict[str, Any], tmp_path: Path) ->
         m.predict(AT, layer="floors")
     with pytest.raises(UnknownNodeError):
         m.plan("p99999", "p2", time=AT)
+    # a mistyped room is named as a room, with the map's rooms as the hint (not its places)
+    with pytest.raises(UnknownNodeError, match="room R99 is not in the map") as unknown:
+        m.plan("R99", "p2", time=AT)
+    assert unknown.value.hint.startswith("its rooms: R")
     with pytest.raises(MapFileError):
         aion.Map.load(tmp_path / "missing.aion")
     notes = tmp_path / "notes.txt"

@@ -17,7 +17,8 @@ import numpy.typing as npt
 
 from aion_cli.errors import InputError
 
-_RE_SYMBOL = re.compile(r"^([A-Za-z])(?:(\d+)|\((\d+)\))$")  # p12 or p(12), balanced
+# p12 or p(12), balanced; ASCII digits only ("p٣" is not p3)
+_RE_SYMBOL = re.compile(r"^([A-Za-z])(?:(\d+)|\((\d+)\))$", re.ASCII)
 INDEX_BITS = 56
 INDEX_MASK = (1 << INDEX_BITS) - 1
 MAX_NODE_ID = (1 << 64) - 1
