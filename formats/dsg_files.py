@@ -140,8 +140,8 @@ def read_dsg_file(path: str | Path) -> GraphFile:
     budget: int | None = None
     try:
         # legacy (header-less) JSON files warn on stdout
-        with _native_output_silenced(), _memory_budget(size) as budget:
-            return GraphFile(p, spark_dsg.DynamicSceneGraph.load(str(p)), version=version)
+        with _native_output_silenced(), _memory_budget(size) as budget, _lower_suffix(p) as name:
+            return GraphFile(p, spark_dsg.DynamicSceneGraph.load(name), version=version)
     except (RuntimeError, ValueError, IndexError, TypeError, MemoryError) as exc:
         if suffix != ".json":
             why = _short(exc)
@@ -167,6 +167,23 @@ def read_dsg_file(path: str | Path) -> GraphFile:
         mesh_dropped=got.mesh_dropped,
         version=version,
     )
+
+
+@contextlib.contextmanager
+def _lower_suffix(path: Path) -> Any:
+    """The name spark_dsg is given for ``path``: the path itself, or for a suffix not in lower
+    case (``DSG.JSON``, ``map.SPARKDSG``: spark_dsg chooses its reader by the suffix as
+    written and refuses those) a symbolic link with the lower-case suffix in a temporary
+    folder, removed afterwards."""
+    if path.suffix == path.suffix.lower():
+        yield str(path)
+        return
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="aion-dsg-") as folder:
+        link = Path(folder) / f"graph{path.suffix.lower()}"
+        link.symlink_to(path.resolve())
+        yield str(link)
 
 
 def _check_binary_file(path: Path) -> None:

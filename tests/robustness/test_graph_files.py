@@ -204,3 +204,28 @@ def test_random_damage_is_refused_only_where_the_bytes_are_wrong(
         assert problem is not None
         assert "claims" in problem, problem  # read by spark_dsg, but a count is wrong
     assert refused > 10
+
+
+@pytest.mark.parametrize("suffix", [".SPARKDSG", ".SparkDSG", ".JSON"])
+def test_a_graph_file_whose_suffix_is_not_lower_case_reads_as_its_lower_case_twin(
+    graph_file: Path, tmp_path: Path, suffix: str
+) -> None:
+    """spark_dsg picks its reader by the suffix as written and refused ``MAP.SPARKDSG``; aion
+    reads such a file like the same bytes under the lower-case name (same places), with
+    spark_dsg itself, not the lenient JSON reader, and leaves no temporary link behind."""
+    from aion_cli.formats.dsg_files import read_dsg_file
+
+    lower = tmp_path / f"twin{suffix.lower()}"
+    if suffix.lower() == ".json":
+        build_graph().save(str(lower), False)
+    else:
+        lower.write_bytes(graph_file.read_bytes())
+    upper = tmp_path / f"twin-upper{suffix}"
+    upper.write_bytes(lower.read_bytes())
+    want, got = read_dsg_file(lower), read_dsg_file(upper)
+    assert got.reader == want.reader == "spark_dsg"
+    assert got.path == upper
+    places = [sorted(n.id.value for n in g.graph.get_layer(fdsg.PLACES_LAYER).nodes)
+              for g in (want, got)]
+    assert places[0] == places[1]
+    assert places[0]
