@@ -24,6 +24,7 @@ import numpy.typing as npt
 from aion_cli.timeparse import Step, Zone
 
 if TYPE_CHECKING:
+    from aion_cli.entry_columns import EntryColumns
     from aion_cli.mapquery import LoadedMap
 
 F64 = npt.NDArray[np.float64]
@@ -57,18 +58,22 @@ class SeriesTable:
     zone: str | None = None
     times: tuple[str, ...] = ()
     hour_observed: tuple[bool | None, ...] | None = None
+    #: ``entries`` as columns (``predict_series`` keeps them for the JSON and CSV writers of
+    #: :mod:`aion_cli.entry_text`, which otherwise gather them from the dicts)
+    columns: EntryColumns | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self, *, with_entries: bool = True) -> dict[str, Any]:
         """The JSON document of ``aion predict --from --to --format json``: the times (as
         text in the zone, and in ns), the zone, each entry with its series, and whether any
-        day of the map's data observed each time's hour (when the map lists its hours)."""
+        day of the map's data observed each time's hour (when the map lists its hours).
+        ``with_entries`` False: ``entries`` empty, for a writer that writes them itself."""
         doc: dict[str, Any] = {
             "map": self.map,
             "mode": "series",
             "times": list(self.times),
             "times_ns": self.times_ns,
             "zone": self.zone,
-            "entries": self.records(),
+            "entries": self.records() if with_entries else [],
         }
         if self.hour_observed is not None and None not in self.hour_observed:
             doc["hour_observed"] = list(self.hour_observed)
@@ -162,8 +167,9 @@ def predict_series(
 ) -> SeriesTable:
     """The series of the entries asked for (see the module doc); ``progress(k)`` after each
     time."""
+    from aion_cli.entry_columns import entry_columns
     from aion_cli.entry_selection import chosen_entries
-    from aion_cli.predictions import entry_ids, rows_from_table
+    from aion_cli.predictions import entry_ids
 
     times = [int(t) for t in times_ns]
     if not times:
@@ -179,12 +185,9 @@ def predict_series(
     order = order[:top] if top is not None else order
     kept = flow[order]  # the rows of the kept entries, in their order
     per_hour = kept * (3600.0 / first.window_s)  # as the table's descriptors compute it
-    static = ("id", "name", "kind", "layer", "x", "y", "z")
-    entries = [
-        {key: row[key] for key in static}
-        for row in rows_from_table(first, index[order], names)
-    ]
-    return SeriesTable(times, entries, kept, per_hour, int(index.size))
+    columns = entry_columns(first, index[order], names)
+    entries = columns.records(("id", "name", "kind", "layer", "x", "y", "z"))
+    return SeriesTable(times, entries, kept, per_hour, int(index.size), columns=columns)
 
 
 def _means(flow: F64) -> tuple[npt.NDArray[np.bool_], F64]:

@@ -23,13 +23,13 @@ nothing here knows click or rich.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
 from aion_cli.timeparse import Zone
 
 if TYPE_CHECKING:
+    from aion_cli.entry_columns import EntryColumns
     from aion_cli.mapquery import LoadedMap
 
 KINDS = {0: "cell", 1: "node", 2: "room", 3: "building"}
@@ -59,10 +59,6 @@ CSV_KEYS = [
 ]
 
 
-def _finite(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
 def rows_from_table(
     table: Any, index: Any = None, names: Mapping[str, str] | None = None
 ) -> list[dict[str, Any]]:
@@ -70,54 +66,11 @@ def rows_from_table(
     row numbers, in that order; default every row): a query that prints ten rows of a map of
     10^5 entries builds ten dicts, and computes the count quantiles of those ten only.
     ``names``: the graph's names of rooms and buildings by id ("R2": "kitchen"), the rows'
-    ``name`` (None for the rest)."""
-    import numpy as np
+    ``name`` (None for the rest). The dicts of :func:`aion_cli.entry_columns.entry_columns`,
+    which the JSON and CSV writers use without dicts."""
+    from aion_cli.entry_columns import entry_columns
 
-    from aion_cli.engine.temporal.quantiles import count_quantiles
-
-    picked = np.arange(len(table.xyz)) if index is None else np.asarray(index, dtype=np.int64)
-    # every row: the table's own (cached, shared with a scene export); else those returned
-    d = table.descriptors if index is None else table.descriptors_of(picked)
-    flow, var = np.asarray(table.flow)[picked], np.asarray(table.flow_var)[picked]
-    p10, p90 = count_quantiles(flow, var, 0.1), count_quantiles(flow, var, 0.9)
-    labels = entry_ids(table, picked)
-    rows = []
-    for i, e in enumerate(picked.tolist()):
-        kind = _kind(table, e)
-        probabilities = d.probabilities[i]
-        speeds = d.mean_speed[i]
-        known = np.isfinite(speeds) & (probabilities > 0)
-        mean_speed = (
-            float((speeds[known] * probabilities[known]).sum() / probabilities[known].sum())
-            if known.any()
-            else None
-        )
-        angle = _finite(float(d.dominant_angle[i]))
-        rows.append(
-            {
-                "id": str(labels[i]),
-                "name": (names or {}).get(str(labels[i])),
-                "kind": kind,
-                "layer": _layer(table, e, kind),
-                "x": float(table.xyz[e, 0]),
-                "y": float(table.xyz[e, 1]),
-                "z": float(table.xyz[e, 2]),
-                "flow": _finite(float(d.flow_per_window[i])),
-                "flow_per_hour": _finite(float(d.flow_per_hour[i])),
-                "flow_p10": _finite(float(p10[i])),
-                "flow_p90": _finite(float(p90[i])),
-                "direction_deg": None if angle is None else math.degrees(angle),
-                "direction_bin": int(d.dominant_bin[i]),
-                "concentration": _finite(float(d.concentration[i])),
-                "entropy": _finite(float(d.entropy[i])),
-                "mean_speed": mean_speed,
-                "histogram": [float(p) for p in probabilities],
-                "speed_per_bin": [_finite(float(s)) for s in speeds],
-                "family": str(table.flow_family[e]),
-                "direction_family": str(table.direction_family[e]),
-            }
-        )
-    return rows
+    return entry_columns(table, index, names).records()
 
 
 def entry_ids(table: Any, index: Any) -> Any:
@@ -160,17 +113,6 @@ def ordered_rows(table: Any, index: Any, top: int | None) -> Any:
     order = np.lexsort((ids, key)) if picked.size else np.zeros(0, np.int64)
     out = picked[order]
     return out if top is None else out[:top]
-
-
-def _kind(table: Any, e: int) -> str:
-    kind = table.kind[e]
-    if isinstance(kind, str):
-        return kind
-    return KINDS.get(int(kind), str(kind))
-
-
-def _layer(table: Any, e: int, kind: str) -> str:
-    return str(table.layer[e])
 
 
 def sort_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -237,10 +179,25 @@ def predicted_records(
     (None: historical), busiest first, the first ``top`` of them; and how many entries
     matched. Rows are ordered and cut on arrays, so dicts are made for the rows returned only
     (``aion predict`` and :meth:`aion_cli.Map.predict`)."""
+    columns, count = predicted_columns(loaded, t_ns, layer, nodes, at, top)
+    return columns.records(), count
+
+
+def predicted_columns(
+    loaded: LoadedMap,
+    t_ns: int | None,
+    layer: str = "all",
+    nodes: Sequence[str | int] = (),
+    at: str | None = None,
+    top: int | None = None,
+) -> tuple[EntryColumns, int]:
+    """:func:`predicted_records` as columns (:mod:`aion_cli.entry_columns`), which
+    ``predict --format json|csv`` writes as text without a dict per entry."""
+    from aion_cli.entry_columns import entry_columns
     from aion_cli.entry_selection import chosen_entries
 
     table, _, index, names = chosen_entries(loaded, t_ns, layer, nodes, at)
-    return rows_from_table(table, ordered_rows(table, index, top), names), len(index)
+    return entry_columns(table, ordered_rows(table, index, top), names), len(index)
 
 
 def entry_table(loaded: LoadedMap, t_ns: int | None, layer: str = "all") -> Any:

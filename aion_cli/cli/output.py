@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -180,6 +180,17 @@ def emit(
         click.echo(to_csv(rows, csv_keys or [c.key for c in columns]), nl=False)
     else:
         render_table(rows, columns, title)
+
+
+def emit_chunks(chunks: Iterable[str], *, nl: bool) -> None:
+    """Write text made in chunks on stdout (``aion_cli.entry_text``'s JSON and CSV), each
+    as ``click.echo`` writes it, then a newline if ``nl``: the bytes one ``click.echo`` of
+    the whole text writes (``echo`` strips ANSI sequences off-terminal; a chunk ends at a
+    record's end, so no sequence spans two)."""
+    for chunk in chunks:
+        click.echo(chunk, nl=False)
+    if nl:
+        click.echo("")
 
 
 def counted(n: int, noun: str) -> str:

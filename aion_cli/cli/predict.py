@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -17,7 +18,7 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.entries import COLUMNS
-from aion_cli.cli.output import AionCommand, Column, emit, format_option
+from aion_cli.cli.output import AionCommand, Column, emit, emit_chunks, format_option
 from aion_cli.cli.predict_series import check_series_options, run_series
 from aion_cli.predictions import LAYERS
 
@@ -116,7 +117,7 @@ def command(
     histogram of directions.
     """
     from aion_cli.cli.common import load
-    from aion_cli.predictions import CSV_KEYS, document, hour_flags, predicted_records
+    from aion_cli.predictions import document, hour_flags, predicted_columns
     from aion_cli.timeparse import format_ns
 
     time_given = option_given("time_text")
@@ -130,18 +131,22 @@ def command(
     zone = None
     if not historical:
         t_ns, zone = resolve_time(time_text, tz, loaded)
+    fmt = fmt.lower()
     shown = TABLE_LIMIT if fmt == "table" and top is None else top
-    rows, count = predicted_records(loaded, t_ns, layer, nodes, at, shown)
-    (seen,) = hour_flags(loaded, [t_ns])
-    payload = document(map_path, loaded.config.bins, rows, t_ns, zone, seen)
+    entries, count = predicted_columns(loaded, t_ns, layer, nodes, at, shown)
     if t_ns is not None and zone is not None:
         announce_time(t_ns, zone, loaded=loaded)
+    if fmt in ("json", "csv"):
+        _emit_text(fmt, entries, document(map_path, loaded.config.bins, [], t_ns, zone,
+                                          hour_flags(loaded, [t_ns])[0]))
+        return
+    rows = entries.records()
     title = (
         "historical flows"
         if t_ns is None or zone is None
         else (f"predicted flows at {format_ns(t_ns, zone)}")
     )
-    if fmt == "table" and top is None and count > TABLE_LIMIT:
+    if top is None and count > TABLE_LIMIT:
         from aion_cli.cli.console import note
 
         note(
@@ -152,4 +157,17 @@ def command(
     if any(row.get("name") for row in rows):  # rooms the graph names: a column for them
         columns = [COLUMNS[0], Column("name", "name", lambda v: v or "", justify="left"),
                    *COLUMNS[1:]]
-    emit(fmt, rows, columns, json_payload=payload, csv_keys=CSV_KEYS, title=title)
+    emit(fmt, rows, columns, title=title)
+
+
+def _emit_text(fmt: str, entries: Any, doc: dict[str, Any]) -> None:
+    """Every entry as JSON (``doc`` with them) or CSV on stdout, written from the columns
+    ``entries`` (:mod:`aion_cli.entry_text`): the bytes of ``emit``'s ``to_json`` /
+    ``to_csv`` of the records."""
+    from aion_cli.entry_text import predict_csv, predict_json
+    from aion_cli.predictions import CSV_KEYS
+
+    if fmt == "json":
+        emit_chunks(predict_json(doc, entries), nl=True)
+    else:
+        emit_chunks(predict_csv(entries, CSV_KEYS), nl=False)

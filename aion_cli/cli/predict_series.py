@@ -59,11 +59,10 @@ def run_series(
 ) -> None:
     """Predict at every time of the series and write it in ``fmt``; ``request`` is
     (layer, nodes, at, top)."""
-    import click
-
     from aion_cli.cli.common import announce_time, series_of
     from aion_cli.cli.console import note, progress
-    from aion_cli.cli.output import to_csv, to_json
+    from aion_cli.cli.output import emit_chunks
+    from aion_cli.entry_text import series_csv, series_json
     from aion_cli.prediction_series import SERIES_CSV_KEYS, described, predict_series
     from aion_cli.predictions import hour_flags
     from aion_cli.timeparse import format_ns
@@ -79,11 +78,13 @@ def run_series(
         )
     labels = [format_ns(t, zone) for t in times]
     announce_time(times[0], zone, "from", loaded, series=times)
-    if fmt == "json":
-        doc = described(table, map_path, zone, labels, hour_flags(loaded, times)).to_dict()
-        click.echo(to_json(doc))
-    elif fmt == "csv":
-        click.echo(to_csv(table.long_rows(labels), SERIES_CSV_KEYS), nl=False)
+    if fmt == "json":  # the text of to_json(described(...).to_dict()), from arrays
+        emit_chunks(
+            series_json(described(table, map_path, zone, labels, hour_flags(loaded, times))),
+            nl=True,
+        )
+    elif fmt == "csv":  # to_csv(table.long_rows(labels), SERIES_CSV_KEYS), likewise
+        emit_chunks(series_csv(table, labels, SERIES_CSV_KEYS), nl=False)
     else:
         shown = len(table.entries) if top is not None else min(TABLE_COLUMNS, len(table.entries))
         if top is None and shown < table.matched:
