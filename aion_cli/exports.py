@@ -150,8 +150,9 @@ def _export_one(
     map_path: Path,
 ) -> list[Path]:
     from aion_cli.engine import query
-    from aion_cli.formats.serialize import to_csv, to_json
-    from aion_cli.predictions import CSV_KEYS, document, hour_flags, rows_from_table
+    from aion_cli.entry_columns import entry_columns
+    from aion_cli.entry_text import predict_csv, predict_json
+    from aion_cli.predictions import CSV_KEYS, document, hour_flags
 
     folder.mkdir(parents=True, exist_ok=True)
     table = (
@@ -159,13 +160,16 @@ def _export_one(
         if t_ns is None
         else query.predict_table(loaded.state, t_ns)
     )
-    rows = rows_from_table(table)
+    columns = entry_columns(table)  # every row, in table order: predict's records
     path_rows = None if ends is None else planned_path(loaded, t_ns, ends)
     files = write_scene(loaded, table, folder, fmt, path_rows)
-    (folder / "entries.csv").write_text(to_csv(rows, CSV_KEYS))
+    # the text of to_csv / to_json of the records, written a block of entries at a time
+    with open(folder / "entries.csv", "w") as fh:
+        fh.writelines(predict_csv(columns, CSV_KEYS))
     (seen,) = hour_flags(loaded, [t_ns])
-    doc = document(map_path, loaded.config.bins, rows, t_ns, zone, seen)
-    (folder / "entries.json").write_text(to_json(doc))
+    doc = document(map_path, loaded.config.bins, [], t_ns, zone, seen)
+    with open(folder / "entries.json", "w") as fh:
+        fh.writelines(predict_json(doc, columns))
     return [*files, folder / "entries.csv", folder / "entries.json"]
 
 
