@@ -193,18 +193,21 @@ def test_a_cut_off_scene_graph_is_an_error_and_leaves_nothing(
 def test_a_full_disk_writing_the_tables_is_exit_2_naming_the_output(
     office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A write failing as on a full disk (ENOSPC when the file is closed, naming no file):
-    one error naming the output, exit 2 (the user's machine, not a bug), nothing left."""
+    """A write failing as on a full disk (ENOSPC while entries.json is written, naming no
+    file): one error naming the output, exit 2 (the user's machine, not a bug), nothing
+    left."""
     import errno
 
-    real = Path.write_text
+    import aion_cli.entry_text as entry_text
 
-    def full(self: Path, data: str, *args: Any, **kw: Any) -> int:
-        if self.name == "entries.json":
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        return real(self, data, *args, **kw)
+    real = entry_text.predict_json
 
-    monkeypatch.setattr(Path, "write_text", full)
+    def full(*args: Any, **kw: Any) -> Any:
+        chunks = real(*args, **kw)
+        yield next(chunks)  # the head is written, then the disk is full
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(entry_text, "predict_json", full)
     out = tmp_path / "out"
     result = export(office, out)
     assert result.exit_code == 2, result.stderr
