@@ -1,4 +1,5 @@
-"""PLY / PCD scene export with open3d, from plain arrays (no engine objects).
+"""PLY / PCD scene export from plain arrays (no engine objects): PLY files written by
+:mod:`formats.ply_files` (open3d's bytes, without open3d's copies), PCD files by open3d.
 
 What is drawn (DESIGN.md §7):
 
@@ -234,29 +235,6 @@ def cell_squares(xyz: F64, cell_size: float, colors: F64) -> TriMesh:
 # -- writing ---------------------------------------------------------------------------------
 
 
-def _o3d_mesh(mesh: TriMesh) -> Any:
-    o3d = open3d()
-
-    out = o3d.geometry.TriangleMesh()
-    out.vertices = o3d.utility.Vector3dVector(np.ascontiguousarray(mesh.vertices))
-    out.triangles = o3d.utility.Vector3iVector(np.ascontiguousarray(mesh.faces, dtype=np.int32))
-    if len(mesh.colors) == len(mesh.vertices):
-        out.vertex_colors = o3d.utility.Vector3dVector(
-            np.ascontiguousarray(np.clip(mesh.colors, 0.0, 1.0))
-        )
-    return out
-
-
-def _o3d_lines(points: F64, lines: I64, color: tuple[float, float, float]) -> Any:
-    o3d = open3d()
-
-    ls = o3d.geometry.LineSet()
-    ls.points = o3d.utility.Vector3dVector(np.ascontiguousarray(points))
-    ls.lines = o3d.utility.Vector2iVector(np.ascontiguousarray(lines, dtype=np.int32))
-    ls.colors = o3d.utility.Vector3dVector(np.tile(np.asarray(color, np.float64), (len(lines), 1)))
-    return ls
-
-
 def _o3d_points(xyz: F64, colors: F64, normals: F64 | None = None) -> Any:
     o3d = open3d()
 
@@ -391,6 +369,12 @@ SCENE_PARTS = ("nodes", "arrows", "cells", "mesh", "edges", "path", "scene")
 
 
 def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[Path]:
+    """The PLY files of ``scene``, written from its arrays by :mod:`formats.ply_files` (the
+    bytes open3d wrote, marked); ``scene.ply`` streams every part, the edges and the path as
+    tubes, without concatenating them."""
+    from aion_cli.formats.ply_files import write_lines, write_mesh
+
+    open3d()  # a PLY export needs open3d (the templates), whatever the scene holds
     written: list[Path] = []
     for part, tri in (
         ("nodes", scene.nodes),
@@ -399,34 +383,28 @@ def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[
         ("mesh", scene.mesh),
     ):
         if len(tri.vertices):
-            written.append(_write(out / f"{prefix}{part}.ply", "mesh", _o3d_mesh(tri)))
+            written.append(write_mesh(out / f"{prefix}{part}.ply", [tri]))
     k = len(scene.edges)
     if k:
         pts = scene.edges.reshape(-1, 3)
         lines = np.arange(2 * k, dtype=np.int64).reshape(k, 2)
-        written.append(
-            _write(out / f"{prefix}edges.ply", "lines", _o3d_lines(pts, lines, EDGE_GREY))
-        )
+        written.append(write_lines(out / f"{prefix}edges.ply", pts, lines, EDGE_GREY))
     p = len(scene.path)
     if p >= 2:
         lines = np.stack([np.arange(p - 1), np.arange(1, p)], axis=1)
-        written.append(
-            _write(out / f"{prefix}path.ply", "lines", _o3d_lines(scene.path, lines, PATH_GREEN))
-        )
-    combined = TriMesh.concat(
-        [
-            scene.mesh,
-            scene.cells,
-            scene.nodes,
-            scene.arrows,
-            tubes(scene.edges[:, 0], scene.edges[:, 1], 0.03 * cell_size, EDGE_GREY),
-            tubes(scene.path[:-1], scene.path[1:], 0.12 * cell_size, PATH_GREEN)
-            if p >= 2
-            else TriMesh.empty(),
-        ]
-    )
-    if len(combined.vertices):
-        written.append(_write(out / f"{prefix}scene.ply", "mesh", _o3d_mesh(combined)))
+        written.append(write_lines(out / f"{prefix}path.ply", scene.path, lines, PATH_GREEN))
+    parts = [
+        scene.mesh,
+        scene.cells,
+        scene.nodes,
+        scene.arrows,
+        tubes(scene.edges[:, 0], scene.edges[:, 1], 0.03 * cell_size, EDGE_GREY),
+        tubes(scene.path[:-1], scene.path[1:], 0.12 * cell_size, PATH_GREEN)
+        if p >= 2
+        else TriMesh.empty(),
+    ]
+    if any(len(part.vertices) for part in parts):
+        written.append(write_mesh(out / f"{prefix}scene.ply", parts))
     return written
 
 

@@ -129,10 +129,11 @@ def test_a_photo_at_a_png_target_is_never_replaced(office: Office, tmp_path: Pat
 
 def cut_off_open3d(monkeypatch: pytest.MonkeyPatch, keep: int) -> None:
     """open3d's writers as on a full disk: the file cut off after ``keep`` bytes, True
-    returned (what RPly and open3d's PCD writer do when fwrite fails)."""
+    returned (what open3d's PCD writer does when fwrite fails; PLY files are written by
+    ``formats.ply_files``, whose writes raise)."""
     import open3d as o3d
 
-    for name in ("write_triangle_mesh", "write_line_set", "write_point_cloud"):
+    for name in ("write_point_cloud",):
         real = getattr(o3d.io, name)
 
         def cut(path: str, geometry: Any, *args: Any, _real: Any = real, **kw: Any) -> bool:
@@ -145,13 +146,13 @@ def cut_off_open3d(monkeypatch: pytest.MonkeyPatch, keep: int) -> None:
 
 
 @pytest.mark.parametrize("keep", [0, 400])
-@pytest.mark.parametrize("target", ["s.ply", "s.pcd", "out"])
+@pytest.mark.parametrize("target", ["s.pcd", "out"])
 def test_a_cut_off_scene_file_is_an_error_and_leaves_nothing(
     office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, keep: int, target: str
 ) -> None:
     cut_off_open3d(monkeypatch, keep)
     out = tmp_path / target
-    result = export(office, out)
+    result = export(office, out, *(("--format", "pcd") if target == "out" else ()))
     assert result.exit_code == 2, result.stderr
     assert_one_error(result.stderr, "came out incomplete", f"nothing was written to {out}")
     assert sorted(os.listdir(tmp_path)) == []
@@ -162,10 +163,36 @@ def test_a_writer_returning_false_is_an_error(
 ) -> None:
     import open3d as o3d
 
-    monkeypatch.setattr(o3d.io, "write_triangle_mesh", lambda *a, **k: False)
-    result = export(office, tmp_path / "s.ply")
+    monkeypatch.setattr(o3d.io, "write_point_cloud", lambda *a, **k: False)
+    result = export(office, tmp_path / "s.pcd")
     assert result.exit_code == 2
     assert_one_error(result.stderr, "cannot write")
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("target", ["s.ply", "out"])
+def test_a_full_disk_writing_a_ply_file_is_an_error_and_leaves_nothing(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, target: str
+) -> None:
+    """``formats.ply_files`` writes PLY files with Python's file functions: a write that
+    fails as on a full disk, after part of a file is written, is one error naming the file
+    and the output, exit 2, and nothing is left."""
+    import errno
+
+    import aion_cli.formats.ply_files as ply_files
+
+    real = ply_files._write_vertices
+
+    def full(fh: Any, *args: Any) -> None:
+        real(fh, *args)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(ply_files, "_write_vertices", full)
+    out = tmp_path / target
+    result = export(office, out)
+    assert result.exit_code == 2, result.stderr
+    assert_one_error(result.stderr, "cannot write", "No space left on device",
+                     f"nothing was written to {out}")
     assert os.listdir(tmp_path) == []
 
 
