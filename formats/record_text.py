@@ -138,12 +138,35 @@ def json_document(doc: dict[str, Any], key: str, value: Iterator[str]) -> Iterat
 
 def csv_floats(values: Any) -> Obj:
     """``serialize.to_csv`` cells of float64 values: ``repr(round(x, 9))``, empty for NaN
-    and infinities."""
+    and infinities.
+
+    ``round(x, 9)`` is the double nearest the decimal ``"%.9f" % x`` (both are CPython's
+    correctly rounded dtoa, mode 3), and a decimal of at most 15 significant digits is the
+    shortest repr of its nearest double (DBL_DIG): where ``1e-4 <= |x| < 1e5`` (14 digits at
+    most, written without an exponent) the cell is that decimal without its trailing zeros,
+    made for the whole block by one ``%`` format and a strip; a value that rounds to zero
+    likewise (``0.0``, ``-0.0``). The rest (below 1e-4: ``1.5e-05``; 1e5 and above) go
+    through ``round`` and ``repr`` themselves."""
     array = np.asarray(values, dtype=np.float64)
-    rounded = map(round, array.reshape(-1).tolist(), repeat(9))
-    out = _objects(list(map(float.__repr__, rounded)), array.shape)
-    out[~np.isfinite(array)] = ""
-    return out
+    flat = array.reshape(-1)
+    size = np.abs(flat)
+    fast = ((size >= 1e-4) & (size < 1e5)) | (size < 4e-10)  # NaN: neither
+    slow = np.flatnonzero(~fast & np.isfinite(flat))
+    out = np.full(flat.size, "", dtype=object)
+    out[fast] = _fixed_9(flat[fast].tolist())
+    if slow.size:
+        rounded = map(round, flat[slow].tolist(), repeat(9))
+        out[slow] = list(map(float.__repr__, rounded))
+    return out.reshape(array.shape)
+
+
+def _fixed_9(values: list[float]) -> list[str]:
+    """``"%.9f" % v`` of each value, trailing zeros stripped to one digit after the point."""
+    if not values:
+        return []
+    text = ("%.9f\n" * len(values)) % tuple(values)
+    stripped = "\n".join(map(str.rstrip, text.split("\n"), repeat("0")))
+    return stripped.replace(".\n", ".0\n").split("\n")[:-1]
 
 
 def csv_ints(values: Any) -> Obj:
