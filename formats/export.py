@@ -54,13 +54,21 @@ from aion_cli.errors import (
 )
 from aion_cli.formats.interrupts import interrupts_held
 from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
+from aion_cli.formats.scene_meshes import ARROW_RESOLUTION as ARROW_RESOLUTION
+from aion_cli.formats.scene_meshes import SPHERE_RESOLUTION as SPHERE_RESOLUTION
+from aion_cli.formats.scene_meshes import TUBE_RESOLUTION as TUBE_RESOLUTION
+from aion_cli.formats.scene_meshes import (
+    Instanced,
+    TriMesh,
+    cell_squares,
+    direction_arrows,
+    node_spheres,
+    tubes,
+)
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
 
-SPHERE_RESOLUTION = 8
-ARROW_RESOLUTION = 8
-TUBE_RESOLUTION = 6
 
 
 class ExportError(AionError, ValueError):
@@ -71,32 +79,7 @@ class ExportWriteError(InputError):
     """An export file could not be written (folder not writable, disk full...)."""
 
 
-@dataclass(frozen=True)
-class TriMesh:
-    """A plain triangle mesh: vertices f64[v,3], faces i64[f,3], vertex colours f64[v,3]."""
-
-    vertices: F64
-    faces: I64
-    colors: F64
-
-    @classmethod
-    def empty(cls) -> TriMesh:
-        return cls(np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3)))
-
-    @classmethod
-    def concat(cls, parts: list[TriMesh]) -> TriMesh:
-        parts = [p for p in parts if len(p.vertices)]
-        if not parts:
-            return cls.empty()
-        offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
-        return cls(
-            np.concatenate([p.vertices for p in parts]),
-            np.concatenate([p.faces + off for p, off in zip(parts, offsets, strict=True)]),
-            np.concatenate([p.colors for p in parts]),
-        )
-
-
-# -- instancing ------------------------------------------------------------------------------
+# -- open3d ----------------------------------------------------------------------------------
 
 
 def open3d() -> Any:
@@ -133,103 +116,6 @@ def open3d() -> Any:
             "requirements",
         ) from exc
     return o3d
-
-
-def _template(kind: str) -> tuple[F64, I64]:
-    """Unit template geometry from open3d: sphere (r = 1), arrow (shaft radius 1, length 1
-    along +z from the origin), tube (radius 1, height 1 along +z centred on the origin)."""
-    o3d = open3d()
-
-    tm = o3d.geometry.TriangleMesh
-    if kind == "sphere":
-        mesh = tm.create_sphere(radius=1.0, resolution=SPHERE_RESOLUTION)
-    elif kind == "arrow":
-        mesh = tm.create_arrow(
-            cylinder_radius=1.0,
-            cone_radius=2.0,
-            cylinder_height=0.75,
-            cone_height=0.25,
-            resolution=ARROW_RESOLUTION,
-            cylinder_split=1,
-            cone_split=1,
-        )
-    else:
-        mesh = tm.create_cylinder(radius=1.0, height=1.0, resolution=TUBE_RESOLUTION, split=1)
-    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.triangles, np.int64)
-
-
-def _rotations_from_z(direction: F64) -> F64:
-    """Rotation matrices [n,3,3] taking +z onto each unit ``direction`` (Rodrigues)."""
-    d = direction / np.linalg.norm(direction, axis=1, keepdims=True)
-    z = np.array([0.0, 0.0, 1.0])
-    axis = np.cross(z, d)
-    s = np.linalg.norm(axis, axis=1)
-    c = d[:, 2]
-    k = np.zeros((len(d), 3, 3))
-    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
-    k[:, 1, 0], k[:, 2, 0], k[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
-    eye = np.broadcast_to(np.eye(3), k.shape)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        factor = np.where(s > 1e-12, (1.0 - c) / np.maximum(s, 1e-300) ** 2, 0.0)
-    rot = eye + k + (k @ k) * factor[:, None, None]
-    flip = (s <= 1e-12) & (c < 0)  # pointing straight down: rotate pi about x
-    rot[flip] = np.diag([1.0, -1.0, -1.0])
-    return np.asarray(rot)
-
-
-def _instances(
-    verts: F64, faces: I64, scale: F64, rot: F64 | None, centre: F64, colors: F64
-) -> TriMesh:
-    """Template scaled per axis (scale [n,3]), rotated (rot [n,3,3] or None), translated."""
-    n, v = len(centre), len(verts)
-    if n == 0:
-        return TriMesh.empty()
-    local = verts[None, :, :] * scale[:, None, :]
-    if rot is not None:
-        local = np.einsum("nij,nvj->nvi", rot, local)
-    world = (local + centre[:, None, :]).reshape(-1, 3)
-    all_faces = (faces[None, :, :] + (np.arange(n) * v)[:, None, None]).reshape(-1, 3)
-    return TriMesh(world, all_faces, np.repeat(colors, v, axis=0))
-
-
-def node_spheres(xyz: F64, radii: F64, colors: F64) -> TriMesh:
-    """One sphere per node."""
-    verts, faces = _template("sphere")
-    return _instances(verts, faces, np.repeat(radii[:, None], 3, axis=1), None, xyz, colors)
-
-
-def direction_arrows(xyz: F64, angle: F64, length: F64, width: float, colors: F64) -> TriMesh:
-    """Horizontal arrows from each ``xyz`` along ``angle`` (rad); rows with NaN angle or zero
-    length are skipped."""
-    keep = np.isfinite(angle) & (length > 0)
-    direction = np.stack([np.cos(angle[keep]), np.sin(angle[keep]), np.zeros(keep.sum())], 1)
-    verts, faces = _template("arrow")
-    scale = np.stack([np.full(keep.sum(), width), np.full(keep.sum(), width), length[keep]], 1)
-    return _instances(verts, faces, scale, _rotations_from_z(direction), xyz[keep], colors[keep])
-
-
-def tubes(p0: F64, p1: F64, radius: float, color: tuple[float, float, float]) -> TriMesh:
-    """A thin cylinder per segment (zero-length segments skipped)."""
-    delta = p1 - p0
-    length = np.linalg.norm(delta, axis=1)
-    keep = length > 1e-12
-    verts, faces = _template("tube")
-    n = int(keep.sum())
-    scale = np.stack([np.full(n, radius), np.full(n, radius), length[keep]], 1)
-    centre = 0.5 * (p0[keep] + p1[keep])
-    colors = np.tile(np.asarray(color, dtype=np.float64), (n, 1))
-    return _instances(verts, faces, scale, _rotations_from_z(delta[keep]), centre, colors)
-
-
-def cell_squares(xyz: F64, cell_size: float, colors: F64) -> TriMesh:
-    """A flat δ×δ horizontal square (2 triangles) centred on each cell centre."""
-    n = len(xyz)
-    h = cell_size / 2.0
-    corners = np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])
-    verts = (xyz[:, None, :] + corners[None, :, :]).reshape(-1, 3)
-    quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int64)
-    faces = (quad[None] + (np.arange(n) * 4)[:, None, None]).reshape(-1, 3)
-    return TriMesh(verts, faces, np.repeat(colors, 4, axis=0))
 
 
 # -- writing ---------------------------------------------------------------------------------
@@ -275,8 +161,8 @@ def _write(path: Path, kind: str, geometry: Any) -> Path:
 
 @dataclass(frozen=True)
 class _Scene:
-    nodes: TriMesh
-    arrows: TriMesh
+    nodes: Instanced
+    arrows: Instanced
     cells: TriMesh
     mesh: TriMesh
     edges: F64  # [k,2,3]
@@ -382,7 +268,7 @@ def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[
         ("cells", scene.cells),
         ("mesh", scene.mesh),
     ):
-        if len(tri.vertices):
+        if tri.counts()[0]:
             written.append(write_mesh(out / f"{prefix}{part}.ply", [tri]))
     k = len(scene.edges)
     if k:
@@ -393,7 +279,7 @@ def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[
     if p >= 2:
         lines = np.stack([np.arange(p - 1), np.arange(1, p)], axis=1)
         written.append(write_lines(out / f"{prefix}path.ply", scene.path, lines, PATH_GREEN))
-    parts = [
+    parts: list[TriMesh | Instanced] = [
         scene.mesh,
         scene.cells,
         scene.nodes,
@@ -403,7 +289,7 @@ def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[
         if p >= 2
         else TriMesh.empty(),
     ]
-    if any(len(part.vertices) for part in parts):
+    if any(part.counts()[0] for part in parts):
         written.append(write_mesh(out / f"{prefix}scene.ply", parts))
     return written
 

@@ -46,14 +46,12 @@ _EDGE_T = np.dtype([("a", "<i4"), ("b", "<i4"), *_RGB_T])
 
 
 class MeshPart(Protocol):
-    """A triangle mesh as ``formats.export.TriMesh`` holds it."""
+    """A triangle mesh written a block at a time: ``formats.export.TriMesh`` (its arrays
+    sliced) or ``Instanced`` (a template's instances made per block)."""
 
-    @property
-    def vertices(self) -> F64: ...
-    @property
-    def faces(self) -> npt.NDArray[np.int64]: ...
-    @property
-    def colors(self) -> F64: ...
+    def counts(self) -> tuple[int, int, int]: ...
+    def vertex_blocks(self, rows: int) -> Iterator[tuple[F64, F64]]: ...
+    def face_blocks(self, rows: int) -> Iterator[npt.NDArray[np.int64]]: ...
 
 
 def colour_bytes(colors: npt.ArrayLike) -> npt.NDArray[np.uint8]:
@@ -67,32 +65,33 @@ def write_mesh(path: Path, parts: Sequence[MeshPart]) -> Path:
     offset by the vertices before them) as the PLY file ``path``: what open3d wrote for
     ``TriMesh.concat(parts)``, marked. Colours are written when the parts hold as many
     colours as vertices in all, as open3d's mesh then had them."""
-    parts = [p for p in parts if len(p.vertices)]
-    vertices = sum(len(p.vertices) for p in parts)
-    faces = sum(len(p.faces) for p in parts)
-    coloured = sum(len(p.colors) for p in parts) == vertices
+    parts = [p for p in parts if p.counts()[0]]
+    counts = [p.counts() for p in parts]
+    vertices = sum(c[0] for c in counts)
+    coloured = sum(c[2] for c in counts) == vertices
     header = (
         _HEAD
         + b"element vertex %d\n" % vertices
         + _XYZ
         + (_RGB if coloured else b"")
-        + b"element face %d\n" % faces
+        + b"element face %d\n" % sum(c[1] for c in counts)
         + b"property list uchar uint vertex_indices\nend_header\n"
     )
     vertex_t = np.dtype(_XYZ_T + (_RGB_T if coloured else []))
     with _writing(path) as fh:
         fh.write(header)
         for part in parts:
-            _write_vertices(fh, vertex_t, part.vertices, part.colors if coloured else None)
+            for xyz, colors in part.vertex_blocks(ROWS):
+                _write_vertices(fh, vertex_t, xyz, colors if coloured else None)
         offset = 0
-        for part in parts:
-            for a in range(0, len(part.faces), ROWS):
-                block = np.asarray(part.faces[a : a + ROWS], dtype=np.int64) + offset
+        for part, (count, _, _) in zip(parts, counts, strict=True):
+            for faces in part.face_blocks(ROWS):
+                block = np.asarray(faces, dtype=np.int64) + offset
                 rows = np.empty(len(block), _FACE_T)
                 rows["n"] = 3
                 rows["a"], rows["b"], rows["c"] = block.T.astype(np.int32).astype(np.uint32)
                 fh.write(rows.tobytes())
-            offset += len(part.vertices)
+            offset += count
     return path
 
 

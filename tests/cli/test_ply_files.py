@@ -55,7 +55,8 @@ def _write(path: Path, kind: str, geometry: Any) -> Path:
 def reference_write_ply(out: Path, prefix: str, scene: Any, cell_size: float) -> list[Path]:
     """The open3d ``_write_ply`` the numpy writer replaced."""
     written: list[Path] = []
-    for part, tri in (("nodes", scene.nodes), ("arrows", scene.arrows), ("cells", scene.cells),
+    nodes, arrows = scene.nodes.mesh(), scene.arrows.mesh()  # the TriMeshes of before
+    for part, tri in (("nodes", nodes), ("arrows", arrows), ("cells", scene.cells),
                       ("mesh", scene.mesh)):
         if len(tri.vertices):
             written.append(_write(out / f"{prefix}{part}.ply", "mesh", _o3d_mesh(tri)))
@@ -71,7 +72,7 @@ def reference_write_ply(out: Path, prefix: str, scene: Any, cell_size: float) ->
         written.append(
             _write(out / f"{prefix}path.ply", "lines", _o3d_lines(scene.path, lines, PATH_GREEN)))
     combined = TriMesh.concat([
-        scene.mesh, scene.cells, scene.nodes, scene.arrows,
+        scene.mesh, scene.cells, nodes, arrows,
         tubes(scene.edges[:, 0], scene.edges[:, 1], 0.03 * cell_size, EDGE_GREY),
         tubes(scene.path[:-1], scene.path[1:], 0.12 * cell_size, PATH_GREEN)
         if p >= 2 else TriMesh.empty(),
