@@ -78,6 +78,38 @@ def write_query_map(n_entries: int, path: Path) -> dict[str, Any]:
                                         sorted(kinds.items(), key=lambda kv: -kv[1])}}
 
 
+def write_places_map(extent: float, spacing: float, path: Path) -> dict[str, Any]:
+    """A map of a corridor graph's places (``bench_engine.campus_graph`` over ``extent`` m,
+    corridors every ``spacing`` m, a place every 2 m: 88,727 places at 1,150 m / 14 m) after
+    three 10-minute windows of 400,000 detections on the corridors, for the PLY / PCD export
+    and the entries files at scale (docs/BENCHMARKS.md); its place and entry counts."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.formats.mapfile import write_map
+    from benchmarks.bench_engine import T0_NS as T0
+    from benchmarks.bench_engine import WINDOW_NS, campus_graph, detections
+
+    rng = np.random.default_rng(7)
+    mapper = Mapper(ModelConfig())
+    mapper.set_fixed_sensor(T0 - WINDOW_NS, T0 + 10 * WINDOW_NS)
+    graph = campus_graph(T0 - WINDOW_NS, extent, spacing)
+    mapper.add_graph(graph)
+    for w in range(3):
+        start = T0 - WINDOW_NS + w * WINDOW_NS
+        mapper.add_detections(detections(rng, 400_000, start, WINDOW_NS - 10**9, extent, spacing))
+        mapper.add_graph(campus_graph(start + 60 * 10**9, extent, spacing))
+    mapper.advance(T0 + 3 * WINDOW_NS)
+    state = mapper.state
+    arrays, meta = state.to_arrays()
+    path.unlink(missing_ok=True)
+    write_map(path, arrays, {
+        "state": meta, "config": state.config.to_dict(), "inputs": [],
+        "time_span": {"start_ns": T0 - WINDOW_NS, "end_ns": T0 + 3 * WINDOW_NS},
+        "timezone": state.config.timezone, "graph_source": "log", "observation": "fixed",
+    })
+    return {"places": len(graph.places.ids), "entries": len(state.entries.live_rows())}
+
+
 def process_s(args: list[str], repeats: int) -> tuple[float, str]:
     """Best wall time of a subprocess (must exit 0) and its last stdout line, after one
     untimed run. The processes run as an installed aion does: with Python's bytecode cache
