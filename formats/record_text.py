@@ -12,7 +12,8 @@ indents, then joined: the text of a block. Blocks bound the memory to a block's 
 The layout is ``json.dumps(..., indent=2)``'s and ``csv.writer(lineterminator="\\n")``'s
 with ``serialize``'s conventions: NaN/inf are ``null`` in JSON and an empty cell in CSV, CSV
 floats are ``repr(round(x, 9))``, JSON strings are ASCII-escaped as ``json.dumps`` does.
-``tests/formats/test_record_text.py`` compares the two paths.
+``tests/formats/test_record_text.py`` compares cells and tokens with ``serialize``'s,
+``tests/cli/test_entry_text.py`` whole documents.
 """
 
 from __future__ import annotations
