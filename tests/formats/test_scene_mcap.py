@@ -306,7 +306,9 @@ def test_bad_steps_are_typed_errors(tmp_path: Path) -> None:
         writer.write_step(T0, scene(), NODE_IDS, CELL_IDS)
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    with pytest.raises(ExportWriteError, match="cannot write"):
+    from aion_cli.formats.outputs import OutputPathError
+
+    with pytest.raises(OutputPathError, match="is a file, not a folder"):  # before any write
         SceneMcapWriter(blocker / "s.mcap", {})
 
 
