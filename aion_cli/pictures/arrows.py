@@ -15,7 +15,8 @@ origin, so every panel of a series has the same blocks) become one:
   a flow-weighted mean of all of them would point across a corridor walked both ways),
 - coloured by the flow-weighted mean of their direction entropies.
 
-The cells' squares, the nodes' dots and the graph are drawn as always; only arrows merge.
+The cells' squares and the graph are drawn as always, the squares fainter; the nodes' dots,
+which overlap where arrows merge, are left out (a carpet of the arrows' colours hid them).
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ What is drawn, back to front:
   by entropy with ``formats.scene_colours.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
   direction, red for every direction), on a dot of the same colour;
   where the picture cannot resolve one arrow per entry, one per block instead
-  (:mod:`.arrows`), over fainter cells;
+  (:mod:`.arrows`), over fainter cells and without the nodes' dots;
 - **paths** (:class:`PathLine`) and **markers** (:class:`Marker`, e.g. start and goal) on top.
 
 A colour bar labelled "direction entropy" shows the same blue-to-red scale (0..1). Several
@@ -76,6 +76,8 @@ ARROW_WIDTH = 0.0035
 """Arrow shaft width as a fraction of the panel width (one large panel; small multiples
 draw them relatively wider, :data:`PANEL_ARROW_WIDTH`, so they stay visible)."""
 PANEL_ARROW_WIDTH = 0.006
+UNDER_MERGED_ALPHA = 0.35
+"""The opacity of the cells' squares under arrows merged over blocks."""
 ENTROPY_LABEL = "direction entropy"
 DPI = 120
 MAX_PANELS = 24
@@ -235,6 +237,10 @@ def draw_topdown(
             )
         )
     field = arrows if arrows is not None else arrow_field(scene)
+    # under merged arrows, which stand on many entries of their colours, the cells' squares
+    # are faint and the nodes' dots left out: drawn solid (dots overlapping, as they are where
+    # arrows merge), they are a carpet of the arrows' own colours that hides them
+    merged = field.block is not None
     if len(scene.cells_xyz):
         half = scene.cell_size / 2.0
         square = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
@@ -245,8 +251,7 @@ def draw_topdown(
                 _arrays(squares),
                 facecolors=entropy_colors(ent),
                 edgecolors="none",
-                # fainter under merged arrows, which stand on many cells of their colours
-                alpha=0.85 if field.block is None else 0.35,
+                alpha=UNDER_MERGED_ALPHA if merged else 0.85,
                 zorder=3,
             )
         )
@@ -254,7 +259,7 @@ def draw_topdown(
         ax.scatter(*scene.places_xyz[:, :2].T, s=5, c=[NO_FLOW_GREY], linewidths=0, zorder=4)
     busy = busy_fraction(scene.node_flow, scale)
     has = busy > 0
-    if has.any():
+    if has.any() and not merged:
         colors = entropy_colors(scene.node_entropy[has])
         ax.scatter(*scene.nodes_xyz[has, :2].T, s=dot_size, c=colors, linewidths=0, zorder=5)
     # arrows for nodes and unbound cells alike (a map of cells only shows its directions too),

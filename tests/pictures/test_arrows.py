@@ -5,6 +5,8 @@ across a corridor walked both ways), and small maps keep one arrow per entry."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,6 +14,7 @@ import pytest
 from aion_cli.pictures.arrows import MERGE_FROM, arrow_block, arrow_field
 from aion_cli.pictures.backdrop import Extent
 from aion_cli.pictures.topdown import SINGLE_WIDTH_IN, scene_extent, topdown_figure
+from aion_cli.scene import Scene
 from tests.pictures.pixels import cells_only_scene, synthetic_scene
 
 
@@ -84,3 +87,46 @@ def test_a_dense_map_is_drawn_with_merged_arrows() -> None:
     assert drawn == len(arrow_field(scene, block).flow)
     assert drawn <= n / MERGE_FROM**2  # blocks of more than 3 x 3 cells
     assert f"one arrow per {block:.2g} m block" in fig._supxlabel.get_text()
+
+
+def _nodes_only(xy: np.ndarray, angle: float, entropy: float) -> Scene:
+    """A scene graph of places at ``xy`` f64[n,2], each a node with flow 1 along ``angle``."""
+    n = len(xy)
+    xyz = np.column_stack([xy, np.zeros(n)])
+    empty3 = np.zeros((0, 3))
+    return replace(
+        cells_only_scene(np.zeros((0, 2)), np.zeros(0)),
+        node_ids=np.arange(n, dtype=np.uint64),
+        nodes_xyz=xyz,
+        node_flow=np.ones(n),
+        node_entropy=np.full(n, entropy),
+        node_angle=np.full(n, angle),
+        node_concentration=np.full(n, 0.9),
+        cells_xyz=empty3,
+        places_xyz=xyz,
+        place_room=np.full(n, -1, np.int64),
+    )
+
+
+def _flow_dots(fig: Any) -> list[Any]:
+    (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+    return [c for c in ax.collections if type(c).__name__ == "PathCollection"
+            and c.get_zorder() == 5]
+
+
+def test_node_dots_do_not_hide_merged_arrows() -> None:
+    """A map of 10^4 places a metre apart over 100 m merges its arrows into blocks; its
+    places' flow dots, overlapping about four pixels apart in the arrows' own colours, were a
+    solid carpet that hid the arrows. Under merged arrows the dots are left out (the block's
+    arrow carries their flow); a small map keeps one dot per node with flow."""
+    side = np.arange(0.5, 100.0, 1.0)
+    big = _nodes_only(np.array([(x, y) for x in side for y in side]), 0.0, 0.1)
+    assert arrow_block(scene_extent([big]), SINGLE_WIDTH_IN, 0.5) is not None
+    fig = topdown_figure([big], ["t"])
+    assert _flow_dots(fig) == []
+    (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+    (quiver,) = [c for c in ax.collections if type(c).__name__ == "Quiver"]
+    assert quiver.N > 0
+    small = _nodes_only(np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 5.0]]), 0.0, 0.1)
+    (dots,) = _flow_dots(topdown_figure([small], ["t"]))
+    assert len(dots.get_offsets()) == 3
