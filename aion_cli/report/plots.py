@@ -216,6 +216,7 @@ def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
         ax.set_xticks(np.arange(0, 7 * 24 + 1, 24))
         ax.set_xticklabels([f"{start + timedelta(days=d):%a %d}" for d in range(8)])
         ax.set_xlim(0, 7 * 24)
+        ax.set_xlabel(f"day ({plain(zone.name)}, from midnight)")
     else:
         ax.set_xticks(range(0, 25, 2))
         ax.set_xlim(0, 24)
