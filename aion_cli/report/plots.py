@@ -254,6 +254,9 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
     n = max(len(rows), 1)
     cols = min(n, 3)
     fig = _figure(3.2 * cols, 3.2 * ((n + cols - 1) // cols))
+    # a polar axes raises its title over the "90°" label after the constrained layout has
+    # placed it: without a wider margin a row of two or three titles ran past the top edge
+    fig.get_layout_engine().set(h_pad=0.1)
     centres = np.radians(-180.0 + (np.arange(bins) + 0.5) * 360.0 / bins)
     for k, row in enumerate(rows):
         ax = fig.add_subplot((n + cols - 1) // cols, cols, k + 1, projection="polar")

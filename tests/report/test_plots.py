@@ -1,5 +1,5 @@
 """The report's pictures, read back from their matplotlib artists: axis labels name the
-zone the times are shown in."""
+zone the times are shown in; titles stay inside the picture."""
 
 from __future__ import annotations
 
@@ -44,3 +44,19 @@ def test_the_time_axis_names_its_zone(tmp_path: Path, drawn: list[Any], hours: i
     if hours > 24:  # the days start at the zone's midnight
         assert ax.get_xticklabels()[0].get_text() == "Mon 22"
 
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 6])
+def test_rose_titles_are_inside_the_picture(tmp_path: Path, drawn: list[Any], n: int) -> None:
+    """Two or three roses in a row had their titles cut at the top edge of the picture."""
+    from aion_cli.report.content import Busiest
+
+    record = {"id": "c1", "kind": "cell", "x": 1.25, "y": -8.25, "direction_deg": 0.0,
+              "concentration": 0.8, "histogram": [0.1, 0, 0, 0, 0.9, 0, 0, 0]}
+    plots.roses_png([Busiest(record, "R1 hallway", "static")] * n, 8, tmp_path / "r.png")
+    fig = drawn[-1]
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        box = ax.title.get_window_extent(renderer)
+        assert box.y1 <= fig.bbox.y1, ax.get_title()
+        assert box.x0 >= 0, ax.get_title()
+        assert box.x1 <= fig.bbox.x1, ax.get_title()
