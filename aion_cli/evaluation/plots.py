@@ -26,13 +26,28 @@ def _pyplot() -> Any:
     return plt
 
 
+def _layered(k: int, n: int) -> dict[str, float]:
+    """Line width and marker size of the ``k``-th of ``n`` lines drawn in turn: each narrower
+    than the one before, so a model whose values equal an earlier one's (aion's forecast and
+    the profile it chose) is drawn inside it and both show, as the legend says."""
+    under = n - 1 - k
+    return {"linewidth": 1.2 + 0.8 * under, "markersize": 3.0 + 1.5 * under}
+
+
 def nll_per_hour(rows: list[dict[str, Any]], path: Path, title: str) -> Path:
     """One line per model: mean heading NLL (all detections) against the local hour."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4))
-    for model in dict.fromkeys(r["model"] for r in rows):
+    models = list(dict.fromkeys(r["model"] for r in rows))
+    for k, model in enumerate(models):
         mine = sorted((r for r in rows if r["model"] == model), key=lambda r: r["hour"])
-        ax.plot([r["hour"] for r in mine], [r["nll_all"] for r in mine], marker="o", label=model)
+        ax.plot(
+            [r["hour"] for r in mine],
+            [r["nll_all"] for r in mine],
+            marker="o",
+            label=model,
+            **_layered(k, len(models)),
+        )
     ax.axhline(np.log(2 * np.pi), color="grey", linestyle="--", label="uniform (log 2π)")
     ax.set_xlabel("local hour (JST)")
     ax.set_ylabel("heading NLL (nats, lower is better)")
@@ -112,9 +127,9 @@ def hourly_activity(
     fig, ax = plt.subplots(figsize=(7.5 if len(hours) <= 24 else 11.0, 3.8))
     x = np.arange(len(hours))
     ax.bar(x, series["truth"], color="0.8", label="truth")
-    for name, values in series.items():
-        if name != "truth":
-            ax.plot(x, values, marker="o", ms=3, label=name)
+    models = [name for name in series if name != "truth"]
+    for k, name in enumerate(models):
+        ax.plot(x, series[name], marker="o", label=name, **_layered(k, len(models)))
     labels = [f"{h:02d}" if isinstance(h, int) else str(h) for h in hours]
     every = max(1, -(-len(labels) // 24))
     ax.set_xticks(x[::every], labels[::every], rotation=0 if every == 1 else 45)

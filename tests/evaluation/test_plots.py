@@ -1,0 +1,67 @@
+"""The evaluation report's plots, read back from their matplotlib artists: every model the
+legend names can be seen, the legend covers no data, and the direction maps say what their
+axes and colours are."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from aion_cli.evaluation import plots
+
+
+@pytest.fixture
+def drawn(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """The figures the plots are saved from (kept open: the plots close them after saving)."""
+    figures: list[Any] = []
+    save = plots.save_marked_png
+
+    def keep(fig: Any, path: Any, **options: Any) -> None:
+        figures.append(fig)
+        save(fig, path, **options)
+
+    monkeypatch.setattr(plots, "save_marked_png", keep)
+    return figures
+
+
+def _lines_hidden_under_others(ax: Any) -> list[str]:
+    """Labels of lines drawn under a later line with the same points, at least as wide and
+    with markers at least as large: nothing of them shows."""
+    lines = [ln for ln in ax.get_lines() if not ln.get_label().startswith("_")]
+    hidden = []
+    for k, low in enumerate(lines):
+        for high in lines[k + 1 :]:
+            same = np.array_equal(low.get_xydata(), high.get_xydata())
+            if (
+                same
+                and high.get_linewidth() >= low.get_linewidth()
+                and high.get_markersize() >= low.get_markersize()
+            ):
+                hidden.append(str(low.get_label()))
+    return hidden
+
+
+def test_equal_forecasts_stay_visible_in_the_hourly_plot(tmp_path: Path, drawn: list[Any]) -> None:
+    """On the Lincoln corridor aion's forecast equals the hour-of-day profile's and its static
+    rates the static model's: drawn alike, one line covered the other, and the legend named
+    two models that could not be seen."""
+    truth = [10.0, 40.0, 20.0]
+    series = {"truth": truth, "aion": [12.0, 35.0, 22.0], "aion static": [20.0, 20.0, 20.0],
+              "profile": [12.0, 35.0, 22.0], "static": [20.0, 20.0, 20.0]}
+    plots.hourly_activity([9, 10, 11], series, tmp_path / "h.png", "t")
+    (ax,) = drawn[-1].axes
+    assert _lines_hidden_under_others(ax) == []
+
+
+def test_equal_models_stay_visible_in_the_nll_plot(tmp_path: Path, drawn: list[Any]) -> None:
+    """On ATC aion's NLL per hour equals its static model's (the green line hid the blue)."""
+    rows = [{"model": m, "hour": h, "nll_all": v}
+            for m, vals in (("aion", (1.3, 1.4)), ("aion static", (1.3, 1.4)),
+                            ("grid", (1.5, 1.6)))
+            for h, v in zip((9, 10), vals, strict=True)]
+    plots.nll_per_hour(rows, tmp_path / "n.png", "t")
+    (ax,) = drawn[-1].axes
+    assert _lines_hidden_under_others(ax) == []
