@@ -103,10 +103,11 @@ def door_weeks(weeks: list[dict[str, Any]], path: Path) -> Path:
     k = np.array([w["week"] for w in weeks])
     ax.bar(k - 0.2, [w["mae_fremen"] for w in weeks], width=0.4, label="FreMEn")
     ax.bar(k + 0.2, [w["mae_static"] for w in weeks], width=0.4, label="static mean")
+    ax.set_xticks(k)
     ax.set_xlabel("test week")
     ax.set_ylabel("mean absolute error")
     ax.set_title("FreMEn on the door signal")
-    ax.legend()
+    ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)  # not over a bar
     fig.tight_layout()
     save_marked_png(fig, path, dpi=110)
     plt.close(fig)

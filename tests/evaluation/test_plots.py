@@ -65,3 +65,22 @@ def test_equal_models_stay_visible_in_the_nll_plot(tmp_path: Path, drawn: list[A
     plots.nll_per_hour(rows, tmp_path / "n.png", "t")
     (ax,) = drawn[-1].axes
     assert _lines_hidden_under_others(ax) == []
+
+
+def test_the_door_legend_covers_no_bar(tmp_path: Path, drawn: list[Any]) -> None:
+    """The legend sat in the upper centre, over the bars of the middle weeks."""
+    weeks = [{"week": k, "mae_fremen": 0.17, "mae_static": 0.19} for k in range(1, 10)]
+    plots.door_weeks(weeks, tmp_path / "d.png")
+    fig = drawn[-1]
+    (ax,) = fig.axes
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)  # the plot closed its figure after saving it
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    legend = ax.get_legend().get_window_extent(renderer)
+    bars = [p.get_window_extent(renderer) for p in ax.patches]
+    assert bars
+    assert not [b for b in bars if b.overlaps(legend)]
+    assert [t.get_text() for t in ax.get_xticklabels()] == [str(k) for k in range(1, 10)]
+
