@@ -75,22 +75,30 @@ def flow_maps_side_by_side(
     Arrow length follows the flow magnitude normalised by each map's maximum.
     """
     plt = _pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5), sharex=True, sharey=True)
+    fig, axes = plt.subplots(
+        1, 2, figsize=(12, 5), sharex=True, sharey=True, layout="constrained"
+    )
+    arrows = None
     for ax, xy, angle, flow, name in (
         (axes[0], grid_xy, grid_angle, grid_flow, "grid (STeF-style, 1 m)"),
         (axes[1], aion_xy, aion_angle, aion_flow, "aion (nodes and unbound cells)"),
     ):
         ok = np.isfinite(angle) & (flow > 0)
         scale = flow[ok] / max(float(flow[ok].max()), 1e-9) if np.any(ok) else flow[ok]
-        ax.quiver(
+        arrows = ax.quiver(
             xy[ok, 0], xy[ok, 1], np.cos(angle[ok]) * scale, np.sin(angle[ok]) * scale,
-            scale, cmap="viridis", angles="xy", scale_units="xy", scale=1.0, width=0.004,
+            scale, cmap="viridis", clim=(0.0, 1.0), angles="xy", scale_units="xy",
+            scale=1.0, width=0.004,
         )
         ax.set_title(name)
         ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
         ax.grid(alpha=0.2)
+    axes[0].set_ylabel("y (m)")
+    if arrows is not None:
+        bar = fig.colorbar(arrows, ax=list(axes), shrink=0.8)
+        bar.set_label("flow / the map's largest (colour and arrow length, m)")
     fig.suptitle(title)
-    fig.tight_layout()
     save_marked_png(fig, path, dpi=110)
     plt.close(fig)
     return path

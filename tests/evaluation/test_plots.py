@@ -84,3 +84,23 @@ def test_the_door_legend_covers_no_bar(tmp_path: Path, drawn: list[Any]) -> None
     assert not [b for b in bars if b.overlaps(legend)]
     assert [t.get_text() for t in ax.get_xticklabels()] == [str(k) for k in range(1, 10)]
 
+
+def test_the_direction_maps_name_their_axes_and_colours(
+    tmp_path: Path, drawn: list[Any]
+) -> None:
+    """The grid-against-aion direction maps (the paper's Fig. 4) had no axis labels and
+    coloured their arrows by flow with no colour bar saying so."""
+    xy = np.array([[0.5, 0.5], [1.5, 0.5], [2.5, 0.5]])
+    angle = np.zeros(3)
+    flow = np.array([1.0, 2.0, 4.0])
+    plots.flow_maps_side_by_side(xy, angle, flow, xy, angle, flow, tmp_path / "f.png", "t")
+    fig = drawn[-1]
+    maps = [ax for ax in fig.axes if ax.get_title()]
+    assert len(maps) == 2
+    for ax in maps:
+        assert ax.get_xlabel() == "x (m)"
+        assert ax.get_aspect() == 1.0
+    assert maps[0].get_ylabel() == "y (m)"
+    bars = [ax for ax in fig.axes if ax not in maps]
+    assert len(bars) == 1
+    assert "flow" in bars[0].get_ylabel()
