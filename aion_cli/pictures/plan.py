@@ -67,7 +67,11 @@ def plan_figure(
     if len(ends):
         markers = [
             Marker(
-                (float(ends[0, 0]), float(ends[0, 1])), f"start {start_label}", "o", START_COLOR
+                (float(ends[0, 0]), float(ends[0, 1])),
+                f"start {start_label}",
+                "o",
+                START_COLOR,
+                z=float(ends[0, 2]),
             ),
             Marker(
                 (float(ends[-1, 0]), float(ends[-1, 1])),
@@ -75,6 +79,7 @@ def plan_figure(
                 "*",
                 GOAL_COLOR,
                 200.0,
+                z=float(ends[-1, 2]),
             ),
         ]
     return topdown_figure([scene], [title], paths=[lines], markers=markers, dpi=dpi)

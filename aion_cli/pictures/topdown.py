@@ -68,6 +68,7 @@ from aion_cli.pictures.backdrop import (
     outlying_cells,
     room_outlines,
 )
+from aion_cli.pictures.floors import by_level, levels
 from aion_cli.scene import Scene
 
 F64 = npt.NDArray[np.float64]
@@ -106,6 +107,8 @@ class Marker:
     symbol: str = "o"
     color: Color = (0.0, 0.0, 0.0)
     size: float = 90.0
+    z: float | None = None
+    """Its height (m): on a map of several levels it is drawn on its level's panels only."""
 
 
 def entropy_cmap() -> Any:
@@ -319,9 +322,10 @@ def draw_topdown(
         ax.set_title(safe_text(title), fontsize=10)
 
 
-def _grid(n: int, aspect: float) -> tuple[int, int, float, float]:
+def _grid(n: int, aspect: float, group: int = 1) -> tuple[int, int, float, float]:
     """Rows, columns and panel size (inches) for ``n`` panels of height/width ``aspect``: one
-    wide panel, or the column count that makes the page closest to 3:2 landscape."""
+    wide panel, or the column count that makes the page closest to 3:2 landscape (a
+    multiple of ``group``, the levels of one time, so a row holds whole times)."""
     if n == 1:
         return 1, 1, SINGLE_WIDTH_IN, float(np.clip(SINGLE_WIDTH_IN * aspect, 2.5, 9.0))
     height = float(np.clip(PANEL_WIDTH_IN * aspect, 1.4, 5.0))
@@ -330,7 +334,7 @@ def _grid(n: int, aspect: float) -> tuple[int, int, float, float]:
         rows = math.ceil(n / cols)
         return abs(math.log(cols * PANEL_WIDTH_IN / (rows * height) / 1.5))
 
-    cols = min(range(1, min(n, 6) + 1), key=badness)
+    cols = min(range(group, max(min(n, 6), group) + 1, group), key=badness)
     return math.ceil(n / cols), cols, PANEL_WIDTH_IN, height
 
 
@@ -353,17 +357,28 @@ def topdown_figure(
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
 
-    n = len(scenes)
-    if n == 0:
+    if not scenes:
         raise InputError("nothing to draw: no times given")
+    per_panel: list[Sequence[PathLine]] = (
+        list(paths) if paths is not None else [[] for _ in scenes]
+    )
+    panel_markers = [list(markers) for _ in scenes]
+    found = levels(scenes)
+    if len(found) > 1:  # floors apart: one panel per time and level, not drawn over each other
+        if len(scenes) == 1:  # one time: its title over the page, each panel's its level's
+            suptitle = "\n".join(filter(None, (suptitle, *titles)))
+            titles = [""]
+        scenes, titles, per_panel, panel_markers = by_level(
+            scenes, titles, per_panel, markers, found
+        )
+    n = len(scenes)
     if n > MAX_PANELS:
         raise InputError(
             f"the picture would have {n} panels, more than {MAX_PANELS}",
             hint="use a larger --step (or a shorter --from/--to)",
         )
-    per_panel = list(paths) if paths is not None else [[] for _ in scenes]
     extent = scene_extent(scenes, [p for ps in per_panel for p in ps])
-    rows, cols, width, height = _grid(n, extent.aspect)
+    rows, cols, width, height = _grid(n, extent.aspect, max(len(found), 1))
     block = arrow_block(extent, width, min(s.cell_size for s in scenes))
     fields = [arrow_field(s, block) for s in scenes]
     if block is None:
@@ -397,7 +412,7 @@ def topdown_figure(
             flow_scale=scale,
             extent=extent,
             paths=per_panel[i],
-            markers=markers,
+            markers=panel_markers[i],
             title=titles[i],
             arrow_width=ARROW_WIDTH if n == 1 else PANEL_ARROW_WIDTH,
             dot_size=12.0 if n == 1 else 5.0,
@@ -411,8 +426,20 @@ def topdown_figure(
         if i % cols:
             ax.set_ylabel("")
         used.append(ax)
-    if any(ax.get_legend_handles_labels()[1] for ax in used[:1]):
-        used[0].legend(loc="upper right", fontsize=7 if n > 1 else 8, framealpha=0.9)
+    # one legend for every panel's paths and markers (a goal on an upper level is drawn on
+    # that level's panel only), in the first panel
+    legend: dict[str, Any] = {}
+    for ax in used:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    if legend:
+        used[0].legend(
+            list(legend.values()),
+            list(legend.keys()),
+            loc="upper right",
+            fontsize=7 if n > 1 else 8,
+            framealpha=0.9,
+        )
     bar = fig.colorbar(
         ScalarMappable(Normalize(0.0, 1.0), entropy_cmap()),
         ax=used,
