@@ -21,8 +21,9 @@ What is drawn, back to front:
   (:mod:`.arrows`), over fainter cells and without the nodes' dots;
 - **paths** (:class:`PathLine`) and **markers** (:class:`Marker`, e.g. start and goal) on top.
 
-A colour bar labelled "direction entropy" shows the same blue-to-red scale (0..1). Several
-scenes (a series of times) become small multiples sharing axes, flow scale and colour bar.
+A colour bar labelled "direction entropy" (its ends named: one way, every way) shows the
+same blue-to-red scale (0..1). Several scenes (a series of times) become small multiples
+sharing axes, flow scale and colour bar.
 
 **Where the code is.** This module draws the flows (:func:`draw_topdown`) and lays out the
 panels (:func:`topdown_figure`); the backdrop they are drawn over -- the window
@@ -447,6 +448,9 @@ def topdown_figure(
         aspect=30,
     )
     bar.set_label(ENTROPY_LABEL)
+    # normalised, without a unit: the ends say what it means
+    bar.set_ticks([0.0, 0.2, 0.4, 0.6, 0.8, 1.0])
+    bar.set_ticklabels(["0 one way", "0.2", "0.4", "0.6", "0.8", "1 every way"])
     if suptitle:  # it may hold a file name: UTF-8 text whatever the name's bytes
         fig.suptitle(safe_text(suptitle), fontsize=12)
     fig.supxlabel(

@@ -98,6 +98,12 @@ def test_colour_bar_is_labelled_and_axes_are_metres(tmp_path: Path) -> None:
     fig, (ax,), _ = _drawn(tmp_path, [synthetic_scene()])
     labels = [a.get_ylabel() for a in fig.axes if a is not ax]
     assert ENTROPY_LABEL in labels
+    # a normalised entropy has no unit: the bar says what its ends are (it said neither)
+    (bar,) = [a for a in fig.axes if a.get_ylabel() == ENTROPY_LABEL]
+    assert bar.get_ylim() == (0.0, 1.0)
+    ends = {round(t.get_position()[1], 6): t.get_text() for t in bar.get_yticklabels()}
+    assert ends[0.0] == "0 one way"
+    assert ends[1.0] == "1 every way"
     assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (m)", "y (m)")
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
