@@ -29,12 +29,13 @@ sharing axes, flow scale and colour bar.
 panels (:func:`topdown_figure`); the backdrop they are drawn over -- the window
 (:class:`Extent`), the mesh footprint (:class:`Footprint`, :func:`mesh_footprint`) and the room
 outlines (:class:`RoomOutlines`, :func:`room_outlines`), computed once per picture -- lives in
-:mod:`.backdrop` and is re-exported here for :mod:`.plan`, :mod:`.render` and the tests.
+:mod:`.backdrop` and is re-exported here for :mod:`.plan`, :mod:`.render` and the tests; the
+page's rows, columns and panel sizes in :mod:`.layout`; the levels of a multi-storey map in
+:mod:`.floors`.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -70,6 +71,8 @@ from aion_cli.pictures.backdrop import (
     room_outlines,
 )
 from aion_cli.pictures.floors import by_level, levels
+from aion_cli.pictures.layout import PANEL_WIDTH_IN, SINGLE_WIDTH_IN
+from aion_cli.pictures.layout import grid as page_grid
 from aion_cli.scene import Scene
 
 F64 = npt.NDArray[np.float64]
@@ -83,8 +86,6 @@ UNDER_MERGED_ALPHA = 0.35
 ENTROPY_LABEL = "direction entropy"
 DPI = 120
 MAX_PANELS = 24
-SINGLE_WIDTH_IN = 8.0
-PANEL_WIDTH_IN = 3.6
 
 
 @dataclass(frozen=True)
@@ -323,22 +324,6 @@ def draw_topdown(
         ax.set_title(safe_text(title), fontsize=10)
 
 
-def _grid(n: int, aspect: float, group: int = 1) -> tuple[int, int, float, float]:
-    """Rows, columns and panel size (inches) for ``n`` panels of height/width ``aspect``: one
-    wide panel, or the column count that makes the page closest to 3:2 landscape (a
-    multiple of ``group``, the levels of one time, so a row holds whole times)."""
-    if n == 1:
-        return 1, 1, SINGLE_WIDTH_IN, float(np.clip(SINGLE_WIDTH_IN * aspect, 2.5, 9.0))
-    height = float(np.clip(PANEL_WIDTH_IN * aspect, 1.4, 5.0))
-
-    def badness(cols: int) -> float:
-        rows = math.ceil(n / cols)
-        return abs(math.log(cols * PANEL_WIDTH_IN / (rows * height) / 1.5))
-
-    cols = min(range(group, max(min(n, 6), group) + 1, group), key=badness)
-    return math.ceil(n / cols), cols, PANEL_WIDTH_IN, height
-
-
 def topdown_figure(
     scenes: Sequence[Scene],
     titles: Sequence[str],
@@ -379,7 +364,7 @@ def topdown_figure(
             hint="use a larger --step (or a shorter --from/--to)",
         )
     extent = scene_extent(scenes, [p for ps in per_panel for p in ps])
-    rows, cols, width, height = _grid(n, extent.aspect, max(len(found), 1))
+    rows, cols, width, height = page_grid(n, extent.aspect, max(len(found), 1))
     block = arrow_block(extent, width, min(s.cell_size for s in scenes))
     fields = [arrow_field(s, block) for s in scenes]
     if block is None:
