@@ -380,7 +380,15 @@ def topdown_figure(
         layout="constrained",
     )
     FigureCanvasAgg(fig)
-    grid = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)
+    keyed = any(len(p) for p in per_panel) or any(panel_markers)
+    # a row for the legend of paths and markers over the panels: inside a panel it covered
+    # the map (a corridor plan's legend hid its goal and half its paths); the figure's own
+    # "outside" legends overlap its title or caption
+    spec = fig.add_gridspec(rows + keyed, cols, height_ratios=[1e-3] * keyed + [1.0] * rows)
+    key = fig.add_subplot(spec[0, :]) if keyed else None
+    grid = spec[int(keyed) :, :].subgridspec(rows, cols).subplots(
+        sharex=True, sharey=True, squeeze=False
+    )
     shared: tuple[Scene, Footprint | None, RoomOutlines] | None = None
     used = []
     for i, ax in enumerate(grid.flat):
@@ -413,19 +421,23 @@ def topdown_figure(
             ax.set_ylabel("")
         used.append(ax)
     # one legend for every panel's paths and markers (a goal on an upper level is drawn on
-    # that level's panel only), in the first panel
+    # that level's panel only), in its row over the panels
     legend: dict[str, Any] = {}
     for ax in used:
         for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
             legend.setdefault(label, handle)
-    if legend:
-        used[0].legend(
-            list(legend.values()),
-            list(legend.keys()),
-            loc="upper right",
-            fontsize=7 if n > 1 else 8,
-            framealpha=0.9,
-        )
+    if key is not None:
+        key.set_axis_off()
+        if legend:
+            key.legend(
+                list(legend.values()),
+                list(legend.keys()),
+                loc="lower center",
+                bbox_to_anchor=(0.5, 0.0),
+                ncols=min(len(legend), 4),
+                fontsize=7 if n > 1 else 8,
+                frameon=False,
+            )
     bar = fig.colorbar(
         ScalarMappable(Normalize(0.0, 1.0), entropy_cmap()),
         ax=used,

@@ -76,6 +76,12 @@ def panel_count(image: F64, min_fraction: float = 0.08) -> int:
     return big - 1  # the page around the panels
 
 
+def the_legend(fig: Any) -> Any:
+    """The one legend of a picture (of its paths and markers), wherever it is drawn."""
+    (legend,) = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    return legend
+
+
 def count_near(image: F64, color: tuple[float, float, float], tol: float = 0.08) -> int:
     """How many pixels are within ``tol`` (per channel) of ``color``."""
     return int((np.abs(image - np.asarray(color)).max(axis=2) < tol).sum())

@@ -12,7 +12,7 @@ from aion_cli.pictures.floors import levels
 from aion_cli.pictures.plan import DrawnRoute, plan_figure
 from aion_cli.pictures.topdown import topdown_figure
 from aion_cli.scene import Scene
-from tests.pictures.pixels import synthetic_scene
+from tests.pictures.pixels import synthetic_scene, the_legend
 
 
 def _two_floors() -> Scene:
@@ -97,8 +97,7 @@ def test_a_path_up_the_stairs_is_drawn_on_each_floor_where_it_is() -> None:
                                                                                      "goal"))]
              for ax in (ground, upper)}
     assert marks == {ground: ["start p0"], upper: ["goal p17"]}
-    legend = ground.get_legend()
-    assert legend is not None
+    legend = the_legend(fig)
     assert {t.get_text() for t in legend.get_texts()} >= {"start p0", "goal p17"}
 
 

@@ -17,7 +17,15 @@ from aion_cli.pictures.plan import (
 )
 from aion_cli.pictures.render import save_png
 from aion_cli.pictures.topdown import Color
-from tests.pictures.pixels import F64, count_near, pixel_of, read_png, synthetic_scene, window
+from tests.pictures.pixels import (
+    F64,
+    count_near,
+    pixel_of,
+    read_png,
+    synthetic_scene,
+    the_legend,
+    window,
+)
 
 Point = tuple[float, ...]
 A, B, C = (0.0, 0.0, 0.0), (8.0, 0.0, 0.0), (0.0, 8.0, 0.0)
@@ -56,7 +64,7 @@ def test_both_routes_start_goal_and_legend(tmp_path: Path) -> None:
     assert count_near(image, GOAL_COLOR) > 20
     goal = window(image, *pixel_of(ax, image, *B[:2]), half=3)
     assert (np.abs(goal - np.asarray(GOAL_COLOR)).max(axis=1) < 0.1).any()
-    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    legend = [t.get_text() for t in the_legend(fig).get_texts()]
     assert legend == [
         "distance only: 8.0 m, cost 9.2",
         "temporal: 19.3 m, cost 4.5",
@@ -76,3 +84,41 @@ def test_the_same_route_twice_shows_both_colours(tmp_path: Path) -> None:
     (ax,) = [a for a in fig.axes if a.get_title() == "t"]
     assert _share(image, ax, A, C, TEMPORAL_GREEN) > 0.9
     assert _share(image, ax, A, C, DISTANCE_ORANGE) > 0.5
+
+
+def test_the_legend_covers_no_map() -> None:
+    """A plan along a 100 m corridor 2 m wide: the legend, in the panel's upper right corner,
+    covered the goal and half of both paths. It has a row of its own over the panels, clear
+    of the title and the caption too."""
+    from dataclasses import replace
+
+    xy = np.array([(x, y) for x in np.arange(0.5, 100.0, 1.0) for y in (0.5, 1.5)])
+    xyz = np.column_stack([xy, np.zeros(len(xy))])
+    n = len(xyz)
+    scene = replace(
+        synthetic_scene(),
+        node_ids=np.arange(n, dtype=np.uint64),
+        nodes_xyz=xyz,
+        node_flow=np.ones(n),
+        node_entropy=np.full(n, 0.1),
+        node_angle=np.zeros(n),
+        node_concentration=np.full(n, 0.9),
+        places_xyz=xyz,
+        place_room=np.full(n, -1, np.int64),
+        edges_xyz=np.zeros((0, 2, 3)),
+        room_ids=np.zeros(0, np.uint64),
+        room_labels=(),
+        room_xyz=np.zeros((0, 3)),
+        mesh=None,
+    )
+    route = DrawnRoute(np.array([[0.5, 0.5, 0.0], [99.5, 0.5, 0.0]]), 99.0, 120.0)
+    fig = plan_figure(scene, route, route, start_label="p0", goal_label="p198", title="plan")
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    box = the_legend(fig).get_window_extent(renderer)
+    (ax,) = [a for a in fig.axes if a.get_title() == "plan"]
+    assert not box.overlaps(ax.get_window_extent(renderer))
+    assert not box.overlaps(ax.title.get_window_extent(renderer))
+    assert not box.overlaps(fig._supxlabel.get_window_extent(renderer))
+    assert fig.bbox.contains(box.x0, box.y0)
+    assert fig.bbox.contains(box.x1, box.y1)
