@@ -247,9 +247,10 @@ def _draw_footprint(ax: Any, footprint: Footprint | None) -> None:
 
 @dataclass(frozen=True)
 class RoomOutlines:
-    """Each room's outline (the convex hull of its places, padded by one cell; rooms with
-    fewer than three places off one line have none) and its label at the centroid of its
-    places; computed once per picture (the panels of a series share the map's rooms)."""
+    """Each room's outline (the convex hull of its places grown by one cell all round, every
+    place a cell inside it; a room without places has none) and its label at the centroid
+    of its places; computed once per picture (the panels of a series share the map's
+    rooms)."""
 
     hulls: tuple[F64, ...]
     label_xy: F64
@@ -313,20 +314,23 @@ def _draw_rooms(ax: Any, rooms: RoomOutlines, label_size: float) -> None:
 
 
 def _padded_hull(xy: F64, pad: float) -> F64 | None:
-    """The convex hull of ``xy`` pushed out by ``pad`` from its centroid; None for fewer than
-    three points not on one line."""
+    """The convex hull of ``xy`` grown by ``pad`` all round (the hull of an octagon of
+    inner radius ``pad`` around each of its corners), so every point lies at least ``pad``
+    inside it, a row of points too; None without a finite point."""
     from scipy.spatial import ConvexHull, QhullError
 
     xy = np.unique(xy[np.isfinite(xy).all(axis=1)], axis=0)
-    if len(xy) < 3:
+    if len(xy) == 0:
         return None
     try:
-        corners = xy[ConvexHull(xy).vertices]
-    except QhullError:  # all on one line
-        return None
-    out = corners - corners.mean(axis=0)
-    norm = np.linalg.norm(out, axis=1, keepdims=True)
-    return np.asarray(corners + out / np.maximum(norm, 1e-12) * pad)
+        xy = xy[ConvexHull(xy).vertices]
+    except QhullError:  # fewer than three points, or all on one line: their ends
+        along = (xy - xy[0]) @ (xy[-1] - xy[0])
+        xy = xy[[int(np.argmin(along)), int(np.argmax(along))]]
+    turns = np.arange(8) * (np.pi / 4) + np.pi / 8
+    octagon = np.column_stack([np.cos(turns), np.sin(turns)]) * (pad / np.cos(np.pi / 8))
+    grown = (xy[:, None, :] + octagon[None]).reshape(-1, 2)
+    return np.asarray(grown[ConvexHull(grown).vertices])
 
 
 def _same_geometry(a: Scene, b: Scene) -> bool:

@@ -153,7 +153,22 @@ def test_a_scene_without_flow_or_graph_draws(tmp_path: Path) -> None:
     assert grey.max() < 0.7
 
 
+def _inside_by(hull: F64, points: F64) -> F64:
+    """How far inside the closed convex polygon ``hull`` each point lies (negative: outside):
+    its least distance to the polygon's edge lines, signed."""
+    a, b = hull, np.roll(hull, -1, axis=0)
+    edge = b - a
+    normal = np.column_stack([edge[:, 1], -edge[:, 0]]) / np.linalg.norm(edge, axis=1)[:, None]
+    centre = hull.mean(axis=0)
+    normal *= np.sign(((a - centre) * normal).sum(axis=1))[:, None]  # outward
+    return np.asarray(((a[None] - points[:, None]) * normal[None]).sum(axis=2).min(axis=1))
+
+
 def test_room_outlines_are_padded_hulls_labelled_at_the_centroid() -> None:
+    """Every place of a room lies a cell inside its outline, whatever the room's shape: the
+    outline pushed the hull's corners out from the centroid, so a long hallway's outline ran
+    through its places, tapering to points at its ends, and a room of places in one row
+    (a corridor) had no outline at all."""
     import dataclasses
 
     from aion_cli.pictures.topdown import room_outlines
@@ -162,16 +177,24 @@ def test_room_outlines_are_padded_hulls_labelled_at_the_centroid() -> None:
     rooms = room_outlines(scene)
     (hull,) = rooms.hulls
     places = scene.places_xyz[:, :2]
-    gap = np.linalg.norm(hull[:, None, :] - places[None, :, :], axis=2).min(axis=1)
-    assert np.allclose(gap, scene.cell_size)  # each corner one cell out from its place
+    assert _inside_by(hull, places).min() >= scene.cell_size - 1e-9
+    assert _inside_by(hull, places).min() <= 1.1 * scene.cell_size  # no more than a cell
     assert rooms.labels == ("lab",)
     assert np.allclose(rooms.label_xy, [places.mean(axis=0)])
-    # a room on one line has no hull; an unnamed room is labelled by its id
-    line = dataclasses.replace(
-        scene, places_xyz=np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]]), room_labels=("",)
-    )
-    assert room_outlines(line).hulls == ()
-    assert room_outlines(line).labels == ("R0",)
+    # a hallway: 40 places in a row and one door off it; a corridor of places in one row
+    row = [[x, 15.5, 0.0] for x in np.arange(0.5, 40.0, 1.0)]
+    for xyz in ([*row, [20.0, 17.0, 0.0]], row):
+        hallway = np.array(xyz)
+        long = dataclasses.replace(
+            scene,
+            places_xyz=hallway,
+            place_room=np.zeros(len(hallway), np.int64),
+            room_labels=("",),
+        )
+        outlines = room_outlines(long)
+        (hull,) = outlines.hulls
+        assert _inside_by(hull, hallway[:, :2]).min() >= scene.cell_size - 1e-9
+        assert outlines.labels == ("R0",)  # an unnamed room is labelled by its id
 
 
 def _many_cells(flows: F64) -> Scene:
