@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.errors import InputError
+from aion_cli.pictures.floors import levels
 from aion_cli.pictures.png_mark import is_aion_png, save_marked_png
 from aion_cli.pictures.topdown import DPI, MAX_PANELS, PathLine, topdown_figure
 
@@ -185,10 +186,18 @@ def export_png(
             f"the picture would have {len(times)} panels, more than {MAX_PANELS}",
             hint=_fitting_step_hint(times),
         )
+    first = scene_at(loaded, times[0]) if times else None
+    floors = len(levels([first])) if first is not None else 1
+    if floors > 1 and len(times) * floors > MAX_PANELS:  # a panel per time and level
+        raise InputError(
+            f"the picture would have {len(times) * floors} panels ({len(times)} times on "
+            f"{floors} levels), more than {MAX_PANELS}",
+            hint=_fitting_step_hint(times, floors),
+        )
     scenes = []
     paths: list[list[PathLine]] = []
-    for t_ns in times:
-        scenes.append(scene_at(loaded, t_ns))
+    for k, t_ns in enumerate(times):
+        scenes.append(first if k == 0 and first is not None else scene_at(loaded, t_ns))
         if ends is not None:
             xyz = np.asarray(planned_path(loaded, t_ns, ends), dtype=np.float64)
             paths.append([PathLine(xyz, "planned path", PATH_GREEN)])
@@ -208,13 +217,14 @@ _NICE_STEPS_S = (60, 300, 600, 900, 1200, 1800, 3600, 7200, 10800, 14400, 21600,
                  86400, 172800, 604800)
 
 
-def _fitting_step_hint(times: Sequence[int | None]) -> str:
+def _fitting_step_hint(times: Sequence[int | None], per_time: int = 1) -> str:
     """The hint for a series of too many panels: the smallest round ``--step`` that draws
-    the same span in at most :data:`MAX_PANELS` panels."""
+    the same span in at most :data:`MAX_PANELS` panels (``per_time`` panels a time: the
+    levels of a multi-storey map)."""
     known = [t for t in times if t is not None]
     span_s = (max(known) - min(known)) / 1e9 if known else 0.0
     for step in _NICE_STEPS_S:
-        panels = int(span_s // step) + 1
+        panels = (int(span_s // step) + 1) * per_time
         if panels <= MAX_PANELS:
             unit = (
                 f"{step // 86400}d" if step % 86400 == 0

@@ -4,9 +4,11 @@ of one floor are not drawn over another's."""
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 
 from aion_cli.pictures.floors import levels
 from aion_cli.pictures.plan import DrawnRoute, plan_figure
@@ -120,3 +122,33 @@ def test_a_row_of_panels_holds_whole_times() -> None:
     for titles in rows.values():
         assert len(titles) % 2 == 0
         assert [t.split("\n")[0] for t in titles[::2]] == [t.split("\n")[0] for t in titles[1::2]]
+
+
+def test_a_series_of_too_many_times_on_levels_names_a_step_that_fits(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Thirteen hourly times of a two-floor map are 26 panels: the error said only "use a
+    larger --step" after every scene was computed; it counts the levels and names a step
+    that fits, before drawing anything."""
+    from types import SimpleNamespace
+
+    import aion_cli.scene
+    from aion_cli.errors import InputError
+    from aion_cli.pictures.render import export_png
+
+    calls: list[int | None] = []
+
+    def scene_at(loaded: object, t_ns: int | None) -> Scene:
+        calls.append(t_ns)
+        return _two_floors()
+
+    monkeypatch.setattr(aion_cli.scene, "scene_at", scene_at)
+    hour = 3600 * 10**9
+    times = [1_767_600_000 * 10**9 + k * hour for k in range(13)]
+    with pytest.raises(InputError) as err:
+        export_png(SimpleNamespace(), "two.aion", tmp_path / "t.png", times, None)
+    assert "26 panels (13 times on 2 levels)" in str(err.value)
+    assert err.value.hint is not None
+    assert "--step 2h draws this span in 14 panels" in err.value.hint
+    assert len(calls) == 1
+    assert not (tmp_path / "t.png").exists()
