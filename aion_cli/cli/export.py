@@ -50,7 +50,7 @@ or weeks (1d, 1w) keeps the wall-clock time across a daylight-saving change.
 --format png writes one picture, -o naming the file: the map from above (place edges, rooms,
 hash cells, arrows along the dominant direction with length proportional to flow, coloured
 by direction entropy, blue low to red high); a series becomes small multiples, one panel per
-time (at most 24).
+time (at most 24); a map whose floors lie apart in height gets one panel per floor.
 
 \b
 --format mcap writes one MCAP file, -o naming it (.mcap), with a step per time logged at
