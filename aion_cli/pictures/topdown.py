@@ -8,8 +8,8 @@ What is drawn, back to front:
 - **rooms**: the convex hull of each room's places (padded by one cell), dashed, with the
   room's label (or id) at the centroid of its places (up to :data:`MAX_ROOM_LABELS` rooms);
 - **edges**: the place edges as thin grey lines; **places** as small grey dots;
-- **cells**: an unbound hash cell as a δ×δ square coloured by its direction entropy (grey
-  without flow);
+- **cells**: an unbound hash cell as a δ×δ square coloured by its direction entropy, pale
+  under its arrow (grey without flow);
 - **arrows**: one per node or unbound cell with flow, from its centre along its dominant
   direction, length
   ``ARROW_CELLS·δ·busy`` (busy = ``min(flow / flow_scale, 1)``, ``formats.scene_colours``'
@@ -83,6 +83,8 @@ draw them relatively wider, :data:`PANEL_ARROW_WIDTH`, so they stay visible)."""
 PANEL_ARROW_WIDTH = 0.006
 UNDER_MERGED_ALPHA = 0.35
 """The opacity of the cells' squares under arrows merged over blocks."""
+UNDER_ARROW_ALPHA = 0.45
+"""The opacity of a cell's square with flow, under its own arrow (one arrow per entry)."""
 ENTROPY_LABEL = "direction entropy"
 DPI = 120
 MAX_PANELS = 24
@@ -242,21 +244,24 @@ def draw_topdown(
             )
         )
     field = arrows if arrows is not None else arrow_field(scene)
-    # under merged arrows, which stand on many entries of their colours, the cells' squares
-    # are faint and the nodes' dots left out: drawn solid (dots overlapping, as they are where
-    # arrows merge), they are a carpet of the arrows' own colours that hides them
+    # the arrows stand on squares and dots of their own colours: under merged arrows the
+    # cells' squares are faint and the nodes' dots left out (drawn solid, dots overlapping
+    # where arrows merge, they are a carpet that hides the arrows); a cell with flow is pale
+    # under its own arrow, which was lost on a square of its colour drawn almost solid
     merged = field.block is not None
     if len(scene.cells_xyz):
         half = scene.cell_size / 2.0
         square = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
         squares = scene.cells_xyz[:, None, :2] + square[None]
-        ent = np.where(scene.cells_flow > 0, scene.cells_entropy, np.nan)
+        flows = scene.cells_flow > 0
+        ent = np.where(flows, scene.cells_entropy, np.nan)
+        alpha = np.where(flows, UNDER_ARROW_ALPHA, 0.85)
         ax.add_collection(
             PolyCollection(
                 _arrays(squares),
-                facecolors=entropy_colors(ent),
+                facecolors=np.column_stack([entropy_colors(ent), alpha]),
                 edgecolors="none",
-                alpha=UNDER_MERGED_ALPHA if merged else 0.85,
+                alpha=UNDER_MERGED_ALPHA if merged else None,
                 zorder=3,
             )
         )

@@ -33,6 +33,7 @@ from tests.pictures.pixels import (
     pixel_of,
     read_png,
     synthetic_scene,
+    window,
 )
 
 DPI = 100
@@ -72,10 +73,9 @@ def test_arrows_are_drawn_along_the_dominant_direction_and_empty_space_is_blank(
     assert edge.max() < 0.85
     mesh = image[pixel_of(ax, image, -3.0, 4.7)]
     assert np.allclose(mesh, 0.9, atol=0.02)
-    cell = image[pixel_of(ax, image, 4.0, 6.0)]
+    cell = image[pixel_of(ax, image, 4.0, 6.0 + 0.17)]  # beside its arrow: pale under it
     assert abs(cell[0] - cell[2]) < 0.05  # purple: as red as blue
-    assert cell[1] < 0.3
-    assert cell[0] > 0.4
+    assert cell[1] < cell[0] - 0.15
     # the cell's arrow (flow 5 of 10: half length) points along -x
     behind = most_coloured(image, *pixel_of(ax, image, 4.0 - 0.35 * L, 6.0))
     assert abs(behind[0] - behind[2]) < 0.1
@@ -258,3 +258,18 @@ def test_a_corridor_series_is_stacked_full_width_without_white_rows() -> None:
     # a single picture of it: no more than the strip, its text and the colour bar's room
     (one,) = [a for a in topdown_figure([scene], ["t"]).axes if a.get_title()]
     assert one.figure.get_size_inches()[1] <= 3.2
+
+
+def test_arrows_stand_out_from_the_cells_they_are_drawn_on(tmp_path: Path) -> None:
+    """A map of hash cells only (THÖR, ATC built without a graph): each cell's square and its
+    arrow have the same entropy colour; the squares, drawn almost solid, hid the arrows on
+    them. The squares are pale beside the arrow on them."""
+    side = np.arange(0.25, 5.0, 0.5)
+    xy = np.array([(x, y) for x in side for y in side])
+    n = len(xy)
+    scene = cells_only_scene(xy, np.ones(n), np.zeros(n), np.full(n, 0.5))
+    _, (ax,), image = _drawn(tmp_path, [scene])
+    x, y = 1.75, 2.25  # an arrow from this cell's centre along +x, 2 m long
+    shaft = darkest(image, *pixel_of(ax, image, x + 0.6, y), half=1)
+    square = window(image, *pixel_of(ax, image, x + 0.6, y + 0.17), half=0)[0]
+    assert np.abs(shaft - square).max() > 0.3
