@@ -232,6 +232,43 @@ def mesh_footprint(scene: Scene, extent: Extent, pixels: int) -> Footprint | Non
     return Footprint(np.asarray(canvas.buffer_rgba()).copy(), extent)
 
 
+MAX_CELL_IMAGE = 16_000_000
+"""The most pixels (lattice cells) an image of the hash cells may have; a sparser spread of
+cells is drawn as squares."""
+
+
+def draw_cells(ax: Any, xy: F64, cell_size: float, rgba: F64, as_image: bool) -> None:
+    """The hash cells centred at ``xy`` f64[n,2] as squares of ``cell_size`` in colours
+    ``rgba`` f64[n,4]: with ``as_image``, one image of the cell lattice (a cell a pixel,
+    transparent where there is none), as light to draw as the squares are many (10^5 square
+    paths are 45 MB a panel); otherwise one square each (or when the lattice would be too
+    large an image: a few cells kilometres apart)."""
+    from matplotlib.collections import PolyCollection
+
+    index = np.floor(xy / cell_size).astype(np.int64)
+    lo = index.min(axis=0)
+    width, height = index.max(axis=0) - lo + 1
+    if as_image and width * height <= MAX_CELL_IMAGE:
+        image = np.zeros((int(height), int(width), 4))
+        image[index[:, 1] - lo[1], index[:, 0] - lo[0]] = rgba
+        x0, y0 = lo * cell_size
+        ax.imshow(
+            image,
+            extent=(x0, x0 + width * cell_size, y0, y0 + height * cell_size),
+            origin="lower",
+            interpolation="antialiased",
+            zorder=3,
+        )
+        return
+    half = cell_size / 2.0
+    square = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
+    ax.add_collection(
+        PolyCollection(
+            _arrays(xy[:, None, :] + square[None]), facecolors=rgba, edgecolors="none", zorder=3
+        )
+    )
+
+
 def _draw_footprint(ax: Any, footprint: Footprint | None) -> None:
     if footprint is None:
         return

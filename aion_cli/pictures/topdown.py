@@ -66,6 +66,7 @@ from aion_cli.pictures.backdrop import (
     _draw_footprint,
     _draw_rooms,
     _same_geometry,
+    draw_cells,
     mesh_footprint,
     outlying_cells,
     room_outlines,
@@ -229,7 +230,7 @@ def draw_topdown(
     ``footprint`` / ``rooms``: the mesh already rendered (:func:`mesh_footprint`) and the
     room outlines already computed (:func:`room_outlines`); default: made here; ``arrows``:
     the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry)."""
-    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.collections import LineCollection
 
     scale = flow_scale if flow_scale is not None and flow_scale > 0 else arrow_scale([scene]).flow
     box = extent or scene_extent([scene], paths)
@@ -250,21 +251,16 @@ def draw_topdown(
     # under its own arrow, which was lost on a square of its colour drawn almost solid
     merged = field.block is not None
     if len(scene.cells_xyz):
-        half = scene.cell_size / 2.0
-        square = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
-        squares = scene.cells_xyz[:, None, :2] + square[None]
         flows = scene.cells_flow > 0
-        ent = np.where(flows, scene.cells_entropy, np.nan)
-        alpha = np.where(flows, UNDER_ARROW_ALPHA, 0.85)
-        ax.add_collection(
-            PolyCollection(
-                _arrays(squares),
-                facecolors=np.column_stack([entropy_colors(ent), alpha]),
-                edgecolors="none",
-                alpha=UNDER_MERGED_ALPHA if merged else None,
-                zorder=3,
-            )
+        rgba = np.column_stack(
+            [
+                entropy_colors(np.where(flows, scene.cells_entropy, np.nan)),
+                np.where(flows, UNDER_ARROW_ALPHA, 0.85),
+            ]
         )
+        if merged:
+            rgba[:, 3] = UNDER_MERGED_ALPHA
+        draw_cells(ax, scene.cells_xyz[:, :2], scene.cell_size, rgba, as_image=merged)
     if len(scene.places_xyz):
         ax.scatter(*scene.places_xyz[:, :2].T, s=5, c=[NO_FLOW_GREY], linewidths=0, zorder=4)
     busy = busy_fraction(scene.node_flow, scale)
