@@ -201,21 +201,30 @@ class Footprint:
 
     image: npt.NDArray[np.uint8]
     extent: Extent
+    edges: bool = False
+    """Whether the place edges are in the image too (a graph of many edges)."""
+
+
+EDGES_AS_IMAGE = 5000
+"""A graph of more place edges than this has them rendered into the footprint image, once
+per picture: as line paths in every panel, 10^5 edges cost seconds and tens of MB each."""
 
 
 def mesh_footprint(scene: Scene, extent: Extent, pixels: int) -> Footprint | None:
     """The footprint of ``scene``'s mesh (triangles projected to x-y, :data:`MESH_GREY`) over
-    ``extent``, ``pixels`` wide; None without a mesh."""
+    ``extent``, ``pixels`` wide, with its place edges when they are more than
+    :data:`EDGES_AS_IMAGE` (:data:`EDGE_GREY` lines about a pixel wide); None with neither."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.collections import PolyCollection
+    from matplotlib.collections import LineCollection, PolyCollection
     from matplotlib.figure import Figure
 
+    from aion_cli.formats.scene_colours import EDGE_GREY
+
     mesh = scene.mesh
-    if mesh is None or len(mesh.faces) == 0:
+    edges = len(scene.edges_xyz) > EDGES_AS_IMAGE
+    faces = mesh is not None and len(mesh.faces) > 0
+    if not (faces or edges):
         return None
-    v = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)[:, :2]
-    f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
-    f = f[((f >= 0) & (f < len(v))).all(axis=1)]
     width = max(int(pixels), 16)
     height = max(round(width * extent.aspect), 16)
     fig = Figure(figsize=(width / 100.0, height / 100.0), dpi=100)
@@ -223,13 +232,23 @@ def mesh_footprint(scene: Scene, extent: Extent, pixels: int) -> Footprint | Non
     fig.patch.set_alpha(0.0)
     ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
     ax.set_axis_off()
-    ax.add_collection(
-        PolyCollection(_arrays(v[f]), facecolors=[MESH_GREY], edgecolors="none", antialiased=False)
-    )
+    if mesh is not None and faces:
+        v = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)[:, :2]
+        f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+        f = f[((f >= 0) & (f < len(v))).all(axis=1)]
+        ax.add_collection(
+            PolyCollection(
+                _arrays(v[f]), facecolors=[MESH_GREY], edgecolors="none", antialiased=False
+            )
+        )
+    if edges:
+        ax.add_collection(
+            LineCollection(_arrays(scene.edges_xyz[:, :, :2]), colors=[EDGE_GREY], linewidths=0.72)
+        )
     ax.set_xlim(extent.x0, extent.x1)
     ax.set_ylim(extent.y0, extent.y1)
     canvas.draw()
-    return Footprint(np.asarray(canvas.buffer_rgba()).copy(), extent)
+    return Footprint(np.asarray(canvas.buffer_rgba()).copy(), extent, edges)
 
 
 MAX_CELL_IMAGE = 16_000_000
@@ -385,5 +404,6 @@ def _same_geometry(a: Scene, b: Scene) -> bool:
         and np.array_equal(a.room_ids, b.room_ids)
         and np.array_equal(a.place_room, b.place_room)
         and np.array_equal(a.places_xyz, b.places_xyz)
+        and np.array_equal(a.edges_xyz, b.edges_xyz)
         and np.array_equal(a.room_xyz, b.room_xyz, equal_nan=True)
     )

@@ -4,7 +4,8 @@
 What is drawn, back to front:
 
 - **mesh** footprint: the scene graph's triangles projected to x-y, light grey (rendered
-  once per picture as an image, :func:`mesh_footprint`);
+  once per picture as an image, :func:`mesh_footprint`, with the place edges when they are
+  many);
 - **rooms**: the convex hull of each room's places (padded by one cell), dashed, with the
   room's label (or id) at the centroid of its places (up to :data:`MAX_ROOM_LABELS` rooms);
 - **edges**: the place edges as thin grey lines; **places** as small grey dots;
@@ -238,7 +239,7 @@ def draw_topdown(
         footprint = mesh_footprint(scene, box, round(ax.get_window_extent().width))
     _draw_footprint(ax, footprint)
     _draw_rooms(ax, rooms if rooms is not None else room_outlines(scene), label_size)
-    if len(scene.edges_xyz):
+    if len(scene.edges_xyz) and not (footprint is not None and footprint.edges):
         ax.add_collection(
             LineCollection(
                 _arrays(scene.edges_xyz[:, :, :2]), colors=[EDGE_GREY], linewidths=0.6, zorder=2
