@@ -102,6 +102,12 @@ def staged_target(name: str) -> str | None:
     return None if staged is None else staged.group(1)
 
 
+def plain_text(text: object) -> str:
+    """``text`` (a name from a map, a log or a scene graph) as literal matplotlib text:
+    :func:`safe_text`, its ``$`` escaped (``cost$1$.aion`` is not read as mathematics)."""
+    return safe_text(text).replace("$", r"\$")
+
+
 def safe_text(name: object) -> str:
     """A file name (a path, bytes or text holding one) as text every encoder accepts: a
     name's bytes that are not UTF-8 (``map\\xff.aion``) become U+FFFD. For names written into

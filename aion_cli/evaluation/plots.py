@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.formats.outputs import plain_text
 from aion_cli.pictures.png_mark import save_marked_png  # marks the pictures as aion's own
 
 F64 = npt.NDArray[np.float64]
@@ -144,7 +145,7 @@ def hourly_activity(
     ax.set_xticks(x[::every], labels[::every], rotation=0 if every == 1 else 45)
     ax.set_xlabel(xlabel)
     ax.set_ylabel("detections per hour")
-    ax.set_title(title)
+    ax.set_title(plain_text(title))  # holdout's names the map and the logs
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
     save_marked_png(fig, path, dpi=110)

@@ -354,12 +354,14 @@ def _draw_rooms(ax: Any, rooms: RoomOutlines, label_size: float) -> None:
                 zorder=1,
             )
         )
+    from aion_cli.formats.outputs import plain_text
+
     halo = [effects.withStroke(linewidth=2.5, foreground="white")]
     for (x, y), label in zip(rooms.label_xy.tolist(), rooms.labels, strict=True):
         ax.text(
             x,
             y,
-            label,
+            plain_text(label),  # the scene graph's name, its $ not maths
             fontsize=label_size,
             color=LABEL_GREY,
             ha="center",

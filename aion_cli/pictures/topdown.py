@@ -45,7 +45,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.errors import InputError
-from aion_cli.formats.outputs import safe_text
+from aion_cli.formats.outputs import plain_text
 from aion_cli.formats.scene_colours import (
     EDGE_GREY,
     NO_FLOW_GREY,
@@ -323,7 +323,7 @@ def draw_topdown(
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     if title is not None:
-        ax.set_title(safe_text(title), fontsize=10)
+        ax.set_title(plain_text(title), fontsize=10)
 
 
 def topdown_figure(
@@ -450,8 +450,8 @@ def topdown_figure(
     # normalised, without a unit: the ends say what it means
     bar.set_ticks([0.0, 0.2, 0.4, 0.6, 0.8, 1.0])
     bar.set_ticklabels(["0 one way", "0.2", "0.4", "0.6", "0.8", "1 every way"])
-    if suptitle:  # it may hold a file name: UTF-8 text whatever the name's bytes
-        fig.suptitle(safe_text(suptitle), fontsize=12)
+    if suptitle:  # it may hold a file name: UTF-8 text whatever its bytes, its $ not maths
+        fig.suptitle(plain_text(suptitle), fontsize=12)
     fig.supxlabel(
         "\n".join(
             filter(

@@ -35,9 +35,9 @@ def plain(text: object) -> str:
     """``text`` as literal matplotlib text: ``$`` escaped (mathtext is off for it), a name's
     bytes that are not UTF-8 as U+FFFD (:func:`formats.outputs.safe_text`; matplotlib
     refuses them)."""
-    from aion_cli.formats.outputs import safe_text
+    from aion_cli.formats.outputs import plain_text
 
-    return safe_text(text).replace("$", r"\$")
+    return plain_text(text)
 
 
 def _figure(width: float, height: float) -> Any:

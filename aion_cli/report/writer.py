@@ -120,6 +120,6 @@ def top_down_picture(loaded: Any, content: ReportContent, path: Path) -> Path:
     :func:`aion_cli.pictures.render.render_map_png`) at the report's time (as observed
     without one), written at ``path``."""
     from aion_cli.pictures.render import render_map_png
-    from aion_cli.report.plots import plain
 
-    return render_map_png(loaded, content.t_ns, content.zone, path, title=plain(content.map_name))
+    # the picture escapes the name's $ itself
+    return render_map_png(loaded, content.t_ns, content.zone, path, title=content.map_name)

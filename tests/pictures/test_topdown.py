@@ -273,3 +273,22 @@ def test_arrows_stand_out_from_the_cells_they_are_drawn_on(tmp_path: Path) -> No
     shaft = darkest(image, *pixel_of(ax, image, x + 0.6, y), half=1)
     square = window(image, *pixel_of(ax, image, x + 0.6, y + 0.17), half=0)[0]
     assert np.abs(shaft - square).max() > 0.3
+
+
+def test_names_with_dollars_are_drawn_as_they_are() -> None:
+    """A map named ``cost$1$.aion`` was titled "cost1.aion" (matplotlib read ``$1$`` as
+    mathematics), and so were room names and panel titles holding two dollars."""
+    import dataclasses
+
+    scene = dataclasses.replace(synthetic_scene(), room_labels=("$lab$",))
+    fig = topdown_figure([scene, scene], ["t$1$", "t$2$"], suptitle="cost$1$.aion")
+    fig.canvas.draw()
+    texts = [fig._suptitle, *(ax.title for ax in fig.axes)]
+    texts += [t for ax in fig.axes for t in ax.texts]
+    shown = {}
+    for text in texts:
+        if text is not None and text.get_text():
+            s, math = text._preprocess_math(text.get_text())
+            assert not math, s
+            shown[s] = text
+    assert {"cost$1$.aion", "t$1$", "t$2$", "$lab$"} <= set(shown)
