@@ -14,6 +14,7 @@ in a label is drawn as a dollar sign, not read as mathtext.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from datetime import timedelta
 from pathlib import Path
@@ -29,6 +30,8 @@ _NS = 1_000_000_000
 _SPAN_GREY = "#c9d3df"
 _FIXED_BLUE = "#2c6fbb"
 _MAX_DAY_ROWS = 120
+ROSE_TITLE_CHARS = 34
+"""The longest room name a rose's title shows (about the rose's width at 9 points)."""
 
 
 def plain(text: object) -> str:
@@ -275,7 +278,10 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
         ax.set_theta_direction(1)
         ax.set_yticklabels([])
         ax.tick_params(labelsize=7)
-        title = rose_title(row.record) + (f"  ({row.room})" if row.room else "")
+        # the room on a line of its own, shortened to the rose's width: on one line a long
+        # room name ran into the next rose's title and past the picture's edges
+        room = textwrap.shorten(row.room, ROSE_TITLE_CHARS, placeholder="…") if row.room else ""
+        title = rose_title(row.record) + (f"\n{room}" if room else "")
         ax.set_title(plain(title), fontsize=9)
     return _save(fig, path)
 

@@ -60,3 +60,23 @@ def test_rose_titles_are_inside_the_picture(tmp_path: Path, drawn: list[Any], n:
         assert box.y1 <= fig.bbox.y1, ax.get_title()
         assert box.x0 >= 0, ax.get_title()
         assert box.x1 <= fig.bbox.x1, ax.get_title()
+
+
+def test_rose_titles_with_long_room_names_stay_apart(tmp_path: Path, drawn: list[Any]) -> None:
+    """A room named "R12 open-plan engineering workspace north" ran each rose's title into
+    the next one's and past the picture's edges."""
+    from aion_cli.report.content import Busiest
+
+    record = {"id": "p1234", "kind": "node", "direction_deg": 0.0, "concentration": 0.8,
+              "histogram": [0.1, 0, 0, 0, 0.9, 0, 0, 0]}
+    room = "R12 open-plan engineering workspace north"
+    plots.roses_png([Busiest(record, room, "static")] * 3, 8, tmp_path / "r.png")
+    fig = drawn[-1]
+    renderer = fig.canvas.get_renderer()
+    boxes = [ax.title.get_window_extent(renderer) for ax in fig.axes]
+    for k, box in enumerate(boxes):
+        assert box.x0 >= 0
+        assert box.x1 <= fig.bbox.x1
+        assert box.y1 <= fig.bbox.y1
+        assert not any(box.overlaps(other) for other in boxes[k + 1 :])
+    assert fig.axes[0].get_title().startswith("p1234\n")
