@@ -84,7 +84,11 @@ def _days_panel(ax: Any, observed: Observed, zone: Zone) -> None:
         return
     first_day = from_ns(min(marks), zone).date()
     last_day = from_ns(max(marks), zone).date()
-    days = min((last_day - first_day).days + 1, _MAX_DAY_ROWS)
+    total = (last_day - first_day).days + 1
+    days = min(total, _MAX_DAY_ROWS)
+    # a longer observation shows its last days (what the forecast learnt from last), titled
+    # so: the rows stopped at the first days without a word, the last window off the picture
+    first_day = last_day - timedelta(days=days - 1)
     starts, ends = observed.fixed
     for row in range(days):
         day = first_day + timedelta(days=row)
@@ -125,7 +129,11 @@ def _days_panel(ax: Any, observed: Observed, zone: Zone) -> None:
     ax.set_yticks(ticks)
     ax.set_yticklabels([f"{first_day + timedelta(days=r):%a %Y-%m-%d}" for r in ticks], fontsize=8)
     ax.set_xlabel(f"time of day ({plain(zone.name)})")
-    ax.set_title("observed span per day", fontsize=10)
+    ax.set_title(
+        "observed span per day"
+        + (f" (the last {days} of {total} days)" if total > days else ""),
+        fontsize=10,
+    )
     ax.grid(axis="x", color="#dddddd", linewidth=0.6)
 
 

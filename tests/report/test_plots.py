@@ -80,3 +80,33 @@ def test_rose_titles_with_long_room_names_stay_apart(tmp_path: Path, drawn: list
         assert box.y1 <= fig.bbox.y1
         assert not any(box.overlaps(other) for other in boxes[k + 1 :])
     assert fig.axes[0].get_title().startswith("p1234\n")
+
+
+def test_a_long_observation_shows_its_last_days_and_says_so(
+    tmp_path: Path, drawn: list[Any]
+) -> None:
+    """A map observed over 200 days: the day rows stopped at the first 120 without a word,
+    the last observed window off the picture. The rows are the last 120 days, titled so."""
+    from aion_cli.report.content import Observed
+
+    day = 86_400 * NS
+    start = MONDAY_TOKYO
+    end = start + 200 * day - 3600 * NS
+    observed = Observed(
+        span=(start, end),
+        first_ns=start + 9 * 3600 * NS,
+        last_ns=end - 3600 * NS,
+        fixed=(np.zeros(0, np.int64), np.zeros(0, np.int64)),
+        hours=np.zeros((2, 24)),
+        day_types=("Mon-Fri", "Sat-Sun"),
+        model_zone="Asia/Tokyo",
+        source="test",
+    )
+    plots.timeline_png(observed, resolve_zone("Asia/Tokyo"), tmp_path / "o.png")
+    days_ax = drawn[-1].axes[0]
+    assert "last 120 of 200 days" in days_ax.get_title()
+    labels = [t.get_text() for t in days_ax.get_yticklabels()]
+    assert labels[0] == "Thu 2013-01-10"  # day 81 of 200: rows 81..200
+    bottom, top = days_ax.get_ylim()
+    (last,) = [ln for ln in days_ax.get_lines() if ln.get_marker() == "^"]
+    assert top <= last.get_ydata()[0] <= bottom  # the last window is on the picture
