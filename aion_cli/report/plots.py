@@ -158,11 +158,15 @@ def _bars(
 
 def _profile_panel(fig: Any, ax: Any, observed: Observed) -> None:
     hours = np.asarray(observed.hours, dtype=np.float64)
+    most = float(np.nanmax(hours)) if hours.size and np.isfinite(hours).any() else 0.0
     image = ax.imshow(
         hours,
         aspect="auto",
         cmap="Blues",
         vmin=0.0,
+        # none observed: 0 to 1 hour, every bin white (matplotlib widened 0..0 to -0.1..0.1
+        # and painted the bins its middle blue)
+        vmax=most if most > 0 else 1.0,
         extent=(0, 24, hours.shape[0] - 0.5, -0.5),
         interpolation="nearest",
     )

@@ -110,3 +110,26 @@ def test_a_long_observation_shows_its_last_days_and_says_so(
     bottom, top = days_ax.get_ylim()
     (last,) = [ln for ln in days_ax.get_lines() if ln.get_marker() == "^"]
     assert top <= last.get_ydata()[0] <= bottom  # the last window is on the picture
+
+
+def test_hours_observed_never_read_negative(tmp_path: Path, drawn: list[Any]) -> None:
+    """Profile bins none observed: the colour bar ran from -0.1 to 0.1 hours and every bin
+    was painted its middle blue, as if observed. Zero is the bar's lowest colour; the bar
+    starts at 0."""
+    from aion_cli.report.content import Observed
+
+    observed = Observed(
+        span=(MONDAY_TOKYO, MONDAY_TOKYO + 3600 * NS),
+        first_ns=None,
+        last_ns=None,
+        fixed=(np.zeros(0, np.int64), np.zeros(0, np.int64)),
+        hours=np.zeros((2, 24)),
+        day_types=("Mon-Fri", "Sat-Sun"),
+        model_zone="UTC",
+        source="test",
+    )
+    plots.timeline_png(observed, resolve_zone("UTC"), tmp_path / "o.png")
+    (image,) = drawn[-1].axes[1].get_images()
+    low, high = image.get_clim()
+    assert low == 0.0
+    assert high > 0.0
