@@ -105,13 +105,21 @@ def flow_maps_side_by_side(
     return path
 
 
-def door_weeks(weeks: list[dict[str, Any]], path: Path) -> Path:
-    """Bars: MAE of FreMEn and of the static mean per test week."""
+def door_weeks(weeks: list[dict[str, Any]], path: Path, chosen: str | None = None) -> Path:
+    """Bars: MAE of FreMEn and of the static mean per test week, and of the family the model
+    itself chose (``chosen``, its name; weeks carry ``mae_chosen``) when it is neither: the
+    check is FreMEn against the mean, but aion forecasts with its choice, which can do
+    better than both (the door's daily shape)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.5))
     k = np.array([w["week"] for w in weeks])
-    ax.bar(k - 0.2, [w["mae_fremen"] for w in weeks], width=0.4, label="FreMEn")
-    ax.bar(k + 0.2, [w["mae_static"] for w in weeks], width=0.4, label="static mean")
+    bars = [("mae_fremen", "FreMEn"), ("mae_static", "static mean")]
+    if chosen is not None and chosen != "static" and not chosen.startswith("fremen"):
+        bars.append(("mae_chosen", f"aion's choice ({chosen})"))
+    width = 0.8 / len(bars)
+    for i, (key, label) in enumerate(bars):
+        offset = (i - (len(bars) - 1) / 2) * width
+        ax.bar(k + offset, [w[key] for w in weeks], width=width, label=label)
     ax.set_xticks(k)
     ax.set_xlabel("test week")
     ax.set_ylabel("mean absolute error")

@@ -133,7 +133,7 @@ def door_section(result: dict[str, Any], out_dir: Path) -> list[str]:
          _num(w["mae_profile"], 4), _num(w["mae_chosen"], 4)]
         for w in result["weeks"]
     ]
-    png = plots.door_weeks(result["weeks"], out_dir / "door.png")
+    png = plots.door_weeks(result["weeks"], out_dir / "door.png", result["chosen_family"])
     return [
         "## FreMEn on the real door signal — `aion evaluate door`",
         "",

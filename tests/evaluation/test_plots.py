@@ -85,6 +85,27 @@ def test_the_door_legend_covers_no_bar(tmp_path: Path, drawn: list[Any]) -> None
     assert [t.get_text() for t in ax.get_xticklabels()] == [str(k) for k in range(1, 10)]
 
 
+@pytest.mark.parametrize(("chosen", "bars"), [("shape", 3), ("profile", 3), ("fremen2", 2),
+                                              ("static", 2), (None, 2)])
+def test_the_door_plot_shows_the_models_own_choice(
+    tmp_path: Path, drawn: list[Any], chosen: str | None, bars: int
+) -> None:
+    """The door plot drew FreMEn and the static mean only, while aion forecasts with the family
+    it chose (the daily shape, MAE 0.13 against FreMEn's 0.17): a third bar per week names it,
+    unless the choice is one of the two already drawn."""
+    weeks = [{"week": k, "mae_fremen": 0.17, "mae_static": 0.19, "mae_chosen": 0.13}
+             for k in range(1, 4)]
+    plots.door_weeks(weeks, tmp_path / "d.png", chosen)
+    (ax,) = drawn[-1].axes
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert len(labels) == bars
+    assert len(ax.patches) == 3 * bars
+    if bars == 3:
+        assert labels[2] == f"aion's choice ({chosen})"
+        heights = sorted({round(p.get_height(), 6) for p in ax.patches})
+        assert heights == [0.13, 0.17, 0.19]
+
+
 def test_the_direction_maps_name_their_axes_and_colours(
     tmp_path: Path, drawn: list[Any]
 ) -> None:
