@@ -260,7 +260,7 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
                 None if r.get("entropy") is None else f"{r['entropy']:.3f}",
                 None if direction is None else f"{direction:+.1f}",
                 b.family,
-                f"{r['x']:.1f}, {r['y']:.1f}",
+                f"{r['x']:.2f}, {r['y']:.2f}",  # as predict's table (cells at .25)
             )
         )
     headers = (

@@ -303,5 +303,5 @@ def rose_title(record: dict[str, Any]) -> str:
     in metres (its id is a 19-digit spatial-hash key, which says nothing to a reader)."""
     x, y = record.get("x"), record.get("y")
     if record.get("kind") == "cell" and x is not None and y is not None:
-        return f"cell at ({float(x):.1f}, {float(y):.1f}) m"
+        return f"cell at ({float(x):.2f}, {float(y):.2f}) m"  # 0.5 m cells: centres at .25
     return str(record["id"])

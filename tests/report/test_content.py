@@ -149,9 +149,12 @@ def test_a_rose_of_a_hash_cell_is_titled_by_where_it_is(fixed_map: tuple[Path, L
     cells = [e for e in rows_from_table(entry_table(loaded, None)) if e["kind"] == "cell"]
     assert cells
     for e in cells:
-        assert rose_title(e) == f"cell at ({e['x']:.1f}, {e['y']:.1f}) m"
+        assert rose_title(e) == f"cell at ({e['x']:.2f}, {e['y']:.2f}) m"
         assert e["id"] not in rose_title(e)
     assert rose_title({"id": "p12", "kind": "node", "x": 1.0, "y": 2.0}) == "p12"
+    # a 0.5 m cell's centre at 11.75 read "11.8", a place no cell is centred at
+    assert rose_title({"id": "c1", "kind": "cell", "x": 11.75, "y": -0.25}) == (
+        "cell at (11.75, -0.25) m")
 
 
 def test_the_curves_are_dotted_where_the_forecast_is_extrapolated(
