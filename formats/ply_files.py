@@ -1,5 +1,6 @@
 """Binary PLY scene files written with numpy, byte for byte as open3d writes them (and
-:func:`formats.scene_files.seal` marks them), a block of rows at a time.
+:func:`formats.scene_files.seal` marks them) but for open3d's ``comment Created by Open3D``
+header line, which these files would carry falsely, a block of rows at a time.
 
 open3d took a PLY part as its own copy of the arrays (``Vector3dVector``), wrote it, and
 :func:`~formats.scene_files.seal` read the file back to check its size and copy it again
@@ -36,7 +37,7 @@ F64 = npt.NDArray[np.float64]
 ROWS = 1 << 16
 """Rows packed and written at a time (a few MB per block)."""
 
-_HEAD = b"ply\nformat binary_little_endian 1.0\n" + PLY_MARKER + b"comment Created by Open3D\n"
+_HEAD = b"ply\nformat binary_little_endian 1.0\n" + PLY_MARKER
 _XYZ = b"property double x\nproperty double y\nproperty double z\n"
 _RGB = b"property uchar red\nproperty uchar green\nproperty uchar blue\n"
 _XYZ_T = [("x", "<f8"), ("y", "<f8"), ("z", "<f8")]

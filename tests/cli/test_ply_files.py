@@ -49,7 +49,13 @@ def _write(path: Path, kind: str, geometry: Any) -> Path:
     writer = o3d.io.write_triangle_mesh if kind == "mesh" else o3d.io.write_line_set
     raw = path.with_name(f".open3d.{path.name}")
     assert writer(str(raw), geometry, write_ascii=False)
-    return seal(raw, path)
+    sealed = seal(raw, path)  # open3d's bytes, but for the comment naming it, which aion's omit
+    data = sealed.read_bytes()
+    header_end = data.index(b"end_header\n")
+    ours = data[:header_end].replace(b"comment Created by Open3D\n", b"", 1) + data[header_end:]
+    assert len(ours) < len(data)
+    sealed.write_bytes(ours)
+    return sealed
 
 
 def reference_write_ply(out: Path, prefix: str, scene: Any, cell_size: float) -> list[Path]:
