@@ -22,7 +22,6 @@ compares these files with open3d's.
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import BinaryIO, Protocol
@@ -30,7 +29,7 @@ from typing import BinaryIO, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.formats.scene_files import PLY_MARKER
+from aion_cli.formats.scene_files import PLY_MARKER, writing
 
 F64 = npt.NDArray[np.float64]
 
@@ -79,7 +78,7 @@ def write_mesh(path: Path, parts: Sequence[MeshPart]) -> Path:
         + b"property list uchar uint vertex_indices\nend_header\n"
     )
     vertex_t = np.dtype(_XYZ_T + (_RGB_T if coloured else []))
-    with _writing(path) as fh:
+    with writing(path) as fh:
         fh.write(header)
         for part in parts:
             for xyz, colors in part.vertex_blocks(ROWS):
@@ -112,7 +111,7 @@ def write_lines(
         + b"end_header\n"
     )
     rgb = colour_bytes(np.asarray(color, dtype=np.float64).reshape(1, 3))[0]
-    with _writing(path) as fh:
+    with writing(path) as fh:
         fh.write(header)
         _write_vertices(fh, np.dtype(_XYZ_T), points, None)
         for a in range(0, len(pairs), ROWS):
@@ -133,26 +132,3 @@ def _write_vertices(fh: BinaryIO, dtype: np.dtype, xyz: F64, colors: F64 | None)
             rgb = colour_bytes(colors[a : a + ROWS])
             rows["red"], rows["green"], rows["blue"] = rgb[:, 0], rgb[:, 1], rgb[:, 2]
         fh.write(rows.tobytes())
-
-
-@contextlib.contextmanager
-def _writing(path: Path) -> Iterator[BinaryIO]:
-    """``path`` opened for writing; on any failure the partial file is removed, and an
-    ``OSError`` (a full disk, a folder not writable) becomes the ``ExportWriteError`` that
-    ``seal`` raised."""
-    from aion_cli.formats.export import ExportWriteError
-
-    try:
-        with open(path, "wb") as fh:
-            yield fh
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            path.unlink()
-        raise ExportWriteError(
-            f"cannot write {path.name}: {exc.strerror or exc}",
-            hint="check free disk space and that the output folder is writable",
-        ) from exc
-    except BaseException:
-        with contextlib.suppress(OSError):
-            path.unlink()
-        raise

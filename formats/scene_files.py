@@ -18,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 from typing import BinaryIO
 
@@ -49,6 +50,35 @@ def is_aion_scene_file(path: Path) -> bool:
     return PCD_MARKER in head[: _pcd_header_end(head) or 0]
 
 
+def write_failed(path: Path, exc: OSError) -> Exception:
+    """The :class:`ExportWriteError` (exit 2) of an ``OSError`` writing the scene file
+    ``path``: a full disk, a folder not writable."""
+    from aion_cli.formats.export import ExportWriteError
+
+    return ExportWriteError(
+        f"cannot write {path.name}: {exc.strerror or exc}",
+        hint="check free disk space and that the output folder is writable",
+    )
+
+
+@contextlib.contextmanager
+def writing(path: Path) -> Iterator[BinaryIO]:
+    """``path`` opened for writing; on any failure (an interruption too) the partial file is
+    removed, and an ``OSError`` becomes :func:`write_failed`'s error. The one way a scene
+    file is written: :func:`seal`'s marked copy and :mod:`formats.ply_files`' PLY files."""
+    try:
+        with open(path, "wb") as fh:
+            yield fh
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            path.unlink()
+        raise write_failed(path, exc) from exc
+    except BaseException:
+        with contextlib.suppress(OSError):
+            path.unlink()
+        raise
+
+
 def seal(raw: Path, out: Path) -> Path:
     """Check the PLY or PCD file ``raw`` (as open3d wrote it) is complete, then write it to
     ``out`` with aion's marker in its header and remove ``raw``. A file of another size than
@@ -73,21 +103,12 @@ def seal(raw: Path, out: Path) -> Path:
                     hint="check free disk space on the output's file system",
                 )
             src.seek(0)
-            with open(out, "wb") as dst:
+            with writing(out) as dst:
                 dst.write(src.read(at))
                 dst.write(marker)
                 shutil.copyfileobj(src, dst, 1 << 20)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            out.unlink()
-        raise ExportWriteError(
-            f"cannot write {out.name}: {exc.strerror or exc}",
-            hint="check free disk space and that the output folder is writable",
-        ) from exc
-    except BaseException:
-        with contextlib.suppress(OSError):
-            out.unlink()
-        raise
+    except OSError as exc:  # reading ``raw`` (``writing`` converts its own errors)
+        raise write_failed(out, exc) from exc
     finally:
         with contextlib.suppress(OSError):
             raw.unlink()
