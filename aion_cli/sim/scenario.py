@@ -420,10 +420,15 @@ def simulate(
     refuse_current_folder(output, "office.mcap" if config.scenes == 1 else "scenes")
     paths = scene_paths(output, config)
     check_outputs(output, paths, FORMATS[config.format][0], overwrite)  # nothing is deleted
-    with output_lock(paths[0] if len(paths) == 1 else output, into=len(paths) > 1):
+    with contextlib.ExitStack() as held:
+        several = len(paths) > 1
+        lock = held.enter_context(output_lock(output if several else paths[0], into=several))
         env = load_environment(config)
-        if len(paths) > 1:
+        if several and lock.parent != output:
             output.mkdir(exist_ok=True)  # the folder of the scenes (the one above it exists)
+            # its lock was beside it (scenes.lock); a second run would now take the one
+            # inside it (scenes/.aion.lock): this run holds that one too
+            held.enter_context(output_lock(output, into=True))
         results = []
         for scene, path in enumerate(paths):
             if progress is not None:

@@ -110,3 +110,37 @@ def test_two_simulations_of_one_log_keep_the_log_and_its_truth_together(
     assert counts[det] == truth["messages"]["detections"]  # the truth of this very log
     assert counts["/tf"] == truth["messages"]["tf"]
     assert not lock.exists()
+
+
+def test_a_second_simulation_into_the_scenes_folder_the_first_made_is_refused(
+    tmp_path: Path,
+) -> None:
+    """``simulate --scenes 2 -o scenes`` of a missing ``scenes`` took the lock beside it
+    (``scenes.lock``) and then made the folder; a second simulation starting after that saw a
+    folder and took the lock inside it (``scenes/.aion.lock``), a different file: it ran, and
+    the two wrote their logs and truths into one folder. The first now holds the lock inside
+    the folder it made as well."""
+    from dataclasses import replace
+
+    from aion_cli.errors import OutputLockedError
+    from aion_cli.sim.scenario import ScenarioConfig, simulate
+
+    out = tmp_path / "scenes"
+    config = replace(ScenarioConfig(days=0.02, seed=3), scenes=2)
+    seen: list[BaseException] = []
+
+    def progress(what: str, done: int, total: int) -> None:
+        if what.startswith("scene 1/") and not seen:
+            assert out.is_dir()
+            try:
+                simulate(replace(config, seed=4), out)
+            except OutputLockedError as exc:
+                seen.append(exc)
+            else:
+                seen.append(AssertionError("the second simulation ran"))
+
+    simulate(config, out, progress)
+    assert len(seen) == 1
+    assert isinstance(seen[0], OutputLockedError), seen
+    assert sorted(os.listdir(tmp_path)) == ["scenes"]
+    assert ".aion.lock" not in os.listdir(out)
