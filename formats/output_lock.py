@@ -111,17 +111,22 @@ def output_lock(
 
     Another live writer is ``locked`` (exit 2, with the holder's pid and host and the lock to
     delete should no aion be running); a lock that cannot be created (a full disk, a
-    read-only folder) is ``failed`` (default :class:`formats.outputs.OutputPathError`). A
+    read-only folder) is ``failed`` (default :class:`formats.outputs.OutputPathError`), as
+    is a missing folder above the output (:func:`formats.outputs.check_output_folder`). A
     stale lock (its process is dead) is removed and taken over once. ``what`` names the
     output in the message (``"map"``). Known limit: two processes recovering the same stale
     lock at the same instant could both succeed; the window is the few microseconds between
     check and unlink.
     """
+    from aion_cli.formats.outputs import check_output_folder
+
     if failed is None:
         from aion_cli.formats.outputs import OutputPathError
 
         failed = OutputPathError
     lock = lock_of(path, into)
+    if lock.parent != Path(path):  # beside it: a missing folder is the output's error
+        check_output_folder(path, error=failed)  # (its mkdir -p hint), not the lock's
     try:
         acquired = _try_create_lock(lock)
         if not acquired and _lock_is_stale(lock):

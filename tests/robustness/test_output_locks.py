@@ -144,3 +144,24 @@ def test_a_second_simulation_into_the_scenes_folder_the_first_made_is_refused(
     assert isinstance(seen[0], OutputLockedError), seen
     assert sorted(os.listdir(tmp_path)) == ["scenes"]
     assert ".aion.lock" not in os.listdir(out)
+
+
+def test_a_lock_in_a_missing_folder_is_the_missing_folder_error(tmp_path: Path) -> None:
+    """A writer that takes its lock first (``run_scene``, the simulator's API the benchmarks
+    and ``evaluate office`` call) got "cannot create lock file ...: No such file or
+    directory" with a disk-space hint for ``missing/x.mcap``; it is the error every writer
+    gives for a missing folder, with its ``mkdir -p`` hint, and nothing is made."""
+    from aion_cli.formats.output_lock import output_lock
+    from aion_cli.formats.outputs import OutputPathError
+    from aion_cli.sim.scenario import ScenarioConfig, load_environment, run_scene
+
+    target = tmp_path / "missing" / "x.mcap"
+    with pytest.raises(OutputPathError) as caught, output_lock(target):
+        pass
+    assert "the folder" in caught.value.message
+    assert "does not exist" in caught.value.message
+    assert f"mkdir -p {target.parent}" in (caught.value.hint or "")
+    config = ScenarioConfig(days=0.01, seed=1)
+    with pytest.raises(OutputPathError, match="does not exist"):
+        run_scene(config, load_environment(config), 0, target)
+    assert os.listdir(tmp_path) == []
