@@ -258,6 +258,7 @@ def hydra_logs(logs: int, days: float) -> list[Path]:
 
     out = []
     first = datetime.date(2026, 1, 5)
+    WORK.mkdir(parents=True, exist_ok=True)  # simulate makes no folder above its log
     for k in range(logs):
         start = first + datetime.timedelta(days=2 * k)
         path = WORK / f"hydra_{k}of{logs}_{days:g}d.mcap"

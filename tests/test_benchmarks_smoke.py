@@ -203,3 +203,17 @@ def test_hydra_small() -> None:
     (line,) = run.summary({"parallel": [row]})
     assert "same map: True" in line["vs"]
     assert "sessions kept together" in line["vs"]
+
+
+def test_hydra_logs_make_the_work_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On a fresh checkout (no ``benchmarks/_work``) the Hydra section's logs are simulated
+    into a folder it makes: simulate no longer makes the folders above its output, and the
+    section, run alone (``test_hydra_small``), failed on the missing folder."""
+    from benchmarks import bench_parallel
+
+    monkeypatch.setattr(bench_parallel, "WORK", tmp_path / "_work")
+    (log,) = bench_parallel.hydra_logs(1, 0.01)
+    assert log.parent == tmp_path / "_work"
+    assert log.is_file()
