@@ -14,7 +14,6 @@ in a label is drawn as a dollar sign, not read as mathtext.
 
 from __future__ import annotations
 
-import textwrap
 from collections.abc import Sequence
 from datetime import timedelta
 from pathlib import Path
@@ -135,6 +134,21 @@ def _days_panel(ax: Any, observed: Observed, zone: Zone) -> None:
         fontsize=10,
     )
     ax.grid(axis="x", color="#dddddd", linewidth=0.6)
+
+
+def shortened(name: str, width: int) -> str:
+    """``name`` on one line (runs of white space as one space), cut to ``width`` characters
+    with a closing "…" when longer: at its last space past the middle, else within its last
+    word (``textwrap.shorten`` keeps whole words only, and made a name without a space
+    within the width a bare "…")."""
+    text = " ".join(name.split())
+    if len(text) <= width:
+        return text
+    cut = text[: width - 1]
+    space = cut.rfind(" ")
+    if space >= width // 2:
+        cut = cut[:space]
+    return cut.rstrip() + "…"
 
 
 def _bars(
@@ -292,7 +306,7 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
         ax.tick_params(labelsize=7)
         # the room on a line of its own, shortened to the rose's width: on one line a long
         # room name ran into the next rose's title and past the picture's edges
-        room = textwrap.shorten(row.room, ROSE_TITLE_CHARS, placeholder="…") if row.room else ""
+        room = shortened(row.room, ROSE_TITLE_CHARS)
         title = rose_title(row.record) + (f"\n{room}" if room else "")
         ax.set_title(plain(title), fontsize=9)
     return _save(fig, path)

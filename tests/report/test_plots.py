@@ -82,6 +82,31 @@ def test_rose_titles_with_long_room_names_stay_apart(tmp_path: Path, drawn: list
     assert fig.axes[0].get_title().startswith("p1234\n")
 
 
+@pytest.mark.parametrize(
+    ("room", "shown"),
+    [
+        ("R3 hallway_between_kitchen_and_main_office", "R3 hallway_between_kitchen_and_ma…"),
+        ("Konferenzraum_Nordfluegel_Ebene2_Ost_Seite", "Konferenzraum_Nordfluegel_Ebene2_…"),
+        ("R12 open-plan engineering workspace north", "R12 open-plan engineering…"),
+        ("R1  kitchen\n", "R1 kitchen"),
+    ],
+)
+def test_a_long_room_name_keeps_what_fits(
+    tmp_path: Path, drawn: list[Any], room: str, shown: str
+) -> None:
+    """A room name cut to the rose's width keeps its first characters: a name with no space
+    within the width (``hallway_between_kitchen_and_main_office``, a label a graph tool
+    writes) was shortened word by word to nothing, the title's second line a bare "…"."""
+    from aion_cli.report.content import Busiest
+
+    record = {"id": "p1", "kind": "node", "direction_deg": 0.0, "concentration": 0.8,
+              "histogram": [0.1, 0, 0, 0, 0.9, 0, 0, 0]}
+    plots.roses_png([Busiest(record, room, "static")], 8, tmp_path / "r.png")
+    title = drawn[-1].axes[0].get_title()
+    assert title.split("\n")[1] == shown
+    assert len(shown) <= plots.ROSE_TITLE_CHARS
+
+
 def test_a_long_observation_shows_its_last_days_and_says_so(
     tmp_path: Path, drawn: list[Any]
 ) -> None:
