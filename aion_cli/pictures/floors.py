@@ -49,6 +49,14 @@ def levels(scenes: Sequence[Scene]) -> list[tuple[float, float]]:
     return [(float(z[a]), float(z[b])) for a, b in zip(starts, ends, strict=True)]
 
 
+def levels_apart(scenes: Sequence[Scene], most: int) -> list[tuple[float, float]]:
+    """The :func:`levels` drawn a panel each: none (all drawn in one panel) for one level,
+    and for more than ``most`` (the panels a picture holds): no ``--step`` could make room
+    for them, so they are drawn over each other, as before levels were drawn apart."""
+    found = levels(scenes)
+    return found if 1 < len(found) <= most else []
+
+
 def level_title(level: tuple[float, float]) -> str:
     """``"level z 4.0 m"`` (``"level z 0.0 to 0.3 m"`` for a spread of heights)."""
     lo, hi = level

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.errors import InputError
-from aion_cli.pictures.floors import levels
+from aion_cli.pictures.floors import levels_apart
 from aion_cli.pictures.png_mark import is_aion_png, save_marked_png
 from aion_cli.pictures.topdown import DPI, MAX_PANELS, PathLine, topdown_figure
 
@@ -187,7 +187,7 @@ def export_png(
             hint=_fitting_step_hint(times),
         )
     first = scene_at(loaded, times[0]) if times else None
-    floors = len(levels([first])) if first is not None else 1
+    floors = len(levels_apart([first], MAX_PANELS)) if first is not None else 1
     if floors > 1 and len(times) * floors > MAX_PANELS:  # a panel per time and level
         raise InputError(
             f"the picture would have {len(times) * floors} panels ({len(times)} times on "

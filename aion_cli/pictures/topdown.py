@@ -72,7 +72,7 @@ from aion_cli.pictures.backdrop import (
     outlying_cells,
     room_outlines,
 )
-from aion_cli.pictures.floors import by_level, levels
+from aion_cli.pictures.floors import by_level, levels_apart
 from aion_cli.pictures.layout import PANEL_WIDTH_IN, SINGLE_WIDTH_IN
 from aion_cli.pictures.layout import grid as page_grid
 from aion_cli.scene import Scene
@@ -351,7 +351,7 @@ def topdown_figure(
         list(paths) if paths is not None else [[] for _ in scenes]
     )
     panel_markers = [list(markers) for _ in scenes]
-    found = levels(scenes)
+    found = levels_apart(scenes, MAX_PANELS)
     if len(found) > 1:  # floors apart: one panel per time and level, not drawn over each other
         if len(scenes) == 1:  # one time: its title over the page, each panel's its level's
             suptitle = "\n".join(filter(None, (suptitle, *titles)))

@@ -160,3 +160,28 @@ def cells_only_scene(
         place_room=np.zeros(0, np.int64),
         mesh=None,
     )
+
+
+def places_scene(xyz: npt.ArrayLike) -> Scene:
+    """:func:`synthetic_scene`'s hash cell beside places at ``xyz`` f64[n,3], each a node
+    flowing +x (flow 1, entropy 0.1): no edges, rooms or mesh."""
+    from dataclasses import replace
+
+    places = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    n = len(places)
+    return replace(
+        synthetic_scene(),
+        node_ids=np.arange(n, dtype=np.uint64),
+        nodes_xyz=places,
+        node_flow=np.ones(n),
+        node_entropy=np.full(n, 0.1),
+        node_angle=np.zeros(n),
+        node_concentration=np.full(n, 0.9),
+        places_xyz=places,
+        place_room=np.full(n, -1, np.int64),
+        edges_xyz=np.zeros((0, 2, 3)),
+        room_ids=np.zeros(0, np.uint64),
+        room_labels=(),
+        room_xyz=np.zeros((0, 3)),
+        mesh=None,
+    )

@@ -14,7 +14,7 @@ from aion_cli.pictures.floors import levels
 from aion_cli.pictures.plan import DrawnRoute, plan_figure
 from aion_cli.pictures.topdown import topdown_figure
 from aion_cli.scene import Scene
-from tests.pictures.pixels import synthetic_scene, the_legend
+from tests.pictures.pixels import places_scene, synthetic_scene, the_legend
 
 
 def _two_floors() -> Scene:
@@ -152,3 +152,35 @@ def test_a_series_of_too_many_times_on_levels_names_a_step_that_fits(
     assert "--step 2h draws this span in 14 panels" in err.value.hint
     assert len(calls) == 1
     assert not (tmp_path / "t.png").exists()
+
+
+def _tower(floors: int) -> Scene:
+    """One place per floor, 2 m apart in height: ``floors`` levels."""
+    heights = 2.0 * np.arange(floors)
+    return places_scene(np.column_stack([np.zeros(floors), np.zeros(floors), heights]))
+
+
+def test_a_map_of_more_levels_than_panels_is_still_drawn() -> None:
+    """A map of 30 levels (heights 2 m apart: a tower, or detections at many heights) could
+    not be drawn at all: one time asked for 30 panels, more than 24, and was refused with a
+    hint to use a larger --step, which no step satisfies; ``aion report`` of such a map
+    failed for its map picture. Its levels are drawn over each other in one panel a time,
+    as before levels were drawn apart; a map of 24 levels still gets a panel each."""
+    from aion_cli.pictures.topdown import MAX_PANELS
+
+    fig = topdown_figure([_tower(30)], ["Mon 08:00"], suptitle="tower.aion")
+    (panel,) = _panels(fig)
+    assert panel.get_title() == "Mon 08:00"
+    assert len(_panels(topdown_figure([_tower(MAX_PANELS)], ["Mon 08:00"]))) == MAX_PANELS
+
+
+def test_export_png_of_a_map_of_more_levels_than_panels(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``export --format png`` refused the one time of such a map before drawing it."""
+    import aion_cli.pictures.render as render
+
+    monkeypatch.setattr("aion_cli.scene.scene_at", lambda loaded, t_ns: _tower(30))
+    monkeypatch.setattr(render, "_mark_unobserved", lambda loaded, times, titles: titles)
+    out = render.export_png(None, "tower.aion", tmp_path / "t.png", [None], None)
+    assert out.is_file()

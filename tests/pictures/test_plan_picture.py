@@ -21,6 +21,7 @@ from tests.pictures.pixels import (
     F64,
     count_near,
     pixel_of,
+    places_scene,
     read_png,
     synthetic_scene,
     the_legend,
@@ -90,27 +91,8 @@ def test_the_legend_covers_no_map() -> None:
     """A plan along a 100 m corridor 2 m wide: the legend, in the panel's upper right corner,
     covered the goal and half of both paths. It has a row of its own over the panels, clear
     of the title and the caption too."""
-    from dataclasses import replace
-
     xy = np.array([(x, y) for x in np.arange(0.5, 100.0, 1.0) for y in (0.5, 1.5)])
-    xyz = np.column_stack([xy, np.zeros(len(xy))])
-    n = len(xyz)
-    scene = replace(
-        synthetic_scene(),
-        node_ids=np.arange(n, dtype=np.uint64),
-        nodes_xyz=xyz,
-        node_flow=np.ones(n),
-        node_entropy=np.full(n, 0.1),
-        node_angle=np.zeros(n),
-        node_concentration=np.full(n, 0.9),
-        places_xyz=xyz,
-        place_room=np.full(n, -1, np.int64),
-        edges_xyz=np.zeros((0, 2, 3)),
-        room_ids=np.zeros(0, np.uint64),
-        room_labels=(),
-        room_xyz=np.zeros((0, 3)),
-        mesh=None,
-    )
+    scene = places_scene(np.column_stack([xy, np.zeros(len(xy))]))
     route = DrawnRoute(np.array([[0.5, 0.5, 0.0], [99.5, 0.5, 0.0]]), 99.0, 120.0)
     fig = plan_figure(scene, route, route, start_label="p0", goal_label="p198", title="plan")
     fig.canvas.draw()
