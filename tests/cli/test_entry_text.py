@@ -220,3 +220,36 @@ def test_series_cli(sample_map: Path) -> None:
 
     doc = described(table, sample_map, zone, labels, hour_flags(loaded, times)).to_dict()
     assert js.stdout == to_json(doc) + "\n"
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("--historical", "--format", "json"),
+        ("--historical", "--format", "csv"),
+        ("--from", "2026-11-23 06:00", "--to", "2026-11-23 20:00", "--format", "json"),
+    ],
+)
+def test_a_reader_that_stops_early_is_not_a_failure(
+    sample_map: Path, args: tuple[str, ...]
+) -> None:
+    """``aion predict ... --format json | head``: written in chunks, the text met the closed
+    pipe inside the command, where click turns a broken pipe into exit 1; aion's own rule
+    (``cli.errors``: stdout closed early is not a failure) is exit 0, no message, as for the
+    one write the text was before."""
+    import subprocess
+
+    from tests.robustness.conftest import AION, aion_env
+
+    proc = subprocess.Popen(
+        [str(AION), "predict", str(sample_map), *args, "--tz", "UTC"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=aion_env(),
+    )
+    assert proc.stdout is not None
+    assert proc.stdout.read(10)
+    proc.stdout.close()  # more than a pipe holds is still to come: the next write fails
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    assert b"error" not in err
