@@ -23,7 +23,8 @@ from pathlib import Path
 from aion_cli.errors import InputError, OutputLockedError
 
 STALE_UNREADABLE_LOCK_S = 10.0
-"""A lock file with no readable pid older than this is treated as stale (crash mid-create)."""
+"""An empty lock file older than this is treated as stale (a crash between its creation and
+its pid's write); a file of that name with other text is not aion's and is never removed."""
 
 INSIDE = ".aion.lock"
 """The lock's name inside a folder written into (``export -o DIR`` of an existing ``DIR``)."""
@@ -51,9 +52,11 @@ def _pid_alive(pid: int) -> bool:
 
 
 def _lock_is_stale(lock: Path) -> bool:
-    """A lock is stale if its pid (same host) is dead, or it has no pid and is old.
+    """A lock is stale if its pid (same host) is dead, or it is empty and old.
 
-    Locks from another host cannot be checked and count as live.
+    Locks from another host cannot be checked and count as live; so does a file of the
+    lock's name holding anything but ``"<pid> <host>"`` (someone's own ``notes.lock``, which
+    removing would destroy: the refusal names it, to be moved away by hand).
     """
     try:
         text = lock.read_text(encoding="utf-8", errors="replace")
@@ -61,8 +64,10 @@ def _lock_is_stale(lock: Path) -> bool:
     except FileNotFoundError:
         return True
     lines = text.split()
-    if not lines or not lines[0].isdigit():
+    if not lines:
         return age > STALE_UNREADABLE_LOCK_S
+    if not lines[0].isdigit():
+        return False
     host = lines[1] if len(lines) > 1 else socket.gethostname()
     if host != socket.gethostname():
         return False
@@ -144,6 +149,12 @@ def output_lock(
         holder = ""
         with contextlib.suppress(OSError):
             holder = lock.read_text(encoding="utf-8", errors="replace").strip()
+        words = holder.split()
+        if words and not words[0].isdigit():  # not "<pid> <host>": someone's own file
+            raise locked(
+                f"{what} {Path(path)}: {lock} is in the way, a file that is not aion's lock",
+                hint=f"aion locks an output with a file of that name: move {lock} away",
+            )
         raise locked(
             f"{what} {Path(path)} is being written by another process ({holder or 'unknown'})",
             hint=f"wait for it to finish; if no aion is running, delete {lock}",

@@ -268,3 +268,20 @@ def test_unreadable_lock_is_stale_only_when_old(written: Path) -> None:
     os.utime(lock, (old, old))
     write_map(written, {}, {})
     assert not lock.exists()
+
+
+def test_a_file_of_the_locks_name_that_is_not_a_lock_is_never_removed(written: Path) -> None:
+    """A file of the lock's name holding other text than aion's "<pid> <host>" (someone's
+    own ``office.aion.lock``) was removed as a stale lock once 10 s old; it is kept and
+    the write refused, naming it."""
+    lock = lock_path(written)
+    lock.write_text("my notes on the office map\n")
+    old = lock.stat().st_mtime - 3600
+    os.utime(lock, (old, old))
+    before = written.read_bytes()
+    with pytest.raises(MapLockedError, match="is in the way, a file that is not aion's lock"
+                       ) as err:
+        write_map(written, {}, {})
+    assert str(lock) in (err.value.hint or "")
+    assert lock.read_text() == "my notes on the office map\n"
+    assert written.read_bytes() == before
