@@ -88,6 +88,21 @@ def test_query_map_has_a_mature_temporal_state() -> None:
     assert predictor.forecaster.observed.all()
 
 
+def test_places_map_small(tmp_path: Path) -> None:
+    """The export-at-scale map of docs/BENCHMARKS.md (``write_places_map``), small: a map a
+    command reads, one place entry per graph place on the corridors."""
+    from benchmarks import bench_build_scale
+
+    path = tmp_path / "places.aion"
+    made = bench_build_scale.write_places_map(60.0, 14.0, path)
+    assert made["places"] > 10
+    assert made["entries"] >= made["places"]
+    import aion_cli as aion
+
+    m = aion.Map.load(path)
+    assert len(m.predict("2023-11-16 12:00", layer="places", tz="UTC")) == made["places"]
+
+
 def test_memory_small() -> None:
     from benchmarks import bench_memory
 
