@@ -282,11 +282,14 @@ def _first_window(shard: MapState) -> int:
 
 
 def _first_day(shard: MapState) -> int | None:
-    """The local day of the shard's first recorded window (None: it recorded none)."""
+    """The local day of the shard's first recorded window, else of its open window (a shard
+    inside one window has closed none; its window still falls on a day); None: no window."""
     assert shard.deferred is not None
     if shard.deferred.days:
         return shard.deferred.days[0].pending.day
-    return shard.pending.day
+    if shard.pending or shard.open_window is None:
+        return shard.pending.day
+    return shard.window_day(int(shard.open_window))
 
 
 def _replay(out: MapState, held: DeferredDays) -> None:

@@ -1,0 +1,44 @@
+"""Parallel builds and merged part maps at the edges a sweep of ``aion build``'s options found:
+each variant must give the map of ``--workers 1`` (``aion_cli.engine.compare.differences``).
+
+Logs: ``tests/cli/logdata.py`` (a robot at a fixed pose, people at fixed spots, the office
+graph in every scene-graph message).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from aion_cli.engine.compare import differences
+from aion_cli.mapquery import load_map
+from tests.cli.conftest import run
+from tests.cli.logdata import write_office_log
+
+HOUR_S = 3600
+
+
+def _same(a: Path, b: Path) -> list[str]:
+    return differences(load_map(a, writable=True).state, load_map(b, writable=True).state)
+
+
+def _built(logs: list[Path], out: Path, *args: object) -> Path:
+    result = run("build", *logs, "-o", out, "-q", *args)
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_a_log_shorter_than_a_window_later_the_same_day_joins_into_that_day(
+    tmp_path: Path,
+) -> None:
+    # the second log lies inside one window: its shard recorded only its open window, on the
+    # day the first log's windows are pending; the join closed that day as if it had ended
+    first, second = tmp_path / "morning.mcap", tmp_path / "noon.mcap"
+    write_office_log(first, duration_s=1200)
+    write_office_log(second, shift_s=2 * HOUR_S, duration_s=300)
+    logs = [first, second]
+    seq = _built(logs, tmp_path / "seq.aion", "--workers", "1")
+    assert _same(seq, _built(logs, tmp_path / "par.aion", "--workers", "2")) == []
+    parts = [_built([log], tmp_path / f"{log.stem}.part.aion", "--part") for log in logs]
+    merged = tmp_path / "merged.aion"
+    assert run("merge", *parts, "-o", merged, "-q").exit_code == 0
+    assert _same(seq, merged) == []
