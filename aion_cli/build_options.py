@@ -115,6 +115,10 @@ def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelCon
             )
         return config.replace(timezone=zone)
     old = previous
+    if given is not None and given.timezone == ModelConfig().timezone:
+        # the file's zone is the default, which --tz replaced when the map was made: the
+        # map's zone is compared with --tz below, the file's other parameters here
+        given = given.replace(timezone=old.timezone)
     if given is not None and given != old:
         raise ConfigError(
             "--config differs from the config the map was built with",

@@ -42,3 +42,24 @@ def test_a_log_shorter_than_a_window_later_the_same_day_joins_into_that_day(
     merged = tmp_path / "merged.aion"
     assert run("merge", *parts, "-o", merged, "-q").exit_code == 0
     assert _same(seq, merged) == []
+
+
+def test_a_map_built_with_config_and_tz_continues_with_the_same_options(tmp_path: Path) -> None:
+    # the config file's zone is the default, replaced by --tz: the continuation compared the
+    # file as read (UTC) with the map's config (Europe/London) and refused the same options
+    first, second = tmp_path / "mon.mcap", tmp_path / "tue.mcap"
+    write_office_log(first)
+    write_office_log(second, shift_s=24 * HOUR_S)
+    config = tmp_path / "model.toml"
+    printed = run("build", "--print-config")
+    config.write_text(printed.output.replace("window_s = 600.0", "window_s = 1200.0"))
+    opts = ("--config", config, "--tz", "Europe/London")
+    seq = _built([first, second], tmp_path / "seq.aion", *opts)
+    _built([first], tmp_path / "cont.aion", *opts)
+    cont = _built([second], tmp_path / "cont.aion", "--map", tmp_path / "cont.aion", *opts)
+    assert _same(seq, cont) == []
+    other = config.read_text().replace("window_s = 1200.0", "window_s = 600.0")
+    config.write_text(other)
+    refused = run("build", second, "--map", seq, "-o", tmp_path / "x.aion", *opts)
+    assert refused.exit_code == 2
+    assert "--config differs" in refused.output
