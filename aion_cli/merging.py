@@ -279,6 +279,7 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
     with a note for each approximation of the engine's merge that applies. Each map's state
     is read when its turn comes and merged in place (``merge_maps(consume=True)``): memory
     holds the merged map and the one being added, whatever the number of maps."""
+    from aion_cli.engine.graph_arrays import file_graph_time
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
     from aion_cli.engine.state import MapState
@@ -302,7 +303,10 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
             tally.add(state)
         if state.deferred is not None:
             base = acc if acc is not None else MapState.empty(state.config)
+            before = base.graph
             acc = _join_part(base, state, m.name, report, joins)
+            if m.manifest.graph_source.startswith("file "):  # each part added the file anew
+                acc.graph = file_graph_time(acc.graph, before)
         else:
             acc = state if acc is None else merge_maps(acc, state, consume=True)
         del state

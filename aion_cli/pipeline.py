@@ -62,6 +62,7 @@ from aion_cli.build_stream import StreamStep
 from aion_cli.detection_counts import MapperTally
 from aion_cli.detection_feed import DetectionCounts, log_adapters
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.graph_arrays import file_graph_time
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, StaleIndexError
@@ -264,7 +265,10 @@ class _Build(StreamStep):
             self._observation(mapper, tf, plan, logset)
             fixed_graph = self._fixed_graph(logset, plan, tf, config)
             if fixed_graph is not None:
+                before = mapper.state.graph
                 mapper.add_graph(fixed_graph)
+                if self.opts.graph_file is not None:  # the file again: one pass added it once
+                    mapper.state.graph = file_graph_time(mapper.state.graph, before)
             self._stream(logset, plan, tf, mapper)
             end = self._times.end_ns
             if end is not None:

@@ -148,6 +148,7 @@ def fold(
     corrected, which will change for the shards after it too (the local pool stops its
     workers then)."""
     from aion_cli.detection_feed import yaw_rule_blocker
+    from aion_cli.engine.graph_arrays import file_graph_time
     from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
     from aion_cli.graph_feed import pins_blocker
 
@@ -167,7 +168,11 @@ def fold(
         pins or ownership or yaw_rule_blocker(folded.yaws, result.report.yaw_rule, task.yaw_seen)
     )
     if blocker is None:
-        return folded.then(join_shard(folded.state, state), result.report)
+        before = folded.state.graph
+        joined = join_shard(folded.state, state)
+        if result.report.graph_source.startswith("file "):  # each shard added the file anew
+            joined.graph = file_graph_time(joined.graph, before)
+        return folded.then(joined, result.report)
     graph_changed = (
         ownership is not None
         and state.graph is not None

@@ -63,3 +63,26 @@ def test_a_map_built_with_config_and_tz_continues_with_the_same_options(tmp_path
     refused = run("build", second, "--map", seq, "-o", tmp_path / "x.aion", *opts)
     assert refused.exit_code == 2
     assert "--config differs" in refused.output
+
+
+def test_a_graph_file_keeps_the_time_one_pass_gives_it(tmp_path: Path) -> None:
+    # --graph FILE is added at a build's first log, and again by each shard, continued build
+    # and part: the maps held the same graph stamped with the last of those starts
+    from tests.cli.logdata import save_graph_file
+
+    graph = save_graph_file(tmp_path / "dsg.json")
+    logs = []
+    for k, day in enumerate((0, 1, 3)):
+        log = tmp_path / f"day{k}.mcap"
+        write_office_log(log, shift_s=day * 24 * HOUR_S, graph=False)
+        logs.append(log)
+    opts = ("--graph", graph)
+    seq = _built(logs, tmp_path / "seq.aion", "--workers", "1", *opts)
+    assert _same(seq, _built(logs, tmp_path / "par.aion", "--workers", "2", *opts)) == []
+    _built(logs[:1], tmp_path / "cont.aion", *opts)
+    cont = _built(logs[1:], tmp_path / "cont.aion", "--map", tmp_path / "cont.aion", *opts)
+    assert _same(seq, cont) == []
+    parts = [_built([log], tmp_path / f"{log.stem}.part.aion", "--part", *opts) for log in logs]
+    merged = tmp_path / "merged.aion"
+    assert run("merge", *parts, "-o", merged, "-q").exit_code == 0
+    assert _same(seq, merged) == []

@@ -83,3 +83,29 @@ def graph_from_arrays(arrays: dict[str, np.ndarray], meta: Any) -> GraphSnapshot
         layer_name=str(meta["layer_name"]),
         frame_id=str(meta["frame_id"]),
     )
+
+
+def same_graph(a: GraphSnapshot | None, b: GraphSnapshot | None) -> bool:
+    """Whether two graphs hold the same layers, edges, mesh and agents, whatever their times."""
+    if a is None or b is None:
+        return a is b
+    xa, ma = graph_to_arrays(a)
+    xb, mb = graph_to_arrays(b)
+    if {**ma, "t_ns": 0} != {**mb, "t_ns": 0} or xa.keys() != xb.keys():
+        return False
+    return all(np.array_equal(xa[k], xb[k]) for k in xa)
+
+
+def file_graph_time(
+    graph: GraphSnapshot | None, before: GraphSnapshot | None
+) -> GraphSnapshot | None:
+    """``graph``, a ``--graph FILE`` added again at a later log's start, with the time of the
+    same graph the map held ``before`` (one pass adds the file once, at its first log): the
+    graph unchanged otherwise."""
+    if graph is None or before is None or not same_graph(graph, before):
+        return graph
+    if int(before.t_ns) >= int(graph.t_ns):
+        return graph
+    from dataclasses import replace
+
+    return replace(graph, t_ns=int(before.t_ns))
