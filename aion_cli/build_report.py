@@ -118,6 +118,9 @@ class BuildReport:
     #: fixed sensor: each log file's own time, (path, first window, last window) from its
     #: first to its last recorded window (``fixed_sensor.recording_window_count`` adds them up)
     recording_spans: list[tuple[str, int, int]] = field(default_factory=list)
+    #: --observed: the windows without a message its spans added (None without --observed;
+    #: a parallel build adds its shards' up into one note, ``fixed_sensor.observed_note``)
+    observed_added: int | None = None
     #: the earliest detection time of the first batch learnt (not in the JSON): whether the
     #: logs start before a continued map's data ends (``log_times.overlap_note``)
     first_detection_ns: int | None = None

@@ -81,10 +81,9 @@ def fixed_sensor_windows(
     if declared:
         extra = _declared_windows(declared, logset, times, delta)
         added = np.setdiff1d(extra, windows, assume_unique=True)
-        notes.append(
-            f"--observed: {added.size:,} window(s) without a message taken as observed "
-            f"({added.size * delta / 3.6e12:,.1f} h), within each log's own time"
-        )
+        notes.append(observed_note(added.size, delta))
+        if report is not None:  # a parallel build adds its shards' up
+            report.observed_added = int(added.size)
         windows = np.union1d(windows, extra)
     mapper.set_fixed_windows(windows)
     if len(windows) == 0:
@@ -94,6 +93,19 @@ def fixed_sensor_windows(
         report.fixed_windows = summary
         report.recording_spans = _file_spans(logset, times, delta)
     return fixed_sensor_text(*summary, declared=bool(declared))
+
+
+OBSERVED_NOTE = "--observed: "
+"""How :func:`observed_note` starts (a parallel build's parent replaces its shards' notes)."""
+
+
+def observed_note(added: int, delta: int) -> str:
+    """The note of the windows without a message that ``--observed`` spans made observed
+    (``added`` windows of ``delta`` ns)."""
+    return (
+        f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
+        f"({added * delta / 3.6e12:,.1f} h), within each log's own time"
+    )
 
 
 def _file_spans(logset: Any, times: TimeCheck, delta: int) -> list[tuple[str, int, int]]:

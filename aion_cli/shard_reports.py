@@ -14,7 +14,13 @@ from typing import Any
 
 from aion_cli.build_report import FAST_PEOPLE_WARNING, BuildReport, fast_people_warning
 from aion_cli.errors import MessageDecodeError
-from aion_cli.fixed_sensor import DECLARED, FIXED_SENSOR_OVER, fixed_sensor_text
+from aion_cli.fixed_sensor import (
+    DECLARED,
+    FIXED_SENSOR_OVER,
+    OBSERVED_NOTE,
+    fixed_sensor_text,
+    observed_note,
+)
 from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
 
 
@@ -82,6 +88,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
             else:
                 _add_nested(have, {k: v for k, v in info.items() if isinstance(v, int)})
         for line in p.notes:
+            if line.startswith(OBSERVED_NOTE):  # added up below, one note as one pass gives
+                continue
             if line not in out.notes and not line.startswith(GRAPH_COUNTS_NOTE):
                 out.notes.append(line)
         for line in p.warnings:
@@ -92,6 +100,11 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         out.graph_layer = out.graph_layer or p.graph_layer
         out.dsg_version = out.dsg_version or p.dsg_version
         out.graph_period_ns = p.graph_period_ns or out.graph_period_ns
+    added = [p.observed_added for p in parts if p.observed_added is not None]
+    if added:
+        delta = next((p.fixed_windows[3] for p in parts if p.fixed_windows is not None), 0)
+        out.observed_added = sum(added)
+        out.notes.append(observed_note(out.observed_added, delta))
     note = graph_counts_note(out)  # the shards' counts added up
     if note is not None:
         out.notes.append(note)

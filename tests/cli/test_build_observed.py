@@ -144,6 +144,13 @@ def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Pa
     a = run_json("predict", tmp_path / "one.aion", "--time", at, "--format", "json")["entries"]
     b = run_json("predict", tmp_path / "two.aion", "--time", at, "--format", "json")["entries"]
     assert [(e["id"], e["flow"]) for e in a] == [(e["id"], e["flow"]) for e in b]
+    # one note of the windows the spans added, the three files' summed, as one pass gives it
+    # (the workers' build listed one note per shard: "22 window(s)" three times)
+    added = [[n for n in r["notes"] if n.startswith("--observed: ")] for r in (one, two)]
+    assert added[0] == added[1] == [
+        "--observed: 66 window(s) without a message taken as observed (11.0 h), within each "
+        "log's own time"
+    ]
 
 
 def test_a_robot_trajectory_overrides_declared_spans(tmp_path: Path) -> None:
