@@ -167,7 +167,7 @@ def test_the_busiest_row_is_predicts_top_entry(named_log_map: Path, report_dir: 
     assert first[6] == f"{entry['entropy']:.3f}"
     assert first[7] == f"{entry['direction_deg']:+.1f}"
     assert first[8] == forecast["entries"][0]["family"]  # the family that forecasts it
-    assert first[9] == f"{entry['x']:.1f}, {entry['y']:.1f}"  # where it is
+    assert first[9] == f"{entry['x']:.2f}, {entry['y']:.2f}"  # where it is
 
 
 def _room_of(map_path: Path, place: str) -> str:
@@ -201,7 +201,7 @@ def test_at_a_time_the_busiest_row_is_predicts_top_entry_then(
         f"{e['entropy']:.3f}",
         f"{e['direction_deg']:+.1f}",
         e["family"],
-        f"{e['x']:.1f}, {e['y']:.1f}",
+        f"{e['x']:.2f}, {e['y']:.2f}",
     ]
     rooms = run_json(
         "predict", named_log_map, "--layer", "rooms", "--time", WHEN, "--tz", "UTC", "--format",
