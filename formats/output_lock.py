@@ -39,6 +39,12 @@ def lock_path(path: str | os.PathLike[str]) -> Path:
     return p.with_name(fitted_name(p.name, len(".lock")) + ".lock")
 
 
+_HELD: set[str] = set()
+"""The locks this process holds (resolved paths): a lock naming this process's own pid that
+it does not hold was left by an earlier process that had the same pid (a container restarted
+after its aion was killed runs the same entry point as the same pid), and is stale."""
+
+
 def _pid_alive(pid: int) -> bool:
     if pid <= 0:
         return False
@@ -71,7 +77,10 @@ def _lock_is_stale(lock: Path) -> bool:
     host = lines[1] if len(lines) > 1 else socket.gethostname()
     if host != socket.gethostname():
         return False
-    return not _pid_alive(int(lines[0]))
+    pid = int(lines[0])
+    if pid == os.getpid():  # this process: live only if it holds the lock itself
+        return str(lock.resolve()) not in _HELD
+    return not _pid_alive(pid)
 
 
 def _try_create_lock(lock: Path) -> bool:
@@ -159,8 +168,11 @@ def output_lock(
             f"{what} {Path(path)} is being written by another process ({holder or 'unknown'})",
             hint=f"wait for it to finish; if no aion is running, delete {lock}",
         )
+    held = str(lock.resolve())
+    _HELD.add(held)
     try:
         yield lock
     finally:
+        _HELD.discard(held)
         with contextlib.suppress(OSError):
             lock.unlink()

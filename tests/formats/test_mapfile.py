@@ -253,6 +253,21 @@ def test_stale_lock_of_dead_process_is_recovered(written: Path) -> None:
     np.testing.assert_array_equal(read_map(written)[0]["x"], np.arange(4))
 
 
+def test_a_lock_of_this_pid_that_this_process_does_not_hold_is_stale(written: Path) -> None:
+    """A container restarted after its aion was killed runs aion as the same pid on the same
+    host: the lock it left names the new process itself, which was "another process" to the
+    liveness check (the pid is alive: it is us) and blocked every build until deleted by hand.
+    A lock of this very pid that this process does not hold is recovered; one it holds still
+    refuses a nested writer (test above)."""
+    import socket
+
+    lock = lock_path(written)
+    lock.write_text(f"{os.getpid()} {socket.gethostname()}\n")
+    write_map(written, {"x": np.arange(3)}, {})
+    assert not lock.exists()
+    np.testing.assert_array_equal(read_map(written)[0]["x"], np.arange(3))
+
+
 def test_lock_from_another_host_is_respected(written: Path) -> None:
     lock_path(written).write_text(f"{dead_pid()} some-other-host.example\n")
     with pytest.raises(MapLockedError):
