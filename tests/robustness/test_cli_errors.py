@@ -82,8 +82,9 @@ def _corrupted_map(office: Office, folder: Path) -> Path:
 
 def _locked_map(office: Office, folder: Path) -> Path:
     path = office.copy_map(folder / "locked.aion")
-    # held by this (live) test process, as another aion writing the map would hold it
-    path.with_name("locked.aion.lock").write_text(f"{os.getpid()} {socket.gethostname()}\n")
+    # held by a live process other than this test's (its parent), as another aion writing the
+    # map would hold it (a lock of this very pid that it does not hold is stale)
+    path.with_name("locked.aion.lock").write_text(f"{os.getppid()} {socket.gethostname()}\n")
     return path
 
 
