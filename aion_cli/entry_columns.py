@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.predictions import KINDS, entry_ids
+from aion_cli.predictions import entry_ids, kind_label
 
 F64 = npt.NDArray[np.float64]
 Obj = npt.NDArray[np.object_]
@@ -96,7 +96,7 @@ def entry_columns(
     flow, var = np.asarray(table.flow)[picked], np.asarray(table.flow_var)[picked]
     ids = _as_str(entry_ids(table, picked))
     lookup = names or {}
-    kind = _labels(np.asarray(table.kind)[picked], _kind_label)
+    kind = _labels(np.asarray(table.kind)[picked], kind_label)
     angle = np.asarray(d.dominant_angle, dtype=np.float64)
     xyz = np.asarray(table.xyz, dtype=np.float64)[picked]
     probabilities = np.asarray(d.probabilities, dtype=np.float64)
@@ -149,12 +149,6 @@ def mean_speed(probabilities: F64, speeds: F64) -> F64:
         bottom = np.ascontiguousarray(weights[rows, :k]).sum(axis=1)
         out[rows] = top / bottom
     return out
-
-
-def _kind_label(kind: Any) -> str:
-    if isinstance(kind, str):
-        return kind
-    return KINDS.get(int(kind), str(kind))
 
 
 def _labels(values: Any, label: Any) -> Obj:

@@ -10,7 +10,7 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.predictions import KINDS, entry_ids, entry_table
+from aion_cli.predictions import entry_ids, entry_table, kind_label
 
 if TYPE_CHECKING:
     from aion_cli.mapquery import LoadedMap
@@ -115,7 +115,7 @@ def select(
     if layer in ("places", "cells"):
         kind = np.asarray(table.kind)
         names = (
-            np.asarray([KINDS.get(int(k), str(k)) for k in np.unique(kind)], dtype=object)
+            np.asarray([kind_label(k) for k in np.unique(kind).tolist()], dtype=object)
             if kind.dtype.kind in "iu"
             else None
         )
@@ -143,7 +143,7 @@ def select(
                 # the graph's own rooms and buildings are answered (layer_of_nodes)
                 hint = "the map has no such room or building: aion info MAP lists its rooms"
             else:
-                kind_names = [_kind_name(table, e) for e in index.tolist()]
+                kind_names = [kind_label(table.kind[e]) for e in index.tolist()]
                 ids = [i for i, k in zip(labels, kind_names, strict=True) if k != "cell"][:8]
                 cells = len(labels) - sum(k != "cell" for k in kind_names)
                 if ids:
@@ -174,9 +174,4 @@ def select(
         refuse_far_point(at, away(best), label, table.xyz, "entry")
         index = np.array([best], dtype=np.int64)
     return index
-
-
-def _kind_name(table: Any, e: int) -> str:
-    kind = table.kind[e]
-    return kind if isinstance(kind, str) else KINDS.get(int(kind), str(kind))
 

@@ -132,7 +132,7 @@ def _series_columns(table: SeriesTable) -> EntryColumns:
     if table.columns is not None:
         return table.columns
     text = {
-        key: _object_column([e[key] for e in table.entries])
+        key: rt.object_array([e[key] for e in table.entries])
         for key in ("id", "name", "kind", "layer")
     }
     floats = {
@@ -140,9 +140,3 @@ def _series_columns(table: SeriesTable) -> EntryColumns:
         for key in ("x", "y", "z")
     }
     return EntryColumns(text, floats, np.zeros(len(table.entries), np.int64))
-
-
-def _object_column(values: list[Any]) -> Any:
-    out = np.empty(len(values), dtype=object)
-    out[:] = values
-    return out

@@ -33,6 +33,12 @@ if TYPE_CHECKING:
     from aion_cli.mapquery import LoadedMap
 
 KINDS = {0: "cell", 1: "node", 2: "room", 3: "building"}
+
+
+def kind_label(kind: Any) -> str:
+    """An entry's kind as a record names it: an ``EntryTable`` kind code through
+    :data:`KINDS` (the code itself, as text, when unknown); a name stays as it is."""
+    return kind if isinstance(kind, str) else KINDS.get(int(kind), str(kind))
 LAYERS = ("all", "places", "cells", "rooms", "buildings")
 
 #: the record fields CSV output has, in order (JSON has these and ``speed_per_bin``)

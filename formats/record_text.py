@@ -42,17 +42,19 @@ def _is_none(values: Obj) -> npt.NDArray[np.bool_]:
     return np.asarray(np.equal(values, np.array(None, dtype=object)), dtype=bool)
 
 
-def _objects(values: Sequence[Any], shape: tuple[int, ...]) -> Obj:
+def object_array(values: Sequence[Any], shape: tuple[int, ...] | None = None) -> Obj:
+    """``values`` as an object array (of ``shape``; default 1-D), each item kept as it is:
+    ``np.asarray`` would make strings a fixed-width str array and lists a 2-D one."""
     out = np.empty(len(values), dtype=object)
     out[:] = values
-    return out.reshape(shape)
+    return out if shape is None else out.reshape(shape)
 
 
 def json_floats(values: Any) -> Obj:
     """``json.dumps`` tokens of float64 values (any shape): ``repr`` of a finite value,
     ``null`` for NaN and infinities (``serialize.clean`` makes them None)."""
     array = np.asarray(values, dtype=np.float64)
-    out = _objects(list(map(float.__repr__, array.reshape(-1).tolist())), array.shape)
+    out = object_array(list(map(float.__repr__, array.reshape(-1).tolist())), array.shape)
     out[~np.isfinite(array)] = "null"
     return out
 
@@ -60,7 +62,7 @@ def json_floats(values: Any) -> Obj:
 def json_ints(values: Any) -> Obj:
     """``json.dumps`` tokens of integers."""
     array = np.asarray(values, dtype=np.int64)
-    return _objects(list(map(int.__repr__, array.reshape(-1).tolist())), array.shape)
+    return object_array(list(map(int.__repr__, array.reshape(-1).tolist())), array.shape)
 
 
 def json_strings(values: Any) -> Obj:
@@ -69,7 +71,7 @@ def json_strings(values: Any) -> Obj:
     none = _is_none(array)
     text = array.copy()
     text[none] = ""
-    out = _objects(list(map(encode_basestring_ascii, text.tolist())), array.shape)
+    out = object_array(list(map(encode_basestring_ascii, text.tolist())), array.shape)
     out[none] = "null"
     return out
 
@@ -173,7 +175,7 @@ def _fixed_9(values: list[float]) -> list[str]:
 def csv_ints(values: Any) -> Obj:
     """``serialize.to_csv`` cells of integers."""
     array = np.asarray(values, dtype=np.int64)
-    return _objects(list(map(int.__repr__, array.reshape(-1).tolist())), array.shape)
+    return object_array(list(map(int.__repr__, array.reshape(-1).tolist())), array.shape)
 
 
 def csv_strings(values: Any) -> Obj:
