@@ -182,7 +182,7 @@ def _declared_entries(path: Path) -> int | None:
 def _too_many_members(path: Path, count: int, limit: int) -> MapFileError:
     return MapFileError(
         f"map {path} has {count:,} zip entries, over the {limit:,}-entry limit (a map written "
-        "by aion has about 50): refusing a possible zip bomb",
+        "by aion has about 80): refusing a possible zip bomb",
         hint="the file was not written by aion; do not trust it (read_map(max_members=...) "
         "raises the limit)",
     )
