@@ -39,13 +39,17 @@ frames_without_tf{topic: [frames of its first messages that the log's TF does no
 to 'map']} (aion_cli.frame_check: a build would need --map-frame),
 mapping_example (without a detection topic: a topic --suggest-mapping writes a mapping for,
 or null).
-For a map (.aion): format, version, creator, created, inputs,
+For a map (.aion): map, format, version, creator, created, inputs[{path, name, size, sha256}],
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
-entries each temporal model family forecasts, flow and direction), timezone, config, and with
---verify verified{members, bytes, consistent}.
+entries each temporal model family forecasts, flow and direction), timezone, config, map_frame,
+rooms[{id, name, places}], merged_from[{name, path, size, sha256}] and lineage (a merged map),
+query_only{from{name, path, size, sha256}, left_out} (aion compact),
+part{held_days} (a part map), and with --verify verified{members, bytes, consistent}; several
+maps: a list of them.
 For a scene graph (.json, .sparkdsg): graph, size_bytes, format, version, reader (spark_dsg or
 lenient), nav_layer{name, key}, places, edges, frontiers_left_out, places_with_room, rooms,
-buildings, agent_poses, mesh{vertices, faces}, layers[{key, name, nodes}], skipped, notes.
+buildings, agent_poses, mesh{vertices, faces}, layers[{key, name, nodes}], skipped, notes,
+aion (what aion export --format dsg recorded in it, else null).
 """
 
 MAP_SUFFIX = ".aion"

@@ -39,10 +39,12 @@ there (departure + distance / speed), read per model window: the forecast at the
 the arrival's window (at the departure time within the departure's window). The
 distance-only path is always shown beside it, with the temporal cost it would have (never
 less than the temporal plan's: where it would be, it is the temporal plan too).
-JSON keys: from, to, depart, depart_ns, zone, speed_mps,
+JSON keys: map, from, to, depart, depart_ns, zone, speed_mps,
 temporal{path, length_m, duration_s, cost, arrival, arrival_ns}, distance_only{the same},
-snapped (and export / png: the files written; with --leave,
-departures[{depart, depart_ns, cost, length_m, duration_s, distance_only_cost, best}]).
+snapped[{option, room or building and name (a room or building asked for), point, node,
+distance_m}] (a start or goal given as a point, room or building) (and export / png: the
+files written; with --leave, departures[{depart, depart_ns, cost, length_m, duration_s,
+distance_only_cost, best, hour_observed (a map that lists its observed hours)}]).
 
 \b
 --png draws the map from above at the departure (place edges, rooms, arrows along the

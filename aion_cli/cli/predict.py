@@ -34,17 +34,22 @@ Examples:
                                                                how busy p12 is over the day
 
 \b
+JSON keys: map, mode (predicted / historical), time, time_ns, zone, bins, bin_centres_deg,
+hour_observed (not with --historical: whether any day of the data observed the time's hour),
+entries[{the fields}].
 Fields (JSON keys, CSV columns): id, kind (node/cell/room/building), layer, x, y, z,
 flow (expected detections per window), flow_per_hour, direction_deg (dominant direction:
 where most people walk, degrees counter-clockwise from +x), direction_bin (its bin),
 concentration (0..1, 1 = everyone walks one way, 0 = balanced, e.g. both ways), entropy (0..1,
 1 = people walk every way), mean_speed (m/s), histogram (B direction probabilities; bin b
-is centred at -180 + (b + 0.5)*360/B degrees), speed_per_bin (JSON only), family /
+is centred at -180 + (b + 0.5)*360/B degrees; CSV: histogram_0 .. histogram_<B-1>),
+speed_per_bin (JSON only), family /
 direction_family (the model that forecast the flow and the directions), flow_p10 / flow_p90
 (the predictive spread of a window's count), name (a room's or building's name in the scene
 graph; empty for the rest).
 A series (--from, --to, --step) prints one row per time and a column per entry (the
-busiest over the series); JSON lists each entry (id, name, kind, layer, x, y, z) with its
+busiest over the series); JSON (map, mode: series, zone, times, times_ns, hour_observed
+per time, entries) lists each entry (id, name, kind, layer, x, y, z) with its
 flow and flow_per_hour per time,
 CSV has one row per time and entry (time, time_ns, id, name, kind, layer, x, y, z,
 flow, flow_per_hour). Each value equals `predict --time` at that time. The series includes --to
