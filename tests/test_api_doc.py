@@ -1,0 +1,100 @@
+"""docs/API.md against the code: every signature it gives is the function's own (names, kinds,
+defaults), every keyword of ``aion.build`` and ``aion.merge`` is named, and its merge and
+compact examples run (its first example runs in tests/test_api.py)."""
+
+from __future__ import annotations
+
+import inspect
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import aion_cli as aion
+
+REPO = Path(__file__).resolve().parents[1]
+API = (REPO / "docs" / "API.md").read_text()
+
+
+def _shape(fn: Any) -> list[tuple[str, Any, Any]]:
+    """(name, kind, default) of each parameter, without ``self`` / ``cls``."""
+    params = [p for p in inspect.signature(fn).parameters.values() if p.name not in ("self",)]
+    return [(p.name, p.kind, p.default) for p in params]
+
+
+def _documented(text: str) -> Any:
+    """A function with the parameter list the document gives (defaults evaluated)."""
+    scope: dict[str, Any] = {}
+    exec(f"def f({text}): pass", scope)  # the document's own text, e.g. 'time=None, *, tz=None'
+    return scope["f"]
+
+
+def _signatures() -> dict[str, str]:
+    """``name -> parameter text`` of every call the document's headings and its Map table give."""
+    headings = re.findall(r"^## `aion\.(\w+)\((.*?)\)", API, re.M)
+    out = {f"aion.{name}": args for name, args in headings}
+    for name, args in re.findall(r"^\| `(?:m|Map)\.(\w+)\((.*?)\)` \|", API, re.M):
+        out[f"Map.{name}"] = args
+    return out
+
+
+def test_the_documented_signatures_are_the_functions_own() -> None:
+    signatures = _signatures()
+    assert {"aion.build", "aion.merge", "aion.compact", "Map.predict", "Map.plan"} <= set(
+        signatures
+    )
+    for name, args in signatures.items():
+        owner, attr = name.split(".")
+        real = getattr(aion if owner == "aion" else aion.Map, attr)
+        if owner == "aion" and "**options" in args:  # keywords listed in the text (below)
+            args = args.replace("**options", "*").rstrip(", *")
+            real_shape = [s for s in _shape(real) if s[1] != inspect.Parameter.KEYWORD_ONLY]
+        else:
+            real_shape = _shape(real)
+        assert _shape(_documented(args)) == real_shape, (name, args, real_shape)
+
+
+def test_every_keyword_of_build_and_merge_is_named() -> None:
+    section = API.split("## `aion.build(", 1)[1].split("\n## ", 1)[0]
+    named = set(re.findall(r"`(\w+)[`=]", section))
+    keywords = {
+        p.name
+        for p in inspect.signature(aion.build).parameters.values()
+        if p.kind == inspect.Parameter.KEYWORD_ONLY
+    }
+    assert keywords - named == set(), f"docs/API.md does not name {sorted(keywords - named)}"
+    merge = API.split("## `aion.merge(", 1)[1].split("\n## ", 1)[0]
+    merge_keywords = {
+        p.name
+        for p in inspect.signature(aion.merge).parameters.values()
+        if p.kind == inspect.Parameter.KEYWORD_ONLY
+    }
+    assert merge_keywords <= set(re.findall(r"`(\w+)[`=]", merge))
+
+
+def test_the_merge_and_compact_examples_run(tmp_path: Path) -> None:
+    """API.md's merge example on maps of two simulated mornings, then its compact example."""
+    from click.testing import CliRunner
+
+    from aion_cli.cli.main import cli
+
+    blocks = re.findall(r"```python\n(.*?)```", API, flags=re.S)
+    examples = [b for b in blocks if "aion.merge(" in b or "aion.compact(" in b]
+    assert len(examples) == 2
+    names = re.findall(r'aion\.merge\(\["(\w+\.aion)", "(\w+\.aion)"\]', examples[0])[0]
+    for name, day in zip(names, ("2026-01-05T08:00", "2026-01-07T08:00"), strict=True):
+        log = tmp_path / f"{name}.mcap"
+        args = ["simulate", "-o", str(log), "--days", "0.1", "--start", day, "-q"]
+        result = CliRunner().invoke(cli, args, catch_exceptions=False)
+        assert result.exit_code == 0, result.stderr
+        aion.build([log], output=tmp_path / name)
+    cwd = Path.cwd()
+    os.chdir(tmp_path)
+    try:
+        scope: dict[str, Any] = {}
+        exec(compile(examples[0], "docs/API.md", "exec"), scope)
+        exec(compile(examples[1], "docs/API.md", "exec"), scope)
+    finally:
+        os.chdir(cwd)
+    assert scope["week"].report.lineage == "same"
+    assert (tmp_path / "week-robot.aion").stat().st_size < (tmp_path / "week.aion").stat().st_size
