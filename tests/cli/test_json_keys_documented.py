@@ -1,7 +1,7 @@
-"""Every key of a command's real JSON output is named in the "JSON keys" of its --help (which
-README points to): predict (a time, --historical, a series), plan (with a room, a point and
---leave), info (a log, a fixed sensor's log, a log without a detection topic, a map, a part, a
-query-only and a merged map, a scene-graph file), build, merge and compact."""
+"""Every key of a command's real JSON output (and every column of predict's CSV) is named in
+its --help (which README points to): predict (a time, --historical, a series), plan (with a
+room, a point and --leave), info (a log, a fixed sensor's log, a log without a detection topic,
+a map, a part, a query-only and a merged map, a scene-graph file), build, merge and compact."""
 
 from __future__ import annotations
 
@@ -79,6 +79,18 @@ def test_predict_keys_are_in_its_help(sample_map: Path) -> None:
             "2026-01-12 08:00", "--step", "1h", "--tz", "UTC", "--format", "json",
         ),
     )
+
+
+def test_predict_csv_columns_are_in_its_help(sample_map: Path) -> None:
+    text = help_text("predict")
+    series = ("--from", "2026-01-12 06:00", "--to", "2026-01-12 08:00", "--step", "1h")
+    for args in (AT, ("--historical",), (*series, "--tz", "UTC")):
+        result = run("predict", sample_map, *args, "--format", "csv")
+        assert result.exit_code == 0, result.stderr
+        header = result.stdout.splitlines()[0].split(",")
+        columns = {re.sub(r"^histogram_\d+$", "histogram_0", c) for c in header}
+        undocumented = sorted(c for c in columns if not re.search(rf"\b{c}\b", text))
+        assert not undocumented, f"aion predict --help does not name the columns {undocumented}"
 
 
 def test_plan_keys_are_in_its_help(sample_map: Path) -> None:
