@@ -1,12 +1,14 @@
 """docs/API.md against the code: every signature it gives is the function's own (names, kinds,
 defaults), every keyword of ``aion.build`` and ``aion.merge`` is named, and its merge and
-compact examples run (its first example runs in tests/test_api.py)."""
+compact examples run (its first example runs in tests/test_api.py), and so does README's
+"Python API" block."""
 
 from __future__ import annotations
 
 import inspect
 import os
 import re
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -72,22 +74,31 @@ def test_every_keyword_of_build_and_merge_is_named() -> None:
     assert merge_keywords <= set(re.findall(r"`(\w+)[`=]", merge))
 
 
-def test_the_merge_and_compact_examples_run(tmp_path: Path) -> None:
-    """API.md's merge example on maps of two simulated mornings, then its compact example."""
+def _simulated(log: Path, start: str) -> Path:
+    """A log of a simulated office morning (0.1 days from ``start``)."""
     from click.testing import CliRunner
 
     from aion_cli.cli.main import cli
 
+    args = ["simulate", "-o", str(log), "--days", "0.1", "--start", start, "-q"]
+    result = CliRunner().invoke(cli, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.stderr
+    return log
+
+
+def _two_maps(folder: Path, names: tuple[str, ...]) -> None:
+    """Maps ``names`` of two simulated mornings (Monday, Wednesday): disjoint in time."""
+    for name, day in zip(names, ("2026-01-05T08:00", "2026-01-07T08:00"), strict=True):
+        aion.build([_simulated(folder / f"{name}.mcap", day)], output=folder / name)
+
+
+def test_the_merge_and_compact_examples_run(tmp_path: Path) -> None:
+    """API.md's merge example on maps of two simulated mornings, then its compact example."""
     blocks = re.findall(r"```python\n(.*?)```", API, flags=re.S)
     examples = [b for b in blocks if "aion.merge(" in b or "aion.compact(" in b]
     assert len(examples) == 2
     names = re.findall(r'aion\.merge\(\["(\w+\.aion)", "(\w+\.aion)"\]', examples[0])[0]
-    for name, day in zip(names, ("2026-01-05T08:00", "2026-01-07T08:00"), strict=True):
-        log = tmp_path / f"{name}.mcap"
-        args = ["simulate", "-o", str(log), "--days", "0.1", "--start", day, "-q"]
-        result = CliRunner().invoke(cli, args, catch_exceptions=False)
-        assert result.exit_code == 0, result.stderr
-        aion.build([log], output=tmp_path / name)
+    _two_maps(tmp_path, names)
     cwd = Path.cwd()
     os.chdir(tmp_path)
     try:
@@ -98,3 +109,29 @@ def test_the_merge_and_compact_examples_run(tmp_path: Path) -> None:
         os.chdir(cwd)
     assert scope["week"].report.lineage == "same"
     assert (tmp_path / "week-robot.aion").stat().st_size < (tmp_path / "week.aion").stat().st_size
+
+
+def test_the_readme_python_example_runs(tmp_path: Path) -> None:
+    """README's "Python API" block, in a folder with the sample log, two maps of disjoint time
+    for its merge and a later log for its holdout."""
+    readme = (REPO / "README.md").read_text()
+    block = re.findall(r"## Python API\n\n```python\n(.*?)```", readme, flags=re.S)[0]
+    (tmp_path / "samples").mkdir()
+    shutil.copy(REPO / "samples" / "office.mcap", tmp_path / "samples" / "office.mcap")
+    names = re.findall(r'aion\.merge\(\["(\w+\.aion)", "(\w+\.aion)"\]', block)[0]
+    _two_maps(tmp_path, names)
+    later = re.findall(r'm\.holdout\(\["([\w.]+)"\]\)', block)[0]
+    _simulated(tmp_path / later, "2026-01-12T08:00")
+    cwd = Path.cwd()
+    os.chdir(tmp_path)
+    try:
+        scope: dict[str, Any] = {}
+        exec(compile(block, "README.md", "exec"), scope)
+    finally:
+        os.chdir(cwd)
+    assert isinstance(scope["m"], aion.Map)
+    assert isinstance(scope["t"], aion.Table)
+    assert isinstance(scope["p"], aion.Plan)
+    assert scope["day"].flow.shape[1] == 15
+    assert scope["score"].headings
+    assert isinstance(scope["robot"], aion.Map)
