@@ -8,6 +8,7 @@ data (tables asked for with ``--format table``, JSON, CSV) goes to stdout throug
 
 from __future__ import annotations
 
+import errno
 import re
 import sys
 from typing import TYPE_CHECKING
@@ -17,6 +18,17 @@ from rich.console import Console
 if TYPE_CHECKING:
     from rich.progress import Progress
 
+
+class _Console(Console):
+    """A rich console whose closed output (``aion predict MAP | head``) is a
+    ``BrokenPipeError`` for :func:`aion_cli.cli.errors.report` (exit 0, no message): rich's
+    own reaction is ``SystemExit(1)``, so a table read by ``head`` made the command fail."""
+
+    def on_broken_pipe(self) -> None:
+        self.quiet = True
+        raise BrokenPipeError(errno.EPIPE, "Broken pipe")
+
+
 _ERR: Console | None = None
 _OUT: Console | None = None
 
@@ -25,7 +37,7 @@ def console() -> Console:
     """The console on stderr for progress, notes and summaries."""
     global _ERR
     if _ERR is None:
-        _ERR = Console(stderr=True, highlight=False)
+        _ERR = _Console(stderr=True, highlight=False)
     return _ERR
 
 
@@ -34,7 +46,7 @@ def data_console() -> Console:
     width falls back to 200 columns when stdout is not a terminal)."""
     global _OUT
     if _OUT is None:
-        _OUT = Console(highlight=False, width=None if sys.stdout.isatty() else 200)
+        _OUT = _Console(highlight=False, width=None if sys.stdout.isatty() else 200)
     return _OUT
 
 

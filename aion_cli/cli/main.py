@@ -87,6 +87,29 @@ class AionGroup(click.Group):
             return code
         sys.exit(code)
 
+    def make_context(
+        self,
+        info_name: str | None,
+        args: list[str],
+        parent: click.Context | None = None,
+        **extra: Any,
+    ) -> click.Context:
+        """Parse the line (``aion --help`` and ``--version`` print here); stdout closed early
+        ends it as in :meth:`invoke`."""
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except BrokenPipeError as exc:
+            raise click.exceptions.Exit(report(exc, False)) from exc
+
+    def invoke(self, ctx: click.Context) -> Any:
+        """Run the subcommand; stdout closed early (``| head``) ends it as
+        :func:`aion_cli.cli.errors.report` has it (exit 0, no message), where click's
+        ``main`` would make a broken pipe met inside a command exit 1."""
+        try:
+            return super().invoke(ctx)
+        except BrokenPipeError as exc:
+            raise click.exceptions.Exit(report(exc, False)) from exc
+
 
 @click.group(
     "aion",
