@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from aion_cli.cli.console import console, warn_each
+from aion_cli.cli.console import console, print_table, warn_each
 from aion_cli.cli.output import counted, human_size, markup_safe
 
 
@@ -32,7 +32,7 @@ def print_summary(summary: dict[str, Any]) -> None:
     table = Table(
         title=f"map {markup_safe(summary['map'])}", show_header=False, title_justify="left"
     )
-    table.add_column("what", style="bold")
+    table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value", justify="right")
     table.add_row("detections read", f"{det['read']:,}")
     table.add_row("detections used", f"{det['used']:,}")
@@ -68,7 +68,7 @@ def print_summary(summary: dict[str, Any]) -> None:
             f"{seconds:.1f} s, {peak:.0f} MB  "
             f"[dim]({markup_safe(name)})[/dim]",
         )
-    console().print(table)
+    print_table(table, err=True)
     print_warnings(summary)
     for message in summary.get("notes", []):
         console().print(f"[yellow]note:[/yellow] {markup_safe(message)}", soft_wrap=True)

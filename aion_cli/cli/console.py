@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from rich.console import Console
 
 if TYPE_CHECKING:
+    from rich.console import RenderableType
     from rich.progress import Progress
 
 
@@ -48,6 +49,31 @@ def data_console() -> Console:
     if _OUT is None:
         _OUT = _Console(highlight=False, width=None if sys.stdout.isatty() else 200)
     return _OUT
+
+
+def print_table(table: RenderableType, err: bool = False) -> None:
+    """Print a rich table on stdout (``err``: on stderr) without cutting a word of any cell.
+
+    Rich shrinks a table to the terminal's width, cutting cells to ``p1…`` and ``21.…`` where
+    that is narrower than the table (an 80-column terminal and ``predict``'s 13 columns, a
+    40-column one, ``TERM=dumb``, which rich takes as 80 columns); such a table is printed at
+    the narrowest width that keeps every word of every cell whole, and the terminal wraps its
+    lines instead."""
+    from rich.measure import Measurement
+    from rich.table import Table
+
+    out = console() if err else data_console()
+    wide = out.options.update_width(1 << 15)
+    if isinstance(table, Table):  # rich measures a cell by its words, even where it may not wrap
+        for column in table.columns:
+            if column.no_wrap and column.min_width is None:
+                cells = [column.header, *column.cells]
+                column.min_width = max(Measurement.get(out, wide, c).maximum for c in cells)
+    need = Measurement.get(out, wide, table).minimum
+    if need > out.width:
+        # a height too: without both, rich takes a dumb terminal as 80 columns whatever it is told
+        out = _Console(stderr=err, highlight=False, width=need, height=out.size.height)
+    out.print(table)
 
 
 def note(message: str) -> None:

@@ -335,7 +335,7 @@ def _print(report: dict[str, Any]) -> None:
     from rich.table import Table
 
     from aion_cli.cli.build_summary import span_text
-    from aion_cli.cli.console import console, data_console, warn_each
+    from aion_cli.cli.console import console, data_console, print_table, warn_each
     from aion_cli.cli.output import markup_safe as safe
 
     out = data_console()
@@ -368,7 +368,8 @@ def _print(report: dict[str, Any]) -> None:
         ("Hz", "right"),
         ("aion uses it as", "left"),
     ):
-        table.add_column(name, justify=justify)  # type: ignore[arg-type]
+        # names and numbers whole (a narrow terminal wraps what aion does with a topic)
+        table.add_column(name, justify=justify, no_wrap=name != "aion uses it as")  # type: ignore[arg-type]
     for t in report["topics"]:
         why = t.get("why", "")
         if t["used"]:
@@ -379,7 +380,7 @@ def _print(report: dict[str, Any]) -> None:
             role += f" (spark_dsg {safe(', '.join(report['dsg_versions'][t['topic']]))})"
         rate = "-" if t["rate_hz"] is None else f"{t['rate_hz']:.2f}"
         table.add_row(safe(t["topic"]), safe(t["type"]), f"{t['count']:,}", rate, role)
-    out.print(table)
+    print_table(table)
     use = report["will_use"]
     if not use["detections"]:
         from aion_cli.topics import RAW_SENSOR_REASON

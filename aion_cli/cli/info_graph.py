@@ -68,12 +68,12 @@ def print_graph(report: dict[str, Any]) -> None:
     """The report as a two-column table (stdout) and its notes (stderr)."""
     from rich.table import Table
 
-    from aion_cli.cli.console import console, data_console
+    from aion_cli.cli.console import console, print_table
 
     nav = report["nav_layer"]
     layer = f"{nav['name']} ({nav['key']})" if nav["name"] else nav["key"]
     table = Table(title=f"scene graph {report['graph']}", show_header=False, title_justify="left")
-    table.add_column("what", style="bold")
+    table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value")
     reader = "; read leniently" if report["reader"] == "lenient" else ""
     table.add_row("format", f"{report['format']}{reader}, {human_size(report['size_bytes'])}")
@@ -110,7 +110,7 @@ def print_graph(report: dict[str, Any]) -> None:
             for row in report["layers"]
         ),
     )
-    data_console().print(table)
+    print_table(table)
     for note in report["notes"]:
         console().print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
     if report["places"] == 0:

@@ -91,7 +91,7 @@ def print_map(report: dict[str, Any]) -> None:
     from rich.table import Table
 
     from aion_cli.cli.build_summary import span_text
-    from aion_cli.cli.console import data_console
+    from aion_cli.cli.console import print_table
     from aion_cli.cli.output import markup_safe as safe
     from aion_cli.engine.config import ModelConfig
 
@@ -100,7 +100,7 @@ def print_map(report: dict[str, Any]) -> None:
     seconds = None if start is None or end is None else (end - start) / 1e9
     counts = report.get("counts", {})
     table = Table(title=f"map {safe(report['map'])}", show_header=False, title_justify="left")
-    table.add_column("what", style="bold")
+    table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value")
     table.add_row("format", safe(f"{report.get('format')} {report.get('version')}"))
     table.add_row("created", safe(f"{report.get('created')} by {report.get('creator')}"))
@@ -171,4 +171,4 @@ def print_map(report: dict[str, Any]) -> None:
             "input",
             safe(f"{entry['name']}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"),
         )
-    data_console().print(table)
+    print_table(table)

@@ -98,14 +98,14 @@ def print_summary(summary: dict[str, Any]) -> None:
     from rich.table import Table
 
     from aion_cli.cli.build_summary import span_text
-    from aion_cli.cli.console import console
+    from aion_cli.cli.console import console, print_table
     from aion_cli.cli.output import human_size, markup_safe
     from aion_cli.log_times import iso
 
     table = Table(
         title=f"map {markup_safe(summary['map'])}", show_header=False, title_justify="left"
     )
-    table.add_column("what", style="bold")
+    table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value", justify="right")
     for item in summary["inputs"]:
         table.add_row(
@@ -128,7 +128,7 @@ def print_summary(summary: dict[str, Any]) -> None:
         table.add_row("last time", iso(span["end_ns"]))
     table.add_row("time span", span_text(span["seconds"]))
     table.add_row("map size", human_size(summary["map_bytes"]))
-    console().print(table)
+    print_table(table, err=True)
     out = console()
     out.print(f"[dim]lineage: {markup_safe(summary['lineage_reason'])}[/dim]", soft_wrap=True)
     for message in summary["notes"]:

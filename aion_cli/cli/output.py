@@ -145,7 +145,7 @@ def render_table(
     from rich.table import Table
     from rich.text import Text
 
-    from aion_cli.cli.console import data_console
+    from aion_cli.cli.console import print_table
 
     table = Table(
         title=None if title is None else Text(printable(title)),
@@ -153,10 +153,14 @@ def render_table(
         header_style="bold",
     )
     for col in columns:
-        table.add_column(Text(printable(col.header)), justify=col.justify)  # type: ignore[arg-type]
+        # a cell is one value (an id, a number, a histogram whose blanks are empty bins):
+        # never wrapped, so a narrow terminal cannot fold a histogram into three lines
+        table.add_column(
+            Text(printable(col.header)), justify=col.justify, no_wrap=True  # type: ignore[arg-type]
+        )
     for row in rows:
         table.add_row(*(Text(printable(col.fmt(row.get(col.key)))) for col in columns))
-    data_console().print(table)
+    print_table(table)
 
 
 def emit(

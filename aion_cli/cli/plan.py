@@ -206,7 +206,7 @@ def _print(report: dict[str, Any]) -> None:
     from rich.table import Table
     from rich.text import Text
 
-    from aion_cli.cli.console import console, data_console
+    from aion_cli.cli.console import console, print_table
     from aion_cli.cli.output import markup_safe, printable
 
     for snap in report["snapped"]:
@@ -232,11 +232,11 @@ def _print(report: dict[str, Any]) -> None:
     ends = named.get("--from", report["from"]), named.get("--to", report["to"])
     title = f"{ends[0]} -> {ends[1]}, departing {report['depart']}"
     table = Table(title=Text(printable(title)))
-    table.add_column("plan", style="bold")
-    table.add_column("length", justify="right")
-    table.add_column("time", justify="right")
-    table.add_column("cost", justify="right")
-    table.add_column("path")
+    table.add_column("plan", style="bold", no_wrap=True)
+    table.add_column("length", justify="right", no_wrap=True)
+    table.add_column("time", justify="right", no_wrap=True)
+    table.add_column("cost", justify="right", no_wrap=True)
+    table.add_column("path")  # wraps between nodes on a narrow terminal
     for name, key in (("temporal", "temporal"), ("distance only", "distance_only")):
         part = report[key]
         table.add_row(
@@ -246,7 +246,7 @@ def _print(report: dict[str, Any]) -> None:
             f"{part['cost']:.1f}",
             Text(printable(" > ".join(part["path"]))),
         )
-    data_console().print(table)
+    print_table(table)
     for key in ("export", "png"):
         if key in report:
             console().print(f"wrote {markup_safe(report[key])}")

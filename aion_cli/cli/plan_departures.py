@@ -28,7 +28,7 @@ def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
     observed (their flows extrapolated)."""
     from rich.table import Table
 
-    from aion_cli.cli.console import data_console, note
+    from aion_cli.cli.console import note, print_table
     from aion_cli.cli.predict_series import short_labels
 
     best = next(k for k, row in enumerate(rows) if row["best"])
@@ -42,7 +42,7 @@ def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
     title = "departures (temporal cost; lower is quieter)"
     table = Table(title=title, min_width=len(title))
     for name in ("leave", "cost", "length", "time", ""):
-        table.add_column(name, justify="left" if name in ("leave", "") else "right")
+        table.add_column(name, justify="left" if name in ("leave", "") else "right", no_wrap=True)
     for k in shown:
         row = rows[k]
         table.add_row(
@@ -56,4 +56,4 @@ def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
             ),
             style="bold green" if row["best"] else None,
         )
-    data_console().print(table)
+    print_table(table)

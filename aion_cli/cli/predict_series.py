@@ -117,7 +117,7 @@ def _print(table: Any, zone: Zone, shown: int) -> None:
     from rich.table import Table
     from rich.text import Text
 
-    from aion_cli.cli.console import data_console
+    from aion_cli.cli.console import print_table
     from aion_cli.cli.output import printable
     from aion_cli.timeparse import from_ns
 
@@ -125,14 +125,14 @@ def _print(table: Any, zone: Zone, shown: int) -> None:
     when = days[0] if len(days) == 1 else f"{days[0]} .. {days[-1]}"
     title = printable(f"predicted flow per window, {when} ({zone.name})")
     out = Table(title=Text(title), min_width=len(title))  # a narrow table keeps its title whole
-    out.add_column("time", style="bold")
+    out.add_column("time", style="bold", no_wrap=True)
     for entry in table.entries[:shown]:
         head = str(entry["id"]) if not entry.get("name") else f"{entry['name']} ({entry['id']})"
-        out.add_column(printable(head), justify="right")
+        out.add_column(printable(head), justify="right", no_wrap=True)
     for j, label in enumerate(short_labels(table.times_ns, zone)):
         cells = [
             f"{v:.2f}" if math.isfinite(v) else "–"  # unknown flow
             for v in table.flow[:shown, j].tolist()
         ]
         out.add_row(label, *cells)
-    data_console().print(out)
+    print_table(out)

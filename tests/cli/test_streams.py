@@ -54,3 +54,48 @@ def test_a_table_whose_reader_stopped_is_not_a_failure(
     proc = _closed_stdout(*(a.format(map=sample_map) for a in args))
     assert proc.returncode == 0, proc.stderr
     assert "error" not in proc.stderr
+
+
+@pytest.fixture
+def narrow(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 40-column terminal on stdout and stderr (rich then shrinks tables to fit)."""
+    from aion_cli.cli import console as consoles
+
+    monkeypatch.setattr(consoles, "_OUT", consoles._Console(highlight=False, width=40))
+    monkeypatch.setattr(
+        consoles, "_ERR", consoles._Console(stderr=True, highlight=False, width=40)
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "whole"),
+    [
+        (("predict", "{map}", "--time", "2026-01-12 08:40", "--layer", "cells", "--top", "2"),
+         ("c4611692615542243362", "17.25", "10.75", "▇▂█▁▆▂▂▁", "shape")),
+        (("predict", "{map}", "--time", "2026-01-12 08:40", "--layer", "rooms"),
+         ("meeting room", "12.84", "-174°", "aggregate")),
+        (("predict", "{map}", "--layer", "rooms", "--from", "2026-01-12 06:00", "--to",
+          "2026-01-12 09:00"), ("meeting room (R3)", "12.83")),
+        (("plan", "{map}", "--from", "kitchen", "--to", "R4", "--time", "2026-01-12 08:40"),
+         ("distance only", "25.5 m", "p116", "p142")),
+        (("info", "{log}"), ("/spencer/perception/tracked_persons", "10,791")),
+        (("info", "{map}"), ("detections used", "3,636 of 3,636")),
+        (("build", "{log}", "-o", "{out}"), ("detections read", "3,636")),
+    ],
+)
+def test_a_narrow_terminal_cuts_no_id_or_number(
+    sample_map: Path, tmp_path: Path, narrow: None, args: tuple[str, ...], whole: tuple[str, ...]
+) -> None:
+    """On a 40-column terminal (or an 80-column one and predict's 13 columns, or TERM=dumb,
+    which rich takes as 80) rich shrank every column: ids read ``c46…``, numbers ``21.…``,
+    the histogram folded over three lines. A table now keeps every value whole (the terminal
+    wraps its lines)."""
+    from tests.cli.conftest import SAMPLE, run
+
+    out = tmp_path / "o.aion"
+    result = run(*(a.format(map=sample_map, log=SAMPLE, out=out) for a in args))
+    assert result.exit_code == 0, result.stderr
+    text = result.stdout + result.stderr
+    assert "…" not in text
+    for value in whole:
+        assert value in text, value
