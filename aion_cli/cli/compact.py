@@ -59,5 +59,6 @@ def _print(summary: dict[str, Any]) -> None:
         f"wrote {markup_safe(summary['map'])}: {human_size(summary['map_bytes'])} "
         f"({human_size(summary['source_bytes'])} for the full map"
         + (f", {ratio:.1f}x smaller" if ratio else "")
-        + "); it answers queries, and cannot be continued or merged"
+        + "); it answers queries, and cannot be continued or merged",
+        soft_wrap=True,
     )

@@ -184,7 +184,7 @@ def command(
         label = f"series of {len(times)} from" if series else "time"
         span = [int(t) for t in times if t is not None] if series else None
         announce_time(times[0], zone, label, loaded, series=span)
-    console().print(_written(written, fmt, out_dir, len(times)))
+    console().print(_written(written, fmt, out_dir, len(times)), soft_wrap=True)
 
 
 def _written(written: Exported, fmt: str, out: Path, steps: int) -> str:

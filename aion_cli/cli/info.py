@@ -412,7 +412,8 @@ def _print(report: dict[str, Any]) -> None:
         )
     if not use["scene_graph"]:
         console().print(
-            "[yellow]note:[/yellow] no scene graph: build with --graph FILE or --derive-graph"
+            "[yellow]note:[/yellow] no scene graph: build with --graph FILE or --derive-graph",
+            soft_wrap=True,
         )
     from aion_cli.frame_check import TF_SAMPLE
 

@@ -216,12 +216,14 @@ def _print(report: dict[str, Any]) -> None:
             console().print(
                 f"[dim]{markup_safe(snap['option'])} {markup_safe(asked)}: its place "
                 f"nearest the {within}'s centre, {markup_safe(snap['node'])} "
-                f"({snap['distance_m']:.2f} m from it)[/dim]"
+                f"({snap['distance_m']:.2f} m from it)[/dim]",
+                soft_wrap=True,
             )
             continue
         console().print(
             f"[dim]{markup_safe(snap['option'])} {markup_safe(snap['point'])} snapped to "
-            f"{markup_safe(snap['node'])} ({snap['distance_m']:.2f} m away)[/dim]"
+            f"{markup_safe(snap['node'])} ({snap['distance_m']:.2f} m away)[/dim]",
+            soft_wrap=True,
         )
     named = {
         snap["option"]: f"{snap.get('name') or snap.get('room') or snap.get('building')} "
@@ -249,4 +251,4 @@ def _print(report: dict[str, Any]) -> None:
     print_table(table)
     for key in ("export", "png"):
         if key in report:
-            console().print(f"wrote {markup_safe(report[key])}")
+            console().print(f"wrote {markup_safe(report[key])}", soft_wrap=True)

@@ -83,5 +83,6 @@ def command(
         announce_time(t_ns, zone, loaded=loaded)
     console().print(
         f"wrote {len(written)} file(s) to {markup_safe(out_dir)}: open "
-        f"{markup_safe(out_dir / PAGE)}"
+        f"{markup_safe(out_dir / PAGE)}",
+        soft_wrap=True,
     )

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from tests.cli.conftest import AION
+from tests.cli.conftest import run as run_cli
 
 
 def _env(**extra: str) -> dict[str, str]:
@@ -99,3 +100,32 @@ def test_a_narrow_terminal_cuts_no_id_or_number(
     assert "…" not in text
     for value in whole:
         assert value in text, value
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (("export", "{map}", "--time", "2026-01-12 08:40", "--format", "dsg", "-o",
+          "{dir}/office-4d.json"), "wrote {dir}/office-4d.json: 146 places"),
+        (("compact", "{map}", "-o", "{dir}/robot.aion"), "cannot be continued or merged"),
+        (("report", "{map}", "-o", "{dir}/report"), "file(s) to {dir}/report: open"),
+        (("plan", "{map}", "--from", "kitchen", "--to", "0,0", "--time", "2026-01-12 08:40",
+          "--png", "{dir}/plan.png"), "--from kitchen (R2): its place nearest the room's"),
+        (("plan", "{map}", "--from", "kitchen", "--to", "0,0", "--time", "2026-01-12 08:40",
+          "--png", "{dir}/plan.png"), "--to [0.0, 0.0] snapped to p0"),
+        (("plan", "{map}", "--from", "p12", "--to", "p87", "--time", "2026-01-12 08:40",
+          "--png", "{dir}/plan-with-a-long-name-for-the-picture-of-the-paths.png"),
+         "wrote {dir}/plan-with-a-long-name-for-the-picture-of-the-paths.png"),
+    ],
+)
+def test_a_message_is_one_line_in_a_log_file(
+    sample_map: Path, tmp_path: Path, narrow: None, args: tuple[str, ...], line: str
+) -> None:
+    """stderr kept in a file (``2> build.log``) is 80 columns to rich, a terminal may be
+    narrower: a closing message (``wrote ...``, plan's snapped ends) was broken into lines
+    where a word passed the width, so ``grep`` found half of it. Each message is one line;
+    the terminal wraps it."""
+    result = run_cli(*(a.format(map=sample_map, dir=tmp_path) for a in args))
+    assert result.exit_code == 0, result.stderr
+    whole = line.format(dir=tmp_path)
+    assert any(whole in message for message in result.stderr.splitlines()), result.stderr
