@@ -177,6 +177,7 @@ def map_frame_option(help_text: str) -> Callable[[F], F]:
     """``--map-frame FRAME`` (default None: the command's own), refusing an empty name."""
     return click.option(
         "--map-frame",
+        metavar="FRAME",
         default=None,
         callback=lambda _ctx, _param, value: _frame_name(value, "--map-frame", "map"),
         help=help_text,
@@ -187,6 +188,7 @@ def base_frame_option(func: F) -> F:
     """``--base-frame FRAME``: the robot frame of the TF trajectory (what the sensor saw)."""
     return click.option(
         "--base-frame",
+        metavar="FRAME",
         default="base_link",
         show_default=True,
         callback=lambda _ctx, _param, value: _frame_name(value, "--base-frame", "base_link"),

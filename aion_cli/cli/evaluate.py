@@ -106,6 +106,7 @@ SCORE_COLUMNS = (
 @click.option(
     "--data",
     "data_dir",
+    metavar="DIR",
     type=AionPath(path_type=Path),
     default=None,
     show_default=DATA_DEFAULT_TEXT + "/atc",
@@ -121,7 +122,8 @@ SCORE_COLUMNS = (
 )
 @click.option("--radius", type=float, default=1.0, show_default=True,
               help="Association radius (m) between a test detection and an aion entry.")
-@click.option("--config", "config_path", type=AionPath(exists=True, path_type=Path),
+@click.option("--config", "config_path", metavar="FILE",
+              type=AionPath(exists=True, path_type=Path),
               help="TOML model parameters (see aion build --print-config).")
 @click.option("--per-hour", is_flag=True, help="One row per model and hour.")
 @format_option(("table", "json"))
@@ -151,6 +153,7 @@ def atc(
 @click.option(
     "--data",
     "data_dir",
+    metavar="DIR",
     type=AionPath(path_type=Path),
     default=None,
     show_default=DATA_DEFAULT_TEXT + "/fremen_door",
@@ -198,6 +201,7 @@ ACTIVITY_COLUMNS = (
 @click.option(
     "--data",
     "data_dir",
+    metavar="DIR",
     type=AionPath(path_type=Path),
     default=None,
     show_default=DATA_DEFAULT_TEXT + "/lincoln",
@@ -205,7 +209,8 @@ ACTIVITY_COLUMNS = (
 )
 @click.option("--radius", type=float, default=1.0, show_default=True,
               help="Association radius (m) between a test detection and an aion entry.")
-@click.option("--config", "config_path", type=AionPath(exists=True, path_type=Path),
+@click.option("--config", "config_path", metavar="FILE",
+              type=AionPath(exists=True, path_type=Path),
               help="TOML model parameters (see aion build --print-config) [default: the "
               "defaults with timezone Europe/London].")
 @click.option("--train", "train_days", metavar="DAY,...",
@@ -359,12 +364,14 @@ TABLE_I_COLUMNS = (
               help="People per scene (the paper used 6).")
 @click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True,
               help="Simulated days per scene.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Random seed of the simulated scenes.")
 @click.option("--radius", type=float, default=1.0, show_default=True,
               help="A grid cell takes the nearest aion entry within this radius (m).")
-@click.option("--config", "config_path", type=AionPath(exists=True, path_type=Path),
+@click.option("--config", "config_path", metavar="FILE",
+              type=AionPath(exists=True, path_type=Path),
               help="TOML model parameters (see aion build --print-config).")
-@click.option("--keep", "work_dir", type=AionPath(path_type=Path),
+@click.option("--keep", "work_dir", metavar="DIR", type=AionPath(path_type=Path),
               help="Keep the simulated logs and maps in this folder.")
 @format_option(("table", "json"))
 def office(
@@ -397,11 +404,13 @@ def office(
 @evaluate.command("report")
 @click.option("-o", "--output", "out_dir", type=AionPath(path_type=Path), required=True,
               help="Folder for report.md and its PNG plots.")
-@click.option("--data", "data_dir", type=AionPath(path_type=Path), default=None,
+@click.option("--data", "data_dir", metavar="DIR", type=AionPath(path_type=Path), default=None,
               show_default=DATA_DEFAULT_TEXT,
               help="The shared data folder (atc/, lincoln/, fremen_door/).")
-@click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True)
-@click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True)
+@click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True,
+              help="Simulated office scenes (as evaluate office).")
+@click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True,
+              help="Simulated days per scene (as evaluate office).")
 @click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "lincoln", "door"]),
               help="Leave a section out (repeatable).")
 def report(

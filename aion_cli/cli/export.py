@@ -83,7 +83,13 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     help="Folder to write into (made if missing, in an existing folder); for png, mcap and "
     "dsg the file, and a .ply / .pcd name writes the whole scene as that one file.",
 )
-@click.option("-t", "--time", "time_text", metavar="T", help="Prediction time. " + TIME_HELP)
+@click.option(
+    "-t",
+    "--time",
+    "time_text",
+    metavar="T",
+    help="Prediction time [default: now, without --historical or --from/--to]. " + TIME_HELP,
+)
 @click.option("--historical", is_flag=True, help="Export what was observed instead.")
 @click.option("--from", "t_from", metavar="T", help="Start of a time series.")
 @click.option("--to", "t_to", metavar="T", help="End of a time series (inclusive).")

@@ -26,17 +26,17 @@ from aion_cli.formats.committed import forget_committed
 
 EPILOG = """\b
 Examples:
-  aion info run.mcap                                 what is in a log, what aion will use
-  aion build run1.mcap run2.bag -o office.aion       learn a map (incremental with --map)
-  aion merge mon.aion tue.aion -o week.aion          one map from maps of disjoint time
-  aion compact week.aion -o robot.aion               a smaller map for queries only
-  aion predict office.aion --time "2026-11-23 08:30" flows per node at a time
-  aion plan office.aion --from p12 --to p87 --time "tomorrow 12:00"
-  aion export office.aion --time "+2h" -o out/       PLY/PCD scenes, CSV/JSON tables
-  aion report office.aion -o report/                 an HTML page about a map
-  aion simulate -o office.mcap                       a synthetic log to try it all
-  aion convert atc.csv --layout atc -o atc.mcap      pedestrian datasets -> logs
-  aion evaluate office --scenes 20                   the paper's comparison, predictive metrics
+  aion info run.mcap                                   what is in a log, what aion will use
+  aion build run1.mcap run2.bag -o office.aion         learn a map (incremental with --map)
+  aion merge mon.aion tue.aion -o week.aion            one map from maps of disjoint time
+  aion compact week.aion -o robot.aion                 a smaller map for queries only
+  aion predict office.aion --time "2026-11-23 08:30"   flows per node at a time
+  aion plan office.aion --from p12 --to p87            a path around busy, opposing flows
+  aion export office.aion --time "+2h" -o out/         PLY/PCD scenes, CSV/JSON tables
+  aion report office.aion -o report/                   an HTML page about a map
+  aion simulate -o office.mcap                         a synthetic log to try it all
+  aion convert atc.csv --layout atc -o atc.mcap        pedestrian datasets -> logs
+  aion evaluate office --scenes 20                     the paper's comparison, predictive metrics
 
 Run 'aion COMMAND --help' for the options and a worked example of each command.
 """

@@ -24,7 +24,7 @@ from aion_cli.predictions import LAYERS
 
 EPILOG = """\b
 Examples:
-  aion predict office.aion --time "2026-11-23 08:30"          every place and cell
+  aion predict office.aion --time "2026-11-23 08:30"          the 100 busiest (JSON/CSV: all)
   aion predict office.aion --time "tomorrow 12:00" --top 10    the ten busiest
   aion predict office.aion --time now --node p12 --format json
   aion predict office.aion --time "+2h" --at 3.5,-1.0          the entry nearest a point

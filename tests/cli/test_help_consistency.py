@@ -1,0 +1,111 @@
+"""One concept, one spelling: options that several commands share read the same in every
+``--help`` (metavar), and the help says what an option left out means."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import click
+import pytest
+
+from aion_cli.cli.main import cli
+
+SHARED = (
+    "--base-frame",
+    "--config",
+    "--data",
+    "--detections-mapping",
+    "--detections-topic",
+    "--graph",
+    "--graph-topic",
+    "--log-format",
+    "--map-frame",
+    "--nav-layer",
+    "--observed",
+    "--png",
+    "--radius",
+    "--step",
+    "--time",
+    "--tz",
+)
+"""Options that mean the same wherever they appear (``--from`` is a time in predict and
+export but a place in plan; ``-o`` a file or a folder; ``--format`` each command's own)."""
+
+
+def _options() -> Iterator[tuple[str, click.Option, click.Context]]:
+    def walk(command: click.Command, path: list[str]) -> Iterator[tuple[str, click.Option,
+                                                                        click.Context]]:
+        if isinstance(command, click.Group):
+            for name, sub in command.commands.items():
+                yield from walk(sub, [*path, name])
+            return
+        ctx = click.Context(command, info_name=path[-1])
+        for param in command.params:
+            if isinstance(param, click.Option):
+                yield " ".join(path), param, ctx
+
+    yield from walk(cli, [])
+
+
+def _metavar(option: click.Option, ctx: click.Context) -> str:
+    record = option.get_help_record(ctx)
+    assert record is not None
+    return record[0].split(" ", 1)[1] if " " in record[0] else ""
+
+
+@pytest.mark.parametrize("name", SHARED)
+def test_a_shared_option_has_one_metavar(name: str) -> None:
+    """``--map-frame TEXT`` beside ``FRAME`` elsewhere, ``--config PATH`` in evaluate but
+    ``FILE`` in build, ``--data PATH`` for a folder: the same value reads the same."""
+    seen = {
+        command: _metavar(option, ctx).split(", ")[-1]
+        for command, option, ctx in _options()
+        if name in option.opts
+    }
+    assert len(seen) >= 2, seen
+    assert len(set(seen.values())) == 1, seen
+    assert "TEXT" not in seen.values(), seen
+    assert "PATH" not in seen.values(), seen
+
+
+def test_every_time_option_says_what_leaving_it_out_means() -> None:
+    """predict and plan say ``[default: now]``; export, which also predicts at now without
+    --time, said nothing."""
+    for command, option, ctx in _options():
+        if "--time" in option.opts:
+            record = option.get_help_record(ctx)
+            assert record is not None
+            assert "default: " in record[1], (command, record)
+
+
+def test_frames_and_files_are_named_as_such() -> None:
+    """The frame options read FRAME, model parameters FILE, data folders DIR."""
+    expected = {"--map-frame": "FRAME", "--base-frame": "FRAME", "--config": "FILE",
+                "--data": "DIR"}
+    for command, option, ctx in _options():
+        for name, metavar in expected.items():
+            if name in option.opts:
+                assert _metavar(option, ctx) == metavar, (command, name)
+
+
+def test_readme_commands_can_be_pasted_into_a_shell() -> None:
+    """A README example is a shell line: its comment starts with ``#`` (``aion plan ...
+    --to "office 1"   room to room`` passed 'room to room, ...' to aion, which refused the
+    extra arguments)."""
+    import re
+    import shlex
+    from pathlib import Path
+
+    readme = Path(__file__).resolve().parents[2] / "README.md"
+    block: str | None = None  # the language of the fenced block the line is in
+    for number, line in enumerate(readme.read_text().splitlines(), 1):
+        if line.startswith("```"):
+            block = line[3:] if block is None else None
+            continue
+        if block != "" or not line.startswith("aion "):
+            continue
+        command = line.split("#", 1)[0].rstrip().rstrip("\\")
+        words = shlex.split(command)
+        # a description left without '#' follows the command after a run of spaces
+        assert not re.search(r"\S {3,}[a-z(]", command), (number, line)
+        assert words[0] == "aion", (number, line)
