@@ -113,6 +113,9 @@ def report(exc: BaseException, debug: bool) -> int:
     if isinstance(exc, AionError):
         _emit(exc.message, exc.hint or "rerun with --debug for the traceback and report it")
         return EXIT_FAULT
+    if isinstance(exc, click.UsageError) and isinstance(exc, NO_ARGS_IS_HELP):
+        click.echo(exc.format_message(), err=True)  # `aion` or `aion evaluate` alone: the help
+        return EXIT_INPUT
     if isinstance(exc, click.ClickException):
         _emit(exc.format_message(), _usage_hint(exc))
         return EXIT_INPUT
@@ -123,6 +126,15 @@ def report(exc: BaseException, debug: bool) -> int:
         "this is a bug in aion; rerun with --debug for the traceback and report it",
     )
     return EXIT_FAULT
+
+
+NO_ARGS_IS_HELP: tuple[type[BaseException], ...] = tuple(
+    getattr(click.exceptions, name)
+    for name in ("NoArgsIsHelpError",)
+    if hasattr(click.exceptions, name)
+)
+"""A group called without a command (click 8.2 on; 8.1 prints the help itself): its message
+is the help text, which the one-line ``error:`` form would flatten into one line."""
 
 
 def _report_interrupt() -> None:

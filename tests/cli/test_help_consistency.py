@@ -109,3 +109,22 @@ def test_readme_commands_can_be_pasted_into_a_shell() -> None:
         # a description left without '#' follows the command after a run of spaces
         assert not re.search(r"\S {3,}[a-z(]", command), (number, line)
         assert words[0] == "aion", (number, line)
+
+
+@pytest.mark.parametrize("args", [(), ("evaluate",)])
+def test_a_group_alone_prints_its_help_whole(args: tuple[str, ...]) -> None:
+    """``aion`` (or ``aion evaluate``) alone: click 8.2 on reports the help as a usage error,
+    which the one-line form flattened into 'error: Usage: aion [OPTIONS] ...; aion: 4D scene
+    graphs ...; Options:; -V, --version ...'. The help is printed as --help prints it, on
+    stderr, exit 2 (no command given)."""
+    from tests.cli.conftest import run
+
+    if not hasattr(click.exceptions, "NoArgsIsHelpError"):
+        pytest.skip("click 8.1 prints the help itself (stdout, exit 0)")
+    result = run(*args)
+    assert result.exit_code == 2
+    assert result.stdout == ""
+    assert result.stderr.startswith("Usage: aion")
+    assert "error:" not in result.stderr
+    assert "\nCommands:\n" in result.stderr
+    assert result.stderr.rstrip("\n") == run(*args, "--help").stdout.rstrip("\n")
