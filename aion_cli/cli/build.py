@@ -254,7 +254,7 @@ def _load_config(path: Path | None) -> Any:
     "else the continued map's zone, else UTC.",
 )
 @click.option(
-    "-q", "--quiet", is_flag=True, help="No progress bar and no summary table (warnings stay)."
+    "-q", "--quiet", is_flag=True, help="No progress bar, summary table or notes (warnings stay)."
 )
 @format_option(choices=("table", "json"))
 def command(

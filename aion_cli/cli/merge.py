@@ -61,7 +61,7 @@ windows, hours_observed, time_span{start_ns, end_ns, seconds}, notes.
     "different ones (released to hash cells, then re-bound); auto decides from the graphs.",
 )
 @nav_layer_option
-@click.option("-q", "--quiet", is_flag=True, help="No progress and no summary table.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress, summary table or notes.")
 @format_option(choices=("table", "json"))
 def command(
     maps: tuple[Path, ...],

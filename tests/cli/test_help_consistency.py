@@ -128,3 +128,14 @@ def test_a_group_alone_prints_its_help_whole(args: tuple[str, ...]) -> None:
     assert "error:" not in result.stderr
     assert "\nCommands:\n" in result.stderr
     assert result.stderr.rstrip("\n") == run(*args, "--help").stdout.rstrip("\n")
+
+
+@pytest.mark.parametrize("command", ["build", "merge"])
+def test_quiet_says_it_silences_the_notes(command: str) -> None:
+    """``build -q`` and ``merge -q`` leave out the notes too ('x.aion existed and is
+    replaced', the lineage and merge approximations), which their help did not say."""
+    from tests.cli.conftest import run
+
+    help_text = " ".join(run(command, "--help").stdout.split())
+    assert "-q, --quiet No progress" in help_text
+    assert "notes" in help_text.split("-q, --quiet", 1)[1].split("--", 1)[0]
