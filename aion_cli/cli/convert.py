@@ -134,8 +134,11 @@ def _check_suffix(output: Path, suffix: str, container: str) -> None:
 )
 @click.option(
     "--container",
-    type=click.Choice(CONTAINERS),
-    help="Log container [default: from the output's suffix].",
+    type=click.Choice([*CONTAINERS, "rosbag2"]),
+    # aion simulate --format names the rosbag2 folder of MCAP storage rosbag2
+    callback=lambda _ctx, _param, value: "rosbag2-mcap" if value == "rosbag2" else value,
+    help="Log container (rosbag2 is rosbag2-mcap, as in aion simulate) [default: from the "
+    "output's suffix].",
 )
 @click.option(
     "--message-type",

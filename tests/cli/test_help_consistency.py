@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 
 import click
 import pytest
@@ -139,3 +140,24 @@ def test_quiet_says_it_silences_the_notes(command: str) -> None:
     help_text = " ".join(run(command, "--help").stdout.split())
     assert "-q, --quiet No progress" in help_text
     assert "notes" in help_text.split("-q, --quiet", 1)[1].split("--", 1)[0]
+
+
+def test_a_log_container_has_one_name_in_simulate_and_convert(tmp_path: Path) -> None:
+    """simulate chose the container with ``--format rosbag2``, convert with ``--container
+    rosbag2-mcap``: each refused the other's spelling. Both take both."""
+    from tests.cli.conftest import run
+
+    simulated = tmp_path / "sim"
+    result = run("simulate", "-o", simulated, "--container", "rosbag2-mcap", "--days", "0.02",
+                 "-q")
+    assert result.exit_code == 0, result.stderr
+    assert sorted(p.suffix for p in simulated.iterdir()) == [".mcap", ".yaml"]
+
+    tracks = tmp_path / "tracks.csv"
+    start = 1767600000 * 10**9
+    rows = (f"{start + k * 500_000_000},1,{0.6 * k:.1f},0,0,0,1.2\n" for k in range(10))
+    tracks.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n" + "".join(rows))
+    converted = tmp_path / "conv"
+    result = run("convert", tracks, "-o", converted, "--container", "rosbag2")
+    assert result.exit_code == 0, result.stderr
+    assert sorted(p.suffix for p in converted.iterdir()) == [".mcap", ".yaml"]
