@@ -181,7 +181,7 @@ def _check_suffix(output: Path, suffix: str, container: str) -> None:
     "--tz",
     metavar="ZONE",
     help="Time zone for --observed / --start / --date times without an offset: IANA name, UTC, "
-    "+01:00 [default: the machine's local zone].",
+    "+01:00 [default: UTC, as aion build reads --observed].",
 )
 @click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
 def command(
@@ -229,7 +229,9 @@ def command(
     if start_text is not None:
         _check_start_applies(tracks, layout)
     _check_layout_options(layout, date_text, start_text, fps, length_unit)
-    zone = resolve_zone(tz)
+    # UTC unless --tz: the zone aion build reads the same --observed in (and a map's default),
+    # never the machine's, which made one span two spans on a machine outside UTC
+    zone = resolve_zone("UTC" if tz is None else tz)
     # bad spans fail before reading
     spans = [parse_span(text, zone, "--observed") for text in observed_text]
     start_ns = 0

@@ -161,3 +161,26 @@ def test_a_log_container_has_one_name_in_simulate_and_convert(tmp_path: Path) ->
     result = run("convert", tracks, "-o", converted, "--container", "rosbag2")
     assert result.exit_code == 0, result.stderr
     assert sorted(p.suffix for p in converted.iterdir()) == [".mcap", ".yaml"]
+
+
+def test_convert_and_build_read_one_observed_span_alike(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On a machine in Berlin, ``convert --observed "2026-01-05 08:00..10:00"`` read the span
+    in the machine's zone (07:00..09:00 UTC) where ``build --observed`` reads the same text
+    in UTC: one span, two meanings. Both read a time without a zone in --tz, else UTC."""
+    import json
+
+    from tests.cli.conftest import run
+
+    monkeypatch.setenv("TZ", "Europe/Berlin")
+    tracks = tmp_path / "tracks.csv"
+    start = 1767603600 * 10**9  # 2026-01-05 09:00 UTC
+    rows = (f"{start + k * 500_000_000},1,{0.6 * k:.1f},0,0,0,1.2\n" for k in range(10))
+    tracks.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n" + "".join(rows))
+    log = tmp_path / "tracks.mcap"
+    result = run("convert", tracks, "-o", log, "--observed", "2026-01-05 08:00..2026-01-05 10:00")
+    assert result.exit_code == 0, result.stderr
+    info = json.loads(run("info", log, "--format", "json").stdout)
+    assert info["start"] == "2026-01-05T08:00:00.000000Z"
+    assert info["end"].startswith("2026-01-05T10:00:00")
