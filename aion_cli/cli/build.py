@@ -296,6 +296,8 @@ def command(
     from aion_cli.pipeline import BuildOptions, build_map
     from aion_cli.timeparse import resolve_zone
 
+    if print_config and fmt == "json":  # a script would get TOML, not JSON
+        raise InputError("--print-config prints TOML, not JSON", hint="leave out --format json")
     config = _load_config(config_file)
     if print_config:
         click.echo((config or ModelConfig()).to_toml(), nl=False)

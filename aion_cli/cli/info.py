@@ -245,6 +245,11 @@ def command(
     """
     from aion_cli.errors import InputError
 
+    if suggest_topic is not None and fmt == "json":  # a script would get TOML, not JSON
+        raise InputError(
+            "--suggest-mapping prints a TOML mapping, not JSON",
+            hint="leave out --format json (aion info LOG --format json lists the topics)",
+        )
     for path in logs:
         if not path.exists():
             raise InputError(f"not found: {path}", hint="check the path")

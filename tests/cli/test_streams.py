@@ -129,3 +129,23 @@ def test_a_message_is_one_line_in_a_log_file(
     assert result.exit_code == 0, result.stderr
     whole = line.format(dir=tmp_path)
     assert any(whole in message for message in result.stderr.splitlines()), result.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "what"),
+    [
+        (("info", "{log}", "--suggest-mapping", "/tf", "--format", "json"), "--suggest-mapping"),
+        (("build", "--print-config", "--format", "json"), "--print-config"),
+    ],
+)
+def test_format_json_is_json_or_refused(args: tuple[str, ...], what: str) -> None:
+    """``--format json`` promises a JSON document on stdout; --suggest-mapping and
+    --print-config printed their TOML anyway, so ``json.loads`` failed on exit 0. The
+    combination is refused (exit 2, one line), stdout stays empty."""
+    from tests.cli.conftest import SAMPLE, assert_one_line_error
+
+    result = run_cli(*(a.format(log=SAMPLE) for a in args))
+    assert result.exit_code == 2
+    assert result.stdout == ""
+    assert_one_line_error(result.stderr)
+    assert what in result.stderr
