@@ -19,7 +19,7 @@ from aion_cli.cli.common import (
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.entries import COLUMNS
 from aion_cli.cli.output import AionCommand, Column, emit, emit_chunks, format_option
-from aion_cli.cli.predict_series import check_series_options, run_series
+from aion_cli.cli.predict_series import TABLE_COLUMNS, check_series_options, run_series
 from aion_cli.predictions import LAYERS
 
 EPILOG = """\b
@@ -96,7 +96,13 @@ TABLE_LIMIT = 100
     show_default=True,
     help="Places (nodes), hash cells, or aggregated rooms / buildings.",
 )
-@click.option("--top", type=click.IntRange(min=1), help="Only the N busiest entries.")
+@click.option(
+    "--top",
+    metavar="N",
+    type=click.IntRange(min=1),
+    help="Only the N busiest entries (a series: the N busiest over it) [default: all; a table "
+    f"shows the {TABLE_LIMIT} busiest, a series' table {TABLE_COLUMNS}].",
+)
 @click.option("--from", "t_from", metavar="T", help="Start of a series of predictions.")
 @click.option("--to", "t_to", metavar="T", help="End of the series (inclusive).")
 @click.option("--step", metavar="DURATION", help=f"Series step: {STEP_HELP} [default: 1h].")

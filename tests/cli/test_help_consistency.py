@@ -80,9 +80,9 @@ def test_every_time_option_says_what_leaving_it_out_means() -> None:
 
 
 def test_frames_and_files_are_named_as_such() -> None:
-    """The frame options read FRAME, model parameters FILE, data folders DIR."""
+    """The frame options read FRAME, model parameters FILE, data folders DIR, a count N."""
     expected = {"--map-frame": "FRAME", "--base-frame": "FRAME", "--config": "FILE",
-                "--data": "DIR"}
+                "--data": "DIR", "--top": "N"}
     for command, option, ctx in _options():
         for name, metavar in expected.items():
             if name in option.opts:
