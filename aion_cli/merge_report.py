@@ -54,6 +54,9 @@ class MergeReport:
     start_ns: int | None = None
     end_ns: int | None = None
     notes: list[str] = field(default_factory=list)
+    #: what the map may hold wrongly, as aion build warns of it (nearly every detection away
+    #: from the graph's places: another site's --graph, another frame)
+    warnings: list[str] = field(default_factory=list)
     map_bytes: int = 0
 
     def to_dict(self) -> dict[str, Any]:
@@ -80,4 +83,5 @@ class MergeReport:
             "hours_observed": self.hours_observed,
             "time_span": {"start_ns": self.start_ns, "end_ns": self.end_ns, "seconds": span},
             "notes": list(self.notes),
+            "warnings": list(self.warnings),
         }

@@ -407,8 +407,8 @@ def _write(
         counts = add_counts(counts, part, meet=True)
     stats = state_counts(merged)
     far = far_from_graph_of(merged, stats)
-    if far is not None:  # a --graph FILE of another site, say
-        report.notes.append(far)
+    if far is not None:  # a --graph FILE of another site, say: a warning, as build's
+        report.warnings.append(far)
     observation = map_observation_text(
         [m.manifest.observation for m in maps], merged.observation, merged.window_ns
     )

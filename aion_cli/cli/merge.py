@@ -33,7 +33,8 @@ from; an existing map at -o is replaced atomically, anything else is refused.
 JSON keys (--format json): map, map_bytes, inputs[{path, name, size, sha256, start_ns,
 end_ns, logs, detections}], lineage, parts (part maps joined), lineage_reason, graph_source,
 released_nodes, rebound_cells, detections, logs, cells, nodes, nodes_with_flow, bound_cells,
-windows, hours_observed, time_span{start_ns, end_ns, seconds}, notes.
+windows, hours_observed, time_span{start_ns, end_ns, seconds}, notes, warnings (printed on
+stderr also with -q and --format json, as aion build's).
 """
 
 
@@ -61,7 +62,9 @@ windows, hours_observed, time_span{start_ns, end_ns, seconds}, notes.
     "different ones (released to hash cells, then re-bound); auto decides from the graphs.",
 )
 @nav_layer_option
-@click.option("-q", "--quiet", is_flag=True, help="No progress, summary table or notes.")
+@click.option(
+    "-q", "--quiet", is_flag=True, help="No progress, summary table or notes (warnings stay)."
+)
 @format_option(choices=("table", "json"))
 def command(
     maps: tuple[Path, ...],
@@ -86,10 +89,13 @@ def command(
     with _RichProgress(quiet or fmt == "json") as progress:
         report = merge_map_files(list(maps), output, graph_file, lineage, progress, nav_layer)
     summary = report.to_dict()
+    from aion_cli.cli.build_summary import print_warnings
+
     if fmt == "json":
         click.echo(to_json(summary))
     elif not quiet:
         print_summary(summary)
+    print_warnings(summary)  # on stderr, also with -q and --format json, as build's
 
 
 def print_summary(summary: dict[str, Any]) -> None:

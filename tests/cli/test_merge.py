@@ -111,19 +111,25 @@ def test_merging_the_two_days_equals_building_from_both_logs(days: Days, tmp_pat
 
 def test_a_target_graph_away_from_the_maps_is_named(days: Days, tmp_path: Path) -> None:
     """``--graph`` of another site (other place ids, 500 m away): the maps' places release
-    to hash cells and none binds, and the merge's notes ask whether the maps and the graph
-    share a frame; the office graph itself says nothing."""
+    to hash cells and none binds, and the merge warns, as aion build does of the same map,
+    asking whether the maps and the graph share a frame (it was a note, which -q silenced);
+    the office graph itself says nothing."""
     moved = {k + 100: (x + 500.0, y, z) for k, (x, y, z) in PLACES.items()}
     far = save_graph_file(
         tmp_path / "moved.json", moved, [(a + 100, b + 100) for a, b in EDGES]
     )
     out = tmp_path / "far.aion"
     summary = run_json("merge", *days.maps, "-o", out, "--graph", far, "--format", "json")
-    assert [n for n in summary["notes"] if "away from every place of the scene graph" in n]
+    assert [n for n in summary["warnings"] if "away from every place of the scene graph" in n]
+    assert not [n for n in summary["notes"] if "away from every place" in n]
+    quiet = run("merge", *days.maps, "-o", out, "--graph", far, "-q")
+    assert quiet.exit_code == 0, quiet.stderr
+    assert quiet.stderr.startswith("warning: ")
+    assert "away from every place of the scene graph" in quiet.stderr
     here = save_graph_file(tmp_path / "here.json", PLACES, EDGES)
     out = tmp_path / "here.aion"
     summary = run_json("merge", *days.maps, "-o", out, "--graph", here, "--format", "json")
-    assert not [n for n in summary["notes"] if "away from every place" in n]
+    assert not [n for n in summary["warnings"] if "away from every place" in n]
 
 
 def test_a_target_graph_of_another_session_makes_the_merge_different(
