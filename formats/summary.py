@@ -84,7 +84,8 @@ class TopicSummary:
             "count": self.count,
             "role": self.role,
             "encoding": self.encoding,
-            "rate_hz": None if self.rate_hz is None else round(self.rate_hz, 3),
+            # three significant digits: a topic of one message an hour is 0.000278 Hz, not 0.0
+            "rate_hz": None if self.rate_hz is None else float(f"{self.rate_hz:.3g}"),
         }
 
 

@@ -297,6 +297,14 @@ def command(
         _print(report)
 
 
+def rate_text(hz: float) -> str:
+    """A topic's rate for the table: two decimals, or two significant digits below 0.1 Hz, so
+    a scene graph every ten minutes reads 0.0017, not 0.00 (a topic with messages)."""
+    if hz == 0 or hz >= 0.1:
+        return f"{hz:.2f}"
+    return f"{hz:.2g}" if hz >= 1e-4 else f"{hz:.1e}"
+
+
 def _refuse_options(given: dict[str, bool], applies: tuple[str, ...], what: str) -> None:
     """An :class:`InputError` naming the options given that do nothing for ``what`` (only
     ``applies`` do): an option silently ignored looks as if it had been taken."""
@@ -383,7 +391,7 @@ def _print(report: dict[str, Any]) -> None:
             role = f"[dim]- {safe(why or 'not a type aion reads')}[/dim]"
         if t["topic"] in report["dsg_versions"]:
             role += f" (spark_dsg {safe(', '.join(report['dsg_versions'][t['topic']]))})"
-        rate = "-" if t["rate_hz"] is None else f"{t['rate_hz']:.2f}"
+        rate = "-" if t["rate_hz"] is None else rate_text(t["rate_hz"])
         table.add_row(safe(t["topic"]), safe(t["type"]), f"{t['count']:,}", rate, role)
     print_table(table)
     use = report["will_use"]

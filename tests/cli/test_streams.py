@@ -149,3 +149,21 @@ def test_format_json_is_json_or_refused(args: tuple[str, ...], what: str) -> Non
     assert result.stdout == ""
     assert_one_line_error(result.stderr)
     assert what in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("hz", "shown"),
+    [(48358 / 432000, "0.11"), (510 / 432000, "0.0012"), (2.5, "2.50"), (1 / 86400, "1.2e-05"),
+     (0.0, "0.00")],
+)
+def test_a_slow_topic_has_a_rate(hz: float, shown: str) -> None:
+    """``aion info``: a scene graph every ten minutes (510 in five days) read '0.00' Hz in the
+    table and 0.001 in JSON, a topic of one message a day 0.0 in both: a number cut to
+    nothing. The table gives two significant digits below 0.1 Hz, JSON three."""
+    from aion_cli.cli.info import rate_text
+    from aion_cli.formats.summary import TopicSummary
+
+    assert rate_text(hz) == shown
+    topic = TopicSummary("/t", "std_msgs/msg/String", 2, "unsupported", "cdr", hz)
+    assert topic.to_dict()["rate_hz"] == float(f"{hz:.3g}")
+    assert hz == 0 or topic.to_dict()["rate_hz"] > 0
