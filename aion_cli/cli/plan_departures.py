@@ -38,8 +38,14 @@ def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
         shown = shown[first : first + TABLE_ROWS]
         note(f"showing {TABLE_ROWS} of {len(rows)} departures around the best: --format json "
              "lists every one")
+    from aion_cli.timeparse import from_ns
+
     labels = short_labels([row["depart_ns"] for row in rows], zone)
-    title = "departures (temporal cost; lower is quieter)"
+    # the day(s) and zone of the times, as predict's series names them: the leave column
+    # holds clock times only, and stdout kept in a file has no stderr note beside it
+    days = sorted({from_ns(row["depart_ns"], zone).date().isoformat() for row in rows})
+    when = days[0] if len(days) == 1 else f"{days[0]} .. {days[-1]}"
+    title = f"departures, {when} ({zone.name}): temporal cost, lower is quieter"
     table = Table(title=title, min_width=len(title))
     for name in ("leave", "cost", "length", "time", ""):
         table.add_column(name, justify="left" if name in ("leave", "") else "right", no_wrap=True)

@@ -167,3 +167,14 @@ def test_a_slow_topic_has_a_rate(hz: float, shown: str) -> None:
     topic = TopicSummary("/t", "std_msgs/msg/String", 2, "unsupported", "cdr", hz)
     assert topic.to_dict()["rate_hz"] == float(f"{hz:.3g}")
     assert hz == 0 or topic.to_dict()["rate_hz"] > 0
+
+
+def test_the_departures_table_names_its_day_and_zone(sample_map: Path) -> None:
+    """``plan --leave``'s table listed clock times only ('08:00'), its day and zone only in the
+    stderr note of the best one; stdout kept in a file did not say which day or zone. Its
+    title names them, as predict's series does."""
+    result = run_cli("plan", sample_map, "--from", "p12", "--to", "p87", "--leave",
+                     "2026-01-12 08:00..2026-01-12 09:00", "--step", "30m", "--tz",
+                     "Europe/Berlin")
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout.splitlines()[0].startswith("departures, 2026-01-12 (Europe/Berlin)")
