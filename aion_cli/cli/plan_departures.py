@@ -27,6 +27,7 @@ def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
     """The departures as a table (stdout), the best one marked, and those at an hour no day
     observed (their flows extrapolated)."""
     from rich.table import Table
+    from rich.text import Text
 
     from aion_cli.cli.console import note, print_table
     from aion_cli.cli.predict_series import short_labels
@@ -46,7 +47,7 @@ def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
     days = sorted({from_ns(row["depart_ns"], zone).date().isoformat() for row in rows})
     when = days[0] if len(days) == 1 else f"{days[0]} .. {days[-1]}"
     title = f"departures, {when} ({zone.name}): temporal cost, lower is quieter"
-    table = Table(title=title, min_width=len(title))
+    table = Table(title=Text(title), min_width=len(title))  # plain text, no markup
     for name in ("leave", "cost", "length", "time", ""):
         table.add_column(name, justify="left" if name in ("leave", "") else "right", no_wrap=True)
     for k in shown:
