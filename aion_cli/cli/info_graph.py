@@ -65,18 +65,25 @@ def _aion_dynamics(graph: Any) -> dict[str, Any] | None:
 
 
 def print_graph(report: dict[str, Any]) -> None:
-    """The report as a two-column table (stdout) and its notes (stderr)."""
+    """The report as a two-column table (stdout) and its notes (stderr). Every string from
+    the file or its path (layer names, format, the dynamics' map, spark_dsg's messages) is
+    plain text: control characters made visible, rich markup shown, not applied."""
     from rich.table import Table
 
     from aion_cli.cli.console import console, print_table
+    from aion_cli.cli.output import markup_safe as safe
 
     nav = report["nav_layer"]
-    layer = f"{nav['name']} ({nav['key']})" if nav["name"] else nav["key"]
-    table = Table(title=f"scene graph {report['graph']}", show_header=False, title_justify="left")
+    layer = safe(f"{nav['name']} ({nav['key']})" if nav["name"] else nav["key"])
+    table = Table(
+        title=f"scene graph {safe(report['graph'])}", show_header=False, title_justify="left"
+    )
     table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value")
     reader = "; read leniently" if report["reader"] == "lenient" else ""
-    table.add_row("format", f"{report['format']}{reader}, {human_size(report['size_bytes'])}")
+    table.add_row(
+        "format", f"{safe(report['format'])}{reader}, {human_size(report['size_bytes'])}"
+    )
     table.add_row("navigational layer", layer)
     frontiers = report["frontiers_left_out"]
     table.add_row(
@@ -96,7 +103,8 @@ def print_graph(report: dict[str, Any]) -> None:
         )
         table.add_row(
             "aion dynamics",
-            f"flows {when} from {dynamics.get('map', '?')}, in each place's and room's metadata",
+            f"flows {safe(when)} from {safe(dynamics.get('map', '?'))}, in each place's and "
+            "room's metadata",
         )
     mesh = report["mesh"]
     table.add_row(
@@ -106,13 +114,13 @@ def print_graph(report: dict[str, Any]) -> None:
     table.add_row(
         "layers",
         ", ".join(
-            f"{row['key']}{' ' + row['name'] if row['name'] else ''}: {row['nodes']:,}"
+            safe(f"{row['key']}{' ' + row['name'] if row['name'] else ''}: {row['nodes']:,}")
             for row in report["layers"]
         ),
     )
     print_table(table)
     for note in report["notes"]:
-        console().print(f"[yellow]note:[/yellow] {note}", soft_wrap=True)
+        console().print(f"[yellow]note:[/yellow] {safe(note)}", soft_wrap=True)
     if report["places"] == 0:
         console().print(
             f"[yellow]warning:[/yellow] the navigational layer {layer} has no places: "

@@ -178,3 +178,19 @@ def test_the_departures_table_names_its_day_and_zone(sample_map: Path) -> None:
                      "Europe/Berlin")
     assert result.exit_code == 0, result.stderr
     assert result.stdout.splitlines()[0].startswith("departures, 2026-01-12 (Europe/Berlin)")
+
+
+def test_a_scene_graph_file_name_is_shown_not_applied(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``aion info GRAPH``: the file's path (and its layer names, format, notes) went into
+    the table as rich markup, so a graph saved as '[red]site.json' was titled 'site.json'
+    (in red on a terminal). Shown as plain text, as info of a log or a map shows names."""
+    from tests.cli.logdata import save_graph_file
+
+    monkeypatch.chdir(tmp_path)  # the name alone, not folded over lines as a long path is
+    save_graph_file(tmp_path / "[red]site\x1b[2J.json")
+    result = run_cli("info", "[red]site\x1b[2J.json")
+    assert result.exit_code == 0, result.stderr
+    assert "[red]site\\x1b[2J.json" in result.stdout
+    assert "\x1b" not in result.stdout
