@@ -8,7 +8,7 @@ from typing import Any
 import click
 
 from aion_cli.cli.common import AionPath, parse_span
-from aion_cli.cli.output import AionCommand, counted
+from aion_cli.cli.output import AionCommand, counted, markup_safe
 
 EPILOG = """\b
 Examples:
@@ -279,7 +279,7 @@ def command(
         )
     span = (summary.end_ns - summary.start_ns) / 1e9
     console().print(
-        f"wrote {summary.path}: {counted(summary.detections, 'detection')} of "
+        f"wrote {markup_safe(summary.path)}: {counted(summary.detections, 'detection')} of "
         f"{counted(summary.tracks, 'track')} in {counted(summary.detection_messages, 'message')} "
         f"over {span:,.0f} s"
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),

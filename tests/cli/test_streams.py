@@ -194,3 +194,17 @@ def test_a_scene_graph_file_name_is_shown_not_applied(
     assert result.exit_code == 0, result.stderr
     assert "[red]site\\x1b[2J.json" in result.stdout
     assert "\x1b" not in result.stdout
+
+
+def test_a_converted_log_name_is_shown_not_applied(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``aion convert t.csv -o '[red]x.mcap'`` said 'wrote x.mcap' (the name's markup applied);
+    the name is shown as given, as simulate and build show theirs."""
+    monkeypatch.chdir(tmp_path)
+    start = 1767600000 * 10**9
+    rows = (f"{start + k * 500_000_000},1,{0.6 * k:.1f},0,0,0,1.2\n" for k in range(10))
+    (tmp_path / "t.csv").write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n" + "".join(rows))
+    result = run_cli("convert", "t.csv", "-o", "[red]x.mcap")
+    assert result.exit_code == 0, result.stderr
+    assert "wrote [red]x.mcap: 10 detections" in result.stderr
