@@ -71,9 +71,9 @@ def test_a_shared_option_has_one_metavar(name: str) -> None:
 
 def test_every_time_option_says_what_leaving_it_out_means() -> None:
     """predict and plan say ``[default: now]``; export, which also predicts at now without
-    --time, said nothing."""
+    --time, said nothing; every --tz names its default but simulate's did not."""
     for command, option, ctx in _options():
-        if "--time" in option.opts:
+        if "--time" in option.opts or "--tz" in option.opts:
             record = option.get_help_record(ctx)
             assert record is not None
             assert "default: " in record[1], (command, record)
