@@ -103,7 +103,7 @@ time (the fields of `aion predict`) in its node metadata under "aion".
 @click.option(
     "--format",
     "fmt",
-    type=click.Choice(["ply", "pcd", "png", "mcap", "dsg"]),
+    type=click.Choice(["ply", "pcd", "png", "mcap", "dsg"], case_sensitive=False),
     default=None,
     help="Point-cloud / scene format, png for a top-down picture, mcap for Foxglove/RViz, "
     "dsg for the 4D scene graph as a spark_dsg file (.json / .sparkdsg).  [default: from "

@@ -211,7 +211,10 @@ def _event_counts(r: SceneResult) -> str:
     "fmt",
     default="mcap",
     show_default=True,
-    type=click.Choice(["mcap", "mcap-ros1", "bag", "rosbag2", "rosbag2-mcap", "rosbag2-sqlite3"]),
+    type=click.Choice(
+        ["mcap", "mcap-ros1", "bag", "rosbag2", "rosbag2-mcap", "rosbag2-sqlite3"],
+        case_sensitive=False,  # as every --format
+    ),
     # aion convert --container names the rosbag2 folder of MCAP storage rosbag2-mcap
     callback=lambda _ctx, _param, value: "rosbag2" if value == "rosbag2-mcap" else value,
     help="Log container (rosbag2, rosbag2-mcap: a rosbag2 folder of MCAP storage; "

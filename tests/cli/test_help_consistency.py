@@ -184,3 +184,13 @@ def test_convert_and_build_read_one_observed_span_alike(
     info = json.loads(run("info", log, "--format", "json").stdout)
     assert info["start"] == "2026-01-05T08:00:00.000000Z"
     assert info["end"].startswith("2026-01-05T10:00:00")
+
+
+def test_every_format_option_takes_any_case() -> None:
+    """``--format JSON`` worked in predict, build, info, evaluate ..., ``export --format PNG``
+    and ``simulate --format BAG`` were refused: every --format reads its choices in any
+    case."""
+    for command, option, _ctx in _options():
+        if "--format" in option.opts:
+            assert isinstance(option.type, click.Choice), command
+            assert not option.type.case_sensitive, command
