@@ -200,7 +200,7 @@ def log_format_option(func: F) -> F:
     """``--log-format``: the container, where its path does not say (build, info, holdout)."""
     return click.option(
         "--log-format",
-        type=click.Choice(["mcap", "bag", "rosbag2"]),
+        type=click.Choice(["mcap", "bag", "rosbag2"], case_sensitive=False),
         help="Container format [default: guessed from the path].",
     )(func)
 

@@ -134,7 +134,7 @@ def _check_suffix(output: Path, suffix: str, container: str) -> None:
 )
 @click.option(
     "--container",
-    type=click.Choice([*CONTAINERS, "rosbag2"]),
+    type=click.Choice([*CONTAINERS, "rosbag2"], case_sensitive=False),
     # aion simulate --format names the rosbag2 folder of MCAP storage rosbag2
     callback=lambda _ctx, _param, value: "rosbag2-mcap" if value == "rosbag2" else value,
     help="Log container (rosbag2 is rosbag2-mcap, as in aion simulate) [default: from the "

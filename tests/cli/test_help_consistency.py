@@ -188,9 +188,9 @@ def test_convert_and_build_read_one_observed_span_alike(
 
 def test_every_format_option_takes_any_case() -> None:
     """``--format JSON`` worked in predict, build, info, evaluate ..., ``export --format PNG``
-    and ``simulate --format BAG`` were refused: every --format reads its choices in any
-    case."""
+    and ``simulate --format BAG`` were refused: every --format (and --log-format, --container)
+    reads its choices in any case."""
     for command, option, _ctx in _options():
-        if "--format" in option.opts:
+        if {"--format", "--log-format", "--container"} & set(option.opts):
             assert isinstance(option.type, click.Choice), command
             assert not option.type.case_sensitive, command
