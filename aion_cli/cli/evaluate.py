@@ -76,7 +76,7 @@ def _existing_dir(path: Path, what: str) -> Path:
     return path
 
 
-@click.group("evaluate")
+@click.group("evaluate", short_help="The paper's comparison, real datasets, held-out logs.")
 def evaluate() -> None:
     """Evaluate aion: against a grid Map of Dynamics, on real tracks, FreMEn itself, and your
     own map on your own held-out logs.
@@ -102,7 +102,7 @@ SCORE_COLUMNS = (
 )
 
 
-@evaluate.command("atc")
+@evaluate.command("atc", short_help="Heading NLL on the real ATC mall tracks.")
 @click.option(
     "--data",
     "data_dir",
@@ -149,7 +149,7 @@ def atc(
          title=f"ATC, {protocol} protocol, radius {radius} m")
 
 
-@evaluate.command("door")
+@evaluate.command("door", short_help="FreMEn on a real periodic door signal.")
 @click.option(
     "--data",
     "data_dir",
@@ -197,7 +197,7 @@ ACTIVITY_COLUMNS = (
 )
 
 
-@evaluate.command("lincoln")
+@evaluate.command("lincoln", short_help="Forecasts of a real multi-day corridor.")
 @click.option(
     "--data",
     "data_dir",
@@ -261,7 +261,7 @@ def lincoln(
          title="Lincoln, hourly activity of the test day")
 
 
-@evaluate.command("holdout")
+@evaluate.command("holdout", short_help="Your map's forecast on your held-out logs.")
 @click.argument("map_path", metavar="MAP", type=AionPath(exists=True, path_type=Path))
 @click.argument("logs", metavar="LOG...", nargs=-1, required=True,
                 type=AionPath(exists=True, path_type=Path))
@@ -357,7 +357,7 @@ TABLE_I_COLUMNS = (
 )
 
 
-@evaluate.command("office")
+@evaluate.command("office", short_help="The paper's Table I on the simulated office.")
 @click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True,
               help="Simulated office scenes (the paper used 20).")
 @click.option("--agents", type=click.IntRange(1, 100), default=6, show_default=True,

@@ -149,6 +149,7 @@ def _event_counts(r: SceneResult) -> str:
 @click.command(
     "simulate",
     cls=AionCommand,
+    short_help="Synthetic logs of people, a robot and a scene graph.",
     epilog=EPILOG,
     advanced=(
         "nav_layer",

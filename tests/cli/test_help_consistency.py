@@ -194,3 +194,15 @@ def test_every_format_option_takes_any_case() -> None:
         if {"--format", "--log-format", "--container"} & set(option.opts):
             assert isinstance(option.type, click.Choice), command
             assert not option.type.case_sensitive, command
+
+
+@pytest.mark.parametrize("group", [(), ("evaluate",)])
+def test_a_command_list_cuts_no_summary(group: tuple[str, ...]) -> None:
+    """``aion --help`` listed 'evaluate  Evaluate aion: against a grid Map of Dynamics, on
+    real...' and 'simulate  Simulate people in an office (or any scene graph) seen by a...'
+    (click cuts a docstring's first sentence to fit 80 columns); every command has a short
+    help that fits."""
+    from tests.cli.conftest import run
+
+    listing = run(*group, "--help").stdout.split("Commands:", 1)[1]
+    assert "..." not in listing
