@@ -70,6 +70,9 @@ def all_static(manifest: Manifest) -> str | None:
         return None
     days = int(families.get("scored_days", 0))
     text = "every entry forecasts its static rate, whatever the time: "
+    only = _static_only(manifest.config)
+    if only is not None:
+        return text + only
     if days < 2:
         return text + (
             f"the map has {days} scored day{'' if days == 1 else 's'}, and an entry needs two "
@@ -93,6 +96,31 @@ def all_static(manifest: Manifest) -> str | None:
             f"which a log recorded a message; {SILENT_HINT})"
         )
     return text
+
+
+def _static_only(config: Mapping[str, Any]) -> str | None:
+    """Why a map whose model has the static family only (``families = ["static"]``: every
+    temporal family switched off) forecasts its static rates, and what its histograms are;
+    None for a model with a temporal family (or a config that does not say)."""
+    families = config.get("families")
+    if not isinstance(families, list) or families != ["static"]:
+        return None
+    text = (
+        'the map\'s model has the static family only (families = ["static"]), so its flows '
+        "are those of --historical"
+    )
+    prior = config.get("direction_prior")
+    if type(prior) in (int, float) and prior == 0:
+        return (
+            text + " and so are its directions: the forecast is the historical map "
+            "(--historical) at every time"
+        )
+    shown = f" (direction_prior = {prior:g})" if type(prior) in (int, float) else ""
+    return text + (
+        "; its direction histograms are pooled toward their neighbourhood's"
+        f"{shown}, where --historical gives the raw proportions (direction_prior = 0 "
+        "makes them equal)"
+    )
 
 
 def _outside(

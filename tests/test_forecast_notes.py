@@ -215,3 +215,29 @@ def test_a_damaged_list_of_observed_hours_is_read_safely() -> None:
     assert "(the map observed 10:00-11:00)" in line
     not_a_list = Manifest({}, {}, families={"flow": {"profile": 1}, "observed_bins": "9"})
     assert forecast_notes(not_a_list, MONDAY + HOUR_NS) == []
+
+
+def test_a_static_only_model_says_so_not_that_no_rhythm_won() -> None:
+    """A map built with ``families = ["static"]`` (every temporal family switched off) tried
+    no rhythm: its note names the configuration, not scored days on which no rhythm beat the
+    rate, and says whether its directions are the raw proportions ``--historical`` shows
+    (``direction_prior = 0``) or pooled toward the neighbourhood's."""
+    families = {"flow": {"static": 7}, "reconciled": False, "scored_days": 13}
+    pooled = Manifest({}, {"profile": "day", "families": ["static"], "direction_prior": 10.0},
+                      start_ns=START, end_ns=END, families=families)
+    (line,) = forecast_notes(pooled, START + DAY_NS)
+    assert line.startswith("every entry forecasts its static rate, whatever the time: the "
+                           'map\'s model has the static family only (families = ["static"])')
+    assert "scored days" not in line
+    assert "better than that rate" not in line
+    assert "flows are those of --historical" in line
+    assert "pooled toward their neighbourhood's (direction_prior = 10)" in line
+    raw = Manifest({}, {"profile": "day", "families": ["static"], "direction_prior": 0.0},
+                   start_ns=START, end_ns=END, families=families)
+    (line,) = forecast_notes(raw, START + DAY_NS)
+    assert line.endswith("the forecast is the historical map (--historical) at every time")
+    # a model with temporal families keeps the scored-days reason
+    timed = Manifest({}, {"profile": "day", "families": ["static", "profile"]},
+                     start_ns=START, end_ns=END, families=families)
+    (line,) = forecast_notes(timed, START + DAY_NS)
+    assert "on the map's 13 scored days no daily or weekly rhythm" in line
