@@ -151,9 +151,11 @@ _WEEKDAYS = ("Monday", "Tuesday", "Wednesday", "Thursday", "Friday", "Saturday",
 
 def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     """The note for a time on a kind of day (weekend or weekday; with the weekly profile, a
-    day of the week) that no day of the map's data span is, in the map's zone; None when the
-    span holds one (it may still have recorded nothing that day: the span is all the manifest
-    knows) or the profile does not tell days apart."""
+    day of the week) that no day of the map's data span is, or that the span holds but no
+    log observed (``observed_bins``: a fixed sensor whose tracker is silent when nobody is
+    there records no window of a weekend nobody came on), in the map's zone; None when the
+    map observed that kind of day (or, for a map that does not list its observed bins, its
+    span holds one) or the profile does not tell days apart."""
     import numpy as np
 
     from aion_cli.engine.temporal.calendar import weekday_of
@@ -167,29 +169,41 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
         return None
     first, last, day = (int(d) for d in calendar.day([int(start), max(int(start), int(end) - 1),
                                                       t_ns]))
-    if last - first >= 6:
-        return None  # every day of the week is in the span
-    seen = set(weekday_of(np.arange(first, last + 1)).tolist())
+    span_days = weekday_of(np.arange(first, min(last, first + 6) + 1))
     weekday = int(weekday_of(day))
+    kind = weekday if profile == "week" else int(weekday >= 5)
+    kinds = span_days if profile == "week" else (span_days >= 5).astype(np.int64)
+    in_span = bool((kinds == kind).any())
+    bins = _observed_bins(manifest.families)
+    observed = {b // calendar.bins_per_day for b in bins} if bins else None
+    if in_span and (observed is None or kind in observed):
+        return None
     if profile == "week":
-        if weekday in seen:
-            return None
-        kind = f"no {_WEEKDAYS[weekday]}"
+        what = f"no {_WEEKDAYS[weekday]}"
         follows = (
             f"its hour-of-week profiles have no {_WEEKDAYS[weekday]} of their own, so the "
             "forecast follows the hours of the days it saw"
         )
     else:
-        weekend = weekday >= 5
-        if any((d >= 5) == weekend for d in seen):
-            return None
-        kind = "no weekend day" if weekend else "no weekday"
-        seen_kind = "weekdays" if weekend else "weekends"
+        what = "no weekend day" if kind else "no weekday"
+        seen_kind = "weekdays" if kind else "weekends"
         follows = (
             f"its hour-of-day profiles know {seen_kind} only, so a forecast for a "
             f"{_WEEKDAYS[weekday]} follows the {seen_kind}' rhythm and level"
         )
-    return f"the map's data ({_span_days(first, last)}) holds {kind}: {follows}"
+    if not in_span:
+        return f"the map's data ({_span_days(first, last)}) holds {what}: {follows}"
+    every = weekday_of(np.arange(first, last + 1))
+    held = int(((every if profile == "week" else every >= 5) == kind).sum())
+    text = (
+        f"the map observed {what} (its data, {_span_days(first, last)}, holds {held}, but no "
+        f"log recorded a window of them): {follows}"
+    )
+    from aion_cli.fixed_sensor import SILENT_HINT, fixed_sensor_share
+
+    if fixed_sensor_share(manifest.observation) is not None:
+        text += f"; {SILENT_HINT}"
+    return text
 
 
 def series_notes(

@@ -241,3 +241,52 @@ def test_a_static_only_model_says_so_not_that_no_rhythm_won() -> None:
                      start_ns=START, end_ns=END, families=families)
     (line,) = forecast_notes(timed, START + DAY_NS)
     assert "on the map's 13 scored days no daily or weekly rhythm" in line
+
+
+def test_a_kind_of_day_the_span_holds_but_no_log_observed_is_named() -> None:
+    """Three weeks of a fixed sensor whose tracker is silent when nobody is there, people on
+    weekdays only: the span holds six weekend days, but no window of theirs was observed
+    (``observed_bins``: weekday hours only), so a Saturday forecast follows the weekdays'
+    hours at their level — said, with the way to declare the silent spans; a map that
+    observed weekend hours (empty ones) says nothing, and a robot's map gets no --observed
+    advice."""
+    weekday_hours = list(range(24))  # every weekday hour observed (bins 0..23)
+    silent = Manifest(
+        {}, {"profile": "day_weekend"}, start_ns=MONDAY, end_ns=MONDAY + 21 * DAY_NS,
+        families={"flow": {"shape": 4}, "scored_days": 20, "observed_bins": weekday_hours},
+        observation="fixed sensor over the 1,500 windows with messages (250.0 h of a 504.0 h "
+        "span)",
+    )
+    saturday = MONDAY + 26 * DAY_NS + 9 * HOUR_NS
+    (line,) = forecast_notes(silent, saturday)
+    assert line.startswith(
+        "the map observed no weekend day (its data, Mon 2026-01-05 to Sun 2026-01-25, holds "
+        "6, but no log recorded a window of them): its hour-of-day profiles know weekdays "
+        "only, so a forecast for a Saturday follows the weekdays' rhythm and level"
+    )
+    assert line.endswith("declare the spans it was recording with aion build --observed")
+    assert forecast_notes(silent, MONDAY + 22 * DAY_NS + 9 * HOUR_NS) == []  # a Tuesday
+    both = Manifest(
+        {}, {"profile": "day_weekend"}, start_ns=MONDAY, end_ns=MONDAY + 21 * DAY_NS,
+        families={"flow": {"shape": 4}, "scored_days": 20,
+                  "observed_bins": list(range(48))},
+        observation=silent.observation,
+    )
+    assert forecast_notes(both, saturday) == []
+    robot = Manifest(
+        {}, {"profile": "day_weekend"}, start_ns=MONDAY, end_ns=MONDAY + 21 * DAY_NS,
+        families=silent.families, observation="tf map->base_link",
+    )
+    (line,) = forecast_notes(robot, saturday)
+    assert line.endswith("follows the weekdays' rhythm and level")
+    # the weekly profile: a Sunday the span holds but nothing observed
+    week = Manifest(
+        {}, {"profile": "week"}, start_ns=MONDAY, end_ns=MONDAY + 21 * DAY_NS,
+        families={"flow": {"shape": 4}, "scored_days": 20,
+                  "observed_bins": list(range(6 * 24))},  # Monday..Saturday
+        observation="tf map->base_link",
+    )
+    (line,) = forecast_notes(week, MONDAY + 27 * DAY_NS + 9 * HOUR_NS)
+    assert line.startswith("the map observed no Sunday (its data, Mon 2026-01-05 to Sun "
+                           "2026-01-25, holds 3, but no log recorded a window of them): its "
+                           "hour-of-week profiles have no Sunday of their own")
