@@ -54,7 +54,7 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     unseen = None if static is not None else _unseen_day(manifest, int(t_ns))
     if unseen is not None:
         notes.append(unseen)
-    unobserved = _unobserved_hour(manifest, int(t_ns))
+    unobserved = _unobserved_hour(manifest, int(t_ns), advise=static is None)
     if unobserved is not None:
         notes.append(unobserved)
     return notes
@@ -227,6 +227,7 @@ def series_notes(
         f"({_clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
         f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): their forecast is "
         "extrapolated from the hours observed, not measured"
+        + (_silent_advice(manifest) if all_static(manifest) is None else "")
     )
     return notes
 
@@ -263,7 +264,20 @@ def _observed_bins(families: Mapping[str, Any]) -> list[int]:
 _NO_LOG = "no log observed "
 
 
-def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
+def _silent_advice(manifest: Manifest) -> str:
+    """``; <SILENT_HINT>`` for a fixed sensor that observed less than half of its logs'
+    time (a tracker silent when nobody is there leaves its empty hours unobserved), else
+    empty."""
+    from aion_cli.fixed_sensor import SILENT_HINT, fixed_sensor_share
+
+    recording = manifest.counts.get("recording_windows")
+    if type(recording) is not int or recording <= 0:  # none, or a damaged manifest's
+        recording = None
+    share = fixed_sensor_share(manifest.observation, recording)
+    return f"; {SILENT_HINT}" if share is not None and share < 0.5 else ""
+
+
+def _unobserved_hour(manifest: Manifest, t_ns: int, advise: bool = True) -> str | None:
     """The note for a time of day no log observed on any day (a tracker recorded only in
     working hours, say): each entry's forecast there is extrapolated from the hours it saw.
     None when some kind of day observed that hour (another kind's forecast follows it: see
@@ -279,6 +293,7 @@ def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
         f"({calendar.timezone}) on any day (the map observed "
         f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): the forecast at "
         "this hour is extrapolated from the hours observed, not measured"
+        + (_silent_advice(manifest) if advise else "")
     )
 
 

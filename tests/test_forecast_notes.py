@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from aion_cli.forecast_notes import forecast_notes
+from aion_cli.forecast_notes import forecast_notes, series_notes
 from aion_cli.manifest import Manifest
 
 DAY_NS = 86_400 * 10**9
@@ -290,3 +290,33 @@ def test_a_kind_of_day_the_span_holds_but_no_log_observed_is_named() -> None:
     assert line.startswith("the map observed no Sunday (its data, Mon 2026-01-05 to Sun "
                            "2026-01-25, holds 3, but no log recorded a window of them): its "
                            "hour-of-week profiles have no Sunday of their own")
+
+
+def test_an_hour_a_silent_fixed_sensor_never_observed_points_to_observed() -> None:
+    """A fixed sensor that observed 18 % of its span (only the windows with a message) and
+    a rhythm inside them: 03:00 was never observed, and the note says how to declare the
+    silent hours, once (an all-static map's note carries the advice already); a robot's
+    map and a fixed sensor that observed most of its span get the plain note."""
+    silent_text = "fixed sensor over the 168 windows with messages (28.0 h of a 155.0 h span)"
+    families = {"flow": {"profile": 4}, "scored_days": 5, "observed_bins": [8, 9]}
+    silent = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+                      families=families, observation=silent_text)
+    (night,) = forecast_notes(silent, MONDAY + 3 * HOUR_NS)
+    assert night == (
+        "no log observed 03:00-04:00 (UTC) on any day (the map observed 08:00-10:00): the "
+        "forecast at this hour is extrapolated from the hours observed, not measured; if its "
+        "tracker is silent when nobody is there, declare the spans it was recording with aion "
+        "build --observed"
+    )
+    robot = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+                     families=families, observation="tf map->base_link")
+    (plain,) = forecast_notes(robot, MONDAY + 3 * HOUR_NS)
+    assert plain.endswith("not measured")
+    static = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+                      families={**families, "flow": {"static": 4}}, observation=silent_text)
+    notes = forecast_notes(static, MONDAY + 3 * HOUR_NS)
+    assert sum("aion build --observed" in n for n in notes) == 1
+    # a series names the hours once, with the advice
+    (series,) = series_notes(silent, [MONDAY + h * HOUR_NS for h in (3, 8, 12)])
+    assert series.startswith("2 of the 3 times fall in hours no log observed on any day")
+    assert series.endswith("declare the spans it was recording with aion build --observed")
