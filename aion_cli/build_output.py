@@ -46,12 +46,19 @@ def write_build(
     report: BuildReport,
     previous: Manifest | None,
     map_frame: str | None = None,
+    declared: tuple[tuple[int, int], ...] = (),
 ) -> None:
     """Write ``report.output`` (the caller holds its lock) and fill the report's counts and
-    size. ``map_frame``: the frame the positions are in, recorded in the manifest."""
+    size. ``map_frame``: the frame the positions are in, recorded in the manifest;
+    ``declared``: the ``--observed`` spans (a note counts those left between the logs)."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
-    from aion_cli.fixed_sensor import DECLARED, SILENT_HINT, map_observation_text
+    from aion_cli.fixed_sensor import (
+        DECLARED,
+        SILENT_HINT,
+        between_logs_note,
+        map_observation_text,
+    )
     from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
 
@@ -91,6 +98,10 @@ def write_build(
             f"log recorded a message, each log from its first message to its last; the rest "
             f"is unknown, not empty): {SILENT_HINT}"
         )
+    if declared and fixed is not None:
+        between = between_logs_note(declared, report.recording_spans, fixed[3])
+        if between is not None:
+            report.notes.append(between)
     manifest = Manifest(
         state=meta,
         config=config.to_dict(),

@@ -33,6 +33,7 @@ __all__ = [
     "DECLARED",
     "FIXED_SENSOR_OVER",
     "SILENT_HINT",
+    "between_logs_note",
     "fixed_sensor_share",
     "fixed_sensor_summary",
     "fixed_sensor_text",
@@ -105,6 +106,38 @@ def observed_note(added: int, delta: int) -> str:
     return (
         f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
         f"({added * delta / 3.6e12:,.1f} h), within each log's own time"
+    )
+
+
+def between_logs_note(
+    declared: tuple[tuple[int, int], ...], spans: list[tuple[str, int, int]], delta: int
+) -> str | None:
+    """The note for the windows of the ``--observed`` spans ``[lo, hi)`` that lie between this
+    build's logs (``spans``: each file's first and last window, :func:`_file_spans`): within
+    the logs' first to last window but outside every log's own time, so they stay unknown
+    (:func:`_declared_windows`) — a tracker silent at night, recorded one log a day, keeps
+    its nights unknown although the spans declared them. None when there are none."""
+    if not declared or not spans:
+        return None
+    first = min(f for _, f, _ in spans)
+    last = max(b for _, _, b in spans)
+    wanted = np.zeros(last - first + 1, dtype=bool)
+    for lo, hi in declared:
+        a = max(int(lo) // delta, first)
+        b = min(-(-int(hi) // delta) - 1, last)
+        if b >= a:
+            wanted[a - first : b - first + 1] = True
+    for _, a, b in spans:
+        wanted[a - first : b - first + 1] = False
+    n = int(np.count_nonzero(wanted))
+    if n == 0:
+        return None
+    return (
+        f"{OBSERVED_NOTE}{n:,} declared window(s) ({n * delta / 3.6e12:,.1f} h) lie between "
+        "the logs, outside every log's own time (its first message to its last), and stay "
+        "unknown, not empty: the spans count only within a log (so that building the logs "
+        "at once equals continuing a map log by log); a tracker recorded one log a day keeps "
+        "its silent nights unknown"
     )
 
 

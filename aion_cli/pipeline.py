@@ -402,7 +402,8 @@ class _Build(StreamStep):
     def _write(self, state: MapState, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:
         """The map file (:func:`aion_cli.build_output.write_build`; run() holds the lock)."""
         write_build(
-            state, config, inputs, self.report, self.previous_manifest, self.opts.map_frame
+            state, config, inputs, self.report, self.previous_manifest, self.opts.map_frame,
+            self.opts.observed,
         )
 
 

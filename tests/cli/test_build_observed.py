@@ -146,10 +146,16 @@ def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Pa
     assert [(e["id"], e["flow"]) for e in a] == [(e["id"], e["flow"]) for e in b]
     # one note of the windows the spans added, the three files' summed, as one pass gives it
     # (the workers' build listed one note per shard: "22 window(s)" three times)
+    # and the windows the spans declared between the files, which stay unknown: 12:20 to
+    # 08:00 the next day, twice (118 windows each)
     added = [[n for n in r["notes"] if n.startswith("--observed: ")] for r in (one, two)]
     assert added[0] == added[1] == [
         "--observed: 66 window(s) without a message taken as observed (11.0 h), within each "
-        "log's own time"
+        "log's own time",
+        "--observed: 236 declared window(s) (39.3 h) lie between the logs, outside every "
+        "log's own time (its first message to its last), and stay unknown, not empty: the "
+        "spans count only within a log (so that building the logs at once equals continuing "
+        "a map log by log); a tracker recorded one log a day keeps its silent nights unknown",
     ]
 
 
