@@ -54,7 +54,10 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     unseen = None if static is not None else _unseen_day(manifest, int(t_ns))
     if unseen is not None:
         notes.append(unseen)
-    unobserved = _unobserved_hour(manifest, int(t_ns), advise=static is None)
+    silent = None if static is not None else silent_sensor(manifest)
+    if silent is not None:
+        notes.append(silent)
+    unobserved = _unobserved_hour(manifest, int(t_ns))
     if unobserved is not None:
         notes.append(unobserved)
     return notes
@@ -83,14 +86,12 @@ def all_static(manifest: Manifest) -> str | None:
         f"on the map's {days} scored days no daily or weekly rhythm forecast the next day "
         "better than that rate"
     )
-    from aion_cli.fixed_sensor import SILENT_HINT, fixed_sensor_share
+    from aion_cli.fixed_sensor import SILENT_HINT
 
-    recording = manifest.counts.get("recording_windows")
-    if type(recording) is not int or recording <= 0:  # none, or a damaged manifest's
-        recording = None
-    share = fixed_sensor_share(manifest.observation, recording)
+    share = _sensor_share(manifest)
     if share is not None and share < 0.5:
-        whose = "its logs'" if recording else "the"
+        recording = manifest.counts.get("recording_windows")
+        whose = "its logs'" if type(recording) is int and recording > 0 else "the"
         text += (
             f" (its fixed sensor observed {share:.0%} of {whose} time: only the windows in "
             f"which a log recorded a message; {SILENT_HINT})"
@@ -199,9 +200,10 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
         f"the map observed {what} (its data, {_span_days(first, last)}, holds {held}, but no "
         f"log recorded a window of them): {follows}"
     )
-    from aion_cli.fixed_sensor import SILENT_HINT, fixed_sensor_share
+    from aion_cli.fixed_sensor import SILENT_HINT
 
-    if fixed_sensor_share(manifest.observation) is not None:
+    share = _sensor_share(manifest)
+    if share is not None and share >= 0.5:  # below, silent_sensor's note gives the hint
         text += f"; {SILENT_HINT}"
     return text
 
@@ -227,7 +229,6 @@ def series_notes(
         f"({_clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
         f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): their forecast is "
         "extrapolated from the hours observed, not measured"
-        + (_silent_advice(manifest) if all_static(manifest) is None else "")
     )
     return notes
 
@@ -264,20 +265,33 @@ def _observed_bins(families: Mapping[str, Any]) -> list[int]:
 _NO_LOG = "no log observed "
 
 
-def _silent_advice(manifest: Manifest) -> str:
-    """``; <SILENT_HINT>`` for a fixed sensor that observed less than half of its logs'
-    time (a tracker silent when nobody is there leaves its empty hours unobserved), else
-    empty."""
-    from aion_cli.fixed_sensor import SILENT_HINT, fixed_sensor_share
+def _sensor_share(manifest: Manifest) -> float | None:
+    """The share of its logs' own time a fixed sensor observed (None: not a fixed sensor)."""
+    from aion_cli.fixed_sensor import fixed_sensor_share
 
     recording = manifest.counts.get("recording_windows")
     if type(recording) is not int or recording <= 0:  # none, or a damaged manifest's
         recording = None
-    share = fixed_sensor_share(manifest.observation, recording)
-    return f"; {SILENT_HINT}" if share is not None and share < 0.5 else ""
+    return fixed_sensor_share(manifest.observation, recording)
 
 
-def _unobserved_hour(manifest: Manifest, t_ns: int, advise: bool = True) -> str | None:
+def silent_sensor(manifest: Manifest) -> str | None:
+    """The note for a fixed sensor that observed less than half of its logs' own time: if its
+    tracker is silent when nobody is there, the windows observed are those with someone in
+    them, and every forecast runs high (its nights and quiet hours most); None otherwise."""
+    share = _sensor_share(manifest)
+    if share is None or share >= 0.5:
+        return None
+    return (
+        f"the map's fixed sensor observed {share:.0%} of its logs' time (only the windows in "
+        "which a log recorded a message; the rest is unknown, not empty): if its tracker is "
+        "silent when nobody is there, the windows observed are those with someone in them and "
+        "the forecast runs high, most in quiet hours: declare the spans it was recording with "
+        "aion build --observed"
+    )
+
+
+def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
     """The note for a time of day no log observed on any day (a tracker recorded only in
     working hours, say): each entry's forecast there is extrapolated from the hours it saw.
     None when some kind of day observed that hour (another kind's forecast follows it: see
@@ -293,7 +307,6 @@ def _unobserved_hour(manifest: Manifest, t_ns: int, advise: bool = True) -> str 
         f"({calendar.timezone}) on any day (the map observed "
         f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): the forecast at "
         "this hour is extrapolated from the hours observed, not measured"
-        + (_silent_advice(manifest) if advise else "")
     )
 
 

@@ -247,14 +247,14 @@ def test_a_kind_of_day_the_span_holds_but_no_log_observed_is_named() -> None:
     """Three weeks of a fixed sensor whose tracker is silent when nobody is there, people on
     weekdays only: the span holds six weekend days, but no window of theirs was observed
     (``observed_bins``: weekday hours only), so a Saturday forecast follows the weekdays'
-    hours at their level — said, with the way to declare the silent spans; a map that
-    observed weekend hours (empty ones) says nothing, and a robot's map gets no --observed
-    advice."""
+    hours at their level — said, with the way to declare the silent spans (here: the sensor
+    observed 71 % of its span, every weekday window); a map that observed weekend hours
+    (empty ones) says nothing, and a robot's map gets no --observed advice."""
     weekday_hours = list(range(24))  # every weekday hour observed (bins 0..23)
     silent = Manifest(
         {}, {"profile": "day_weekend"}, start_ns=MONDAY, end_ns=MONDAY + 21 * DAY_NS,
         families={"flow": {"shape": 4}, "scored_days": 20, "observed_bins": weekday_hours},
-        observation="fixed sensor over the 1,500 windows with messages (250.0 h of a 504.0 h "
+        observation="fixed sensor over the 2,160 windows with messages (360.0 h of a 504.0 h "
         "span)",
     )
     saturday = MONDAY + 26 * DAY_NS + 9 * HOUR_NS
@@ -279,6 +279,15 @@ def test_a_kind_of_day_the_span_holds_but_no_log_observed_is_named() -> None:
     )
     (line,) = forecast_notes(robot, saturday)
     assert line.endswith("follows the weekdays' rhythm and level")
+    # below half its time observed, the sensor's own note gives the advice, once
+    sparse = Manifest(
+        {}, {"profile": "day_weekend"}, start_ns=MONDAY, end_ns=MONDAY + 21 * DAY_NS,
+        families=silent.families, observation="fixed sensor over the 900 windows with "
+        "messages (150.0 h of a 504.0 h span)",
+    )
+    weekend, sensor = forecast_notes(sparse, saturday)
+    assert weekend.endswith("follows the weekdays' rhythm and level")
+    assert sensor.startswith("the map's fixed sensor observed 30% of its logs' time")
     # the weekly profile: a Sunday the span holds but nothing observed
     week = Manifest(
         {}, {"profile": "week"}, start_ns=MONDAY, end_ns=MONDAY + 21 * DAY_NS,
@@ -292,31 +301,38 @@ def test_a_kind_of_day_the_span_holds_but_no_log_observed_is_named() -> None:
                            "hour-of-week profiles have no Sunday of their own")
 
 
-def test_an_hour_a_silent_fixed_sensor_never_observed_points_to_observed() -> None:
-    """A fixed sensor that observed 18 % of its span (only the windows with a message) and
-    a rhythm inside them: 03:00 was never observed, and the note says how to declare the
-    silent hours, once (an all-static map's note carries the advice already); a robot's
-    map and a fixed sensor that observed most of its span get the plain note."""
+def test_a_fixed_sensor_that_observed_under_half_its_time_says_so_at_every_time() -> None:
+    """A fixed sensor that observed 18 % of its span (only the windows with a message) and a
+    rhythm inside them: if its tracker is silent when nobody is there, every window observed
+    held someone, so the forecast runs high (a corridor whose nights had 5 walkers an hour
+    was forecast at twice that). The note says so at any time, with how to declare the
+    spans, once (an all-static map's note carries the advice already); 03:00, never
+    observed, is named as before; a robot's map says neither."""
     silent_text = "fixed sensor over the 168 windows with messages (28.0 h of a 155.0 h span)"
     families = {"flow": {"profile": 4}, "scored_days": 5, "observed_bins": [8, 9]}
     silent = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
                       families=families, observation=silent_text)
-    (night,) = forecast_notes(silent, MONDAY + 3 * HOUR_NS)
-    assert night == (
-        "no log observed 03:00-04:00 (UTC) on any day (the map observed 08:00-10:00): the "
-        "forecast at this hour is extrapolated from the hours observed, not measured; if its "
-        "tracker is silent when nobody is there, declare the spans it was recording with aion "
-        "build --observed"
+    sensor = (
+        "the map's fixed sensor observed 18% of its logs' time (only the windows in which a "
+        "log recorded a message; the rest is unknown, not empty): if its tracker is silent "
+        "when nobody is there, the windows observed are those with someone in them and the "
+        "forecast runs high, most in quiet hours: declare the spans it was recording with "
+        "aion build --observed"
     )
+    assert forecast_notes(silent, MONDAY + 8 * HOUR_NS) == [sensor]
+    night = forecast_notes(silent, MONDAY + 3 * HOUR_NS)
+    assert night == [sensor, (
+        "no log observed 03:00-04:00 (UTC) on any day (the map observed 08:00-10:00): the "
+        "forecast at this hour is extrapolated from the hours observed, not measured"
+    )]
     robot = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
                      families=families, observation="tf map->base_link")
-    (plain,) = forecast_notes(robot, MONDAY + 3 * HOUR_NS)
-    assert plain.endswith("not measured")
+    assert forecast_notes(robot, MONDAY + 3 * HOUR_NS) == night[1:]
     static = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
                       families={**families, "flow": {"static": 4}}, observation=silent_text)
     notes = forecast_notes(static, MONDAY + 3 * HOUR_NS)
     assert sum("aion build --observed" in n for n in notes) == 1
-    # a series names the hours once, with the advice
-    (series,) = series_notes(silent, [MONDAY + h * HOUR_NS for h in (3, 8, 12)])
-    assert series.startswith("2 of the 3 times fall in hours no log observed on any day")
-    assert series.endswith("declare the spans it was recording with aion build --observed")
+    # a series gives it once too, beside the hours it names
+    series = series_notes(silent, [MONDAY + h * HOUR_NS for h in (3, 8, 12)])
+    assert series[0] == sensor
+    assert series[1].startswith("2 of the 3 times fall in hours no log observed on any day")
