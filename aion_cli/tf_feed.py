@@ -260,10 +260,7 @@ def observe(
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
-        report.notes.append(
-            f"TF has no {map_frame}->{base_frame} chain for the robot trajectory (frames: "
-            f"{', '.join(sorted(tf.frames)[:12])}); see --map-frame / --base-frame"
-        )
+        report.notes.append(_no_trajectory(tf, map_frame, base_frame))
     if traj is not None:
         part = times.inside_limits(traj.t_ns)  # a time shard observes with its own poses
         if not part.all():
@@ -283,6 +280,24 @@ def observe(
             "treated as a fixed sensor that saw everything in the windows in which it "
             "recorded any message, within the time of the topics aion uses"
         )
+
+
+def _no_trajectory(tf: TfBuffer, map_frame: str, base_frame: str) -> str:
+    """Why TF gave no robot trajectory: no ``map_frame -> base_frame`` chain, or one of
+    static transforms only (a sensor mounted in the map frame: no poses over time say
+    when it observed, so the log is a fixed sensor)."""
+    from aion_cli.formats.tf import normalize_frame
+
+    if normalize_frame(base_frame) in tf.connected(map_frame):
+        return (
+            f"TF joins {map_frame}->{base_frame} by static transforms only (/tf_static): no "
+            "poses over time say when the sensor observed, so it is taken as a fixed sensor "
+            "(see below)"
+        )
+    return (
+        f"TF has no {map_frame}->{base_frame} chain for the robot trajectory (frames: "
+        f"{', '.join(sorted(tf.frames)[:12])}); see --map-frame / --base-frame"
+    )
 
 
 def _ignored(declared: tuple[tuple[int, int], ...], observation: str, warnings: list[str]) -> None:

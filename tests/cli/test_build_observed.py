@@ -291,3 +291,40 @@ def test_a_merge_of_maps_that_meet_in_one_window_counts_it_once(tmp_path: Path) 
     apart = [read_manifest(tmp_path / f"{m}.aion")["counts"] for m in ("a", "b")]
     assert [c["recording_windows"] for c in apart] == [2, 1]
     assert apart[0]["recording_reach"] == apart[1]["recording_first"]
+
+
+def test_a_sensor_mounted_by_static_tf_is_a_fixed_sensor_and_the_note_says_why(
+    tmp_path: Path,
+) -> None:
+    """A tracker whose base_link is placed in the map by /tf_static alone: the detections are
+    transformed with it (every one used, at the mounted position), but no poses over time say
+    when it observed, so it is a fixed sensor. The note said 'TF has no map->base_link chain',
+    which the log has."""
+    from aion_cli.formats.writers import LogWriter
+
+    log = tmp_path / "mounted.mcap"
+    s = 10**9
+    t0 = 1_767_600_000 * s  # 2026-01-05 08:00 UTC
+    mount = {"header": {"stamp": {"sec": t0 // s}, "frame_id": "map"},
+             "child_frame_id": "base_link",
+             "transform": {"translation": {"x": 5.0, "y": 1.0}, "rotation": {"w": 1.0}}}
+    with LogWriter(log, "mcap") as writer:
+        writer.write("/tf_static", "tf2_msgs/msg/TFMessage", {"transforms": [mount]}, t0)
+        for k in range(20):
+            t = t0 + k * s
+            writer.write("/people_tracker/pose_array", "geometry_msgs/msg/PoseArray", {
+                "header": {"stamp": {"sec": t // s}, "frame_id": "base_link"},
+                "poses": [{"position": {"x": 1.0, "y": 0.0}, "orientation": {"w": 1.0}}],
+            }, t)
+    report = run_json("build", log, "-o", tmp_path / "m.aion", "--format", "json")
+    assert report["detections"]["used"] == 20
+    assert report["observation"].startswith("fixed sensor over the")
+    assert (
+        "TF joins map->base_link by static transforms only (/tf_static): no poses over time "
+        "say when the sensor observed, so it is taken as a fixed sensor (see below)"
+    ) in report["notes"]
+    assert not any(n.startswith("TF has no") for n in report["notes"])
+    entries = run_json("predict", tmp_path / "m.aion", "--historical", "--format",
+                       "json")["entries"]
+    busy = [e for e in entries if e["flow"]]
+    assert {(e["x"], e["y"]) for e in busy} == {(6.25, 1.25)}  # cell of (6, 1): 0.5 m cells
