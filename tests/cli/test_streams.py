@@ -57,6 +57,31 @@ def test_a_table_whose_reader_stopped_is_not_a_failure(
     assert "error" not in proc.stderr
 
 
+def test_a_closed_stderr_does_not_stop_the_data(sample_map: Path, tmp_path: Path) -> None:
+    """stderr read by a reader that stopped (``2>&1 >out.csv | head -1``): the notes are
+    lost, but the data is still written and the exit is 0; the stderr console raised a broken
+    pipe, so predict wrote nothing to stdout and still exited 0."""
+    out = tmp_path / "out.csv"
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        with out.open("w") as stdout:
+            proc = subprocess.run(
+                [str(AION), "predict", str(sample_map), "--format", "csv"],
+                stdout=stdout,
+                stderr=write,
+                env=_env(),
+                timeout=120,
+                check=False,
+            )
+    finally:
+        os.close(write)
+    assert proc.returncode == 0
+    lines = out.read_text().splitlines()
+    assert lines[0].startswith("id,")
+    assert len(lines) > 100
+
+
 @pytest.fixture
 def narrow(monkeypatch: pytest.MonkeyPatch) -> None:
     """A 40-column terminal on stdout and stderr (rich then shrinks tables to fit)."""
