@@ -84,8 +84,7 @@ class TopicSummary:
             "count": self.count,
             "role": self.role,
             "encoding": self.encoding,
-            # three significant digits: a topic of one message an hour is 0.000278 Hz, not 0.0
-            "rate_hz": None if self.rate_hz is None else float(f"{self.rate_hz:.3g}"),
+            "rate_hz": None if self.rate_hz is None else _rate(self.rate_hz),
         }
 
 
@@ -195,3 +194,9 @@ def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSum
         end_ns=logset.end_ns,
         warnings=list(logset.warnings),
     )
+
+
+def _rate(hz: float) -> float:
+    """A rate for JSON: three decimals, or three significant digits below 1 Hz, so a topic of
+    one message an hour is 0.000278 Hz, not 0.0, and a 1071.245 Hz one not 1070.0."""
+    return round(hz, 3) if hz >= 1 else float(f"{hz:.3g}")

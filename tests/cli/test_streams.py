@@ -194,6 +194,17 @@ def test_a_slow_topic_has_a_rate(hz: float, shown: str) -> None:
     assert hz == 0 or topic.to_dict()["rate_hz"] > 0
 
 
+@pytest.mark.parametrize(("hz", "written"), [(19.8361, 19.836), (1071.2449, 1071.245)])
+def test_a_fast_topic_keeps_its_rate(hz: float, written: float) -> None:
+    """``aion info --format json``: three significant digits are for a slow topic; a fast one
+    keeps its three decimals as before (a 19.836 Hz camera was 19.8, a 1071.245 Hz IMU
+    1070.0)."""
+    from aion_cli.formats.summary import TopicSummary
+
+    topic = TopicSummary("/t", "sensor_msgs/msg/Imu", 2, "unsupported", "cdr", hz)
+    assert topic.to_dict()["rate_hz"] == written
+
+
 def test_the_departures_table_names_its_day_and_zone(sample_map: Path) -> None:
     """``plan --leave``'s table listed clock times only ('08:00'), its day and zone only in the
     stderr note of the best one; stdout kept in a file did not say which day or zone. Its
