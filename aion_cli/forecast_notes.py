@@ -54,7 +54,11 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     unseen = None if static is not None else _unseen_day(manifest, int(t_ns))
     if unseen is not None:
         notes.append(unseen)
-    silent = None if static is not None else silent_sensor(manifest)
+    from aion_cli.fixed_sensor import SILENT_HINT
+
+    # once: an all-static note that found no rhythm carries the advice; one of too few days
+    # or of the static family only does not, and the sensor's own note must say it
+    silent = None if static is not None and SILENT_HINT in static else silent_sensor(manifest)
     if silent is not None:
         notes.append(silent)
     unobserved = _unobserved_hour(manifest, int(t_ns))

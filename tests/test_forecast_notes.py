@@ -336,3 +336,21 @@ def test_a_fixed_sensor_that_observed_under_half_its_time_says_so_at_every_time(
     series = series_notes(silent, [MONDAY + h * HOUR_NS for h in (3, 8, 12)])
     assert series[0] == sensor
     assert series[1].startswith("2 of the 3 times fall in hours no log observed on any day")
+
+
+def test_a_silent_sensor_is_named_whatever_makes_every_entry_static() -> None:
+    """A fixed sensor that observed 18 % of its span, every entry static because the map has
+    one scored day or its model has the static family only: the all-static note carries no
+    word of the silent tracker there, so the sensor's own note must (it was left out for
+    every all-static map, as if the all-static note always held the advice); once only."""
+    silent_text = "fixed sensor over the 168 windows with messages (28.0 h of a 155.0 h span)"
+    for config, days in (({"profile": "day"}, 1), ({"families": ["static"]}, 5)):
+        static = Manifest(
+            {}, config, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+            families={"flow": {"static": 4}, "scored_days": days, "observed_bins": [8, 9]},
+            observation=silent_text,
+        )
+        notes = forecast_notes(static, MONDAY + 8 * HOUR_NS)
+        assert notes[0].startswith("every entry forecasts its static rate")
+        assert notes[1].startswith("the map's fixed sensor observed 18% of its logs' time")
+        assert sum("aion build --observed" in n for n in notes) == 1
