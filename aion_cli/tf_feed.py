@@ -283,12 +283,19 @@ def observe(
 
 
 def _no_trajectory(tf: TfBuffer, map_frame: str, base_frame: str) -> str:
-    """Why TF gave no robot trajectory: no ``map_frame -> base_frame`` chain, or one of
+    """Why TF gave no robot trajectory: no ``map_frame -> base_frame`` chain, one of
     static transforms only (a sensor mounted in the map frame: no poses over time say
-    when it observed, so the log is a fixed sensor)."""
+    when it observed, so the log is a fixed sensor), or one whose ``/tf`` links never
+    overlap in time."""
     from aion_cli.formats.tf import normalize_frame
 
     if normalize_frame(base_frame) in tf.connected(map_frame):
+        if tf.dynamic_links(map_frame, base_frame):
+            return (
+                f"TF joins {map_frame}->{base_frame}, but at no time does every transform of "
+                "the chain have a pose (its /tf transforms do not overlap in time): no robot "
+                "trajectory, so it is taken as a fixed sensor (see below)"
+            )
         return (
             f"TF joins {map_frame}->{base_frame} by static transforms only (/tf_static): no "
             "poses over time say when the sensor observed, so it is taken as a fixed sensor "

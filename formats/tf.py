@@ -328,6 +328,15 @@ class TfBuffer:
         self._flush()
         return set(self._search(normalize_frame(frame), None))
 
+    def dynamic_links(self, target: str, source: str) -> int:
+        """How many links of the ``target``..``source`` chain are ``/tf`` transforms (0: the
+        chain is ``/tf_static`` only); a :class:`TransformError` when there is no chain."""
+        path = self._path(normalize_frame(target), normalize_frame(source))
+        return sum(
+            (a, b) in self._dynamic or (b, a) in self._dynamic
+            for a, b in itertools.pairwise(path)
+        )
+
     def _search(self, target: str, source: str | None) -> dict[str, str | None]:
         """Breadth-first from ``target`` over the undirected frame tree, until ``source`` is
         reached (every connected frame when None): each frame found, with the frame it was

@@ -328,3 +328,41 @@ def test_a_sensor_mounted_by_static_tf_is_a_fixed_sensor_and_the_note_says_why(
                        "json")["entries"]
     busy = [e for e in entries if e["flow"]]
     assert {(e["x"], e["y"]) for e in busy} == {(6.25, 1.25)}  # cell of (6, 1): 0.5 m cells
+
+
+def test_a_dynamic_chain_without_poses_is_not_called_static(tmp_path: Path) -> None:
+    """map->odom and odom->base_link on /tf, at times that never overlap (localisation
+    published for the first seconds only), detections in the map frame: the chain gives no
+    pose, so the log is a fixed sensor, but the note said TF joined the frames 'by static
+    transforms only (/tf_static)' in a log without /tf_static."""
+    from aion_cli.formats.writers import LogWriter
+
+    log = tmp_path / "gap.mcap"
+    s = 10**9
+    t0 = 1_767_600_000 * s  # 2026-01-05 08:00 UTC
+
+    def link(parent: str, child: str, t: int) -> dict[str, object]:
+        return {"transforms": [{
+            "header": {"stamp": {"sec": t // s}, "frame_id": parent}, "child_frame_id": child,
+            "transform": {"translation": {"x": 1.0, "y": 1.0}, "rotation": {"w": 1.0}},
+        }]}
+
+    with LogWriter(log, "mcap") as writer:
+        for k in range(5):
+            t = t0 + k * s
+            writer.write("/tf", "tf2_msgs/msg/TFMessage", link("map", "odom", t), t)
+        for k in range(100, 120):
+            t = t0 + k * s
+            writer.write("/tf", "tf2_msgs/msg/TFMessage", link("odom", "base_link", t), t)
+            writer.write("/people_tracker/pose_array", "geometry_msgs/msg/PoseArray", {
+                "header": {"stamp": {"sec": t // s}, "frame_id": "map"},
+                "poses": [{"position": {"x": 1.0, "y": 0.0}, "orientation": {"w": 1.0}}],
+            }, t)
+    report = run_json("build", log, "-o", tmp_path / "g.aion", "--format", "json")
+    assert report["observation"].startswith("fixed sensor over the")
+    assert not any("static transforms only" in n for n in report["notes"])
+    assert (
+        "TF joins map->base_link, but at no time does every transform of the chain have a "
+        "pose (its /tf transforms do not overlap in time): no robot trajectory, so it is taken "
+        "as a fixed sensor (see below)"
+    ) in report["notes"]
