@@ -270,8 +270,13 @@ _NO_LOG = "no log observed "
 
 
 def _sensor_share(manifest: Manifest) -> float | None:
-    """The share of its logs' own time a fixed sensor observed (None: not a fixed sensor)."""
-    from aion_cli.fixed_sensor import fixed_sensor_share
+    """The share of its logs' own time a fixed sensor observed (None: not a fixed sensor, or
+    one whose recording spans ``build --observed`` declared: what it observed is then what it
+    recorded, and build gives no advice for it either)."""
+    from aion_cli.fixed_sensor import DECLARED, fixed_sensor_share
+
+    if DECLARED in manifest.observation:
+        return None
 
     recording = manifest.counts.get("recording_windows")
     if type(recording) is not int or recording <= 0:  # none, or a damaged manifest's

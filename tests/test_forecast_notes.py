@@ -354,3 +354,24 @@ def test_a_silent_sensor_is_named_whatever_makes_every_entry_static() -> None:
         assert notes[0].startswith("every entry forecasts its static rate")
         assert notes[1].startswith("the map's fixed sensor observed 18% of its logs' time")
         assert sum("aion build --observed" in n for n in notes) == 1
+
+
+def test_a_sensor_whose_spans_were_declared_is_not_told_to_declare_them() -> None:
+    """A fixed sensor recording 08:00-10:00 only, built with those spans declared (its
+    description reads 'windows with messages or --observed'): under half of its logs' time
+    is observed because it recorded no more, which build says nothing of; predict said 'only
+    the windows in which a log recorded a message ... declare the spans it was recording with
+    aion build --observed' at every time, for a map built so."""
+    declared = Manifest(
+        {}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+        families={"flow": {"profile": 4}, "scored_days": 5, "observed_bins": [8, 9]},
+        observation="fixed sensor over the 84 windows with messages or --observed (14.0 h of "
+        "a 155.0 h span)",
+    )
+    assert forecast_notes(declared, MONDAY + 8 * HOUR_NS) == []
+    static = Manifest(
+        {}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+        families={**declared.families, "flow": {"static": 4}},
+        observation=declared.observation,
+    )
+    assert not any("--observed" in n for n in forecast_notes(static, MONDAY + 8 * HOUR_NS))
