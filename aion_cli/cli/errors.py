@@ -171,6 +171,23 @@ def _silence_stdout() -> None:
         pass
 
 
+def _stdout_reader_gone() -> bool:
+    """Whether a broken pipe is stdout's: its reader has closed it (``| head``), which poll
+    reports on the write end as POLLERR. A broken pipe of anything else (a socket to a
+    scheduler, a child process's pipe) while stdout's reader still reads is a failure, not
+    a reader that stopped early. Where stdout has no file descriptor to ask (a test runner's
+    buffer), or poll is missing, it counts as stdout's."""
+    import select
+
+    try:
+        poller = select.poll()
+        poller.register(sys.stdout.fileno(), select.POLLOUT)
+        events = poller.poll(0)
+    except (OSError, ValueError, AttributeError):
+        return True
+    return any(event & (select.POLLERR | select.POLLHUP) for _, event in events)
+
+
 ENVIRONMENT = {
     errno.ENOSPC: "free some disk space or write to another place; an existing output is "
     "left unchanged",
@@ -228,7 +245,7 @@ def _file_in_the_way(name: object) -> str | None:
 
 
 def _report_os_error(exc: OSError) -> int:
-    if exc.errno == errno.EPIPE:  # stdout closed early (e.g. `| head`): not a failure
+    if exc.errno == errno.EPIPE and _stdout_reader_gone():  # `| head`: not a failure
         _silence_stdout()
         return EXIT_OK
     what = exc.strerror or str(exc)

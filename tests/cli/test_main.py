@@ -168,3 +168,37 @@ def test_ctrl_c_inside_a_constructor_prints_one_error_and_no_finalizer_traceback
     assert "Exception ignored" not in done.stderr
     assert_one_line_error(done.stderr, "interrupted")
     assert not (tmp_path / "m.aion").exists()
+
+
+_REPORT_A_BROKEN_PIPE = (
+    "import sys\n"
+    "from aion_cli.cli.errors import report\n"
+    "sys.exit(report(BrokenPipeError(32, 'Broken pipe'), False))\n"
+)
+
+
+def test_a_broken_pipe_is_quiet_only_when_stdouts_reader_has_gone() -> None:
+    """``| head`` closing stdout is no failure (exit 0, no message); a broken pipe of
+    something else (a scheduler's socket) while stdout's reader still reads is one."""
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    reading = subprocess.run(
+        [sys.executable, "-c", _REPORT_A_BROKEN_PIPE], cwd=root, capture_output=True,
+        text=True, check=False,
+    )
+    assert reading.returncode == 1
+    assert_one_line_error(reading.stderr, "Broken pipe")
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # the reader has gone before the child reports
+    try:
+        gone = subprocess.run(
+            [sys.executable, "-c", _REPORT_A_BROKEN_PIPE], cwd=root, stdout=write_end,
+            stderr=subprocess.PIPE, text=True, check=False,
+        )
+    finally:
+        os.close(write_end)
+    assert gone.returncode == 0
+    assert gone.stderr == ""
