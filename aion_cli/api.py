@@ -145,8 +145,17 @@ class Map:
         name = check.zone_name(tz)
         return resolve_zone(name if name is not None else self.timezone)
 
-    def _time(self, time: TimeLike, tz: object) -> tuple[int, Zone]:
+    def _time(
+        self, time: TimeLike, tz: object, after_ns: int | None = None
+    ) -> tuple[int, Zone]:
+        """``time`` in the map's zone (or ``tz``); ``after_ns``: the start of the span whose
+        end ``time`` is, which a clock alone, a day word or a relative string counts from
+        (``("2026-11-23 08:00", "10:00")`` is two hours, as ``--leave`` reads it)."""
         zone = self._zone(tz)
+        if after_ns is not None and isinstance(time, str):
+            from aion_cli.timeparse import from_ns, parse_time
+
+            return parse_time(time, zone, from_ns(after_ns, zone)), zone
         return to_ns(time, zone), zone
 
     def _path_ends(self, path: object) -> Any:
@@ -235,7 +244,7 @@ class Map:
         self._check_file()
         every = parse_step(check.step(step))
         t0, zone = self._time(start, tz)
-        t1, _ = self._time(end, tz)
+        t1, _ = self._time(end, tz, after_ns=t0)
         times = series_times(t0, t1, every, zone, ("start", "end"))
         table = predict_series(self._loaded, times, layer, wanted, point, top)
         labels = [format_ns(t, zone) for t in times]
@@ -289,9 +298,9 @@ class Map:
         from aion_cli.timeparse import parse_step
 
         every = parse_step(check.step("10m" if step is None else step))
-        earliest, latest = (
-            self._time(t, tz)[0] for t in check.pair(leave, "leave", "earliest, latest")
-        )
+        first, last = check.pair(leave, "leave", "earliest, latest")
+        earliest = self._time(first, tz)[0]
+        latest = self._time(last, tz, after_ns=earliest)[0]
         if latest <= earliest:  # as --leave START..END: one departure is time=, not a span
             raise InputError(
                 "leave: the latest departure is not after the earliest",

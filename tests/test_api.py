@@ -265,3 +265,17 @@ def test_the_api_s_input_errors_carry_a_hint(example: dict[str, Any]) -> None:
         with pytest.raises(aion.InputError) as exc:
             call()
         assert exc.value.hint, exc.value.message
+
+
+def test_a_spans_end_given_as_a_clock_counts_from_its_start(example: dict[str, Any]) -> None:
+    """``leave=("2026-01-12 07:00", "10:00")`` and ``predict_series(..., "20:00")`` end that
+    day, as ``--leave START..END`` and ``--from`` / ``--to`` read them (alone, ``"10:00"``
+    is today's)."""
+    m = example["m"]
+    best = m.plan("kitchen", "office 1", leave=("2026-01-12 07:00", "10:00"), step="30m",
+                  tz="UTC")
+    assert best.to_dict() == example["best"].to_dict()
+    day = m.predict_series("2026-01-12 06:00", "20:00", "1h", tz="UTC", layer="rooms")
+    assert day.to_dict() == example["day"].to_dict()
+    relative = m.predict_series("2026-01-12 06:00", "+14h", "1h", tz="UTC", layer="rooms")
+    assert relative.times_ns == example["day"].times_ns

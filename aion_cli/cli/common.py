@@ -78,10 +78,22 @@ def map_zone(tz: str | None, loaded: Any = None) -> Zone:
     return resolve_zone(tz)
 
 
-def resolve_time(text: str, tz: str | None, loaded: Any = None) -> tuple[int, Zone]:
-    """Parse ``text`` in :func:`map_zone`'s zone; the time and the zone."""
+def resolve_time(
+    text: str, tz: str | None, loaded: Any = None, after_ns: int | None = None
+) -> tuple[int, Zone]:
+    """Parse ``text`` in :func:`map_zone`'s zone; the time and the zone. ``after_ns``: the
+    start of the span ``text`` ends, which a clock alone or a relative form is read from
+    (``--from "2026-11-23 08:00" --to 18:00`` ends that day, not today)."""
     zone = map_zone(tz, loaded)
-    return parse_time(text, zone), zone
+    return parse_time(text, zone, _reference(after_ns, zone)), zone
+
+
+def _reference(start_ns: int | None, zone: Zone) -> Any:
+    """The moment an end's clock-only, day-word or relative form counts from: its span's
+    start (None: now)."""
+    from aion_cli.timeparse import from_ns
+
+    return None if start_ns is None else from_ns(start_ns, zone)
 
 
 def announce_time(
@@ -131,14 +143,17 @@ def series_of(
     from aion_cli.prediction_series import series_times
 
     start, zone = resolve_time(t_from, tz, loaded)
-    end, _ = resolve_time(t_to, tz, loaded)
+    end, _ = resolve_time(t_to, tz, loaded, after_ns=start)
     return series_times(start, end, parse_step(step), zone), zone
 
 
 def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
     """``START..END`` -> ``(start_ns, end_ns)`` for ``option`` (``--observed``, ``--leave``):
     each side is any form ``aion_cli.timeparse`` reads (ISO with or without zone, UNIX
-    seconds, ...), in ``zone`` unless it names one; the end must be after the start."""
+    seconds, ...), in ``zone`` unless it names one; an end that is a clock alone, a day word
+    or relative counts from the start (``"2026-11-23 08:00..10:00"`` is two hours, not a
+    span to today's 10:00; ``"08:00..+2h"`` ends at 10:00); the end must be after the
+    start."""
     from aion_cli.errors import InputError
     from aion_cli.timeparse import FORMS_HINT, TimeFormatError
 
@@ -149,7 +164,8 @@ def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
             hint=f'e.g. {option} "2017-06-09 09:00..2017-06-09 18:30" (times: {FORMS_HINT})',
         )
     try:
-        start, end = (parse_time(p, zone) for p in parts)
+        start = parse_time(parts[0], zone)
+        end = parse_time(parts[1], zone, _reference(start, zone))
     except TimeFormatError as exc:
         raise InputError(f"{option} {text!r}: {exc.message}", hint=exc.hint) from exc
     if end <= start:

@@ -137,3 +137,15 @@ def test_departures_share_the_shortest_path_and_each_times_forecast(
     assert searched.count(True) == 1
     assert searched.count(False) == 7
     assert len(predicted) == len(set(predicted))
+
+
+@pytest.mark.parametrize("end", ["12:00", "+6h", "2026-01-12 12:00"])
+def test_an_end_given_as_a_clock_or_relative_counts_from_the_start(
+    sample_map: Path, end: str
+) -> None:
+    """``--leave "2026-01-12 06:00..12:00"`` is six hours on the 12th (read alone, ``12:00``
+    is today's: 581 departures over days were planned for such a span)."""
+    doc = _plan(sample_map, "--leave", f"2026-01-12 06:00..{end}", "--step", "1h")
+    assert [r["depart"][:16] for r in doc["departures"]] == [
+        f"2026-01-12 {h:02d}:00" for h in range(6, 13)
+    ]

@@ -194,3 +194,20 @@ def test_one_digit_hour_and_a_trailing_zone_name() -> None:
     assert parse_time("9:30 pm", UTCZ, NOW) == parse_time("21:30", UTCZ, NOW)
     with pytest.raises(TimeFormatError):
         parse_time("2026-11-23 08:30 Narnia", UTCZ, NOW)
+
+
+def test_a_spans_end_counts_from_its_start_not_from_now() -> None:
+    """A clock alone, a day word or a relative end of ``START..END`` is read from START's
+    moment (the spans of --observed and --leave); a full date or UNIX seconds as given."""
+    from aion_cli.cli.common import parse_span
+    from aion_cli.timeparse import resolve_zone
+
+    berlin = resolve_zone("Europe/Berlin")
+    start, end = parse_span("2026-03-28 22:00..tomorrow 06:00", berlin, "--observed")
+    assert (end - start) // 10**9 == 7 * 3600  # the night of the spring clock change
+    start, end = parse_span("2017-06-09 09:00..18:30", resolve_zone("UTC"), "--observed")
+    assert (start, end) == (1496998800 * 10**9, 1497033000 * 10**9)
+    start, end = parse_span("1497000600..+2h", resolve_zone("UTC"), "--leave")
+    assert end - start == 2 * 3600 * 10**9
+    with pytest.raises(InputError, match="the end is not after the start"):
+        parse_span("2017-06-09 22:00..06:00", resolve_zone("UTC"), "--observed")
