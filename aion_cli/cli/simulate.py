@@ -364,7 +364,7 @@ def simulate(
         detection_type=detection_type,
         start=start,
         utc_offset_h=utc_offset,
-        timezone=tz,
+        timezone=None if tz is None else _zone_name(tz),
         rate_hz=rate,
         noise=noise,
         window_s=window,
@@ -400,3 +400,11 @@ if __name__ == "__main__":  # samples/regenerate.sh runs this module directly
         simulate(standalone_mode=False)
     except Exception as exc:
         sys.exit(report(exc, False))
+
+
+def _zone_name(tz: str) -> str:
+    """``--tz`` as the scene's zone name: ``local`` is the machine's zone by its name, as
+    ``build --tz local`` stores it (the truth and the log then name a real zone)."""
+    from aion_cli.timeparse import resolve_zone
+
+    return resolve_zone(tz).name if tz.strip().lower() == "local" else tz

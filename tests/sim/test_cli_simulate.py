@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from aion_cli.cli.main import cli
@@ -216,3 +217,20 @@ def test_the_truth_records_one_zone_the_clock_followed(tmp_path: Path) -> None:
         config = json.loads((tmp_path / f"z{n}.mcap.truth.json").read_text())["config"]
         assert config["timezone"] == zone
         assert "utc_offset_h" not in config
+
+
+def test_tz_local_is_the_machines_zone_by_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--tz local`` names the machine's zone, as ``build --tz local`` stores it; it was
+    refused as an unknown zone 'local'."""
+    from aion_cli import timeparse
+
+    monkeypatch.delenv("TZ", raising=False)
+    monkeypatch.setattr(timeparse, "_zone_name_from_system", lambda: "Asia/Tokyo")
+    log = tmp_path / "local.mcap"
+    code, output = _run("simulate", "-o", log, "--days", "0.01", "--start", "2026-07-06T12:00",
+                        "-q", "--tz", "local")  # fmt: skip
+    assert code == 0, output
+    config = json.loads((tmp_path / "local.mcap.truth.json").read_text())["config"]
+    assert config["timezone"] == "Asia/Tokyo"
