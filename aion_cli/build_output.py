@@ -58,6 +58,7 @@ def write_build(
         SILENT_HINT,
         between_logs_note,
         map_observation_text,
+        share_text,
     )
     from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
@@ -94,9 +95,9 @@ def write_build(
     # this build's own logs had spans declared (its text says so)
     if share is not None and share < 0.5 and DECLARED not in report.observation:
         report.notes.append(
-            f"the fixed sensor observed {share:.0%} of its logs' time (the windows in which a "
-            f"log recorded a message, each log from its first message to its last; the rest "
-            f"is unknown, not empty): {SILENT_HINT}"
+            f"the fixed sensor observed {share_text(share)} of its logs' time (the windows in "
+            "which a log recorded a message, each log from its first message to its last; the "
+            f"rest is unknown, not empty): {SILENT_HINT}"
         )
     if declared and fixed is not None:
         between = between_logs_note(declared, report.recording_spans, fixed[3])

@@ -26,6 +26,17 @@ if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
     from aion_cli.engine.observation import ObservationSource
 
+def share_text(share: float) -> str:
+    """A share of time observed as a whole percentage that reads 0 % or 100 % only when it
+    is: ``"<1%"`` for 0.4 %, ``">99%"`` for 99.6 % (``"0%"`` had read as nothing observed)."""
+    text = f"{share:.0%}"
+    if share > 0.0 and text == "0%":
+        return "<1%"
+    if share < 1.0 and text == "100%":
+        return ">99%"
+    return text
+
+
 FIXED_SENSOR_OVER = "fixed sensor over"
 """How the description of a fixed sensor's recorded windows starts (:func:`fixed_sensor_text`)."""
 

@@ -90,14 +90,14 @@ def all_static(manifest: Manifest) -> str | None:
         f"on the map's {days} scored days no daily or weekly rhythm forecast the next day "
         "better than that rate"
     )
-    from aion_cli.fixed_sensor import SILENT_HINT
+    from aion_cli.fixed_sensor import SILENT_HINT, share_text
 
     share = _sensor_share(manifest)
     if share is not None and share < 0.5:
         recording = manifest.counts.get("recording_windows")
         whose = "its logs'" if type(recording) is int and recording > 0 else "the"
         text += (
-            f" (its fixed sensor observed {share:.0%} of {whose} time: only the windows in "
+            f" (its fixed sensor observed {share_text(share)} of {whose} time: only the windows in "
             f"which a log recorded a message; {SILENT_HINT})"
         )
     return text
@@ -288,15 +288,17 @@ def silent_sensor(manifest: Manifest) -> str | None:
     """The note for a fixed sensor that observed less than half of its logs' own time: if its
     tracker is silent when nobody is there, the windows observed are those with someone in
     them, and every forecast runs high (its nights and quiet hours most); None otherwise."""
+    from aion_cli.fixed_sensor import share_text
+
     share = _sensor_share(manifest)
     if share is None or share >= 0.5:
         return None
     return (
-        f"the map's fixed sensor observed {share:.0%} of its logs' time (only the windows in "
-        "which a log recorded a message; the rest is unknown, not empty): if its tracker is "
-        "silent when nobody is there, the windows observed are those with someone in them and "
-        "the forecast runs high, most in quiet hours: declare the spans it was recording with "
-        "aion build --observed"
+        f"the map's fixed sensor observed {share_text(share)} of its logs' time (only the "
+        "windows in which a log recorded a message; the rest is unknown, not empty): if its "
+        "tracker is silent when nobody is there, the windows observed are those with someone "
+        "in them and the forecast runs high, most in quiet hours: declare the spans it was "
+        "recording with aion build --observed"
     )
 
 

@@ -375,3 +375,19 @@ def test_a_sensor_whose_spans_were_declared_is_not_told_to_declare_them() -> Non
         observation=declared.observation,
     )
     assert not any("--observed" in n for n in forecast_notes(static, MONDAY + 8 * HOUR_NS))
+
+
+def test_a_sensor_that_observed_a_sliver_of_its_time_does_not_read_0_percent() -> None:
+    """2 windows with messages of a 500-window span is 0.4 %: the note read "observed 0% of
+    its logs' time", as if nothing had been observed; it reads "<1%"."""
+    from aion_cli.fixed_sensor import share_text
+
+    sliver = "fixed sensor over the 2 windows with messages (0.3 h of a 83.3 h span)"
+    manifest = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+                        families={"flow": {"profile": 4}, "scored_days": 5,
+                                  "observed_bins": [8, 9]}, observation=sliver)
+    notes = forecast_notes(manifest, MONDAY + 8 * HOUR_NS)
+    assert notes[0].startswith("the map's fixed sensor observed <1% of its logs' time"), notes
+    assert [share_text(s) for s in (0.0, 0.004, 0.005, 0.0051, 0.18, 0.994, 0.996, 1.0)] == [
+        "0%", "<1%", "<1%", "1%", "18%", "99%", ">99%", "100%"
+    ]

@@ -447,6 +447,8 @@ def _print(report: dict[str, Any]) -> None:
         )
     fixed = report.get("fixed_sensor")
     if fixed and fixed["span_windows"]:
+        from aion_cli.fixed_sensor import share_text
+
         share = fixed["windows_with_messages"] / fixed["span_windows"]
         why = (
             "no TF, and the scene graph's agent layer holds no robot poses"
@@ -457,7 +459,7 @@ def _print(report: dict[str, Any]) -> None:
             f"no robot trajectory ({why}): `aion build` takes the log as a fixed "
             f"sensor over the {fixed['windows_with_messages']:,} "
             f"window{'' if fixed['windows_with_messages'] == 1 else 's'} of "
-            f"{fixed['window_s'] / 60:g} min with messages, {share:.0%} of its span"
+            f"{fixed['window_s'] / 60:g} min with messages, {share_text(share)} of its span"
         )
         if share < 0.5:
             text += (
