@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import json
-import os
 import re
 import shutil
 from datetime import UTC, datetime
@@ -16,6 +15,7 @@ from click.testing import CliRunner
 
 import aion_cli as aion
 from aion_cli.cli.main import cli
+from tests.doc_blocks import run_blocks
 
 REPO = Path(__file__).resolve().parents[1]
 AT = "2026-01-12 08:40"
@@ -45,13 +45,7 @@ def example(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     folder = tmp_path_factory.mktemp("api")
     (folder / "samples").mkdir()
     shutil.copy(REPO / "samples" / "office.mcap", folder / "samples" / "office.mcap")
-    cwd = Path.cwd()
-    os.chdir(folder)
-    try:
-        scope: dict[str, Any] = {}
-        exec(compile(_example(), "docs/API.md", "exec"), scope)
-    finally:
-        os.chdir(cwd)
+    scope = run_blocks(folder, "docs/API.md", _example())
     scope["folder"] = folder
     return scope
 

@@ -6,13 +6,13 @@ compact examples run (its first example runs in tests/test_api.py), and so does 
 from __future__ import annotations
 
 import inspect
-import os
 import re
 import shutil
 from pathlib import Path
 from typing import Any
 
 import aion_cli as aion
+from tests.doc_blocks import run_blocks
 
 REPO = Path(__file__).resolve().parents[1]
 API = (REPO / "docs" / "API.md").read_text()
@@ -99,14 +99,7 @@ def test_the_merge_and_compact_examples_run(tmp_path: Path) -> None:
     assert len(examples) == 2
     names = re.findall(r'aion\.merge\(\["(\w+\.aion)", "(\w+\.aion)"\]', examples[0])[0]
     _two_maps(tmp_path, names)
-    cwd = Path.cwd()
-    os.chdir(tmp_path)
-    try:
-        scope: dict[str, Any] = {}
-        exec(compile(examples[0], "docs/API.md", "exec"), scope)
-        exec(compile(examples[1], "docs/API.md", "exec"), scope)
-    finally:
-        os.chdir(cwd)
+    scope = run_blocks(tmp_path, "docs/API.md", examples[0], examples[1])
     assert scope["week"].report.lineage == "same"
     assert (tmp_path / "week-robot.aion").stat().st_size < (tmp_path / "week.aion").stat().st_size
 
@@ -122,13 +115,7 @@ def test_the_readme_python_example_runs(tmp_path: Path) -> None:
     _two_maps(tmp_path, names)
     later = re.findall(r'm\.holdout\(\["([\w.]+)"\]\)', block)[0]
     _simulated(tmp_path / later, "2026-01-12T08:00")
-    cwd = Path.cwd()
-    os.chdir(tmp_path)
-    try:
-        scope: dict[str, Any] = {}
-        exec(compile(block, "README.md", "exec"), scope)
-    finally:
-        os.chdir(cwd)
+    scope = run_blocks(tmp_path, "README.md", block)
     assert isinstance(scope["m"], aion.Map)
     assert isinstance(scope["t"], aion.Table)
     assert isinstance(scope["p"], aion.Plan)

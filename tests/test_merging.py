@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import re
 import tempfile
 from pathlib import Path
@@ -29,6 +28,7 @@ from aion_cli.formats.mapfile import read_manifest
 from aion_cli.manifest import Manifest
 from aion_cli.mapquery import load_map
 from aion_cli.merging import merge_map_files
+from tests.doc_blocks import run_blocks
 from tests.engine.engine_builders import (
     T0,
     S,
@@ -370,13 +370,7 @@ def test_the_api_merges_as_docs_api_md_shows(tmp_path: Path) -> None:
     fixed_sensor_map(tmp_path / "wednesday.aion", ("wed.mcap",), T0 + 2 * DAY, seed=2)
     text = (Path(__file__).resolve().parents[1] / "docs" / "API.md").read_text()
     block = next(b for b in re.findall(r"```python\n(.*?)```", text, flags=re.S) if "merge(" in b)
-    cwd = Path.cwd()
-    os.chdir(tmp_path)
-    try:
-        scope: dict[str, object] = {}
-        exec(compile(block, "docs/API.md", "exec"), scope)
-    finally:
-        os.chdir(cwd)
+    scope = run_blocks(tmp_path, "docs/API.md", block)
     week = scope["week"]
     import aion_cli as aion
     from aion_cli.api import Map, compact, merge
