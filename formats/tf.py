@@ -7,7 +7,8 @@ by BFS over the undirected frame tree, interpolates every dynamic edge between i
 samples exactly like tf2's ``TimeCache::interpolate`` (linear translation, quaternion slerp) and
 composes the chain, all vectorized over the query times.
 
-Query times outside an edge's recorded range (plus a tolerance, 0.1 s by default) are flagged
+Query times outside an edge's recorded range (plus a tolerance, 0.1 s by default), or inside a
+gap of more than 10 s between two of its samples (beyond the tolerance of both), are flagged
 ``ok = False`` and their outputs are NaN: the caller counts the drops, nothing returns made-up
 poses. Unknown frames or frames without a chain raise :class:`TransformError`.
 
@@ -33,6 +34,9 @@ from aion_cli.formats.quaternions import quat_to_matrix, slerp
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
 LOOKUP_BLOCK_ROWS = 16_384
+MAX_GAP_S = 10.0
+"""The longest gap between an edge's samples a lookup interpolates across (tf2's default
+cache length): a longer one is time the transform was not known (``TfBuffer(max_gap_s=...)``)."""
 """Query times composed at once by :meth:`TfBuffer.lookup` (about 16 MB of temporaries)."""
 
 
@@ -121,16 +125,30 @@ class TfBuffer:
 
     ``tolerance_s``: how far outside an edge's recorded time range a lookup still succeeds
     (using the nearest sample), like a short hold; beyond it, ``ok`` is False.
+    ``max_gap_s``: the longest gap between two samples of an edge that is interpolated
+    across (tf2's default cache length, 10 s); a time inside a longer gap, farther than
+    ``tolerance_s`` from both samples, is not ``ok`` (localisation lost, TF stopped): a
+    robot pose made up across it would place detections and count windows as observed
+    where the robot may never have been.
     ``block_rows``: query times composed at once (bounds a lookup's temporaries; the results
     do not depend on it).
     """
 
-    def __init__(self, tolerance_s: float = 0.1, *, block_rows: int = LOOKUP_BLOCK_ROWS) -> None:
+    def __init__(
+        self,
+        tolerance_s: float = 0.1,
+        *,
+        block_rows: int = LOOKUP_BLOCK_ROWS,
+        max_gap_s: float = MAX_GAP_S,
+    ) -> None:
         if not np.isfinite(tolerance_s) or tolerance_s < 0:
             raise TransformError(f"TF tolerance must be >= 0 s, got {tolerance_s}")
+        if not (max_gap_s > 0):  # inf allowed: interpolate across any gap
+            raise TransformError(f"TF interpolation gap must be > 0 s, got {max_gap_s}")
         if not (isinstance(block_rows, int) and block_rows >= 1):
             raise TransformError(f"TF lookup block must be >= 1 row, got {block_rows!r}")
         self.tolerance_ns = round(tolerance_s * 1e9)
+        self.max_gap_ns = float(max_gap_s) * 1e9
         self.block_rows = block_rows
         self._dynamic: dict[tuple[str, str], _EdgeSeries] = {}
         self._static: dict[tuple[str, str], tuple[F64, F64]] = {}  # (R[3,3], t[3])
@@ -364,6 +382,9 @@ class TfBuffer:
         hi = np.searchsorted(stamps, tc, side="left")  # first stamp >= tc, always valid
         lo = np.maximum(hi - 1, 0)  # at a sample stamp alpha is 1 (or span 0): the sample
         span = (stamps[hi] - stamps[lo]).astype(np.float64)
+        # inside a gap longer than max_gap_ns only within tolerance of one of its two samples
+        near = np.minimum(tc - stamps[lo], stamps[hi] - tc) <= self.tolerance_ns
+        ok &= (span <= self.max_gap_ns) | near
         alpha = (tc - stamps[lo]).astype(np.float64) / np.where(span > 0, span, 1.0)
         tr_out = trans[lo] + alpha[:, None] * (trans[hi] - trans[lo])
         return _Tf(quat_to_matrix(slerp(quats[lo], quats[hi], alpha)), tr_out, ok)

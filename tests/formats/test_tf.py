@@ -337,3 +337,27 @@ def test_connected_frames_are_the_tree_around_a_frame() -> None:
     assert buf.connected("nowhere") == {"nowhere"}
     with pytest.raises(TransformError, match="no transform chain"):
         buf.lookup("map", "laser", [5])
+
+
+def test_no_interpolation_across_a_long_gap() -> None:
+    """An edge silent for an hour (localisation lost) is not made up across the gap: only
+    within the tolerance of a sample, or across gaps up to max_gap_s (10 s), is it ok."""
+    s = 1_000_000_000
+    stamps = np.array([0, 1, 2, 3602, 3603], np.int64) * s
+    xs = np.array([0.0, 1.0, 2.0, 50.0, 51.0])
+    buf = TfBuffer()
+    trans = np.column_stack([xs, np.zeros(5), np.zeros(5)])
+    buf.add_transforms("map", "odom", stamps, trans, np.tile([0.0, 0.0, 0.0, 1.0], (5, 1)))
+    t = np.array([1.5 * s, 2 * s + s // 20, 1800 * s, 3602 * s - s // 20, 3602 * s])
+    _, tr, ok = buf.lookup("map", "odom", t)
+    assert ok.tolist() == [True, True, False, True, True]
+    assert tr[0, 0] == pytest.approx(1.5)
+    assert np.isnan(tr[2]).all()
+    # a gap within the limit is interpolated; max_gap_s=inf interpolates across any
+    wide = TfBuffer(max_gap_s=float("inf"))
+    wide.add_transforms("map", "odom", stamps, trans, np.tile([0.0, 0.0, 0.0, 1.0], (5, 1)))
+    _, tr_w, ok_w = wide.lookup("map", "odom", t[2:3])
+    assert ok_w.all()
+    assert tr_w[0, 0] == pytest.approx(2.0 + 48.0 * 1798 / 3600)
+    with pytest.raises(TransformError):
+        TfBuffer(max_gap_s=0)
