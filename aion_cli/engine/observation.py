@@ -149,7 +149,10 @@ class ObservationSource:
         poses = np.unique(self.pose_xy[i0:i1], axis=0)
         from aion_cli.engine.nearest import horizontal_tree
 
-        dist, _ = horizontal_tree(poses).query(entry_xy, k=1, distance_upper_bound=sensor_range)
+        # the tree's bound is strict (an entry exactly sensor_range away came back inf,
+        # unobserved): query just beyond it, keep "this close" inclusive
+        bound = float(np.nextafter(sensor_range, np.inf))
+        dist, _ = horizontal_tree(poses).query(entry_xy, k=1, distance_upper_bound=bound)
         mask: BoolA = dist <= sensor_range
         return mask
 

@@ -40,6 +40,17 @@ def test_trajectory_observes_entries_within_sensor_range_horizontally() -> None:
     np.testing.assert_array_equal(obs.observed(entries, 1, DELTA, 8.0), [False] * 4)
 
 
+def test_an_entry_exactly_at_sensor_range_is_observed() -> None:
+    """README: "an entry is observed in a window when the robot came this close": at exactly
+    sensor_range it did (the k-d tree's bound is strict: such entries went unobserved)."""
+    obs = ObservationSource()
+    obs.add_trajectory(_poses([10.0], [(1.0, 2.0)]))
+    entries = np.array([[9.0, 2.0], [1.0, -6.0], [-7.0, 2.0], [9.0 + 1e-9, 2.0]])
+    truth = np.hypot(entries[:, 0] - 1.0, entries[:, 1] - 2.0) <= 8.0
+    np.testing.assert_array_equal(truth, [True, True, True, False])
+    np.testing.assert_array_equal(obs.observed(entries, 0, DELTA, 8.0), truth)
+
+
 def test_poses_count_only_in_their_own_window() -> None:
     obs = ObservationSource()
     obs.add_trajectory(_poses([1300.0], [(0.0, 0.0)]))  # window 2
