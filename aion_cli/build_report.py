@@ -121,6 +121,9 @@ class BuildReport:
     #: --observed: the windows without a message its spans added (None without --observed;
     #: a parallel build adds its shards' up into one note, ``fixed_sensor.observed_note``)
     observed_added: int | None = None
+    #: a robot trajectory: its windows without a detection message (None without one; a
+    #: parallel build adds its shards' up into one note, ``tf_feed.silent_note``)
+    silent_windows: tuple[int, int] | None = None  # (windows, window ns)
     #: the earliest detection time of the first batch learnt (not in the JSON): whether the
     #: logs start before a continued map's data ends (``log_times.overlap_note``)
     first_detection_ns: int | None = None

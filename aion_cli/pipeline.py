@@ -78,6 +78,7 @@ from aion_cli.topics import TopicPlan, no_detection_topic
 if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
     from aion_cli.engine.state import MapState
+    from aion_cli.engine.types import I64
     from aion_cli.formats.tf import TfBuffer
 
 __all__ = ["MAP_SUFFIX", "BuildOptions", "build_map"]
@@ -122,6 +123,8 @@ class _Build(StreamStep):
         self._logs: tuple[Path, ...] = tuple(opts.logs)  # the distinct logs (by sha256)
         self._times = TopicTimes(()).check(())
         self._whole_times = self._times  # without a time shard's limits
+        # the windows holding a detection message (a robot's windows without one are noted)
+        self._detection_windows: I64 | None = None
         self._part_total: int | None = None  # a time shard's messages to stream
         self._map_open: int | None = None  # a continued map's open window when loaded
         self._tally = MapperTally(0)  # what the Mapper accepted and dropped, per topic
@@ -317,6 +320,9 @@ class _Build(StreamStep):
         )
         tf_topics = plan.names("tf") if plan.tf else set()
         self._times = self._whole_times = check_times(times, plan, timed, self.report)
+        self._detection_windows = times.windows(
+            plan.names("detections"), window_ns(self.config().window_s)
+        )
         if self.time_part is not None:
             self._times = self._whole_times.limited(*self.time_part)
             self._part_total = times.count_inside(timed, *self.time_part)
@@ -367,7 +373,7 @@ class _Build(StreamStep):
         frames = (self.opts.map_frame, self.opts.base_frame)
         observe(
             mapper, tf, frames, graph_agents, logset, self._times, self.report,
-            self.opts.observed,
+            self.opts.observed, self._detection_windows,
         )
 
     def _fixed_graph(

@@ -22,6 +22,7 @@ from aion_cli.fixed_sensor import (
     observed_note,
 )
 from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
+from aion_cli.tf_feed import SILENT_NOTE, silent_note
 
 
 def counts_of(report: BuildReport) -> Any:
@@ -88,8 +89,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
             else:
                 _add_nested(have, {k: v for k, v in info.items() if isinstance(v, int)})
         for line in p.notes:
-            if line.startswith(OBSERVED_NOTE):  # added up below, one note as one pass gives
-                continue
+            if line.startswith((OBSERVED_NOTE, SILENT_NOTE)):  # added up below, one note as
+                continue  # one pass gives
             if line not in out.notes and not line.startswith(GRAPH_COUNTS_NOTE):
                 out.notes.append(line)
         for line in p.warnings:
@@ -105,6 +106,11 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         delta = next((p.fixed_windows[3] for p in parts if p.fixed_windows is not None), 0)
         out.observed_added = sum(added)
         out.notes.append(observed_note(out.observed_added, delta))
+    silent = [p.silent_windows for p in parts if p.silent_windows is not None]
+    if silent:
+        out.silent_windows = (sum(n for n, _ in silent), silent[0][1])
+        if out.silent_windows[0]:
+            out.notes.append(silent_note(*out.silent_windows))
     note = graph_counts_note(out)  # the shards' counts added up
     if note is not None:
         out.notes.append(note)

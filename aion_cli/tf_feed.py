@@ -21,7 +21,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.engine.mapper import TIME_RANGE_TEXT
-from aion_cli.engine.types import Trajectory
+from aion_cli.engine.types import I64, Trajectory
+from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, MessageDecodeError, TransformError
 from aion_cli.fixed_sensor import fixed_sensor_windows
 from aion_cli.graph_schedule import GraphTimes
@@ -250,13 +251,16 @@ def observe(
     times: TimeCheck,
     report: BuildReport,
     declared: tuple[tuple[int, int], ...] = (),
+    detection_windows: I64 | None = None,
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
     graphs' agent layer when the first graph has one (``graph_agents``; its poses are fed
     per snapshot); else a fixed sensor over the windows it recorded in and the ``declared``
     spans (:func:`fixed_sensor_windows`; with a robot's observation they are ignored, with
-    a warning: its poses say what it saw)."""
+    a warning: its poses say what it saw). ``detection_windows``: the windows holding a
+    message of a detection topic; the robot's windows without one are counted in a note
+    (:func:`silent_note`)."""
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
@@ -267,6 +271,13 @@ def observe(
             traj = Trajectory(np.asarray(traj.t_ns)[part], np.asarray(traj.xyz)[part])
         mapper.add_trajectory(traj)
         report.observation = f"tf {map_frame}->{base_frame}"
+        if detection_windows is not None:
+            delta = window_ns(mapper.state.config.window_s)
+            robot = np.unique(np.asarray(traj.t_ns, dtype=np.int64) // delta)
+            silent = np.setdiff1d(robot, detection_windows, assume_unique=True)
+            report.silent_windows = (int(silent.size), delta)
+            if silent.size:
+                report.notes.append(silent_note(int(silent.size), delta))
         _ignored(declared, report.observation, report.warnings)
     elif graph_agents():
         report.observation = "scene-graph agent layer"  # fed per snapshot
@@ -280,6 +291,21 @@ def observe(
             "treated as a fixed sensor that saw everything in the windows in which it "
             "recorded any message, within the time of the topics aion uses"
         )
+
+
+SILENT_NOTE = "robot trajectory: "
+
+
+def silent_note(n: int, delta: int) -> str:
+    """The note on ``n`` windows the robot's poses observe in which no detection topic
+    recorded a message (a parallel build adds its shards' up into one)."""
+    return (
+        f"{SILENT_NOTE}{n:,} window(s) ({n * delta / 3.6e12:,.1f} h) with robot poses hold "
+        "no message of the detection topic(s): they count as observed and empty (nobody "
+        "there); a tracker that publishes only when it sees someone leaves them so, but one "
+        "that was down then (crashed, not started) did not observe them: leave that time "
+        "out of the logs"
+    )
 
 
 def _no_trajectory(tf: TfBuffer, map_frame: str, base_frame: str) -> str:

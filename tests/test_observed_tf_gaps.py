@@ -10,6 +10,7 @@ import numpy as np
 
 from aion_cli.mapquery import load_map
 from aion_cli.pipeline import BuildOptions, build_map
+from aion_cli.tf_feed import silent_note
 
 S = 1_000_000_000
 WINDOW = 600
@@ -41,10 +42,13 @@ def _robot_x(t: int) -> float:
     return 80 * phase if phase < 0.5 else 80 * (1 - phase)
 
 
-def _write(path: Path, seconds: int) -> dict[str, set[int]]:
-    """The log (map->odom at 1 Hz but while lost, odom->base_link at 5 Hz, people seen from
-    base_link every second) and the truth: per spot, the windows from its first detection on
-    in which the localised robot came within RANGE of it."""
+def _write(
+    path: Path, seconds: int, lost: tuple[int, int] = LOST, crash: tuple[int, int] = (0, 0)
+) -> dict[str, set[int]]:
+    """The log (map->odom at 1 Hz but while ``lost``, odom->base_link at 5 Hz, people seen
+    from base_link every second but while the tracker is down, ``crash``) and the truth: per
+    spot, the windows from its first detection on in which the localised robot came within
+    RANGE of it."""
     from aion_cli.formats.writers import LogWriter
 
     truth: dict[str, set[int]] = {}
@@ -53,7 +57,7 @@ def _write(path: Path, seconds: int) -> dict[str, set[int]]:
         for t in range(seconds):
             t_ns = (T0 + t) * S
             x, drift = _robot_x(t), 0.01 * t
-            localised = not LOST[0] <= t < LOST[1]
+            localised = not lost[0] <= t < lost[1]
             if localised:
                 writer.write("/tf", "tf2_msgs/msg/TFMessage", _tf(t_ns, "map", "odom", drift), t_ns)
             for k in range(5):
@@ -68,6 +72,8 @@ def _write(path: Path, seconds: int) -> dict[str, set[int]]:
                         truth.setdefault(name, set()).add((T0 + t) // WINDOW)
                     pose = {"position": {"x": sx - x, "y": sy, "z": 0.0}, "orientation": {"w": 1.0}}
                     tracks.append({"track_id": i, "is_matched": True, "pose": {"pose": pose}})
+            if crash[0] <= t < crash[1]:
+                continue
             det_ns = t_ns + S // 2
             header = {"stamp": _stamp(det_ns), "frame_id": "base_link"}
             people = {"header": header, "tracks": tracks}
@@ -109,3 +115,26 @@ def test_lost_localisation_is_not_observed(tmp_path: Path) -> None:
     assert got == truth
     lost = set(range((T0 + LOST[0]) // WINDOW, (T0 + LOST[1]) // WINDOW))
     assert not lost & set().union(*got.values())
+
+
+def test_a_silent_tracker_on_a_moving_robot_is_noted(tmp_path: Path) -> None:
+    """The tracker publishes nothing for an hour while the robot drives on: its poses count
+    those windows as observed and empty, which the build cannot tell from an empty corridor;
+    it says how many there are (all six of the hour; with two workers the log is cut into
+    time shards inside that hour, and their counts add up into the one note)."""
+    log = tmp_path / "crash.mcap"
+    crash = (3600, 7200)
+    _write(log, 3 * 3600, lost=(0, 0), crash=crash)
+    windows = (crash[1] - crash[0]) // WINDOW  # the robot moves on throughout
+    for workers in (1, 2):
+        out = tmp_path / f"crash{workers}.aion"
+        report = build_map(BuildOptions(logs=(log,), output=out, workers=workers))
+        assert (len(report.workers) > 1) == (workers > 1)  # cut into shards, or not
+        silent = [n for n in report.notes if n.startswith("robot trajectory: ")]
+        assert silent == [silent_note(windows, WINDOW * S)]
+        assert report.silent_windows == (windows, WINDOW * S)
+    quiet = tmp_path / "quiet.mcap"  # the same log with the tracker up throughout
+    _write(quiet, 3 * 3600, lost=(0, 0))
+    report = build_map(BuildOptions(logs=(quiet,), output=tmp_path / "quiet.aion"))
+    assert not [n for n in report.notes if n.startswith("robot trajectory: ")]
+    assert report.silent_windows == (0, WINDOW * S)
