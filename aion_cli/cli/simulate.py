@@ -299,7 +299,8 @@ def _event_counts(r: SceneResult) -> str:
     type=float,
     default=10.0,
     show_default=True,
-    help="Seconds between /tf (and empty detection) messages while nothing moves.",
+    help="Seconds between /tf (and empty detection) messages while nothing moves; a robot's "
+    "at most 10 s (aion build takes a longer TF gap as a pose unknown).",
 )
 @click.option("--no-mesh", is_flag=True, help="Leave the mesh out of the scene graphs.")
 @click.option(

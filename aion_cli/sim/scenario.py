@@ -20,6 +20,7 @@ import numpy as np
 
 from aion_cli.errors import InputError
 from aion_cli.formats.serialize import clean
+from aion_cli.formats.tf import MAX_GAP_S
 from aion_cli.sim.agents import AgentSamples, agent_speeds, simulate_agents
 from aion_cli.sim.clock import SceneClock
 from aion_cli.sim.environment import Environment, load_graph_environment
@@ -80,6 +81,13 @@ class ScenarioConfig:
     stream: StreamConfig = field(default_factory=StreamConfig)
     rhythm: Rhythm = field(default_factory=Rhythm)
 
+    def _tf_gap_s(self) -> float:
+        """Seconds between a parked robot's TF messages: ``tf_idle_s`` in whole sensor ticks
+        (at least one), as :func:`aion_cli.sim.writer.write_scene_log` publishes them."""
+        if not (self.rate_hz > 0 and self.tf_idle_s > 0):
+            return 0.0
+        return max(round(self.tf_idle_s * self.rate_hz), 1) / self.rate_hz
+
     def resolved_frame(self) -> str:
         return self.frame or ("map" if self.robot == "fixed" else "base_link")
 
@@ -120,6 +128,14 @@ class ScenarioConfig:
             ),
             (self.patrol.tour_every_s > 0, "the patrol interval must be positive"),
             (self.tf_idle_s > 0, "the TF period must be positive"),
+            (
+                self.tf_idle_s <= 0 or self.robot == "fixed" or self._tf_gap_s() <= MAX_GAP_S,
+                f"a parked robot's TF would come every {self._tf_gap_s():g} s (--tf-idle-period "
+                f"in ticks of --rate): aion build takes a gap over {MAX_GAP_S:g} s between TF "
+                "samples as time the robot's pose was unknown (tf2's cache length), so the "
+                "parked robot would observe nothing: give a shorter --tf-idle-period or a "
+                "higher --rate",
+            ),
             (self.patrol.sensor_range > 0, "the sensor range must be positive"),
             (
                 self.nav_layer is None or self.environment != "office",

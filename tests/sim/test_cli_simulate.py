@@ -9,6 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from aion_cli.cli.main import cli
+from tests.cli.conftest import assert_one_line_error
 
 
 def _run(*args: str | Path) -> tuple[int, str]:
@@ -234,3 +235,23 @@ def test_tz_local_is_the_machines_zone_by_name(
     assert code == 0, output
     config = json.loads((tmp_path / "local.mcap.truth.json").read_text())["config"]
     assert config["timezone"] == "Asia/Tokyo"
+
+
+def test_a_parked_robots_tf_gap_aion_would_not_bridge_is_refused(tmp_path: Path) -> None:
+    """``aion build`` takes a gap over 10 s between TF samples as time the pose was unknown
+    (tf2's cache length): a patrol robot whose parked heartbeat is 30 s apart, or 13.3 s
+    (10 s in whole ticks of 0.15 Hz), would observe nothing while parked, so the log would
+    disagree with its own truth; the default (10 s at 2 Hz) and a fixed sensor (no TF) are
+    written."""
+    for extra, every in (
+        (("--tf-idle-period", "30"), "every 30 s"),
+        (("--rate", "0.15"), "every 13.3333 s"),
+    ):
+        code, output = _run("simulate", "-o", tmp_path / "x.mcap", "--quiet", "--days", "0.01",
+                            *extra)  # fmt: skip
+        assert code == 2, (extra, output)
+        assert_one_line_error(output, every, "--tf-idle-period")
+    for extra in ((), ("--robot", "fixed", "--tf-idle-period", "30")):
+        log = tmp_path / f"ok{len(extra)}.mcap"
+        code, output = _run("simulate", "-o", log, "--quiet", "--days", "0.01", *extra)
+        assert code == 0, (extra, output)
