@@ -34,10 +34,10 @@ from aion_cli.formats.quaternions import quat_to_matrix, slerp
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
 LOOKUP_BLOCK_ROWS = 16_384
+"""Query times composed at once by :meth:`TfBuffer.lookup` (about 16 MB of temporaries)."""
 MAX_GAP_S = 10.0
 """The longest gap between an edge's samples a lookup interpolates across (tf2's default
 cache length): a longer one is time the transform was not known (``TfBuffer(max_gap_s=...)``)."""
-"""Query times composed at once by :meth:`TfBuffer.lookup` (about 16 MB of temporaries)."""
 
 
 def normalize_frame(frame_id: str) -> str:
