@@ -9,7 +9,6 @@ data (tables asked for with ``--format table``, JSON, CSV) goes to stdout throug
 from __future__ import annotations
 
 import errno
-import os
 import re
 import sys
 from typing import TYPE_CHECKING
@@ -32,19 +31,11 @@ class _Console(Console):
             # stderr's reader left (``2>&1 >out.csv | head -1``): the notes are lost, the
             # command carries on and writes its data; a broken pipe here would end it with
             # exit 0 and no output. stderr goes to /dev/null so the final flush cannot fail.
-            _silence(sys.stderr)
+            from aion_cli.cli.errors import silence
+
+            silence(sys.stderr)
             return
         raise BrokenPipeError(errno.EPIPE, "Broken pipe")
-
-
-def _silence(stream: object) -> None:
-    """Point ``stream``'s file descriptor at /dev/null (nothing to do without one)."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, stream.fileno())  # type: ignore[attr-defined]
-        os.close(devnull)
-    except (OSError, ValueError, AttributeError):
-        pass
 
 
 _ERR: Console | None = None

@@ -162,12 +162,15 @@ def _relative(path: os.PathLike[str]) -> str:
     return text if rel.startswith(os.pardir) else rel
 
 
-def _silence_stdout() -> None:
-    """Point stdout at /dev/null so the interpreter's final flush cannot fail again."""
+def silence(stream: object) -> None:
+    """Point ``stream``'s file descriptor at /dev/null, so that its reader having gone, the
+    interpreter's final flush cannot fail again (nothing to do without a real descriptor,
+    e.g. a test runner's buffer)."""
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-    except (OSError, ValueError):  # no real file descriptor (e.g. a test runner's buffer)
+        os.dup2(devnull, stream.fileno())  # type: ignore[attr-defined]
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
         pass
 
 
@@ -246,7 +249,7 @@ def _file_in_the_way(name: object) -> str | None:
 
 def _report_os_error(exc: OSError) -> int:
     if exc.errno == errno.EPIPE and _stdout_reader_gone():  # `| head`: not a failure
-        _silence_stdout()
+        silence(sys.stdout)
         return EXIT_OK
     what = exc.strerror or str(exc)
     where = f": {_shown_path(exc.filename)}" if exc.filename else ""

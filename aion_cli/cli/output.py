@@ -191,17 +191,11 @@ def emit_chunks(chunks: Iterable[str], *, nl: bool) -> None:
     as ``click.echo`` writes it, then a newline if ``nl``: the bytes one ``click.echo`` of
     the whole text writes (``echo`` strips ANSI sequences off-terminal; a chunk ends at a
     record's end, so no sequence spans two). A reader that stops early (``| head``) ends
-    the command as :func:`aion_cli.cli.errors.report` has it (exit 0, no message): click
-    would make a broken pipe met inside a command exit 1."""
-    try:
-        for chunk in chunks:
-            click.echo(chunk, nl=False)
-        if nl:
-            click.echo("")
-    except BrokenPipeError as exc:
-        from aion_cli.cli.errors import report
-
-        raise click.exceptions.Exit(report(exc, False)) from exc
+    the command as every broken pipe does (``AionGroup.invoke``: exit 0, no message)."""
+    for chunk in chunks:
+        click.echo(chunk, nl=False)
+    if nl:
+        click.echo("")
 
 
 def counted(n: int, noun: str) -> str:
