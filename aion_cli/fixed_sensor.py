@@ -134,8 +134,7 @@ def between_logs_note(
     last = max(b for _, _, b in spans)
     wanted = np.zeros(last - first + 1, dtype=bool)
     for lo, hi in declared:
-        a = max(int(lo) // delta, first)
-        b = min(-(-int(hi) // delta) - 1, last)
+        a, b = _span_windows(lo, hi, delta, first, last)
         if b >= a:
             wanted[a - first : b - first + 1] = True
     for _, a, b in spans:
@@ -192,14 +191,19 @@ def _declared_windows(
     parts = []
     for _, first, last in _file_spans(logset, times, delta):
         for lo, hi in spans:
-            a = max(int(lo) // delta, first)
-            b = min(-(-int(hi) // delta) - 1, last)  # the last window [lo, hi) overlaps
+            a, b = _span_windows(lo, hi, delta, first, last)
             if b >= a:
                 parts.append(np.arange(a, b + 1, dtype=np.int64))
     if not parts:
         return np.zeros(0, np.int64)
     out: I64 = np.unique(np.concatenate(parts))
     return out[times.inside_limits(out * delta)]
+
+
+def _span_windows(lo: int, hi: int, delta: int, first: int, last: int) -> tuple[int, int]:
+    """The first and last window of ``delta`` ns that the span ``[lo, hi)`` overlaps, clipped
+    to the windows ``first .. last`` (empty when the last is before the first)."""
+    return max(int(lo) // delta, first), min(-(-int(hi) // delta) - 1, last)
 
 
 def fixed_sensor_share(observation: str, recording_windows: int | None = None) -> float | None:

@@ -94,8 +94,7 @@ def all_static(manifest: Manifest) -> str | None:
 
     share = _sensor_share(manifest)
     if share is not None and share < 0.5:
-        recording = manifest.counts.get("recording_windows")
-        whose = "its logs'" if type(recording) is int and recording > 0 else "the"
+        whose = "its logs'" if _recording_windows(manifest) else "the"
         text += (
             f" (its fixed sensor observed {share_text(share)} of {whose} time: only the windows in "
             f"which a log recorded a message; {SILENT_HINT})"
@@ -277,11 +276,14 @@ def _sensor_share(manifest: Manifest) -> float | None:
 
     if DECLARED in manifest.observation:
         return None
+    return fixed_sensor_share(manifest.observation, _recording_windows(manifest))
 
+
+def _recording_windows(manifest: Manifest) -> int | None:
+    """How many windows the map's logs' own time spans (None: none recorded, or a damaged
+    manifest's count)."""
     recording = manifest.counts.get("recording_windows")
-    if type(recording) is not int or recording <= 0:  # none, or a damaged manifest's
-        recording = None
-    return fixed_sensor_share(manifest.observation, recording)
+    return recording if type(recording) is int and recording > 0 else None
 
 
 def silent_sensor(manifest: Manifest) -> str | None:
