@@ -86,6 +86,10 @@ class BuildOptions:
     #: ``--observed``: spans ``[lo, hi)`` of log time (ns) a fixed sensor was recording,
     #: beside the windows with messages (a tracker that publishes only when it sees someone)
     observed: tuple[tuple[int, int], ...] = ()
+    #: internal (a parallel build's shards): the first and last window the ``--observed``
+    #: spans may fill beyond the shard's own logs, its share of the time between the groups
+    #: of logs (:func:`aion_cli.fixed_sensor.declared_windows`); None: the logs' own
+    observed_fill: tuple[int | None, int | None] = (None, None)
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""

@@ -50,14 +50,14 @@ def write_build(
 ) -> None:
     """Write ``report.output`` (the caller holds its lock) and fill the report's counts and
     size. ``map_frame``: the frame the positions are in, recorded in the manifest;
-    ``declared``: the ``--observed`` spans (a note counts those left between the logs)."""
+    ``declared``: the ``--observed`` spans (a note counts those left outside the logs' time)."""
     from aion_cli.build_report import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
     from aion_cli.fixed_sensor import (
         DECLARED,
         SILENT_HINT,
-        between_logs_note,
         map_observation_text,
+        outside_logs_note,
         share_text,
     )
     from aion_cli.forecast_notes import observed_hours
@@ -100,9 +100,12 @@ def write_build(
             f"rest is unknown, not empty): {SILENT_HINT}"
         )
     if declared and fixed is not None:
-        between = between_logs_note(declared, report.recording_spans, fixed[3])
-        if between is not None:
-            report.notes.append(between)
+        reach = previous.counts.get("recording_reach") if previous is not None else None
+        outside = outside_logs_note(
+            declared, report.recording_spans, fixed[3], reach if type(reach) is int else None
+        )
+        if outside is not None:
+            report.notes.append(outside)
     manifest = Manifest(
         state=meta,
         config=config.to_dict(),

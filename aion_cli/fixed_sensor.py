@@ -1,8 +1,8 @@
 """What a fixed sensor observed: a build's observation when its logs have no robot trajectory.
 
 Without TF ``map -> base_link`` or a scene graph's agents, a log is a fixed sensor that saw
-everything in the windows in which it recorded any message (and in the spans the user
-declared with ``--observed``), never the time between two recordings. This module finds
+everything in the windows in which it recorded any message, never the time between two
+recordings unless the user declared it with ``--observed``. This module finds
 those windows (:func:`fixed_sensor_windows`), counts them over maps learnt in parts
 (:func:`fixed_sensor_summary`, :func:`map_observation_text`) and writes and reads the
 one-line description the report and the manifest carry (:func:`fixed_sensor_text`,
@@ -44,12 +44,13 @@ __all__ = [
     "DECLARED",
     "FIXED_SENSOR_OVER",
     "SILENT_HINT",
-    "between_logs_note",
+    "declared_windows",
     "fixed_sensor_share",
     "fixed_sensor_summary",
     "fixed_sensor_text",
     "fixed_sensor_windows",
     "map_observation_text",
+    "outside_logs_note",
     "recording_window_count",
 ]
 
@@ -61,6 +62,7 @@ def fixed_sensor_windows(
     notes: list[str],
     report: Any = None,
     declared: tuple[tuple[int, int], ...] = (),
+    fill: tuple[int | None, int | None] = (None, None),
 ) -> str:
     """The observation of a log without a robot trajectory (neither TF nor scene-graph
     agents), from its log times: a fixed sensor observes exactly the windows in which the logs
@@ -72,9 +74,11 @@ def fixed_sensor_windows(
     plus the windows of those topics' own messages (the data, even where an index omits
     them). ``declared``: spans ``[lo, hi)`` of log time the user says the sensor was
     recording (``build --observed``, for a tracker that publishes only when it sees someone):
-    their windows count too, within each log file's own time (:func:`_declared_windows`).
-    Sets the Mapper's windows, adds a note for windows left out, and returns the report's
-    description of the observation."""
+    their windows count too, from the first log's first recorded window to the last log's
+    last, the time between the logs included; ``fill`` widens that range (the window after a
+    continued map's reach; a parallel shard's share of the time between the logs:
+    :func:`declared_windows`). Sets the Mapper's windows, adds a note for windows left out,
+    and returns the report's description of the observation."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
 
@@ -90,8 +94,10 @@ def fixed_sensor_windows(
             f"not taken as observed (first: {iso(first)})"
         )
     windows = np.union1d(recorded[inside], windows_of(times.span_times, delta))
+    spans = _file_spans(logset, times, delta) if declared or report is not None else []
     if declared:
-        extra = _declared_windows(declared, logset, times, delta)
+        extra = declared_windows(declared, spans, delta, fill)
+        extra = extra[times.inside_limits(extra * delta)]
         added = np.setdiff1d(extra, windows, assume_unique=True)
         notes.append(observed_note(added.size, delta))
         if report is not None:  # a parallel build adds its shards' up
@@ -103,7 +109,7 @@ def fixed_sensor_windows(
     summary = (len(windows), int(windows[0]), int(windows[-1]), delta)
     if report is not None:  # a parallel build adds its shards' windows up
         report.fixed_windows = summary
-        report.recording_spans = _file_spans(logset, times, delta)
+        report.recording_spans = spans
     return fixed_sensor_text(*summary, declared=bool(declared))
 
 
@@ -116,38 +122,35 @@ def observed_note(added: int, delta: int) -> str:
     (``added`` windows of ``delta`` ns)."""
     return (
         f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
-        f"({added * delta / 3.6e12:,.1f} h), within each log's own time"
+        f"({added * delta / 3.6e12:,.1f} h), within the logs' time (the first log's first "
+        "message to the last log's last, the time between the logs included)"
     )
 
 
-def between_logs_note(
-    declared: tuple[tuple[int, int], ...], spans: list[tuple[str, int, int]], delta: int
+def outside_logs_note(
+    declared: tuple[tuple[int, int], ...],
+    spans: list[tuple[str, int, int]],
+    delta: int,
+    after: int | None = None,
 ) -> str | None:
-    """The note for the windows of the ``--observed`` spans ``[lo, hi)`` that lie between this
-    build's logs (``spans``: each file's first and last window, :func:`_file_spans`): within
-    the logs' first to last window but outside every log's own time, so they stay unknown
-    (:func:`_declared_windows`) — a tracker silent at night, recorded one log a day, keeps
-    its nights unknown although the spans declared them. None when there are none."""
+    """The note for the windows of the ``--observed`` spans ``[lo, hi)`` that lie outside the
+    logs' time (``spans``: each file's first and last window, :func:`_file_spans`; ``after``:
+    the last window a continued map's logs reached), which stay unknown
+    (:func:`declared_windows`). None when there are none."""
     if not declared or not spans:
         return None
-    first = min(f for _, f, _ in spans)
-    last = max(b for _, _, b in spans)
-    wanted = np.zeros(last - first + 1, dtype=bool)
-    for lo, hi in declared:
-        a, b = _span_windows(lo, hi, delta, first, last)
-        if b >= a:
-            wanted[a - first : b - first + 1] = True
-    for _, a, b in spans:
-        wanted[a - first : b - first + 1] = False
-    n = int(np.count_nonzero(wanted))
+    first, last = _fill_range(spans, (None if after is None else after + 1, None))
+    runs = _window_runs(declared, delta)
+    total = int(sum(b - a + 1 for a, b in runs))
+    inside = int(sum(max(0, min(b, last) - max(a, first) + 1) for a, b in runs))
+    n = total - inside
     if n == 0:
         return None
     return (
-        f"{OBSERVED_NOTE}{n:,} declared window(s) ({n * delta / 3.6e12:,.1f} h) lie between "
-        "the logs, outside every log's own time (its first message to its last), and stay "
-        "unknown, not empty: the spans count only within a log (so that building the logs "
-        "at once equals continuing a map log by log); a tracker recorded one log a day keeps "
-        "its silent nights unknown"
+        f"{OBSERVED_NOTE}{n:,} declared window(s) ({n * delta / 3.6e12:,.1f} h) lie outside "
+        "the logs' time (before the first log's first message or after the last log's "
+        "last) and stay unknown, not empty: a log that continues the map fills the time "
+        "since the map's last message"
     )
 
 
@@ -180,30 +183,56 @@ def recording_window_count(spans: list[tuple[str, int, int]], after: int | None 
     return count
 
 
-def _declared_windows(
-    spans: tuple[tuple[int, int], ...], logset: Any, times: TimeCheck, delta: int
+def declared_windows(
+    declared: tuple[tuple[int, int], ...],
+    spans: list[tuple[str, int, int]],
+    delta: int,
+    fill: tuple[int | None, int | None] = (None, None),
 ) -> I64:
-    """The windows of ``delta`` ns that the spans ``[lo, hi)`` overlap within each log file's
-    own time: from its first to its last recorded window inside the runs of the topics aion
-    uses (so a stray message adds no decades of empty windows, and the time between two
-    files stays unobserved: building A and B at once then equals building A and continuing
-    with B), and within a time shard's part."""
+    """The windows of ``delta`` ns that the spans ``[lo, hi)`` overlap within the logs' time:
+    from the first file's first recorded window to the last file's last (``spans``, each
+    file's own first and last window inside the runs of the topics aion uses, so a stray
+    message adds no decades of empty windows), the time between two files included (a
+    tracker recorded one log a day keeps its declared nights). ``fill`` widens the range:
+    its first window where a continued map's logs stopped (so building A and B at once equals
+    building A and continuing with B), and a parallel shard's first and last window, each
+    shard taking its share of the time between the groups of logs (so the shards together
+    fill what one pass fills)."""
+    if not spans:
+        return np.zeros(0, np.int64)
+    first, last = _fill_range(spans, fill)
     parts = []
-    for _, first, last in _file_spans(logset, times, delta):
-        for lo, hi in spans:
-            a, b = _span_windows(lo, hi, delta, first, last)
-            if b >= a:
-                parts.append(np.arange(a, b + 1, dtype=np.int64))
+    for a, b in _window_runs(declared, delta):
+        a, b = max(a, first), min(b, last)
+        if b >= a:
+            parts.append(np.arange(a, b + 1, dtype=np.int64))
     if not parts:
         return np.zeros(0, np.int64)
     out: I64 = np.unique(np.concatenate(parts))
-    return out[times.inside_limits(out * delta)]
+    return out
 
 
-def _span_windows(lo: int, hi: int, delta: int, first: int, last: int) -> tuple[int, int]:
-    """The first and last window of ``delta`` ns that the span ``[lo, hi)`` overlaps, clipped
-    to the windows ``first .. last`` (empty when the last is before the first)."""
-    return max(int(lo) // delta, first), min(-(-int(hi) // delta) - 1, last)
+def _fill_range(
+    spans: list[tuple[str, int, int]], fill: tuple[int | None, int | None]
+) -> tuple[int, int]:
+    """The first and last window the declared spans may fill: the files' first to their
+    last, widened by ``fill``."""
+    first = min(f for _, f, _ in spans)
+    last = max(b for _, _, b in spans)
+    lo, hi = fill
+    return (first if lo is None else min(first, lo)), (last if hi is None else max(last, hi))
+
+
+def _window_runs(declared: tuple[tuple[int, int], ...], delta: int) -> list[tuple[int, int]]:
+    """The spans ``[lo, hi)`` as disjoint runs of whole windows (first, last), sorted: the
+    windows each span overlaps, overlapping or touching runs joined."""
+    runs: list[tuple[int, int]] = []
+    for a, b in sorted((int(lo) // delta, -(-int(hi) // delta) - 1) for lo, hi in declared):
+        if runs and a <= runs[-1][1] + 1:
+            runs[-1] = (runs[-1][0], max(runs[-1][1], b))
+        else:
+            runs.append((a, b))
+    return runs
 
 
 def fixed_sensor_share(observation: str, recording_windows: int | None = None) -> float | None:

@@ -25,6 +25,7 @@ the previous map stays intact. Progress shows every worker's own bar.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -147,11 +148,16 @@ class ParallelBuild:
         self.parts = [part for _, part, _ in shards]
         previous = self.build.previous.state if self.build.previous is not None else None
         seeds, kd_trees = _plan_streams(list(logs), opts, shards, spans)
+        fills = self._observed_fills(spans, window)
         tasks = [
             ShardTask(
-                i, group, previous is not None or i > 0, opts, self.config, part, first, seed
+                i, group, previous is not None or i > 0,
+                opts if fill is None else dataclasses.replace(opts, observed_fill=fill),
+                self.config, part, first, seed,
             )
-            for i, ((group, part, first), seed) in enumerate(zip(shards, seeds, strict=True))
+            for i, ((group, part, first), seed, fill) in enumerate(
+                zip(shards, seeds, fills, strict=True)
+            )
         ]
         if opts.scheduler is not None:
             from aion_cli.dask_build import run_on_cluster
@@ -178,6 +184,32 @@ class ParallelBuild:
         self._report(folded, results, len(tasks), workers)
         assert folded.state is not None
         return folded.state
+
+    def _observed_fills(
+        self, spans: list[tuple[Path, int, int]], window: int
+    ) -> list[tuple[int | None, int | None] | None]:
+        """Per shard, how far its ``--observed`` spans may fill beyond its own logs
+        (``BuildOptions.observed_fill``; None: not at all, without ``--observed``): each
+        shard fills up to the window of its last message (the last shard: its logs' own
+        last), the next from the window after it, the first from where a continued map's
+        logs stopped; so the shards together fill the time between the groups of logs as
+        one pass does (with ``--observed`` a shard is whole files: :meth:`run`)."""
+        if not self.opts.observed:
+            return [None] * len(self.groups)
+        end_of = {path: end for path, _, end in spans}
+        ends = [max((end_of[p] for p in group if p in end_of), default=None)
+                for group in self.groups]
+        previous = self.build.previous_manifest
+        reach = previous.counts.get("recording_reach") if previous is not None else None
+        fills: list[tuple[int | None, int | None] | None] = []
+        lo = reach + 1 if type(reach) is int else None
+        for i, end in enumerate(ends):
+            last = i == len(ends) - 1
+            hi = None if last or end is None else end // window
+            fills.append((lo, hi))
+            if hi is not None:
+                lo = hi + 1
+        return fills
 
     def _spans(self, logs: tuple[Path, ...]) -> tuple[list[tuple[Path, int, int]], list[Path]]:
         """Each log's first and last message time (from its index or summary), and the logs

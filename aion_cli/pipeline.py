@@ -373,8 +373,20 @@ class _Build(StreamStep):
         frames = (self.opts.map_frame, self.opts.base_frame)
         observe(
             mapper, tf, frames, graph_agents, logset, self._times, self.report,
-            self.opts.observed, self._detection_windows,
+            self.opts.observed, self._detection_windows, self._observed_fill(),
         )
+
+    def _observed_fill(self) -> tuple[int | None, int | None]:
+        """How far ``--observed`` spans may fill beyond this build's logs: a parallel
+        shard's share of the time between the logs (set by its parent), else from the window
+        after a continued map's logs stopped (``recording_reach``), so building A and B at
+        once equals building A and continuing with B."""
+        lo, hi = self.opts.observed_fill
+        reach = self.previous_manifest.counts.get("recording_reach") if (
+            self.previous_manifest is not None) else None
+        if lo is None and type(reach) is int:
+            lo = reach + 1
+        return lo, hi
 
     def _fixed_graph(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig

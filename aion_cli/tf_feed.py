@@ -252,13 +252,15 @@ def observe(
     report: BuildReport,
     declared: tuple[tuple[int, int], ...] = (),
     detection_windows: I64 | None = None,
+    fill: tuple[int | None, int | None] = (None, None),
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
     graphs' agent layer when the first graph has one (``graph_agents``; its poses are fed
     per snapshot); else a fixed sensor over the windows it recorded in and the ``declared``
     spans (:func:`fixed_sensor_windows`; with a robot's observation they are ignored, with
-    a warning: its poses say what it saw). ``detection_windows``: the windows holding a
+    a warning: its poses say what it saw; ``fill`` widens the time they may fill:
+    :func:`~aion_cli.fixed_sensor.declared_windows`). ``detection_windows``: the windows holding a
     message of a detection topic; the robot's windows without one are counted in a note
     (:func:`silent_note`)."""
     map_frame, base_frame = frames
@@ -284,7 +286,7 @@ def observe(
         _ignored(declared, report.observation, report.warnings)
     else:
         report.observation = fixed_sensor_windows(
-            mapper, logset, times, report.notes, report, declared
+            mapper, logset, times, report.notes, report, declared, fill
         )
         report.notes.append(
             "no robot trajectory (TF map->base_link or scene-graph agents): the log is "

@@ -250,8 +250,9 @@ def _load_config(path: Path | None) -> Any:
     multiple=True,
     help="Without a robot trajectory: a span the sensor was recording (repeatable), e.g. "
     '"2026-01-05 00:00..2026-01-12 00:00": its windows without a message count as observed, '
-    "with nobody in them (a tracker that publishes only when it sees someone). Times in --tz, "
-    "else the continued map's zone, else UTC.",
+    "with nobody in them (a tracker that publishes only when it sees someone), from the "
+    "first log's first message to the last log's last, the time between logs included. "
+    "Times in --tz, else the continued map's zone, else UTC.",
 )
 @click.option(
     "-q", "--quiet", is_flag=True, help="No progress bar, summary table or notes (warnings stay)."

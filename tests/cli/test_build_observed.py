@@ -106,8 +106,15 @@ def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> N
         "--observed", "2030-01-01..2030-02-01",
     )
     assert report["observation"].startswith("fixed sensor over the 8 windows with messages")
-    assert "--observed: 0 window(s) without a message taken as observed (0.0 h), within " \
-        "each log's own time" in report["notes"]
+    # the span's 31 days of 10-minute windows lie after the log: none observed, all counted
+    assert [n for n in report["notes"] if n.startswith("--observed: ")] == [
+        "--observed: 0 window(s) without a message taken as observed (0.0 h), within the "
+        "logs' time (the first log's first message to the last log's last, the time between "
+        "the logs included)",
+        "--observed: 4,464 declared window(s) (744.0 h) lie outside the logs' time (before the "
+        "first log's first message or after the last log's last) and stay unknown, not "
+        "empty: a log that continues the map fills the time since the map's last message",
+    ]
 
 
 def test_a_log_with_declared_spans_is_not_cut_into_time_shards(
@@ -123,8 +130,10 @@ def test_a_log_with_declared_spans_is_not_cut_into_time_shards(
 
 
 def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Path) -> None:
-    """Each file is a shard of its own, observed over its own time as in one process: the
-    workers' map equals the sequential one (its forecast, entry by entry)."""
+    """Each file is a shard of its own, and each shard fills its share of the declared time
+    between the files (up to the window of its last message, the next from the one after):
+    the workers' map equals the sequential one (its observation, its forecast entry by
+    entry, its notes)."""
     logs = []
     for k in range(3):
         log = tmp_path / f"day{k}.mcap"
@@ -137,26 +146,59 @@ def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Pa
     two = run_json("build", *logs, "-o", tmp_path / "two.aion", "--format", "json",
                    "--workers", "2", *span)
     assert len(two["workers"]) == 3
-    # each file: 08:00 to 12:20, 26 windows, of which 4 with messages
-    assert one["observation"].startswith("fixed sensor over the 78 windows")
+    # the first file's 08:00 to the last one's 12:20: two days and 26 windows, 12 of them
+    # (4 per file) with messages
+    assert one["observation"].startswith("fixed sensor over the 314 windows")
     assert read_manifest(tmp_path / "two.aion")["observation"] == one["observation"]
-    at = "2026-11-26 10:00"
-    a = run_json("predict", tmp_path / "one.aion", "--time", at, "--format", "json")["entries"]
-    b = run_json("predict", tmp_path / "two.aion", "--time", at, "--format", "json")["entries"]
-    assert [(e["id"], e["flow"]) for e in a] == [(e["id"], e["flow"]) for e in b]
+    for at in ("2026-11-26 10:00", "2026-11-26 03:00"):
+        a = run_json("predict", tmp_path / "one.aion", "--time", at, "--format", "json")
+        b = run_json("predict", tmp_path / "two.aion", "--time", at, "--format", "json")
+        assert [(e["id"], e["flow"]) for e in a["entries"]] == \
+            [(e["id"], e["flow"]) for e in b["entries"]]
     # one note of the windows the spans added, the three files' summed, as one pass gives it
-    # (the workers' build listed one note per shard: "22 window(s)" three times)
-    # and the windows the spans declared between the files, which stay unknown: 12:20 to
-    # 08:00 the next day, twice (118 windows each)
+    # (the workers' build had listed one note per shard); the span's windows after the last
+    # file (12:20 on the 25th to the 27th) stay unknown
     added = [[n for n in r["notes"] if n.startswith("--observed: ")] for r in (one, two)]
     assert added[0] == added[1] == [
-        "--observed: 66 window(s) without a message taken as observed (11.0 h), within each "
-        "log's own time",
-        "--observed: 236 declared window(s) (39.3 h) lie between the logs, outside every "
-        "log's own time (its first message to its last), and stay unknown, not empty: the "
-        "spans count only within a log (so that building the logs at once equals continuing "
-        "a map log by log); a tracker recorded one log a day keeps its silent nights unknown",
+        "--observed: 302 window(s) without a message taken as observed (50.3 h), within the "
+        "logs' time (the first log's first message to the last log's last, the time between "
+        "the logs included)",
+        "--observed: 262 declared window(s) (43.7 h) lie outside the logs' time (before the "
+        "first log's first message or after the last log's last) and stay unknown, not "
+        "empty: a log that continues the map fills the time since the map's last message",
     ]
+
+
+def test_a_continued_map_fills_the_declared_time_since_its_logs_in_parallel_too(
+    tmp_path: Path,
+) -> None:
+    """A map of the first day continued with the next two, each in its own file: the first
+    shard fills from the window after the map's last message, so the workers' map equals the
+    sequential continuation and the build of all three at once."""
+    logs = []
+    for k in range(3):
+        log = tmp_path / f"day{k}.mcap"
+        write_office_log(log, graph=False, tf=False, shift_s=k * DAY_S)
+        logs.append(log)
+    span = ("--observed", "2026-11-23..2026-11-26")
+    together = tmp_path / "together.aion"
+    run_json("build", *logs, "-o", together, "--format", "json", "--workers", "1", *span)
+    answers = []
+    for workers in ("1", "2"):
+        step = tmp_path / f"step{workers}.aion"
+        run_json("build", logs[0], "-o", step, "--format", "json", *span)
+        report = run_json("build", *logs[1:], "--map", step, "--format", "json",
+                          "--workers", workers, *span)
+        assert len(report["workers"]) == (2 if workers == "2" else 0)  # 2: one per file
+        answers.append(step)
+    observations = {read_manifest(p)["observation"] for p in (together, *answers)}
+    # 08:00 on the 23rd to 08:20 on the 25th: two days and two windows
+    assert observations == {"fixed sensor over the 290 windows with messages or --observed "
+                            "(48.3 h of a 48.3 h span)"}
+    at = "2026-11-26 03:00"
+    flows = [[(e["id"], e["flow"]) for e in run_json(
+        "predict", p, "--time", at, "--format", "json")["entries"]] for p in (together, *answers)]
+    assert flows[0] == flows[1] == flows[2]
 
 
 def test_a_robot_trajectory_overrides_declared_spans(tmp_path: Path) -> None:
@@ -204,26 +246,32 @@ def test_the_python_api_takes_the_same_spans(mornings: Path, tmp_path: Path) -> 
         aion.build(mornings, tmp_path / "bad.aion", observed=[("2026-11-24", "2026-11-23")])
 
 
-def test_the_time_between_two_logs_stays_unobserved(tmp_path: Path) -> None:
-    """Two sessions of the office log twelve hours apart, in two files: a span declared over
-    both counts within each file's own time (two windows each), never the twelve hours
-    between the files, so building both at once equals building one and continuing."""
+def test_declared_time_between_two_logs_is_observed(tmp_path: Path) -> None:
+    """Two sessions of the office log twelve hours apart, in two files, and a span declared
+    over the day: the twelve hours between the files count as observed (a tracker recorded
+    in daily files, silent between them), 08:00 to 20:20 = 74 windows; building both at once
+    equals building one and continuing with the other, which fills from where the map's
+    logs stopped (its own two windows and the 70 before them)."""
     morning, evening = tmp_path / "morning.mcap", tmp_path / "evening.mcap"
     write_office_log(morning, graph=False, tf=False)
     write_office_log(evening, graph=False, tf=False, shift_s=DAY_S // 2)
     span = "2026-11-23 00:00..2026-11-24 00:00"
     both = run_json("build", morning, evening, "-o", tmp_path / "both.aion", "--format", "json",
                     "--observed", span)
-    assert both["observation"].startswith("fixed sensor over the 4 windows")
+    assert both["observation"].startswith("fixed sensor over the 74 windows with messages or "
+                                          "--observed (12.3 h of a 12.3 h span)")
     step = tmp_path / "step.aion"
     run_json("build", morning, "-o", step, "--format", "json", "--observed", span)
     continued = run_json("build", evening, "--map", step, "--format", "json", "--observed", span)
-    assert continued["observation"].startswith("fixed sensor over the 2 windows")  # its own
+    assert continued["observation"].startswith("fixed sensor over the 72 windows")
     assert continued["windows"] == both["windows"]
     maps = (read_manifest(tmp_path / "both.aion"), read_manifest(step))
     assert maps[0]["observation"] == maps[1]["observation"] == both["observation"]
-    assert both["observation"].startswith("fixed sensor over the 4 windows with messages or "
-                                          "--observed")
+    at = "2026-11-24 14:00"  # in the hours between the sessions: observed empty
+    a = run_json("predict", tmp_path / "both.aion", "--time", at, "--format", "json")
+    b = run_json("predict", step, "--time", at, "--format", "json")
+    assert [(e["id"], e["flow"]) for e in a["entries"]] == \
+        [(e["id"], e["flow"]) for e in b["entries"]]
 
 
 def test_the_time_between_two_logs_is_no_sign_of_a_silent_tracker(tmp_path: Path) -> None:

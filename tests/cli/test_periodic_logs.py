@@ -158,3 +158,55 @@ def test_static_only_predicts_the_historical_map(
                 np.testing.assert_allclose(entry["histogram"], past["histogram"], atol=1e-9)
     note = " ".join(run("predict", out, "--time", f"{AFTER} 03:00").stderr.split())
     assert 'has the static family only (families = ["static"])' in note
+
+
+@pytest.fixture(scope="module")
+def daily_files(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """The same walks recorded one bag per local day, as a robot team keeps them: a file
+    starts at the day's first detection and ends at its last (08:00 to 19:00 or so), so the
+    nights and the weekends lie between the files."""
+    folder = tmp_path_factory.mktemp("daily")
+    t, x = _walks(np.random.default_rng(12))
+    y = np.random.default_rng(13).uniform(0.5, 1.5, t.size)
+    zone = ZoneInfo(ZONE)
+    # _walks keeps each walk's samples together, walk after walk: a walk's day is its start's
+    day_of = np.array([datetime.fromtimestamp(v // S, zone).date().toordinal()
+                       for v in t[::SAMPLES].tolist()]).repeat(SAMPLES)
+    logs = []
+    for day in np.unique(day_of).tolist():
+        rows = np.flatnonzero(day_of == day)
+        ticks, first = np.unique(t[rows], return_index=True)
+        bounds = np.append(first, rows.size)
+        log = folder / f"{datetime.fromordinal(day).date()}.bag"
+        with LogWriter(log, "bag") as writer:
+            for i, tick in enumerate(ticks.tolist()):
+                r = rows[bounds[i]: bounds[i + 1]]
+                writer.write(TOPIC, "geometry_msgs/msg/PoseArray", {
+                    "header": {"stamp": {"sec": tick // S, "nanosec": tick % S},
+                               "frame_id": "map"},
+                    "poses": [{"position": {"x": float(x[j]), "y": float(y[j]), "z": 0.0},
+                               "orientation": {"w": 1.0}} for j in r.tolist()],
+                }, tick)
+        logs.append(log)
+    return logs
+
+
+def test_daily_files_of_a_silent_tracker_declared_observed(
+    daily_files: list[Path], tmp_path: Path
+) -> None:
+    """One file per weekday, the nights and weekends between the files: declared observed,
+    the time between the files counts as empty, as in one log, so the targets hold (it had
+    stayed unknown: night 34.5 % of the rush), and no note says the declared nights stay
+    unknown."""
+    assert len(daily_files) == 15
+    out = tmp_path / "daily.aion"
+    report = _build(daily_files[0], out, *daily_files[1:], "--observed", OBSERVED)
+    rush = _total(out, f"{AFTER} 09:00")
+    assert rush == pytest.approx(RUSH_FLOW, rel=0.25)
+    assert _total(out, f"{AFTER} 03:00") <= 0.05 * rush
+    assert _total(out, "2026-04-04 09:00") <= 0.10 * rush
+    # only the span's hours before the first file (Monday 00:00-08:00) and after the last
+    # (Friday evening on) stay unknown
+    outside = [n for n in report["notes"] if "outside the logs' time" in n]
+    assert len(outside) == 1
+    assert outside[0].startswith("--observed: ")
