@@ -67,6 +67,27 @@ def tz_option(func: F) -> F:
     )(func)
 
 
+def quiet_option(func: F) -> F:
+    """``-q``: nothing on stderr but warnings and errors (no notes, time line, summary or
+    closing message), for scripts and cron jobs; the data on stdout and the files are the
+    same."""
+
+    def _set(ctx: click.Context, param: click.Parameter, value: bool) -> bool:
+        from aion_cli.cli.console import set_quiet
+
+        set_quiet(bool(value))
+        return bool(value)
+
+    return click.option(
+        "-q",
+        "--quiet",
+        is_flag=True,
+        expose_value=False,
+        callback=_set,
+        help="No notes, summaries or closing messages on stderr (warnings and errors stay).",
+    )(func)
+
+
 def map_zone(tz: str | None, loaded: Any = None) -> Zone:
     """The zone ``tz``; without it, the zone the map was built for (UTC unless ``build --tz``
     gave another), else (no map, or one that records no zone) the machine's local zone (see

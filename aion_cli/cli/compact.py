@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import AionPath
+from aion_cli.cli.common import AionPath, quiet_option
 from aion_cli.cli.output import AionCommand, format_option, map_output_option, to_json
 
 EPILOG = """\b
@@ -37,16 +37,16 @@ bytes_per_entry, left_out.
 )
 @click.argument("map_path", metavar="MAP", type=AionPath(path_type=Path))
 @map_output_option("Query-only map file")
-@click.option("-q", "--quiet", is_flag=True, help="No summary.")
+@quiet_option
 @format_option(choices=("table", "json"))
-def command(map_path: Path, output: Path, quiet: bool, fmt: str) -> None:
+def command(map_path: Path, output: Path, fmt: str) -> None:
     """Write a copy of MAP for queries only: the same answers, without what learning needs."""
     from aion_cli.query_only import compact_map
 
     summary = compact_map(map_path, output).to_dict()
     if fmt == "json":
         click.echo(to_json(summary))
-    elif not quiet:
+    else:
         _print(summary)
 
 

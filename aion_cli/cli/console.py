@@ -40,10 +40,28 @@ class _Console(Console):
 
 _ERR: Console | None = None
 _OUT: Console | None = None
+_QUIET: Console | None = None  # set by -q (set_quiet): every note and summary dropped
+
+
+def set_quiet(quiet: bool) -> None:
+    """``-q``: from now on :func:`console` prints nothing (notes, summaries, closing lines,
+    progress); warnings (:func:`warn`) and errors stay. Reset for every command."""
+    global _QUIET
+    _QUIET = Console(stderr=True, quiet=True) if quiet else None
+
+
+def is_quiet() -> bool:
+    """Whether the command runs with ``-q`` (:func:`set_quiet`)."""
+    return _QUIET is not None
 
 
 def console() -> Console:
-    """The console on stderr for progress, notes and summaries."""
+    """The console on stderr for progress, notes and summaries (silent after ``-q``)."""
+    return _QUIET if _QUIET is not None else _loud()
+
+
+def _loud() -> Console:
+    """The console on stderr that ``-q`` does not silence (warnings)."""
     global _ERR
     if _ERR is None:
         _ERR = _Console(stderr=True, highlight=False)
@@ -98,7 +116,7 @@ def warn(message: str) -> None:
     """A one-line warning on stderr (``message`` is plain text, as for :func:`note`)."""
     from aion_cli.cli.output import markup_safe
 
-    console().print(f"[yellow]warning:[/yellow] {markup_safe(message)}", soft_wrap=True)
+    _loud().print(f"[yellow]warning:[/yellow] {markup_safe(message)}", soft_wrap=True)
 
 
 #: how many warnings of one shape are printed before the rest are counted in one line
@@ -133,8 +151,9 @@ def warn_each(messages: list[str], limit: int = WARNINGS_PER_SHAPE) -> None:
 def progress(quiet: bool = False) -> Progress:
     """A progress bar on stderr with a real total, rate and ETA.
 
-    Disabled (a no-op object with the same interface) with ``quiet`` or when stderr is not a
-    terminal, so logs and test captures do not fill with redraws.
+    Disabled (a no-op object with the same interface) with ``quiet`` (or the command's
+    ``-q``: :func:`set_quiet`) or when stderr is not a terminal, so logs and test captures
+    do not fill with redraws.
     """
     from rich.progress import (
         BarColumn,
@@ -156,5 +175,5 @@ def progress(quiet: bool = False) -> Progress:
         TimeRemainingColumn(),
         console=console(),
         transient=False,
-        disable=quiet or not sys.stderr.isatty(),
+        disable=quiet or is_quiet() or not sys.stderr.isatty(),
     )

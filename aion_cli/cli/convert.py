@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import AionPath, parse_span
+from aion_cli.cli.common import AionPath, parse_span, quiet_option
 from aion_cli.cli.output import AionCommand, counted, markup_safe
 
 EPILOG = """\b
@@ -184,6 +184,7 @@ def _check_suffix(output: Path, suffix: str, container: str) -> None:
     "+01:00 [default: UTC, as aion build reads --observed].",
 )
 @click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
+@quiet_option
 def command(
     tracks: Path,
     output: Path,

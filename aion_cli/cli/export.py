@@ -13,6 +13,7 @@ from aion_cli.cli.common import (
     AionPath,
     announce_time,
     map_argument,
+    quiet_option,
     resolve_time,
     series_of,
     tz_option,
@@ -116,6 +117,7 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     shell_complete=complete_nodes,
 )
 @click.option("--path-to", metavar="B", help="... to B.", shell_complete=complete_nodes)
+@quiet_option
 def command(
     map_path: Path,
     out_dir: Path,

@@ -105,6 +105,9 @@ class AionGroup(click.Group):
         """Run the subcommand; stdout closed early (``| head``) ends it as
         :func:`aion_cli.cli.errors.report` has it (exit 0, no message), where click's
         ``main`` would make a broken pipe met inside a command exit 1."""
+        from aion_cli.cli.console import set_quiet
+
+        set_quiet(False)  # a command's -q lasts for that command only (one process, many runs)
         try:
             return super().invoke(ctx)
         except BrokenPipeError as exc:

@@ -15,6 +15,7 @@ from aion_cli.cli.common import (
     map_argument,
     map_zone,
     option_given,
+    quiet_option,
     resolve_time,
     tz_option,
 )
@@ -119,6 +120,7 @@ cost in the legend.
     help="Also draw both paths over the flow map at the departure into this .png file.",
 )
 @format_option(choices=("table", "json"))
+@quiet_option
 def command(
     map_path: Path,
     start: str,

@@ -13,6 +13,7 @@ from aion_cli.cli.common import (
     announce_time,
     map_argument,
     option_given,
+    quiet_option,
     resolve_time,
     tz_option,
 )
@@ -107,6 +108,7 @@ TABLE_LIMIT = 100
 @click.option("--to", "t_to", metavar="T", help="End of the series (inclusive).")
 @click.option("--step", metavar="DURATION", help=f"Series step: {STEP_HELP} [default: 1h].")
 @format_option()
+@quiet_option
 def command(
     map_path: Path,
     time_text: str,

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from aion_cli.cli.common import TIME_HELP, AionPath, map_argument, tz_option
+from aion_cli.cli.common import TIME_HELP, AionPath, map_argument, quiet_option, tz_option
 from aion_cli.cli.output import AionCommand
 
 EPILOG = """\b
@@ -52,9 +52,9 @@ already in OUT that the report does not write are kept.
     help="Rank the busiest places by the prediction at T [default: as observed]. " + TIME_HELP,
 )
 @tz_option
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@quiet_option
 def command(
-    map_path: Path, out_dir: Path, time_text: str | None, tz: str | None, quiet: bool
+    map_path: Path, out_dir: Path, time_text: str | None, tz: str | None
 ) -> None:
     """Write a report of MAP into a folder: an HTML page and the pictures it shows."""
     from aion_cli.cli.common import announce_time, load, resolve_time
@@ -72,7 +72,7 @@ def command(
         t_ns, zone = resolve_time(time_text, tz, loaded)
     else:
         zone = resolve_zone(tz if tz is not None else Manifest.from_dict(loaded.manifest).timezone)
-    with progress(quiet=quiet) as bar:
+    with progress() as bar:
         task = bar.add_task("report", total=STEPS, unit="steps")
 
         def advance(what: str) -> None:

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from aion_cli.cli.common import AionPath
+from aion_cli.cli.common import AionPath, quiet_option
 from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import AionCommand
 
@@ -311,7 +311,7 @@ def _event_counts(r: SceneResult) -> str:
     help="Ground-truth window length in seconds.",
 )
 @click.option("--force", is_flag=True, help="Overwrite existing outputs.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@quiet_option
 def simulate(
     output: Path,
     days: float,
@@ -339,7 +339,6 @@ def simulate(
     no_mesh: bool,
     window: float,
     force: bool,
-    quiet: bool,
 ) -> None:
     """Simulate people in an office (or any scene graph) seen by a patrolling robot.
 
@@ -380,7 +379,7 @@ def simulate(
             period_s=dsg_period, idle_period_s=dsg_idle_period, include_mesh=not no_mesh
         ),
     )
-    with progress(quiet) as bar:
+    with progress() as bar:
         task = bar.add_task("simulating", total=None)
 
         def report(stage: str, done: int, total: int) -> None:

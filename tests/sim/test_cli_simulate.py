@@ -31,7 +31,6 @@ def test_simulate_writes_log_and_truth(tmp_path: Path) -> None:
         "pose_array",
         "--tour-every",
         "10",
-        "--quiet",
     )
     assert code == 0, output
     log = tmp_path / "office.mcap"  # the suffix of the format is added
