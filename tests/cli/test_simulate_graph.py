@@ -17,7 +17,7 @@ from tests.shared_data import SHARED_DATA
 DATA = SHARED_DATA / "dsg"
 IGX = DATA / "apartment_igx_dsg.json"
 # a fixed sensor for 72 minutes around noon, when people walk
-SHORT = ("--days", "0.05", "--start", "2026-01-05T12:00", "--robot", "fixed", "--quiet")
+SHORT = ("--days", "0.05", "--start", "2026-01-05T12:00", "--robot", "fixed")
 
 
 @pytest.fixture(scope="module")
