@@ -134,11 +134,20 @@ class Redirects:
         return len(self.keys)
 
     def add(self, keys: I64, nodes: U64) -> None:
-        """Record new redirects (keys must not be redirected already)."""
-        all_keys = np.concatenate([self.keys, keys.astype(np.int64)])
-        all_nodes = np.concatenate([self.nodes, nodes.astype(np.uint64)])
-        order = np.argsort(all_keys, kind="stable")
-        self.keys, self.nodes = all_keys[order], all_nodes[order]
+        """Record new redirects (keys must not be redirected already).
+
+        The new keys are merged into the sorted table where they belong (after equal old
+        keys, new ones in their order): the stable sort of old and new keys together, without
+        sorting the whole table again at every bind (issue 15: a live graph binds cells at
+        most of its updates, against tens of thousands of redirects)."""
+        new_keys = np.asarray(keys, dtype=np.int64)
+        new_nodes = np.asarray(nodes, dtype=np.uint64)
+        if new_keys.size > 1 and not bool(np.all(new_keys[1:] >= new_keys[:-1])):
+            order = np.argsort(new_keys, kind="stable")
+            new_keys, new_nodes = new_keys[order], new_nodes[order]
+        at = np.searchsorted(self.keys, new_keys, side="right")
+        self.keys = np.insert(self.keys, at, new_keys)
+        self.nodes = np.insert(self.nodes, at, new_nodes)
         if len(self.keys) > 1 and np.any(self.keys[1:] == self.keys[:-1]):
             raise ValueError("a cell key was redirected twice")
 

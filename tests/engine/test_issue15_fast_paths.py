@@ -1,15 +1,18 @@
-"""Issue 15, per-batch costs: ``EntryStore.accumulate``'s path for batches whose every
-detection has a heading and a speed gives exactly what the general code gave (a verbatim copy
-of it below), bit for bit, on random inputs (hypothesis)."""
+"""Issue 15, per-batch and per-bind costs: ``EntryStore.accumulate``'s path for batches whose
+every detection has a heading and a speed, and ``Redirects.add`` merging new keys into the
+sorted table, give exactly what the general code gave (verbatim copies of it below), bit for
+bit, on random inputs (hypothesis)."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine.entries import EntryStore
 from aion_cli.engine.grouping import unique_inverse
+from aion_cli.engine.nodes import Redirects
 
 _ARRAYS = ("counts", "window_counts", "speed_sum", "speed_n", "heading_cos", "heading_sin",
            "nodir", "window_nodir", "window_mark")
@@ -93,3 +96,59 @@ def test_accumulate_equals_the_general_path(
         got, want = getattr(fast, name), getattr(plain, name)
         assert got.dtype == want.dtype, name
         assert got.tobytes() == want.tobytes(), name
+
+
+def _add_general(red: Redirects, keys: np.ndarray, nodes: np.ndarray) -> None:
+    """``Redirects.add`` before the merge (verbatim but for ``self``)."""
+    all_keys = np.concatenate([red.keys, keys.astype(np.int64)])
+    all_nodes = np.concatenate([red.nodes, nodes.astype(np.uint64)])
+    order = np.argsort(all_keys, kind="stable")
+    red.keys, red.nodes = all_keys[order], all_nodes[order]
+    if len(red.keys) > 1 and np.any(red.keys[1:] == red.keys[:-1]):
+        raise ValueError("a cell key was redirected twice")
+
+
+@given(st.lists(st.tuples(st.integers(0, 60), st.booleans(), st.booleans(),
+                          st.integers(0, 2**31 - 1)), min_size=1, max_size=12))
+@settings(max_examples=200, deadline=None)
+def test_redirects_add_equals_a_sort_of_the_whole_table(
+    steps: list[tuple[int, bool, bool, int]]
+) -> None:
+    """Keys added sorted (as binds add them) or not, distinct or repeating old ones: the
+    table equals the stable sort of old and new keys, and a key redirected twice raises with
+    the same table left behind."""
+    merged, plain = Redirects(), Redirects()
+    for size, in_order, repeat, seed in steps:
+        rng = np.random.default_rng(seed)
+        fresh = rng.choice(np.arange(-500, 500), size=size, replace=False).astype(np.int64)
+        if repeat and plain.keys.size:
+            fresh[: max(1, size // 4)] = rng.choice(plain.keys, size=min(size, max(1, size // 4)))
+        keys = np.sort(fresh) if in_order else fresh
+        nodes = rng.integers(1, 2**40, size).astype(np.uint64)
+        outcome = []
+        for red, add in ((merged, Redirects.add), (plain, _add_general)):
+            try:
+                add(red, keys, nodes)
+                outcome.append(None)
+            except ValueError as exc:
+                outcome.append(str(exc))
+        assert outcome[0] == outcome[1]
+        assert merged.keys.dtype == plain.keys.dtype
+        assert merged.nodes.dtype == plain.nodes.dtype
+        assert np.array_equal(merged.keys, plain.keys)
+        assert np.array_equal(merged.nodes, plain.nodes)
+        if outcome[0] is not None:  # both tables are broken alike: start again
+            merged, plain = Redirects(), Redirects()
+
+
+def test_redirects_add_to_an_empty_table_and_nothing() -> None:
+    red = Redirects()
+    red.add(np.zeros(0, np.int64), np.zeros(0, np.uint64))
+    assert red.keys.size == 0
+    assert red.keys.dtype == np.int64
+    assert red.nodes.dtype == np.uint64
+    red.add(np.array([5, 1], np.int64), np.array([7, 9], np.uint64))
+    assert red.keys.tolist() == [1, 5]
+    assert red.nodes.tolist() == [9, 7]
+    with pytest.raises(ValueError, match="twice"):
+        red.add(np.array([5], np.int64), np.array([3], np.uint64))
