@@ -1,7 +1,8 @@
-"""Issue 15, per-batch and per-bind costs: ``EntryStore.accumulate``'s path for batches whose
-every detection has a heading and a speed, and ``Redirects.add`` merging new keys into the
-sorted table, give exactly what the general code gave (verbatim copies of it below), bit for
-bit, on random inputs (hypothesis)."""
+"""Issue 15, per-batch, per-bind and per-day costs: ``EntryStore.accumulate``'s path for
+batches whose every detection has a heading and a speed, and ``Redirects.add`` merging new
+keys into the sorted table, give exactly what the general code gave (verbatim copies of it
+below), bit for bit, on random inputs (hypothesis); a day's forecasters reading the profile
+sums their pooling kept learn exactly what computing them again learnt."""
 
 from __future__ import annotations
 
@@ -10,9 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import EntryStore
 from aion_cli.engine.grouping import unique_inverse
 from aion_cli.engine.nodes import Redirects
+from aion_cli.engine.temporal.params import TemporalParams
 
 _ARRAYS = ("counts", "window_counts", "speed_sum", "speed_n", "heading_cos", "heading_sin",
            "nodir", "window_nodir", "window_mark")
@@ -152,3 +155,55 @@ def test_redirects_add_to_an_empty_table_and_nothing() -> None:
     assert red.nodes.tolist() == [9, 7]
     with pytest.raises(ValueError, match="twice"):
         red.add(np.array([5], np.int64), np.array([3], np.uint64))
+
+
+# -- a day's scoring reads the pooled entries' profile sums ------------------------------------
+
+
+def test_forecaster_reads_the_pooled_profile_sums() -> None:
+    """``PoolStats.kept`` (the W and S of entries pooled in one block), read at candidates'
+    positions, equals what ``Forecaster.cache_profiles`` computes for them, bit for bit; a
+    pool of more entries than a block keeps none and the forecaster computes them."""
+    from aion_cli.engine.temporal import pooling
+    from aion_cli.engine.temporal.forecast import Forecaster
+    from tests.engine.test_temporal_blocks import _days, _learnt
+
+    params = TemporalParams.from_config(ModelConfig())
+    state = _learnt(params, 40, _days(params, 40, 4, seed=3))
+    rows = np.arange(40, dtype=np.int64)
+    groups = rows // 5
+    at = np.array([0, 3, 7, 20, 21, 39])
+    pool = pooling.PoolStats.of(params, state, rows, groups, 8)
+    assert pool.kept is not None
+    read = Forecaster(params, state, rows[at], groups[at], pool)
+    read.cache_profiles(at)
+    computed = Forecaster(params, state, rows[at], groups[at], pool)
+    computed.cache_profiles()
+    assert read._profiles is not None
+    assert computed._profiles is not None
+    for got, want in zip(read._profiles, computed._profiles, strict=True):
+        assert got.dtype == want.dtype
+        assert got.tobytes() == want.tobytes()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(pooling, "_POOL_BLOCK", 16)
+        assert pooling.PoolStats.of(params, state, rows, groups, 8).kept is None
+
+
+def test_learning_with_and_without_the_pooled_profile_sums_is_the_same(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Four days learnt (scored, then absorbed) with the entries pooled in one block (the
+    forecasters read the kept sums) and in blocks of 16 (they compute them): every
+    accumulator and score equal, bit for bit."""
+    from aion_cli.engine.temporal import pooling
+    from tests.engine.test_temporal_blocks import ARRAYS, _days, _learnt
+
+    params = TemporalParams.from_config(ModelConfig())
+    days = _days(params, 40, 4, seed=11)
+    kept = _learnt(params, 40, days)
+    monkeypatch.setattr(pooling, "_POOL_BLOCK", 16)
+    computed = _learnt(params, 40, days)
+    assert float(kept.dir_scored.sum()) > 0
+    for name in ARRAYS:
+        got, want = getattr(kept, name), getattr(computed, name)
+        assert np.asarray(got).tobytes() == np.asarray(want).tobytes(), name

@@ -123,11 +123,20 @@ class Forecaster(FremenParts):
         return out
 
     # -- per (entry, profile bin) pairs -------------------------------------------------------
-    def cache_profiles(self) -> None:
+    def cache_profiles(self, pooled_at: I64 | None = None) -> None:
         """Hold W[e, h] and S[e, h] of every entry (float64[E, H] each): a day's scoring asks
         for every profile bin of every entry, a query for one bin, which is cheaper read per
-        pair from the accumulators."""
+        pair from the accumulators. ``pooled_at``: the entries' positions among the rows
+        :attr:`pool` pooled, whose W and S it may hold already (``PoolStats.kept``: the same
+        sums, read instead of computed again)."""
         if self._profiles is not None:
+            return
+        kept = self.pool.kept
+        if pooled_at is not None and kept is not None:
+            self._profiles = (
+                np.asarray(kept[0][pooled_at], dtype=np.float64),
+                np.asarray(kept[1][pooled_at], dtype=np.float64),
+            )
             return
         e, h = self.rows.size, self.params.n_profile
         windows, total = np.empty((e, h)), np.empty((e, h))

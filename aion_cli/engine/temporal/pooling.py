@@ -31,6 +31,11 @@ class PoolStats:
     shape: F64
     histogram: F64
     map_shape: F64
+    kept: tuple[F64, Any] | None = None
+    """W[e, h] and S[e, h] of every pooled entry (observed windows and detections per profile
+    bin, as :meth:`Forecaster.cache_profiles` computes them) when the entries were pooled in
+    one block: a day's scoring then reads its candidates' rows instead of computing them a
+    second time (issue 15). None for a map of more entries (no whole-map copies)."""
 
     @classmethod
     def of(
@@ -49,18 +54,24 @@ class PoolStats:
         s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
         c_g = np.zeros((n_groups, b))
         glob = state.glob.profile[0]
+        kept = None
         for a in range(0, rows.size, _POOL_BLOCK):
             r, g = rows[a : a + _POOL_BLOCK], groups[a : a + _POOL_BLOCK]
             block = rows_of(state.cnt_profile, r)
-            s_g += _group_sums(g, n_groups, count_sums(block, 1))
-            w_g += _group_sums(g, n_groups, rows_of(state.obs.profile, r) + glob)
+            s_e = count_sums(block, 1)
+            w_e = rows_of(state.obs.profile, r) + glob
+            s_g += _group_sums(g, n_groups, s_e)
+            w_g += _group_sums(g, n_groups, w_e)
             directed = (
                 count_sums(block, 2)[:, :b] if counts is None else counts[a : a + _POOL_BLOCK, :b]
             )
             c_g += _group_sums(g, n_groups, directed)
+            if rows.size <= _POOL_BLOCK:
+                kept = (w_e, s_e)
         phi = overdispersion(state.window_chi2)
         shapes, map_shape = group_shapes(s_g, w_g, phi, params.calendar.bins_per_day)
-        return cls(shapes, _group_histograms(params.config.direction_prior, c_g), map_shape)
+        histograms = _group_histograms(params.config.direction_prior, c_g)
+        return cls(shapes, histograms, map_shape, kept)
 
 
 def entry_counts(state: TemporalState, rows: I64, block: int = 1 << 10) -> F64:

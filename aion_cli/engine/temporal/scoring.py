@@ -129,7 +129,7 @@ def _score(
         rows = candidates[a : a + _ENTRIES]
         at = position[a : a + _ENTRIES]
         fc = Forecaster(params, state, rows, groups[at], pool, counts=counts[at])
-        fc.cache_profiles()  # every profile bin of every candidate is asked for
+        fc.cache_profiles(at)  # every profile bin of every candidate is asked for
         _score_block(params, state, block, rows, fc, t_s, h)
     return candidates
 
