@@ -30,6 +30,12 @@ class NodeTable:
     bind_index: BindIndex | None = field(default=None, compare=False, repr=False)
     """Memo of the bind checks (:class:`BindIndex`); carried over by :meth:`updated`, since
     it checks on every use that the stable nodes and the cells are the ones it saw."""
+    entry_at: tuple[I64, U64, I64] | None = field(default=None, compare=False, repr=False)
+    """Memo of where node entries lie in :attr:`ids`: (entry rows, their node ids, their
+    positions), every one present. Carried over while the ids stay these (a graph that
+    moved or only repeated the same nodes), and used only for the same rows and ids
+    (``ownership.apply_graph`` compares them: a live graph's node entries rarely change
+    between two of its updates, and comparing costs less than searching)."""
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -88,7 +94,7 @@ class NodeTable:
         still = np.linalg.norm(pos - self.ref_xyz, axis=1) <= move_tolerance
         ref = np.where(still[:, None], self.ref_xyz, pos)
         since = np.where(still, self.stable_since_ns, np.int64(t_ns)).astype(np.int64)
-        return NodeTable(self.ids.copy(), pos, ref, since, self.bind_index)
+        return NodeTable(self.ids.copy(), pos, ref, since, self.bind_index, self.entry_at)
 
     def _same(self, xyz: F64) -> NodeTable:
         """A copy of this table (positions ``xyz``, equal to its own), memo kept."""
@@ -98,6 +104,7 @@ class NodeTable:
             self.ref_xyz.copy(),
             self.stable_since_ns.copy(),
             self.bind_index,
+            self.entry_at,
         )
 
     def stable_mask(self, t_ns: int, stability_ns: int) -> BoolA:

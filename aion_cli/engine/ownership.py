@@ -86,9 +86,15 @@ def apply_graph(state: MapState, snapshot: GraphSnapshot) -> None:
             held.graph_groups(sorted_group_keys(snapshot.places, cfg.pool_size))
     rows = state.entries.node_rows()
     ids = state.entries.node_id[rows]
+    memo = table.entry_at
+    if memo is not None and np.array_equal(memo[0], rows) and np.array_equal(memo[1], ids):
+        state.entries.xyz[rows] = table.xyz[memo[2]]  # every node entry's node is present
+        return
     pos = np.minimum(np.searchsorted(table.ids, ids), max(len(table) - 1, 0))
     present = (table.ids[pos] == ids) if len(table) else np.zeros(len(ids), bool)
     state.entries.xyz[rows[present]] = table.xyz[pos[present]]
+    if present.all():
+        table.entry_at = (rows, ids, pos)
     release_nodes(state, rows[~present])
 
 

@@ -2,7 +2,8 @@
 batches whose every detection has a heading and a speed, and ``Redirects.add`` merging new
 keys into the sorted table, give exactly what the general code gave (verbatim copies of it
 below), bit for bit, on random inputs (hypothesis); a day's forecasters reading the profile
-sums their pooling kept learn exactly what computing them again learnt."""
+sums their pooling kept learn exactly what computing them again learnt; builds whose node
+tables remember where the node entries lie equal builds that search at every graph."""
 
 from __future__ import annotations
 
@@ -207,3 +208,53 @@ def test_learning_with_and_without_the_pooled_profile_sums_is_the_same(
     for name in ARRAYS:
         got, want = getattr(kept, name), getattr(computed, name)
         assert np.asarray(got).tobytes() == np.asarray(want).tobytes(), name
+
+
+# -- where node entries lie in the node table --------------------------------------------------
+
+
+def _without_entry_memo(patch: pytest.MonkeyPatch) -> None:
+    """Node tables that never carry ``entry_at`` (every ``apply_graph`` searches)."""
+    from aion_cli.engine.nodes import NodeTable
+
+    for name in ("_moved", "_same"):
+        method = getattr(NodeTable, name)
+
+        def dropped(self: NodeTable, *args: object, _method: object = method) -> NodeTable:
+            table: NodeTable = _method(self, *args)  # type: ignore[operator]
+            table.entry_at = None
+            return table
+
+        patch.setattr(NodeTable, name, dropped)
+
+
+@pytest.mark.parametrize("robot", [False, True])
+@pytest.mark.parametrize("seed", [1, 2, 5])
+def test_node_entry_memo_builds_the_same_map(
+    seed: int, robot: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Graphs whose nodes move, come and go, cells binding to them: the map built with the
+    node tables' ``entry_at`` memo equals the map built searching at every graph, member
+    for member, bit for bit, and the memo was carried to later graphs."""
+    from aion_cli.engine.nodes import NodeTable
+    from tests.engine.test_issue15_windows import _build
+
+    carried = []
+    moved = NodeTable._moved
+
+    def watching(self: NodeTable, *args: object) -> NodeTable:
+        table = moved(self, *args)  # type: ignore[arg-type]
+        carried.append(table.entry_at is not None)
+        return table
+
+    with monkeypatch.context() as patch:
+        patch.setattr(NodeTable, "_moved", watching)
+        memo = _build(seed, robot)
+    assert any(carried)
+    with monkeypatch.context() as patch:
+        _without_entry_memo(patch)
+        plain = _build(seed, robot)
+    assert sorted(memo) == sorted(plain)
+    for name in memo:
+        assert memo[name].dtype == plain[name].dtype, name
+        assert memo[name].tobytes() == plain[name].tobytes(), name
