@@ -101,12 +101,20 @@ class EntryStore:
     renewed whenever rows become or stop being cells (:meth:`allocate`, :meth:`delete`; a
     cell's key and position never change otherwise), so a bind check that found nothing to
     bind knows nothing changed while it and the stable nodes stay the same."""
+    nodes_version: int = field(default=0, init=False, compare=False, repr=False)
+    """Renewed whenever rows become or stop being node entries (:meth:`allocate` of nodes,
+    :meth:`delete` of any node): what :meth:`node_index` keeps its answer for."""
+    _node_index: tuple[int, U64, I64] | None = field(
+        default=None, init=False, compare=False, repr=False
+    )
+    """Memo of :meth:`node_index`: the :attr:`nodes_version` it was taken at, ids, rows."""
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         """Unpickled or copied: a version of this process's own (another process numbered
-        its stores independently)."""
+        its stores independently), and no memo taken at another process's version."""
         self.__dict__.update(state)
         self.cells_version = next(_VERSIONS)
+        self._node_index = None
 
     def __post_init__(self) -> None:
         if len(self.window_mark) != len(self.kind):  # built without flags: derive them
@@ -177,6 +185,8 @@ class EntryStore:
         self.node_id[rows] = node_id
         self.xyz[rows] = xyz
         self.cells_version = next(_VERSIONS)
+        if kind == NODE:
+            self.nodes_version += 1
         for name in ADDITIVE:
             getattr(self, name)[rows] = 0.0
         return rows
@@ -188,6 +198,8 @@ class EntryStore:
         """
         if len(rows) == 0:
             return
+        if bool((self.kind[rows] == NODE).any()):
+            self.nodes_version += 1
         for name in self._array_names():
             getattr(self, name)[rows] = 0
         self.window_mark[rows] = False
@@ -205,6 +217,24 @@ class EntryStore:
 
     def node_rows(self) -> I64:
         return np.flatnonzero(self.kind[: self.n] == NODE).astype(np.int64)
+
+    def node_index(self) -> tuple[U64, I64]:
+        """The node entries' ids in increasing order and their rows (what a search for the
+        entries of node ids needs: ``MapState.node_entry_rows``). Kept while
+        :attr:`nodes_version` stays the same: only :meth:`allocate` and :meth:`delete`
+        change which rows are nodes (and renew it then), and a node entry's id never
+        changes; so the binds of a live graph (issue 15), which delete cells but rarely add
+        nodes, no longer sort every node id at each call.
+        The arrays are shared: read them, never write."""
+        memo = self._node_index
+        if memo is not None and memo[0] == self.nodes_version:
+            return memo[1], memo[2]
+        rows = self.node_rows()
+        ids = self.node_id[rows]
+        order = np.argsort(ids)
+        ids, rows = ids[order], rows[order]
+        self._node_index = (self.nodes_version, ids, rows)
+        return ids, rows
 
     def canonical_order(self) -> I64:
         """Live rows ordered cells by key, then nodes by node id (layout-independent)."""

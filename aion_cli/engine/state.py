@@ -138,10 +138,7 @@ class MapState:
 
     def node_entry_rows(self, node_ids: U64) -> I64:
         """Entry rows of the given node ids (-1 where the node has no entry)."""
-        rows = self.entries.node_rows()
-        ids = self.entries.node_id[rows]
-        order = np.argsort(ids)
-        ids, rows = ids[order], rows[order]
+        ids, rows = self.entries.node_index()
         if len(ids) == 0:
             return np.full(len(node_ids), -1, np.int64)
         pos = np.minimum(np.searchsorted(ids, node_ids), len(ids) - 1)

@@ -258,3 +258,40 @@ def test_node_entry_memo_builds_the_same_map(
     for name in memo:
         assert memo[name].dtype == plain[name].dtype, name
         assert memo[name].tobytes() == plain[name].tobytes(), name
+
+
+@given(st.lists(st.tuples(st.sampled_from(["cells", "nodes", "delete", "ask", "pickle"]),
+                          st.integers(0, 2**31 - 1)), min_size=1, max_size=25))
+@settings(max_examples=150, deadline=None)
+def test_node_index_memo_answers_as_a_fresh_sort(ops: list[tuple[str, int]]) -> None:
+    """``EntryStore.node_index`` (kept while the cells version stays) equals the node
+    entries' ids sorted and their rows computed afresh, after any sequence of allocations of
+    cells and nodes (row reuse, growth), deletions and pickling (which drops the memo)."""
+    import pickle
+
+    store = EntryStore.empty(4, capacity=2)
+    next_id = 1
+    for op, seed in ops:
+        rng = np.random.default_rng(seed)
+        if op in ("cells", "nodes"):
+            k = int(rng.integers(1, 5))
+            is_node = op == "nodes"
+            ids = np.arange(next_id, next_id + k, dtype=np.uint64) if is_node else np.zeros(
+                k, np.uint64)
+            next_id += k
+            keys = np.full(k, -1, np.int64) if is_node else rng.integers(0, 10**6, k)
+            store.allocate(1 if is_node else 0, keys, ids[rng.permutation(k)],
+                           rng.uniform(0, 1, (k, 3)))
+        elif op == "delete" and store.n:
+            live = store.live_rows()
+            if live.size:
+                store.delete(np.unique(rng.choice(live, int(rng.integers(1, live.size + 1)))))
+        elif op == "pickle":
+            store.node_index()
+            store = pickle.loads(pickle.dumps(store))
+        ids, rows = store.node_index()
+        fresh_rows = store.node_rows()
+        fresh_ids = store.node_id[fresh_rows]
+        order = np.argsort(fresh_ids)
+        assert ids.tobytes() == fresh_ids[order].tobytes()
+        assert rows.tobytes() == fresh_rows[order].tobytes()
