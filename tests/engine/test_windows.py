@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.types import Trajectory
@@ -88,3 +90,68 @@ def test_observation_arrays_round_trip() -> None:
     again = ObservationSource.from_arrays(obs.to_arrays())
     for name, value in obs.to_arrays().items():
         np.testing.assert_array_equal(again.to_arrays()[name], value)
+
+
+def _covered_by_hand(
+    intervals: list[tuple[int, int]], pose_t: list[int], first: int, stop: int
+) -> list[int]:
+    """Window w is covered when a pose lies in [wΔ, (w+1)Δ) or a non-empty interval [s, e)
+    overlaps it (s < (w+1)Δ and e > wΔ): the definition, window by window."""
+    out = []
+    for w in range(first, stop):
+        lo, hi = w * DELTA, (w + 1) * DELTA
+        posed = any(lo <= t < hi for t in pose_t)
+        fixed = any(s < e and s < hi and e > lo for s, e in intervals)
+        if posed or fixed:
+            out.append(w)
+    return out
+
+
+_EDGES = st.integers(-3, 40).map(lambda k: k * DELTA // 2) | st.integers(-2 * DELTA, 20 * DELTA)
+
+
+@given(
+    intervals=st.lists(st.tuples(_EDGES, _EDGES).map(sorted).map(tuple), max_size=6),
+    pose_t=st.lists(st.integers(-2 * DELTA, 20 * DELTA), max_size=5),
+    first=st.integers(-4, 12),
+    length=st.integers(1, 14),
+)
+@settings(max_examples=300, deadline=None)
+def test_covered_windows_are_the_windows_an_interval_or_a_pose_touches(
+    intervals: list[tuple[int, int]], pose_t: list[int], first: int, length: int
+) -> None:
+    """Against the definition, for intervals that overlap, touch, nest, are empty ([s, s)
+    covers nothing) or end on a window's edge, with and without poses."""
+    obs = ObservationSource()
+    for s, e in intervals:
+        obs.set_fixed_sensor(s, e)
+    if pose_t:
+        obs.add_trajectory(Trajectory(np.array(pose_t, np.int64), np.zeros((len(pose_t), 3))))
+    stop = first + length
+    expected = _covered_by_hand(intervals, pose_t, first, stop)
+    np.testing.assert_array_equal(obs.covered_windows(first, stop, DELTA), expected)
+    windows = np.arange(first, stop)
+    fixed = _covered_by_hand(intervals, [], first, stop)
+    np.testing.assert_array_equal(obs.fixed_mask(windows, DELTA), np.isin(windows, fixed))
+    for w in windows.tolist():
+        assert obs.fixed_covers(w, DELTA) == (w in fixed)
+
+
+def test_an_empty_fixed_sensor_interval_covers_no_window() -> None:
+    obs = ObservationSource()
+    obs.set_fixed_sensor(700 * S, 700 * S)  # inside window 1, zero length
+    assert obs.covered_windows(0, 5, DELTA).size == 0
+    assert not obs.fixed_covers(1, DELTA)
+    assert obs.to_arrays()["obs_fixed_start"].size == 0
+
+
+def test_one_interval_declared_whole_or_in_touching_parts_saves_the_same() -> None:
+    whole, parts = ObservationSource(), ObservationSource()
+    whole.set_fixed_sensor(100 * S, 4000 * S)
+    parts.set_fixed_sensor(1500 * S, 4000 * S)  # out of order, touching, one nested
+    parts.set_fixed_sensor(100 * S, 1500 * S)
+    parts.set_fixed_sensor(200 * S, 300 * S)
+    for name, value in whole.to_arrays().items():
+        np.testing.assert_array_equal(parts.to_arrays()[name], value)
+    np.testing.assert_array_equal(parts.merged_fixed()[0], [100 * S])
+    np.testing.assert_array_equal(parts.merged_fixed()[1], [4000 * S])
