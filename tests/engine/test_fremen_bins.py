@@ -98,3 +98,25 @@ def test_each_bins_own_daily_sinusoid_is_recovered() -> None:
     assert rates[0] == pytest.approx(2.0 + expected, abs=1e-4)
     assert rates[1] == pytest.approx(2.0 - expected, abs=1e-4)
     np.testing.assert_allclose(rates[2:], 0.0, atol=1e-9)
+
+
+def test_orders_beyond_the_admitted_periods_add_nothing() -> None:
+    """Ten 10-minute windows span 1.5 h between their centres: with span_factor 1.5 only the
+    1 h period is admitted, so fremen2..4 have no further period and must forecast what
+    fremen1 does — the constant counts, at any time (an order without a period has γ = 0)."""
+    params = TemporalParams.from_config(ModelConfig())
+    assert params.config.span_factor == 1.5
+    t = START + 8 * 3600 * S + np.arange(10) * WINDOW_NS + WINDOW_NS // 2
+    const = np.zeros(params.values)
+    const[0], const[-1] = 1.0, 3.0
+    state = _learn(params, t, np.tile(const, (t.size, 1)))
+    fc = _forecaster(params, state)
+    periods = np.array(params.config.periods)
+    assert periods[fc._gate[0]].tolist() == [3600.0]
+    np.testing.assert_array_equal(fc.coef_total[0, 1:], 0.0)
+    later = to_model_seconds(START + np.array([2, 13, 30]) * 3600 * S + 17 * S)
+    e, h = np.zeros(3, np.int64), np.zeros(3, np.int64)
+    for order in range(1, params.max_order + 1):
+        family = f"fremen{order}"
+        np.testing.assert_allclose(fc.flow(family, e, h, later), const.sum(), atol=1e-9)
+        np.testing.assert_allclose(fc.bin_rates(family, e, h, later), [const] * 3, atol=1e-9)
