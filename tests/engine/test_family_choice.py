@@ -6,7 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aion_cli.engine.temporal.choice import _choose, benjamini_hochberg, student_t_sf
+from aion_cli.engine.temporal.choice import (
+    _choose,
+    benjamini_hochberg,
+    dispersion,
+    student_t_sf,
+)
 from aion_cli.engine.types import F64
 
 
@@ -108,3 +113,20 @@ def test_many_entries_tested_at_once_hold_the_false_discovery_rate() -> None:
                      (consistency[0][i : i + 1], consistency[1][i : i + 1], 0))[0]
              for i in range(1000)]
     assert sum(alone) > 20  # the same noise tested one entry at a time does get through
+
+
+def test_dispersion_by_hand() -> None:
+    """φ_e = (χ²_e + 10 φ_map) / (scored_e + 10) for the chosen family, φ_map = Σ χ² / Σ scored
+    of that family over the map (at least 1), φ_e at least 1. Families (static, profile):
+    map φ = 300 / 60 = 5 for static, 30 / 60 -> 1 for profile."""
+    chi2 = np.array([[120.0, 10.0], [180.0, 20.0], [0.0, 0.0]])
+    scored = np.array([40.0, 20.0, 0.0])
+    family = np.array([0, 1, 0])
+    phi = dispersion(chi2, scored, family)
+    expected = [(120.0 + 10 * 5.0) / 50.0, max((20.0 + 10 * 1.0) / 30.0, 1.0), 5.0]
+    np.testing.assert_allclose(phi, expected, rtol=1e-12)
+    assert expected == [3.4, 1.0, 5.0]
+    over = dispersion(np.array([[90.0]]), np.array([10.0]), np.zeros(1, np.int64))
+    assert over[0] == pytest.approx(9.0)  # one entry: the map's own φ, (90 + 90) / 20
+    nothing = dispersion(np.zeros((2, 1)), np.zeros(2), np.zeros(2, np.int64))
+    np.testing.assert_array_equal(nothing, [1.0, 1.0])  # nothing scored: Poisson
