@@ -41,6 +41,9 @@ def test_benjamini_hochberg_by_hand() -> None:
     np.testing.assert_array_equal(benjamini_hochberg(p), [False, True, True, False, True])
     assert not benjamini_hochberg(np.array([0.02, 0.9, 0.9, 0.9])).any()  # 0.02 > 0.05 / 4
     assert benjamini_hochberg(np.array([0.04])).tolist() == [True]  # m = 1: the plain test
+    # "p_(k) <= rate k / m": p-values exactly at their thresholds are rejected
+    assert benjamini_hochberg(np.array([0.05])).tolist() == [True]
+    assert benjamini_hochberg(np.array([0.05, 0.025])).tolist() == [True, True]
     assert benjamini_hochberg(np.array([])).size == 0
 
 
@@ -84,6 +87,13 @@ def test_one_scored_day_moves_an_entry_only_away_from_a_borrowed_default() -> No
     enabled = np.array([True, True, True])
     chosen = _choose(scores, default, enabled, 3.0, (gain_sq, days, 0))
     assert chosen.tolist() == [0, 2, 1]  # static kept; fremen by 10 nats; 2 nats: shape kept
+
+
+def test_a_gain_of_exactly_the_margin_is_not_more_than_it() -> None:
+    """A family replaces the default only if it beats it by *more* than the margin."""
+    scores = np.array([[0.0, 3.0], [0.0, 3.5], [2.0, 5.0]])
+    chosen = _choose(scores, np.zeros(3, np.int64), np.array([True, True]), 3.0)
+    assert chosen.tolist() == [0, 1, 0]
 
 
 def test_the_margin_still_applies() -> None:

@@ -293,11 +293,39 @@ def test_node_table_timer_rules() -> None:
     np.testing.assert_array_equal(gone, [True, True, False])
 
 
+
+@pytest.mark.parametrize("same_ids", [True, False])
+def test_node_timers_measure_moves_from_the_reference_away_from_the_origin(
+    same_ids: bool,
+) -> None:
+    """Nodes far from the origin: moved 0.2 m or exactly 0.25 m (within 0.25 m of their
+    reference: "farther than" restarts) they keep their timer, moved 0.3 m they restart it,
+    whether the snapshot has exactly the table's nodes (its fast path) or one more."""
+    ref = np.array([[10.0, 5.0, 1.0], [-40.0, 12.0, 0.0], [3.0, -7.0, 2.0]])
+    table, _ = NodeTable().updated(pid([1, 2, 4]), ref, 100, 0.25)
+    moved = ref + np.array([[0.2, 0.0, 0.0], [0.0, -0.3, 0.0], [0.0, 0.0, 0.25]])
+    ids, xyz = pid([1, 2, 4]), moved
+    if not same_ids:
+        ids, xyz = pid([1, 2, 4, 3]), np.vstack([moved, [[0.0, 0.0, 0.0]]])
+    table, _ = table.updated(ids, xyz, 200, 0.25)
+    at = np.searchsorted(table.ids, pid([1, 2, 4]))
+    np.testing.assert_array_equal(table.stable_since_ns[at], [100, 200, 100])
+    np.testing.assert_array_equal(table.ref_xyz[at], [ref[0], moved[1], ref[2]])
+
 def test_nearest_nodes_skips_other_floors() -> None:
     nodes = np.array([[0.1, 0, 3.0], [0.5, 0, 0.0], [9, 9, 0]])
     pts = np.array([[0, 0, 0.2], [0, 0, 2.9], [4, 4, 0]])
     np.testing.assert_array_equal(nearest_nodes(pts, nodes, 1.0, 1.0), [1, 0, -1])
     assert nearest_nodes(pts, np.zeros((0, 3)), 1.0, 1.0).tolist() == [-1, -1, -1]
+
+
+def test_nearest_nodes_bounds_are_inclusive() -> None:
+    """A node exactly bind_radius away horizontally, or exactly vertical_tolerance above,
+    binds ("within", "at most"); a hair beyond does not."""
+    nodes = np.array([[10.0, 0.0, 1.0], [0.0, 20.0, 1.5]])
+    pts = np.array([[10.0, 0.75, 1.0], [0.0, 20.0, 1.0], [10.0, 0.75 + 1e-9, 1.0],
+                    [0.0, 20.0, 1.0 - 1e-9]])
+    np.testing.assert_array_equal(nearest_nodes(pts, nodes, 0.75, 0.5), [0, 1, -1, -1])
 
 
 # -- property test: random detections, graph updates, moves and removals --------------------
