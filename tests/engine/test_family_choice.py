@@ -75,6 +75,21 @@ def test_a_family_must_win_consistently_the_more_so_the_fewer_the_days() -> None
     np.testing.assert_array_equal(chosen, [1, 0, 1, 0, 1, 0])
 
 
+def test_the_t_test_uses_the_sample_variance_of_the_daily_gains() -> None:
+    """Gains 8 and 12: mean 10, sample variance (2² + 2²) / (2 − 1) = 8, t = 10 √2 / √8 = 5.0
+    on one degree of freedom, p = 0.063 (scipy): not evidence at 5 %, the entry stays static
+    (a variance divided by n + 1 would give t = 8.7, p = 0.036, and switch it)."""
+    from scipy import stats
+
+    assert stats.t.sf(5.0, 1) == pytest.approx(0.0628, abs=1e-4)
+    scores, consistency = _entries([[8.0, 12.0]])
+    chosen = _choose(scores, np.zeros(1, np.int64), np.array([True, True]), 3.0, consistency)
+    assert chosen.tolist() == [0]
+    scores, consistency = _entries([[9.0, 11.0]])  # t = 10.0, p = 0.032: switches
+    chosen = _choose(scores, np.zeros(1, np.int64), np.array([True, True]), 3.0, consistency)
+    assert chosen.tolist() == [1]
+
+
 def test_one_scored_day_moves_an_entry_only_away_from_a_borrowed_default() -> None:
     """Families (static, shape, fremen), one scored day. An entry whose default is static
     keeps it whatever the day's gain; an entry borrowing its room's shape as default may
