@@ -218,6 +218,20 @@ def test_oversized_members_are_rejected(written: Path, tmp_path: Path) -> None:
         read_map(huge)
 
 
+def test_size_limits_accept_a_map_exactly_at_them(written: Path) -> None:
+    """The limits are the largest sizes accepted: a map whose largest member, and whose
+    total, are exactly at them reads whole; a byte less refuses it."""
+    with zipfile.ZipFile(written) as zf:
+        sizes = [info.file_size for info in zf.infolist()]
+        largest = max(i.file_size for i in zf.infolist() if i.filename.endswith(".npy"))
+    assert_same(read_map(written, max_member_bytes=largest)[0], sample_arrays())
+    with pytest.raises(MapFileError, match="over the"):
+        read_map(written, max_member_bytes=largest - 1)
+    assert_same(read_map(written, max_total_bytes=sum(sizes))[0], sample_arrays())
+    with pytest.raises(MapFileError, match="over the"):
+        read_map(written, max_total_bytes=sum(sizes) - 1)
+
+
 def test_zip_bomb_ratio_is_rejected(tmp_path: Path) -> None:
     zeros = npy_bytes(np.zeros(4 * 1024**2 // 8))
     bomb = tmp_path / "bomb.aion"
