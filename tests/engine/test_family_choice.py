@@ -9,6 +9,7 @@ import pytest
 from aion_cli.engine.temporal.choice import (
     _choose,
     benjamini_hochberg,
+    count_quantiles,
     dispersion,
     student_t_sf,
 )
@@ -155,3 +156,12 @@ def test_dispersion_by_hand() -> None:
     assert over[0] == pytest.approx(9.0)  # one entry: the map's own φ, (90 + 90) / 20
     nothing = dispersion(np.zeros((2, 1)), np.zeros(2), np.zeros(2, np.int64))
     np.testing.assert_array_equal(nothing, [1.0, 1.0])  # nothing scored: Poisson
+
+
+def test_a_zero_mean_count_is_zero_at_every_quantile() -> None:
+    """Mean 0 (an entry nobody uses at that hour): every quantile is 0, Poisson or not; a
+    negative or unknown mean has no quantile."""
+    mean = np.array([0.0, 0.0, -1.0, np.nan])
+    var = np.array([0.0, 5.0, 1.0, 1.0])
+    for q in (0.1, 0.5, 0.9):
+        np.testing.assert_array_equal(count_quantiles(mean, var, q), [0.0, 0.0, np.nan, np.nan])

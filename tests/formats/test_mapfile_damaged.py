@@ -219,8 +219,8 @@ def test_oversized_members_are_rejected(written: Path, tmp_path: Path) -> None:
 
 
 def test_size_limits_accept_a_map_exactly_at_them(written: Path) -> None:
-    """The limits are the largest sizes accepted: a map whose largest member, and whose
-    total, are exactly at them reads whole; a byte less refuses it."""
+    """The limits are the largest sizes accepted: a map whose largest member, whose total
+    and whose number of members are exactly at them reads whole; one less refuses it."""
     with zipfile.ZipFile(written) as zf:
         sizes = [info.file_size for info in zf.infolist()]
         largest = max(i.file_size for i in zf.infolist() if i.filename.endswith(".npy"))
@@ -230,6 +230,9 @@ def test_size_limits_accept_a_map_exactly_at_them(written: Path) -> None:
     assert_same(read_map(written, max_total_bytes=sum(sizes))[0], sample_arrays())
     with pytest.raises(MapFileError, match="over the"):
         read_map(written, max_total_bytes=sum(sizes) - 1)
+    assert_same(read_map(written, max_members=len(sizes))[0], sample_arrays())
+    with pytest.raises(MapFileError, match="entry limit"):
+        read_map(written, max_members=len(sizes) - 1)
 
 
 def test_zip_bomb_ratio_is_rejected(tmp_path: Path) -> None:
