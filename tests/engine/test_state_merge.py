@@ -201,14 +201,20 @@ def test_entries_of_one_map_merged_into_one_row_count_their_windows_once() -> No
     np.testing.assert_array_equal(observed, [5])
 
 
-def test_merged_maps_add_their_accepted_and_dropped_detections() -> None:
-    """Counters of disjoint logs add: detections accepted, and dropped per reason."""
+def test_merged_maps_add_their_counters_and_keep_the_latest_log_time() -> None:
+    """Counters of disjoint logs add: detections accepted, and dropped per reason; the log
+    time is the later map's."""
     spots = np.c_[np.random.default_rng(4).uniform(-1, 8, (20, 2)), np.zeros(20)]
     early = run_steps(fixed_sensor_log(T0, seed=1, spots=spots)).state
     late = run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2, spots=spots)).state
     early.dropped.update(nan=2, out_of_range=1, before_window=0)
     late.dropped.update(nan=5, out_of_range=0, before_window=3)
     accepted = early.accepted + late.accepted
+    latest = late.log_time_ns
+    assert latest is not None
+    assert early.log_time_ns is not None
+    assert latest > early.log_time_ns
     merged = merge_states(early, late)
     assert merged.dropped == {"nan": 7, "out_of_range": 1, "before_window": 3}
     assert merged.accepted == accepted
+    assert merged.log_time_ns == latest  # the map has seen the logs up to the later one's end
