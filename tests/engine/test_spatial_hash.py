@@ -114,3 +114,30 @@ def test_hashable_indices_masks_bad_rows_and_matches_cell_indices() -> None:
     np.testing.assert_array_equal(finite, [True, False, True, True])
     np.testing.assert_array_equal(ok, [True, False, False, True])
     np.testing.assert_array_equal(ijk[ok], cell_indices(good, 0.5))
+
+
+def test_both_ends_of_the_index_range_are_packable_and_one_beyond_is_not() -> None:
+    """Indices -2^20 and 2^20 − 1 are the packable range's ends, inclusive, on every axis and
+    in every entry point (hashable_indices' fast path, all rows fine, and its slow path)."""
+    d = 0.5
+    lo, hi = INDEX_MIN * d, (INDEX_MAX + 1) * d  # the range in metres: [lo, hi)
+    edge = np.array([[lo, 0.0, 0.0], [0.0, hi - d / 4, 0.0], [0.0, 0.0, hi - d], [lo, lo, lo]])
+    beyond = np.array([[hi, 0.0, 0.0], [0.0, lo - d / 4, 0.0], [0.0, 0.0, hi + d]])
+    expected = np.array([[INDEX_MIN, 0, 0], [0, INDEX_MAX, 0], [0, 0, INDEX_MAX],
+                         [INDEX_MIN] * 3])  # fmt: skip
+    np.testing.assert_array_equal(cell_indices(edge, d), expected)
+    np.testing.assert_array_equal(unpack_keys(keys_for_points(edge, d)), expected)
+    assert packable_mask(edge, d).all()
+    assert not packable_mask(beyond, d).any()
+    ijk, finite, ok = hashable_indices(edge, d)  # every row fine: the fast path
+    np.testing.assert_array_equal(ijk, expected)
+    assert ok.all()
+    ijk, finite, ok = hashable_indices(np.vstack([edge, beyond]), d)  # the slow path
+    np.testing.assert_array_equal(ok, [True] * 4 + [False] * 3)
+    assert finite.all()
+    np.testing.assert_array_equal(ijk[:4], expected)
+    for row in beyond:
+        with pytest.raises(CoordinateRangeError, match="cannot be hashed"):
+            cell_indices(row[None, :], d)
+    with pytest.raises(CoordinateRangeError, match="cell size"):
+        cell_centres(keys_for_points(edge, d), 0.0)
