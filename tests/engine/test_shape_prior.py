@@ -200,3 +200,42 @@ def test_an_unseen_kind_of_day_takes_the_hours_of_the_days_seen() -> None:
     both_w[0, 2] = 0.0
     shape = group_shapes(both_s, both_w, 5.0, bins_per_day=24)[1]
     assert shape[2] == shape[26] < 0.05 * shape[9]  # its night, as the weekend saw it
+
+
+def test_chi2_of_one_cell_by_hand() -> None:
+    """χ² = (Σ_s T_s² / m_s) / ρ − Σ T over a (day, bin) cell's observed slots, df = n − 1.
+    Hour 1 of a fixed sensor's day: 6 windows, detections 1 and 3 in two of them, ρ = 4 / 6,
+    χ² = 10 / (2/3) − 4 = 11 on 5 degrees of freedom (the empty windows were observed).
+    A day that recorded only those two windows: ρ = 2, χ² = 10 / 2 − 4 = 1 on 1 — the
+    smallest cell that counts."""
+    totals = np.zeros(SLOTS)
+    totals[[6, 7]] = [1.0, 3.0]
+    np.testing.assert_allclose(day_chi2(_fixed_day(totals), HOURS, 24), [11.0, 5.0])
+    two = _fixed_day(np.array([1.0, 3.0]))
+    np.testing.assert_allclose(day_chi2(two, np.array([1, 1]), 24), [1.0, 1.0])
+    one = _fixed_day(np.array([4.0]))
+    np.testing.assert_array_equal(day_chi2(one, np.array([1]), 24), [0.0, 0.0])
+
+
+def test_a_robot_window_that_saw_no_entry_says_nothing() -> None:
+    """A robot window (not fixed) in which no entry was observed and nothing detected is not
+    a slot of any cell: adding it to a day changes neither χ² nor its degrees of freedom."""
+    slots = np.arange(4)
+    values = np.zeros((3, 9))
+    values[:, 8] = [2.0, 5.0, 1.0]
+    seen = DayWindows(slots[:3], np.zeros(3, bool), np.array([0, 0, 1]), slots[:3],
+                      np.array([0, 0, 1]), slots[:3], values)  # fmt: skip
+    plus_empty = DayWindows(slots, np.zeros(4, bool), seen.obs_entry, seen.obs_slot,
+                            seen.cnt_entry, seen.cnt_slot, values)  # fmt: skip
+    base = day_chi2(seen, np.zeros(3, np.int64), 24)
+    assert base[1] == 2.0  # three robot slots of one hour: df 2
+    np.testing.assert_array_equal(day_chi2(plus_empty, np.zeros(4, np.int64), 24), base)
+
+
+def test_edges_of_the_prior_strength_and_of_an_empty_map() -> None:
+    """Bins whose spread is exactly their noise ((S − W m)² = φ W m) give no excess: inf, the
+    parent's shape; a map without detections has flat shapes (ones), not 0 / 0."""
+    assert prior_strength(np.array([2.0]), np.array([1.0]), np.array([1.0]), 1.0) == np.inf
+    shapes, r_map = group_shapes(np.zeros((2, 24)), np.ones((2, 24)), 1.0)
+    np.testing.assert_array_equal(shapes, 1.0)
+    np.testing.assert_array_equal(r_map, 1.0)
