@@ -166,6 +166,9 @@ def test_window_chi2_is_stored_and_checked() -> None:
     for bad in (np.array([1.0, -1.0]), np.array([np.nan, 1.0]), np.zeros(3)):
         with pytest.raises(MapCorruptError, match="window_chi2"):
             TemporalState.from_arrays({**arrays, "t_window_chi2": bad}, "t_", *shape, *families)
+    zero = TemporalState.from_arrays({**arrays, "t_window_chi2": np.zeros(2)}, "t_", *shape,
+                                     *families)  # fmt: skip
+    assert zero.window_chi2.tolist() == [0, 0]  # no cell yet (a map of one window): valid
 
 
 def test_an_unseen_kind_of_day_takes_the_hours_of_the_days_seen() -> None:
@@ -234,8 +237,14 @@ def test_a_robot_window_that_saw_no_entry_says_nothing() -> None:
 
 def test_edges_of_the_prior_strength_and_of_an_empty_map() -> None:
     """Bins whose spread is exactly their noise ((S − W m)² = φ W m) give no excess: inf, the
-    parent's shape; a map without detections has flat shapes (ones), not 0 / 0."""
+    parent's shape; a map without detections has flat shapes (ones), not 0 / 0; a group
+    without detections has the map's shape."""
     assert prior_strength(np.array([2.0]), np.array([1.0]), np.array([1.0]), 1.0) == np.inf
     shapes, r_map = group_shapes(np.zeros((2, 24)), np.ones((2, 24)), 1.0)
     np.testing.assert_array_equal(shapes, 1.0)
     np.testing.assert_array_equal(r_map, 1.0)
+    s_g = np.zeros((2, 24))
+    s_g[0, 8:18] = 30.0  # a busy group with a day rhythm, and a group with no detections
+    shapes, r_map = group_shapes(s_g, np.ones((2, 24)), 1.0)
+    assert r_map[12] > 1.0 > r_map[2]
+    np.testing.assert_array_equal(shapes[1], r_map)  # the map's shape, not zeros
