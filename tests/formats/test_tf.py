@@ -361,3 +361,18 @@ def test_no_interpolation_across_a_long_gap() -> None:
     assert tr_w[0, 0] == pytest.approx(2.0 + 48.0 * 1798 / 3600)
     with pytest.raises(TransformError):
         TfBuffer(max_gap_s=0)
+
+
+@pytest.mark.parametrize("first", [16, 5])
+def test_a_late_sample_after_a_full_buffer_is_sorted_in(first: int) -> None:
+    """Samples at 1..first s (x = t), then one at 4.5 s (x = 100): a lookup at 4.5 s is that
+    sample, between its neighbours the line to it — also when the late sample arrives just as
+    the edge's first buffer (16 samples) is full and grows."""
+    buf = TfBuffer()
+    t = np.arange(1, first + 1) * S
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (first, 1))
+    buf.add_transforms("odom", "base", t, np.c_[t / S, np.zeros((first, 2))], quat)
+    buf.add_transforms("odom", "base", [4 * S + S // 2], [[100.0, 0, 0]], [[0, 0, 0, 1.0]])
+    _, tr, ok = buf.lookup("odom", "base", [4 * S + S // 2, 4 * S + S // 4, 5 * S])
+    assert ok.all()
+    np.testing.assert_allclose(tr[:, 0], [100.0, 52.0, 5.0])
