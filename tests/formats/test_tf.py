@@ -376,3 +376,23 @@ def test_a_late_sample_after_a_full_buffer_is_sorted_in(first: int) -> None:
     _, tr, ok = buf.lookup("odom", "base", [4 * S + S // 2, 4 * S + S // 4, 5 * S])
     assert ok.all()
     np.testing.assert_allclose(tr[:, 0], [100.0, 52.0, 5.0])
+
+
+def test_the_tolerance_and_the_gap_limit_are_inclusive() -> None:
+    """Samples at 10 s and 30 s, tolerance 0.5 s, gaps up to 20 s interpolated: lookups at
+    9.5 s and 30.5 s (exactly the tolerance outside) hold the end samples, 1 ns farther they
+    fail; the 20 s gap itself (exactly max_gap_s) is interpolated, a longer one only within
+    the tolerance of its samples."""
+    buf = TfBuffer(0.5, max_gap_s=20.0)
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
+    buf.add_transforms("odom", "base", [10 * S, 30 * S], [[1.0, 0, 0], [3.0, 0, 0]], quat)
+    times = [9 * S + S // 2, 30 * S + S // 2, 9 * S + S // 2 - 1, 30 * S + S // 2 + 1, 20 * S]
+    _, tr, ok = buf.lookup("odom", "base", times)
+    np.testing.assert_array_equal(ok, [True, True, False, False, True])
+    np.testing.assert_allclose(tr[ok, 0], [1.0, 3.0, 2.0])
+    # a 30 s gap (longer than 20 s): only within the tolerance of its two samples
+    buf.add_transforms("odom", "base", [60 * S], [[6.0, 0, 0]], quat[:1])
+    inside = [30 * S + S // 2, 59 * S + S // 2, 30 * S + S // 2 + 1, 45 * S]
+    _, tr, ok = buf.lookup("odom", "base", inside)
+    np.testing.assert_array_equal(ok, [True, True, False, False])
+    np.testing.assert_allclose(tr[ok, 0], [3.05, 5.95])
