@@ -126,3 +126,19 @@ def test_add_rows_reads_every_source_before_writing(
     expected = _reference(before, before, src, dst, observation)
     state.add_rows(np.array(src), np.array(dst), observation)
     _assert_same(state, expected)
+
+
+def test_an_entrys_observation_is_the_global_block_plus_its_own() -> None:
+    """Windows and per-bin windows add; first is the earlier, last the later of the two."""
+    state = _state(2, 2, 3)
+    state.glob.n[0], state.glob.profile[0] = 4.0, [1.0, 0.0, 2.0, 1.0]
+    state.glob.first[0], state.glob.last[0] = 50.0, 120.0
+    state.obs.first[:], state.obs.last[:] = [10.0, 60.0], [90.0, 300.0]
+    own = _snapshot(state)
+    got = state.observation([1, 0], fourier=False)
+    np.testing.assert_array_equal(got.n, own["obs_n"][[1, 0]] + 4.0)
+    np.testing.assert_array_equal(got.profile, own["obs_profile"][[1, 0]] + [1.0, 0.0, 2.0, 1.0])
+    np.testing.assert_array_equal(got.first, [50.0, 10.0])
+    np.testing.assert_array_equal(got.last, [300.0, 120.0])
+    assert got.fourier.shape == (2, 0)
+    np.testing.assert_array_equal(state.windows_observed([1, 0]), got.n)
