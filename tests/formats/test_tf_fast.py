@@ -229,3 +229,16 @@ def test_by_edge_groups_rows_in_order(data: st.DataObject) -> None:
     assert sorted(rows) == list(range(len(got)))
     firsts = list(dict.fromkeys(zip(got.parent, got.child, strict=True)))
     assert seen == firsts
+
+
+def test_a_message_must_end_where_its_layout_does() -> None:
+    """ROS 1 messages are consumed exactly: one byte more is another layout. CDR may end in
+    up to 7 bytes of padding (the next 8-byte boundary), not 8."""
+    ros1 = _one(1)
+    with pytest.raises(MessageDecodeError, match="unread bytes"):
+        decode_tf_messages([RawMessage(ros1.topic, ros1.msgtype, 0, ros1.data + b"\0", "ros1")])
+    cdr = _one(2)
+    padded = RawMessage(cdr.topic, cdr.msgtype, 0, cdr.data + bytes(7), "cdr")
+    np.testing.assert_array_equal(decode_tf_messages([padded]).t_ns, decode_tf_messages([cdr]).t_ns)
+    with pytest.raises(MessageDecodeError, match="unread bytes"):
+        decode_tf_messages([RawMessage(cdr.topic, cdr.msgtype, 0, cdr.data + bytes(8), "cdr")])
