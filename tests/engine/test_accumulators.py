@@ -129,7 +129,8 @@ def test_add_rows_reads_every_source_before_writing(
 
 
 def test_an_entrys_observation_is_the_global_block_plus_its_own() -> None:
-    """Windows and per-bin windows add; first is the earlier, last the later of the two."""
+    """Windows, per-bin windows and the phasor sums add; first is the earlier, last the later
+    of the two."""
     state = _state(2, 2, 3)
     state.glob.n[0], state.glob.profile[0] = 4.0, [1.0, 0.0, 2.0, 1.0]
     state.glob.first[0], state.glob.last[0] = 50.0, 120.0
@@ -141,4 +142,7 @@ def test_an_entrys_observation_is_the_global_block_plus_its_own() -> None:
     np.testing.assert_array_equal(got.first, [50.0, 10.0])
     np.testing.assert_array_equal(got.last, [300.0, 120.0])
     assert got.fourier.shape == (2, 0)
+    state.glob.fourier[0] = [1 + 2j, -3j, 4.0]
+    full = state.observation([1, 0])
+    np.testing.assert_array_equal(full.fourier, own["obs_fourier"][[1, 0]] + [1 + 2j, -3j, 4.0])
     np.testing.assert_array_equal(state.windows_observed([1, 0]), got.n)
