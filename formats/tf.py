@@ -127,7 +127,8 @@ class TfBuffer:
     (using the nearest sample), like a short hold; beyond it, ``ok`` is False.
     ``max_gap_s``: the longest gap between two samples of an edge that is interpolated
     across (tf2's default cache length, 10 s); a time inside a longer gap, farther than
-    ``tolerance_s`` from both samples, is not ``ok`` (localisation lost, TF stopped): a
+    ``tolerance_s`` from both samples, is not ``ok``, and one within it is the nearer
+    sample, as at the ends of the range (localisation lost, TF stopped): a
     robot pose made up across it would place detections and count windows as observed
     where the robot may never have been.
     ``block_rows``: query times composed at once (bounds a lookup's temporaries; the results
@@ -382,10 +383,10 @@ class TfBuffer:
         hi = np.searchsorted(stamps, tc, side="left")  # first stamp >= tc, always valid
         lo = np.maximum(hi - 1, 0)  # at a sample stamp alpha is 1 (or span 0): the sample
         span = (stamps[hi] - stamps[lo]).astype(np.float64)
-        # inside a gap longer than max_gap_ns only within tolerance of one of its two samples
-        near = np.minimum(tc - stamps[lo], stamps[hi] - tc) <= self.tolerance_ns
-        ok &= (span <= self.max_gap_ns) | near
-        alpha = (tc - stamps[lo]).astype(np.float64) / np.where(span > 0, span, 1.0)
+        # in a gap over max_gap_ns: only within tolerance of a sample, then that sample
+        before, after, long_gap = tc - stamps[lo], stamps[hi] - tc, span > self.max_gap_ns
+        ok &= ~long_gap | (np.minimum(before, after) <= self.tolerance_ns)
+        alpha = np.where(long_gap, after < before, before / np.where(span > 0, span, 1.0))
         tr_out = trans[lo] + alpha[:, None] * (trans[hi] - trans[lo])
         return _Tf(quat_to_matrix(slerp(quats[lo], quats[hi], alpha)), tr_out, ok)
 
