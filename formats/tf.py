@@ -31,6 +31,7 @@ import numpy.typing as npt
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.errors import TransformError
 from aion_cli.formats.quaternions import quat_to_matrix, slerp
+from aion_cli.formats.tf_parts import EdgeSeries, TfBatch
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
 LOOKUP_BLOCK_ROWS = 16_384
@@ -45,79 +46,11 @@ def normalize_frame(frame_id: str) -> str:
     return frame_id.strip().lstrip("/")
 
 
-class _EdgeSeries:
-    """Growable, lazily sorted samples of one dynamic edge (amortised O(1) in-order appends)."""
-
-    def __init__(self) -> None:
-        self.n = 0
-        self.stamps = np.empty(16, dtype=np.int64)
-        self.trans = np.empty((16, 3))
-        self.quats = np.empty((16, 4))
-        self.sorted = True
-
-    def append(self, t: I64, trans: F64, quats: F64) -> None:
-        k = len(t)
-        if self.n + k > len(self.stamps):
-            cap = max(2 * len(self.stamps), self.n + k)
-            self.stamps = np.resize(self.stamps, cap)
-            self.trans = np.resize(self.trans, (cap, 3))
-            self.quats = np.resize(self.quats, (cap, 4))
-        last = self.stamps[self.n - 1] if self.n else np.iinfo(np.int64).min
-        if t[0] < last or (k > 1 and bool((np.diff(t) < 0).any())):
-            self.sorted = False
-        self.stamps[self.n : self.n + k] = t
-        self.trans[self.n : self.n + k] = trans
-        self.quats[self.n : self.n + k] = quats
-        self.n += k
-
-    def arrays(self) -> tuple[I64, F64, F64]:
-        if not self.sorted:
-            order = np.argsort(self.stamps[: self.n], kind="stable")
-            self.stamps[: self.n] = self.stamps[: self.n][order]
-            self.trans[: self.n] = self.trans[: self.n][order]
-            self.quats[: self.n] = self.quats[: self.n][order]
-            self.sorted = True
-        return self.stamps[: self.n], self.trans[: self.n], self.quats[: self.n]
-
-
 def _stamp_ns(stamp: Any) -> int:
     """ns of a ROS time: ``sec/nanosec`` (ROS 2, rosbags) or ``secs/nsecs`` (genpy)."""
     if hasattr(stamp, "nanosec"):
         return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
     return int(stamp.secs) * 1_000_000_000 + int(stamp.nsecs)
-
-
-class _Tf:
-    """A transform for one query batch: static (R[3,3], t[3], ok None) or per query time
-    (R[n,3,3], t[n,3], ok[n]). Compositions use 3x3 matrix products over the whole batch
-    (BLAS) whenever one side is static, which is the common sensor/base_link case."""
-
-    __slots__ = ("R", "ok", "t")
-
-    def __init__(self, R: F64, t: F64, ok: BoolA | None) -> None:
-        self.R, self.t, self.ok = R, t, ok
-
-    def inverse(self) -> _Tf:
-        if self.ok is None:
-            return _Tf(self.R.T, -self.R.T @ self.t, None)
-        Rt = np.transpose(self.R, (0, 2, 1))
-        return _Tf(Rt, -np.einsum("nij,nj->ni", Rt, self.t), self.ok)
-
-    def compose(self, other: _Tf) -> _Tf:
-        """``self ∘ other`` (apply ``other`` first)."""
-        if self.ok is None and other.ok is None:
-            return _Tf(self.R @ other.R, self.R @ other.t + self.t, None)
-        if self.ok is None:  # static ∘ dynamic
-            n = len(other.t)
-            R = (self.R @ other.R.transpose(1, 0, 2).reshape(3, 3 * n)).reshape(3, n, 3)
-            return _Tf(R.transpose(1, 0, 2), other.t @ self.R.T + self.t, other.ok)
-        if other.ok is None:  # dynamic ∘ static
-            n = len(self.t)
-            flat = self.R.reshape(3 * n, 3)
-            t = (flat @ other.t).reshape(n, 3) + self.t
-            return _Tf((flat @ other.R).reshape(n, 3, 3), t, self.ok)
-        t = np.einsum("nij,nj->ni", self.R, other.t) + self.t
-        return _Tf(np.einsum("nij,njk->nik", self.R, other.R), t, self.ok & other.ok)
 
 
 class TfBuffer:
@@ -151,7 +84,7 @@ class TfBuffer:
         self.tolerance_ns = round(tolerance_s * 1e9)
         self.max_gap_ns = float(max_gap_s) * 1e9
         self.block_rows = block_rows
-        self._dynamic: dict[tuple[str, str], _EdgeSeries] = {}
+        self._dynamic: dict[tuple[str, str], EdgeSeries] = {}
         self._static: dict[tuple[str, str], tuple[F64, F64]] = {}  # (R[3,3], t[3])
         self._neighbours: dict[str, set[str]] = {}
         self._paths: dict[tuple[str, str], list[str]] = {}
@@ -294,7 +227,7 @@ class TfBuffer:
         if static:
             self._static[key] = (quat_to_matrix(q[-1:])[0], tr[-1].copy())
         else:
-            self._dynamic.setdefault(key, _EdgeSeries()).append(t, tr, q)
+            self._dynamic.setdefault(key, EdgeSeries()).append(t, tr, q)
 
     # ------------------------------------------------------------------ queries
 
@@ -370,12 +303,12 @@ class TfBuffer:
                     queue.append(nxt)
         return prev
 
-    def _edge(self, parent: str, child: str, t: I64) -> _Tf:
+    def _edge(self, parent: str, child: str, t: I64) -> TfBatch:
         """``parent_T_child`` at times ``t`` (a single transform for a static edge)."""
         series = self._dynamic.get((parent, child))
         if series is None or series.n == 0:
             R_static, t_static = self._static[(parent, child)]
-            return _Tf(R_static, t_static, None)
+            return TfBatch(R_static, t_static, None)
         stamps, trans, quats = series.arrays()
         first, last = stamps[0], stamps[-1]
         ok = (t >= first - self.tolerance_ns) & (t <= last + self.tolerance_ns)
@@ -388,9 +321,9 @@ class TfBuffer:
         ok &= ~long_gap | (np.minimum(before, after) <= self.tolerance_ns)
         alpha = np.where(long_gap, after < before, before / np.where(span > 0, span, 1.0))
         tr_out = trans[lo] + alpha[:, None] * (trans[hi] - trans[lo])
-        return _Tf(quat_to_matrix(slerp(quats[lo], quats[hi], alpha)), tr_out, ok)
+        return TfBatch(quat_to_matrix(slerp(quats[lo], quats[hi], alpha)), tr_out, ok)
 
-    def _step(self, a: str, b: str, t: I64) -> _Tf:
+    def _step(self, a: str, b: str, t: I64) -> TfBatch:
         """``a_T_b`` for neighbouring frames, inverting the stored edge when b is a's parent."""
         if (a, b) in self._dynamic or (a, b) in self._static:
             return self._edge(a, b, t)
@@ -435,14 +368,14 @@ class TfBuffer:
                 return True
         return False
 
-    def _compose(self, pairs: list[tuple[str, str]], t: I64) -> _Tf:
+    def _compose(self, pairs: list[tuple[str, str]], t: I64) -> TfBatch:
         """``path[0]_T_path[-1]`` at times ``t``: the steps composed left to right as each is
         computed, so only the running product and one step are alive."""
-        total: _Tf | None = None
+        total: TfBatch | None = None
         for a, b in pairs:
             step = self._step(a, b, t)
             total = step if total is None else total.compose(step)
-        return total if total is not None else _Tf(np.eye(3), np.zeros(3), None)
+        return total if total is not None else TfBatch(np.eye(3), np.zeros(3), None)
 
     def _lookup_rows(
         self, target: str, source: str, t_ns: npt.ArrayLike, n: int
