@@ -2,7 +2,10 @@
 
 Workers are forked from the parent (``fork`` on Linux when it runs no other thread; else from a
 server process that has imported the build once, ``forkserver``), so starting one costs
-milliseconds, not a fresh interpreter's imports. Each reports its progress through a queue
+milliseconds, not a fresh interpreter's imports. The workers take the shards in order by a
+counter they share (:func:`_take`), not from a pipe: the tasks of a month of daily logs outgrow
+a pipe's 64 KiB, and a parent that wrote them all before starting the workers blocked forever.
+Each reports its progress through a queue
 and hands its result's large arrays over in a file (:mod:`aion_cli.result_files`: half the
 time of the pipe, no second copy); the parent shows one bar per worker and folds finished
 shards in time order while the others are still running (:func:`aion_cli.shard_fold.fold`).
@@ -60,10 +63,26 @@ class QueueProgress:
         self._flush()
 
 
-def _worker(tasks: Any, out: Any, folder: Path | None = None) -> None:
-    """A worker process: shards from ``tasks`` until ``None``; each result (or error) and the
-    progress go to ``out`` as ``(kind, shard, payload)``, a result's large arrays through a
-    file in ``folder`` (:mod:`aion_cli.result_files`)."""
+def _take(tasks: list[ShardTask], next_task: Any) -> ShardTask | None:
+    """The next shard no worker has taken yet (None when every one is taken): ``next_task``
+    is a shared counter (``multiprocessing.Value``) of the shards handed out, in order."""
+    with next_task.get_lock():
+        index = int(next_task.value)
+        if index >= len(tasks):
+            return None
+        next_task.value = index + 1
+    return tasks[index]
+
+
+def _worker(
+    tasks: list[ShardTask], next_task: Any, out: Any, folder: Path | None = None
+) -> None:
+    """A worker process: the shards of ``tasks`` it takes (:func:`_take`) until none is
+    left; each result (or error) and the progress go to ``out`` as ``(kind, shard,
+    payload)``, a result's large arrays through a file in ``folder``
+    (:mod:`aion_cli.result_files`). The tasks come with the process (a forked worker shares
+    the parent's list; a forkserver's reads it as it starts), never through a pipe the
+    parent would have to fill before any worker reads it."""
     import signal
 
     from aion_cli.result_files import send
@@ -73,7 +92,7 @@ def _worker(tasks: Any, out: Any, folder: Path | None = None) -> None:
     # unwinds like Ctrl-C (for the parent's map file) and would print a worker's traceback
     # under the parent's one-line error; a worker writes no file, so it ends at once
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    while (task := tasks.get()) is not None:
+    while (task := _take(tasks, next_task)) is not None:
         sink = QueueProgress(out, task.index)
         try:
             result = build_shard(task, sink)
@@ -117,14 +136,12 @@ def _run(
     from aion_cli.result_files import receive
 
     ctx = _context()
-    todo, out = ctx.SimpleQueue(), ctx.Queue()
-    for task in tasks:
-        todo.put(task)
+    out = ctx.Queue()
+    next_task = ctx.Value("q", 0)  # shards handed out so far (_take)
     procs = [
-        ctx.Process(target=_worker, args=(todo, out, folder), daemon=True) for _ in range(workers)
+        ctx.Process(target=_worker, args=(tasks, next_task, out, folder), daemon=True)
+        for _ in range(workers)
     ]
-    for _ in procs:
-        todo.put(None)
     bars = _Bars(progress, tasks)
     try:
         for proc in procs:

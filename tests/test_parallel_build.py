@@ -14,6 +14,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
@@ -294,24 +295,29 @@ def test_sessions_whose_first_graph_lost_places_are_built_in_sequence_from_the_s
 
 
 @pytest.mark.skipif(not hasattr(signal, "SIGTERM") or sys.platform != "linux", reason="fork")
-def test_a_stopped_worker_ends_quietly(capfd: pytest.CaptureFixture[str]) -> None:
+def test_a_stopped_worker_ends_quietly(
+    capfd: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     # The CLI turns SIGTERM into KeyboardInterrupt (so its map file is cleaned up), and a
     # forked worker inherits that handler: when the parent stopped the workers after an error
     # or Ctrl-C, each printed a KeyboardInterrupt traceback under the one-line error.
     import multiprocessing as mp
 
+    import aion_cli.process_pool as pool
     from aion_cli.cli.main import _terminated
-    from aion_cli.process_pool import _worker
 
+    monkeypatch.setattr(pool, "build_shard", lambda task, sink: time.sleep(60))
     ctx = mp.get_context("fork")
-    tasks, out = ctx.SimpleQueue(), ctx.Queue()
+    tasks, out = [SimpleNamespace(index=0)], ctx.Queue()
     previous = signal.signal(signal.SIGTERM, _terminated)
     try:
-        worker = ctx.Process(target=_worker, args=(tasks, out), daemon=True)
+        worker = ctx.Process(
+            target=pool._worker, args=(tasks, ctx.Value("q", 0), out), daemon=True
+        )
         worker.start()
     finally:
         signal.signal(signal.SIGTERM, previous)
-    time.sleep(0.3)  # the worker waits for a task
+    time.sleep(0.3)  # the worker is building its shard
     worker.terminate()
     worker.join(timeout=10)
     err = capfd.readouterr().err
