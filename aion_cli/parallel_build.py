@@ -96,6 +96,18 @@ class ParallelBuild:
         workers = 1 if opts.scheduler is not None else worker_count(opts.workers)
         if workers < 2 and opts.scheduler is None:
             return self.build.learn(self.config).state
+        previous = self.build.previous.state if self.build.previous is not None else None
+        if previous is not None and previous.deferred is not None:
+            # a part map holds its closed days unscored, and a shard joins only an ordinary
+            # map (engine.shards.join_shard), so the logs are learnt onto it in sequence:
+            # a part continued day by day with the default --workers stopped on an
+            # internal error
+            if opts.workers >= 2 or opts.scheduler is not None:  # asked for, not the default
+                report.notes.append(
+                    "--map is a part map (--part): its held days join no shard, so the logs "
+                    "were learnt onto it in sequence in this process"
+                )
+            return self.build.learn(self.config).state
         window = _window_ns(self.config)
         spans: list[tuple[Path, int, int]] = []
         whole: frozenset[int] = frozenset()  # groups kept together across sessions
@@ -146,7 +158,6 @@ class ParallelBuild:
             return self.build.learn(self.config).state
         self.groups = [group for group, _, _ in shards]
         self.parts = [part for _, part, _ in shards]
-        previous = self.build.previous.state if self.build.previous is not None else None
         seeds, kd_trees = _plan_streams(list(logs), opts, shards, spans)
         fills = self._observed_fills(spans, window)
         tasks = [

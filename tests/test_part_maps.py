@@ -98,6 +98,21 @@ def test_a_part_map_saves_and_continues_its_held_days(tmp_path: Path) -> None:
     assert differences(_state(both), state) == []  # type: ignore[arg-type]
 
 
+
+def test_a_part_map_continues_with_workers_as_in_sequence(tmp_path: Path) -> None:
+    # A week's part map grown day by day: two later logs are two shards, which join only an
+    # ordinary map; with --workers 2 the build stopped on an internal error (ValueError)
+    a, b, c = _logs(tmp_path, [0, 2, 3])
+    whole = tmp_path / "whole.aion"
+    assert run("build", a, b, c, "--part", "-o", whole, "-q", "--workers", "1").exit_code == 0
+    cont = tmp_path / "cont.aion"
+    assert run("build", a, "--part", "-o", cont, "-q").exit_code == 0
+    result = run("build", b, c, "--map", cont, "--workers", "2", "--format", "json")
+    assert result.exit_code == 0, result.output
+    notes = json.loads(result.output)["notes"]
+    assert [n for n in notes if n.startswith("--map is a part map (--part)")]
+    assert differences(_state(whole), _state(cont)) == []  # type: ignore[arg-type]
+
 def test_one_part_map_merged_alone_is_the_map_of_its_logs(tmp_path: Path) -> None:
     """A part map holds its days unscored; ``aion merge PART -o MAP`` scores them in time
     order: the map one build of the same logs gives. An ordinary map alone is refused."""
