@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from aion_cli.cli.output import Column, degrees, num
+from aion_cli.cli.output import Column, degrees, num, small_num
 
 COLUMNS = [
     Column("id", "id", justify="left"),
@@ -14,7 +14,7 @@ COLUMNS = [
     Column("x", "x", num(2)),
     Column("y", "y", num(2)),
     Column("z", "z", num(2)),
-    Column("flow", "flow/win", num(2)),
+    Column("flow", "flow/win", small_num),  # a quiet place reads 0.0031, not 0.00
     Column("direction_deg", "dir", lambda v: degrees(math.radians(v)) if v is not None else "-"),
     Column("entropy", "entropy", num(2)),
     Column("concentration", "conc.", num(2)),

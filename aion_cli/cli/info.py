@@ -300,9 +300,9 @@ def command(
 def rate_text(hz: float) -> str:
     """A topic's rate for the table: two decimals, or two significant digits below 0.1 Hz, so
     a scene graph every ten minutes reads 0.0017, not 0.00 (a topic with messages)."""
-    if hz == 0 or hz >= 0.1:
-        return f"{hz:.2f}"
-    return f"{hz:.2g}" if hz >= 1e-4 else f"{hz:.1e}"
+    from aion_cli.cli.output import small_num
+
+    return small_num(hz)
 
 
 def _refuse_options(given: dict[str, bool], applies: tuple[str, ...], what: str) -> None:

@@ -127,6 +127,18 @@ def num(digits: int = 2) -> Callable[[Any], str]:
     return render
 
 
+def small_num(value: Any) -> str:
+    """Table formatter for a non-negative rate: two decimals, or two significant digits below
+    0.1, so a small value reads 0.0017 or 1.2e-05, never 0.00 (which then means none); '-'
+    when unknown."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
+    v = float(value)
+    if v == 0 or abs(v) >= 0.1:
+        return f"{v:.2f}"
+    return f"{v:.2g}" if abs(v) >= 1e-4 else f"{v:.1e}"
+
+
 def degrees(value: Any) -> str:
     """Table formatter for an angle in radians shown in whole degrees; '-' when unknown.
     A direction just below 0 reads +0° (not -0°), and -180° reads +180°: one direction, one

@@ -72,3 +72,4 @@ def test_errors_stay_under_quiet(office: Office) -> None:
     result = run("predict", office.map, "--time", "yesterday-ish", "-q")
     assert result.exit_code == 2
     assert result.stderr.startswith("error: ")
+

@@ -1,0 +1,38 @@
+"""Numbers in the terminal tables that read as what they are: a small non-zero rate keeps
+two significant digits (``cli.output.small_num``: the predict table's flows, info's topic
+rates), so 0.00 means none."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import run, run_json
+
+
+@pytest.mark.parametrize(
+    ("value", "shown"),
+    [(0.0, "0.00"), (0.0031, "0.0031"), (0.1, "0.10"), (2.5, "2.50"), (1.2e-5, "1.2e-05"),
+     (None, "-"), (float("nan"), "-")],
+)
+def test_a_small_flow_reads_as_something(value: float | None, shown: str) -> None:
+    """The predict table's flow column: a quiet place's 0.0031 detections per window read
+    0.00 beside the empty ones; below 0.1 it keeps two significant digits (as info's rates),
+    so 0.00 means none."""
+    from aion_cli.cli.entries import COLUMNS
+
+    flow = next(c for c in COLUMNS if c.key == "flow")
+    assert flow.fmt(value) == shown
+
+
+def test_the_predict_table_shows_small_flows(sample_map: Path) -> None:
+    """Every flow the JSON gives between 0 and 0.005 shows non-zero in the table."""
+    at = "2026-01-06 03:00"
+    entries = run_json("predict", sample_map, "--time", at, "--format", "json")["entries"]
+    table = run("predict", sample_map, "--time", at, "--format", "table").stdout
+    small = [e for e in entries if e["flow"] is not None and 0 < e["flow"] < 0.005]
+    assert small  # the sample's office at night has quiet places
+    for entry in small:
+        row = next(line for line in table.splitlines() if f" {entry['id']} " in line)
+        assert "0.00 " not in row.split("│")[6]
