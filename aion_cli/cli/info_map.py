@@ -166,9 +166,30 @@ def print_map(report: dict[str, Any]) -> None:
     table.add_row(
         "config", safe(", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults")
     )
-    for entry in report.get("inputs", []):
-        table.add_row(
-            "input",
-            safe(f"{entry['name']}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"),
-        )
+    for text in input_rows(report.get("inputs", [])):
+        table.add_row("input", safe(text))
     print_table(table)
+
+
+INPUT_ROWS = 8
+"""Inputs a map's table lists one per row; a map continued day after day for months lists
+its first and last few and counts the rest (its JSON lists every one)."""
+
+
+def input_rows(inputs: list[dict[str, Any]], limit: int = INPUT_ROWS) -> list[str]:
+    """The table's ``input`` cells: each log's name, size and sha256 prefix, or, beyond
+    ``limit`` logs, the first and last ``limit // 2`` with one cell counting those between."""
+    from aion_cli.cli.output import human_size
+
+    def cell(entry: dict[str, Any]) -> str:
+        return f"{entry['name']}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"
+
+    if len(inputs) <= limit:
+        return [cell(e) for e in inputs]
+    half = limit // 2
+    between = len(inputs) - 2 * half
+    return [
+        *(cell(e) for e in inputs[:half]),
+        f"... {between:,} more logs (of {len(inputs):,}; --format json lists every one)",
+        *(cell(e) for e in inputs[-half:]),
+    ]

@@ -1,6 +1,6 @@
-"""Numbers in the terminal tables that read as what they are: a small non-zero rate keeps
-two significant digits (``cli.output.small_num``: the predict table's flows, info's topic
-rates), so 0.00 means none."""
+"""The terminal tables read as what they hold: a small non-zero rate keeps two significant
+digits (``cli.output.small_num``: the predict table's flows, info's topic rates), so 0.00
+means none; a map of months of daily logs lists its first and last inputs, not every one."""
 
 from __future__ import annotations
 
@@ -36,3 +36,21 @@ def test_the_predict_table_shows_small_flows(sample_map: Path) -> None:
     for entry in small:
         row = next(line for line in table.splitlines() if f" {entry['id']} " in line)
         assert "0.00 " not in row.split("│")[6]
+
+
+def test_a_long_deployment_lists_its_first_and_last_logs() -> None:
+    """A map continued day after day for 70 days listed 70 input rows in ``aion info``; past
+    eight it lists the first and last four and counts the 62 between (JSON keeps all)."""
+    from aion_cli.cli.info_map import input_rows
+
+    logs = [{"name": f"day{k:02d}.mcap", "size": 2048, "sha256": f"{k:064x}"}
+            for k in range(70)]
+    rows = input_rows(logs)
+    assert len(rows) == 9
+    assert [r.split()[0] for r in rows[:4]] == ["day00.mcap", "day01.mcap", "day02.mcap",
+                                                "day03.mcap"]
+    assert rows[4] == "... 62 more logs (of 70; --format json lists every one)"
+    assert [r.split()[0] for r in rows[5:]] == ["day66.mcap", "day67.mcap", "day68.mcap",
+                                                "day69.mcap"]
+    assert rows[0] == "day00.mcap  2.0 KiB  sha256 000000000000"
+    assert len(input_rows(logs[:8])) == 8  # up to eight: every one
