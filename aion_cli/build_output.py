@@ -27,8 +27,7 @@ def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[st
     from aion_cli.fixed_sensor import recording_window_count
 
     new = report.to_dict()["detections"]
-    before = previous.counts.get("recording_reach") if previous is not None else None
-    after = before if type(before) is int else None
+    after = previous.recording_reach if previous is not None else None
     if report.fixed_windows is not None and report.recording_spans:
         new["recording_windows"] = recording_window_count(report.recording_spans, after)
         reach = max(last for _, _, last in report.recording_spans)
@@ -100,10 +99,8 @@ def write_build(
             f"rest is unknown, not empty): {SILENT_HINT}"
         )
     if declared and fixed is not None:
-        reach = previous.counts.get("recording_reach") if previous is not None else None
-        outside = outside_logs_note(
-            declared, report.recording_spans, fixed[3], reach if type(reach) is int else None
-        )
+        reach = previous.recording_reach if previous is not None else None
+        outside = outside_logs_note(declared, report.recording_spans, fixed[3], reach)
         if outside is not None:
             report.notes.append(outside)
     manifest = Manifest(

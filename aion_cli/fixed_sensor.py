@@ -139,11 +139,9 @@ def outside_logs_note(
     (:func:`declared_windows`). None when there are none."""
     if not declared or not spans:
         return None
-    first, last = _fill_range(spans, (None if after is None else after + 1, None))
-    runs = _window_runs(declared, delta)
-    total = int(sum(b - a + 1 for a, b in runs))
-    inside = int(sum(max(0, min(b, last) - max(a, first) + 1) for a, b in runs))
-    n = total - inside
+    total = sum(b - a + 1 for a, b in _window_runs(declared, delta))
+    fill = (None if after is None else after + 1, None)
+    n = total - declared_windows(declared, spans, delta, fill).size
     if n == 0:
         return None
     return (
@@ -208,7 +206,7 @@ def declared_windows(
             parts.append(np.arange(a, b + 1, dtype=np.int64))
     if not parts:
         return np.zeros(0, np.int64)
-    out: I64 = np.unique(np.concatenate(parts))
+    out: I64 = np.concatenate(parts)  # the runs are disjoint and sorted: so are their windows
     return out
 
 

@@ -71,6 +71,14 @@ class Manifest:
     map_frame: str | None = None
     container: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def recording_reach(self) -> int | None:
+        """The last window a fixed sensor's logs reached over every build (``counts``), None
+        where unknown (no fixed sensor, older maps, a damaged value): where a continued
+        build's logs and its ``--observed`` spans take over."""
+        reach = self.counts.get("recording_reach")
+        return reach if type(reach) is int else None
+
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Manifest:
         """A manifest read from a map file (container keys kept in ``container``)."""

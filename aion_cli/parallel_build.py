@@ -211,9 +211,9 @@ class ParallelBuild:
         ends = [max((end_of[p] for p in group if p in end_of), default=None)
                 for group in self.groups]
         previous = self.build.previous_manifest
-        reach = previous.counts.get("recording_reach") if previous is not None else None
+        reach = previous.recording_reach if previous is not None else None
         fills: list[tuple[int | None, int | None] | None] = []
-        lo = reach + 1 if type(reach) is int else None
+        lo = None if reach is None else reach + 1
         for i, end in enumerate(ends):
             last = i == len(ends) - 1
             hi = None if last or end is None else end // window

@@ -382,9 +382,9 @@ class _Build(StreamStep):
         after a continued map's logs stopped (``recording_reach``), so building A and B at
         once equals building A and continuing with B."""
         lo, hi = self.opts.observed_fill
-        reach = self.previous_manifest.counts.get("recording_reach") if (
-            self.previous_manifest is not None) else None
-        if lo is None and type(reach) is int:
+        previous = self.previous_manifest
+        reach = previous.recording_reach if previous is not None else None
+        if lo is None and reach is not None:
             lo = reach + 1
         return lo, hi
 
