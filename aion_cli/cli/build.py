@@ -16,6 +16,7 @@ from aion_cli.cli.common import (
     graph_topic_option,
     log_format_option,
     map_frame_option,
+    quiet_option,
 )
 from aion_cli.cli.graph_options import graph_period_option, nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, to_json
@@ -254,9 +255,7 @@ def _load_config(path: Path | None) -> Any:
     "first log's first message to the last log's last, the time between logs included. "
     "Times in --tz, else the continued map's zone, else UTC.",
 )
-@click.option(
-    "-q", "--quiet", is_flag=True, help="No progress bar, summary table or notes (warnings stay)."
-)
+@quiet_option
 @format_option(choices=("table", "json"))
 def command(
     logs: tuple[Path, ...],
@@ -281,7 +280,6 @@ def command(
     scheduler: str | None,
     part: bool,
     observed_text: tuple[str, ...],
-    quiet: bool,
     fmt: str,
 ) -> None:
     """Learn a 4D scene-graph map from LOGS (MCAP, ROS 1 .bag, rosbag2 folders).
@@ -329,7 +327,7 @@ def command(
         part=part,
         observed=observed,
     )
-    with _RichProgress(quiet or fmt == "json") as progress:
+    with _RichProgress(fmt == "json") as progress:
         report = build_map(options, progress)
     summary = report.to_dict()
     from aion_cli.cli.build_summary import print_summary, print_warnings
@@ -337,10 +335,8 @@ def command(
     if fmt == "json":
         click.echo(to_json(summary))
         print_warnings(summary)  # on stderr: stdout stays one JSON document
-    elif not quiet:
+    else:  # with -q (quiet_option) only its warnings show
         print_summary(summary)
-    else:
-        print_warnings(summary)
 
 
 def observed_spans(

@@ -84,7 +84,8 @@ def quiet_option(func: F) -> F:
         is_flag=True,
         expose_value=False,
         callback=_set,
-        help="No notes, summaries or closing messages on stderr (warnings and errors stay).",
+        help="No progress, notes, summaries or closing messages on stderr (warnings and "
+        "errors stay).",
     )(func)
 
 

@@ -89,6 +89,8 @@ def print_table(table: RenderableType, err: bool = False) -> None:
     from rich.table import Table
 
     out = console() if err else data_console()
+    if out.quiet:  # -q: the wider console below would print it after all
+        return
     wide = out.options.update_width(1 << 15)
     if isinstance(table, Table):  # rich measures a cell by its words, even where it may not wrap
         for column in table.columns:

@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import AionPath
+from aion_cli.cli.common import AionPath, quiet_option
 from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, map_output_option, to_json
 
@@ -62,9 +62,7 @@ stderr also with -q and --format json, as aion build's).
     "different ones (released to hash cells, then re-bound); auto decides from the graphs.",
 )
 @nav_layer_option
-@click.option(
-    "-q", "--quiet", is_flag=True, help="No progress, summary table or notes (warnings stay)."
-)
+@quiet_option
 @format_option(choices=("table", "json"))
 def command(
     maps: tuple[Path, ...],
@@ -72,7 +70,6 @@ def command(
     graph_file: Path | None,
     lineage: str,
     nav_layer: str | None,
-    quiet: bool,
     fmt: str,
 ) -> None:
     """Merge the map files MAPS (two or more, built from different logs) into one map; or
@@ -86,14 +83,14 @@ def command(
             "a merge needs at least two maps (or one part map)",
             hint="aion merge A.aion B.aion ... -o OUT.aion",
         )
-    with _RichProgress(quiet or fmt == "json") as progress:
+    with _RichProgress(fmt == "json") as progress:
         report = merge_map_files(list(maps), output, graph_file, lineage, progress, nav_layer)
     summary = report.to_dict()
     from aion_cli.cli.build_summary import print_warnings
 
     if fmt == "json":
         click.echo(to_json(summary))
-    elif not quiet:
+    else:  # with -q (quiet_option) nothing shows
         print_summary(summary)
     print_warnings(summary)  # on stderr, also with -q and --format json, as build's
 

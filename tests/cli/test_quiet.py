@@ -73,3 +73,14 @@ def test_errors_stay_under_quiet(office: Office) -> None:
     assert result.exit_code == 2
     assert result.stderr.startswith("error: ")
 
+
+
+def test_quiet_build_prints_no_summary_table(office: Office, tmp_path: Path) -> None:
+    """``build -q`` shares the option: its summary table and notes stay out, the map is
+    written."""
+    loud = run("build", office.log, "-o", tmp_path / "loud.aion")
+    quiet = run("build", office.log, "-o", tmp_path / "quiet.aion", "-q")
+    assert loud.exit_code == quiet.exit_code == 0, loud.stderr
+    assert "│" in loud.stderr
+    assert quiet.stderr == ""
+    assert (tmp_path / "quiet.aion").stat().st_size > 0
