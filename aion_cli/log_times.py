@@ -147,12 +147,12 @@ class TopicTimes:
     def windows(self, topics: Iterable[str], window_ns: int) -> I64:
         """Sorted distinct windows ``floor(t / window_ns)`` holding a message of ``topics``
         (those recorded here)."""
-        parts = [
-            np.unique(np.frombuffer(self._times[topic], dtype=np.int64) // np.int64(window_ns))
+        from aion_cli.formats.recorded import union, windows_of
+
+        return union(
+            windows_of(np.frombuffer(self._times[topic], dtype=np.int64), window_ns)
             for topic in sorted(set(topics) & set(self._times))
-            if len(self._times[topic])
-        ]
-        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+        )
 
     def count_inside(self, topics: Iterable[str], lo: int, hi: int) -> int:
         """Messages of ``topics`` (those recorded here) with log times in ``[lo, hi)``."""
