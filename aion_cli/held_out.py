@@ -44,6 +44,9 @@ class HeldOut:
     #: per window only a robot observed: the indices (into ``watch``) of the map's places
     #: within its sensor range then
     seen: dict[int, I64] = field(default_factory=dict)
+    #: per such window: the share of it each of those places was in range (their exposure,
+    #: ``ModelConfig.exposure``; 1 each without it)
+    seen_exposure: dict[int, F64] = field(default_factory=dict)
 
 
 class _RecordingState(MapState):
@@ -53,24 +56,33 @@ class _RecordingState(MapState):
     recorded: list[tuple[int, bool]]
     watch: F64 | None
     seen: dict[int, I64]
+    seen_exposure: dict[int, F64]
 
     def record_window(
-        self, window: int, fixed: bool, observed: I64, count_rows: I64, counts: Any
+        self,
+        window: int,
+        fixed: bool,
+        observed: I64,
+        count_rows: I64,
+        counts: Any,
+        exposure: Any = None,
     ) -> None:
         self.recorded.append((int(window), bool(fixed)))
         if not fixed:
             self.note_seen(int(window))
-        super().record_window(window, fixed, observed, count_rows, counts)
+        super().record_window(window, fixed, observed, count_rows, counts, exposure)
 
     def note_seen(self, window: int) -> None:
         """The watched places within the robot's range in ``window`` (its poses are still
         held: they are pruned only once the window is recorded)."""
         if self.watch is None or window in self.seen:
             return
-        mask = self.observation.robot_observed(
-            self.watch, window, self.window_ns, self.config.sensor_range
+        config = self.config
+        cover = self.observation.coverage(
+            self.watch, window, self.window_ns, config.sensor_range, config.exposure
         )
-        self.seen[window] = np.flatnonzero(mask).astype(np.int64)
+        self.seen[window] = np.flatnonzero(cover > 0).astype(np.int64)
+        self.seen_exposure[window] = cover[cover > 0]
 
     def close_day(self, rows: I64 | None = None) -> None:
         self.pending.clear()
@@ -90,7 +102,7 @@ class _Reading(_Build):
         state = cast(_RecordingState, _RecordingState.empty(config))  # cls(...): a recorder
         state.recorded = []
         state.watch = self.watch
-        state.seen = {}
+        state.seen, state.seen_exposure = {}, {}
         self.state = state
         batches = self.batches = []
 
@@ -148,4 +160,6 @@ def read_held_out(
         keep = np.concatenate([[True], np.diff(windows) != 0])
         windows, fixed = windows[keep], fixed[keep]
     seen = {w: state.seen[w] for w in windows[~fixed].tolist() if w in state.seen}
-    return HeldOut(batch, windows, fixed, reading.report, list(reading.report.notes), seen)
+    exposure = {w: state.seen_exposure[w] for w in seen}
+    notes = list(reading.report.notes)
+    return HeldOut(batch, windows, fixed, reading.report, notes, seen, exposure)

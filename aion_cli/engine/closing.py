@@ -46,7 +46,7 @@ from aion_cli.engine.ownership import (
     unentered_stable_nodes,
 )
 from aion_cli.engine.temporal.pending import DayWindows
-from aion_cli.engine.types import I64
+from aion_cli.engine.types import F64, I64
 from aion_cli.engine.windows import window_centre_ns, window_ns, window_start_ns
 
 if TYPE_CHECKING:
@@ -133,27 +133,44 @@ def _record(
     if not all(fixed_mask):
         rows = ent.live_rows()
         xy = ent.xyz[rows, :2]
-    reach = state.config.sensor_range
     for w, fixed in zip(windows.tolist(), fixed_mask, strict=True):
-        observed = none
+        observed, exposure = none, np.zeros(0)
         if not fixed and (waiting.size or len(rows)):
             # one coverage test per window over the waiting nodes and the live entries
             k = waiting.size
             points = np.concatenate([state.nodes.xyz[waiting, :2], xy]) if k else xy
-            mask = state.observation.robot_observed(points, w, delta, reach)
-            observed = rows[mask[k:]]
+            seen = _coverage(state, points, w)
+            mask = seen > 0
+            observed, exposure = rows[mask[k:]], seen[k:][mask[k:]]
             if mask[:k].any():  # their new entries are observed in this window too
                 waiting = enter_observed_nodes(state, waiting, mask[:k])
                 before, rows = rows, ent.live_rows()
                 xy = ent.xyz[rows, :2]
-                observed = np.sort(np.concatenate([observed, np.setdiff1d(rows, before)]))
+                new = np.setdiff1d(rows, before)
+                observed = np.concatenate([observed, new])
+                exposure = np.concatenate([exposure, _coverage(state, ent.xyz[new, :2], w)])
+                order = np.argsort(observed, kind="stable")
+                observed, exposure = observed[order], exposure[order]
         if w == w0:
-            if not fixed:
-                observed = np.union1d(observed, count_rows)
-            state.record_window(int(w), fixed, observed, count_rows, counts)
+            if not fixed:  # detections where no pose reached: the window counts whole
+                extra = np.setdiff1d(count_rows, observed)
+                observed = np.concatenate([observed, extra])
+                exposure = np.concatenate([exposure, np.ones(extra.size)])
+                order = np.argsort(observed, kind="stable")
+                observed, exposure = observed[order], exposure[order]
+            state.record_window(int(w), fixed, observed, count_rows, counts, exposure)
         else:
-            state.record_window(int(w), fixed, observed, none, no_counts)
+            state.record_window(int(w), fixed, observed, none, no_counts, exposure)
     return waiting
+
+
+def _coverage(state: MapState, xy: F64, window: int) -> F64:
+    """Per point, the share of ``window`` the robot observed it in (``ModelConfig.exposure``;
+    without it 1 wherever a pose in the window was in range), 0 where none was."""
+    config = state.config
+    return state.observation.coverage(
+        xy, window, state.window_ns, config.sensor_range, config.exposure
+    )
 
 
 def open_window_record(state: MapState) -> DayWindows | None:
@@ -170,9 +187,10 @@ def open_window_record(state: MapState) -> DayWindows | None:
     fixed = state.observation.fixed_covers(w, state.window_ns)
     observed = np.zeros(0, np.int64)
     if not fixed:
-        xy = entries.xyz[rows, :2]
-        mask = state.observation.robot_observed(xy, w, state.window_ns, state.config.sensor_range)
-        observed = rows[mask | seen]
+        cover = _coverage(state, entries.xyz[rows, :2], w)
+        in_view = (cover > 0) | seen
+        observed = rows[in_view]
+        exposure = np.where(cover > 0, cover, 1.0)[in_view]
     if not fixed and observed.size == 0:
         return None
     return DayWindows(
@@ -183,4 +201,5 @@ def open_window_record(state: MapState) -> DayWindows | None:
         rows[seen],
         np.zeros(int(seen.sum()), np.int64),
         counts[seen],
+        None if fixed or bool(np.all(exposure == 1.0)) else exposure,
     )

@@ -78,7 +78,9 @@ class ModelConfig:
     and ``bind_vertical_tolerance`` once that node has been present and has not moved more
     than ``stable_move_tolerance`` for ``stability_s`` (τ) seconds of log time.
     Time: windows of ``window_s`` (Δ) aligned to the UNIX epoch; the robot observes entries
-    within ``sensor_range`` of its trajectory.
+    within ``sensor_range`` of its trajectory, and with ``exposure`` a window it observed an
+    entry in counts by the fraction of the window the entry was in range
+    (``engine.observation``; without, every such window counts whole, as in the paper).
     Temporal model (``engine.temporal``): the expected detections per observed window of every
     entry and direction bin, forecast by the families in ``families`` (``static``, ``shape``,
     ``profile``, ``fremen``; static is always on) and chosen per entry by day-ahead score, a
@@ -109,6 +111,7 @@ class ModelConfig:
     stable_move_tolerance: float = 0.25
     window_s: float = 600.0
     sensor_range: float = 8.0
+    exposure: bool = True
     timezone: str = "UTC"
     families: tuple[str, ...] = FAMILIES
     profile: str = "day_weekend"
@@ -216,6 +219,8 @@ class ModelConfig:
             )
         self._validate_calendar()
         self._validate_periods()
+        if not isinstance(self.exposure, bool):
+            raise ConfigError(f"exposure must be true or false, got {self.exposure!r}")
         if not isinstance(self.reconcile, bool):
             raise ConfigError(f"reconcile must be true or false, got {self.reconcile!r}")
         if not isinstance(self.plan_flow_auto, bool):
@@ -269,8 +274,10 @@ class ModelConfig:
                 f"the map's stored model configuration is not an object: {data!r:.80}",
                 hint="the map was damaged or not written by aion; rebuild it with `aion build`",
             )
+        # a map written before exposure existed counted its robot windows whole: it goes on so
+        stored = {"exposure": False, **data}
         try:
-            return cls.from_dict(data)
+            return cls.from_dict(stored)
         except ConfigError as exc:
             raise MapCorruptError(
                 f"the map's stored model configuration is invalid: {exc.message}",

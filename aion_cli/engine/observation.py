@@ -7,6 +7,18 @@ windows become real zeros for the temporal model; windows no source covers teach
 
 Poses are kept until the windows they fall in are closed (:meth:`prune`), so a trajectory may be
 given before, with or after the detections of the open window.
+
+**Exposure.** A robot that passes a place for twenty seconds of a ten-minute window sees a
+thirtieth of the people who walk there in that window. Counting the window whole would put the
+place's rate at a thirtieth of the truth, and rank places by how long the robot lingered rather
+than by how busy they are. :meth:`ObservationSource.robot_exposure` measures, per entry, the
+fraction of the window in which it lay within ``sensor_range`` of the robot: the window is cut
+into :data:`SUBSTEPS` equal steps, each step takes the robot pose nearest its middle in time (if
+one lies within :data:`POSE_HOLD_NS` or half a step), and an entry's exposure is the share of
+steps whose pose had it in range. An entry the coverage test observes (a pose in the window
+within range) has at least one step's exposure, so exactly the same entries are observed as
+before; the temporal model then weighs each robot window by its exposure (a rate per full
+window = detections / exposure).
 """
 
 from __future__ import annotations
@@ -18,6 +30,13 @@ import numpy as np
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.engine.windows import window_index
 from aion_cli.errors import InputError
+
+SUBSTEPS = 60
+"""Steps a window is cut into to measure exposure (10 s steps in a 10-minute window)."""
+POSE_HOLD_NS = 30 * 10**9
+"""How long a robot pose stands for its position when no pose lies nearer in time: 30 s, so a
+trajectory sampled every minute or faster covers every step, and the robot's last pose before
+a recording stops covers half a minute beyond it."""
 
 
 @dataclass
@@ -155,6 +174,48 @@ class ObservationSource:
         dist, _ = horizontal_tree(poses).query(entry_xy, k=1, distance_upper_bound=bound)
         mask: BoolA = dist <= sensor_range
         return mask
+
+    def robot_exposure(
+        self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float
+    ) -> F64:
+        """Per entry, the fraction of the window in which the robot had it within
+        ``sensor_range`` (module docstring): 0 where :meth:`robot_observed` is False, else in
+        [1 / :data:`SUBSTEPS`, 1]."""
+        observed = self.robot_observed(entry_xy, window, delta_ns, sensor_range)
+        out = np.zeros(len(entry_xy))
+        if not observed.any():
+            return out
+        step = delta_ns / SUBSTEPS
+        middles = np.int64(window) * np.int64(delta_ns) + (
+            (np.arange(SUBSTEPS) + 0.5) * step
+        ).astype(np.int64)
+        t = self.pose_t
+        after = np.minimum(np.searchsorted(t, middles), t.size - 1)
+        before = np.maximum(after - 1, 0)
+        nearest = np.where(np.abs(t[before] - middles) <= np.abs(t[after] - middles), before, after)
+        held = np.abs(t[nearest] - middles) <= max(POSE_HOLD_NS, step / 2)
+        steps = self.pose_xy[nearest[held]]
+        seen = np.zeros(int(observed.sum()))
+        if len(steps):
+            from aion_cli.engine.nearest import horizontal_tree
+
+            bound = float(np.nextafter(sensor_range, np.inf))
+            counts = horizontal_tree(steps).query_ball_point(
+                entry_xy[observed, :2], bound, return_length=True
+            )
+            seen = np.asarray(counts, dtype=np.float64) / SUBSTEPS
+        out[observed] = np.clip(seen, 1.0 / SUBSTEPS, 1.0)
+        return out
+
+    def coverage(
+        self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float, exposure: bool
+    ) -> F64:
+        """Per entry, how much of the window the robot observed it in: its exposure
+        (:meth:`robot_exposure`) with ``exposure``, else 1 wherever :meth:`robot_observed`;
+        0 where no pose in the window had it in range."""
+        if exposure:
+            return self.robot_exposure(entry_xy, window, delta_ns, sensor_range)
+        return self.robot_observed(entry_xy, window, delta_ns, sensor_range).astype(np.float64)
 
     def observed(self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float) -> BoolA:
         """Mask of entries observed in one window (every entry under a fixed sensor)."""

@@ -48,7 +48,8 @@ from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.node_drift import join_timers, timers_blocker
 from aion_cli.engine.ownership import BindPlan, apply_binds, plan_binds, stable_nodes
 from aion_cli.engine.temporal.groups import groups_moved
-from aion_cli.engine.temporal.pending import DeferredDays, HeldDay, PendingDay
+from aion_cli.engine.temporal.held_days import DeferredDays, HeldDay
+from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.types import F64, I64, U64
 from aion_cli.engine.windows import iso, window_start_ns
 from aion_cli.errors import ConfigError
@@ -268,9 +269,13 @@ def _cover(out: MapState, day: PendingDay, rows: I64) -> None:
     for slot, (window, fixed) in enumerate(zip(day.windows, day.fixed, strict=True)):
         if fixed:
             continue  # every entry was observed: the global block counts it
-        mask = out.observation.robot_observed(xy, window, out.window_ns, out.config.sensor_range)
+        config = out.config
+        seen = out.observation.coverage(
+            xy, window, out.window_ns, config.sensor_range, config.exposure
+        )
+        mask = seen > 0
         if mask.any():
-            day.add_observed(slot, rows[mask])
+            day.add_observed(slot, rows[mask], seen[mask])
 
 
 def _first_window(shard: MapState) -> int:

@@ -38,8 +38,9 @@ from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.components import FremenComponents
 from aion_cli.engine.temporal.groups import entry_groups, sorted_group_keys
+from aion_cli.engine.temporal.held_days import DeferredDays
 from aion_cli.engine.temporal.params import TemporalParams
-from aion_cli.engine.temporal.pending import DeferredDays, PendingDay
+from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.temporal.provisional import ProvisionalScores
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
 from aion_cli.engine.windows import window_ns
@@ -185,14 +186,21 @@ class MapState:
         return day
 
     def record_window(
-        self, window: int, fixed: bool, observed: I64, count_rows: I64, counts: F64
+        self,
+        window: int,
+        fixed: bool,
+        observed: I64,
+        count_rows: I64,
+        counts: F64,
+        exposure: F64 | None = None,
     ) -> None:
         """One closed window for the temporal model (a window of a new day first closes the
-        pending day: see :mod:`aion_cli.engine.temporal.model`)."""
+        pending day: see :mod:`aion_cli.engine.temporal.model`); ``exposure``: the share of
+        the window each of ``observed`` was observed in (default whole)."""
         day = self.window_day(window)
         if self.pending and self.pending.day != day:
             self.close_day()
-        self.pending.add_window(day, window, fixed, observed, count_rows, counts)
+        self.pending.add_window(day, window, fixed, observed, count_rows, counts, exposure)
 
     def recorded_anything(self) -> bool:
         """Whether any window was recorded (closed) yet."""

@@ -223,13 +223,14 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
     n = len(rows)
     static = np.nan_to_num(predictor.historical().flow)  # per place, canonical order
     profile = _profile_rates(state, rows, static)  # (places, profile bins)
-    # (place, window) pairs: every place in a fixed sensor's window, the robot's in its own
-    place, window = _pairs(fixed, windows, held.seen, n)
+    # (place, window) pairs: every place in a fixed sensor's window, the robot's in its own,
+    # each expected to show its rate for the share of the window it was in range
+    place, window, share = _pairs(fixed, windows, held.seen, held.seen_exposure, n)
     per_window = {
-        "aion": _summed(place, window, windows.size, predictor, centres),
-        "aion static": np.bincount(window, static[place], minlength=windows.size),
+        "aion": _summed(place, window, share, windows.size, predictor, centres),
+        "aion static": np.bincount(window, static[place] * share, minlength=windows.size),
         "hour-of-day profile": np.bincount(
-            window, profile[place, bins[window]], minlength=windows.size
+            window, profile[place, bins[window]] * share, minlength=windows.size
         ),
     }
     hours, result.series, result.activity = hourly_activity(windows * w_ns, truth_w, per_window)
@@ -237,30 +238,43 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
 
 
 def _pairs(
-    fixed: np.ndarray, windows: np.ndarray, seen: dict[int, np.ndarray], n: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """(place, window position) pairs of the observation: all ``n`` places in a fixed
-    window, the places ``seen`` lists in a robot's."""
-    places, positions = [], []
+    fixed: np.ndarray,
+    windows: np.ndarray,
+    seen: dict[int, np.ndarray],
+    exposure: dict[int, np.ndarray],
+    n: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(place, window position, share of the window observed) of the observation: all ``n``
+    places in a fixed window, each whole, the places ``seen`` lists in a robot's, each for
+    its ``exposure`` (whole where none is given)."""
+    places, positions, shares = [], [], []
     everyone = np.arange(n, dtype=np.int64)
     for k, (w, is_fixed) in enumerate(zip(windows.tolist(), fixed.tolist(), strict=True)):
         part = everyone if is_fixed else seen[w]
         places.append(part)
         positions.append(np.full(part.size, k, np.int64))
+        whole = is_fixed or w not in exposure
+        shares.append(np.ones(part.size) if whole else exposure[w])
     if not places:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.concatenate(places), np.concatenate(positions)
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(places), np.concatenate(positions), np.concatenate(shares)
 
 
 def _summed(
-    place: np.ndarray, window: np.ndarray, n_windows: int, predictor: Any, centres: np.ndarray
+    place: np.ndarray,
+    window: np.ndarray,
+    share: np.ndarray,
+    n_windows: int,
+    predictor: Any,
+    centres: np.ndarray,
 ) -> np.ndarray:
-    """The map's forecast (``Predictor.flows``; places never observed add nothing) summed
-    per window over the pairs, a block of pairs at a time."""
+    """The map's forecast (``Predictor.flows``; places never observed add nothing) times
+    each pair's ``share`` of its window, summed per window over the pairs, a block of pairs
+    at a time."""
     out = np.zeros(n_windows)
     for a in range(0, place.size, _PAIRS):
         p, k = place[a : a + _PAIRS], window[a : a + _PAIRS]
-        flows = np.nan_to_num(predictor.flows(p, centres[k]))
+        flows = np.nan_to_num(predictor.flows(p, centres[k])) * share[a : a + _PAIRS]
         out += np.bincount(k, flows, minlength=n_windows)
     return out
 

@@ -86,19 +86,23 @@ def test_loaded_store_knows_its_open_window_rows() -> None:
 
 
 def _per_window_sums_pairwise(fc: Any, entries: np.ndarray, fixed_slots: np.ndarray,
-                              obs_e: np.ndarray, obs_s: np.ndarray, rot: np.ndarray,
-                              floor: float) -> np.ndarray:
+                              own_pairs: tuple[np.ndarray, np.ndarray, np.ndarray],
+                              rot: np.ndarray, floor: float) -> np.ndarray:
     """The pre-issue-15 ``scoring._per_window_sums``: every (entry, window) pair as a row,
     summed chunk by chunk with ``np.bincount``; each pair's term 2 Re(γ z) in the real form
-    the block evaluation uses (Re γ · 2 Re z − Im γ · 2 Im z, no complex product)."""
+    the block evaluation uses (Re γ · 2 Re z − Im γ · 2 Im z, no complex product), an own
+    pair's max(λ, floor) times its exposure."""
+    obs_e, obs_s, obs_w = own_pairs
     slot_of = np.full(fc.rows.size, -1, np.int64)
     slot_of[entries] = np.arange(entries.size)
     pair_e = [np.repeat(entries, fixed_slots.size)]
     pair_s = [np.tile(fixed_slots, entries.size)]
+    pair_w = [np.ones(entries.size * fixed_slots.size)]
     own = slot_of[obs_e] >= 0
     pair_e.append(obs_e[own])
     pair_s.append(obs_s[own])
-    pe, ps = np.concatenate(pair_e), np.concatenate(pair_s)
+    pair_w.append(obs_w[own])
+    pe, ps, pw = np.concatenate(pair_e), np.concatenate(pair_s), np.concatenate(pair_w)
     m_max = fc.params.max_order
     total = np.zeros((m_max, entries.size))
     for a in range(0, pe.size, scoring._PAIRS):
@@ -106,6 +110,7 @@ def _per_window_sums_pairwise(fc: Any, entries: np.ndarray, fixed_slots: np.ndar
         z, coef = rot[s[:, None], fc.period_idx[e]], fc.coef_total[e]
         terms = np.cumsum(coef.real * (2.0 * z.real) - coef.imag * (2.0 * z.imag), axis=1)
         lam = np.maximum(fc.rate_total[e][:, None] + terms, floor)
+        lam *= pw[a : a + scoring._PAIRS, None]
         local = slot_of[e]
         for j in range(m_max):
             total[j] += np.bincount(local, lam[:, j], minlength=entries.size)
@@ -138,8 +143,11 @@ def test_per_window_sums_equal_the_pairwise_sums_bit_for_bit(
     n_obs = int(rng.integers(0, 200))
     obs_e = np.sort(rng.integers(0, rows, n_obs))
     obs_s = rng.integers(0, slots, n_obs)
-    got = scoring._per_window_sums(fc, entries, fixed, obs_e, obs_s, rot, 0.01)  # type: ignore[arg-type]
-    want = _per_window_sums_pairwise(fc, entries, fixed, obs_e, obs_s, rot, 0.01)
+    # robot windows observed whole, or in part (their exposures)
+    obs_w = np.ones(n_obs) if seed % 2 else rng.uniform(0.01, 1.0, n_obs)
+    own = (obs_e, obs_s, obs_w)
+    got = scoring._per_window_sums(fc, entries, fixed, own, rot, 0.01)  # type: ignore[arg-type]
+    want = _per_window_sums_pairwise(fc, entries, fixed, own, rot, 0.01)
     assert got.shape == want.shape
     assert got.tobytes() == want.tobytes()
 

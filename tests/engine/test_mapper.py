@@ -154,7 +154,7 @@ def test_closing_a_run_of_windows_records_real_zeros_only_where_observed() -> No
 
 
 def test_trajectory_decides_which_entries_an_empty_window_observes() -> None:
-    m = Mapper(CFG)
+    m = Mapper(CFG.replace(exposure=False))  # windows counted whole: which, not how long
     near, far = [0.1, 0.1, 0.0], [50.1, 0.1, 0.0]
     m.add_trajectory(Trajectory(np.array([T0 + 10 * S]), np.array([[0.0, 0.0, 0.0]])))
     m.add_detections(detections(T0 + S, [near, far]))  # both have detections in window 0

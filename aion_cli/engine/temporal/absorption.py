@@ -48,6 +48,12 @@ def drop_fixed(obs_e: I64, obs_s: I64, fixed: npt.NDArray[np.bool_]) -> tuple[I6
     return obs_e[keep], obs_s[keep]
 
 
+def own_pairs(day: DayWindows) -> tuple[I64, I64, F64]:
+    """The day's observation pairs outside fixed-sensor slots, with their exposures."""
+    keep = ~day.fixed[day.obs_slot]
+    return day.obs_entry[keep], day.obs_slot[keep], day.weights()[keep]
+
+
 def absorb_day(
     params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64
 ) -> None:
@@ -68,9 +74,9 @@ def absorb_day(
         )
         state.glob.add_block(np.array([0]), block)
     state.window_chi2 += day_chi2(day, h, n_prof)  # how bursty the day's window totals are
-    obs_e, obs_s = drop_fixed(day.obs_entry, day.obs_slot, day.fixed)
+    obs_e, obs_s, obs_w = own_pairs(day)
     for o in _row_blocks(obs_e):
-        _absorb_observed(params, state, obs_e[o], obs_s[o], t_s, h, phasor)
+        _absorb_observed(params, state, obs_e[o], obs_s[o], obs_w[o], t_s, h, phasor)
     for c in _row_blocks(day.cnt_entry):
         values = np.take(day.cnt_values, c, axis=0)  # rows of V values: take is ~2x faster
         _absorb_counts(params, state, day.cnt_entry[c], day.cnt_slot[c], values, h, phasor)
@@ -89,20 +95,24 @@ def _absorb_observed(
     state: TemporalState,
     obs_e: I64,
     obs_s: I64,
+    obs_w: F64,
     t_s: F64,
     h: I64,
     phasor: C128,
 ) -> None:
-    """The entries' own observed windows into their observation blocks."""
+    """The entries' own observed windows into their observation blocks, each weighed by its
+    exposure (a window observed in part adds that part of a window)."""
     n_prof = params.n_profile
     rows, inverse = unique_inverse(obs_e)
-    n = np.bincount(inverse, minlength=rows.size).astype(np.float64)
+    n: F64 = np.bincount(inverse, obs_w, minlength=rows.size).astype(np.float64, copy=False)
     if state.fourier_loaded:
-        fourier = _sum_phasors(inverse, obs_s, np.ones(obs_s.size), rows.size, phasor)
+        fourier = _sum_phasors(inverse, obs_s, obs_w, rows.size, phasor)
     else:
         fourier = np.zeros((rows.size, 0), np.complex128)
     flat_bins = inverse * n_prof + h[obs_s]
-    prof = np.bincount(flat_bins, minlength=rows.size * n_prof).astype(np.float64)
+    prof: F64 = np.bincount(flat_bins, obs_w, minlength=rows.size * n_prof).astype(
+        np.float64, copy=False
+    )
     prof = prof.reshape(rows.size, n_prof)
     first = np.full(rows.size, np.inf)
     np.minimum.at(first, inverse, t_s[obs_s])

@@ -22,8 +22,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.node_drift import NodeDrift
-from aion_cli.engine.temporal.groups import groups_moved
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.errors import MapCorruptError
 
@@ -40,6 +38,44 @@ class DayWindows:
     cnt_entry: I64
     cnt_slot: I64
     cnt_values: F64
+    obs_weight: F64 | None = None
+    """Per observation pair, the fraction of its window the entry was observed in (the
+    robot's exposure, :mod:`~aion_cli.engine.observation`); None: every pair whole."""
+
+    def weights(self) -> F64:
+        """:attr:`obs_weight`, ones where it is None."""
+        if self.obs_weight is None:
+            return np.ones(self.obs_entry.size)
+        return self.obs_weight
+
+    def count_weights(self) -> F64:
+        """Per count pair, the exposure of its (entry, window): 1 in a fixed-sensor window or
+        where no observation pair holds it, else its observation pair's weight (the pairs of
+        both kinds are sorted by entry, then slot)."""
+        out = np.ones(self.cnt_entry.size)
+        if self.obs_weight is None or self.cnt_entry.size == 0 or self.obs_entry.size == 0:
+            return out
+        slots = max(self.windows.size, 1)
+        obs_key = self.obs_entry * slots + self.obs_slot
+        cnt_key = self.cnt_entry * slots + self.cnt_slot
+        at = np.minimum(np.searchsorted(obs_key, cnt_key), obs_key.size - 1)
+        hit = (obs_key[at] == cnt_key) & ~self.fixed[self.cnt_slot]
+        out[hit] = self.obs_weight[at[hit]]
+        return out
+
+    def select(self, obs: I64, cnt: I64) -> DayWindows:
+        """The same windows with the observation pairs ``obs`` and count pairs ``cnt``."""
+        weight = None if self.obs_weight is None else self.obs_weight[obs]
+        return DayWindows(
+            self.windows,
+            self.fixed,
+            self.obs_entry[obs],
+            self.obs_slot[obs],
+            self.cnt_entry[cnt],
+            self.cnt_slot[cnt],
+            np.take(self.cnt_values, cnt, axis=0),  # rows of V values: take is ~2x faster
+            weight,
+        )
 
 
 @dataclass
@@ -52,6 +88,7 @@ class PendingDay:
     fixed: list[bool] = field(default_factory=list)
     _obs_entry: list[I64] = field(default_factory=list)
     _obs_slot: list[I64] = field(default_factory=list)
+    _obs_weight: list[F64] = field(default_factory=list)
     _cnt_entry: list[I64] = field(default_factory=list)
     _cnt_slot: list[I64] = field(default_factory=list)
     _cnt_values: list[F64] = field(default_factory=list)
@@ -73,9 +110,11 @@ class PendingDay:
         observed: npt.ArrayLike,
         count_rows: npt.ArrayLike,
         counts: npt.ArrayLike,
+        exposure: npt.ArrayLike | None = None,
     ) -> None:
         """Hold window ``window`` of local day ``day`` (windows arrive in time order; the
-        caller flushes before a window of another day)."""
+        caller flushes before a window of another day); ``exposure``: per entry of
+        ``observed``, the fraction of the window it was observed in (default whole)."""
         if self.day is not None and day != self.day:
             raise ValueError(f"window of day {day} added to the pending day {self.day}")
         if self.windows and window <= self.windows[-1]:
@@ -89,6 +128,7 @@ class PendingDay:
         if obs.size:
             self._obs_entry.append(obs)
             self._obs_slot.append(np.full(obs.size, slot, np.int64))
+            self._obs_weight.append(_weights(exposure, obs.size))
         rows = np.asarray(count_rows, dtype=np.int64).reshape(-1)
         if rows.size:
             vals = np.asarray(counts, dtype=np.float64).reshape(rows.size, self.values)
@@ -96,13 +136,15 @@ class PendingDay:
             self._cnt_slot.append(np.full(rows.size, slot, np.int64))
             self._cnt_values.append(vals)
 
-    def add_observed(self, slot: int, rows: I64) -> None:
-        """Entries ``rows`` were observed in the held window ``slot`` too."""
+    def add_observed(self, slot: int, rows: I64, exposure: npt.ArrayLike | None = None) -> None:
+        """Entries ``rows`` were observed in the held window ``slot`` too (for ``exposure``
+        of it, default whole)."""
         if not 0 <= slot < len(self.windows):
             raise ValueError(f"no held window {slot}")
         self._changed()
         self._obs_entry.append(np.asarray(rows, np.int64))
         self._obs_slot.append(np.full(len(rows), slot, np.int64))
+        self._obs_weight.append(_weights(exposure, len(rows)))
 
     def remap(self, src: I64, dst: I64) -> None:
         """Entries ``src`` were moved into ``dst``: held observations and counts follow."""
@@ -122,7 +164,8 @@ class PendingDay:
     def _compact(self) -> None:
         """Each list of held per-window arrays as one array (pairs in the same order, so
         :meth:`consolidated` gives the same day)."""
-        for name in ("_obs_entry", "_obs_slot", "_cnt_entry", "_cnt_slot", "_cnt_values"):
+        for name in ("_obs_entry", "_obs_slot", "_obs_weight", "_cnt_entry", "_cnt_slot",
+                     "_cnt_values"):
             parts = getattr(self, name)
             if len(parts) > 1:
                 setattr(self, name, [np.concatenate(parts)])
@@ -140,6 +183,7 @@ class PendingDay:
         self.fixed.extend(later.fixed)
         self._obs_entry.extend(later._obs_entry)
         self._obs_slot.extend(a + offset for a in later._obs_slot)
+        self._obs_weight.extend(later._obs_weight)
         self._cnt_entry.extend(later._cnt_entry)
         self._cnt_slot.extend(a + offset for a in later._cnt_slot)
         self._cnt_values.extend(later._cnt_values)
@@ -149,6 +193,7 @@ class PendingDay:
         out = PendingDay(self.values, self.day, list(self.windows), list(self.fixed))
         out._obs_entry = [row_map[a] for a in self._obs_entry]
         out._obs_slot = [a.copy() for a in self._obs_slot]
+        out._obs_weight = [a.copy() for a in self._obs_weight]
         out._cnt_entry = [row_map[a] for a in self._cnt_entry]
         out._cnt_slot = [a.copy() for a in self._cnt_slot]
         out._cnt_values = [a.copy() for a in self._cnt_values]
@@ -169,9 +214,14 @@ class PendingDay:
     def _consolidate(self) -> DayWindows:
         slots = max(len(self.windows), 1)
         obs_e, obs_s = _cat(self._obs_entry), _cat(self._obs_slot)
+        weight = np.concatenate(self._obs_weight) if self._obs_weight else np.zeros(0)
         if obs_e.size:
-            keys = np.unique(obs_e * slots + obs_s)
+            # a node observed through itself and the cells it absorbed: the largest exposure
+            keys, inverse = np.unique(obs_e * slots + obs_s, return_inverse=True)
             obs_e, obs_s = np.divmod(keys, slots)
+            most = np.zeros(keys.size)
+            np.maximum.at(most, inverse.reshape(-1), weight)
+            weight = most
         cnt_e, cnt_s = _cat(self._cnt_entry), _cat(self._cnt_slot)
         vals = np.concatenate(self._cnt_values) if self._cnt_values else np.zeros((0, self.values))
         if cnt_e.size:
@@ -184,16 +234,18 @@ class PendingDay:
             cnt_e,
             cnt_s,
             vals,
+            None if bool(np.all(weight == 1.0)) else weight,
         )
         for array in vars(day).values():
-            array.setflags(write=False)
+            if array is not None:
+                array.setflags(write=False)
         return day
 
     def clear(self) -> None:
         self._changed()
         self.day = None
         self.windows, self.fixed = [], []
-        self._obs_entry, self._obs_slot = [], []
+        self._obs_entry, self._obs_slot, self._obs_weight = [], [], []
         self._cnt_entry, self._cnt_slot, self._cnt_values = [], [], []
 
     # -- persistence ------------------------------------------------------------------------
@@ -213,6 +265,8 @@ class PendingDay:
             prefix + "cnt_slot": day.cnt_slot[cnt],
             prefix + "cnt_values": day.cnt_values[cnt],
         }
+        if day.obs_weight is not None:  # some robot window observed in part
+            arrays[prefix + "obs_weight"] = day.obs_weight[obs]
         return arrays, self.day
 
     @classmethod
@@ -234,12 +288,16 @@ class PendingDay:
             cnt_s = np.asarray(arrays[prefix + "cnt_slot"], dtype=np.int64).reshape(-1)
             vals = np.asarray(arrays[prefix + "cnt_values"], dtype=np.float64)
             vals = vals.reshape(cnt_e.size, values)
+            weight = np.asarray(
+                arrays.get(prefix + "obs_weight", np.ones(obs_e.size)), dtype=np.float64
+            ).reshape(-1)
         except (TypeError, ValueError) as exc:
             raise MapCorruptError(f"pending day has invalid arrays: {exc}") from exc
         ok = (
             windows.size == fixed.size
             and (windows.size == 0 or bool(np.all(np.diff(windows) > 0)))
-            and obs_e.size == obs_s.size
+            and obs_e.size == obs_s.size == weight.size
+            and bool(np.all((weight > 0.0) & (weight <= 1.0)))
             and cnt_e.size == cnt_s.size
             and all(a.size == 0 or (a.min() >= 0 and a.max() < entries) for a in (obs_e, cnt_e))
             and all(
@@ -256,7 +314,7 @@ class PendingDay:
         out.windows = [int(w) for w in windows.tolist()]
         out.fixed = [bool(f) for f in fixed.tolist()]
         if obs_e.size:
-            out._obs_entry, out._obs_slot = [obs_e], [obs_s]
+            out._obs_entry, out._obs_slot, out._obs_weight = [obs_e], [obs_s], [weight]
         if cnt_e.size:
             out._cnt_entry, out._cnt_slot, out._cnt_values = [cnt_e], [cnt_s], [vals]
         return out
@@ -294,161 +352,15 @@ def _sum_by(group: I64, values: F64, n_groups: int) -> F64:
     return out
 
 
+def _weights(exposure: npt.ArrayLike | None, n: int) -> F64:
+    """Exposures of ``n`` observation pairs: ones by default; each in (0, 1]."""
+    if exposure is None:
+        return np.ones(n)
+    out = np.asarray(exposure, dtype=np.float64).reshape(-1)
+    if out.size != n or not bool(np.all((out > 0.0) & (out <= 1.0))):
+        raise ValueError("exposure must give each observed entry a fraction in (0, 1]")
+    return out
+
+
 def _cat(chunks: list[I64]) -> I64:
     return np.concatenate(chunks) if chunks else np.zeros(0, np.int64)
-
-
-@dataclass
-class HeldDay:
-    """A closed day of a shard, unscored: its windows and the entries live when it closed
-    (the population a single pass would have pooled its forecasts over)."""
-
-    pending: PendingDay
-    live: I64
-
-
-@dataclass
-class DeferredDays:
-    """The closed days of a parallel build's shard, in time order, held for the join that
-    scores them against the history of every earlier shard (:mod:`aion_cli.engine.shards`).
-    Ownership transfer re-labels them as it does the pending day."""
-
-    days: list[HeldDay] = field(default_factory=list)
-    #: the node ids and positions of the shard's first bind check with a stable node: the
-    #: graph the earlier shards' cells met first in a single pass
-    first_stable: tuple[npt.NDArray[np.uint64], F64] | None = None
-    #: the place ids of the first scene graph the shard applied (None: none yet)
-    first_graph: npt.NDArray[np.uint64] | None = None
-    #: whether that first check came after a held day (its binds came late)
-    first_stable_late: bool = False
-    #: whether ownership moved an entry that a held day had live (that day's forecast would
-    #: have pooled over the entries as they were then: the join cannot be exact)
-    moved_after_hold: bool = False
-    #: how the nodes of the shard's first graph moved until their timers first restarted
-    #: (:mod:`aion_cli.engine.node_drift`; None before a graph, and in part maps of older
-    #: versions)
-    drift: NodeDrift | None = None
-    #: the places' group keys (ids sorted, :func:`~aion_cli.engine.temporal.groups.group_keys`)
-    #: of the last graph since a day was held (None: no day held under a graph yet)
-    group_keys: tuple[npt.NDArray[np.uint64], I64] | None = None
-    #: whether a place changed its pooling group (room, or neighbourhood) after a day was
-    #: held: that day's forecast pooled over the groups as they were then (not exact)
-    groups_changed_after_hold: bool = False
-    #: whether a day was held before the shard's first graph (one pass pooled it by the
-    #: graph of the map before the shard: the join compares that graph's groups)
-    held_before_graph: bool = False
-
-    def hold(
-        self, pending: PendingDay, live: I64, keys: tuple[npt.NDArray[np.uint64], I64] | None
-    ) -> None:
-        """Hold a closed day: its windows, the entries live at its close, and the places'
-        group keys then (``keys``; None without a graph)."""
-        self.days.append(HeldDay(pending, np.asarray(live, np.int64).copy()))
-        if keys is None:
-            self.held_before_graph = True
-        elif self.group_keys is None:
-            self.group_keys = keys
-
-    def graph_groups(self, keys: tuple[npt.NDArray[np.uint64], I64]) -> None:
-        """A new graph's group keys (asked for once :attr:`group_keys` is set, i.e. after a
-        day was held under a graph): a place that changed its group since the graph before
-        marks the join as not exact."""
-        if self.group_keys is not None and groups_moved(self.group_keys, keys):
-            self.groups_changed_after_hold = True
-        self.group_keys = keys
-
-    def remember_stable(self, ids: npt.NDArray[np.uint64], xyz: F64) -> None:
-        """The shard's first bind check with a stable node (see :attr:`first_stable`)."""
-        if self.first_stable is None:
-            self.first_stable = (ids.copy(), xyz.copy())
-            self.first_stable_late = bool(self.days)
-
-    def remap(self, src: I64, dst: I64) -> None:
-        """Entries ``src`` were moved into ``dst``: every held day follows."""
-        if src.size == 0:
-            return
-        if self.days and np.isin(src, np.concatenate([d.live for d in self.days])).any():
-            self.moved_after_hold = True
-        order = np.argsort(src, kind="stable")
-        keys, targets = src[order], dst[order]
-        for held in self.days:
-            held.pending.remap(src, dst)
-            pos = np.minimum(np.searchsorted(keys, held.live), keys.size - 1)
-            hit = keys[pos] == held.live
-            if hit.any():
-                held.live = np.unique(np.where(hit, targets[pos], held.live))
-
-    # -- persistence (a part map, ``aion build --part``) ----------------------------------
-    def to_arrays(self, position: I64) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Members ``held{k}_*`` per held day (rows as saved positions) and the meta."""
-        arrays: dict[str, np.ndarray] = {}
-        days = []
-        for k, held in enumerate(self.days):
-            part, day = held.pending.to_arrays(f"held{k}_", position)
-            arrays.update(part)
-            live = position[held.live]
-            arrays[f"held{k}_live"] = np.sort(live[live >= 0])
-            days.append(day)
-        if self.first_graph is not None:
-            arrays["held_first_graph"] = self.first_graph.copy()
-        if self.first_stable is not None:
-            arrays["held_first_stable_ids"] = self.first_stable[0].copy()
-            arrays["held_first_stable_xyz"] = self.first_stable[1].copy()
-        meta: dict[str, Any] = {
-            "days": days,
-            "first_stable_late": bool(self.first_stable_late),
-            "moved_after_hold": bool(self.moved_after_hold),
-        }
-        if self.drift is not None:
-            drift_arrays, meta["drift"] = self.drift.to_arrays("held_drift_")
-            arrays.update(drift_arrays)
-        if self.group_keys is not None:
-            arrays["held_group_ids"] = self.group_keys[0].copy()
-            arrays["held_group_keys"] = self.group_keys[1].copy()
-        meta["groups_changed_after_hold"] = bool(self.groups_changed_after_hold)
-        meta["held_before_graph"] = bool(self.held_before_graph)
-        return arrays, meta
-
-    @classmethod
-    def from_arrays(
-        cls, arrays: dict[str, np.ndarray], meta: Any, values: int, entries: int
-    ) -> DeferredDays:
-        """Inverse of :meth:`to_arrays` (:class:`MapCorruptError` for inconsistent input)."""
-        try:
-            days = list(meta["days"])
-            out = cls(
-                first_stable_late=bool(meta["first_stable_late"]),
-                moved_after_hold=bool(meta["moved_after_hold"]),
-            )
-        except (KeyError, TypeError) as exc:
-            raise MapCorruptError(f"held days metadata is incomplete: {exc}") from exc
-        for k, day in enumerate(days):
-            pending = PendingDay.from_arrays(arrays, f"held{k}_", day, values, entries)
-            if f"held{k}_live" not in arrays:
-                raise MapCorruptError(f"held day {k} incomplete, missing: held{k}_live")
-            live = np.asarray(arrays[f"held{k}_live"], dtype=np.int64).reshape(-1)
-            if live.size and (live.min() < 0 or live.max() >= entries):
-                raise MapCorruptError(f"held{k}_live indexes entries that do not exist")
-            if not pending:
-                raise MapCorruptError(f"held day {k} holds no window")
-            out.days.append(HeldDay(pending, live))
-        if "held_first_graph" in arrays:
-            out.first_graph = np.asarray(arrays["held_first_graph"], dtype=np.uint64).reshape(-1)
-        if "held_first_stable_ids" in arrays:
-            ids = np.asarray(arrays["held_first_stable_ids"], dtype=np.uint64).reshape(-1)
-            xyz = np.asarray(arrays.get("held_first_stable_xyz", np.zeros((0, 3))), np.float64)
-            if xyz.shape != (ids.size, 3):
-                raise MapCorruptError("held_first_stable_xyz does not match its ids")
-            out.first_stable = (ids, xyz)
-        if meta.get("drift") is not None:
-            out.drift = NodeDrift.from_arrays(arrays, meta["drift"], "held_drift_")
-        out.groups_changed_after_hold = bool(meta.get("groups_changed_after_hold", False))
-        out.held_before_graph = bool(meta.get("held_before_graph", False))
-        if "held_group_ids" in arrays:
-            ids = np.asarray(arrays["held_group_ids"], np.uint64).reshape(-1)
-            keys = np.asarray(arrays.get("held_group_keys", np.zeros((0, 3))), np.int64)
-            if keys.shape != (ids.size, 3):
-                raise MapCorruptError("held_group_keys does not match its ids")
-            out.group_keys = (ids, keys)
-        return out
-

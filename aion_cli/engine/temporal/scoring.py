@@ -31,7 +31,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.row_sums import row_sums
-from aion_cli.engine.temporal.absorption import absorb_day, drop_fixed, slot_times
+from aion_cli.engine.temporal.absorption import absorb_day, own_pairs, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
@@ -117,15 +117,7 @@ def _score(
     for k, a in enumerate(range(0, candidates.size, _ENTRIES)):
         o = obs_order[obs_cut[k] : obs_cut[k + 1]]
         c = cnt_order[cnt_cut[k] : cnt_cut[k + 1]]
-        block = DayWindows(
-            day.windows,
-            day.fixed,
-            day.obs_entry[o],
-            day.obs_slot[o],
-            day.cnt_entry[c],
-            day.cnt_slot[c],
-            np.take(day.cnt_values, c, axis=0),  # rows of V values: take is ~2x faster
-        )
+        block = day.select(o, c)
         rows = candidates[a : a + _ENTRIES]
         at = position[a : a + _ENTRIES]
         fc = Forecaster(params, state, rows, groups[at], pool, counts=counts[at])
@@ -157,28 +149,31 @@ def _score_block(
 ) -> None:
     """Score one block of candidates (sorted; ``day`` holds only their pairs, as
     :func:`_pairs_by_block` cut them, so every pair's entry is found among them)."""
-    # observed windows of each candidate: the fixed slots plus its own pairs
-    obs_e = np.searchsorted(candidates, day.obs_entry)
-    obs_e, obs_s = drop_fixed(obs_e, day.obs_slot, day.fixed)
+    # observed windows of each candidate: the fixed slots plus its own pairs, each own pair
+    # weighed by its exposure (the part of its window observed: expected detections λ·w)
+    obs_e, obs_s, obs_w = own_pairs(day)
+    obs_e = np.searchsorted(candidates, obs_e)
     fixed_slots = np.flatnonzero(day.fixed)
     n_prof = params.n_profile
     per_bin = np.zeros((candidates.size, n_prof))
     per_bin += np.bincount(h[fixed_slots], minlength=n_prof)[None, :]
-    per_bin += np.bincount(obs_e * n_prof + h[obs_s], minlength=candidates.size * n_prof).reshape(
-        candidates.size, n_prof
-    )
+    per_bin += np.bincount(
+        obs_e * n_prof + h[obs_s], obs_w, minlength=candidates.size * n_prof
+    ).reshape(candidates.size, n_prof)
     windows = row_sums(per_bin)
     # count pairs, by candidate position
     ce, cs, cv = np.searchsorted(candidates, day.cnt_entry), day.cnt_slot, day.cnt_values
+    cw = day.count_weights()
     n_total = row_sums(cv)
     floor = params.config.rate_floor
     day_score = np.zeros((candidates.size, len(params.flow)))
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
-    fremen = _fremen_sums(fc, per_bin, fixed_slots, obs_e, obs_s, t_s, floor)
+    fremen = _fremen_sums(fc, per_bin, fixed_slots, (obs_e, obs_s, obs_w), t_s, floor)
     for f, name in enumerate(params.flow):
         if not params.flow_enabled[f]:
             continue
         lam_pairs = np.maximum(fc.flow(name, ce, pair_h, pair_t), floor)
+        lam_pairs *= cw
         sum_lam = _observed_sum(fc, name, per_bin, floor, fremen)
         log_part = np.bincount(ce, n_total * np.log(lam_pairs), minlength=candidates.size)
         # Σ min((n − λ)² / λ, K²) over the windows with detections, λ over the empty ones:
@@ -230,12 +225,12 @@ def _fremen_sums(
     fc: Forecaster,
     per_bin: F64,
     fixed_slots: I64,
-    obs_e: I64,
-    obs_s: I64,
+    own: tuple[I64, I64, F64],
     t_s: F64,
     floor: float,
 ) -> F64:
-    """Σ over each entry's observed windows of max(λ_m, floor) for every FreMEn order m,
+    """Σ over each entry's observed windows of max(λ_m, floor) (times the window's exposure,
+    ``own``: entry positions, slots and exposures of the own pairs) for every FreMEn order m,
     float64[M, E]. Closed form (the rate's sum plus the day's Fourier sums at the entry's
     periods) where the lower bound μ − Σ 2|γ| shows the floor cannot bite; window by window
     for the other entries, every order in one cumulative pass."""
@@ -248,9 +243,13 @@ def _fremen_sums(
     rot = np.exp(-1j * np.multiply.outer(t_s, fc.params.omega))  # (S, K): e^{−iωt}
     idx = fc.period_idx  # (E, M)
     picked = rot[fixed_slots].sum(axis=0)[idx]  # Σ e^{−iωt} at each entry's periods
+    obs_e, obs_s, obs_w = own
+    weighed = bool(np.any(obs_w != 1.0))
     for a in range(0, obs_e.size, _PAIRS):
         pe, ps = obs_e[a : a + _PAIRS], obs_s[a : a + _PAIRS]
         vals = rot[ps[:, None], idx[pe]]  # (P, M)
+        if weighed:
+            vals *= obs_w[a : a + _PAIRS, None]
         for j in range(m_max):
             picked[:, j] += np.bincount(pe, vals[:, j].real, minlength=e)
             picked[:, j] += 1j * np.bincount(pe, vals[:, j].imag, minlength=e)
@@ -260,7 +259,7 @@ def _fremen_sums(
     risky = np.flatnonzero((bound[:, -1] < floor) & (windows > 0))  # the largest risky set
     if risky.size == 0:
         return out
-    per_window = _per_window_sums(fc, risky, fixed_slots, obs_e, obs_s, rot, floor)  # (M, r)
+    per_window = _per_window_sums(fc, risky, fixed_slots, own, rot, floor)  # (M, r)
     for j in range(m_max):
         use = bound[risky, j] < floor
         out[j, risky[use]] = per_window[j, use]
@@ -271,13 +270,12 @@ def _per_window_sums(
     fc: Forecaster,
     entries: I64,
     fixed_slots: I64,
-    obs_e: I64,
-    obs_s: I64,
+    own: tuple[I64, I64, F64],
     rot: C128,
     floor: float,
 ) -> F64:
-    """Σ max(λ_m, floor) over each of ``entries``' observed windows for every order m,
-    evaluated window by window: float64[M, len(entries)].
+    """Σ max(λ_m, floor) over each of ``entries``' observed windows for every order m (an
+    own pair's times its exposure), evaluated window by window: float64[M, len(entries)].
 
     The (entry, window) pairs are every entry with every fixed-sensor slot (entry-major),
     then the entries' own pairs, summed in chunks of ``_PAIRS`` pairs, each chunk's sums
@@ -288,8 +286,9 @@ def _per_window_sums(
     closing a day under a fixed sensor, where every entry has every window)."""
     slot_of = np.full(fc.rows.size, -1, np.int64)
     slot_of[entries] = np.arange(entries.size)
-    own = slot_of[obs_e] >= 0
-    own_e, own_s = obs_e[own], obs_s[own]
+    obs_e, obs_s, obs_w = own
+    mine = slot_of[obs_e] >= 0
+    own_e, own_s, own_w = obs_e[mine], obs_s[mine], obs_w[mine]
     m_max = fc.params.max_order
     n_fixed = fixed_slots.size
     fixed_pairs = entries.size * n_fixed
@@ -330,10 +329,12 @@ def _per_window_sums(
         if b > fixed_pairs:
             e = own_e[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
             s = own_s[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
+            w = own_w[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
             z = rot[s[:, None], fc.period_idx[e]]  # (P, M), as the fixed slots' terms
             coef_e = fc.coef_total[e]
             terms = np.cumsum(coef_e.real * (2.0 * z.real) - coef_e.imag * (2.0 * z.imag), axis=1)
             lam_own = np.maximum(fc.rate_total[e][:, None] + terms, floor)  # (P, M)
+            lam_own *= w[:, None]
             local = slot_of[e]
             for j in range(m_max):
                 np.add.at(chunk[j], local, lam_own[:, j])  # in pair order, after the fixed
