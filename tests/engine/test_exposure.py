@@ -18,7 +18,7 @@ from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.types import Trajectory
 from aion_cli.errors import MapCorruptError
-from tests.engine.engine_builders import T0, S, check_invariants, detections
+from tests.engine.engine_builders import T0, T0_DAY_END, S, check_invariants, detections
 
 W = 600 * S
 A, B = np.array([0.0, 0.0, 0.0]), np.array([40.0, 0.0, 0.0])  # 40 m apart, sensor range 8 m
@@ -69,14 +69,19 @@ def _dwell_map(exposure: bool, families: tuple[str, ...] | None = None) -> Mappe
     config = CFG.replace(exposure=exposure)
     m = Mapper(config if families is None else config.replace(families=families))
     m.add_trajectory(_dwelling_robot(windows, 0.9))
-    seconds = np.arange(0, windows * 600, 6)  # one detection every 6 s at each place
-    t = T0 + seconds * S
-    seen_a = (seconds % 600) < 540  # only while the robot is there
-    m.add_detections(detections(t[seen_a], np.tile(A + 0.1, (int(seen_a.sum()), 1))))
-    m.add_detections(detections(t[~seen_a], np.tile(B + 0.1, (int((~seen_a).sum()), 1))))
-    m.advance(T0 + windows * W)
+    _people(m, windows)
     check_invariants(m.state)
     return m
+
+
+def _people(m: Mapper, windows: int) -> None:
+    """One detection every 6 s at each of A and B, recorded only while the robot is there
+    (A for the first 540 s of every window, B for the last 60), in time order."""
+    seconds = np.arange(0, windows * 600, 6)
+    seen_a = (seconds % 600) < 540
+    xyz = np.where(seen_a[:, None], A + 0.1, B + 0.1)
+    m.add_detections(detections(T0 + seconds * S, xyz))
+    m.advance(T0 + windows * W)
 
 
 def _at(table: object, place: np.ndarray) -> int:
@@ -140,3 +145,31 @@ def test_bad_exposures_are_refused(bad: list[float]) -> None:
     arrays["p_obs_weight"] = np.array(bad)  # out of (0, 1], or one too many
     with pytest.raises(MapCorruptError):
         PendingDay.from_arrays(arrays, "p_", meta, 3, 5)
+
+
+def test_day_scores_expect_a_rate_times_the_share_watched() -> None:
+    """Three days of the dwelling robot, people at exactly 100 detections per full window:
+    the day-ahead static forecast of B (watched a tenth of each window, 10 seen) expects 10
+    in each window: its log-likelihood is 10 log 10 − 10 a window and its Pearson χ² ~0."""
+    windows = 3 * 144
+    m = Mapper(CFG.replace(families=("static",)))
+    m.add_trajectory(_dwelling_robot(windows, 0.9, hz=0.5))
+    _people(m, windows)
+    m.state.close_day()
+    table = historical_table(m.state)
+    tmp = m.state.temporal
+    static = m.state.params.flow.index("static")
+    first_day = (T0_DAY_END - T0) // W  # the first day's windows: nothing before to forecast
+    for place, share in ((A, 0.9), (B, 0.1)):
+        assert float(table.flow[_at(table, place)]) == pytest.approx(100.0)
+        rows = m.state.entries.live_rows()
+        xyz = m.state.entries.xyz[rows, :2]
+        r = rows[np.flatnonzero(np.linalg.norm(xyz - place[:2] - 0.1, axis=1) < 0.5)[0]]
+        scored = windows - first_day
+        assert float(tmp.flow_scored[r]) == pytest.approx(share * scored)
+        # Poisson log-likelihood (without log n!) of n = 100·share seen a window against
+        # the forecast 100·share: the forecast 100 would score n log 100 − 100·share
+        n = 100.0 * share
+        score = float(tmp.flow_score[r, static])
+        assert score == pytest.approx(scored * (n * np.log(n) - n), rel=1e-6)
+        assert float(tmp.flow_chi2[r, static]) / scored < 0.5
