@@ -77,10 +77,7 @@ class _RecordingState(MapState):
         held: they are pruned only once the window is recorded)."""
         if self.watch is None or window in self.seen:
             return
-        config = self.config
-        cover = self.observation.coverage(
-            self.watch, window, self.window_ns, config.sensor_range, config.exposure
-        )
+        cover = self.observation.coverage(self.watch, window, self.window_ns, self.config)
         self.seen[window] = np.flatnonzero(cover > 0).astype(np.int64)
         self.seen_exposure[window] = cover[cover > 0]
 

@@ -167,10 +167,7 @@ def _record(
 def _coverage(state: MapState, xy: F64, window: int) -> F64:
     """Per point, the share of ``window`` the robot observed it in (``ModelConfig.exposure``;
     without it 1 wherever a pose in the window was in range), 0 where none was."""
-    config = state.config
-    return state.observation.coverage(
-        xy, window, state.window_ns, config.sensor_range, config.exposure
-    )
+    return state.observation.coverage(xy, window, state.window_ns, state.config)
 
 
 def open_window_record(state: MapState) -> DayWindows | None:

@@ -79,8 +79,9 @@ class ModelConfig:
     than ``stable_move_tolerance`` for ``stability_s`` (τ) seconds of log time.
     Time: windows of ``window_s`` (Δ) aligned to the UNIX epoch; the robot observes entries
     within ``sensor_range`` of its trajectory, and with ``exposure`` a window it observed an
-    entry in counts by the fraction of the window the entry was in range
-    (``engine.observation``; without, every such window counts whole, as in the paper).
+    entry in counts by the fraction of the window the entry was in range, at least
+    ``exposure_floor`` (``engine.observation``; without, every such window counts whole, as in
+    the paper).
     Temporal model (``engine.temporal``): the expected detections per observed window of every
     entry and direction bin, forecast by the families in ``families`` (``static``, ``shape``,
     ``profile``, ``fremen``; static is always on) and chosen per entry by day-ahead score, a
@@ -112,6 +113,7 @@ class ModelConfig:
     window_s: float = 600.0
     sensor_range: float = 8.0
     exposure: bool = True
+    exposure_floor: float = 0.2
     timezone: str = "UTC"
     families: tuple[str, ...] = FAMILIES
     profile: str = "day_weekend"
@@ -221,6 +223,13 @@ class ModelConfig:
         self._validate_periods()
         if not isinstance(self.exposure, bool):
             raise ConfigError(f"exposure must be true or false, got {self.exposure!r}")
+        floor = self.exposure_floor
+        if not (_is_number(floor) and math.isfinite(floor) and 0.0 < floor <= 1.0):
+            raise ConfigError(
+                f"exposure_floor must be in (0, 1], got {floor!r}",
+                hint="the least share of a window a robot's look counts for: 0.2 by default, "
+                "1 counts every look as a whole window",
+            )
         if not isinstance(self.reconcile, bool):
             raise ConfigError(f"reconcile must be true or false, got {self.reconcile!r}")
         if not isinstance(self.plan_flow_auto, bool):

@@ -269,10 +269,7 @@ def _cover(out: MapState, day: PendingDay, rows: I64) -> None:
     for slot, (window, fixed) in enumerate(zip(day.windows, day.fixed, strict=True)):
         if fixed:
             continue  # every entry was observed: the global block counts it
-        config = out.config
-        seen = out.observation.coverage(
-            xy, window, out.window_ns, config.sensor_range, config.exposure
-        )
+        seen = out.observation.coverage(xy, window, out.window_ns, out.config)
         mask = seen > 0
         if mask.any():
             day.add_observed(slot, rows[mask], seen[mask])

@@ -22,7 +22,8 @@ from tests.engine.engine_builders import T0, T0_DAY_END, S, check_invariants, de
 
 W = 600 * S
 A, B = np.array([0.0, 0.0, 0.0]), np.array([40.0, 0.0, 0.0])  # 40 m apart, sensor range 8 m
-CFG = ModelConfig(window_s=600.0, sensor_range=8.0)
+DEFAULT = ModelConfig(window_s=600.0, sensor_range=8.0)
+CFG = DEFAULT.replace(exposure_floor=1.0 / SUBSTEPS)  # every share as measured
 
 
 def _dwelling_robot(windows: int, share_a: float, hz: float = 1.0) -> Trajectory:
@@ -43,7 +44,10 @@ def test_exposure_is_the_share_of_the_window_in_range() -> None:
     np.testing.assert_allclose(exposure, [0.9, 0.1, 0.0], atol=1.0 / SUBSTEPS)
     # the same entries observed as the whole-window test says; whole windows without exposure
     np.testing.assert_array_equal(exposure > 0, source.robot_observed(points, window, W, 8.0))
-    np.testing.assert_array_equal(source.coverage(points, window, W, 8.0, False), [1, 1, 0])
+    whole = CFG.replace(exposure=False)
+    np.testing.assert_array_equal(source.coverage(points, window, W, whole), [1, 1, 0])
+    # the model's default floor: a tenth of a window counts as a fifth
+    np.testing.assert_allclose(source.coverage(points, window, W, DEFAULT), [0.9, 0.2, 0.0])
 
 
 def test_a_lone_pose_covers_half_a_minute_each_side_and_never_less_than_a_step() -> None:
@@ -173,3 +177,22 @@ def test_day_scores_expect_a_rate_times_the_share_watched() -> None:
         score = float(tmp.flow_score[r, static])
         assert score == pytest.approx(scored * (n * np.log(n) - n), rel=1e-6)
         assert float(tmp.flow_chi2[r, static]) / scored < 0.5
+
+
+def test_the_floor_bounds_what_a_brief_look_can_claim() -> None:
+    """With the default floor (a fifth of a window), B's 10 detections a window read as 50,
+    not 100: a look shorter than two minutes never claims more than five times what it saw."""
+    m = Mapper(DEFAULT)
+    m.add_trajectory(_dwelling_robot(12, 0.9))
+    _people(m, 12)
+    table = historical_table(m.state)
+    assert float(table.flow[_at(table, A)]) == pytest.approx(100.0)
+    assert float(table.flow[_at(table, B)]) == pytest.approx(50.0)
+
+
+@pytest.mark.parametrize("floor", [0.0, -0.1, 1.5, float("nan"), "0.2"])
+def test_a_bad_floor_is_refused(floor: object) -> None:
+    from aion_cli.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="exposure_floor"):
+        ModelConfig(exposure_floor=floor)  # type: ignore[arg-type]
