@@ -55,13 +55,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.errors import ConfigError, InputError
+from aion_cli.errors import InputError
 from aion_cli.manifest import InputLog, Manifest, add_counts
+from aion_cli.merge_config import check_compatible
 from aion_cli.merge_lineage import LINEAGES, choose_lineage
 from aion_cli.merge_report import MergedInput, MergeReport
 
 if TYPE_CHECKING:
     from aion_cli.build_report import ProgressSink
+    from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.mapquery import MapHead
@@ -147,13 +149,13 @@ def merge_map_files(
                 "aion build --part, alone is made a map)",
                 hint=_HINT,
             )
-        _check_compatible(maps)
+        config = check_compatible(maps)
         maps.sort(key=lambda m: (m.start() is not None, m.start() or 0))
         inputs = _check_logs(maps)
         report.lineage, report.lineage_reason = choose_lineage(
             maps, lineage, report.notes, target, graph_file
         )
-        merged = _fold(maps, report, sink)
+        merged = _fold(maps, report, sink, config)
         _bind_target(merged, maps, target, graph_file, report)
         _write(merged, maps, inputs, report)
     return report
@@ -228,30 +230,6 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
     return maps
 
 
-def _check_compatible(maps: list[_Input]) -> None:
-    """Same model parameters and time zone in every map (ConfigError naming what differs)."""
-    first = maps[0]
-    base = first.head.config.to_dict()
-    for m in maps[1:]:
-        other = m.head.config.to_dict()
-        differ = sorted(k for k in base.keys() | other.keys() if base.get(k) != other.get(k))
-        if differ:
-            shown = ", ".join(f"{k} {base.get(k)!r} vs {other.get(k)!r}" for k in differ[:3])
-            more = f" and {len(differ) - 3} more" if len(differ) > 3 else ""
-            raise ConfigError(
-                f"cannot merge {first.name} and {m.name}: they were built with different "
-                f"model parameters ({shown}{more})",
-                hint="rebuild one of them with the other's config (aion info MAP shows it; "
-                "aion build --config FILE)",
-            )
-        if m.manifest.timezone != first.manifest.timezone:
-            raise ConfigError(
-                f"cannot merge {first.name} ({first.manifest.timezone}) and {m.name} "
-                f"({m.manifest.timezone}): their days follow different time zones",
-                hint="rebuild one of them with the other's --tz",
-            )
-
-
 def _check_logs(maps: list[_Input]) -> tuple[InputLog, ...]:
     """Every map's logs, in time order; a log (by sha256) in two maps is an InputError."""
     owner: dict[str, tuple[_Input, InputLog]] = {}
@@ -274,11 +252,15 @@ def _check_logs(maps: list[_Input]) -> tuple[InputLog, ...]:
 # -- merging ------------------------------------------------------------------------------------
 
 
-def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapState:
+def _fold(
+    maps: list[_Input], report: MergeReport, sink: ProgressSink, config: ModelConfig | None
+) -> MapState:
     """The maps merged in time order (released to hash cells first for ``"different"``),
     with a note for each approximation of the engine's merge that applies. Each map's state
     is read when its turn comes and merged in place (``merge_maps(consume=True)``): memory
-    holds the merged map and the one being added, whatever the number of maps."""
+    holds the merged map and the one being added, whatever the number of maps. ``config``:
+    the config every map takes (fixed-sensor maps that differ only in their robot exposure
+    settings, :func:`~aion_cli.merge_config.check_compatible`), None: they share theirs."""
     from aion_cli.engine.graph_arrays import file_graph_time
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
@@ -292,6 +274,8 @@ def _fold(maps: list[_Input], report: MergeReport, sink: ProgressSink) -> MapSta
     acc: MapState | None = None
     for k, m in enumerate(maps):
         state = m.load()
+        if config is not None:
+            state.config = config
         if report.lineage == "different":
             report.released += release_all(state)
         late = maps[k + 1] if k + 1 < len(maps) else None

@@ -291,3 +291,44 @@ def test_a_merge_of_fixed_sensor_maps_describes_both_maps_windows(tmp_path: Path
     said = read_manifest(merged)["observation"]
     assert said == read_manifest(both)["observation"]
     assert said.startswith("fixed sensor over the 16 windows")  # 8 ten-minute windows a log
+
+
+def _sessions(tmp_path: Path, robot: str) -> list[Path]:
+    """Two short simulated sessions two days apart (``robot``: ``fixed`` or ``patrol``)."""
+    logs = []
+    for k, start in enumerate(("2026-01-05T09:00", "2026-01-07T09:00")):
+        log = tmp_path / f"{robot}{k}.mcap"
+        made = run("simulate", "-o", log, "--days", "0.05", "--start", start, "--robot",
+                   robot, "--seed", str(k), "-q")  # fmt: skip
+        assert made.exit_code == 0, made.stderr
+        logs.append(log)
+    return logs
+
+
+def test_a_map_from_before_exposure_merges_when_no_robot_observed_it(tmp_path: Path) -> None:
+    """A map written before robot windows were weighed reads as ``exposure = false``; for two
+    fixed sensors' maps that changes nothing, so they merge (under the newer setting) into
+    the map a merge of two current maps gives. Robot maps are refused, with the way out."""
+    whole = tmp_path / "whole.toml"
+    whole.write_text(ModelConfig(exposure=False).to_toml())
+    fixed = _sessions(tmp_path, "fixed")
+    old, new = tmp_path / "old.aion", tmp_path / "new.aion"
+    assert run("build", fixed[0], "--config", whole, "-o", old, "-q").exit_code == 0
+    assert run("build", fixed[1], "-o", new, "-q").exit_code == 0
+    current = tmp_path / "current.aion"
+    assert run("build", fixed[0], "-o", current, "-q").exit_code == 0
+    mixed, same = tmp_path / "mixed.aion", tmp_path / "same.aion"
+    assert run("merge", old, new, "-o", mixed, "-q").exit_code == 0
+    assert run("merge", current, new, "-o", same, "-q").exit_code == 0
+    assert read_manifest(mixed)["state"]["config"]["exposure"] is True
+    at = ("--time", "2026-01-07 09:30", "--format", "csv")
+    assert run("predict", mixed, *at).stdout == run("predict", same, *at).stdout
+
+    patrol = _sessions(tmp_path, "patrol")
+    old, new = tmp_path / "old_robot.aion", tmp_path / "new_robot.aion"
+    assert run("build", patrol[0], "--config", whole, "-o", old, "-q").exit_code == 0
+    assert run("build", patrol[1], "-o", new, "-q").exit_code == 0
+    refused = run("merge", old, new, "-o", tmp_path / "out.aion")
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "count a robot's windows differently", "exposure")
+    assert "exposure = false" in refused.stderr
