@@ -18,6 +18,7 @@ from aion_cli.cli.common import (
     graph_topic_option,
     log_format_option,
     map_frame_option,
+    quiet_option,
 )
 from aion_cli.cli.output import Column, emit, format_option, num
 
@@ -127,6 +128,7 @@ SCORE_COLUMNS = (
               help="TOML model parameters (see aion build --print-config).")
 @click.option("--per-hour", is_flag=True, help="One row per model and hour.")
 @format_option(("table", "json"))
+@quiet_option
 def atc(
     data_dir: Path | None, protocol: str, radius: float, config_path: Path | None, per_hour: bool,
     fmt: str,
@@ -160,6 +162,7 @@ def atc(
     help="Folder with training_data.txt and test_{times,data}_k.txt.",
 )
 @format_option(("table", "json"))
+@quiet_option
 def door(data_dir: Path | None, fmt: str) -> None:
     """FreMEn on a real periodic door signal: per test week, the mean absolute error of the
     prediction against the static mean's.
@@ -218,6 +221,7 @@ ACTIVITY_COLUMNS = (
               "-26, -31].")
 @click.option("--test", "test_day", metavar="DAY", help="The test day [default: 2017-06-09].")
 @format_option(("table", "json"))
+@quiet_option
 def lincoln(
     data_dir: Path | None,
     radius: float,
@@ -282,6 +286,7 @@ def lincoln(
 @click.option("--png", "png", type=AionPath(path_type=Path, dir_okay=False), metavar="FILE",
               help="Also draw the hourly truth and forecasts as a PNG.")
 @format_option(("table", "json"))
+@quiet_option
 def holdout(
     map_path: Path, logs: tuple[Path, ...], radius: float, detection_topics: tuple[str, ...],
     map_frame: str | None, base_frame: str, detections_mapping: Path | None,
@@ -374,6 +379,7 @@ TABLE_I_COLUMNS = (
 @click.option("--keep", "work_dir", metavar="DIR", type=AionPath(path_type=Path),
               help="Keep the simulated logs and maps in this folder.")
 @format_option(("table", "json"))
+@quiet_option
 def office(
     scenes: int, agents: int, days: float, seed: int, radius: float, config_path: Path | None,
     work_dir: Path | None, fmt: str,
@@ -413,6 +419,7 @@ def office(
               help="Simulated days per scene (as evaluate office).")
 @click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "lincoln", "door"]),
               help="Leave a section out (repeatable).")
+@quiet_option
 def report(
     out_dir: Path, data_dir: Path | None, scenes: int, days: float, skip: tuple[str, ...]
 ) -> None:

@@ -1,4 +1,5 @@
-"""``-q`` on the commands that read a map or write a log (predict, plan, export, convert):
+"""``-q`` on the commands that read a map or write a log (predict, plan, export, convert)
+and on ``aion evaluate``'s:
 nothing on stderr but warnings and errors, the same data on stdout and in the files, and the
 quiet lasting for that one command (the test runner, like the API, runs many in a process)."""
 
@@ -84,3 +85,19 @@ def test_quiet_build_prints_no_summary_table(office: Office, tmp_path: Path) -> 
     assert "│" in loud.stderr
     assert quiet.stderr == ""
     assert (tmp_path / "quiet.aion").stat().st_size > 0
+
+
+def test_quiet_evaluate_keeps_its_result_and_drops_its_summary() -> None:
+    """``aion evaluate door``'s summary line (and every evaluate command's progress) goes to
+    stderr; ``-q`` drops it and leaves the result on stdout as it was."""
+    from tests.shared_data import SHARED_DATA, require
+
+    require(SHARED_DATA / "fremen_door", "the FreMEn door data")
+    loud = run("evaluate", "door", "--format", "json")
+    quiet = run("evaluate", "door", "--format", "json", "-q")
+    assert loud.exit_code == quiet.exit_code == 0, loud.stderr
+    assert "FreMEn beats the static mean" in loud.stderr
+    assert quiet.stderr == ""
+    assert quiet.stdout == loud.stdout
+    for command in ("atc", "door", "lincoln", "holdout", "office", "report"):
+        assert "--quiet" in run("evaluate", command, "--help").stdout, command
