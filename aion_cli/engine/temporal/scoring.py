@@ -5,15 +5,19 @@ flow family's forecast from the accumulators *without* the day and n_w the windo
 
     flow_score_f += Σ_w [n_w log max(λ_f, ε) − max(λ_f, ε)]       (Poisson, ε = rate_floor)
     flow_chi2_f  += Σ_w min((n_w − λ_f)² / max(λ_f, ε), K²)         (Pearson, for the spread)
+    flow_scored  += the number of windows w
     dir_score_d  += Σ_{w,b} n_{w,b} log q_{d,b}(t_w)                 (direction bins)
 
-over the entry's observed windows. Each window's squared Pearson residual is capped at K² =
-:data:`PEARSON_CAP` (a Huber-type bound): one day forecast from an empty day before it (λ at
-the floor ε, hundreds of people) gave residuals of 10^9 and a spread whose 90th percentile
-was 0 beside a forecast of 600; Poisson noise and real over-dispersion (|r| up to 10) pass
-unchanged. Empty windows are not capped (their term is λ, summed in closed form). (The sum
-of λ over the many empty windows is taken in
-closed form per profile bin, and for FreMEn from the day's Fourier sums wherever its lower
+over the entry's observed windows (under ``ModelConfig.exposure`` λ_f is the forecast times
+the share of its window the entry was watched; ``flow_scored`` still counts each window once,
+as its Pearson term has mean φ whatever that share: φ = χ² / windows, not χ² / Σ share, which
+for Poisson counts watched a tenth of each window would say 10). Each window's squared Pearson
+residual is capped at K² = :data:`PEARSON_CAP` (a Huber-type bound): one day forecast from
+an empty day before it (λ at the floor ε, hundreds of people) gave residuals of 10^9 and a
+spread whose 90th percentile was 0 beside a forecast of 600; Poisson noise and real
+over-dispersion (|r| up to 10) pass unchanged. Empty windows are not capped (their term is λ,
+summed in closed form). (The sum of λ over the many empty windows is taken in closed form per
+profile bin, and for FreMEn from the day's Fourier sums wherever its lower
 bound shows the floor cannot bite; only the rest is evaluated window by window). An entry with
 fewer directed detections before the day than ``direction_time_prior`` scores its time-varying
 direction families as its static one (their histograms cannot differ much from it). The
@@ -161,6 +165,9 @@ def _score_block(
         obs_e * n_prof + h[obs_s], obs_w, minlength=candidates.size * n_prof
     ).reshape(candidates.size, n_prof)
     windows = row_sums(per_bin)
+    # the windows themselves, whole: one Pearson term each, so φ = χ² / windows stays ~1
+    # for Poisson counts however little of each window an entry was watched
+    terms = fixed_slots.size + np.bincount(obs_e, minlength=candidates.size)
     # count pairs, by candidate position
     ce, cs, cv = np.searchsorted(candidates, day.cnt_entry), day.cnt_slot, day.cnt_values
     cw = day.count_weights()
@@ -191,7 +198,7 @@ def _score_block(
         state.flow_gain_sq,
         state.flow_days,
     )
-    state.flow_scored[candidates] += windows
+    state.flow_scored[candidates] += terms
     _score_directions(params, state, fc, candidates, ce, cs, cv, t_s, h)
     state.touch(candidates)
 

@@ -1,0 +1,63 @@
+"""What still counts whole windows under exposure, and must.
+
+A robot that watches place B for a tenth of every window sees there Poisson counts of a tenth
+of the true rate. Each of those windows is still one window: its Pearson term (n − λ·share)² /
+(λ·share) has mean 1 for Poisson counts whatever the share, so the over-dispersion φ that the
+predictive spread is made of is χ² over the *number* of windows scored — over their summed
+shares it would say φ = 10 for a Poisson stream.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aion_cli.engine.mapper import Mapper
+from aion_cli.engine.temporal.choice import dispersion
+from tests.engine.engine_builders import T0, T0_DAY_END, S, check_invariants, detections
+from tests.engine.test_exposure import CFG, A, B, W, _dwelling_robot
+
+
+def _poisson_people(m: Mapper, windows: int, rate: float, seed: int = 7) -> None:
+    """People pass A and B at ``rate`` detections per full window (Poisson), seen only while
+    the robot is there (A the first 540 s of every window, B the last 60 s), in time order."""
+    rng = np.random.default_rng(seed)
+    times, places = [], []
+    for w in range(windows):
+        for place, lo, hi in ((A, 0, 540), (B, 540, 600)):
+            n = rng.poisson(rate * (hi - lo) / 600)
+            times.append(T0 + w * W + (rng.uniform(lo, hi, n) * S).astype(np.int64))
+            places.append(np.repeat(place[None, :] + 0.1, n, axis=0))
+    t = np.concatenate(times)
+    order = np.argsort(t, kind="stable")
+    m.add_detections(detections(t[order], np.concatenate(places)[order]))
+    m.advance(T0 + windows * W)
+
+
+def _row(m: Mapper, place: np.ndarray) -> int:
+    rows = m.state.entries.live_rows()
+    xyz = m.state.entries.xyz[rows, :2]
+    return int(rows[np.flatnonzero(np.linalg.norm(xyz - place[:2] - 0.1, axis=1) < 0.5)[0]])
+
+
+def test_poisson_counts_watched_a_tenth_of_each_window_are_not_over_dispersed() -> None:
+    """Three days' windows at 100 people per window: each place scores every window after the
+    first (local) day once, and its χ² per scored window (φ) is about 1 (it was 10 at B,
+    watched a tenth of each window, when the windows scored were summed by their shares)."""
+    windows = 3 * 144
+    m = Mapper(CFG.replace(families=("static",)))
+    m.add_trajectory(_dwelling_robot(windows, 0.9, hz=0.5))
+    _poisson_people(m, windows, 100.0)
+    m.state.close_day()
+    check_invariants(m.state)
+    t = m.state.temporal
+    static = m.state.params.flow.index("static")
+    scored = windows - (T0_DAY_END - T0) // W
+    for place in (B, A):
+        r = _row(m, place)
+        phi = float(t.flow_chi2[r, static]) / float(t.flow_scored[r])
+        assert 0.7 < phi < 1.5, (place, phi)
+        assert float(t.flow_scored[r]) == scored  # whole windows, not Σ share
+    rows = np.array([_row(m, A), _row(m, B)])
+    chosen = np.full(rows.size, static)
+    spread = dispersion(t.flow_chi2[rows], t.flow_scored[rows], chosen)
+    assert float(spread.max()) < 1.5
