@@ -325,17 +325,19 @@ class MapState:
         )
 
     def windows_observed(self, rows: I64, open_window: bool = False) -> F64:
-        """Windows in which each entry was observed so far (pending day included); with
+        """Windows in which each entry was observed so far (pending day included; a robot
+        window for the share of it the entry was in range, ``ModelConfig.exposure``); with
         ``open_window`` the open window too, as queries count it (closed now), so a summary's
         count is the denominator of the flows the map predicts."""
         out: F64 = self.temporal.windows_observed(rows)
         days = [self.pending.consolidated()] if self.pending else []
         if open_window and (record := open_window_record(self)) is not None:
             days.append(record)
-        for day in days:
+        for day in days:  # each own window for the share observed, as the accumulators add it
             fixed = float(day.fixed.sum())
-            own = day.obs_entry[~day.fixed[day.obs_slot]]
-            out = out + fixed + np.bincount(own, minlength=self.temporal.n_rows)[rows]
+            mine = ~day.fixed[day.obs_slot]
+            share = np.bincount(day.obs_entry[mine], day.weights()[mine], self.temporal.n_rows)
+            out = out + fixed + share[rows]
         return out
 
     # -- persistence ------------------------------------------------------------------------

@@ -12,9 +12,11 @@ from __future__ import annotations
 import numpy as np
 
 from aion_cli.engine.mapper import Mapper
+from aion_cli.engine.observation import SUBSTEPS
+from aion_cli.engine.query import historical_table
 from aion_cli.engine.temporal.choice import dispersion
 from tests.engine.engine_builders import T0, T0_DAY_END, S, check_invariants, detections
-from tests.engine.test_exposure import CFG, A, B, W, _dwelling_robot
+from tests.engine.test_exposure import CFG, A, B, W, _at, _dwelling_robot
 
 
 def _poisson_people(m: Mapper, windows: int, rate: float, seed: int = 7) -> None:
@@ -61,3 +63,23 @@ def test_poisson_counts_watched_a_tenth_of_each_window_are_not_over_dispersed() 
     chosen = np.full(rows.size, static)
     spread = dispersion(t.flow_chi2[rows], t.flow_scored[rows], chosen)
     assert float(spread.max()) < 1.5
+
+
+def test_windows_observed_weighs_the_pending_day_as_the_flows_do() -> None:
+    """Twelve windows, the last two on a day still pending, B watched a tenth of each: B's
+    windows observed are 1.2, the denominator of its historical flow, as they are once that
+    day is closed (the pending day's windows counted whole: 1.0 + 2 = 3 windows)."""
+    m = Mapper(CFG)
+    m.add_trajectory(_dwelling_robot(12, 0.9))
+    _poisson_people(m, 12, 100.0)
+    state = m.state
+    assert len(state.pending.windows) == 2  # T0 is ten windows before midnight
+    rows = np.array([_row(m, A), _row(m, B)])
+    pending = state.windows_observed(rows, open_window=True)
+    np.testing.assert_allclose(pending, [10.8, 1.2], atol=2.0 / SUBSTEPS * 12)
+    table = historical_table(state)
+    detected = state.entries.counts[rows].sum(axis=1) + state.entries.nodir[rows]
+    at = [_at(table, A), _at(table, B)]
+    np.testing.assert_allclose(table.flow[at], detected / pending, rtol=1e-9)
+    state.close_day()
+    np.testing.assert_allclose(state.windows_observed(rows), pending, rtol=1e-9)
