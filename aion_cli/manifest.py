@@ -92,7 +92,7 @@ class Manifest:
         zone = d.get("timezone")
         return cls(
             state=state,
-            config=_dict(d, "config"),
+            config=_stored_config(_dict(d, "config")),
             inputs=tuple(InputLog.from_dict(i) for i in inputs),
             start_ns=_optional_int(span.get("start_ns"), "time_span"),
             end_ns=_optional_int(span.get("end_ns"), "time_span"),
@@ -170,6 +170,15 @@ def _merged_from(value: Any) -> tuple[dict[str, Any], ...]:
     if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
         raise _bad("merged_from", "expected a list of objects")
     return tuple(value)
+
+
+def _stored_config(config: dict[str, Any]) -> dict[str, Any]:
+    """The manifest's model configuration as the map reads it (keys an older version did not
+    write filled in as it built: :func:`~aion_cli.engine.config.stored_config`); none stays
+    none."""
+    from aion_cli.engine.config import stored_config
+
+    return stored_config(config) if config else config
 
 
 def _bad(key: str, why: str) -> MapCorruptError:

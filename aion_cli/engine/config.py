@@ -37,6 +37,15 @@ FAMILIES = ("static", "shape", "profile", "fremen")
 """The temporal model families (``engine.temporal.params``)."""
 
 
+def stored_config(data: dict[str, Any]) -> dict[str, Any]:
+    """A map's stored model configuration with the keys older versions did not write, as
+    those versions built: ``exposure`` false (their robot windows counted whole, and a map
+    continued from one goes on so). ``ModelConfig.from_stored`` and ``aion info`` / ``aion
+    report`` (through :class:`~aion_cli.manifest.Manifest`) read it alike, so an old map is
+    not shown as built with the defaults it does not use."""
+    return {"exposure": False, **data}
+
+
 def _is_number(value: object) -> bool:
     """An int or float, not a bool (``True`` is an int to Python, not a length to us)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -283,10 +292,8 @@ class ModelConfig:
                 f"the map's stored model configuration is not an object: {data!r:.80}",
                 hint="the map was damaged or not written by aion; rebuild it with `aion build`",
             )
-        # a map written before exposure existed counted its robot windows whole: it goes on so
-        stored = {"exposure": False, **data}
         try:
-            return cls.from_dict(stored)
+            return cls.from_dict(stored_config(data))
         except ConfigError as exc:
             raise MapCorruptError(
                 f"the map's stored model configuration is invalid: {exc.message}",

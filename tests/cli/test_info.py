@@ -264,3 +264,29 @@ def test_options_that_do_not_apply_are_refused(office: Office, tmp_path: Path) -
         assert_one_line_error(result.stderr, fragment)
     assert run("info", office.map, "--verify").exit_code == 0
     assert run("info", graph, "--nav-layer", "places").exit_code == 0
+
+
+def test_a_map_of_before_exposure_shows_the_whole_windows_it_builds_with(
+    office: Office, tmp_path: Path
+) -> None:
+    """A map written before ``exposure`` existed stores no such key; it reads, and a build
+    continues it, with ``exposure = false``, so ``aion info`` says so rather than "defaults"
+    (the default is true)."""
+    import zipfile
+
+    old = tmp_path / "old.aion"
+    with zipfile.ZipFile(office.map) as zin, zipfile.ZipFile(old, "w") as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "manifest.json":
+                manifest = json.loads(data)
+                del manifest["config"]["exposure"]
+                del manifest["state"]["config"]["exposure"]
+                data = json.dumps(manifest).encode()
+            zout.writestr(item, data)
+    doc = run_json("info", old, "--format", "json")
+    assert doc["config"]["exposure"] is False
+    table = run("info", old)
+    assert table.exit_code == 0, table.stderr
+    assert "exposure=False" in table.stdout
+    assert "exposure" not in run("info", office.map).stdout  # the default: not listed
