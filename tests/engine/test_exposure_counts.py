@@ -10,11 +10,14 @@ shares it would say φ = 10 for a Poisson stream.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.observation import SUBSTEPS
-from aion_cli.engine.query import historical_table
+from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.temporal.choice import dispersion
+from aion_cli.engine.types import Trajectory
 from tests.engine.engine_builders import T0, T0_DAY_END, S, check_invariants, detections
 from tests.engine.test_exposure import CFG, A, B, W, _at, _dwelling_robot
 
@@ -83,3 +86,40 @@ def test_windows_observed_weighs_the_pending_day_as_the_flows_do() -> None:
     np.testing.assert_allclose(table.flow[at], detected / pending, rtol=1e-9)
     state.close_day()
     np.testing.assert_allclose(state.windows_observed(rows), pending, rtol=1e-9)
+
+
+@pytest.mark.parametrize("floor", [1.0 / SUBSTEPS, ModelConfig().exposure_floor])
+def test_a_place_passed_for_seconds_does_not_top_the_map(floor: float) -> None:
+    """Three days beside A (5 people a window); once, the robot steps to C for 4 s (less than
+    one 10-s step) while one person there is detected 3 times. C was watched 1/60 of one
+    window: its rate was 3 / (1/60) = 180 a window, 36 times the busiest place, in history
+    and forecast (3 / 0.2 = 15, three times it, with the default ``exposure_floor``). Less
+    than a window of watching in all counts as one: 3, the detections seen (what whole windows
+    say), and A keeps its 5."""
+    windows = 3 * 144
+    far = np.array([30.0, 0.0, 0.0])
+    t = T0 + np.arange(0, windows * W, 2 * S, dtype=np.int64)
+    xyz = np.tile(A, (t.size, 1))
+    xyz[(t >= T0 + 100 * W + 300 * S) & (t < T0 + 100 * W + 304 * S)] = far
+    m = Mapper(CFG.replace(exposure_floor=floor))
+    m.add_trajectory(Trajectory(t, xyz))
+    rng = np.random.default_rng(0)
+    det = list(T0 + (np.sort(rng.uniform(0, windows * 600, windows * 5)) * S).astype(np.int64))
+    where = [A + 0.1] * len(det)
+    for s in (300.5, 301.5, 302.5):
+        det.append(T0 + 100 * W + int(s * S))
+        where.append(far + 0.1)
+    order = np.argsort(det, kind="stable")
+    m.add_detections(detections(np.array(det)[order], np.array(where)[order]))
+    m.advance(T0 + windows * W)
+    check_invariants(m.state)
+    c = _row(m, far)
+    assert float(m.state.windows_observed(np.array([c]), open_window=True)[0]) < 1.0
+    history = historical_table(m.state)
+    at_c = int(np.flatnonzero(np.abs(history.xyz[:, 0] - 30.25) < 0.5)[0])
+    at_a = int(np.flatnonzero(np.abs(history.xyz[:, 0] - 0.25) < 0.5)[0])
+    assert float(history.flow[at_c]) == 3.0
+    assert float(history.flow[at_a]) == pytest.approx(5.0, rel=0.05)
+    forecast = predict_table(m.state, T0 + windows * W + 3600 * S)
+    assert float(forecast.flow[at_c]) <= 3.0 + 1e-9
+    assert int(np.nanargmax(forecast.flow)) == at_a

@@ -10,6 +10,16 @@ day-ahead scoring (built from the state before the day) and queries.
 Shapes (``params`` docstring for the families). With W[e,h] the entry's observed windows in
 profile bin h, S[e,h] its detections there and μ its static rate:
 
+μ = N / max(W_e, 1), N the entry's detections and W_e its observed windows. With whole windows
+(no robot, or ``exposure`` off) W_e ≥ 1 wherever an entry was observed and this is N / W_e;
+under exposure a robot that passed a place once, for one 10-s step of a window, has W_e =
+``exposure_floor`` (0.2; 1/60 with no floor), and three detections then made a rate of 15 (180)
+a window that topped every forecast (a hash cell exists only where detections were, so such
+places are seen *because* someone was there). Less
+than one window's worth of watching is taken as one window: the rate never exceeds the
+detections seen, as without exposure, and every family built on μ follows (the shapes scale
+by it, so ``shape`` keeps the count over W_e / max(W_e, 1) of it).
+
 every rate is a Gamma-Poisson posterior mean with c pseudo-detections at its parent's rate m,
 :func:`shrunk_rate` ``m (S + c) / (m W + c)`` (its own rate once its detections outweigh c):
 for the map's and the groups' shapes c = α·φ, with φ how bursty the map's window counts are
@@ -96,7 +106,9 @@ class Forecaster(FremenParts):
             w = rows_of(state.obs.profile, rows) + self._glob_profile  # W of the block
             shape_sum[a : a + BLOCK] = (w * pool.shape[groups[a : a + BLOCK]]).sum(axis=1)
             map_sum[a : a + BLOCK] = (w * pool.map_shape).sum(axis=1)
-        safe_n = np.where(self.observed, self.windows, 1.0)
+        # μ = N / max(W, 1): less than one window's worth of watching (a robot that passed a
+        # place for seconds, ``ModelConfig.exposure``) counts as one window (module docstring)
+        safe_n = np.where(self.observed, np.maximum(self.windows, 1.0), 1.0)
         self.rate = self.counts / safe_n[:, None]  # μ[e, v]
         self.rate_total = row_sums(self.rate)
         total = row_sums(self.counts)
