@@ -13,16 +13,19 @@ thirtieth of the people who walk there in that window. Counting the window whole
 place's rate at a thirtieth of the truth, and rank places by how long the robot lingered rather
 than by how busy they are. :meth:`ObservationSource.robot_exposure` measures, per entry, the
 fraction of the window in which it lay within ``sensor_range`` of the robot: the window is cut
-into :data:`SUBSTEPS` equal steps, each step takes the robot pose nearest its middle in time (if
-one lies within :data:`POSE_HOLD_NS` or half a step), and an entry's exposure is the share of
-steps whose pose had it in range, but at least a floor (``ModelConfig.exposure_floor``, 0.2):
-an entry the coverage test observes (a pose in the window within range) gets at least that, so
-exactly the same entries are observed as before; the temporal model then weighs each robot
-window by its exposure (a rate per full window = detections / exposure). The floor trades a
-little bias for much less variance: a ten-second look that caught three detections would
-otherwise read as 180 per window. Measured on the simulated office (``docs/EVALUATION.md``),
-floors of 0.2 and 0.3 forecast the true flow best, 1/60 (no floor) and 1 (whole windows)
-worst.
+into :data:`SUBSTEPS` equal steps, each step takes the robot pose of the window nearest its
+middle in time (if one lies within :data:`POSE_HOLD_NS` or half a step), and an entry's exposure
+is the share of steps whose pose had it in range, but at least a floor
+(``ModelConfig.exposure_floor``, 0.2): an entry the coverage test observes (a pose in the window
+within range) gets at least that, so exactly the same entries are observed as before; the
+temporal model then weighs each robot window by its exposure (a rate per full window =
+detections / exposure). The floor trades a little bias for much less variance: a ten-second look
+that caught three detections would otherwise read as 180 per window. Measured on the simulated
+office (``docs/EVALUATION.md``), floors of 0.2 and 0.3 forecast the true flow best, 1/60 (no
+floor) and 1 (whole windows) worst. Only the window's own poses count, as for
+:meth:`ObservationSource.robot_observed`: a build prunes the poses of closed windows (a parallel
+build's shard keeps them), and the poses after a window may or may not have been read when it
+closes, so a pose across the boundary made the exposure depend on how the logs were read.
 """
 
 from __future__ import annotations
@@ -42,9 +45,10 @@ if TYPE_CHECKING:
 SUBSTEPS = 60
 """Steps a window is cut into to measure exposure (10 s steps in a 10-minute window)."""
 POSE_HOLD_NS = 30 * 10**9
-"""How long a robot pose stands for its position when no pose lies nearer in time: 30 s, so a
-trajectory sampled every minute or faster covers every step, and the robot's last pose before
-a recording stops covers half a minute beyond it."""
+"""How long a robot pose stands for its position when no pose of the window lies nearer in
+time: 30 s, so a trajectory sampled every minute or faster covers every step between the
+window's first and last pose and half a minute beyond them (the robot's last pose before a
+recording stops covers half a minute after it)."""
 
 
 @dataclass
@@ -199,15 +203,18 @@ class ObservationSource:
         if not observed.any():
             return out
         step = delta_ns / SUBSTEPS
-        middles = np.int64(window) * np.int64(delta_ns) + (
-            (np.arange(SUBSTEPS) + 0.5) * step
-        ).astype(np.int64)
-        t = self.pose_t
+        lo = np.int64(window) * np.int64(delta_ns)
+        middles = lo + ((np.arange(SUBSTEPS) + 0.5) * step).astype(np.int64)
+        # the window's own poses only (not empty: an entry was observed): the poses before it
+        # may be pruned already, or kept (a shard's), and those after it read or not yet,
+        # depending on how the logs were read; within the window they are all there
+        i0, i1 = np.searchsorted(self.pose_t, [lo, lo + np.int64(delta_ns)])
+        t, xy = self.pose_t[i0:i1], self.pose_xy[i0:i1]
         after = np.minimum(np.searchsorted(t, middles), t.size - 1)
         before = np.maximum(after - 1, 0)
         nearest = np.where(np.abs(t[before] - middles) <= np.abs(t[after] - middles), before, after)
         held = np.abs(t[nearest] - middles) <= max(POSE_HOLD_NS, step / 2)
-        steps = self.pose_xy[nearest[held]]
+        steps = xy[nearest[held]]
         seen = np.zeros(int(observed.sum()))
         if len(steps):
             from aion_cli.engine.nearest import horizontal_tree

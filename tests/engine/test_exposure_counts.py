@@ -14,7 +14,7 @@ import pytest
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
-from aion_cli.engine.observation import SUBSTEPS
+from aion_cli.engine.observation import SUBSTEPS, ObservationSource
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.temporal.choice import dispersion
 from aion_cli.engine.types import Trajectory
@@ -123,3 +123,35 @@ def test_a_place_passed_for_seconds_does_not_top_the_map(floor: float) -> None:
     forecast = predict_table(m.state, T0 + windows * W + 3600 * S)
     assert float(forecast.flow[at_c]) <= 3.0 + 1e-9
     assert int(np.nanargmax(forecast.flow)) == at_a
+
+
+def test_exposure_reads_the_window_s_own_poses_however_the_log_was_read() -> None:
+    """Poses 100 s apart beside P at 400 s and 601 s. The steps ending window 0 (575-595 s)
+    are nearest the pose of 601 s, in window 1: they counted when that pose had been read
+    before window 0 closed (12 steps in all), not when the log reached it later (9). And a
+    step opening a window took the pose before it where a shard keeps the closed windows'
+    poses, but not after a build pruned them. Only the window's own poses count: the same
+    exposure either way."""
+    far = np.array([50.0, 0.0, 0.0])
+    seconds = np.array([0, 100, 200, 300, 400, 500, 601, 700, 800, 900, 1000, 1100, 1199])
+    t = T0 + seconds * S
+    xyz = np.array([far] * 4 + [A, far, A] + [far] * 6)
+
+    def steps(poses_first: bool) -> float:
+        m = Mapper(CFG)
+        cut = t.size if poses_first else 6  # else the poses up to 500 s before the detections
+        m.add_trajectory(Trajectory(t[:cut], xyz[:cut]))
+        m.add_detections(detections(T0 + np.array([400, 610]) * S, np.array([A, A]) + 0.1))
+        m.add_trajectory(Trajectory(t[cut:], xyz[cut:]))
+        m.advance(T0 + 2 * W)
+        m.state.close_day()
+        return float(m.state.temporal.obs.n[_row(m, A)]) * SUBSTEPS
+
+    assert steps(True) == pytest.approx(steps(False))
+    # window 1 opens 2 s from the pose of 598 s, beside P: pruned or not, the same exposure
+    source = ObservationSource()
+    source.add_trajectory(Trajectory(T0 + np.array([598, 640, 700]) * S, np.array([A, far, A])))
+    window = T0 // W + 1
+    kept = source.robot_exposure(np.array([A[:2]]), window, W, 8.0)
+    source.prune(T0 + W)
+    assert source.robot_exposure(np.array([A[:2]]), window, W, 8.0)[0] == pytest.approx(kept[0])
