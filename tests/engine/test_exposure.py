@@ -196,3 +196,25 @@ def test_a_bad_floor_is_refused(floor: object) -> None:
 
     with pytest.raises(ConfigError, match="exposure_floor"):
         ModelConfig(exposure_floor=floor)  # type: ignore[arg-type]
+
+
+def test_a_pending_day_is_stored_in_the_narrowest_exact_types() -> None:
+    """Positions, slots and whole counts of the pending day are stored as small unsigned
+    integers (a robot's day holds a pair per place it saw in every window) and read back
+    equal; counts that are not whole, or too large, stay as they were."""
+    from aion_cli.engine.temporal.stored_layout import narrowest_whole
+
+    day = PendingDay(3)
+    counts = np.array([[1.0, 0.0, 300.0]])
+    day.add_window(0, 10, False, np.array([1, 2]), np.array([1]), counts, [0.5, 0.25])
+    arrays, meta = day.to_arrays("p_", np.arange(5))
+    assert arrays["p_obs_entry"].dtype == np.uint8
+    assert arrays["p_obs_slot"].dtype == np.uint8
+    assert arrays["p_cnt_values"].dtype == np.uint16
+    back = PendingDay.from_arrays(arrays, "p_", meta, 3, 5).consolidated()
+    before = day.consolidated()
+    for name in ("obs_entry", "obs_slot", "cnt_entry", "cnt_slot", "cnt_values", "obs_weight"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(before, name))
+        assert getattr(back, name).dtype == getattr(before, name).dtype
+    for kept in (np.array([0.5, 1.0]), np.array([-1, 2]), np.array([2.0**33])):
+        assert narrowest_whole(kept) is kept

@@ -31,6 +31,7 @@ DTYPES = {
     "complex128": {"<c16"},
     "uint": {"|u1", "<u2", "<u4", "<f8"},  # the narrowest exact unsigned type, else float64
     "uint32": {"<u4", "<i8"},  # an index: int64 when a position does not fit
+    "index": {"|u1", "<u2", "<u4", "<i8"},  # the narrowest unsigned type, else int64
 }
 
 

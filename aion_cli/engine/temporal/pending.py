@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.temporal.stored_layout import narrowest_whole
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.errors import MapCorruptError
 
@@ -256,14 +257,14 @@ class PendingDay:
         obs_pos, cnt_pos = position[day.obs_entry], position[day.cnt_entry]
         obs = np.lexsort((day.obs_slot, obs_pos))  # saved order: by position, then slot,
         cnt = np.lexsort((day.cnt_slot, cnt_pos))  # whatever the in-memory row layout
-        arrays = {
+        arrays = {  # indices, slots and counts in the narrowest exact type (readers widen)
             prefix + "windows": day.windows,
             prefix + "fixed": day.fixed,
-            prefix + "obs_entry": obs_pos[obs],
-            prefix + "obs_slot": day.obs_slot[obs],
-            prefix + "cnt_entry": cnt_pos[cnt],
-            prefix + "cnt_slot": day.cnt_slot[cnt],
-            prefix + "cnt_values": day.cnt_values[cnt],
+            prefix + "obs_entry": narrowest_whole(obs_pos[obs]),
+            prefix + "obs_slot": narrowest_whole(day.obs_slot[obs]),
+            prefix + "cnt_entry": narrowest_whole(cnt_pos[cnt]),
+            prefix + "cnt_slot": narrowest_whole(day.cnt_slot[cnt]),
+            prefix + "cnt_values": narrowest_whole(day.cnt_values[cnt]),
         }
         if day.obs_weight is not None:  # some robot window observed in part
             arrays[prefix + "obs_weight"] = day.obs_weight[obs]

@@ -68,6 +68,22 @@ def narrowed(source: F64, rows: I64) -> RowTake:
     return RowTake(source, rows, cast=np.dtype(narrow))
 
 
+def narrowest_whole(values: np.ndarray) -> np.ndarray:
+    """``values`` as the narrowest of uint8 / uint16 / uint32 that holds each exactly when all
+    are whole numbers >= 0 (indices, slots, detection counts), else unchanged: lossless,
+    readers widen them (a robot's pending day holds one (entry, window) pair per place it saw
+    in every window of the day, which int64 and float64 stored at eight bytes each)."""
+    if values.size == 0:
+        return values
+    if not (values.min() >= 0 and np.all(values == np.rint(values))):
+        return values
+    top = float(values.max())
+    for kind in (np.uint8, np.uint16, np.uint32):
+        if top <= np.iinfo(kind).max:
+            return values.astype(kind)
+    return values
+
+
 def stored_positions(index: I64, limit: int) -> I64:
     """A stored index as uint32 when every position fits (lossless: readers widen it), else
     int64."""
