@@ -129,7 +129,7 @@ CASES: dict[str, tuple[Callable[[Arrays, Any], None], str]] = {
         "temporal_obs_profile holds -3.0"),
     "observation that ends before it starts": (_first_after_last, "temporal_obs_first / _last"),
     # today: exit 0, historical flow -4.5 detections per window
-    "negative pending count": (_set("pending_cnt_values", (0, 4), -99.0),
+    "negative pending count": (_set("pending_cnt_values", (0, 4), -99.0, np.float64),
                                "pending_cnt_values holds -99.0"),
     "pending window of another day": (_set("pending_windows", 0, 5), "not windows of the pending"),
     "two nodes with one id": (_set("node_ids", 1, 0), "node_ids are not sorted and unique"),
