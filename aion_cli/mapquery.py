@@ -40,7 +40,9 @@ class LoadedMap:
         return iter((self.state, self.graph, self.manifest))
 
 
-def load_map(path: Path, writable: bool = False, forecast_only: bool = False) -> LoadedMap:
+def load_map(
+    path: Path | str, writable: bool = False, forecast_only: bool = False
+) -> LoadedMap:
     """Read ``path`` (checksums and version checked) into a :class:`LoadedMap`.
 
     ``forecast_only`` (queries: ``predict``, ``plan``, ``export``, ``report``): the per-entry
@@ -62,6 +64,7 @@ def load_map(path: Path, writable: bool = False, forecast_only: bool = False) ->
     from aion_cli.formats.mapfile import open_map
     from aion_cli.query_only import query_only_of, refuse_learning
 
+    path = Path(path)  # a str from a script reads as its path
     check_map_input(path)
     with open_map(path, in_place=not writable) as members:
         manifest = members.manifest
@@ -91,7 +94,7 @@ class MapHead:
     part: bool
 
 
-def load_map_head(path: Path) -> MapHead:
+def load_map_head(path: Path | str) -> MapHead:
     """Read ``path``'s manifest and graph members only (checksummed as read; the entries and
     accumulators, most of a map, stay unread): what ``aion merge`` plans with before it reads
     each map's state in turn."""
@@ -100,6 +103,7 @@ def load_map_head(path: Path) -> MapHead:
     from aion_cli.errors import MapCorruptError
     from aion_cli.formats.mapfile import open_map
 
+    path = Path(path)
     check_map_input(path)
     with open_map(path) as members:
         manifest = members.manifest

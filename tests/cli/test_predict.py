@@ -302,6 +302,12 @@ def test_load_map_gives_state_graph_and_manifest(office: Office) -> None:
     assert len(graph.places) == 7
     assert manifest["counts"]["used"] == 300
     assert state.config.bins == 8
+    # a path given as a string, as a script writes it (it raised AttributeError)
+    from aion_cli.mapquery import load_map_head
+
+    again = load_map(str(office.map))
+    assert again.manifest == manifest
+    assert load_map_head(str(office.map)).manifest == manifest
 
 
 def test_subprocess_bad_inputs_are_one_line_exit_2(office: Office, tmp_path: Path) -> None:
