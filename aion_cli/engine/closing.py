@@ -147,21 +147,27 @@ def _record(
                 before, rows = rows, ent.live_rows()
                 xy = ent.xyz[rows, :2]
                 new = np.setdiff1d(rows, before)
-                observed = np.concatenate([observed, new])
-                exposure = np.concatenate([exposure, _coverage(state, ent.xyz[new, :2], w)])
-                order = np.argsort(observed, kind="stable")
-                observed, exposure = observed[order], exposure[order]
+                observed, exposure = _joined(
+                    observed, exposure, new, _coverage(state, ent.xyz[new, :2], w)
+                )
         if w == w0:
             if not fixed:  # detections where no pose reached: the window counts whole
                 extra = np.setdiff1d(count_rows, observed)
-                observed = np.concatenate([observed, extra])
-                exposure = np.concatenate([exposure, np.ones(extra.size)])
-                order = np.argsort(observed, kind="stable")
-                observed, exposure = observed[order], exposure[order]
+                observed, exposure = _joined(observed, exposure, extra, np.ones(extra.size))
             state.record_window(int(w), fixed, observed, count_rows, counts, exposure)
         else:
             state.record_window(int(w), fixed, observed, none, no_counts, exposure)
     return waiting
+
+
+def _joined(rows: I64, shares: F64, more: I64, more_shares: F64) -> tuple[I64, F64]:
+    """Observed entries ``rows`` and ``more`` (none of them in ``rows``) in row order, each
+    with its share of the window."""
+    if more.size == 0:
+        return rows, shares
+    joined, share = np.concatenate([rows, more]), np.concatenate([shares, more_shares])
+    order = np.argsort(joined, kind="stable")
+    return joined[order], share[order]
 
 
 def _coverage(state: MapState, xy: F64, window: int) -> F64:
