@@ -335,8 +335,8 @@ class MapState:
             days.append(record)
         for day in days:  # each own window for the share observed, as the accumulators add it
             fixed = float(day.fixed.sum())
-            mine = ~day.fixed[day.obs_slot]
-            share = np.bincount(day.obs_entry[mine], day.weights()[mine], self.temporal.n_rows)
+            own, _, weight = day.own_pairs()
+            share = np.bincount(own, weight, self.temporal.n_rows)
             out = out + fixed + share[rows]
         return out
 

@@ -42,18 +42,6 @@ def absorb(params: TemporalParams, state: TemporalState, day: DayWindows, window
     absorb_day(params, state, day, *slot_times(params, day, window_ns))
 
 
-def drop_fixed(obs_e: I64, obs_s: I64, fixed: npt.NDArray[np.bool_]) -> tuple[I64, I64]:
-    """Own observation pairs in fixed-sensor slots are already counted by the fixed slots."""
-    keep = ~fixed[obs_s]
-    return obs_e[keep], obs_s[keep]
-
-
-def own_pairs(day: DayWindows) -> tuple[I64, I64, F64]:
-    """The day's observation pairs outside fixed-sensor slots, with their exposures."""
-    keep = ~day.fixed[day.obs_slot]
-    return day.obs_entry[keep], day.obs_slot[keep], day.weights()[keep]
-
-
 def absorb_day(
     params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64
 ) -> None:
@@ -74,7 +62,7 @@ def absorb_day(
         )
         state.glob.add_block(np.array([0]), block)
     state.window_chi2 += day_chi2(day, h, n_prof)  # how bursty the day's window totals are
-    obs_e, obs_s, obs_w = own_pairs(day)
+    obs_e, obs_s, obs_w = day.own_pairs()
     for o in _row_blocks(obs_e):
         _absorb_observed(params, state, obs_e[o], obs_s[o], obs_w[o], t_s, h, phasor)
     for c in _row_blocks(day.cnt_entry):

@@ -231,5 +231,5 @@ def _restricted(day: DayWindows, local: I64) -> DayWindows:
         local[day.cnt_entry[cnt]],
         day.cnt_slot[cnt],
         day.cnt_values[cnt],
-        None if day.obs_weight is None else day.obs_weight[obs],
+        day.weights_at(obs),
     )

@@ -108,7 +108,7 @@ def learn(
             windows.cnt_entry[c],
             windows.cnt_slot[c] - a,
             np.take(windows.cnt_values, c, axis=0),  # rows of V values: take is ~2x faster
-            None if windows.obs_weight is None else windows.obs_weight[o],
+            windows.weights_at(o),
         )
         close_day(params, state, day, rows, groups, n_groups, window_ns)
 

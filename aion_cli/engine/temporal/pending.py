@@ -49,6 +49,17 @@ class DayWindows:
             return np.ones(self.obs_entry.size)
         return self.obs_weight
 
+    def weights_at(self, obs: I64 | BoolA) -> F64 | None:
+        """:attr:`obs_weight` of the observation pairs ``obs`` (indices or a mask; None where
+        it is None)."""
+        return None if self.obs_weight is None else self.obs_weight[obs]
+
+    def own_pairs(self) -> tuple[I64, I64, F64]:
+        """The observation pairs outside fixed-sensor slots (those are counted by the fixed
+        slots, for every entry): entries, slots and exposures."""
+        keep = ~self.fixed[self.obs_slot]
+        return self.obs_entry[keep], self.obs_slot[keep], self.weights()[keep]
+
     def count_weights(self) -> F64:
         """Per count pair, the exposure of its (entry, window): 1 in a fixed-sensor window or
         where no observation pair holds it, else its observation pair's weight (the pairs of
@@ -66,7 +77,6 @@ class DayWindows:
 
     def select(self, obs: I64, cnt: I64) -> DayWindows:
         """The same windows with the observation pairs ``obs`` and count pairs ``cnt``."""
-        weight = None if self.obs_weight is None else self.obs_weight[obs]
         return DayWindows(
             self.windows,
             self.fixed,
@@ -75,7 +85,7 @@ class DayWindows:
             self.cnt_entry[cnt],
             self.cnt_slot[cnt],
             np.take(self.cnt_values, cnt, axis=0),  # rows of V values: take is ~2x faster
-            weight,
+            self.weights_at(obs),
         )
 
 

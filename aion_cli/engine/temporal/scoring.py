@@ -35,7 +35,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.row_sums import row_sums
-from aion_cli.engine.temporal.absorption import absorb_day, own_pairs, slot_times
+from aion_cli.engine.temporal.absorption import absorb_day, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
@@ -155,7 +155,7 @@ def _score_block(
     :func:`_pairs_by_block` cut them, so every pair's entry is found among them)."""
     # observed windows of each candidate: the fixed slots plus its own pairs, each own pair
     # weighed by its exposure (the part of its window observed: expected detections λ·w)
-    obs_e, obs_s, obs_w = own_pairs(day)
+    obs_e, obs_s, obs_w = day.own_pairs()
     obs_e = np.searchsorted(candidates, obs_e)
     fixed_slots = np.flatnonzero(day.fixed)
     n_prof = params.n_profile

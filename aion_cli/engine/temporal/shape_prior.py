@@ -69,9 +69,9 @@ def day_chi2(day: DayWindows, h: I64, n_bins: int) -> F64:
     docstring); ``h`` is each slot's profile bin."""
     slots = day.windows.size
     total = np.bincount(day.cnt_slot, weights=day.cnt_values.sum(axis=1), minlength=slots)
-    own = ~day.fixed[day.obs_slot]
     # entries observed per slot, each for the part of the window it was observed in
-    entries = np.bincount(day.obs_slot[own], day.weights()[own], minlength=slots)
+    _, own_slot, own_weight = day.own_pairs()
+    entries = np.bincount(own_slot, own_weight, minlength=slots)
     # a slot with detections was observed by the entries that had them (one, if none is held)
     units = np.where(day.fixed, 1.0, np.where((total > 0) & (entries <= 0), 1.0, entries))
     seen = units > 0
