@@ -51,6 +51,7 @@ __all__ = [
     "fixed_sensor_windows",
     "map_observation_text",
     "outside_logs_note",
+    "recording_bounds",
     "recording_window_count",
 ]
 
@@ -77,8 +78,10 @@ def fixed_sensor_windows(
     their windows count too, from the first log's first recorded window to the last log's
     last, the time between the logs included; ``fill`` widens that range (the window after a
     continued map's reach; a parallel shard's share of the time between the logs:
-    :func:`declared_windows`). Sets the Mapper's windows, adds a note for windows left out,
-    and returns the report's description of the observation."""
+    :func:`declared_windows`). A window a log starts or ends inside counts for the part of it
+    recorded (:func:`recording_bounds`; ``ModelConfig.exposure``), so a four-minute log is
+    four minutes of watching, not ten. Sets the Mapper's windows, adds a note for windows
+    left out, and returns the report's description of the observation."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
 
@@ -103,7 +106,13 @@ def fixed_sensor_windows(
         if report is not None:  # a parallel build adds its shards' up
             report.observed_added = int(added.size)
         windows = np.union1d(windows, extra)
-    mapper.set_fixed_windows(windows)
+    within = recording_bounds(logset, times, windows, delta)
+    if declared:
+        within = (
+            np.concatenate([within[0], [int(lo) for lo, _ in declared]]).astype(np.int64),
+            np.concatenate([within[1], [int(hi) for _, hi in declared]]).astype(np.int64),
+        )
+    mapper.set_fixed_windows(windows, within)
     if len(windows) == 0:
         return "fixed sensor (no message recorded)"
     summary = (len(windows), int(windows[0]), int(windows[-1]), delta)
@@ -111,6 +120,40 @@ def fixed_sensor_windows(
         report.fixed_windows = summary
         report.recording_spans = spans
     return fixed_sensor_text(*summary, declared=bool(declared))
+
+
+EDGE_STEPS = 60
+"""A log's first and last message are placed to 1/60 of a window (10 s of the default 600 s)
+when its observed share of the windows it starts and ends in is measured."""
+
+
+def recording_bounds(
+    logset: Any, times: TimeCheck, windows: I64, delta: int
+) -> tuple[I64, I64]:
+    """Each log file's recorded time ``[first, last)``: from the start of the step of
+    ``delta / EDGE_STEPS`` (the largest divisor of ``delta`` up to that) holding its first
+    message to the end of the step holding its last, among its messages in ``windows`` (the
+    observed windows: strays and other time shards' windows left out). In a time shard
+    (``times.limits``) a file that recorded before or after the shard's part reaches to the
+    part's edge, so every shard cuts the windows as one pass does. Read from the containers'
+    indexes, like the recorded windows."""
+    step = next(delta // k for k in range(EDGE_STEPS, 0, -1) if delta % k == 0)
+    lo_limit, hi_limit = times.limits if times.limits is not None else (None, None)
+    starts, ends = [], []
+    for _file, slots in logset.recorded_windows_by_file(step):
+        if slots.size == 0:
+            continue
+        inside = slots[np.isin(slots // (delta // step), windows)]
+        if inside.size == 0:
+            continue
+        first, last = int(inside[0]) * step, (int(inside[-1]) + 1) * step
+        if lo_limit is not None and int(slots[0]) * step < lo_limit:
+            first = min(first, lo_limit)
+        if hi_limit is not None and (int(slots[-1]) + 1) * step > hi_limit:
+            last = max(last, hi_limit)
+        starts.append(first)
+        ends.append(last)
+    return np.array(starts, np.int64), np.array(ends, np.int64)
 
 
 OBSERVED_NOTE = "--observed: "

@@ -47,6 +47,9 @@ class HeldOut:
     #: per such window: the share of it each of those places was in range (their exposure,
     #: ``ModelConfig.exposure``; 1 each without it)
     seen_exposure: dict[int, F64] = field(default_factory=dict)
+    #: per window of ``windows``: the share of a fixed sensor's window the logs recorded (a
+    #: log that starts or ends inside it), 1 for the others; None: every window whole
+    fixed_share: F64 | None = None
 
 
 class _RecordingState(MapState):
@@ -66,11 +69,12 @@ class _RecordingState(MapState):
         count_rows: I64,
         counts: Any,
         exposure: Any = None,
+        fixed_share: float = 1.0,
     ) -> None:
         self.recorded.append((int(window), bool(fixed)))
         if not fixed:
             self.note_seen(int(window))
-        super().record_window(window, fixed, observed, count_rows, counts, exposure)
+        super().record_window(window, fixed, observed, count_rows, counts, exposure, fixed_share)
 
     def note_seen(self, window: int) -> None:
         """The watched places within the robot's range in ``window`` (its poses are still
@@ -158,5 +162,6 @@ def read_held_out(
         windows, fixed = windows[keep], fixed[keep]
     seen = {w: state.seen[w] for w in windows[~fixed].tolist() if w in state.seen}
     exposure = {w: state.seen_exposure[w] for w in seen}
+    share = np.where(fixed, state.observation.fixed_share(windows, state.window_ns, config), 1.0)
     notes = list(reading.report.notes)
-    return HeldOut(batch, windows, fixed, reading.report, notes, seen, exposure)
+    return HeldOut(batch, windows, fixed, reading.report, notes, seen, exposure, share)

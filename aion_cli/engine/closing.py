@@ -128,12 +128,14 @@ def _record(
     counts = np.column_stack([ent.window_counts[count_rows], ent.window_nodir[count_rows]])
     none = np.zeros(0, np.int64)
     no_counts = np.zeros((0, counts.shape[1]))
-    fixed_mask = state.observation.fixed_mask(windows, delta).tolist()
+    # a fixed sensor's window counts for the share of it its logs recorded
+    shares = state.observation.fixed_share(windows, delta, state.config)
+    fixed_mask = (shares > 0).tolist()
     rows, xy = none, np.zeros((0, 2))
     if not all(fixed_mask):
         rows = ent.live_rows()
         xy = ent.xyz[rows, :2]
-    for w, fixed in zip(windows.tolist(), fixed_mask, strict=True):
+    for w, fixed, share in zip(windows.tolist(), fixed_mask, shares.tolist(), strict=True):
         observed, exposure = none, np.zeros(0)
         if not fixed and (waiting.size or len(rows)):
             # one coverage test per window over the waiting nodes and the live entries
@@ -154,9 +156,9 @@ def _record(
             if not fixed:  # detections where no pose reached: the window counts whole
                 extra = np.setdiff1d(count_rows, observed)
                 observed, exposure = _joined(observed, exposure, extra, np.ones(extra.size))
-            state.record_window(int(w), fixed, observed, count_rows, counts, exposure)
+            state.record_window(int(w), fixed, observed, count_rows, counts, exposure, share)
         else:
-            state.record_window(int(w), fixed, observed, none, no_counts, exposure)
+            state.record_window(int(w), fixed, observed, none, no_counts, exposure, share)
     return waiting
 
 
@@ -187,7 +189,8 @@ def open_window_record(state: MapState) -> DayWindows | None:
     rows = entries.live_rows()
     counts = np.column_stack([entries.window_counts[rows], entries.window_nodir[rows]])
     seen = counts.sum(axis=1) > 0
-    fixed = state.observation.fixed_covers(w, state.window_ns)
+    share = float(state.observation.fixed_share(np.array([w]), state.window_ns, state.config)[0])
+    fixed = share > 0
     observed = np.zeros(0, np.int64)
     if not fixed:
         cover = _coverage(state, entries.xyz[rows, :2], w)
@@ -205,4 +208,5 @@ def open_window_record(state: MapState) -> DayWindows | None:
         np.zeros(int(seen.sum()), np.int64),
         counts[seen],
         None if fixed or bool(np.all(exposure == 1.0)) else exposure,
+        None if share >= 1.0 or not fixed else np.array([share]),
     )

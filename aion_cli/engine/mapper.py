@@ -165,13 +165,15 @@ class Mapper:
         if int(end_ns) > int(start_ns):
             self._start_at(int(start_ns))
 
-    def set_fixed_windows(self, windows: I64) -> None:
-        """Everything is observed in the given windows (sorted window indices)."""
+    def set_fixed_windows(self, windows: I64, within: tuple[I64, I64] | None = None) -> None:
+        """Everything is observed in the given windows (sorted window indices); ``within``:
+        the spans ``[start, end)`` of log time the sensor recorded, which cut a window a log
+        starts or ends inside to the part recorded (``ObservationSource.add_fixed_windows``)."""
         w = np.asarray(windows, np.int64)
         if w.size:
             check_time(int(w.min()) * self._delta, "a fixed-sensor window")
             check_time((int(w.max()) + 1) * self._delta, "a fixed-sensor window")
-        self._state.observation.add_fixed_windows(w, self._delta)
+        self._state.observation.add_fixed_windows(w, self._delta, within)
         if w.size:
             self._start_at(int(w.min()) * self._delta)
 

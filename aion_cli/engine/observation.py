@@ -82,11 +82,22 @@ class ObservationSource:
         self.fixed_end = np.append(self.fixed_end, np.int64(end_ns))
         self._merged = None
 
-    def add_fixed_windows(self, windows: I64, delta_ns: int) -> None:
-        """Declare whole windows observed everywhere: each run of consecutive windows becomes
-        one fixed-sensor interval."""
+    def add_fixed_windows(
+        self, windows: I64, delta_ns: int, within: tuple[I64, I64] | None = None
+    ) -> None:
+        """Declare windows observed everywhere: each run of consecutive windows becomes one
+        fixed-sensor interval. ``within``: spans ``[start, end)`` of log time the sensor
+        recorded (each log's first to last message, declared spans): each window is cut to
+        the parts of it they cover, so a log that starts or ends inside a window observed only
+        that part (:meth:`fixed_share`); a window no span reaches stays whole."""
         w = np.unique(np.asarray(windows, dtype=np.int64))
         if w.size == 0:
+            return
+        if within is not None and np.asarray(within[0]).size:
+            starts, stops = _cut_windows(w, np.int64(delta_ns), *within)
+            self.fixed_start = np.concatenate([self.fixed_start, starts])
+            self.fixed_end = np.concatenate([self.fixed_end, stops])
+            self._merged = None
             return
         breaks = np.flatnonzero(np.diff(w) > 1)
         starts = np.concatenate([w[:1], w[breaks + 1]])
@@ -167,6 +178,32 @@ class ObservationSource:
         mask: BoolA = k < ends.size
         mask[mask] = starts[k[mask]] < lo[mask] + np.int64(delta_ns)
         return mask
+
+    def fixed_share(self, windows: I64, delta_ns: int, config: ModelConfig) -> F64:
+        """Per window of ``windows``, the share of it the fixed-sensor intervals cover: a log
+        that starts or ends inside a window recorded only that part of it (with
+        ``config.exposure``; without, 1 wherever an interval overlaps, as in the paper), so
+        its detections are counted against the time it recorded. 0 where no interval
+        overlaps. Exact in integer nanoseconds: the covered length below a time is the whole
+        intervals before it plus the part of the one it falls in."""
+        w = np.asarray(windows, dtype=np.int64)
+        starts, ends = self.merged_fixed()
+        if not config.exposure:
+            return self.fixed_mask(w, delta_ns).astype(np.float64)
+        if starts.size == 0 or w.size == 0:
+            return np.zeros(w.size)
+        before = np.concatenate([[0], np.cumsum(ends - starts)])  # covered before interval k
+
+        def covered_below(t: I64) -> I64:
+            k = np.searchsorted(starts, t, side="left")  # intervals starting before t
+            last = np.maximum(k - 1, 0)
+            part = np.clip(np.minimum(ends[last], t) - starts[last], 0, None)
+            out: I64 = np.where(k > 0, before[last] + part, 0)
+            return out
+
+        lo = w * np.int64(delta_ns)
+        out: F64 = (covered_below(lo + np.int64(delta_ns)) - covered_below(lo)) / float(delta_ns)
+        return np.minimum(out, 1.0)
 
     def robot_observed(
         self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float
@@ -272,3 +309,43 @@ class ObservationSource:
             np.asarray(arrays[f"{prefix}fixed_start"], dtype=np.int64),
             np.asarray(arrays[f"{prefix}fixed_end"], dtype=np.int64),
         )
+
+
+def _merged_spans(starts: I64, ends: I64) -> tuple[I64, I64]:
+    """Spans ``[start, end)`` as sorted disjoint ones (overlapping or touching spans joined,
+    empty ones left out)."""
+    s, e = np.asarray(starts, np.int64), np.asarray(ends, np.int64)
+    ok = e > s
+    s, e = s[ok], e[ok]
+    if s.size == 0:
+        return s, e
+    order = np.argsort(s, kind="stable")
+    s, e = s[order], np.maximum.accumulate(e[order])
+    new = np.concatenate([[True], s[1:] > e[:-1]])
+    last = np.concatenate([new[1:], [True]])
+    return s[new], e[last]
+
+
+def _cut_windows(windows: I64, delta: np.int64, starts: I64, ends: I64) -> tuple[I64, I64]:
+    """The windows (sorted, distinct) as intervals of log time cut to the spans
+    ``[starts, ends)``: each window gives its overlap with every span reaching into it, or
+    itself whole where none does."""
+    s, e = _merged_spans(starts, ends)
+    lo = windows * delta
+    hi = lo + delta
+    first = np.searchsorted(e, lo, side="right")  # the first span ending after the start
+    stop = np.searchsorted(s, hi, side="left")  # the spans starting before the end
+    n = np.maximum(stop - first, 0)
+    pieces = np.maximum(n, 1)
+    total = int(pieces.sum())
+    k = np.repeat(first, pieces) + (
+        np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    )
+    cut = np.repeat(n > 0, pieces)
+    w_lo, w_hi = np.repeat(lo, pieces), np.repeat(hi, pieces)
+    k = np.minimum(k, max(s.size - 1, 0))
+    if s.size == 0:
+        return w_lo, w_hi
+    out_lo = np.where(cut, np.maximum(w_lo, s[k]), w_lo)
+    out_hi = np.where(cut, np.minimum(w_hi, e[k]), w_hi)
+    return out_lo, out_hi

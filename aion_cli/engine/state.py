@@ -193,14 +193,18 @@ class MapState:
         count_rows: I64,
         counts: F64,
         exposure: F64 | None = None,
+        fixed_share: float = 1.0,
     ) -> None:
         """One closed window for the temporal model (a window of a new day first closes the
         pending day: see :mod:`aion_cli.engine.temporal.model`); ``exposure``: the share of
-        the window each of ``observed`` was observed in (default whole)."""
+        the window each of ``observed`` was observed in (default whole); ``fixed_share``:
+        the share of a fixed sensor's window its logs recorded."""
         day = self.window_day(window)
         if self.pending and self.pending.day != day:
             self.close_day()
-        self.pending.add_window(day, window, fixed, observed, count_rows, counts, exposure)
+        self.pending.add_window(
+            day, window, fixed, observed, count_rows, counts, exposure, fixed_share
+        )
 
     def recorded_anything(self) -> bool:
         """Whether any window was recorded (closed) yet."""
@@ -334,7 +338,7 @@ class MapState:
         if open_window and (record := open_window_record(self)) is not None:
             days.append(record)
         for day in days:  # each own window for the share observed, as the accumulators add it
-            fixed = float(day.fixed.sum())
+            fixed = float(day.slot_shares()[day.fixed].sum())
             own, _, weight = day.own_pairs()
             share = np.bincount(own, weight, self.temporal.n_rows)
             out = out + fixed + share[rows]

@@ -206,6 +206,7 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
     range in a robot's (``HeldOut.seen``)."""
     known = held.fixed | np.isin(held.windows, np.fromiter(held.seen, np.int64, len(held.seen)))
     windows, fixed = held.windows[known], held.fixed[known]
+    recorded = None if held.fixed_share is None else held.fixed_share[known]
     if windows.size == 0:
         result.notes.append(
             "no test window was observed by a fixed sensor or a robot whose range the map "
@@ -225,7 +226,7 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
     profile = _profile_rates(state, rows, static)  # (places, profile bins)
     # (place, window) pairs: every place in a fixed sensor's window, the robot's in its own,
     # each expected to show its rate for the share of the window it was in range
-    place, window, share = _pairs(fixed, windows, held.seen, held.seen_exposure, n)
+    place, window, share = _pairs(fixed, windows, held.seen, held.seen_exposure, n, recorded)
     per_window = {
         "aion": _summed(place, window, share, windows.size, predictor, centres),
         "aion static": np.bincount(window, static[place] * share, minlength=windows.size),
@@ -243,18 +244,22 @@ def _pairs(
     seen: dict[int, np.ndarray],
     exposure: dict[int, np.ndarray],
     n: int,
+    recorded: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(place, window position, share of the window observed) of the observation: all ``n``
-    places in a fixed window, each whole, the places ``seen`` lists in a robot's, each for
-    its ``exposure`` (whole where none is given)."""
+    places in a fixed window, each for the share of it the logs recorded (``recorded``, per
+    window; whole where None), the places ``seen`` lists in a robot's, each for its
+    ``exposure`` (whole where none is given)."""
     places, positions, shares = [], [], []
     everyone = np.arange(n, dtype=np.int64)
     for k, (w, is_fixed) in enumerate(zip(windows.tolist(), fixed.tolist(), strict=True)):
         part = everyone if is_fixed else seen[w]
         places.append(part)
         positions.append(np.full(part.size, k, np.int64))
-        whole = is_fixed or w not in exposure
-        shares.append(np.ones(part.size) if whole else exposure[w])
+        if is_fixed:
+            shares.append(np.full(part.size, 1.0 if recorded is None else float(recorded[k])))
+        else:
+            shares.append(np.ones(part.size) if w not in exposure else exposure[w])
     if not places:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     return np.concatenate(places), np.concatenate(positions), np.concatenate(shares)

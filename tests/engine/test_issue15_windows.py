@@ -85,19 +85,22 @@ def test_loaded_store_knows_its_open_window_rows() -> None:
 # -- the per-window sums of a day ------------------------------------------------------------
 
 
-def _per_window_sums_pairwise(fc: Any, entries: np.ndarray, fixed_slots: np.ndarray,
+def _per_window_sums_pairwise(fc: Any, entries: np.ndarray,
+                              fixed: tuple[np.ndarray, np.ndarray | None],
                               own_pairs: tuple[np.ndarray, np.ndarray, np.ndarray],
                               rot: np.ndarray, floor: float) -> np.ndarray:
     """The pre-issue-15 ``scoring._per_window_sums``: every (entry, window) pair as a row,
     summed chunk by chunk with ``np.bincount``; each pair's term 2 Re(γ z) in the real form
     the block evaluation uses (Re γ · 2 Re z − Im γ · 2 Im z, no complex product), an own
-    pair's max(λ, floor) times its exposure."""
+    pair's max(λ, floor) times its exposure, a fixed slot's times its recorded share."""
+    fixed_slots, fixed_share = fixed
     obs_e, obs_s, obs_w = own_pairs
     slot_of = np.full(fc.rows.size, -1, np.int64)
     slot_of[entries] = np.arange(entries.size)
     pair_e = [np.repeat(entries, fixed_slots.size)]
     pair_s = [np.tile(fixed_slots, entries.size)]
-    pair_w = [np.ones(entries.size * fixed_slots.size)]
+    whole = np.ones(fixed_slots.size) if fixed_share is None else fixed_share
+    pair_w = [np.tile(whole, entries.size)]
     own = slot_of[obs_e] >= 0
     pair_e.append(obs_e[own])
     pair_s.append(obs_s[own])
@@ -138,7 +141,12 @@ def test_per_window_sums_equal_the_pairwise_sums_bit_for_bit(
     )
     t = np.sort(rng.uniform(0, 86_400, slots))
     rot = np.exp(-1j * np.multiply.outer(t, rng.uniform(1e-5, 1e-3, k)))
-    fixed = np.flatnonzero(rng.random(slots) < rng.uniform(0, 1))
+    fixed_slots = np.flatnonzero(rng.random(slots) < rng.uniform(0, 1))
+    # fixed-sensor windows recorded whole, or some in part (a log starting inside one)
+    share = None if seed % 3 else np.where(
+        rng.random(fixed_slots.size) < 0.5, 1.0, rng.uniform(0.01, 1.0, fixed_slots.size)
+    )
+    fixed = (fixed_slots, share)
     entries = np.flatnonzero(rng.random(rows) < 0.6)
     n_obs = int(rng.integers(0, 200))
     obs_e = np.sort(rng.integers(0, rows, n_obs))

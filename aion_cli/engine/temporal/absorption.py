@@ -51,12 +51,15 @@ def absorb_day(
     map was written (:mod:`~aion_cli.engine.temporal.components`)."""
     n_prof = params.n_profile
     phasor = np.exp(1j * np.multiply.outer(t_s, params.omega))  # (S, K): e^{iωt}
-    fixed = np.flatnonzero(day.fixed)
+    fixed, share = day.fixed_slots()
     if fixed.size:
+        # each window for the share of it the logs recorded (whole where they all are)
         block = ObsBlock(
-            np.array([float(fixed.size)]),
-            phasor[fixed].sum(axis=0, keepdims=True),
-            np.bincount(h[fixed], minlength=n_prof)[None, :].astype(np.float64),
+            np.array([float(fixed.size) if share is None else float(share.sum())]),
+            (phasor[fixed] if share is None else phasor[fixed] * share[:, None]).sum(
+                axis=0, keepdims=True
+            ),
+            np.bincount(h[fixed], share, minlength=n_prof)[None, :].astype(np.float64),
             np.array([t_s[fixed].min()]),
             np.array([t_s[fixed].max()]),
         )

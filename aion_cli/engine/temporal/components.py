@@ -232,4 +232,5 @@ def _restricted(day: DayWindows, local: I64) -> DayWindows:
         day.cnt_slot[cnt],
         day.cnt_values[cnt],
         day.weights_at(obs),
+        day.fixed_share,
     )

@@ -11,14 +11,16 @@ Shapes (``params`` docstring for the families). With W[e,h] the entry's observed
 profile bin h, S[e,h] its detections there and μ its static rate:
 
 μ = N / max(W_e, 1), N the entry's detections and W_e its observed windows. With whole windows
-(no robot, or ``exposure`` off) W_e ≥ 1 wherever an entry was observed and this is N / W_e;
+(``exposure`` off) W_e ≥ 1 wherever an entry was observed and this is N / W_e;
 under exposure a robot that passed a place once, for one 10-s step of a window, has W_e =
 ``exposure_floor`` (0.2; 1/60 with no floor), and three detections then made a rate of 15 (180)
 a window that topped every forecast (a hash cell exists only where detections were, so such
 places are seen *because* someone was there). Less
 than one window's worth of watching is taken as one window: the rate never exceeds the
 detections seen, as without exposure, and every family built on μ follows (the shapes scale
-by it, so ``shape`` keeps the count over W_e / max(W_e, 1) of it).
+by it, so ``shape`` keeps the count over W_e / max(W_e, 1) of it). A fixed sensor is watched
+for exactly the time its logs recorded, with no place picked by its detections, so where those
+logs hold less than one window in all (a four-minute log in ten-minute windows) μ = N / W_e.
 
 every rate is a Gamma-Poisson posterior mean with c pseudo-detections at its parent's rate m,
 :func:`shrunk_rate` ``m (S + c) / (m W + c)`` (its own rate once its detections outweigh c):
@@ -107,8 +109,11 @@ class Forecaster(FremenParts):
             shape_sum[a : a + BLOCK] = (w * pool.shape[groups[a : a + BLOCK]]).sum(axis=1)
             map_sum[a : a + BLOCK] = (w * pool.map_shape).sum(axis=1)
         # μ = N / max(W, 1): less than one window's worth of watching (a robot that passed a
-        # place for seconds, ``ModelConfig.exposure``) counts as one window (module docstring)
-        safe_n = np.where(self.observed, np.maximum(self.windows, 1.0), 1.0)
+        # place for seconds, ``ModelConfig.exposure``) counts as one window (module docstring),
+        # unless a fixed sensor's logs recorded less than a window in all (N / W: their time)
+        fixed_time = float(glob.n[0])
+        least = min(1.0, fixed_time) if fixed_time > 0 else 1.0
+        safe_n = np.where(self.observed, np.maximum(self.windows, least), 1.0)
         self.rate = self.counts / safe_n[:, None]  # μ[e, v]
         self.rate_total = row_sums(self.rate)
         total = row_sums(self.counts)

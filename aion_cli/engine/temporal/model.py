@@ -109,6 +109,7 @@ def learn(
             windows.cnt_slot[c] - a,
             np.take(windows.cnt_values, c, axis=0),  # rows of V values: take is ~2x faster
             windows.weights_at(o),
+            None if windows.fixed_share is None else windows.fixed_share[a:b],
         )
         close_day(params, state, day, rows, groups, n_groups, window_ns)
 

@@ -42,6 +42,21 @@ class DayWindows:
     obs_weight: F64 | None = None
     """Per observation pair, the fraction of its window the entry was observed in (the
     robot's exposure, :mod:`~aion_cli.engine.observation`); None: every pair whole."""
+    fixed_share: F64 | None = None
+    """Per slot, the fraction of a fixed-sensor window the logs recorded (a log that starts or
+    ends inside it, ``ObservationSource.fixed_share``); 1 for the other slots; None: every
+    slot whole."""
+
+    def slot_shares(self) -> F64:
+        """:attr:`fixed_share`, ones where it is None."""
+        if self.fixed_share is None:
+            return np.ones(self.windows.size)
+        return self.fixed_share
+
+    def fixed_slots(self) -> tuple[I64, F64 | None]:
+        """The fixed-sensor slots and their shares (None: all whole)."""
+        slots = np.flatnonzero(self.fixed)
+        return slots, None if self.fixed_share is None else self.fixed_share[slots]
 
     def weights(self) -> F64:
         """:attr:`obs_weight`, ones where it is None."""
@@ -61,10 +76,12 @@ class DayWindows:
         return self.obs_entry[keep], self.obs_slot[keep], self.weights()[keep]
 
     def count_weights(self) -> F64:
-        """Per count pair, the exposure of its (entry, window): 1 in a fixed-sensor window or
-        where no observation pair holds it, else its observation pair's weight (the pairs of
-        both kinds are sorted by entry, then slot)."""
+        """Per count pair, the exposure of its (entry, window): the window's recorded share in
+        a fixed-sensor window, 1 where no observation pair holds it, else its observation
+        pair's weight (the pairs of both kinds are sorted by entry, then slot)."""
         out = np.ones(self.cnt_entry.size)
+        if self.fixed_share is not None:
+            out = self.fixed_share[self.cnt_slot].astype(np.float64)
         if self.obs_weight is None or self.cnt_entry.size == 0 or self.obs_entry.size == 0:
             return out
         slots = max(self.windows.size, 1)
@@ -86,6 +103,7 @@ class DayWindows:
             self.cnt_slot[cnt],
             np.take(self.cnt_values, cnt, axis=0),  # rows of V values: take is ~2x faster
             self.weights_at(obs),
+            self.fixed_share,
         )
 
 
@@ -97,6 +115,7 @@ class PendingDay:
     day: int | None = None
     windows: list[int] = field(default_factory=list)
     fixed: list[bool] = field(default_factory=list)
+    fixed_share: list[float] = field(default_factory=list)
     _obs_entry: list[I64] = field(default_factory=list)
     _obs_slot: list[I64] = field(default_factory=list)
     _obs_weight: list[F64] = field(default_factory=list)
@@ -122,10 +141,14 @@ class PendingDay:
         count_rows: npt.ArrayLike,
         counts: npt.ArrayLike,
         exposure: npt.ArrayLike | None = None,
+        fixed_share: float = 1.0,
     ) -> None:
         """Hold window ``window`` of local day ``day`` (windows arrive in time order; the
         caller flushes before a window of another day); ``exposure``: per entry of
-        ``observed``, the fraction of the window it was observed in (default whole)."""
+        ``observed``, the fraction of the window it was observed in (default whole);
+        ``fixed_share``: of a fixed-sensor window, the fraction the logs recorded."""
+        if fixed and not 0.0 < fixed_share <= 1.0:
+            raise ValueError(f"a window's recorded share must be in (0, 1], got {fixed_share!r}")
         if self.day is not None and day != self.day:
             raise ValueError(f"window of day {day} added to the pending day {self.day}")
         if self.windows and window <= self.windows[-1]:
@@ -135,6 +158,7 @@ class PendingDay:
         slot = len(self.windows)
         self.windows.append(int(window))
         self.fixed.append(bool(fixed))
+        self.fixed_share.append(float(fixed_share) if fixed else 1.0)
         obs = np.asarray(observed, dtype=np.int64).reshape(-1)
         if obs.size:
             self._obs_entry.append(obs)
@@ -192,6 +216,7 @@ class PendingDay:
         self.day = later.day
         self.windows.extend(later.windows)
         self.fixed.extend(later.fixed)
+        self.fixed_share.extend(later.fixed_share)
         self._obs_entry.extend(later._obs_entry)
         self._obs_slot.extend(a + offset for a in later._obs_slot)
         self._obs_weight.extend(later._obs_weight)
@@ -201,7 +226,9 @@ class PendingDay:
 
     def relabelled(self, row_map: I64) -> PendingDay:
         """A copy with every entry row ``r`` replaced by ``row_map[r]`` (into another map)."""
-        out = PendingDay(self.values, self.day, list(self.windows), list(self.fixed))
+        out = PendingDay(
+            self.values, self.day, list(self.windows), list(self.fixed), list(self.fixed_share)
+        )
         out._obs_entry = [row_map[a] for a in self._obs_entry]
         out._obs_slot = [a.copy() for a in self._obs_slot]
         out._obs_weight = [a.copy() for a in self._obs_weight]
@@ -246,6 +273,7 @@ class PendingDay:
             cnt_s,
             vals,
             None if bool(np.all(weight == 1.0)) else weight,
+            _partial(self.fixed_share),
         )
         for array in vars(day).values():
             if array is not None:
@@ -255,7 +283,7 @@ class PendingDay:
     def clear(self) -> None:
         self._changed()
         self.day = None
-        self.windows, self.fixed = [], []
+        self.windows, self.fixed, self.fixed_share = [], [], []
         self._obs_entry, self._obs_slot, self._obs_weight = [], [], []
         self._cnt_entry, self._cnt_slot, self._cnt_values = [], [], []
 
@@ -278,6 +306,8 @@ class PendingDay:
         }
         if day.obs_weight is not None:  # some robot window observed in part
             arrays[prefix + "obs_weight"] = day.obs_weight[obs]
+        if day.fixed_share is not None:  # some fixed-sensor window recorded in part
+            arrays[prefix + "fixed_share"] = day.fixed_share
         return arrays, self.day
 
     @classmethod
@@ -302,6 +332,9 @@ class PendingDay:
             weight = np.asarray(
                 arrays.get(prefix + "obs_weight", np.ones(obs_e.size)), dtype=np.float64
             ).reshape(-1)
+            share = np.asarray(
+                arrays.get(prefix + "fixed_share", np.ones(windows.size)), dtype=np.float64
+            ).reshape(-1)
         except (TypeError, ValueError) as exc:
             raise MapCorruptError(f"pending day has invalid arrays: {exc}") from exc
         ok = (
@@ -309,6 +342,8 @@ class PendingDay:
             and (windows.size == 0 or bool(np.all(np.diff(windows) > 0)))
             and obs_e.size == obs_s.size == weight.size
             and bool(np.all((weight > 0.0) & (weight <= 1.0)))
+            and share.size == windows.size
+            and bool(np.all((share > 0.0) & (share <= 1.0) & (fixed | (share == 1.0))))
             and cnt_e.size == cnt_s.size
             and all(a.size == 0 or (a.min() >= 0 and a.max() < entries) for a in (obs_e, cnt_e))
             and all(
@@ -324,6 +359,7 @@ class PendingDay:
         out.day = int(day)
         out.windows = [int(w) for w in windows.tolist()]
         out.fixed = [bool(f) for f in fixed.tolist()]
+        out.fixed_share = [float(f) for f in share.tolist()]
         if obs_e.size:
             out._obs_entry, out._obs_slot, out._obs_weight = [obs_e], [obs_s], [weight]
         if cnt_e.size:
@@ -375,3 +411,9 @@ def _weights(exposure: npt.ArrayLike | None, n: int) -> F64:
 
 def _cat(chunks: list[I64]) -> I64:
     return np.concatenate(chunks) if chunks else np.zeros(0, np.int64)
+
+
+def _partial(shares: list[float]) -> F64 | None:
+    """The slots' recorded shares as an array, None when every slot is whole."""
+    out = np.asarray(shares, dtype=np.float64)
+    return None if bool(np.all(out == 1.0)) else out

@@ -154,13 +154,14 @@ def _score_block(
     """Score one block of candidates (sorted; ``day`` holds only their pairs, as
     :func:`_pairs_by_block` cut them, so every pair's entry is found among them)."""
     # observed windows of each candidate: the fixed slots plus its own pairs, each own pair
-    # weighed by its exposure (the part of its window observed: expected detections λ·w)
+    # weighed by its exposure (the part of its window observed: expected detections λ·w),
+    # each fixed slot by the share of its window the logs recorded
     obs_e, obs_s, obs_w = day.own_pairs()
     obs_e = np.searchsorted(candidates, obs_e)
-    fixed_slots = np.flatnonzero(day.fixed)
+    fixed_slots, fixed_share = day.fixed_slots()
     n_prof = params.n_profile
     per_bin = np.zeros((candidates.size, n_prof))
-    per_bin += np.bincount(h[fixed_slots], minlength=n_prof)[None, :]
+    per_bin += np.bincount(h[fixed_slots], fixed_share, minlength=n_prof)[None, :]
     per_bin += np.bincount(
         obs_e * n_prof + h[obs_s], obs_w, minlength=candidates.size * n_prof
     ).reshape(candidates.size, n_prof)
@@ -175,7 +176,8 @@ def _score_block(
     floor = params.config.rate_floor
     day_score = np.zeros((candidates.size, len(params.flow)))
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
-    fremen = _fremen_sums(fc, per_bin, fixed_slots, (obs_e, obs_s, obs_w), t_s, floor)
+    fixed = (fixed_slots, fixed_share)
+    fremen = _fremen_sums(fc, per_bin, fixed, (obs_e, obs_s, obs_w), t_s, floor)
     for f, name in enumerate(params.flow):
         if not params.flow_enabled[f]:
             continue
@@ -231,13 +233,14 @@ def _observed_sum(
 def _fremen_sums(
     fc: Forecaster,
     per_bin: F64,
-    fixed_slots: I64,
+    fixed: tuple[I64, F64 | None],
     own: tuple[I64, I64, F64],
     t_s: F64,
     floor: float,
 ) -> F64:
     """Σ over each entry's observed windows of max(λ_m, floor) (times the window's exposure,
-    ``own``: entry positions, slots and exposures of the own pairs) for every FreMEn order m,
+    ``own``: entry positions, slots and exposures of the own pairs; ``fixed``: the
+    fixed-sensor slots and their recorded shares, None: whole) for every FreMEn order m,
     float64[M, E]. Closed form (the rate's sum plus the day's Fourier sums at the entry's
     periods) where the lower bound μ − Σ 2|γ| shows the floor cannot bite; window by window
     for the other entries, every order in one cumulative pass."""
@@ -249,7 +252,9 @@ def _fremen_sums(
     windows = row_sums(per_bin)
     rot = np.exp(-1j * np.multiply.outer(t_s, fc.params.omega))  # (S, K): e^{−iωt}
     idx = fc.period_idx  # (E, M)
-    picked = rot[fixed_slots].sum(axis=0)[idx]  # Σ e^{−iωt} at each entry's periods
+    fixed_slots, fixed_share = fixed
+    fixed_rot = rot[fixed_slots] if fixed_share is None else rot[fixed_slots] * fixed_share[:, None]
+    picked = fixed_rot.sum(axis=0)[idx]  # Σ e^{−iωt} at each entry's periods
     obs_e, obs_s, obs_w = own
     weighed = bool(np.any(obs_w != 1.0))
     for a in range(0, obs_e.size, _PAIRS):
@@ -266,7 +271,7 @@ def _fremen_sums(
     risky = np.flatnonzero((bound[:, -1] < floor) & (windows > 0))  # the largest risky set
     if risky.size == 0:
         return out
-    per_window = _per_window_sums(fc, risky, fixed_slots, own, rot, floor)  # (M, r)
+    per_window = _per_window_sums(fc, risky, fixed, own, rot, floor)  # (M, r)
     for j in range(m_max):
         use = bound[risky, j] < floor
         out[j, risky[use]] = per_window[j, use]
@@ -276,13 +281,14 @@ def _fremen_sums(
 def _per_window_sums(
     fc: Forecaster,
     entries: I64,
-    fixed_slots: I64,
+    fixed: tuple[I64, F64 | None],
     own: tuple[I64, I64, F64],
     rot: C128,
     floor: float,
 ) -> F64:
     """Σ max(λ_m, floor) over each of ``entries``' observed windows for every order m (an
-    own pair's times its exposure), evaluated window by window: float64[M, len(entries)].
+    own pair's times its exposure, a fixed slot's times its recorded share), evaluated
+    window by window: float64[M, len(entries)].
 
     The (entry, window) pairs are every entry with every fixed-sensor slot (entry-major),
     then the entries' own pairs, summed in chunks of ``_PAIRS`` pairs, each chunk's sums
@@ -291,6 +297,7 @@ def _per_window_sums(
     per-pair copies of coefficients and rates, sums along the slot axis — which gives the
     same floating-point sums as adding pair by pair (issue 15: this was the largest part of
     closing a day under a fixed sensor, where every entry has every window)."""
+    fixed_slots, fixed_share = fixed
     slot_of = np.full(fc.rows.size, -1, np.int64)
     slot_of[entries] = np.arange(entries.size)
     obs_e, obs_s, obs_w = own
@@ -330,6 +337,8 @@ def _per_window_sums(
                 terms += part
                 np.add(rate[None, i0:i1], terms, out=lam)
                 np.maximum(lam, floor, out=lam)  # (S, nb)
+                if fixed_share is not None:  # expected detections: λ times the share
+                    lam *= fixed_share[:, None]
                 if not whole:  # adding 0.0 leaves a sum of positive terms unchanged
                     lam[~inside] = 0.0
                 chunk[j, i0:i1] = _sum_in_order(lam)

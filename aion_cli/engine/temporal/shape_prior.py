@@ -73,7 +73,8 @@ def day_chi2(day: DayWindows, h: I64, n_bins: int) -> F64:
     _, own_slot, own_weight = day.own_pairs()
     entries = np.bincount(own_slot, own_weight, minlength=slots)
     # a slot with detections was observed by the entries that had them (one, if none is held)
-    units = np.where(day.fixed, 1.0, np.where((total > 0) & (entries <= 0), 1.0, entries))
+    shares = day.slot_shares()  # a fixed-sensor window: the share of it recorded
+    units = np.where(day.fixed, shares, np.where((total > 0) & (entries <= 0), 1.0, entries))
     seen = units > 0
     cell = (day.fixed.astype(np.int64) * n_bins + h)[seen]
     t, m = total[seen], units[seen]

@@ -1,0 +1,87 @@
+"""A log that starts or ends inside a window observed only the part of it it recorded.
+
+The office log without TF is a fixed sensor; shifted by 6 minutes it records 08:06-08:26,
+so its three windows hold 4, 10 and 6 minutes of recording. Track 1 is detected every 10 s
+at p1: 60 per full window. The map must say 60 (120 detections in two windows' worth of
+recording), where whole windows said 40; the same log cut in two inside a window must give
+the same map built at once, continued with ``--map`` or in parallel shards; and judged on
+itself, the static forecast's activity must add up to the detections the log holds.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.cli.conftest import run, run_json
+from tests.cli.logdata import write_office_log
+
+
+def _flows(map_path: Path, *extra: str) -> dict[str, float]:
+    out = run_json("predict", map_path, *extra, "--format", "json")
+    return {e["id"]: e["flow"] for e in out["entries"]}
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    root = tmp_path_factory.mktemp("partial")
+    whole = root / "shifted.mcap"
+    expected = write_office_log(whole, tf=False, shift_s=360)
+    first, second = root / "first.mcap", root / "second.mcap"
+    write_office_log(first, tf=False, shift_s=360, duration_s=600)  # 08:06-08:16
+    write_office_log(second, tf=False, shift_s=960, duration_s=600)  # 08:16-08:26
+    return {"root": root, "whole": whole, "first": first, "second": second,
+            "expected": expected}
+
+
+def test_windows_recorded_in_part_give_the_true_rate(logs: dict[str, Any]) -> None:
+    root = logs["root"]
+    built = root / "shifted.aion"
+    assert run("build", logs["whole"], "-o", built, "-q").exit_code == 0
+    assert _flows(built, "--historical")["p1"] == pytest.approx(60.0)
+    # the paper's whole windows: 120 detections over three windows
+    config = root / "whole.toml"
+    config.write_text("exposure = false\n")
+    paper = root / "paper.aion"
+    assert run("build", logs["whole"], "-o", paper, "-q", "--config", config).exit_code == 0
+    assert _flows(paper, "--historical")["p1"] == pytest.approx(40.0)
+
+
+def test_a_log_cut_inside_a_window_builds_the_same_map_every_way(
+    logs: dict[str, Any],
+) -> None:
+    root = logs["root"]
+    at_once, first, continued, parallel = (
+        root / f"{name}.aion" for name in ("at_once", "first", "continued", "parallel")
+    )
+    assert run("build", logs["first"], logs["second"], "-o", at_once, "-q").exit_code == 0
+    assert run("build", logs["first"], "-o", first, "-q").exit_code == 0
+    assert run("build", logs["second"], "--map", first, "-o", continued, "-q").exit_code == 0
+    assert run(
+        "build", logs["first"], logs["second"], "-o", parallel, "-q", "--workers", "2"
+    ).exit_code == 0
+    # the first log alone ends 08:16: its second window is 6 minutes of recording
+    assert _flows(first, "--historical")["p1"] == pytest.approx(60.0)
+    # the two logs meet at 08:16: the window they share is recorded whole
+    want = _flows(at_once, "--historical")
+    assert want["p1"] == pytest.approx(60.0)
+    for other in (continued, parallel):
+        assert _flows(other, "--historical") == want
+        for time in ("2026-11-23T08:15", "2026-11-24T03:00"):
+            assert _flows(other, "--time", time) == _flows(at_once, "--time", time)
+
+
+def test_judged_on_itself_the_static_activity_adds_up_to_its_detections(
+    logs: dict[str, Any],
+) -> None:
+    root = logs["root"]
+    built = root / "self.aion"
+    assert run("build", logs["whole"], "-o", built, "-q").exit_code == 0
+    out = run_json("evaluate", "holdout", built, logs["whole"], "--format", "json", "-q")
+    series = out["hourly_series"]
+    detections = logs["expected"].detections
+    assert sum(series["truth"]) == detections
+    # each place's rate times the share of each window recorded: exactly what was seen
+    assert sum(series["aion static"]) == pytest.approx(detections)
