@@ -18,7 +18,10 @@ Scores, per model:
   floor for every model, ``evaluation.heading``);
 - **hourly activity**: over the test day's observed 10-minute windows, the predicted number of
   detections per window summed per hour against the true count — Spearman rank correlation,
-  Poisson deviance ``2 Σ [y ln(y/μ) − (y − μ)]`` and mean absolute error.
+  Poisson deviance ``2 Σ [y ln(y/μ) − (y − μ)]`` and mean absolute error. A window a session
+  starts or ends inside is expected to hold its rate times the share of it recorded, for
+  every model alike, and the baselines learn their rates per window recorded the same way
+  (:func:`recorded_shares`, as ``aion build`` counts a fixed sensor's windows).
 
 Models: ``aion`` (each entry's chosen families), ``aion static`` (its static rates and pooled
 histograms), ``aion historical`` (headings only: the raw proportions ``predict --historical``
@@ -136,6 +139,20 @@ def observed_windows(spans: list[tuple[int, int]], window_ns: int) -> np.ndarray
     return np.unique(np.concatenate(parts)).astype(np.int64) if parts else np.zeros(0, np.int64)
 
 
+def recorded_shares(
+    spans: list[tuple[int, int]], windows: np.ndarray, window_ns: int, config: ModelConfig
+) -> np.ndarray:
+    """Per window, the share of it the spans recorded, as a build counts it (a session that
+    starts or ends inside a window recorded only that part; whole windows without
+    ``config.exposure``): what every forecast's rate per window is multiplied by."""
+    from aion_cli.engine.observation import ObservationSource
+
+    source = ObservationSource()
+    for a, b in spans:
+        source.set_fixed_sensor(a, b)
+    return source.fixed_share(windows, window_ns, config)
+
+
 def _build_aion(train: list[DayData], config: ModelConfig, work: Path) -> Any:
     """aion's map of the training days through ``convert`` + ``build`` (see module doc)."""
     from aion_cli.formats.tracks_log import tracks_to_log
@@ -151,14 +168,15 @@ def _build_aion(train: list[DayData], config: ModelConfig, work: Path) -> Any:
 
 
 def _rate_per_hour_of_day(
-    train: list[DayData], window_ns: int
+    train: list[DayData], window_ns: int, config: ModelConfig
 ) -> tuple[np.ndarray, float]:
-    """Training detections per observed window at each UTC hour of the day, and overall."""
+    """Training detections per observed window at each UTC hour of the day, and overall,
+    each window counted for the share of it recorded (:func:`recorded_shares`)."""
     counts, windows = np.zeros(24), np.zeros(24)
     for d in train:
         w = observed_windows(d.spans, window_ns)
         hours = (w * window_ns % DAY_NS) // HOUR_NS
-        np.add.at(windows, hours, 1.0)
+        np.add.at(windows, hours, recorded_shares(d.spans, w, window_ns, config))
         det_w = d.batch.t_ns // window_ns
         seen = np.isin(det_w, w)
         np.add.at(counts, (det_w[seen] * window_ns % DAY_NS) // HOUR_NS, 1.0)
@@ -267,12 +285,14 @@ def _activity(
     det_w = test.batch.t_ns // window_ns
     truth_w = np.array([np.count_nonzero(det_w == w) for w in windows.tolist()], dtype=float)
     centres = windows * window_ns + window_ns // 2
+    # a window the test day recorded in part is expected to hold that part of its rate
+    share = recorded_shares(test.spans, windows, window_ns, cfg)
     per_window: dict[str, np.ndarray] = {}
     aion = np.array([np.nansum(predict_table(state, int(t)).flow) for t in centres.tolist()])
     per_window["aion"] = aion
     static_rate = float(np.nansum(_historical_flow(state)))
     per_window["aion static"] = np.full(windows.size, static_rate)
-    rate_h, overall = _rate_per_hour_of_day(train, window_ns)
+    rate_h, overall = _rate_per_hour_of_day(train, window_ns, cfg)
     hod = (windows * window_ns % DAY_NS) // HOUR_NS
     per_window["hour-of-day profile"] = rate_h[hod]
     per_window["hour-of-day mean"] = _mean_per_hour_of_day(train)[hod] * window_ns / HOUR_NS
@@ -284,6 +304,7 @@ def _activity(
     per_window["grid"] = np.array(
         [counts_grid.predict(int(t)).sum() for t in centres.tolist()]
     )
+    per_window = {name: forecast * share for name, forecast in per_window.items()}
     starts = windows * window_ns
     hours, result.series, result.activity = hourly_activity(starts, truth_w, per_window)
     result.hours = [int(h % 24) for h in hours.tolist()]

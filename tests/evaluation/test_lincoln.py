@@ -34,6 +34,20 @@ def test_observed_windows_cover_the_spans() -> None:
     np.testing.assert_array_equal(lincoln.observed_windows(spans, w), [10, 11, 20])
 
 
+def test_a_window_a_session_starts_or_ends_in_counts_its_recorded_share() -> None:
+    """A session from 4 minutes into window 10 to 3 minutes into window 12: 0.6, 1 and 0.3
+    of the three windows, as the build counts them; whole without exposure."""
+    from aion_cli.engine.config import ModelConfig
+
+    w = 600 * 10**9
+    spans = [(10 * w + 240 * 10**9, 12 * w + 180 * 10**9)]
+    windows = lincoln.observed_windows(spans, w)
+    got = lincoln.recorded_shares(spans, windows, w, ModelConfig())
+    np.testing.assert_allclose(got, [0.6, 1.0, 0.3])
+    whole = lincoln.recorded_shares(spans, windows, w, ModelConfig(exposure=False))
+    np.testing.assert_array_equal(whole, [1.0, 1.0, 1.0])
+
+
 @needs_lincoln
 def test_each_day_comes_from_the_file_holding_most_of_it() -> None:
     days = lincoln.load_days(DATA)
