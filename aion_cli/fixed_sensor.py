@@ -130,30 +130,81 @@ when its observed share of the windows it starts and ends in is measured."""
 def recording_bounds(
     logset: Any, times: TimeCheck, windows: I64, delta: int
 ) -> tuple[I64, I64]:
-    """Each log file's recorded time ``[first, last)``: from the start of the step of
-    ``delta / EDGE_STEPS`` (the largest divisor of ``delta`` up to that) holding its first
-    message to the end of the step holding its last, among its messages in ``windows`` (the
-    observed windows: strays and other time shards' windows left out). In a time shard
+    """Each log file's recorded time, a span ``[first, last)`` per run of consecutive windows
+    it recorded in: from the start of the step of ``delta / EDGE_STEPS`` (the largest divisor
+    of ``delta`` up to that) holding the run's first message to the end of the step holding
+    its last, among its messages in ``windows`` (the observed windows: strays and other time
+    shards' windows left out). In a time shard
     (``times.limits``) a file that recorded before or after the shard's part reaches to the
     part's edge, so every shard cuts the windows as one pass does. Read from the containers'
-    indexes, like the recorded windows."""
+    indexes, like the recorded windows; joined by the runs of the messages the build reads
+    (:func:`_message_runs`), which an index that lies cannot shorten."""
     step = next(delta // k for k in range(EDGE_STEPS, 0, -1) if delta % k == 0)
     lo_limit, hi_limit = times.limits if times.limits is not None else (None, None)
     starts, ends = [], []
     for _file, slots in logset.recorded_windows_by_file(step):
         if slots.size == 0:
             continue
-        inside = slots[np.isin(slots // (delta // step), windows)]
+        per_window = delta // step
+        inside = slots[np.isin(slots // per_window, windows)]
         if inside.size == 0:
             continue
-        first, last = int(inside[0]) * step, (int(inside[-1]) + 1) * step
-        if lo_limit is not None and int(slots[0]) * step < lo_limit:
-            first = min(first, lo_limit)
-        if hi_limit is not None and (int(slots[-1]) + 1) * step > hi_limit:
-            last = max(last, hi_limit)
-        starts.append(first)
-        ends.append(last)
-    return np.array(starts, np.int64), np.array(ends, np.int64)
+        # one span per run of consecutive windows the file recorded in (a pause of a window
+        # or more inside one file is not recording)
+        cut = np.flatnonzero(np.diff(inside // per_window) > 1) + 1
+        first = inside[np.concatenate([[0], cut])] * step
+        last = (inside[np.concatenate([cut - 1, [inside.size - 1]])] + 1) * step
+        # a run going on across a time shard's edge (the file recorded in the windows on
+        # both sides of it) reaches the edge, as one pass has it
+        recorded = slots // per_window
+        if lo_limit is not None and _goes_on(recorded, int(first[0]) // delta, -1):
+            first[0] = min(int(first[0]), lo_limit)
+        if hi_limit is not None and _goes_on(recorded, (int(last[-1]) - 1) // delta, 1):
+            last[-1] = max(int(last[-1]), hi_limit)
+        starts.extend(first.tolist())
+        ends.extend(last.tolist())
+    run_starts, run_ends = _message_runs(times.span_times, windows, delta, step)
+    return (
+        np.concatenate([np.array(starts, np.int64), run_starts]),
+        np.concatenate([np.array(ends, np.int64), run_ends]),
+    )
+
+
+def _goes_on(recorded: I64, window: int, side: int) -> bool:
+    """Whether ``recorded`` (sorted windows) holds the window next to ``window`` on ``side``
+    (-1: before, 1: after)."""
+    k = int(np.searchsorted(recorded, window + side))
+    return k < recorded.size and int(recorded[k]) == window + side
+
+
+_BLOCK = 1 << 20
+"""Message times handled at a time by :func:`_message_runs` (a few MB of temporaries)."""
+
+
+def _message_runs(times: I64, windows: I64, delta: int, step: int) -> tuple[I64, I64]:
+    """Spans ``[start, end)`` over the runs of consecutive ``windows`` (sorted), each from the
+    step of ``step`` ns holding the first of ``times`` in its first window to the end of the
+    step holding the last in its last window (a window without one: its edge). The build's
+    own messages: a chunk whose index a far message spoils (an end time past int64) records
+    nothing from the index, and its log must not end there. In blocks, without sorting."""
+    w = np.asarray(windows, np.int64)
+    if w.size == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    big = np.iinfo(np.int64).max
+    first, last = np.full(w.size, big), np.full(w.size, -1, np.int64)
+    for a in range(0, times.size, _BLOCK):
+        t = times[a : a + _BLOCK]
+        at = np.searchsorted(w, t // delta)
+        ok = at < w.size
+        ok[ok] = w[at[ok]] == t[ok] // delta
+        np.minimum.at(first, at[ok], t[ok])
+        np.maximum.at(last, at[ok], t[ok])
+    breaks = np.flatnonzero(np.diff(w) > 1)
+    head = np.concatenate([[0], breaks + 1])
+    tail = np.concatenate([breaks, [w.size - 1]])
+    start = np.where(first[head] < big, first[head] // step * step, w[head] * delta)
+    end = np.where(last[tail] >= 0, (last[tail] // step + 1) * step, (w[tail] + 1) * delta)
+    return start.astype(np.int64), end.astype(np.int64)
 
 
 OBSERVED_NOTE = "--observed: "

@@ -145,8 +145,9 @@ def latest_graph(state: MapState) -> GraphSnapshot | None:
 
 def state_counts(state: MapState) -> dict[str, int]:
     """Unbound cells, graph nodes (and those holding flow), bound cells and windows observed
-    (the most any entry has seen, the open window included as the flows count it) of a state,
-    for summaries."""
+    (the most any entry has seen, the open window included as the flows count it, each window
+    for the share of it watched or recorded: rounded to whole windows) of a state, for
+    summaries."""
     entries = state.entries
     live = entries.live_rows()
     observed = state.windows_observed(live, open_window=True)
@@ -155,7 +156,7 @@ def state_counts(state: MapState) -> dict[str, int]:
         "nodes": 0 if state.graph is None else len(state.graph.places),
         "nodes_with_flow": _with_detections(entries, entries.node_rows()),
         "bound_cells": len(state.redirects),
-        "windows": int(observed.max()) if len(observed) else 0,
+        "windows": round(float(observed.max())) if len(observed) else 0,
     }
 
 

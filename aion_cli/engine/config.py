@@ -89,7 +89,8 @@ class ModelConfig:
     Time: windows of ``window_s`` (Δ) aligned to the UNIX epoch; the robot observes entries
     within ``sensor_range`` of its trajectory, and with ``exposure`` a window it observed an
     entry in counts by the fraction of the window the entry was in range, at least
-    ``exposure_floor`` (``engine.observation``; without, every such window counts whole, as in
+    ``exposure_floor``, and a fixed sensor's window by the share of it its logs recorded
+    (``engine.observation``; without, every such window counts whole, as in
     the paper).
     Temporal model (``engine.temporal``): the expected detections per observed window of every
     entry and direction bin, forecast by the families in ``families`` (``static``, ``shape``,

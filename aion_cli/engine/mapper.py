@@ -158,7 +158,8 @@ class Mapper:
             self._start_at(int(np.min(trajectory.t_ns)))
 
     def set_fixed_sensor(self, start_ns: int, end_ns: int) -> None:
-        """Everything is observed in windows overlapping ``[start_ns, end_ns)``."""
+        """Everything is observed in windows overlapping ``[start_ns, end_ns)``, each for the
+        share of it the interval covers (``ModelConfig.exposure``; whole without it)."""
         check_time(int(start_ns), "a fixed-sensor interval")
         check_time(int(end_ns), "a fixed-sensor interval")
         self._state.observation.set_fixed_sensor(int(start_ns), int(end_ns))

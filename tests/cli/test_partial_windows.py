@@ -49,6 +49,16 @@ def test_windows_recorded_in_part_give_the_true_rate(logs: dict[str, Any]) -> No
     assert _flows(paper, "--historical")["p1"] == pytest.approx(40.0)
 
 
+def test_each_session_of_one_log_has_its_own_edges(tmp_path: Path) -> None:
+    """The same 20 minutes again a day later in the same file: each session starts and ends
+    inside a window (0.4, 1 and 0.6 of them), the day between is not recording."""
+    log = tmp_path / "two-sessions.mcap"
+    write_office_log(log, tf=False, shift_s=360, later_sessions_s=(86_400,))
+    built = tmp_path / "two.aion"
+    assert run("build", log, "-o", built, "-q").exit_code == 0
+    assert _flows(built, "--historical")["p1"] == pytest.approx(60.0)
+
+
 def test_a_log_cut_inside_a_window_builds_the_same_map_every_way(
     logs: dict[str, Any],
 ) -> None:

@@ -65,12 +65,19 @@ def _pattern(member: str, table: dict[str, tuple[set[str], int]]) -> str | None:
 @pytest.fixture(scope="module")
 def maps(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """An ordinary map (a robot's trajectory, a scene graph with a mesh, a pending day), a part
-    map of the same log (its closed days held) and the query-only copy of the first."""
+    map of the same log (its closed days held), the query-only copy of the first, and a part
+    map of a fixed sensor whose two sessions a day apart start and end inside windows (the
+    windows' recorded shares, held and pending)."""
+    from tests.cli.logdata import write_office_log
+
     folder = tmp_path_factory.mktemp("mapfile-doc")
     full = folder / "office.aion"
     aion.build([SAMPLE], output=full)
     aion.build([SAMPLE], output=folder / "part.aion", part=True)
     aion.compact(full, folder / "compact.aion")
+    fixed = folder / "fixed.mcap"
+    write_office_log(fixed, tf=False, shift_s=360, later_sessions_s=(86_400,))
+    aion.build([fixed], output=folder / "fixed-part.aion", part=True)
     return {p.stem: p for p in sorted(folder.glob("*.aion"))}
 
 
