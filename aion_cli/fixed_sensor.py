@@ -96,7 +96,8 @@ def fixed_sensor_windows(
             f"{outside:,} recorded window(s) outside the time of the topics aion uses are "
             f"not taken as observed (first: {iso(first)})"
         )
-    windows = np.union1d(recorded[inside], windows_of(times.span_times, delta))
+    read = windows_of(times.span_times, delta)  # the windows of the messages aion reads
+    windows = np.union1d(recorded[inside], read)
     spans = _file_spans(logset, times, delta) if declared or report is not None else []
     if declared:
         extra = declared_windows(declared, spans, delta, fill)
@@ -106,7 +107,7 @@ def fixed_sensor_windows(
         if report is not None:  # a parallel build adds its shards' up
             report.observed_added = int(added.size)
         windows = np.union1d(windows, extra)
-    within = recording_bounds(logset, times, windows, delta)
+    within = recording_bounds(logset, times, windows, delta, read)
     if declared:
         within = (
             np.concatenate([within[0], [int(lo) for lo, _ in declared]]).astype(np.int64),
@@ -128,53 +129,43 @@ when its observed share of the windows it starts and ends in is measured."""
 
 
 def recording_bounds(
-    logset: Any, times: TimeCheck, windows: I64, delta: int
+    logset: Any, times: TimeCheck, windows: I64, delta: int, read: I64 | None = None
 ) -> tuple[I64, I64]:
-    """Each log file's recorded time, a span ``[first, last)`` per run of consecutive windows
-    it recorded in: from the start of the step of ``delta / EDGE_STEPS`` (the largest divisor
-    of ``delta`` up to that) holding the run's first message to the end of the step holding
-    its last, among its messages in ``windows`` (the observed windows: strays and other time
-    shards' windows left out). In a time shard
-    (``times.limits``) a file that recorded before or after the shard's part reaches to the
-    part's edge, so every shard cuts the windows as one pass does. Read from the containers'
-    indexes, like the recorded windows; joined by the runs of the messages the build reads
-    (:func:`_message_runs`), which an index that lies cannot shorten."""
+    """Each log file's recorded time ``[first, last)``: from the start of the step of
+    ``delta / EDGE_STEPS`` (the largest divisor of ``delta`` up to that) holding its first
+    message to the end of the step holding its last, among its messages in ``windows`` (the
+    observed windows: strays and other time shards' windows left out). Only a file's own start
+    and end cut a window: a pause inside one file leaves the windows at its edges whole, as a
+    tracker that publishes only when it sees someone stops at the last person, not when it
+    stops recording (its first and last message cut the file's first and last window alone).
+    In a time shard (``times.limits``) a file that recorded before or after the shard's part
+    reaches to the part's edge, so every shard cuts the windows as one pass does. Read from
+    the containers' indexes, like the recorded windows; joined by the runs of the messages the
+    build reads (:func:`_message_runs` over ``read``, the windows holding them), which an
+    index that lies cannot shorten."""
+    from aion_cli.formats.recorded import windows_of
+
     step = next(delta // k for k in range(EDGE_STEPS, 0, -1) if delta % k == 0)
     lo_limit, hi_limit = times.limits if times.limits is not None else (None, None)
     starts, ends = [], []
     for _file, slots in logset.recorded_windows_by_file(step):
-        if slots.size == 0:
-            continue
-        per_window = delta // step
-        inside = slots[np.isin(slots // per_window, windows)]
+        inside = slots[np.isin(slots // (delta // step), windows)]
         if inside.size == 0:
             continue
-        # one span per run of consecutive windows the file recorded in (a pause of a window
-        # or more inside one file is not recording)
-        cut = np.flatnonzero(np.diff(inside // per_window) > 1) + 1
-        first = inside[np.concatenate([[0], cut])] * step
-        last = (inside[np.concatenate([cut - 1, [inside.size - 1]])] + 1) * step
-        # a run going on across a time shard's edge (the file recorded in the windows on
-        # both sides of it) reaches the edge, as one pass has it
-        recorded = slots // per_window
-        if lo_limit is not None and _goes_on(recorded, int(first[0]) // delta, -1):
-            first[0] = min(int(first[0]), lo_limit)
-        if hi_limit is not None and _goes_on(recorded, (int(last[-1]) - 1) // delta, 1):
-            last[-1] = max(int(last[-1]), hi_limit)
-        starts.extend(first.tolist())
-        ends.extend(last.tolist())
-    run_starts, run_ends = _message_runs(times.span_times, windows, delta, step)
+        first, last = int(inside[0]) * step, (int(inside[-1]) + 1) * step
+        if lo_limit is not None and int(slots[0]) * step < lo_limit:
+            first = min(first, lo_limit)
+        if hi_limit is not None and (int(slots[-1]) + 1) * step > hi_limit:
+            last = max(last, hi_limit)
+        starts.append(first)
+        ends.append(last)
+    held = windows_of(times.span_times, delta) if read is None else read
+    runs = np.intersect1d(held, windows)
+    run_starts, run_ends = _message_runs(times.span_times, runs, delta, step)
     return (
         np.concatenate([np.array(starts, np.int64), run_starts]),
         np.concatenate([np.array(ends, np.int64), run_ends]),
     )
-
-
-def _goes_on(recorded: I64, window: int, side: int) -> bool:
-    """Whether ``recorded`` (sorted windows) holds the window next to ``window`` on ``side``
-    (-1: before, 1: after)."""
-    k = int(np.searchsorted(recorded, window + side))
-    return k < recorded.size and int(recorded[k]) == window + side
 
 
 _BLOCK = 1 << 20
@@ -182,28 +173,33 @@ _BLOCK = 1 << 20
 
 
 def _message_runs(times: I64, windows: I64, delta: int, step: int) -> tuple[I64, I64]:
-    """Spans ``[start, end)`` over the runs of consecutive ``windows`` (sorted), each from the
-    step of ``step`` ns holding the first of ``times`` in its first window to the end of the
-    step holding the last in its last window (a window without one: its edge). The build's
-    own messages: a chunk whose index a far message spoils (an end time past int64) records
-    nothing from the index, and its log must not end there. In blocks, without sorting."""
+    """Spans ``[start, end)`` over the runs of consecutive ``windows`` (sorted; each holds
+    one of ``times`` at least), each from the step of ``step`` ns holding the first of
+    ``times`` in its first window to the end of the step holding the last in its last
+    window (a window without one: its edge). The build's own messages: a chunk whose index
+    a far message spoils (an end time past int64) records nothing from the index, and its
+    log must not end there. Only the runs' first and last windows are looked at, in blocks
+    of times, without sorting them."""
     w = np.asarray(windows, np.int64)
     if w.size == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    breaks = np.flatnonzero(np.diff(w) > 1)
+    head = w[np.concatenate([[0], breaks + 1])]
+    tail = w[np.concatenate([breaks, [w.size - 1]])]
+    edges = np.union1d(head, tail)  # sorted: a run of one window is both
     big = np.iinfo(np.int64).max
-    first, last = np.full(w.size, big), np.full(w.size, -1, np.int64)
+    first, last = np.full(edges.size, big), np.full(edges.size, -1, np.int64)
     for a in range(0, times.size, _BLOCK):
         t = times[a : a + _BLOCK]
-        at = np.searchsorted(w, t // delta)
-        ok = at < w.size
-        ok[ok] = w[at[ok]] == t[ok] // delta
-        np.minimum.at(first, at[ok], t[ok])
-        np.maximum.at(last, at[ok], t[ok])
-    breaks = np.flatnonzero(np.diff(w) > 1)
-    head = np.concatenate([[0], breaks + 1])
-    tail = np.concatenate([breaks, [w.size - 1]])
-    start = np.where(first[head] < big, first[head] // step * step, w[head] * delta)
-    end = np.where(last[tail] >= 0, (last[tail] // step + 1) * step, (w[tail] + 1) * delta)
+        tw = t // delta
+        hit = np.isin(tw, edges)
+        if hit.any():
+            at = np.searchsorted(edges, tw[hit])
+            np.minimum.at(first, at, t[hit])
+            np.maximum.at(last, at, t[hit])
+    lo, hi = first[np.searchsorted(edges, head)], last[np.searchsorted(edges, tail)]
+    start = np.where(lo < big, lo // step * step, head * delta)
+    end = np.where(hi >= 0, (hi // step + 1) * step, (tail + 1) * delta)
     return start.astype(np.int64), end.astype(np.int64)
 
 

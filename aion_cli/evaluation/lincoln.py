@@ -8,9 +8,11 @@ No file declares when the sensor ran (06-09's header declares four days of which
 so each day's recording sessions — detections split at gaps over an hour — are its observed
 spans, for training and for the test day alike.
 
-aion learns through the real pipeline: the training days become one MCAP log with the
+aion learns through the real pipeline: each training day becomes an MCAP log with its
 observed spans written as empty detection messages (``aion convert --observed``), and
-``aion build`` reads it. The zone is Europe/London (the local clock people keep).
+``aion build`` reads them (a log per day, as it was recorded: each starts and ends inside a
+window, which counts by the share of it recorded). The zone is Europe/London (the local
+clock people keep).
 
 Scores, per model:
 
@@ -159,11 +161,14 @@ def _build_aion(train: list[DayData], config: ModelConfig, work: Path) -> Any:
     from aion_cli.mapquery import load_map
     from aion_cli.pipeline import BuildOptions, build_map
 
-    batch = DetectionBatch.concat([d.batch for d in train]).sorted_by_time()
-    spans = [s for d in train for s in d.spans]
-    log = work / "lincoln_train.mcap"
-    tracks_to_log(batch, log, observed=spans, overwrite=True)
-    report = build_map(BuildOptions(logs=(log,), output=work / "lincoln.aion", config=config))
+    logs = []
+    for d in sorted(train, key=lambda day: day.day):  # a log per day, as it was recorded:
+        log = work / f"lincoln_{d.day}.mcap"  # each starts and ends inside a window
+        tracks_to_log(d.batch.sorted_by_time(), log, observed=d.spans, overwrite=True)
+        logs.append(log)
+    report = build_map(
+        BuildOptions(logs=tuple(logs), output=work / "lincoln.aion", config=config)
+    )
     return load_map(report.output).state
 
 

@@ -49,14 +49,23 @@ def test_windows_recorded_in_part_give_the_true_rate(logs: dict[str, Any]) -> No
     assert _flows(paper, "--historical")["p1"] == pytest.approx(40.0)
 
 
-def test_each_session_of_one_log_has_its_own_edges(tmp_path: Path) -> None:
-    """The same 20 minutes again a day later in the same file: each session starts and ends
-    inside a window (0.4, 1 and 0.6 of them), the day between is not recording."""
-    log = tmp_path / "two-sessions.mcap"
-    write_office_log(log, tf=False, shift_s=360, later_sessions_s=(86_400,))
-    built = tmp_path / "two.aion"
-    assert run("build", log, "-o", built, "-q").exit_code == 0
-    assert _flows(built, "--historical")["p1"] == pytest.approx(60.0)
+def test_each_log_has_its_own_edges_and_a_pause_inside_one_does_not(tmp_path: Path) -> None:
+    """The same 20 minutes again a day later: as two logs, each starts and ends inside a
+    window (0.4, 1 and 0.6 of them: 240 detections in 4 windows' worth); as one log with a
+    day's pause, only its own start and end cut a window (a tracker that publishes only when
+    it sees someone stops at the last person, not when recording stops): 240 in 0.4 + 1 + 1 +
+    1 + 1 + 0.6 = 5 windows."""
+    first, second = tmp_path / "day1.mcap", tmp_path / "day2.mcap"
+    write_office_log(first, tf=False, shift_s=360)
+    write_office_log(second, tf=False, shift_s=360 + 86_400)
+    two = tmp_path / "two.aion"
+    assert run("build", first, second, "-o", two, "-q").exit_code == 0
+    assert _flows(two, "--historical")["p1"] == pytest.approx(60.0)
+    paused = tmp_path / "paused.mcap"
+    write_office_log(paused, tf=False, shift_s=360, later_sessions_s=(86_400,))
+    one = tmp_path / "one.aion"
+    assert run("build", paused, "-o", one, "-q").exit_code == 0
+    assert _flows(one, "--historical")["p1"] == pytest.approx(48.0)
 
 
 def test_a_log_cut_inside_a_window_builds_the_same_map_every_way(

@@ -66,7 +66,7 @@ def _pattern(member: str, table: dict[str, tuple[set[str], int]]) -> str | None:
 def maps(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """An ordinary map (a robot's trajectory, a scene graph with a mesh, a pending day), a part
     map of the same log (its closed days held), the query-only copy of the first, and a part
-    map of a fixed sensor whose two sessions a day apart start and end inside windows (the
+    map of a fixed sensor whose two logs a day apart start and end inside windows (the
     windows' recorded shares, held and pending)."""
     from tests.cli.logdata import write_office_log
 
@@ -75,9 +75,10 @@ def maps(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     aion.build([SAMPLE], output=full)
     aion.build([SAMPLE], output=folder / "part.aion", part=True)
     aion.compact(full, folder / "compact.aion")
-    fixed = folder / "fixed.mcap"
-    write_office_log(fixed, tf=False, shift_s=360, later_sessions_s=(86_400,))
-    aion.build([fixed], output=folder / "fixed-part.aion", part=True)
+    first, second = folder / "fixed-1.mcap", folder / "fixed-2.mcap"
+    write_office_log(first, tf=False, shift_s=360)
+    write_office_log(second, tf=False, shift_s=360 + 86_400)
+    aion.build([first, second], output=folder / "fixed-part.aion", part=True)
     return {p.stem: p for p in sorted(folder.glob("*.aion"))}
 
 
