@@ -61,6 +61,7 @@ class ObservationSource:
     fixed_end: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
     # the fixed-sensor intervals merged into sorted disjoint ones (built on first use)
     _merged: tuple[I64, I64] | None = field(default=None, init=False, repr=False, compare=False)
+    _covered: I64 | None = field(default=None, init=False, repr=False, compare=False)
 
     def add_trajectory(self, trajectory: Trajectory) -> None:
         """Add robot poses; non-finite poses are ignored (they cannot say what was seen)."""
@@ -111,17 +112,18 @@ class ObservationSource:
         ones left out), so a window's coverage is one binary search instead of a pass over
         every interval (a long log with gaps has one interval per run of recorded windows)."""
         if self._merged is None:
-            ok = self.fixed_end > self.fixed_start
-            s, e = self.fixed_start[ok], self.fixed_end[ok]
-            if s.size == 0:
-                self._merged = (s.copy(), e.copy())
-            else:
-                order = np.argsort(s, kind="stable")
-                s, e = s[order], np.maximum.accumulate(e[order])  # e: furthest end so far
-                new = np.concatenate([[True], s[1:] > e[:-1]])  # starts after all before it
-                last = np.concatenate([new[1:], [True]])
-                self._merged = (s[new], e[last])
+            self._merged = _merged_spans(self.fixed_start, self.fixed_end)
+            self._covered = None
         return self._merged
+
+    def _covered_before(self) -> I64:
+        """Per merged interval, the time the intervals before it cover (one more entry: all
+        of them), kept with the merged intervals: :meth:`fixed_share` runs at every window a
+        build closes."""
+        starts, ends = self.merged_fixed()
+        if self._covered is None:
+            self._covered = np.concatenate([[0], np.cumsum(ends - starts)]).astype(np.int64)
+        return self._covered
 
     def prune(self, before_ns: int) -> None:
         """Forget poses before ``before_ns`` (their windows are closed). The poses are sorted,
@@ -192,7 +194,16 @@ class ObservationSource:
             return self.fixed_mask(w, delta_ns).astype(np.float64)
         if starts.size == 0 or w.size == 0:
             return np.zeros(w.size)
-        before = np.concatenate([[0], np.cumsum(ends - starts)])  # covered before interval k
+        if w.size == 1:  # a build closes one window at a time: one search, a scalar walk
+            begin = int(w[0]) * int(delta_ns)
+            stop = begin + int(delta_ns)
+            k = int(np.searchsorted(ends, begin, side="right"))  # first interval ending after
+            covered = 0
+            while k < starts.size and int(starts[k]) < stop:
+                covered += min(int(ends[k]), stop) - max(int(starts[k]), begin)
+                k += 1
+            return np.array([min(covered / int(delta_ns), 1.0)])
+        before = self._covered_before()  # covered before interval k
 
         def covered_below(t: I64) -> I64:
             k = np.searchsorted(starts, t, side="left")  # intervals starting before t
@@ -313,7 +324,7 @@ class ObservationSource:
 
 def _merged_spans(starts: I64, ends: I64) -> tuple[I64, I64]:
     """Spans ``[start, end)`` as sorted disjoint ones (overlapping or touching spans joined,
-    empty ones left out)."""
+    empty ones left out; new arrays)."""
     s, e = np.asarray(starts, np.int64), np.asarray(ends, np.int64)
     ok = e > s
     s, e = s[ok], e[ok]
