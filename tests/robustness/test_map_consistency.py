@@ -103,6 +103,16 @@ def _one_more_detection(a: Arrays, meta: Any) -> None:
     a["entry_counts"][0, 0] += 1.0
 
 
+def _recorded_share(value: float) -> Callable[[Arrays, Any], None]:
+    """A pending day's recorded share of ``value`` for every window (a robot's windows: none
+    was a fixed sensor's, so only 1 would be consistent)."""
+
+    def edit(a: Arrays, meta: Any) -> None:
+        a["pending_fixed_share"] = np.full(a["pending_windows"].size, value)
+
+    return edit
+
+
 def _backwards_interval(a: Arrays, meta: Any) -> None:
     a["obs_fixed_start"] = np.array([10], np.int64)
     a["obs_fixed_end"] = np.array([5], np.int64)
@@ -150,6 +160,19 @@ CASES: dict[str, tuple[Callable[[Arrays, Any], None], str]] = {
     "open window in the year 2e10": (_meta("open_window", 10**18), "the open window"),
     "negative log time": (_meta("log_time_ns", -1), "the log time -1 ns"),
 }
+
+
+@pytest.mark.parametrize("value", [0.5, 1.5, 0.0, np.nan])
+def test_a_recorded_share_that_cannot_be_is_one_error_line(
+    source: Path, tmp_path: Path, value: float
+) -> None:
+    """A fixed sensor's recorded share on a robot's window (only 1 is consistent there), or
+    outside (0, 1]: the member is named, exit 2."""
+    bad = crafted(source, tmp_path / "bad.aion", _recorded_share(value))
+    result = run("predict", bad, "--historical", "--format", "json")
+    assert result.exit_code == 2, (result.exit_code, result.stderr)
+    assert_one_error(result.stderr, "pending_fixed_share is not one share in (0, 1]")
+    assert result.stdout == ""
 
 
 @pytest.mark.parametrize("case", sorted(CASES))

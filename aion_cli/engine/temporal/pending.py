@@ -342,8 +342,6 @@ class PendingDay:
             and (windows.size == 0 or bool(np.all(np.diff(windows) > 0)))
             and obs_e.size == obs_s.size == weight.size
             and bool(np.all((weight > 0.0) & (weight <= 1.0)))
-            and share.size == windows.size
-            and bool(np.all((share > 0.0) & (share <= 1.0) & (fixed | (share == 1.0))))
             and cnt_e.size == cnt_s.size
             and all(a.size == 0 or (a.min() >= 0 and a.max() < entries) for a in (obs_e, cnt_e))
             and all(
@@ -354,6 +352,13 @@ class PendingDay:
         )
         if not ok:
             raise MapCorruptError("pending day arrays are inconsistent")
+        if share.size != windows.size or not bool(
+            np.all((share > 0.0) & (share <= 1.0) & (fixed | (share == 1.0)))
+        ):
+            raise MapCorruptError(
+                f"{prefix}fixed_share is not one share in (0, 1] per window of "
+                f"{prefix}windows, below 1 only where a fixed sensor observed"
+            )
         if windows.size == 0:
             return out
         out.day = int(day)
