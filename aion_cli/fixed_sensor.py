@@ -140,9 +140,10 @@ def recording_bounds(
     stops recording (its first and last message cut the file's first and last window alone).
     In a time shard (``times.limits``) a file that recorded before or after the shard's part
     reaches to the part's edge, so every shard cuts the windows as one pass does. Read from
-    the containers' indexes, like the recorded windows; joined by the runs of the messages the
-    build reads (:func:`_message_runs` over ``read``, the windows holding them), which an
-    index that lies cannot shorten."""
+    the containers' indexes, like the recorded windows; extended by the runs of the messages
+    the build reads (:func:`_message_runs` over ``read``, the windows holding them), which an
+    index that lies cannot shorten: outward only (:func:`_beyond_files`), since a run joins
+    every file's messages and must not fill the time between two files."""
     from aion_cli.formats.recorded import windows_of
 
     step = next(delta // k for k in range(EDGE_STEPS, 0, -1) if delta % k == 0)
@@ -162,10 +163,38 @@ def recording_bounds(
     held = windows_of(times.span_times, delta) if read is None else read
     runs = np.intersect1d(held, windows)
     run_starts, run_ends = _message_runs(times.span_times, runs, delta, step)
+    file_starts, file_ends = np.array(starts, np.int64), np.array(ends, np.int64)
+    run_starts, run_ends = _beyond_files(run_starts, run_ends, file_starts, file_ends)
     return (
-        np.concatenate([np.array(starts, np.int64), run_starts]),
-        np.concatenate([np.array(ends, np.int64), run_ends]),
+        np.concatenate([file_starts, run_starts]),
+        np.concatenate([file_ends, run_ends]),
     )
+
+
+def _beyond_files(
+    run_starts: I64, run_ends: I64, file_starts: I64, file_ends: I64
+) -> tuple[I64, I64]:
+    """The parts of the message runs ``[run_starts, run_ends)`` before the first and after
+    the last file span that overlaps each run (a whole run where none does): the messages read
+    extend a file its index cuts short, but a run joins the messages of every file, so the
+    time between two files in it (a log that stopped at 08:14 and the next that started at
+    08:16) is not recording."""
+    out_s: list[int] = []
+    out_e: list[int] = []
+    for rs, re in zip(run_starts.tolist(), run_ends.tolist(), strict=True):
+        hit = (file_starts < re) & (file_ends > rs)
+        if not hit.any():
+            out_s.append(rs)
+            out_e.append(re)
+            continue
+        lo, hi = int(file_starts[hit].min()), int(file_ends[hit].max())
+        if rs < lo:
+            out_s.append(rs)
+            out_e.append(lo)
+        if hi < re:
+            out_s.append(hi)
+            out_e.append(re)
+    return np.array(out_s, np.int64), np.array(out_e, np.int64)
 
 
 _BLOCK = 1 << 20

@@ -80,3 +80,33 @@ def test_the_messages_read_extend_a_file_its_index_cuts_short() -> None:
     )  # type: ignore[arg-type]
     assert int(starts.min()) == 120
     assert int(ends.max()) == 1560
+
+
+class _Files:
+    """A log set of several files, each with its messages at its own ``seconds``."""
+
+    def __init__(self, *files: list[int]) -> None:
+        self.files = [np.array(s, np.int64) for s in files]
+
+    def recorded_windows_by_file(self, size: int) -> list[tuple[Any, np.ndarray]]:
+        return [(None, np.unique(s // size)) for s in self.files]
+
+
+def test_the_messages_read_do_not_join_two_files_across_the_gap_between_them() -> None:
+    """Two files, the first recording 125-835 s, the second 965-1,555 s: the build reads
+    messages in windows 0, 1 and 2 (one run), but nothing recorded 840-960 s: window 1 is
+    [600, 840) and [960, 1200), 0.8 of it (the run of messages had read as one span from
+    120 s to 1,560 s, window 1 whole)."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.observation import ObservationSource
+
+    first, second = [125, 700, 835], [965, 1555]
+    logs = _Files(first, second)
+    windows = np.array([0, 1, 2], np.int64)
+    within = recording_bounds(
+        logs, _Times(np.array(first + second, np.int64)), windows, DELTA
+    )  # type: ignore[arg-type]
+    source = ObservationSource()
+    source.add_fixed_windows(windows, DELTA, within)
+    share = source.fixed_share(windows, DELTA, ModelConfig())
+    np.testing.assert_allclose(share, [0.8, 0.8, 0.6])

@@ -104,3 +104,46 @@ def test_judged_on_itself_the_static_activity_adds_up_to_its_detections(
     assert sum(series["truth"]) == detections
     # each place's rate times the share of each window recorded: exactly what was seen
     assert sum(series["aion static"]) == pytest.approx(detections)
+
+
+def test_a_gap_between_two_logs_inside_a_window_is_not_recorded_every_way(
+    tmp_path: Path,
+) -> None:
+    """One log records 08:06-08:14, the next 08:16-08:26: window 08:10 holds 4 + 4 minutes
+    of recording, so 48 + 60 detections at p1 are 1.8 windows' worth (60 a window), built at
+    once, in parallel or continued (at once the build's messages, one run of windows from
+    08:06 to 08:26, had filled the gap: 54)."""
+    first, second = tmp_path / "first.mcap", tmp_path / "second.mcap"
+    write_office_log(first, tf=False, shift_s=360, duration_s=480)
+    write_office_log(second, tf=False, shift_s=960, duration_s=600)
+    at_once, parallel, alone, continued = (
+        tmp_path / f"{name}.aion" for name in ("at_once", "parallel", "alone", "continued")
+    )
+    assert run("build", first, second, "-o", at_once, "-q").exit_code == 0
+    assert run(
+        "build", first, second, "-o", parallel, "-q", "--workers", "2"
+    ).exit_code == 0
+    assert run("build", first, "-o", alone, "-q").exit_code == 0
+    assert run("build", second, "--map", alone, "-o", continued, "-q").exit_code == 0
+    want = _flows(continued, "--historical")
+    assert want["p1"] == pytest.approx(60.0)
+    for other in (at_once, parallel):
+        assert _flows(other, "--historical") == want
+
+
+def test_logs_in_neighbouring_windows_keep_their_own_edges_every_way(tmp_path: Path) -> None:
+    """One log records 08:06-08:14, the next 08:21-08:26 (no window shared: a parallel build
+    gives each its own group): 48 + 30 detections at p1 in 0.4 + 0.4 + 0.1 + 0.5 = 1.3
+    windows' worth, 60 a window, built at once too (the build's messages, one run of windows
+    from 08:06 to 08:26, had read as 2 windows: 39)."""
+    first, second = tmp_path / "first.mcap", tmp_path / "second.mcap"
+    write_office_log(first, tf=False, shift_s=360, duration_s=480)
+    write_office_log(second, tf=False, shift_s=1260, duration_s=300)
+    at_once, parallel = tmp_path / "at_once.aion", tmp_path / "parallel.aion"
+    assert run("build", first, second, "-o", at_once, "-q", "--workers", "1").exit_code == 0
+    assert run(
+        "build", first, second, "-o", parallel, "-q", "--workers", "2"
+    ).exit_code == 0
+    want = _flows(parallel, "--historical")
+    assert want["p1"] == pytest.approx(60.0)
+    assert _flows(at_once, "--historical") == want
