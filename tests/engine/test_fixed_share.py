@@ -19,6 +19,7 @@ from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.temporal.pending import PendingDay
+from aion_cli.engine.types import Trajectory
 from aion_cli.errors import MapCorruptError
 from tests.engine.engine_builders import T0, T0_DAY_END, S, check_invariants, detections
 
@@ -172,3 +173,25 @@ def test_bad_recorded_shares_are_refused(bad: list[float]) -> None:
         PendingDay.from_arrays(arrays, "p_", meta, 3, 5)
     with pytest.raises(ValueError, match="share"):
         PendingDay(3).add_window(0, 10, True, [], [], np.zeros((0, 3)), fixed_share=bad[0] * 0)
+
+
+def test_a_place_a_robot_glimpsed_keeps_the_one_window_floor_beside_a_short_fixed_log() -> None:
+    """A fixed sensor records 3 minutes (0.3 of a window) with one person at A; later a robot
+    glances at B, 40 m away, for ten seconds (its exposure floored at 0.2) and sees 3 people.
+    A, watched only by the fixed sensor, is its own time: 1 / 0.3. B was watched 0.3 + 0.2 of
+    a window; a robot's glimpse never claims more than it saw: 3 / max(0.5, 1) = 3, not 6."""
+    far = PLACE + np.array([40.0, 0.0, 0.0])
+    m = Mapper(CFG.replace(families=("static",)))
+    m.set_fixed_sensor(T0, T0 + 180 * S)
+    m.add_trajectory(
+        Trajectory(T0 + 2 * W + np.arange(0, 11, 1, dtype=np.int64) * S, np.tile(far, (11, 1)))
+    )
+    m.add_detections(detections(np.array([T0 + 10 * S]), PLACE[None, :]))
+    m.add_detections(detections(T0 + 2 * W + np.array([2, 5, 8]) * S, np.tile(far, (3, 1))))
+    m.advance(T0 + 4 * W)
+    table = historical_table(m.state)
+    xy = table.xyz[:, :2]
+    at_a = int(np.flatnonzero(np.linalg.norm(xy - PLACE[:2], axis=1) < 0.5)[0])
+    at_b = int(np.flatnonzero(np.linalg.norm(xy - far[:2], axis=1) < 0.5)[0])
+    assert float(table.flow[at_a]) == pytest.approx(1 / 0.3)
+    assert float(table.flow[at_b]) == pytest.approx(3.0)

@@ -110,9 +110,12 @@ class Forecaster(FremenParts):
             map_sum[a : a + BLOCK] = (w * pool.map_shape).sum(axis=1)
         # μ = N / max(W, 1): less than one window's worth of watching (a robot that passed a
         # place for seconds, ``ModelConfig.exposure``) counts as one window (module docstring),
-        # unless a fixed sensor's logs recorded less than a window in all (N / W: their time)
+        # unless only a fixed sensor watched the entry and its logs recorded less than a
+        # window in all (N / W: their time); an entry a robot watched keeps the one window
         fixed_time = float(glob.n[0])
-        least = min(1.0, fixed_time) if fixed_time > 0 else 1.0
+        least = np.where(
+            state.obs.n[r] > 0, 1.0, min(1.0, fixed_time) if fixed_time > 0 else 1.0
+        )
         safe_n = np.where(self.observed, np.maximum(self.windows, least), 1.0)
         self.rate = self.counts / safe_n[:, None]  # μ[e, v]
         self.rate_total = row_sums(self.rate)
