@@ -344,6 +344,8 @@ def _cut_windows(windows: I64, delta: np.int64, starts: I64, ends: I64) -> tuple
     s, e = _merged_spans(starts, ends)
     lo = windows * delta
     hi = lo + delta
+    if s.size == 0:
+        return lo, hi
     first = np.searchsorted(e, lo, side="right")  # the first span ending after the start
     stop = np.searchsorted(s, hi, side="left")  # the spans starting before the end
     n = np.maximum(stop - first, 0)
@@ -354,9 +356,7 @@ def _cut_windows(windows: I64, delta: np.int64, starts: I64, ends: I64) -> tuple
     )
     cut = np.repeat(n > 0, pieces)
     w_lo, w_hi = np.repeat(lo, pieces), np.repeat(hi, pieces)
-    k = np.minimum(k, max(s.size - 1, 0))
-    if s.size == 0:
-        return w_lo, w_hi
+    k = np.minimum(k, s.size - 1)  # a whole window's k is not used
     out_lo = np.where(cut, np.maximum(w_lo, s[k]), w_lo)
     out_hi = np.where(cut, np.minimum(w_hi, e[k]), w_hi)
     return out_lo, out_hi

@@ -338,7 +338,7 @@ class MapState:
         if open_window and (record := open_window_record(self)) is not None:
             days.append(record)
         for day in days:  # each own window for the share observed, as the accumulators add it
-            fixed = float(day.slot_shares()[day.fixed].sum())
+            fixed = day.fixed_windows()
             own, _, weight = day.own_pairs()
             share = np.bincount(own, weight, self.temporal.n_rows)
             out = out + fixed + share[rows]

@@ -55,7 +55,7 @@ def absorb_day(
     if fixed.size:
         # each window for the share of it the logs recorded (whole where they all are)
         block = ObsBlock(
-            np.array([float(fixed.size) if share is None else float(share.sum())]),
+            np.array([day.fixed_windows()]),
             (phasor[fixed] if share is None else phasor[fixed] * share[:, None]).sum(
                 axis=0, keepdims=True
             ),

@@ -97,7 +97,8 @@ class Forecaster(FremenParts):
         self.pool = pool
         self._glob_profile = glob.profile[0]
         # the observation (``TemporalState.observation``), read per entry; W[e, h] per pair
-        self.windows = state.obs.n[r] + glob.n[0]
+        own_windows = state.obs.n[r]  # each entry's own windows (no fixed sensor's)
+        self.windows = own_windows + glob.n[0]
         first = np.fmin(state.obs.first[r], glob.first[0])
         last = np.fmax(state.obs.last[r], glob.last[0])
         self.observed = self.windows > 0
@@ -114,7 +115,7 @@ class Forecaster(FremenParts):
         # window in all (N / W: their time); an entry a robot watched keeps the one window
         fixed_time = float(glob.n[0])
         least = np.where(
-            state.obs.n[r] > 0, 1.0, min(1.0, fixed_time) if fixed_time > 0 else 1.0
+            own_windows > 0, 1.0, min(1.0, fixed_time) if fixed_time > 0 else 1.0
         )
         safe_n = np.where(self.observed, np.maximum(self.windows, least), 1.0)
         self.rate = self.counts / safe_n[:, None]  # μ[e, v]

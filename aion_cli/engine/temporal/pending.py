@@ -58,6 +58,12 @@ class DayWindows:
         slots = np.flatnonzero(self.fixed)
         return slots, None if self.fixed_share is None else self.fixed_share[slots]
 
+    def fixed_windows(self) -> float:
+        """The fixed-sensor windows, each for the share of it recorded: what the day adds to
+        every entry's observed windows."""
+        slots, share = self.fixed_slots()
+        return float(slots.size) if share is None else float(share.sum())
+
     def weights(self) -> F64:
         """:attr:`obs_weight`, ones where it is None."""
         if self.obs_weight is None:
