@@ -131,7 +131,8 @@ when its observed share of the windows it starts and ends in is measured."""
 def recording_bounds(
     logset: Any, times: TimeCheck, windows: I64, delta: int, read: I64 | None = None
 ) -> tuple[I64, I64]:
-    """Each log file's recorded time ``[first, last)``: from the start of the step of
+    """Each log file's recorded time ``[first, last)`` (the storage files of one rosbag2 bag
+    are one file: ``LogSet.recorded_windows_by_recording``): from the start of the step of
     ``delta / EDGE_STEPS`` (the largest divisor of ``delta`` up to that) holding its first
     message to the end of the step holding its last, among its messages in ``windows`` (the
     observed windows: strays and other time shards' windows left out). Only a file's own start
@@ -149,7 +150,7 @@ def recording_bounds(
     step = next(delta // k for k in range(EDGE_STEPS, 0, -1) if delta % k == 0)
     lo_limit, hi_limit = times.limits if times.limits is not None else (None, None)
     starts, ends = [], []
-    for _file, slots in logset.recorded_windows_by_file(step):
+    for _file, slots in logset.recorded_windows_by_recording(step):
         inside = slots[np.isin(slots // (delta // step), windows)]
         if inside.size == 0:
             continue
@@ -272,10 +273,11 @@ def outside_logs_note(
 
 
 def _file_spans(logset: Any, times: TimeCheck, delta: int) -> list[tuple[str, int, int]]:
-    """Each log file's own time as (path, first, last window): its first to its last
+    """Each log file's own time as (path, first, last window; a rosbag2 bag split into
+    storage files is one): its first to its last
     recorded window inside the runs of the topics aion uses (a time shard: of its part)."""
     out = []
-    for file, recorded in logset.recorded_windows_by_file(delta):
+    for file, recorded in logset.recorded_windows_by_recording(delta):
         inside = recorded[times.within_runs(recorded, delta)]
         if inside.size:
             out.append((str(file.path), int(inside[0]), int(inside[-1])))

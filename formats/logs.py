@@ -82,9 +82,16 @@ class LogSet:
     files' indexes; :meth:`messages` reads only the requested topics and never decodes.
     """
 
-    def __init__(self, sources: list[_Source]) -> None:
+    def __init__(self, sources: list[_Source], recordings: list[int] | None = None) -> None:
         self._sources = sources
         self.files: list[LogFile] = [s.file for s in sources]
+        #: which recording each source belongs to: the storage files of one rosbag2 bag (a
+        #: bag split by size or duration) are one recording, every other file its own
+        self._recordings: list[int] = (
+            list(range(len(sources))) if recordings is None else list(recordings)
+        )
+        if len(self._recordings) != len(sources):
+            raise ValueError("one recording index per source is needed")
         merged: dict[tuple[str, str], TopicInfo] = {}
         self._definitions: dict[tuple[str, str, str], tuple[str, bool]] = {}
         for source in sources:
@@ -212,6 +219,17 @@ class LogSet:
             raise ValueError("recorded_windows() on a closed LogSet")
         size = recorded.window_size(window_ns)
         return [(s.file, s.recorded_windows(size)) for s in self._sources]
+
+    def recorded_windows_by_recording(self, window_ns: int) -> list[tuple[LogFile, Windows]]:
+        """:meth:`recorded_windows_by_file` with the storage files of one rosbag2 bag joined
+        (the first file stands for the bag): a recorder that split its bag by size or duration
+        recorded the time between the last message of one file and the first of the next,
+        which a tracker publishing only when it sees someone leaves without a message."""
+        by_file = self.recorded_windows_by_file(window_ns)
+        joined: dict[int, tuple[LogFile, list[Windows]]] = {}
+        for key, (file, windows) in zip(self._recordings, by_file, strict=True):
+            joined.setdefault(key, (file, []))[1].append(windows)
+        return [(file, recorded.union(parts)) for file, parts in joined.values()]
 
     def skips_by_time(self) -> bool:
         """Whether ``messages(topics, between)`` reads only the files' parts near that time
@@ -354,9 +372,10 @@ def open_logs(
     """
     read_limits = limits if limits is not None else ReadLimits.from_env()
     sources: list[_Source] = []
+    recordings: list[int] = []  # the position of the path each source was opened from
     try:
         read_from: dict[Path, Path] = {}  # each file or bag read, and the path given for it
-        for p in paths:
+        for position, p in enumerate(paths):
             for source in open_sources(Path(p), fmt, read_limits):
                 key = source.file.path.resolve()
                 if key in read_from:  # a bag's folder and its storage file, or two of them
@@ -369,9 +388,10 @@ def open_logs(
                     continue
                 read_from[key] = Path(p)
                 sources.append(source)
+                recordings.append(position)
         if not sources:
             raise LogFormatError("no log given", hint="pass at least one log file or folder")
-        logset = LogSet(sources)
+        logset = LogSet(sources, recordings)
         # an empty recording opens for ``aion info`` (allow_empty); one whose messages were
         # all lost (chunks over the limit, damage: the warnings say) never does
         if (not allow_empty or logset.warnings) and all(

@@ -33,7 +33,7 @@ class _Logs:
     def __init__(self, seconds: list[int]) -> None:
         self.seconds = np.array(seconds, np.int64)
 
-    def recorded_windows_by_file(self, size: int) -> list[tuple[Any, np.ndarray]]:
+    def recorded_windows_by_recording(self, size: int) -> list[tuple[Any, np.ndarray]]:
         return [(None, np.unique(self.seconds // size))]
 
 
@@ -88,7 +88,7 @@ class _Files:
     def __init__(self, *files: list[int]) -> None:
         self.files = [np.array(s, np.int64) for s in files]
 
-    def recorded_windows_by_file(self, size: int) -> list[tuple[Any, np.ndarray]]:
+    def recorded_windows_by_recording(self, size: int) -> list[tuple[Any, np.ndarray]]:
         return [(None, np.unique(s // size)) for s in self.files]
 
 

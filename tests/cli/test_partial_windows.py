@@ -147,3 +147,36 @@ def test_logs_in_neighbouring_windows_keep_their_own_edges_every_way(tmp_path: P
     want = _flows(parallel, "--historical")
     assert want["p1"] == pytest.approx(60.0)
     assert _flows(at_once, "--historical") == want
+
+
+def test_the_storage_files_of_one_rosbag2_bag_are_one_recording(tmp_path: Path) -> None:
+    """A recorder that splits its bag by duration keeps recording between the last message of
+    one storage file and the first of the next: a tracker publishing only when it sees
+    someone leaves that time without a message, yet nobody was there. The same two files
+    08:06-08:14 and 08:16-08:26 read as two logs record 1.8 windows (60 a window at p1); as
+    one bag, 08:06-08:26, two whole windows: 108 detections, 54 a window (as two logs the bag
+    read 60: the two minutes nobody passed were left out)."""
+    from ruamel.yaml import YAML
+
+    from aion_cli.formats.rosbag2_reindex import reindex
+
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    first, second = bag / "bag_0.mcap", bag / "bag_1.mcap"
+    write_office_log(first, tf=False, shift_s=360, duration_s=480)
+    write_office_log(second, tf=False, shift_s=960, duration_s=600)
+    two_logs, reindexed, with_metadata = (
+        tmp_path / f"{name}.aion" for name in ("two", "reindexed", "metadata")
+    )
+    assert run("build", first, second, "-o", two_logs, "-q").exit_code == 0
+    assert _flows(two_logs, "--historical")["p1"] == pytest.approx(60.0)
+    assert run("build", bag, "-o", reindexed, "-q").exit_code == 0
+    assert _flows(reindexed, "--historical")["p1"] == pytest.approx(54.0)
+    with (bag / "metadata.yaml").open("w") as f:
+        YAML(typ="safe").dump({"rosbag2_bagfile_information": reindex(bag)}, f)
+    assert run("build", bag, "-o", with_metadata, "-q").exit_code == 0
+    assert _flows(with_metadata, "--historical")["p1"] == pytest.approx(54.0)
+    # in parallel, the bag is one group's: the same
+    parallel = tmp_path / "parallel.aion"
+    assert run("build", bag, "-o", parallel, "-q", "--workers", "2").exit_code == 0
+    assert _flows(parallel, "--historical") == _flows(with_metadata, "--historical")
