@@ -165,3 +165,36 @@ def test_a_zero_mean_count_is_zero_at_every_quantile() -> None:
     var = np.array([0.0, 5.0, 1.0, 1.0])
     for q in (0.1, 0.5, 0.9):
         np.testing.assert_array_equal(count_quantiles(mean, var, q), [0.0, 0.0, np.nan, np.nan])
+
+
+def test_entries_borrow_the_family_their_group_chose() -> None:
+    """Two groups of ten entries, every one's ``shape`` 40 nats above ``static``. In group 0,
+    nine entries' own ``profile`` beats the borrowed ``shape`` by 1 nat (below the 3-nat margin
+    one by one) and the tenth's shape beats its profile by 5 nats: 4 nats summed, a clear
+    ``profile`` for the group, so its nine forecast with their own profiles, shrunk toward the
+    shape (the group's day-ahead evidence says its places keep rhythms of their own; one
+    entry's 1 nat could not), and the tenth keeps the shape. In group 1 the profile loses by
+    0.5 nat each: the group, and its entries, borrow the shape (the map, 1 nat against the
+    profile, chose the shape too)."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.temporal.choice import choose_families
+    from aion_cli.engine.temporal.params import TemporalParams
+
+    params = TemporalParams(ModelConfig())
+    flow = params.flow
+    static, shape, profile = (flow.index(f) for f in ("static", "shape", "profile"))
+    scores = np.full((20, len(flow)), -100.0)
+    scores[:, static] = -40.0
+    scores[:, shape] = 0.0
+    scores[:10, profile] = 1.0
+    scores[10:, profile] = -0.5
+    scores[9, profile] = -5.0
+    groups = np.repeat(np.arange(2), 10)
+    consistency = (scores**2, np.full(20, 4.0))
+    chosen, _direction, _map = choose_families(
+        params, scores, np.zeros((20, len(params.direction))), groups, 2, consistency
+    )
+    names = [flow[c] for c in chosen]
+    assert names[:9] == ["profile"] * 9
+    assert names[9] == "shape"
+    assert names[10:] == ["shape"] * 10

@@ -20,10 +20,18 @@ the more clearly the more entries compete, and a map of one entry keeps the plai
 
 Defaults pool evidence up the hierarchy: the map chooses from the sum of all entries' scores
 (default ``static``), each group from its members' sums (default: the map's choice), and an
-entry from its own scores with the default *borrowed* from its group — ``shape`` (its static
-rate times the group's periodic shape) when the group's flow varies in time, ``static``
-otherwise; for directions the entry's default is ``static`` (its histogram is already pooled
-toward the group's). Disabled families (``ModelConfig.families``) never win.
+entry from its own scores with the default *borrowed* from its group — ``profile`` (its own
+periodic profile, shrunk toward the group's shape by ``profile_prior`` pseudo-detections) when
+the group's members together forecast best with their own profiles, ``shape`` (its static rate
+times the group's periodic shape) when the group's flow varies in time otherwise, ``static``
+when it does not. Summed over a group, a few nats per entry that no entry shows clearly alone
+say that its places keep rhythms of their own (a kitchen busy at noon beside a corridor busy
+at nine): with ``shape`` as every entry's default those rhythms were lost, and a day-ahead
+hourly total over a robot's route fell behind a plain per-place hour-of-day profile
+(docs/EVALUATION.md). FreMEn is never borrowed: an entry's own sinusoids are not shrunk toward
+its parent, so only its own evidence may choose them. For directions the entry's default is
+``static`` (its histogram is already pooled toward the group's). Disabled families
+(``ModelConfig.families``) never win.
 
 The predictive spread: the Pearson dispersion φ = χ² / windows of the chosen flow family's
 day-ahead residuals, pooled toward the map's with 10 pseudo-windows and at least 1 (Poisson);
@@ -149,6 +157,9 @@ def choose_families(
     borrowed = np.where(group_flow[groups] == static, static, shape)
     if not flow_on[shape]:
         borrowed = np.full(e, static)
+    if "profile" in params.flow and flow_on[params.flow.index("profile")]:
+        profile = params.flow.index("profile")
+        borrowed = np.where(group_flow[groups] == profile, profile, borrowed)
     fc = None if flow_consistency is None else (*flow_consistency, static)
     flow = _choose(flow_score, borrowed.astype(np.int64), flow_on, margin, fc)
     # directions: entry against static
