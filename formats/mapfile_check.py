@@ -12,6 +12,7 @@ import json
 import os
 import re
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -122,7 +123,11 @@ def _check_zip_names(zf: zipfile.ZipFile, path: Path) -> None:
 def _read_member_bytes(
     zf: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, limit: int, max_ratio: float
 ) -> bytes:
-    """Read one member with size and ratio guards (the stream is capped at ``limit + 1``)."""
+    """Read one member with size and ratio guards. The stream is read up to its declared size
+    (plus one byte), not up to ``limit``: zipfile inflates as much as it is asked for before
+    cutting the output to the declared size, so a member declaring 1,000 bytes whose stream
+    inflates to gigabytes would otherwise take that memory before its CRC fails. A damaged
+    deflate stream raises ``zlib.error``, which is the file's damage too."""
     name = info.filename
     if info.file_size > limit:
         raise MapFileError(
@@ -138,8 +143,10 @@ def _read_member_bytes(
         )
     try:
         with zf.open(info) as fh:
-            data = fh.read(limit + 1)
-    except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
+            data = fh.read(min(limit, info.file_size) + 1)
+    except (
+        zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError
+    ) as exc:
         raise MapCorruptError(
             f"map {path}: member {name} cannot be read ({exc})",
             hint="the file is damaged; rebuild it with `aion build`",
