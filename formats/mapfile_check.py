@@ -127,7 +127,8 @@ def _read_member_bytes(
     (plus one byte), not up to ``limit``: zipfile inflates as much as it is asked for before
     cutting the output to the declared size, so a member declaring 1,000 bytes whose stream
     inflates to gigabytes would otherwise take that memory before its CRC fails. A damaged
-    deflate stream raises ``zlib.error``, which is the file's damage too."""
+    deflate stream raises ``zlib.error`` (an LZMA one ``lzma.LZMAError``, a bzip2 one
+    ``OSError``), which is the file's damage too."""
     name = info.filename
     if info.file_size > limit:
         raise MapFileError(
@@ -141,11 +142,19 @@ def _read_member_bytes(
             f"x (limit {max_ratio:.0f}x): refusing a possible zip bomb",
             hint="the file was not written by aion; do not trust it",
         )
+    import lzma  # zipfile's own choice for LZMA members: loaded already when one is read
+
     try:
         with zf.open(info) as fh:
             data = fh.read(min(limit, info.file_size) + 1)
     except (
-        zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError
+        zipfile.BadZipFile,
+        zlib.error,
+        lzma.LZMAError,
+        EOFError,
+        OSError,
+        ValueError,
+        NotImplementedError,
     ) as exc:
         raise MapCorruptError(
             f"map {path}: member {name} cannot be read ({exc})",
