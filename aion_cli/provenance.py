@@ -152,9 +152,11 @@ def _refuse_known(entries: list[dict[str, Any]], known: Collection[str]) -> None
 
 def one_per_recording(paths: tuple[Path, ...]) -> tuple[tuple[Path, ...], list[str]]:
     """``paths`` without those another given path reads already, and a note for each: a
-    storage file inside a bag folder also given, and a storage file beside its bag's
-    metadata.yaml (which opens the whole bag) when that bag is given too, as its folder or
-    as another of its files. The same path twice is left to the sha256 check."""
+    storage file inside a bag folder also given (as the folder, its metadata.yaml or a file
+    that opens the whole bag: ``aion build bag/*``, where the storage files read alone would
+    split the bag's one recording), and a storage file beside its bag's metadata.yaml (which
+    opens the whole bag) when that bag is given too, as its folder or as another of its
+    files. The same path twice is left to the sha256 check."""
     from aion_cli.errors import LogFormatError
     from aion_cli.formats.log_format import guess_format
 
@@ -165,7 +167,7 @@ def one_per_recording(paths: tuple[Path, ...]) -> tuple[tuple[Path, ...], list[s
             return path.resolve()  # reported when it is opened
 
     roots = [opens(p) for p in paths]
-    folders = {root: path for root, path in zip(roots, paths, strict=True) if path.is_dir()}
+    folders = {root: path for root, path in zip(roots, paths, strict=True) if root.is_dir()}
     kept: list[Path] = []
     notes: list[str] = []
     first: dict[Path, Path] = {}

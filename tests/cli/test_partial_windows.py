@@ -180,3 +180,36 @@ def test_the_storage_files_of_one_rosbag2_bag_are_one_recording(tmp_path: Path) 
     parallel = tmp_path / "parallel.aion"
     assert run("build", bag, "-o", parallel, "-q", "--workers", "2").exit_code == 0
     assert _flows(parallel, "--historical") == _flows(with_metadata, "--historical")
+
+
+def _split_bag(bag: Path) -> tuple[Path, Path, Path]:
+    """The bag of the test above, with its metadata.yaml: 08:06-08:14 and 08:16-08:26."""
+    from ruamel.yaml import YAML
+
+    from aion_cli.formats.rosbag2_reindex import reindex
+
+    bag.mkdir()
+    first, second = bag / "bag_0.mcap", bag / "bag_1.mcap"
+    write_office_log(first, tf=False, shift_s=360, duration_s=480)
+    write_office_log(second, tf=False, shift_s=960, duration_s=600)
+    metadata = bag / "metadata.yaml"
+    with metadata.open("w") as f:
+        YAML(typ="safe").dump({"rosbag2_bagfile_information": reindex(bag)}, f)
+    return first, second, metadata
+
+
+def test_a_bag_given_as_its_files_and_its_metadata_is_one_recording(tmp_path: Path) -> None:
+    """``aion build bag/*`` names the bag's storage files and its metadata.yaml, which opens
+    the whole bag: the bag is read once, as the one recording ``aion build bag`` reads (54 a
+    window at p1), whichever comes first and in one pass or in parallel."""
+    first, second, metadata = _split_bag(tmp_path / "bag")
+    for name, args in {
+        "glob": (first, second, metadata, "--workers", "1"),
+        "metadata_first": (metadata, first, second, "--workers", "1"),
+        "glob_parallel": (first, second, metadata, "--workers", "2"),
+    }.items():
+        out = tmp_path / f"{name}.aion"
+        result = run("build", *args, "-o", out, "-q")
+        assert result.exit_code == 0, result.stderr
+        assert _flows(out, "--historical")["p1"] == pytest.approx(54.0), name
+
