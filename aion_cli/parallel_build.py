@@ -223,20 +223,27 @@ class ParallelBuild:
         return fills
 
     def _spans(self, logs: tuple[Path, ...]) -> tuple[list[tuple[Path, int, int]], list[Path]]:
-        """Each log's first and last message time (from its index or summary), and the logs
-        without messages (they go with the first shard, whose build notes them)."""
+        """Each log's first and last message time (from its index or summary; a rosbag2 bag
+        of several storage files, one path, from its first file's first to its last file's
+        last), and the logs without messages (they go with the first shard, whose build notes
+        them)."""
         from aion_cli.formats.logs import open_logs
 
         with open_logs(list(logs), self.opts.log_format) as logset:
-            files = list(logset.files)
-        if len(files) != len(logs):  # one source per path, always; guard anyway
-            raise ValueError("a log path opened as several sources")
-        spans = [
-            (path, int(f.start_ns), int(f.end_ns))
-            for path, f in zip(logs, files, strict=True)
-            if f.message_count > 0
-        ]
-        empty = [path for path, f in zip(logs, files, strict=True) if f.message_count == 0]
+            files = list(zip(logset.recordings, logset.files, strict=True))
+        spans: list[tuple[Path, int, int]] = []
+        empty: list[Path] = []
+        for position, path in enumerate(logs):
+            own = [f for recording, f in files if recording == position]
+            if not own:  # a path another one reads already is left out before; guard anyway
+                raise ValueError(f"{path} opened no log of its own")
+            busy = [f for f in own if f.message_count > 0]
+            if busy:
+                spans.append(
+                    (path, min(int(f.start_ns) for f in busy), max(int(f.end_ns) for f in busy))
+                )
+            else:
+                empty.append(path)
         return spans, empty
 
     def _report(

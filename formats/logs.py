@@ -220,6 +220,12 @@ class LogSet:
         size = recorded.window_size(window_ns)
         return [(s.file, s.recorded_windows(size)) for s in self._sources]
 
+    @property
+    def recordings(self) -> list[int]:
+        """Per entry of :attr:`files`, the recording it belongs to (:func:`open_logs`: the
+        position of the path it was opened from; the storage files of one bag share it)."""
+        return list(self._recordings)
+
     def recorded_windows_by_recording(self, window_ns: int) -> list[tuple[LogFile, Windows]]:
         """:meth:`recorded_windows_by_file` with the storage files of one rosbag2 bag joined
         (the first file stands for the bag): a recorder that split its bag by size or duration

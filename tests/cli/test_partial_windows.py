@@ -213,3 +213,20 @@ def test_a_bag_given_as_its_files_and_its_metadata_is_one_recording(tmp_path: Pa
         assert result.exit_code == 0, result.stderr
         assert _flows(out, "--historical")["p1"] == pytest.approx(54.0), name
 
+
+def test_a_split_bag_beside_another_log_builds_the_same_map_in_parallel(
+    tmp_path: Path,
+) -> None:
+    """The bag (108 detections at p1 over its two whole windows) and the office log a day
+    later (120 over 0.4 + 1 + 0.6 windows): 228 in 4 windows, 57 a window, in one pass and in
+    parallel shards, where the bag is one path of several storage files."""
+    _split_bag(tmp_path / "bag")
+    other = tmp_path / "next_day.mcap"
+    write_office_log(other, tf=False, shift_s=360 + 86_400)
+    at_once, parallel = tmp_path / "at_once.aion", tmp_path / "parallel.aion"
+    result = run("build", tmp_path / "bag", other, "-o", at_once, "-q", "--workers", "1")
+    assert result.exit_code == 0, result.stderr
+    assert _flows(at_once, "--historical")["p1"] == pytest.approx(57.0)
+    result = run("build", tmp_path / "bag", other, "-o", parallel, "-q", "--workers", "2")
+    assert result.exit_code == 0, result.stderr
+    assert _flows(parallel, "--historical") == _flows(at_once, "--historical")
