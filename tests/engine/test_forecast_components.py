@@ -176,3 +176,40 @@ def test_narrow_counts_widen_when_a_day_would_overflow_them() -> None:
     assert state.cnt_profile.dtype == np.float64
     assert state.cnt_profile[1, 0].max() == 256.0
     assert state.cnt_profile.sum() == 48 * 250 + 6
+
+
+
+def test_an_entry_whose_components_the_map_lacks_does_not_choose_fremen(map_path: Path) -> None:
+    """A map written under older rules of the family choice stores components for the
+    entries that chose FreMEn then; today's rules may send another entry to FreMEn (an
+    entry's default became the profile its group chose). Read for queries without its sums,
+    such an entry takes its best other family instead of stopping the query ("forecast
+    components do not cover what was asked"): here the choice is made as if the first
+    FreMEn entry's components were missing; every other entry chooses as the map did."""
+    from aion_cli.engine.temporal.model import choose
+
+    state = load_map(map_path, forecast_only=True).state
+    view = state.query_temporal()
+    assert not view.fourier_loaded
+    rows = state.entries.canonical_order()
+    groups, n_groups = state.groups(rows)
+    stored = state.components
+    assert stored is not None
+    flow, _, _ = choose(state.params, view, rows, groups, n_groups, stored)
+    names = state.params.flow
+    fremen = [p for p in stored.total_pos.tolist() if names[flow[p]].startswith("fremen")]
+    assert fremen  # the case under test
+    dropped = fremen[0]
+    keep = stored.total_pos != dropped
+    fewer = FremenComponents(
+        stored.total_pos[keep], stored.period_idx[keep], stored.coef_total[keep],
+        stored.bins_pos, stored.bin_idx, stored.coef_bins,
+    )
+    got, _, _ = choose(state.params, view, rows, groups, n_groups, fewer)
+    assert not names[got[dropped]].startswith("fremen")
+    others = np.arange(rows.size) != dropped
+    assert got[others].tolist() == flow[others].tolist()
+    # the whole map (its sums read) may choose FreMEn anywhere: the same as written
+    whole = load_map(map_path).state
+    full, _, _ = choose(whole.params, whole.query_temporal(), rows, groups, n_groups, fewer)
+    assert full.tolist() == flow.tolist()

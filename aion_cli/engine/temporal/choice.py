@@ -103,13 +103,14 @@ def _choose(
     margin: float,
     consistency: tuple[F64, F64, int] | None = None,
 ) -> I64:
-    """Per row: the best enabled family if it beats ``default`` by more than ``margin``.
+    """Per row: the best enabled family if it beats ``default`` by more than ``margin``
+    (``enabled``: bool[F], or bool[rows, F] per row; a row's default is enabled).
 
     ``consistency`` = (Σ_days gain², days, static index): against ``static``, a family must
     also win consistently over two scored days or more — its daily gains pass the one-sided
     t-test of the module docstring, with the false-discovery rate held
     over all the rows so tested (:func:`benjamini_hochberg`)."""
-    masked = np.where(enabled[None, :], scores, -np.inf)
+    masked = np.where(enabled if enabled.ndim == 2 else enabled[None, :], scores, -np.inf)
     rows = np.arange(len(default))
     best = masked.argmax(axis=1)
     gain = masked[rows, best] - masked[rows, default]
@@ -141,9 +142,15 @@ def choose_families(
     n_groups: int,
     flow_consistency: tuple[F64, F64] | None = None,
     dir_consistency: tuple[F64, F64] | None = None,
+    fremen_rows: npt.NDArray[np.bool_] | None = None,
 ) -> tuple[I64, I64, int]:
     """Chosen flow and direction family indices per entry, and the map's own flow choice
-    (see the module docstring). ``*_consistency``: (Σ_days gain², days) per entry."""
+    (see the module docstring). ``*_consistency``: (Σ_days gain², days) per entry.
+    ``fremen_rows``: the entries that may choose a FreMEn flow family (all when None) — a map
+    read for queries without its Fourier sums has FreMEn components for the entries that
+    chose FreMEn when it was written, and a map written before a change of these rules (the
+    borrowed ``profile``) must not send an entry to a FreMEn forecast it cannot compute: such
+    an entry takes its best other family by the same rules."""
     margin = params.config.family_margin
     static = params.flow.index("static")
     shape = params.flow.index("shape")
@@ -161,7 +168,11 @@ def choose_families(
         profile = params.flow.index("profile")
         borrowed = np.where(group_flow[groups] == profile, profile, borrowed)
     fc = None if flow_consistency is None else (*flow_consistency, static)
-    flow = _choose(flow_score, borrowed.astype(np.int64), flow_on, margin, fc)
+    entry_on: npt.NDArray[np.bool_] = flow_on
+    if fremen_rows is not None:
+        fremen = np.array([f.startswith("fremen") for f in params.flow])
+        entry_on = flow_on[None, :] & (~fremen[None, :] | fremen_rows[:, None])
+    flow = _choose(flow_score, borrowed.astype(np.int64), entry_on, margin, fc)
     # directions: entry against static
     dstatic = params.direction.index("static")
     dc = None if dir_consistency is None else (*dir_consistency, dstatic)

@@ -174,10 +174,23 @@ class Prediction:
 
 
 def choose(
-    params: TemporalParams, state: TemporalState, rows: I64, groups: I64, n_groups: int
+    params: TemporalParams,
+    state: TemporalState,
+    rows: I64,
+    groups: I64,
+    n_groups: int,
+    components: FremenComponents | None = None,
 ) -> tuple[I64, I64, int]:
     """Each entry's flow and direction family and the map's flow family, from the day-ahead
-    scores (``choice.choose_families``)."""
+    scores (``choice.choose_families``). A state read without its Fourier sums chooses
+    FreMEn only for the entries whose ``components`` the map stores (those that chose it
+    when the map was written: the same entries, unless the map predates a change of the
+    rules)."""
+    fremen_rows = None
+    if not state.fourier_loaded:
+        fremen_rows = np.zeros(rows.size, dtype=bool)
+        if components is not None:
+            fremen_rows[components.total_pos] = True
     return choose_families(
         params,
         state.flow_score[rows],
@@ -186,6 +199,7 @@ def choose(
         n_groups,
         (state.flow_gain_sq[rows], state.flow_days[rows]),
         (state.dir_gain_sq[rows], state.dir_days[rows]),
+        fremen_rows,
     )
 
 
@@ -239,7 +253,9 @@ class Predictor:
         counts = entry_counts(state, rows)  # summed once for the pooling and the forecast
         pool = PoolStats.of(params, state, rows, groups, n_groups, counts)
         fc = Forecaster(params, state, rows, groups, pool, components, counts)
-        flow_choice, dir_choice, map_choice = choose(params, state, rows, groups, n_groups)
+        flow_choice, dir_choice, map_choice = choose(
+            params, state, rows, groups, n_groups, components
+        )
         phi = dispersion(state.flow_chi2[rows], state.flow_scored[rows], flow_choice)
         static = np.full_like(flow_choice, params.flow.index("static"))
         phi_static = dispersion(state.flow_chi2[rows], state.flow_scored[rows], static)
