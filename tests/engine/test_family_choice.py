@@ -198,3 +198,37 @@ def test_entries_borrow_the_family_their_group_chose() -> None:
     assert names[:9] == ["profile"] * 9
     assert names[9] == "shape"
     assert names[10:] == ["shape"] * 10
+
+
+def test_fremen_rows_change_no_entry_that_did_not_choose_fremen() -> None:
+    """``fremen_rows`` (a map read without its Fourier sums) keeps FreMEn only from entries
+    that would choose it without stored components; an entry that did not choose FreMEn
+    anyway must choose as with the sums read, or the stored components' forecasts differ from
+    the sums'. Entry 0: against its ``static`` default, ``fremen1`` scores 10 nats, all on one
+    day of four (not consistent: it keeps ``static``, so the map stores no components for
+    it), and ``profile`` 8 nats, 2 every day (consistent, but below FreMEn, so never the best
+    family). Masking FreMEn for it made ``profile`` the best and chose it."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.temporal.choice import choose_families
+    from aion_cli.engine.temporal.params import TemporalParams
+
+    params = TemporalParams(ModelConfig())
+    flow = params.flow
+    static, profile, fremen = (flow.index(f) for f in ("static", "profile", "fremen1"))
+    scores = np.full((2, len(flow)), -100.0)
+    scores[:, static] = 0.0  # entry 1 (and so the group) plainly static
+    scores[0, profile] = 8.0
+    scores[0, fremen] = 10.0
+    gain_sq = np.full((2, len(flow)), 4 * 25.0**2)
+    gain_sq[0, static] = 0.0
+    gain_sq[0, profile] = 4 * 2.0**2
+    gain_sq[0, fremen] = 10.0**2
+    days = np.full(2, 4.0)
+    groups = np.zeros(2, np.int64)
+    directions = np.zeros((2, len(params.direction)))
+    with_sums, _, _ = choose_families(params, scores, directions, groups, 1, (gain_sq, days))
+    assert [flow[c] for c in with_sums] == ["static", "static"]
+    without, _, _ = choose_families(
+        params, scores, directions, groups, 1, (gain_sq, days), fremen_rows=np.zeros(2, bool)
+    )
+    assert [flow[c] for c in without] == ["static", "static"]

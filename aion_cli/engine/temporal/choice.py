@@ -150,7 +150,9 @@ def choose_families(
     read for queries without its Fourier sums has FreMEn components for the entries that
     chose FreMEn when it was written, and a map written before a change of these rules (the
     borrowed ``profile``) must not send an entry to a FreMEn forecast it cannot compute: such
-    an entry takes its best other family by the same rules."""
+    an entry takes its best other family by the same rules. FreMEn is masked only for the
+    entries that would choose it without components, so a map written under today's rules
+    chooses as with its sums read."""
     margin = params.config.family_margin
     static = params.flow.index("static")
     shape = params.flow.index("shape")
@@ -168,11 +170,20 @@ def choose_families(
         profile = params.flow.index("profile")
         borrowed = np.where(group_flow[groups] == profile, profile, borrowed)
     fc = None if flow_consistency is None else (*flow_consistency, static)
-    entry_on: npt.NDArray[np.bool_] = flow_on
+    flow = _choose(flow_score, borrowed.astype(np.int64), flow_on, margin, fc)
     if fremen_rows is not None:
+        # only the entries that choose FreMEn without components lose it (masking it for
+        # any other would make its next family the best and could choose that one): again
+        # until none does, as the others' joint false-discovery test may move with them
         fremen = np.array([f.startswith("fremen") for f in params.flow])
-        entry_on = flow_on[None, :] & (~fremen[None, :] | fremen_rows[:, None])
-    flow = _choose(flow_score, borrowed.astype(np.int64), entry_on, margin, fc)
+        blocked = fremen[flow] & ~fremen_rows
+        while blocked.any():
+            entry_on = flow_on[None, :] & ~(fremen[None, :] & blocked[:, None])
+            flow = _choose(flow_score, borrowed.astype(np.int64), entry_on, margin, fc)
+            missing = fremen[flow] & ~fremen_rows
+            if not missing.any():
+                break
+            blocked |= missing
     # directions: entry against static
     dstatic = params.direction.index("static")
     dc = None if dir_consistency is None else (*dir_consistency, dstatic)
