@@ -86,10 +86,17 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
     if not (folder / "metadata.yaml").is_file():
         if target.is_file():
             return _reindexed_sources([target], target, limits)  # one storage file alone
-        sources = _reindexed_sources(storage.storage_files(folder), folder, limits)
+        files = storage.storage_files(folder)
+        sources = _reindexed_sources(files, folder, limits)
+        one = (
+            "; read as one recording, the time between its files included (give the files "
+            "themselves if they are separate logs)"
+            if len(files) > 1
+            else ""
+        )
         sources[-1].warnings.append(
             f"{folder}: no metadata.yaml; indexed in memory from its {_files(sources)}, "
-            "as `ros2 bag reindex` would"
+            f"as `ros2 bag reindex` would{one}"
         )
         return sources
     try:

@@ -76,7 +76,8 @@ def test_reindex_test_bag_folder_is_read_from_its_storage_files() -> None:
             assert np.array_equal(logs.recorded_windows(window), np.unique(times // window))
         assert logs.warnings == [
             f"{folder}: no metadata.yaml; indexed in memory from its 3 storage files, "
-            "as `ros2 bag reindex` would"
+            "as `ros2 bag reindex` would; read as one recording, the time between its files "
+            "included (give the files themselves if they are separate logs)"
         ]
 
 
