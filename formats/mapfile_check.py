@@ -124,9 +124,10 @@ def _read_member_bytes(
     zf: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path, limit: int, max_ratio: float
 ) -> bytes:
     """Read one member with size and ratio guards. The stream is read up to its declared size
-    (plus one byte), not up to ``limit``: zipfile inflates as much as it is asked for before
-    cutting the output to the declared size, so a member declaring 1,000 bytes whose stream
-    inflates to gigabytes would otherwise take that memory before its CRC fails. A damaged
+    (plus one byte; the declared size is within ``limit``), not up to ``limit``: zipfile
+    inflates as much as it is asked for before cutting the output to the declared size, so a
+    member declaring 1,000 bytes whose stream inflates to gigabytes would otherwise take that
+    memory before its CRC fails. A damaged
     deflate stream raises ``zlib.error`` (an LZMA one ``lzma.LZMAError``, a bzip2 one
     ``OSError``), which is the file's damage too."""
     name = info.filename
@@ -146,7 +147,10 @@ def _read_member_bytes(
 
     try:
         with zf.open(info) as fh:
-            data = fh.read(min(limit, info.file_size) + 1)
+            # zipfile returns at most the declared size, within the limit checked above; the
+            # one byte more reaches the stream's end, where zipfile checks the CRC (an empty
+            # member too)
+            data = fh.read(info.file_size + 1)
     except (
         zipfile.BadZipFile,
         zlib.error,
@@ -160,11 +164,6 @@ def _read_member_bytes(
             f"map {path}: member {name} cannot be read ({exc})",
             hint="the file is damaged; rebuild it with `aion build`",
         ) from exc
-    if len(data) > limit:
-        raise MapFileError(
-            f"map {path}: member {name} holds more than the {limit}-byte limit",
-            hint="raise the member size limit if this map is genuinely that large",
-        )
     return data
 
 
