@@ -175,6 +175,20 @@ def format_ns(t_ns: int, zone: Zone) -> str:
     return from_ns(t_ns, zone).isoformat(sep=" ", timespec="seconds")
 
 
+def zone_named_in(text: str, zone: Zone) -> Zone:
+    """The zone :func:`parse_time` reads ``text`` in: the one it names at its end
+    (``08:30 Europe/Berlin``), else ``zone``."""
+    return _split_zone(" ".join(text.strip().split()), zone)[1]
+
+
+def offset_changes_near(t_ns: int, zone: Zone, hours: int = 3) -> bool:
+    """Whether ``zone``'s UTC offset differs ``hours`` before and after ``t_ns``: a clock
+    change (daylight saving) near that moment, which can make two wall-clock times one
+    instant."""
+    shift = hours * 3600 * NS_PER_S
+    return from_ns(t_ns - shift, zone).utcoffset() != from_ns(t_ns + shift, zone).utcoffset()
+
+
 def _wall(day: date, clock: time, zone: Zone) -> datetime:
     return datetime.combine(day, clock).replace(tzinfo=zone.tz)
 

@@ -191,10 +191,16 @@ def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
     except TimeFormatError as exc:
         raise InputError(f"{option} {text!r}: {exc.message}", hint=exc.hint) from exc
     if end <= start:
-        from aion_cli.timeparse import format_ns
+        from aion_cli.timeparse import format_ns, offset_changes_near, zone_named_in
 
         read = f" (read as {format_ns(start, zone)} .. {format_ns(end, zone)}"
-        changed = end == start and parts[0].strip() != parts[1].strip()  # two times, one instant
+        # two times, one instant, where a zone they are read in changes its clock (not
+        # "08:00..08:00", nor a UNIX time and its ISO form)
+        changed = (
+            end == start
+            and parts[0].strip() != parts[1].strip()
+            and any(offset_changes_near(start, zone_named_in(p, zone)) for p in parts)
+        )
         read += ": a clock change skips or repeats an hour there)" if changed else ")"
         raise InputError(
             f"{option} {text!r}: the end is not after the start{read}",

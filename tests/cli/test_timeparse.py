@@ -211,3 +211,30 @@ def test_a_spans_end_counts_from_its_start_not_from_now() -> None:
     assert end - start == 2 * 3600 * 10**9
     with pytest.raises(InputError, match="the end is not after the start"):
         parse_span("2017-06-09 22:00..06:00", resolve_zone("UTC"), "--observed")
+
+
+@pytest.mark.parametrize(
+    ("span", "zone", "clock_change"),
+    [
+        # one instant written twice, no clock change anywhere near: only the times read
+        ("2026-01-12 08:00..08:00", "UTC", False),
+        ("1768204800..2026-01-12 08:00", "UTC", False),
+        ("2026-01-12 09:00 Europe/Berlin..08:00", "UTC", False),
+        ("2026-07-12 08:00..08:00", "Europe/Berlin", False),
+        # Berlin skips 02:00..03:00 that day: both ends are 03:00 CEST, and that is why
+        ("2026-03-29 02:00..03:00", "Europe/Berlin", True),
+        ("2026-03-29 02:00 Europe/Berlin..2026-03-29 03:00 Europe/Berlin", "UTC", True),
+    ],
+)
+def test_an_empty_span_blames_a_clock_change_only_where_there_is_one(
+    span: str, zone: str, clock_change: bool
+) -> None:
+    """``--leave "2026-01-12 08:00..08:00"`` in UTC said "a clock change skips or repeats an
+    hour there": any two spellings of one instant were blamed on daylight saving."""
+    from aion_cli.cli.common import parse_span
+
+    with pytest.raises(InputError, match="the end is not after the start") as caught:
+        parse_span(span, resolve_zone(zone), "--leave")
+    assert ("a clock change skips or repeats an hour there" in caught.value.message) is (
+        clock_change
+    )
