@@ -37,7 +37,10 @@ def guess_format(path: Path) -> tuple[str, Path]:
                 Path(storage.inner_name(entry)).suffix.lower() in storage.STORAGE_SUFFIXES
             ):
                 check_regular_input(entry, "log", hint=_LOG_HINT)
-        if (path / "metadata.yaml").is_file() or storage.storage_files(path):
+        if (path / "metadata.yaml").is_file():
+            return "rosbag2", path
+        if storage.storage_files(path):
+            _refuse_other_logs(path)
             return "rosbag2", path
         found = sorted(p.name for p in path.iterdir())[:5]
         raise LogFormatError(
@@ -107,6 +110,28 @@ def other_log(path: Path, wanted: str) -> tuple[str, str] | None:
 def other_log_hint(fmt: str) -> str:
     """The hint for a log that ``--log-format`` names wrongly: ``fmt`` reads it."""
     return f"read it with --log-format {fmt}"
+
+
+def _refuse_other_logs(folder: Path) -> None:
+    """A folder without metadata.yaml is read as the storage files of one rosbag2 bag, which
+    leaves out anything else in it: refuse one that also holds other logs (ROS 1 ``.bag``
+    files, rosbag2 folders) rather than read its storage files alone without a word."""
+    from aion_cli.formats import rosbag2_storage as storage
+
+    others = sorted(
+        p.name
+        for p in folder.iterdir()
+        if (p.is_file() and p.suffix.lower() == ".bag")
+        or (p.is_dir() and ((p / "metadata.yaml").is_file() or storage.storage_files(p)))
+    )
+    if others:
+        shown = ", ".join(others[:5]) + (f" and {len(others) - 5} more" if len(others) > 5 else "")
+        raise LogFormatError(
+            f"{folder} holds other logs beside its rosbag2 storage files ({shown}): a folder "
+            "without metadata.yaml is read as the storage files of one bag, which would leave "
+            "them out",
+            hint=f"give the logs one by one ({folder}/*), not their folder",
+        )
 
 
 def _what_else(path: Path) -> str | None:

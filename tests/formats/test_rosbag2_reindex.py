@@ -165,6 +165,32 @@ def test_mcap_storage_files_without_metadata(tmp_path: Path) -> None:
     }
 
 
+def test_a_folder_of_storage_files_and_other_logs_is_refused(tmp_path: Path) -> None:
+    """A folder without metadata.yaml is read as one bag's storage files: one that also holds
+    a ROS 1 bag or a rosbag2 folder read its storage files alone and left the other logs out
+    without a word (`aion build logs/` of a .mcap and a .bag learnt the .mcap only)."""
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    shutil.copy(_real("rosbag2_py_mcap_talker", "talker.mcap"), folder / "talker.mcap")
+    with open_logs([folder]) as logs:  # storage files alone: one bag, as before
+        assert logs.total() == 20
+    shutil.copy(real("logs", "rosbagjs_fixtures", "example.bag"), folder / "example.bag")
+    with pytest.raises(LogFormatError, match=r"holds other logs .*\(example\.bag\)"):
+        open_logs([folder])
+    (folder / "example.bag").unlink()
+    shutil.copytree(_real("rosbag2_py_sqlite3_talker"), folder / "sqlite_talker")
+    result = run("info", folder)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "holds other logs", "(sqlite_talker)")
+    assert f"give the logs one by one ({folder}/*)" in result.stderr
+    # a bag with its metadata.yaml is a bag: whatever else its folder holds stays unread
+    bag = tmp_path / "bag"
+    shutil.copytree(_real("rosbag2_py_mcap_talker"), bag)
+    shutil.copy(real("logs", "rosbagjs_fixtures", "example.bag"), bag / "example.bag")
+    with open_logs([bag]) as logs:
+        assert logs.total() == 20
+
+
 def test_unusable_metadata_yaml_falls_back_to_the_storage_files(tmp_path: Path) -> None:
     talker = _real("rosbag2_py_sqlite3_talker")
     copy = tmp_path / "talker"
