@@ -64,6 +64,24 @@ def _wanted_label(node: str | int, by_id: dict[str, int]) -> str:
     return node_label(node)
 
 
+def _refuse_other_layers(layer: str, missing: list[str], labels: list[str]) -> None:
+    """``--layer rooms`` (``buildings``) with a ``--node`` of another kind (a place, a hash
+    cell, a building): an error that says so, not "not in the map" (``p4`` is in it)."""
+    from aion_cli.errors import UnknownNodeError
+
+    if layer not in ("rooms", "buildings"):
+        return
+    others = [m for m in missing if m[:1] != ("R" if layer == "rooms" else "B")]
+    if not others:
+        return  # a room id the map lacks: "not in the map", as without --layer
+    listed = f"; the map's {layer}: {', '.join(labels[:8])}" if labels else ""
+    raise UnknownNodeError(
+        f"--layer {layer} answers {layer} only: {', '.join(others)} "
+        + (f"is no {layer[:-1]}" if len(others) == 1 else f"are no {layer}"),
+        hint=f"ask for {', '.join(others)} without --layer{listed}",
+    )
+
+
 def layer_of_nodes(layer: str, nodes: Sequence[str | int], graph: Any) -> str:
     """The layer that answers ``--node`` without ``--layer``: ``rooms`` when every node asked
     for is a room of the map's scene graph (by id or name, already resolved), ``buildings``
@@ -136,6 +154,7 @@ def select(
         wanted = [_wanted_label(n, by_id) for n in nodes]
         missing = [w for w in wanted if w not in by_id]
         if missing:
+            _refuse_other_layers(layer, missing, labels)
             everyone = {str(i) for i in entry_ids(table, np.arange(len(table.xyz)))}
             if layer in ("places", "cells") and set(missing) <= everyone:
                 hint = f"--layer {layer} leaves {', '.join(missing)} out: ask without --layer"

@@ -72,3 +72,28 @@ def test_a_room_beside_a_hash_cell_is_named_as_such(sample_map: Path) -> None:
         assert result.exit_code == 2, result.stdout
         assert_one_line_error(result.stderr, f"{room['id']}: rooms and buildings are answered")
         assert "not in the map" not in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--layer", "rooms", "--node", "p4"], "--layer rooms answers rooms only: p4 is no room"),
+        (["--layer", "buildings", "--node", "R1"],
+         "--layer buildings answers buildings only: R1 is no building"),
+        (["--layer", "rooms", "--node", "p4", "--node", "B0"],
+         "--layer rooms answers rooms only: p4, B0 are no rooms"),
+    ],
+)
+def test_a_place_asked_for_on_the_rooms_layer_is_named_as_such(
+    office: Office, args: list[str], message: str
+) -> None:
+    """``--layer rooms --node p4`` said "node p4 is not in the map", of a place that is: the
+    rooms layer answers rooms only, and the hint says how to ask for the place."""
+    result = run("predict", office.map, *AT, *args)
+    assert result.exit_code == 2, result.stdout
+    assert_one_line_error(result.stderr, message)
+    assert "not in the map" not in result.stderr
+    assert "without --layer" in result.stderr
+    # a room the map lacks is still "not in the map" on its own layer
+    result = run("predict", office.map, *AT, "--layer", "rooms", "--node", "R9")
+    assert_one_line_error(result.stderr, "R9 is not in the map")
