@@ -14,8 +14,15 @@ PNG_SOFTWARE = "aion"
 
 
 def save_marked_png(fig: Any, path: Any, **options: Any) -> None:
-    """``fig.savefig(path, format="png", ...)`` with aion's mark (``options``: savefig's)."""
-    fig.savefig(path, format="png", metadata={"Software": PNG_SOFTWARE}, **options)
+    """``fig.savefig(path, format="png", ...)`` with aion's mark (``options``: savefig's).
+    A character the font lacks (a map or room named in Japanese: DejaVu Sans has no kana) is
+    drawn as a box, without matplotlib's warning per character, which named a line of
+    aion's source on the terminal."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"Glyph \d+ .* missing from font")
+        fig.savefig(path, format="png", metadata={"Software": PNG_SOFTWARE}, **options)
 
 
 def is_aion_png(path: Path) -> bool:

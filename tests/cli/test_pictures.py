@@ -188,3 +188,20 @@ def test_the_api_draws_what_the_cli_draws(office: Office, tmp_path: Path) -> Non
         m.picture(tmp_path / "x.png", time=AT, historical=True)
     with pytest.raises(InputError, match="is a folder"):
         m.picture(tmp_path, historical=True)
+
+
+def test_a_name_the_font_cannot_draw_prints_no_python_warning(
+    office: Office, tmp_path: Path
+) -> None:
+    """A map named in Japanese (its name is the picture's title; DejaVu Sans has no kana):
+    matplotlib warned once per character, `.../png_mark.py:18: UserWarning: Glyph 12525
+    (\\N{KATAKANA LETTER RO}) missing from font(s) DejaVu Sans.` and the source line, on the
+    terminal of a command that succeeded."""
+    named = tmp_path / "ログ 地図.aion"
+    named.write_bytes(office.map.read_bytes())
+    out = tmp_path / "出力.png"
+    proc = run_process("export", named, "--time", AT, "--format", "png", "-o", out)
+    assert proc.returncode == 0, proc.stderr
+    assert out.read_bytes().startswith(PNG_MAGIC)
+    assert "Glyph" not in proc.stderr, proc.stderr
+    assert "Warning" not in proc.stderr, proc.stderr
