@@ -186,6 +186,15 @@ class _Build(StreamStep):
             self.previous_manifest = Manifest.from_dict(self.previous.manifest)
             self.report.continued = True
             self._map_open = self.previous.state.open_window
+            recorded = self.previous_manifest.map_frame
+            if recorded is not None and recorded != opts.map_frame:  # --map-frame said so
+                self.report.warnings.append(
+                    f"{opts.continue_from.name} holds positions in frame {recorded!r}, and "
+                    f"--map-frame reads these logs into {opts.map_frame!r}: their positions "
+                    "join the map's as if both were one frame (and the map then records "
+                    f"{opts.map_frame!r}); unless they are, give the logs the TF to "
+                    f"{recorded!r} instead, or build them into a map of their own"
+                )
         config = self.config()
         hashes = self._distinct_logs().start()
         try:

@@ -337,6 +337,34 @@ def test_a_map_remembers_its_frame_for_the_logs_after(tmp_path: Path) -> None:
     assert "'odom'" in result.stderr
 
 
+def test_continuing_a_map_in_another_frame_is_a_warning(tmp_path: Path) -> None:
+    """``--map-frame`` on a continued map of another frame (the hint of the missing-TF error
+    suggests it: leg_tracker bags in 'rear_laser' onto a map of 'right_laser') joined the
+    positions of two frames in one map without a word, the manifest then recording only the
+    new one."""
+    from aion_cli.formats.mapfile import read_manifest
+
+    first, later = tmp_path / "first.mcap", tmp_path / "later.mcap"
+    write_office_log(first, tf=False, frame="right_laser")
+    write_office_log(later, tf=False, frame="rear_laser", shift_s=3 * 86_400)
+    site = tmp_path / "site.aion"
+    assert run("build", first, "--map-frame", "right_laser", "-o", site, "-q").exit_code == 0
+    report = run_json("build", later, "--map", site, "--map-frame", "rear_laser", "-o",
+                      tmp_path / "both.aion", "--format", "json")
+    assert report["detections"]["used"] == 300
+    warned = [w for w in report["warnings"] if "holds positions in frame 'right_laser'" in w]
+    assert len(warned) == 1, report["warnings"]
+    assert "--map-frame reads these logs into 'rear_laser'" in warned[0]
+    assert read_manifest(tmp_path / "both.aion")["map_frame"] == "rear_laser"
+    # the map's own frame, given or not, is no news
+    again = tmp_path / "again.mcap"
+    write_office_log(again, tf=False, frame="right_laser", shift_s=3 * 86_400)
+    for given in ((), ("--map-frame", "right_laser")):
+        report = run_json("build", again, "--map", site, *given, "-o",
+                          tmp_path / f"same{len(given)}.aion", "--format", "json")
+        assert not [w for w in report["warnings"] if "holds positions in frame" in w]
+
+
 def test_dsg_version_pin(office: Office, tmp_path: Path) -> None:
     from aion_cli.formats.dsg import installed_version
 
