@@ -390,6 +390,9 @@ def _write(
                 part[key] = c[key]
         counts = add_counts(counts, part, meet=True)
     stats = state_counts(merged)
+    frames = _frame_warning([(m.name, m.manifest.map_frame) for m in maps])
+    if frames is not None:
+        report.warnings.append(frames)
     far = far_from_graph_of(merged, stats)
     if far is not None:  # a --graph FILE of another site, say: a warning, as build's
         report.warnings.append(far)
@@ -433,6 +436,21 @@ def _common_frame(frames: list[str | None]) -> str | None:
     """The map frame every input records (None when one records none or they differ)."""
     first = frames[0] if frames else None
     return first if first is not None and all(f == first for f in frames) else None
+
+
+def _frame_warning(frames: list[tuple[str, str | None]]) -> str | None:
+    """The warning for maps that record different map frames (``right_laser`` and
+    ``rear_laser``: their positions are merged as if one frame); None when they record one
+    (maps that record none, written before the record, say nothing)."""
+    known = [(name, f) for name, f in frames if f is not None]
+    if len({f for _, f in known}) < 2:
+        return None
+    listed = ", ".join(f"{name}: {f!r}" for name, f in known)
+    return (
+        f"the maps hold positions in different frames ({listed}): they are merged as if "
+        "both were one frame, and the merged map records none; merge maps of one frame "
+        "(aion info MAP --format json: map_frame)"
+    )
 
 
 def _recording_first(counts: dict[str, Any]) -> float:

@@ -34,8 +34,10 @@ def save_map(
     logs: tuple[str, ...],
     span: tuple[int, int],
     timezone: str | None = "UTC",
+    map_frame: str | None = None,
 ) -> Path:
-    """``state`` as a map file whose manifest says it was built from ``logs`` over ``span``."""
+    """``state`` as a map file whose manifest says it was built from ``logs`` over ``span``
+    (in ``map_frame``: None, as maps written before the record)."""
     arrays, meta = state.to_arrays()
     manifest = Manifest(
         state=meta,
@@ -49,6 +51,7 @@ def save_map(
         observation="fixed sensor",
         timezone=timezone,
         families=family_summary(state),
+        map_frame=map_frame,
     )
     write_map(path, arrays, manifest.to_dict())
     return path
@@ -61,11 +64,12 @@ def fixed_sensor_map(
     seed: int,
     mapper: Mapper | None = None,
     timezone: str | None = "UTC",
+    map_frame: str | None = None,
 ) -> Path:
     """The map of one fixed-sensor log from ``start`` (``fixed_sensor_log(start, seed)``,
     learnt by ``mapper`` or a default one) saved at ``path`` as built from ``logs``."""
     state = run_steps(fixed_sensor_log(start, seed=seed), mapper).state
-    return save_map(state, path, logs, log_span(start), timezone)
+    return save_map(state, path, logs, log_span(start), timezone, map_frame)
 
 
 def log_span(start: int, windows: int = 6) -> tuple[int, int]:

@@ -417,3 +417,29 @@ def test_a_merge_keeps_the_map_frame_its_inputs_share() -> None:
     assert _common_frame(["odom", "map"]) is None  # different frames: none recorded
     assert _common_frame(["odom", None]) is None  # a map from before the record
     assert _common_frame([]) is None
+
+
+def test_maps_of_different_frames_merge_with_a_warning(tmp_path: Path) -> None:
+    """Maps whose positions are in different frames ('right_laser' and 'rear_laser': two
+    lasers of one robot, each built with its --map-frame) merged without a word into a map
+    that records no frame; maps of one frame, or from before the record, stay quiet."""
+    def frame_warnings(frames: tuple[str | None, str | None], name: str) -> list[str]:
+        a, b = (
+            fixed_sensor_map(tmp_path / f"{name}{k}.aion", (f"{name}{k}.mcap",),
+                             T0 + k * DAY, seed=k, map_frame=f)
+            for k, f in enumerate(frames)
+        )
+        report = merge_map_files([a, b], tmp_path / f"{name}.aion")
+        return [w for w in report.warnings if "different frames" in w]
+
+    warned = frame_warnings(("right_laser", "rear_laser"), "lasers")
+    assert warned == [
+        "the maps hold positions in different frames (lasers0.aion: 'right_laser', "
+        "lasers1.aion: 'rear_laser'): they are merged as if both were one frame, and the "
+        "merged map records none; merge maps of one frame (aion info MAP --format json: "
+        "map_frame)"
+    ]
+    assert "map_frame" not in read_manifest(tmp_path / "lasers.aion")
+    assert frame_warnings(("odom", "odom"), "same") == []
+    assert read_manifest(tmp_path / "same.aion")["map_frame"] == "odom"
+    assert frame_warnings(("odom", None), "older") == []
