@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import shutil
 import tomllib
 from pathlib import Path
@@ -47,6 +48,20 @@ def test_counts_and_provenance(office: Office) -> None:
     assert report["cells"] == 0
     assert report["bound_cells"] == 3
     assert report["windows"] == 2  # 20 minutes: one closed 600-s window and the open one
+
+
+def test_a_log_shorter_than_a_window_observed_one(tmp_path: Path) -> None:
+    """A fixed sensor's 4-minute log (THÖR's runs, a leg_tracker bag) counts 0.4 of its
+    window: the summary said "windows observed 0" beside the detections it used and "fixed
+    sensor over the 1 window with messages"."""
+    log = tmp_path / "short.mcap"
+    write_office_log(log, graph=False, tf=False, duration_s=240)
+    report = run_json("build", log, "-o", tmp_path / "short.aion", "--format", "json")
+    assert report["detections"]["used"] > 0
+    assert report["observation"].startswith("fixed sensor over the 1 window with messages")
+    assert report["windows"] == 1
+    table = run("build", log, "-o", tmp_path / "again.aion")
+    assert re.search(r"windows observed\s*│\s*1\s*│", table.stderr), table.stderr
 
 
 def test_help_names_every_json_key(office: Office) -> None:
