@@ -46,19 +46,33 @@ class GraphFile:
     rebuild_reason: str | None = None
     mesh_dropped: bool = False
     version: str | None = None
+    #: the suffix the file was read as, by its content (``.json`` for JSON text named
+    #: ``.sparkdsg``); empty: its own
+    read_as: str = ""
+
+    @property
+    def kind(self) -> str:
+        """``"JSON"`` or ``"binary"``: what the file holds, whatever its name says."""
+        return "JSON" if (self.read_as or self.path.suffix.lower()) == ".json" else "binary"
 
     @property
     def format(self) -> str:
         """``"spark_dsg JSON 1.1.3"``, ``"spark_dsg JSON (legacy, no version header)"``..."""
-        kind = "JSON" if self.path.suffix.lower() == ".json" else "binary"
         if self.version is None:
-            return f"spark_dsg {kind} (legacy, no version header)"
-        return f"spark_dsg {kind} {self.version}"
+            return f"spark_dsg {self.kind} (legacy, no version header)"
+        return f"spark_dsg {self.kind} {self.version}"
 
     def notes(self) -> list[str]:
-        """What the user must be told: the lenient read and what it skipped."""
+        """What the user must be told: a name that says another format than the file holds,
+        the lenient read and what it skipped."""
+        named = []
+        if self.read_as and self.read_as != self.path.suffix.lower():
+            named.append(
+                f"{self.path.name} holds a {self.kind} graph: read as a {self.read_as} file "
+                "(spark_dsg reads a graph by its suffix)"
+            )
         if self.reader != "lenient":
-            return []
+            return named
         from aion_cli.formats.dsg_json import skipped_text
 
         text = (
@@ -72,7 +86,7 @@ class GraphFile:
             )
             if self.mesh_dropped:
                 text += " (the mesh was left out)"
-        return [text]
+        return [*named, text]
 
 
 @dataclass(frozen=True)
@@ -90,7 +104,7 @@ class LoadedGraph:
         return self.file.notes()
 
 
-def _file_version(path: Path) -> str | None:
+def _file_version(path: Path, suffix: str) -> str | None:
     """The spark_dsg version in the file's header (None: a legacy file without one).
 
     Binary files start with the 29-byte header of :func:`spark_header`; JSON files with a
@@ -98,7 +112,7 @@ def _file_version(path: Path) -> str | None:
     """
     with contextlib.suppress(OSError), path.open("rb") as fh:
         head = fh.read(512)
-        if path.suffix.lower() != ".json":
+        if suffix != ".json":
             if len(head) >= 29 and head[:14] == spark_header("0.0.0")[:14]:
                 return f"{head[24]}.{head[26]}.{head[28]}"
             return None
@@ -133,15 +147,25 @@ def read_dsg_file(path: str | Path) -> GraphFile:
         )
     size = p.stat().st_size
     if size == 0:
-        raise GraphFileError(f"scene-graph file is empty: {p}")
+        raise GraphFileError(
+            f"scene-graph file is empty: {p}",
+            hint="the graph was not written; save it again from Hydra or spark_dsg",
+        )
+    suffix = _suffix_by_content(p, suffix)
     if suffix == ".sparkdsg":
         _check_binary_file(p)
-    version = _file_version(p)
+    version = _file_version(p, suffix)
     budget: int | None = None
     try:
         # legacy (header-less) JSON files warn on stdout
-        with _native_output_silenced(), _memory_budget(size) as budget, _lower_suffix(p) as name:
-            return GraphFile(p, spark_dsg.DynamicSceneGraph.load(name), version=version)
+        with (
+            _native_output_silenced(),
+            _memory_budget(size) as budget,
+            _as_suffix(p, suffix) as name,
+        ):
+            return GraphFile(
+                p, spark_dsg.DynamicSceneGraph.load(name), version=version, read_as=suffix
+            )
     except (RuntimeError, ValueError, IndexError, TypeError, MemoryError) as exc:
         if suffix != ".json":
             why = _short(exc)
@@ -166,22 +190,36 @@ def read_dsg_file(path: str | Path) -> GraphFile:
         rebuild_reason=got.rebuild_reason,
         mesh_dropped=got.mesh_dropped,
         version=version,
+        read_as=suffix,
     )
 
 
+def _suffix_by_content(path: Path, suffix: str) -> str:
+    """The suffix spark_dsg must be given for ``path`` (it chooses its reader by the name):
+    ``suffix``, but ``.json`` for JSON text named ``.sparkdsg`` and ``.sparkdsg`` for a
+    binary graph named ``.json`` (a renamed file was called damaged, or not UTF-8)."""
+    with open(path, "rb") as fh:
+        head = fh.read(64)
+    if suffix == ".sparkdsg" and head.lstrip()[:1] == b"{":
+        return ".json"
+    if suffix == ".json" and head[:14] == spark_header("0.0.0")[:14]:  # binary's header
+        return ".sparkdsg"
+    return suffix
+
+
 @contextlib.contextmanager
-def _lower_suffix(path: Path) -> Any:
-    """The name spark_dsg is given for ``path``: the path itself, or for a suffix not in lower
-    case (``DSG.JSON``, ``map.SPARKDSG``: spark_dsg chooses its reader by the suffix as
-    written and refuses those) a symbolic link with the lower-case suffix in a temporary
-    folder, removed afterwards."""
-    if path.suffix == path.suffix.lower():
+def _as_suffix(path: Path, suffix: str) -> Any:
+    """The name spark_dsg is given for ``path`` read as ``suffix``: the path itself when it
+    ends so, else a symbolic link with that suffix in a temporary folder, removed afterwards
+    (spark_dsg chooses its reader by the suffix as written, and refuses ``DSG.JSON`` or
+    ``map.SPARKDSG``)."""
+    if path.suffix == suffix:
         yield str(path)
         return
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="aion-dsg-") as folder:
-        link = Path(folder) / f"graph{path.suffix.lower()}"
+        link = Path(folder) / f"graph{suffix}"
         link.symlink_to(path.resolve())
         yield str(link)
 

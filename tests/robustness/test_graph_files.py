@@ -229,3 +229,45 @@ def test_a_graph_file_whose_suffix_is_not_lower_case_reads_as_its_lower_case_twi
               for g in (want, got)]
     assert places[0] == places[1]
     assert places[0]
+
+
+@pytest.mark.parametrize(("holds", "named"), [(".json", ".sparkdsg"), (".sparkdsg", ".json")])
+def test_a_graph_file_named_as_the_other_format_reads_as_what_it_holds(
+    graph_file: Path, tmp_path: Path, holds: str, named: str
+) -> None:
+    """spark_dsg picks its reader by the suffix: a JSON graph named ``.sparkdsg`` was refused
+    as "damaged: byte 0 (0x7b) is not a value", a binary one named ``.json`` as "not JSON
+    text (byte 0 is not UTF-8)". Both read as what they hold, with a note saying so."""
+    from aion_cli.formats.dsg_files import read_dsg_file
+
+    right = tmp_path / f"right{holds}"
+    if holds == ".json":
+        build_graph().save(str(right), False)
+    else:
+        right.write_bytes(graph_file.read_bytes())
+    wrong = tmp_path / f"wrong{named}"
+    wrong.write_bytes(right.read_bytes())
+    want, got = read_dsg_file(right), read_dsg_file(wrong)
+    assert got.reader == want.reader == "spark_dsg"
+    assert got.format == want.format  # "spark_dsg JSON 1.1.3": what the file holds
+    assert got.notes() == [
+        f"wrong{named} holds a {want.kind} graph: read as a {holds} file (spark_dsg reads a "
+        "graph by its suffix)"
+    ]
+    assert want.notes() == []
+    places = [sorted(n.id.value for n in g.graph.get_layer(fdsg.PLACES_LAYER).nodes)
+              for g in (want, got)]
+    assert places[0] == places[1]
+    assert places[0]
+    result = run("info", wrong)
+    assert result.exit_code == 0, result.stderr
+    assert f"holds a {want.kind} graph" in result.stderr
+
+
+def test_an_empty_graph_file_is_one_error_with_a_hint(tmp_path: Path) -> None:
+    empty = tmp_path / "dsg.json"
+    empty.write_bytes(b"")
+    result = run("info", empty)
+    assert result.exit_code == 2
+    assert_one_error(result.stderr, "scene-graph file is empty")
+    assert "hint: the graph was not written" in result.stderr
