@@ -307,6 +307,34 @@ def export_dsg(
     return write_dynamic_graph(graph, records, info, out)
 
 
+def cells_left_out(loaded: Any) -> tuple[str, bool] | None:
+    """What a scene-graph export (``--format dsg``) leaves out: the detections on unbound
+    hash cells, which a spark_dsg graph has no node for (a log in another frame than the
+    graph, a fixed sensor built with ``--graph`` of another site: every detection there, and
+    the file's places all read zero). ``(message, most)``: ``most`` when they are at least
+    half the map's detections; None when no cell holds any."""
+    import numpy as np
+
+    from aion_cli.mapquery import detections_by_kind
+
+    on_cells, on_nodes = detections_by_kind(loaded.state)
+    if on_cells <= 0:
+        return None
+    entries = loaded.state.entries
+    rows = entries.cell_rows()
+    held = entries.counts[rows].sum(axis=1) + entries.nodir[rows]
+    cells = int(np.count_nonzero(held > 0))
+    total = on_cells + on_nodes
+    share = 100.0 * on_cells / total
+    return (
+        f"{share:.0f}% of the map's detections ({on_cells:,.0f} of {total:,.0f}) lie on "
+        f"{cells:,} hash cell(s) that no place of the scene graph holds (away from them, or "
+        "before they were stable), and a spark_dsg graph has no node for a cell: the file "
+        "leaves them out (--format ply or png shows them)",
+        on_cells >= on_nodes,
+    )
+
+
 def _node_record(row: dict[str, Any]) -> dict[str, Any]:
     """A predict record without what the node itself holds (its position)."""
     return {k: v for k, v in row.items() if k not in ("x", "y", "z")}

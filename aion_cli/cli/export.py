@@ -133,9 +133,15 @@ def command(
 ) -> None:
     """Export MAP as 3D scenes (PLY/PCD, MCAP over time), pictures (PNG) and tables (CSV/JSON)."""
     from aion_cli.cli.common import load
-    from aion_cli.cli.console import console, progress
+    from aion_cli.cli.console import console, note, progress, warn
     from aion_cli.errors import InputError
-    from aion_cli.exports import export_format, path_ends, scene_file, write_export
+    from aion_cli.exports import (
+        cells_left_out,
+        export_format,
+        path_ends,
+        scene_file,
+        write_export,
+    )
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:
@@ -193,6 +199,10 @@ def command(
         span = [int(t) for t in times if t is not None] if series else None
         announce_time(times[0], zone, label, loaded, series=span)
     console().print(_written(written, fmt, out_dir, len(times)), soft_wrap=True)
+    if written.graph is not None:
+        left_out = cells_left_out(loaded)
+        if left_out is not None:
+            (warn if left_out[1] else note)(left_out[0])
 
 
 def _written(written: Exported, fmt: str, out: Path, steps: int) -> str:

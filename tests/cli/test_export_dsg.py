@@ -177,3 +177,29 @@ def test_room_names_are_written_and_read_back(sample_map: Path, tmp_path: Path) 
     assert run("plan", rebuilt, "--from", "kitchen", "--to", "p2").exit_code == 0
     again = run_json("predict", rebuilt, "--historical", "--layer", "rooms", "--format", "json")
     assert {row["id"]: row["name"] for row in again["entries"]} == named
+
+
+def test_detections_the_graph_file_cannot_hold_are_said_to_be_left_out(
+    office: Office, tmp_path: Path
+) -> None:
+    """A map whose detections all lie on hash cells (built with the graph of another site:
+    its places 100 m away) exported as a scene graph wrote "2 places (2 with dynamics)" and
+    nothing else: a file of zero flows, every detection left out without a word."""
+    far = save_graph_file(tmp_path / "far.json", {0: (100.0, 0.0, 0.0), 1: (101.0, 0.0, 0.0)},
+                          [(0, 1)])
+    site = tmp_path / "far.aion"
+    assert run("build", office.log, "--graph", far, "-o", site, "-q").exit_code == 0
+    out = tmp_path / "far-4d.json"
+    result = run("export", site, "--historical", "--format", "dsg", "-o", out)
+    assert result.exit_code == 0, result.stderr
+    assert "wrote" in result.stderr
+    used = office.build["detections"]["used"]
+    assert (
+        f"warning: 100% of the map's detections ({used:,} of {used:,}) lie on "
+    ) in " ".join(result.stderr.split())
+    assert "the file leaves them out" in " ".join(result.stderr.split())
+    # a map whose places hold every detection says nothing of the kind
+    result = run("export", office.map, "--historical", "--format", "dsg", "-o",
+                 tmp_path / "office-4d.json")
+    assert result.exit_code == 0, result.stderr
+    assert "leaves them out" not in " ".join(result.stderr.split())
