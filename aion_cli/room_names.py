@@ -98,11 +98,17 @@ def named_node(text: str, graph: GraphSnapshot) -> int | None:
 def with_names_resolved(
     nodes: Sequence[str | int], graph: GraphSnapshot | None
 ) -> list[str | int]:
-    """``nodes`` with every room or building name replaced by its id (others as given)."""
+    """``nodes`` with every room or building name replaced by its id (others as given); a
+    word that is neither a name nor an id is an error listing the graph's names, as ``plan``
+    gives (``predict --node kitchn`` said only "not a node id")."""
     if graph is None:
         return list(nodes)
     out: list[str | int] = []
     for node in nodes:
         named = named_node(node, graph) if isinstance(node, str) else None
+        if named is None and isinstance(node, str):
+            text = node.strip()
+            if not (text[:1] == "c" and text[1:].isdigit()):  # a hash cell's c<key>
+                parse_id_or_name(text, graph)
         out.append(named if named is not None else node)
     return out

@@ -188,6 +188,29 @@ def test_rooms_by_their_names(office: Office) -> None:
     assert [r["id"] for r in rooms["entries"]] == ["R2"]
 
 
+def test_an_unknown_name_lists_the_names_in_predict_and_export_as_in_plan(
+    office: Office, tmp_path: Path
+) -> None:
+    """``predict --node pantry`` said only "not a node id: 'pantry'" with the hint that ids
+    look like "p12", where plan (and export's path ends) list the graph's room names."""
+    for args in (
+        ["predict", office.map, "--time", AT, "--node", "pantry"],
+        ["predict", office.map, "--from", AT, "--to", "2026-11-23 09:30", "--node", "pantry"],
+        ["predict", office.map, "--time", AT, "--node", "p0", "--node", "pantry"],
+        ["export", office.map, "--time", AT, "--path-from", "pantry", "--path-to", "p0",
+         "-o", tmp_path / "out"],
+    ):
+        result = run(*args)
+        assert result.exit_code == 2, result.stdout
+        assert_one_line_error(result.stderr, "not a node id or room name: 'pantry'")
+        assert "room0, room1, room2" in result.stderr
+    # ids and hash cells are no names: answered, or "not in the map", as before
+    result = run("predict", office.map, "--time", AT, "--node", "p999")
+    assert_one_line_error(result.stderr, "node p999 is not in the map")
+    result = run("predict", office.map, "--time", AT, "--node", "c123")
+    assert_one_line_error(result.stderr, "node c123 is not in the map")
+
+
 def test_a_point_without_a_height_snaps_horizontally(office: Office) -> None:
     """``--from x,y`` names a spot on the floor plan: the place above or below it is
     0 m away (it was measured from height 0, so a place 1 m up on a real map was 1 m
