@@ -337,8 +337,9 @@ def holdout(
          f"{test['with_heading']:,} detections with a heading")
     if result.activity:
         emit(fmt, result.activity, ACTIVITY_COLUMNS,
-             title=f"hourly activity over {test['windows']:,} observed windows "
-             f"({len(result.hours)} hours)")
+             title=f"hourly activity over {test['windows']:,} observed "
+             f"window{'' if test['windows'] == 1 else 's'} ({len(result.hours)} "
+             f"hour{'' if len(result.hours) == 1 else 's'})")
 
 
 def _pair(value: Any) -> str:

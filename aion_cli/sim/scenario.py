@@ -99,7 +99,10 @@ class ScenarioConfig:
             self.patrol.tour_every_s, self.patrol.sensor_range,
         )  # fmt: skip
         if not all(math.isfinite(v) for v in finite):
-            raise InputError("simulate's numbers must be finite (no nan or inf)")
+            raise InputError(
+                "simulate's numbers must be finite (no nan or inf)",
+                hint="give --days and the other numbers as plain values, e.g. --days 2.5",
+            )
         periods = (
             self.tf_idle_s, self.stream.period_s, self.stream.idle_period_s,
             self.patrol.tour_every_s,

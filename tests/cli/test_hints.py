@@ -21,6 +21,7 @@ from tests.cli.conftest import SAMPLE, Office, assert_one_line_error, run
         (["export", "{map}", "--historical", "--time", "now", "-o", "{tmp}/x.png"],
          "choose one of --time, --historical"),
         (["simulate", "-o", "{tmp}/s.mcap", "--days", "0"], "--days must be positive"),
+        (["simulate", "-o", "{tmp}/s.mcap", "--days", "nan"], "must be finite"),
         (["--max-chunk-mb", "0", "info", str(SAMPLE)], "the chunk limit must be"),
         (["build", str(SAMPLE), "--config", "{tmp}/bins.toml", "-o", "{tmp}/b.aion"],
          "bins must be an integer"),
