@@ -116,6 +116,13 @@ def score_held_out(
     result = HoldoutResult()
     result.test = _test_summary(held, state)
     result.notes = _notes(held, loaded.manifest, state.config.sensor_range)
+    recorded = loaded.manifest.get("map_frame")
+    if isinstance(recorded, str) and recorded != opts.map_frame:  # --map-frame said so
+        result.notes.insert(0, (
+            f"the map holds positions in frame {recorded!r} and --map-frame read the test "
+            f"logs into {opts.map_frame!r}: they are scored as if both were one frame "
+            f"(unless they are, give the logs the TF to {recorded!r})"
+        ))
     say("scoring headings")
     for model in AionHeadingModel.readings(state, radius):
         result.headings.append(

@@ -294,3 +294,24 @@ def test_a_patrolling_robot_counts_the_places_in_its_range(tmp_path: Path) -> No
     empty = run("evaluate", "holdout", site, logs[1], "--base-frame", "")
     assert empty.exit_code == 2
     assert_one_line_error(empty.stderr, "--base-frame")
+
+
+def test_test_logs_read_into_another_frame_than_the_maps_are_named_in_a_note(
+    corridor: tuple,
+) -> None:
+    """A map that records frame 'world' scored on logs read into 'map' (what --map-frame
+    makes of them) says that the two frames are taken as one; in the map's own frame, no
+    such note."""
+    from aion_cli.build_options import BuildOptions
+    from aion_cli.evaluation.holdout import score_held_out
+    from aion_cli.mapquery import load_map
+
+    site, _train, test, _truth = corridor
+    loaded = load_map(site)
+    assert loaded.manifest["map_frame"] == "map"
+    same = score_held_out(loaded, BuildOptions(logs=(test,), map_frame="map"))
+    assert not any("frame" in n for n in same.notes)
+    loaded.manifest["map_frame"] = "world"
+    other = score_held_out(loaded, BuildOptions(logs=(test,), map_frame="map"))
+    assert "the map holds positions in frame 'world'" in other.notes[0]
+    assert "read the test logs into 'map'" in other.notes[0]
