@@ -41,6 +41,7 @@ from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.pooling import PoolStats, entry_counts
+from aion_cli.engine.temporal.slot_sums import FixedSlots
 from aion_cli.engine.types import F64, I64
 
 C128 = npt.NDArray[np.complex128]
@@ -293,10 +294,11 @@ def _per_window_sums(
     The (entry, window) pairs are every entry with every fixed-sensor slot (entry-major),
     then the entries' own pairs, summed in chunks of ``_PAIRS`` pairs, each chunk's sums
     (pair order) added to the total. The fixed-sensor pairs of a chunk are evaluated as one
-    (slot × entry × order) block — the slots' phasors gathered once per entry's periods, no
-    per-pair copies of coefficients and rates, sums along the slot axis — which gives the
-    same floating-point sums as adding pair by pair (issue 15: this was the largest part of
-    closing a day under a fixed sensor, where every entry has every window)."""
+    (slot × order × entry) block (:class:`~aion_cli.engine.temporal.slot_sums.FixedSlots`:
+    the slots' phasors gathered once per block for every order, no per-pair copies of
+    coefficients and rates, sums along the slot axis), which gives the same floating-point
+    sums as adding pair by pair (issue 15: this was the largest part of closing a day under
+    a fixed sensor, where every entry has every window)."""
     fixed_slots, fixed_share = fixed
     slot_of = np.full(fc.rows.size, -1, np.int64)
     slot_of[entries] = np.arange(entries.size)
@@ -307,17 +309,10 @@ def _per_window_sums(
     n_fixed = fixed_slots.size
     fixed_pairs = entries.size * n_fixed
     n_pairs = fixed_pairs + own_e.size
-    coef, rate, idx = fc.coef_total[entries], fc.rate_total[entries], fc.period_idx[entries]
-    # 2 Re(γ z) = Re γ · 2 Re z − Im γ · 2 Im z, z = e^{−iωt}: real arithmetic on a period's
-    # slots (rows of (K, S) tables), no complex temporaries
-    # (S, K) tables, entries along the columns of each block: a block's sum over its slots is
-    # then a reduction over the outer axis, which adds the slots in order (as bincount's
-    # running sums do) without an accumulation's full output
-    fixed_rot = rot[fixed_slots]
-    cos2 = np.ascontiguousarray(2.0 * fixed_rot.real)
-    sin2 = np.ascontiguousarray(2.0 * fixed_rot.imag)
-    coef_re, coef_im = np.ascontiguousarray(coef.real), np.ascontiguousarray(coef.imag)
-    slot = np.arange(n_fixed)
+    block = FixedSlots(
+        rot[fixed_slots], fixed_share, fc.period_idx[entries], fc.coef_total[entries],
+        fc.rate_total[entries],
+    )
     total = np.zeros((m_max, entries.size))
     for a in range(0, n_pairs, _PAIRS):
         b = min(a + _PAIRS, n_pairs)
@@ -325,23 +320,8 @@ def _per_window_sums(
         if a < fixed_pairs:  # entries [i0, i1) have fixed pairs in [a, min(b, fixed_pairs))
             fb = min(b, fixed_pairs)
             i0, i1 = a // n_fixed, (fb - 1) // n_fixed + 1
-            pair = slot[:, None] + np.arange(i0, i1)[None, :] * n_fixed  # (S, nb)
-            inside = (pair >= a) & (pair < fb)
-            whole = bool(inside.all())
-            terms = np.zeros((n_fixed, i1 - i0))
-            lam = np.empty_like(terms)
-            for j in range(m_max):  # the running sum over orders (cumsum's order)
-                k = idx[i0:i1, j]
-                part = coef_re[None, i0:i1, j] * cos2.take(k, axis=1)
-                part -= coef_im[None, i0:i1, j] * sin2.take(k, axis=1)
-                terms += part
-                np.add(rate[None, i0:i1], terms, out=lam)
-                np.maximum(lam, floor, out=lam)  # (S, nb)
-                if fixed_share is not None:  # expected detections: λ times the share
-                    lam *= fixed_share[:, None]
-                if not whole:  # adding 0.0 leaves a sum of positive terms unchanged
-                    lam[~inside] = 0.0
-                chunk[j, i0:i1] = _sum_in_order(lam)
+            before, upto = a - i0 * n_fixed, fb - (i1 - 1) * n_fixed  # of the end entries
+            chunk[:, i0:i1] = block.sums(i0, i1, before, upto, floor)
         if b > fixed_pairs:
             e = own_e[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
             s = own_s[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
@@ -356,18 +336,6 @@ def _per_window_sums(
                 np.add.at(chunk[j], local, lam_own[:, j])  # in pair order, after the fixed
         total += chunk
     return total
-
-
-def _sum_in_order(values: F64) -> F64:
-    """Column sums of ``values`` (S, n) adding the rows one after the other, as running sums
-    do: numpy reduces over the outer axis of a 2-D array that way (a sum along a contiguous
-    row may be pairwise), except for a single column, which it reduces as a contiguous run
-    (tested against the pair-by-pair sums bit for bit)."""
-    if values.shape[1] == 1:
-        out: F64 = np.add.accumulate(values[:, 0])[-1:]
-        return out
-    summed: F64 = np.add.reduce(values, axis=0)
-    return summed
 
 
 def _score_directions(

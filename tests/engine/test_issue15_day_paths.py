@@ -1,0 +1,165 @@
+"""Issue 15, per-window and per-day repeats: each fast path gives exactly what the code it
+replaced gave (verbatim copies below), bit for bit.
+
+* A day's per-window FreMEn sums of fixed-sensor slots evaluated a block of every order at
+  once (:class:`~aion_cli.engine.temporal.slot_sums.FixedSlots`) against the per-order
+  blocks, on random forecasts, slots, shares and chunk sizes (hypothesis).
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from aion_cli.engine.temporal import scoring
+from aion_cli.engine.types import F64, I64
+
+C128 = Any
+
+
+# -- the per-window FreMEn sums of fixed-sensor slots ---------------------------------------
+
+
+def _per_window_sums_per_order(
+    fc: Any,
+    entries: I64,
+    fixed: tuple[I64, F64 | None],
+    own: tuple[I64, I64, F64],
+    rot: C128,
+    floor: float,
+) -> F64:
+    """``scoring._per_window_sums`` before its blocks held every order: one (slot × entry)
+    block per order (verbatim but for the names of the chunk size and of this copy)."""
+    fixed_slots, fixed_share = fixed
+    slot_of = np.full(fc.rows.size, -1, np.int64)
+    slot_of[entries] = np.arange(entries.size)
+    obs_e, obs_s, obs_w = own
+    mine = slot_of[obs_e] >= 0
+    own_e, own_s, own_w = obs_e[mine], obs_s[mine], obs_w[mine]
+    m_max = fc.params.max_order
+    n_fixed = fixed_slots.size
+    fixed_pairs = entries.size * n_fixed
+    n_pairs = fixed_pairs + own_e.size
+    coef, rate, idx = fc.coef_total[entries], fc.rate_total[entries], fc.period_idx[entries]
+    # 2 Re(γ z) = Re γ · 2 Re z − Im γ · 2 Im z, z = e^{−iωt}: real arithmetic on a period's
+    # slots (rows of (K, S) tables), no complex temporaries
+    # (S, K) tables, entries along the columns of each block: a block's sum over its slots is
+    # then a reduction over the outer axis, which adds the slots in order (as bincount's
+    # running sums do) without an accumulation's full output
+    fixed_rot = rot[fixed_slots]
+    cos2 = np.ascontiguousarray(2.0 * fixed_rot.real)
+    sin2 = np.ascontiguousarray(2.0 * fixed_rot.imag)
+    coef_re, coef_im = np.ascontiguousarray(coef.real), np.ascontiguousarray(coef.imag)
+    slot = np.arange(n_fixed)
+    total = np.zeros((m_max, entries.size))
+    for a in range(0, n_pairs, scoring._PAIRS):
+        b = min(a + scoring._PAIRS, n_pairs)
+        chunk = np.zeros((m_max, entries.size))
+        if a < fixed_pairs:  # entries [i0, i1) have fixed pairs in [a, min(b, fixed_pairs))
+            fb = min(b, fixed_pairs)
+            i0, i1 = a // n_fixed, (fb - 1) // n_fixed + 1
+            pair = slot[:, None] + np.arange(i0, i1)[None, :] * n_fixed  # (S, nb)
+            inside = (pair >= a) & (pair < fb)
+            whole = bool(inside.all())
+            terms = np.zeros((n_fixed, i1 - i0))
+            lam = np.empty_like(terms)
+            for j in range(m_max):  # the running sum over orders (cumsum's order)
+                k = idx[i0:i1, j]
+                part = coef_re[None, i0:i1, j] * cos2.take(k, axis=1)
+                part -= coef_im[None, i0:i1, j] * sin2.take(k, axis=1)
+                terms += part
+                np.add(rate[None, i0:i1], terms, out=lam)
+                np.maximum(lam, floor, out=lam)  # (S, nb)
+                if fixed_share is not None:  # expected detections: λ times the share
+                    lam *= fixed_share[:, None]
+                if not whole:  # adding 0.0 leaves a sum of positive terms unchanged
+                    lam[~inside] = 0.0
+                chunk[j, i0:i1] = _sum_in_order(lam)
+        if b > fixed_pairs:
+            e = own_e[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
+            s = own_s[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
+            w = own_w[max(a, fixed_pairs) - fixed_pairs : b - fixed_pairs]
+            z = rot[s[:, None], fc.period_idx[e]]  # (P, M), as the fixed slots' terms
+            coef_e = fc.coef_total[e]
+            terms = np.cumsum(coef_e.real * (2.0 * z.real) - coef_e.imag * (2.0 * z.imag), axis=1)
+            lam_own = np.maximum(fc.rate_total[e][:, None] + terms, floor)  # (P, M)
+            lam_own *= w[:, None]
+            local = slot_of[e]
+            for j in range(m_max):
+                np.add.at(chunk[j], local, lam_own[:, j])  # in pair order, after the fixed
+        total += chunk
+    return total
+
+
+def _sum_in_order(values: F64) -> F64:
+    """Column sums of ``values`` (S, n) adding the rows one after the other, as running sums
+    do: numpy reduces over the outer axis of a 2-D array that way (a sum along a contiguous
+    row may be pairwise), except for a single column, which it reduces as a contiguous run
+    (tested against the pair-by-pair sums bit for bit)."""
+    if values.shape[1] == 1:
+        out: F64 = np.add.accumulate(values[:, 0])[-1:]
+        return out
+    summed: F64 = np.add.reduce(values, axis=0)
+    return summed
+
+
+def _forecast(rng: np.random.Generator, rows: int, m: int, k: int) -> SimpleNamespace:
+    """What ``_per_window_sums`` reads of a forecaster: rates, FreMEn coefficients and
+    periods (rates near zero, so the floor bites somewhere)."""
+    return SimpleNamespace(
+        rows=np.arange(rows),
+        params=SimpleNamespace(max_order=m),
+        rate_total=rng.exponential(0.3, rows) * (rng.random(rows) < 0.9),
+        coef_total=rng.normal(0, 0.2, (rows, m)) + 1j * rng.normal(0, 0.2, (rows, m)),
+        period_idx=rng.integers(0, k, (rows, m)),
+    )
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 100, 1 << 15])
+@given(seed=st.integers(0, 2**31 - 1))
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_blocks_of_every_order_equal_the_per_order_blocks(
+    chunk: int, seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Chunks that cut entries' slots anywhere (one pair, a few, most of an entry), one to
+    four orders, whole or partly recorded slots, own pairs after the fixed ones."""
+    monkeypatch.setattr(scoring, "_PAIRS", chunk)
+    rng = np.random.default_rng(seed)
+    rows, m, k, slots = int(rng.integers(1, 50)), int(rng.integers(1, 5)), 9, 40
+    fc = _forecast(rng, rows, m, k)
+    t = np.sort(rng.uniform(0, 86_400, slots))
+    rot = np.exp(-1j * np.multiply.outer(t, rng.uniform(1e-5, 1e-3, k)))
+    fixed_slots = np.flatnonzero(rng.random(slots) < rng.uniform(0, 1))
+    share = None if seed % 3 else np.where(
+        rng.random(fixed_slots.size) < 0.5, 1.0, rng.uniform(0.01, 1.0, fixed_slots.size)
+    )
+    entries = np.flatnonzero(rng.random(rows) < 0.7)
+    n_obs = int(rng.integers(0, 100))
+    obs_e = np.sort(rng.integers(0, rows, n_obs))
+    own = (obs_e, rng.integers(0, slots, n_obs), rng.uniform(0.01, 1.0, n_obs))
+    floor = float(rng.choice([1e-12, 1e-3, 0.05]))
+    got = scoring._per_window_sums(fc, entries, (fixed_slots, share), own, rot, floor)  # type: ignore[arg-type]
+    want = _per_window_sums_per_order(fc, entries, (fixed_slots, share), own, rot, floor)
+    assert got.shape == want.shape
+    assert got.tobytes() == want.tobytes()
+
+
+def test_a_bench_sized_day_equals_the_per_order_blocks() -> None:
+    """A fixed sensor's day as the 20-day bench build closes it: 144 slots, four orders,
+    31 periods, a thousand entries in chunks of ``_PAIRS`` (every chunk cuts two)."""
+    rng = np.random.default_rng(15)
+    fc = _forecast(rng, 1000, 4, 31)
+    t = np.arange(144) * 600.0
+    rot = np.exp(-1j * np.multiply.outer(t, 2 * np.pi / (86_400.0 / np.arange(1, 32))))
+    fixed = (np.arange(144), None)
+    own = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+    entries = np.arange(1000)
+    got = scoring._per_window_sums(fc, entries, fixed, own, rot, 1e-3)  # type: ignore[arg-type]
+    want = _per_window_sums_per_order(fc, entries, fixed, own, rot, 1e-3)
+    assert got.tobytes() == want.tobytes()
