@@ -188,7 +188,8 @@ class BindIndex:
         return (
             self._none_at == cells_version
             and self._params == (float(radius), float(vertical_tolerance))
-            and np.array_equal(node_xyz, self._nodes)
+            and node_xyz.shape == self._nodes.shape
+            and bool((node_xyz == self._nodes).all())  # np.array_equal without its overhead
         )
 
     def __getstate__(self) -> dict[str, int]:

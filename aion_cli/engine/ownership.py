@@ -128,16 +128,22 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     if state.deferred is not None and state.deferred.first_stable is None and stable.any():
         # a shard remembers the first stable nodes it bound to (engine.shards)
         state.deferred.remember_stable(state.nodes.ids[stable], state.nodes.xyz[stable])
-    cells = state.entries.cell_rows()
-    if not stable.any() or len(cells) == 0:
+    if not stable.any():
         return None
     xyz = state.nodes.xyz[stable]
     index = state.nodes.bind_index
+    version = state.entries.cells_version
+    # the usual check (most of a build's): nothing changed since one that bound none, known
+    # before the cells are listed (that check had cells: the same version has the same)
+    if index is not None and index.nothing_new(
+        version, xyz, cfg.bind_radius, cfg.bind_vertical_tolerance
+    ):
+        return None
+    cells = state.entries.cell_rows()
+    if len(cells) == 0:
+        return None
     if index is None:
         index = state.nodes.bind_index = BindIndex()
-    version = state.entries.cells_version
-    if index.nothing_new(version, xyz, cfg.bind_radius, cfg.bind_vertical_tolerance):
-        return None
     hit = index.nearest(
         cells,
         state.entries.key,

@@ -4,6 +4,9 @@ replaced gave (verbatim copies below), bit for bit.
 * A day's per-window FreMEn sums of fixed-sensor slots evaluated a block of every order at
   once (:class:`~aion_cli.engine.temporal.slot_sums.FixedSlots`) against the per-order
   blocks, on random forecasts, slots, shares and chunk sizes (hypothesis).
+* A bind check that finds nothing new before listing the cells (``ownership.plan_binds``)
+  against the check that listed them first: whole builds, fixed sensor and robot, equal
+  member by member, with the same cells queried.
 """
 
 from __future__ import annotations
@@ -16,8 +19,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from aion_cli.engine import closing, ownership
+from aion_cli.engine.nearest import BindIndex
+from aion_cli.engine.ownership import BindPlan, stable_nodes
+from aion_cli.engine.state import MapState
 from aion_cli.engine.temporal import scoring
 from aion_cli.engine.types import F64, I64
+from tests.engine import test_issue15_windows as window_builds
 
 C128 = Any
 
@@ -163,3 +171,70 @@ def test_a_bench_sized_day_equals_the_per_order_blocks() -> None:
     got = scoring._per_window_sums(fc, entries, fixed, own, rot, 1e-3)  # type: ignore[arg-type]
     want = _per_window_sums_per_order(fc, entries, fixed, own, rot, 1e-3)
     assert got.tobytes() == want.tobytes()
+
+
+# -- the bind check that finds nothing new -----------------------------------------------------
+
+
+def _plan_binds_listing_first(state: MapState, t_ns: int) -> BindPlan | None:
+    """``ownership.plan_binds`` before it asked the memo first (verbatim)."""
+    cfg = state.config
+    stable = stable_nodes(state, t_ns)
+    if state.deferred is not None and state.deferred.first_stable is None and stable.any():
+        # a shard remembers the first stable nodes it bound to (engine.shards)
+        state.deferred.remember_stable(state.nodes.ids[stable], state.nodes.xyz[stable])
+    cells = state.entries.cell_rows()
+    if not stable.any() or len(cells) == 0:
+        return None
+    xyz = state.nodes.xyz[stable]
+    index = state.nodes.bind_index
+    if index is None:
+        index = state.nodes.bind_index = BindIndex()
+    version = state.entries.cells_version
+    if index.nothing_new(version, xyz, cfg.bind_radius, cfg.bind_vertical_tolerance):
+        return None
+    hit = index.nearest(
+        cells,
+        state.entries.key,
+        state.entries.xyz,
+        xyz,
+        cfg.bind_radius,
+        cfg.bind_vertical_tolerance,
+    )
+    bound = hit >= 0
+    if not bound.any():
+        index.bound_none(version)
+        return None
+    cells, hit = cells[bound], hit[bound]
+    order = np.argsort(state.entries.key[cells], kind="stable")  # canonical: by cell key
+    cells, hit = cells[order], hit[order]
+    return BindPlan(cells, state.nodes.ids[stable][hit], xyz[hit])
+
+
+@pytest.mark.parametrize("robot", [False, True])
+@pytest.mark.parametrize("seed", [1, 4, 7])
+def test_bind_checks_asking_the_memo_first_build_the_same_map(
+    seed: int, robot: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Three days of detections and graphs whose nodes come, go and move (binds, releases,
+    checks with nothing new): the same arrays, and the memo queried the same cells."""
+    queried = []
+    real_nearest = BindIndex.nearest
+
+    def counted(self: BindIndex, *args: Any) -> Any:
+        queried.append(int(np.asarray(args[0]).size))
+        return real_nearest(self, *args)
+
+    monkeypatch.setattr(BindIndex, "nearest", counted)
+    fast = window_builds._build(seed, robot)
+    fast_queried = list(queried)
+    queried.clear()
+    with monkeypatch.context() as patch:
+        patch.setattr(ownership, "plan_binds", _plan_binds_listing_first)
+        patch.setattr(closing, "plan_binds", _plan_binds_listing_first)
+        before = window_builds._build(seed, robot)
+    assert fast_queried == queried
+    assert sorted(fast) == sorted(before)
+    for name in fast:
+        assert fast[name].dtype == before[name].dtype, name
+        assert fast[name].tobytes() == before[name].tobytes(), name
