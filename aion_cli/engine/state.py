@@ -36,6 +36,7 @@ from aion_cli.engine.state_checks import (
 from aion_cli.engine.temporal import components as fremen_components
 from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.calendar import DAY_NS
 from aion_cli.engine.temporal.components import FremenComponents
 from aion_cli.engine.temporal.groups import entry_groups, sorted_group_keys
 from aion_cli.engine.temporal.held_days import DeferredDays
@@ -43,7 +44,7 @@ from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.temporal.provisional import ProvisionalScores
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
-from aion_cli.engine.windows import window_ns
+from aion_cli.engine.windows import window_centre_ns, window_ns
 from aion_cli.errors import MapCorruptError, PartMapError
 
 DROP_REASONS = ("nan", "out_of_range", "before_window")
@@ -176,13 +177,19 @@ class MapState:
 
     def window_day(self, window: int) -> int:
         """The local day (``timezone``) of a window, by its centre (remembered for the last
-        windows asked: a build asks for each window several times as it closes)."""
+        windows asked: a build asks for each window several times as it closes). A window
+        not asked before brings the days of the windows of about a day from it on, in one
+        vectorised call of the same elementwise calendar (issue 15: a build asks for each
+        next window in turn, one calendar call per window before)."""
         days = self._days
         day = days.get(window)
         if day is None:
             if len(days) >= 4096:
                 days.clear()
-            day = days[window] = temporal_model.window_day(self.params, window, self.window_ns)
+            ahead = np.arange(window, window + min(max(DAY_NS // self.window_ns, 1), 256))
+            found = self.params.calendar.day(window_centre_ns(ahead, self.window_ns))
+            days.update(zip(ahead.tolist(), found.tolist(), strict=True))
+            day = days[window]
         return day
 
     def record_window(

@@ -7,6 +7,8 @@ replaced gave (verbatim copies below), bit for bit.
 * A bind check that finds nothing new before listing the cells (``ownership.plan_binds``)
   against the check that listed them first: whole builds, fixed sensor and robot, equal
   member by member, with the same cells queried.
+* ``MapState.window_day`` bringing the days of the windows ahead against one calendar call
+  per window, in any order, across DST changes, for windows of a second to half a day.
 """
 
 from __future__ import annotations
@@ -20,9 +22,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine import closing, ownership
+from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.nearest import BindIndex
 from aion_cli.engine.ownership import BindPlan, stable_nodes
 from aion_cli.engine.state import MapState
+from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal import scoring
 from aion_cli.engine.types import F64, I64
 from tests.engine import test_issue15_windows as window_builds
@@ -238,3 +242,30 @@ def test_bind_checks_asking_the_memo_first_build_the_same_map(
     for name in fast:
         assert fast[name].dtype == before[name].dtype, name
         assert fast[name].tobytes() == before[name].tobytes(), name
+
+
+# -- the days of windows ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("timezone", ["UTC", "Europe/Berlin", "America/Santiago"])
+@pytest.mark.parametrize("window_s", [1.0, 600.0, 5400.0, 21_600.0, 43_200.0])
+@given(seed=st.integers(0, 2**31 - 1))
+@settings(max_examples=15, deadline=None)
+def test_window_days_brought_ahead_equal_one_call_per_window(
+    timezone: str, window_s: float, seed: int
+) -> None:
+    """Windows asked in a build's order (each next one, some repeated) and at random, near
+    DST changes and far from them: every answer equals the per-window calendar call
+    (windows of a second to half a day)."""
+    cfg = ModelConfig(
+        window_s=window_s, profile_bin_s=max(3600.0, window_s), timezone=timezone,
+        periods=(86_400.0, 604_800.0),
+    )
+    state = MapState.empty(cfg)
+    rng = np.random.default_rng(seed)
+    start = int(rng.integers(1_600_000_000, 1_800_000_000)) * 10**9 // state.window_ns
+    walk = start + np.cumsum(rng.integers(0, 3, 400))
+    jumps = rng.integers(start - 10**4, start + 10**6, 100)
+    for w in np.concatenate([walk, jumps, walk[::-1]]).tolist():
+        want = temporal_model.window_day(state.params, w, state.window_ns)
+        assert state.window_day(w) == want
