@@ -9,6 +9,9 @@ replaced gave (verbatim copies below), bit for bit.
   member by member, with the same cells queried.
 * ``MapState.window_day`` bringing the days of the windows ahead against one calendar call
   per window, in any order, across DST changes, for windows of a second to half a day.
+* A day's sums of the static, shape and profile rates over the observed windows
+  (``scoring._observed_sum``) evaluated at broadcast (entry, bin) indices against the
+  repeated pair arrays, with and without the profile sums held.
 """
 
 from __future__ import annotations
@@ -269,3 +272,56 @@ def test_window_days_brought_ahead_equal_one_call_per_window(
     for w in np.concatenate([walk, jumps, walk[::-1]]).tolist():
         want = temporal_model.window_day(state.params, w, state.window_ns)
         assert state.window_day(w) == want
+
+
+# -- the day's sums of the periodic families over observed windows -----------------------------
+
+
+def _observed_sum_by_pairs(fc: Any, name: str, per_bin: F64, floor: float, fremen: F64) -> F64:
+    """``scoring._observed_sum`` before the broadcast indices: every (entry, bin) pair
+    repeated into arrays (verbatim but for the name)."""
+    if name.startswith("fremen"):
+        out: F64 = fremen[int(name.removeprefix("fremen")) - 1]
+        return out
+    n = per_bin.shape[0]
+    bins = np.flatnonzero(per_bin.any(axis=0))
+    # every (entry, bin) pair in one evaluation, then the bins added in order
+    pair_e = np.repeat(np.arange(n), bins.size)
+    pair_h = np.tile(bins, n)
+    lam = np.maximum(fc.flow(name, pair_e, pair_h, np.zeros(pair_e.size)), floor)
+    lam = lam.reshape(n, bins.size)
+    total = np.zeros(n)
+    for j, b in enumerate(bins.tolist()):
+        total += lam[:, j] * per_bin[:, b]
+    return total
+
+
+@pytest.mark.parametrize("cached", [True, False])
+@pytest.mark.parametrize("seed", range(12))
+def test_observed_sums_over_a_grid_equal_the_pair_sums(cached: bool, seed: int) -> None:
+    """A learnt state's forecasters (profile sums held or read from the accumulators), random
+    observed windows per profile bin (some bins empty, whole and partial windows), floors
+    that bite or not: the static, shape and profile sums equal, bit for bit."""
+    from aion_cli.engine.temporal import pooling
+    from aion_cli.engine.temporal.forecast import Forecaster
+    from aion_cli.engine.temporal.params import TemporalParams
+    from tests.engine.test_temporal_blocks import _days, _learnt
+
+    rng = np.random.default_rng(seed)
+    params = TemporalParams.from_config(ModelConfig())
+    state = _learnt(params, 30, _days(params, 30, 3, seed=seed % 7))
+    rows = np.arange(30, dtype=np.int64)
+    groups = rows // 6
+    pool = pooling.PoolStats.of(params, state, rows, groups, 5)
+    fc = Forecaster(params, state, rows, groups, pool)
+    if cached:
+        fc.cache_profiles()
+    per_bin = rng.uniform(0.0, 3.0, (30, params.n_profile))
+    per_bin *= rng.random((30, params.n_profile)) < 0.5
+    per_bin[:, rng.random(params.n_profile) < 0.4] = 0.0
+    floor = float(rng.choice([1e-12, 1e-3, 0.5]))
+    fremen = np.zeros((params.max_order, 30))
+    for name in ("static", "shape", "profile"):
+        got = scoring._observed_sum(fc, name, per_bin, floor, fremen)
+        want = _observed_sum_by_pairs(fc, name, per_bin, floor, fremen)
+        assert got.tobytes() == want.tobytes(), name

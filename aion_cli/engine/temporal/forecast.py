@@ -182,7 +182,8 @@ class Forecaster(FremenParts):
         if self._profiles is not None:
             held: F64 = self._profiles[1][e, h]
             return held
-        out: F64 = self.state.cnt_profile[self.rows[e], :, h].sum(axis=1, dtype=np.float64)
+        # summed over the value axis, the last for pairs and for broadcast (entry, bin) grids
+        out: F64 = self.state.cnt_profile[self.rows[e], :, h].sum(axis=-1, dtype=np.float64)
         return out
 
     def shape_at(self, e: I64, h: I64) -> F64:
@@ -208,7 +209,8 @@ class Forecaster(FremenParts):
     def flow(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
         """Expected detections per window (all value bins) of family ``family`` at pairs
         (entry position ``e``, profile bin ``h``, model time ``t_s``); FreMEn is not clamped
-        (callers clamp at 0 or at the scoring floor)."""
+        (callers clamp at 0 or at the scoring floor). The periodic families also take index
+        arrays that broadcast (entries down, bins across: that grid, static one column)."""
         mu = self.rate_total[e]
         if family == "static":
             return mu.copy()

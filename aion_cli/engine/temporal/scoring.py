@@ -220,11 +220,11 @@ def _observed_sum(
         return out
     n = per_bin.shape[0]
     bins = np.flatnonzero(per_bin.any(axis=0))
-    # every (entry, bin) pair in one evaluation, then the bins added in order
-    pair_e = np.repeat(np.arange(n), bins.size)
-    pair_h = np.tile(bins, n)
-    lam = np.maximum(fc.flow(name, pair_e, pair_h, np.zeros(pair_e.size)), floor)
-    lam = lam.reshape(n, bins.size)
+    # every (entry, bin) pair in one evaluation, entries down and bins across (indices that
+    # broadcast: no repeated pair arrays, the same values), then the bins added in order
+    at_e, at_h = np.arange(n)[:, None], bins[None, :]
+    lam = np.maximum(fc.flow(name, at_e, at_h, np.zeros((1, 1))), floor)
+    lam = np.broadcast_to(lam, (n, bins.size))  # static: one column, the same for every bin
     total = np.zeros(n)
     for j, b in enumerate(bins.tolist()):
         total += lam[:, j] * per_bin[:, b]
