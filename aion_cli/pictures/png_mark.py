@@ -17,11 +17,12 @@ def save_marked_png(fig: Any, path: Any, **options: Any) -> None:
     """``fig.savefig(path, format="png", ...)`` with aion's mark (``options``: savefig's).
     A character the font lacks (a map or room named in Japanese: DejaVu Sans has no kana) is
     drawn as a box, without matplotlib's warning per character, which named a line of
-    aion's source on the terminal."""
+    aion's source on the terminal. matplotlib 3.9 on says "missing from font(s) DejaVu Sans.",
+    3.7 and 3.8 (which aion supports) "missing from current font.": both are left out."""
     import warnings
 
     with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=r"Glyph \d+ .* missing from font")
+        warnings.filterwarnings("ignore", message=r"Glyph \d+ .* missing from (current )?font")
         fig.savefig(path, format="png", metadata={"Software": PNG_SOFTWARE}, **options)
 
 
