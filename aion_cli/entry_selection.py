@@ -7,7 +7,7 @@ themselves are :mod:`aion_cli.predictions`'."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.predictions import entry_ids, entry_table, kind_label
@@ -32,7 +32,8 @@ def chosen_entries(
     wanted = with_names_resolved(nodes, loaded.graph)
     layer = layer_of_nodes(layer, wanted, loaded.graph)
     table = entry_table(loaded, t_ns, layer)
-    index = refuse_empty_layer(table, layer, select(table, layer, wanted, at))
+    index = select(table, layer, wanted, at, in_map=_in_map(loaded, t_ns))
+    index = refuse_empty_layer(table, layer, index)
     names = {} if loaded.graph is None else names_by_id(loaded.graph)
     return table, layer, index, names
 
@@ -64,9 +65,13 @@ def _wanted_label(node: str | int, by_id: dict[str, int]) -> str:
     return node_label(node)
 
 
-def _refuse_other_layers(layer: str, missing: list[str], labels: list[str]) -> None:
+def _refuse_other_layers(
+    layer: str, missing: list[str], labels: list[str], in_map: Callable[[list[str]], bool] | None
+) -> None:
     """``--layer rooms`` (``buildings``) with a ``--node`` of another kind (a place, a hash
-    cell, a building): an error that says so, not "not in the map" (``p4`` is in it)."""
+    cell, a building): an error that says so, not "not in the map" (``p4`` is in it).
+    ``in_map``: whether the map holds those ids on another layer; one it lacks (``p999``) is
+    "not in the map", as without --layer (where the hint would send the user)."""
     from aion_cli.errors import UnknownNodeError
 
     if layer not in ("rooms", "buildings"):
@@ -74,12 +79,31 @@ def _refuse_other_layers(layer: str, missing: list[str], labels: list[str]) -> N
     others = [m for m in missing if m[:1] != ("R" if layer == "rooms" else "B")]
     if not others:
         return  # a room id the map lacks: "not in the map", as without --layer
+    if in_map is not None and not in_map(others):
+        return  # not in the map on any layer: "not in the map"
     listed = f"; the map's {layer}: {', '.join(labels[:8])}" if labels else ""
     raise UnknownNodeError(
         f"--layer {layer} answers {layer} only: {', '.join(others)} "
         + (f"is no {layer[:-1]}" if len(others) == 1 else f"are no {layer}"),
         hint=f"ask for {', '.join(others)} without --layer{listed}",
     )
+
+
+def _in_map(loaded: LoadedMap, t_ns: int | None) -> Callable[[list[str]], bool]:
+    """Whether the map holds every one of some ids as ``predict`` prints them (places, hash
+    cells, rooms and buildings), computed when asked (an error's case only)."""
+
+    def holds(ids: list[str]) -> bool:
+        from aion_cli.engine.node_ids import node_label
+
+        table = entry_table(loaded, t_ns)
+        known = {str(i) for i in entry_ids(table, range(len(table.xyz)))}
+        if loaded.graph is not None:
+            for part in (loaded.graph.rooms, loaded.graph.buildings):
+                known.update(node_label(int(i)) for i in part.ids)
+        return set(ids) <= known
+
+    return holds
 
 
 def layer_of_nodes(layer: str, nodes: Sequence[str | int], graph: Any) -> str:
@@ -114,11 +138,17 @@ def layer_of_nodes(layer: str, nodes: Sequence[str | int], graph: Any) -> str:
 
 
 def select(
-    table: Any, layer: str = "all", nodes: Sequence[str | int] = (), at: str | None = None
+    table: Any,
+    layer: str = "all",
+    nodes: Sequence[str | int] = (),
+    at: str | None = None,
+    in_map: Callable[[list[str]], bool] | None = None,
 ) -> Any:
     """Row numbers of the entries asked for (``--layer``, ``--node``, ``--at``), in table
     order (``--node``: in the order given, an entry named twice once, where first named:
-    ``--node p2 --node p2`` or ``--node kitchen --node R2`` is one row), as an int64 array."""
+    ``--node p2 --node p2`` or ``--node kitchen --node R2`` is one row), as an int64 array.
+    ``in_map``: whether the map holds ids on other layers than ``table``'s (``--layer rooms
+    --node p4``: a place, not a room; None: taken as held)."""
     import numpy as np
 
     from aion_cli.engine.nearest import distances_from
@@ -154,7 +184,7 @@ def select(
         wanted = [_wanted_label(n, by_id) for n in nodes]
         missing = [w for w in wanted if w not in by_id]
         if missing:
-            _refuse_other_layers(layer, missing, labels)
+            _refuse_other_layers(layer, missing, labels, in_map)
             everyone = {str(i) for i in entry_ids(table, np.arange(len(table.xyz)))}
             if layer in ("places", "cells") and set(missing) <= everyone:
                 hint = f"--layer {layer} leaves {', '.join(missing)} out: ask without --layer"

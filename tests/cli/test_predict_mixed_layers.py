@@ -97,3 +97,23 @@ def test_a_place_asked_for_on_the_rooms_layer_is_named_as_such(
     # a room the map lacks is still "not in the map" on its own layer
     result = run("predict", office.map, *AT, "--layer", "rooms", "--node", "R9")
     assert_one_line_error(result.stderr, "R9 is not in the map")
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["--layer", "rooms", "--node", "p9999"],
+        ["--layer", "rooms", "--node", "c12"],
+        ["--layer", "buildings", "--node", "R99"],
+    ],
+)
+def test_an_id_on_no_layer_of_the_map_is_not_sent_to_ask_without_layer(
+    office: Office, args: list[str]
+) -> None:
+    """``--layer rooms --node p9999`` (a place the map does not have) said "--layer rooms
+    answers rooms only: p9999 is no room" with the hint to ask for it without --layer, where
+    the answer is "not in the map"."""
+    result = run("predict", office.map, *AT, *args)
+    assert result.exit_code == 2, result.stdout
+    assert_one_line_error(result.stderr, f"node {args[-1]} is not in the map")
+    assert "without --layer" not in result.stderr
