@@ -326,8 +326,10 @@ def cells_left_out(loaded: Any) -> tuple[str, bool] | None:
     cells = int(np.count_nonzero(held > 0))
     total = on_cells + on_nodes
     share = 100.0 * on_cells / total
+    # never "0%" of some detections, nor "100%" of not all of them
+    said = "under 1" if share < 1.0 else "over 99" if 99.0 < share < 100.0 else f"{share:.0f}"
     return (
-        f"{share:.0f}% of the map's detections ({on_cells:,.0f} of {total:,.0f}) lie on "
+        f"{said}% of the map's detections ({on_cells:,.0f} of {total:,.0f}) lie on "
         f"{cells:,} hash cell(s) that no place of the scene graph holds (away from them, or "
         "before they were stable), and a spark_dsg graph has no node for a cell: the file "
         "leaves them out (--format ply or png shows them)",

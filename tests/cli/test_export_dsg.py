@@ -203,3 +203,33 @@ def test_detections_the_graph_file_cannot_hold_are_said_to_be_left_out(
                  tmp_path / "office-4d.json")
     assert result.exit_code == 0, result.stderr
     assert "leaves them out" not in " ".join(result.stderr.split())
+
+
+@pytest.mark.parametrize(
+    ("on_cells", "on_nodes", "said"),
+    [(2.0, 3634.0, "under 1%"), (4321.0, 1.0, "over 99%"), (1.0, 1.0, "50%"), (5.0, 0.0, "100%")],
+)
+def test_the_left_out_share_is_never_rounded_to_none_or_all(
+    on_cells: float, on_nodes: float, said: str
+) -> None:
+    """The office sample's 2 of 3,636 detections on cells read "0% of the map's detections
+    (2 of 3,636) ... the file leaves them out"; 4,321 of 4,322 read "100%"."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from aion_cli.exports import cells_left_out
+
+    class Entries:
+        counts = np.array([[on_cells, 0.0], [on_nodes, 0.0]])
+        nodir = np.zeros(2)
+
+        def cell_rows(self) -> np.ndarray:
+            return np.array([0])
+
+        def node_rows(self) -> np.ndarray:
+            return np.array([1])
+
+    got = cells_left_out(SimpleNamespace(state=SimpleNamespace(entries=Entries())))
+    assert got is not None
+    assert got[0].startswith(f"{said} of the map's detections "), got[0]
