@@ -197,10 +197,11 @@ def read_dsg_file(path: str | Path) -> GraphFile:
 def _suffix_by_content(path: Path, suffix: str) -> str:
     """The suffix spark_dsg must be given for ``path`` (it chooses its reader by the name):
     ``suffix``, but ``.json`` for JSON text named ``.sparkdsg`` and ``.sparkdsg`` for a
-    binary graph named ``.json`` (a renamed file was called damaged, or not UTF-8)."""
+    binary graph named ``.json`` (a renamed file was called damaged, or not UTF-8); JSON text
+    may start with a UTF-8 byte-order mark (a ``.json`` file read so, leniently)."""
     with open(path, "rb") as fh:
         head = fh.read(64)
-    if suffix == ".sparkdsg" and head.lstrip()[:1] == b"{":
+    if suffix == ".sparkdsg" and head.removeprefix(b"\xef\xbb\xbf").lstrip()[:1] == b"{":
         return ".json"
     if suffix == ".json" and head[:14] == spark_header("0.0.0")[:14]:  # binary's header
         return ".sparkdsg"

@@ -271,3 +271,26 @@ def test_an_empty_graph_file_is_one_error_with_a_hint(tmp_path: Path) -> None:
     assert result.exit_code == 2
     assert_one_error(result.stderr, "scene-graph file is empty")
     assert "hint: the graph was not written" in result.stderr
+
+
+@pytest.mark.parametrize("start", [b"\xef\xbb\xbf", b"\xef\xbb\xbf \n"])
+def test_a_json_graph_with_a_byte_order_mark_named_sparkdsg_reads_as_json(
+    tmp_path: Path, start: bytes
+) -> None:
+    """A JSON graph saved with a UTF-8 byte-order mark (as some Windows editors do) reads as
+    ``dsg.json``; named ``.sparkdsg`` it was still "damaged: byte 0 (0xef) is not a value"."""
+    from aion_cli.formats.dsg_files import read_dsg_file
+
+    right = tmp_path / "right.json"
+    build_graph().save(str(right), False)
+    marked = start + right.read_bytes()
+    (tmp_path / "marked.json").write_bytes(marked)
+    wrong = tmp_path / "marked.sparkdsg"
+    wrong.write_bytes(marked)
+    want, got = read_dsg_file(tmp_path / "marked.json"), read_dsg_file(wrong)
+    assert got.kind == "JSON"
+    assert got.notes()[0].startswith("marked.sparkdsg holds a JSON graph: read as a .json file")
+    places = [sorted(n.id.value for n in g.graph.get_layer(fdsg.PLACES_LAYER).nodes)
+              for g in (want, got)]
+    assert places[0] == places[1]
+    assert places[0]
