@@ -189,6 +189,19 @@ def offset_changes_near(t_ns: int, zone: Zone, hours: int = 3) -> bool:
     return from_ns(t_ns - shift, zone).utcoffset() != from_ns(t_ns + shift, zone).utcoffset()
 
 
+def one_wall_clock(start: str, end: str, zone: Zone) -> bool:
+    """Whether a span's two ends name one wall-clock time, whatever zones they are read in
+    (``2026-03-29 03:00..03:00``: one time, even where a clock change is near; not
+    ``02:30..03:30``, which Berlin's spring change makes one instant)."""
+    utc = resolve_zone("UTC")
+    try:
+        a = parse_time(_split_zone(" ".join(start.strip().split()), zone)[0], utc)
+        b = parse_time(_split_zone(" ".join(end.strip().split()), zone)[0], utc, from_ns(a, utc))
+    except TimeFormatError:
+        return False
+    return a == b
+
+
 def _wall(day: date, clock: time, zone: Zone) -> datetime:
     return datetime.combine(day, clock).replace(tzinfo=zone.tz)
 

@@ -191,15 +191,24 @@ def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
     except TimeFormatError as exc:
         raise InputError(f"{option} {text!r}: {exc.message}", hint=exc.hint) from exc
     if end <= start:
-        from aion_cli.timeparse import format_ns, offset_changes_near, zone_named_in
+        from aion_cli.timeparse import (
+            format_ns,
+            offset_changes_near,
+            one_wall_clock,
+            zone_named_in,
+        )
 
         read = f" (read as {format_ns(start, zone)} .. {format_ns(end, zone)}"
-        # two times, one instant, where a zone they are read in changes its clock (not
-        # "08:00..08:00", nor a UNIX time and its ISO form)
+        # two wall-clock times of one zone, one instant, where that zone changes its clock
+        # (not "08:00..08:00", nor a UNIX time and its ISO form, nor "03:00..03:00" beside
+        # Berlin's spring change, nor "03:30..01:30 UTC" read in Berlin's summer time)
+        zones = [zone_named_in(p, zone) for p in parts]
         changed = (
             end == start
             and parts[0].strip() != parts[1].strip()
-            and any(offset_changes_near(start, zone_named_in(p, zone)) for p in parts)
+            and zones[0].tz == zones[1].tz
+            and offset_changes_near(start, zones[0])
+            and not one_wall_clock(parts[0], parts[1], zone)
         )
         read += ": a clock change skips or repeats an hour there)" if changed else ")"
         raise InputError(

@@ -238,3 +238,33 @@ def test_an_empty_span_blames_a_clock_change_only_where_there_is_one(
     assert ("a clock change skips or repeats an hour there" in caught.value.message) is (
         clock_change
     )
+
+
+@pytest.mark.parametrize(
+    ("span", "zone", "clock_change"),
+    [
+        # one wall-clock time written twice beside a clock change: not the change's doing
+        ("2026-03-29 03:00..03:00", "Europe/Berlin", False),
+        ("2026-03-29 03:00..2026-03-29T03:00", "Europe/Berlin", False),
+        ("2026-10-25 02:30..02:30", "Europe/Berlin", False),
+        ("2026-03-29 02:30 Europe/Berlin..2026-03-29 02:30 Europe/Berlin", "UTC", False),
+        # two zones' times of one instant: "03:30 CEST" is "01:30 UTC"
+        ("2026-03-29 03:30..01:30 UTC", "Europe/Berlin", False),
+        ("2026-03-29 01:30..2026-03-29 03:30 Europe/Berlin", "UTC", False),
+        # the skipped hour's times are the change's doing
+        ("2026-03-29 02:30..03:30", "Europe/Berlin", True),
+        ("2026-03-29 02:30..2026-03-29 03:30 Europe/Berlin", "Europe/Berlin", True),
+    ],
+)
+def test_an_empty_span_beside_a_clock_change_blames_it_only_for_two_wall_clock_times(
+    span: str, zone: str, clock_change: bool
+) -> None:
+    """``--observed "2026-03-29 03:00..03:00"`` in Europe/Berlin said "a clock change skips or
+    repeats an hour there": one time written twice, an hour after the change."""
+    from aion_cli.cli.common import parse_span
+
+    with pytest.raises(InputError, match="the end is not after the start") as caught:
+        parse_span(span, resolve_zone(zone), "--observed")
+    assert ("a clock change skips or repeats an hour there" in caught.value.message) is (
+        clock_change
+    )
