@@ -443,12 +443,14 @@ def _frame_warning(frames: list[tuple[str, str | None]]) -> str | None:
     ``rear_laser``: their positions are merged as if one frame); None when they record one
     (maps that record none, written before the record, say nothing)."""
     known = [(name, f) for name, f in frames if f is not None]
-    if len({f for _, f in known}) < 2:
+    distinct = len({f for _, f in known})
+    if distinct < 2:
         return None
     listed = ", ".join(f"{name}: {f!r}" for name, f in known)
     return (
         f"the maps hold positions in different frames ({listed}): they are merged as if "
-        "both were one frame, and the merged map records none; merge maps of one frame "
+        f"{'both' if distinct == 2 else f'all {distinct}'} were one frame, and the merged "
+        "map records none; merge maps of one frame "
         "(aion info MAP --format json: map_frame)"
     )
 

@@ -443,3 +443,15 @@ def test_maps_of_different_frames_merge_with_a_warning(tmp_path: Path) -> None:
     assert frame_warnings(("odom", "odom"), "same") == []
     assert read_manifest(tmp_path / "same.aion")["map_frame"] == "odom"
     assert frame_warnings(("odom", None), "older") == []
+
+
+def test_three_frames_are_not_called_both() -> None:
+    """Three maps of three frames were "merged as if both were one frame"."""
+    from aion_cli.merging import _frame_warning
+
+    two = _frame_warning([("a.aion", "x"), ("b.aion", "y"), ("c.aion", "y")])
+    assert two is not None
+    assert "as if both were one frame" in two
+    three = _frame_warning([("a.aion", "x"), ("b.aion", "y"), ("c.aion", "z")])
+    assert three is not None
+    assert "as if all 3 were one frame" in three
