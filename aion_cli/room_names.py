@@ -108,7 +108,15 @@ def with_names_resolved(
         named = named_node(node, graph) if isinstance(node, str) else None
         if named is None and isinstance(node, str):
             text = node.strip()
-            if not (text[:1] == "c" and text[1:].isdigit()):  # a hash cell's c<key>
+            if not _printed_id(text):  # predict's own ids are for the map to answer
                 parse_id_or_name(text, graph)
         out.append(named if named is not None else node)
     return out
+
+
+def _printed_id(text: str) -> bool:
+    """Whether ``text`` has the form of an id ``predict`` prints: a category character and an
+    index (``p12``, a hash cell's ``c<key>``, ``#67`` of a graph whose places are in category
+    ``#``: :func:`~aion_cli.engine.node_ids.node_label` prints any printable ASCII one), which
+    the map's entry table, not :func:`parse_node_id`, decides."""
+    return len(text) > 1 and "!" <= text[0] <= "~" and text[1:].isascii() and text[1:].isdigit()

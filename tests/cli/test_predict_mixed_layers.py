@@ -117,3 +117,40 @@ def test_an_id_on_no_layer_of_the_map_is_not_sent_to_ask_without_layer(
     assert result.exit_code == 2, result.stdout
     assert_one_line_error(result.stderr, f"node {args[-1]} is not in the map")
     assert "without --layer" not in result.stderr
+
+
+def test_a_place_of_a_category_that_is_no_letter_is_asked_for_as_printed(
+    office: Office, tmp_path: Path
+) -> None:
+    """A graph whose places are in category ``#`` (spark_dsg takes any character; predict
+    prints them ``#3``): ``predict --node '#3'`` answered it, then said "not a node id or
+    room name: '#3'" once a word that is neither a name nor an id became an error."""
+    import numpy as np
+    import spark_dsg
+
+    from tests.cli.logdata import EDGES, PLACES
+
+    graph = spark_dsg.DynamicSceneGraph()
+    for i, xyz in PLACES.items():
+        attrs = spark_dsg.PlaceNodeAttributes()
+        attrs.position = np.array(xyz)
+        attrs.real_place = True
+        graph.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("#", i), attrs)
+    for a, b in EDGES:
+        graph.insert_edge(spark_dsg.NodeSymbol("#", a), spark_dsg.NodeSymbol("#", b))
+    room = spark_dsg.RoomNodeAttributes()
+    room.position = np.array(PLACES[0])
+    room.name = "lab"  # a name, so unknown words list the graph's names
+    graph.add_node(spark_dsg.DsgLayers.ROOMS, spark_dsg.NodeSymbol("R", 0), room)
+    graph_file = tmp_path / "hash.json"
+    graph.save(str(graph_file), False)
+    site = tmp_path / "hash.aion"
+    assert run("build", office.log, "--graph", graph_file, "-o", site, "-q").exit_code == 0
+    listed = run_json("predict", site, *AT, "--format", "json")
+    ids = [e["id"] for e in listed["entries"] if e["id"].startswith("#")]
+    assert ids
+    picked = run_json("predict", site, *AT, "--node", ids[0], "--format", "json")
+    assert [e["id"] for e in picked["entries"]] == [ids[0]]
+    result = run("predict", site, *AT, "--node", "lba")  # a misspelt name: the names listed
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "not a node id or room name: 'lba'")
