@@ -137,8 +137,9 @@ def merge_map_files(
         raise InputError("a merge needs at least two maps (or one part map)", hint=_HINT)
     _check_paths(paths, out)
     check_map_target(out)
-    target = _target_graph(graph_file, nav_layer)
+    target, graph_notes = _target_graph(graph_file, nav_layer)
     report = MergeReport(out)
+    report.notes.extend(graph_notes)  # a lenient read, a file named as the other format
     with map_lock(out):  # one writer per map, from the checks to the write
         if out.exists():
             report.notes.append(f"{out.name} existed and is replaced")
@@ -188,21 +189,25 @@ def _check_paths(paths: list[Path], out: Path) -> None:
     check_map_folder(out)
 
 
-def _target_graph(graph_file: Path | None, nav_layer: str | None) -> GraphSnapshot | None:
-    """The ``--graph FILE`` snapshot (read before any map, so a bad file fails first);
-    ``--nav-layer`` chooses its navigational layer, and without the file means nothing."""
+def _target_graph(
+    graph_file: Path | None, nav_layer: str | None
+) -> tuple[GraphSnapshot | None, list[str]]:
+    """The ``--graph FILE`` snapshot (read before any map, so a bad file fails first) and
+    the notes of its read (as ``build --graph`` prints them); ``--nav-layer`` chooses its
+    navigational layer, and without the file means nothing."""
     if graph_file is None:
         if nav_layer is not None:
             raise InputError(
                 f"--nav-layer {nav_layer} chooses the layer of a --graph FILE, and none is given",
                 hint="the maps' own graphs keep the layers they were built with",
             )
-        return None
+        return None, []
     from aion_cli.formats.dsg import load_graph
 
     if not Path(graph_file).is_file():
         raise InputError(f"scene-graph file not found: {graph_file}", hint="check the path")
-    return load_graph(graph_file, 0, nav_layer).snapshot
+    loaded = load_graph(graph_file, 0, nav_layer)
+    return loaded.snapshot, loaded.notes()
 
 
 def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:

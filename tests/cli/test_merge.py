@@ -132,6 +132,18 @@ def test_a_target_graph_away_from_the_maps_is_named(days: Days, tmp_path: Path) 
     assert not [n for n in summary["warnings"] if "away from every place" in n]
 
 
+def test_the_target_graph_files_notes_are_printed_as_builds_are(
+    days: Days, tmp_path: Path
+) -> None:
+    """``merge --graph`` of a JSON graph named ``.sparkdsg`` says that it was read as JSON,
+    as ``build --graph`` does (the merge kept the snapshot and dropped the read's notes)."""
+    json_graph = save_graph_file(tmp_path / "office.json", PLACES, EDGES)
+    renamed = json_graph.rename(tmp_path / "office.sparkdsg")
+    out = tmp_path / "renamed.aion"
+    summary = run_json("merge", *days.maps, "-o", out, "--graph", renamed, "--format", "json")
+    assert [n for n in summary["notes"] if "office.sparkdsg holds a JSON graph" in n]
+
+
 def test_a_target_graph_of_another_session_makes_the_merge_different(
     days: Days, tmp_path: Path
 ) -> None:
