@@ -264,3 +264,24 @@ def load_graph_file(
 ) -> GraphSnapshot:
     """Read a Hydra graph file into a snapshot stamped ``t_ns`` (files carry no time)."""
     return load_graph(path, t_ns, layer).snapshot
+
+
+def graph_payload(path: str | Path) -> tuple[bytes, int]:
+    """spark_dsg binary of a graph file, mesh included, as Hydra publishes it, for a log that
+    ``aion convert`` writes, and the number of agent poses left out of it. A graph Hydra saved
+    carries its own robot's trajectory in the agent layer, stamped at the times of its own
+    recording; a dataset has no robot, and a build would take those poses as the sensor's
+    observation instead of the log's messages and ``--observed`` spans (a fixed sensor), so
+    the partitions of the agent layer are removed."""
+    from aion_cli.formats.dsg_layers import AGENTS_LAYER
+
+    graph = load_dsg_file(path)
+    key = graph.get_layer_key("AGENTS")
+    layer = int(key.layer) if key is not None else AGENTS_LAYER
+    dropped = 0
+    for view in list(graph.layer_partitions):
+        if int(view.id) == layer and int(view.partition) != 0:
+            dropped += int(view.num_nodes())
+            graph.remove_layer(layer, view.partition)
+    payload: bytes = graph.to_binary(True)
+    return payload, dropped

@@ -52,6 +52,8 @@ class TracksLogSummary:
     #: times of the first and the last detection (None: the log holds none)
     first_detection_ns: int | None = None
     last_detection_ns: int | None = None
+    #: robot poses of the graph file's agent layer left out of the log's scene graph
+    graph_agents_dropped: int = 0
 
 
 #: interval of the empty detection messages over an observed span: far below any sane
@@ -212,14 +214,6 @@ def _pose_array_message(
         "header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": frame_id},
         "poses": poses,
     }
-
-
-def _graph_payload(graph_file: str | Path) -> bytes:
-    """spark_dsg binary of a graph file, mesh included, as Hydra publishes it."""
-    from aion_cli.formats.dsg import load_dsg_file
-
-    payload: bytes = load_dsg_file(graph_file).to_binary(True)
-    return payload
 
 
 def tracks_to_log(
@@ -414,6 +408,7 @@ def _write_tracks(
     before the previous one ended raises :class:`_UnsortedError`, the partial log thrown
     away). The rows of a chunk's last message are held back until the next chunk shows it is
     complete, so the messages are those of the concatenated rows."""
+    from aion_cli.formats.dsg_files import graph_payload
     from aion_cli.formats.raw import normalize_msgtype
     from aion_cli.formats.writers import LogWriter, check_stamps
 
@@ -429,7 +424,7 @@ def _write_tracks(
     _check_log_times(marks, "the observed spans")
     if len(marks):
         check_stamps(int(marks.max()), container, "the observed spans")
-    payload = _graph_payload(graph_file) if graph_file is not None else None
+    payload, agents = graph_payload(graph_file) if graph_file is not None else (None, 0)
     rows = groups = 0
     track_ids = np.zeros(0, np.int64)
     with LogWriter(out_path, container, overwrite=overwrite) as writer:
@@ -478,6 +473,7 @@ def _write_tracks(
         tracks=len(track_ids),
         first_detection_ns=t0,
         last_detection_ns=last_detection,
+        graph_agents_dropped=agents,
     )
 
 

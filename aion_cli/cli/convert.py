@@ -286,6 +286,12 @@ def command(
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,
     )
+    if summary.graph_agents_dropped:
+        note(
+            f"{graph_file}: its agent layer ({summary.graph_agents_dropped:,} robot "
+            "poses of the graph's own recording) is left out of the log: a dataset has no "
+            "robot, so the build observes with the log's messages and --observed spans"
+        )
     _warn_spans_without_detections(spans, summary, zone)
     if summary.observed_spans:
         console().print(
