@@ -34,7 +34,7 @@ from aion_cli.formats.track_csv import (
     _plain_columns,
     _seconds_to_ns,
     _Spec,
-    finite_difference,
+    differenced,
 )
 from aion_cli.formats.track_types import TrackData, TracksFormatError, _utc, merge_spans
 
@@ -115,8 +115,7 @@ def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_F
     xyz = np.zeros((len(points), 3))
     xyz[:, 0] = points[:, 0] * EDINBURGH_M_PER_PX
     xyz[:, 1] = (EDINBURGH_HEIGHT_PX - points[:, 1]) * EDINBURGH_M_PER_PX
-    heading, speed = finite_difference(t_ns, tid, xyz[:, :2])
-    batch = DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
+    batch = differenced(t_ns, xyz, tid)
     return TrackData(batch, notes=notes)
 
 
@@ -233,8 +232,7 @@ def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") ->
     tid = _agent_ids(names)
     xyz = np.stack([x, y, np.nan_to_num(z)], axis=1) * scale
     t_ns = _seconds_to_ns(t_s, start_ns, p)
-    heading, speed = finite_difference(t_ns, tid, xyz[:, :2])
-    batch = DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
+    batch = differenced(t_ns, xyz, tid)
     return TrackData(batch, notes=tuple(notes))
 
 

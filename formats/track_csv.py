@@ -32,7 +32,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.tracking import difference_tracks
 from aion_cli.engine.types import F64, I64, DetectionBatch
-from aion_cli.formats.track_types import LAYOUTS, TracksFormatError
+from aion_cli.formats.track_types import LAYOUTS, TracksFormatError, repeated_rows
 
 CANONICAL_HEADER = "t_ns,track_id,x,y,z,heading_rad,speed_mps"
 
@@ -347,10 +347,21 @@ def read_eth(path: str | Path, fps: float = 25.0, start_ns: int = 0) -> Detectio
     a = _plain_columns(p, _SPECS["eth"], "eth")
     t_ns = _seconds_to_ns(a[:, 0] / fps, start_ns, p)
     tid = a[:, 1].astype(np.int64)
-    heading, speed = finite_difference(t_ns, tid, a[:, 2:4])
     xyz = np.zeros((len(a), 3))
     xyz[:, :2] = a[:, 2:4]
-    return DetectionBatch.from_arrays(t_ns, xyz, heading, speed, tid).sorted_by_time()
+    return differenced(t_ns, xyz, tid)
+
+
+def differenced(t_ns: I64, xyz: F64, track_id: I64) -> DetectionBatch:
+    """The time-sorted detections of tracks with headings and speeds by
+    :func:`finite_difference`, where a row repeating an earlier row's time and track id
+    (:func:`formats.track_types.repeated_rows`, left out when written) is no neighbour."""
+    batch = DetectionBatch.from_arrays(t_ns, xyz, track_id=track_id)
+    keep = ~repeated_rows(batch)[0]
+    batch.heading[keep], batch.speed[keep] = finite_difference(
+        t_ns[keep], track_id[keep], xyz[keep, :2]
+    )
+    return batch.sorted_by_time()
 
 
 # ----------------------------------------------------------------------------- Edinburgh

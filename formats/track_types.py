@@ -104,3 +104,44 @@ def sessions(t_ns: npt.ArrayLike, gap_ns: int) -> list[tuple[int, int]]:
 
 def _utc(t_ns: int) -> str:
     return datetime.fromtimestamp(t_ns / 1e9, UTC).strftime("%Y-%m-%d %H:%M:%S")
+
+
+def repeated_rows(batch: DetectionBatch) -> tuple[npt.NDArray[np.bool_], int]:
+    """Rows that repeat the time and track id of an earlier row (ids >= 0; -1 is no id), and
+    how many of those lie elsewhere than that earlier row. One person is at one place at a
+    time: such rows come from a file that holds its rows (or some) twice, and would count
+    the person twice in every flow (and, for layouts differenced into headings, leave
+    zero time steps)."""
+    n = len(batch.t_ns)
+    repeated = np.zeros(n, dtype=bool)
+    ided = np.flatnonzero(batch.track_id >= 0)
+    if len(ided) < 2:
+        return repeated, 0
+    order = ided[np.lexsort((ided, batch.track_id[ided], batch.t_ns[ided]))]
+    t, k = batch.t_ns[order], batch.track_id[order]
+    same = np.concatenate([[False], (t[1:] == t[:-1]) & (k[1:] == k[:-1])])
+    if not same.any():
+        return repeated, 0
+    first = np.maximum.accumulate(np.where(same, 0, np.arange(len(order))))
+    repeated[order[same]] = True
+    xyz = batch.xyz[order]
+    elsewhere = same & np.any(xyz != xyz[first], axis=1)
+    return repeated, int(elsewhere.sum())
+
+
+@dataclass
+class RepeatedRows:
+    """Leaves out the rows that repeat an earlier row's time and track id
+    (:func:`repeated_rows`) from each batch of whole messages, counting them over the
+    batches (``elsewhere``: those at another position)."""
+
+    rows: int = 0
+    elsewhere: int = 0
+
+    def drop(self, data: DetectionBatch) -> DetectionBatch:
+        mask, elsewhere = repeated_rows(data)
+        if not mask.any():
+            return data
+        self.rows += int(mask.sum())
+        self.elsewhere += elsewhere
+        return data.select(~mask)

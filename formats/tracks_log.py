@@ -22,7 +22,7 @@ import numpy.typing as npt
 from aion_cli.engine.types import F64, I64, BoolA, DetectionBatch
 from aion_cli.errors import InputError
 from aion_cli.formats.track_csv import CHUNK_ROWS, track_chunks
-from aion_cli.formats.track_types import _utc, merge_spans
+from aion_cli.formats.track_types import RepeatedRows, _utc, merge_spans
 from aion_cli.formats.tracks import read_tracks
 
 SPENCER_TRACKED = "spencer_tracking_msgs/msg/TrackedPersons"
@@ -54,6 +54,9 @@ class TracksLogSummary:
     last_detection_ns: int | None = None
     #: robot poses of the graph file's agent layer left out of the log's scene graph
     graph_agents_dropped: int = 0
+    #: rows left out for repeating an earlier row's time and track id (of them elsewhere)
+    repeated_rows: int = 0
+    repeated_elsewhere: int = 0
 
 
 #: interval of the empty detection messages over an observed span: far below any sane
@@ -432,6 +435,7 @@ def _write_tracks(
             writer, kind, topic, frame_id, marks, payload, graph_topic, round(graph_period_s * 1e9)
         )
         held: DetectionBatch | None = None  # the rows of the last, maybe unfinished, message
+        repeats = RepeatedRows()
         t0: int | None = None
         last_detection: int | None = None
         for chunk in chunks:
@@ -445,13 +449,14 @@ def _write_tracks(
             data = chunk if held is None else DetectionBatch.concat([held, chunk])
             keys = _group_keys(data.t_ns, group_ns, t0)
             cut = int(np.searchsorted(keys, keys[-1], "left"))  # the last message's rows
-            if cut > 0:
-                done = data.select(np.arange(cut))
+            if cut > 0:  # whole messages: every row of a time is in one of them
+                done = repeats.drop(data.select(np.arange(cut)))
                 stamps, splits = _group_bounds(done.t_ns, group_ns, t0)
                 out.rows(done, stamps, splits, rows)
-                rows, groups = rows + cut, groups + len(stamps)
+                rows, groups = rows + len(done), groups + len(stamps)
             held = data.select(np.arange(cut, len(data)))
         if held is not None:
+            held = repeats.drop(held)
             stamps, splits = _group_bounds(held.t_ns, group_ns, t0)
             out.rows(held, stamps, splits, rows)
             rows, groups = rows + len(held), groups + len(stamps)
@@ -474,7 +479,10 @@ def _write_tracks(
         first_detection_ns=t0,
         last_detection_ns=last_detection,
         graph_agents_dropped=agents,
+        repeated_rows=repeats.rows,
+        repeated_elsewhere=repeats.elsewhere,
     )
+
 
 
 def _check_chunk(chunk: DetectionBatch, kind: str, held: DetectionBatch | None) -> None:

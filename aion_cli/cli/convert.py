@@ -286,6 +286,16 @@ def command(
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,
     )
+    if summary.repeated_rows:  # copies: the file's fault (a warning); moves: its tracker's
+        moved = summary.repeated_elsewhere
+        copies = summary.repeated_rows - moved
+        (warn if copies else note)(
+            f"{tracks.name}: {counted(summary.repeated_rows, 'row')} repeat the time and track "
+            f"id of an earlier row ({copies:,} the same row again, {moved:,} at another "
+            "position): left out, so each person counts once per time"
+            + (" (does the file hold rows twice?)" if copies else
+               " (the tracker gave a person two positions at one time)")
+        )
     if summary.graph_agents_dropped:
         note(
             f"{graph_file}: its agent layer ({summary.graph_agents_dropped:,} robot "
