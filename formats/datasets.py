@@ -36,7 +36,13 @@ from aion_cli.formats.track_csv import (
     _Spec,
     differenced,
 )
-from aion_cli.formats.track_types import TrackData, TracksFormatError, _utc, merge_spans
+from aion_cli.formats.track_types import (
+    NoTrackRowsError,
+    TrackData,
+    TracksFormatError,
+    _utc,
+    merge_spans,
+)
 
 if TYPE_CHECKING:
     from aion_cli.engine.tracking import LinkerConfig
@@ -80,7 +86,7 @@ def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_F
         raise TracksFormatError(f"tracks file not found: {p}")
     text = p.read_text(encoding="utf-8-sig", errors="replace")
     if not text.strip():
-        raise TracksFormatError(f"{p}: no track rows", hint="the file is empty")
+        raise NoTrackRowsError(f"{p}: no track rows", hint="the file is empty")
     found = list(_EDINBURGH_TRACK.finditer(text))
     entries = [m.start() for m in re.finditer(r"TRACK\.R", text)]
     if not found:
@@ -207,7 +213,7 @@ def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") ->
             hint="every row needs the header's columns, comma-separated",
         ) from exc
     if table.size == 0:
-        raise TracksFormatError(f"{p}: no track rows", hint="the file has only its header")
+        raise NoTrackRowsError(f"{p}: no track rows", hint="the file has only its header")
     t_s = _number_column(p, table[:, 0], "Time", finite=True)
     x = _number_column(p, table[:, 2], "x")
     y = _number_column(p, table[:, 3], "y")
@@ -241,7 +247,7 @@ def _thor_magni_header(path: Path) -> dict[str, int]:
     if not path.is_file():
         raise TracksFormatError(f"tracks file not found: {path}")
     if path.stat().st_size == 0:
-        raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
+        raise NoTrackRowsError(f"{path}: no track rows", hint="the file is empty")
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
         first = fh.readline().strip()
     names = [name.strip().strip('"') for name in first.split(",")]
@@ -357,7 +363,7 @@ def _first_data_line(path: Path) -> tuple[int, str]:
             line = raw.split("#", 1)[0].strip()
             if line:
                 return lineno, line
-    raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
+    raise NoTrackRowsError(f"{path}: no track rows", hint="the file is empty")
 
 
 def _lincoln_variant(path: Path) -> str:

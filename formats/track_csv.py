@@ -32,7 +32,12 @@ import numpy.typing as npt
 
 from aion_cli.engine.tracking import difference_tracks
 from aion_cli.engine.types import F64, I64, DetectionBatch
-from aion_cli.formats.track_types import LAYOUTS, TracksFormatError, repeated_rows
+from aion_cli.formats.track_types import (
+    LAYOUTS,
+    NoTrackRowsError,
+    TracksFormatError,
+    repeated_rows,
+)
 
 CANONICAL_HEADER = "t_ns,track_id,x,y,z,heading_rad,speed_mps"
 
@@ -137,7 +142,7 @@ def _check_file(path: Path, spec: _Spec, layout: str) -> None:
     if not path.is_file():
         raise TracksFormatError(f"tracks file not found: {path}")
     if path.stat().st_size == 0:
-        raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
+        raise NoTrackRowsError(f"{path}: no track rows", hint="the file is empty")
     if spec.header is None:
         return
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
@@ -152,6 +157,14 @@ def _check_file(path: Path, spec: _Spec, layout: str) -> None:
         raise TracksFormatError(
             f"{path}: line 1 must be the header {spec.header!r}, got {first[:80]!r}", hint=hint
         )
+
+
+def _no_rows_hint(spec: _Spec) -> str:
+    """What a file without a detection row holds (after :func:`_check_file`: not 0 bytes)."""
+    return (
+        "the file has only its header line" if spec.header is not None
+        else "the file holds no data line"
+    ) + " (a sensor that recorded nobody: give its --observed spans)"
 
 
 def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Literal[1, 2]) -> Any:
@@ -172,7 +185,7 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Lit
     except (ValueError, UnicodeDecodeError, OverflowError) as exc:
         raise _fail(path, spec, layout, str(exc)) from exc
     if data.size == 0:
-        raise TracksFormatError(f"{path}: no track rows", hint="the file is empty")
+        raise NoTrackRowsError(f"{path}: no track rows", hint=_no_rows_hint(spec))
     return data
 
 
@@ -312,7 +325,7 @@ def track_chunks(
         found += len(data)
         yield _canonical_rows(p, data) if key == "canonical" else _atc_rows(p, key, data, start_ns)
     if found == 0:
-        raise TracksFormatError(f"{p}: no track rows", hint="the file is empty")
+        raise NoTrackRowsError(f"{p}: no track rows", hint=_no_rows_hint(spec))
 
 
 def _line_chunks(path: Path, spec: _Spec, layout: str, rows: int) -> Iterator[list[str]]:

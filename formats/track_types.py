@@ -46,6 +46,11 @@ class TracksFormatError(InputError):
     """A tracks file has the wrong layout, non-numeric data, or no rows."""
 
 
+class NoTrackRowsError(TracksFormatError):
+    """A tracks file holds no detection row (empty, a header or comments only): with
+    ``--observed`` spans, a sensor that ran while nobody came."""
+
+
 @dataclass(frozen=True)
 class TrackData:
     """A tracks file read whole: its detections and when the sensor was recording.

@@ -202,12 +202,13 @@ def command(
 ) -> None:
     """Convert the pedestrian tracks in TRACKS (CSV) into a log with people detections."""
     from aion_cli.cli.console import console, note, warn
+    from aion_cli.engine.types import DetectionBatch
     from aion_cli.errors import InputError
     from aion_cli.formats.input_kind import input_kind
     from aion_cli.formats.track_csv import STREAM_LAYOUTS
     from aion_cli.formats.track_sniff import UNIX_SECONDS_FROM as UNIX_S
     from aion_cli.formats.track_sniff import layout_mismatch
-    from aion_cli.formats.track_types import merge_spans
+    from aion_cli.formats.track_types import NoTrackRowsError, merge_spans
     from aion_cli.formats.tracks import read_track_data
     from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
     from aion_cli.formats.writers import check_log_target
@@ -243,24 +244,32 @@ def command(
         "graph_file": graph_file, "container": kind, "msgtype": msgtype, "overwrite": force,
     }
     notes: tuple[str, ...] = ()
-    if layout in STREAM_LAYOUTS:  # one detection per line: read and written in chunks
-        summary = stream_tracks_to_log(
-            tracks, output, layout, start_ns, observed=merge_spans(spans), **options
-        )
-    else:
-        data = read_track_data(
-            tracks, layout, start_ns=start_ns, fps=fps, units=length_unit or "auto"
-        )
-        if len(data.batch) == 0:
-            raise InputError(
-                f"no tracks in {tracks}", hint=f"is it really the {layout!r} layout?"
+    try:
+        if layout in STREAM_LAYOUTS:  # one detection per line: read and written in chunks
+            summary = stream_tracks_to_log(
+                tracks, output, layout, start_ns, observed=merge_spans(spans), **options
             )
-        summary = tracks_to_log(
-            data.batch, output, observed=merge_spans([*data.observed, *spans]), **options
-        )
-        notes = data.notes
-        if layout in FRAME_LAYOUTS:
-            _warn_fast_walkers(data.batch.speed, layout, fps)
+        else:
+            data = read_track_data(
+                tracks, layout, start_ns=start_ns, fps=fps, units=length_unit or "auto"
+            )
+            if len(data.batch) == 0:
+                raise InputError(
+                    f"no tracks in {tracks}", hint=f"is it really the {layout!r} layout?"
+                )
+            summary = tracks_to_log(
+                data.batch, output, observed=merge_spans([*data.observed, *spans]), **options
+            )
+            notes = data.notes
+            if layout in FRAME_LAYOUTS:
+                _warn_fast_walkers(data.batch.speed, layout, fps)
+    except NoTrackRowsError as exc:
+        if not spans:  # without spans there is nothing to write
+            raise
+        # the sensor ran while nobody came: the log marks the declared spans only
+        nobody = DetectionBatch.from_arrays([], [])
+        summary = tracks_to_log(nobody, output, observed=merge_spans(spans), **options)
+        note(f"{exc.message}: the log marks the --observed spans only (nobody came)")
     for line in notes:
         note(line)
     mismatch = layout_mismatch(tracks, layout)

@@ -1,0 +1,48 @@
+"""A tracks file without a detection row (0 bytes, a header only) from a sensor that ran while
+nobody came: with ``--observed`` spans ``aion convert`` writes the log that marks them (as
+``tracks_to_log`` does for an empty batch), so a night with nobody counts as observed and
+empty when built with the other days' logs; without spans it stays an error, whose hint says
+what the file holds and that spans make it a log."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import assert_one_line_error, run
+
+HEADER = "t_ns,track_id,x,y,z,heading_rad,speed_mps\n"
+
+
+@pytest.mark.parametrize(
+    ("layout", "text"),
+    [("canonical", HEADER), ("canonical", ""), ("atc", ""), ("atc", "# nobody\n"),
+     ("ucy", ""), ("lincoln", "")],
+)
+def test_no_rows_with_observed_spans_is_a_log_of_the_spans(
+    tmp_path: Path, layout: str, text: str
+) -> None:
+    src = tmp_path / "night.csv"
+    src.write_text(text)
+    log = tmp_path / "night.mcap"
+    result = run(
+        "convert", src, "--layout", layout, "-o", log,
+        "--observed", "2026-01-05 20:00..2026-01-05 22:00",
+    )
+    assert result.exit_code == 0, result.stderr  # before: error: no track rows
+    assert "the log marks the --observed spans only" in result.stderr
+    assert "marked by 241 empty detection messages" in result.stderr
+    assert "fixed sensor over the 12 windows" in run("info", log).stderr
+
+
+def test_header_only_without_spans_is_an_error_that_says_so(tmp_path: Path) -> None:
+    src = tmp_path / "night.csv"
+    src.write_text(HEADER)
+    result = run("convert", src, "-o", tmp_path / "night.mcap")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no track rows")
+    # before: "hint: the file is empty" for a file of one header line
+    assert "hint: the file has only its header line" in result.stderr
+    assert "--observed" in result.stderr
+    assert not (tmp_path / "night.mcap").exists()
