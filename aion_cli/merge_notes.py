@@ -55,12 +55,15 @@ def _same_day(state: MapState, window: int, t_ns: int) -> bool:
 @dataclass(frozen=True)
 class Footprint:
     """What the notes need of an earlier map once it is merged away (copies, so the merge
-    may change the state): its cells' keys, its node entries' ids, and its node table."""
+    may change the state): its cells' keys, its node entries' ids, its node table, and
+    whether a robot observed any of its entries (else it is a fixed sensor's, whose windows
+    the merge adds for every entry)."""
 
     cell_keys: npt.NDArray[np.int64]
     node_entry_ids: npt.NDArray[np.uint64]
     node_ids: npt.NDArray[np.uint64]
     node_ref_xyz: npt.NDArray[np.float64]
+    robot: bool = True
 
     @classmethod
     def of(cls, state: MapState) -> Footprint:
@@ -70,6 +73,7 @@ class Footprint:
             e.node_id[e.node_rows()].copy(),
             state.nodes.ids.copy(),
             state.nodes.ref_xyz.copy(),
+            bool(np.isfinite(_first_observed(state)).any()),
         )
 
 
@@ -122,22 +126,31 @@ class ApproximationTally:
 
 def _unseen_entries(early: Footprint, late: MapState) -> int:
     """Entries whose robot-observed empty windows one of two maps cannot know: those only
-    one map has, and those of both that the later map first observed after its own first
-    robot-observed window (created there late, so its earlier windows passed them by)."""
+    one map has, where the other map's robot observed (a fixed sensor's windows are global:
+    the merge adds them for every entry, as one pass would), and those of both that the
+    later map first observed after its own first robot-observed window (created there late,
+    so its earlier windows passed them by)."""
     el = late.entries
-    cells = np.setxor1d(early.cell_keys, el.key[el.cell_rows()])
-    nodes = np.setxor1d(early.node_entry_ids, el.node_id[el.node_rows()])
+    late_cells, late_nodes = el.key[el.cell_rows()], el.node_id[el.node_rows()]
     rows = el.canonical_order()
     first = _first_observed(late)[rows]  # model seconds, NaN: never robot-observed
-    if not np.isfinite(first).any():
-        return int(cells.size + nodes.size)
+    late_robot = bool(np.isfinite(first).any())
+    only = 0
+    if late_robot:  # the later robot's empty windows of the earlier map's own entries
+        only += np.setdiff1d(early.cell_keys, late_cells).size
+        only += np.setdiff1d(early.node_entry_ids, late_nodes).size
+    if early.robot:  # the earlier robot's empty windows of the later map's own entries
+        only += np.setdiff1d(late_cells, early.cell_keys).size
+        only += np.setdiff1d(late_nodes, early.node_entry_ids).size
+    if not late_robot:
+        return int(only)
     in_early = np.where(
         el.kind[rows] == NODE,
         contained(early.node_entry_ids, el.node_id[rows]),
         contained(early.cell_keys, el.key[rows]),
     )
     late_first = first > np.nanmin(first)  # NaN compares False
-    return int(cells.size + nodes.size + np.count_nonzero(in_early & late_first))
+    return int(only + np.count_nonzero(in_early & late_first))
 
 
 def _first_observed(state: MapState) -> npt.NDArray[np.float64]:

@@ -39,7 +39,7 @@ from tests.engine.engine_builders import (
     pending_counts,
     pid,
 )
-from tests.engine.state_logs import CFG, DAY, W, fixed_sensor_log, run_steps
+from tests.engine.state_logs import CFG, DAY, W, fixed_sensor_log, robot_log, run_steps
 from tests.merging_logs import fixed_sensor_map, input_logs, log_span, random_log, save_map
 
 
@@ -340,12 +340,12 @@ def test_overlapping_maps_merge_with_a_note(tmp_path: Path) -> None:
 
 
 def test_the_notes_name_the_approximations_that_apply(tmp_path: Path) -> None:
-    """Detections anywhere (entries in one map only: approximation 1), and a later map of two
-    days, the first closed and scored on its own (approximation 2)."""
+    """Detections anywhere and a robot's later map (entries in one map only, whose empty
+    windows that robot saw are not known: approximation 1; a fixed sensor's windows would
+    be, tests/cli/test_merge_fixed_sensors.py), of two days, the first closed and scored on
+    its own (approximation 2)."""
     a = fixed_sensor_map(tmp_path / "a.aion", ("a.mcap",), T0, seed=1)
-    late = run_steps(
-        fixed_sensor_log(T0 + 2 * DAY, seed=2) + fixed_sensor_log(T0 + 3 * DAY, seed=3)
-    ).state
+    late = run_steps(robot_log(T0 + 2 * DAY, seed=2, days=2)).state
     b = save_map(late, tmp_path / "b.aion", ("b.mcap",), (T0 + 2 * DAY, T0 + 3 * DAY + 6 * W))
     notes = merge_map_files([a, b], tmp_path / "out.aion").notes
     assert [n for n in notes if "approximation" in n] == [
