@@ -335,7 +335,8 @@ class _Messages:
         if self.kind == SPENCER_TRACKED:
             records = _tracked_person_records(data, cdr, first_id)
         else:
-            quat = _orientation_velocity(data)[0].tolist()
+            quat_a, _, known_h, _ = _orientation_velocity(data)  # no heading: unset (zero)
+            quat = np.where(known_h[:, None], quat_a, 0.0).tolist()
             xyz = data.xyz.tolist()
         bounds = np.concatenate([[0], splits, [len(data)]]).tolist()
         for t, a, b in zip(stamps.tolist(), bounds[:-1], bounds[1:], strict=True):

@@ -226,7 +226,10 @@ def test_tracks_to_log_pose_array_grouped_and_unknown_heading(tmp_path: Path) ->
     assert [p.position.x for p in first.poses] == [0.0, 1.0]
     q = first.poses[0].orientation
     assert math.isclose(2 * math.atan2(q.z, q.w), np.pi / 2)
-    assert (first.poses[1].orientation.z, first.poses[1].orientation.w) == (0.0, 1.0)
+    # no heading: the all-zero "unset" quaternion, which a build never takes for a heading
+    # (the identity it was would read as walking along +x beside the others' yaws)
+    o = first.poses[1].orientation
+    assert (o.x, o.y, o.z, o.w) == (0.0, 0.0, 0.0, 0.0)
 
 
 def test_tracks_to_log_spencer_marks_unknown_velocity(tmp_path: Path) -> None:

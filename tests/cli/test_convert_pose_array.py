@@ -1,0 +1,29 @@
+"""``aion convert --message-type geometry_msgs/msg/PoseArray``: a detection without a heading
+(a THÖR row with speed 0 and angle 0, a track's lone sample) must reach the build as one
+without a heading, not as a person walking along +x (yaw 0): PoseArray has no flag for an
+unknown orientation, so it is written as the all-zero quaternion the build never reads."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tests.cli.conftest import run, run_json
+
+
+def test_unknown_headings_are_not_written_as_yaw_zero(tmp_path: Path) -> None:
+    rows = ["0.0,1,0.0,0.0,1.0,1.5708", "1.0,1,0.0,1.0,1.0,1.2", "2.0,1,0.3,2.0,1.0,1.0"]
+    rows += [f"{t}.0,2,5.0,5.0,0.0,0.0" for t in range(3)]  # standing: speed 0, angle 0
+    src = tmp_path / "thor.csv"
+    src.write_text("\n".join(rows) + "\n")
+    log = tmp_path / "p.bag"
+    result = run(
+        "convert", src, "--layout", "thor", "--start", "2026-01-05 10:00", "-o", log,
+        "--message-type", "geometry_msgs/msg/PoseArray", "-q",
+    )
+    assert result.exit_code == 0, result.stderr
+    report = run_json("build", log, "-o", tmp_path / "m.aion", "--format", "json", "-q")
+    # before: pose_yaw 6 (the standing person's three rows read as walking east). The first
+    # message's yaw counts only once a later one differs (the build's orientation rule), so
+    # the walker's last two rows have one; the standing person's rows have none
+    assert report["headings"]["pose_yaw"] == 2
+    assert report["headings"]["none"] == 4
