@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from datetime import datetime, tzinfo
+from datetime import datetime, timedelta, tzinfo
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -195,6 +195,7 @@ class Map:
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
+        historical = check.flag(historical, "historical")
         if historical and time is not None:
             raise InputError("choose time or historical=True, not both")
         wanted, point, top = check.selection(nodes, at, top)
@@ -218,7 +219,7 @@ class Map:
         self,
         start: TimeLike,
         end: TimeLike,
-        step: str | float = "1h",
+        step: str | float | timedelta = "1h",
         *,
         tz: str | None = None,
         layer: str = "all",
@@ -260,7 +261,7 @@ class Map:
         tz: str | None = None,
         speed: float | None = None,
         leave: tuple[TimeLike, TimeLike] | None = None,
-        step: str | float | None = None,
+        step: str | float | timedelta | None = None,
     ) -> Plan:
         """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms ``"R3"`` or
         coordinates ``"x,y"``) departing at ``time``, avoiding busy and opposing flows, with
@@ -343,6 +344,7 @@ class Map:
             raise InputError(
                 f"{str(out)!r} names a picture", hint="Map.picture(file) writes the PNG"
             )
+        historical = check.flag(historical, "historical")
         if historical and time is not None:
             raise InputError("choose time or historical=True, not both")
         times: list[int | None]
@@ -372,6 +374,7 @@ class Map:
         --format png``)."""
         from aion_cli.pictures.render import export_png
 
+        historical = check.flag(historical, "historical")
         if historical and time is not None:
             raise InputError("choose time or historical=True, not both")
         self._check_file()

@@ -13,7 +13,7 @@ import math
 import numbers
 import os
 from collections.abc import Sequence
-from datetime import datetime, tzinfo
+from datetime import datetime, timedelta, tzinfo
 from typing import Any
 
 from aion_cli.errors import InputError
@@ -50,6 +50,11 @@ def node_list(nodes: object, what: str = "nodes") -> list[str | int]:
     characters; None is none."""
     if nodes is None:
         return []
+    if isinstance(nodes, bytes | bytearray):  # not a list of integer node ids
+        raise InputError(
+            f"{what} must be node ids (text), got bytes {nodes!r}",
+            hint=f"decode it: {what}={bytes(nodes).decode(errors='replace')!r}",
+        )
     if isinstance(nodes, str | numbers.Integral):
         nodes = [nodes]
     if not hasattr(nodes, "__iter__"):
@@ -185,10 +190,25 @@ def selection(
 
 
 def step(value: object) -> str | float:
-    """A series step: text (``"10m"``) or seconds."""
+    """A series step: text (``"10m"``), seconds or a ``timedelta`` (its seconds)."""
     if isinstance(value, str):
         return value
+    if isinstance(value, timedelta):
+        return value.total_seconds()
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(
+            f"step must be a duration, got {value!r}",
+            hint='e.g. step="30m", "1h", "1d", 600 (seconds) or datetime.timedelta(minutes=30)',
+        )
     return real(value, "step")
+
+
+def flag(value: object, what: str) -> bool:
+    """A yes or no: ``True`` / ``False`` (numpy's too), not any value Python finds true (a
+    string "no" would be)."""
+    if isinstance(value, bool) or type(value).__name__ == "bool_":
+        return bool(value)
+    raise InputError(f"{what} must be True or False, got {value!r}", hint=f"e.g. {what}=True")
 
 
 def endpoint(node: object, what: str) -> str | int:

@@ -77,7 +77,14 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
         (lambda m: m.predict(T, historical=True), "not both"),
         (lambda m: m.predict(ns_seconds()), "read as nanoseconds"),
         (lambda m: m.predict_series(T, T, step=float("inf")), "step must be finite"),
-        (lambda m: m.predict_series(T, T, step=None), "step must be a number"),
+        (lambda m: m.predict_series(T, T, step=None), "step must be a duration"),
+        (lambda m: m.predict_series(T, T, step=[60]), "step must be a duration"),
+        # before: read as true, and the time beside it refused as "not both" / a table
+        (lambda m: m.predict(historical="no"), "historical must be True or False"),
+        (lambda m: m.export("x/", historical="yes"), "historical must be True or False"),
+        (lambda m: m.picture("x.png", historical=1), "historical must be True or False"),
+        # before: its bytes read as the integer node ids 112, 52 ("node 112, 52 is not ...")
+        (lambda m: m.predict(T, nodes=b"p4"), "nodes must be node ids .text., got bytes"),
         (lambda m: m.predict_series("2026-01-12 10:00", T, tz="UTC"), "end is before start"),
         (lambda m: m.plan("p1", "p2", speed="1.2"), "speed must be a number"),
         (lambda m: m.plan(None, "p2"), "start must be a node id"),
@@ -237,3 +244,14 @@ def test_save_writes_the_map_as_loaded_and_an_overwritten_file_is_refused(
     with pytest.raises(MapFileError, match="overwritten in place"):
         held.save(tmp_path / "never.aion")
     assert not (tmp_path / "never.aion").exists()
+
+
+def test_a_step_may_be_a_timedelta(m: aion.Map) -> None:
+    """A ``timedelta`` step is its seconds (before: "step must be a number", with the hint
+    "an int or a float, not a string", though strings such as "30m" are steps)."""
+    a = m.predict_series(T, "2026-01-12 10:40", timedelta(hours=1), tz="UTC", top=3)
+    b = m.predict_series(T, "2026-01-12 10:40", "1h", tz="UTC", top=3)
+    assert a.to_dict() == b.to_dict()
+    assert len(a.times) == 3
+    p = m.plan("p1", "p2", leave=(T, "2026-01-12 09:10"), step=timedelta(minutes=10), tz="UTC")
+    assert len(p.departures) == 4
