@@ -28,29 +28,49 @@ class LogTargetError(LogWriteError, OutputPathError):
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 BAG_MAGIC = b"#ROSBAG V2.0\n"
+#: the caller id of every connection of a ROS 1 bag aion writes (a recording names its
+#: recorder's node), and the ``custom_data`` entry of a rosbag2 folder's metadata.yaml
+AION_CALLERID = "/aion"
+AION_ROSBAG2_MARK = ("writer", "aion")
 _MAX_METADATA_BYTES = 16 * 1024**2
 
 
 def is_own_log(path: Path, container: str) -> bool:
     """True when ``path`` is a log of ``container``'s kind that ``--force`` may replace: an MCAP
     file whose header names aion as its library (what :class:`LogWriter` writes; a robot's
-    recording names its recorder) for ``mcap`` / ``mcap-ros1``, a ROS 1 bag (its version
-    line: a bag names no writer) for ``bag``, and for the rosbag2 containers a folder holding
-    only ``metadata.yaml`` and the storage files it names (no other file, no subfolder), as
-    :class:`LogWriter` writes it."""
+    recording names its recorder) for ``mcap`` / ``mcap-ros1``, a ROS 1 bag whose every
+    connection has aion's caller id (:data:`AION_CALLERID`; a recording's name the nodes
+    that published) for ``bag``, and for the rosbag2 containers a folder holding only
+    ``metadata.yaml`` (whose ``custom_data`` carries :data:`AION_ROSBAG2_MARK`) and the
+    storage files it names (no other file, no subfolder), as :class:`LogWriter` writes it.
+    Bags and rosbag2 folders aion wrote before 2026-12-06 carry no mark: they are refused."""
     if container in ("mcap", "mcap-ros1"):
         from aion_cli.formats.scene_mcap import library_of
 
         header = library_of(path)
         return header is not None and header[1].split(" ")[0] == "aion"
     if container == "bag":
-        return file_starts_with(path, BAG_MAGIC)
+        return file_starts_with(path, BAG_MAGIC) and _aion_bag(path)
     return is_own_rosbag2(path)
 
 
+def _aion_bag(path: Path) -> bool:
+    """Whether every connection of the ROS 1 bag at ``path`` has aion's caller id (an
+    unreadable bag is not aion's)."""
+    try:
+        from rosbags.rosbag1 import Reader
+
+        with Reader(path) as reader:
+            callers = [getattr(c.ext, "callerid", None) for c in reader.connections]
+    except Exception:  # damaged, truncated, unindexed: not one aion wrote
+        return False
+    return bool(callers) and all(c == AION_CALLERID for c in callers)
+
+
 def is_own_rosbag2(path: Path) -> bool:
-    """A rosbag2 folder of ``metadata.yaml`` plus exactly the storage files it names (see
-    :func:`is_own_log`); anything else in it (a CSV, a subfolder, a symlink) says no."""
+    """A rosbag2 folder of ``metadata.yaml`` marked as aion's plus exactly the storage files
+    it names (see :func:`is_own_log`); anything else in it (a CSV, a subfolder, a symlink),
+    or no mark, says no."""
     names = folder_entries(path)
     if names is None or "metadata.yaml" not in names:
         return False
@@ -62,7 +82,11 @@ def is_own_rosbag2(path: Path) -> bool:
         from ruamel.yaml import YAML  # rosbags' own YAML library
 
         doc = YAML(typ="safe").load(meta.read_text(encoding="utf-8"))
-        files = doc["rosbag2_bagfile_information"]["relative_file_paths"]
+        info = doc["rosbag2_bagfile_information"]
+        files = info["relative_file_paths"]
+        key, value = AION_ROSBAG2_MARK
+        if (info.get("custom_data") or {}).get(key) != value:
+            return False  # a recording (ros2 bag record writes no such mark)
     except Exception:  # unreadable, not YAML, not rosbag2 metadata: not ours
         return False
     if not isinstance(files, list) or not all(isinstance(f, str) and f for f in files):

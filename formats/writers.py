@@ -26,6 +26,8 @@ from typing import Any, BinaryIO, Literal, get_args
 
 from aion_cli.formats import msgdefs
 from aion_cli.formats.log_target import (
+    AION_CALLERID,
+    AION_ROSBAG2_MARK,
     BAG_MAGIC,
     MCAP_MAGIC,
     LogTargetError,
@@ -157,8 +159,9 @@ class _Rosbag1Backend(_Backend):
 
     def channel(self, topic: str, msgtype: str) -> Any:
         latching = 1 if topic.endswith("tf_static") else None
-        return self.writer.add_connection(
-            topic, msgtype, typestore=msgdefs.typestore(1), latching=latching
+        return self.writer.add_connection(  # the caller id marks the bag as aion's
+            topic, msgtype, typestore=msgdefs.typestore(1), latching=latching,
+            callerid=AION_CALLERID,
         )
 
     def write(self, channel: Any, t_ns: int, data: bytes | memoryview, sequence: int) -> None:
@@ -203,6 +206,7 @@ class _Rosbag2Backend(_Backend):
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
         self.path = path
         self.writer = Writer(path, version=9, storage_plugin=plugin)
+        self.writer.set_custom_data(*AION_ROSBAG2_MARK)  # marks the folder as aion's
         with _full_disk_as_oserror(path):
             self.writer.open()
 
