@@ -108,7 +108,10 @@ class Map:
                 "aion_cli.mapquery.load_map(path, writable=True) to continue it",
             )
         timezone = check.zone_name(timezone, "timezone")
+        if timezone is not None:  # an unknown name would fail every query of the saved map
+            from aion_cli.timeparse import resolve_zone
 
+            timezone = resolve_zone(timezone).name
         manifest = Manifest(state={}, config=state.config.to_dict(), timezone=timezone)
         return cls(LoadedMap(state, latest_graph(state), manifest.to_dict()))
 
@@ -440,7 +443,12 @@ class Map:
         stored = Manifest(
             state=meta,
             config=state.config.to_dict(),
-            counts=state_counts(state),
+            counts={  # the detections fed, as a build's manifest counts them
+                "read": state.accepted + sum(state.dropped.values()),
+                "used": state.accepted,
+                "dropped": {k: v for k, v in state.dropped.items() if v},
+                **state_counts(state),
+            },
             graph_source="memory",
             timezone=self.timezone,
             families=family_summary(state),
