@@ -221,5 +221,5 @@ def _entropy_nats(probs: F64) -> F64:
     terms = np.zeros_like(probs)
     np.log(probs, out=terms, where=positive)
     terms *= probs
-    out: F64 = -terms.sum(axis=1)
+    out: F64 = 0.0 - terms.sum(axis=1)  # 0.0 - 0.0 is 0.0; -(0.0) would be -0.0
     return out
