@@ -34,6 +34,21 @@ def as_path(value: PathLike, what: str = "path") -> Path:
     return Path(text)
 
 
+def progress_sink(progress: object) -> ProgressSink | None:
+    """``progress`` checked: None, or an object with the ``start(description, total,
+    unit)`` and ``advance(n)`` methods of :class:`aion_cli.build_report.ProgressSink` (not
+    a flag: a build calls them, and would fail deep inside on anything else)."""
+    if progress is None:
+        return None
+    if not all(callable(getattr(progress, name, None)) for name in ("start", "advance")):
+        raise InputError(
+            f"progress must have start(description, total, unit) and advance(n) methods, "
+            f"got {progress!r}",
+            hint="leave it out, or pass an object like aion_cli.build_report.NoProgress",
+        )
+    return progress  # type: ignore[return-value]
+
+
 def build(
     logs: PathLike | Sequence[PathLike],
     output: PathLike | None = None,
@@ -65,7 +80,7 @@ def build(
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
     ``Map.predict``, naive ones in ``tz``, else UTC)."""
     from aion_cli.api import Map
-    from aion_cli.api_checks import count, zone_name
+    from aion_cli.api_checks import count, flag, zone_name
     from aion_cli.build_options import map_frame_of
     from aion_cli.pipeline import build_map
 
@@ -90,14 +105,14 @@ def build(
         map_frame=map_frame_of(map_frame, continued),
         graph_file=_optional_path(graph, "graph"),
         nav_layer=nav_layer,
-        derive_graph=bool(derive_graph),
+        derive_graph=flag(derive_graph, "derive_graph"),
         continue_from=continued,
         timezone=tz,
         workers=count(workers, "workers", minimum=0) or 0,
         scheduler=scheduler,
-        part=bool(part),
+        part=flag(part, "part"),
     )
-    report = build_map(opts, progress)
+    report = build_map(opts, progress_sink(progress))
     made = Map.load(report.output)
     made.report = report
     return made
@@ -127,7 +142,7 @@ def merge(
         as_path(output),
         None if graph is None else as_path(graph),
         lineage,
-        progress,
+        progress_sink(progress),
         nav_layer,
     )
     made = Map.load(report.output)

@@ -178,6 +178,17 @@ def test_build_arguments(office: Office, tmp_path: Path) -> None:
         aion.build(office.log, tmp_path / "o.aion", observed=[("2026-01-12 08:00",)])  # type: ignore[list-item]
     with pytest.raises(InputError, match="config must be a ModelConfig"):
         aion.build(office.log, tmp_path / "c.aion", config=[1])  # type: ignore[arg-type]
+    # before: bool("no") is True, so derive_graph="no" derived a graph and part="no" wrote
+    # a part map; progress="yes" failed inside with AttributeError: 'str' ... 'start'
+    with pytest.raises(InputError, match="derive_graph must be True or False"):
+        aion.build(office.log, tmp_path / "d.aion", derive_graph="no")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="part must be True or False"):
+        aion.build(office.log, tmp_path / "p.aion", part="no")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="progress must have start"):
+        aion.build(office.log, tmp_path / "g.aion", progress="yes")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="progress must have start"):
+        aion.merge([office.map, office.map], tmp_path / "m.aion", progress=True)  # type: ignore[arg-type]
+    assert not any(tmp_path.glob("[dpgm].aion"))
     # one topic alone is a topic, a dict is a config, one span alone is one span
     built = aion.build(
         office.log,
