@@ -75,6 +75,7 @@ def resolve_endpoint(
         return _node_endpoint(int(where), nav, graph)
     point = parse_point(where)
     if point is None:
+        _refuse_cell(where)
         named = None if graph is None else named_node(where, graph)
         node_id = named if named is not None else parse_id_or_name(where, graph)
         return _node_endpoint(node_id, nav, graph)
@@ -83,6 +84,24 @@ def resolve_endpoint(
     distance = point_distance(tuple(float(v) for v in nav.xyz[row]), point)
     refuse_far_point(where, distance, node_label(node_id), nav.xyz)
     return Endpoint(node_id, point, distance)
+
+
+def _refuse_cell(where: str) -> None:
+    """A hash cell's id as ``predict`` prints it (``c<key>``: a key far beyond any node
+    index): an :class:`~aion_cli.errors.InputError` saying plans run between places, not
+    "node index too large"."""
+    from aion_cli.engine.node_ids import INDEX_MASK
+    from aion_cli.errors import InputError
+
+    text = where.strip()
+    digits = text[1:]
+    if text[:1] == "c" and digits.isascii() and digits.isdigit() and int(digits) > INDEX_MASK:
+        raise InputError(
+            f"{text} is a hash cell (an entry predict lists), not a place of the scene graph: "
+            "paths run between places",
+            hint=f"give its position as x,y (aion predict MAP --node {text} shows it), a "
+            "place id or a room",
+        )
 
 
 def _node_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot | None) -> Endpoint:

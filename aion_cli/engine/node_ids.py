@@ -41,7 +41,10 @@ def parse_node_id(text: str) -> int:
     if match:
         index = int(match.group(2) or match.group(3))
         if index > INDEX_MASK:
-            raise InputError(f"node index too large in {text!r}")
+            raise InputError(
+                f"node index too large in {text!r} (at most {INDEX_MASK})",
+                'node ids look like "p12" (see `aion predict MAP`)',
+            )
         return (ord(match.group(1)) << 56) | index
     if token.isascii() and token.isdigit():  # not "²", which isdigit() but int() refuses
         value = int(token)
