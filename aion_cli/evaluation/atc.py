@@ -153,6 +153,7 @@ def run_atc(
     else:
         train = load(files, [(h, s) for h in hours if h <= 16 for s in ("train", "test")])
         tests = {h: load(files, [(h, "train"), (h, "test")]) for h in hours if h >= 17}
+    _check_split(data_dir, protocol, files, len(train), len(tests))
     say(f"training on {len(train):,} detections")
     models = _train_models(train, cfg, radius, say)
     result = AtcResult(protocol, radius, len(train))
@@ -163,6 +164,27 @@ def run_atc(
             score = score_headings(model, test, cfg.bins, window_s=cfg.window_s)
             result.rows.append({"hour": hour, **score.to_dict()})
     return result
+
+
+def _check_split(
+    data_dir: Path, protocol: str, files: dict[tuple[int, str], Path], train: int, tests: int
+) -> None:
+    """A folder of some of the ATC files (``--data``) must hold what ``protocol`` trains on
+    and what it tests, else an :class:`InputError` naming the files it holds (no training
+    detection failed inside; no test hour printed an empty table as a result)."""
+    from aion_cli.errors import InputError
+
+    held = ", ".join(sorted(p.name for p in files.values()))
+    if protocol == "random":
+        needs = "the random protocol trains on the _train files and tests each hour's _test file"
+    else:
+        needs = "the chronological protocol trains on 09:00-16:59 and predicts 17:00-20:59"
+    if train == 0:
+        raise InputError(f"no training detections for the {protocol} protocol in {data_dir} "
+                         f"(it holds {held})", hint=needs)
+    if tests == 0:
+        raise InputError(f"no test hour for the {protocol} protocol in {data_dir} "
+                         f"(it holds {held})", hint=needs)
 
 
 def _train_models(

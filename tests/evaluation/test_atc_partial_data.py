@@ -1,0 +1,49 @@
+"""``aion evaluate atc --data DIR`` with a folder of some of the ATC files: a protocol with
+nothing to test printed an empty table and exit 0 (success for no result), one with nothing to
+train on failed inside (``internal error: ValueError: zero-size array ...``). Both are now one
+``error:`` line naming the files the folder holds, with the protocol's hours as the hint."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import assert_one_line_error, run
+
+T9 = 1_351_036_800  # 2012-10-24 09:00 JST
+
+
+def _atc(folder: Path, hour: int, split: str) -> None:
+    t0 = T9 + (hour - 9) * 3600
+    rows = [f"{t0 + 60 + i}.0,{7 + hour},{i * 0.5:.1f},1.0,0.5,0.0" for i in range(30)]
+    (folder / f"atc-1024-{hour}_{split}.csv").write_text("\n".join(rows) + "\n")
+
+
+@pytest.mark.parametrize(
+    ("files", "protocol", "fragment"),
+    [
+        ([(9, "train"), (9, "test")], "chronological", "no test hour for the chronological"),
+        ([(18, "train"), (18, "test")], "chronological", "no training detections"),
+        ([(9, "train")], "random", "no test hour for the random protocol"),
+        ([(9, "test")], "random", "no training detections for the random protocol"),
+    ],
+)
+def test_a_folder_without_what_the_protocol_needs_is_an_error(
+    tmp_path: Path, files: list[tuple[int, str]], protocol: str, fragment: str
+) -> None:
+    for hour, split in files:
+        _atc(tmp_path, hour, split)
+    result = run("evaluate", "atc", "--data", tmp_path, "--protocol", protocol, "-q")
+    assert result.exit_code == 2, (result.stdout, result.stderr)
+    assert_one_line_error(result.stderr, fragment)
+    assert "hint: the " in result.stderr
+    assert result.stdout == ""
+
+
+def test_a_folder_with_both_still_evaluates(tmp_path: Path) -> None:
+    for split in ("train", "test"):
+        _atc(tmp_path, 9, split)
+    result = run("evaluate", "atc", "--data", tmp_path, "--format", "json", "-q")
+    assert result.exit_code == 0, result.stderr
+    assert '"per_hour"' in result.stdout
