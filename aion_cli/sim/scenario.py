@@ -173,7 +173,7 @@ class ScenarioConfig:
         if not 0 <= first <= LAST_START_NS - int(self.days * 86400e9):
             raise InputError(
                 f"--start {self.start!r}: the simulated days must lie in 1970 .. 2261",
-                hint="choose an earlier start",
+                hint="choose a later start" if first < 0 else "choose an earlier start",
             )
 
     def zone_name(self) -> str:
