@@ -494,6 +494,6 @@ def _check_chunk(chunk: DetectionBatch, kind: str, held: DetectionBatch | None) 
     _check_log_times(chunk.t_ns, "the tracks")
     if kind == SPENCER_TRACKED and (chunk.track_id < 0).any():
         raise InputError(
-            "TrackedPersons needs track ids, some rows have none (-1)",
-            hint=f"write the rows as {POSE_ARRAY} instead",
+            f"TrackedPersons needs track ids of 0 or more, a row has {int(chunk.track_id.min())}",
+            hint=f"write the rows without ids: --message-type {POSE_ARRAY}",
         )

@@ -27,3 +27,20 @@ def test_unknown_headings_are_not_written_as_yaw_zero(tmp_path: Path) -> None:
     # the walker's last two rows have one; the standing person's rows have none
     assert report["headings"]["pose_yaw"] == 2
     assert report["headings"]["none"] == 4
+
+
+def test_negative_track_ids_name_the_option_that_writes_rows_without_ids(tmp_path: Path) -> None:
+    """(Before: "some rows have none (-1)" for ids of -5, and a hint naming a message type,
+    not the option: ``write the rows as geometry_msgs/msg/PoseArray instead``.)"""
+    from tests.cli.conftest import assert_one_line_error
+
+    src = tmp_path / "atc.csv"
+    src.write_text("1351038020,-5,1,2,0.3,0.1\n1351038021,-5,1.5,2,0.3,0.1\n")
+    result = run("convert", src, "--layout", "atc", "-o", tmp_path / "a.mcap")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "a row has -5")
+    assert "hint: write the rows without ids: --message-type geometry_msgs/msg/PoseArray" \
+        in result.stderr
+    ok = run("convert", src, "--layout", "atc", "-o", tmp_path / "b.mcap",
+             "--message-type", "geometry_msgs/msg/PoseArray")
+    assert ok.exit_code == 0, ok.stderr
