@@ -231,6 +231,13 @@ def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") ->
     if people.any() and not people.all():
         others = sorted(set(names[~people].tolist()))
         notes.append(f"{p.name}: not people, skipped: {', '.join(others)}")
+    elif not people.any():  # other names: every agent is taken for a person, and said so
+        agents = sorted(set(names[located].tolist()))
+        shown = ", ".join(agents[:8]) + (f" and {len(agents) - 8} more" if len(agents) > 8 else "")
+        notes.append(
+            f"{p.name}: no {THOR_MAGNI_PEOPLE}_N agent (THÖR-MAGNI's people): every agent is "
+            f"converted as a person: {shown}"
+        )
     if not keep.any():
         raise TracksFormatError(f"{p}: no row with a position", hint="x and y are all empty")
     t_s, x, y, z, names = t_s[keep], x[keep], y[keep], z[keep], names[keep]
