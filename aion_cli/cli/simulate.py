@@ -172,7 +172,7 @@ def _event_counts(r: SceneResult) -> str:
     "-o",
     "--output",
     required=True,
-    type=AionPath(path_type=Path),
+    type=AionPath(path_type=str),  # as typed: a trailing '/' names a folder (_output_path)
     help="Log to write (.mcap, .bag, rosbag2 folder); a folder with --scenes > 1.",
 )
 @click.option("--days", type=float, default=1.0, show_default=True, help="Simulated days.")
@@ -313,7 +313,7 @@ def _event_counts(r: SceneResult) -> str:
 @click.option("--force", is_flag=True, help="Overwrite existing outputs.")
 @quiet_option
 def simulate(
-    output: Path,
+    output: str,
     days: float,
     seed: int,
     agents: int,
@@ -385,7 +385,7 @@ def simulate(
         def report(stage: str, done: int, total: int) -> None:
             bar.update(task, description=stage, completed=done, total=total or None)
 
-        results = run(config, output, report, overwrite=force)
+        results = run(config, _output_path(output, scenes, fmt), report, overwrite=force)
     _summary(results)
 
 
@@ -400,6 +400,23 @@ if __name__ == "__main__":  # samples/regenerate.sh runs this module directly
         simulate(standalone_mode=False)
     except Exception as exc:
         sys.exit(report(exc, False))
+
+
+def _output_path(text: str, scenes: int, fmt: str) -> Path:
+    """``-o`` as a path. One scene in a log file (not a rosbag2 folder) named with a trailing
+    ``/`` is refused: ``Path`` drops the separator, and ``-o runs/`` would quietly write
+    ``runs.mcap`` beside the folder meant to hold it."""
+    import os
+
+    from aion_cli.errors import InputError
+
+    if scenes == 1 and not fmt.startswith("rosbag2") and text.endswith(("/", os.sep)):
+        raise InputError(
+            f"-o {text!r} ends in '/', which names a folder, but one scene is one log file",
+            hint=f"name the log (-o {text}office.mcap), or give --scenes N for a folder "
+            "of scenes",
+        )
+    return Path(text)
 
 
 def _zone_name(tz: str) -> str:
