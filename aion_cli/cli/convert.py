@@ -212,7 +212,7 @@ def command(
     from aion_cli.formats.tracks import read_track_data
     from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
     from aion_cli.formats.writers import check_log_target
-    from aion_cli.timeparse import parse_time, resolve_zone
+    from aion_cli.timeparse import TimeFormatError, parse_time, resolve_zone
 
     if not tracks.is_file():
         raise InputError(f"tracks file not found: {tracks}", hint="check the path")
@@ -239,7 +239,11 @@ def command(
     start_ns = 0
     clock = date_text if layout == "edinburgh" else start_text
     if clock is not None:
-        start_ns = parse_time(clock, zone)
+        option = "--date" if layout == "edinburgh" else "--start"
+        try:
+            start_ns = parse_time(clock, zone)
+        except TimeFormatError as exc:  # name the option, as --observed's errors do
+            raise InputError(f"{option} {clock!r}: {exc.message}", hint=exc.hint) from exc
     options: dict[str, Any] = {
         "graph_file": graph_file, "container": kind, "msgtype": msgtype, "overwrite": force,
     }
