@@ -5,7 +5,8 @@ One frame per time: the scene files (``formats.export`` through ``mapquery.expor
 ``entries.csv`` / ``entries.json`` with the records of ``aion predict``. Everything is written
 into a hidden staging folder beside ``OUT`` and moved in when complete, so a failure (a bad
 time, a full disk, Ctrl-C) leaves no partial export behind; files already in ``OUT`` that the
-export does not write are kept, and a same-named file is replaced only when it is one an
+export does not write are kept (but for an earlier export's path part when this one draws
+no path: :func:`_drop_stale_parts`), and a same-named file is replaced only when it is one an
 export wrote (:func:`is_export_file`): nothing is moved in otherwise.
 """
 
@@ -51,7 +52,42 @@ def export_frames(
             written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
             if on_frame is not None:
                 on_frame()
-    return [out_dir / p.relative_to(staged.path) for p in written]
+        moved = [out_dir / p.relative_to(staged.path) for p in written]
+    folders = [out_dir / frame_name(t) for t in times] if series else [out_dir]
+    _drop_stale_parts(folders, fmt, moved)
+    return moved
+
+
+def _drop_stale_parts(folders: Sequence[Path], fmt: str, written: Sequence[Path]) -> None:
+    """Remove the ``path.<fmt>`` an earlier export with ``--path-from/--path-to`` wrote into
+    ``folders`` when this one draws no path: left beside the new files, a viewer opening the
+    folder would draw a path planned for another time as part of this scene. Only aion's own
+    path parts go (:func:`_is_path_part`), never a whole scene saved under that name
+    (``aion plan --export path.ply``)."""
+    keep = {os.path.abspath(p) for p in written}
+    for folder in folders:
+        old = folder / f"path.{fmt}"
+        if os.path.abspath(old) in keep or not old.is_file() or old.is_symlink():
+            continue
+        if is_export_file(old) and _is_path_part(old):
+            old.unlink()
+
+
+def _is_path_part(path: Path) -> bool:
+    """Whether the aion scene file ``path`` holds an export's path part only: a PLY of bare
+    vertices and coloured edges (no faces), a PCD of points without normals. A whole scene
+    (``plan --export``, ``export -o x.ply``) has its places' spheres (faces) or normals."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return False
+    if head.startswith(b"ply\n"):
+        header = head[: head.find(b"end_header")]
+        elements = [line.split()[1] for line in header.splitlines() if line.startswith(b"element ")]
+        return elements == [b"vertex", b"edge"]
+    fields = [line for line in head.splitlines() if line.startswith(b"FIELDS ")]
+    return fields == [b"FIELDS x y z rgb"]
 
 
 @contextlib.contextmanager

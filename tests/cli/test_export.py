@@ -205,3 +205,46 @@ def test_a_series_of_one_time_is_written_as_a_series(office: Office, tmp_path: P
         assert refused.exit_code == 2
         assert_one_line_error(refused.stderr, fragment)
         assert not (tmp_path / name).exists()
+
+
+@pytest.mark.parametrize("fmt", ["ply", "pcd"])
+def test_export_without_path_drops_the_earlier_exports_path(
+    office: Office, tmp_path: Path, fmt: str
+) -> None:
+    # an export with --path-from/--path-to, then one without into the same folder: the
+    # earlier path file is no part of the new scene (a viewer would draw it), so it goes
+    out = tmp_path / "out"
+    first = ["export", office.map, "--time", AT, "--format", fmt, "-o", out]
+    assert run(*first, "--path-from", "p0", "--path-to", "p4").exit_code == 0
+    assert (out / f"path.{fmt}").is_file()
+    mine = out / "notes.txt"
+    mine.write_text("kept")
+    result = run(*first)
+    assert result.exit_code == 0, result.stderr
+    assert not (out / f"path.{fmt}").exists()
+    assert (out / f"nodes.{fmt}").is_file()
+    assert mine.read_text() == "kept"
+
+
+def test_series_without_path_drops_each_frames_earlier_path(
+    office: Office, tmp_path: Path
+) -> None:
+    series = ["--from", "2026-11-23 08:00", "--to", "2026-11-23 08:30", "--step", "30m"]
+    args = ["export", office.map, *series, "-o", tmp_path]
+    assert run(*args, "--path-from", "p0", "--path-to", "p4").exit_code == 0
+    assert len(list(tmp_path.glob("*/path.ply"))) == 2
+    result = run(*args)
+    assert result.exit_code == 0, result.stderr
+    assert list(tmp_path.glob("*/path.ply")) == []
+    assert len(list(tmp_path.glob("*/nodes.ply"))) == 2
+
+
+def test_export_keeps_a_plan_scene_saved_as_path_ply(office: Office, tmp_path: Path) -> None:
+    # README's 'aion plan ... --export path.ply' is a whole scene, not an export's path part
+    scene = tmp_path / "path.ply"
+    planned = run("plan", office.map, "--from", "p0", "--to", "p4", "--time", AT, "--export", scene)
+    assert planned.exit_code == 0, planned.stderr
+    before = scene.read_bytes()
+    result = run("export", office.map, "--time", AT, "-o", tmp_path)
+    assert result.exit_code == 0, result.stderr
+    assert scene.read_bytes() == before
