@@ -43,7 +43,10 @@ def check_series_options(
             hint="leave out --from/--to, or --historical",
         )
     if time_given:
-        raise InputError("choose one of --time or --from/--to")
+        raise InputError(
+            "choose one of --time or --from/--to",
+            hint="--time T: the forecast at T; --from/--to (--step): a series of forecasts",
+        )
     return True
 
 

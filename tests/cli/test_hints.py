@@ -17,6 +17,8 @@ from tests.cli.conftest import SAMPLE, Office, assert_one_line_error, run
         (["plan", "{map}", "--from", "p1", "--to", "p3", "--speed", "nan"], "speed must be"),
         (["plan", "{map}", "--from", "p1", "--to", "p3", "--time", "now", "--leave",
           "08:00..09:00"], "choose one of --time or --leave"),
+        (["predict", "{map}", "--time", "now", "--from", "08:00", "--to", "09:00"],
+         "choose one of --time or --from/--to"),
         (["export", "{map}", "--path-from", "p1", "-o", "{tmp}/x.png"], "needs both --path-from"),
         (["export", "{map}", "--historical", "--time", "now", "-o", "{tmp}/x.png"],
          "choose one of --time, --historical"),
