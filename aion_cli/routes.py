@@ -127,10 +127,14 @@ def _refuse_unknown_room(node_id: int, graph: GraphSnapshot) -> None:
     if label[:1] not in kinds or not label[1:].isdigit():
         return
     kind, ids = kinds[label[:1]]
-    examples = ", ".join(node_label(int(i)) for i in ids[:5])
+    shown = 12  # every id of a usual graph; a few of a large one, said to be a few
+    examples = ", ".join(node_label(int(i)) for i in ids[:shown])
+    listed = f"its {kind}s: {examples}" if len(ids) <= shown else (
+        f"its {len(ids):,} {kind}s include {examples}"
+    )
     raise UnknownNodeError(
         f"{kind} {label} is not in the map",
-        hint=f"its {kind}s: {examples}" if examples else f"the map has no {kind}s: plan to a "
+        hint=listed if examples else f"the map has no {kind}s: plan to a "
         "place (p12) or to a point x,y",
     )
 

@@ -270,3 +270,12 @@ def test_the_temporal_plan_never_costs_more_than_the_distance_only_one(
     assert routes.temporal.cost == routes.distance_only.cost
     plans, best = plan_departures(loaded, p, p + 3, [depart_ns], 1.0, nav)
     assert plans[best].temporal.cost == pytest.approx(25.0)
+
+
+def test_unknown_room_hint_lists_every_room(sample_map: Path) -> None:
+    # the sample's graph has six rooms, R0 .. R5: the hint named the first five as "its
+    # rooms", as if office 2 (R5) were not one of them
+    result = run("plan", sample_map, "--from", "R9", "--to", "p2", "--time", AT)
+    assert_one_line_error(result.stderr, "room R9 is not in the map")
+    assert "hint: its rooms: R0, R1, R2, R3, R4, R5\n" in result.stderr
+    assert run("plan", sample_map, "--from", "R5", "--to", "p2", "--time", AT).exit_code == 0
