@@ -360,7 +360,10 @@ class Map:
         ends = self._path_ends(path)
         label = str(self.path) if self.path is not None else "<memory>"
         if format == "dsg" and ends is not None:
-            raise InputError("a scene-graph file holds no path: leave out path")
+            raise InputError(
+                "a scene-graph file holds no path: leave out path",
+                hint="format='ply', 'png' or 'mcap' draws the path",
+            )
         return write_export(self._loaded, label, out, times, zone, format, ends).files
 
     def picture(

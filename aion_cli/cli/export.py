@@ -181,7 +181,10 @@ def command(
                 hint="use --time or --historical",
             )
         if ends is not None:
-            raise InputError("--format dsg holds no path: leave out --path-from/--path-to")
+            raise InputError(
+                "--format dsg holds no path: leave out --path-from/--path-to",
+                hint="draw the path with --format ply, png or mcap, or 'aion plan --export'",
+            )
     elif scene_file(fmt, out_dir) and series:
         raise InputError(
             f"a series writes one {fmt} scene per time into a folder, got a file: -o {out_dir}",

@@ -19,6 +19,8 @@ from tests.cli.conftest import SAMPLE, Office, assert_one_line_error, run
           "08:00..09:00"], "choose one of --time or --leave"),
         (["predict", "{map}", "--time", "now", "--from", "08:00", "--to", "09:00"],
          "choose one of --time or --from/--to"),
+        (["export", "{map}", "--time", "now", "--path-from", "p0", "--path-to", "p4", "-o",
+          "{tmp}/g.json"], "--format dsg holds no path"),
         (["export", "{map}", "--path-from", "p1", "-o", "{tmp}/x.png"], "needs both --path-from"),
         (["export", "{map}", "--historical", "--time", "now", "-o", "{tmp}/x.png"],
          "choose one of --time, --historical"),
