@@ -125,7 +125,13 @@ def check_map_input(path: Path) -> None:
     if not path.exists():
         raise MapFileError(f"map file not found: {path}", hint="build one with `aion build LOG`")
     if path.is_dir():
-        raise MapFileError(f"{path} is a folder, not a map file")
+        maps = sorted(str(p) for p in path.glob("*.aion") if p.is_file())[:3]
+        raise MapFileError(
+            f"{path} is a folder, not a map file",
+            hint=f"give a map in it: {', '.join(maps)}"
+            if maps
+            else "give a map file (maps end in .aion; aion build LOG -o MAP writes one)",
+        )
 
 
 def _state_meta(path: Path, manifest: dict[str, Any]) -> dict[str, Any]:

@@ -153,7 +153,10 @@ def command(
     if step is not None and t_from is None and t_to is None:
         raise InputError("--step needs --from and --to", hint="a series: --from T --to T --step 1h")
     if (t_from is None) != (t_to is None):
-        raise InputError("a time series needs both --from and --to")
+        raise InputError(
+            "a time series needs both --from and --to",
+            hint='e.g. --from "2026-11-23 06:00" --to "2026-11-23 20:00" --step 1h',
+        )
     if (path_from is None) != (path_to is None):
         raise InputError(
             "a path needs both --path-from and --path-to", hint="e.g. --path-from p1 --path-to p12"
