@@ -191,6 +191,11 @@ def select(
             elif layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
                 # the graph's own rooms and buildings are answered (layer_of_nodes)
                 hint = "the map has no such room or building: aion info MAP lists its rooms"
+            elif all(m.swapcase() in by_id for m in missing):  # P103 for p103
+                hint = (
+                    f"did you mean {', '.join(m.swapcase() for m in missing)}? (node ids "
+                    "are case-sensitive)"
+                )
             else:
                 kind_names = [kind_label(table.kind[e]) for e in index.tolist()]
                 ids = [i for i, k in zip(labels, kind_names, strict=True) if k != "cell"][:8]

@@ -279,3 +279,18 @@ def test_unknown_room_hint_lists_every_room(sample_map: Path) -> None:
     assert_one_line_error(result.stderr, "room R9 is not in the map")
     assert "hint: its rooms: R0, R1, R2, R3, R4, R5\n" in result.stderr
     assert run("plan", sample_map, "--from", "R5", "--to", "p2", "--time", AT).exit_code == 0
+
+
+def test_a_node_id_in_the_other_case_is_pointed_to_its_spelling(office: Office) -> None:
+    """``P1`` where the map has ``p1`` (ids keep their category letter's case, room names do
+    not): plan and predict ask "did you mean p1?"; an id absent in both cases keeps listing
+    the map's ids."""
+    for args in (["plan", office.map, "--from", "P1", "--to", "p3"],
+                 ["predict", office.map, "--node", "P1"]):
+        result = run(*args)
+        assert result.exit_code == 2, result.stderr
+        assert_one_line_error(result.stderr, "P1 is not in the")
+        assert "hint: did you mean p1? (node ids are case-sensitive)" in result.stderr
+    absent = run("predict", office.map, "--node", "P99999")
+    assert "did you mean" not in absent.stderr
+    assert "ids include p" in absent.stderr
