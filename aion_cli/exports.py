@@ -349,17 +349,13 @@ def cells_left_out(loaded: Any) -> tuple[str, bool] | None:
     graph, a fixed sensor built with ``--graph`` of another site: every detection there, and
     the file's places all read zero). ``(message, most)``: ``most`` when they are at least
     half the map's detections; None when no cell holds any."""
-    import numpy as np
-
-    from aion_cli.mapquery import detections_by_kind
+    from aion_cli.mapquery import detections_by_kind, entries_with_detections
 
     on_cells, on_nodes = detections_by_kind(loaded.state)
     if on_cells <= 0:
         return None
     entries = loaded.state.entries
-    rows = entries.cell_rows()
-    held = entries.counts[rows].sum(axis=1) + entries.nodir[rows]
-    cells = int(np.count_nonzero(held > 0))
+    cells = entries_with_detections(entries, entries.cell_rows())
     total = on_cells + on_nodes
     share = 100.0 * on_cells / total
     # never "0%" of some detections, nor "100%" of not all of them

@@ -162,13 +162,13 @@ def state_counts(state: MapState) -> dict[str, int]:
     return {
         "cells": len(entries.cell_rows()),
         "nodes": 0 if state.graph is None else len(state.graph.places),
-        "nodes_with_flow": _with_detections(entries, entries.node_rows()),
+        "nodes_with_flow": entries_with_detections(entries, entries.node_rows()),
         "bound_cells": len(state.redirects),
         "windows": max(1, round(most)) if most > 0 else 0,
     }
 
 
-def _with_detections(entries: Any, rows: I64) -> int:
+def entries_with_detections(entries: Any, rows: I64) -> int:
     """How many of ``rows`` hold a detection (a node's entry may hold only the windows in
     which the robot saw nobody there)."""
     held = entries.counts[rows].sum(axis=1) + entries.nodir[rows]

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.nearest import distances_from
-from aion_cli.engine.node_ids import INDEX_BITS, node_label
+from aion_cli.engine.node_ids import node_label, other_case
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.errors import AionError, UnknownNodeError
 
@@ -106,7 +106,7 @@ class NavGraph:
         hits = np.flatnonzero(self.ids == np.uint64(node_id))
         if len(hits) == 0:
             examples = ", ".join(node_label(int(i)) for i in self.ids[:5])
-            other = _other_case(node_id)  # P103 for p103: ids keep their letter's case
+            other = other_case(node_id)  # P103 for p103: ids keep their letter's case
             hint = (
                 f"did you mean {node_label(other)}? (node ids are case-sensitive)"
                 if other is not None and bool((self.ids == np.uint64(other)).any())
@@ -138,13 +138,3 @@ class NavGraph:
         np.cumsum(np.bincount(src, minlength=len(self.ids)), out=indptr[1:])
         return Arcs(src, dst, length, alpha, indptr)
 
-
-def _other_case(node_id: int) -> int | None:
-    """``node_id`` with its category letter in the other case (``P103`` -> ``p103``); None
-    for an id whose category is no letter."""
-    category = (int(node_id) >> INDEX_BITS) & 0xFF
-    letter = chr(category)
-    if not letter.isascii() or not letter.isalpha():
-        return None
-    index = int(node_id) & ((1 << INDEX_BITS) - 1)
-    return (ord(letter.swapcase()) << INDEX_BITS) | index

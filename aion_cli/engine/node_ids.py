@@ -34,6 +34,16 @@ def node_label(node_id: int) -> str:
     return str(value)
 
 
+def other_case(node_id: int) -> int | None:
+    """``node_id`` with its category letter in the other case (``P103`` -> ``p103``, for a
+    "did you mean"); None for an id whose category is no ASCII letter."""
+    value = int(node_id)
+    letter = chr(value >> INDEX_BITS)
+    if not (letter.isascii() and letter.isalpha()):
+        return None
+    return (ord(letter.swapcase()) << INDEX_BITS) | (value & INDEX_MASK)
+
+
 def parse_node_id(text: str) -> int:
     """``"p12"`` / ``"p(12)"`` / a raw integer id -> the NodeSymbol value."""
     token = text.strip()
