@@ -485,7 +485,6 @@ def _write_tracks(
     )
 
 
-
 def _check_chunk(chunk: DetectionBatch, kind: str, held: DetectionBatch | None) -> None:
     """A chunk may be written: times in range, in order after what came before, track ids
     where TrackedPersons needs them."""
