@@ -344,14 +344,14 @@ def _fill_range(
 
 def _window_runs(declared: tuple[tuple[int, int], ...], delta: int) -> list[tuple[int, int]]:
     """The spans ``[lo, hi)`` as disjoint runs of whole windows (first, last), sorted: the
-    windows each span overlaps, overlapping or touching runs joined."""
-    runs: list[tuple[int, int]] = []
-    for a, b in sorted((int(lo) // delta, -(-int(hi) // delta) - 1) for lo, hi in declared):
-        if runs and a <= runs[-1][1] + 1:
-            runs[-1] = (runs[-1][0], max(runs[-1][1], b))
-        else:
-            runs.append((a, b))
-    return runs
+    windows each span overlaps, overlapping or touching runs joined (as half-open window
+    ranges, by the engine's span merge)."""
+    from aion_cli.engine.observation import merged_spans
+
+    lo = np.array([int(a) for a, _ in declared], np.int64) // delta
+    hi = -(-np.array([int(b) for _, b in declared], np.int64) // delta)
+    starts, ends = merged_spans(lo, hi)
+    return [(int(a), int(b) - 1) for a, b in zip(starts, ends, strict=True)]
 
 
 def fixed_sensor_share(observation: str, recording_windows: int | None = None) -> float | None:

@@ -112,7 +112,7 @@ class ObservationSource:
         ones left out), so a window's coverage is one binary search instead of a pass over
         every interval (a long log with gaps has one interval per run of recorded windows)."""
         if self._merged is None:
-            self._merged = _merged_spans(self.fixed_start, self.fixed_end)
+            self._merged = merged_spans(self.fixed_start, self.fixed_end)
             self._covered = None
         return self._merged
 
@@ -322,7 +322,7 @@ class ObservationSource:
         )
 
 
-def _merged_spans(starts: I64, ends: I64) -> tuple[I64, I64]:
+def merged_spans(starts: I64, ends: I64) -> tuple[I64, I64]:
     """Spans ``[start, end)`` as sorted disjoint ones (overlapping or touching spans joined,
     empty ones left out; new arrays)."""
     s, e = np.asarray(starts, np.int64), np.asarray(ends, np.int64)
@@ -341,7 +341,7 @@ def _cut_windows(windows: I64, delta: np.int64, starts: I64, ends: I64) -> tuple
     """The windows (sorted, distinct) as intervals of log time cut to the spans
     ``[starts, ends)``: each window gives its overlap with every span reaching into it, or
     itself whole where none does."""
-    s, e = _merged_spans(starts, ends)
+    s, e = merged_spans(starts, ends)
     lo = windows * delta
     hi = lo + delta
     if s.size == 0:
