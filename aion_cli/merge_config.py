@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Protocol
 
 from aion_cli.errors import ConfigError
 from aion_cli.fixed_sensor import FIXED_SENSOR_OVER
+from aion_cli.listing import first_few
 
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
@@ -60,16 +61,15 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
             else:
                 raise ConfigError(
                     f"cannot merge {first.name} and {m.name}: they count a robot's windows "
-                    f"differently ({_shown(base, other, differ)}), and a robot observed "
-                    f"{' and '.join(robots)}",
+                    f"differently ({', '.join(_differences(base, other, differ))}), and a "
+                    f"robot observed {' and '.join(robots)}",
                     hint="a map built before exposure existed counts them whole: rebuild it, or "
                     "build the other with a --config file that sets exposure = false",
                 )
         if differ:
-            more = f" and {len(differ) - 3} more" if len(differ) > 3 else ""
             raise ConfigError(
                 f"cannot merge {first.name} and {m.name}: they were built with different "
-                f"model parameters ({_shown(base, other, differ[:3])}{more})",
+                f"model parameters ({first_few(_differences(base, other, differ), 3)})",
                 hint="rebuild one of them with the other's config (aion info MAP shows it; "
                 "aion build --config FILE)",
             )
@@ -85,5 +85,8 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
     return weighed[0] if weighed else first.head.config
 
 
-def _shown(base: dict[str, object], other: dict[str, object], keys: list[str]) -> str:
-    return ", ".join(f"{k} {base.get(k)!r} vs {other.get(k)!r}" for k in keys)
+def _differences(
+    base: dict[str, object], other: dict[str, object], keys: list[str]
+) -> list[str]:
+    """Each differing parameter as ``name base vs other``."""
+    return [f"{k} {base.get(k)!r} vs {other.get(k)!r}" for k in keys]

@@ -43,6 +43,7 @@ from aion_cli.formats.track_types import (
     _utc,
     merge_spans,
 )
+from aion_cli.listing import first_few
 
 if TYPE_CHECKING:
     from aion_cli.engine.tracking import LinkerConfig
@@ -233,10 +234,9 @@ def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") ->
         notes.append(f"{p.name}: not people, skipped: {', '.join(others)}")
     elif not people.any():  # other names: every agent is taken for a person, and said so
         agents = sorted(set(names[located].tolist()))
-        shown = ", ".join(agents[:8]) + (f" and {len(agents) - 8} more" if len(agents) > 8 else "")
         notes.append(
             f"{p.name}: no {THOR_MAGNI_PEOPLE}_N agent (THÖR-MAGNI's people): every agent is "
-            f"converted as a person: {shown}"
+            f"converted as a person: {first_few(agents, 8)}"
         )
     if not keep.any():
         raise TracksFormatError(f"{p}: no row with a position", hint="x and y are all empty")

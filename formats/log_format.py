@@ -10,6 +10,7 @@ from pathlib import Path
 
 from aion_cli.errors import LogFormatError
 from aion_cli.formats.raw import check_regular_input
+from aion_cli.listing import first_few
 
 FORMATS: tuple[str, ...] = ("mcap", "bag", "rosbag2")
 """Values of ``fmt`` / ``--format``."""
@@ -125,11 +126,10 @@ def _refuse_other_logs(folder: Path) -> None:
         or (p.is_dir() and ((p / "metadata.yaml").is_file() or storage.storage_files(p)))
     )
     if others:
-        shown = ", ".join(others[:5]) + (f" and {len(others) - 5} more" if len(others) > 5 else "")
         raise LogFormatError(
-            f"{folder} holds other logs beside its rosbag2 storage files ({shown}): a folder "
-            "without metadata.yaml is read as the storage files of one bag, which would leave "
-            "them out",
+            f"{folder} holds other logs beside its rosbag2 storage files "
+            f"({first_few(others, 5)}): a folder without metadata.yaml is read as the storage "
+            "files of one bag, which would leave them out",
             hint=f"give the logs one by one ({folder}/*), not their folder",
         )
 

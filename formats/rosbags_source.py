@@ -34,6 +34,7 @@ from aion_cli.formats.log_source import (
     _unzstd,
 )
 from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint, normalize_msgtype
+from aion_cli.listing import first_few
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -487,8 +488,7 @@ def _metadata_warning(
     found = storage.metadata_disagreements(figures, start, last, total, counts, normalize_msgtype)
     if not found:
         return None
-    more = f"; and {len(found) - 4} more" if len(found) > 4 else ""
     return (
         f"{folder.name}: metadata.yaml disagrees with its storage files, which aion uses "
-        f"instead: {'; '.join(found[:4])}{more}"
+        f"instead: {first_few(found, 4, '; ')}"
     )

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from aion_cli.cli.output import human_size
+from aion_cli.listing import first_few
 
 
 def describe_map(path: Path) -> dict[str, Any]:
@@ -111,8 +112,7 @@ def print_map(report: dict[str, Any]) -> None:
     rooms = report.get("rooms") or []
     if rooms:
         named = [f"{r['name']} ({r['id']})" if r.get("name") else str(r["id"]) for r in rooms]
-        more = f", … {len(named) - 12:,} more" if len(named) > 12 else ""
-        table.add_row("rooms", safe(f"{len(rooms):,}: {', '.join(named[:12])}{more}"))
+        table.add_row("rooms", safe(f"{len(rooms):,}: {first_few(named, 12)}"))
     table.add_row("observation", safe(report.get("observation")))
     query_only = report.get("query_only")
     if isinstance(query_only, dict):
