@@ -19,7 +19,6 @@ from aion_cli.engine.entries import ADDITIVE, CELL, HEADING_SUMS, NODE
 from aion_cli.engine.grouping import contained
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.errors import MapCorruptError, MapFileError
-from aion_cli.listing import first_few
 
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
@@ -161,7 +160,8 @@ def check_loaded(state: MapState, arrays: Mapping[str, np.ndarray]) -> None:
     ]
     if problems:
         raise MapCorruptError(
-            f"map state is inconsistent: {first_few(problems, 3, '; ')}",
+            f"map state is inconsistent: {'; '.join(problems[:3])}"
+            + (f" and {len(problems) - 3} more" if len(problems) > 3 else ""),
             hint="the map was damaged or not written by aion; rebuild it with `aion build`",
         )
 
