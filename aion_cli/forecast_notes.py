@@ -119,7 +119,11 @@ def _static_only(config: Mapping[str, Any]) -> str | None:
             text + " and so are its directions: the forecast is the historical map "
             "(--historical) at every time"
         )
-    shown = f" (direction_prior = {prior:g})" if type(prior) in (int, float) else ""
+    shown = (
+        f" (direction_prior = {prior:g})" if type(prior) in (int, float)
+        else ' (direction_prior = "auto": its strength estimated from the map)'
+        if prior == "auto" else ""
+    )
     return text + (
         "; its direction histograms are pooled toward their neighbourhood's"
         f"{shown}, where --historical gives the raw proportions (direction_prior = 0 "

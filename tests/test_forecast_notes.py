@@ -232,6 +232,11 @@ def test_a_static_only_model_says_so_not_that_no_rhythm_won() -> None:
     assert "better than that rate" not in line
     assert "flows are those of --historical" in line
     assert "pooled toward their neighbourhood's (direction_prior = 10)" in line
+    auto = Manifest({}, {"profile": "day", "families": ["static"], "direction_prior": "auto"},
+                    start_ns=START, end_ns=END, families=families)
+    (line,) = forecast_notes(auto, START + DAY_NS)
+    assert ('pooled toward their neighbourhood\'s (direction_prior = "auto": its strength '
+            "estimated from the map)") in line
     raw = Manifest({}, {"profile": "day", "families": ["static"], "direction_prior": 0.0},
                    start_ns=START, end_ns=END, families=families)
     (line,) = forecast_notes(raw, START + DAY_NS)

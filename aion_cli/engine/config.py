@@ -104,7 +104,8 @@ class ModelConfig:
     counts are and how much its bins vary beyond that: ``temporal.shape_prior``).
     FreMEn: ``periods``, a period counts once an entry's observed span >= ``span_factor`` * T,
     orders 1..``max_order``. Directions: a Dirichlet prior of ``direction_prior``
-    pseudo-detections toward the parent's histogram (room, else the ``pool_size``-metre
+    pseudo-detections (``"auto"``: estimated from the map, ``temporal.direction_prior``)
+    toward the parent's histogram (room, else the ``pool_size``-metre
     neighbourhood; then the map), time-varying histograms shrunk toward the entry's static
     one with ``direction_time_prior``. Log-likelihoods floor rates at ``rate_floor``
     detections per window.
@@ -134,7 +135,7 @@ class ModelConfig:
     periods: tuple[float, ...] = field(default_factory=default_periods)
     span_factor: float = 1.5
     max_order: int = 4
-    direction_prior: float = 10.0
+    direction_prior: float | str = "auto"
     direction_time_prior: float = 50.0
     pool_size: float = 4.0
     rate_floor: float = 1e-3
@@ -182,7 +183,6 @@ class ModelConfig:
             "stable_move_tolerance",
             "profile_prior",
             "family_margin",
-            "direction_prior",
             "plan_w_entropy",
             "plan_w_flow",
             "plan_w_direction",
@@ -191,6 +191,16 @@ class ModelConfig:
             value = getattr(self, name)
             if not (_is_number(value) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be a number >= 0, got {value!r}")
+        prior = self.direction_prior
+        if isinstance(prior, str):
+            if prior != "auto":
+                raise ConfigError(
+                    f'direction_prior must be a number >= 0 or "auto", got {prior!r}',
+                    hint='"auto" estimates it from the map (the default); 0 keeps the raw '
+                    "proportions",
+                )
+        elif not (_is_number(prior) and math.isfinite(prior) and prior >= 0):
+            raise ConfigError(f'direction_prior must be a number >= 0 or "auto", got {prior!r}')
         for name, (lo, hi) in BOUNDED.items():
             value = getattr(self, name)
             if not lo <= value <= hi:
@@ -330,7 +340,7 @@ class ModelConfig:
                 raise ConfigError(f"families must be a list of names, got {families!r}")
             kwargs["families"] = tuple(str(f) for f in families)
         for f in dataclasses.fields(cls):
-            if f.name in kwargs and f.type in ("float", float):
+            if f.name in kwargs and f.type in ("float", float, "float | str"):
                 value = kwargs[f.name]
                 if isinstance(value, int) and not isinstance(value, bool):
                     kwargs[f.name] = float(value)

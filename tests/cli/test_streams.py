@@ -97,7 +97,7 @@ def narrow(monkeypatch: pytest.MonkeyPatch) -> None:
     ("args", "whole"),
     [
         (("predict", "{map}", "--time", "2026-01-12 08:40", "--layer", "cells", "--top", "2"),
-         ("c4611692615542243362", "17.25", "10.75", "▇▂█▁▆▂▂▁", "profile")),
+         ("c4611692615542243362", "17.25", "10.75", "▄▁█ ▄▁▁", "profile")),
         (("predict", "{map}", "--time", "2026-01-12 08:40", "--layer", "rooms"),
          ("meeting room", "19.51", "-174°", "aggregate")),
         (("predict", "{map}", "--layer", "rooms", "--from", "2026-01-12 06:00", "--to",

@@ -17,6 +17,7 @@ from aion_cli.engine.query import (
     node_symbol,
     predict_table,
 )
+from aion_cli.engine.temporal.direction_prior import FALLBACK
 from aion_cli.engine.types import Layer
 from tests.engine.engine_builders import T0, S, detections, graph, pid
 
@@ -96,9 +97,11 @@ def test_predicted_flow_of_a_steady_entry_is_its_window_count() -> None:
     assert table.flow_family[k] == "static"  # no day was scored: nothing beats static
     assert table.direction_family[k] == "static"
     assert d.dominant_bin[k] == 4
-    # the Dirichlet prior of DESIGN.md §4 (κ = direction_prior = 2): map Laplace histogram,
-    # the room's (p1 alone in R1) toward it, the entry's toward the room's
-    kappa, n = CFG.direction_prior, 150.0
+    # the Dirichlet prior of DESIGN.md §4: map Laplace histogram, the room's (p1 alone in
+    # R1) toward it, the entry's toward the room's; direction_prior "auto" with one entry
+    # that tells: too few to estimate κ, so both pulls are the fallback's
+    assert CFG.direction_prior == "auto"
+    kappa, n = FALLBACK, 150.0
     counts = n * np.eye(8)[4]
     p_map = (counts + 1) / (n + 8)
     p_room = (counts + kappa * p_map) / (n + kappa)

@@ -38,7 +38,9 @@ and α how much the bins really vary beyond that, both estimated from the map
   the c pseudo-detections, so the bins sum to λ).
 
 Directions: p_map,b = (N_map,b + 1) / (N_map + B) (Laplace), p_g,b = (N_g,b + κ p_map,b) /
-(N_g + κ), static h_e,b = (N_e,b + κ p_g,b) / (N_e + κ) with κ = ``direction_prior`` (κ = 0:
+(N_g + κ), static h_e,b = (N_e,b + κ p_g,b) / (N_e + κ) with κ = ``direction_prior`` (with
+``"auto"``: the groups' κ 10, the entries' estimated from the map, ``PoolStats.kappa`` and
+:mod:`.direction_prior`; κ = 0:
 the raw proportions, the parent's only where an entry has no directed detection); the
 time-varying families use pseudo-counts c_b(t) (profile: the entry's directed counts in the
 profile bin; FreMEn: max(0, λ_b(t)) × W[e,h]) and q_b = (c_b + κ_t h_e,b) / (Σ c + κ_t), so no
@@ -127,7 +129,7 @@ class Forecaster(FremenParts):
         self._map_mean = self._mean(map_sum)
         self.raw_histogram = normalised(self.counts[:, :b])
         self.histogram = posterior(
-            self.counts[:, :b], pool.histogram[groups], params.config.direction_prior
+            self.counts[:, :b], pool.histogram[groups], pool.kappa
         )
         self._cache: dict[str, Any] = {}
         self._profiles: tuple[F64, F64] | None = None  # W, S of every entry (cache_profiles)

@@ -15,6 +15,7 @@ import numpy as np
 
 from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.direction_prior import FALLBACK, entry_prior, group_prior
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion
 from aion_cli.engine.types import F64, I64
@@ -36,6 +37,9 @@ class PoolStats:
     bin, as :meth:`Forecaster.cache_profiles` computes them) when the entries were pooled in
     one block: a day's scoring then reads its candidates' rows instead of computing them a
     second time (issue 15). None for a map of more entries (no whole-map copies)."""
+    kappa: float = FALLBACK
+    """κ of the entries' direction histograms toward their group's (``direction_prior``: the
+    configured number, or estimated from the pooled entries, :mod:`.direction_prior`)."""
 
     @classmethod
     def of(
@@ -53,6 +57,7 @@ class PoolStats:
         b, h = params.bins, params.n_profile
         s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
         c_g = np.zeros((n_groups, b))
+        directed_blocks = []
         glob = state.glob.profile[0]
         kept = None
         for a in range(0, rows.size, _POOL_BLOCK):
@@ -66,12 +71,17 @@ class PoolStats:
                 count_sums(block, 2)[:, :b] if counts is None else counts[a : a + _POOL_BLOCK, :b]
             )
             c_g += _group_sums(g, n_groups, directed)
+            directed_blocks.append(np.asarray(directed, np.float64))
             if rows.size <= _POOL_BLOCK:
                 kept = (w_e, s_e)
         phi = overdispersion(state.window_chi2)
         shapes, map_shape = group_shapes(s_g, w_g, phi, params.calendar.bins_per_day)
-        histograms = _group_histograms(params.config.direction_prior, c_g)
-        return cls(shapes, histograms, map_shape, kept)
+        histograms = _group_histograms(group_prior(params.config), c_g)
+        directed_all = (
+            np.concatenate(directed_blocks) if directed_blocks else np.zeros((0, b))
+        )
+        kappa = entry_prior(params.config, directed_all, histograms[groups])
+        return cls(shapes, histograms, map_shape, kept, kappa)
 
 
 def entry_counts(state: TemporalState, rows: I64, block: int = 1 << 10) -> F64:
