@@ -44,6 +44,7 @@ class CompactReport:
     map_bytes: int = 0
     entries: int = 0
     left_out: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         ratio = self.source_bytes / self.map_bytes if self.map_bytes else None
@@ -56,6 +57,7 @@ class CompactReport:
             "entries": self.entries,
             "bytes_per_entry": self.map_bytes / self.entries if self.entries else None,
             "left_out": self.left_out,
+            "notes": self.notes,
         }
 
 
@@ -105,6 +107,8 @@ def compact_map(source: Path, output: Path) -> CompactReport:
             hint="write the query-only map to a new file with -o",
         )
     check_map_output(output)  # before a large map is read and hashed
+    # said as build and merge say it: an existing map at -o is replaced
+    notes = [f"{output.name} existed and is replaced"] if output.exists() else []
     with open_map(source, in_place=True) as members:
         manifest = members.manifest
         state = manifest.get("state")
@@ -130,5 +134,5 @@ def compact_map(source: Path, output: Path) -> CompactReport:
         entries = int(arrays["entry_kind"].shape[0]) if "entry_kind" in arrays else 0
         write_map(output, arrays, fields | {FIELD: record})
     return CompactReport(
-        source, output, source.stat().st_size, output.stat().st_size, entries, left_out
+        source, output, source.stat().st_size, output.stat().st_size, entries, left_out, notes
     )

@@ -21,11 +21,12 @@ same numbers, to the bit), but leaves out the per-entry Fourier sums that only l
 it cannot be continued with aion build --map or merged (both refuse it and name the full map).
 Keep the full map to add logs to; deploy the query-only one. Part maps (aion build --part) and
 maps written before the FreMEn components were stored are refused. An existing map at -o is
-replaced atomically; anything else there is refused.
+replaced atomically, with a note saying so (as build and merge do); anything else there is
+refused.
 
 \b
 JSON keys (--format json): map, source, source_bytes, map_bytes, ratio, entries,
-bytes_per_entry, left_out.
+bytes_per_entry, left_out, notes.
 """
 
 
@@ -62,3 +63,5 @@ def _print(summary: dict[str, Any]) -> None:
         + "); it answers queries, and cannot be continued or merged",
         soft_wrap=True,
     )
+    for message in summary["notes"]:
+        console().print(f"[yellow]note:[/yellow] {markup_safe(message)}", soft_wrap=True)

@@ -173,3 +173,16 @@ def test_a_part_map_is_refused(tmp_path: Path) -> None:
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "part map")
     assert not (tmp_path / "robot.aion").exists()
+
+
+def test_an_existing_map_at_o_is_replaced_with_a_note(maps: Maps, tmp_path: Path) -> None:
+    """As ``build -o`` and ``merge -o`` do: an existing map is replaced, and the user is told."""
+    assert maps.summary["notes"] == []  # a new file: nothing to say
+    target = tmp_path / "robot.aion"
+    target.write_bytes(maps.full.read_bytes())  # another map already there
+    result = run("compact", maps.full, "-o", target)
+    assert result.exit_code == 0, result.stderr
+    assert "note: robot.aion existed and is replaced" in result.stderr
+    assert read_manifest(target)["query_only"]["from"]["name"] == maps.full.name
+    again = run_json("compact", maps.full, "-o", target, "--format", "json")
+    assert again["notes"] == ["robot.aion existed and is replaced"]
