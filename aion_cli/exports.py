@@ -6,8 +6,9 @@ One frame per time: the scene files (``formats.export`` through ``mapquery.expor
 into a hidden staging folder beside ``OUT`` and moved in when complete, so a failure (a bad
 time, a full disk, Ctrl-C) leaves no partial export behind; files already in ``OUT`` that the
 export does not write are kept (but for an earlier export's path part when this one draws
-no path: :func:`_drop_stale_parts`), and a same-named file is replaced only when it is one an
-export wrote (:func:`is_export_file`): nothing is moved in otherwise.
+no path, and the frames of an earlier, longer series: :mod:`aion_cli.export_stale`), and a
+same-named file is replaced only when it is one an export wrote (:func:`is_export_file`):
+nothing is moved in otherwise.
 """
 
 from __future__ import annotations
@@ -17,10 +18,13 @@ import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aion_cli.formats.outputs import Staged
 from aion_cli.timeparse import Zone
+
+if TYPE_CHECKING:
+    from aion_cli.export_stale import StaleFrames
 
 
 def export_frames(
@@ -34,12 +38,16 @@ def export_frames(
     on_frame: Callable[[], None] | None = None,
     *,
     series: bool = False,
-) -> list[Path]:
+) -> Exported:
     """Write one frame per time of ``times`` (None: historical) into ``out_dir``, with the
     path between ``ends`` (from :func:`path_ends`) drawn in each; the files written. A
     ``series`` (``--from/--to``) writes one subfolder per time, named by it, however many
     times it has (a series that happens to hold one time keeps the layout a script reading
-    the series expects); one time that is not a series goes straight into ``out_dir``."""
+    the series expects), and removes the frames of an earlier series that this one does not
+    write (``Exported.stale``); one time that is not a series goes straight into
+    ``out_dir``."""
+    from aion_cli.export_stale import StaleFrames, drop_stale_frames, drop_stale_parts
+
     if not series and len(times) != 1:
         raise ValueError("times other than one are a series (a bug)")
     check_out_dir(out_dir)
@@ -54,40 +62,9 @@ def export_frames(
                 on_frame()
         moved = [out_dir / p.relative_to(staged.path) for p in written]
     folders = [out_dir / frame_name(t) for t in times] if series else [out_dir]
-    _drop_stale_parts(folders, fmt, moved)
-    return moved
-
-
-def _drop_stale_parts(folders: Sequence[Path], fmt: str, written: Sequence[Path]) -> None:
-    """Remove the ``path.<fmt>`` an earlier export with ``--path-from/--path-to`` wrote into
-    ``folders`` when this one draws no path: left beside the new files, a viewer opening the
-    folder would draw a path planned for another time as part of this scene. Only aion's own
-    path parts go (:func:`_is_path_part`), never a whole scene saved under that name
-    (``aion plan --export path.ply``)."""
-    keep = {os.path.abspath(p) for p in written}
-    for folder in folders:
-        old = folder / f"path.{fmt}"
-        if os.path.abspath(old) in keep or not old.is_file() or old.is_symlink():
-            continue
-        if is_export_file(old) and _is_path_part(old):
-            old.unlink()
-
-
-def _is_path_part(path: Path) -> bool:
-    """Whether the aion scene file ``path`` holds an export's path part only: a PLY of bare
-    vertices and coloured edges (no faces), a PCD of points without normals. A whole scene
-    (``plan --export``, ``export -o x.ply``) has its places' spheres (faces) or normals."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(4096)
-    except OSError:
-        return False
-    if head.startswith(b"ply\n"):
-        header = head[: head.find(b"end_header")]
-        elements = [line.split()[1] for line in header.splitlines() if line.startswith(b"element ")]
-        return elements == [b"vertex", b"edge"]
-    fields = [line for line in head.splitlines() if line.startswith(b"FIELDS ")]
-    return fields == [b"FIELDS x y z rgb"]
+    drop_stale_parts(folders, fmt, moved)
+    stale = drop_stale_frames(out_dir, {f.name for f in folders}) if series else StaleFrames()
+    return Exported(moved, stale=stale)
 
 
 @contextlib.contextmanager
@@ -401,11 +378,13 @@ def export_format(fmt: str | None, out: Path) -> str:
 
 @dataclass(frozen=True)
 class Exported:
-    """What :func:`write_export` wrote: the files, and for ``dsg`` the graph's summary
-    (``formats.dsg_export.DsgExportSummary``: its places, rooms, edges)."""
+    """What :func:`write_export` wrote: the files, for ``dsg`` the graph's summary
+    (``formats.dsg_export.DsgExportSummary``: its places, rooms, edges), and for a series
+    of frames the frames of an earlier series it removed (``export_stale.StaleFrames``)."""
 
     files: list[Path]
     graph: Any = None
+    stale: StaleFrames | None = None
 
 
 def write_export(
@@ -450,10 +429,7 @@ def write_export(
             if on_frame is not None:
                 on_frame()
             return Exported([written])
-        files = export_frames(
-            loaded, label, out, times, zone, fmt, ends, on_frame, series=series
-        )
-        return Exported(files)
+        return export_frames(loaded, label, out, times, zone, fmt, ends, on_frame, series=series)
 
 
 def _into(out: Path, fmt: str) -> bool:

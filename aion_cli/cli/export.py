@@ -22,6 +22,7 @@ from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.output import AionCommand, counted
 
 if TYPE_CHECKING:
+    from aion_cli.export_stale import StaleFrames
     from aion_cli.exports import Exported
 
 EPILOG = """\b
@@ -205,6 +206,8 @@ def command(
         span = [int(t) for t in times if t is not None] if series else None
         announce_time(times[0], zone, label, loaded, series=span)
     console().print(_written(written, fmt, out_dir, len(times)), soft_wrap=True)
+    if written.stale is not None and (written.stale.removed or written.stale.kept):
+        note(_stale_note(written.stale, out_dir))
     if written.graph is not None:
         left_out = cells_left_out(loaded)
         if left_out is not None:
@@ -230,3 +233,22 @@ def _written(written: Exported, fmt: str, out: Path, steps: int) -> str:
     if scene_file(fmt, out):
         return f"wrote {markup_safe(out)} (the whole scene in one {fmt} file)"
     return f"wrote {len(written.files)} file(s) to {markup_safe(out)}"
+
+
+def _stale_note(stale: StaleFrames, out: Path) -> str:
+    """What :func:`aion_cli.export_stale.drop_stale_frames` removed from ``out`` (plain text)."""
+    gone = [p.name for p in stale.removed]
+    kept = [p.name for p in stale.kept]
+    parts = []
+    if gone:
+        span = gone[0] if len(gone) == 1 else f"{gone[0]} to {gone[-1]}"
+        parts.append(f"{len(gone)} frame(s) ({span})")
+    if kept:
+        shown = ", ".join(kept[:3]) + (", ..." if len(kept) > 3 else "")
+        parts.append(
+            f"aion's files of {len(kept)} more, which keep the files aion did not write "
+            f"({shown})"
+        )
+    return f"removed from {out} what an earlier series wrote for times this one has not: " + (
+        "; ".join(parts)
+    )

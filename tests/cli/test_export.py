@@ -248,3 +248,40 @@ def test_export_keeps_a_plan_scene_saved_as_path_ply(office: Office, tmp_path: P
     result = run("export", office.map, "--time", AT, "-o", tmp_path)
     assert result.exit_code == 0, result.stderr
     assert scene.read_bytes() == before
+
+
+def test_a_shorter_series_removes_the_earlier_series_extra_frames(
+    office: Office, tmp_path: Path
+) -> None:
+    """A series of 2 frames written over one of 4 in the same folder: the 2 old frames it
+    does not write go (the folder held both runs, 4 frames played as one series); a frame
+    folder holding a file of the user's keeps it, and so does a folder named as a frame
+    whose files aion did not write."""
+    out = tmp_path / "series"
+    longer = ["--from", "2026-11-23 06:00", "--to", "2026-11-23 09:00", "--step", "1h"]
+    assert run("export", office.map, *longer, "-o", out, "-q").exit_code == 0
+    assert len(list(out.iterdir())) == 4
+    mine = out / "20261123T090000Z" / "notes.txt"
+    mine.write_text("mine")
+    theirs = out / "20261123T100000Z"
+    theirs.mkdir()
+    (theirs / "scene.ply").write_text("a scan of someone else's")
+    (out / "readme.txt").write_text("mine too")
+    shorter = ["--from", "2026-11-23 06:00", "--to", "2026-11-23 07:00", "--step", "1h"]
+    result = run("export", office.map, *shorter, "-o", out)
+    assert result.exit_code == 0, result.stderr
+    assert sorted(p.name for p in out.iterdir()) == [
+        "20261123T060000Z", "20261123T070000Z", "20261123T090000Z", "20261123T100000Z",
+        "readme.txt",
+    ]  # fmt: skip
+    assert [p.name for p in mine.parent.iterdir()] == ["notes.txt"]
+    assert mine.read_text() == "mine"
+    assert (theirs / "scene.ply").read_text() == "a scan of someone else's"
+    said = " ".join(result.stderr.split())
+    assert "for times this one has not: 1 frame(s) (20261123T080000Z)" in said
+    assert "aion's files of 1 more, which keep the files aion did not write (20261123T090000Z)" in (
+        said
+    )
+    # a single time written straight into the folder leaves a series' frames alone
+    assert run("export", office.map, "--time", AT, "-o", out, "-q").exit_code == 0
+    assert (out / "20261123T060000Z" / "scene.ply").is_file()
