@@ -15,10 +15,23 @@ from aion_cli.listing import first_few
 FORMATS: tuple[str, ...] = ("mcap", "bag", "rosbag2")
 """Values of ``fmt`` / ``--format``."""
 
+#: the log files aion reads by their names' suffix, and the container each names; a name may
+#: also end in a zstd suffix (``rosbag2_storage.ZSTD_SUFFIXES``: ``run.bag.zst`` is a ROS 1 bag
+#: compressed whole), which :func:`log_suffix` looks through
+LOG_SUFFIXES: dict[str, str] = {".mcap": "mcap", ".bag": "bag", ".db3": "rosbag2"}
+
 _LOG_HINT = "pass a log file (.mcap, .bag) or a rosbag2 folder"
 
 _BAG_MAGIC = b"#ROSBAG V2.0"
 _SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+def log_suffix(path: Path) -> str:
+    """The suffix of the log ``path`` names, through a zstd suffix (``run.bag.zst`` ->
+    ``.bag``), lower case: a key of :data:`LOG_SUFFIXES` when it names a log."""
+    from aion_cli.formats.rosbag2_storage import inner_name
+
+    return Path(inner_name(path)).suffix.lower()
 
 
 def guess_format(path: Path) -> tuple[str, Path]:
@@ -34,9 +47,7 @@ def guess_format(path: Path) -> tuple[str, Path]:
         raise LogFormatError(f"no such file or folder: {path}", hint="check the log path")
     if path.is_dir():
         for entry in path.iterdir():  # what a rosbag2 reader would open
-            if entry.name == "metadata.yaml" or (
-                Path(storage.inner_name(entry)).suffix.lower() in storage.STORAGE_SUFFIXES
-            ):
+            if entry.name == "metadata.yaml" or log_suffix(entry) in storage.STORAGE_SUFFIXES:
                 check_regular_input(entry, "log", hint=_LOG_HINT)
         if (path / "metadata.yaml").is_file():
             return "rosbag2", path
@@ -52,19 +63,14 @@ def guess_format(path: Path) -> tuple[str, Path]:
     if path.stat().st_size == 0:
         raise LogFormatError(f"{path} is empty (0 bytes)", hint="the recording was not written")
     compressed = storage.is_zstd(path)
-    suffix = Path(storage.inner_name(path)).suffix.lower()
+    suffix = log_suffix(path)
     beside_metadata = (path.parent / "metadata.yaml").is_file()
     if path.name == "metadata.yaml" or (
         beside_metadata and (suffix == ".db3" or (compressed and suffix == ".mcap"))
     ):
         return "rosbag2", path.parent
-    if not compressed:
-        if suffix == ".mcap":
-            return "mcap", path
-        if suffix == ".bag":
-            return "bag", path
-        if suffix == ".db3":
-            return "rosbag2", path  # one storage file alone: reindexed
+    if not compressed and suffix in LOG_SUFFIXES:
+        return LOG_SUFFIXES[suffix], path  # one .db3 alone: reindexed
     kind = storage.sniff(path)
     if kind == "mcap":
         return ("rosbag2" if compressed else "mcap"), path
@@ -115,14 +121,15 @@ def other_log_hint(fmt: str) -> str:
 
 def _refuse_other_logs(folder: Path) -> None:
     """A folder without metadata.yaml is read as the storage files of one rosbag2 bag, which
-    leaves out anything else in it: refuse one that also holds other logs (ROS 1 ``.bag``
-    files, rosbag2 folders) rather than read its storage files alone without a word."""
+    leaves out anything else in it: refuse one that also holds other logs (ROS 1 bags, named
+    as :func:`guess_format` reads them, ``.bag`` or compressed ``.bag.zst``; rosbag2 folders)
+    rather than read its storage files alone without a word."""
     from aion_cli.formats import rosbag2_storage as storage
 
     others = sorted(
         p.name
         for p in folder.iterdir()
-        if (p.is_file() and p.suffix.lower() == ".bag")
+        if (p.is_file() and LOG_SUFFIXES.get(log_suffix(p)) == "bag")
         or (p.is_dir() and ((p / "metadata.yaml").is_file() or storage.storage_files(p)))
     )
     if others:

@@ -191,6 +191,24 @@ def test_a_folder_of_storage_files_and_other_logs_is_refused(tmp_path: Path) -> 
         assert logs.total() == 20
 
 
+@pytest.mark.parametrize("name", ["example.bag.zst", "example.BAG.zstd"])
+def test_a_compressed_ros1_bag_beside_storage_files_is_another_log(
+    tmp_path: Path, name: str
+) -> None:
+    """A ROS 1 bag compressed whole, which aion reads given alone (``run.bag.zst``), is a log
+    as ``run.bag`` is: a folder of storage files holding one is refused (its storage files
+    were read alone and the bag left out without a word)."""
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    shutil.copy(_real("rosbag2_py_mcap_talker", "talker.mcap"), folder / "talker.mcap")
+    packed = _zstd(real("logs", "rosbagjs_fixtures", "example.bag"), folder / name)
+    with open_logs([packed]) as logs:  # read alone, it is a ROS 1 bag
+        assert [f.format for f in logs.files] == ["bag"]
+    result = run("info", folder)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "holds other logs", f"({name})")
+
+
 def test_unusable_metadata_yaml_falls_back_to_the_storage_files(tmp_path: Path) -> None:
     talker = _real("rosbag2_py_sqlite3_talker")
     copy = tmp_path / "talker"
