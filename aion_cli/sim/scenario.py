@@ -258,13 +258,22 @@ def scene_paths(output: Path, config: ScenarioConfig) -> list[Path]:
     suffix = FORMATS[config.format][1]
     if config.scenes == 1:
         given = output.suffix.lower()
-        if suffix and given != suffix and given in _OTHER_FILES:
-            # apt.bag with the default --format mcap would be written as apt.bag.mcap
+        if given != suffix and given in _OTHER_FILES:
+            # apt.bag with the default --format mcap would be written as apt.bag.mcap, and
+            # --format rosbag2 -o apt.mcap as a folder apt.mcap holding apt.mcap.mcap
             formats = [f for f, (_, s) in FORMATS.items() if s == given]
+            named = f"-o {output.with_suffix(suffix).name}"
+            if suffix:
+                hint = f"--format {formats[0]}" if formats else named
+            else:
+                hint = (f"--format {formats[0]} for a {given} file, or " if formats else "") + (
+                    f"{named} for the folder"
+                )
             raise InputError(
-                f"--format {config.format} writes a {suffix} log, not -o {output.name}",
-                hint=f"--format {formats[0]}" if formats
-                else f"-o {output.with_suffix(suffix).name}",
+                f"--format {config.format} writes "
+                + (f"a {suffix} log" if suffix else "a rosbag2 folder")
+                + f", not -o {output.name}",
+                hint=hint,
             )
         if suffix and given != suffix:
             output = output.with_name(output.name + suffix)

@@ -132,6 +132,26 @@ def test_an_output_named_as_another_file_kind_is_refused(tmp_path: Path) -> None
     assert (tmp_path / "plain.mcap").is_file()
 
 
+@pytest.mark.parametrize(
+    ("fmt", "name", "hint"),
+    [("rosbag2", "apt.mcap", "--format mcap for a .mcap file, or -o apt for the folder"),
+     ("rosbag2-sqlite3", "apt.db3", "-o apt for the folder")],
+)
+def test_a_rosbag2_folder_named_as_a_file_is_refused(
+    tmp_path: Path, fmt: str, name: str, hint: str
+) -> None:
+    """--format rosbag2 -o apt.mcap wrote a folder apt.mcap holding apt.mcap.mcap (which
+    every reader takes for an MCAP file by its name); refused as convert refuses a container
+    that contradicts -o's suffix, with the format or the folder name to give."""
+    code, output = _run("simulate", "-o", tmp_path / name, "--format", fmt, "--days", "0.01",
+                        "--quiet")
+    assert code == 2, output
+    said = " ".join(output.split())
+    assert f"error: --format {fmt} writes a rosbag2 folder, not -o {name}" in said
+    assert hint in said
+    assert not list(tmp_path.iterdir())
+
+
 def test_several_scenes_are_refused_a_folder_named_as_a_log(tmp_path: Path) -> None:
     """--scenes 2 -o paper.mcap made a folder named paper.mcap holding the scenes' logs."""
     code, output = _run("simulate", "-o", tmp_path / "paper.mcap", "--scenes", "2", "--days",
