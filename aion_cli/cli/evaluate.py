@@ -240,7 +240,7 @@ def lincoln(
       aion evaluate lincoln --format json > lincoln.json
       aion evaluate lincoln --train 2017-05-24,2017-05-25 --test 2017-05-26
     """
-    from aion_cli.cli.console import note
+    from aion_cli.cli.console import note, warn
     from aion_cli.evaluation.lincoln import TEST_DAY, TRAIN_DAYS, ZONE, run_lincoln
 
     config = None if config_path is None else _config(config_path)
@@ -251,6 +251,8 @@ def lincoln(
         _existing_dir(_data(data_dir, "lincoln"), "Lincoln data"), config, radius, progress=note,
         train_days=train, test_day=TEST_DAY if test_day is None else _day(test_day),
     )
+    for line in result.warnings:  # a user mistake: shown with -q and --format json too
+        warn(line)
     flows = ", ".join(f"{k} {v:,}" for k, v in sorted(result.families["flow"].items()))
     note(f"aion's flow models: {flows}")
     if fmt == "json":

@@ -89,6 +89,7 @@ class LincolnResult:
     series: dict[str, list[float]] = field(default_factory=dict)
     families: dict[str, dict[str, int]] = field(default_factory=dict)
     data: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     train: tuple[str, ...] = TRAIN_DAYS
     test: str = TEST_DAY
@@ -102,6 +103,7 @@ class LincolnResult:
             "hours_utc": self.hours,
             "hourly_series": self.series,
             "families": self.families,
+            "warnings": self.warnings,
         }
 
 
@@ -211,7 +213,8 @@ def run_lincoln(
     """Train on ``train_days`` (default: the four May days), forecast ``test_day`` (June 9);
     see the module docstring. Other splits of the recorded days check that a result is not
     one split's luck. :class:`InputError` for a day the files do not hold, a test day among
-    the training days, or no training day."""
+    the training days, or no training day; a training day after the test day is a warning
+    (``LincolnResult.warnings``)."""
     radius = association_radius(radius)
     cfg = config or ModelConfig(timezone=ZONE)
     say = progress or (lambda _msg: None)
@@ -232,6 +235,14 @@ def run_lincoln(
     test = days[test_day]
     window_ns = round(cfg.window_s * 1e9)
     result = LincolnResult(train=tuple(d.day for d in train), test=test_day)
+    later = [d.day for d in train if d.day > test_day]  # ISO dates sort as days do
+    if later:
+        result.warnings.append(
+            f"{len(later)} of the {len(train)} training days ({', '.join(later)}) "
+            f"{'comes' if len(later) == 1 else 'come'} after "
+            f"the test day {test_day}: the forecast is judged on the past, not on what it "
+            "forecasts (train on days before the test day only)"
+        )
     result.data = {
         d.day: {"detections": len(d.batch), "file": d.source, "observed_h": round(
             sum(b - a for a, b in d.spans) / 3.6e12, 2)}

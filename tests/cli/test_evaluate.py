@@ -188,3 +188,23 @@ def test_the_lincoln_title_counts_the_detections_it_scores() -> None:
     assert 0 < scored < total
     shown = " ".join(runner.invoke(cli, [*args, "--format", "table"]).stdout.split())
     assert f"on the {scored:,} test detections with a heading (of {total:,}" in shown
+
+
+@needs(DATA / "lincoln" / "2017-05-26.txt", "the Lincoln corridor data")
+def test_a_lincoln_training_day_after_the_test_day_is_warned_of() -> None:
+    """Training on May 26 to forecast May 25 judges the forecast on the past: a warning
+    (on stderr, also with -q and --format json; JSON warnings) naming the later day, where
+    there was none; a split in time order gets none."""
+    runner = CliRunner()
+    base = ["evaluate", "lincoln", "--data", str(DATA / "lincoln"), "--test", "2017-05-25"]
+    result = runner.invoke(cli, [*base, "--train", "2017-05-24,2017-05-26", "--format", "json",
+                                 "-q"])
+    assert result.exit_code == 0, result.stderr
+    said = " ".join(result.stderr.split())
+    assert said.startswith("warning: 1 of the 2 training days (2017-05-26) comes after the test "
+                           "day 2017-05-25")
+    assert json.loads(result.stdout)["warnings"] == [said.removeprefix("warning: ")]
+    ordered = runner.invoke(cli, [*base, "--train", "2017-05-24", "--format", "json", "-q"])
+    assert ordered.exit_code == 0, ordered.stderr
+    assert "warning" not in ordered.stderr
+    assert json.loads(ordered.stdout)["warnings"] == []
