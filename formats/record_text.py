@@ -148,8 +148,8 @@ def csv_floats(values: Any) -> Obj:
     shortest repr of its nearest double (DBL_DIG): where ``1e-4 <= |x| < 1e5`` (14 digits at
     most, written without an exponent) the cell is that decimal without its trailing zeros,
     made for the whole block by one ``%`` format and a strip; a value that rounds to zero
-    likewise (``0.0``, ``-0.0``). The rest (below 1e-4: ``1.5e-05``; 1e5 and above) go
-    through ``round`` and ``repr`` themselves."""
+    likewise, ``0.0`` whatever its sign (``serialize`` adds 0.0 to it). The rest (below
+    1e-4: ``1.5e-05``; 1e5 and above) go through ``round`` and ``repr`` themselves."""
     array = np.asarray(values, dtype=np.float64)
     flat = array.reshape(-1)
     size = np.abs(flat)
@@ -160,6 +160,7 @@ def csv_floats(values: Any) -> Obj:
     if slow.size:
         rounded = map(round, flat[slow].tolist(), repeat(9))
         out[slow] = list(map(float.__repr__, rounded))
+    out[out == "-0.0"] = "0.0"  # as serialize: never a negative zero
     return out.reshape(array.shape)
 
 

@@ -56,5 +56,5 @@ def to_csv(rows: Sequence[dict[str, Any]], keys: Sequence[str]) -> str:
 
 def _csv_value(value: Any) -> Any:
     if isinstance(value, float):
-        return repr(round(value, 9))
+        return repr(round(value, 9) + 0.0)  # + 0.0: a value that rounds to -0.0 reads 0.0
     return value

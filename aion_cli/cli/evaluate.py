@@ -21,6 +21,7 @@ from aion_cli.cli.common import (
     quiet_option,
 )
 from aion_cli.cli.output import Column, emit, format_option, num
+from aion_cli.number_text import mean_spread
 
 DATA_ENV = "AION_SHARED_DATA"
 DATA_DEFAULT_TEXT = f"${DATA_ENV}, else ../shared/data"
@@ -344,24 +345,17 @@ def holdout(
              f"hour{'' if len(result.hours) == 1 else 's'})")
 
 
-def _pair(value: Any) -> str:
-    if value is None:
-        return "--"
-    mean, std = value
-    return f"{mean:.2f} ± {std:.2f}"
-
-
 TABLE_I_COLUMNS = (
     Column("map_type", "map type", justify="left"),
     Column("data_type", "data type", justify="left"),
-    Column("js", "JS (ours)", _pair),
-    Column("paper_js", "JS (paper)", _pair),
-    Column("bhattacharyya", "Bhatt. (ours)", _pair),
-    Column("paper_bhattacharyya", "Bhatt. (paper)", _pair),
-    Column("wasserstein", "Wass. (ours)", _pair),
-    Column("paper_wasserstein", "Wass. (paper)", _pair),
-    Column("circular_correlation", "circ. r (ours)", _pair),
-    Column("paper_circular_correlation", "circ. r (paper)", _pair),
+    Column("js", "JS (ours)", mean_spread),
+    Column("paper_js", "JS (paper)", mean_spread),
+    Column("bhattacharyya", "Bhatt. (ours)", mean_spread),
+    Column("paper_bhattacharyya", "Bhatt. (paper)", mean_spread),
+    Column("wasserstein", "Wass. (ours)", mean_spread),
+    Column("paper_wasserstein", "Wass. (paper)", mean_spread),
+    Column("circular_correlation", "circ. r (ours)", mean_spread),
+    Column("paper_circular_correlation", "circ. r (paper)", mean_spread),
 )
 
 

@@ -121,8 +121,9 @@ def num(digits: int = 2) -> Callable[[Any], str]:
     def render(value: Any) -> str:
         if value is None or (isinstance(value, float) and not math.isfinite(value)):
             return "-"
-        text = f"{float(value):.{digits}f}"
-        return text[1:] if text.startswith("-") and not text.strip("-0.") else text
+        from aion_cli.number_text import fixed
+
+        return fixed(value, digits)
 
     return render
 

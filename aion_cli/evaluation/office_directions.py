@@ -31,6 +31,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.descriptors import bin_centres
 from aion_cli.evaluation import metrics
+from aion_cli.number_text import fixed
 
 F64 = npt.NDArray[np.float64]
 
@@ -112,8 +113,8 @@ def direction_truth_sentence(rows: list[dict[str, Any]]) -> str:
         js, deg, ent, bias = (row[m] for m in DIRECTION_METRICS)
         if js is None:
             return f"{row['map']} n/a"
-        return (f"{row['map']} JS {js[0]:.3f}, dominant {deg[0]:.1f} deg, entropy "
-                f"{ent[0]:.3f} ({bias[0]:+.3f})")
+        return (f"{row['map']} JS {fixed(js[0], 3)}, dominant {fixed(deg[0], 1)} deg, entropy "
+                f"{fixed(ent[0], 3)} ({fixed(bias[0], 3, sign=True)})")
 
     return "directions against the ground truth of the evaluated day: " + "; ".join(
         cell(r) for r in rows

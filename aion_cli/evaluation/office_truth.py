@@ -23,6 +23,7 @@ import numpy.typing as npt
 from aion_cli.engine.query import EntryTable, historical_table
 from aion_cli.evaluation import metrics
 from aion_cli.evaluation.baselines import DAY_HOURS, HOUR_NS
+from aion_cli.number_text import fixed
 
 F64 = npt.NDArray[np.float64]
 
@@ -67,7 +68,7 @@ def truth_sentence(means: dict[str, float]) -> str:
 
     def num(key: str) -> str:
         value = means.get(key, math.nan)
-        return "n/a" if not math.isfinite(value) else f"{value:.3f}"
+        return "n/a" if not math.isfinite(value) else fixed(value, 3)
 
     return (
         "against the ground truth (mean over scenes): predicted flow per place and window "

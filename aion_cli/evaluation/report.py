@@ -17,19 +17,13 @@ from typing import Any
 
 from aion_cli.evaluation import plots
 from aion_cli.evaluation.office_directions import DIRECTION_METRICS
-
-
-def _pair(value: Any) -> str:
-    if value is None:
-        return "--"
-    mean, std = value
-    return f"{mean:.2f} ± {std:.2f}"
+from aion_cli.number_text import fixed, mean_spread
 
 
 def _num(value: Any, digits: int = 3) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "--"
-    return f"{value:.{digits}f}" if isinstance(value, float) else f"{value:,}"
+    return fixed(value, digits) if isinstance(value, float) else f"{value:,}"
 
 
 def _table(header: list[str], rows: list[list[str]]) -> list[str]:
@@ -43,7 +37,7 @@ def office_section(result: Any, out_dir: Path, scenes: int, days: float) -> list
     for r in result.table():
         rows.append(
             [r["map_type"], r["data_type"]]
-            + [f"{_pair(r[m])} ({_pair(r['paper_' + m])})" for m in
+            + [f"{mean_spread(r[m])} ({mean_spread(r['paper_' + m])})" for m in
                ("js", "bhattacharyya", "wasserstein", "circular_correlation")]
         )
     lines = [
@@ -83,7 +77,7 @@ def office_section(result: Any, out_dir: Path, scenes: int, days: float) -> list
             "",
             *_table(["Map", "JS divergence", "Dominant direction (deg)", "Entropy error",
                      "Entropy bias"],
-                    [[r["map"], *(_pair(r[m]) for m in DIRECTION_METRICS)]
+                    [[r["map"], *(mean_spread(r[m]) for m in DIRECTION_METRICS)]
                      for r in directions]),
             "",
         ]

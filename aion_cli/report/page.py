@@ -15,6 +15,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from aion_cli.formats.outputs import safe_text
+from aion_cli.number_text import fixed
 from aion_cli.report.content import ReportContent
 from aion_cli.timeparse import Zone, format_ns
 
@@ -258,9 +259,9 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
                 None if r.get("flow") is None else f"{r['flow']:.3f}",
                 None if r.get("flow_per_hour") is None else f"{r['flow_per_hour']:.2f}",
                 None if r.get("entropy") is None else f"{r['entropy']:.3f}",
-                None if direction is None else f"{direction:+.1f}",
+                None if direction is None else fixed(direction, 1, sign=True),
                 b.family,
-                f"{r['x']:.2f}, {r['y']:.2f}",  # as predict's table (cells at .25)
+                f"{fixed(r['x'], 2)}, {fixed(r['y'], 2)}",  # as predict's table (cells at .25)
             )
         )
     headers = (

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -208,3 +209,33 @@ def test_a_lincoln_training_day_after_the_test_day_is_warned_of() -> None:
     assert ordered.exit_code == 0, ordered.stderr
     assert "warning" not in ordered.stderr
     assert json.loads(ordered.stdout)["warnings"] == []
+
+
+def test_one_scene_prints_no_zero_spread_and_no_negative_zero() -> None:
+    """Table I of one scene printed every cell of ours as 'x ± 0.00' (the spread of one
+    value); it prints the mean alone, the paper's cells keep theirs. Values that round to
+    zero read 0.00 / +0.000, never -0.00 (the direction and truth sentences too)."""
+    from aion_cli.cli.evaluate import TABLE_I_COLUMNS
+    from aion_cli.evaluation.office_directions import direction_truth_sentence
+    from aion_cli.evaluation.office_truth import truth_sentence
+
+    result = CliRunner().invoke(cli, ["evaluate", "office", "--scenes", "1", "--days", "1",
+                                      "-q"])
+    assert result.exit_code == 0, result.output
+    table = result.stdout
+    assert "± 0.00" not in table
+    assert "0.49 ± 0.13" in table  # the paper's Entropy/Historical JS
+    row = next(line for line in table.splitlines() if "Entropy" in line and "Historical" in line)
+    ours = row.split("│")[3].strip()  # JS (ours): one number, two decimals
+    assert re.fullmatch(r"\d+\.\d\d", ours), ours
+    cell = {c.key: c.fmt for c in TABLE_I_COLUMNS}
+    assert cell["js"]((0.2512, 0.0)) == "0.25"
+    assert cell["js"]((0.2512, 0.031)) == "0.25 ± 0.03"
+    assert cell["circular_correlation"]((-0.0004, 0.0)) == "0.00"
+    assert cell["circular_correlation"]((-0.0004, 0.0123)) == "0.00 ± 0.01"
+    zero = (-0.0001, 0.0)
+    said = direction_truth_sentence([{"map": "aion historical", "js": (0.3, 0.0),
+                                      "dominant_deg": (-0.01, 0.0), "entropy_error": zero,
+                                      "entropy_bias": zero}])
+    assert said.endswith("aion historical JS 0.300, dominant 0.0 deg, entropy 0.000 (+0.000)")
+    assert "correlates 0.000 with" in truth_sentence({"flow_correlation": -0.0001})

@@ -28,9 +28,22 @@ def _floats() -> np.ndarray:
 
 def test_csv_floats_are_repr_of_round_9() -> None:
     values = _floats()
-    want = [repr(round(x, 9)) if np.isfinite(x) else "" for x in values.tolist()]
+    want = [repr(round(x, 9) + 0.0) if np.isfinite(x) else "" for x in values.tolist()]
     assert rt.csv_floats(values).tolist() == want
     assert rt.csv_floats(values.reshape(-1, 1)).shape == (values.size, 1)
+
+
+def test_a_value_that_rounds_to_zero_is_never_a_negative_zero() -> None:
+    """A direction of -6e-16 degrees (a circular mean of a symmetric histogram) was the cell
+    -0.0 in predict's and export's CSV; it reads 0.0, by both writers, and a value that
+    does not round to zero keeps its sign."""
+    from aion_cli.formats.serialize import to_csv
+
+    values = [-0.0, -5.887368655515379e-16, -4e-10, -4.9e-10, -6e-10, -1e-4]
+    want = ["0.0", "0.0", "0.0", "0.0", "-1e-09", "-0.0001"]
+    assert rt.csv_floats(values).tolist() == want
+    rows = [{"v": v} for v in values]
+    assert to_csv(rows, ["v"]).split("\n")[1:-1] == want
 
 
 def test_json_floats_are_json_dumps() -> None:

@@ -182,3 +182,24 @@ def test_the_curves_are_dotted_where_the_forecast_is_extrapolated(
     assert drawn.tolist() == (~unobserved).tolist()
     near = np.isfinite(np.asarray(dotted.get_ydata(), dtype=float))
     assert np.flatnonzero(near).tolist() == [*range(10), *range(18, 24)]
+
+
+def test_the_busiest_table_prints_no_negative_zero(fixed_map: tuple[Path, LoadedMap]) -> None:
+    """A dominant direction of -6e-16 degrees (a symmetric histogram's circular mean) read
+    '-0.0' in the busiest table, a position of -1 mm '-0.00'; they read '+0.0' (as predict's
+    '+0°') and '0.00'; a real negative keeps its sign."""
+    from dataclasses import replace
+
+    from aion_cli.report.page import render
+
+    path, loaded = fixed_map
+    content = gather(loaded, path, resolve_zone("UTC"), None)
+    first = content.busiest[0]
+    odd = replace(first, record={**first.record, "direction_deg": -5.887368655515379e-16,
+                                 "x": -0.001, "y": -2.5})
+    page = render(replace(content, busiest=(odd,)), {}, "now", "test")
+    table = page[page.index("direction (deg)"):]
+    row = table[table.index("<tbody>"):table.index("</tbody>")]
+    assert '<td class="n">+0.0</td>' in row
+    assert "<td>0.00, -2.50</td>" in row
+    assert "-0.0" not in row

@@ -1,0 +1,31 @@
+"""Numbers as text for people: table cells, report pages, one-line summaries (no click or rich
+here, so the command line's tables, the HTML report and the evaluation's markdown share it).
+
+A value that rounds to zero reads ``0.00``, never ``-0.00`` (a tiny negative correlation, a
+direction of -6e-16 degrees); a spread of exactly zero (one scene, identical runs) is left
+out rather than printed as ``± 0.00``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def fixed(value: float, digits: int, *, sign: bool = False) -> str:
+    """``value`` with ``digits`` decimals (``sign``: with its sign, ``+`` included), never a
+    negative zero: -0.0004 at two digits reads ``0.00`` (``+0.00`` with ``sign``)."""
+    text = f"{float(value):{'+' if sign else ''}.{digits}f}"
+    if text.startswith("-") and not text.strip("-0."):
+        return ("+" if sign else "") + text[1:]
+    return text
+
+
+def mean_spread(value: Any, digits: int = 2) -> str:
+    """A ``(mean, spread)`` pair as ``0.25 ± 0.03``; the mean alone for a spread of exactly
+    zero; ``--`` for None (no value)."""
+    if value is None:
+        return "--"
+    mean, spread = value
+    if spread == 0:
+        return fixed(mean, digits)
+    return f"{fixed(mean, digits)} ± {fixed(spread, digits)}"
