@@ -186,10 +186,15 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     observed = {b // calendar.bins_per_day for b in bins} if bins else None
     if in_span and (observed is None or kind in observed):
         return None
+    # a day as the map's clock has it: say which clock where it is not UTC (Friday 20:00 UTC
+    # is a Saturday in Tokyo)
+    day_name = _WEEKDAYS[weekday] + (
+        f" ({calendar.timezone} time)" if calendar.timezone != "UTC" else ""
+    )
     if profile == "week":
         what = f"no {_WEEKDAYS[weekday]}"
         follows = (
-            f"its hour-of-week profiles have no {_WEEKDAYS[weekday]} of their own, so the "
+            f"its hour-of-week profiles have no {day_name} of their own, so the "
             "forecast follows the hours of the days it saw"
         )
     else:
@@ -197,7 +202,7 @@ def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
         seen_kind = "weekdays" if kind else "weekends"
         follows = (
             f"its hour-of-day profiles know {seen_kind} only, so a forecast for a "
-            f"{_WEEKDAYS[weekday]} follows the {seen_kind}' rhythm and level"
+            f"{day_name} follows the {seen_kind}' rhythm and level"
         )
     if not in_span:
         return f"the map's data ({_span_days(first, last)}) holds {what}: {follows}"

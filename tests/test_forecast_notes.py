@@ -396,3 +396,16 @@ def test_a_sensor_that_observed_a_sliver_of_its_time_does_not_read_0_percent() -
     assert [share_text(s) for s in (0.0, 0.004, 0.005, 0.0051, 0.18, 0.994, 0.996, 1.0)] == [
         "0%", "<1%", "<1%", "1%", "18%", "99%", ">99%", "100%"
     ]
+
+
+def test_the_day_named_is_the_maps_own_and_its_zone_is_said() -> None:
+    """Friday 20:00 UTC is Saturday 05:00 in Tokyo: a weekdays-only map kept in Asia/Tokyo
+    names the Saturday with its zone (a user reading 'Saturday' beside a Friday UTC time
+    would otherwise think the note wrong); a UTC map says nothing at that time (Friday)."""
+    friday_20_utc = MONDAY + 4 * DAY_NS + 20 * HOUR_NS
+    tokyo = _week_of(5, zone="Asia/Tokyo")
+    tokyo = Manifest({}, tokyo.config, start_ns=MONDAY - 9 * HOUR_NS,
+                     end_ns=MONDAY - 9 * HOUR_NS + 5 * DAY_NS, families=tokyo.families)
+    (line,) = forecast_notes(tokyo, friday_20_utc)
+    assert "so a forecast for a Saturday (Asia/Tokyo time) follows the weekdays'" in line
+    assert forecast_notes(_week_of(5), friday_20_utc) == []
