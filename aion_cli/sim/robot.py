@@ -37,6 +37,18 @@ class PatrolConfig:
     drift_xy: float = 0.03  # m per sqrt(m driven)
     drift_yaw: float = 0.004  # rad per sqrt(m driven)
 
+    def changed_flags(self) -> list[str]:
+        """The ``aion simulate`` options whose values this config changes from the defaults
+        (a fixed sensor, which neither tours nor has a range, refuses them)."""
+        default = PatrolConfig()
+        flags = (
+            ("--tour-every", self.tour_every_s != default.tour_every_s),
+            ("--patrol-hours", self.hours != default.hours),
+            ("--sensor-range", self.sensor_range != default.sensor_range),
+            ("--no-line-of-sight", self.line_of_sight != default.line_of_sight),
+        )
+        return [flag for flag, changed in flags if changed]
+
 
 @dataclass(frozen=True)
 class RobotTrack:

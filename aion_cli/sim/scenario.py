@@ -159,6 +159,14 @@ class ScenarioConfig:
                 "a fixed sensor publishes in the map frame",
                 hint="drop --frame base_link or use --robot patrol",
             )
+        flags = self.patrol.changed_flags() if self.robot == "fixed" else []
+        if flags:  # a fixed sensor sees everyone at every tick: they would do nothing
+            named = " and ".join([", ".join(flags[:-1]), flags[-1]] if len(flags) > 1 else flags)
+            raise InputError(
+                f"{named} set{'s' if len(flags) == 1 else ''} the patrolling robot, and "
+                "--robot fixed has none: a fixed sensor sees every person at every tick",
+                hint=f"leave out {named}, or use --robot patrol",
+            )
         if self.timezone is not None and self.utc_offset_h != 0.0:
             raise InputError(
                 "give --tz or --utc-offset, not both",

@@ -204,6 +204,33 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
     assert not (tmp_path / "x.mcap").exists()
 
 
+def test_a_fixed_sensor_refuses_the_patrol_options_it_would_ignore(tmp_path: Path) -> None:
+    """--robot fixed sees every person at every tick and never tours: --tour-every,
+    --patrol-hours, --sensor-range and --no-line-of-sight were accepted and did nothing (a
+    'fixed sensor with an 8-10 h patrol' wrote the same log as one without). They are refused,
+    each named; their default values, and the same options with --robot patrol, are fine."""
+    log = tmp_path / "fixed.mcap"
+    common = ("simulate", "-o", log, "--days", "0.02", "--start", "2026-01-05T12:00", "-q")
+    code, output = _run(*common, "--robot", "fixed", "--tour-every", "10",
+                        "--patrol-hours", "8-10")
+    assert code == 2, output
+    assert_one_line_error(output)
+    said = " ".join(output.split())
+    assert "--tour-every and --patrol-hours set the patrolling robot" in said, said
+    assert "leave out --tour-every and --patrol-hours, or use --robot patrol" in said, said
+    assert not log.exists()
+    for extra in (("--sensor-range", "3"), ("--no-line-of-sight",)):
+        code, output = _run(*common, "--robot", "fixed", *extra)
+        assert code == 2, (extra, output)
+        assert f"{extra[0]} sets the patrolling robot" in " ".join(output.split())
+    code, output = _run(*common, "--robot", "fixed", "--sensor-range", "8",
+                        "--patrol-hours", "0-24")  # the defaults, given: nothing ignored
+    assert code == 0, output
+    code, output = _run(*common, "--force", "--tour-every", "10", "--patrol-hours", "8-10",
+                        "--sensor-range", "3", "--no-line-of-sight")
+    assert code == 0, output
+
+
 def test_the_empty_scene_warning_reads_start_as_simulate_does(tmp_path: Path) -> None:
     """--start in any ISO form simulate accepts (a space before the time, the basic form) is
     read for the warning as the scene reads it: a night start on a Wednesday is asked for a
