@@ -369,6 +369,8 @@ def graph_source(
         if plan.graph:
             report.notes.append("--graph given: scene graphs in the log are ignored")
             plan.graph = []
+        if opts.derive_graph:
+            report.notes.append("--derive-graph ignored: the places are --graph FILE's")
         report.graph_source = f"file {opts.graph_file.name}"
         loaded = load_graph(opts.graph_file, start, opts.nav_layer)
         report.graph_layer = str(loaded.nav.layer)

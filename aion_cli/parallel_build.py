@@ -89,7 +89,7 @@ class ParallelBuild:
         """The learnt map state (the caller writes it); the report is filled in."""
         opts, report = self.opts, self.build.report
         logs = self.build.logs
-        if opts.derive_graph:
+        if opts.derive_graph and opts.graph_file is None:  # with --graph: ignored, noted
             if opts.workers >= 2 or opts.scheduler is not None:  # asked for, not the default
                 report.notes.append("--derive-graph needs every log at once: built in sequence")
             return self.build.learn(self.config).state

@@ -81,3 +81,23 @@ def test_continuing_a_derived_map_keeps_its_places_and_says_so(tmp_path: Path) -
     assert later["graph"]["source"] == "continued map"
     assert any(n.startswith("--derive-graph ignored: the continued map keeps its places")
                for n in later["notes"])
+
+
+def test_a_graph_file_with_derive_graph_says_the_derive_graph_is_ignored(tmp_path: Path) -> None:
+    """--graph FILE gives the places, so --derive-graph beside it does nothing: the build took
+    the file's places without a word about the flag (it now notes it, as it does where the log
+    or the continued map holds the places), and learns the same map as --graph alone."""
+    from tests.cli.logdata import save_graph_file
+
+    walk = [person(T0 + k * S, (0.1 * (k % 100), 0.0, 0.0)) for k in range(300)]
+    log = write_log(tmp_path / "walk.mcap", walk)
+    graph = save_graph_file(tmp_path / "dsg.json", {0: (1.0, 0.0, 0.0), 1: (5.0, 0.0, 0.0)},
+                            [(0, 1)])
+    both = build_json(log, "--graph", graph, "--derive-graph", "-o", tmp_path / "both.aion")
+    alone = build_json(log, "--graph", graph, "-o", tmp_path / "alone.aion")
+    assert both["graph"]["source"] == alone["graph"]["source"] == "file dsg.json"
+    assert "--derive-graph ignored: the places are --graph FILE's" in both["notes"]
+    assert not any("--derive-graph" in n for n in alone["notes"])
+    assert both["nodes"] == alone["nodes"] == 2  # the file's two places, none derived
+    assert (both["bound_cells"], both["cells"]) == (alone["bound_cells"], alone["cells"])
+    assert both["bound_cells"] > 0
