@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli import api_checks as check
+from aion_cli.api_checks import ZoneLike
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
@@ -184,7 +185,7 @@ class Map:
         time: TimeLike | None = None,
         *,
         historical: bool = False,
-        tz: str | None = None,
+        tz: ZoneLike | None = None,
         layer: str = "all",
         nodes: Sequence[str | int] | str = (),
         at: str | Sequence[float] | None = None,
@@ -224,7 +225,7 @@ class Map:
         end: TimeLike,
         step: str | float | timedelta = "1h",
         *,
-        tz: str | None = None,
+        tz: ZoneLike | None = None,
         layer: str = "all",
         nodes: Sequence[str | int] | str = (),
         at: str | Sequence[float] | None = None,
@@ -261,7 +262,7 @@ class Map:
         goal: str | int,
         *,
         time: TimeLike | None = None,
-        tz: str | None = None,
+        tz: ZoneLike | None = None,
         speed: float | None = None,
         leave: tuple[TimeLike, TimeLike] | None = None,
         step: str | float | timedelta | None = None,
@@ -322,7 +323,7 @@ class Map:
         *,
         time: TimeLike | None = None,
         historical: bool = False,
-        tz: str | None = None,
+        tz: ZoneLike | None = None,
         format: str | None = None,
         path: tuple[str | int, str | int] | None = None,
     ) -> list[Path]:
@@ -372,7 +373,7 @@ class Map:
         *,
         time: TimeLike | None = None,
         historical: bool = False,
-        tz: str | None = None,
+        tz: ZoneLike | None = None,
         path: tuple[str | int, str | int] | None = None,
     ) -> Path:
         """The map from above at ``time`` (or as observed) as the PNG file ``file``, with the

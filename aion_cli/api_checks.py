@@ -18,6 +18,10 @@ from typing import Any
 
 from aion_cli.errors import InputError
 
+ZoneLike = str | tzinfo
+"""A zone argument (``tz``): a name (``"Europe/London"``, ``"UTC+02:00"``), a
+``zoneinfo.ZoneInfo`` or a fixed-offset ``datetime.timezone`` (:func:`zone_name` reads it)."""
+
 SECONDS_LIKE_NS = 10**16
 """Integer times are nanoseconds: below this (1970-04-26) one is far more likely UNIX seconds,
 milliseconds or microseconds than a time of 1970's first months."""

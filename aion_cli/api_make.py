@@ -11,6 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Union
 
+from aion_cli.api_checks import ZoneLike
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
@@ -56,7 +57,7 @@ def build(
     continue_from: PathLike | None = None,
     config: ModelConfig | None = None,
     graph: PathLike | None = None,
-    tz: str | None = None,
+    tz: ZoneLike | None = None,
     detection_topics: Sequence[str] = (),
     graph_topic: str | None = None,
     map_frame: str | None = None,

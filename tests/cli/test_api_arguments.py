@@ -39,13 +39,33 @@ def test_one_node_id_alone_is_one_node(m: aion.Map) -> None:
 def test_zones_as_names_zoneinfo_and_timezone_objects(m: aion.Map) -> None:
     expected = m.predict(T, tz="UTC").records()
     for tz in (ZoneInfo("UTC"), UTC, timezone(timedelta(0))):
-        assert m.predict(T, tz=tz).records() == expected  # type: ignore[arg-type]
-    london = m.predict(T, tz=ZoneInfo("Europe/London"))  # type: ignore[arg-type]
+        assert m.predict(T, tz=tz).records() == expected
+    london = m.predict(T, tz=ZoneInfo("Europe/London"))
     assert london.zone == "Europe/London"
-    plus_two = m.predict("2026-01-12 10:40", tz=timezone(timedelta(hours=2)))  # type: ignore[arg-type]
+    plus_two = m.predict("2026-01-12 10:40", tz=timezone(timedelta(hours=2)))
     assert plus_two.time_ns == m.predict(T, tz="UTC").time_ns
     with pytest.raises(InputError, match="tz must be a zone name"):
         m.predict(T, tz=5)  # type: ignore[arg-type]
+
+
+def test_every_tz_parameter_is_typed_as_the_zones_it_takes() -> None:
+    """docs/API.md: a zone is a name, a ``ZoneInfo`` or a fixed-offset ``datetime.timezone``,
+    and the package is typed (``py.typed``); but ``tz`` was annotated ``str | None``, so a
+    type-checked script passing ``tz=ZoneInfo("Europe/London")`` (which works) failed mypy
+    with 'incompatible type "ZoneInfo"; expected "str | None"'. Each ``tz`` annotation,
+    evaluated where its function is defined, admits all four."""
+    import inspect
+    import sys
+    import typing
+
+    functions = [aion.build, aion.Map.predict, aion.Map.predict_series, aion.Map.plan,
+                 aion.Map.export, aion.Map.picture]
+    for fn in functions:
+        text = inspect.signature(fn).parameters["tz"].annotation
+        declared = eval(text, vars(sys.modules[fn.__module__]))  # the module's own names
+        kinds = [k for k in typing.get_args(declared) if isinstance(k, type)] or [declared]
+        for value in ("Europe/London", ZoneInfo("Europe/London"), UTC, None):
+            assert any(isinstance(value, k) for k in kinds), (fn.__qualname__, text, value)
 
 
 def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
@@ -53,7 +73,7 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
     assert aion.to_ns(T, "UTC") == ns
     assert aion.to_ns(T) == ns  # UTC by default
     assert aion.to_ns(datetime(2026, 1, 12, 9, 40), "Europe/Berlin") == ns
-    assert aion.to_ns(datetime(2026, 1, 12, 8, 40), ZoneInfo("UTC")) == ns  # type: ignore[arg-type]
+    assert aion.to_ns(datetime(2026, 1, 12, 8, 40), ZoneInfo("UTC")) == ns
     assert aion.to_ns(np.int64(ns)) == ns  # type: ignore[arg-type]
     with pytest.raises(InputError, match="read as nanoseconds") as caught:
         aion.to_ns(ns // 10**9)
@@ -196,7 +216,7 @@ def test_build_arguments(office: Office, tmp_path: Path) -> None:
         detection_topics="/tracks",
         config={"bins": 8},
         observed=("2026-01-12 08:00", "2026-01-12 09:00"),
-        tz=ZoneInfo("UTC"),  # type: ignore[arg-type]
+        tz=ZoneInfo("UTC"),
     )
     assert built.report is not None
     assert built.report.detection_topics == ["/tracks"]  # type: ignore[union-attr]
