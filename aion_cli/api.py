@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli import api_checks as check
-from aion_cli.api_checks import ZoneLike
+from aion_cli.api_checks import PlaceLike, ZoneLike
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
@@ -258,8 +258,8 @@ class Map:
 
     def plan(
         self,
-        start: str | int,
-        goal: str | int,
+        start: PlaceLike,
+        goal: PlaceLike,
         *,
         time: TimeLike | None = None,
         tz: ZoneLike | None = None,
@@ -325,7 +325,7 @@ class Map:
         historical: bool = False,
         tz: ZoneLike | None = None,
         format: str | None = None,
-        path: tuple[str | int, str | int] | None = None,
+        path: tuple[PlaceLike, PlaceLike] | None = None,
     ) -> list[Path]:
         """Write the scene (PLY or PCD) and ``entries.csv`` / ``entries.json`` at ``time``
         (or as observed) into ``folder``, optionally with the path planned between
@@ -374,7 +374,7 @@ class Map:
         time: TimeLike | None = None,
         historical: bool = False,
         tz: ZoneLike | None = None,
-        path: tuple[str | int, str | int] | None = None,
+        path: tuple[PlaceLike, PlaceLike] | None = None,
     ) -> Path:
         """The map from above at ``time`` (or as observed) as the PNG file ``file``, with the
         path planned between ``path = (start, goal)``; the file written (as ``aion export

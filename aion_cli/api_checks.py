@@ -22,6 +22,10 @@ ZoneLike = str | tzinfo
 """A zone argument (``tz``): a name (``"Europe/London"``, ``"UTC+02:00"``), a
 ``zoneinfo.ZoneInfo`` or a fixed-offset ``datetime.timezone`` (:func:`zone_name` reads it)."""
 
+PlaceLike = str | int | Sequence[float]
+"""A plan's start or goal (``Map.plan``, ``path=``): a node id (``"p12"``, its integer
+NodeSymbol), a room or building by id or name, or a point (``"x,y[,z]"`` or 2 or 3 numbers)."""
+
 SECONDS_LIKE_NS = 10**16
 """Integer times are nanoseconds: below this (1970-04-26) one is far more likely UNIX seconds,
 milliseconds or microseconds than a time of 1970's first months."""
