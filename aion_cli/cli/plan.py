@@ -77,7 +77,7 @@ cost in the legend.
     "goal",
     required=True,
     metavar="B",
-    help="Goal: a place, room or building id, or a point x,y[,z].",
+    help="Goal: a place, a room or building by id or name, or a point x,y[,z].",
     shell_complete=complete_nodes,
 )
 @click.option(

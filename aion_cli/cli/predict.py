@@ -86,7 +86,8 @@ TABLE_LIMIT = 100
     "nodes",
     multiple=True,
     metavar="ID",
-    help="Only this node (e.g. p12); repeatable.",
+    help="Only this entry: a place (p12), a hash cell (c<key>), or a room or building by id "
+    "or name (R2, kitchen: answered per room); repeatable.",
     shell_complete=complete_nodes,
 )
 @click.option("--at", "at", metavar="X,Y[,Z]", help="Only the entry nearest to this point.")
