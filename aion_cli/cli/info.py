@@ -268,7 +268,10 @@ def command(
         return
     maps = [p for p in logs if p.suffix == MAP_SUFFIX and p.is_file()]
     if maps and len(maps) != len(logs):
-        raise InputError("give either logs or maps, not both")
+        raise InputError(
+            "give either logs or maps, not both",
+            hint=_apart({"map": maps, "log": [p for p in logs if p not in maps]}),
+        )
     if maps:
         _refuse_options(given, ("--verify",), "a map")
     if verify and not maps:
@@ -320,6 +323,19 @@ def _refuse_options(given: dict[str, bool], applies: tuple[str, ...], what: str)
         )
 
 
+def _apart(kinds: dict[str, list[Path]]) -> str:
+    """The hint of a mix of kinds: which path is of which kind (the first of each; an empty
+    kind: the rest), and one ``aion info`` of each kind's paths (printed through
+    :func:`aion_cli.cli.errors.one_line`, which makes control characters visible)."""
+    import shlex
+
+    named = [(kind, paths) for kind, paths in kinds.items() if paths]
+    said = ", ".join(f"{paths[0]} {'is a ' + kind if kind else 'is not'}" for kind, paths in named)
+    runs = "; ".join("aion info " + " ".join(shlex.quote(str(p)) for p in paths)
+                     for _, paths in named)
+    return f"{said}: describe each kind apart ({runs})"
+
+
 def _show_graph_files(paths: tuple[Path, ...], nav_layer: str | None, fmt: str) -> bool:
     """The GRAPH_FILE branch: describe scene-graph files (:mod:`aion_cli.cli.info_graph`);
     False when ``paths`` are no graph files."""
@@ -330,7 +346,10 @@ def _show_graph_files(paths: tuple[Path, ...], nav_layer: str | None, fmt: str) 
     if not graphs:
         return False
     if len(graphs) != len(paths):
-        raise InputError("give either logs, maps or scene-graph files, not a mix")
+        raise InputError(
+            "give either logs, maps or scene-graph files, not a mix",
+            hint=_apart({"scene-graph file": graphs, "": [p for p in paths if p not in graphs]}),
+        )
     reports = [describe_graph(p, nav_layer) for p in graphs]
     if fmt == "json":
         click.echo(to_json(reports[0] if len(reports) == 1 else reports))

@@ -44,3 +44,26 @@ def test_an_error_comes_with_a_hint(
     assert_one_line_error(result.stderr, fragment)
     assert any(line.startswith("hint: ") for line in result.stderr.splitlines()), result.stderr
     assert "limit=" not in result.stderr  # the read limits' hint read "e.g. the chunk limit=2048"
+
+
+def test_info_of_a_mix_of_kinds_says_which_is_which(office: Office, tmp_path: Path) -> None:
+    """``aion info MAP LOG`` said 'error: give either logs or maps, not both' and no hint (a
+    scene-graph file beside a log likewise): the hint now says which path is of which kind and
+    gives one ``aion info`` per kind."""
+    import shlex
+
+    from tests.cli.logdata import save_graph_file
+
+    result = run("info", office.map, office.log)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "give either logs or maps, not both")
+    said = " ".join(result.stderr.split())
+    assert (f"hint: {office.map} is a map, {office.log} is a log: describe each kind apart "
+            f"(aion info {shlex.quote(str(office.map))}; aion info "
+            f"{shlex.quote(str(office.log))})") in said, said
+    graph = save_graph_file(tmp_path / "dsg.json")
+    result = run("info", graph, office.map)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "not a mix")
+    said = " ".join(result.stderr.split())
+    assert f"hint: {graph} is a scene-graph file, {office.map} is not" in said, said
