@@ -34,6 +34,12 @@ MAX_PERIOD_S = 366 * DAY_S
 """Longest FreMEn period (a year); the shortest is two windows (Nyquist: a shorter period
 cannot be seen in per-window counts)."""
 FAMILIES = ("static", "shape", "profile", "fremen")
+
+RANGES_HINT = (
+    "the README's 'The model and its parameters' gives every parameter's range; "
+    "`aion build --print-config` prints the defaults"
+)
+"""The hint of a parameter out of its range that has no hint of its own."""
 """The temporal model families (``engine.temporal.params``)."""
 
 
@@ -333,11 +339,16 @@ class ModelConfig:
             try:
                 kwargs["periods"] = tuple(float(p) for p in kwargs["periods"])
             except (TypeError, ValueError) as exc:
-                raise ConfigError(f"periods must be a list of numbers: {exc}") from exc
+                raise ConfigError(
+                    f"periods must be a list of numbers: {exc}", hint=RANGES_HINT
+                ) from exc
         if "families" in kwargs:
             families = kwargs["families"]
             if isinstance(families, str) or not isinstance(families, (list, tuple)):
-                raise ConfigError(f"families must be a list of names, got {families!r}")
+                raise ConfigError(
+                    f"families must be a list of names, got {families!r}",
+                    hint=f"e.g. families = {list(FAMILIES)!r}".replace("'", '"'),
+                )
             kwargs["families"] = tuple(str(f) for f in families)
         for f in dataclasses.fields(cls):
             if f.name in kwargs and f.type in ("float", float, "float | str"):
@@ -347,7 +358,11 @@ class ModelConfig:
         try:
             return cls(**kwargs)
         except (TypeError, ValueError, OverflowError) as exc:  # e.g. a string compared to 0
-            raise ConfigError(f"invalid model parameters: {exc}") from exc
+            raise ConfigError(f"invalid model parameters: {exc}", hint=RANGES_HINT) from exc
+        except ConfigError as exc:  # a value out of its range: where the ranges are
+            if exc.hint is not None:
+                raise
+            raise ConfigError(exc.message, hint=RANGES_HINT) from exc
 
     def replace(self, **changes: Any) -> ModelConfig:
         return ModelConfig.from_dict({**self.to_dict(), **changes})

@@ -32,12 +32,19 @@ from tests.cli.conftest import SAMPLE, Office, assert_one_line_error, run
         (["--max-chunk-mb", "0", "info", str(SAMPLE)], "the chunk limit must be"),
         (["build", str(SAMPLE), "--config", "{tmp}/bins.toml", "-o", "{tmp}/b.aion"],
          "bins must be an integer"),
+        # a parameter out of its range had no hint but bins and cell_size
+        (["build", str(SAMPLE), "--config", "{tmp}/order.toml", "-o", "{tmp}/b.aion"],
+         "max_order must be an integer in 0..16, got 20"),
+        (["evaluate", "office", "--config", "{tmp}/families.toml", "--scenes", "1"],
+         "families must be a list of names"),
     ],
 )
 def test_an_error_comes_with_a_hint(
     office: Office, tmp_path: Path, args: list[str], fragment: str
 ) -> None:
     (tmp_path / "bins.toml").write_text("bins = 1\n")
+    (tmp_path / "order.toml").write_text("[model]\nmax_order = 20\n")
+    (tmp_path / "families.toml").write_text('families = "static"\n')
     filled = [a.format(map=office.map, tmp=tmp_path) for a in args]
     result = run(*filled)
     assert result.exit_code == 2, result.stderr
