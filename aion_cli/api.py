@@ -199,9 +199,7 @@ class Map:
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
-        historical = check.flag(historical, "historical")
-        if historical and time is not None:
-            raise InputError("choose time or historical=True, not both")
+        historical = check.historical(time, historical)
         wanted, point, top = check.selection(nodes, at, top)
         self._check_file()
         t_ns: int | None = None
@@ -283,7 +281,10 @@ class Map:
                 f"speed must be 0.01 .. 20 m/s, got {speed}", hint="a walking speed, e.g. 1.0"
             )
         if leave is not None and time is not None:
-            raise InputError("choose time or leave=(earliest, latest), not both")
+            raise InputError(
+                "choose time or leave=(earliest, latest), not both",
+                hint="time= plans one departure; leave= finds the best between two times",
+            )
         if step is not None and leave is None:
             raise InputError("step needs leave", hint='e.g. leave=("08:00", "10:00"), step="10m"')
         self._check_file()
@@ -348,9 +349,7 @@ class Map:
             raise InputError(
                 f"{str(out)!r} names a picture", hint="Map.picture(file) writes the PNG"
             )
-        historical = check.flag(historical, "historical")
-        if historical and time is not None:
-            raise InputError("choose time or historical=True, not both")
+        historical = check.historical(time, historical)
         times: list[int | None]
         zone = None
         if historical:
@@ -381,9 +380,7 @@ class Map:
         --format png``)."""
         from aion_cli.pictures.render import export_png
 
-        historical = check.flag(historical, "historical")
-        if historical and time is not None:
-            raise InputError("choose time or historical=True, not both")
+        historical = check.historical(time, historical)
         self._check_file()
         when: int | None = None
         zone = None

@@ -177,10 +177,16 @@ def time_value(time: object) -> object:
 def path_text(value: object, what: str) -> str:
     """A path argument's text: ``str`` or ``os.PathLike``, not empty."""
     if not isinstance(value, str | os.PathLike):
-        raise InputError(f"{what} must be a path (str or pathlib.Path), got {value!r}")
+        raise InputError(
+            f"{what} must be a path (str or pathlib.Path), got {value!r}",
+            hint='e.g. "office.aion" or pathlib.Path("office.aion")',
+        )
     text = os.fspath(value)
     if isinstance(text, bytes):
-        raise InputError(f"{what} must be a text path, got bytes {value!r}")
+        raise InputError(
+            f"{what} must be a text path, got bytes {value!r}",
+            hint=f"decode it: {os.fsdecode(text)!r}",
+        )
     return text
 
 
@@ -193,7 +199,10 @@ def selection(
     wanted = node_list(nodes)
     where = point(at)
     if wanted and where is not None:
-        raise InputError("choose nodes or at, not both")
+        raise InputError(
+            "choose nodes or at, not both",
+            hint="at=(x, y) gives the entry nearest the point; nodes= names entries",
+        )
     return wanted, where, count(top, "top")
 
 
@@ -211,6 +220,17 @@ def step(value: object) -> str | float:
     return real(value, "step")
 
 
+def historical(time: object, value: object) -> bool:
+    """``historical=`` of a query, refused beside a ``time`` (which it would ignore)."""
+    wanted = flag(value, "historical")
+    if wanted and time is not None:
+        raise InputError(
+            "choose time or historical=True, not both",
+            hint="historical=True is what was observed, at no time: leave out time",
+        )
+    return wanted
+
+
 def flag(value: object, what: str) -> bool:
     """A yes or no: ``True`` / ``False`` (numpy's too), not any value Python finds true (a
     string "no" would be)."""
@@ -224,7 +244,10 @@ def endpoint(node: object, what: str) -> str | int:
     if isinstance(node, str):
         return node
     if isinstance(node, bool) or node is None:
-        raise InputError(f"{what} must be a node id, a room name or a point, got {node!r}")
+        raise InputError(
+            f"{what} must be a node id, a room name or a point, got {node!r}",
+            hint='e.g. "p12", "kitchen", "3.5,-1.0" or (3.5, -1.0)',
+        )
     if isinstance(node, numbers.Integral):
         if not 0 <= int(node) < 1 << 64:  # node ids are uint64
             raise InputError(

@@ -255,6 +255,16 @@ def test_the_api_s_input_errors_carry_a_hint(example: dict[str, Any]) -> None:
         lambda: aion.build(["x.mcap"], workers="2"),
         lambda: aion.build(42),
         lambda: m.plan("p1", "p2", time=AT, speed=float("nan")),
+        # these had none: the CLI's same mistakes have one
+        lambda: m.predict(AT, historical=True),
+        lambda: m.picture("x.png", time=AT, historical=True),
+        lambda: m.predict(AT, nodes=["p1"], at=(1.0, 2.0)),
+        lambda: m.plan("p1", "p2", time=AT, leave=(AT, AT)),
+        lambda: m.plan(None, "p2"),
+        lambda: aion.Map.load(123),
+        lambda: m.save(b"copy.aion"),
+        lambda: m.holdout("later.mcap", radius="1"),
+        lambda: aion.build(["x.mcap"], config={"max_order": 99}),
     ):
         with pytest.raises(aion.InputError) as exc:
             call()

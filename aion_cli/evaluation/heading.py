@@ -46,7 +46,10 @@ def association_radius(radius: object) -> float:
     from aion_cli.errors import InputError
 
     if isinstance(radius, bool) or not isinstance(radius, int | float):
-        raise InputError(f"the association radius must be a number of metres, got {radius!r}")
+        raise InputError(
+            f"the association radius must be a number of metres, got {radius!r}",
+            hint="e.g. 1.0 (the default): a test detection is matched within it",
+        )
     if not (math.isfinite(radius) and radius > 0):
         raise InputError(
             f"the association radius must be a positive number of metres, got {radius!r}",
