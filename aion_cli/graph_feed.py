@@ -107,7 +107,11 @@ class GraphFeed:
         pins: tuple[str | None, str | None] = (None, None),
     ) -> None:
         self.report = report
-        self.pinned_version = dsg_version is not None  # --dsg-version: failures stop the build
+        if dsg_version is not None:  # --dsg-version: failures stop the build
+            from aion_cli.formats.dsg_payload import pinned_version
+
+            dsg_version = pinned_version(dsg_version)
+        self.pinned_version = dsg_version is not None
         self.dsg_version = dsg_version
         self.nav_layer = nav_layer
         self.period_ns = period_ns

@@ -100,6 +100,29 @@ def _parse_version(version: str) -> tuple[int, int, int]:
     return nums[0], nums[1], nums[2]
 
 
+def readable_versions() -> list[str]:
+    """The payload versions aion reads, in the order it tries them: the installed spark_dsg's,
+    then :data:`FALLBACK_VERSIONS`."""
+    native = installed_version()
+    return [native, *[v for v in FALLBACK_VERSIONS if v != native]]
+
+
+def pinned_version(version: str) -> str:
+    """``--dsg-version`` checked before any payload is read: one of
+    :func:`readable_versions` (a version after the installed spark_dsg's was accepted and
+    read as if it were that one, the typo then recorded in the map); a
+    :class:`MessageDecodeError` otherwise."""
+    _parse_version(version)
+    known = readable_versions()
+    if version.strip() not in known:
+        raise MessageDecodeError(
+            f"--dsg-version {version.strip()}: aion reads scene-graph payloads of spark_dsg "
+            f"{', '.join(known)} (the first is the installed spark_dsg's)",
+            hint="leave out --dsg-version: each log's version is found from its payloads",
+        )
+    return version.strip()
+
+
 def _as_bytes(payload: PayloadLike) -> bytes:
     """spark_dsg's ``from_binary`` accepts only ``bytes``; rosbags hands out uint8 arrays."""
     if isinstance(payload, bytes):
@@ -116,8 +139,7 @@ def _candidate_versions(payload: bytes) -> list[str]:
     from 1.1.2 on, an INT64 (0xd3, a layer id) before. Versions of the other family are still
     tried, last, in case the sniff is fooled.
     """
-    native = installed_version()
-    ordered = [native, *[v for v in FALLBACK_VERSIONS if v != native]]
+    ordered = readable_versions()
     if len(payload) > 5 and payload[5] == 0xD3:
         early = [v for v in ordered if _parse_version(v) <= (1, 1, 1)]
         return early + [v for v in ordered if v not in early]
@@ -190,7 +212,10 @@ def read_dsg_payload(payload: PayloadLike, version: str | None = None) -> tuple[
         f"cannot decode scene-graph payload ({len(data)} bytes); versions tried: "
         + "; ".join(failures),
         hint="the payload may be truncated or from spark_dsg < 1.0.2; "
-        "pin a version with --dsg-version if you know it",
+        "pin a version with --dsg-version if you know it"
+        if version is None
+        else f"--dsg-version {version.strip()} does not read it: leave the option out, and "
+        f"the version is found from the payload ({', '.join(readable_versions())} are tried)",
     )
 
 

@@ -196,6 +196,28 @@ def test_damaged_scene_graph_with_a_pinned_version_is_a_clear_error(tmp_path: Pa
     assert not (tmp_path / "p.aion").exists()
 
 
+def test_a_dsg_version_aion_does_not_read_is_refused_before_the_build(tmp_path: Path) -> None:
+    """--dsg-version 9.9.9 (a typo, or a spark_dsg newer than the installed one) built the map,
+    exit 0, reading every payload as the installed version and recording 9.9.9 as the graphs'
+    version; it is refused before anything is read, naming the versions aion reads. A pinned
+    version that fails on a payload no longer hints to pin a version with --dsg-version."""
+    from aion_cli.formats.dsg import FALLBACK_VERSIONS, installed_version
+
+    log = write_log(tmp_path / "g.mcap", [scene_graph(T0, graph_payload()), *walk(40, 1)])
+    result = run("build", log, "--dsg-version", "9.9.9", "-o", tmp_path / "x.aion")
+    fails(result, "--dsg-version 9.9.9: aion reads scene-graph payloads")
+    said = " ".join(result.stderr.split())
+    assert f"of spark_dsg {installed_version()}, " in said, said
+    assert all(v in said for v in FALLBACK_VERSIONS), said
+    assert "hint: leave out --dsg-version" in said, said
+    assert not (tmp_path / "x.aion").exists()
+    older = next(v for v in FALLBACK_VERSIONS if v != installed_version())
+    result = run("build", log, "--dsg-version", older, "-o", tmp_path / "y.aion")
+    fails(result, "cannot decode scene-graph payload")  # the payload is the installed version
+    said = " ".join(result.stderr.split())
+    assert f"hint: --dsg-version {older} does not read it: leave the option out" in said, said
+
+
 def test_damaged_detection_message_is_skipped_and_counted(tmp_path: Path) -> None:
     """One TrackedPersons payload cut short among good ones: dropped as an undecodable
     message, the others are used."""
