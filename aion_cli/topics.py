@@ -196,10 +196,11 @@ def _skipped_type(msgtype: str) -> str:
     if kind is not None:
         package = msgtype.split("/", 1)[0]
         return f"skipped: {_short(msgtype)} ({package}) holds no positions of people"
-    return (
-        f"skipped: {_short(msgtype)} is not a type aion reads (a TOML mapping can read it: "
-        "--detections-mapping)"
-    )
+    return f"skipped: {_short(msgtype)} is not a type aion reads {MAPPING_CAN_READ}"
+
+
+MAPPING_CAN_READ = "(a TOML mapping can read it: --detections-mapping)"
+"""The end of the reason of a topic whose type a mapping may read (:func:`refine_reasons`)."""
 
 
 def _mapped_topics(
@@ -268,26 +269,48 @@ def mapping_example(logset: Any) -> str | None:
     only the definition, so topics sharing one share the answer): a log of a thousand topics
     of a few types parses a few definitions, and every topic is considered (it said
     ``"TOPIC"``, a placeholder no command takes, when its first 50 topics held no position)."""
-    from aion_cli.errors import InputError
-    from aion_cli.formats.detections.suggest import suggest_mapping
-
-    tried: set[tuple[str, str, str, bool]] = set()
+    tried: dict[tuple[str, str, str, bool], bool] = {}
     for info in _mappable(logset.topics):
         if info.msgtype in TF_TYPES | DSG_TYPES:
             continue
-        definition, idl = logset.definition(info.topic, info.msgtype, info.encoding)
-        key = (info.encoding, info.msgtype, definition, idl)  # the typestore's own key
-        if key in tried:
-            continue
-        tried.add(key)
+        if _holds_position(logset, info, tried):
+            return info.topic
+    return None
+
+
+def _holds_position(
+    logset: Any, info: TopicInfo, tried: dict[tuple[str, str, str, bool], bool]
+) -> bool:
+    """Whether ``aion info LOG --suggest-mapping`` finds a position field in the topic's
+    type (the log's own definition); ``tried`` caches the answer per definition."""
+    from aion_cli.errors import InputError
+    from aion_cli.formats.detections.suggest import suggest_mapping
+
+    definition, idl = logset.definition(info.topic, info.msgtype, info.encoding)
+    key = (info.encoding, info.msgtype, definition, idl)  # the typestore's own key
+    if key not in tried:
         try:
             suggest_mapping(
                 info.topic, info.msgtype, logset.typestore(info.topic, info.msgtype, info.encoding)
             )
+            tried[key] = True
         except InputError:  # no position field, or a definition that cannot be parsed
-            continue
-        return info.topic
-    return None
+            tried[key] = False
+    return tried[key]
+
+
+def refine_reasons(logset: Any, plan: TopicPlan) -> None:
+    """A skipped topic's reason offers a mapping only where its type has a field a mapping
+    could read as a position: ``test_msgs/Strings`` read 'a TOML mapping can read it' beside
+    info's note that none of the log's types has one (``--suggest-mapping`` refuses it)."""
+    tried: dict[tuple[str, str, str, bool], bool] = {}
+    for info in plan.ignored:
+        why = plan.reasons.get(info.topic, "")
+        if why.endswith(MAPPING_CAN_READ) and not _holds_position(logset, info, tried):
+            plan.reasons[info.topic] = (
+                f"skipped: {_short(info.msgtype)} is not a type aion reads, and has no field "
+                "a --detections-mapping could read as a position"
+            )
 
 
 def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:

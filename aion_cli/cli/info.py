@@ -64,7 +64,7 @@ def describe(
     payload version."""
     from aion_cli.formats.logs import open_logs
     from aion_cli.formats.summary import summarize
-    from aion_cli.topics import select_topics
+    from aion_cli.topics import refine_reasons, select_topics
 
     mappings = _mappings(mapping)
     example: str | None = None
@@ -72,6 +72,7 @@ def describe(
         summary = summarize(logset, [m.msgtype for m in mappings])
         plan = select_topics(logset.topics, mappings=mappings)
         _check_mappings(logset, plan)
+        refine_reasons(logset, plan)  # no mapping offered for a type without a position
         firsts = {info.topic: _first_graph(logset, info.topic) for info in plan.graph}
         for topic, first in firsts.items():
             summary.dsg_versions[topic] = first.versions

@@ -343,6 +343,37 @@ def test_plumbing_topics_are_not_offered_a_mapping(tmp_path: Path) -> None:
     assert "`aion info LOG --suggest-mapping /odom_marker` writes one" in refused.stderr
 
 
+def test_a_type_without_a_position_is_not_offered_a_mapping(tmp_path: Path) -> None:
+    """A Twist (velocities only) was 'not a type aion reads (a TOML mapping can read it:
+    --detections-mapping)' while info's note on the same log said 'none of its types has a
+    field a --detections-mapping could read as a position' (and --suggest-mapping refuses
+    it); its reason now says it has no such field. A PointStamped keeps the offer."""
+    from aion_cli.formats.writers import LogWriter, stamp
+
+    log = tmp_path / "cmd.mcap"
+    with LogWriter(log, "mcap") as w:
+        for k in range(3):
+            t = T0 + k * S
+            w.write("/cmd_vel", "geometry_msgs/msg/Twist", {"linear": {"x": 0.5}}, t)
+    why = {t["topic"]: t["why"] for t in run_json("info", log, "--format", "json")["topics"]}
+    assert why["/cmd_vel"] == ("skipped: Twist is not a type aion reads, and has no field a "
+                               "--detections-mapping could read as a position")
+    note = " ".join(run("info", log).stderr.split())
+    assert "none of its types has a field a --detections-mapping could read as a position" in note
+    suggested = run("info", log, "--suggest-mapping", "/cmd_vel")
+    assert suggested.exit_code == 2, suggested.stderr
+    log = tmp_path / "both.mcap"
+    with LogWriter(log, "mcap") as w:  # beside a type that holds one, each has its own reason
+        for k in range(3):
+            t = T0 + k * S
+            w.write("/cmd_vel", "geometry_msgs/msg/Twist", {"linear": {"x": 0.5}}, t)
+            w.write("/odom_marker", "geometry_msgs/msg/PointStamped",
+                    {"header": {"stamp": stamp(t), "frame_id": "map"}}, t)
+    why = {t["topic"]: t["why"] for t in run_json("info", log, "--format", "json")["topics"]}
+    assert why["/cmd_vel"].endswith("could read as a position"), why
+    assert why["/odom_marker"].endswith("(a TOML mapping can read it: --detections-mapping)")
+
+
 def test_a_log_of_plumbing_only_is_not_sent_to_a_mapping(tmp_path: Path) -> None:
     """Only strings and logging: no mapping can read people from them, so neither build's
     hint nor info's note offers one (both did, and --suggest-mapping then refused)."""
