@@ -206,3 +206,23 @@ def test_a_command_list_cuts_no_summary(group: tuple[str, ...]) -> None:
 
     listing = run(*group, "--help").stdout.split("Commands:", 1)[1]
     assert "..." not in listing
+
+
+def test_every_option_is_named_in_the_readme() -> None:
+    """Every option of every command appears in README.md (a new user reading it meets each,
+    --help gives the detail): simulate's --seed, --rate, --noise, --frame, its patrol and
+    period options, evaluate's --radius, --per-hour, --keep and --skip, build's --batch-size
+    and convert's --message-type were in --help only."""
+    import re
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+
+    def named(opt: str) -> bool:  # a whole option: -o is not the start of --observed
+        return re.search(rf"(?<![\w-]){re.escape(opt)}(?![\w-])", readme) is not None
+
+    missing = sorted(
+        f"{command} {'/'.join(option.opts)}"
+        for command, option, _ in _options()
+        if "--help" not in option.opts and not any(named(opt) for opt in option.opts)
+    )
+    assert not missing, f"README.md does not name: {', '.join(missing)}"
