@@ -20,7 +20,12 @@ from aion_cli.cli.common import (
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.entries import COLUMNS
 from aion_cli.cli.output import AionCommand, Column, emit, emit_chunks, format_option
-from aion_cli.cli.predict_series import TABLE_COLUMNS, check_series_options, run_series
+from aion_cli.cli.predict_series import (
+    TABLE_COLUMNS,
+    check_series_options,
+    run_series,
+    say_nearest,
+)
 from aion_cli.predictions import LAYERS
 
 EPILOG = """\b
@@ -150,6 +155,7 @@ def command(
     entries, count = predicted_columns(loaded, t_ns, layer, nodes, at, shown)
     if t_ns is not None and zone is not None:
         announce_time(t_ns, zone, loaded=loaded)
+    say_nearest(at, next(iter(entries.records()), None) if at is not None else None)
     if fmt in ("json", "csv"):
         _emit_text(fmt, entries, document(map_path, loaded.config.bins, [], t_ns, zone,
                                           hour_flags(loaded, [t_ns])[0]))

@@ -81,6 +81,7 @@ def run_series(
         )
     labels = [format_ns(t, zone) for t in times]
     announce_time(times[0], zone, "from", loaded, series=times)
+    say_nearest(at, table.entries[0] if table.entries else None)
     if fmt == "json":  # the text of to_json(described(...).to_dict()), from arrays
         emit_chunks(
             series_json(described(table, map_path, zone, labels, hour_flags(loaded, times))),
@@ -96,6 +97,19 @@ def run_series(
                 "--node, --top N, --format csv or --format json for others"
             )
         _print(table, zone, shown)
+
+
+def say_nearest(at: str | None, entry: dict[str, Any] | None) -> None:
+    """With ``--at``, a note naming the entry the point stands for and how far it is (the
+    table showed an entry, possibly metres away, without a word that it was the nearest)."""
+    if at is None or entry is None:
+        return
+    from aion_cli.cli.console import note
+    from aion_cli.engine.node_ids import point_distance, require_point
+
+    xyz = (float(entry["x"]), float(entry["y"]), float(entry["z"]))
+    away = point_distance(xyz, require_point(at, "--at"))
+    note(f"--at {at}: the entry nearest the point is {entry['id']}, {away:.2f} m from it")
 
 
 def short_labels(times_ns: list[int], zone: Zone) -> list[str]:

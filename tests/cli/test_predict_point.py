@@ -1,0 +1,29 @@
+"""``aion predict --at X,Y``: which entry a point stands for, said."""
+
+from __future__ import annotations
+
+import math
+
+from tests.cli.conftest import Office, run, run_json
+
+AT = "2026-11-23 08:30"
+
+
+def test_a_point_says_which_entry_it_stands_for_and_how_far(office: Office) -> None:
+    """--at X,Y answered with the nearest entry's row and no word that it was the nearest, nor
+    how far (a point 4 m from any place read as that place's own): a note names the entry
+    and its distance, the one the row's own position gives, in a series too; -q leaves it
+    out."""
+    (row,) = run_json("predict", office.map, "--time", AT, "--at", "5.8,0.3",
+                      "--format", "json")["entries"]
+    away = math.dist((row["x"], row["y"]), (5.8, 0.3))  # horizontal: a point without z
+    said = run("predict", office.map, "--time", AT, "--at", "5.8,0.3").stderr
+    assert f"--at 5.8,0.3: the entry nearest the point is {row['id']}, {away:.2f} m from it" in (
+        " ".join(said.split())
+    ), said
+    series = run("predict", office.map, "--from", AT, "--to", AT, "--at", "5.8,0.3",
+                 "--format", "csv").stderr
+    assert f"the entry nearest the point is {row['id']}, {away:.2f} m" in " ".join(series.split())
+    quiet = run("predict", office.map, "--time", AT, "--at", "5.8,0.3", "-q")
+    assert quiet.exit_code == 0
+    assert "nearest" not in quiet.stderr
