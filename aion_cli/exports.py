@@ -186,17 +186,24 @@ def _export_one(
     return [*files, folder / "entries.csv", folder / "entries.json"]
 
 
-def path_ends(loaded: Any, path_from: str, path_to: str) -> tuple[Any, int, int]:
+def path_ends(
+    loaded: Any, path_from: str, path_to: str, snapped: list[dict[str, Any]] | None = None
+) -> tuple[Any, int, int]:
     """The planning graph and the node ids of ``--path-from`` / ``--path-to`` (a graph with
-    no path between them is a ``NoPathError`` now, before any file is written)."""
+    no path between them is a ``NoPathError`` now, before any file is written); ``snapped``
+    gets the ``snapped`` record of each end given as a point, room or building (as ``aion
+    plan --format json`` lists them)."""
     from aion_cli.mapquery import nav_graph
     from aion_cli.routes import plan_routes, resolve_endpoint
 
     nav = nav_graph(loaded)
-    a = resolve_endpoint(path_from, nav, loaded.graph).node_id
-    b = resolve_endpoint(path_to, nav, loaded.graph).node_id
-    plan_routes(loaded, a, b, None, nav=nav)
-    return nav, a, b
+    a = resolve_endpoint(path_from, nav, loaded.graph)
+    b = resolve_endpoint(path_to, nav, loaded.graph)
+    if snapped is not None:
+        records = (a.snapped("--path-from"), b.snapped("--path-to"))
+        snapped.extend(r for r in records if r is not None)
+    plan_routes(loaded, a.node_id, b.node_id, None, nav=nav)
+    return nav, a.node_id, b.node_id
 
 
 def planned_path(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -135,6 +135,7 @@ def command(
     """Export MAP as 3D scenes (PLY/PCD, MCAP over time), pictures (PNG) and tables (CSV/JSON)."""
     from aion_cli.cli.common import load
     from aion_cli.cli.console import console, note, progress, warn
+    from aion_cli.cli.plan import snapped_text
     from aion_cli.errors import InputError
     from aion_cli.exports import (
         cells_left_out,
@@ -175,8 +176,9 @@ def command(
         when, zone = resolve_time("now" if time_text is None else time_text, tz, loaded)
         times = [when]
     ends = None
+    snapped: list[dict[str, Any]] = []  # ends given as points, rooms or buildings
     if path_from is not None and path_to is not None:
-        ends = path_ends(loaded, path_from, path_to)  # bad ids fail before any file is written
+        ends = path_ends(loaded, path_from, path_to, snapped)  # bad ids fail before any write
     series = t_from is not None  # a series, even of one time (--from T --to T)
     if fmt == "dsg":
         if series:
@@ -205,6 +207,8 @@ def command(
         label = f"series of {len(times)} from" if series else "time"
         span = [int(t) for t in times if t is not None] if series else None
         announce_time(times[0], zone, label, loaded, series=span)
+    for snap in snapped:
+        note(snapped_text(snap))
     console().print(_written(written, fmt, out_dir, len(times)), soft_wrap=True)
     if written.stale is not None and (written.stale.removed or written.stale.kept):
         note(_stale_note(written.stale, out_dir))

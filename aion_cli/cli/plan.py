@@ -204,29 +204,31 @@ def command(
         _print(report)
 
 
+def snapped_text(snap: dict[str, Any]) -> str:
+    """What a ``snapped`` record (a plan's end given as a point, room or building) stands
+    for, as plan and ``export --path-from/--path-to`` say it."""
+    within = next((k for k in ("room", "building") if k in snap), None)
+    if within is not None:
+        asked = snap[within] if "name" not in snap else f"{snap['name']} ({snap[within]})"
+        return (
+            f"{snap['option']} {asked}: its place nearest the {within}'s centre, "
+            f"{snap['node']} ({snap['distance_m']:.2f} m from it)"
+        )
+    return (
+        f"{snap['option']} {snap['point']} snapped to {snap['node']} "
+        f"({snap['distance_m']:.2f} m away)"
+    )
+
+
 def _print(report: dict[str, Any]) -> None:
     from rich.table import Table
     from rich.text import Text
 
-    from aion_cli.cli.console import console, print_table
+    from aion_cli.cli.console import console, note, print_table
     from aion_cli.cli.output import markup_safe, printable
 
     for snap in report["snapped"]:
-        within = next((k for k in ("room", "building") if k in snap), None)
-        if within is not None:
-            asked = snap[within] if "name" not in snap else f"{snap['name']} ({snap[within]})"
-            console().print(
-                f"[dim]{markup_safe(snap['option'])} {markup_safe(asked)}: its place "
-                f"nearest the {within}'s centre, {markup_safe(snap['node'])} "
-                f"({snap['distance_m']:.2f} m from it)[/dim]",
-                soft_wrap=True,
-            )
-            continue
-        console().print(
-            f"[dim]{markup_safe(snap['option'])} {markup_safe(snap['point'])} snapped to "
-            f"{markup_safe(snap['node'])} ({snap['distance_m']:.2f} m away)[/dim]",
-            soft_wrap=True,
-        )
+        note(snapped_text(snap))
     named = {
         snap["option"]: f"{snap.get('name') or snap.get('room') or snap.get('building')} "
         f"({snap['node']})"

@@ -65,6 +65,30 @@ def test_time_series_and_path(office: Office, tmp_path: Path) -> None:
         assert (tmp_path / folder / "entries.csv").is_file()
 
 
+def test_a_path_s_ends_given_as_a_point_or_room_say_which_place_they_stand_for(
+    office: Office, tmp_path: Path
+) -> None:
+    """--path-from R1 --path-to 0.1,0.2 drew a path between places the export never named
+    (plan says which: 'its place nearest the room's centre, p2'); the export says it as plan
+    does, with the same distances (R1's centre is 0.94 m from p2, by hand: tests/cli/test_plan.py),
+    and nothing for ends given as place ids."""
+    result = run("export", office.map, "--historical", "-o", tmp_path / "a",
+                 "--path-from", "R1", "--path-to", "0.1,0.2")
+    assert result.exit_code == 0, result.stderr
+    said = " ".join(result.stderr.split())
+    assert "--path-from room1 (R1): its place nearest the room's centre, p2 (0.94 m from it)" in (
+        said
+    ), said
+    plan = run("plan", office.map, "--from", "R1", "--to", "0.1,0.2", "--time", AT)
+    planned = " ".join(plan.stderr.split())
+    assert "--to [0.1, 0.2] snapped to p0" in planned, planned
+    assert planned.split("--to ", 1)[1].split(")")[0] in said  # the same node and distance
+    ids = run("export", office.map, "--historical", "-o", tmp_path / "b",
+              "--path-from", "p2", "--path-to", "p0")
+    assert ids.exit_code == 0, ids.stderr
+    assert "--path-" not in ids.stderr
+
+
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [
