@@ -146,6 +146,12 @@ def test_a_part_map_cannot_forecast(tmp_path: Path) -> None:
     result = run("predict", part, "--time", "2026-11-30 08:00")
     assert result.exit_code == 2
     assert_one_line_error(result.output, "part map", "aion merge")
+    # what was observed neither: the error said 'it cannot forecast' to --historical too
+    for args in (("predict", part, "--historical"), ("export", part, "--historical", "-o",
+                                                     tmp_path / "out")):
+        result = run(*args)
+        assert result.exit_code == 2
+        assert_one_line_error(result.output, "neither a forecast nor what was observed")
 
 
 def test_part_cannot_continue_an_ordinary_map(tmp_path: Path) -> None:

@@ -240,8 +240,9 @@ class MapState:
         unscored (in place when the state is not ``writable``, else a cached copy)."""
         if self.deferred is not None:
             raise PartMapError(
-                "this is a part map (aion build --part): its days are held unscored for "
-                "aion merge, so it cannot forecast",
+                "this is a part map (aion build --part): its closed days are held apart, "
+                "unscored, for aion merge, so it answers no query, neither a forecast nor "
+                "what was observed",
                 hint="aion merge PART.aion [PART2.aion ...] -o MAP.aion scores its days into a map",
             )
         key = self._view_key()
