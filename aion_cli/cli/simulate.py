@@ -198,7 +198,7 @@ def _event_counts(r: SceneResult) -> str:
     type=click.Choice(["patrol", "fixed"]),
     default="patrol",
     show_default=True,
-    help="A patrolling robot, or a fixed sensor that sees all (and takes no patrol option).",
+    help="A patrolling robot, or a fixed sensor that sees all (it takes no patrol option).",
 )
 @click.option(
     "--frame",

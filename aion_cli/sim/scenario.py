@@ -160,6 +160,8 @@ class ScenarioConfig:
                 hint="drop --frame base_link or use --robot patrol",
             )
         flags = self.patrol.changed_flags() if self.robot == "fixed" else []
+        if self.robot == "fixed" and self.stream.period_s != StreamConfig().period_s:
+            flags.append("--dsg-period")  # the period while the robot drives
         if flags:  # a fixed sensor sees everyone at every tick: they would do nothing
             named = " and ".join([", ".join(flags[:-1]), flags[-1]] if len(flags) > 1 else flags)
             raise InputError(

@@ -206,9 +206,10 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
 
 def test_a_fixed_sensor_refuses_the_patrol_options_it_would_ignore(tmp_path: Path) -> None:
     """--robot fixed sees every person at every tick and never tours: --tour-every,
-    --patrol-hours, --sensor-range and --no-line-of-sight were accepted and did nothing (a
-    'fixed sensor with an 8-10 h patrol' wrote the same log as one without). They are refused,
-    each named; their default values, and the same options with --robot patrol, are fine."""
+    --patrol-hours, --sensor-range, --no-line-of-sight and --dsg-period (scene graphs while the
+    robot drives) were accepted and did nothing (a 'fixed sensor with an 8-10 h patrol' wrote
+    the same log as one without). They are refused, each named; their default values, and the
+    same options with --robot patrol, are fine."""
     log = tmp_path / "fixed.mcap"
     common = ("simulate", "-o", log, "--days", "0.02", "--start", "2026-01-05T12:00", "-q")
     code, output = _run(*common, "--robot", "fixed", "--tour-every", "10",
@@ -219,7 +220,7 @@ def test_a_fixed_sensor_refuses_the_patrol_options_it_would_ignore(tmp_path: Pat
     assert "--tour-every and --patrol-hours set the patrolling robot" in said, said
     assert "leave out --tour-every and --patrol-hours, or use --robot patrol" in said, said
     assert not log.exists()
-    for extra in (("--sensor-range", "3"), ("--no-line-of-sight",)):
+    for extra in (("--sensor-range", "3"), ("--no-line-of-sight",), ("--dsg-period", "5")):
         code, output = _run(*common, "--robot", "fixed", *extra)
         assert code == 2, (extra, output)
         assert f"{extra[0]} sets the patrolling robot" in " ".join(output.split())
