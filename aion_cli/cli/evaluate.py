@@ -127,7 +127,8 @@ SCORE_COLUMNS = (
 @click.option("--config", "config_path", metavar="FILE",
               type=AionPath(exists=True, path_type=Path),
               help="TOML model parameters (see aion build --print-config).")
-@click.option("--per-hour", is_flag=True, help="One row per model and hour.")
+@click.option("--per-hour", is_flag=True,
+              help="A table row per model and hour (JSON always holds them, as per_hour).")
 @format_option(("table", "json"))
 @quiet_option
 def atc(
