@@ -319,7 +319,14 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
     found = [f"{t.topic} ({t.msgtype})" for t in logset.topics]
     mappable = _mappable(logset.topics)
     example = mapping_example(logset) if mappable and not plan.skipped else None
-    if plan.skipped:
+    from aion_cli.formats.scene_mcap import is_scene_mcap
+
+    if logset.files and all(is_scene_mcap(f.path) for f in logset.files):  # its own markers
+        hint = (
+            "it is a scene aion exported (aion export --format mcap), to open in Foxglove or "
+            "RViz: build a map from the robot's logs"
+        )
+    elif plan.skipped:
         first = plan.skipped[0]
         hint = (
             f"{plan.reasons[first.topic]}; or map another type with --detections-mapping FILE"

@@ -422,11 +422,14 @@ def _print(report: dict[str, Any]) -> None:
             t.get("why", "").endswith(RAW_SENSOR_REASON) for t in report["topics"]
         )
         from aion_cli.formats.detections.registry import unreadable_kind
+        from aion_cli.formats.scene_mcap import is_scene_mcap
 
         if raw:
             from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
 
             what = f"it holds only raw sensor data: {RAW_SENSOR_HINT}"
+        elif all(is_scene_mcap(Path(f["path"])) for f in report["files"]):  # not a log
+            what = "it is a scene aion exported, to open in Foxglove or RViz"
         elif not report["topics"]:  # no messages, or channels in other encodings only
             what = "it has no ROS topic"
             if report["warnings"]:

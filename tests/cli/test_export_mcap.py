@@ -221,6 +221,26 @@ def test_no_path_historical_and_the_api(sample_map: Path, tmp_path: Path) -> Non
     assert scene_updates(files[0]) == scene_updates(cli)
 
 
+def test_info_on_an_exported_scene_says_what_it_is(office: Office, tmp_path: Path) -> None:
+    """``aion info scene.mcap`` on a scene aion exported told the user to write a detections
+    mapping for aion's own markers ('map another type: aion info LOG --suggest-mapping
+    /aion/markers'), and ``aion build scene.mcap`` to name /aion/markers with
+    --detections-topic; both say the file is an exported scene, and a recorded log keeps its
+    pointer."""
+    out = tmp_path / "scene.mcap"
+    assert run("export", office.map, "--historical", "--format", "mcap", "-o", out).exit_code == 0
+    said = " ".join(run("info", out).stderr.split())
+    assert "(it is a scene aion exported, to open in Foxglove or RViz)" in said, said
+    assert "--suggest-mapping" not in said, said
+    log = " ".join(run("info", office.log).stderr.split())
+    assert "scene aion exported" not in log
+    built = run("build", out, "-o", tmp_path / "x.aion")  # hinted --detections-topic /aion/...
+    assert built.exit_code == 2
+    assert_one_line_error(built.stderr, "no people-detection topic")
+    assert "hint: it is a scene aion exported" in built.stderr, built.stderr
+    assert "--detections-topic" not in built.stderr
+
+
 def test_existing_mcap_is_replaced_other_files_refused(office: Office, tmp_path: Path) -> None:
     out = tmp_path / "scene.mcap"
     for _ in range(2):  # the second run replaces the first file
