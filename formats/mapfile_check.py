@@ -46,9 +46,12 @@ def _what_it_is(path: Path) -> str | None:
     """A hint when ``path`` is an input aion reads elsewhere, given where a map belongs: a
     log (build a map from it) or a scene-graph file (:func:`formats.input_kind.input_kind`)."""
     from aion_cli.formats.input_kind import input_kind
+    from aion_cli.formats.scene_mcap import is_scene_mcap
 
     name = path.name
     kind = input_kind(path)
+    if kind == "log" and is_scene_mcap(path):  # not a log: aion export's own
+        return f"{name} is a scene aion exported from a map: give that map (.aion) instead"
     if kind == "log":
         return f"{name} is a log: build a map from it first, `aion build {name} -o MAP.aion`"
     if kind == "graph":

@@ -239,6 +239,9 @@ def test_info_on_an_exported_scene_says_what_it_is(office: Office, tmp_path: Pat
     assert_one_line_error(built.stderr, "no people-detection topic")
     assert "hint: it is a scene aion exported" in built.stderr, built.stderr
     assert "--detections-topic" not in built.stderr
+    asked = run("predict", out)  # said 'scene.mcap is a log: build a map from it first'
+    assert asked.exit_code == 2
+    assert "hint: scene.mcap is a scene aion exported from a map: give that map" in asked.stderr
 
 
 def test_existing_mcap_is_replaced_other_files_refused(office: Office, tmp_path: Path) -> None:
