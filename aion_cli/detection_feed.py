@@ -416,7 +416,8 @@ class DetectionFeeder:
                     )
                 raise TransformError(
                     f"detections are in frame {name!r} but the log has no TF to {target!r}",
-                    hint=f"if {name!r} is a fixed frame, build with --map-frame {name}",
+                    hint=f"if {name!r} is a fixed frame, give --map-frame {name} (the frame "
+                    "the map is in)",
                 )
             R, t, good = self.tf.lookup(target, name, frames.t_ns[rows])
             xyz[rows] = np.einsum("nij,nj->ni", R, frames.xyz[rows]) + t

@@ -242,6 +242,24 @@ def test_a_test_log_without_people_says_nothing_of_a_map_written(
     assert "the test logs hold nothing to score the map on" in result.stderr
 
 
+def test_a_test_log_in_a_frame_without_tf_is_told_the_option_not_to_build(
+    corridor: tuple, tmp_path: Path
+) -> None:
+    """Held-out detections in 'laser' with no TF to 'map': the error's hint said 'build with
+    --map-frame laser' to a command that builds nothing; it names the option, which
+    evaluate holdout takes as build does."""
+    from tests.robustness.conftest import T0, S, person, write_log
+
+    site, _train, _test, _truth = corridor
+    log = write_log(tmp_path / "laser.mcap", [person(T0 + k * S, (1, 2, 0), frame="laser")
+                                              for k in range(5)])
+    result = run("evaluate", "holdout", site, log)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "detections are in frame 'laser'")
+    assert "hint: if 'laser' is a fixed frame, give --map-frame laser" in result.stderr
+    assert "build with" not in result.stderr
+
+
 def test_a_window_without_coverage_is_left_out_of_the_activity() -> None:
     batch = DetectionBatch.from_arrays([MONDAY + S], [[0.0, 0.0, 0.0]], [0.0], [1.0])
     window = np.array([MONDAY // (600 * S)])
