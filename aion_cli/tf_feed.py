@@ -24,7 +24,7 @@ from aion_cli.engine.mapper import TIME_RANGE_TEXT
 from aion_cli.engine.types import I64, Trajectory
 from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, MessageDecodeError, TransformError
-from aion_cli.fixed_sensor import fixed_sensor_windows
+from aion_cli.fixed_sensor import fixed_sensor_windows, unposed_log_windows
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TimeCheck, TopicTimes, iso, stray_mask
 
@@ -262,7 +262,9 @@ def observe(
     a warning: its poses say what it saw; ``fill`` widens the time they may fill:
     :func:`~aion_cli.fixed_sensor.declared_windows`). ``detection_windows``: the windows holding a
     message of a detection topic; the robot's windows without one are counted in a note
-    (:func:`silent_note`)."""
+    (:func:`silent_note`). Beside a robot trajectory, logs of other times that hold none of its
+    poses are fixed sensors over their own windows (:func:`unposed_log_windows`), as a build of
+    them alone (a continuation, a parallel shard) observes them."""
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
@@ -273,6 +275,10 @@ def observe(
             traj = Trajectory(np.asarray(traj.t_ns)[part], np.asarray(traj.xyz)[part])
         mapper.add_trajectory(traj)
         report.observation = f"tf {map_frame}->{base_frame}"
+        _ignored(declared, report.observation, report.warnings)
+        unposed = unposed_log_windows(mapper, logset, times, np.asarray(traj.t_ns))
+        if unposed is not None:
+            report.observation += " + " + unposed
         if detection_windows is not None:
             delta = window_ns(mapper.state.config.window_s)
             robot = np.unique(np.asarray(traj.t_ns, dtype=np.int64) // delta)
@@ -280,7 +286,6 @@ def observe(
             report.silent_windows = (int(silent.size), delta)
             if silent.size:
                 report.notes.append(silent_note(int(silent.size), delta))
-        _ignored(declared, report.observation, report.warnings)
     elif graph_agents():
         report.observation = "scene-graph agent layer"  # fed per snapshot
         _ignored(declared, report.observation, report.warnings)

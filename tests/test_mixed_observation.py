@@ -1,0 +1,49 @@
+"""Logs of a robot and of a fixed sensor in one build: a log without any robot trajectory is a
+fixed sensor over the windows it recorded (README, ``aion build``), also when another log of
+the build has a trajectory, so one build of all the logs equals continuing the robot's map with
+the fixed sensor's log, and the ``--workers`` build, whose shards each observe by their own logs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from aion_cli.pipeline import BuildOptions, build_map
+from tests.cli.logdata import write_office_log
+from tests.time_shard_logs import build_logs, same_maps
+
+HOUR_S = 3600
+DAY_S = 24 * HOUR_S
+
+
+def _logs(tmp_path: Path) -> list[Path]:
+    """A robot's hour on Monday and Thursday, a fixed sensor's hour on Tuesday 08:00."""
+    robot1, fixed, robot2 = tmp_path / "r1.mcap", tmp_path / "f.mcap", tmp_path / "r2.mcap"
+    write_office_log(robot1, duration_s=HOUR_S)
+    write_office_log(fixed, tf=False, shift_s=DAY_S, duration_s=HOUR_S)
+    write_office_log(robot2, shift_s=3 * DAY_S, duration_s=HOUR_S)
+    return [robot1, fixed, robot2]
+
+
+def test_a_fixed_sensor_log_beside_robot_logs_observes_its_own_windows(tmp_path: Path) -> None:
+    logs = _logs(tmp_path)
+    one = build_logs(logs, tmp_path / "one.aion", 1)
+    # the fixed sensor recorded Tuesday 08:00-09:00: six windows, all of them observed
+    assert one.observation.startswith("tf map->base_link + fixed sensor over the 6 windows")
+    continued = tmp_path / "continued.aion"
+    for k, log in enumerate(logs):
+        build_map(BuildOptions(
+            logs=(log,), output=continued, workers=1,
+            continue_from=continued if k else None,
+        ))
+    assert same_maps(tmp_path / "one.aion", continued) == []
+    build_logs(logs, tmp_path / "two.aion", 2)
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+
+
+def test_robot_logs_that_overlap_a_log_without_tf_observe_by_the_robot(tmp_path: Path) -> None:
+    """A recording split into files (the tracker's in one, TF in another) is one robot."""
+    robot, tracker = tmp_path / "r.mcap", tmp_path / "t.mcap"
+    write_office_log(robot, duration_s=HOUR_S)
+    write_office_log(tracker, tf=False, graph=False, shift_s=600, duration_s=HOUR_S)
+    one = build_logs([robot, tracker], tmp_path / "one.aion", 1)
+    assert one.observation == "tf map->base_link"
