@@ -16,6 +16,7 @@ from aion_cli.engine.grouping import contained
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
+    from aion_cli.manifest import Manifest
 
 
 def pair_notes(
@@ -38,6 +39,29 @@ def pair_notes(
             "approximation 4)"
         )
     return notes
+
+
+def declared_gap_note(name: str, early: Manifest, part: Manifest) -> str | None:
+    """The part map ``name`` (manifest ``part``) joined after the map of manifest ``early``,
+    either of them a fixed sensor's built with ``--observed``: one build of all the logs counts
+    the declared windows between the two maps' logs as observed (nobody there), from where the
+    earlier logs stopped (``recording_reach``), but neither part holds them and a merge cannot
+    fill them (the spans are not stored): a note counts the windows between the logs."""
+    from aion_cli.fixed_sensor import DECLARED
+
+    if DECLARED not in early.observation and DECLARED not in part.observation:
+        return None
+    reach, first = early.recording_reach, part.counts.get("recording_first")
+    if reach is None or type(first) is not int or first <= reach + 1:
+        return None
+    between = first - reach - 1
+    return (
+        f"{name} was joined, but not exactly as one build would: its logs or those before it "
+        f"were built with --observed, and one build of all of them counts the {between:,} "
+        "window(s) between them as observed and empty where the declared spans cover them; "
+        "a part map fills only its own time (continue the part before with these logs "
+        "instead: aion build LOG --map PART.aion --observed ...)"
+    )
 
 
 def interleave(end_ns: int | None, start_ns: int | None) -> bool:

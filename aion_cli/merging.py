@@ -270,7 +270,12 @@ def _fold(
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
     from aion_cli.engine.state import MapState
-    from aion_cli.merge_notes import ApproximationTally, interleave, pair_notes
+    from aion_cli.merge_notes import (
+        ApproximationTally,
+        declared_gap_note,
+        interleave,
+        pair_notes,
+    )
 
     tally = ApproximationTally(report.lineage)
     pairs: list[str] = []
@@ -294,6 +299,9 @@ def _fold(
             base = acc if acc is not None else MapState.empty(state.config)
             before = base.graph
             acc = _join_part(base, state, m.name, report, joins)
+            gap = declared_gap_note(m.name, maps[k - 1].manifest, m.manifest) if k else None
+            if gap is not None:
+                joins.append(gap)
             if m.manifest.graph_source.startswith("file "):  # each part added the file anew
                 acc.graph = file_graph_time(acc.graph, before)
         else:

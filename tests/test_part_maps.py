@@ -277,3 +277,34 @@ def test_the_windows_of_fixed_sensor_intervals_are_counted_once(
         assert summary is None
         return
     assert summary == (len(windows), min(windows), max(windows), delta)
+
+
+def test_parts_built_with_observed_spans_say_the_time_between_them_is_not_filled(
+    tmp_path: Path,
+) -> None:
+    """One build with ``--observed`` counts the declared time between its logs as observed
+    and empty; part maps hold only their own time, so their merge cannot: a note counts the
+    windows between the parts' logs (Monday 09:00 to Tuesday 08:00: 23 h, 138 windows)."""
+    logs = []
+    for day in (0, 1):
+        path = tmp_path / f"fixed{day}.mcap"
+        write_office_log(path, tf=False, shift_s=day * 24 * HOUR_S, duration_s=HOUR_S)
+        logs.append(path)
+    declared = ("--observed", "2026-11-23 00:00..2026-11-25 00:00")
+    parts = []
+    for k, log in enumerate(logs):
+        part = tmp_path / f"p{k}.aion"
+        assert run("build", log, "--part", "-o", part, "-q", *declared).exit_code == 0
+        parts.append(part)
+    report = json.loads(run("merge", *parts, "-o", tmp_path / "m.aion", "--format", "json").stdout)
+    gap = [n for n in report["notes"] if "--observed" in n]
+    assert len(gap) == 1
+    assert "p1.aion was joined, but not exactly" in gap[0]
+    assert "the 138 window(s) between them" in gap[0]
+    one = tmp_path / "one.aion"
+    assert run("build", *logs, "-o", one, "--workers", "1", "-q", *declared).exit_code == 0
+    assert differences(load_map(one).state, load_map(tmp_path / "m.aion").state)
+    for k, log in enumerate(logs):  # without --observed the merge is exact: no such note
+        assert run("build", log, "--part", "-o", parts[k], "-q").exit_code == 0
+    report = json.loads(run("merge", *parts, "-o", tmp_path / "m.aion", "--format", "json").stdout)
+    assert not [n for n in report["notes"] if "--observed" in n]
