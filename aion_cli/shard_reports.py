@@ -50,12 +50,18 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     if not parts:
         return
     kinds = {p.observation.split(" ")[0] for p in parts}
-    if len(kinds) > 1:
+    # robot shards beside fixed-sensor ones observe as one pass does (a log without poses
+    # is a fixed sensor: tf_feed.unposed_log_windows), except for --observed, which one
+    # pass ignores beside a robot's trajectory and a fixed sensor's shard applies
+    mixed = kinds == {"fixed", "tf"} and not any(DECLARED in p.observation for p in parts)
+    if len(kinds) > 1 and not mixed:
         out.warnings.append(
             "the logs' observation sources differ (" + ", ".join(sorted(kinds)) + "): each "
             "group of logs used its own"
         )
     out.observation = parts[0].observation
+    if mixed:
+        out.observation = _robot_and_fixed(parts)
     fixed = [p.fixed_windows for p in parts if p.fixed_windows is not None]
     if fixed and len(kinds) == 1 and out.observation.startswith(FIXED_SENSOR_OVER):
         count = sum(f[0] for f in fixed)
@@ -126,6 +132,18 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         )
     out.detection_topics = sorted({t for p in parts for t in p.detection_topics})
     out.graph_topics = sorted({t for p in parts for t in p.graph_topics})
+
+
+def _robot_and_fixed(parts: list[BuildReport]) -> str:
+    """The observation of robot shards beside fixed-sensor ones, as one pass says it: the
+    robot's trajectory + the fixed sensors' windows added up."""
+    robot = next(p.observation for p in parts if p.observation.startswith("tf "))
+    fixed = [p.fixed_windows for p in parts if p.fixed_windows is not None]
+    if not fixed:
+        return robot
+    count = sum(f[0] for f in fixed)
+    first, last = min(f[1] for f in fixed), max(f[2] for f in fixed)
+    return f"{robot} + " + fixed_sensor_text(count, first, last, fixed[0][3])
 
 
 def _add(into: dict[str, int], more: dict[str, int]) -> None:

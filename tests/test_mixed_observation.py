@@ -36,8 +36,13 @@ def test_a_fixed_sensor_log_beside_robot_logs_observes_its_own_windows(tmp_path:
             continue_from=continued if k else None,
         ))
     assert same_maps(tmp_path / "one.aion", continued) == []
-    build_logs(logs, tmp_path / "two.aion", 2)
+    two = build_logs(logs, tmp_path / "two.aion", 2)
+    assert len(two.workers) == 3
     assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+    # and the parallel build says so as the sequential one does, with no warning that the
+    # shards observed otherwise
+    assert two.observation == one.observation
+    assert not [w for w in two.warnings if "observation sources differ" in w]
 
 
 def test_robot_logs_that_overlap_a_log_without_tf_observe_by_the_robot(tmp_path: Path) -> None:
