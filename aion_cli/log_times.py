@@ -17,9 +17,10 @@ internal error). So a build takes its time span only from the messages it uses, 
   :data:`STRAY_SHARE` (5 %) of the topic's messages. Recording sessions days apart (in one
   log or several) stay: each is a run of its own with more than ten messages. A topic whose
   messages are all sparse (one a day) has no bulk and loses nothing. The rule sees the inputs
-  of one build together: a log of at most ten messages on a topic, added a day away from a
-  bigger log, is a stray in ``build A B`` but not in ``build B --map A.aion`` (a build of
-  such a log alone keeps everything).
+  of one build together, except that a run which is all of one log's messages of the topic
+  stays (:func:`own_recordings`): a log of at most ten messages on a topic, a day away from a
+  bigger log, is kept in ``build A B`` as in ``build B --map A.aion`` and in a parallel
+  build's shard of its own (a build of such a log alone keeps everything).
 
 The same rule (:func:`stray_mask`) drops robot poses far from the rest of the trajectory.
 Everything here is numpy over int64 arrays; the per-message part is one ``array.append``, or
@@ -93,6 +94,28 @@ def stray_mask(times: I64) -> BoolA:
     return out
 
 
+def own_recordings(t: I64, stray: BoolA, recordings: Sequence[tuple[int, int]]) -> BoolA:
+    """``stray`` (a mask over the topic's times ``t``) without the stray runs that are all of
+    one recording's messages of the topic: a run inside a recording's span (``recordings``:
+    first and last message time of each) in which no other message of the topic lies is that
+    log's own time, not a stray clock. A log built alone, added with ``--map`` or in a
+    parallel shard keeps such a run (it is its topic's bulk), so a build of it beside other
+    logs keeps it too."""
+    if not recordings or not stray.any():
+        return stray
+    out = stray.copy()
+    kept = np.sort(t[~stray])
+    lo = np.array([a for a, _ in recordings], np.int64)
+    hi = np.array([b for _, b in recordings], np.int64)
+    firsts, lasts = runs(t[stray])
+    for a, b in zip(firsts.tolist(), lasts.tolist(), strict=True):
+        inside = (lo <= a) & (hi >= b)
+        others = np.searchsorted(kept, hi[inside], "right") - np.searchsorted(kept, lo[inside])
+        if (others == 0).any():
+            out[(t >= a) & (t <= b)] = False
+    return out
+
+
 def runs(times: I64) -> tuple[I64, I64]:
     """``(first, last)`` log time of each run of ``times`` (sorted), gaps of more than
     :data:`STRAY_GAP_NS` between runs."""
@@ -163,16 +186,23 @@ class TopicTimes:
             total += int(np.count_nonzero((t >= lo) & (t < hi)))
         return total
 
-    def check(self, span_topics: Iterable[str]) -> TimeCheck:
+    def check(
+        self, span_topics: Iterable[str], recordings: Sequence[tuple[int, int]] = ()
+    ) -> TimeCheck:
         """The strays of ``span_topics`` (the topics whose times matter: a static transform's
         log time says nothing), and their runs and span; the other topics are only checked
-        for range."""
+        for range. ``recordings``: each input log's first and last message time, whose own
+        runs are never strays (:func:`own_recordings`)."""
         strays: dict[str, I64] = {}
         firsts, lasts, kept_span = [], [], []
         span = set(span_topics)
         for topic, raw in self._times.items():
             t = np.frombuffer(raw, dtype=np.int64) if len(raw) else np.zeros(0, np.int64)
-            mask = stray_mask(t) if topic in span else np.zeros(t.size, dtype=bool)
+            mask = (
+                own_recordings(t, stray_mask(t), recordings)
+                if topic in span
+                else np.zeros(t.size, dtype=bool)
+            )
             if mask.any():
                 strays[topic] = np.sort(t[mask])
                 t = t[~mask]

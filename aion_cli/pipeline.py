@@ -328,7 +328,9 @@ class _Build(StreamStep):
             logset, plan, timed, self.progress, thinned, use_index=self._use_index
         )
         tf_topics = plan.names("tf") if plan.tf else set()
-        self._times = self._whole_times = check_times(times, plan, timed, self.report)
+        self._times = self._whole_times = check_times(
+            times, plan, timed, self.report, logset.recording_spans()
+        )
         self._detection_windows = times.windows(
             plan.names("detections"), window_ns(self.config().window_s)
         )

@@ -13,7 +13,7 @@ failure rules (:func:`check_tf`), none of which the build orchestration
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from itertools import compress
 from typing import TYPE_CHECKING, Any
@@ -369,7 +369,11 @@ def check_tf(stats: TfStats, tf_topics: set[str], report: BuildReport) -> None:
 
 
 def check_times(
-    times: TopicTimes, plan: TopicPlan, timed: set[str], report: BuildReport
+    times: TopicTimes,
+    plan: TopicPlan,
+    timed: set[str],
+    report: BuildReport,
+    recordings: Sequence[tuple[int, int]] = (),
 ) -> TimeCheck:
     """The time-sanity rules (:mod:`aion_cli.log_times`) over the log times read with TF:
     their warnings and per-topic drops go to the report, and the returned
@@ -379,7 +383,7 @@ def check_times(
     every detection message has an unrepresentable log time the build stops."""
     tf_topics = plan.names("tf") if plan.tf else set()
     span = timed | {t for t in tf_topics if not t.endswith("_static")}
-    checked = times.check(span)
+    checked = times.check(span, recordings)
     report.warnings.extend(checked.warnings(decoded=tf_topics))
     report.time_dropped = {
         topic: {

@@ -274,11 +274,12 @@ def group_times(
             return None
         indexed = logset.index_times(span_topics)
         recorded = logset.recorded_windows(window_ns)
+        recordings = logset.recording_spans()
     if indexed is None:
         return None
     times = TopicTimes(span_topics)
     times.add_stream(indexed)
-    checked = times.check(span_topics)
+    checked = times.check(span_topics, recordings)
     det = [_kept(indexed.of(t), checked.strays.get(t)) for t in indexed.topics if t in detections]
     joined = np.sort(np.concatenate(det)) if det else np.zeros(0, np.int64)
     graph = [_kept(indexed.of(t), checked.strays.get(t)) for t in indexed.topics if t in graphs]

@@ -234,6 +234,25 @@ def test_sessions_days_apart_are_kept(tmp_path: Path) -> None:
     assert report["time_span"]["end_ns"] == T0 + (3 * 86400 + 299) * S
 
 
+def test_a_short_log_days_after_another_is_its_own_time_not_a_stray(
+    hour: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A log of five messages three days after the hour's is that log's own time: one build
+    of both keeps it (it dropped them as a stray clock, while adding the short log with
+    ``--map`` and the parallel build, a shard of its own, kept them), and equals both."""
+    log, reference = hour
+    short = write_log(tmp_path / "short.mcap", walk(5, start_s=3 * 86400))
+    report = build_json(log, short, "-o", tmp_path / "one.aion", "--workers", "1")
+    assert report["log_times_dropped"] == {}
+    assert report["detections"]["used"] == HOUR_MESSAGES + 5
+    assert report["time_span"]["end_ns"] == T0 + (3 * 86400 + 4) * S
+    continued = tmp_path / "continued.aion"
+    build_json(short, "--map", reference, "-o", continued)
+    assert_same_arrays(map_arrays(tmp_path / "one.aion"), map_arrays(continued))
+    build_json(log, short, "-o", tmp_path / "two.aion", "--workers", "2")
+    assert_same_arrays(map_arrays(tmp_path / "one.aion"), map_arrays(tmp_path / "two.aion"))
+
+
 # -- the rule itself --------------------------------------------------------------------------
 
 
