@@ -127,41 +127,40 @@ def fixed_sensor_windows(
 def unposed_log_windows(
     mapper: Mapper, logset: Any, times: TimeCheck, pose_t_ns: I64
 ) -> str | None:
-    """Beside a robot trajectory, the logs that hold none of its poses: the files, grouped as
-    they overlap in time (a file starting before the last window of the group before it
-    joins it, as :func:`aion_cli.parallel_build.plan_shards` keeps such logs together), whose
-    group's windows hold no pose are each a fixed sensor over the windows they recorded, as a
-    build of those logs alone observes them (continuing a robot's map with them, a parallel
-    shard of them): a log without any robot trajectory is a fixed sensor, also when another
-    log of the build has one. Sets the Mapper's windows for them and returns the report's
-    description of that observation, or None when every group holds a pose."""
+    """Beside a robot trajectory, the logs that hold none of its poses: the logs, grouped as a
+    parallel build groups them into shards (:func:`aion_cli.parallel_build.plan_shards`: logs
+    that overlap or touch in time stay together), whose group's recorded windows hold no pose
+    are each a fixed sensor over the windows they recorded, as a build of those logs alone
+    observes them (continuing a robot's map with them, a parallel shard of them): a log
+    without any robot trajectory is a fixed sensor, also when another log of the build has
+    one. Sets the Mapper's windows for them and returns the report's description of that
+    observation, or None when every group holds a pose."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
+    from aion_cli.parallel_build import plan_shards
 
-    delta = window_ns(mapper.state.config.window_s)
-    files = []
-    for _file, recorded in logset.recorded_windows_by_recording(delta):
-        recorded = recorded[times.inside_limits(recorded * delta)]
-        recorded = recorded[times.within_runs(recorded, delta)]
-        if recorded.size:
-            files.append((int(recorded[0]), int(recorded[-1]), recorded))
-    if len(files) < 2:
+    spans = logset.recording_times()
+    if len(spans) < 2:
         return None
-    groups: list[tuple[int, int, list[I64]]] = []
-    for first, last, recorded in sorted(files, key=lambda f: (f[0], f[1])):
-        if groups and first <= groups[-1][1]:
-            lo, hi, held = groups[-1]
-            groups[-1] = (lo, max(hi, last), [*held, recorded])
-        else:
-            groups.append((first, last, [recorded]))
+    delta = window_ns(mapper.state.config.window_s)
+    keys = dict.fromkeys(logset.recordings)  # in the order recorded_windows_by_recording joins
+    held: dict[int, I64] = {}
+    joined = logset.recorded_windows_by_recording(delta)
+    for key, (_file, recorded) in zip(keys, joined, strict=True):
+        recorded = recorded[times.inside_limits(recorded * delta)]
+        held[key] = recorded[times.within_runs(recorded, delta)]
     poses = np.unique(np.asarray(pose_t_ns, np.int64) // delta)
     read = windows_of(times.span_times, delta)
     parts = []
-    for lo, hi, held in groups:
+    for group in plan_shards([(key, lo, hi) for key, (lo, hi) in spans.items()], delta):
+        recorded = np.unique(np.concatenate([held[key] for key in group]))
+        if recorded.size == 0:
+            continue
+        lo, hi = int(recorded[0]), int(recorded[-1])
         at = int(np.searchsorted(poses, lo))
         if at < poses.size and poses[at] <= hi:
             continue  # the robot's poses say what these logs observed
-        parts.append(np.union1d(np.concatenate(held), read[(read >= lo) & (read <= hi)]))
+        parts.append(np.union1d(recorded, read[(read >= lo) & (read <= hi)]))
     if not parts:
         return None
     windows: I64 = np.unique(np.concatenate(parts))

@@ -28,7 +28,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 from aion_cli.build_options import MAX_WORKERS
 from aion_cli.build_report import check_usable
@@ -44,6 +44,9 @@ if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
     from aion_cli.pipeline import BuildOptions, _Build
 
+K = TypeVar("K")
+"""What names a log in :func:`plan_shards`: its path, or a recording's position."""
+
 #: logs closer than this in time stay in one shard (headings link tracks across small gaps)
 TOUCH_NS = 10 * 10**9
 
@@ -57,11 +60,11 @@ def worker_count(requested: int) -> int:
     return requested or (os.cpu_count() or 1)
 
 
-def plan_shards(spans: list[tuple[Path, int, int]], window_ns: int) -> list[tuple[Path, ...]]:
+def plan_shards(spans: list[tuple[K, int, int]], window_ns: int) -> list[tuple[K, ...]]:
     """Groups of logs (each in time order, the groups too) that share no time window:
     ``spans`` are (log, first, last message time). A log joins the group before it when it
     starts before that group's last window ends or within :data:`TOUCH_NS` of its end."""
-    groups: list[list[Path]] = []
+    groups: list[list[K]] = []
     group_end = 0
     for path, start, end in sorted(spans, key=lambda s: (s[1], s[2], str(s[0]))):
         if groups:

@@ -329,7 +329,7 @@ class _Build(StreamStep):
         )
         tf_topics = plan.names("tf") if plan.tf else set()
         self._times = self._whole_times = check_times(
-            times, plan, timed, self.report, logset.recording_spans()
+            times, plan, timed, self.report, list(logset.recording_times().values())
         )
         self._detection_windows = times.windows(
             plan.names("detections"), window_ns(self.config().window_s)

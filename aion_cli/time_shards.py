@@ -274,7 +274,7 @@ def group_times(
             return None
         indexed = logset.index_times(span_topics)
         recorded = logset.recorded_windows(window_ns)
-        recordings = logset.recording_spans()
+        recordings = list(logset.recording_times().values())
     if indexed is None:
         return None
     times = TopicTimes(span_topics)

@@ -226,16 +226,16 @@ class LogSet:
         position of the path it was opened from; the storage files of one bag share it)."""
         return list(self._recordings)
 
-    def recording_spans(self) -> list[tuple[int, int]]:
-        """Per recording (a path given; the storage files of one bag joined), the first and
-        last message time its files' indexes or summaries give; recordings without a message
-        are left out."""
+    def recording_times(self) -> dict[int, tuple[int, int]]:
+        """Per recording (:attr:`recordings`: a path given, the storage files of one bag
+        joined), the first and last message time its files' indexes or summaries give;
+        recordings without a message are left out."""
         spans: dict[int, tuple[int, int]] = {}
         for key, file in zip(self._recordings, self.files, strict=True):
             if file.message_count > 0:
                 lo, hi = spans.get(key, (file.start_ns, file.end_ns))
                 spans[key] = (min(lo, int(file.start_ns)), max(hi, int(file.end_ns)))
-        return list(spans.values())
+        return spans
 
     def recorded_windows_by_recording(self, window_ns: int) -> list[tuple[LogFile, Windows]]:
         """:meth:`recorded_windows_by_file` with the storage files of one rosbag2 bag joined

@@ -52,3 +52,20 @@ def test_robot_logs_that_overlap_a_log_without_tf_observe_by_the_robot(tmp_path:
     write_office_log(tracker, tf=False, graph=False, shift_s=600, duration_s=HOUR_S)
     one = build_logs([robot, tracker], tmp_path / "one.aion", 1)
     assert one.observation == "tf map->base_link"
+
+
+def test_a_log_without_tf_touching_a_robot_log_is_grouped_as_the_parallel_build_groups(
+    tmp_path: Path,
+) -> None:
+    """A log that starts 8 s after the robot's last message (in the next window) stays with it,
+    as a parallel build keeps logs that touch in one shard: the robot's poses say what it
+    observed, in one build as in two workers."""
+    robot, tracker, later = tmp_path / "r.mcap", tmp_path / "t.mcap", tmp_path / "r2.mcap"
+    write_office_log(robot, duration_s=HOUR_S)  # its last message at 08:59:55
+    write_office_log(tracker, tf=False, shift_s=HOUR_S + 3, duration_s=HOUR_S)
+    write_office_log(later, shift_s=2 * DAY_S, duration_s=HOUR_S)
+    one = build_logs([robot, tracker, later], tmp_path / "one.aion", 1)
+    assert one.observation == "tf map->base_link"
+    two = build_logs([robot, tracker, later], tmp_path / "two.aion", 2)
+    assert len(two.workers) == 2
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
