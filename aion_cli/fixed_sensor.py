@@ -15,6 +15,7 @@ added up across builds, merges and time shards, is a job of its own.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -125,16 +126,18 @@ def fixed_sensor_windows(
 
 
 def unposed_log_windows(
-    mapper: Mapper, logset: Any, times: TimeCheck, pose_t_ns: I64
+    mapper: Mapper, logset: Any, times: TimeCheck, robot: Callable[[int, int], bool]
 ) -> str | None:
-    """Beside a robot trajectory, the logs that hold none of its poses: the logs, grouped as a
+    """Beside a robot's observation, the logs it does not observe: the logs, grouped as a
     parallel build groups them into shards (:func:`aion_cli.parallel_build.plan_shards`: logs
-    that overlap or touch in time stay together), whose group's recorded windows hold no pose
-    are each a fixed sensor over the windows they recorded, as a build of those logs alone
-    observes them (continuing a robot's map with them, a parallel shard of them): a log
-    without any robot trajectory is a fixed sensor, also when another log of the build has
-    one. Sets the Mapper's windows for them and returns the report's description of that
-    observation, or None when every group holds a pose."""
+    that overlap or touch in time stay together), of which ``robot(first, last)`` (the
+    group's first and last recorded window) says that the robot did not observe them (no
+    pose of its TF trajectory in those windows; no agent layer in the group's first scene
+    graph) are each a fixed sensor over the windows they recorded, as a build of those logs
+    alone observes them (continuing a robot's map with them, a parallel shard of them): a
+    log without any robot trajectory is a fixed sensor, also when another log of the build
+    has one. Sets the Mapper's windows for them and returns the report's description of that
+    observation, or None when the robot observes every group."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
     from aion_cli.parallel_build import plan_shards
@@ -149,7 +152,6 @@ def unposed_log_windows(
     for key, (_file, recorded) in zip(keys, joined, strict=True):
         recorded = recorded[times.inside_limits(recorded * delta)]
         held[key] = recorded[times.within_runs(recorded, delta)]
-    poses = np.unique(np.asarray(pose_t_ns, np.int64) // delta)
     read = windows_of(times.span_times, delta)
     parts = []
     for group in plan_shards([(key, lo, hi) for key, (lo, hi) in spans.items()], delta):
@@ -157,8 +159,7 @@ def unposed_log_windows(
         if recorded.size == 0:
             continue
         lo, hi = int(recorded[0]), int(recorded[-1])
-        at = int(np.searchsorted(poses, lo))
-        if at < poses.size and poses[at] <= hi:
+        if robot(lo, hi):
             continue  # the robot's poses say what these logs observed
         parts.append(np.union1d(recorded, read[(read >= lo) & (read <= hi)]))
     if not parts:

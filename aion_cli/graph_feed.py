@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
-from aion_cli.errors import MessageDecodeError
+from aion_cli.errors import InputError, MessageDecodeError
 from aion_cli.formats.dsg_delta import GraphReader
 from aion_cli.graph_schedule import graph_schedule
 
@@ -208,6 +208,22 @@ class GraphFeed:
                         f"a scene graph at {msg.log_time_ns} ns was left unread but is used"
                     )
             yield msg
+
+    def has_agents(self, logset: Any, msg: RawMessage | None) -> bool:
+        """Whether the scene graph ``msg`` carries robot poses, decoded apart from the stream
+        (no version or layer pinned, nothing kept): the observation of a later group of logs
+        (:func:`aion_cli.fixed_sensor.unposed_log_windows`); a graph that cannot be decoded
+        carries none."""
+        from aion_cli.formats.dsg import decode_dsg
+
+        if msg is None:
+            return False
+        payload, t_ns = self.payload(logset, msg)
+        try:
+            agents = decode_dsg(payload, t_ns, self.dsg_version).snapshot.agents
+        except InputError:
+            return False
+        return agents is not None and len(agents) > 0
 
     def first_has_agents(self, logset: Any, first: RawMessage | None) -> bool:
         """Whether ``first``, the first scene graph of the log, carries robot poses (its

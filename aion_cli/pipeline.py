@@ -374,12 +374,19 @@ class _Build(StreamStep):
         """Which windows the map observed (:func:`aion_cli.tf_feed.observe`); the first
         scene graph's agent layer is asked for only without a robot trajectory."""
 
-        def graph_agents() -> bool:
+        def graph_agents(between: tuple[int, int] | None) -> bool:
             if not plan.graph or self.opts.graph_file is not None:
                 return False
-            # the first graph of the logs, also in a time shard (every part observes alike)
-            messages = self._whole_times.filter(logset.messages(plan.names("graph")))
-            return self.graphs.first_has_agents(logset, next(iter(messages), None))
+            # the first graph of the logs, also in a time shard (every part observes alike);
+            # with ``between``, the first in that span of log time (a later group of logs)
+            messages = self._whole_times.filter(logset.messages(plan.names("graph"), between))
+            if between is None:
+                return self.graphs.first_has_agents(logset, next(iter(messages), None))
+            lo, hi = between
+            first = next((m for m in messages if m.log_time_ns >= lo), None)
+            return first is not None and first.log_time_ns < hi and self.graphs.has_agents(
+                logset, first
+            )
 
         frames = (self.opts.map_frame, self.opts.base_frame)
         observe(

@@ -53,7 +53,12 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     # robot shards beside fixed-sensor ones observe as one pass does (a log without poses
     # is a fixed sensor: tf_feed.unposed_log_windows), except for --observed, which one
     # pass ignores beside a robot's trajectory and a fixed sensor's shard applies
-    mixed = kinds == {"fixed", "tf"} and not any(DECLARED in p.observation for p in parts)
+    robots = kinds - {"fixed"}
+    mixed = (
+        "fixed" in kinds
+        and robots in ({"tf"}, {"scene-graph"})
+        and not any(DECLARED in p.observation for p in parts)
+    )
     if len(kinds) > 1 and not mixed:
         out.warnings.append(
             "the logs' observation sources differ (" + ", ".join(sorted(kinds)) + "): each "
@@ -137,7 +142,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
 def _robot_and_fixed(parts: list[BuildReport]) -> str:
     """The observation of robot shards beside fixed-sensor ones, as one pass says it: the
     robot's trajectory + the fixed sensors' windows added up."""
-    robot = next(p.observation for p in parts if p.observation.startswith("tf "))
+    robot = next(p.observation for p in parts if not p.observation.startswith(FIXED_SENSOR_OVER))
     fixed = [p.fixed_windows for p in parts if p.fixed_windows is not None]
     if not fixed:
         return robot

@@ -246,7 +246,7 @@ def observe(
     mapper: Mapper,
     tf: TfBuffer | None,
     frames: tuple[str, str],
-    graph_agents: Callable[[], bool],
+    graph_agents: Callable[[tuple[int, int] | None], bool],
     logset: Any,
     times: TimeCheck,
     report: BuildReport,
@@ -276,19 +276,30 @@ def observe(
         mapper.add_trajectory(traj)
         report.observation = f"tf {map_frame}->{base_frame}"
         _ignored(declared, report.observation, report.warnings)
-        unposed = unposed_log_windows(mapper, logset, times, np.asarray(traj.t_ns))
+        delta = window_ns(mapper.state.config.window_s)
+        poses = np.unique(np.asarray(traj.t_ns, dtype=np.int64) // delta)
+
+        def posed(lo: int, hi: int) -> bool:
+            at = int(np.searchsorted(poses, lo))
+            return at < poses.size and int(poses[at]) <= hi
+
+        unposed = unposed_log_windows(mapper, logset, times, posed)
         if unposed is not None:
             report.observation += " + " + unposed
         if detection_windows is not None:
-            delta = window_ns(mapper.state.config.window_s)
-            robot = np.unique(np.asarray(traj.t_ns, dtype=np.int64) // delta)
-            silent = np.setdiff1d(robot, detection_windows, assume_unique=True)
+            silent = np.setdiff1d(poses, detection_windows, assume_unique=True)
             report.silent_windows = (int(silent.size), delta)
             if silent.size:
                 report.notes.append(silent_note(int(silent.size), delta))
-    elif graph_agents():
+    elif graph_agents(None):
         report.observation = "scene-graph agent layer"  # fed per snapshot
         _ignored(declared, report.observation, report.warnings)
+        delta = window_ns(mapper.state.config.window_s)
+        unposed = unposed_log_windows(
+            mapper, logset, times, lambda lo, hi: graph_agents((lo * delta, (hi + 1) * delta))
+        )
+        if unposed is not None:
+            report.observation += " + " + unposed
     else:
         report.observation = fixed_sensor_windows(
             mapper, logset, times, report.notes, report, declared, fill

@@ -45,6 +45,27 @@ def test_a_fixed_sensor_log_beside_robot_logs_observes_its_own_windows(tmp_path:
     assert not [w for w in two.warnings if "observation sources differ" in w]
 
 
+def test_a_fixed_sensor_log_beside_a_robot_seen_by_the_graphs_agent_layer(tmp_path: Path) -> None:
+    """The same with a robot whose poses come from the scene graphs' agent layer (no TF): the
+    fixed sensor's log, whose graphs carry no agents, observes its own windows."""
+    logs = [tmp_path / "a1.mcap", tmp_path / "f.mcap", tmp_path / "a2.mcap"]
+    write_office_log(logs[0], tf=False, agents=True, duration_s=2 * HOUR_S)
+    write_office_log(logs[1], tf=False, shift_s=DAY_S, duration_s=HOUR_S)
+    write_office_log(logs[2], tf=False, agents=True, shift_s=3 * DAY_S, duration_s=2 * HOUR_S)
+    one = build_logs(logs, tmp_path / "one.aion", 1)
+    assert one.observation.startswith("scene-graph agent layer + fixed sensor over the 6 windows")
+    continued = tmp_path / "continued.aion"
+    for k, log in enumerate(logs):
+        build_map(BuildOptions(
+            logs=(log,), output=continued, workers=1,
+            continue_from=continued if k else None,
+        ))
+    assert same_maps(tmp_path / "one.aion", continued) == []
+    two = build_logs(logs, tmp_path / "two.aion", 2)
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+    assert two.observation == one.observation
+
+
 def test_robot_logs_that_overlap_a_log_without_tf_observe_by_the_robot(tmp_path: Path) -> None:
     """A recording split into files (the tracker's in one, TF in another) is one robot."""
     robot, tracker = tmp_path / "r.mcap", tmp_path / "t.mcap"
