@@ -126,7 +126,11 @@ def fixed_sensor_windows(
 
 
 def unposed_log_windows(
-    mapper: Mapper, logset: Any, times: TimeCheck, robot: Callable[[int, int], bool]
+    mapper: Mapper,
+    logset: Any,
+    times: TimeCheck,
+    robot: Callable[[int, int], bool],
+    notes: list[str],
 ) -> str | None:
     """Beside a robot's observation, the logs it does not observe: the logs, grouped as a
     parallel build groups them into shards (:func:`aion_cli.parallel_build.plan_shards`: logs
@@ -137,7 +141,8 @@ def unposed_log_windows(
     alone observes them (continuing a robot's map with them, a parallel shard of them): a
     log without any robot trajectory is a fixed sensor, also when another log of the build
     has one. Sets the Mapper's windows for them and returns the report's description of that
-    observation, or None when the robot observes every group."""
+    observation, or None when the robot observes every group; a note names those logs (a
+    robot log whose localisation was not recorded is read so too)."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
     from aion_cli.parallel_build import plan_shards
@@ -148,12 +153,15 @@ def unposed_log_windows(
     delta = window_ns(mapper.state.config.window_s)
     keys = dict.fromkeys(logset.recordings)  # in the order recorded_windows_by_recording joins
     held: dict[int, I64] = {}
+    names: dict[int, str] = {}
     joined = logset.recorded_windows_by_recording(delta)
-    for key, (_file, recorded) in zip(keys, joined, strict=True):
+    for key, (file, recorded) in zip(keys, joined, strict=True):
         recorded = recorded[times.inside_limits(recorded * delta)]
         held[key] = recorded[times.within_runs(recorded, delta)]
+        names[key] = file.path.name
     read = windows_of(times.span_times, delta)
     parts = []
+    fixed: list[str] = []
     for group in plan_shards([(key, lo, hi) for key, (lo, hi) in spans.items()], delta):
         recorded = np.unique(np.concatenate([held[key] for key in group]))
         if recorded.size == 0:
@@ -162,8 +170,16 @@ def unposed_log_windows(
         if robot(lo, hi):
             continue  # the robot's poses say what these logs observed
         parts.append(np.union1d(recorded, read[(read >= lo) & (read <= hi)]))
+        fixed.extend(names[key] for key in group)
     if not parts:
         return None
+    shown = ", ".join(fixed[:3]) + (f" and {len(fixed) - 3:,} more" if len(fixed) > 3 else "")
+    notes.append(
+        f"{len(fixed):,} log(s) of other times than the robot's hold no robot pose ({shown}): "
+        "each is treated as a fixed sensor that saw everything in the windows in which it "
+        "recorded any message, as a build of it alone would (a robot log whose localisation "
+        "was not recorded is read so too)"
+    )
     windows: I64 = np.unique(np.concatenate(parts))
     mapper.set_fixed_windows(windows, recording_bounds(logset, times, windows, delta, read))
     return fixed_sensor_text(len(windows), int(windows[0]), int(windows[-1]), delta)

@@ -283,7 +283,7 @@ def observe(
             at = int(np.searchsorted(poses, lo))
             return at < poses.size and int(poses[at]) <= hi
 
-        unposed = unposed_log_windows(mapper, logset, times, posed)
+        unposed = unposed_log_windows(mapper, logset, times, posed, report.notes)
         if unposed is not None:
             report.observation += " + " + unposed
         if detection_windows is not None:
@@ -296,7 +296,11 @@ def observe(
         _ignored(declared, report.observation, report.warnings)
         delta = window_ns(mapper.state.config.window_s)
         unposed = unposed_log_windows(
-            mapper, logset, times, lambda lo, hi: graph_agents((lo * delta, (hi + 1) * delta))
+            mapper,
+            logset,
+            times,
+            lambda lo, hi: graph_agents((lo * delta, (hi + 1) * delta)),
+            report.notes,
         )
         if unposed is not None:
             report.observation += " + " + unposed

@@ -29,6 +29,12 @@ def test_a_fixed_sensor_log_beside_robot_logs_observes_its_own_windows(tmp_path:
     one = build_logs(logs, tmp_path / "one.aion", 1)
     # the fixed sensor recorded Tuesday 08:00-09:00: six windows, all of them observed
     assert one.observation.startswith("tf map->base_link + fixed sensor over the 6 windows")
+    assert [n for n in one.notes if "hold no robot pose" in n] == [
+        "1 log(s) of other times than the robot's hold no robot pose (f.mcap): each is treated "
+        "as a fixed sensor that saw everything in the windows in which it recorded any "
+        "message, as a build of it alone would (a robot log whose localisation was not "
+        "recorded is read so too)"
+    ]
     continued = tmp_path / "continued.aion"
     for k, log in enumerate(logs):
         build_map(BuildOptions(
