@@ -34,7 +34,7 @@ from aion_cli.build_options import MAX_WORKERS
 from aion_cli.build_report import check_usable
 from aion_cli.errors import InputError
 from aion_cli.shard_fold import Folded, ShardResult, ShardTask
-from aion_cli.shard_reports import combine_reports, counts_of
+from aion_cli.shard_reports import combine_reports, counts_of, declared_beside_robot
 from aion_cli.time_shards import part_fields
 
 if TYPE_CHECKING:
@@ -195,6 +195,13 @@ class ParallelBuild:
             folded, results = run_in_processes(
                 tasks, min(workers, len(tasks)), previous, self.build.progress
             )
+        if declared_beside_robot(folded.reports):
+            report.notes.append(
+                "--observed beside a robot's logs: one pass ignores the declared spans (the "
+                "robot's poses say what was observed), which the shards of the fixed sensor's "
+                "logs applied, so the logs were learnt again in sequence"
+            )
+            return self.build.learn(self.config).state
         self._report(folded, results, len(tasks), workers)
         assert folded.state is not None
         return folded.state

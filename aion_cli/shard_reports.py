@@ -45,6 +45,15 @@ def counts_of(report: BuildReport) -> Any:
     return counts
 
 
+def declared_beside_robot(parts: list[BuildReport]) -> bool:
+    """Whether the shards include a robot's and a fixed sensor's built with ``--observed``:
+    one pass ignores the declared spans beside a robot's trajectory (its poses say what was
+    observed), which a fixed sensor's shard applies, so such shards do not join into the map
+    one pass makes."""
+    kinds = {p.observation.split(" ")[0] for p in parts}
+    return "fixed" in kinds and len(kinds) > 1 and any(DECLARED in p.observation for p in parts)
+
+
 def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     """Fill ``out`` (the parent's report) from the shards' reports, in time order."""
     if not parts:

@@ -96,3 +96,20 @@ def test_a_log_without_tf_touching_a_robot_log_is_grouped_as_the_parallel_build_
     two = build_logs([robot, tracker, later], tmp_path / "two.aion", 2)
     assert len(two.workers) == 2
     assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+
+
+def test_observed_spans_beside_a_robot_give_the_sequential_map_with_workers(
+    tmp_path: Path,
+) -> None:
+    """One pass ignores ``--observed`` beside a robot's trajectory (a warning says so), which a
+    fixed sensor's shard alone applies: the parallel build learns such logs again in
+    sequence, so both give one map."""
+    from tests.cli.logdata import T0
+
+    logs = _logs(tmp_path)
+    declared = ((T0 - 3600 * 10**9, T0 + 4 * DAY_S * 10**9),)
+    one = build_logs(logs, tmp_path / "one.aion", 1, observed=declared)
+    assert [w for w in one.warnings if w.startswith("--observed ignored")]
+    two = build_logs(logs, tmp_path / "two.aion", 2, observed=declared)
+    assert [n for n in two.notes if n.startswith("--observed beside a robot's logs")]
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
