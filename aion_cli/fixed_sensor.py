@@ -124,7 +124,6 @@ def fixed_sensor_windows(
     return fixed_sensor_text(*summary, declared=bool(declared))
 
 
-
 def unposed_log_windows(
     mapper: Mapper,
     logset: Any,
