@@ -30,14 +30,24 @@ def _limits_restored(monkeypatch: pytest.MonkeyPatch) -> None:
         monkeypatch.delenv(name)
 
 
+def _sample_chunks() -> int:
+    """The sample's chunks, as the MCAP library's summary counts them."""
+    from mcap.reader import make_reader
+
+    with open(SAMPLE, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and summary.statistics is not None
+    return int(summary.statistics.chunk_count)
+
+
 def test_info_of_a_log_whose_every_chunk_is_skipped_is_an_error() -> None:
     result = run("--max-chunk-mb", "0.001", "info", SAMPLE)
     assert result.exit_code == 2, result.stderr
     error = next(line for line in result.stderr.splitlines() if line.startswith("error:"))
-    # the first chunk's reason, and the others counted, not joined (the sample has 56 chunks)
+    # the first chunk's reason, and the others counted, not joined
     assert "chunk at byte 33 skipped" in error
     assert "over the 0.001 MiB limit per chunk" in error
-    assert "and 55 more warnings like it" in error
+    assert f"and {_sample_chunks() - 1} more warnings like it" in error
     assert error.count("skipped") == 1
     assert "none of its messages could be read" in result.stderr
     assert result.stdout == ""
@@ -47,7 +57,7 @@ def test_build_of_a_log_whose_every_chunk_is_skipped_is_the_same_error(tmp_path:
     out = tmp_path / "x.aion"
     result = run("--max-chunk-mb", "0.001", "build", SAMPLE, "-o", out)
     assert result.exit_code == 2
-    assert "and 55 more warnings like it" in result.stderr
+    assert f"and {_sample_chunks() - 1} more warnings like it" in result.stderr
     assert not out.exists()
 
 
