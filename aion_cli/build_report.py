@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from aion_cli.detection_feed import HEADING_SOURCES
 from aion_cli.engine.types import I64
-from aion_cli.errors import InputError, MessageDecodeError
+from aion_cli.errors import InputError, LogFormatError, MessageDecodeError
 
 if TYPE_CHECKING:
     from aion_cli.detection_feed import DetectionCounts, TopicFeeders
@@ -33,6 +33,7 @@ __all__ = [
     "check_usable",
     "record_detections",
     "topic_counts",
+    "unread_detections",
 ]
 
 LOSS_WARN_SHARE = 0.5
@@ -361,13 +362,18 @@ def check_usable(
     counts: DetectionCounts,
     previous: Manifest | None,
     outcome: str | None = None,
+    lost: tuple[int, int, list[str]] | None = None,
 ) -> None:
     """A build without a single usable detection is an error, never a success: it names
     what became of the detections read, and nothing is written (a continued map, whose
     manifest is ``previous``, is left as it was, its new logs not recorded, so they can be
     added once fixed). The one exception: a continued map that holds detections already may
     take logs in which nobody was seen (a note: their observed windows are real zeros).
-    ``outcome`` replaces the hint's words on the map (a reading that writes no map)."""
+    ``outcome`` replaces the hint's words on the map (a reading that writes no map).
+    ``lost``: (messages of the detection topics the readers could not read, the messages
+    their indexes hold, the readers' warnings): when no detection was read because the
+    messages were lost (damaged chunks, a truncated file), the error says so and why, not
+    that the topics carry nobody."""
     c = counts
     if c.used > 0:
         return
@@ -385,6 +391,15 @@ def check_usable(
         if previous is None
         else "the map was left as it was and the logs were not added"
     )
+    if c.read == 0 and lost is not None and lost[0] > 0 and lost[2]:
+        from aion_cli.formats.logs import first_reasons
+
+        raise LogFormatError(
+            f"no people detection could be read: {lost[0]:,} of the {lost[1]:,} messages of "
+            f"{', '.join(report.detection_topics)} were lost reading the logs"
+            + first_reasons(lost[2]),
+            hint=f"the logs are damaged where the reason says; {written}",
+        )
     if c.read == 0:
         raise InputError(
             f"no people detection in the {messages:,} messages of "
@@ -401,6 +416,21 @@ def check_usable(
         f"{drops or 'none'})",
         hint=hint,
     )
+
+
+def unread_detections(
+    report: BuildReport, counts: DetectionCounts, expected: int, warnings: list[str]
+) -> tuple[int, int, list[str]]:
+    """``lost`` for :func:`check_usable`: the messages on the report's detection topics the
+    readers could not read (the ``expected`` messages their indexes hold, less those decoded
+    and those the time checks dropped on purpose), ``expected``, and the readers'
+    ``warnings``, which say why."""
+    topics = set(report.detection_topics)
+    decoded = sum(t.messages for name, t in counts.topics.items() if name in topics)
+    dropped = sum(
+        sum(stats.values()) for name, stats in report.time_dropped.items() if name in topics
+    )
+    return expected - decoded - dropped, expected, list(warnings)
 
 
 def overlap_warnings(logset: Any, topics: set[str], window_ns: int) -> list[str]:

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from aion_cli.build_report import check_usable, record_detections
+from aion_cli.build_report import check_usable, record_detections, unread_detections
 from aion_cli.detection_counts import MapperTally
 from aion_cli.detection_feed import (
     DetectionCounts,
@@ -141,7 +141,15 @@ class StreamStep:
             self.report, feeders, self._tally.used, self._tally.drops, plan
         )
         if not self.shard:  # a parallel build checks the total of its parts
-            check_usable(self.report, c, self.previous_manifest, self.unusable_outcome)
+            check_usable(
+                self.report,
+                c,
+                self.previous_manifest,
+                self.unusable_outcome,
+                lost=unread_detections(
+                    self.report, c, logset.total(plan.names("detections")), logset.warnings
+                ),
+            )
         # (a time shard without graphs of its own still observes with the logs' agents)
         if use_agents and self.report.graph_messages == 0 and self.time_part is None:
             self.report.observation = fixed_sensor_windows(

@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
 from aion_cli.build_options import MAX_WORKERS
-from aion_cli.build_report import check_usable
+from aion_cli.build_report import check_usable, unread_detections
 from aion_cli.errors import InputError
 from aion_cli.shard_fold import Folded, ShardResult, ShardTask
 from aion_cli.shard_reports import combine_reports, counts_of, declared_beside_robot
@@ -40,6 +40,7 @@ from aion_cli.time_shards import part_fields
 if TYPE_CHECKING:
 
     from aion_cli.build_report import BuildReport
+    from aion_cli.detection_counts import DetectionCounts
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.pipeline import BuildOptions, _Build
@@ -295,7 +296,24 @@ class ParallelBuild:
             }
             for r in sorted(results, key=lambda r: r.index)
         ]
-        check_usable(report, counts_of(report), self.build.previous_manifest)
+        counts = counts_of(report)
+        check_usable(
+            report, counts, self.build.previous_manifest, lost=self._unread(report, counts)
+        )
+
+    def _unread(
+        self, report: BuildReport, counts: DetectionCounts
+    ) -> tuple[int, int, list[str]] | None:
+        """What :func:`check_usable` needs to tell logs whose messages were all lost from
+        logs that hold nobody: the messages their indexes hold on the detection topics (the
+        logs opened again, only when no detection was read)."""
+        if counts.read > 0:
+            return None
+        from aion_cli.formats.logs import open_logs
+
+        with open_logs(list(self.build.logs), self.opts.log_format) as logset:
+            expected = logset.total(report.detection_topics)
+        return unread_detections(report, counts, expected, report.warnings)
 
     def _overlap(self, reports: list[BuildReport]) -> None:
         """The note a sequential build makes on logs whose first detections come before the

@@ -416,7 +416,7 @@ def open_logs(
         ):
             names = ", ".join(str(f.path) for f in logset.files)
             raise LogFormatError(
-                f"{names}: no messages" + _first_reasons(logset.warnings),
+                f"{names}: no messages" + first_reasons(logset.warnings),
                 hint="the recording holds no readable messages"
                 if not logset.warnings
                 else "none of its messages could be read: see the reason above",
@@ -443,7 +443,7 @@ def unreadable_topic_error(
     )
 
 
-def _first_reasons(warnings: list[str]) -> str:
+def first_reasons(warnings: list[str]) -> str:
     """`` (the first warning; and N more)`` for an error line, ``""`` without warnings: the
     error of a log with 50 skipped chunks names one and counts the others."""
     if not warnings:

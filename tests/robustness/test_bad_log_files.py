@@ -143,6 +143,31 @@ def test_corrupt_chunk_in_an_mcap_without_summary_is_skipped_by_the_linear_read(
     ), report
 
 
+@pytest.mark.parametrize("workers", ["1", "2"])  # in sequence; in time shards
+def test_a_log_whose_every_chunk_is_corrupt_is_an_error_naming_the_damage(
+    workers: str, spread_log: Path, tmp_path: Path
+) -> None:
+    """Every chunk fails its CRC: nothing can be read. The error says the messages were lost
+    and where (it said "no people detection in the 0 messages of /tracks" and hinted at the
+    class filter of vision_msgs, as if the topic carried nobody)."""
+    chunks = chunk_indexes(spread_log)
+    data = bytearray(spread_log.read_bytes())
+    for chunk in chunks:
+        data[chunk.chunk_start_offset + chunk.chunk_length - 10] ^= 0x10
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    result = run("build", bad, "-o", tmp_path / "bad.aion", "--workers", workers)
+    fails(
+        result,
+        f"{N_SPREAD:,} of the {N_SPREAD:,} messages of /tracks were lost reading the logs",
+        f"corrupt chunk at byte {chunks[0].chunk_start_offset} skipped",
+        f"and {len(chunks) - 1:,} more warnings like it",
+    )
+    assert "vision_msgs" not in result.stderr
+    assert "damaged" in result.stderr.splitlines()[1]
+    assert not (tmp_path / "bad.aion").exists()
+
+
 def test_truncated_bag_is_a_clear_error_and_writes_no_map(tmp_path: Path) -> None:
     bag = write_log(tmp_path / "full.bag", spread(500), "bag")
     data = bag.read_bytes()
