@@ -58,6 +58,7 @@ class BagReader(Reader):
 
     def __init__(self, path: Path, limits: caps.ReadLimits) -> None:
         super().__init__(path)
+        self._file = path
         self.limits = limits
         # chunk position -> (compression, declared uncompressed size)
         self.chunk_meta: dict[int, tuple[str, int]] = {}
@@ -65,6 +66,8 @@ class BagReader(Reader):
         self.refused: dict[int, tuple[str, dict[int, int]]] = {}
         # per connection: its index entries' times, and whether they are in time order
         self._times: dict[int, tuple[np.ndarray, bool]] = {}
+        # where the bag's index (the last of its records) ends
+        self._index_end: int | None = None
 
     def read_chunk(self) -> Chunk:
         """The chunk record header at the file position (as rosbags reads it), remembering its
@@ -80,6 +83,25 @@ class BagReader(Reader):
         self.bio.seek(datasize, os.SEEK_CUR)
         self.chunk_meta[pos] = (compression, size)
         return Chunk(datasize, datapos, _no_decompressor)
+
+    def read_chunk_info(self) -> Any:
+        """A chunk info record of the index (as rosbags reads it), remembering where it ends:
+        the last one ends the bag."""
+        assert self.bio
+        info = super().read_chunk_info()
+        self._index_end = self.bio.tell()
+        return info
+
+    def trailing(self) -> list[str]:
+        """A warning when the file goes on after the bag's index, its last record (another
+        bag appended to it, garbage): those bytes are not read."""
+        from aion_cli.formats.log_format import trailing_warning
+
+        path = self._file
+        size = path.stat().st_size
+        if self._index_end is None or self._index_end >= size:
+            return []
+        return [trailing_warning(path, self._index_end, size)]
 
     def open(self) -> None:
         """Open the bag and read its index (rosbags), then drop the chunks that declare more

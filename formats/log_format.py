@@ -163,3 +163,25 @@ def _what_else(path: Path) -> str | None:
             f"`aion convert {name} --layout {guess.layout} -o {path.stem}.mcap`"
         )
     return None
+
+
+def trailing_warning(path: Path, end: int, size: int) -> str:
+    """The warning for a file whose log ends at byte ``end`` of its ``size``: the bytes after
+    it are not read. Names what they start with when it is a log of its own (two recordings
+    joined into one file: ``cat a.mcap b.mcap``), so the user knows a log was left out."""
+    from aion_cli.formats import rosbag2_storage as storage
+
+    with path.open("rb") as f:
+        f.seek(end)
+        kind = storage.kind_of(f.read(16))
+    rest = size - end
+    what = (
+        f"they hold another log ({_CONTENTS[kind][0]}, appended to this one?): split the "
+        f"file at byte {end:,} to read it"
+        if kind is not None
+        else "they are not part of it (data appended after the log was closed?)"
+    )
+    return (
+        f"{path.name}: the log ends at byte {end:,} of {size:,}; the {rest:,} byte"
+        f"{'' if rest == 1 else 's'} after it are not read: {what}"
+    )

@@ -27,12 +27,13 @@ import numpy as np
 
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import _Source
+from aion_cli.formats.mcap_records import MAGIC
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
 
-_MCAP_MAGIC = b"\x89MCAP0\r\n"
+_MCAP_MAGIC = MAGIC  # the name the readers import
 _MCAP_READ_ERRORS = (
     EOFError,
     ValueError,
@@ -136,7 +137,9 @@ class _McapLinearRead(_Source):
             while True:
                 try:
                     offset, opcode, length = next(records)
-                except StopIteration:
+                except StopIteration as done:
+                    if scanning and done.value is not None:  # the DataEnd (or Footer)
+                        self._check_end(f, done.value)
                     break
                 except mr.RecordError as exc:
                     if scanning:
@@ -294,6 +297,17 @@ class _McapLinearRead(_Source):
         return times, channels
 
     # -- warnings --------------------------------------------------------------------------
+
+    def _check_end(self, f: IO[bytes], start: int) -> None:
+        """Warn when the MCAP whose records go on from byte ``start`` (its DataEnd, or its
+        summary section) ends before the file does: what follows is not read (another log
+        appended to it, garbage)."""
+        from aion_cli.formats.log_format import trailing_warning
+        from aion_cli.formats.mcap_records import end_of_log
+
+        end = end_of_log(f, start, self._size)
+        if end is not None and end < self._size:
+            self._warn(trailing_warning(self.path, end, self._size))
 
     def _warn(self, text: str) -> None:
         """Add a warning once, however often the file is read."""

@@ -19,7 +19,7 @@ summary indexes without checking it against the data. Here:
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import IO
@@ -27,6 +27,8 @@ from typing import IO
 from aion_cli.formats import limits as caps
 from aion_cli.formats.crc import crc32
 
+MAGIC = b"\x89MCAP0\r\n"
+"""The bytes an MCAP file starts and ends with."""
 OP_HEADER = 0x01
 OP_FOOTER = 0x02
 OP_SCHEMA = 0x03
@@ -74,11 +76,12 @@ class ChunkHead:
     data_length: int
 
 
-def walk(f: IO[bytes], start: int, stop: int) -> Iterator[tuple[int, int, int]]:
+def walk(f: IO[bytes], start: int, stop: int) -> Generator[tuple[int, int, int], None, int | None]:
     """``(offset, opcode, body length)`` of the top-level records from byte ``start`` to
-    ``stop`` (the file size), until a DataEnd or Footer record (not yielded) or ``stop``.
-    Reads 9 bytes per record; the caller may read the body (``offset + 9``) in between.
-    :class:`RecordError` for a record that overruns ``stop``."""
+    ``stop`` (the file size), until a DataEnd or Footer record (not yielded; its offset is
+    the generator's return value) or ``stop`` (None). Reads 9 bytes per record; the caller
+    may read the body (``offset + 9``) in between. :class:`RecordError` for a record that
+    overruns ``stop``."""
     pos = start
     while pos < stop:
         f.seek(pos)
@@ -90,9 +93,33 @@ def walk(f: IO[bytes], start: int, stop: int) -> Iterator[tuple[int, int, int]]:
         if end > stop:
             raise RecordError(f"its record claims {length:,} bytes, past the end of the file", pos)
         if opcode in (OP_DATA_END, OP_FOOTER):
-            return
+            return pos
         yield pos, opcode, length
         pos = end
+    return None
+
+
+def end_of_log(f: IO[bytes], start: int, stop: int) -> int | None:
+    """Where the MCAP whose top-level records run on from byte ``start`` (its DataEnd or
+    summary section) ends: after its Footer record and the closing magic; None when no
+    Footer and magic follow (a file cut short, a damaged record length); where another
+    MCAP starts instead of a record (a log without its summary and footer, another appended
+    to it). Short of ``stop`` (the file size) when something was appended after the log."""
+    pos = start
+    while pos + RECORD_HEAD.size <= stop:
+        f.seek(pos)
+        head = f.read(len(MAGIC))
+        if head == MAGIC:
+            return pos
+        opcode, length = RECORD_HEAD.unpack(head + f.read(RECORD_HEAD.size - len(head)))
+        end = pos + RECORD_HEAD.size + length
+        if end > stop:
+            return None
+        if opcode == OP_FOOTER:
+            f.seek(end)
+            return end + len(MAGIC) if f.read(len(MAGIC)) == MAGIC else None
+        pos = end
+    return None
 
 
 def read_chunk_head(

@@ -109,6 +109,11 @@ class _McapSource(_McapIndexed):
                 check = mcap_summary.check_summary(
                     f, self._size, summary.chunk_indexes, summary.statistics, names
                 )
+                # the footer at the end of the file points at a summary section: the log
+                # ends after the footer that section leads to (two logs joined end to end
+                # lead to the first's)
+                f.seek(self._size - len(_MCAP_MAGIC) - 20)
+                self._check_end(f, int.from_bytes(f.read(8), "little"))
         distrust = check is not None and (bool(check.problems) or check.unsure)
         if summary is None or check is None or distrust:
             channels, schemas, counts, start, end = self._scan()

@@ -80,7 +80,7 @@ def storage_files(folder: Path) -> list[Path]:
     return sorted(found, key=_natural_key)
 
 
-def _kind_of(head: bytes) -> str | None:
+def kind_of(head: bytes) -> str | None:
     if head.startswith(MCAP_MAGIC):
         return "mcap"
     if head.startswith(BAG_MAGIC):
@@ -100,7 +100,7 @@ def sniff(path: Path) -> str | None:
         with path.open("rb") as f:
             head = f.read(16)
             if not head.startswith(ZSTD_MAGIC):
-                return _kind_of(head)
+                return kind_of(head)
             f.seek(0)
             obj = zstandard.ZstdDecompressor().decompressobj()
             inner = b""
@@ -112,7 +112,7 @@ def sniff(path: Path) -> str | None:
         raise _damaged(path, exc) from exc
     if len(inner) < 16 and not obj.eof:
         raise _damaged(path, "the data ends inside a zstd frame (truncated file)")
-    return _kind_of(inner)
+    return kind_of(inner)
 
 
 def _damaged(path: Path, why: object) -> LogFormatError:

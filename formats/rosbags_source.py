@@ -95,6 +95,7 @@ class _RosbagsSource(_Source):
             names = {conn.id: conn.topic for conn in reader.connections}
             for pos, (why, counts) in sorted(reader.refused.items()):
                 self.warnings.append(self._chunk_skipped(pos, why, counts, names))
+            self.warnings.extend(reader.trailing())
             reader.suspend()  # no file handle held between reads
         else:
             storages = getattr(reader.storage, "storages", [])

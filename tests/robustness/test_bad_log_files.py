@@ -168,6 +168,41 @@ def test_a_log_whose_every_chunk_is_corrupt_is_an_error_naming_the_damage(
     assert not (tmp_path / "bad.aion").exists()
 
 
+@pytest.mark.parametrize("container", ["mcap", "bag", "mcap without summary"])
+def test_a_log_appended_to_another_in_one_file_is_named_not_dropped_silently(
+    container: str, tmp_path: Path
+) -> None:
+    """``cat a.mcap b.mcap > ab.mcap``: aion reads the first log, whose end its footer (or
+    index) gives, and used to say nothing of the second (its 40 people were lost without a
+    word). It now warns where the first ends and that another log follows; garbage after a
+    log is named as such; a log alone gets no such warning."""
+    suffix = "bag" if container == "bag" else "mcap"
+    first = write_log(tmp_path / f"a.{suffix}", walk(30), suffix)
+    second = write_log(tmp_path / f"b.{suffix}", walk(40, start_s=100), suffix)
+    head = first.read_bytes()
+    if container == "mcap without summary":  # the first cut after its data (DataEnd)
+        (summary_start,) = struct.unpack_from("<Q", head, len(head) - 8 - 20)  # its footer's
+        head = head[:summary_start]
+    kind = "a ROS 1 bag" if container == "bag" else "an MCAP file"
+    tails = [(second.read_bytes(), f"another log ({kind}")]
+    if container != "mcap without summary":  # (without its footer, garbage cannot be told
+        tails.append((b"\x07" * 999, "not part"))  # from a summary cut short)
+    for tail, says in tails:
+        joined = tmp_path / f"joined.{suffix}"
+        joined.write_bytes(head + tail)
+        size = len(head) + len(tail)
+        report = build_json(joined, "-o", tmp_path / "j.aion")
+        assert report["detections"]["read"] == 30
+        (warning,) = [w for w in report["warnings"] if "the log ends" in w]
+        assert warning.startswith(
+            f"joined.{suffix}: the log ends at byte {len(head):,} of {size:,}; "
+            f"the {len(tail):,} bytes after it are not read: "
+        )
+        assert says in warning
+    assert not [w for w in build_json(first, "-o", tmp_path / "a.aion")["warnings"]
+                if "the log ends" in w]
+
+
 def test_truncated_bag_is_a_clear_error_and_writes_no_map(tmp_path: Path) -> None:
     bag = write_log(tmp_path / "full.bag", spread(500), "bag")
     data = bag.read_bytes()
