@@ -157,7 +157,8 @@ class BagReader(Reader):
         """``(connection, log time, data)`` of the messages on ``connections`` in log-time
         order (the index merged as rosbags merges it: ties keep connection order). A chunk
         that cannot be decompressed or parsed is skipped: ``bad_chunk`` hears of it once, with
-        the messages of it not yet read; messages over the message cap go to ``oversized``.
+        the messages of it not yet read (on every connection); messages over the message cap
+        go to ``oversized``.
         ``between``: only the messages the index puts in ``[lo, hi)`` (their chunks only)."""
         assert self.bio is not None
         connmap = {c.id: c for c in self.connections}
@@ -169,8 +170,10 @@ class BagReader(Reader):
         limit = self.limits.max_message_bytes
 
         def lost(at: int) -> dict[int, int]:
+            # every connection of the chunk, not only those this pass reads: the line is
+            # the same whichever pass meets the chunk first (a build reads TF, then people)
             counts = infos[at].connection_counts if at in infos else {}
-            return {c: counts[c] - read[at, c] for c in wanted if counts.get(c, 0) > read[at, c]}
+            return {c: n - read[at, c] for c, n in counts.items() if n > read[at, c]}
 
         merged = heapq.merge(
             *[[(e, cid) for e in self._entries(cid, between)] for cid in wanted], key=_time

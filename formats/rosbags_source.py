@@ -201,7 +201,7 @@ class _RosbagsSource(_Source):
             for conn in info.keys
             if conn in conns
         }
-        names = {conn.id: conn.topic for conn in conns}
+        names = {conn.id: conn.topic for conn in self._reader.connections}
         reader = self._reader
 
         def bad_chunk(pos: int, why: str, lost: dict[int, int]) -> None:

@@ -174,6 +174,28 @@ def test_damaged_bag_chunks_are_skipped_one_by_one(tmp_path: Path) -> None:
         assert "unknown compression 'br0'; 10 messages lost (/tracks 10)" in line
 
 
+def test_a_damaged_bag_chunk_is_one_warning_whatever_the_topics_read(tmp_path: Path) -> None:
+    """rosbag.js's example-bz2.bag keeps its 8,647 messages on nine topics in one bz2 chunk.
+    Damaged, it is skipped; a build reads it twice (TF, then people) and used to warn twice,
+    each line counting only the topics of its pass ("1,344 messages lost (/turtle1/pose
+    1,344)" beside "4,033 messages lost (/tf ...)"). One line now counts the whole chunk."""
+    from tests.shared_data import real
+
+    data = bytearray(real("logs", "rosbagjs_fixtures", "example-bz2.bag").read_bytes())
+    data[data.index(b"BZh") + 5000] ^= 0xFF
+    path = tmp_path / "damaged.bag"
+    path.write_bytes(bytes(data))
+    with open_logs([path]) as logs:
+        counts = {t.topic: t.count for t in logs.topics}
+        assert sum(counts.values()) == 8647
+        assert not list(logs.messages({"/turtle1/pose"}))
+        assert not list(logs.messages({"/tf", "/turtle1/pose"}))
+        (line,) = logs.warnings
+    per = ", ".join(f"{topic} {n:,}" for topic, n in sorted(counts.items()))
+    assert line.startswith("damaged.bag: chunk at byte ")
+    assert line.endswith(f"; 8,647 messages lost ({per})")
+
+
 # -- indexes and statistics are checked against the data ------------------------------------------
 
 
