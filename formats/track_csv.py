@@ -122,7 +122,16 @@ def _first_problem(path: Path, spec: _Spec) -> str | None:
                 return (
                     f"line {lineno}, column {k + 1} ({spec.columns[k]}): {text!r} is not an integer"
                 )
+            if k in spec.int_columns and not abs(value) < _INT_LIMIT:
+                return (
+                    f"line {lineno}, column {k + 1} ({spec.columns[k]}): {text!r} is beyond "
+                    "the 64-bit integers an id or frame is kept in"
+                )
     return None
+
+
+#: Integer columns (ids, frames) are kept in int64: a magnitude from here on would wrap around.
+_INT_LIMIT = 2.0**63
 
 
 def _fail(path: Path, spec: _Spec, layout: str, detail: str | None = None) -> TracksFormatError:
@@ -205,7 +214,7 @@ def _checked_plain(path: Path, spec: _Spec, layout: str, data: F64) -> F64:
         arr[:, list(spec.used)] = data  # ignored columns stay 0
     bad = ~np.isfinite(arr[:, sorted(spec.finite_columns)]).all(axis=1)
     ints = arr[:, sorted(spec.int_columns)]
-    if bad.any() or (ints != np.round(ints)).any():
+    if bad.any() or (ints != np.round(ints)).any() or not (np.abs(ints) < _INT_LIMIT).all():
         raise _fail(path, spec, layout)
     return arr
 

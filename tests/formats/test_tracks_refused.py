@@ -127,3 +127,27 @@ def test_observed_spans_of_decades_are_refused_before_anything_is_written() -> N
     year = observed_stamps([(0, 365 * day)])  # a year is fine
     assert year.size == 365 * 2880 + 1
     assert year.size < MOST_OBSERVED_MARKS
+
+
+@pytest.mark.parametrize(("layout", "big"), [("thor", "99999999999999999999999"), ("atc", "1e30")])
+def test_an_id_beyond_64_bits_names_its_line_not_a_wrapped_value(
+    layout: str, big: str, tmp_path: Path
+) -> None:
+    """A person id no int64 holds, in the first 20 rows of a real THÖR file: ``aion convert``
+    said "TrackedPersons needs track ids of 0 or more, a row has -9223372036854775808" (the
+    id wrapped around; no line named). The file is refused naming the line and the value."""
+    from tests.robustness.conftest import assert_one_error, run
+    from tests.shared_data import real
+
+    rows = real("thor", "thor1-exp-1-run-2.csv").read_text().splitlines()[:20]
+    fields = rows[10].split(",")
+    fields[1] = big
+    rows[10] = ",".join(fields)
+    path = _write(tmp_path, "big.csv", "\n".join(rows) + "\n")
+    where = rf"line 11, column 2 \(person_id\): '{big}' is beyond the 64-bit integers"
+    with pytest.raises(track_types.TracksFormatError, match=where):
+        ft.read_tracks(path, layout)
+    result = run("convert", path, "--layout", layout, "-o", tmp_path / "big.mcap")
+    assert result.exit_code == 2
+    assert_one_error(result.stderr, f"line 11, column 2 (person_id): '{big}'")
+    assert "-9223372036854775808" not in result.stderr
