@@ -288,7 +288,7 @@ def _number_column(path: Path, text: npt.NDArray[np.str_], name: str, finite: bo
         bad = np.flatnonzero(~np.isfinite(values))
         if len(bad):
             raise TracksFormatError(
-                f"{path}: line {int(bad[0]) + 2}, column {name}: {str(text[bad[0]])!r} is not "
+                f"{path}: line {int(bad[0]) + 2}, column {name}: {str(text[bad[0]])[:40]!r} is not "
                 "a finite number"
             )
     return values

@@ -110,23 +110,17 @@ def _first_problem(path: Path, spec: _Spec) -> str | None:
         for k, text in enumerate(fields):
             if k in spec.ignored_columns:
                 continue
+            where = f"line {lineno}, column {k + 1} ({spec.columns[k]}): {text[:40]!r}"
             try:
                 value = float(text)
             except ValueError:
-                return (
-                    f"line {lineno}, column {k + 1} ({spec.columns[k]}): {text!r} is not a number"
-                )
+                return f"{where} is not a number"
             if k in spec.finite_columns and not math.isfinite(value):
-                return f"line {lineno}, column {k + 1} ({spec.columns[k]}): {text!r} is not finite"
+                return f"{where} is not finite"
             if k in spec.int_columns and not value.is_integer():
-                return (
-                    f"line {lineno}, column {k + 1} ({spec.columns[k]}): {text!r} is not an integer"
-                )
+                return f"{where} is not an integer"
             if k in spec.int_columns and not abs(value) < _INT_LIMIT:
-                return (
-                    f"line {lineno}, column {k + 1} ({spec.columns[k]}): {text!r} is beyond "
-                    "the 64-bit integers an id or frame is kept in"
-                )
+                return f"{where} is beyond the 64-bit integers an id or frame is kept in"
     return None
 
 

@@ -151,3 +151,20 @@ def test_an_id_beyond_64_bits_names_its_line_not_a_wrapped_value(
     assert result.exit_code == 2
     assert_one_error(result.stderr, f"line 11, column 2 (person_id): '{big}'")
     assert "-9223372036854775808" not in result.stderr
+
+
+def test_a_zeroed_block_is_named_in_a_short_line(tmp_path: Path) -> None:
+    """4 KiB of NUL bytes in a real THÖR file (a disk block zeroed by a crash): the error
+    quoted the whole field, a 16 KB "line"; it now quotes its first 40 characters."""
+    from tests.robustness.conftest import assert_one_error, run
+    from tests.shared_data import real
+
+    rows = real("thor", "thor1-exp-1-run-2.csv").read_text().splitlines()[:20]
+    fields = rows[10].split(",")
+    fields[2] = "\x00" * 4096
+    rows[10] = ",".join(fields)
+    path = _write(tmp_path, "zeroed.csv", "\n".join(rows) + "\n")
+    result = run("convert", path, "--layout", "thor", "-o", tmp_path / "z.mcap")
+    assert result.exit_code == 2
+    assert_one_error(result.stderr, "line 11, column 3 (x_m): '" + "\\x00" * 40 + "' is not")
+    assert len(result.stderr.splitlines()[0]) < 400
