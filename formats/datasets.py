@@ -34,6 +34,7 @@ from aion_cli.formats.track_csv import (
     _plain_columns,
     _seconds_to_ns,
     _Spec,
+    check_encoding,
     differenced,
 )
 from aion_cli.formats.track_types import (
@@ -85,6 +86,7 @@ def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_F
     p = Path(path)
     if not p.is_file():
         raise TracksFormatError(f"tracks file not found: {p}")
+    check_encoding(p)
     text = p.read_text(encoding="utf-8-sig", errors="replace")
     if not text.strip():
         raise NoTrackRowsError(f"{p}: no track rows", hint="the file is empty")
@@ -255,6 +257,7 @@ def _thor_magni_header(path: Path) -> dict[str, int]:
         raise TracksFormatError(f"tracks file not found: {path}")
     if path.stat().st_size == 0:
         raise NoTrackRowsError(f"{path}: no track rows", hint="the file is empty")
+    check_encoding(path)
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
         first = fh.readline().strip()
     names = [name.strip().strip('"') for name in first.split(",")]

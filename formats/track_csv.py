@@ -141,11 +141,40 @@ def _fail(path: Path, spec: _Spec, layout: str, detail: str | None = None) -> Tr
     return TracksFormatError(f"{path}: not a valid {layout} tracks file: {problem}", hint=hint)
 
 
+#: byte-order marks of the Unicode encodings that are not UTF-8 (UTF-32's first)
+_BOMS = (
+    (b"\xff\xfe\x00\x00", "UTF-32"),
+    (b"\x00\x00\xfe\xff", "UTF-32"),
+    (b"\xff\xfe", "UTF-16"),
+    (b"\xfe\xff", "UTF-16"),
+)
+
+
+def check_encoding(path: Path) -> None:
+    """Refuse a tracks file in UTF-16 or UTF-32 (what Windows tools save as "Unicode text"),
+    with or without its byte-order mark: read as UTF-8 each character came with NUL bytes and
+    the file was refused as "'\\x000\\x00.\\x00' is not a number" on line 1."""
+    with path.open("rb") as f:
+        head = f.read(4096)
+    name = next((n for bom, n in _BOMS if head.startswith(bom)), None)
+    if name is None and len(head) >= 8:  # no mark: text with a NUL in every other byte
+        odd, even = head[1::2].count(0) / len(head[1::2]), head[0::2].count(0) / len(head[0::2])
+        if max(odd, even) > 0.9 and min(odd, even) < 0.1:
+            name = "UTF-16LE" if odd > even else "UTF-16BE"
+    if name is not None:
+        raise TracksFormatError(
+            f"{path}: the file is {name} text; aion reads tracks files as UTF-8 (or ASCII)",
+            hint=f"convert it first: iconv -f {name} -t UTF-8 {path.name} > "
+            f"{path.stem}-utf8{path.suffix}",
+        )
+
+
 def _check_file(path: Path, spec: _Spec, layout: str) -> None:
     if not path.is_file():
         raise TracksFormatError(f"tracks file not found: {path}")
     if path.stat().st_size == 0:
         raise NoTrackRowsError(f"{path}: no track rows", hint="the file is empty")
+    check_encoding(path)
     if spec.header is None:
         return
     with path.open(encoding="utf-8-sig", errors="replace") as fh:

@@ -168,3 +168,32 @@ def test_a_zeroed_block_is_named_in_a_short_line(tmp_path: Path) -> None:
     assert result.exit_code == 2
     assert_one_error(result.stderr, "line 11, column 3 (x_m): '" + "\\x00" * 40 + "' is not")
     assert len(result.stderr.splitlines()[0]) < 400
+
+
+@pytest.mark.parametrize(
+    ("layout", "encoding", "name"),
+    [
+        ("thor", "utf-16", "UTF-16"),  # with its byte-order mark, as Windows saves "Unicode"
+        ("atc", "utf-16-le", "UTF-16LE"),  # without one
+        ("thor", "utf-16-be", "UTF-16BE"),
+        ("thor", "utf-32", "UTF-32"),
+    ],
+)
+def test_a_utf16_file_is_named_as_such(
+    layout: str, encoding: str, name: str, tmp_path: Path
+) -> None:
+    """Real THÖR rows saved as UTF-16 or UTF-32 were refused as "line 1, column 1 (time_s):
+    '\\xff\\xfe0\\x00.\\x000\\x00' is not a number"; the error now names the encoding and the
+    hint how to convert the file (which, converted, reads as the rows it holds)."""
+    from tests.robustness.conftest import assert_one_error, run
+    from tests.shared_data import real
+
+    text = "\n".join(real("thor", "thor1-exp-1-run-2.csv").read_text().splitlines()[:20]) + "\n"
+    path = tmp_path / "wide.csv"
+    path.write_bytes(text.encode(encoding))
+    result = run("convert", path, "--layout", layout, "-o", tmp_path / "w.mcap")
+    assert result.exit_code == 2
+    assert_one_error(result.stderr, f"the file is {name} text")
+    assert f"iconv -f {name} -t UTF-8 wide.csv" in result.stderr.splitlines()[1]
+    path.write_bytes(path.read_bytes().decode(encoding).encode())  # what iconv makes of it
+    assert len(ft.read_tracks(path, layout)) == 20
