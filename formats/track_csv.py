@@ -88,24 +88,48 @@ def _split(line: str, delimiter: str | None) -> list[str]:
     return [f.strip() for f in line.split(delimiter)] if delimiter else line.split()
 
 
-def _data_lines(path: Path, spec: _Spec) -> Iterator[tuple[int, list[str]]]:
-    """(line number, fields) of every data line, as np.loadtxt sees them."""
+def _data_lines(path: Path, spec: _Spec) -> Iterator[tuple[int, str]]:
+    """(line number, text) of every data line, comments cut, as np.loadtxt sees them."""
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
         for lineno, raw in enumerate(fh, start=1):
             if lineno <= spec.skip:
                 continue
             line = raw.split("#", 1)[0].strip()
             if line:
-                yield lineno, _split(line, spec.delimiter)
+                yield lineno, line
+
+
+#: what separates the fields of a line, by delimiter (None: runs of white space)
+_SEPARATORS = {",": "commas", ";": "semicolons", "\t": "tabs", "|": "bars", None: "spaces"}
+
+
+def _other_separator(line: str, spec: _Spec) -> str:
+    """``: its fields are separated by semicolons, not commas`` when ``line`` splits into the
+    layout's columns, all numbers, at another separator than the layout's; else ``""``."""
+    for delimiter, name in _SEPARATORS.items():
+        if delimiter == spec.delimiter:
+            continue
+        fields = _split(line, delimiter)
+        if len(fields) != len(spec.columns):
+            continue
+        try:
+            [float(f) for k, f in enumerate(fields) if k not in spec.ignored_columns]
+        except ValueError:
+            continue
+        layouts = "white space" if spec.delimiter is None else _SEPARATORS[spec.delimiter]
+        return f": its fields are separated by {name}, not {layouts}"
+    return ""
 
 
 def _first_problem(path: Path, spec: _Spec) -> str | None:
     """Describe the first line that does not parse (slow path, only after a failure)."""
-    for lineno, fields in _data_lines(path, spec):
+    for lineno, line in _data_lines(path, spec):
+        fields = _split(line, spec.delimiter)
         if len(fields) != len(spec.columns):
             return (
                 f"line {lineno}: expected {len(spec.columns)} columns "
                 f"({', '.join(spec.columns)}), got {len(fields)}"
+                + _other_separator(line, spec)
             )
         for k, text in enumerate(fields):
             if k in spec.ignored_columns:

@@ -197,3 +197,30 @@ def test_a_utf16_file_is_named_as_such(
     assert f"iconv -f {name} -t UTF-8 wide.csv" in result.stderr.splitlines()[1]
     path.write_bytes(path.read_bytes().decode(encoding).encode())  # what iconv makes of it
     assert len(ft.read_tracks(path, layout)) == 20
+
+
+@pytest.mark.parametrize(
+    ("layout", "source", "separator", "says"),
+    [
+        ("thor", ("thor", "thor1-exp-1-run-2.csv"), ";", "semicolons, not commas"),
+        ("atc", ("atc", "atc-1024-9_test.csv"), "\t", "tabs, not commas"),
+        ("eth", ("thor", "thor1-exp-1-run-2.csv"), ",", "commas, not white space"),
+    ],
+)
+def test_a_file_with_another_separator_is_named_by_it(
+    layout: str, source: tuple[str, str], separator: str, says: str, tmp_path: Path
+) -> None:
+    """Real rows written with another field separator (a spreadsheet's semicolons or tabs;
+    ETH's columns with commas) were refused as "expected 6 columns ..., got 1" and nothing
+    more; the error now says which separator the file uses instead."""
+    from tests.shared_data import real
+
+    rows = real(*source).read_text().splitlines()[:20]
+    if layout == "eth":  # frame, id, x, y of the THÖR rows, comma-separated
+        rows = [",".join(str(round(float(v))) for v in r.split(",")[:4]) for r in rows]
+    else:
+        rows = [r.replace(",", separator) for r in rows]
+    path = _write(tmp_path, "other.csv", "\n".join(rows) + "\n")
+    with pytest.raises(track_types.TracksFormatError) as caught:
+        ft.read_tracks(path, layout)
+    assert caught.value.message.endswith(f"got 1: its fields are separated by {says}")
