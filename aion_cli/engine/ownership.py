@@ -29,8 +29,10 @@ import numpy as np
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.nearest import BindIndex, nearest_nodes
 from aion_cli.engine.node_drift import NodeDrift
+from aion_cli.engine.node_ids import node_label
 from aion_cli.engine.spatial_hash import (
     cell_centres,
+    cell_indices,
     keys_for_points,
     packable_mask,
     unpack_keys,
@@ -48,9 +50,21 @@ def check_graph(snapshot: GraphSnapshot, cell_size: float) -> None:
     xyz = np.asarray(snapshot.places.xyz, dtype=np.float64).reshape(-1, 3)
     bad = ~packable_mask(xyz, cell_size)
     if bad.any():
-        row = int(np.flatnonzero(bad)[0])
-        keys_for_points(xyz[row : row + 1], cell_size)  # raises with the coordinate named
-        raise CoordinateRangeError(f"place node {snapshot.places.ids[row]} has an invalid position")
+        rows = np.flatnonzero(bad)
+        more = f" (and {len(rows) - 1:,} more)" if len(rows) > 1 else ""
+
+        def name_of(_: int) -> str:
+            return f"scene-graph place {node_label(snapshot.places.ids[rows[0]])}{more}"
+
+        try:  # raises with the coordinate and the place named
+            cell_indices(xyz[rows[0] : rows[0] + 1], cell_size, name_of)
+        except CoordinateRangeError as exc:
+            exc.hint = (
+                "the scene graph's positions are damaged or not in metres: check it "
+                "(aion info GRAPH) or build without it (--derive-graph)"
+            )
+            raise
+        raise CoordinateRangeError(f"{name_of(0)} has an invalid position")
 
 
 def apply_graph(state: MapState, snapshot: GraphSnapshot) -> None:

@@ -13,6 +13,8 @@ that must keep going (the mapper) use :func:`packable_mask` first and count the 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import numpy.typing as npt
 
@@ -90,8 +92,11 @@ def hashable_indices(xyz: npt.ArrayLike, cell_size: float) -> tuple[I64, BoolA, 
     return ijk, finite, in_range
 
 
-def cell_indices(xyz: npt.ArrayLike, cell_size: float) -> I64:
-    """``floor(p / δ)`` per axis as int64[n,3]; :class:`CoordinateRangeError` if unpackable."""
+def cell_indices(
+    xyz: npt.ArrayLike, cell_size: float, name_of: Callable[[int], str] | None = None
+) -> I64:
+    """``floor(p / δ)`` per axis as int64[n,3]; :class:`CoordinateRangeError` if unpackable,
+    naming the point by ``name_of(row)`` (default: its row)."""
     _check_cell_size(cell_size)
     p = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     with np.errstate(invalid="ignore", over="ignore"):
@@ -100,8 +105,9 @@ def cell_indices(xyz: npt.ArrayLike, cell_size: float) -> I64:
     if bad.any():
         row, axis = np.argwhere(bad)[0]
         lo, hi = INDEX_MIN * cell_size, (INDEX_MAX + 1) * cell_size
+        what = f"(row {row})" if name_of is None else f"of {name_of(int(row))}"
         raise CoordinateRangeError(
-            f"coordinate {_AXES[axis]}={float(p[row, axis])!r} (row {row}) cannot be hashed: "
+            f"coordinate {_AXES[axis]}={float(p[row, axis])!r} {what} cannot be hashed: "
             f"the packable range is [{lo:.6g}, {hi:.6g}) m for cell size {cell_size} m",
             hint="check the map frame and units of the input, or use a larger cell_size",
         )

@@ -294,3 +294,23 @@ def test_a_json_graph_with_a_byte_order_mark_named_sparkdsg_reads_as_json(
               for g in (want, got)]
     assert places[0] == places[1]
     assert places[0]
+
+
+def test_a_place_far_beyond_the_hash_range_is_named(tmp_path: Path) -> None:
+    """One place of the real apartment graph moved to x = 1e300 m (a damaged number): the
+    build said "coordinate x=1e+300 (row 0) cannot be hashed", a row of nothing the user
+    has, with a hint about the map frame; it now names the place and the graph."""
+    from tests.shared_data import real
+
+    graph = json.loads(real("dsg", "apartment_dsg.json").read_text())
+    place = next(n for n in graph["nodes"] if n.get("layer") == 3)
+    place["attributes"]["position"][0] = 1e300
+    label = f"{chr(place['id'] >> 56)}{place['id'] & ((1 << 56) - 1)}"  # p6
+    bad = tmp_path / "far.json"
+    bad.write_text(json.dumps(graph))
+    log = write_log(tmp_path / "w.mcap", walk(20))
+    result = run("build", log, "--graph", bad, "-o", tmp_path / "m.aion")
+    assert result.exit_code == 2
+    assert_one_error(result.stderr, f"coordinate x=1e+300 of scene-graph place {label} ")
+    assert "scene graph's positions are damaged" in result.stderr.splitlines()[1]
+    assert not (tmp_path / "m.aion").exists()
