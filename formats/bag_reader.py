@@ -68,13 +68,15 @@ class BagReader(Reader):
         self._times: dict[int, tuple[np.ndarray, bool]] = {}
         # where the bag's index (the last of its records) ends
         self._index_end: int | None = None
+        # the chunk whose head (and the index records after it) open() reads last
+        self._chunk_at: int | None = None
 
     def read_chunk(self) -> Chunk:
         """The chunk record header at the file position (as rosbags reads it), remembering its
         compression and declared size; an unknown compression is not an error here (the chunk
         is refused after the index is read)."""
         assert self.bio
-        pos = self.bio.tell()
+        pos = self._chunk_at = self.bio.tell()
         header = Header.read(self.bio, RecordType.CHUNK)
         compression = header.get_string("compression")
         size = header.get_uint32("size") if "size" in header else 0
@@ -106,7 +108,18 @@ class BagReader(Reader):
     def open(self) -> None:
         """Open the bag and read its index (rosbags), then drop the chunks that declare more
         than the chunk cap or use an unknown compression."""
-        super().open()
+        try:
+            super().open()
+        except (AssertionError, struct.error, ReaderError) as exc:
+            if self._chunk_at is None:  # before the chunks: the header, the index
+                raise
+            # rosbags reads each chunk's head and the index records after it (asserting
+            # their size, with no message): name the chunk
+            reason = str(exc) or "an index record of the wrong size"
+            raise ReaderError(
+                f"the chunk at byte {self._chunk_at} or the index records after it do not "
+                f"parse: {reason}; the chunk's length may be damaged"
+            ) from exc
         limit = self.limits.max_chunk_bytes
         for info in self.chunk_infos:
             compression, size = self.chunk_meta.get(info.pos, ("none", 0))
