@@ -24,7 +24,8 @@ from aion_cli.formats.log_format import FORMATS, guess_format, other_log_hint
 from aion_cli.formats.log_source import _Source, _Unpacked
 from aion_cli.formats.mcap_source import _open_mcap
 from aion_cli.formats.rosbag2_reindex import _reindexed_sources
-from aion_cli.formats.rosbags_source import _metadata_warning, _RosbagsSource
+from aion_cli.formats.rosbag2_storage import metadata_warning
+from aion_cli.formats.rosbags_source import _RosbagsSource
 
 
 def open_sources(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]:
@@ -146,7 +147,7 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
             for key, t in opened.topics.items():
                 counted[key] += t.count
         busy = [m.file for m in mcaps if m.file.message_count]
-        warning = _metadata_warning(
+        warning = metadata_warning(
             folder,
             min((f.start_ns for f in busy), default=0),
             max((f.end_ns for f in busy), default=0),

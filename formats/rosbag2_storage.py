@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from aion_cli.errors import LogFormatError
+from aion_cli.listing import first_few
 
 ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
 MCAP_MAGIC = b"\x89MCAP0\r\n"
@@ -275,3 +276,23 @@ def metadata_disagreements(
         if key in counts and counts[key] != n:
             out.append(f"{n} messages on {topic} (the files: {counts[key]})")
     return out
+
+
+def metadata_warning(
+    folder: Path, start: int, last: int, total: int, counts: Mapping[tuple[str, str], int]
+) -> str | None:
+    """A warning when the folder's metadata.yaml states figures its storage files contradict
+    (aion uses the storage files: first and last message time ``start`` / ``last``, ``total``
+    messages, ``counts`` per (topic, normalised type)); None when they agree."""
+    from aion_cli.formats.raw import normalize_msgtype
+
+    figures = metadata_figures(folder)
+    if figures is None:
+        return None
+    found = metadata_disagreements(figures, start, last, total, counts, normalize_msgtype)
+    if not found:
+        return None
+    return (
+        f"{folder.name}: metadata.yaml disagrees with its storage files, which aion uses "
+        f"instead: {first_few(found, 4, '; ')}"
+    )

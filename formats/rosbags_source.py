@@ -5,9 +5,10 @@ ROS 1 bags go through :class:`formats.bag_reader.BagReader` (rosbags' reader wit
 caps), rosbag2 folders through rosbags' folder reader, their storage files matched to the
 folder's topics by topic and type, not by QoS (:func:`_storage_messages`, which the in-memory
 reindexed sqlite3 source of :mod:`formats.rosbag2_reindex` reads through too). Counts and time
-ranges come from the storage files; :func:`_metadata_warning` says where metadata.yaml
-disagrees with them. A rosbag2 folder with uncompressed or file-compressed mcap storage is read
-with aion's MCAP reader instead (:meth:`_RosbagsSource.mcap_storage` says which files).
+ranges come from the storage files; :func:`formats.rosbag2_storage.metadata_warning` says where
+metadata.yaml disagrees with them. A rosbag2 folder with uncompressed or file-compressed mcap
+storage is read with aion's MCAP reader instead (:meth:`_RosbagsSource.mcap_storage` says
+which files).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from __future__ import annotations
 import heapq
 import re
 from collections import Counter
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from operator import attrgetter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -34,7 +35,7 @@ from aion_cli.formats.log_source import (
     _unzstd,
 )
 from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint, normalize_msgtype
-from aion_cli.listing import first_few
+from aion_cli.formats.rosbag2_storage import metadata_warning
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -105,7 +106,7 @@ class _RosbagsSource(_Source):
             start, end = self._count_storages(storages, reader)
             if storages:
                 counts = {key: t.count for key, t in self.topics.items()}
-                warning = _metadata_warning(path, start, end - 1, sum(counts.values()), counts)
+                warning = metadata_warning(path, start, end - 1, sum(counts.values()), counts)
                 if warning:
                     self.warnings.append(warning)
         total = sum(t.count for t in self.topics.values())
@@ -474,22 +475,3 @@ def _plain(exc: Exception) -> str:
     ``Bag index looks damaged: Header could not be read from file.``."""
     return re.sub(r"\('((?:[^'\\]|\\.)*)',\)", r"\1", str(exc))
 
-
-def _metadata_warning(
-    folder: Path, start: int, last: int, total: int, counts: Mapping[tuple[str, str], int]
-) -> str | None:
-    """A warning when the folder's metadata.yaml states figures its storage files contradict
-    (aion uses the storage files: first and last message time ``start`` / ``last``, ``total``
-    messages, ``counts`` per (topic, normalised type)); None when they agree."""
-    from aion_cli.formats import rosbag2_storage as storage
-
-    figures = storage.metadata_figures(folder)
-    if figures is None:
-        return None
-    found = storage.metadata_disagreements(figures, start, last, total, counts, normalize_msgtype)
-    if not found:
-        return None
-    return (
-        f"{folder.name}: metadata.yaml disagrees with its storage files, which aion uses "
-        f"instead: {first_few(found, 4, '; ')}"
-    )
