@@ -275,6 +275,9 @@ def metadata_disagreements(
         key = (topic, normalize(msgtype) if normalize is not None else msgtype)
         if key in counts and counts[key] != n:
             out.append(f"{n} messages on {topic} (the files: {counts[key]})")
+        kept = sorted(t for name, t in counts if name == topic and t != key[1])
+        if key not in counts and kept:
+            out.append(f"{topic} is of type {msgtype} (the files: {', '.join(kept)})")
     return out
 
 

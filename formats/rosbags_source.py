@@ -125,9 +125,15 @@ class _RosbagsSource(_Source):
         counted: Counter[tuple[str, str]] = Counter()
         for storage in storages:
             for conn in storage.connections:
-                counted[conn.topic, normalize_msgtype(conn.msgtype)] += conn.msgcount
-        for key, info in self.topics.items():
+                key = (conn.topic, normalize_msgtype(conn.msgtype))
+                counted[key] += conn.msgcount
+                if key not in self.topics:  # metadata.yaml names another type (or none)
+                    self.topics[key] = _storage_topic(conn, self.topics)
+        stored = {topic for topic, _ in counted}
+        for key, info in list(self.topics.items()):
             info.count = counted.get(key, 0)
+            if key not in counted and key[0] in stored:  # the files keep another type
+                del self.topics[key]
         metas = [s.metadata for s in storages if s.metadata.message_count > 0]
         if not metas:
             return 0, 0
@@ -341,6 +347,16 @@ class _RosbagsSource(_Source):
 
     def close(self) -> None:
         self._reader.close()
+
+
+def _storage_topic(conn: Any, topics: dict[tuple[str, str], _Topic]) -> _Topic:
+    """A topic as a storage file keeps it (its type and definition), for a topic whose type
+    metadata.yaml names otherwise; its serialization as metadata.yaml gives it (CDR else)."""
+    named = next((t for (topic, _), t in topics.items() if topic == conn.topic), None)
+    definition = conn.msgdef.data if conn.msgdef is not None else ""
+    idl = conn.msgdef is not None and conn.msgdef.format.name == "IDL"
+    encoding: Encoding = named.encoding if named is not None else "cdr"
+    return _Topic(conn.topic, normalize_msgtype(conn.msgtype), encoding, definition or "", idl)
 
 
 def _wanted_types(

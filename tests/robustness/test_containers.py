@@ -33,7 +33,16 @@ from tests.formats.craft import (
     mcap_parts,
     records_chunk,
 )
-from tests.robustness.conftest import T0, S, assert_one_error, robot_tf, run, walk, write_log
+from tests.robustness.conftest import (
+    T0,
+    S,
+    assert_one_error,
+    build_json,
+    robot_tf,
+    run,
+    walk,
+    write_log,
+)
 
 PER_CHUNK = 50  # messages per crafted chunk
 N_CHUNKS = 6
@@ -306,6 +315,28 @@ def test_impossible_rosbag2_metadata_is_ignored_with_a_warning(
     assert line.startswith("bag: metadata.yaml disagrees with its storage files, which aion ")
     assert "starting_time -5 ns (impossible: before 1970; the files start at 2026-" in line
     assert "message_count 999 (the files: 20)" in line
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_a_type_metadata_yaml_names_wrongly_is_read_as_the_storage_keeps_it(
+    storage: str, tmp_path: Path
+) -> None:
+    """metadata.yaml naming a type nothing defines for the people topic (an edited or
+    mismatched file): a sqlite3 bag was refused as "no messages (... 20 messages on /tracks
+    (the files: 0))" although its storage file holds the 20 messages with their real type;
+    now they are read as the storage keeps them, with a warning naming both types."""
+    bag = write_log(tmp_path / "bag", walk(20), f"rosbag2-{storage}")
+    meta = bag / "metadata.yaml"
+    real_type = "spencer_tracking_msgs/msg/TrackedPersons"
+    assert real_type in meta.read_text()
+    meta.write_text(meta.read_text().replace(real_type, "foo_msgs/msg/NotAType"))
+    report = build_json(bag, "-o", tmp_path / "m.aion")
+    assert report["detections"]["read"] == 20
+    assert any(
+        "metadata.yaml disagrees" in w
+        and f"/tracks is of type foo_msgs/msg/NotAType (the files: {real_type})" in w
+        for w in report["warnings"]
+    ), report["warnings"]
 
 
 # -- special files ---------------------------------------------------------------------------------
