@@ -112,6 +112,9 @@ class BagReader(Reader):
             super().open()
         except (AssertionError, struct.error, ReaderError) as exc:
             if self._chunk_at is None:  # before the chunks: the header, the index
+                cut = _cut_before_index(self._file)
+                if cut is not None:
+                    raise ReaderError(cut) from exc
                 raise
             # rosbags reads each chunk's head and the index records after it (asserting
             # their size, with no message): name the chunk
@@ -247,6 +250,27 @@ class BagReader(Reader):
             raise caps.ChunkError("the file ends inside its data")
         # rosbags's lz4 is the frame format; "none" is stored as it is
         return caps.decompress(raw, compression, size, self.limits.max_chunk_bytes)
+
+
+def _cut_before_index(path: Path) -> str | None:
+    """Why a bag whose index cannot be read cannot be: the file ends before the index its
+    header points at (a copy or a recording cut short); None when it does not."""
+    size = path.stat().st_size
+    with path.open("rb") as f:
+        head = f.read(4096 + 13)  # the magic and the bag header record, padded to 4 KiB
+    at = head.find(b"index_pos=")
+    if at < 0 or len(head) < at + 18:
+        return None
+    (index_pos,) = struct.unpack_from("<Q", head, at + 10)
+    if index_pos < size:
+        return None
+    lost = index_pos - size
+    if not lost:
+        return f"the file ends at byte {size:,}, where its index should begin: it was cut short"
+    return (
+        f"the file ends at byte {size:,}, before its index at byte {index_pos:,}: it was cut "
+        f"short, the last {lost:,} bytes of its data and all of its index missing"
+    )
 
 
 def _time(item: tuple[Any, int]) -> int:

@@ -204,14 +204,25 @@ def test_a_log_appended_to_another_in_one_file_is_named_not_dropped_silently(
 
 
 def test_truncated_bag_is_a_clear_error_and_writes_no_map(tmp_path: Path) -> None:
+    """A bag cut short (a copy or a recording that did not finish) has lost its index, which
+    a bag keeps at its end: the error says where the file ends and where the index was to
+    begin (it said "Bag index looks damaged: Header could not be read from file.")."""
     bag = write_log(tmp_path / "full.bag", spread(500), "bag")
     data = bag.read_bytes()
-    cut = tmp_path / "cut.bag"
-    cut.write_bytes(data[: len(data) // 2])
-    result = run("build", cut, "-o", tmp_path / "cut.aion")
-    fails(result, "not a readable ROS 1 bag")
-    assert "',)" not in result.stderr  # rosbags' reason unwrapped, not a Python tuple
-    assert not (tmp_path / "cut.aion").exists()
+    at = data.index(b"index_pos=") + len(b"index_pos=")
+    (index_pos,) = struct.unpack_from("<Q", data, at)
+    for size, says in (
+        (len(data) // 2, f"before its index at byte {index_pos:,}: it was cut short, the last "
+         f"{index_pos - len(data) // 2:,} bytes of its data and all of its index missing"),
+        (index_pos, "where its index should begin: it was cut short"),
+    ):
+        cut = tmp_path / "cut.bag"
+        cut.write_bytes(data[:size])
+        result = run("build", cut, "-o", tmp_path / "cut.aion")
+        fails(result, "not a readable ROS 1 bag", f"the file ends at byte {size:,}, {says}")
+        assert "',)" not in result.stderr  # rosbags' reason unwrapped, not a Python tuple
+        assert "rosbag reindex" in result.stderr
+        assert not (tmp_path / "cut.aion").exists()
 
 
 @pytest.mark.parametrize(
