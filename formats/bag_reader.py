@@ -23,6 +23,7 @@ from __future__ import annotations
 import heapq
 import io
 import os
+import re
 import struct
 from collections import Counter
 from collections.abc import Callable, Collection, Iterator, Sequence
@@ -70,6 +71,8 @@ class BagReader(Reader):
         self._index_end: int | None = None
         # the chunk whose head (and the index records after it) open() reads last
         self._chunk_at: int | None = None
+        # the warning of a bag indexed from its chunks (formats.bag_reindex)
+        self._reindexed: str | None = None
 
     def read_chunk(self) -> Chunk:
         """The chunk record header at the file position (as rosbags reads it), remembering its
@@ -86,6 +89,11 @@ class BagReader(Reader):
         self.chunk_meta[pos] = (compression, size)
         return Chunk(datasize, datapos, _no_decompressor)
 
+    @property
+    def name(self) -> str:
+        """The bag's file name."""
+        return self._file.name
+
     def read_chunk_info(self) -> Any:
         """A chunk info record of the index (as rosbags reads it), remembering where it ends:
         the last one ends the bag."""
@@ -94,16 +102,18 @@ class BagReader(Reader):
         self._index_end = self.bio.tell()
         return info
 
-    def trailing(self) -> list[str]:
-        """A warning when the file goes on after the bag's index, its last record (another
-        bag appended to it, garbage): those bytes are not read."""
+    def open_warnings(self) -> list[str]:
+        """What opening the bag found: its index rebuilt from its chunks
+        (:mod:`formats.bag_reindex`); the file going on after the index, its last record
+        (another bag appended to it, garbage: those bytes are not read)."""
         from aion_cli.formats.log_format import trailing_warning
 
         path = self._file
         size = path.stat().st_size
-        if self._index_end is None or self._index_end >= size:
-            return []
-        return [trailing_warning(path, self._index_end, size)]
+        found = [] if self._reindexed is None else [self._reindexed]
+        if self._index_end is not None and self._index_end < size:
+            found.append(trailing_warning(path, self._index_end, size))
+        return found
 
     def open(self) -> None:
         """Open the bag and read its index (rosbags), then drop the chunks that declare more
@@ -112,10 +122,8 @@ class BagReader(Reader):
             super().open()
         except (AssertionError, struct.error, ReaderError) as exc:
             if self._chunk_at is None:  # before the chunks: the header, the index
-                cut = _cut_before_index(self._file)
-                if cut is not None:
-                    raise ReaderError(cut) from exc
-                raise
+                self._reindex(exc)
+                return
             # rosbags reads each chunk's head and the index records after it (asserting
             # their size, with no message): name the chunk
             reason = str(exc) or "an index record of the wrong size"
@@ -123,6 +131,11 @@ class BagReader(Reader):
                 f"the chunk at byte {self._chunk_at} or the index records after it do not "
                 f"parse: {reason}; the chunk's length may be damaged"
             ) from exc
+        self._refuse()
+
+    def _refuse(self) -> None:
+        """Drop the chunks that declare more than the chunk cap or use an unknown compression
+        from the index, with their message counts (``refused``)."""
         limit = self.limits.max_chunk_bytes
         for info in self.chunk_infos:
             compression, size = self.chunk_meta.get(info.pos, ("none", 0))
@@ -144,6 +157,31 @@ class BagReader(Reader):
                 conn._replace(msgcount=len(self.indexes.get(conn.id, ())))
                 for conn in self.connections
             ]
+
+    def _reindex(self, exc: Exception) -> None:
+        """Index the bag from its chunks (:mod:`formats.bag_reindex`) when its own index
+        cannot be read (``exc``: why rosbags could not); re-raise ``exc`` for a file that is
+        no readable bag at all (another magic, an encrypted bag, not a chunk readable)."""
+        from aion_cli.formats.bag_reindex import reindex
+
+        reason = plain_reason(exc)
+        with self._file.open("rb") as f:
+            if f.read(len(_MAGIC)) != _MAGIC or "encryption" in reason:
+                raise exc
+        why = _cut_before_index(self._file) or (
+            "it is not indexed (a recording that was not closed)"
+            if "not indexed" in reason
+            else f"its index cannot be read ({reason})"
+        )
+        self.bio = self._file.open("rb")  # rosbags closed it
+        self.connections, self.indexes, self.chunk_infos, self.chunks = [], {}, [], {}
+        self.chunk_meta = {}
+        try:
+            self._reindexed = reindex(self, why)
+        except (ReaderError, struct.error) as again:
+            self.close()
+            raise ReaderError(str(again)) from exc
+        self._refuse()
 
     def suspend(self) -> None:
         """Close the file and drop the cached chunk; the index stays (see :meth:`resume`)."""
@@ -250,6 +288,16 @@ class BagReader(Reader):
             raise caps.ChunkError("the file ends inside its data")
         # rosbags's lz4 is the frame format; "none" is stored as it is
         return caps.decompress(raw, compression, size, self.limits.max_chunk_bytes)
+
+
+_MAGIC = b"#ROSBAG V2.0\n"
+
+
+def plain_reason(exc: Exception) -> str:
+    """An exception's text with the tuples rosbags wraps inner reasons in unwrapped:
+    ``Bag index looks damaged: ('Header could not be read from file.',)`` reads
+    ``Bag index looks damaged: Header could not be read from file.``."""
+    return re.sub(r"\('((?:[^'\\]|\\.)*)',\)", r"\1", str(exc))
 
 
 def _cut_before_index(path: Path) -> str | None:

@@ -14,7 +14,6 @@ which files).
 from __future__ import annotations
 
 import heapq
-import re
 from collections import Counter
 from collections.abc import Iterator
 from operator import attrgetter
@@ -96,7 +95,7 @@ class _RosbagsSource(_Source):
             names = {conn.id: conn.topic for conn in reader.connections}
             for pos, (why, counts) in sorted(reader.refused.items()):
                 self.warnings.append(self._chunk_skipped(pos, why, counts, names))
-            self.warnings.extend(reader.trailing())
+            self.warnings.extend(reader.open_warnings())
             reader.suspend()  # no file handle held between reads
         else:
             storages = getattr(reader.storage, "storages", [])
@@ -481,13 +480,9 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
     try:
         reader.open()
     except Exception as exc:  # rosbags ReaderError and the errors of its storage plugins
-        raise LogFormatError(f"{path}: not a readable {what} ({_plain(exc)})", hint=hint) from exc
+        from aion_cli.formats.bag_reader import plain_reason
+
+        raise LogFormatError(
+            f"{path}: not a readable {what} ({plain_reason(exc)})", hint=hint
+        ) from exc
     return reader
-
-
-def _plain(exc: Exception) -> str:
-    """An exception's text with the tuples rosbags wraps inner reasons in unwrapped:
-    ``Bag index looks damaged: ('Header could not be read from file.',)`` reads
-    ``Bag index looks damaged: Header could not be read from file.``."""
-    return re.sub(r"\('((?:[^'\\]|\\.)*)',\)", r"\1", str(exc))
-

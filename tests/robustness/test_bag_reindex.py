@@ -1,0 +1,128 @@
+"""ROS 1 bags whose index cannot be read are indexed in memory from their chunks, as
+``rosbag reindex`` would (``formats.bag_reindex``): a recording that was not closed (index
+position 0), a copy cut short (the index, kept at the end, is gone; the last chunk is cut
+inside), a damaged index. They used to be refused whole ("not a readable ROS 1 bag (Bag
+index looks damaged: ...)"); now what the chunks hold whole is read, with a warning.
+
+Every bag is written by LogWriter or is a real rosbag.js fixture, and what must be read is
+known from the intact bag's own index, read with rosbags.
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import pytest
+from rosbags.rosbag1 import Reader
+
+from aion_cli.formats.logs import open_logs
+from tests.robustness.conftest import T0, S, build_json, fails, person, run, write_log
+
+
+def _bag(path: Path, n: int) -> Path:
+    """``n`` person messages a second apart, walking over 40 cells, as a ROS 1 bag."""
+    walking = [person(T0 + k * S, (0.5 * (k % 40), 1.0, 0.0)) for k in range(n)]
+    return write_log(path, walking, "bag")
+
+
+def _index_pos(data: bytes) -> tuple[int, int]:
+    """Where the bag header's index_pos field is, and its value."""
+    at = data.index(b"index_pos=") + len(b"index_pos=")
+    return at, struct.unpack_from("<Q", data, at)[0]
+
+
+def _whole_before(bag: Path, cut: int) -> list[int]:
+    """Log times of the messages whose records end by byte ``cut`` of the (uncompressed)
+    bag, in file order, from its own index."""
+    data = bag.read_bytes()
+    ends = []
+    with Reader(bag) as reader:
+        for entries in reader.indexes.values():
+            for e in entries:
+                at = reader.chunks[e.chunk_pos].datapos + e.offset
+                (header,) = struct.unpack_from("<I", data, at)
+                (size,) = struct.unpack_from("<I", data, at + 4 + header)
+                ends.append((at + 4 + header + 4 + size, e.time))
+    return [t for end, t in sorted(ends) if end <= cut]
+
+
+def test_a_bag_cut_short_builds_from_the_messages_it_holds_whole(tmp_path: Path) -> None:
+    full = _bag(tmp_path / "full.bag", 500)
+    data = full.read_bytes()
+    _, index_pos = _index_pos(data)
+    for size in (len(data) // 3, len(data) * 2 // 3, index_pos):
+        want = _whole_before(full, size)
+        assert 0 < len(want) <= 500
+        cut = tmp_path / "cut.bag"
+        cut.write_bytes(data[:size])
+        with open_logs([cut]) as logs:
+            assert [m.log_time_ns for m in logs.messages()] == want
+        report = build_json(cut, "-o", tmp_path / "cut.aion")
+        assert report["detections"]["read"] == len(want)
+        (warning,) = [w for w in report["warnings"] if "rosbag reindex" in w]
+        assert warning.startswith(f"cut.bag: the file ends at byte {size:,}, ")
+        assert f"as `rosbag reindex` would: {len(want):,} messages" in warning
+        if size < index_pos:
+            assert f"before its index at byte {index_pos:,}: it was cut short" in warning
+            assert "the file ends inside the chunk at byte " in warning
+
+
+def test_a_bag_cut_before_any_whole_message_is_a_clear_error(tmp_path: Path) -> None:
+    full = _bag(tmp_path / "full.bag", 50)
+    data = full.read_bytes()
+    cut = tmp_path / "cut.bag"
+    cut.write_bytes(data[:4200])  # the bag header (4 KiB) and the start of the first chunk
+    result = run("build", cut, "-o", tmp_path / "cut.aion")
+    fails(result, "not a readable ROS 1 bag", "the file ends at byte 4,200",
+          "no message of its chunks could be read either")
+    assert "rosbag reindex" in result.stderr
+    assert not (tmp_path / "cut.aion").exists()
+
+
+@pytest.mark.parametrize(
+    ("index_pos", "says"),
+    [(0, "it is not indexed (a recording that was not closed)"),
+     (None, "its index cannot be read (Bag index looks damaged: ")],
+)
+def test_a_bag_without_a_usable_index_is_read_whole(
+    index_pos: int | None, says: str, tmp_path: Path
+) -> None:
+    """Index position 0 (what a recorder writes until it closes the bag) or one pointing
+    into the middle of the data: every message is read from the chunks."""
+    full = _bag(tmp_path / "full.bag", 200)
+    data = bytearray(full.read_bytes())
+    at, _ = _index_pos(bytes(data))
+    data[at : at + 8] = struct.pack("<Q", len(data) // 2 + 3 if index_pos is None else index_pos)
+    broken = tmp_path / "broken.bag"
+    broken.write_bytes(bytes(data))
+    report = build_json(broken, "-o", tmp_path / "b.aion")
+    assert report["detections"]["read"] == 200
+    (warning,) = [w for w in report["warnings"] if "rosbag reindex" in w]
+    assert warning.startswith(f"broken.bag: {says}")
+    assert "as `rosbag reindex` would: 200 messages" in warning
+
+
+def test_a_real_compressed_bag_without_its_index_reads_as_with_it(tmp_path: Path) -> None:
+    """rosbag.js's example-bz2.bag (8,647 messages on nine topics in a bz2 chunk) with its
+    index position zeroed: the same messages, payloads and topics as the intact bag."""
+    from tests.shared_data import real
+
+    source = real("logs", "rosbagjs_fixtures", "example-bz2.bag")
+    data = bytearray(source.read_bytes())
+    at, _ = _index_pos(bytes(data))
+    data[at : at + 8] = bytes(8)
+    unindexed = tmp_path / "unindexed.bag"
+    unindexed.write_bytes(bytes(data))
+
+    def everything(path: Path) -> list[tuple[str, int, bytes]]:
+        with open_logs([path]) as logs:
+            return [(m.topic, m.log_time_ns, bytes(m.data)) for m in logs.messages()]
+
+    with Reader(source) as reader:
+        assert reader.message_count == 8647
+    assert everything(unindexed) == everything(source)
+    with open_logs([unindexed]) as logs:
+        assert logs.total() == 8647
+        (warning,) = logs.warnings
+    assert "as `rosbag reindex` would: 8,647 messages" in warning
