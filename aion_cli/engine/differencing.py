@@ -43,7 +43,8 @@ def _far_neighbour(
             near = np.abs(t[j] - t[rows]) <= span_ns
             rows, j = rows[near], j[near]
         d = xy[j] - xy[rows]
-        far = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] >= limit
+        with np.errstate(over="ignore"):  # a step of 1e300 m is far (inf), not a warning
+            far = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] >= limit
         found[rows[far]] = j[far]
         rows, j = rows[~far], j[~far] + direction
         cand[rows] = j

@@ -4,6 +4,7 @@ layout-specific options is one ``error:`` line and exit code 2."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -199,9 +200,33 @@ def test_people_walking_too_fast_for_the_frame_rate_are_warned(tmp_path: Path) -
                "-o", tmp_path / "a.mcap")
     assert fast.exit_code == 0, fast.stderr
     shown = " ".join(fast.stderr.split())
-    assert "people walk 2.50 m/s on average at 25 frames per second" in shown
+    assert "people walk 2.50 m/s (median) at 25 frames per second" in shown
     assert "at 13 fps they would walk 1.3 m/s" in shown
     slow = run("convert", path, "--layout", "eth", "--fps", "10", "--start", "2026-01-05 12:00",
                "--tz", "UTC", "-o", tmp_path / "b.mcap")
     assert slow.exit_code == 0, slow.stderr
-    assert "m/s on average" not in slow.stderr
+    assert "m/s (median)" not in slow.stderr
+
+
+def test_one_damaged_position_leaves_the_frame_rate_advice_sane(tmp_path: Path) -> None:
+    """The first 400 rows of ETH's biwi_eth.txt (annotated at 15 fps: README) with one x set
+    to 1e300: convert printed numpy's "RuntimeWarning: overflow encountered in multiply" and
+    "people walk 94936708860759498802569892550833317004979463608953060606257926478513134763164
+    ... m/s on average" with 1e-300 fps as the advice. The speeds' median keeps it sane."""
+    from tests.shared_data import real
+
+    rows = [r.split() for r in real("tracks", "eth_ucy", "biwi_eth.txt").read_text().splitlines()]
+    rows = rows[:400]
+    rows[5][2] = "1e300"
+    path = tmp_path / "damaged.txt"
+    path.write_text("\n".join("\t".join(r) for r in rows) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # numpy's overflow warning fails
+        result = run("convert", path, "--layout", "eth", "--start", "2026-01-05 12:00",
+                     "--tz", "UTC", "-o", tmp_path / "d.mcap")
+    assert result.exit_code == 0, result.stderr
+    shown = " ".join(result.stderr.split())
+    speed = float(shown.split("people walk ")[1].split(" m/s (median)")[0])
+    fps = float(shown.split("(at ")[1].split(" fps they would walk")[0])
+    assert 1.5 < speed < 3.5  # 15 fps annotations read at 25: about 25 / 15 times 1.3 m/s
+    assert 10 < fps < 20
