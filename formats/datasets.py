@@ -97,10 +97,14 @@ def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_F
     if len(found) != len(entries):
         parsed = {m.start() for m in found}
         bad = next(pos for pos in entries if pos not in parsed)
-        raise TracksFormatError(
-            f"{p}: line {_line_of(text, bad)}: a TRACK entry that is not [[x y frame];...];",
-            hint=_EDINBURGH_HINT,
-        )
+        where = f"{p}: line {_line_of(text, bad)}: a TRACK entry that is not [[x y frame];...];"
+        if bad == entries[-1] and not re.search(r"\]\s*\]\s*;", text[bad:]):  # the file ends in it
+            raise TracksFormatError(
+                f"{where} (the file ends inside it)",
+                hint="the file looks cut short (a copy that did not finish): without its last "
+                f"entry, the {len(found):,} TRACK entries before it can be read",
+            )
+        raise TracksFormatError(where, hint=_EDINBURGH_HINT)
     ids = np.array([int(m.group(1)) for m in found], dtype=np.int64)
     if len(np.unique(ids)) != len(ids):
         dup = int(ids[np.flatnonzero(np.bincount(np.unique(ids, return_inverse=True)[1]) > 1)[0]])

@@ -121,12 +121,13 @@ def _other_separator(line: str, spec: _Spec) -> str:
     return ""
 
 
-def _first_problem(path: Path, spec: _Spec) -> str | None:
-    """Describe the first line that does not parse (slow path, only after a failure)."""
+def _first_problem(path: Path, spec: _Spec) -> tuple[int, str] | None:
+    """The number of the first line that does not parse and what is wrong with it (slow
+    path, only after a failure)."""
     for lineno, line in _data_lines(path, spec):
         fields = _split(line, spec.delimiter)
         if len(fields) != len(spec.columns):
-            return (
+            return lineno, (
                 f"line {lineno}: expected {len(spec.columns)} columns "
                 f"({', '.join(spec.columns)}), got {len(fields)}"
                 + _other_separator(line, spec)
@@ -138,13 +139,13 @@ def _first_problem(path: Path, spec: _Spec) -> str | None:
             try:
                 value = float(text)
             except ValueError:
-                return f"{where} is not a number"
+                return lineno, f"{where} is not a number"
             if k in spec.finite_columns and not math.isfinite(value):
-                return f"{where} is not finite"
+                return lineno, f"{where} is not finite"
             if k in spec.int_columns and not value.is_integer():
-                return f"{where} is not an integer"
+                return lineno, f"{where} is not an integer"
             if k in spec.int_columns and not abs(value) < _INT_LIMIT:
-                return f"{where} is beyond the 64-bit integers an id or frame is kept in"
+                return lineno, f"{where} is beyond the 64-bit integers an id or frame is kept in"
     return None
 
 
@@ -157,12 +158,30 @@ def _fail(path: Path, spec: _Spec, layout: str, detail: str | None = None) -> Tr
     naming the layout it looks like (``track_sniff``), else ``layout``'s columns."""
     from aion_cli.formats.track_sniff import guess_layout
 
-    problem = _first_problem(path, spec) or detail or "unreadable data"
+    found = _first_problem(path, spec)
+    problem = found[1] if found is not None else detail or "unreadable data"
     guess = guess_layout(path)
     hint = f"{layout} columns: {', '.join(spec.columns)}"
     if guess is not None and layout not in guess.layouts:
         hint = f"it looks like {guess.describe()}: pass --layout {guess.layout}"
+    if found is not None and _ends_inside(path, found[0]):
+        problem += " (the file ends inside this line)"
+        hint = (
+            "the file looks cut short (a copy or an export that did not finish): without its "
+            f"last line, line {found[0]:,}, the lines before it can be read"
+        )
     return TracksFormatError(f"{path}: not a valid {layout} tracks file: {problem}", hint=hint)
+
+
+def _ends_inside(path: Path, lineno: int) -> bool:
+    """Whether line ``lineno`` is the file's last and has no line end: where a file cut
+    short ends."""
+    lines, last = 0, b""
+    with path.open("rb") as f:
+        while block := f.read(1 << 20):
+            lines += block.count(b"\n")
+            last = block[-1:]
+    return last not in (b"\n", b"\r", b"") and lineno == lines + 1
 
 
 #: byte-order marks of the Unicode encodings that are not UTF-8 (UTF-32's first)

@@ -4,6 +4,7 @@ file of another layout named by the layout it looks like (``formats.track_csv``,
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -224,3 +225,46 @@ def test_a_file_with_another_separator_is_named_by_it(
     with pytest.raises(track_types.TracksFormatError) as caught:
         ft.read_tracks(path, layout)
     assert caught.value.message.endswith(f"got 1: its fields are separated by {says}")
+
+
+@pytest.mark.parametrize("layout", ["thor", "eth"])
+def test_a_file_cut_inside_its_last_line_says_so(layout: str, tmp_path: Path) -> None:
+    """A tracks file cut short (a copy that did not finish) ends inside a line: the error named
+    the line and the columns, as for any bad line; it now says the file ends inside it, and
+    the hint that the lines before it can be read. A bad line followed by a line end keeps
+    the columns hint."""
+    from tests.shared_data import real
+
+    if layout == "thor":
+        text = real("thor", "thor1-exp-1-run-2.csv").read_text()
+    else:
+        text = real("tracks", "eth_ucy", "biwi_eth.txt").read_text()
+    cut = text[: len(text) // 3]
+    lines = cut.count("\n") + 1
+    assert not cut.endswith("\n")
+    path = _write(tmp_path, "cut.csv", cut)
+    with pytest.raises(track_types.TracksFormatError) as caught:
+        ft.read_tracks(path, layout)
+    message, hint = caught.value.message, caught.value.hint or ""
+    assert message.startswith(f"{path}: not a valid {layout} tracks file: line {lines}: ")
+    assert message.endswith("(the file ends inside this line)")
+    assert f"last line, line {lines:,}" in hint
+    path.write_text(cut + "\n" + text[len(cut) :])  # the same line, ended, with more after
+    with pytest.raises(track_types.TracksFormatError) as whole:
+        ft.read_tracks(path, layout)
+    assert "ends inside" not in whole.value.message
+    assert (whole.value.hint or "").startswith(f"{layout} columns:")
+
+
+def test_an_edinburgh_file_cut_inside_its_last_entry_says_so(tmp_path: Path) -> None:
+    from tests.shared_data import real
+
+    text = real("tracks", "edinburgh", "tracks.01Jul.txt").read_text()
+    cut = text[:20000]
+    assert not re.search(r"\]\s*\]\s*;\s*$", cut)  # inside an entry
+    before = cut.count("TRACK.R") - 1
+    path = _write(tmp_path, "cut.txt", cut)
+    with pytest.raises(track_types.TracksFormatError) as caught:
+        ft.read_tracks(path, "edinburgh")
+    assert caught.value.message.endswith("(the file ends inside it)")
+    assert f"the {before:,} TRACK entries before it can be read" in (caught.value.hint or "")
