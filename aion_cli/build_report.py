@@ -368,7 +368,8 @@ def check_usable(
     what became of the detections read, and nothing is written (a continued map, whose
     manifest is ``previous``, is left as it was, its new logs not recorded, so they can be
     added once fixed). The one exception: a continued map that holds detections already may
-    take logs in which nobody was seen (a note: their observed windows are real zeros).
+    take logs in which nobody was seen (a note: their observed windows are real zeros), not
+    logs of which no message could be read.
     ``outcome`` replaces the hint's words on the map (a reading that writes no map).
     ``lost``: (messages of the detection topics the readers could not read, the messages
     their indexes hold, the readers' warnings): when no detection was read because the
@@ -380,7 +381,8 @@ def check_usable(
     drops = ", ".join(f"{k} {v:,}" for k, v in sorted(c.dropped.items()) if v)
     messages = sum(t.messages for t in c.topics.values())
     before = previous.counts if previous is not None else {}
-    if int(before.get("used", 0)) > 0 and c.read == 0 and not drops:
+    unreadable = lost is not None and lost[0] > 0 and messages == 0  # all lost, none empty
+    if int(before.get("used", 0)) > 0 and c.read == 0 and not drops and not unreadable:
         report.notes.append(
             f"no person in the {messages:,} detection messages: only observed-empty "
             "windows were added to the map"

@@ -168,6 +168,27 @@ def test_a_log_whose_every_chunk_is_corrupt_is_an_error_naming_the_damage(
     assert not (tmp_path / "bad.aion").exists()
 
 
+def test_a_map_is_not_continued_with_a_log_whose_every_chunk_is_corrupt(
+    spread_log: Path, tmp_path: Path
+) -> None:
+    """``build --map`` took a log with every chunk corrupt as one in which nobody was seen
+    ("only observed-empty windows were added to the map", exit 0), recording it in the map;
+    now it is the damage error and the map is left byte for byte as it was."""
+    first = write_log(tmp_path / "before.mcap", walk(30, start_s=-7200))
+    built = run("build", first, "-o", tmp_path / "m.aion")
+    assert built.exit_code == 0, built.stderr
+    before = (tmp_path / "m.aion").read_bytes()
+    data = bytearray(spread_log.read_bytes())
+    for chunk in chunk_indexes(spread_log):
+        data[chunk.chunk_start_offset + chunk.chunk_length - 10] ^= 0x10
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    result = run("build", bad, "--map", tmp_path / "m.aion")
+    fails(result, f"{N_SPREAD:,} of the {N_SPREAD:,} messages of /tracks were lost")
+    assert "the map was left as it was" in result.stderr
+    assert (tmp_path / "m.aion").read_bytes() == before
+
+
 @pytest.mark.parametrize("container", ["mcap", "bag", "mcap without summary"])
 def test_a_log_appended_to_another_in_one_file_is_named_not_dropped_silently(
     container: str, tmp_path: Path
