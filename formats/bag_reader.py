@@ -71,8 +71,10 @@ class BagReader(Reader):
         self._index_end: int | None = None
         # the chunk whose head (and the index records after it) open() reads last
         self._chunk_at: int | None = None
-        # the warning of a bag indexed from its chunks (formats.bag_reindex)
+        # the warning of a bag indexed from its chunks (formats.bag_reindex), and of chunks
+        # whose index entries fall short of their chunk info (_check_index)
         self._reindexed: str | None = None
+        self._gaps: list[str] = []
 
     def read_chunk(self) -> Chunk:
         """The chunk record header at the file position (as rosbags reads it), remembering its
@@ -110,7 +112,7 @@ class BagReader(Reader):
 
         path = self._file
         size = path.stat().st_size
-        found = [] if self._reindexed is None else [self._reindexed]
+        found = [*self._gaps] if self._reindexed is None else [self._reindexed]
         if self._index_end is not None and self._index_end < size:
             found.append(trailing_warning(path, self._index_end, size))
         return found
@@ -125,13 +127,37 @@ class BagReader(Reader):
                 self._reindex(exc)
                 return
             # rosbags reads each chunk's head and the index records after it (asserting
-            # their size, with no message): name the chunk
+            # their size, with no message): name the chunk, and read what the chunks hold
             reason = str(exc) or "an index record of the wrong size"
-            raise ReaderError(
+            self._reindex(
+                exc,
                 f"the chunk at byte {self._chunk_at} or the index records after it do not "
-                f"parse: {reason}; the chunk's length may be damaged"
-            ) from exc
+                f"parse: {reason}; the chunk's length may be damaged",
+            )
+            return
+        self._check_index()
         self._refuse()
+
+    def _check_index(self) -> None:
+        """Warn of chunks whose messages the index lists fewer of than their chunk info
+        counts (a damaged record length makes rosbags read another place as the chunk's
+        index records, without an error): those messages cannot be found, and are not read."""
+        listed: Counter[tuple[int, int]] = Counter()
+        for cid, entries in self.indexes.items():
+            for pos, n in Counter(e.chunk_pos for e in entries).items():
+                listed[pos, cid] = n
+        for info in self.chunk_infos:
+            missing = sum(
+                max(n - listed[info.pos, cid], 0) for cid, n in info.connection_counts.items()
+            )
+            if missing:
+                total = sum(info.connection_counts.values())
+                self._gaps.append(
+                    f"{self._file.name}: its index lists {total - missing:,} of the {total:,} "
+                    f"messages its chunk info gives the chunk at byte {info.pos} (a damaged "
+                    f"record length?): {missing:,} message{'' if missing == 1 else 's'} "
+                    "cannot be found and are not read"
+                )
 
     def _refuse(self) -> None:
         """Drop the chunks that declare more than the chunk cap or use an unknown compression
@@ -158,17 +184,18 @@ class BagReader(Reader):
                 for conn in self.connections
             ]
 
-    def _reindex(self, exc: Exception) -> None:
+    def _reindex(self, exc: Exception, why: str | None = None) -> None:
         """Index the bag from its chunks (:mod:`formats.bag_reindex`) when its own index
-        cannot be read (``exc``: why rosbags could not); re-raise ``exc`` for a file that is
-        no readable bag at all (another magic, an encrypted bag, not a chunk readable)."""
+        cannot be read (``exc``: why rosbags could not; ``why``: that said for the user);
+        re-raise ``exc`` for a file that is no bag at all (another magic, an encrypted bag),
+        a ReaderError saying ``why`` when no message of its chunks can be read."""
         from aion_cli.formats.bag_reindex import reindex
 
         reason = plain_reason(exc)
         with self._file.open("rb") as f:
             if f.read(len(_MAGIC)) != _MAGIC or "encryption" in reason:
                 raise exc
-        why = _cut_before_index(self._file) or (
+        why = why or _cut_before_index(self._file) or (
             "it is not indexed (a recording that was not closed)"
             if "not indexed" in reason
             else f"its index cannot be read ({reason})"

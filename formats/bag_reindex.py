@@ -70,8 +70,9 @@ def reindex(reader: BagReader, why: str) -> str:
                     cut_chunk = True
             break
         if op == RecordType.CHUNK:
-            try:
-                _read_chunk(reader, found, pos, header, data_at, length)
+            try:  # an uncompressed chunk gives the records it holds whole, as a cut one does
+                plain = header.get_string("compression") == "none"
+                _read_chunk(reader, found, pos, header, data_at, length, part=plain)
             except (*_RECORD_ERRORS, caps.ChunkError):
                 skipped += 1
         elif op == RecordType.CONNECTION:  # the index's copies of the chunks' connections

@@ -126,3 +126,81 @@ def test_a_real_compressed_bag_without_its_index_reads_as_with_it(tmp_path: Path
         assert logs.total() == 8647
         (warning,) = logs.warnings
     assert "as `rosbag reindex` would: 8,647 messages" in warning
+
+
+@pytest.mark.parametrize("change", [+1000, -1000])
+def test_a_bag_whose_second_chunk_length_is_damaged_says_what_it_loses(
+    change: int, tmp_path: Path
+) -> None:
+    """The data length of a bag's second chunk damaged. Too long: rosbags cannot read the
+    index records after it and the bag was refused whole; now the chunks are read in order,
+    the records of each as far as they parse (the first two chunks whole). Too short:
+    rosbags read other bytes as its index records without an error, and the chunk's 1,354
+    messages vanished from the index and every count without a word; now a warning counts
+    them (the other chunks are read through the index). No message is ever invented."""
+    full = _bag(tmp_path / "full.bag", 5000)
+    with Reader(full) as reader:
+        first, second = sorted(reader.chunks)[:2]
+        every = sorted(e.time for entries in reader.indexes.values() for e in entries)
+        in_first, in_second = (
+            sorted(e.time for entries in reader.indexes.values() for e in entries
+                   if e.chunk_pos == pos)
+            for pos in (first, second)
+        )
+    data = bytearray(full.read_bytes())
+    (header_length,) = struct.unpack_from("<I", data, second)
+    at = second + 4 + header_length
+    (length,) = struct.unpack_from("<I", data, at)
+    struct.pack_into("<I", data, at, length + change)
+    broken = tmp_path / "broken.bag"
+    broken.write_bytes(bytes(data))
+    with open_logs([broken]) as logs:
+        got = [m.log_time_ns for m in logs.messages()]
+        (warning,) = logs.warnings
+    assert got == sorted(got)
+    assert set(got) <= set(every)
+    if change > 0:
+        assert set(in_first) | set(in_second) <= set(got)
+        assert warning.startswith(
+            f"broken.bag: the chunk at byte {second} or the index records after it do not "
+            "parse"
+        )
+        assert f"as `rosbag reindex` would: {len(got):,} messages" in warning
+    else:
+        assert got == sorted(set(every) - set(in_second))
+        assert warning == (
+            f"broken.bag: its index lists 0 of the {len(in_second):,} messages its chunk info "
+            f"gives the chunk at byte {second} (a damaged record length?): "
+            f"{len(in_second):,} messages cannot be found and are not read"
+        )
+
+
+def test_a_bag_whose_only_chunk_is_1000_bytes_short_keeps_its_whole_messages(
+    tmp_path: Path,
+) -> None:
+    """The data length of a bag's only chunk 1,000 bytes short: rosbags' index read trips an
+    ``assert`` (no message), and the bag was refused as "not a readable ROS 1 bag ()"; now the
+    warning names the chunk and the messages the shortened chunk holds whole are read."""
+    full = _bag(tmp_path / "full.bag", 200)
+    data = bytearray(full.read_bytes())
+    with Reader(full) as reader:
+        (chunk,) = reader.chunks
+        data_at = reader.chunks[chunk].datapos
+    (header_length,) = struct.unpack_from("<I", data, chunk)
+    at = chunk + 4 + header_length
+    (length,) = struct.unpack_from("<I", data, at)
+    struct.pack_into("<I", data, at, length - 1000)
+    want = _whole_before(full, data_at + length - 1000)
+    assert 0 < len(want) < 200
+    broken = tmp_path / "broken.bag"
+    broken.write_bytes(bytes(data))
+    info = run("info", broken)
+    assert info.exit_code == 0, info.stderr
+    report = build_json(broken, "-o", tmp_path / "b.aion")
+    assert report["detections"]["read"] == len(want)
+    (warning,) = report["warnings"]
+    assert warning.startswith(
+        f"broken.bag: the chunk at byte {chunk} or the index records after it do not parse: "
+    )
+    assert "()" not in warning
+    assert f"as `rosbag reindex` would: {len(want):,} messages" in warning
