@@ -36,7 +36,8 @@ def _sample_chunks() -> int:
 
     with open(SAMPLE, "rb") as f:
         summary = make_reader(f).get_summary()
-    assert summary is not None and summary.statistics is not None
+    assert summary is not None
+    assert summary.statistics is not None
     return int(summary.statistics.chunk_count)
 
 
