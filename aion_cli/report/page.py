@@ -284,7 +284,7 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
     )
     return [
         "<h2>Busiest places</h2>",
-        f"<p>The {len(c.busiest)} busiest of {c.matched:,} entries (places and hash cells), "
+        f"<p>The {len(c.busiest)} busiest of the map's {c.matched:,} places and hash cells, "
         f"{what}, as <code>{escape(command)}</code> lists them; entropy 0 "
         "means everyone walks one way, 1 every way; direction in degrees counter-clockwise "
         "from +x; family: the temporal model forecasting the flow.</p>",

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.cli.conftest import SAMPLE, assert_one_line_error, run, run_json
+from tests.cli.conftest import SAMPLE, Office, assert_one_line_error, run, run_json
 
 LOG_NAME = 'off<i>&amp;"ce.mcap'
 WHEN = "2026-01-12 08:40"
@@ -361,3 +361,22 @@ def test_the_activity_curves_keep_to_the_clock_on_a_day_it_changes() -> None:
     assert from_ns(int(autumn[-1]), zone).isoformat() == "2026-10-25T23:45:00+01:00"
     week = wall_steps(date(2026, 10, 19), zone, 3600, 7 * 86_400)  # the week of the change
     assert _clock_hours(week, zone).tolist() == list(range(168))
+
+
+def test_the_busiest_count_is_the_maps_places_and_cells_not_its_entries(
+    office: Office, tmp_path: Path
+) -> None:
+    """The small office: 7 places (p5, p6 beyond the sensor's range hold no entry), no hash
+    cell, 5 entries. The busiest table said "The 7 busiest of 7 entries" two lines below
+    "entries 5"; the 7 are predict's rows, the map's places and hash cells."""
+    out = tmp_path / "report"
+    result = run("report", office.map, "-o", out, "-q")
+    assert result.exit_code == 0, result.stderr
+    page = _parse(out / "index.html")
+    counts = {k: int(v.replace(",", "")) for k, v in page.tables["counts"]}
+    assert (counts["places"], counts["hash cells"], counts["entries"]) == (7, 0, 5)
+    rows = run_json("predict", office.map, "--historical", "--format", "json")["entries"]
+    assert len(rows) == 7
+    text = " ".join((out / "index.html").read_text(encoding="utf-8").split())
+    assert "The 7 busiest of the map's 7 places and hash cells," in text
+    assert "of 7 entries" not in text
