@@ -191,6 +191,13 @@ def select(
             elif layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
                 # the graph's own rooms and buildings are answered (layer_of_nodes)
                 hint = "the map has no such room or building: aion info MAP lists its rooms"
+            elif layer not in ("rooms", "buildings") and all(
+                m[:1] in "rb" and m[1:].isdigit() for m in missing
+            ):  # r1 for R1: "ids include p0, p1, ..." read as though rooms had no ids
+                hint = (
+                    "room and building ids are upper case (R1, B0), their names any case: "
+                    "aion info MAP lists the map's rooms"
+                )
             elif all(m.swapcase() in by_id for m in missing):  # P103 for p103
                 hint = (
                     f"did you mean {', '.join(m.swapcase() for m in missing)}? (node ids "

@@ -33,6 +33,22 @@ def parse_id_or_name(text: str, graph: GraphSnapshot | None) -> int:
         ) from exc
 
 
+def room_in_other_case(node_id: int, graph: GraphSnapshot) -> int | None:
+    """The room or building of ``graph`` whose id is ``node_id`` with its letter in the other
+    case (``R1`` for ``r1``: ids keep their letter's case, names do not), for a "did you
+    mean"; None when there is none."""
+    import numpy as np
+
+    from aion_cli.engine.node_ids import other_case
+
+    other = other_case(node_id)
+    if other is None:
+        return None
+    wanted = np.uint64(other)
+    held = bool((graph.rooms.ids == wanted).any() or (graph.buildings.ids == wanted).any())
+    return other if held else None
+
+
 def name_of(layer: Layer, k: int) -> str | None:
     """The name the graph gives node ``k`` of ``layer`` ("kitchen"); None when it gives none,
     or only the node's id (``R3``)."""

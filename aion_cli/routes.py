@@ -23,7 +23,13 @@ from aion_cli.engine.node_ids import (
     refuse_far_point,
     shown_point,
 )
-from aion_cli.room_names import name_of, named_node, parse_id_or_name
+from aion_cli.room_names import (
+    name_of,
+    named_node,
+    names_by_id,
+    parse_id_or_name,
+    room_in_other_case,
+)
 
 if TYPE_CHECKING:
     from aion_cli.engine.nav_graph import NavGraph
@@ -112,8 +118,28 @@ def _node_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot | None) -> 
         if inside is not None:
             return inside
         _refuse_unknown_room(node_id, graph)
+        if not (nav.ids == np.uint64(node_id)).any():
+            _refuse_room_in_other_case(node_id, graph)
     nav.index_of(node_id)
     return Endpoint(node_id)
+
+
+def _refuse_room_in_other_case(node_id: int, graph: GraphSnapshot) -> None:
+    """``r1`` where the graph has a room ``R1``: an
+    :class:`~aion_cli.errors.UnknownNodeError` that names it (the places' hint listed
+    ``p0, p1, ...``, as though the map had no such room)."""
+    from aion_cli.errors import UnknownNodeError
+
+    other = room_in_other_case(node_id, graph)
+    if other is None:
+        return
+    names = names_by_id(graph)
+    label = node_label(other)
+    named = f" ({names[label]})" if label in names else ""
+    raise UnknownNodeError(
+        f"node {node_label(node_id)} is not in the navigational graph",
+        hint=f"did you mean {label}{named}? (ids are case-sensitive; room names are not)",
+    )
 
 
 def _refuse_unknown_room(node_id: int, graph: GraphSnapshot) -> None:
