@@ -44,6 +44,9 @@ ARROW_CELLS = 4.0
 BLOCK_ARROW = 0.9
 """A merged arrow at full length spans this share of its block (when that is longer)."""
 
+NO_ARROWS = "no arrows: no place or cell has flow with a direction here; grey: no flow"
+"""The legend of a picture in which nothing flows (in any panel of a series)."""
+
 
 @dataclass(frozen=True)
 class ArrowField:

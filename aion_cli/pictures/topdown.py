@@ -53,7 +53,7 @@ from aion_cli.formats.scene_colours import (
     display_flow_scale,
     entropy_colors,
 )
-from aion_cli.pictures.arrows import ARROW_CELLS, ArrowField, arrow_block, arrow_field
+from aion_cli.pictures.arrows import ARROW_CELLS, NO_ARROWS, ArrowField, arrow_block, arrow_field
 from aion_cli.pictures.backdrop import (
     LABEL_GREY,
     MAX_ROOM_LABELS,
@@ -452,12 +452,11 @@ def topdown_figure(
     bar.set_ticklabels(["0 one way", "0.2", "0.4", "0.6", "0.8", "1 every way"])
     if suptitle:  # it may hold a file name: UTF-8 text whatever its bytes, its $ not maths
         fig.suptitle(plain_text(suptitle), fontsize=12)
+    # nothing flowing: the scale of no flow, (1, 1), read "the longest: 1 detections"
+    keys: tuple[str, ...] = (arrows.legend(scenes[0].window_s), fields[0].legend())
+    keys = keys if any(len(f.flow) for f in fields) else (NO_ARROWS,)
     fig.supxlabel(
-        "\n".join(
-            filter(
-                None, (arrows.legend(scenes[0].window_s), fields[0].legend(), extent.caption())
-            )
-        ),
+        "\n".join(filter(None, (*keys, extent.caption()))),
         fontsize=7,
         color=LABEL_GREY,
     )

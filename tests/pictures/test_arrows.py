@@ -192,3 +192,24 @@ def test_many_place_edges_are_drawn_once_for_all_panels() -> None:
     (ax,) = [a for a in topdown_figure([small], ["t"]).axes if a.get_title() == "t"]
     (lines,) = [c for c in ax.collections if type(c).__name__ == "LineCollection"]
     assert len(lines.get_segments()) == len(small.edges_xyz)
+
+
+def test_a_picture_without_flow_says_it_has_no_arrows() -> None:
+    """Nothing flows (or nothing flowing has a direction): no arrow is drawn, and the legend
+    said "the longest: 1 detections per 600-s window", the scale of no flow; it says there
+    are none. A series in which one panel flows keeps the scale of that flow."""
+    still = replace(synthetic_scene(flow_a=0.0, flow_b=0.0), cells_flow=np.zeros(1))
+    assert len(arrow_field(still).flow) == 0
+    undirected = replace(
+        synthetic_scene(), node_angle=np.full(3, np.nan), cells_angle=np.full(1, np.nan)
+    )
+    assert len(arrow_field(undirected).flow) == 0
+    for scenes in ([still], [still, undirected]):
+        fig = topdown_figure(scenes, ["t"] * len(scenes))
+        text = fig._supxlabel.get_text()
+        assert text.startswith("no arrows: no place or cell has flow"), text
+        assert "the longest" not in text
+        assert not any(ax.collections and any(
+            type(c).__name__ == "Quiver" for c in ax.collections) for ax in fig.axes)
+    fig = topdown_figure([still, synthetic_scene()], ["quiet", "busy"])
+    assert "(the longest: 10 detections per 600-s window)" in fig._supxlabel.get_text()
