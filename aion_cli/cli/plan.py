@@ -190,7 +190,7 @@ def command(
     if png_path is not None:
         from aion_cli.pictures.render import plan_png
 
-        plan_png(loaded, routes, nav, zone, png_path)
+        plan_png(loaded, routes, nav, zone, png_path, ends=_end_labels(report))
         report["png"] = str(png_path)
     announce_time(
         t_ns, zone, "departure" if departures is None else "best departure", loaded, leaving,
@@ -229,13 +229,7 @@ def _print(report: dict[str, Any]) -> None:
 
     for snap in report["snapped"]:
         note(snapped_text(snap))
-    named = {
-        snap["option"]: f"{snap.get('name') or snap.get('room') or snap.get('building')} "
-        f"({snap['node']})"
-        for snap in report["snapped"]
-        if "room" in snap or "building" in snap
-    }
-    ends = named.get("--from", report["from"]), named.get("--to", report["to"])
+    ends = _end_labels(report)
     title = f"{ends[0]} -> {ends[1]}, departing {report['depart']}"
     table = Table(title=Text(printable(title)))
     table.add_column("plan", style="bold", no_wrap=True)
@@ -256,3 +250,15 @@ def _print(report: dict[str, Any]) -> None:
     for key in ("export", "png"):
         if key in report:
             console().print(f"wrote {markup_safe(report[key])}", soft_wrap=True)
+
+
+def _end_labels(report: dict[str, Any]) -> tuple[str, str]:
+    """The start and goal as the table and the picture name them: a room or building asked
+    for by its name or id, with its place (``kitchen (p117)``), else the place id."""
+    named = {
+        snap["option"]: f"{snap.get('name') or snap.get('room') or snap.get('building')} "
+        f"({snap['node']})"
+        for snap in report["snapped"]
+        if "room" in snap or "building" in snap
+    }
+    return named.get("--from", report["from"]), named.get("--to", report["to"])

@@ -236,10 +236,17 @@ def _fitting_step_hint(times: Sequence[int | None], per_time: int = 1) -> str:
 
 
 def plan_png(
-    loaded: LoadedMap, routes: Routes, nav: Any, zone: Zone, out: Path, dpi: float = DPI
+    loaded: LoadedMap,
+    routes: Routes,
+    nav: Any,
+    zone: Zone,
+    out: Path,
+    dpi: float = DPI,
+    ends: tuple[str, str] | None = None,
 ) -> Path:
     """The picture of ``aion plan``'s two routes (from ``routes.plan_routes``) over the flow
-    map at the departure, as the PNG file ``out`` (``--png``)."""
+    map at the departure, as the PNG file ``out`` (``--png``); ``ends``: how the start and
+    goal are named (``kitchen (p117)``; default: their place ids)."""
     from aion_cli.engine.node_ids import node_label
     from aion_cli.pictures.plan import DrawnRoute, plan_figure
     from aion_cli.scene import scene_at
@@ -251,7 +258,7 @@ def plan_png(
             np.asarray(nav.xyz, dtype=np.float64)[route.rows], route.length_m, route.cost
         )
 
-    start, goal = node_label(routes.start), node_label(routes.goal)
+    start, goal = ends or (node_label(routes.start), node_label(routes.goal))
     fig = plan_figure(
         scene_at(loaded, routes.depart_ns),
         drawn(routes.temporal),

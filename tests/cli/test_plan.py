@@ -318,3 +318,36 @@ def test_a_room_id_in_lower_case_is_pointed_to_the_room(office: Office) -> None:
     absent = run("plan", office.map, "--from", "r9", "--to", "p3", "--time", AT)
     assert "did you mean" not in absent.stderr
     assert "nodes include p0" in absent.stderr
+
+
+def test_the_plan_picture_names_the_rooms_asked_for(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--from room0 --to R1``: the table's title reads "room0 (p0) -> room1 (p2)", the
+    picture's title and markers read "p0 to p2", "start p0", "goal p2", naming neither room.
+    Both now name them as the table does (a place asked for by id stays its id)."""
+    import aion_cli.pictures.plan as plan_picture
+
+    drawn: list[dict[str, Any]] = []
+    real = plan_picture.plan_figure
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        drawn.append(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(plan_picture, "plan_figure", spy)
+    for ends in (("room0", "R1"), ("p0", "p4")):
+        png = tmp_path / f"{ends[0]}.png"
+        args = ("plan", office.map, "--from", ends[0], "--to", ends[1], "--time", AT)
+        doc = run_json(*args, "--png", png, "--format", "json")
+        assert png.stat().st_size > 0
+        table = run(*args, "-q").stdout
+        snapped = {s["option"]: s for s in doc["snapped"]}
+        if ends[0] == "room0":
+            start = f"room0 ({snapped['--from']['node']})"
+            goal = f"room1 ({snapped['--to']['node']})"
+        else:
+            start, goal = "p0", "p4"
+        assert (drawn[-1]["start_label"], drawn[-1]["goal_label"]) == (start, goal)
+        assert drawn[-1]["title"] == f"{start} to {goal}, departing Mon 2026-11-23 08:30 UTC"
+        assert f"{start} -> {goal}, departing" in table
