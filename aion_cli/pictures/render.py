@@ -87,9 +87,12 @@ def time_title(t_ns: int | None, zone: Zone | None, clock_only: bool = False) ->
         return "as observed (historical)"
     where = zone if zone is not None else resolve_zone("UTC")
     moment = from_ns(t_ns, where)
+    # the hour a clock change repeats reads the same twice: its offset says which it is
+    twice = moment.replace(fold=1 - moment.fold).utcoffset() != moment.utcoffset()
+    offset = f" {moment.isoformat()[-6:]}" if twice else ""
     if clock_only:
-        return moment.strftime("%H:%M")
-    return f"{moment.strftime('%a %Y-%m-%d %H:%M')} {where.name}"
+        return moment.strftime("%H:%M") + offset
+    return f"{moment.strftime('%a %Y-%m-%d %H:%M')}{offset} {where.name}"
 
 
 def _panel_titles(times: Sequence[int | None], zone: Zone | None) -> list[str]:

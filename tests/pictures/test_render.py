@@ -82,6 +82,28 @@ def test_titles_are_in_the_maps_zone() -> None:
     assert "historical" in time_title(None, None)
 
 
+def test_a_title_in_the_hour_a_clock_change_repeats_says_which() -> None:
+    """Berlin, 2026-10-25: 02:30 comes at 00:30 UTC (+02:00) and again at 01:30 UTC
+    (+01:00). Both pictures (export --time, plan --png) were titled "Sun 2026-10-25 02:30
+    Europe/Berlin"; each now gives its offset, as a series' panel titles do. The hours
+    around it, and the hour spring skips over, keep the plain title."""
+    zone = resolve_zone("Europe/Berlin")
+    summer = parse_time("2026-10-25T02:30:00+02:00", zone)
+    winter = parse_time("2026-10-25T02:30:00+01:00", zone)
+    assert winter - summer == 3600 * 10**9
+    assert time_title(summer, zone) == "Sun 2026-10-25 02:30 +02:00 Europe/Berlin"
+    assert time_title(winter, zone) == "Sun 2026-10-25 02:30 +01:00 Europe/Berlin"
+    assert time_title(winter, zone, clock_only=True) == "02:30 +01:00"
+    for iso, title in (
+        ("2026-10-25T01:30:00+02:00", "Sun 2026-10-25 01:30 Europe/Berlin"),
+        ("2026-10-25T03:30:00+01:00", "Sun 2026-10-25 03:30 Europe/Berlin"),
+        ("2026-03-29T03:30:00+02:00", "Sun 2026-03-29 03:30 Europe/Berlin"),
+    ):
+        assert time_title(parse_time(iso, zone), zone) == title
+    utc = resolve_zone("UTC")
+    assert time_title(summer, utc) == "Sun 2026-10-25 00:30 UTC"
+
+
 def test_panels_at_hours_no_log_observed_say_extrapolated() -> None:
     """A map whose manifest lists only 08:00-09:00 (UTC) as observed: the 03:00 panel is
     marked, the 08:30 one is not; a historical picture and an older map are left alone."""
