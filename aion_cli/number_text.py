@@ -29,3 +29,16 @@ def mean_spread(value: Any, digits: int = 2) -> str:
     if spread == 0:
         return fixed(mean, digits)
     return f"{fixed(mean, digits)} ± {fixed(spread, digits)}"
+
+
+def span_text(seconds: float | None) -> str:
+    """``120h00m00s``, ``5m07s``; a span under a minute in seconds (``0.3 s``: a 0.3 s log
+    read ``0m00s``)."""
+    if seconds is None:
+        return "-"
+    if seconds < 59.5:
+        return f"{seconds:.1f} s"
+    whole = round(seconds)
+    hours, rest = divmod(whole, 3600)
+    minutes, secs = divmod(rest, 60)
+    return f"{hours}h{minutes:02d}m{secs:02d}s" if hours else f"{minutes}m{secs:02d}s"

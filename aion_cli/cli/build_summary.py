@@ -6,19 +6,9 @@ from typing import Any
 
 from aion_cli.cli.console import console, print_table, warn_each
 from aion_cli.cli.output import counted, human_size, markup_safe
+from aion_cli.number_text import span_text
 
-
-def span_text(seconds: float | None) -> str:
-    """``120h00m00s``, ``5m07s``; a span under a minute in seconds (``0.3 s``: a 0.3 s log
-    read ``0m00s``)."""
-    if seconds is None:
-        return "-"
-    if seconds < 59.5:
-        return f"{seconds:.1f} s"
-    whole = round(seconds)
-    hours, rest = divmod(whole, 3600)
-    minutes, secs = divmod(rest, 60)
-    return f"{hours}h{minutes:02d}m{secs:02d}s" if hours else f"{minutes}m{secs:02d}s"
+__all__ = ["print_summary", "print_warnings", "span_text"]
 
 
 def print_summary(summary: dict[str, Any]) -> None:

@@ -15,7 +15,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from aion_cli.formats.outputs import safe_text
-from aion_cli.number_text import fixed
+from aion_cli.number_text import fixed, span_text
 from aion_cli.report.content import ReportContent
 from aion_cli.timeparse import Zone, format_ns
 
@@ -130,7 +130,7 @@ def _holdings(c: ReportContent) -> list[str]:
 
     s = c.shown
     start, end = c.observed.span
-    hours = None if start is None or end is None else (end - start) / 3.6e12
+    seconds = None if start is None or end is None else (end - start) / 1e9
     defaults = ModelConfig().to_dict()
     changed = {k: v for k, v in (s.get("config") or {}).items() if defaults.get(k) != v}
     facts = [
@@ -139,7 +139,7 @@ def _holdings(c: ReportContent) -> list[str]:
         (
             "time span",
             f"{_when(start, c.zone)} .. {_when(end, c.zone)}"
-            + ("" if hours is None else f" ({hours:,.1f} h)"),
+            + ("" if seconds is None else f" ({span_text(seconds)})"),
         ),
         (
             "first / last observed window (centres)",

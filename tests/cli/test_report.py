@@ -380,3 +380,23 @@ def test_the_busiest_count_is_the_maps_places_and_cells_not_its_entries(
     text = " ".join((out / "index.html").read_text(encoding="utf-8").split())
     assert "The 7 busiest of the map's 7 places and hash cells," in text
     assert "of 7 entries" not in text
+
+
+def test_a_short_span_reads_as_info_gives_it(tmp_path: Path) -> None:
+    """A 10-s recording of the small office (messages at 0 and 5 s): the page's time span
+    read "(0.0 h)" where aion info says "5.0 s"; it now gives info's span text, as it does
+    for a long map ("120h00m00s" for the sample, not "120.0 h")."""
+    from tests.cli.logdata import write_office_log
+
+    log = tmp_path / "tiny.mcap"
+    write_office_log(log, duration_s=10)
+    built = tmp_path / "tiny.aion"
+    assert run("build", log, "-o", built, "-q").exit_code == 0
+    span = run_json("info", built, "--format", "json")["time_span"]
+    assert span["end_ns"] - span["start_ns"] == 5 * 10**9
+    assert "5.0 s:" in run("info", built).stdout
+    out = tmp_path / "report"
+    result = run("report", built, "-o", out, "-q")
+    assert result.exit_code == 0, result.stderr
+    facts = dict(_parse(out / "index.html").tables["facts"])
+    assert facts["time span"].endswith("08:00:05+00:00 (5.0 s)"), facts["time span"]
