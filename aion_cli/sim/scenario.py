@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -20,7 +19,6 @@ import numpy as np
 
 from aion_cli.errors import InputError
 from aion_cli.formats.serialize import clean
-from aion_cli.formats.tf import MAX_GAP_S
 from aion_cli.sim.agents import AgentSamples, agent_speeds, simulate_agents
 from aion_cli.sim.clock import SceneClock
 from aion_cli.sim.environment import Environment, load_graph_environment
@@ -92,99 +90,11 @@ class ScenarioConfig:
         return self.frame or ("map" if self.robot == "fixed" else "base_link")
 
     def validate(self) -> None:
-        """Raise :class:`InputError` for impossible combinations (before any work is done)."""
-        finite = (
-            self.days, self.utc_offset_h, self.rate_hz, self.noise, self.window_s,
-            self.tf_idle_s, self.stream.period_s, self.stream.idle_period_s,
-            self.patrol.tour_every_s, self.patrol.sensor_range,
-        )  # fmt: skip
-        if not all(math.isfinite(v) for v in finite):
-            raise InputError(
-                "simulate's numbers must be finite (no nan or inf)",
-                hint="give --days and the other numbers as plain values, e.g. --days 2.5",
-            )
-        periods = (
-            self.tf_idle_s, self.stream.period_s, self.stream.idle_period_s,
-            self.patrol.tour_every_s,
-        )  # fmt: skip
-        checks = [
-            (self.days > 0, "--days must be positive"),
-            (0 <= self.seed < 2**63, "--seed must be a whole number from 0"),
-            (0 <= self.agents <= MAX_AGENTS, f"--agents must be 0 .. {MAX_AGENTS}"),
-            (1 <= self.scenes <= MAX_SCENES, f"--scenes must be 1 .. {MAX_SCENES}"),
-            (0.01 <= self.rate_hz <= 100.0, "--rate must be 0.01 .. 100 Hz"),
-            (0 <= self.noise <= 10.0, "--noise must be 0 .. 10 m"),
-            (-14.0 <= self.utc_offset_h <= 14.0, "--utc-offset must be -14 .. 14 hours"),
-            (
-                min(periods) >= MIN_PERIOD_S and max(periods) <= (self.days + 1) * 86400.0,
-                f"scene-graph, TF and patrol periods must be {MIN_PERIOD_S:g} s .. the "
-                "simulated days",
-            ),
-            (60.0 <= self.window_s <= 86400.0, "--window must be 60 .. 86400 s"),
-            (self.robot in ("patrol", "fixed"), "--robot must be patrol or fixed"),
-            (self.resolved_frame() in ("base_link", "map"), "--frame must be base_link or map"),
-            (self.format in FORMATS, f"--format must be one of {', '.join(FORMATS)}"),
-            (self.bins >= 1, "bins must be positive"),
-            (
-                self.stream.period_s > 0 and self.stream.idle_period_s > 0,
-                "scene-graph periods must be positive",
-            ),
-            (self.patrol.tour_every_s > 0, "the patrol interval must be positive"),
-            (self.tf_idle_s > 0, "the TF period must be positive"),
-            (
-                self.tf_idle_s <= 0 or self.robot == "fixed" or self._tf_gap_s() <= MAX_GAP_S,
-                f"a parked robot's TF would come every {self._tf_gap_s():g} s (--tf-idle-period "
-                f"in ticks of --rate): aion build takes a gap over {MAX_GAP_S:g} s between TF "
-                "samples as time the robot's pose was unknown (tf2's cache length), so the "
-                "parked robot would observe nothing: give a shorter --tf-idle-period or a "
-                "higher --rate",
-            ),
-            (self.patrol.sensor_range > 0, "the sensor range must be positive"),
-            (
-                self.nav_layer is None or self.environment != "office",
-                "--nav-layer needs a scene-graph file as --environment",
-            ),
-        ]
-        for ok, message in checks:
-            if not ok:
-                raise InputError(message, hint="see aion simulate --help for every option's range")
-        if self.days * 86400.0 * self.rate_hz > MAX_TICKS:
-            raise InputError(
-                f"{self.days:g} days at {self.rate_hz:g} Hz is more than one scene holds "
-                f"({MAX_TICKS:,} sensor ticks; the robot is simulated per tick in memory)",
-                hint="simulate several scenes (--scenes) or lower --rate",
-            )
-        if self.robot == "fixed" and self.resolved_frame() == "base_link":
-            raise InputError(
-                "a fixed sensor publishes in the map frame",
-                hint="drop --frame base_link or use --robot patrol",
-            )
-        flags = self.patrol.changed_flags() if self.robot == "fixed" else []
-        if self.robot == "fixed" and self.stream.period_s != StreamConfig().period_s:
-            flags.append("--dsg-period")  # the period while the robot drives
-        if flags:  # a fixed sensor sees everyone at every tick: they would do nothing
-            named = " and ".join([", ".join(flags[:-1]), flags[-1]] if len(flags) > 1 else flags)
-            raise InputError(
-                f"{named} set{'s' if len(flags) == 1 else ''} the patrolling robot, and "
-                "--robot fixed has none: a fixed sensor sees every person at every tick",
-                hint=f"leave out {named}, or use --robot patrol",
-            )
-        if self.timezone is not None and self.utc_offset_h != 0.0:
-            raise InputError(
-                "give --tz or --utc-offset, not both",
-                hint="--tz Europe/London keeps the zone's daylight saving; --utc-offset 1 is "
-                "a fixed offset",
-            )
-        detection_msgtype(self.detection_type)
-        try:
-            first = start_ns(self.start, self.utc_offset_h, self.timezone)
-        except (OverflowError, OSError, ValueError) as exc:
-            raise InputError(f"--start {self.start!r} cannot be simulated: {exc}") from exc
-        if not 0 <= first <= LAST_START_NS - int(self.days * 86400e9):
-            raise InputError(
-                f"--start {self.start!r}: the simulated days must lie in 1970 .. 2261",
-                hint="choose a later start" if first < 0 else "choose an earlier start",
-            )
+        """Raise :class:`InputError` for impossible combinations (before any work is done):
+        :func:`aion_cli.sim.scenario_checks.validate_scenario`."""
+        from aion_cli.sim.scenario_checks import validate_scenario
+
+        validate_scenario(self)
 
     def zone_name(self) -> str:
         """The zone the scene's clock follows, as ``aion build --tz`` takes it: ``--tz``'s
