@@ -24,6 +24,16 @@ def _logs(tmp_path: Path) -> list[Path]:
     return [robot1, fixed, robot2]
 
 
+
+def _continued(logs: list[Path], out: Path) -> Path:
+    """A map built from the first log and continued with each next one (``--map``)."""
+    for k, log in enumerate(logs):
+        build_map(BuildOptions(
+            logs=(log,), output=out, workers=1, continue_from=out if k else None,
+        ))
+    return out
+
+
 def test_a_fixed_sensor_log_beside_robot_logs_observes_its_own_windows(tmp_path: Path) -> None:
     logs = _logs(tmp_path)
     one = build_logs(logs, tmp_path / "one.aion", 1)
@@ -35,12 +45,7 @@ def test_a_fixed_sensor_log_beside_robot_logs_observes_its_own_windows(tmp_path:
         "message, as a build of it alone would (a robot log whose localisation was not "
         "recorded is read so too)"
     ]
-    continued = tmp_path / "continued.aion"
-    for k, log in enumerate(logs):
-        build_map(BuildOptions(
-            logs=(log,), output=continued, workers=1,
-            continue_from=continued if k else None,
-        ))
+    continued = _continued(logs, tmp_path / "continued.aion")
     assert same_maps(tmp_path / "one.aion", continued) == []
     two = build_logs(logs, tmp_path / "two.aion", 2)
     assert len(two.workers) == 3
@@ -60,12 +65,7 @@ def test_a_fixed_sensor_log_beside_a_robot_seen_by_the_graphs_agent_layer(tmp_pa
     write_office_log(logs[2], tf=False, agents=True, shift_s=3 * DAY_S, duration_s=2 * HOUR_S)
     one = build_logs(logs, tmp_path / "one.aion", 1)
     assert one.observation.startswith("scene-graph agent layer + fixed sensor over the 6 windows")
-    continued = tmp_path / "continued.aion"
-    for k, log in enumerate(logs):
-        build_map(BuildOptions(
-            logs=(log,), output=continued, workers=1,
-            continue_from=continued if k else None,
-        ))
+    continued = _continued(logs, tmp_path / "continued.aion")
     assert same_maps(tmp_path / "one.aion", continued) == []
     two = build_logs(logs, tmp_path / "two.aion", 2)
     assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
