@@ -24,7 +24,6 @@ def _logs(tmp_path: Path) -> list[Path]:
     return [robot1, fixed, robot2]
 
 
-
 def _continued(logs: list[Path], out: Path) -> Path:
     """A map built from the first log and continued with each next one (``--map``)."""
     for k, log in enumerate(logs):
