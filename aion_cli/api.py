@@ -245,7 +245,7 @@ class Map:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
         wanted, point, top = check.selection(nodes, at, top)
         self._check_file()
-        every = parse_step(check.step(step))
+        every = parse_step(check.step(step), "step")
         t0, zone = self._time(start, tz)
         t1, _ = self._time(end, tz, after_ns=t0)
         times = series_times(t0, t1, every, zone, ("start", "end"))
@@ -303,7 +303,7 @@ class Map:
         from aion_cli.predictions import hour_flags
         from aion_cli.timeparse import parse_step
 
-        every = parse_step(check.step("10m" if step is None else step))
+        every = parse_step(check.step("10m" if step is None else step), "step")
         first, last = check.pair(leave, "leave", "earliest, latest")
         earliest = self._time(first, tz)[0]
         latest = self._time(last, tz, after_ns=earliest)[0]

@@ -401,14 +401,16 @@ class Step:
 _STEP_HINT = "e.g. --step 1h, 30m, 600s or 1d"
 
 
-def parse_step(step: str | float) -> Step:
+def parse_step(step: str | float, option: str = "--step") -> Step:
     """A series step: text (``"1h"``, ``"30m"``, ``"600s"``, ``"1h30m"``, ``"1d"``, ``"1w"``, or
     ``"600"`` seconds) or seconds as a number (elapsed time), at least 1 s and at most the time
-    range aion handles; :class:`TimeFormatError` otherwise (``--step``, and the API's ``step``).
-    """
+    range aion handles; :class:`TimeFormatError` otherwise, naming ``option`` as the user gave
+    it (``--step`` on the command line, ``step`` in the API, whose hint gives its form)."""
     days = Decimal(0)
     seconds = Decimal(0)
-    name = "--step" if isinstance(step, str) else "step"
+    api = not option.startswith("--")
+    name = option if isinstance(step, str) or api else "step"
+    hint = "e.g. step='1h', '30m', '600s', '1d' or 600 (seconds)" if api else _STEP_HINT
     if isinstance(step, str):
         token = step.strip().lower()
         if token.replace(".", "", 1).isdigit():
@@ -416,10 +418,10 @@ def parse_step(step: str | float) -> Step:
         else:
             parts = _RE_REL_PART.findall(token)
             if not parts or "".join(a + u for a, u in parts) != token.replace(" ", ""):
-                raise TimeFormatError(f"cannot read the step {step!r}", _STEP_HINT)
+                raise TimeFormatError(f"cannot read the step {step!r}", hint)
             for amount, unit in parts:
                 if unit not in _UNITS_S:
-                    raise TimeFormatError(f"unknown unit {unit!r} in --step {step!r}", "w d h m s")
+                    raise TimeFormatError(f"unknown unit {unit!r} in {name} {step!r}", "w d h m s")
                 if unit in ("w", "d"):
                     days += Decimal(amount) * (_UNITS_S[unit] // 86400)
                 else:
@@ -427,17 +429,17 @@ def parse_step(step: str | float) -> Step:
     else:
         value = float(step)
         if not math.isfinite(value):
-            raise TimeFormatError(f"step must be finite, got {step!r}", _STEP_HINT)
+            raise TimeFormatError(f"step must be finite, got {step!r}", hint)
         seconds = Decimal(value)
     whole = int(days)  # never negative: the text has no sign
     seconds += (days - whole) * 86400
     total = whole * 86400 + seconds
     if not total >= 1:  # frames are named by the second (and a 0 s step never ends)
-        raise TimeFormatError(f"{name} must be at least 1 s, got {step!r}", _STEP_HINT)
+        raise TimeFormatError(f"{name} must be at least 1 s, got {step!r}", hint)
     if not total <= Decimal(MAX_TIME_NS - MIN_TIME_NS) / NS_PER_S:
         raise TimeFormatError(
             f"{name} {step!r} is longer than the time range aion handles ({RANGE_TEXT})",
-            _STEP_HINT,
+            hint,
         )
     return Step(whole, int(seconds * NS_PER_S))
 

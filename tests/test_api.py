@@ -271,6 +271,21 @@ def test_the_api_s_input_errors_carry_a_hint(example: dict[str, Any]) -> None:
         assert exc.value.hint, exc.value.message
 
 
+def test_a_bad_step_is_named_as_the_api_takes_it(example: dict[str, Any]) -> None:
+    """``step="0s"`` / ``"5x"`` were answered in the command line's words ("--step must be
+    at least 1 s", hint "e.g. --step 1h"): the API names its own argument and form."""
+    m = example["m"]
+    for step, said in (("0s", "step must be at least 1 s"), ("5x", "unknown unit 'x' in step")):
+        with pytest.raises(aion.InputError) as exc:
+            m.predict_series("2026-01-12 06:00", "20:00", step, tz="UTC")
+        assert said in exc.value.message
+        assert "--step" not in exc.value.message + str(exc.value.hint)
+    with pytest.raises(aion.InputError) as exc:
+        m.predict_series("2026-01-12 06:00", "20:00", "0s", tz="UTC")
+    assert exc.value.hint is not None
+    assert "step='1h'" in exc.value.hint
+
+
 def test_a_spans_end_given_as_a_clock_counts_from_its_start(example: dict[str, Any]) -> None:
     """``leave=("2026-01-12 07:00", "10:00")`` and ``predict_series(..., "20:00")`` end that
     day, as ``--leave START..END`` and ``--from`` / ``--to`` read them (alone, ``"10:00"``
