@@ -307,15 +307,16 @@ def room_labels(loaded: LoadedMap) -> dict[str, str]:
 
 def busiest_entries(loaded: LoadedMap, t_ns: int | None) -> tuple[tuple[Busiest, ...], int]:
     """The ``TOP_ENTRIES`` busiest entries (places and cells) at ``t_ns`` (None: as
-    observed), exactly as ``aion predict --top N`` lists them, with each one's room and the
-    flow family that forecasts it (the choice does not depend on the time), and how many
-    entries the map has."""
+    observed) that have any flow, exactly as ``aion predict --top N`` lists them, with each
+    one's room and the flow family that forecasts it (the choice does not depend on the
+    time), and how many entries the map has."""
     from aion_cli.engine.node_ids import parse_node_id
     from aion_cli.engine.query import node_symbol, parent_ids
     from aion_cli.engine.windows import EPOCH_NS
     from aion_cli.predictions import entry_ids, entry_table, predicted_records
 
     rows, matched = predicted_records(loaded, t_ns, "all", top=TOP_ENTRIES)
+    rows = [r for r in rows if (r.get("flow") or 0) > 0]  # a busiest place has some flow
     families = {r["id"]: r["family"] for r in rows}
     if t_ns is None and rows:  # historical records say "historical": ask the forecast
         table = entry_table(loaded, EPOCH_NS)

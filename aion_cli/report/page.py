@@ -246,6 +246,11 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
     command = f"aion predict --top {len(c.busiest)} " + (
         "--historical" if c.t_ns is None else f'--time "{format_ns(c.t_ns, c.zone)}"'
     )
+    if not c.busiest:
+        return [
+            "<h2>Busiest places</h2>",
+            f"<p>None of the map's {c.matched:,} places and hash cells has any flow {what}.</p>",
+        ]
     rows = []
     for rank, b in enumerate(c.busiest, start=1):
         r = b.record

@@ -377,9 +377,12 @@ def test_the_busiest_count_is_the_maps_places_and_cells_not_its_entries(
     assert (counts["places"], counts["hash cells"], counts["entries"]) == (7, 0, 5)
     rows = run_json("predict", office.map, "--historical", "--format", "json")["entries"]
     assert len(rows) == 7
+    flowing = sum(1 for r in rows if (r["flow"] or 0) > 0)
+    assert 0 < flowing < 7  # p5 and p6 hold no entry: they are listed, but nobody walked there
     text = " ".join((out / "index.html").read_text(encoding="utf-8").split())
-    assert "The 7 busiest of the map's 7 places and hash cells," in text
+    assert f"The {flowing} busiest of the map's 7 places and hash cells," in text
     assert "of 7 entries" not in text
+    assert len(page.tables["busiest"]) == flowing  # places without flow are not 'busiest'
 
 
 def test_a_short_span_reads_as_info_gives_it(tmp_path: Path) -> None:

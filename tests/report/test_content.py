@@ -203,3 +203,16 @@ def test_the_busiest_table_prints_no_negative_zero(fixed_map: tuple[Path, Loaded
     assert '<td class="n">+0.0</td>' in row
     assert "<td>0.00, -2.50</td>" in row
     assert "-0.0" not in row
+
+
+def test_a_time_at_which_nothing_flows_says_so_instead_of_an_empty_table() -> None:
+    """With no entry flowing (every forecast 0 at that time), the page said "The 0 busiest
+    of the map's N places" above an empty table; it now says that none has any flow."""
+    from types import SimpleNamespace
+
+    from aion_cli.report.page import _busiest
+
+    content = SimpleNamespace(t_ns=None, zone=None, busiest=(), matched=151)
+    html = " ".join(_busiest(content, {}))  # type: ignore[arg-type]
+    assert "None of the map's 151 places and hash cells has any flow as observed" in html
+    assert "<table" not in html
