@@ -151,13 +151,13 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
     ``graph(t)`` every ``graph_period_s`` from the first message on, merged in time order.
 
     Messages are serialized with numpy through the project's own CDR helpers
-    (``formats.tracks_log._tracked_person_records`` / ``_tracked_persons_bytes``) 20,000 at a time
-    and written with ``formats.writers.LogWriter`` (MCAP, zstd chunks), which writes to a
+    (``formats.track_messages.tracked_person_records`` / ``tracked_persons_bytes``) 20,000 at
+    a time and written with ``formats.writers.LogWriter`` (MCAP, zstd chunks), which writes to a
     staging name and renames on success, so an interrupted run leaves no truncated cache.
     ``empty``: a mask over ``times`` of messages that hold nobody (a tracker publishing at a
     fixed rate). ``chunk_size``: bytes per MCAP chunk (the writer's 1 MiB when None)."""
     from aion_cli.engine.types import DetectionBatch
-    from aion_cli.formats.tracks_log import _tracked_person_records, _tracked_persons_bytes
+    from aion_cli.formats.track_messages import tracked_person_records, tracked_persons_bytes
     from aion_cli.formats.writers import LogWriter, stamp
 
     if path.exists():
@@ -183,7 +183,7 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
             within = np.arange(total) - np.repeat(np.cumsum(c) - c, c)
             batch = DetectionBatch(times[msg], xyz, heading, rng.normal(1.2, 0.2, total),
                                    burst[msg] * 1000 + within)
-            records = _tracked_person_records(batch, True)
+            records = tracked_person_records(batch, True)
             ends = np.cumsum(c)
             for i, (t, s, e) in enumerate(zip(times[a : a + block].tolist(),
                                               (ends - c).tolist(), ends.tolist(), strict=True)):
@@ -196,7 +196,7 @@ def write_log(path: Path, times: Any, per_message: int, area: tuple[float, float
                         "sequence_number": g,
                     }, graph_times[g])
                     g += 1
-                raw = _tracked_persons_bytes(records[s:e], t, "map", True, a + i)
+                raw = tracked_persons_bytes(records[s:e], t, "map", True, a + i)
                 writer.write_raw(TOPIC, TRACKED, raw, t)
             detections += total
     return {"messages": len(times), "detections": detections, "graph_messages": g}

@@ -12,7 +12,7 @@ import pytest
 
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.errors import InputError
-from aion_cli.formats import track_csv, tracks_log
+from aion_cli.formats import track_csv, track_messages, tracks_log
 from aion_cli.formats import tracks as ft
 from aion_cli.formats.detections.frame import FrameDetections
 from tests.shared_data import SHARED_DATA, needs, real_path
@@ -287,8 +287,8 @@ def test_vectorized_tracked_persons_bytes_equal_writer_serialization(
     for frame in ("map", "odom_x"):  # two string lengths: different CDR padding
         with LogWriter(tmp_path / f"w-{frame}.{container}", container) as writer:
             cdr = writer.ros_version == 2
-            records = tracks_log._tracked_person_records(batch, cdr)
-            raw = tracks_log._tracked_persons_bytes(
+            records = track_messages.tracked_person_records(batch, cdr)
+            raw = track_messages.tracked_persons_bytes(
                 records, int(batch.t_ns[0]), frame, cdr, seq=4
             )
             tracks = []
