@@ -134,6 +134,31 @@ def repeated_rows(batch: DetectionBatch) -> tuple[npt.NDArray[np.bool_], int]:
     return repeated, int(elsewhere.sum())
 
 
+FAR_M = float((1 << 20) * 0.5)
+"""How far from the origin a position may lie before :class:`FarRows` counts it: where the
+build's spatial hash ends at the default cell size (2^20 cells of 0.5 m, 524 km). A dataset
+position beyond it is a damaged value or not in metres (1e300, a GPS easting)."""
+
+
+@dataclass
+class FarRows:
+    """Counts the rows whose position lies more than :data:`FAR_M` from the origin on some
+    axis, over the batches, with the first such coordinate as an example (they are written
+    as the file has them; ``aion build`` leaves out what its spatial hash cannot hold)."""
+
+    rows: int = 0
+    example: float = 0.0
+
+    def count(self, data: DetectionBatch) -> None:
+        far = np.abs(data.xyz) > FAR_M
+        rows = far.any(axis=1)
+        if not rows.any():
+            return
+        if self.rows == 0:
+            self.example = float(data.xyz[far][0])
+        self.rows += int(rows.sum())
+
+
 @dataclass
 class RepeatedRows:
     """Leaves out the rows that repeat an earlier row's time and track id

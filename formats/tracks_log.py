@@ -26,7 +26,7 @@ from aion_cli.formats.track_messages import (
     tracked_person_records,
     tracked_persons_bytes,
 )
-from aion_cli.formats.track_types import RepeatedRows, _utc, merge_spans
+from aion_cli.formats.track_types import FarRows, RepeatedRows, _utc, merge_spans
 from aion_cli.formats.tracks import read_tracks
 
 SPENCER_TRACKED = "spencer_tracking_msgs/msg/TrackedPersons"
@@ -59,6 +59,9 @@ class TracksLogSummary:
     #: rows left out for repeating an earlier row's time and track id (of them elsewhere)
     repeated_rows: int = 0
     repeated_elsewhere: int = 0
+    #: rows more than ``track_types.FAR_M`` from the origin, and the first such coordinate
+    far_rows: int = 0
+    far_example: float = 0.0
 
 
 #: interval of the empty detection messages over an observed span: far below any sane
@@ -330,13 +333,14 @@ def _write_tracks(
             writer, kind, topic, frame_id, marks, payload, graph_topic, round(graph_period_s * 1e9)
         )
         held: DetectionBatch | None = None  # the rows of the last, maybe unfinished, message
-        repeats = RepeatedRows()
+        repeats, far = RepeatedRows(), FarRows()
         t0: int | None = None
         last_detection: int | None = None
         for chunk in chunks:
             if len(chunk) == 0:
                 continue
             _check_chunk(chunk, kind, held)
+            far.count(chunk)
             check_stamps(int(chunk.t_ns[-1]), container, "the tracks")
             t0 = int(chunk.t_ns[0]) if t0 is None else t0
             last_detection = int(chunk.t_ns[-1])
@@ -376,6 +380,8 @@ def _write_tracks(
         graph_agents_dropped=agents,
         repeated_rows=repeats.rows,
         repeated_elsewhere=repeats.elsewhere,
+        far_rows=far.rows,
+        far_example=far.example,
     )
 
 

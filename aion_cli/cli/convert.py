@@ -208,7 +208,7 @@ def command(
     from aion_cli.formats.track_csv import STREAM_LAYOUTS
     from aion_cli.formats.track_sniff import UNIX_SECONDS_FROM as UNIX_S
     from aion_cli.formats.track_sniff import layout_mismatch
-    from aion_cli.formats.track_types import NoTrackRowsError, merge_spans
+    from aion_cli.formats.track_types import FAR_M, NoTrackRowsError, merge_spans
     from aion_cli.formats.tracks import read_track_data
     from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
     from aion_cli.formats.writers import check_log_target
@@ -308,6 +308,13 @@ def command(
             "position): left out, so each person counts once per time"
             + (" (does the file hold rows twice?)" if copies else
                " (the tracker gave a person two positions at one time)")
+        )
+    if summary.far_rows:
+        warn(
+            f"{tracks.name}: {counted(summary.far_rows, 'row')} lie more than "
+            f"{FAR_M / 1000:,.0f} km from the origin (e.g. {summary.far_example:g} m): damaged "
+            "values, or positions not in metres; written as the file has them, but aion build "
+            "leaves them out (its spatial hash ends there at the default cell_size)"
         )
     if summary.graph_agents_dropped:
         note(

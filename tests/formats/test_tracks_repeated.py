@@ -75,3 +75,24 @@ def test_streamed_rows_repeated_across_chunks_are_left_out(tmp_path: Path) -> No
     plain.write_text("\n".join(lines) + "\n")
     tracks_log.stream_tracks_to_log(plain, tmp_path / "b.mcap", "atc", rows=5)
     assert _detections(tmp_path / "a.mcap") == _detections(tmp_path / "b.mcap")
+
+
+def test_positions_far_beyond_the_spatial_hash_are_warned_of(tmp_path: Path) -> None:
+    """A UCY file with one position damaged to 1e300 (and one 600 km out): convert wrote
+    them without a word and the build then left them out; convert now warns, naming how
+    many and an example, and still writes every row as the file has it."""
+    rows = [f"{10 * f} {p} {0.4 * f + p:.2f} {float(p):.1f}" for f in range(12) for p in (1, 2)]
+    rows[5] = "20 2 1e300 2.0"
+    rows[7] = "30 2 600000.0 2.0"
+    src, log = tmp_path / "far.txt", tmp_path / "far.mcap"
+    src.write_text("\n".join(rows) + "\n")
+    result = run("convert", src, "--layout", "ucy", "--start", "2026-01-05 12:00", "-o", log)
+    assert result.exit_code == 0, result.stderr
+    assert ("warning: far.txt: 2 rows lie more than 524 km from the origin (e.g. 1e+300 m): "
+            "damaged values") in " ".join(result.stderr.split())
+    assert len(_detections(log)) == 24
+    near = tmp_path / "near.txt"
+    near.write_text("\n".join(r for k, r in enumerate(rows) if k not in (5, 7)) + "\n")
+    quiet = run("convert", near, "--layout", "ucy", "--start", "2026-01-05 12:00", "-o",
+                tmp_path / "near.mcap")
+    assert "from the origin" not in quiet.stderr
