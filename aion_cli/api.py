@@ -312,7 +312,9 @@ class Map:
                 "leave: the latest departure is not after the earliest",
                 hint="give leave=(earliest, latest) with latest later, or time= for one departure",
             )
-        times = series_times(earliest, latest, every, zone, ("leave[0]", "leave[1]"))
+        times = series_times(
+            earliest, latest, every, zone, ("leave[0]", "leave[1]"), "departures"
+        )
         plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
         made = Plan.from_routes(plans[best], zone, snapped)
         observed = hour_flags(self._loaded, times)

@@ -116,6 +116,7 @@ def series_times(
     step: Step,
     zone: Zone,
     names: tuple[str, str] = ("--from", "--to"),
+    noun: str = "times",
 ) -> list[int]:
     """``start, start + step, ...`` up to ``end`` inclusive (an end that falls on a step is
     one of the times), each time :func:`aion_cli.timeparse.step_time`'s: a step in days or
@@ -123,7 +124,8 @@ def series_times(
     hours, minutes and seconds are elapsed time. The one place the series of ``predict``,
     ``export``, ``plan --leave`` and the API's are made. :class:`InputError` for an end before
     the start or more than :data:`MOST_TIMES` times. ``names``: what the caller calls the
-    start and the end (the CLI's options, or the API's arguments)."""
+    start and the end (the CLI's options, or the API's arguments); ``noun``: what the times
+    are (``departures`` of a plan, ``frames`` of an export)."""
     from aion_cli.errors import InputError
     from aion_cli.timeparse import step_time
 
@@ -147,9 +149,10 @@ def series_times(
             steps += 1
     count = steps + 1
     if count > MOST_TIMES:
+        cli = names[0].startswith("--")
         raise InputError(
-            f"the series would have {count:,} times (at most {MOST_TIMES:,})",
-            hint="use a larger --step or a shorter span",
+            f"the series would have {count:,} {noun} (at most {MOST_TIMES:,})",
+            hint=f"use a larger {'--step' if cli else 'step'} or a shorter span",
         )
     # a zone that skips a whole calendar day (Pacific/Apia, 2011-12-30) maps that day's
     # wall-clock time to the next day's instant: the time is taken once

@@ -157,7 +157,7 @@ def load(map_path: Path) -> Any:
 
 
 def series_of(
-    t_from: str, t_to: str, step: str, tz: str | None, loaded: Any
+    t_from: str, t_to: str, step: str, tz: str | None, loaded: Any, noun: str = "times"
 ) -> tuple[list[int], Zone]:
     """The times of ``--from`` .. ``--to`` (inclusive) every ``--step``, in the zone
     :func:`resolve_time` reads them in, which is also the zone whose calendar days a step in
@@ -166,7 +166,7 @@ def series_of(
 
     start, zone = resolve_time(t_from, tz, loaded)
     end, _ = resolve_time(t_to, tz, loaded, after_ns=start)
-    return series_times(start, end, parse_step(step), zone), zone
+    return series_times(start, end, parse_step(step), zone, noun=noun), zone
 
 
 def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:

@@ -170,7 +170,9 @@ def command(
     if historical:
         times = [None]
     elif t_from is not None and t_to is not None:
-        steps, zone = series_of(t_from, t_to, "1h" if step is None else step, tz, loaded)
+        steps, zone = series_of(
+            t_from, t_to, "1h" if step is None else step, tz, loaded, "frames"
+        )
         times = list(steps)
     else:
         when, zone = resolve_time("now" if time_text is None else time_text, tz, loaded)

@@ -20,7 +20,7 @@ def departure_times(text: str, step: str, zone: Zone) -> list[int]:
     from aion_cli.timeparse import parse_step
 
     start, end = parse_span(text, zone, "--leave")
-    return series_times(start, end, parse_step(step), zone)
+    return series_times(start, end, parse_step(step), zone, noun="departures")
 
 
 def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:

@@ -309,3 +309,13 @@ def test_a_shorter_series_removes_the_earlier_series_extra_frames(
     # a single time written straight into the folder leaves a series' frames alone
     assert run("export", office.map, "--time", AT, "-o", out, "-q").exit_code == 0
     assert (out / "20261123T060000Z" / "scene.ply").is_file()
+
+
+def test_a_series_of_too_many_frames_names_them_frames(office: Office, tmp_path: Path) -> None:
+    """An export series over 1,000 steps said "the series would have N times": an export
+    writes frames (a plan's series departures), and says so, with the count."""
+    result = run("export", office.map, "--from", "2026-11-23 08:00", "--to", "2026-11-23 09:00",
+                 "--step", "1s", "-o", tmp_path / "series")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "the series would have 3,601 frames (at most 1,000)")
+    assert not (tmp_path / "series").exists()
