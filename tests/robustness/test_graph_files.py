@@ -206,6 +206,16 @@ def test_random_damage_is_refused_only_where_the_bytes_are_wrong(
     assert refused > 10
 
 
+def _graph_as(path: Path, graph_file: Path) -> Path:
+    """The office graph at ``path`` in the format its (lower-case) suffix names: JSON for
+    ``.json``, else the binary ``graph_file``'s bytes."""
+    if path.suffix.lower() == ".json":
+        build_graph().save(str(path), False)
+    else:
+        path.write_bytes(graph_file.read_bytes())
+    return path
+
+
 @pytest.mark.parametrize("suffix", [".SPARKDSG", ".SparkDSG", ".JSON"])
 def test_a_graph_file_whose_suffix_is_not_lower_case_reads_as_its_lower_case_twin(
     graph_file: Path, tmp_path: Path, suffix: str
@@ -215,11 +225,7 @@ def test_a_graph_file_whose_suffix_is_not_lower_case_reads_as_its_lower_case_twi
     spark_dsg itself, not the lenient JSON reader, and leaves no temporary link behind."""
     from aion_cli.formats.dsg_files import read_dsg_file
 
-    lower = tmp_path / f"twin{suffix.lower()}"
-    if suffix.lower() == ".json":
-        build_graph().save(str(lower), False)
-    else:
-        lower.write_bytes(graph_file.read_bytes())
+    lower = _graph_as(tmp_path / f"twin{suffix.lower()}", graph_file)
     upper = tmp_path / f"twin-upper{suffix}"
     upper.write_bytes(lower.read_bytes())
     want, got = read_dsg_file(lower), read_dsg_file(upper)
@@ -240,11 +246,7 @@ def test_a_graph_file_named_as_the_other_format_reads_as_what_it_holds(
     text (byte 0 is not UTF-8)". Both read as what they hold, with a note saying so."""
     from aion_cli.formats.dsg_files import read_dsg_file
 
-    right = tmp_path / f"right{holds}"
-    if holds == ".json":
-        build_graph().save(str(right), False)
-    else:
-        right.write_bytes(graph_file.read_bytes())
+    right = _graph_as(tmp_path / f"right{holds}", graph_file)
     wrong = tmp_path / f"wrong{named}"
     wrong.write_bytes(right.read_bytes())
     want, got = read_dsg_file(right), read_dsg_file(wrong)
