@@ -172,9 +172,11 @@ def unposed_log_windows(
         fixed.extend(names[key] for key in group)
     if not parts:
         return None
-    shown = ", ".join(fixed[:3]) + (f" and {len(fixed) - 3:,} more" if len(fixed) > 3 else "")
+    from aion_cli.listing import first_few
+
     notes.append(
-        f"{len(fixed):,} log(s) of other times than the robot's hold no robot pose ({shown}): "
+        f"{len(fixed):,} log(s) of other times than the robot's hold no robot pose "
+        f"({first_few(fixed, 3)}): "
         "each is treated as a fixed sensor that saw everything in the windows in which it "
         "recorded any message, as a build of it alone would (a robot log whose localisation "
         "was not recorded is read so too)"
