@@ -75,9 +75,9 @@ def test_auto_and_a_number_choose_the_strengths() -> None:
     auto = ModelConfig()
     assert auto.direction_prior == "auto"
     assert group_prior(auto) == GROUP_PRIOR
-    assert entry_prior(auto, counts, parent) == fitted_kappa(counts, parent)
+    assert entry_prior(auto, lambda: (counts, parent)) == fitted_kappa(counts, parent)
     fixed = ModelConfig(direction_prior=7)
-    assert group_prior(fixed) == entry_prior(fixed, counts, parent) == 7.0
+    assert group_prior(fixed) == entry_prior(fixed, lambda: (counts, parent)) == 7.0
 
 
 def test_the_config_takes_auto_or_a_number_and_round_trips() -> None:

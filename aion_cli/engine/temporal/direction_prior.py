@@ -58,13 +58,13 @@ def group_prior(config: ModelConfig) -> float:
     return GROUP_PRIOR if isinstance(value, str) else float(value)
 
 
-def entry_prior(config: ModelConfig, counts: F64, parent: F64) -> float:
+def entry_prior(config: ModelConfig, directed: Callable[[], tuple[F64, F64]]) -> float:
     """κ of entries toward their parents: the configured number, or with ``"auto"`` the
-    estimate from ``counts`` (N[e, b], directed detections) around ``parent`` (p[e, b],
-    each entry's parent histogram)."""
+    estimate from ``directed()``: N[e, b] (directed detections) and p[e, b] (each entry's
+    parent histogram), gathered only then (a fixed κ needs neither)."""
     value = config.direction_prior
     if isinstance(value, str):
-        return fitted_kappa(counts, parent)
+        return fitted_kappa(*directed())
     return float(value)
 
 

@@ -71,16 +71,21 @@ class PoolStats:
                 count_sums(block, 2)[:, :b] if counts is None else counts[a : a + _POOL_BLOCK, :b]
             )
             c_g += _group_sums(g, n_groups, directed)
-            directed_blocks.append(np.asarray(directed, np.float64))
+            if counts is None:  # kept for the direction prior's estimate (counts hold them)
+                directed_blocks.append(np.asarray(directed, np.float64))
             if rows.size <= _POOL_BLOCK:
                 kept = (w_e, s_e)
         phi = overdispersion(state.window_chi2)
         shapes, map_shape = group_shapes(s_g, w_g, phi, params.calendar.bins_per_day)
         histograms = _group_histograms(group_prior(params.config), c_g)
-        directed_all = (
-            np.concatenate(directed_blocks) if directed_blocks else np.zeros((0, b))
-        )
-        kappa = entry_prior(params.config, directed_all, histograms[groups])
+
+        def directed_counts() -> tuple[F64, F64]:
+            if counts is not None:
+                return counts[:, :b], histograms[groups]
+            held = np.concatenate(directed_blocks) if directed_blocks else np.zeros((0, b))
+            return held, histograms[groups]
+
+        kappa = entry_prior(params.config, directed_counts)
         return cls(shapes, histograms, map_shape, kept, kappa)
 
 
