@@ -22,6 +22,8 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.spatial_hash import BIAS
 from aion_cli.engine.types import F64, DetectionBatch
 from aion_cli.errors import InputError
 
@@ -134,7 +136,7 @@ def repeated_rows(batch: DetectionBatch) -> tuple[npt.NDArray[np.bool_], int]:
     return repeated, int(elsewhere.sum())
 
 
-FAR_M = float((1 << 20) * 0.5)
+FAR_M = float(BIAS * ModelConfig.cell_size)  # the dataclass default, 0.5 m
 """How far from the origin a position may lie before :class:`FarRows` counts it: where the
 build's spatial hash ends at the default cell size (2^20 cells of 0.5 m, 524 km). A dataset
 position beyond it is a damaged value or not in metres (1e300, a GPS easting)."""
