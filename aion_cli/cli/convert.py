@@ -208,6 +208,7 @@ def command(
     from aion_cli.formats.track_csv import STREAM_LAYOUTS
     from aion_cli.formats.track_sniff import UNIX_SECONDS_FROM as UNIX_S
     from aion_cli.formats.track_sniff import layout_mismatch
+    from aion_cli.formats.track_tail import cut_last_line
     from aion_cli.formats.track_types import FAR_M, NoTrackRowsError, merge_spans
     from aion_cli.formats.tracks import read_track_data
     from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
@@ -279,6 +280,9 @@ def command(
     mismatch = layout_mismatch(tracks, layout)
     if mismatch is not None:
         warn(mismatch)
+    cut = cut_last_line(tracks, layout)
+    if cut is not None:
+        warn(cut)
     if layout == "edinburgh":
         from aion_cli.timeparse import format_ns
 
