@@ -6,8 +6,9 @@ temporary copy (:func:`_open_compressed`); an MCAP file (or a folder holding exa
 read by aion's MCAP reader; a ROS 1 bag by rosbags; a rosbag2 folder by rosbags, except that
 its mcap storage files go to aion's MCAP reader too (faster, and bounded by the read limits),
 and a folder without metadata.yaml, or one whose metadata.yaml rosbags refuses (a recording
-killed before it finished), is indexed from the storage files themselves, with a warning that
-says so.
+killed before it finished), or one with a sqlite3 storage file cut short (read as far as SQLite
+reads it: :mod:`formats.sqlite_salvage`), is indexed from the storage files themselves, with a
+warning that says so.
 
 Why apart from :mod:`formats.logs`: that module merges many sources into one time-ordered
 stream and knows nothing of containers; this one knows every container's quirks of opening.
@@ -26,6 +27,8 @@ from aion_cli.formats.mcap_source import _open_mcap
 from aion_cli.formats.rosbag2_reindex import _reindexed_sources
 from aion_cli.formats.rosbag2_storage import metadata_warning
 from aion_cli.formats.rosbags_source import _RosbagsSource
+from aion_cli.formats.sqlite_salvage import cut_short
+from aion_cli.listing import first_few
 
 
 def open_sources(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]:
@@ -98,6 +101,19 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
         sources[-1].warnings.append(
             f"{folder}: no metadata.yaml; indexed in memory from its {_files(sources)}, "
             f"as `ros2 bag reindex` would{one}"
+        )
+        return sources
+    files = storage.storage_files(folder)
+    short = [f.name for f in files if cut_short(f) is not None]
+    if short:  # SQLite opens none of it: what it reads of it, without the yaml's figures
+        sources = _reindexed_sources(files, folder, limits)
+        figures = storage.metadata_figures(folder)
+        stated = figures.message_count if figures is not None else None
+        read = sum(s.file.message_count for s in sources)
+        sources[-1].warnings.append(
+            f"{folder}: metadata.yaml not used ({first_few(short, 3)} cut short); indexed in "
+            f"memory from its {_files(sources)}"
+            + (f": {read:,} of the {stated:,} messages metadata.yaml counts" if stated else "")
         )
         return sources
     try:

@@ -23,6 +23,7 @@ from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, LogFile, _Source, _T
 from aion_cli.formats.mcap_source import _open_mcap
 from aion_cli.formats.raw import RawMessage, UnreadHint, normalize_msgtype
 from aion_cli.formats.rosbags_source import _storage_messages, _wanted_types
+from aion_cli.formats.sqlite_salvage import cut_short, salvage_to_temp
 
 if TYPE_CHECKING:
     from aion_cli.formats.recorded import Windows
@@ -155,26 +156,32 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
     summary); zstd-compressed files are read through decompressed temporary copies."""
     from aion_cli.formats import rosbag2_storage as storage
 
-    temps: dict[Path, Any] = {}
+    temps: dict[Path, list[Any]] = {}
     opened: list[_Source] = []
     try:
         readable: list[tuple[Path, Path]] = []  # (the file on disk, the file to read)
         for f in files:
             if storage.is_zstd(f):
                 tmp, inner = storage.decompress_to_temp(f)
-                temps[f] = tmp
+                temps[f] = [tmp]
                 readable.append((f, inner))
             else:
                 readable.append((f, f))
         sqlite: list[tuple[Path, Path]] = []
+        salvaged: list[str] = []  # the warnings of files cut short, read as far as they go
         for original, plain in readable:
             kind = storage.sniff(plain)
             if kind == "sqlite3":
+                cut = cut_short(plain)
+                if cut is not None:
+                    tmp, plain, warning = salvage_to_temp(plain, cut, original)
+                    temps.setdefault(original, []).append(tmp)
+                    salvaged.append(warning)
                 sqlite.append((original, plain))
             elif kind == "mcap":
                 mcap: _Source = _open_mcap(plain, fmt_name="rosbag2-mcap", limits=limits)
                 if original in temps:
-                    mcap = _Unpacked(mcap, [temps[original]], original)
+                    mcap = _Unpacked(mcap, temps[original], original)
                 opened.append(mcap)
             else:
                 raise LogFormatError(
@@ -191,13 +198,15 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
             db: _Source = _ReindexedSqliteSource(
                 shown, [p for _, p in sqlite], originals, limits
             )
-            owned = [temps[o] for o in originals if o in temps]
+            db.warnings.extend(salvaged)
+            owned = [tmp for o in originals for tmp in temps.get(o, [])]
             opened.insert(0, _Unpacked(db, owned) if owned else db)
     except BaseException:
         for source in opened:
             source.close()
-        for tmp in temps.values():
-            tmp.cleanup()
+        for held in temps.values():
+            for tmp in held:
+                tmp.cleanup()
         raise
     return opened
 

@@ -1,0 +1,215 @@
+"""A rosbag2 sqlite3 storage file cut short (a copy that did not finish, a recorder killed
+while SQLite grew the file), read as far as SQLite can read it.
+
+SQLite refuses a database file shorter than the page count its header states ("database disk
+image is malformed") before reading any row, although the pages that are there usually hold
+the schema, the topics and the first messages. :func:`cut_short` tells such a file from its
+header (no row read); :func:`salvage_to_temp` copies what SQLite still reads (every table, in
+rowid order, up to the first row it cannot read) into a new database in a temporary folder,
+which the rosbag2 readers then read like any storage file, and says how much was lost, as the
+ROS 1 bag reindex (:mod:`formats.bag_reindex`) does for a bag cut short. A file of which no
+message can be read is refused, as cut short, not merely as unreadable.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+import struct
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from aion_cli.errors import LogFormatError
+from aion_cli.formats.rosbag2_storage import SQLITE_MAGIC
+
+#: rows copied at a time (bounded memory whatever the payloads' sizes add up to)
+_BATCH = 256
+
+
+@dataclass(frozen=True)
+class CutShort:
+    """A sqlite3 file shorter than its header says: its size and the size the header states."""
+
+    size: int
+    page_size: int
+    pages: int
+
+    @property
+    def stated(self) -> int:
+        return self.page_size * self.pages
+
+    def describe(self) -> str:
+        """``1,000,000 of its 1,937,408 bytes (244 of 473 pages of 4,096 bytes)``."""
+        return (
+            f"{self.size:,} of its {self.stated:,} bytes ({self.size // self.page_size:,} of "
+            f"{self.pages:,} pages of {self.page_size:,} bytes)"
+        )
+
+
+def cut_short(path: Path) -> CutShort | None:
+    """What the header of the sqlite3 file ``path`` says it lacks, or None when it is whole
+    (or no sqlite3 file, or its header states no size: SQLite then takes the file's)."""
+    try:
+        with path.open("rb") as f:
+            head = f.read(100)
+            size = f.seek(0, 2)
+    except OSError:
+        return None
+    if len(head) < 100 or not head.startswith(SQLITE_MAGIC):
+        return None
+    page_size = struct.unpack_from(">H", head, 16)[0]
+    page_size = 65536 if page_size == 1 else page_size
+    change, pages, valid_for = (struct.unpack_from(">I", head, k)[0] for k in (24, 28, 92))
+    if pages == 0 or change != valid_for or page_size < 512:
+        return None  # the header's size is not in force: SQLite uses the file's
+    return CutShort(size, page_size, pages) if size < page_size * pages else None
+
+
+def salvage_to_temp(
+    path: Path, cut: CutShort, shown: Path | None = None
+) -> tuple[tempfile.TemporaryDirectory[str], Path, str]:
+    """Copy what SQLite reads of the cut-short sqlite3 file ``path`` into a new database of
+    the same name in a new temporary folder: ``(folder, copy, warning)``; the caller owns the
+    folder and calls its ``cleanup()``. Messages name ``shown`` (default ``path``: the file
+    on disk when ``path`` is its decompressed copy). Raises :class:`LogFormatError` (the
+    folder removed) when not one message can be read, or the temporary disk runs out."""
+    name = shown if shown is not None else path
+    try:
+        tmp = tempfile.TemporaryDirectory(prefix="aion-salvage-")
+    except OSError as exc:
+        raise _no_room(name, exc) from exc
+    copy = Path(tmp.name) / path.name
+    try:
+        whole = _whole_pages(path, cut, Path(tmp.name) / f"whole-pages-{path.name}")
+        try:
+            read, stop = _copy_rows(whole, copy)
+        finally:
+            if whole != path:
+                whole.unlink()
+    except sqlite3.DatabaseError as exc:
+        tmp.cleanup()
+        if isinstance(exc, sqlite3.OperationalError) and "disk" in str(exc).lower():
+            raise _no_room(name, exc) from exc
+        raise _refused(name, cut, str(exc)) from exc
+    except OSError as exc:
+        tmp.cleanup()
+        raise _no_room(name, exc) from exc
+    except BaseException:
+        tmp.cleanup()
+        raise
+    if read == 0:
+        tmp.cleanup()
+        raise _refused(name, cut, stop or "its messages table is empty")
+    warning = (
+        f"{name.name}: the sqlite3 storage file is cut short, {cut.describe()}: its first "
+        f"{read:,} messages are read, those after them are lost"
+        + (f" (SQLite: {stop})" if stop else "")
+    )
+    return tmp, copy, warning
+
+
+def _whole_pages(path: Path, cut: CutShort, target: Path) -> Path:
+    """``path`` itself when it ends at a page boundary, else a copy (``target``) of its whole
+    pages: SQLite reads the bytes missing from a partial last page as zeros, which make rows
+    of it that look whole; a page wholly missing is an error it reports."""
+    keep = cut.size - cut.size % cut.page_size
+    if keep == cut.size:
+        return path
+    with path.open("rb") as src, target.open("wb") as dst:
+        while keep > 0 and (piece := src.read(min(keep, 1 << 20))):
+            dst.write(piece)
+            keep -= len(piece)
+    return target
+
+
+def _copy_rows(path: Path, copy: Path) -> tuple[int, str]:
+    """Create ``copy`` with ``path``'s tables, indexes after their rows, and every row SQLite
+    reads of each table, in rowid order up to the first it cannot read: (messages copied,
+    SQLite's error where it stopped reading messages, "" when it read them all)."""
+    # read-only, and no write to the file's folder (a journal, a lock): it may be read-only;
+    # every query its own read transaction, so an error ends with it
+    source = path.resolve().as_uri() + "?mode=ro&immutable=1"
+    cut = sqlite3.connect(source, uri=True, isolation_level=None)
+    db = sqlite3.connect(copy, isolation_level=None)  # transactions by hand (savepoints)
+    try:
+        cut.execute("PRAGMA writable_schema = ON")  # reads a file shorter than its header says
+        db.execute("PRAGMA journal_mode = MEMORY")
+        db.execute("PRAGMA synchronous = OFF")
+        entries = cut.execute(
+            "SELECT type, name, sql FROM sqlite_master WHERE sql IS NOT NULL "
+            "AND name NOT LIKE 'sqlite_%'"
+        ).fetchall()
+        tables = [name for kind, name, _ in entries if kind == "table"]
+        if "messages" not in tables:
+            raise sqlite3.DatabaseError("it has no messages table that SQLite can read")
+        db.execute("BEGIN")
+        for kind, _, sql in entries:
+            if kind == "table":
+                db.execute(sql)
+        copied, stop = 0, ""
+        for name in tables:
+            count, why = _copy_table(cut, db, name)
+            if name == "messages":
+                copied, stop = count, why
+            elif why and name == "topics":  # messages without their topics cannot be read
+                raise sqlite3.DatabaseError(f"its topics table cannot be read ({why})")
+        for kind, _, sql in entries:
+            if kind != "table":
+                db.execute(sql)
+        db.execute("COMMIT")
+    finally:
+        cut.close()
+        db.close()
+    return copied, stop
+
+
+def _copy_table(cut: sqlite3.Connection, db: sqlite3.Connection, name: str) -> tuple[int, str]:
+    """Copy table ``name`` of ``cut`` into ``db``, a batch at a time, until SQLite cannot
+    read on: (rows copied, its error, "" when every row was read)."""
+    quoted = '"' + name.replace('"', '""') + '"'
+    columns = cut.execute(f"PRAGMA table_info({quoted})").fetchall()
+    insert = f"INSERT INTO {quoted} VALUES ({', '.join('?' * len(columns))})"
+    select = f"SELECT rowid, * FROM {quoted} WHERE rowid > ? ORDER BY rowid"
+    copied, last, size = 0, -(2**63), _BATCH
+    while True:
+        why = ""
+        rows = cut.execute(select, (last,))
+        try:
+            batch: list[Any] | None = rows.fetchmany(size)
+        except sqlite3.DatabaseError as exc:
+            batch, why = None, str(exc)
+        finally:
+            rows.close()
+        if batch:
+            db.execute("SAVEPOINT batch")
+            try:
+                db.executemany(insert, [row[1:] for row in batch])
+            except sqlite3.IntegrityError as exc:  # a damaged row read as one (a NULL id)
+                db.execute("ROLLBACK TO batch")
+                batch, why = None, f"a damaged row ({exc})"
+            db.execute("RELEASE batch")
+        if batch is None:
+            if size > 1:  # the batch the damage is in: its rows before it, one by one
+                size = 1
+                continue
+            return copied, why
+        if not batch:
+            return copied, ""
+        copied += len(batch)
+        last = batch[-1][0]
+
+
+def _refused(path: Path, cut: CutShort, why: str) -> LogFormatError:
+    return LogFormatError(
+        f"{path}: the sqlite3 storage file is cut short, {cut.describe()}, and SQLite reads "
+        f"none of its messages ({why})",
+        hint="the copy or the recording did not finish: copy the file again from its source",
+    )
+
+
+def _no_room(path: Path, exc: Exception) -> LogFormatError:
+    return LogFormatError(
+        f"{path}: cannot copy what is readable of it into {tempfile.gettempdir()} ({exc})",
+        hint="free disk space there, or set TMPDIR to a folder with room for the copy",
+    )
