@@ -99,12 +99,23 @@ def walk(f: IO[bytes], start: int, stop: int) -> Generator[tuple[int, int, int],
     return None
 
 
+#: the records from a log's DataEnd on: DataEnd, then the summary section (Schema, Channel,
+#: ChunkIndex, AttachmentIndex, Statistics, MetadataIndex, SummaryOffset) and the Footer
+_AFTER_DATA = frozenset(
+    {OP_DATA_END, OP_SCHEMA, OP_CHANNEL, 0x08, 0x0A, 0x0B, 0x0D, 0x0E, OP_FOOTER}
+)
+#: opcodes from here on are an application's own records (the MCAP specification's 0x80-0xFF)
+_OWN_OPCODES = 0x80
+
+
 def end_of_log(f: IO[bytes], start: int, stop: int) -> int | None:
     """Where the MCAP whose top-level records run on from byte ``start`` (its DataEnd or
     summary section) ends: after its Footer record and the closing magic; None when no
     Footer and magic follow (a file cut short, a damaged record length); where another
     MCAP starts instead of a record (a log without its summary and footer, another appended
-    to it). Short of ``stop`` (the file size) when something was appended after the log."""
+    to it), or bytes that are no record a log ends with (garbage appended to a log without
+    its summary and footer). Short of ``stop`` (the file size) when something was appended
+    after the log."""
     pos = start
     while pos + RECORD_HEAD.size <= stop:
         f.seek(pos)
@@ -112,6 +123,8 @@ def end_of_log(f: IO[bytes], start: int, stop: int) -> int | None:
         if head == MAGIC:
             return pos
         opcode, length = RECORD_HEAD.unpack(head + f.read(RECORD_HEAD.size - len(head)))
+        if opcode not in _AFTER_DATA and opcode < _OWN_OPCODES:
+            return pos  # no record the end of a log holds: bytes appended after it
         end = pos + RECORD_HEAD.size + length
         if end > stop:
             return None
