@@ -18,6 +18,8 @@ if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
 
+#: the member rosbags gives a type without fields (an IDL struct needs one)
+_PLACEHOLDER = "structure_needs_at_least_one_member"
 _SEPARATOR = re.compile(r"^={3,}[ \t]*$", re.MULTILINE)
 
 
@@ -41,6 +43,7 @@ def _store_with_definition(
             hint="give a log recorded with message definitions (ROS 2 Iron or later, MCAP)",
         )
     types = _parse_definition(definition, msgtype, idl)
+    _check_fields(types, msgtype, ros_version, idl)
     store = stores.get(encoding)
     if store is None:
         store = stores[encoding] = get_typestore(
@@ -83,3 +86,30 @@ def _parsed(definition: str, msgtype: str, idl: bool) -> dict[str, Any]:
             f"cannot parse the log's definition of {msgtype} ({exc})",
             hint="the log's embedded message definition is malformed",
         ) from exc
+
+
+def _check_fields(types: dict[str, Any], msgtype: str, ros_version: int, idl: bool) -> None:
+    """Refuse a log's definition that gives ``msgtype`` no field (a text of comments only)
+    where aion's own definition has fields: decoded with it, every message failed as "CDR
+    message size mismatch", which named neither the definition nor what is wrong with it."""
+    from aion_cli.formats import msgdefs
+    from aion_cli.formats.raw import normalize_msgtype
+
+    entry = types.get(msgtype) or types.get(normalize_msgtype(msgtype))
+    if entry is None or entry[1]:
+        return
+    try:
+        layout = msgdefs.shipped_layout(msgtype, ros_version)
+    except msgdefs.UnknownMessageTypeError:  # a type aion does not ship
+        return
+    # (rosbags gives a type without fields, std_msgs/Empty, the one IDL requires of a struct)
+    shipped = sum(name != _PLACEHOLDER for name, _ in layout)
+    if shipped:
+        raise MessageDecodeError(
+            f"the log's definition of {msgtype} is empty: its {'IDL' if idl else '.msg'} "
+            f"text gives it no field, only comments (aion's own definition of {msgtype} has "
+            f"{shipped} fields), so its messages cannot be decoded with it",
+            hint="the recorder did not have the message package's definition: record with "
+            f"the package that defines {msgtype} installed (a log that embeds no definition "
+            "text at all is read with aion's own)",
+        )

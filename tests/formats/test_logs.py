@@ -300,3 +300,42 @@ def test_rosbag2_storage_file_without_metadata(tmp_path: Path) -> None:
     db3.unlink()
     with pytest.raises(LogFormatError, match="not a rosbag2 bag"):
         open_logs([folder])
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["# the layers of a scene graph\n# (no fields)\n", "# header\n" + "=" * 80 + "\nMSG: x/Y\n"],
+)
+def test_a_definition_of_comments_only_is_named_as_empty(text: str, tmp_path: Path) -> None:
+    """A schema whose text is comments only gave a type aion ships no field: every message
+    failed as "CDR message size mismatch". The error now names the type and says its
+    definition is empty; a type that has no field anyway (std_msgs/Empty) still decodes."""
+    from mcap.writer import Writer
+
+    from aion_cli.formats.msgdefs import typestore
+    from aion_cli.formats.writers import to_message
+
+    path = tmp_path / "comments.mcap"
+    msg = to_message("hydra_msgs/DsgUpdate", {"layer_contents": b"xyz", "sequence_number": 3})
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start(profile="ros2")
+        schema = w.register_schema("hydra_msgs/msg/DsgUpdate", "ros2msg", text.encode())
+        dsg = w.register_channel("/dsg", "cdr", schema)
+        w.add_message(
+            dsg, T0, bytes(typestore(2).serialize_cdr(msg, "hydra_msgs/msg/DsgUpdate")), T0
+        )
+        empty = w.register_schema("std_msgs/msg/Empty", "ros2msg", b"# nothing\n")
+        tick = w.register_channel("/tick", "cdr", empty)
+        w.add_message(tick, T0 + 1, b"\x00\x01\x00\x00\x00", T0 + 1)  # the IDL placeholder
+        w.finish()
+    with open_logs([path]) as logs:
+        first, second = logs.messages()
+        with pytest.raises(MessageDecodeError) as caught:
+            logs.decode(first)
+        assert caught.value.message.startswith(
+            "the log's definition of hydra_msgs/msg/DsgUpdate is empty: its .msg text gives "
+            "it no field, only comments (aion's own definition of hydra_msgs/msg/DsgUpdate "
+            "has 6 fields)"  # header, layer_contents, deleted_nodes / _edges, full_update, seq
+        )
+        assert logs.decode(second) is not None
