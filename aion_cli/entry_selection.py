@@ -27,12 +27,17 @@ def chosen_entries(
     ``t_ns``: the entry table of the layer it answers on, that layer, the rows chosen (a
     layer the map lacks refused) and the graph's room and building names; ``predict``'s
     records at one time and its series both start here."""
-    from aion_cli.room_names import names_by_id, with_names_resolved
+    from aion_cli.room_names import names_by_id, other_case_hint, with_names_resolved
 
-    wanted = with_names_resolved(nodes, loaded.graph)
-    layer = layer_of_nodes(layer, wanted, loaded.graph)
+    graph = loaded.graph
+    wanted = with_names_resolved(nodes, graph)
+    layer = layer_of_nodes(layer, wanted, graph)
     table = entry_table(loaded, t_ns, layer)
-    index = select(table, layer, wanted, at, in_map=_in_map(loaded, t_ns))
+    index = select(
+        table, layer, wanted, at, in_map=_in_map(loaded, t_ns),
+        # r1 for the graph's R1: named, as plan names it
+        suggest=None if graph is None else (lambda missing: other_case_hint(missing, graph)),
+    )
     index = refuse_empty_layer(table, layer, index)
     names = {} if loaded.graph is None else names_by_id(loaded.graph)
     return table, layer, index, names
@@ -143,12 +148,14 @@ def select(
     nodes: Sequence[str | int] = (),
     at: str | None = None,
     in_map: Callable[[list[str]], bool] | None = None,
+    suggest: Callable[[list[str]], str | None] | None = None,
 ) -> Any:
     """Row numbers of the entries asked for (``--layer``, ``--node``, ``--at``), in table
     order (``--node``: in the order given, an entry named twice once, where first named:
     ``--node p2 --node p2`` or ``--node kitchen --node R2`` is one row), as an int64 array.
     ``in_map``: whether the map holds ids on other layers than ``table``'s (``--layer rooms
-    --node p4``: a place, not a room; None: taken as held)."""
+    --node p4``: a place, not a room; None: taken as held). ``suggest``: the hint for ids
+    not found, when it has one (``did you mean R1``), before the table's own."""
     import numpy as np
 
     from aion_cli.engine.nearest import distances_from
@@ -186,7 +193,10 @@ def select(
         if missing:
             _refuse_other_layers(layer, missing, labels, in_map)
             everyone = {str(i) for i in entry_ids(table, np.arange(len(table.xyz)))}
-            if layer in ("places", "cells") and set(missing) <= everyone:
+            suggested = suggest(missing) if suggest is not None else None
+            if suggested is not None:
+                hint = suggested
+            elif layer in ("places", "cells") and set(missing) <= everyone:
                 hint = f"--layer {layer} leaves {', '.join(missing)} out: ask without --layer"
             elif layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
                 # the graph's own rooms and buildings are answered (layer_of_nodes)

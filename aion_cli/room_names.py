@@ -49,6 +49,32 @@ def room_in_other_case(node_id: int, graph: GraphSnapshot) -> int | None:
     return other if held else None
 
 
+def other_case_hint(nodes: Sequence[str | int], graph: GraphSnapshot) -> str | None:
+    """``did you mean R1 (hallway)? ...`` when each of ``nodes`` (ids as given, not found)
+    names a room or building of ``graph`` with its letter in the other case (``r1``), else
+    None: the hint ``plan`` and ``predict`` give alike."""
+    from aion_cli.errors import InputError
+
+    guesses = []
+    for node in nodes:
+        try:
+            node_id = node if isinstance(node, int) else parse_node_id(node.strip())
+        except InputError:  # a hash cell's c<key>, or no id at all
+            return None
+        other = room_in_other_case(node_id, graph)
+        if other is None:
+            return None
+        guesses.append(other)
+    if not guesses:
+        return None
+    names = names_by_id(graph)
+    said = ", ".join(
+        label + (f" ({names[label]})" if label in names else "")
+        for label in dict.fromkeys(node_label(g) for g in guesses)
+    )
+    return f"did you mean {said}? (ids are case-sensitive; room names are not)"
+
+
 def name_of(layer: Layer, k: int) -> str | None:
     """The name the graph gives node ``k`` of ``layer`` ("kitchen"); None when it gives none,
     or only the node's id (``R3``)."""

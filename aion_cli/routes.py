@@ -26,9 +26,8 @@ from aion_cli.engine.node_ids import (
 from aion_cli.room_names import (
     name_of,
     named_node,
-    names_by_id,
+    other_case_hint,
     parse_id_or_name,
-    room_in_other_case,
 )
 
 if TYPE_CHECKING:
@@ -130,16 +129,11 @@ def _refuse_room_in_other_case(node_id: int, graph: GraphSnapshot) -> None:
     ``p0, p1, ...``, as though the map had no such room)."""
     from aion_cli.errors import UnknownNodeError
 
-    other = room_in_other_case(node_id, graph)
-    if other is None:
-        return
-    names = names_by_id(graph)
-    label = node_label(other)
-    named = f" ({names[label]})" if label in names else ""
-    raise UnknownNodeError(
-        f"node {node_label(node_id)} is not in the navigational graph",
-        hint=f"did you mean {label}{named}? (ids are case-sensitive; room names are not)",
-    )
+    hint = other_case_hint([node_id], graph)
+    if hint is not None:
+        raise UnknownNodeError(
+            f"node {node_label(node_id)} is not in the navigational graph", hint=hint
+        )
 
 
 def _refuse_unknown_room(node_id: int, graph: GraphSnapshot) -> None:

@@ -299,8 +299,9 @@ def test_a_node_id_in_the_other_case_is_pointed_to_its_spelling(office: Office) 
 def test_a_room_id_in_lower_case_is_pointed_to_the_room(office: Office) -> None:
     """``r1`` where the office has room ``R1`` (named room1): the hint listed the places
     (``nodes include p0, p1, ...``, ``ids include p0, ...``), as though the map had no
-    such room; plan and export name the room, predict says room ids are upper case. A room
-    id absent in both cases keeps the places' hint."""
+    such room; plan, export and predict now name the room and its name (predict said only
+    that room ids are upper case). A room id absent in both cases keeps the places' hint
+    (predict: that room ids are upper case)."""
     for args in (
         ["plan", office.map, "--from", "r1", "--to", "p3", "--time", AT],
         ["export", office.map, "--time", AT, "-o", office.map.parent / "r1.png",
@@ -311,13 +312,17 @@ def test_a_room_id_in_lower_case_is_pointed_to_the_room(office: Office) -> None:
         assert_one_line_error(result.stderr, "node r1 is not in the navigational graph")
         assert "hint: did you mean R1 (room1)? (ids are case-sensitive" in result.stderr
     assert not (office.map.parent / "r1.png").exists()
-    predicted = run("predict", office.map, "--node", "r1")
-    assert predicted.exit_code == 2, predicted.stderr
-    assert_one_line_error(predicted.stderr, "node r1 is not in the map")
-    assert "room and building ids are upper case (R1, B0)" in predicted.stderr
+    for args in (["--node", "r1"], ["--node", "r1", "--layer", "rooms"]):
+        predicted = run("predict", office.map, *args)
+        assert predicted.exit_code == 2, predicted.stderr
+        assert_one_line_error(predicted.stderr, "node r1 is not in the map")
+        assert "hint: did you mean R1 (room1)? (ids are case-sensitive" in predicted.stderr
     absent = run("plan", office.map, "--from", "r9", "--to", "p3", "--time", AT)
     assert "did you mean" not in absent.stderr
     assert "nodes include p0" in absent.stderr
+    absent = run("predict", office.map, "--node", "r9")
+    assert "did you mean" not in absent.stderr
+    assert "room and building ids are upper case (R1, B0)" in absent.stderr
 
 
 def test_the_plan_picture_names_the_rooms_asked_for(
