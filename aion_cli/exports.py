@@ -109,11 +109,11 @@ def check_out_dir(out_dir: Path) -> None:
     kind = special_kind(out_dir)
     if kind is not None:
         raise OutputPathError(
-            f"-o {out_dir} is {kind}, not a folder", hint="give a folder to write into"
+            f"{out_dir} is {kind}, not a folder", hint="give a folder to write into"
         )
     if out_dir.exists() and not out_dir.is_dir():
         raise OutputPathError(
-            f"-o {out_dir} is a file, not a folder", hint="give a folder to write into"
+            f"{out_dir} is a file, not a folder", hint="give a folder to write into"
         )
     check_output_folder(out_dir)
 
@@ -445,7 +445,7 @@ def _into(out: Path, fmt: str) -> bool:
 
 
 def check_export_target(out: Path, fmt: str) -> None:
-    """The check of ``-o`` each writer of ``fmt`` makes before any work (see each)."""
+    """The check of the output each writer of ``fmt`` makes before any work (see each)."""
     if fmt == "dsg":
         from aion_cli.formats.dsg_export import check_dsg_target
 

@@ -52,24 +52,26 @@ def _written_by_aion(path: Path) -> bool:
 
 
 def check_dsg_target(path: Path) -> None:
-    """Refuse ``-o`` before anything is computed: a folder, another suffix (``.JSON`` too:
-    spark_dsg saved nothing there and aion stopped with an internal error), a device, or an
-    existing file that is not a graph file aion exported."""
+    """Refuse the output before anything is computed: a folder, another suffix (``.JSON``
+    too: spark_dsg saved nothing there and aion stopped with an internal error), a device, or
+    an existing file that is not a graph file aion exported. The messages name the output,
+    not the option that gave it: ``aion export -o`` and ``Map.export`` both come here."""
     if path.is_dir():
         raise OutputPathError(
-            f"-o {path} is a folder: --format dsg writes one file",
-            hint=f"name the file, e.g. -o {path / 'dsg.json'}",
+            f"{path} is a folder: the scene-graph export (format dsg) writes one file",
+            hint=f"name the file, e.g. {path / 'dsg.json'}",
         )
     if path.suffix.lower() not in SUFFIXES:
         raise OutputPathError(
-            f"--format dsg writes a .json or .sparkdsg file, got -o {path.name!r}",
-            hint="e.g. -o dsg.json",
+            "the scene-graph export (format dsg) writes a .json or .sparkdsg file, got "
+            f"{path.name!r}",
+            hint="name the file, e.g. dsg.json",
         )
     if path.suffix not in SUFFIXES:  # spark_dsg saves (and loads) no other spelling
         raise OutputPathError(
-            f"--format dsg writes a {path.suffix.lower()} file in lower case, got -o "
+            f"the scene-graph export writes a {path.suffix.lower()} file in lower case, got "
             f"{path.name!r}: spark_dsg reads no other spelling",
-            hint=f"-o {path.with_suffix(path.suffix.lower()).name}",
+            hint=f"name it {path.with_suffix(path.suffix.lower()).name}",
         )
     check_output(
         path, overwrite=True, recognise=_written_by_aion, what="a scene-graph file", option=None

@@ -61,7 +61,7 @@ def check_map_path(path: str | os.PathLike[str]) -> None:
     if p.is_dir():
         raise MapWriteError(
             f"cannot write map {p}: it is a folder",
-            hint="give a file path, e.g. -o office.aion",
+            hint=f"name a file, e.g. {p / 'office.aion'}",
         )
 
 

@@ -155,7 +155,7 @@ def refuse_current_folder(target: Path, example: str) -> None:
         raise OutputPathError(
             f"{target} is the current folder (or one of its parents): aion does not write "
             "into it as an output of its own",
-            hint=f"name an output inside it, e.g. -o {example}",
+            hint=f"name an output inside it, e.g. {example}",
         )
 
 

@@ -106,18 +106,20 @@ def is_scene_mcap(path: Path) -> bool:
 
 
 def check_scene_target(path: Path) -> None:
-    """Refuse ``-o`` before anything is computed: a folder (``--format mcap`` writes one
+    """Refuse the output before anything is computed: a folder (the MCAP export writes one
     file), a name without ``.mcap``, a device, FIFO or socket, or an existing file that is not
     an MCAP file an export wrote (:func:`is_scene_mcap`; such a file is replaced, as a
-    re-export replaces its PLY files; a recorded log never is)."""
+    re-export replaces its PLY files; a recorded log never is). The messages name the output,
+    not the option that gave it (``aion export -o``, ``Map.export``)."""
     if path.is_dir():
         raise OutputPathError(
-            f"-o {path} is a folder: --format mcap writes one file",
-            hint=f"name the file, e.g. -o {path / 'scene.mcap'}",
+            f"{path} is a folder: the MCAP scene export (format mcap) writes one file",
+            hint=f"name the file, e.g. {path / 'scene.mcap'}",
         )
     if path.suffix.lower() != ".mcap":
         raise OutputPathError(
-            f"--format mcap writes an .mcap file, got -o {path.name!r}", hint="e.g. -o scene.mcap"
+            f"the MCAP scene export (format mcap) writes an .mcap file, got {path.name!r}",
+            hint="name the file, e.g. scene.mcap",
         )
     check_output(
         path, overwrite=True, recognise=is_scene_mcap, what="an MCAP scene", option=None

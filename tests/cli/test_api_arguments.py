@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import inspect
 import os
+import re
 import shutil
 import sys
 import types
@@ -217,6 +218,36 @@ def test_paths_must_be_paths(tmp_path: Path, m: aion.Map) -> None:
         m.export(tmp_path / "out", time=T, path=("p1", "p2", "p3"))  # type: ignore[arg-type]
     with pytest.raises(InputError, match="path must be two items"):
         m.picture(tmp_path / "m.png", time=T, path=("p1",))  # type: ignore[arg-type]
+
+
+def test_output_refusals_name_the_path_not_a_command_option(
+    m: aion.Map, tmp_path: Path
+) -> None:
+    """``m.export("Y.JSON")`` was refused with the hint ``-o Y.json``, an option of the
+    command an API caller does not run (so were a folder given for one file, and
+    ``m.save(folder)``: ``e.g. -o office.aion``): the refusals now name the path given and
+    the spelling to give instead."""
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    cases = [
+        (lambda: m.export(tmp_path / "Y.JSON", time=T), "Y.JSON", "name it Y.json"),
+        (lambda: m.export(folder, time=T, format="dsg"), f"{folder} is a folder",
+         f"e.g. {folder / 'dsg.json'}"),
+        (lambda: m.export(folder, time=T, format="mcap"), f"{folder} is a folder",
+         f"e.g. {folder / 'scene.mcap'}"),
+        (lambda: m.export(tmp_path / "s.ply", time=T, format="mcap"), "'s.ply'",
+         "e.g. scene.mcap"),
+        (lambda: m.save(folder), f"{folder}: it is a folder", f"e.g. {folder / 'office.aion'}"),
+    ]
+    for call, says, hint in cases:
+        with pytest.raises(InputError) as caught:
+            call()
+        message, given = caught.value.message, caught.value.hint or ""
+        assert says in message
+        assert hint in given
+        said = f"{message} {given}".replace(str(tmp_path), "TMP")  # (pytest-of-root)
+        assert not re.search(r"(^|\s)(-o|--[a-z])", said), said
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"]
 
 
 def test_build_arguments(office: Office, tmp_path: Path) -> None:

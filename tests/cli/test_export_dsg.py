@@ -132,7 +132,7 @@ def test_bad_targets_and_options(office: Office, tmp_path: Path) -> None:
         result = run("export", office.map, "--format", "dsg", *map(str, extra))
         assert result.exit_code == 2, (extra, result.stderr)
         assert_one_line_error(result.stderr, fragment)
-    assert "hint: -o dsg.json" in run(
+    assert "hint: name it dsg.json" in run(
         "export", office.map, "--time", AT, "-o", tmp_path / "dsg.JSON"
     ).stderr  # the suffix alone chose the format
     assert sorted(p.name for p in tmp_path.iterdir()) == ["folder", "mine.json"]
