@@ -56,6 +56,7 @@ __all__ = ["Map", "Plan", "Table", "as_path", "build", "compact", "merge", "to_n
 TimeLike = str | int | datetime
 
 
+@check.methods_checked
 class Map:
     """A 4D scene-graph map: loaded from a ``.aion`` file, built from logs, or made from an
     in-memory ``MapState`` (:meth:`from_state`)."""
@@ -411,7 +412,7 @@ class Map:
         options["map_frame"] = (
             frame if isinstance(frame, str) else self.manifest.map_frame or DEFAULT_MAP_FRAME
         )
-        opts = reading_options(logs, options, self.timezone)
+        opts = reading_options(logs, options, self.timezone, "Map.holdout")
         return score_held_out(self._loaded, opts, radius)
 
     # -- saving ------------------------------------------------------------------------------

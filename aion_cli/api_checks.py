@@ -9,14 +9,21 @@ of arguments (zones, node lists, counts, spans); one place reads them alike.
 
 from __future__ import annotations
 
+import difflib
+import functools
+import inspect
 import math
 import numbers
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from datetime import datetime, timedelta, tzinfo
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
-from aion_cli.errors import InputError
+from aion_cli.errors import InputError, UnknownArgumentError
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+_C = TypeVar("_C", bound=type)
 
 ZoneLike = str | tzinfo
 """A zone argument (``tz``): a name (``"Europe/London"``, ``"UTC+02:00"``), a
@@ -258,3 +265,51 @@ def endpoint(node: object, what: str) -> str | int:
     where = point(node, what)
     assert where is not None
     return where
+
+
+def refuse_unknown_keywords(where: str, given: Iterable[str], valid: Sequence[str]) -> None:
+    """:class:`UnknownArgumentError` for the first of ``given`` that is not in ``valid``
+    (the keywords ``where``, a function's name, takes): Python's words, a close spelling and
+    every keyword there is."""
+    unknown = [name for name in given if name not in valid]
+    if not unknown:
+        return
+    name = unknown[0]
+    close = difflib.get_close_matches(name, valid, n=1, cutoff=0.75)
+    raise UnknownArgumentError(
+        f"{where}() got an unexpected keyword argument {name!r}"
+        + (f" (and {len(unknown) - 1} more)" if len(unknown) > 1 else ""),
+        hint=(f"did you mean {close[0]}? " if close else "")
+        + f"{where}() takes: {', '.join(valid)}",
+    )
+
+
+def keywords_checked(func: Callable[_P, _R]) -> Callable[_P, _R]:
+    """``func`` refusing a keyword it does not take with :func:`refuse_unknown_keywords`
+    (Python's bare ``TypeError`` named no keyword it does take); a function that takes
+    ``**options`` checks them itself."""
+    params = inspect.signature(func).parameters.values()
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
+        return func
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    valid = [p.name for p in params if p.kind in kinds and p.name not in ("self", "cls")]
+
+    @functools.wraps(func)
+    def checked(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        if kwargs:
+            refuse_unknown_keywords(func.__qualname__, kwargs, valid)
+        return func(*args, **kwargs)
+
+    return checked
+
+
+def methods_checked(cls: _C) -> _C:
+    """``cls`` with each public method (and class method) :func:`keywords_checked`."""
+    for name, attr in list(vars(cls).items()):
+        if name.startswith("_"):
+            continue
+        if isinstance(attr, classmethod):
+            setattr(cls, name, classmethod(keywords_checked(attr.__func__)))
+        elif inspect.isfunction(attr):
+            setattr(cls, name, keywords_checked(attr))
+    return cls

@@ -11,7 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Union
 
-from aion_cli.api_checks import ZoneLike
+from aion_cli.api_checks import ZoneLike, keywords_checked, refuse_unknown_keywords
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
@@ -50,6 +50,7 @@ def progress_sink(progress: object) -> ProgressSink | None:
     return progress  # type: ignore[return-value]
 
 
+@keywords_checked
 def build(
     logs: PathLike | Sequence[PathLike],
     output: PathLike | None = None,
@@ -119,6 +120,7 @@ def build(
     return made
 
 
+@keywords_checked
 def merge(
     paths: Sequence[PathLike],
     output: PathLike,
@@ -151,6 +153,7 @@ def merge(
     return made
 
 
+@keywords_checked
 def compact(source: PathLike, output: PathLike) -> Map:
     """Write the query-only copy of the map ``source`` to ``output``, as ``aion compact``
     (:func:`aion_cli.query_only.compact_map`: the same answers to every query, without the
@@ -173,7 +176,7 @@ READING = (
 
 
 def reading_options(
-    logs: object, options: dict[str, object], tz: str | None
+    logs: object, options: dict[str, object], tz: str | None, where: str = "build"
 ) -> BuildOptions:
     """The ``BuildOptions`` that read ``logs`` as :func:`build` reads them, from the reading
     ``options`` (:data:`READING`; others are an ``InputError`` naming the ones there are):
@@ -184,12 +187,7 @@ def reading_options(
     from aion_cli.pipeline import BuildOptions
     from aion_cli.timeparse import resolve_zone
 
-    unknown = sorted(set(options) - set(READING))
-    if unknown:
-        raise InputError(
-            f"unknown option(s): {', '.join(unknown)}",
-            hint=f"reading options: {', '.join(READING)}",
-        )
+    refuse_unknown_keywords(where, options, ("radius", *READING) if "." in where else READING)
     if logs is None or (not isinstance(logs, str | os.PathLike) and not isinstance(logs, Sequence)):
         raise InputError(
             f"logs must be a path or a list of paths, got {logs!r}",

@@ -48,6 +48,13 @@ class InputError(AionError):
     """Bad input or usage: a file, an option, a value the user gave (CLI exit code 2)."""
 
 
+class UnknownArgumentError(InputError, TypeError):
+    """A keyword argument a function of the Python API does not take (``aion.build(logs,
+    bogus=1)``): an :class:`InputError` with a hint listing the keywords it does take, as every
+    refused argument is, and a ``TypeError``, as Python raises for an unknown keyword (code
+    that catches ``TypeError`` still does)."""
+
+
 class ConfigError(InputError):
     """A model parameter or configuration file is invalid."""
 

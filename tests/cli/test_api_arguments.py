@@ -152,7 +152,7 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
         (lambda m: m.plan("p1", "p2", leave=(T, T)), "latest departure is not after"),
         (lambda m: m.holdout([], radius=1.0), "no log given"),
         (lambda m: m.holdout(None), "logs must be a path"),
-        (lambda m: m.holdout(["x.mcap"], frob=1), "unknown option"),
+        (lambda m: m.holdout(["x.mcap"], frob=1), "unexpected keyword argument 'frob'"),
         (lambda m: m.holdout(["x.mcap"], radius=-5), "association radius"),
         (lambda m: m.holdout(["x.mcap"], radius=float("nan")), "association radius"),
         (lambda m: m.holdout(["x.mcap"], radius="1"), "association radius"),
@@ -248,6 +248,43 @@ def test_output_refusals_name_the_path_not_a_command_option(
         said = f"{message} {given}".replace(str(tmp_path), "TMP")  # (pytest-of-root)
         assert not re.search(r"(^|\s)(-o|--[a-z])", said), said
     assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"]
+
+
+def test_an_unknown_keyword_is_named_with_the_keywords_there_are(
+    office: Office, m: aion.Map, tmp_path: Path
+) -> None:
+    """``aion.build(logs, bogus=1)`` raised Python's bare ``TypeError`` (no hint, not an
+    ``aion.InputError`` as docs/API.md promises for every refused argument); now it is an
+    ``UnknownArgumentError``, both, naming the keyword, a close spelling and the keywords the
+    function takes (its signature's, so the list cannot drift from it)."""
+    import inspect
+
+    from aion_cli.errors import UnknownArgumentError
+
+    calls = [
+        (lambda: aion.build(office.log, tmp_path / "b.aion", detection_topic="/tracks"),
+         aion.build, "detection_topic", "detection_topics"),
+        (lambda: aion.merge([office.map], tmp_path / "m.aion", linage="same"),
+         aion.merge, "linage", "lineage"),
+        (lambda: aion.compact(office.map, tmp_path / "c.aion", bogus=1),
+         aion.compact, "bogus", None),
+        (lambda: m.predict(T, tops=3), aion.Map.predict, "tops", "top"),
+        (lambda: aion.Map.load(office.map, strict=True), aion.Map.load, "strict", None),
+    ]
+    for call, function, name, close in calls:
+        with pytest.raises(UnknownArgumentError) as caught:
+            call()
+        error = caught.value
+        assert isinstance(error, InputError)
+        assert isinstance(error, TypeError)  # what Python raises: except TypeError still works
+        where = function.__qualname__
+        assert error.message == f"{where}() got an unexpected keyword argument {name!r}"
+        takes = [p for p in inspect.signature(function).parameters if p not in ("self", "cls")]
+        assert error.hint == (f"did you mean {close}? " if close else "") + (
+            f"{where}() takes: {', '.join(takes)}"
+        )
+    assert not any(tmp_path.iterdir())  # refused before anything was read or written
+    assert _ids(m.predict(T, top=1, layer="places")) != []  # the keywords it takes still work
 
 
 def test_build_arguments(office: Office, tmp_path: Path) -> None:
