@@ -52,16 +52,43 @@ def command(map_path: Path, output: Path, fmt: str) -> None:
 
 
 def _print(summary: dict[str, Any]) -> None:
-    from aion_cli.cli.console import console
+    """The closing table (on stderr, as ``build`` and ``merge`` close theirs): the copy, the
+    full map it was made from, both sizes, the entries it answers for and what it leaves
+    out; then the notes. Names from paths are shown as plain text."""
+    from rich.table import Table
+
+    from aion_cli.cli.console import console, print_table
     from aion_cli.cli.output import human_size, markup_safe
 
+    table = Table(
+        title=f"query-only map {markup_safe(summary['map'])}",
+        show_header=False,
+        title_justify="left",
+    )
+    table.add_column("what", style="bold", no_wrap=True)
+    table.add_column("value", justify="right")
+    table.add_row("made from", markup_safe(summary["source"]))
+    table.add_row("full map size", human_size(summary["source_bytes"]))
     ratio = summary["ratio"]
-    console().print(
-        f"wrote {markup_safe(summary['map'])}: {human_size(summary['map_bytes'])} "
-        f"({human_size(summary['source_bytes'])} for the full map"
-        + (f", {ratio:.1f}x smaller" if ratio else "")
-        + "); it answers queries, and cannot be continued or merged",
+    table.add_row(
+        "query-only size",
+        human_size(summary["map_bytes"]) + (f" ({ratio:.1f}x smaller)" if ratio else ""),
+    )
+    per = summary["bytes_per_entry"]
+    table.add_row(
+        "entries", f"{summary['entries']:,}" + (f" ({human_size(int(per))} each)" if per else "")
+    )
+    left_out = summary["left_out"]
+    table.add_row(
+        "left out (for learning)",
+        ", ".join(map(markup_safe, left_out)) if left_out else "nothing",
+    )
+    print_table(table, err=True)
+    out = console()
+    out.print(
+        "[dim]it answers every query as the full map does, and cannot be continued "
+        "(build --map) or merged: keep the full map to add logs to[/dim]",
         soft_wrap=True,
     )
     for message in summary["notes"]:
-        console().print(f"[yellow]note:[/yellow] {markup_safe(message)}", soft_wrap=True)
+        out.print(f"[yellow]note:[/yellow] {markup_safe(message)}", soft_wrap=True)

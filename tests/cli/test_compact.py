@@ -175,6 +175,34 @@ def test_a_part_map_is_refused(tmp_path: Path) -> None:
     assert not (tmp_path / "robot.aion").exists()
 
 
+def test_the_text_summary_says_what_was_done(maps: Maps, tmp_path: Path) -> None:
+    """Without --format json compact printed one "wrote" line: its sizes, not what it left out
+    nor for how many entries. It now closes with a table as build and merge do: the map made
+    from, both sizes, the entries, the members left out (read here from the two files)."""
+    out = tmp_path / "robot.aion"
+    result = run("compact", maps.full, "-o", out)
+    assert result.exit_code == 0, result.stderr
+    text = " ".join(result.stderr.split())
+    full, small = read_manifest(maps.full), read_manifest(out)
+    gone = sorted(set(full["members"]) - set(small["members"]))
+    assert gone  # the Fourier sums
+    kib = [f"{p.stat().st_size / 1024:.1f} KiB" for p in (maps.full, out)]
+    ratio = maps.full.stat().st_size / out.stat().st_size
+    with open_map(out) as members:
+        entries = len(members["entry_kind"])  # one row per entry the map answers for
+    for shown in (
+        f"query-only map {out}",
+        f"made from │ {maps.full}",
+        f"full map size │ {kib[0]}",
+        f"query-only size │ {kib[1]} ({ratio:.1f}x smaller)",
+        f"entries │ {entries:,} (",
+    ):
+        assert shown in text, (shown, text)
+    assert all(name in text for name in gone), (gone, text)
+    assert "cannot be continued (build --map) or merged" in text
+    assert run("compact", maps.full, "-o", tmp_path / "q.aion", "-q").stderr == ""
+
+
 def test_an_existing_map_at_o_is_replaced_with_a_note(maps: Maps, tmp_path: Path) -> None:
     """As ``build -o`` and ``merge -o`` do: an existing map is replaced, and the user is told."""
     assert maps.summary["notes"] == []  # a new file: nothing to say
