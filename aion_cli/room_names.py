@@ -2,7 +2,8 @@
 "kitchen" or "office 1"), wherever a node id is accepted: ``plan --from/--to``,
 ``export --path-from/--path-to``, ``predict --node`` and the Python API. A name matches in any
 case, and with underscores for its spaces (``office_1``: one shell word, as shell completion
-offers it, :func:`shell_word`); a label that is only the node's id (``R3``) is not a name.
+offers it, :func:`shell_word`); a label that is only the node's id (``R3``) is not a name,
+and an id of a node the graph holds is that node before it is any room's name.
 """
 
 from __future__ import annotations
@@ -118,9 +119,14 @@ def shell_word(name: str) -> str | None:
 def named_node(text: str, graph: GraphSnapshot) -> int | None:
     """The room or building whose name is ``text`` (any case, ``_`` for a space; Hydra's
     room names, such as "kitchen" or "office 1"), or None when no name matches (then ``text``
-    is read as an id); :class:`~aion_cli.errors.InputError` when two share the name."""
+    is read as an id); :class:`~aion_cli.errors.InputError` when two share the name. An id
+    of a node ``graph`` holds is that node, whatever a room is named (a room named "p3"
+    beside place p3: ``p3`` is the place, the room is asked for by its id)."""
     from aion_cli.errors import InputError
 
+    held = _held_id(text, graph)
+    if held is not None:
+        return held
     wanted = _match_key(text)
     hits = [
         int(node_id)
@@ -135,6 +141,21 @@ def named_node(text: str, graph: GraphSnapshot) -> int | None:
             hint="give the room's id instead",
         )
     return hits[0] if hits else None
+
+
+def _held_id(text: str, graph: GraphSnapshot) -> int | None:
+    """The node id ``text`` spells when ``graph`` holds that node (a place, room or
+    building), else None."""
+    import numpy as np
+
+    from aion_cli.errors import InputError
+
+    try:
+        node_id = np.uint64(parse_node_id(text.strip()))
+    except InputError:
+        return None
+    layers = (graph.places, graph.rooms, graph.buildings)
+    return int(node_id) if any(bool((layer.ids == node_id).any()) for layer in layers) else None
 
 
 def with_names_resolved(

@@ -66,3 +66,28 @@ def test_the_report_labels_a_room_whose_name_is_its_id_by_the_id_alone() -> None
 
     loaded = SimpleNamespace(graph=_graph(("R0", "kitchen", "")))
     assert room_labels(loaded) == {"R0": "", "R1": "kitchen", "R2": ""}  # type: ignore[arg-type]
+
+
+def test_an_id_the_graph_holds_is_that_node_before_a_room_named_so() -> None:
+    """A room Hydra named "p3" beside place p3: ``p3`` resolved to the room without a word
+    (``plan --from p3`` started at the room's place nearest its centre, ``predict --node p3``
+    answered for the room). The id now wins; the room is asked for by its id (R0), and a
+    spelling that is no id the graph holds (``P3``) is still the room's name in any case."""
+    from aion_cli.engine.nav_graph import NavGraph
+    from aion_cli.room_names import with_names_resolved
+    from aion_cli.routes import resolve_endpoint
+
+    p = ord("p") << 56
+    ids = np.arange(5, dtype=np.uint64) + np.uint64(p)  # p0 .. p4 along x, 1 m apart
+    xyz = np.zeros((5, 3))
+    xyz[:, 0] = np.arange(5)
+    room = Layer(np.array([R], np.uint64), np.zeros((1, 3)), np.zeros(1, np.uint64), ("p3",))
+    places = Layer(ids, xyz, np.full(5, R, np.uint64))  # every place in the room, at x = 0
+    graph = GraphSnapshot(0, places, np.array([[k, k + 1] for k in range(4)]), rooms=room)
+    nav = NavGraph.build(ids, xyz, graph.edges)
+    assert named_node("p3", graph) == p + 3  # the place
+    assert named_node("P3", graph) == R  # no such id: the room's name, in any case
+    assert named_node("p9", graph) is None  # neither
+    assert with_names_resolved(["p3", "R0", "p3 "], graph) == [p + 3, R, p + 3]
+    assert resolve_endpoint("p3", nav, graph).node_id == p + 3
+    assert resolve_endpoint("R0", nav, graph).node_id == p  # the room: its place at x = 0
