@@ -386,6 +386,8 @@ class DetectionFeeder:
 
     def _to_map_frame(self, frames: Any) -> Any:
         """Rows moved into the map frame; rows without a transform are counted and dropped."""
+        from aion_cli.formats.quaternions import rotated_yaw
+
         if len(frames) == 0:
             return frames
         target = self.map_frame
@@ -422,7 +424,7 @@ class DetectionFeeder:
             R, t, good = self.tf.lookup(target, name, frames.t_ns[rows])
             xyz[rows] = np.einsum("nij,nj->ni", R, frames.xyz[rows]) + t
             vel[rows] = np.einsum("nij,nj->ni", R, frames.velocity[rows])
-            yaw[rows] = yaw[rows] + np.arctan2(R[:, 1, 0], R[:, 0, 0])
+            yaw[rows] = rotated_yaw(R, yaw[rows])
             ok[rows] = good
         n_bad = int((~ok).sum())
         if n_bad:

@@ -55,3 +55,22 @@ def slerp(q0: F64, q1: F64, alpha: F64) -> F64:
     w1 = np.where(near, alpha, np.sin(alpha * theta) / safe)
     out = w0[:, None] * q0 + w1[:, None] * q1
     return out / np.sqrt(np.einsum("ij,ij->i", out, out))[:, None]
+
+
+#: A heading turned this close to vertical (the horizontal length of its unit direction) has no
+#: walking direction left in the target frame's xy plane.
+_VERTICAL = 1e-6
+
+
+def rotated_yaw(R: F64, yaw: F64) -> F64:
+    """Headings ``yaw`` (rad, about the source frame's z) in the frame that rotations ``R``
+    (float64[n,3,3], ``target_R_source``) turn them into: the direction (cos, sin, 0) rotated
+    and projected onto the target's xy plane, as a velocity is. Where ``R`` turns about z only
+    its yaw is added, as before; a tilted or upside-down source (roll, pitch) foreshortens or
+    mirrors the heading. NaN where the direction ends up vertical (or ``R`` / ``yaw`` is NaN)."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    dx = R[:, 0, 0] * c + R[:, 0, 1] * s
+    dy = R[:, 1, 0] * c + R[:, 1, 1] * s
+    level = (R[:, 2, 0] == 0) & (R[:, 2, 1] == 0) & (R[:, 2, 2] > 0)
+    turned = np.where(np.hypot(dx, dy) >= _VERTICAL, np.arctan2(dy, dx), np.nan)
+    return np.where(level, yaw + np.arctan2(R[:, 1, 0], R[:, 0, 0]), turned)
