@@ -30,9 +30,12 @@ def map_frame_of(given: str | None, map_path: Path | None) -> str:
     """The map frame to read logs into: ``given`` (``--map-frame``), else the frame the map
     at ``map_path`` records (the continued map of ``aion build --map``, the map ``aion
     evaluate holdout`` judges), else ``map``. A map that cannot be read here falls back to
-    ``map``: its own reader reports what is wrong with it."""
+    ``map``: its own reader reports what is wrong with it. ``given`` is spelt as the logs'
+    frame ids are compared (:func:`formats.raw.normalize_frame`: ``/map`` is ``map``)."""
     if given is not None:
-        return given
+        from aion_cli.formats.raw import normalize_frame
+
+        return normalize_frame(given) or given
     if map_path is not None:
         from aion_cli.errors import AionError
         from aion_cli.formats.mapfile import read_manifest

@@ -129,9 +129,10 @@ class DetectionFeeder:
     ) -> None:
         from aion_cli.engine.heading import HeadingEstimator
         from aion_cli.engine.tracking import LinkerConfig
+        from aion_cli.formats.raw import normalize_frame
 
         self.tf = tf
-        self.map_frame = map_frame
+        self.map_frame = normalize_frame(map_frame)  # as the detections' frames are spelt
         self._map_frame_seen = False  # detections were already given in the map frame
         self.counts = counts
         self.adapters: dict[tuple[str, str, str], DetectionAdapter] = dict(adapters or {})

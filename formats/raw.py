@@ -26,8 +26,9 @@ def normalize_msgtype(msgtype: str) -> str:
 
 
 def normalize_frame(frame_id: str) -> str:
-    """Frame ids without the leading slash ROS 1 tools sometimes add."""
-    return frame_id.lstrip("/")
+    """Frame ids without the leading slash ROS 1 tools sometimes add (and surrounding
+    whitespace): the one spelling TF, the detections' frames and ``--map-frame`` compare."""
+    return frame_id.strip().lstrip("/")
 
 
 @dataclass(frozen=True)

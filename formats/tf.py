@@ -31,6 +31,7 @@ import numpy.typing as npt
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.errors import TransformError
 from aion_cli.formats.quaternions import quat_to_matrix, slerp
+from aion_cli.formats.raw import normalize_frame
 from aion_cli.formats.tf_parts import EdgeSeries, TfBatch
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
@@ -39,11 +40,6 @@ LOOKUP_BLOCK_ROWS = 16_384
 MAX_GAP_S = 10.0
 """The longest gap between an edge's samples a lookup interpolates across (tf2's default
 cache length): a longer one is time the transform was not known (``TfBuffer(max_gap_s=...)``)."""
-
-
-def normalize_frame(frame_id: str) -> str:
-    """Frame ids without the leading slash ROS 1 tools sometimes add."""
-    return frame_id.strip().lstrip("/")
 
 
 def _stamp_ns(stamp: Any) -> int:
