@@ -6,11 +6,14 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.errors import ConfigError
 from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS
+
+if TYPE_CHECKING:
+    from aion_cli.tf_feed import StaticTf
 
 __all__ = [
     "DEFAULT_MAP_FRAME",
@@ -172,9 +175,12 @@ class ShardStart:
     whose report carries what the whole-log reads counted; and, for a shard learnt in sequence
     onto the shards before it, what their stream left: the pose-orientation rule's state per
     detection topic (``yaw_seen``) and the scene graphs' pinned version and layer
-    (``graph_pins``, :attr:`aion_cli.graph_feed.GraphFeed.pins`)."""
+    (``graph_pins``, :attr:`aion_cli.graph_feed.GraphFeed.pins`); and the static transforms
+    of all the build's logs (``static_tf``, :func:`aion_cli.tf_feed.read_static_tf`), which
+    one pass would apply to every log whichever recorded them."""
 
     part: tuple[int, int] | None = None
     first_part: bool = True
     yaw_seen: Mapping[str, float] | None = None
     graph_pins: tuple[str | None, str | None] = (None, None)
+    static_tf: StaticTf = ()

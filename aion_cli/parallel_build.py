@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.pipeline import BuildOptions, _Build
+    from aion_cli.tf_feed import StaticTf
 
 K = TypeVar("K")
 """What names a log in :func:`plan_shards`: its path, or a recording's position."""
@@ -162,13 +163,13 @@ class ParallelBuild:
             return self.build.learn(self.config).state
         self.groups = [group for group, _, _ in shards]
         self.parts = [part for _, part, _ in shards]
-        seeds, kd_trees = _plan_streams(list(logs), opts, shards, spans)
+        seeds, kd_trees, static_tf = _plan_streams(list(logs), opts, shards, spans)
         fills = self._observed_fills(spans, window)
         tasks = [
             ShardTask(
                 i, group, previous is not None or i > 0,
                 opts if fill is None else dataclasses.replace(opts, observed_fill=fill),
-                self.config, part, first, seed,
+                self.config, part, first, seed, static_tf,
             )
             for i, ((group, part, first), seed, fill) in enumerate(
                 zip(shards, seeds, fills, strict=True)
@@ -329,14 +330,16 @@ def _plan_streams(
     opts: BuildOptions,
     shards: list[tuple[tuple[Path, ...], tuple[int, int] | None, bool]],
     spans: list[tuple[Path, int, int]],
-) -> tuple[list[dict[str, float]], bool]:
+) -> tuple[list[dict[str, float]], bool, StaticTf]:
     """Per shard, the detection topics whose orientations varied before it
     (:mod:`aion_cli.shard_yaws`; a shard starts at its part's start, else at its logs' first
-    message); and whether the build will look nodes or sensor ranges up in KD-trees (it has
-    scene graphs or a TF topic)."""
+    message); whether the build will look nodes or sensor ranges up in KD-trees (it has
+    scene graphs or a TF topic); and the static transforms of all the logs, which one pass
+    applies to every log (:func:`aion_cli.tf_feed.read_static_tf`)."""
     from aion_cli.build_options import build_topics
     from aion_cli.formats.logs import open_logs
     from aion_cli.shard_yaws import shard_seeds, varied_by
+    from aion_cli.tf_feed import read_static_tf
 
     first = {path: start for path, start, _ in spans}
     starts: list[int | None] = []
@@ -346,9 +349,10 @@ def _plan_streams(
     with open_logs(logs, opts.log_format) as logset:
         plan = build_topics(logset, opts)
         kd_trees = bool(plan.graph or plan.tf) or opts.graph_file is not None
+        static_tf = read_static_tf(logset, plan)
         if all(start is None for start in starts[1:]):
-            return [{} for _ in shards], kd_trees
-        return shard_seeds(varied_by(logset, plan, opts), starts), kd_trees
+            return [{} for _ in shards], kd_trees, static_tf
+        return shard_seeds(varied_by(logset, plan, opts), starts), kd_trees, static_tf
 
 
 def _window_ns(config: ModelConfig) -> int:

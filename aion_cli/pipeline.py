@@ -72,7 +72,7 @@ from aion_cli.log_times import TopicTimes
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
 from aion_cli.provenance import DistinctLogs, distinct_logs
-from aion_cli.tf_feed import check_tf, check_times, observe, read_tf_and_times
+from aion_cli.tf_feed import check_tf, check_times, observe, read_tf_and_times, with_static_tf
 from aion_cli.topics import TopicPlan, no_detection_topic
 
 if TYPE_CHECKING:
@@ -347,7 +347,7 @@ class _Build(StreamStep):
         if not self.at.first_part:  # the whole logs' counts: the first part reports them
             self.report.time_dropped = {}
             self.report.tf_undecodable = 0
-        return tf
+        return with_static_tf(tf, self.at.static_tf)  # a shard: all logs' /tf_static
 
     def _distinct_logs(self) -> DistinctLogs:
         """Which logs are distinct (:func:`aion_cli.provenance.distinct_logs`): they become

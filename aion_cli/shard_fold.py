@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.pipeline import BuildOptions, _Build
+    from aion_cli.tf_feed import StaticTf
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,8 @@ class ShardTask:
     first_part: bool = True
     # detection topics whose pose orientations varied before the shard (aion_cli.shard_yaws)
     yaw_seen: dict[str, float] = field(default_factory=dict)
+    # the static transforms of all the build's logs (aion_cli.tf_feed.read_static_tf)
+    static_tf: StaticTf = ()
 
 
 @dataclass
@@ -110,7 +113,9 @@ def _shard_build(
     opts = dataclasses.replace(
         task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
     )
-    at = ShardStart(task.part, task.first_part, yaw_seen=task.yaw_seen)
+    at = ShardStart(
+        task.part, task.first_part, yaw_seen=task.yaw_seen, static_tf=task.static_tf
+    )
     if before is not None:
         at = dataclasses.replace(at, yaw_seen=before.yaws, graph_pins=before.pins)
     build = _Build(opts, progress, shard=True, at=at, **part)

@@ -41,9 +41,15 @@ __all__ = [
     "check_tf",
     "check_times",
     "observe",
+    "read_static_tf",
     "read_tf_and_times",
     "robot_trajectory",
+    "with_static_tf",
 ]
+
+StaticTf = tuple[tuple[str, str, tuple[float, ...], tuple[float, ...]], ...]
+"""Static transforms as ``(parent, child, translation, quaternion)``
+(:meth:`formats.tf.TfBuffer.static_transforms`), small enough to send to every shard."""
 
 
 @dataclass
@@ -192,6 +198,48 @@ class TfReader:
                     buffer.add_transforms(
                         parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
                     )
+
+
+def read_static_tf(logset: Any, plan: TopicPlan) -> StaticTf:
+    """The static transforms (``*_static`` TF topics) of every log of ``logset``, read in
+    time order as a build of them all reads them (the last one of an edge wins). A parallel
+    build gives them to each of its shards (:func:`with_static_tf`): a shard reads only its
+    own logs, and ``/tf_static`` is often recorded once, in the first log or a log of its
+    own."""
+    from aion_cli.formats.tf import TfBuffer
+
+    topics = {t for t in plan.names("tf") if t.endswith("_static")} if plan.tf else set()
+    if not topics:
+        return ()
+    reader = TfReader(logset, TfBuffer(), TfStats())
+    times = TopicTimes(topics)
+    chunk: list[RawMessage] = []
+    for msg in logset.messages(topics):
+        chunk.append(msg)
+        if len(chunk) == 4096:
+            reader.add(_in_range(times, chunk))  # (never empty: the times are in range)
+            chunk = []
+    if chunk:
+        reader.add(_in_range(times, chunk))
+    return tuple(
+        (p, c, tuple(tr.tolist()), tuple(q.tolist()))
+        for p, c, tr, q in reader.buffer.static_transforms()
+    )
+
+
+def with_static_tf(tf: TfBuffer | None, static: StaticTf) -> TfBuffer | None:
+    """``tf`` with the ``static`` transforms of a whole build added after its own (the same
+    edges as one read of all the logs: the last one given wins), a new buffer when ``tf``
+    is None."""
+    if not static:
+        return tf
+    from aion_cli.formats.tf import TfBuffer
+
+    buffer = tf if tf is not None else TfBuffer()
+    parents, children, tr, q = zip(*static, strict=True)
+    buffer.add_transforms(list(parents), list(children), np.zeros(len(static), np.int64), tr, q,
+                          static=True)
+    return buffer
 
 
 def _in_range(times: TopicTimes, messages: list[RawMessage]) -> list[RawMessage]:

@@ -82,6 +82,8 @@ class TfBuffer:
         self.block_rows = block_rows
         self._dynamic: dict[tuple[str, str], EdgeSeries] = {}
         self._static: dict[tuple[str, str], tuple[F64, F64]] = {}  # (R[3,3], t[3])
+        # per static edge, its last translation and quaternion as given (static_transforms)
+        self._static_given: dict[tuple[str, str], tuple[F64, F64]] = {}
         self._neighbours: dict[str, set[str]] = {}
         self._paths: dict[tuple[str, str], list[str]] = {}
         self._pending: list[tuple[Any, bool]] = []  # messages not yet ingested (batched)
@@ -149,6 +151,7 @@ class TfBuffer:
         good = np.isfinite(tr).all(axis=1) & np.isfinite(norm) & (norm > 1e-9)
         n_good = int(np.count_nonzero(good))
         self._invalid += n - n_good
+        given = q
         q = q / np.where(good, norm, 1.0)[:, None]
         if isinstance(parent, str) and isinstance(child, str):  # one edge: no grouping
             rows: Any = slice(None) if n_good == n else good
@@ -157,7 +160,7 @@ class TfBuffer:
                 self._frames_column(child, 1, "child")[0],
             )
             if n_good:
-                self._add_edge(p, c, t[rows], tr[rows], q[rows], static)
+                self._add_edge(p, c, t[rows], tr[rows], q[rows], static, given[rows])
             return
         parents = self._frames_column(parent, n, "parent")
         children = self._frames_column(child, n, "child")
@@ -165,7 +168,7 @@ class TfBuffer:
         for i in np.flatnonzero(good).tolist():
             groups.setdefault((parents[i], children[i]), []).append(i)
         for (p, c), idx in groups.items():
-            self._add_edge(p, c, t[idx], tr[idx], q[idx], static)
+            self._add_edge(p, c, t[idx], tr[idx], q[idx], static, given[idx])
 
     def add_messages(self, messages: Iterable[Any], static: bool = False) -> None:
         """Ingest many decoded TFMessages with one vectorized :meth:`add_transforms` call."""
@@ -212,7 +215,9 @@ class TfBuffer:
             raise TransformError(f"empty {what} frame id in TF data")
         return names
 
-    def _add_edge(self, parent: str, child: str, t: I64, tr: F64, q: F64, static: bool) -> None:
+    def _add_edge(
+        self, parent: str, child: str, t: I64, tr: F64, q: F64, static: bool, given: F64
+    ) -> None:
         if parent == child:
             raise TransformError(f"TF edge from frame {parent!r} to itself")
         key = (parent, child)
@@ -222,8 +227,16 @@ class TfBuffer:
             self._paths.clear()
         if static:
             self._static[key] = (quat_to_matrix(q[-1:])[0], tr[-1].copy())
+            self._static_given[key] = (tr[-1].copy(), given[-1].copy())
         else:
             self._dynamic.setdefault(key, EdgeSeries()).append(t, tr, q)
+
+    def static_transforms(self) -> list[tuple[str, str, F64, F64]]:
+        """Every static edge as ``(parent, child, translation, quaternion)``, the last one
+        given for it (the quaternion as given, not normalised): :meth:`add_transforms` of
+        them with ``static=True`` gives another buffer exactly these edges."""
+        self._flush()
+        return [(p, c, tr, q) for (p, c), (tr, q) in sorted(self._static_given.items())]
 
     # ------------------------------------------------------------------ queries
 
