@@ -12,9 +12,12 @@ read).
 from __future__ import annotations
 
 from itertools import islice
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aion_cli.build_options import DEFAULT_MAP_FRAME
+
+if TYPE_CHECKING:
+    from aion_cli.formats.tf import TfBuffer
 
 #: detection messages per topic whose frames are read
 DETECTION_SAMPLE = 20
@@ -22,16 +25,28 @@ DETECTION_SAMPLE = 20
 TF_SAMPLE = 500
 
 
-def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> dict[str, list[str]]:
+def unconnected_frames(
+    logset: Any, plan: Any, mappings: list[Any], unusable: list[str] | None = None
+) -> dict[str, list[str]]:
     """Per detection topic of ``plan``, the frames of its first messages that the log's TF
     (its first messages per TF topic) does not connect to ``map``; topics whose frames are
-    all connected, or that cannot be decoded (the build reports those), are left out."""
+    all connected, or that cannot be decoded (the build reports those), are left out. The
+    transforms of that TF sample a build would ignore (NaN, zero quaternion) are said in
+    ``unusable`` (one line, as the build warns)."""
     from aion_cli.formats.tf import normalize_frame
 
     frames = detection_frames(logset, plan, mappings)
     if not frames:
         return {}
-    linked = _connected_to_map(logset, plan)
+    tf = _tf_sample(logset, plan)
+    if unusable is not None and tf.unusable:
+        from aion_cli.formats.tf import unusable_text
+
+        unusable.append(
+            f"TF transforms a build ignores: {unusable_text(tf.unusable)} (in the first "
+            f"{TF_SAMPLE} messages per TF topic)"
+        )
+    linked = tf.connected(DEFAULT_MAP_FRAME)
     out: dict[str, list[str]] = {}
     for topic, names in frames.items():
         apart = sorted(
@@ -68,16 +83,16 @@ def detection_frames(logset: Any, plan: Any, mappings: list[Any]) -> dict[str, s
     return out
 
 
-def _connected_to_map(logset: Any, plan: Any) -> set[str]:
-    """The frames the first :data:`TF_SAMPLE` messages of each TF topic join to ``map``
-    (read as a build reads TF: :class:`aion_cli.tf_feed.TfReader`), ``map`` included."""
+def _tf_sample(logset: Any, plan: Any) -> TfBuffer:
+    """The first :data:`TF_SAMPLE` messages of each TF topic in a buffer (read as a build
+    reads TF: :class:`aion_cli.tf_feed.TfReader`)."""
     from aion_cli.formats.tf import TfBuffer
     from aion_cli.tf_feed import TfReader, TfStats
 
     reader = TfReader(logset, TfBuffer(), TfStats())
     for info in plan.tf:
         reader.add(_first(logset, info.topic, TF_SAMPLE))
-    return reader.buffer.connected(DEFAULT_MAP_FRAME)
+    return reader.buffer
 
 
 def _first(logset: Any, topic: str, n: int) -> list[Any]:

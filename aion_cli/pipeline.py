@@ -72,7 +72,14 @@ from aion_cli.log_times import TopicTimes
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
 from aion_cli.provenance import DistinctLogs, distinct_logs
-from aion_cli.tf_feed import check_tf, check_times, observe, read_tf_and_times, with_static_tf
+from aion_cli.tf_feed import (
+    check_tf,
+    check_times,
+    check_unusable,
+    observe,
+    read_tf_and_times,
+    with_static_tf,
+)
 from aion_cli.topics import TopicPlan, no_detection_topic
 
 if TYPE_CHECKING:
@@ -344,7 +351,9 @@ class _Build(StreamStep):
             if self.deferred and start is not None:  # a shard after others: its own poses
                 self.graphs.agents_since(start // delta * delta)
         check_tf(stats, tf_topics, self.report)
-        if not self.at.first_part:  # the whole logs' counts: the first part reports them
+        if self.at.first_part:  # (every part reads the whole logs' TF)
+            check_unusable(tf, self.report)
+        else:  # the whole logs' counts: the first part reports them
             self.report.time_dropped = {}
             self.report.tf_undecodable = 0
         return with_static_tf(tf, self.at.static_tf)  # a shard: all logs' /tf_static

@@ -40,6 +40,7 @@ __all__ = [
     "TfStats",
     "check_tf",
     "check_times",
+    "check_unusable",
     "observe",
     "read_static_tf",
     "read_tf_and_times",
@@ -428,6 +429,19 @@ def check_tf(stats: TfStats, tf_topics: set[str], report: BuildReport) -> None:
     report.warnings.append(
         f"{stats.undecodable:,} of {stats.messages:,} messages on {names} could not be "
         f"decoded and were skipped (first: {stats.first_error.message})"
+    )
+
+
+def check_unusable(tf: TfBuffer | None, report: BuildReport) -> None:
+    """TF transforms the buffer dropped as unusable (NaN, zero quaternion): a warning naming
+    the edges, since detections and robot poses that needed them are lost with them."""
+    if tf is None or not tf.unusable:
+        return
+    from aion_cli.formats.tf import unusable_text
+
+    report.warnings.append(
+        f"TF transforms ignored: {unusable_text(tf.unusable)}; detections or robot poses "
+        "that needed them are dropped (tf2 ignores such transforms too)"
     )
 
 

@@ -33,6 +33,7 @@ from aion_cli.errors import TransformError
 from aion_cli.formats.quaternions import quat_to_matrix, slerp
 from aion_cli.formats.raw import normalize_frame
 from aion_cli.formats.tf_parts import EdgeSeries, TfBatch
+from aion_cli.listing import first_few
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
 LOOKUP_BLOCK_ROWS = 16_384
@@ -88,6 +89,7 @@ class TfBuffer:
         self._paths: dict[tuple[str, str], list[str]] = {}
         self._pending: list[tuple[Any, bool]] = []  # messages not yet ingested (batched)
         self._invalid = 0
+        self._unusable: dict[tuple[str, str], int] = {}  # per edge: rows dropped as unusable
 
     @property
     def invalid_samples(self) -> int:
@@ -161,9 +163,14 @@ class TfBuffer:
             )
             if n_good:
                 self._add_edge(p, c, t[rows], tr[rows], q[rows], static, given[rows])
+            if n_good < n:
+                self._unusable[(p, c)] = self._unusable.get((p, c), 0) + n - n_good
             return
         parents = self._frames_column(parent, n, "parent")
         children = self._frames_column(child, n, "child")
+        for i in np.flatnonzero(~good).tolist():  # (rare: no vectorizing needed)
+            key = (parents[i], children[i])
+            self._unusable[key] = self._unusable.get(key, 0) + 1
         groups: dict[tuple[str, str], list[int]] = {}
         for i in np.flatnonzero(good).tolist():
             groups.setdefault((parents[i], children[i]), []).append(i)
@@ -238,6 +245,13 @@ class TfBuffer:
         self._flush()
         return [(p, c, tr, q) for (p, c), (tr, q) in sorted(self._static_given.items())]
 
+    @property
+    def unusable(self) -> dict[tuple[str, str], int]:
+        """Per ``(parent, child)``: transforms dropped for a non-finite translation or a zero
+        or non-finite quaternion (tf2 ignores them too)."""
+        self._flush()
+        return dict(self._unusable)
+
     # ------------------------------------------------------------------ queries
 
     @property
@@ -263,6 +277,14 @@ class TfBuffer:
             return cached
         for f in (target, source):
             if f not in self._neighbours:
+                dropped = unusable_text(self._unusable, f)
+                if dropped:
+                    raise TransformError(
+                        f"frame {f!r} is only in TF transforms that cannot be used: {dropped}; "
+                        f"frames known: {', '.join(self.frames) or '(none)'}",
+                        hint="a rotation must be a non-zero quaternion (x, y, z, w); fix the "
+                        "publisher of that transform (tf2 ignores such transforms too)",
+                    )
                 raise TransformError(
                     f"unknown frame {f!r}; frames known: {', '.join(self.frames) or '(none)'}",
                     hint="check --map-frame / the detections' frame_id, and that the log has /tf",
@@ -440,3 +462,13 @@ class TfBuffer:
             return Trajectory.empty()
         _, tr, ok = self.lookup(target, source, times)
         return Trajectory(times[ok], np.ascontiguousarray(tr[ok]))
+
+
+def unusable_text(unusable: dict[tuple[str, str], int], frame: str | None = None) -> str:
+    """``unusable`` (:attr:`TfBuffer.unusable`) as ``3 of base_link->laser (a NaN or zero
+    quaternion, or a non-finite translation)``; with ``frame``, only the edges that name it."""
+    edges = sorted((k, n) for k, n in unusable.items() if frame is None or frame in k)
+    if not edges:
+        return ""
+    listed = first_few([f"{n:,} of {p}->{c}" for (p, c), n in edges], 5)
+    return f"{listed} (a NaN or zero quaternion, or a non-finite translation)"

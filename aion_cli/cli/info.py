@@ -82,7 +82,9 @@ def describe(
         if plan.detections:
             from aion_cli.frame_check import unconnected_frames
 
-            report["frames_without_tf"] = unconnected_frames(logset, plan, mappings)
+            report["frames_without_tf"] = unconnected_frames(
+                logset, plan, mappings, report["warnings"]
+            )
         else:
             from aion_cli.topics import mapping_example
 

@@ -6,8 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from aion_cli.formats.mapfile import read_manifest
-from tests.cli.conftest import run_json
-from tests.cli.logdata import write_office_log
+from aion_cli.formats.writers import LogWriter
+from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.logdata import T0, write_office_log
 
 
 def test_a_leading_slash_on_map_frame_names_the_logs_frame(tmp_path: Path) -> None:
@@ -26,3 +27,67 @@ def test_a_leading_slash_on_map_frame_names_the_logs_frame(tmp_path: Path) -> No
                       tmp_path / "both.aion", "--format", "json")
     assert report["detections"]["used"] == 300
     assert not [w for w in report["warnings"] if "holds positions in frame" in w]
+
+
+def _tf_log(path: Path, topic: str, child: str, quats: list[tuple[float, ...]]) -> None:
+    """TF ``base_link -> child`` (``/tf_static``) or ``map -> child`` (``/tf``) with the
+    rotations ``quats``, one message every 30 s from the office log's start."""
+    parent = "base_link" if topic == "/tf_static" else "map"
+    with LogWriter(path) as writer:
+        for k, (x, y, z, w) in enumerate(quats):
+            t = T0 + 30 * k * 10**9
+            writer.write(
+                topic,
+                "tf2_msgs/msg/TFMessage",
+                {
+                    "transforms": [
+                        {
+                            "header": {
+                                "stamp": {"sec": t // 10**9, "nanosec": 0},
+                                "frame_id": parent,
+                            },
+                            "child_frame_id": child,
+                            "transform": {
+                                "translation": {"x": 3.0},
+                                "rotation": {"x": x, "y": y, "z": z, "w": w},
+                            },
+                        }
+                    ]
+                },
+                t,
+            )
+
+
+def test_a_frame_whose_only_transform_is_unusable_is_said_so(tmp_path: Path) -> None:
+    """base_link -> laser with an all-zero quaternion (tf2 ignores it, and so does aion): the
+    build said "unknown frame 'laser'" with the hint to check that the log has /tf, which it
+    has. Now the error names the transform and why it cannot be used, and info warns."""
+    people, static = tmp_path / "laser.mcap", tmp_path / "static.mcap"
+    write_office_log(people, frame="laser", graph=False)
+    _tf_log(static, "/tf_static", "laser", [(0.0, 0.0, 0.0, 0.0)])
+    result = run("build", people, static, "--workers", "1", "-o", tmp_path / "m.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(
+        result.stderr,
+        "frame 'laser' is only in TF transforms that cannot be used: "
+        "1 of base_link->laser (a NaN or zero quaternion",
+    )
+    info = run_json("info", people, static, "--format", "json")
+    assert [w for w in info["warnings"] if "1 of base_link->laser" in w]
+
+
+def test_unusable_robot_poses_are_a_warning_with_their_count(tmp_path: Path) -> None:
+    """Three map -> base_link poses with a NaN rotation beside the good ones: dropped without a
+    word before; now a warning counts them (the 300 detections are still used)."""
+    people, broken = tmp_path / "office.mcap", tmp_path / "broken.mcap"
+    write_office_log(people, graph=False)
+    _tf_log(
+        broken, "/tf", "base_link", [(0.0, 0.0, 0.0, 1.0)] + [(float("nan"), 0.0, 0.0, 1.0)] * 3
+    )
+    report = run_json(
+        "build", people, broken, "--workers", "1", "-o", tmp_path / "m.aion", "--format", "json"
+    )
+    assert report["detections"]["used"] == 300
+    assert [
+        w for w in report["warnings"] if w.startswith("TF transforms ignored: 3 of map->base_link")
+    ]
