@@ -434,15 +434,26 @@ def check_tf(stats: TfStats, tf_topics: set[str], report: BuildReport) -> None:
 
 def check_unusable(tf: TfBuffer | None, report: BuildReport) -> None:
     """TF transforms the buffer dropped as unusable (NaN, zero quaternion): a warning naming
-    the edges, since detections and robot poses that needed them are lost with them."""
-    if tf is None or not tf.unusable:
+    the edges, since detections and robot poses that needed them are lost with them; and
+    frames TF gives two parents (not a tree: which chain joins two frames is a guess)."""
+    if tf is None:
         return
     from aion_cli.formats.tf import unusable_text
+    from aion_cli.listing import first_few
 
-    report.warnings.append(
-        f"TF transforms ignored: {unusable_text(tf.unusable)}; detections or robot poses "
-        "that needed them are dropped (tf2 ignores such transforms too)"
-    )
+    if tf.unusable:
+        report.warnings.append(
+            f"TF transforms ignored: {unusable_text(tf.unusable)}; detections or robot poses "
+            "that needed them are dropped (tf2 ignores such transforms too)"
+        )
+    extra = tf.extra_parents()
+    if extra:
+        named = [f"{c!r} ({', '.join(ps)})" for c, ps in extra.items()]
+        report.warnings.append(
+            f"TF gives frames more than one parent: {first_few(named, 5)}; a TF tree has one "
+            "parent per frame, so aion joins two frames by the shortest chain, which may not "
+            "be the one meant (two localisers publishing the same frame?)"
+        )
 
 
 def check_times(

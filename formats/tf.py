@@ -252,6 +252,14 @@ class TfBuffer:
         self._flush()
         return dict(self._unusable)
 
+    def extra_parents(self) -> dict[str, list[str]]:
+        """Frames that TF gives more than one parent (a tree has one), with those parents."""
+        self._flush()
+        parents: dict[str, set[str]] = {}
+        for p, c in itertools.chain(self._static, self._dynamic):
+            parents.setdefault(c, set()).add(p)
+        return {c: sorted(ps) for c, ps in sorted(parents.items()) if len(ps) > 1}
+
     # ------------------------------------------------------------------ queries
 
     @property

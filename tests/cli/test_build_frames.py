@@ -29,10 +29,12 @@ def test_a_leading_slash_on_map_frame_names_the_logs_frame(tmp_path: Path) -> No
     assert not [w for w in report["warnings"] if "holds positions in frame" in w]
 
 
-def _tf_log(path: Path, topic: str, child: str, quats: list[tuple[float, ...]]) -> None:
-    """TF ``base_link -> child`` (``/tf_static``) or ``map -> child`` (``/tf``) with the
+def _tf_log(
+    path: Path, topic: str, child: str, quats: list[tuple[float, ...]], parent: str | None = None
+) -> None:
+    """TF ``parent -> child`` (default ``base_link`` on ``/tf_static``, else ``map``) with the
     rotations ``quats``, one message every 30 s from the office log's start."""
-    parent = "base_link" if topic == "/tf_static" else "map"
+    parent = parent or ("base_link" if topic == "/tf_static" else "map")
     with LogWriter(path) as writer:
         for k, (x, y, z, w) in enumerate(quats):
             t = T0 + 30 * k * 10**9
@@ -91,3 +93,17 @@ def test_unusable_robot_poses_are_a_warning_with_their_count(tmp_path: Path) -> 
     assert [
         w for w in report["warnings"] if w.startswith("TF transforms ignored: 3 of map->base_link")
     ]
+
+
+def test_a_frame_with_two_parents_is_a_warning(tmp_path: Path) -> None:
+    """base_link under map (the office log) and under world (a second localiser): not a tree,
+    and nothing said before; the build now warns and names both parents."""
+    people, other = tmp_path / "office.mcap", tmp_path / "world.mcap"
+    write_office_log(people, graph=False)
+    _tf_log(other, "/tf", "base_link", [(0.0, 0.0, 0.0, 1.0)] * 2, parent="world")
+    report = run_json("build", people, other, "--workers", "1", "-o", tmp_path / "m.aion",
+                      "--format", "json")
+    assert report["detections"]["used"] == 300
+    warned = [w for w in report["warnings"] if "more than one parent" in w]
+    assert len(warned) == 1, report["warnings"]
+    assert "'base_link' (map, world)" in warned[0]
