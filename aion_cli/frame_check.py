@@ -11,6 +11,7 @@ read).
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from itertools import islice
 from typing import TYPE_CHECKING, Any
 
@@ -25,35 +26,44 @@ DETECTION_SAMPLE = 20
 TF_SAMPLE = 500
 
 
-def unconnected_frames(
-    logset: Any, plan: Any, mappings: list[Any], unusable: list[str] | None = None
-) -> dict[str, list[str]]:
+@dataclass
+class FrameReport:
+    """What :func:`unconnected_frames` found: per detection topic, its frames the TF sample
+    does not connect to ``map`` (``apart``); for each such frame that TF knows, the frame at
+    the top of its tree (``roots``: what ``--map-frame`` would build in, when ``map -> odom``
+    is missing); and warnings on the TF sample (transforms a build ignores)."""
+
+    apart: dict[str, list[str]] = field(default_factory=dict)
+    roots: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> FrameReport:
     """Per detection topic of ``plan``, the frames of its first messages that the log's TF
     (its first messages per TF topic) does not connect to ``map``; topics whose frames are
-    all connected, or that cannot be decoded (the build reports those), are left out. The
-    transforms of that TF sample a build would ignore (NaN, zero quaternion) are said in
-    ``unusable`` (one line, as the build warns)."""
+    all connected, or that cannot be decoded (the build reports those), are left out."""
     from aion_cli.formats.tf import normalize_frame
+    from aion_cli.formats.tf_tree import root, unusable_text
 
     frames = detection_frames(logset, plan, mappings)
+    out = FrameReport()
     if not frames:
-        return {}
+        return out
     tf = _tf_sample(logset, plan)
-    if unusable is not None and tf.unusable:
-        from aion_cli.formats.tf import unusable_text
-
-        unusable.append(
+    if tf.unusable:
+        out.warnings.append(
             f"TF transforms a build ignores: {unusable_text(tf.unusable)} (in the first "
             f"{TF_SAMPLE} messages per TF topic)"
         )
     linked = tf.connected(DEFAULT_MAP_FRAME)
-    out: dict[str, list[str]] = {}
+    known = set(tf.frames)
     for topic, names in frames.items():
         apart = sorted(
             f for f in {normalize_frame(n) for n in names} if f and f not in linked
         )
         if apart:
-            out[topic] = apart
+            out.apart[topic] = apart
+        out.roots.update({f: root(tf.edges, f) for f in apart if f in known})
     return out
 
 

@@ -438,7 +438,7 @@ def check_unusable(tf: TfBuffer | None, report: BuildReport) -> None:
     frames TF gives two parents (not a tree: which chain joins two frames is a guess)."""
     if tf is None:
         return
-    from aion_cli.formats.tf import unusable_text
+    from aion_cli.formats.tf_tree import extra_parents, unusable_text
     from aion_cli.listing import first_few
 
     if tf.unusable:
@@ -446,7 +446,7 @@ def check_unusable(tf: TfBuffer | None, report: BuildReport) -> None:
             f"TF transforms ignored: {unusable_text(tf.unusable)}; detections or robot poses "
             "that needed them are dropped (tf2 ignores such transforms too)"
         )
-    extra = tf.extra_parents()
+    extra = extra_parents(tf.edges)
     if extra:
         named = [f"{c!r} ({', '.join(ps)})" for c, ps in extra.items()]
         report.warnings.append(

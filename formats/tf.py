@@ -33,7 +33,7 @@ from aion_cli.errors import TransformError
 from aion_cli.formats.quaternions import quat_to_matrix, slerp
 from aion_cli.formats.raw import normalize_frame
 from aion_cli.formats.tf_parts import EdgeSeries, TfBatch
-from aion_cli.listing import first_few
+from aion_cli.formats.tf_tree import root, unusable_text
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
 LOOKUP_BLOCK_ROWS = 16_384
@@ -252,13 +252,12 @@ class TfBuffer:
         self._flush()
         return dict(self._unusable)
 
-    def extra_parents(self) -> dict[str, list[str]]:
-        """Frames that TF gives more than one parent (a tree has one), with those parents."""
+    @property
+    def edges(self) -> list[tuple[str, str]]:
+        """Every ``(parent, child)`` with a usable transform (static or not), sorted
+        (:mod:`formats.tf_tree` says what shape they make)."""
         self._flush()
-        parents: dict[str, set[str]] = {}
-        for p, c in itertools.chain(self._static, self._dynamic):
-            parents.setdefault(c, set()).add(p)
-        return {c: sorted(ps) for c, ps in sorted(parents.items()) if len(ps) > 1}
+        return sorted(set(self._static) | set(self._dynamic))
 
     # ------------------------------------------------------------------ queries
 
@@ -292,6 +291,14 @@ class TfBuffer:
                         f"frames known: {', '.join(self.frames) or '(none)'}",
                         hint="a rotation must be a non-zero quaternion (x, y, z, w); fix the "
                         "publisher of that transform (tf2 ignores such transforms too)",
+                    )
+                if f == target and source in self._neighbours:  # no map->odom: name the root
+                    top = root(self.edges, source)
+                    raise TransformError(
+                        f"unknown frame {f!r}: TF joins {source!r} only to "
+                        f"{', '.join(sorted(self.connected(source) - {source}))}",
+                        hint=f"the top of the TF tree of {source!r} is {top!r}: --map-frame "
+                        f"{top} builds the map in that frame; or record the transform {f}->{top}",
                     )
                 raise TransformError(
                     f"unknown frame {f!r}; frames known: {', '.join(self.frames) or '(none)'}",
@@ -470,13 +477,3 @@ class TfBuffer:
             return Trajectory.empty()
         _, tr, ok = self.lookup(target, source, times)
         return Trajectory(times[ok], np.ascontiguousarray(tr[ok]))
-
-
-def unusable_text(unusable: dict[tuple[str, str], int], frame: str | None = None) -> str:
-    """``unusable`` (:attr:`TfBuffer.unusable`) as ``3 of base_link->laser (a NaN or zero
-    quaternion, or a non-finite translation)``; with ``frame``, only the edges that name it."""
-    edges = sorted((k, n) for k, n in unusable.items() if frame is None or frame in k)
-    if not edges:
-        return ""
-    listed = first_few([f"{n:,} of {p}->{c}" for (p, c), n in edges], 5)
-    return f"{listed} (a NaN or zero quaternion, or a non-finite translation)"

@@ -36,7 +36,9 @@ cannot_read, warnings, fixed_sensor{windows_with_messages, span_windows, window_
 hours_with_messages} (only when the logs have no TF, and no scene graph or a first one without
 robot poses in its agent layer: build observes the windows with messages),
 frames_without_tf{topic: [frames of its first messages that the log's TF does not connect
-to 'map']} (aion_cli.frame_check: a build would need --map-frame),
+to 'map']} (aion_cli.frame_check: a build would need --map-frame), tf_roots{frame: the frame
+at the top of its TF tree, for those frames that TF knows (the --map-frame to build in when
+map->odom is missing)},
 mapping_example (without a detection topic: a topic --suggest-mapping writes a mapping for,
 or null).
 For a map (.aion): map, format, version, creator, created, inputs[{path, name, size, sha256}],
@@ -82,9 +84,10 @@ def describe(
         if plan.detections:
             from aion_cli.frame_check import unconnected_frames
 
-            report["frames_without_tf"] = unconnected_frames(
-                logset, plan, mappings, report["warnings"]
-            )
+            frames = unconnected_frames(logset, plan, mappings)
+            report["frames_without_tf"] = frames.apart
+            report["tf_roots"] = frames.roots
+            report["warnings"].extend(frames.warnings)
         else:
             from aion_cli.topics import mapping_example
 
@@ -456,6 +459,7 @@ def _print(report: dict[str, Any]) -> None:
     from aion_cli.frame_check import TF_SAMPLE
 
     has_tf = bool(report.get("will_use", {}).get("tf"))
+    roots = report.get("tf_roots") or {}
     for topic, frames in (report.get("frames_without_tf") or {}).items():
         named = ", ".join(f"'{f}'" for f in frames)
         apart = (
@@ -464,10 +468,16 @@ def _print(report: dict[str, Any]) -> None:
             if has_tf
             else "and the log has no TF to 'map'"
         )
+        top = roots.get(frames[0], frames[0])
+        advice = (
+            f"build with --map-frame {safe(top)} (the top of the TF tree {safe(frames[0])!r} is "
+            f"in) or give the TF map->{safe(top)}"
+            if top != frames[0]
+            else f"build with --map-frame {safe(top)} (if it is a fixed frame) or give the TF"
+        )
         console().print(
             f"[yellow]note:[/yellow] {safe(topic)} holds detections in frame {safe(named)}, "
-            f"{apart}: build with --map-frame {safe(frames[0])} (if it is a fixed frame) or give "
-            "the TF",
+            f"{apart}: {advice}",
             soft_wrap=True,
         )
     fixed = report.get("fixed_sensor")

@@ -30,14 +30,19 @@ def test_a_leading_slash_on_map_frame_names_the_logs_frame(tmp_path: Path) -> No
 
 
 def _tf_log(
-    path: Path, topic: str, child: str, quats: list[tuple[float, ...]], parent: str | None = None
+    path: Path,
+    topic: str,
+    child: str,
+    quats: list[tuple[float, ...]],
+    parent: str | None = None,
+    period_s: int = 30,
 ) -> None:
     """TF ``parent -> child`` (default ``base_link`` on ``/tf_static``, else ``map``) with the
-    rotations ``quats``, one message every 30 s from the office log's start."""
+    rotations ``quats``, one message every ``period_s`` from the office log's start."""
     parent = parent or ("base_link" if topic == "/tf_static" else "map")
     with LogWriter(path) as writer:
         for k, (x, y, z, w) in enumerate(quats):
-            t = T0 + 30 * k * 10**9
+            t = T0 + period_s * k * 10**9
             writer.write(
                 topic,
                 "tf2_msgs/msg/TFMessage",
@@ -107,3 +112,26 @@ def test_a_frame_with_two_parents_is_a_warning(tmp_path: Path) -> None:
     warned = [w for w in report["warnings"] if "more than one parent" in w]
     assert len(warned) == 1, report["warnings"]
     assert "'base_link' (map, world)" in warned[0]
+
+
+def test_without_map_to_odom_the_top_of_the_sensors_tree_is_suggested(tmp_path: Path) -> None:
+    """odom -> base_link -> laser and no map -> odom (no localisation running): the build said
+    "unknown frame 'map'" with a hint to check --map-frame, and info suggested --map-frame
+    laser, the moving sensor's own frame. Both now name odom, the top of the laser's tree,
+    and a build in odom uses every detection."""
+    people, odom, static = tmp_path / "laser.mcap", tmp_path / "odom.mcap", tmp_path / "s.mcap"
+    write_office_log(people, frame="laser", tf=False, graph=False)
+    _tf_log(odom, "/tf", "base_link", [(0.0, 0.0, 0.0, 1.0)] * 241, parent="odom", period_s=5)
+    _tf_log(static, "/tf_static", "laser", [(0.0, 0.0, 0.0, 1.0)])
+    logs = (people, odom, static)
+    result = run("build", *logs, "--workers", "1", "-o", tmp_path / "m.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "unknown frame 'map': TF joins 'laser' only to "
+                          "base_link, odom")
+    assert "--map-frame odom builds the map in that frame" in result.stderr
+    info = run("info", *logs)
+    assert "build with --map-frame odom (the top of the TF tree 'laser' is in)" in info.stderr
+    assert run_json("info", *logs, "--format", "json")["tf_roots"] == {"laser": "odom"}
+    report = run_json("build", *logs, "--workers", "1", "--map-frame", "odom", "-o",
+                      tmp_path / "odom.aion", "--format", "json")
+    assert report["detections"]["used"] == 300

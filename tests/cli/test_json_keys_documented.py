@@ -19,7 +19,7 @@ AT = ("--time", "2026-01-12 08:40", "--tz", "UTC")
 DATA_KEYED = {
     # objects whose keys are data (topics, reasons, roles, families, parameters), not fields
     "detection_decoding", "detections_by_topic", "dropped", "log_times_dropped",
-    "dsg_versions", "frames_without_tf", "roles", "config", "families", "counts",
+    "dsg_versions", "frames_without_tf", "tf_roots", "roles", "config", "families", "counts",
     "last_build", "skipped", "aion",
 }
 
