@@ -23,10 +23,11 @@ import numpy as np
 from aion_cli.engine.mapper import TIME_RANGE_TEXT
 from aion_cli.engine.types import I64, Trajectory
 from aion_cli.engine.windows import window_ns
-from aion_cli.errors import InputError, MessageDecodeError, TransformError
+from aion_cli.errors import InputError, MessageDecodeError
 from aion_cli.fixed_sensor import fixed_sensor_windows, unposed_log_windows
 from aion_cli.graph_schedule import GraphTimes
-from aion_cli.log_times import TimeCheck, TopicTimes, iso, stray_mask
+from aion_cli.log_times import TimeCheck, TopicTimes
+from aion_cli.tf_trajectory import no_trajectory, robot_trajectory, wrong_base_warning
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
@@ -44,7 +45,6 @@ __all__ = [
     "observe",
     "read_static_tf",
     "read_tf_and_times",
-    "robot_trajectory",
     "with_static_tf",
 ]
 
@@ -264,33 +264,6 @@ def _in_range(times: TopicTimes, messages: list[RawMessage]) -> list[RawMessage]
     return messages if ok.all() else list(compress(messages, ok.tolist()))
 
 
-def robot_trajectory(
-    tf: TfBuffer | None, map_frame: str, base_frame: str, warnings: list[str]
-) -> Trajectory | None:
-    """The robot's ``map_frame -> base_frame`` poses (``--map-frame``, ``--base-frame``),
-    without stray ones (the time-sanity rule of :func:`aion_cli.log_times.stray_mask` on the
-    poses' own stamps: a pose a day away from the rest of the trajectory would make its far
-    window an observed one)."""
-    if tf is None:
-        return None
-    try:
-        traj = tf.trajectory(map_frame, base_frame)
-    except TransformError:
-        return None
-    if len(traj) == 0:
-        return None
-    t = np.asarray(traj.t_ns, dtype=np.int64)
-    stray = stray_mask(t)
-    if stray.any():
-        warnings.append(
-            f"{int(stray.sum()):,} robot pose(s) ignored: stamped more than a day away from "
-            f"the rest of the trajectory (first: {iso(int(t[stray].min()))})"
-        )
-        keep = ~stray
-        traj = Trajectory(t[keep], np.asarray(traj.xyz)[keep])
-    return traj
-
-
 def observe(
     mapper: Mapper,
     tf: TfBuffer | None,
@@ -317,7 +290,7 @@ def observe(
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
-        report.notes.append(_no_trajectory(tf, map_frame, base_frame))
+        report.notes.append(no_trajectory(tf, map_frame, base_frame))
     if traj is not None:
         part = times.inside_limits(traj.t_ns)  # a time shard observes with its own poses
         if not part.all():
@@ -354,6 +327,9 @@ def observe(
         if unposed is not None:
             report.observation += " + " + unposed
     else:
+        wrong_base = wrong_base_warning(tf, map_frame, base_frame)
+        if wrong_base is not None:
+            report.warnings.append(wrong_base)
         report.observation = fixed_sensor_windows(
             mapper, logset, times, report.notes, report, declared, fill
         )
@@ -376,31 +352,6 @@ def silent_note(n: int, delta: int) -> str:
         "there); a tracker that publishes only when it sees someone leaves them so, but one "
         "that was down then (crashed, not started) did not observe them: leave that time "
         "out of the logs"
-    )
-
-
-def _no_trajectory(tf: TfBuffer, map_frame: str, base_frame: str) -> str:
-    """Why TF gave no robot trajectory: no ``map_frame -> base_frame`` chain, one of
-    static transforms only (a sensor mounted in the map frame: no poses over time say
-    when it observed, so the log is a fixed sensor), or one whose ``/tf`` links never
-    overlap in time."""
-    from aion_cli.formats.tf import normalize_frame
-
-    if normalize_frame(base_frame) in tf.connected(map_frame):
-        if tf.dynamic_links(map_frame, base_frame):
-            return (
-                f"TF joins {map_frame}->{base_frame}, but at no time does every transform of "
-                "the chain have a pose (its /tf transforms do not overlap in time): no robot "
-                "trajectory, so it is taken as a fixed sensor (see below)"
-            )
-        return (
-            f"TF joins {map_frame}->{base_frame} by static transforms only (/tf_static): no "
-            "poses over time say when the sensor observed, so it is taken as a fixed sensor "
-            "(see below)"
-        )
-    return (
-        f"TF has no {map_frame}->{base_frame} chain for the robot trajectory (frames: "
-        f"{', '.join(sorted(tf.frames)[:12])}); see --map-frame / --base-frame"
     )
 
 

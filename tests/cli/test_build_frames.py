@@ -135,3 +135,22 @@ def test_without_map_to_odom_the_top_of_the_sensors_tree_is_suggested(tmp_path: 
     report = run_json("build", *logs, "--workers", "1", "--map-frame", "odom", "-o",
                       tmp_path / "odom.aion", "--format", "json")
     assert report["detections"]["used"] == 300
+
+
+def test_a_robot_without_base_link_is_told_its_base_frame(tmp_path: Path) -> None:
+    """TF moves base_footprint in map and has no base_link: the robot's log was read as a fixed
+    sensor that saw every place in every window, with only a note. Now a warning names the
+    frame TF moves (--base-frame base_footprint), which gives the robot's trajectory."""
+    people, robot = tmp_path / "office.mcap", tmp_path / "robot.mcap"
+    write_office_log(people, tf=False, graph=False)
+    _tf_log(robot, "/tf", "base_footprint", [(0.0, 0.0, 0.0, 1.0)] * 241, period_s=5)
+    report = run_json("build", people, robot, "--workers", "1", "-o", tmp_path / "a.aion",
+                      "--format", "json")
+    assert report["observation"].startswith("fixed sensor")
+    warned = [w for w in report["warnings"] if w.startswith("TF moves 'base_footprint' in 'map'")]
+    assert len(warned) == 1, report["warnings"]
+    assert warned[0].endswith("--base-frame base_footprint")
+    report = run_json("build", people, robot, "--workers", "1", "-o", tmp_path / "b.aion",
+                      "--base-frame", "base_footprint", "--format", "json")
+    assert report["observation"] == "tf map->base_footprint"
+    assert not [w for w in report["warnings"] if w.startswith("TF moves")]
