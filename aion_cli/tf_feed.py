@@ -48,8 +48,8 @@ __all__ = [
     "with_static_tf",
 ]
 
-StaticTf = tuple[tuple[str, str, tuple[float, ...], tuple[float, ...]], ...]
-"""Static transforms as ``(parent, child, translation, quaternion)``
+StaticTf = tuple[tuple[str, str, int, tuple[float, ...], tuple[float, ...]], ...]
+"""Static transforms as ``(parent, child, stamp, translation, quaternion)``
 (:meth:`formats.tf.TfBuffer.static_transforms`), small enough to send to every shard."""
 
 
@@ -203,10 +203,10 @@ class TfReader:
 
 def read_static_tf(logset: Any, plan: TopicPlan) -> StaticTf:
     """The static transforms (``*_static`` TF topics) of every log of ``logset``, read in
-    time order as a build of them all reads them (the last one of an edge wins). A parallel
-    build gives them to each of its shards (:func:`with_static_tf`): a shard reads only its
-    own logs, and ``/tf_static`` is often recorded once, in the first log or a log of its
-    own."""
+    time order as a build of them all reads them (the last one of an edge and stamp wins).
+    A parallel build gives them to each of its shards (:func:`with_static_tf`): a shard reads
+    only its own logs, and ``/tf_static`` is often recorded once, in the first log or a log
+    of its own."""
     from aion_cli.formats.tf import TfBuffer
 
     topics = {t for t in plan.names("tf") if t.endswith("_static")} if plan.tf else set()
@@ -223,23 +223,22 @@ def read_static_tf(logset: Any, plan: TopicPlan) -> StaticTf:
     if chunk:
         reader.add(_in_range(times, chunk))
     return tuple(
-        (p, c, tuple(tr.tolist()), tuple(q.tolist()))
-        for p, c, tr, q in reader.buffer.static_transforms()
+        (p, c, stamp, tuple(tr.tolist()), tuple(q.tolist()))
+        for p, c, stamp, tr, q in reader.buffer.static_transforms()
     )
 
 
 def with_static_tf(tf: TfBuffer | None, static: StaticTf) -> TfBuffer | None:
     """``tf`` with the ``static`` transforms of a whole build added after its own (the same
-    edges as one read of all the logs: the last one given wins), a new buffer when ``tf``
-    is None."""
+    edges as one read of all the logs: the last one given per stamp wins), a new buffer
+    when ``tf`` is None."""
     if not static:
         return tf
     from aion_cli.formats.tf import TfBuffer
 
     buffer = tf if tf is not None else TfBuffer()
-    parents, children, tr, q = zip(*static, strict=True)
-    buffer.add_transforms(list(parents), list(children), np.zeros(len(static), np.int64), tr, q,
-                          static=True)
+    parents, children, stamps, tr, q = zip(*static, strict=True)
+    buffer.add_transforms(list(parents), list(children), stamps, tr, q, static=True)
     return buffer
 
 

@@ -32,7 +32,7 @@ from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.errors import TransformError
 from aion_cli.formats.quaternions import quat_to_matrix, slerp
 from aion_cli.formats.raw import normalize_frame
-from aion_cli.formats.tf_parts import EdgeSeries, TfBatch
+from aion_cli.formats.tf_parts import EdgeSeries, StaticEdge, TfBatch
 from aion_cli.formats.tf_tree import root, unusable_text
 
 _PENDING_MAX = 4096  # queued TF messages ingested in one vectorized call
@@ -82,9 +82,7 @@ class TfBuffer:
         self.max_gap_ns = float(max_gap_s) * 1e9
         self.block_rows = block_rows
         self._dynamic: dict[tuple[str, str], EdgeSeries] = {}
-        self._static: dict[tuple[str, str], tuple[F64, F64]] = {}  # (R[3,3], t[3])
-        # per static edge, its last translation and quaternion as given (static_transforms)
-        self._static_given: dict[tuple[str, str], tuple[F64, F64]] = {}
+        self._static: dict[tuple[str, str], StaticEdge] = {}
         self._neighbours: dict[str, set[str]] = {}
         self._paths: dict[tuple[str, str], list[str]] = {}
         self._pending: list[tuple[Any, bool]] = []  # messages not yet ingested (batched)
@@ -142,9 +140,11 @@ class TfBuffer:
         """Add n transforms ``parent_T_child`` at once (a str parent/child applies to all rows).
 
         Rows with a non-finite translation or a zero / non-finite quaternion are dropped and
-        counted in ``invalid_samples``; static rows ignore ``t_ns`` (the last one per edge wins).
+        counted in ``invalid_samples``; a static row holds from its stamp ``t_ns`` on (the
+        last one per edge and stamp wins; before its first stamp an edge takes its first):
+        one transform for all times while an edge's static values agree.
         """
-        self._flush()  # keep arrival order (static: the last one wins)
+        self._flush()  # keep arrival order (static: the last one per stamp wins)
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
         n = len(t)
         tr = np.asarray(translation, dtype=np.float64).reshape(n, 3)
@@ -233,17 +233,21 @@ class TfBuffer:
             self._neighbours.setdefault(child, set()).add(parent)
             self._paths.clear()
         if static:
-            self._static[key] = (quat_to_matrix(q[-1:])[0], tr[-1].copy())
-            self._static_given[key] = (tr[-1].copy(), given[-1].copy())
+            self._static.setdefault(key, StaticEdge()).add(t, tr, given, q)
         else:
             self._dynamic.setdefault(key, EdgeSeries()).append(t, tr, q)
 
-    def static_transforms(self) -> list[tuple[str, str, F64, F64]]:
-        """Every static edge as ``(parent, child, translation, quaternion)``, the last one
-        given for it (the quaternion as given, not normalised): :meth:`add_transforms` of
-        them with ``static=True`` gives another buffer exactly these edges."""
+    def static_transforms(self) -> list[tuple[str, str, int, F64, F64]]:
+        """Every static transform as ``(parent, child, stamp, translation, quaternion)``, the
+        last one given per edge and stamp (the quaternion as given, not normalised):
+        :meth:`add_transforms` of them with ``static=True`` gives another buffer exactly
+        these static edges."""
         self._flush()
-        return [(p, c, tr, q) for (p, c), (tr, q) in sorted(self._static_given.items())]
+        return [
+            (p, c, stamp, tr, q)
+            for (p, c), edge in sorted(self._static.items())
+            for stamp, (tr, q, _) in sorted(edge.given.items())
+        ]
 
     @property
     def unusable(self) -> dict[tuple[str, str], int]:
@@ -353,8 +357,7 @@ class TfBuffer:
         """``parent_T_child`` at times ``t`` (a single transform for a static edge)."""
         series = self._dynamic.get((parent, child))
         if series is None or series.n == 0:
-            R_static, t_static = self._static[(parent, child)]
-            return TfBatch(R_static, t_static, None)
+            return self._static[(parent, child)].batch(t)
         stamps, trans, quats = series.arrays()
         first, last = stamps[0], stamps[-1]
         ok = (t >= first - self.tolerance_ns) & (t <= last + self.tolerance_ns)
@@ -407,10 +410,14 @@ class TfBuffer:
         return R, tr, ok
 
     def _is_dynamic(self, a: str, b: str) -> bool:
-        """The edge between neighbouring frames a and b has time-varying samples."""
+        """The edge between neighbouring frames a and b has time-varying samples (or static
+        transforms whose value changed)."""
         for key in ((a, b), (b, a)):
             series = self._dynamic.get(key)
             if series is not None and series.n > 0:
+                return True
+            edge = self._static.get(key)
+            if edge is not None and edge.varies:
                 return True
         return False
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from aion_cli.engine.types import F64, I64, BoolA
+from aion_cli.formats.quaternions import quat_to_matrix
 
 
 class EdgeSeries:
@@ -77,3 +78,52 @@ class TfBatch:
             return TfBatch((flat @ other.R).reshape(n, 3, 3), t, self.ok)
         t = np.einsum("nij,nj->ni", self.R, other.t) + self.t
         return TfBatch(np.einsum("nij,njk->nik", self.R, other.R), t, self.ok & other.ok)
+
+
+class StaticEdge:
+    """The ``/tf_static`` transforms of one edge: the last one given at each header stamp.
+    When they all agree the edge is one transform (:meth:`batch` static, as tf2 keeps it);
+    when its value changed (a sensor remounted, logs of two robots in one build) each takes
+    over at its stamp, and a time before the first stamp takes the first."""
+
+    def __init__(self) -> None:
+        # stamp -> (translation, quaternion as given, unit quaternion)
+        self.given: dict[int, tuple[F64, F64, F64]] = {}
+        self._steps: tuple[I64, F64, F64] | None = None
+
+    def add(self, t: I64, trans: F64, given: F64, unit: F64) -> None:
+        for k, stamp in enumerate(t.tolist()):
+            self.given[stamp] = (trans[k].copy(), given[k].copy(), unit[k].copy())
+        self._steps = None
+
+    def steps(self) -> tuple[I64, F64, F64]:
+        """Stamps, rotations R[k,3,3] and translations t[k,3] where the value changes (one
+        row when it never does: the last one given)."""
+        if self._steps is None:
+            stamps = sorted(self.given)
+            rows = [self.given[s] for s in stamps]
+            keep = [0]
+            for k in range(1, len(rows)):
+                a, b = rows[keep[-1]], rows[k]
+                if not (np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])):
+                    keep.append(k)
+            if len(keep) == 1:
+                keep = [len(rows) - 1]
+            unit = np.array([rows[k][2] for k in keep])
+            self._steps = (
+                np.array([stamps[k] for k in keep], dtype=np.int64),
+                quat_to_matrix(unit),
+                np.array([rows[k][0] for k in keep]),
+            )
+        return self._steps
+
+    @property
+    def varies(self) -> bool:
+        return len(self.steps()[0]) > 1
+
+    def batch(self, t: I64) -> TfBatch:
+        stamps, R, tr = self.steps()
+        if len(stamps) == 1:
+            return TfBatch(R[0], tr[0], None)
+        at = np.maximum(np.searchsorted(stamps, t, side="right") - 1, 0)
+        return TfBatch(R[at], tr[at], np.ones(len(t), dtype=bool))

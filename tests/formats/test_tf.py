@@ -397,3 +397,20 @@ def test_the_tolerance_and_the_gap_limit_are_inclusive() -> None:
     _, tr, ok = buf.lookup("odom", "base", inside)
     np.testing.assert_array_equal(ok, [True, True, False, False])
     np.testing.assert_allclose(tr[ok, 0], [3.0, 6.0])
+
+
+def test_a_static_transform_that_changed_holds_from_its_stamp_on() -> None:
+    """base_link -> laser at (1, 0, 0) from t = 10 s, remounted at (0, 2, 0) from t = 20 s;
+    re-sent unchanged at 30 s. A time before 10 s takes the first mount."""
+    buf = TfBuffer()
+    ident = [[0, 0, 0, 1]]
+    buf.add_transforms("base_link", "laser", [10 * S], [[1, 0, 0]], ident, static=True)
+    buf.add_transforms("base_link", "laser", [20 * S], [[0, 2, 0]], ident, static=True)
+    buf.add_transforms("base_link", "laser", [30 * S], [[0, 2, 0]], ident, static=True)
+    times = [0, 15 * S, 20 * S - 1, 20 * S, 25 * S, 40 * S]
+    _, t, ok = buf.lookup("base_link", "laser", times)
+    assert ok.all()
+    np.testing.assert_array_equal(t[:, :2], [[1, 0], [1, 0], [1, 0], [0, 2], [0, 2], [0, 2]])
+    _, t, _ = buf.lookup("laser", "base_link", [15 * S, 25 * S])  # inverted: per time too
+    np.testing.assert_array_equal(t[:, :2], [[-1, 0], [0, -2]])
+    assert [s for _, _, s, _, _ in buf.static_transforms()] == [10 * S, 20 * S, 30 * S]
