@@ -13,6 +13,7 @@ failure rules (:func:`check_tf`), none of which the build orchestration
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from itertools import compress
@@ -55,11 +56,13 @@ StaticTf = tuple[tuple[str, str, int, tuple[float, ...], tuple[float, ...]], ...
 
 @dataclass
 class TfStats:
-    """TF messages read and skipped as undecodable (with the first failure)."""
+    """TF messages read and skipped as undecodable (with the first failure), and ``/tf``
+    transforms stamped 0 (unset) that took their message's log time instead."""
 
     messages: int = 0
     undecodable: int = 0
     first_error: MessageDecodeError | None = None
+    unstamped: int = 0
 
 
 def read_tf_and_times(
@@ -189,9 +192,17 @@ class TfReader:
                     if stats.first_error is None:
                         stats.first_error = exc
                     continue
+                if not st:
+                    stats.unstamped += _stamp_unset(decoded, m.log_time_ns)
                 buffer.add_message(decoded, static=st)
         else:
             rows_static = static[arrays.msg_index]
+            unset = (arrays.t_ns == 0) & ~rows_static  # like detections: the log time
+            if unset.any():
+                log = np.fromiter((m.log_time_ns for m in chunk), np.int64, len(chunk))
+                t = np.where(unset, log[arrays.msg_index], arrays.t_ns)
+                arrays = dataclasses.replace(arrays, t_ns=t)
+                stats.unstamped += int(unset.sum())
             for flag in (True, False):  # like TfBuffer's own batches: static rows first
                 for parent, child, rows in arrays.select(
                     arrays.usable() & (rows_static == flag)
@@ -240,6 +251,21 @@ def with_static_tf(tf: TfBuffer | None, static: StaticTf) -> TfBuffer | None:
     parents, children, stamps, tr, q = zip(*static, strict=True)
     buffer.add_transforms(list(parents), list(children), stamps, tr, q, static=True)
     return buffer
+
+
+def _stamp_unset(msg: Any, log_time_ns: int) -> int:
+    """A decoded ``/tf`` message's transforms stamped 0 (unset by the publisher) take its log
+    time, as detections do (:func:`formats.detections.frame.stamps_or_log_time`): looked up
+    at the detections' times, a transform of 1970 is never found. How many were."""
+    n = 0
+    for tf in msg.transforms:
+        stamp = tf.header.stamp
+        if getattr(stamp, "sec", None) == 0 and getattr(stamp, "nanosec", None) == 0:
+            tf.header.stamp = dataclasses.replace(
+                stamp, sec=log_time_ns // 1_000_000_000, nanosec=log_time_ns % 1_000_000_000
+            )
+            n += 1
+    return n
 
 
 def _in_range(times: TopicTimes, messages: list[RawMessage]) -> list[RawMessage]:
@@ -365,7 +391,13 @@ def _ignored(declared: tuple[tuple[int, int], ...], observation: str, warnings: 
 def check_tf(stats: TfStats, tf_topics: set[str], report: BuildReport) -> None:
     """Undecodable TF messages were skipped: a warning with the count; when none of them
     could be decoded the build stops (without its TF the map would silently change its
-    frames and its observation)."""
+    frames and its observation). ``/tf`` transforms without a stamp: a note."""
+    if stats.unstamped:
+        dynamic = ", ".join(sorted(t for t in tf_topics if not t.endswith("_static")))
+        report.notes.append(
+            f"{stats.unstamped:,} transform(s) on {dynamic} were stamped 0 (unset by their "
+            "publisher): their log time was taken, as for detections"
+        )
     if stats.undecodable == 0 or stats.first_error is None:
         return
     names = ", ".join(sorted(tf_topics))

@@ -36,9 +36,11 @@ def _tf_log(
     quats: list[tuple[float, ...]],
     parent: str | None = None,
     period_s: int = 30,
+    stamped: bool = True,
 ) -> None:
     """TF ``parent -> child`` (default ``base_link`` on ``/tf_static``, else ``map``) with the
-    rotations ``quats``, one message every ``period_s`` from the office log's start."""
+    rotations ``quats``, one message every ``period_s`` from the office log's start (header
+    stamps 0 unless ``stamped``)."""
     parent = parent or ("base_link" if topic == "/tf_static" else "map")
     with LogWriter(path) as writer:
         for k, (x, y, z, w) in enumerate(quats):
@@ -50,7 +52,7 @@ def _tf_log(
                     "transforms": [
                         {
                             "header": {
-                                "stamp": {"sec": t // 10**9, "nanosec": 0},
+                                "stamp": {"sec": t // 10**9 if stamped else 0, "nanosec": 0},
                                 "frame_id": parent,
                             },
                             "child_frame_id": child,
@@ -154,3 +156,28 @@ def test_a_robot_without_base_link_is_told_its_base_frame(tmp_path: Path) -> Non
                       "--base-frame", "base_footprint", "--format", "json")
     assert report["observation"] == "tf map->base_footprint"
     assert not [w for w in report["warnings"] if w.startswith("TF moves")]
+
+
+def test_transforms_stamped_zero_take_their_log_time(tmp_path: Path) -> None:
+    """map -> laser on /tf with header stamps left at 0 by its publisher: looked up at the
+    detections' stamps (2026) a transform of 1970 was never found, and the build stopped with
+    "none of the 300 people detections read could be used (dropped: no_transform 300)". They
+    now take their log time, as detections do: the map is that of the people in 'map'."""
+    people, robot = tmp_path / "laser.mcap", tmp_path / "robot.mcap"
+    write_office_log(people, frame="laser", tf=False)
+    _tf_log(robot, "/tf", "laser", [(0.0, 0.0, 0.0, 1.0)] * 240, period_s=5, stamped=False)
+    report = run_json("build", people, robot, "--workers", "1", "-o", tmp_path / "a.aion",
+                      "--format", "json")
+    assert report["detections"]["used"] == 300
+    assert "240 transform(s) on /tf were stamped 0 (unset by their publisher): their log time " \
+        "was taken, as for detections" in report["notes"]
+    reference = tmp_path / "map.mcap"
+    write_office_log(reference, frame="map", tf=False)
+    built = run_json("build", reference, "-o", tmp_path / "b.aion", "--format", "json")
+    flows = [
+        {e["id"]: (e["flow"], e["direction_bin"]) for e in run_json(
+            "predict", tmp_path / f"{m}.aion", "--historical", "--format", "json")["entries"]}
+        for m in ("a", "b")
+    ]
+    assert built["detections"]["used"] == 300
+    assert flows[0] == flows[1]
