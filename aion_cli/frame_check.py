@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from itertools import islice
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.build_options import DEFAULT_MAP_FRAME
+from aion_cli.build_options import DEFAULT_MAP_FRAME, BuildOptions
 
 if TYPE_CHECKING:
     from aion_cli.formats.tf import TfBuffer
@@ -31,11 +31,15 @@ class FrameReport:
     """What :func:`unconnected_frames` found: per detection topic, its frames the TF sample
     does not connect to ``map`` (``apart``); for each such frame that TF knows, the frame at
     the top of its tree (``roots``: what ``--map-frame`` would build in, when ``map -> odom``
-    is missing); and warnings on the TF sample (transforms a build ignores)."""
+    is missing); warnings on the TF sample (transforms a build ignores); and ``no_robot``,
+    the warning a build gives when TF moves frames in ``map`` but not ``base_link``
+    (:func:`aion_cli.tf_trajectory.wrong_base_warning`), for a log without scene-graph robot
+    poses."""
 
     apart: dict[str, list[str]] = field(default_factory=dict)
     roots: dict[str, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    no_robot: str | None = None
 
 
 def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> FrameReport:
@@ -44,6 +48,7 @@ def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> FrameRepo
     all connected, or that cannot be decoded (the build reports those), are left out."""
     from aion_cli.formats.tf import normalize_frame
     from aion_cli.formats.tf_tree import root, unusable_text
+    from aion_cli.tf_trajectory import wrong_base_warning
 
     frames = detection_frames(logset, plan, mappings)
     out = FrameReport()
@@ -55,6 +60,7 @@ def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> FrameRepo
             f"TF transforms a build ignores: {unusable_text(tf.unusable)} (in the first "
             f"{TF_SAMPLE} messages per TF topic)"
         )
+    out.no_robot = wrong_base_warning(tf, DEFAULT_MAP_FRAME, BuildOptions.base_frame)
     linked = tf.connected(DEFAULT_MAP_FRAME)
     known = set(tf.frames)
     for topic, names in frames.items():

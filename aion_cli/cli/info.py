@@ -88,6 +88,8 @@ def describe(
             report["frames_without_tf"] = frames.apart
             report["tf_roots"] = frames.roots
             report["warnings"].extend(frames.warnings)
+            if frames.no_robot is not None and _no_graph_robot(firsts):
+                report["warnings"].append(frames.no_robot)
         else:
             from aion_cli.topics import mapping_example
 

@@ -152,6 +152,8 @@ def test_a_robot_without_base_link_is_told_its_base_frame(tmp_path: Path) -> Non
     warned = [w for w in report["warnings"] if w.startswith("TF moves 'base_footprint' in 'map'")]
     assert len(warned) == 1, report["warnings"]
     assert warned[0].endswith("--base-frame base_footprint")
+    info = run_json("info", people, robot, "--format", "json")  # says so before the build
+    assert warned[0] in info["warnings"]
     report = run_json("build", people, robot, "--workers", "1", "-o", tmp_path / "b.aion",
                       "--base-frame", "base_footprint", "--format", "json")
     assert report["observation"] == "tf map->base_footprint"
