@@ -184,6 +184,7 @@ def reading_options(
     (naive ones in ``tz``, else UTC), paths ``str`` or ``os.PathLike``."""
     from aion_cli.api import to_ns
     from aion_cli.api_checks import spans as span_pairs
+    from aion_cli.build_options import map_frame_of
     from aion_cli.pipeline import BuildOptions
     from aion_cli.timeparse import resolve_zone
 
@@ -223,8 +224,9 @@ def reading_options(
         "detections_mapping": _optional_path(options.get("detections_mapping"), "mapping"),
         "observed": spans,
     }
-    if options.get("map_frame") is not None:
-        fields["map_frame"] = options["map_frame"]
+    frame = options.get("map_frame")
+    if frame is not None:  # spelt as the logs' frames are (/map is map), as --map-frame is
+        fields["map_frame"] = map_frame_of(frame, None) if isinstance(frame, str) else frame
     return BuildOptions(logs=tuple(as_path(p, "log") for p in paths), **fields)  # type: ignore[arg-type]
 
 

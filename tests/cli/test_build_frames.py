@@ -183,3 +183,18 @@ def test_transforms_stamped_zero_take_their_log_time(tmp_path: Path) -> None:
     ]
     assert built["detections"]["used"] == 300
     assert flows[0] == flows[1]
+
+
+def test_the_api_reads_map_frame_with_a_slash_as_the_cli_does(tmp_path: Path) -> None:
+    """``Map.holdout(logs, map_frame="/map")`` on a map of 'map': the note "the map holds
+    positions in frame 'map' and --map-frame read the test logs into '/map'" said the two
+    frames differ; they are one frame, as for aion evaluate holdout --map-frame /map."""
+    from aion_cli.api import Map
+
+    first, later = tmp_path / "first.mcap", tmp_path / "later.mcap"
+    write_office_log(first, tf=False)
+    write_office_log(later, tf=False, shift_s=3 * 86_400)
+    assert run("build", first, "-o", tmp_path / "m.aion", "-q").exit_code == 0
+    result = Map.load(tmp_path / "m.aion").holdout(later, map_frame="/map")
+    assert result.test["detections"] == 300
+    assert not [n for n in result.notes if "holds positions in frame" in n]
