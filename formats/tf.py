@@ -238,15 +238,15 @@ class TfBuffer:
             self._dynamic.setdefault(key, EdgeSeries()).append(t, tr, q)
 
     def static_transforms(self) -> list[tuple[str, str, int, F64, F64]]:
-        """Every static transform as ``(parent, child, stamp, translation, quaternion)``, the
-        last one given per edge and stamp (the quaternion as given, not normalised):
-        :meth:`add_transforms` of them with ``static=True`` gives another buffer exactly
-        these static edges."""
+        """The static transforms as ``(parent, child, stamp, translation, quaternion)``
+        where an edge's value changes (the quaternion as given, not normalised; one per edge
+        whose values all agree): :meth:`add_transforms` of them with ``static=True`` gives
+        another buffer exactly these static edges."""
         self._flush()
         return [
             (p, c, stamp, tr, q)
             for (p, c), edge in sorted(self._static.items())
-            for stamp, (tr, q, _) in sorted(edge.given.items())
+            for stamp, tr, q in edge.steps()
         ]
 
     @property

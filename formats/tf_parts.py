@@ -84,45 +84,45 @@ class StaticEdge:
     """The ``/tf_static`` transforms of one edge: the last one given at each header stamp.
     When they all agree the edge is one transform (:meth:`batch` static, as tf2 keeps it);
     when its value changed (a sensor remounted, logs of two robots in one build) each takes
-    over at its stamp, and a time before the first stamp takes the first."""
+    over at its stamp, and a time before the first stamp takes the first. Rows are appended
+    as given and sorted out with numpy when first asked (a log that re-sends ``/tf_static``
+    all the time holds thousands of copies of one transform)."""
 
     def __init__(self) -> None:
-        # stamp -> (translation, quaternion as given, unit quaternion)
-        self.given: dict[int, tuple[F64, F64, F64]] = {}
-        self._steps: tuple[I64, F64, F64] | None = None
+        self._parts: list[tuple[I64, F64, F64, F64]] = []  # stamps, trans, given q, unit q
+        self._steps: tuple[I64, F64, F64, F64, F64] | None = None
 
     def add(self, t: I64, trans: F64, given: F64, unit: F64) -> None:
-        for k, stamp in enumerate(t.tolist()):
-            self.given[stamp] = (trans[k].copy(), given[k].copy(), unit[k].copy())
+        self._parts.append((t.copy(), trans.copy(), given.copy(), unit.copy()))
         self._steps = None
 
-    def steps(self) -> tuple[I64, F64, F64]:
-        """Stamps, rotations R[k,3,3] and translations t[k,3] where the value changes (one
-        row when it never does: the last one given)."""
+    def _changes(self) -> tuple[I64, F64, F64, F64, F64]:
+        """Stamps, translations, given and unit quaternions, and rotations R[k,3,3] where
+        the value changes, in stamp order (one row when it never does: the last one)."""
         if self._steps is None:
-            stamps = sorted(self.given)
-            rows = [self.given[s] for s in stamps]
-            keep = [0]
-            for k in range(1, len(rows)):
-                a, b = rows[keep[-1]], rows[k]
-                if not (np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])):
-                    keep.append(k)
-            if len(keep) == 1:
-                keep = [len(rows) - 1]
-            unit = np.array([rows[k][2] for k in keep])
-            self._steps = (
-                np.array([stamps[k] for k in keep], dtype=np.int64),
-                quat_to_matrix(unit),
-                np.array([rows[k][0] for k in keep]),
-            )
+            t, tr, given, unit = (np.concatenate(c) for c in zip(*self._parts, strict=True))
+            self._parts = [(t, tr, given, unit)]
+            order = np.lexsort((np.arange(len(t)), t))  # by stamp, then as given
+            last = np.r_[t[order][1:] != t[order][:-1], True]  # the last given per stamp
+            keep = order[last]
+            value = np.concatenate([tr[keep], given[keep]], axis=1)
+            change = np.r_[True, (value[1:] != value[:-1]).any(axis=1)]
+            rows = keep[change] if change.sum() > 1 else keep[-1:]
+            self._steps = (t[rows], tr[rows], given[rows], unit[rows], quat_to_matrix(unit[rows]))
         return self._steps
+
+    def steps(self) -> list[tuple[int, F64, F64]]:
+        """``(stamp, translation, quaternion as given)`` where the value changes: given to
+        another edge's :meth:`add` they make the same transform at every time."""
+        t, tr, given, _, _ = self._changes()
+        return list(zip(t.tolist(), tr, given, strict=True))
 
     @property
     def varies(self) -> bool:
-        return len(self.steps()[0]) > 1
+        return len(self._changes()[0]) > 1
 
     def batch(self, t: I64) -> TfBatch:
-        stamps, R, tr = self.steps()
+        stamps, tr, _, _, R = self._changes()
         if len(stamps) == 1:
             return TfBatch(R[0], tr[0], None)
         at = np.maximum(np.searchsorted(stamps, t, side="right") - 1, 0)
