@@ -293,8 +293,9 @@ class TfBuffer:
                     raise TransformError(
                         f"frame {f!r} is only in TF transforms that cannot be used: {dropped}; "
                         f"frames known: {', '.join(self.frames) or '(none)'}",
-                        hint="a rotation must be a non-zero quaternion (x, y, z, w); fix the "
-                        "publisher of that transform (tf2 ignores such transforms too)",
+                        hint="a transform needs a finite translation and a non-zero "
+                        "quaternion (x, y, z, w); fix the publisher of that transform (tf2 "
+                        "ignores such transforms too)",
                     )
                 if f == target and source in self._neighbours:  # no map->odom: name the root
                     top = root(self.edges, source)
