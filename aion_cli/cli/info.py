@@ -10,6 +10,7 @@ import click
 
 from aion_cli.cli.common import AionPath, detections_mapping_option, log_format_option
 from aion_cli.cli.graph_options import nav_layer_option
+from aion_cli.cli.info_frames import add_frames, print_frame_notes
 from aion_cli.cli.info_map import describe_map, print_map, verify_map
 from aion_cli.cli.output import format_option, human_size, to_json
 
@@ -82,14 +83,7 @@ def describe(
         if plan.detections and not plan.tf and _no_graph_robot(firsts):
             report["fixed_sensor"] = _fixed_sensor_windows(logset)
         if plan.detections:
-            from aion_cli.frame_check import unconnected_frames
-
-            frames = unconnected_frames(logset, plan, mappings)
-            report["frames_without_tf"] = frames.apart
-            report["tf_roots"] = frames.roots
-            report["warnings"].extend(frames.warnings)
-            if frames.no_robot is not None and _no_graph_robot(firsts):
-                report["warnings"].append(frames.no_robot)
+            add_frames(report, logset, plan, mappings, not _no_graph_robot(firsts))
         else:
             from aion_cli.topics import mapping_example
 
@@ -458,30 +452,7 @@ def _print(report: dict[str, Any]) -> None:
             "[yellow]note:[/yellow] no scene graph: build with --graph FILE or --derive-graph",
             soft_wrap=True,
         )
-    from aion_cli.frame_check import TF_SAMPLE
-
-    has_tf = bool(report.get("will_use", {}).get("tf"))
-    roots = report.get("tf_roots") or {}
-    for topic, frames in (report.get("frames_without_tf") or {}).items():
-        named = ", ".join(f"'{f}'" for f in frames)
-        apart = (
-            f"which the log's TF (its first {TF_SAMPLE} messages per TF topic) does not connect "
-            "to 'map'"
-            if has_tf
-            else "and the log has no TF to 'map'"
-        )
-        top = roots.get(frames[0], frames[0])
-        advice = (
-            f"build with --map-frame {safe(top)} (the top of the TF tree {safe(frames[0])!r} is "
-            f"in) or give the TF map->{safe(top)}"
-            if top != frames[0]
-            else f"build with --map-frame {safe(top)} (if it is a fixed frame) or give the TF"
-        )
-        console().print(
-            f"[yellow]note:[/yellow] {safe(topic)} holds detections in frame {safe(named)}, "
-            f"{apart}: {advice}",
-            soft_wrap=True,
-        )
+    print_frame_notes(report)
     fixed = report.get("fixed_sensor")
     if fixed and fixed["span_windows"]:
         from aion_cli.fixed_sensor import share_text
