@@ -34,7 +34,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -241,7 +240,10 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
             window, profile[place, bins[window]] * share, minlength=windows.size
         ),
     }
-    hours, result.series, result.activity = hourly_activity(windows * w_ns, truth_w, per_window)
+    starts = windows * w_ns
+    hours, result.series, result.activity = hourly_activity(
+        starts, truth_w, per_window, state.params.calendar.local_ns(starts)
+    )
     result.hours = [_hour_label(int(h), state.config.timezone) for h in hours.tolist()]
 
 
@@ -306,11 +308,12 @@ def _profile_rates(state: MapState, rows: np.ndarray, static: np.ndarray) -> np.
     return rate
 
 
-def _hour_label(hour: int, timezone: str) -> str:
-    """The start of an hour (UNIX hours) in the map's zone, ISO 8601 to the minute."""
-    from zoneinfo import ZoneInfo
+def _hour_label(hour_ns: int, timezone: str) -> str:
+    """The start of an hour (UNIX ns) in the map's zone (an IANA name or an offset such as
+    ``UTC+05:30``), ISO 8601 to the minute."""
+    from aion_cli.timeparse import from_ns, resolve_zone
 
-    return datetime.fromtimestamp(hour * 3600, ZoneInfo(timezone)).isoformat(timespec="minutes")
+    return from_ns(hour_ns, resolve_zone(timezone)).isoformat(timespec="minutes")
 
 
 def hourly_picture(result: HoldoutResult, path: Path, title: str) -> Path:

@@ -323,7 +323,7 @@ def _activity(
     per_window = {name: forecast * share for name, forecast in per_window.items()}
     starts = windows * window_ns
     hours, result.series, result.activity = hourly_activity(starts, truth_w, per_window)
-    result.hours = [int(h % 24) for h in hours.tolist()]
+    result.hours = [int(h // HOUR_NS % 24) for h in hours.tolist()]
     table = predict_table(state, int(centres[len(centres) // 2]))
     fam, cnt = np.unique(table.flow_family[table.flow_family != "none"], return_counts=True)
     dfam, dcnt = np.unique(

@@ -164,12 +164,20 @@ HOUR_NS = 3_600 * 10**9
 
 
 def hourly_activity(
-    window_start_ns: npt.ArrayLike, truth: npt.ArrayLike, forecasts: Mapping[str, npt.ArrayLike]
+    window_start_ns: npt.ArrayLike,
+    truth: npt.ArrayLike,
+    forecasts: Mapping[str, npt.ArrayLike],
+    local_start_ns: npt.ArrayLike | None = None,
 ) -> tuple[npt.NDArray[np.int64], dict[str, list[float]], list[dict[str, float | str]]]:
     """Counts per window (``truth``) and each model's forecasts per window, summed per clock
-    hour (UNIX hours, the windows' starts): the hours, the hourly series (``truth`` first)
-    and each model's :func:`activity_scores` as ``{"model": name, ...}`` rows."""
-    hour_of = np.asarray(window_start_ns, dtype=np.int64) // HOUR_NS
+    hour of the windows' starts: the hours (each as the UNIX ns of its start), the hourly
+    series (``truth`` first) and each model's :func:`activity_scores` as ``{"model": name,
+    ...}`` rows. ``local_start_ns`` (the starts on a local wall clock,
+    ``Calendar.local_ns``) makes the hours that clock's (08:00-09:00 local in a zone half an
+    hour off UTC; each of the two 02:00 hours of an autumn change apart); default: UTC's."""
+    starts = np.asarray(window_start_ns, dtype=np.int64)
+    local = starts if local_start_ns is None else np.asarray(local_start_ns, dtype=np.int64)
+    hour_of = starts - np.mod(local, HOUR_NS)  # the UNIX ns at which each local hour began
     hours, inverse = np.unique(hour_of, return_inverse=True)
     hourly_truth = np.bincount(inverse, np.asarray(truth, dtype=np.float64))
     series = {"truth": hourly_truth.tolist()}

@@ -110,6 +110,34 @@ def test_a_learnt_rhythm_beats_the_static_rates(corridor: tuple) -> None:
     assert series[rush] == max(series)
 
 
+@pytest.mark.parametrize("zone", ["UTC+05:30", "Asia/Kolkata"])
+def test_hours_follow_the_local_clock_of_a_zone_half_an_hour_off_utc(
+    corridor: tuple, tmp_path: Path, zone: str
+) -> None:
+    """A map whose zone is half an hour off UTC: the hourly activity is summed per local
+    clock hour and labelled by it (an offset zone was an internal error, an IANA one summed
+    UTC hours, labelled 13:30, 14:30, ...). The truth per hour is counted here from the test
+    file's times with zoneinfo."""
+    from datetime import UTC, datetime
+    from zoneinfo import ZoneInfo
+
+    _site, train, test, _truth = corridor
+    site = tmp_path / "india.aion"
+    built = run("build", train, "-o", site, "--tz", zone, "-q")
+    assert built.exit_code == 0, built.stderr
+    doc = run_json("evaluate", "holdout", site, test, "--format", "json")
+    kolkata = ZoneInfo("Asia/Kolkata")  # +05:30 all year
+    expected: dict[str, int] = {}
+    csv = test.with_suffix(".csv")
+    for t in np.loadtxt(csv, delimiter=",", skiprows=1, usecols=0, dtype=np.int64).tolist():
+        local = datetime.fromtimestamp(t // S, UTC).astimezone(kolkata)
+        label = local.replace(minute=0, second=0).isoformat(timespec="minutes")
+        expected[label] = expected.get(label, 0) + 1
+    # the test day was observed 08:00-18:00 UTC: 13:30-23:30 local, eleven clock hours
+    assert doc["hours"] == [f"2026-01-11T{h}:00+05:30" for h in range(13, 24)]
+    assert doc["hourly_series"]["truth"] == [expected.get(h, 0) for h in doc["hours"]]
+
+
 def test_the_python_api_gives_the_commands_figures(corridor: tuple) -> None:
     import aion_cli as aion
 
