@@ -30,7 +30,7 @@ from decimal import Decimal, InvalidOperation
 from pathlib import Path
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-from aion_cli.engine.temporal.zones import zone_of
+from aion_cli.engine.temporal.zones import suggest_zone, zone_of
 from aion_cli.errors import ConfigError, InputError
 
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
@@ -133,14 +133,17 @@ def resolve_zone(name: str | None) -> Zone:
     try:
         tz = zone_of(text)
     except ConfigError as exc:
-        raise TimeFormatError(exc.message, ZONE_HINT) from exc
+        meant = suggest_zone(text)
+        hint = f'did you mean "{meant}"? otherwise {ZONE_HINT}' if meant else ZONE_HINT
+        raise TimeFormatError(exc.message, hint) from exc
     if tz is UTC:
         return Zone(UTC, "UTC")
     offset = _RE_OFFSET.match(text.lower())
     if offset:
         sign, hours, minutes = offset.groups()
         return Zone(tz, f"UTC{sign}{int(hours):02d}:{int(minutes or 0):02d}")
-    return Zone(tz, text)
+    key = getattr(tz, "key", None)  # the IANA spelling of a name given in another case
+    return Zone(tz, key if isinstance(key, str) and key.lower() == text.lower() else text)
 
 
 # -- conversions -------------------------------------------------------------------------------

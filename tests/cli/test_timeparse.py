@@ -174,6 +174,40 @@ def test_unknown_zone_is_an_input_error(name: str) -> None:
         resolve_zone(name)
 
 
+@pytest.mark.parametrize("name", ["europe/berlin", "EUROPE/BERLIN", "Europe/berlin"])
+def test_an_iana_name_in_another_case_is_that_zone(name: str) -> None:
+    """``--tz europe/berlin`` (as typed, or as a map written on a machine whose file system
+    ignores case records it) is Europe/Berlin, shown so; it was 'unknown time zone'."""
+    from zoneinfo import ZoneInfo
+
+    zone = resolve_zone(name)
+    assert zone.name == "Europe/Berlin"
+    summer = datetime(2026, 7, 1, 8, 30, tzinfo=ZoneInfo("Europe/Berlin"))
+    assert parse_time("2026-07-01 08:30", zone, NOW) == to_ns(summer)
+    assert parse_time(f"2026-07-01 08:30 {name}", UTCZ, NOW) == to_ns(summer)
+
+
+def test_the_calendar_of_a_zone_named_in_another_case_is_that_zones() -> None:
+    import numpy as np
+
+    from aion_cli.engine.temporal.calendar import Calendar
+
+    times = np.array([ns(2026, 3, 28, 7, 30), ns(2026, 3, 30, 6, 30)], dtype=np.int64)
+    # 08:30 local on both sides of the spring change: the same hour of the day, bin 8
+    assert Calendar("europe/berlin", "day").profile_bin(times).tolist() == [8, 8]
+
+
+@pytest.mark.parametrize(("name", "meant"), [("Europe/Berln", "Europe/Berlin"),
+                                             ("asia/tokio", "Asia/Tokyo")])
+def test_a_misspelt_zone_names_the_zone_meant(name: str, meant: str) -> None:
+    with pytest.raises(TimeFormatError, match="unknown time zone") as caught:
+        resolve_zone(name)
+    assert f'did you mean "{meant}"?' in str(caught.value.hint)
+    with pytest.raises(TimeFormatError) as caught:
+        resolve_zone("Mars/Olympus")
+    assert "did you mean" not in str(caught.value.hint)
+
+
 def test_format_round_trip() -> None:
     t = parse_time("2026-11-23 08:30", BERLIN, NOW)
     assert format_ns(t, BERLIN) == "2026-11-23 08:30:00+01:00"

@@ -3,9 +3,11 @@
 
 from __future__ import annotations
 
+import difflib
 import re
 from datetime import UTC, timedelta, timezone, tzinfo
-from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+from functools import cache
+from zoneinfo import ZoneInfo, ZoneInfoNotFoundError, available_timezones
 
 from aion_cli.errors import ConfigError
 
@@ -15,7 +17,9 @@ ZONE_HINT = "use UTC, an offset such as +09:00 or UTC-05:00, or an IANA name suc
 
 def zone_of(name: str) -> tzinfo:
     """The time zone called ``name``: ``UTC`` (also ``Z``, ``GMT``), a fixed offset
-    (``+09:00``, ``UTC-5``, ``+0530``) or an IANA name; :class:`ConfigError` otherwise."""
+    (``+09:00``, ``UTC-5``, ``+0530``) or an IANA name, in any case (``europe/berlin`` is
+    ``Europe/Berlin``, as on a machine whose file system ignores case); :class:`ConfigError`
+    otherwise, whose hint names the zone meant where one is close (``Europe/Berln``)."""
     text = name.strip()
     if text.lower() in ("utc", "z", "gmt"):
         return UTC
@@ -29,4 +33,24 @@ def zone_of(name: str) -> tzinfo:
     try:
         return ZoneInfo(text)
     except (ZoneInfoNotFoundError, ValueError, IsADirectoryError, OSError) as exc:
-        raise ConfigError(f"unknown time zone {name!r}", hint=ZONE_HINT) from exc
+        key = _keys_by_lower_case().get(text.lower())
+        if key is not None:
+            return ZoneInfo(key)
+        meant = suggest_zone(text)
+        hint = f'did you mean "{meant}"? otherwise {ZONE_HINT}' if meant else ZONE_HINT
+        raise ConfigError(f"unknown time zone {name!r}", hint=hint) from exc
+
+
+def suggest_zone(name: str) -> str | None:
+    """The IANA name closest to the unknown ``name`` (a letter missing, swapped or another
+    case), None when none is close."""
+    keys = _keys_by_lower_case()
+    close = difflib.get_close_matches(name.strip().lower(), list(keys), n=1, cutoff=0.85)
+    return keys[close[0]] if close else None
+
+
+@cache
+def _keys_by_lower_case() -> dict[str, str]:
+    """Every IANA name this machine knows, by its lower-case form (read once, and only for a
+    name ``ZoneInfo`` did not find: no two names differ by case alone)."""
+    return {key.lower(): key for key in available_timezones()}
