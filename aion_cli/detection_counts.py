@@ -9,13 +9,22 @@ summary (:mod:`aion_cli.build_report`).
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.types import I64
+
 #: Heading sources counted by :class:`DetectionCounts` (the build summary's order).
 HEADING_SOURCES: tuple[str, ...] = ("velocity", "track", "linked", "pose_yaw", "none")
+
+
+FAR_STAMP_NS = 86_400 * 1_000_000_000
+"""A header stamp more than a day from its message's log time follows another clock than the
+recording (a simulation's, from 0): the gap of ``aion_cli.log_times.STRAY_GAP_NS``."""
 
 
 @dataclass
@@ -27,6 +36,24 @@ class TopicCounts:
     undecodable: int = 0
     first_error: str | None = None
     first_hint: str | None = None
+    stamps_far: int = 0
+    far_example: tuple[int, int] | None = None
+    """Detections whose header stamp lies more than :data:`FAR_STAMP_NS` from their message's
+    log time, and the first one's (stamp, log time): :meth:`count_far_stamps`."""
+
+    def count_far_stamps(self, t_ns: I64, messages: Sequence[Any], message: I64) -> None:
+        """Count the detections (times ``t_ns``, from ``messages[message]``) stamped more
+        than :data:`FAR_STAMP_NS` from their message's log time; keep the first."""
+        from aion_cli.formats.detections.adapter import message_log_times
+
+        log = message_log_times(messages)[message]
+        far = np.abs(t_ns.astype(np.float64) - log) > FAR_STAMP_NS  # int64 could overflow
+        n = int(np.count_nonzero(far))
+        if n:
+            self.stamps_far += n
+            if self.far_example is None:
+                i = int(np.argmax(far))
+                self.far_example = (int(t_ns[i]), int(log[i]))
 
 
 @dataclass
@@ -53,6 +80,11 @@ class DetectionCounts:
         if got is None:
             got = self.topics[name] = TopicCounts()
         return got
+
+
+FAR_STAMP_NS = 86_400 * 1_000_000_000
+"""A header stamp more than a day from its message's log time follows another clock (a
+simulation's, from 0) than the recording: the stray-run gap of ``aion_cli.log_times``."""
 
 
 #: speeds are summed in µm/s as integers, each clipped to this (m/s) so no sum can overflow

@@ -203,7 +203,7 @@ class DetectionFeeder:
             msgs = messages if len(groups) == 1 else [messages[i] for i in index]
             seg = segment if len(groups) == 1 else segment[np.asarray(index, np.int64)]
             frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
-            self._count(topic, adapter, frames, len(msgs))
+            self._count(topic, adapter, frames, msgs)
             frames, _ = self._informative_yaws(topic, frames, frames.msg_index)
             frames = self._to_map_frame(frames)
             rseg = seg[frames.msg_index]
@@ -236,15 +236,15 @@ class DetectionFeeder:
             segs.append(np.full(len(batch), segment[a], np.int64))
         return DetectionBatch.concat(batches), np.concatenate(segs)
 
-    def _count(self, topic: str, adapter: DetectionAdapter, frames: Any, n_messages: int) -> None:
-        c = self.counts
+    def _count(self, topic: str, adapter: DetectionAdapter, frames: Any, msgs: list[Any]) -> None:
+        c, per_topic = self.counts, self.counts.topic(topic)
         c.read += len(frames)
         if adapter.stamped:
             c.stamp_fallbacks += int(frames.stamp_fallbacks)
+            per_topic.count_far_stamps(frames.t_ns, msgs, frames.msg_index)
         else:
             c.log_times += int(frames.stamp_fallbacks)
-        per_topic = c.topic(topic)
-        per_topic.messages += n_messages
+        per_topic.messages += len(msgs)
         for reason, n in frames.filtered.items():
             # damaged payloads are counted per message: their detections are unknown
             key = "undecodable_messages" if reason == "undecodable" else reason

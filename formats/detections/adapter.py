@@ -254,12 +254,13 @@ def _reindex(d: FrameDetections, idx: np.ndarray) -> FrameDetections:
     )
 
 
-def _log_times(messages: Sequence[RawMessage]) -> np.ndarray:
+def message_log_times(messages: Sequence[RawMessage]) -> np.ndarray:
+    """The log time (ns) of each message, int64."""
     return np.fromiter(map(attrgetter("log_time_ns"), messages), np.int64, len(messages))
 
 
 def _from_decoded(d: Decoded, messages: Sequence[RawMessage]) -> FrameDetections:
-    t, fallbacks = stamps_or_log_time(d.sec, d.nsec, _log_times(messages)[d.owner])
+    t, fallbacks = stamps_or_log_time(d.sec, d.nsec, message_log_times(messages)[d.owner])
     # Name table listing only the frames that rows refer to (O(n), no sort).
     order = np.flatnonzero(np.bincount(d.frame_code, minlength=len(d.frame_names)))
     table = FrameTable()
@@ -286,7 +287,7 @@ def _from_rows(rows: Rows, messages: Sequence[RawMessage]) -> FrameDetections:
     owner = np.asarray(rows.owner, np.int64)
     stamp = np.asarray(rows.stamp, np.int64)
     t, fallbacks = stamps_or_log_time(
-        np.zeros(n, np.int64), stamp, _log_times(messages)[owner]
+        np.zeros(n, np.int64), stamp, message_log_times(messages)[owner]
     )
     table = FrameTable()
     return FrameDetections(

@@ -1,0 +1,78 @@
+"""Header stamps on another clock than the log times: a simulation's stamps from 0 in a log
+recorded on the wall clock, or the other way round. A detection's time is its stamp and what
+was observed comes from the log times, so such a log built into nothing (every detection
+dropped as ``before_window``, the error saying no more) or into a map of two clocks, without
+a word. Now the build names the stamps, and the way out its hint gives works."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+from tests.cli.conftest import assert_one_line_error
+from tests.robustness.conftest import (
+    T0,
+    S,
+    assert_same_arrays,
+    build_json,
+    map_arrays,
+    person,
+    run,
+    write_log,
+)
+
+N = 1300
+SIM_START_S = 100  # a simulation's clock, from 0: 100 s after 1970-01-01 00:00 UTC
+
+MAPPING = '''
+[[topic]]
+topic = "/tracks"
+msgtype = "spencer_tracking_msgs/msg/TrackedPersons"
+array = "tracks"
+position = "pose.pose.position"
+velocity = "twist.twist.linear"
+orientation = "pose.pose.orientation"
+id = "track_id"
+stamp = ""
+'''
+
+
+def utc_text(t_ns: int) -> str:
+    when = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=t_ns // 1000)
+    return when.strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
+def test_sim_time_stamps_are_named_and_log_times_build_the_map(tmp_path: Path) -> None:
+    stamped = [person(T0 + k * S, (2.1, 0.1, 0.0)) for k in range(N)]
+    sim = [person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=(SIM_START_S + k) * S) for k in range(N)]
+    log = write_log(tmp_path / "sim.mcap", sim)
+    result = run("build", log, "-o", tmp_path / "sim.aion")
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "none of the 1,300 people detections")
+    hint = result.stderr.split("hint: ", 1)[1]
+    assert f"{N:,} detection(s) on /tracks are stamped more than a day away" in hint
+    assert f"the first stamped 1970-01-01 00:01:40 UTC, logged {utc_text(T0)}" in hint
+    assert 'stamp = ""' in hint
+    assert not (tmp_path / "sim.aion").exists()
+    # the way out the hint names: the log times, which give the map of a log stamped right
+    mapping = tmp_path / "tracks.toml"
+    mapping.write_text(MAPPING)
+    report = build_json(log, "-o", tmp_path / "log.aion", "--detections-mapping", mapping)
+    assert report["detections"]["used"] == N
+    build_json(write_log(tmp_path / "ok.mcap", stamped), "-o", tmp_path / "ok.aion")
+    assert_same_arrays(map_arrays(tmp_path / "log.aion"), map_arrays(tmp_path / "ok.aion"))
+
+
+def test_stamps_of_another_clock_than_the_log_times_are_a_warning(tmp_path: Path) -> None:
+    """Log times from a simulation's 0, stamps on the wall clock: the map is built (it was,
+    silently) and a warning says the two clocks differ; a log stamped at its log times has
+    none."""
+    late = [person((SIM_START_S + k) * S, (2.1, 0.1, 0.0), header_ns=T0 + k * S) for k in range(N)]
+    report = build_json(write_log(tmp_path / "late.mcap", late), "-o", tmp_path / "late.aion")
+    far = [w for w in report["warnings"] if "stamped more than a day away" in w]
+    assert len(far) == 1
+    assert far[0].startswith(f"{N:,} detection(s) on /tracks")
+    assert f"the first stamped {utc_text(T0)}, logged 1970-01-01 00:01:40 UTC" in far[0]
+    right = [person(T0 + k * S, (2.1, 0.1, 0.0)) for k in range(N)]
+    report = build_json(write_log(tmp_path / "ok.mcap", right), "-o", tmp_path / "ok.aion")
+    assert all("stamped more than a day away" not in w for w in report["warnings"])
