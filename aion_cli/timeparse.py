@@ -13,7 +13,7 @@ machine's local zone) unless the text carries its own offset:
   (now + 1 day), ``monday`` (next Monday, 00:00);
 * a bare wall-clock time ``08:30`` (today);
 * wherever a wall-clock time goes, its 12-hour form: ``9am``, ``9:30 pm``, ``tomorrow 9am``,
-  ``friday 5:45pm`` (``12am`` is midnight, ``12pm`` noon).
+  ``friday 5:45pm``, ``2026-11-23 9am`` (``12am`` is midnight, ``12pm`` noon).
 
 Nothing here depends on click: errors are :class:`TimeFormatError` (an ``InputError``).
 """
@@ -72,6 +72,8 @@ _RE_RELATIVE = re.compile(r"^(?:now\s*)?([+-])\s*((?:\d+(?:\.\d+)?\s*[a-z]+\s*)+
 _RE_REL_PART = re.compile(r"(\d+(?:\.\d+)?)\s*([a-z]+)")
 _RE_UNIX = re.compile(r"^@?(-?\d+(?:\.\d+)?)\s*(s|ns)?$")
 _RE_ONE_DIGIT_HOUR = re.compile(r"^(\d{4}-\d{2}-\d{2}[ T])(\d:)")
+_RE_DATE_CLOCK12 = re.compile(r"^(\d{4}-\d{2}-\d{2})[ t](\d.*[ap]m)$")
+_RE_ZONE_WORD = re.compile(r"^[a-z][a-z0-9_+/-]*$", re.IGNORECASE)
 _RE_OFFSET = re.compile(r"^(?:utc|gmt)?\s*([+-])(\d{1,2})(?::?(\d{2}))?$")
 
 
@@ -259,7 +261,31 @@ def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
             raise _out_of_range(raw) from None
         if result is not None:
             return check_range(result, raw)
-    raise TimeFormatError(f"cannot read the time {raw!r}", FORMS_HINT)
+    raise _unreadable(raw, zone, now)
+
+
+def _unreadable(raw: str, zone: Zone, now: datetime | None) -> TimeFormatError:
+    """The error for a time no form reads: where it is a time followed by a word no zone
+    has (``08:30 PST``, ``08:30 local``), the word is named as the zone it was meant as."""
+    head, _, last = " ".join(raw.strip().split()).rpartition(" ")
+    meant_as_zone = head and _RE_ZONE_WORD.match(last) and last.lower() not in _NOT_ZONES
+    if (meant_as_zone or last.lower() == "local") and _reads(head, zone, now):
+        return TimeFormatError(
+            f"unknown time zone {last!r} in the time {raw!r}",
+            "the machine's zone is --tz local, not a word of the time"
+            if last.lower() == "local"
+            else 'use an IANA zone name ("America/Los_Angeles", "Europe/Berlin"), an offset '
+            '("UTC-08:00") or UTC: abbreviations such as PST or CEST name no zone',
+        )
+    return TimeFormatError(f"cannot read the time {raw!r}", FORMS_HINT)
+
+
+def _reads(text: str, zone: Zone, now: datetime | None) -> bool:
+    """Whether ``text`` is a time that names no zone of its own at its end."""
+    try:
+        return zone_named_in(text, zone) is zone and parse_time(text, zone, now) is not None
+    except TimeFormatError:
+        return False
 
 
 def _out_of_range(text: str) -> TimeFormatError:
@@ -367,6 +393,15 @@ def _parse_clock(text: str, zone: Zone, current: datetime) -> int | None:
 
 
 def _parse_iso(text: str, zone: Zone, current: datetime) -> int | None:
+    dated = _RE_DATE_CLOCK12.match(text)  # a date and a 12-hour clock: 2026-11-23 9am
+    if dated:
+        clock = _wall_clock(dated.group(2), text)
+        if clock is not None:
+            try:
+                day = date.fromisoformat(dated.group(1))
+            except ValueError as exc:
+                raise TimeFormatError(f"invalid date {text!r}: {exc}", FORMS_HINT) from None
+            return to_ns(_wall(day, clock, zone))
     candidate = _RE_ONE_DIGIT_HOUR.sub(r"\g<1>0\g<2>", text.upper())
     if candidate.endswith(" Z"):
         candidate = candidate[:-2] + "Z"

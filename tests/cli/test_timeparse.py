@@ -118,6 +118,31 @@ def test_twelve_hour_clocks_wherever_a_clock_goes() -> None:
     assert parse_time("tomorrow 9am UTC", BERLIN, NOW) == ns(2026, 11, 23, 9, 0)
 
 
+def test_a_date_with_a_twelve_hour_clock() -> None:
+    """``2026-03-29 9am`` was 'cannot read the time' (the 12-hour form went with day words
+    only); in Berlin it is 9:00 summer time that day, as zoneinfo has it."""
+    from zoneinfo import ZoneInfo
+
+    nine = datetime(2026, 3, 29, 9, tzinfo=ZoneInfo("Europe/Berlin"))
+    assert parse_time("2026-03-29 9am", BERLIN, NOW) == to_ns(nine)
+    assert parse_time("2026-03-29T9:30 PM", BERLIN, NOW) == ns(2026, 3, 29, 19, 30)
+    assert parse_time("2028-02-29 12am UTC", BERLIN, NOW) == ns(2028, 2, 29, 0, 0)
+    with pytest.raises(TimeFormatError, match="day is out of range"):
+        parse_time("2027-02-29 9am", BERLIN, NOW)
+
+
+@pytest.mark.parametrize("word", ["PST", "CEST", "Narnia", "local"])
+def test_a_time_followed_by_a_word_no_zone_has_names_it_as_the_zone(word: str) -> None:
+    """``08:30 PST`` said 'cannot read the time' with the forms of a time, which it has."""
+    with pytest.raises(TimeFormatError) as info:
+        parse_time(f"2026-11-23 08:30 {word}", UTCZ, NOW)
+    assert info.value.message == f"unknown time zone {word!r} in the time '2026-11-23 08:30 {word}'"
+    assert ("--tz local" if word == "local" else "IANA") in str(info.value.hint)
+    for text in ("garbage words", "2026-11-23 08:30 Europe/Berlin UTC", "tomorrow pm"):
+        with pytest.raises(TimeFormatError, match="cannot read the time"):
+            parse_time(text, UTCZ, NOW)
+
+
 @pytest.mark.parametrize(
     "text",
     [
