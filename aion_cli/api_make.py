@@ -85,8 +85,11 @@ def build(
     from aion_cli.api_checks import count, flag, zone_name
     from aion_cli.build_options import map_frame_of
     from aion_cli.pipeline import build_map
+    from aion_cli.timeparse import resolve_zone
 
     tz = zone_name(tz)
+    if tz is not None:  # named as aion build --tz names it: UTC+05:30, the machine's for local
+        tz = resolve_zone(tz).name
     continued = _optional_path(continue_from, "continue_from")
     opts = reading_options(
         logs,

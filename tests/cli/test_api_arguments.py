@@ -322,6 +322,25 @@ def test_build_arguments(office: Office, tmp_path: Path) -> None:
     assert built.report.detection_topics == ["/tracks"]  # type: ignore[union-attr]
 
 
+def test_build_names_its_zone_as_the_command_does(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``aion.build(tz=...)`` stored the name as given ("UTC+5:30", "utc") where ``aion build
+    --tz`` stores "UTC+05:30" and "UTC", so the command refused to continue or merge the
+    API's map ("--tz UTC+05:30 differs", "different model parameters"), and tz="local" was
+    "unknown time zone 'local'"."""
+    from tests.cli.conftest import run
+
+    india = aion.build(office.log, tmp_path / "india.aion", tz="UTC+5:30")
+    assert india.timezone == "UTC+05:30"
+    assert aion.build(office.log, tmp_path / "utc.aion", tz="utc").timezone == "UTC"
+    monkeypatch.setenv("TZ", "Asia/Kolkata")
+    assert aion.build(office.log, tmp_path / "local.aion", tz="local").timezone == "Asia/Kolkata"
+    cli = run("build", office.log, "-o", tmp_path / "cli.aion", "--tz", "UTC+05:30", "-q")
+    assert cli.exit_code == 0, cli.stderr
+    assert aion.Map.load(tmp_path / "cli.aion").timezone == india.timezone
+
+
 def test_merge_refuses_a_nav_layer_without_a_graph(office: Office, tmp_path: Path) -> None:
     other = tmp_path / "other.aion"
     aion.build(office.log, other, config={"bins": 8, "cell_size": 0.25})
