@@ -73,7 +73,7 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
                 hint="rebuild one of them with the other's config (aion info MAP shows it; "
                 "aion build --config FILE)",
             )
-        if m.manifest.timezone != first.manifest.timezone:
+        if _zone(m.manifest.timezone) != _zone(first.manifest.timezone):
             raise ConfigError(
                 f"cannot merge {first.name} ({first.manifest.timezone}) and {m.name} "
                 f"({m.manifest.timezone}): their days follow different time zones",
@@ -83,6 +83,16 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
         return None
     weighed = [m.head.config for m in maps if m.head.config.exposure]
     return weighed[0] if weighed else first.head.config
+
+
+def _zone(name: str | None) -> str | None:
+    """A manifest's zone in its one spelling (``+05:30`` of an older map is UTC+05:30)."""
+    from aion_cli.engine.temporal.zones import zone_key
+
+    try:
+        return None if name is None else zone_key(name)
+    except ConfigError:
+        return name  # unknown here: compared as written
 
 
 def _differences(

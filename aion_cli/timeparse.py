@@ -30,7 +30,7 @@ from decimal import Decimal, InvalidOperation
 from pathlib import Path
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-from aion_cli.engine.temporal.zones import suggest_zone, zone_of
+from aion_cli.engine.temporal.zones import suggest_zone, zone_key, zone_of
 from aion_cli.errors import ConfigError, InputError
 
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
@@ -74,7 +74,6 @@ _RE_UNIX = re.compile(r"^@?(-?\d+(?:\.\d+)?)\s*(s|ns)?$")
 _RE_ONE_DIGIT_HOUR = re.compile(r"^(\d{4}-\d{2}-\d{2}[ T])(\d:)")
 _RE_DATE_CLOCK12 = re.compile(r"^(\d{4}-\d{2}-\d{2})[ t](\d.*[ap]m)$")
 _RE_ZONE_WORD = re.compile(r"^[a-z][a-z0-9_+/-]*$", re.IGNORECASE)
-_RE_OFFSET = re.compile(r"^(?:utc|gmt)?\s*([+-])(\d{1,2})(?::?(\d{2}))?$")
 
 
 class TimeFormatError(InputError):
@@ -138,14 +137,7 @@ def resolve_zone(name: str | None) -> Zone:
         meant = suggest_zone(text)
         hint = f'did you mean "{meant}"? otherwise {ZONE_HINT}' if meant else ZONE_HINT
         raise TimeFormatError(exc.message, hint) from exc
-    if tz is UTC:
-        return Zone(UTC, "UTC")
-    offset = _RE_OFFSET.match(text.lower())
-    if offset:
-        sign, hours, minutes = offset.groups()
-        return Zone(tz, f"UTC{sign}{int(hours):02d}:{int(minutes or 0):02d}")
-    key = getattr(tz, "key", None)  # the IANA spelling of a name given in another case
-    return Zone(tz, key if isinstance(key, str) and key.lower() == text.lower() else text)
+    return Zone(tz, zone_key(text))
 
 
 # -- conversions -------------------------------------------------------------------------------

@@ -284,11 +284,15 @@ class ModelConfig:
 
     def _validate_calendar(self) -> None:
         from aion_cli.engine.temporal.calendar import Calendar
+        from aion_cli.engine.temporal.zones import zone_key
 
         for name in ("timezone", "profile"):
             if not isinstance(getattr(self, name), str):
                 raise ConfigError(f"{name} must be a string, got {getattr(self, name)!r}")
         calendar = Calendar(self.timezone, self.profile, self.profile_bin_s)  # ConfigError
+        # one spelling per zone ("+05:30" is UTC+05:30, as --tz writes it), so two maps or a
+        # map and --tz that name one zone agree
+        object.__setattr__(self, "timezone", zone_key(self.timezone))
         if calendar.n_bins > MAX_PROFILE_BINS:
             raise ConfigError(
                 f"the {self.profile} profile with profile_bin_s = {self.profile_bin_s!r} has "

@@ -41,6 +41,22 @@ def zone_of(name: str) -> tzinfo:
         raise ConfigError(f"unknown time zone {name!r}", hint=hint) from exc
 
 
+def zone_key(name: str) -> str:
+    """The one spelling of the zone called ``name`` (:func:`zone_of`; :class:`ConfigError`
+    for none): ``UTC`` for utc, Z, GMT and +00:00, ``UTC+05:30`` for +0530 or utc+5:30, the
+    IANA spelling of an IANA name in any case. A map records its zone so, and two names of
+    one zone compare equal."""
+    tz = zone_of(name)
+    if tz is UTC:
+        return "UTC"
+    offset = _OFFSET.match(name.strip().lower())
+    if offset:
+        sign, hours, minutes = offset.groups()
+        return f"UTC{sign}{int(hours):02d}:{int(minutes or 0):02d}"
+    key = getattr(tz, "key", None)
+    return key if isinstance(key, str) else name.strip()
+
+
 def suggest_zone(name: str) -> str | None:
     """The IANA name closest to the unknown ``name`` (a letter missing, swapped or another
     case), None when none is close."""

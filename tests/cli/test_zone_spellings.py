@@ -1,0 +1,55 @@
+"""One zone, two spellings: a map whose ``--config`` names its zone ``+05:30`` and the command
+line's ``--tz +05:30`` (read as UTC+05:30) are the same zone. The build refused to continue
+such a map ("the map's days and profiles follow the time zone +05:30; --tz UTC+05:30
+differs"), to take the config with the same --tz, and merge refused two such maps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from aion_cli.engine.config import ModelConfig
+from tests.cli.conftest import run
+from tests.robustness.conftest import walk, write_log
+
+
+@pytest.fixture
+def logs(tmp_path: Path) -> tuple[Path, Path, Path]:
+    first = write_log(tmp_path / "first.mcap", walk(300))
+    later = write_log(tmp_path / "later.mcap", walk(300, start_s=7200))
+    config = tmp_path / "india.toml"
+    config.write_text('[model]\ntimezone = "+05:30"\n')
+    return first, later, config
+
+
+def ok(*args: str | Path) -> None:
+    result = run(*args, "-q")
+    assert result.exit_code == 0, result.stderr
+
+
+def test_a_config_zone_and_the_same_tz_are_one_zone(
+    logs: tuple[Path, Path, Path], tmp_path: Path
+) -> None:
+    first, later, config = logs
+    ok("build", first, "-o", tmp_path / "a.aion", "--config", config)
+    ok("build", later, "--map", tmp_path / "a.aion", "-o", tmp_path / "b.aion", "--tz", "+05:30")
+    ok("build", first, "-o", tmp_path / "c.aion", "--config", config, "--tz", "UTC+05:30")
+    ok("build", later, "-o", tmp_path / "d.aion", "--tz", "UTC+05:30")
+    ok("merge", tmp_path / "a.aion", tmp_path / "d.aion", "-o", tmp_path / "m.aion")
+    # a zone that differs is still refused
+    other = run("build", later, "--map", tmp_path / "a.aion", "-o", tmp_path / "x.aion",
+                "--tz", "+05:45")
+    assert other.exit_code == 2
+    assert "--tz UTC+05:45 differs" in other.stderr
+
+
+@pytest.mark.parametrize(
+    ("given", "key"),
+    [("+05:30", "UTC+05:30"), ("utc+5:30", "UTC+05:30"), ("-0800", "UTC-08:00"), ("gmt", "UTC"),
+     ("+00:00", "UTC"), ("europe/berlin", "Europe/Berlin"), ("Asia/Tokyo", "Asia/Tokyo")],
+)
+def test_a_config_records_its_zone_in_one_spelling(given: str, key: str) -> None:
+    """A map's config (also one an older aion wrote, read back) names its zone as --tz does."""
+    assert ModelConfig(timezone=given).timezone == key
+    assert ModelConfig.from_dict({**ModelConfig().to_dict(), "timezone": given}).timezone == key
