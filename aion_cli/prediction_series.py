@@ -127,14 +127,19 @@ def series_times(
     start and the end (the CLI's options, or the API's arguments); ``noun``: what the times
     are (``departures`` of a plan, ``frames`` of an export)."""
     from aion_cli.errors import InputError
-    from aion_cli.timeparse import step_time
+    from aion_cli.timeparse import format_ns, offset_changes_near, step_time
 
     if step.days < 0 or step.exact_ns < 0 or step.nominal_ns <= 0:
         raise InputError(f"the step must be positive, got {step}")
     if end_ns < start_ns:
         first, last = names
+        # a wall-clock time a clock change skips is read an hour later: 02:30..03:10 on
+        # Berlin's spring change is 03:30..03:10, which the times read must show
+        change = any(offset_changes_near(t, zone, 1) for t in (start_ns, end_ns))
         raise InputError(
-            f"{last} is before {first}",
+            f"{last} is before {first} (read as {format_ns(start_ns, zone)} .. "
+            f"{format_ns(end_ns, zone)}"
+            + (": a clock change skips or repeats an hour there)" if change else ")"),
             hint=f'give a later {last}, e.g. {first} "2026-01-12 06:00" {last} "2026-01-12 20:00"'
             if first.startswith("--")
             else f"give a later {last}",

@@ -13,6 +13,7 @@ from __future__ import annotations
 import itertools
 from datetime import UTC, datetime
 from pathlib import Path
+from zoneinfo import ZoneInfo
 
 import pytest
 
@@ -221,3 +222,37 @@ def test_a_repeated_hour_is_labelled_by_its_offset() -> None:
     expected = ["01:00 +01:00", "01:30 +01:00", "01:00 +00:00", "01:30 +00:00", "02:00", "02:30"]
     assert short_labels(times, zone) == expected
     assert _panel_titles(times, zone) == expected
+
+
+def test_an_end_before_a_start_the_spring_change_moved_says_how_both_were_read(
+    berlin: Path,
+) -> None:
+    """``--from 02:30 --to 03:10`` on the spring change: 02:30 does not exist and is read as
+    03:30 summer time (01:30 UTC), after the end, 03:10 summer time (01:10 UTC). The error
+    said only "--to is before --from"; it now shows both times as read and names the clock
+    change. An end before its start elsewhere names no change."""
+    result = run(
+        "predict", berlin, "--from", "2026-03-29 02:30", "--to", "2026-03-29 03:10",
+        "--step", "10m",
+    )
+    assert result.exit_code == 2, result.stderr
+    first = result.stderr.splitlines()[0]
+    start = datetime.fromtimestamp(_utc("2026-03-29 01:30") // 10**9, UTC).astimezone(
+        ZoneInfo(BERLIN)
+    )
+    end = datetime.fromtimestamp(_utc("2026-03-29 01:10") // 10**9, UTC).astimezone(
+        ZoneInfo(BERLIN)
+    )
+    assert first == (
+        f"error: --to is before --from (read as {start.isoformat(sep=' ')} .. "
+        f"{end.isoformat(sep=' ')}: a clock change skips or repeats an hour there)"
+    )
+    plain = run(
+        "predict", berlin, "--from", "2026-03-20 02:30", "--to", "2026-03-20 01:10",
+        "--step", "10m",
+    )
+    assert plain.exit_code == 2, plain.stderr
+    assert plain.stderr.splitlines()[0] == (
+        "error: --to is before --from (read as 2026-03-20 02:30:00+01:00 .. "
+        "2026-03-20 01:10:00+01:00)"
+    )
