@@ -125,15 +125,21 @@ def announce_time(
     loaded: Any = None,
     series: list[int] | None = None,
     noun: str = "times",
+    text: str | None = None,
 ) -> None:
     """Say on stderr which time and zone were used (after the command succeeded, so an error
-    stays the only output of a failed command), and, for a forecast from the map ``loaded``,
-    what it cannot say at that time (:mod:`aion_cli.forecast_notes`) and at the hours of
-    the ``series`` of times it belongs to (a series, the departures of ``plan --leave``:
-    ``noun`` says which)."""
+    stays the only output of a failed command), which instant ``text`` (what the user typed)
+    was read as where a clock change skips or repeats it (:mod:`aion_cli.wall_clock`), and,
+    for a forecast from the map ``loaded``, what it cannot say at that time
+    (:mod:`aion_cli.forecast_notes`) and at the hours of the ``series`` of times it belongs
+    to (a series, the departures of ``plan --leave``: ``noun`` says which)."""
     from aion_cli.cli.console import note
+    from aion_cli.wall_clock import clock_change_note
 
     note(f"{label}: {format_ns(t_ns, zone)} ({zone.name})")
+    changed = None if text is None else clock_change_note(text, zone, t_ns)
+    if changed is not None:
+        note(changed)
     if loaded is not None:
         from aion_cli.forecast_notes import forecast_notes, series_notes
         from aion_cli.manifest import Manifest

@@ -208,7 +208,7 @@ def command(
     if zone is not None and times[0] is not None:
         label = f"series of {len(times)} from" if series else "time"
         span = [int(t) for t in times if t is not None] if series else None
-        announce_time(times[0], zone, label, loaded, series=span)
+        announce_time(times[0], zone, label, loaded, series=span, text=t_from or time_text)
     for snap in snapped:
         note(snapped_text(snap))
     console().print(_written(written, fmt, out_dir, len(times)), soft_wrap=True)

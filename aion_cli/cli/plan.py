@@ -194,7 +194,7 @@ def command(
         report["png"] = str(png_path)
     announce_time(
         t_ns, zone, "departure" if departures is None else "best departure", loaded, leaving,
-        "departures",
+        "departures", text=time_text if departures is None and time_given else None,
     )
     if fmt == "json":
         click.echo(to_json(report))

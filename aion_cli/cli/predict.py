@@ -154,7 +154,7 @@ def command(
     shown = TABLE_LIMIT if fmt == "table" and top is None else top
     entries, count = predicted_columns(loaded, t_ns, layer, nodes, at, shown)
     if t_ns is not None and zone is not None:
-        announce_time(t_ns, zone, loaded=loaded)
+        announce_time(t_ns, zone, loaded=loaded, text=time_text)
     say_nearest(at, next(iter(entries.records()), None) if at is not None else None)
     if fmt in ("json", "csv"):
         _emit_text(fmt, entries, document(map_path, loaded.config.bins, [], t_ns, zone,

@@ -80,7 +80,7 @@ def run_series(
             loaded, times, layer, nodes, at, keep, lambda done: bar.update(task, completed=done)
         )
     labels = [format_ns(t, zone) for t in times]
-    announce_time(times[0], zone, "from", loaded, series=times)
+    announce_time(times[0], zone, "from", loaded, series=times, text=t_from)
     say_nearest(at, table.entries[0] if table.entries else None)
     if fmt == "json":  # the text of to_json(described(...).to_dict()), from arrays
         emit_chunks(

@@ -80,7 +80,7 @@ def command(
 
         written = write_report(loaded, map_path, out_dir, zone, t_ns, advance)
     if t_ns is not None:
-        announce_time(t_ns, zone, loaded=loaded)
+        announce_time(t_ns, zone, loaded=loaded, text=time_text)
     console().print(
         f"wrote {len(written)} file(s) to {markup_safe(out_dir)}: open "
         f"{markup_safe(out_dir / PAGE)}",

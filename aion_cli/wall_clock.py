@@ -1,0 +1,63 @@
+"""Which instant a wall-clock time a clock change skips or repeats was read as.
+
+``--time "2026-03-29 02:30"`` in Europe/Berlin names a time that does not exist (the clocks
+jump from 02:00 to 03:00) and is read as 03:30 summer time; ``"2026-10-25 02:30"`` happens
+twice and is read as its first occurrence (summer time). :mod:`aion_cli.timeparse` reads
+them so (PEP 495's ``fold=0``); :func:`clock_change_note` says so, where the text was a
+wall-clock time of its zone (not a UNIX time, an ISO time with its own offset, or a
+relative one, which name one instant).
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+
+from aion_cli.timeparse import (
+    TimeFormatError,
+    Zone,
+    format_ns,
+    from_ns,
+    offset_changes_near,
+    parse_time,
+    resolve_zone,
+    to_ns,
+    zone_named_in,
+)
+
+
+def clock_change_note(text: str, zone: Zone, t_ns: int, now: datetime | None = None) -> str | None:
+    """A note when ``text`` (read in ``zone`` unless it names one) is a wall-clock time that a
+    clock change skips or repeats, saying which instant ``t_ns`` it was read as; None
+    otherwise. ``now`` (aware): the moment day words count from (default: the current
+    time)."""
+    where = zone_named_in(text, zone)
+    if not offset_changes_near(t_ns, where):
+        return None
+    head = " ".join(text.strip().split())
+    if where is not zone:
+        head = head.rpartition(" ")[0]
+    utc = resolve_zone("UTC")
+    # the same wall clock as the zone's "now", so day words name the same day
+    local_now = (now or datetime.now(UTC)).astimezone(where.tz).replace(tzinfo=UTC)
+    try:
+        wall_ns = parse_time(head, utc, local_now)
+        shifted = parse_time(head, resolve_zone("UTC+01:00"), local_now)
+    except TimeFormatError:
+        return None
+    if wall_ns == shifted:  # an instant of its own: UNIX, ISO with an offset, relative
+        return None
+    wall = from_ns(wall_ns, utc).replace(tzinfo=None)
+    local = from_ns(t_ns, where)
+    said = wall.isoformat(sep=" ", timespec="minutes")
+    if local.replace(tzinfo=None) != wall:
+        return (
+            f"{said} does not exist in {where.name} (a clock change skips it): read as "
+            f"{format_ns(t_ns, where)}, as late as the clocks jump"
+        )
+    if local.replace(fold=1 - local.fold).utcoffset() == local.utcoffset():
+        return None
+    second = to_ns(wall.replace(tzinfo=where.tz, fold=1))
+    return (
+        f"{said} happens twice in {where.name} (a clock change repeats it): read as the "
+        f"first, {format_ns(t_ns, where)}; the second is {format_ns(second, where)}"
+    )

@@ -1,0 +1,91 @@
+"""A wall-clock time a clock change skips or repeats is read as PEP 495's ``fold=0`` has it
+(README: as late as the clocks jump; the first of a repeated hour), which the commands did
+not say: ``--time "2026-03-29 02:30"`` in Europe/Berlin printed ``time: 2026-03-29
+03:30:00+02:00`` with no word on why, ``"2026-10-25 02:30"`` no word that there is a second
+02:30. Now a note says which instant was taken (and the other one). Expected instants are
+computed here with zoneinfo, independently of aion's parser."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from pathlib import Path
+from zoneinfo import ZoneInfo
+
+import pytest
+
+from aion_cli.api import Map
+from aion_cli.timeparse import format_ns, parse_time, resolve_zone, to_ns
+from aion_cli.wall_clock import clock_change_note
+from tests.cli.conftest import run
+from tests.engine.temporal_data import corridor
+
+NOW = datetime(2026, 6, 1, 12, 0, tzinfo=UTC)
+
+
+@pytest.mark.parametrize(
+    ("name", "wall"),
+    [
+        ("Europe/Berlin", datetime(2026, 3, 29, 2, 30)),
+        ("America/New_York", datetime(2026, 3, 8, 2, 15)),
+    ],
+)
+def test_a_skipped_time_names_the_instant_it_was_read_as(name: str, wall: datetime) -> None:
+    zone = resolve_zone(name)
+    text = wall.isoformat(sep=" ", timespec="minutes")
+    t = parse_time(text, zone, NOW)
+    # fold=0 of a skipped time takes the offset before the change: an hour later on the wall
+    assert t == to_ns(wall.replace(tzinfo=ZoneInfo(name), fold=0))
+    note = clock_change_note(text, zone, t, NOW)
+    assert note == (
+        f"{text} does not exist in {name} (a clock change skips it): read as "
+        f"{format_ns(t, zone)}, as late as the clocks jump"
+    )
+
+
+@pytest.mark.parametrize(
+    ("name", "wall"),
+    [
+        ("Europe/Berlin", datetime(2026, 10, 25, 2, 30)),
+        ("America/New_York", datetime(2026, 11, 1, 1, 45)),
+    ],
+)
+def test_a_repeated_time_names_both_instants(name: str, wall: datetime) -> None:
+    zone = resolve_zone(name)
+    text = wall.isoformat(sep=" ", timespec="minutes")
+    first = to_ns(wall.replace(tzinfo=ZoneInfo(name), fold=0))
+    second = to_ns(wall.replace(tzinfo=ZoneInfo(name), fold=1))
+    assert second - first == 3600 * 10**9
+    t = parse_time(text, zone, NOW)
+    assert t == first
+    assert clock_change_note(text, zone, t, NOW) == (
+        f"{text} happens twice in {name} (a clock change repeats it): read as the first, "
+        f"{format_ns(first, zone)}; the second is {format_ns(second, zone)}"
+    )
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "2026-10-25T02:30+01:00",  # its own offset: one instant
+        "2026-10-25 02:30 UTC",  # UTC repeats nothing
+        "1792888200",  # UNIX seconds
+        "2026-10-25 03:30",  # beside the change, but once
+        "2026-03-29 03:30",
+        "2026-07-01 02:30",  # far from any change
+    ],
+)
+def test_no_note_for_a_time_read_one_way(text: str) -> None:
+    zone = resolve_zone("Europe/Berlin")
+    assert clock_change_note(text, zone, parse_time(text, zone, NOW), NOW) is None
+
+
+def test_predict_says_how_it_read_a_time_the_spring_change_skips(tmp_path: Path) -> None:
+    path = tmp_path / "berlin.aion"
+    Map.from_state(corridor(2, lambda day, hour: 4.0).state, timezone="Europe/Berlin").save(path)
+    result = run("predict", path, "--time", "2026-03-29 02:30", "--top", "1")
+    assert result.exit_code == 0, result.stderr
+    assert "time: 2026-03-29 03:30:00+02:00 (Europe/Berlin)" in result.stderr
+    assert "2026-03-29 02:30 does not exist in Europe/Berlin" in result.stderr
+    plain = run("predict", path, "--time", "2026-03-29 04:30", "--top", "1")
+    assert plain.exit_code == 0, plain.stderr
+    assert "does not exist" not in plain.stderr
