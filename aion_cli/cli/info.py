@@ -59,14 +59,15 @@ MAP_SUFFIX = ".aion"
 
 
 def describe(
-    paths: list[Path], log_format: str | None, mapping: Path | None = None
+    paths: list[Path], log_format: str | None, mapping: Path | None = None, tz: str = "UTC"
 ) -> dict[str, Any]:
     """The info report of ``paths`` as a plain dict (also the JSON document):
     ``formats.summary`` plus what ``aion build`` will use (with ``mapping``, a
-    ``--detections-mapping`` file), why each topic is used or skipped, and the scene-graph
-    payload version."""
+    ``--detections-mapping`` file), why each topic is used or skipped, the scene-graph
+    payload version, and a fixed sensor's hours with messages in the zone ``tz``."""
     from aion_cli.formats.logs import open_logs
     from aion_cli.formats.summary import summarize
+    from aion_cli.message_hours import fixed_sensor_windows
     from aion_cli.topics import refine_reasons, select_topics
 
     mappings = _mappings(mapping)
@@ -81,7 +82,7 @@ def describe(
             summary.dsg_versions[topic] = first.versions
         report = summary.to_dict()
         if plan.detections and not plan.tf and _no_graph_robot(firsts):
-            report["fixed_sensor"] = _fixed_sensor_windows(logset)
+            report["fixed_sensor"] = fixed_sensor_windows(logset, tz)
         if plan.detections:
             add_frames(report, logset, plan, mappings, not _no_graph_robot(firsts))
         else:
@@ -117,29 +118,6 @@ def _unused_pointer(report: dict[str, Any]) -> str:
         parts.append("none of its types has a field a --detections-mapping could read as a "
                      "position")  # fmt: skip
     return ", or ".join(parts)
-
-
-def _fixed_sensor_windows(logset: Any) -> dict[str, Any]:
-    """How many of the default model's windows between the logs' first and last message
-    hold a message, and at which hours of the day (UTC: the default model's zone, per kind
-    of day): without TF or a scene graph nothing else says what a build observed (it also
-    leaves out stray messages a day away, which this count keeps)."""
-    import numpy as np
-
-    from aion_cli.engine.config import ModelConfig
-    from aion_cli.engine.temporal.calendar import Calendar
-    from aion_cli.engine.windows import window_centre_ns, window_ns
-    from aion_cli.forecast_notes import observed_hours
-
-    config = ModelConfig()
-    delta = window_ns(config.window_s)
-    windows = logset.recorded_windows(delta)
-    span = int(windows[-1] - windows[0]) + 1 if windows.size else 0
-    calendar = Calendar(config.timezone, config.profile, config.profile_bin_s)
-    bins = np.unique(calendar.profile_bin(window_centre_ns(windows, delta)))
-    hours = observed_hours({"observed_bins": bins.tolist()}, config.to_dict(), config.timezone)
-    return {"windows_with_messages": int(windows.size), "span_windows": span,
-            "window_s": config.window_s, "hours_with_messages": hours}
 
 
 def _mappings(path: Path | None) -> list[Any]:
@@ -229,6 +207,12 @@ def _no_graph_robot(firsts: dict[str, _FirstGraph]) -> bool:
     help="Maps: read every member and check its checksum and the state's consistency (info "
     "alone reads only the manifest and the graph).",
 )
+@click.option(
+    "--tz",
+    metavar="ZONE",
+    help="Logs: the zone of the hours with messages of a fixed sensor (IANA name, UTC, "
+    "+01:00, local) [default: UTC, as aion build reads them without --tz].",
+)
 @nav_layer_option
 @format_option(choices=("table", "json"))
 def command(
@@ -239,6 +223,7 @@ def command(
     detections_mapping: Path | None = None,
     suggest_topic: str | None = None,
     verify: bool = False,
+    tz: str | None = None,
 ) -> None:
     """Show the format, duration and topics of LOGS and what aion will use from them.
 
@@ -261,6 +246,7 @@ def command(
         "--suggest-mapping": suggest_topic is not None,
         "--verify": verify,
         "--nav-layer": nav_layer is not None,
+        "--tz": tz is not None,
     }
     from aion_cli.cli.info_graph import is_graph_file
 
@@ -295,7 +281,10 @@ def command(
     if suggest_topic is not None:
         click.echo(suggest(list(logs), log_format, suggest_topic), nl=False)
         return
-    report = describe(list(logs), log_format, detections_mapping)
+    from aion_cli.timeparse import resolve_zone
+
+    zone = "UTC" if tz is None else resolve_zone(tz).name  # a bad zone: before any reading
+    report = describe(list(logs), log_format, detections_mapping, zone)
     if fmt == "json":
         click.echo(to_json(report))
     else:

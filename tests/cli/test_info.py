@@ -290,3 +290,33 @@ def test_a_map_of_before_exposure_shows_the_whole_windows_it_builds_with(
     assert table.exit_code == 0, table.stderr
     assert "exposure=False" in table.stdout
     assert "exposure" not in run("info", office.map).stdout  # the default: not listed
+
+
+def test_a_fixed_sensors_hours_in_the_zone_it_will_be_built_in(tmp_path: Path) -> None:
+    """People at 07:00-07:20 Berlin time on the Friday before the spring change and the
+    Monday after it: 06:00 and 05:00 UTC. info gave the hours in UTC only (05:00-07:00, two
+    hours where the tracker kept one); --tz gives them as a build with that --tz learns them.
+    The UTC instants are computed here with zoneinfo."""
+    from datetime import datetime
+    from zoneinfo import ZoneInfo
+
+    berlin = ZoneInfo("Europe/Berlin")
+    rows = ["t_ns,track_id,x,y,z,heading_rad,speed_mps"]
+    for track, day in enumerate((27, 30)):
+        start = int(datetime(2026, 3, day, 7, 0, tzinfo=berlin).timestamp())
+        rows += [f"{(start + k) * 10**9},{track},{k * 0.01:.2f},0.0,0.0,0.0,1.0"
+                 for k in range(0, 1200, 2)]
+    csv = tmp_path / "mornings.csv"
+    csv.write_text("\n".join(rows) + "\n")
+    log = tmp_path / "mornings.mcap"
+    converted = run("convert", csv, "-o", log, "-q")
+    assert converted.exit_code == 0, converted.stderr
+    utc = run_json("info", log, "--format", "json")["fixed_sensor"]["hours_with_messages"]
+    assert utc == "weekdays 05:00-07:00; weekends none (UTC)"
+    local = run_json("info", log, "--tz", "Europe/Berlin", "--format", "json")
+    assert local["fixed_sensor"]["hours_with_messages"] == (
+        "weekdays 07:00-08:00; weekends none (Europe/Berlin)"
+    )
+    refused = run("info", log, "--tz", "Mars/Olympus")
+    assert refused.exit_code == 2
+    assert "unknown time zone 'Mars/Olympus'" in refused.stderr
