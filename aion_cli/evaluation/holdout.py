@@ -330,7 +330,20 @@ def hourly_picture(result: HoldoutResult, path: Path, title: str) -> Path:
             "no hourly activity to draw: the test logs observed no window the map could follow",
             hint="see the notes above",
         )
-    days = {h[:10] for h in result.hours}
-    labels = [h[11:13] if len(days) == 1 else f"{h[5:10]} {h[11:13]}" for h in result.hours]
     zone = result.test.get("timezone", "UTC")
-    return plots.hourly_activity(labels, result.series, path, title, f"hour ({zone})")
+    return plots.hourly_activity(
+        hour_ticks(result.hours), result.series, path, title, f"hour ({zone})"
+    )
+
+
+def hour_ticks(hours: list[str]) -> list[str]:
+    """The ticks of the hours (ISO 8601 with offset, ``HoldoutResult.hours``): ``HH``, or
+    ``MM-DD HH`` over several days; an hour a clock change repeats (02:00 twice on an autumn
+    change) with its offset, so the two read apart (``02 +02:00``, ``02 +01:00``)."""
+    days = {h[:10] for h in hours}
+    labels = [h[11:13] if len(days) == 1 else f"{h[5:10]} {h[11:13]}" for h in hours]
+    from collections import Counter
+
+    seen = Counter(labels)
+    pairs = zip(labels, hours, strict=True)
+    return [f"{label} {h[-6:]}" if seen[label] > 1 else label for label, h in pairs]

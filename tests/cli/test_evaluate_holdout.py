@@ -361,3 +361,24 @@ def test_test_logs_read_into_another_frame_than_the_maps_are_named_in_a_note(
     other = score_held_out(loaded, BuildOptions(logs=(test,), map_frame="map"))
     assert "the map holds positions in frame 'world'" in other.notes[0]
     assert "read the test logs into 'map'" in other.notes[0]
+
+
+def test_the_hour_an_autumn_change_repeats_reads_apart_in_the_picture() -> None:
+    """Berlin's 2026-10-25: 02:00 summer time, then 02:00 winter time (zoneinfo's fold). The
+    ticks read "02" twice; each now carries its offset."""
+    from datetime import UTC, datetime, timedelta
+    from zoneinfo import ZoneInfo
+
+    from aion_cli.evaluation.holdout import hour_ticks
+
+    start = datetime(2026, 10, 24, 23, 0, tzinfo=UTC)  # 01:00 summer time
+    hours = [
+        (start + timedelta(hours=k)).astimezone(ZoneInfo("Europe/Berlin")).isoformat(
+            timespec="minutes"
+        )
+        for k in range(4)
+    ]
+    assert hour_ticks(hours) == ["01", "02 +02:00", "02 +01:00", "03"]
+    assert hour_ticks(["2026-10-24T08:00+02:00", "2026-10-25T08:00+01:00"]) == [
+        "10-24 08", "10-25 08"
+    ]
