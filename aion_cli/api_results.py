@@ -63,6 +63,20 @@ class Table:
     def __iter__(self) -> Iterator[dict[str, Any]]:
         return iter(self.records())
 
+    def __repr__(self) -> str:
+        """What the table is, in one line (not its records: a notebook shows a table of
+        10^5 entries at once): its map, time, size and busiest entry."""
+        when = "as observed" if self.time_ns is None else f"at {self.time}"
+        n = len(self.entries)
+        text = f"<aion.Table {self.map} {when}: {n:,} entr{'y' if n == 1 else 'ies'}"
+        if n:
+            first = self.entries[0]
+            flow = first.get("flow")
+            text += f", busiest {first['id']}" + (
+                f" (flow {flow:.3g})" if isinstance(flow, float) else ""
+            )
+        return text + ">"
+
 
 @dataclass(frozen=True)
 class Plan:
@@ -87,6 +101,18 @@ class Plan:
     departures: list[dict[str, Any]] = field(default_factory=list)
     # the arrival times as UNIX nanoseconds (``arrival`` shows them to the second)
     arrival_ns: list[int] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        """The plan in one line (not its nodes and arrival times, which may be thousands)."""
+        text = (
+            f"<aion.Plan {self.start} -> {self.goal} at {self.depart}: "
+            f"{_path_summary(self)}"
+        )
+        if self.distance_only is not None:
+            text += f"; distance only {_path_summary(self.distance_only)}"
+        if self.departures:
+            text += f"; the best of {len(self.departures)} departures"
+        return text + ">"
 
     @classmethod
     def from_routes(
@@ -146,6 +172,14 @@ class Plan:
             "distance_only": part(other),
             "snapped": [dict(s) for s in self.snapped],
         } | ({"departures": [dict(d) for d in self.departures]} if self.departures else {})
+
+
+def _path_summary(plan: Plan) -> str:
+    n = len(plan.nodes)
+    return (
+        f"{n:,} node{'' if n == 1 else 's'}, {plan.length_m:.1f} m, "
+        f"{plan.duration_s:.0f} s, cost {plan.cost:.4g}"
+    )
 
 
 def departure_rows(

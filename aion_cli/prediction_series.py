@@ -79,6 +79,18 @@ class SeriesTable:
             doc["hour_observed"] = list(self.hour_observed)
         return doc
 
+    def __repr__(self) -> str:
+        """What the series is, in one line (not its entries and arrays, which a notebook
+        would print whole): its map, size and span."""
+        n, k = len(self.entries), len(self.times_ns)
+        text = (
+            f"<SeriesTable {self.map or '<memory>'}: {n:,} entr{'y' if n == 1 else 'ies'}"
+            f" x {k:,} time{'' if k == 1 else 's'}"
+        )
+        if self.times:
+            text += f", {self.times[0]}" + (f" .. {self.times[-1]}" if k > 1 else "")
+        return text + ">"
+
     def records(self) -> list[dict[str, Any]]:
         """One record per entry with its series as lists (None where unknown): the
         ``entries`` of ``aion predict --from --to --format json``."""

@@ -1,0 +1,59 @@
+"""The Python API's results as values in a notebook: ``repr`` says what a result is in one
+line (a table of 10^5 entries printed every record, tens of megabytes, seconds to make), and
+two series of the same prediction compare equal (the generated ``==`` raised ``ValueError``
+on their arrays)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import aion_cli as aion
+from tests.cli.conftest import run_json
+
+T = "2026-01-12 08:40"  # a Monday of the bundled sample
+AT_JSON = ("--time", T, "--tz", "UTC", "--format", "json")
+
+
+@pytest.fixture(scope="module")
+def m(sample_map: Path) -> aion.Map:
+    return aion.Map.load(sample_map)
+
+
+def test_a_table_s_repr_is_one_short_line(m: aion.Map, sample_map: Path) -> None:
+    cli = run_json("predict", sample_map, *AT_JSON)
+    n, busiest = len(cli["entries"]), cli["entries"][0]["id"]
+    assert n > 20  # enough records that printing them all is far longer than a line
+    text = repr(m.predict(T, tz="UTC"))
+    # before: Table(map=..., entries=({'id': ..., 'histogram': [...]}, ...)), every record
+    assert text.startswith(f"<aion.Table {m.path} at {cli['time']}: {n:,} entries")
+    assert f"busiest {busiest}" in text
+    assert "\n" not in text
+    assert len(text) < 160
+    observed = repr(m.predict(historical=True))
+    assert observed.startswith(f"<aion.Table {m.path} as observed: ")
+    assert len(observed) < 160
+
+
+def test_a_plan_s_repr_sums_it_up(m: aion.Map, sample_map: Path) -> None:
+    cli = run_json("plan", sample_map, "--from", "p103", "--to", "p2", *AT_JSON)
+    text = repr(m.plan("p103", "p2", time=T, tz="UTC"))
+    temporal, shortest = cli["temporal"], cli["distance_only"]
+    assert text.startswith(f"<aion.Plan p103 -> p2 at {cli['depart']}: ")
+    assert f"{len(temporal['path'])} nodes, {temporal['length_m']:.1f} m" in text
+    assert f"distance only {len(shortest['path'])} nodes, {shortest['length_m']:.1f} m" in text
+    assert len(text) < 200  # before: every node and arrival time
+    best = m.plan("p103", "p2", leave=(T, "09:40"), step="30m", tz="UTC")
+    assert repr(best).endswith("; the best of 3 departures>")
+
+
+def test_a_series_repr_is_one_line(m: aion.Map) -> None:
+    day = m.predict_series("2026-01-12 06:00", "2026-01-12 20:00", "1h", tz="UTC")
+    text = repr(day)
+    # before: SeriesTable(times_ns=[...], entries=[...], flow=array(...), ...)
+    assert text == (
+        f"<SeriesTable {m.path}: {len(day.entries)} entries x 15 times, "
+        "2026-01-12 06:00:00+00:00 .. 2026-01-12 20:00:00+00:00>"
+    )
+
