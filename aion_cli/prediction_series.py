@@ -41,7 +41,7 @@ SERIES_CSV_KEYS = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SeriesTable:
     """The chosen entries (``entries``: id, name, kind, layer, x, y, z records; ``name`` the
     scene graph's room or building name, else None) and their predicted
@@ -78,6 +78,19 @@ class SeriesTable:
         if self.hour_observed is not None and None not in self.hour_observed:
             doc["hour_observed"] = list(self.hour_observed)
         return doc
+
+    def __eq__(self, other: object) -> bool:
+        """The same times, entries and values (NaN equal to NaN): the generated comparison
+        asked the arrays' truth value and raised ``ValueError``."""
+        if not isinstance(other, SeriesTable):
+            return NotImplemented
+        return (
+            (self.times_ns, self.entries, self.matched, self.map, self.zone, self.times)
+            == (other.times_ns, other.entries, other.matched, other.map, other.zone, other.times)
+            and self.hour_observed == other.hour_observed
+            and np.array_equal(self.flow, other.flow, equal_nan=True)
+            and np.array_equal(self.flow_per_hour, other.flow_per_hour, equal_nan=True)
+        )
 
     def __repr__(self) -> str:
         """What the series is, in one line (not its entries and arrays, which a notebook

@@ -57,3 +57,10 @@ def test_a_series_repr_is_one_line(m: aion.Map) -> None:
         "2026-01-12 06:00:00+00:00 .. 2026-01-12 20:00:00+00:00>"
     )
 
+
+def test_two_series_of_the_same_prediction_are_equal(m: aion.Map) -> None:
+    day = m.predict_series("2026-01-12 06:00", "2026-01-12 20:00", "1h", tz="UTC")
+    again = m.predict_series("2026-01-12 06:00", "2026-01-12 20:00", "1h", tz="UTC")
+    assert again == day  # before: ValueError (the truth value of an array is ambiguous)
+    shorter = m.predict_series("2026-01-12 06:00", "2026-01-12 19:00", "1h", tz="UTC")
+    assert shorter != day
