@@ -17,7 +17,8 @@ as the CLI reports them. The CLI's ``predict``, ``plan`` and ``export`` are form
 the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
 :mod:`aion_cli.exports`), so results are equal to their JSON output.
 
-:class:`Map` and :func:`to_ns` are here; the functions that make maps (:func:`build`,
+:class:`Map` is here (:func:`to_ns` in :mod:`aion_cli.api_checks`, with the other readers of
+arguments); the functions that make maps (:func:`build`,
 :func:`merge`, :func:`compact`) live in :mod:`aion_cli.api_make` and the query results
 :class:`Table` and :class:`Plan` in :mod:`aion_cli.api_results`; both are re-exported here, so
 ``from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns`` imports the whole
@@ -28,12 +29,12 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from datetime import datetime, timedelta, tzinfo
+from datetime import timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli import api_checks as check
-from aion_cli.api_checks import PlaceLike, ZoneLike
+from aion_cli.api_checks import PlaceLike, TimeLike, ZoneLike, to_ns
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
@@ -51,9 +52,7 @@ if TYPE_CHECKING:
     from aion_cli.query_only import CompactReport
     from aion_cli.timeparse import Zone
 
-__all__ = ["Map", "Plan", "Table", "as_path", "build", "compact", "merge", "to_ns"]
-
-TimeLike = str | int | datetime
+__all__ = ["Map", "Plan", "Table", "TimeLike", "as_path", "build", "compact", "merge", "to_ns"]
 
 
 @check.methods_checked
@@ -465,26 +464,4 @@ class Map:
         where = str(self.path) if self.path is not None else "in memory"
         entries = len(self.state.entries.live_rows())  # not the table's reserved capacity
         return f"<aion.Map {where}: {entries:,} entr{'y' if entries == 1 else 'ies'}>"
-
-
-def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
-    """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (naive: in
-    ``zone``, a name such as ``"Europe/London"``, a ``ZoneInfo`` or an aion ``Zone``; default
-    UTC, None: the machine's) or integer nanoseconds (one below 10^16, which would lie in
-    1970's first months, is refused as likely seconds); outside 1900 .. 2261 is an
-    ``InputError``."""
-    from aion_cli.timeparse import Zone, check_range, parse_time, resolve_zone
-    from aion_cli.timeparse import to_ns as datetime_ns
-
-    if not isinstance(zone, Zone):
-        zone = resolve_zone(check.zone_name(zone, "zone"))
-    time = check.time_value(time)  # type: ignore[assignment]
-    if isinstance(time, int):
-        return check_range(int(time), f"{time} ns")
-    if isinstance(time, datetime):
-        moment = time if time.tzinfo is not None else time.replace(tzinfo=zone.tz)
-        return check_range(datetime_ns(moment), moment.isoformat())
-    if isinstance(time, str):
-        return parse_time(time, zone)
-    raise InputError(f"not a time: {time!r}", hint="a time string, a datetime or nanoseconds")
 

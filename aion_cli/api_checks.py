@@ -4,7 +4,8 @@
 string, not its characters; a ``ZoneInfo`` as its name; ``(x, y)`` as a point).
 
 Why a module of its own: :mod:`aion_cli.api` and :mod:`aion_cli.api_make` take the same kinds
-of arguments (zones, node lists, counts, spans); one place reads them alike.
+of arguments (zones, node lists, counts, spans, times: :func:`to_ns`, which :mod:`aion_cli.api`
+re-exports); one place reads them alike.
 """
 
 from __future__ import annotations
@@ -17,13 +18,20 @@ import numbers
 import os
 from collections.abc import Callable, Iterable, Sequence
 from datetime import datetime, timedelta, tzinfo
-from typing import Any, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 from aion_cli.errors import InputError, UnknownArgumentError
 
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
 _C = TypeVar("_C", bound=type)
+
+if TYPE_CHECKING:
+    from aion_cli.timeparse import Zone
+
+TimeLike = str | int | datetime
+"""A time argument: an aion time string, a ``datetime`` or integer UNIX nanoseconds
+(:func:`to_ns` reads it)."""
 
 ZoneLike = str | tzinfo
 """A zone argument (``tz``): a name (``"Europe/London"``, ``"UTC+02:00"``), a
@@ -158,7 +166,7 @@ def spans(observed: object, what: str = "observed") -> list[tuple[Any, Any]]:
 
 
 def time_value(time: object) -> object:
-    """A time argument checked for what :func:`aion_cli.api.to_ns` cannot read or would read
+    """A time argument checked for what :func:`to_ns` cannot read or would read
     wrongly: integers are nanoseconds, so one below :data:`SECONDS_LIKE_NS` is refused."""
     if isinstance(time, bool):
         raise InputError(
@@ -313,3 +321,26 @@ def methods_checked(cls: _C) -> _C:
         elif inspect.isfunction(attr):
             setattr(cls, name, keywords_checked(attr))
     return cls
+
+
+def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
+    """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (naive: in
+    ``zone``, a name such as ``"Europe/London"``, a ``ZoneInfo`` or an aion ``Zone``; default
+    UTC, None: the machine's) or integer nanoseconds (one below 10^16, which would lie in
+    1970's first months, is refused as likely seconds); outside 1900 .. 2261 is an
+    ``InputError``."""
+    from aion_cli.timeparse import Zone, check_range, parse_time, resolve_zone
+    from aion_cli.timeparse import to_ns as datetime_ns
+
+    if not isinstance(zone, Zone):
+        zone = resolve_zone(zone_name(zone, "zone"))
+    time = time_value(time)  # type: ignore[assignment]
+    if isinstance(time, int):
+        return check_range(int(time), f"{time} ns")
+    if isinstance(time, datetime):
+        moment = time if time.tzinfo is not None else time.replace(tzinfo=zone.tz)
+        return check_range(datetime_ns(moment), moment.isoformat())
+    if isinstance(time, str):
+        return parse_time(time, zone)
+    raise InputError(f"not a time: {time!r}", hint="a time string, a datetime or nanoseconds")
+
