@@ -460,6 +460,27 @@ class Map:
         self.path = target
         return target
 
+    def __getstate__(self) -> dict[str, Any]:
+        """A map loaded from a file is pickled as that file (its path, size and modification
+        time), for another process (multiprocessing, Dask) to load: its open file and the
+        members read through it do not cross a process. An in-memory map is pickled whole."""
+        if self._file is None:
+            return dict(self.__dict__)
+        self._file.still_named()
+        where = Path(os.path.abspath(self._file.path))  # for a process in another folder
+        return {"path": self.path, "file": where, "stamp": self._file.stamp, "report": self.report}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        if "stamp" not in state:
+            self.__dict__.update(state)
+            return
+        from aion_cli.mapquery import load_map
+
+        self.path, self.report = state["path"], state["report"]
+        self._file = PinnedFile.reopen(state["file"], state["stamp"])
+        self._loaded = load_map(self._file.path)
+        self._file.check()  # not changed while read
+
     def __repr__(self) -> str:
         where = str(self.path) if self.path is not None else "in memory"
         entries = len(self.state.entries.live_rows())  # not the table's reserved capacity

@@ -31,6 +31,38 @@ class PinnedFile:
         weakref.finalize(self, os.close, self.fd)
         self.stamp = self._stamp()
 
+    def still_named(self) -> None:
+        """:class:`MapFileError` unless the path still names the file held open (it was not
+        replaced or deleted since): what a pickled map, read again from its path, needs."""
+        self.check()
+        try:
+            named = os.path.samestat(os.stat(self.path), os.fstat(self.fd))
+        except OSError:
+            named = False
+        if not named:
+            raise MapFileError(
+                f"{self.path} was replaced or deleted since the map was loaded, so the map "
+                "cannot be pickled (another process reads it again from its path)",
+                hint="save it first (Map.save(path) copies the map as loaded) and pickle "
+                "aion.Map.load(path)",
+            )
+
+    @classmethod
+    def reopen(cls, path: Path, stamp: tuple[int, int]) -> PinnedFile:
+        """``path`` opened again, as it was when another process pinned it with ``stamp``
+        (a pickled map); :class:`MapFileError` when it is missing or changed since."""
+        from aion_cli.mapquery import check_map_input
+
+        check_map_input(path)
+        pinned = cls(path)
+        if pinned.stamp != tuple(stamp):
+            raise MapFileError(
+                f"{path} changed since the map was pickled",
+                hint="a pickled map is read again from its file: keep the file as it was, "
+                "or load it again (aion.Map.load) and pickle that",
+            )
+        return pinned
+
     def _stamp(self) -> tuple[int, int]:
         st = os.fstat(self.fd)
         return st.st_size, st.st_mtime_ns
