@@ -205,6 +205,27 @@ def path_text(value: object, what: str) -> str:
     return text
 
 
+def path_list(value: object, what: str, one: bool = True) -> list[object]:
+    """A list of paths (``logs``, the maps of a merge): a list, tuple or other iterable of
+    them, or one path alone when ``one``; not bytes (their items are numbers) or None. The
+    items are checked where they are read (:func:`path_text`)."""
+    if one and isinstance(value, str | os.PathLike):
+        return [value]
+    if (
+        value is None
+        or isinstance(value, str | bytes | bytearray | os.PathLike)
+        or not hasattr(value, "__iter__")
+    ):
+        noun = "a path or a list of paths" if one else "a list of paths"
+        raise InputError(
+            f"{what} must be {noun}, got {value!r}",
+            hint=f'e.g. {what}=["monday.aion", "wednesday.aion"]'
+            if not one
+            else f'e.g. {what}="monday.mcap" or {what}=["monday.mcap", "tuesday.mcap"]',
+        )
+    return list(value)
+
+
 def selection(
     nodes: object, at: object, top: object
 ) -> tuple[list[str | int], str | None, int | None]:

@@ -139,12 +139,13 @@ def merge(
     map alone, ``aion build --part``, is made a map); the merged map, with what the merge did
     in ``Map.report`` (a ``MergeReport``)."""
     from aion_cli.api import Map
+    from aion_cli.api_checks import path_list
     from aion_cli.merging import merge_map_files
 
     if isinstance(paths, (str, os.PathLike)):
         raise InputError("merge takes a list of map files", hint="merge([a, b], output)")
     report = merge_map_files(
-        [as_path(p) for p in paths],
+        [as_path(p, "map") for p in path_list(paths, "paths", one=False)],  # type: ignore[arg-type]
         as_path(output),
         None if graph is None else as_path(graph),
         lineage,
@@ -186,24 +187,20 @@ def reading_options(
     one topic given alone is one topic, ``observed`` spans are times as in ``Map.predict``
     (naive ones in ``tz``, else UTC), paths ``str`` or ``os.PathLike``."""
     from aion_cli.api import to_ns
+    from aion_cli.api_checks import path_list
     from aion_cli.api_checks import spans as span_pairs
     from aion_cli.build_options import map_frame_of
     from aion_cli.pipeline import BuildOptions
     from aion_cli.timeparse import resolve_zone
 
     refuse_unknown_keywords(where, options, ("radius", *READING) if "." in where else READING)
-    if logs is None or (not isinstance(logs, str | os.PathLike) and not isinstance(logs, Sequence)):
-        raise InputError(
-            f"logs must be a path or a list of paths, got {logs!r}",
-            hint='e.g. "monday.mcap" or ["monday.mcap", "tuesday.mcap"]',
-        )
-    paths = [logs] if isinstance(logs, str | os.PathLike) else list(logs)
+    paths = path_list(logs, "logs")
     if not paths:
         raise InputError("no log given", hint="pass at least one log file or folder")
     topics = options.get("detection_topics") or ()
     if isinstance(topics, str):
         topics = (topics,)
-    if not isinstance(topics, Sequence):
+    if not isinstance(topics, Sequence) or not all(isinstance(t, str) for t in topics):
         raise InputError(
             f"detection_topics must be topic names, got {topics!r}",
             hint='e.g. detection_topics=["/people"] (aion info LOG lists the topics)',

@@ -152,6 +152,14 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
         (lambda m: m.plan("p1", "p2", leave=(T, T)), "latest departure is not after"),
         (lambda m: m.holdout([], radius=1.0), "no log given"),
         (lambda m: m.holdout(None), "logs must be a path"),
+        # before: TypeError ('NoneType' / 'int' object is not iterable), or bytes read as the
+        # paths 120, 46, ... ("path must be a path ..., got 120")
+        (lambda m: aion.merge(None, "w.aion"), "paths must be a list of paths, got None"),
+        (lambda m: aion.merge(3, "w.aion"), "paths must be a list of paths, got 3"),
+        (lambda m: aion.merge(b"a.aion", "w.aion"), "paths must be a list of paths, got b'a"),
+        (lambda m: aion.build(b"x.mcap"), "logs must be a path or a list of paths, got b'x"),
+        # before: the topic "47" (the code of "/") looked for in the log
+        (lambda m: m.holdout(["x.mcap"], detection_topics=b"/t"), "detection_topics must be"),
         (lambda m: m.holdout(["x.mcap"], frob=1), "unexpected keyword argument 'frob'"),
         (lambda m: m.holdout(["x.mcap"], radius=-5), "association radius"),
         (lambda m: m.holdout(["x.mcap"], radius=float("nan")), "association radius"),
@@ -405,3 +413,4 @@ def test_a_step_may_be_a_timedelta(m: aion.Map) -> None:
     assert len(a.times) == 3
     p = m.plan("p1", "p2", leave=(T, "2026-01-12 09:10"), step=timedelta(minutes=10), tz="UTC")
     assert len(p.departures) == 4
+
