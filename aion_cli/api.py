@@ -29,12 +29,11 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from datetime import timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli import api_checks as check
-from aion_cli.api_checks import PlaceLike, TimeLike, ZoneLike, to_ns
+from aion_cli.api_checks import PlaceLike, StepLike, TimeLike, ZoneLike, to_ns
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
@@ -221,7 +220,7 @@ class Map:
         self,
         start: TimeLike,
         end: TimeLike,
-        step: str | float | timedelta = "1h",
+        step: StepLike = "1h",
         *,
         tz: ZoneLike | None = None,
         layer: str = "all",
@@ -263,7 +262,7 @@ class Map:
         tz: ZoneLike | None = None,
         speed: float | None = None,
         leave: tuple[TimeLike, TimeLike] | None = None,
-        step: str | float | timedelta | None = None,
+        step: StepLike | None = None,
     ) -> Plan:
         """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms ``"R3"`` or
         coordinates ``"x,y"``) departing at ``time``, avoiding busy and opposing flows, with

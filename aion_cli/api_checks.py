@@ -18,7 +18,7 @@ import numbers
 import os
 from collections.abc import Callable, Iterable, Sequence
 from datetime import datetime, timedelta, tzinfo
-from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar, Union
 
 from aion_cli.errors import InputError, UnknownArgumentError
 
@@ -27,11 +27,17 @@ _R = TypeVar("_R")
 _C = TypeVar("_C", bound=type)
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from aion_cli.timeparse import Zone
 
 TimeLike = str | int | datetime
 """A time argument: an aion time string, a ``datetime`` or integer UNIX nanoseconds
 (:func:`to_ns` reads it)."""
+
+StepLike = Union[str, float, timedelta, "np.timedelta64"]
+"""A series or departure step: ``"30m"``, ``"1d"``, seconds, a ``timedelta`` or a
+``numpy.timedelta64`` (:func:`step` reads it)."""
 
 ZoneLike = str | tzinfo
 """A zone argument (``tz``): a name (``"Europe/London"``, ``"UTC+02:00"``), a
@@ -243,11 +249,22 @@ def selection(
 
 
 def step(value: object) -> str | float:
-    """A series step: text (``"10m"``), seconds or a ``timedelta`` (its seconds)."""
+    """A series step: text (``"10m"``), seconds or a ``timedelta`` or ``numpy.timedelta64``
+    (its seconds)."""
     if isinstance(value, str):
         return value
     if isinstance(value, timedelta):
         return value.total_seconds()
+    if type(value).__name__ == "timedelta64":  # numpy's: an Integral to numbers, not a float
+        import numpy as np
+
+        try:
+            return real(float(value / np.timedelta64(1, "s")), "step")  # type: ignore[operator]
+        except (TypeError, ValueError) as exc:  # months and years have no length in seconds
+            raise InputError(
+                f"step must be a duration, got {value!r}",
+                hint='a unit of weeks or shorter, e.g. np.timedelta64(30, "m"), or "1w"',
+            ) from exc
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise InputError(
             f"step must be a duration, got {value!r}",

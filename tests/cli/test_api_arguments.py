@@ -414,3 +414,15 @@ def test_a_step_may_be_a_timedelta(m: aion.Map) -> None:
     p = m.plan("p1", "p2", leave=(T, "2026-01-12 09:10"), step=timedelta(minutes=10), tz="UTC")
     assert len(p.departures) == 4
 
+
+def test_a_step_may_be_a_numpy_timedelta64(m: aion.Map) -> None:
+    """numpy's ``timedelta64`` is its seconds, as a ``timedelta`` (before: ``TypeError:
+    float() argument must be ... not 'datetime.timedelta'``, as numbers counts it a number)."""
+    a = m.predict_series(T, "2026-01-12 10:40", np.timedelta64(30, "m"), tz="UTC", top=3)
+    b = m.predict_series(T, "2026-01-12 10:40", "30m", tz="UTC", top=3)
+    assert a == b
+    assert len(a.times) == 5
+    p = m.plan("p1", "p2", leave=(T, "2026-01-12 09:10"), step=np.timedelta64(600, "s"), tz="UTC")
+    assert len(p.departures) == 4
+    with pytest.raises(InputError, match="step must be a duration"):
+        m.predict_series(T, "2026-01-12 10:40", np.timedelta64(1, "M"), tz="UTC")
