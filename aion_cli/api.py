@@ -30,7 +30,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Generic, overload
 
 from aion_cli import api_checks as check
 from aion_cli.api_checks import PlaceLike, StepLike, TimeLike, ZoneLike, to_ns
@@ -51,20 +51,36 @@ if TYPE_CHECKING:
     from aion_cli.query_only import CompactReport
     from aion_cli.timeparse import Zone
 
+if TYPE_CHECKING:  # typing_extensions only for the type checker (TypeVar's default, PEP 696)
+    from typing_extensions import TypeVar
+
+    Report = TypeVar(
+        "Report",
+        bound="BuildReport | MergeReport | CompactReport | None",
+        default="BuildReport | MergeReport | CompactReport | None",
+        covariant=True,
+    )
+else:
+    from typing import TypeVar
+
+    Report = TypeVar("Report", covariant=True)
+
 __all__ = ["Map", "Plan", "Table", "TimeLike", "as_path", "build", "compact", "merge", "to_ns"]
 
 
 @check.methods_checked
-class Map:
+class Map(Generic[Report]):
     """A 4D scene-graph map: loaded from a ``.aion`` file, built from logs, or made from an
-    in-memory ``MapState`` (:meth:`from_state`)."""
+    in-memory ``MapState`` (:meth:`from_state`). Typed by what made it, its :attr:`report`:
+    ``Map[BuildReport]`` from :func:`build`, ``Map[MergeReport]`` from :func:`merge`,
+    ``Map[CompactReport]`` from :func:`compact`, ``Map[None]`` from :meth:`load` and
+    :meth:`from_state`; a bare ``Map`` is any of them."""
 
-    def __init__(
-        self,
-        loaded: LoadedMap,
-        path: Path | None = None,
-        report: BuildReport | MergeReport | CompactReport | None = None,
-    ) -> None:
+    @overload
+    def __init__(self: Map[None], loaded: LoadedMap, path: Path | None = None) -> None: ...
+    @overload
+    def __init__(self, loaded: LoadedMap, path: Path | None, report: Report) -> None: ...
+    def __init__(self, loaded: LoadedMap, path: Path | None = None, report: Any = None) -> None:
         from aion_cli.mapquery import LoadedMap
 
         if not isinstance(loaded, LoadedMap):  # Map("office.aion"): a path, not a loaded map
@@ -74,20 +90,25 @@ class Map:
             )
         self._loaded = loaded
         self.path = path
-        #: what the build (:func:`build`) or the merge (:func:`merge`) did (else None)
-        self.report = report
+        self._report = report
         self._file: PinnedFile | None = None if path is None else PinnedFile(path)
 
+    @property
+    def report(self) -> Report:
+        """What the build (:func:`build`), the merge (:func:`merge`) or :func:`compact` did
+        (None for a map from :meth:`load` or :meth:`from_state`)."""
+        return self._report
+
     @classmethod
-    def load(cls, path: PathLike) -> Map:
+    def load(cls, path: PathLike) -> Map[None]:
         """Read a map file (checksums and version checked as members are used)."""
         from aion_cli.mapquery import load_map
 
         p = as_path(path)
-        return cls(load_map(p), p)
+        return Map(load_map(p), p)
 
     @classmethod
-    def from_state(cls, state: MapState, timezone: str | None = None) -> Map:
+    def from_state(cls, state: MapState, timezone: str | None = None) -> Map[None]:
         """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g.
         to :meth:`save` it; its scene graph is the state's latest. A loaded map's state is
         refused: its queries count its pending day and open window as closed, in place, so
@@ -113,7 +134,7 @@ class Map:
 
             timezone = resolve_zone(timezone).name
         manifest = Manifest(state={}, config=state.config.to_dict(), timezone=timezone)
-        return cls(LoadedMap(state, latest_graph(state), manifest.to_dict()))
+        return Map(LoadedMap(state, latest_graph(state), manifest.to_dict()))
 
     # -- what the map is ---------------------------------------------------------------------
 
@@ -419,7 +440,8 @@ class Map:
         """Write the map to ``path`` (a new file, or an existing aion map, which is replaced
         atomically; anything else is refused). A map loaded from a file is copied byte for
         byte (its checksums stay valid); an in-memory map is written from its state."""
-        from aion_cli.formats.mapfile import check_map_target, map_lock, write_map
+        from aion_cli.api_make import write_state
+        from aion_cli.formats.mapfile import check_map_target, map_lock
         from aion_cli.formats.outputs import staging_prefix
 
         target = as_path(path)
@@ -436,26 +458,7 @@ class Map:
                 finally:
                     tmp.unlink(missing_ok=True)
             return target
-        from aion_cli.engine.family_summary import family_summary
-        from aion_cli.manifest import Manifest
-        from aion_cli.mapquery import state_counts
-
-        state = self._loaded.state
-        arrays, meta = state.to_arrays(lazy=True)
-        stored = Manifest(
-            state=meta,
-            config=state.config.to_dict(),
-            counts={  # the detections fed, as a build's manifest counts them
-                "read": state.accepted + sum(state.dropped.values()),
-                "used": state.accepted,
-                "dropped": {k: v for k, v in state.dropped.items() if v},
-                **state_counts(state),
-            },
-            graph_source="memory",
-            timezone=self.timezone,
-            families=family_summary(state),
-        )
-        write_map(target, arrays, stored.to_dict())
+        write_state(self._loaded.state, self.timezone, target)
         self.path = target
         return target
 
@@ -467,7 +470,7 @@ class Map:
             return dict(self.__dict__)
         self._file.still_named()
         where = Path(os.path.abspath(self._file.path))  # for a process in another folder
-        return {"path": self.path, "file": where, "stamp": self._file.stamp, "report": self.report}
+        return {"path": self.path, "file": where, "stamp": self._file.stamp, "report": self._report}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         if "stamp" not in state:
@@ -475,7 +478,7 @@ class Map:
             return
         from aion_cli.mapquery import load_map
 
-        self.path, self.report = state["path"], state["report"]
+        self.path, self._report = state["path"], state["report"]
         self._file = PinnedFile.reopen(state["file"], state["stamp"])
         self._loaded = load_map(self._file.path)
         self._file.check()  # not changed while read

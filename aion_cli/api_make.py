@@ -17,8 +17,11 @@ from aion_cli.errors import InputError
 if TYPE_CHECKING:
     from aion_cli.api import Map, TimeLike
     from aion_cli.build_options import BuildOptions
-    from aion_cli.build_report import ProgressSink
+    from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.state import MapState
+    from aion_cli.merging import MergeReport
+    from aion_cli.query_only import CompactReport
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -72,7 +75,7 @@ def build(
     part: bool = False,
     observed: Sequence[tuple[TimeLike, TimeLike]] = (),
     progress: ProgressSink | None = None,
-) -> Map:
+) -> Map[BuildReport]:
     """Build a map from logs (or extend ``continue_from`` with them) and write it to
     ``output`` (default: the first log's name with ``.aion``), as ``aion build``; the map,
     with what the build did in ``Map.report``. ``workers`` / ``scheduler`` / ``part``: as
@@ -84,6 +87,7 @@ def build(
     from aion_cli.api import Map
     from aion_cli.api_checks import count, flag, zone_name
     from aion_cli.build_options import map_frame_of
+    from aion_cli.mapquery import load_map
     from aion_cli.pipeline import build_map
     from aion_cli.timeparse import resolve_zone
 
@@ -118,9 +122,7 @@ def build(
         part=flag(part, "part"),
     )
     report = build_map(opts, progress_sink(progress))
-    made = Map.load(report.output)
-    made.report = report
-    return made
+    return Map(load_map(report.output), report.output, report)
 
 
 @keywords_checked
@@ -132,7 +134,7 @@ def merge(
     lineage: str = "auto",
     nav_layer: str | None = None,
     progress: ProgressSink | None = None,
-) -> Map:
+) -> Map[MergeReport]:
     """Merge map files of disjoint time into ``output``, as ``aion merge``
     (:func:`aion_cli.merging.merge_map_files`: same model parameters, no log in two maps,
     ``lineage`` auto / same / different, ``graph`` a Hydra graph file to bind to; one part
@@ -140,6 +142,7 @@ def merge(
     in ``Map.report`` (a ``MergeReport``)."""
     from aion_cli.api import Map
     from aion_cli.api_checks import path_list
+    from aion_cli.mapquery import load_map
     from aion_cli.merging import merge_map_files
 
     if isinstance(paths, (str, os.PathLike)):
@@ -152,24 +155,21 @@ def merge(
         progress_sink(progress),
         nav_layer,
     )
-    made = Map.load(report.output)
-    made.report = report
-    return made
+    return Map(load_map(report.output), report.output, report)
 
 
 @keywords_checked
-def compact(source: PathLike, output: PathLike) -> Map:
+def compact(source: PathLike, output: PathLike) -> Map[CompactReport]:
     """Write the query-only copy of the map ``source`` to ``output``, as ``aion compact``
     (:func:`aion_cli.query_only.compact_map`: the same answers to every query, without the
     Fourier sums that continuing and merging need); the copy, with what was done in
     ``Map.report`` (a ``CompactReport``)."""
     from aion_cli.api import Map
+    from aion_cli.mapquery import load_map
     from aion_cli.query_only import compact_map
 
     report = compact_map(as_path(source), as_path(output))
-    made = Map.load(report.output)
-    made.report = report
-    return made
+    return Map(load_map(report.output), report.output, report)
 
 
 READING = (
@@ -246,3 +246,28 @@ def _config(config: object) -> ModelConfig | None:
         f"config must be a ModelConfig or a dict of its parameters, got {config!r}",
         hint="aion_cli.engine.config.ModelConfig(...), or e.g. {\"bins\": 8}",
     )
+
+
+def write_state(state: MapState, timezone: str | None, target: Path) -> None:
+    """Write an in-memory ``state`` (``Map.from_state``) as the map file ``target``, its
+    manifest counting the detections fed as a build's counts them."""
+    from aion_cli.engine.family_summary import family_summary
+    from aion_cli.formats.mapfile import write_map
+    from aion_cli.manifest import Manifest
+    from aion_cli.mapquery import state_counts
+
+    arrays, meta = state.to_arrays(lazy=True)
+    stored = Manifest(
+        state=meta,
+        config=state.config.to_dict(),
+        counts={  # the detections fed, as a build's manifest counts them
+            "read": state.accepted + sum(state.dropped.values()),
+            "used": state.accepted,
+            "dropped": {k: v for k, v in state.dropped.items() if v},
+            **state_counts(state),
+        },
+        graph_source="memory",
+        timezone=timezone,
+        families=family_summary(state),
+    )
+    write_map(target, arrays, stored.to_dict())

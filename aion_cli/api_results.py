@@ -95,12 +95,19 @@ class Plan:
     duration_s: float
     cost: float
     arrival: list[str]
-    distance_only: Plan | None = None
+    # the distance-only plan beside a temporal one (None: this is the distance-only plan)
+    _distance_only: Plan | None = None
     snapped: list[dict[str, Any]] = field(default_factory=list)
     # with a departure span (``aion plan --leave``): every departure's cost, the best marked
     departures: list[dict[str, Any]] = field(default_factory=list)
     # the arrival times as UNIX nanoseconds (``arrival`` shows them to the second)
     arrival_ns: list[int] = field(default_factory=list)
+
+    @property
+    def distance_only(self) -> Plan:
+        """The shortest path, with the temporal cost it would have had (the distance-only
+        plan's own is itself)."""
+        return self if self._distance_only is None else self._distance_only
 
     def __repr__(self) -> str:
         """The plan in one line (not its nodes and arrival times, which may be thousands)."""
@@ -108,8 +115,8 @@ class Plan:
             f"<aion.Plan {self.start} -> {self.goal} at {self.depart}: "
             f"{_path_summary(self)}"
         )
-        if self.distance_only is not None:
-            text += f"; distance only {_path_summary(self.distance_only)}"
+        if self._distance_only is not None:
+            text += f"; distance only {_path_summary(self._distance_only)}"
         if self.departures:
             text += f"; the best of {len(self.departures)} departures"
         return text + ">"
@@ -149,7 +156,7 @@ class Plan:
 
     def to_dict(self) -> dict[str, Any]:
         """The document ``aion plan --format json`` prints (without ``map``)."""
-        other = self.distance_only or self
+        other = self.distance_only
 
         def part(p: Plan) -> dict[str, Any]:
             return {
