@@ -37,6 +37,7 @@ from aion_cli.api_checks import PlaceLike, StepLike, TimeLike, ZoneLike, to_ns
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
+from aion_cli.map_sharing import new_lock, one_at_a_time, pickled, unpickled
 from aion_cli.pinned_file import PinnedFile
 
 if TYPE_CHECKING:
@@ -92,6 +93,7 @@ class Map(Generic[Report]):
         self.path = path
         self._report = report
         self._file: PinnedFile | None = None if path is None else PinnedFile(path)
+        self._lock = new_lock()  # one query at a time (aion_cli.map_sharing)
 
     @property
     def report(self) -> Report:
@@ -200,6 +202,7 @@ class Map(Generic[Report]):
 
     # -- queries -----------------------------------------------------------------------------
 
+    @one_at_a_time
     def predict(
         self,
         time: TimeLike | None = None,
@@ -237,6 +240,7 @@ class Map(Generic[Report]):
             hour_flags(self._loaded, [t_ns])[0],
         )
 
+    @one_at_a_time
     def predict_series(
         self,
         start: TimeLike,
@@ -274,6 +278,7 @@ class Map(Generic[Report]):
         label = str(self.path) if self.path is not None else "<memory>"
         return described(table, label, zone, labels, hour_flags(self._loaded, times))
 
+    @one_at_a_time
     def plan(
         self,
         start: PlaceLike,
@@ -340,6 +345,7 @@ class Map(Generic[Report]):
         observed = hour_flags(self._loaded, times)
         return replace(made, departures=departure_rows(plans, best, zone, observed))
 
+    @one_at_a_time
     def export(
         self,
         folder: PathLike,
@@ -388,6 +394,7 @@ class Map(Generic[Report]):
             )
         return write_export(self._loaded, label, out, times, zone, format, ends).files
 
+    @one_at_a_time
     def picture(
         self,
         file: PathLike,
@@ -412,6 +419,7 @@ class Map(Generic[Report]):
         name = self.path.name if self.path is not None else "<memory>"
         return export_png(self._loaded, name, as_path(file), [when], zone, ends, option="file")
 
+    @one_at_a_time
     def holdout(
         self, logs: Sequence[PathLike] | PathLike, *, radius: float = 1.0, **options: object
     ) -> HoldoutResult:
@@ -436,6 +444,7 @@ class Map(Generic[Report]):
 
     # -- saving ------------------------------------------------------------------------------
 
+    @one_at_a_time
     def save(self, path: PathLike) -> Path:
         """Write the map to ``path`` (a new file, or an existing aion map, which is replaced
         atomically; anything else is refused). A map loaded from a file is copied byte for
@@ -463,25 +472,12 @@ class Map(Generic[Report]):
         return target
 
     def __getstate__(self) -> dict[str, Any]:
-        """A map loaded from a file is pickled as that file (its path, size and modification
-        time), for another process (multiprocessing, Dask) to load: its open file and the
-        members read through it do not cross a process. An in-memory map is pickled whole."""
-        if self._file is None:
-            return dict(self.__dict__)
-        self._file.still_named()
-        where = Path(os.path.abspath(self._file.path))  # for a process in another folder
-        return {"path": self.path, "file": where, "stamp": self._file.stamp, "report": self._report}
+        """A map loaded from a file pickles as that file, for another process (multiprocessing,
+        Dask) to load again (:mod:`aion_cli.map_sharing`); an in-memory map pickles whole."""
+        return pickled(self.__dict__, self._file)
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        if "stamp" not in state:
-            self.__dict__.update(state)
-            return
-        from aion_cli.mapquery import load_map
-
-        self.path, self._report = state["path"], state["report"]
-        self._file = PinnedFile.reopen(state["file"], state["stamp"])
-        self._loaded = load_map(self._file.path)
-        self._file.check()  # not changed while read
+        self.__dict__.update(unpickled(state))
 
     def __repr__(self) -> str:
         where = str(self.path) if self.path is not None else "in memory"
