@@ -69,3 +69,14 @@ def test_a_map_whose_file_is_gone_is_not_pickled(sample_map: Path, tmp_path: Pat
     assert len(m.predict(T, tz="UTC")) > 0  # the map itself still answers
     with pytest.raises(MapFileError, match="replaced or deleted since the map was loaded"):
         pickle.dumps(m)
+
+
+def test_an_in_memory_map_pickles_whole(tmp_path: Path) -> None:
+    from tests.cli.test_api_from_state import _fed
+
+    m = aion.Map.from_state(_fed().state, timezone="UTC")
+    copy = pickle.loads(pickle.dumps(m))  # its lock left out, a new one made
+    at = "2026-01-05 10:30"
+    assert copy.predict(at).to_dict() == m.predict(at).to_dict()
+    saved = copy.save(tmp_path / "mem.aion")
+    assert aion.Map.load(saved).predict(at).records() == m.predict(at).records()
