@@ -31,9 +31,9 @@ if TYPE_CHECKING:
 
     from aion_cli.timeparse import Zone
 
-TimeLike = str | int | datetime
-"""A time argument: an aion time string, a ``datetime`` or integer UNIX nanoseconds
-(:func:`to_ns` reads it)."""
+TimeLike = Union[str, int, datetime, "np.datetime64"]
+"""A time argument: an aion time string, a ``datetime``, a ``numpy.datetime64`` (its wall-clock
+time, as a naive ``datetime``) or integer UNIX nanoseconds (:func:`to_ns` reads it)."""
 
 StepLike = Union[str, float, timedelta, "np.timedelta64"]
 """A series or departure step: ``"30m"``, ``"1d"``, seconds, a ``timedelta`` or a
@@ -191,7 +191,8 @@ def time_value(time: object) -> object:
     if isinstance(time, str | datetime):
         return time
     raise InputError(
-        f"not a time: {time!r}", hint="a time string, a datetime or integer nanoseconds"
+        f"not a time: {time!r}",
+        hint="a time string, a datetime, a numpy.datetime64 or integer nanoseconds",
     )
 
 
@@ -362,16 +363,19 @@ def methods_checked(cls: _C) -> _C:
 
 
 def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
-    """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (naive: in
-    ``zone``, a name such as ``"Europe/London"``, a ``ZoneInfo`` or an aion ``Zone``; default
-    UTC, None: the machine's) or integer nanoseconds (one below 10^16, which would lie in
-    1970's first months, is refused as likely seconds); outside 1900 .. 2261 is an
-    ``InputError``."""
+    """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` or a
+    ``numpy.datetime64`` (naive: in ``zone``, a name such as ``"Europe/London"``, a ``ZoneInfo``
+    or an aion ``Zone``; default UTC, None: the machine's) or integer nanoseconds (one below
+    10^16, which would lie in 1970's first months, is refused as likely seconds); outside
+    1900 .. 2261 is an ``InputError``."""
     from aion_cli.timeparse import Zone, check_range, parse_time, resolve_zone
     from aion_cli.timeparse import to_ns as datetime_ns
 
     if not isinstance(zone, Zone):
         zone = resolve_zone(zone_name(zone, "zone"))
+    if type(time).__name__ == "datetime64":  # numpy's: no zone, read as a naive datetime
+        moment, below_us = _wall_clock(time)
+        return check_range(datetime_ns(moment.replace(tzinfo=zone.tz)) + below_us, str(time))
     time = time_value(time)  # type: ignore[assignment]
     if isinstance(time, int):
         return check_range(int(time), f"{time} ns")
@@ -382,3 +386,18 @@ def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
         return parse_time(time, zone)
     raise InputError(f"not a time: {time!r}", hint="a time string, a datetime or nanoseconds")
 
+
+def _wall_clock(value: Any) -> tuple[datetime, int]:
+    """A ``numpy.datetime64`` as a naive ``datetime`` and the nanoseconds below its
+    microsecond; NaT is an :class:`InputError`, a year outside 1 .. 9999 out of range."""
+    import numpy as np
+
+    from aion_cli.timeparse import check_range
+
+    if np.isnat(value):
+        raise InputError(f"not a time: {value!r}", hint="NaT marks a missing time")
+    micro = value.astype("datetime64[us]")
+    moment = micro.item()  # a datetime, or an int beyond datetime's years
+    if not isinstance(moment, datetime):
+        check_range(int(micro.astype(np.int64)) * 1000, str(value))
+    return moment, int((value - micro) / np.timedelta64(1, "ns"))

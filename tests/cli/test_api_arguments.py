@@ -426,3 +426,21 @@ def test_a_step_may_be_a_numpy_timedelta64(m: aion.Map) -> None:
     assert len(p.departures) == 4
     with pytest.raises(InputError, match="step must be a duration"):
         m.predict_series(T, "2026-01-12 10:40", np.timedelta64(1, "M"), tz="UTC")
+
+
+def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
+    """numpy's ``datetime64`` (what a numpy array of times holds, without pandas) is its
+    wall-clock time in the zone, as a naive ``datetime`` (before: "not a time")."""
+    utc_ns = 1_768_207_200 * 10**9  # 2026-01-12 08:40 UTC
+    assert aion.to_ns(np.datetime64("2026-01-12T08:40")) == utc_ns
+    assert aion.to_ns(np.datetime64("2026-01-12T08:40:00.000000123")) == utc_ns + 123
+    assert aion.to_ns(np.datetime64("2026-01-12T08:40"), "Europe/Berlin") == utc_ns - 3600 * 10**9
+    table = m.predict(np.datetime64("2026-01-12T08:40"), tz="UTC")
+    assert table.time_ns == utc_ns
+    assert table.records() == m.predict(T, tz="UTC").records()
+    series = m.predict_series(np.datetime64(T), np.datetime64("2026-01-12T10:40"), tz="UTC")
+    assert series.times_ns == [utc_ns + k * 3600 * 10**9 for k in range(3)]
+    with pytest.raises(InputError, match="not a time"):
+        m.predict(np.datetime64("NaT"))
+    with pytest.raises(InputError, match="outside the range"):
+        m.predict(np.datetime64("2300-01-01"))
