@@ -68,7 +68,7 @@ if TYPE_CHECKING:
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.mapquery import MapHead
 
-_HINT = "aion merge A.aion B.aion ... -o OUT.aion"
+_HINT = "give two or more map files (.aion) of disjoint time, or one part map"
 
 
 @dataclass
@@ -184,7 +184,7 @@ def _check_paths(paths: list[Path], out: Path) -> None:
         if out.resolve() == real or (out.exists() and os.path.samefile(out, p)):
             raise InputError(
                 f"the output {out} is one of the input maps",
-                hint="write the merged map to a new file with -o",
+                hint="write the merged map to a new file",
             )
     check_map_folder(out)
 

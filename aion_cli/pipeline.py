@@ -175,7 +175,7 @@ class _Build(StreamStep):
         if any(resolved == p.resolve() for p in self.opts.logs):
             raise InputError(
                 f"the map would overwrite the log {out}",
-                hint="choose another output with -o (maps end in .aion)",
+                hint="choose another output for the map (maps end in .aion)",
             )
         if self.opts.continue_from is not None:  # the input first: without -o it is the
             read_manifest(self.opts.continue_from)  # output too, judged below as a target

@@ -104,7 +104,7 @@ def compact_map(source: Path, output: Path) -> CompactReport:
     if output.exists() and os.path.samefile(output, source):
         raise InputError(
             f"the output {output} is the map being compacted",
-            hint="write the query-only map to a new file with -o",
+            hint="write the query-only map to a new file",
         )
     check_map_output(output)  # before a large map is read and hashed
     # said as build and merge say it: an existing map at -o is replaced
