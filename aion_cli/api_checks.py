@@ -131,19 +131,29 @@ def real(value: object, what: str) -> float:
 
 
 def point(at: object, what: str = "at") -> str | None:
-    """A point as the ``"x,y[,z]"`` text the CLI reads: text as given, or 2 or 3 numbers."""
-    if at is None or isinstance(at, str):
+    """A point as the ``"x,y[,z]"`` text the CLI reads: text that is one, or 2 or 3 numbers."""
+    from aion_cli.engine.node_ids import parse_point
+
+    if at is None:
+        return None
+    if isinstance(at, str):  # checked here, to be named as the API names it (not --at)
+        if parse_point(at) is None:
+            raise _not_a_point(at, what)
         return at
     try:
         values = [real(v, what) for v in at]  # type: ignore[attr-defined]
     except TypeError:
         values = []
     if len(values) not in (2, 3):
-        raise InputError(
-            f"{what} must be a point: \"x,y\" or 2 or 3 numbers, got {at!r}",
-            hint='e.g. at=(3.5, -1.0) or at="3.5,-1.0"',
-        )
+        raise _not_a_point(at, what)
     return ",".join(repr(v) for v in values)
+
+
+def _not_a_point(at: object, what: str) -> InputError:
+    return InputError(
+        f"{what} must be a point: \"x,y\" or 2 or 3 numbers, got {at!r}",
+        hint='e.g. at=(3.5, -1.0) or at="3.5,-1.0"',
+    )
 
 
 def pair(value: object, what: str, names: str) -> tuple[Any, Any]:

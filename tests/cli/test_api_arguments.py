@@ -126,6 +126,9 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
         (lambda m: m.predict(T, top=0), "top must be at least 1"),
         (lambda m: m.predict(T, at=[1.0]), "at must be a point"),
         (lambda m: m.predict(T, at=[1.0, float("nan")]), "must be finite"),
+        # before: "--at expects coordinates x,y[,z]", with the hint 'e.g. --at "3.5,-1.0"'
+        (lambda m: m.predict(T, at="1,2,3,4"), "^at must be a point"),
+        (lambda m: m.predict_series(T, T, at="kitchen"), "^at must be a point"),
         (lambda m: m.predict(T, nodes=["p4"], at=(1.0, 2.0)), "not both"),
         (lambda m: m.predict(T, historical=True), "not both"),
         (lambda m: m.predict(ns_seconds()), "read as nanoseconds"),
