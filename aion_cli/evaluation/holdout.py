@@ -68,6 +68,23 @@ class HoldoutResult:
     test: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
+    def __repr__(self) -> str:
+        """The scores in one line (not the hourly series, which a notebook would print
+        whole: a value per model and hour)."""
+        detections = int(self.test.get("detections", 0))
+        def scores(rows: list[dict[str, Any]], key: str) -> str:
+            return ", ".join(
+                f"{r.get('model')} "
+                + (f"{r[key]:.3g}" if isinstance(r.get(key), int | float) else "n/a")
+                for r in rows
+            ) or "none"
+
+        nll, rho = scores(self.headings, "nll_all"), scores(self.activity, "spearman")
+        return (
+            f"<HoldoutResult: {detections:,} test detections, {len(self.hours):,} hours; "
+            f"heading NLL {nll}; hourly Spearman {rho}>"
+        )
+
     def to_dict(self) -> dict[str, Any]:
         """``aion evaluate holdout --format json``: JSON-safe (a score that cannot be
         computed, NaN here, is None there)."""

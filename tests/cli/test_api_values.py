@@ -64,3 +64,17 @@ def test_two_series_of_the_same_prediction_are_equal(m: aion.Map) -> None:
     assert again == day  # before: ValueError (the truth value of an array is ambiguous)
     shorter = m.predict_series("2026-01-12 06:00", "2026-01-12 19:00", "1h", tz="UTC")
     assert shorter != day
+
+
+def test_a_holdout_result_s_repr_is_its_scores(m: aion.Map) -> None:
+    log = Path(__file__).resolve().parents[2] / "samples" / "office.mcap"
+    cli = run_json("evaluate", "holdout", m.path, log, "--format", "json")
+    text = repr(m.holdout([log]))
+    # before: HoldoutResult(headings=[...], ..., hours=[every hour], series={every value})
+    assert text.startswith(f"<HoldoutResult: {cli['test']['detections']:,} test detections, "
+                           f"{len(cli['hours'])} hours; heading NLL ")
+    for row in cli["headings"]:
+        assert f"{row['model']} {row['nll_all']:.3g}" in text
+    for row in cli["activity"]:
+        assert f"{row['model']} {row['spearman']:.3g}" in text
+    assert cli["hours"][0] not in text
