@@ -12,10 +12,11 @@ The Python API (docs/API.md)::
 __version__ = "0.1.0"
 
 from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns
-from aion_cli.errors import AionError, InputError
+from aion_cli.errors import AionError, AionWarning, InputError
 
 __all__ = [
     "AionError",
+    "AionWarning",
     "InputError",
     "Map",
     "Plan",

@@ -38,6 +38,17 @@ def as_path(value: PathLike, what: str = "path") -> Path:
     return Path(text)
 
 
+def warn_of(warnings: Sequence[str]) -> None:
+    """Each of a report's warnings as an :class:`~aion_cli.errors.AionWarning` (the CLI
+    prints them as ``warning: ...``; a script would not see them in ``report.warnings``)."""
+    import warnings as python_warnings
+
+    from aion_cli.errors import AionWarning
+
+    for text in warnings:
+        python_warnings.warn(text, AionWarning, stacklevel=3)
+
+
 def progress_sink(progress: object) -> ProgressSink | None:
     """``progress`` checked: None, or an object with the ``start(description, total,
     unit)`` and ``advance(n)`` methods of :class:`aion_cli.build_report.ProgressSink` (not
@@ -122,6 +133,7 @@ def build(
         part=flag(part, "part"),
     )
     report = build_map(opts, progress_sink(progress))
+    warn_of(report.warnings)
     return Map(load_map(report.output), report.output, report)
 
 
@@ -155,6 +167,7 @@ def merge(
         progress_sink(progress),
         nav_layer,
     )
+    warn_of(report.warnings)
     return Map(load_map(report.output), report.output, report)
 
 

@@ -124,3 +124,9 @@ class UnknownNodeError(InputError):
 
 class NoPathError(InputError):
     """Start and goal are not connected in the navigational graph."""
+
+
+class AionWarning(UserWarning):
+    """What the CLI prints as ``warning: ...`` (a build's or a merge's ``report.warnings``),
+    issued by the Python API with :func:`warnings.warn` so that a script or a notebook shows
+    it: the map was made, but from less than the input held (a truncated log ...)."""
