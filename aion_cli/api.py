@@ -430,7 +430,7 @@ class Map(Generic[Report]):
         options, as :func:`build` takes them (``detection_topics``, ``observed`` spans,
         ``map_frame``: default the frame the map records, else ``map``; ``base_frame``,
         ``graph_topic``, ``log_format``, ``detections_mapping``)."""
-        from aion_cli.api_make import reading_options
+        from aion_cli.api_make import reading_options, warn_of
         from aion_cli.build_options import DEFAULT_MAP_FRAME
         from aion_cli.evaluation.holdout import score_held_out
 
@@ -440,7 +440,9 @@ class Map(Generic[Report]):
             frame if isinstance(frame, str) else self.manifest.map_frame or DEFAULT_MAP_FRAME
         )
         opts = reading_options(logs, options, self.timezone, "Map.holdout")
-        return score_held_out(self._loaded, opts, radius)
+        result = score_held_out(self._loaded, opts, radius)
+        warn_of(result.warnings, stacklevel=4)  # above this and one_at_a_time's wrapper
+        return result
 
     # -- saving ------------------------------------------------------------------------------
 

@@ -38,15 +38,16 @@ def as_path(value: PathLike, what: str = "path") -> Path:
     return Path(text)
 
 
-def warn_of(warnings: Sequence[str]) -> None:
+def warn_of(warnings: Sequence[str], stacklevel: int = 3) -> None:
     """Each of a report's warnings as an :class:`~aion_cli.errors.AionWarning` (the CLI
-    prints them as ``warning: ...``; a script would not see them in ``report.warnings``)."""
+    prints them as ``warning: ...``; a script would not see them in ``report.warnings``),
+    pointing ``stacklevel`` frames up: the line that called the API."""
     import warnings as python_warnings
 
     from aion_cli.errors import AionWarning
 
     for text in warnings:
-        python_warnings.warn(text, AionWarning, stacklevel=3)
+        python_warnings.warn(text, AionWarning, stacklevel=stacklevel)
 
 
 def progress_sink(progress: object) -> ProgressSink | None:

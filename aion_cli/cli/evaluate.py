@@ -312,7 +312,7 @@ def holdout(
     """
     from aion_cli.build_options import BuildOptions, map_frame_of
     from aion_cli.cli.build import observed_spans
-    from aion_cli.cli.console import note
+    from aion_cli.cli.console import note, warn
     from aion_cli.evaluation.holdout import run_holdout
 
     if png is not None:  # a bad target fails before the evaluation runs
@@ -327,6 +327,8 @@ def holdout(
     result = run_holdout(map_path, opts, radius, progress=note)
     for line in result.notes:
         note(line)
+    for line in result.warnings:  # the test logs read in part: shown with -q and json too
+        warn(line)
     if png is not None:
         from aion_cli.evaluation.holdout import hourly_picture
 

@@ -67,6 +67,8 @@ class HoldoutResult:
     series: dict[str, list[float]] = field(default_factory=dict)
     test: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    #: what reading the test logs warned of, as ``aion build`` would (a truncated log ...)
+    warnings: list[str] = field(default_factory=list)
 
     def __repr__(self) -> str:
         """The scores in one line (not the hourly series, which a notebook would print
@@ -97,6 +99,7 @@ class HoldoutResult:
             "hours": self.hours,
             "hourly_series": self.series,
             "notes": self.notes,
+            "warnings": self.warnings,
         })
         return out
 
@@ -132,6 +135,7 @@ def score_held_out(
     result = HoldoutResult()
     result.test = _test_summary(held, state)
     result.notes = _notes(held, loaded.manifest, state.config.sensor_range)
+    result.warnings = list(held.report.warnings)
     recorded = loaded.manifest.get("map_frame")
     if isinstance(recorded, str) and recorded != opts.map_frame:  # --map-frame said so
         result.notes.insert(0, (
