@@ -15,10 +15,8 @@ whole.
 from __future__ import annotations
 
 import functools
-import os
 import threading
 from collections.abc import Callable
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, Concatenate, ParamSpec, TypeVar
 
 from aion_cli.pinned_file import PinnedFile
@@ -52,8 +50,9 @@ def pickled(fields: dict[str, Any], file: PinnedFile | None) -> dict[str, Any]:
     if file is None:
         return {k: v for k, v in fields.items() if k != "_lock"}
     file.still_named()
-    where = Path(os.path.abspath(file.path))  # for a process in another folder
-    return {"path": fields["path"], "file": where, "stamp": file.stamp, "report": fields["_report"]}
+    return {
+        "path": fields["path"], "file": file.where, "stamp": file.stamp, "report": fields["_report"]
+    }
 
 
 def unpickled(state: dict[str, Any]) -> dict[str, Any]:

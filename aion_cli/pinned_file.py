@@ -27,6 +27,8 @@ class PinnedFile:
         import weakref
 
         self.path = path
+        #: where it was opened, whatever folder the process moves to since (a pickled map)
+        self.where = Path(os.path.abspath(path))
         self.fd = os.open(path, os.O_RDONLY)
         weakref.finalize(self, os.close, self.fd)
         self.stamp = self._stamp()
@@ -36,7 +38,7 @@ class PinnedFile:
         replaced or deleted since): what a pickled map, read again from its path, needs."""
         self.check()
         try:
-            named = os.path.samestat(os.stat(self.path), os.fstat(self.fd))
+            named = os.path.samestat(os.stat(self.where), os.fstat(self.fd))
         except OSError:
             named = False
         if not named:

@@ -80,3 +80,18 @@ def test_an_in_memory_map_pickles_whole(tmp_path: Path) -> None:
     assert copy.predict(at).to_dict() == m.predict(at).to_dict()
     saved = copy.save(tmp_path / "mem.aion")
     assert aion.Map.load(saved).predict(at).records() == m.predict(at).records()
+
+
+def test_a_map_loaded_by_a_relative_path_pickles_from_another_folder(
+    sample_map: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A notebook that loads ``office.aion`` and then changes folder (``os.chdir``) can still
+    pickle the map (before: "replaced or deleted since the map was loaded": the relative
+    path was looked up in the new folder)."""
+    shutil.copy(sample_map, tmp_path / "office.aion")
+    monkeypatch.chdir(tmp_path)
+    m = aion.Map.load("office.aion")
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    copy = pickle.loads(pickle.dumps(m))
+    assert copy.predict(T, tz="UTC").records() == m.predict(T, tz="UTC").records()
