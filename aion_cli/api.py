@@ -435,9 +435,9 @@ class Map(Generic[Report]):
         from aion_cli.evaluation.holdout import score_held_out
 
         self._check_file()
-        frame = options.pop("map_frame", None)
+        frame = options.pop("map_frame", None)  # a wrong type is refused with the options
         options["map_frame"] = (
-            frame if isinstance(frame, str) else self.manifest.map_frame or DEFAULT_MAP_FRAME
+            frame if frame is not None else self.manifest.map_frame or DEFAULT_MAP_FRAME
         )
         opts = reading_options(logs, options, self.timezone, "Map.holdout")
         result = score_held_out(self._loaded, opts, radius)

@@ -295,6 +295,24 @@ def historical(time: object, value: object) -> bool:
     return wanted
 
 
+def text(value: object, what: str) -> str | None:
+    """An optional name (a frame, a topic, a log format, an address): None or a string; a
+    layer key given as an integer (``nav_layer=3``) is its text."""
+    if value is None or isinstance(value, str):
+        return value
+    if what == "nav_layer" and isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return str(int(value))
+    raise InputError(
+        f"{what} must be a string, got {value!r}", hint=f'e.g. {what}="{_EXAMPLES.get(what, "")}"'
+    )
+
+
+_EXAMPLES = {
+    "map_frame": "map", "base_frame": "base_link", "graph_topic": "/hydra/backend/dsg",
+    "log_format": "mcap", "nav_layer": "PLACES", "scheduler": "tcp://10.0.0.5:8786",
+}  # fmt: skip
+
+
 def flag(value: object, what: str) -> bool:
     """A yes or no: ``True`` / ``False`` (numpy's too), not any value Python finds true (a
     string "no" would be)."""

@@ -97,7 +97,7 @@ def build(
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
     ``Map.predict``, naive ones in ``tz``, else UTC)."""
     from aion_cli.api import Map
-    from aion_cli.api_checks import count, flag, zone_name
+    from aion_cli.api_checks import count, flag, text, zone_name
     from aion_cli.build_options import map_frame_of
     from aion_cli.mapquery import load_map
     from aion_cli.pipeline import build_map
@@ -123,14 +123,14 @@ def build(
         opts,
         output=_optional_path(output, "output"),
         config=_config(config),
-        map_frame=map_frame_of(map_frame, continued),
+        map_frame=map_frame_of(text(map_frame, "map_frame"), continued),
         graph_file=_optional_path(graph, "graph"),
-        nav_layer=nav_layer,
+        nav_layer=text(nav_layer, "nav_layer"),
         derive_graph=flag(derive_graph, "derive_graph"),
         continue_from=continued,
         timezone=tz,
         workers=count(workers, "workers", minimum=0) or 0,
-        scheduler=scheduler,
+        scheduler=text(scheduler, "scheduler"),
         part=flag(part, "part"),
     )
     report = build_map(opts, progress_sink(progress))
@@ -154,7 +154,7 @@ def merge(
     map alone, ``aion build --part``, is made a map); the merged map, with what the merge did
     in ``Map.report`` (a ``MergeReport``)."""
     from aion_cli.api import Map
-    from aion_cli.api_checks import path_list
+    from aion_cli.api_checks import path_list, text
     from aion_cli.mapquery import load_map
     from aion_cli.merging import merge_map_files
 
@@ -166,7 +166,7 @@ def merge(
         None if graph is None else as_path(graph),
         lineage,
         progress_sink(progress),
-        nav_layer,
+        text(nav_layer, "nav_layer"),
     )
     warn_of(report.warnings)
     return Map(load_map(report.output), report.output, report)
@@ -201,7 +201,7 @@ def reading_options(
     one topic given alone is one topic, ``observed`` spans are times as in ``Map.predict``
     (naive ones in ``tz``, else UTC), paths ``str`` or ``os.PathLike``."""
     from aion_cli.api import to_ns
-    from aion_cli.api_checks import path_list
+    from aion_cli.api_checks import path_list, text
     from aion_cli.api_checks import spans as span_pairs
     from aion_cli.build_options import map_frame_of
     from aion_cli.pipeline import BuildOptions
@@ -231,16 +231,16 @@ def reading_options(
                 hint="give each span as (start, end) with end later than start",
             )
     fields: dict[str, object] = {
-        "log_format": options.get("log_format"),
+        "log_format": text(options.get("log_format"), "log_format"),
         "detection_topics": tuple(str(t) for t in topics),
-        "graph_topic": options.get("graph_topic"),
-        "base_frame": options.get("base_frame") or "base_link",
+        "graph_topic": text(options.get("graph_topic"), "graph_topic"),
+        "base_frame": text(options.get("base_frame"), "base_frame") or "base_link",
         "detections_mapping": _optional_path(options.get("detections_mapping"), "mapping"),
         "observed": spans,
     }
-    frame = options.get("map_frame")
+    frame = text(options.get("map_frame"), "map_frame")
     if frame is not None:  # spelt as the logs' frames are (/map is map), as --map-frame is
-        fields["map_frame"] = map_frame_of(frame, None) if isinstance(frame, str) else frame
+        fields["map_frame"] = map_frame_of(frame, None)
     return BuildOptions(logs=tuple(as_path(p, "log") for p in paths), **fields)  # type: ignore[arg-type]
 
 

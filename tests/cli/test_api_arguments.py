@@ -447,3 +447,19 @@ def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
         m.predict(np.datetime64("NaT"))
     with pytest.raises(InputError, match="outside the range"):
         m.predict(np.datetime64("2300-01-01"))
+
+
+def test_names_of_frames_topics_and_formats_must_be_strings(office: Office, tmp_path: Path) -> None:
+    """Before: ``map_frame=3`` or ``base_frame=3`` failed inside the build with
+    ``AttributeError: 'int' object has no attribute 'strip'``; ``Map.holdout(...,
+    map_frame=3)`` silently used the map's own frame instead; ``scheduler=3`` was taken."""
+    m = aion.Map.load(office.map)
+    for name in ("map_frame", "base_frame", "graph_topic", "log_format", "scheduler"):
+        with pytest.raises(InputError, match=f"^{name} must be a string, got 3"):
+            aion.build(office.log, tmp_path / "f.aion", **{name: 3})  # type: ignore[arg-type]
+    for name in ("map_frame", "base_frame", "graph_topic", "log_format"):
+        with pytest.raises(InputError, match=f"^{name} must be a string, got 3"):
+            m.holdout([office.log], **{name: 3})
+    assert not (tmp_path / "f.aion").exists()
+    layered = aion.build(office.log, tmp_path / "n.aion", nav_layer=3)  # a layer key, as "3"
+    assert layered.report.detections_used == office.build["detections"]["used"]
