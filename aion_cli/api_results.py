@@ -40,8 +40,12 @@ class Table:
     extrapolated."""
 
     def records(self) -> list[dict[str, Any]]:
-        """The entries as a list of fresh dicts (safe to change)."""
-        return [dict(e, histogram=list(e["histogram"])) for e in self.entries]
+        """The entries as a list of fresh dicts (safe to change: their lists, ``histogram``
+        and ``speed_per_bin``, are copies too)."""
+        return [
+            dict(e, histogram=list(e["histogram"]), speed_per_bin=list(e["speed_per_bin"]))
+            for e in self.entries
+        ]
 
     def to_dict(self) -> dict[str, Any]:
         """The document ``aion predict --format json`` prints."""

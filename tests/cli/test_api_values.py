@@ -78,3 +78,15 @@ def test_a_holdout_result_s_repr_is_its_scores(m: aion.Map) -> None:
     for row in cli["activity"]:
         assert f"{row['model']} {row['spearman']:.3g}" in text
     assert cli["hours"][0] not in text
+
+
+def test_records_are_copies_to_change(m: aion.Map, sample_map: Path) -> None:
+    """docs/API.md: ``records()`` gives fresh copies to change. Before, a record's
+    ``speed_per_bin`` was the table's own list: changing it changed the table."""
+    cli = run_json("predict", sample_map, *AT_JSON, "--top", "3")
+    table = m.predict(T, tz="UTC", top=3)
+    for row in table.records():
+        row["histogram"][0] = row["speed_per_bin"][0] = -1.0
+        row["flow"] = -1.0
+    assert table.to_dict() == cli
+    assert table.records() == cli["entries"]
