@@ -181,7 +181,7 @@ class Plan:
             "speed_mps": self.speed_mps,
             "temporal": part(self),
             "distance_only": part(other),
-            "snapped": [dict(s) for s in self.snapped],
+            "snapped": [dict(s, point=list(s["point"])) for s in self.snapped],
         } | ({"departures": [dict(d) for d in self.departures]} if self.departures else {})
 
 

@@ -71,7 +71,7 @@ class SeriesTable:
             "map": self.map,
             "mode": "series",
             "times": list(self.times),
-            "times_ns": self.times_ns,
+            "times_ns": list(self.times_ns),  # a copy: the document is the caller's to change
             "zone": self.zone,
             "entries": self.records() if with_entries else [],
         }

@@ -90,3 +90,16 @@ def test_records_are_copies_to_change(m: aion.Map, sample_map: Path) -> None:
         row["flow"] = -1.0
     assert table.to_dict() == cli
     assert table.records() == cli["entries"]
+
+
+def test_documents_are_copies_to_change(m: aion.Map) -> None:
+    """A series' ``to_dict()`` handed out its own ``times_ns`` list, and a plan's its
+    snapped points' coordinates: changing the document changed the result."""
+    day = m.predict_series("2026-01-12 06:00", "2026-01-12 08:00", "1h", tz="UTC", top=2)
+    doc = day.to_dict()
+    doc["times_ns"].append(0)
+    assert len(day.times_ns) == len(day.to_dict()["times_ns"]) == 3
+    plan = m.plan("3.0,4.0", "p2", time=T, tz="UTC")
+    doc = plan.to_dict()
+    doc["snapped"][0]["point"][0] = -1.0
+    assert plan.to_dict()["snapped"][0]["point"] == [3.0, 4.0]
