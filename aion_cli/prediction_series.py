@@ -14,7 +14,7 @@ a known flow last, ties by id) and cut to ``top``.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -91,6 +91,14 @@ class SeriesTable:
             and np.array_equal(self.flow, other.flow, equal_nan=True)
             and np.array_equal(self.flow_per_hour, other.flow_per_hour, equal_nan=True)
         )
+
+    def __len__(self) -> int:
+        """The entries, as ``len`` of an :class:`aion.Table` counts them."""
+        return len(self.entries)
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        """:meth:`records`, as iterating an :class:`aion.Table` yields its records."""
+        return iter(self.records())
 
     def __repr__(self) -> str:
         """What the series is, in one line (not its entries and arrays, which a notebook

@@ -103,3 +103,13 @@ def test_documents_are_copies_to_change(m: aion.Map) -> None:
     doc = plan.to_dict()
     doc["snapped"][0]["point"][0] = -1.0
     assert plan.to_dict()["snapped"][0]["point"] == [3.0, 4.0]
+
+
+def test_a_series_counts_and_yields_its_records_as_a_table_does(m: aion.Map) -> None:
+    """``len(t)`` and ``for row in t`` work on a Table; on a series they raised TypeError
+    ('SeriesTable' has no len(), is not iterable)."""
+    day = m.predict_series("2026-01-12 06:00", "2026-01-12 08:00", "1h", tz="UTC", layer="rooms")
+    rooms = m.predict(T, tz="UTC", layer="rooms")
+    assert len(day) == len(rooms) == len(day.entries)
+    assert list(day) == day.records()
+    assert sorted(row["id"] for row in day) == sorted(row["id"] for row in rooms)
