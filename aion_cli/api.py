@@ -441,7 +441,7 @@ class Map(Generic[Report]):
         )
         opts = reading_options(logs, options, self.timezone, "Map.holdout")
         result = score_held_out(self._loaded, opts, radius)
-        warn_of(result.warnings, stacklevel=4)  # above this and one_at_a_time's wrapper
+        warn_of(result.warnings)
         return result
 
     # -- saving ------------------------------------------------------------------------------

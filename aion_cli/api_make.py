@@ -38,16 +38,25 @@ def as_path(value: PathLike, what: str = "path") -> Path:
     return Path(text)
 
 
-def warn_of(warnings: Sequence[str], stacklevel: int = 3) -> None:
+def warn_of(warnings: Sequence[str]) -> None:
     """Each of a report's warnings as an :class:`~aion_cli.errors.AionWarning` (the CLI
     prints them as ``warning: ...``; a script would not see them in ``report.warnings``),
-    pointing ``stacklevel`` frames up: the line that called the API."""
+    pointing at the line that called the API: the first frame outside the package, however
+    many of its wrappers (argument checks, one query at a time) lie between."""
+    import sys
     import warnings as python_warnings
+    from pathlib import Path
 
     from aion_cli.errors import AionWarning
 
+    package = str(Path(__file__).resolve().parent) + "/"
+    level, frame = 1, sys._getframe(0)
+    while frame.f_back is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(
+        package
+    ):
+        frame, level = frame.f_back, level + 1
     for text in warnings:
-        python_warnings.warn(text, AionWarning, stacklevel=stacklevel)
+        python_warnings.warn(text, AionWarning, stacklevel=level)
 
 
 def progress_sink(progress: object) -> ProgressSink | None:
