@@ -74,6 +74,8 @@ _RE_UNIX = re.compile(r"^@?(-?\d+(?:\.\d+)?)\s*(s|ns)?$")
 _RE_ONE_DIGIT_HOUR = re.compile(r"^(\d{4}-\d{2}-\d{2}[ T])(\d:)")
 _RE_DATE_CLOCK12 = re.compile(r"^(\d{4}-\d{2}-\d{2})[ t](\d.*[ap]m)$")
 _RE_ZONE_WORD = re.compile(r"^[a-z][a-z0-9_+/-]*$", re.IGNORECASE)
+_RE_OWN_OFFSET = re.compile(r"\d:\d{2}(?::\d{2}(?:\.\d+)?)?\s*(z|[+-]\d{2}(?::?\d{2})?)$")
+"""An ISO time's own offset at its end (``...08:30Z``, ``...08:30+02:00``, ``...08:30-05``)."""
 
 
 class TimeFormatError(InputError):
@@ -241,7 +243,8 @@ def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
     ``now`` (aware) pins the reference for relative forms; default: the current time.
     """
     raw = text
-    text, zone = _split_zone(" ".join(text.strip().split()), zone)
+    whole = " ".join(text.strip().split())
+    text, zone = _split_zone(whole, zone)
     text = text.lower()
     if not text:
         raise TimeFormatError("empty time", FORMS_HINT)
@@ -252,8 +255,35 @@ def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
         except OverflowError:  # datetime arithmetic beyond year 9999
             raise _out_of_range(raw) from None
         if result is not None:
+            if len(text) < len(whole):  # a zone named after the time: its own offset agrees
+                _check_own_offset(text, zone, result, raw)
             return check_range(result, raw)
     raise _unreadable(raw, zone, now)
+
+
+def _check_own_offset(text: str, zone: Zone, t_ns: int, raw: str) -> None:
+    """:class:`TimeFormatError` when an ISO time with an offset of its own is followed by a
+    zone whose offset at that instant differs (``2026-03-29T08:00Z Europe/Berlin``): the
+    offset decided the instant, and the zone named after it would have been ignored."""
+    own = _RE_OWN_OFFSET.search(text)
+    if own is None:
+        return
+    mark = own.group(1)
+    stated = datetime.fromisoformat("2000-01-01T00:00" + ("+00:00" if mark == "z" else mark))
+    moment = datetime.fromtimestamp(t_ns // NS_PER_S, UTC).astimezone(zone.tz)
+    if stated.utcoffset() != moment.utcoffset():
+        raise TimeFormatError(
+            f"the time {raw!r} names two zones that disagree: its offset {mark.upper()} and "
+            f"{zone.name} (UTC{_offset_text(moment)} then)",
+            "give the offset or the zone, not both",
+        )
+
+
+def _offset_text(moment: datetime) -> str:
+    delta = moment.utcoffset() or timedelta(0)
+    minutes = round(delta.total_seconds() / 60)
+    sign = "-" if minutes < 0 else "+"
+    return f"{sign}{abs(minutes) // 60:02d}:{abs(minutes) % 60:02d}"
 
 
 def _unreadable(raw: str, zone: Zone, now: datetime | None) -> TimeFormatError:

@@ -132,7 +132,8 @@ def test_a_narrow_terminal_cuts_no_id_or_number(
     [
         (("export", "{map}", "--time", "2026-01-12 08:40", "--format", "dsg", "-o",
           "{dir}/office-4d.json"), "wrote {dir}/office-4d.json: 146 places"),
-        (("compact", "{map}", "-o", "{dir}/robot.aion"), "cannot be continued (build --map) or merged"),
+        (("compact", "{map}", "-o", "{dir}/robot.aion"),
+         "cannot be continued (build --map) or merged"),
         (("report", "{map}", "-o", "{dir}/report"), "file(s) to {dir}/report: open"),
         (("plan", "{map}", "--from", "kitchen", "--to", "0,0", "--time", "2026-01-12 08:40",
           "--png", "{dir}/plan.png"), "--from kitchen (R2): its place nearest the room's"),

@@ -41,6 +41,30 @@ def test_iso_with_offset_ignores_the_given_zone() -> None:
     assert parse_time("2026-11-23t07:30z", BERLIN, NOW) == expected
 
 
+def test_an_offset_and_a_zone_after_it_must_agree() -> None:
+    """``2026-03-29T08:00Z Europe/Berlin`` was read as 08:00Z, the zone silently ignored:
+    an offset and a zone that disagree at the instant are refused, naming both; where they
+    agree (Berlin is +02:00 after the spring change) the time is read."""
+    from zoneinfo import ZoneInfo
+
+    berlin = ZoneInfo("Europe/Berlin")
+    summer = datetime(2026, 3, 29, 8, 0, tzinfo=berlin)  # after the change at 01:00 UTC
+    assert summer.utcoffset() == timedelta(hours=2)
+    assert parse_time("2026-03-29T08:00+02:00 Europe/Berlin", UTCZ, NOW) == to_ns(summer)
+    assert parse_time("2026-11-23T07:30Z UTC", BERLIN, NOW) == ns(2026, 11, 23, 7, 30)
+    for text, mark in (
+        ("2026-03-29T08:00Z Europe/Berlin", "Z"),
+        ("2026-03-29T08:00+01:00 Europe/Berlin", "+01:00"),
+        ("2026-11-23T08:30:00.5-05 UTC", "-05"),
+    ):
+        with pytest.raises(TimeFormatError, match="names two zones that disagree") as info:
+            parse_time(text, UTCZ, NOW)
+        assert f"its offset {mark} and" in str(info.value)
+        assert info.value.hint == "give the offset or the zone, not both"
+    # a date alone ends in digits after a dash, which is no offset
+    assert parse_time("2026-11-23 Europe/Berlin", UTCZ, NOW) == ns(2026, 11, 22, 23)
+
+
 def test_iso_date_only_is_midnight_and_summer_time_is_respected() -> None:
     assert parse_time("2026-11-23", UTCZ, NOW) == ns(2026, 11, 23)
     # July in Berlin is CEST = UTC+2.
