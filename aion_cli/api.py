@@ -210,7 +210,7 @@ class Map(Generic[Report]):
         historical: bool = False,
         tz: ZoneLike | None = None,
         layer: str = "all",
-        nodes: Sequence[str | int] | str = (),
+        nodes: Sequence[str | int] | str | None = None,
         at: str | Sequence[float] | None = None,
         top: int | None = None,
     ) -> Table:
@@ -249,7 +249,7 @@ class Map(Generic[Report]):
         *,
         tz: ZoneLike | None = None,
         layer: str = "all",
-        nodes: Sequence[str | int] | str = (),
+        nodes: Sequence[str | int] | str | None = None,
         at: str | Sequence[float] | None = None,
         top: int | None = None,
     ) -> SeriesTable:

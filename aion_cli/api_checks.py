@@ -248,8 +248,13 @@ def selection(
 ) -> tuple[list[str | int], str | None, int | None]:
     """``nodes``, ``at`` and ``top`` of a query, checked (one node id given alone is one
     node; ``at`` as text or numbers); nodes and a point at once are refused (the point would
-    be ignored)."""
+    be ignored), and so is an empty list of nodes (None is every entry)."""
     wanted = node_list(nodes)
+    if nodes is not None and not wanted:  # a filtered list that came out empty, not "all"
+        raise InputError(
+            "nodes is empty: it names no entry",
+            hint="leave nodes out (or None) for every entry",
+        )
     where = point(at)
     if wanted and where is not None:
         raise InputError(

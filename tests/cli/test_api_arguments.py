@@ -121,6 +121,9 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
     [
         (lambda m: m.predict(T, nodes=[12.0]), "not a node id"),
         (lambda m: m.predict(T, nodes=[None]), "not a node id"),
+        # before: an empty list (a filter that came out empty) answered every entry
+        (lambda m: m.predict(T, nodes=[]), "nodes is empty: it names no entry"),
+        (lambda m: m.predict_series(T, T, nodes=(n for n in ())), "nodes is empty"),
         (lambda m: m.predict(T, top=2.5), "top must be a whole number"),
         (lambda m: m.predict(T, top="5"), "top must be a whole number"),
         (lambda m: m.predict(T, top=0), "top must be at least 1"),
