@@ -129,6 +129,9 @@ def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelCon
         # the file's zone is the default, which --tz replaced when the map was made: the
         # map's zone is compared with --tz below, the file's other parameters here
         given = given.replace(timezone=old.timezone)
+    if given is not None and given.fremen_clock != old.fremen_clock:
+        # the clock is the map's, not a parameter to choose: an older map keeps its own
+        given = given.replace(fremen_clock=old.fremen_clock)
     if given is not None and given != old:
         raise ConfigError(
             "--config differs from the config the map was built with",

@@ -5,6 +5,11 @@ exposure reads as ``exposure = false`` (it counted them whole), so it would diff
 newer map in that setting alone. For maps without a robot trajectory, whose windows are a fixed
 sensor's and count whole either way, the setting changes nothing: they merge, under the newer
 setting. Maps a robot observed are refused, with the way out in the hint.
+
+Maps whose FreMEn clocks differ (``fremen_clock``: one built before FreMEn followed the local
+clock across daylight saving) merge on the newer clock when the older map's time held no
+daylight-saving time (its sums are the same on either clock), and are refused with a message
+of their own when it did. In UTC or a fixed offset the clocks are one and not recorded.
 """
 
 from __future__ import annotations
@@ -50,9 +55,12 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
     first = maps[0]
     base = first.head.config.to_dict()
     exposure_only = False
+    clock_only = _clocks_differ(maps)
     for m in maps[1:]:
         other = m.head.config.to_dict()
         differ = sorted(k for k in base.keys() | other.keys() if base.get(k) != other.get(k))
+        if clock_only:
+            differ = [k for k in differ if k != "fremen_clock"]
         if differ and set(differ) <= EXPOSURE_FIELDS:
             robots = [x.name for x in (first, m) if robot_observed(x.manifest)]
             if not robots:
@@ -79,10 +87,48 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
                 f"({m.manifest.timezone}): their days follow different time zones",
                 hint="rebuild one of them with the other's --tz",
             )
-    if not exposure_only:
+    if not (exposure_only or clock_only):
         return None
     weighed = [m.head.config for m in maps if m.head.config.exposure]
-    return weighed[0] if weighed else first.head.config
+    config = weighed[0] if weighed and exposure_only else first.head.config
+    return config.replace(fremen_clock="standard") if clock_only else config
+
+
+def _clocks_differ(maps: Sequence[MapInput]) -> bool:
+    """Whether maps of one zone are on different FreMEn clocks (``fremen_clock``: some built
+    before FreMEn followed daylight saving). They merge on the newer clock when no map on UTC
+    held daylight-saving time (its sums are the same on either clock); otherwise
+    :class:`ConfigError`. Maps of different zones are left to the checks that name that."""
+    configs = [m.head.config for m in maps]
+    if len({c.fremen_clock for c in configs}) < 2 or len({c.timezone for c in configs}) > 1:
+        return False
+    stale = [m.name for m in maps if m.head.config.fremen_clock == "utc" and _saved_daylight(m)]
+    if stale:
+        its, it = ("their", "they were") if len(stale) > 1 else ("its", "it was")
+        raise ConfigError(
+            f"cannot merge {first_few(stale, 3)} with the other maps: {its} FreMEn phases "
+            f"follow UTC across a daylight-saving shift ({it} built before FreMEn followed "
+            f"daylight saving in {configs[0].timezone}; the others follow the local clock)",
+            hint="rebuild the older map from its logs, or continue it (aion build --map) "
+            "with the newer one's logs",
+        )
+    return True
+
+
+def _saved_daylight(m: MapInput) -> bool:
+    """Whether daylight saving was in force in the map's zone at any time of its time span
+    (checked hourly and at both ends: a daylight-saving period lasts more than an hour); true
+    for a map without a span."""
+    import numpy as np
+
+    from aion_cli.engine.temporal.calendar import HOUR_NS, Calendar
+
+    start, end = m.manifest.start_ns, m.manifest.end_ns
+    if start is None or end is None:
+        return True
+    times = np.append(np.arange(start, end, HOUR_NS, dtype=np.int64), np.int64(end))
+    calendar = Calendar(m.head.config.timezone)
+    return bool(np.any(calendar.standard_ns(times) != times))
 
 
 def _zone(name: str | None) -> str | None:

@@ -183,7 +183,7 @@ def _first_observed(state: MapState) -> npt.NDArray[np.float64]:
     query's copy of the whole state: absorbing a window only lowers ``obs.first`` of the
     entries the robot saw in it (fixed-sensor windows go to the global block)."""
     from aion_cli.engine.closing import open_window_record
-    from aion_cli.engine.temporal.absorption import slot_times
+    from aion_cli.engine.temporal.absorption import slot_utc_seconds
 
     first = state.temporal.obs.first.copy()
     parts = [state.pending.consolidated() if state.pending else None, open_window_record(state)]
@@ -191,8 +191,7 @@ def _first_observed(state: MapState) -> npt.NDArray[np.float64]:
         if day is None or day.windows.size == 0:
             continue
         entry, slot, _ = day.own_pairs()
-        t_s, _ = slot_times(state.params, day, state.window_ns)
-        np.fmin.at(first, entry, t_s[slot])
+        np.fmin.at(first, entry, slot_utc_seconds(day, state.window_ns)[slot])
     return first
 
 

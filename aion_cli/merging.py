@@ -270,6 +270,7 @@ def _fold(
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
     from aion_cli.engine.state import MapState
+    from aion_cli.engine.temporal.params import TemporalParams
     from aion_cli.merge_notes import (
         ApproximationTally,
         declared_gap_note,
@@ -286,6 +287,7 @@ def _fold(
         state = m.load()
         if config is not None:
             state.config = config
+            state.params = TemporalParams.from_config(config)  # FreMEn's clock among them
         if report.lineage == "different":
             report.released += release_all(state)
         late = maps[k + 1] if k + 1 < len(maps) else None

@@ -273,6 +273,8 @@ class _Planning:
         if depart_ns is None:
             route = _route(shortest, shortest.cost, None, v)
             return Routes(self.start, self.goal, None, v, route, route)
+        # UTC seconds: a walk's timeline; each node's cost turns them back into a time
+        # (mapquery.node_cost_fn), whose prediction takes FreMEn's clock itself
         depart_s = float(to_model_seconds(depart_ns))
         nav, config, cost_fn = self.nav, self.config, self.cost_fn
         temporal = plan(nav, self.start, self.goal, depart_s, v, cost_fn, config)

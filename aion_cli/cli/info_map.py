@@ -161,7 +161,7 @@ def print_map(report: dict[str, Any]) -> None:
             f"every member ({verified['members']:,}, {human_size(verified['bytes'])}) matches "
             "its checksum; the state is consistent",
         )
-    defaults = ModelConfig().to_dict()
+    defaults = ModelConfig().parameters()
     changed = {k: v for k, v in report.get("config", {}).items() if defaults.get(k) != v}
     table.add_row(
         "config", safe(", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults")

@@ -11,6 +11,7 @@ import dataclasses
 import math
 import tomllib
 from dataclasses import dataclass, field
+from datetime import timezone
 from typing import Any
 
 from aion_cli.errors import ConfigError
@@ -46,10 +47,32 @@ RANGES_HINT = (
 def stored_config(data: dict[str, Any]) -> dict[str, Any]:
     """A map's stored model configuration with the keys older versions did not write, as
     those versions built: ``exposure`` false (their robot windows counted whole, and a map
-    continued from one goes on so). ``ModelConfig.from_stored`` and ``aion info`` / ``aion
+    continued from one goes on so), ``fremen_clock`` ``"utc"`` in a zone with daylight saving
+    (their FreMEn sums are on UTC). ``ModelConfig.from_stored`` and ``aion info`` / ``aion
     report`` (through :class:`~aion_cli.manifest.Manifest`) read it alike, so an old map is
     not shown as built with the defaults it does not use."""
-    return {"exposure": False, **data}
+    return {"exposure": False, **_old_clock(data), **data}
+
+
+FREMEN_CLOCKS = ("standard", "utc")
+"""``ModelConfig.fremen_clock``: the time FreMEn's phases follow."""
+
+
+def _old_clock(data: dict[str, Any]) -> dict[str, Any]:
+    """``fremen_clock = "utc"`` for a stored config without the key in a zone with daylight
+    saving (FreMEn's phases were on UTC before the key existed); nothing in UTC or a fixed
+    offset, where the clocks are one."""
+    try:
+        fixed = _fixed_zone(str(data.get("timezone", "UTC")))
+    except ConfigError:
+        return {}  # the zone is refused where the config is read
+    return {} if fixed else {"fremen_clock": "utc"}
+
+
+def _fixed_zone(name: str) -> bool:
+    from aion_cli.engine.temporal.zones import zone_of
+
+    return isinstance(zone_of(name), timezone)
 
 
 def _is_number(value: object) -> bool:
@@ -109,7 +132,11 @@ class ModelConfig:
     the groups' shapes by a strength estimated from the map itself (how bursty its window
     counts are and how much its bins vary beyond that: ``temporal.shape_prior``).
     FreMEn: ``periods``, a period counts once an entry's observed span >= ``span_factor`` * T,
-    orders 1..``max_order``. Directions: a Dirichlet prior of ``direction_prior``
+    orders 1..``max_order``, phases on ``fremen_clock``: ``"standard"``, UTC plus the zone's
+    daylight-saving shift (the local clock less the standard offset, so a routine keeps its
+    phase across a clock change), or ``"utc"``, as maps built before it (a stored config
+    without the key; in a zone without daylight saving the two are one clock, recorded as
+    the default and not written). Directions: a Dirichlet prior of ``direction_prior``
     pseudo-detections (``"auto"``: estimated from the map, ``temporal.direction_prior``)
     toward the parent's histogram (room, else the ``pool_size``-metre
     neighbourhood; then the map), time-varying histograms shrunk toward the entry's static
@@ -141,6 +168,7 @@ class ModelConfig:
     periods: tuple[float, ...] = field(default_factory=default_periods)
     span_factor: float = 1.5
     max_order: int = 4
+    fremen_clock: str = "standard"
     direction_prior: float | str = "auto"
     direction_time_prior: float = 50.0
     pool_size: float = 4.0
@@ -245,6 +273,12 @@ class ModelConfig:
                 f"profile_bin_s ({self.profile_bin_s!r}) must be at least window_s "
                 f"({self.window_s!r}): a window enters the profile at its centre time",
             )
+        if self.fremen_clock not in FREMEN_CLOCKS:
+            raise ConfigError(
+                f'fremen_clock must be "standard" or "utc", got {self.fremen_clock!r}',
+                hint='"standard" (the default) keeps a routine\'s phase across a daylight-saving '
+                'change; "utc" is the clock of maps built before it',
+            )
         self._validate_calendar()
         self._validate_periods()
         if not isinstance(self.exposure, bool):
@@ -293,6 +327,8 @@ class ModelConfig:
         # one spelling per zone ("+05:30" is UTC+05:30, as --tz writes it), so two maps or a
         # map and --tz that name one zone agree
         object.__setattr__(self, "timezone", zone_key(self.timezone))
+        if calendar.fixed:  # no daylight saving: FreMEn's clocks are one, named by the default
+            object.__setattr__(self, "fremen_clock", "standard")
         if calendar.n_bins > MAX_PROFILE_BINS:
             raise ConfigError(
                 f"the {self.profile} profile with profile_bin_s = {self.profile_bin_s!r} has "
@@ -322,6 +358,15 @@ class ModelConfig:
             ) from exc
 
     def to_dict(self) -> dict[str, Any]:
+        """Every parameter, as a map stores it: ``fremen_clock`` is left out in UTC and fixed
+        offsets, where its clocks are one (such maps stay as those built before the key)."""
+        data = self.parameters()
+        if self.fremen_clock == "standard" and _fixed_zone(self.timezone):
+            del data["fremen_clock"]
+        return data
+
+    def parameters(self) -> dict[str, Any]:
+        """Every parameter, ``fremen_clock`` too (what ``--print-config`` prints)."""
         data = dataclasses.asdict(self)
         data["periods"] = list(self.periods)
         data["families"] = list(self.families)
@@ -388,7 +433,7 @@ class ModelConfig:
     def to_toml(self) -> str:
         """TOML text with every parameter under ``[model]`` (re-readable by from_toml_text)."""
         lines = ["# aion model parameters (aion build --config FILE)", "[model]"]
-        for key, value in self.to_dict().items():
+        for key, value in self.parameters().items():
             if isinstance(value, list):
                 body = ", ".join(f'"{v}"' if isinstance(v, str) else repr(float(v)) for v in value)
                 lines.append(f"{key} = [{body}]")

@@ -4,7 +4,8 @@ Window ``w`` covers ``[w·Δ, (w+1)·Δ)`` in integer nanoseconds, so every map 
 Δ uses the same windows whatever log it started from (needed to continue and merge maps). A
 window enters the temporal model at its centre time; FreMEn phases use *model seconds*, float64
 seconds since :data:`EPOCH_NS` (a recent epoch: float seconds since 1970 would lose the
-precision short periods need).
+precision short periods need). These are UTC; a map's FreMEn phases take its own clock,
+``TemporalParams.model_seconds`` (UTC plus the zone's daylight-saving shift).
 """
 
 from __future__ import annotations

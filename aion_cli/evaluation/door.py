@@ -22,7 +22,6 @@ from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
-from aion_cli.engine.windows import to_model_seconds
 from aion_cli.errors import InputError
 
 WINDOW_NS = 60_000_000_000
@@ -61,7 +60,7 @@ def _mae(fc: Forecaster, family: str, t_ns: np.ndarray, truth: np.ndarray) -> fl
     """Mean absolute error of a family's prediction (clamped to [0, 1]) at the test times."""
     e = np.zeros(t_ns.size, np.int64)
     h = fc.params.calendar.profile_bin(t_ns)
-    pred = np.clip(fc.flow(family, e, h, to_model_seconds(t_ns)), 0.0, 1.0)
+    pred = np.clip(fc.flow(family, e, h, fc.params.model_seconds(t_ns)), 0.0, 1.0)
     return float(np.mean(np.abs(pred - truth)))
 
 

@@ -27,7 +27,6 @@ from aion_cli.engine.temporal import model as temporal
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.types import DetectionBatch
-from aion_cli.engine.windows import to_model_seconds
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
@@ -179,7 +178,7 @@ class GridMoD:
         n, b = self.spec.n_cells, self.bins
         t = np.full(n, int(t_ns), np.int64)
         h = self.params.calendar.profile_bin(t)
-        t_s = to_model_seconds(t)
+        t_s = self.params.model_seconds(t)
         if static:
             return fc.bin_rates("static", self._rows, h, t_s)[:, :b]
         total = np.zeros(n)

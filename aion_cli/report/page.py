@@ -131,7 +131,7 @@ def _holdings(c: ReportContent) -> list[str]:
     s = c.shown
     start, end = c.observed.span
     seconds = None if start is None or end is None else (end - start) / 1e9
-    defaults = ModelConfig().to_dict()
+    defaults = ModelConfig().parameters()
     changed = {k: v for k, v in (s.get("config") or {}).items() if defaults.get(k) != v}
     facts = [
         ("format", f"{s.get('format', '-')} {s.get('version', '')}".strip()),

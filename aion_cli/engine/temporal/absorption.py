@@ -29,23 +29,32 @@ _ROWS = 1 << 12
 
 
 def slot_times(params: TemporalParams, day: DayWindows, window_ns: int) -> tuple[F64, I64]:
-    """Each window slot's model time (the window's centre, model seconds) and profile bin:
-    what absorbing and scoring a day index its slots by."""
+    """Each window slot's model time (the window's centre on FreMEn's clock,
+    ``TemporalParams.model_seconds``) and profile bin: what absorbing and scoring a day index
+    its slots by."""
     centres = window_centre_ns(day.windows, window_ns)
-    return to_model_seconds(centres), params.calendar.profile_bin(centres)
+    return params.model_seconds(centres), params.calendar.profile_bin(centres)
+
+
+def slot_utc_seconds(day: DayWindows, window_ns: int) -> F64:
+    """Each window slot's centre in model seconds on UTC: the observed ends
+    (``ObsBlock.first`` / ``last``) and spans, which reports show as times."""
+    return to_model_seconds(window_centre_ns(day.windows, window_ns))
 
 
 def absorb(params: TemporalParams, state: TemporalState, day: DayWindows, window_ns: int) -> None:
     """Absorb the day's windows without scoring them (a query's view of the state)."""
     if day.windows.size == 0:
         return
-    absorb_day(params, state, day, *slot_times(params, day, window_ns))
+    t_s, h = slot_times(params, day, window_ns)
+    absorb_day(params, state, day, t_s, h, slot_utc_seconds(day, window_ns))
 
 
 def absorb_day(
-    params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64
+    params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64, utc_s: F64
 ) -> None:
-    """Absorb the day's windows (model times ``t_s``, profile bins ``h`` per slot). A query's
+    """Absorb the day's windows (model times ``t_s``, profile bins ``h``, UTC model seconds
+    ``utc_s`` per slot: :func:`slot_times`, :func:`slot_utc_seconds`). A query's
     state read without its per-entry Fourier sums (``TemporalState.fourier_loaded`` false)
     absorbs everything else: its FreMEn components were computed with the windows when the
     map was written (:mod:`~aion_cli.engine.temporal.components`)."""
@@ -60,14 +69,14 @@ def absorb_day(
                 axis=0, keepdims=True
             ),
             np.bincount(h[fixed], share, minlength=n_prof)[None, :].astype(np.float64),
-            np.array([t_s[fixed].min()]),
-            np.array([t_s[fixed].max()]),
+            np.array([utc_s[fixed].min()]),
+            np.array([utc_s[fixed].max()]),
         )
         state.glob.add_block(np.array([0]), block)
     state.window_chi2 += day_chi2(day, h, n_prof)  # how bursty the day's window totals are
     obs_e, obs_s, obs_w = day.own_pairs()
     for o in _row_blocks(obs_e):
-        _absorb_observed(params, state, obs_e[o], obs_s[o], obs_w[o], t_s, h, phasor)
+        _absorb_observed(params, state, obs_e[o], obs_s[o], obs_w[o], utc_s, h, phasor)
     for c in _row_blocks(day.cnt_entry):
         values = np.take(day.cnt_values, c, axis=0)  # rows of V values: take is ~2x faster
         _absorb_counts(params, state, day.cnt_entry[c], day.cnt_slot[c], values, h, phasor)
@@ -87,12 +96,13 @@ def _absorb_observed(
     obs_e: I64,
     obs_s: I64,
     obs_w: F64,
-    t_s: F64,
+    utc_s: F64,
     h: I64,
     phasor: C128,
 ) -> None:
     """The entries' own observed windows into their observation blocks, each weighed by its
-    exposure (a window observed in part adds that part of a window)."""
+    exposure (a window observed in part adds that part of a window); their ends at the slots'
+    UTC model seconds ``utc_s``."""
     n_prof = params.n_profile
     rows, inverse = unique_inverse(obs_e)
     n: F64 = np.bincount(inverse, obs_w, minlength=rows.size).astype(np.float64, copy=False)
@@ -106,9 +116,9 @@ def _absorb_observed(
     )
     prof = prof.reshape(rows.size, n_prof)
     first = np.full(rows.size, np.inf)
-    np.minimum.at(first, inverse, t_s[obs_s])
+    np.minimum.at(first, inverse, utc_s[obs_s])
     last = np.full(rows.size, -np.inf)
-    np.maximum.at(last, inverse, t_s[obs_s])
+    np.maximum.at(last, inverse, utc_s[obs_s])
     state.obs.add_block(rows, ObsBlock(n, fourier, prof, first, last))
 
 

@@ -17,13 +17,15 @@ Local days are counted from 1970-01-01 in local time (``day(t)``); weekday 0 is 
 are looked up once per distinct UTC quarter hour of the input (zone rules change on a quarter
 hour: St John's and Adelaide change at a UTC half hour, which a lookup per UTC hour took half an
 hour late; a change at another minute would be taken at the start of its quarter), so a whole
-array of window times costs a few ``zoneinfo`` calls per hour it spans.
+array of window times costs a few ``zoneinfo`` calls per hour it spans. The same lookup gives
+FreMEn's clock (:meth:`Calendar.standard_ns`): UTC plus the daylight-saving shift.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from datetime import UTC, datetime, timedelta, tzinfo
+from datetime import UTC, datetime, timedelta, timezone, tzinfo
 
 import numpy as np
 import numpy.typing as npt
@@ -39,6 +41,14 @@ QUARTER_NS = HOUR_NS // 4
 and its rules change on a local quarter hour (St John's and Adelaide at a UTC half hour)."""
 PROFILES = ("day", "day_weekend", "week")
 _DAYS_PER_PROFILE = {"day": 1, "day_weekend": 2, "week": 7}
+
+
+def _utc_offset(moment: datetime) -> timedelta | None:
+    return moment.utcoffset()
+
+
+def _dst(moment: datetime) -> timedelta | None:
+    return moment.dst()
 
 
 def weekday_of(day: npt.ArrayLike) -> I64:
@@ -74,23 +84,41 @@ class Calendar:
         """H, the number of profile bins."""
         return self.bins_per_day * _DAYS_PER_PROFILE[self.profile]
 
+    @property
+    def fixed(self) -> bool:
+        """Whether the zone is UTC or a fixed offset (no daylight saving, no rule changes)."""
+        return isinstance(self.tz, timezone)
+
     def local_ns(self, t_ns: npt.ArrayLike) -> I64:
         """Local wall-clock time as nanoseconds since 1970-01-01T00:00 local."""
+        return self._shifted(t_ns, _utc_offset)
+
+    def standard_ns(self, t_ns: npt.ArrayLike) -> I64:
+        """UTC plus the zone's daylight-saving shift at each time (``tzinfo.dst()``): the local
+        clock less the zone's standard offset, FreMEn's clock (:meth:`TemporalParams.
+        model_seconds <aion_cli.engine.temporal.params.TemporalParams.model_seconds>`). The
+        times themselves in UTC and a fixed-offset zone."""
+        if self.fixed:
+            return np.asarray(t_ns, dtype=np.int64).copy()
+        return self._shifted(t_ns, _dst)
+
+    def _shifted(self, t_ns: npt.ArrayLike, shift: Callable[[datetime], timedelta | None]) -> I64:
+        """``t_ns`` plus ``shift`` of the local time, looked up once per distinct UTC quarter."""
         t = np.asarray(t_ns, dtype=np.int64)
         if self.tz is UTC or t.size == 0:
             return t.copy()
         quarters, inverse = np.unique(np.floor_divide(t, QUARTER_NS), return_inverse=True)
         offsets = np.fromiter(
-            (self._offset_ns(int(q)) for q in quarters.tolist()),
+            (self._shift_ns(int(q), shift) for q in quarters.tolist()),
             dtype=np.int64,
             count=quarters.size,
         )
         out: I64 = t + offsets[inverse.reshape(t.shape)]
         return out
 
-    def _offset_ns(self, utc_quarter: int) -> int:
+    def _shift_ns(self, utc_quarter: int, shift: Callable[[datetime], timedelta | None]) -> int:
         moment = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(minutes=15 * utc_quarter)
-        delta = moment.astimezone(self.tz).utcoffset() or timedelta(0)
+        delta = shift(moment.astimezone(self.tz)) or timedelta(0)
         return round(delta.total_seconds() * 1e9)
 
     def day(self, t_ns: npt.ArrayLike) -> I64:

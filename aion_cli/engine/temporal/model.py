@@ -31,7 +31,7 @@ from aion_cli.engine.temporal.pending import DayWindows, PendingDay
 from aion_cli.engine.temporal.pooling import PoolStats, entry_counts
 from aion_cli.engine.temporal.scoring import close_day
 from aion_cli.engine.types import F64, I64, BoolA
-from aion_cli.engine.windows import to_model_seconds, window_centre_ns
+from aion_cli.engine.windows import window_centre_ns
 
 _SCALE_PAIRS = 1 << 18
 """(entry, time) pairs :meth:`Predictor.scale` evaluates at once (bounded temporaries)."""
@@ -337,7 +337,7 @@ class Predictor:
         everyone = np.flatnonzero(fc.observed)
         times, inverse = np.unique(t, return_inverse=True)
         bins = self.params.calendar.profile_bin(times)
-        secs = to_model_seconds(times)
+        secs = self.params.model_seconds(times)
         raw, target = np.zeros(times.size), np.zeros(times.size)
         # a block of times at once: every observed entry at each (sums per time, each over
         # the entries in order, as one time's sum is)
@@ -361,7 +361,7 @@ class Predictor:
         totals."""
         t = np.asarray(t_ns, dtype=np.int64).reshape(-1)
         h = self.params.calendar.profile_bin(t)
-        return self._flow_pairs(e, t, h, to_model_seconds(t))
+        return self._flow_pairs(e, t, h, self.params.model_seconds(t))
 
     def _flow_pairs(self, e: I64, t: I64, h: I64, t_s: F64) -> F64:
         flow = self._flows(e, h, t_s) * self.scale(t)
@@ -373,7 +373,7 @@ class Predictor:
         probabilities float64[P, B] (e.g. every held-out detection at its own window)."""
         t = np.asarray(t_ns, dtype=np.int64).reshape(-1)
         h = self.params.calendar.profile_bin(t)
-        t_s = to_model_seconds(t)
+        t_s = self.params.model_seconds(t)
         return self._flow_pairs(e, t, h, t_s), self._directions(e, h, t_s)
 
     def at(self, t_ns: int) -> Prediction:

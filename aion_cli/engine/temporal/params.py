@@ -23,11 +23,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.temporal.calendar import Calendar
 from aion_cli.engine.temporal.spectrum import omega
 from aion_cli.engine.types import F64
+from aion_cli.engine.windows import to_model_seconds
 
 FAMILY_KINDS = ("static", "shape", "fremen", "profile")
 
@@ -82,6 +84,16 @@ class TemporalParams:
     @classmethod
     def from_config(cls, config: ModelConfig) -> TemporalParams:
         return cls(config)
+
+    def model_seconds(self, t_ns: npt.ArrayLike) -> F64:
+        """FreMEn's time of UNIX-ns times, model seconds on the map's ``fremen_clock``: UTC
+        plus the zone's daylight-saving shift (``"standard"``: a routine keeps its phase across
+        a clock change; in UTC and a fixed offset exactly :func:`~aion_cli.engine.windows.
+        to_model_seconds`), or UTC (``"utc"``, maps built before the key). Every phase e^{iωt}
+        of the map is taken at these times; spans and observed ends stay on UTC."""
+        if self.config.fremen_clock == "utc" or self.calendar.fixed:
+            return to_model_seconds(t_ns)
+        return to_model_seconds(self.calendar.standard_ns(t_ns))
 
     @property
     def bins(self) -> int:

@@ -35,7 +35,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.row_sums import row_sums
-from aion_cli.engine.temporal.absorption import absorb_day, slot_times
+from aion_cli.engine.temporal.absorption import absorb_day, slot_times, slot_utc_seconds
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
@@ -72,7 +72,7 @@ def close_day(
         return
     t_s, h = slot_times(params, day, window_ns)
     _score(params, state, day, live_rows, groups, n_groups, t_s, h)
-    absorb_day(params, state, day, t_s, h)
+    absorb_day(params, state, day, t_s, h, slot_utc_seconds(day, window_ns))
 
 
 def score_day(
