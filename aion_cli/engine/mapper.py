@@ -114,9 +114,20 @@ class Mapper:
         codes[:] = ACCEPTED
         if len(batch) == 0:
             return drops
-        check_time(int(batch.t_ns.min()), "a detection")
-        check_time(int(batch.t_ns.max()), "a detection")
+        t_first, t_last = int(batch.t_ns.min()), int(batch.t_ns.max())
+        check_time(t_first, "a detection")
+        check_time(t_last, "a detection")
         ijk, finite, hashable = hashable_indices(batch.xyz, st.config.cell_size)
+        first_window = t_first // self._delta  # floor, as window_index
+        if np.count_nonzero(hashable) == len(batch) and (
+            st.open_window is None or first_window >= st.open_window
+        ):  # the usual batch (issue 15): every row accepted, nothing to count or select
+            if st.open_window is None:
+                st.open_window = first_window
+            for reason in DROP_REASONS:
+                st.dropped[reason] = st.dropped.get(reason, 0)
+            self._accumulate_by_window(batch, ijk, None, (first_window, t_last))
+            return drops
         window = window_index(batch.t_ns, self._delta)
         if st.open_window is None and hashable.any():
             st.open_window = int(window[hashable].min())
@@ -210,9 +221,24 @@ class Mapper:
         bind_cells(st, st.log_time_ns)
 
     # -- internals --------------------------------------------------------------------------
-    def _accumulate_by_window(self, batch: DetectionBatch, ijk: I64, window: I64) -> None:
-        """Accumulate window by window, closing the open window before a later one starts."""
+    def _accumulate_by_window(
+        self,
+        batch: DetectionBatch,
+        ijk: I64,
+        window: I64 | None,
+        span: tuple[int, int] | None = None,
+    ) -> None:
+        """Accumulate window by window, closing the open window before a later one starts.
+        ``window``: each row's window (None: from the times); ``span``: the first row's window
+        and the last time, when known (a batch inside one window needs no more)."""
         st = self._state
+        if span is not None and span[0] == span[1] // self._delta:  # one window
+            close_windows(st, span[0])
+            self._accumulate(batch, ijk)
+            st.log_time_ns = _later(st.log_time_ns, span[1])
+            return
+        if window is None:
+            window = window_index(batch.t_ns, self._delta)
         if window.min() == window.max():
             groups = [(int(window[0]), np.arange(len(window)))]
         else:

@@ -1,0 +1,156 @@
+"""Issue 15, per-batch and per-day repeats of a build's stream: each shortcut gives exactly
+what the code it replaced gave (verbatim copies below), and takes the shortcut.
+
+* ``Mapper.add_detections`` for the usual batch (every row accepted, one window): no
+  per-row window index, no selection, no drop masks; against the general path on batches
+  with NaN, unhashable and late rows and batches across windows, and on whole builds.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from aion_cli.engine import mapper as mapper_module
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.grouping import split_by_key
+from aion_cli.engine.mapper import ACCEPTED, Mapper, _later, check_time
+from aion_cli.engine.spatial_hash import hashable_indices
+from aion_cli.engine.state import DROP_REASONS
+from aion_cli.engine.types import DetectionBatch
+from aion_cli.engine.windows import window_index
+from tests.engine import test_issue15_windows as window_builds
+from tests.engine.engine_builders import T0, S, detections
+
+# -- Mapper.add_detections -------------------------------------------------------------------
+
+
+def _add_detections_before(self: Mapper, batch: DetectionBatch, codes: Any = None) -> Any:
+    """``Mapper.add_detections`` before the usual batch's shortcut (verbatim)."""
+    st = self._state
+    drops = dict.fromkeys(DROP_REASONS, 0)
+    if codes is None:
+        codes = np.empty(len(batch), dtype=np.int8)
+    codes[:] = ACCEPTED
+    if len(batch) == 0:
+        return drops
+    check_time(int(batch.t_ns.min()), "a detection")
+    check_time(int(batch.t_ns.max()), "a detection")
+    ijk, finite, hashable = hashable_indices(batch.xyz, st.config.cell_size)
+    window = window_index(batch.t_ns, self._delta)
+    if st.open_window is None and hashable.any():
+        st.open_window = int(window[hashable].min())
+    opened = st.open_window if st.open_window is not None else 0
+    late = hashable & (window < opened)
+    keep = hashable & ~late
+    drops["nan"] = int(len(batch) - np.count_nonzero(finite))
+    drops["out_of_range"] = int(np.count_nonzero(finite) - np.count_nonzero(hashable))
+    drops["before_window"] = int(np.count_nonzero(late))
+    for reason, count in drops.items():
+        st.dropped[reason] = st.dropped.get(reason, 0) + count
+    codes[~finite] = DROP_REASONS.index("nan")
+    codes[finite & ~hashable] = DROP_REASONS.index("out_of_range")
+    codes[late] = DROP_REASONS.index("before_window")
+    if keep.all():
+        _accumulate_by_window_before(self, batch, ijk, window)
+    elif keep.any():
+        _accumulate_by_window_before(self, batch.select(keep), ijk[keep], window[keep])
+    return drops
+
+
+def _accumulate_by_window_before(self: Mapper, batch: DetectionBatch, ijk: Any,
+                                 window: Any) -> None:
+    """``Mapper._accumulate_by_window`` before (verbatim)."""
+    st = self._state
+    if window.min() == window.max():
+        groups = [(int(window[0]), np.arange(len(window)))]
+    else:
+        groups = [(int(window[idx[0]]), idx) for idx in split_by_key(window)]
+    whole = len(groups) == 1
+    for w, idx in groups:
+        mapper_module.close_windows(st, w)
+        part = batch if whole else batch.select(idx)
+        self._accumulate(part, ijk if whole else ijk[idx])
+        st.log_time_ns = _later(st.log_time_ns, int(part.t_ns.max()))
+
+
+def _batches(seed: int) -> list[DetectionBatch]:
+    """Batches as a build feeds them, and the odd ones: NaN and unhashable positions, rows
+    before the open window (late), batches across two or three windows, an empty one."""
+    rng = np.random.default_rng(seed)
+    out, t = [], T0 + 30 * S
+    for _ in range(60):
+        n = int(rng.integers(0, 30))
+        xyz = np.c_[rng.uniform(-8, 8, (n, 2)), rng.choice([0.0, 3.0], n)]
+        span = int(rng.choice([50, 50, 50, 900, 1500])) * S  # some cross windows
+        stamps = np.sort(t + rng.integers(0, span, n))
+        kind = rng.random()
+        if kind < 0.1 and n:
+            xyz[rng.integers(0, n)] = np.nan
+        elif kind < 0.2 and n:
+            xyz[rng.integers(0, n), 0] = 1e300
+        elif kind < 0.3 and n:
+            stamps[: max(1, n // 3)] -= 2000 * S  # before the open window
+        heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
+        out.append(detections(stamps, xyz, heading, rng.uniform(0, 2, n)))
+        t += int(rng.integers(20, 700)) * S
+    return out
+
+
+def _feed(add: Any, seed: int) -> tuple[dict[str, np.ndarray], list[Any], dict[str, int]]:
+    m = Mapper(ModelConfig(window_s=600.0, cell_size=0.5))
+    m.set_fixed_sensor(T0, T0 + 86_400 * S)
+    results = []
+    for batch in _batches(seed):
+        codes = np.full(len(batch), 99, np.int8)
+        drops = add(m, batch, codes)
+        results.append((drops, codes.tolist()))
+    m.advance(T0 + 86_400 * S)
+    arrays, _ = m.state.to_arrays()
+    return {k: np.asarray(v) for k, v in arrays.items()}, results, dict(m.state.dropped)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_add_detections_equals_the_general_path(seed: int) -> None:
+    fast, fast_results, fast_dropped = _feed(Mapper.add_detections, seed)
+    plain, plain_results, plain_dropped = _feed(_add_detections_before, seed)
+    assert fast_results == plain_results
+    assert fast_dropped == plain_dropped
+    assert sum(d["before_window"] for d, _ in fast_results) > 0  # late rows were fed
+    assert sum(d["nan"] + d["out_of_range"] for d, _ in fast_results) > 0
+    assert sorted(fast) == sorted(plain)
+    for name in fast:
+        assert fast[name].tobytes() == plain[name].tobytes(), name
+
+
+@pytest.mark.parametrize("robot", [False, True])
+def test_builds_equal_the_general_detection_path(robot: bool,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    fast = window_builds._build(5, robot)
+    monkeypatch.setattr(Mapper, "add_detections", _add_detections_before)
+    plain = window_builds._build(5, robot)
+    assert sorted(fast) == sorted(plain)
+    for name in fast:
+        assert fast[name].tobytes() == plain[name].tobytes(), name
+
+
+def test_a_batch_inside_one_window_is_neither_indexed_by_window_nor_selected(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    m = Mapper(ModelConfig(window_s=600.0))
+    xyz = np.c_[np.arange(20) * 0.3, np.zeros(20), np.zeros(20)]
+    m.add_detections(detections(T0 + np.arange(20) * S, xyz, np.zeros(20), np.ones(20)))
+    calls: list[str] = []
+    real_index, real_select = mapper_module.window_index, DetectionBatch.select
+    monkeypatch.setattr(mapper_module, "window_index",
+                        lambda *a: calls.append("window_index") or real_index(*a))
+    monkeypatch.setattr(DetectionBatch, "select",
+                        lambda self, i: calls.append("select") or real_select(self, i))
+    batch = detections(T0 + (30 + np.arange(20)) * S, xyz, np.zeros(20), np.ones(20))
+    codes = np.full(20, 99, np.int8)
+    assert m.add_detections(batch, codes) == dict.fromkeys(DROP_REASONS, 0)
+    assert (codes == ACCEPTED).all()
+    assert m.state.entries.total_count() == 40.0
+    assert calls == []
