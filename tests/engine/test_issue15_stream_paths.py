@@ -4,6 +4,8 @@ what the code it replaced gave (verbatim copies below), and takes the shortcut.
 * ``Mapper.add_detections`` for the usual batch (every row accepted, one window): no
   per-row window index, no selection, no drop masks; against the general path on batches
   with NaN, unhashable and late rows and batches across windows, and on whole builds.
+* ``direction_prior.fitted_kappa`` evaluating ln Γ once per likelihood step (one call on
+  every argument) against one call per argument, to the bit.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from aion_cli.engine import mapper as mapper_module
 from aion_cli.engine.config import ModelConfig
@@ -19,6 +23,7 @@ from aion_cli.engine.grouping import split_by_key
 from aion_cli.engine.mapper import ACCEPTED, Mapper, _later, check_time
 from aion_cli.engine.spatial_hash import hashable_indices
 from aion_cli.engine.state import DROP_REASONS
+from aion_cli.engine.temporal import direction_prior
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.engine.windows import window_index
 from tests.engine import test_issue15_windows as window_builds
@@ -154,3 +159,77 @@ def test_a_batch_inside_one_window_is_neither_indexed_by_window_nor_selected(
     assert (codes == ACCEPTED).all()
     assert m.state.entries.total_count() == 40.0
     assert calls == []
+
+
+# -- the direction prior's estimate ------------------------------------------------------------
+
+
+def _fitted_kappa_before(counts: np.ndarray, parent: np.ndarray) -> float:
+    """``direction_prior.fitted_kappa`` with one ln Γ call per argument (verbatim)."""
+    dp = direction_prior
+    n = dp.row_sums(counts)
+    tell = n >= 2
+    if int(tell.sum()) < dp.MIN_ENTRIES:
+        return dp.FALLBACK
+    c = np.asarray(counts, np.float64)[tell]
+    p = np.clip(np.asarray(parent, np.float64)[tell], 1e-12, None)
+    n = n[tell]
+    if c.shape[0] > dp._MAX_ENTRIES:
+        keep = dp._sample(c, dp._MAX_ENTRIES)
+        c, p, n = c[keep], p[keep], n[keep]
+    row, col = np.nonzero(c)
+    pairs, pair_times = np.unique(c[row, col] + 1j * p[row, col], return_counts=True)
+    totals, total_times = np.unique(n, return_counts=True)
+    pair_count, pair_share = pairs.real.copy(), pairs.imag.copy()
+    entries = float(n.size)
+    log_gamma = dp.log_gamma
+
+    def log_likelihood(log_kappa: float) -> float:
+        kappa = float(np.exp(log_kappa))
+        a = kappa * pair_share
+        of_pairs = float(pair_times @ (log_gamma(pair_count + a) - log_gamma(a)))
+        of_entries = float(total_times @ log_gamma(totals + kappa))
+        return of_pairs - of_entries + entries * float(log_gamma(np.array([kappa]))[0])
+
+    lo, hi = (float(np.log(b)) for b in dp.KAPPA_RANGE)
+    return float(np.exp(dp._golden_max(log_likelihood, lo, hi, 0.03)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(5, 3000), st.sampled_from([0.7, 4.0, 40.0]))
+def test_fitted_kappa_equals_one_log_gamma_call_per_argument(
+    seed: int, entries: int, kappa: float
+) -> None:
+    rng = np.random.default_rng(seed)
+    parent = rng.dirichlet(np.full(8, 2.0), entries)
+    shares = np.array([rng.dirichlet(kappa * p + 1e-3) for p in parent])
+    totals = rng.integers(0, 40, entries)
+    counts = np.array([rng.multinomial(k, q) for k, q in zip(totals, shares, strict=True)])
+    got = direction_prior.fitted_kappa(counts.astype(np.float64), parent)
+    want = _fitted_kappa_before(counts.astype(np.float64), parent)
+    assert np.float64(got).tobytes() == np.float64(want).tobytes()
+
+
+def test_fitted_kappa_evaluates_log_gamma_once_per_step(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(7)
+    parent = np.tile(rng.dirichlet(np.full(8, 2.0)), (300, 1))
+    counts = np.array([rng.multinomial(20, rng.dirichlet(5.0 * p)) for p in parent])
+    steps, calls = [0], [0]
+    golden, log_gamma = direction_prior._golden_max, direction_prior.log_gamma
+
+    def counted_golden(f: Any, *args: Any) -> float:
+        def step(x: float) -> float:
+            steps[0] += 1
+            return float(f(x))
+        return golden(step, *args)
+
+    def counted_log_gamma(x: Any) -> Any:
+        calls[0] += 1
+        return log_gamma(x)
+
+    monkeypatch.setattr(direction_prior, "_golden_max", counted_golden)
+    monkeypatch.setattr(direction_prior, "log_gamma", counted_log_gamma)
+    kappa = direction_prior.fitted_kappa(counts.astype(np.float64), parent)
+    assert 2.0 < kappa < 12.0  # drawn with κ = 5
+    assert steps[0] > 10
+    assert calls[0] == steps[0]

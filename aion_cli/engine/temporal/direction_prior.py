@@ -89,13 +89,21 @@ def fitted_kappa(counts: F64, parent: F64) -> float:
     totals, total_times = np.unique(n, return_counts=True)
     pair_count, pair_share = pairs.real.copy(), pairs.imag.copy()
     entries = float(n.size)
+    k, t = pairs.size, totals.size
+    # every ln Γ of a step in one call (it is elementwise: the same values as one call per
+    # argument, a quarter of the numpy calls; issue 15: 64 calls per day close before)
+    at = np.empty(2 * k + t + 1)
 
     def log_likelihood(log_kappa: float) -> float:
         kappa = float(np.exp(log_kappa))
-        a = kappa * pair_share
-        of_pairs = float(pair_times @ (log_gamma(pair_count + a) - log_gamma(a)))
-        of_entries = float(total_times @ log_gamma(totals + kappa))
-        return of_pairs - of_entries + entries * float(log_gamma(np.array([kappa]))[0])
+        a = np.multiply(kappa, pair_share, out=at[k : 2 * k])
+        np.add(pair_count, a, out=at[:k])
+        np.add(totals, kappa, out=at[2 * k : 2 * k + t])
+        at[-1] = kappa
+        lg = log_gamma(at)
+        of_pairs = float(pair_times @ (lg[:k] - lg[k : 2 * k]))
+        of_entries = float(total_times @ lg[2 * k : 2 * k + t])
+        return of_pairs - of_entries + entries * float(lg[-1])
 
     lo, hi = (float(np.log(b)) for b in KAPPA_RANGE)
     return float(np.exp(_golden_max(log_likelihood, lo, hi, 0.03)))
