@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aion_cli.engine.grouping import insert_sorted
 from aion_cli.engine.types import F64, I64, U64, BoolA
 
 if TYPE_CHECKING:
@@ -153,8 +154,8 @@ class Redirects:
             order = np.argsort(new_keys, kind="stable")
             new_keys, new_nodes = new_keys[order], new_nodes[order]
         at = np.searchsorted(self.keys, new_keys, side="right")
-        self.keys = np.insert(self.keys, at, new_keys)
-        self.nodes = np.insert(self.nodes, at, new_nodes)
+        self.keys = insert_sorted(self.keys, at, new_keys)
+        self.nodes = insert_sorted(self.nodes, at, new_nodes)
         if len(self.keys) > 1 and np.any(self.keys[1:] == self.keys[:-1]):
             raise ValueError("a cell key was redirected twice")
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aion_cli.engine.grouping import insert_sorted
 from aion_cli.engine.spatial_hash import pack_keys_unchecked, unpack_keys
 from aion_cli.engine.types import I64, BoolA
 
@@ -119,5 +120,5 @@ class RouteTable:
         if len(keys) == 0:
             return
         pos = np.searchsorted(self.keys, keys)
-        self.keys = np.insert(self.keys, pos, keys)
-        self.rows = np.insert(self.rows, pos, rows)
+        self.keys = insert_sorted(self.keys, pos, keys)
+        self.rows = insert_sorted(self.rows, pos, rows)

@@ -6,6 +6,8 @@ what the code it replaced gave (verbatim copies below), and takes the shortcut.
   with NaN, unhashable and late rows and batches across windows, and on whole builds.
 * ``direction_prior.fitted_kappa`` evaluating ln Γ once per likelihood step (one call on
   every argument) against one call per argument, to the bit.
+* ``grouping.insert_sorted`` against ``np.insert`` (the route table's and the redirects'
+  growth).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from hypothesis import strategies as st
 
 from aion_cli.engine import mapper as mapper_module
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.grouping import split_by_key
+from aion_cli.engine.grouping import insert_sorted, split_by_key
 from aion_cli.engine.mapper import ACCEPTED, Mapper, _later, check_time
 from aion_cli.engine.spatial_hash import hashable_indices
 from aion_cli.engine.state import DROP_REASONS
@@ -233,3 +235,32 @@ def test_fitted_kappa_evaluates_log_gamma_once_per_step(monkeypatch: pytest.Monk
     assert 2.0 < kappa < 12.0  # drawn with κ = 5
     assert steps[0] > 10
     assert calls[0] == steps[0]
+
+
+# -- sorted insertion -------------------------------------------------------------------------
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.integers(-50, 50), max_size=40),
+    st.lists(st.integers(-60, 60), max_size=10),
+    st.sampled_from([np.int64, np.uint64, np.float64]),
+    st.booleans(),
+)
+def test_insert_sorted_equals_np_insert(
+    base: list[int], new: list[int], dtype: Any, rows: bool
+) -> None:
+    table = np.sort(np.abs(np.asarray(base, np.int64))).astype(dtype)
+    keys = np.sort(np.abs(np.asarray(new, np.int64))).astype(dtype)
+    at = np.searchsorted(table, keys)
+    if rows:  # rows of a 2-D table (positions), as np.insert(..., axis=0)
+        table2 = np.c_[table, table * 2]
+        values = np.c_[keys, keys + 1]
+        want = np.insert(table2, at, values, axis=0)
+        got = insert_sorted(table2, at, values)
+    else:
+        want = np.insert(table, at, keys)
+        got = insert_sorted(table, at, keys)
+    assert got.dtype == want.dtype
+    assert got.shape == want.shape
+    assert got.tobytes() == want.tobytes()
