@@ -48,6 +48,8 @@ HEADING_SUMS = ("heading_cos", "heading_sin")
 zeros: those bins are described by their centres)."""
 _VERSIONS = itertools.count(1)
 """Numbers for :attr:`EntryStore.cells_version`, never given twice in a process."""
+_GROWTH_KEPT = 256
+"""Cell allocations :meth:`EntryStore.cells_added_since` remembers (older ones: unknown)."""
 _SCALAR = ("nodir", "window_nodir")
 ADDITIVE = (*_PER_BIN, *_SCALAR)
 """Every per-entry quantity that moves and merges by addition (``dst += src``)."""
@@ -108,6 +110,12 @@ class EntryStore:
         default=None, init=False, compare=False, repr=False
     )
     """Memo of :meth:`node_index`: the :attr:`nodes_version` it was taken at, ids, rows."""
+    _growth: tuple[int, list[tuple[int, I64]]] = field(
+        default_factory=lambda: (0, []), init=False, compare=False, repr=False
+    )
+    """What :meth:`cells_added_since` answers from: a :attr:`cells_version` and the cell rows
+    allocated since it, each with the version it gave (no other change of the cell rows
+    since that version: :meth:`delete` and allocations of nodes start it again)."""
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         """Unpickled or copied: a version of this process's own (another process numbered
@@ -115,8 +123,26 @@ class EntryStore:
         self.__dict__.update(state)
         self.cells_version = next(_VERSIONS)
         self._node_index = None
+        self._growth = (self.cells_version, [])
+
+    def cells_added_since(self, version: int) -> I64 | None:
+        """The rows that became cells since :attr:`cells_version` was ``version``, when
+        nothing else changed the cell rows since (a cell's key and position never change):
+        the cells a bind check made then has not seen. None when that is not known."""
+        if version == self.cells_version:
+            return np.zeros(0, np.int64)
+        base, added = self._growth
+        if version == base:
+            start = 0
+        else:
+            given = [v for v, _ in added]
+            if version not in given:
+                return None
+            start = given.index(version) + 1
+        return np.concatenate([rows for _, rows in added[start:]])
 
     def __post_init__(self) -> None:
+        self._growth = (self.cells_version, [])
         if len(self.window_mark) != len(self.kind):  # built without flags: derive them
             self.window_mark = np.zeros(len(self.kind), bool)
             self.window_mark[: self.n] = self.window_totals(np.arange(self.n)) != 0
@@ -187,6 +213,10 @@ class EntryStore:
         self.cells_version = next(_VERSIONS)
         if kind == NODE:
             self.nodes_version += 1
+        if kind == CELL and len(self._growth[1]) < _GROWTH_KEPT:
+            self._growth[1].append((self.cells_version, rows.copy()))
+        else:
+            self._growth = (self.cells_version, [])
         for name in ADDITIVE:
             getattr(self, name)[rows] = 0.0
         return rows
@@ -207,6 +237,7 @@ class EntryStore:
         self.key[rows] = -1
         self.free = np.union1d(self.free, rows).astype(np.int64)
         self.cells_version = next(_VERSIONS)
+        self._growth = (self.cells_version, [])
 
     def live_rows(self) -> I64:
         """Rows holding an entry (cell or node), ascending."""

@@ -185,12 +185,20 @@ class BindIndex:
         """Whether a check would bind nothing again: the same stable nodes, bind parameters
         and cells as a check that bound none (a build checks twice at a graph that lands on
         a window's end, and at every window end whether new cells came or not)."""
-        return (
-            self._none_at == cells_version
+        return self.unbound_at(node_xyz, radius, vertical_tolerance) == cells_version
+
+    def unbound_at(self, node_xyz: F64, radius: float, vertical_tolerance: float) -> int | None:
+        """The cells version (``EntryStore.cells_version``) of the last check, when it bound
+        none with these stable nodes and bind parameters: every cell it saw is unbound with
+        them still, so only cells added since can bind. None otherwise."""
+        if (
+            self._none_at is not None
             and self._params == (float(radius), float(vertical_tolerance))
             and node_xyz.shape == self._nodes.shape
             and bool((node_xyz == self._nodes).all())  # np.array_equal without its overhead
-        )
+        ):
+            return self._none_at
+        return None
 
     def __getstate__(self) -> dict[str, int]:
         """A memo travels empty (a parallel build's shard states are pickled): rebuilding it
@@ -262,17 +270,25 @@ class BindIndex:
             self._none_at = None
         top = int(rows.max()) + 1
         self._grow(top)
-        same_xyz = self._xyz[:top] == xyz_of_row[:top]
-        same = (
-            self._known[:top]
-            & (self._key[:top] == key_of_row[:top])
-            & same_xyz[:, 0]
-            & same_xyz[:, 1]
-            & same_xyz[:, 2]
-            & ((self._seen_at[:top] == self._version) | (self._slack[:top] > moved + _EPS))
-        )
+        if 4 * n < top:  # a few rows (the cells new since a check): compared where they are
+            same = (
+                self._known[rows]
+                & (self._key[rows] == key_of_row[rows])
+                & (self._xyz[rows] == xyz_of_row[rows]).all(axis=1)
+                & ((self._seen_at[rows] == self._version) | (self._slack[rows] > moved + _EPS))
+            )
+        else:
+            same_xyz = self._xyz[:top] == xyz_of_row[:top]
+            same = (
+                self._known[:top]
+                & (self._key[:top] == key_of_row[:top])
+                & same_xyz[:, 0]
+                & same_xyz[:, 1]
+                & same_xyz[:, 2]
+                & ((self._seen_at[:top] == self._version) | (self._slack[:top] > moved + _EPS))
+            )[rows]
         hit = np.full(n, -1, np.int64)
-        ask = np.flatnonzero(~same[rows])
+        ask = np.flatnonzero(~same)
         self.queried += int(ask.size)
         if ask.size:
             at = rows[ask]

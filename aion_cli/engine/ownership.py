@@ -147,13 +147,22 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     xyz = state.nodes.xyz[stable]
     index = state.nodes.bind_index
     version = state.entries.cells_version
-    # the usual check (most of a build's): nothing changed since one that bound none, known
-    # before the cells are listed (that check had cells: the same version has the same)
-    if index is not None and index.nothing_new(
-        version, xyz, cfg.bind_radius, cfg.bind_vertical_tolerance
-    ):
-        return None
-    cells = state.entries.cell_rows()
+    cells: I64 | None = None
+    if index is not None:
+        unbound = index.unbound_at(xyz, cfg.bind_radius, cfg.bind_vertical_tolerance)
+        # the usual check (most of a build's): nothing changed since one that bound none,
+        # known before the cells are listed (that check had cells: the same version has the
+        # same); or only cells were added since (a window's new detections): only they can
+        # bind, the others were seen unbound with the same nodes (issue 15: not every cell)
+        if unbound == version:
+            return None
+        if unbound is not None:
+            cells = state.entries.cells_added_since(unbound)
+            if cells is not None and cells.size == 0:
+                index.bound_none(version)
+                return None
+    if cells is None:
+        cells = state.entries.cell_rows()
     if len(cells) == 0:
         return None
     if index is None:

@@ -8,10 +8,15 @@ what the code it replaced gave (verbatim copies below), and takes the shortcut.
   every argument) against one call per argument, to the bit.
 * ``grouping.insert_sorted`` against ``np.insert`` (the route table's and the redirects'
   growth).
+* A bind check after one that bound none with the same stable nodes asks only about the
+  cells added since (``EntryStore.cells_added_since``), not every cell, and finds what the
+  plain check finds (whole builds: ``test_issue15_day_paths``).
 """
 
 from __future__ import annotations
 
+import copy
+import pickle
 from typing import Any
 
 import numpy as np
@@ -20,7 +25,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine import mapper as mapper_module
+from aion_cli.engine import ownership
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.entries import CELL, NODE, EntryStore
 from aion_cli.engine.grouping import insert_sorted, split_by_key
 from aion_cli.engine.mapper import ACCEPTED, Mapper, _later, check_time
 from aion_cli.engine.spatial_hash import hashable_indices
@@ -29,7 +36,7 @@ from aion_cli.engine.temporal import direction_prior
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.engine.windows import window_index
 from tests.engine import test_issue15_windows as window_builds
-from tests.engine.engine_builders import T0, S, detections
+from tests.engine.engine_builders import T0, S, detections, graph
 
 # -- Mapper.add_detections -------------------------------------------------------------------
 
@@ -264,3 +271,73 @@ def test_insert_sorted_equals_np_insert(
     assert got.dtype == want.dtype
     assert got.shape == want.shape
     assert got.tobytes() == want.tobytes()
+
+
+# -- bind checks after one that bound none -----------------------------------------------------
+
+
+def _cells(store: EntryStore, keys: list[int]) -> np.ndarray:
+    k = np.asarray(keys, np.int64)
+    return store.allocate(CELL, k, np.zeros(k.size, np.uint64), np.zeros((k.size, 3)))
+
+
+def test_cells_added_since_a_version() -> None:
+    store = EntryStore.empty(8)
+    v0 = store.cells_version
+    first = _cells(store, [1, 2])
+    v1 = store.cells_version
+    second = _cells(store, [3])
+    assert store.cells_added_since(store.cells_version).size == 0
+    assert store.cells_added_since(v1).tolist() == second.tolist()
+    assert store.cells_added_since(v0).tolist() == [*first.tolist(), *second.tolist()]
+    assert store.cells_added_since(-5) is None  # never this store's
+    for other in (copy.deepcopy(store), pickle.loads(pickle.dumps(store))):
+        assert other.cells_added_since(v1) is None  # a copy has versions of its own
+        assert other.cells_added_since(other.cells_version).size == 0
+    v2 = store.cells_version
+    store.delete(first[:1])  # a cell gone: what came before is not known any more
+    assert store.cells_added_since(v2) is None
+    v3 = store.cells_version
+    third = _cells(store, [4])  # the freed row again
+    assert store.cells_added_since(v3).tolist() == third.tolist() == first[:1].tolist()
+    store.allocate(NODE, np.array([-1]), np.array([7], np.uint64), np.zeros((1, 3)))
+    assert store.cells_added_since(v3) is None
+
+
+def test_a_bind_check_after_one_that_bound_none_asks_only_about_new_cells(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    cfg = ModelConfig(window_s=600.0, cell_size=0.5, stability_s=60.0, bind_radius=1.0)
+    m = Mapper(cfg)
+    nodes = np.array([[0.0, 0.0, 0.0], [20.0, 0.0, 0.0]])
+    m.add_graph(graph(T0, [0, 1], nodes))
+    far = np.c_[np.linspace(5, 15, 30), np.full(30, 5.0), np.zeros(30)]
+    m.add_detections(detections(T0 + 10 * S + np.arange(30) * S, far))
+    m.add_graph(graph(T0 + 100 * S, [0, 1], nodes))  # stable now: a check binding none
+    st = m.state
+    cells_before = st.entries.cell_rows()
+    assert cells_before.size == 21  # 10 m of 0.5 m cells
+    assert ownership.plan_binds(st, T0 + 100 * S) is None
+    new = np.array([[0.3, 0.2, 0.0], [8.0, -6.0, 0.0], [20.4, 0.1, 0.0]])
+    m.add_detections(detections(T0 + 120 * S + np.arange(3) * S, new))
+    assert st.entries.cell_rows().size == 24
+    listed = []
+    real = EntryStore.cell_rows
+
+    def counted(self: EntryStore) -> np.ndarray:
+        listed.append(1)
+        return real(self)
+
+    asked = st.nodes.bind_index.queried
+    monkeypatch.setattr(EntryStore, "cell_rows", counted)
+    plan = ownership.plan_binds(st, T0 + 130 * S)
+    assert listed == []  # the cells were not listed ...
+    assert st.nodes.bind_index.queried - asked == 3  # ... only the three new ones asked about
+    monkeypatch.undo()
+    want = ownership.plan_binds_plain(st, T0 + 130 * S)
+    assert plan is not None
+    assert want is not None
+    assert plan.cells.tolist() == want.cells.tolist()
+    assert plan.node_ids.tolist() == want.node_ids.tolist()
+    assert plan.node_xyz.tobytes() == want.node_xyz.tobytes()
+    assert sorted(st.entries.xyz[plan.cells, 0].round(2).tolist()) == [0.25, 20.25]
