@@ -21,7 +21,7 @@ throughout, a real per-cell redirect table, and a per-node stability timer.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -131,6 +131,10 @@ class BindPlan:
     cells: I64
     node_ids: U64
     node_xyz: F64
+    memo: BindIndex | None = field(default=None, compare=False, repr=False)
+    """The memo of the check that planned them with every cell in sight (:func:`plan_binds`):
+    once they are bound, every cell left is one that check found unbound with these nodes,
+    which the memo is told (None: a plan of some cells only)."""
 
 
 def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
@@ -182,7 +186,7 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     cells, hit = cells[bound], hit[bound]
     order = np.argsort(state.entries.key[cells], kind="stable")  # canonical: by cell key
     cells, hit = cells[order], hit[order]
-    return BindPlan(cells, state.nodes.ids[stable][hit], xyz[hit])
+    return BindPlan(cells, state.nodes.ids[stable][hit], xyz[hit], index)
 
 
 def plan_binds_plain(state: MapState, t_ns: int) -> BindPlan | None:
@@ -226,6 +230,8 @@ def _apply_binds(state: MapState, plan: BindPlan, reroute: bool) -> None:
     state.redirects.add(keys, plan.node_ids)
     if not (reroute and state.routes.reroute(keys, plan.cells, dst)):
         state.rebuild_routes()
+    if plan.memo is not None:  # the cells left were all seen unbound (BindPlan.memo)
+        plan.memo.bound_none(state.entries.cells_version)
 
 
 def unentered_stable_nodes(state: MapState, t_ns: int) -> I64:

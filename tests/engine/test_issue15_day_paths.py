@@ -224,9 +224,9 @@ def test_bind_checks_asking_the_memo_first_build_the_same_map(
     seed: int, robot: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Three days of detections and graphs whose nodes come, go and move (binds, releases,
-    checks with nothing new): the same arrays, the memo asked at the same checks, and never
-    about more cells (after a check that bound none only the cells added since are asked
-    about, ``EntryStore.cells_added_since``: fewer in all)."""
+    checks with nothing new): the same arrays, and the memo asked less often about fewer
+    cells (after a check that bound none, or whose binds were made, only the cells added
+    since are asked about, ``EntryStore.cells_added_since``)."""
     queried = []
     real_nearest = BindIndex.nearest
 
@@ -243,8 +243,7 @@ def test_bind_checks_asking_the_memo_first_build_the_same_map(
         patch.setattr(closing, "plan_binds", _plan_binds_listing_first)
         patch.setattr(shards, "plan_binds", _plan_binds_listing_first)  # every copy imported
         before = window_builds._build(seed, robot)
-    assert len(fast_queried) == len(queried)
-    assert all(f <= q for f, q in zip(fast_queried, queried, strict=True))
+    assert len(fast_queried) <= len(queried)
     assert sum(fast_queried) < sum(queried)
     assert sorted(fast) == sorted(before)
     for name in fast:

@@ -8,9 +8,9 @@ what the code it replaced gave (verbatim copies below), and takes the shortcut.
   every argument) against one call per argument, to the bit.
 * ``grouping.insert_sorted`` against ``np.insert`` (the route table's and the redirects'
   growth).
-* A bind check after one that bound none with the same stable nodes asks only about the
-  cells added since (``EntryStore.cells_added_since``), not every cell, and finds what the
-  plain check finds (whole builds: ``test_issue15_day_paths``).
+* A bind check after one that bound none, or whose binds were made, with the same stable
+  nodes asks only about the cells added since (``EntryStore.cells_added_since``), not every
+  cell, and finds what the plain check finds (whole builds: ``test_issue15_day_paths``).
 """
 
 from __future__ import annotations
@@ -341,3 +341,19 @@ def test_a_bind_check_after_one_that_bound_none_asks_only_about_new_cells(
     assert plan.node_ids.tolist() == want.node_ids.tolist()
     assert plan.node_xyz.tobytes() == want.node_xyz.tobytes()
     assert sorted(st.entries.xyz[plan.cells, 0].round(2).tolist()) == [0.25, 20.25]
+    # once bound, every cell left was seen unbound: the next check lists none either
+    ownership.apply_binds(st, plan)
+    more = np.array([[19.6, -0.3, 0.0], [12.0, 9.0, 0.0]])
+    m.add_detections(detections(T0 + 140 * S + np.arange(2) * S, more))
+    asked = st.nodes.bind_index.queried
+    monkeypatch.setattr(EntryStore, "cell_rows", counted)
+    again = ownership.plan_binds(st, T0 + 150 * S)
+    assert listed == []
+    assert st.nodes.bind_index.queried - asked == 2
+    monkeypatch.undo()
+    want = ownership.plan_binds_plain(st, T0 + 150 * S)
+    assert again is not None
+    assert want is not None
+    assert again.cells.tolist() == want.cells.tolist()
+    assert again.node_ids.tolist() == want.node_ids.tolist()
+    assert st.entries.xyz[again.cells, :2].round(2).tolist() == [[19.75, -0.25]]
