@@ -263,7 +263,8 @@ class Map(Generic[Report]):
         each value equals :meth:`predict` at that time."""
         from aion_cli.prediction_series import described, predict_series, series_times
         from aion_cli.predictions import LAYERS, hour_flags
-        from aion_cli.timeparse import format_ns, parse_step
+        from aion_cli.time_steps import parse_step
+        from aion_cli.timeparse import format_ns
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
@@ -326,7 +327,7 @@ class Map(Generic[Report]):
         from aion_cli.api_results import departure_rows
         from aion_cli.prediction_series import series_times
         from aion_cli.predictions import hour_flags
-        from aion_cli.timeparse import parse_step
+        from aion_cli.time_steps import parse_step
 
         every = parse_step(check.step("10m" if step is None else step), "step")
         first, last = check.pair(leave, "leave", "earliest, latest")

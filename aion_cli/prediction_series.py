@@ -21,7 +21,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.timeparse import Step, Zone
+from aion_cli.time_steps import Step
+from aion_cli.timeparse import Zone
 
 if TYPE_CHECKING:
     from aion_cli.entry_columns import EntryColumns
@@ -152,7 +153,7 @@ def series_times(
     noun: str = "times",
 ) -> list[int]:
     """``start, start + step, ...`` up to ``end`` inclusive (an end that falls on a step is
-    one of the times), each time :func:`aion_cli.timeparse.step_time`'s: a step in days or
+    one of the times), each time :func:`aion_cli.time_steps.step_time`'s: a step in days or
     weeks keeps the wall-clock time of ``start`` in ``zone`` across a daylight-saving change,
     hours, minutes and seconds are elapsed time. The one place the series of ``predict``,
     ``export``, ``plan --leave`` and the API's are made. :class:`InputError` for an end before
@@ -160,7 +161,8 @@ def series_times(
     start and the end (the CLI's options, or the API's arguments); ``noun``: what the times
     are (``departures`` of a plan, ``frames`` of an export)."""
     from aion_cli.errors import InputError
-    from aion_cli.timeparse import format_ns, offset_changes_near, step_time
+    from aion_cli.time_steps import step_time
+    from aion_cli.timeparse import format_ns, offset_changes_near
 
     if step.days < 0 or step.exact_ns < 0 or step.nominal_ns <= 0:
         raise InputError(f"the step must be positive, got {step}")

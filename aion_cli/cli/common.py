@@ -9,7 +9,8 @@ from typing import Any, TypeVar
 
 import click
 
-from aion_cli.timeparse import Zone, format_ns, parse_step, parse_time, resolve_zone
+from aion_cli.time_steps import parse_step
+from aion_cli.timeparse import Zone, format_ns, parse_time, resolve_zone
 
 F = TypeVar("F", bound=Callable[..., Any])
 

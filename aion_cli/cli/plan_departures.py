@@ -17,7 +17,7 @@ def departure_times(text: str, step: str, zone: Zone) -> list[int]:
     on a step; a step in days or weeks counts calendar days in ``zone``; at most 1,000)."""
     from aion_cli.cli.common import parse_span
     from aion_cli.prediction_series import series_times
-    from aion_cli.timeparse import parse_step
+    from aion_cli.time_steps import parse_step
 
     start, end = parse_span(text, zone, "--leave")
     return series_times(start, end, parse_step(step), zone, noun="departures")

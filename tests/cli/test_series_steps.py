@@ -19,7 +19,7 @@ import pytest
 
 import aion_cli as aion
 from aion_cli.api import Map
-from aion_cli.timeparse import Step, parse_step
+from aion_cli.time_steps import Step, parse_step
 from tests.cli.conftest import Office, run, run_json
 from tests.engine.temporal_data import DAY, HOUR, corridor
 
