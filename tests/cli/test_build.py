@@ -443,52 +443,6 @@ def test_fixed_sensor_logs_continue_like_building_at_once(tmp_path: Path) -> Non
     assert a == b
 
 
-def test_time_zone_is_stored_and_kept_by_continuation(tmp_path: Path) -> None:
-    """``--tz`` sets the model's zone (days and profile bins follow its clock); the manifest
-    records it and a continued map refuses another zone with one error line."""
-    day1, day2 = tmp_path / "day1.mcap", tmp_path / "day2.mcap"
-    write_office_log(day1)
-    write_office_log(day2, shift_s=86400)
-    out = tmp_path / "london.aion"
-    run_json("build", day1, "-o", out, "--tz", "Europe/London", "--format", "json")
-    doc = run_json("info", out, "--format", "json")
-    assert doc["config"]["timezone"] == "Europe/London"
-    assert doc["timezone"] == "Europe/London"
-    before = out.read_bytes()
-    result = run("build", day2, "--map", out, "--tz", "Europe/Berlin")
-    assert result.exit_code == 2
-    assert_one_line_error(result.stderr, "Europe/London", "Europe/Berlin")
-    assert result.stdout == ""
-    assert out.read_bytes() == before  # the map is untouched
-    # the same zone (or none) continues the map
-    cont = run_json("build", day2, "--map", out, "--tz", "Europe/London", "--format", "json")
-    assert cont["continued"] is True
-    assert run_json("info", out, "--format", "json")["config"]["timezone"] == "Europe/London"
-    # without --tz a new map is in UTC
-    run_json("build", day1, "-o", tmp_path / "utc.aion", "--format", "json")
-    assert (
-        run_json("info", tmp_path / "utc.aion", "--format", "json")["config"]["timezone"] == "UTC"
-    )
-
-
-def test_time_zone_given_twice_must_agree(tmp_path: Path) -> None:
-    log = tmp_path / "day.mcap"
-    write_office_log(log)
-    config = tmp_path / "berlin.toml"
-    config.write_text(ModelConfig(timezone="Europe/Berlin").to_toml())
-    result = run(
-        "build", log, "--config", config, "--tz", "Europe/London", "-o", tmp_path / "x.aion"
-    )
-    assert result.exit_code == 2
-    assert_one_line_error(result.stderr, "Europe/London", "Europe/Berlin")
-    assert not (tmp_path / "x.aion").exists()
-    out = tmp_path / "y.aion"
-    run_json(
-        "build", log, "--config", config, "--tz", "Europe/Berlin", "-o", out, "--format", "json"
-    )
-    assert run_json("info", out, "--format", "json")["timezone"] == "Europe/Berlin"
-
-
 @pytest.mark.parametrize(
     ("option", "value", "example"),
     [("--base-frame", "", "base_link"), ("--base-frame", " ", "base_link"),

@@ -1,4 +1,7 @@
-"""One zone, two spellings: a map whose ``--config`` names its zone ``+05:30`` and the command
+"""A map's time zone: stored and kept by continuation, given twice it must agree, and one
+zone in two spellings is one zone.
+
+One zone, two spellings: a map whose ``--config`` names its zone ``+05:30`` and the command
 line's ``--tz +05:30`` (read as UTC+05:30) are the same zone. The build refused to continue
 such a map ("the map's days and profiles follow the time zone +05:30; --tz UTC+05:30
 differs"), to take the config with the same --tz, and merge refused two such maps."""
@@ -10,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from aion_cli.engine.config import ModelConfig
-from tests.cli.conftest import run
+from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.logdata import write_office_log
 from tests.robustness.conftest import walk, write_log
 
 
@@ -53,3 +57,49 @@ def test_a_config_records_its_zone_in_one_spelling(given: str, key: str) -> None
     """A map's config (also one an older aion wrote, read back) names its zone as --tz does."""
     assert ModelConfig(timezone=given).timezone == key
     assert ModelConfig.from_dict({**ModelConfig().to_dict(), "timezone": given}).timezone == key
+
+
+def test_time_zone_is_stored_and_kept_by_continuation(tmp_path: Path) -> None:
+    """``--tz`` sets the model's zone (days and profile bins follow its clock); the manifest
+    records it and a continued map refuses another zone with one error line."""
+    day1, day2 = tmp_path / "day1.mcap", tmp_path / "day2.mcap"
+    write_office_log(day1)
+    write_office_log(day2, shift_s=86400)
+    out = tmp_path / "london.aion"
+    run_json("build", day1, "-o", out, "--tz", "Europe/London", "--format", "json")
+    doc = run_json("info", out, "--format", "json")
+    assert doc["config"]["timezone"] == "Europe/London"
+    assert doc["timezone"] == "Europe/London"
+    before = out.read_bytes()
+    result = run("build", day2, "--map", out, "--tz", "Europe/Berlin")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "Europe/London", "Europe/Berlin")
+    assert result.stdout == ""
+    assert out.read_bytes() == before  # the map is untouched
+    # the same zone (or none) continues the map
+    cont = run_json("build", day2, "--map", out, "--tz", "Europe/London", "--format", "json")
+    assert cont["continued"] is True
+    assert run_json("info", out, "--format", "json")["config"]["timezone"] == "Europe/London"
+    # without --tz a new map is in UTC
+    run_json("build", day1, "-o", tmp_path / "utc.aion", "--format", "json")
+    assert (
+        run_json("info", tmp_path / "utc.aion", "--format", "json")["config"]["timezone"] == "UTC"
+    )
+
+
+def test_time_zone_given_twice_must_agree(tmp_path: Path) -> None:
+    log = tmp_path / "day.mcap"
+    write_office_log(log)
+    config = tmp_path / "berlin.toml"
+    config.write_text(ModelConfig(timezone="Europe/Berlin").to_toml())
+    result = run(
+        "build", log, "--config", config, "--tz", "Europe/London", "-o", tmp_path / "x.aion"
+    )
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "Europe/London", "Europe/Berlin")
+    assert not (tmp_path / "x.aion").exists()
+    out = tmp_path / "y.aion"
+    run_json(
+        "build", log, "--config", config, "--tz", "Europe/Berlin", "-o", out, "--format", "json"
+    )
+    assert run_json("info", out, "--format", "json")["timezone"] == "Europe/Berlin"
