@@ -227,8 +227,10 @@ def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
 
 def _frame_name(value: str | None, option: str, example: str) -> str | None:
     """A TF frame name as given (None: not given); an empty one is an error (an unset shell
-    variable would otherwise make a robot's log a fixed sensor without a word)."""
-    if value is not None and not value.strip():
+    variable would otherwise make a robot's log a fixed sensor without a word), and so is one
+    of slashes only (``/``: frames are compared without their leading slash, so it names no
+    frame)."""
+    if value is not None and not value.strip().lstrip("/"):
         raise click.BadParameter(f"a frame name, e.g. {example}", param_hint=option)
     return value
 

@@ -446,7 +446,7 @@ def test_fixed_sensor_logs_continue_like_building_at_once(tmp_path: Path) -> Non
 @pytest.mark.parametrize(
     ("option", "value", "example"),
     [("--base-frame", "", "base_link"), ("--base-frame", " ", "base_link"),
-     ("--map-frame", "", "map")],
+     ("--map-frame", "", "map"), ("--map-frame", "/", "map"), ("--base-frame", "//", "base_link")],
 )
 def test_an_empty_frame_is_refused(
     office: Office, tmp_path: Path, option: str, value: str, example: str
