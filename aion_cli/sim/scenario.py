@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import re
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -139,8 +140,11 @@ def parse_start(start: str) -> tuple[_dt.date, float]:
     try:
         when = _dt.datetime.fromisoformat(start)
     except ValueError as exc:
+        # the form is right and a field is not (2026-02-29, 25:00): say which, as --time does
+        reason = f": {exc}" if re.match(r"\d{4}-\d{2}-\d{2}", start.strip()) else ""
         raise InputError(
-            f"bad --start {start!r}", hint="give an ISO date or time, e.g. 2026-01-05T08:00"
+            f"bad --start {start!r}{reason}",
+            hint="give an ISO date or time, e.g. 2026-01-05T08:00",
         ) from exc
     if when.tzinfo is not None:
         raise InputError(

@@ -1,5 +1,5 @@
 """``aion simulate --start`` outside 1970 .. 2261: the hint points the way back into range
-(a 1960 start said "choose an earlier start")."""
+(a 1960 start said "choose an earlier start"); a start with an impossible field names it."""
 
 from __future__ import annotations
 
@@ -21,3 +21,15 @@ def test_the_hint_of_a_start_out_of_range_points_back_into_it(
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "the simulated days must lie in 1970 .. 2261")
     assert hint in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("start", "reason"),
+    [("2026-02-29", "day is out of range for month"), ("2026-01-05T25:00", "hour must be in")],
+)
+def test_a_start_with_an_impossible_field_names_it(tmp_path: Path, start: str, reason: str) -> None:
+    """2026 has no 29 February: the error said only "bad --start '2026-02-29'"."""
+    result = run("simulate", "-o", tmp_path / "s.mcap", "--start", start)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, f"bad --start '{start}': {reason}")
+    assert not (tmp_path / "s.mcap").exists()
