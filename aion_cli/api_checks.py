@@ -366,19 +366,26 @@ def refuse_unknown_keywords(where: str, given: Iterable[str], valid: Sequence[st
 
 def keywords_checked(func: Callable[_P, _R]) -> Callable[_P, _R]:
     """``func`` refusing a keyword it does not take with :func:`refuse_unknown_keywords`
-    (Python's bare ``TypeError`` named no keyword it does take); a function that takes
-    ``**options`` checks them itself."""
+    (Python's bare ``TypeError`` named no keyword it does take; a function that takes
+    ``**options`` checks them itself), its errors in the API's words
+    (:func:`aion_cli.api_words.in_api_words`: keywords, not command-line options)."""
+    from aion_cli.api_words import in_api_words
+    from aion_cli.errors import AionError
+
     params = inspect.signature(func).parameters.values()
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
-        return func
+    own = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params)
     kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
     valid = [p.name for p in params if p.kind in kinds and p.name not in ("self", "cls")]
 
     @functools.wraps(func)
     def checked(*args: _P.args, **kwargs: _P.kwargs) -> _R:
-        if kwargs:
-            refuse_unknown_keywords(func.__qualname__, kwargs, valid)
-        return func(*args, **kwargs)
+        try:
+            if kwargs and not own:
+                refuse_unknown_keywords(func.__qualname__, kwargs, valid)
+            return func(*args, **kwargs)
+        except AionError as error:
+            in_api_words(error)
+            raise
 
     return checked
 

@@ -358,7 +358,7 @@ def test_build_names_its_zone_as_the_command_does(
 def test_merge_refuses_a_nav_layer_without_a_graph(office: Office, tmp_path: Path) -> None:
     other = tmp_path / "other.aion"
     aion.build(office.log, other, config={"bins": 8, "cell_size": 0.25})
-    with pytest.raises(InputError, match="--nav-layer NOPE chooses the layer of a --graph"):
+    with pytest.raises(InputError, match='nav_layer="NOPE" chooses the layer of a graph='):
         aion.merge([office.map, other], tmp_path / "x.aion", nav_layer="NOPE")
 
 

@@ -1,0 +1,57 @@
+"""Errors raised through the Python API name its keywords, not the command line's options:
+``aion.build(logs, detection_topics=["/nope"])`` was told ``use one of: --detections-topic
+/spencer/...``, a flag a script cannot pass."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import aion_cli as aion
+from aion_cli.api_words import api_text
+from aion_cli.errors import AionError
+from tests.cli.conftest import Office, run
+
+OPTIONS = ("--detections-topic", "--graph-topic", "--map-frame", "--nav-layer")
+
+
+@pytest.mark.parametrize(
+    ("keywords", "option", "said"),
+    [
+        ({"detection_topics": ["/nope"]}, "--detections-topic", 'detection_topics="/'),
+        ({"graph_topic": "/nope"}, "--graph-topic", 'graph_topic="/'),
+        ({"map_frame": "nope"}, "--map-frame", 'map_frame="map"'),
+        ({"nav_layer": "9"}, "--nav-layer", "with nav_layer="),
+    ],
+)
+def test_a_build_error_names_the_keyword_the_command_names_the_option(
+    office: Office, tmp_path: Path, keywords: dict[str, object], option: str, said: str
+) -> None:
+    with pytest.raises(AionError) as caught:
+        aion.build(office.log, tmp_path / "x.aion", **keywords)  # type: ignore[arg-type]
+    text = f"{caught.value} {caught.value.hint}"
+    assert said in text
+    assert not any(o in text for o in OPTIONS), text
+    # the command line keeps its own words for the same mistake
+    value = next(iter(keywords.values()))
+    given = value[0] if isinstance(value, list) else value
+    result = run("build", office.log, "-o", tmp_path / "y.aion", option, str(given))
+    assert result.exit_code == 2
+    assert option in result.stderr
+
+
+def test_the_rewrite_takes_values_placeholders_and_bare_options() -> None:
+    assert api_text("use one of: --detections-topic /a, --detections-topic /b") == (
+        'use one of: detection_topics="/a", detection_topics="/b"'
+    )
+    assert api_text("--nav-layer NOPE chooses the layer of a --graph FILE") == (
+        'nav_layer="NOPE" chooses the layer of a graph=FILE'
+    )
+    assert api_text("give a key with --nav-layer; or --tz=Europe/Berlin") == (
+        'give a key with nav_layer=; or tz="Europe/Berlin"'
+    )
+    # options the API has no keyword for, and a rewritten text, are left as they are
+    assert api_text("--graph-period 10s and --workers 2") == "--graph-period 10s and --workers 2"
+    once = api_text("--map-frame odom")
+    assert api_text(once) == once == 'map_frame="odom"'
