@@ -262,8 +262,9 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
         ),
     }
     starts = windows * w_ns
+    observed = np.bincount(window, share, minlength=windows.size)  # place-windows per window
     hours, result.series, result.activity = hourly_activity(
-        starts, truth_w, per_window, state.params.calendar.local_ns(starts)
+        starts, truth_w, per_window, state.params.calendar.local_ns(starts), observed
     )
     result.hours = [_hour_label(int(h), state.config.timezone) for h in hours.tolist()]
 

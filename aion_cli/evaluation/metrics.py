@@ -141,9 +141,17 @@ def chi_square_distance(x: npt.ArrayLike, y: npt.ArrayLike, axis: int = -1) -> F
     return np.sum(terms, axis=axis)
 
 
-def activity_scores(truth: npt.ArrayLike, predicted: npt.ArrayLike) -> dict[str, float]:
+def activity_scores(
+    truth: npt.ArrayLike, predicted: npt.ArrayLike, exposure: npt.ArrayLike | None = None
+) -> dict[str, float]:
     """Spearman correlation, Poisson deviance and MAE of ``predicted`` counts against
-    ``truth`` (see the module docstring), over the pairs whose forecast is finite."""
+    ``truth`` (see the module docstring), over the pairs whose forecast is finite.
+
+    ``exposure`` (positive, per pair: how much of it was observed, e.g. place-windows) makes
+    the Spearman one of rates, both series divided by it: an hour observed half as long holds
+    half the detections in truth and forecast alike, and ranking the counts would credit a
+    forecast of one rate at every hour (a static map) with ranking hours by how long they were
+    observed. A forecast whose rate is the same everywhere has no rank correlation (NaN)."""
     from scipy.stats import spearmanr
 
     y_all, mu_all = np.asarray(truth, dtype=np.float64), np.asarray(predicted, dtype=np.float64)
@@ -151,8 +159,17 @@ def activity_scores(truth: npt.ArrayLike, predicted: npt.ArrayLike) -> dict[str,
     y, mu = y_all[ok], np.maximum(mu_all[ok], 1e-9)
     with np.errstate(divide="ignore", invalid="ignore"):
         term = np.where(y > 0, y * np.log(y / mu), 0.0)
-    varied = len(y) > 2 and np.ptp(y) > 0 and np.ptp(mu) > 0  # else no rank correlation
-    rho = spearmanr(y, mu).statistic if varied else math.nan
+    rank_y, rank_mu = y, mu
+    if exposure is not None:
+        e = np.asarray(exposure, dtype=np.float64)[ok]
+        seen = e > 0  # an hour with nothing in view has no rate
+        rank_y, rank_mu = y[seen] / e[seen], mu[seen] / e[seen]
+    # else no rank correlation; rates equal to rounding (sums of shares) are one rate
+    varied = (
+        len(rank_y) > 2 and np.ptp(rank_y) > 0
+        and np.ptp(rank_mu) > 1e-9 * float(np.max(np.abs(rank_mu)))
+    )
+    rho = spearmanr(rank_y, rank_mu).statistic if varied else math.nan
     return {
         "spearman": float(rho),
         "poisson_deviance": float(2.0 * np.sum(term - (y - mu))),
@@ -168,22 +185,28 @@ def hourly_activity(
     truth: npt.ArrayLike,
     forecasts: Mapping[str, npt.ArrayLike],
     local_start_ns: npt.ArrayLike | None = None,
+    exposure: npt.ArrayLike | None = None,
 ) -> tuple[npt.NDArray[np.int64], dict[str, list[float]], list[dict[str, float | str]]]:
     """Counts per window (``truth``) and each model's forecasts per window, summed per clock
     hour of the windows' starts: the hours (each as the UNIX ns of its start), the hourly
     series (``truth`` first) and each model's :func:`activity_scores` as ``{"model": name,
     ...}`` rows. ``local_start_ns`` (the starts on a local wall clock,
     ``Calendar.local_ns``) makes the hours that clock's (08:00-09:00 local in a zone half an
-    hour off UTC; each of the two 02:00 hours of an autumn change apart); default: UTC's."""
+    hour off UTC; each of the two 02:00 hours of an autumn change apart); default: UTC's.
+    ``exposure`` (per window, e.g. the place-windows observed in it), summed per hour, makes
+    the Spearman one of rates (:func:`activity_scores`)."""
     starts = np.asarray(window_start_ns, dtype=np.int64)
     local = starts if local_start_ns is None else np.asarray(local_start_ns, dtype=np.int64)
     hour_of = starts - np.mod(local, HOUR_NS)  # the UNIX ns at which each local hour began
     hours, inverse = np.unique(hour_of, return_inverse=True)
     hourly_truth = np.bincount(inverse, np.asarray(truth, dtype=np.float64))
     series = {"truth": hourly_truth.tolist()}
+    hourly_exposure = None if exposure is None else np.bincount(
+        inverse, np.asarray(exposure, dtype=np.float64)
+    )
     rows: list[dict[str, float | str]] = []
     for name, values in forecasts.items():
         hourly = np.bincount(inverse, np.asarray(values, dtype=np.float64))
         series[name] = hourly.tolist()
-        rows.append({"model": name, **activity_scores(hourly_truth, hourly)})
+        rows.append({"model": name, **activity_scores(hourly_truth, hourly, hourly_exposure)})
     return hours.astype(np.int64), series, rows

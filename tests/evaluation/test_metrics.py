@@ -95,3 +95,18 @@ def test_chi_square_is_hand_computed() -> None:
 def test_negative_histogram_is_rejected() -> None:
     with pytest.raises(ValueError, match="non-negative"):
         m.js_divergence([1.0, -1.0], [0.5, 0.5])
+
+
+def test_activity_ranks_rates_when_told_how_long_each_hour_was_observed() -> None:
+    """Hours observed 1, 1 and 0.5 (place-windows): a forecast of one rate (6 per unit) ranks
+    nothing, though its counts (6, 6, 3) follow the exposure; a forecast of rates 5, 10, 6
+    against true rates 10, 20, 8 ranks d = (1, 0, -1): rho = 1 - 6·2 / (3·8) = 0.5, where
+    the counts alone (5, 10, 3 against 10, 20, 4) would rank perfectly. Deviance and MAE
+    stay on the counts."""
+    flat = m.activity_scores([10.0, 20.0, 5.0], [6.0, 6.0, 3.0], [1.0, 1.0, 0.5])
+    assert math.isnan(flat["spearman"])
+    assert flat["mae"] == pytest.approx((4 + 14 + 2) / 3)
+    assert m.activity_scores([10.0, 20.0, 5.0], [6.0, 6.0, 3.0])["spearman"] > 0  # counts
+    varied = m.activity_scores([10.0, 20.0, 4.0], [5.0, 10.0, 3.0], [1.0, 1.0, 0.5])
+    assert varied["spearman"] == pytest.approx(0.5)
+    assert m.activity_scores([10.0, 20.0, 4.0], [5.0, 10.0, 3.0])["spearman"] == pytest.approx(1.0)
