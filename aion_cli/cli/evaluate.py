@@ -200,6 +200,11 @@ ACTIVITY_COLUMNS = (
     Column("poisson_deviance", "Poisson dev.", num(0)),
     Column("mae", "MAE / hour", num(0)),
 )
+LINCOLN_ACTIVITY_COLUMNS = (
+    *ACTIVITY_COLUMNS[:2],
+    Column("spearman_rate", "Spearman (rates)", num(3)),
+    *ACTIVITY_COLUMNS[2:],
+)
 
 
 @evaluate.command("lincoln", short_help="Forecasts of a real multi-day corridor.")
@@ -265,8 +270,9 @@ def lincoln(
     emit(fmt, result.headings, SCORE_COLUMNS,
          title=f"Lincoln {result.test}, heading NLL on the {scored:,} test detections with a "
          f"heading (of {total:,}; zone {ZONE})")
-    emit(fmt, result.activity, ACTIVITY_COLUMNS,
-         title="Lincoln, hourly activity of the test day")
+    emit(fmt, result.activity, LINCOLN_ACTIVITY_COLUMNS,
+         title="Lincoln, hourly activity of the test day (Spearman of the hours' totals, "
+         "and of their rates per recorded share)")
 
 
 @evaluate.command("holdout", short_help="Your map's forecast on your held-out logs.")

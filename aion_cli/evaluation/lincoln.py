@@ -323,6 +323,12 @@ def _activity(
     per_window = {name: forecast * share for name, forecast in per_window.items()}
     starts = windows * window_ns
     hours, result.series, result.activity = hourly_activity(starts, truth_w, per_window)
+    # beside the issue's Spearman of the hours' totals, that of their rates: a part hour (the
+    # day's last, 14 minutes recorded) is low in every forecast scaled by its share, so the
+    # totals credit a one-rate forecast with ranking hours by how long they were recorded
+    _, _, by_rate = hourly_activity(starts, truth_w, per_window, exposure=share)
+    for row, rated in zip(result.activity, by_rate, strict=True):
+        row["spearman_rate"] = rated["spearman"]
     result.hours = [int(h // HOUR_NS % 24) for h in hours.tolist()]
     table = predict_table(state, int(centres[len(centres) // 2]))
     fam, cnt = np.unique(table.flow_family[table.flow_family != "none"], return_counts=True)

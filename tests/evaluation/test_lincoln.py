@@ -74,6 +74,12 @@ def test_the_corridor_forecast_beats_the_historical_map_and_a_static_rate() -> N
     # ranks the hours better than static; forecasts them closer than the per-window profile
     # by Poisson deviance (Spearman against the profiles: docs/EVALUATION.md, a near tie)
     assert act["aion"]["spearman"] > act["static"]["spearman"]
+    # the rates' Spearman beside it: a static rate (one at every hour) ranks nothing, however
+    # much of each hour was recorded (its totals' 0.701 is the last, part hour ranked last)
+    assert act["aion"]["spearman_rate"] > 0.0
+    for model in ("static", "aion static", "grid"):
+        assert math.isnan(act[model]["spearman_rate"]), model
+        assert act[model]["spearman"] > 0.0, model
     assert act["aion"]["poisson_deviance"] < act["hour-of-day profile"]["poisson_deviance"]
     assert act["aion"]["mae"] < act["static"]["mae"]
     assert act["aion"]["mae"] < act["hour-of-day mean"]["mae"]
