@@ -45,19 +45,22 @@ def export_frames(
     times it has (a series that happens to hold one time keeps the layout a script reading
     the series expects), and removes the frames of an earlier series that this one does not
     write (``Exported.stale``); one time that is not a series goes straight into
-    ``out_dir``."""
+    ``out_dir``. A series' spheres share one size scale (``scene_frames.series_flow_scale``,
+    as the MCAP and PNG series do), so a sphere that grows from frame to frame is busier."""
     from aion_cli.export_stale import StaleFrames, drop_stale_frames, drop_stale_parts
+    from aion_cli.scene_frames import series_flow_scale
 
     if not series and len(times) != 1:
         raise ValueError("times other than one are a series (a bug)")
     check_out_dir(out_dir)
     _check_names_free(out_dir, [frame_name(t) for t in times] if series else [""], fmt)
     written: list[Path] = []
+    scale = series_flow_scale(loaded, times) if series else None
     with naming(out_dir), Staged(out_dir, merge=True, recognise=is_export_file) as staged:
         staged.path.mkdir()
         for t_ns in times:
             folder = staged.path / frame_name(t_ns) if series else staged.path
-            written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path))
+            written.extend(_export_one(loaded, t_ns, zone, folder, fmt, ends, map_path, scale))
             if on_frame is not None:
                 on_frame()
         moved = [out_dir / p.relative_to(staged.path) for p in written]
@@ -161,6 +164,7 @@ def _export_one(
     fmt: str,
     ends: tuple[Any, int, int] | None,
     map_path: Path,
+    flow_scale: float | None = None,
 ) -> list[Path]:
     from aion_cli.engine import query
     from aion_cli.entry_columns import entry_columns
@@ -175,7 +179,7 @@ def _export_one(
     )
     columns = entry_columns(table)  # every row, in table order: predict's records
     path_rows = None if ends is None else planned_path(loaded, t_ns, ends)
-    files = write_scene(loaded, table, folder, fmt, path_rows)
+    files = write_scene(loaded, table, folder, fmt, path_rows, flow_scale)
     # the text of to_csv / to_json of the records, written a block of entries at a time
     with open(folder / "entries.csv", "w") as fh:
         fh.writelines(predict_csv(columns, CSV_KEYS))
@@ -216,12 +220,18 @@ def planned_path(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> A
 
 
 def write_scene(
-    loaded: Any, table: Any, folder: Path, fmt: str, path_xyz: Any | None
+    loaded: Any,
+    table: Any,
+    folder: Path,
+    fmt: str,
+    path_xyz: Any | None,
+    flow_scale: float | None = None,
 ) -> list[Path]:
-    """The scene files for one time (``formats.export`` via ``mapquery.export_map``)."""
+    """The scene files for one time (``formats.export`` via ``mapquery.export_map``), its
+    spheres sized on ``flow_scale`` (None: the scene's own)."""
     from aion_cli.mapquery import export_map
 
-    return export_map(loaded, table, folder, fmt, path_xyz)
+    return export_map(loaded, table, folder, fmt, path_xyz, flow_scale=flow_scale)
 
 
 def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) -> None:

@@ -257,10 +257,12 @@ def export_map(
     fmt: str = "ply",
     path_xyz: np.ndarray | None = None,
     prefix: str = "",
+    flow_scale: float | None = None,
 ) -> list[Path]:
     """Write the scene of an entry table (nodes, cells, edges, mesh, a path) with
     ``formats.export.export_scene``; returns the files written. The arrays are gathered by
-    ``aion_cli.scene.scene_of_table``, as for the other pictures of a map."""
+    ``aion_cli.scene.scene_of_table``, as for the other pictures of a map. ``flow_scale``: the
+    flow drawn at full size (a series' one scale); None: this scene's own."""
     from aion_cli.formats.export import export_scene
     from aion_cli.scene import scene_of_table
 
@@ -281,5 +283,6 @@ def export_map(
         cell_size=scene.cell_size,
         prefix=prefix,
         node_concentration=scene.node_concentration,
+        flow_scale=flow_scale,
         cells_dominant_angle=scene.cells_angle,
     )

@@ -9,7 +9,7 @@ the same at every step. Sphere sizes share one scale over the whole series
 (:func:`series_flow_scale`): the busiest node of the busiest step is drawn at full size (or a
 high quantile of all steps' flows when it dwarfs them,
 ``formats.scene_colours.display_flow_scale``), so a node that grows on the timeline is busier
-then (a PLY series scales each folder on its own)."""
+then (a PLY / PCD series of folders shares the scale too: ``exports.export_frames``)."""
 
 from __future__ import annotations
 
