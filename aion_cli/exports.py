@@ -118,6 +118,11 @@ def check_out_dir(out_dir: Path) -> None:
         raise OutputPathError(
             f"{out_dir} is a file, not a folder", hint="give a folder to write into"
         )
+    if out_dir.is_symlink() and not out_dir.exists():  # the folder is made, never the link's
+        raise OutputPathError(
+            f"{out_dir} is a dangling symbolic link (to {os.readlink(out_dir)}), not a folder",
+            hint="make the folder it points to, remove the link, or give another folder",
+        )
     check_output_folder(out_dir)
 
 

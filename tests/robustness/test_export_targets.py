@@ -361,3 +361,31 @@ def test_a_foreign_file_is_refused_before_anything_is_computed(
     (rep / "index.html").write_text("<p>my page</p>")
     refused(run("report", office.map, "-o", rep), "index.html exists", "nothing was written")
     assert (rep / "index.html").read_text() == "<p>my page</p>"
+
+
+def test_a_dangling_link_as_the_folder_is_refused_before_anything_is_computed(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``-o out`` where ``out`` is a symbolic link to a folder that does not exist: the
+    export computed every frame, then said ``error: Not a directory: .../out`` (and the
+    report likewise); now both say what ``out`` is before computing anything, and leave the
+    link and its folder as they were."""
+    import aion_cli.exports
+    import aion_cli.report.writer
+
+    def computed(*_: Any, **__: Any) -> Any:
+        raise AssertionError("computed before the refusal")
+
+    monkeypatch.setattr(aion_cli.exports, "_export_one", computed)
+    monkeypatch.setattr(aion_cli.report.writer, "gather", computed)
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "gone")
+    for result in (
+        export(office, link),
+        export(office, link, "--format", "pcd"),
+        run("report", office.map, "-o", link),
+    ):
+        assert result.exit_code == 2, result.stderr
+        assert_one_error(result.stderr, f"{link} is a dangling symbolic link", "not a folder")
+    assert os.readlink(link) == str(tmp_path / "gone")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
