@@ -148,6 +148,17 @@ def to_ns(moment: datetime) -> int:
     return (delta.days * 86400 + delta.seconds) * NS_PER_S + delta.microseconds * 1000
 
 
+def offset_text(moment: datetime) -> str:
+    """The UTC offset of an aware ``moment`` as ISO writes it: ``+02:00``."""
+    return moment.isoformat()[-6:]
+
+
+def repeated_wall_clock(moment: datetime) -> bool:
+    """Whether the wall-clock time of an aware ``moment`` happens twice (the hour a clock
+    change repeats): its other fold has another offset."""
+    return moment.replace(fold=1 - moment.fold).utcoffset() != moment.utcoffset()
+
+
 def clock_labels(times_ns: Sequence[int], zone: Zone, form: str) -> list[str]:
     """``strftime(form)`` of each time in ``zone``; where two different times read the same
     (the hour a clock change repeats: 01:30 twice), their UTC offsets are added
@@ -158,7 +169,7 @@ def clock_labels(times_ns: Sequence[int], zone: Zone, form: str) -> list[str]:
     for label, t in zip(labels, times_ns, strict=True):
         instants.setdefault(label, set()).add(int(t))
     return [
-        f"{label} {s.isoformat()[-6:]}" if len(instants[label]) > 1 else label
+        f"{label} {offset_text(s)}" if len(instants[label]) > 1 else label
         for label, s in zip(labels, stamps, strict=True)
     ]
 
@@ -273,16 +284,9 @@ def _check_own_offset(text: str, zone: Zone, t_ns: int, raw: str) -> None:
     if stated.utcoffset() != moment.utcoffset():
         raise TimeFormatError(
             f"the time {raw!r} names two zones that disagree: its offset {mark.upper()} and "
-            f"{zone.name} (UTC{_offset_text(moment)} then)",
+            f"{zone.name} (UTC{offset_text(moment)} then)",
             "give the offset or the zone, not both",
         )
-
-
-def _offset_text(moment: datetime) -> str:
-    delta = moment.utcoffset() or timedelta(0)
-    minutes = round(delta.total_seconds() / 60)
-    sign = "-" if minutes < 0 else "+"
-    return f"{sign}{abs(minutes) // 60:02d}:{abs(minutes) % 60:02d}"
 
 
 def _unreadable(raw: str, zone: Zone, now: datetime | None) -> TimeFormatError:

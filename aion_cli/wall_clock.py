@@ -19,6 +19,7 @@ from aion_cli.timeparse import (
     from_ns,
     offset_changes_near,
     parse_time,
+    repeated_wall_clock,
     resolve_zone,
     to_ns,
     zone_named_in,
@@ -54,7 +55,7 @@ def clock_change_note(text: str, zone: Zone, t_ns: int, now: datetime | None = N
             f"{said} does not exist in {where.name} (a clock change skips it): read as "
             f"{format_ns(t_ns, where)}, as late as the clocks jump"
         )
-    if local.replace(fold=1 - local.fold).utcoffset() == local.utcoffset():
+    if not repeated_wall_clock(local):
         return None
     second = to_ns(wall.replace(tzinfo=where.tz, fold=1))
     return (

@@ -81,15 +81,14 @@ def save_png(fig: Any, out: Path, option: str = "-o") -> Path:
 def time_title(t_ns: int | None, zone: Zone | None, clock_only: bool = False) -> str:
     """``"Mon 2026-01-12 08:40 UTC"`` (in the map's zone), ``"08:40"`` with ``clock_only``;
     ``"as observed (historical)"`` for None."""
-    from aion_cli.timeparse import from_ns, resolve_zone
+    from aion_cli.timeparse import from_ns, offset_text, repeated_wall_clock, resolve_zone
 
     if t_ns is None:
         return "as observed (historical)"
     where = zone if zone is not None else resolve_zone("UTC")
     moment = from_ns(t_ns, where)
     # the hour a clock change repeats reads the same twice: its offset says which it is
-    twice = moment.replace(fold=1 - moment.fold).utcoffset() != moment.utcoffset()
-    offset = f" {moment.isoformat()[-6:]}" if twice else ""
+    offset = f" {offset_text(moment)}" if repeated_wall_clock(moment) else ""
     if clock_only:
         return moment.strftime("%H:%M") + offset
     return f"{moment.strftime('%a %Y-%m-%d %H:%M')}{offset} {where.name}"

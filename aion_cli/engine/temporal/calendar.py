@@ -43,14 +43,6 @@ PROFILES = ("day", "day_weekend", "week")
 _DAYS_PER_PROFILE = {"day": 1, "day_weekend": 2, "week": 7}
 
 
-def _utc_offset(moment: datetime) -> timedelta | None:
-    return moment.utcoffset()
-
-
-def _dst(moment: datetime) -> timedelta | None:
-    return moment.dst()
-
-
 def weekday_of(day: npt.ArrayLike) -> I64:
     """Weekday (0 = Monday) of local day indices (days since 1970-01-01, a Thursday)."""
     out: I64 = np.mod(np.asarray(day, dtype=np.int64) + 3, 7)
@@ -91,7 +83,7 @@ class Calendar:
 
     def local_ns(self, t_ns: npt.ArrayLike) -> I64:
         """Local wall-clock time as nanoseconds since 1970-01-01T00:00 local."""
-        return self._shifted(t_ns, _utc_offset)
+        return self._shifted(t_ns, datetime.utcoffset)
 
     def standard_ns(self, t_ns: npt.ArrayLike) -> I64:
         """UTC plus the zone's daylight-saving shift at each time (``tzinfo.dst()``): the local
@@ -100,7 +92,7 @@ class Calendar:
         times themselves in UTC and a fixed-offset zone."""
         if self.fixed:
             return np.asarray(t_ns, dtype=np.int64).copy()
-        return self._shifted(t_ns, _dst)
+        return self._shifted(t_ns, datetime.dst)
 
     def _shifted(self, t_ns: npt.ArrayLike, shift: Callable[[datetime], timedelta | None]) -> I64:
         """``t_ns`` plus ``shift`` of the local time, looked up once per distinct UTC quarter."""
