@@ -149,8 +149,12 @@ def to_ns(moment: datetime) -> int:
 
 
 def offset_text(moment: datetime) -> str:
-    """The UTC offset of an aware ``moment`` as ISO writes it: ``+02:00``."""
-    return moment.isoformat()[-6:]
+    """The UTC offset of an aware ``moment`` as ISO writes it: ``+02:00`` (``-00:44:30`` for
+    an offset of seconds, Monrovia's until 1972)."""
+    seconds = round((moment.utcoffset() or timedelta(0)).total_seconds())
+    hours, rest = divmod(abs(seconds), 3600)
+    text = f"{'-' if seconds < 0 else '+'}{hours:02d}:{rest // 60:02d}"
+    return text + (f":{rest % 60:02d}" if rest % 60 else "")
 
 
 def repeated_wall_clock(moment: datetime) -> bool:

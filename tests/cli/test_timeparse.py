@@ -351,3 +351,20 @@ def test_an_empty_span_beside_a_clock_change_blames_it_only_for_two_wall_clock_t
     assert ("a clock change skips or repeats an hour there" in caught.value.message) is (
         clock_change
     )
+
+
+def test_an_offset_reads_as_iso_writes_it_seconds_included() -> None:
+    """A series label or title once cut ``isoformat()`` to its last six characters, which
+    for an offset of seconds (Monrovia until 1972, -00:44:30) read ``44:30``."""
+    from zoneinfo import ZoneInfo
+
+    from aion_cli.timeparse import offset_text
+
+    for zone, moment in (
+        ("Africa/Monrovia", datetime(1960, 1, 1)),
+        ("Europe/Berlin", datetime(2026, 7, 1)),
+        ("America/St_Johns", datetime(2026, 1, 1)),
+        ("UTC", datetime(2026, 1, 1)),
+    ):
+        aware = moment.replace(tzinfo=ZoneInfo(zone))
+        assert offset_text(aware) == aware.isoformat()[len("2026-01-01T00:00:00"):], zone
