@@ -9,7 +9,8 @@ setting. Maps a robot observed are refused, with the way out in the hint.
 Maps whose FreMEn clocks differ (``fremen_clock``: one built before FreMEn followed the local
 clock across daylight saving) merge on the newer clock when the older map's time held no
 daylight-saving time (its sums are the same on either clock), and are refused with a message
-of their own when it did. In UTC or a fixed offset the clocks are one and not recorded.
+of their own when it did. In UTC or a fixed offset the clocks are one and not recorded. A
+continued older map moves to the newer clock on the same condition (:func:`continued_config`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from aion_cli.listing import first_few
 
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.state import MapState
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import MapHead
 
@@ -102,7 +104,11 @@ def _clocks_differ(maps: Sequence[MapInput]) -> bool:
     configs = [m.head.config for m in maps]
     if len({c.fremen_clock for c in configs}) < 2 or len({c.timezone for c in configs}) > 1:
         return False
-    stale = [m.name for m in maps if m.head.config.fremen_clock == "utc" and _saved_daylight(m)]
+    stale = [
+        m.name
+        for m in maps
+        if m.head.config.fremen_clock == "utc" and _saved_daylight(m.head.config, m.manifest)
+    ]
     if stale:
         its, it = ("their", "they were") if len(stale) > 1 else ("its", "it was")
         raise ConfigError(
@@ -115,7 +121,26 @@ def _clocks_differ(maps: Sequence[MapInput]) -> bool:
     return True
 
 
-def _saved_daylight(m: MapInput) -> bool:
+def continued_config(config: ModelConfig, manifest: Manifest) -> ModelConfig:
+    """The config a continued map (``aion build --map``) goes on with: its own, except that a
+    map built before FreMEn followed daylight saving (``fremen_clock = "utc"``) moves to the
+    local clock when its time span held no daylight-saving time. Its sums are then the same on
+    either clock, so the move is exact, and the days it learns next keep their local hours."""
+    if config.fremen_clock != "utc" or _saved_daylight(config, manifest):
+        return config
+    return config.replace(fremen_clock="standard")
+
+
+def adopt_config(state: MapState, config: ModelConfig) -> None:
+    """``state`` goes on under ``config``, one that differs from its own only where its arrays
+    are the same under either (:func:`check_compatible`, :func:`continued_config`)."""
+    from aion_cli.engine.temporal.params import TemporalParams
+
+    state.config = config
+    state.params = TemporalParams.from_config(config)  # FreMEn's clock among them
+
+
+def _saved_daylight(config: ModelConfig, manifest: Manifest) -> bool:
     """Whether daylight saving was in force in the map's zone at any time of its time span
     (checked hourly and at both ends: a daylight-saving period lasts more than an hour); true
     for a map without a span."""
@@ -123,11 +148,11 @@ def _saved_daylight(m: MapInput) -> bool:
 
     from aion_cli.engine.temporal.calendar import HOUR_NS, Calendar
 
-    start, end = m.manifest.start_ns, m.manifest.end_ns
+    start, end = manifest.start_ns, manifest.end_ns
     if start is None or end is None:
         return True
     times = np.append(np.arange(start, end, HOUR_NS, dtype=np.int64), np.int64(end))
-    calendar = Calendar(m.head.config.timezone)
+    calendar = Calendar(config.timezone)
     return bool(np.any(calendar.standard_ns(times) != times))
 
 

@@ -57,7 +57,7 @@ from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import InputError
 from aion_cli.manifest import InputLog, Manifest, add_counts
-from aion_cli.merge_config import check_compatible
+from aion_cli.merge_config import adopt_config, check_compatible
 from aion_cli.merge_lineage import LINEAGES, choose_lineage
 from aion_cli.merge_report import MergedInput, MergeReport
 
@@ -270,7 +270,6 @@ def _fold(
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
     from aion_cli.engine.state import MapState
-    from aion_cli.engine.temporal.params import TemporalParams
     from aion_cli.merge_notes import (
         ApproximationTally,
         declared_gap_note,
@@ -286,8 +285,7 @@ def _fold(
     for k, m in enumerate(maps):
         state = m.load()
         if config is not None:
-            state.config = config
-            state.params = TemporalParams.from_config(config)  # FreMEn's clock among them
+            adopt_config(state, config)
         if report.lineage == "different":
             report.released += release_all(state)
         late = maps[k + 1] if k + 1 < len(maps) else None

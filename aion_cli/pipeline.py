@@ -189,7 +189,7 @@ class _Build(StreamStep):
     def _run(self) -> BuildReport:
         opts = self.opts
         if opts.continue_from is not None:
-            self.previous = load_map(opts.continue_from, writable=True)
+            self.previous = self._load_previous(opts.continue_from)
             self.previous_manifest = Manifest.from_dict(self.previous.manifest)
             self.report.continued = True
             self._map_open = self.previous.state.open_window
@@ -211,6 +211,24 @@ class _Build(StreamStep):
             raise
         self._write(state, config, self._inputs(hashes))
         return self.report
+
+    def _load_previous(self, path: Path) -> LoadedMap:
+        """The continued map, on the FreMEn clock it goes on with
+        (:func:`aion_cli.merge_config.continued_config`)."""
+        from aion_cli.merge_config import adopt_config, continued_config
+
+        loaded = load_map(path, writable=True)
+        config = continued_config(loaded.config, Manifest.from_dict(loaded.manifest))
+        if config != loaded.config:
+            adopt_config(loaded.state, config)
+            note = (
+                f"{path.name} was built before FreMEn followed daylight saving; its time held "
+                f"none in {config.timezone}, so it goes on with FreMEn on the local clock "
+                "(exactly: its sums are the same on either clock)"
+            )
+            if note not in self.report.notes:
+                self.report.notes.append(note)
+        return loaded
 
     def _learn_state(self, config: ModelConfig) -> MapState:
         """The map state of the logs: in this process, in workers, or a part map."""
@@ -251,7 +269,7 @@ class _Build(StreamStep):
             self.graphs = self._graph_feed()
             self.counts = DetectionCounts()
             if self.previous is not None and self.opts.continue_from is not None:
-                self.previous = load_map(self.opts.continue_from, writable=True)
+                self.previous = self._load_previous(self.opts.continue_from)
             return self._learn(config)
 
     def _learn(self, config: ModelConfig) -> Mapper:

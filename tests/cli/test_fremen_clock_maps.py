@@ -1,7 +1,8 @@
 """FreMEn's clock through the command line: a daily 08:00 rush (Europe/Berlin wall clock) learnt
 by FreMEn alone peaks at 08:00 after the spring change; a map written before the clock existed
-(its stored config without ``fremen_clock``) keeps UTC phases, also when continued; it merges
-with a map on the new clock while it holds no summer time, and is refused once it does."""
+(its stored config without ``fremen_clock``) keeps UTC phases; it merges with a map on the new
+clock, and moves to that clock when continued, while its time holds no summer time; a map whose
+time held summer time keeps UTC when continued and is refused by such a merge."""
 
 from __future__ import annotations
 
@@ -94,11 +95,37 @@ def test_fremen_rush_keeps_its_hour_and_an_older_map_keeps_its_clock(tmp_path: P
     assert _clock(merged) == "standard"
     assert _peak_hour(merged, "2026-04-13") == 8
 
-    result = run("build", april, "--map", old, "--config", config, "-q")
+    # continued, a winter-only older map moves to the local clock (exactly: its sums are the
+    # same on either), so the April days it learns keep their 08:00
+    continued = tmp_path / "continued.aion"
+    result = run("build", april, "--map", old, "-o", continued, "--config", config)
     assert result.exit_code == 0, result.output
+    assert "goes on with FreMEn on the local clock" in " ".join(result.output.split())
+    assert _clock(continued) == "standard"
+    assert _peak_hour(continued, "2026-04-13") == 8
+
+
+def test_an_older_map_that_held_summer_time_keeps_its_clock(tmp_path: Path) -> None:
+    """An older map whose own days held summer time stays on UTC when continued (its sums
+    are UTC's), and is refused by a merge with a map on the local clock."""
+    config = tmp_path / "fremen.toml"
+    config.write_text(CONFIG.to_toml())
+    april = _log(tmp_path, "april", datetime(2026, 4, 1), 14)
+    new = tmp_path / "new.aion"
+    result = run("build", april, "-o", new, "--config", config, "--derive-graph", "-q")
+    assert result.exit_code == 0, result.output
+    old = tmp_path / "old.aion"
+    _as_before_the_clock(new, old)
+    may = _log(tmp_path, "may", datetime(2026, 5, 1), 3)
+    result = run("build", may, "--map", old, "--config", config)
+    assert result.exit_code == 0, result.output
+    assert "local clock" not in result.output
     assert _clock(old) == "utc"  # continued: its sums stay on UTC
 
-    # it now holds summer time on UTC: not merged with a map on the local clock
+    newer = tmp_path / "newer.aion"
+    result = run("build", _log(tmp_path, "june", datetime(2026, 6, 1), 3), "-o", newer,
+                 "--config", config, "--derive-graph", "-q")
+    assert result.exit_code == 0, result.output
     result = run("merge", old, newer, "-o", tmp_path / "merged2.aion")
     assert result.exit_code == 2
     assert "cannot merge old.aion with the other maps: its FreMEn phases" in result.output
