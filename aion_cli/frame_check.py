@@ -19,6 +19,7 @@ from aion_cli.build_options import DEFAULT_MAP_FRAME, BuildOptions
 
 if TYPE_CHECKING:
     from aion_cli.formats.tf import TfBuffer
+    from aion_cli.formats.tf_norms import NormTally
 
 #: detection messages per topic whose frames are read
 DETECTION_SAMPLE = 20
@@ -54,7 +55,9 @@ def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> FrameRepo
     out = FrameReport()
     if not frames:
         return out
-    tf = _tf_sample(logset, plan)
+    tf, norms = _tf_sample(logset, plan)
+    if norms.text():
+        out.warnings.append(f"{norms.text()} (in the first {TF_SAMPLE} messages per TF topic)")
     if tf.unusable:
         out.warnings.append(
             f"TF transforms a build ignores: {unusable_text(tf.unusable)} (in the first "
@@ -99,16 +102,16 @@ def detection_frames(logset: Any, plan: Any, mappings: list[Any]) -> dict[str, s
     return out
 
 
-def _tf_sample(logset: Any, plan: Any) -> TfBuffer:
+def _tf_sample(logset: Any, plan: Any) -> tuple[TfBuffer, NormTally]:
     """The first :data:`TF_SAMPLE` messages of each TF topic in a buffer (read as a build
-    reads TF: :class:`aion_cli.tf_feed.TfReader`)."""
+    reads TF: :class:`aion_cli.tf_feed.TfReader`), and their rotations tf2 would refuse."""
     from aion_cli.formats.tf import TfBuffer
     from aion_cli.tf_feed import TfReader, TfStats
 
     reader = TfReader(logset, TfBuffer(), TfStats())
     for info in plan.tf:
         reader.add(_first(logset, info.topic, TF_SAMPLE))
-    return reader.buffer
+    return reader.buffer, reader.stats.norms
 
 
 def _first(logset: Any, topic: str, n: int) -> list[Any]:

@@ -26,6 +26,7 @@ from aion_cli.engine.types import I64, Trajectory
 from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, MessageDecodeError
 from aion_cli.fixed_sensor import fixed_sensor_windows, unposed_log_windows
+from aion_cli.formats.tf_norms import NormTally
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TimeCheck, TopicTimes
 from aion_cli.tf_trajectory import no_trajectory, robot_trajectory, wrong_base_warning
@@ -56,13 +57,15 @@ StaticTf = tuple[tuple[str, str, int, tuple[float, ...], tuple[float, ...]], ...
 
 @dataclass
 class TfStats:
-    """TF messages read and skipped as undecodable (with the first failure), and ``/tf``
-    transforms stamped 0 (unset) that took their message's log time instead."""
+    """TF messages read and skipped as undecodable (with the first failure), ``/tf``
+    transforms stamped 0 (unset) that took their message's log time instead, and rotations
+    tf2 would refuse as not normalised (``norms``)."""
 
     messages: int = 0
     undecodable: int = 0
     first_error: MessageDecodeError | None = None
     unstamped: int = 0
+    norms: NormTally = dataclasses.field(default_factory=NormTally)
 
 
 def read_tf_and_times(
@@ -194,8 +197,10 @@ class TfReader:
                     continue
                 if not st:
                     stats.unstamped += _stamp_unset(decoded, m.log_time_ns)
+                stats.norms.add_message(m.topic, decoded)
                 buffer.add_message(decoded, static=st)
         else:
+            stats.norms.add_arrays(chunk, arrays)
             rows_static = static[arrays.msg_index]
             unset = (arrays.t_ns == 0) & ~rows_static  # like detections: the log time
             if unset.any():
@@ -398,6 +403,8 @@ def check_tf(stats: TfStats, tf_topics: set[str], report: BuildReport) -> None:
             f"{stats.unstamped:,} transform(s) on {dynamic} were stamped 0 (unset by their "
             "publisher): their log time was taken, as for detections"
         )
+    if stats.norms.text():
+        report.warnings.append(stats.norms.text())
     if stats.undecodable == 0 or stats.first_error is None:
         return
     names = ", ".join(sorted(tf_topics))

@@ -198,3 +198,27 @@ def test_the_api_reads_map_frame_with_a_slash_as_the_cli_does(tmp_path: Path) ->
     result = Map.load(tmp_path / "m.aion").holdout(later, map_frame="/map")
     assert result.test["detections"] == 300
     assert not [n for n in result.notes if "holds positions in frame" in n]
+
+
+def test_a_rotation_tf2_refuses_as_not_normalised_is_a_warning(tmp_path: Path) -> None:
+    """base_link -> laser on /tf_static with |q| = 2 (tf2: "Quaternion not properly
+    normalized"; |q|² − 1 = 3 > 0.01): aion normalised it without a word. The build still
+    uses it (the rotation is unambiguous), and build and info now warn with the edge, the
+    topic, |q| and the message count; a quaternion within tf2's tolerance says nothing."""
+    people, static = tmp_path / "laser.mcap", tmp_path / "static.mcap"
+    write_office_log(people, frame="laser", graph=False)
+    _tf_log(static, "/tf_static", "laser", [(0.0, 0.0, 2.0, 0.0)] * 2, period_s=1)
+    report = run_json("build", people, static, "--workers", "1", "-o", tmp_path / "m.aion",
+                      "--format", "json")
+    assert report["detections"]["used"] == 300
+    warned = [w for w in report["warnings"] if "not unit quaternions" in w]
+    assert len(warned) == 1, report["warnings"]
+    assert "base_link->laser on /tf_static in 2 messages (|q| 2)" in warned[0]
+    info = run_json("info", people, static, "--format", "json")
+    assert [w for w in info["warnings"] if "base_link->laser on /tf_static in 2" in w]
+    within = tmp_path / "within.mcap"
+    _tf_log(within, "/tf_static", "laser", [(0.0, 0.0, 1.004, 0.0)])  # |q|² − 1 = 0.008
+    report = run_json("build", people, within, "--workers", "1", "-o", tmp_path / "w.aion",
+                      "--format", "json")
+    assert report["detections"]["used"] == 300
+    assert not [w for w in report["warnings"] if "not unit quaternions" in w]
