@@ -21,25 +21,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.engine.types import I64
+from aion_cli.fixed_sensor_text import (
+    DECLARED,
+    FIXED_SENSOR_OVER,
+    fixed_sensor_share,
+    fixed_sensor_text,
+    share_text,
+)
 from aion_cli.log_times import TimeCheck, iso
 
 if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
     from aion_cli.engine.observation import ObservationSource
-
-def share_text(share: float) -> str:
-    """A share of time observed as a whole percentage that reads 0 % or 100 % only when it
-    is: ``"<1%"`` for 0.4 %, ``">99%"`` for 99.6 % (``"0%"`` had read as nothing observed)."""
-    text = f"{share:.0%}"
-    if share > 0.0 and text == "0%":
-        return "<1%"
-    if share < 1.0 and text == "100%":
-        return ">99%"
-    return text
-
-
-FIXED_SENSOR_OVER = "fixed sensor over"
-"""How the description of a fixed sensor's recorded windows starts (:func:`fixed_sensor_text`)."""
 
 __all__ = [
     "DECLARED",
@@ -54,6 +47,7 @@ __all__ = [
     "outside_logs_note",
     "recording_bounds",
     "recording_window_count",
+    "share_text",
 ]
 
 
@@ -417,23 +411,6 @@ def _window_runs(declared: tuple[tuple[int, int], ...], delta: int) -> list[tupl
     return [(int(a), int(b) - 1) for a, b in zip(starts, ends, strict=True)]
 
 
-def fixed_sensor_share(observation: str, recording_windows: int | None = None) -> float | None:
-    """The share of its time a fixed sensor observed, read from a description that
-    :func:`fixed_sensor_text` wrote (``the N windows ... (A h of a B h span)``): of its logs'
-    own time when ``recording_windows`` says how long that was (a manifest's
-    ``counts.recording_windows``), else of the span; None for any other description."""
-    import re
-
-    found = re.search(r"\(([\d.,]+) h of a ([\d.,]+) h span\)", observation)
-    if not observation.startswith(FIXED_SENSOR_OVER) or found is None:
-        return None
-    windows = re.search(r"the ([\d,]+) windows?", observation)
-    if recording_windows and windows is not None:
-        return min(1.0, int(windows.group(1).replace(",", "")) / int(recording_windows))
-    seen, span = (float(g.replace(",", "")) for g in found.groups())
-    return seen / span if span > 0 else None
-
-
 SILENT_HINT = (
     "if its tracker is silent when nobody is there, declare the spans it was recording with "
     "aion build --observed"
@@ -472,21 +449,3 @@ def fixed_sensor_summary(
     before = np.concatenate([[np.iinfo(np.int64).min], np.maximum.accumulate(w1)[:-1]])
     count = int(np.maximum(w1 - np.maximum(w0, before), 0).sum())
     return count, int(w0[0]), int(w1.max()) - 1, int(delta)
-
-
-DECLARED = "or --observed"
-"""In a fixed sensor's description when ``build --observed`` declared some of its windows."""
-
-
-def fixed_sensor_text(
-    count: int, first: int, last: int, delta: int, declared: bool = False
-) -> str:
-    """The report's description of fixed-sensor observation: ``count`` windows of
-    ``delta`` ns with messages (``declared``: or declared by ``--observed``), from window
-    ``first`` to ``last``."""
-    span = last - first + 1
-    why = f"with messages {DECLARED}" if declared else "with messages"
-    return (
-        f"{FIXED_SENSOR_OVER} the {count:,} window{'' if count == 1 else 's'} {why} "
-        f"({count * delta / 3.6e12:.1f} h of a {span * delta / 3.6e12:.1f} h span)"
-    )

@@ -308,3 +308,22 @@ def test_parts_built_with_observed_spans_say_the_time_between_them_is_not_filled
         assert run("build", log, "--part", "-o", parts[k], "-q").exit_code == 0
     report = json.loads(run("merge", *parts, "-o", tmp_path / "m.aion", "--format", "json").stdout)
     assert not [n for n in report["notes"] if "--observed" in n]
+
+
+def test_a_short_fixed_sensor_span_reads_in_minutes_and_old_manifests_still_parse() -> None:
+    """Two 10-minute windows of a 20-minute log read "(0.3 h of a 0.3 h span)"; they now read
+    "(20 min of a 20 min span)", 30 s windows in seconds, and an hour up still in hours. The
+    share read back from a manifest is the same from the old text and the new."""
+    from aion_cli.fixed_sensor import fixed_sensor_share, fixed_sensor_text
+
+    minute = 60 * 10**9
+    short = fixed_sensor_text(2, 0, 1, 10 * minute)
+    assert short.endswith("(20 min of a 20 min span)")
+    assert fixed_sensor_text(1, 0, 2, minute // 2).endswith("(30 s of a 1.5 min span)")
+    assert fixed_sensor_text(4, 0, 145, 10 * minute).endswith("(40 min of a 24.3 h span)")
+    assert fixed_sensor_share(short) == 1.0
+    long = fixed_sensor_text(4, 0, 145, 10 * minute)
+    assert fixed_sensor_share(long) == pytest.approx(40 / (24.3 * 60))
+    old = "fixed sensor over the 2 windows with messages (0.3 h of a 0.6 h span)"
+    assert fixed_sensor_share(old) == 0.5
+    assert fixed_sensor_share(old, recording_windows=8) == 0.25

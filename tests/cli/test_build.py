@@ -21,7 +21,7 @@ from tests.cli.logdata import (
     write_office_log,
 )
 
-FIXED_TWO_WINDOWS = "fixed sensor over the 2 windows with messages (0.3 h of a 0.3 h span)"
+FIXED_TWO_WINDOWS = "fixed sensor over the 2 windows with messages (20 min of a 20 min span)"
 
 
 def test_counts_and_provenance(office: Office) -> None:
@@ -277,7 +277,7 @@ def test_observation_from_the_scene_graph_agents_or_fixed(tmp_path: Path) -> Non
     write_office_log(fixed_log, tf=False, duration_s=1800)
     report = run_json("build", fixed_log, "--format", "json")
     assert report["observation"] == (
-        "fixed sensor over the 3 windows with messages (0.5 h of a 0.5 h span)"
+        "fixed sensor over the 3 windows with messages (30 min of a 30 min span)"
     )
     assert report["detections"]["used"] == 180 + 180 + 60
     fixed = run_json(
@@ -431,7 +431,7 @@ def test_fixed_sensor_logs_continue_like_building_at_once(tmp_path: Path) -> Non
     once = run_json("build", day1, day2, "-o", both, "--format", "json")
     # windows 0-1 and 144-145 hold messages: 4 windows (0.67 h) of a 146-window span (24.33 h)
     assert once["observation"] == (
-        "fixed sensor over the 4 windows with messages (0.7 h of a 24.3 h span)"
+        "fixed sensor over the 4 windows with messages (40 min of a 24.3 h span)"
     )
     step = tmp_path / "step.aion"
     run_json("build", day1, "-o", step, "--format", "json")

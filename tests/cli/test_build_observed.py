@@ -283,7 +283,7 @@ def test_the_time_between_two_logs_is_no_sign_of_a_silent_tracker(tmp_path: Path
     write_office_log(evening, graph=False, tf=False, shift_s=DAY_S // 2)
     both = run_json("build", morning, evening, "-o", tmp_path / "both.aion", "--format", "json")
     assert both["observation"].startswith("fixed sensor over the 4 windows with messages")
-    assert "(0.7 h of a 12.3 h span)" in both["observation"]
+    assert "(40 min of a 12.3 h span)" in both["observation"]
     assert not any(note.startswith("the fixed sensor observed") for note in both["notes"])
     # the manifest keeps the logs' own time (2 windows each), summed by continuation and merge
     assert read_manifest(tmp_path / "both.aion")["counts"]["recording_windows"] == 4

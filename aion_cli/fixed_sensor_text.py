@@ -1,0 +1,77 @@
+"""The one-line description of a fixed sensor's observation, written into the report and the
+manifest (:func:`fixed_sensor_text`) and read back from a map's manifest
+(:func:`fixed_sensor_share`), and a share of time observed as a percentage.
+
+The times in it read in hours from an hour up (``(72.3 h of a 72.3 h span)``), below that in
+minutes or seconds (``(12 min of a 12 min span)``; ``0.2 h`` had said little of a short log);
+manifests written before, with hours only, still read back.
+"""
+
+from __future__ import annotations
+
+import re
+
+FIXED_SENSOR_OVER = "fixed sensor over"
+"""How the description of a fixed sensor's recorded windows starts (:func:`fixed_sensor_text`)."""
+
+DECLARED = "or --observed"
+"""In a fixed sensor's description when ``build --observed`` declared some of its windows."""
+
+#: The unit words of :func:`time_text`, in seconds.
+_UNIT_S = {"h": 3600.0, "min": 60.0, "s": 1.0}
+
+_SHARE = re.compile(r"\(([\d.,]+) (h|min|s) of a ([\d.,]+) (h|min|s) span\)")
+
+
+def share_text(share: float) -> str:
+    """A share of time observed as a whole percentage that reads 0 % or 100 % only when it
+    is: ``"<1%"`` for 0.4 %, ``">99%"`` for 99.6 % (``"0%"`` had read as nothing observed)."""
+    text = f"{share:.0%}"
+    if share > 0.0 and text == "0%":
+        return "<1%"
+    if share < 1.0 and text == "100%":
+        return ">99%"
+    return text
+
+
+def time_text(ns: int) -> str:
+    """``ns`` as the description writes it: ``72.3 h`` from an hour up, else ``12 min`` (or
+    ``1.5 min``), under a minute ``40 s``."""
+    seconds = ns / 1e9
+    if seconds >= 3600:
+        return f"{seconds / 3600:.1f} h"
+    if seconds >= 60:
+        return f"{round(seconds / 60, 1):g} min"
+    return f"{round(seconds, 1):g} s"
+
+
+def fixed_sensor_text(
+    count: int, first: int, last: int, delta: int, declared: bool = False
+) -> str:
+    """The report's description of fixed-sensor observation: ``count`` windows of
+    ``delta`` ns with messages (``declared``: or declared by ``--observed``), from window
+    ``first`` to ``last``."""
+    span = last - first + 1
+    why = f"with messages {DECLARED}" if declared else "with messages"
+    return (
+        f"{FIXED_SENSOR_OVER} the {count:,} window{'' if count == 1 else 's'} {why} "
+        f"({time_text(count * delta)} of a {time_text(span * delta)} span)"
+    )
+
+
+def fixed_sensor_share(observation: str, recording_windows: int | None = None) -> float | None:
+    """The share of its time a fixed sensor observed, read from a description that
+    :func:`fixed_sensor_text` wrote (``the N windows ... (A h of a B h span)``, or minutes or
+    seconds: ``(12 min of a 12 min span)``): of its logs' own time when
+    ``recording_windows`` says how long that was (a manifest's
+    ``counts.recording_windows``), else of the span; None for any other description."""
+    found = _SHARE.search(observation)
+    if not observation.startswith(FIXED_SENSOR_OVER) or found is None:
+        return None
+    windows = re.search(r"the ([\d,]+) windows?", observation)
+    if recording_windows and windows is not None:
+        return min(1.0, int(windows.group(1).replace(",", "")) / int(recording_windows))
+    seen_n, seen_unit, span_n, span_unit = found.groups()
+    seen = float(seen_n.replace(",", "")) * _UNIT_S[seen_unit]
+    span = float(span_n.replace(",", "")) * _UNIT_S[span_unit]
+    return seen / span if span > 0 else None
