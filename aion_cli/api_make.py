@@ -38,16 +38,22 @@ def as_path(value: PathLike, what: str = "path") -> Path:
     return Path(text)
 
 
-def warn_of(warnings: Sequence[str]) -> None:
+def warn_of(warnings: list[str]) -> None:
     """Each of a report's warnings as an :class:`~aion_cli.errors.AionWarning` (the CLI
     prints them as ``warning: ...``; a script would not see them in ``report.warnings``),
     pointing at the line that called the API: the first frame outside the package, however
-    many of its wrappers (argument checks, one query at a time) lie between."""
+    many of its wrappers (argument checks, one query at a time) lie between. The warnings
+    name the API's keywords, not the command line's options
+    (:func:`aion_cli.api_words.api_text`: ``observed= ignored``, not ``--observed
+    ignored``), and are rewritten so in ``warnings`` itself (the report's list)."""
     import sys
     import warnings as python_warnings
     from pathlib import Path
 
+    from aion_cli.api_words import api_text
     from aion_cli.errors import AionWarning
+
+    warnings[:] = [api_text(text) for text in warnings]
 
     package = str(Path(__file__).resolve().parent) + "/"
     level, frame = 1, sys._getframe(0)

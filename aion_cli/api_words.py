@@ -20,6 +20,7 @@ OPTION_KEYWORDS = {
     "detections-mapping": "detections_mapping",
     "graph": "graph",
     "tz": "tz",
+    "observed": "observed",
 }
 """Command-line options and the API keywords that take the same value."""
 
@@ -27,6 +28,13 @@ _OPTION = re.compile(
     r"--(" + "|".join(sorted(map(re.escape, OPTION_KEYWORDS), key=len, reverse=True)) + r")"
     r"(?![\w-])(?:[ =](?!--)([^\s,;()`'\"]+))?"
 )
+_NOT_VALUES = frozenset({
+    "and", "are", "beside", "below", "could", "given", "giving", "ignored", "in", "is", "names",
+    "needs", "of", "or", "reads", "replaced", "said", "spans", "that", "to", "was", "were",
+    "which", "with", "writes",
+})  # fmt: skip
+"""Words that follow an option in the library's sentences (``--nav-layer ignored: ...``,
+``as --map-frame said``): the sentence going on, not the option's value."""
 _PLACEHOLDERS = frozenset({"FILE", "GRAPH_FILE", "LOG", "MAP", "ZONE", "FRAME", "TOPIC", "LAYER"})
 """Names a hint asks the user to fill in (``--graph FILE``), not values (``--nav-layer PLACES``)."""
 
@@ -38,8 +46,8 @@ def api_text(text: str) -> str:
 
     def keyword(match: re.Match[str]) -> str:
         name, value = OPTION_KEYWORDS[match.group(1)], match.group(2)
-        if value is None:
-            return f"{name}="
+        if value is None or value.rstrip(":") in _NOT_VALUES:
+            return f"{name}=" + match.group(0)[len(match.group(1)) + 2 :]
         return f"{name}={value}" if value in _PLACEHOLDERS else f'{name}="{value}"'
 
     return _OPTION.sub(keyword, text)

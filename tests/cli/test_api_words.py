@@ -55,3 +55,37 @@ def test_the_rewrite_takes_values_placeholders_and_bare_options() -> None:
     assert api_text("--graph-period 10s and --workers 2") == "--graph-period 10s and --workers 2"
     once = api_text("--map-frame odom")
     assert api_text(once) == once == 'map_frame="odom"'
+
+
+def test_the_observed_ignored_warning_names_the_keyword_in_the_api_and_the_option_on_the_cli(
+    tmp_path: Path,
+) -> None:
+    """Declared spans beside a robot's trajectory are ignored, with a warning. Through the API
+    it said "--observed ignored: ...", a flag a script cannot pass; it now says
+    "observed= ignored: ..." (the AionWarning and the report's list alike), and the command
+    line still says --observed."""
+    from tests.cli.logdata import write_office_log
+
+    log = tmp_path / "office.mcap"
+    write_office_log(log)  # TF map -> base_link
+    span = ("2026-11-23 07:00", "2026-11-23 10:00")
+    with pytest.warns(aion.AionWarning) as caught:
+        built = aion.build(log, tmp_path / "api.aion", observed=[span])
+    said = [str(w.message) for w in caught if "ignored" in str(w.message)]
+    assert said == ["observed= ignored: the logs have a robot trajectory (tf map->base_link), "
+                    "whose poses say which places the sensor saw in each window"]
+    assert said[0] in built.report.warnings
+    assert not [w for w in built.report.warnings if "--observed" in w]
+    result = run("build", log, "-o", tmp_path / "cli.aion", "--observed", "..".join(span))
+    assert result.exit_code == 0
+    assert "warning: --observed ignored: the logs have a robot trajectory" in result.stderr
+
+
+def test_a_word_after_an_option_that_goes_on_with_the_sentence_is_not_its_value() -> None:
+    """'--nav-layer ignored: ...' read 'nav_layer="ignored:" ...' and 'as --map-frame said'
+    read 'as map_frame="said"'."""
+    assert api_text("--nav-layer ignored: no scene graph") == "nav_layer= ignored: no scene graph"
+    assert api_text("as --map-frame said so; --tz or the config") == (
+        "as map_frame= said so; tz= or the config"
+    )
+    assert api_text("--observed ignored: a robot") == "observed= ignored: a robot"
