@@ -23,6 +23,7 @@ Examples:
   aion info run.mcap --format json | jq '.topics[] | select(.role == "detections")'
   aion info run.bag --suggest-mapping /people > people.toml   a mapping to edit
   aion info run.bag --detections-mapping people.toml         what build takes with it
+  aion info run.mcap --verify                        read every chunk: damage and what it loses
 
 \b
 Roles: scene_graph (hydra_msgs/DsgUpdate, used by build), detections (a supported people
@@ -41,7 +42,8 @@ to 'map']} (aion_cli.frame_check: a build would need --map-frame), tf_roots{fram
 at the top of its TF tree, for those frames that TF knows (the --map-frame to build in when
 map->odom is missing)},
 mapping_example (without a detection topic: a topic --suggest-mapping writes a mapping for,
-or null).
+or null), with --verify verified{messages_read} (every message read as a build reads them;
+chunks that cannot be read are warnings naming the messages lost).
 For a map (.aion): map, format, version, creator, created, inputs[{path, name, size, sha256}],
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config, map_frame,
@@ -59,12 +61,19 @@ MAP_SUFFIX = ".aion"
 
 
 def describe(
-    paths: list[Path], log_format: str | None, mapping: Path | None = None, tz: str = "UTC"
+    paths: list[Path],
+    log_format: str | None,
+    mapping: Path | None = None,
+    tz: str = "UTC",
+    verify: bool = False,
 ) -> dict[str, Any]:
     """The info report of ``paths`` as a plain dict (also the JSON document):
     ``formats.summary`` plus what ``aion build`` will use (with ``mapping``, a
     ``--detections-mapping`` file), why each topic is used or skipped, the scene-graph
-    payload version, and a fixed sensor's hours with messages in the zone ``tz``."""
+    payload version, and a fixed sensor's hours with messages in the zone ``tz``. With
+    ``verify``, every message is read first, as a build reads them: chunks that cannot be
+    read (damaged, CRC failures) are warnings with the messages lost, as a build's are, and
+    ``verified.messages_read`` counts the messages read."""
     from aion_cli.formats.logs import open_logs
     from aion_cli.formats.summary import summarize
     from aion_cli.message_hours import fixed_sensor_windows
@@ -73,6 +82,7 @@ def describe(
     mappings = _mappings(mapping)
     example: str | None = None
     with open_logs(paths, log_format, allow_empty=True) as logset:
+        read = sum(1 for _ in logset.messages(None)) if verify else None  # warns as it reads
         summary = summarize(logset, [m.msgtype for m in mappings])
         plan = select_topics(logset.topics, mappings=mappings)
         _check_mappings(logset, plan)
@@ -81,6 +91,8 @@ def describe(
         for topic, first in firsts.items():
             summary.dsg_versions[topic] = first.versions
         report = summary.to_dict()
+        if read is not None:
+            report["verified"] = {"messages_read": read}
         if plan.detections and not plan.tf and _no_graph_robot(firsts):
             report["fixed_sensor"] = fixed_sensor_windows(logset, tz)
         if plan.detections:
@@ -205,7 +217,9 @@ def _no_graph_robot(firsts: dict[str, _FirstGraph]) -> bool:
     "--verify",
     is_flag=True,
     help="Maps: read every member and check its checksum and the state's consistency (info "
-    "alone reads only the manifest and the graph).",
+    "alone reads only the manifest and the graph). Logs: read every message as a build does, "
+    "and say which chunks cannot be read and how many messages they hold (info alone reads "
+    "the logs' summaries and the first messages).",
 )
 @click.option(
     "--tz",
@@ -262,11 +276,6 @@ def command(
         )
     if maps:
         _refuse_options(given, ("--verify",), "a map")
-    if verify and not maps:
-        raise InputError(
-            "--verify checks map files (.aion)",
-            hint="a log's chunks are checked as a build reads them",
-        )
     if maps:
         reports = [describe_map(p) for p in maps]
         if verify:
@@ -284,7 +293,7 @@ def command(
     from aion_cli.timeparse import resolve_zone
 
     zone = "UTC" if tz is None else resolve_zone(tz).name  # a bad zone: before any reading
-    report = describe(list(logs), log_format, detections_mapping, zone)
+    report = describe(list(logs), log_format, detections_mapping, zone, verify)
     if fmt == "json":
         click.echo(to_json(report))
     else:
@@ -310,7 +319,7 @@ def _refuse_options(given: dict[str, bool], applies: tuple[str, ...], what: str)
             f"{', '.join(ignored)} {'does' if len(ignored) == 1 else 'do'} not apply to {what}",
             hint=f"for {what} only {', '.join(applies)} applies"
             + ("; the others read logs" if what != "a scene-graph file" else "; --verify "
-               "checks maps, the others read logs"),
+               "checks maps and logs, the others read logs"),
         )
 
 
@@ -367,6 +376,11 @@ def _print(report: dict[str, Any]) -> None:
     messages = f"{report['messages']:,}"
     if held > report["messages"]:  # the rest on topics no ROS reader can decode (warnings)
         messages = f"{messages} readable of {held:,} (see the warnings)"
+    read = report.get("verified", {}).get("messages_read")
+    if read is not None:
+        gone = report["messages"] - read
+        lost = f", {gone:,} lost: see the warnings" if gone > 0 else ""
+        messages = f"{messages} ({read:,} read{lost})"
     seconds = float(report["duration_s"])
     readable = ""  # a long span also in days or hours
     if seconds >= 2 * 86400:

@@ -96,6 +96,35 @@ def _messages_in(chunk: Any) -> int:
     )
 
 
+def test_info_verify_names_a_corrupt_mcap_chunk_and_its_lost_messages(
+    spread_log: Path, tmp_path: Path
+) -> None:
+    """A flipped bit in the third chunk: ``aion info`` listed the log's 5,000 messages without a
+    word (it reads the summary), and ``--verify`` was refused for logs. ``info --verify`` now
+    reads every message as a build does: the chunk is named with the messages it loses, as the
+    build names it, and ``verified.messages_read`` counts the others."""
+    chunks = chunk_indexes(spread_log)
+    victim = chunks[2]
+    end = victim.chunk_start_offset + victim.chunk_length
+    data = bytearray(spread_log.read_bytes())
+    data[end - victim.compressed_size // 2] ^= 0x10
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    inside = _messages_in(victim)
+    named = (f"corrupt chunk at byte {victim.chunk_start_offset} skipped",
+             f"{inside:,} messages lost (/tracks {inside:,})")
+    result = run("info", bad, "--verify", "--format", "json")
+    assert result.exit_code == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["verified"] == {"messages_read": N_SPREAD - inside}
+    assert [w for w in report["warnings"] if all(part in w for part in named)], report
+    table = " ".join(run("info", bad, "--verify").stdout.split())
+    assert f"messages: {N_SPREAD:,} ({N_SPREAD - inside:,} read, {inside:,} lost" in table
+    whole = json.loads(run("info", spread_log, "--verify", "--format", "json").stdout)
+    assert whole["verified"] == {"messages_read": N_SPREAD}
+    assert not whole["warnings"]
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_corrupt_mcap_chunk_is_skipped_alone_and_named(
     seed: int, spread_log: Path, tmp_path: Path
