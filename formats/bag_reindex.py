@@ -50,8 +50,10 @@ def reindex(reader: BagReader, why: str) -> str:
     indexes: dict[int, list[IndexData]] = defaultdict(list)
     found = (connections, indexes)
     stop: int | None = None
-    skipped = 0
+    skipped: list[tuple[int, str]] = []  # (position, why) of the chunks that cannot be read
+    lost: dict[int, int] = defaultdict(int)  # per connection: messages their index records list
     cut_chunk = False  # the chunk at ``stop`` is cut short and its whole records were read
+    after_chunk = -1  # the last record that is not an index data record
     while pos < size:
         bio.seek(pos)
         try:
@@ -69,12 +71,18 @@ def reindex(reader: BagReader, why: str) -> str:
                     _read_chunk(reader, found, pos, header, data_at, size - data_at, part=True)
                     cut_chunk = True
             break
+        if op == RecordType.IDXDATA:  # after a chunk: its messages per connection
+            if skipped and skipped[-1][0] == after_chunk:
+                with suppress(*_RECORD_ERRORS):
+                    lost[header.get_uint32("conn")] += header.get_uint32("count")
+        else:
+            after_chunk = pos
         if op == RecordType.CHUNK:
             try:  # an uncompressed chunk gives the records it holds whole, as a cut one does
                 plain = header.get_string("compression") == "none"
                 _read_chunk(reader, found, pos, header, data_at, length, part=plain)
-            except (*_RECORD_ERRORS, caps.ChunkError):
-                skipped += 1
+            except (*_RECORD_ERRORS, caps.ChunkError) as exc:
+                skipped.append((pos, str(exc) or type(exc).__name__))
         elif op == RecordType.CONNECTION:  # the index's copies of the chunks' connections
             bio.seek(pos)
             with suppress(*_RECORD_ERRORS):
@@ -96,7 +104,7 @@ def reindex(reader: BagReader, why: str) -> str:
         f"{'' if chunks == 1 else 's'}, as `rosbag reindex` would: {messages:,} messages"
     )
     if skipped:
-        text += f"; {skipped:,} chunk{'' if skipped == 1 else 's'} could not be read"
+        text += _skipped_text(skipped, lost, connections)
     if cut_chunk:
         text += f"; the file ends inside the chunk at byte {stop:,}: its whole messages are read"
     elif stop is not None:
@@ -105,6 +113,29 @@ def reindex(reader: BagReader, why: str) -> str:
             "from there on are not read"
         )
     return text
+
+
+def _skipped_text(
+    skipped: list[tuple[int, str]], lost: dict[int, int], connections: dict[int, Any]
+) -> str:
+    """What the reindex warning says of the chunks that cannot be read: how many, where the
+    first is and why, and the messages lost per topic as the index data records after them
+    list them (a recorder writes one per connection after each chunk), as the warning of a
+    skipped chunk of an indexed bag counts them."""
+    n = len(skipped)
+    pos, why = skipped[0]
+    where = f"at byte {pos}" if n == 1 else f"the first at byte {pos}"
+    text = f"; {n:,} chunk{'' if n == 1 else 's'} could not be read ({where}: {why})"
+    counts = sorted(
+        (connections[cid].topic if cid in connections else f"connection {cid}", k)
+        for cid, k in lost.items()
+        if k
+    )
+    if not counts:
+        return text + ": the messages they hold are not counted (no index record follows them)"
+    total = sum(k for _, k in counts)
+    per = ", ".join(f"{name} {k:,}" for name, k in counts)
+    return text + f": {total:,} message{'s' if total != 1 else ''} lost ({per})"
 
 
 def _read_chunk(

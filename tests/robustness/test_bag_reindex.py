@@ -204,3 +204,52 @@ def test_a_bag_whose_only_chunk_is_1000_bytes_short_keeps_its_whole_messages(
     )
     assert "()" not in warning
     assert f"as `rosbag reindex` would: {len(want):,} messages" in warning
+
+
+def test_a_damaged_compressed_chunk_of_an_unindexed_bag_counts_the_messages_it_loses(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A bz2 bag without its index (a recording not closed) whose second chunk no longer
+    decompresses: build and info said "1 chunk could not be read" and counted its messages
+    fewer without saying so. The warning now names the chunk, why, and the messages lost per
+    topic, from the index data records the recorder wrote after the chunk (as a skipped chunk
+    of an indexed bag is counted); the count is the intact bag's own index's."""
+    import rosbags.rosbag1 as rosbag1
+
+    opened = rosbag1.Writer.open
+
+    def bz2_open(self: rosbag1.Writer) -> None:
+        self.set_compression(rosbag1.Writer.CompressionFormat.BZ2)
+        opened(self)
+
+    monkeypatch.setattr(rosbag1.Writer, "open", bz2_open)
+    walking = [person(T0 + k * S, (0.5 * (k % 40), 1.0, 0.0)) for k in range(600)]
+    from aion_cli.formats.writers import LogWriter
+
+    full = tmp_path / "full.bag"
+    with LogWriter(full, "bag", chunk_size=20_000) as writer:
+        for message in walking:
+            writer.write(*message)
+    monkeypatch.undo()
+    with Reader(full) as reader:
+        assert len(reader.chunks) > 3
+        second = sorted(reader.chunks)[1]
+        data_at = reader.chunks[second].datapos
+        inside = sum(1 for es in reader.indexes.values() for e in es if e.chunk_pos == second)
+    assert inside > 0
+    data = bytearray(full.read_bytes())
+    (header_length,) = struct.unpack_from("<I", data, second)
+    (length,) = struct.unpack_from("<I", data, second + 4 + header_length)
+    data[data_at + length // 2] ^= 0xFF  # the bz2 stream no longer decodes
+    at, _ = _index_pos(bytes(data))
+    data[at : at + 8] = bytes(8)
+    broken = tmp_path / "broken.bag"
+    broken.write_bytes(bytes(data))
+    said = (f"1 chunk could not be read (at byte {second}: cannot decompress its bz2 data",
+            f"{inside:,} messages lost (/tracks {inside:,})")
+    report = build_json(broken, "-o", tmp_path / "b.aion")
+    assert report["detections"]["read"] == 600 - inside
+    assert [w for w in report["warnings"] if all(part in w for part in said)], report["warnings"]
+    info = run("info", broken)
+    assert info.exit_code == 0, info.stderr
+    assert all(part in " ".join(info.stderr.split()) for part in said), info.stderr
