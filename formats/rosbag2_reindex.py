@@ -23,7 +23,12 @@ from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, LogFile, _Source, _T
 from aion_cli.formats.mcap_source import _open_mcap
 from aion_cli.formats.raw import RawMessage, UnreadHint, normalize_msgtype
 from aion_cli.formats.rosbags_source import _storage_messages, _wanted_types
-from aion_cli.formats.sqlite_salvage import cut_short, salvage_to_temp
+from aion_cli.formats.sqlite_salvage import (
+    DamagedStorageError,
+    cut_short,
+    salvage_damaged,
+    salvage_to_temp,
+)
 
 if TYPE_CHECKING:
     from aion_cli.formats.recorded import Windows
@@ -59,9 +64,11 @@ class _ReindexedSqliteSource(_Source):
                 storage.open()
             except Exception as exc:  # rosbags ReaderError, apsw errors
                 self.close()
-                raise LogFormatError(
+                raise DamagedStorageError(
                     f"{original}: not a readable rosbag2 sqlite3 storage file ({exc})",
                     hint="the storage file may be truncated or corrupt",
+                    file=original,
+                    reason=str(exc),
                 ) from exc
             self._storages.append(storage)
         self.topics = {}
@@ -195,9 +202,7 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
             )
         if sqlite:
             originals = [o for o, _ in sqlite]
-            db: _Source = _ReindexedSqliteSource(
-                shown, [p for _, p in sqlite], originals, limits
-            )
+            db = _open_salvaging(shown, sqlite, limits, temps, salvaged)
             db.warnings.extend(salvaged)
             owned = [tmp for o in originals for tmp in temps.get(o, [])]
             opened.insert(0, _Unpacked(db, owned) if owned else db)
@@ -209,6 +214,34 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
                 tmp.cleanup()
         raise
     return opened
+
+
+def _open_salvaging(
+    shown: Path,
+    sqlite: list[tuple[Path, Path]],
+    limits: ReadLimits | None,
+    temps: dict[Path, list[Any]],
+    salvaged: list[str],
+) -> _Source:
+    """The sqlite3 files ``sqlite`` ((file on disk, file to read) pairs) as one source; a
+    file SQLite refuses for damage inside is replaced by what it reads past the damage
+    (:func:`formats.sqlite_salvage.salvage_damaged`, its warning into ``salvaged``, its
+    temporary folder into ``temps``); one of which it reads no message is refused."""
+    tried: set[Path] = set()
+    while True:
+        try:
+            return _ReindexedSqliteSource(
+                shown, [p for _, p in sqlite], [o for o, _ in sqlite], limits
+            )
+        except DamagedStorageError as exc:
+            if exc.file in tried:
+                raise
+            tried.add(exc.file)
+            k = next(i for i, (o, _) in enumerate(sqlite) if o == exc.file)
+            tmp, plain, warning = salvage_damaged(sqlite[k][1], exc.file, exc.reason)
+            temps.setdefault(exc.file, []).append(tmp)
+            salvaged.append(warning)
+            sqlite[k] = (exc.file, plain)
 
 
 def reindex(path: Path | str) -> dict[str, Any]:

@@ -9,6 +9,12 @@ rowid order, up to the first row it cannot read) into a new database in a tempor
 which the rosbag2 readers then read like any storage file, and says how much was lost, as the
 ROS 1 bag reindex (:mod:`formats.bag_reindex`) does for a bag cut short. A file of which no
 message can be read is refused, as cut short, not merely as unreadable.
+
+A file of full size damaged inside (a page overwritten: a disk error, a bad copy), which SQLite
+refuses with the same "malformed" once a query reaches the page, is copied past the damage
+(:func:`salvage_damaged`): the messages' rows are read in rowid order, and where a read fails
+the first rowid SQLite reads again after it is searched for (a damaged page holds a run of
+rowids); the rows in between are lost, and counted (rosbag2 numbers its messages 1, 2, 3 ...).
 """
 
 from __future__ import annotations
@@ -22,6 +28,17 @@ from typing import Any
 
 from aion_cli.errors import LogFormatError
 from aion_cli.formats.rosbag2_storage import SQLITE_MAGIC
+
+
+class DamagedStorageError(LogFormatError):
+    """A sqlite3 storage file SQLite refused to open for its damage (``file``: the file on
+    disk; ``reason``: what SQLite said), which :func:`salvage_damaged` may read past."""
+
+    def __init__(self, message: str, hint: str, file: Path, reason: str) -> None:
+        super().__init__(message, hint=hint)
+        self.file = file
+        self.reason = reason
+
 
 #: rows copied at a time (bounded memory whatever the payloads' sizes add up to)
 _BATCH = 256
@@ -66,14 +83,25 @@ def cut_short(path: Path) -> CutShort | None:
     return CutShort(size, page_size, pages) if size < page_size * pages else None
 
 
+def salvage_damaged(
+    path: Path, shown: Path | None = None, why: str = ""
+) -> tuple[tempfile.TemporaryDirectory[str], Path, str]:
+    """:func:`salvage_to_temp` for a sqlite3 file of full size that SQLite cannot read whole
+    (``why``: what it said): its readable rows, past each damaged run of message rows, copied
+    into a new database; the warning counts the message rows lost. Raises
+    :class:`LogFormatError` when not one message can be read."""
+    return salvage_to_temp(path, None, shown, why)
+
+
 def salvage_to_temp(
-    path: Path, cut: CutShort, shown: Path | None = None
+    path: Path, cut: CutShort | None, shown: Path | None = None, why: str = ""
 ) -> tuple[tempfile.TemporaryDirectory[str], Path, str]:
     """Copy what SQLite reads of the cut-short sqlite3 file ``path`` into a new database of
     the same name in a new temporary folder: ``(folder, copy, warning)``; the caller owns the
     folder and calls its ``cleanup()``. Messages name ``shown`` (default ``path``: the file
     on disk when ``path`` is its decompressed copy). Raises :class:`LogFormatError` (the
-    folder removed) when not one message can be read, or the temporary disk runs out."""
+    folder removed) when not one message can be read, or the temporary disk runs out.
+    ``cut`` None: the file is whole but damaged inside (:func:`salvage_damaged`)."""
     name = shown if shown is not None else path
     try:
         tmp = tempfile.TemporaryDirectory(prefix="aion-salvage-")
@@ -81,9 +109,10 @@ def salvage_to_temp(
         raise _no_room(name, exc) from exc
     copy = Path(tmp.name) / path.name
     try:
-        whole = _whole_pages(path, cut, Path(tmp.name) / f"whole-pages-{path.name}")
+        target = Path(tmp.name) / f"whole-pages-{path.name}"
+        whole = path if cut is None else _whole_pages(path, cut, target)
         try:
-            read, stop = _copy_rows(whole, copy)
+            read, stop, gaps = _copy_rows(whole, copy, skip=cut is None)
         finally:
             if whole != path:
                 whole.unlink()
@@ -91,7 +120,7 @@ def salvage_to_temp(
         tmp.cleanup()
         if isinstance(exc, sqlite3.OperationalError) and "disk" in str(exc).lower():
             raise _no_room(name, exc) from exc
-        raise _refused(name, cut, str(exc)) from exc
+        raise _refused(name, cut, str(exc), why) from exc
     except OSError as exc:
         tmp.cleanup()
         raise _no_room(name, exc) from exc
@@ -100,7 +129,9 @@ def salvage_to_temp(
         raise
     if read == 0:
         tmp.cleanup()
-        raise _refused(name, cut, stop or "its messages table is empty")
+        raise _refused(name, cut, stop or "its messages table is empty", why)
+    if cut is None:
+        return tmp, copy, _damaged_text(name, read, gaps, stop or why)
     warning = (
         f"{name.name}: the sqlite3 storage file is cut short, {cut.describe()}: its first "
         f"{read:,} messages are read, those after them are lost"
@@ -123,10 +154,30 @@ def _whole_pages(path: Path, cut: CutShort, target: Path) -> Path:
     return target
 
 
-def _copy_rows(path: Path, copy: Path) -> tuple[int, str]:
+def _damaged_text(name: Path, read: int, gaps: Gaps, why: str) -> str:
+    """The warning of a file salvaged past damage: the messages read, and the rows lost."""
+    lost = sum(b - a + 1 for a, b in gaps)
+    runs = ", ".join(f"{a:,}" if a == b else f"{a:,} to {b:,}" for a, b in gaps[:5])
+    more = f" and {len(gaps) - 5:,} more runs" if len(gaps) > 5 else ""
+    return (
+        f"{name.name}: the sqlite3 storage file is damaged inside (SQLite: {why}): "
+        f"{read:,} messages are read, {lost:,} cannot be (ids {runs}{more}) and are lost"
+        if gaps
+        else f"{name.name}: the sqlite3 storage file is damaged inside (SQLite: {why}), not in "
+        f"its messages: all {read:,} of them are read"
+    )
+
+
+Gaps = list[tuple[int, int]]
+"""Runs ``(first, last)`` of rowids skipped as unreadable."""
+
+
+def _copy_rows(path: Path, copy: Path, skip: bool = False) -> tuple[int, str, Gaps]:
     """Create ``copy`` with ``path``'s tables, indexes after their rows, and every row SQLite
-    reads of each table, in rowid order up to the first it cannot read: (messages copied,
-    SQLite's error where it stopped reading messages, "" when it read them all)."""
+    reads of each table, in rowid order up to the first it cannot read (``skip``: the
+    messages' rows also after each damaged run, :func:`_resume`): (messages copied, SQLite's
+    error where it stopped reading messages, "" when it read them all; the runs of message
+    rowids skipped as unreadable)."""
     # read-only, and no write to the file's folder (a journal, a lock): it may be read-only;
     # every query its own read transaction, so an error ends with it
     source = path.resolve().as_uri() + "?mode=ro&immutable=1"
@@ -147,11 +198,11 @@ def _copy_rows(path: Path, copy: Path) -> tuple[int, str]:
         for kind, _, sql in entries:
             if kind == "table":
                 db.execute(sql)
-        copied, stop = 0, ""
+        copied, stop, gaps = 0, "", []  # type: tuple[int, str, Gaps]
         for name in tables:
-            count, why = _copy_table(cut, db, name)
+            count, why, skipped = _copy_table(cut, db, name, skip and name == "messages")
             if name == "messages":
-                copied, stop = count, why
+                copied, stop, gaps = count, why, skipped
             elif why and name == "topics":  # messages without their topics cannot be read
                 raise sqlite3.DatabaseError(f"its topics table cannot be read ({why})")
         for kind, _, sql in entries:
@@ -161,26 +212,29 @@ def _copy_rows(path: Path, copy: Path) -> tuple[int, str]:
     finally:
         cut.close()
         db.close()
-    return copied, stop
+    return copied, stop, gaps
 
 
-def _copy_table(cut: sqlite3.Connection, db: sqlite3.Connection, name: str) -> tuple[int, str]:
+def _copy_table(
+    cut: sqlite3.Connection, db: sqlite3.Connection, name: str, skip: bool = False
+) -> tuple[int, str, Gaps]:
     """Copy table ``name`` of ``cut`` into ``db``, a batch at a time, until SQLite cannot
-    read on: (rows copied, its error, "" when every row was read)."""
+    read on (``skip``: on from the first rowid it reads after the damage, :func:`_resume`):
+    (rows copied, its first error, "" when every row was read; the runs of rowids skipped).
+    A batch is a ``LIMIT``: Python's sqlite3 steps one row ahead of the rows it returns, so a
+    fetch of the row before the damage failed with it."""
     quoted = '"' + name.replace('"', '""') + '"'
     columns = cut.execute(f"PRAGMA table_info({quoted})").fetchall()
     insert = f"INSERT INTO {quoted} VALUES ({', '.join('?' * len(columns))})"
-    select = f"SELECT rowid, * FROM {quoted} WHERE rowid > ? ORDER BY rowid"
-    copied, last, size = 0, -(2**63), _BATCH
+    select = f"SELECT rowid, * FROM {quoted} WHERE rowid >= ? ORDER BY rowid LIMIT ?"
+    copied, start, size = 0, -(2**63), _BATCH
+    first_why, gaps = "", []  # type: tuple[str, Gaps]
     while True:
         why = ""
-        rows = cut.execute(select, (last,))
         try:
-            batch: list[Any] | None = rows.fetchmany(size)
+            batch: list[Any] | None = cut.execute(select, (start, size)).fetchall()
         except sqlite3.DatabaseError as exc:
             batch, why = None, str(exc)
-        finally:
-            rows.close()
         if batch:
             db.execute("SAVEPOINT batch")
             try:
@@ -193,14 +247,62 @@ def _copy_table(cut: sqlite3.Connection, db: sqlite3.Connection, name: str) -> t
             if size > 1:  # the batch the damage is in: its rows before it, one by one
                 size = 1
                 continue
-            return copied, why
+            first_why = first_why or why
+            after = _resume(cut, quoted, start) if skip else None
+            if after is None:
+                return copied, first_why, gaps
+            gaps.append((max(start, 1), after - 1))  # (rosbag2 numbers rows from 1)
+            start, size = after, _BATCH
+            continue
         if not batch:
-            return copied, ""
+            return copied, first_why, gaps
         copied += len(batch)
-        last = batch[-1][0]
+        start = batch[-1][0] + 1
 
 
-def _refused(path: Path, cut: CutShort, why: str) -> LogFormatError:
+def _resume(cut: sqlite3.Connection, quoted: str, start: int) -> int | None:
+    """The smallest ``r`` > ``start`` from which SQLite reads the rows again (the rows
+    ``start .. r - 1`` lie in a damaged page: a read from any of them fails, from ``r`` on it
+    works); None when no row is readable after the damage. Steps of 1, 2, 4 ... find a
+    readable start, then bisection the first (a damaged page holds one run of rowids)."""
+
+    def reads_from(rowid: int) -> bool | None:  # True: a row is read, None: none is left
+        try:
+            row = cut.execute(
+                f"SELECT rowid FROM {quoted} WHERE rowid >= ? ORDER BY rowid LIMIT 1", (rowid,)
+            ).fetchall()
+        except sqlite3.DatabaseError:
+            return False
+        return True if row else None
+
+    bad, step = start, 1
+    while True:
+        probe = 0 if bad < 0 else bad + step  # (no row read yet: rosbag2's ids are positive)
+        if probe >= 2**63 - 1:
+            return None
+        got = reads_from(probe)
+        if got is None:
+            return None  # nothing after the damage
+        if got:
+            good = probe
+            break
+        bad, step = probe, step * 2 if bad >= 0 else 1
+    while good - bad > 1:  # reads from ``good``, not from ``bad``
+        mid = (bad + good) // 2
+        if reads_from(mid):
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
+def _refused(path: Path, cut: CutShort | None, why: str, said: str = "") -> LogFormatError:
+    if cut is None:
+        return LogFormatError(
+            f"{path}: not a readable rosbag2 sqlite3 storage file ({said or why}), and SQLite "
+            f"reads none of its messages past the damage ({why})",
+            hint="the storage file is corrupt: copy it again from its source",
+        )
     return LogFormatError(
         f"{path}: the sqlite3 storage file is cut short, {cut.describe()}, and SQLite reads "
         f"none of its messages ({why})",
