@@ -139,6 +139,15 @@ def print_map(report: dict[str, Any]) -> None:
         if tally:
             text = ", ".join(f"{name} {count:,}" for name, count in sorted(tally.items()))
             table.add_row(f"{kind} models", safe(text))
+    from aion_cli.engine.temporal.choice import CHOICE_RULES
+
+    if families.get("flow") and families.get("rules", 1) != CHOICE_RULES:
+        table.add_row(
+            "models note",
+            safe("counted by an aion whose rules chose differently; this one chooses afresh "
+                 "for each query (aion predict --format json names each entry's family; "
+                 "continuing the map with more logs, or rebuilding it, counts them again)"),
+        )
     if "scored_days" in families:
         days = int(families["scored_days"])
         last = " (the last, still open to more logs, provisionally)" if families.get(

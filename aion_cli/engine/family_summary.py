@@ -10,6 +10,7 @@ import numpy as np
 
 from aion_cli.engine.closing import open_window_record
 from aion_cli.engine.temporal import model as temporal_model
+from aion_cli.engine.temporal.choice import CHOICE_RULES
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
@@ -40,6 +41,7 @@ def family_summary(state: MapState) -> dict[str, Any]:
         "scored_days": _scored_days(state, t, rows),
         "last_day_provisional": state.provisional_scores() is not None,  # cached
         "observed_bins": observed.tolist(),
+        "rules": CHOICE_RULES,
     }
 
 

@@ -174,6 +174,7 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
         "scored_days": 0,
         "last_day_provisional": False,
         "observed_bins": [8],  # the office log's 20 minutes from Monday 08:00 UTC
+        "rules": 2,  # the choice rules the counts were taken under (engine.temporal.choice)
     }
     assert doc["timezone"] == "UTC"
     table = run("info", office.map)
@@ -184,6 +185,32 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
     assert any("days scored" in line and line.split("│")[2].strip() == "0" for line in lines)
     hours = "weekdays 08:00-09:00; weekends none (UTC)"
     assert any("hours observed" in line and hours in line for line in lines)
+    assert "models note" not in table.stdout
+
+
+def test_info_says_when_an_older_aion_counted_the_families(office: Office, tmp_path: Path) -> None:
+    """Family counts taken under other choice rules (a map's manifest without ``rules``, as
+    aion wrote before the rules changed) are not what this version's queries use: info says
+    so, and where to see the families in use."""
+    import json
+    import zipfile
+
+    old = tmp_path / "old.aion"
+    with zipfile.ZipFile(office.map) as zin, zipfile.ZipFile(old, "w") as zout:
+        for info in zin.infolist():
+            data = zin.read(info)
+            if info.filename == "manifest.json":
+                manifest = json.loads(data)
+                del manifest["families"]["rules"]
+                data = json.dumps(manifest).encode()
+            zout.writestr(info, data)
+    table = run("info", old)
+    assert table.exit_code == 0, table.stderr
+    shown = " ".join(table.stdout.split())
+    assert "models note" in shown
+    assert "aion predict --format json names each entry's family" in " ".join(
+        shown.replace("│", " ").split()
+    )
 
 
 def test_families_after_a_scored_day(tmp_path: Path) -> None:

@@ -49,6 +49,12 @@ import numpy.typing as npt
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.types import F64, I64
 
+CHOICE_RULES = 2
+"""The version of the rules that choose a family from the stored scores, recorded with a map's
+family counts (``aion info``): queries choose afresh, so a map counted under other rules may
+forecast with other families than its counts say. 1: before an entry's own time-varying family
+against a borrowed default needed consistent daily gains (2026-12-06); maps without the key."""
+
 _DISPERSION_PRIOR = 10.0
 _FDR = 0.05
 """The false-discovery rate at which entries may choose a time-varying family over ``static``."""
