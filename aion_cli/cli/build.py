@@ -24,7 +24,7 @@ from aion_cli.cli.output import AionCommand, format_option, to_json
 EPILOG = """\b
 Examples:
   aion build run.mcap                          writes run.aion next to the log
-  aion build run1.mcap run2.bag -o office.aion several logs, merged in time order
+  aion build run1.mcap run2.bag -o office.aion  several logs, merged in time order
   aion build run3.mcap --map office.aion       continue a map with a new log
   aion build tracks.mcap --derive-graph        no scene graph: derive one from walking people
   aion build run.mcap --graph dsg.json         use a scene graph saved by Hydra
