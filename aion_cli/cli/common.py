@@ -43,6 +43,15 @@ class AionPath(click.Path):
             self.fail(
                 f"{value!r} ends in '/', which names a folder: give a file name", param, ctx
             )
+        if isinstance(value, str) and not self.dir_okay and os.path.isdir(value):
+            # click's own "File '.' is a directory." leaves the way out unsaid
+            here = os.path.realpath(value) == os.path.realpath(os.curdir)
+            self.fail(
+                f"{value!r} is {'the current folder' if here else 'a folder'}, not a file: name "
+                f"a file in it (e.g. {os.path.join(value, 'NAME')})",
+                param,
+                ctx,
+            )
         return super().convert(value, param, ctx)
 
 

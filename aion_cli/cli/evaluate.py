@@ -404,7 +404,8 @@ def office(
     result = run_office(scenes, days, agents, seed, _config(config_path), radius,
                         work_dir=work_dir, progress=note)
     emit(fmt, result.table(), TABLE_I_COLUMNS, json_payload=result.to_dict(),
-         title=f"aion vs grid, {scenes} office scenes x {agents} people, {days:g} days each")
+         title=f"aion vs grid, {scenes} office scenes x {agents} people, {days:g} "
+         f"day{'' if days == 1 else 's'} each")
     means = result.truth_means()
     if fmt.lower() == "table" and means:
         click.echo(truth_sentence(means))

@@ -142,6 +142,11 @@ def _mistakes(office: Office, folder: Path) -> dict[str, tuple[list[Any], str]]:
             ["plan", office.map, "--from", "p1", "--to", "p2", "--export", f"{folder}/x.ply/"],
             "ends in '/', which names a folder",
         ),
+        # click's own words ("File 'x' is a directory.") left the way out unsaid
+        "a folder as a map output": (
+            ["merge", office.map, office.map, "-o", folder],
+            f"{str(folder)!r} is a folder, not a file: name a file in it (e.g. {folder}/NAME)",
+        ),
     }
 
 
@@ -172,6 +177,7 @@ CASES = (
     "an empty map path",
     "an empty output path",
     "an output file ending in '/'",
+    "a folder as a map output",
 )
 
 
