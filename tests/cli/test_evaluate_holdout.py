@@ -180,7 +180,7 @@ def test_no_hours_no_picture() -> None:
 
 @pytest.mark.parametrize(
     ("name", "fragment"),
-    [(".", "is a directory"), ("x.png/", "names a folder"), ("notes.txt", "writes a .png file"),
+    [(".", "is the current folder, not a file"), ("x.png/", "names a folder"), ("notes.txt", "writes a .png file"),
      ("no/such/x.png", "does not exist")],
 )
 def test_the_hourly_picture_target_is_checked_first(

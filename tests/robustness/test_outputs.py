@@ -335,7 +335,7 @@ def test_build_output_must_be_a_map_or_new(office: Office, tmp_path: Path) -> No
     folder.mkdir()
     result = run("build", log, "-o", folder)
     assert result.exit_code == 2
-    assert_one_error(result.stderr, "is a directory")  # click says so first
+    assert_one_error(result.stderr, "is a folder, not a file: name a file in it")  # -o's check
     # an existing map is replaced (the build says so)
     target = office.copy_map(tmp_path / "m.aion")
     result = run("build", log, "-o", target)
