@@ -21,6 +21,7 @@ from aion_cli.engine.node_ids import (
     parse_point,
     point_distance,
     refuse_far_point,
+    refuse_malformed_point,
     shown_point,
 )
 from aion_cli.room_names import (
@@ -82,6 +83,8 @@ def resolve_endpoint(
     if point is None:
         _refuse_cell(where)
         named = None if graph is None else named_node(where, graph)
+        if named is None:
+            refuse_malformed_point(where)  # "1,2,3,4", "(1,2)": not "not a node id"
         node_id = named if named is not None else parse_id_or_name(where, graph)
         return _node_endpoint(node_id, nav, graph)
     row = nav.nearest(point)

@@ -113,6 +113,34 @@ def require_point(text: str, option: str) -> tuple[float, float, float]:
     return point
 
 
+_NUMBER_RUN = re.compile(r"[\s,;]+")
+
+
+def refuse_malformed_point(text: str) -> None:
+    """:class:`InputError` when ``text``, which :func:`parse_point` did not read, was meant as
+    coordinates: it has a comma, or is two or more numbers (``1,2,3,4``, ``(1,2)``, ``1 2``,
+    ``[0.0, 0.0]`` as a plan's JSON prints a point); a place id or a name passes. Said as a
+    point's error, not as "not a node id", where a place, room or point is accepted."""
+    inner = text.strip().strip("()[]")
+    parts = [p for p in _NUMBER_RUN.split(inner) if p]
+    numbers = 0
+    for part in parts:
+        try:
+            float(part)
+        except ValueError:
+            break
+        numbers += 1
+    meant = "," in text or (numbers == len(parts) and numbers >= 2)
+    if not meant:
+        return
+    counted = f" ({numbers} numbers)" if numbers == len(parts) and numbers > 3 else ""
+    raise InputError(
+        f"not a point x,y or x,y,z{counted}, nor a place or room: {text!r}",
+        hint="a point is 2 or 3 numbers in metres joined by commas, without brackets "
+        '(e.g. 3.5,-1.2 or 3.5,-1.2,0.8); a place by its id ("p12")',
+    )
+
+
 FAR_POINT_M = 10.0
 """A typed point may lie this far from every entry, or as far as the entries span if that is
 more, and still stand for the nearest one; farther, it is refused (a point in another frame or

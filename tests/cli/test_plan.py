@@ -356,3 +356,27 @@ def test_the_plan_picture_names_the_rooms_asked_for(
         assert (drawn[-1]["start_label"], drawn[-1]["goal_label"]) == (start, goal)
         assert drawn[-1]["title"] == f"{start} to {goal}, departing Mon 2026-11-23 08:30 UTC"
         assert f"{start} -> {goal}, departing" in table
+
+
+@pytest.mark.parametrize(
+    ("where", "said"),
+    [
+        ("1,2,3,4", "(4 numbers)"),  # one coordinate too many
+        ("(0.2,-0.1)", "without brackets"),
+        ("[0.2, -0.1]", "without brackets"),  # a point as plan's JSON prints it
+        ("0.2 -0.1", "joined by commas"),
+        ("0.2;-0.1", "joined by commas"),
+    ],
+)
+def test_a_mistyped_point_is_refused_as_a_point(office: Office, where: str, said: str) -> None:
+    """Before: "not a node id: '1,2,3,4'" with a hint about node ids only, for what was
+    meant as coordinates (plan, export --path-from/--path-to and Map.plan alike)."""
+    result = run("plan", office.map, "--from", where, "--to", "p3", "--time", AT)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "not a point x,y or x,y,z", repr(where))
+    assert said in result.stderr
+    assert "not a node id" not in result.stderr
+    # the two forms it is told from still read as before: a point, and a place id
+    doc = run_json("plan", office.map, "--from", "0.2,-0.1", "--to", "p3", "--time", AT,
+                   "--format", "json")
+    assert doc["from"] == "p0"
