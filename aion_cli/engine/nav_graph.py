@@ -54,6 +54,9 @@ class NavGraph:
     ids: U64
     xyz: F64
     edges: I64
+    # the radius its edges were made within (:meth:`connect_within`: the scene graph had no
+    # place edges), None for edges of its own: said when start and goal are not connected
+    joined_within: float | None = None
 
     def __post_init__(self) -> None:
         m = len(self.ids)
@@ -96,7 +99,8 @@ class NavGraph:
             raise NavGraphError(f"radius must be positive, got {radius!r}")
         from scipy.spatial import cKDTree  # slow to import: only here
         pairs = cKDTree(self.xyz).query_pairs(radius, output_type="ndarray")
-        return NavGraph.build(self.ids, self.xyz, pairs.astype(np.int64).reshape(-1, 2))
+        joined = NavGraph.build(self.ids, self.xyz, pairs.astype(np.int64).reshape(-1, 2))
+        return NavGraph(joined.ids, joined.xyz, joined.edges, float(radius))
 
     def __len__(self) -> int:
         return len(self.ids)

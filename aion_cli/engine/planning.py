@@ -241,11 +241,27 @@ def _no_path(graph: NavGraph, start: int, goal: int) -> NoPathError:
         comp = labels[row]
         return f"{node_label(int(graph.ids[row]))} is in a component of {sizes[comp]} node(s)"
 
+    if graph.joined_within is not None:  # no place edges: the radius made them
+        hint = (
+            "the scene graph has no place edges, so its places were joined within "
+            f"plan_connect_radius = {graph.joined_within:g} m: rebuild the map with a larger "
+            "one (aion build --config FILE with a line plan_connect_radius = ...)"
+        )
+    else:
+        shown = 6
+        held = np.flatnonzero(labels == labels[start])
+        held = held[held != start]
+        examples = ", ".join(node_label(int(graph.ids[r])) for r in held[:shown])
+        more = ", ..." if len(held) > shown else ""
+        hint = (
+            f"pick a goal in the start's component: {examples}{more}"
+            if len(held)
+            else "the start has no edge to any other place: pick a start in the goal's component"
+        )
     return NoPathError(
         f"no path from {node_label(int(graph.ids[start]))} to {node_label(int(graph.ids[goal]))}:"
         f" the graph has {n_comp} disconnected components; {describe(start)}, {describe(goal)}",
-        hint="pick a goal in the start's component, or give the graph a larger "
-        "plan_connect_radius if it has no edges",
+        hint=hint,
     )
 
 

@@ -241,7 +241,34 @@ def test_disconnected_graph_names_components() -> None:
     assert "2 disconnected components" in msg
     assert "p0 is in a component of 3 node(s)" in msg
     assert "p4 is in a component of 2 node(s)" in msg
-    assert err.value.hint
+    # the graph has edges of its own: the hint names the goals the start reaches, and says
+    # nothing of plan_connect_radius, which only joins a graph without edges (said before)
+    assert err.value.hint == "pick a goal in the start's component: p1, p2"
+    with pytest.raises(NoPathError) as back:  # from the two-node part: p3 alone beside it
+        plan(g, pid(3), pid(0), 0.0, 1.0, None, CFG)
+    assert back.value.hint == "pick a goal in the start's component: p4"
+
+
+def test_no_path_in_a_graph_without_edges_names_the_radius_to_rebuild_with() -> None:
+    """A scene graph without place edges is joined within plan_connect_radius (2.5 m): places
+    4 m apart stay apart, and the only remedy is a map built with a larger radius."""
+    snap = GraphSnapshot(
+        t_ns=0,
+        places=Layer(
+            np.array([pid(0), pid(1)], dtype=np.uint64),
+            np.array([[0, 0, 0], [4, 0, 0]], dtype=float),
+            np.zeros(2, dtype=np.uint64),
+        ),
+        edges=np.zeros((0, 2), dtype=np.int64),
+    )
+    nav = NavGraph.from_snapshot(snap, CFG.plan_connect_radius)
+    with pytest.raises(NoPathError) as err:
+        plan(nav, pid(0), pid(1), 0.0, 1.0, None, CFG)
+    hint = err.value.hint or ""
+    assert "plan_connect_radius = 2.5 m" in hint
+    assert "aion build --config" in hint
+    wider = NavGraph.from_snapshot(snap, 4.5)  # the rebuild it advises finds the path
+    assert plan(wider, pid(0), pid(1), 0.0, 1.0, None, CFG).length_m == pytest.approx(4.0)
 
 
 def test_unknown_node_and_bad_speed() -> None:
