@@ -30,6 +30,7 @@ def chosen_entries(
     from aion_cli.room_names import names_by_id, other_case_hint, with_names_resolved
 
     graph = loaded.graph
+    _refuse_points(nodes)
     wanted = with_names_resolved(nodes, graph)
     layer = layer_of_nodes(layer, wanted, graph)
     table = entry_table(loaded, t_ns, layer)
@@ -41,6 +42,20 @@ def chosen_entries(
     index = refuse_empty_layer(table, layer, index)
     names = {} if loaded.graph is None else names_by_id(loaded.graph)
     return table, layer, index, names
+
+
+def _refuse_points(nodes: Sequence[str | int]) -> None:
+    """A ``--node`` value that is coordinates (``4,0``, as ``plan --from`` takes them): an
+    :class:`InputError` pointing to ``--at``, not "not a node id"."""
+    from aion_cli.engine.node_ids import parse_point
+    from aion_cli.errors import InputError
+
+    for node in nodes:
+        if isinstance(node, str) and parse_point(node) is not None:
+            raise InputError(
+                f"--node takes ids and room names; {node.strip()!r} is a point",
+                hint=f"--at {node.strip()} answers for the entry nearest to it (Map.predict: at=)",
+            )
 
 
 def refuse_empty_layer(table: Any, layer: str, index: Any) -> Any:

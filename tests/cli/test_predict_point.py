@@ -27,3 +27,17 @@ def test_a_point_says_which_entry_it_stands_for_and_how_far(office: Office) -> N
     quiet = run("predict", office.map, "--time", AT, "--at", "5.8,0.3", "-q")
     assert quiet.exit_code == 0
     assert "nearest" not in quiet.stderr
+
+
+def test_a_point_given_to_node_points_to_at(office: Office) -> None:
+    """``--node 5.8,0.3`` (coordinates, as ``plan --from`` takes them) said "not a node id"
+    with a hint about ids only; now it names --at with the same point, which answers."""
+    from tests.cli.conftest import assert_one_line_error
+
+    for args in (["--time", AT], ["--from", AT, "--to", AT]):
+        result = run("predict", office.map, *args, "--node", "p1", "--node", "5.8,0.3")
+        assert result.exit_code == 2
+        assert_one_line_error(result.stderr, "'5.8,0.3' is a point")
+        assert "hint: --at 5.8,0.3 " in result.stderr
+    answered = run_json("predict", office.map, "--time", AT, "--at", "5.8,0.3", "--format", "json")
+    assert len(answered["entries"]) == 1
