@@ -299,7 +299,7 @@ class Map(Generic[Report]):
         later, every departure's cost in ``Plan.departures`` (``--leave``); ``step`` without
         ``leave`` is refused, as ``--step`` without ``--leave``."""
         from aion_cli.mapquery import nav_graph
-        from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
+        from aion_cli.routes import plan_departures, plan_routes, resolve_ends
 
         start, goal = check.endpoint(start, "start"), check.endpoint(goal, "goal")
         if speed is not None and not 0.01 <= check.real(speed, "speed") <= 20.0:
@@ -317,7 +317,7 @@ class Map(Generic[Report]):
         t_ns, zone = self._time("now" if time is None else time, tz)
         nav = nav_graph(self._loaded)
         graph = self._loaded.graph
-        a, b = resolve_endpoint(start, nav, graph), resolve_endpoint(goal, nav, graph)
+        a, b = resolve_ends(start, goal, nav, graph)
         snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
         if leave is None:
             routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)

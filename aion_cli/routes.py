@@ -51,6 +51,9 @@ class Endpoint:
     # the room or building (``("room", "R3")``) whose place this is, when one was asked for
     within: tuple[str, str] | None = None
     name: str | None = None  # that room's name in the graph ("kitchen"), if it has one
+    # the room's place nearest its centre was not joined to the other end: this is its
+    # nearest place of those that are
+    reachable_only: bool = False
 
     def snapped(self, option: str) -> dict[str, Any] | None:
         """The ``snapped`` record of ``aion plan --format json`` (None for a node id); for a
@@ -62,6 +65,8 @@ class Endpoint:
             record[self.within[0]] = self.within[1]
             if self.name is not None:
                 record["name"] = self.name
+        if self.reachable_only:
+            record["reachable_only"] = True
         return record | {
             "point": shown_point(self.point),
             "node": node_label(self.node_id),
@@ -162,9 +167,12 @@ def _refuse_unknown_room(node_id: int, graph: GraphSnapshot) -> None:
     )
 
 
-def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoint | None:
-    """The place of room (or building) ``node_id`` nearest its centre; None when ``node_id``
-    is neither."""
+def _room_endpoint(
+    node_id: int, nav: NavGraph, graph: GraphSnapshot, within: int | None = None
+) -> Endpoint | None:
+    """The place of room (or building) ``node_id`` nearest its centre (of its places in
+    component ``within`` of ``nav``, when given: None if it has none there); None when
+    ``node_id`` is neither."""
     from aion_cli.errors import UnknownNodeError
 
     wanted = np.uint64(node_id)
@@ -178,6 +186,10 @@ def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoin
         return None
     label = node_label(node_id)
     candidates = np.isin(nav.ids, graph.places.ids[np.isin(graph.places.parent, rooms)])
+    if within is not None:
+        candidates &= nav.components == within
+        if not candidates.any():
+            return None
     rows = np.flatnonzero(candidates)
     if rows.size == 0:
         raise UnknownNodeError(
@@ -196,7 +208,40 @@ def _room_endpoint(node_id: int, nav: NavGraph, graph: GraphSnapshot) -> Endpoin
         float(np.sqrt(d2.min())),
         (kind, label),
         name_of(layer, at),
+        within is not None,
     )
+
+
+def resolve_ends(
+    start: str | int, goal: str | int, nav: NavGraph, graph: GraphSnapshot | None = None
+) -> tuple[Endpoint, Endpoint]:
+    """:func:`resolve_endpoint` of both ends of a plan; a room or building whose place
+    nearest its centre is not joined to the other end (an isolated place of the scene graph)
+    stands for its nearest place of those that are, if it has one: the room is reachable."""
+    a, b = resolve_endpoint(start, nav, graph), resolve_endpoint(goal, nav, graph)
+    if graph is None:
+        return a, b
+    comp = nav.components
+    row_a, row_b = nav.index_of(a.node_id), nav.index_of(b.node_id)
+    if comp[row_a] == comp[row_b]:
+        return a, b
+    if b.within is not None:
+        moved = _room_endpoint(_room_id(b), nav, graph, int(comp[row_a]))
+        if moved is not None:
+            return a, moved
+    if a.within is not None:
+        moved = _room_endpoint(_room_id(a), nav, graph, int(comp[row_b]))
+        if moved is not None:
+            return moved, b
+    return a, b
+
+
+def _room_id(end: Endpoint) -> int:
+    """The id of the room or building an endpoint was asked for as."""
+    from aion_cli.engine.node_ids import parse_node_id
+
+    assert end.within is not None
+    return parse_node_id(end.within[1])
 
 
 @dataclass(frozen=True)

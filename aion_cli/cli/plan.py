@@ -42,7 +42,8 @@ distance-only path is always shown beside it, with the temporal cost it would ha
 less than the temporal plan's: where it would be, it is the temporal plan too).
 JSON keys: map, from, to, depart, depart_ns, zone, speed_mps,
 temporal{path, length_m, duration_s, cost, arrival, arrival_ns}, distance_only{the same},
-snapped[{option, room or building and name (a room or building asked for), point, node,
+snapped[{option, room or building and name (a room or building asked for), reachable_only
+(true where the place nearest its centre was not joined to the other end), point, node,
 distance_m}] (a start or goal given as a point, room or building) (and export / png: the
 files written; with --leave, departures[{depart, depart_ns, cost, length_m, duration_s,
 distance_only_cost, best, hour_observed (a map that lists its observed hours)}]).
@@ -143,7 +144,7 @@ def command(
     from aion_cli.errors import InputError
     from aion_cli.mapquery import nav_graph
     from aion_cli.predictions import hour_flags
-    from aion_cli.routes import plan_departures, plan_routes, resolve_endpoint
+    from aion_cli.routes import plan_departures, plan_routes, resolve_ends
 
     time_given = option_given("time_text")
     if leave is not None and time_given:
@@ -162,8 +163,7 @@ def command(
     every = "10m" if step is None else step
     leaving = None if leave is None else departure_times(leave, every, zone)
     nav = nav_graph(loaded)
-    a = resolve_endpoint(start, nav, loaded.graph)
-    b = resolve_endpoint(goal, nav, loaded.graph)
+    a, b = resolve_ends(start, goal, nav, loaded.graph)
     if leaving is None:
         t_ns, _ = resolve_time(time_text, tz, loaded)
         routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)
@@ -210,8 +210,12 @@ def snapped_text(snap: dict[str, Any]) -> str:
     within = next((k for k in ("room", "building") if k in snap), None)
     if within is not None:
         asked = snap[within] if "name" not in snap else f"{snap['name']} ({snap[within]})"
+        among = (
+            f" of those joined to the {'goal' if snap['option'].endswith('from') else 'start'}"
+            if snap.get("reachable_only") else ""
+        )
         return (
-            f"{snap['option']} {asked}: its place nearest the {within}'s centre, "
+            f"{snap['option']} {asked}: its place nearest the {within}'s centre{among}, "
             f"{snap['node']} ({snap['distance_m']:.2f} m from it)"
         )
     return (

@@ -128,6 +128,17 @@ class NavGraph:
         return int(np.argmin(distances_from(self.xyz, point)))
 
     @cached_property
+    def components(self) -> I64:
+        """The connected component of each node (labels 0..k-1, int64[m])."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        m, e = len(self.ids), self.edges
+        adj = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(m, m))
+        labels = connected_components(adj, directed=False)[1]
+        return np.asarray(labels, dtype=np.int64)
+
+    @cached_property
     def arcs(self) -> Arcs:
         """Directed arcs (both directions of each edge), sorted by source row."""
         src = np.concatenate([self.edges[:, 0], self.edges[:, 1]])

@@ -46,8 +46,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.nav_graph import Arcs, NavGraph, NavGraphError
@@ -231,11 +229,9 @@ def _check_motion(speed: float, depart_s: float, bucket_s: float) -> None:
 
 
 def _no_path(graph: NavGraph, start: int, goal: int) -> NoPathError:
-    m = len(graph)
-    e = graph.edges
-    adj = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(m, m))
-    n_comp, labels = connected_components(adj, directed=False)
-    sizes = np.bincount(labels, minlength=n_comp)
+    labels = graph.components
+    sizes = np.bincount(labels)
+    n_comp = len(sizes)
 
     def describe(row: int) -> str:
         comp = labels[row]

@@ -380,3 +380,42 @@ def test_a_mistyped_point_is_refused_as_a_point(office: Office, where: str, said
     doc = run_json("plan", office.map, "--from", "0.2,-0.1", "--to", "p3", "--time", AT,
                    "--format", "json")
     assert doc["from"] == "p0"
+
+
+def test_a_room_whose_centre_place_is_isolated_is_reached_by_its_other_places(
+    tmp_path: Path,
+) -> None:
+    """Hydra leaves a few places without edges. Room R1 holds p2 (4,0), p5 (5,0.1) - isolated -
+    and p6 (6.5,0): its centre (31/6, 1/30) is nearest p5 (0.17 m), so "plan to R1" said "no
+    path from p0 to p5" though p2 and p6 of R1 are joined to p0. Now R1 stands for its place
+    nearest the centre of those joined to the other end: p2 (1.17 m), by hand."""
+    import aion_cli as aion
+    from tests.cli.logdata import build_graph
+
+    log = tmp_path / "rooms.mcap"
+    write_office_log(log, graph=False)
+    places = {0: (0.0, 0.0, 0.0), 1: (2.0, 0.0, 0.0), 2: (4.0, 0.0, 0.0),
+              5: (5.0, 0.1, 0.0), 6: (6.5, 0.0, 0.0)}
+    graph = tmp_path / "rooms.json"
+    build_graph(places, [(0, 1), (1, 2), (2, 6)], {0: (0, 1), 1: (2, 5, 6)}).save(
+        str(graph), include_mesh=False
+    )
+    out = tmp_path / "rooms.aion"
+    run_json("build", log, "--graph", graph, "-o", out, "--format", "json")
+    centre = (31 / 6, 1 / 30)
+    doc = run_json("plan", out, "--from", "p0", "--to", "R1", "--time", AT, "--format", "json")
+    (goal,) = doc["snapped"]
+    assert (goal["room"], goal["node"], goal["reachable_only"]) == ("R1", "p2", True)
+    assert goal["distance_m"] == pytest.approx(float(np.hypot(4 - centre[0], centre[1])))
+    assert doc["distance_only"]["path"] == ["p0", "p1", "p2"]
+    assert doc["distance_only"]["length_m"] == pytest.approx(4.0)
+    back = run("plan", out, "--from", "room1", "--to", "p0", "--time", AT)
+    assert back.exit_code == 0, back.stderr
+    assert "its place nearest the room's centre of those joined to the goal, p2" in " ".join(
+        back.stderr.split()
+    )
+    assert aion.Map.load(out).plan("p0", "R1", time=AT).nodes == ["p0", "p1", "p2"]
+    # a room whose centre place is joined keeps it, without the flag
+    near = run_json("plan", out, "--from", "p2", "--to", "R0", "--time", AT, "--format", "json")
+    assert near["snapped"][0]["node"] in ("p0", "p1")  # centre (1, 0): 1 m from both
+    assert "reachable_only" not in near["snapped"][0]
