@@ -217,23 +217,44 @@ def resolve_ends(
 ) -> tuple[Endpoint, Endpoint]:
     """:func:`resolve_endpoint` of both ends of a plan; a room or building whose place
     nearest its centre is not joined to the other end (an isolated place of the scene graph)
-    stands for its nearest place of those that are, if it has one: the room is reachable."""
+    stands for its nearest place of those that are, if it has one: the room is reachable.
+    Ends that are still not joined are a :class:`~aion_cli.errors.NoPathError` that says
+    which place a point or room given as an end stood for."""
     a, b = resolve_endpoint(start, nav, graph), resolve_endpoint(goal, nav, graph)
-    if graph is None:
-        return a, b
     comp = nav.components
     row_a, row_b = nav.index_of(a.node_id), nav.index_of(b.node_id)
     if comp[row_a] == comp[row_b]:
         return a, b
-    if b.within is not None:
+    if graph is not None and b.within is not None:
         moved = _room_endpoint(_room_id(b), nav, graph, int(comp[row_a]))
         if moved is not None:
             return a, moved
-    if a.within is not None:
+    if graph is not None and a.within is not None:
         moved = _room_endpoint(_room_id(a), nav, graph, int(comp[row_b]))
         if moved is not None:
             return moved, b
-    return a, b
+    raise _unjoined(nav, (a, row_a), (b, row_b))
+
+
+def _unjoined(nav: NavGraph, *ends: tuple[Endpoint, int]) -> Exception:
+    """The no-path error of two ends in different components, saying which place a point,
+    room or building given as an end stood for (the notes that say it on success are not
+    printed on failure: "no path from p0 to p5" named a place nobody typed)."""
+    from aion_cli.engine.planning import no_path_error
+    from aion_cli.errors import NoPathError
+
+    err = no_path_error(nav, ends[0][1], ends[1][1])
+    said = []
+    for role, (end, _) in zip(("start", "goal"), ends, strict=True):
+        label = node_label(end.node_id)
+        if end.within is not None:
+            said.append(f"the {role} {end.within[1]} stands for its place {label}")
+        elif end.point is not None:
+            typed = ",".join(f"{v:g}" for v in shown_point(end.point))
+            said.append(f"the {role} {typed} snapped to {label} ({end.distance_m:.2f} m away)")
+    if not said:
+        return err
+    return NoPathError(f"{err} ({'; '.join(said)})", hint=err.hint)
 
 
 def _room_id(end: Endpoint) -> int:

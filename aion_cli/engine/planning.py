@@ -228,7 +228,9 @@ def _check_motion(speed: float, depart_s: float, bucket_s: float) -> None:
 # -- search ----------------------------------------------------------------------------------
 
 
-def _no_path(graph: NavGraph, start: int, goal: int) -> NoPathError:
+def no_path_error(graph: NavGraph, start: int, goal: int) -> NoPathError:
+    """The error of rows ``start`` and ``goal`` not connected: the graph's components, the
+    places the start reaches (or the radius its places were joined within)."""
     labels = graph.components
     sizes = np.bincount(labels)
     n_comp = len(sizes)
@@ -355,7 +357,7 @@ def plan(
     )
     best, dist, parent, closed, expanded = _astar(arcs, h, s, g_row, tables)
     if not closed[g_row]:
-        raise _no_path(graph, s, g_row)
+        raise no_path_error(graph, s, g_row)
     path = _reconstruct(parent, g_row)
     walked = np.asarray([dist[r] for r in path.tolist()], dtype=np.float64)
     return PlanResult(

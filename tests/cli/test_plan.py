@@ -419,3 +419,11 @@ def test_a_room_whose_centre_place_is_isolated_is_reached_by_its_other_places(
     near = run_json("plan", out, "--from", "p2", "--to", "R0", "--time", AT, "--format", "json")
     assert near["snapped"][0]["node"] in ("p0", "p1")  # centre (1, 0): 1 m from both
     assert "reachable_only" not in near["snapped"][0]
+    # a point is the place nearest it, joined or not: the error says which place it became
+    # (it named p5, which nobody typed, and the note saying so is printed on success only)
+    lost = run("plan", out, "--from", "0.1,0", "--to", "5,0.3", "--time", AT)
+    assert lost.exit_code == 2
+    assert_one_line_error(
+        lost.stderr, "no path from p0 to p5", "the start 0.1,0 snapped to p0 (0.10 m away)",
+        "the goal 5,0.3 snapped to p5 (0.20 m away)",
+    )
