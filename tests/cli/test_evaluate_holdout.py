@@ -180,8 +180,8 @@ def test_no_hours_no_picture() -> None:
 
 @pytest.mark.parametrize(
     ("name", "fragment"),
-    [(".", "is the current folder, not a file"), ("x.png/", "names a folder"), ("notes.txt", "writes a .png file"),
-     ("no/such/x.png", "does not exist")],
+    [(".", "is the current folder, not a file"), ("x.png/", "names a folder"),
+     ("notes.txt", "writes a .png file"), ("no/such/x.png", "does not exist")],
 )
 def test_the_hourly_picture_target_is_checked_first(
     corridor: tuple, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str, fragment: str
