@@ -142,8 +142,9 @@ class ModelConfig:
     neighbourhood; then the map), time-varying histograms shrunk toward the entry's static
     one with ``direction_time_prior``. Log-likelihoods floor rates at ``rate_floor``
     detections per window.
-    Planning: edge cost ``d * (1 + w_entropy*H + w_flow*F + w_direction*c_d)`` (see
-    ``engine.planning``), flow normalised by ``plan_flow_scale`` detections per window, or, with
+    Planning: edge cost ``d * (1 + (w_entropy*H + w_flow)*F + w_direction*c_d)`` (see
+    ``engine.planning``: entropy counts as busy as the place is), flow normalised by
+    ``plan_flow_scale`` detections per window, or, with
     ``plan_flow_auto``, by the map's own busy level (the 90th percentile of its places'
     observed flow), since detection counts depend on the tracker's rate and the robot's route.
     """

@@ -5,9 +5,13 @@ Cost (the paper, section IV "Planning"), for travelling the edge from node i to 
     cost(i, j) = d + (c̄_t + c_d(i, j)) · d
 
 - ``d`` is the Euclidean (3-D) distance between the nodes.
-- ``c_t(n) = plan_w_entropy · H_n + plan_w_flow · f_n`` per node, with ``H_n`` the normalised
+- ``c_t(n) = (plan_w_entropy · H_n + plan_w_flow) · f_n`` per node, with ``H_n`` the normalised
   directional entropy (0..1) and ``f_n = min(F_n / plan_flow_scale, 1)`` the busy-ness, ``F_n``
   the predicted flow in expected detections per window. ``c̄_t`` is the mean over i and j.
+  Entropy weighs as much as the place is busy: the paper's "variability of activity" is
+  people's, and a place nobody walks (whose forecast directions are its prior's, spread) has
+  none; weighed in full, it made plans in an empty building at night detour around places
+  nobody was at (before 2026-12-06).
 - ``c_d(i, j)`` is the mean over i and j of the per-node directional penalty
   ``plan_w_direction · (1 − cos(α − θ_n)) / 2 · κ_n · f_n``, with ``α`` the horizontal travel
   direction of the edge (i -> j), ``θ_n`` the node's mean flow direction (the circular mean
@@ -129,7 +133,7 @@ def node_terms(costs: NodeCosts, m: int, config: ModelConfig) -> tuple[F64, F64,
     """Per node: ``c_t``, the directional weight ``w_d · κ · f`` and the mean flow angle."""
     entropy, flow, angle, conc = _checked(costs, m)
     busy = np.minimum(flow / config.plan_flow_scale, 1.0)
-    c_t = config.plan_w_entropy * entropy + config.plan_w_flow * busy
+    c_t = (config.plan_w_entropy * entropy + config.plan_w_flow) * busy
     dir_weight = config.plan_w_direction * conc * busy
     return c_t, dir_weight, angle
 

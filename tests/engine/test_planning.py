@@ -100,6 +100,33 @@ def test_hand_checked_shortest_path_and_totals() -> None:
     )
 
 
+def test_entropy_costs_in_proportion_to_how_busy_a_place_is() -> None:
+    """A place nobody walks adds nothing however spread its (prior-dominated) directions are:
+    at night in an empty building the plan is the distance-only one. Busy, its entropy costs
+    in full: c_t = (w_entropy * H + w_flow) * f, so half as busy costs half."""
+    from aion_cli.engine.planning import node_terms
+
+    scale = CFG.plan_flow_scale
+    costs = NodeCosts(
+        np.array([1.0, 1.0, 1.0, 0.0]),
+        np.array([0.0, scale, scale / 2, scale]),
+        np.zeros(4),
+        np.zeros(4),
+    )
+    c_t, _weight, _angle = node_terms(costs, 4, CFG)
+    w_e, w_f = CFG.plan_w_entropy, CFG.plan_w_flow
+    np.testing.assert_allclose(c_t, [0.0, w_e + w_f, (w_e + w_f) / 2, w_f])
+    # nearly empty (0.01 of the scale), fully spread: the detour around it is not taken
+    g = graph_of(
+        [[0, 0, 0], [3, 0, 0], [0, 1, 0], [3, 4, 0], [0, 6, 0]],
+        [(0, 1), (1, 3), (0, 2), (2, 4), (4, 3)],
+    )
+    quiet = NodeCosts(np.ones(5), np.full(5, scale / 100), np.zeros(5), np.zeros(5))
+    res = plan(g, pid(0), pid(3), 0.0, 1.0, lambda t: quiet, CFG)
+    assert rows(res) == [0, 1, 3]
+    assert res.cost == pytest.approx(7.0 * (1.0 + (w_e + w_f) / 100))
+
+
 def test_opposing_busy_flow_sends_temporal_plan_around_distance_plan_through() -> None:
     g = graph_of(CORRIDOR_XYZ, CORRIDOR_EDGES)
     against = corridor_costs(theta=math.pi)  # people walk towards -x; we go +x
