@@ -23,6 +23,7 @@ from aion_cli.engine.temporal.stored_layout import (
     stored_positions,
 )
 from aion_cli.engine.types import I64, RowTake
+from aion_cli.engine.zeros import lazy_zeros
 from aion_cli.errors import MapCorruptError
 
 
@@ -126,7 +127,7 @@ def state_from_arrays(
         out.cnt_profile = profile.reshape(rows, values, bins)
     else:
         if profile.dtype != out.cnt_profile.dtype:  # a query's narrow counts stay narrow
-            out.cnt_profile = np.zeros(out.cnt_profile.shape, profile.dtype)
+            out.cnt_profile = lazy_zeros(out.cnt_profile.shape, profile.dtype)
         out.cnt_profile.reshape(-1, bins)[pairs] = profile
     scored = stored_index(arrays, prefix + "score_index", rows)
     shapes = {

@@ -42,6 +42,7 @@ import numpy.typing as npt
 from aion_cli.engine.temporal.observation_block import _OBS_FIELDS, C128, ObsBlock
 from aion_cli.engine.temporal.stored_layout import ROW_BLOCK
 from aion_cli.engine.types import F64, I64
+from aion_cli.engine.zeros import lazy_zeros
 
 __all__ = ["C128", "ObsBlock", "TemporalState"]
 
@@ -108,17 +109,17 @@ class TemporalState:
         out = cls(
             glob=ObsBlock.empty(1, periods, bins),
             obs=ObsBlock.empty(rows, periods, bins),
-            cnt_fourier=np.zeros((rows, values, periods), np.complex128),
-            cnt_profile=np.zeros((rows, values, bins)),
-            flow_score=np.zeros((rows, flow_families)),
-            flow_chi2=np.zeros((rows, flow_families)),
-            flow_scored=np.zeros(rows),
-            flow_days=np.zeros(rows),
-            flow_gain_sq=np.zeros((rows, flow_families)),
-            dir_score=np.zeros((rows, dir_families)),
-            dir_scored=np.zeros(rows),
-            dir_days=np.zeros(rows),
-            dir_gain_sq=np.zeros((rows, dir_families)),
+            cnt_fourier=lazy_zeros((rows, values, periods), np.complex128),
+            cnt_profile=lazy_zeros((rows, values, bins)),
+            flow_score=lazy_zeros((rows, flow_families)),
+            flow_chi2=lazy_zeros((rows, flow_families)),
+            flow_scored=lazy_zeros(rows),
+            flow_days=lazy_zeros(rows),
+            flow_gain_sq=lazy_zeros((rows, flow_families)),
+            dir_score=lazy_zeros((rows, dir_families)),
+            dir_scored=lazy_zeros(rows),
+            dir_days=lazy_zeros(rows),
+            dir_gain_sq=lazy_zeros((rows, dir_families)),
         )
         out.high_water = 0
         return out

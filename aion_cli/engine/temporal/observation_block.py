@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.temporal.stored_layout import stored_member
 from aion_cli.engine.types import F64, I64, RowTake
+from aion_cli.engine.zeros import lazy_zeros
 from aion_cli.errors import MapCorruptError
 
 C128 = npt.NDArray[np.complex128]
@@ -38,9 +39,9 @@ class ObsBlock:
     @classmethod
     def empty(cls, rows: int, periods: int, bins: int) -> ObsBlock:
         return cls(
-            np.zeros(rows),
-            np.zeros((rows, periods), np.complex128),
-            np.zeros((rows, bins)),
+            lazy_zeros(rows),
+            lazy_zeros((rows, periods), np.complex128),
+            lazy_zeros((rows, bins)),
             np.full(rows, np.nan),
             np.full(rows, np.nan),
         )
