@@ -161,6 +161,7 @@ def test_narrow_counts_widen_when_a_day_would_overflow_them() -> None:
     state.fourier_loaded = False
     state.cnt_fourier = np.zeros((2, params.values, 0), np.complex128)
     state.cnt_profile = np.zeros((2, params.values, params.n_profile), np.uint8)
+    state.touch(np.array([1]))  # row 1 written (as a map read with it stored would say)
     state.cnt_profile[1, 0, :] = 250
     window = (MONDAY + 9 * HOUR) // (600 * 10**9)
     values = np.zeros((1, params.values))

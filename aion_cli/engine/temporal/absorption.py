@@ -137,15 +137,40 @@ def _absorb_counts(
     counts = cnt_values[pair, value]
     rows = cnt_entry[pair]
     slots = cnt_slot[pair]
+    fresh_from = state.high_water * params.values  # the flat (entry, value) rows never written
     if state.fourier_loaded:
         flat_fourier = state.cnt_fourier.reshape(-1, state.n_periods)
         targets, which = unique_inverse(rows * params.values + value)
-        flat_fourier[targets] += _sum_phasors(which, slots, counts, targets.size, phasor)
+        _add_at(
+            flat_fourier,
+            targets,
+            _sum_phasors(which, slots, counts, targets.size, phasor),
+            targets >= fresh_from,
+        )
     keys, inverse = unique_inverse((rows * params.values + value) * n_prof + h[slots])
     added: F64 = np.bincount(inverse, counts, minlength=keys.size).astype(np.float64)
     flat_profile = _profile_for(state, keys, added)
-    flat_profile[keys] += added.astype(flat_profile.dtype, copy=False)
+    _add_at(
+        flat_profile,
+        keys,
+        added.astype(flat_profile.dtype, copy=False),
+        keys >= fresh_from * n_prof,
+    )
     state.touch(rows)
+
+
+def _add_at(flat: np.ndarray, at: I64, added: np.ndarray, fresh: npt.NDArray[np.bool_]) -> None:
+    """``flat[at] += added`` (``at`` unique), written without reading where ``fresh`` (rows
+    never written, zeros): a first query of a big map scatters counts over rows it has not
+    read yet, and reading a page before writing it costs the kernel a second fault. ``0 +
+    x`` is ``x + 0`` to the bit (a −0 sum becomes +0 either way)."""
+    if not fresh.any():
+        flat[at] += added
+        return
+    flat[at[fresh]] = added[fresh] + flat.dtype.type(0)
+    old = ~fresh
+    if old.any():
+        flat[at[old]] += added[old]
 
 
 def _profile_for(state: TemporalState, keys: I64, added: F64) -> F64:

@@ -157,5 +157,8 @@ def state_from_arrays(
         raise MapCorruptError(
             f"temporal state holds non-finite or negative values ({', '.join(bad) or 'counts'})"
         )
-    out.high_water = rows
+    # rows past every stored one hold zeros (sorted indices: each one's last is its largest)
+    last_pair = int(pairs[-1]) // values if pairs.size else -1
+    stored_rows = [int(i[-1]) for i in (own, scored) if i.size]
+    out.high_water = max([last_pair, *stored_rows]) + 1
     return out

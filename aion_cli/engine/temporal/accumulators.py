@@ -81,8 +81,10 @@ class TemporalState:
     window_chi2: F64 = field(default_factory=lambda: np.zeros(2), compare=False)
     """Σ χ² and Σ degrees of freedom of the map's window totals (:mod:`.shape_prior`)."""
     high_water: int = field(default=-1, compare=False, repr=False)
-    """Rows from here on were never written: :meth:`resize` does not copy them (reserved
-    capacity stays unbacked by memory). −1 at construction means every row."""
+    """Rows from here on were never written (hold zeros): :meth:`resize` does not copy them
+    (reserved capacity stays unbacked by memory) and absorbing counts writes them without
+    reading them first. Whatever writes a row raises it (:meth:`touch`). −1 at construction
+    means every row; a state read from a map starts past the last row the map stored."""
     generation: int = field(default=0, compare=False, repr=False)
     """Bumped by every change (invalidates cached forecasts)."""
     fourier_loaded: bool = field(default=True, compare=False, repr=False)
