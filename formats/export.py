@@ -6,13 +6,13 @@ What is drawn (DESIGN.md §7):
 - **nodes**: a sphere per navigational node, radius growing with the flow magnitude from
   ``0.2·δ`` (no flow) to ``δ`` (flow >= ``flow_scale``), coloured by directional entropy
   ``H`` (0..1): ``(r, g, b) = (H, 0, 1 − H)``, blue = one direction, red = every direction;
-  grey when ``H`` is NaN (no flow).
+  grey without flow, teal with flow but no heading (``H`` NaN: people standing still).
 - **arrows**: one per node with flow and a dominant direction, from the node centre along it in
   the horizontal plane, length ``r + δ·(0.3 + 2·busy·κ)`` (r the sphere radius, so it always
   sticks out; busy = ``min(flow/flow_scale, 1)``, κ the concentration, 1 if not given),
   coloured like the node.
 - **cells**: a flat horizontal δ×δ square per unbound hash cell centre, coloured by entropy
-  (grey when the cell has no flow).
+  (grey when the cell has no flow, teal with flow but no heading).
 - **edges**: the place edges as a line set (grey); **path**: the planned path as a line set
   (green); **mesh**: the scene graph's mesh with its vertex colours.
 

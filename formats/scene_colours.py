@@ -3,7 +3,10 @@ entropy (DESIGN.md §7; the PLY / PCD export's docstring, :mod:`formats.export`,
 drawn with them).
 
 * entropy ``H`` (0..1) is the colour ``(H, 0, 1 − H)``: blue for one direction, red for every
-  direction, grey without flow (:func:`entropy_colors`);
+  direction (:func:`entropy_colors`); an entry without flow is grey, one with flow but no
+  heading (people standing still, or detections no track gave a heading) teal, a colour off
+  the blue-to-red scale (:func:`flow_colors`, the one decision every format draws; the
+  pictures' legends say it with :func:`colour_key`);
 * flow is drawn linearly up to ``flow_scale`` (:func:`busy_fraction`), the busiest flow or,
   where it dwarfs the rest, a high quantile (:func:`display_flow_scale`); a node's sphere
   grows from ``0.2·δ`` to ``δ`` with it (:func:`sphere_radii`);
@@ -22,6 +25,11 @@ import numpy.typing as npt
 F64 = npt.NDArray[np.float64]
 
 NO_FLOW_GREY = (0.5, 0.5, 0.5)
+NO_HEADING_TEAL = (0.0, 0.6, 0.6)
+"""Flow without a heading: the entry has detections but none with a direction, so its
+entropy is undefined (NaN); drawn grey it read as "no flow" where people stood."""
+NO_FLOW_KEY = "grey: no flow"
+NO_HEADING_KEY = "teal: flow without a heading (people standing still or untracked)"
 EDGE_GREY = (0.6, 0.6, 0.6)
 PATH_GREEN = (0.1, 0.8, 0.2)
 RADIUS_MIN_FACTOR = 0.2
@@ -37,6 +45,30 @@ def entropy_colors(entropy: npt.ArrayLike) -> F64:
     out[known] = np.stack([hc, np.zeros_like(hc), 1.0 - hc], axis=1)
     out[~known] = NO_FLOW_GREY
     return out
+
+
+def flow_colors(flow: npt.ArrayLike, entropy: npt.ArrayLike) -> F64:
+    """The colour of each entry: its entropy colour (:func:`entropy_colors`) where it has
+    flow and a direction, :data:`NO_HEADING_TEAL` where it has flow (> 0) but no direction
+    (entropy NaN), :data:`NO_FLOW_GREY` without flow (0, NaN or negative)."""
+    h = np.asarray(entropy, dtype=np.float64).reshape(-1)
+    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
+    flowing = f > 0
+    out = entropy_colors(np.where(flowing, h, np.nan))
+    out[flowing & ~np.isfinite(h)] = NO_HEADING_TEAL
+    return out
+
+
+def has_no_heading(flow: npt.ArrayLike, entropy: npt.ArrayLike) -> bool:
+    """Whether any entry has flow but no direction (drawn :data:`NO_HEADING_TEAL`)."""
+    h = np.asarray(entropy, dtype=np.float64).reshape(-1)
+    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
+    return bool(np.any((f > 0) & ~np.isfinite(h)))
+
+
+def colour_key(no_heading: bool) -> str:
+    """The legend of the colours off the entropy scale: grey, and teal when drawn."""
+    return f"{NO_FLOW_KEY}; {NO_HEADING_KEY}" if no_heading else NO_FLOW_KEY
 
 
 DISPLAY_QUANTILE = 0.95

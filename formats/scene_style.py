@@ -21,7 +21,7 @@ from aion_cli.formats.scene_colours import (
     NO_FLOW_GREY,
     busy_fraction,
     display_flow_scale,
-    entropy_colors,
+    flow_colors,
     sphere_radii,
 )
 
@@ -116,7 +116,7 @@ def style_scene(
         node_flow=np.nan_to_num(flow, nan=0.0),
         node_entropy=entropy,
         radii=radii,
-        colors=entropy_colors(entropy),
+        colors=flow_colors(flow, entropy),
         angle=angle,
         arrow_angle=arrow_angle,
         arrow_length=radii + cell_size * (0.3 + 2.0 * busy * conc),
@@ -125,7 +125,7 @@ def style_scene(
         cells_flow=np.nan_to_num(c_flow, nan=0.0),
         cells_entropy=c_ent,
         cells_angle=c_angle,
-        cell_colors=entropy_colors(c_ent),
+        cell_colors=flow_colors(c_flow, c_ent),
         edges=_edge_pairs(edges_xyz_pairs),
         mesh=_mesh_part(mesh),
         path=_rows("path_xyz", path_xyz, None, (3,)),

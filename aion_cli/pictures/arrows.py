@@ -21,12 +21,14 @@ which overlap where arrows merge, are left out (a carpet of the arrows' colours 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.descriptors import bin_of
+from aion_cli.formats.scene_colours import colour_key, has_no_heading
 from aion_cli.pictures.backdrop import Extent, squares_of
 from aion_cli.scene import Scene
 
@@ -44,7 +46,7 @@ ARROW_CELLS = 4.0
 BLOCK_ARROW = 0.9
 """A merged arrow at full length spans this share of its block (when that is longer)."""
 
-NO_ARROWS = "no arrows: no place or cell has flow with a direction here; grey: no flow"
+NO_ARROWS = "no arrows: no place or cell has flow with a direction here"
 """The legend of a picture in which nothing flows (in any panel of a series)."""
 
 
@@ -110,3 +112,16 @@ def arrow_field(scene: Scene, block: float | None = None, bins: int = 8) -> Arro
     s = np.bincount(of[major], flow[major] * np.sin(angle[major]), minlength=n)
     mean_entropy = np.bincount(of, flow * np.nan_to_num(entropy, nan=1.0), minlength=n) / total
     return ArrowField(centroid, total, np.arctan2(s, c), mean_entropy, float(block))
+
+
+def legend_lines(scale: str, fields: Sequence[ArrowField], scenes: Sequence[Scene]) -> list[str]:
+    """The legend of a picture, a line each: how the arrows read (``scale``, the arrow scale's
+    legend; :data:`NO_ARROWS` when no panel has one: the scale of no flow read "the longest: 1
+    detections"), the colours off the entropy scale (grey, and teal where some entry has flow
+    without a heading), and how the arrows were merged ("" when they were not)."""
+    teal = any(
+        has_no_heading(np.r_[s.node_flow, s.cells_flow], np.r_[s.node_entropy, s.cells_entropy])
+        for s in scenes
+    )
+    arrows = scale if any(len(f.flow) for f in fields) else NO_ARROWS
+    return [arrows, colour_key(teal), fields[0].legend() if len(fields) else ""]

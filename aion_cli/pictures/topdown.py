@@ -10,7 +10,7 @@ What is drawn, back to front:
   room's label (or id) at the centroid of its places (up to :data:`MAX_ROOM_LABELS` rooms);
 - **edges**: the place edges as thin grey lines; **places** as small grey dots;
 - **cells**: an unbound hash cell as a δ×δ square coloured by its direction entropy, pale
-  under its arrow (grey without flow);
+  under its arrow (grey without flow, teal with flow but no heading: ``flow_colors``);
 - **arrows**: one per node or unbound cell with flow, from its centre along its dominant
   direction, length
   ``ARROW_CELLS·δ·busy`` (busy = ``min(flow / flow_scale, 1)``, ``formats.scene_colours``'
@@ -51,9 +51,15 @@ from aion_cli.formats.scene_colours import (
     NO_FLOW_GREY,
     busy_fraction,
     display_flow_scale,
-    entropy_colors,
+    flow_colors,
 )
-from aion_cli.pictures.arrows import ARROW_CELLS, NO_ARROWS, ArrowField, arrow_block, arrow_field
+from aion_cli.pictures.arrows import (
+    ARROW_CELLS,
+    ArrowField,
+    arrow_block,
+    arrow_field,
+    legend_lines,
+)
 from aion_cli.pictures.backdrop import (
     LABEL_GREY,
     MAX_ROOM_LABELS,
@@ -191,12 +197,11 @@ class ArrowScale:
         if self.flow >= self.largest:
             return (
                 f"arrows: dominant direction, length proportional to flow (the longest: "
-                f"{self.flow:.3g} {per}); grey: no flow"
+                f"{self.flow:.3g} {per})"
             )
         return (
             f"arrows: dominant direction, length proportional to flow up to {self.flow:.3g} "
-            f"{per} (busier entries drawn that long; the largest {self.largest:.3g}); "
-            "grey: no flow"
+            f"{per} (busier entries drawn that long; the largest {self.largest:.3g})"
         )
 
 
@@ -251,12 +256,12 @@ def draw_topdown(
     # where arrows merge, they are a carpet that hides the arrows); a cell with flow is pale
     # under its own arrow, which was lost on a square of its colour drawn almost solid
     merged = field.block is not None
-    if len(scene.cells_xyz):
-        flows = scene.cells_flow > 0
+    if len(scene.cells_xyz):  # pale under an arrow; without one (no flow, no heading) solid
+        arrowed = (scene.cells_flow > 0) & np.isfinite(scene.cells_angle)
         rgba = np.column_stack(
             [
-                entropy_colors(np.where(flows, scene.cells_entropy, np.nan)),
-                np.where(flows, UNDER_ARROW_ALPHA, 0.85),
+                flow_colors(scene.cells_flow, scene.cells_entropy),
+                np.where(arrowed, UNDER_ARROW_ALPHA, 0.85),
             ]
         )
         if merged:
@@ -267,14 +272,14 @@ def draw_topdown(
     busy = busy_fraction(scene.node_flow, scale)
     has = busy > 0
     if has.any() and not merged:
-        colors = entropy_colors(scene.node_entropy[has])
+        colors = flow_colors(scene.node_flow[has], scene.node_entropy[has])
         ax.scatter(*scene.nodes_xyz[has, :2].T, s=dot_size, c=colors, linewidths=0, zorder=5)
     # arrows for nodes and unbound cells alike (a map of cells only shows its directions too),
     # merged over blocks where the picture cannot resolve one per entry (.arrows)
     busy = busy_fraction(field.flow, scale)
     arrow = busy > 0
     if arrow.any():
-        colors = entropy_colors(field.entropy[arrow])
+        colors = flow_colors(field.flow[arrow], field.entropy[arrow])
         length = field.full_length(scene.cell_size) * busy[arrow]
         angle = field.angle[arrow]
         ax.quiver(
@@ -452,9 +457,7 @@ def topdown_figure(
     bar.set_ticklabels(["0 one way", "0.2", "0.4", "0.6", "0.8", "1 every way"])
     if suptitle:  # it may hold a file name: UTF-8 text whatever its bytes, its $ not maths
         fig.suptitle(plain_text(suptitle), fontsize=12)
-    # nothing flowing: the scale of no flow, (1, 1), read "the longest: 1 detections"
-    keys: tuple[str, ...] = (arrows.legend(scenes[0].window_s), fields[0].legend())
-    keys = keys if any(len(f.flow) for f in fields) else (NO_ARROWS,)
+    keys = legend_lines(arrows.legend(scenes[0].window_s), fields, scenes)
     fig.supxlabel(
         "\n".join(filter(None, (*keys, extent.caption()))),
         fontsize=7,

@@ -15,6 +15,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from aion_cli.formats.outputs import safe_text
+from aion_cli.formats.scene_colours import colour_key
 from aion_cli.number_text import fixed, span_text
 from aion_cli.report.content import ReportContent
 from aion_cli.timeparse import Zone, format_ns
@@ -307,6 +308,6 @@ def _topdown(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
         f"The places and hash cells seen from above, {escape(when)} (as <code>aion export "
         "--format png</code> draws them): an arrow along each one's dominant direction, as "
         "long as its flow, coloured by direction entropy (blue: everyone walks one way, red: "
-        "every way); grey: no flow; dashed outlines: the rooms."
+        f"every way); {escape(colour_key(True))}; dashed outlines: the rooms."
     )
     return ["<h2>The map from above</h2>", *_figure(src, "top-down map", caption)]
