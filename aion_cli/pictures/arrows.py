@@ -8,7 +8,8 @@ the map's cell size, the arrows of each square block of that spacing (a grid anc
 origin, so every panel of a series has the same blocks) become one:
 
 - at the flow-weighted centroid of the block's entries,
-- as long as their flows summed (the picture's arrow scale is then that of the blocks),
+- as long as their flows summed (the picture's arrow scale, :class:`ArrowScale`, is then
+  that of the blocks),
 - along the direction most of that flow takes: the entries' dominant directions binned in
   eight bins (as the map bins headings by default), weighted by flow, and the flow-weighted
   mean direction of the largest bin (as an entry's dominant direction is its largest bin's;
@@ -28,7 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.formats.scene_colours import colour_key, has_no_heading
+from aion_cli.formats.scene_colours import colour_key, display_flow_scale, has_no_heading
 from aion_cli.pictures.backdrop import Extent, squares_of
 from aion_cli.scene import Scene
 
@@ -48,6 +49,35 @@ BLOCK_ARROW = 0.9
 
 NO_ARROWS = "no arrows: no place or cell has flow with a direction here"
 """The legend of a picture in which nothing flows (in any panel of a series)."""
+
+
+@dataclass(frozen=True)
+class ArrowScale:
+    """The flow drawn at full arrow length (``flow``), the largest flow (``largest``), and
+    the legend that says how lengths read."""
+
+    flow: float
+    largest: float
+
+    def legend(self, window_s: float) -> str:
+        per = f"detections per {window_s:g}-s window"
+        if self.flow >= self.largest:
+            return (
+                f"arrows: dominant direction, length proportional to flow (the longest: "
+                f"{self.flow:.3g} {per})"
+            )
+        return (
+            f"arrows: dominant direction, length proportional to flow up to {self.flow:.3g} "
+            f"{per} (busier entries drawn that long; the largest {self.largest:.3g})"
+        )
+
+
+def arrow_scale(scenes: Sequence[Scene]) -> ArrowScale:
+    """The arrow scale of one picture (every panel shares it): the flows of every node and
+    cell of ``scenes`` through :func:`formats.scene_colours.display_flow_scale` (linear up to the
+    busiest flow, or up to a high quantile when the busiest dwarfs the rest)."""
+    flows = np.concatenate([np.concatenate([s.node_flow, s.cells_flow]) for s in scenes])
+    return ArrowScale(*display_flow_scale(flows))
 
 
 @dataclass(frozen=True)

@@ -31,8 +31,9 @@ panels (:func:`topdown_figure`); the backdrop they are drawn over -- the window
 (:class:`Extent`), the mesh footprint (:class:`Footprint`, :func:`mesh_footprint`) and the room
 outlines (:class:`RoomOutlines`, :func:`room_outlines`), computed once per picture -- lives in
 :mod:`.backdrop` and is re-exported here for :mod:`.plan`, :mod:`.render` and the tests; the
-page's rows, columns and panel sizes in :mod:`.layout`; the levels of a multi-storey map in
-:mod:`.floors`.
+arrows, their scale (:class:`ArrowScale`, :func:`arrow_scale`, re-exported too) and the
+legend's lines in :mod:`.arrows`; the page's rows, columns and panel sizes in :mod:`.layout`;
+the levels of a multi-storey map in :mod:`.floors`.
 """
 
 from __future__ import annotations
@@ -56,8 +57,10 @@ from aion_cli.formats.scene_colours import (
 from aion_cli.pictures.arrows import (
     ARROW_CELLS,
     ArrowField,
+    ArrowScale,
     arrow_block,
     arrow_field,
+    arrow_scale,
     legend_lines,
 )
 from aion_cli.pictures.backdrop import (
@@ -182,35 +185,6 @@ def _summed_by_point(points: Sequence[F64], flows: Sequence[F64]) -> tuple[F64, 
     key, of = np.unique(xy[:, 0] + 1j * xy[:, 1], return_inverse=True)
     summed: F64 = np.bincount(of.reshape(-1), flow, minlength=key.size).astype(np.float64)
     return np.column_stack([key.real, key.imag]), summed
-
-
-@dataclass(frozen=True)
-class ArrowScale:
-    """The flow drawn at full arrow length (``flow``), the largest flow (``largest``), and
-    the legend that says how lengths read."""
-
-    flow: float
-    largest: float
-
-    def legend(self, window_s: float) -> str:
-        per = f"detections per {window_s:g}-s window"
-        if self.flow >= self.largest:
-            return (
-                f"arrows: dominant direction, length proportional to flow (the longest: "
-                f"{self.flow:.3g} {per})"
-            )
-        return (
-            f"arrows: dominant direction, length proportional to flow up to {self.flow:.3g} "
-            f"{per} (busier entries drawn that long; the largest {self.largest:.3g})"
-        )
-
-
-def arrow_scale(scenes: Sequence[Scene]) -> ArrowScale:
-    """The arrow scale of one picture (every panel shares it): the flows of every node and
-    cell of ``scenes`` through :func:`formats.scene_colours.display_flow_scale` (linear up to the
-    busiest flow, or up to a high quantile when the busiest dwarfs the rest)."""
-    flows = np.concatenate([np.concatenate([s.node_flow, s.cells_flow]) for s in scenes])
-    return ArrowScale(*display_flow_scale(flows))
 
 
 def draw_topdown(
