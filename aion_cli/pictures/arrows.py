@@ -74,9 +74,15 @@ class ArrowScale:
 
 def arrow_scale(scenes: Sequence[Scene]) -> ArrowScale:
     """The arrow scale of one picture (every panel shares it): the flows of every node and
-    cell of ``scenes`` through :func:`formats.scene_colours.display_flow_scale` (linear up to the
-    busiest flow, or up to a high quantile when the busiest dwarfs the rest)."""
-    flows = np.concatenate([np.concatenate([s.node_flow, s.cells_flow]) for s in scenes])
+    cell of ``scenes`` with a direction (those without draw no arrow: people standing in a
+    queue shrank every arrow to a dot) through :func:`formats.scene_colours.display_flow_scale`
+    (linear up to the busiest flow, or up to a high quantile when the busiest dwarfs the rest)."""
+    flows = np.concatenate(
+        [
+            np.r_[s.node_flow, s.cells_flow] * np.isfinite(np.r_[s.node_angle, s.cells_angle])
+            for s in scenes
+        ]
+    )
     return ArrowScale(*display_flow_scale(flows))
 
 

@@ -292,3 +292,22 @@ def test_names_with_dollars_are_drawn_as_they_are() -> None:
             assert not math, s
             shown[s] = text
     assert {"cost$1$.aion", "t$1$", "t$2$", "$lab$"} <= set(shown)
+
+
+def test_flow_without_a_heading_does_not_shrink_the_arrows(tmp_path: Path) -> None:
+    """Three cells walked +x (flow 5) and one where people stand (flow 300, no heading, so no
+    arrow): the arrows' scale is that of the walked cells, whose arrows are full length; with
+    the standing flow in the scale they were 5/300 of it, dots under their tails."""
+    scene = cells_only_scene(
+        [[0.0, 0.0], [0.0, 3.0], [0.0, 6.0], [6.0, 3.0]],
+        [5.0, 5.0, 5.0, 300.0],
+        angle=[0.0, 0.0, 0.0, np.nan],
+        entropy=[0.0, 0.0, 0.0, np.nan],
+    )
+    assert arrow_scale([scene]) == ArrowScale(5.0, 5.0)
+    fig, (ax,), image = _drawn(tmp_path, [scene])
+    assert "300" not in fig._supxlabel.get_text()
+    for y in (0.0, 3.0, 6.0):  # blue three quarters along the full length, blank past its tip
+        tip = most_coloured(image, *pixel_of(ax, image, 0.75 * L, y))
+        assert tip[2] - tip[0] > 0.5
+        assert is_blank(image, *pixel_of(ax, image, L + 0.4, y), half=1)
