@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from aion_cli.formats.scene_colours import NO_HEADING_TEAL
 from aion_cli.report.content import Busiest, Observed, Series, local_midnight
 from aion_cli.timeparse import Zone, from_ns
 
@@ -29,6 +30,8 @@ _NS = 1_000_000_000
 _SPAN_GREY = "#c9d3df"
 _FIXED_BLUE = "#2c6fbb"
 _MAX_DAY_ROWS = 120
+NO_HEADING_ROSE = "no heading:\npeople standing\nstill or untracked"
+"""The text of the rose of an entry with flow but no direction (its histogram is empty)."""
 ROSE_TITLE_CHARS = 34
 """The longest room name a rose's title shows (about the rose's width at 9 points)."""
 
@@ -291,6 +294,11 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
         ax = fig.add_subplot((n + cols - 1) // cols, cols, k + 1, projection="polar")
         hist = np.nan_to_num(np.asarray(row.record["histogram"], dtype=np.float64))
         ax.bar(centres, hist, width=2 * np.pi / bins * 0.9, color="#2c6fbb", alpha=0.85)
+        if not hist.any():  # an empty rose said nothing: flow without a heading, or none
+            flowing = float(row.record.get("flow") or 0.0) > 0
+            text, colour = (NO_HEADING_ROSE, NO_HEADING_TEAL) if flowing else ("no flow", "0.4")
+            ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center",
+                    fontsize=8, color=colour, bbox={"facecolor": "white", "edgecolor": "none"})
         angle = row.record.get("direction_deg")
         length = hist.max() * float(row.record.get("concentration") or 0.0)
         if angle is not None and length > 0:  # the dominant direction, as long as it is strong

@@ -158,3 +158,25 @@ def test_hours_observed_never_read_negative(tmp_path: Path, drawn: list[Any]) ->
     low, high = image.get_clim()
     assert low == 0.0
     assert high > 0.0
+
+
+def test_a_rose_without_headings_says_why_it_is_empty(tmp_path: Path, drawn: list[Any]) -> None:
+    """A cell where people stood (flow, an empty direction histogram) drew an empty rose that
+    said nothing; it says "no heading", in the colour the map draws such a cell, and a rose
+    without flow says "no flow"; a rose with headings has no such text."""
+    from aion_cli.formats.scene_colours import NO_HEADING_TEAL
+    from aion_cli.report.content import Busiest
+
+    empty = [0.0] * 8
+    standing = {"id": "c1", "kind": "cell", "x": 10.25, "y": 10.25, "flow": 300.0,
+                "direction_deg": None, "concentration": 0.0, "histogram": empty}
+    quiet = {**standing, "id": "c2", "flow": 0.0}
+    walked = {**standing, "id": "c3", "flow": 5.0, "direction_deg": 22.5,
+              "concentration": 1.0, "histogram": [0, 0, 0, 0, 1.0, 0, 0, 0]}
+    rows = [Busiest(r, "", "static") for r in (standing, quiet, walked)]
+    plots.roses_png(rows, 8, tmp_path / "r.png")
+    texts = [[t for t in ax.texts if t.get_text()] for ax in drawn[-1].axes]
+    assert [[t.get_text().split(":")[0] for t in ts] for ts in texts] == [
+        ["no heading"], ["no flow"], []
+    ]
+    assert texts[0][0].get_color() == NO_HEADING_TEAL
