@@ -51,7 +51,7 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     )
     if where is not None:
         notes.append(where)
-    unseen = None if static is not None else _unseen_day(manifest, int(t_ns))
+    unseen = None if static is not None else unseen_day(manifest, int(t_ns))
     if unseen is not None:
         notes.append(unseen)
     from aion_cli.fixed_sensor import SILENT_HINT
@@ -157,7 +157,7 @@ def _outside(
 _WEEKDAYS = ("Monday", "Tuesday", "Wednesday", "Thursday", "Friday", "Saturday", "Sunday")
 
 
-def _unseen_day(manifest: Manifest, t_ns: int) -> str | None:
+def unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     """The note for a time on a kind of day (weekend or weekday; with the weekly profile, a
     day of the week) that no day of the map's data span is, or that the span holds but no
     log observed (``observed_bins``: a fixed sensor whose tracker is silent when nobody is
@@ -317,7 +317,7 @@ def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
     """The note for a time of day no log observed on any day (a tracker recorded only in
     working hours, say): each entry's forecast there is extrapolated from the hours it saw.
     None when some kind of day observed that hour (another kind's forecast follows it: see
-    :func:`_unseen_day`), or for a map that does not list its observed bins (older maps)."""
+    :func:`unseen_day`), or for a map that does not list its observed bins (older maps)."""
     observed = hour_observed(manifest, [t_ns])
     calendar = _calendar(manifest.config, manifest.timezone)
     if observed is None or observed[0] or calendar is None:

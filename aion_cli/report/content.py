@@ -257,7 +257,22 @@ def activity_series(
         unobserved = _unobserved_hours(loaded, when)
         out.append(Series(title, when, names, columns[at : at + when.size], unobserved))
         at += when.size
-    return tuple(out), notes
+    return tuple(out), notes + _unseen_days(loaded, [s[0] for s in spans[:2]], times[:2])
+
+
+def _unseen_days(loaded: LoadedMap, titles: list[str], times: list[Any]) -> list[str]:
+    """The note of ``aion predict`` for each day curve (``titles``, ``times``) on a kind of
+    day the map never observed (``forecast_notes.unseen_day``: the Saturday of a map of
+    weekdays, drawn as a measured curve, follows the weekdays' rhythm), none for a map whose
+    every entry forecasts its static rate (the same whatever the day)."""
+    from aion_cli.forecast_notes import all_static, unseen_day
+    from aion_cli.manifest import Manifest
+
+    manifest = Manifest.from_dict(loaded.manifest)
+    if all_static(manifest) is not None:
+        return []
+    notes = (unseen_day(manifest, int(t[t.size // 2])) if t.size else None for t in times)
+    return [f"{title}: {note}" for title, note in zip(titles, notes, strict=True) if note]
 
 
 def _unobserved_hours(loaded: LoadedMap, times: Any) -> Any:

@@ -403,3 +403,22 @@ def test_a_short_span_reads_as_info_gives_it(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.stderr
     facts = dict(_parse(out / "index.html").tables["facts"])
     assert facts["time span"].endswith("08:00:05+00:00 (5.0 s)"), facts["time span"]
+
+
+def test_a_weekend_curve_of_a_map_of_weekdays_says_it_follows_the_weekdays(
+    sample_map: Path,
+) -> None:
+    """The bundled sample holds Mon 2026-01-05 .. Fri 2026-01-09 only: the report's Saturday
+    curve (of the week after the data) is the weekdays' rhythm, drawn as a forecast like any
+    other with nothing saying so, while `aion predict` at that Saturday warns. The report
+    carries the same note for that curve, and none for the Monday's."""
+    from aion_cli.mapquery import load_map
+    from aion_cli.report.content import gather
+    from aion_cli.timeparse import resolve_zone
+
+    content = gather(load_map(sample_map), sample_map, resolve_zone("UTC"), None)
+    assert [s.title for s in content.activity[:2]] == ["Monday 2026-01-12", "Saturday 2026-01-17"]
+    result = run("predict", sample_map, "--time", "2026-01-17 12:00", "--top", "1")
+    (warned,) = [line for line in result.stderr.splitlines() if "no weekend day" in line]
+    days = [n for n in content.notes if n.startswith(("Monday", "Saturday"))]
+    assert days == [f"Saturday 2026-01-17: {warned}"]
