@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import math
+import textwrap
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -14,6 +16,11 @@ its panels are stacked, each as wide as a single picture."""
 TEXT_IN = 0.5
 """The height (inches) of a panel's title and tick labels above and below a thin map."""
 PANEL_WIDTH_IN = 3.6
+TICKS_IN = 0.8
+"""The width (inches) of a panel's y tick labels and label beside its map."""
+NARROW_IN = (4.0, 2.0)
+"""The least width (inches) of a single picture's panel and of a series' panels: a tall map
+(a corridor along y) is drawn as wide as its height allows, with room for its title."""
 
 
 def panel_height(drawn: float, low: float, least: float, most: float) -> float:
@@ -29,17 +36,34 @@ def grid(n: int, aspect: float, group: int = 1) -> tuple[int, int, float, float]
     wide panel, or the column count that makes the page closest to 3:2 landscape (a
     multiple of ``group``, the levels of one time, so a row holds whole times)."""
     if n == 1:
-        return 1, 1, SINGLE_WIDTH_IN, panel_height(SINGLE_WIDTH_IN * aspect, 2.5, 1.8, 9.0)
+        height = panel_height(SINGLE_WIDTH_IN * aspect, 2.5, 1.8, 9.0)
+        return 1, 1, _narrowed(SINGLE_WIDTH_IN, height, aspect, NARROW_IN[0]), height
     if PANEL_WIDTH_IN * aspect < STRIP_IN:  # a strip: panels as wide as one picture, stacked
         cols = group if n <= 8 * group else 2 * group
         return math.ceil(n / cols), cols, SINGLE_WIDTH_IN, panel_height(
             SINGLE_WIDTH_IN * aspect, 1.4, 0.8, 5.0
         )
     height = panel_height(PANEL_WIDTH_IN * aspect, 1.4, 0.8, 5.0)
+    width = _narrowed(PANEL_WIDTH_IN, height, aspect, NARROW_IN[1])
 
     def badness(cols: int) -> float:
         rows = math.ceil(n / cols)
-        return abs(math.log(cols * PANEL_WIDTH_IN / (rows * height) / 1.5))
+        return abs(math.log(cols * width / (rows * height) / 1.5))
 
     cols = min(range(group, max(min(n, 6), group) + 1, group), key=badness)
-    return math.ceil(n / cols), cols, PANEL_WIDTH_IN, height
+    return math.ceil(n / cols), cols, width, height
+
+
+def _narrowed(width: float, height: float, aspect: float, least: float) -> float:
+    """A panel's width: ``width``, or for a map too tall to fill it at ``height`` inches (a
+    corridor along y: a sliver in a page of white, its x tick labels run together) the
+    map's own width and its y ticks', at least ``least``."""
+    return float(np.clip(height / max(aspect, 1e-9) + TICKS_IN, least, width))
+
+
+def wrapped(lines: Iterable[str], width_in: float, points: float) -> str:
+    """``lines`` (empty ones left out) broken at spaces to fit ``width_in`` inches of text of
+    ``points`` size: a narrow page (a tall map) cut a one-line legend or title at its edges."""
+    chars = max(int(width_in * 72.0 / (0.6 * points)), 20)  # DejaVu Sans: ~0.55 em a character
+    parts = [part for line in lines if line for part in line.split("\n")]  # its own breaks kept
+    return "\n".join(textwrap.fill(part, chars) if part else part for part in parts)

@@ -82,7 +82,7 @@ from aion_cli.pictures.backdrop import (
     room_outlines,
 )
 from aion_cli.pictures.floors import by_level, levels_apart
-from aion_cli.pictures.layout import PANEL_WIDTH_IN, SINGLE_WIDTH_IN
+from aion_cli.pictures.layout import PANEL_WIDTH_IN, SINGLE_WIDTH_IN, wrapped
 from aion_cli.pictures.layout import grid as page_grid
 from aion_cli.scene import Scene
 
@@ -430,13 +430,10 @@ def topdown_figure(
     bar.set_ticks([0.0, 0.2, 0.4, 0.6, 0.8, 1.0])
     bar.set_ticklabels(["0 one way", "0.2", "0.4", "0.6", "0.8", "1 every way"])
     if suptitle:  # it may hold a file name: UTF-8 text whatever its bytes, its $ not maths
-        fig.suptitle(plain_text(suptitle), fontsize=12)
+        fig.suptitle(plain_text(wrapped([suptitle], fig.get_figwidth(), 12)), fontsize=12)
     keys = legend_lines(arrows.legend(scenes[0].window_s), fields, scenes)
-    fig.supxlabel(
-        "\n".join(filter(None, (*keys, extent.caption()))),
-        fontsize=7,
-        color=LABEL_GREY,
-    )
+    caption = wrapped([*keys, extent.caption()], fig.get_figwidth(), 7)
+    fig.supxlabel(caption, fontsize=7, color=LABEL_GREY)
     return fig
 
 

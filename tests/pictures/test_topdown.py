@@ -311,3 +311,29 @@ def test_flow_without_a_heading_does_not_shrink_the_arrows(tmp_path: Path) -> No
         tip = most_coloured(image, *pixel_of(ax, image, 0.75 * L, y))
         assert tip[2] - tip[0] > 0.5
         assert is_blank(image, *pixel_of(ax, image, L + 0.4, y), half=1)
+
+
+def test_a_corridor_along_y_is_drawn_on_a_narrow_page_with_its_text_inside() -> None:
+    """A 100 m corridor along y, 2 m wide: the single picture was 9.4 inches wide for a map
+    drawn 0.4 inches wide (the page nine-tenths white) and a series' panels 3.6 inches each;
+    the pages are narrowed to the map, and the title and legend, which ran past the edges of
+    a narrow page on one line, are broken into lines that fit."""
+    from aion_cli.pictures.layout import NARROW_IN
+
+    n = 40
+    scene = cells_only_scene(
+        np.column_stack([np.zeros(n), 2.5 * np.arange(n)]),
+        np.r_[np.ones(n - 1), 100.0],
+        angle=np.r_[np.zeros(n - 2), np.nan, 0.0],
+        entropy=np.r_[np.full(n - 2, 0.3), np.nan, 0.3],
+    )
+    title = "a-long-map-name.aion: Mon 2026-01-12 06:00 to 20:00 Europe/Berlin, 3 times"
+    for k, least in ((1, NARROW_IN[0]), (3, NARROW_IN[1])):
+        fig = topdown_figure([scene] * k, ["t"] * k, suptitle=title)
+        assert fig.get_figwidth() <= k * least + 1.5
+        fig.canvas.draw()
+        for text in (fig._suptitle, fig._supxlabel):
+            box = text.get_window_extent()
+            assert box.x0 >= 0, text.get_text()
+            assert box.x1 <= fig.bbox.x1, text.get_text()
+        assert "teal: flow without a heading" in fig._supxlabel.get_text().replace("\n", " ")
