@@ -211,6 +211,7 @@ def draw_topdown(
     room outlines already computed (:func:`room_outlines`); default: made here; ``arrows``:
     the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry)."""
     from matplotlib.collections import LineCollection
+    from matplotlib.ticker import MaxNLocator
 
     scale = flow_scale if flow_scale is not None and flow_scale > 0 else arrow_scale([scene]).flow
     box = extent or scene_extent([scene], paths)
@@ -299,6 +300,9 @@ def draw_topdown(
     ax.set_xlim(box.x0, box.x1)
     ax.set_ylim(box.y0, box.y1)
     ax.set_aspect("equal", adjustable="box")
+    # matplotlib's default keeps two x ticks at least: a map along y, drawn a third of an
+    # inch wide, ran "-2.5", "0.0" and "2.5" into one another; one tick where one fits
+    ax.xaxis.set_major_locator(MaxNLocator("auto", steps=[1, 2, 2.5, 5, 10], min_n_ticks=1))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     if title is not None:

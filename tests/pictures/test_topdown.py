@@ -4,6 +4,7 @@ its places, arrows and empty space are compared with what the drawing rules say.
 
 from __future__ import annotations
 
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -337,3 +338,19 @@ def test_a_corridor_along_y_is_drawn_on_a_narrow_page_with_its_text_inside() -> 
             assert box.x0 >= 0, text.get_text()
             assert box.x1 <= fig.bbox.x1, text.get_text()
         assert "teal: flow without a heading" in fig._supxlabel.get_text().replace("\n", " ")
+
+
+def test_the_x_tick_labels_of_a_narrow_map_do_not_run_together() -> None:
+    """A corridor along y, 2 m wide, drawn 100 m high: its panel is a fraction of an inch
+    wide, and its three x tick labels ("-2.5", "0.0", "2.5") were drawn over one another."""
+    n = 40
+    scene = cells_only_scene(np.column_stack([np.zeros(n), 2.5 * np.arange(n)]), np.ones(n))
+    fig = topdown_figure([scene], ["t"])
+    fig.canvas.draw()
+    (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+    lo, hi = ax.get_xlim()
+    labels = [t for t in ax.get_xticklabels() if t.get_text() and lo <= t.get_position()[0] <= hi]
+    assert labels  # the axis still says where it is
+    boxes = sorted((t.get_window_extent() for t in labels), key=lambda b: b.x0)
+    for left, right in pairwise(boxes):
+        assert left.x1 <= right.x0, [t.get_text() for t in labels]
