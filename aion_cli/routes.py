@@ -385,8 +385,8 @@ def plan_departures(
     progress: Callable[[int], None] | None = None,
 ) -> tuple[list[Routes], int]:
     """:func:`plan_routes` for each departure of ``times_ns`` (``aion plan --leave``), and
-    the index of the best one: the least temporal cost, the earliest of equal ones;
-    ``progress(k)`` after each departure."""
+    the index of the best one (:func:`best_departure`); ``progress(k)`` after each
+    departure."""
     if not times_ns:
         raise ValueError("no departure time")
     planning = _Planning(loaded, start, goal, speed, nav)
@@ -395,5 +395,17 @@ def plan_departures(
         plans.append(planning.routes(t))
         if progress is not None:
             progress(k)
-    costs = [p.temporal.cost for p in plans]
-    return plans, costs.index(min(costs))
+    return plans, best_departure([p.temporal.cost for p in plans])
+
+
+DEPARTURE_TIE = 1e-3
+"""Departure costs within this share of the least are one cost (``aion plan --leave``): the
+table shows a tenth of a unit, and forecasts are not that exact."""
+
+
+def best_departure(costs: list[float]) -> int:
+    """The index of the best departure: the earliest whose temporal cost is within
+    :data:`DEPARTURE_TIE` of the least. Costs of 8.000133 and 8.000100 both read 8.0: the
+    earlier departure is the answer, not a later one by a ten-thousandth."""
+    least = min(costs)
+    return next(k for k, c in enumerate(costs) if c <= least * (1.0 + DEPARTURE_TIE))

@@ -63,6 +63,17 @@ def test_equal_costs_keep_the_earliest(office: Office) -> None:
     assert doc["depart"].startswith("2026-11-23 08:00")
 
 
+def test_costs_within_a_tenth_of_a_percent_are_one_cost() -> None:
+    """hG's map: 07:00 cost 8.000133 and 07:30 8.000100, both shown as 8.0; 07:30 was marked
+    best, against "the earliest of equal ones". A cost truly lower by more than 0.1 % wins."""
+    from aion_cli.routes import best_departure
+
+    assert best_departure([8.000133, 8.000100, 8.2]) == 0
+    assert best_departure([8.2, 8.000133, 8.000100]) == 1
+    assert best_departure([8.02, 8.0]) == 1  # 0.25 % dearer: the later one is the answer
+    assert best_departure([5.0]) == 0
+
+
 def test_departures_at_hours_no_log_observed_are_marked(office: Office) -> None:
     """The office log observed 08:00-08:20 (UTC) only: leaving at 07:00 or 09:00 plans on
     extrapolated flows, which the JSON, the table and a note say."""
