@@ -66,9 +66,17 @@ def has_no_heading(flow: npt.ArrayLike, entropy: npt.ArrayLike) -> bool:
     return bool(np.any((f > 0) & ~np.isfinite(h)))
 
 
-def colour_key(no_heading: bool) -> str:
-    """The legend of the colours off the entropy scale: grey, and teal when drawn."""
-    return f"{NO_FLOW_KEY}; {NO_HEADING_KEY}" if no_heading else NO_FLOW_KEY
+def has_no_flow(flow: npt.ArrayLike) -> bool:
+    """Whether any entry has no flow (0, NaN or negative: drawn :data:`NO_FLOW_GREY`)."""
+    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
+    return bool(np.any(f <= 0))
+
+
+def colour_key(no_heading: bool, no_flow: bool = True) -> str:
+    """The legend of the colours off the entropy scale that are drawn: grey (``no_flow``) and
+    teal (``no_heading``); "" when neither is (a legend names no colour the picture lacks)."""
+    return "; ".join(k for k, drawn in ((NO_FLOW_KEY, no_flow), (NO_HEADING_KEY, no_heading))
+                     if drawn)
 
 
 DISPLAY_QUANTILE = 0.95

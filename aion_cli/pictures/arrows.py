@@ -29,7 +29,12 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.formats.scene_colours import colour_key, display_flow_scale, has_no_heading
+from aion_cli.formats.scene_colours import (
+    colour_key,
+    display_flow_scale,
+    has_no_flow,
+    has_no_heading,
+)
 from aion_cli.pictures.backdrop import Extent, squares_of
 from aion_cli.scene import Scene
 
@@ -159,5 +164,6 @@ def legend_lines(scale: str, fields: Sequence[ArrowField], scenes: Sequence[Scen
         has_no_heading(np.r_[s.node_flow, s.cells_flow], np.r_[s.node_entropy, s.cells_entropy])
         for s in scenes
     )
+    grey = any(has_no_flow(np.r_[s.node_flow, s.cells_flow]) for s in scenes)
     arrows = scale if any(len(f.flow) for f in fields) else NO_ARROWS
-    return [arrows, colour_key(teal), fields[0].legend() if len(fields) else ""]
+    return [arrows, colour_key(teal, grey), fields[0].legend() if len(fields) else ""]

@@ -308,6 +308,7 @@ def _topdown(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
         f"The places and hash cells seen from above, {escape(when)} (as <code>aion export "
         "--format png</code> draws them): an arrow along each one's dominant direction, as "
         "long as its flow, coloured by direction entropy (blue: everyone walks one way, red: "
-        f"every way); {escape(colour_key(True))}; dashed outlines: the rooms."
+        f"every way); {escape(colour_key(True))}"
+        f"{'; dashed outlines: the rooms' if c.counts.get('rooms') else ''}."
     )
     return ["<h2>The map from above</h2>", *_figure(src, "top-down map", caption)]

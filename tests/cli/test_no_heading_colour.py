@@ -111,7 +111,19 @@ def test_png_draws_the_standing_cell_teal_and_says_what_teal_means(
     assert box.x0 >= 0
     assert box.x1 <= fig.bbox.x1
     assert NO_HEADING_KEY in legend
-    assert "grey: no flow" in legend
+    assert "grey: no flow" not in legend  # every cell has flow: no grey is drawn to name
+
+
+def test_the_colour_key_names_the_colours_drawn() -> None:
+    from aion_cli.formats.scene_colours import NO_HEADING_KEY, colour_key, has_no_flow
+
+    assert colour_key(True, True) == f"grey: no flow; {NO_HEADING_KEY}"
+    assert colour_key(False, True) == "grey: no flow"
+    assert colour_key(True, False) == NO_HEADING_KEY
+    assert colour_key(False, False) == ""
+    assert has_no_flow([1.0, 0.0])
+    assert has_no_flow([1.0, np.nan])
+    assert not has_no_flow([2.0, 1.0])
 
 
 def test_report_caption_names_both_colours(standing_map: Path, tmp_path: Path) -> None:
@@ -122,3 +134,4 @@ def test_report_caption_names_both_colours(standing_map: Path, tmp_path: Path) -
     page = (out / "index.html").read_text()
     assert "grey: no flow" in page
     assert NO_HEADING_KEY in page
+    assert "dashed outlines" not in page  # a map of hash cells: no rooms to outline
