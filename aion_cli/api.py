@@ -103,11 +103,15 @@ class Map(Generic[Report]):
 
     @classmethod
     def load(cls, path: PathLike) -> Map[None]:
-        """Read a map file (checksums and version checked as members are used)."""
+        """Read a map file (checksums and version checked as members are used), as the
+        query commands do: without the per-entry Fourier sums only learning reads
+        (``load_map(..., forecast_only=True)``; :mod:`aion_cli.query_only`), so every answer
+        is the command line's and a big map takes the memory of its forecasts, not of its
+        learning (the sums are most of a full map's bytes)."""
         from aion_cli.mapquery import load_map
 
         p = as_path(path)
-        return Map(load_map(p), p)
+        return Map(load_map(p, forecast_only=True), p)
 
     @classmethod
     def from_state(cls, state: MapState, timezone: str | None = None) -> Map[None]:
