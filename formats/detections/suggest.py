@@ -70,7 +70,7 @@ class _Candidates:
     vec3: list[str] = field(default_factory=list)
     quat: list[str] = field(default_factory=list)
     ids: list[str] = field(default_factory=list)
-    vec2: list[str] = field(default_factory=list)  # messages with numeric x, y only
+    vec2: list[str] = field(default_factory=list)  # numeric x, y only (or 2 numbers)
 
 
 def _fields(store: Typestore, typename: str) -> list[tuple[str, tuple[int, Any]]]:
@@ -124,6 +124,8 @@ def _planar(store: Typestore, item: str, found: _Candidates) -> tuple[str | list
     usable = [p for p in found.vec2 if not any(w in p.lower() for w in _NOT_POSITION)]
     if usable:
         path = sorted(usable, key=_position_rank)[0]
+        if path.endswith("]"):  # two numbers (``pos[0..1]``): a yaw would be beside them
+            return path, _yaws(store, item)
         node = _walk_to(store, item, path)
         return path, _yaws(store, node, path + ".") if node else []
     numbers = _number_fields(store, item)
@@ -183,8 +185,10 @@ def _walk(
                 yield path, "id"
         elif kind == _ARRAY:
             elem, length = detail
-            if int(elem[0]) == _BASE and elem[1][0] in _FLOATS and length in (3, 4):
-                if length == 3:
+            if int(elem[0]) == _BASE and elem[1][0] in _FLOATS and length in (2, 3, 4):
+                if length == 2:
+                    yield f"{path}[0..1]", "vec2"
+                elif length == 3:
                     yield f"{path}[0..2]", "vec3"
                 elif any(w in name.lower() for w in ("orient", "quat", "rot")):
                     yield f"{path}[0..3]", "quat"

@@ -339,3 +339,43 @@ def test_a_suggested_mapping_finds_an_array_of_planar_people(planar_store: Any) 
     assert 'yaw = "pose.theta"' in text
     (m,) = load_mapping(text)
     m.check(planar_store)
+
+
+def test_a_suggested_mapping_reads_two_numbers_as_a_planar_position() -> None:
+    """A tracker's items with ``float32[2] pos`` (a fixed array of two numbers, no z) and a
+    ``heading``: the mapping accepts ``pos[0..1]``, so the suggestion names it (it used to
+    refuse the type as having no position, and ``aion info`` said no mapping could read
+    it), with the heading beside it as the yaw; the suggestion decodes the written values."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from aion_cli.formats.detections.suggest import suggest_mapping
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    ts.register(
+        get_types_from_msg("int64 track_id\nfloat32[2] pos\nfloat32 heading\n", "trk/msg/Obj")
+    )
+    ts.register(get_types_from_msg("std_msgs/Header header\ntrk/Obj[] objects\n", "trk/msg/Objs"))
+    text = suggest_mapping("/objects", "trk/msg/Objs", ts)
+    assert 'array = "objects"' in text
+    assert 'position = "pos[0..1]"' in text
+    assert 'yaw = "heading"' in text
+    assert 'id = "track_id"' in text
+    (m,) = load_mapping(text)
+    m = m.check(ts)
+    T = ts.types
+    Time = T["builtin_interfaces/msg/Time"]
+    obj = T["trk/msg/Obj"]
+    msg = T["trk/msg/Objs"](
+        header=T["std_msgs/msg/Header"](stamp=Time(sec=7, nanosec=5), frame_id="odom"),
+        objects=[
+            obj(track_id=3, pos=np.array([1.25, -2.5], np.float32), heading=np.float32(0.5)),
+            obj(track_id=8, pos=np.array([4.0, 0.75], np.float32), heading=np.float32(-1.0)),
+        ],
+    )
+    data = bytes(ts.serialize_cdr(msg, "trk/msg/Objs"))
+    got = m.adapter(ts).decode([RawMessage("/objects", "trk/msg/Objs", 9, data, "cdr")])
+    np.testing.assert_array_equal(got.xyz, [[1.25, -2.5, 0.0], [4.0, 0.75, 0.0]])
+    np.testing.assert_allclose(got.yaw, [0.5, -1.0], atol=1e-7)
+    np.testing.assert_array_equal(got.t_ns, [7 * 10**9 + 5] * 2)
+    assert got.frame_names() == ["odom", "odom"]
+    assert got.track_id.tolist() == [3, 8]
