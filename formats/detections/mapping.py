@@ -110,10 +110,13 @@ class TopicMapping:
         if "id" in r:
             _walk(typestore, item, r["id"], "id")
         for key, default in (("stamp", "header.stamp"), ("frame", "header.frame_id")):
-            if r.get(key, default):
-                _walk(typestore, root, r.get(key, default), key)
+            if path := r.get(key, default):
+                check = _stamp if key == "stamp" else _text
+                check(typestore, _walk(typestore, root, path, key), path, key)
         if "item_header" in r:
-            _walk(typestore, item, r["item_header"] + ".stamp", "item_header")
+            for sub, check in ((".stamp", _stamp), (".frame_id", _text)):
+                path = r["item_header"] + sub
+                check(typestore, _walk(typestore, item, path, "item_header"), path, "item_header")
         if "filter" in r:
             _walk(typestore, item, r["filter"]["field"], "filter.field")
         return self
@@ -306,6 +309,38 @@ def _number(node: Node, path: str, what: str) -> None:
     if node[0] == _BASE and node[1][0] in _NUMBERS:
         return
     raise ConfigError(f"{what} path {path!r} must lead to a number, not a {_describe(node)}")
+
+
+def _stamp(store: Typestore, node: Node, path: str, what: str) -> None:
+    """``path`` must lead to a time stamp: a Time message (``sec``/``nanosec`` or
+    ``secs``/``nsecs``) or an integer of nanoseconds."""
+    if node[0] == _NAME:
+        names = {name for name, _ in _fields(store, node[1])}
+        if {"sec", "nanosec"} <= names or {"secs", "nsecs"} <= names:
+            return
+    elif node[0] == _BASE and node[1][0] in _NUMBERS - {"float32", "float64"}:
+        return
+    raise ConfigError(
+        f"{what} path {path!r} must lead to a time stamp (a Time message or integer "
+        f"nanoseconds), not {_a(node)}",
+        hint='a header\'s stamp is "header.stamp"; "" takes the log time',
+    )
+
+
+def _text(store: Typestore, node: Node, path: str, what: str) -> None:
+    """``path`` must lead to a frame name (a string)."""
+    if node[0] == _BASE and node[1][0] == "string":
+        return
+    raise ConfigError(
+        f"{what} path {path!r} must lead to a frame name (a string), not {_a(node)}",
+        hint='a header\'s frame is "header.frame_id"; or give frame_override = "FRAME"',
+    )
+
+
+def _a(node: Node) -> str:
+    """``a string value``, ``a message pkg/msg/T``, ``an array``."""
+    text = _describe(node)
+    return f"an {text}" if text == "array" else f"a {text}"
 
 
 def _describe(node: Node) -> str:

@@ -86,6 +86,12 @@ def test_person_messages_need_a_mapping_and_suggest_mapping_writes_one(tmp_path:
         (('position = "pose.position"', 'position = "pos"'),
          ("has no field 'pos'", "available: pose, id")),
         (("[[topic]]", "[topic]"), ("no [[topic]] tables",)),
+        # a stamp or frame path must lead to a Time / a string, not just exist
+        (('frame_override = "map"', 'stamp = "pose.position"\nframe_override = "map"'),
+         ("stamp path 'pose.position' must lead to a time stamp",
+          "not a message geometry_msgs/msg/Point")),
+        (('frame_override = "map"', 'frame = "id"'),
+         ("frame path 'id' must lead to a frame name (a string), not a uint32 value",)),
     ],
 )
 def test_bad_mappings_are_clear_errors(

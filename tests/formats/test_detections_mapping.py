@@ -141,6 +141,13 @@ id = "track_id"
         (('velocity = "vel"', 'velocity = "header.stamp"'), "must be a Point/Vector3"),
         (('id = "uid"', 'id = "header.seq"'), "std_msgs/msg/Header has no field 'seq'"),
         (('field = "label"', 'field = "kind"'), "filter.field path 'kind'"),
+        (('id = "uid"', 'id = "uid"\nstamp = "header.frame_id"'),
+         "stamp path 'header.frame_id' must lead to a time stamp .* not a string value"),
+        (('id = "uid"', 'id = "uid"\nstamp = "tracks"'),
+         "stamp path 'tracks' must lead to a time stamp .* not an array"),
+        (('id = "uid"', 'id = "uid"\nframe = "header.stamp"'),
+         "frame path 'header.stamp' must lead to a frame name .* not a message "
+         "builtin_interfaces/msg/Time"),
     ],
 )
 def test_check_names_bad_paths(store: Any, change: tuple[str, str], message: str) -> None:
