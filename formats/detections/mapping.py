@@ -118,7 +118,8 @@ class TopicMapping:
                 path = r["item_header"] + sub
                 check(typestore, _walk(typestore, item, path, "item_header"), path, "item_header")
         if "filter" in r:
-            _walk(typestore, item, r["filter"]["field"], "filter.field")
+            field = r["filter"]["field"]
+            _comparable(_walk(typestore, item, field, "filter.field"), field, r["filter"]["equals"])
         return self
 
     def _headerless(self, typestore: Typestore) -> TopicMapping:
@@ -335,6 +336,36 @@ def _text(store: Typestore, node: Node, path: str, what: str) -> None:
         f"{what} path {path!r} must lead to a frame name (a string), not {_a(node)}",
         hint='a header\'s frame is "header.frame_id"; or give frame_override = "FRAME"',
     )
+
+
+def _comparable(node: Node, path: str, equals: Any) -> None:
+    """The filter's ``equals`` values must be of its field's kind (strings for a string, whole
+    numbers for an integer, ...): a value of another kind never equals a field's value, and
+    the filter would drop every item of the topic."""
+    values = equals if isinstance(equals, list) else [equals]
+    base = node[1][0] if node[0] == _BASE else None
+    if base == "string":
+        kind, fits = "strings", all(isinstance(v, str) for v in values)
+    elif base == "bool":
+        kind, fits = "true or false", all(isinstance(v, bool) for v in values)
+    elif base in (_NUMBERS - {"float32", "float64"}) | {"byte", "char"}:
+        kind = "whole numbers"
+        fits = all(isinstance(v, int) and not isinstance(v, bool) for v in values)
+    elif base in ("float32", "float64"):
+        kind = "numbers"
+        fits = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    else:
+        raise ConfigError(
+            f"filter.field path {path!r} must lead to a string, number or bool to compare, "
+            f"not {_a(node)}"
+        )
+    if not fits or not values:
+        raise ConfigError(
+            f"filter on {path!r} ({_describe(node)}): equals must list {kind}, got {equals!r}; "
+            "no item would pass",
+            hint=f'e.g. filter = {{ field = "{path}", equals = '
+            + ('["person"] }' if base == "string" else "[1] }"),
+        )
 
 
 def _a(node: Node) -> str:

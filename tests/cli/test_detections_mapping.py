@@ -90,6 +90,9 @@ def test_person_messages_need_a_mapping_and_suggest_mapping_writes_one(tmp_path:
         (('frame_override = "map"', 'stamp = "pose.position"\nframe_override = "map"'),
          ("stamp path 'pose.position' must lead to a time stamp",
           "not a message geometry_msgs/msg/Point")),
+        # strings never equal a uint32: the filter would drop every person
+        (('id = "id"', 'id = "id"\nfilter = { field = "id", equals = ["4", "9"] }'),
+         ("filter on 'id' (uint32 value): equals must list whole numbers",)),
         (('frame_override = "map"', 'frame = "id"'),
          ("frame path 'id' must lead to a frame name (a string), not a uint32 value",)),
     ],

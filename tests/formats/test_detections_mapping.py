@@ -145,6 +145,14 @@ id = "track_id"
          "stamp path 'header.frame_id' must lead to a time stamp .* not a string value"),
         (('id = "uid"', 'id = "uid"\nstamp = "tracks"'),
          "stamp path 'tracks' must lead to a time stamp .* not an array"),
+        # a filter value of another kind than its field never matches: every item dropped
+        (('equals = ["person", "pedestrian"]', "equals = [1, 2]"),
+         r"filter on 'label' \(string value\): equals must list strings, got \[1, 2\]"),
+        (('equals = ["person", "pedestrian"]', "equals = []"), "equals must list strings"),
+        (('field = "label"', 'field = "vel.x"'),
+         r"filter on 'vel.x' \(float64 value\): equals must list numbers"),
+        (('field = "label"', 'field = "vel"'),
+         "filter.field path 'vel' must lead to a string, number or bool to compare"),
         (('id = "uid"', 'id = "uid"\nframe = "header.stamp"'),
          "frame path 'header.stamp' must lead to a frame name .* not a message "
          "builtin_interfaces/msg/Time"),
