@@ -129,6 +129,9 @@ class Detection3DExtractor:
 #: visualization_msgs/Marker types whose ``points`` are the detections.
 LIST_TYPES = (6, 7, 8)  # CUBE_LIST, SPHERE_LIST, POINTS
 DELETE_ACTIONS = (2, 3)  # DELETE, DELETEALL
+ARROW, TEXT_VIEW_FACING = 0, 9
+#: LINE_STRIP, LINE_LIST: a path walked or an outline, not where a person is
+LINE_TYPES = (4, 5)
 
 
 def _rotate(q: tuple[float, float, float, float], p: np.ndarray) -> np.ndarray:
@@ -147,12 +150,29 @@ class MarkerExtractor:
     """visualization_msgs/MarkerArray (or a single Marker): one detection per marker at
     ``pose.position`` (track id = hash of ``ns/id``), or one per point for list markers
     (points transformed by the marker pose, no track id). DELETE/DELETEALL markers are
-    skipped, and so are markers whose ``ns`` does not match ``marker_ns``."""
+    skipped, and so are markers whose ``ns`` does not match ``marker_ns``.
+
+    Trackers draw each person with several markers (leg_tracker's ``joint_leg_tracker.py``:
+    a body cylinder, a head sphere, an id label, a velocity arrow and a confidence ellipse),
+    so: text labels (``marker_text``) and lines (``marker_line``: paths, outlines) are no
+    people; an arrow given by points stands at its first point (its pose is the origin the
+    points are drawn from); and a marker at the x, y of an earlier one of the same message
+    and frame is the same person (``marker_same_place``)."""
 
     def __init__(self, options: AdapterOptions) -> None:
         self.ns = re.compile(options.marker_ns) if options.marker_ns else None
 
     def __call__(self, msg: Any, owner: int, rows: Rows) -> None:
+        seen: set[tuple[str, float, float]] = set()
+
+        def add(mk: Any, t: int, p: tuple[float, float, float], *rest: Any) -> None:
+            key = (mk.header.frame_id, p[0], p[1])
+            if key in seen:
+                rows.drop("marker_same_place")
+                return
+            seen.add(key)
+            rows.add(owner, t, mk.header.frame_id, p, *rest)
+
         for mk in msg.markers if hasattr(msg, "markers") else (msg,):
             if mk.action in DELETE_ACTIONS:
                 rows.drop("marker_delete")
@@ -160,15 +180,20 @@ class MarkerExtractor:
             if self.ns is not None and not self.ns.search(mk.ns):
                 rows.drop("marker_ns")
                 continue
+            if mk.type == TEXT_VIEW_FACING or mk.type in LINE_TYPES:
+                rows.drop("marker_text" if mk.type == TEXT_VIEW_FACING else "marker_line")
+                continue
             t = stamp_ns(mk.header.stamp)
             pos = vec3(mk.pose.position, "pose.position")
             q = quat4(mk.pose.orientation, "pose.orientation")
-            if mk.type in LIST_TYPES and len(mk.points):
-                pts = np.array([vec3(p, "points[]") for p in mk.points], np.float64)
+            listed = mk.type in LIST_TYPES or mk.type == ARROW
+            if listed and len(mk.points):
+                points = mk.points[:1] if mk.type == ARROW else mk.points
+                pts = np.array([vec3(p, "points[]") for p in points], np.float64)
                 for p in (_rotate(q, pts) + np.asarray(pos)).tolist():
-                    rows.add(owner, t, mk.header.frame_id, (p[0], p[1], p[2]))
+                    add(mk, t, (p[0], p[1], p[2]))
                 continue
-            rows.add(owner, t, mk.header.frame_id, pos, NAN_V, q, hash_id(f"{mk.ns}/{mk.id}"))
+            add(mk, t, pos, NAN_V, q, hash_id(f"{mk.ns}/{mk.id}"))
 
 
 class ZedExtractor:

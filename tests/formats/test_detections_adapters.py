@@ -197,7 +197,46 @@ def test_markers_skip_deletes_filter_ns_and_expand_lists(ros: int) -> None:
     assert d.filtered == {"marker_delete": 2, "marker_ns": 1}
     assert d.yaw[0] == pytest.approx(math.pi / 2)
     everything = decode("visualization_msgs/msg/MarkerArray", {"markers": markers}, ros)
-    assert len(everything) == 4
+    assert len(everything) == 3  # the TEXT label of person 1 is no person
+    assert everything.filtered == {"marker_delete": 2, "marker_text": 1}
+
+
+@ROS
+def test_markers_of_one_person_count_once(ros: int) -> None:
+    """leg_tracker's ``joint_leg_tracker.py`` draws each tracked person with five markers of
+    ids counted up in one ``People_tracked`` namespace: a body CYLINDER (z 0.8), a head SPHERE
+    (z 1.5), a TEXT label (z 1.7), an ARROW from the person along its velocity given by two
+    points (its pose at the origin, z 0.1) and a confidence-ellipse SPHERE (z 0). Two people
+    in one message are two detections at their x, y (not ten, two of them at the origin),
+    each with the body's id; a LINE_STRIP (a path walked) is none."""
+
+    def marker(mid: int, mtype: int, x: float, y: float, z: float, **kw: Any) -> dict[str, Any]:
+        return {
+            "header": header(4, 0, "map"), "ns": "People_tracked", "id": mid, "type": mtype,
+            "action": 0, "pose": pose(x, y, z, (0.0, 0.0, 0.0, 1.0)), **kw,
+        }
+
+    people = [(1.25, -2.0, 0.5, 0.0), (4.0, 3.5, 0.0, -0.75)]  # x, y, vx, vy
+    markers = []
+    for i, (x, y, vx, vy) in enumerate(people):
+        arrow = [{"x": x, "y": y}, {"x": x + 0.5 * vx, "y": y + 0.5 * vy}]
+        markers += [
+            marker(5 * i, 3, x, y, 0.8), marker(5 * i + 1, 2, x, y, 1.5),
+            marker(5 * i + 2, 9, x, y, 1.7, text=str(i)),
+            marker(5 * i + 3, 0, 0.0, 0.0, 0.1, points=arrow),
+            marker(5 * i + 4, 2, x, y, 0.0),
+        ]  # fmt: skip
+    markers.append(marker(99, 4, 0.0, 0.0, 0.0, points=[{"x": 9.0}, {"x": 9.0, "y": 1.0}]))
+    d = decode("visualization_msgs/msg/MarkerArray", {"markers": markers}, ros)
+    np.testing.assert_array_equal(d.xyz, [[1.25, -2.0, 0.8], [4.0, 3.5, 0.8]])
+    np.testing.assert_array_equal(
+        d.track_id, [hash_id("People_tracked/0"), hash_id("People_tracked/5")]
+    )
+    assert d.filtered == {"marker_same_place": 6, "marker_text": 2, "marker_line": 1}
+    # an arrow alone stands at its first point, moved by its pose
+    alone = {**marker(3, 0, 1.0, 2.0, 0.0, points=[{"x": 0.5, "y": 0.25}, {"x": 2.0}])}
+    a = decode("visualization_msgs/msg/MarkerArray", {"markers": [alone]}, ros)
+    np.testing.assert_array_equal(a.xyz, [[1.5, 2.25, 0.0]])
 
 
 @pytest.mark.parametrize(
