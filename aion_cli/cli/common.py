@@ -276,12 +276,26 @@ def log_format_option(func: F) -> F:
     )(func)
 
 
+def _one_mapping(_ctx: click.Context, _param: click.Parameter, value: tuple[Path, ...]) -> Any:
+    """The one mapping file given (None without): click would keep only the last of several,
+    and the topics of the others would silently go unread."""
+    files = list(dict.fromkeys(value))
+    if len(files) > 1:
+        raise click.BadParameter(
+            f"given {len(files)} files ({', '.join(str(f) for f in files)}), but aion reads "
+            "one: put all their [[topic]] tables into one file"
+        )
+    return files[0] if files else None
+
+
 def detections_mapping_option(func: F) -> F:
     """``--detections-mapping FILE``: a TOML mapping of other message types to people."""
     return click.option(
         "--detections-mapping",
         "detections_mapping",
         type=AionPath(path_type=Path, dir_okay=False),
+        multiple=True,
+        callback=_one_mapping,
         metavar="FILE",
         help="TOML mapping that reads people from other message types (README, People "
         "detections; `aion info LOG --suggest-mapping TOPIC` writes one).",

@@ -115,6 +115,30 @@ def test_bad_mappings_are_clear_errors(
     assert_one_line_error(missing.stderr, "cannot read mapping file")
 
 
+def test_two_mapping_files_are_refused_not_one_ignored(tmp_path: Path) -> None:
+    """``--detections-mapping`` given twice: click kept the last file only, so the topics of
+    the first went unread without a word (here the build used /people through the second
+    file's wrong position). Now two files are one line of error (exit 2); the same file
+    twice reads as once."""
+    log = person_bag(tmp_path / "legs.bag")
+    good = tmp_path / "good.toml"
+    good.write_text(run("info", log, "--suggest-mapping", "/people").stdout)
+    other = tmp_path / "other.toml"
+    other.write_text(good.read_text().replace('position = "pose.position"',
+                                              'position = "pose.orientation"'))  # fmt: skip
+    for command in ("build", "info"):
+        args = ["-o", tmp_path / "x.aion"] if command == "build" else []
+        result = run(command, log, *args, "--detections-mapping", good,
+                     "--detections-mapping", other)  # fmt: skip
+        assert result.exit_code == 2, (command, result.stderr)
+        assert_one_line_error(result.stderr, "--detections-mapping", "given 2 files",
+                              "put all their [[topic]] tables into one file")  # fmt: skip
+        assert not (tmp_path / "x.aion").exists()
+    report = run_json("build", log, "-o", tmp_path / "x.aion", "--detections-mapping", good,
+                      "--detections-mapping", good, "--format", "json")  # fmt: skip
+    assert report["detections"] == {"read": 40, "used": 40, "dropped": {}}
+
+
 def test_suggest_mapping_errors(tmp_path: Path) -> None:
     from aion_cli.formats.writers import LogWriter
 
