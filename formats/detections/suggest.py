@@ -56,6 +56,16 @@ _NOT_POSITION = (
     "vel", "linear", "angular", "twist", "size", "scale", "dimension", "force", "acc",
     "covariance", "extent", "bbox_size", "orientation", "color", "normal",
 )  # fmt: skip
+
+
+def _not_position(path: str) -> bool:
+    """Whether ``path`` names a velocity, size, covariance, ... rather than a position. A
+    ``pose_with_covariance`` on the way (Autoware's ``kinematics.pose_with_covariance.pose.
+    position``) is a pose, not a covariance."""
+    words = path.lower().replace("_with_covariance", "")
+    return any(w in words for w in _NOT_POSITION)
+
+
 #: Id field names, best first.
 _ID_NAMES = (
     "track_id", "tracking_id", "id", "uuid", "object_id", "agent_id", "person_id",
@@ -121,7 +131,7 @@ def _yaws(store: Typestore, typename: str, prefix: str = "") -> list[str]:
 def _planar(store: Typestore, item: str, found: _Candidates) -> tuple[str | list[str], list[str]]:
     """A planar position (a path to an ``x, y`` message, or the item's own ``x, y`` fields)
     and the yaw candidates beside it; ``("", [])`` when there is none."""
-    usable = [p for p in found.vec2 if not any(w in p.lower() for w in _NOT_POSITION)]
+    usable = [p for p in found.vec2 if not _not_position(p)]
     if usable:
         path = sorted(usable, key=_position_rank)[0]
         if path.endswith("]"):  # two numbers (``pos[0..1]``): a yaw would be beside them
@@ -215,7 +225,7 @@ def _position_rank(path: str) -> tuple[int, int]:
 
 
 def _positions(vec3: list[str]) -> list[str]:
-    usable = [p for p in vec3 if not any(w in p.lower() for w in _NOT_POSITION)]
+    usable = [p for p in vec3 if not _not_position(p)]
     return sorted(usable, key=_position_rank)
 
 

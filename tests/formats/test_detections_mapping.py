@@ -394,3 +394,79 @@ def test_a_suggested_mapping_reads_two_numbers_as_a_planar_position() -> None:
     np.testing.assert_array_equal(got.t_ns, [7 * 10**9 + 5] * 2)
     assert got.frame_names() == ["odom", "odom"]
     assert got.track_id.tolist() == [3, 8]
+
+
+def test_a_suggested_mapping_finds_a_pose_with_covariance_of_autoware_objects() -> None:
+    """Autoware's ``TrackedObjects``: each object's position is
+    ``kinematics.pose_with_covariance.pose.position``. The suggestion used to pass over it
+    (the path says "covariance") and refuse the type as having no position; it now names it,
+    the twist's linear part as the velocity and the UUID as the id, and decodes them."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from aion_cli.formats.detections.suggest import suggest_mapping
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    aw = "autoware_perception_msgs/msg/"
+    for name, text in (
+        ("unique_identifier_msgs/msg/UUID", "uint8[16] uuid\n"),
+        (aw + "Shape", "uint8 type\ngeometry_msgs/Polygon footprint\n"
+         "geometry_msgs/Vector3 dimensions\n"),
+        (aw + "TrackedObjectKinematics", "geometry_msgs/PoseWithCovariance pose_with_covariance\n"
+         "uint8 orientation_availability\ngeometry_msgs/TwistWithCovariance twist_with_covariance\n"
+         "geometry_msgs/AccelWithCovariance acceleration_with_covariance\nbool is_stationary\n"),
+        (aw + "TrackedObject", "unique_identifier_msgs/UUID object_id\n"
+         "float32 existence_probability\nautoware_perception_msgs/TrackedObjectKinematics "
+         "kinematics\nautoware_perception_msgs/Shape shape\n"),
+        (aw + "TrackedObjects", "std_msgs/Header header\n"
+         "autoware_perception_msgs/TrackedObject[] objects\n"),
+    ):  # fmt: skip
+        ts.register(get_types_from_msg(text, name))
+    text = suggest_mapping("/objects", aw + "TrackedObjects", ts)
+    kin = "kinematics."
+    assert f'position = "{kin}pose_with_covariance.pose.position"' in text
+    assert f'velocity = "{kin}twist_with_covariance.twist.linear"' in text
+    assert 'id = "object_id"' in text
+    (m,) = load_mapping(text)
+    m = m.check(ts)
+    T = ts.types
+    vec = T["geometry_msgs/msg/Vector3"]
+    pwc = T["geometry_msgs/msg/PoseWithCovariance"]
+    twc = T["geometry_msgs/msg/TwistWithCovariance"]
+    awc = T["geometry_msgs/msg/AccelWithCovariance"]
+
+    def obj(uid: int, x: float, y: float, vx: float) -> Any:
+        p = T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+        )
+        kinematics = T[aw + "TrackedObjectKinematics"](
+            pose_with_covariance=pwc(pose=p, covariance=np.zeros(36)),
+            orientation_availability=0,
+            twist_with_covariance=twc(
+                twist=T["geometry_msgs/msg/Twist"](linear=vec(x=vx, y=0.0, z=0.0),
+                                                   angular=vec(x=0.0, y=0.0, z=0.0)),
+                covariance=np.zeros(36)),
+            acceleration_with_covariance=awc(
+                accel=T["geometry_msgs/msg/Accel"](linear=vec(x=9.0, y=9.0, z=9.0),
+                                                   angular=vec(x=0.0, y=0.0, z=0.0)),
+                covariance=np.zeros(36)),
+            is_stationary=False,
+        )  # fmt: skip
+        return T[aw + "TrackedObject"](
+            object_id=T["unique_identifier_msgs/msg/UUID"](uuid=np.full(16, uid, np.uint8)),
+            existence_probability=1.0, kinematics=kinematics,
+            shape=T[aw + "Shape"](type=0, footprint=T["geometry_msgs/msg/Polygon"](points=[]),
+                                  dimensions=vec(x=0.5, y=0.5, z=1.7)),
+        )  # fmt: skip
+
+    msg = T[aw + "TrackedObjects"](
+        header=T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=3, nanosec=0), frame_id="map"
+        ),
+        objects=[obj(1, 2.5, -1.0, 1.25), obj(2, -4.0, 6.0, -0.5)],
+    )
+    data = bytes(ts.serialize_cdr(msg, aw + "TrackedObjects"))
+    got = m.adapter(ts).decode([RawMessage("/objects", aw + "TrackedObjects", 9, data, "cdr")])
+    np.testing.assert_array_equal(got.xyz, [[2.5, -1.0, 0.0], [-4.0, 6.0, 0.0]])
+    np.testing.assert_array_equal(got.velocity, [[1.25, 0.0, 0.0], [-0.5, 0.0, 0.0]])
+    assert got.track_id.tolist() == [hash_id(bytes([1] * 16)), hash_id(bytes([2] * 16))]
