@@ -21,6 +21,8 @@ if TYPE_CHECKING:
 #: the member rosbags gives a type without fields (an IDL struct needs one)
 _PLACEHOLDER = "structure_needs_at_least_one_member"
 _SEPARATOR = re.compile(r"^={3,}[ \t]*$", re.MULTILINE)
+#: rosbags field-definition node kinds: a message, a fixed array, a sequence
+_NAME, _ARRAY, _SEQUENCE = 2, 3, 4
 
 
 def _store_with_definition(
@@ -51,7 +53,6 @@ def _store_with_definition(
         )
     try:
         store.register(types)
-        return store
     except TypesysError:
         # The log's own version of a type differs from the standard one: decode this topic with
         # a store holding only the log's definitions (plus the builtin time types they use).
@@ -60,7 +61,35 @@ def _store_with_definition(
         private = Typestore()
         builtins = {k: v for k, v in store.fielddefs.items() if k.startswith("builtin_interfaces/")}
         private.register({**builtins, **types})
-        return private
+        store = private
+    _check_complete(store, msgtype, types)
+    return store
+
+
+def _check_complete(store: Typestore, msgtype: str, types: dict[str, Any]) -> None:
+    """Refuse a definition that uses a type neither it nor the store defines (a ROS 1 text
+    writing ``Point`` for ``geometry_msgs/Point``, which means ``pkg/Point`` of its own
+    package; a ``MSG:`` block missing): rosbags registers it, and every later look-up of the
+    type failed as an internal ``KeyError``."""
+    from aion_cli.formats.raw import normalize_msgtype
+
+    name = msgtype if msgtype in store.fielddefs else normalize_msgtype(msgtype)
+    todo, seen = [name], set()
+    while todo:
+        current = todo.pop()
+        if current in seen:
+            continue
+        seen.add(current)
+        if current not in store.fielddefs:
+            raise MessageDecodeError(
+                f"the log's definition of {msgtype} uses {current}, which it does not define",
+                hint="its embedded definition lacks the MSG: block of that type (in ROS 1 a type "
+                "of another package is written with its package: geometry_msgs/Point)",
+            )
+        for _, (kind, detail) in store.fielddefs[current][1]:
+            node = detail[0] if kind in (_ARRAY, _SEQUENCE) else (kind, detail)  # the element
+            if int(node[0]) == _NAME:
+                todo.append(str(node[1]))
 
 
 def _parse_definition(definition: str, msgtype: str, idl: bool) -> dict[str, Any]:

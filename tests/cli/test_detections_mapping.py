@@ -355,3 +355,64 @@ def test_the_mapping_example_is_a_topic_past_the_first_fifty(tmp_path: Path) -> 
     assert run_json("info", log, "--format", "json")["mapping_example"] == "/z/turtle1/pose"
     note = "(map another type: aion info LOG --suggest-mapping /z/turtle1/pose)"
     assert note in " ".join(run("info", log).stderr.split())
+
+
+def _ros1_tracks_mcap(path: Path, velocity_type: str) -> Path:
+    """An MCAP (ROS 1 profile) of ``trk/Tracks`` whose ros1msg schema is written by hand:
+    two tracks (float32 x, y) per message, 30 messages at 2 Hz in frame map, the velocity a
+    ``velocity_type``."""
+    import struct
+
+    from mcap.writer import Writer
+
+    sep = "=" * 80
+    schema = (
+        f"Header header\nTrack[] tracks\n{sep}\nMSG: std_msgs/Header\nuint32 seq\ntime stamp\n"
+        f"string frame_id\n{sep}\nMSG: trk/Track\nuint32 id\nfloat32 x\nfloat32 y\n"
+        f"{velocity_type} velocity\n{sep}\nMSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\n"
+        "float64 z\n"
+    )
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start(profile="ros1", library="aion tests")
+        channel = w.register_channel(
+            "/tracks", "ros1", w.register_schema("trk/Tracks", "ros1msg", schema.encode())
+        )
+        for k in range(30):
+            t = T0 + k * S // 2
+            data = struct.pack("<IIII", k, *divmod(t, S), 3) + b"map" + struct.pack("<I", 2)
+            for i, x, vx in ((1, 0.5 * k, 1.0), (2, 20 - 0.5 * k, -1.0)):
+                data += struct.pack("<Iffddd", i, x, 2.0 * i, vx, 0.0, 0.0)
+            w.add_message(channel, t, data, t, sequence=k)
+        w.finish()
+    return path
+
+
+def test_a_definition_using_a_type_it_does_not_define_is_named(tmp_path: Path) -> None:
+    """A ros1msg schema that writes ``Point velocity`` in package trk (ROS 1 reads it as
+    trk/Point, which no MSG: block defines) made ``aion info`` fail as an internal error
+    (KeyError: 'trk/msg/Point') and the build call every message corrupt. Now info lists
+    the topic, --suggest-mapping and build say which type is missing (exit 2); with
+    ``geometry_msgs/Point`` the same log builds its 60 detections."""
+    bad = _ros1_tracks_mcap(tmp_path / "bad.mcap", "Point")
+    info = run("info", bad)
+    assert info.exit_code == 0, info.stderr
+    assert "internal error" not in info.stderr
+    assert "/tracks" in info.stdout
+    missing = ("the log's definition of trk/msg/Tracks uses trk/msg/Point, which it does not "
+               "define",)  # fmt: skip
+    suggested = run("info", bad, "--suggest-mapping", "/tracks")
+    assert suggested.exit_code == 2
+    assert_one_line_error(suggested.stderr, *missing)
+    assert "hint: its embedded definition lacks the MSG: block" in suggested.stderr
+    mapping = tmp_path / "tracks.toml"
+    mapping.write_text('[[topic]]\ntopic = "/tracks"\nmsgtype = "trk/msg/Tracks"\n'
+                       'array = "tracks"\nposition = ["x", "y"]\nid = "id"\n')  # fmt: skip
+    built = run("build", bad, "-o", tmp_path / "bad.aion", "--detections-mapping", mapping)
+    assert built.exit_code == 2
+    assert_one_line_error(built.stderr, *missing)
+    good = _ros1_tracks_mcap(tmp_path / "good.mcap", "geometry_msgs/Point")
+    report = run_json("build", good, "-o", tmp_path / "good.aion", "--detections-mapping",
+                      mapping, "--format", "json")  # fmt: skip
+    assert report["detections"] == {"read": 60, "used": 60, "dropped": {}}
+    assert report["mean_speed_m_s"] == pytest.approx(1.0)
