@@ -81,6 +81,18 @@ class DetectionCounts:
             got = self.topics[name] = TopicCounts()
         return got
 
+    def placeable(self, frames: Any) -> Any:
+        """The rows of decoded ``frames`` with a finite position; the others are counted as
+        dropped ``nan`` (as the Mapper would drop them) and go no further: linked or
+        differenced, a NaN or infinite position (a tracker's lost track) gave the rows beside
+        it NaN speeds and headings (with numpy warnings), and a heading source of its own."""
+        finite = np.isfinite(frames.xyz).all(axis=1)
+        n_bad = len(frames) - int(np.count_nonzero(finite))
+        if not n_bad:
+            return frames
+        self.dropped["nan"] += n_bad
+        return frames.select(finite)
+
 
 FAR_STAMP_NS = 86_400 * 1_000_000_000
 """A header stamp more than a day from its message's log time follows another clock (a
@@ -123,3 +135,4 @@ class MapperTally:
             self.drops += np.bincount(
                 topics[dropped] * self.reasons + codes[dropped], minlength=n * self.reasons
             ).reshape(n, self.reasons)
+

@@ -205,7 +205,7 @@ class DetectionFeeder:
             frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
             self._count(topic, adapter, frames, msgs)
             frames, _ = self._informative_yaws(topic, frames, frames.msg_index)
-            frames = self._to_map_frame(frames)
+            frames = self.counts.placeable(self._to_map_frame(frames))
             rseg = seg[frames.msg_index]
             parts.append(frames)
             row_segs.append(rseg)

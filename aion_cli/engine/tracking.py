@@ -316,7 +316,8 @@ class TrackLinker:
         pred = self._xy[:n] + self._v[:n] * dt_s[:, None]
         dx = pred[:, 0, None] - det[None, :, 0]
         dy = pred[:, 1, None] - det[None, :, 1]
-        d2 = dx * dx + dy * dy
+        with np.errstate(over="ignore"):  # positions far out (1e300 m) are no match: inf
+            d2 = dx * dx + dy * dy
         gate = cfg.max_speed * dt_s + cfg.gate_slack
         gated = d2 <= (gate * gate)[:, None]
         out = np.empty(m, np.int64)
