@@ -19,6 +19,7 @@ from aion_cli.errors import ConfigError
 from aion_cli.formats.detections.frame import hash_id
 from aion_cli.formats.detections.paths import (
     FieldPath,
+    ShortArrayError,
     quat4,
     scalar,
     stamp_ns,
@@ -163,28 +164,34 @@ class ItemSpec:
             if self.keep is not None and (reason := self.keep(it)) is not None:
                 rows.drop(reason)
                 continue
-            t = stamp_ns(self.item_stamp.get(it)) if self.item_stamp else 0
-            f = str(self.item_frame.get(it)) if self.item_frame else ""
-            if self.fixed_frame is not None:
-                f = self.fixed_frame
-            vel = vec3(self.velocity.get(it), self.velocity.text) if self.velocity else NAN_V
-            o = self.orientation
-            if self.yaw is not None:
-                q = yaw_quaternion(scalar(self.yaw.get(it), self.yaw.text))
-            else:
-                q = quat4(o.get(it), o.text) if o else NAN_Q
-            if self.adjust is not None:
-                vel, q = self.adjust(it, vel, q)
-            rows.add(
-                owner,
-                t or stamp,
-                f or frame,
-                self._position(it),
-                vel,
-                q,
-                track_id_of(self.track_id.get(it)) if self.track_id else -1,
-            )
+            try:
+                self._item(it, owner, stamp, frame, rows)
+            except ShortArrayError:  # this item's sequence is too short for the path
+                rows.drop("short_array")
 
+    def _item(self, it: Any, owner: int, stamp: int, frame: str, rows: Rows) -> None:
+        """Append the detection of one item (after the filter) to ``rows``."""
+        t = stamp_ns(self.item_stamp.get(it)) if self.item_stamp else 0
+        f = str(self.item_frame.get(it)) if self.item_frame else ""
+        if self.fixed_frame is not None:
+            f = self.fixed_frame
+        vel = vec3(self.velocity.get(it), self.velocity.text) if self.velocity else NAN_V
+        o = self.orientation
+        if self.yaw is not None:
+            q = yaw_quaternion(scalar(self.yaw.get(it), self.yaw.text))
+        else:
+            q = quat4(o.get(it), o.text) if o else NAN_Q
+        if self.adjust is not None:
+            vel, q = self.adjust(it, vel, q)
+        rows.add(
+            owner,
+            t or stamp,
+            f or frame,
+            self._position(it),
+            vel,
+            q,
+            track_id_of(self.track_id.get(it)) if self.track_id else -1,
+        )
 
     def _position(self, item: Any) -> tuple[float, float, float]:
         where = self.position

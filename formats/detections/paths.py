@@ -76,7 +76,7 @@ class FieldPath:
                     ) from None
                 a, b = (step, step) if isinstance(step, int) else step
                 if b >= size:
-                    raise ConfigError(
+                    raise ShortArrayError(
                         f"field path {self.text!r}: index {b} out of range for {where} "
                         f"(length {size})"
                     )
@@ -93,6 +93,13 @@ class FieldPath:
             else:
                 out += f"[{s[0]}..{s[1]}]"
         return out
+
+
+class ShortArrayError(ConfigError):
+    """An index beyond the end of the array a message holds: a sequence (``float64[] pos``)
+    that one item leaves shorter than the mapping's ``pos[0..1]``. The data's, not the
+    mapping's, fault (the check refuses such an index into a fixed-size array): the item is
+    dropped, not the build stopped."""
 
 
 def field_names(obj: Any) -> list[str]:

@@ -416,3 +416,33 @@ def test_a_definition_using_a_type_it_does_not_define_is_named(tmp_path: Path) -
                       mapping, "--format", "json")  # fmt: skip
     assert report["detections"] == {"read": 60, "used": 60, "dropped": {}}
     assert report["mean_speed_m_s"] == pytest.approx(1.0)
+
+
+def test_an_item_whose_sequence_is_too_short_is_dropped_not_the_build(tmp_path: Path) -> None:
+    """``fx/Ps``: people with ``float64[] pos``, mapped as ``pos[0..1]``. Person a walks +x
+    and b -x at 0.5 m/s, one message a second; in message 7 b's ``pos`` is empty. That one
+    item stopped the build ('error: field path 'pos[0..1]': index 1 out of range'); now it
+    is dropped and counted (``short_array``) and the other 39 detections build."""
+    types = {"fx/msg/P": "string name\nfloat64[] pos\n",
+             "fx/msg/Ps": "std_msgs/Header header\nfx/P[] people\n"}  # fmt: skip
+    own = OwnTypes(types)
+    T = own.T
+    messages = []
+    for k in range(20):
+        t = T0 + k * S
+        b = np.array([10.0 - 0.5 * k, 4.0]) if k != 7 else np.zeros(0)
+        people = [T["fx/msg/P"](name="a", pos=np.array([0.5 * k, 1.0])),
+                  T["fx/msg/P"](name="b", pos=b)]  # fmt: skip
+        msg = T["fx/msg/Ps"](header=own.header(t, "map"), people=people)
+        messages.append(Message("/people", "fx/msg/Ps", own.cdr(msg, "fx/msg/Ps"), t))
+    log = write_mcap(tmp_path / "short.mcap", messages,
+                     {"fx/msg/Ps": own.definition("fx/msg/Ps")})  # fmt: skip
+    mapping = tmp_path / "short.toml"
+    mapping.write_text('[[topic]]\ntopic = "/people"\nmsgtype = "fx/msg/Ps"\n'
+                       'array = "people"\nposition = "pos[0..1]"\nid = "name"\n')  # fmt: skip
+    report = run_json("build", log, "-o", tmp_path / "short.aion", "--detections-mapping",
+                      mapping, "--format", "json")  # fmt: skip
+    assert report["detections"] == {"read": 39, "used": 39, "dropped": {"short_array": 1}}
+    assert report["mean_speed_m_s"] == pytest.approx(0.5)
+    _, counts, _ = map_cells(tmp_path / "short.aion")
+    assert counts.sum(axis=0).tolist() == [18, 0, 0, 0, 19, 0, 0, 0]  # b -x (bin 0), a +x
