@@ -33,14 +33,14 @@ NAN_V = (math.nan, math.nan, math.nan)
 
 def track_id_of(value: Any) -> int:
     """An int64 track id (>= 0, or -1 for none) from an id field of any kind: integers are
-    masked to 63 bits, strings and byte arrays (UUIDs) hashed with :func:`hash_id`; empty
-    strings and all-zero UUIDs mean "no id"."""
+    masked to 63 bits, strings and byte arrays (UUIDs) hashed with :func:`hash_id`; -1 (a
+    detector's "not tracked"), empty strings and all-zero UUIDs mean "no id"."""
     if hasattr(value, "uuid"):
         value = value.uuid
     if isinstance(value, bool):
         return int(value)
     if isinstance(value, (int, np.integer)):
-        return int(value) & 0x7FFF_FFFF_FFFF_FFFF
+        return -1 if value == -1 else int(value) & 0x7FFF_FFFF_FFFF_FFFF
     if isinstance(value, str):
         return hash_id(value)
     arr = np.asarray(value)
