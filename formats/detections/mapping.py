@@ -108,7 +108,7 @@ class TopicMapping:
         if "yaw" in r:
             _number(_walk(typestore, item, r["yaw"], "yaw"), r["yaw"], "yaw")
         if "id" in r:
-            _walk(typestore, item, r["id"], "id")
+            _identity(typestore, _walk(typestore, item, r["id"], "id"), r["id"])
         for key, default in (("stamp", "header.stamp"), ("frame", "header.frame_id")):
             if path := r.get(key, default):
                 check = _stamp if key == "stamp" else _text
@@ -310,6 +310,25 @@ def _number(node: Node, path: str, what: str) -> None:
     if node[0] == _BASE and node[1][0] in _NUMBERS:
         return
     raise ConfigError(f"{what} path {path!r} must lead to a number, not a {_describe(node)}")
+
+
+def _identity(store: Typestore, node: Node, path: str) -> None:
+    """``path`` must lead to a track id: an integer, a string, an array of bytes (a UUID's
+    ``uint8[16]``) or a message holding one as ``uuid`` (``unique_identifier_msgs/UUID``)."""
+    kind, detail = node
+    if kind == _BASE and detail[0] in (_NUMBERS - {"float32", "float64"}) | {"string", "byte"}:
+        return
+    if kind in (_ARRAY, _SEQUENCE) and detail[0][0] == _BASE and detail[0][1][0] in (
+        "uint8", "int8", "byte", "char",
+    ):
+        return
+    if kind == _NAME and "uuid" in dict(_fields(store, detail)):
+        return
+    raise ConfigError(
+        f"id path {path!r} must lead to an integer, a string or a UUID, not {_a(node)}",
+        hint="a track id names one person across messages; without one, leave id out "
+        "(detections are linked into tracks)",
+    )
 
 
 def _stamp(store: Typestore, node: Node, path: str, what: str) -> None:
