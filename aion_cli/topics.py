@@ -32,6 +32,7 @@ GENERIC_TYPES = frozenset(
         "geometry_msgs/msg/PoseStamped",
         "geometry_msgs/msg/PoseArray",
         "geometry_msgs/msg/PoseWithCovarianceStamped",
+        "geometry_msgs/msg/PointStamped",
         "visualization_msgs/msg/Marker",
         "visualization_msgs/msg/MarkerArray",
     }

@@ -42,11 +42,11 @@ Examples:
 
 \b
 Topics are found by message type. All topics with a people type are used, generic types
-(PoseStamped, PoseArray, PoseWithCovarianceStamped, Marker, MarkerArray) only when the topic
-name suggests people (person, people, human, pedestrian, agent, track, leg, crowd); name the
-ones you want with --detections-topic (repeatable), e.g. when a tracker publishes the same
-people twice. Other types: --detections-mapping FILE. Detections without ids are linked into
-short tracks, so their headings come from motion. Without a robot trajectory (TF
+(PoseStamped, PoseArray, PoseWithCovarianceStamped, PointStamped, Marker, MarkerArray) only
+when the topic name suggests people (person, people, human, pedestrian, agent, track, leg,
+crowd); name the ones you want with --detections-topic (repeatable), e.g. when a tracker
+publishes the same people twice. Other types: --detections-mapping FILE. Detections without
+ids are linked into short tracks, so their headings come from motion. Without a robot trajectory (TF
 map->base_link or the scene graph's agent layer) the log is treated as a fixed sensor over
 the windows in which it recorded messages, and the spans --observed declares; the summary
 says so. The time span comes from the

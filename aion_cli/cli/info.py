@@ -28,9 +28,9 @@ Examples:
 \b
 Roles: scene_graph (hydra_msgs/DsgUpdate, used by build), detections (a supported people
 type, used by build), tf / tf_static (frames and the robot trajectory), unsupported (ignored).
-Generic types (PoseStamped, PoseArray, PoseWithCovarianceStamped, Marker, MarkerArray) are
-used only from topics whose name suggests people; `why` says why each topic is used or
-skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping.
+Generic types (PoseStamped, PoseArray, PoseWithCovarianceStamped, PointStamped, Marker,
+MarkerArray) are used only from topics whose name suggests people; `why` says why each topic
+is used or skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping.
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
 size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
 role, encoding, rate_hz, used, why}], roles, dsg_versions, will_use{detections, scene_graph, tf},

@@ -59,6 +59,7 @@ SPECS: dict[str, ItemSpec] = {
     "geometry_msgs/msg/PoseWithCovarianceStamped": ItemSpec.of(
         None, "pose.pose.position", orientation="pose.pose.orientation"
     ),
+    "geometry_msgs/msg/PointStamped": ItemSpec.of(None, "point"),
     "spencer_tracking_msgs/msg/TrackedPersons": ItemSpec.of(
         "tracks", "pose.pose.position", "twist.twist.linear", "pose.pose.orientation",
         "track_id", adjust=_spencer_adjust,

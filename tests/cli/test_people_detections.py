@@ -324,7 +324,7 @@ def test_a_log_of_raw_laser_scans_points_to_a_people_tracker(tmp_path: Path) -> 
 
 def test_plumbing_topics_are_not_offered_a_mapping(tmp_path: Path) -> None:
     """A std_msgs String holds no positions: it is skipped as such, while a type a mapping
-    may read (a navigation goal's PoseStamped, not named like people) keeps the pointer."""
+    may read (a Vector3Stamped: PointStamped is read as a generic type) keeps the pointer."""
     from aion_cli.formats.writers import LogWriter, stamp
 
     log = tmp_path / "chatter.mcap"
@@ -332,7 +332,7 @@ def test_plumbing_topics_are_not_offered_a_mapping(tmp_path: Path) -> None:
         for k in range(3):
             t = T0 + k * S
             w.write("/chatter", "std_msgs/msg/String", {"data": f"hello {k}"}, t)
-            w.write("/odom_marker", "geometry_msgs/msg/PointStamped",
+            w.write("/odom_marker", "geometry_msgs/msg/Vector3Stamped",
                     {"header": {"stamp": stamp(t), "frame_id": "map"}}, t)
     why = {t["topic"]: t["why"] for t in run_json("info", log, "--format", "json")["topics"]}
     assert why["/chatter"] == "skipped: String (std_msgs) holds no positions of people"
@@ -347,7 +347,7 @@ def test_a_type_without_a_position_is_not_offered_a_mapping(tmp_path: Path) -> N
     """A Twist (velocities only) was 'not a type aion reads (a TOML mapping can read it:
     --detections-mapping)' while info's note on the same log said 'none of its types has a
     field a --detections-mapping could read as a position' (and --suggest-mapping refuses
-    it); its reason now says it has no such field. A PointStamped keeps the offer."""
+    it); its reason now says it has no such field. A Vector3Stamped keeps the offer."""
     from aion_cli.formats.writers import LogWriter, stamp
 
     log = tmp_path / "cmd.mcap"
@@ -367,7 +367,7 @@ def test_a_type_without_a_position_is_not_offered_a_mapping(tmp_path: Path) -> N
         for k in range(3):
             t = T0 + k * S
             w.write("/cmd_vel", "geometry_msgs/msg/Twist", {"linear": {"x": 0.5}}, t)
-            w.write("/odom_marker", "geometry_msgs/msg/PointStamped",
+            w.write("/odom_marker", "geometry_msgs/msg/Vector3Stamped",
                     {"header": {"stamp": stamp(t), "frame_id": "map"}}, t)
     why = {t["topic"]: t["why"] for t in run_json("info", log, "--format", "json")["topics"]}
     assert why["/cmd_vel"].endswith("could read as a position"), why

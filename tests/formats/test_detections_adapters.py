@@ -32,6 +32,7 @@ def test_supported_types_all_have_adapters() -> None:
         "leg_tracker/msg/PersonArray", "vision_msgs/msg/Detection3DArray",
         "geometry_msgs/msg/PoseArray", "geometry_msgs/msg/PoseStamped",
         "geometry_msgs/msg/PoseWithCovarianceStamped", "visualization_msgs/msg/Marker",
+        "geometry_msgs/msg/PointStamped",
         "visualization_msgs/msg/MarkerArray", "pedsim_msgs/msg/AgentStates",
         "zed_interfaces/msg/ObjectsStamped", "zed_msgs/msg/ObjectsStamped",
         "nav2_dynamic_msgs/msg/ObstacleArray",
@@ -82,6 +83,20 @@ def test_pose_with_covariance_stamped_and_a_single_marker(ros: int) -> None:
     np.testing.assert_array_equal(m.xyz, [[5, 6, 0]])
     np.testing.assert_array_equal(m.track_id, [hash_id("people/7")])
     assert np.isnan(m.yaw[0])  # a zero quaternion is no orientation
+
+
+@ROS
+def test_point_stamped(ros: int) -> None:
+    """A PointStamped (a detector's one person, no id, no orientation): its point."""
+    d = decode("geometry_msgs/msg/PointStamped",
+               {"header": header(3, 5, "base_link"), "point": {"x": 1.5, "y": -2.25, "z": 0.5}},
+               ros)  # fmt: skip
+    np.testing.assert_array_equal(d.xyz, [[1.5, -2.25, 0.5]])
+    np.testing.assert_array_equal(d.t_ns, [3 * S + 5])
+    assert d.frame_names() == ["base_link"]
+    np.testing.assert_array_equal(d.track_id, [-1])
+    assert np.isnan(d.yaw[0])
+    assert np.isnan(d.velocity).all()
 
 
 @ROS
