@@ -243,8 +243,13 @@ def record_detections(
     fast = fast_people_warning(report)
     if fast is not None:
         report.warnings.append(fast)
-    for feeder in feeders.feeders.values():
+    for topic, feeder in feeders.feeders.items():
         report.yaw_rule.update(feeder.yaw_rule())
+        if feeder.frames.unframed:
+            report.notes.append(
+                f"detections on {topic} name no frame (an empty frame_id): their positions "
+                f"are taken as in the map frame {feeder.frames.map_frame!r}"
+            )
     check_decoding(report, c, plan)
     topic_counts(report, feeders, used, mapper_drops, c.used)
     if c.stamp_fallbacks:

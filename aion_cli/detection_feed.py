@@ -21,8 +21,9 @@ Every stateful step treats each piece as a call of its own would, so the batches
 same as decoding piece by piece.
 
 This module holds :class:`DetectionFeeder` (one feeder's decode: adapters, uninformative yaws,
-TF, track linking, headings) and :func:`log_adapters`; the rest lives beside it and is
-re-exported here: :mod:`aion_cli.detection_counts` (:class:`DetectionCounts`,
+TF, track linking, headings) and :func:`log_adapters`; the rest lives beside it:
+:mod:`aion_cli.detection_frames` (the move into the map frame, :class:`MapFrameMover`), and,
+re-exported here, :mod:`aion_cli.detection_counts` (:class:`DetectionCounts`,
 :class:`TopicCounts`, :data:`HEADING_SOURCES`), :mod:`aion_cli.detection_jobs` (the segment
 bookkeeping of a decode job, :class:`TopicFeeders`) and :mod:`aion_cli.detection_chunks`
 (:class:`Chunk`, :func:`chunks`, :func:`decoded_chunks`).
@@ -39,6 +40,7 @@ import numpy as np
 
 from aion_cli.detection_chunks import MAX_CHUNK_BYTES, Chunk, chunks, decoded_chunks
 from aion_cli.detection_counts import HEADING_SOURCES, DetectionCounts, TopicCounts, speed_micro
+from aion_cli.detection_frames import MapFrameMover
 from aion_cli.detection_jobs import (
     TopicFeeders,
     _first_in_segment,
@@ -48,7 +50,6 @@ from aion_cli.detection_jobs import (
     _time_order,
 )
 from aion_cli.engine.types import I64, DetectionBatch
-from aion_cli.errors import TransformError
 
 if TYPE_CHECKING:
     from aion_cli.engine.tracking import LinkerConfig, TrackLinker
@@ -131,9 +132,8 @@ class DetectionFeeder:
         from aion_cli.engine.tracking import LinkerConfig
         from aion_cli.formats.raw import normalize_frame
 
-        self.tf = tf
-        self.map_frame = normalize_frame(map_frame)  # as the detections' frames are spelt
-        self._map_frame_seen = False  # detections were already given in the map frame
+        # into the map frame, spelt as the detections' frames are
+        self.frames = MapFrameMover(tf, normalize_frame(map_frame), counts)
         self.counts = counts
         self.adapters: dict[tuple[str, str, str], DetectionAdapter] = dict(adapters or {})
         self.factory = factory or _default_factory
@@ -205,7 +205,7 @@ class DetectionFeeder:
             frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
             self._count(topic, adapter, frames, msgs)
             frames, _ = self._informative_yaws(topic, frames, frames.msg_index)
-            frames = self.counts.placeable(self._to_map_frame(frames))
+            frames = self.counts.placeable(self.frames.move(frames))
             rseg = seg[frames.msg_index]
             parts.append(frames)
             row_segs.append(rseg)
@@ -384,61 +384,6 @@ class DetectionFeeder:
             if n:
                 key = "linked" if linked and name == "track" else name
                 self.counts.headings[key] += int(n)
-
-    def _to_map_frame(self, frames: Any) -> Any:
-        """Rows moved into the map frame; rows without a transform are counted and dropped."""
-        from aion_cli.formats.quaternions import rotated_yaw
-
-        if len(frames) == 0:
-            return frames
-        target = self.map_frame
-        if all(name in ("", target) for name in frames.frames):  # nothing to move
-            self._map_frame_seen = True
-            if frames.frames == (target,):
-                return frames
-            return dataclasses.replace(
-                frames, frame_id=np.zeros(len(frames), np.int64), frames=(target,)
-            )
-        xyz = frames.xyz.copy()
-        vel = frames.velocity.copy()
-        yaw = frames.yaw.copy()
-        ok = np.ones(len(frames), dtype=bool)
-        for index, name in enumerate(frames.frames):
-            if name in ("", target):
-                continue  # Hydra's ROS 1 sender leaves frame ids empty: taken as the map frame
-            rows = np.flatnonzero(frames.frame_id == index)
-            if len(rows) == 0:
-                continue
-            if self.tf is None:
-                if self._map_frame_seen or target in frames.frames:
-                    raise TransformError(
-                        f"the detections are in two frames, {target!r} and {name!r}, and the "
-                        "logs have no TF between them",
-                        hint="build the logs of each frame into a map of its own (--map-frame "
-                        "names the frame)",
-                    )
-                raise TransformError(
-                    f"detections are in frame {name!r} but the log has no TF to {target!r}",
-                    hint=f"if {name!r} is a fixed frame, give --map-frame {name} (the frame "
-                    "the map is in)",
-                )
-            R, t, good = self.tf.lookup(target, name, frames.t_ns[rows])
-            xyz[rows] = np.einsum("nij,nj->ni", R, frames.xyz[rows]) + t
-            vel[rows] = np.einsum("nij,nj->ni", R, frames.velocity[rows])
-            yaw[rows] = rotated_yaw(R, yaw[rows])
-            ok[rows] = good
-        n_bad = int((~ok).sum())
-        if n_bad:
-            self.counts.dropped["no_transform"] += n_bad
-        moved = dataclasses.replace(
-            frames,
-            xyz=xyz,
-            velocity=vel,
-            yaw=yaw,
-            frame_id=np.zeros(len(frames), np.int64),
-            frames=(target,),
-        )
-        return moved.select(ok) if n_bad else moved
 
 
 def log_adapters(

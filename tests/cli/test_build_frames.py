@@ -222,3 +222,25 @@ def test_a_rotation_tf2_refuses_as_not_normalised_is_a_warning(tmp_path: Path) -
                       "--format", "json")
     assert report["detections"]["used"] == 300
     assert not [w for w in report["warnings"] if "not unit quaternions" in w]
+
+
+def test_detections_that_name_no_frame_are_said_to_be_taken_as_the_map_frame(
+    tmp_path: Path,
+) -> None:
+    """A tracker that leaves frame_id empty had its positions taken as map positions without
+    a word; a robot's odom-frame tracker would so have been mapped where it never was. The
+    build now says so once for the topic (in --workers 2 too), and says nothing when the
+    detections name the map frame."""
+    empty = tmp_path / "empty.mcap"
+    write_office_log(empty, tf=False, graph=False, frame="")
+    note = "detections on /tracks name no frame (an empty frame_id): their positions are " \
+        "taken as in the map frame 'map'"
+    for workers in ("1", "2"):
+        report = run_json("build", empty, "-o", tmp_path / f"e{workers}.aion", "--workers",
+                          workers, "--format", "json")
+        assert report["detections"]["used"] == 300
+        assert report["notes"].count(note) == 1, report["notes"]
+    named = tmp_path / "named.mcap"
+    write_office_log(named, tf=False, graph=False)
+    report = run_json("build", named, "-o", tmp_path / "n.aion", "--format", "json")
+    assert not [n for n in report["notes"] if "name no frame" in n]

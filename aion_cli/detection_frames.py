@@ -1,0 +1,89 @@
+"""Detection rows into the map frame (:class:`MapFrameMover`): positions, velocities and pose
+yaws turned by the TF buffer's transform at each row's time; rows without a transform are
+counted as ``no_transform`` and dropped; a frame with no TF at all is an error naming
+``--map-frame``. Rows that name no frame (an empty ``frame_id``: Hydra's ROS 1 sender, some
+trackers) are taken as in the map frame, and the build says so once per topic."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.errors import TransformError
+
+if TYPE_CHECKING:
+    from aion_cli.detection_counts import DetectionCounts
+    from aion_cli.formats.tf import TfBuffer
+
+
+@dataclasses.dataclass
+class MapFrameMover:
+    """One detection topic's move into ``map_frame`` (spelt as ``formats.raw.normalize_frame``
+    spells frames) with ``tf`` (None: the logs have none); drops counted in ``counts``.
+    ``map_frame_seen``: rows were given in the map frame itself (a second frame without TF is
+    then an error of two frames); ``unframed``: some rows named no frame."""
+
+    tf: TfBuffer | None
+    map_frame: str
+    counts: DetectionCounts
+    map_frame_seen: bool = False
+    unframed: bool = False
+
+    def move(self, frames: Any) -> Any:
+        """Rows moved into the map frame; rows without a transform are counted and dropped."""
+        from aion_cli.formats.quaternions import rotated_yaw
+
+        if len(frames) == 0:
+            return frames
+        target = self.map_frame
+        if "" in frames.frames and target and np.any(frames.frame_id == frames.frames.index("")):
+            self.unframed = True  # said once per topic (build_report)
+        if all(name in ("", target) for name in frames.frames):  # nothing to move
+            self.map_frame_seen = True
+            if frames.frames == (target,):
+                return frames
+            return dataclasses.replace(
+                frames, frame_id=np.zeros(len(frames), np.int64), frames=(target,)
+            )
+        xyz = frames.xyz.copy()
+        vel = frames.velocity.copy()
+        yaw = frames.yaw.copy()
+        ok = np.ones(len(frames), dtype=bool)
+        for index, name in enumerate(frames.frames):
+            if name in ("", target):
+                continue  # Hydra's ROS 1 sender leaves frame ids empty: taken as the map frame
+            rows = np.flatnonzero(frames.frame_id == index)
+            if len(rows) == 0:
+                continue
+            if self.tf is None:
+                if self.map_frame_seen or target in frames.frames:
+                    raise TransformError(
+                        f"the detections are in two frames, {target!r} and {name!r}, and the "
+                        "logs have no TF between them",
+                        hint="build the logs of each frame into a map of its own (--map-frame "
+                        "names the frame)",
+                    )
+                raise TransformError(
+                    f"detections are in frame {name!r} but the log has no TF to {target!r}",
+                    hint=f"if {name!r} is a fixed frame, give --map-frame {name} (the frame "
+                    "the map is in)",
+                )
+            R, t, good = self.tf.lookup(target, name, frames.t_ns[rows])
+            xyz[rows] = np.einsum("nij,nj->ni", R, frames.xyz[rows]) + t
+            vel[rows] = np.einsum("nij,nj->ni", R, frames.velocity[rows])
+            yaw[rows] = rotated_yaw(R, yaw[rows])
+            ok[rows] = good
+        n_bad = int((~ok).sum())
+        if n_bad:
+            self.counts.dropped["no_transform"] += n_bad
+        moved = dataclasses.replace(
+            frames,
+            xyz=xyz,
+            velocity=vel,
+            yaw=yaw,
+            frame_id=np.zeros(len(frames), np.int64),
+            frames=(target,),
+        )
+        return moved.select(ok) if n_bad else moved
