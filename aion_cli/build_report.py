@@ -430,7 +430,7 @@ def check_usable(
             + first_reasons(lost[2]),
             hint=f"the logs are damaged where the reason says; {written}",
         )
-    if c.read == 0:
+    if c.passed_filters() == 0:
         raise InputError(
             f"no people detection in the {messages:,} messages of "
             f"{', '.join(report.detection_topics)}"

@@ -81,6 +81,15 @@ class DetectionCounts:
             got = self.topics[name] = TopicCounts()
         return got
 
+    def passed_filters(self) -> int:
+        """The detections read that the decoders' filters kept (``read`` counts the items a
+        filter left out too, each dropped by its reason: ``class``, ``filter``, ``marker_*``,
+        ``short_array``); what the feeder and the Mapper dropped later is among them."""
+        from aion_cli.engine.state import DROP_REASONS  # the Mapper's
+
+        later = {"no_transform", "undecodable_messages", *DROP_REASONS}
+        return self.read - sum(n for r, n in self.dropped.items() if r not in later)
+
     def placeable(self, frames: Any) -> Any:
         """The rows of decoded ``frames`` with a finite position; the others are counted as
         dropped ``nan`` (as the Mapper would drop them) and go no further: linked or

@@ -238,7 +238,9 @@ class DetectionFeeder:
 
     def _count(self, topic: str, adapter: DetectionAdapter, frames: Any, msgs: list[Any]) -> None:
         c, per_topic = self.counts, self.counts.topic(topic)
-        c.read += len(frames)
+        # read = used + dropped: items a filter left out were read, and are dropped by reason
+        # (damaged payloads are counted per message: their detections are unknown)
+        c.read += len(frames) + sum(n for r, n in frames.filtered.items() if r != "undecodable")
         if adapter.stamped:
             c.stamp_fallbacks += int(frames.stamp_fallbacks)
             per_topic.count_far_stamps(frames.t_ns, msgs, frames.msg_index)

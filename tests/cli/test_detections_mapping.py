@@ -209,7 +209,7 @@ def test_the_readme_mapping_examples_read_both_topics(tmp_path: Path) -> None:
     report = run_json("build", log, "-o", out, "--detections-mapping", mapping,
                       "--map-frame", "base_laser", "--format", "json")  # fmt: skip
     assert report["detection_topics"] == ["/people", "/sim/agents"]
-    assert report["detections"] == {"read": 20, "used": 20, "dropped": {"filter": 10}}
+    assert report["detections"] == {"read": 30, "used": 20, "dropped": {"filter": 10}}
     assert report["headings"] == {"velocity": 10, "track": 9, "linked": 0, "pose_yaw": 0,
                                   "none": 1}  # fmt: skip
     _, counts, nodir = map_cells(out)
@@ -442,7 +442,7 @@ def test_an_item_whose_sequence_is_too_short_is_dropped_not_the_build(tmp_path: 
                        'array = "people"\nposition = "pos[0..1]"\nid = "name"\n')  # fmt: skip
     report = run_json("build", log, "-o", tmp_path / "short.aion", "--detections-mapping",
                       mapping, "--format", "json")  # fmt: skip
-    assert report["detections"] == {"read": 39, "used": 39, "dropped": {"short_array": 1}}
+    assert report["detections"] == {"read": 40, "used": 39, "dropped": {"short_array": 1}}
     assert report["mean_speed_m_s"] == pytest.approx(0.5)
     _, counts, _ = map_cells(tmp_path / "short.aion")
     assert counts.sum(axis=0).tolist() == [18, 0, 0, 0, 19, 0, 0, 0]  # b -x (bin 0), a +x

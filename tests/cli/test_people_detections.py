@@ -58,7 +58,7 @@ def test_foxy_detection3d_array_mcap_builds_with_its_20_detections(tmp_path: Pat
     assert info["will_use"]["detections"] == ["/detections"]
     out = tmp_path / "foxy.aion"
     report = run_json("build", log, "-o", out, "--format", "json")
-    assert report["detections"] == {"read": 20, "used": 20, "dropped": {"class": 10}}
+    assert report["detections"] == {"read": 30, "used": 20, "dropped": {"class": 10}}
     assert report["detection_decoding"]["/detections"] == {
         "type": DETECTION3D_ARRAY, "why": "people type", "decoder": "generic",
         "messages": 10, "undecodable": 0,
