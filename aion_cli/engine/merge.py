@@ -12,8 +12,10 @@ as two released nodes in one cell, first fold by the larger, as within one map),
 (Σn·e^{iωt}, per profile bin) and scores;
 the global fixed-sensor observations of the two maps add, so an entry only one map has counts
 as observed-empty over the other's fixed-sensor windows, as a single pass would. The earlier
-map's pending day is scored and absorbed first. Finally the earlier map's redirects to nodes
-alive in the later graph are kept, moving any later cell at such a key into the node.
+map's pending day is scored and absorbed first. Then the earlier map's redirects to nodes
+alive in the later graph are kept, moving any later cell at such a key into the node, and the
+cells that hold the earlier map's cells bind to the later map's stable places in reach, as one
+build binds a cell once a place near it turns stable.
 
 Approximated: (1) a map built from one log alone cannot know the robot-observed empty windows
 of entries that only the other log created (a single pass would record real zeros for them),
@@ -22,8 +24,12 @@ nor windows in which one map's cells were still unbound while the other's node o
 map's first day was not scored against the earlier map's model); (3) a node's stability timer
 keeps the earlier start only when the later map's reference position is within
 ``stable_move_tolerance`` of the earlier one; (4) when the earlier map ends on the day the
-later one starts, that day is scored as two days. Maps whose times overlap merge without
-error but count shared windows twice.
+later one starts, that day is scored as two days; (5) the earlier map's cells bind to the later
+map's places where those ended (a map keeps no history of its places' positions): one build
+binds a cell to a place that was in reach at any time after the place turned stable, so a
+place that a loop closure moved out of ``bind_radius`` may hold the cell in one build and not
+in a merge, and merges in a different grouping may differ in it. Maps whose times overlap
+merge without error but count shared windows twice.
 """
 
 from __future__ import annotations
@@ -34,13 +40,21 @@ import numpy as np
 
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import ADDITIVE, CELL, NODE
+from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.node_drift import approximate_timers
-from aion_cli.engine.ownership import node_rows_creating, rows_for_keys
+from aion_cli.engine.ownership import (
+    BindPlan,
+    apply_binds,
+    node_rows_creating,
+    plan_binds,
+    rows_for_keys,
+)
 from aion_cli.engine.spatial_hash import keys_for_points
 from aion_cli.errors import ConfigError
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
+    from aion_cli.engine.types import F64, I64, U64
 
 
 def merge_maps(a: MapState, b: MapState, *, consume: bool = False) -> MapState:
@@ -63,6 +77,7 @@ def merge_maps(a: MapState, b: MapState, *, consume: bool = False) -> MapState:
     dst = destinations(out, early, src_rows)
     add_entries(out, early, src_rows, dst)
     adopt_redirects(out, early)
+    bind_early_cells(out, np.unique(dst))
     # the earlier map's fixed-sensor intervals (and any poses left): the merged map observed
     # what both did, as one build does (its description counted the later map's alone)
     out.observation.join(early.observation)
@@ -167,3 +182,36 @@ def merge_timers(out: MapState, early: MapState) -> None:
     approximation of :func:`aion_cli.engine.node_drift.approximate_timers` (ordinary maps
     keep no drift of their nodes; a shard's join is exact, :mod:`aion_cli.engine.shards`)."""
     approximate_timers(out.nodes, early.nodes, out.config.stable_move_tolerance)
+
+
+def bind_early_cells(out: MapState, rows: I64, first: tuple[U64, F64] | None = None) -> None:
+    """Bind the cells holding the earlier map's cells (``rows``) that a stable node covers,
+    as a single pass would have bound them once the node was stable (and then routed the
+    shard's detections there to the node): against the shard's first stable nodes (``first``,
+    where they still exist), then its last (an ordinary map's merge knows only those: a
+    cell the earlier map saw near a place the later map's graph made stable stayed a cell,
+    which one build binds)."""
+    cells = rows[out.entries.kind[rows] == CELL]
+    if first is not None and cells.size:
+        ids, xyz = first
+        alive = np.isin(ids, out.nodes.ids)
+        ids, xyz = ids[alive], xyz[alive]
+        cfg = out.config
+        hit = nearest_nodes(
+            out.entries.xyz[cells], xyz, cfg.bind_radius, cfg.bind_vertical_tolerance
+        )
+        bound = hit >= 0
+        if bound.any():
+            picked = cells[bound]
+            order = np.argsort(out.entries.key[picked], kind="stable")
+            at = np.searchsorted(out.nodes.ids, ids[hit[bound]][order])
+            apply_binds(out, BindPlan(picked[order], ids[hit[bound]][order], out.nodes.xyz[at]))
+            cells = np.setdiff1d(cells, picked)
+    if cells.size == 0 or out.log_time_ns is None:
+        return
+    plan = plan_binds(out, int(out.log_time_ns))
+    if plan is None:
+        return
+    keep = np.isin(plan.cells, cells)
+    if keep.any():
+        apply_binds(out, BindPlan(plan.cells[keep], plan.node_ids[keep], plan.node_xyz[keep]))

@@ -43,14 +43,14 @@ import numpy as np
 
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import CELL, NODE
-from aion_cli.engine.merge import add_entries, adopt_redirects, destinations
+from aion_cli.engine.merge import add_entries, adopt_redirects, bind_early_cells, destinations
 from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.node_drift import join_timers, timers_blocker
-from aion_cli.engine.ownership import BindPlan, apply_binds, plan_binds, stable_nodes
+from aion_cli.engine.ownership import stable_nodes
 from aion_cli.engine.temporal.groups import groups_moved
 from aion_cli.engine.temporal.held_days import DeferredDays, HeldDay
 from aion_cli.engine.temporal.pending import PendingDay
-from aion_cli.engine.types import F64, I64, U64
+from aion_cli.engine.types import I64
 from aion_cli.engine.windows import iso, window_start_ns
 from aion_cli.errors import ConfigError
 
@@ -215,7 +215,7 @@ def join_shard(acc: MapState, shard: MapState) -> MapState:
             out.pending = carried
     out.observation.join(acc.observation)
     adopt_redirects(out, acc)  # ownership moves re-label the held days and the pending day
-    _bind_early_cells(out, early_rows, held.first_stable)
+    bind_early_cells(out, early_rows, held.first_stable)
     _replay(out, held)
     out.accepted += acc.accepted
     for reason, count in acc.dropped.items():
@@ -226,37 +226,6 @@ def join_shard(acc: MapState, shard: MapState) -> MapState:
         out.observation.prune(int(window_start_ns(out.open_window, out.window_ns)))
     out.rebuild_routes()
     return out
-
-
-def _bind_early_cells(out: MapState, rows: I64, first: tuple[U64, F64] | None) -> None:
-    """Bind the cells holding the earlier map's cells (``rows``) that a stable node covers,
-    as a single pass would have bound them once the node was stable (and then routed the
-    shard's detections there to the node): against the shard's first stable nodes (``first``,
-    where they still exist), then its last."""
-    cells = rows[out.entries.kind[rows] == CELL]
-    if first is not None and cells.size:
-        ids, xyz = first
-        alive = np.isin(ids, out.nodes.ids)
-        ids, xyz = ids[alive], xyz[alive]
-        cfg = out.config
-        hit = nearest_nodes(
-            out.entries.xyz[cells], xyz, cfg.bind_radius, cfg.bind_vertical_tolerance
-        )
-        bound = hit >= 0
-        if bound.any():
-            picked = cells[bound]
-            order = np.argsort(out.entries.key[picked], kind="stable")
-            at = np.searchsorted(out.nodes.ids, ids[hit[bound]][order])
-            apply_binds(out, BindPlan(picked[order], ids[hit[bound]][order], out.nodes.xyz[at]))
-            cells = np.setdiff1d(cells, picked)
-    if cells.size == 0 or out.log_time_ns is None:
-        return
-    plan = plan_binds(out, int(out.log_time_ns))
-    if plan is None:
-        return
-    keep = np.isin(plan.cells, cells)
-    if keep.any():
-        apply_binds(out, BindPlan(plan.cells[keep], plan.node_ids[keep], plan.node_xyz[keep]))
 
 
 def _cover(out: MapState, day: PendingDay, rows: I64) -> None:

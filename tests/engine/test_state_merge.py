@@ -218,3 +218,35 @@ def test_merged_maps_add_their_counters_and_keep_the_latest_log_time() -> None:
     assert merged.dropped == {"nan": 7, "out_of_range": 1, "before_window": 3}
     assert merged.accepted == accepted
     assert merged.log_time_ns == latest  # the map has seen the logs up to the later one's end
+
+
+def test_a_cell_of_the_earlier_map_binds_to_a_place_the_later_map_made_stable() -> None:
+    """One build binds the earlier log's cell at (6.3, 6) to p4 once the later log's graph
+    adds p4 there and it turns stable; a merge left it a cell, holding the flow that one
+    build gives p4 (``aion merge`` of ordinary maps: predict --historical differed)."""
+    late_t = T0 + 2 * DAY
+    spot, elsewhere = [6.3, 6.0, 0.0], [0.2, 0.0, 0.0]
+
+    def log(start: int, nodes: list[int], points: list[list[float]]) -> list:
+        def batch(w: int) -> object:
+            t = start + w * W + 60 * S + np.arange(len(points)) * S
+            return detections(t, points, np.zeros(len(points)), np.ones(len(points)))
+
+        return [
+            lambda m: m.set_fixed_sensor(start, start + 2 * W),
+            lambda m: m.add_graph(graph(start, nodes, np.array(NODES)[nodes])),
+            lambda m: m.add_detections(batch(0)),
+            lambda m: m.add_detections(batch(1)),
+        ]
+
+    early = log(T0, [0, 1, 2, 3], [spot, spot, elsewhere])
+    late = log(late_t, [0, 1, 2, 3, 4], [elsewhere])
+    both = run_steps(early + late).state
+    key = both.redirects.keys[both.redirects.nodes == pid(4)]
+    assert key.size == 1  # one build bound the cell to p4
+    merged = merge_maps(run_steps(early).state, run_steps(late).state)
+    check_invariants(merged)
+    assert np.array_equal(merged.redirects.keys[merged.redirects.nodes == pid(4)], key)
+    assert differences(merged, both) == []
+    p4 = both.node_entry_rows(pid([4]))[0]
+    assert closed_counts(both, [p4]).sum() == 4  # the early log's detections at the spot
