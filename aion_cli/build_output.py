@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.manifest import InputLog, Manifest, add_counts
+from aion_cli.manifest import InputLog, Manifest, add_counts, part_spans
 from aion_cli.mapquery import state_counts
 
 if TYPE_CHECKING:
@@ -118,6 +118,7 @@ def write_build(
         merged_from=previous.merged_from if previous is not None else (),
         lineage=previous.lineage if previous is not None else None,
         map_frame=map_frame,
+        observed_spans=part_spans(previous, declared) if state.deferred is not None else (),
     )
     out = report.output
     write_map(out, arrays, manifest.to_dict(), lock=False)

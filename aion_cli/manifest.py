@@ -69,6 +69,10 @@ class Manifest:
     #: the fixed frame the map's positions are in (``aion build --map-frame``); None for maps
     #: written before it was recorded, and for a merge of maps in different frames
     map_frame: str | None = None
+    #: a part map's ``--observed`` spans ``[lo, hi)`` of log time (every build of it): a
+    #: merge fills the declared windows between the part's logs and those before it with
+    #: them, as one build of all the logs does; empty for other maps
+    observed_spans: tuple[tuple[int, int], ...] = ()
     container: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -106,6 +110,7 @@ class Manifest:
             lineage=str(d["lineage"]) if isinstance(d.get("lineage"), str) else None,
             query_only=parse_query_only(d.get("query_only")),
             map_frame=str(d["map_frame"]) if isinstance(d.get("map_frame"), str) else None,
+            observed_spans=_spans(d.get("observed_spans")),
             container={k: d[k] for k in ("format", "version", "creator", "created") if k in d},
         )
 
@@ -128,6 +133,10 @@ class Manifest:
             else {}
         ) | ({"query_only": self.query_only} if self.query_only is not None else {}) | (
             {"map_frame": self.map_frame} if self.map_frame is not None else {}
+        ) | (
+            {"observed_spans": [list(span) for span in self.observed_spans]}
+            if self.observed_spans
+            else {}
         )
 
     def shown(self) -> dict[str, Any]:
@@ -170,6 +179,24 @@ def _merged_from(value: Any) -> tuple[dict[str, Any], ...]:
     if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
         raise _bad("merged_from", "expected a list of objects")
     return tuple(value)
+
+
+def _spans(value: Any) -> tuple[tuple[int, int], ...]:
+    if value is None:
+        return ()
+    if not isinstance(value, list) or not all(
+        isinstance(v, list) and len(v) == 2 and all(type(x) is int for x in v) for v in value
+    ):
+        raise _bad("observed_spans", "expected a list of [start_ns, end_ns] pairs")
+    return tuple((int(a), int(b)) for a, b in value)
+
+
+def part_spans(
+    previous: Manifest | None, declared: tuple[tuple[int, int], ...]
+) -> tuple[tuple[int, int], ...]:
+    """A part map's ``observed_spans``: its earlier builds' and this one's, sorted, once each."""
+    before = previous.observed_spans if previous is not None else ()
+    return tuple(sorted(set(before) | {(int(a), int(b)) for a, b in declared}))
 
 
 def _stored_config(config: dict[str, Any]) -> dict[str, Any]:

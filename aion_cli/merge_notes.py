@@ -45,8 +45,10 @@ def declared_gap_note(name: str, early: Manifest, part: Manifest) -> str | None:
     """The part map ``name`` (manifest ``part``) joined after the map of manifest ``early``,
     either of them a fixed sensor's built with ``--observed``: one build of all the logs counts
     the declared windows between the two maps' logs as observed (nobody there), from where the
-    earlier logs stopped (``recording_reach``), but neither part holds them and a merge cannot
-    fill them (the spans are not stored): a note counts the windows between the logs."""
+    earlier logs stopped (``recording_reach``), but neither part holds them; the merge fills
+    them from the part's ``observed_spans`` (:mod:`aion_cli.merge_observed`) and, where the
+    part has none (built without ``--observed``, or before the spans were stored), a note
+    counts the windows between the logs."""
     from aion_cli.fixed_sensor import DECLARED
 
     if DECLARED not in early.observation and DECLARED not in part.observation:

@@ -276,6 +276,7 @@ def _fold(
         interleave,
         pair_notes,
     )
+    from aion_cli.merge_observed import fill_declared_gap
 
     tally = ApproximationTally(report.lineage)
     pairs: list[str] = []
@@ -298,9 +299,10 @@ def _fold(
         if state.deferred is not None:
             base = acc if acc is not None else MapState.empty(state.config)
             before = base.graph
+            filled = fill_declared_gap(base, maps[k - 1].manifest, m.manifest) if k else None
             acc = _join_part(base, state, m.name, report, joins)
             gap = declared_gap_note(m.name, maps[k - 1].manifest, m.manifest) if k else None
-            if gap is not None:
+            if gap is not None and filled is None:
                 joins.append(gap)
             if m.manifest.graph_source.startswith("file "):  # each part added the file anew
                 acc.graph = file_graph_time(acc.graph, before)

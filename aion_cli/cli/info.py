@@ -49,7 +49,8 @@ time_span, counts (all builds), last_build, graph_source, observation, families 
 entries each temporal model family forecasts, flow and direction), timezone, config, map_frame,
 rooms[{id, name, places}], merged_from[{name, path, size, sha256}] and lineage (a merged map),
 query_only{from{name, path, size, sha256}, left_out} (aion compact),
-part{held_days} (a part map), and with --verify verified{members, bytes, consistent}; several
+part{held_days} and observed_spans[[start_ns, end_ns]] (a part map; the spans of --observed),
+and with --verify verified{members, bytes, consistent}; several
 maps: a list of them.
 For a scene graph (.json, .sparkdsg): graph, size_bytes, format, version, reader (spark_dsg or
 lenient), nav_layer{name, key}, places, edges, frontiers_left_out, places_with_room, rooms,
