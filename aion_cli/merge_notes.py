@@ -128,7 +128,10 @@ class ApproximationTally:
             self.closed = self.closed or _closed_a_day(state)
         self._last = Footprint.of(state)
 
-    def notes(self) -> list[str]:
+    def notes(self, parts: bool = False) -> list[str]:
+        """The notes; ``parts``: the merge joined part maps too (then approximation 2 says how
+        to avoid it: a merged map is an ordinary map, so parts merged in two steps are not
+        the one merge of them all)."""
         notes = []
         if self.only:
             notes.append(
@@ -141,6 +144,12 @@ class ApproximationTally:
                 "day-ahead scores add: the later maps scored their closed days against their "
                 "own history only, not the earlier maps', so the forecast families may differ "
                 "from one build of all logs (merge approximation 2)"
+                + (
+                    "; for an exact map merge part maps only, all in one merge (aion build LOG "
+                    "--part for every log; a merged map is an ordinary map, not a part)"
+                    if parts
+                    else ""
+                )
             )
         if self.moved:
             notes.append(

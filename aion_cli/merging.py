@@ -315,7 +315,7 @@ def _fold(
         report.notes.append(
             f"{report.released} node entries released to the hash cells at their places"
         )
-    report.notes.extend(pairs + tally.notes() + joins)
+    report.notes.extend(pairs + tally.notes(parts=report.parts > 0) + joins)
     return acc
 
 

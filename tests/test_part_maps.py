@@ -330,3 +330,34 @@ def test_a_short_fixed_sensor_span_reads_in_minutes_and_old_manifests_still_pars
     old = "fixed sensor over the 2 windows with messages (0.3 h of a 0.6 h span)"
     assert fixed_sensor_share(old) == 0.5
     assert fixed_sensor_share(old, recording_windows=8) == 0.25
+
+
+def test_parts_merged_in_two_steps_say_how_to_merge_them_exactly(tmp_path: Path) -> None:
+    """merge(P0, merge(P1, P2)) is not merge(P0, P1, P2): the inner merge is an ordinary map
+    whose days were scored without P0's. The note of approximation 2 said only that scores
+    add; it now says to merge the parts in one merge, which is exact."""
+    logs = _logs(tmp_path, [0, 1, 2])
+    parts = []
+    for k, log in enumerate(logs):
+        part = tmp_path / f"p{k}.aion"
+        assert run("build", log, "--part", "-o", part, "-q").exit_code == 0
+        parts.append(part)
+    inner, outer, once = (tmp_path / f"{n}.aion" for n in ("inner", "outer", "once"))
+    assert run("merge", parts[1], parts[2], "-o", inner, "-q").exit_code == 0
+    result = run("merge", parts[0], inner, "-o", outer, "--format", "json")
+    notes = [n for n in json.loads(result.stdout)["notes"] if "approximation 2" in n]
+    assert len(notes) == 1
+    assert "merge part maps only, all in one merge" in notes[0]
+    assert run("merge", *parts, "-o", once, "-q").exit_code == 0
+    assert differences(_state(outer), _state(once)) != []  # type: ignore[arg-type]
+    whole = tmp_path / "whole.aion"
+    assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
+    assert differences(_state(whole), _state(once)) == []  # type: ignore[arg-type]
+    # ordinary maps only: no part map to point to
+    maps = []
+    for k, log in enumerate(logs):
+        one = tmp_path / f"m{k}.aion"
+        assert run("build", log, "-o", one, "-q").exit_code == 0
+        maps.append(one)
+    result = run("merge", *maps, "-o", tmp_path / "ord.aion", "--format", "json")
+    assert not [n for n in json.loads(result.stdout)["notes"] if "part maps" in n]
