@@ -42,13 +42,14 @@ def pair_notes(
 
 
 def declared_gap_note(name: str, early: Manifest, part: Manifest) -> str | None:
-    """The part map ``name`` (manifest ``part``) joined after the map of manifest ``early``,
-    either of them a fixed sensor's built with ``--observed``: one build of all the logs counts
-    the declared windows between the two maps' logs as observed (nobody there), from where the
-    earlier logs stopped (``recording_reach``), but neither part holds them; the merge fills
-    them from the part's ``observed_spans`` (:mod:`aion_cli.merge_observed`) and, where the
-    part has none (built without ``--observed``, or before the spans were stored), a note
-    counts the windows between the logs."""
+    """The map ``name`` (manifest ``part``: a part map, or an ordinary map) merged after the
+    map of manifest ``early``, either of them a fixed sensor's built with ``--observed``: one
+    build of all the logs counts the declared windows between the two maps' logs as observed
+    (nobody there), from where the earlier logs stopped (``recording_reach``), but neither map
+    holds them. The merge fills them from a part's ``observed_spans``
+    (:mod:`aion_cli.merge_observed`); where it cannot (a part built without ``--observed`` or
+    before the spans were stored, and every ordinary map, which keeps no spans), a note counts
+    the windows between the logs and says how to get them."""
     from aion_cli.fixed_sensor import DECLARED
 
     if DECLARED not in early.observation and DECLARED not in part.observation:
@@ -57,12 +58,20 @@ def declared_gap_note(name: str, early: Manifest, part: Manifest) -> str | None:
     if reach is None or type(first) is not int or first <= reach + 1:
         return None
     between = first - reach - 1
-    return (
-        f"{name} was joined, but not exactly as one build would: its logs or those before it "
-        f"were built with --observed, and one build of all of them counts the {between:,} "
-        "window(s) between them as observed and empty where the declared spans cover them; "
+    is_part = isinstance(part.state.get("deferred"), dict)
+    how = (
         "a part map fills only its own time (continue the part before with these logs "
         "instead: aion build LOG --map PART.aion --observed ...)"
+        if is_part
+        else "a map fills only its own logs' time (build the logs as parts with --part "
+        "--observed and merge those, or continue the earlier map: aion build LOG --map "
+        "MAP.aion --observed ...)"
+    )
+    return (
+        f"{name} was {'joined' if is_part else 'merged'}, but not exactly as one build would: "
+        "its logs or those before it were built with --observed, and one build of all of them "
+        f"counts the {between:,} window(s) between them as observed and empty where the "
+        f"declared spans cover them; {how}"
     )
 
 

@@ -307,6 +307,9 @@ def _fold(
             if m.manifest.graph_source.startswith("file "):  # each part added the file anew
                 acc.graph = file_graph_time(acc.graph, before)
         else:
+            gap = declared_gap_note(m.name, maps[k - 1].manifest, m.manifest) if k else None
+            if gap is not None:
+                joins.append(gap)
             acc = state if acc is None else merge_maps(acc, state, consume=True)
         del state
         sink.advance(1)

@@ -361,3 +361,29 @@ def test_parts_merged_in_two_steps_say_how_to_merge_them_exactly(tmp_path: Path)
         maps.append(one)
     result = run("merge", *maps, "-o", tmp_path / "ord.aion", "--format", "json")
     assert not [n for n in json.loads(result.stdout)["notes"] if "part maps" in n]
+
+
+def test_ordinary_maps_built_with_observed_spans_say_the_time_between_them_is_lost(
+    tmp_path: Path,
+) -> None:
+    """Ordinary maps keep no spans: their merge cannot count the declared 138 windows between
+    the logs (Monday 09:00 to Tuesday 08:00) as one build does, so their nights' rates came
+    out several times the build's, and the merge said nothing. A note now says so and how."""
+    logs, maps = [], []
+    declared = ("--observed", "2026-11-23 00:00..2026-11-25 00:00")
+    for day in (0, 1):
+        path = tmp_path / f"fixed{day}.mcap"
+        write_office_log(path, tf=False, shift_s=day * 24 * HOUR_S, duration_s=HOUR_S)
+        logs.append(path)
+        one = tmp_path / f"m{day}.aion"
+        assert run("build", path, "-o", one, "-q", *declared).exit_code == 0
+        maps.append(one)
+    report = json.loads(run("merge", *maps, "-o", tmp_path / "m.aion", "--format", "json").stdout)
+    gap = [n for n in report["notes"] if "--observed" in n]
+    assert len(gap) == 1
+    assert "m1.aion was merged, but not exactly" in gap[0]
+    assert "the 138 window(s) between them" in gap[0]
+    assert "--part --observed" in gap[0]
+    one = tmp_path / "one.aion"
+    assert run("build", *logs, "-o", one, "--workers", "1", "-q", *declared).exit_code == 0
+    assert differences(load_map(one).state, load_map(tmp_path / "m.aion").state)
