@@ -197,3 +197,21 @@ def test_a_merge_counts_the_window_two_maps_meet_in_once() -> None:
     older = {k: v for k, v in a.items() if k != "recording_first"}
     assert add_counts(older, b, meet=True)["recording_windows"] == 6
     assert "recording_first" not in add_counts(older, b, meet=True)
+
+
+def test_a_part_maps_observed_spans_round_trip_and_a_damaged_value_is_a_corrupt_map() -> None:
+    """``observed_spans`` (a part map's ``--observed`` spans, which ``aion merge`` fills the
+    time between parts from): read back as written, left out when empty, and a value that is
+    not a list of [start_ns, end_ns] integer pairs is a corrupt map (exit 2), not a crash."""
+    from aion_cli.errors import MapCorruptError
+    from aion_cli.manifest import part_spans
+
+    spans = [[100, 200], [300, 450]]
+    typed = Manifest.from_dict({"state": {}, "observed_spans": spans})
+    assert typed.observed_spans == ((100, 200), (300, 450))
+    assert typed.to_dict()["observed_spans"] == spans
+    assert "observed_spans" not in Manifest.from_dict({"state": {}}).to_dict()
+    assert part_spans(typed, ((300, 450), (0, 50))) == ((0, 50), (100, 200), (300, 450))
+    for bad in ([[1]], [["1", 2]], [[1.5, 2]], {"a": 1}, [[True, 2]]):
+        with pytest.raises(MapCorruptError, match="observed_spans"):
+            Manifest.from_dict({"state": {}, "observed_spans": bad})
