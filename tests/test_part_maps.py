@@ -34,6 +34,17 @@ def _logs(folder: Path, days: list[float]) -> list[Path]:
     return paths
 
 
+def _each_built(folder: Path, logs: list[Path], stem: str, *options: str) -> list[Path]:
+    """A map of each log on its own, ``folder/{stem}{k}.aion`` (``--part`` among
+    ``options`` for part maps)."""
+    maps = []
+    for k, log in enumerate(logs):
+        out = folder / f"{stem}{k}.aion"
+        assert run("build", log, "-o", out, "-q", *options).exit_code == 0
+        maps.append(out)
+    return maps
+
+
 def _state(path: Path) -> object:
     return load_map(path, writable=True).state
 
@@ -42,11 +53,7 @@ def test_merging_parts_equals_one_build_of_all_logs(tmp_path: Path) -> None:
     logs = _logs(tmp_path, [0, 1, 3, 3.4])  # the last two on the same day
     whole = tmp_path / "whole.aion"
     assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
-    parts = []
-    for k, log in enumerate(logs):
-        part = tmp_path / f"part{k}.aion"
-        assert run("build", log, "--part", "-o", part, "-q").exit_code == 0
-        parts.append(part)
+    parts = _each_built(tmp_path, logs, "part", "--part")
     merged = tmp_path / "merged.aion"
     result = run("merge", *reversed(parts), "-o", merged, "--format", "json")
     assert result.exit_code == 0, result.output
@@ -55,11 +62,7 @@ def test_merging_parts_equals_one_build_of_all_logs(tmp_path: Path) -> None:
     assert not [n for n in doc["notes"] if "not exactly" in n]
     assert differences(_state(whole), _state(merged)) == []  # type: ignore[arg-type]
     # ordinary maps of the same logs: each scored its own days, so the merge differs
-    ordinary = []
-    for k, log in enumerate(logs):
-        one = tmp_path / f"map{k}.aion"
-        assert run("build", log, "-o", one, "-q").exit_code == 0
-        ordinary.append(one)
+    ordinary = _each_built(tmp_path, logs, "map")
     assert run("merge", *ordinary, "-o", tmp_path / "ord.aion", "-q").exit_code == 0
     assert differences(_state(whole), _state(tmp_path / "ord.aion")) != []  # type: ignore[arg-type]
 
@@ -292,11 +295,7 @@ def test_parts_built_with_observed_spans_merge_into_one_build_of_their_logs(
         write_office_log(path, tf=False, shift_s=day * 24 * HOUR_S, duration_s=HOUR_S)
         logs.append(path)
     declared = ("--observed", "2026-11-23 00:00..2026-11-25 00:00")
-    parts = []
-    for k, log in enumerate(logs):
-        part = tmp_path / f"p{k}.aion"
-        assert run("build", log, "--part", "-o", part, "-q", *declared).exit_code == 0
-        parts.append(part)
+    parts = _each_built(tmp_path, logs, "p", "--part", *declared)
     report = json.loads(run("merge", *parts, "-o", tmp_path / "m.aion", "--format", "json").stdout)
     assert not [n for n in report["notes"] if "--observed" in n]
     one = tmp_path / "one.aion"
@@ -337,11 +336,7 @@ def test_parts_merged_in_two_steps_say_how_to_merge_them_exactly(tmp_path: Path)
     whose days were scored without P0's. The note of approximation 2 said only that scores
     add; it now says to merge the parts in one merge, which is exact."""
     logs = _logs(tmp_path, [0, 1, 2])
-    parts = []
-    for k, log in enumerate(logs):
-        part = tmp_path / f"p{k}.aion"
-        assert run("build", log, "--part", "-o", part, "-q").exit_code == 0
-        parts.append(part)
+    parts = _each_built(tmp_path, logs, "p", "--part")
     inner, outer, once = (tmp_path / f"{n}.aion" for n in ("inner", "outer", "once"))
     assert run("merge", parts[1], parts[2], "-o", inner, "-q").exit_code == 0
     result = run("merge", parts[0], inner, "-o", outer, "--format", "json")
@@ -354,11 +349,7 @@ def test_parts_merged_in_two_steps_say_how_to_merge_them_exactly(tmp_path: Path)
     assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
     assert differences(_state(whole), _state(once)) == []  # type: ignore[arg-type]
     # ordinary maps only: no part map to point to
-    maps = []
-    for k, log in enumerate(logs):
-        one = tmp_path / f"m{k}.aion"
-        assert run("build", log, "-o", one, "-q").exit_code == 0
-        maps.append(one)
+    maps = _each_built(tmp_path, logs, "m")
     result = run("merge", *maps, "-o", tmp_path / "ord.aion", "--format", "json")
     assert not [n for n in json.loads(result.stdout)["notes"] if "part maps" in n]
 
