@@ -151,7 +151,8 @@ def lincoln_section(result: Any, out_dir: Path) -> list[str]:
         for s in result.headings
     ]
     act = [
-        [a["model"], _num(a["spearman"]), _num(a["poisson_deviance"], 0), _num(a["mae"], 0)]
+        [a["model"], _num(a["spearman"]), _num(a.get("spearman_rate")),
+         _num(a["poisson_deviance"], 0), _num(a["mae"], 0)]
         for a in result.activity
     ]
     png = plots.hourly_activity(
@@ -168,7 +169,12 @@ def lincoln_section(result: Any, out_dir: Path) -> list[str]:
         "",
         *_table(["model", "detections", "unmatched", "NLL", "chi²"], head),
         "",
-        *_table(["model", "Spearman", "Poisson deviance", "MAE / hour"], act),
+        *_table(["model", "Spearman", "Spearman (rates)", "Poisson deviance", "MAE / hour"],
+                act),
+        "",
+        "Spearman ranks the test hours' totals (the issue's measure); Spearman (rates) ranks "
+        "them per recorded share of each hour (the last hour was recorded 14 minutes; a model "
+        "of one rate has no ranking then: --).",
         "",
         f"aion's flow families: {flows}; direction families: {dirs}.",
         "",
