@@ -24,7 +24,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from aion_cli.engine import closing, ownership, shards
+from aion_cli.engine import closing, merge, ownership
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.nearest import BindIndex
 from aion_cli.engine.ownership import BindPlan, stable_nodes
@@ -241,7 +241,7 @@ def test_bind_checks_asking_the_memo_first_build_the_same_map(
     with monkeypatch.context() as patch:
         patch.setattr(ownership, "plan_binds", _plan_binds_listing_first)
         patch.setattr(closing, "plan_binds", _plan_binds_listing_first)
-        patch.setattr(shards, "plan_binds", _plan_binds_listing_first)  # every copy imported
+        patch.setattr(merge, "plan_binds", _plan_binds_listing_first)  # every copy imported
         before = window_builds._build(seed, robot)
     assert len(fast_queried) <= len(queried)
     assert sum(fast_queried) < sum(queried)
