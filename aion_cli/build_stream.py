@@ -96,10 +96,15 @@ class StreamStep:
         return graph
 
     def _feeder(
-        self, tf: TfBuffer | None, counts: DetectionCounts, link: bool = True
+        self,
+        tf: TfBuffer | None,
+        counts: DetectionCounts,
+        link: bool = True,
+        cell_size: float | None = None,
     ) -> DetectionFeeder:
         """A feeder with the adapters chosen for the log's detection topics; ``link``: link
-        id-less detections into tracks (headings from motion)."""
+        id-less detections into tracks (headings from motion); ``cell_size``: the map's, so
+        rows it cannot place stop before linking."""
         return DetectionFeeder(
             tf,
             self.opts.map_frame,
@@ -108,11 +113,13 @@ class StreamStep:
             self._factory,
             linker=link,
             yaw_seen=self.at.yaw_seen if link else None,
+            cell_size=cell_size,
         )
 
     def _stream(self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper) -> None:
         feeders = TopicFeeders(
-            lambda counts: self._feeder(tf, counts), sorted(plan.names("detections"))
+            lambda counts: self._feeder(tf, counts, cell_size=mapper.state.config.cell_size),
+            sorted(plan.names("detections")),
         )
         self._tally = MapperTally(len(feeders.topics))
         graph_topics = plan.names("graph")

@@ -90,17 +90,28 @@ class DetectionCounts:
         later = {"no_transform", "undecodable_messages", *DROP_REASONS}
         return self.read - sum(n for r, n in self.dropped.items() if r not in later)
 
-    def placeable(self, frames: Any) -> Any:
-        """The rows of decoded ``frames`` with a finite position; the others are counted as
-        dropped ``nan`` (as the Mapper would drop them) and go no further: linked or
-        differenced, a NaN or infinite position (a tracker's lost track) gave the rows beside
-        it NaN speeds and headings (with numpy warnings), and a heading source of its own."""
-        finite = np.isfinite(frames.xyz).all(axis=1)
-        n_bad = len(frames) - int(np.count_nonzero(finite))
+    def placeable(self, frames: Any, cell_size: float | None = None) -> Any:
+        """The rows of decoded ``frames`` the Mapper can place; the others are counted as it
+        would count them and go no further: ``nan`` for a NaN or infinite position (a
+        tracker's lost track) and, given the map's ``cell_size``, ``out_of_range`` for a
+        finite one beyond the spatial hash's range (1e300 m). Linked or differenced, such a
+        row gave the rows beside it NaN or absurd speeds and headings (numpy warnings, "people
+        move at 25,000 m/s"), and a heading source of its own."""
+        if cell_size is None:
+            finite = in_range = np.isfinite(frames.xyz).all(axis=1)
+        else:
+            from aion_cli.engine.spatial_hash import hashable_indices
+
+            _, finite, in_range = hashable_indices(frames.xyz, cell_size)
+        n_bad = len(frames) - int(np.count_nonzero(in_range))
         if not n_bad:
             return frames
-        self.dropped["nan"] += n_bad
-        return frames.select(finite)
+        n_nan = len(frames) - int(np.count_nonzero(finite))
+        if n_nan:
+            self.dropped["nan"] += n_nan
+        if n_bad > n_nan:
+            self.dropped["out_of_range"] += n_bad - n_nan
+        return frames.select(in_range)
 
 
 FAR_STAMP_NS = 86_400 * 1_000_000_000

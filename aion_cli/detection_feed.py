@@ -127,6 +127,7 @@ class DetectionFeeder:
         factory: AdapterFactory | None = None,
         linker: LinkerConfig | bool | None = True,
         yaw_seen: Mapping[str, float] | None = None,
+        cell_size: float | None = None,
     ) -> None:
         from aion_cli.engine.heading import HeadingEstimator
         from aion_cli.engine.tracking import LinkerConfig
@@ -135,6 +136,7 @@ class DetectionFeeder:
         # into the map frame, spelt as the detections' frames are
         self.frames = MapFrameMover(tf, normalize_frame(map_frame), counts)
         self.counts = counts
+        self.cell_size = cell_size  # the map's: rows it cannot place stop before linking
         self.adapters: dict[tuple[str, str, str], DetectionAdapter] = dict(adapters or {})
         self.factory = factory or _default_factory
         self.headings = HeadingEstimator()
@@ -205,7 +207,7 @@ class DetectionFeeder:
             frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
             self._count(topic, adapter, frames, msgs)
             frames, _ = self._informative_yaws(topic, frames, frames.msg_index)
-            frames = self.counts.placeable(self.frames.move(frames))
+            frames = self.counts.placeable(self.frames.move(frames), self.cell_size)
             rseg = seg[frames.msg_index]
             parts.append(frames)
             row_segs.append(rseg)
