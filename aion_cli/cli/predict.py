@@ -141,6 +141,10 @@ def command(
 
     time_given = option_given("time_text")
     series = check_series_options(t_from, t_to, step, historical, time_given)
+    if at is not None:  # a mistyped point fails now, not after the map's first query
+        from aion_cli.engine.node_ids import require_point
+
+        require_point(at, "--at")
     loaded = load(map_path)
     if series and t_from is not None and t_to is not None:
         request = (layer, nodes, at, top)
