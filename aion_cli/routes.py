@@ -9,7 +9,7 @@ historical export) both are the distance-only path.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -395,7 +395,10 @@ def plan_departures(
         plans.append(planning.routes(t))
         if progress is not None:
             progress(k)
-    return plans, best_departure([p.temporal.cost for p in plans])
+    from aion_cli.predictions import hour_flags
+
+    observed = hour_flags(loaded, times_ns)
+    return plans, best_departure([p.temporal.cost for p in plans], observed)
 
 
 DEPARTURE_TIE = 1e-3
@@ -403,9 +406,14 @@ DEPARTURE_TIE = 1e-3
 table shows a tenth of a unit, and forecasts are not that exact."""
 
 
-def best_departure(costs: list[float]) -> int:
+def best_departure(costs: list[float], observed: Sequence[bool | None] | None = None) -> int:
     """The index of the best departure: the earliest whose temporal cost is within
-    :data:`DEPARTURE_TIE` of the least. Costs of 8.000133 and 8.000100 both read 8.0: the
-    earlier departure is the answer, not a later one by a ten-thousandth."""
+    :data:`DEPARTURE_TIE` of the least, preferring one at an hour the map observed
+    (``observed``: per departure, ``predictions.hour_flags``; False marks an extrapolated
+    hour). Costs of 8.000133 and 8.000100 both read 8.0: the earlier departure is the answer,
+    not a later one by a ten-thousandth; and among equal costs a forecast the map saw the
+    hour of, not an extrapolated one (a static map costs every hour alike)."""
     least = min(costs)
-    return next(k for k, c in enumerate(costs) if c <= least * (1.0 + DEPARTURE_TIE))
+    tied = [k for k, c in enumerate(costs) if c <= least * (1.0 + DEPARTURE_TIE)]
+    seen = [k for k in tied if observed is None or observed[k] is not False]
+    return (seen or tied)[0]

@@ -261,7 +261,7 @@ def test_the_temporal_plan_never_costs_more_than_the_distance_only_one(
 
     monkeypatch.setattr(mapquery, "node_cost_fn", lambda loaded, ids: node_cost)
     monkeypatch.setattr(mapquery, "planning_config", lambda loaded: ModelConfig())
-    loaded: Any = SimpleNamespace()
+    loaded: Any = SimpleNamespace(manifest={})  # lists no observed hours
     depart_ns = EPOCH_NS + round((600 - 20.1) * 1e9)
     routes = plan_routes(loaded, p, p + 3, depart_ns, 1.0, nav)
     assert list(routes.distance_only.node_ids) == [p, p + 2, p + 3]

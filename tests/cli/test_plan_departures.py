@@ -72,6 +72,11 @@ def test_costs_within_a_tenth_of_a_percent_are_one_cost() -> None:
     assert best_departure([8.2, 8.000133, 8.000100]) == 1
     assert best_departure([8.02, 8.0]) == 1  # 0.25 % dearer: the later one is the answer
     assert best_departure([5.0]) == 0
+    # equal costs (a static map's): an hour the map observed before an extrapolated one
+    assert best_departure([8.0, 8.0, 8.0], [False, True, True]) == 1
+    assert best_departure([8.0, 8.0], [False, False]) == 0  # none observed: the earliest
+    assert best_departure([8.0, 7.0], [True, False]) == 1  # a truly lower cost still wins
+    assert best_departure([8.0, 8.0], [None, None]) == 0  # a map that lists no hours
 
 
 def test_departures_at_hours_no_log_observed_are_marked(office: Office) -> None:
