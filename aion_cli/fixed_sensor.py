@@ -27,6 +27,7 @@ from aion_cli.fixed_sensor_text import (
     fixed_sensor_share,
     fixed_sensor_text,
     share_text,
+    time_text,
 )
 from aion_cli.log_times import TimeCheck, iso
 
@@ -299,7 +300,7 @@ def observed_note(added: int, delta: int) -> str:
     (``added`` windows of ``delta`` ns)."""
     return (
         f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
-        f"({added * delta / 3.6e12:,.1f} h), within the logs' time (the first log's first "
+        f"({time_text(added * delta)}), within the logs' time (the first log's first "
         "message to the last log's last, the time between the logs included)"
     )
 
@@ -322,7 +323,7 @@ def outside_logs_note(
     if n == 0:
         return None
     return (
-        f"{OBSERVED_NOTE}{n:,} declared window(s) ({n * delta / 3.6e12:,.1f} h) lie outside "
+        f"{OBSERVED_NOTE}{n:,} declared window(s) ({time_text(n * delta)}) lie outside "
         "the logs' time (before the first log's first message or after the last log's "
         "last) and stay unknown, not empty: a log that continues the map fills the time "
         "since the map's last message"

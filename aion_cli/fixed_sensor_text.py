@@ -39,7 +39,7 @@ def time_text(ns: int) -> str:
     ``1.5 min``), under a minute ``40 s``."""
     seconds = ns / 1e9
     if seconds >= 3600:
-        return f"{seconds / 3600:.1f} h"
+        return f"{seconds / 3600:,.1f} h"
     if seconds >= 60:
         return f"{round(seconds / 60, 1):g} min"
     return f"{round(seconds, 1):g} s"

@@ -26,6 +26,7 @@ from aion_cli.engine.types import I64, Trajectory
 from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, MessageDecodeError
 from aion_cli.fixed_sensor import fixed_sensor_windows, unposed_log_windows
+from aion_cli.fixed_sensor_text import time_text
 from aion_cli.formats.tf_norms import NormTally
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TimeCheck, TopicTimes
@@ -377,7 +378,7 @@ def silent_note(n: int, delta: int) -> str:
     """The note on ``n`` windows the robot's poses observe in which no detection topic
     recorded a message (a parallel build adds its shards' up into one)."""
     return (
-        f"{SILENT_NOTE}{n:,} window(s) ({n * delta / 3.6e12:,.1f} h) with robot poses hold "
+        f"{SILENT_NOTE}{n:,} window(s) ({time_text(n * delta)}) with robot poses hold "
         "no message of the detection topic(s): they count as observed and empty (nobody "
         "there); a tracker that publishes only when it sees someone leaves them so, but one "
         "that was down then (crashed, not started) did not observe them: leave that time "

@@ -108,7 +108,7 @@ def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> N
     assert report["observation"].startswith("fixed sensor over the 8 windows with messages")
     # the span's 31 days of 10-minute windows lie after the log: none observed, all counted
     assert [n for n in report["notes"] if n.startswith("--observed: ")] == [
-        "--observed: 0 window(s) without a message taken as observed (0.0 h), within the "
+        "--observed: 0 window(s) without a message taken as observed (0 s), within the "
         "logs' time (the first log's first message to the last log's last, the time between "
         "the logs included)",
         "--observed: 4,464 declared window(s) (744.0 h) lie outside the logs' time (before the "
