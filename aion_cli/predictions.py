@@ -226,6 +226,11 @@ def entry_table(loaded: LoadedMap, t_ns: int | None, layer: str = "all") -> Any:
         level: Literal["rooms", "buildings"] = "rooms" if layer == "rooms" else "buildings"
         table = query.aggregate_table(table, loaded.graph, level)
         if len(table.xyz) == 0:  # an empty table would read as "nobody walks there"
+            from aion_cli.room_names import rooms_off_the_nav_layer
+
+            off = rooms_off_the_nav_layer(loaded.graph)
+            if off is not None and (level == "rooms" or len(loaded.graph.buildings)):
+                raise InputError(off[0], hint=off[1])
             raise InputError(
                 f"the map's scene graph has no {layer} that hold its places",
                 hint="--layer places answers per place; rooms and buildings come from a "

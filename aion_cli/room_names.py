@@ -95,6 +95,24 @@ def names_by_id(graph: GraphSnapshot) -> dict[str, str]:
     return out
 
 
+def rooms_off_the_nav_layer(graph: GraphSnapshot) -> tuple[str, str] | None:
+    """The error and hint for a graph that has rooms none of which holds a place of its
+    navigational layer (a graph whose rooms hold its 3D places, ``PLACES``, while its 2D
+    places, ``MESH_PLACES``, were taken as the navigational layer); None otherwise."""
+    import numpy as np
+
+    if len(graph.rooms) == 0 or np.isin(graph.places.parent, graph.rooms.ids).any():
+        return None
+    n = len(graph.rooms)
+    return (
+        f"none of the scene graph's {n:,} room{'s' if n != 1 else ''} holds a place of the "
+        f"map's navigational layer ({graph.layer_name})",
+        "its rooms hold places of another layer: rebuild with --nav-layer naming that layer "
+        "(e.g. --nav-layer PLACES); `aion info GRAPH_FILE --nav-layer PLACES` shows how many "
+        "of a layer's places are in a room",
+    )
+
+
 def room_names(graph: GraphSnapshot) -> list[str]:
     """The names of the graph's rooms and buildings (:func:`name_of`)."""
     return list(names_by_id(graph).values())

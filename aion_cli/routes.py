@@ -29,6 +29,7 @@ from aion_cli.room_names import (
     named_node,
     other_case_hint,
     parse_id_or_name,
+    rooms_off_the_nav_layer,
 )
 
 if TYPE_CHECKING:
@@ -192,9 +193,11 @@ def _room_endpoint(
             return None
     rows = np.flatnonzero(candidates)
     if rows.size == 0:
+        off = rooms_off_the_nav_layer(graph)
         raise UnknownNodeError(
-            f"{kind} {label} holds no place of the navigational graph",
-            hint="plan to a place (p12) or to a point x,y",
+            f"{kind} {label} holds no place of the navigational graph"
+            + ("" if off is None else f": {off[0]}"),
+            hint="plan to a place (p12) or to a point x,y" if off is None else off[1],
         )
     at = int(np.flatnonzero(layer.ids == wanted)[0])
     centre = layer.xyz[at]
