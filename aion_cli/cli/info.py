@@ -47,7 +47,8 @@ chunks that cannot be read are warnings naming the messages lost).
 For a map (.aion): map, format, version, creator, created, inputs[{path, name, size, sha256}],
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config, map_frame,
-rooms[{id, name, places}], merged_from[{name, path, size, sha256}] and lineage (a merged map),
+rooms[{id, name, places}], buildings[{id, name, rooms}],
+merged_from[{name, path, size, sha256}] and lineage (a merged map),
 query_only{from{name, path, size, sha256}, left_out} (aion compact),
 part{held_days} and observed_spans[[start_ns, end_ns]] (a part map; the spans of --observed),
 and with --verify verified{members, bytes, consistent}; several

@@ -21,7 +21,7 @@ def describe_map(path: Path) -> dict[str, Any]:
     from aion_cli.manifest import Manifest
 
     shown = Manifest.from_dict(read_manifest(path)).shown()
-    return {"map": str(path)} | shown | {"rooms": _rooms(path)}
+    return {"map": str(path)} | shown | _hierarchy(path)
 
 
 def verify_map(path: Path) -> dict[str, Any]:
@@ -38,10 +38,11 @@ def verify_map(path: Path) -> dict[str, Any]:
     return {"members": members, "bytes": size, "consistent": True}
 
 
-def _rooms(path: Path) -> list[dict[str, Any]]:
-    """Each room of the map's latest scene graph: id, name (None when the graph gives none)
-    and how many places it holds; empty without a graph, or when the graph cannot be read
-    (the commands that use it say why)."""
+def _hierarchy(path: Path) -> dict[str, list[dict[str, Any]]]:
+    """Each room of the map's latest scene graph (id, name: None when the graph gives none,
+    and how many places it holds) and each building (id, name, and how many rooms it holds);
+    empty without a graph, or when the graph cannot be read (the commands that use it say
+    why)."""
     import numpy as np
 
     from aion_cli.engine.node_ids import node_label
@@ -52,18 +53,24 @@ def _rooms(path: Path) -> list[dict[str, Any]]:
     try:
         graph = load_map_head(path).graph
     except AionError:
-        return []
+        return {"rooms": [], "buildings": []}
     if graph is None:
-        return []
-    rooms = graph.rooms
-    return [
-        {
-            "id": node_label(int(node_id)),
-            "name": name_of(rooms, k),
-            "places": int(np.count_nonzero(graph.places.parent == np.uint64(node_id))),
-        }
-        for k, node_id in enumerate(rooms.ids.tolist())
-    ]
+        return {"rooms": [], "buildings": []}
+
+    def held(layer: Any, children: Any, key: str) -> list[dict[str, Any]]:
+        return [
+            {
+                "id": node_label(int(node_id)),
+                "name": name_of(layer, k),
+                key: int(np.count_nonzero(children.parent == np.uint64(node_id))),
+            }
+            for k, node_id in enumerate(layer.ids.tolist())
+        ]
+
+    return {
+        "rooms": held(graph.rooms, graph.places, "places"),
+        "buildings": held(graph.buildings, graph.rooms, "rooms"),
+    }
 
 
 def span_with_days(length: str, start: Any, end: Any, report: dict[str, Any]) -> str:
@@ -113,6 +120,10 @@ def print_map(report: dict[str, Any]) -> None:
     if rooms:
         named = [f"{r['name']} ({r['id']})" if r.get("name") else str(r["id"]) for r in rooms]
         table.add_row("rooms", safe(f"{len(rooms):,}: {first_few(named, 12)}"))
+    buildings = report.get("buildings") or []
+    if buildings:
+        named = [f"{b['name']} ({b['id']})" if b.get("name") else str(b["id"]) for b in buildings]
+        table.add_row("buildings", safe(f"{len(buildings):,}: {first_few(named, 12)}"))
     table.add_row("observation", safe(report.get("observation")))
     query_only = report.get("query_only")
     if isinstance(query_only, dict):
