@@ -245,10 +245,16 @@ def activity_series(
         (f"week of Monday {monday:%Y-%m-%d}", monday, WEEK_STEP_S, 604_800),
     )
     times = [wall_steps(day, zone, step, length) for _, day, step, length in spans]
+    from aion_cli.room_names import rooms_off_the_nav_layer
+
+    graph = loaded.graph
+    off = None if graph is None else rooms_off_the_nav_layer(graph)
     layer: Literal["rooms", "all"] = (
-        "rooms" if loaded.graph is not None and len(loaded.graph.rooms) else "all"
+        "rooms" if graph is not None and len(graph.rooms) and off is None else "all"
     )
-    if layer == "all":
+    if off is not None:  # room curves would be empty: none holds a place
+        notes.append(f"{off[0]}: the curves show the whole map's flow")
+    elif layer == "all":
         notes.append("the map has no rooms: the curves show the whole map's flow")
     ids, flows = flow_series(loaded, np.concatenate(times), layer)
     names, columns = _top_columns(loaded, [str(i) for i in ids], flows, times[-1].size)
