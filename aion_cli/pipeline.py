@@ -186,6 +186,17 @@ class _Build(StreamStep):
         with map_lock(out):
             return self._run()
 
+    def _note_rooms_off_the_nav_layer(self, graph: Any) -> None:
+        """A note when the map's graph has rooms but none holds a navigational place (rooms
+        over 3D places, 2D places taken): ``predict --layer rooms`` would refuse the map."""
+        from aion_cli.room_names import rooms_off_the_nav_layer
+
+        off = None if graph is None else rooms_off_the_nav_layer(graph)
+        if off is not None:
+            self.report.notes.append(
+                f"{off[0]}: the map answers per place, not per room; {off[1]}"
+            )
+
     def _run(self) -> BuildReport:
         opts = self.opts
         if opts.continue_from is not None:
@@ -209,6 +220,7 @@ class _Build(StreamStep):
         except BaseException:
             hashes.cancel()
             raise
+        self._note_rooms_off_the_nav_layer(state.graph)
         self._write(state, config, self._inputs(hashes))
         return self.report
 

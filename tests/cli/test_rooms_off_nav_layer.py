@@ -112,3 +112,31 @@ def test_nav_layer_places_answers_per_room_with_the_sums_of_their_places(
     for room, held in rooms.items():
         assert per_room[room] == pytest.approx(sum(per_place.get(p, 0.0) for p in held))
     assert sum(per_room.values()) > 0
+
+
+@pytest.mark.parametrize("graph_in", ["log", "file"])
+def test_the_build_notes_rooms_that_hold_no_navigational_place(
+    house: tuple[Path, Path, dict[str, set[str]]], tmp_path: Path, graph_in: str
+) -> None:
+    """The build says so (it said nothing; the first sign was predict refusing the map), for
+    the graph of ``--graph FILE`` and for the DsgUpdate messages ``convert --graph`` writes."""
+    graph, log, rooms = house
+    if graph_in == "log":
+        csv_file = tmp_path / "people.csv"
+        csv_file.write_text((log.parent / "people.csv").read_text())
+        log = tmp_path / "with_graph.mcap"
+        converted = run("convert", csv_file, "-o", log, "--graph", graph, "-q")
+        assert converted.exit_code == 0, converted.stderr
+        extra: tuple[str | Path, ...] = ()
+    else:
+        extra = ("--graph", graph)
+    built = run("build", log, *extra, "-o", tmp_path / "m.aion")
+    assert built.exit_code == 0, built.stderr
+    notes = [line for line in built.stderr.splitlines() if "rooms holds a place" in line]
+    assert len(notes) == 1, built.stderr
+    assert f"none of the scene graph's {len(rooms)} rooms" in notes[0]
+    assert "--nav-layer PLACES" in notes[0]
+
+    with_places = run("build", log, *extra, "--nav-layer", "PLACES", "-o", tmp_path / "p.aion")
+    assert with_places.exit_code == 0, with_places.stderr
+    assert "rooms holds a place" not in with_places.stderr
