@@ -47,6 +47,7 @@ chunks that cannot be read are warnings naming the messages lost).
 For a map (.aion): map, format, version, creator, created, inputs[{path, name, size, sha256}],
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config, map_frame,
+nav_layer (the graph layer of its places: places, mesh_places, ...; null without a graph),
 rooms[{id, name, places}], buildings[{id, name, rooms}],
 merged_from[{name, path, size, sha256}] and lineage (a merged map),
 query_only{from{name, path, size, sha256}, left_out} (aion compact),

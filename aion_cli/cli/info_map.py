@@ -38,11 +38,12 @@ def verify_map(path: Path) -> dict[str, Any]:
     return {"members": members, "bytes": size, "consistent": True}
 
 
-def _hierarchy(path: Path) -> dict[str, list[dict[str, Any]]]:
-    """Each room of the map's latest scene graph (id, name: None when the graph gives none,
-    and how many places it holds) and each building (id, name, and how many rooms it holds);
-    empty without a graph, or when the graph cannot be read (the commands that use it say
-    why)."""
+def _hierarchy(path: Path) -> dict[str, Any]:
+    """The layer the map's latest scene graph took its places from (``nav_layer``:
+    ``places``, ``mesh_places``, ...), each of its rooms (id, name: None when the graph gives
+    none, and how many places it holds) and each building (id, name, and how many rooms it
+    holds); None and empty without a graph, or when the graph cannot be read (the commands
+    that use it say why)."""
     import numpy as np
 
     from aion_cli.engine.node_ids import node_label
@@ -53,9 +54,9 @@ def _hierarchy(path: Path) -> dict[str, list[dict[str, Any]]]:
     try:
         graph = load_map_head(path).graph
     except AionError:
-        return {"rooms": [], "buildings": []}
+        return {"nav_layer": None, "rooms": [], "buildings": []}
     if graph is None:
-        return {"rooms": [], "buildings": []}
+        return {"nav_layer": None, "rooms": [], "buildings": []}
 
     def held(layer: Any, children: Any, key: str) -> list[dict[str, Any]]:
         return [
@@ -68,6 +69,7 @@ def _hierarchy(path: Path) -> dict[str, list[dict[str, Any]]]:
         ]
 
     return {
+        "nav_layer": graph.layer_name,
         "rooms": held(graph.rooms, graph.places, "places"),
         "buildings": held(graph.buildings, graph.rooms, "rooms"),
     }
@@ -115,7 +117,9 @@ def print_map(report: dict[str, Any]) -> None:
     table.add_row("time span", span_with_days(span_text(seconds), start, end, report))
     table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
-    table.add_row("graph", safe(report.get("graph_source")))
+    layer = report.get("nav_layer")
+    graph_text = f"{report.get('graph_source')}" + (f", places from layer {layer}" if layer else "")
+    table.add_row("graph", safe(graph_text))
     rooms = report.get("rooms") or []
     if rooms:
         named = [f"{r['name']} ({r['id']})" if r.get("name") else str(r["id"]) for r in rooms]

@@ -140,3 +140,19 @@ def test_the_build_notes_rooms_that_hold_no_navigational_place(
     with_places = run("build", log, *extra, "--nav-layer", "PLACES", "-o", tmp_path / "p.aion")
     assert with_places.exit_code == 0, with_places.stderr
     assert "rooms holds a place" not in with_places.stderr
+
+
+def test_info_map_names_the_layer_its_places_came_from(
+    house: tuple[Path, Path, dict[str, set[str]]], tmp_path: Path
+) -> None:
+    """``aion info MAP`` said only ``graph: file both.json``: whether the map's places were
+    the graph's 2D or 3D places could not be told from the map."""
+    from tests.cli.conftest import run_json
+
+    graph, log, _rooms = house
+    for extra, layer in (((), "mesh_places"), (("--nav-layer", "PLACES"), "places")):
+        out = tmp_path / f"{layer}.aion"
+        assert run("build", log, "--graph", graph, *extra, "-o", out, "-q").exit_code == 0
+        assert run_json("info", out, "--format", "json")["nav_layer"] == layer
+        row = next(line for line in run("info", out).stdout.splitlines() if "graph" in line)
+        assert f"places from layer {layer}" in row
