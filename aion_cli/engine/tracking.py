@@ -295,8 +295,10 @@ class TrackLinker:
             rows = rows[np.argsort(t[rows], kind="stable")]
         ts, ps = t[rows], p[rows]
         ids = np.empty(len(rows), np.int64)
-        for a, b, now in zip(*_frames(ts), strict=True):
-            ids[a:b] = self._frame(now, ps[a:b])
+        frame = self._frame
+        with np.errstate(over="ignore"):  # positions far out (1e300 m) are no match: inf
+            for a, b, now in zip(*_frames(ts), strict=True):
+                ids[a:b] = frame(now, ps[a:b])
         out[rows] = ids
         return out
 
@@ -304,32 +306,33 @@ class TrackLinker:
         """Associate one frame's detections with the live tracks (see :func:`_associate`)."""
         cfg = self.config
         n = self._n
-        if n:
-            alive = self._t[:n] >= now - self._gap_ns
-            if not alive.all():
-                self._keep(alive)
-                n = self._n
+        if n and np.minimum.reduce(self._t[:n]) < now - self._gap_ns:  # some track ended
+            self._keep(self._t[:n] >= now - self._gap_ns)
+            n = self._n
         m = len(det)
         if n == 0:
             return self._start(now, det)
         dt_s = np.maximum(now - self._t[:n], 0).astype(np.float64) * _NS
         pred = self._xy[:n] + self._v[:n] * dt_s[:, None]
-        dx = pred[:, 0, None] - det[None, :, 0]
-        dy = pred[:, 1, None] - det[None, :, 1]
-        with np.errstate(over="ignore"):  # positions far out (1e300 m) are no match: inf
-            d2 = dx * dx + dy * dy
+        # (the caller, link, ignores overflow: positions far out (1e300 m) are no match: inf)
+        dx = pred[:, 0, None] - det[:, 0]
+        dy = pred[:, 1, None] - det[:, 1]
+        dx *= dx
+        dy *= dy
+        d2 = dx
+        d2 += dy
         gate = cfg.max_speed * dt_s + cfg.gate_slack
-        gated = d2 <= (gate * gate)[:, None]
-        out = np.empty(m, np.int64)
-        per_row = gated.sum(axis=1)
-        if not per_row.any():
-            out[:] = self._start(now, det)
-            return out
-        per_col = gated.sum(axis=0)
-        if per_row.max() == 1 and per_col.max() == 1:
+        gate *= gate
+        gated = d2 <= gate[:, None]
+        rows_in = np.logical_or.reduce(gated, axis=1).nonzero()[0]
+        if rows_in.size == 0:
+            return self._start(now, det)
+        cols_in = np.logical_or.reduce(gated, axis=0).nonzero()[0]
+        if rows_in.size == cols_in.size == np.count_nonzero(gated):
             r, c = np.nonzero(gated)  # every gated pair is the only one of its row and column
         else:
-            r, c = self._assign(gated, d2, np.flatnonzero(per_row), np.flatnonzero(per_col))
+            r, c = self._assign(gated, d2, rows_in, cols_in)
+        out = np.empty(m, np.int64)
         out[c] = self._ids[r]
         self._extend(r, now, det[c], dt_s[r])
         if len(c) < m:
@@ -345,8 +348,9 @@ class TrackLinker:
         """Track rows and detection columns matched: the cheapest one-to-one assignment of
         gated pairs (most pairs first, then the least total distance), solved only over the
         rows and columns that have a gated pair."""
-        sub = gated[np.ix_(rows_in, cols_in)]
-        dist = np.sqrt(d2[np.ix_(rows_in, cols_in)])
+        pick = (rows_in[:, None], cols_in)
+        sub = gated[pick]
+        dist = np.sqrt(d2[pick])
         if len(rows_in) == 1 or len(cols_in) == 1:  # the best gated pair is optimal
             flat = int(np.argmin(np.where(sub, dist, np.inf)))
             r, c = np.divmod(np.array([flat]), len(cols_in))
@@ -360,9 +364,10 @@ class TrackLinker:
 
     def _keep(self, mask: npt.NDArray[np.bool_]) -> None:
         """Compact the live tracks to those of ``mask`` (their order kept)."""
-        k = int(mask.sum())
+        keep = mask.nonzero()[0]
+        k = len(keep)
         for arr in (self._ids, self._t, self._count, self._xy, self._v):
-            arr[:k] = arr[: self._n][mask]
+            arr[:k] = arr[keep]
         self._n = k
 
     def _start(self, now: int, xy: F64) -> I64:
@@ -391,18 +396,23 @@ class TrackLinker:
         that a zero time step keeps the velocity."""
         cfg = self.config
         old_v = self._v[rows]
-        moved = dt_s > 0
-        step = (xy - self._xy[rows]) / np.where(moved, dt_s, 1.0)[:, None]
-        if not moved.all():
+        count = self._count[rows]
+        if np.count_nonzero(dt_s) == len(dt_s):  # dt_s >= 0: every track moved on in time
+            step = (xy - self._xy[rows]) / dt_s[:, None]
+        else:
+            moved = dt_s > 0
+            step = (xy - self._xy[rows]) / np.where(moved, dt_s, 1.0)[:, None]
             step[~moved] = old_v[~moved]
-        a = np.where(self._count[rows] == 1, 1.0, cfg.velocity_smoothing)[:, None]
-        v = old_v + a * (step - old_v)
+        a = np.where(count == 1, 1.0, cfg.velocity_smoothing)[:, None]
+        step -= old_v
+        step *= a
+        v = old_v + step
         speed2 = np.einsum("ij,ij->i", v, v)
         too_fast = speed2 > cfg.max_speed * cfg.max_speed
-        if too_fast.any():  # a person does not outrun max_speed
+        if np.count_nonzero(too_fast):  # a person does not outrun max_speed
             v[too_fast] *= (cfg.max_speed / np.sqrt(speed2[too_fast]))[:, None]
         self._v[rows], self._xy[rows], self._t[rows] = v, xy, now
-        self._count[rows] += 1
+        self._count[rows] = count + 1  # rows are distinct
 
 
 __all__ = ["LinkerConfig", "TrackLinker", "TrackLinks", "difference_tracks", "link_tracks"]
