@@ -92,7 +92,9 @@ def write_scene_log(
     same kind aion wrote; an error or Ctrl-C mid-scene leaves the previous log intact)."""
     from aion_cli.formats.writers import LogWriter, check_stamps
 
-    check_stamps(t0_ns + max(n_ticks - 1, 0) * dt_ns, container, "the simulated days")
+    check_stamps(
+        t0_ns + max(n_ticks - 1, 0) * dt_ns, container, "the simulated days", serialized=True
+    )
     idle_ticks = max(round(tf_idle_s * 1e9 / dt_ns), 1)
     det_ticks = np.union1d(obs.tick, np.arange(0, n_ticks, idle_ticks)).astype(np.int64)
     det_start = np.searchsorted(obs.tick, det_ticks, side="left")

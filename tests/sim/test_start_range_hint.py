@@ -33,3 +33,18 @@ def test_a_start_with_an_impossible_field_names_it(tmp_path: Path, start: str, r
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, f"bad --start '{start}': {reason}")
     assert not (tmp_path / "s.mcap").exists()
+
+
+@pytest.mark.parametrize("container", ["bag", "mcap-ros1", "mcap"])
+def test_a_start_past_2038_is_refused_in_every_container(tmp_path: Path, container: str) -> None:
+    """The scene graphs, detections and TF carry header stamps whose seconds aion serializes
+    signed (int32: to 2038-01-19 03:14:07 UTC) in every container. A 2099 start in a .bag or
+    mcap-ros1 log was an internal error (struct.error, exit 1); an .mcap one hinted at a ROS 1
+    log, which failed the same way. Each is refused before anything is written."""
+    out = tmp_path / ("s.bag" if container == "bag" else "s.mcap")
+    args = ("--start", "2099-01-01T08:00", "--days", "0.05", "--container", container)
+    result = run("simulate", "-o", out, *args)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "reach beyond 2038-01-19 03:14:07 UTC")
+    assert "ROS 1 log" not in result.stderr
+    assert not out.exists()
