@@ -387,6 +387,7 @@ def simulate(
 
         results = run(config, _output_path(output, scenes, fmt), report, overwrite=force)
     _summary(results)
+    _clock_change_note(start, config.timezone, config.utc_offset_h)
 
 
 command = simulate
@@ -425,3 +426,18 @@ def _zone_name(tz: str) -> str:
     from aion_cli.timeparse import resolve_zone
 
     return resolve_zone(tz).name if tz.strip().lower() == "local" else tz
+
+
+def _clock_change_note(start: str, tz: str | None, utc_offset_h: float) -> None:
+    """A note when ``--start`` is a wall-clock time of ``--tz`` that a clock change skips or
+    repeats, saying which instant the scene started at (as ``predict --at`` does)."""
+    if tz is None:  # a fixed offset has no clock change
+        return
+    from aion_cli.cli.console import note
+    from aion_cli.sim.scenario import start_ns
+    from aion_cli.timeparse import resolve_zone
+    from aion_cli.wall_clock import clock_change_note
+
+    changed = clock_change_note(start, resolve_zone(tz), start_ns(start, utc_offset_h, tz))
+    if changed is not None:
+        note(f"--start {changed}")
