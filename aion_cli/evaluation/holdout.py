@@ -26,7 +26,8 @@ per model:
 
 A test log that overlaps the map's own data in time is scored all the same, with a note: the
 map has seen those detections; so is one before the map's data, with a note that the map
-learnt from later logs.
+learnt from later logs. One none of whose detections lies within ``radius`` of a map entry
+(another place, or another frame) is scored with a warning.
 """
 
 from __future__ import annotations
@@ -150,6 +151,9 @@ def score_held_out(
             .to_dict()
         )
     result.headings.append(_uniform(held))
+    apart = _no_overlap(result.headings[0], radius)
+    if apart is not None:
+        result.warnings.append(apart)
     say("forecasting the test logs' hourly activity")
     _activity(result, state, held)
     return result
@@ -207,6 +211,20 @@ def _notes(held: HeldOut, manifest: dict[str, Any], sensor_range: float) -> list
             f"({sensor_range:g} m) then"
         )
     return notes
+
+
+def _no_overlap(aion: dict[str, Any], radius: float) -> str | None:
+    """A warning when no test detection with a heading lies within ``radius`` of a map entry
+    (``aion``: the aion model's heading row): the logs are of another place or frame, and
+    every score is that of knowing nothing."""
+    n = int(aion.get("detections") or 0)
+    if n == 0 or int(aion.get("matched") or 0) > 0:
+        return None
+    return (
+        f"none of the {n:,} test detections lies within {radius:g} m (--radius) of a map "
+        "entry: the test logs are of another place or frame than the map, and every heading "
+        "score of aion's is a uniform heading's"
+    )
 
 
 def _all_static(manifest: dict[str, Any]) -> str | None:

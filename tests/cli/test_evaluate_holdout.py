@@ -430,3 +430,31 @@ def test_a_static_forecast_does_not_rank_hours_by_how_long_they_were_observed(
     six = run_json("evaluate", "holdout", site, log, "--format", "json")
     learnt = {a["model"]: a for a in six["activity"]}
     assert learnt["aion"]["spearman"] > 0.5
+
+
+def test_a_test_log_of_another_place_is_warned_of(corridor: tuple, tmp_path: Path) -> None:
+    """The test day walked 100 m east of the corridor, where the map has no entry: every
+    heading score of aion's was the uniform one and the activity forecast zero, with no word
+    of why. A warning now says no test detection lies near a map entry (the count is the
+    generated one); the held-out day in place gets none."""
+    site, _train, test, _truth = corridor
+    truth = write_days(tmp_path / "near.csv", 6, 1)
+    rows = (tmp_path / "near.csv").read_text().splitlines()
+    moved = [rows[0]]
+    for line in rows[1:]:
+        t, track, x, *rest = line.split(",")
+        moved.append(",".join([t, track, f"{float(x) + 100.0:.2f}", *rest]))
+    (tmp_path / "far.csv").write_text("\n".join(moved) + "\n")
+    far = convert(tmp_path / "far.csv", 6, 1)
+    doc = run_json("evaluate", "holdout", site, far, "--format", "json")
+    n = sum(truth.values())
+    assert {h["model"]: h["matched"] for h in doc["headings"]}["aion"] == 0
+    assert doc["warnings"] == [
+        f"none of the {n:,} test detections lies within 1 m (--radius) of a map entry: the "
+        "test logs are of another place or frame than the map, and every heading score of "
+        "aion's is a uniform heading's"
+    ]
+    result = run("evaluate", "holdout", site, far, "-q")
+    assert result.exit_code == 0, result.stderr
+    assert "warning: none of the" in result.stderr
+    assert run_json("evaluate", "holdout", site, test, "--format", "json")["warnings"] == []
