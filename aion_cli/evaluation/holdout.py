@@ -24,10 +24,10 @@ per model:
   profile bin, hour of the day by kind of day, unshrunk: the baseline a temporal model has to
   beat).
 
-A test log that overlaps the map's own data in time is scored all the same, with a note: the
-map has seen those detections; so is one before the map's data, with a note that the map
-learnt from later logs. One none of whose detections lies within ``radius`` of a map entry
-(another place, or another frame) is scored with a warning.
+A test log that overlaps the map's own data in time is scored all the same, with a warning:
+the map has seen those detections (the scores are in-sample); so is one before the map's
+data, with a warning that the map learnt from later logs. One none of whose detections lies
+within ``radius`` of a map entry (another place, or another frame) is scored with a warning.
 """
 
 from __future__ import annotations
@@ -136,7 +136,7 @@ def score_held_out(
     result = HoldoutResult()
     result.test = _test_summary(held, state)
     result.notes = _notes(held, loaded.manifest, state.config.sensor_range)
-    result.warnings = list(held.report.warnings)
+    result.warnings = list(held.report.warnings) + _time_warnings(held, loaded.manifest)
     recorded = loaded.manifest.get("map_frame")
     if isinstance(recorded, str) and recorded != opts.map_frame:  # --map-frame said so
         result.notes.insert(0, (
@@ -179,27 +179,35 @@ def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
     }
 
 
-def _notes(held: HeldOut, manifest: dict[str, Any], sensor_range: float) -> list[str]:
-    """What the reader should know about the test: the logs' own notes, an overlap with the
-    map's data, windows left out of the activity."""
-    notes = [n for n in held.notes if "scene graph" not in n]  # the map has its own
+def _time_warnings(held: HeldOut, manifest: dict[str, Any]) -> list[str]:
+    """Test detections inside the map's own time span (the map has seen them: the scores are
+    in-sample) or before it (the map is judged on the past): a warning each, as the scores
+    are then not those of a forecast."""
+    warnings: list[str] = []
     span = manifest.get("time_span") or {}
     start, end = span.get("start_ns"), span.get("end_ns")
     t = held.batch.t_ns
     if isinstance(start, int) and isinstance(end, int) and len(t):
         inside = int(np.count_nonzero((t >= start) & (t <= end)))
         if inside:
-            notes.append(
+            warnings.append(
                 f"{inside:,} of {len(t):,} test detections lie within the map's own time span: "
                 "the map has seen them (build the map from logs before the test logs only)"
             )
         before = int(np.count_nonzero(t < start))
         if before:
-            notes.append(
+            warnings.append(
                 f"{before:,} of {len(t):,} test detections lie before the map's own time span: "
                 "the map learnt from later logs, so it is judged on the past, not on what it "
                 "forecasts (build the map from logs before the test logs only)"
             )
+    return warnings
+
+
+def _notes(held: HeldOut, manifest: dict[str, Any], sensor_range: float) -> list[str]:
+    """What the reader should know about the test: the logs' own notes, windows left out of
+    the activity."""
+    notes = [n for n in held.notes if "scene graph" not in n]  # the map has its own
     static = _all_static(manifest)
     if static is not None:  # why the rows of aion and aion static agree
         notes.append(f"aion's figures are those of its static rates: {static}")

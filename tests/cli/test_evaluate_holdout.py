@@ -196,12 +196,25 @@ def test_the_hourly_picture_target_is_checked_first(
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
-def test_a_training_log_as_test_is_named_in_a_note(corridor: tuple) -> None:
+def test_a_training_log_as_test_is_warned_of(corridor: tuple, tmp_path: Path) -> None:
+    """The map's own training log as the test: the scores are in-sample. That was a note,
+    gone with -q and under "notes" in the JSON, beside scores labelled held-out; it is a
+    warning now, counting every training detection (the generated count)."""
     site, train, _test, _truth = corridor
-    result = run("evaluate", "holdout", site, train)
+    n = sum(write_days(tmp_path / "train.csv", 0, 6).values())  # the fixture's own days
+    result = run("evaluate", "holdout", site, train, "-q")
     assert result.exit_code == 0, result.stderr
-    assert "within the map's own time span: the map has seen them" in result.stderr
+    assert (
+        f"warning: {n:,} of {n:,} test detections lie within the map's own time span: the map "
+        "has seen them" in result.stderr
+    )
     assert "heading NLL" in result.stdout
+    doc = run_json("evaluate", "holdout", site, train, "--format", "json")
+    assert [w for w in doc["warnings"] if "time span" in w] == [
+        f"{n:,} of {n:,} test detections lie within the map's own time span: the map has seen "
+        "them (build the map from logs before the test logs only)"
+    ]
+    assert all("time span" not in note for note in doc["notes"])
 
 
 def test_a_test_log_before_the_map_is_named_in_a_note(corridor: tuple, tmp_path: Path) -> None:
@@ -211,12 +224,13 @@ def test_a_test_log_before_the_map_is_named_in_a_note(corridor: tuple, tmp_path:
     later = tmp_path / "later.aion"
     built = run("build", test, "-o", later, "--tz", "UTC", "-q")
     assert built.exit_code == 0, built.stderr
-    result = run("evaluate", "holdout", later, train)
+    result = run("evaluate", "holdout", later, train, "-q")
     assert result.exit_code == 0, result.stderr
     assert "lie before the map's own time span: the map learnt from later logs" in result.stderr
+    assert "warning: " in result.stderr
     assert "within the map's own time span" not in result.stderr
     doc = run_json("evaluate", "holdout", site, test, "--format", "json")
-    assert all("before the map's own time span" not in n for n in doc["notes"])
+    assert all("before the map's own time span" not in n for n in doc["warnings"])
 
 
 def test_a_map_that_forecasts_its_static_rates_says_why_in_a_note(
