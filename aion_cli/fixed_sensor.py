@@ -310,11 +310,13 @@ def outside_logs_note(
     spans: list[tuple[str, int, int]],
     delta: int,
     after: int | None = None,
+    then: str = "a log that continues the map fills the time since the map's last message",
 ) -> str | None:
     """The note for the windows of the ``--observed`` spans ``[lo, hi)`` that lie outside the
     logs' time (``spans``: each file's first and last window, :func:`_file_spans`; ``after``:
     the last window a continued map's logs reached), which stay unknown
-    (:func:`declared_windows`). None when there are none."""
+    (:func:`declared_windows`; ``then``: what follows for the command). None when there are
+    none."""
     if not declared or not spans:
         return None
     total = sum(b - a + 1 for a, b in _window_runs(declared, delta))
@@ -325,8 +327,7 @@ def outside_logs_note(
     return (
         f"{OBSERVED_NOTE}{n:,} declared window(s) ({time_text(n * delta)}) lie outside "
         "the logs' time (before the first log's first message or after the last log's "
-        "last) and stay unknown, not empty: a log that continues the map fills the time "
-        "since the map's last message"
+        f"last) and stay unknown, not empty: {then}"
     )
 
 

@@ -164,4 +164,15 @@ def read_held_out(
     exposure = {w: state.seen_exposure[w] for w in seen}
     share = np.where(fixed, state.observation.fixed_share(windows, state.window_ns, config), 1.0)
     notes = list(reading.report.notes)
+    fixed_windows = reading.report.fixed_windows
+    if opts.observed and fixed_windows is not None:  # as aion build notes them
+        from aion_cli.fixed_sensor import outside_logs_note
+
+        spans = reading.report.recording_spans
+        outside = outside_logs_note(
+            tuple(opts.observed), spans, fixed_windows[3],
+            then="the hourly activity leaves them out",
+        )
+        if outside is not None:
+            notes.append(outside)
     return HeldOut(batch, windows, fixed, reading.report, notes, seen, exposure, share)
