@@ -151,7 +151,7 @@ def parse_start(start: str) -> tuple[_dt.date, float]:
             f"bad --start {start!r}: give local time without a zone",
             hint="use --tz (or --utc-offset) for the zone",
         )
-    seconds = when.hour * 3600.0 + when.minute * 60.0 + when.second
+    seconds = when.hour * 3600.0 + when.minute * 60.0 + when.second + when.microsecond / 1e6
     return when.date(), seconds
 
 

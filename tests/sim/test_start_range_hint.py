@@ -48,3 +48,24 @@ def test_a_start_past_2038_is_refused_in_every_container(tmp_path: Path, contain
     assert_one_line_error(result.stderr, "reach beyond 2038-01-19 03:14:07 UTC")
     assert "ROS 1 log" not in result.stderr
     assert not out.exists()
+
+
+def test_a_start_with_fractional_seconds_keeps_them(tmp_path: Path) -> None:
+    """``--start 2026-01-05T08:00:00.700``: the scene started at 08:00:00.000, the 0.7 s
+    dropped without a word. It starts at the instant typed (the truth's start and the log's
+    first message)."""
+    import json
+    from datetime import UTC, datetime
+
+    out = tmp_path / "s.mcap"
+    args = ("--start", "2026-01-05T08:00:00.700", "--days", "0.01", "--robot", "fixed")
+    result = run("simulate", "-o", out, *args)
+    assert result.exit_code == 0, result.stderr
+    when = datetime(2026, 1, 5, 8, 0, 0, 700_000, tzinfo=UTC)
+    expected = int(when.timestamp()) * 10**9 + 700_000_000
+    assert json.loads((tmp_path / "s.mcap.truth.json").read_text())["start_ns"] == expected
+    from mcap.reader import make_reader
+
+    with out.open("rb") as f:
+        first = make_reader(f).get_summary().statistics.message_start_time
+    assert first == expected
