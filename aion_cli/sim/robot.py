@@ -95,11 +95,27 @@ def _tour_starts(cfg: PatrolConfig, days: float, clock: SceneClock) -> F64:
     offset_s = clock.offset_s
     end = float(clock.wall([days * 86400.0])[0])
     t = np.arange(60.0, end, cfg.tour_every_s)
-    hour = (t % 86400.0) / 3600.0
-    lo, hi = cfg.hours
-    inside = (hour >= lo) & (hour < hi) if lo <= hi else (hour >= lo) | (hour < hi)
-    t = t[inside & (t >= offset_s)]
+    t = t[_in_hours(t, cfg.hours) & (t >= offset_s)]
     return clock.elapsed(t)
+
+
+def _in_hours(wall_s: F64, hours: tuple[float, float]) -> BoolA:
+    """Which wall times (s after a local midnight) lie in the patrol ``hours`` [start, end),
+    a start after the end wrapping past midnight."""
+    hour = (wall_s % 86400.0) / 3600.0
+    lo, hi = hours
+    inside: BoolA = (
+        (hour >= lo) & (hour < hi) if lo <= hi else (hour >= lo) | (hour < hi)
+    )
+    return inside
+
+
+def tours_can_start(cfg: PatrolConfig) -> bool:
+    """Whether a tour of the grid (every ``tour_every_s`` of wall time from 00:01) starts
+    inside the patrol hours on any day of a week (after which a grid of whole seconds mostly
+    repeats): a span the grid misses (``24-0``, or minutes between two starts) never does."""
+    t = np.arange(60.0, 7 * 86400.0, max(cfg.tour_every_s, 1.0))
+    return bool(_in_hours(t, cfg.hours).any())
 
 
 def simulate_robot(

@@ -78,6 +78,7 @@ def validate_scenario(config: ScenarioConfig) -> None:
     for ok, message in checks:
         if not ok:
             raise InputError(message, hint="see aion simulate --help for every option's range")
+    _check_tour_starts(config)
     if config.days * 86400.0 * config.rate_hz > MAX_TICKS:
         raise InputError(
             f"{config.days:g} days at {config.rate_hz:g} Hz is more than one scene holds "
@@ -115,3 +116,19 @@ def validate_scenario(config: ScenarioConfig) -> None:
             f"--start {config.start!r}: the simulated days must lie in 1970 .. 2261",
             hint="choose a later start" if first < 0 else "choose an earlier start",
         )
+
+
+def _check_tour_starts(config: ScenarioConfig) -> None:
+    """A patrol whose hours no tour start falls in: the robot would never leave its dock."""
+    from aion_cli.sim.robot import tours_can_start
+
+    if config.robot != "patrol" or tours_can_start(config.patrol):
+        return
+    lo, hi = config.patrol.hours
+    every = config.patrol.tour_every_s / 60.0
+    raise InputError(
+        f"no patrol tour would start in --patrol-hours {lo:g}-{hi:g}: tours start every "
+        f"{every:g} min (--tour-every) from 00:01 local time, and none falls in those hours",
+        hint="0-24 is all day; START after END wraps past midnight (22-6); widen the hours "
+        "or shorten --tour-every",
+    )

@@ -177,6 +177,8 @@ def test_simulate_input_errors_exit_2(tmp_path: Path) -> None:
         ("--environment", str(tmp_path / "missing.json")),
         ("--patrol-hours", "7to20"),
         ("--patrol-hours", "8-8"),  # an empty span: a robot that never tours, silently
+        ("--patrol-hours", "24-0"),  # empty too (24 is 0): no tour started, silently
+        ("--patrol-hours", "8.6-8.9"),  # 08:36-08:54 holds no start of the 30-min grid
         ("--days", "400"),
         ("--tz", "Mars/Olympus"),
         ("--tz", "Europe/London", "--utc-offset", "1"),

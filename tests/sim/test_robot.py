@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from aion_cli.sim.geometry import segments_blocked
 from aion_cli.sim.office import office_environment
@@ -45,3 +46,33 @@ def test_drift_grows_only_while_driving_and_loop_closures_zero_the_error() -> No
     # tours start on the half hour grid, one minute past
     starts_s = robot.tour_starts * 0.5
     np.testing.assert_allclose(starts_s % 1800.0, 60.0)
+
+
+@pytest.mark.parametrize(
+    ("hours", "starts"),
+    [
+        ((8.5, 8.6), True),  # 08:30-08:36 holds the 08:31 start of the 30-min grid
+        ((8.6, 8.9), False),  # 08:36-08:54: between 08:31 and 09:01
+        ((24.0, 0.0), False),  # 24 is midnight: an empty span that wraps
+        ((22.0, 6.0), True),
+        ((0.0, 24.0), True),
+    ],
+)
+def test_patrol_hours_that_no_tour_start_falls_in_are_refused(
+    hours: tuple[float, float], starts: bool
+) -> None:
+    """--patrol-hours 24-0 or 8.6-8.9 with tours every 30 min (from 00:01: HH:01, HH:31)
+    wrote a log whose robot never left its dock, without a word; they are refused now."""
+    from aion_cli.errors import InputError
+    from aion_cli.sim.robot import PatrolConfig, tours_can_start
+    from aion_cli.sim.scenario import ScenarioConfig
+    from aion_cli.sim.scenario_checks import validate_scenario
+
+    patrol = PatrolConfig(tour_every_s=1800.0, hours=hours)
+    assert tours_can_start(patrol) is starts
+    config = ScenarioConfig(patrol=patrol)
+    if starts:
+        validate_scenario(config)
+    else:
+        with pytest.raises(InputError, match="no patrol tour would start"):
+            validate_scenario(config)
