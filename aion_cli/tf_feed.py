@@ -365,8 +365,8 @@ def observe(
             mapper, logset, times, report.notes, report, declared, fill
         )
         report.notes.append(
-            "no robot trajectory (TF map->base_link or scene-graph agents): the log is "
-            "treated as a fixed sensor that saw everything in the windows in which it "
+            f"no robot trajectory (TF {map_frame}->{base_frame} or scene-graph agents): the "
+            "log is treated as a fixed sensor that saw everything in the windows in which it "
             "recorded any message, within the time of the topics aion uses"
         )
 
