@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -110,9 +111,10 @@ def _empty_scene(meta: dict[str, Any]) -> str | None:
                 f"desks, and {scene}; give more --days"
             )
         ask = "a --start within those hours" if at is not None else "--start with a time of day"
+        example = min(math.ceil(arrive), 23)  # the first whole hour people are in
         return (
             f"nobody was detected, and nobody came: {hours} and {scene}; give {ask} "
-            f"(e.g. {day.isoformat()}T{int(arrive):02d}:00) or more --days"
+            f"(e.g. {day.isoformat()}T{example:02d}:00) or more --days"
         )
     return (
         f"nobody was detected although people walked ({scene}): the robot saw none of them "

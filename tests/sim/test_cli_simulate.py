@@ -84,14 +84,14 @@ def test_a_night_start_with_a_time_is_not_asked_for_a_time_of_day(tmp_path: Path
     assert code == 0, output
     said = " ".join(output.split())
     assert "nobody came" in said
-    assert "give a --start within those hours (e.g. 2026-03-30T08:00) or more --days" in said
+    assert "give a --start within those hours (e.g. 2026-03-30T09:00) or more --days" in said
     assert "with a time of day" not in said
     code, output = _run(
         "simulate", "-o", tmp_path / "day.mcap", "--days", "0.01", "--start", "2026-03-30",
         "--quiet",
     )
     assert code == 0, output
-    assert "give --start with a time of day (e.g. 2026-03-30T08:00)" in " ".join(output.split())
+    assert "give --start with a time of day (e.g. 2026-03-30T09:00)" in " ".join(output.split())
     # within the hours, a few minutes in which nobody walked: more --days, not another time
     code, output = _run(
         "simulate", "-o", tmp_path / "desk.mcap", "--days", "0.006", "--start",
@@ -234,6 +234,23 @@ def test_a_fixed_sensor_refuses_the_patrol_options_it_would_ignore(tmp_path: Pat
     assert code == 0, output
 
 
+def test_the_empty_scene_hint_s_example_start_is_within_the_hours(tmp_path: Path) -> None:
+    """People arrive about 08:30: a Monday 06:00 start for a quarter of an hour was told
+    "give a --start within those hours (e.g. 2026-01-05T08:00)", half an hour before they
+    do. The example is 09:00 now, and a scene started there is not one nobody came to."""
+    common = ("--days", "0.01", "--robot", "fixed", "--quiet", "--force")
+    code, output = _run("simulate", "-o", tmp_path / "s.mcap", "--start", "2026-01-05T06:00",
+                        *common)  # fmt: skip
+    assert code == 0, output
+    said = " ".join(output.split())
+    assert "nobody came" in said
+    assert "give a --start within those hours (e.g. 2026-01-05T09:00)" in said, said
+    code, output = _run("simulate", "-o", tmp_path / "s.mcap", "--start", "2026-01-05T09:00",
+                        *common)  # fmt: skip
+    assert code == 0, output
+    assert "nobody came" not in " ".join(output.split())
+
+
 def test_the_empty_scene_warning_reads_start_as_simulate_does(tmp_path: Path) -> None:
     """--start in any ISO form simulate accepts (a space before the time, the basic form) is
     read for the warning as the scene reads it: a night start on a Wednesday is asked for a
@@ -246,7 +263,7 @@ def test_the_empty_scene_warning_reads_start_as_simulate_does(tmp_path: Path) ->
         )
         assert code == 0, output
         said = " ".join(output.split())
-        assert "give a --start within those hours (e.g. 2026-01-07T08:00)" in said, said
+        assert "give a --start within those hours (e.g. 2026-01-07T09:00)" in said, said
 
 
 def test_the_truth_records_one_zone_the_clock_followed(tmp_path: Path) -> None:
