@@ -35,12 +35,17 @@ if TYPE_CHECKING:
 def _client(address: str) -> Any:
     try:
         from distributed import Client
+        from distributed.comm import resolve_address
     except ImportError as exc:
         raise MissingPackageError(
             "--scheduler needs Dask's distributed package",
             hint="pip install 'aion[dask]'",
         ) from exc
     try:
+        # A malformed address (no port, an unknown scheme, a host that does not resolve) is
+        # refused here: a Client built on it fails at once but leaves a half-made client whose
+        # clean-up prints a traceback and hangs for 10 s at exit.
+        resolve_address(address)
         return Client(address, timeout="5s", set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
         raise InputError(

@@ -436,6 +436,22 @@ def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:
         _build(logs, tmp_path / "m.aion", 1, scheduler="tcp://127.0.0.1:9")
 
 
+@pytest.mark.parametrize("address", ["nonsense", "tcp://127.0.0.1:notaport", "foo://host:1"])
+def test_a_malformed_scheduler_address_is_one_line_and_no_traceback(
+    tmp_path: Path, address: str
+) -> None:
+    """A mistyped address was refused, but the half-made Dask client then printed a
+    traceback ("Exception ignored in Client.__del__ ... timed out after 10 s") at exit."""
+    pytest.importorskip("distributed", reason="the dask extra is not installed")
+    from tests.cli.conftest import assert_one_line_error, run_process
+
+    logs = _logs(tmp_path, [0, 48])
+    proc = run_process("build", *logs, "-o", tmp_path / "m.aion", "--scheduler", address, "-q")
+    assert proc.returncode == 2, proc.stderr
+    assert_one_line_error(proc.stderr, "cannot reach the Dask scheduler", address)
+    assert not (tmp_path / "m.aion").exists()
+
+
 def test_a_scheduler_not_needed_is_said_not_silently_ignored(tmp_path: Path) -> None:
     """One log of two hours has no quiet moment to cut it at: it is one shard and runs here,
     and the report says the scheduler (unreachable: a contact would fail) was not used."""
