@@ -125,6 +125,9 @@ class BuildReport:
     #: a robot trajectory: its windows without a detection message (None without one; a
     #: parallel build adds its shards' up into one note, ``tf_feed.silent_note``)
     silent_windows: tuple[int, int] | None = None  # (windows, window ns)
+    #: beside a robot: the logs it did not observe, read as fixed sensors, and their windows
+    #: as ``fixed_windows`` (a parallel build names them in one note, ``shard_reports``)
+    unposed: tuple[list[str], tuple[int, int, int, int]] | None = None
     #: the earliest detection time of the first batch learnt (not in the JSON): whether the
     #: logs start before a continued map's data ends (``log_times.overlap_note``)
     first_detection_ns: int | None = None

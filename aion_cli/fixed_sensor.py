@@ -39,6 +39,7 @@ __all__ = [
     "DECLARED",
     "FIXED_SENSOR_OVER",
     "SILENT_HINT",
+    "UNPOSED_NOTE",
     "declared_windows",
     "fixed_sensor_share",
     "fixed_sensor_summary",
@@ -49,6 +50,7 @@ __all__ = [
     "recording_bounds",
     "recording_window_count",
     "share_text",
+    "unposed_note",
 ]
 
 
@@ -125,6 +127,7 @@ def unposed_log_windows(
     times: TimeCheck,
     robot: Callable[[int, int], bool],
     notes: list[str],
+    report: Any = None,
 ) -> str | None:
     """Beside a robot's observation, the logs it does not observe: the logs, grouped as a
     parallel build groups them into shards (:func:`aion_cli.parallel_build.plan_shards`: logs
@@ -167,18 +170,28 @@ def unposed_log_windows(
         fixed.extend(names[key] for key in group)
     if not parts:
         return None
+    notes.append(unposed_note(fixed))
+    windows: I64 = np.unique(np.concatenate(parts))
+    mapper.set_fixed_windows(windows, recording_bounds(logset, times, windows, delta, read))
+    summary = (len(windows), int(windows[0]), int(windows[-1]), delta)
+    if report is not None:  # a parallel build adds its shards' up (shard_reports)
+        report.unposed = (fixed, summary)
+    return fixed_sensor_text(*summary)
+
+
+UNPOSED_NOTE = " log(s) of other times than the robot's hold no robot pose ("
+
+
+def unposed_note(names: list[str]) -> str:
+    """The note naming the logs beside a robot's that are read as fixed sensors."""
     from aion_cli.listing import first_few
 
-    notes.append(
-        f"{len(fixed):,} log(s) of other times than the robot's hold no robot pose "
-        f"({first_few(fixed, 3)}): "
+    return (
+        f"{len(names):,}{UNPOSED_NOTE}{first_few(names, 3)}): "
         "each is treated as a fixed sensor that saw everything in the windows in which it "
         "recorded any message, as a build of it alone would (a robot log whose localisation "
         "was not recorded is read so too)"
     )
-    windows: I64 = np.unique(np.concatenate(parts))
-    mapper.set_fixed_windows(windows, recording_bounds(logset, times, windows, delta, read))
-    return fixed_sensor_text(len(windows), int(windows[0]), int(windows[-1]), delta)
 
 
 EDGE_STEPS = 60

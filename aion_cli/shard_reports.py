@@ -10,6 +10,7 @@ when no shard could decode any of its scene graphs.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from aion_cli.build_report import FAST_PEOPLE_WARNING, BuildReport, fast_people_warning
@@ -18,11 +19,13 @@ from aion_cli.fixed_sensor import (
     DECLARED,
     FIXED_SENSOR_OVER,
     OBSERVED_NOTE,
+    UNPOSED_NOTE,
     fixed_sensor_text,
     observed_note,
+    unposed_note,
 )
 from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
-from aion_cli.tf_feed import SILENT_NOTE, silent_note
+from aion_cli.tf_feed import NO_TRAJECTORY_NOTE, SILENT_NOTE, silent_note
 
 
 def counts_of(report: BuildReport) -> Any:
@@ -76,6 +79,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     out.observation = parts[0].observation
     if mixed:
         out.observation = _robot_and_fixed(parts)
+        out.notes.append(unposed_note(_unposed_logs(parts)))
     fixed = [p.fixed_windows for p in parts if p.fixed_windows is not None]
     if fixed and len(kinds) == 1 and out.observation.startswith(FIXED_SENSOR_OVER):
         count = sum(f[0] for f in fixed)
@@ -111,6 +115,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         for line in p.notes:
             if line.startswith((OBSERVED_NOTE, SILENT_NOTE)):  # added up below, one note as
                 continue  # one pass gives
+            if mixed and (line.startswith(NO_TRAJECTORY_NOTE) or UNPOSED_NOTE in line):
+                continue  # the logs beside the robot's: named in one note above
             if line not in out.notes and not line.startswith(GRAPH_COUNTS_NOTE):
                 out.notes.append(line)
         for line in p.warnings:
@@ -152,12 +158,26 @@ def _robot_and_fixed(parts: list[BuildReport]) -> str:
     """The observation of robot shards beside fixed-sensor ones, as one pass says it: the
     robot's trajectory + the fixed sensors' windows added up."""
     robot = next(p.observation for p in parts if not p.observation.startswith(FIXED_SENSOR_OVER))
+    robot = robot.split(" + ")[0]  # a robot shard's own logs beside it: added up below
     fixed = [p.fixed_windows for p in parts if p.fixed_windows is not None]
+    fixed += [p.unposed[1] for p in parts if p.unposed is not None]
     if not fixed:
         return robot
     count = sum(f[0] for f in fixed)
     first, last = min(f[1] for f in fixed), max(f[2] for f in fixed)
     return f"{robot} + " + fixed_sensor_text(count, first, last, fixed[0][3])
+
+
+def _unposed_logs(parts: list[BuildReport]) -> list[str]:
+    """The logs of robot and fixed-sensor shards that are read as fixed sensors, in time
+    order, as one pass names them: a fixed-sensor shard's logs, a robot shard's unposed."""
+    names: list[str] = []
+    for p in parts:
+        if p.unposed is not None:
+            names += p.unposed[0]
+        elif p.observation.startswith(FIXED_SENSOR_OVER):
+            names += [Path(s[0]).name for s in sorted(p.recording_spans, key=lambda s: s[1])]
+    return list(dict.fromkeys(names))  # a log cut into time shards is named once
 
 
 def _add(into: dict[str, int], more: dict[str, int]) -> None:

@@ -336,7 +336,7 @@ def observe(
             at = int(np.searchsorted(poses, lo))
             return at < poses.size and int(poses[at]) <= hi
 
-        unposed = unposed_log_windows(mapper, logset, times, posed, report.notes)
+        unposed = unposed_log_windows(mapper, logset, times, posed, report.notes, report)
         if unposed is not None:
             report.observation += " + " + unposed
         if detection_windows is not None:
@@ -354,6 +354,7 @@ def observe(
             times,
             lambda lo, hi: graph_agents((lo * delta, (hi + 1) * delta)),
             report.notes,
+            report,
         )
         if unposed is not None:
             report.observation += " + " + unposed
@@ -365,10 +366,14 @@ def observe(
             mapper, logset, times, report.notes, report, declared, fill
         )
         report.notes.append(
-            f"no robot trajectory (TF {map_frame}->{base_frame} or scene-graph agents): the "
-            "log is treated as a fixed sensor that saw everything in the windows in which it "
+            f"{NO_TRAJECTORY_NOTE}{map_frame}->{base_frame} or scene-graph agents): the log "
+            "is treated as a fixed sensor that saw everything in the windows in which it "
             "recorded any message, within the time of the topics aion uses"
         )
+
+
+NO_TRAJECTORY_NOTE = "no robot trajectory (TF "
+"""The start of the note of a log without a robot trajectory (its frames follow)."""
 
 
 SILENT_NOTE = "robot trajectory: "

@@ -112,3 +112,52 @@ def test_observed_spans_beside_a_robot_give_the_sequential_map_with_workers(
     two = build_logs(logs, tmp_path / "two.aion", 2, observed=declared)
     assert [n for n in two.notes if n.startswith("--observed beside a robot's logs")]
     assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+
+
+def test_a_parallel_build_names_the_fixed_sensor_logs_as_one_pass_does(tmp_path: Path) -> None:
+    """Two fixed sensors' logs between a robot's: one pass names both in one note; the
+    --workers build said "no robot trajectory ... the log is treated as a fixed sensor" once
+    per shard and named none of them."""
+    logs = [tmp_path / f"{name}.mcap" for name in ("r1", "f1", "f2", "r2")]
+    write_office_log(logs[0], duration_s=HOUR_S)
+    write_office_log(logs[1], tf=False, shift_s=DAY_S, duration_s=HOUR_S)
+    write_office_log(logs[2], tf=False, shift_s=2 * DAY_S, duration_s=HOUR_S)
+    write_office_log(logs[3], shift_s=3 * DAY_S, duration_s=HOUR_S)
+    one = build_logs(logs, tmp_path / "one.aion", 1)
+    two = build_logs(logs, tmp_path / "two.aion", 2)
+    assert len(two.workers) == 4
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+    named = [n for n in one.notes if "hold no robot pose" in n]
+    assert [n.split(":")[0] for n in named] == [
+        "2 log(s) of other times than the robot's hold no robot pose (f1.mcap, f2.mcap)"
+    ]
+    assert [n for n in two.notes if "hold no robot pose" in n] == named
+    assert not [n for n in two.notes if n.startswith("no robot trajectory")]
+    assert two.observation == one.observation
+
+
+def test_a_robot_shard_with_its_own_fixed_sensor_logs_adds_their_windows_once() -> None:
+    """A shard of a robot's log and a fixed sensor's (logs learnt together in sequence) says
+    "tf ... + fixed sensor over ..." itself; joined with a fixed-sensor shard the build said
+    both spans one after the other ("... + fixed sensor over the 15 windows (2.5 h of a
+    2.5 h span) + fixed sensor over the 30 windows ...") where one pass gives one span."""
+    from aion_cli.build_report import BuildReport
+    from aion_cli.fixed_sensor import fixed_sensor_text
+    from aion_cli.shard_reports import combine_reports
+
+    delta = 600 * 10**9
+    fixed = BuildReport(Path("f"), observation=fixed_sensor_text(30, 100, 300, delta))
+    fixed.fixed_windows = (30, 100, 300, delta)
+    fixed.recording_spans = [("/logs/d2.mcap", 250, 300), ("/logs/d1.mcap", 100, 120)]
+    own = fixed_sensor_text(15, 900, 914, delta)
+    robot = BuildReport(Path("r"), observation="tf map->base_link + " + own)
+    robot.unposed = (["d8.mcap"], (15, 900, 914, delta))
+    out = BuildReport(Path("out"))
+    combine_reports(out, [fixed, robot])
+    # one pass: 45 windows from the first fixed sensor's window to the last one's
+    assert out.observation == "tf map->base_link + " + fixed_sensor_text(45, 100, 914, delta)
+    assert out.observation.count("fixed sensor over") == 1
+    named = [n for n in out.notes if "hold no robot pose" in n]
+    assert [n.split(":")[0] for n in named] == [
+        "3 log(s) of other times than the robot's hold no robot pose (d1.mcap, d2.mcap, d8.mcap)"
+    ]
