@@ -35,23 +35,38 @@ if TYPE_CHECKING:
 def _client(address: str) -> Any:
     try:
         from distributed import Client
-        from distributed.comm import resolve_address
     except ImportError as exc:
         raise MissingPackageError(
             "--scheduler needs Dask's distributed package",
             hint="pip install 'aion[dask]'",
         ) from exc
     try:
-        # A malformed address (no port, an unknown scheme, a host that does not resolve) is
-        # refused here: a Client built on it fails at once but leaves a half-made client whose
-        # clean-up prints a traceback and hangs for 10 s at exit.
-        resolve_address(address)
+        # An address that is malformed (no port, an unknown scheme) or that no scheduler
+        # answers at is refused before a Client is made: one that fails after it started
+        # leaves a half-made client whose clean-up prints a traceback 10 s later, at exit.
+        _probe(address)
         return Client(address, timeout="5s", set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
         raise InputError(
             f"cannot reach the Dask scheduler at {address}: {exc}",
             hint="give the scheduler's address, e.g. --scheduler tcp://10.0.0.5:8786",
         ) from exc
+
+
+def _probe(address: str) -> None:
+    """Connect to ``address`` and hang up (raises OSError or ValueError where no Dask
+    scheduler answers), on an event loop of its own thread: the caller's may be running."""
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed.comm import connect
+
+    async def probe() -> None:
+        comm = await connect(address, timeout=5)
+        await comm.close()
+
+    with ThreadPoolExecutor(1) as pool:
+        pool.submit(asyncio.run, probe()).result()
 
 
 def _summary(result: ShardResult) -> ShardResult:

@@ -436,12 +436,16 @@ def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:
         _build(logs, tmp_path / "m.aion", 1, scheduler="tcp://127.0.0.1:9")
 
 
-@pytest.mark.parametrize("address", ["nonsense", "tcp://127.0.0.1:notaport", "foo://host:1"])
+@pytest.mark.parametrize(
+    "address", ["nonsense", "tcp://127.0.0.1:notaport", "foo://host:1", "inproc://127.0.0.1/1/1"]
+)
 def test_a_malformed_scheduler_address_is_one_line_and_no_traceback(
     tmp_path: Path, address: str
 ) -> None:
     """A mistyped address was refused, but the half-made Dask client then printed a
-    traceback ("Exception ignored in Client.__del__ ... timed out after 10 s") at exit."""
+    traceback ("Exception ignored in Client.__del__ ... timed out after 10 s") at exit. The
+    last: a well-formed address that no scheduler answers at (another process's in-process
+    cluster), which the Client refused only after it had started."""
     pytest.importorskip("distributed", reason="the dask extra is not installed")
     from tests.cli.conftest import assert_one_line_error, run_process
 
