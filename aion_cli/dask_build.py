@@ -69,6 +69,26 @@ def _probe(address: str) -> None:
         pool.submit(asyncio.run, probe()).result()
 
 
+def _check_workers(client: Any, address: str) -> None:
+    """Refuse a cluster whose workers cannot import aion: a worker that cannot unpickle a
+    shard's task dies, the scheduler hands it on until none is left, and the build waited
+    for ever. (``importlib.util.find_spec`` runs there without aion's code.)"""
+    import importlib.util
+
+    found = client.run(importlib.util.find_spec, "aion_cli.shard_fold", on_error="return")
+    lacking = {w: r for w, r in found.items() if r is None or isinstance(r, BaseException)}
+    if lacking:
+        worker, why = next(iter(lacking.items()))
+        more = f" and {len(lacking) - 1} more" if len(lacking) > 1 else ""
+        raise MissingPackageError(
+            f"{len(lacking)} of the {len(found)} Dask workers at {address} cannot import "
+            f"aion ({worker}: {why or 'not found'}{more}): each shard runs aion's code on a "
+            "worker",
+            hint="install the same aion in the workers' environment (pip install "
+            "'aion[dask]'), or build with --workers N on this machine",
+        )
+
+
 def _summary(result: ShardResult) -> ShardResult:
     return result.without_state()
 
@@ -92,6 +112,7 @@ def run_on_cluster(
     client = _client(address)
     futures: list[Any] = []
     try:
+        _check_workers(client, address)
         progress.start(f"building {len(tasks)} shards on {address}", len(tasks), "shards")
         shards = [
             client.submit(build_shard, task, key=f"aion-shard-{tag}-{task.index}", pure=False)

@@ -429,33 +429,6 @@ def test_on_a_dask_cluster_the_rest_after_a_graph_change_is_learnt_in_sequence(
     _assert_the_rest_was_learnt_in_sequence(seq, par, build_on_local_cluster(logs, par))
 
 
-def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:
-    pytest.importorskip("distributed", reason="the dask extra is not installed")
-    logs = _logs(tmp_path, [0, 48])
-    with pytest.raises(InputError, match="cannot reach the Dask scheduler"):
-        _build(logs, tmp_path / "m.aion", 1, scheduler="tcp://127.0.0.1:9")
-
-
-@pytest.mark.parametrize(
-    "address", ["nonsense", "tcp://127.0.0.1:notaport", "foo://host:1", "inproc://127.0.0.1/1/1"]
-)
-def test_a_malformed_scheduler_address_is_one_line_and_no_traceback(
-    tmp_path: Path, address: str
-) -> None:
-    """A mistyped address was refused, but the half-made Dask client then printed a
-    traceback ("Exception ignored in Client.__del__ ... timed out after 10 s") at exit. The
-    last: a well-formed address that no scheduler answers at (another process's in-process
-    cluster), which the Client refused only after it had started."""
-    pytest.importorskip("distributed", reason="the dask extra is not installed")
-    from tests.cli.conftest import assert_one_line_error, run_process
-
-    logs = _logs(tmp_path, [0, 48])
-    proc = run_process("build", *logs, "-o", tmp_path / "m.aion", "--scheduler", address, "-q")
-    assert proc.returncode == 2, proc.stderr
-    assert_one_line_error(proc.stderr, "cannot reach the Dask scheduler", address)
-    assert not (tmp_path / "m.aion").exists()
-
-
 def test_a_scheduler_not_needed_is_said_not_silently_ignored(tmp_path: Path) -> None:
     """One log of two hours has no quiet moment to cut it at: it is one shard and runs here,
     and the report says the scheduler (unreachable: a contact would fail) was not used."""

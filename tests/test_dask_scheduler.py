@@ -1,0 +1,75 @@
+"""``aion build --scheduler ADDRESS`` where the Dask cluster cannot run the build: an address
+nobody answers at, a malformed one, workers without aion. One error line, no map, no hang."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from aion_cli.errors import InputError
+from tests.test_parallel_build import _build, _logs
+
+
+def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path) -> None:
+    pytest.importorskip("distributed", reason="the dask extra is not installed")
+    logs = _logs(tmp_path, [0, 48])
+    with pytest.raises(InputError, match="cannot reach the Dask scheduler"):
+        _build(logs, tmp_path / "m.aion", 1, scheduler="tcp://127.0.0.1:9")
+
+
+@pytest.mark.parametrize(
+    "address", ["nonsense", "tcp://127.0.0.1:notaport", "foo://host:1", "inproc://127.0.0.1/1/1"]
+)
+def test_a_malformed_scheduler_address_is_one_line_and_no_traceback(
+    tmp_path: Path, address: str
+) -> None:
+    """A mistyped address was refused, but the half-made Dask client then printed a
+    traceback ("Exception ignored in Client.__del__ ... timed out after 10 s") at exit. The
+    last: a well-formed address that no scheduler answers at (another process's in-process
+    cluster), which the Client refused only after it had started."""
+    pytest.importorskip("distributed", reason="the dask extra is not installed")
+    from tests.cli.conftest import assert_one_line_error, run_process
+
+    logs = _logs(tmp_path, [0, 48])
+    proc = run_process("build", *logs, "-o", tmp_path / "m.aion", "--scheduler", address, "-q")
+    assert proc.returncode == 2, proc.stderr
+    assert_one_line_error(proc.stderr, "cannot reach the Dask scheduler", address)
+    assert not (tmp_path / "m.aion").exists()
+
+
+def test_workers_that_cannot_import_aion_are_a_clear_error(tmp_path: Path) -> None:
+    """A Dask worker without aion died on the first shard's task and the build waited for
+    ever; now it is one error line naming the worker, and no map is written."""
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    from tests.cli.conftest import AION, assert_one_line_error
+
+    logs = _logs(tmp_path, [0, 48])
+    without_aion = (  # a worker whose environment has no aion: its import is refused
+        "import sys; sys.modules['aion_cli'] = None; sys.modules['formats'] = None; "
+        "from distributed.cli.dask_worker import main; main()"
+    )
+    with distributed.LocalCluster(
+        n_workers=0, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+    ) as cluster, distributed.Client(cluster, set_as_default=False) as client:
+        address = cluster.scheduler_address
+        worker = subprocess.Popen(
+            [sys.executable, "-c", without_aion, address, "--no-nanny", "--nthreads", "1"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        try:
+            client.wait_for_workers(1, timeout=60)
+            proc = subprocess.run(
+                [str(AION), "build", *map(str, logs), "-o", str(tmp_path / "m.aion"), "-q",
+                 "--scheduler", address],
+                capture_output=True, text=True, timeout=60, check=False,
+            )
+        finally:
+            worker.kill()
+            worker.wait()
+    assert proc.returncode == 1, proc.stderr
+    assert_one_line_error(proc.stderr, "1 of the 1 Dask workers", "cannot import aion")
+    assert not (tmp_path / "m.aion").exists()
