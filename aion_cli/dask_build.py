@@ -69,12 +69,25 @@ def _probe(address: str) -> None:
         pool.submit(asyncio.run, probe()).result()
 
 
+WORKER_WAIT_S = 60.0
+"""How long a scheduler without any worker is given for one to join."""
+
+
 def _check_workers(client: Any, address: str) -> None:
     """Refuse a cluster whose workers cannot import aion: a worker that cannot unpickle a
     shard's task dies, the scheduler hands it on until none is left, and the build waited
     for ever. (``importlib.util.find_spec`` runs there without aion's code.)"""
     import importlib.util
 
+    if not client.scheduler_info().get("workers"):  # an adaptive cluster may start some
+        try:
+            client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+        except TimeoutError as exc:
+            raise InputError(
+                f"the Dask scheduler at {address} has no workers (none joined within "
+                f"{WORKER_WAIT_S:g} s): the shards would wait for ever",
+                hint="start workers (dask worker ADDRESS), or build with --workers N here",
+            ) from exc
     found = client.run(importlib.util.find_spec, "aion_cli.shard_fold", on_error="return")
     lacking = {w: r for w, r in found.items() if r is None or isinstance(r, BaseException)}
     if lacking:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -72,4 +73,36 @@ def test_workers_that_cannot_import_aion_are_a_clear_error(tmp_path: Path) -> No
             worker.wait()
     assert proc.returncode == 1, proc.stderr
     assert_one_line_error(proc.stderr, "1 of the 1 Dask workers", "cannot import aion")
+    assert not (tmp_path / "m.aion").exists()
+
+
+def test_a_scheduler_without_workers_is_a_clear_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A scheduler no worker had joined took the shards and the build waited for ever."""
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    from aion_cli import dask_build
+
+    monkeypatch.setattr(dask_build, "WORKER_WAIT_S", 1.0, raising=False)
+    logs = _logs(tmp_path, [0, 48])
+    raised: list[BaseException] = []
+
+    def build(address: str) -> None:
+        try:
+            _build(logs, tmp_path / "m.aion", 1, scheduler=address)
+        except BaseException as exc:  # checked below, in the test's thread
+            raised.append(exc)
+
+    with distributed.LocalCluster(
+        n_workers=0, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        # in a thread: without the check the build never returns (while the cluster runs)
+        thread = threading.Thread(target=build, args=(cluster.scheduler_address,), daemon=True)
+        thread.start()
+        thread.join(60)
+        waited_for_ever = thread.is_alive()
+    assert not waited_for_ever
+    assert len(raised) == 1, raised
+    assert isinstance(raised[0], InputError), raised
+    assert "has no workers" in str(raised[0])
     assert not (tmp_path / "m.aion").exists()
