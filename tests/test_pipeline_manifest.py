@@ -127,13 +127,18 @@ def test_the_values_are_those_the_build_wrote_before(maps: dict[str, Any]) -> No
 
 
 def test_info_shows_what_it_showed_before(maps: dict[str, Any]) -> None:
-    """Everything the manifest showed, in the same order; the rooms of the graph after it."""
+    """Everything the manifest showed, in the same order; the graph's rooms and buildings and
+    the layer its places came from after it."""
     for report in (maps["first"], maps["second"], maps["zoned"]):
         shown = describe_map(report.output)
         rooms = shown.pop("rooms")
+        buildings = shown.pop("buildings", [])
+        layer = shown.pop("nav_layer", None)
         assert shown == _old_describe(report.output)
         assert list(shown) == list(_old_describe(report.output))
         assert isinstance(rooms, list)
+        assert isinstance(buildings, list)
+        assert layer is None or isinstance(layer, str)
 
 
 def test_a_log_the_continued_map_holds_is_refused_by_its_typed_inputs(
