@@ -155,4 +155,3 @@ class MapperTally:
             self.drops += np.bincount(
                 topics[dropped] * self.reasons + codes[dropped], minlength=n * self.reasons
             ).reshape(n, self.reasons)
-

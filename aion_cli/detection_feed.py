@@ -240,9 +240,7 @@ class DetectionFeeder:
 
     def _count(self, topic: str, adapter: DetectionAdapter, frames: Any, msgs: list[Any]) -> None:
         c, per_topic = self.counts, self.counts.topic(topic)
-        # read = used + dropped: items a filter left out were read, and are dropped by reason
-        # (damaged payloads are counted per message: their detections are unknown)
-        c.read += len(frames) + sum(n for r, n in frames.filtered.items() if r != "undecodable")
+        c.read += len(frames)
         if adapter.stamped:
             c.stamp_fallbacks += int(frames.stamp_fallbacks)
             per_topic.count_far_stamps(frames.t_ns, msgs, frames.msg_index)
@@ -250,11 +248,14 @@ class DetectionFeeder:
             c.log_times += int(frames.stamp_fallbacks)
         per_topic.messages += len(msgs)
         for reason, n in frames.filtered.items():
-            # damaged payloads are counted per message: their detections are unknown
-            key = "undecodable_messages" if reason == "undecodable" else reason
-            c.dropped[key] += n
+            # damaged payloads are counted per message: their detections are unknown; items a
+            # filter left out were read (read = used + dropped), and are dropped by reason
             if reason == "undecodable":
+                c.dropped["undecodable_messages"] += n
                 per_topic.undecodable += n
+            else:
+                c.read += n
+                c.dropped[reason] += n
         error = adapter.first_error
         if error is not None and per_topic.first_error is None:
             per_topic.first_error, per_topic.first_hint = error.message, error.hint
