@@ -296,21 +296,19 @@ def _fold(
                 tally.interleaved()
         if k == 0 or state.deferred is None:
             tally.add(state)
+        gap = declared_gap_note(m.name, maps[k - 1].manifest, m.manifest) if k else None
+        filled = None  # the declared windows before a part its spans filled
         if state.deferred is not None:
             base = acc if acc is not None else MapState.empty(state.config)
             before = base.graph
             filled = fill_declared_gap(base, maps[k - 1].manifest, m.manifest) if k else None
             acc = _join_part(base, state, m.name, report, joins)
-            gap = declared_gap_note(m.name, maps[k - 1].manifest, m.manifest) if k else None
-            if gap is not None and filled is None:
-                joins.append(gap)
             if m.manifest.graph_source.startswith("file "):  # each part added the file anew
                 acc.graph = file_graph_time(acc.graph, before)
         else:
-            gap = declared_gap_note(m.name, maps[k - 1].manifest, m.manifest) if k else None
-            if gap is not None:
-                joins.append(gap)
             acc = state if acc is None else merge_maps(acc, state, consume=True)
+        if gap is not None and filled is None:
+            joins.append(gap)
         del state
         sink.advance(1)
     assert acc is not None  # a merge has one map at least
