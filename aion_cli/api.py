@@ -66,7 +66,20 @@ else:
 
     Report = TypeVar("Report", covariant=True)
 
+_Made = TypeVar("_Made", bound="BuildReport | MergeReport | CompactReport | None")
+"""What made a map read by :func:`read_map`: a report, or None."""
+
 __all__ = ["Map", "Plan", "Table", "TimeLike", "as_path", "build", "compact", "merge", "to_ns"]
+
+
+def read_map(path: Path, report: _Made) -> Map[_Made]:
+    """The map file ``path`` read as the query commands read it (``load_map(...,
+    forecast_only=True)``: without the per-entry Fourier sums only learning reads), with the
+    ``report`` of what made it: :meth:`Map.load` and the maps :func:`build`, :func:`merge`
+    and :func:`compact` return."""
+    from aion_cli.mapquery import load_map
+
+    return Map(load_map(path, forecast_only=True), path, report)
 
 
 @check.methods_checked
@@ -108,10 +121,7 @@ class Map(Generic[Report]):
         (``load_map(..., forecast_only=True)``; :mod:`aion_cli.query_only`), so every answer
         is the command line's and a big map takes the memory of its forecasts, not of its
         learning (the sums are most of a full map's bytes)."""
-        from aion_cli.mapquery import load_map
-
-        p = as_path(path)
-        return Map(load_map(p, forecast_only=True), p)
+        return read_map(as_path(path), None)
 
     @classmethod
     def from_state(cls, state: MapState, timezone: str | None = None) -> Map[None]:

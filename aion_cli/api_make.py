@@ -111,10 +111,9 @@ def build(
     platforms without ``fork``), ``--scheduler`` and ``--part``. ``observed``: ``(start,
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
     ``Map.predict``, naive ones in ``tz``, else UTC)."""
-    from aion_cli.api import Map
+    from aion_cli.api import read_map
     from aion_cli.api_checks import count, flag, text, zone_name
     from aion_cli.build_options import map_frame_of
-    from aion_cli.mapquery import load_map
     from aion_cli.pipeline import build_map
     from aion_cli.timeparse import resolve_zone
 
@@ -150,7 +149,7 @@ def build(
     )
     report = build_map(opts, progress_sink(progress))
     warn_of(report.warnings)
-    return Map(load_map(report.output), report.output, report)
+    return read_map(report.output, report)
 
 
 @keywords_checked
@@ -168,9 +167,8 @@ def merge(
     ``lineage`` auto / same / different, ``graph`` a Hydra graph file to bind to; one part
     map alone, ``aion build --part``, is made a map); the merged map, with what the merge did
     in ``Map.report`` (a ``MergeReport``)."""
-    from aion_cli.api import Map
+    from aion_cli.api import read_map
     from aion_cli.api_checks import path_list, text
-    from aion_cli.mapquery import load_map
     from aion_cli.merging import merge_map_files
 
     if isinstance(paths, (str, os.PathLike)):
@@ -184,7 +182,7 @@ def merge(
         text(nav_layer, "nav_layer"),
     )
     warn_of(report.warnings)
-    return Map(load_map(report.output), report.output, report)
+    return read_map(report.output, report)
 
 
 @keywords_checked
@@ -193,12 +191,11 @@ def compact(source: PathLike, output: PathLike) -> Map[CompactReport]:
     (:func:`aion_cli.query_only.compact_map`: the same answers to every query, without the
     Fourier sums that continuing and merging need); the copy, with what was done in
     ``Map.report`` (a ``CompactReport``)."""
-    from aion_cli.api import Map
-    from aion_cli.mapquery import load_map
+    from aion_cli.api import read_map
     from aion_cli.query_only import compact_map
 
     report = compact_map(as_path(source), as_path(output))
-    return Map(load_map(report.output), report.output, report)
+    return read_map(report.output, report)
 
 
 READING = (
