@@ -47,13 +47,19 @@ def entropy_colors(entropy: npt.ArrayLike) -> F64:
     return out
 
 
+def _flowing(flow: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """Per entry, whether it has flow (> 0; NaN and +inf read as none): what is coloured by
+    entropy or teal, the rest grey."""
+    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
+    return f > 0
+
+
 def flow_colors(flow: npt.ArrayLike, entropy: npt.ArrayLike) -> F64:
     """The colour of each entry: its entropy colour (:func:`entropy_colors`) where it has
     flow and a direction, :data:`NO_HEADING_TEAL` where it has flow (> 0) but no direction
     (entropy NaN), :data:`NO_FLOW_GREY` without flow (0, NaN or negative)."""
     h = np.asarray(entropy, dtype=np.float64).reshape(-1)
-    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
-    flowing = f > 0
+    flowing = _flowing(flow)
     out = entropy_colors(np.where(flowing, h, np.nan))
     out[flowing & ~np.isfinite(h)] = NO_HEADING_TEAL
     return out
@@ -62,14 +68,12 @@ def flow_colors(flow: npt.ArrayLike, entropy: npt.ArrayLike) -> F64:
 def has_no_heading(flow: npt.ArrayLike, entropy: npt.ArrayLike) -> bool:
     """Whether any entry has flow but no direction (drawn :data:`NO_HEADING_TEAL`)."""
     h = np.asarray(entropy, dtype=np.float64).reshape(-1)
-    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
-    return bool(np.any((f > 0) & ~np.isfinite(h)))
+    return bool(np.any(_flowing(flow) & ~np.isfinite(h)))
 
 
 def has_no_flow(flow: npt.ArrayLike) -> bool:
     """Whether any entry has no flow (0, NaN or negative: drawn :data:`NO_FLOW_GREY`)."""
-    f = np.nan_to_num(np.asarray(flow, dtype=np.float64).reshape(-1), nan=0.0, posinf=0.0)
-    return bool(np.any(f <= 0))
+    return not bool(_flowing(flow).all())
 
 
 def colour_key(no_heading: bool, no_flow: bool = True) -> str:
