@@ -68,6 +68,16 @@ def convert(csv: Path, first: int, days: int) -> Path:
     return log
 
 
+def one_day_map(folder: Path) -> Path:
+    """A map of the corridor's first day alone (no day scored: static rates)."""
+    csv = folder / "day.csv"
+    write_days(csv, 0, 1)
+    one = folder / "one.aion"
+    built = run("build", convert(csv, 0, 1), "-o", one, "--tz", "UTC", "-q")
+    assert built.exit_code == 0, built.stderr
+    return one
+
+
 @pytest.fixture(scope="module")
 def corridor(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path, dict[int, int]]:
     folder = tmp_path_factory.mktemp("holdout")
@@ -239,11 +249,7 @@ def test_a_map_that_forecasts_its_static_rates_says_why_in_a_note(
     """A map of one day has no scored day, so aion's rows are its static rates' to the
     digit; a note says why (it left the reader to guess), and the six-day map has none."""
     site, _train, test, _truth = corridor
-    csv = tmp_path / "day.csv"
-    write_days(csv, 0, 1)
-    one = tmp_path / "one.aion"
-    built = run("build", convert(csv, 0, 1), "-o", one, "--tz", "UTC", "-q")
-    assert built.exit_code == 0, built.stderr
+    one = one_day_map(tmp_path)
     doc = run_json("evaluate", "holdout", one, test, "--format", "json")
     rows = {a["model"]: a for a in doc["activity"]}
     assert rows["aion"]["mae"] == rows["aion static"]["mae"]
@@ -409,11 +415,7 @@ def test_a_static_forecast_does_not_rank_hours_by_how_long_they_were_observed(
     Lincoln's 2017-05-26 the static rates read 0.577, above aion's 0.548). Deviance and MAE stay
     on the counts; the six-day map, which learnt the 09:00 rush, still ranks it first."""
     site, _train, _test, _truth = corridor
-    csv = tmp_path / "day.csv"
-    write_days(csv, 0, 1)
-    one = tmp_path / "one.aion"
-    built = run("build", convert(csv, 0, 1), "-o", one, "--tz", "UTC", "-q")
-    assert built.exit_code == 0, built.stderr
+    one = one_day_map(tmp_path)
     full = tmp_path / "test_full.csv"
     write_days(full, 6, 1)
     day = MONDAY + 6 * DAY
