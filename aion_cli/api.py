@@ -355,9 +355,11 @@ class Map(Generic[Report]):
         times = series_times(
             earliest, latest, every, zone, ("leave[0]", "leave[1]"), "departures"
         )
-        plans, best = plan_departures(self._loaded, a.node_id, b.node_id, times, speed, nav)
-        made = Plan.from_routes(plans[best], zone, snapped)
         observed = hour_flags(self._loaded, times)
+        plans, best = plan_departures(
+            self._loaded, a.node_id, b.node_id, times, speed, nav, observed=observed
+        )
+        made = Plan.from_routes(plans[best], zone, snapped)
         return replace(made, departures=departure_rows(plans, best, zone, observed))
 
     @one_at_a_time

@@ -386,10 +386,12 @@ def plan_departures(
     speed: float | None = None,
     nav: NavGraph | None = None,
     progress: Callable[[int], None] | None = None,
+    observed: Sequence[bool | None] | None = None,
 ) -> tuple[list[Routes], int]:
     """:func:`plan_routes` for each departure of ``times_ns`` (``aion plan --leave``), and
-    the index of the best one (:func:`best_departure`); ``progress(k)`` after each
-    departure."""
+    the index of the best one (:func:`best_departure`, ``observed``: per departure, whether
+    the map observed its hour, ``predictions.hour_flags``, which the departures' rows show
+    too); ``progress(k)`` after each departure."""
     if not times_ns:
         raise ValueError("no departure time")
     planning = _Planning(loaded, start, goal, speed, nav)
@@ -398,9 +400,6 @@ def plan_departures(
         plans.append(planning.routes(t))
         if progress is not None:
             progress(k)
-    from aion_cli.predictions import hour_flags
-
-    observed = hour_flags(loaded, times_ns)
     return plans, best_departure([p.temporal.cost for p in plans], observed)
 
 

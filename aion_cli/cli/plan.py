@@ -171,12 +171,13 @@ def command(
     else:
         with progress(quiet=len(leaving) == 1) as bar:
             task = bar.add_task("planning", total=len(leaving), unit="departures")
+            observed = hour_flags(loaded, leaving)
             plans, best = plan_departures(
                 loaded, a.node_id, b.node_id, leaving, speed, nav,
-                lambda done: bar.update(task, completed=done),
+                lambda done: bar.update(task, completed=done), observed,
             )
         routes, t_ns = plans[best], leaving[best]
-        departures = departure_rows(plans, best, zone, hour_flags(loaded, leaving))
+        departures = departure_rows(plans, best, zone, observed)
     snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
     report = {"map": str(map_path), **Plan.from_routes(routes, zone, snapped).to_dict()}
     if departures is not None:
