@@ -104,7 +104,7 @@ class Plan:
     snapped: list[dict[str, Any]] = field(default_factory=list)
     # with a departure span (``aion plan --leave``): every departure's cost, the best marked
     departures: list[dict[str, Any]] = field(default_factory=list)
-    # the arrival times as UNIX nanoseconds (``arrival`` shows them to the second)
+    # the arrival times as UNIX nanoseconds (``arrival`` shows them to the millisecond)
     arrival_ns: list[int] = field(default_factory=list)
 
     @property
@@ -150,7 +150,7 @@ class Plan:
                 route.length_m,
                 route.duration_s,
                 route.cost,
-                [format_ns(t, zone) for t in route.arrival_ns],
+                [format_ns(t, zone, millis=True) for t in route.arrival_ns],
                 other,
                 [dict(x) for x in snapped],
                 arrival_ns=[int(t) for t in route.arrival_ns],

@@ -183,9 +183,15 @@ def from_ns(t_ns: int, zone: Zone) -> datetime:
     return (EPOCH + timedelta(microseconds=int(t_ns) // 1000)).astimezone(zone.tz)
 
 
-def format_ns(t_ns: int, zone: Zone) -> str:
-    """Readable ISO form with offset, e.g. ``2026-11-23 08:30:00+01:00``."""
-    return from_ns(t_ns, zone).isoformat(sep=" ", timespec="seconds")
+def format_ns(t_ns: int, zone: Zone, *, millis: bool = False) -> str:
+    """Readable ISO form with offset, e.g. ``2026-11-23 08:30:00+01:00``; with ``millis``,
+    rounded to the nearest millisecond (``2026-11-23 08:30:02.667+01:00``), else cut to the
+    second."""
+    if not millis:
+        return from_ns(t_ns, zone).isoformat(sep=" ", timespec="seconds")
+    ns_per_ms = 1_000_000
+    nearest = (int(t_ns) + ns_per_ms // 2) // ns_per_ms * ns_per_ms
+    return from_ns(nearest, zone).isoformat(sep=" ", timespec="milliseconds")
 
 
 def zone_named_in(text: str, zone: Zone) -> Zone:

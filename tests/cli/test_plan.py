@@ -30,11 +30,26 @@ def test_path_length_and_costs(office: Office) -> None:
     assert temporal["cost"] == pytest.approx(shortest["cost"])
     assert doc["depart"] == "2026-11-23 08:30:00+00:00"
     assert len(temporal["arrival"]) == 4
-    assert temporal["arrival"][0] == doc["depart"]
+    assert temporal["arrival"][0] == "2026-11-23 08:30:00.000+00:00"  # the departure
     # to the nanosecond: the steps are 2 m each (p0..p3 on a line), walked at speed_mps
     step_ns = 2.0 / doc["speed_mps"] * 1e9
     expected = [doc["depart_ns"] + round(k * step_ns) for k in range(4)]
     assert temporal["arrival_ns"] == pytest.approx(expected, abs=2)
+
+
+def test_arrival_times_keep_the_fraction_of_a_second(office: Office) -> None:
+    """2 m steps (p0..p3 on a line) at 0.75 m/s: one every 2.667 s. ``arrival`` said
+    08:30:02, 08:30:05 (the fraction cut off: 5.333 s read as 5); now to the millisecond."""
+    doc = run_json(
+        "plan", office.map, "--from", "p0", "--to", "p3", "--time", AT, "--speed", "0.75",
+        "--format", "json",
+    )
+    assert doc["temporal"]["arrival"] == [
+        "2026-11-23 08:30:00.000+00:00",
+        "2026-11-23 08:30:02.667+00:00",
+        "2026-11-23 08:30:05.333+00:00",
+        "2026-11-23 08:30:08.000+00:00",
+    ]
 
 
 def test_coordinates_snap_to_the_nearest_node_and_speed(office: Office) -> None:
