@@ -20,6 +20,7 @@ from aion_cli.engine.node_ids import (
     node_label,
     parse_point,
     point_distance,
+    point_text,
     refuse_far_point,
     refuse_malformed_point,
     shown_point,
@@ -253,7 +254,7 @@ def _unjoined(nav: NavGraph, *ends: tuple[Endpoint, int]) -> Exception:
         if end.within is not None:
             said.append(f"the {role} {end.within[1]} stands for its place {label}")
         elif end.point is not None:
-            typed = ",".join(f"{v:g}" for v in shown_point(end.point))
+            typed = point_text(shown_point(end.point))
             said.append(f"the {role} {typed} snapped to {label} ({end.distance_m:.2f} m away)")
     if not said:
         return err

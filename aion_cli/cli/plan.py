@@ -219,8 +219,10 @@ def snapped_text(snap: dict[str, Any]) -> str:
             f"{snap['option']} {asked}: its place nearest the {within}'s centre{among}, "
             f"{snap['node']} ({snap['distance_m']:.2f} m from it)"
         )
+    from aion_cli.engine.node_ids import point_text
+
     return (
-        f"{snap['option']} {snap['point']} snapped to {snap['node']} "
+        f"{snap['option']} {point_text(snap['point'])} snapped to {snap['node']} "
         f"({snap['distance_m']:.2f} m away)"
     )
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -101,6 +102,12 @@ def point_distance(xyz: tuple[float, ...], point: tuple[float, float, float]) ->
 def shown_point(point: tuple[float, float, float]) -> list[float]:
     """A typed point as reports show it: [x, y] when no z was given, else [x, y, z]."""
     return list(point[:2]) if math.isnan(point[2]) else list(point)
+
+
+def point_text(shown: Sequence[float]) -> str:
+    """A point as :func:`shown_point` lists it, in the words it is typed in: ``1,2`` for
+    ``[1.0, 2.0]``, ``0.1,-3,1.5`` (for notes and errors, not a Python list)."""
+    return ",".join(f"{float(v):.15g}" for v in shown)
 
 
 def require_point(text: str, option: str) -> tuple[float, float, float]:

@@ -81,7 +81,7 @@ def test_a_path_s_ends_given_as_a_point_or_room_say_which_place_they_stand_for(
     ), said
     plan = run("plan", office.map, "--from", "R1", "--to", "0.1,0.2", "--time", AT)
     planned = " ".join(plan.stderr.split())
-    assert "--to [0.1, 0.2] snapped to p0" in planned, planned
+    assert "--to 0.1,0.2 snapped to p0" in planned, planned
     assert planned.split("--to ", 1)[1].split(")")[0] in said  # the same node and distance
     ids = run("export", office.map, "--historical", "-o", tmp_path / "b",
               "--path-from", "p2", "--path-to", "p0")

@@ -74,6 +74,20 @@ def test_coordinates_snap_to_the_nearest_node_and_speed(office: Office) -> None:
     assert [s["node"] for s in doc["snapped"]] == ["p0", "p4"]
 
 
+def test_the_snapped_note_says_the_point_as_it_was_typed(office: Office) -> None:
+    """The note said ``--from [0.2, -0.1] snapped to p0``, a Python list; it says the point
+    as typed (x,y or x,y,z). Distances by hand: (0.2, -0.1) is sqrt(0.05) = 0.22 m from p0
+    (0, 0); (3.9, 1.7, 0.25) is sqrt(0.1625) = 0.40 m from p4 (4, 2, 0)."""
+    result = run(
+        "plan", office.map, "--from", "0.2,-0.1", "--to", "3.9,1.7,0.25", "--time", AT
+    )
+    assert result.exit_code == 0, result.stderr
+    said = " ".join(result.stderr.split())
+    assert "--from 0.2,-0.1 snapped to p0 (0.22 m away)" in said, said
+    assert "--to 3.9,1.7,0.25 snapped to p4 (0.40 m away)" in said, said
+    assert "[" not in said, said
+
+
 def test_temporal_path_avoids_the_crowd(tmp_path: Path) -> None:
     """A square A-B-C / A-D-C: B (on the short way) is where a person stands."""
     log = tmp_path / "square.mcap"

@@ -138,7 +138,7 @@ def test_a_narrow_terminal_cuts_no_id_or_number(
         (("plan", "{map}", "--from", "kitchen", "--to", "0,0", "--time", "2026-01-12 08:40",
           "--png", "{dir}/plan.png"), "--from kitchen (R2): its place nearest the room's"),
         (("plan", "{map}", "--from", "kitchen", "--to", "0,0", "--time", "2026-01-12 08:40",
-          "--png", "{dir}/plan.png"), "--to [0.0, 0.0] snapped to p0"),
+          "--png", "{dir}/plan.png"), "--to 0,0 snapped to p0"),
         (("plan", "{map}", "--from", "p12", "--to", "p87", "--time", "2026-01-12 08:40",
           "--png", "{dir}/plan-with-a-long-name-for-the-picture-of-the-paths.png"),
          "wrote {dir}/plan-with-a-long-name-for-the-picture-of-the-paths.png"),
