@@ -32,7 +32,7 @@ Examples:
   aion build run.bag --detections-mapping people.toml   people of another message type
   aion build run.mcap --nav-layer PLACES       3D places even where the graph has 2D ones
   aion build hydra.mcap --graph-period 0       every scene graph of a live Hydra stream
-  aion build day*.mcap -o site.aion --workers 4   four processes, the same map
+  aion build day*.mcap -o site.aion --workers 4   four processes at once
   aion build day*.mcap -o site.aion --scheduler tcp://10.0.0.5:8786   on a Dask cluster
   aion build mon.mcap --part -o mon.part.aion  a part for an exact aion merge later
   aion build legs.mcap --observed "2026-01-05..2026-01-12"   a tracker silent when
@@ -57,8 +57,9 @@ also with -q and --format json (on stderr). An interrupted or failed build leave
 map untouched. Several logs are built in parallel (--workers, default one process per core)
 when they form groups that share no time window, and a long log is cut into time shards at
 quiet moments (window starts with nobody seen in the 10 s before); the parts' maps are joined
-into exactly the map a sequential build makes (a part whose join could not be exact is learnt
-in sequence, and the summary says so).
+into the map a sequential build makes: integers equal, float sums to rounding (a join adds a
+part's sums at once, one process term by term: the last bits can differ, within 1e-12
+relative). A part that could not be joined so is learnt in sequence, and the summary says so.
 
 \b
 JSON keys (--format json): map, map_bytes, continued, detections{read, used,
@@ -229,8 +230,8 @@ def _load_config(path: Path | None) -> Any:
     default=0,
     type=click.IntRange(min=0, max=MAX_WORKERS),
     help="Processes building groups of logs that share no time, or time shards of a long "
-    "log, at once, joined into the map the sequential build makes (0: one per core; 1: in "
-    "this process) [default: 0].",
+    "log, at once, joined into the map the sequential build makes, float sums to rounding (0: "
+    "one per core; 1: in this process) [default: 0].",
 )
 @click.option(
     "--scheduler",

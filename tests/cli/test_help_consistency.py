@@ -226,3 +226,31 @@ def test_every_option_is_named_in_the_readme() -> None:
         if "--help" not in option.opts and not any(named(opt) for opt in option.opts)
     )
     assert not missing, f"README.md does not name: {', '.join(missing)}"
+
+
+def test_workers_help_and_docs_say_how_close_the_parallel_map_is() -> None:
+    """``build --help`` said the shards are joined "into exactly the map a sequential build
+    makes", but a join adds a shard's float sums at once where one process adds them term by
+    term: maps of ``--workers 1`` and ``--workers 2`` differ in the last bits of speed and
+    heading sums (6e-16 relative on three simulated days). The help, README and SCALING.md
+    say floats to rounding, within the tolerance the parallel-build tests hold them to
+    (``engine.compare.differences``' rtol)."""
+    import inspect
+
+    from aion_cli.engine.compare import differences
+    from tests.cli.conftest import run
+
+    rtol = inspect.signature(differences).parameters["rtol"].default
+    help_text = " ".join(run("build", "--help").stdout.split())
+    assert "exactly the map" not in help_text
+    assert f"float sums to rounding (a join adds a part's sums at once, one process term by " \
+        f"term: the last bits can differ, within {rtol:g} relative)" in help_text
+    workers = help_text.split("--workers N", 1)[1].split("--", 1)[0]
+    assert "float sums to rounding" in workers
+    root = Path(__file__).resolve().parents[2]
+    readme = " ".join((root / "README.md").read_text().split())
+    assert "the result is exact either way" not in readme
+    assert "float sums to rounding" in readme.split("*Parallel builds.*", 1)[1][:600]
+    scaling = " ".join((root / "docs" / "SCALING.md").read_text().split())
+    assert "Exact either way" not in scaling
+    assert "Not bit for bit" in scaling
