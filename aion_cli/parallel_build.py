@@ -34,7 +34,12 @@ from aion_cli.build_options import MAX_WORKERS
 from aion_cli.build_report import check_usable, unread_detections
 from aion_cli.errors import InputError
 from aion_cli.shard_fold import Folded, ShardResult, ShardTask
-from aion_cli.shard_reports import combine_reports, counts_of, declared_beside_robot
+from aion_cli.shard_reports import (
+    built_twice_note,
+    combine_reports,
+    counts_of,
+    declared_beside_robot,
+)
 from aion_cli.time_shards import part_fields
 
 if TYPE_CHECKING:
@@ -278,12 +283,7 @@ class ParallelBuild:
             f"worker {peak:.0f} MB; joined in {folded.seconds:.1f} s)"
         )
         if folded.graph_fallbacks:
-            report.notes.append(
-                f"{folded.graph_fallbacks} of {shards} shards were built twice (in a worker, "
-                "then in sequence) because the scene graph changed between them: a Hydra graph "
-                "that grows or is corrected binds cells as it goes, which a shard built apart "
-                "cannot know; for such logs --workers 1 is faster (docs/SCALING.md)"
-            )
+            report.notes.append(built_twice_note(folded.graph_causes, shards))
         report.fold_seconds = folded.seconds
         report.workers = [
             {

@@ -85,8 +85,14 @@ class Folded:
     yaws: dict[str, float] = field(default_factory=dict)
     # the scene-graph version and layer pinned so far (aion_cli.graph_feed.GraphFeed.pins)
     pins: tuple[str | None, str | None] = (None, None)
-    # shards learnt again in sequence because their scene graph bound cells otherwise
-    graph_fallbacks: int = 0
+    # per shard learnt again in sequence because its scene graph bound cells, or moved
+    # places, otherwise than one pass: why (engine.shards.JoinBlock.cause)
+    graph_causes: list[str] = field(default_factory=list)
+
+    @property
+    def graph_fallbacks(self) -> int:
+        """How many shards were learnt again because of their scene graph."""
+        return len(self.graph_causes)
 
     def then(self, state: MapState | None, report: BuildReport, note: str | None = None) -> Folded:
         """The fold after one more shard (its state and report; ``note``: how it went)."""
@@ -97,7 +103,8 @@ class Folded:
         )
         notes = [*self.notes, note] if note else self.notes
         return Folded(
-            state, notes, [*self.reports, report], self.seconds, yaws, pins, self.graph_fallbacks
+            state, notes, [*self.reports, report], self.seconds, yaws, pins,
+            list(self.graph_causes),
         )
 
 
@@ -195,7 +202,8 @@ def fold(
     )
     rebuilt = rebuild_onto(folded.state, task, folded)
     out = folded.then(rebuilt.state, rebuilt.report, note)
-    out.graph_fallbacks += graph_changed
+    if graph_changed and ownership is not None:
+        out.graph_causes.append(ownership.cause)
     return out
 
 

@@ -194,3 +194,21 @@ def _add_nested(into: dict[str, Any], more: dict[str, Any]) -> None:
         else:
             into[key] = into.get(key, 0) + value
 
+
+
+def built_twice_note(causes: list[str], shards: int) -> str:
+    """The note on the shards a parallel build learnt again in sequence because their scene
+    graph bound cells, or moved places, otherwise than one pass would have: how many, and
+    why (each ``causes`` item one shard's :attr:`~aion_cli.engine.shards.JoinBlock.cause`,
+    counted when they differ)."""
+    counts: dict[str, int] = {}
+    for cause in causes:
+        counts[cause] = counts.get(cause, 0) + 1
+    why = " and ".join(
+        cause if len(counts) == 1 else f"{cause} ({n})" for cause, n in counts.items()
+    )
+    return (
+        f"{len(causes)} of {shards} shards were built twice (in a worker, then in sequence) "
+        f"because of {why}, which a shard built apart cannot know; for logs whose scene graph "
+        "changes as they go (a live Hydra stream) --workers 1 is faster (docs/SCALING.md)"
+    )

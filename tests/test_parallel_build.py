@@ -185,9 +185,9 @@ def test_shards_whose_scene_graph_changed_are_named_with_a_hint(
     assert [n for n in notes if "session1.mcap was learnt in sequence" in n]
     hints = [n for n in notes if "built twice" in n]
     assert hints == [
-        "1 of 2 shards were built twice (in a worker, then in sequence) because the scene graph "
-        "changed between them: a Hydra graph that grows or is corrected binds cells as it goes, "
-        "which a shard built apart cannot know; for such logs --workers 1 is faster "
+        "1 of 2 shards were built twice (in a worker, then in sequence) because of cells bound "
+        "to other places than the map before them, which a shard built apart cannot know; for "
+        "logs whose scene graph changes as they go (a live Hydra stream) --workers 1 is faster "
         "(docs/SCALING.md)"
     ]
 

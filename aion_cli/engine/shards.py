@@ -66,7 +66,22 @@ def start_shard(state: MapState) -> MapState:
     return state
 
 
-def join_blocker(acc: MapState, shard: MapState) -> str | None:
+class JoinBlock(str):
+    """Why a join would not be exact: the sentence a note about one shard gives (the string
+    itself), and :attr:`cause`, the short phrase a note about several shards names it by."""
+
+    cause: str
+
+    def __new__(cls, why: str, cause: str) -> JoinBlock:
+        block = super().__new__(cls, why)
+        block.cause = cause
+        return block
+
+    def __reduce__(self) -> tuple[type[JoinBlock], tuple[str, str]]:
+        return JoinBlock, (str(self), self.cause)
+
+
+def join_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
     """Why joining ``shard`` onto ``acc`` would not equal a single pass (None: it would).
 
     The join is exact unless ownership in the shard depended on history it did not have, or
@@ -74,44 +89,54 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
     ``acc`` in sequence instead."""
     held = shard.deferred
     if held is None:
-        return "the shard was not built for a join"
+        return JoinBlock("the shard was not built for a join", "a shard not built for a join")
     overlap = overlap_blocker(acc, shard)
     if overlap is not None:
-        return overlap
+        return JoinBlock(overlap, "logs starting in a window the map before them had recorded")
     if held.moved_after_hold:
-        return (
+        return JoinBlock(
             "ownership changed inside these logs after one of their days had closed (the scene "
-            "graph changed), which the day-ahead scores of that day depend on"
+            "graph changed), which the day-ahead scores of that day depend on",
+            "ownership that changed inside their logs after one of their days had closed",
         )
     if held.groups_changed_after_hold or (held.held_before_graph and _groups_differ(acc, shard)):
-        return (
+        return JoinBlock(
             "the scene graph moved places to other rooms (or neighbourhoods) inside these logs "
-            "after one of their days had closed, which that day's pooling depends on"
+            "after one of their days had closed, which that day's pooling depends on",
+            "places moved to other rooms inside their logs after one of their days had closed",
         )
     if acc.graph is not None and shard.graph is None:
-        return "these logs carry no scene graph of their own, and the map before them has one"
+        return JoinBlock(
+            "these logs carry no scene graph of their own, and the map before them has one",
+            "logs without a scene graph after a map with one",
+        )
     theirs, found = shard.redirects.lookup(acc.redirects.keys)
     if (found & (theirs != acc.redirects.nodes)).any():
-        return (
+        return JoinBlock(
             "these logs bound cells to other places than the map before them did (one pass "
-            "keeps the earlier binding)"
+            "keeps the earlier binding)",
+            "cells bound to other places than the map before them",
         )
     early = acc.entries.live_rows()
     nodes = early[acc.entries.kind[early] == NODE]
     first = held.first_graph
     if first is not None and not np.isin(acc.entries.node_id[nodes], first).all():
-        return (
+        return JoinBlock(
             "the first scene graph of these logs lacks places of the map before them (one "
-            "pass releases them there)"
+            "pass releases them there)",
+            "a first scene graph without places of the map before them",
         )
     timers = timers_blocker(
         shard.nodes, acc.nodes, held.drift, shard.config.stable_move_tolerance
     )
     if timers is not None:
-        return timers
+        return JoinBlock(timers, "places that drifted about the stability tolerance")
     gone = nodes[~np.isin(acc.entries.node_id[nodes], shard.nodes.ids)]
     if gone.size and shard.graph is not None:
-        return "places of the map before these logs left the scene graph during them"
+        return JoinBlock(
+            "places of the map before these logs left the scene graph during them",
+            "places of the map before them that left the scene graph",
+        )
     cells = early[acc.entries.kind[early] == CELL]
     if cells.size and len(shard.nodes):
         cfg = shard.config
@@ -125,7 +150,10 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
                 >= 0
             )
             if first_hit.any() and held.first_stable_late:
-                return "the scene graph of these logs became stable only after their first day"
+                return JoinBlock(
+                    "the scene graph of these logs became stable only after their first day",
+                    "a scene graph stable only after their first day",
+                )
         stable = stable_nodes(shard, int(shard.log_time_ns or 0))
         last_hit = (
             nearest_nodes(
@@ -136,9 +164,10 @@ def join_blocker(acc: MapState, shard: MapState) -> str | None:
             else np.zeros(cells.size, bool)
         )
         if (last_hit & ~first_hit).any():
-            return (
+            return JoinBlock(
                 "the scene graph of these logs reached cells of the map before them only "
-                "later on (a single pass would have bound them then)"
+                "later on (a single pass would have bound them then)",
+                "a scene graph that reached cells of the map before them only later on",
             )
     return None
 
