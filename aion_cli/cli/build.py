@@ -65,7 +65,8 @@ relative). A part that could not be joined so is learnt in sequence, and the sum
 JSON keys (--format json): map, map_bytes, continued, detections{read, used,
 dropped{reason: n}}, detections_by_topic{topic: {read, used, dropped{reason: n}}}, cells
 (unbound hash cells), nodes, nodes_with_flow, bound_cells, windows (most windows any entry
-observed, the open one included), hours_observed (per kind of day), time_span{start_ns,
+observed, the open one included, a window partly recorded for its share, rounded; not the
+windows with messages aion info counts), hours_observed (per kind of day), time_span{start_ns,
 end_ns, seconds}, observation, graph{source, layer,
 messages (applied), skipped (damaged), decoded, read_by_changes (of decoded: only the node
 records changed since the last payload re-read), skipped_identical (applied without decoding:

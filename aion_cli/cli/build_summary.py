@@ -6,7 +6,7 @@ from typing import Any
 
 from aion_cli.cli.console import console, print_table, warn_each
 from aion_cli.cli.output import counted, human_size, markup_safe
-from aion_cli.number_text import span_text
+from aion_cli.number_text import WINDOWS_OBSERVED, span_text
 
 __all__ = ["print_summary", "print_warnings", "span_text"]
 
@@ -38,7 +38,7 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
     table.add_row("hash cells", f"{summary['cells']:,}")
     table.add_row("bound cells", f"{summary['bound_cells']:,}")
-    table.add_row("windows observed", f"{summary['windows']:,}")
+    table.add_row(WINDOWS_OBSERVED, f"{summary['windows']:,}")
     if summary.get("hours_observed"):
         table.add_row("hours observed", markup_safe(summary["hours_observed"]))
     table.add_row("time span", span_text(summary["time_span"]["seconds"]))

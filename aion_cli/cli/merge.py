@@ -104,6 +104,7 @@ def print_summary(summary: dict[str, Any]) -> None:
     from aion_cli.cli.console import console, print_table
     from aion_cli.cli.output import human_size, markup_safe
     from aion_cli.log_times import iso
+    from aion_cli.number_text import WINDOWS_OBSERVED
 
     table = Table(
         title=f"map {markup_safe(summary['map'])}", show_header=False, title_justify="left"
@@ -122,7 +123,7 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
     table.add_row("hash cells", f"{summary['cells']:,}")
     table.add_row("bound cells", f"{summary['bound_cells']:,}")
-    table.add_row("windows observed", f"{summary['windows']:,}")
+    table.add_row(WINDOWS_OBSERVED, f"{summary['windows']:,}")
     if summary.get("hours_observed"):
         table.add_row("hours observed", markup_safe(summary["hours_observed"]))
     span = summary["time_span"]

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from aion_cli.number_text import WINDOWS_OBSERVED
 from aion_cli.timeparse import Zone
 
 if TYPE_CHECKING:
@@ -145,7 +146,7 @@ def map_counts(loaded: LoadedMap, shown: dict[str, Any]) -> dict[str, int]:
         "entries": len(loaded.state.entries.live_rows()),
         "detections read": int(counts.get("read", 0)),
         "detections accepted": int(counts.get("used", 0)),
-        "windows observed": int(counts.get("windows", 0)),
+        WINDOWS_OBSERVED: int(counts.get("windows", 0)),
     }
 
 

@@ -61,7 +61,36 @@ def test_a_log_shorter_than_a_window_observed_one(tmp_path: Path) -> None:
     assert report["observation"].startswith("fixed sensor over the 1 window with messages")
     assert report["windows"] == 1
     table = run("build", log, "-o", tmp_path / "again.aion")
-    assert re.search(r"windows observed\s*│\s*1\s*│", table.stderr), table.stderr
+    assert re.search(r"observed windows \(most of any entry\)\s*│\s*1\s*│", table.stderr), (
+        table.stderr
+    )
+
+
+def test_observed_windows_and_windows_with_messages_are_told_apart(tmp_path: Path) -> None:
+    """A fixed sensor from 08:05 to 08:50: messages in the five windows 08:00..08:40 (what
+    ``aion info`` counts), recorded for 0.5 + 4 of them (the first from 08:05 on), the count
+    the map's flows divide by: 4.5, shown rounded (4). The build table and the report called
+    it "windows observed" beside "5 windows with messages"; they now name it for what it is,
+    and the report's row is the build's."""
+    log = tmp_path / "late.mcap"
+    write_office_log(log, tf=False, shift_s=300, duration_s=2700)
+    info = run("info", log)
+    assert info.exit_code == 0, info.stderr
+    assert "fixed sensor over the 5 windows of 10 min with messages" in " ".join(
+        info.stderr.split()
+    ), info.stderr
+    out = tmp_path / "late.aion"
+    table = run("build", log, "-o", out)
+    assert table.exit_code == 0, table.stderr
+    assert re.search(r"observed windows \(most of any entry\)\s*│\s*4\s*│", table.stderr), (
+        table.stderr
+    )
+    assert "windows observed" not in table.stderr
+    page = run("report", out, "--time", "2026-11-23 08:30", "-o", tmp_path / "report", "-q")
+    assert page.exit_code == 0, page.stderr
+    html = (tmp_path / "report" / "index.html").read_text()
+    assert "observed windows (most of any entry)</td><td class=\"n\">4</td>" in html
+    assert "windows observed" not in html
 
 
 def test_help_names_every_json_key(office: Office) -> None:
