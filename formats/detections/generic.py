@@ -107,13 +107,13 @@ class ItemSpec:
     ``position``/``velocity``/``orientation``/``track_id`` are relative to an item; ``stamp``
     and ``frame`` to the message; ``item_stamp``/``item_frame`` (per-item header) override
     them where set (non-zero stamp, non-empty frame); ``fixed_frame`` replaces both.
-    ``position`` is one path (a Point-like or planar message, 2 or 3 numbers) or a path per
-    coordinate (x, y and optionally z: numbers); ``yaw`` (a number, radians about z) stands
-    for the orientation of a planar pose."""
+    ``position`` and ``velocity`` are each one path (a Point-like or planar message, 2 or 3
+    numbers) or a path per coordinate (x, y and optionally z: numbers; z = 0 without one);
+    ``yaw`` (a number, radians about z) stands for the orientation of a planar pose."""
 
     array: FieldPath | None
     position: FieldPath | tuple[FieldPath, ...]
-    velocity: FieldPath | None = None
+    velocity: FieldPath | tuple[FieldPath, ...] | None = None
     orientation: FieldPath | None = None
     track_id: FieldPath | None = None
     stamp: FieldPath | None = field(default_factory=lambda: FieldPath.parse("header.stamp"))
@@ -130,7 +130,7 @@ class ItemSpec:
         cls,
         array: str | None,
         position: str | list[str] | tuple[str, ...],
-        velocity: str | None = None,
+        velocity: str | list[str] | tuple[str, ...] | None = None,
         orientation: str | None = None,
         track_id: str | None = None,
         stamp: str | None = "header.stamp",
@@ -140,13 +140,9 @@ class ItemSpec:
         adjust: Adjust | None = None,
     ) -> ItemSpec:
         """Build a spec from path strings (``item_header`` sets both item paths)."""
-        where: FieldPath | tuple[FieldPath, ...] = (
-            FieldPath.parse(position)
-            if isinstance(position, str)
-            else tuple(FieldPath.parse(p) for p in position)
-        )
         return cls(
-            _opt(array), where, _opt(velocity), _opt(orientation),
+            _opt(array), _vector_paths(position),
+            None if velocity is None else _vector_paths(velocity), _opt(orientation),
             _opt(track_id), _opt(stamp), _opt(frame),
             _opt(f"{item_header}.stamp" if item_header else None),
             _opt(f"{item_header}.frame_id" if item_header else None),
@@ -175,7 +171,7 @@ class ItemSpec:
         f = str(self.item_frame.get(it)) if self.item_frame else ""
         if self.fixed_frame is not None:
             f = self.fixed_frame
-        vel = vec3(self.velocity.get(it), self.velocity.text) if self.velocity else NAN_V
+        vel = _vector(it, self.velocity) if self.velocity is not None else NAN_V
         o = self.orientation
         if self.yaw is not None:
             q = yaw_quaternion(scalar(self.yaw.get(it), self.yaw.text))
@@ -187,18 +183,28 @@ class ItemSpec:
             owner,
             t or stamp,
             f or frame,
-            self._position(it),
+            _vector(it, self.position),
             vel,
             q,
             track_id_of(self.track_id.get(it)) if self.track_id else -1,
         )
 
-    def _position(self, item: Any) -> tuple[float, float, float]:
-        where = self.position
-        if isinstance(where, FieldPath):
-            return vec3(where.get(item), where.text)
-        xyz = [scalar(path.get(item), path.text) for path in where]
-        return xyz[0], xyz[1], xyz[2] if len(xyz) == 3 else 0.0
+
+
+def _vector_paths(where: str | list[str] | tuple[str, ...]) -> FieldPath | tuple[FieldPath, ...]:
+    """One path to a vector, or a path per coordinate."""
+    if isinstance(where, str):
+        return FieldPath.parse(where)
+    return tuple(FieldPath.parse(p) for p in where)
+
+
+def _vector(item: Any, where: FieldPath | tuple[FieldPath, ...]) -> tuple[float, float, float]:
+    """A position or velocity of ``item``: from one path (:func:`vec3`), or from a number
+    per coordinate (z = 0 when only x and y are given)."""
+    if isinstance(where, FieldPath):
+        return vec3(where.get(item), where.text)
+    xyz = [scalar(path.get(item), path.text) for path in where]
+    return xyz[0], xyz[1], xyz[2] if len(xyz) == 3 else 0.0
 
 
 Extractor = Callable[[Any, int, Rows], None]

@@ -8,12 +8,14 @@ Example (one ``[[topic]]`` table per topic)::
     array = "tracks"                        # the sequence of people; omit: one per message
     position = "pose.pose.position"         # Point-like, or 3 numbers: "position[0..2]"
                                             # planar: "pose2d" (x, y), ["x", "y"] or 2 numbers
-    velocity = "twist.twist.linear"         # optional
+    velocity = "twist.twist.linear"         # optional; or a number per axis: ["vx", "vy"]
     orientation = "pose.pose.orientation"   # optional (x, y, z, w)
     id = "track_id"                         # optional: integer, string or UUID bytes
     stamp = "header.stamp"                  # default, relative to the message; "" = log time
     frame = "header.frame_id"               # default, relative to the message; "" = none
     item_header = "header"                  # optional per-item header (overrides when set)
+    # item_stamp = "t"                      # or a per-item stamp / frame alone (no header)
+    # item_frame = "frame"
     frame_override = "map"                  # optional: ignore the message's frame
     filter = { field = "label", equals = ["person", "pedestrian"] }   # optional, per item
     # yaw = "theta"                         # instead of orientation: radians about z
@@ -23,10 +25,17 @@ A planar tracker (turtlesim's ``x, y, theta``, ``geometry_msgs/Pose2D``) maps wi
 message with ``x`` and ``y``, and ``yaw = "theta"``: z is 0 and the yaw is the pose's
 orientation about z.
 
+A velocity given as separate numbers (``vx, vy`` fields) maps the same way, ``velocity =
+["vx", "vy"]`` (vz = 0 without a third).
+
 Paths are dotted field names with ``[i]`` indices and inclusive ``[i..j]`` ranges. Item paths
-(position, velocity, orientation, id, item_header, filter.field) are relative to one element of
-``array``. :meth:`TopicMapping.check` validates every path against a typestore's definition
-before any message is read, and names the path and the fields that exist when one is wrong.
+(position, velocity, orientation, id, item_header, item_stamp, item_frame, filter.field) are
+relative to one element of ``array``. ``item_stamp`` (a Time or integer nanoseconds) and
+``item_frame`` (a string) are an element's own time and frame where it has no header (each
+overrides the message's where set; ``item_header = "h"`` is ``item_stamp = "h.stamp"`` with
+``item_frame = "h.frame_id"``). :meth:`TopicMapping.check` validates every path against a
+typestore's definition before any message is read, and names the path and the fields that
+exist when one is wrong.
 
 A message type without a header (``leg_tracker/msg/Person``: ``geometry_msgs/Pose pose``,
 ``uint32 id``) needs neither ``stamp`` nor ``frame``: when the type has no ``header`` and the
@@ -53,8 +62,10 @@ if TYPE_CHECKING:
 
 _KEYS = {
     "topic", "msgtype", "array", "position", "velocity", "orientation", "yaw", "id", "stamp",
-    "frame", "item_header", "frame_override", "filter",
+    "frame", "item_header", "item_stamp", "item_frame", "frame_override", "filter",
 }
+# keys that take a path per coordinate as well as one path
+_VECTOR_KEYS = ("position", "velocity")
 # rosbags field-definition node types.
 _BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4
 
@@ -95,13 +106,14 @@ class TopicMapping:
         r = self.raw
         if "array" in r:
             item = _element(typestore, _walk(typestore, root, r["array"], "array"), r["array"])
-        if isinstance(r["position"], list):
-            for path in r["position"]:
-                _number(_walk(typestore, item, path, "position"), path, "position")
-        else:
-            _vector(typestore, _walk(typestore, item, r["position"], "position"), 3, "position")
-        if "velocity" in r:
-            _vector(typestore, _walk(typestore, item, r["velocity"], "velocity"), 3, "velocity")
+        for key in _VECTOR_KEYS:
+            if key not in r:
+                continue
+            if isinstance(r[key], list):
+                for path in r[key]:
+                    _number(_walk(typestore, item, path, key), path, key)
+            else:
+                _vector(typestore, _walk(typestore, item, r[key], key), 3, key)
         if "orientation" in r:
             node = _walk(typestore, item, r["orientation"], "orientation")
             _vector(typestore, node, 4, "orientation")
@@ -117,6 +129,9 @@ class TopicMapping:
             for sub, check in ((".stamp", _stamp), (".frame_id", _text)):
                 path = r["item_header"] + sub
                 check(typestore, _walk(typestore, item, path, "item_header"), path, "item_header")
+        for key, check in (("item_stamp", _stamp), ("item_frame", _text)):
+            if key in r:
+                check(typestore, _walk(typestore, item, r[key], key), r[key], key)
         if "filter" in r:
             field = r["filter"]["field"]
             _comparable(_walk(typestore, item, field, "filter.field"), field, r["filter"]["equals"])
@@ -134,12 +149,13 @@ class TopicMapping:
         if "stamp" not in r:
             spec, raw["stamp"] = replace(spec, stamp=None), ""
         if "frame" not in r:
-            if "frame_override" not in r and "item_header" not in r:
+            if not {"frame_override", "item_header", "item_frame"} & set(r):
                 raise ConfigError(
                     f"mapping for {self.topic!r}: {self.msgtype} has no header, so the frame "
                     "of its positions is unknown",
                     hint='add frame_override = "FRAME" (the frame the positions are in, e.g. '
-                    'the --map-frame, "map") to its [[topic]] table',
+                    'the --map-frame, "map") or item_frame = "PATH" (each element\'s frame) '
+                    "to its [[topic]] table",
                 )
             spec, raw["frame"] = replace(spec, frame=None), ""
         return TopicMapping(self.topic, self.msgtype, spec, raw)
@@ -179,24 +195,33 @@ def _parse_topic(t: dict[str, Any], where: str) -> TopicMapping:
     unknown = set(t) - _KEYS
     if unknown:
         raise ConfigError(f"{where}: unknown keys {sorted(unknown)}; known: {sorted(_KEYS)}")
-    position: Any = t.get("position")
-    planar = isinstance(position, list)
-    if planar and not (
-        2 <= len(position) <= 3 and all(isinstance(p, str) and p for p in position)
-    ):
-        raise ConfigError(
-            f"{where}: 'position' as a list names 2 or 3 number fields (x, y[, z]), got "
-            f"{position!r}",
-            hint='e.g. position = ["x", "y"] for a planar pose',
-        )
+    for key in _VECTOR_KEYS:
+        value: Any = t.get(key)
+        if isinstance(value, list) and not (
+            2 <= len(value) <= 3 and all(isinstance(p, str) and p for p in value)
+        ):
+            raise ConfigError(
+                f"{where}: {key!r} as a list names 2 or 3 number fields (x, y[, z]), got "
+                f"{value!r}",
+                hint=f'e.g. {key} = ["{"x" if key == "position" else "vx"}", '
+                f'"{"y" if key == "position" else "vy"}"] for a planar one',
+            )
+    planar = isinstance(t.get("position"), list)
     for key in ("topic", "msgtype", "position"):
         if key == "position" and planar:
             continue
         if not isinstance(t.get(key), str) or not t[key]:
             raise ConfigError(f"{where}: {key!r} is required (a string)")
-    for key in _KEYS - {"filter", "position"}:
+    for key in _KEYS - {"filter", *_VECTOR_KEYS}:
         if key in t and not isinstance(t[key], str):
             raise ConfigError(f"{where}: {key!r} must be a string")
+    if "velocity" in t and not isinstance(t["velocity"], (str, list)):
+        raise ConfigError(f"{where}: 'velocity' must be a string or a list of 2 or 3 strings")
+    if "item_header" in t and {"item_stamp", "item_frame"} & set(t):
+        raise ConfigError(
+            f"{where}: give 'item_header' (its stamp and frame_id) or 'item_stamp' / "
+            "'item_frame', not both"
+        )
     if "yaw" in t and "orientation" in t:
         raise ConfigError(
             f"{where}: give 'orientation' (a quaternion) or 'yaw' (radians), not both"
@@ -207,6 +232,10 @@ def _parse_topic(t: dict[str, Any], where: str) -> TopicMapping:
         t.get("stamp", "header.stamp") or None, t.get("frame", "header.frame_id") or None,
         t.get("item_header"), keep,
     )
+    if "item_stamp" in t:
+        spec = replace(spec, item_stamp=FieldPath.parse(t["item_stamp"]))
+    if "item_frame" in t:
+        spec = replace(spec, item_frame=FieldPath.parse(t["item_frame"]))
     if "frame_override" in t:
         spec = replace(spec, fixed_frame=t["frame_override"])
     if "yaw" in t:

@@ -446,3 +446,92 @@ def test_an_item_whose_sequence_is_too_short_is_dropped_not_the_build(tmp_path: 
     assert report["mean_speed_m_s"] == pytest.approx(0.5)
     _, counts, _ = map_cells(tmp_path / "short.aion")
     assert counts.sum(axis=0).tolist() == [18, 0, 0, 0, 19, 0, 0, 0]  # b -x (bin 0), a +x
+
+
+BLOBS = "my_tracker/msg/Blobs"
+BLOB_TYPES = {
+    "my_tracker/msg/Blob": "int64 t_ns\nstring frame\nuint32 id\nfloat64 x\nfloat64 y\n"
+    "float64 vx\nfloat64 vy\n",
+    BLOBS: "my_tracker/Blob[] blobs\n",
+}
+BLOB_MAPPING = """\
+[[topic]]
+topic = "/blobs"
+msgtype = "my_tracker/msg/Blobs"
+array = "blobs"
+position = ["x", "y"]
+velocity = ["vx", "vy"]
+id = "id"
+item_stamp = "t_ns"
+item_frame = "frame"
+"""
+
+
+def blob_log(path: Path) -> Path:
+    """``my_tracker/msg/Blobs`` on /blobs: no header, each blob with its own time (int64
+    nanoseconds), frame and velocity as two numbers. Ten messages a second apart, logged at
+    T0 + k s; each blob's time 1 ms later (what the decoder reads: tests/formats), its frame
+    base_laser.
+    Blob 1 walks -x (velocity (-1, 0): heading pi, bin 0), blob 2 +y (velocity (0, 0.5):
+    heading pi/2, bin 6)."""
+    own = OwnTypes(BLOB_TYPES)
+    blob = own.T["my_tracker/msg/Blob"]
+    msgs = []
+    for k in range(10):
+        t = T0 + k * S
+        items = [
+            blob(t_ns=t + 10**6, frame="base_laser", id=1, x=20.0 - k, y=3.0, vx=-1.0, vy=0.0),
+            blob(t_ns=t + 10**6, frame="base_laser", id=2, x=2.0, y=0.5 * k, vx=0.0, vy=0.5),
+        ]
+        msgs.append(Message("/blobs", BLOBS, own.cdr(own.T[BLOBS](blobs=items), BLOBS), t))
+    return write_mcap(path, msgs, {BLOBS: own.definition(BLOBS)})
+
+
+def test_a_velocity_of_two_numbers_and_per_item_times_without_a_header(tmp_path: Path) -> None:
+    """``velocity = ["vx", "vy"]`` was refused ("'velocity' must be a string") and an element's
+    own time and frame could only be read from a header (``item_header``); ``item_stamp`` and
+    ``item_frame`` now read them from any fields of the element (without item_frame the
+    mapping is refused: the type has no header, so no frame)."""
+    log = blob_log(tmp_path / "blobs.mcap")
+    mapping = tmp_path / "blobs.toml"
+    mapping.write_text(BLOB_MAPPING)
+    out = tmp_path / "blobs.aion"
+    report = run_json("build", log, "-o", out, "--detections-mapping", mapping,
+                      "--map-frame", "base_laser", "--format", "json")  # fmt: skip
+    assert report["detections"] == {"read": 20, "used": 20, "dropped": {}}
+    assert report["headings"]["velocity"] == 20  # every one from its two numbers
+    assert report["detection_decoding"]["/blobs"]["decoder"] == "mapping"
+    _, counts, nodir = map_cells(out)
+    assert counts.sum(axis=0).tolist() == [10, 0, 0, 0, 0, 0, 10, 0]
+    assert nodir.sum() == 0
+
+
+@pytest.mark.parametrize(
+    ("change", "fragments"),
+    [
+        (('velocity = ["vx", "vy"]', 'velocity = ["vx"]'),
+         ("'velocity' as a list names 2 or 3 number fields", "['vx']")),
+        (('velocity = ["vx", "vy"]', 'velocity = ["vx", "speed"]'),
+         ("velocity path 'speed'", "has no field 'speed'")),
+        (('velocity = ["vx", "vy"]', 'velocity = ["vx", "frame"]'),
+         ("velocity path 'frame' must lead to a number",)),
+        (('item_stamp = "t_ns"', 'item_stamp = "frame"'),
+         ("item_stamp path 'frame' must lead to a time stamp",)),
+        (('item_frame = "frame"', 'item_frame = "id"'),
+         ("item_frame path 'id' must lead to a frame name",)),
+        (('item_frame = "frame"', ""), ("has no header", "frame of its positions")),
+        (('item_stamp = "t_ns"', 'item_stamp = "t_ns"\nitem_header = "h"'),
+         ("give 'item_header'", "'item_stamp'")),
+    ],
+)
+def test_bad_blob_mappings_name_the_key(
+    tmp_path: Path, change: tuple[str, str], fragments: tuple[str, ...]
+) -> None:
+    log = blob_log(tmp_path / "blobs.mcap")
+    assert change[0] in BLOB_MAPPING
+    mapping = tmp_path / "bad.toml"
+    mapping.write_text(BLOB_MAPPING.replace(*change))
+    result = run("build", log, "-o", tmp_path / "x.aion", "--detections-mapping", mapping,
+                 "--map-frame", "base_laser")  # fmt: skip
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, *fragments)

@@ -473,3 +473,48 @@ def test_a_suggested_mapping_finds_a_pose_with_covariance_of_autoware_objects() 
     np.testing.assert_array_equal(got.xyz, [[2.5, -1.0, 0.0], [-4.0, 6.0, 0.0]])
     np.testing.assert_array_equal(got.velocity, [[1.25, 0.0, 0.0], [-0.5, 0.0, 0.0]])
     assert got.track_id.tolist() == [hash_id(bytes([1] * 16)), hash_id(bytes([2] * 16))]
+
+
+# -- a velocity of two numbers, an element's own time and frame without a header ------------
+
+BLOBS = """
+[[topic]]
+topic = "/blobs"
+msgtype = "blobs/msg/Blobs"
+array = "blobs"
+position = ["x", "y"]
+velocity = ["vx", "vy"]
+item_stamp = "t"
+item_frame = "frame"
+"""
+
+
+def test_a_velocity_per_axis_and_item_times_and_frames_without_a_header() -> None:
+    """Each element's ``t`` (a Time here; integer nanoseconds in tests/cli) and ``frame`` are
+    its detection's time and frame; ``vx``, ``vy`` its velocity (vz = 0). The message has no
+    header and no frame_override: the elements' own frames are enough."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    ts.register(get_types_from_msg(
+        "builtin_interfaces/Time t\nstring frame\nfloat64 x\nfloat64 y\nfloat64 vx\n"
+        "float64 vy\n", "blobs/msg/Blob",
+    ))  # fmt: skip
+    ts.register(get_types_from_msg("blobs/Blob[] blobs\n", "blobs/msg/Blobs"))
+    T = ts.types
+    Time, Blob = T["builtin_interfaces/msg/Time"], T["blobs/msg/Blob"]
+    msg = T["blobs/msg/Blobs"](blobs=[
+        Blob(t=Time(sec=12, nanosec=5), frame="laser", x=1.0, y=2.0, vx=-1.0, vy=0.25),
+        Blob(t=Time(sec=13, nanosec=0), frame="odom", x=3.0, y=4.0, vx=0.0, vy=0.5),
+    ])  # fmt: skip
+    raw_msg = RawMessage(
+        "/blobs", "blobs/msg/Blobs", 99, bytes(ts.serialize_cdr(msg, "blobs/msg/Blobs")), "cdr"
+    )
+    (m,) = load_mapping(BLOBS)
+    m = m.check(ts)
+    got = m.adapter(ts).decode([raw_msg])
+    np.testing.assert_array_equal(got.t_ns, [12_000_000_005, 13_000_000_000])
+    assert got.frame_names() == ["laser", "odom"]
+    np.testing.assert_array_equal(got.xyz, [[1.0, 2.0, 0.0], [3.0, 4.0, 0.0]])
+    np.testing.assert_array_equal(got.velocity, [[-1.0, 0.25, 0.0], [0.0, 0.5, 0.0]])
+    assert got.stamp_fallbacks == 0
