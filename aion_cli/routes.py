@@ -50,8 +50,8 @@ class Endpoint:
     node_id: int
     point: tuple[float, float, float] | None = None
     distance_m: float = 0.0
-    # the room or building (``("room", "R3")``) whose place this is, when one was asked for
-    within: tuple[str, str] | None = None
+    # the room or building (``("room", id of R3)``) whose place this is, when one was asked for
+    within: tuple[str, int] | None = None
     name: str | None = None  # that room's name in the graph ("kitchen"), if it has one
     # the room's place nearest its centre was not joined to the other end: this is its
     # nearest place of those that are
@@ -64,7 +64,7 @@ class Endpoint:
             return None
         record: dict[str, Any] = {"option": option}
         if self.within is not None:
-            record[self.within[0]] = self.within[1]
+            record[self.within[0]] = node_label(self.within[1])
             if self.name is not None:
                 record["name"] = self.name
         if self.reachable_only:
@@ -210,7 +210,7 @@ def _room_endpoint(
         int(nav.ids[row]),
         (float(centre[0]), float(centre[1]), float(centre[2])),
         float(np.sqrt(d2.min())),
-        (kind, label),
+        (kind, node_id),
         name_of(layer, at),
         within is not None,
     )
@@ -230,11 +230,11 @@ def resolve_ends(
     if comp[row_a] == comp[row_b]:
         return a, b
     if graph is not None and b.within is not None:
-        moved = _room_endpoint(_room_id(b), nav, graph, int(comp[row_a]))
+        moved = _room_endpoint(b.within[1], nav, graph, int(comp[row_a]))
         if moved is not None:
             return a, moved
     if graph is not None and a.within is not None:
-        moved = _room_endpoint(_room_id(a), nav, graph, int(comp[row_b]))
+        moved = _room_endpoint(a.within[1], nav, graph, int(comp[row_b]))
         if moved is not None:
             return moved, b
     raise _unjoined(nav, (a, row_a), (b, row_b))
@@ -252,21 +252,13 @@ def _unjoined(nav: NavGraph, *ends: tuple[Endpoint, int]) -> Exception:
     for role, (end, _) in zip(("start", "goal"), ends, strict=True):
         label = node_label(end.node_id)
         if end.within is not None:
-            said.append(f"the {role} {end.within[1]} stands for its place {label}")
+            said.append(f"the {role} {node_label(end.within[1])} stands for its place {label}")
         elif end.point is not None:
             typed = point_text(shown_point(end.point))
             said.append(f"the {role} {typed} snapped to {label} ({end.distance_m:.2f} m away)")
     if not said:
         return err
     return NoPathError(f"{err} ({'; '.join(said)})", hint=err.hint)
-
-
-def _room_id(end: Endpoint) -> int:
-    """The id of the room or building an endpoint was asked for as."""
-    from aion_cli.engine.node_ids import parse_node_id
-
-    assert end.within is not None
-    return parse_node_id(end.within[1])
 
 
 @dataclass(frozen=True)
