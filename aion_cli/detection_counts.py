@@ -26,6 +26,11 @@ FAR_STAMP_NS = 86_400 * 1_000_000_000
 """A header stamp more than a day from its message's log time follows another clock than the
 recording (a simulation's, from 0): the gap of ``aion_cli.log_times.STRAY_GAP_NS``."""
 
+DECODE_FAILURE = "undecodable"
+"""The reason a decoder gives for a message it could not decode (per message)."""
+UNDECODABLE_MESSAGES = "undecodable_messages"
+"""The build's drop reason for those messages (:meth:`DetectionCounts.add_decoded`)."""
+
 
 @dataclass
 class TopicCounts:
@@ -81,13 +86,28 @@ class DetectionCounts:
             got = self.topics[name] = TopicCounts()
         return got
 
+    def add_decoded(self, topic: TopicCounts, filtered: dict[str, int]) -> None:
+        """Count what a decoder left out of one topic's messages (``filtered``: its frames'
+        reasons). The one split of decoded drops, which :meth:`passed_filters` reads back:
+        a damaged payload (``undecodable``) is counted per message, its detections unknown
+        (dropped as ``undecodable_messages``, not read); items a filter left out (``class``,
+        ``filter``, ``marker_*``, ``short_array``) were read (read = used + dropped) and are
+        dropped by their reason."""
+        for reason, n in filtered.items():
+            if reason == DECODE_FAILURE:
+                self.dropped[UNDECODABLE_MESSAGES] += n
+                topic.undecodable += n
+            else:
+                self.read += n
+                self.dropped[reason] += n
+
     def passed_filters(self) -> int:
-        """The detections read that the decoders' filters kept (``read`` counts the items a
-        filter left out too, each dropped by its reason: ``class``, ``filter``, ``marker_*``,
-        ``short_array``); what the feeder and the Mapper dropped later is among them."""
+        """The detections read that the decoders' filters kept: ``read`` less the drops
+        :meth:`add_decoded` counted as read (every reason but the messages it could not
+        decode and what the feeder and the Mapper dropped later, which is among these)."""
         from aion_cli.engine.state import DROP_REASONS  # the Mapper's
 
-        later = {"no_transform", "undecodable_messages", *DROP_REASONS}
+        later = {"no_transform", UNDECODABLE_MESSAGES, *DROP_REASONS}
         return self.read - sum(n for r, n in self.dropped.items() if r not in later)
 
     def placeable(self, frames: Any, cell_size: float | None = None) -> Any:
@@ -112,11 +132,6 @@ class DetectionCounts:
         if n_bad > n_nan:
             self.dropped["out_of_range"] += n_bad - n_nan
         return frames.select(in_range)
-
-
-FAR_STAMP_NS = 86_400 * 1_000_000_000
-"""A header stamp more than a day from its message's log time follows another clock (a
-simulation's, from 0) than the recording: the stray-run gap of ``aion_cli.log_times``."""
 
 
 #: speeds are summed in µm/s as integers, each clipped to this (m/s) so no sum can overflow

@@ -247,15 +247,7 @@ class DetectionFeeder:
         else:
             c.log_times += int(frames.stamp_fallbacks)
         per_topic.messages += len(msgs)
-        for reason, n in frames.filtered.items():
-            # damaged payloads are counted per message: their detections are unknown; items a
-            # filter left out were read (read = used + dropped), and are dropped by reason
-            if reason == "undecodable":
-                c.dropped["undecodable_messages"] += n
-                per_topic.undecodable += n
-            else:
-                c.read += n
-                c.dropped[reason] += n
+        c.add_decoded(per_topic, frames.filtered)
         error = adapter.first_error
         if error is not None and per_topic.first_error is None:
             per_topic.first_error, per_topic.first_hint = error.message, error.hint
