@@ -287,7 +287,7 @@ class Map(Generic[Report]):
         every = parse_step(check.step(step), "step")
         t0, zone = self._time(start, tz)
         t1, _ = self._time(end, tz, after_ns=t0)
-        times = series_times(t0, t1, every, zone, ("start", "end"))
+        times = series_times(t0, t1, every, zone, ("start", "end"), typed=start)
         table = predict_series(self._loaded, times, layer, wanted, point, top)
         labels = [format_ns(t, zone) for t in times]
         label = str(self.path) if self.path is not None else "<memory>"
@@ -353,7 +353,7 @@ class Map(Generic[Report]):
                 hint="give leave=(earliest, latest) with latest later, or time= for one departure",
             )
         times = series_times(
-            earliest, latest, every, zone, ("leave[0]", "leave[1]"), "departures"
+            earliest, latest, every, zone, ("leave[0]", "leave[1]"), "departures", first
         )
         observed = hour_flags(self._loaded, times)
         plans, best = plan_departures(

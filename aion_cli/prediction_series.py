@@ -151,6 +151,7 @@ def series_times(
     zone: Zone,
     names: tuple[str, str] = ("--from", "--to"),
     noun: str = "times",
+    typed: object = None,
 ) -> list[int]:
     """``start, start + step, ...`` up to ``end`` inclusive (an end that falls on a step is
     one of the times), each time :func:`aion_cli.time_steps.step_time`'s: a step in days or
@@ -159,10 +160,15 @@ def series_times(
     ``export``, ``plan --leave`` and the API's are made. :class:`InputError` for an end before
     the start or more than :data:`MOST_TIMES` times. ``names``: what the caller calls the
     start and the end (the CLI's options, or the API's arguments); ``noun``: what the times
-    are (``departures`` of a plan, ``frames`` of an export)."""
+    are (``departures`` of a plan, ``frames`` of an export); ``typed``: the start as the user
+    gave it, whose wall-clock time a step in days keeps on the other days where a clock
+    change skipped it (:func:`aion_cli.wall_clock.skipped_wall`: 02:30 again, not 03:30)."""
     from aion_cli.errors import InputError
     from aion_cli.time_steps import step_time
     from aion_cli.timeparse import format_ns, offset_changes_near
+    from aion_cli.wall_clock import skipped_wall
+
+    wall = skipped_wall(typed, zone, start_ns) if step.days else None
 
     if step.days < 0 or step.exact_ns < 0 or step.nominal_ns <= 0:
         raise InputError(f"the step must be positive, got {step}")
@@ -183,9 +189,9 @@ def series_times(
     # estimate of 24 h a day is off by the zone's changes of offset, which the loops correct
     steps = (end_ns - start_ns) // step.nominal_ns
     if step.days:
-        while steps > 0 and step_time(start_ns, step, steps, zone) > end_ns:
+        while steps > 0 and step_time(start_ns, step, steps, zone, wall) > end_ns:
             steps -= 1
-        while step_time(start_ns, step, steps + 1, zone) <= end_ns:
+        while step_time(start_ns, step, steps + 1, zone, wall) <= end_ns:
             steps += 1
     count = steps + 1
     if count > MOST_TIMES:
@@ -196,7 +202,7 @@ def series_times(
         )
     # a zone that skips a whole calendar day (Pacific/Apia, 2011-12-30) maps that day's
     # wall-clock time to the next day's instant: the time is taken once
-    return list(dict.fromkeys(step_time(start_ns, step, k, zone) for k in range(count)))
+    return list(dict.fromkeys(step_time(start_ns, step, k, zone, wall) for k in range(count)))
 
 
 def predict_series(

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from datetime import timedelta
+from datetime import datetime, timedelta
 from decimal import Decimal
 
 from aion_cli.timeparse import (
@@ -87,7 +87,9 @@ def parse_step(step: str | float, option: str = "--step") -> Step:
     return Step(whole, int(seconds * NS_PER_S))
 
 
-def step_time(start_ns: int, step: Step, k: int, zone: Zone) -> int:
+def step_time(
+    start_ns: int, step: Step, k: int, zone: Zone, wall: datetime | None = None
+) -> int:
     """The ``k``-th time of a series from ``start_ns`` every ``step``: ``k * step.days``
     calendar days after the start at the start's wall-clock time in ``zone``, then ``k *
     step.exact_ns`` later. Each time is counted from the start, so no error accumulates. A
@@ -95,10 +97,12 @@ def step_time(start_ns: int, step: Step, k: int, zone: Zone) -> int:
     (PEP 495's ``fold=0``): a skipped one (02:30 on the spring change in Europe/Berlin) is
     taken with the offset before the change, so it falls as much later as the clocks jump
     (03:30 summer time); a repeated one (02:30 on the autumn change) is its first occurrence
-    (summer time)."""
+    (summer time). ``wall``: the wall-clock time (naive) the start was typed as where the
+    change skipped it (:func:`aion_cli.wall_clock.skipped_wall`), which the other days keep
+    (02:30 again, not the 03:30 the start was read as)."""
     if step.days == 0 or k == 0:
         return start_ns + k * step.exact_ns
     start = from_ns(start_ns, zone)
     below_us = start_ns - to_ns(start)  # the nanoseconds a datetime cannot hold
-    wall = start.replace(tzinfo=None) + timedelta(days=k * step.days)
-    return to_ns(wall.replace(tzinfo=zone.tz, fold=0)) + below_us + k * step.exact_ns
+    day = (start.replace(tzinfo=None) if wall is None else wall) + timedelta(days=k * step.days)
+    return to_ns(day.replace(tzinfo=zone.tz, fold=0)) + below_us + k * step.exact_ns

@@ -34,20 +34,9 @@ def clock_change_note(text: str, zone: Zone, t_ns: int, now: datetime | None = N
     where = zone_named_in(text, zone)
     if not offset_changes_near(t_ns, where):
         return None
-    head = " ".join(text.strip().split())
-    if where is not zone:
-        head = head.rpartition(" ")[0]
-    utc = resolve_zone("UTC")
-    # the same wall clock as the zone's "now", so day words name the same day
-    local_now = (now or datetime.now(UTC)).astimezone(where.tz).replace(tzinfo=UTC)
-    try:
-        wall_ns = parse_time(head, utc, local_now)
-        shifted = parse_time(head, resolve_zone("UTC+01:00"), local_now)
-    except TimeFormatError:
+    wall = _wall_clock_of(text, zone, now)
+    if wall is None:
         return None
-    if wall_ns == shifted:  # an instant of its own: UNIX, ISO with an offset, relative
-        return None
-    wall = from_ns(wall_ns, utc).replace(tzinfo=None)
     local = from_ns(t_ns, where)
     said = wall.isoformat(sep=" ", timespec="minutes")
     if local.replace(tzinfo=None) != wall:
@@ -62,3 +51,40 @@ def clock_change_note(text: str, zone: Zone, t_ns: int, now: datetime | None = N
         f"{said} happens twice in {where.name} (a clock change repeats it): read as the "
         f"first, {format_ns(t_ns, where)}; the second is {format_ns(second, where)}"
     )
+
+
+def skipped_wall(
+    text: object, zone: Zone, t_ns: int, now: datetime | None = None
+) -> datetime | None:
+    """The wall-clock time (naive) ``text`` names in ``zone`` when a clock change skips it, so
+    ``t_ns`` reads otherwise (``2026-03-29 02:30`` in Europe/Berlin, read as 03:30 summer
+    time); None for any other time, a time of another zone it names, or a ``text`` that is no
+    string (the API's datetimes and numbers name one instant). A daily series from such a
+    start keeps the wall-clock time typed on its other days (02:30, not 03:30)."""
+    if not isinstance(text, str) or zone_named_in(text, zone).tz != zone.tz:
+        return None
+    wall = _wall_clock_of(text, zone, now)
+    if wall is None or from_ns(t_ns, zone).replace(tzinfo=None) == wall:
+        return None
+    return wall if to_ns(wall.replace(tzinfo=zone.tz, fold=0)) == t_ns - t_ns % 1000 else None
+
+
+def _wall_clock_of(text: str, zone: Zone, now: datetime | None) -> datetime | None:
+    """The wall-clock time (naive) ``text`` names in the zone it is read in (the one it names
+    at its end, else ``zone``); None where it names an instant of its own (a UNIX time, an
+    ISO time with an offset, a relative time) or is no time."""
+    where = zone_named_in(text, zone)
+    head = " ".join(text.strip().split())
+    if where is not zone:
+        head = head.rpartition(" ")[0]
+    utc = resolve_zone("UTC")
+    # the same wall clock as the zone's "now", so day words name the same day
+    local_now = (now or datetime.now(UTC)).astimezone(where.tz).replace(tzinfo=UTC)
+    try:
+        wall_ns = parse_time(head, utc, local_now)
+        shifted = parse_time(head, resolve_zone("UTC+01:00"), local_now)
+    except TimeFormatError:
+        return None
+    if wall_ns == shifted:  # an instant of its own: UNIX, ISO with an offset, relative
+        return None
+    return from_ns(wall_ns, utc).replace(tzinfo=None)

@@ -182,7 +182,7 @@ def series_of(
 
     start, zone = resolve_time(t_from, tz, loaded)
     end, _ = resolve_time(t_to, tz, loaded, after_ns=start)
-    return series_times(start, end, parse_step(step), zone, noun=noun), zone
+    return series_times(start, end, parse_step(step), zone, noun=noun, typed=t_from), zone
 
 
 def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:

@@ -20,7 +20,8 @@ def departure_times(text: str, step: str, zone: Zone) -> list[int]:
     from aion_cli.time_steps import parse_step
 
     start, end = parse_span(text, zone, "--leave")
-    return series_times(start, end, parse_step(step), zone, noun="departures")
+    typed = text.split("..")[0]  # a daily series keeps its wall-clock time
+    return series_times(start, end, parse_step(step), zone, noun="departures", typed=typed)
 
 
 def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:

@@ -256,3 +256,36 @@ def test_an_end_before_a_start_the_spring_change_moved_says_how_both_were_read(
         "error: --to is before --from (read as 2026-03-20 02:30:00+01:00 .. "
         "2026-03-20 01:10:00+01:00)"
     )
+
+
+def test_a_daily_series_from_a_skipped_time_keeps_the_time_typed_on_the_other_days(
+    berlin: Path, office: Office
+) -> None:
+    """``--from "2026-03-29 02:30" --step 1d``: 02:30 does not exist that day and is read as
+    03:30 summer time (01:30 UTC), as --time reads it; the next days are 02:30 again (00:30
+    UTC), as for a series that starts the day before. They had been 03:30 on every day, and
+    the ``--to`` of 02:30 on 03-31, no longer on a step, was left out."""
+    expected = [_utc("2026-03-29 01:30"), _utc("2026-03-30 00:30"), _utc("2026-03-31 00:30")]
+    times, times_ns = _series(berlin, "2026-03-29 02:30", "2026-03-31 02:30", "1d")
+    assert times_ns == expected
+    assert times[1:] == ["2026-03-30 02:30:00+02:00", "2026-03-31 02:30:00+02:00"]
+    _, from_before = _series(berlin, "2026-03-28 02:30", "2026-03-31 02:30", "1d")
+    assert from_before[1:] == expected  # the same days, whichever day the series starts
+    m = aion.Map.load(berlin)
+    assert m.predict_series("2026-03-29 02:30", "2026-03-31 02:30", "1d", top=1).times_ns == (
+        expected
+    )
+    doc = run_json(
+        "plan", office.map, "--from", "p0", "--to", "p4", "--tz", BERLIN, "--leave",
+        "2026-03-29 02:30..2026-03-31 02:30", "--step", "1d", "--format", "json",
+    )
+    assert [row["depart_ns"] for row in doc["departures"]] == expected
+    plan = aion.Map.load(office.map).plan(
+        "p0", "p4", tz=BERLIN, leave=("2026-03-29 02:30", "2026-03-31 02:30"), step="1d"
+    )
+    assert [row["depart_ns"] for row in plan.departures] == expected
+    _, named = _series(berlin, "2026-03-29 02:30 Europe/Berlin", "2026-03-31 02:30", "1d")
+    assert named == expected  # the map's zone named in the time: the same days
+    # typed as the instant it is (summer time, its own offset): 03:30 every day
+    _, given = _series(berlin, "2026-03-29 03:30+02:00", "2026-03-30 03:30", "1d")
+    assert given == [_utc("2026-03-29 01:30"), _utc("2026-03-30 01:30")]
