@@ -368,3 +368,17 @@ def test_an_offset_reads_as_iso_writes_it_seconds_included() -> None:
     ):
         aware = moment.replace(tzinfo=ZoneInfo(zone))
         assert offset_text(aware) == aware.isoformat()[len("2026-01-01T00:00:00"):], zone
+
+
+def test_eight_digits_that_are_a_date_are_refused_naming_both_readings() -> None:
+    """``20261123`` had been read as UNIX seconds, 1970-08-23 12:05:23 UTC, without a word
+    (``20261123T0830`` is read as 2026-11-23 08:30); it is now an error naming both readings.
+    ``@`` says UNIX seconds; eight digits that are no date stay UNIX seconds."""
+    with pytest.raises(TimeFormatError) as info:
+        parse_time("20261123", BERLIN, NOW)
+    assert "2026-11-23" in info.value.message
+    assert "1970-08-23 12:05:23+00:00" in info.value.message  # 20261123 s = 234 d 12:05:23
+    assert '"@20261123"' in (info.value.hint or "")
+    assert parse_time("@20261123", BERLIN, NOW) == 20261123 * S
+    assert parse_time("20260231", BERLIN, NOW) == 20260231 * S  # February has no 31st
+    assert parse_time("20261123T0830", UTCZ, NOW) == ns(2026, 11, 23, 8, 30)
