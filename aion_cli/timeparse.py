@@ -5,7 +5,8 @@ machine's local zone) unless the text carries its own offset:
 
 * ISO 8601 with or without a zone: ``2026-11-23 08:30`` (or ``8:30``),
   ``2026-11-23T08:30:00+01:00``, ``2026-11-23T07:30Z``, ``2026-11-23`` (midnight), and any
-  form followed by a zone name: ``2026-11-23 08:30 Europe/Berlin``, ``tomorrow 12:00 UTC``;
+  form followed by a zone: ``2026-11-23 08:30 Europe/Berlin``, ``tomorrow 12:00 UTC``,
+  ``08:30 +01:00``;
 * UNIX time: ``1795420200``, ``@1795420200.5`` (seconds), ``1795420200000000000ns``;
 * relative to now: ``now``, ``+2h``, ``-30m``, ``+1d12h``, ``now+90s`` (units w, d, h, m, s);
 * a day word and an optional wall-clock time: ``today 17:00``, ``tomorrow 12:00``,
@@ -73,6 +74,8 @@ _RE_UNIX = re.compile(r"^@?(-?\d+(?:\.\d+)?)\s*(s|ns)?$")
 _RE_ONE_DIGIT_HOUR = re.compile(r"^(\d{4}-\d{2}-\d{2}[ T])(\d:)")
 _RE_DATE_CLOCK12 = re.compile(r"^(\d{4}-\d{2}-\d{2})[ t](\d.*[ap]m)$")
 _RE_ZONE_WORD = re.compile(r"^[a-z][a-z0-9_+/-]*$", re.IGNORECASE)
+_RE_OFFSET_WORD = re.compile(r"^[+-]\d{2}(?::?\d{2})?$")
+"""A UTC offset written alone after a time (``+01:00``, ``-0500``, ``+05``)."""
 _RE_OWN_OFFSET = re.compile(r"\d:\d{2}(?::\d{2}(?:\.\d+)?)?\s*(z|[+-]\d{2}(?::?\d{2})?)$")
 """An ISO time's own offset at its end (``...08:30Z``, ``...08:30+02:00``, ``...08:30-05``)."""
 
@@ -347,8 +350,11 @@ _NOT_ZONES = frozenset(
 def _split_zone(text: str, zone: Zone) -> tuple[str, Zone]:
     """A trailing zone overrides ``zone``, in any form ``--tz`` takes but ``local``:
     ``2026-11-23 08:30 Europe/Berlin``, ``... UTC``, ``... UTC+05:30``, ``... CET``. A name
-    with a ``/`` that is no zone is an error; another last word is part of the time."""
+    with a ``/`` that is no zone is an error; another last word is part of the time. An
+    offset alone (``08:30 +01:00``, ``tomorrow 9am -05``) is a zone too, as ``--tz +01:00``."""
     head, _, last = text.rpartition(" ")
+    if head and _RE_OFFSET_WORD.match(last) and not _names_an_instant(head):
+        return head, resolve_zone(last)
     if not head or not any(c.isalpha() for c in last) or last.lower() in _NOT_ZONES:
         return text, zone
     try:
@@ -357,6 +363,12 @@ def _split_zone(text: str, zone: Zone) -> tuple[str, Zone]:
         if "/" in last:  # meant as a zone name
             raise
         return text, zone  # a weekday, a word of the time: not a zone
+
+
+def _names_an_instant(text: str) -> bool:
+    """Whether ``text`` is ``now`` or relative to it (``now -12`` is no time at UTC-12)."""
+    lowered = text.lower()
+    return lowered == "now" or _RE_RELATIVE.match(lowered) is not None
 
 
 def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:

@@ -382,3 +382,32 @@ def test_eight_digits_that_are_a_date_are_refused_naming_both_readings() -> None
     assert parse_time("@20261123", BERLIN, NOW) == 20261123 * S
     assert parse_time("20260231", BERLIN, NOW) == 20260231 * S  # February has no 31st
     assert parse_time("20261123T0830", UTCZ, NOW) == ns(2026, 11, 23, 8, 30)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        # "now" is Sunday 2026-11-22 10:15 UTC, 11:15 at UTC+01:00, 05:15 at UTC-05:00
+        ("08:30 +01:00", ns(2026, 11, 22, 7, 30)),
+        ("tomorrow 12:00 +01:00", ns(2026, 11, 23, 11, 0)),
+        ("monday 08:30 -05:00", ns(2026, 11, 23, 13, 30)),
+        ("9am -05", ns(2026, 11, 22, 14, 0)),
+        ("2026-11-23 9am +0100", ns(2026, 11, 23, 8, 0)),
+        ("2026-11-23 08:30 +01:00", ns(2026, 11, 23, 7, 30)),  # ISO: as before
+    ],
+)
+def test_a_time_followed_by_an_offset_alone_is_read_at_that_offset(
+    text: str, expected: int
+) -> None:
+    """``--tz +01:00`` is a zone, and the README reads any time followed by a zone in it;
+    ``08:30 +01:00`` and ``tomorrow 12:00 +01:00`` had been errors ("cannot read the time")
+    where ``08:30 UTC+01:00`` and ``2026-11-23 08:30 +01:00`` were read."""
+    assert parse_time(text, BERLIN, NOW) == expected
+
+
+def test_an_offset_alone_that_disagrees_with_the_times_own_is_refused() -> None:
+    with pytest.raises(TimeFormatError, match="two zones that disagree"):
+        parse_time("2026-11-23T08:30+02:00 +01:00", BERLIN, NOW)
+    for text in ("now -12", "+2h -05"):  # a number after "now": no zone, an error as before
+        with pytest.raises(TimeFormatError, match="cannot read the time"):
+            parse_time(text, BERLIN, NOW)
