@@ -135,7 +135,7 @@ def _print(table: Any, zone: Zone, shown: int) -> None:
     from rich.text import Text
 
     from aion_cli.cli.console import print_table
-    from aion_cli.cli.output import printable
+    from aion_cli.cli.output import printable, small_num
     from aion_cli.timeparse import from_ns
 
     days = sorted({from_ns(t, zone).date().isoformat() for t in table.times_ns})
@@ -148,7 +148,7 @@ def _print(table: Any, zone: Zone, shown: int) -> None:
         out.add_column(printable(head), justify="right", no_wrap=True)
     for j, label in enumerate(short_labels(table.times_ns, zone)):
         cells = [
-            f"{v:.2f}" if math.isfinite(v) else "–"  # unknown flow
+            small_num(v) if math.isfinite(v) else "–"  # 0.0031, not 0.00; unknown flow
             for v in table.flow[:shown, j].tolist()
         ]
         out.add_row(label, *cells)

@@ -54,3 +54,26 @@ def test_a_long_deployment_lists_its_first_and_last_logs() -> None:
                                                 "day69.mcap"]
     assert rows[0] == "day00.mcap  2.0 KiB  sha256 000000000000"
     assert len(input_rows(logs[:8])) == 8  # up to eight: every one
+
+
+def test_the_series_table_shows_small_flows(sample_map: Path) -> None:
+    """``predict --from --to``'s table wrote every flow with two decimals, so the night's
+    0.0031 read 0.00, as an empty place does; it now reads as the predict table does: every
+    flow the JSON gives between 0 and 0.005 shows as itself to two significant digits."""
+    night = run_json("predict", sample_map, "--time", "2026-01-06 03:00", "--format", "json")
+    quiet = [e["id"] for e in night["entries"] if e["flow"] is not None and 0 < e["flow"] < 0.005]
+    span = ("--from", "2026-01-06 02:00", "--to", "2026-01-06 04:00")
+    span += tuple(arg for node in quiet[:4] for arg in ("--node", node))
+    doc = run_json("predict", sample_map, *span, "--format", "json")
+    table = run("predict", sample_map, *span, "-q").stdout
+    rows = [line.split("│")[1:-1] for line in table.splitlines() if line.startswith("│")]
+    assert len(rows) == len(doc["times"])
+    checked = 0
+    for j, row in enumerate(rows):
+        for k, entry in enumerate(doc["entries"]):
+            value, cell = entry["flow"][j], row[k + 1].strip()
+            if value is not None and 0 < value < 0.005:
+                assert cell != "0.00"
+                assert float(cell) == pytest.approx(value, rel=0.05)
+                checked += 1
+    assert checked  # the sample's office at night has quiet places
