@@ -225,11 +225,17 @@ def series_notes(
 ) -> list[str]:
     """The notes for a series of forecasts: those of the time ``at`` (default: the first),
     with the hours no log observed named for the whole series rather than for one time
-    (``noun``: what the times are, e.g. "departures")."""
+    (``noun``: what the times are, e.g. "departures"), and a kind of day the map never saw
+    named where the series reaches one after that time (Friday to Monday from a map of
+    weekdays: its Saturday's note)."""
     when = times_ns[0] if at is None else int(at)
     notes = [n for n in forecast_notes(manifest, when) if not n.startswith(_NO_LOG)]
-    observed = hour_observed(manifest, times_ns)
     calendar = _calendar(manifest.config, manifest.timezone)
+    if calendar is not None and all_static(manifest) is None and unseen_day(manifest, when) is None:
+        unseen = _first_unseen_day(manifest, calendar, times_ns)
+        if unseen is not None:
+            notes.append(unseen)
+    observed = hour_observed(manifest, times_ns)
     if observed is None or all(observed) or calendar is None:
         return notes
     per_day = calendar.bins_per_day
@@ -258,6 +264,23 @@ def hour_observed(manifest: Manifest, times_ns: list[int]) -> list[bool] | None:
         return None
     at = calendar.profile_bin(list(times_ns)) % per_day
     return [int(h) in hours for h in at]
+
+
+def _first_unseen_day(manifest: Manifest, calendar: Any, times_ns: list[int]) -> str | None:
+    """:func:`unseen_day`'s note for the first day of the series (in the map's zone) on a kind
+    of day the map never saw; None when it saw every kind the series reaches. One look per
+    day of the week (the kinds are weekdays and weekends, or the days of the week)."""
+    import numpy as np
+
+    from aion_cli.engine.temporal.calendar import weekday_of
+
+    weekdays = weekday_of(calendar.day(list(times_ns)))
+    _, first_of_weekday = np.unique(weekdays, return_index=True)
+    for i in sorted(first_of_weekday.tolist()):
+        note = unseen_day(manifest, int(times_ns[i]))
+        if note is not None:
+            return note
+    return None
 
 
 def _hours(manifest: Manifest, per_day: int) -> list[int]:

@@ -409,3 +409,22 @@ def test_the_day_named_is_the_maps_own_and_its_zone_is_said() -> None:
     (line,) = forecast_notes(tokyo, friday_20_utc)
     assert "so a forecast for a Saturday (Asia/Tokyo time) follows the weekdays'" in line
     assert forecast_notes(_week_of(5), friday_20_utc) == []
+
+
+def test_a_series_that_reaches_a_kind_of_day_the_map_never_saw_names_it() -> None:
+    """A daily series Friday .. Monday from a map of weekdays: its Saturday and Sunday follow
+    the weekdays' hours, as a --time on that Saturday says; the series' notes had been those
+    of its first time (a Friday: seen) and said nothing. They now name the first unseen day
+    it reaches (2026-01-10 is a Saturday); a series of weekdays, or one on a map that saw
+    both kinds of day, adds nothing."""
+    weekdays = _week_of(5)
+    friday_noon = MONDAY + 4 * DAY_NS + 12 * HOUR_NS  # Friday 2026-01-09
+    days = [friday_noon + k * DAY_NS for k in range(4)]  # Fri, Sat, Sun, Mon
+    saturday_note = forecast_notes(weekdays, days[1])
+    (line,) = saturday_note
+    assert "a forecast for a Saturday" in line
+    assert series_notes(weekdays, days) == saturday_note
+    assert series_notes(weekdays, [days[0], days[3]]) == []  # Friday and Monday: seen
+    assert series_notes(_week_of(7), days) == []  # a whole week: both kinds seen
+    # a series that starts on the unseen day names it once
+    assert series_notes(weekdays, days[1:]) == saturday_note
