@@ -227,9 +227,13 @@ def series_notes(
     with the hours no log observed named for the whole series rather than for one time
     (``noun``: what the times are, e.g. "departures"), and a kind of day the map never saw
     named where the series reaches one after that time (Friday to Monday from a map of
-    weekdays: its Saturday's note)."""
+    weekdays: its Saturday's note), and its first or last time where that lies before the
+    map's data or over a week after it and the time ``at`` does not."""
     when = times_ns[0] if at is None else int(at)
     notes = [n for n in forecast_notes(manifest, when) if not n.startswith(_NO_LOG)]
+    far = _far_end(manifest, times_ns, when, noun)
+    if far is not None:
+        notes.append(far)
     calendar = _calendar(manifest.config, manifest.timezone)
     if calendar is not None and all_static(manifest) is None and unseen_day(manifest, when) is None:
         unseen = _first_unseen_day(manifest, calendar, times_ns)
@@ -264,6 +268,20 @@ def hour_observed(manifest: Manifest, times_ns: list[int]) -> list[bool] | None:
         return None
     at = calendar.profile_bin(list(times_ns)) % per_day
     return [int(h) in hours for h in at]
+
+
+def _far_end(manifest: Manifest, times_ns: list[int], when: int, noun: str) -> str | None:
+    """:func:`_outside`'s note for the first or the last of ``times_ns`` (a series from the
+    map's week to months after it), None where ``when`` has its own or neither end has one."""
+    static = all_static(manifest) is not None
+    start, end, zone = manifest.start_ns, manifest.end_ns, manifest.timezone
+    if not times_ns or _outside(start, end, when, static, zone) is not None:
+        return None
+    for which, t in (("first", min(times_ns)), ("last", max(times_ns))):
+        note = _outside(start, end, int(t), static, zone)
+        if note is not None:
+            return note.replace("this time is", f"the {which} of the {noun} is", 1)
+    return None
 
 
 def _first_unseen_day(manifest: Manifest, calendar: Any, times_ns: list[int]) -> str | None:

@@ -428,3 +428,23 @@ def test_a_series_that_reaches_a_kind_of_day_the_map_never_saw_names_it() -> Non
     assert series_notes(_week_of(7), days) == []  # a whole week: both kinds seen
     # a series that starts on the unseen day names it once
     assert series_notes(weekdays, days[1:]) == saturday_note
+
+
+def test_a_series_that_runs_far_past_the_data_says_so() -> None:
+    """A daily series from the map's last day to 30 days after it (the data end on
+    2023-11-17): its first time is within the data, and the series said nothing of the
+    weeks after, which --time at its last time names. The note now names the last (or
+    first) time where the start has none of its own; nothing is said twice."""
+    timed = _manifest({"shape": 5})
+    days = [END - DAY_NS + k * DAY_NS for k in range(32)]  # the last data day .. 30 after
+    assert series_notes(timed, days) == [
+        "the last of the times is 4 weeks after the map's data (2023-11-14 to 2023-11-17): "
+        "the forecast repeats the rhythm the map learnt and knows nothing of what changed "
+        "since"
+    ]
+    assert series_notes(timed, days[:7]) == []  # within the week after the data
+    (own,) = series_notes(timed, days[-3:])  # the start is far after: its own note only
+    assert own.startswith("this time is 4 weeks after")
+    (early,) = series_notes(timed, [START - 3 * DAY_NS + k * DAY_NS for k in range(5)],
+                            at=START + DAY_NS, noun="departures")
+    assert early.startswith("the first of the departures is 3 days before the map's data")
