@@ -74,6 +74,8 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     cls=AionCommand,
     epilog=EPILOG,
     advanced=("tz",),
+    once={"time_text": "for several times, a series: --from T0 --to T1 --step 1h",
+          "t_from": "a series has one start", "t_to": "a series has one end"},
 )
 @map_argument
 @click.option(

@@ -82,11 +82,36 @@ def map_output_option(what: str = "Map file") -> Any:
 
 class AionCommand(click.Command):
     """A click command whose rarely used options get their own "Advanced options" section
-    in ``--help`` (``advanced=`` names them by parameter name)."""
+    in ``--help`` (``advanced=`` names them by parameter name), and whose options that take
+    one time (``once=``: parameter name -> hint) are refused when given twice: click keeps the
+    last, and ``--time 08:00 --time 12:00`` answered for 12:00 alone without a word."""
 
-    def __init__(self, *args: Any, advanced: Sequence[str] = (), **kwargs: Any) -> None:
+    def __init__(
+        self,
+        *args: Any,
+        advanced: Sequence[str] = (),
+        once: dict[str, str] | None = None,
+        **kwargs: Any,
+    ) -> None:
         super().__init__(*args, **kwargs)
         self.advanced = frozenset(advanced)
+        self.once = dict(once or {})
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        if self.once and not ctx.resilient_parsing:  # not while completing a command line
+            try:
+                _, _, order = self.make_parser(ctx).parse_args(args=list(args))
+            except click.UsageError:
+                order = []  # the parse below reports it
+            for param in order:
+                if param.name in self.once and order.count(param) > 1:
+                    name = max(param.opts, key=len)
+                    raise click.UsageError(
+                        f"{name} was given {order.count(param)} times, but it takes one value "
+                        f"(only the last would be used); {self.once[param.name]}",
+                        ctx,
+                    )
+        return super().parse_args(ctx, args)
 
     def format_options(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         basic: list[tuple[str, str]] = []

@@ -62,6 +62,8 @@ cost in the legend.
     cls=AionCommand,
     epilog=EPILOG,
     advanced=("tz",),
+    once={"time_text": "for several departures, --leave START..END --step 10m",
+          "leave": "--leave takes one span"},
 )
 @map_argument
 @click.option(

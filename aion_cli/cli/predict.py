@@ -75,6 +75,11 @@ TABLE_LIMIT = 100
     cls=AionCommand,
     epilog=EPILOG,
     advanced=("tz",),
+    once={
+        "time_text": "for several times, a series: --from T0 --to T1 --step 1h",
+        "t_from": "a series has one start", "t_to": "a series has one end",
+        "at": "for several entries, --node ID (repeatable)",
+    },
 )
 @map_argument
 @click.option(
