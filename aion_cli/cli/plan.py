@@ -63,7 +63,9 @@ cost in the legend.
     epilog=EPILOG,
     advanced=("tz",),
     once={"time_text": "for several departures, --leave START..END --step 10m",
-          "leave": "--leave takes one span"},
+          "leave": "--leave takes one span",
+          "start": "a route has one start; plan again for another",
+          "goal": "a route has one goal; plan again for another"},
 )
 @map_argument
 @click.option(

@@ -46,3 +46,14 @@ def test_one_time_each_is_read_as_before(office: Office) -> None:
     one = run("predict", office.map, "--time", "2026-01-06 08:30", "--top", "1", "--format",
               "json")
     assert one.exit_code == 0, one.stderr
+
+
+@pytest.mark.parametrize("option", ["--from", "--to"])
+def test_plan_refuses_two_starts_or_two_goals(office: Office, option: str) -> None:
+    ends = {"--from": ["p0"], "--to": ["p4"]}
+    ends[option].append("p2")
+    args = [arg for name, values in ends.items() for value in values for arg in (name, value)]
+    result = run("plan", office.map, *args, "--time", "08:00", "--format", "json")
+    assert result.exit_code == 2, result.stderr
+    assert result.stdout == ""
+    assert result.stderr.startswith(f"error: {option} was given 2 times")
