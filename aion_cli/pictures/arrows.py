@@ -17,7 +17,9 @@ origin, so every panel of a series has the same blocks) become one:
 - coloured by the flow-weighted mean of their direction entropies.
 
 The cells' squares and the graph are drawn as always, the squares fainter; the nodes' dots,
-which overlap where arrows merge, are left out (a carpet of the arrows' colours hid them).
+which overlap where arrows merge, are left out (a carpet of the arrows' colours hid them), but
+for those of nodes with flow and no direction (teal: people standing), whose flow no arrow
+carries.
 """
 
 from __future__ import annotations

@@ -19,7 +19,8 @@ What is drawn, back to front:
   by entropy with ``formats.scene_colours.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
   direction, red for every direction), on a dot of the same colour;
   where the picture cannot resolve one arrow per entry, one per block instead
-  (:mod:`.arrows`), over fainter cells and without the nodes' dots;
+  (:mod:`.arrows`), over fainter cells and without the nodes' dots (but the teal ones of
+  nodes with flow and no heading, which no arrow carries);
 - **paths** (:class:`PathLine`) and **markers** (:class:`Marker`, e.g. start and goal) on top.
 
 A colour bar labelled "direction entropy" (its ends named: one way, every way) shows the
@@ -246,7 +247,9 @@ def draw_topdown(
         ax.scatter(*scene.places_xyz[:, :2].T, s=5, c=[NO_FLOW_GREY], linewidths=0, zorder=4)
     busy = busy_fraction(scene.node_flow, scale)
     has = busy > 0
-    if has.any() and not merged:
+    if merged:  # only the dots of flow no merged arrow carries: no heading (teal), no arrow
+        has &= ~np.isfinite(scene.node_angle)
+    if has.any():
         colors = flow_colors(scene.node_flow[has], scene.node_entropy[has])
         ax.scatter(*scene.nodes_xyz[has, :2].T, s=dot_size, c=colors, linewidths=0, zorder=5)
     # arrows for nodes and unbound cells alike (a map of cells only shows its directions too),

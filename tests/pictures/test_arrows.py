@@ -213,3 +213,28 @@ def test_a_picture_without_flow_says_it_has_no_arrows() -> None:
             type(c).__name__ == "Quiver" for c in ax.collections) for ax in fig.axes)
     fig = topdown_figure([still, synthetic_scene()], ["quiet", "busy"])
     assert "(the longest: 10 detections per 600-s window)" in fig._supxlabel.get_text()
+
+
+def test_merged_arrows_keep_the_teal_dots_of_people_standing(tmp_path: Any) -> None:
+    """A 200 m corridor of places 2 m apart, walked along +x, and a place 4 m beside it
+    where people stood (flow, no heading): the picture merges its arrows into blocks and left
+    out every node's dot, so the standing people were drawn nowhere while the legend still
+    named teal. Their dot is drawn, teal, since no merged arrow carries their flow."""
+    from aion_cli.formats.scene_colours import NO_HEADING_KEY, NO_HEADING_TEAL
+    from aion_cli.pictures.render import save_png
+    from tests.pictures.pixels import most_coloured, pixel_of, read_png
+
+    xy = np.column_stack([np.arange(0.0, 200.0, 2.0), np.zeros(100)])
+    standing = 50
+    xy[standing] = (100.0, 4.0)
+    scene = _nodes_only(xy, 0.0, 0.1)
+    angle, entropy = scene.node_angle.copy(), scene.node_entropy.copy()
+    angle[standing], entropy[standing] = np.nan, np.nan
+    scene = replace(scene, node_angle=angle, node_entropy=entropy)
+    assert arrow_block(scene_extent([scene]), SINGLE_WIDTH_IN, 0.5) is not None
+    fig = topdown_figure([scene], ["t"], dpi=100)
+    assert NO_HEADING_KEY in fig._supxlabel.get_text().replace("\n", " ")
+    image = read_png(save_png(fig, tmp_path / "m.png"))
+    (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+    seen = most_coloured(image, *pixel_of(ax, image, 100.0, 4.0), half=1)
+    np.testing.assert_allclose(seen, NO_HEADING_TEAL, atol=0.06)
