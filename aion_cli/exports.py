@@ -268,6 +268,7 @@ def export_scene_file(
     existing ``out`` is replaced only when an export wrote it (never a device, FIFO, or a
     PLY / PCD file of someone else's)."""
     from aion_cli.engine import query
+    from aion_cli.errors import InputError
 
     check_scene_file(out, fmt)
     table = (
@@ -279,7 +280,14 @@ def export_scene_file(
         scratch = staged.folder / "scene"  # the other files are dropped with the staging
         scratch.mkdir()
         files = write_scene(loaded, table, scratch, fmt, path_xyz)
-        next(f for f in files if f.name == f"scene.{fmt}").rename(staged.path)
+        scene = [f for f in files if f.name == f"scene.{fmt}"]
+        if not scene:  # a map without places, cells or mesh: no part, no scene file
+            raise InputError(
+                f"nothing to draw in {out}: the map has no places, hash cells or mesh",
+                hint="aion info MAP shows what it holds; build it from a log with people "
+                "detections",
+            )
+        scene[0].rename(staged.path)
     return out
 
 

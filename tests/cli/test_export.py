@@ -319,3 +319,26 @@ def test_a_series_of_too_many_frames_names_them_frames(office: Office, tmp_path:
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "the series would have 3,601 frames (at most 1,000)")
     assert not (tmp_path / "series").exists()
+
+
+@pytest.mark.parametrize("fmt", ["ply", "pcd"])
+def test_a_scene_file_of_an_empty_map_is_an_error_not_a_crash(tmp_path: Path, fmt: str) -> None:
+    """A map with no places, cells or mesh (``Map.from_state`` of an empty state) has no part
+    to draw: ``-o scene.ply`` ended in "internal error: StopIteration" (exit 1). It is one
+    line saying so (exit 2), and nothing is written; a folder export still writes its (empty)
+    tables."""
+    from aion_cli.api import Map
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.state import MapState
+
+    empty = tmp_path / "empty.aion"
+    Map.from_state(MapState.empty(ModelConfig()), timezone="UTC").save(empty)
+    one = tmp_path / f"scene.{fmt}"
+    result = run("export", empty, "--time", AT, "-o", one)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "nothing to draw", "no places, hash cells or mesh")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["empty.aion"]
+    folder = tmp_path / "out"
+    assert run("export", empty, "--time", AT, "--format", fmt, "-o", folder).exit_code == 0
+    tables = json.loads((folder / "entries.json").read_text())
+    assert tables["entries"] == []
