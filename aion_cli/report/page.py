@@ -15,7 +15,6 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from aion_cli.formats.outputs import safe_text
-from aion_cli.formats.scene_colours import colour_key
 from aion_cli.number_text import fixed, span_text
 from aion_cli.report.content import ReportContent
 from aion_cli.timeparse import Zone, format_ns
@@ -308,7 +307,7 @@ def _topdown(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
         f"The places and hash cells seen from above, {escape(when)} (as <code>aion export "
         "--format png</code> draws them): an arrow along each one's dominant direction, as "
         "long as its flow, coloured by direction entropy (blue: everyone walks one way, red: "
-        f"every way); {escape(colour_key(True))}"
+        "every way); the legend under the picture names the other colours it draws"
         f"{'; dashed outlines: the rooms' if c.counts.get('rooms') else ''}."
     )
     return ["<h2>The map from above</h2>", *_figure(src, "top-down map", caption)]

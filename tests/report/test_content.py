@@ -216,3 +216,28 @@ def test_a_time_at_which_nothing_flows_says_so_instead_of_an_empty_table() -> No
     html = " ".join(_busiest(content, {}))  # type: ignore[arg-type]
     assert "None of the map's 151 places and hash cells has any flow as observed" in html
     assert "<table" not in html
+
+
+def test_the_map_caption_names_no_colour_the_picture_lacks(
+    fixed_map: tuple[Path, LoadedMap], tmp_path: Path
+) -> None:
+    """People walked along +x only: as observed every cell has flow and a heading, so the
+    map from above draws no grey (no flow) and no teal (no heading), and its own legend names
+    neither; the page's caption under it named both, always."""
+    import html
+    import re
+
+    from aion_cli.formats.scene_colours import NO_FLOW_KEY, NO_HEADING_KEY
+    from aion_cli.predictions import entry_table, rows_from_table
+
+    path, loaded = fixed_map
+    rows = rows_from_table(entry_table(loaded, None))
+    assert rows
+    assert all(r["flow"] > 0 and r["direction_deg"] is not None for r in rows)
+    write_report(loaded, path, tmp_path / "r", resolve_zone("UTC"), None)
+    page = (tmp_path / "r" / "index.html").read_text()
+    (caption,) = re.findall(r'<img src="map.png"[^>]*>\s*<figcaption>(.*?)</figcaption>', page)
+    text = html.unescape(caption)
+    assert "seen from above" in text
+    for key in (NO_FLOW_KEY, NO_HEADING_KEY, "teal", "grey"):
+        assert key not in text, text
