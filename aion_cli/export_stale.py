@@ -1,9 +1,9 @@
 """What an earlier export left in a folder that a new one must not keep beside its own files
-(no click or rich here): the path part a new export without a path would leave standing
-(:func:`drop_stale_parts`), and the frames of an earlier, longer series that a new series
-does not write (:func:`drop_stale_frames`). Only files an export wrote go
-(:func:`aion_cli.exports.is_export_file`, under the names an export writes); anything else in
-the folder, a frame folder's foreign file included, stays.
+(no click or rich here): the scene parts a new export does not write, which it would leave
+standing (:func:`drop_stale_parts`: a path, the nodes of another map), and the frames of an
+earlier, longer series that a new series does not write (:func:`drop_stale_frames`). Only
+files an export wrote go (:func:`aion_cli.exports.is_export_file`, under the names an export
+writes); anything else in the folder, a frame folder's foreign file included, stays.
 """
 
 from __future__ import annotations
@@ -66,18 +66,24 @@ def drop_stale_frames(out_dir: Path, frames: Collection[str]) -> StaleFrames:
 
 
 def drop_stale_parts(folders: Sequence[Path], fmt: str, written: Sequence[Path]) -> None:
-    """Remove the ``path.<fmt>`` an earlier export with ``--path-from/--path-to`` wrote into
-    ``folders`` when this one draws no path: left beside the new files, a viewer opening the
-    folder would draw a path planned for another time as part of this scene. Only aion's own
-    path parts go (:func:`_is_path_part`), never a whole scene saved under that name
-    (``aion plan --export path.ply``)."""
+    """Remove from ``folders`` the scene parts (``<part>.<fmt>``) an earlier export wrote that
+    this one did not: left beside the new files, a viewer opening the folder would draw them
+    as part of this scene (the path planned for another time when this export draws none;
+    the nodes, arrows and edges of a map with a scene graph beside the cells of one without,
+    or the arrows of a busier time beside a scene without any). Only aion's own scene files
+    go (:func:`aion_cli.exports.is_export_file`), and of ``path.<fmt>`` only a path part
+    (:func:`_is_path_part`), never a whole scene saved under that name (``aion plan
+    --export path.ply``)."""
+    from aion_cli.formats.export import SCENE_PARTS
+
     keep = {os.path.abspath(p) for p in written}
     for folder in folders:
-        old = folder / f"path.{fmt}"
-        if os.path.abspath(old) in keep or not old.is_file() or old.is_symlink():
-            continue
-        if is_export_file(old) and _is_path_part(old):
-            old.unlink()
+        for part in SCENE_PARTS:
+            old = folder / f"{part}.{fmt}"
+            if os.path.abspath(old) in keep or not old.is_file() or old.is_symlink():
+                continue
+            if is_export_file(old) and (part != "path" or _is_path_part(old)):
+                old.unlink()
 
 
 def _is_path_part(path: Path) -> bool:

@@ -5,8 +5,9 @@ One frame per time: the scene files (``formats.export`` through ``mapquery.expor
 ``entries.csv`` / ``entries.json`` with the records of ``aion predict``. Everything is written
 into a hidden staging folder beside ``OUT`` and moved in when complete, so a failure (a bad
 time, a full disk, Ctrl-C) leaves no partial export behind; files already in ``OUT`` that the
-export does not write are kept (but for an earlier export's path part when this one draws
-no path, and the frames of an earlier, longer series: :mod:`aion_cli.export_stale`), and a
+export does not write are kept (but for the scene parts of the same format an earlier export
+wrote that this one does not, a path or the nodes of another map, and the frames of an
+earlier, longer series: :mod:`aion_cli.export_stale`), and a
 same-named file is replaced only when it is one an export wrote (:func:`is_export_file`):
 nothing is moved in otherwise.
 """

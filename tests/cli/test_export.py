@@ -6,6 +6,7 @@ import csv
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json
@@ -342,3 +343,40 @@ def test_a_scene_file_of_an_empty_map_is_an_error_not_a_crash(tmp_path: Path, fm
     assert run("export", empty, "--time", AT, "--format", fmt, "-o", folder).exit_code == 0
     tables = json.loads((folder / "entries.json").read_text())
     assert tables["entries"] == []
+
+
+@pytest.mark.parametrize("fmt", ["ply", "pcd"])
+def test_an_export_removes_the_parts_an_earlier_export_drew_and_it_does_not(
+    office: Office, tmp_path: Path, fmt: str
+) -> None:
+    """The office (places, edges, arrows) exported into a folder, then a map of hash cells
+    only into the same folder: its nodes, arrows and edges stayed beside the new cells and
+    tables, and a viewer opening the folder drew the office's places on the other map. The
+    folder now holds the scene files an export into an empty folder writes, and the user's
+    own file."""
+    from aion_cli.api import Map
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.types import DetectionBatch
+    from aion_cli.timeparse import parse_time, resolve_zone
+
+    t0 = parse_time("2026-11-23 08:00", resolve_zone("UTC"))
+    mapper = Mapper(ModelConfig())
+    mapper.set_fixed_sensor(t0, t0 + 3600 * 10**9)
+    xyz = np.array([[0.2, 0.2, 0.0], [0.7, 0.2, 0.0], [3.2, 1.3, 0.0]])
+    mapper.add_detections(DetectionBatch.from_arrays(t0 + np.arange(3) * 10**9, xyz, np.zeros(3)))
+    mapper.advance(t0 + 3600 * 10**9)
+    cells = tmp_path / "cells.aion"
+    Map.from_state(mapper.state, timezone="UTC").save(cells)
+    fresh = tmp_path / "fresh"
+    assert run("export", cells, "--historical", "--format", fmt, "-o", fresh).exit_code == 0
+    out = tmp_path / "out"
+    assert run("export", office.map, "--historical", "--format", fmt, "-o", out).exit_code == 0
+    assert (out / f"nodes.{fmt}").is_file()
+    (out / "notes.txt").write_text("mine")
+    result = run("export", cells, "--historical", "--format", fmt, "-o", out)
+    assert result.exit_code == 0, result.stderr
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted([p.name for p in fresh.iterdir()] + ["notes.txt"])
+    assert not (out / f"nodes.{fmt}").exists()
+    assert (out / f"scene.{fmt}").read_bytes() == (fresh / f"scene.{fmt}").read_bytes()
