@@ -44,11 +44,34 @@ class DsgExportSummary:
     edges: int
 
 
+#: how the graph metadata's marker reads in the bytes spark_dsg saves (JSON and binary alike)
+_MARKER_FIELD = b'"written_by":"' + MARKER.encode() + b'"'
+#: the start of a binary ``.sparkdsg`` file
+_BINARY_HEAD = b"\xdd\x09\x00\x00\x00SPARK_DSG"
+
+
 def _written_by_aion(path: Path) -> bool:
+    """Whether ``path`` is a graph file an export wrote: a spark_dsg JSON whose graph
+    metadata says ``"aion": {"written_by": "aion export"}``, or a binary ``.sparkdsg`` with
+    that metadata. Any other file that merely holds the words "aion export" (a script or
+    notes naming the command) is someone else's."""
+    import json
+
     try:
-        return MARKER.encode() in path.read_bytes()
+        data = path.read_bytes()
     except OSError:
         return False
+    if _MARKER_FIELD not in data:
+        return False
+    if data.startswith(_BINARY_HEAD):
+        return True
+    try:
+        doc = json.loads(data)
+    except (ValueError, RecursionError):
+        return False
+    meta = doc.get("metadata") if isinstance(doc, dict) else None
+    aion = meta.get("aion") if isinstance(meta, dict) else None
+    return isinstance(aion, dict) and aion.get("written_by") == MARKER
 
 
 def check_dsg_target(path: Path) -> None:

@@ -143,6 +143,28 @@ def test_bad_targets_and_options(office: Office, tmp_path: Path) -> None:
         assert done.exit_code == 0, done.stderr
 
 
+@pytest.mark.parametrize("name", ["tasks.json", "notes.sparkdsg"])
+def test_a_file_that_only_names_the_command_is_not_replaced(
+    office: Office, tmp_path: Path, name: str
+) -> None:
+    """A file of the user's that holds the words "aion export" (a task list naming the
+    command) was taken for a graph aion exported and overwritten without a word. Only a
+    graph whose metadata says aion wrote it is replaced: the user's file is refused and kept;
+    an exported graph, JSON or binary, is replaced."""
+    mine = tmp_path / name
+    text = '{"tasks": {"map": "aion export office.aion -o office-4d.json"}}\n'
+    mine.write_text(text)
+    result = run("export", office.map, "--time", AT, "-o", mine)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "not a scene-graph file aion wrote")
+    assert mine.read_text() == text
+    ours = tmp_path / f"ours{mine.suffix}"
+    for _ in range(2):
+        done = run("export", office.map, "--time", AT, "-o", ours)
+        assert done.exit_code == 0, done.stderr
+    assert _record(_graph(ours), "p0") is not None
+
+
 def test_a_map_without_a_graph_is_refused(tmp_path: Path) -> None:
     from tests.cli.logdata import write_office_log
 
