@@ -180,3 +180,31 @@ def test_a_rose_without_headings_says_why_it_is_empty(tmp_path: Path, drawn: lis
         ["no heading"], ["no flow"], []
     ]
     assert texts[0][0].get_color() == NO_HEADING_TEAL
+
+
+@pytest.mark.parametrize("bins", [8, 6])
+def test_a_rose_bar_fills_its_bin_and_the_arrow_gives_the_heading(
+    tmp_path: Path, drawn: list[Any], bins: int
+) -> None:
+    """People walking exactly along +x: the engine counts heading 0 in the bin [0, 360/B)
+    (its edges fall on the axes), so the bar is drawn over that bin, centred 180/B degrees
+    off the axis (22.5 for 8 bins), while the red arrow gives their heading, 0 degrees. The
+    gap is the bin's width, not a misplaced bar: a bar moved onto the arrow would claim
+    headings of the neighbouring bin."""
+    from aion_cli.engine.descriptors import bin_of
+    from aion_cli.report.content import Busiest
+
+    walked = int(bin_of(0.0, bins))
+    hist = [0.0] * bins
+    hist[walked] = 1.0
+    record = {"id": "p1", "kind": "node", "flow": 5.0, "direction_deg": 0.0,
+              "concentration": 1.0, "histogram": hist}
+    plots.roses_png([Busiest(record, "", "static")], bins, tmp_path / "r.png")
+    (ax,) = drawn[-1].axes
+    (bar,) = [p for p in ax.patches if p.get_height() > 0]
+    left, right = np.degrees([bar.get_x(), bar.get_x() + bar.get_width()]) % 360
+    assert (left + right) / 2 == pytest.approx(180.0 / bins)  # the bin [0, 360/B) centred
+    assert 0.0 < left < right < 360.0 / bins  # inside its bin, a gap to the next
+    (arrow,) = ax.texts[-1:]
+    theta, _ = arrow.xy
+    assert np.degrees(theta) == pytest.approx(0.0)
