@@ -282,7 +282,8 @@ def _shade_unobserved(ax: Any, hours: Any, unobserved: Any) -> None:
 
 def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
     """A polar bar chart of the direction histogram of each of ``rows`` (bin b centred at
-    -180 + (b + 0.5)·360/B degrees, counter-clockwise from +x, east at the right)."""
+    -180 + (b + 0.5)·360/B degrees, counter-clockwise from +x, east at the right), the grid
+    lines on the bins' edges."""
     n = max(len(rows), 1)
     cols = min(n, 3)
     fig = _figure(3.2 * cols, 3.2 * ((n + cols - 1) // cols))
@@ -290,6 +291,9 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
     # placed it: without a wider margin a row of two or three titles ran past the top edge
     fig.get_layout_engine().set(h_pad=0.1)
     centres = np.radians(-180.0 + (np.arange(bins) + 0.5) * 360.0 / bins)
+    # grid lines at the bins' edges (matplotlib's every 45 degrees cut a 6-bin map's 60-degree
+    # bars in two); the labels stay every 45 degrees (the 90 degrees one keeps the title clear)
+    edges = np.radians(-180.0 + np.arange(bins) * 360.0 / bins) % (2 * np.pi)
     for k, row in enumerate(rows):
         ax = fig.add_subplot((n + cols - 1) // cols, cols, k + 1, projection="polar")
         hist = np.nan_to_num(np.asarray(row.record["histogram"], dtype=np.float64))
@@ -310,6 +314,10 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
             )
         ax.set_theta_zero_location("E")
         ax.set_theta_direction(1)
+        ax.xaxis.remove_overlapping_locs = False  # an edge on a labelled angle keeps its line
+        ax.set_xticks(edges, minor=True)  # the bins' edges: each bar fills one sector
+        ax.xaxis.grid(False, which="major")
+        ax.xaxis.grid(True, which="minor")
         ax.set_yticklabels([])
         ax.tick_params(labelsize=7)
         # the room on a line of its own, shortened to the rose's width: on one line a long

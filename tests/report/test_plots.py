@@ -208,3 +208,22 @@ def test_a_rose_bar_fills_its_bin_and_the_arrow_gives_the_heading(
     (arrow,) = ax.texts[-1:]
     theta, _ = arrow.xy
     assert np.degrees(theta) == pytest.approx(0.0)
+
+
+def test_a_roses_grid_lines_are_its_bins_edges(tmp_path: Path, drawn: list[Any]) -> None:
+    """A map of 6 direction bins (60 degrees each, edges on the axes): matplotlib's grid lines
+    every 45 degrees cut its bars in two, so nothing showed which headings a bar holds. The
+    radial grid lines are the bins' edges, 0, 60, ... 300 degrees, for any number of bins."""
+    from aion_cli.report.content import Busiest
+
+    hist = [0.1, 0.2, 0.3, 0.4, 0.0, 0.0]
+    record = {"id": "p1", "kind": "node", "flow": 5.0, "direction_deg": 10.0,
+              "concentration": 0.5, "histogram": hist}
+    plots.roses_png([Busiest(record, "", "static")], 6, tmp_path / "r.png")
+    fig = drawn[-1]
+    fig.canvas.draw()
+    (ax,) = fig.axes
+    ticks = ax.xaxis.get_major_ticks() + ax.xaxis.get_minor_ticks()
+    lines = sorted(round(float(np.degrees(t.get_loc())) % 360, 6) for t in ticks
+                   if t.gridline.get_visible())
+    assert lines == [0.0, 60.0, 120.0, 180.0, 240.0, 300.0]
