@@ -131,7 +131,8 @@ def is_export_file(path: Path) -> bool:
     """Whether ``path`` is a file an export of aion wrote, which a new export may replace:
     a PLY / PCD scene file with aion's marker (:mod:`formats.scene_files`), an
     ``entries.csv`` beginning with the columns of ``aion predict``, an ``entries.json``
-    holding a predict document (its ``map`` and ``entries``)."""
+    holding a predict document (:data:`PREDICT_KEYS`, its ``mode`` predicted or historical:
+    a file of the user's with a ``map`` and ``entries`` of its own is not one)."""
     import json
     import re
 
@@ -146,12 +147,20 @@ def is_export_file(path: Path) -> bool:
                 columns = fh.readline().rstrip("\r\n").split(",")
             keys = [re.sub(r"_\d+$", "", c) for c in columns]  # histogram_0.. -> histogram
             return [k for i, k in enumerate(keys) if i == 0 or k != keys[i - 1]] == CSV_KEYS
-        if path.name == "entries.json":
+        if path.name == "entries.json":  # the keys of predict's document, not any "map"
             doc = json.loads(path.read_bytes())
-            return isinstance(doc, dict) and {"map", "entries"} <= doc.keys()
+            return (
+                isinstance(doc, dict)
+                and doc.keys() >= PREDICT_KEYS
+                and doc["mode"] in ("predicted", "historical")
+            )
     except (OSError, ValueError, RecursionError):
         return False
     return False
+
+
+PREDICT_KEYS = frozenset({"map", "mode", "time_ns", "bins", "bin_centres_deg", "entries"})
+"""Keys every ``aion predict`` JSON document holds (``predictions.document``)."""
 
 
 def frame_name(t_ns: int | None) -> str:

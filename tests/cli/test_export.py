@@ -380,3 +380,25 @@ def test_an_export_removes_the_parts_an_earlier_export_drew_and_it_does_not(
     assert names == sorted([p.name for p in fresh.iterdir()] + ["notes.txt"])
     assert not (out / f"nodes.{fmt}").exists()
     assert (out / f"scene.{fmt}").read_bytes() == (fresh / f"scene.{fmt}").read_bytes()
+
+
+def test_an_entries_json_of_the_users_is_not_replaced(office: Office, tmp_path: Path) -> None:
+    """A JSON file of the user's named entries.json with a "map" and "entries" of its own
+    (a glossary, another tool's list) was taken for a table an export wrote and replaced
+    without a word. Only a predict document (its mode, bins and times too) is replaced: the
+    user's file stops the export (exit 2) and is kept, and an export's own is replaced."""
+    out = tmp_path / "out"
+    out.mkdir()
+    mine = out / "entries.json"
+    text = '{"map": "berlin", "entries": [{"word": "Karte"}]}'
+    mine.write_text(text)
+    result = run("export", office.map, "--time", AT, "-o", out)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "entries.json")
+    assert mine.read_text() == text
+    assert sorted(p.name for p in out.iterdir()) == ["entries.json"]
+    mine.unlink()
+    for _ in range(2):  # an export's own tables are replaced by the next export
+        done = run("export", office.map, "--time", AT, "-o", out)
+        assert done.exit_code == 0, done.stderr
+    assert json.loads(mine.read_text())["mode"] == "predicted"
