@@ -81,10 +81,13 @@ class _Input:
     head: MapHead
     manifest: Manifest
     file: InputLog
+    label: str = ""  # the path as given when another input has the same file name
 
     @property
     def name(self) -> str:
-        return self.path.name
+        """How messages name the map: its file name, or the path as given when another
+        input shares the file name (a fleet's robot1/map.aion and robot2/map.aion)."""
+        return self.label or self.path.name
 
     @property
     def graph(self) -> GraphSnapshot | None:
@@ -219,6 +222,7 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
     sink.start("reading maps", len(paths), "maps")
     maps: list[_Input] = []
     first_of: dict[str, Path] = {}
+    shared = _shared_names(paths)
     for p in paths:
         file = InputLog.from_dict(provenance(p))
         if file.sha256 in first_of:
@@ -230,9 +234,16 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
         head = load_map_head(p)
         manifest = Manifest.from_dict(head.manifest)
         refuse_learning(p, manifest.query_only, "merged")
-        maps.append(_Input(p, head, manifest, file))
+        maps.append(_Input(p, head, manifest, file, str(p) if p.name in shared else ""))
         sink.advance(1)
     return maps
+
+
+def _shared_names(paths: list[Path]) -> set[str]:
+    """The file names that more than one input has (those maps are named by path)."""
+    from collections import Counter
+
+    return {name for name, n in Counter(p.name for p in paths).items() if n > 1}
 
 
 def _check_logs(maps: list[_Input]) -> tuple[InputLog, ...]:

@@ -111,9 +111,11 @@ def print_summary(summary: dict[str, Any]) -> None:
     )
     table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value", justify="right")
+    names = [item["name"] for item in summary["inputs"]]
     for item in summary["inputs"]:
+        shown = item["path"] if names.count(item["name"]) > 1 else item["name"]
         table.add_row(
-            f"input {markup_safe(item['name'])}",
+            f"input {markup_safe(shown)}",
             f"{item['detections']:,} detections, {item['logs']} log(s)",
         )
     table.add_row("lineage", markup_safe(summary["lineage"]))

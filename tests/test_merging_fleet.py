@@ -1,0 +1,58 @@
+"""``aion merge`` of a fleet's maps: every robot writes its map under the same file name in
+a folder of its own (robot1/map.aion, robot2/map.aion), so the merge's messages name such
+maps by the path given, not by a file name that all of them share."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from aion_cli.engine.mapper import Mapper
+from aion_cli.errors import ConfigError
+from aion_cli.merging import merge_map_files
+from tests.engine.engine_builders import T0
+from tests.engine.state_logs import CFG, DAY, W, fixed_sensor_log, run_steps
+from tests.merging_logs import fixed_sensor_map, log_span, save_map
+
+
+def _robot(folder: Path, name: str, start: int, seed: int, mapper: Mapper | None = None) -> Path:
+    path = folder / name / "map.aion"
+    path.parent.mkdir()
+    if mapper is None:
+        return fixed_sensor_map(path, (f"{name}.mcap",), start, seed)
+    state = run_steps(fixed_sensor_log(start, seed=seed), mapper).state
+    return save_map(state, path, (f"{name}.mcap",), log_span(start))
+
+
+def test_a_refusal_names_maps_of_one_file_name_by_their_paths(tmp_path: Path) -> None:
+    one = _robot(tmp_path, "robot1", T0, 1)
+    two = _robot(tmp_path, "robot2", T0 + 2 * DAY, 2, Mapper(CFG.replace(cell_size=0.25)))
+    with pytest.raises(ConfigError) as exc:
+        merge_map_files([one, two], tmp_path / "fleet.aion")
+    # before: "cannot merge map.aion and map.aion: ..."
+    assert f"cannot merge {one} and {two}:" in exc.value.message
+    assert "cell_size 0.5 vs 0.25" in exc.value.message
+
+
+def test_notes_name_maps_of_one_file_name_by_their_paths(tmp_path: Path) -> None:
+    one = _robot(tmp_path, "robot1", T0, 1)
+    two = _robot(tmp_path, "robot2", T0 + 3 * W, 2)  # starts before robot1's map ends
+    other = fixed_sensor_map(tmp_path / "day3.aion", ("day3.mcap",), T0 + 2 * DAY, 3)
+    report = merge_map_files([one, two, other], tmp_path / "fleet.aion")
+    overlap = next(n for n in report.notes if "overlap or interleave" in n)
+    assert overlap.startswith(f"the times of {one} and {two} overlap"), overlap
+    assert report.graph_source == "day3.aion's latest graph"  # a name no other input has
+    assert [i.file.path for i in report.inputs] == [str(p.resolve()) for p in (one, two, other)]
+
+
+def test_the_closing_table_lists_maps_of_one_file_name_by_their_paths(tmp_path: Path) -> None:
+    from tests.cli.conftest import run
+
+    one = _robot(tmp_path, "robot1", T0, 1)
+    two = _robot(tmp_path, "robot2", T0 + 2 * DAY, 2)
+    done = run("merge", one, two, "-o", tmp_path / "fleet.aion")
+    assert done.exit_code == 0, done.stderr
+    rows = [line for line in done.stderr.splitlines() if " input " in line]
+    # before: two rows "input map.aion", which told nobody which robot had what
+    assert [str(p) in row for row, p in zip(rows, (one, two), strict=True)] == [True, True]
