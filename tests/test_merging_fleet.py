@@ -56,3 +56,28 @@ def test_the_closing_table_lists_maps_of_one_file_name_by_their_paths(tmp_path: 
     rows = [line for line in done.stderr.splitlines() if " input " in line]
     # before: two rows "input map.aion", which told nobody which robot had what
     assert [str(p) in row for row, p in zip(rows, (one, two), strict=True)] == [True, True]
+
+
+def test_info_lists_the_maps_a_merged_map_came_from(tmp_path: Path) -> None:
+    """``aion info`` of a merged map showed its logs but not the maps it was merged from nor
+    the lineage (only --format json had them); now a row per map (by path when file names
+    are shared) with the map file's own sha256, and the lineage."""
+    import hashlib
+
+    from tests.cli.conftest import run_process
+
+    one = _robot(tmp_path, "robot1", T0, 1)
+    two = _robot(tmp_path, "robot2", T0 + 2 * DAY, 2)
+    three = fixed_sensor_map(tmp_path / "day5.aion", ("day5.mcap",), T0 + 4 * DAY, 3)
+    out = tmp_path / "fleet.aion"
+    merge_map_files([one, two, three], out)
+    done = run_process("info", out)
+    assert done.returncode == 0, done.stderr
+    rows = [line for line in done.stdout.splitlines() if "merged from" in line]
+    for row, path in zip(rows, (one, two, three), strict=True):
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()[:12]
+        shown = str(path.resolve()) if path.name == "map.aion" else path.name
+        assert f" {shown}  " in row, row
+        assert f"sha256 {digest}" in row, row
+    cells = [[c.strip() for c in line.split("│")[1:3]] for line in done.stdout.splitlines()]
+    assert ["lineage", "same"] in cells

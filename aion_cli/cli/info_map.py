@@ -192,6 +192,11 @@ def print_map(report: dict[str, Any]) -> None:
     )
     for text in input_rows(report.get("inputs", [])):
         table.add_row("input", safe(text))
+    merged_from = report.get("merged_from") or []
+    for text in input_rows(merged_from, what="maps"):  # aion merge's inputs, with the lineage
+        table.add_row("merged from", safe(text))
+    if merged_from:
+        table.add_row("lineage", safe(str(report.get("lineage"))))
     print_table(table)
 
 
@@ -200,13 +205,20 @@ INPUT_ROWS = 8
 its first and last few and counts the rest (its JSON lists every one)."""
 
 
-def input_rows(inputs: list[dict[str, Any]], limit: int = INPUT_ROWS) -> list[str]:
+def input_rows(
+    inputs: list[dict[str, Any]], limit: int = INPUT_ROWS, what: str = "logs"
+) -> list[str]:
     """The table's ``input`` cells: each log's name, size and sha256 prefix, or, beyond
-    ``limit`` logs, the first and last ``limit // 2`` with one cell counting those between."""
+    ``limit`` logs, the first and last ``limit // 2`` with one cell counting those between;
+    the same of the maps a merged map came from (``what="maps"``)."""
     from aion_cli.cli.output import human_size
 
+    names = [entry["name"] for entry in inputs]
+    shared = {name for name in names if names.count(name) > 1}  # by path: robot1/map.aion
+
     def cell(entry: dict[str, Any]) -> str:
-        return f"{entry['name']}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"
+        shown = (entry.get("path") or entry["name"]) if entry["name"] in shared else entry["name"]
+        return f"{shown}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"
 
     if len(inputs) <= limit:
         return [cell(e) for e in inputs]
@@ -214,6 +226,6 @@ def input_rows(inputs: list[dict[str, Any]], limit: int = INPUT_ROWS) -> list[st
     between = len(inputs) - 2 * half
     return [
         *(cell(e) for e in inputs[:half]),
-        f"... {between:,} more logs (of {len(inputs):,}; --format json lists every one)",
+        f"... {between:,} more {what} (of {len(inputs):,}; --format json lists every one)",
         *(cell(e) for e in inputs[-half:]),
     ]
