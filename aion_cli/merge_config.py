@@ -59,6 +59,7 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
     exposure_only = False
     clock_only = _clocks_differ(maps)
     for m in maps[1:]:
+        _check_zone(first, m)
         other = m.head.config.to_dict()
         differ = sorted(k for k in base.keys() | other.keys() if base.get(k) != other.get(k))
         if clock_only:
@@ -83,17 +84,25 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
                 hint="rebuild one of them with the other's config (aion info MAP shows it; "
                 "aion build --config FILE)",
             )
-        if _zone(m.manifest.timezone) != _zone(first.manifest.timezone):
-            raise ConfigError(
-                f"cannot merge {first.name} ({first.manifest.timezone}) and {m.name} "
-                f"({m.manifest.timezone}): their days follow different time zones",
-                hint="rebuild one of them with the other's --tz",
-            )
     if not (exposure_only or clock_only):
         return None
     weighed = [m.head.config for m in maps if m.head.config.exposure]
     config = weighed[0] if weighed and exposure_only else first.head.config
     return config.replace(fremen_clock="standard") if clock_only else config
+
+
+def _check_zone(first: MapInput, m: MapInput) -> None:
+    """Maps whose days follow different time zones (their manifests', else their configs'):
+    :class:`ConfigError` naming the zones, checked before the other parameters (a map of
+    another zone differs in ``fremen_clock`` too, which UTC does not record: listed among
+    them, the difference read as 'fremen_clock None vs 'standard'')."""
+    zones = [_zone(x.manifest.timezone or x.head.config.timezone) for x in (first, m)]
+    if zones[0] != zones[1]:
+        raise ConfigError(
+            f"cannot merge {first.name} ({zones[0]}) and {m.name} ({zones[1]}): their days "
+            "follow different time zones",
+            hint="rebuild one of them with the other's --tz",
+        )
 
 
 def _clocks_differ(maps: Sequence[MapInput]) -> bool:

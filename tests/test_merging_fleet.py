@@ -81,3 +81,29 @@ def test_info_lists_the_maps_a_merged_map_came_from(tmp_path: Path) -> None:
         assert f"sha256 {digest}" in row, row
     cells = [[c.strip() for c in line.split("│")[1:3]] for line in done.stdout.splitlines()]
     assert ["lineage", "same"] in cells
+
+
+def test_maps_of_another_zone_are_refused_naming_the_zones(tmp_path: Path) -> None:
+    """A map built with --tz Europe/Berlin beside one in UTC: its config differs in the zone
+    and in the FreMEn clock UTC does not record. The refusal said 'different model
+    parameters (fremen_clock None vs 'standard', timezone 'UTC' vs 'Europe/Berlin')' with a
+    hint about --config files; it names the zones and --tz."""
+    one = fixed_sensor_map(tmp_path / "utc.aion", ("utc.mcap",), T0, 1)
+    berlin = CFG.replace(timezone="Europe/Berlin")
+    state = run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2), Mapper(berlin)).state
+    assert state.config.to_dict()["fremen_clock"] != one_clock(one)  # as aion build writes
+    two = save_map(state, tmp_path / "berlin.aion", ("berlin.mcap",),
+                   log_span(T0 + 2 * DAY), timezone="Europe/Berlin")
+    with pytest.raises(ConfigError) as exc:
+        merge_map_files([one, two], tmp_path / "out.aion")
+    assert exc.value.message == (
+        "cannot merge utc.aion (UTC) and berlin.aion (Europe/Berlin): their days follow "
+        "different time zones"
+    )
+    assert exc.value.hint == "rebuild one of them with the other's --tz"
+
+
+def one_clock(path: Path) -> object:
+    from aion_cli.formats.mapfile import read_manifest
+
+    return read_manifest(path)["config"].get("fremen_clock")

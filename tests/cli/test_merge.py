@@ -262,7 +262,12 @@ def test_maps_of_different_models_are_refused(days: Days, tmp_path: Path) -> Non
     assert run("build", days.logs[1], "--tz", "Asia/Tokyo", "-o", zoned, "-q").exit_code == 0
     result = run("merge", days.maps[0], zoned, "-o", tmp_path / "out.aion")
     assert result.exit_code == 2
-    assert_one_line_error(result.stderr, "different model parameters", "timezone")
+    # named as zones (it read "different model parameters (fremen_clock None vs 'standard',
+    # timezone 'UTC' vs 'Asia/Tokyo')", with a hint about --config files)
+    assert_one_line_error(
+        result.stderr, "monday.aion (UTC) and tokyo.aion (Asia/Tokyo)", "different time zones"
+    )
+    assert "hint: rebuild one of them with the other's --tz" in result.stderr
 
 
 def test_the_installed_command_merges_and_has_help(days: Days, tmp_path: Path) -> None:
