@@ -59,6 +59,7 @@ from aion_cli.errors import InputError
 from aion_cli.manifest import InputLog, Manifest, add_counts
 from aion_cli.merge_config import adopt_config, check_compatible
 from aion_cli.merge_lineage import LINEAGES, choose_lineage
+from aion_cli.merge_names import naming_map, shared_names
 from aion_cli.merge_report import MergedInput, MergeReport
 
 if TYPE_CHECKING:
@@ -110,7 +111,8 @@ class _Input:
         """The map's state, read whole (writable: the merge changes it; it is not kept)."""
         from aion_cli.mapquery import load_map
 
-        loaded = load_map(self.path, writable=True)
+        with naming_map(self.path):
+            loaded = load_map(self.path, writable=True)
         if loaded.manifest != self.head.manifest:
             raise InputError(
                 f"{self.path} changed while it was being merged",
@@ -222,7 +224,7 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
     sink.start("reading maps", len(paths), "maps")
     maps: list[_Input] = []
     first_of: dict[str, Path] = {}
-    shared = _shared_names(paths)
+    shared = shared_names(paths)
     for p in paths:
         file = InputLog.from_dict(provenance(p))
         if file.sha256 in first_of:
@@ -231,19 +233,13 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
                 hint="give each map once",
             )
         first_of[file.sha256] = p
-        head = load_map_head(p)
+        with naming_map(p):
+            head = load_map_head(p)
         manifest = Manifest.from_dict(head.manifest)
         refuse_learning(p, manifest.query_only, "merged")
         maps.append(_Input(p, head, manifest, file, str(p) if p.name in shared else ""))
         sink.advance(1)
     return maps
-
-
-def _shared_names(paths: list[Path]) -> set[str]:
-    """The file names that more than one input has (those maps are named by path)."""
-    from collections import Counter
-
-    return {name for name, n in Counter(p.name for p in paths).items() if n > 1}
 
 
 def _check_logs(maps: list[_Input]) -> tuple[InputLog, ...]:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from aion_cli.engine.mapper import Mapper
-from aion_cli.errors import ConfigError
+from aion_cli.errors import ConfigError, MapFileError
 from aion_cli.merging import merge_map_files
 from tests.engine.engine_builders import T0
 from tests.engine.state_logs import CFG, DAY, W, fixed_sensor_log, run_steps
@@ -107,3 +107,29 @@ def one_clock(path: Path) -> object:
     from aion_cli.formats.mapfile import read_manifest
 
     return read_manifest(path)["config"].get("fremen_clock")
+
+
+def test_a_map_this_aion_cannot_read_is_named(tmp_path: Path) -> None:
+    """Of the maps of a merge, one written by a newer aion (format 3.0) or an older one
+    (state version 1): the error said 'map format 3.0 is newer than this aion supports'
+    without saying which map; it starts with the map's path."""
+    from aion_cli.errors import MapVersionError
+    from tests.robustness.conftest import rewrite_map
+
+    one = _robot(tmp_path, "robot1", T0, 1)
+    two = _robot(tmp_path, "robot2", T0 + 2 * DAY, 2)
+    newer = rewrite_map(two, tmp_path / "newer.aion",
+                        manifest_edit=lambda m: m.update(version="3.0"))
+    with pytest.raises(MapVersionError) as exc:
+        merge_map_files([one, newer], tmp_path / "out.aion")
+    assert exc.value.message.startswith(f"{newer}: map format 3.0 is newer"), exc.value.message
+
+    def first_state(manifest: dict[str, object]) -> None:
+        manifest["state"]["state_version"] = 1  # type: ignore[index]
+
+    older = rewrite_map(two, tmp_path / "older.aion", manifest_edit=first_state)
+    with pytest.raises(MapFileError) as failed:
+        merge_map_files([one, older], tmp_path / "out.aion")
+    assert failed.value.message.startswith(f"{older}: "), failed.value.message
+    assert "state version 1" in failed.value.message
+    assert not (tmp_path / "out.aion").exists()
