@@ -129,6 +129,7 @@ def tracks_to_log(
     graph_period_s: float = 60.0,
     overwrite: bool = False,
     observed: Iterable[tuple[int, int]] = (),
+    headings: bool = True,
 ) -> TracksLogSummary:
     """Write ``batch`` as a people-tracking log that ``aion build`` reads like a robot's.
 
@@ -137,7 +138,10 @@ def tracks_to_log(
     positions are in ``frame_id`` (the map, so no ``/tf`` is needed). With ``graph_file``, a
     ``hydra_msgs/DsgUpdate`` carrying the whole graph (mesh included) is written at the first
     stamp and again every ``graph_period_s`` so a reader joining late still gets it.
-    Unknown headings / speeds are marked with the spencer "unset" variance.
+    Unknown headings / speeds are marked with the spencer "unset" variance. ``headings=False``
+    (``PoseArray`` only) writes every pose without an orientation (the all-zero quaternion),
+    as an id-less detector publishes them (a leg detector's ``/leg_cluster_positions``): the
+    build then has to link the detections into tracks for their directions.
 
     ``observed`` lists the half-open ``[start, end)`` ns spans in which the sensor was
     recording. A fixed sensor's log counts as observed only in the windows in which it holds
@@ -159,7 +163,7 @@ def tracks_to_log(
     return _write_tracks(
         chunks, out_path, graph_file=graph_file, container=container, topic=topic,
         msgtype=msgtype, frame_id=frame_id, group_ns=group_ns, graph_topic=graph_topic,
-        graph_period_s=graph_period_s, overwrite=overwrite, observed=observed,
+        graph_period_s=graph_period_s, overwrite=overwrite, observed=observed, headings=headings,
     )
 
 
@@ -304,6 +308,7 @@ def _write_tracks(
     graph_period_s: float = 60.0,
     overwrite: bool = False,
     observed: Iterable[tuple[int, int]] = (),
+    headings: bool = True,
 ) -> TracksLogSummary:
     """:func:`tracks_to_log` over time-sorted ``chunks`` (each sorted; a chunk starting
     before the previous one ended raises :class:`_UnsortedError`, the partial log thrown
@@ -320,6 +325,10 @@ def _write_tracks(
         )
     if not graph_period_s > 0:
         raise InputError(f"graph period must be > 0 s, got {graph_period_s}")
+    if not headings and kind != POSE_ARRAY:  # TrackedPersons carry an id and a velocity
+        raise InputError(
+            f"detections without ids or headings are written as {POSE_ARRAY}, not {kind}"
+        )
     spans = merge_spans(observed)
     marks = observed_stamps(spans)
     _check_log_times(marks, "the observed spans")
@@ -340,6 +349,9 @@ def _write_tracks(
             if len(chunk) == 0:
                 continue
             _check_chunk(chunk, kind, held)
+            if not headings:  # the ids stay for counting tracks and repeats; PoseArray has none
+                nan = np.full(len(chunk), np.nan)
+                chunk = DetectionBatch(chunk.t_ns, chunk.xyz, nan, nan.copy(), chunk.track_id)
             far.count(chunk)
             check_stamps(int(chunk.t_ns[-1]), container, "the tracks")
             t0 = int(chunk.t_ns[0]) if t0 is None else t0

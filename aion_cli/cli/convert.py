@@ -102,7 +102,7 @@ def _check_suffix(output: Path, suffix: str, container: str) -> None:
     short_help="Turn pedestrian-track CSVs into logs.",
     cls=AionCommand,
     epilog=EPILOG,
-    advanced=("container", "msgtype", "start_text", "tz", "fps", "length_unit"),
+    advanced=("container", "msgtype", "drop_ids", "start_text", "tz", "fps", "length_unit"),
 )
 @click.argument("tracks", type=AionPath(path_type=Path))
 @click.option(
@@ -149,6 +149,13 @@ def _check_suffix(output: Path, suffix: str, container: str) -> None:
     help="Message type the detections are written as.",
 )
 @click.option(
+    "--drop-ids",
+    is_flag=True,
+    help="Write the detections as an id-less detector publishes them (a leg detector): "
+    "geometry_msgs/msg/PoseArray without track ids or orientations, so aion build links them "
+    "into tracks for their directions (to test its linker against the file's own tracks).",
+)
+@click.option(
     "--start",
     "start_text",
     metavar="T",
@@ -193,6 +200,7 @@ def command(
     graph_file: Path | None,
     container: str | None,
     msgtype: str,
+    drop_ids: bool,
     start_text: str | None,
     fps: float | None,
     length_unit: str | None,
@@ -201,6 +209,7 @@ def command(
     force: bool,
 ) -> None:
     """Convert the pedestrian tracks in TRACKS (CSV) into a log with people detections."""
+    from aion_cli.cli.common import option_given
     from aion_cli.cli.console import console, note, warn
     from aion_cli.engine.types import DetectionBatch
     from aion_cli.errors import InputError
@@ -211,7 +220,7 @@ def command(
     from aion_cli.formats.track_tail import cut_last_line
     from aion_cli.formats.track_types import FAR_M, NoTrackRowsError, merge_spans
     from aion_cli.formats.tracks import read_track_data
-    from aion_cli.formats.tracks_log import stream_tracks_to_log, tracks_to_log
+    from aion_cli.formats.tracks_log import POSE_ARRAY, stream_tracks_to_log, tracks_to_log
     from aion_cli.formats.writers import check_log_target
     from aion_cli.timeparse import TimeFormatError, parse_time, resolve_zone
 
@@ -245,8 +254,13 @@ def command(
             start_ns = parse_time(clock, zone)
         except TimeFormatError as exc:  # name the option, as --observed's errors do
             raise InputError(f"{option} {clock!r}: {exc.message}", hint=exc.hint) from exc
+    if drop_ids and option_given("msgtype") and msgtype != POSE_ARRAY:
+        raise InputError(
+            f"--drop-ids writes {POSE_ARRAY}, not {msgtype}", hint="drop --message-type"
+        )
     options: dict[str, Any] = {
-        "graph_file": graph_file, "container": kind, "msgtype": msgtype, "overwrite": force,
+        "graph_file": graph_file, "container": kind, "overwrite": force, "headings": not drop_ids,
+        "msgtype": POSE_ARRAY if drop_ids else msgtype,
     }
     notes: tuple[str, ...] = ()
     try:
@@ -300,6 +314,7 @@ def command(
         f"wrote {markup_safe(summary.path)}: {counted(summary.detections, 'detection')} of "
         f"{counted(summary.tracks, 'track')} in {counted(summary.detection_messages, 'message')} "
         f"over {span:,.0f} s"
+        + (" (without ids or orientations: aion build links them)" if drop_ids else "")
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,
     )

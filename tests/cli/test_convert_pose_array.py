@@ -44,3 +44,45 @@ def test_negative_track_ids_name_the_option_that_writes_rows_without_ids(tmp_pat
     ok = run("convert", src, "--layout", "atc", "-o", tmp_path / "b.mcap",
              "--message-type", "geometry_msgs/msg/PoseArray")
     assert ok.exit_code == 0, ok.stderr
+
+
+def test_drop_ids_leaves_the_directions_to_the_builds_linker(tmp_path: Path) -> None:
+    """``--drop-ids`` writes an ATC file as a leg detector publishes: PoseArray without ids
+    or orientations. The file's angle column here says north (83° and 97° in turn, a yaw the
+    build believes) while the positions walk east (+x, heading 0): the map must follow the
+    positions, which only the build's linker can give (before: no option wrote such a log;
+    --message-type PoseArray writes the column's angle as each pose's yaw, the build uses it)."""
+    rows = [f"{1351038020 + t},7,{float(t)},0.0,1.0,{(1.45, 1.69)[t % 2]}" for t in range(12)]
+    src = tmp_path / "atc.csv"
+    src.write_text("\n".join(rows) + "\n")
+    maps = {}
+    for name, extra in (("yaw", ("--message-type", "geometry_msgs/msg/PoseArray")),
+                        ("ids", ("--drop-ids",))):
+        log = tmp_path / f"{name}.mcap"
+        result = run("convert", src, "--layout", "atc", "-o", log, *extra, "-q")
+        assert result.exit_code == 0, result.stderr
+        maps[name] = tmp_path / f"{name}.aion"
+        report = run_json("build", log, "-o", maps[name], "--format", "json", "-q")
+        assert report["detections"]["used"] == 12
+        if name == "ids":
+            assert report["headings"]["pose_yaw"] == 0
+            assert report["headings"]["linked"] >= 10
+    for name, (low, high) in (("yaw", (80.0, 100.0)), ("ids", (-0.5, 0.5))):
+        entries = run_json("predict", maps[name], "--historical", "--format", "json", "-q")
+        directions = [e["direction_deg"] for e in entries["entries"]]
+        assert len(directions) == 12  # a cell per metre walked
+        known = [d for d in directions if d is not None]
+        assert len(known) == 11, (name, directions)
+        assert all(low < d < high for d in known), (name, directions)
+
+
+def test_drop_ids_refuses_a_message_type_with_ids(tmp_path: Path) -> None:
+    from tests.cli.conftest import assert_one_line_error
+
+    src = tmp_path / "atc.csv"
+    src.write_text("1351038020,1,1,2,0.3,0.1\n1351038021,1,1.5,2,0.3,0.1\n")
+    result = run("convert", src, "--layout", "atc", "-o", tmp_path / "a.mcap", "--drop-ids",
+                 "--message-type", "spencer_tracking_msgs/msg/TrackedPersons")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "--drop-ids writes geometry_msgs/msg/PoseArray")
+    assert not (tmp_path / "a.mcap").exists()
