@@ -122,7 +122,7 @@ def _numeric_guess(lines: list[str]) -> LayoutGuess | None:
 def layout_mismatch(path: str | Path, layout: str) -> str | None:
     """A warning when ``path`` was read as ``layout`` but looks like another layout; None
     when it fits. (``convert --start`` with a clock of the other kind is refused before:
-    ``cli.convert._check_start_applies``.)"""
+    ``cli.convert_checks.check_start_applies``.)"""
     guess = guess_layout(path)
     if guess is None or layout in guess.layouts:
         return None

@@ -8,6 +8,14 @@ from typing import Any
 import click
 
 from aion_cli.cli.common import AionPath, parse_span, quiet_option
+from aion_cli.cli.convert_checks import (
+    FRAME_LAYOUTS,
+    RELATIVE_LAYOUTS,
+    check_layout_options,
+    check_start_applies,
+    check_tracks_input,
+    container_for,
+)
 from aion_cli.cli.output import AionCommand, counted, markup_safe
 
 EPILOG = """\b
@@ -46,57 +54,6 @@ windows without a detection count as not observed.
 CONTAINERS = ("mcap", "mcap-ros1", "bag", "rosbag2-sqlite3", "rosbag2-mcap")
 #: formats.track_types.LAYOUTS, spelt out so that `aion --help` need not import numpy
 LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "edinburgh")
-#: layouts with frame numbers, and their frame rate when --fps is not given
-FRAME_LAYOUTS = {"eth": 25.0, "ucy": 25.0, "edinburgh": 9.0}
-#: layouts whose times are absolute already (--start is refused), and what their times are
-ABSOLUTE_TIMES = {
-    "canonical": "its t_ns column is nanoseconds since 1970 (UTC)",
-    "lincoln": "Lincoln times are UNIX seconds",
-    "atc": "ATC times are UNIX seconds",
-}
-#: layouts whose times count from the recording's start: --start says when that was
-RELATIVE_LAYOUTS = ("thor", "thor-magni", "eth", "ucy")
-
-
-def _container_for(output: Path, container: str | None) -> str:
-    """``--container``, else from the suffix: .bag -> ROS 1 bag, .mcap -> ROS 2 MCAP,
-    no suffix -> a rosbag2 folder (sqlite3)."""
-    suffix = output.suffix.lower()
-    if container is not None:
-        _check_suffix(output, suffix, container)
-        return container
-    if suffix == ".bag":
-        return "bag"
-    if suffix == ".mcap":
-        return "mcap"
-    if suffix == "":
-        return "rosbag2-sqlite3"
-    from aion_cli.errors import InputError
-
-    raise InputError(
-        f"cannot tell the log format from {output.name!r}",
-        hint="name it .mcap or .bag, or give --container",
-    )
-
-
-#: the containers a file of each suffix may hold: ``aion`` and other tools read a file's
-#: format from its suffix, so an MCAP named .bag could not be read back as written
-_SUFFIX_CONTAINERS = {".mcap": ("mcap", "mcap-ros1"), ".bag": ("bag",)}
-
-
-def _check_suffix(output: Path, suffix: str, container: str) -> None:
-    """:class:`InputError` when ``--container`` contradicts the output's suffix (``x.mcap``
-    written as a ROS 1 bag)."""
-    from aion_cli.errors import InputError
-
-    allowed = _SUFFIX_CONTAINERS.get(suffix)
-    if allowed is not None and container not in allowed:
-        raise InputError(
-            f"--container {container} does not match the output name {output.name!r}",
-            hint=f"name the output for its container, or give --container {allowed[0]}",
-        )
-
-
 @click.command(
     "convert",
     short_help="Turn pedestrian-track CSVs into logs.",
@@ -213,7 +170,6 @@ def command(
     from aion_cli.cli.console import console, note, warn
     from aion_cli.engine.types import DetectionBatch
     from aion_cli.errors import InputError
-    from aion_cli.formats.input_kind import input_kind
     from aion_cli.formats.track_csv import STREAM_LAYOUTS
     from aion_cli.formats.track_sniff import UNIX_SECONDS_FROM as UNIX_S
     from aion_cli.formats.track_sniff import layout_mismatch
@@ -224,23 +180,13 @@ def command(
     from aion_cli.formats.writers import check_log_target
     from aion_cli.timeparse import TimeFormatError, parse_time, resolve_zone
 
-    if not tracks.is_file():
-        raise InputError(f"tracks file not found: {tracks}", hint="check the path")
-    kind_of_input = input_kind(tracks)
-    if kind_of_input in ("log", "map"):
-        raise InputError(
-            f"{tracks.name} is {'a log' if kind_of_input == 'log' else 'an aion map'}, "
-            "not a tracks file",
-            hint=f"build a map from it: aion build {tracks.name} -o MAP.aion"
-            if kind_of_input == "log"
-            else f"query it: aion predict {tracks.name}",
-        )
-    kind = _container_for(output, container)
+    check_tracks_input(tracks)
+    kind = container_for(output, container)
     # the target is refused (exists, device, FIFO, not aion's own log) before anything is read
     check_log_target(output, kind, overwrite=force)
     if start_text is not None:
-        _check_start_applies(tracks, layout)
-    _check_layout_options(layout, date_text, start_text, fps, length_unit)
+        check_start_applies(tracks, layout)
+    check_layout_options(layout, date_text, start_text, fps, length_unit)
     # UTC unless --tz: the zone aion build reads the same --observed in (and a map's default),
     # never the machine's, which made one span two spans on a machine outside UTC
     zone = resolve_zone("UTC" if tz is None else tz)
@@ -407,79 +353,4 @@ def _warn_spans_without_detections(
             f"--observed {format_ns(a, zone)}..{format_ns(b, zone)} holds no detection: "
             f"the detections run from {format_ns(first, zone)} to {format_ns(last, zone)} "
             "(a span in another time zone or hour?)"
-        )
-
-
-def _check_start_applies(tracks: Path, layout: str) -> None:
-    """``--start`` where the file and the layout disagree on whether its times count from 0,
-    refused before anything is written: an ATC file given as ``--layout thor`` would be moved
-    decades on, and a THÖR file given as ``--layout atc`` needs ``--layout thor``."""
-    from aion_cli.errors import InputError
-    from aion_cli.formats.track_sniff import guess_layout
-
-    guess = guess_layout(tracks)
-    if guess is None or layout in guess.layouts:
-        return
-    if guess.layout in ABSOLUTE_TIMES and layout in RELATIVE_LAYOUTS:
-        raise InputError(
-            f"--start would shift {tracks.name}'s times, but they are UNIX seconds already: "
-            f"it looks like {guess.describe()}",
-            hint=f"convert it with --layout {guess.layout} and without --start",
-        )
-    if guess.layout == "thor" and layout == "atc":  # the same columns, another clock
-        raise InputError(
-            f"{tracks.name}'s times count from 0, which --layout {layout} reads as absolute: it "
-            f"looks like {guess.describe()}",
-            hint=f"convert it with --layout {guess.layout} --start T",
-        )
-
-
-def _check_layout_options(
-    layout: str,
-    date_text: str | None,
-    start_text: str | None,
-    fps: float | None,
-    length_unit: str | None,
-) -> None:
-    """The options that apply to ``layout`` only, checked before anything is read."""
-    from aion_cli.errors import InputError
-
-    if layout in ABSOLUTE_TIMES and start_text is not None:
-        raise InputError(
-            f"--start does not apply to the {layout} layout",
-            hint=f"{ABSOLUTE_TIMES[layout]} already; drop --start",
-        )
-    if layout == "edinburgh":
-        if start_text is not None:
-            raise InputError(
-                "--start does not apply to the edinburgh layout: give --date",
-                hint='--date DAY puts frame 0 at midnight, --date "DAY HH:MM" at that time',
-            )
-        if date_text is None:
-            raise InputError(
-                "the edinburgh layout needs --date: its files have frame numbers, no clock",
-                hint="e.g. --date 2010-07-01 --tz Europe/London for tracks.01Jul.txt (the "
-                "database recorded Aug 2009 - Jan 2010 and May - Aug 2010)",
-            )
-    elif date_text is not None:
-        raise InputError(
-            f"--date applies to the edinburgh layout only, not {layout}",
-            hint="thor, thor-magni, eth and ucy times count from --start; atc, lincoln and "
-            "canonical times are absolute",
-        )
-    if fps is not None:
-        if layout not in FRAME_LAYOUTS:
-            raise InputError(
-                f"--fps does not apply to the {layout} layout",
-                hint=f"only {', '.join(FRAME_LAYOUTS)} files have frame numbers",
-            )
-        if not 0 < fps <= 10_000:  # also NaN and inf: frames of no duration
-            raise InputError(
-                f"--fps must be above 0 and at most 10,000 frames per second, not {fps}",
-                hint="e.g. --fps 25 (ETH / UCY frame numbers), --fps 9 (Edinburgh)",
-            )
-    if length_unit is not None and layout != "thor-magni":
-        raise InputError(
-            f"--length-unit does not apply to the {layout} layout",
-            hint="only thor-magni files may be in millimetres",
         )
