@@ -1,11 +1,9 @@
-"""Readers of people-tracking datasets whose files are not a plain table of detections.
+"""Readers of people-tracking datasets whose files are not a plain table of detections
+(THÖR-MAGNI: :mod:`formats.thor_magni`).
 
 - ``edinburgh``: the Edinburgh Informatics Forum tracks (``TRACK.Rn=[[x y frame];...];``,
   overhead-camera pixels at 24.7 mm, frame numbers at about 9 fps, no clock time:
   :func:`read_edinburgh`).
-- ``thor-magni``: THÖR-MAGNI CSVs (header ``Time,frame_id,x,y,z,ag_id,data_label,...``,
-  millimetres, seconds from the start, ``ag_id`` names such as ``Helmet_3``:
-  :func:`read_thor_magni`).
 - ``lincoln``: the L-CAS corridor detections (UNIX seconds, no ids), every variant of the
   files told apart by content (:func:`read_lincoln`); the detections are linked into tracks by
   :mod:`aion_cli.engine.tracking` (pure numpy, like the differencing the ETH reader uses), and
@@ -23,12 +21,11 @@ import math
 import re
 import warnings
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING
 
 import numpy as np
-import numpy.typing as npt
 
-from aion_cli.engine.types import F64, I64, DetectionBatch
+from aion_cli.engine.types import I64, DetectionBatch
 from aion_cli.formats.track_csv import (
     _check_file,
     _plain_columns,
@@ -44,7 +41,6 @@ from aion_cli.formats.track_types import (
     _utc,
     merge_spans,
 )
-from aion_cli.listing import first_few
 
 if TYPE_CHECKING:
     from aion_cli.engine.tracking import LinkerConfig
@@ -168,163 +164,6 @@ def _edinburgh_count_notes(
         f"{path.name}: {len(wrong)} track(s) hold another number of points than their "
         f"Properties entry says (first: R{wrong[0]}); the points are used as they are",
     )
-
-
-# ----------------------------------------------------------------------------- THÖR-MAGNI
-
-#: the columns a THÖR-MAGNI CSV must have, found by name in its header
-THOR_MAGNI_REQUIRED = ("Time", "ag_id", "x", "y")
-#: agents that are people: THÖR-MAGNI's participants wear tracked helmets (``Helmet_3``); the
-#: robot (``DARKO_Robot``) and tracked objects (``LO1``) are not people
-THOR_MAGNI_PEOPLE = "Helmet"
-#: a position extent beyond this many units means millimetres (a mocap room is ~10-20 m)
-_MM_EXTENT = 200.0
-Units = Literal["auto", "mm", "m"]
-
-
-def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") -> TrackData:
-    """A THÖR-MAGNI trajectory CSV as ``thor-magni-tools`` writes it (header ``Time,frame_id,
-    x,y,z,ag_id,data_label,...``; columns found by name, any order, extra columns ignored).
-
-    ``Time`` is seconds from the recording's start (``start_ns`` is when that was). Positions
-    are millimetres in the files of the dataset (thor-magni-tools' converters divide ``x, y, z``
-    by 1000); ``units="auto"`` takes millimetres when the positions span more than 200 units
-    and metres otherwise, with a note saying which; ``"mm"`` / ``"m"`` force it. Rows without a
-    position (untracked frames, empty ``x`` / ``y``) are dropped, with a note. Only people are
-    kept: agents whose ``ag_id`` starts with ``Helmet`` when there are any (the robot and
-    objects are dropped, with a note), else every agent. ``ag_id`` strings become integer
-    track ids: the number that ends the name (``Helmet_3`` -> 3) when those are unique, else
-    the name's rank. Heading and speed come from differencing each track.
-    """
-    if units not in ("auto", "mm", "m"):
-        raise TracksFormatError(f"unknown length unit {units!r}", hint="use auto, mm or m")
-    p = Path(path)
-    columns = _thor_magni_header(p)
-    used = [columns[name] for name in (*THOR_MAGNI_REQUIRED, "z") if name in columns]
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            table = np.loadtxt(
-                p,
-                dtype=str,
-                delimiter=",",
-                skiprows=1,
-                usecols=used,
-                quotechar='"',
-                ndmin=2,
-                encoding="utf-8-sig",
-            )
-    except ValueError as exc:
-        raise TracksFormatError(
-            f"{p}: not a valid thor-magni tracks file: {exc}",
-            hint="every row needs the header's columns, comma-separated",
-        ) from exc
-    if table.size == 0:
-        raise NoTrackRowsError(f"{p}: no track rows", hint="the file has only its header")
-    t_s = _number_column(p, table[:, 0], "Time", finite=True)
-    x = _number_column(p, table[:, 2], "x")
-    y = _number_column(p, table[:, 3], "y")
-    z = _number_column(p, table[:, 4], "z") if table.shape[1] > 4 else np.zeros(len(table))
-    names = np.char.strip(table[:, 1])
-    notes: list[str] = []
-    located = np.isfinite(x) & np.isfinite(y)
-    if not located.all():
-        notes.append(
-            f"{p.name}: {int((~located).sum()):,} of {len(located):,} rows have no position "
-            "(untracked frames) and are skipped"
-        )
-    people = np.char.startswith(names, THOR_MAGNI_PEOPLE)
-    keep = located & people if people.any() else located
-    if people.any() and not people.all():
-        others = sorted(set(names[~people].tolist()))
-        notes.append(f"{p.name}: not people, skipped: {', '.join(others)}")
-    elif not people.any():  # other names: every agent is taken for a person, and said so
-        agents = sorted(set(names[located].tolist()))
-        notes.append(
-            f"{p.name}: no {THOR_MAGNI_PEOPLE}_N agent (THÖR-MAGNI's people): every agent is "
-            f"converted as a person: {first_few(agents, 8)}"
-        )
-    if not keep.any():
-        raise TracksFormatError(f"{p}: no row with a position", hint="x and y are all empty")
-    t_s, x, y, z, names = t_s[keep], x[keep], y[keep], z[keep], names[keep]
-    scale = _thor_magni_scale(p, x, y, units, notes)
-    tid = _agent_ids(names)
-    xyz = np.stack([x, y, np.nan_to_num(z)], axis=1) * scale
-    t_ns = _seconds_to_ns(t_s, start_ns, p)
-    batch = differenced(t_ns, xyz, tid)
-    return TrackData(batch, notes=tuple(notes))
-
-
-def _thor_magni_header(path: Path) -> dict[str, int]:
-    """Column name -> index of a THÖR-MAGNI CSV's header, with the required ones checked."""
-    if not path.is_file():
-        raise TracksFormatError(f"tracks file not found: {path}")
-    if path.stat().st_size == 0:
-        raise NoTrackRowsError(f"{path}: no track rows", hint="the file is empty")
-    check_encoding(path)
-    with path.open(encoding="utf-8-sig", errors="replace") as fh:
-        first = fh.readline().strip()
-    names = [name.strip().strip('"') for name in first.split(",")]
-    columns = {name: k for k, name in reversed(list(enumerate(names)))}
-    missing = [name for name in THOR_MAGNI_REQUIRED if name not in columns]
-    if missing:
-        raise TracksFormatError(
-            f"{path}: line 1 must be a THÖR-MAGNI header with the columns "
-            f"{', '.join(THOR_MAGNI_REQUIRED)}; {', '.join(missing)} missing (got {first[:80]!r})",
-            hint="THÖR-MAGNI CSVs start `Time,frame_id,x,y,z,ag_id,data_label,...`",
-        )
-    return columns
-
-
-def _number_column(path: Path, text: npt.NDArray[np.str_], name: str, finite: bool = False) -> F64:
-    """A text column as float64 (empty fields -> NaN), or the first bad value's line."""
-    cleaned = np.char.strip(text)
-    try:
-        values: F64 = np.where(cleaned == "", "nan", cleaned).astype(np.float64)
-    except ValueError:
-        parsed = []
-        for k, v in enumerate(cleaned.tolist()):  # slow path, only after a failure
-            try:
-                parsed.append(float(v or "nan"))
-            except ValueError:
-                raise TracksFormatError(
-                    f"{path}: line {k + 2}, column {name}: {v[:40]!r} is not a number"
-                ) from None
-        values = np.array(parsed, dtype=np.float64)
-    if finite:
-        bad = np.flatnonzero(~np.isfinite(values))
-        if len(bad):
-            raise TracksFormatError(
-                f"{path}: line {int(bad[0]) + 2}, column {name}: {str(text[bad[0]])[:40]!r} is not "
-                "a finite number"
-            )
-    return values
-
-
-def _thor_magni_scale(path: Path, x: F64, y: F64, units: str, notes: list[str]) -> float:
-    """Metres per file unit: 1e-3 for millimetres, 1 for metres (``auto``: by the extent)."""
-    extent = float(max(np.ptp(x), np.ptp(y)))
-    if units == "auto":
-        units = "mm" if extent > _MM_EXTENT else "m"
-        span = extent / 1000 if units == "mm" else extent
-        notes.append(
-            f"{path.name}: positions read as {'millimetres' if units == 'mm' else 'metres'} "
-            f"(they span {span:,.1f} m); give --length-unit mm|m if that is wrong"
-        )
-    return 1e-3 if units == "mm" else 1.0
-
-
-def _agent_ids(names: npt.NDArray[np.str_]) -> I64:
-    """Integer track ids of agent names: each name's trailing number when those are unique
-    (``Helmet_3`` -> 3), else the name's rank among the sorted names."""
-    unique, inverse = np.unique(names, return_inverse=True)
-    numbers = [re.search(r"(\d+)$", str(name)) for name in unique.tolist()]
-    if all(numbers) and len({int(m.group(1)) for m in numbers if m}) == len(unique):
-        codes = np.array([int(m.group(1)) for m in numbers if m], dtype=np.int64)
-    else:
-        codes = np.arange(len(unique), dtype=np.int64)
-    ids: I64 = codes[inverse.reshape(-1)]
-    return ids
 
 
 # ----------------------------------------------------------------------------- Lincoln

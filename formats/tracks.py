@@ -20,7 +20,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from aion_cli.engine.types import DetectionBatch
-from aion_cli.formats.datasets import EDINBURGH_FPS, read_edinburgh, read_lincoln, read_thor_magni
+from aion_cli.formats.datasets import EDINBURGH_FPS, read_edinburgh, read_lincoln
+from aion_cli.formats.thor_magni import read_thor_magni
 from aion_cli.formats.track_csv import read_atc, read_canonical, read_eth
 from aion_cli.formats.track_types import LAYOUTS, TrackData, TracksFormatError
 

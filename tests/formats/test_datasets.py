@@ -1,5 +1,5 @@
 """The public pedestrian datasets beyond ATC / THÖR / Lincoln: Edinburgh Informatics Forum
-tracks, THÖR-MAGNI CSVs (``formats.datasets``) and the ETH/UCY 4-column files
+tracks, THÖR-MAGNI CSVs (``formats.thor_magni``) and the ETH/UCY 4-column files
 (``formats.track_csv``), checked against figures known from the files themselves (the Edinburgh
 database's own table of trajectories and detections per day, counts parsed here independently)
 and against synthetic files whose answers follow from how they were written."""
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aion_cli.formats import datasets, track_types
+from aion_cli.formats import datasets, thor_magni, track_types
 from aion_cli.formats import tracks as ft
 from tests.formats.dataset_files import (
     EDINBURGH,
@@ -195,7 +195,7 @@ def test_thor_magni_missing_empty_and_unit(tmp_path: Path) -> None:
     with pytest.raises(track_types.TracksFormatError, match="no track rows"):
         ft.read_tracks(empty, "thor-magni")
     with pytest.raises(track_types.TracksFormatError, match="unknown length unit"):
-        datasets.read_thor_magni(magni_file(tmp_path / "m.csv"), units="feet")
+        thor_magni.read_thor_magni(magni_file(tmp_path / "m.csv"), units="feet")
 
 
 # ----------------------------------------------------------------------------- ETH / UCY
