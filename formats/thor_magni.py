@@ -4,6 +4,7 @@ millimetres, seconds from the start, ``ag_id`` names such as ``Helmet_3``):
 
 from __future__ import annotations
 
+import csv
 import re
 import warnings
 from pathlib import Path
@@ -14,6 +15,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.types import F64, I64
 from aion_cli.formats.track_csv import _seconds_to_ns, check_encoding, differenced
+from aion_cli.formats.track_tail import TAIL_BYTES
 from aion_cli.formats.track_types import NoTrackRowsError, TrackData, TracksFormatError
 from aion_cli.listing import first_few
 
@@ -59,11 +61,9 @@ def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") ->
                 ndmin=2,
                 encoding="utf-8-sig",
             )
-    except ValueError as exc:
-        raise TracksFormatError(
-            f"{p}: not a valid thor-magni tracks file: {exc}",
-            hint="every row needs the header's columns, comma-separated",
-        ) from exc
+    except ValueError as exc:  # UnicodeDecodeError included
+        raise _magni_problem(p, max(used) + 1, str(exc)) from exc
+    _check_last_line(p)
     if table.size == 0:
         raise NoTrackRowsError(f"{p}: no track rows", hint="the file has only its header")
     t_s = _number_column(p, table[:, 0], "Time", finite=True)
@@ -98,6 +98,71 @@ def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") ->
     t_ns = _seconds_to_ns(t_s, start_ns, p)
     batch = differenced(t_ns, xyz, tid)
     return TrackData(batch, notes=tuple(notes))
+
+
+_MAGNI_HINT = "every row needs the header's columns, comma-separated"
+
+
+def _fields(line: str) -> list[str]:
+    return next(csv.reader([line]), [])
+
+
+def _magni_problem(path: Path, need: int, detail: str) -> TracksFormatError:
+    """The refusal of a THÖR-MAGNI file np.loadtxt failed on: its first line that is not UTF-8
+    or has fewer than ``need`` columns (those up to the last one read), by number (slow path,
+    after a failure); numpy's "invalid column index 5 at row 4 with 3 columns" was the
+    message before."""
+    columns = need
+    with path.open("rb") as fh:
+        for lineno, raw in enumerate(fh, start=1):
+            try:
+                line = raw.decode("utf-8-sig" if lineno == 1 else "utf-8")
+            except UnicodeDecodeError:
+                return TracksFormatError(
+                    f"{path}: line {lineno} is not UTF-8 text: {raw[:60]!r}",
+                    hint=f"convert it first, e.g. iconv -f LATIN1 -t UTF-8 {path.name} > "
+                    f"{path.stem}-utf8{path.suffix}",
+                )
+            got = len(_fields(line.strip()))
+            if lineno == 1:
+                columns = got
+            elif line.strip() and got < need:
+                cut = not raw.endswith((b"\n", b"\r"))
+                return _short_line(path, lineno, columns, got, cut)
+    return TracksFormatError(f"{path}: not a valid thor-magni tracks file: {detail}",
+                             hint=_MAGNI_HINT)
+
+
+def _short_line(path: Path, lineno: int, need: int, got: int, cut: bool) -> TracksFormatError:
+    problem = f"{path}: not a valid thor-magni tracks file: line {lineno}: expected the " \
+        f"header's {need} columns, got {got}"
+    if not cut:
+        return TracksFormatError(problem, hint=_MAGNI_HINT)
+    return TracksFormatError(
+        f"{problem} (the file ends inside this line)",
+        hint="the file looks cut short (a copy or an export that did not finish): without its "
+        f"last line, line {lineno:,}, the lines before it can be read",
+    )
+
+
+def _check_last_line(path: Path) -> None:
+    """Refuse a file whose last line has no line end and fewer columns than the header: cut
+    short inside it (its ``ag_id`` cut from ``Helmet_1`` to ``Hel`` was skipped as "not
+    people", to ``Helmet_`` renumbered every agent), as the other layouts refuse a cut line."""
+    with path.open("rb") as fh:
+        header = fh.readline().decode("utf-8-sig", errors="replace")
+        size = fh.seek(0, 2)
+        fh.seek(max(0, size - TAIL_BYTES))
+        tail = fh.read()
+    if not tail or tail.endswith((b"\n", b"\r")):
+        return
+    last = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace").strip()
+    need, got = len(_fields(header.strip())), len(_fields(last))
+    if got >= need or not last:
+        return
+    with path.open("rb") as fh:
+        lineno = sum(block.count(b"\n") for block in iter(lambda: fh.read(1 << 20), b"")) + 1
+    raise _short_line(path, lineno, need, got, cut=True)
 
 
 def _thor_magni_header(path: Path) -> dict[str, int]:
