@@ -305,7 +305,25 @@ def command(
             f"the log's times are absolute; build with --tz {zone.name} for a map whose days "
             f"and hours of the day are {zone.name}'s (aion build {output.name} --tz {zone.name})"
         )
+    elif tz is None and layout in HOME_ZONES:
+        place, home = HOME_ZONES[layout]
+        read = " --date was read in UTC (give --tz);" if layout == "edinburgh" else (
+            " --start was read in UTC (give --tz);" if start_text is not None else "")
+        note(
+            f"{layout}: the dataset was recorded in {place} ({home}):{read} aion build takes "
+            f"a map's days and hours in UTC unless told: aion build {output.name} --tz {home}"
+        )
 
+
+#: where each layout's dataset was recorded, and its zone: the hours of the day a map of it
+#: means are local ones (ATC's 09:00-21:00 are Osaka's, 00:00-12:00 UTC)
+HOME_ZONES = {
+    "atc": ("Osaka", "Asia/Tokyo"),
+    "lincoln": ("Lincoln, UK", "Europe/London"),
+    "edinburgh": ("Edinburgh", "Europe/London"),
+    "thor": ("Örebro", "Europe/Stockholm"),
+    "thor-magni": ("Örebro", "Europe/Stockholm"),
+}
 
 FAST_WALK_MPS = 2.0
 """A mean walking speed above this (people walk about 1.3 m/s) says a frame-numbered file's
