@@ -288,6 +288,8 @@ def command(
             "robot, so the build observes with the log's messages and --observed spans"
         )
     _warn_spans_without_detections(spans, summary, zone)
+    if layout == "canonical" and summary.first_detection_ns is not None:
+        _warn_time_unit(tracks.name, summary.first_detection_ns, summary.last_detection_ns)
     if summary.observed_spans:
         console().print(
             f"observed: {summary.observed_spans} span(s), {summary.observed_ns / 3.6e12:,.2f} h, "
@@ -351,6 +353,31 @@ def _warn_fast_walkers(speed: Any, layout: str, fps: float | None) -> None:
             f"walking is about 1.3 m/s: if the file's frames are another rate, give --fps "
             f"(at {rate * 1.3 / typical:.3g} fps they would walk 1.3 m/s)"
         )
+
+
+#: what canonical t_ns values that are really seconds / ms / µs since 1970 look like: the
+#: span of 1973-03-03 .. 2096-10-02 in that unit (disjoint from each other and from ns)
+_OTHER_UNITS = (("seconds", 10**9, "1e9"), ("milliseconds", 10**6, "1e6"),
+                ("microseconds", 10**3, "1e3"))
+
+
+def _warn_time_unit(name: str, first_ns: int, last_ns: int | None) -> None:
+    """A warning when a canonical file's ``t_ns`` column holds UNIX seconds, milliseconds or
+    microseconds, not nanoseconds: every detection then lies in 1970 (1351038020 "ns" is
+    1970-01-01 00:00:01; as seconds, ATC's 2012-10-24 00:20:20 UTC)."""
+    from aion_cli.cli.console import warn
+    from aion_cli.timeparse import format_ns, resolve_zone
+
+    last = first_ns if last_ns is None else last_ns
+    for unit, scale, factor in _OTHER_UNITS:
+        if first_ns * scale >= 1e17 and last * scale < 4e18:
+            utc = resolve_zone("UTC")
+            warn(
+                f"{name}: t_ns starts at {first_ns}: as nanoseconds {format_ns(first_ns, utc)}, "
+                f"as UNIX {unit} {format_ns(first_ns * scale, utc)}: the canonical t_ns column "
+                f"is nanoseconds since 1970 (multiply it by {factor}); written as the file has it"
+            )
+            return
 
 
 def _warn_spans_without_detections(
