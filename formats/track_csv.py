@@ -246,18 +246,19 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Lit
     """``np.loadtxt`` with our errors: bad lines named by number, empty files refused."""
     _check_file(path, spec, layout)
     try:
-        with warnings.catch_warnings():
+        # a byte that is not UTF-8 (a Latin-1 comment) becomes U+FFFD: ignored in a comment,
+        # "'1.\ufffd' is not a number" by line in a value, never the codec's "position 5"
+        with warnings.catch_warnings(), path.open(encoding="utf-8-sig", errors="replace") as fh:
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
             data = np.loadtxt(
-                path,
+                fh,
                 dtype=dtype,
                 delimiter=spec.delimiter,
                 skiprows=spec.skip,
                 usecols=spec.used if spec.ignored_columns else None,
                 ndmin=ndmin,
-                encoding="utf-8-sig",
             )
-    except (ValueError, UnicodeDecodeError, OverflowError) as exc:
+    except (ValueError, OverflowError) as exc:
         raise _fail(path, spec, layout, str(exc)) from exc
     if data.size == 0:
         raise NoTrackRowsError(f"{path}: no track rows", hint=_no_rows_hint(spec))
@@ -407,14 +408,11 @@ def _line_chunks(path: Path, spec: _Spec, layout: str, rows: int) -> Iterator[li
     """The data lines of a file (after its header), ``rows`` at a time."""
     import itertools
 
-    with path.open(encoding="utf-8-sig") as fh:
-        try:
-            for _ in range(spec.skip):
-                fh.readline()
-            while lines := list(itertools.islice(fh, rows)):
-                yield lines
-        except UnicodeDecodeError as exc:
-            raise _fail(path, spec, layout, str(exc)) from exc
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:  # as _load reads
+        for _ in range(spec.skip):
+            fh.readline()
+        while lines := list(itertools.islice(fh, rows)):
+            yield lines
 
 
 def finite_difference(t_ns: I64, track_id: I64, xy: F64) -> tuple[F64, F64]:
