@@ -299,6 +299,11 @@ def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackD
     links = link_tracks(t_ns, xyz, linker)
     batch = DetectionBatch(t_ns, xyz, links.heading, links.speed, links.track_id)
     notes: list[str] = []
+    if sentinel.any():  # rows of the file that are no detection: said, so the counts add up
+        notes.append(
+            f"{p.name}: {int(sentinel.sum()):,} rows at x = y = 0 are the sensor's \"running\" "
+            "marks, not people: left out of the detections, each marks 1 s as observed"
+        )
     if declared is not None:
         start, end = declared
         spans.append((start, end))

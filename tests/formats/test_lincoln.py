@@ -64,9 +64,14 @@ def test_header_variant_declared_span_and_sentinels(tmp_path: Path) -> None:
     data = datasets.read_lincoln(write(tmp_path / "day.txt", lines))
     check_two_walkers(data, len(rows))
     assert data.batch.t_ns[0] == T0 * S
-    # the declared span holds the sentinels: one span; nothing to note (within a day)
+    # the declared span holds the sentinels: one span; the declared span is within a day of
+    # the detections (no note), the three sentinel rows are no detections (a note: before,
+    # the file's rows and the detections written differed by 3 without a word)
     assert data.observed == [((T0 - 3600) * S, (T0 + 7200) * S)]
-    assert data.notes == ()
+    assert data.notes == (
+        'day.txt: 3 rows at x = y = 0 are the sensor\'s "running" marks, not people: left out '
+        "of the detections, each marks 1 s as observed",
+    )
     assert data.detector_heading is None
 
 
