@@ -313,6 +313,8 @@ def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackD
             notes.append(
                 f"{p.name}: the header declares recording from {_utc(start)} to {_utc(end)} UTC"
                 f" but the detections run from {_utc(int(t_ns[0]))} to {_utc(int(t_ns[-1]))};"
-                " the declared span is used as observed"
+                " the declared span is used as observed (if the file is an excerpt of a longer"
+                f" recording, convert its rows alone: tail -n +4 {p.name} > {p.stem}-rows"
+                f"{p.suffix})"
             )
     return TrackData(batch, merge_spans(spans), tuple(notes), None if own is None else own[order])
