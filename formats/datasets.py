@@ -89,7 +89,12 @@ def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_F
     found = list(_EDINBURGH_TRACK.finditer(text))
     entries = [m.start() for m in re.finditer(r"TRACK\.R", text)]
     if not found:
-        raise TracksFormatError(f"{p}: no TRACK.Rn=[[x y frame];...]; entry", hint=_EDINBURGH_HINT)
+        from aion_cli.formats.track_sniff import other_layout_hint
+
+        raise TracksFormatError(
+            f"{p}: no TRACK.Rn=[[x y frame];...]; entry",
+            hint=other_layout_hint(p, "edinburgh") or _EDINBURGH_HINT,
+        )
     if len(found) != len(entries):
         parsed = {m.start() for m in found}
         bad = next(pos for pos in entries if pos not in parsed)
@@ -234,9 +239,12 @@ def _lincoln_variant(path: Path) -> str:
         return "header"
     if len(fields) in _LINCOLN_BY_FIELDS:
         return _LINCOLN_BY_FIELDS[len(fields)]
+    from aion_cli.formats.track_sniff import other_layout_hint
+
     raise TracksFormatError(
         f"{path}: line 1 has {len(fields)} columns: not a Lincoln corridor file",
-        hint="Lincoln rows are `t x y`, `t x y 1.0`, `t x y a b WPn` or `t, id, x, y, z, heading`"
+        hint=other_layout_hint(path, "lincoln")
+        or "Lincoln rows are `t x y`, `t x y 1.0`, `t x y a b WPn` or `t, id, x, y, z, heading`"
         ", optionally after a 3-line header `t_start t_end` / `x_min x_max` / `y_min y_max`",
     )
 

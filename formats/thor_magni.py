@@ -178,10 +178,13 @@ def _thor_magni_header(path: Path) -> dict[str, int]:
     columns = {name: k for k, name in reversed(list(enumerate(names)))}
     missing = [name for name in THOR_MAGNI_REQUIRED if name not in columns]
     if missing:
+        from aion_cli.formats.track_sniff import other_layout_hint
+
         raise TracksFormatError(
             f"{path}: line 1 must be a THÖR-MAGNI header with the columns "
             f"{', '.join(THOR_MAGNI_REQUIRED)}; {', '.join(missing)} missing (got {first[:80]!r})",
-            hint="THÖR-MAGNI CSVs start `Time,frame_id,x,y,z,ag_id,data_label,...`",
+            hint=other_layout_hint(path, "thor-magni")
+            or "THÖR-MAGNI CSVs start `Time,frame_id,x,y,z,ag_id,data_label,...`",
         )
     return columns
 

@@ -156,14 +156,11 @@ _INT_LIMIT = 2.0**63
 def _fail(path: Path, spec: _Spec, layout: str, detail: str | None = None) -> TracksFormatError:
     """The refusal of a file that does not read as ``layout``: its first problem, and a hint
     naming the layout it looks like (``track_sniff``), else ``layout``'s columns."""
-    from aion_cli.formats.track_sniff import guess_layout
+    from aion_cli.formats.track_sniff import other_layout_hint
 
     found = _first_problem(path, spec)
     problem = found[1] if found is not None else detail or "unreadable data"
-    guess = guess_layout(path)
-    hint = f"{layout} columns: {', '.join(spec.columns)}"
-    if guess is not None and layout not in guess.layouts:
-        hint = f"it looks like {guess.describe()}: pass --layout {guess.layout}"
+    hint = other_layout_hint(path, layout) or f"{layout} columns: {', '.join(spec.columns)}"
     if found is not None and _ends_inside(path, found[0]):
         problem += " (the file ends inside this line)"
         hint = (
@@ -223,12 +220,11 @@ def _check_file(path: Path, spec: _Spec, layout: str) -> None:
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
         first = fh.readline().strip()
     if first.replace(" ", "") != spec.header:
-        from aion_cli.formats.track_sniff import guess_layout
+        from aion_cli.formats.track_sniff import other_layout_hint
 
-        guess = guess_layout(path)
-        hint = f"is this another layout ({', '.join(LAYOUTS)})? pass it as the layout"
-        if guess is not None and layout not in guess.layouts:
-            hint = f"it looks like {guess.describe()}: pass --layout {guess.layout}"
+        hint = other_layout_hint(path, layout) or (
+            f"is this another layout ({', '.join(LAYOUTS)})? pass it as the layout"
+        )
         raise TracksFormatError(
             f"{path}: line 1 must be the header {spec.header!r}, got {first[:80]!r}", hint=hint
         )

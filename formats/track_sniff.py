@@ -119,6 +119,15 @@ def _numeric_guess(lines: list[str]) -> LayoutGuess | None:
     return None
 
 
+def other_layout_hint(path: str | Path, layout: str) -> str | None:
+    """``it looks like the thor layout (...): pass --layout thor`` when ``path``, refused as
+    ``layout``, looks like another layout; else None (the refusal keeps its own hint)."""
+    guess = guess_layout(path)
+    if guess is None or layout in guess.layouts:
+        return None
+    return f"it looks like {guess.describe()}: pass --layout {guess.layout}"
+
+
 def layout_mismatch(path: str | Path, layout: str) -> str | None:
     """A warning when ``path`` was read as ``layout`` but looks like another layout; None
     when it fits. (``convert --start`` with a clock of the other kind is refused before:
