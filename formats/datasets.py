@@ -293,7 +293,11 @@ def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackD
     variant = _lincoln_variant(p)
     spec = _LINCOLN_SPECS[variant]
     declared = _lincoln_header(p) if variant == "header" else None
-    a = _plain_columns(p, spec, "lincoln")
+    try:
+        a = _plain_columns(p, spec, "lincoln")
+    except NoTrackRowsError as exc:  # a header alone: recorded, nobody came
+        exc.declared = () if declared is None else (declared,)
+        raise
     if variant == "heading":
         t_s, xyz, own = a[:, 0], a[:, 2:5], np.mod(a[:, 5] + np.pi, 2 * np.pi) - np.pi
     else:

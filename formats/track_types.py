@@ -50,7 +50,10 @@ class TracksFormatError(InputError):
 
 class NoTrackRowsError(TracksFormatError):
     """A tracks file holds no detection row (empty, a header or comments only): with
-    ``--observed`` spans, a sensor that ran while nobody came."""
+    ``--observed`` spans, a sensor that ran while nobody came. ``declared``: the spans the
+    file itself declares as recorded (a Lincoln header), which count as such spans."""
+
+    declared: tuple[tuple[int, int], ...] = ()
 
 
 @dataclass(frozen=True)

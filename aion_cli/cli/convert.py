@@ -229,12 +229,15 @@ def command(
             if layout in FRAME_LAYOUTS:
                 _warn_fast_walkers(data.batch.speed, layout, fps)
     except NoTrackRowsError as exc:
-        if not spans:  # without spans there is nothing to write
+        if not spans and not exc.declared:  # without spans there is nothing to write
             raise
         # the sensor ran while nobody came: the log marks the declared spans only
         nobody = DetectionBatch.from_arrays([], [])
-        summary = tracks_to_log(nobody, output, observed=merge_spans(spans), **options)
-        note(f"{exc.message}: the log marks the --observed spans only (nobody came)")
+        marked = merge_spans([*spans, *exc.declared])
+        summary = tracks_to_log(nobody, output, observed=marked, **options)
+        which = "the --observed spans" if not exc.declared else (
+            "its header's declared span" + (" and the --observed spans" if spans else ""))
+        note(f"{exc.message}: the log marks {which} only (nobody came)")
     for line in notes:
         note(line)
     mismatch = layout_mismatch(tracks, layout)

@@ -46,3 +46,19 @@ def test_header_only_without_spans_is_an_error_that_says_so(tmp_path: Path) -> N
     assert "hint: the file has only its header line" in result.stderr
     assert "--observed" in result.stderr
     assert not (tmp_path / "night.mcap").exists()
+
+
+def test_a_lincoln_header_alone_is_a_log_of_its_declared_span(tmp_path: Path) -> None:
+    """A Lincoln file of its three header lines only declares the span it recorded
+    (``t_start t_end``): nobody came, and that span is as good as --observed. (Before:
+    'error: no track rows' with the hint to give --observed spans the file already states.)
+    2 h from 20:00 UTC: 240 marks every 30 s and the span's last instant = 241, 12 windows."""
+    src = tmp_path / "night.txt"
+    start = 1767643200  # 2026-01-05 20:00 UTC
+    src.write_text(f"{start} {start + 7200}\n-8 12\n-3 17\n")
+    log = tmp_path / "night.mcap"
+    result = run("convert", src, "--layout", "lincoln", "-o", log)
+    assert result.exit_code == 0, result.stderr
+    assert "the log marks its header's declared span only (nobody came)" in result.stderr
+    assert "marked by 241 empty detection messages" in result.stderr
+    assert "fixed sensor over the 12 windows" in run("info", log).stderr
