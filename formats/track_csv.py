@@ -190,12 +190,27 @@ _BOMS = (
 )
 
 
+#: leading bytes of compressed files, their name and the command that unpacks them
+_PACKED = ((b"\x1f\x8b", "gzip", "gunzip -k"), (b"PK\x03\x04", "zip", "unzip"),
+           (b"\xfd7zXZ\x00", "xz", "unxz -k"), (b"\x28\xb5\x2f\xfd", "zstd", "zstd -d"))
+
+
 def check_encoding(path: Path) -> None:
     """Refuse a tracks file in UTF-16 or UTF-32 (what Windows tools save as "Unicode text"),
     with or without its byte-order mark: read as UTF-8 each character came with NUL bytes and
-    the file was refused as "'\\x000\\x00.\\x00' is not a number" on line 1."""
+    the file was refused as "'\\x000\\x00.\\x00' is not a number" on line 1. Refuse a
+    compressed file (gzip, zip, bzip2, xz, zstd) as such: it was "line 1: expected 6
+    columns, got 1 (the file ends inside this line)" with the hint that it looks cut short."""
     with path.open("rb") as f:
         head = f.read(4096)
+    packed = next((p for p in _PACKED if head.startswith(p[0])), None)
+    if packed is None and head[:3] == b"BZh" and head[3:4].isdigit():
+        packed = (b"BZh", "bzip2", "bunzip2 -k")
+    if packed is not None:
+        raise TracksFormatError(
+            f"{path}: the file is {packed[1]}-compressed; aion reads tracks files as plain text",
+            hint=f"unpack it first: {packed[2]} {path.name}",
+        )
     name = next((n for bom, n in _BOMS if head.startswith(bom)), None)
     if name is None and len(head) >= 8:  # no mark: text with a NUL in every other byte
         odd, even = head[1::2].count(0) / len(head[1::2]), head[0::2].count(0) / len(head[0::2])
