@@ -35,13 +35,14 @@ def read_thor_magni(path: str | Path, start_ns: int = 0, units: str = "auto") ->
 
     ``Time`` is seconds from the recording's start (``start_ns`` is when that was). Positions
     are millimetres in the files of the dataset (thor-magni-tools' converters divide ``x, y, z``
-    by 1000); ``units="auto"`` takes millimetres when the positions span more than 200 units
-    and metres otherwise, with a note saying which; ``"mm"`` / ``"m"`` force it. Rows without a
-    position (untracked frames, empty ``x`` / ``y``) are dropped, with a note. Only people are
-    kept: agents whose ``ag_id`` starts with ``Helmet`` when there are any (the robot and
-    objects are dropped, with a note), else every agent. ``ag_id`` strings become integer
-    track ids: the number that ends the name (``Helmet_3`` -> 3) when those are unique, else
-    the name's rank. Heading and speed come from differencing each track.
+    by 1000); ``units="auto"`` takes millimetres when the positions span or reach more than
+    200 units from the origin and metres otherwise, with a note saying which; ``"mm"`` /
+    ``"m"`` force it. Rows without a position (untracked frames, empty ``x`` / ``y``) are
+    dropped, with a note. Only people are kept: agents whose ``ag_id`` starts with
+    ``Helmet`` when there are any (the robot and objects are dropped, with a note), else every
+    agent. ``ag_id`` strings become integer track ids: the number that ends the name
+    (``Helmet_3`` -> 3) when those are unique, else the name's rank. Heading and speed come
+    from differencing each track.
     """
     if units not in ("auto", "mm", "m"):
         raise TracksFormatError(f"unknown length unit {units!r}", hint="use auto, mm or m")
@@ -215,14 +216,19 @@ def _number_column(path: Path, text: npt.NDArray[np.str_], name: str, finite: bo
 
 
 def _thor_magni_scale(path: Path, x: F64, y: F64, units: str, notes: list[str]) -> float:
-    """Metres per file unit: 1e-3 for millimetres, 1 for metres (``auto``: by the extent)."""
+    """Metres per file unit: 1e-3 for millimetres, 1 for metres (``auto``: millimetres when
+    the positions span or reach more than :data:`_MM_EXTENT` units from the origin; by the
+    span alone, a ``head -n 50`` excerpt of a dataset file, people standing at 2,500 mm, was
+    read as metres and put them 2.5 km away)."""
     extent = float(max(np.ptp(x), np.ptp(y)))
+    reach = float(max(np.abs(x).max(), np.abs(y).max()))
     if units == "auto":
-        units = "mm" if extent > _MM_EXTENT else "m"
-        span = extent / 1000 if units == "mm" else extent
+        units = "mm" if max(extent, reach) > _MM_EXTENT else "m"
+        scale = 1e-3 if units == "mm" else 1.0
         notes.append(
             f"{path.name}: positions read as {'millimetres' if units == 'mm' else 'metres'} "
-            f"(they span {span:,.1f} m); give --length-unit mm|m if that is wrong"
+            f"(they span {extent * scale:,.1f} m and reach {reach * scale:,.1f} m from the "
+            "origin); give --length-unit mm|m if that is wrong"
         )
     return 1e-3 if units == "mm" else 1.0
 

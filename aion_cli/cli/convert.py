@@ -129,8 +129,8 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
     "--length-unit",
     "length_unit",
     type=click.Choice(["auto", "mm", "m"]),
-    help="thor-magni: unit of x, y, z [default: auto: millimetres when the positions span "
-    "more than 200 units, as the dataset's files do].",
+    help="thor-magni: unit of x, y, z [default: auto: millimetres when the positions span or "
+    "reach more than 200 units from the origin, as the dataset's files do].",
 )
 @click.option(
     "--observed",

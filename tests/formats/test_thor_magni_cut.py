@@ -3,7 +3,8 @@ one error line, exit 2, as the other layouts refuse them. (Before: a file cut in
 row's ``ag_id`` -- ``Helmet_1`` cut to ``Hel`` -- was converted, exit 0, with the note "not
 people, skipped: Hel"; cut to ``Helmet_`` it renumbered every agent by rank; a short row was
 numpy's "invalid column index 5 at row 4 with 3 columns"; a Latin-1 byte was Python's
-"'utf-8' codec can't decode byte 0xe9 in position 56".)"""
+"'utf-8' codec can't decode byte 0xe9 in position 56".) And an excerpt of such a file (``head
+-n``) is read in the unit the file means."""
 
 from __future__ import annotations
 
@@ -60,3 +61,24 @@ def test_a_latin1_agent_name_is_named_by_its_line(tmp_path: Path) -> None:
     assert code == 2
     assert_one_line_error(stderr, "line 4 is not UTF-8 text")
     assert "iconv" in stderr
+
+
+def test_an_excerpt_of_people_standing_in_millimetres_is_read_as_millimetres(
+    tmp_path: Path,
+) -> None:
+    """``head -n 4`` of a THÖR-MAGNI file (100 Hz): a helmet at (2,500 mm, 3,000 mm) moving 24
+    mm. By the span alone (24 units < 200) it was read as metres: the person 3.9 km from the
+    origin. By the reach too it is millimetres: 2.5 m, 3.0 m, as the file means."""
+    from aion_cli.formats.tracks import read_track_data
+
+    path = tmp_path / "excerpt.csv"
+    rows = [f"0.0{k},{k},{2500 + 12 * k},3000,1700,Helmet_1,a,m,1" for k in range(3)]
+    path.write_text("\n".join([MAGNI_HEADER, *rows]) + "\n")
+    data = read_track_data(path, "thor-magni")
+    assert data.batch.xyz[0].tolist() == pytest.approx([2.5, 3.0, 1.7])
+    assert "read as millimetres (they span 0.0 m and reach 3.0 m from the origin)" in data.notes[0]
+    # a file in metres stays in metres
+    metres = tmp_path / "metres.csv"
+    in_m = [f"0.0{k},{k},{2.5 + 0.012 * k},3.0,1.7,Helmet_1,a,m,1" for k in range(3)]
+    metres.write_text("\n".join([MAGNI_HEADER, *in_m]) + "\n")
+    assert read_track_data(metres, "thor-magni").batch.xyz[0, 1] == pytest.approx(3.0)
