@@ -271,7 +271,8 @@ def command(
         moved = summary.repeated_elsewhere
         copies = summary.repeated_rows - moved
         (warn if copies else note)(
-            f"{tracks.name}: {counted(summary.repeated_rows, 'row')} repeat the time and track "
+            f"{tracks.name}: {counted(summary.repeated_rows, 'row')} "
+            f"{'repeats' if summary.repeated_rows == 1 else 'repeat'} the time and track "
             f"id of an earlier row ({copies:,} the same row again, {moved:,} at another "
             "position): left out, so each person counts once per time"
             + (" (does the file hold rows twice?)" if copies else
@@ -279,7 +280,8 @@ def command(
         )
     if summary.far_rows:
         warn(
-            f"{tracks.name}: {counted(summary.far_rows, 'row')} lie more than "
+            f"{tracks.name}: {counted(summary.far_rows, 'row')} "
+            f"{'lies' if summary.far_rows == 1 else 'lie'} more than "
             f"{FAR_M / 1000:,.0f} km from the origin (e.g. {summary.far_example:g} m): damaged "
             "values, or positions not in metres; written as the file has them, but aion build "
             "leaves them out (its spatial hash ends there at the default cell_size)"

@@ -96,3 +96,17 @@ def test_positions_far_beyond_the_spatial_hash_are_warned_of(tmp_path: Path) -> 
     quiet = run("convert", near, "--layout", "ucy", "--start", "2026-01-05 12:00", "-o",
                 tmp_path / "near.mcap")
     assert "from the origin" not in quiet.stderr
+
+
+def test_one_row_is_counted_in_the_singular(tmp_path: Path) -> None:
+    """One row repeated and one row far out: "1 row repeats ...", "1 row lies ..." (before:
+    "1 row repeat the time and track id", "1 row lie more than 524 km")."""
+    rows = ["1351038020.0,1,0.0,0.0,1.0,0.0", "1351038021.0,1,1.0,0.0,1.0,0.0",
+            "1351038021.0,1,1.0,0.0,1.0,0.0", "1351038022.0,1,1e7,0.0,1.0,0.0"]
+    src = tmp_path / "one.csv"
+    src.write_text("\n".join(rows) + "\n")
+    result = run("convert", src, "--layout", "atc", "-o", tmp_path / "one.mcap")
+    assert result.exit_code == 0, result.stderr
+    text = " ".join(result.stderr.split())
+    assert "one.csv: 1 row repeats the time and track id of an earlier row" in text
+    assert "one.csv: 1 row lies more than 524 km from the origin (e.g. 1e+07 m)" in text
