@@ -28,12 +28,20 @@ API (``aion_cli`` itself re-exports all of it).
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, overload
 
 from aion_cli import api_checks as check
-from aion_cli.api_checks import PlaceLike, StepLike, TimeLike, ZoneLike, to_ns
+from aion_cli.api_checks import (
+    PairOf,
+    PlaceLike,
+    PointLike,
+    StepLike,
+    TimeLike,
+    ZoneLike,
+    to_ns,
+)
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
@@ -225,7 +233,7 @@ class Map(Generic[Report]):
         tz: ZoneLike | None = None,
         layer: str = "all",
         nodes: Sequence[str | int] | str | None = None,
-        at: str | Sequence[float] | None = None,
+        at: PointLike | None = None,
         top: int | None = None,
     ) -> Table:
         """Flows per entry at ``time`` (default now; ``historical=True``: as observed), as
@@ -264,7 +272,7 @@ class Map(Generic[Report]):
         tz: ZoneLike | None = None,
         layer: str = "all",
         nodes: Sequence[str | int] | str | None = None,
-        at: str | Sequence[float] | None = None,
+        at: PointLike | None = None,
         top: int | None = None,
     ) -> SeriesTable:
         """Predicted flow of the entries asked for at ``start``, ``start + step``, ... up to
@@ -302,7 +310,7 @@ class Map(Generic[Report]):
         time: TimeLike | None = None,
         tz: ZoneLike | None = None,
         speed: float | None = None,
-        leave: tuple[TimeLike, TimeLike] | None = None,
+        leave: PairOf[TimeLike] | None = None,
         step: StepLike | None = None,
     ) -> Plan:
         """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms ``"R3"`` or
@@ -371,7 +379,7 @@ class Map(Generic[Report]):
         historical: bool = False,
         tz: ZoneLike | None = None,
         format: str | None = None,
-        path: tuple[PlaceLike, PlaceLike] | None = None,
+        path: PairOf[PlaceLike] | None = None,
     ) -> list[Path]:
         """Write the scene (PLY or PCD) and ``entries.csv`` / ``entries.json`` at ``time``
         (or as observed) into ``folder``, optionally with the path planned between
@@ -419,7 +427,7 @@ class Map(Generic[Report]):
         time: TimeLike | None = None,
         historical: bool = False,
         tz: ZoneLike | None = None,
-        path: tuple[PlaceLike, PlaceLike] | None = None,
+        path: PairOf[PlaceLike] | None = None,
     ) -> Path:
         """The map from above at ``time`` (or as observed) as the PNG file ``file``, with the
         path planned between ``path = (start, goal)``; the file written (as ``aion export
@@ -438,7 +446,7 @@ class Map(Generic[Report]):
 
     @one_at_a_time
     def holdout(
-        self, logs: Sequence[PathLike] | PathLike, *, radius: float = 1.0, **options: object
+        self, logs: Iterable[PathLike] | PathLike, *, radius: float = 1.0, **options: object
     ) -> HoldoutResult:
         """This map's forecast scored on held-out logs, read as ``aion build`` would read
         them into it (as ``aion evaluate holdout``): ``result.headings`` (heading NLL per

@@ -25,15 +25,17 @@ from aion_cli.errors import InputError, UnknownArgumentError
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
 _C = TypeVar("_C", bound=type)
+_T = TypeVar("_T")
 
 if TYPE_CHECKING:
     import numpy as np
 
     from aion_cli.timeparse import Zone
 
-TimeLike = Union[str, int, datetime, "np.datetime64"]
+TimeLike = Union[str, int, datetime, "np.datetime64", "np.integer[Any]"]
 """A time argument: an aion time string, a ``datetime``, a ``numpy.datetime64`` (its wall-clock
-time, as a naive ``datetime``) or integer UNIX nanoseconds (:func:`to_ns` reads it)."""
+time, as a naive ``datetime``) or integer UNIX nanoseconds, Python's or numpy's
+(:func:`to_ns` reads it)."""
 
 StepLike = Union[str, float, timedelta, "np.timedelta64"]
 """A series or departure step: ``"30m"``, ``"1d"``, seconds, a ``timedelta`` or a
@@ -43,9 +45,18 @@ ZoneLike = str | tzinfo
 """A zone argument (``tz``): a name (``"Europe/London"``, ``"UTC+02:00"``), a
 ``zoneinfo.ZoneInfo`` or a fixed-offset ``datetime.timezone`` (:func:`zone_name` reads it)."""
 
-PlaceLike = str | int | Sequence[float]
+PointLike = Union[str, Sequence[float], "np.ndarray[Any, Any]"]
+"""A point (``at=``): ``"x,y[,z]"``, or 2 or 3 numbers in a sequence or a numpy array (a pose's
+``[:2]``)."""
+
+PlaceLike = Union[str, int, Sequence[float], "np.ndarray[Any, Any]"]
 """A plan's start or goal (``Map.plan``, ``path=``): a node id (``"p12"``, its integer
-NodeSymbol), a room or building by id or name, or a point (``"x,y[,z]"`` or 2 or 3 numbers)."""
+NodeSymbol), a room or building by id or name, or a point (``"x,y[,z]"`` or 2 or 3 numbers,
+a numpy array too)."""
+
+PairOf = tuple[_T, _T] | list[_T]
+"""Two items (``leave=(earliest, latest)``, ``path=(start, goal)``, an ``observed`` span): a
+tuple or a list of two (:func:`pair` reads it)."""
 
 SECONDS_LIKE_NS = 10**16
 """Integer times are nanoseconds: below this (1970-04-26) one is far more likely UNIX seconds,

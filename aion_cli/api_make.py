@@ -6,12 +6,12 @@ it wrote, with what was done in ``Map.report``; :mod:`aion_cli.api` re-exports t
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Union
 
-from aion_cli.api_checks import ZoneLike, keywords_checked, refuse_unknown_keywords
+from aion_cli.api_checks import PairOf, ZoneLike, keywords_checked, refuse_unknown_keywords
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
@@ -82,7 +82,7 @@ def progress_sink(progress: object) -> ProgressSink | None:
 
 @keywords_checked
 def build(
-    logs: PathLike | Sequence[PathLike],
+    logs: PathLike | Iterable[PathLike],
     output: PathLike | None = None,
     *,
     continue_from: PathLike | None = None,
@@ -100,7 +100,7 @@ def build(
     workers: int = 1,
     scheduler: str | None = None,
     part: bool = False,
-    observed: Sequence[tuple[TimeLike, TimeLike]] = (),
+    observed: Sequence[PairOf[TimeLike]] = (),
     progress: ProgressSink | None = None,
 ) -> Map[BuildReport]:
     """Build a map from logs (or extend ``continue_from`` with them) and write it to
@@ -154,7 +154,7 @@ def build(
 
 @keywords_checked
 def merge(
-    paths: Sequence[PathLike],
+    paths: Iterable[PathLike],
     output: PathLike,
     *,
     graph: PathLike | None = None,

@@ -51,3 +51,44 @@ def test_the_documented_examples_pass_mypy_strict(tmp_path: Path) -> None:
          *map(str, files)]
     )
     assert status == 0, out + err
+
+
+# what a robotics script passes and the API takes (docs/API.md "Inputs"): paths from a
+# generator, a pose as a numpy array, numpy integer nanoseconds, pairs as lists
+NUMPY_AND_ITERABLES = '''
+import numpy as np
+import aion_cli as aion
+
+
+def uses(m: aion.Map, pose: np.ndarray, stamps: np.ndarray) -> None:
+    m.predict(stamps[0], at=pose[:2])
+    m.predict_series(stamps[0], stamps[-1], "1h", at=pose)
+    m.plan(pose[:2], "p2", time=stamps[0])
+    m.plan("p1", "p2", leave=["2026-01-12 07:00", "2026-01-12 08:00"])
+    m.export("out", time=stamps[0], path=[pose[:2], "p2"])
+    m.picture("map.png", time=stamps[0], path=["p1", "p2"])
+    m.holdout(name for name in ["later.mcap"])
+    aion.to_ns(np.int64(1768207200000000000))
+    m.predict(np.int64(1768207200000000000), nodes="p1")
+    aion.build((name for name in ["a.mcap", "b.mcap"]), output="ab.aion",
+               observed=[["2026-01-05 08:00", "2026-01-05 10:00"]])
+    aion.merge((name for name in ["a.aion", "b.aion"]), "ab.aion")
+'''
+
+
+def test_numpy_poses_stamps_generators_and_list_pairs_type_check(tmp_path: Path) -> None:
+    """docs/API.md: paths as "any other iterable", a point as "2 or 3 numbers", times as
+    "integer nanoseconds", pairs as "a tuple or a list of two"; each works, but a
+    type-checked script passing a generator of logs, ``at=pose[:2]`` (a numpy array),
+    ``time=stamps[0]`` (``numpy.int64``) or ``leave=[a, b]`` failed mypy with 'incompatible
+    type' (every call of this script): the signatures now admit what the functions take."""
+    api = pytest.importorskip("mypy.api")
+    script = tmp_path / "uses.py"
+    script.write_text(NUMPY_AND_ITERABLES)
+    config = tmp_path / "mypy.ini"
+    config.write_text(f"[mypy]\nmypy_path = {REPO}\n[mypy-aion_cli.*]\nfollow_imports = silent\n")
+    out, err, status = api.run(
+        ["--strict", "--config-file", str(config), "--cache-dir", str(tmp_path / "cache"),
+         str(script)]
+    )
+    assert status == 0, out + err

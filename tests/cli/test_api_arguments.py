@@ -107,7 +107,7 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
     assert aion.to_ns(T) == ns  # UTC by default
     assert aion.to_ns(datetime(2026, 1, 12, 9, 40), "Europe/Berlin") == ns
     assert aion.to_ns(datetime(2026, 1, 12, 8, 40), ZoneInfo("UTC")) == ns
-    assert aion.to_ns(np.int64(ns)) == ns  # type: ignore[arg-type]
+    assert aion.to_ns(np.int64(ns)) == ns
     with pytest.raises(InputError, match="read as nanoseconds") as caught:
         aion.to_ns(ns // 10**9)
     assert caught.value.hint is not None
