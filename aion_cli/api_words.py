@@ -21,36 +21,82 @@ OPTION_KEYWORDS = {
     "graph": "graph",
     "tz": "tz",
     "observed": "observed",
+    "map": "continue_from",
+    "config": "config",
+    "workers": "workers",
+    "scheduler": "scheduler",
+    "derive-graph": "derive_graph",
+    "part": "part",
 }
 """Command-line options and the API keywords that take the same value."""
+
+_FLAGS = frozenset({"derive-graph", "part"})
+"""Options that take no value: their keyword is ``=True`` (``--part cannot ...`` is
+``part=True cannot ...``, the word after it the sentence going on)."""
+_BARE = frozenset({"config"})
+"""Options whose keyword takes no text from the sentence: ``--config`` names a TOML file, the
+API's ``config`` a ``ModelConfig`` or a dict (``with a --config file`` is ``with a config=
+file``)."""
+_NUMBERS = frozenset({"workers"})
+"""Options whose value is a number: unquoted (``--workers 1`` is ``workers=1``)."""
 
 _OPTION = re.compile(
     r"--(" + "|".join(sorted(map(re.escape, OPTION_KEYWORDS), key=len, reverse=True)) + r")"
     r"(?![\w-])(?:[ =](?!--)([^\s,;()`'\"]+))?"
 )
+_COMMAND = re.compile(
+    r"\baion (?:build|merge|compact|predict|plan|export|info|simulate|evaluate|convert|report)"
+    r"\b(?:(?!: |\. )[^`();,])*"
+)
+"""A command line quoted in a sentence (``aion build LOG --part -o PART.aion``,
+``aion build --observed``): a command to run in a shell, whose options stay options (a
+keyword in the middle of it would make it neither a command nor Python)."""
 _NOT_VALUES = frozenset({
     "and", "are", "beside", "below", "could", "given", "giving", "ignored", "in", "is", "names",
-    "needs", "of", "or", "reads", "replaced", "said", "spans", "that", "to", "was", "were",
-    "which", "with", "writes",
+    "naming", "needs", "of", "or", "reads", "replaced", "said", "spans", "that", "to", "was",
+    "were", "which", "with", "writes",
 })  # fmt: skip
 """Words that follow an option in the library's sentences (``--nav-layer ignored: ...``,
 ``as --map-frame said``): the sentence going on, not the option's value."""
-_PLACEHOLDERS = frozenset({"FILE", "GRAPH_FILE", "LOG", "MAP", "ZONE", "FRAME", "TOPIC", "LAYER"})
+_PLACEHOLDERS = frozenset({
+    "FILE", "GRAPH_FILE", "LOG", "MAP", "ZONE", "FRAME", "TOPIC", "LAYER", "N", "ADDRESS",
+})  # fmt: skip
 """Names a hint asks the user to fill in (``--graph FILE``), not values (``--nav-layer PLACES``)."""
 
 
 def api_text(text: str) -> str:
     """``text`` with each option of :data:`OPTION_KEYWORDS` (and its value) as the keyword:
     ``--detections-topic /people`` -> ``detection_topics="/people"``, ``--graph FILE`` ->
-    ``graph=FILE``, ``with --nav-layer;`` -> ``with nav_layer=;``."""
+    ``graph=FILE``, ``with --nav-layer;`` -> ``with nav_layer=;``, ``--workers 1`` ->
+    ``workers=1``, ``--part`` -> ``part=True``; a command line quoted in it (``aion build LOG
+    --part``) is left whole."""
+    out, done = [], 0
+    for command in _COMMAND.finditer(text):
+        out += [_OPTION.sub(_keyword, text[done : command.start()]), command.group(0)]
+        done = command.end()
+    return "".join([*out, _OPTION.sub(_keyword, text[done:])])
 
-    def keyword(match: re.Match[str]) -> str:
-        name, value = OPTION_KEYWORDS[match.group(1)], match.group(2)
-        if value is None or value.rstrip(":") in _NOT_VALUES:
-            return f"{name}=" + match.group(0)[len(match.group(1)) + 2 :]
-        return f"{name}={value}" if value in _PLACEHOLDERS else f'{name}="{value}"'
 
-    return _OPTION.sub(keyword, text)
+def _keyword(match: re.Match[str]) -> str:
+    """One option of :data:`_OPTION` (and its value, if it is one) as its keyword."""
+    option, value = match.group(1), match.group(2)
+    name = OPTION_KEYWORDS[option]
+    after = match.group(0)[len(option) + 2 :]  # what the match took after the option
+    if option in _FLAGS:
+        return f"{name}=True{after}"
+    colon = ""
+    if value is not None and value.endswith(":"):  # "--scheduler ADDR: not contacted"
+        value, colon = value[:-1], ":"
+    if (
+        value is None
+        or value in _NOT_VALUES
+        or option in _BARE
+        or (option in _NUMBERS and not value.isdigit() and value not in _PLACEHOLDERS)
+    ):
+        return f"{name}={after}"
+    if value in _PLACEHOLDERS or option in _NUMBERS:
+        return f"{name}={value}{colon}"
+    return f'{name}="{value}"{colon}'
 
 
 def in_api_words(error: AionError) -> None:

@@ -51,8 +51,8 @@ def test_the_rewrite_takes_values_placeholders_and_bare_options() -> None:
     assert api_text("give a key with --nav-layer; or --tz=Europe/Berlin") == (
         'give a key with nav_layer=; or tz="Europe/Berlin"'
     )
-    # options the API has no keyword for, and a rewritten text, are left as they are
-    assert api_text("--graph-period 10s and --workers 2") == "--graph-period 10s and --workers 2"
+    # an option the API has no keyword for, and a rewritten text, are left as they are
+    assert api_text("--graph-period 10s and --workers 2") == "--graph-period 10s and workers=2"
     once = api_text("--map-frame odom")
     assert api_text(once) == once == 'map_frame="odom"'
 
@@ -89,3 +89,61 @@ def test_a_word_after_an_option_that_goes_on_with_the_sentence_is_not_its_value(
         "as map_frame= said so; tz= or the config"
     )
     assert api_text("--observed ignored: a robot") == "observed= ignored: a robot"
+
+
+def test_build_errors_name_the_part_config_and_continue_keywords(
+    office: Office, tmp_path: Path
+) -> None:
+    """aion.build(..., part=True, continue_from=MAP) said "--part cannot continue an ordinary
+    map" and a config different from the continued map's "--config differs from ...": options
+    the API has keywords for (part, config, continue_from, workers, scheduler, derive_graph)
+    were left as flags. The command line keeps them."""
+    from tests.cli.logdata import write_office_log
+
+    later = tmp_path / "later.mcap"
+    write_office_log(later, shift_s=86_400)  # the next day: a log the map does not hold
+    with pytest.raises(AionError) as caught:
+        aion.build(later, tmp_path / "p.aion", part=True, continue_from=office.map)
+    assert caught.value.message == "part=True cannot continue an ordinary map"
+    # the command it suggests stays a command a shell runs, options and all
+    assert caught.value.hint == (
+        "build the part into a new file (aion build LOG --part -o PART.aion)"
+    )
+    with pytest.raises(AionError) as caught:
+        aion.build(later, tmp_path / "c.aion", continue_from=office.map, config={"bins": 16})
+    assert caught.value.message.startswith("config= differs from the config the map was built")
+    result = run("build", later, "-o", tmp_path / "q.aion", "--part", "--map", office.map)
+    assert result.exit_code == 2
+    assert "error: --part cannot continue an ordinary map" in result.stderr
+
+
+def test_a_command_line_quoted_in_a_message_is_left_a_command() -> None:
+    """A fixed sensor's warning ends "declare the spans it was recording with aion build
+    --observed"; through the API it read "... with aion build observed=", and a hint's
+    `aion info GRAPH_FILE --nav-layer PLACES` read `aion info GRAPH_FILE nav_layer="PLACES"`:
+    neither a command nor Python. A quoted command keeps its options; the sentence around it
+    still speaks keywords."""
+    from aion_cli.fixed_sensor import SILENT_HINT
+
+    assert api_text(SILENT_HINT) == SILENT_HINT
+    assert SILENT_HINT.endswith("with aion build --observed")
+    assert api_text(
+        "rebuild with --nav-layer naming that layer (e.g. --nav-layer PLACES); "
+        "`aion info GRAPH_FILE --nav-layer PLACES` shows how many"
+    ) == (
+        'rebuild with nav_layer= naming that layer (e.g. nav_layer="PLACES"); '
+        "`aion info GRAPH_FILE --nav-layer PLACES` shows how many"
+    )
+    assert api_text("(aion build LOG --map PART.aion --observed ...); or --map A.aion") == (
+        '(aion build LOG --map PART.aion --observed ...); or continue_from="A.aion"'
+    )
+
+
+def test_flags_numbers_and_values_ending_a_clause() -> None:
+    assert api_text("try --graph FILE or --derive-graph)") == "try graph=FILE or derive_graph=True)"
+    assert api_text("rerun with --workers 1; --workers N") == "rerun with workers=1; workers=N"
+    assert api_text("--workers ignored: one log") == "workers= ignored: one log"
+    assert api_text("--scheduler tcp://10.0.0.5:8786: not contacted") == (
+        'scheduler="tcp://10.0.0.5:8786": not contacted'
+    )
+    assert api_text("stability_s in --config), so") == "stability_s in config=), so"
