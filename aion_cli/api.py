@@ -415,7 +415,8 @@ class Map(Generic[Report]):
         if format == "dsg" and ends is not None:
             raise InputError(
                 "a scene-graph file holds no path: leave out path",
-                hint="format='ply', 'png' or 'mcap' draws the path",
+                hint="format='ply' or format='mcap' draws the path; "
+                "Map.picture(file, path=...) draws it as a PNG",
             )
         return write_export(self._loaded, label, out, times, zone, format, ends).files
 

@@ -27,6 +27,25 @@ def _record(graph: Any, label: str) -> dict[str, Any] | None:
     return node.attributes.metadata.get().get("aion")
 
 
+def test_the_formats_the_no_path_hint_names_draw_the_path(office: Office, tmp_path: Path) -> None:
+    """Map.export(..., format="dsg", path=...) is refused with a hint naming the formats that
+    draw a path: it said "format='ply', 'png' or 'mcap'", but export(format="png") is
+    "unknown export format 'png'" (a PNG is Map.picture's). Every format it names draws it."""
+    import re
+
+    m = aion.Map.load(office.map)
+    with pytest.raises(aion.InputError) as caught:
+        m.export(tmp_path / "p.json", time=AT, format="dsg", path=("p0", "p2"))
+    named = re.findall(r"'(\w+)'", (caught.value.hint or "").split("draws the path")[0])
+    assert named
+    for fmt in named:
+        target = tmp_path / (f"drawn.{fmt}" if fmt == "mcap" else f"drawn-{fmt}")
+        written = m.export(target, time=AT, tz="UTC", format=fmt, path=("p0", "p2"))
+        assert written, fmt
+    assert "Map.picture(" in (caught.value.hint or "")
+    assert m.picture(tmp_path / "drawn.png", time=AT, tz="UTC", path=("p0", "p2")).exists()
+
+
 @pytest.mark.parametrize("name", ["dsg.json", "dsg.sparkdsg"])
 def test_every_place_and_room_carries_predict_records(
     office: Office, tmp_path: Path, name: str
