@@ -27,21 +27,12 @@ API (``aion_cli`` itself re-exports all of it).
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, overload
 
 from aion_cli import api_checks as check
-from aion_cli.api_checks import (
-    PairOf,
-    PlaceLike,
-    PointLike,
-    StepLike,
-    TimeLike,
-    ZoneLike,
-    to_ns,
-)
+from aion_cli.api_checks import PairOf, PlaceLike, PointLike, StepLike, TimeLike, ZoneLike, to_ns
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
 from aion_cli.errors import InputError
@@ -477,23 +468,11 @@ class Map(Generic[Report]):
         """Write the map to ``path`` (a new file, or an existing aion map, which is replaced
         atomically; anything else is refused). A map loaded from a file is copied byte for
         byte (its checksums stay valid); an in-memory map is written from its state."""
-        from aion_cli.api_make import write_state
-        from aion_cli.formats.mapfile import check_map_target, map_lock
-        from aion_cli.formats.outputs import staging_prefix
+        from aion_cli.api_make import copy_map, write_state
 
         target = as_path(path)
         if self._file is not None:
-            self._file.check()
-            if target.exists() and os.path.samestat(os.stat(target), os.fstat(self._file.fd)):
-                return target  # the very file: nothing to write
-            check_map_target(target)
-            tmp = target.with_name(f"{staging_prefix(target.name)}{os.getpid()}.tmp")
-            with map_lock(target):  # as write_map: one writer per map at a time
-                try:
-                    self._file.copy_to(tmp)  # the bytes loaded, even if the path was replaced
-                    os.replace(tmp, target)
-                finally:
-                    tmp.unlink(missing_ok=True)
+            copy_map(self._file, target)
             return target
         write_state(self._loaded.state, self.timezone, target)
         self.path = target

@@ -1,6 +1,8 @@
 """The Python API's functions that make maps: :func:`build` (``aion build``), :func:`merge`
 (``aion merge``) and :func:`compact` (``aion compact``). Each returns the :class:`aion_cli.api.Map`
-it wrote, with what was done in ``Map.report``; :mod:`aion_cli.api` re-exports them.
+it wrote, with what was done in ``Map.report``; :mod:`aion_cli.api` re-exports them. Beside
+them the two ways ``Map.save`` writes a map: :func:`copy_map` (a loaded map's file) and
+:func:`write_state` (a state in memory).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.merging import MergeReport
+    from aion_cli.pinned_file import PinnedFile
     from aion_cli.query_only import CompactReport
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -272,6 +275,27 @@ def _config(config: object) -> ModelConfig | None:
         f"config must be a ModelConfig or a dict of its parameters, got {config!r}",
         hint="aion_cli.engine.config.ModelConfig(...), or e.g. {\"bins\": 8}",
     )
+
+
+def copy_map(file: PinnedFile, target: Path) -> None:
+    """Write the map file held open as ``file`` (a loaded map's, :meth:`Map.save`) to
+    ``target`` byte for byte, its checksums valid: the bytes loaded, also once its path was
+    replaced or deleted; nothing to write when ``target`` is that very file. An existing
+    ``target`` is replaced atomically only if it is an aion map."""
+    from aion_cli.formats.mapfile import check_map_target, map_lock
+    from aion_cli.formats.outputs import staging_prefix
+
+    file.check()
+    if target.exists() and os.path.samestat(os.stat(target), os.fstat(file.fd)):
+        return  # the very file: nothing to write
+    check_map_target(target)
+    tmp = target.with_name(f"{staging_prefix(target.name)}{os.getpid()}.tmp")
+    with map_lock(target):  # as write_map: one writer per map at a time
+        try:
+            file.copy_to(tmp)  # the bytes loaded, even if the path was replaced
+            os.replace(tmp, target)
+        finally:
+            tmp.unlink(missing_ok=True)
 
 
 def write_state(state: MapState, timezone: str | None, target: Path) -> None:
