@@ -128,28 +128,9 @@ class Map(Generic[Report]):
         to :meth:`save` it; its scene graph is the state's latest. A loaded map's state is
         refused: its queries count its pending day and open window as closed, in place, so
         it cannot be written again (:meth:`save` copies a loaded map)."""
-        from aion_cli.engine.state import MapState
-        from aion_cli.manifest import Manifest
-        from aion_cli.mapquery import LoadedMap, latest_graph
+        from aion_cli.api_make import state_map
 
-        if not isinstance(state, MapState):
-            raise InputError(
-                f"from_state needs an engine MapState, got {type(state).__name__}",
-                hint="aion_cli.engine.mapper.Mapper(config).state, after feeding it",
-            )
-        if not state.writable:
-            raise InputError(
-                "this state was read from a map file for queries and cannot be written",
-                hint="save the loaded map itself (Map.save copies it), or load it with "
-                "aion_cli.mapquery.load_map(path, writable=True) to continue it",
-            )
-        timezone = check.zone_name(timezone, "timezone")
-        if timezone is not None:  # an unknown name would fail every query of the saved map
-            from aion_cli.timeparse import resolve_zone
-
-            timezone = resolve_zone(timezone).name
-        manifest = Manifest(state={}, config=state.config.to_dict(), timezone=timezone)
-        return Map(LoadedMap(state, latest_graph(state), manifest.to_dict()))
+        return Map(state_map(state, timezone))
 
     # -- what the map is ---------------------------------------------------------------------
 

@@ -1,8 +1,9 @@
 """The Python API's functions that make maps: :func:`build` (``aion build``), :func:`merge`
 (``aion merge``) and :func:`compact` (``aion compact``). Each returns the :class:`aion_cli.api.Map`
 it wrote, with what was done in ``Map.report``; :mod:`aion_cli.api` re-exports them. Beside
-them the two ways ``Map.save`` writes a map: :func:`copy_map` (a loaded map's file) and
-:func:`write_state` (a state in memory).
+them the map :meth:`Map.from_state` makes of a state in memory (:func:`state_map`) and the two
+ways ``Map.save`` writes a map: :func:`copy_map` (a loaded map's file) and :func:`write_state`
+(a state in memory).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
+    from aion_cli.mapquery import LoadedMap
     from aion_cli.merging import MergeReport
     from aion_cli.pinned_file import PinnedFile
     from aion_cli.query_only import CompactReport
@@ -275,6 +277,35 @@ def _config(config: object) -> ModelConfig | None:
         f"config must be a ModelConfig or a dict of its parameters, got {config!r}",
         hint="aion_cli.engine.config.ModelConfig(...), or e.g. {\"bins\": 8}",
     )
+
+
+def state_map(state: object, timezone: object) -> LoadedMap:
+    """A state built in memory as a map to query and save (:meth:`Map.from_state`): a
+    ``MapState`` that can be written (not a loaded map's), its zone a name every query
+    reads; its scene graph is the state's latest."""
+    from aion_cli.api_checks import zone_name
+    from aion_cli.engine.state import MapState
+    from aion_cli.manifest import Manifest
+    from aion_cli.mapquery import LoadedMap, latest_graph
+
+    if not isinstance(state, MapState):
+        raise InputError(
+            f"from_state needs an engine MapState, got {type(state).__name__}",
+            hint="aion_cli.engine.mapper.Mapper(config).state, after feeding it",
+        )
+    if not state.writable:
+        raise InputError(
+            "this state was read from a map file for queries and cannot be written",
+            hint="save the loaded map itself (Map.save copies it), or load it with "
+            "aion_cli.mapquery.load_map(path, writable=True) to continue it",
+        )
+    name = zone_name(timezone, "timezone")
+    if name is not None:  # an unknown name would fail every query of the saved map
+        from aion_cli.timeparse import resolve_zone
+
+        name = resolve_zone(name).name
+    manifest = Manifest(state={}, config=state.config.to_dict(), timezone=name)
+    return LoadedMap(state, latest_graph(state), manifest.to_dict())
 
 
 def copy_map(file: PinnedFile, target: Path) -> None:
