@@ -211,6 +211,7 @@ class Map(Generic[Report]):
         """Flows per entry at ``time`` (default now; ``historical=True``: as observed), as
         ``aion predict`` with ``--layer``, ``--node`` (``nodes``: ids, or one id), ``--at``
         (``"x,y"`` or numbers) and ``--top``."""
+        from aion_cli.forecast_notes import forecast_notes
         from aion_cli.predictions import LAYERS, hour_flags, predicted_records
         from aion_cli.timeparse import format_ns
 
@@ -224,6 +225,7 @@ class Map(Generic[Report]):
         if not historical:
             t_ns, zone = self._time("now" if time is None else time, tz)
         rows, _ = predicted_records(self._loaded, t_ns, layer, wanted, point, top)
+        notes = () if t_ns is None else tuple(forecast_notes(self.manifest, t_ns))
         return Table(
             str(self.path) if self.path is not None else "<memory>",
             t_ns,
@@ -232,6 +234,7 @@ class Map(Generic[Report]):
             int(self.config.bins),
             tuple(rows),
             hour_flags(self._loaded, [t_ns])[0],
+            notes,
         )
 
     @one_at_a_time
@@ -255,6 +258,9 @@ class Map(Generic[Report]):
         ``flow_per_hour`` as arrays entries x times; ``records()`` as its JSON's entries,
         ``to_dict()`` as the whole document, with ``times``, ``zone`` and ``hour_observed``);
         each value equals :meth:`predict` at that time."""
+        from dataclasses import replace
+
+        from aion_cli.forecast_notes import series_notes
         from aion_cli.prediction_series import described, predict_series, series_times
         from aion_cli.predictions import LAYERS, hour_flags
         from aion_cli.time_steps import parse_step
@@ -271,7 +277,8 @@ class Map(Generic[Report]):
         table = predict_series(self._loaded, times, layer, wanted, point, top)
         labels = [format_ns(t, zone) for t in times]
         label = str(self.path) if self.path is not None else "<memory>"
-        return described(table, label, zone, labels, hour_flags(self._loaded, times))
+        made = described(table, label, zone, labels, hour_flags(self._loaded, times))
+        return replace(made, notes=tuple(series_notes(self.manifest, times)))
 
     @one_at_a_time
     def plan(
@@ -292,6 +299,9 @@ class Map(Generic[Report]):
         seconds; ``"10m"`` when not given) after ``earliest`` up to ``latest``, which must be
         later, every departure's cost in ``Plan.departures`` (``--leave``); ``step`` without
         ``leave`` is refused, as ``--step`` without ``--leave``."""
+        from dataclasses import replace
+
+        from aion_cli.forecast_notes import forecast_notes, series_notes
         from aion_cli.mapquery import nav_graph
         from aion_cli.routes import plan_departures, plan_routes, resolve_ends
 
@@ -315,8 +325,8 @@ class Map(Generic[Report]):
         snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
         if leave is None:
             routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
-            return Plan.from_routes(routes, zone, snapped)
-        from dataclasses import replace
+            notes = forecast_notes(self.manifest, t_ns)
+            return replace(Plan.from_routes(routes, zone, snapped), notes=notes)
 
         from aion_cli.api_results import departure_rows
         from aion_cli.prediction_series import series_times
@@ -340,7 +350,8 @@ class Map(Generic[Report]):
             self._loaded, a.node_id, b.node_id, times, speed, nav, observed=observed
         )
         made = Plan.from_routes(plans[best], zone, snapped)
-        return replace(made, departures=departure_rows(plans, best, zone, observed))
+        notes = series_notes(self.manifest, times, plans[best].depart_ns, "departures")
+        return replace(made, departures=departure_rows(plans, best, zone, observed), notes=notes)
 
     @one_at_a_time
     def export(

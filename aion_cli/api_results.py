@@ -38,6 +38,10 @@ class Table:
     """Whether any day of the map's data observed the time's hour of the day (None:
     historical, or a map that does not list its observed hours); where not, the forecast is
     extrapolated."""
+    notes: tuple[str, ...] = ()
+    """What the forecast at this time cannot say (:func:`aion_cli.forecast_notes.forecast_notes`:
+    every entry at its static rate, a time long after the map's data, an hour no log
+    observed), as ``aion predict`` prints them on stderr; not in :meth:`to_dict`."""
 
     def records(self) -> list[dict[str, Any]]:
         """The entries as a list of fresh dicts (safe to change: their lists, ``histogram``
@@ -106,6 +110,8 @@ class Plan:
     departures: list[dict[str, Any]] = field(default_factory=list)
     # the arrival times as UNIX nanoseconds (``arrival`` shows them to the millisecond)
     arrival_ns: list[int] = field(default_factory=list)
+    # what the forecast at the departure (or the departures) cannot say, as aion plan notes it
+    notes: list[str] = field(default_factory=list)
 
     @property
     def distance_only(self) -> Plan:

@@ -59,6 +59,9 @@ class SeriesTable:
     zone: str | None = None
     times: tuple[str, ...] = ()
     hour_observed: tuple[bool | None, ...] | None = None
+    #: what the forecasts cannot say (``forecast_notes.series_notes``; the API fills them, as
+    #: ``aion predict --from`` prints them on stderr; not in the JSON)
+    notes: tuple[str, ...] = ()
     #: ``entries`` as columns (``predict_series`` keeps them for the JSON and CSV writers of
     #: :mod:`aion_cli.entry_text`, which otherwise gather them from the dicts)
     columns: EntryColumns | None = None

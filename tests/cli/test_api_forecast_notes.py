@@ -1,0 +1,59 @@
+"""What a forecast at a time cannot say (:mod:`aion_cli.forecast_notes`: every entry at its
+static rate, a time a week or more after the map's data, an hour no log observed) ``aion
+predict`` and ``aion plan`` print beside the time they used; a script asking ``Map.predict``,
+``Map.predict_series`` or ``Map.plan`` the same got none of it (only ``hour_observed``), so a
+forecast ten years past a half-hour map looked as measured as any. The results carry the same
+notes in ``notes``."""
+
+from __future__ import annotations
+
+import pytest
+
+import aion_cli as aion
+from tests.cli.conftest import Office, run
+
+LATER = "2026-12-10 03:00"  # 17 days after the office log (2026-11-23 08:00-08:20), at night
+
+
+def _notes(stderr: str) -> list[str]:
+    """The notes the command printed after the line naming its time (wrapped lines joined)."""
+    text = " ".join(stderr.split())
+    lines = [line.strip() for line in stderr.splitlines() if line.strip()]
+    assert lines[0].startswith(("time: ", "departure: ", "from: ", "best departure: ")), stderr
+    first = " ".join(lines[0].split())
+    return [text[len(first):].strip()] if text != first else []
+
+
+@pytest.fixture(scope="module")
+def m(office: Office) -> aion.Map:
+    return aion.Map.load(office.map)
+
+
+def test_a_prediction_carries_the_notes_the_command_prints(office: Office, m: aion.Map) -> None:
+    table = m.predict(LATER, tz="UTC")
+    cli = run("predict", office.map, "--time", LATER, "--tz", "UTC", "--format", "json")
+    assert cli.exit_code == 0, cli.stderr
+    assert table.notes, "a forecast 17 days after a 20-minute map, at an unobserved hour"
+    assert _notes(cli.stderr) == [" ".join(table.notes)]
+    assert any("after the map's data" in n for n in table.notes)
+    assert any("no log observed 03:00-04:00" in n for n in table.notes)
+    assert m.predict(historical=True).notes == ()  # what was observed: nothing to caution
+    # the JSON (Table.to_dict) is the command's, without them
+    assert "notes" not in table.to_dict()
+
+
+def test_a_series_and_plans_carry_them_too(office: Office, m: aion.Map) -> None:
+    series = m.predict_series(LATER, "2026-12-10 09:00", "3h", tz="UTC")
+    cli = run("predict", office.map, "--from", LATER, "--to", "2026-12-10 09:00", "--step",
+              "3h", "--tz", "UTC", "--format", "json")
+    assert _notes(cli.stderr) == [" ".join(series.notes)]
+    assert any("of the 3 times fall in hours no log observed" in n for n in series.notes)
+    plan = m.plan("p0", "p2", time=LATER, tz="UTC")
+    cli = run("plan", office.map, "--from", "p0", "--to", "p2", "--time", LATER, "--tz", "UTC",
+              "--format", "json")
+    assert _notes(cli.stderr) == [" ".join(plan.notes)]
+    best = m.plan("p0", "p2", leave=(LATER, "2026-12-10 05:00"), step="1h", tz="UTC")
+    cli = run("plan", office.map, "--from", "p0", "--to", "p2", "--leave",
+              f"{LATER}..2026-12-10 05:00", "--step", "1h", "--tz", "UTC", "--format", "json")
+    assert _notes(cli.stderr) == [" ".join(best.notes)]
+    assert any("of the 3 departures fall in hours" in n for n in best.notes)
