@@ -332,8 +332,13 @@ _EXAMPLES = {
 def flag(value: object, what: str) -> bool:
     """A yes or no: ``True`` / ``False`` (numpy's too), not any value Python finds true (a
     string "no" would be)."""
-    if isinstance(value, bool) or type(value).__name__ == "bool_":
-        return bool(value)
+    if isinstance(value, bool):
+        return value
+    if type(value).__module__ == "numpy":  # numpy.bool (numpy 2's name; bool_ before)
+        import numpy as np
+
+        if isinstance(value, np.bool_):
+            return bool(value)
     raise InputError(f"{what} must be True or False, got {value!r}", hint=f"e.g. {what}=True")
 
 

@@ -468,3 +468,17 @@ def test_names_of_frames_topics_and_formats_must_be_strings(office: Office, tmp_
     assert not (tmp_path / "f.aion").exists()
     layered = aion.build(office.log, tmp_path / "n.aion", nav_layer=3)  # a layer key, as "3"
     assert layered.report.detections_used == office.build["detections"]["used"]
+
+
+def test_numpy_flags_are_read_as_the_flags_they_are(m: aion.Map, tmp_path: Path) -> None:
+    """``historical=mask.any()`` (a ``numpy.bool``) was refused, "historical must be True or
+    False, got np.True_", though yes-or-no arguments take numpy's (api_checks.flag): numpy 2
+    names the type ``bool``, not ``bool_``, so the check by name missed it."""
+    observed = m.predict(historical=np.array([False, True]).any())
+    assert observed.to_dict() == m.predict(historical=True).to_dict()
+    at_t = m.predict(T, tz="UTC", historical=np.False_)
+    assert at_t.to_dict() == m.predict(T, tz="UTC").to_dict()
+    png = m.picture(tmp_path / "h.png", historical=np.True_)
+    assert png.read_bytes().startswith(b"\x89PNG")
+    with pytest.raises(InputError, match="historical must be True or False"):
+        m.predict(historical=np.int64(1))  # type: ignore[arg-type]
