@@ -450,7 +450,7 @@ class Map(Generic[Report]):
         )
         opts = reading_options(logs, options, self.timezone, "Map.holdout")
         result = score_held_out(self._loaded, opts, radius)
-        warn_of(result.warnings)
+        warn_of(result.warnings, result.notes)
         return result
 
     # -- saving ------------------------------------------------------------------------------

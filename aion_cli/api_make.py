@@ -43,14 +43,15 @@ def as_path(value: PathLike, what: str = "path") -> Path:
     return Path(text)
 
 
-def warn_of(warnings: list[str]) -> None:
+def warn_of(warnings: list[str], notes: list[str]) -> None:
     """Each of a report's warnings as an :class:`~aion_cli.errors.AionWarning` (the CLI
     prints them as ``warning: ...``; a script would not see them in ``report.warnings``),
     pointing at the line that called the API: the first frame outside the package, however
     many of its wrappers (argument checks, one query at a time) lie between. The warnings
     name the API's keywords, not the command line's options
     (:func:`aion_cli.api_words.api_text`: ``observed= ignored``, not ``--observed
-    ignored``), and are rewritten so in ``warnings`` itself (the report's list)."""
+    ignored``), and are rewritten so in ``warnings`` itself (the report's list), and so are
+    its ``notes`` (not issued: the CLI prints them only without ``-q``)."""
     import sys
     import warnings as python_warnings
     from pathlib import Path
@@ -59,6 +60,7 @@ def warn_of(warnings: list[str]) -> None:
     from aion_cli.errors import AionWarning
 
     warnings[:] = [api_text(text) for text in warnings]
+    notes[:] = [api_text(text) for text in notes]
 
     package = str(Path(__file__).resolve().parent) + "/"
     level, frame = 1, sys._getframe(0)
@@ -153,7 +155,7 @@ def build(
         part=flag(part, "part"),
     )
     report = build_map(opts, progress_sink(progress))
-    warn_of(report.warnings)
+    warn_of(report.warnings, report.notes)
     return read_map(report.output, report)
 
 
@@ -186,7 +188,7 @@ def merge(
         progress_sink(progress),
         text(nav_layer, "nav_layer"),
     )
-    warn_of(report.warnings)
+    warn_of(report.warnings, report.notes)
     return read_map(report.output, report)
 
 

@@ -147,3 +147,15 @@ def test_flags_numbers_and_values_ending_a_clause() -> None:
         'scheduler="tcp://10.0.0.5:8786": not contacted'
     )
     assert api_text("stability_s in --config), so") == "stability_s in config=), so"
+
+
+def test_a_build_report_s_notes_name_keywords_too(office: Office, tmp_path: Path) -> None:
+    """aion.build(log, derive_graph=True) on a log with scene graphs: ``report.notes`` said
+    "--derive-graph ignored: the log has scene graphs" (its warnings were in the API's words,
+    its notes were not). The command's JSON keeps the option."""
+    built = aion.build(office.log, tmp_path / "d.aion", derive_graph=True)
+    assert "derive_graph=True ignored: the log has scene graphs" in built.report.notes
+    assert not [n for n in built.report.notes if "--derive-graph" in n], built.report.notes
+    cli = run("build", office.log, "-o", tmp_path / "c.aion", "--derive-graph", "--format",
+              "json")
+    assert "--derive-graph ignored: the log has scene graphs" in cli.stdout
