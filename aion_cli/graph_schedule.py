@@ -6,9 +6,11 @@ times alone."""
 
 from __future__ import annotations
 
+import re
 from array import array
 from collections import Counter
 from collections.abc import Iterable
+from decimal import Decimal, InvalidOperation
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -27,6 +29,49 @@ default) — cells bind to it at graph times, adding their state, never overwrit
 graph used up to 5 s late shifts a bind by at most a sixth of that wait and moves no detection
 out of its 600-s window's counts; a 1 Hz Hydra stream costs a fifth. Use ``0`` for every
 graph."""
+
+#: ``--graph-period`` units (seconds each); ``ms`` besides the units of ``--time``'s offsets.
+_PERIOD_UNITS = {
+    "ms": Decimal("0.001"),
+    "s": Decimal(1),
+    "sec": Decimal(1),
+    "m": Decimal(60),
+    "min": Decimal(60),
+    "h": Decimal(3600),
+    "d": Decimal(86400),
+}
+_PERIOD_RE = re.compile(r"(\d+(?:\.\d+)?)\s*([a-z]+)")
+#: Longest accepted period: a year (anything longer thins a log to its first and last graphs
+#: just the same).
+MAX_GRAPH_PERIOD_NS = 366 * 86_400 * 1_000_000_000
+
+
+def parse_period_ns(text: str) -> int:
+    """A duration as the CLI's other durations are written (``5s``, ``1m``, ``1m30s``,
+    ``500ms``, ``2.5``: seconds without a unit) -> integer nanoseconds, exactly (decimal
+    arithmetic). Negative, unreadable or longer than a year: a one-line error (exit 2)."""
+    from aion_cli.timeparse import TimeFormatError
+
+    hint = "e.g. --graph-period 5s, 1m, 500ms or 0 (every graph)"
+    token = text.strip().lower().replace(" ", "")
+    total: Decimal
+    try:
+        total = Decimal(token) if re.fullmatch(r"\d+(?:\.\d+)?", token) else Decimal(-1)
+    except InvalidOperation:
+        total = Decimal(-1)
+    if total < 0:
+        parts = _PERIOD_RE.findall(token)
+        if not parts or "".join(a + u for a, u in parts) != token:
+            raise TimeFormatError(f"cannot read the period {text!r}", hint)
+        total = Decimal(0)
+        for amount, unit in parts:
+            if unit not in _PERIOD_UNITS:
+                raise TimeFormatError(f"unknown unit {unit!r} in --graph-period {text!r}", hint)
+            total += Decimal(amount) * _PERIOD_UNITS[unit]
+    ns = int(total * 1_000_000_000)
+    if ns > MAX_GRAPH_PERIOD_NS:
+        raise TimeFormatError(f"--graph-period {text!r} is longer than a year", hint)
+    return ns
 
 
 def graph_schedule(t_ns: I64, period_ns: int, window_ns: int = 0) -> npt.NDArray[np.bool_]:

@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.cli.graph_options import GRAPH_PERIOD_DEFAULT_TEXT, parse_period_ns
+from aion_cli.cli.graph_options import GRAPH_PERIOD_DEFAULT_TEXT
 from aion_cli.errors import InputError
 from aion_cli.formats.mapfile import read_map
-from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS, graph_schedule
+from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS, graph_schedule, parse_period_ns
 from aion_cli.pipeline import BuildOptions, build_map
 from tests.cli.logdata import S, _tracked_persons, sym
 from tests.graph_stream_logs import (

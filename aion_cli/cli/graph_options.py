@@ -5,9 +5,7 @@ graph stream is used, :func:`aion_cli.graph_schedule.graph_schedule`)."""
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
-from decimal import Decimal, InvalidOperation
 from typing import Any, TypeVar
 
 import click
@@ -37,51 +35,9 @@ def nav_layer_option(func: F) -> F:
     )
 
 
-#: ``--graph-period`` units (seconds each); ``ms`` besides the units of ``--time``'s offsets.
-_PERIOD_UNITS = {
-    "ms": Decimal("0.001"),
-    "s": Decimal(1),
-    "sec": Decimal(1),
-    "m": Decimal(60),
-    "min": Decimal(60),
-    "h": Decimal(3600),
-    "d": Decimal(86400),
-}
-_PERIOD_RE = re.compile(r"(\d+(?:\.\d+)?)\s*([a-z]+)")
-#: Longest accepted period: a year (anything longer thins a log to its first and last graphs
-#: just the same).
-MAX_GRAPH_PERIOD_NS = 366 * 86_400 * 1_000_000_000
-
-
-def parse_period_ns(text: str) -> int:
-    """A duration as the CLI's other durations are written (``5s``, ``1m``, ``1m30s``,
-    ``500ms``, ``2.5``: seconds without a unit) -> integer nanoseconds, exactly (decimal
-    arithmetic). Negative, unreadable or longer than a year: a one-line error (exit 2)."""
-    from aion_cli.timeparse import TimeFormatError
-
-    hint = "e.g. --graph-period 5s, 1m, 500ms or 0 (every graph)"
-    token = text.strip().lower().replace(" ", "")
-    total: Decimal
-    try:
-        total = Decimal(token) if re.fullmatch(r"\d+(?:\.\d+)?", token) else Decimal(-1)
-    except InvalidOperation:
-        total = Decimal(-1)
-    if total < 0:
-        parts = _PERIOD_RE.findall(token)
-        if not parts or "".join(a + u for a, u in parts) != token:
-            raise TimeFormatError(f"cannot read the period {text!r}", hint)
-        total = Decimal(0)
-        for amount, unit in parts:
-            if unit not in _PERIOD_UNITS:
-                raise TimeFormatError(f"unknown unit {unit!r} in --graph-period {text!r}", hint)
-            total += Decimal(amount) * _PERIOD_UNITS[unit]
-    ns = int(total * 1_000_000_000)
-    if ns > MAX_GRAPH_PERIOD_NS:
-        raise TimeFormatError(f"--graph-period {text!r} is longer than a year", hint)
-    return ns
-
-
 def _period(ctx: click.Context, param: click.Parameter, value: str | None) -> int | None:
+    from aion_cli.graph_schedule import parse_period_ns
+
     return None if value is None else parse_period_ns(value)
 
 
