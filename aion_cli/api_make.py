@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
+from datetime import timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING, Union
 
@@ -108,6 +109,9 @@ def build(
     scheduler: str | None = None,
     part: bool = False,
     observed: Sequence[PairOf[TimeLike]] = (),
+    graph_period: str | float | timedelta | None = None,
+    dsg_version: str | None = None,
+    batch_size: int = 4000,
     progress: ProgressSink | None = None,
 ) -> Map[BuildReport]:
     """Build a map from logs (or extend ``continue_from`` with them) and write it to
@@ -117,7 +121,10 @@ def build(
     script that builds with workers needs the usual ``if __name__ == "__main__":`` guard on
     platforms without ``fork``), ``--scheduler`` and ``--part``. ``observed``: ``(start,
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
-    ``Map.predict``, naive ones in ``tz``, else UTC)."""
+    ``Map.predict``, naive ones in ``tz``, else UTC). ``graph_period``: about one scene graph
+    per period of log time (``"5s"``, ``"1m"``, seconds or a ``timedelta``; 0: every graph;
+    None: 5 s), as ``--graph-period``; ``dsg_version`` (``"1.1.3"``) and ``batch_size`` as
+    ``--dsg-version`` and ``--batch-size``."""
     from aion_cli.api import read_map
     from aion_cli.api_checks import count, flag, text, zone_name
     from aion_cli.build_options import map_frame_of
@@ -153,6 +160,9 @@ def build(
         workers=count(workers, "workers", minimum=0) or 0,
         scheduler=text(scheduler, "scheduler"),
         part=flag(part, "part"),
+        graph_period_ns=_period_ns(graph_period),
+        dsg_version=text(dsg_version, "dsg_version"),
+        batch_size=count(batch_size, "batch_size") or 1,
     )
     report = build_map(opts, progress_sink(progress))
     warn_of(report.warnings, report.notes)
@@ -261,6 +271,27 @@ def reading_options(
     if frame is not None:  # spelt as the logs' frames are (/map is map), as --map-frame is
         fields["map_frame"] = map_frame_of(frame, None)
     return BuildOptions(logs=tuple(as_path(p, "log") for p in paths), **fields)  # type: ignore[arg-type]
+
+
+def _period_ns(value: object) -> int:
+    """``graph_period`` as ``--graph-period`` reads it, in ns: text (``"5s"``, ``"1m30s"``),
+    seconds (0: every graph) or a ``timedelta``; None is the build's default (5 s)."""
+    from aion_cli.api_checks import real
+    from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS, parse_period_ns
+
+    if value is None:
+        return DEFAULT_GRAPH_PERIOD_NS
+    if isinstance(value, str):
+        return parse_period_ns(value)
+    seconds = value.total_seconds() if isinstance(value, timedelta) else real(value, "graph_period")
+    if seconds < 0:
+        raise InputError(
+            f"graph_period must be 0 or more seconds, got {value!r}",
+            hint='e.g. graph_period="5s", 60 or 0 (every graph)',
+        )
+    from decimal import Decimal
+
+    return parse_period_ns(f"{Decimal(repr(seconds)):f}")  # exact, as the text would be
 
 
 def _optional_path(value: object, what: str) -> Path | None:

@@ -27,6 +27,9 @@ OPTION_KEYWORDS = {
     "scheduler": "scheduler",
     "derive-graph": "derive_graph",
     "part": "part",
+    "graph-period": "graph_period",
+    "dsg-version": "dsg_version",
+    "batch-size": "batch_size",
 }
 """Command-line options and the API keywords that take the same value."""
 
@@ -37,7 +40,7 @@ _BARE = frozenset({"config"})
 """Options whose keyword takes no text from the sentence: ``--config`` names a TOML file, the
 API's ``config`` a ``ModelConfig`` or a dict (``with a --config file`` is ``with a config=
 file``)."""
-_NUMBERS = frozenset({"workers"})
+_NUMBERS = frozenset({"workers", "batch-size"})
 """Options whose value is a number: unquoted (``--workers 1`` is ``workers=1``)."""
 
 _OPTION = re.compile(

@@ -281,3 +281,39 @@ def test_graphs_left_out_are_not_decompressed_and_the_map_is_the_same(
         report.pop("map")
         report.pop("map_bytes")
     assert ra == rb
+
+
+def test_the_api_takes_the_period_version_and_batch_size_as_the_cli_does(
+    stream_log: Path, tmp_path: Path
+) -> None:
+    """aion.build had no keyword for --graph-period, --dsg-version or --batch-size (docs/API.md:
+    "everything the aion command does can be done from Python"): a script could not use every
+    scene graph of a live Hydra stream, nor pin a payload version. Now graph_period takes the
+    period as text, seconds or a timedelta, and builds the map the command builds."""
+    from datetime import timedelta
+
+    import aion_cli as aion
+    from tests.cli.conftest import run_json
+
+    every = aion.build(stream_log, tmp_path / "every.aion", graph_period=0)
+    assert every.report.graphs_skipped_period == 0
+    assert every.report.graph_messages == N_GRAPHS
+    run_json("build", stream_log, "-o", tmp_path / "cli.aion", "--graph-period", "0", "--format",
+             "json")
+    assert_same_map(tmp_path / "every.aion", tmp_path / "cli.aion")
+    for period in ("5s", 5, 5.0, timedelta(seconds=5)):
+        thinned = aion.build(stream_log, tmp_path / "thinned.aion", graph_period=period)
+        assert thinned.report.graph_messages == len(PERIOD_5S_USED), period
+        assert thinned.report.graphs_skipped_period == N_GRAPHS - len(PERIOD_5S_USED)
+    # the decoding chunk changes no map; a pinned version is the one reported
+    assert every.report.dsg_version is not None
+    small = aion.build(stream_log, tmp_path / "small.aion", graph_period=0, batch_size=3,
+                       dsg_version=every.report.dsg_version)
+    assert small.report.dsg_version == every.report.dsg_version
+    assert_same_map(tmp_path / "small.aion", tmp_path / "every.aion")
+    with pytest.raises(InputError, match="cannot read the period 'soon'"):
+        aion.build(stream_log, tmp_path / "x.aion", graph_period="soon")
+    with pytest.raises(InputError, match="graph_period must be 0 or more seconds"):
+        aion.build(stream_log, tmp_path / "x.aion", graph_period=-1)
+    with pytest.raises(InputError, match="batch_size must be at least 1"):
+        aion.build(stream_log, tmp_path / "x.aion", batch_size=0)
