@@ -456,3 +456,22 @@ def test_a_room_whose_centre_place_is_isolated_is_reached_by_its_other_places(
         lost.stderr, "no path from p0 to p5", "the start 0.1,0 snapped to p0 (0.10 m away)",
         "the goal 5,0.3 snapped to p5 (0.20 m away)",
     )
+
+
+def test_the_api_documents_the_snapped_records_keys(sample_map: Path) -> None:
+    """docs/API.md listed ``Plan.snapped`` by name only, and a script found records keyed
+    ``option`` with the command's "--from" / "--to" in them, undocumented. Every key a room's
+    and a point's record has is documented in its bullet, and so are the option values."""
+    import re
+
+    import aion_cli as aion
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "API.md").read_text()
+    bullet = re.search(r"^- `snapped`: (.*?)^- ", doc, re.M | re.S)
+    assert bullet is not None, "docs/API.md documents Plan.snapped's records"
+    named = set(re.findall(r"`([a-z_]+)`", bullet.group(1)))
+    plan = aion.Map.load(sample_map).plan("kitchen", (3.0, 4.0), time=AT, tz="UTC")
+    assert [s["option"] for s in plan.snapped] == ["--from", "--to"]
+    assert all(f'"{s["option"]}"' in bullet.group(1) for s in plan.snapped)
+    for record in plan.snapped:
+        assert set(record) <= named, set(record) - named
