@@ -123,7 +123,7 @@ class Map(Generic[Report]):
         return read_map(as_path(path), None)
 
     @classmethod
-    def from_state(cls, state: MapState, timezone: str | None = None) -> Map[None]:
+    def from_state(cls, state: MapState, timezone: ZoneLike | None = None) -> Map[None]:
         """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g.
         to :meth:`save` it; its scene graph is the state's latest. A loaded map's state is
         refused: its queries count its pending day and open window as closed, in place, so

@@ -9,11 +9,11 @@ ways ``Map.save`` writes a map: :func:`copy_map` (a loaded map's file) and :func
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
 from datetime import timedelta
 from pathlib import Path
-from typing import TYPE_CHECKING, Union
+from typing import TYPE_CHECKING, Any, Union
 
 from aion_cli.api_checks import PairOf, ZoneLike, keywords_checked, refuse_unknown_keywords
 from aion_cli.errors import InputError
@@ -94,7 +94,7 @@ def build(
     output: PathLike | None = None,
     *,
     continue_from: PathLike | None = None,
-    config: ModelConfig | None = None,
+    config: ModelConfig | Mapping[str, Any] | None = None,
     graph: PathLike | None = None,
     tz: ZoneLike | None = None,
     detection_topics: Sequence[str] = (),
@@ -304,8 +304,8 @@ def _config(config: object) -> ModelConfig | None:
 
     if config is None or isinstance(config, ModelConfig):
         return config
-    if isinstance(config, dict):
-        return ModelConfig.from_dict(config)
+    if isinstance(config, Mapping):
+        return ModelConfig.from_dict(dict(config))
     raise InputError(
         f"config must be a ModelConfig or a dict of its parameters, got {config!r}",
         hint="aion_cli.engine.config.ModelConfig(...), or e.g. {\"bins\": 8}",

@@ -56,8 +56,11 @@ def test_the_documented_examples_pass_mypy_strict(tmp_path: Path) -> None:
 # what a robotics script passes and the API takes (docs/API.md "Inputs"): paths from a
 # generator, a pose as a numpy array, numpy integer nanoseconds, pairs as lists
 NUMPY_AND_ITERABLES = '''
+from zoneinfo import ZoneInfo
+
 import numpy as np
 import aion_cli as aion
+from aion_cli.engine.state import MapState
 
 
 def uses(m: aion.Map, pose: np.ndarray, stamps: np.ndarray) -> None:
@@ -73,6 +76,11 @@ def uses(m: aion.Map, pose: np.ndarray, stamps: np.ndarray) -> None:
     aion.build((name for name in ["a.mcap", "b.mcap"]), output="ab.aion",
                observed=[["2026-01-05 08:00", "2026-01-05 10:00"]])
     aion.merge((name for name in ["a.aion", "b.aion"]), "ab.aion")
+
+
+def config_and_zones(state: MapState) -> None:
+    aion.build("a.mcap", config={"bins": 16, "window_s": 300.0})
+    aion.Map.from_state(state, timezone=ZoneInfo("Europe/Madrid"))
 '''
 
 
@@ -81,7 +89,9 @@ def test_numpy_poses_stamps_generators_and_list_pairs_type_check(tmp_path: Path)
     "integer nanoseconds", pairs as "a tuple or a list of two"; each works, but a
     type-checked script passing a generator of logs, ``at=pose[:2]`` (a numpy array),
     ``time=stamps[0]`` (``numpy.int64``) or ``leave=[a, b]`` failed mypy with 'incompatible
-    type' (every call of this script): the signatures now admit what the functions take."""
+    type' (every call of this script): the signatures now admit what the functions take. So
+    do ``config=`` a dict of model parameters (as ``--config``'s TOML) and ``from_state``'s
+    ``timezone=`` a ``ZoneInfo``, which work and were typed ``ModelConfig`` and ``str``."""
     api = pytest.importorskip("mypy.api")
     script = tmp_path / "uses.py"
     script.write_text(NUMPY_AND_ITERABLES)
