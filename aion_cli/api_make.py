@@ -13,7 +13,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
 from datetime import timedelta
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Union
+from typing import TYPE_CHECKING, Any, Protocol, Union
 
 from aion_cli.api_checks import PairOf, ZoneLike, keywords_checked, refuse_unknown_keywords
 from aion_cli.errors import InputError
@@ -73,6 +73,31 @@ def warn_of(warnings: list[str], notes: list[str]) -> None:
         python_warnings.warn(text, AionWarning, stacklevel=level)
 
 
+class Progress(Protocol):
+    """What ``progress=`` of :func:`build` and :func:`merge` takes: ``start(description,
+    total, unit)`` at each phase (``total`` of ``unit``: "msgs", "MiB", "maps", "shards"),
+    then ``advance(n)`` as ``n`` more are done."""
+
+    def start(self, description: str, total: int, unit: str) -> None: ...
+
+    def advance(self, n: int) -> None: ...
+
+
+class _EveryUnit:
+    """A caller's :class:`Progress` as the build's ``ProgressSink``: ``start`` always given
+    the unit (the build's phases leave "msgs" to the sink's default, which a caller's
+    ``start(description, total, unit)`` need not have)."""
+
+    def __init__(self, progress: Progress) -> None:
+        self._progress = progress
+
+    def start(self, description: str, total: int, unit: str = "msgs") -> None:
+        self._progress.start(description, total, unit)
+
+    def advance(self, n: int) -> None:
+        self._progress.advance(n)
+
+
 def progress_sink(progress: object) -> ProgressSink | None:
     """``progress`` checked: None, or an object with the ``start(description, total,
     unit)`` and ``advance(n)`` methods of :class:`aion_cli.build_report.ProgressSink` (not
@@ -85,7 +110,7 @@ def progress_sink(progress: object) -> ProgressSink | None:
             f"got {progress!r}",
             hint="leave it out, or pass an object like aion_cli.build_report.NoProgress",
         )
-    return progress  # type: ignore[return-value]
+    return _EveryUnit(progress)  # type: ignore[arg-type]
 
 
 @keywords_checked
@@ -112,7 +137,7 @@ def build(
     graph_period: str | float | timedelta | None = None,
     dsg_version: str | None = None,
     batch_size: int = 4000,
-    progress: ProgressSink | None = None,
+    progress: Progress | None = None,
 ) -> Map[BuildReport]:
     """Build a map from logs (or extend ``continue_from`` with them) and write it to
     ``output`` (default: the first log's name with ``.aion``), as ``aion build``; the map,
@@ -177,7 +202,7 @@ def merge(
     graph: PathLike | None = None,
     lineage: str = "auto",
     nav_layer: str | None = None,
-    progress: ProgressSink | None = None,
+    progress: Progress | None = None,
 ) -> Map[MergeReport]:
     """Merge map files of disjoint time into ``output``, as ``aion merge``
     (:func:`aion_cli.merging.merge_map_files`: same model parameters, no log in two maps,

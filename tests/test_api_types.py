@@ -78,8 +78,17 @@ def uses(m: aion.Map, pose: np.ndarray, stamps: np.ndarray) -> None:
     aion.merge((name for name in ["a.aion", "b.aion"]), "ab.aion")
 
 
+class Phases:
+    def start(self, description: str, total: int, unit: str) -> None:
+        print(description, total, unit)
+
+    def advance(self, n: int) -> None:
+        print(n)
+
+
 def config_and_zones(state: MapState) -> None:
-    aion.build("a.mcap", config={"bins": 16, "window_s": 300.0})
+    aion.build("a.mcap", config={"bins": 16, "window_s": 300.0}, progress=Phases())
+    aion.merge(["a.aion", "b.aion"], "ab.aion", progress=Phases())
     aion.Map.from_state(state, timezone=ZoneInfo("Europe/Madrid"))
 '''
 
@@ -91,7 +100,8 @@ def test_numpy_poses_stamps_generators_and_list_pairs_type_check(tmp_path: Path)
     ``time=stamps[0]`` (``numpy.int64``) or ``leave=[a, b]`` failed mypy with 'incompatible
     type' (every call of this script): the signatures now admit what the functions take. So
     do ``config=`` a dict of model parameters (as ``--config``'s TOML) and ``from_state``'s
-    ``timezone=`` a ``ZoneInfo``, which work and were typed ``ModelConfig`` and ``str``."""
+    ``timezone=`` a ``ZoneInfo``, which work and were typed ``ModelConfig`` and ``str``, and
+    ``progress=`` an object with ``start(description, total, unit)`` as the docs give it."""
     api = pytest.importorskip("mypy.api")
     script = tmp_path / "uses.py"
     script.write_text(NUMPY_AND_ITERABLES)

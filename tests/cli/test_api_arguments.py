@@ -482,3 +482,39 @@ def test_numpy_flags_are_read_as_the_flags_they_are(m: aion.Map, tmp_path: Path)
     assert png.read_bytes().startswith(b"\x89PNG")
     with pytest.raises(InputError, match="historical must be True or False"):
         m.predict(historical=np.int64(1))  # type: ignore[arg-type]
+
+
+class _Phases:
+    """A progress object written as the API's words give it: ``start(description, total,
+    unit)`` and ``advance(n)``, no defaults."""
+
+    def __init__(self) -> None:
+        self.units: list[str] = []
+        self.done = 0
+
+    def start(self, description: str, total: int, unit: str) -> None:
+        self.units.append(unit)
+
+    def advance(self, n: int) -> None:
+        self.done += n
+
+
+def test_a_progress_object_with_start_description_total_unit_is_called(
+    office: Office, tmp_path: Path
+) -> None:
+    """The hint and docs say progress= takes an object with ``start(description, total, unit)``
+    and ``advance(n)``; one written so failed inside the build with "TypeError: start() missing
+    1 required positional argument: 'unit'" (the build's phases left ``unit`` to a default).
+    Every phase now passes its unit; the map is the one built without progress."""
+    phases = _Phases()
+    built = aion.build(office.log, tmp_path / "p.aion", progress=phases)
+    assert phases.units
+    assert all(isinstance(u, str) and u for u in phases.units)
+    assert "msgs" in phases.units
+    assert phases.done > 0
+    plain = aion.build(office.log, tmp_path / "q.aion")
+    assert built.predict(T, tz="UTC").records() == plain.predict(T, tz="UTC").records()
+    merged = _Phases()
+    later = aion.build(office.log, tmp_path / "part.aion", part=True)
+    aion.merge([later.path], tmp_path / "m.aion", progress=merged)  # type: ignore[list-item]
+    assert merged.units == ["maps", "maps"]
