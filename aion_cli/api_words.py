@@ -30,6 +30,7 @@ OPTION_KEYWORDS = {
     "graph-period": "graph_period",
     "dsg-version": "dsg_version",
     "batch-size": "batch_size",
+    "radius": "radius",
 }
 """Command-line options and the API keywords that take the same value."""
 

@@ -160,3 +160,20 @@ def test_a_build_report_s_notes_name_keywords_too(office: Office, tmp_path: Path
     cli = run("build", office.log, "-o", tmp_path / "c.aion", "--derive-graph", "--format",
               "json")
     assert "--derive-graph ignored: the log has scene graphs" in cli.stdout
+
+
+def test_holdout_s_warnings_name_its_radius_keyword(office: Office, tmp_path: Path) -> None:
+    """Map.holdout whose radius no test detection lies within (logs of another place or
+    frame) warned "none of the ... test detections lies within 1 m (--radius) of a map
+    entry": an option of aion evaluate holdout; the keyword is radius."""
+    from tests.cli.logdata import write_office_log
+
+    far = tmp_path / "far.mcap"
+    write_office_log(far, shift_s=86_400)
+    m = aion.Map.load(office.map)
+    with pytest.warns(aion.AionWarning) as caught:
+        m.holdout(far, radius=1e-9)
+    said = [str(w.message) for w in caught if "lies within" in str(w.message)]
+    assert said, [str(w.message) for w in caught]
+    assert "(radius=)" in said[0]
+    assert "--radius" not in said[0]
