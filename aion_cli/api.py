@@ -194,6 +194,22 @@ class Map(Generic[Report]):
         if self._file is not None:
             self._file.check()
 
+    def _notes(
+        self, time: object, zone: Zone, t_ns: int, series: list[int] | None = None,
+        noun: str = "times",
+    ) -> list[str]:
+        """What the commands note beside the time they used (``cli.common.announce_time``):
+        which instant a wall-clock ``time`` a clock change skips or repeats was read as, and
+        what the forecast at ``t_ns`` (of the ``series``) cannot say."""
+        from aion_cli.forecast_notes import forecast_notes, series_notes
+        from aion_cli.wall_clock import clock_change_note
+
+        changed = clock_change_note(time, zone, t_ns) if isinstance(time, str) else None
+        notes = [] if changed is None else [changed]
+        if series:
+            return notes + series_notes(self.manifest, series, t_ns, noun)
+        return notes + forecast_notes(self.manifest, t_ns)
+
     # -- queries -----------------------------------------------------------------------------
 
     @one_at_a_time
@@ -211,7 +227,6 @@ class Map(Generic[Report]):
         """Flows per entry at ``time`` (default now; ``historical=True``: as observed), as
         ``aion predict`` with ``--layer``, ``--node`` (``nodes``: ids, or one id), ``--at``
         (``"x,y"`` or numbers) and ``--top``."""
-        from aion_cli.forecast_notes import forecast_notes
         from aion_cli.predictions import LAYERS, hour_flags, predicted_records
         from aion_cli.timeparse import format_ns
 
@@ -225,7 +240,7 @@ class Map(Generic[Report]):
         if not historical:
             t_ns, zone = self._time("now" if time is None else time, tz)
         rows, _ = predicted_records(self._loaded, t_ns, layer, wanted, point, top)
-        notes = () if t_ns is None else tuple(forecast_notes(self.manifest, t_ns))
+        notes = () if t_ns is None or zone is None else tuple(self._notes(time, zone, t_ns))
         return Table(
             str(self.path) if self.path is not None else "<memory>",
             t_ns,
@@ -260,7 +275,6 @@ class Map(Generic[Report]):
         each value equals :meth:`predict` at that time."""
         from dataclasses import replace
 
-        from aion_cli.forecast_notes import series_notes
         from aion_cli.prediction_series import described, predict_series, series_times
         from aion_cli.predictions import LAYERS, hour_flags
         from aion_cli.time_steps import parse_step
@@ -278,7 +292,7 @@ class Map(Generic[Report]):
         labels = [format_ns(t, zone) for t in times]
         label = str(self.path) if self.path is not None else "<memory>"
         made = described(table, label, zone, labels, hour_flags(self._loaded, times))
-        return replace(made, notes=tuple(series_notes(self.manifest, times)))
+        return replace(made, notes=tuple(self._notes(start, zone, times[0], times)))
 
     @one_at_a_time
     def plan(
@@ -301,7 +315,6 @@ class Map(Generic[Report]):
         ``leave`` is refused, as ``--step`` without ``--leave``."""
         from dataclasses import replace
 
-        from aion_cli.forecast_notes import forecast_notes, series_notes
         from aion_cli.mapquery import nav_graph
         from aion_cli.routes import plan_departures, plan_routes, resolve_ends
 
@@ -325,7 +338,7 @@ class Map(Generic[Report]):
         snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
         if leave is None:
             routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
-            notes = forecast_notes(self.manifest, t_ns)
+            notes = self._notes(time, zone, t_ns)
             return replace(Plan.from_routes(routes, zone, snapped), notes=notes)
 
         from aion_cli.api_results import departure_rows
@@ -350,7 +363,7 @@ class Map(Generic[Report]):
             self._loaded, a.node_id, b.node_id, times, speed, nav, observed=observed
         )
         made = Plan.from_routes(plans[best], zone, snapped)
-        notes = series_notes(self.manifest, times, plans[best].depart_ns, "departures")
+        notes = self._notes(None, zone, times[best], times, "departures")
         return replace(made, departures=departure_rows(plans, best, zone, observed), notes=notes)
 
     @one_at_a_time

@@ -57,3 +57,25 @@ def test_a_series_and_plans_carry_them_too(office: Office, m: aion.Map) -> None:
               f"{LATER}..2026-12-10 05:00", "--step", "1h", "--tz", "UTC", "--format", "json")
     assert _notes(cli.stderr) == [" ".join(best.notes)]
     assert any("of the 3 departures fall in hours" in n for n in best.notes)
+
+
+def test_a_wall_clock_time_a_clock_change_skips_is_noted(office: Office, m: aion.Map) -> None:
+    """"2026-03-29 02:30" does not exist in Madrid (clocks go from 02:00 to 03:00): aion
+    predict says which instant it read it as, before the forecast's notes; Map.predict and
+    Map.plan answered for that instant without a word. Their notes now begin with it."""
+    gap = "2026-03-29 02:30"
+    table = m.predict(gap, tz="Europe/Madrid")
+    cli = run("predict", office.map, "--time", gap, "--tz", "Europe/Madrid", "--format", "json")
+    assert _notes(cli.stderr) == [" ".join(table.notes)]
+    assert "02:30" in table.notes[0]
+    assert table.time == "2026-03-29 03:30:00+02:00"  # the instant it was read as
+    plan = m.plan("p0", "p2", time=gap, tz="Europe/Madrid")
+    cli = run("plan", office.map, "--from", "p0", "--to", "p2", "--time", gap, "--tz",
+              "Europe/Madrid", "--format", "json")
+    assert _notes(cli.stderr) == [" ".join(plan.notes)]
+    assert plan.notes[0] == table.notes[0]
+    series = m.predict_series(gap, "2026-03-29 06:30", "2h", tz="Europe/Madrid")
+    cli = run("predict", office.map, "--from", gap, "--to", "2026-03-29 06:30", "--step", "2h",
+              "--tz", "Europe/Madrid", "--format", "json")
+    assert _notes(cli.stderr) == [" ".join(series.notes)]
+    assert series.notes[0] == table.notes[0]
