@@ -198,17 +198,10 @@ class Map(Generic[Report]):
         self, time: object, zone: Zone, t_ns: int, series: list[int] | None = None,
         noun: str = "times",
     ) -> list[str]:
-        """What the commands note beside the time they used (``cli.common.announce_time``):
-        which instant a wall-clock ``time`` a clock change skips or repeats was read as, and
-        what the forecast at ``t_ns`` (of the ``series``) cannot say."""
-        from aion_cli.forecast_notes import forecast_notes, series_notes
-        from aion_cli.wall_clock import clock_change_note
+        """:func:`aion_cli.forecast_notes.query_notes` of this map."""
+        from aion_cli.forecast_notes import query_notes
 
-        changed = clock_change_note(time, zone, t_ns) if isinstance(time, str) else None
-        notes = [] if changed is None else [changed]
-        if series:
-            return notes + series_notes(self.manifest, series, t_ns, noun)
-        return notes + forecast_notes(self.manifest, t_ns)
+        return query_notes(self.manifest, time, zone, t_ns, series, noun)
 
     # -- queries -----------------------------------------------------------------------------
 

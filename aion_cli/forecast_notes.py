@@ -33,6 +33,7 @@ from aion_cli.engine.temporal.calendar import DAY_NS
 
 if TYPE_CHECKING:
     from aion_cli.manifest import Manifest
+    from aion_cli.timeparse import Zone
 
 FAR_AFTER_NS = 7 * DAY_NS
 """Beyond this after a map's last data a forecast repeats a rhythm learnt long before; a
@@ -65,6 +66,27 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     if unobserved is not None:
         notes.append(unobserved)
     return notes
+
+
+def query_notes(
+    manifest: Manifest,
+    time: object,
+    zone: Zone,
+    t_ns: int,
+    series: list[int] | None = None,
+    noun: str = "times",
+) -> list[str]:
+    """What the commands note beside the time a query used (``cli.common.announce_time``),
+    for the API's results: which instant ``time``, a wall-clock time a clock change skips or
+    repeats, was read as (when given as text), then the notes of a forecast at ``t_ns`` (of
+    the ``series`` of times it belongs to, ``noun`` naming them)."""
+    from aion_cli.wall_clock import clock_change_note
+
+    changed = clock_change_note(time, zone, t_ns) if isinstance(time, str) else None
+    notes = [] if changed is None else [changed]
+    if series:
+        return notes + series_notes(manifest, series, t_ns, noun)
+    return notes + forecast_notes(manifest, t_ns)
 
 
 def all_static(manifest: Manifest) -> str | None:
