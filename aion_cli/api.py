@@ -380,7 +380,10 @@ class Map(Generic[Report]):
         suffix chooses as in ``aion export``: ``.mcap``, ``.json`` / ``.sparkdsg``, ``.ply`` /
         ``.pcd`` (the whole scene as one file) (a ``.png`` is :meth:`picture`'s), else a ply
         folder."""
-        from aion_cli.exports import export_format, write_export
+        from aion_cli.api_make import warn_of
+        from aion_cli.exports import cells_left_out, export_format, write_export
+
+        shown = "format='ply' or Map.picture"
 
         if format not in (None, "ply", "pcd", "mcap", "dsg"):
             raise InputError(f"unknown export format {format!r}", hint="ply, pcd, mcap or dsg")
@@ -407,7 +410,10 @@ class Map(Generic[Report]):
                 hint="format='ply' or format='mcap' draws the path; "
                 "Map.picture(file, path=...) draws it as a PNG",
             )
-        return write_export(self._loaded, label, out, times, zone, format, ends).files
+        written = write_export(self._loaded, label, out, times, zone, format, ends)
+        left_out = None if written.graph is None else cells_left_out(self._loaded, shown)
+        warn_of([left_out[0]] if left_out is not None and left_out[1] else [], [])
+        return written.files
 
     @one_at_a_time
     def picture(

@@ -359,12 +359,15 @@ def export_dsg(
     return write_dynamic_graph(graph, records, info, out)
 
 
-def cells_left_out(loaded: Any) -> tuple[str, bool] | None:
+def cells_left_out(
+    loaded: Any, shown_by: str = "--format ply or png"
+) -> tuple[str, bool] | None:
     """What a scene-graph export (``--format dsg``) leaves out: the detections on unbound
     hash cells, which a spark_dsg graph has no node for (a log in another frame than the
     graph, a fixed sensor built with ``--graph`` of another site: every detection there, and
     the file's places all read zero). ``(message, most)``: ``most`` when they are at least
-    half the map's detections; None when no cell holds any."""
+    half the map's detections; None when no cell holds any. ``shown_by``: what draws them
+    (the API names its own calls)."""
     from aion_cli.mapquery import detections_by_kind, entries_with_detections
 
     on_cells, on_nodes = detections_by_kind(loaded.state)
@@ -380,7 +383,7 @@ def cells_left_out(loaded: Any) -> tuple[str, bool] | None:
         f"{said}% of the map's detections ({on_cells:,.0f} of {total:,.0f}) lie on "
         f"{cells:,} hash cell(s) that no place of the scene graph holds (away from them, or "
         "before they were stable), and a spark_dsg graph has no node for a cell: the file "
-        "leaves them out (--format ply or png shows them)",
+        f"leaves them out ({shown_by} shows them)",
         on_cells >= on_nodes,
     )
 

@@ -4,6 +4,7 @@ spark_dsg itself and with aion's own graph reader."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -274,3 +275,27 @@ def test_the_left_out_share_is_never_rounded_to_none_or_all(
     got = cells_left_out(SimpleNamespace(state=SimpleNamespace(entries=Entries())))
     assert got is not None
     assert got[0].startswith(f"{said} of the map's detections "), got[0]
+
+
+def test_the_api_warns_of_the_detections_a_graph_file_leaves_out(
+    office: Office, tmp_path: Path
+) -> None:
+    """aion export --format dsg warns when most of the map's detections lie on hash cells,
+    which the spark_dsg file leaves out; Map.export(..., format="dsg") wrote the same file of
+    zero flows without a word. It issues the warning as an AionWarning, in the API's words."""
+    far = save_graph_file(tmp_path / "far.json", {0: (100.0, 0.0, 0.0), 1: (101.0, 0.0, 0.0)},
+                          [(0, 1)])
+    site = tmp_path / "far.aion"
+    assert run("build", office.log, "--graph", far, "-o", site, "-q").exit_code == 0
+    cli = run("export", site, "--historical", "--format", "dsg", "-o", tmp_path / "cli.json")
+    said = " ".join(cli.stderr.split()).split("warning: ")[1]
+    with pytest.warns(aion.AionWarning) as caught:
+        aion.Map.load(site).export(tmp_path / "api.json", historical=True, format="dsg")
+    (warned,) = [str(w.message) for w in caught]
+    assert warned.startswith("100% of the map's detections")
+    assert warned == said.replace("(--format ply or png shows them)",
+                                  "(format='ply' or Map.picture shows them)")
+    assert all(w.filename == __file__ for w in caught)
+    with warnings.catch_warnings():  # a map whose places hold its detections: no warning
+        warnings.simplefilter("error", aion.AionWarning)
+        aion.Map.load(office.map).export(tmp_path / "ok.json", historical=True, format="dsg")
