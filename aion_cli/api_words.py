@@ -56,9 +56,9 @@ _COMMAND = re.compile(
 ``aion build --observed``): a command to run in a shell, whose options stay options (a
 keyword in the middle of it would make it neither a command nor Python)."""
 _NOT_VALUES = frozenset({
-    "and", "are", "beside", "below", "could", "given", "giving", "ignored", "in", "is", "names",
-    "naming", "needs", "of", "or", "reads", "replaced", "said", "spans", "that", "to", "was",
-    "were", "which", "with", "writes",
+    "and", "are", "beside", "below", "could", "given", "giving", "if", "ignored", "in", "is",
+    "names", "naming", "needs", "of", "or", "read", "reads", "replaced", "said", "spans", "that",
+    "to", "was", "were", "which", "with", "writes", "/",
 })  # fmt: skip
 """Words that follow an option in the library's sentences (``--nav-layer ignored: ...``,
 ``as --map-frame said``): the sentence going on, not the option's value."""

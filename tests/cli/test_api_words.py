@@ -177,3 +177,22 @@ def test_holdout_s_warnings_name_its_radius_keyword(office: Office, tmp_path: Pa
     assert said, [str(w.message) for w in caught]
     assert "(radius=)" in said[0]
     assert "--radius" not in said[0]
+
+
+def test_words_that_go_on_with_a_library_sentence_are_not_values() -> None:
+    """Real messages of the library read, through the API, 'pin a version with
+    dsg_version="if" you know it', 'and map_frame="read" the test logs into ...' and 'see
+    map_frame="/" base_frame=': the word after an option was taken for its value."""
+    from aion_cli.formats.dsg_payload import __file__ as payload_source
+
+    assert "pin a version with --dsg-version if you know it" in Path(payload_source).read_text()
+    assert api_text("pin a version with --dsg-version if you know it") == (
+        "pin a version with dsg_version= if you know it"
+    )
+    assert api_text("and --map-frame read the test logs into 'odom'") == (
+        "and map_frame= read the test logs into 'odom'"
+    )
+    assert api_text("see --map-frame / --base-frame") == "see map_frame= / base_frame="
+    assert api_text("check --map-frame / the detections' frame_id") == (
+        "check map_frame= / the detections' frame_id"
+    )
