@@ -198,10 +198,11 @@ class Map(Generic[Report]):
         self, time: object, zone: Zone, t_ns: int, series: list[int] | None = None,
         noun: str = "times",
     ) -> list[str]:
-        """:func:`aion_cli.forecast_notes.query_notes` of this map."""
+        """:func:`aion_cli.forecast_notes.query_notes` of this map, in the API's words."""
+        from aion_cli.api_words import api_text
         from aion_cli.forecast_notes import query_notes
 
-        return query_notes(self.manifest, time, zone, t_ns, series, noun)
+        return [api_text(n) for n in query_notes(self.manifest, time, zone, t_ns, series, noun)]
 
     # -- queries -----------------------------------------------------------------------------
 

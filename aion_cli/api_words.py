@@ -31,22 +31,28 @@ OPTION_KEYWORDS = {
     "dsg-version": "dsg_version",
     "batch-size": "batch_size",
     "radius": "radius",
+    "layer": "layer",
+    "node": "nodes",
+    "at": "at",
+    "top": "top",
+    "historical": "historical",
+    "lineage": "lineage",
 }
 """Command-line options and the API keywords that take the same value."""
 
-_FLAGS = frozenset({"derive-graph", "part"})
+_FLAGS = frozenset({"derive-graph", "part", "historical"})
 """Options that take no value: their keyword is ``=True`` (``--part cannot ...`` is
 ``part=True cannot ...``, the word after it the sentence going on)."""
 _BARE = frozenset({"config"})
 """Options whose keyword takes no text from the sentence: ``--config`` names a TOML file, the
 API's ``config`` a ``ModelConfig`` or a dict (``with a --config file`` is ``with a config=
 file``)."""
-_NUMBERS = frozenset({"workers", "batch-size"})
+_NUMBERS = frozenset({"workers", "batch-size", "top"})
 """Options whose value is a number: unquoted (``--workers 1`` is ``workers=1``)."""
 
 _OPTION = re.compile(
     r"--(" + "|".join(sorted(map(re.escape, OPTION_KEYWORDS), key=len, reverse=True)) + r")"
-    r"(?![\w-])(?:[ =](?!--)([^\s,;()`'\"]+))?"
+    r"(?![\w-])(?:[ =](?!--)([^\s,;()`'\"]+(?:,(?=[\w.-])[^\s,;()`'\"]+)*))?"
 )
 _COMMAND = re.compile(
     r"\baion (?:build|merge|compact|predict|plan|export|info|simulate|evaluate|convert|report)"
@@ -58,12 +64,13 @@ keyword in the middle of it would make it neither a command nor Python)."""
 _NOT_VALUES = frozenset({
     "and", "are", "beside", "below", "could", "given", "giving", "if", "ignored", "in", "is",
     "names", "naming", "needs", "of", "or", "read", "reads", "replaced", "said", "spans", "that",
-    "to", "was", "were", "which", "with", "writes", "/",
+    "takes", "to", "was", "were", "which", "with", "writes", "/",
 })  # fmt: skip
 """Words that follow an option in the library's sentences (``--nav-layer ignored: ...``,
 ``as --map-frame said``): the sentence going on, not the option's value."""
 _PLACEHOLDERS = frozenset({
     "FILE", "GRAPH_FILE", "LOG", "MAP", "ZONE", "FRAME", "TOPIC", "LAYER", "N", "ADDRESS",
+    "X,Y",
 })  # fmt: skip
 """Names a hint asks the user to fill in (``--graph FILE``), not values (``--nav-layer PLACES``)."""
 

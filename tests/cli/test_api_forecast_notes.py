@@ -7,6 +7,8 @@ notes in ``notes``."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 import aion_cli as aion
@@ -79,3 +81,36 @@ def test_a_wall_clock_time_a_clock_change_skips_is_noted(office: Office, m: aion
               "--tz", "Europe/Madrid", "--format", "json")
     assert _notes(cli.stderr) == [" ".join(series.notes)]
     assert series.notes[0] == table.notes[0]
+
+
+def test_query_errors_and_notes_name_the_query_keywords(tmp_path: Path) -> None:
+    """Map.predict's hint on a map of hash cells only said "pick one by position with --at
+    X,Y, or list ids with --top 10", and a static-only model's note (now in Table.notes)
+    "its flows are those of --historical": options of aion predict; the keywords are at, top
+    and historical."""
+    import numpy as np
+
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.types import DetectionBatch
+
+    mapper = Mapper(ModelConfig.from_dict({"families": ["static"]}))
+    t0 = 1_767_607_200 * 10**9
+    t = t0 + np.arange(0, 3600, 10) * 10**9
+    mapper.set_fixed_sensor(int(t[0]), int(t[-1]))
+    xyz = np.c_[np.linspace(0, 5, len(t)), np.zeros(len(t)), np.zeros(len(t))]
+    mapper.add_detections(DetectionBatch.from_arrays(t, xyz, np.zeros(len(t)), np.ones(len(t))))
+    cells = aion.Map.from_state(mapper.state, timezone="UTC")
+    with pytest.raises(aion.InputError) as caught:
+        cells.predict("2026-01-05 10:30", nodes=["p1"])
+    assert caught.value.hint is not None
+    assert caught.value.hint.endswith("pick one by position with at=X,Y, or list ids with top=10")
+    with pytest.raises(aion.InputError) as caught:  # a point given as a node id
+        cells.predict("2026-01-05 10:30", nodes=["4,0"])
+    assert caught.value.message.startswith("nodes= takes ids and room names; ")
+    assert caught.value.hint is not None
+    assert caught.value.hint.startswith('at="4,0" answers for the entry nearest to it')
+    saved = aion.Map.load(cells.save(tmp_path / "static.aion"))
+    notes = saved.predict("2026-01-05 10:30").notes
+    assert any("its flows are those of historical=True" in n for n in notes), notes
+    assert not [n for n in notes if "--" in n], notes
