@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from aion_cli.detection_feed import HEADING_SOURCES
 from aion_cli.engine.types import I64
 from aion_cli.errors import InputError, LogFormatError, MessageDecodeError
+from aion_cli.stamp_warnings import FAR_STAMPS, OFF_STAMPS, stamp_warnings
 
 if TYPE_CHECKING:
     from aion_cli.detection_feed import DetectionCounts, TopicFeeders
@@ -265,30 +266,8 @@ def record_detections(
             f"{c.log_times:,} detections came from messages without a header (as mapped): "
             "their messages' log times were used"
         )
-    report.warnings.extend(
-        far_stamps_warning(topic, t.stamps_far, t.far_example)
-        for topic, t in sorted(c.topics.items())
-        if t.stamps_far and t.far_example is not None
-    )
+    report.warnings.extend(stamp_warnings(c.topics))
     return c
-
-
-FAR_STAMPS = "stamped more than a day away from their messages' log times"
-
-
-def far_stamps_warning(topic: str, n: int, example: tuple[int, int]) -> str:
-    """The warning for ``n`` detections of ``topic`` whose header stamps lie more than a day
-    from their log times (``example``: the first one's stamp and log time)."""
-    from aion_cli.engine.windows import iso
-
-    return (
-        f"{n:,} detection(s) on {topic} are {FAR_STAMPS} (the first stamped "
-        f"{iso(example[0])}, logged {iso(example[1])}): stamps and log times follow different "
-        "clocks (simulated time; a log recorded again later), and a detection's time is its "
-        "stamp but what was observed comes from the log times; if the log times are right, "
-        f'build with --detections-mapping giving stamp = "" for {topic} '
-        f"(aion info LOG --suggest-mapping {topic} writes one)"
-    )
 
 
 #: share of a map's detections on hash cells, with a scene graph, above which the graph and
@@ -444,7 +423,11 @@ def check_usable(
     hint = written
     if c.dropped.get("no_transform"):
         hint = f"check --map-frame and the log's TF; {hint}"
-    far = [w for w in report.warnings if FAR_STAMPS in w] if c.dropped.get("before_window") else []
+    far = (
+        [w for w in report.warnings if FAR_STAMPS in w or OFF_STAMPS in w]
+        if c.dropped.get("before_window")
+        else []
+    )
     if far:  # the stamps' clock is why: the error says so (its warning is not printed)
         hint = f"{'; '.join(far)}; {hint}"
     raise InputError(

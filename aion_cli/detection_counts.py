@@ -30,6 +30,10 @@ DECODE_FAILURE = "undecodable"
 """The reason a decoder gives for a message it could not decode (per message)."""
 UNDECODABLE_MESSAGES = "undecodable_messages"
 """The build's drop reason for those messages (:meth:`DetectionCounts.add_decoded`)."""
+OFF_STAMP_NS = 60 * 1_000_000_000
+"""A header stamp more than a minute (but at most a day) from its message's log time is off:
+a tracker's latency is seconds; minutes or hours are another machine's or zone's clock. When
+most of a topic's detections are off, they fall into other windows than the log recorded."""
 
 
 @dataclass
@@ -45,6 +49,12 @@ class TopicCounts:
     far_example: tuple[int, int] | None = None
     """Detections whose header stamp lies more than :data:`FAR_STAMP_NS` from their message's
     log time, and the first one's (stamp, log time): :meth:`count_far_stamps`."""
+    stamped: int = 0
+    stamps_off: int = 0
+    off_example: tuple[int, int] | None = None
+    """Detections with a header stamp, those of them stamped more than :data:`OFF_STAMP_NS`
+    but at most :data:`FAR_STAMP_NS` from their log time, and the first such (stamp, log
+    time)."""
 
     def count_far_stamps(self, t_ns: I64, messages: Sequence[Any], message: I64) -> None:
         """Count the detections (times ``t_ns``, from ``messages[message]``) stamped more
@@ -52,13 +62,22 @@ class TopicCounts:
         from aion_cli.formats.detections.adapter import message_log_times
 
         log = message_log_times(messages)[message]
-        far = np.abs(t_ns.astype(np.float64) - log) > FAR_STAMP_NS  # int64 could overflow
+        away = np.abs(t_ns.astype(np.float64) - log)  # int64 could overflow
+        far = away > FAR_STAMP_NS
         n = int(np.count_nonzero(far))
         if n:
             self.stamps_far += n
             if self.far_example is None:
                 i = int(np.argmax(far))
                 self.far_example = (int(t_ns[i]), int(log[i]))
+        off = (away > OFF_STAMP_NS) & ~far
+        self.stamped += len(t_ns)
+        n = int(np.count_nonzero(off))
+        if n:
+            self.stamps_off += n
+            if self.off_example is None:
+                i = int(np.argmax(off))
+                self.off_example = (int(t_ns[i]), int(log[i]))
 
 
 @dataclass

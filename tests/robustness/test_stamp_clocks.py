@@ -9,6 +9,7 @@ from __future__ import annotations
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
+from aion_cli.stamp_warnings import OFF_STAMPS
 from tests.cli.conftest import assert_one_line_error
 from tests.robustness.conftest import (
     T0,
@@ -76,3 +77,53 @@ def test_stamps_of_another_clock_than_the_log_times_are_a_warning(tmp_path: Path
     right = [person(T0 + k * S, (2.1, 0.1, 0.0)) for k in range(N)]
     report = build_json(write_log(tmp_path / "ok.mcap", right), "-o", tmp_path / "ok.aion")
     assert all("stamped more than a day away" not in w for w in report["warnings"])
+
+
+def test_stamps_minutes_or_hours_off_the_log_times_are_a_warning(tmp_path: Path) -> None:
+    """A tracker on another machine's clock (or zone) stamps its detections an hour after, or
+    ten minutes before, their log times: the map put them into windows the log did not record
+    (an hour late: 3 windows of detections beside the log's 3 empty ones; ten minutes early:
+    600 dropped as before_window), without a word. Now a warning names the offset, and the
+    way out it gives builds the map of the log stamped right."""
+    n = 1800  # one detection a second for 30 minutes: three 600-s windows
+    right = [person(T0 + k * S, (2.1, 0.1, 0.0)) for k in range(n)]
+    reference = build_json(write_log(tmp_path / "ok.mcap", right), "-o", tmp_path / "ok.aion")
+    assert reference["windows"] == 3
+    assert all(OFF_STAMPS not in w for w in reference["warnings"])
+    mapping = tmp_path / "tracks.toml"
+    mapping.write_text(MAPPING)
+    for name, offset_s, offset_text in (("late", 3600, "+1h00m00s"), ("early", -600, "-10m00s")):
+        off = [
+            person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=T0 + (k + offset_s) * S) for k in range(n)
+        ]
+        log = write_log(tmp_path / f"{name}.mcap", off)
+        report = build_json(log, "-o", tmp_path / f"{name}.aion")
+        warned = [w for w in report["warnings"] if OFF_STAMPS in w]
+        assert len(warned) == 1, report["warnings"]
+        assert warned[0].startswith(f"{n:,} of the {n:,} detection(s) on /tracks")
+        assert f"logged {utc_text(T0)}: {offset_text})" in warned[0]
+        assert 'stamp = ""' in warned[0]
+        fixed = build_json(
+            log, "-o", tmp_path / f"{name}-log.aion", "--detections-mapping", mapping
+        )
+        assert fixed["windows"] == 3
+        assert fixed["detections"]["used"] == n
+        assert_same_arrays(
+            map_arrays(tmp_path / f"{name}-log.aion"), map_arrays(tmp_path / "ok.aion")
+        )
+
+
+def test_a_trackers_latency_or_a_few_off_stamps_are_no_warning(tmp_path: Path) -> None:
+    """Stamps seconds before their log times (a tracker's latency), or a third of them an hour
+    off, are no clock of their own: no warning."""
+    n = 1200
+    latency = [person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=T0 + (k - 5) * S) for k in range(n)]
+    some = [
+        person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=T0 + (k + (3600 if k % 3 == 0 else 0)) * S)
+        for k in range(n)
+    ]
+    for name, messages in (("latency", latency), ("some", some)):
+        report = build_json(
+            write_log(tmp_path / f"{name}.mcap", messages), "-o", tmp_path / f"{name}.aion"
+        )
+        assert all(OFF_STAMPS not in w for w in report["warnings"]), report["warnings"]
