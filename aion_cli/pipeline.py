@@ -72,6 +72,7 @@ from aion_cli.log_times import TopicTimes
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
 from aion_cli.provenance import DistinctLogs, distinct_logs
+from aion_cli.stamp_warnings import sim_time_warning
 from aion_cli.tf_feed import (
     check_tf,
     check_times,
@@ -473,6 +474,9 @@ class _Build(StreamStep):
         if self.previous_manifest is not None:
             start, end = self.previous_manifest.joined_span(start, end)
         self.report.start_ns, self.report.end_ns = start, end
+        sim = sim_time_warning(start)
+        if sim is not None:
+            self.report.warnings.append(sim)
 
     def _write(self, state: MapState, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:
         """The map file (:func:`aion_cli.build_output.write_build`; run() holds the lock)."""

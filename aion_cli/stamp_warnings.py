@@ -2,7 +2,8 @@
 times: a day or more away (a simulation's clock from 0, a log recorded again later) or, for most
 of a topic, a minute to a day away (another machine's clock or zone). A detection's time is
 its stamp, but what was observed comes from the log times, so such detections fall outside the
-windows the log recorded."""
+windows the log recorded. And the warning for a map whose time is a simulation's, from 1970
+(:func:`sim_time_warning`)."""
 
 from __future__ import annotations
 
@@ -66,3 +67,28 @@ def stamp_warnings(topics: Mapping[str, Any]) -> list[str]:
         if 2 * t.stamps_off > t.stamped and t.off_example is not None
     ]
     return out
+
+
+SIM_TIME_BEFORE_NS = 946_684_800 * 1_000_000_000
+"""2000-01-01 00:00 UTC: a map whose data starts before it was recorded on a simulation's
+clock from 0 (Gazebo with use_sim_time), not the world's (no ROS log is older)."""
+
+SIM_TIME = "a simulation's clock from 0 (use_sim_time)?"
+
+
+def sim_time_warning(start_ns: int | None) -> str | None:
+    """The warning for a map whose data starts at ``start_ns`` before
+    :data:`SIM_TIME_BEFORE_NS`; None for a later (or no) start."""
+    if start_ns is None or start_ns >= SIM_TIME_BEFORE_NS:
+        return None
+    from datetime import UTC, datetime, timedelta
+
+    from aion_cli.engine.windows import iso
+
+    when = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=start_ns // 1000)
+    return (
+        f"the map's data starts at {iso(start_ns)} (a {when:%A}), {SIM_TIME} Its hours of "
+        "the day and weekdays are that clock's, not the world's, and a forecast for now lies "
+        f"decades after its data: query it at times of its own (aion predict MAP --time "
+        f'"{when:%Y-%m-%d} 08:00"), or record the logs with the wall clock'
+    )
