@@ -219,9 +219,10 @@ def topic_counts(
             reasons = ", ".join(
                 f"{k} {v:,}" for k, v in sorted(dropped.items()) if k in _DETECTION_DROPS
             )
+            why = counts.no_transform_why if dropped.get("no_transform") else None
             report.warnings.append(
                 f"{topic}: {lost:,} of its {read:,} detections ({100 * lost / read:.0f} %) "
-                f"could not be used (dropped: {reasons})"
+                f"could not be used (dropped: {reasons})" + (f": {why}" if why else "")
             )
 
 
@@ -422,7 +423,8 @@ def check_usable(
         )
     hint = written
     if c.dropped.get("no_transform"):
-        hint = f"check --map-frame and the log's TF; {hint}"
+        why = f"{c.no_transform_why}; " if c.no_transform_why else ""
+        hint = f"{why}check --map-frame and the log's TF; {hint}"
     far = (
         [w for w in report.warnings if FAR_STAMPS in w or OFF_STAMPS in w]
         if c.dropped.get("before_window")

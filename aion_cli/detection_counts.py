@@ -98,6 +98,9 @@ class DetectionCounts:
     speed_micro: int = 0
     speed_n: int = 0
     topics: dict[str, TopicCounts] = field(default_factory=dict)
+    no_transform_why: str | None = None
+    """Why the first detection dropped as ``no_transform`` had none, when TF's clock is the
+    reason (:func:`aion_cli.detection_frames.clock_mismatch`)."""
 
     def topic(self, name: str) -> TopicCounts:
         got = self.topics.get(name)

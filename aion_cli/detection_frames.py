@@ -75,6 +75,9 @@ class MapFrameMover:
             vel[rows] = np.einsum("nij,nj->ni", R, frames.velocity[rows])
             yaw[rows] = rotated_yaw(R, yaw[rows])
             ok[rows] = good
+            if self.counts.no_transform_why is None and not good.all():
+                first = int(frames.t_ns[rows[np.argmin(good)]])
+                self.counts.no_transform_why = clock_mismatch(self.tf, target, name, first)
         n_bad = int((~ok).sum())
         if n_bad:
             self.counts.dropped["no_transform"] += n_bad
@@ -87,3 +90,29 @@ class MapFrameMover:
             frames=(target,),
         )
         return moved.select(ok) if n_bad else moved
+
+
+#: how far outside TF's stamps a detection may lie before TF is said to be on another clock
+#: (tf2's cache length: transforms are not extrapolated further either)
+CLOCK_SLACK_NS = 10 * 1_000_000_000
+
+
+def clock_mismatch(tf: TfBuffer, target: str, source: str, t_ns: int) -> str | None:
+    """Why a detection of frame ``source`` stamped ``t_ns`` has no transform to ``target``
+    when the stamp lies outside the stamps of the chain's ``/tf`` links by more than
+    :data:`CLOCK_SLACK_NS` (TF and the detections on different clocks: a simulation's, a
+    machine's); None when it lies within them (a gap, localisation lost) or the chain is
+    static."""
+    from aion_cli.engine.windows import iso
+
+    span = tf.chain_range(target, source)
+    if span is None:
+        return None
+    lo, hi = span
+    if lo - CLOCK_SLACK_NS <= t_ns <= hi + CLOCK_SLACK_NS:
+        return None
+    return (
+        f"the first detection in {source!r} without a transform is stamped {iso(t_ns)}, but "
+        f"TF has {target}->{source} only from {iso(lo)} to {iso(hi)}: TF and the detections "
+        "are stamped on different clocks (a simulation's, another machine's)"
+    )

@@ -186,4 +186,5 @@ class TopicFeeders:
             out.speed_micro += counts.speed_micro
             out.speed_n += counts.speed_n
             out.topics.update(counts.topics)
+            out.no_transform_why = out.no_transform_why or counts.no_transform_why
         return out

@@ -280,6 +280,17 @@ class TfBuffer:
         stamps, _, _ = series.arrays()
         return int(stamps[0]), int(stamps[-1])
 
+    def chain_range(self, target: str, source: str) -> tuple[int, int] | None:
+        """The stamps over which every ``/tf`` link of the chain has samples (the latest first
+        stamp, the earliest last one); None for a ``/tf_static`` chain or none."""
+        try:
+            path = self._path(normalize_frame(target), normalize_frame(source))
+        except TransformError:
+            return None
+        pairs = itertools.pairwise(path)
+        ranges = [r for a, b in pairs if (r := self.time_range(a, b) or self.time_range(b, a))]
+        return (max(r[0] for r in ranges), min(r[1] for r in ranges)) if ranges else None
+
     def _path(self, target: str, source: str) -> list[str]:
         """Frames from target to source (inclusive), by BFS over the undirected frame tree."""
         self._flush()
