@@ -25,7 +25,7 @@ import numpy as np
 from aion_cli.errors import LogFormatError
 
 # mcap_linear._decompress is looked up at call time (tests replace it)
-from aion_cli.formats import mcap_linear, mcap_times
+from aion_cli.formats import clock_steps, mcap_linear
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Topic, _unzstd
 from aion_cli.formats.mcap_indexed import _McapIndexed
@@ -130,9 +130,20 @@ class _McapSource(_McapIndexed):
                 summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
             )
             self._by_chunk = not _chunks_overlap(self._chunk_indexes)
-            step = mcap_times.backward_step(self._chunk_indexes)
+            step = clock_steps.step_warning(
+                path.name,
+                [
+                    clock_steps.ChunkSpan(
+                        c.chunk_start_offset,
+                        c.message_start_time,
+                        c.message_end_time,
+                        c.message_index_offsets or {},
+                    )
+                    for c in self._chunk_indexes
+                ],
+            )
             if step is not None:
-                self._warn(_step_warning(path.name, step))
+                self._warn(step)
             self._bad_chunks.update(check.bad_chunks)
             for index in self._chunk_indexes:  # what the index says is refused already
                 why = _refused(index, self._limits)
@@ -422,19 +433,6 @@ def _may_leave_a_tail(index: Any, wanted: set[int], unread_channels: set[int]) -
     if index is None or not index.message_index_offsets:
         return False
     return any(c not in wanted or c in unread_channels for c in index.message_index_offsets)
-
-
-def _step_warning(name: str, step: tuple[int, int, int]) -> str:
-    """The warning for a log whose log times go back ``step`` (:func:`mcap_times.backward_step`)."""
-    from aion_cli.formats.mcap_records import iso
-
-    back, end, start = step
-    return (
-        f"{name}: its log times go back at least {back / 6e10:.1f} min (a chunk starting "
-        f"{iso(start)} follows one ending {iso(end)}): the clock stepped back while recording "
-        "(NTP?); the minutes the log covers twice hold messages of two moments, read together "
-        "in time order, so the people seen then count twice in their windows"
-    )
 
 
 def _chunks_overlap(indexes: list[Any]) -> bool:

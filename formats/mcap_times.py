@@ -132,38 +132,3 @@ def _consistent(
     same = (np.diff(chunk_no[by_record]) == 0) & (np.diff(off[by_record]) == 0)
     return not same.any()
 
-
-#: how far log times may go back from one chunk to the next (in file order) before it is a
-#: clock step: writers of several threads reorder by milliseconds, not seconds
-BACK_STEP_NS = 10 * 1_000_000_000
-#: ... and the most: a step of more than a day is a stray message's time (the build's stray
-#: rule drops and warns of it), not a clock that stepped back
-BACK_STEP_MAX_NS = 86_400 * 1_000_000_000
-
-
-def backward_step(chunk_indexes: Sequence[Any]) -> tuple[int, int, int] | None:
-    """The largest step back in log time between the chunks of one channel in file order (a
-    chunk starting before an earlier chunk of the channel ended), when more than
-    :data:`BACK_STEP_NS` and at most :data:`BACK_STEP_MAX_NS`: ``(step, earlier chunk's end,
-    chunk's start)``; None otherwise. A step inside one chunk is not seen (its index states
-    only its first and last time)."""
-    ordered = sorted(chunk_indexes, key=lambda c: c.chunk_start_offset)
-    by_channel: dict[int, list[int]] = {}
-    for k, index in enumerate(ordered):
-        for cid in index.message_index_offsets or {}:
-            by_channel.setdefault(cid, []).append(k)
-    starts = np.array([c.message_start_time for c in ordered], np.uint64)  # may pass int64
-    ends = np.array([c.message_end_time for c in ordered], np.uint64)
-    best: tuple[int, int, int] | None = None
-    for rows in by_channel.values():
-        if len(rows) < 2:
-            continue
-        mine = np.asarray(rows)
-        before = np.maximum.accumulate(ends[mine])[:-1]  # the latest end of the chunks before
-        after = starts[mine][1:]
-        back = np.where(before > after, before - after, np.uint64(0))  # no wrap-around kept
-        back[back > BACK_STEP_MAX_NS] = 0
-        i = int(np.argmax(back))
-        if back[i] > BACK_STEP_NS and (best is None or back[i] > best[0]):
-            best = (int(back[i]), int(before[i]), int(after[i]))
-    return best

@@ -1,13 +1,15 @@
 """A recording whose clock stepped back (an NTP correction of ten minutes mid-log): its
 log times go back between chunks, and the minutes it covers twice are read together in time
 order, so the people seen then count twice. The build did that without a word; now the
-log's reader warns (from the chunk indexes of an MCAP file: a step inside one chunk is not
-seen), in ``aion build`` and ``aion info``."""
+log's reader warns (from the chunk indexes of an MCAP file, the chunk infos of a ROS 1 bag: a
+step inside one chunk is not seen), in ``aion build`` and ``aion info``."""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
+
+import pytest
 
 from tests.robustness.conftest import T0, Message, S, build_json, person, run
 
@@ -15,11 +17,14 @@ N = 1800  # one message a second: 15 minutes, then the clock goes back 10 minute
 STEP_S = 600
 
 
-def write_chunked(path: Path, messages: list[Message]) -> Path:
+CONTAINERS = pytest.mark.parametrize("container", ["mcap", "bag"])
+
+
+def write_chunked(path: Path, messages: list[Message], container: str) -> Path:
     """``messages`` in the given order, in small chunks (4 KiB: about 20 messages each)."""
     from aion_cli.formats.writers import LogWriter
 
-    with LogWriter(path, "mcap", chunk_size=4096) as writer:
+    with LogWriter(path, container, chunk_size=4096) as writer:
         for topic, msgtype, msg, t_ns in messages:
             writer.write(topic, msgtype, msg, t_ns)
     return path
@@ -41,8 +46,9 @@ def steps_back(warnings: list[str]) -> list[float]:
     ]
 
 
-def test_log_times_stepping_back_are_a_warning(tmp_path: Path) -> None:
-    log = write_chunked(tmp_path / "back.mcap", stepped(-STEP_S))
+@CONTAINERS
+def test_log_times_stepping_back_are_a_warning(tmp_path: Path, container: str) -> None:
+    log = write_chunked(tmp_path / f"back.{container}", stepped(-STEP_S), container)
     report = build_json(log, "-o", tmp_path / "back.aion")
     (minutes,) = steps_back(report["warnings"])
     # the step is 10 min; chunk bounds can only make it look smaller, by a chunk's 20 s
@@ -53,8 +59,11 @@ def test_log_times_stepping_back_are_a_warning(tmp_path: Path) -> None:
     assert len(steps_back(info.stderr.splitlines())) == 1
 
 
-def test_log_times_in_order_or_stepping_forward_are_no_warning(tmp_path: Path) -> None:
+@CONTAINERS
+def test_log_times_in_order_or_stepping_forward_are_no_warning(
+    tmp_path: Path, container: str
+) -> None:
     for name, messages in (("ordered", stepped(0)), ("forward", stepped(3600))):
-        log = write_chunked(tmp_path / f"{name}.mcap", messages)
+        log = write_chunked(tmp_path / f"{name}.{container}", messages, container)
         report = build_json(log, "-o", tmp_path / f"{name}.aion")
         assert steps_back(report["warnings"]) == [], report["warnings"]
