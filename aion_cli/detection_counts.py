@@ -33,7 +33,7 @@ UNDECODABLE_MESSAGES = "undecodable_messages"
 OFF_STAMP_NS = 60 * 1_000_000_000
 """A header stamp more than a minute (but at most a day) from its message's log time is off:
 a tracker's latency is seconds; minutes or hours are another machine's or zone's clock. When
-most of a topic's detections are off, they fall into other windows than the log recorded."""
+a topic's detections are off, they fall into other windows than the log recorded."""
 
 
 @dataclass

@@ -113,20 +113,36 @@ def test_stamps_minutes_or_hours_off_the_log_times_are_a_warning(tmp_path: Path)
         )
 
 
-def test_a_trackers_latency_or_a_few_off_stamps_are_no_warning(tmp_path: Path) -> None:
-    """Stamps seconds before their log times (a tracker's latency), or a third of them an hour
-    off, are no clock of their own: no warning."""
+def test_a_trackers_latency_or_one_glitch_is_no_warning(tmp_path: Path) -> None:
+    """Stamps seconds before their log times (a tracker's latency), or 6 of 1,200 (0.5 %) an
+    hour off, are no clock of their own: no warning."""
     n = 1200
     latency = [person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=T0 + (k - 5) * S) for k in range(n)]
-    some = [
-        person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=T0 + (k + (3600 if k % 3 == 0 else 0)) * S)
+    glitch = [
+        person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=T0 + (k + (3600 if k % 200 == 0 else 0)) * S)
         for k in range(n)
     ]
-    for name, messages in (("latency", latency), ("some", some)):
+    for name, messages in (("latency", latency), ("glitch", glitch)):
         report = build_json(
             write_log(tmp_path / f"{name}.mcap", messages), "-o", tmp_path / f"{name}.aion"
         )
         assert all(OFF_STAMPS not in w for w in report["warnings"]), report["warnings"]
+
+
+def test_a_trackers_clock_stepping_mid_log_is_a_warning(tmp_path: Path) -> None:
+    """The tracker's clock steps an hour ahead halfway through (its log times stay right):
+    the second half's 900 detections went into windows an hour later (5 windows observed,
+    where the log recorded 3) without a word, as half is not most. Now it is a warning."""
+    n = 1800
+    step = [
+        person(T0 + k * S, (2.1, 0.1, 0.0), header_ns=T0 + (k + (3600 if k >= n // 2 else 0)) * S)
+        for k in range(n)
+    ]
+    report = build_json(write_log(tmp_path / "step.mcap", step), "-o", tmp_path / "step.aion")
+    warned = [w for w in report["warnings"] if OFF_STAMPS in w]
+    assert len(warned) == 1, report["warnings"]
+    assert warned[0].startswith(f"900 of the {n:,} detection(s) on /tracks")
+    assert f"logged {utc_text(T0 + 900 * S)}: +1h00m00s)" in warned[0]
 
 
 def test_a_map_on_a_simulations_clock_from_1970_is_a_warning(tmp_path: Path) -> None:
