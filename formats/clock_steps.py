@@ -2,7 +2,8 @@
 correction), so the minutes it covers twice hold messages of two moments, which a build reads
 together in time order. Found from the chunks' stated time ranges in file order (MCAP chunk
 indexes, ROS 1 bag chunk infos) without reading a message; a step inside one chunk is not
-seen."""
+seen, and a log written out of time order (which reads as the same map) looks the same, so the
+warning names both."""
 
 from __future__ import annotations
 
@@ -67,6 +68,7 @@ def step_warning(name: str, chunks: Sequence[ChunkSpan]) -> str | None:
     return (
         f"{name}: its log times go back at least {back / 6e10:.1f} min (a chunk starting "
         f"{iso(start)} follows one ending {iso(end)}): the clock stepped back while recording "
-        "(NTP?); the minutes the log covers twice hold messages of two moments, read together "
-        "in time order, so the people seen then count twice in their windows"
+        "(NTP?), or the messages were written out of time order; if the clock stepped, the "
+        "minutes the log covers twice hold messages of two moments, read together in time "
+        "order, so the people seen then count twice in their windows"
     )

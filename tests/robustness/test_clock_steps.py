@@ -67,3 +67,28 @@ def test_log_times_in_order_or_stepping_forward_are_no_warning(
         log = write_chunked(tmp_path / f"{name}.{container}", messages, container)
         report = build_json(log, "-o", tmp_path / f"{name}.aion")
         assert steps_back(report["warnings"]) == [], report["warnings"]
+
+
+@CONTAINERS
+def test_a_log_written_out_of_time_order_builds_the_ordered_map_and_says_both_causes(
+    tmp_path: Path, container: str
+) -> None:
+    """Messages of one topic written in shuffled order look like clock steps from the chunks'
+    time ranges, yet build the map of the same messages written in order: the warning names
+    both causes, not only a clock that stepped back."""
+    import random
+
+    from tests.robustness.conftest import assert_same_arrays, map_arrays
+
+    ordered = stepped(0)
+    shuffled = list(ordered)
+    random.Random(2).shuffle(shuffled)
+    build_json(
+        write_chunked(tmp_path / f"o.{container}", ordered, container), "-o", tmp_path / "o.aion"
+    )
+    report = build_json(
+        write_chunked(tmp_path / f"s.{container}", shuffled, container), "-o", tmp_path / "s.aion"
+    )
+    (warning,) = [w for w in report["warnings"] if "its log times go back at least" in w]
+    assert "or the messages were written out of time order" in warning
+    assert_same_arrays(map_arrays(tmp_path / "s.aion"), map_arrays(tmp_path / "o.aion"))
