@@ -475,7 +475,7 @@ class _Build(StreamStep):
             start, end = self.previous_manifest.joined_span(start, end)
         self.report.start_ns, self.report.end_ns = start, end
         sim = sim_time_warning(start)
-        if sim is not None:
+        if sim is not None and not self.shard:  # a parallel build's parent says it once
             self.report.warnings.append(sim)
 
     def _write(self, state: MapState, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:

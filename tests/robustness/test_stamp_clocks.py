@@ -148,20 +148,23 @@ def test_a_trackers_clock_stepping_mid_log_is_a_warning(tmp_path: Path) -> None:
 def test_a_map_on_a_simulations_clock_from_1970_is_a_warning(tmp_path: Path) -> None:
     """Gazebo with use_sim_time: log times and stamps from 0. The map was built in 1970
     without a word (its hours and weekdays a Thursday's from midnight, ``predict --time now``
-    56 years away). Now the build warns once, in one process or several; the same log on the
-    wall clock does not."""
-    sim = [person((SIM_START_S + k) * S, (2.1, 0.1, 0.0)) for k in range(N)]
-    log = write_log(tmp_path / "sim.mcap", sim)
+    56 years away). Now the build warns once, in one process or in two shards (two runs of
+    the simulation three days apart); the same log on the wall clock does not."""
+    logs = [
+        write_log(
+            tmp_path / f"sim{day}.mcap",
+            [person((SIM_START_S + day * 3 * 86_400 + k) * S, (2.1, 0.1, 0.0)) for k in range(N)],
+        )
+        for day in range(2)
+    ]
     for workers in ("1", "2"):
-        out = tmp_path / f"sim-{workers}.aion"
-        report = build_json(log, "-o", out, "--workers", workers)
+        report = build_json(*logs, "-o", tmp_path / f"sim-{workers}.aion", "--workers", workers)
         assert report["time_span"]["start_ns"] == SIM_START_S * S
+        assert (workers == "2") == any("built 2 shards" in n for n in report["notes"])
         warned = [w for w in report["warnings"] if SIM_TIME in w]
         assert len(warned) == 1, report["warnings"]
         # 1970-01-01 was a Thursday
-        assert warned[0].startswith(
-            "the map's data starts at 1970-01-01 00:01:40 UTC (a Thursday)"
-        )
+        assert warned[0].startswith("the map's data starts at 1970-01-01 00:01:40 UTC (a Thursday)")
         assert '--time "1970-01-01 08:00"' in warned[0]
     wall = [person(T0 + k * S, (2.1, 0.1, 0.0)) for k in range(N)]
     report = build_json(write_log(tmp_path / "wall.mcap", wall), "-o", tmp_path / "wall.aion")
