@@ -1,10 +1,9 @@
-"""Warnings on detections whose header stamps follow another clock than their messages' log
-times: a day or more away (a simulation's clock from 0, a log recorded again later) or, for more
-than 1 % of a topic, a minute to a day away (another machine's clock or zone, or one that
-stepped mid-log). A detection's time is
-its stamp, but what was observed comes from the log times, so such detections fall outside the
-windows the log recorded. And the warning for a map whose time is a simulation's, from 1970
-(:func:`sim_time_warning`)."""
+"""Warnings on detections whose header stamps follow another clock than their messages' log times:
+a day or more away (a simulation's clock from 0, a log recorded again later) or, for more than
+1 % of a topic, a minute to a day away (another machine's clock or zone, or one that stepped
+mid-log). A detection's time is its stamp, but what was observed comes from the log times, so
+such detections fall outside the windows the log recorded. And the warning for a map whose time
+is a simulation's, from 1970 (:func:`sim_time_warning`)."""
 
 from __future__ import annotations
 
@@ -39,10 +38,9 @@ OFF_STAMPS_SHARE = 0.01
 
 def off_stamps_warning(topic: str, n: int, stamped: int, example: tuple[int, int]) -> str:
     """The warning for ``n`` of the ``stamped`` detections of ``topic`` (more than
-    :data:`OFF_STAMPS_SHARE` of them) whose
-    header stamps lie a minute to a day from their log times (``example``: the first one's
-    stamp and log time): the stamps' clock is off, and the detections land in other windows
-    than the ones the log times say were observed."""
+    :data:`OFF_STAMPS_SHARE` of them) whose header stamps lie a minute to a day from their log
+    times (``example``: the first one's stamp and log time): the stamps' clock is off, and the
+    detections land in other windows than the ones the log times say were observed."""
     from aion_cli.engine.windows import iso
     from aion_cli.number_text import span_text
 

@@ -131,4 +131,3 @@ def _consistent(
     by_record = np.lexsort((off, chunk_no))
     same = (np.diff(chunk_no[by_record]) == 0) & (np.diff(off[by_record]) == 0)
     return not same.any()
-
