@@ -132,6 +132,9 @@ class BuildReport:
     #: the earliest detection time of the first batch learnt (not in the JSON): whether the
     #: logs start before a continued map's data ends (``log_times.overlap_note``)
     first_detection_ns: int | None = None
+    #: per detection topic, its ``TopicCounts`` (not in the JSON): a parallel build adds its
+    #: shards' up and warns of off stamps once, from the sums (``shard_reports``)
+    stamp_counts: dict[str, Any] = field(default_factory=dict)
 
     def mean_speed(self) -> float | None:
         """The mean speed of the detections with one (m/s); None when none has."""
@@ -267,6 +270,7 @@ def record_detections(
             f"{c.log_times:,} detections came from messages without a header (as mapped): "
             "their messages' log times were used"
         )
+    report.stamp_counts = dict(c.topics)
     report.warnings.extend(stamp_warnings(c.topics))
     return c
 

@@ -56,6 +56,15 @@ class TopicCounts:
     but at most :data:`FAR_STAMP_NS` from their log time, and the first such (stamp, log
     time)."""
 
+    def add_stamps(self, other: TopicCounts) -> None:
+        """Add the stamp counts of ``other`` (a later part of the same topic): the sums, and
+        the first example of each kind."""
+        self.stamps_far += other.stamps_far
+        self.far_example = self.far_example or other.far_example
+        self.stamped += other.stamped
+        self.stamps_off += other.stamps_off
+        self.off_example = self.off_example or other.off_example
+
     def count_far_stamps(self, t_ns: I64, messages: Sequence[Any], message: I64) -> None:
         """Count the detections (times ``t_ns``, from ``messages[message]``) stamped more
         than :data:`FAR_STAMP_NS` from their message's log time; keep the first."""

@@ -1,9 +1,10 @@
 """The reports of a parallel build's shards as the one report a sequential build writes.
 
-Counts add (detections read and used, drops, headings and speeds, scene-graph messages and
-skips, TF failures, per topic); notes and warnings are kept once each; the observation source is the
-first shard's, with a warning when the shards' sources differ, and a fixed sensor's observed
-windows are summed into one line. The scene-graph counts note is written once, from the sums
+Counts add (detections read and used, drops, headings and speeds, header stamps off their log
+times (warned of from the sums, once), scene-graph messages and skips, TF failures, per topic);
+notes and warnings are kept once each; the observation source is the first shard's, with a
+warning when the shards' sources differ, and a fixed sensor's observed windows are summed into
+one line. The scene-graph counts note is written once, from the sums
 (:func:`aion_cli.graph_feed.graph_counts_note`), and the parent stops, as one pass does, only
 when no shard could decode any of its scene graphs.
 """
@@ -14,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from aion_cli.build_report import FAST_PEOPLE_WARNING, BuildReport, fast_people_warning
+from aion_cli.detection_counts import TopicCounts
 from aion_cli.errors import MessageDecodeError
 from aion_cli.fixed_sensor import (
     DECLARED,
@@ -25,6 +27,7 @@ from aion_cli.fixed_sensor import (
     unposed_note,
 )
 from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
+from aion_cli.stamp_warnings import FAR_STAMPS, OFF_STAMPS, stamp_warnings
 from aion_cli.tf_feed import NO_TRAJECTORY_NOTE, SILENT_NOTE, silent_note
 
 
@@ -120,8 +123,13 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
             if line not in out.notes and not line.startswith(GRAPH_COUNTS_NOTE):
                 out.notes.append(line)
         for line in p.warnings:
-            if line not in out.warnings and not line.startswith(FAST_PEOPLE_WARNING):
+            if line in out.warnings or line.startswith(FAST_PEOPLE_WARNING):
+                continue
+            if FAR_STAMPS not in line and OFF_STAMPS not in line:  # from the sums, below
                 out.warnings.append(line)
+        for topic, counts in p.stamp_counts.items():
+            mine = out.stamp_counts.setdefault(topic, TopicCounts())
+            mine.add_stamps(counts)
         if p.graph_source != "none":
             out.graph_source = p.graph_source
         out.graph_layer = out.graph_layer or p.graph_layer
@@ -140,6 +148,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     note = graph_counts_note(out)  # the shards' counts added up
     if note is not None:
         out.notes.append(note)
+    out.warnings.extend(stamp_warnings(out.stamp_counts))  # from the shards' stamps added up
     fast = fast_people_warning(out)  # from the shards' speeds added up
     if fast is not None:
         out.warnings.append(fast)

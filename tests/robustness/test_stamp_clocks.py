@@ -169,3 +169,40 @@ def test_a_map_on_a_simulations_clock_from_1970_is_a_warning(tmp_path: Path) -> 
     wall = [person(T0 + k * S, (2.1, 0.1, 0.0)) for k in range(N)]
     report = build_json(write_log(tmp_path / "wall.mcap", wall), "-o", tmp_path / "wall.aion")
     assert all(SIM_TIME not in w for w in report["warnings"])
+
+
+def test_stamp_warnings_of_a_parallel_build_are_those_of_one_process(tmp_path: Path) -> None:
+    """Two logs three days apart (two shards with --workers 2), stamped an hour off: each
+    shard warned of its own half (two warnings, '1,300 of the 1,300'); now the parent warns
+    once from the shards' counts added up, word for word what one process says (so does the
+    warning of stamps a day away, from the same counts)."""
+    day = 3 * 86_400
+
+    def logs(name: str, logged: int, stamped: int) -> list[Path]:
+        return [
+            write_log(
+                tmp_path / f"{name}{d}.mcap",
+                [
+                    person(
+                        logged + (d * day + k) * S,
+                        (2.1, 0.1, 0.0),
+                        header_ns=stamped + (d * day + k) * S,
+                    )
+                    for k in range(N)
+                ],
+            )
+            for d in range(2)
+        ]
+
+    for name, logged, stamped, kind in (("off", T0, T0 + 3600 * S, OFF_STAMPS),):
+        said = []
+        for workers in ("1", "2"):
+            out = tmp_path / f"{name}-{workers}.aion"
+            report = build_json(*logs(name, logged, stamped), "-o", out, "--workers", workers)
+            assert (workers == "2") == any("built 2 shards" in n for n in report["notes"])
+            said.append([w for w in report["warnings"] if kind in w])
+            for path in tmp_path.glob(f"{name}?.mcap"):
+                path.unlink()
+        assert len(said[0]) == 1, said
+        assert said[0][0].startswith(f"{2 * N:,} ")
+        assert said[1] == said[0]
