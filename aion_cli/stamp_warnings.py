@@ -82,9 +82,9 @@ clock from 0 (Gazebo with use_sim_time), not the world's (no ROS log is older)."
 SIM_TIME = "a simulation's clock from 0 (use_sim_time)?"
 
 
-def sim_time_warning(start_ns: int | None) -> str | None:
-    """The warning for a map whose data starts at ``start_ns`` before
-    :data:`SIM_TIME_BEFORE_NS`; None for a later (or no) start."""
+def sim_time_warning(start_ns: int | None, what: str = "the map's data") -> str | None:
+    """The warning for a map whose data (``what``: a log's messages) starts at ``start_ns``
+    before :data:`SIM_TIME_BEFORE_NS`; None for a later (or no) start."""
     if start_ns is None or start_ns >= SIM_TIME_BEFORE_NS:
         return None
     from datetime import UTC, datetime, timedelta
@@ -93,7 +93,7 @@ def sim_time_warning(start_ns: int | None) -> str | None:
 
     when = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=start_ns // 1000)
     return (
-        f"the map's data starts at {iso(start_ns)} (a {when:%A}), {SIM_TIME} Its hours of "
+        f"{what} starts at {iso(start_ns)} (a {when:%A}), {SIM_TIME} Its hours of "
         "the day and weekdays are that clock's, not the world's, and a forecast for now lies "
         f"decades after its data: query it at times of its own (aion predict MAP --time "
         f'"{when:%Y-%m-%d} 08:00"), or record the logs with the wall clock'

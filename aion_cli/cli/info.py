@@ -80,6 +80,7 @@ def describe(
     from aion_cli.formats.logs import open_logs
     from aion_cli.formats.summary import summarize
     from aion_cli.message_hours import fixed_sensor_windows
+    from aion_cli.stamp_warnings import sim_time_warning
     from aion_cli.topics import refine_reasons, select_topics
 
     mappings = _mappings(mapping)
@@ -94,6 +95,8 @@ def describe(
         for topic, first in firsts.items():
             summary.dsg_versions[topic] = first.versions
         report = summary.to_dict()
+        sim = sim_time_warning(logset.start_ns if logset.total() else None, "the log's time")
+        report["warnings"] += [sim] if sim is not None else []
         if read is not None:
             report["verified"] = {"messages_read": read}
         if plan.detections and not plan.tf and _no_graph_robot(firsts):

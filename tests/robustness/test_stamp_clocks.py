@@ -206,3 +206,20 @@ def test_stamp_warnings_of_a_parallel_build_are_those_of_one_process(tmp_path: P
         assert len(said[0]) == 1, said
         assert said[0][0].startswith(f"{2 * N:,} ")
         assert said[1] == said[0]
+
+
+def test_aion_info_of_a_log_on_a_simulations_clock_warns_as_the_build_does(tmp_path: Path) -> None:
+    """``aion info LOG`` showed a log of 1970 without a word; now it warns as the build will
+    (the log's first message 100 s after 1970-01-01 00:00, a Thursday); a log on the wall
+    clock gets no such warning."""
+    import json
+
+    sim_times = [(SIM_START_S + k) * S for k in range(10)]
+    sim = write_log(tmp_path / "sim.mcap", [person(t, (2.1, 0.1, 0.0)) for t in sim_times])
+    wall = write_log(tmp_path / "wall.mcap", [person(T0 + t, (2.1, 0.1, 0.0)) for t in sim_times])
+    result = run("info", sim, "--format", "json")
+    assert result.exit_code == 0, result.stderr
+    (warning,) = [w for w in json.loads(result.stdout)["warnings"] if SIM_TIME in w]
+    assert warning.startswith("the log's time starts at 1970-01-01 00:01:40 UTC (a Thursday)")
+    result = run("info", wall, "--format", "json")
+    assert all(SIM_TIME not in w for w in json.loads(result.stdout)["warnings"])
