@@ -126,12 +126,15 @@ def test_the_colour_key_names_the_colours_drawn() -> None:
     assert not has_no_flow([2.0, 1.0])
 
 
-def test_report_caption_names_both_colours(standing_map: Path, tmp_path: Path) -> None:
-    from aion_cli.formats.scene_colours import NO_HEADING_KEY
-
+def test_report_caption_leaves_the_colours_to_the_pictures_legend(
+    standing_map: Path, tmp_path: Path
+) -> None:
+    """The caption under the map from above names no colour the picture may lack (it said
+    'grey: no flow' under pictures without grey); the picture's own legend names the ones
+    drawn (teal here: test_png_draws_the_standing_cell_teal_and_says_what_teal_means)."""
     out = tmp_path / "report"
     assert run("report", standing_map, "--time", AT, "-o", out, "-q").exit_code == 0
     page = (out / "index.html").read_text()
-    assert "grey: no flow" in page
-    assert NO_HEADING_KEY in page
+    assert "the legend under the picture names the other colours it draws" in page
+    assert "grey: no flow" not in page  # every cell of this map has flow: no grey drawn
     assert "dashed outlines" not in page  # a map of hash cells: no rooms to outline
