@@ -145,43 +145,12 @@ def link_tracks(
         return TrackLinks(track_id, heading, speed)
     rows = rows[np.argsort(t[rows], kind="stable")]
     ts, ps = t[rows], p[rows]
-    ids = _associate(ts, ps, cfg)
+    ids = TrackLinker(cfg).link(ts, ps)  # the build's linker: one association for both
     h, s = difference_tracks(
         ts, ids, ps, min_step=cfg.min_step, max_span_ns=round(cfg.heading_span_s * 1e9)
     )
     track_id[rows], heading[rows], speed[rows] = ids, h, s
     return TrackLinks(track_id, heading, speed)
-
-
-class _Tracks:
-    """Every track's last time, position, velocity and match count, indexed by track id
-    (ids are handed out in order, so one preallocated array per field suffices)."""
-
-    def __init__(self, capacity: int) -> None:
-        self.t: I64 = np.zeros(capacity, np.int64)
-        self.xy: F64 = np.zeros((capacity, 2))
-        self.v: F64 = np.zeros((capacity, 2))
-        self.count: I64 = np.zeros(capacity, np.int64)
-        self.next_id = 0
-
-    def start(self, t: int, xy: F64) -> I64:
-        """New tracks at the positions ``xy`` (stationary until matched); their ids."""
-        a = self.next_id
-        b = a + len(xy)
-        self.t[a:b], self.xy[a:b], self.v[a:b], self.count[a:b] = t, xy, 0.0, 1
-        self.next_id = b
-        return np.arange(a, b, dtype=np.int64)
-
-    def extend(self, ids: I64, t: int, xy: F64, dt_s: F64, cfg: LinkerConfig) -> None:
-        """Tracks ``ids`` matched detections at ``xy``: new position, and a velocity smoothed
-        over the steps and capped at ``max_speed``."""
-        step = (xy - self.xy[ids]) / dt_s[:, None]
-        a = np.where(self.count[ids] == 1, 1.0, cfg.velocity_smoothing)[:, None]
-        v = a * step + (1.0 - a) * self.v[ids]
-        fast = np.hypot(v[:, 0], v[:, 1]) / cfg.max_speed
-        v /= np.maximum(fast, 1.0)[:, None]  # a person does not outrun max_speed
-        self.v[ids], self.xy[ids], self.t[ids] = v, xy, t
-        self.count[ids] += 1
 
 
 def _frames(t_sorted: I64) -> tuple[list[int], list[int], list[int]]:
@@ -192,58 +161,20 @@ def _frames(t_sorted: I64) -> tuple[list[int], list[int], list[int]]:
     return starts.tolist(), ends.tolist(), t_sorted[starts].tolist()
 
 
-def _associate(t: I64, xy: F64, cfg: LinkerConfig) -> I64:
-    """Track ids of time-sorted finite detections: one pass over the frames."""
-    from scipy.optimize import linear_sum_assignment
-
-    ids = np.empty(len(t), np.int64)
-    tracks = _Tracks(len(t))
-    live = np.zeros(0, np.int64)
-    gap_ns = round(cfg.max_gap_s * 1e9)
-    for a, b, now in zip(*_frames(t), strict=True):
-        det = xy[a:b]
-        if live.size:
-            last = tracks.t[live]
-            alive = last >= now - gap_ns
-            if not alive.all():
-                live, last = live[alive], last[alive]
-        if live.size == 0:
-            ids[a:b] = live = tracks.start(now, det)
-            continue
-        dt_s = (now - last).astype(np.float64) * _NS
-        pred = tracks.xy[live] + tracks.v[live] * dt_s[:, None]
-        dist = np.hypot(pred[:, None, 0] - det[None, :, 0], pred[:, None, 1] - det[None, :, 1])
-        gated = dist <= (cfg.max_speed * dt_s + cfg.gate_slack)[:, None]
-        if live.size == 1 or b - a == 1:  # one row or column: the best gated pair is optimal
-            flat = int(np.argmin(np.where(gated, dist, np.inf)))
-            r, c = np.divmod(np.array([flat]), b - a)
-        else:
-            r, c = linear_sum_assignment(np.where(gated, dist, _BIG))
-        keep = gated[r, c]
-        r, c = r[keep], c[keep]
-        matched = live[r]
-        tracks.extend(matched, now, det[c], dt_s[r], cfg)
-        ids[a + c] = matched
-        if len(c) < b - a:
-            rest = np.ones(b - a, dtype=bool)
-            rest[c] = False
-            new = tracks.start(now, det[rest])
-            ids[a:b][rest] = new
-            live = np.concatenate([live, new])
-    return ids
-
-
 # ----------------------------------------------------------------------------- incremental
 
 
 class TrackLinker:
-    """:func:`link_tracks`' association, one chunk of detections at a time: a log's stream is
-    decoded in chunks of messages, and tracks must carry over from one chunk to the next.
+    """The association of step 1 (the module docstring), one chunk of detections at a time: a
+    log's stream is decoded in chunks of messages, and tracks must carry over from one chunk
+    to the next. It is the one linker: the build (``aion_cli.detection_feed``) and
+    :func:`link_tracks` (``aion convert``'s datasets without ids) both call it, so the same
+    rows give the same tracks on either path.
 
     :meth:`link` takes the next detections (times need not be sorted within a chunk; a frame
     is a run of equal times, i.e. one message), associates them frame by frame with the live
-    tracks as :func:`link_tracks` does, and returns their track ids, unique over the linker's
-    life (0, 1, ... in order of each track's first detection; -1 for a non-finite position).
+    tracks, and returns their track ids, unique over the linker's life (0, 1, ... in order of
+    each track's first detection; -1 for a non-finite position).
     Linking a stream in chunks that end between frames gives the ids linking it at once gives.
 
     Only live tracks are kept (preallocated arrays of their id, last time, position, velocity
@@ -303,7 +234,7 @@ class TrackLinker:
         return out
 
     def _frame(self, now: int, det: F64) -> I64:
-        """Associate one frame's detections with the live tracks (see :func:`_associate`)."""
+        """Associate one frame's detections with the live tracks (the module docstring, step 1)."""
         cfg = self.config
         n = self._n
         if n and np.minimum.reduce(self._t[:n]) < now - self._gap_ns:  # some track ended
@@ -392,8 +323,9 @@ class TrackLinker:
             setattr(self, name, arr)
 
     def _extend(self, rows: I64, now: int, xy: F64, dt_s: F64) -> None:
-        """Live rows ``rows`` matched detections at ``xy``: :meth:`_Tracks.extend`, except
-        that a zero time step keeps the velocity."""
+        """Live rows ``rows`` matched detections at ``xy``: new position, and a velocity
+        smoothed over the steps (the first step taken whole) and capped at ``max_speed``; a
+        zero time step keeps the velocity."""
         cfg = self.config
         old_v = self._v[rows]
         count = self._count[rows]
