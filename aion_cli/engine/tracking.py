@@ -175,7 +175,9 @@ class TrackLinker:
     is a run of equal times, i.e. one message), associates them frame by frame with the live
     tracks, and returns their track ids, unique over the linker's life (0, 1, ... in order of
     each track's first detection; -1 for a non-finite position).
-    Linking a stream in chunks that end between frames gives the ids linking it at once gives.
+    Linking a stream in chunks that end between frames gives the ids linking it at once gives;
+    a chunk that ends inside a frame (two messages of one stamp) still gives each track at
+    most one detection of that frame.
 
     Only live tracks are kept (preallocated arrays of their id, last time, position, velocity
     and match count; ended tracks are compacted away), so memory follows the people in view,
@@ -199,6 +201,7 @@ class TrackLinker:
         self._count: I64 = np.zeros(cap, np.int64)
         self._n = 0
         self.next_id = 0
+        self._last_now: int | None = None  # the last stamp of the previous call
 
     def __len__(self) -> int:
         """Number of live tracks."""
@@ -230,6 +233,7 @@ class TrackLinker:
         with np.errstate(over="ignore"):  # positions far out (1e300 m) are no match: inf
             for a, b, now in zip(*_frames(ts), strict=True):
                 ids[a:b] = frame(now, ps[a:b])
+        self._last_now = int(ts[-1])
         out[rows] = ids
         return out
 
@@ -255,6 +259,8 @@ class TrackLinker:
         gate = cfg.max_speed * dt_s + cfg.gate_slack
         gate *= gate
         gated = d2 <= gate[:, None]
+        if now == self._last_now:  # the rest of the previous call's last frame (a message of
+            gated &= (self._t[:n] != now)[:, None]  # the same stamp): a track takes one of it
         rows_in = np.logical_or.reduce(gated, axis=1).nonzero()[0]
         if rows_in.size == 0:
             return self._start(now, det)

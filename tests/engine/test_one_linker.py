@@ -100,3 +100,18 @@ def test_a_tie_is_broken_alike_by_convert_and_the_build() -> None:
     convert = link_tracks(t, xy).track_id
     assert np.array_equal(convert, _chunked(t, xy, [10, 16]))
     assert np.array_equal(convert, TrackLinker().link(t, xy))
+
+
+def test_a_frame_cut_between_two_calls_gives_each_track_one_detection_of_it() -> None:
+    """A build decodes messages in jobs of a few thousand; a job may end between two messages
+    of one stamp. Before, the second message's rows were gated against tracks that already
+    had their detection of that stamp (gate 0.3 m, dt = 0), so a second detection of the
+    walker (the Lincoln detector's duplicates) joined its track: two positions at one time."""
+    t = np.array([0, 1, 2, 3, 3, 4, 5], np.int64) * _S
+    xy = np.array([(0, 0), (1, 0), (2, 0), (3, 0), (3.1, 0.05), (4, 0), (5, 0)], float)
+    whole = link_tracks(t, xy).track_id
+    assert whole.tolist() == [0, 0, 0, 0, 1, 0, 0]  # the duplicate is a track of its own
+    split = _chunked(t, xy, [4])  # the stamp-3 frame is two messages, in two jobs
+    assert np.array_equal(split, whole)
+    for k in np.unique(split):
+        assert len(np.unique(t[split == k])) == np.count_nonzero(split == k)
