@@ -18,7 +18,7 @@ import numpy as np
 from aion_cli.engine.entries import ADDITIVE, CELL, HEADING_SUMS, NODE
 from aion_cli.engine.grouping import contained
 from aion_cli.engine.types import GraphSnapshot
-from aion_cli.errors import MapCorruptError, MapFileError
+from aion_cli.errors import MapCorruptError, MapFileError, MapVersionError
 
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
@@ -68,8 +68,9 @@ def parse_state_meta(meta: Mapping[str, Any]) -> StateMeta:
 
 
 def check_state_version(meta: Mapping[str, Any]) -> None:
-    """:class:`MapFileError` for a state an older aion wrote, :class:`MapCorruptError` for a
-    missing or newer version (the first check of every reader of a map's state)."""
+    """:class:`MapFileError` for a state an older aion wrote, :class:`MapVersionError` (with
+    the hint to upgrade) for one a newer aion wrote, :class:`MapCorruptError` for a missing
+    version (the first check of every reader of a map's state)."""
     try:
         version = int(meta["state_version"])
     except (KeyError, TypeError, ValueError) as exc:
@@ -81,7 +82,11 @@ def check_state_version(meta: Mapping[str, Any]) -> None:
             hint="rebuild the map from its logs with `aion build`",
         )
     if version > STATE_VERSION:
-        raise MapCorruptError(f"map state version {version} is newer than {STATE_VERSION}")
+        raise MapVersionError(
+            f"the map was written by a newer aion (model state version {version}; this aion "
+            f"reads up to {STATE_VERSION})",
+            hint="install a newer aion (pip install -U aion) to read this map",
+        )
 
 
 # A map's members pass their sha256 checks when they are what its writer wrote; these checks

@@ -15,7 +15,7 @@ from aion_cli.engine.query import historical_table, predict_table
 from aion_cli.engine.state import MapState
 from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.types import Mesh, Trajectory
-from aion_cli.errors import MapCorruptError, MapFileError
+from aion_cli.errors import MapCorruptError, MapFileError, MapVersionError
 from tests.engine.engine_builders import (
     T0,
     T0_DAY_END,
@@ -160,8 +160,9 @@ def test_from_arrays_rejects_corrupt_input() -> None:
         MapState.from_arrays(arrays, {**meta, "pending_day": None})
     with pytest.raises(MapCorruptError):
         MapState.from_arrays(arrays, {k: v for k, v in meta.items() if k != "config"})
-    with pytest.raises(MapCorruptError, match="newer"):
+    with pytest.raises(MapVersionError, match="newer aion") as new:  # not "corrupt": upgrade
         MapState.from_arrays(arrays, {**meta, "state_version": 99})
+    assert "pip install -U aion" in str(new.value.hint)
     with pytest.raises(MapFileError, match="older") as old:
         MapState.from_arrays(arrays, {**meta, "state_version": 1})
     assert "aion build" in str(old.value.hint)
