@@ -48,7 +48,8 @@ For a map (.aion): map, format, version, creator, created, inputs[{path, name, s
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config, map_frame,
 nav_layer (the graph layer of its places: places, mesh_places, ...; null without a graph),
-rooms[{id, name, places}], buildings[{id, name, rooms}],
+rooms[{id, name, places}], buildings[{id, name, rooms}], warnings (a state and graph that
+cannot be read: why nav_layer, rooms and buildings are empty),
 merged_from[{name, path, size, sha256}] and lineage (a merged map),
 query_only{from{name, path, size, sha256}, left_out} (aion compact),
 part{held_days} and observed_spans[[start_ns, end_ns]] (a part map; the spans of --observed),

@@ -42,8 +42,9 @@ def _hierarchy(path: Path) -> dict[str, Any]:
     """The layer the map's latest scene graph took its places from (``nav_layer``:
     ``places``, ``mesh_places``, ...), each of its rooms (id, name: None when the graph gives
     none, and how many places it holds) and each building (id, name, and how many rooms it
-    holds); None and empty without a graph, or when the graph cannot be read (the commands
-    that use it say why)."""
+    holds); None and empty without a graph, or, with a warning that says why (under
+    ``warnings``), when the state and graph cannot be read: a damaged member, a state a
+    newer aion wrote, an invalid stored configuration."""
     import numpy as np
 
     from aion_cli.engine.node_ids import node_label
@@ -53,10 +54,19 @@ def _hierarchy(path: Path) -> dict[str, Any]:
 
     try:
         graph = load_map_head(path).graph
-    except AionError:
-        return {"nav_layer": None, "rooms": [], "buildings": []}
+    except AionError as exc:
+        return {
+            "nav_layer": None,
+            "rooms": [],
+            "buildings": [],
+            "warnings": [
+                f"{path.name}: aion cannot read this map's state and scene graph ({exc}): "
+                f"its graph layer, rooms and buildings are not shown, and queries refuse the "
+                f"map; `aion info {path.name} --verify` checks every member"
+            ],
+        }
     if graph is None:
-        return {"nav_layer": None, "rooms": [], "buildings": []}
+        return {"nav_layer": None, "rooms": [], "buildings": [], "warnings": []}
 
     def held(layer: Any, children: Any, key: str) -> list[dict[str, Any]]:
         return [
@@ -72,6 +82,7 @@ def _hierarchy(path: Path) -> dict[str, Any]:
         "nav_layer": graph.layer_name,
         "rooms": held(graph.rooms, graph.places, "places"),
         "buildings": held(graph.buildings, graph.rooms, "rooms"),
+        "warnings": [],
     }
 
 
@@ -198,6 +209,9 @@ def print_map(report: dict[str, Any]) -> None:
     if merged_from:
         table.add_row("lineage", safe(str(report.get("lineage"))))
     print_table(table)
+    from aion_cli.cli.console import warn_each
+
+    warn_each(list(report.get("warnings", [])))
 
 
 INPUT_ROWS = 8
