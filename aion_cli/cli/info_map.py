@@ -140,6 +140,15 @@ def print_map(report: dict[str, Any]) -> None:
         named = [f"{b['name']} ({b['id']})" if b.get("name") else str(b["id"]) for b in buildings]
         table.add_row("buildings", safe(f"{len(buildings):,}: {first_few(named, 12)}"))
     table.add_row("observation", safe(report.get("observation")))
+    merged = report.get("merged_from") or []
+    if merged:
+        lineage = {
+            "same": "one scene-graph session: nodes joined by id",
+            "different": "different scene-graph sessions: re-bound by position",
+        }.get(str(report.get("lineage")), f"lineage {report.get('lineage')}")
+        names = first_few([str(m.get("name")) for m in merged], INPUT_ROWS)
+        count = f"{len(merged):,} map{'' if len(merged) == 1 else 's'}"
+        table.add_row("merged from", safe(f"{count} by aion merge ({lineage}): {names}"))
     query_only = report.get("query_only")
     if isinstance(query_only, dict):
         from aion_cli.query_only import made_from

@@ -349,3 +349,33 @@ def test_a_map_from_before_exposure_merges_when_no_robot_observed_it(tmp_path: P
     assert refused.exit_code == 2
     assert_one_line_error(refused.stderr, "count a robot's windows differently", "exposure")
     assert "exposure = false" in refused.stderr
+
+
+def test_info_table_names_the_maps_merged_and_their_lineage(days: Days, tmp_path: Path) -> None:
+    """``aion info`` of a merged map: its table showed the logs but not that (nor which) maps
+    were merged, nor how, which only its JSON (merged_from, lineage) said."""
+    same = tmp_path / "same.aion"
+    assert run("merge", days.maps[0], days.maps[1], "-o", same, "-q").exit_code == 0
+    graph = save_graph_file(tmp_path / "other.json", {i: PLACES[(i + 1) % 7] for i in PLACES},
+                            EDGES)
+    other = tmp_path / "wednesday-other.aion"
+    assert run("build", days.logs[1], "--graph", graph, "-o", other, "-q").exit_code == 0
+    different = tmp_path / "different.aion"
+    assert run("merge", days.maps[0], other, "-o", different, "-q").exit_code == 0
+    for path, names, how in (
+        (same, "monday.aion, wednesday.aion", "one scene-graph session"),
+        (different, "monday.aion, wednesday-other.aion", "different scene-graph sessions"),
+    ):
+        doc = run_json("info", path, "--format", "json")
+        assert ", ".join(m["name"] for m in doc["merged_from"]) == names
+        assert doc["lineage"] == ("same" if path == same else "different")
+        table = run("info", path)
+        assert table.exit_code == 0, table.stderr
+        cells = [line.split("│")[1:3] for line in table.stdout.splitlines() if line.count("│") == 3]
+        start = next(k for k, (what, _) in enumerate(cells) if what.strip() == "merged from")
+        end = next((k for k in range(start + 1, len(cells)) if cells[k][0].strip()), len(cells))
+        row = " ".join(value.strip() for _, value in cells[start:end])  # a wrapped cell, joined
+        assert row.startswith(f"2 maps by aion merge ({how}"), table.stdout
+        assert row.endswith(names), table.stdout
+    unmerged = run("info", days.maps[0])
+    assert "merged from" not in unmerged.stdout
