@@ -101,7 +101,9 @@ class _RosbagsSource(_Source):
             storages = getattr(reader.storage, "storages", [])
             mcap = any("mcap" in type(x).__name__.lower() for x in storages)
             fmt_name = "rosbag2-mcap" if mcap else "rosbag2-sqlite3"
-            size = sum(p.stat().st_size for p in path.iterdir() if p.is_file())
+            # its storage files, as `ros2 bag info` and an mcap-storage bag's size count:
+            # not metadata.yaml, nor other files someone left in the folder
+            size = sum(Path(x.path).stat().st_size for x in storages)
             start, end = self._count_storages(storages, reader)
             if storages:
                 counts = {key: t.count for key, t in self.topics.items()}

@@ -1,0 +1,37 @@
+"""The size ``aion info`` gives a rosbag2 folder is its storage files' (what ``ros2 bag info``
+counts), whatever the storage: an sqlite3 bag's counted every file of the folder
+(metadata.yaml, and anything left beside it), its mcap twin's only the .mcap files, so one
+recording showed two sizes. Checked against the sizes on disk of the files that the bag's own
+metadata.yaml lists, on the real rosbag2 test bags."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+import yaml
+
+from tests.cli.conftest import run_json
+from tests.shared_data import real
+
+
+def _storage_bytes(folder: Path) -> int:
+    meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    return sum((folder / name).stat().st_size for name in meta["relative_file_paths"])
+
+
+@pytest.mark.parametrize(
+    "name", ["rosbag2_py_sqlite3_talker", "rosbag2_py_mcap_talker", "ros2bag_empty_bag"]
+)
+def test_a_folder_s_size_is_its_storage_files(name: str, tmp_path: Path) -> None:
+    folder = real("logs", "rosbag2_tests", name)
+    expected = _storage_bytes(folder)
+    assert expected < sum(f.stat().st_size for f in folder.iterdir())  # metadata.yaml is not
+    doc = run_json("info", folder, "--format", "json")
+    assert doc["size_bytes"] == expected
+    assert sum(f["size_bytes"] for f in doc["files"]) == expected
+    copy = shutil.copytree(folder, tmp_path / name)
+    copy.chmod(0o755)  # the shared data is read-only
+    (copy / "notes.txt").write_text("recorded by the night shift\n" * 100)  # not the bag's
+    assert run_json("info", copy, "--format", "json")["size_bytes"] == expected
