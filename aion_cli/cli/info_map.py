@@ -185,8 +185,11 @@ def print_map(report: dict[str, Any]) -> None:
         )
     if "scored_days" in families:
         days = int(families["scored_days"])
-        last = " (the last, still open to more logs, provisionally)" if families.get(
-            "last_day_provisional") else ""
+        last = ""
+        if families.get("last_day_provisional"):  # a query-only map is continued no more
+            last = (" (the last provisionally, as it stood when compacted)"
+                    if isinstance(query_only, dict)
+                    else " (the last, still open to more logs, provisionally)")
         table.add_row("days scored", f"{days:,}{last}")
     from aion_cli.forecast_notes import observed_hours
 

@@ -97,6 +97,23 @@ def test_it_leaves_out_the_fourier_sums_and_says_so(maps: Maps) -> None:
     assert "query only" in table.stdout
 
 
+def test_info_does_not_call_a_query_only_maps_last_day_open_to_more_logs(maps: Maps) -> None:
+    """The full map's last day is scored provisionally, open to the logs that continue it;
+    its query-only copy, which cannot be continued, said the same beside 'cannot be
+    continued or merged'."""
+    assert read_manifest(maps.small)["families"]["last_day_provisional"] is True
+
+    def days_row(path: Path) -> str:
+        table = run("info", path)
+        assert table.exit_code == 0, table.stderr
+        return next(line for line in table.stdout.splitlines() if "days scored" in line)
+
+    assert "still open to more logs" in days_row(maps.full)
+    row = days_row(maps.small)
+    assert "open to more logs" not in row
+    assert "provisionally, as it stood when compacted" in row
+
+
 def test_a_query_only_map_refuses_to_learn(maps: Maps, tmp_path: Path) -> None:
     before = maps.small.read_bytes()
     log = tmp_path / "more.mcap"
