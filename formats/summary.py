@@ -100,13 +100,15 @@ class FileSummary:
     end_ns: int
 
     def to_dict(self) -> dict[str, Any]:
+        """Its times are None without messages (the readers' 0 is no time: 1970-01-01)."""
+        held = self.message_count > 0
         return {
             "path": self.path,
             "format": self.format,
             "size_bytes": self.size_bytes,
             "messages": self.message_count,
-            "start_ns": self.start_ns,
-            "end_ns": self.end_ns,
+            "start_ns": self.start_ns if held else None,
+            "end_ns": self.end_ns if held else None,
         }
 
 
@@ -144,15 +146,17 @@ class LogSummary:
         return [t for t in self.topics if t.role == role]
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict: plain str/int/float/list/dict values only."""
+        """JSON-ready dict: plain str/int/float/list/dict values only; the times are None
+        when no file holds a message (the table's "duration: none"), not 1970-01-01."""
+        held = any(f.message_count > 0 for f in self.files)
         return {
             "formats": self.formats,
             "files": [f.to_dict() for f in self.files],
             "size_bytes": self.size_bytes,
-            "start_ns": self.start_ns,
-            "end_ns": self.end_ns,
-            "start": _iso(self.start_ns),
-            "end": _iso(self.end_ns),
+            "start_ns": self.start_ns if held else None,
+            "end_ns": self.end_ns if held else None,
+            "start": _iso(self.start_ns) if held else None,
+            "end": _iso(self.end_ns) if held else None,
             "duration_s": round(self.duration_s, 6),
             "messages": self.message_count,
             "topics": [t.to_dict() for t in self.topics],

@@ -32,11 +32,12 @@ Generic types (PoseStamped, PoseArray, PoseWithCovarianceStamped, PointStamped, 
 MarkerArray) are used only from topics whose name suggests people; `why` says why each topic
 is used or skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping.
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
-size_bytes, start_ns, end_ns, start, end, duration_s, messages, topics[{topic, type, count,
-role, encoding, rate_hz, used, why}], roles, dsg_versions, will_use{detections, scene_graph, tf},
-cannot_read, warnings, fixed_sensor{windows_with_messages, span_windows, window_s,
-hours_with_messages} (only when the logs have no TF, and no scene graph or a first one without
-robot poses in its agent layer: build observes the windows with messages),
+size_bytes, start_ns, end_ns, start, end (times null without messages), duration_s, messages,
+topics[{topic, type, count, role, encoding, rate_hz, used, why}], roles, dsg_versions,
+will_use{detections, scene_graph, tf}, cannot_read, warnings,
+fixed_sensor{windows_with_messages, span_windows, window_s, hours_with_messages} (only when
+the logs have no TF, and no scene graph or a first one without robot poses in its agent
+layer: build observes the windows with messages),
 frames_without_tf{topic: [frames of its first messages that the log's TF does not connect
 to 'map']} (aion_cli.frame_check: a build would need --map-frame), tf_roots{frame: the frame
 at the top of its TF tree, for those frames that TF knows (the --map-frame to build in when
