@@ -128,6 +128,8 @@ def print_map(report: dict[str, Any]) -> None:
     table.add_row("time span", span_with_days(span_text(seconds), start, end, report))
     table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
+    if "windows" in counts:  # as the build's summary counted them (mapquery.state_counts)
+        table.add_row("windows observed", f"{counts['windows']:,}")
     layer = report.get("nav_layer")
     graph_text = f"{report.get('graph_source')}" + (f", places from layer {layer}" if layer else "")
     table.add_row("graph", safe(graph_text))

@@ -347,3 +347,15 @@ def test_a_fixed_sensors_hours_in_the_zone_it_will_be_built_in(tmp_path: Path) -
     refused = run("info", log, "--tz", "Mars/Olympus")
     assert refused.exit_code == 2
     assert "unknown time zone 'Mars/Olympus'" in refused.stderr
+
+
+def test_the_table_shows_the_windows_observed_as_the_build_counted(office: Office) -> None:
+    """The map's table showed no 'windows observed' (only its JSON's counts.windows), the row
+    the build's own summary printed. The office log covers 08:00 to 08:20 on Monday, with the
+    robot's poses throughout: two 10-minute windows."""
+    assert office.build["windows"] == 2
+    assert run_json("info", office.map, "--format", "json")["counts"]["windows"] == 2
+    table = run("info", office.map)
+    assert table.exit_code == 0, table.stderr
+    row = next(line for line in table.stdout.splitlines() if "windows observed" in line)
+    assert row.split("│")[2].strip() == "2"
