@@ -379,7 +379,10 @@ def _print(report: dict[str, Any]) -> None:
     from aion_cli.cli.output import markup_safe as safe
 
     out = data_console()
-    names = safe(", ".join(Path(f["path"]).name for f in report["files"]))
+    names = safe(", ".join(dict.fromkeys(  # a rosbag2 folder's name for its mcap storage files
+        Path(f["path"]).parent.name if f["format"] == "rosbag2-mcap" else Path(f["path"]).name
+        for f in report["files"]
+    )))
     held = sum(int(f["messages"]) for f in report["files"])
     messages = f"{report['messages']:,}"
     if held > report["messages"]:  # the rest on topics no ROS reader can decode (warnings)

@@ -1,8 +1,9 @@
 """The size ``aion info`` gives a rosbag2 folder is its storage files' (what ``ros2 bag info``
 counts), whatever the storage: an sqlite3 bag's counted every file of the folder
 (metadata.yaml, and anything left beside it), its mcap twin's only the .mcap files, so one
-recording showed two sizes. Checked against the sizes on disk of the files that the bag's own
-metadata.yaml lists, on the real rosbag2 test bags."""
+recording showed two sizes; and the table names an mcap-storage bag by its folder, as an
+sqlite3 bag. Checked against the files that the bag's own metadata.yaml lists (and their sizes
+on disk), on the real rosbag2 test bags."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from tests.cli.conftest import run_json
+from tests.cli.conftest import run, run_json
 from tests.shared_data import real
 
 
@@ -35,3 +36,21 @@ def test_a_folder_s_size_is_its_storage_files(name: str, tmp_path: Path) -> None
     copy.chmod(0o755)  # the shared data is read-only
     (copy / "notes.txt").write_text("recorded by the night shift\n" * 100)  # not the bag's
     assert run_json("info", copy, "--format", "json")["size_bytes"] == expected
+
+
+@pytest.mark.parametrize("name", ["rosbag2_py_mcap_talker", "rosbag2_py_mcap_wbag"])
+def test_the_table_names_an_mcap_storage_bag_by_its_folder(name: str) -> None:
+    """The table's first line named an mcap-storage bag by its storage files ("wbag_0.mcap,
+    wbag_1.mcap, ...", five for one recording) where an sqlite3 bag is named by its folder."""
+    folder = real("logs", "rosbag2_tests", name)
+    meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    storage = meta["relative_file_paths"]
+    assert storage
+    assert all(s.endswith(".mcap") for s in storage)
+    table = run("info", folder)
+    assert table.exit_code == 0, table.stderr
+    first = table.stdout.splitlines()[0]
+    assert first.startswith(f"{name}  format: rosbag2-mcap  size: "), first
+    assert not any(s in first for s in storage), first
+    sqlite = run("info", real("logs", "rosbag2_tests", "rosbag2_py_sqlite3_talker"))
+    assert sqlite.stdout.startswith("rosbag2_py_sqlite3_talker  format: rosbag2-sqlite3  size: ")
