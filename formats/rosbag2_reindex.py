@@ -191,9 +191,14 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
                     mcap = _Unpacked(mcap, temps[original], original)
                 opened.append(mcap)
             else:
+                from aion_cli.formats.log_format import other_log, other_log_hint
+
+                other = other_log(original, "rosbag2")  # a ROS 1 bag given as rosbag2
                 raise LogFormatError(
-                    f"{original} is not a rosbag2 storage file (neither SQLite nor MCAP)",
-                    hint="pass the bag's .db3 / .mcap storage files, or its folder",
+                    f"{original} is not a rosbag2 storage file (neither SQLite nor MCAP)"
+                    + (f": it is {other[0]}" if other else ""),
+                    hint=other_log_hint(other[1]) if other
+                    else "pass the bag's .db3 / .mcap storage files, or its folder",
                 )
         if sqlite and opened:
             raise LogFormatError(

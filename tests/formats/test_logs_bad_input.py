@@ -154,8 +154,9 @@ def test_corrupted_bag(tmp_path: Path) -> None:
 
 def test_a_log_format_that_names_another_container_says_which_one_it_is(tmp_path: Path) -> None:
     """--log-format bag on an MCAP, a rosbag2 folder or its .db3 (which it opened as the
-    folder: "Is a directory"), --log-format mcap on a bag or a .db3: the error says what the
-    file is and which --log-format reads it, not that a bag may be corrupt."""
+    folder: "Is a directory"), --log-format mcap on a bag or a .db3, --log-format rosbag2 on a
+    bag (its hint said to pass .db3 / .mcap files): the error says what the file is and which
+    --log-format reads it, not that a bag may be corrupt."""
     mcap = _write(tmp_path / "a.mcap", "mcap")
     bag = _write(tmp_path / "b.bag", "bag")
     folder = _write(tmp_path / "c", "rosbag2-sqlite3")
@@ -166,6 +167,8 @@ def test_a_log_format_that_names_another_container_says_which_one_it_is(tmp_path
         (folder, "bag", f"{folder}: not a readable ROS 1 bag (it is a rosbag2 bag", "rosbag2"),
         (bag, "mcap", f"{bag} is not an MCAP file (it is a ROS 1 bag)", "bag"),
         (db3, "mcap", f"{db3} is not an MCAP file (it is an SQLite database", "rosbag2"),
+        (bag, "rosbag2", f"{bag} is not a rosbag2 storage file (neither SQLite nor MCAP): it "
+         "is a ROS 1 bag", "bag"),
     ]
     for path, fmt, message, right in cases:
         with pytest.raises(LogFormatError) as info:
