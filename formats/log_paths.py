@@ -21,7 +21,7 @@ from pathlib import Path
 
 from aion_cli.errors import LogFormatError
 from aion_cli.formats.limits import ReadLimits
-from aion_cli.formats.log_format import FORMATS, guess_format, other_log_hint
+from aion_cli.formats.log_format import FORMATS, _what_else, guess_format, other_log_hint
 from aion_cli.formats.log_source import _Source, _Unpacked
 from aion_cli.formats.mcap_source import _open_mcap
 from aion_cli.formats.rosbag2_reindex import _reindexed_sources
@@ -64,7 +64,15 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
         raise LogFormatError(
             f"unknown log format {fmt!r}", hint=f"use one of: {', '.join(FORMATS)}"
         )
-    guessed, target = guess_format(path)
+    try:
+        guessed, target = guess_format(path)
+    except LogFormatError:
+        if fmt is None or not path.is_file() or path.stat().st_size == 0 or _what_else(path):
+            raise  # a map, a scene graph, a tracks file: the guess's hint says what to do
+        # the file's name and bytes say no format, but --log-format names one: its reader
+        # says why it cannot read the file ("cannot tell the log format" pointed back to
+        # the --log-format given)
+        guessed, target = fmt, path
     kind = fmt or guessed
     if kind in ("mcap", "bag") and path.is_file() and path.name != "metadata.yaml":
         target = path  # --log-format mcap|bag reads the file named, never its rosbag2 folder

@@ -245,3 +245,31 @@ def test_rosbag2_mcap_folder_is_read_with_the_mcap_reader_even_when_truncated(
         assert 0 < n < 40
         assert "truncated or corrupt MCAP" in logs.warnings[0]
         assert [m.log_time_ns - T0 for m in logs.messages()] == list(range(n))
+
+
+def test_a_file_of_no_format_read_with_log_format_says_why_that_reader_cannot(
+    tmp_path: Path,
+) -> None:
+    """A text file read with --log-format X was refused as 'cannot tell the log format' with
+    the hint 'use --log-format mcap|bag|rosbag2': the option the user had just given. Now the
+    reader named says why the file is not its format; a file that is another input aion
+    reads (a tracks CSV here) keeps the hint that says what to do with it."""
+    notes = tmp_path / "notes.txt"
+    notes.write_text("the robot ran from 9 to 5\n")
+    with pytest.raises(LogFormatError, match="cannot tell the log format"):
+        open_logs([notes])
+    expected = {
+        "mcap": "is not an MCAP file (it does not start with the MCAP magic bytes)",
+        "bag": "not a readable ROS 1 bag",
+        "rosbag2": "is not a rosbag2 storage file (neither SQLite nor MCAP)",
+    }
+    for fmt, message in expected.items():
+        with pytest.raises(LogFormatError) as info:
+            open_logs([notes], fmt=fmt)
+        assert message in info.value.message, (fmt, info.value.message)
+        assert "--log-format mcap|bag|rosbag2" not in (info.value.hint or "")
+    tracks = tmp_path / "tracks.csv"
+    tracks.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n1000,1,0,0,0,0,1\n")
+    with pytest.raises(LogFormatError, match="cannot tell the log format") as info:
+        open_logs([tracks], fmt="mcap")
+    assert "aion convert tracks.csv" in (info.value.hint or "")
