@@ -172,14 +172,21 @@ def load_mapping(source: str | Path) -> list[TopicMapping]:
         try:
             text = source.read_text(encoding="utf-8")
         except OSError as exc:
-            raise ConfigError(f"cannot read mapping file {source}: {exc.strerror}") from exc
+            raise ConfigError(
+                f"cannot read mapping file {source}: {exc.strerror}",
+                hint="check the path; `aion info LOG --suggest-mapping TOPIC > FILE` writes one",
+            ) from exc
         where = str(source)
     else:
         text, where = source, "mapping"
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{where} is not valid TOML: {exc}") from exc
+        raise ConfigError(
+            f"{where} is not valid TOML: {exc}",
+            hint="fix the line named (README, People detections: the mapping's keys); "
+            "`aion info LOG --suggest-mapping TOPIC` prints a valid one to start from",
+        ) from exc
     tables = doc.get("topic")
     if not isinstance(tables, list) or not tables:
         raise ConfigError(

@@ -535,3 +535,20 @@ def test_bad_blob_mappings_name_the_key(
                  "--map-frame", "base_laser")  # fmt: skip
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, *fragments)
+
+
+def test_a_missing_or_broken_mapping_file_comes_with_a_hint(tmp_path: Path) -> None:
+    """A mapping file that cannot be read, or is not TOML, was an error line with no hint
+    (every other bad input says what to do): now the hint points to --suggest-mapping."""
+    log = person_bag(tmp_path / "legs.bag")
+    broken = tmp_path / "broken.toml"
+    broken.write_text('[[topic]]\ntopic "/people"\n')  # the '=' left out
+    for mapping, fragment in ((tmp_path / "absent.toml", "cannot read mapping file"),
+                              (broken, "broken.toml is not valid TOML")):
+        for args in (("info", log), ("build", log, "-o", tmp_path / "x.aion")):
+            result = run(*args, "--detections-mapping", mapping)
+            assert result.exit_code == 2, result.stderr
+            assert_one_line_error(result.stderr, fragment)
+            hints = [line for line in result.stderr.splitlines() if line.startswith("hint: ")]
+            assert len(hints) == 1, result.stderr
+            assert "--suggest-mapping" in hints[0]
