@@ -79,15 +79,18 @@ def describe(
     ``verify``, every message is read first, as a build reads them: chunks that cannot be
     read (damaged, CRC failures) are warnings with the messages lost, as a build's are, and
     ``verified.messages_read`` counts the messages read."""
+    from aion_cli.build_report import NoProgress
     from aion_cli.formats.logs import open_logs
     from aion_cli.formats.summary import summarize
     from aion_cli.message_hours import fixed_sensor_windows
+    from aion_cli.provenance import distinct_logs
     from aion_cli.stamp_warnings import sim_time_warning
     from aion_cli.topics import refine_reasons, select_topics
 
     mappings = _mappings(mapping)
     example: str | None = None
-    with open_logs(paths, log_format, allow_empty=True) as logset:
+    distinct = distinct_logs(tuple(paths), NoProgress(), {})  # a copy is read once, as build
+    with open_logs(distinct.logs, log_format, allow_empty=True) as logset:
         read = sum(1 for _ in logset.messages(None)) if verify else None  # warns as it reads
         summary = summarize(logset, [m.msgtype for m in mappings])
         plan = select_topics(logset.topics, mappings=mappings)
@@ -97,6 +100,7 @@ def describe(
         for topic, first in firsts.items():
             summary.dsg_versions[topic] = first.versions
         report = summary.to_dict()
+        report["warnings"] = distinct.notes + report["warnings"]
         sim = sim_time_warning(logset.start_ns if logset.total() else None, "the log's time")
         report["warnings"] += [sim] if sim is not None else []
         if read is not None:
