@@ -140,6 +140,23 @@ class LogSet:
     def duration_ns(self) -> int:
         return max(self.end_ns - self.start_ns, 0)
 
+    def recorded_ns(self, topic: str) -> int:
+        """How long the files holding messages of ``topic`` recorded: the union of their
+        spans (first to last message), so the time between two logs of other days is left
+        out and two logs of one moment count it once."""
+        spans = sorted(
+            (s.file.start_ns, s.file.end_ns)
+            for s in self._sources
+            if any(t.topic == topic and t.count for t in s.topics.values())
+        )
+        total, reach = 0, None
+        for lo, hi in spans:
+            lo = lo if reach is None else max(lo, reach)
+            if hi > lo:
+                total += hi - lo
+            reach = hi if reach is None else max(reach, hi)
+        return total
+
     def overlaps(self, topics: set[str], at_least_ns: int) -> list[Overlap]:
         """Pairs of files that both carry a topic of ``topics`` and whose time ranges (first
         to last message) share at least ``at_least_ns``: two logs of one moment on the same

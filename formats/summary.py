@@ -68,7 +68,9 @@ def role_of(topic: str, msgtype: str, detections: Iterable[str] | None = None) -
 
 @dataclass(frozen=True)
 class TopicSummary:
-    """One topic: type, message count, mean rate over the log's span, role, wire encoding."""
+    """One topic: type, message count, mean rate over the time the files holding it
+    recorded (:meth:`formats.logs.LogSet.recorded_ns`: one log's span; the time between
+    logs of other days left out), role, wire encoding."""
 
     topic: str
     msgtype: str
@@ -175,7 +177,7 @@ def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSum
     """Summary of ``logset`` from its indexes (reads no message). ``detections``: extra
     message types to count as detections (e.g. those a TOML mapping covers)."""
     known = detection_types() | frozenset(normalize_msgtype(t) for t in detections or ())
-    span_s = max(logset.end_ns - logset.start_ns, 0) / 1e9
+    spans_s = {t.topic: logset.recorded_ns(t.topic) / 1e9 for t in logset.topics}
     topics = [
         TopicSummary(
             topic=t.topic,
@@ -183,7 +185,9 @@ def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSum
             count=t.count,
             role=role_of(t.topic, t.msgtype, known),
             encoding=t.encoding,
-            rate_hz=t.count / span_s if span_s > 0 and t.count > 1 else None,  # one: no rate
+            rate_hz=(  # one message: no rate
+                t.count / spans_s[t.topic] if spans_s[t.topic] > 0 and t.count > 1 else None
+            ),
         )
         for t in logset.topics
     ]
