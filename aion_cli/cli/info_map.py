@@ -127,6 +127,9 @@ def print_map(report: dict[str, Any]) -> None:
     table.add_row("created", safe(f"{report.get('created')} by {report.get('creator')}"))
     table.add_row("time span", span_with_days(span_text(seconds), start, end, report))
     table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
+    for reason, count in sorted((counts.get("dropped") or {}).items()):
+        if count:  # as the build's summary names them
+            table.add_row(f"  dropped: {safe(reason)}", f"{count:,}")
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
     if "windows" in counts:  # as the build's summary counted them (mapquery.state_counts)
         table.add_row("windows observed", f"{counts['windows']:,}")

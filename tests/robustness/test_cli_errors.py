@@ -326,6 +326,12 @@ def test_build_summary_reports_drops_by_reason(tmp_path: Path) -> None:
     assert _row(result.stderr, "dropped: no_transform") == 40  # t = 60..99 s: after the TF
     assert _row(result.stderr, "dropped: nan") == 2
     assert _row(result.stderr, "dropped: out_of_range") == 3
+    # and info of the map says the same (its table named no reason: only "60 of 105")
+    shown = run("info", tmp_path / "t.aion")
+    assert shown.exit_code == 0, shown.stderr
+    assert _row(shown.stdout, "dropped: no_transform") == 40
+    assert _row(shown.stdout, "dropped: nan") == 2
+    assert _row(shown.stdout, "dropped: out_of_range") == 3
     report = build_json(log, "-o", tmp_path / "j.aion")
     assert report["detections"]["dropped"] == {"nan": 2, "no_transform": 40, "out_of_range": 3}
     assert report["detections"]["used"] + sum(report["detections"]["dropped"].values()) == 105
