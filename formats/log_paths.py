@@ -25,7 +25,7 @@ from aion_cli.formats.log_format import FORMATS, _what_else, guess_format, other
 from aion_cli.formats.log_source import _Source, _Unpacked
 from aion_cli.formats.mcap_source import _open_mcap
 from aion_cli.formats.rosbag2_reindex import _reindexed_sources
-from aion_cli.formats.rosbag2_storage import metadata_warning
+from aion_cli.formats.rosbag2_storage import metadata_warning, unlisted_storage_files
 from aion_cli.formats.rosbags_source import _RosbagsSource
 from aion_cli.formats.sqlite_salvage import cut_short
 from aion_cli.listing import first_few
@@ -180,8 +180,22 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
         )
         if warning:
             mcaps[0].warnings.append(warning)
-        return mcaps
-    return [source]
+        return _unlisted_left_out(folder, mcaps)
+    return _unlisted_left_out(folder, [source])
+
+
+def _unlisted_left_out(folder: Path, sources: list[_Source]) -> list[_Source]:
+    """``sources``, with a warning naming the storage files beside the bag's that its
+    metadata.yaml does not list, which are not read (they were read as nothing, silently)."""
+    unlisted = unlisted_storage_files(folder)
+    if unlisted:
+        sources[-1].warnings.append(
+            f"{folder}: {first_few(unlisted, 3)} beside the bag's storage files "
+            f"{'is' if len(unlisted) == 1 else 'are'} not listed in its metadata.yaml: not "
+            "read (copy the folder without metadata.yaml to read every storage file: aion "
+            "then indexes them, as `ros2 bag reindex` would)"
+        )
+    return sources
 
 
 def _files(sources: list[_Source]) -> str:

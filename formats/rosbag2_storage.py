@@ -241,6 +241,23 @@ def metadata_figures(folder: Path) -> MetadataFigures | None:
     )
 
 
+def unlisted_storage_files(folder: Path) -> list[str]:
+    """The names of the storage files in ``folder`` that its metadata.yaml does not list (a
+    split written after the yaml, another bag's file copied in): a reader of the yaml leaves
+    them out. [] when the yaml lists no files or cannot be read (the reader says why)."""
+    from ruamel.yaml import YAML
+
+    try:
+        data = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
+    except Exception:  # OSError, YAML and decoding errors: the reader says why elsewhere
+        return []
+    listed = _nested(data, "rosbag2_bagfile_information", "relative_file_paths")
+    if not isinstance(listed, list) or not listed:
+        return []
+    names = {Path(str(name)).name for name in listed}
+    return [p.name for p in storage_files(folder) if p.name not in names]
+
+
 def _when(t_ns: int) -> str:
     try:
         return datetime.fromtimestamp(t_ns / 1e9, tz=UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")

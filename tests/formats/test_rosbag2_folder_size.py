@@ -54,3 +54,28 @@ def test_the_table_names_an_mcap_storage_bag_by_its_folder(name: str) -> None:
     assert not any(s in first for s in storage), first
     sqlite = run("info", real("logs", "rosbag2_tests", "rosbag2_py_sqlite3_talker"))
     assert sqlite.stdout.startswith("rosbag2_py_sqlite3_talker  format: rosbag2-sqlite3  size: ")
+
+
+@pytest.mark.parametrize(
+    ("name", "extra"),
+    [("rosbag2_py_sqlite3_talker", "talker_1.db3"), ("rosbag2_py_mcap_talker", "talker_1.mcap")],
+)
+def test_a_storage_file_metadata_yaml_does_not_list_is_named(
+    name: str, extra: str, tmp_path: Path
+) -> None:
+    """A storage file beside a bag's that its metadata.yaml does not list (a split written
+    after the yaml, a file copied in) was left out without a word: info counted the listed
+    files' messages only, as if the folder held nothing else."""
+    folder = real("logs", "rosbag2_tests", name)
+    meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    (listed,) = meta["relative_file_paths"]
+    clean = run_json("info", folder, "--format", "json")
+    assert not [w for w in clean["warnings"] if "not listed" in w]
+    copy = shutil.copytree(folder, tmp_path / name)
+    copy.chmod(0o755)  # the shared data is read-only
+    shutil.copyfile(copy / listed, copy / extra)  # a second recording of the same messages
+    doc = run_json("info", copy, "--format", "json")
+    assert doc["messages"] == meta["message_count"]  # the listed file's, as before
+    (warning,) = [w for w in doc["warnings"] if "not listed" in w]
+    assert f"{extra} beside the bag's storage files is not listed in its metadata.yaml" in warning
+    assert listed not in warning
