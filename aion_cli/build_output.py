@@ -23,10 +23,12 @@ def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[st
     """Detections read / used / dropped over every build of the map, and a fixed sensor's
     logs' own time in windows (``recording_windows``, the union over every build's logs: a
     window the previous builds' logs reached, ``recording_reach``, is not counted again; the
-    first window they recorded, ``recording_first``, lets a merge do the same)."""
+    first window they recorded, ``recording_first``, lets a merge do the same), and the
+    detection messages that held no detection (``empty_messages``)."""
     from aion_cli.fixed_sensor import recording_window_count
 
     new = report.to_dict()["detections"]
+    new["empty_messages"] = report.empty_messages  # a tracker that publishes them is not silent
     after = previous.recording_reach if previous is not None else None
     if report.fixed_windows is not None and report.recording_spans:
         new["recording_windows"] = recording_window_count(report.recording_spans, after)
@@ -54,10 +56,10 @@ def write_build(
     from aion_cli.engine.family_summary import family_summary
     from aion_cli.fixed_sensor import (
         DECLARED,
-        SILENT_HINT,
         map_observation_text,
         outside_logs_note,
         share_text,
+        silent_advice,
     )
     from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
@@ -90,13 +92,14 @@ def write_build(
     )
     recording = _recording_windows(report)
     fixed = report.fixed_windows
+    counts = cumulative_counts(report, previous)
     share = None if not recording or fixed is None else min(1.0, fixed[0] / recording)
     # this build's own logs had spans declared (its text says so)
     if share is not None and share < 0.5 and DECLARED not in report.observation:
         report.notes.append(
             f"the fixed sensor observed {share_text(share)} of its logs' time (the windows in "
             "which a log recorded a message, each log from its first message to its last; the "
-            f"rest is unknown, not empty): {SILENT_HINT}"
+            f"rest is unknown, not empty): {silent_advice(counts)}"
         )
     if declared and fixed is not None:
         reach = previous.recording_reach if previous is not None else None
@@ -109,7 +112,7 @@ def write_build(
         inputs=inputs,
         start_ns=report.start_ns,
         end_ns=report.end_ns,
-        counts=cumulative_counts(report, previous) | stats,
+        counts=counts | stats,
         last_build=report.to_dict()["detections"],
         graph_source=report.graph_source,
         observation=observation,

@@ -104,6 +104,7 @@ class BuildReport:
     headings: dict[str, int] = field(default_factory=dict)
     speed_micro: int = 0  # µm/s, over the detections with a speed (DetectionCounts)
     speed_n: int = 0
+    empty_messages: int = 0  # detection messages that held no detection (DetectionCounts)
     detection_decoding: dict[str, dict[str, Any]] = field(default_factory=dict)
     by_topic: dict[str, dict[str, Any]] = field(default_factory=dict)
     time_dropped: dict[str, dict[str, int]] = field(default_factory=dict)
@@ -248,6 +249,7 @@ def record_detections(
     report.dropped = dict(c.dropped)
     report.headings = dict(c.headings)
     report.speed_micro, report.speed_n = c.speed_micro, c.speed_n
+    report.empty_messages = c.empty_messages
     fast = fast_people_warning(report)
     if fast is not None:
         report.warnings.append(fast)

@@ -110,6 +110,18 @@ class DetectionCounts:
     no_transform_why: str | None = None
     """Why the first detection dropped as ``no_transform`` had none, when TF's clock is the
     reason (:func:`aion_cli.detection_frames.clock_mismatch`)."""
+    empty_messages: int = 0
+    """Messages that decoded and held no detection (at least: see :meth:`count_empty`): a
+    tracker that publishes them is not silent when nobody is there."""
+
+    def count_empty(self, frames: Any) -> None:
+        """Count the messages of decoded ``frames`` that held no detection: those without a
+        row, less the undecodable ones and less one per item a filter left out (it may have
+        been a message's only item), so the count never takes a message of people for empty."""
+        rows = np.bincount(frames.msg_index, minlength=frames.n_messages)
+        without = int(np.count_nonzero(rows[: frames.n_messages] == 0))
+        left_out = sum(int(n) for n in frames.filtered.values())  # undecodable: per message
+        self.empty_messages += max(0, without - left_out)
 
     def topic(self, name: str) -> TopicCounts:
         got = self.topics.get(name)

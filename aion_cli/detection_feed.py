@@ -247,6 +247,7 @@ class DetectionFeeder:
         else:
             c.log_times += int(frames.stamp_fallbacks)
         per_topic.messages += len(msgs)
+        c.count_empty(frames)
         c.add_decoded(per_topic, frames.filtered)
         error = adapter.first_error
         if error is not None and per_topic.first_error is None:

@@ -185,6 +185,7 @@ class TopicFeeders:
             out.headings.update(counts.headings)
             out.speed_micro += counts.speed_micro
             out.speed_n += counts.speed_n
+            out.empty_messages += counts.empty_messages
             out.topics.update(counts.topics)
             out.no_transform_why = out.no_transform_why or counts.no_transform_why
         return out

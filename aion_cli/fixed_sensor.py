@@ -24,9 +24,11 @@ from aion_cli.engine.types import I64
 from aion_cli.fixed_sensor_text import (
     DECLARED,
     FIXED_SENSOR_OVER,
+    SILENT_HINT,
     fixed_sensor_share,
     fixed_sensor_text,
     share_text,
+    silent_advice,
     time_text,
 )
 from aion_cli.log_times import TimeCheck, iso
@@ -50,6 +52,7 @@ __all__ = [
     "recording_bounds",
     "recording_window_count",
     "share_text",
+    "silent_advice",
     "unposed_note",
 ]
 
@@ -424,14 +427,6 @@ def _window_runs(declared: tuple[tuple[int, int], ...], delta: int) -> list[tupl
     hi = -(-np.array([int(b) for _, b in declared], np.int64) // delta)
     starts, ends = merged_spans(lo, hi)
     return [(int(a), int(b) - 1) for a, b in zip(starts, ends, strict=True)]
-
-
-SILENT_HINT = (
-    "if its tracker is silent when nobody is there, declare the spans it was recording with "
-    "aion build --observed"
-)
-"""Where a fixed sensor observed little of its span: windows without any message are
-unknown, not empty, unless the user says the sensor was recording."""
 
 
 def map_observation_text(texts: list[str], observation: ObservationSource, delta: int) -> str:

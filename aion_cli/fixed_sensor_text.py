@@ -10,12 +10,38 @@ manifests written before, with hours only, still read back.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
+from typing import Any
 
 FIXED_SENSOR_OVER = "fixed sensor over"
 """How the description of a fixed sensor's recorded windows starts (:func:`fixed_sensor_text`)."""
 
 DECLARED = "or --observed"
 """In a fixed sensor's description when ``build --observed`` declared some of its windows."""
+
+SILENT_HINT = (
+    "if its tracker is silent when nobody is there, declare the spans it was recording with "
+    "aion build --observed"
+)
+"""Where a fixed sensor observed little of its span: windows without any message are
+unknown, not empty, unless the user says the sensor was recording."""
+
+
+def silent_advice(counts: Mapping[str, Any]) -> str:
+    """:data:`SILENT_HINT` for a map or build whose detection topics published no message
+    without a detection (``counts["empty_messages"]``; older maps did not count them); when
+    they published some, why it does not apply: such a tracker is not silent when nobody is
+    there, so the windows without a message were not recorded (declaring them would be wrong).
+    """
+    n = counts.get("empty_messages")
+    if type(n) is not int or n <= 0:
+        return SILENT_HINT
+    return (
+        f"its detection topics published {n:,} message{'' if n == 1 else 's'} with nobody in "
+        f"{'it' if n == 1 else 'them'}, so its tracker is not silent when nobody is there and "
+        "the windows without a message were not recorded"
+    )
+
 
 #: The unit words of :func:`time_text`, in seconds.
 _UNIT_S = {"h": 3600.0, "min": 60.0, "s": 1.0}

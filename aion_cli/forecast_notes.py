@@ -55,11 +55,12 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
     unseen = None if static is not None else unseen_day(manifest, int(t_ns))
     if unseen is not None:
         notes.append(unseen)
-    from aion_cli.fixed_sensor import SILENT_HINT
+    from aion_cli.fixed_sensor import silent_advice
 
     # once: an all-static note that found no rhythm carries the advice; one of too few days
     # or of the static family only does not, and the sensor's own note must say it
-    silent = None if static is not None and SILENT_HINT in static else silent_sensor(manifest)
+    advice = silent_advice(manifest.counts)
+    silent = None if static is not None and advice in static else silent_sensor(manifest)
     if silent is not None:
         notes.append(silent)
     unobserved = _unobserved_hour(manifest, int(t_ns))
@@ -112,14 +113,14 @@ def all_static(manifest: Manifest) -> str | None:
         f"on the map's {days} scored days no daily or weekly rhythm forecast the next day "
         "better than that rate"
     )
-    from aion_cli.fixed_sensor import SILENT_HINT, share_text
+    from aion_cli.fixed_sensor import share_text, silent_advice
 
     share = _sensor_share(manifest)
     if share is not None and share < 0.5:
         whose = "its logs'" if _recording_windows(manifest) else "the"
         text += (
             f" (its fixed sensor observed {share_text(share)} of {whose} time: only the windows in "
-            f"which a log recorded a message; {SILENT_HINT})"
+            f"which a log recorded a message; {silent_advice(manifest.counts)})"
         )
     return text
 
@@ -234,10 +235,12 @@ def unseen_day(manifest: Manifest, t_ns: int) -> str | None:
         f"the map observed {what} (its data, {_span_days(first, last)}, holds {held}, but no "
         f"log recorded a window of them): {follows}"
     )
-    from aion_cli.fixed_sensor import SILENT_HINT
+    from aion_cli.fixed_sensor import SILENT_HINT, silent_advice
 
     share = _sensor_share(manifest)
-    if share is not None and share >= 0.5:  # below, silent_sensor's note gives the hint
+    # below, silent_sensor's note gives the hint; a tracker that publishes messages with
+    # nobody in them is not silent: its unrecorded days were not observed
+    if share is not None and share >= 0.5 and silent_advice(manifest.counts) == SILENT_HINT:
         text += f"; {SILENT_HINT}"
     return text
 
@@ -362,17 +365,22 @@ def silent_sensor(manifest: Manifest) -> str | None:
     """The note for a fixed sensor that observed less than half of its logs' own time: if its
     tracker is silent when nobody is there, the windows observed are those with someone in
     them, and every forecast runs high (its nights and quiet hours most); None otherwise."""
-    from aion_cli.fixed_sensor import share_text
+    from aion_cli.fixed_sensor import SILENT_HINT, share_text, silent_advice
 
     share = _sensor_share(manifest)
     if share is None or share >= 0.5:
         return None
-    return (
+    text = (
         f"the map's fixed sensor observed {share_text(share)} of its logs' time (only the "
-        "windows in which a log recorded a message; the rest is unknown, not empty): if its "
-        "tracker is silent when nobody is there, the windows observed are those with someone "
-        "in them and the forecast runs high, most in quiet hours: declare the spans it was "
-        "recording with aion build --observed"
+        "windows in which a log recorded a message; the rest is unknown, not empty): "
+    )
+    advice = silent_advice(manifest.counts)
+    if advice != SILENT_HINT:  # its tracker published messages with nobody in them
+        return text + advice
+    return text + (
+        "if its tracker is silent when nobody is there, the windows observed are those with "
+        "someone in them and the forecast runs high, most in quiet hours: declare the spans it "
+        "was recording with aion build --observed"
     )
 
 

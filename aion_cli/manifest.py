@@ -236,7 +236,9 @@ def add_counts(old: dict[str, Any], new: dict[str, Any], *, meet: bool = False) 
     its manifest's ``counts``) plus those of a new build (``new``): the ``counts`` a continued
     map stores. ``recording_windows`` (a fixed sensor's logs' own time, in windows) adds up
     while every part has it (``old`` empty: the first part), and is left out otherwise;
-    ``recording_reach`` and ``recording_first``, the last and the first of those windows, are
+    ``empty_messages`` (detection messages that held no detection) adds up while every part
+    counted them, and is kept once one part saw some; ``recording_reach`` and
+    ``recording_first``, the last and the first of those windows, are
     the latest and the earliest of the parts' while every part has them. ``meet`` (maps built
     apart, merged): the window in which one part's logs end and the other's begin is counted
     once (a continued build counts only the windows after the map's reach to begin with)."""
@@ -248,6 +250,12 @@ def add_counts(old: dict[str, Any], new: dict[str, Any], *, meet: bool = False) 
         "used": int(old.get("used", 0)) + new["used"],
         "dropped": dict(sorted(dropped.items())),
     }
+    # detection messages that held no detection: kept while every part counted them (older
+    # maps did not: unknown), or as soon as one part saw some (its tracker publishes them)
+    empty = (old.get("empty_messages", 0 if not old else None), new.get("empty_messages"))
+    known = [v for v in empty if type(v) is int]
+    if len(known) == 2 or sum(known) > 0:
+        out["empty_messages"] = sum(known)
     before, added = old.get("recording_windows", 0 if not old else None), new.get(
         "recording_windows"
     )

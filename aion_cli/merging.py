@@ -408,7 +408,7 @@ def _write(
             "used": int(c.get("used", 0)),
             "dropped": dict(c.get("dropped", {})),
         }
-        for key in ("recording_windows", "recording_reach", "recording_first"):
+        for key in ("recording_windows", "recording_reach", "recording_first", "empty_messages"):
             if key in c:  # add_counts checks them
                 part[key] = c[key]
         counts = add_counts(counts, part, meet=True)

@@ -97,6 +97,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         _add(out.headings, p.headings)
         out.speed_micro += p.speed_micro
         out.speed_n += p.speed_n
+        out.empty_messages += p.empty_messages
         out.graph_messages += p.graph_messages
         out.graph_skipped += p.graph_skipped
         out.graph_decoded += p.graph_decoded
