@@ -115,6 +115,10 @@ class _Backend:
         """Finish the file (indexes, summary, metadata)."""
         raise NotImplementedError
 
+    def metadata(self, name: str, data: Mapping[str, str]) -> bool:
+        """Store a metadata record; False for a container without such records."""
+        return False
+
 
 class _McapBackend(_Backend):
     """Raw MCAP writer with ``ros2msg``/``cdr`` or ``ros1msg``/``ros1`` schemas and channels."""
@@ -147,6 +151,10 @@ class _McapBackend(_Backend):
 
     def write(self, channel: Any, t_ns: int, data: bytes | memoryview, sequence: int) -> None:
         self.writer.add_message(channel, t_ns, bytes(data), t_ns, sequence)
+
+    def metadata(self, name: str, data: Mapping[str, str]) -> bool:
+        self.writer.add_metadata(name, dict(data))
+        return True
 
     def close(self) -> None:
         try:
@@ -354,6 +362,14 @@ class LogWriter:
             ) from exc
         data = self._serialize(obj, entry.msgtype)
         self._write(entry, t_ns, data)
+
+    def add_metadata(self, name: str, data: Mapping[str, str]) -> bool:
+        """Store ``data`` as the log's metadata record ``name`` (an MCAP file's; see
+        :func:`formats.log_zone.declared_zones`); False for a container without such records
+        (a ROS 1 bag, a rosbag2 folder), which stores nothing."""
+        if self._backend is None:
+            raise LogWriteError(f"{self.path} is closed", hint="write inside the with block")
+        return self._backend.metadata(name, data)
 
     def write_raw(self, topic: str, msgtype: str, data: bytes | memoryview, t_ns: int) -> None:
         """Write an already serialized payload (CDR for ROS 2 containers, ROS 1 serialization for

@@ -305,7 +305,13 @@ def command(
         return
     if not logs:
         raise InputError("no log given", hint="aion build LOG... [-o MAP]; see aion build --help")
-    observed = observed_spans(observed_text, timezone, continue_from)
+    from aion_cli.log_zone import build_zone
+
+    zone_name = None if timezone is None else resolve_zone(timezone).name
+    zone_name, zone_notes, zone_warnings = build_zone(
+        zone_name, _map_zone(continue_from), logs
+    )
+    observed = observed_spans(observed_text, zone_name, continue_from)
     options = BuildOptions(
         logs=logs,
         output=output,
@@ -321,7 +327,7 @@ def command(
         continue_from=continue_from,
         dsg_version=dsg_version,
         batch_size=batch_size,
-        timezone=None if timezone is None else resolve_zone(timezone).name,
+        timezone=zone_name,
         detections_mapping=detections_mapping,
         graph_period_ns=DEFAULT_GRAPH_PERIOD_NS if graph_period_ns is None else graph_period_ns,
         workers=workers,
@@ -331,6 +337,8 @@ def command(
     )
     with _RichProgress(fmt == "json") as progress:
         report = build_map(options, progress)
+    report.notes[:0] = zone_notes
+    report.warnings[:0] = zone_warnings
     summary = report.to_dict()
     from aion_cli.cli.build_summary import print_summary, print_warnings
 
@@ -339,6 +347,19 @@ def command(
         print_warnings(summary)  # on stderr: stdout stays one JSON document
     else:  # with -q (quiet_option) only its warnings show
         print_summary(summary)
+
+
+def _map_zone(continue_from: Path | None) -> str | None:
+    """The zone of the continued map (None: a new map, or one the build will report)."""
+    if continue_from is None:
+        return None
+    from aion_cli.errors import AionError
+    from aion_cli.formats.mapfile import read_manifest
+
+    try:
+        return str(read_manifest(continue_from).get("timezone") or "UTC")
+    except (AionError, OSError):
+        return None
 
 
 def observed_spans(
@@ -352,14 +373,6 @@ def observed_spans(
     from aion_cli.cli.common import parse_span
     from aion_cli.timeparse import resolve_zone
 
-    zone_name = timezone
-    if zone_name is None and continue_from is not None:
-        from aion_cli.errors import AionError
-        from aion_cli.formats.mapfile import read_manifest
-
-        try:
-            zone_name = str(read_manifest(continue_from).get("timezone") or "UTC")
-        except (AionError, OSError):
-            zone_name = None  # the build reports the map's own error
+    zone_name = timezone if timezone is not None else _map_zone(continue_from)
     zone = resolve_zone(zone_name or "UTC")
     return tuple(parse_span(text, zone, "--observed") for text in texts)

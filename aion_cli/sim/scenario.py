@@ -326,6 +326,7 @@ def _write_scene(
         config.noise,
         progress=report,
         overwrite=overwrite,
+        timezone=config.zone_name(),
     )
     if progress is not None:
         progress("ground truth", 0, 0)

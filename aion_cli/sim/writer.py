@@ -86,10 +86,13 @@ def write_scene_log(
     noise: float,
     progress: Progress | None = None,
     overwrite: bool = False,
+    timezone: str | None = None,
 ) -> LogCounts:
     """Write the merged streams to ``path`` with :class:`formats.writers.LogWriter`: beside
     the target, renamed into place when complete (``overwrite`` replaces only a log of the
-    same kind aion wrote; an error or Ctrl-C mid-scene leaves the previous log intact)."""
+    same kind aion wrote; an error or Ctrl-C mid-scene leaves the previous log intact).
+    ``timezone``: the zone the scene's hours follow, stored in an MCAP file's metadata
+    (:mod:`formats.log_zone`) for ``aion build`` to take without ``--tz``."""
     from aion_cli.formats.writers import LogWriter, check_stamps
 
     check_stamps(
@@ -115,6 +118,10 @@ def write_scene_log(
     total = len(order)
     builder = PayloadBuilder(env, frames, include_mesh)
     with LogWriter(path, container, overwrite=overwrite, lock=False) as log:  # run_scene's
+        if timezone is not None:
+            from aion_cli.formats.log_zone import KEY, RECORD
+
+            log.add_metadata(RECORD, {KEY: timezone})
         tf_bytes = TfEncoder(log).encode(t0_ns + tf_t * dt_ns, map_odom, odom_base)
         for n, o in enumerate(order):
             k, i = int(tick[o]), int(index[o])

@@ -1,0 +1,57 @@
+"""Which time zone a build follows when its logs declare one (:mod:`formats.log_zone`: the
+zone ``aion simulate --tz`` writes into its MCAP logs).
+
+Without ``--tz`` a new map takes the zone its logs declare (a note says so); ``--tz`` or a
+continued map's zone that differs from it is kept, with a warning: a scene simulated in
+Europe/London and built in UTC has its summer hours an hour off.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+
+def build_zone(
+    given: str | None, map_zone: str | None, logs: Sequence[Path]
+) -> tuple[str | None, list[str], list[str]]:
+    """The zone a build follows (``given``: ``--tz`` as resolved, None for the default; the
+    declared zone when neither it nor a continued map's zone, ``map_zone``, is set), and the
+    notes and warnings to give about the zones ``logs`` declare."""
+    from aion_cli.errors import AionError
+    from aion_cli.formats.log_zone import declared_zones
+    from aion_cli.timeparse import resolve_zone
+
+    declared: dict[str, str] = {}
+    for path, text in declared_zones(logs).items():
+        try:
+            declared[path] = resolve_zone(text).name
+        except AionError:
+            continue  # a zone this machine does not know: as if none were declared
+    zones = sorted(set(declared.values()))
+    if not zones:
+        return given, [], []
+    files = ", ".join(Path(p).name for p in declared)
+    if len(zones) > 1:
+        named = ", ".join(f"{Path(p).name} {z}" for p, z in declared.items())
+        return given, [], [
+            f"the logs declare different time zones ({named}): the map follows "
+            f"{given or map_zone or 'UTC'}; give --tz to choose"
+        ]
+    (zone,) = zones
+    if given is not None or map_zone is not None:
+        follows = given if given is not None else map_zone
+        if follows == zone:
+            return given, [], []
+        whose = f"--tz {given}" if given is not None else f"the continued map's zone {map_zone}"
+        return given, [], [
+            f"{files} declare{'s' if len(declared) == 1 else ''} the time zone {zone} (written "
+            f"by aion simulate --tz), but the map follows {whose}: its local hours are off "
+            "wherever the two zones' clocks differ"
+        ]
+    if zone == "UTC":
+        return given, [], []
+    return zone, [
+        f"{files} declare{'s' if len(declared) == 1 else ''} the time zone {zone} (written by "
+        "aion simulate --tz): the map's days and hours follow it (give --tz to choose another)"
+    ], []
