@@ -111,13 +111,24 @@ def map_zone(tz: str | None, loaded: Any = None) -> Zone:
 
 
 def resolve_time(
-    text: str, tz: str | None, loaded: Any = None, after_ns: int | None = None
+    text: str,
+    tz: str | None,
+    loaded: Any = None,
+    after_ns: int | None = None,
+    option: str = "--time",
 ) -> tuple[int, Zone]:
     """Parse ``text`` in :func:`map_zone`'s zone; the time and the zone. ``after_ns``: the
     start of the span ``text`` ends, which a clock alone or a relative form is read from
-    (``--from "2026-11-23 08:00" --to 18:00`` ends that day, not today)."""
+    (``--from "2026-11-23 08:00" --to 18:00`` ends that day, not today). A time that cannot
+    be read is a :class:`~aion_cli.timeparse.TimeFormatError` naming ``option``, as
+    ``--observed`` and ``--leave`` name theirs."""
+    from aion_cli.timeparse import TimeFormatError
+
     zone = map_zone(tz, loaded)
-    return parse_time(text, zone, _reference(after_ns, zone)), zone
+    try:
+        return parse_time(text, zone, _reference(after_ns, zone)), zone
+    except TimeFormatError as exc:
+        raise TimeFormatError(f"{option} {text!r}: {exc.message}", exc.hint) from exc
 
 
 def _reference(start_ns: int | None, zone: Zone) -> Any:
@@ -180,8 +191,8 @@ def series_of(
     days or weeks counts (``export`` and ``predict`` series)."""
     from aion_cli.prediction_series import series_times
 
-    start, zone = resolve_time(t_from, tz, loaded)
-    end, _ = resolve_time(t_to, tz, loaded, after_ns=start)
+    start, zone = resolve_time(t_from, tz, loaded, option="--from")
+    end, _ = resolve_time(t_to, tz, loaded, after_ns=start, option="--to")
     return series_times(start, end, parse_step(step), zone, noun=noun, typed=t_from), zone
 
 

@@ -145,7 +145,7 @@ def command(
     from aion_cli.timeparse import format_ns
 
     time_given = option_given("time_text")
-    series = check_series_options(t_from, t_to, step, historical, time_given)
+    series = check_series_options(t_from, t_to, step, historical, time_given, tz is not None)
     if at is not None:  # a mistyped point fails now, not after the map's first query
         from aion_cli.engine.node_ids import require_point
 

@@ -22,15 +22,19 @@ def check_series_options(
     step: str | None,
     historical: bool,
     time_given: bool,
+    tz_given: bool = False,
 ) -> bool:
-    """Whether a series was asked for; an :class:`InputError` for options that contradict."""
+    """Whether a series was asked for; an :class:`InputError` for options that contradict
+    (``--historical`` has no time, so neither ``--time`` nor ``--tz``: the zone was taken
+    and changed nothing)."""
     from aion_cli.errors import InputError
 
-    if historical and time_given:
-        raise InputError(
-            "--historical is what was observed, at no time: it takes no --time",
-            hint="leave out --time, or --historical",
-        )
+    for given, option in ((time_given, "--time"), (tz_given, "--tz")):
+        if historical and given:
+            raise InputError(
+                f"--historical is what was observed, at no time: it takes no {option}",
+                hint=f"leave out {option}, or --historical",
+            )
     if t_from is None and t_to is None:
         if step is not None:
             raise InputError("--step needs --from and --to", hint="e.g. --from 08:00 --to 18:00")
