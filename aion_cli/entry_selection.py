@@ -38,10 +38,25 @@ def chosen_entries(
         table, layer, wanted, at, in_map=_in_map(loaded, t_ns),
         # r1 for the graph's R1: named, as plan names it
         suggest=None if graph is None else (lambda missing: other_case_hint(missing, graph)),
+        owners=place_owners(graph, layer) if at is not None else None,
     )
     index = refuse_empty_layer(table, layer, index)
     names = {} if loaded.graph is None else names_by_id(loaded.graph)
     return table, layer, index, names
+
+
+def place_owners(graph: Any, layer: str) -> tuple[Any, Any] | None:
+    """For ``--layer rooms`` / ``buildings``: the graph's places' positions and the room (or
+    building, through its room) each belongs to, by which ``--at`` picks the room holding the
+    place nearest the point; None for other layers."""
+    if graph is None or layer not in ("rooms", "buildings"):
+        return None
+    from aion_cli.engine.query import parent_ids
+
+    owner = parent_ids(graph.places.ids, graph.places.parent, graph.places.ids)
+    if layer == "buildings":
+        owner = parent_ids(graph.rooms.ids, graph.rooms.parent, owner)
+    return graph.places.xyz, owner
 
 
 def _refuse_points(nodes: Sequence[str | int]) -> None:
@@ -164,13 +179,18 @@ def select(
     at: str | None = None,
     in_map: Callable[[list[str]], bool] | None = None,
     suggest: Callable[[list[str]], str | None] | None = None,
+    owners: tuple[Any, Any] | None = None,
 ) -> Any:
     """Row numbers of the entries asked for (``--layer``, ``--node``, ``--at``), in table
     order (``--node``: in the order given, an entry named twice once, where first named:
     ``--node p2 --node p2`` or ``--node kitchen --node R2`` is one row), as an int64 array.
     ``in_map``: whether the map holds ids on other layers than ``table``'s (``--layer rooms
     --node p4``: a place, not a room; None: taken as held). ``suggest``: the hint for ids
-    not found, when it has one (``did you mean R1``), before the table's own."""
+    not found, when it has one (``did you mean R1``), before the table's own. ``owners``
+    (rooms and buildings: the graph's places' positions and the id of the room or building
+    each belongs to): ``--at`` answers for the entry owning the place nearest the point, not
+    for the entry whose centre is nearest (a point beside a long room's end is in that room,
+    not in the small room whose centre is closer)."""
     import numpy as np
 
     from aion_cli.engine.nearest import distances_from
@@ -247,6 +267,12 @@ def select(
         x, y, z = require_point(at, "--at")
         if not index.size:
             return index
+        owned = _owner_row(table, index, owners, (x, y, z))
+        if owned is not None:
+            row, place, far = owned
+            label = f"in {entry_ids(table, np.array([row]))[0]}"
+            refuse_far_point(at, far, label, place, "place")
+            return np.array([row], dtype=np.int64)
         xyz = np.asarray(table.xyz, dtype=np.float64)[index]
         dist = distances_from(xyz, (x, y, z))
         nearest = float(dist.min())
@@ -261,3 +287,24 @@ def select(
         index = np.array([best], dtype=np.int64)
     return index
 
+
+
+def _owner_row(
+    table: Any, index: Any, owners: tuple[Any, Any] | None, point: tuple[float, float, float]
+) -> tuple[int, Any, float] | None:
+    """The row among ``index`` owning the place nearest ``point`` (``owners``: places'
+    positions and their owners' ids), the places' positions and that place's distance; None
+    without owners or when that place's owner has no row (an empty room)."""
+    import numpy as np
+
+    from aion_cli.engine.nearest import distances_from
+
+    if owners is None or not len(owners[0]):
+        return None
+    xyz, owner = np.asarray(owners[0], dtype=np.float64), np.asarray(owners[1])
+    dist = distances_from(xyz, point)
+    nearest = int(np.argmin(dist))
+    rows = index[np.asarray(table.node_id)[index] == owner[nearest]]
+    if not rows.size:
+        return None
+    return int(rows[0]), xyz, float(dist[nearest])

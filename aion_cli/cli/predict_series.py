@@ -105,12 +105,18 @@ def run_series(
 
 def say_nearest(at: str | None, entry: dict[str, Any] | None) -> None:
     """With ``--at``, a note naming the entry the point stands for and how far it is (the
-    table showed an entry, possibly metres away, without a word that it was the nearest)."""
+    table showed an entry, possibly metres away, without a word that it was the nearest); a
+    room or building is the one holding the place nearest the point (``entry_selection``)."""
     if at is None or entry is None:
         return
     from aion_cli.cli.console import note
     from aion_cli.engine.node_ids import point_distance, require_point
 
+    kind = entry.get("kind")
+    if kind in ("room", "building"):  # chosen by the place nearest the point, not its centre
+        note(f"--at {at}: the point stands for {entry['id']}, the {kind} holding the place "
+             "nearest it")
+        return
     xyz = (float(entry["x"]), float(entry["y"]), float(entry["z"]))
     away = point_distance(xyz, require_point(at, "--at"))
     note(f"--at {at}: the entry nearest the point is {entry['id']}, {away:.2f} m from it")
