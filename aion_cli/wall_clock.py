@@ -59,11 +59,16 @@ def skipped_wall(
     """The wall-clock time (naive) ``text`` names in ``zone`` when a clock change skips it, so
     ``t_ns`` reads otherwise (``2026-03-29 02:30`` in Europe/Berlin, read as 03:30 summer
     time); None for any other time, a time of another zone it names, or a ``text`` that is no
-    string (the API's datetimes and numbers name one instant). A daily series from such a
-    start keeps the wall-clock time typed on its other days (02:30, not 03:30)."""
-    if not isinstance(text, str) or zone_named_in(text, zone).tz != zone.tz:
+    string nor a naive ``datetime`` (the API's aware datetimes and numbers name one instant;
+    a naive one is a wall-clock time of ``zone``, as a string without an offset is). A daily
+    series from such a start keeps the wall-clock time typed on its other days (02:30, not
+    03:30)."""
+    if isinstance(text, datetime):
+        wall: datetime | None = text.replace(fold=0) if text.tzinfo is None else None
+    elif not isinstance(text, str) or zone_named_in(text, zone).tz != zone.tz:
         return None
-    wall = _wall_clock_of(text, zone, now)
+    else:
+        wall = _wall_clock_of(text, zone, now)
     if wall is None or from_ns(t_ns, zone).replace(tzinfo=None) == wall:
         return None
     return wall if to_ns(wall.replace(tzinfo=zone.tz, fold=0)) == t_ns - t_ns % 1000 else None

@@ -289,3 +289,25 @@ def test_a_daily_series_from_a_skipped_time_keeps_the_time_typed_on_the_other_da
     # typed as the instant it is (summer time, its own offset): 03:30 every day
     _, given = _series(berlin, "2026-03-29 03:30+02:00", "2026-03-30 03:30", "1d")
     assert given == [_utc("2026-03-29 01:30"), _utc("2026-03-30 01:30")]
+
+
+def test_a_naive_datetime_start_in_a_skipped_hour_keeps_its_time_as_a_string_does(
+    berlin: Path, office: Office
+) -> None:
+    """``Map.predict_series(datetime(2026, 3, 29, 2, 30), ...)`` (a naive datetime: a wall
+    clock of the map's zone, as a string without an offset is) gave 03:30 on every day, and
+    left out the end of 02:30 on 03-31, after the string form was fixed; it gives the string's
+    times now. An aware datetime names one instant and keeps its wall clock, as before."""
+    expected = [_utc("2026-03-29 01:30"), _utc("2026-03-30 00:30"), _utc("2026-03-31 00:30")]
+    m = aion.Map.load(berlin)
+    naive = m.predict_series(datetime(2026, 3, 29, 2, 30), datetime(2026, 3, 31, 2, 30), "1d",
+                             top=1)
+    assert naive.times_ns == expected
+    summer = datetime(2026, 3, 29, 3, 30, tzinfo=ZoneInfo(BERLIN))
+    aware = m.predict_series(summer, datetime(2026, 3, 30, 3, 30), "1d", top=1)
+    assert aware.times_ns == [_utc("2026-03-29 01:30"), _utc("2026-03-30 01:30")]
+    plan = aion.Map.load(office.map).plan(
+        "p0", "p4", tz=BERLIN, leave=(datetime(2026, 3, 29, 2, 30), datetime(2026, 3, 31, 2, 30)),
+        step="1d",
+    )
+    assert [row["depart_ns"] for row in plan.departures] == expected
