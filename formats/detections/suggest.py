@@ -18,8 +18,12 @@ named as a candidate:
   (``theta``, ``yaw``, ``heading``) as ``yaw``;
 - **id**: an integer, string or UUID field named like an id (``track_id``, ``id``, ``uuid``,
   ``object_id``, ``name``, ...);
+- **velocity** as a number per axis: an element's ``vx, vy[, vz]`` (or ``vel_x``, ...) as
+  ``velocity = ["vx", "vy"]``, when no vector is named like a velocity;
 - **stamp / frame**: the message's ``header`` (the defaults), a per-item ``header``
-  (``item_header``), or, without any header, the log time and a ``frame_override`` to fill in.
+  (``item_header``), an element's own time and frame fields without a header (``item_stamp``:
+  a Time or 64-bit integer named like ``stamp``, ``t_ns``; ``item_frame``: a string named
+  ``frame_id`` or ``frame``), or, without any, the log time and a ``frame_override`` to fill in.
 
 The first candidate of each role is filled in; the others are listed in a comment. The text
 loads with :func:`~formats.detections.mapping.load_mapping` and passes
@@ -259,6 +263,52 @@ def _element(store: Typestore, typename: str, array: str) -> str:
     return str(detail[0][1])
 
 
+#: an element's velocity as a number per axis, best first (``velocity = ["vx", "vy"]``)
+_VELOCITY_NUMBERS = (
+    ("vx", "vy", "vz"), ("vel_x", "vel_y", "vel_z"), ("velocity_x", "velocity_y", "velocity_z"),
+    ("v_x", "v_y", "v_z"),
+)  # fmt: skip
+#: an element's own time (a Time message or integer nanoseconds) and frame, best first
+_STAMP_NAMES = ("stamp", "t_ns", "stamp_ns", "time_ns", "timestamp", "time", "t")
+_FRAME_NAMES = ("frame_id", "frame", "frame_name")
+
+
+def _velocity_numbers(store: Typestore, typename: str) -> list[str]:
+    """The element's velocity as separate numbers (``vx, vy[, vz]``); empty without them."""
+    numbers = _number_fields(store, typename)
+    for names in _VELOCITY_NUMBERS:
+        if set(names[:2]) <= numbers:
+            return list(names if names[2] in numbers else names[:2])
+    return []
+
+
+def _item_stamp(store: Typestore, typename: str) -> str | None:
+    """A field of the element named like a time that the mapping reads as one (a Time message,
+    or a 64-bit integer of nanoseconds: ``item_stamp``); None without one."""
+    fields = _field_names(store, typename)
+    for name in _STAMP_NAMES:
+        node = fields.get(name)
+        if node is None:
+            continue
+        if node[0] == _NAME:
+            names = set(_field_names(store, str(node[1])))
+            if {"sec", "nanosec"} <= names or {"secs", "nsecs"} <= names:
+                return name
+        elif node[0] == _BASE and node[1][0] in ("int64", "uint64"):
+            return name
+    return None
+
+
+def _item_frame(store: Typestore, typename: str) -> str | None:
+    """A string field of the element named like a frame (``item_frame``); None without one."""
+    fields = _field_names(store, typename)
+    for name in _FRAME_NAMES:
+        node = fields.get(name)
+        if node is not None and node[0] == _BASE and node[1][0] == "string":
+            return name
+    return None
+
+
 def _has_header(store: Typestore, typename: str) -> bool:
     node = _field_names(store, typename).get("header")
     return node is not None and node[0] == _NAME and str(node[1]).endswith("/Header")
@@ -337,9 +387,13 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
             "are (`aion info LOG` lists the topics and types)",
         )
     velocities = _velocities(found.vec3)
+    numbers = [] if velocities else _velocity_numbers(store, item)
     ids = _ids(found.ids)
     header = _has_header(store, name)
     item_header = array is not None and _has_header(store, item)
+    own = array is not None and not item_header
+    item_stamp = _item_stamp(store, item) if own else None
+    item_frame = _item_frame(store, item) if own else None
     lines = [
         f"# aion detections mapping for {_comment(topic)} ({name}),",
         "# suggested from the log's own definition of the type. Check the fields, then:",
@@ -363,6 +417,9 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
         lines.append(_line("position", planar, "planar (x, y): z is 0"))
     if velocities:
         lines.append(_line("velocity", velocities[0], _others(velocities[0], velocities)))
+    elif numbers:
+        axes = ", ".join(_toml_string(p) for p in numbers)
+        lines.append(f"{'velocity = [' + axes + ']':<40} # a number per axis")
     else:
         lines.append("# velocity: no candidate (headings come from tracks, or from linking)")
     if not found.quat and yaws:
@@ -382,8 +439,13 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
         lines.append('# stamp = "header.stamp", frame = "header.frame_id" (the defaults)')
     if item_header:
         lines.append(_line("item_header", "header", "each element's own stamp and frame"))
-    if not header and not item_header:
-        lines.append("# no header: detections take their message's log time")
+    if item_stamp:
+        lines.append(_line("item_stamp", item_stamp, "each element's own time"))
+    if item_frame:
+        lines.append(_line("item_frame", item_frame, "each element's own frame"))
+    if not header and not item_header and not item_frame:
+        if not item_stamp:
+            lines.append("# no header: detections take their message's log time")
         lines.append(
             _line("frame_override", "map", "REQUIRED here: the frame the positions are in")
         )

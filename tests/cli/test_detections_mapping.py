@@ -552,3 +552,29 @@ def test_a_missing_or_broken_mapping_file_comes_with_a_hint(tmp_path: Path) -> N
             hints = [line for line in result.stderr.splitlines() if line.startswith("hint: ")]
             assert len(hints) == 1, result.stderr
             assert "--suggest-mapping" in hints[0]
+
+
+def test_suggest_mapping_proposes_velocity_numbers_and_the_items_own_time_and_frame(
+    tmp_path: Path,
+) -> None:
+    """--suggest-mapping of the blob type never proposed ``velocity = ["vx", "vy"]``,
+    ``item_stamp`` or ``item_frame`` (it said "velocity: no candidate" and asked for a
+    frame_override, so the blobs were placed at their messages' log times in a guessed frame,
+    their headings from linking). It proposes the hand-written mapping's lines now, and the
+    suggestion builds the map that mapping builds."""
+    import tomllib
+
+    log = blob_log(tmp_path / "blobs.mcap")
+    suggested = run("info", log, "--suggest-mapping", "/blobs")
+    assert suggested.exit_code == 0, suggested.stderr
+    (topic,) = tomllib.loads(suggested.stdout)["topic"]
+    (wanted,) = tomllib.loads(BLOB_MAPPING)["topic"]
+    assert topic == wanted  # no frame_override: item_frame gives each blob's
+    mapping = tmp_path / "suggested.toml"
+    mapping.write_text(suggested.stdout)
+    out = tmp_path / "suggested.aion"
+    report = run_json("build", log, "-o", out, "--detections-mapping", mapping,
+                      "--map-frame", "base_laser", "--format", "json")  # fmt: skip
+    assert report["headings"]["velocity"] == 20
+    _, counts, _ = map_cells(out)
+    assert counts.sum(axis=0).tolist() == [10, 0, 0, 0, 0, 0, 10, 0]
