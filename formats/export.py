@@ -12,7 +12,9 @@ What is drawn (DESIGN.md §7):
   sticks out; busy = ``min(flow/flow_scale, 1)``, κ the concentration, 1 if not given),
   coloured like the node.
 - **cells**: a flat horizontal δ×δ square per unbound hash cell centre, coloured by entropy
-  (grey when the cell has no flow, teal with flow but no heading).
+  (grey when the cell has no flow, teal with flow but no heading); in a scene without nodes
+  (a map of hash cells only) an arrow per cell with flow and a dominant direction too, like a
+  node's, from the centre out of the square by ``δ·(0.3 + 2·busy)`` (in ``arrows.ply``).
 - **edges**: the place edges as a line set (grey); **path**: the planned path as a line set
   (green); **mesh**: the scene graph's mesh with its vertex colours.
 
@@ -224,7 +226,11 @@ def export_scene(
     scene = _Scene(
         nodes=node_spheres(xyz, style.radii, colors),
         arrows=direction_arrows(
-            xyz, style.arrow_angle, style.arrow_length, style.arrow_width, colors
+            np.concatenate([xyz, style.cells_xyz]),
+            np.concatenate([style.arrow_angle, style.cell_arrow_angle]),
+            np.concatenate([style.arrow_length, style.cell_arrow_length]),
+            style.arrow_width,
+            np.concatenate([colors, style.cell_colors]),
         ),
         cells=cell_squares(style.cells_xyz, cell_size, style.cell_colors),
         mesh=style.mesh,

@@ -31,9 +31,11 @@ class SceneStyle:
     """The drawn scene, one source for every scene format (PLY, PCD and MCAP): per node its
     centre, sphere radius, colour and arrow (``arrow_angle`` NaN: no arrow; length from the
     centre, shaft ``arrow_width`` thick), per unbound cell its centre, colour and dominant
-    direction (``cells_angle``, rad, NaN: none; cells draw no arrow), the edges
-    [k,2,3], the mesh and the path [p,3]; with the flow (NaN-free) and entropy they show and
-    the ``flow_scale`` drawn at full size."""
+    direction (``cells_angle``, rad, NaN: none) and arrow (``cell_arrow_angle``,
+    ``cell_arrow_length``: drawn only in a scene without nodes, a map of hash cells only,
+    whose direction no node shows; beside nodes, NaN), the edges [k,2,3], the mesh and the
+    path [p,3]; with the flow (NaN-free) and entropy they show and the ``flow_scale`` drawn at
+    full size."""
 
     nodes_xyz: F64
     node_flow: F64
@@ -54,6 +56,8 @@ class SceneStyle:
     path: F64
     cell_size: float
     flow_scale: float
+    cell_arrow_angle: F64
+    cell_arrow_length: F64
 
 
 def style_scene(
@@ -111,6 +115,9 @@ def style_scene(
     busy = busy_fraction(flow, scale)
     radii = sphere_radii(flow, scale, cell_size)
     arrow_angle = np.where(busy > 0, angle, np.nan)
+    cell_arrow_angle, cell_arrow_length = _cell_arrows(
+        n, c_flow, c_angle, cell_size, flow_scale
+    )
     return SceneStyle(
         nodes_xyz=xyz,
         node_flow=np.nan_to_num(flow, nan=0.0),
@@ -131,6 +138,24 @@ def style_scene(
         path=_rows("path_xyz", path_xyz, None, (3,)),
         cell_size=float(cell_size),
         flow_scale=scale,
+        cell_arrow_angle=cell_arrow_angle,
+        cell_arrow_length=cell_arrow_length,
+    )
+
+
+def _cell_arrows(
+    nodes: int, flow: F64, angle: F64, cell_size: float, flow_scale: float | None
+) -> tuple[F64, F64]:
+    """The cells' arrows (angle, NaN: none; length from the centre) of a scene without nodes
+    (a map of hash cells only, as the pictures draw them): like a node's, out of the square's
+    edge by ``δ·(0.3 + 2·busy)``, the busy share on the cells' flow scale (or ``flow_scale``).
+    Beside nodes the cells draw none (the scene of a map with places is unchanged)."""
+    if nodes or not len(flow):
+        return np.full(len(flow), np.nan), np.zeros(len(flow))
+    busy = busy_fraction(flow, _flow_scale(flow, flow_scale))
+    return (
+        np.where(busy > 0, angle, np.nan),
+        cell_size * (0.5 + 0.3 + 2.0 * busy),
     )
 
 
