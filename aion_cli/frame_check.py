@@ -41,6 +41,9 @@ class FrameReport:
     roots: dict[str, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     no_robot: str | None = None
+    empty_messages: int = 0
+    """Messages of the detection samples that held no detection (``DetectionCounts.
+    count_empty``): a tracker that publishes them is not silent when nobody is there."""
 
 
 def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> FrameReport:
@@ -51,8 +54,8 @@ def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> FrameRepo
     from aion_cli.formats.tf_tree import root, unusable_text
     from aion_cli.tf_trajectory import wrong_base_warning
 
-    frames = detection_frames(logset, plan, mappings)
     out = FrameReport()
+    frames = detection_frames(logset, plan, mappings, out)
     if not frames:
         return out
     tf, norms = _tf_sample(logset, plan)
@@ -76,9 +79,13 @@ def unconnected_frames(logset: Any, plan: Any, mappings: list[Any]) -> FrameRepo
     return out
 
 
-def detection_frames(logset: Any, plan: Any, mappings: list[Any]) -> dict[str, set[str]]:
+def detection_frames(
+    logset: Any, plan: Any, mappings: list[Any], report: FrameReport | None = None
+) -> dict[str, set[str]]:
     """The frames of each detection topic's first :data:`DETECTION_SAMPLE` messages, decoded
-    as the build decodes them (with ``mappings``, the ``--detections-mapping`` topics)."""
+    as the build decodes them (with ``mappings``, the ``--detections-mapping`` topics); the
+    messages among them that held no detection are counted into ``report``."""
+    from aion_cli.detection_counts import DetectionCounts
     from aion_cli.detection_feed import log_adapters
     from aion_cli.errors import AionError
 
@@ -96,9 +103,14 @@ def detection_frames(logset: Any, plan: Any, mappings: list[Any]) -> dict[str, s
         if adapter is None or not sample:
             continue
         try:
-            out[info.topic] = set(adapter.decode(sample).frame_names())
+            decoded = adapter.decode(sample)
         except AionError:
             continue
+        out[info.topic] = set(decoded.frame_names())
+        if report is not None:
+            counts = DetectionCounts()
+            counts.count_empty(decoded)
+            report.empty_messages += counts.empty_messages
     return out
 
 

@@ -35,7 +35,8 @@ JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns,
 size_bytes, start_ns, end_ns, start, end (times null without messages), duration_s, messages,
 topics[{topic, type, count, role, encoding, rate_hz, used, why}], roles, dsg_versions,
 will_use{detections, scene_graph, tf}, cannot_read, warnings,
-fixed_sensor{windows_with_messages, span_windows, window_s, hours_with_messages} (only when
+fixed_sensor{windows_with_messages, span_windows, window_s, hours_with_messages,
+empty_in_first_messages (of the first 20 per detection topic)} (only when
 the logs have no TF, and no scene graph or a first one without robot poses in its agent
 layer: build observes the windows with messages),
 frames_without_tf{topic: [frames of its first messages that the log's TF does not connect
@@ -487,7 +488,14 @@ def _print(report: dict[str, Any]) -> None:
             f"window{'' if fixed['windows_with_messages'] == 1 else 's'} of "
             f"{fixed['window_s'] / 60:g} min with messages, {share_text(share)} of its span"
         )
-        if share < 0.5:
+        empty = int(fixed.get("empty_in_first_messages") or 0)
+        if share < 0.5 and empty:  # a tracker that publishes empty messages is not silent
+            text += (
+                f"; the others were not recorded: its first detection messages include "
+                f"{empty:,} with nobody in {'it' if empty == 1 else 'them'}, so the tracker is "
+                "not silent when nobody is there"
+            )
+        elif share < 0.5:
             text += (
                 "; the others are unknown, not empty: if the tracker is silent when nobody "
                 "is there, build with --observed START..END"

@@ -14,7 +14,8 @@ from typing import Any
 def add_frames(
     report: dict[str, Any], logset: Any, plan: Any, mappings: list[Any], robot_poses_elsewhere: bool
 ) -> None:
-    """``frames_without_tf``, ``tf_roots`` and the TF warnings into ``report``; the warning on
+    """``frames_without_tf``, ``tf_roots`` and the TF warnings into ``report`` (and, for a fixed
+    sensor, how many of the detection messages sampled held nobody); the warning on
     a robot without ``base_link`` only when no scene graph gives robot poses
     (``robot_poses_elsewhere``: the build would observe with those)."""
     from aion_cli.frame_check import unconnected_frames
@@ -23,6 +24,8 @@ def add_frames(
     report["frames_without_tf"] = frames.apart
     report["tf_roots"] = frames.roots
     report["warnings"].extend(frames.warnings)
+    if report.get("fixed_sensor") is not None:  # a silent tracker publishes no empty message
+        report["fixed_sensor"]["empty_in_first_messages"] = frames.empty_messages
     if frames.no_robot is not None and not robot_poses_elsewhere:
         report["warnings"].append(frames.no_robot)
 

@@ -69,3 +69,21 @@ def test_continuations_and_merges_add_the_count_and_older_maps_stay_unknown() ->
     assert "empty_messages" not in add_counts(older, {**new, "empty_messages": 0})
     assert add_counts(older, new)["empty_messages"] == 5  # some seen: the tracker sends them
     assert "empty_messages" not in add_counts(first | {"empty_messages": 0}, older)
+
+
+def test_info_of_the_log_gives_the_advice_only_without_empty_messages(tmp_path: Path) -> None:
+    """``aion info LOG`` advised ``--observed`` for the log whose tracker published empty
+    messages; it counts them among the first detection messages it decodes (20 per topic: the
+    first holds the person of 09:00, the other 19 nobody) and says the tracker is not silent."""
+    log = _convert(tmp_path, "two", *SPANS)
+    fixed = run_json("info", log, "--format", "json")["fixed_sensor"]
+    assert fixed["empty_in_first_messages"] == 19
+    said = " ".join(run("info", log).stderr.split())
+    assert "5% of its span; the others were not recorded" in said
+    assert "if the tracker is silent when nobody is there" not in said
+    bare = _convert(tmp_path, "bare")
+    bare_fixed = run_json("info", bare, "--format", "json")["fixed_sensor"]
+    assert bare_fixed["empty_in_first_messages"] == 0
+    assert "if the tracker is silent when nobody is there" in " ".join(
+        run("info", bare).stderr.split()
+    )

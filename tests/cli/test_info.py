@@ -51,7 +51,9 @@ def test_a_fixed_sensor_log_says_how_much_of_its_span_holds_messages(tmp_path: P
                                    "window_s": 600.0,
                                    # Monday to Wednesday, 08:00-08:20 UTC
                                    "hours_with_messages": "weekdays 08:00-09:00; weekends "
-                                                          "none (UTC)"}
+                                                          "none (UTC)",
+                                   # its first detection messages all hold people
+                                   "empty_in_first_messages": 0}
     table = run("info", log)
     assert "fixed sensor over the 6 windows of 10 min with messages, 2% of its span; the " \
         "others are unknown, not empty" in " ".join(table.stderr.split())
