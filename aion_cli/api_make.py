@@ -146,13 +146,16 @@ def build(
     script that builds with workers needs the usual ``if __name__ == "__main__":`` guard on
     platforms without ``fork``), ``--scheduler`` and ``--part``. ``observed``: ``(start,
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
-    ``Map.predict``, naive ones in ``tz``, else UTC). ``graph_period``: about one scene graph
-    per period of log time (``"5s"``, ``"1m"``, seconds or a ``timedelta``; 0: every graph;
-    None: 5 s), as ``--graph-period``; ``dsg_version`` (``"1.1.3"``) and ``batch_size`` as
-    ``--dsg-version`` and ``--batch-size``."""
+    ``Map.predict``, naive ones in ``tz``, else UTC). Without ``tz`` a new map follows the
+    zone its logs declare (``aion simulate --tz`` writes it into MCAP logs), with a note in
+    ``Map.report``; a ``tz`` that differs from it is a warning. ``graph_period``: about one
+    scene graph per period of log time (``"5s"``, ``"1m"``, seconds or a ``timedelta``; 0:
+    every graph; None: 5 s), as ``--graph-period``; ``dsg_version`` (``"1.1.3"``) and
+    ``batch_size`` as ``--dsg-version`` and ``--batch-size``."""
     from aion_cli.api import read_map
     from aion_cli.api_checks import count, flag, text, zone_name
     from aion_cli.build_options import map_frame_of
+    from aion_cli.log_zone import build_zone, continued_zone
     from aion_cli.pipeline import build_map
     from aion_cli.timeparse import resolve_zone
 
@@ -160,18 +163,19 @@ def build(
     if tz is not None:  # named as aion build --tz names it: UTC+05:30, the machine's for local
         tz = resolve_zone(tz).name
     continued = _optional_path(continue_from, "continue_from")
-    opts = reading_options(
-        logs,
-        {
-            "log_format": log_format,
-            "detection_topics": detection_topics,
-            "graph_topic": graph_topic,
-            "base_frame": base_frame,
-            "detections_mapping": detections_mapping,
-            "observed": observed,
-        },
-        tz,
-    )
+    reading: dict[str, object] = {
+        "log_format": log_format,
+        "detection_topics": detection_topics,
+        "graph_topic": graph_topic,
+        "base_frame": base_frame,
+        "detections_mapping": detections_mapping,
+        "observed": observed,
+    }
+    opts = reading_options(logs, reading, tz)
+    # the zone the logs declare (aion simulate --tz), as aion build takes it
+    zone, notes, warnings = build_zone(tz, continued_zone(continued), opts.logs)
+    if zone != tz:
+        tz, opts = zone, reading_options(logs, reading, zone)  # --observed in that zone
     opts = replace(
         opts,
         output=_optional_path(output, "output"),
@@ -190,6 +194,8 @@ def build(
         batch_size=count(batch_size, "batch_size") or 1,
     )
     report = build_map(opts, progress_sink(progress))
+    report.notes[:0] = notes
+    report.warnings[:0] = warnings
     warn_of(report.warnings, report.notes)
     return read_map(report.output, report)
 

@@ -12,6 +12,19 @@ from collections.abc import Sequence
 from pathlib import Path
 
 
+def continued_zone(continue_from: Path | None) -> str | None:
+    """The zone of the continued map (None: a new map, or one the build will report)."""
+    if continue_from is None:
+        return None
+    from aion_cli.errors import AionError
+    from aion_cli.formats.mapfile import read_manifest
+
+    try:
+        return str(read_manifest(continue_from).get("timezone") or "UTC")
+    except (AionError, OSError):
+        return None
+
+
 def build_zone(
     given: str | None, map_zone: str | None, logs: Sequence[Path]
 ) -> tuple[str | None, list[str], list[str]]:

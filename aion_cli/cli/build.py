@@ -305,11 +305,11 @@ def command(
         return
     if not logs:
         raise InputError("no log given", hint="aion build LOG... [-o MAP]; see aion build --help")
-    from aion_cli.log_zone import build_zone
+    from aion_cli.log_zone import build_zone, continued_zone
 
     zone_name = None if timezone is None else resolve_zone(timezone).name
     zone_name, zone_notes, zone_warnings = build_zone(
-        zone_name, _map_zone(continue_from), logs
+        zone_name, continued_zone(continue_from), logs
     )
     observed = observed_spans(observed_text, zone_name, continue_from)
     options = BuildOptions(
@@ -349,19 +349,6 @@ def command(
         print_summary(summary)
 
 
-def _map_zone(continue_from: Path | None) -> str | None:
-    """The zone of the continued map (None: a new map, or one the build will report)."""
-    if continue_from is None:
-        return None
-    from aion_cli.errors import AionError
-    from aion_cli.formats.mapfile import read_manifest
-
-    try:
-        return str(read_manifest(continue_from).get("timezone") or "UTC")
-    except (AionError, OSError):
-        return None
-
-
 def observed_spans(
     texts: tuple[str, ...], timezone: str | None, continue_from: Path | None
 ) -> tuple[tuple[int, int], ...]:
@@ -371,8 +358,9 @@ def observed_spans(
     if not texts:
         return ()
     from aion_cli.cli.common import parse_span
+    from aion_cli.log_zone import continued_zone
     from aion_cli.timeparse import resolve_zone
 
-    zone_name = timezone if timezone is not None else _map_zone(continue_from)
+    zone_name = timezone if timezone is not None else continued_zone(continue_from)
     zone = resolve_zone(zone_name or "UTC")
     return tuple(parse_span(text, zone, "--observed") for text in texts)

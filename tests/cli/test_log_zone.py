@@ -53,3 +53,18 @@ def test_only_mcap_files_carry_the_record(tmp_path: Path) -> None:
         assert not log.add_metadata("aion", {"timezone": "Asia/Tokyo"})
     found = declared_zones([tmp_path / "a.mcap", tmp_path / "a.bag"])
     assert found == {str(tmp_path / "a.mcap"): "Asia/Tokyo"}
+
+
+def test_the_python_api_follows_the_declared_zone_too(london: Path, tmp_path: Path) -> None:
+    import warnings
+
+    import aion_cli as aion
+
+    built = aion.build(london, tmp_path / "api.aion")
+    assert built.timezone == "Europe/London"
+    assert any("declares the time zone Europe/London" in n for n in built.report.notes)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        other = aion.build(london, tmp_path / "utc.aion", tz="UTC")
+    assert other.timezone == "UTC"
+    assert any("declares the time zone Europe/London" in str(w.message) for w in caught)
