@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -10,7 +9,8 @@ import click
 
 from aion_cli.cli.common import AionPath, detections_mapping_option, log_format_option
 from aion_cli.cli.graph_options import nav_layer_option
-from aion_cli.cli.info_frames import add_frames, print_frame_notes
+from aion_cli.cli.info_frames import print_frame_notes
+from aion_cli.cli.info_log import describe, suggest
 from aion_cli.cli.info_map import describe_map, print_map, verify_map
 from aion_cli.cli.output import format_option, human_size, to_json
 
@@ -66,70 +66,6 @@ aion (what aion export --format dsg recorded in it, else null).
 MAP_SUFFIX = ".aion"
 
 
-def describe(
-    paths: list[Path],
-    log_format: str | None,
-    mapping: Path | None = None,
-    tz: str = "UTC",
-    verify: bool = False,
-) -> dict[str, Any]:
-    """The info report of ``paths`` as a plain dict (also the JSON document):
-    ``formats.summary`` plus what ``aion build`` will use (with ``mapping``, a
-    ``--detections-mapping`` file), why each topic is used or skipped, the scene-graph
-    payload version, and a fixed sensor's hours with messages in the zone ``tz``. With
-    ``verify``, every message is read first, as a build reads them: chunks that cannot be
-    read (damaged, CRC failures) are warnings with the messages lost, as a build's are, and
-    ``verified.messages_read`` counts the messages read."""
-    from aion_cli.build_report import NoProgress
-    from aion_cli.formats.logs import open_logs
-    from aion_cli.formats.summary import summarize
-    from aion_cli.message_hours import fixed_sensor_windows
-    from aion_cli.provenance import distinct_logs
-    from aion_cli.stamp_warnings import sim_time_warning
-    from aion_cli.topics import refine_reasons, select_topics
-
-    mappings = _mappings(mapping)
-    example: str | None = None
-    distinct = distinct_logs(tuple(paths), NoProgress(), {})  # a copy is read once, as build
-    with open_logs(distinct.logs, log_format, allow_empty=True) as logset:
-        read = sum(1 for _ in logset.messages(None)) if verify else None  # warns as it reads
-        summary = summarize(logset, [m.msgtype for m in mappings])
-        plan = select_topics(logset.topics, mappings=mappings)
-        _check_mappings(logset, plan)
-        refine_reasons(logset, plan)  # no mapping offered for a type without a position
-        firsts = {info.topic: _first_graph(logset, info.topic) for info in plan.graph}
-        for topic, first in firsts.items():
-            summary.dsg_versions[topic] = first.versions
-        report = summary.to_dict()
-        report["warnings"] = distinct.notes + report["warnings"]
-        sim = sim_time_warning(logset.start_ns if logset.total() else None, "the log's time")
-        report["warnings"] += [sim] if sim is not None else []
-        if read is not None:
-            report["verified"] = {"messages_read": read}
-        if plan.detections and not plan.tf and _no_graph_robot(firsts):
-            report["fixed_sensor"] = fixed_sensor_windows(logset, tz)
-        if plan.detections:
-            add_frames(report, logset, plan, mappings, not _no_graph_robot(firsts))
-        else:
-            from aion_cli.topics import mapping_example
-
-            example = mapping_example(logset)
-    used = plan.names("detections") | plan.names("graph") | plan.names("tf")
-    for topic in report["topics"]:
-        topic["used"] = topic["topic"] in used
-        topic["why"] = plan.reasons.get(topic["topic"], topic["role"])
-    report["format"] = ", ".join(report["formats"]) or None
-    report["will_use"] = {
-        "detections": sorted(plan.names("detections")),
-        "scene_graph": sorted(plan.names("graph")),
-        "tf": sorted(plan.names("tf")),
-    }
-    report["cannot_read"] = [f"{t.topic} ({t.msgtype})" for t in plan.ignored]
-    if not plan.detections:
-        report["mapping_example"] = example
-    return report
-
-
 def _unused_pointer(report: dict[str, Any]) -> str:
     """What info's note on a log without a usable detection topic points to: the generic
     topics skipped for their names, a topic `--suggest-mapping` writes a mapping for
@@ -143,76 +79,6 @@ def _unused_pointer(report: dict[str, Any]) -> str:
         parts.append("none of its types has a field a --detections-mapping could read as a "
                      "position")  # fmt: skip
     return ", or ".join(parts)
-
-
-def _mappings(path: Path | None) -> list[Any]:
-    if path is None:
-        return []
-    from aion_cli.formats.detections.mapping import load_mapping
-
-    return load_mapping(path)
-
-
-def _check_mappings(logset: Any, plan: Any) -> None:
-    """Every mapping's paths against the log's own definition of its topic's type (a
-    ConfigError naming the path and the fields that exist)."""
-    for info in plan.detections:
-        mapping = plan.mappings.get(info.topic)
-        if mapping is not None:
-            mapping.check(logset.typestore(info.topic, info.msgtype, info.encoding))
-
-
-def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
-    """``--suggest-mapping TOPIC``: a TOML mapping from the log's own definition of the
-    topic's type (:func:`formats.detections.suggest.suggest_mapping`)."""
-    from aion_cli.formats.detections.suggest import refuse_service_events, suggest_mapping
-    from aion_cli.formats.logs import open_logs
-
-    with open_logs(paths, log_format) as logset:
-        info = logset.topic(topic)
-        refuse_service_events(info.topic, info.msgtype)
-        store = logset.typestore(info.topic, info.msgtype, info.encoding)
-        return suggest_mapping(info.topic, info.msgtype, store)
-
-
-@dataclass(frozen=True)
-class _FirstGraph:
-    """The first scene graph of a topic: its payload version (or why it is unreadable), its
-    log time, and whether its agent layer holds robot poses (None: unreadable)."""
-
-    versions: list[str]
-    t_ns: int | None = None
-    agents: bool | None = None
-
-
-def _first_graph(logset: Any, topic: str) -> _FirstGraph:
-    """The topic's first scene graph (decoding one message)."""
-    import numpy as np
-
-    from aion_cli.errors import InputError
-    from aion_cli.formats.dsg import decode_dsg
-
-    first = next(iter(logset.messages({topic})), None)
-    if first is None:
-        return _FirstGraph([])
-    try:
-        payload = np.asarray(logset.decode(first).layer_contents, dtype=np.uint8)
-        decoded = decode_dsg(payload, first.log_time_ns)
-    except InputError as exc:
-        return _FirstGraph([f"unreadable: {exc.message}"], first.log_time_ns)
-    agents = decoded.snapshot.agents
-    has = agents is not None and len(agents) > 0
-    return _FirstGraph([decoded.version], first.log_time_ns, has)
-
-
-def _no_graph_robot(firsts: dict[str, _FirstGraph]) -> bool:
-    """Whether the build finds no robot trajectory in the scene graph: no graph at all, or
-    the logs' first graph carries no robot poses (the build asks that one only:
-    ``graph_feed.GraphFeed.first_has_agents``). An unreadable first graph says nothing."""
-    timed = [f for f in firsts.values() if f.t_ns is not None]
-    if not timed:
-        return True
-    return min(timed, key=lambda f: f.t_ns or 0).agents is False
 
 
 @click.command("info", short_help="What is in logs (or a map), what aion uses.", epilog=EPILOG)
