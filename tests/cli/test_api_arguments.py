@@ -301,69 +301,6 @@ def test_an_unknown_keyword_is_named_with_the_keywords_there_are(
     assert _ids(m.predict(T, top=1, layer="places")) != []  # the keywords it takes still work
 
 
-def test_build_arguments(office: Office, tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="logs must be a path"):
-        aion.build(None)  # type: ignore[arg-type]
-    with pytest.raises(InputError, match="must be a"):
-        aion.build([None])  # type: ignore[list-item]
-    with pytest.raises(InputError, match="workers must be a whole number"):
-        aion.build(office.log, tmp_path / "w.aion", workers=2.5)  # type: ignore[arg-type]
-    with pytest.raises(InputError, match="observed span must be two items"):
-        aion.build(office.log, tmp_path / "o.aion", observed=[("2026-01-12 08:00",)])  # type: ignore[list-item]
-    with pytest.raises(InputError, match="config must be a ModelConfig"):
-        aion.build(office.log, tmp_path / "c.aion", config=[1])  # type: ignore[arg-type]
-    # before: bool("no") is True, so derive_graph="no" derived a graph and part="no" wrote
-    # a part map; progress="yes" failed inside with AttributeError: 'str' ... 'start'
-    with pytest.raises(InputError, match="derive_graph must be True or False"):
-        aion.build(office.log, tmp_path / "d.aion", derive_graph="no")  # type: ignore[arg-type]
-    with pytest.raises(InputError, match="part must be True or False"):
-        aion.build(office.log, tmp_path / "p.aion", part="no")  # type: ignore[arg-type]
-    with pytest.raises(InputError, match="progress must have start"):
-        aion.build(office.log, tmp_path / "g.aion", progress="yes")  # type: ignore[arg-type]
-    with pytest.raises(InputError, match="progress must have start"):
-        aion.merge([office.map, office.map], tmp_path / "m.aion", progress=True)  # type: ignore[arg-type]
-    assert not any(tmp_path.glob("[dpgm].aion"))
-    # one topic alone is a topic, a dict is a config, one span alone is one span (read, then
-    # set aside: the office log's robot trajectory says what was observed)
-    with pytest.warns(aion.AionWarning, match="observed= ignored"):
-        built = aion.build(
-            office.log,
-            tmp_path / "ok.aion",
-            detection_topics="/tracks",
-            config={"bins": 8},
-            observed=("2026-01-12 08:00", "2026-01-12 09:00"),
-            tz=ZoneInfo("UTC"),
-        )
-    assert built.report is not None
-    assert built.report.detection_topics == ["/tracks"]  # type: ignore[union-attr]
-
-
-def test_build_names_its_zone_as_the_command_does(
-    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """``aion.build(tz=...)`` stored the name as given ("UTC+5:30", "utc") where ``aion build
-    --tz`` stores "UTC+05:30" and "UTC", so the command refused to continue or merge the
-    API's map ("--tz UTC+05:30 differs", "different model parameters"), and tz="local" was
-    "unknown time zone 'local'"."""
-    from tests.cli.conftest import run
-
-    india = aion.build(office.log, tmp_path / "india.aion", tz="UTC+5:30")
-    assert india.timezone == "UTC+05:30"
-    assert aion.build(office.log, tmp_path / "utc.aion", tz="utc").timezone == "UTC"
-    monkeypatch.setenv("TZ", "Asia/Kolkata")
-    assert aion.build(office.log, tmp_path / "local.aion", tz="local").timezone == "Asia/Kolkata"
-    cli = run("build", office.log, "-o", tmp_path / "cli.aion", "--tz", "UTC+05:30", "-q")
-    assert cli.exit_code == 0, cli.stderr
-    assert aion.Map.load(tmp_path / "cli.aion").timezone == india.timezone
-
-
-def test_merge_refuses_a_nav_layer_without_a_graph(office: Office, tmp_path: Path) -> None:
-    other = tmp_path / "other.aion"
-    aion.build(office.log, other, config={"bins": 8, "cell_size": 0.25})
-    with pytest.raises(InputError, match='nav_layer="NOPE" chooses the layer of a graph='):
-        aion.merge([office.map, other], tmp_path / "x.aion", nav_layer="NOPE")
-
-
 def test_a_loaded_state_is_not_written_again(m: aion.Map, tmp_path: Path) -> None:
     """Its queries counted its open window as closed in place: writing it would add that
     window again at every round trip (674, 675, 676 windows...)."""
@@ -454,22 +391,6 @@ def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
         m.predict(np.datetime64("2300-01-01"))
 
 
-def test_names_of_frames_topics_and_formats_must_be_strings(office: Office, tmp_path: Path) -> None:
-    """Before: ``map_frame=3`` or ``base_frame=3`` failed inside the build with
-    ``AttributeError: 'int' object has no attribute 'strip'``; ``Map.holdout(...,
-    map_frame=3)`` silently used the map's own frame instead; ``scheduler=3`` was taken."""
-    m = aion.Map.load(office.map)
-    for name in ("map_frame", "base_frame", "graph_topic", "log_format", "scheduler"):
-        with pytest.raises(InputError, match=f"^{name} must be a string, got 3"):
-            aion.build(office.log, tmp_path / "f.aion", **{name: 3})  # type: ignore[arg-type]
-    for name in ("map_frame", "base_frame", "graph_topic", "log_format"):
-        with pytest.raises(InputError, match=f"^{name} must be a string, got 3"):
-            m.holdout([office.log], **{name: 3})
-    assert not (tmp_path / "f.aion").exists()
-    layered = aion.build(office.log, tmp_path / "n.aion", nav_layer=3)  # a layer key, as "3"
-    assert layered.report.detections_used == office.build["detections"]["used"]
-
-
 def test_numpy_flags_are_read_as_the_flags_they_are(m: aion.Map, tmp_path: Path) -> None:
     """``historical=mask.any()`` (a ``numpy.bool``) was refused, "historical must be True or
     False, got np.True_", though yes-or-no arguments take numpy's (api_checks.flag): numpy 2
@@ -482,39 +403,3 @@ def test_numpy_flags_are_read_as_the_flags_they_are(m: aion.Map, tmp_path: Path)
     assert png.read_bytes().startswith(b"\x89PNG")
     with pytest.raises(InputError, match="historical must be True or False"):
         m.predict(historical=np.int64(1))  # type: ignore[arg-type]
-
-
-class _Phases:
-    """A progress object written as the API's words give it: ``start(description, total,
-    unit)`` and ``advance(n)``, no defaults."""
-
-    def __init__(self) -> None:
-        self.units: list[str] = []
-        self.done = 0
-
-    def start(self, description: str, total: int, unit: str) -> None:
-        self.units.append(unit)
-
-    def advance(self, n: int) -> None:
-        self.done += n
-
-
-def test_a_progress_object_with_start_description_total_unit_is_called(
-    office: Office, tmp_path: Path
-) -> None:
-    """The hint and docs say progress= takes an object with ``start(description, total, unit)``
-    and ``advance(n)``; one written so failed inside the build with "TypeError: start() missing
-    1 required positional argument: 'unit'" (the build's phases left ``unit`` to a default).
-    Every phase now passes its unit; the map is the one built without progress."""
-    phases = _Phases()
-    built = aion.build(office.log, tmp_path / "p.aion", progress=phases)
-    assert phases.units
-    assert all(isinstance(u, str) and u for u in phases.units)
-    assert "msgs" in phases.units
-    assert phases.done > 0
-    plain = aion.build(office.log, tmp_path / "q.aion")
-    assert built.predict(T, tz="UTC").records() == plain.predict(T, tz="UTC").records()
-    merged = _Phases()
-    later = aion.build(office.log, tmp_path / "part.aion", part=True)
-    aion.merge([later.path], tmp_path / "m.aion", progress=merged)  # type: ignore[list-item]
-    assert merged.units == ["maps", "maps"]
