@@ -1,0 +1,104 @@
+"""``aion build`` with scene graphs: a graph file, a derived graph or none, a graph in another
+frame than the detections, the spark_dsg version pin, a navigational layer without places --
+checked against what the generated office log is known to hold.
+
+Split from tests/cli/test_build.py (counts, provenance, topics, observation, config and
+continuation)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+from tests.cli.logdata import PLACES, save_graph_file, write_office_log
+from tests.cli.test_build import FIXED_TWO_WINDOWS
+
+
+def test_graph_file_and_derived_graph_without_tf(tmp_path: Path) -> None:
+    log = tmp_path / "bare.mcap"
+    write_office_log(log, graph=False, tf=False)
+    graph = save_graph_file(tmp_path / "dsg.json")
+    report = run_json("build", log, "--graph", graph, "--format", "json")
+    assert report["graph"]["source"] == "file dsg.json"
+    assert report["nodes"] == len(PLACES)
+    # no robot trajectory: observed in the 600-s windows holding a message, two for the
+    # 20-minute log from an aligned T0 (2 x 600 s = 0.33 h, both windows of the span)
+    assert report["observation"] == FIXED_TWO_WINDOWS
+    assert any("fixed sensor" in note for note in report["notes"])
+
+    out = tmp_path / "derived.aion"
+    report = run_json("build", log, "--derive-graph", "-o", out, "--format", "json")
+    assert report["graph"]["source"] == "derived from walking people"
+    # three standing people -> three occupied 1.5-m grid cells -> three derived places
+    assert report["nodes"] == 3
+    assert report["detections"]["used"] == 300
+    sequence = [n for n in report["notes"] if "--derive-graph needs every log at once" in n]
+    assert sequence == []  # --workers not given: one process is no news
+    asked = run_json(
+        "build", log, "--derive-graph", "-o", out, "--workers", "2", "--format", "json"
+    )
+    assert [n for n in asked["notes"] if "--derive-graph needs every log at once" in n]
+    # a derived graph has places only: rooms are refused, not answered with an empty table
+    for layer in ("rooms", "buildings"):
+        refused = run("predict", out, "--layer", layer, "--format", "json")
+        assert refused.exit_code == 2
+        assert refused.stdout == ""
+        assert_one_line_error(refused.stderr, f"has no {layer}")
+    assert len(run_json("predict", out, "--layer", "places", "--format", "json")["entries"]) == 3
+
+    report = run_json("build", log, "-o", tmp_path / "cells.aion", "--format", "json")
+    assert report["graph"]["source"] == "none"
+    assert report["nodes"] == 0
+    assert report["cells"] == 3
+
+
+def test_a_graph_in_another_frame_is_warned_about(tmp_path: Path) -> None:
+    """The office graph file moved 500 m away: every detection stays on hash cells, away
+    from every place, and the build asks whether the two share a frame; the same graph in
+    place binds the detections and says nothing."""
+    log = tmp_path / "bare.mcap"
+    write_office_log(log, graph=False, tf=False)
+    far = {k: (x + 500.0, y, z) for k, (x, y, z) in PLACES.items()}
+    moved = save_graph_file(tmp_path / "moved.json", far)
+    report = run_json("build", log, "-o", tmp_path / "m.aion", "--graph", moved, "--format", "json")
+    (warning,) = [w for w in report["warnings"] if "away from every place" in w]
+    assert warning.startswith(f"{report['detections']['used']:,} of the ")
+    assert f"0 of its {len(PLACES)} places hold any" in warning
+    here = save_graph_file(tmp_path / "here.json")
+    report = run_json("build", log, "-o", tmp_path / "h.aion", "--graph", here, "--format", "json")
+    assert not [w for w in report["warnings"] if "away from every place" in w]
+
+
+def test_a_far_graph_warning_needs_nearly_every_detection_off_the_places() -> None:
+    from aion_cli.build_report import far_from_graph_warning
+
+    assert far_from_graph_warning(94.0, 6.0, 10, 3) is None  # 94 %: a graph of part of a site
+    assert far_from_graph_warning(95.0, 5.0, 10, 1) is not None
+    assert far_from_graph_warning(100.0, 0.0, 0, 0) is None  # no graph: hash cells only
+    assert far_from_graph_warning(0.0, 0.0, 10, 0) is None  # no detection
+
+
+def test_dsg_version_pin(office: Office, tmp_path: Path) -> None:
+    from aion_cli.formats.dsg import installed_version
+
+    version = installed_version()
+    report = run_json(
+        "build", office.log, "--dsg-version", version, "-o", tmp_path / "v.aion", "--format", "json"
+    )
+    assert report["graph"]["dsg_version"] == version
+    result = run("build", office.log, "--dsg-version", "0.0.1", "-o", tmp_path / "w.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr)
+
+
+def test_a_navigational_layer_without_places_is_a_warning(tmp_path: Path) -> None:
+    """--nav-layer naming a layer with no places (the sample graph's objects, layer 2) built a
+    map of 0 nodes without a word."""
+    sample = Path(__file__).resolve().parents[2] / "samples" / "office.mcap"
+    report = run_json("build", sample, "-o", tmp_path / "m.aion", "--nav-layer", "2",
+                      "--format", "json")
+    assert report["nodes"] == 0
+    assert any("navigational layer has no places" in w for w in report["warnings"])
+    plain = run_json("build", sample, "-o", tmp_path / "p.aion", "--format", "json")
+    assert plain["nodes"] > 0
+    assert not any("navigational layer has no places" in w for w in plain["warnings"])
