@@ -146,14 +146,13 @@ def print_map(report: dict[str, Any]) -> None:
         table.add_row("buildings", safe(f"{len(buildings):,}: {first_few(named, 12)}"))
     table.add_row("observation", safe(report.get("observation")))
     merged = report.get("merged_from") or []
-    if merged:
+    if merged:  # how the maps were joined here; which maps, one row each below the inputs
         lineage = {
             "same": "one scene-graph session: nodes joined by id",
             "different": "different scene-graph sessions: re-bound by position",
         }.get(str(report.get("lineage")), f"lineage {report.get('lineage')}")
-        names = first_few([str(m.get("name")) for m in merged], INPUT_ROWS)
         count = f"{len(merged):,} map{'' if len(merged) == 1 else 's'}"
-        table.add_row("merged from", safe(f"{count} by aion merge ({lineage}): {names}"))
+        table.add_row("merged from", safe(f"{count} by aion merge ({lineage})"))
     query_only = report.get("query_only")
     if isinstance(query_only, dict):
         from aion_cli.query_only import made_from
@@ -220,11 +219,8 @@ def print_map(report: dict[str, Any]) -> None:
     )
     for text in input_rows(report.get("inputs", [])):
         table.add_row("input", safe(text))
-    merged_from = report.get("merged_from") or []
-    for text in input_rows(merged_from, what="maps"):  # aion merge's inputs, with the lineage
-        table.add_row("merged from", safe(text))
-    if merged_from:
-        table.add_row("lineage", safe(str(report.get("lineage"))))
+    for text in input_rows(merged, what="maps"):  # aion merge's inputs, as the logs are
+        table.add_row("merged map", safe(text))
     print_table(table)
     from aion_cli.cli.console import warn_each
 
