@@ -25,16 +25,20 @@ def check_series_options(
     tz_given: bool = False,
 ) -> bool:
     """Whether a series was asked for; an :class:`InputError` for options that contradict
-    (``--historical`` has no time, so neither ``--time`` nor ``--tz``: the zone was taken
-    and changed nothing)."""
+    (``--historical`` has no time, so no ``--time``). A ``--tz`` beside ``--historical``
+    changes nothing, but is harmless (a shell alias may always give one): a note says so,
+    instead of taking it silently or refusing the command."""
     from aion_cli.errors import InputError
 
-    for given, option in ((time_given, "--time"), (tz_given, "--tz")):
-        if historical and given:
-            raise InputError(
-                f"--historical is what was observed, at no time: it takes no {option}",
-                hint=f"leave out {option}, or --historical",
-            )
+    if historical and time_given:
+        raise InputError(
+            "--historical is what was observed, at no time: it takes no --time",
+            hint="leave out --time, or --historical",
+        )
+    if historical and tz_given:
+        from aion_cli.cli.console import note
+
+        note("--tz changes nothing with --historical: what was observed has no time of day")
     if t_from is None and t_to is None:
         if step is not None:
             raise InputError("--step needs --from and --to", hint="e.g. --from 08:00 --to 18:00")

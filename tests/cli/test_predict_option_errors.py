@@ -1,5 +1,6 @@
 """``predict`` options that did nothing or did not say which option was wrong:
-``--historical --tz X`` was taken and changed nothing (the historical flows have no time);
+``--historical --tz X`` was taken and changed nothing without a word (the historical flows
+have no time: now a note says so, and the answer is the same);
 ``--from bad`` said "cannot read the time 'bad'" without naming ``--from``."""
 
 from __future__ import annotations
@@ -9,11 +10,13 @@ import pytest
 from tests.cli.conftest import Office, assert_one_line_error, run
 
 
-def test_historical_refuses_a_zone(office: Office) -> None:
-    out = run("predict", office.map, "--historical", "--tz", "Asia/Tokyo")
-    assert out.exit_code == 2
-    assert_one_line_error(out.stderr, "--historical", "takes no --tz")
-    assert run("predict", office.map, "--historical").exit_code == 0
+def test_historical_notes_that_a_zone_changes_nothing(office: Office) -> None:
+    zoned = run("predict", office.map, "--historical", "--tz", "Asia/Tokyo", "--format", "json")
+    plain = run("predict", office.map, "--historical", "--format", "json")
+    assert zoned.exit_code == plain.exit_code == 0, zoned.stderr
+    assert zoned.stdout == plain.stdout
+    assert "--tz changes nothing with --historical" in zoned.stderr
+    assert "--tz" not in plain.stderr
 
 
 @pytest.mark.parametrize(
