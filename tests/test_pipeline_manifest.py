@@ -128,9 +128,11 @@ def test_the_values_are_those_the_build_wrote_before(maps: dict[str, Any]) -> No
 
 def test_info_shows_what_it_showed_before(maps: dict[str, Any]) -> None:
     """Everything the manifest showed, in the same order; the graph's rooms and buildings and
-    the layer its places came from after it."""
+    the layer its places came from after it, and the warnings of what could not be read (none
+    for these maps)."""
     for report in (maps["first"], maps["second"], maps["zoned"]):
         shown = describe_map(report.output)
+        assert shown.pop("warnings") == []
         rooms = shown.pop("rooms")
         buildings = shown.pop("buildings", [])
         layer = shown.pop("nav_layer", None)
