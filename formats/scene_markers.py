@@ -3,7 +3,9 @@ RViz users of ``aion export --format mcap`` (:mod:`formats.scene_mcap` writes th
 
 The markers of one step (see :mod:`formats.scene_mcap`): ``DELETEALL`` first, then namespace
 ``nodes`` (a ``SPHERE`` per node, diameter ``2r``, ``text`` = its entry id), ``arrows``
-(an ``ARROW`` per node with a direction: length, shaft and head diameters in ``scale``),
+(an ``ARROW`` per node with a direction: length, shaft and head diameters in ``scale``; in a
+scene without nodes, a map of hash cells only, one per cell with flow and a direction instead,
+id the node count plus the cell's index, ``text`` its cell id),
 ``cells`` (one ``CUBE_LIST``), ``edges`` (``LINE_LIST``), ``mesh`` (``TRIANGLE_LIST``, one
 point and colour per triangle corner) and ``path`` (``LINE_STRIP``). A node's marker id is its
 index in the scene, the same at every step of a file.
@@ -202,11 +204,17 @@ def _yaw(angle: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     return q
 
 
-def marker_array(t_ns: int, style: SceneStyle, node_ids: Sequence[str]) -> bytes:
+def marker_array(
+    t_ns: int, style: SceneStyle, node_ids: Sequence[str], cell_ids: Sequence[str]
+) -> bytes:
     """The CDR payload of one step's ``MarkerArray`` (see the module docstring)."""
     stamp = divmod(int(t_ns), 1_000_000_000)
     delta = style.cell_size
     arrows = np.flatnonzero(np.isfinite(style.arrow_angle) & (style.arrow_length > 0))
+    # a scene without nodes: the cells carry the arrows, as the PLY's (none beside nodes)
+    cell_arrows = np.flatnonzero(
+        np.isfinite(style.cell_arrow_angle) & (style.cell_arrow_length > 0)
+    )
     mesh = style.mesh
     widths = {
         "cells": (delta, delta, CELL_THICKNESS * delta),
@@ -222,7 +230,7 @@ def marker_array(t_ns: int, style: SceneStyle, node_ids: Sequence[str]) -> bytes
     ]
     lists = [part for part in lists if len(part[2])]
     out = _Cdr()
-    out.u32(1 + len(node_ids) + len(arrows) + len(lists))
+    out.u32(1 + len(node_ids) + len(arrows) + len(cell_arrows) + len(lists))
     _marker(out, stamp, "", 0, ARROW, action=DELETEALL)
     centre = style.nodes_xyz.tolist()
     colors = style.colors.tolist()
@@ -240,6 +248,16 @@ def marker_array(t_ns: int, style: SceneStyle, node_ids: Sequence[str]) -> bytes
         [(*centre[i], *turn[k], length[k], 2.0 * width, 4.0 * width) for k, i in enumerate(which)],
         [colors[i] for i in which], [node_ids[i] for i in which],
     )
+    if len(cell_arrows):  # ids after the nodes' (a scene with cell arrows has no nodes)
+        at = style.cells_xyz[cell_arrows].tolist()
+        turn = _yaw(style.cell_arrow_angle[cell_arrows]).tolist()
+        length = style.cell_arrow_length[cell_arrows].tolist()
+        cells = cell_arrows.tolist()
+        _texted(
+            out, stamp, "arrows", ARROW, [len(node_ids) + i for i in cells],
+            [(*at[k], *turn[k], length[k], 2.0 * width, 4.0 * width) for k in range(len(cells))],
+            style.cell_colors[cell_arrows].tolist(), [cell_ids[i] for i in cells],
+        )
     for ns, kind, points, rgba, color in lists:
         if rgba is None:  # the mesh: each triangle corner coloured as its vertex
             rgba = _rgba(mesh.colors)[mesh.faces.reshape(-1)]

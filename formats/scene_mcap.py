@@ -7,16 +7,18 @@ timeline scrubs through the day:
   ``foxglove_schemas_protobuf`` as a file descriptor set). One entity per entry whose id is
   the entry id of ``aion predict`` (``p12``, ``c<key>``): a node is one sphere (diameter
   ``2r``) plus an arrow along its dominant direction when it has flow, a hash cell one flat
-  cube (δ × δ × 0.02·δ); each carries ``kind``, ``flow``, ``entropy`` and ``direction_deg``
-  as metadata. The entities ``aion/edges`` (line list), ``aion/mesh`` (triangle list, indexed)
-  and ``aion/path`` (line strip) hold the rest. Every update starts with a deletion of all
+  cube (δ × δ × 0.02·δ), plus in a scene without nodes (a map of hash cells only) an arrow
+  like a node's when it has flow and a direction, as the PLY scene draws it; each carries
+  ``kind``, ``flow``, ``entropy`` and ``direction_deg`` as metadata. The entities
+  ``aion/edges`` (line list), ``aion/mesh`` (triangle list, indexed) and ``aion/path`` (line
+  strip) hold the rest. Every update starts with a deletion of all
   entities older than the step, so each message is the whole scene at its time.
 - ``/aion/markers``: ``visualization_msgs/msg/MarkerArray`` (ROS 2 CDR) with the same content
   for RViz: a ``DELETEALL`` marker first, then namespace ``nodes`` (one ``SPHERE`` per node,
-  ``text`` = the entry id), ``arrows`` (``ARROW``, the node's id), ``cells`` (one
-  ``CUBE_LIST``), ``edges`` (``LINE_LIST``), ``mesh`` (``TRIANGLE_LIST``) and ``path``
-  (``LINE_STRIP``). A node's marker id is its position in the map's entry order, which is
-  the same at every step of a file.
+  ``text`` = the entry id), ``arrows`` (``ARROW``, the node's id; the cell's in a scene
+  without nodes), ``cells`` (one ``CUBE_LIST``), ``edges`` (``LINE_LIST``), ``mesh``
+  (``TRIANGLE_LIST``) and ``path`` (``LINE_STRIP``). A node's marker id is its position in
+  the map's entry order, which is the same at every step of a file.
 - ``/tf_static``: one ``tf2_msgs/msg/TFMessage``, the identity ``world -> map``, so RViz and
   Foxglove know the frame ``map`` every scene is drawn in (its channel carries rosbag2's
   latched QoS, for ``ros2 bag play``).
@@ -189,7 +191,7 @@ class SceneMcapWriter:
             if self.steps == 0:
                 self._add(TF_STATIC_TOPIC, t_ns, tf_static(t_ns))
             self._add(SCENE_TOPIC, t_ns, scene_update(t_ns, style, node_ids, cell_ids))
-            self._add(MARKER_TOPIC, t_ns, marker_array(t_ns, style, node_ids))
+            self._add(MARKER_TOPIC, t_ns, marker_array(t_ns, style, node_ids, cell_ids))
         except OSError as exc:
             raise _write_error(self.path, exc) from exc
         self.steps += 1
@@ -257,6 +259,24 @@ def _meta(value: float, digits: int = 4) -> str:
     return f"{value:.{digits}g}" if math.isfinite(value) else "null"
 
 
+def _arrow(
+    e: Any, at: Sequence[float], angle: float, length: float, width: float, color: Sequence[float]
+) -> None:
+    """Add to entity ``e`` an arrow from ``at`` along ``angle`` (rad about +z), ``length``
+    long from its start, shaft ``width`` thick, as the PLY's arrows draw it."""
+    a = e.arrows.add(
+        shaft_length=0.75 * length,
+        shaft_diameter=2.0 * width,
+        head_length=0.25 * length,
+        head_diameter=4.0 * width,
+    )
+    a.pose.position.x, a.pose.position.y, a.pose.position.z = at
+    o = a.pose.orientation
+    o.x, o.y, o.z, o.w = _yaw(angle)
+    a.color.r, a.color.g, a.color.b = color
+    a.color.a = 1.0
+
+
 def scene_update(
     t_ns: int, style: SceneStyle, node_ids: Sequence[str], cell_ids: Sequence[str]
 ) -> bytes:
@@ -299,19 +319,11 @@ def scene_update(
         s.size.x = s.size.y = s.size.z = d
         s.color.r, s.color.g, s.color.b, s.color.a = r, g, b, 1.0
         if arrow[i]:
-            length, width = float(style.arrow_length[i]), style.arrow_width
-            a = e.arrows.add(
-                shaft_length=0.75 * length,
-                shaft_diameter=2.0 * width,
-                head_length=0.25 * length,
-                head_diameter=4.0 * width,
-            )
-            a.pose.position.x, a.pose.position.y, a.pose.position.z = x, y, z
-            o = a.pose.orientation
-            o.x, o.y, o.z, o.w = _yaw(float(style.arrow_angle[i]))
-            a.color.r, a.color.g, a.color.b, a.color.a = r, g, b, 1.0
+            angle, length = float(style.arrow_angle[i]), float(style.arrow_length[i])
+            _arrow(e, xyz[i], angle, length, style.arrow_width, colors[i])
     c_xyz, c_colors = style.cells_xyz.tolist(), style.cell_colors.tolist()
     cell_deg = np.degrees(style.cells_angle).tolist()
+    cell_arrow = np.isfinite(style.cell_arrow_angle) & (style.cell_arrow_length > 0)
     for i, cell in enumerate(cell_ids):
         e = entity(
             cell,
@@ -328,6 +340,9 @@ def scene_update(
         c.size.x, c.size.y, c.size.z = delta, delta, CELL_THICKNESS * delta
         c.color.r, c.color.g, c.color.b = c_colors[i]
         c.color.a = 1.0
+        if cell_arrow[i]:  # a scene without nodes: the cells carry the arrows (as the PLY's)
+            angle, length = float(style.cell_arrow_angle[i]), float(style.cell_arrow_length[i])
+            _arrow(e, c_xyz[i], angle, length, style.arrow_width, c_colors[i])
     lines = (
         ("aion/edges", LinePrimitive.LINE_LIST, style.edges.reshape(-1, 3), EDGE_WIDTH, EDGE_GREY),
         ("aion/path", LinePrimitive.LINE_STRIP, style.path, PATH_WIDTH, PATH_GREEN),

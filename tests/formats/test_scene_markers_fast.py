@@ -12,7 +12,15 @@ import pytest
 from aion_cli.formats import scene_markers
 from aion_cli.formats.scene_markers import _IDENTITY, ARROW, SPHERE, _Cdr, _marker
 from aion_cli.formats.scene_style import style_scene
-from tests.formats.test_scene_mcap import CELL_ENTROPY, CELL_FLOW, CELLS, DELTA, MESH, T0
+from tests.formats.test_scene_mcap import (
+    CELL_ENTROPY,
+    CELL_FLOW,
+    CELL_IDS,
+    CELLS,
+    DELTA,
+    MESH,
+    T0,
+)
 
 
 def _reference(
@@ -43,9 +51,9 @@ def test_texted_equals_one_marker_each(seed: int, monkeypatch: pytest.MonkeyPatc
         xyz, flow, rng.uniform(0, 1, n), angle, CELLS, CELL_FLOW, CELL_ENTROPY, edges,
         MESH if seed % 2 else None, xyz[: min(n, 3)] if seed % 3 else None, DELTA,
     )
-    fast = scene_markers.marker_array(T0 + seed * 7, style, ids)
+    fast = scene_markers.marker_array(T0 + seed * 7, style, ids, CELL_IDS)
     monkeypatch.setattr(scene_markers, "_texted", _reference)
-    assert fast == scene_markers.marker_array(T0 + seed * 7, style, ids)
+    assert fast == scene_markers.marker_array(T0 + seed * 7, style, ids, CELL_IDS)
 
 
 @pytest.mark.parametrize("lead", range(8))

@@ -233,9 +233,18 @@ def test_tf_static_declares_the_map_frame(written: dict[str, Any]) -> None:
 def test_cdr_bytes_are_rosbags_own_serialization() -> None:
     """Our numpy CDR equals what rosbags' serializer makes of the decoded message."""
     store = msgdefs.typestore(2)
+    # a map of hash cells only: its cells carry arrows (one here, the cell with flow)
+    cells_only = style_scene(
+        np.zeros((0, 3)), [], [], [], CELLS, CELL_FLOW, CELL_ENTROPY, cells_dominant_angle=[1, 2]
+    )
+    assert np.isfinite(cells_only.cell_arrow_angle).sum() == 1
     for payload, msgtype in (
-        (marker_array(T0 + 123, scene(), NODE_IDS), "visualization_msgs/msg/MarkerArray"),
-        (marker_array(T0, scene(path=False), NODE_IDS), "visualization_msgs/msg/MarkerArray"),
+        (marker_array(T0 + 123, scene(), NODE_IDS, CELL_IDS), "visualization_msgs/msg/MarkerArray"),
+        (
+            marker_array(T0, scene(path=False), NODE_IDS, CELL_IDS),
+            "visualization_msgs/msg/MarkerArray",
+        ),
+        (marker_array(T0, cells_only, [], CELL_IDS), "visualization_msgs/msg/MarkerArray"),
         (tf_static(T0 + 5), "tf2_msgs/msg/TFMessage"),
     ):
         message = store.deserialize_cdr(payload, msgtype)
