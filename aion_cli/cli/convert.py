@@ -53,6 +53,10 @@ windows without a detection count as not observed.
 
 CONTAINERS = ("mcap", "mcap-ros1", "bag", "rosbag2-sqlite3", "rosbag2-mcap")
 #: formats.track_types.LAYOUTS, spelt out so that `aion --help` need not import numpy
+DAY_WORDS = ("today", "tomorrow", "yesterday")
+"""Day words that alone mean now shifted by whole days (GNU date's rule, aion_cli.timeparse);
+``--date`` takes them as the day, frame 0 at its midnight, as ``--date 2010-07-01``."""
+
 LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "edinburgh")
 @click.command(
     "convert",
@@ -194,6 +198,8 @@ def command(
     spans = [parse_span(text, zone, "--observed") for text in observed_text]
     start_ns = 0
     clock = date_text if layout == "edinburgh" else start_text
+    if layout == "edinburgh" and clock is not None and clock.strip().lower() in DAY_WORDS:
+        clock = f"{clock} 00:00"  # --date names a day: its midnight ("yesterday" alone is now-1d)
     if clock is not None:
         option = "--date" if layout == "edinburgh" else "--start"
         try:

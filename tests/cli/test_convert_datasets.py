@@ -29,6 +29,27 @@ def _read(log: Path) -> tuple[list[int], FrameDetections]:
         return [m.log_time_ns for m in msgs], adapter.decode(msgs)
 
 
+def test_edinburgh_date_yesterday_is_yesterdays_midnight(tmp_path: Path) -> None:
+    """``--date yesterday`` put frame 0 at this time of day yesterday ("yesterday" alone is now
+    minus a day in every other time option); --date names a day, frame 0 at its midnight, as
+    ``--date 2010-07-01`` does."""
+    import datetime as dt
+
+    path = edinburgh_file(tmp_path / "t.txt", {4: [(10, 20, 0), (12, 20, 5)]})
+    out = tmp_path / "t.mcap"
+    before = dt.datetime.now(dt.UTC).date()
+    result = run("convert", path, "--layout", "edinburgh", "--date", "yesterday", "--tz", "UTC",
+                 "--fps", "10", "-o", out)  # fmt: skip
+    after = dt.datetime.now(dt.UTC).date()
+    assert result.exit_code == 0, result.stderr
+    times, _ = _read(out)
+    midnights = {
+        int(dt.datetime.combine(day - dt.timedelta(days=1), dt.time(), dt.UTC).timestamp()) * S
+        for day in (before, after)  # the test may straddle midnight
+    }
+    assert times[0] in midnights
+
+
 def test_layout_choices_are_the_readers_layouts() -> None:
     from aion_cli.cli.convert import LAYOUTS
     from aion_cli.formats.track_types import LAYOUTS as READERS
