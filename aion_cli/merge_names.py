@@ -4,9 +4,10 @@ say which one it is about."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 
 @contextmanager
@@ -25,8 +26,17 @@ def naming_map(path: Path) -> Iterator[None]:
         raise
 
 
-def shared_names(paths: list[Path]) -> set[str]:
-    """The file names that more than one input has (those maps are named by path)."""
+def shared_names(names: Iterable[str]) -> set[str]:
+    """The file names that more than one input has (those inputs are named by path)."""
     from collections import Counter
 
-    return {name for name, n in Counter(p.name for p in paths).items() if n > 1}
+    return {name for name, n in Counter(names).items() if n > 1}
+
+
+def shown_names(entries: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Each input's ``name`` as a table shows it: its ``path`` where another input has the same
+    file name (robot1/map.aion, robot2/map.aion: a merge's maps, or a map's logs), else the
+    name."""
+    shared = shared_names(str(e["name"]) for e in entries)
+    return [str(e.get("path") or e["name"]) if e["name"] in shared else str(e["name"])
+            for e in entries]

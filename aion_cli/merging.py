@@ -224,7 +224,7 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
     sink.start("reading maps", len(paths), "maps")
     maps: list[_Input] = []
     first_of: dict[str, Path] = {}
-    shared = shared_names(paths)
+    shared = shared_names(p.name for p in paths)
     for p in paths:
         file = InputLog.from_dict(provenance(p))
         if file.sha256 in first_of:

@@ -239,20 +239,18 @@ def input_rows(
     ``limit`` logs, the first and last ``limit // 2`` with one cell counting those between;
     the same of the maps a merged map came from (``what="maps"``)."""
     from aion_cli.cli.output import human_size
+    from aion_cli.merge_names import shown_names
 
-    names = [entry["name"] for entry in inputs]
-    shared = {name for name in names if names.count(name) > 1}  # by path: robot1/map.aion
-
-    def cell(entry: dict[str, Any]) -> str:
-        shown = (entry.get("path") or entry["name"]) if entry["name"] in shared else entry["name"]
-        return f"{shown}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"
-
+    cells = [
+        f"{shown}  {human_size(entry['size'])}  sha256 {entry['sha256'][:12]}"
+        for entry, shown in zip(inputs, shown_names(inputs), strict=True)
+    ]
     if len(inputs) <= limit:
-        return [cell(e) for e in inputs]
+        return cells
     half = limit // 2
     between = len(inputs) - 2 * half
     return [
-        *(cell(e) for e in inputs[:half]),
+        *cells[:half],
         f"... {between:,} more {what} (of {len(inputs):,}; --format json lists every one)",
-        *(cell(e) for e in inputs[-half:]),
+        *cells[-half:],
     ]

@@ -111,9 +111,9 @@ def print_summary(summary: dict[str, Any]) -> None:
     )
     table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value", justify="right")
-    names = [item["name"] for item in summary["inputs"]]
-    for item in summary["inputs"]:
-        shown = item["path"] if names.count(item["name"]) > 1 else item["name"]
+    from aion_cli.merge_names import shown_names
+
+    for item, shown in zip(summary["inputs"], shown_names(summary["inputs"]), strict=True):
         table.add_row(
             f"input {markup_safe(shown)}",
             f"{item['detections']:,} detections, {item['logs']} log(s)",
