@@ -73,20 +73,20 @@ class TopicCounts:
         log = message_log_times(messages)[message]
         away = np.abs(t_ns.astype(np.float64) - log)  # int64 could overflow
         far = away > FAR_STAMP_NS
-        n = int(np.count_nonzero(far))
-        if n:
-            self.stamps_far += n
-            if self.far_example is None:
-                i = int(np.argmax(far))
-                self.far_example = (int(t_ns[i]), int(log[i]))
         off = (away > OFF_STAMP_NS) & ~far
+
+        def first(mask: npt.NDArray[np.bool_]) -> tuple[int, int] | None:
+            """The (stamp, log time) of the first detection of ``mask``; None for none."""
+            if not mask.any():
+                return None
+            i = int(np.argmax(mask))
+            return int(t_ns[i]), int(log[i])
+
+        self.stamps_far += int(np.count_nonzero(far))
+        self.far_example = self.far_example or first(far)
         self.stamped += len(t_ns)
-        n = int(np.count_nonzero(off))
-        if n:
-            self.stamps_off += n
-            if self.off_example is None:
-                i = int(np.argmax(off))
-                self.off_example = (int(t_ns[i]), int(log[i]))
+        self.stamps_off += int(np.count_nonzero(off))
+        self.off_example = self.off_example or first(off)
 
 
 @dataclass
