@@ -22,9 +22,16 @@ def far_stamps_warning(topic: str, n: int, example: tuple[int, int]) -> str:
         f"{n:,} detection(s) on {topic} are {FAR_STAMPS} (the first stamped "
         f"{iso(example[0])}, logged {iso(example[1])}): stamps and log times follow different "
         "clocks (simulated time; a log recorded again later), and a detection's time is its "
-        "stamp but what was observed comes from the log times; if the log times are right, "
-        f'build with --detections-mapping giving stamp = "" for {topic} '
-        f"(aion info LOG --suggest-mapping {topic} writes one)"
+        f"stamp but what was observed comes from the log times; {_log_times_hint(topic)}"
+    )
+
+
+def _log_times_hint(topic: str, opening: str = "if") -> str:
+    """The way out when a topic's log times are right and its stamps are not (``opening``:
+    "If" to start a sentence)."""
+    return (
+        f'{opening} the log times are right, build with --detections-mapping giving stamp = "" '
+        f"for {topic} (aion info LOG --suggest-mapping {topic} writes one)"
     )
 
 
@@ -52,9 +59,8 @@ def off_stamps_warning(topic: str, n: int, stamped: int, example: tuple[int, int
         " a detection's time is its stamp but what was observed comes from the log times, so"
         " the detections fall into other windows than the log recorded (those before its"
         " windows are dropped, those after them make windows of their own and leave the"
-        " log's own empty); is the tracker on another machine's clock or zone? If the log"
-        f' times are right, build with --detections-mapping giving stamp = "" for {topic}'
-        f" (aion info LOG --suggest-mapping {topic} writes one)"
+        " log's own empty); is the tracker on another machine's clock or zone? "
+        + _log_times_hint(topic, "If")
     )
 
 
