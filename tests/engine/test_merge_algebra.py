@@ -8,7 +8,7 @@ approximation 2)."""
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine.compare import differences
@@ -55,8 +55,15 @@ def _flat(logs: list[list[Step]]) -> list[Step]:
     return [step for steps in logs for step in steps]
 
 
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow],
+          derandomize=True)
 @given(specs=LOGS, cuts=st.lists(st.booleans(), min_size=3, max_size=3))
+@example(specs=[(0, 1, 0), (0, 1, 1)], cuts=[True, False, False]).xfail(
+    raises=AssertionError,
+    reason="known, not fixed (found 2026-12-06, present at 62499be): parts of one window each "
+    "are refused by join_blocker ('the scene graph of these logs reached cells of the map "
+    "before them only later on'), so a parallel build learns such a shard again, exactly",
+)
 def test_parts_of_any_split_joined_in_order_equal_one_pass(
     specs: list[tuple[int, int, int]], cuts: list[bool]
 ) -> None:
