@@ -232,3 +232,13 @@ def test_hydra_logs_make_the_work_folder(
     (log,) = bench_parallel.hydra_logs(1, 0.01)
     assert log.parent == tmp_path / "_work"
     assert log.is_file()
+
+
+def test_fleet_merge_small() -> None:
+    """``aion merge`` of two fixed-sensor maps of different areas, timed in a child."""
+    from benchmarks import bench_fleet_merge
+
+    rows = bench_fleet_merge.run(maps=(2,), repeats=1)
+    _rows_ok(rows)
+    assert rows[0]["maps"] == 2
+    assert rows[0]["this_peak_mb"] > 0

@@ -1,0 +1,132 @@
+"""``aion merge`` of many fixed-sensor maps of different areas (a fleet of wall trackers).
+
+Map ``k`` (``k = 0 .. 39``) is built from one converted log (``aion convert``: a canonical CSV
+with ``--observed``, as ``tests/cli/test_merge_fixed_sensors.py`` writes): on day ``k`` from
+10:00 UTC for two hours, ``PEOPLE`` people walk 30 m along +x, one every 15 minutes, each
+on their own line ``y = 2 m * person``, in an area of its own (``x`` from ``200 m * k``), so
+no two maps share a cell. Each map holds about 1,200 cells and its pending day (two hours of
+fixed-sensor windows).
+
+For each ``N`` in ``--maps`` (default 5, 10, 20, 40) the first ``N`` maps are merged by
+``aion merge`` in a child process; reported: the child's CPU time (user + system) and peak
+resident memory (``ru_maxrss``) from ``os.wait4``, best of ``--repeats`` (CPU) and the
+largest peak. ``--aion`` picks the command (a checkout's ``.venv/bin/aion`` or ``python -m
+aion_cli`` with ``PYTHONPATH`` of another checkout, for before/after figures; runs of the two
+alternated by ``--against``). Logs and maps are written once under ``benchmarks/_work``.
+
+Run: ``python -m benchmarks.bench_fleet_merge [--maps 5 10 20 40] [--against DIR]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shlex
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from benchmarks.common import ROOT, WORK
+
+S = 10**9
+DAY0 = 1_767_607_200  # 2026-01-05 10:00 UTC, seconds
+PEOPLE = 20
+FOLDER = WORK / "fleet_merge"
+
+
+def _aion(checkout: Path) -> tuple[list[str], dict[str, str]]:
+    """``aion`` of the checkout ``checkout`` (this interpreter, its package first: run in
+    the checkout, since ``python -m`` puts the working folder before ``PYTHONPATH``)."""
+    return [sys.executable, "-m", "aion_cli"], {"PYTHONPATH": str(checkout)}
+
+
+def _run(cmd: list[str], env: dict[str, str]) -> tuple[float, int]:
+    """(CPU seconds, peak RSS bytes) of one child, run in the folder ``env`` names."""
+    proc = subprocess.Popen(
+        cmd,
+        env={**os.environ, **env},
+        cwd=env["PYTHONPATH"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    err = proc.stderr.read().decode() if proc.stderr else ""
+    if proc.returncode != 0:
+        raise RuntimeError(f"{shlex.join(cmd)} failed: {err}")
+    return usage.ru_utime + usage.ru_stime, usage.ru_maxrss * 1024
+
+
+def fleet_maps(n: int) -> list[Path]:
+    """The first ``n`` maps (written once)."""
+    FOLDER.mkdir(parents=True, exist_ok=True)
+    cmd, env = _aion(ROOT)
+    out = []
+    for k in range(n):
+        aion = FOLDER / f"area{k:02d}.aion"
+        out.append(aion)
+        if aion.exists():
+            continue
+        t0 = DAY0 + k * 86_400
+        rows = ["t_ns,track_id,x,y,z,heading_rad,speed_mps"]
+        for p in range(PEOPLE):
+            start = t0 + p * 360
+            rows += [
+                f"{(start + i) * S},{k * 100 + p + 1},{200 * k + i * 0.05:.2f},{2.0 * p:.1f},"
+                "0.0,0.0,0.5"
+                for i in range(600)
+            ]
+        csv = FOLDER / f"area{k:02d}.csv"
+        csv.write_text("\n".join(rows) + "\n")
+        log = csv.with_suffix(".mcap")
+        span = f"{t0}..{t0 + 7200}"
+        _run([*cmd, "convert", str(csv), "-o", str(log), "--observed", span, "-q", "--force"], env)
+        _run([*cmd, "build", str(log), "-o", str(aion), "-q"], env)
+    return out
+
+
+def merge_cost(checkout: Path, maps: list[Path]) -> tuple[float, int]:
+    cmd, env = _aion(checkout)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "merged.aion"
+        return _run([*cmd, "merge", *map(str, maps), "-o", str(out), "-q"], env)
+
+
+def run(
+    maps: tuple[int, ...] = (5, 10, 20, 40), repeats: int = 2, against: Path | None = None
+) -> list[dict[str, float | int]]:
+    """One row per number of maps: CPU seconds (best of ``repeats``) and peak MB (largest)
+    of ``aion merge`` with this checkout and, alternated with it, ``against``'s."""
+    paths = fleet_maps(max(maps))
+    checkouts = {"this": ROOT} | ({"against": against} if against is not None else {})
+    rows = []
+    for n in maps:
+        best = {name: (float("inf"), 0) for name in checkouts}
+        for _ in range(repeats):
+            for name, checkout in checkouts.items():
+                cpu, rss = merge_cost(checkout, paths[:n])
+                best[name] = (min(best[name][0], cpu), max(best[name][1], rss))
+        row: dict[str, float | int] = {"maps": n}
+        for name, (cpu, rss) in best.items():
+            row[f"{name}_cpu_s"] = round(cpu, 2)
+            row[f"{name}_peak_mb"] = round(rss / 1e6)
+        if against is not None:
+            row["cpu_ratio_against_over_this"] = round(best["against"][0] / best["this"][0], 2)
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    parser.add_argument("--maps", type=int, nargs="+", default=[5, 10, 20, 40])
+    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--against", type=Path, help="another checkout, run alternately")
+    args = parser.parse_args()
+    run(tuple(args.maps), args.repeats, args.against)
+
+
+if __name__ == "__main__":
+    main()
