@@ -16,6 +16,8 @@ map's pending day is scored and absorbed first. Then the earlier map's redirects
 alive in the later graph are kept, moving any later cell at such a key into the node, and the
 cells that hold the earlier map's cells bind to the later map's stable places in reach, as one
 build binds a cell once a place near it turns stable.
+Maps without nodes merge in the earlier map's storage when it is the larger
+(:mod:`aion_cli.engine.merge_cells`): the same map, at the later map's cost.
 
 Approximated: (1) a map built from one log alone cannot know the robot-observed empty windows
 of entries that only the other log created (a single pass would record real zeros for them),
@@ -40,6 +42,7 @@ import numpy as np
 
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import ADDITIVE, CELL, NODE
+from aion_cli.engine.merge_cells import cells_only, merge_into_earlier
 from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.node_drift import approximate_timers
 from aion_cli.engine.ownership import (
@@ -60,13 +63,17 @@ if TYPE_CHECKING:
 def merge_maps(a: MapState, b: MapState, *, consume: bool = False) -> MapState:
     """A map holding both maps' dynamics. The inputs are not modified unless ``consume``:
     then the result is built in the later one and the earlier one is changed too (a caller
-    that drops both, as ``aion merge`` does, saves the two copies: most of a merge's cost)."""
+    that drops both, as ``aion merge`` does, saves the two copies: most of a merge's cost);
+    maps without nodes build it in the earlier one when it is the larger
+    (:mod:`aion_cli.engine.merge_cells`: a fold of many maps then costs each map once)."""
     if a.config != b.config:
         raise ConfigError(
             "cannot merge maps built with different model parameters",
             hint="rebuild one of them with the other's config",
         )
     earlier, later = sorted((a, b), key=_start_order)
+    if consume and earlier.entries.n >= later.entries.n and cells_only(a) and cells_only(b):
+        return merge_into_earlier(earlier, later)  # the same map; costs the later one only
     early = earlier if consume else _copy(earlier)
     if early.open_window is not None:
         close_windows(early, early.open_window + 1)
