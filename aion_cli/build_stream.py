@@ -30,6 +30,7 @@ from aion_cli.detection_feed import (
     decoded_chunks,
 )
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.heading_hold import HeadingHold
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
 from aion_cli.fixed_sensor import fixed_sensor_windows
 from aion_cli.log_times import check_after_open, overlap_note
@@ -134,14 +135,21 @@ class StreamStep:
             self.progress,
         )
         stream = chunks(messages, graph_topics, self.opts.batch_size)
+        # a linked track's first rows wait in the hold for its first displacement; rows
+        # leave it in order, and all of them before a graph and at the end
+        hold = HeadingHold()
         # duck-typed: decoded_chunks only calls decode()
         for batch, n_messages, graph_msg in decoded_chunks(stream, cast(Any, feeders)):
             if batch is not None:
-                self._feed(mapper, batch, feeders.topics_of(batch))
+                look = feeders.look_of(batch)
+                self._feed(mapper, *hold.push(batch, feeders.topics_of(batch), look))
                 self.progress.advance(n_messages)
             if graph_msg is not None:
+                self._feed(mapper, *hold.release())
                 self._take_graph(logset, mapper, graph_msg, use_agents)
                 self.progress.advance(1)
+        self._feed(mapper, *hold.release())
+        feeders.count_settled(hold.settled)
         self.graphs.check_skips(stop_if_none=not self.shard)
         self.report.graph_pins = self.graphs.pins
         c = self.counts = record_detections(

@@ -49,6 +49,7 @@ from aion_cli.detection_jobs import (
     _split,
     _time_order,
 )
+from aion_cli.engine.heading_hold import LookAhead
 from aion_cli.engine.types import I64, DetectionBatch
 
 if TYPE_CHECKING:
@@ -146,10 +147,16 @@ class DetectionFeeder:
         cfg = self.linker_config
         # Linked tracks are differenced like the linker's own rule: displacements of at least
         # min_step, looking back at most heading_span_s (ids of their own number space).
+        # A linked track's first rows (and those after its reference lapsed) wait for its
+        # first displacement (look_ahead: :attr:`look`, for the build's HeadingHold).
         self.linked_headings = HeadingEstimator(
             min_displacement=cfg.min_step if cfg else 0.3,
             max_gap_s=cfg.heading_span_s if cfg else 5.0,
+            look_ahead=True,
         )
+        #: Per row of the last batch decoded: which rows wait for a later heading and which
+        #: give it (:class:`aion_cli.engine.heading_hold.LookAhead`).
+        self.look = LookAhead.none(0)
         self._linkers: dict[str, TrackLinker] = {}
         # per topic: the one yaw its messages have shown so far (float), or _VARIES; a build
         # that continues another's stream (a shard learnt in sequence) starts from its state
@@ -214,6 +221,7 @@ class DetectionFeeder:
             linked.append(self._link(topic, frames, rseg))
             firsts.append(_first_in_segment(np.asarray(index, np.int64), seg))
         if not parts:
+            self.look = LookAhead.none(0)
             return DetectionBatch.empty(), np.zeros(0, np.int64)
         merged = parts[0] if len(parts) == 1 else FrameDetections.concat(parts)
         link_ids = linked[0] if len(linked) == 1 else np.concatenate(linked)
@@ -231,11 +239,13 @@ class DetectionFeeder:
     ) -> tuple[DetectionBatch, I64]:
         """:meth:`decode_rows` one segment at a time (segments are contiguous runs)."""
         cuts = (np.flatnonzero(segment[1:] != segment[:-1]) + 1).tolist()
-        batches, segs = [], []
+        batches, segs, looks = [], [], []
         for a, b in zip([0, *cuts], [*cuts, len(messages)], strict=True):
             batch, _ = self.decode_rows(messages[a:b])
             batches.append(batch)
             segs.append(np.full(len(batch), segment[a], np.int64))
+            looks.append(self.look)
+        self.look = LookAhead.concat(looks)
         return DetectionBatch.concat(batches), np.concatenate(segs)
 
     def _count(self, topic: str, adapter: DetectionAdapter, frames: Any, msgs: list[Any]) -> None:
@@ -360,6 +370,7 @@ class DetectionFeeder:
         batch = self.headings.to_batch(merged, segment)
         sources = self.headings.sources
         is_linked = link_ids >= 0
+        self.look = LookAhead.none(len(batch))
         if is_linked.any():
             rows = np.flatnonzero(is_linked)
             lb = self.linked_headings.estimate(
@@ -367,6 +378,7 @@ class DetectionFeeder:
                 link_ids[rows], segment[rows],
             )
             batch.heading[rows], batch.speed[rows] = lb.heading, lb.speed
+            self.look.put(rows, self.linked_headings.look)
             lsrc = self.linked_headings.sources
             self._tally(lsrc, SOURCES, linked=True)
             sources = sources[~is_linked]

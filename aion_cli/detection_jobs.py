@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 
 from aion_cli.detection_counts import DetectionCounts
+from aion_cli.engine.heading_hold import LookAhead
 from aion_cli.engine.types import I64, DetectionBatch
 
 if TYPE_CHECKING:
@@ -113,6 +114,7 @@ class TopicFeeders:
         self.counts = {topic: DetectionCounts() for topic in topics}
         self.feeders = {topic: make(self.counts[topic]) for topic in topics}
         self._labels: dict[int, I64] = {}
+        self._looks: dict[int, LookAhead] = {}
 
     def decode(self, messages: list[RawMessage]) -> DetectionBatch:
         """One chunk (see :meth:`DetectionFeeder.decode`)."""
@@ -128,7 +130,7 @@ class TopicFeeders:
     def _decode_job(self, chunks: Sequence[list[RawMessage]]) -> list[DetectionBatch | None]:
         messages, segment = _flatten(chunks)
         groups = _groups(messages, attrgetter("topic"))
-        batches, labels, segs, firsts = [], [], [], []
+        batches, labels, segs, firsts, looks = [], [], [], [], []
         for topic, index in groups.items():
             idx = np.asarray(index, np.int64)
             one = len(groups) == 1
@@ -138,15 +140,17 @@ class TopicFeeders:
             )
             batches.append(batch)
             labels.append(np.full(len(batch), self.index[topic], np.int64))
+            looks.append(self.feeders[topic].look.rekeyed(labels[-1], len(self.topics)))
             segs.append(rseg)
             firsts.append(_first_in_segment(idx, segment[idx]))
         if not batches:
             return [None if not c else DetectionBatch.empty() for c in chunks]
         if len(batches) == 1:
-            batch, label, rows_segment = batches[0], labels[0], segs[0]
+            batch, label, rows_segment, look = batches[0], labels[0], segs[0], looks[0]
         else:
             batch = DetectionBatch.concat(batches)
             label, rows_segment = np.concatenate(labels), np.concatenate(segs)
+            look = LookAhead.concat(looks)
             order = np.lexsort((
                 np.concatenate([f[s] for f, s in zip(firsts, segs, strict=True)]),
                 batch.t_ns, rows_segment,
@@ -155,13 +159,28 @@ class TopicFeeders:
                 batch.t_ns[order], batch.xyz[order], batch.heading[order], batch.speed[order],
                 batch.track_id[order],
             )
-            label, rows_segment = label[order], rows_segment[order]
+            label, rows_segment, look = label[order], rows_segment[order], look.select(order)
         out = _split(batch, rows_segment, chunks)
         bounds = np.searchsorted(rows_segment, np.arange(len(chunks) + 1)).tolist()
         for k, piece in enumerate(out):
             if piece is not None:
                 self._labels[id(piece)] = label[bounds[k] : bounds[k + 1]]
+                self._looks[id(piece)] = look.select(slice(bounds[k], bounds[k + 1]))
         return out
+
+    def look_of(self, batch: DetectionBatch) -> LookAhead:
+        """The :class:`LookAhead` of each row of a batch :meth:`decode` or
+        :meth:`decode_segments` gave (call before :meth:`topics_of`, by the same rule)."""
+        look = self._looks.pop(id(batch), None)
+        return LookAhead.none(len(batch)) if look is None else look
+
+    def count_settled(self, settled: dict[int, int]) -> None:
+        """Rows a :class:`HeadingHold` gave a heading (per topic index) move from their
+        topic's 'none' heading count to its 'linked' one."""
+        for index, k in settled.items():
+            headings = self.counts[self.topics[index]].headings
+            headings["none"] -= k
+            headings["linked"] += k
 
     def topics_of(self, batch: DetectionBatch) -> I64:
         """The topic index (into :attr:`topics`) of each row of a batch :meth:`decode` or

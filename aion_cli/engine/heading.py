@@ -39,6 +39,16 @@ rows per track, so a batch of thousands of messages costs about what one message
 
 After each call :attr:`HeadingEstimator.sources` says which rule gave each row its heading
 (codes of :data:`SOURCES`), so a build can count headings by source.
+
+With ``look_ahead`` (a build's linked tracks) :attr:`HeadingEstimator.look` also says which
+rows *wait* -- rows whose reference has given no heading yet: a track's first rows, and those
+after a reset for staleness -- and which row of the track ends the wait (its first
+displacement of ``min_displacement``, or the lapse of the reference after ``max_gap_s``);
+:class:`aion_cli.engine.heading_hold.HeadingHold` gives the waiting rows that displacement's
+heading, as the offline rule (:func:`aion_cli.engine.differencing.difference_tracks`, which
+looks ``max_gap_s`` both ways) gives it to them. A walker keeps his reference as long as he
+covers ``min_displacement`` within ``max_gap_s`` (0.3 m in 5 s for linked tracks: 0.06 m/s);
+slower is standing on both paths. The headings this estimator returns are unchanged by it.
 """
 
 from __future__ import annotations
@@ -49,6 +59,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.heading_chain import _chains, _inside_circle
+from aion_cli.engine.heading_hold import LookAhead
 from aion_cli.engine.types import F64, I64, DetectionBatch
 from aion_cli.errors import ConfigError
 
@@ -74,7 +85,11 @@ class HeadingEstimator:
     """Stateful heading/speed estimation over successive calls (see the module docstring)."""
 
     def __init__(
-        self, min_displacement: float = 0.05, max_gap_s: float = 5.0, prune_above: int = 4096
+        self,
+        min_displacement: float = 0.05,
+        max_gap_s: float = 5.0,
+        prune_above: int = 4096,
+        look_ahead: bool = False,
     ) -> None:
         if not min_displacement >= 0.0 or not max_gap_s > 0.0:
             raise ConfigError(
@@ -91,6 +106,10 @@ class HeadingEstimator:
         #: Per row of the last :meth:`estimate` call, the code (index into :data:`SOURCES`) of
         #: the rule that gave its heading.
         self.sources: npt.NDArray[np.int8] = np.zeros(0, np.int8)
+        #: With ``look_ahead``: per row of the last call, which rows wait for their track's
+        #: next displacement and which settle them (:mod:`aion_cli.engine.heading_hold`).
+        self.look_ahead = look_ahead
+        self.look = LookAhead.none(0)
 
     def __len__(self) -> int:
         """Number of tracks remembered."""
@@ -136,6 +155,8 @@ class HeadingEstimator:
         speed = np.where(has_vel, vspeed, np.nan)
 
         source = np.where(has_vel, FROM_VELOCITY, NO_HEADING).astype(np.int8)
+        if self.look_ahead:
+            self.look = LookAhead.none(n)
         tracked = np.flatnonzero(k >= 0)
         if len(tracked):
             seg = None if segment is None else np.asarray(segment, np.int64).reshape(n)
@@ -250,6 +271,9 @@ class HeadingEstimator:
         dist = np.hypot(dx, dy)
         moved = fresh & (dist >= self.min_displacement)
         diff_heading = np.arctan2(dy, dx)
+        if self.look_ahead:
+            self._look(rows, kr, chain, last_chain, real, ref, root, stale, moved,
+                       diff_heading, T, vnodes, vslot)
 
         # previous heading: the value of the last event before each row (a track's first node
         # is an event; a root is stale, so its own previous heading is NaN anyway)
@@ -265,6 +289,8 @@ class HeadingEstimator:
         use = np.flatnonzero(~vel & fresh)
         heading[rows[use]] = diff_heading[use]
         speed[rows[use]] = dist[use] / (dt[use] * 1e-9)
+        if self.look_ahead:  # a waiting row that got a heading (a velocity's carry) waits not
+            self.look.waiting[rows] &= np.isnan(heading[rows])
 
         # the state after the call: per track, its last chain node and its last event
         last = g_end - 1
@@ -280,6 +306,30 @@ class HeadingEstimator:
             self.ref_t = np.insert(self.ref_t, at, new_t[~found])
             self.ref_xy = np.insert(self.ref_xy, at, new_xy[~found], axis=0)
             self.heading = np.insert(self.heading, at, new_heading[~found])
+
+    def _look(
+        self, rows: I64, kr: I64, chain: npt.NDArray[np.bool_], last_chain: I64, real: I64,
+        ref: I64,
+        root: npt.NDArray[np.bool_], stale: npt.NDArray[np.bool_], moved: npt.NDArray[np.bool_],
+        diff_heading: F64, T: I64, vnodes: I64, vslot: I64,
+    ) -> None:
+        """:attr:`look` of ``rows`` (in node order): a reference *waits* while no heading has
+        been taken from it (a track's first row, a stale reset, a remembered reference
+        without a heading); the rows it is the reference of wait with it, and the track's
+        next reset settles them -- with its displacement's heading when it moved, with none
+        when the reference lapsed (stale)."""
+        waits = np.zeros(len(T), dtype=bool)
+        waits[real] = stale  # (roots are stale)
+        waits[vnodes] = np.isnan(self.heading[vslot])
+        owner = last_chain[real]  # each row's reference, or the row itself on the chain
+        on_chain = chain[real]
+        settles = on_chain & ~root & waits[np.where(root, 0, ref)]
+        look = self.look
+        look.key[rows] = kr
+        look.waiting[rows] = waits[owner]
+        look.expire_ns[rows] = T[owner] + self.max_gap_ns
+        look.settles[rows] = settles
+        look.heading[rows] = np.where(settles & moved, diff_heading, np.nan)
 
     def _next_resets(
         self, T: I64, x: F64, y: F64, node_end: I64, g_start: I64, size: I64

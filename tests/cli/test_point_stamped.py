@@ -18,7 +18,7 @@ def test_point_stamped_of_a_person_is_read_and_linked(tmp_path: Path) -> None:
     """/person_position: a person walking -x at 1.2 m/s, 30 points at 2 Hz in frame map;
     /clicked_point (RViz) beside it. The person's topic was skipped ('PointStamped is not a
     type aion reads') and the build refused the log; now it is used, RViz's is not, and
-    the 30 points give 29 linked headings, all -x (bin 0)."""
+    the 30 points give 30 linked headings, all -x (bin 0): the first takes the first step's."""
     from aion_cli.formats.writers import LogWriter, stamp
 
     log = tmp_path / "points.mcap"
@@ -40,8 +40,8 @@ def test_point_stamped_of_a_person_is_read_and_linked(tmp_path: Path) -> None:
     report = run_json("build", log, "-o", out, "--format", "json")
     assert report["detection_topics"] == ["/person_position"]
     assert report["detections"] == {"read": 30, "used": 30, "dropped": {}}
-    assert report["headings"] == {"velocity": 0, "track": 0, "linked": 29, "pose_yaw": 0,
-                                  "none": 1}  # fmt: skip
+    assert report["headings"] == {"velocity": 0, "track": 0, "linked": 30, "pose_yaw": 0,
+                                  "none": 0}  # fmt: skip
     assert report["mean_speed_m_s"] == pytest.approx(1.2)
     _, counts, _ = map_cells(out)
-    assert counts.sum(axis=0).tolist() == [29, 0, 0, 0, 0, 0, 0, 0]
+    assert counts.sum(axis=0).tolist() == [30, 0, 0, 0, 0, 0, 0, 0]

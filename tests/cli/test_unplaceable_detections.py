@@ -57,9 +57,9 @@ def test_lost_tracks_reach_neither_the_linker_nor_the_headings(tmp_path: Path, f
         assert detections["dropped"] == {"nan": 60}
     else:  # the rows 1e300 m away are the Mapper's out_of_range, and stop as early
         assert detections["dropped"] == {"nan": 40, "out_of_range": 20}
-    # one heading source per used row: 30 velocities, 29 linked (the first has none); a far
-    # row linked beside the walker had made "people move at 25,000.9 m/s"
-    assert report["headings"] == {"velocity": 30, "track": 0, "linked": 29,
-                                  "pose_yaw": 0, "none": 1}  # fmt: skip
+    # one heading source per used row: 30 velocities, 30 linked (the first takes the first
+    # step's); a far row linked beside the walker had made "people move at 25,000.9 m/s"
+    assert report["headings"] == {"velocity": 30, "track": 0, "linked": 30,
+                                  "pose_yaw": 0, "none": 0}  # fmt: skip
     assert report["mean_speed_m_s"] == pytest.approx(1.2)
     assert not [w for w in report["warnings"] if "people move at" in w]
