@@ -1,23 +1,38 @@
 """What an earlier export left in a folder that a new one must not keep beside its own files
 (no click or rich here): the scene parts a new export does not write, which it would leave
 standing (:func:`drop_stale_parts`: a path, the nodes of another map), and the frames of an
-earlier, longer series that a new series does not write (:func:`drop_stale_frames`). Only
-files an export wrote go (:func:`aion_cli.exports.is_export_file`, under the names an export
-writes); anything else in the folder, a frame folder's foreign file included, stays.
+earlier, longer series that a new series does not write (:func:`drop_stale_frames`).
+
+Only files an export itself wrote go: every export into a folder records the files it wrote
+(their path in the folder, size and sha256) in the folder's hidden
+:data:`MANIFEST` (:func:`record_written`), and a later export removes only files listed
+there that still hold the very bytes that were written (:func:`_still_written`). A scene that
+``aion plan --export out/arrows.ply`` saved, a file the user put there or rewrote since, and
+every file of a folder with no manifest (an export of an earlier aion) stay.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
 import os
 import re
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from aion_cli.exports import is_export_file
-
 #: a series' frame folder: its time in UTC, as ``exports.frame_name`` names it
 FRAME_NAME = re.compile(r"\d{8}T\d{6}Z")
+
+MANIFEST = ".aion-export.json"
+"""The hidden file in a folder exported into that lists the files exports wrote there."""
+
+_KIND = "aion export files"
+"""The manifest's ``kind``: a file of that name without it is not ours (never replaced)."""
+
+Written = dict[str, tuple[int, str]]
+"""Files an export wrote: path relative to the folder (``/``-separated) -> (size, sha256)."""
 
 
 @dataclass
@@ -30,17 +45,48 @@ class StaleFrames:
     kept: list[Path] = field(default_factory=list)
 
 
-def drop_stale_frames(out_dir: Path, frames: Collection[str]) -> StaleFrames:
+def read_written(out_dir: Path) -> Written:
+    """The files earlier exports wrote into ``out_dir`` (its :data:`MANIFEST`); none when
+    it has no manifest or one that cannot be read."""
+    try:
+        doc = json.loads((out_dir / MANIFEST).read_bytes())
+        files = doc["files"] if doc.get("kind") == _KIND else {}
+        return {
+            str(rel): (int(v[0]), str(v[1]))
+            for rel, v in files.items()
+            if isinstance(v, list) and len(v) == 2
+        }
+    except (OSError, ValueError, TypeError, AttributeError, KeyError, RecursionError):
+        return {}
+
+
+def _stamp(path: Path) -> tuple[int, str] | None:
+    """(size, sha256) of the regular file ``path`` (never following a link); None else."""
+    if os.path.islink(path) or not os.path.isfile(path):
+        return None
+    try:
+        with open(path, "rb") as fh:
+            return (os.fstat(fh.fileno()).st_size, hashlib.file_digest(fh, "sha256").hexdigest())
+    except OSError:
+        return None
+
+
+def _still_written(out_dir: Path, rel: str, owned: Written) -> bool:
+    """Whether ``out_dir / rel`` is listed in ``owned`` and is still the file an export
+    wrote there (the same bytes: not replaced or rewritten since)."""
+    return rel in owned and _stamp(out_dir / rel) == owned[rel]
+
+
+def _rel(out_dir: Path, path: Path) -> str:
+    return Path(os.path.relpath(path, out_dir)).as_posix()
+
+
+def drop_stale_frames(out_dir: Path, frames: Collection[str], owned: Written) -> StaleFrames:
     """Remove from ``out_dir`` the frame folders of an earlier series (named as a frame, not
     among ``frames``, the ones this series wrote): a folder holding frames of two runs would
-    play the old run's extra times after the new one's. Only an export's own files go (a
-    scene part or ``entries.csv`` / ``entries.json`` that :func:`is_export_file` recognises);
-    a folder left holding anything else is kept with it. Symbolic links are never followed."""
-    from aion_cli.formats.export import SCENE_PARTS
-
-    names = {f"{p}.{x}" for p in SCENE_PARTS for x in ("ply", "pcd")} | {
-        "entries.csv", "entries.json",
-    }  # fmt: skip
+    play the old run's extra times after the new one's. Only files ``owned`` lists (an
+    earlier export's, unchanged since) go; a folder left holding anything else is kept with
+    it. Symbolic links are never followed."""
     stale = StaleFrames()
     with os.scandir(out_dir) as children:
         folders = sorted(
@@ -51,8 +97,7 @@ def drop_stale_frames(out_dir: Path, frames: Collection[str]) -> StaleFrames:
             and c.name not in frames
         )
     for folder in folders:
-        files = [f for f in folder.iterdir() if f.name in names and not f.is_symlink()]
-        ours = [f for f in files if f.is_file() and is_export_file(f)]
+        ours = [f for f in folder.iterdir() if _still_written(out_dir, _rel(out_dir, f), owned)]
         if not ours:
             continue  # a folder of someone else's that happens to be named as a frame
         for f in ours:
@@ -65,39 +110,54 @@ def drop_stale_frames(out_dir: Path, frames: Collection[str]) -> StaleFrames:
     return stale
 
 
-def drop_stale_parts(folders: Sequence[Path], fmt: str, written: Sequence[Path]) -> None:
-    """Remove from ``folders`` the scene parts (``<part>.<fmt>``) an earlier export wrote that
-    this one did not: left beside the new files, a viewer opening the folder would draw them
-    as part of this scene (the path planned for another time when this export draws none;
-    the nodes, arrows and edges of a map with a scene graph beside the cells of one without,
-    or the arrows of a busier time beside a scene without any). Only aion's own scene files
-    go (:func:`aion_cli.exports.is_export_file`), and of ``path.<fmt>`` only a path part
-    (:func:`_is_path_part`), never a whole scene saved under that name (``aion plan
-    --export path.ply``)."""
+def drop_stale_parts(
+    out_dir: Path, folders: Sequence[Path], fmt: str, written: Sequence[Path], owned: Written
+) -> None:
+    """Remove from ``folders`` the scene parts (``<part>.<fmt>``) an earlier export wrote
+    (``owned``, unchanged since) that this one did not: left beside the new files, a viewer
+    opening the folder would draw them as part of this scene (the path planned for another
+    time when this export draws none; the nodes, arrows and edges of a map with a scene
+    graph beside the cells of one without, or the arrows of a busier time beside a scene
+    without any). A file of that name another command wrote (``aion plan --export
+    arrows.ply``) is no export's part and stays."""
     from aion_cli.formats.export import SCENE_PARTS
 
     keep = {os.path.abspath(p) for p in written}
     for folder in folders:
         for part in SCENE_PARTS:
             old = folder / f"{part}.{fmt}"
-            if os.path.abspath(old) in keep or not old.is_file() or old.is_symlink():
+            if os.path.abspath(old) in keep:
                 continue
-            if is_export_file(old) and (part != "path" or _is_path_part(old)):
+            if _still_written(out_dir, _rel(out_dir, old), owned):
                 old.unlink()
 
 
-def _is_path_part(path: Path) -> bool:
-    """Whether the aion scene file ``path`` holds an export's path part only: a PLY of bare
-    vertices and coloured edges (no faces), a PCD of points without normals. A whole scene
-    (``plan --export``, ``export -o x.ply``) has its places' spheres (faces) or normals."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(4096)
-    except OSError:
-        return False
-    if head.startswith(b"ply\n"):
-        header = head[: head.find(b"end_header")]
-        elements = [line.split()[1] for line in header.splitlines() if line.startswith(b"element ")]
-        return elements == [b"vertex", b"edge"]
-    fields = [line for line in head.splitlines() if line.startswith(b"FIELDS ")]
-    return fields == [b"FIELDS x y z rgb"]
+def record_written(out_dir: Path, owned: Written, written: Iterable[Path]) -> None:
+    """Write ``out_dir``'s :data:`MANIFEST`: the files of ``owned`` that are still as an
+    export wrote them (not removed, replaced or rewritten) and the files ``written`` now. A
+    file of that name that is not a manifest of aion's is left as it is."""
+    from aion_cli.formats.outputs import Staged, is_empty_file
+
+    target = out_dir / MANIFEST
+    if target.exists() and not (is_empty_file(target) or _is_manifest(target)):
+        return
+    now = {_rel(out_dir, p): p for p in written}
+    files = {
+        rel: v
+        for rel, v in owned.items()
+        if rel not in now and _still_written(out_dir, rel, owned)
+    }
+    for rel, path in now.items():
+        stamp = _stamp(path)
+        if stamp is not None:
+            files[rel] = stamp
+    doc = {"kind": _KIND, "files": {rel: list(v) for rel, v in sorted(files.items())}}
+    with Staged(target) as staged:
+        staged.path.write_text(json.dumps(doc) + "\n", encoding="utf-8")
+
+
+def _is_manifest(path: Path) -> bool:
+    with contextlib.suppress(OSError, ValueError, RecursionError):
+        doc = json.loads(path.read_bytes())
+        return isinstance(doc, dict) and doc.get("kind") == _KIND
+    return False

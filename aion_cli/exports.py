@@ -7,7 +7,8 @@ into a hidden staging folder beside ``OUT`` and moved in when complete, so a fai
 time, a full disk, Ctrl-C) leaves no partial export behind; files already in ``OUT`` that the
 export does not write are kept (but for the scene parts of the same format an earlier export
 wrote that this one does not, a path or the nodes of another map, and the frames of an
-earlier, longer series: :mod:`aion_cli.export_stale`), and a
+earlier, longer series, which the hidden manifest ``.aion-export.json`` lists as an export's:
+:mod:`aion_cli.export_stale`), and a
 same-named file is replaced only when it is one an export wrote (:func:`is_export_file`):
 nothing is moved in otherwise.
 """
@@ -48,7 +49,13 @@ def export_frames(
     write (``Exported.stale``); one time that is not a series goes straight into
     ``out_dir``. A series' spheres share one size scale (``scene_frames.series_flow_scale``,
     as the MCAP and PNG series do), so a sphere that grows from frame to frame is busier."""
-    from aion_cli.export_stale import StaleFrames, drop_stale_frames, drop_stale_parts
+    from aion_cli.export_stale import (
+        StaleFrames,
+        drop_stale_frames,
+        drop_stale_parts,
+        read_written,
+        record_written,
+    )
     from aion_cli.scene_frames import series_flow_scale
 
     if not series and len(times) != 1:
@@ -66,8 +73,11 @@ def export_frames(
                 on_frame()
         moved = [out_dir / p.relative_to(staged.path) for p in written]
     folders = [out_dir / frame_name(t) for t in times] if series else [out_dir]
-    drop_stale_parts(folders, fmt, moved)
-    stale = drop_stale_frames(out_dir, {f.name for f in folders}) if series else StaleFrames()
+    owned = read_written(out_dir)  # what earlier exports wrote here: all they may remove
+    drop_stale_parts(out_dir, folders, fmt, moved, owned)
+    names = {f.name for f in folders}
+    stale = drop_stale_frames(out_dir, names, owned) if series else StaleFrames()
+    record_written(out_dir, owned, moved)
     return Exported(moved, stale=stale)
 
 

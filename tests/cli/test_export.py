@@ -59,8 +59,9 @@ def test_time_series_and_path(office: Office, tmp_path: Path) -> None:
         "p4",
     )
     assert result.exit_code == 0, result.stderr
-    folders = sorted(p.name for p in tmp_path.iterdir())
+    folders = sorted(p.name for p in tmp_path.iterdir() if p.is_dir())
     assert folders == ["20261123T080000Z", "20261123T083000Z", "20261123T090000Z"]
+    assert (tmp_path / ".aion-export.json").is_file()  # what the export wrote, for the next
     for folder in folders:
         assert (tmp_path / folder / "path.ply").is_file()
         assert (tmp_path / folder / "entries.csv").is_file()
@@ -216,7 +217,7 @@ def test_a_series_of_one_time_is_written_as_a_series(office: Office, tmp_path: P
     out = tmp_path / "one"
     result = run("export", office.map, "--from", AT, "--to", AT, "-o", out)
     assert result.exit_code == 0, result.stderr
-    assert [p.name for p in out.iterdir()] == ["20261123T083000Z"]  # AT is read in UTC
+    assert sorted(p.name for p in out.iterdir()) == [".aion-export.json", "20261123T083000Z"]
     frame = out / "20261123T083000Z"
     assert (frame / "entries.csv").is_file()
     assert (frame / "scene.ply").is_file()
@@ -285,7 +286,7 @@ def test_a_shorter_series_removes_the_earlier_series_extra_frames(
     out = tmp_path / "series"
     longer = ["--from", "2026-11-23 06:00", "--to", "2026-11-23 09:00", "--step", "1h"]
     assert run("export", office.map, *longer, "-o", out, "-q").exit_code == 0
-    assert len(list(out.iterdir())) == 4
+    assert len(list(out.glob("2026*"))) == 4
     mine = out / "20261123T090000Z" / "notes.txt"
     mine.write_text("mine")
     theirs = out / "20261123T100000Z"
@@ -296,8 +297,8 @@ def test_a_shorter_series_removes_the_earlier_series_extra_frames(
     result = run("export", office.map, *shorter, "-o", out)
     assert result.exit_code == 0, result.stderr
     assert sorted(p.name for p in out.iterdir()) == [
-        "20261123T060000Z", "20261123T070000Z", "20261123T090000Z", "20261123T100000Z",
-        "readme.txt",
+        ".aion-export.json", "20261123T060000Z", "20261123T070000Z", "20261123T090000Z",
+        "20261123T100000Z", "readme.txt",
     ]  # fmt: skip
     assert [p.name for p in mine.parent.iterdir()] == ["notes.txt"]
     assert mine.read_text() == "mine"

@@ -180,7 +180,7 @@ def test_an_export_series_every_day_names_its_folders_by_the_same_local_noon(
         "2026-10-27 12:00", "--step", "1d", "-o", out,
     )
     assert done.exit_code == 0, done.stderr
-    assert sorted(p.name for p in out.iterdir()) == [
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == [
         "20261023T100000Z",
         "20261024T100000Z",
         "20261025T110000Z",

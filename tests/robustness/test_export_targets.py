@@ -35,8 +35,11 @@ def refused(result: Any, *fragments: str) -> None:
 
 
 def leftovers(folder: Path) -> list[str]:
-    """Hidden staging files or folders left in ``folder``."""
-    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+    """Hidden staging files or folders left in ``folder`` (not the manifest of the files
+    exports wrote there, ``export_stale.MANIFEST``)."""
+    from aion_cli.export_stale import MANIFEST
+
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith(".") and p.name != MANIFEST)
 
 
 def open3d_file(path: Path) -> Path:

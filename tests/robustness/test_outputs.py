@@ -53,8 +53,11 @@ def digest(path: Path) -> str:
 
 
 def hidden(folder: Path) -> list[str]:
-    """Staging folders / temporary files aion would leave behind (names start with '.')."""
-    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+    """Staging folders / temporary files aion would leave behind (names start with '.'; not
+    the manifest of the files exports wrote there, ``export_stale.MANIFEST``)."""
+    from aion_cli.export_stale import MANIFEST
+
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith(".") and p.name != MANIFEST)
 
 
 def message_count(path: Path) -> int:
@@ -405,7 +408,7 @@ def test_a_failing_export_leaves_no_partial_folder(
     monkeypatch.undo()
     result = run(*args, "-o", out)
     assert result.exit_code == 0, result.stderr
-    frames = sorted(p.name for p in out.iterdir())
+    frames = sorted(p.name for p in out.iterdir() if p.name != ".aion-export.json")
     assert frames == ["20261123T080000Z", "20261123T090000Z", "20261123T100000Z", "readme.txt"]
     assert (out / "readme.txt").read_text() == "mine\n"
     assert hidden(out) == []
