@@ -9,7 +9,8 @@ timeline scrubs through the day:
   ``2r``) plus an arrow along its dominant direction when it has flow, a hash cell one flat
   cube (δ × δ × 0.02·δ), plus in a scene without nodes (a map of hash cells only) an arrow
   like a node's when it has flow and a direction, as the PLY scene draws it; each carries
-  ``kind``, ``flow``, ``entropy`` and ``direction_deg`` as metadata. The entities
+  ``kind``, ``flow``, ``entropy`` and ``direction_deg`` as metadata (the numbers in full, as
+  ``aion predict --format json`` writes them; ``null`` for none). The entities
   ``aion/edges`` (line list), ``aion/mesh`` (triangle list, indexed) and ``aion/path`` (line
   strip) hold the rest. Every update starts with a deletion of all
   entities older than the step, so each message is the whole scene at its time.
@@ -255,8 +256,10 @@ def _yaw(angle: float) -> tuple[float, float, float, float]:
     return 0.0, 0.0, math.sin(angle / 2.0), math.cos(angle / 2.0)
 
 
-def _meta(value: float, digits: int = 4) -> str:
-    return f"{value:.{digits}g}" if math.isfinite(value) else "null"
+def _meta(value: float) -> str:
+    """A metadata value: the float in full (the shortest text that reads back as exactly
+    ``value``, as ``aion predict --format json`` writes it), ``null`` when not finite."""
+    return repr(float(value)) if math.isfinite(value) else "null"
 
 
 def _arrow(
@@ -309,7 +312,7 @@ def scene_update(
                 ("kind", "node"),
                 ("flow", _meta(float(style.node_flow[i]))),
                 ("entropy", _meta(float(style.node_entropy[i]))),
-                ("direction_deg", _meta(angle_deg[i], 5)),
+                ("direction_deg", _meta(angle_deg[i])),
             ),
         )
         (x, y, z), (r, g, b), d = xyz[i], colors[i], diameters[i]
@@ -331,7 +334,7 @@ def scene_update(
                 ("kind", "cell"),
                 ("flow", _meta(float(style.cells_flow[i]))),
                 ("entropy", _meta(float(style.cells_entropy[i]))),
-                ("direction_deg", _meta(cell_deg[i], 5)),
+                ("direction_deg", _meta(cell_deg[i])),
             ),
         )
         c = e.cubes.add()

@@ -349,3 +349,27 @@ def test_the_metadata_names_the_steps_at_hours_no_log_observed(
         "2026-11-23 07:00:00+00:00, 2026-11-23 09:00:00+00:00"
     )
     assert record.metadata["steps"] == "3"
+
+
+def test_the_metadata_holds_predicts_values_in_full(
+    series: Path, predicted: list[dict[str, Any]]
+) -> None:
+    """Each entity's ``flow``, ``entropy`` and ``direction_deg`` were written to 4 (5)
+    significant digits (a flow of 0.123456 read back as 0.1235): they are the values of
+    ``aion predict --format json`` at the step, to 1e-12."""
+    checked = 0
+    for (_, update), entries in zip(scene_updates(series), predicted, strict=True):
+        for entity in update.entities:
+            if not (entity.spheres or entity.cubes):
+                continue
+            meta = {m.key: m.value for m in entity.metadata}
+            want = entries[entity.id]
+            for key in ("flow", "entropy", "direction_deg"):
+                if want[key] is None:
+                    assert meta[key] == "null", (entity.id, key)
+                    continue
+                assert float(meta[key]) == pytest.approx(want[key], rel=1e-12, abs=1e-12), (
+                    entity.id, key, meta[key], want[key],
+                )  # fmt: skip
+                checked += 1
+    assert checked > 100
