@@ -147,7 +147,7 @@ def build(
     platforms without ``fork``), ``--scheduler`` and ``--part``. ``observed``: ``(start,
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
     ``Map.predict``, naive ones in ``tz``, else UTC). Without ``tz`` a new map follows the
-    zone its logs declare (``aion simulate --tz`` writes it into MCAP logs), with a note in
+    zone its logs declare (``aion simulate --tz`` writes it into its logs), with a note in
     ``Map.report``; a ``tz`` that differs from it is a warning. ``graph_period``: about one
     scene graph per period of log time (``"5s"``, ``"1m"``, seconds or a ``timedelta``; 0:
     every graph; None: 5 s), as ``--graph-period``; ``dsg_version`` (``"1.1.3"``) and

@@ -1,5 +1,5 @@
 """Which time zone a build follows when its logs declare one (:mod:`formats.log_zone`: the
-zone ``aion simulate --tz`` writes into its MCAP logs).
+zone ``aion simulate --tz`` writes into its logs: MCAP, ROS 1 bag, rosbag2).
 
 Without ``--tz`` a new map takes the zone its logs declare (a note says so); ``--tz`` or a
 continued map's zone that differs from it is kept, with a warning: a scene simulated in

@@ -169,8 +169,17 @@ def select_topics(
     used = plan.names("detections") | plan.names("graph") | plan.names("tf")
     plan.ignored = [t for t in topics if t.topic not in used]
     for info in plan.ignored:
-        plan.reasons.setdefault(info.topic, _skipped_type(info.msgtype))
+        plan.reasons.setdefault(info.topic, _zone_topic(info) or _skipped_type(info.msgtype))
     return plan
+
+
+def _zone_topic(info: TopicInfo) -> str | None:
+    """The reason of a ROS 1 bag's time-zone topic (:mod:`formats.log_zone`), None else."""
+    from aion_cli.formats.log_zone import KEY, RECORD, STRING, metadata_topic
+
+    if info.topic == metadata_topic(RECORD, KEY) and info.msgtype == STRING:
+        return "the log's time zone (aion simulate --tz): build follows it without --tz"
+    return None
 
 
 RAW_SENSOR_REASON = "is raw sensor data, not detected people"

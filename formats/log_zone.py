@@ -1,36 +1,114 @@
-"""The time zone a log declares: an MCAP file's ``aion`` metadata record ``timezone``.
+"""The time zone a log declares, written by ``aion simulate --tz`` (``LogWriter.add_metadata``):
 
-``aion simulate --tz Europe/London`` writes it into the MCAP logs it makes (a ROS 1 bag or a
-rosbag2 folder has no such record), so ``aion build`` without ``--tz`` can take the zone the
-scene's hours follow, and warn when ``--tz`` names another (:mod:`aion_cli.log_zone`).
+- an MCAP file: its ``aion`` metadata record, key ``timezone``;
+- a rosbag2 folder: ``custom_data`` ``aion.timezone`` in its ``metadata.yaml`` (the
+  key-value map rosbag2 keeps for its writers' own data);
+- a ROS 1 bag, which has no metadata record: one latched ``std_msgs/String`` message on
+  ``/aion/timezone`` at the log's first time (a topic of its own, as tools that store
+  metadata inside bags do; ``rosbag play`` publishes it once, latched).
+
+So ``aion build`` without ``--tz`` can take the zone the scene's hours follow, and warn when
+``--tz`` names another (:mod:`aion_cli.log_zone`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import struct
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 #: The metadata record and its key.
 RECORD = "aion"
 KEY = "timezone"
 
+STRING = "std_msgs/msg/String"
+"""The type of a ROS 1 bag's metadata topics (:func:`metadata_topic`)."""
+
+
+def metadata_topic(name: str, key: str) -> str:
+    """The latched topic of a ROS 1 bag that holds metadata ``name``'s ``key``."""
+    return f"/{name}/{key}"
+
+
+def ros1_string(text: str) -> bytes:
+    """A ``std_msgs/String`` in ROS 1 serialization: uint32 length, then UTF-8 bytes."""
+    data = text.encode("utf-8")
+    return struct.pack("<I", len(data)) + data
+
+
+def _from_ros1_string(raw: bytes | memoryview) -> str | None:
+    raw = bytes(raw)
+    if len(raw) < 4:
+        return None
+    (n,) = struct.unpack_from("<I", raw)
+    return raw[4 : 4 + n].decode("utf-8", errors="replace") if len(raw) == 4 + n else None
+
 
 def declared_zones(paths: Sequence[Path]) -> dict[str, str]:
-    """Per MCAP file among ``paths`` (by its path text), the zone its ``aion`` metadata record
-    declares; files without one, other kinds of log and files that cannot be read are left
-    out (the build reads them and says what is wrong)."""
-    from mcap.reader import make_reader
+    """Per log among ``paths`` (by its path text), the zone it declares (see the module
+    docstring); logs without one and logs that cannot be read are left out (the build reads
+    them and says what is wrong)."""
+    from aion_cli.formats.log_format import guess_format
 
     out: dict[str, str] = {}
     for path in paths:
-        if path.suffix.lower() != ".mcap" or not path.is_file():
-            continue
         try:
-            with path.open("rb") as f:
-                for record in make_reader(f).iter_metadata():
-                    zone = record.metadata.get(KEY) if record.name == RECORD else None
-                    if isinstance(zone, str) and zone:
-                        out[str(path)] = zone
-        except Exception:  # a damaged file declares nothing: the build reads it and says why
+            kind, target = guess_format(path)
+            zone = _reader(kind)(target)
+        except Exception:  # a damaged log declares nothing: the build reads it and says why
             continue
+        if isinstance(zone, str) and zone:
+            out[str(path)] = zone
     return out
+
+
+def _reader(kind: str) -> Callable[[Path], str | None]:
+    return {"mcap": _mcap_zone, "bag": _bag_zone, "rosbag2": _rosbag2_zone}.get(kind, _none)
+
+
+def _none(_path: Path) -> None:
+    return None
+
+
+def _mcap_zone(path: Path) -> str | None:
+    from mcap.reader import make_reader
+
+    if not path.is_file():
+        return None
+    zone = None
+    with path.open("rb") as f:
+        for record in make_reader(f).iter_metadata():
+            if record.name == RECORD and record.metadata.get(KEY):
+                zone = record.metadata[KEY]
+    return zone
+
+
+def _bag_zone(path: Path) -> str | None:
+    from rosbags.rosbag1 import Reader
+
+    topic = metadata_topic(RECORD, KEY)
+    with Reader(path) as reader:
+        found = [
+            c for c in reader.connections
+            if c.topic == topic and c.msgtype == STRING
+        ]  # fmt: skip
+        if not found:
+            return None  # (no connections given, rosbags reads every message)
+        for _, _, raw in reader.messages(connections=found):
+            return _from_ros1_string(raw)
+    return None
+
+
+def _rosbag2_zone(path: Path) -> str | None:
+    from ruamel.yaml import YAML  # rosbags' own YAML library
+
+    from aion_cli.formats.log_target import _MAX_METADATA_BYTES
+
+    folder = path if path.is_dir() else path.parent
+    meta = folder / "metadata.yaml"
+    if not meta.is_file() or meta.stat().st_size > _MAX_METADATA_BYTES:
+        return None
+    doc = YAML(typ="safe").load(meta.read_text(encoding="utf-8"))
+    custom = doc["rosbag2_bagfile_information"].get("custom_data") or {}
+    zone = custom.get(f"{RECORD}.{KEY}")
+    return zone if isinstance(zone, str) else None

@@ -174,17 +174,37 @@ class _Rosbag1Backend(_Backend):
             self.writer.chunk_threshold = chunk_size
         self.writer.open()
 
-    def channel(self, topic: str, msgtype: str) -> Any:
-        latching = 1 if topic.endswith("tf_static") else None
+        self._records: list[tuple[Any, bytes]] = []  # written at the first message's time
+
+    def channel(self, topic: str, msgtype: str, latched: bool = False) -> Any:
+        latching = 1 if latched or topic.endswith("tf_static") else None
         return self.writer.add_connection(  # the caller id marks the bag as aion's
             topic, msgtype, typestore=msgdefs.typestore(1), latching=latching,
             callerid=AION_CALLERID,
         )
 
     def write(self, channel: Any, t_ns: int, data: bytes | memoryview, sequence: int) -> None:
+        if self._records:  # before the first message, at its time: the bag's span unchanged
+            self._write_records(t_ns)
         self.writer.write(channel, t_ns, bytes(data))
 
+    def _write_records(self, t_ns: int) -> None:
+        for connection, text in self._records:
+            self.writer.write(connection, t_ns, text)
+        self._records.clear()
+
+    def metadata(self, name: str, data: Mapping[str, str]) -> bool:
+        """A ROS 1 bag has no metadata records: each pair is one latched ``std_msgs/String``
+        message on ``/<name>/<key>`` (:func:`formats.log_zone.metadata_topic`)."""
+        from aion_cli.formats.log_zone import STRING, metadata_topic, ros1_string
+
+        for key, value in data.items():
+            connection = self.channel(metadata_topic(name, key), STRING, latched=True)
+            self._records.append((connection, ros1_string(value)))
+        return True
+
     def close(self) -> None:
+        self._write_records(0)  # a bag of no other message: they have no time but 0
         self.writer.close()
 
 
@@ -239,6 +259,12 @@ class _Rosbag2Backend(_Backend):
             if full is None:
                 raise
             raise full from exc
+
+    def metadata(self, name: str, data: Mapping[str, str]) -> bool:
+        """Each pair as ``custom_data`` of metadata.yaml, its key ``<name>.<key>``."""
+        for key, value in data.items():
+            self.writer.set_custom_data(f"{name}.{key}", value)
+        return True
 
     def close(self) -> None:
         with _full_disk_as_oserror(self.path):
@@ -364,9 +390,11 @@ class LogWriter:
         self._write(entry, t_ns, data)
 
     def add_metadata(self, name: str, data: Mapping[str, str]) -> bool:
-        """Store ``data`` as the log's metadata record ``name`` (an MCAP file's; see
-        :func:`formats.log_zone.declared_zones`); False for a container without such records
-        (a ROS 1 bag, a rosbag2 folder), which stores nothing."""
+        """Store ``data`` as the log's metadata ``name`` (see
+        :func:`formats.log_zone.declared_zones`): an MCAP file's metadata record, a rosbag2
+        folder's ``custom_data`` ``<name>.<key>``, a ROS 1 bag's latched ``std_msgs/String``
+        topics ``/<name>/<key>`` (one message each, at the first message's time: call it
+        before the first :meth:`write`). False for a container that stores nothing."""
         if self._backend is None:
             raise LogWriteError(f"{self.path} is closed", hint="write inside the with block")
         return self._backend.metadata(name, data)

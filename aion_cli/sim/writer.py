@@ -91,8 +91,9 @@ def write_scene_log(
     """Write the merged streams to ``path`` with :class:`formats.writers.LogWriter`: beside
     the target, renamed into place when complete (``overwrite`` replaces only a log of the
     same kind aion wrote; an error or Ctrl-C mid-scene leaves the previous log intact).
-    ``timezone``: the zone the scene's hours follow, stored in an MCAP file's metadata
-    (:mod:`formats.log_zone`) for ``aion build`` to take without ``--tz``."""
+    ``timezone``: the zone the scene's hours follow, stored in the log (an MCAP file's
+    metadata, a rosbag2 folder's custom_data, a ROS 1 bag's latched topic:
+    :mod:`formats.log_zone`) for ``aion build`` to take without ``--tz``."""
     from aion_cli.formats.writers import LogWriter, check_stamps
 
     check_stamps(
