@@ -154,7 +154,10 @@ def state_counts(state: MapState) -> dict[str, int]:
     (the most any entry has seen, the open window included as the flows count it, each window
     for the share of it watched or recorded: rounded to whole windows) of a state, for
     summaries; never 0 when any share of a window was: a 4-minute log observed 0.4 of one
-    window, which read "windows observed 0" beside the detections it used)."""
+    window, which read "windows observed 0" beside the detections it used; 4.5 reads 5, a half
+    up, not 4 as ``round`` has it)."""
+    from aion_cli.number_text import half_up
+
     entries = state.entries
     live = entries.live_rows()
     observed = state.windows_observed(live, open_window=True)
@@ -164,7 +167,7 @@ def state_counts(state: MapState) -> dict[str, int]:
         "nodes": 0 if state.graph is None else len(state.graph.places),
         "nodes_with_flow": entries_with_detections(entries, entries.node_rows()),
         "bound_cells": len(state.redirects),
-        "windows": max(1, round(most)) if most > 0 else 0,
+        "windows": max(1, half_up(most)) if most > 0 else 0,
     }
 
 

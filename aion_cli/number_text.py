@@ -8,13 +8,20 @@ out rather than printed as ``± 0.00``.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 WINDOWS_OBSERVED = "observed windows (most of any entry)"
 """The label of ``state_counts``' ``windows`` in the build, merge and report tables: the most
 windows any one place or cell was observed, each window for the share of it recorded (a log
-from 08:05 to 08:50 observed 4.5 windows of 10 min, shown rounded: 4), not the windows with
-messages ``aion info`` counts (5 there: every window touched)."""
+from 08:05 to 08:50 observed 4.5 windows of 10 min, shown rounded half up: 5), not the
+windows with messages ``aion info`` counts for a log (every window touched)."""
+
+
+def half_up(value: float) -> int:
+    """``value`` rounded to the nearest whole number, a half up (4.5 reads 5, as people
+    round; Python's ``round`` takes a half to the even number: 4.5 to 4, 5.5 to 6)."""
+    return math.floor(value + 0.5)
 
 
 def fixed(value: float, digits: int, *, sign: bool = False) -> str:

@@ -68,7 +68,8 @@ def test_a_log_shorter_than_a_window_observed_one(tmp_path: Path) -> None:
 def test_observed_windows_and_windows_with_messages_are_told_apart(tmp_path: Path) -> None:
     """A fixed sensor from 08:05 to 08:50: messages in the five windows 08:00..08:40 (what
     ``aion info`` counts), recorded for 0.5 + 4 of them (the first from 08:05 on), the count
-    the map's flows divide by: 4.5, shown rounded (4). The build table and the report called
+    the map's flows divide by: 4.5, shown rounded half up (5; Python's round made it 4, an
+    even 4 beside the 5 windows with messages). The build table and the report called
     it "windows observed" beside "5 windows with messages"; they now name it for what it is,
     and the report's row is the build's."""
     log = tmp_path / "late.mcap"
@@ -81,14 +82,14 @@ def test_observed_windows_and_windows_with_messages_are_told_apart(tmp_path: Pat
     out = tmp_path / "late.aion"
     table = run("build", log, "-o", out)
     assert table.exit_code == 0, table.stderr
-    assert re.search(r"observed windows \(most of any entry\)\s*│\s*4\s*│", table.stderr), (
+    assert re.search(r"observed windows \(most of any entry\)\s*│\s*5\s*│", table.stderr), (
         table.stderr
     )
     assert "windows observed" not in table.stderr
     page = run("report", out, "--time", "2026-11-23 08:30", "-o", tmp_path / "report", "-q")
     assert page.exit_code == 0, page.stderr
     html = (tmp_path / "report" / "index.html").read_text()
-    assert "observed windows (most of any entry)</td><td class=\"n\">4</td>" in html
+    assert "observed windows (most of any entry)</td><td class=\"n\">5</td>" in html
     assert "windows observed" not in html
 
 
