@@ -130,6 +130,7 @@ def tracks_to_log(
     overwrite: bool = False,
     observed: Iterable[tuple[int, int]] = (),
     headings: bool = True,
+    timezone: str | None = None,
 ) -> TracksLogSummary:
     """Write ``batch`` as a people-tracking log that ``aion build`` reads like a robot's.
 
@@ -151,6 +152,9 @@ def tracks_to_log(
     Without spans only the detections are written: windows without one count as unobserved.
     The batch may be empty when spans are given (the sensor ran, nobody came).
 
+    ``timezone`` (an IANA name): the zone the data's days and hours follow, stored in the log
+    (:mod:`formats.log_zone`) so that ``aion build`` takes it without ``--tz``.
+
     Times must lie in ``0 .. 2^63 - 1`` ns (:class:`formats.writers.LogTimeError`, raised
     before anything is written). The messages are built :data:`CHUNK_ROWS` rows at a time
     (:func:`stream_tracks_to_log` reads the file that way too).
@@ -164,6 +168,7 @@ def tracks_to_log(
         chunks, out_path, graph_file=graph_file, container=container, topic=topic,
         msgtype=msgtype, frame_id=frame_id, group_ns=group_ns, graph_topic=graph_topic,
         graph_period_s=graph_period_s, overwrite=overwrite, observed=observed, headings=headings,
+        timezone=timezone,
     )
 
 
@@ -309,6 +314,7 @@ def _write_tracks(
     overwrite: bool = False,
     observed: Iterable[tuple[int, int]] = (),
     headings: bool = True,
+    timezone: str | None = None,
 ) -> TracksLogSummary:
     """:func:`tracks_to_log` over time-sorted ``chunks`` (each sorted; a chunk starting
     before the previous one ended raises :class:`_UnsortedError`, the partial log thrown
@@ -338,6 +344,10 @@ def _write_tracks(
     rows = groups = 0
     track_ids = np.zeros(0, np.int64)
     with LogWriter(out_path, container, overwrite=overwrite) as writer:
+        if timezone is not None:  # before the first message: a ROS 1 bag's latched topic
+            from aion_cli.formats.log_zone import KEY, RECORD
+
+            writer.add_metadata(RECORD, {KEY: timezone})
         out = _Messages(
             writer, kind, topic, frame_id, marks, payload, graph_topic, round(graph_period_s * 1e9)
         )

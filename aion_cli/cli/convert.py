@@ -149,7 +149,8 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
     "--tz",
     metavar="ZONE",
     help="Time zone for --observed / --start / --date times without an offset: IANA name, UTC, "
-    "+01:00 [default: UTC, as aion build reads --observed].",
+    "+01:00 [default: UTC, as aion build reads --observed]. Written into the log: aion build "
+    "follows it without --tz.",
 )
 @click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
 @quiet_option
@@ -213,6 +214,8 @@ def command(
     options: dict[str, Any] = {
         "graph_file": graph_file, "container": kind, "overwrite": force, "headings": not drop_ids,
         "msgtype": POSE_ARRAY if drop_ids else msgtype,
+        # the log carries --tz, so aion build follows it without being told again
+        "timezone": zone.name if tz is not None else None,
     }
     notes: tuple[str, ...] = ()
     try:
@@ -313,10 +316,10 @@ def command(
             "give the spans the sensor was recording with --observed START..END"
         )
     if tz is not None and zone.name != "UTC":
-        # a log holds UNIX times only: the map's days and hours follow build's own --tz
+        # the log carries the zone: aion build takes it unless its own --tz says otherwise
         note(
-            f"the log's times are absolute; build with --tz {zone.name} for a map whose days "
-            f"and hours of the day are {zone.name}'s (aion build {output.name} --tz {zone.name})"
+            f"the log carries the zone {zone.name}: aion build {output.name} makes a map whose "
+            f"days and hours of the day are {zone.name}'s without --tz"
         )
     elif tz is None and layout in HOME_ZONES:
         place, home = HOME_ZONES[layout]

@@ -131,8 +131,8 @@ def test_observed_spans_become_empty_messages(tmp_path: Path) -> None:
     marks = sum(-(-(b - a) // OBSERVED_INTERVAL_NS) + 1 for a, b in spans)
     assert "observed: 2 span(s), 2.00 h" in result.stderr
     assert f"{marks:,} empty detection messages" in result.stderr
-    # the zone read the spans; the map's days follow build's own --tz, which the log cannot hold
-    assert "build with --tz Europe/Berlin" in " ".join(result.stderr.split())
+    # the zone read the spans, and the log carries it for the build (no --tz needed there)
+    assert "the log carries the zone Europe/Berlin" in " ".join(result.stderr.split())
     # the second span lies hours after the minute of detections: a likely typo, said once
     warned = [line for line in result.stderr.splitlines() if "holds no detection" in line]
     assert len(warned) == 1
@@ -301,3 +301,31 @@ def test_a_log_or_a_map_given_as_tracks_is_named(office: Office, tmp_path: Path)
         assert_one_line_error(result.stderr, *fragments)
         assert hint in result.stderr
         assert not (tmp_path / "x.mcap").exists()
+
+
+@pytest.mark.parametrize("suffix", [".mcap", ".bag", "_ros2"])
+def test_convert_tz_is_carried_by_the_log_into_the_build(tmp_path: Path, suffix: str) -> None:
+    """convert --tz writes the zone into every container; build without --tz follows it, as
+    it follows a simulated log's (before, only a note told the user to repeat --tz)."""
+    from aion_cli.formats.log_zone import declared_zones
+
+    csv = tmp_path / "tracks.csv"
+    write_tracks(csv)
+    log = tmp_path / f"tokyo{suffix}"
+    convert = run("convert", csv, "-o", log, "--tz", "Asia/Tokyo")
+    assert convert.exit_code == 0, convert.stderr
+    assert declared_zones([log]) == {str(log): "Asia/Tokyo"}
+    built = run("build", log, "-o", tmp_path / "m.aion")
+    assert built.exit_code == 0, built.stderr
+    info = run_json("info", tmp_path / "m.aion", "--format", "json")
+    assert info["timezone"] == "Asia/Tokyo"
+
+
+def test_convert_without_tz_declares_no_zone(tmp_path: Path) -> None:
+    from aion_cli.formats.log_zone import declared_zones
+
+    csv = tmp_path / "tracks.csv"
+    write_tracks(csv)
+    log = tmp_path / "utc.mcap"
+    assert run("convert", csv, "-o", log).exit_code == 0
+    assert declared_zones([log]) == {}
