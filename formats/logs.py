@@ -144,18 +144,18 @@ class LogSet:
         """How long the files holding messages of ``topic`` recorded: the union of their
         spans (first to last message), so the time between two logs of other days is left
         out and two logs of one moment count it once."""
-        spans = sorted(
+        return covered_ns(
             (s.file.start_ns, s.file.end_ns)
             for s in self._sources
             if any(t.topic == topic and t.count for t in s.topics.values())
         )
-        total, reach = 0, None
-        for lo, hi in spans:
-            lo = lo if reach is None else max(lo, reach)
-            if hi > lo:
-                total += hi - lo
-            reach = hi if reach is None else max(reach, hi)
-        return total
+
+    def recorded_total_ns(self) -> int:
+        """How long the logs recorded: the union of the spans of :meth:`recording_times` (the
+        storage files of one rosbag2 bag joined), so the days between two logs are left out
+        and two logs of one moment count it once. :attr:`duration_ns` is the span from the
+        first message to the last instead."""
+        return covered_ns(self.recording_times().values())
 
     def overlaps(self, topics: set[str], at_least_ns: int) -> list[Overlap]:
         """Pairs of files that both carry a topic of ``topics`` and whose time ranges (first
@@ -351,6 +351,17 @@ class LogSet:
         tb: TracebackType | None,
     ) -> None:
         self.close()
+
+
+def covered_ns(spans: Iterable[tuple[int, int]]) -> int:
+    """The length of the union of ``(start, end)`` spans (ns): overlaps counted once."""
+    total, reach = 0, None
+    for lo, hi in sorted(spans):
+        lo = lo if reach is None else max(lo, reach)
+        if hi > lo:
+            total += hi - lo
+        reach = hi if reach is None else max(reach, hi)
+    return total
 
 
 def _merge_by_start(

@@ -122,6 +122,11 @@ class LogSummary:
     topics: list[TopicSummary]
     start_ns: int
     end_ns: int
+    recorded_ns: int = 0
+    """How long the logs recorded (:meth:`formats.logs.LogSet.recorded_total_ns`): the days
+    between two logs left out, unlike :attr:`span_s`."""
+    recordings: int = 0
+    """How many recordings hold messages (a path given; one rosbag2 bag's files are one)."""
     warnings: list[str] = field(default_factory=list)
     dsg_versions: dict[str, list[str]] = field(default_factory=dict)
     """Scene-graph topic -> spark_dsg payload versions seen (filled by the CLI)."""
@@ -132,8 +137,19 @@ class LogSummary:
         return list(dict.fromkeys(f.format for f in self.files))
 
     @property
-    def duration_s(self) -> float:
+    def span_s(self) -> float:
+        """From the first message to the last, the time between logs included."""
         return max(self.end_ns - self.start_ns, 0) / 1e9
+
+    @property
+    def duration_s(self) -> float:
+        """:attr:`span_s` (the JSON's ``duration_s``, kept for scripts that read it)."""
+        return self.span_s
+
+    @property
+    def recorded_s(self) -> float:
+        """How long the logs recorded (:attr:`recorded_ns`), in seconds."""
+        return self.recorded_ns / 1e9
 
     @property
     def message_count(self) -> int:
@@ -160,6 +176,9 @@ class LogSummary:
             "start": _iso(self.start_ns) if held else None,
             "end": _iso(self.end_ns) if held else None,
             "duration_s": round(self.duration_s, 6),
+            "span_s": round(self.span_s, 6),
+            "recorded_s": round(self.recorded_s, 6),
+            "recordings": self.recordings,
             "messages": self.message_count,
             "topics": [t.to_dict() for t in self.topics],
             "roles": {role: [t.topic for t in self.by_role(role)] for role in ROLES},
@@ -200,6 +219,8 @@ def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSum
         topics=topics,
         start_ns=logset.start_ns,
         end_ns=logset.end_ns,
+        recorded_ns=logset.recorded_total_ns(),
+        recordings=len(logset.recording_times()),
         warnings=list(logset.warnings),
     )
 

@@ -32,7 +32,10 @@ Generic types (PoseStamped, PoseArray, PoseWithCovarianceStamped, PointStamped, 
 MarkerArray) are used only from topics whose name suggests people; `why` says why each topic
 is used or skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping.
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
-size_bytes, start_ns, end_ns, start, end (times null without messages), duration_s, messages,
+size_bytes, start_ns, end_ns, start, end (times null without messages), span_s (first to last
+message, the time between logs included; duration_s is the same), recorded_s (how long the logs
+recorded: each log's span, one rosbag2 bag's files joined, overlaps once), recordings (logs with
+messages), messages,
 topics[{topic, type, count, role, encoding, rate_hz, used, why}], roles, dsg_versions,
 will_use{detections, scene_graph, tf}, cannot_read, warnings,
 fixed_sensor{windows_with_messages, span_windows, window_s, hours_with_messages,
@@ -238,6 +241,18 @@ def _show_graph_files(paths: tuple[Path, ...], nav_layer: str | None, fmt: str) 
     return True
 
 
+def _seconds_text(seconds: float) -> str:
+    """A time for the header: seconds, a long one also in days or hours."""
+    from aion_cli.cli.build_summary import span_text
+
+    readable = ""
+    if seconds >= 2 * 86400:
+        readable = f" = {seconds / 86400:,.1f} days"
+    elif seconds >= 3600:
+        readable = f" = {span_text(seconds)}"
+    return f"{seconds:,.1f} s{readable}"
+
+
 def _print(report: dict[str, Any]) -> None:
     """The table of a log report. Every string that comes from the log (topic and type names,
     reasons naming topics, versions, warnings) or from the command line (file names) goes
@@ -245,7 +260,6 @@ def _print(report: dict[str, Any]) -> None:
     instead of clearing the screen, and ``[bold]`` in a name is shown, not applied."""
     from rich.table import Table
 
-    from aion_cli.cli.build_summary import span_text
     from aion_cli.cli.console import console, data_console, print_table, warn_each
     from aion_cli.cli.output import markup_safe as safe
 
@@ -263,19 +277,20 @@ def _print(report: dict[str, Any]) -> None:
         gone = report["messages"] - read
         lost = f", {gone:,} lost: see the warnings" if gone > 0 else ""
         messages = f"{messages} ({read:,} read{lost})"
-    seconds = float(report["duration_s"])
-    readable = ""  # a long span also in days or hours
-    if seconds >= 2 * 86400:
-        readable = f" = {seconds / 86400:,.1f} days"
-    elif seconds >= 3600:
-        readable = f" = {span_text(seconds)}"
-    duration = f"{seconds:,.1f} s{readable} ({report['start']} .. {report['end']})"
+    span = f"{_seconds_text(report['span_s'])} ({report['start']} .. {report['end']})"
+    times = f"duration: {span}"
     if held == 0:  # an empty recording (info opens it; build refuses it)
-        duration = "none (no messages)"
+        times = "duration: none (no messages)"
+    elif report["recordings"] > 1 and report["recorded_s"] < report["span_s"]:
+        # several logs with time between them: what they recorded is not their span
+        times = (
+            f"recorded: {_seconds_text(report['recorded_s'])} in {report['recordings']} logs  "
+            f"span: {span}"
+        )
     out.print(
         f"[bold]{names}[/bold]  format: {safe(report['format'] or '?')}  "
         f"size: {human_size(report['size_bytes'])}  "
-        f"duration: {duration}  "
+        f"{times}  "
         f"messages: {messages}",
         soft_wrap=True,
     )
