@@ -57,6 +57,17 @@ class _Topic:
     qos: str = ""  # rosbag2's offered_qos_profiles (YAML text) where the storage keeps it
 
 
+@dataclass(frozen=True)
+class OtherChannel:
+    """Messages of a topic in an encoding no ROS reader decodes (an MCAP channel of JSON,
+    protobuf, ...): listed by ``aion info``, never read."""
+
+    topic: str
+    schema: str  # the schema's name ("" without a schema)
+    encoding: str  # the channel's message encoding, as the file names it
+    count: int
+
+
 class _Source:
     """One log file or rosbag2 folder behind :class:`LogSet`."""
 
@@ -66,6 +77,8 @@ class _Source:
     #: topics the file holds but no ROS reader can decode (other encodings), and why (none,
     #: read-only, unless a reader sets its own)
     unreadable_topics: Mapping[str, str] = MappingProxyType({})
+    #: those topics' channels with their message counts
+    other_channels: tuple[OtherChannel, ...] = ()
 
     def messages(
         self,
@@ -116,6 +129,7 @@ class _Unpacked(_Source):
         self.topics = inner.topics
         self.warnings = inner.warnings
         self.unreadable_topics = inner.unreadable_topics
+        self.other_channels = inner.other_channels
         self.file_count = getattr(inner, "file_count", 1)
         self._temps = temps
         f = inner.file

@@ -49,7 +49,7 @@ from aion_cli.errors import LogFormatError, MessageDecodeError, TopicNotFoundErr
 from aion_cli.formats import recorded
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_paths import open_sources
-from aion_cli.formats.log_source import LogFile, _Source
+from aion_cli.formats.log_source import LogFile, OtherChannel, _Source
 from aion_cli.formats.raw import RawMessage, TopicInfo, UnreadHint
 from aion_cli.formats.typestores import _store_with_definition
 
@@ -137,6 +137,17 @@ class LogSet:
         return {t: why for s in self._sources for t, why in s.unreadable_topics.items()}
 
     @property
+    def other_channels(self) -> list[OtherChannel]:
+        """The channels of :attr:`unreadable_topics` with their message counts, one per topic,
+        schema and encoding over all files, by topic."""
+        counts: dict[tuple[str, str, str], int] = {}
+        for s in self._sources:
+            for c in s.other_channels:
+                key = (c.topic, c.schema, c.encoding)
+                counts[key] = counts.get(key, 0) + c.count
+        return [OtherChannel(*key, n) for key, n in sorted(counts.items())]
+
+    @property
     def duration_ns(self) -> int:
         return max(self.end_ns - self.start_ns, 0)
 
@@ -148,6 +159,7 @@ class LogSet:
             (s.file.start_ns, s.file.end_ns)
             for s in self._sources
             if any(t.topic == topic and t.count for t in s.topics.values())
+            or any(c.topic == topic and c.count for c in s.other_channels)
         )
 
     def recorded_total_ns(self) -> int:

@@ -27,7 +27,14 @@ from aion_cli.errors import LogFormatError
 # mcap_linear._decompress is looked up at call time (tests replace it)
 from aion_cli.formats import clock_steps, mcap_linear
 from aion_cli.formats.limits import ReadLimits
-from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, _ZSTD_MAGIC, LogFile, _Topic, _unzstd
+from aion_cli.formats.log_source import (
+    _MESSAGE_ENCODINGS,
+    _ZSTD_MAGIC,
+    LogFile,
+    OtherChannel,
+    _Topic,
+    _unzstd,
+)
 from aion_cli.formats.mcap_indexed import _McapIndexed
 from aion_cli.formats.mcap_linear import _MCAP_MAGIC, _MCAP_READ_ERRORS, _why
 from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint, normalize_msgtype
@@ -173,12 +180,15 @@ class _McapSource(_McapIndexed):
         self.topics = {}
         unreadable: dict[str, str] = {}
         self.unreadable_topics = unreadable
+        others: dict[tuple[str, str, str], int] = {}
         for cid, channel in sorted(channels.items()):
             schema = schemas.get(channel.schema_id)
             encoding = _MESSAGE_ENCODINGS.get(channel.message_encoding)
             if schema is None or encoding is None or not _schema_encoding_ok(schema.encoding):
                 enc = schema.encoding if schema is not None else "none"
                 n = counts.get(cid, 0)
+                key = (channel.topic, schema.name if schema else "", channel.message_encoding)
+                others[key] = others.get(key, 0) + n
                 unreadable[channel.topic] = (
                     f"message encoding {channel.message_encoding!r} with schema encoding "
                     f"{enc!r} is not ROS"
@@ -200,6 +210,7 @@ class _McapSource(_McapIndexed):
             info.count += counts.get(cid, 0)
             info.keys.append(cid)
             self._channels[cid] = (channel.topic, msgtype, encoding)
+        self.other_channels = tuple(OtherChannel(*key, n) for key, n in others.items())
         if fmt_name is not None:
             fmt = fmt_name
         elif self._profile == "ros1" or (not self._profile and _all_ros1(self.topics)):

@@ -78,6 +78,8 @@ class TopicSummary:
     role: Role
     encoding: str
     rate_hz: float | None
+    readable: bool = True
+    """False for a channel in an encoding no ROS reader decodes (JSON, protobuf, ...)."""
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -87,6 +89,7 @@ class TopicSummary:
             "role": self.role,
             "encoding": self.encoding,
             "rate_hz": None if self.rate_hz is None else _rate(self.rate_hz),
+            "readable": self.readable,
         }
 
 
@@ -153,7 +156,8 @@ class LogSummary:
 
     @property
     def message_count(self) -> int:
-        return sum(t.count for t in self.topics)
+        """Messages on topics a ROS reader decodes (the others' are in the files' counts)."""
+        return sum(t.count for t in self.topics if t.readable)
 
     @property
     def size_bytes(self) -> int:
@@ -196,7 +200,13 @@ def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSum
     """Summary of ``logset`` from its indexes (reads no message). ``detections``: extra
     message types to count as detections (e.g. those a TOML mapping covers)."""
     known = detection_types() | frozenset(normalize_msgtype(t) for t in detections or ())
-    spans_s = {t.topic: logset.recorded_ns(t.topic) / 1e9 for t in logset.topics}
+    others = logset.other_channels
+    names = {t.topic for t in logset.topics} | {c.topic for c in others}
+    spans_s = {topic: logset.recorded_ns(topic) / 1e9 for topic in names}
+
+    def rate(topic: str, count: int) -> float | None:  # one message: no rate
+        return count / spans_s[topic] if spans_s[topic] > 0 and count > 1 else None
+
     topics = [
         TopicSummary(
             topic=t.topic,
@@ -204,12 +214,16 @@ def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSum
             count=t.count,
             role=role_of(t.topic, t.msgtype, known),
             encoding=t.encoding,
-            rate_hz=(  # one message: no rate
-                t.count / spans_s[t.topic] if spans_s[t.topic] > 0 and t.count > 1 else None
-            ),
+            rate_hz=rate(t.topic, t.count),
         )
         for t in logset.topics
     ]
+    topics += [  # channels in other encodings: there, counted, never read
+        TopicSummary(c.topic, c.schema, c.count, "unsupported", c.encoding,
+                     rate(c.topic, c.count), readable=False)
+        for c in others
+    ]  # fmt: skip
+    topics.sort(key=lambda t: t.topic)
     files = [
         FileSummary(str(f.path), f.format, f.size_bytes, f.message_count, f.start_ns, f.end_ns)
         for f in logset.files

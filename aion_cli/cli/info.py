@@ -36,7 +36,9 @@ size_bytes, start_ns, end_ns, start, end (times null without messages), span_s (
 message, the time between logs included; duration_s is the same), recorded_s (how long the logs
 recorded: each log's span, one rosbag2 bag's files joined, overlaps once), recordings (logs with
 messages), messages,
-topics[{topic, type, count, role, encoding, rate_hz, used, why}], roles, dsg_versions,
+topics[{topic, type, count, role, encoding, rate_hz, used, why, readable}] (every topic, also
+channels in encodings that are not ROS, such as JSON or protobuf: readable false, type their
+schema's name, encoding the channel's; messages counts the readable ones), roles, dsg_versions,
 will_use{detections, scene_graph, tf}, cannot_read, warnings,
 fixed_sensor{windows_with_messages, span_windows, window_s, hours_with_messages,
 empty_in_first_messages (of the first 20 per detection topic)} (only when
@@ -319,9 +321,8 @@ def _print(report: dict[str, Any]) -> None:
     if not use["detections"]:
         from aion_cli.topics import RAW_SENSOR_REASON
 
-        raw = report["topics"] and all(
-            t.get("why", "").endswith(RAW_SENSOR_REASON) for t in report["topics"]
-        )
+        ros = [t for t in report["topics"] if t["readable"]]  # the others are not read at all
+        raw = ros and all(t.get("why", "").endswith(RAW_SENSOR_REASON) for t in ros)
         from aion_cli.formats.detections.registry import unreadable_kind
         from aion_cli.formats.scene_mcap import is_scene_mcap
 
@@ -331,11 +332,11 @@ def _print(report: dict[str, Any]) -> None:
             what = f"it holds only raw sensor data: {RAW_SENSOR_HINT}"
         elif all(is_scene_mcap(Path(f["path"])) for f in report["files"]):  # not a log
             what = "it is a scene aion exported, to open in Foxglove or RViz"
-        elif not report["topics"]:  # no messages, or channels in other encodings only
+        elif not ros:  # no messages, or channels in other encodings only
             what = "it has no ROS topic"
             if report["warnings"]:
                 what += " aion can read: see the warnings"
-        elif all(unreadable_kind(t["type"]) is not None for t in report["topics"]):
+        elif all(unreadable_kind(t["type"]) is not None for t in ros):
             what = (
                 "none of its topics holds positions of people: logging, parameters, service "
                 "calls or plain values"

@@ -48,6 +48,7 @@ def describe(
         for topic, first in firsts.items():
             summary.dsg_versions[topic] = first.versions
         report = summary.to_dict()
+        not_ros = logset.unreadable_topics  # why a topic in another encoding is not read
         report["warnings"] = distinct.notes + report["warnings"]
         sim = sim_time_warning(logset.start_ns if logset.total() else None, "the log's time")
         report["warnings"] += [sim] if sim is not None else []
@@ -65,6 +66,8 @@ def describe(
     for topic in report["topics"]:
         topic["used"] = topic["topic"] in used
         topic["why"] = plan.reasons.get(topic["topic"], topic["role"])
+        if not topic["readable"]:
+            topic["why"] = not_ros.get(topic["topic"], topic["why"])
     report["format"] = ", ".join(report["formats"]) or None
     report["will_use"] = {
         "detections": sorted(plan.names("detections")),

@@ -92,6 +92,7 @@ def test_to_dict_is_json_ready(tmp_path: Path) -> None:
         "role": "detections",
         "encoding": "cdr",
         "rate_hz": 2.5,
+        "readable": True,
     }
 
 
