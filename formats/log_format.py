@@ -114,6 +114,11 @@ def other_log(path: Path, wanted: str) -> tuple[str, str] | None:
     return _CONTENTS[kind]
 
 
+def other_log_name(kind: str) -> str:
+    """What a log of ``kind`` (:func:`formats.rosbag2_storage.sniff`) is: ``an MCAP file``."""
+    return _CONTENTS[kind][0]
+
+
 def other_log_hint(fmt: str) -> str:
     """The hint for a log that ``--log-format`` names wrongly: ``fmt`` reads it."""
     return f"read it with --log-format {fmt}"

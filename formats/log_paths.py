@@ -133,8 +133,12 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
         files = storage.storage_files(folder)
         if not files:
             raise
+        from aion_cli.formats.log_magic import NotALogError
+
         try:
             sources = _reindexed_sources(files, folder, limits)
+        except NotALogError:
+            raise  # a storage file that is no SQLite or MCAP at all: that file is the reason
         except LogFormatError:
             raise exc from None
         sources[-1].warnings.append(

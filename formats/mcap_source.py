@@ -488,8 +488,10 @@ def _open_mcap(
                 f"{path} is not an MCAP file (it is {other[0]})",
                 hint=other_log_hint(other[1]),
             )
-        raise LogFormatError(
-            f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)",
-            hint="check the file, or pass --log-format bag|rosbag2 if it is another log type",
-        )
+        from aion_cli.formats.log_magic import not_a_log
+
+        raise not_a_log(
+            path, "an MCAP file", "the MCAP magic bytes",
+            "check the file, or pass --log-format bag|rosbag2 if it is another log type",
+        )  # fmt: skip
     return _McapSource(path, fmt_name, limits, unzstd=unzstd)

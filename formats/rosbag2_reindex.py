@@ -192,14 +192,19 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
                 opened.append(mcap)
             else:
                 from aion_cli.formats.log_format import other_log, other_log_hint
+                from aion_cli.formats.log_magic import not_a_log
 
                 other = other_log(original, "rosbag2")  # a ROS 1 bag given as rosbag2
-                raise LogFormatError(
-                    f"{original} is not a rosbag2 storage file (neither SQLite nor MCAP)"
-                    + (f": it is {other[0]}" if other else ""),
-                    hint=other_log_hint(other[1]) if other
-                    else "pass the bag's .db3 / .mcap storage files, or its folder",
-                )
+                if other is not None:
+                    raise LogFormatError(
+                        f"{original} is not a rosbag2 storage file (neither SQLite nor MCAP)"
+                        f": it is {other[0]}",
+                        hint=other_log_hint(other[1]),
+                    )
+                raise not_a_log(
+                    original, "a rosbag2 storage file", "the SQLite or MCAP magic bytes",
+                    "pass the bag's .db3 / .mcap storage files, or its folder",
+                )  # fmt: skip
         if sqlite and opened:
             raise LogFormatError(
                 f"{shown} holds both sqlite3 and mcap storage files: not the files of one bag",

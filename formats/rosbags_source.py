@@ -463,6 +463,7 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
     if kind == "bag":
         from aion_cli.formats.bag_reader import BagReader
         from aion_cli.formats.log_format import other_log, other_log_hint
+        from aion_cli.formats.log_magic import check_bag_magic
 
         other = other_log(path, "bag")
         if other is not None:  # a renamed MCAP, --log-format bag on a .db3 or a folder
@@ -470,6 +471,7 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
                 f"{path}: not a readable ROS 1 bag (it is {other[0]})",
                 hint=other_log_hint(other[1]),
             )
+        check_bag_magic(path)  # a text file is not a damaged bag: no `rosbag reindex`
         reader: Any = BagReader(path, limits)
         what = "ROS 1 bag"
         hint = "the bag may be truncated or corrupt; try `rosbag reindex` on a copy"

@@ -260,8 +260,8 @@ def test_a_file_of_no_format_read_with_log_format_says_why_that_reader_cannot(
         open_logs([notes])
     expected = {
         "mcap": "is not an MCAP file (it does not start with the MCAP magic bytes)",
-        "bag": "not a readable ROS 1 bag",
-        "rosbag2": "is not a rosbag2 storage file (neither SQLite nor MCAP)",
+        "bag": "is not a ROS 1 bag (it does not start with '#ROSBAG V2.0')",
+        "rosbag2": "is not a rosbag2 storage file (it does not start with the SQLite or MCAP",
     }
     for fmt, message in expected.items():
         with pytest.raises(LogFormatError) as info:
