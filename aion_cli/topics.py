@@ -377,3 +377,65 @@ def no_detection_topic(logset: Any, plan: TopicPlan) -> TopicNotFoundError:
     return TopicNotFoundError(
         "the log has no people-detection topic of a supported type", candidates=found, hint=hint
     )
+
+
+def not_people_kind(msgtype: str) -> str | None:
+    """What a type that clearly holds no detections of people is, or None: TF, a scene
+    graph (both read by the build as such), raw sensor data (images, point clouds, scans)."""
+    from aion_cli.formats.raw import normalize_msgtype
+
+    name = normalize_msgtype(msgtype)
+    if name in TF_TYPES:
+        return "TF transforms (aion build reads them as the frames and the robot's trajectory)"
+    if name in DSG_TYPES or name.endswith("/DsgUpdate"):
+        return "a scene graph (aion build reads it as the map's graph)"
+    if _is_raw_sensor(name):
+        return "raw sensor data"
+    return None
+
+
+def detection_candidates(logset: Any) -> list[TopicInfo]:
+    """The topics of ``logset`` that look like detections of people, best first: those of a
+    type with a detection adapter (people types, then generic types), then those whose type
+    holds a field a mapping reads as a position (:func:`mapping_example`'s test)."""
+    from aion_cli.formats.detections import adapter_for
+
+    adapted = [t for t in logset.topics if adapter_for(t.msgtype) is not None]
+    adapted.sort(key=lambda t: t.msgtype in GENERIC_TYPES)  # people types first
+    tried: dict[tuple[str, str, str, bool], bool] = {}
+    mapped = [
+        t
+        for t in _mappable(logset.topics)
+        if t not in adapted
+        and not_people_kind(t.msgtype) is None
+        and _holds_position(logset, t, tried)
+    ]
+    return adapted + mapped
+
+
+def refuse_not_people(logset: Any, info: TopicInfo) -> None:
+    """``aion info --suggest-mapping TOPIC`` of a type that holds no people (TF, a scene
+    graph, raw sensor data: :func:`not_people_kind`): a :class:`ConfigError` whose hint lists
+    the topics that look like detections (:func:`detection_candidates`). A mapping of TF
+    read every transform, the robot's own among them, as a person."""
+    from aion_cli.errors import ConfigError
+
+    kind = not_people_kind(info.msgtype)
+    if kind is None:
+        return
+    found = [f"{t.topic} ({t.msgtype})" for t in detection_candidates(logset)]
+    if found:
+        hint = (
+            "topics that look like detections of people: "
+            + ", ".join(found[:6] + (["..."] if len(found) > 6 else []))
+            + " (`aion info LOG` says how aion reads each)"
+        )
+    else:
+        from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
+
+        hint = f"no topic of the log looks like detections of people: {RAW_SENSOR_HINT}"
+    raise ConfigError(
+        f"{info.topic}: {info.msgtype} holds {kind}, not detections of people: no mapping "
+        "reads people from it",
+        hint=hint,
+    )

@@ -30,7 +30,9 @@ Roles: scene_graph (hydra_msgs/DsgUpdate, used by build), detections (a supporte
 type, used by build), tf / tf_static (frames and the robot trajectory), unsupported (ignored).
 Generic types (PoseStamped, PoseArray, PoseWithCovarianceStamped, PointStamped, Marker,
 MarkerArray) are used only from topics whose name suggests people; `why` says why each topic
-is used or skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping.
+is used or skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping
+(not for TF, a scene graph or raw sensor data: the error lists the topics that look like
+detections).
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
 size_bytes, start_ns, end_ns, start, end (times null without messages), span_s (first to last
 message, the time between logs included; duration_s is the same), recorded_s (how long the logs

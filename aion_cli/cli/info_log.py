@@ -102,10 +102,12 @@ def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
     topic's type (:func:`formats.detections.suggest.suggest_mapping`)."""
     from aion_cli.formats.detections.suggest import refuse_service_events, suggest_mapping
     from aion_cli.formats.logs import open_logs
+    from aion_cli.topics import refuse_not_people
 
     with open_logs(paths, log_format) as logset:
         info = logset.topic(topic)
         refuse_service_events(info.topic, info.msgtype)
+        refuse_not_people(logset, info)  # TF, a scene graph, images, point clouds
         store = logset.typestore(info.topic, info.msgtype, info.encoding)
         return suggest_mapping(info.topic, info.msgtype, store)
 
