@@ -202,6 +202,7 @@ class StreamStep:
             [entry.name for entry in inputs],
             self._logs,
             self._continued_name(),
+            self._times.start_ns,  # the logs' own clock (log times)
         )
         if first:
             self.note_overlap(int(t_ns.min()))

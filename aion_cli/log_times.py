@@ -362,6 +362,32 @@ class TimeCheck:
         return out
 
 
+def other_clock_error(
+    names: str, log_start_ns: int | None, open_start: int, stamped_ns: int | None = None
+) -> InputError | None:
+    """The refusal of logs (``names``) out of time order for a map that closed every window
+    before ``open_start`` on the wall clock, when their own log times (from ``log_start_ns``)
+    are a simulation's clock from 0: the logs were not given out of order, their clock and
+    their messages' header stamps (from ``stamped_ns``) are two clocks, and the windows come
+    from the stamps but the order of the logs from the log times. None when that is not so
+    (a wall-clock log, or a map on the simulation's clock too): the order is the reason."""
+    from aion_cli.stamp_warnings import SIM_TIME_BEFORE_NS
+
+    if log_start_ns is None or not log_start_ns < SIM_TIME_BEFORE_NS <= open_start:
+        return None
+    stamped = "" if stamped_ns is None else f" (theirs are stamped from {iso(stamped_ns)})"
+    return InputError(
+        f"the log times of {names} start at {iso(log_start_ns)}: their clock is not wall "
+        "time but, it seems, a simulation's clock from 0 (use_sim_time), while the map's "
+        "windows come from the messages' header stamps, on the wall clock; it has closed "
+        f"every window before {iso(open_start)}{stamped}, and such log times cannot tell "
+        "the order of the logs' stamps; nothing was added",
+        hint="add the logs one at a time in the order of their stamps (aion build FIRST.mcap "
+        "-o MAP.aion, then aion build NEXT.mcap --map MAP.aion), or record them with the "
+        "wall clock",
+    )
+
+
 def check_after_open(
     t_ns: I64,
     open_start: int,
@@ -369,14 +395,21 @@ def check_after_open(
     map_inputs: list[str],
     logs: Sequence[Path],
     map_name: str,
+    log_start_ns: int | None = None,
 ) -> None:
     """A continued map (``map_name``, built from ``map_inputs``) has closed every window before
-    its open one, which starts at ``open_start``: ``what``s of ``logs`` there (log times
-    ``t_ns``) would be lost (``before_window``) and yet the logs recorded as added, so they
-    could never be added again. :class:`InputError` instead, before anything is written."""
+    its open one, which starts at ``open_start``: ``what``s of ``logs`` there (times ``t_ns``:
+    detection stamps, scene-graph times) would be lost (``before_window``) and yet the logs
+    recorded as added, so they could never be added again. :class:`InputError` instead,
+    before anything is written; :func:`other_clock_error` when the logs' own log times (from
+    ``log_start_ns``) are a simulation's clock and the map's windows are not."""
     early = int(np.count_nonzero(t_ns < open_start))
     if early == 0:
         return
+    names = ", ".join(p.name for p in logs)
+    clocks = other_clock_error(names, log_start_ns, open_start, int(t_ns.min()))
+    if clocks is not None:
+        raise clocks
     listed = " ".join([*map_inputs[:3], *(["..."] if len(map_inputs) > 3 else [])])
     listed += " " + " ".join(str(p) for p in logs[:3])
     raise InputError(

@@ -256,6 +256,12 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
         return
     open_start = acc.open_window * acc.window_ns
     if start < open_start:
+        from aion_cli.log_times import other_clock_error
+
+        stamped = result.report.first_detection_ns
+        clocks = other_clock_error(_names(task.logs), start, open_start, stamped)
+        if clocks is not None:  # the logs' clock from 0, the map's windows from stamps
+            raise clocks
         raise InputError(
             f"the messages of {_names(task.logs)} start at {iso(start)}, but the map has "
             f"already closed every window before {iso(open_start)}: logs must be added to a "
