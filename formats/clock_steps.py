@@ -1,16 +1,20 @@
-"""A log whose log times go back between its chunks: the recording's clock stepped back (an NTP
-correction), so the minutes it covers twice hold messages of two moments, which a build reads
-together in time order. Found from the chunks' stated time ranges in file order (MCAP chunk
-indexes, ROS 1 bag chunk infos) without reading a message; a step inside one chunk is not
-seen, and a log written out of time order (which reads as the same map) looks the same, so the
-warning names both."""
+"""A log whose log times go back: the recording's clock stepped back (an NTP correction), so the
+minutes it covers twice hold messages of two moments, which a build reads together in time
+order. Found per channel (topic) in file order without reading a message payload: between
+chunks from their stated time ranges (MCAP chunk indexes, ROS 1 bag chunk infos), inside an
+MCAP chunk from its MessageIndex records (only chunks that span more than a step: a few bytes
+per message), and in a rosbag2 sqlite3 storage file from its ``timestamp`` column in insertion
+(``id``) order. A log written out of time order (which reads as the same map) looks the same,
+so the warning names both."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from typing import NamedTuple
+from pathlib import Path
+from typing import IO, Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 #: how far log times may go back from one chunk to the next (in file order) before it is a
 #: clock step: writers of several threads reorder by milliseconds, not seconds
@@ -28,6 +32,17 @@ class ChunkSpan(NamedTuple):
     start_ns: int
     end_ns: int
     channels: Iterable[int]
+
+
+class Step(NamedTuple):
+    """A step back in log time: how far, the latest time before it, the time after it, and
+    whether it lies between two messages (inside a chunk, or a file without chunks) rather
+    than between chunks."""
+
+    back_ns: int
+    before_ns: int
+    after_ns: int
+    inside: bool = False
 
 
 def backward_step(chunks: Sequence[ChunkSpan]) -> tuple[int, int, int] | None:
@@ -57,18 +72,123 @@ def backward_step(chunks: Sequence[ChunkSpan]) -> tuple[int, int, int] | None:
     return best
 
 
+def _largest_back(times: npt.NDArray[np.uint64]) -> tuple[int, int, int] | None:
+    """The largest step back of ``times`` (one channel's log times in file order) from the
+    latest time before it, when more than :data:`BACK_STEP_NS` and at most
+    :data:`BACK_STEP_MAX_NS`: ``(step, latest time before, time)``; None otherwise."""
+    if times.size < 2:
+        return None
+    before = np.maximum.accumulate(times)[:-1]
+    after = times[1:]
+    back = np.where(before > after, before - after, np.uint64(0))  # no wrap-around kept
+    back[back > BACK_STEP_MAX_NS] = 0
+    i = int(np.argmax(back))
+    return (int(back[i]), int(before[i]), int(after[i])) if back[i] > BACK_STEP_NS else None
+
+
+def inside_mcap_chunks(stream: IO[bytes], size: int, indexes: Sequence[Any]) -> Step | None:
+    """The largest step back inside one chunk of an MCAP file (``stream`` of ``size`` bytes;
+    ``indexes``: its mcap ChunkIndex records), per channel in the order of the messages in
+    the chunk (their MessageIndex offsets); only chunks spanning more than
+    :data:`BACK_STEP_NS` can hold one, and only their index records are read. Chunks without
+    readable MessageIndex records are not looked into."""
+    from aion_cli.formats import recorded
+
+    best: Step | None = None
+    for index in indexes:
+        span = int(index.message_end_time) - int(index.message_start_time)
+        if span <= BACK_STEP_NS or not index.message_index_offsets:
+            continue
+        parts = recorded.read_message_index(stream, size, index, index.message_index_offsets)
+        for entries in parts or ():
+            order = np.argsort(entries["offset"], kind="stable")
+            found = _largest_back(np.asarray(entries["log_time"], np.uint64)[order])
+            if found is not None and (best is None or found[0] > best.back_ns):
+                best = Step(*found, inside=True)
+    return best
+
+
+def mcap_step_warning(path: Path, size: int, indexes: Sequence[Any]) -> str | None:
+    """The warning for the MCAP file ``path`` (``size`` bytes) whose chunks (``indexes``,
+    mcap ChunkIndex records) step back in log time, between them or inside one; None if
+    not."""
+    spans = [
+        ChunkSpan(
+            c.chunk_start_offset, c.message_start_time, c.message_end_time,
+            c.message_index_offsets or {},
+        )
+        for c in indexes
+    ]  # fmt: skip
+    between = backward_step(spans)
+    steps = [Step(*between)] if between is not None else []
+    try:
+        with path.open("rb") as stream:  # own handle: a few index reads
+            inside = inside_mcap_chunks(stream, size, indexes)
+    except OSError:
+        inside = None
+    steps += [inside] if inside is not None else []
+    return _warning(path.name, max(steps, key=lambda s: s.back_ns)) if steps else None
+
+
+#: the largest step back in log time of each topic of a rosbag2 sqlite3 storage file, in the
+#: order the messages were written (``id``), within the bounds of a clock step
+_SQLITE_STEP = """
+SELECT latest - timestamp, latest, timestamp FROM (
+  SELECT timestamp, MAX(timestamp) OVER (
+    PARTITION BY topic_id ORDER BY id ROWS BETWEEN UNBOUNDED PRECEDING AND 1 PRECEDING
+  ) AS latest FROM messages
+) WHERE latest - timestamp > ?1 AND latest - timestamp <= ?2
+ORDER BY latest - timestamp DESC LIMIT 1
+"""
+
+
+def sqlite_step_warning(name: str, connection: Any) -> str | None:
+    """The warning for the rosbag2 sqlite3 storage file ``name`` (``connection``: open on it)
+    whose ``timestamp``s step back in the order its messages were written; None if not, or
+    when SQLite cannot say (no window functions before 3.25, a damaged table: the reading
+    says what it can)."""
+    try:
+        row = connection.execute(_SQLITE_STEP, (BACK_STEP_NS, BACK_STEP_MAX_NS)).fetchone()
+    except Exception:  # sqlite3 / apsw errors: no step said, the read reports the damage
+        return None
+    if row is None:
+        return None
+    back, before, after = (int(v) for v in row)
+    return _warning(name, Step(back, before, after, inside=True))
+
+
+def storage_step_warnings(storages: Iterable[Any], names: Iterable[str] | None = None) -> list[str]:
+    """:func:`sqlite_step_warning` of each rosbag2 sqlite3 storage file of ``storages``
+    (rosbags storage readers; mcap ones are skipped: aion's MCAP reader checks them), named
+    ``names`` (default: their files' names)."""
+    storages = list(storages)
+    shown = list(names) if names is not None else [Path(s.path).name for s in storages]
+    out = []
+    for storage, name in zip(storages, shown, strict=True):
+        db = getattr(storage, "dbconn", None)
+        warning = sqlite_step_warning(name, db) if db is not None else None
+        out += [warning] if warning is not None else []
+    return out
+
+
 def step_warning(name: str, chunks: Sequence[ChunkSpan]) -> str | None:
     """The warning for the log ``name`` whose ``chunks`` step back in time; None if not."""
+    step = backward_step(chunks)
+    return None if step is None else _warning(name, Step(*step))
+
+
+def _warning(name: str, step: Step) -> str:
     from aion_cli.formats.mcap_records import iso
 
-    step = backward_step(chunks)
-    if step is None:
-        return None
-    back, end, start = step
+    where = (
+        f"a message logged {iso(step.after_ns)} follows one logged {iso(step.before_ns)}"
+        if step.inside
+        else f"a chunk starting {iso(step.after_ns)} follows one ending {iso(step.before_ns)}"
+    )
     return (
-        f"{name}: its log times go back at least {back / 6e10:.1f} min (a chunk starting "
-        f"{iso(start)} follows one ending {iso(end)}): the clock stepped back while recording "
-        "(NTP?), or the messages were written out of time order; if the clock stepped, the "
-        "minutes the log covers twice hold messages of two moments, read together in time "
-        "order, so the people seen then count twice in their windows"
+        f"{name}: its log times go back at least {step.back_ns / 6e10:.1f} min ({where}): the "
+        "clock stepped back while recording (NTP?), or the messages were written out of time "
+        "order; if the clock stepped, the minutes the log covers twice hold messages of two "
+        "moments, read together in time order, so the people seen then count twice in their "
+        "windows"
     )

@@ -137,19 +137,8 @@ class _McapSource(_McapIndexed):
                 summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
             )
             self._by_chunk = not _chunks_overlap(self._chunk_indexes)
-            step = clock_steps.step_warning(
-                path.name,
-                [
-                    clock_steps.ChunkSpan(
-                        c.chunk_start_offset,
-                        c.message_start_time,
-                        c.message_end_time,
-                        c.message_index_offsets or {},
-                    )
-                    for c in self._chunk_indexes
-                ],
-            )
-            if step is not None:
+            step = clock_steps.mcap_step_warning(path, self._size, self._chunk_indexes)
+            if step is not None:  # between chunks or inside one
                 self._warn(step)
             self._bad_chunks.update(check.bad_chunks)
             for index in self._chunk_indexes:  # what the index says is refused already

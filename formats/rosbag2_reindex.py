@@ -104,6 +104,9 @@ class _ReindexedSqliteSource(_Source):
             meta = storage.metadata  # rosbags: end_time is exclusive
             first, last = (meta.start_time, meta.end_time - 1) if count else (0, 0)
             self.per_file.append((original.name, first, last, count))
+        from aion_cli.formats.clock_steps import storage_step_warnings
+
+        self.warnings += storage_step_warnings(self._storages, [o.name for o in originals])
         total = sum(t.count for t in self.topics.values())
         with_messages = [f for f in self.per_file if f[3] > 0]
         start = min((f[1] for f in with_messages), default=0)

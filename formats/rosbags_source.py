@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.errors import LogFormatError, StaleIndexError
-from aion_cli.formats import recorded
+from aion_cli.formats import clock_steps, recorded
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import (
     _MESSAGE_ENCODINGS,
@@ -110,6 +110,7 @@ class _RosbagsSource(_Source):
                 warning = metadata_warning(path, start, end - 1, sum(counts.values()), counts)
                 if warning:
                     self.warnings.append(warning)
+            self.warnings += clock_steps.storage_step_warnings(storages)  # sqlite3 storage
         total = sum(t.count for t in self.topics.values())
         start = start if total else 0
         end = max(end - 1, start) if total else 0  # rosbags' end is exclusive

@@ -1,8 +1,10 @@
 """A recording whose clock stepped back (an NTP correction of ten minutes mid-log): its
 log times go back between chunks, and the minutes it covers twice are read together in time
 order, so the people seen then count twice. The build did that without a word; now the
-log's reader warns (from the chunk indexes of an MCAP file, the chunk infos of a ROS 1 bag: a
-step inside one chunk is not seen), in ``aion build`` and ``aion info``."""
+log's reader warns (from the chunk indexes of an MCAP file and the MessageIndex records of its
+chunks, the chunk infos of a ROS 1 bag, the ``timestamp`` column of a rosbag2 sqlite3 file in
+the order its rows were written), in ``aion build`` and ``aion info``. A step inside one MCAP
+chunk and rosbag2 ``.db3`` files were not checked before."""
 
 from __future__ import annotations
 
@@ -17,14 +19,19 @@ N = 1800  # one message a second: 15 minutes, then the clock goes back 10 minute
 STEP_S = 600
 
 
-CONTAINERS = pytest.mark.parametrize("container", ["mcap", "bag"])
+CONTAINERS = pytest.mark.parametrize("container", ["mcap", "bag", "rosbag2-sqlite3"])
+#: a chunk (64 MiB) that holds the whole log: a step can only be inside it
+ONE_CHUNK = 64 * 2**20
 
 
-def write_chunked(path: Path, messages: list[Message], container: str) -> Path:
-    """``messages`` in the given order, in small chunks (4 KiB: about 20 messages each)."""
+def write_chunked(
+    path: Path, messages: list[Message], container: str, chunk_size: int = 4096
+) -> Path:
+    """``messages`` in the given order, in small chunks (4 KiB: about 20 messages each; a
+    rosbag2 sqlite3 file has none: its rows in that order)."""
     from aion_cli.formats.writers import LogWriter
 
-    with LogWriter(path, container, chunk_size=4096) as writer:
+    with LogWriter(path, container, chunk_size=chunk_size) as writer:
         for topic, msgtype, msg, t_ns in messages:
             writer.write(topic, msgtype, msg, t_ns)
     return path
@@ -92,3 +99,40 @@ def test_a_log_written_out_of_time_order_builds_the_ordered_map_and_says_both_ca
     (warning,) = [w for w in report["warnings"] if "its log times go back at least" in w]
     assert "or the messages were written out of time order" in warning
     assert_same_arrays(map_arrays(tmp_path / "s.aion"), map_arrays(tmp_path / "o.aion"))
+
+
+@pytest.mark.parametrize("container", ["mcap", "mcap-ros1"])
+def test_a_step_inside_one_mcap_chunk_is_a_warning(tmp_path: Path, container: str) -> None:
+    """The whole log in one chunk: the chunk's time range says nothing of a step inside it;
+    its MessageIndex records (the messages' log times in the order they are in the chunk)
+    do. The step is exactly 10 min: message N/2 is logged 599 s before message N/2 - 1."""
+    log = write_chunked(tmp_path / "one.mcap", stepped(-STEP_S), container, ONE_CHUNK)
+    from mcap.reader import make_reader
+
+    with log.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    assert len(summary.chunk_indexes) == 1
+    report = build_json(log, "-o", tmp_path / "one.aion")
+    (minutes,) = steps_back(report["warnings"])
+    assert minutes == round((STEP_S - 1) / 60, 1)
+    (warning,) = [w for w in report["warnings"] if "go back" in w]
+    assert "a message logged" in warning  # inside a chunk, not between two
+    info = run("info", log)
+    assert len(steps_back(info.stderr.splitlines())) == 1
+    ordered = write_chunked(tmp_path / "ordered.mcap", stepped(0), container, ONE_CHUNK)
+    assert steps_back(build_json(ordered, "-o", tmp_path / "o.aion")["warnings"]) == []
+
+
+def test_a_rosbag2_storage_file_alone_is_checked_too(tmp_path: Path) -> None:
+    """A .db3 given without its metadata.yaml is indexed in memory (formats.rosbag2_reindex):
+    the same check, named by the storage file."""
+    folder = write_chunked(tmp_path / "back", stepped(-STEP_S), "rosbag2-sqlite3")
+    (db3,) = folder.glob("*.db3")
+    alone = tmp_path / "alone.db3"
+    alone.write_bytes(db3.read_bytes())
+    info = run("info", alone)
+    assert info.exit_code == 0, info.stderr
+    (minutes,) = steps_back(info.stderr.splitlines())
+    assert minutes == round((STEP_S - 1) / 60, 1)
+    assert "alone.db3: its log times go back" in info.stderr
