@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.ownership import (
     apply_binds,
     enter_observed_nodes,
@@ -46,7 +47,7 @@ from aion_cli.engine.ownership import (
     unentered_stable_nodes,
 )
 from aion_cli.engine.temporal.pending import DayWindows
-from aion_cli.engine.types import F64, I64
+from aion_cli.engine.types import F64, I64, U64
 from aion_cli.engine.windows import window_centre_ns, window_ns, window_start_ns
 
 if TYPE_CHECKING:
@@ -63,9 +64,7 @@ def close_windows(state: MapState, stop: int) -> None:
         return
     delta = window_ns(state.config.window_s)
     count_rows = state.entries.window_rows()
-    recorded = state.observation.covered_windows(w0, stop, delta)
-    if count_rows.size and (recorded.size == 0 or recorded[0] != w0):  # w0 is the first
-        recorded = np.concatenate([np.array([w0], np.int64), recorded])
+    recorded = _recorded_windows(state, w0, stop, count_rows)
     if recorded.size <= 4:  # a build's usual step: one window, its day remembered
         days = [state.window_day(w) for w in recorded.tolist()]
     else:
@@ -109,6 +108,53 @@ def close_windows(state: MapState, stop: int) -> None:
         and state.window_day(stop) > state.pending.day
     ):
         state.close_day()  # log time is in a later day: the pending day is over
+
+
+def _recorded_windows(state: MapState, w0: int, stop: int, count_rows: I64) -> I64:
+    """The windows closing ``[w0, stop)`` records (step 1 of the module's rules): ``w0`` when
+    entries ``count_rows`` have detections in it, and every window a source covers."""
+    recorded = state.observation.covered_windows(w0, stop, state.window_ns)
+    if count_rows.size and (recorded.size == 0 or recorded[0] != w0):  # w0 is the first
+        recorded = np.concatenate([np.array([w0], np.int64), recorded])
+    return recorded
+
+
+def closing_binds(state: MapState, stop: int) -> tuple[I64, U64]:
+    """The cells :func:`close_windows` up to ``stop`` would bind (rows, ascending) and the
+    ids of the nodes they would go to, with nothing changed: a check at each recorded
+    window's end binds a cell the checks before could not to the nearest node stable then
+    (the node table does not change during a run, so the stable set only grows: one check
+    per time it grows, a few, not one per window)."""
+    none = np.zeros(0, np.int64), np.zeros(0, np.uint64)
+    w0 = state.open_window
+    cells = state.entries.cell_rows()
+    if w0 is None or stop <= w0 or cells.size == 0 or len(state.nodes) == 0:
+        return none
+    recorded = _recorded_windows(state, w0, stop, state.entries.window_rows())
+    if recorded.size == 0:
+        return none
+    ends = window_start_ns(recorded + 1, state.window_ns)
+    ready = state.nodes.stable_since_ns + round(state.config.stability_s * 1e9)
+    grows = np.unique(np.searchsorted(ends, ready, side="left"))  # first end each is stable
+    cfg = state.config
+    out_cells, out_ids = [], []
+    for k in grows[grows < ends.size].tolist():
+        stable = stable_nodes(state, int(ends[k]))
+        hit = nearest_nodes(
+            state.entries.xyz[cells],
+            state.nodes.xyz[stable],
+            cfg.bind_radius,
+            cfg.bind_vertical_tolerance,
+        )
+        bound = hit >= 0
+        out_cells.append(cells[bound])
+        out_ids.append(state.nodes.ids[stable][hit[bound]])
+        cells = cells[~bound]
+    if not out_cells:
+        return none
+    rows, ids = np.concatenate(out_cells), np.concatenate(out_ids)
+    order = np.argsort(rows, kind="stable")
+    return rows[order], ids[order]
 
 
 def _record(

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aion_cli.engine.closing import close_windows
+from aion_cli.engine.closing import close_windows, closing_binds
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.merge import add_entries, adopt_redirects, bind_early_cells, destinations
 from aion_cli.engine.nearest import nearest_nodes
@@ -50,7 +50,7 @@ from aion_cli.engine.ownership import stable_nodes
 from aion_cli.engine.temporal.groups import groups_moved
 from aion_cli.engine.temporal.held_days import DeferredDays, HeldDay
 from aion_cli.engine.temporal.pending import PendingDay
-from aion_cli.engine.types import I64
+from aion_cli.engine.types import I64, U64
 from aion_cli.engine.windows import iso, window_start_ns
 from aion_cli.errors import ConfigError
 
@@ -110,17 +110,21 @@ def join_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
             "these logs carry no scene graph of their own, and the map before them has one",
             "logs without a scene graph after a map with one",
         )
-    theirs, found = shard.redirects.lookup(acc.redirects.keys)
-    if (found & (theirs != acc.redirects.nodes)).any():
+    # the join first closes the windows of acc before the shard's first (as the shard's
+    # first message does in one pass): acc's own graph binds some of its cells then
+    bound, bound_to = _closing_binds(acc, shard)
+    keys = np.concatenate([acc.redirects.keys, acc.entries.key[bound]])
+    theirs, found = shard.redirects.lookup(keys)
+    if (found & (theirs != np.concatenate([acc.redirects.nodes, bound_to]))).any():
         return JoinBlock(
             "these logs bound cells to other places than the map before them did (one pass "
             "keeps the earlier binding)",
             "cells bound to other places than the map before them",
         )
     early = acc.entries.live_rows()
-    nodes = early[acc.entries.kind[early] == NODE]
+    early_ids = np.union1d(acc.entries.node_id[early[acc.entries.kind[early] == NODE]], bound_to)
     first = held.first_graph
-    if first is not None and not np.isin(acc.entries.node_id[nodes], first).all():
+    if first is not None and not np.isin(early_ids, first).all():
         return JoinBlock(
             "the first scene graph of these logs lacks places of the map before them (one "
             "pass releases them there)",
@@ -131,45 +135,67 @@ def join_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
     )
     if timers is not None:
         return JoinBlock(timers, "places that drifted about the stability tolerance")
-    gone = nodes[~np.isin(acc.entries.node_id[nodes], shard.nodes.ids)]
-    if gone.size and shard.graph is not None:
+    if shard.graph is not None and not np.isin(early_ids, shard.nodes.ids).all():
         return JoinBlock(
             "places of the map before these logs left the scene graph during them",
             "places of the map before them that left the scene graph",
         )
-    cells = early[acc.entries.kind[early] == CELL]
-    if cells.size and len(shard.nodes):
-        cfg = shard.config
-        xyz = acc.entries.xyz[cells]
-        first_hit = np.zeros(cells.size, bool)
-        if held.first_stable is not None:
-            first_hit = (
-                nearest_nodes(
-                    xyz, held.first_stable[1], cfg.bind_radius, cfg.bind_vertical_tolerance
-                )
-                >= 0
-            )
-            if first_hit.any() and held.first_stable_late:
-                return JoinBlock(
-                    "the scene graph of these logs became stable only after their first day",
-                    "a scene graph stable only after their first day",
-                )
-        stable = stable_nodes(shard, int(shard.log_time_ns or 0))
-        last_hit = (
-            nearest_nodes(
-                xyz, shard.nodes.xyz[stable], cfg.bind_radius, cfg.bind_vertical_tolerance
-            )
+    cells = np.setdiff1d(early[acc.entries.kind[early] == CELL], bound)
+    return _late_cells_blocker(acc, shard, cells)
+
+
+def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock | None:
+    """Why the shard's places bind cells of ``acc`` (rows ``cells``, those it still has once
+    its windows are closed) otherwise than one pass would (None: they do not): the join
+    binds them to the shard's first stable places, then to its last."""
+    held = shard.deferred
+    assert held is not None
+    if cells.size == 0 or len(shard.nodes) == 0:
+        return None
+    cfg = shard.config
+    xyz = acc.entries.xyz[cells]
+    first_hit = np.zeros(cells.size, bool)
+    if held.first_stable is not None:
+        first_hit = (
+            nearest_nodes(xyz, held.first_stable[1], cfg.bind_radius, cfg.bind_vertical_tolerance)
             >= 0
-            if stable.any()
-            else np.zeros(cells.size, bool)
         )
-        if (last_hit & ~first_hit).any():
+        if first_hit.any() and held.first_stable_late:
             return JoinBlock(
-                "the scene graph of these logs reached cells of the map before them only "
-                "later on (a single pass would have bound them then)",
-                "a scene graph that reached cells of the map before them only later on",
+                "the scene graph of these logs became stable only after their first day",
+                "a scene graph stable only after their first day",
             )
-    return None
+    stable = stable_nodes(shard, int(shard.log_time_ns or 0))
+    last_hit = (
+        nearest_nodes(xyz, shard.nodes.xyz[stable], cfg.bind_radius, cfg.bind_vertical_tolerance)
+        >= 0
+        if stable.any()
+        else np.zeros(cells.size, bool)
+    )
+    if not (last_hit & ~first_hit).any():
+        return None
+    return JoinBlock(
+        "the scene graph of these logs reached cells of the map before them only later on (a "
+        "single pass would have bound them then)",
+        "a scene graph that reached cells of the map before them only later on",
+    )
+
+
+def _closing_stop(acc: MapState, shard: MapState) -> int | None:
+    """The window up to which :func:`join_shard` closes the windows of ``acc``, as the
+    shard's first message does in one pass (None: it closes none)."""
+    if acc.open_window is None or shard.open_window is None:
+        return None
+    return max(acc.open_window + 1, _first_window(shard))
+
+
+def _closing_binds(acc: MapState, shard: MapState) -> tuple[I64, U64]:
+    """The cells of ``acc`` its own graph binds when :func:`join_shard` closes its windows
+    (rows), and the ids of the nodes they go to."""
+    stop = _closing_stop(acc, shard)
+    if stop is None:
+        return np.zeros(0, np.int64), np.zeros(0, np.uint64)
+    return closing_binds(acc, stop)
 
 
 def _groups_differ(acc: MapState, shard: MapState) -> bool:
@@ -211,11 +237,12 @@ def join_shard(acc: MapState, shard: MapState) -> MapState:
     if overlap is not None:
         raise ValueError(f"a shard must follow the map it joins in time: {overlap}")
     first_day = _first_day(shard)
-    if acc.open_window is not None and shard.open_window is not None:
+    stop = _closing_stop(acc, shard)
+    if stop is not None:
         # every window of the earlier map before the shard's first, as that window's first
         # message closes them in one pass (an observation source may cover some after the
         # earlier map's last message: scene-graph agent poses)
-        close_windows(acc, max(acc.open_window + 1, _first_window(shard)))
+        close_windows(acc, stop)
     if acc.pending and acc.pending.day != first_day:
         acc.close_day()
     out = shard
