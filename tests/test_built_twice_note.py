@@ -77,14 +77,45 @@ def _drifting() -> tuple[list[Step], list[Step]]:
     )
 
 
+def _place_added() -> tuple[list[Step], list[Step]]:
+    """Both logs' first graph has places 0 to 3; the later log's second graph (15 minutes
+    in, after the check at its first window's end) adds place 4, near cells the map before
+    left unbound."""
+    later = MORNING + 3 * DAY
+    four = np.array(NODES, float)[:4]
+    before = fixed_sensor_log(MORNING, seed=3, windows=3)
+    before[1] = partial(Mapper.add_graph, snapshot=graph(MORNING, [0, 1, 2, 3], four))
+    steps = fixed_sensor_log(later, seed=4, windows=3)
+    steps[1] = partial(Mapper.add_graph, snapshot=graph(later, [0, 1, 2, 3], four))
+    five = graph(later + W + W // 2, list(range(5)), NODES)
+    steps.insert(4, partial(Mapper.add_graph, snapshot=five))
+    return before, steps
+
+
+def _never_stable() -> tuple[list[Step], list[Step]]:
+    """The map before has no scene graph; the later log, one window long, has one graph at
+    its start: its places are stable at none of the log's checks (the graph's own, before
+    their 30 s; the next would be at the window's end, after the log)."""
+    before = [step for k, step in enumerate(fixed_sensor_log(MORNING, seed=3, windows=3)) if k != 1]
+    return before, fixed_sensor_log(MORNING + 3 * DAY, seed=4, windows=1)
+
+
 @pytest.mark.parametrize(
     ("logs", "cause"),
     [
         (_swapped, "cells bound to other places than the map before them"),
         (_vanishing, "ownership that changed inside their logs after one of their days had closed"),
         (_drifting, "places that drifted about the stability tolerance"),
+        (_place_added, "a scene graph that reached cells of the map before them only later on"),
+        (_never_stable, "a scene graph stable at none of the ownership checks inside their logs"),
     ],
-    ids=["cells-bound-elsewhere", "ownership-changed-inside", "timers-drifted"],
+    ids=[
+        "cells-bound-elsewhere",
+        "ownership-changed-inside",
+        "timers-drifted",
+        "place-added-later",
+        "never-stable",
+    ],
 )
 def test_the_note_names_the_reason_the_join_was_refused(logs: object, cause: str) -> None:
     before, later = logs()  # type: ignore[operator]

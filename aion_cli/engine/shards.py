@@ -174,6 +174,13 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
     )
     if not (last_hit & ~first_hit).any():
         return None
+    if held.first_stable is None:  # no check of the shard's saw a stable place
+        return JoinBlock(
+            "the places of the scene graph of these logs were stable at none of their "
+            "ownership checks (one comes with each graph and at each window's end), so the "
+            "join cannot tell which cells of the map before them one pass bound to them",
+            "a scene graph stable at none of the ownership checks inside their logs",
+        )
     return JoinBlock(
         "the scene graph of these logs reached cells of the map before them only later on (a "
         "single pass would have bound them then)",

@@ -179,8 +179,16 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
             ],
             "ownership changed inside these logs",
         ),
+        (  # no graph before; a one-window log whose graph is stable at none of its checks:
+            # one pass leaves the earlier cells unbound, the join would bind them
+            [
+                [st for k, st in enumerate(fixed_sensor_log(MORNING, 34, windows=3)) if k != 1],
+                fixed_sensor_log(MORNING + 3 * DAY, seed=35, windows=1),
+            ],
+            "stable at none of their ownership checks",
+        ),
     ],
-    ids=["moving-places", "vanishing-place"],
+    ids=["moving-places", "vanishing-place", "never-stable"],
 )
 def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: str) -> None:
     """What engine/shards.py cannot join exactly is refused by join_blocker (the parallel
