@@ -157,6 +157,36 @@ def closing_binds(state: MapState, stop: int) -> tuple[I64, U64]:
     return rows[order], ids[order]
 
 
+def closing_entries(state: MapState, stop: int) -> U64:
+    """The ids of the places :func:`close_windows` up to ``stop`` would give entries because
+    the robot observes them stable in a recorded window and they have none
+    (:func:`~aion_cli.engine.ownership.enter_observed_nodes`), with nothing changed."""
+    none = np.zeros(0, np.uint64)
+    w0 = state.open_window
+    if w0 is None or stop <= w0 or state.observation.pose_t.size == 0 or len(state.nodes) == 0:
+        return none
+    recorded = _recorded_windows(state, w0, stop, state.entries.window_rows())
+    if recorded.size == 0:
+        return none
+    ends = window_start_ns(recorded + 1, state.window_ns)
+    ready = state.nodes.stable_since_ns + round(state.config.stability_s * 1e9)
+    first = np.searchsorted(ends, ready, side="left")  # the first window it waits in
+    waiting = np.flatnonzero((state.node_entry_rows(state.nodes.ids) < 0) & (first < ends.size))
+    if waiting.size == 0:
+        return none
+    robot = state.observation.fixed_share(recorded, state.window_ns, state.config) == 0
+    entered = np.zeros(waiting.size, bool)
+    for k in np.flatnonzero(robot & (np.arange(recorded.size) >= first[waiting].min())).tolist():
+        todo = np.flatnonzero(~entered & (first[waiting] <= k))
+        if todo.size:
+            xy = state.nodes.xyz[waiting[todo], :2]
+            entered[todo] = _coverage(state, xy, int(recorded[k])) > 0
+        if entered.all():
+            break
+    out: U64 = state.nodes.ids[waiting[entered]]
+    return out
+
+
 def _record(
     state: MapState, windows: I64, w0: int, delta: int, count_rows: I64, waiting: I64
 ) -> I64:

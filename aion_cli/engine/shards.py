@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aion_cli.engine.closing import close_windows, closing_binds
+from aion_cli.engine.closing import close_windows, closing_binds, closing_entries
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.merge import add_entries, adopt_redirects, bind_early_cells, destinations
 from aion_cli.engine.nearest import nearest_nodes
@@ -111,7 +111,8 @@ def join_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
             "logs without a scene graph after a map with one",
         )
     # the join first closes the windows of acc before the shard's first (as the shard's
-    # first message does in one pass): acc's own graph binds some of its cells then
+    # first message does in one pass): acc's own graph binds some of its cells then, and
+    # the robot's view gives entries to stable places without one
     bound, bound_to = _closing_binds(acc, shard)
     keys = np.concatenate([acc.redirects.keys, acc.entries.key[bound]])
     theirs, found = shard.redirects.lookup(keys)
@@ -123,6 +124,9 @@ def join_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
         )
     early = acc.entries.live_rows()
     early_ids = np.union1d(acc.entries.node_id[early[acc.entries.kind[early] == NODE]], bound_to)
+    stop = _closing_stop(acc, shard)
+    if stop is not None:  # and the places the robot observes then get entries
+        early_ids = np.union1d(early_ids, closing_entries(acc, stop))
     first = held.first_graph
     if first is not None and not np.isin(early_ids, first).all():
         return JoinBlock(

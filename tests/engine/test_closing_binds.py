@@ -1,17 +1,18 @@
-"""closing_binds says, without closing, which cells closing the open windows binds and to
-which places: what close_windows then does (the join's blocker asks it about the map
-before a shard)."""
+"""closing_binds and closing_entries say, without closing, which cells closing the open
+windows binds and to which places, and which places it gives entries: what close_windows
+then does (the join's blocker asks them about the map before a shard)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from aion_cli.engine.closing import close_windows, closing_binds
+from aion_cli.engine.closing import close_windows, closing_binds, closing_entries
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
+from aion_cli.engine.types import Trajectory
 from tests.engine.engine_builders import detections, graph
-from tests.engine.state_logs import MORNING, W
+from tests.engine.state_logs import CFG, MORNING, W
 
 S = 10**9
 #: places stable 25 minutes after they appear: 2.5 windows of 10 minutes
@@ -65,3 +66,36 @@ def test_closing_binds_predicts_what_closing_binds(
         person_of[int(r)]: int(n) & 0xFF for r, n, f in zip(cells, nodes, found, strict=True) if f
     }
     assert done == bound
+
+
+def _robot(poses: bool) -> Mapper:
+    """Place 0 from 10 s into the first window, where people walk; places 1 (3, 0), 2 (20, 0)
+    and 3 (40, 0) from 300 s, stable before the window ends, with no entry (nobody near). The
+    robot stands at (1, 1) in the first window (place 1 in its 8 m range), at (19, 0) in the
+    second and third (place 2); with ``poses`` false it has no trajectory."""
+    m = Mapper(CFG)
+    if poses:
+        t = MORNING + np.arange(0, 3 * W, 20 * S)
+        xyz = np.where((t < MORNING + W)[:, None], [1.0, 1.0, 0.0], [19.0, 0.0, 0.0])
+        m.add_trajectory(Trajectory(t, xyz))
+    m.add_graph(graph(MORNING + 10 * S, [0], [[0, 0, 0]]))
+    m.add_detections(detections(MORNING + 20 * S + np.arange(3) * S, PEOPLE[:1].repeat(3, 0)))
+    four = [[0, 0, 0], [3, 0, 0], [20, 0, 0], [40, 0, 0]]
+    m.add_graph(graph(MORNING + 300 * S, [0, 1, 2, 3], four))
+    return m
+
+
+@pytest.mark.parametrize(
+    ("poses", "windows", "entered"), [(True, 1, {1}), (True, 3, {1, 2}), (False, 3, set())]
+)
+def test_closing_entries_predicts_the_places_closing_enters(
+    poses: bool, windows: int, entered: set[int]
+) -> None:
+    state = _robot(poses).state
+    stop = int(state.open_window or 0) + windows
+    predicted = {int(i) & 0xFF for i in closing_entries(state, stop)}
+    assert predicted == entered
+    before = set(state.entries.node_id[state.entries.node_rows()].tolist())
+    close_windows(state, stop)
+    after = set(state.entries.node_id[state.entries.node_rows()].tolist())
+    assert {int(i) & 0xFF for i in after - before} == entered

@@ -59,6 +59,33 @@ def _moving(start: int, seed: int, days: int, extra: bool = False, move: bool = 
     return steps
 
 
+def _robot_at_p0(
+    start: int, seed: int, windows: int, graphs: list[tuple[int, list[int]]]
+) -> list[Step]:
+    """A robot standing at (1, 1) (places 0 and 1 in its range), people near place 0 only;
+    ``graphs``: (window, places) a graph of those places comes in, halfway through it."""
+    from functools import partial
+
+    from aion_cli.engine.types import Trajectory
+    from tests.engine.engine_builders import detections, graph
+    from tests.engine.state_logs import NODES
+
+    rng = np.random.default_rng(seed)
+    t = start + np.arange(0, windows * W, 20 * 10**9)
+    still = Trajectory(t, np.tile([1.0, 1.0, 0.0], (t.size, 1)))
+    steps: list[Step] = [partial(Mapper.add_trajectory, trajectory=still)]
+    for w in range(windows):
+        for at, ids in graphs:
+            if at == w:
+                g = graph(start + w * W + W // 2, ids, np.array(NODES)[ids])
+                steps.append(partial(Mapper.add_graph, snapshot=g))
+        tw = start + w * W + np.sort(rng.integers(0, W, 20))
+        xyz = np.c_[rng.uniform(-1, 1, (20, 2)), np.zeros(20)]
+        batch = detections(tw, xyz, rng.uniform(-3, 3, 20), rng.uniform(0.2, 2, 20))
+        steps.append(partial(Mapper.add_detections, batch=batch))
+    return steps
+
+
 def _joined(
     logs: list[list[Step]], acc: MapState | None = None, blockers: list[str | None] | None = None
 ) -> MapState:
@@ -187,8 +214,17 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
             ],
             "stable at none of their ownership checks",
         ),
+        (  # place 1 comes in the earlier log's last window: the robot observes it stable
+            # when the join closes that window (an entry, empty), and the later log's first
+            # graph lacks it (one pass releases that entry, then binds its cell again)
+            [
+                _robot_at_p0(MORNING, 36, 2, [(0, [0]), (1, [0, 1])]),
+                _robot_at_p0(MORNING + 3 * DAY, 37, 3, [(0, [0]), (1, [0, 1])]),
+            ],
+            "lacks places of the map before them",
+        ),
     ],
-    ids=["moving-places", "vanishing-place", "never-stable"],
+    ids=["moving-places", "vanishing-place", "never-stable", "entered-at-the-join"],
 )
 def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: str) -> None:
     """What engine/shards.py cannot join exactly is refused by join_blocker (the parallel
