@@ -143,9 +143,19 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     which makes the answer cost the cells that are new since the last check, not every cell)."""
     cfg = state.config
     stable = stable_nodes(state, t_ns)
-    if state.deferred is not None and state.deferred.first_stable is None and stable.any():
-        # a shard remembers the first stable nodes it bound to (engine.shards)
-        state.deferred.remember_stable(state.nodes.ids[stable], state.nodes.xyz[stable])
+    held = state.deferred
+    if held is not None and held.first_stable is None:  # a shard, for the join (engine.shards)
+        if stable.any():  # the first stable nodes it bound to
+            held.remember_stable(state.nodes.ids[stable], state.nodes.xyz[stable])
+        elif len(state.nodes):  # the cells near places not yet stable
+            rows = state.entries.cell_rows()
+            near = nearest_nodes(
+                state.entries.xyz[rows],
+                state.nodes.xyz,
+                cfg.bind_radius,
+                cfg.bind_vertical_tolerance,
+            )
+            held.reached_unstable(state.entries.key[rows[near >= 0]])
     if not stable.any():
         return None
     xyz = state.nodes.xyz[stable]

@@ -145,7 +145,31 @@ def join_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
             "places of the map before them that left the scene graph",
         )
     cells = np.setdiff1d(early[acc.entries.kind[early] == CELL], bound)
+    if held.first_stable is None and _unbound_in_reach(acc, shard, cells, keys):
+        return JoinBlock(
+            "the places of the scene graph of these logs were stable at none of their "
+            "ownership checks (one comes with each graph and at each window's end), so the "
+            "join cannot tell which cells one pass bound to them (with the stability the map "
+            "before them gave them)",
+            "a scene graph stable at none of the ownership checks inside their logs",
+        )
     return _late_cells_blocker(acc, shard, cells)
+
+
+def _unbound_in_reach(acc: MapState, shard: MapState, cells: I64, redirected: I64) -> bool:
+    """Whether a check of the shard had its own cells in reach of places not yet stable
+    (but for those of keys ``acc`` redirects, ``redirected``: one pass routed their
+    detections to the place, the join moves them there), or a place of the shard is in reach
+    of a cell of ``acc`` (rows ``cells``): a shard none of whose checks saw a stable place
+    did not bind them, where one pass, with the timers the map before gave its places, may
+    have."""
+    assert shard.deferred is not None
+    if np.setdiff1d(shard.deferred.unstable_keys, redirected).size:
+        return True
+    cfg = shard.config
+    xyz = acc.entries.xyz[cells]
+    hit = nearest_nodes(xyz, shard.nodes.xyz, cfg.bind_radius, cfg.bind_vertical_tolerance)
+    return bool((hit >= 0).any())
 
 
 def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock | None:
@@ -154,21 +178,19 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
     binds them to the shard's first stable places, then to its last."""
     held = shard.deferred
     assert held is not None
-    if cells.size == 0 or len(shard.nodes) == 0:
+    if cells.size == 0 or len(shard.nodes) == 0 or held.first_stable is None:
         return None
     cfg = shard.config
     xyz = acc.entries.xyz[cells]
-    first_hit = np.zeros(cells.size, bool)
-    if held.first_stable is not None:
-        first_hit = (
-            nearest_nodes(xyz, held.first_stable[1], cfg.bind_radius, cfg.bind_vertical_tolerance)
-            >= 0
+    first_hit = (
+        nearest_nodes(xyz, held.first_stable[1], cfg.bind_radius, cfg.bind_vertical_tolerance)
+        >= 0
+    )
+    if first_hit.any() and held.first_stable_late:
+        return JoinBlock(
+            "the scene graph of these logs became stable only after their first day",
+            "a scene graph stable only after their first day",
         )
-        if first_hit.any() and held.first_stable_late:
-            return JoinBlock(
-                "the scene graph of these logs became stable only after their first day",
-                "a scene graph stable only after their first day",
-            )
     stable = stable_nodes(shard, int(shard.log_time_ns or 0))
     last_hit = (
         nearest_nodes(xyz, shard.nodes.xyz[stable], cfg.bind_radius, cfg.bind_vertical_tolerance)
@@ -178,13 +200,6 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
     )
     if not (last_hit & ~first_hit).any():
         return None
-    if held.first_stable is None:  # no check of the shard's saw a stable place
-        return JoinBlock(
-            "the places of the scene graph of these logs were stable at none of their "
-            "ownership checks (one comes with each graph and at each window's end), so the "
-            "join cannot tell which cells of the map before them one pass bound to them",
-            "a scene graph stable at none of the ownership checks inside their logs",
-        )
     return JoinBlock(
         "the scene graph of these logs reached cells of the map before them only later on (a "
         "single pass would have bound them then)",

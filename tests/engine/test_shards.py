@@ -86,6 +86,17 @@ def _robot_at_p0(
     return steps
 
 
+def _graph_last(start: int, seed: int) -> list[Step]:
+    """A two-window fixed-sensor log whose only graph comes after its detections, in its last
+    nanosecond: none of its own checks sees the places stable."""
+    from tests.engine.engine_builders import graph
+    from tests.engine.state_logs import NODES
+
+    steps = fixed_sensor_log(start, seed, windows=2)
+    last = graph(start + 2 * W - 1, list(range(5)), np.array(NODES))
+    return [steps[0], *steps[2:], lambda m: m.add_graph(last)]
+
+
 def _joined(
     logs: list[list[Step]], acc: MapState | None = None, blockers: list[str | None] | None = None
 ) -> MapState:
@@ -223,8 +234,19 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
             ],
             "lacks places of the map before them",
         ),
+        (  # the later log's only graph comes at its end: one pass, with the timers the
+            # earlier log gave the places, binds the later log's cells near them there
+            [fixed_sensor_log(MORNING, seed=38, windows=2), _graph_last(MORNING + 3 * DAY, 39)],
+            "stable at none of their ownership checks",
+        ),
     ],
-    ids=["moving-places", "vanishing-place", "never-stable", "entered-at-the-join"],
+    ids=[
+        "moving-places",
+        "vanishing-place",
+        "never-stable",
+        "entered-at-the-join",
+        "graph-at-the-end",
+    ],
 )
 def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: str) -> None:
     """What engine/shards.py cannot join exactly is refused by join_blocker (the parallel
@@ -357,3 +379,17 @@ def test_a_shard_that_held_a_day_before_its_first_graph_compares_the_earlier_roo
     _joined([no_graph + later], acc=run_steps(first).state, blockers=blockers)
     assert blockers[0] is not None
     assert "other rooms" in blockers[0]
+
+
+def test_a_part_map_keeps_that_its_checks_reached_cells_near_places_not_yet_stable() -> None:
+    """``aion build --part`` then ``aion merge``: the shard of the graph-at-the-end case goes
+    through its saved arrays and is still refused (one pass binds its cells at that graph)."""
+    first = fixed_sensor_log(MORNING, seed=38, windows=2)
+    later = _graph_last(MORNING + 3 * DAY, 39)
+    shard = run_steps(later, Mapper(CFG, start_shard(MapState.empty(CFG)))).state
+    reread = MapState.from_arrays(*shard.to_arrays())
+    assert reread.deferred is not None
+    assert reread.deferred.unstable_keys.size
+    blocker = join_blocker(run_steps(first).state, reread)
+    assert blocker is not None
+    assert "stable at none of their ownership checks" in blocker

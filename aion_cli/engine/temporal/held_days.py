@@ -41,6 +41,10 @@ class DeferredDays:
     first_graph: npt.NDArray[np.uint64] | None = None
     #: whether that first check came after a held day (its binds came late)
     first_stable_late: bool = False
+    #: the keys (sorted) of the cells that checks before it had in reach of places not yet
+    #: stable (one pass, with the timers the map before the shard gave them, may have bound
+    #: them there)
+    unstable_keys: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
     #: whether ownership moved an entry that a held day had live (that day's forecast would
     #: have pooled over the entries as they were then: the join cannot be exact)
     moved_after_hold: bool = False
@@ -83,6 +87,12 @@ class DeferredDays:
             self.first_stable = (ids.copy(), xyz.copy())
             self.first_stable_late = bool(self.days)
 
+    def reached_unstable(self, keys: I64) -> None:
+        """A check before the first stable one had the cells of ``keys`` in reach of places
+        not yet stable (see :attr:`unstable_keys`)."""
+        if keys.size:
+            self.unstable_keys = np.union1d(self.unstable_keys, keys).astype(np.int64)
+
     def remap(self, src: I64, dst: I64) -> None:
         """Entries ``src`` were moved into ``dst``: every held day follows."""
         if src.size == 0:
@@ -111,6 +121,8 @@ class DeferredDays:
             days.append(day)
         if self.first_graph is not None:
             arrays["held_first_graph"] = self.first_graph.copy()
+        if self.unstable_keys.size:
+            arrays["held_unstable_keys"] = self.unstable_keys.copy()
         if self.first_stable is not None:
             arrays["held_first_stable_ids"] = self.first_stable[0].copy()
             arrays["held_first_stable_xyz"] = self.first_stable[1].copy()
@@ -163,6 +175,8 @@ class DeferredDays:
         if meta.get("drift") is not None:
             out.drift = NodeDrift.from_arrays(arrays, meta["drift"], "held_drift_")
         out.groups_changed_after_hold = bool(meta.get("groups_changed_after_hold", False))
+        if "held_unstable_keys" in arrays:  # older part maps did not keep them
+            out.unstable_keys = np.unique(np.asarray(arrays["held_unstable_keys"], np.int64))
         out.held_before_graph = bool(meta.get("held_before_graph", False))
         if "held_group_ids" in arrays:
             ids = np.asarray(arrays["held_group_ids"], np.uint64).reshape(-1)
