@@ -182,10 +182,17 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
         return None
     cfg = shard.config
     xyz = acc.entries.xyz[cells]
-    first_hit = (
-        nearest_nodes(xyz, held.first_stable[1], cfg.bind_radius, cfg.bind_vertical_tolerance)
-        >= 0
+    first_at = nearest_nodes(
+        xyz, held.first_stable[1], cfg.bind_radius, cfg.bind_vertical_tolerance
     )
+    first_hit = first_at >= 0
+    if _left_later(shard, held.first_stable[0][first_at[first_hit]]):
+        return JoinBlock(
+            "places of the scene graph of these logs that one pass bound cells of the map "
+            "before them to left the graph later on (one pass then released what those "
+            "cells held into the places' own cells)",
+            "places that bound cells of the map before them and left the scene graph later",
+        )
     if first_hit.any() and held.first_stable_late:
         return JoinBlock(
             "the scene graph of these logs became stable only after their first day",
@@ -205,6 +212,20 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
         "single pass would have bound them then)",
         "a scene graph that reached cells of the map before them only later on",
     )
+
+
+def _left_later(shard: MapState, ids: U64) -> bool:
+    """Whether a place of ``ids`` is not in the shard's last graph, or left one of its graphs
+    after its first (and came back: its timer restarted by leaving, :mod:`node_drift`)."""
+    if not np.isin(ids, shard.nodes.ids).all():
+        return True
+    drift = shard.deferred.drift if shard.deferred is not None else None
+    if drift is None or ids.size == 0:
+        return False
+    at = np.minimum(np.searchsorted(drift.ids, ids), len(drift.ids) - 1)
+    known = drift.ids[at] == ids
+    left = (drift.restart_ns[at] >= 0) & np.isnan(drift.restart_xyz[at]).any(axis=1)
+    return bool((known & left).any())
 
 
 def _closing_stop(acc: MapState, shard: MapState) -> int | None:

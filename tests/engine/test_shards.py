@@ -239,6 +239,15 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
             [fixed_sensor_log(MORNING, seed=38, windows=2), _graph_last(MORNING + 3 * DAY, 39)],
             "stable at none of their ownership checks",
         ),
+        (  # no graph before; the later log's place 4 (near cells the earlier log made)
+            # leaves its graph halfway: one pass released what those cells held into the
+            # place's cell, the join left them where they were
+            [
+                [st for k, st in enumerate(fixed_sensor_log(MORNING, 40, windows=3)) if k != 1],
+                fixed_sensor_log(MORNING + 3 * DAY, seed=41, move=0.1),
+            ],
+            "left the graph later on",
+        ),
     ],
     ids=[
         "moving-places",
@@ -246,6 +255,7 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
         "never-stable",
         "entered-at-the-join",
         "graph-at-the-end",
+        "place-left-later",
     ],
 )
 def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: str) -> None:
