@@ -31,9 +31,10 @@ from aion_cli.detection_feed import (
 )
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.heading_hold import HeadingHold
+from aion_cli.engine.state import DROP_REASONS
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
 from aion_cli.fixed_sensor import fixed_sensor_windows
-from aion_cli.log_times import check_after_open, overlap_note
+from aion_cli.log_times import check_after_open, other_clock_error, overlap_note
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -182,7 +183,31 @@ class StreamStep:
         self._check_after_map(batch.t_ns, "detection", first)
         codes = np.empty(len(batch), np.int8)
         mapper.add_detections(batch, codes)
+        self._check_clocks(mapper, batch.t_ns, codes)
         self._tally.add(topics, codes)
+
+    def _check_clocks(self, mapper: Mapper, t_ns: I64, codes: np.ndarray) -> None:
+        """Detections of several logs dropped as ``before_window`` because the logs' own log
+        times are a simulation's clock from 0 while the stamps, which make the windows, are
+        on the wall clock: the stream merges the logs by log times, which cannot tell the order
+        of their stamps, so whole logs would be lost in silence.
+        :func:`aion_cli.log_times.other_clock_error` instead, as the parallel build refuses
+        them (before anything is written)."""
+        open_window = mapper.state.open_window
+        if len(self._logs) < 2 or open_window is None:
+            return
+        late = codes == DROP_REASONS.index("before_window")
+        if not late.any():
+            return
+        from aion_cli.engine.windows import window_ns
+
+        delta = window_ns(mapper.state.config.window_s)
+        names = ", ".join([p.name for p in self._logs[:3]] + ["..."] * (len(self._logs) > 3))
+        clocks = other_clock_error(
+            names, self._times.start_ns, open_window * delta, int(t_ns[late].min())
+        )
+        if clocks is not None:
+            raise clocks
 
     def _check_after_map(self, t_ns: I64, what: str, first: bool = False) -> None:
         """A continued map's closed windows take no data (:func:`aion_cli.log_times.

@@ -12,7 +12,7 @@ from pathlib import Path
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from tests.cli.conftest import assert_one_line_error, run
+from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.logdata import write_office_log
 
 S = 1_000_000_000
@@ -67,6 +67,47 @@ def test_built_together_the_reason_is_the_clock(tmp_path: Path) -> None:
     assert ORDER not in result.stderr
     assert "in the order of their stamps" in result.stderr
     assert not out.exists()
+
+
+def test_built_in_one_pass_the_reason_is_the_clock(tmp_path: Path) -> None:
+    """--workers 1 merges the logs by their log times (Tuesday's first, from 1 s): Monday's
+    detections, stamped a day before the windows Tuesday's closed, were dropped as
+    before_window, 300 of 600, and the build said nothing but a count. Now it is refused
+    as --workers 2 refuses it."""
+    monday, tuesday = _logs(tmp_path)
+    out = tmp_path / "both.aion"
+    result = run("build", monday, tuesday, "--workers", "1", "-o", out, "-q")
+    assert result.exit_code == 2, result.stderr
+    errors = [line for line in result.stderr.splitlines() if not line.startswith("warning: ")]
+    assert_one_line_error(
+        "\n".join(errors),
+        CLOCK,
+        "monday.mcap, tuesday.mcap start at 1970-01-01 00:00:01 UTC",
+        "stamped from 2026-11-23 08:00:05 UTC",  # Monday's first detection
+    )
+    assert ORDER not in result.stderr
+    assert "in the order of their stamps" in result.stderr
+    assert not out.exists()
+
+
+def test_one_pass_on_a_simulation_clock_in_the_stamps_order_is_built(tmp_path: Path) -> None:
+    """Logs on a simulation's clock whose log times keep the order of their stamps lose
+    nothing in one pass: built, every detection used (as a build of each alone)."""
+    monday, tuesday = tmp_path / "monday.real.mcap", tmp_path / "tuesday.real.mcap"
+    write_office_log(monday)
+    write_office_log(tuesday, shift_s=DAY_S)
+    mon = _on_sim_clock(monday, tmp_path / "monday.mcap", 1 * S)
+    tue = _on_sim_clock(tuesday, tmp_path / "tuesday.mcap", 10_000 * S)
+    alone = [
+        run_json("build", log, "-o", tmp_path / f"{log.stem}.aion", "--format", "json", "-q")
+        for log in (mon, tue)
+    ]
+    both = run_json(
+        "build", mon, tue, "--workers", "1", "-o", tmp_path / "b.aion", "--format", "json", "-q"
+    )
+    used = [r["detections"]["used"] for r in alone]
+    assert both["detections"]["used"] == sum(used) > 0
+    assert both["detections"]["dropped"].get("before_window", 0) == 0
 
 
 def test_added_with_map_the_reason_is_the_clock_and_the_hint_works(tmp_path: Path) -> None:
