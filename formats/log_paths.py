@@ -222,7 +222,8 @@ def _open_compressed(path: Path, kind: str, limits: ReadLimits) -> list[_Source]
             if kind == "mcap"
             else _RosbagsSource(inner, "bag", limits)
         )
-    except BaseException:
+    except BaseException as exc:
         tmp.cleanup()
+        storage.name_original(exc, path, inner)
         raise
     return [_Unpacked(source, [tmp], path)]

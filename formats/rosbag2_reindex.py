@@ -168,6 +168,7 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
 
     temps: dict[Path, list[Any]] = {}
     opened: list[_Source] = []
+    unpacked: list[tuple[Path, Path]] = []  # (compressed file, its decompressed copy)
     try:
         readable: list[tuple[Path, Path]] = []  # (the file on disk, the file to read)
         for f in files:
@@ -175,6 +176,7 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
                 tmp, inner = storage.decompress_to_temp(f)
                 temps[f] = [tmp]
                 readable.append((f, inner))
+                unpacked.append((f, inner))
             else:
                 readable.append((f, f))
         sqlite: list[tuple[Path, Path]] = []
@@ -219,12 +221,14 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
             db.warnings.extend(salvaged)
             owned = [tmp for o in originals for tmp in temps.get(o, [])]
             opened.insert(0, _Unpacked(db, owned) if owned else db)
-    except BaseException:
+    except BaseException as exc:
         for source in opened:
             source.close()
         for held in temps.values():
             for tmp in held:
                 tmp.cleanup()
+        for original, plain in unpacked:
+            storage.name_original(exc, original, plain)
         raise
     return opened
 

@@ -157,6 +157,22 @@ def decompress_to_temp(path: Path) -> tuple[tempfile.TemporaryDirectory[str], Pa
     return tmp, target
 
 
+def name_original(error: BaseException, original: Path, inner: Path) -> None:
+    """``error`` (an :class:`~aion_cli.errors.AionError` raised reading ``inner``, the
+    decompressed temporary copy :func:`decompress_to_temp` made of ``original``) made to name
+    the user's file, ``original (decompressed)``, wherever it named the copy, which is gone
+    by the time the user reads the error. Changed in place (its type and fields are kept)."""
+    from aion_cli.errors import AionError
+
+    if not isinstance(error, AionError):
+        return
+    copy, shown = str(inner), f"{original} (decompressed)"
+    error.message = error.message.replace(copy, shown)
+    if error.hint is not None:
+        error.hint = error.hint.replace(copy, shown)
+    error.args = tuple(a.replace(copy, shown) if isinstance(a, str) else a for a in error.args)
+
+
 def _unzstd_stream(src: IO[bytes], dst: IO[bytes]) -> None:
     """Decompress the zstd frames of ``src`` into ``dst``, a small piece of input at a time (the
     output of a piece is written before the next is read), across frames (streaming writers

@@ -399,3 +399,29 @@ def test_other_logs_compressed_whole(tmp_path: Path, temp_root: Path) -> None:
         assert logs.total() == plain.total() == 8647
         assert _got(logs) == _got(plain)
     assert list(temp_root.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("name", "plain", "fmt", "said"),
+    [
+        ("z.bag.zst", b"hello\n", "bag", "is not a ROS 1 bag"),
+        ("z.mcap.zstd", b"hello\n", "mcap", "is not an MCAP file"),
+        ("d.db3.zstd", b"SQLite format 3\x00" + bytes(range(256)) * 8, None, "Cannot open"),
+    ],
+    ids=["bag", "mcap", "db3"],
+)
+def test_errors_on_a_compressed_file_name_it_not_its_temporary_copy(
+    name: str, plain: bytes, fmt: str | None, said: str, tmp_path: Path, temp_root: Path
+) -> None:
+    """A compressed file that holds no log of the format it is read as: the error named the
+    decompressed copy (/tmp/aion-unzstd-.../z.bag), removed before the user reads it."""
+    import zstandard
+
+    packed = tmp_path / "logs" / name
+    packed.parent.mkdir()
+    packed.write_bytes(zstandard.ZstdCompressor().compress(plain))
+    result = run("info", packed, *(["--log-format", fmt] if fmt else []))
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, f"{packed} (decompressed)", said)
+    assert str(temp_root) not in result.stderr
+    assert list(temp_root.iterdir()) == []
