@@ -10,6 +10,8 @@ so the warning names both."""
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from itertools import islice
+from operator import itemgetter
 from pathlib import Path
 from typing import IO, Any, NamedTuple
 
@@ -142,12 +144,39 @@ ORDER BY latest - timestamp DESC LIMIT 1
 """
 
 
+#: the ``timestamp`` column in the order the messages were written: the table's own (rowid)
+#: order, so no sort; read :data:`_BLOCK` rows at a time
+_SQLITE_TIMES = "SELECT timestamp FROM messages ORDER BY id"
+_BLOCK = 1 << 16
+
+
+def _may_step_back(connection: Any) -> bool:
+    """Whether the ``timestamp``s of all topics together, in the order the messages were
+    written, go back more than :data:`BACK_STEP_NS` from the latest before them anywhere:
+    needed for a step of one topic (its latest time before a message is at most all topics'),
+    so a file without it has none. One pass over the table in blocks (the running maximum
+    carried from block to block), about a fifth of the cost of the per-topic window query,
+    which then runs only for files that pass this."""
+    times = map(itemgetter(0), connection.execute(_SQLITE_TIMES))
+    latest: list[int] = []  # the latest time of the blocks before, once there is one
+    while (block := np.fromiter(islice(times, _BLOCK), np.int64)).size:
+        joined = np.concatenate((np.array(latest, np.int64), block))
+        running = np.maximum.accumulate(joined)
+        if np.any(joined[1:] < running[:-1] - BACK_STEP_NS):  # running >= any time: no wrap
+            return True
+        latest = [int(running[-1])]
+    return False
+
+
 def sqlite_step_warning(name: str, connection: Any) -> str | None:
     """The warning for the rosbag2 sqlite3 storage file ``name`` (``connection``: open on it)
     whose ``timestamp``s step back in the order its messages were written; None if not, or
     when SQLite cannot say (no window functions before 3.25, a damaged table: the reading
-    says what it can)."""
+    says what it can). Files whose messages of all topics keep their order within a step
+    (:func:`_may_step_back`) are not asked the per-topic query."""
     try:
+        if not _may_step_back(connection):
+            return None
         row = connection.execute(_SQLITE_STEP, (BACK_STEP_NS, BACK_STEP_MAX_NS)).fetchone()
     except Exception:  # sqlite3 / apsw errors: no step said, the read reports the damage
         return None
