@@ -370,6 +370,7 @@ class Map(Generic[Report]):
         tz: ZoneLike | None = None,
         format: str | None = None,
         path: PairOf[PlaceLike] | None = None,
+        force: bool = False,
     ) -> list[Path]:
         """Write the scene (PLY or PCD) and ``entries.csv`` / ``entries.json`` at ``time``
         (or as observed) into ``folder``, optionally with the path planned between
@@ -380,7 +381,7 @@ class Map(Generic[Report]):
         node's metadata; as ``aion export --format dsg``). Without ``format``, ``folder``'s
         suffix chooses as in ``aion export``: ``.mcap``, ``.json`` / ``.sparkdsg``, ``.ply`` /
         ``.pcd`` (the whole scene as one file) (a ``.png`` is :meth:`picture`'s), else a ply
-        folder."""
+        folder. Files of aion's no export wrote there are replaced only with ``force``."""
         from aion_cli.api_make import warn_of
         from aion_cli.exports import cells_left_out, export_format, write_export
 
@@ -411,7 +412,7 @@ class Map(Generic[Report]):
                 hint="format='ply' or format='mcap' draws the path; "
                 "Map.picture(file, path=...) draws it as a PNG",
             )
-        written = write_export(self._loaded, label, out, times, zone, format, ends)
+        written = write_export(self._loaded, label, out, times, zone, format, ends, force=force)
         left_out = None if written.graph is None else cells_left_out(self._loaded, shown)
         warn_of([left_out[0]] if left_out is not None and left_out[1] else [], [])
         return written.files

@@ -8,7 +8,9 @@ Only files an export itself wrote go: every export into a folder records the fil
 :data:`MANIFEST` (:func:`record_written`), and a later export removes only files listed
 there that still hold the very bytes that were written (:func:`_still_written`). A scene that
 ``aion plan --export out/arrows.ply`` saved, a file the user put there or rewrote since, and
-every file of a folder with no manifest (an export of an earlier aion) stay.
+every file of a folder with no manifest (an export of an earlier aion) stay. Nor does an
+export replace a same-named file no export into the folder wrote (:func:`check_written_here`,
+:func:`replaceable`) unless forced, and then only a file of aion's (:func:`is_export_file`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import hashlib
 import json
 import os
 import re
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -130,6 +132,87 @@ def drop_stale_parts(
                 continue
             if _still_written(out_dir, _rel(out_dir, old), owned):
                 old.unlink()
+
+
+def replaceable(out_dir: Path, owned: Written, force: bool) -> Callable[[Path], bool]:
+    """Whether an export into ``out_dir`` may replace the same-named file it is given: one
+    an earlier export wrote there (``owned``, unchanged since); with ``force`` also any file
+    of aion's export kinds (:func:`is_export_file`: a scene ``aion plan --export`` saved
+    there, an export's file changed since, a file of a folder an aion exported into before
+    folders kept the list). Never a file of someone else's."""
+
+    def ours(path: Path) -> bool:
+        return _still_written(out_dir, _rel(out_dir, path), owned) or (
+            force and is_export_file(path)
+        )
+
+    return ours
+
+
+def check_names_free(out_dir: Path, folders: Sequence[str], fmt: str) -> None:
+    """Before any frame is computed: a file of someone else's (not aion's:
+    :func:`is_export_file`) in ``out_dir`` (or its subfolders ``folders``: a series' frames)
+    under a name the export may write refuses the export."""
+    from aion_cli.formats.export import SCENE_PARTS
+    from aion_cli.formats.outputs import check_replaceable
+
+    if not out_dir.is_dir():
+        return
+    names = [f"{part}.{fmt}" for part in SCENE_PARTS] + ["entries.csv", "entries.json"]
+    check_replaceable(
+        (out_dir / folder / name for folder in folders for name in names), is_export_file
+    )
+
+
+def check_written_here(out_dir: Path, paths: Iterable[Path], owned: Written, force: bool) -> None:
+    """Before the files an export staged (to go to ``paths`` in ``out_dir``) are moved in:
+    :class:`OutputPathError` for the first that would replace a file no export into
+    ``out_dir`` wrote (``owned``; a file of aion's, with ``force``: :func:`replaceable`),
+    naming it; the staged files are then discarded."""
+    from aion_cli.formats.outputs import OutputPathError, is_empty_file
+
+    ours = replaceable(out_dir, owned, force)
+    for dest in paths:
+        if os.path.lexists(dest) and not is_empty_file(dest) and not ours(dest):
+            raise OutputPathError(
+                f"{dest} exists and no export into {out_dir} wrote it (another aion "
+                "command's output, such as a scene `aion plan --export` saved, or an "
+                "export's file changed since): refusing to replace it; nothing was written",
+                hint="--force replaces it; or export into another folder",
+            )
+
+
+def is_export_file(path: Path) -> bool:
+    """Whether ``path`` is a file an export of aion wrote, which a new export may replace:
+    a PLY / PCD scene file with aion's marker (:mod:`formats.scene_files`), an
+    ``entries.csv`` beginning with the columns of ``aion predict``, an ``entries.json``
+    holding a predict document (:data:`PREDICT_KEYS`, its ``mode`` predicted or historical:
+    a file of the user's with a ``map`` and ``entries`` of its own is not one)."""
+    from aion_cli.formats.scene_files import is_aion_scene_file
+    from aion_cli.predictions import CSV_KEYS
+
+    if path.suffix.lower() in (".ply", ".pcd"):
+        return is_aion_scene_file(path)
+    try:
+        if path.name == "entries.csv":
+            with open(path, encoding="utf-8", errors="replace") as fh:
+                columns = fh.readline().rstrip("\r\n").split(",")
+            keys = [re.sub(r"_\d+$", "", c) for c in columns]  # histogram_0.. -> histogram
+            return [k for i, k in enumerate(keys) if i == 0 or k != keys[i - 1]] == CSV_KEYS
+        if path.name == "entries.json":  # the keys of predict's document, not any "map"
+            doc = json.loads(path.read_bytes())
+            return (
+                isinstance(doc, dict)
+                and doc.keys() >= PREDICT_KEYS
+                and doc["mode"] in ("predicted", "historical")
+            )
+    except (OSError, ValueError, RecursionError):
+        return False
+    return False
+
+
+PREDICT_KEYS = frozenset({"map", "mode", "time_ns", "bins", "bin_centres_deg", "entries"})
+"""Keys every ``aion predict`` JSON document holds (``predictions.document``)."""
 
 
 def record_written(out_dir: Path, owned: Written, written: Iterable[Path]) -> None:

@@ -9,8 +9,8 @@ export does not write are kept (but for the scene parts of the same format an ea
 wrote that this one does not, a path or the nodes of another map, and the frames of an
 earlier, longer series, which the hidden manifest ``.aion-export.json`` lists as an export's:
 :mod:`aion_cli.export_stale`), and a
-same-named file is replaced only when it is one an export wrote (:func:`is_export_file`):
-nothing is moved in otherwise.
+same-named file is replaced only when an export into ``OUT`` wrote it, or when forced and it
+is one of aion's (:func:`aion_cli.export_stale.replaceable`): nothing is moved in otherwise.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ def export_frames(
     on_frame: Callable[[], None] | None = None,
     *,
     series: bool = False,
+    force: bool = False,
 ) -> Exported:
     """Write one frame per time of ``times`` (None: historical) into ``out_dir``, with the
     path between ``ends`` (from :func:`path_ends`) drawn in each; the files written. A
@@ -48,23 +49,30 @@ def export_frames(
     the series expects), and removes the frames of an earlier series that this one does not
     write (``Exported.stale``); one time that is not a series goes straight into
     ``out_dir``. A series' spheres share one size scale (``scene_frames.series_flow_scale``,
-    as the MCAP and PNG series do), so a sphere that grows from frame to frame is busier."""
+    as the MCAP and PNG series do), so a sphere that grows from frame to frame is busier.
+    Same-named files are replaced only when an export into ``out_dir`` wrote them, or with
+    ``force`` when they are any of aion's (:func:`aion_cli.export_stale.replaceable`)."""
     from aion_cli.export_stale import (
         StaleFrames,
+        check_names_free,
+        check_written_here,
         drop_stale_frames,
         drop_stale_parts,
         read_written,
         record_written,
+        replaceable,
     )
     from aion_cli.scene_frames import series_flow_scale
 
     if not series and len(times) != 1:
         raise ValueError("times other than one are a series (a bug)")
     check_out_dir(out_dir)
-    _check_names_free(out_dir, [frame_name(t) for t in times] if series else [""], fmt)
+    owned = read_written(out_dir)  # what earlier exports wrote here: all they may replace
+    check_names_free(out_dir, [frame_name(t) for t in times] if series else [""], fmt)
     written: list[Path] = []
     scale = series_flow_scale(loaded, times) if series else None
-    with naming(out_dir), Staged(out_dir, merge=True, recognise=is_export_file) as staged:
+    ours = replaceable(out_dir, owned, force)
+    with naming(out_dir), Staged(out_dir, merge=True, recognise=ours) as staged:
         staged.path.mkdir()
         for t_ns in times:
             folder = staged.path / frame_name(t_ns) if series else staged.path
@@ -72,8 +80,8 @@ def export_frames(
             if on_frame is not None:
                 on_frame()
         moved = [out_dir / p.relative_to(staged.path) for p in written]
+        check_written_here(out_dir, moved, owned, force)  # before they are moved in
     folders = [out_dir / frame_name(t) for t in times] if series else [out_dir]
-    owned = read_written(out_dir)  # what earlier exports wrote here: all they may remove
     drop_stale_parts(out_dir, folders, fmt, moved, owned)
     names = {f.name for f in folders}
     stale = drop_stale_frames(out_dir, names, owned) if series else StaleFrames()
@@ -100,21 +108,6 @@ def naming(target: Path) -> Iterator[None]:
         raise
 
 
-def _check_names_free(out_dir: Path, folders: Sequence[str], fmt: str) -> None:
-    """Before any frame is computed: a file of someone else's in ``out_dir`` (or its
-    subfolders ``folders``: a series' frames) under a name the export may write refuses the
-    export (the staged commit checks the names it did write again)."""
-    from aion_cli.formats.export import SCENE_PARTS
-    from aion_cli.formats.outputs import check_replaceable
-
-    if not out_dir.is_dir():
-        return
-    names = [f"{part}.{fmt}" for part in SCENE_PARTS] + ["entries.csv", "entries.json"]
-    check_replaceable(
-        (out_dir / folder / name for folder in folders for name in names), is_export_file
-    )
-
-
 def check_out_dir(out_dir: Path) -> None:
     """OUT must be a folder or a new path in an existing folder: never a file, device, FIFO
     or socket (OUT itself is made; the folders above it are not)."""
@@ -135,42 +128,6 @@ def check_out_dir(out_dir: Path) -> None:
             hint="make the folder it points to, remove the link, or give another folder",
         )
     check_output_folder(out_dir)
-
-
-def is_export_file(path: Path) -> bool:
-    """Whether ``path`` is a file an export of aion wrote, which a new export may replace:
-    a PLY / PCD scene file with aion's marker (:mod:`formats.scene_files`), an
-    ``entries.csv`` beginning with the columns of ``aion predict``, an ``entries.json``
-    holding a predict document (:data:`PREDICT_KEYS`, its ``mode`` predicted or historical:
-    a file of the user's with a ``map`` and ``entries`` of its own is not one)."""
-    import json
-    import re
-
-    from aion_cli.formats.scene_files import is_aion_scene_file
-    from aion_cli.predictions import CSV_KEYS
-
-    if path.suffix.lower() in (".ply", ".pcd"):
-        return is_aion_scene_file(path)
-    try:
-        if path.name == "entries.csv":
-            with open(path, encoding="utf-8", errors="replace") as fh:
-                columns = fh.readline().rstrip("\r\n").split(",")
-            keys = [re.sub(r"_\d+$", "", c) for c in columns]  # histogram_0.. -> histogram
-            return [k for i, k in enumerate(keys) if i == 0 or k != keys[i - 1]] == CSV_KEYS
-        if path.name == "entries.json":  # the keys of predict's document, not any "map"
-            doc = json.loads(path.read_bytes())
-            return (
-                isinstance(doc, dict)
-                and doc.keys() >= PREDICT_KEYS
-                and doc["mode"] in ("predicted", "historical")
-            )
-    except (OSError, ValueError, RecursionError):
-        return False
-    return False
-
-
-PREDICT_KEYS = frozenset({"map", "mode", "time_ns", "bins", "bin_centres_deg", "entries"})
-"""Keys every ``aion predict`` JSON document holds (``predictions.document``)."""
 
 
 def frame_name(t_ns: int | None) -> str:
@@ -450,6 +407,7 @@ def write_export(
     on_frame: Callable[[], None] | None = None,
     *,
     series: bool = False,
+    force: bool = False,
 ) -> Exported:
     """Write the export of ``fmt`` (:func:`export_format`) at ``times`` to ``out``: the
     scene graph, a picture, an MCAP series, one scene file or a folder of frames, named
@@ -481,7 +439,9 @@ def write_export(
             if on_frame is not None:
                 on_frame()
             return Exported([written])
-        return export_frames(loaded, label, out, times, zone, fmt, ends, on_frame, series=series)
+        return export_frames(
+            loaded, label, out, times, zone, fmt, ends, on_frame, series=series, force=force
+        )
 
 
 def _into(out: Path, fmt: str) -> bool:

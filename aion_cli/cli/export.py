@@ -120,6 +120,12 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     shell_complete=complete_nodes,
 )
 @click.option("--path-to", metavar="B", help="... to B.", shell_complete=complete_nodes)
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Also replace aion's files in OUT that no export into it wrote (a scene 'aion plan "
+    "--export' saved there, an export's file changed since); never other files.",
+)
 @quiet_option
 def command(
     map_path: Path,
@@ -133,6 +139,7 @@ def command(
     fmt: str | None,
     path_from: str | None,
     path_to: str | None,
+    force: bool,
 ) -> None:
     """Export MAP as 3D scenes (PLY/PCD, MCAP over time), pictures (PNG) and tables (CSV/JSON)."""
     from aion_cli.cli.common import load
@@ -205,7 +212,7 @@ def command(
         task = bar.add_task("exporting", total=len(times), unit="times")
         written = write_export(
             loaded, map_path, out_dir, times, zone, fmt, ends, lambda: bar.advance(task),
-            series=series,
+            series=series, force=force,
         )  # fmt: skip
     if zone is not None and times[0] is not None:
         label = f"series of {len(times)} from" if series else "time"

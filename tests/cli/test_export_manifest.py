@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tests.cli.conftest import Office, run
+from tests.cli.conftest import Office, assert_one_line_error, run
 
 AT = "2026-11-23 08:30"
 
@@ -75,3 +75,57 @@ def test_an_export_removes_its_own_stale_parts_not_a_plan_scene_written_over_one
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
         "arrows.ply", "cells.ply", "entries.csv", "entries.json", "scene.ply",
     ]  # fmt: skip
+
+
+def test_an_export_refuses_to_replace_a_plan_scene_unless_forced(
+    office: Office, tmp_path: Path
+) -> None:
+    """``aion plan --export out/arrows.ply`` then ``aion export -o out/`` (which draws
+    arrows): the plan's scene was replaced by the export's arrows, exit 0. Now refused,
+    naming the file, nothing written; ``--force`` replaces it with the export's arrows (as
+    a fresh folder's); a later export replaces the files an export wrote, as before."""
+    fresh = tmp_path / "fresh"
+    assert run("export", office.map, "--time", AT, "-o", fresh, "-q").exit_code == 0
+    out = tmp_path / "out"
+    out.mkdir()
+    scene = out / "arrows.ply"
+    plan = ["plan", office.map, "--from", "p0", "--to", "p4", "--time", AT, "--export", scene]
+    assert run(*plan).exit_code == 0
+    before = scene.read_bytes()
+    assert before != (fresh / "arrows.ply").read_bytes()
+    result = run("export", office.map, "--time", AT, "-o", out)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, str(scene), "no export into", "nothing was written")
+    assert "--force" in result.stderr
+    assert scene.read_bytes() == before
+    assert sorted(p.name for p in out.iterdir()) == ["arrows.ply"]  # nothing else written
+    forced = run("export", office.map, "--time", AT, "-o", out, "--force", "-q")
+    assert forced.exit_code == 0, forced.stderr
+    assert scene.read_bytes() == (fresh / "arrows.ply").read_bytes()
+    again = run("export", office.map, "--time", AT, "-o", out, "-q")  # its own files now
+    assert again.exit_code == 0, again.stderr
+    assert scene.read_bytes() == (fresh / "arrows.ply").read_bytes()
+
+
+def test_an_export_file_changed_since_is_refused_and_a_users_file_even_forced(
+    office: Office, tmp_path: Path
+) -> None:
+    """A file an export wrote but someone changed since is no longer the export's: refused
+    without --force. A file that is not aion's at all is refused even with --force."""
+    out = tmp_path / "out"
+    assert run("export", office.map, "--time", AT, "-o", out, "-q").exit_code == 0
+    nodes = out / "nodes.ply"
+    nodes.write_bytes(nodes.read_bytes() + b"\n")
+    changed = nodes.read_bytes()
+    result = run("export", office.map, "--time", AT, "-o", out)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, str(nodes), "no export into")
+    assert nodes.read_bytes() == changed
+    assert run("export", office.map, "--time", AT, "-o", out, "--force", "-q").exit_code == 0
+    assert nodes.read_bytes() != changed
+    mine = out / "edges.ply"
+    mine.write_text("my own notes\n")
+    result = run("export", office.map, "--time", AT, "-o", out, "--force")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, str(mine), "not a file aion wrote")
+    assert mine.read_text() == "my own notes\n"
