@@ -174,10 +174,16 @@ def check_written_here(out_dir: Path, paths: Iterable[Path], owned: Written, for
     ours = replaceable(out_dir, owned, force)
     for dest in paths:
         if os.path.lexists(dest) and not is_empty_file(dest) and not ours(dest):
+            why = (
+                "another aion command's output, such as a scene `aion plan --export` saved, "
+                "or an export's file changed since"
+                if (out_dir / MANIFEST).exists()
+                else f"{out_dir} has no {MANIFEST}, the list of files exports wrote there: "
+                "another command's output, or an export of an aion older than the list"
+            )
             raise OutputPathError(
-                f"{dest} exists and no export into {out_dir} wrote it (another aion "
-                "command's output, such as a scene `aion plan --export` saved, or an "
-                "export's file changed since): refusing to replace it; nothing was written",
+                f"{dest} exists and no export into {out_dir} wrote it ({why}): refusing to "
+                "replace it; nothing was written",
                 hint="--force replaces it; or export into another folder",
             )
 

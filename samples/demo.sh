@@ -9,6 +9,7 @@ LOG="$HERE/office.mcap"
 MAP="$OUT/office.aion"
 mkdir -p "$OUT"
 rm -f "$MAP"
+rm -rf "$OUT/export"  # the demo writes it afresh (an export replaces only its own files)
 
 step() { printf '\n\033[1m$ %s\033[0m\n' "$*"; "$@"; }
 

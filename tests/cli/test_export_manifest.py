@@ -129,3 +129,20 @@ def test_an_export_file_changed_since_is_refused_and_a_users_file_even_forced(
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, str(mine), "not a file aion wrote")
     assert mine.read_text() == "my own notes\n"
+
+
+def test_a_folder_an_older_aion_exported_into_says_so_and_force_takes_it_over(
+    office: Office, tmp_path: Path
+) -> None:
+    """A folder exported into before exports kept their list (no manifest): the refusal
+    says the list is missing (not that another command wrote the files); --force replaces
+    aion's files once, and the folder then has its list (a plain export works again)."""
+    out = tmp_path / "out"
+    assert run("export", office.map, "--time", AT, "-o", out, "-q").exit_code == 0
+    (out / ".aion-export.json").unlink()  # as an older aion left it
+    result = run("export", office.map, "--time", AT, "-o", out)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "no export into", "has no .aion-export.json")
+    assert run("export", office.map, "--time", AT, "-o", out, "--force", "-q").exit_code == 0
+    assert (out / ".aion-export.json").is_file()
+    assert run("export", office.map, "--time", AT, "-o", out, "-q").exit_code == 0
