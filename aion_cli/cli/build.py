@@ -14,6 +14,7 @@ from aion_cli.cli.common import (
     base_frame_option,
     detections_mapping_option,
     graph_topic_option,
+    load_config,
     log_format_option,
     map_frame_option,
     quiet_option,
@@ -122,19 +123,6 @@ class _RichProgress:
         task = self.__dict__.get("_parts", {}).get(key)
         if task is not None:
             self._progress.advance(task, n)
-
-
-def _load_config(path: Path | None) -> Any:
-    from aion_cli.engine.config import ModelConfig
-    from aion_cli.errors import ConfigError
-
-    if path is None:
-        return None
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"cannot read config file {path}: {exc.strerror}") from exc
-    return ModelConfig.from_toml_text(text)
 
 
 @click.command(
@@ -299,7 +287,7 @@ def command(
 
     if print_config and fmt == "json":  # a script would get TOML, not JSON
         raise InputError("--print-config prints TOML, not JSON", hint="leave out --format json")
-    config = _load_config(config_file)
+    config = load_config(config_file)
     if print_config:
         click.echo((config or ModelConfig()).to_toml(), nl=False)
         return

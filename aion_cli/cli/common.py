@@ -183,6 +183,22 @@ def load(map_path: Path) -> Any:
     return load_map(map_path, forecast_only=True)
 
 
+def load_config(path: Path | None) -> Any:
+    """The ``ModelConfig`` of ``--config FILE`` (None without one); a file that cannot be
+    read, is not TOML text or holds bad parameters is a ``ConfigError`` (build, evaluate)."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.formats.toml_files import read_toml_text
+
+    if path is None:
+        return None
+    text = read_toml_text(
+        path,
+        "config file",
+        hint="aion build --print-config > model.toml writes a valid file to edit",
+    )
+    return ModelConfig.from_toml_text(text)
+
+
 def series_of(
     t_from: str, t_to: str, step: str, tz: str | None, loaded: Any, noun: str = "times"
 ) -> tuple[list[int], Zone]:

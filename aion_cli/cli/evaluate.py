@@ -16,6 +16,7 @@ from aion_cli.cli.common import (
     base_frame_option,
     detections_mapping_option,
     graph_topic_option,
+    load_config,
     log_format_option,
     map_frame_option,
     quiet_option,
@@ -51,11 +52,10 @@ def _data(data_dir: Path | None, sub: str = "") -> Path:
 
 
 def _config(path: Path | None) -> Any:
+    """``--config FILE`` read as ``aion build`` reads it, else the defaults."""
     from aion_cli.engine.config import ModelConfig
 
-    if path is None:
-        return ModelConfig()
-    return ModelConfig.from_toml_text(path.read_text())
+    return load_config(path) or ModelConfig()
 
 
 def _day(text: str) -> str:
@@ -250,7 +250,7 @@ def lincoln(
     from aion_cli.cli.console import note, warn
     from aion_cli.evaluation.lincoln import TEST_DAY, TRAIN_DAYS, ZONE, run_lincoln
 
-    config = None if config_path is None else _config(config_path)
+    config = load_config(config_path)
     train: tuple[str, ...] = TRAIN_DAYS
     if train_days is not None:
         train = tuple(d.strip() for d in train_days.split(",") if d.strip())

@@ -56,6 +56,7 @@ from aion_cli.formats.detections.adapter import DetectionAdapter
 from aion_cli.formats.detections.generic import ItemSpec, Keep
 from aion_cli.formats.detections.paths import FieldPath
 from aion_cli.formats.raw import normalize_msgtype
+from aion_cli.formats.toml_files import read_toml_text
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -169,13 +170,11 @@ class TopicMapping:
 def load_mapping(source: str | Path) -> list[TopicMapping]:
     """Parse a mapping file (a path) or TOML text; :class:`ConfigError` on any problem."""
     if isinstance(source, Path):
-        try:
-            text = source.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise ConfigError(
-                f"cannot read mapping file {source}: {exc.strerror}",
-                hint="check the path; `aion info LOG --suggest-mapping TOPIC > FILE` writes one",
-            ) from exc
+        text = read_toml_text(
+            source,
+            "mapping file",
+            hint="check the path; `aion info LOG --suggest-mapping TOPIC > FILE` writes one",
+        )
         where = str(source)
     else:
         text, where = source, "mapping"
