@@ -258,6 +258,32 @@ def scene_config(scene_days: float, agents: int, seed: int) -> Any:
     return ScenarioConfig(days=scene_days, agents=agents, seed=seed, frame="map")
 
 
+def scene_files(work: Path, scene: int) -> list[Path]:
+    """The files a scene writes into the work folder: its log, the log's truth files and
+    its map."""
+    from aion_cli.sim.ground_truth import truth_paths
+
+    log = work / f"scene_{scene:02d}.mcap"
+    return [log, *truth_paths(log), work / f"scene_{scene:02d}.aion"]
+
+
+def check_kept_files(work: Path, scenes: int) -> None:
+    """:class:`~aion_cli.formats.outputs.OutputPathError` when the ``--keep`` folder holds a
+    file the run would write (an earlier run's scenes): said before anything is simulated,
+    naming the option it has (``evaluate office`` has no ``--force``)."""
+    from aion_cli.formats.outputs import OutputPathError
+
+    there = [
+        p for s in range(scenes) for p in scene_files(work, s) if p.exists() or p.is_symlink()
+    ]
+    if there:
+        more = f" and {len(there) - 1:,} more of the files this run writes" * (len(there) > 1)
+        raise OutputPathError(
+            f"--keep {work} holds {there[0].name}{more} (an earlier run's scenes?)",
+            hint="give --keep a new or empty folder, or remove its scene_* files first",
+        )
+
+
 def run_scene(
     scene: int,
     days: float,
@@ -278,7 +304,7 @@ def run_scene(
 
     sim = scene_config(days, agents, seed)
     env = load_environment(sim)
-    log = work / f"scene_{scene:02d}.mcap"
+    log, *_truth, out = scene_files(work, scene)
     written = write_scene(sim, env, scene, log)
     if not written.meta.get("detections"):
         from aion_cli.errors import InputError
@@ -290,7 +316,7 @@ def run_scene(
         )
     data = build_scene(sim, env, scene)
     report = build_map(
-        BuildOptions(logs=(log,), output=work / f"scene_{scene:02d}.aion", config=config)
+        BuildOptions(logs=(log,), output=out, config=config)
     )
     state = load_map(report.output).state
     batch = _detections(data)
@@ -427,6 +453,8 @@ def run_office(
     with tempfile.TemporaryDirectory(prefix="aion-office-") as tmp:
         work = Path(work_dir) if work_dir is not None else Path(tmp)
         check_output_folder(work, f"--keep {work}")  # --keep's folder is made, not those above
+        if work_dir is not None:
+            check_kept_files(work, scenes)  # before the first scene, not at the one it holds
         work.mkdir(exist_ok=True)
         for scene in range(scenes):
             say(f"scene {scene + 1}/{scenes}: simulate, build, compare")

@@ -239,3 +239,25 @@ def test_one_scene_prints_no_zero_spread_and_no_negative_zero() -> None:
                                       "entropy_bias": zero}])
     assert said.endswith("aion historical JS 0.300, dominant 0.0 deg, entropy 0.000 (+0.000)")
     assert "correlates 0.000 with" in truth_sentence({"flow_correlation": -0.0001})
+
+
+def test_a_keep_folder_of_an_earlier_run_is_refused_before_any_scene(tmp_path: Path) -> None:
+    """A second ``evaluate office --keep DIR`` into the same folder simulated and built every
+    scene before the first one it held, then failed with a hint to ``add --force``, which
+    evaluate office does not have. Now it is refused first, with a way out it has."""
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    earlier = kept / "scene_01.mcap"
+    earlier.write_bytes(b"an earlier run's log")
+    result = CliRunner().invoke(
+        cli, ["evaluate", "office", "--scenes", "2", "--days", "0.5", "--keep", str(kept)]
+    )
+    assert result.exit_code == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert lines[0] == f"error: --keep {kept} holds scene_01.mcap (an earlier run's scenes?)"
+    assert lines[1].startswith("hint: ")
+    assert "--force" not in lines[1]
+    assert sorted(p.name for p in kept.iterdir()) == ["scene_01.mcap"]  # nothing simulated
+    assert earlier.read_bytes() == b"an earlier run's log"
+    help_text = CliRunner().invoke(cli, ["evaluate", "office", "--help"]).stdout
+    assert set(re.findall(r"--[a-z-]+", lines[1])) <= set(re.findall(r"--[a-z-]+", help_text))
