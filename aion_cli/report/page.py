@@ -15,6 +15,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from aion_cli.formats.outputs import safe_text
+from aion_cli.merge_names import shown_names
 from aion_cli.number_text import fixed, span_text
 from aion_cli.report.content import ReportContent
 from aion_cli.timeparse import Zone, format_ns
@@ -150,9 +151,10 @@ def _holdings(c: ReportContent) -> list[str]:
         ("map time zone", s.get("timezone") or "not set (queries use the local zone)"),
         ("config", ", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults"),
     ]
-    inputs = [
-        (i.get("name"), size_text(int(i.get("size", 0))), str(i.get("sha256", ""))[:12])
-        for i in s.get("inputs", [])
+    logs = s.get("inputs", [])
+    inputs = [  # named as aion info names them: by path where two share a file name
+        (shown, size_text(int(i.get("size", 0))), str(i.get("sha256", ""))[:12])
+        for i, shown in zip(logs, shown_names(logs), strict=True)
     ]
     families = s.get("families") or {}
     flow, direction = families.get("flow") or {}, families.get("direction") or {}
