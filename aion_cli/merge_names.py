@@ -40,3 +40,17 @@ def shown_names(entries: Sequence[Mapping[str, Any]]) -> list[str]:
     shared = shared_names(str(e["name"]) for e in entries)
     return [str(e.get("path") or e["name"]) if e["name"] in shared else str(e["name"])
             for e in entries]
+
+
+LINEAGES = {
+    "same": "one scene-graph session: nodes joined by id",
+    "different": "different scene-graph sessions: re-bound by position",
+}
+"""How ``aion merge`` joined its maps (the manifest's ``lineage``), in words."""
+
+
+def merged_from_text(count: int, lineage: object) -> str:
+    """How a merged map was made, as ``aion info`` and ``aion report`` say it: ``2 maps by
+    aion merge (one scene-graph session: nodes joined by id)``."""
+    how = LINEAGES.get(str(lineage), f"lineage {lineage}")
+    return f"{count:,} map{'' if count == 1 else 's'} by aion merge ({how})"

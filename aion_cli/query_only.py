@@ -77,6 +77,14 @@ def made_from(record: dict[str, Any]) -> str | None:
     return name if isinstance(name, str) else None
 
 
+def query_only_text(record: dict[str, Any]) -> str:
+    """What a query-only map is, as ``aion info`` and ``aion report`` say it."""
+    return (
+        f"made from {made_from(record) or '?'} by aion compact: answers queries, cannot be "
+        "continued or merged"
+    )
+
+
 def refuse_learning(path: Path, record: dict[str, Any] | None, what: str) -> None:
     """:class:`MapFileError` when the map at ``path`` is query-only (``record``, its
     :func:`query_only_of`): it cannot be ``what`` (continued, merged), its Fourier sums were

@@ -147,21 +147,14 @@ def print_map(report: dict[str, Any]) -> None:
     table.add_row("observation", safe(report.get("observation")))
     merged = report.get("merged_from") or []
     if merged:  # how the maps were joined here; which maps, one row each below the inputs
-        lineage = {
-            "same": "one scene-graph session: nodes joined by id",
-            "different": "different scene-graph sessions: re-bound by position",
-        }.get(str(report.get("lineage")), f"lineage {report.get('lineage')}")
-        count = f"{len(merged):,} map{'' if len(merged) == 1 else 's'}"
-        table.add_row("merged from", safe(f"{count} by aion merge ({lineage})"))
+        from aion_cli.merge_names import merged_from_text
+
+        table.add_row("merged from", safe(merged_from_text(len(merged), report.get("lineage"))))
     query_only = report.get("query_only")
     if isinstance(query_only, dict):
-        from aion_cli.query_only import made_from
+        from aion_cli.query_only import query_only_text
 
-        table.add_row(
-            "query only",
-            safe(f"made from {made_from(query_only) or '?'} by aion compact: answers queries, "
-                 "cannot be continued or merged"),
-        )
+        table.add_row("query only", safe(query_only_text(query_only)))
     part = report.get("part")
     if isinstance(part, dict):
         held = int(part.get("held_days", 0))

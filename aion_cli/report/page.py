@@ -148,6 +148,7 @@ def _holdings(c: ReportContent) -> list[str]:
         ),
         ("observation", s.get("observation", "-")),
         ("scene graph", s.get("graph_source", "-")),
+        *_made_by(s),
         ("map time zone", s.get("timezone") or "not set (queries use the local zone)"),
         ("config", ", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults"),
     ]
@@ -155,6 +156,11 @@ def _holdings(c: ReportContent) -> list[str]:
     inputs = [  # named as aion info names them: by path where two share a file name
         (shown, size_text(int(i.get("size", 0))), str(i.get("sha256", ""))[:12])
         for i, shown in zip(logs, shown_names(logs), strict=True)
+    ]
+    maps = s.get("merged_from") or []
+    merged = [  # the maps aion merge joined, as aion info lists them
+        (shown, size_text(int(m.get("size", 0))), str(m.get("sha256", ""))[:12])
+        for m, shown in zip(maps, shown_names(maps), strict=True)
     ]
     families = s.get("families") or {}
     flow, direction = families.get("flow") or {}, families.get("direction") or {}
@@ -168,6 +174,8 @@ def _holdings(c: ReportContent) -> list[str]:
         "</div></div>",
         "<h3>Inputs</h3>",
         _table(("log", "size", "sha256"), inputs, "inputs", {1}),
+        *(["<p>Merged from these maps:</p>", _table(("map", "size", "sha256"), merged, "merged",
+                                                    {1})] if merged else []),
         "<h3>Temporal model families</h3>",
         "<p>How many entries each family forecasts (as <code>aion info</code> shows them): "
         "the flow (how many people) and the direction histogram are chosen separately, per "
@@ -183,6 +191,20 @@ def _holdings(c: ReportContent) -> list[str]:
         reconciled = "yes" if families.get("reconciled") else "no"
         out.append(f"<p>Totals reconciled to the map's own forecast: {reconciled}.</p>")
     return out
+
+
+def _made_by(s: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """The facts rows of a merged map (``merged from``) and a query-only one (``query
+    only``), worded as ``aion info`` words them."""
+    from aion_cli.merge_names import merged_from_text
+    from aion_cli.query_only import query_only_text
+
+    rows = []
+    if s.get("merged_from"):
+        rows.append(("merged from", merged_from_text(len(s["merged_from"]), s.get("lineage"))))
+    if isinstance(s.get("query_only"), dict):
+        rows.append(("query only", query_only_text(s["query_only"])))
+    return rows
 
 
 def _observed(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
