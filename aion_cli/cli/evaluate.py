@@ -44,11 +44,25 @@ def shared_data() -> Path:
     return beside if beside.is_dir() else here
 
 
+DATA_FILES = {"atc": "atc-1024-*.csv", "lincoln": "2017-*", "fremen_door": "training_data.txt"}
+"""A file each dataset's folder holds (``--data`` of ``evaluate atc``, ``lincoln``, ``door``)."""
+
+
 def _data(data_dir: Path | None, sub: str = "") -> Path:
-    """``--data`` as given, else the shared data's ``sub`` folder."""
-    if data_dir is not None:
-        return data_dir
-    return shared_data() / sub if sub else shared_data()
+    """``--data`` as given, else the shared data's ``sub`` folder. The shared data folder
+    itself given to a command that reads one of its folders (``evaluate report --data``
+    takes it) is refused with the folder to give."""
+    from aion_cli.errors import InputError
+
+    if data_dir is None:
+        return shared_data() / sub if sub else shared_data()
+    if sub and (data_dir / sub).is_dir() and not any(data_dir.glob(DATA_FILES[sub])):
+        raise InputError(
+            f"--data {data_dir} is the shared data folder (it holds {sub}/, not the files "
+            "in it): this command reads the dataset's own folder",
+            hint=f"give --data {data_dir / sub} (only evaluate report takes the shared folder)",
+        )
+    return data_dir
 
 
 def _config(path: Path | None) -> Any:

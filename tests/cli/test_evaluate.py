@@ -261,3 +261,23 @@ def test_a_keep_folder_of_an_earlier_run_is_refused_before_any_scene(tmp_path: P
     assert earlier.read_bytes() == b"an earlier run's log"
     help_text = CliRunner().invoke(cli, ["evaluate", "office", "--help"]).stdout
     assert set(re.findall(r"--[a-z-]+", lines[1])) <= set(re.findall(r"--[a-z-]+", help_text))
+
+
+@pytest.mark.parametrize(
+    ("command", "sub"), [("atc", "atc"), ("lincoln", "lincoln"), ("door", "fremen_door")]
+)
+def test_the_shared_data_folder_as_a_datasets_data_names_the_folder_to_give(
+    tmp_path: Path, command: str, sub: str
+) -> None:
+    """``evaluate report --data`` takes the shared folder, the others the dataset's own: the
+    shared one given to them said 'no ATC files ... hint: check the path and its
+    permissions' (door: 'training_data.txt not found, pass the folder with --data')."""
+    for name in ("atc", "lincoln", "fremen_door"):
+        (tmp_path / name).mkdir()
+    result = CliRunner().invoke(cli, ["evaluate", command, "--data", str(tmp_path)])
+    assert result.exit_code == 2, result.stderr
+    error, hint = result.stderr.strip().splitlines()
+    assert error.startswith(f"error: --data {tmp_path} is the shared data folder")
+    assert hint == (
+        f"hint: give --data {tmp_path / sub} (only evaluate report takes the shared folder)"
+    )
