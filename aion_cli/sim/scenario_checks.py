@@ -71,6 +71,11 @@ def validate_scenario(config: ScenarioConfig) -> None:
         ),
         (config.patrol.sensor_range > 0, "the sensor range must be positive"),
         (
+            bool(config.environment.strip()),
+            "--environment is empty (an unset shell variable?): give office or a scene-graph "
+            "file",
+        ),
+        (
             config.nav_layer is None or config.environment != "office",
             "--nav-layer needs a scene-graph file as --environment",
         ),

@@ -321,3 +321,15 @@ def test_a_parked_robots_tf_gap_aion_would_not_bridge_is_refused(tmp_path: Path)
         log = tmp_path / f"ok{len(extra)}.mcap"
         code, output = _run("simulate", "-o", log, "--quiet", "--days", "0.01", *extra)
         assert code == 0, (extra, output)
+
+
+@pytest.mark.parametrize("value", ["", "  "])
+def test_an_empty_environment_says_so(tmp_path: Path, value: str) -> None:
+    """``--environment "$DSG"`` with the variable unset said 'scene-graph file not found: .'
+    (the current folder), which names no file the user gave."""
+    result = CliRunner().invoke(
+        cli, ["simulate", "-o", str(tmp_path / "x.mcap"), "--environment", value]
+    )
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "--environment is empty (an unset shell variable?)")
+    assert list(tmp_path.iterdir()) == []
