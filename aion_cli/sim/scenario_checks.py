@@ -39,7 +39,7 @@ def validate_scenario(config: ScenarioConfig) -> None:
     )  # fmt: skip
     checks = [
         (config.days > 0, "--days must be positive"),
-        (0 <= config.seed < 2**63, "--seed must be a whole number from 0"),
+        (0 <= config.seed < 2**63, f"--seed must be a whole number 0 .. {2**63 - 1}"),
         (0 <= config.agents <= MAX_AGENTS, f"--agents must be 0 .. {MAX_AGENTS}"),
         (1 <= config.scenes <= MAX_SCENES, f"--scenes must be 1 .. {MAX_SCENES}"),
         (0.01 <= config.rate_hz <= 100.0, "--rate must be 0.01 .. 100 Hz"),

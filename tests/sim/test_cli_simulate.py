@@ -333,3 +333,11 @@ def test_an_empty_environment_says_so(tmp_path: Path, value: str) -> None:
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, "--environment is empty (an unset shell variable?)")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("seed", ["-1", "9223372036854775808", "99999999999999999999"])
+def test_a_seed_out_of_range_names_the_range(tmp_path: Path, seed: str) -> None:
+    """A seed too large was told it 'must be a whole number from 0', which it is."""
+    result = CliRunner().invoke(cli, ["simulate", "-o", str(tmp_path / "x.mcap"), "--seed", seed])
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, f"--seed must be a whole number 0 .. {2**63 - 1}")
