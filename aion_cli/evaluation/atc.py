@@ -159,7 +159,9 @@ def run_atc(
     result = AtcResult(protocol, radius, len(train))
     result.sizes = {name: size for name, (_, size) in models.items()}
     for hour, test in tests.items():
-        say(f"scoring {hour}:00 ({len(test):,} detections)")
+        headed = int(np.count_nonzero(np.isfinite(test.heading)))  # what the scores count
+        unheaded = f", {headed:,} of them with a heading" if headed < len(test) else ""
+        say(f"scoring {hour}:00 ({len(test):,} detections{unheaded})")
         for model, _size in models.values():
             score = score_headings(model, test, cfg.bins, window_s=cfg.window_s)
             result.rows.append({"hour": hour, **score.to_dict()})

@@ -47,3 +47,20 @@ def test_a_folder_with_both_still_evaluates(tmp_path: Path) -> None:
     result = run("evaluate", "atc", "--data", tmp_path, "--format", "json", "-q")
     assert result.exit_code == 0, result.stderr
     assert '"per_hour"' in result.stdout
+
+
+def test_the_progress_counts_the_detections_the_table_scores(tmp_path: Path) -> None:
+    """A test row of speed 0 has no heading and is not scored: the progress said 'scoring
+    9:00 (30 detections)' above a table of 29 (real data: hour 20, 1,332 and 1,331)."""
+    from aion_cli.evaluation.atc import run_atc
+
+    for split in ("train", "test"):
+        _atc(tmp_path, 9, split)
+    test = tmp_path / "atc-1024-9_test.csv"
+    rows = test.read_text().splitlines()
+    rows[5] = ",".join([*rows[5].split(",")[:4], "0.0", "0.0"])  # standing: no heading
+    test.write_text("\n".join(rows) + "\n")
+    said: list[str] = []
+    result = run_atc(tmp_path, "random", progress=said.append)
+    assert "scoring 9:00 (30 detections, 29 of them with a heading)" in said
+    assert {row["detections"] for row in result.rows} == {29}
