@@ -19,6 +19,17 @@ from aion_cli.evaluation import plots
 from aion_cli.evaluation.office_directions import DIRECTION_METRICS
 from aion_cli.number_text import fixed, mean_spread
 
+TITLE = "# aion evaluation report"
+REPORT_MD, RESULTS_JSON = "report.md", "results.json"
+ATC_PNG = "atc_{}_nll.png"
+PICTURES = {
+    "office": ("office_directions.png",),
+    "atc": tuple(ATC_PNG.format(protocol) for protocol in ("random", "chronological")),
+    "lincoln": ("lincoln_hourly.png",),
+    "door": ("door.png",),
+}
+"""The files a report writes: its markdown, its JSON and each section's pictures."""
+
 
 def _num(value: Any, digits: int = 3) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
@@ -92,7 +103,7 @@ def office_section(result: Any, out_dir: Path, scenes: int, days: float) -> list
         png = plots.flow_maps_side_by_side(
             fig["centres"], fig["grid"].angle, fig["grid"].flow,
             fig["centres"], fig["aion"].angle, fig["aion"].flow,
-            out_dir / "office_directions.png", "Dominant directions, scene 0 (historical)",
+            out_dir / PICTURES["office"][0], "Dominant directions, scene 0 (historical)",
         )
         lines += [f"![grid vs aion]({png.name})", ""]
     return lines
@@ -115,7 +126,7 @@ def atc_section(results: dict[str, Any], out_dir: Path) -> list[str]:
         ]
         lines += _table(["model", "detections", "unmatched", "NLL matched", "NLL all", "chi²"],
                         rows)
-        png = plots.nll_per_hour(result.rows, out_dir / f"atc_{protocol}_nll.png",
+        png = plots.nll_per_hour(result.rows, out_dir / ATC_PNG.format(protocol),
                                  f"ATC, {protocol} protocol")
         lines += ["", f"![NLL per hour]({png.name})", ""]
     return lines
@@ -127,7 +138,7 @@ def door_section(result: dict[str, Any], out_dir: Path) -> list[str]:
          _num(w["mae_profile"], 4), _num(w["mae_chosen"], 4)]
         for w in result["weeks"]
     ]
-    png = plots.door_weeks(result["weeks"], out_dir / "door.png", result["chosen_family"])
+    png = plots.door_weeks(result["weeks"], out_dir / PICTURES["door"][0], result["chosen_family"])
     return [
         "## FreMEn on the real door signal — `aion evaluate door`",
         "",
@@ -156,7 +167,7 @@ def lincoln_section(result: Any, out_dir: Path) -> list[str]:
         for a in result.activity
     ]
     png = plots.hourly_activity(
-        result.hours, result.series, out_dir / "lincoln_hourly.png",
+        result.hours, result.series, out_dir / PICTURES["lincoln"][0],
         "Lincoln corridor, 2017-06-09: detections per hour",
     )
     flows = ", ".join(f"{k} {v:,}" for k, v in sorted(result.families["flow"].items()))
@@ -213,9 +224,15 @@ def write_report(
                 hint=f"pass the shared data folder with --data, or --skip {section}",
             )
     check_output_folder(out_dir)  # the report's folder is made, not those above
+    if out_dir.is_dir():  # someone's own file under a name the report writes: refused first
+        from aion_cli.formats.outputs import check_replaceable
+
+        names = [REPORT_MD, RESULTS_JSON]
+        names += [png for section, pngs in PICTURES.items() if section not in skip for png in pngs]
+        check_replaceable((out_dir / name for name in names), is_evaluation_file)
     say = progress or (lambda _m: None)
     out_dir.mkdir(exist_ok=True)
-    lines = ["# aion evaluation report", ""]
+    lines = [TITLE, ""]
     payload: dict[str, Any] = {}
     if "office" not in skip:
         say("office: the paper's comparison")
@@ -241,9 +258,27 @@ def write_report(
         door = run_door(data_dir / "fremen_door")
         lines += door_section(door, out_dir)
         payload["door"] = door
-    path = out_dir / "report.md"
+    path = out_dir / REPORT_MD
     path.write_text("\n".join(lines) + "\n")
     from aion_cli.formats.serialize import clean
 
-    (out_dir / "results.json").write_text(json.dumps(clean(payload), indent=1))
+    (out_dir / RESULTS_JSON).write_text(json.dumps(clean(payload), indent=1))
     return path
+
+
+def is_evaluation_file(path: Path) -> bool:
+    """Whether ``path`` is a file an evaluation report wrote, which a new one may replace: its
+    markdown (its title line), its JSON (an object of the report's sections) or a picture
+    aion drew."""
+    from aion_cli.pictures.png_mark import is_aion_png
+
+    try:
+        if path.suffix.lower() == ".png":
+            return is_aion_png(path)
+        with open(path, "rb") as fh:
+            if path.name == REPORT_MD:
+                return fh.read(len(TITLE.encode())) == TITLE.encode()
+            payload = json.loads(fh.read(1 << 28))
+    except (OSError, ValueError):  # unreadable, not JSON (UnicodeDecodeError included)
+        return False
+    return isinstance(payload, dict) and set(payload) <= set(PICTURES)

@@ -56,3 +56,40 @@ def test_a_report_that_cannot_be_made_writes_nothing(
     with pytest.raises(InputError, match=fragment):
         write_report(out, data, scenes=1, **kwargs)  # type: ignore[arg-type]
     assert not out.exists()  # no empty folder left behind
+
+
+@pytest.mark.parametrize(
+    ("name", "content"),
+    [
+        ("report.md", b"# my notes on the robot\n"),
+        ("results.json", b'{"mine": 1}\n'),
+        ("door.png", b"\x89PNG\r\n\x1a\n a picture of mine"),
+    ],
+)
+def test_a_file_of_someone_elses_under_a_report_name_is_refused(
+    tmp_path: Path, name: str, content: bytes
+) -> None:
+    """``evaluate report -o DIR`` wrote over a report.md, results.json or door.png of the
+    user's own in DIR without a word. Now it is refused before anything runs, as aion report
+    and aion export refuse such files, and the file is left as it was."""
+    from aion_cli.formats.outputs import OutputPathError
+
+    (tmp_path / name).write_bytes(content)
+    with pytest.raises(OutputPathError, match=f"{name} exists and is another file"):
+        write_report(tmp_path, DATA, skip={"office", "atc", "lincoln"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # nothing written beside it
+    assert (tmp_path / name).read_bytes() == content
+
+
+@pytest.mark.skipif(
+    not (DATA / "fremen_door" / "training_data.txt").is_file(),
+    reason="the door data (../shared/data/fremen_door) is not here",
+)
+def test_a_report_replaces_its_own_files(tmp_path: Path) -> None:
+    first = write_report(tmp_path, DATA, skip={"office", "atc", "lincoln"}).read_text()
+    (tmp_path / "office_directions.png").write_bytes(b"not drawn by aion")  # not written now
+    again = write_report(tmp_path, DATA, skip={"office", "atc", "lincoln"}).read_text()
+    assert again == first
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "door.png", "office_directions.png", "report.md", "results.json"
+    ]
