@@ -262,7 +262,7 @@ def lincoln(
       aion evaluate lincoln --train 2017-05-24,2017-05-25 --test 2017-05-26
     """
     from aion_cli.cli.console import note, warn
-    from aion_cli.evaluation.lincoln import TEST_DAY, TRAIN_DAYS, ZONE, run_lincoln
+    from aion_cli.evaluation.lincoln import TEST_DAY, TRAIN_DAYS, run_lincoln
 
     config = load_config(config_path)
     train: tuple[str, ...] = TRAIN_DAYS
@@ -283,7 +283,7 @@ def lincoln(
     scored = int(result.headings[0]["detections"]) if result.headings else 0
     emit(fmt, result.headings, SCORE_COLUMNS,
          title=f"Lincoln {result.test}, heading NLL on the {scored:,} test detections with a "
-         f"heading (of {total:,}; zone {ZONE})")
+         f"heading (of {total:,}; zone {result.zone})")
     emit(fmt, result.activity, LINCOLN_ACTIVITY_COLUMNS,
          title="Lincoln, hourly activity of the test day (Spearman of the hours' totals, "
          "and of their rates per recorded share)")

@@ -93,10 +93,12 @@ class LincolnResult:
 
     train: tuple[str, ...] = TRAIN_DAYS
     test: str = TEST_DAY
+    zone: str = ZONE
+    """The zone of aion's days and hours (the config's ``timezone``)."""
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "protocol": {"train": list(self.train), "test": self.test, "zone": ZONE},
+            "protocol": {"train": list(self.train), "test": self.test, "zone": self.zone},
             "data": self.data,
             "headings": self.headings,
             "activity": self.activity,
@@ -234,7 +236,13 @@ def run_lincoln(
     train = [days[d] for d in sorted(set(train_days))]
     test = days[test_day]
     window_ns = round(cfg.window_s * 1e9)
-    result = LincolnResult(train=tuple(d.day for d in train), test=test_day)
+    result = LincolnResult(train=tuple(d.day for d in train), test=test_day, zone=cfg.timezone)
+    if cfg.timezone != ZONE:  # a --config from print-config says UTC
+        result.warnings.append(
+            f"the config's timezone is {cfg.timezone}: aion learns the corridor's hours of the "
+            f"day in {cfg.timezone}, not in {ZONE}, the clock its people keep (set timezone = "
+            f'"{ZONE}" in the config to learn those)'
+        )
     later = [d.day for d in train if d.day > test_day]  # ISO dates sort as days do
     if later:
         result.warnings.append(

@@ -98,6 +98,8 @@ def test_two_training_days_already_forecast_the_day_not_the_static_rate() -> Non
         DATA, train_days=("2017-05-24", "2017-05-25"), test_day="2017-05-26"
     )
     assert result.to_dict()["protocol"]["test"] == "2017-05-26"
+    assert result.to_dict()["protocol"]["zone"] == "Europe/London"  # the default config's
+    assert result.warnings == []
     act = {a["model"]: a for a in result.activity}
     assert act["aion"]["mae"] < 0.5 * act["static"]["mae"]
     assert act["aion"]["poisson_deviance"] < 0.5 * act["static"]["poisson_deviance"]
@@ -123,3 +125,20 @@ def test_a_split_of_days_the_files_do_not_hold_is_refused(
     with pytest.raises(InputError, match=message) as err:
         lincoln.run_lincoln(DATA, train_days=train, test_day=test)
     assert "2017-05-24" in str(err.value.hint)  # the days the files hold
+
+
+@needs_lincoln
+def test_a_config_of_another_zone_is_the_zone_reported_and_warned() -> None:
+    """``--config`` from ``aion build --print-config`` says timezone = "UTC": the map learnt
+    UTC's hours while the result said 'zone Europe/London', without a word."""
+    from aion_cli.engine.config import ModelConfig
+
+    result = lincoln.run_lincoln(
+        DATA, ModelConfig(), train_days=("2017-05-24",), test_day="2017-05-25"
+    )
+    assert result.to_dict()["protocol"]["zone"] == "UTC"
+    assert [w for w in result.warnings if "timezone" in w] == [
+        "the config's timezone is UTC: aion learns the corridor's hours of the day in UTC, not "
+        "in Europe/London, the clock its people keep (set timezone = \"Europe/London\" in the "
+        "config to learn those)"
+    ]
