@@ -204,9 +204,6 @@ def write_report(
 ) -> Path:
     """Run the protocols not in ``skip`` and write ``out_dir/report.md`` (+ PNGs, JSON)."""
     from aion_cli.errors import InputError
-    from aion_cli.evaluation.atc import run_atc
-    from aion_cli.evaluation.door import run_door
-    from aion_cli.evaluation.office import run_office
     from aion_cli.formats.outputs import check_output_folder
 
     skip = skip or set()
@@ -224,14 +221,39 @@ def write_report(
                 hint=f"pass the shared data folder with --data, or --skip {section}",
             )
     check_output_folder(out_dir)  # the report's folder is made, not those above
+    names = [REPORT_MD, RESULTS_JSON]
+    names += [png for section, pngs in PICTURES.items() if section not in skip for png in pngs]
     if out_dir.is_dir():  # someone's own file under a name the report writes: refused first
         from aion_cli.formats.outputs import check_replaceable
 
-        names = [REPORT_MD, RESULTS_JSON]
-        names += [png for section, pngs in PICTURES.items() if section not in skip for png in pngs]
         check_replaceable((out_dir / name for name in names), is_evaluation_file)
-    say = progress or (lambda _m: None)
+    made = not out_dir.exists()
     out_dir.mkdir(exist_ok=True)
+    try:
+        return _write_sections(out_dir, data_dir, scenes, days, skip, progress)
+    except BaseException:
+        if made:  # a run that failed (a section's error, Ctrl-C) leaves no folder of its own
+            for name in names:
+                (out_dir / name).unlink(missing_ok=True)
+            if not any(out_dir.iterdir()):
+                out_dir.rmdir()
+        raise
+
+
+def _write_sections(
+    out_dir: Path,
+    data_dir: Path,
+    scenes: int,
+    days: float,
+    skip: set[str],
+    progress: Callable[[str], None] | None,
+) -> Path:
+    """The sections not in ``skip`` run and written into ``out_dir`` (:func:`write_report`)."""
+    from aion_cli.evaluation.atc import run_atc
+    from aion_cli.evaluation.door import run_door
+    from aion_cli.evaluation.office import run_office
+
+    say = progress or (lambda _m: None)
     lines = [TITLE, ""]
     payload: dict[str, Any] = {}
     if "office" not in skip:

@@ -93,3 +93,20 @@ def test_a_report_replaces_its_own_files(tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "door.png", "office_directions.png", "report.md", "results.json"
     ]
+
+
+def test_a_report_that_fails_in_a_section_leaves_no_folder_behind(tmp_path: Path) -> None:
+    """``evaluate report -o new/ --days 0.2``: the office section fails (the robot saw nobody
+    before 07:00), and an empty ``new/`` was left behind, as if a report were there."""
+    from aion_cli.errors import InputError
+
+    out = tmp_path / "report"
+    with pytest.raises(InputError, match="the robot detected nobody"):
+        write_report(out, DATA, scenes=1, days=0.2, skip={"atc", "lincoln", "door"})
+    assert not out.exists()
+    kept = tmp_path / "kept"  # a folder that was there before is left, with what it held
+    kept.mkdir()
+    (kept / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match="the robot detected nobody"):
+        write_report(kept, DATA, scenes=1, days=0.2, skip={"atc", "lincoln", "door"})
+    assert sorted(p.name for p in kept.iterdir()) == ["notes.txt"]
