@@ -24,6 +24,9 @@ from aion_cli.cli.common import (
 from aion_cli.cli.output import Column, emit, format_option, num
 from aion_cli.number_text import mean_spread
 
+OFFICE_MAX_DAYS = 34
+"""The most --days of evaluate office (and report): what a simulated scene holds at 2 Hz
+(``sim.scenario.MAX_TICKS``: its robot is simulated per tick in memory)."""
 DATA_ENV = "AION_SHARED_DATA"
 DATA_DEFAULT_TEXT = f"${DATA_ENV}, else ../shared/data"
 
@@ -387,7 +390,7 @@ TABLE_I_COLUMNS = (
               help="Simulated office scenes (the paper used 20).")
 @click.option("--agents", type=click.IntRange(1, 100), default=6, show_default=True,
               help="People per scene (the paper used 6).")
-@click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True,
+@click.option("--days", type=click.FloatRange(0.1, OFFICE_MAX_DAYS), default=2.0, show_default=True,
               help="Simulated days per scene.")
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Random seed of the simulated scenes.")
@@ -436,7 +439,7 @@ def office(
               help="The shared data folder (atc/, lincoln/, fremen_door/).")
 @click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True,
               help="Simulated office scenes (as evaluate office).")
-@click.option("--days", type=click.FloatRange(0.1, 60), default=2.0, show_default=True,
+@click.option("--days", type=click.FloatRange(0.1, OFFICE_MAX_DAYS), default=2.0, show_default=True,
               help="Simulated days per scene (as evaluate office).")
 @click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "lincoln", "door"]),
               help="Leave a section out (repeatable).")

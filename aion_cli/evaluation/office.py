@@ -53,6 +53,12 @@ from aion_cli.evaluation.office_directions import (
     direction_truth_table,
     mean_normalised,
 )
+from aion_cli.evaluation.office_scenes import (
+    check_kept_files,
+    check_scenes,
+    scene_config,
+    scene_files,
+)
 from aion_cli.evaluation.office_truth import (
     TRUTH_FIELDS,
     FlowSeries,
@@ -251,39 +257,6 @@ def evaluated_times(scene_end_ns: int, eval_hours: int) -> npt.NDArray[np.int64]
     return out
 
 
-def scene_config(scene_days: float, agents: int, seed: int) -> Any:
-    """The simulator settings of the comparison (map-frame detections, see module doc)."""
-    from aion_cli.sim.scenario import ScenarioConfig
-
-    return ScenarioConfig(days=scene_days, agents=agents, seed=seed, frame="map")
-
-
-def scene_files(work: Path, scene: int) -> list[Path]:
-    """The files a scene writes into the work folder: its log, the log's truth files and
-    its map."""
-    from aion_cli.sim.ground_truth import truth_paths
-
-    log = work / f"scene_{scene:02d}.mcap"
-    return [log, *truth_paths(log), work / f"scene_{scene:02d}.aion"]
-
-
-def check_kept_files(work: Path, scenes: int) -> None:
-    """:class:`~aion_cli.formats.outputs.OutputPathError` when the ``--keep`` folder holds a
-    file the run would write (an earlier run's scenes): said before anything is simulated,
-    naming the option it has (``evaluate office`` has no ``--force``)."""
-    from aion_cli.formats.outputs import OutputPathError
-
-    there = [
-        p for s in range(scenes) for p in scene_files(work, s) if p.exists() or p.is_symlink()
-    ]
-    if there:
-        more = f" and {len(there) - 1:,} more of the files this run writes" * (len(there) > 1)
-        raise OutputPathError(
-            f"--keep {work} holds {there[0].name}{more} (an earlier run's scenes?)",
-            hint="give --keep a new or empty folder, or remove its scene_* files first",
-        )
-
-
 def run_scene(
     scene: int,
     days: float,
@@ -448,6 +421,7 @@ def run_office(
             f"bins = {cfg.bins} in the config",
             hint="leave bins out of the config for evaluate office",
         )
+    check_scenes(days, agents, seed)
     say = progress or (lambda _msg: None)
     result = OfficeResult()
     with tempfile.TemporaryDirectory(prefix="aion-office-") as tmp:

@@ -281,3 +281,42 @@ def test_the_shared_data_folder_as_a_datasets_data_names_the_folder_to_give(
     assert hint == (
         f"hint: give --data {tmp_path / sub} (only evaluate report takes the shared folder)"
     )
+
+
+@pytest.mark.parametrize("command", ["office", "report"])
+def test_more_days_than_a_simulated_scene_holds_are_refused_before_any_runs(
+    tmp_path: Path, command: str
+) -> None:
+    """--days took up to 60, but a simulated scene holds 34.7 days at 2 Hz (its robot per
+    tick in memory; aion simulate refuses more): --days 40 ran for hours, unchecked."""
+    from aion_cli.cli.evaluate import OFFICE_MAX_DAYS
+    from aion_cli.sim.scenario import MAX_TICKS, ScenarioConfig
+
+    assert OFFICE_MAX_DAYS * 86400 * ScenarioConfig().rate_hz <= MAX_TICKS
+    out = ["-o", str(tmp_path / "report")] if command == "report" else []
+    result = CliRunner().invoke(
+        cli, ["evaluate", command, *out, "--scenes", "1", "--days", "40"]
+    )
+    assert result.exit_code == 2, result.stderr
+    assert f"40.0 is not in the range 0.1<=x<={OFFICE_MAX_DAYS}" in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_seed_simulate_refuses_is_refused_with_this_commands_hint() -> None:
+    """A seed beyond 2**63 - 1 ran (aion simulate refuses it): the scenes were never checked."""
+    result = CliRunner().invoke(
+        cli, ["evaluate", "office", "--scenes", "1", "--seed", str(2**63)]
+    )
+    assert result.exit_code == 2, result.stderr
+    assert result.stderr.splitlines() == [
+        f"error: --seed must be a whole number 0 .. {2**63 - 1}",
+        "hint: see aion evaluate office --help",
+    ]
+
+
+def test_the_library_refuses_them_too() -> None:
+    from aion_cli.errors import InputError
+    from aion_cli.evaluation.office import run_office
+
+    with pytest.raises(InputError, match=r"--days 40 is more than a simulated scene holds \(34.7"):
+        run_office(scenes=1, days=40)
