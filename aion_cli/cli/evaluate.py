@@ -87,6 +87,11 @@ def _day(text: str) -> str:
 def _existing_dir(path: Path, what: str) -> Path:
     from aion_cli.errors import InputError
 
+    if path.is_file():  # the dataset's file given for its folder
+        raise InputError(
+            f"--data {path} is a file: {what} is read from the folder holding its files",
+            hint=f"give --data {path.parent}",
+        )
     if not path.is_dir():
         raise InputError(
             f"{what} folder not found: {path}",

@@ -320,3 +320,19 @@ def test_the_library_refuses_them_too() -> None:
 
     with pytest.raises(InputError, match=r"--days 40 is more than a simulated scene holds \(34.7"):
         run_office(scenes=1, days=40)
+
+
+@pytest.mark.parametrize(
+    ("command", "name"),
+    [("atc", "atc-1024-9_test.csv"), ("lincoln", "2017-06-09.txt"), ("door", "training_data.txt")],
+)
+def test_a_datasets_file_as_data_names_its_folder(tmp_path: Path, command: str, name: str) -> None:
+    """``--data .../training_data.txt`` said 'door data folder not found: .../training_data.txt'
+    with a hint to pass --data, which it had."""
+    given = tmp_path / name
+    given.write_text("1 0\n")
+    result = CliRunner().invoke(cli, ["evaluate", command, "--data", str(given)])
+    assert result.exit_code == 2, result.stderr
+    error, hint = result.stderr.strip().splitlines()
+    assert error.startswith(f"error: --data {given} is a file: ")
+    assert hint == f"hint: give --data {tmp_path}"
