@@ -137,8 +137,8 @@ class SceneResult:
 
 def parse_start(start: str) -> tuple[_dt.date, float]:
     """The local date and the seconds after its midnight of ``start`` (ISO date or datetime)."""
-    try:
-        when = _dt.datetime.fromisoformat(start)
+    try:  # spaces around it (a quoted shell variable) are no part of the time, as for --time
+        when = _dt.datetime.fromisoformat(" ".join(start.split()))
     except ValueError as exc:
         # the form is right and a field is not (2026-02-29, 25:00): say which, as --time does
         reason = f": {exc}" if re.match(r"\d{4}-\d{2}-\d{2}", start.strip()) else ""

@@ -341,3 +341,14 @@ def test_a_seed_out_of_range_names_the_range(tmp_path: Path, seed: str) -> None:
     result = CliRunner().invoke(cli, ["simulate", "-o", str(tmp_path / "x.mcap"), "--seed", seed])
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, f"--seed must be a whole number 0 .. {2**63 - 1}")
+
+
+def test_spaces_around_start_are_no_part_of_the_time() -> None:
+    """--start " 2026-01-05T09:00 " (a quoted shell variable) is read as the time it holds,
+    as --time is; before, Python's "Invalid isoformat string" text was the answer."""
+    import datetime as dt
+
+    from aion_cli.sim.scenario import parse_start
+
+    assert parse_start(" 2026-01-05T09:00 ") == (dt.date(2026, 1, 5), 9 * 3600.0)
+    assert parse_start("2026-01-05  09:30") == (dt.date(2026, 1, 5), 9.5 * 3600.0)
