@@ -426,7 +426,8 @@ def office(
     result = run_office(scenes, days, agents, seed, _config(config_path), radius,
                         work_dir=work_dir, progress=note)
     emit(fmt, result.table(), TABLE_I_COLUMNS, json_payload=result.to_dict(),
-         title=f"aion vs grid, {scenes} office scenes x {agents} people, {days:g} "
+         title=f"aion vs grid, {scenes} office scene{'' if scenes == 1 else 's'} x "
+         f"{agents} {'person' if agents == 1 else 'people'}, {days:g} "
          f"day{'' if days == 1 else 's'} each")
     means = result.truth_means()
     if fmt.lower() == "table" and means:

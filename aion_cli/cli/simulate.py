@@ -142,9 +142,11 @@ def _event_counts(r: SceneResult) -> str:
 
     meta = json.loads(r.truth_json.read_text())
     c = meta["event_counts"]
+    from aion_cli.cli.output import counted
+
     return (
-        f"{meta['loop_closures']} loop closures ({c['move']:,} moves, {c['merge']} merges, "
-        f"{c['remove']} removals)"
+        f"{counted(meta['loop_closures'], 'loop closure')} ({counted(c['move'], 'move')}, "
+        f"{counted(c['merge'], 'merge')}, {counted(c['remove'], 'removal')})"
     )
 
 

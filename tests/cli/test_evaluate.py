@@ -223,6 +223,8 @@ def test_one_scene_prints_no_zero_spread_and_no_negative_zero() -> None:
                                       "-q"])
     assert result.exit_code == 0, result.output
     table = result.stdout
+    assert "1 office scene x " in table  # one scene, said so
+    assert "office scenes" not in table
     assert "± 0.00" not in table
     assert "0.49 ± 0.13" in table  # the paper's Entropy/Historical JS
     row = next(line for line in table.splitlines() if "Entropy" in line and "Historical" in line)

@@ -352,3 +352,16 @@ def test_spaces_around_start_are_no_part_of_the_time() -> None:
 
     assert parse_start(" 2026-01-05T09:00 ") == (dt.date(2026, 1, 5), 9 * 3600.0)
     assert parse_start("2026-01-05  09:30") == (dt.date(2026, 1, 5), 9.5 * 3600.0)
+
+
+def test_event_counts_speak_of_one_as_one(tmp_path: Path) -> None:
+    """simulate's summary said '1 loop closures (1 moves, 1 merges, 0 removals)'."""
+    from aion_cli.cli.simulate import _event_counts
+    from aion_cli.sim.scenario import SceneResult
+
+    truth = tmp_path / "t.json"
+    truth.write_text(json.dumps(
+        {"loop_closures": 1, "event_counts": {"move": 1, "merge": 1, "remove": 2000}}
+    ))
+    said = _event_counts(SceneResult(tmp_path / "l.mcap", tmp_path / "t.npz", truth, {}))
+    assert said == "1 loop closure (1 move, 1 merge, 2,000 removals)"
