@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from aion_cli.detection_feed import HEADING_SOURCES
 from aion_cli.engine.types import I64
 from aion_cli.errors import InputError, LogFormatError, MessageDecodeError
+from aion_cli.listing import first_few
 from aion_cli.stamp_warnings import FAR_STAMPS, OFF_STAMPS, stamp_warnings
 
 if TYPE_CHECKING:
@@ -420,11 +421,26 @@ def check_usable(
             hint=f"the logs are damaged where the reason says; {written}",
         )
     if c.passed_filters() == 0:
+        # the readers' warnings (a file cut short, a damaged chunk) are printed only with a
+        # map: without one, the error is the only line, so it names them (the people may be
+        # in what could not be read)
+        read_warnings = lost[2] if lost is not None else []
         raise InputError(
             f"no people detection in the {messages:,} messages of "
             f"{', '.join(report.detection_topics)}"
-            + (f" (dropped: {drops})" if drops else ""),
-            hint="the topics carry no detections (check the class filter of vision_msgs, "
+            + (f" (dropped: {drops})" if drops else "")
+            + (
+                f"; the logs were read with warnings ({first_few(read_warnings, 1, '; ')})"
+                if read_warnings
+                else ""
+            ),
+            hint=(
+                "where a warning says a log was cut short or damaged, the people may be in "
+                "what was not read; otherwise "
+                if read_warnings
+                else ""
+            )
+            + "the topics carry no detections (check the class filter of vision_msgs, "
             f"or choose other topics with --detections-topic); {written}",
         )
     hint = written

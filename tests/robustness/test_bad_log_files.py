@@ -21,6 +21,7 @@ import pytest
 
 from tests.robustness.conftest import (
     T0,
+    TRACKED,
     Message,
     S,
     assert_same_arrays,
@@ -32,6 +33,7 @@ from tests.robustness.conftest import (
     robot_tf,
     run,
     scene_graph,
+    stamp,
     walk,
     write_log,
 )
@@ -85,6 +87,41 @@ def test_truncated_mcap_builds_from_the_readable_part_and_says_where_it_stopped(
     quiet = run("build", cut, "-o", tmp_path / "quiet.aion", "-q")
     assert quiet.exit_code == 0
     assert f"warning: {warning}" in " ".join(quiet.stderr.split())
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_log_cut_short_before_its_people_is_an_error_naming_the_cut(
+    workers: str, tmp_path: Path
+) -> None:
+    """A tracker that published empty messages for an hour, then people; the file cut
+    before the first person. The build fails (no map from nobody), but the error said only
+    "no people detection in the N messages" and hinted at vision_msgs' class filter: the
+    truncation warning, printed with a map, was lost with the error. The error now names it."""
+    from aion_cli.formats.writers import LogWriter
+
+    n_empty = 3600
+    nobody = [{"header": {"stamp": stamp(T0 + k * S), "frame_id": "map"}, "tracks": []}
+              for k in range(n_empty)]
+    empty = [("/tracks", TRACKED, msg, T0 + k * S) for k, msg in enumerate(nobody)]
+    full = tmp_path / "full.mcap"
+    with LogWriter(full, "mcap", chunk_size=16384) as writer:  # several chunks of nobody
+        for topic, msgtype, msg, t_ns in empty + spread(600, start_s=n_empty):
+            writer.write(topic, msgtype, msg, t_ns)
+    first_person = T0 + n_empty * S
+    cut_at = next(
+        c.chunk_start_offset for c in chunk_indexes(full) if c.message_end_time >= first_person
+    )
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(full.read_bytes()[: cut_at + 100])  # inside the first chunk with people
+    result = run("build", cut, "-o", tmp_path / "cut.aion", "--workers", workers)
+    fails(result, "no people detection in the", "truncated or corrupt MCAP: read stopped at byte")
+    hint = result.stderr.splitlines()[1]
+    assert "cut short or damaged, the people may be in what was not read" in hint
+    assert not (tmp_path / "cut.aion").exists()
+    whole = run("build", write_log(tmp_path / "empty.mcap", empty), "-o", tmp_path / "e.aion")
+    fails(whole, f"no people detection in the {n_empty:,} messages of /tracks")  # nothing cut:
+    assert "read with warnings" not in whole.stderr  # no word of warnings
+    assert "may be in what was not read" not in whole.stderr
 
 
 def _messages_in(chunk: Any) -> int:
