@@ -56,6 +56,7 @@ class _McapLinearRead(_Source):
     _bad_chunks: dict[int, str]
     _chunk_counts: dict[int, dict[int, int]]
     _stop_offset: int | None
+    _unclosed: bool
     _scanned_times: npt.NDArray[np.uint64] | None
     _scanned_channels: npt.NDArray[np.uint16] | None
     _later_min: npt.NDArray[np.int64] | None
@@ -110,6 +111,14 @@ class _McapLinearRead(_Source):
                 f"{self._stop_offset} of {self._size} after {n} messages; "
                 "the rest of the file is ignored"
             )
+        elif self._unclosed:
+            self._warn(
+                f"{self.path.name}: truncated MCAP: the file ends at byte {self._size} after "
+                f"{n} messages, between two records, without the records that close a "
+                "recording (DataEnd, summary, footer): it was cut short (a recorder killed, a "
+                "copy made while recording); what it holds is read, anything recorded after "
+                "it is not in the file"
+            )
         return channels, schemas, counts, (start if n else 0), end
 
     def _linear_records(self, wanted: set[int] | None) -> Iterator[tuple[int, int, bytes]]:
@@ -140,6 +149,8 @@ class _McapLinearRead(_Source):
                 except StopIteration as done:
                     if scanning and done.value is not None:  # the DataEnd (or Footer)
                         self._check_end(f, done.value)
+                    elif scanning:  # the file ends between two records, before its DataEnd
+                        self._unclosed = True
                     break
                 except mr.RecordError as exc:
                     if scanning:

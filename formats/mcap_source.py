@@ -94,6 +94,7 @@ class _McapSource(_McapIndexed):
         # chunks whose record states a wrong length: read with their index's (offset -> length)
         self._lengths: dict[int, int] = {}
         self._stop_offset: int | None = None
+        self._unclosed = False  # the linear scan met the file's end before its DataEnd
         # log times of every message, kept by the linear scan of a file without a usable
         # summary: recorded_windows then needs no second read (8 bytes per message)
         self._scanned_times: npt.NDArray[np.uint64] | None = None

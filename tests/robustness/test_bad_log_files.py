@@ -89,6 +89,28 @@ def test_truncated_mcap_builds_from_the_readable_part_and_says_where_it_stopped(
     assert f"warning: {warning}" in " ".join(quiet.stderr.split())
 
 
+def test_an_mcap_cut_between_two_chunks_is_read_with_a_warning(
+    spread_log: Path, tmp_path: Path
+) -> None:
+    """A recorder killed between two chunk writes leaves an MCAP that ends between two
+    records, without DataEnd, summary and footer. Its chunks were read, but not a word said
+    that the file was cut short (a file cut inside a record was a warning): the build's map,
+    ``info`` and the JSON report looked complete. Now the same warning kind names it."""
+    chunks = chunk_indexes(spread_log)
+    cut_at = chunks[3].chunk_start_offset
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(spread_log.read_bytes()[:cut_at])
+    before = sum(1 for k in range(N_SPREAD) if T0 + k * S < chunks[3].message_start_time)
+    report = build_json(cut, "-o", tmp_path / "cut.aion")
+    assert report["detections"]["read"] == before  # the whole chunks before the cut
+    warning = next(w for w in report["warnings"] if "truncated MCAP" in w)
+    assert f"ends at byte {cut_at} after {before} messages" in warning
+    info = run("info", cut, "--format", "json")
+    assert warning in json.loads(info.stdout)["warnings"]
+    whole = build_json(spread_log, "-o", tmp_path / "whole.aion")
+    assert not [w for w in whole["warnings"] if "truncated" in w]  # a closed file: none
+
+
 @pytest.mark.parametrize("workers", ["1", "2"])
 def test_a_log_cut_short_before_its_people_is_an_error_naming_the_cut(
     workers: str, tmp_path: Path
