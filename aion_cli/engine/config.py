@@ -428,6 +428,13 @@ class ModelConfig:
                 hint="aion build --print-config > model.toml writes a valid file to edit",
             ) from exc
         if "model" in data and isinstance(data["model"], dict):
+            outside = sorted(k for k in data if k != "model")
+            if outside:  # above its header, or other tables: they would be left out unsaid
+                raise ConfigError(
+                    f"parameter(s) outside the [model] table, which would be ignored: "
+                    f"{', '.join(outside)} (a file with a [model] table is read from it alone)",
+                    hint="move them under [model] (after its header line)",
+                )
             data = data["model"]
         return cls.from_dict(data)
 

@@ -44,6 +44,26 @@ def test_invalid_values_are_rejected(key: str, value: object) -> None:
         ModelConfig.from_dict({key: value})
 
 
+def test_a_parameter_above_the_model_table_is_an_error_not_ignored() -> None:
+    """``cell_size = 1.0`` written at the top of a ``--print-config`` file, above its
+    ``[model]`` header: TOML puts it outside the table, and the file was read from the table
+    alone, so the build ran with cell_size 0.5 without a word. Now it is an error naming it;
+    the same line under the header is read, as is a file without a table; another table
+    beside [model] is refused as well (it was ignored too)."""
+    text = ModelConfig().to_toml()
+    with pytest.raises(ConfigError) as err:
+        ModelConfig.from_toml_text("cell_size = 1.0\n" + text)
+    assert "outside the [model] table" in str(err.value)
+    assert "cell_size" in str(err.value)
+    assert err.value.hint is not None
+    assert "under [model]" in err.value.hint
+    under = text.replace("[model]\n", "[model]\nbins = 12\n").replace("bins = 8\n", "")
+    assert ModelConfig.from_toml_text(under).bins == 12
+    assert ModelConfig.from_toml_text("cell_size = 1.0\n").cell_size == 1.0
+    with pytest.raises(ConfigError, match=r"outside the \[model\] table.*: plan"):
+        ModelConfig.from_toml_text(text + "[plan]\nplan_speed = 2.0\n")  # another table
+
+
 def test_invalid_toml_is_a_config_error() -> None:
     with pytest.raises(ConfigError):
         ModelConfig.from_toml_text("cell_size = = 3")
