@@ -133,9 +133,15 @@ def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelCon
         # the clock is the map's, not a parameter to choose: an older map keeps its own
         given = given.replace(fremen_clock=old.fremen_clock)
     if given is not None and given != old:
+        from aion_cli.listing import first_few
+        from aion_cli.merge_config import parameter_differences
+
+        differ = parameter_differences(old.to_dict(), given.to_dict())
         raise ConfigError(
-            "--config differs from the config the map was built with",
-            hint="a map keeps its model parameters; build a new map to change them",
+            "--config differs from the config the map was built with (map vs --config: "
+            f"{first_few(differ, 3)})",
+            hint="a map keeps its model parameters; build a new map to change them (or leave "
+            "out --config: a continued map keeps its own)",
         )
     if zone is not None and zone != old.timezone:
         raise ConfigError(

@@ -72,15 +72,16 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
             else:
                 raise ConfigError(
                     f"cannot merge {first.name} and {m.name}: they count a robot's windows "
-                    f"differently ({', '.join(_differences(base, other, differ))}), and a "
-                    f"robot observed {' and '.join(robots)}",
+                    "differently ("
+                    + ", ".join(parameter_differences(base, other, differ))
+                    + f"), and a robot observed {' and '.join(robots)}",
                     hint="a map built before exposure existed counts them whole: rebuild it, or "
                     "build the other with a --config file that sets exposure = false",
                 )
         if differ:
             raise ConfigError(
                 f"cannot merge {first.name} and {m.name}: they were built with different "
-                f"model parameters ({first_few(_differences(base, other, differ), 3)})",
+                f"model parameters ({first_few(parameter_differences(base, other, differ), 3)})",
                 hint="rebuild one of them with the other's config (aion info MAP shows it; "
                 "aion build --config FILE)",
             )
@@ -175,8 +176,11 @@ def _zone(name: str | None) -> str | None:
         return name  # unknown here: compared as written
 
 
-def _differences(
-    base: dict[str, object], other: dict[str, object], keys: list[str]
+def parameter_differences(
+    base: dict[str, object], other: dict[str, object], keys: list[str] | None = None
 ) -> list[str]:
-    """Each differing parameter as ``name base vs other``."""
+    """Each differing parameter (of ``keys``; default: every one that differs) as ``name base
+    vs other``."""
+    if keys is None:
+        keys = sorted(k for k in base.keys() | other.keys() if base.get(k) != other.get(k))
     return [f"{k} {base.get(k)!r} vs {other.get(k)!r}" for k in keys]

@@ -63,6 +63,8 @@ def test_a_map_built_with_config_and_tz_continues_with_the_same_options(tmp_path
     refused = run("build", second, "--map", seq, "-o", tmp_path / "x.aion", *opts)
     assert refused.exit_code == 2
     assert "--config differs" in refused.output
+    # it named no parameter (merge names them): now the map's value, then the file's
+    assert "(map vs --config: window_s 1200.0 vs 600.0)" in refused.output
 
 
 def test_a_graph_file_keeps_the_time_one_pass_gives_it(tmp_path: Path) -> None:
