@@ -329,8 +329,12 @@ _MAGIC = b"#ROSBAG V2.0\n"
 def plain_reason(exc: Exception) -> str:
     """An exception's text with the tuples rosbags wraps inner reasons in unwrapped:
     ``Bag index looks damaged: ('Header could not be read from file.',)`` reads
-    ``Bag index looks damaged: Header could not be read from file.``."""
-    return re.sub(r"\('((?:[^'\\]|\\.)*)',\)", r"\1", str(exc))
+    ``Bag index looks damaged: Header could not be read from file.``; on one line, its
+    lines joined by ``; `` as an error's are (a YAML parser's error spans four, with a
+    caret line under the text it quotes, which a warning printed as ``\\n`` escapes)."""
+    text = re.sub(r"\('((?:[^'\\]|\\.)*)',\)", r"\1", str(exc))
+    lines = [line.strip() for line in text.splitlines()]
+    return "; ".join(line for line in lines if line.strip("^ "))
 
 
 def _cut_before_index(path: Path) -> str | None:

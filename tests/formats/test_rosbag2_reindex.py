@@ -221,6 +221,23 @@ def test_unusable_metadata_yaml_falls_back_to_the_storage_files(tmp_path: Path) 
         assert "indexed in memory from its 1 storage file" in logs.warnings[-1]
 
 
+
+def test_a_metadata_yaml_that_is_no_yaml_is_named_on_one_line(tmp_path: Path) -> None:
+    """A metadata.yaml cut inside a list: the YAML parser's error spans four lines (the text
+    it quotes and a caret under it), and the warning carried them as they were, which the
+    console printed as ``\\n`` escapes inside one warning line. The reason is now one line,
+    its parts joined as an error's are."""
+    talker = _real("rosbag2_py_sqlite3_talker")
+    copy = tmp_path / "talker"
+    shutil.copytree(talker, copy)
+    (copy / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
+    with open_logs([copy]) as logs:
+        assert logs.total() == 20
+        warning = logs.warnings[-1]
+    assert "metadata.yaml not used (" in warning
+    assert "\n" not in warning
+    assert "while parsing a flow node; expected the node content" in warning
+
 # --- whole-file compression --------------------------------------------------------------------
 
 
