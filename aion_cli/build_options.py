@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.errors import ConfigError
+from aion_cli.errors import ConfigError, InputError, LogFormatError
 from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS
 
 if TYPE_CHECKING:
@@ -107,6 +107,25 @@ class BuildOptions:
         base = first.parent / (first.name.rstrip("/") if first.is_dir() else first.stem)
         return base.with_name(base.name + MAP_SUFFIX)
 
+
+def check_not_an_input(out: Path, logs: tuple[Path, ...]) -> None:
+    """The map ``out`` is none of the ``logs`` (:class:`InputError`); a map given as a log,
+    which without ``-o`` is its own output (``aion build office.aion``), is named as such."""
+    resolved = out.resolve()
+    if not any(resolved == p.resolve() for p in logs):
+        return
+    from aion_cli.formats.input_kind import input_kind
+
+    if input_kind(out) == "map":
+        raise LogFormatError(
+            f"{out} is an aion map, not a log",
+            hint=f"extend it with `aion build LOG --map {out}`, query it with "
+            f"`aion predict {out}`",
+        )
+    raise InputError(
+        f"the map would overwrite the log {out}",
+        hint="choose another output for the map (maps end in .aion)",
+    )
 
 def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelConfig:
     """The model config of a build: ``--config`` (or the defaults) with ``--tz`` as its time

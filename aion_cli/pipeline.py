@@ -54,6 +54,7 @@ from aion_cli.build_options import (
     BuildOptions,
     ShardStart,
     build_topics,
+    check_not_an_input,
     resolve_config,
 )
 from aion_cli.build_output import write_build
@@ -172,12 +173,7 @@ class _Build(StreamStep):
 
         out = self.report.output
         check_map_folder(out)
-        resolved = out.resolve()
-        if any(resolved == p.resolve() for p in self.opts.logs):
-            raise InputError(
-                f"the map would overwrite the log {out}",
-                hint="choose another output for the map (maps end in .aion)",
-            )
+        check_not_an_input(out, self.opts.logs)
         if self.opts.continue_from is not None:  # the input first: without -o it is the
             read_manifest(self.opts.continue_from)  # output too, judged below as a target
         check_map_target(out)  # a device, FIFO or foreign file fails now, not after hashing

@@ -182,6 +182,23 @@ def test_a_target_that_cannot_be_a_map_is_refused_before_hashing(
     assert "Traceback" not in result.stderr
 
 
+
+def test_a_map_given_as_the_log_is_named_a_map(tmp_path: Path) -> None:
+    """``aion build office.aion`` (a map where a log belongs, no ``-o``: the map is its own
+    default output) said "the map would overwrite the log office.aion", calling the map a log
+    and hinting at another output. It now says it is a map and how to extend or query it, as
+    ``aion build office.aion -o other.aion`` does; the map is left as it was."""
+    log = write_log(tmp_path / "office.mcap", walk(60))
+    office = tmp_path / "office.aion"
+    assert run("build", log, "-o", office).exit_code == 0
+    before = office.read_bytes()
+    result = run("build", office)
+    fails(result, f"{office} is an aion map, not a log")
+    assert f"aion build LOG --map {office}" in result.stderr
+    assert "overwrite the log" not in result.stderr
+    assert office.read_bytes() == before
+    fails(run("build", log, "-o", log), f"the map would overwrite the log {log}")  # a log
+
 # -- a bad TF message -------------------------------------------------------------------------
 
 
