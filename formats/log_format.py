@@ -6,6 +6,7 @@ files; otherwise the first bytes decide, :func:`formats.rosbag2_storage.sniff`) 
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from aion_cli.errors import LogFormatError
@@ -153,6 +154,13 @@ def _what_else(path: Path) -> str | None:
     from aion_cli.formats.track_sniff import guess_layout
 
     name = path.name
+    truth = re.fullmatch(r"(.+)\.truth\.(?:json|npz)", name)
+    if truth is not None and (path.parent / truth.group(1)).exists():
+        # `aion build day*` picks up what `aion simulate` wrote beside day1.mcap
+        return (
+            f"{name} is the ground truth `aion simulate` wrote beside the log "
+            f"{truth.group(1)}: build from the log alone (`aion evaluate` reads the truth)"
+        )
     kind = input_kind(path)
     if kind == "map":
         return (

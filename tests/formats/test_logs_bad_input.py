@@ -110,6 +110,25 @@ def test_other_aion_inputs_given_as_a_log_are_named(tmp_path: Path) -> None:
         assert hint in (info.value.hint or ""), info.value.hint
 
 
+def test_the_ground_truth_simulate_writes_given_as_a_log_is_named(tmp_path: Path) -> None:
+    """``aion build day1*`` picks up ``day1.mcap.truth.json`` and ``.truth.npz`` beside the
+    simulated log: the JSON was called "a scene-graph file: give it to aion build with
+    --graph" (its config holds an "edges" key), the npz got the hint to try --log-format.
+    Both are now named as the truth of their log."""
+    from tests.robustness.conftest import run
+
+    log = tmp_path / "day1.mcap"
+    assert run("simulate", "-o", log, "--days", "0.01", "-q").exit_code == 0
+    for suffix in ("json", "npz"):
+        truth = tmp_path / f"day1.mcap.truth.{suffix}"
+        with pytest.raises(LogFormatError, match="cannot tell the log format") as info:
+            open_logs([truth])
+        hint = info.value.hint or ""
+        assert f"day1.mcap.truth.{suffix} is the ground truth `aion simulate` wrote" in hint
+        assert "beside the log day1.mcap: build from the log alone" in hint
+        assert "--graph" not in hint
+        assert "--log-format" not in hint
+
 def test_log_without_messages(tmp_path: Path) -> None:
     from mcap.writer import Writer
 
