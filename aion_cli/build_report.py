@@ -475,22 +475,3 @@ def unread_detections(
     )
     return expected - decoded - dropped, expected, list(warnings)
 
-
-def overlap_warnings(logset: Any, topics: set[str], window_ns: int) -> list[str]:
-    """A warning per pair of logs that hold the same detection topics over the same time (one
-    window or more): people both saw count twice. Fine for two robots walking the same
-    frame at once; a double count when one log repeats the other (a copy, an excerpt, a file
-    merged from others), which aion cannot tell from the times (identical files are already
-    read once)."""
-    from aion_cli.engine.windows import iso
-
-    out = []
-    for o in logset.overlaps(topics, window_ns):
-        hours = (o.end_ns - o.start_ns) / 3.6e12
-        out.append(
-            f"{o.first.path.name} and {o.second.path.name} both hold {', '.join(o.topics)} "
-            f"from {iso(o.start_ns)} to {iso(o.end_ns)} ({hours:.1f} h): the people both "
-            "logs saw count twice; if one repeats the other (a copy, an excerpt, a merged "
-            "file), build from one of them"
-        )
-    return out

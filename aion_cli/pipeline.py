@@ -58,7 +58,7 @@ from aion_cli.build_options import (
     resolve_config,
 )
 from aion_cli.build_output import write_build
-from aion_cli.build_report import BuildReport, NoProgress, ProgressSink, overlap_warnings
+from aion_cli.build_report import BuildReport, NoProgress, ProgressSink
 from aion_cli.build_stream import StreamStep
 from aion_cli.detection_counts import MapperTally
 from aion_cli.detection_feed import DetectionCounts, log_adapters
@@ -69,7 +69,7 @@ from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, StaleIndexError
 from aion_cli.graph_feed import GraphFeed, graph_source
 from aion_cli.graph_schedule import GraphTimes
-from aion_cli.log_times import TopicTimes
+from aion_cli.log_times import TopicTimes, overlap_warnings
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
 from aion_cli.provenance import DistinctLogs, distinct_logs
