@@ -93,6 +93,7 @@ def write_build(
     recording = _recording_windows(report)
     fixed = report.fixed_windows
     counts = cumulative_counts(report, previous)
+    report.map_detections = (int(counts.get("read", 0)), int(counts.get("used", 0)))
     share = None if not recording or fixed is None else min(1.0, fixed[0] / recording)
     # this build's own logs had spans declared (its text says so)
     if share is not None and share < 0.5 and DECLARED not in report.observation:

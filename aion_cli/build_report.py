@@ -100,6 +100,8 @@ class BuildReport:
     graph_topics: list[str] = field(default_factory=list)
     inputs: list[dict[str, Any]] = field(default_factory=list)
     continued: bool = False
+    #: detections (read, used) in the map written, a continued map's before included
+    map_detections: tuple[int, int] = (0, 0)
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     headings: dict[str, int] = field(default_factory=dict)
@@ -157,6 +159,7 @@ class BuildReport:
                 "used": self.detections_used,
                 "dropped": dict(sorted(self.dropped.items())),
             },
+            "map_detections": dict(zip(("read", "used"), self.map_detections, strict=True)),
             "detections_by_topic": self.by_topic,
             "cells": self.cells,
             "nodes": self.nodes,

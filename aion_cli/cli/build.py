@@ -64,7 +64,9 @@ relative). A part that could not be joined so is learnt in sequence, and the sum
 
 \b
 JSON keys (--format json): map, map_bytes, continued, detections{read, used,
-dropped{reason: n}}, detections_by_topic{topic: {read, used, dropped{reason: n}}}, cells
+dropped{reason: n}} (of these logs), map_detections{read, used} (in the map written, a
+continued map's included: what aion info MAP counts), detections_by_topic{topic: {read, used,
+dropped{reason: n}}}, cells
 (unbound hash cells), nodes, nodes_with_flow, bound_cells, windows (most windows any entry
 observed, the open one included, a window partly recorded for its share, rounded; not the
 windows with messages aion info counts), hours_observed (per kind of day), time_span{start_ns,

@@ -24,11 +24,15 @@ def print_summary(summary: dict[str, Any]) -> None:
     )
     table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value", justify="right")
-    table.add_row("detections read", f"{det['read']:,}")
-    table.add_row("detections used", f"{det['used']:,}")
+    new = " (new logs)" if summary.get("continued") else ""  # the rows below: the whole map
+    table.add_row(f"detections read{new}", f"{det['read']:,}")
+    table.add_row(f"detections used{new}", f"{det['used']:,}")
     for reason, count in det["dropped"].items():
         if count:
             table.add_row(f"  dropped: {markup_safe(reason)}", f"{count:,}")
+    if new:  # as aion info MAP gives them
+        total = summary["map_detections"]
+        table.add_row("detections used in the map", f"{total['used']:,} of {total['read']:,}")
     headings = summary.get("headings") or {}
     if any(headings.values()):
         table.add_row("headings", heading_text(headings))

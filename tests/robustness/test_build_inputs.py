@@ -288,6 +288,36 @@ def test_a_continued_build_that_uses_nothing_is_exit_2(
     assert target.read_bytes() == before
 
 
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_continued_build_counts_the_new_logs_and_the_map_apart(
+    workers: str, tmp_path: Path
+) -> None:
+    """``aion build b.mcap --map m.aion``: the table said "detections used 50" beside the
+    whole map's nodes, windows and time span, while ``aion info`` said "130 of 130": nothing
+    told the new logs' count from the map's. The rows now say which is which, and JSON
+    ``map_detections`` holds the map's, as info counts them."""
+    first = write_log(tmp_path / "a.mcap", walk(80))
+    second = write_log(tmp_path / "b.mcap", walk(50, start_s=7200))
+    alone = build_json(second, "-o", tmp_path / "b.aion")["detections"]["used"]
+    target = tmp_path / "m.aion"
+    before = build_json(first, "-o", target)["detections"]["used"]
+    assert (before, alone) == (80, 50)  # one detection per message
+    report = build_json(second, "--map", target, "--workers", workers)
+    assert report["detections"]["used"] == alone
+    assert report["map_detections"] == {"read": before + alone, "used": before + alone}
+    info = json.loads(run("info", target, "--format", "json").stdout)
+    assert (info["counts"]["read"], info["counts"]["used"]) == (before + alone, before + alone)
+    third = write_log(tmp_path / "c.mcap", walk(20, start_s=14400))
+    table = " ".join(run("build", third, "--map", target, "--workers", workers).stderr.split())
+    assert "detections read (new logs) │ 20 │" in table
+    assert "detections used (new logs) │ 20 │" in table
+    assert "detections used in the map │ 150 of 150 │" in table
+    fresh = " ".join(run("build", first, "-o", tmp_path / "f.aion").stderr.split())
+    assert "detections used │ 80 │" in fresh  # a new map: one count, as before
+    assert "(new logs)" not in fresh
+    assert "in the map" not in fresh
+
 # -- strings from the log are plain text ------------------------------------------------------
 
 
