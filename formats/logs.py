@@ -171,9 +171,10 @@ class LogSet:
 
     def overlaps(self, topics: set[str], at_least_ns: int) -> list[Overlap]:
         """Pairs of files that both carry a topic of ``topics`` and whose time ranges (first
-        to last message) share at least ``at_least_ns``: two logs of one moment on the same
-        topic (two robots at once, or one recording twice: a copy, an excerpt, a merged
-        file), in file order."""
+        to last message) share at least ``at_least_ns``, or at least half of the shorter
+        one's (a log shorter than a window, converted twice into two containers, shares it
+        whole): two logs of one moment on the same topic (two robots at once, or one
+        recording twice: a copy, an excerpt, a merged file), in file order."""
         carried = [
             sorted({t.topic for t in s.topics.values() if t.topic in topics and t.count})
             for s in self._sources
@@ -184,7 +185,8 @@ class LogSet:
                 b = self.files[j]
                 shared = sorted(set(carried[i]) & set(carried[j]))
                 lo, hi = max(a.start_ns, b.start_ns), min(a.end_ns, b.end_ns)
-                if shared and hi - lo >= at_least_ns:
+                shorter = min(a.end_ns - a.start_ns, b.end_ns - b.start_ns)
+                if shared and hi > lo and hi - lo >= min(at_least_ns, shorter / 2):
                     out.append(Overlap(a, b, lo, hi, tuple(shared)))
         return out
 

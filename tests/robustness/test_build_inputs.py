@@ -147,6 +147,26 @@ def test_the_same_log_twice_is_used_once(tmp_path: Path) -> None:
         assert_same_arrays(map_arrays(out), map_arrays(tmp_path / "once.aion"))
 
 
+
+def test_a_short_log_in_two_containers_is_warned_of(tmp_path: Path) -> None:
+    """A four-minute recording converted to an MCAP and to a bag, both given: its people were
+    counted twice without a word, since logs warned of had to share a window (10 min) of
+    time, more than these logs hold. Logs that share half of the shorter one's time warn
+    too; a short log beside another, or brushing it, does not."""
+    messages = walk(240)  # 4 min
+    mcap = write_log(tmp_path / "run.mcap", messages)
+    bag = write_log(tmp_path / "run.bag", messages, "bag")
+    once = build_json(mcap, "-o", tmp_path / "once.aion")["detections"]["used"]
+    report = build_json(mcap, bag, "-o", tmp_path / "twice.aion", "--workers", "1")
+    assert report["detections"]["used"] == 2 * once  # what the warning is about
+    (warning,) = [w for w in report["warnings"] if "count twice" in w]
+    assert warning.startswith("run.mcap and run.bag both hold /tracks from ")
+    later = write_log(tmp_path / "later.bag", walk(240, start_s=300), "bag")
+    brush = write_log(tmp_path / "brush.bag", walk(240, start_s=200), "bag")  # 40 s shared
+    for other in (later, brush):
+        apart = build_json(mcap, other, "-o", tmp_path / "apart.aion", "--workers", "1")
+        assert not [w for w in apart["warnings"] if "count twice" in w]
+
 # -- inputs and targets checked before hashing ------------------------------------------------
 
 
