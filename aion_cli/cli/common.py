@@ -44,6 +44,8 @@ class AionPath(click.Path):
                 f"{value!r} ends in '/', which names a folder: give a file name", param, ctx
             )
         if isinstance(value, str) and not self.dir_okay and os.path.isdir(value):
+            if _is_bag_folder(value):  # "name a file in it" would put a map into a log
+                self.fail(f"{value!r} is a rosbag2 bag folder (a log), not a file", param, ctx)
             # click's own "File '.' is a directory." leaves the way out unsaid
             here = os.path.realpath(value) == os.path.realpath(os.curdir)
             self.fail(
@@ -53,6 +55,12 @@ class AionPath(click.Path):
                 ctx,
             )
         return super().convert(value, param, ctx)
+
+
+def _is_bag_folder(path: str) -> bool:
+    """Whether the folder ``path`` is a rosbag2 bag, as ``ros2 bag record`` writes one: with
+    its ``metadata.yaml`` (a folder of loose ``.mcap`` logs is not called one)."""
+    return os.path.isfile(os.path.join(path, "metadata.yaml"))
 
 
 def option_given(name: str) -> bool:

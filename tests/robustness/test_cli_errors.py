@@ -97,6 +97,9 @@ def _mistakes(office: Office, folder: Path) -> dict[str, tuple[list[Any], str]]:
     (folder / "garbage.bin").write_bytes(os.urandom(4096))
     (folder / "garbage.mcap").write_bytes(os.urandom(4096))
     (folder / "bad.toml").write_text("bogus_key = 3\n")
+    (folder / "bag").mkdir()  # a rosbag2 bag folder, as recorded
+    (folder / "bag" / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    (folder / "bag" / "bag_0.mcap").write_bytes(b"")
     out = folder / "out.aion"
     return {
         "missing file": (["build", folder / "nope.mcap", "-o", out], "nope.mcap"),
@@ -147,6 +150,15 @@ def _mistakes(office: Office, folder: Path) -> dict[str, tuple[list[Any], str]]:
             ["merge", office.map, office.map, "-o", folder],
             f"{str(folder)!r} is a folder, not a file: name a file in it (e.g. {folder}/NAME)",
         ),
+        # "name a file in it (e.g. bag/NAME)" put the map into the recording's folder
+        "a rosbag2 bag folder as a map output": (
+            ["build", office.log, "-o", folder / "bag"],
+            f"{str(folder / 'bag')!r} is a rosbag2 bag folder (a log), not a file",
+        ),
+        "a rosbag2 bag folder as the map continued": (
+            ["build", office.log, "--map", folder / "bag"],
+            f"{str(folder / 'bag')!r} is a rosbag2 bag folder (a log), not a file",
+        ),
     }
 
 
@@ -178,6 +190,8 @@ CASES = (
     "an empty output path",
     "an output file ending in '/'",
     "a folder as a map output",
+    "a rosbag2 bag folder as a map output",
+    "a rosbag2 bag folder as the map continued",
 )
 
 
