@@ -157,7 +157,8 @@ def select_topics(
         info = by_name.get(graph_topic)
         if info is None or info.msgtype not in DSG_TYPES:
             raise TopicNotFoundError(
-                f"no scene-graph topic {graph_topic!r} in the log",
+                f"no scene-graph topic {graph_topic!r} in the log"
+                + (f" (it has type {info.msgtype})" if info else ""),
                 candidates=[f"--graph-topic {t.topic}" for t in dsg],
                 hint=_candidate_hint("--graph-topic", dsg, "hydra_msgs/DsgUpdate scene graphs"),
             )

@@ -155,6 +155,12 @@ def _mistakes(office: Office, folder: Path) -> dict[str, tuple[list[Any], str]]:
             ["build", office.log, "-o", folder / "bag"],
             f"{str(folder / 'bag')!r} is a rosbag2 bag folder (a log), not a file",
         ),
+        # the topic is there, of another type: "no scene-graph topic '/tf' in the log" said
+        # it was not
+        "a TF topic named as the scene graph": (
+            ["build", office.log, "--graph-topic", "/tf", "-o", out],
+            "no scene-graph topic '/tf' in the log (it has type tf2_msgs/msg/TFMessage)",
+        ),
         "a rosbag2 bag folder as the map continued": (
             ["build", office.log, "--map", folder / "bag"],
             f"{str(folder / 'bag')!r} is a rosbag2 bag folder (a log), not a file",
@@ -192,6 +198,7 @@ CASES = (
     "a folder as a map output",
     "a rosbag2 bag folder as a map output",
     "a rosbag2 bag folder as the map continued",
+    "a TF topic named as the scene graph",
 )
 
 
