@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -104,6 +105,10 @@ class BuildOptions:
         if self.continue_from is not None:
             return self.continue_from
         first = self.logs[0]
+        if first.name in ("", ".."):  # `aion build .` in a bag's folder: named as the folder
+            first = Path(os.path.abspath(first))
+        if not first.name:
+            raise InputError(f"no map name follows from the log {first}", hint="give -o MAP.aion")
         base = first.parent / (first.name.rstrip("/") if first.is_dir() else first.stem)
         return base.with_name(base.name + MAP_SUFFIX)
 

@@ -167,6 +167,22 @@ def test_a_short_log_in_two_containers_is_warned_of(tmp_path: Path) -> None:
         apart = build_json(mcap, other, "-o", tmp_path / "apart.aion", "--workers", "1")
         assert not [w for w in apart["warnings"] if "count twice" in w]
 
+
+def test_a_bag_folder_given_as_dot_names_the_map_after_the_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``cd run && aion build .``: the default map name comes from the log's name, and "."
+    has none: "error: internal error: ValueError: PosixPath('.') has an empty name". The map
+    is now named after the folder and written beside it, as ``aion build run`` writes it."""
+    bag = write_log(tmp_path / "run", walk(30), "rosbag2-mcap")
+    monkeypatch.chdir(bag)
+    report = build_json(".")
+    assert Path(report["map"]).resolve() == tmp_path / "run.aion"
+    assert map_arrays(tmp_path / "run.aion")
+    monkeypatch.chdir(tmp_path)
+    again = build_json("run", "-o", tmp_path / "again.aion")
+    assert again["detections"] == report["detections"]
+
 # -- inputs and targets checked before hashing ------------------------------------------------
 
 
