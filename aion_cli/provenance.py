@@ -7,12 +7,13 @@ from __future__ import annotations
 import hashlib
 import threading
 from collections import Counter
-from collections.abc import Collection, Mapping
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from aion_cli.errors import InputError
+from aion_cli.listing import first_few
 
 
 def _files_of(path: Path) -> list[Path]:
@@ -141,13 +142,24 @@ class DistinctLogs:
         self._stop.set()
 
 
-def _refuse_known(entries: list[dict[str, Any]], known: Collection[str]) -> None:
-    for entry in entries:
-        if entry["sha256"] in known:
-            raise InputError(
-                f"{entry['name']} is already in the map (same sha256)",
-                hint="each log may be added to a map only once",
-            )
+def _refuse_known(
+    entries: list[dict[str, Any]], known: Collection[str], logs: Sequence[Path] = ()
+) -> None:
+    """An :class:`InputError` naming every entry whose sha256 is ``known`` (in the continued
+    map), and which of the ``logs`` given are new: ``aion build day*.mcap --map week.aion``
+    names the one day to add, not only the first of the days the map holds."""
+    held = [e for e in entries if e["sha256"] in known]
+    if not held:
+        return
+    held_paths = {str(e["path"]) for e in held}
+    new = [p.name for p in logs if str(p.resolve()) not in held_paths]
+    names = [str(e["name"]) for e in held]
+    raise InputError(
+        f"{first_few(names, 3)} {'is' if len(held) == 1 else 'are'} already in the map "
+        "(same sha256)",
+        hint="each log may be added to a map only once"
+        + (f": give only the new ones ({first_few(new, 5)})" if new else ""),
+    )
 
 
 def one_per_recording(paths: tuple[Path, ...]) -> tuple[tuple[Path, ...], list[str]]:
@@ -225,5 +237,5 @@ def distinct_logs(
         first_of[entry["sha256"]] = str(path)
         slots.append(entry)
         logs.append(path)
-    _refuse_known([e for e in slots if e is not None], known)
+    _refuse_known([e for e in slots if e is not None], known, logs)
     return DistinctLogs(tuple(logs), notes, slots, pending, frozenset(known))

@@ -74,6 +74,26 @@ def test_a_log_of_a_map_input_size_is_checked_before_the_build(tmp_path: Path) -
     assert logs.entries(NoProgress())[0]["sha256"] == _sha(other)
 
 
+def test_logs_the_map_holds_are_all_named_and_the_new_ones_given(tmp_path: Path) -> None:
+    """``aion build day*.mcap --map week.aion``, the glob catching the days the map holds:
+    the error named only the first of them ("mon.mcap is already in the map"), so a user
+    found the others, and the new day, by trial. It names every one the map holds and the
+    logs to give instead."""
+    mon = _file(tmp_path / "mon.mcap", b"m" * 300)
+    tue = _file(tmp_path / "tue.mcap", b"t" * 400)
+    wed = _file(tmp_path / "wed.mcap", b"w" * 500)
+    known = {_sha(mon): 300, _sha(wed): 500}
+    with pytest.raises(InputError) as refused:
+        distinct_logs((mon, tue, wed), NoProgress(), known)
+    assert refused.value.message == "mon.mcap, wed.mcap are already in the map (same sha256)"
+    assert refused.value.hint == (
+        "each log may be added to a map only once: give only the new ones (tue.mcap)"
+    )
+    with pytest.raises(InputError) as alone:  # nothing new: nothing to give instead
+        distinct_logs((wed,), NoProgress(), known)
+    assert alone.value.message == "wed.mcap is already in the map (same sha256)"
+    assert alone.value.hint == "each log may be added to a map only once"
+
 def test_a_background_hash_shows_progress_when_waited_for(tmp_path: Path) -> None:
     big = _file(tmp_path / "big.mcap", b"z" * (3 << 20))
     logs = distinct_logs((big,), NoProgress(), {})
