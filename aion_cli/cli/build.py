@@ -192,7 +192,10 @@ class _RichProgress:
     help="TOML file of model parameters (see --print-config).",
 )
 @click.option(
-    "--print-config", is_flag=True, help="Print the default model parameters as TOML and exit."
+    "--print-config",
+    is_flag=True,
+    help="Print the model parameters as TOML and exit (no log is read): the defaults, "
+    "--config FILE's, or those of the map --map continues.",
 )
 @click.option(
     "--dsg-version",
@@ -291,6 +294,10 @@ def command(
         raise InputError("--print-config prints TOML, not JSON", hint="leave out --format json")
     config = load_config(config_file)
     if print_config:
+        if config is None and continue_from is not None:  # what continuing it would use
+            from aion_cli.formats.mapfile import read_manifest
+
+            config = ModelConfig.from_stored(read_manifest(continue_from).get("config"))
         click.echo((config or ModelConfig()).to_toml(), nl=False)
         return
     if not logs:

@@ -185,6 +185,26 @@ def test_print_config_round_trips_and_a_bad_config_is_refused(tmp_path: Path) ->
     assert_one_line_error(result.stderr, "cel_size")
 
 
+def test_print_config_with_map_prints_the_parameters_the_map_keeps(
+    office: Office, tmp_path: Path
+) -> None:
+    """``aion build --print-config --map site.aion`` printed the defaults, not the map's
+    parameters, which a continued build uses (the file, given back with --config, was then
+    refused as differing). It prints the map's now; --config FILE still prints the file's."""
+    config = tmp_path / "model.toml"
+    config.write_text(ModelConfig(cell_size=0.25, window_s=1200.0).to_toml())
+    site = tmp_path / "site.aion"
+    assert run("build", office.log, "-o", site, "--config", config, "-q").exit_code == 0
+    printed = run("build", "--print-config", "--map", site)
+    assert printed.exit_code == 0, printed.stderr
+    kept = ModelConfig.from_dict(tomllib.loads(printed.stdout)["model"])
+    assert (kept.cell_size, kept.window_s) == (0.25, 1200.0)
+    assert kept == ModelConfig.from_toml_text(config.read_text())
+    again = tmp_path / "again.toml"
+    again.write_text(printed.stdout)  # given back, it is the map's own config
+    assert run("build", "--print-config", "--config", again).stdout == printed.stdout
+    assert tomllib.loads(run("build", "--print-config").stdout)["model"]["cell_size"] == 0.5
+
 def test_config_file_is_used_and_recorded(office: Office, tmp_path: Path) -> None:
     config = tmp_path / "model.toml"
     config.write_text(ModelConfig(cell_size=0.25, bind_radius=0.1).to_toml())
