@@ -92,6 +92,8 @@ def _worker(
     # unwinds like Ctrl-C (for the parent's map file) and would print a worker's traceback
     # under the parent's one-line error; a worker writes no file, so it ends at once
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if hasattr(signal, "SIGHUP"):  # a closed terminal hangs the parent up, which stops them
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
     while (task := _take(tasks, next_task)) is not None:
         sink = QueueProgress(out, task.index)
         try:

@@ -82,16 +82,18 @@ def leftovers(folder: Path, name: str) -> list[str]:
 
 
 def interrupt_build(
-    log: Path, target: Path, sig: int, when: str, rng: random.Random
+    log: Path, target: Path, sig: int, when: str, rng: random.Random, nohup: bool = False
 ) -> tuple[int, str]:
     """Start ``aion build LOG -o TARGET`` and send ``sig``: at a random moment, or as soon as
-    the temporary map file appears (``when="writing"``). Returns the exit code and stderr."""
+    the temporary map file appears (``when="writing"``). Returns the exit code and stderr.
+    ``nohup``: the build starts with SIGHUP ignored, as ``nohup aion build ...`` starts it."""
     proc = subprocess.Popen(
         [str(AION), "build", str(log), "-o", str(target), "-q"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
         env=aion_env(),
+        preexec_fn=(lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN)) if nohup else None,
     )
     try:
         if when == "writing":
@@ -122,6 +124,10 @@ def interrupt_build(
         (signal.SIGTERM, "writing"),
         (signal.SIGINT, "random"),
         (signal.SIGTERM, "random"),
+        # the terminal or ssh session closed: its default action killed the build and left
+        # the lock and the temporary map behind
+        (signal.SIGHUP, "writing"),
+        (signal.SIGHUP, "random"),
     ],
 )
 def test_interrupted_build_leaves_the_old_map_or_a_complete_new_one(
@@ -143,6 +149,19 @@ def test_interrupted_build_leaves_the_old_map_or_a_complete_new_one(
     if when == "writing":
         assert code in (0, 130), err  # stderr names the fault when it is not an interrupt
 
+
+def test_a_build_under_nohup_goes_on_after_a_hangup(
+    crowd_log: Path, office: Office, tmp_path: Path
+) -> None:
+    """SIGHUP unwinds a build like Ctrl-C, but not one started with it ignored (``nohup``):
+    that build finishes its map."""
+    target = office.copy_map(tmp_path / "existing.aion")
+    code, err = interrupt_build(
+        crowd_log, target, signal.SIGHUP, "writing", random.Random(0), nohup=True
+    )
+    assert code == 0, err
+    assert len(map_arrays(target)["entry_key"]) > len(map_arrays(office.map)["entry_key"])
+    assert leftovers(tmp_path, "existing.aion") == []
 
 def test_a_build_after_a_killed_one_recovers_its_stale_lock(office: Office, tmp_path: Path) -> None:
     """A build killed with SIGKILL (no cleanup possible) leaves its lock; the next build sees
