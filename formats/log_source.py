@@ -12,11 +12,11 @@ and :func:`_unzstd`, the bounded decompression of one zstd-compressed message pa
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Self, SupportsIndex
 
 from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint
 
@@ -127,6 +127,8 @@ class _Unpacked(_Source):
     def __init__(self, inner: _Source, temps: list[Any], path: Path | None = None) -> None:
         self.inner = inner
         self.topics = inner.topics
+        if path is not None:  # warnings named the copy, removed by the time the user reads them
+            inner.warnings = _ShownWarnings(inner.warnings, path, inner.file.path)
         self.warnings = inner.warnings
         self.unreadable_topics = inner.unreadable_topics
         self.other_channels = inner.other_channels
@@ -170,6 +172,37 @@ class _Unpacked(_Source):
         finally:
             for tmp in self._temps:
                 tmp.cleanup()
+
+
+class _ShownWarnings(list[str]):
+    """The warnings of a source read from ``inner``, the decompressed temporary copy of
+    ``original``: each, those there already and those added later, naming ``original``
+    (:func:`formats.rosbag2_storage.shown_text`), not the copy."""
+
+    def __init__(self, lines: Iterable[str], original: Path, inner: Path) -> None:
+        self._original, self._inner = original, inner
+        super().__init__(self._shown(w) for w in lines)
+
+    def _shown(self, text: str) -> str:
+        from aion_cli.formats.rosbag2_storage import shown_text
+
+        return shown_text(text, self._original, self._inner)
+
+    def __contains__(self, text: object) -> bool:
+        return super().__contains__(self._shown(text) if isinstance(text, str) else text)
+
+    def append(self, text: str, /) -> None:
+        super().append(self._shown(text))
+
+    def insert(self, index: SupportsIndex, text: str, /) -> None:
+        super().insert(index, self._shown(text))
+
+    def extend(self, lines: Iterable[str], /) -> None:
+        super().extend(self._shown(w) for w in lines)
+
+    def __iadd__(self, lines: Iterable[str]) -> Self:  # type: ignore[override,misc]
+        self.extend(lines)
+        return self
 
 
 @dataclass

@@ -166,11 +166,23 @@ def name_original(error: BaseException, original: Path, inner: Path) -> None:
 
     if not isinstance(error, AionError):
         return
-    copy, shown = str(inner), f"{original} (decompressed)"
-    error.message = error.message.replace(copy, shown)
+    error.message = shown_text(error.message, original, inner)
     if error.hint is not None:
-        error.hint = error.hint.replace(copy, shown)
-    error.args = tuple(a.replace(copy, shown) if isinstance(a, str) else a for a in error.args)
+        error.hint = shown_text(error.hint, original, inner)
+    error.args = tuple(
+        shown_text(a, original, inner) if isinstance(a, str) else a for a in error.args
+    )
+
+
+def shown_text(text: str, original: Path, inner: Path) -> str:
+    """``text`` (an error or a warning about ``inner``, the decompressed temporary copy of
+    ``original``) naming the user's file instead: the copy's path as ``original
+    (decompressed)``, and a line that starts with the copy's name (``t.mcap: truncated ...``,
+    how the readers' warnings name their file) starting with the original's (``t.mcap.zst:``)."""
+    text = text.replace(str(inner), f"{original} (decompressed)")
+    if text.startswith(f"{inner.name}:"):
+        text = original.name + text[len(inner.name) :]
+    return text
 
 
 def _unzstd_stream(src: IO[bytes], dst: IO[bytes]) -> None:
