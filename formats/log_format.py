@@ -54,6 +54,7 @@ def guess_format(path: Path) -> tuple[str, Path]:
             return "rosbag2", path
         if storage.storage_files(path):
             _refuse_other_logs(path)
+            _refuse_folder_of_logs(path)
             return "rosbag2", path
         found = sorted(p.name for p in path.iterdir())[:5]
         raise LogFormatError(
@@ -123,6 +124,35 @@ def other_log_name(kind: str) -> str:
 def other_log_hint(fmt: str) -> str:
     """The hint for a log that ``--log-format`` names wrongly: ``fmt`` reads it."""
     return f"read it with --log-format {fmt}"
+
+
+#: a rosbag2 split storage file's name without its suffix: the bag's name, then its split index
+#: as rosbag2 writes it (``wbag_0``, ``wbag_12``; never padded, so ``scene_00`` is no split)
+_SPLIT = re.compile(r"(?P<bag>.+)_(?P<index>0|[1-9][0-9]*)")
+
+
+def _refuse_folder_of_logs(folder: Path) -> None:
+    """A folder without metadata.yaml whose storage files are several .mcap files but not the
+    split files of one bag (no .db3, no first split ``NAME_0.mcap``): the logs ``aion simulate
+    --scenes`` writes, which were read as one bag, their messages interleaved into one
+    recording. Refused, naming them (:func:`_refuse_other_logs` has refused a folder that also
+    holds bags or bag folders). One .mcap file alone is still read as a bag."""
+    from aion_cli.formats import rosbag2_storage as storage
+
+    logs = storage.storage_files(folder)
+    stems = {Path(storage.inner_name(f)).stem for f in logs}
+    if len(logs) < 2 or any(log_suffix(f) == ".db3" for f in logs):
+        return  # sqlite3 storage is only ever a rosbag2 bag's
+    if any((m := _SPLIT.fullmatch(s)) and f"{m['bag']}_0" in stems for s in stems):
+        return  # a split bag's storage files, NAME_0.mcap first
+    names = sorted(p.name for p in logs)
+    ends = sorted({p.name[len(Path(storage.inner_name(p)).stem) :] for p in logs})
+    raise LogFormatError(
+        f"{folder} holds {len(logs)} logs ({first_few(names, 5)}), not the storage files of "
+        "one rosbag2 bag (it has no metadata.yaml, no .db3, no NAME_0.mcap)",
+        hint="give the logs themselves: aion build "
+        + " ".join(f"{folder}/*{end}" for end in ends),  # sc/*.mcap, sc/*.mcap.zst
+    )
 
 
 def _refuse_other_logs(folder: Path) -> None:
