@@ -426,10 +426,12 @@ def _output_path(text: str, scenes: int, fmt: str) -> Path:
 
 def _zone_name(tz: str) -> str:
     """``--tz`` as the scene's zone name: ``local`` is the machine's zone by its name, as
-    ``build --tz local`` stores it (the truth and the log then name a real zone)."""
+    ``build --tz local`` stores it (the truth and the log then name a real zone). Read by
+    the zone parser every command's --tz goes through, which refuses a bad zone alike."""
     from aion_cli.timeparse import resolve_zone
 
-    return resolve_zone(tz).name if tz.strip().lower() == "local" else tz
+    zone = resolve_zone(tz)
+    return zone.name if tz.strip().lower() == "local" else tz
 
 
 def _clock_change_note(start: str, tz: str | None, utc_offset_h: float) -> None:

@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from aion_cli.engine.config import ModelConfig
-from tests.cli.conftest import assert_one_line_error, run, run_json
+from aion_cli.errors import ConfigError
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 from tests.cli.logdata import write_office_log
 from tests.robustness.conftest import walk, write_log
 
@@ -103,3 +104,23 @@ def test_time_zone_given_twice_must_agree(tmp_path: Path) -> None:
         "build", log, "--config", config, "--tz", "Europe/Berlin", "-o", out, "--format", "json"
     )
     assert run_json("info", out, "--format", "json")["timezone"] == "Europe/Berlin"
+
+
+@pytest.mark.parametrize("empty", ["", " "], ids=["empty", "blank"])
+def test_an_empty_zone_is_worded_alike_by_every_command(
+    office: Office, tmp_path: Path, empty: str
+) -> None:
+    """``--tz ""`` (an unset shell variable): simulate said "unknown time zone ''" where
+    report, predict and build say "empty time zone"; a config's empty zone said it too."""
+    said = {
+        "simulate": run("simulate", "-o", tmp_path / "s.mcap", "--days", "0.1", "--tz", empty),
+        "report": run("report", office.map, "-o", tmp_path / "r", "--tz", empty),
+        "predict": run("predict", office.map, "--tz", empty),
+    }
+    for command, result in said.items():
+        assert result.exit_code == 2, (command, result.stderr)
+        assert_one_line_error(result.stderr, "error: empty time zone")
+    assert said["simulate"].stderr == said["report"].stderr == said["predict"].stderr
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(ConfigError, match=r"^empty time zone$"):
+        ModelConfig(timezone=empty)

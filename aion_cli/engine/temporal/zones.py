@@ -19,8 +19,11 @@ def zone_of(name: str) -> tzinfo:
     """The time zone called ``name``: ``UTC`` (also ``Z``, ``GMT``), a fixed offset
     (``+09:00``, ``UTC-5``, ``+0530``) or an IANA name, in any case (``europe/berlin`` is
     ``Europe/Berlin``, as on a machine whose file system ignores case); :class:`ConfigError`
-    otherwise, whose hint names the zone meant where one is close (``Europe/Berln``)."""
+    otherwise (an empty name too), whose hint names the zone meant where one is close
+    (``Europe/Berln``)."""
     text = name.strip()
+    if not text:  # the wording of timeparse.resolve_zone, which --tz goes through
+        raise ConfigError("empty time zone", hint=ZONE_HINT)
     if text.lower() in ("utc", "z", "gmt"):
         return UTC
     offset = _OFFSET.match(text.lower())
