@@ -198,7 +198,7 @@ def compare_views(aion: MapView, grid: MapView) -> dict[str, dict[str, float]]:
         "circular_correlation": metrics.circular_correlation(
             aion.angle[common], grid.angle[common]
         ),
-        "cells": float(common.sum()),
+        "cells": int(common.sum()),
     }
     return {
         "Entropy": compare_scalar(aion.entropy[ent], grid.entropy[ent]),
@@ -306,11 +306,13 @@ def run_scene(
         for t, table in zip(last_day, tables, strict=True)
     ]
     table = {f"{k}/Historical": v for k, v in compare_views(*views["Historical"]).items()}
-    for kind in ("Entropy", "Flow", "Direction"):
+    for kind in ("Entropy", "Flow", "Direction"):  # each figure's mean over the hours
         table[f"{kind}/Predicted"] = {
-            m: float(np.nanmean([p[kind].get(m, math.nan) for p in predicted]))
+            ("mean_cells" if m == "cells" else m): float(
+                np.nanmean([p[kind].get(m, math.nan) for p in predicted])
+            )
             for m in predicted[0][kind]
-        }
+        }  # the cells compared (a count each hour) too: their mean, named so
     scene_truth = SceneTruth.load(written.truth_npz)
     truth, series = _truth_scores(scene_truth, state, last_day, tables)
     directions = _direction_scores(scene_truth, state, grid, last_day, tables)

@@ -68,7 +68,7 @@ def direction_truth_scores(truth: F64, maps: dict[str, F64]) -> dict[str, Any]:
     both = truth.sum(axis=1) > 0
     for hist in maps.values():
         both &= hist.sum(axis=1) > 0
-    out: dict[str, Any] = {"places": float(both.sum())}
+    out: dict[str, Any] = {"places": int(both.sum())}
     if not both.any():
         for name in maps:
             out[name] = dict.fromkeys(DIRECTION_METRICS, math.nan)

@@ -138,7 +138,7 @@ def _truth_scores(
     table = historical_table(state)
     pairs = place_rows(ids, table.node_id)
     if len(pairs) == 0:
-        return {"places_compared": 0.0}, None
+        return {"places_compared": 0}, None
     aion_hist = table.rate[pairs[:, 0]]
     true_hist = flow_counts[:, pairs[:, 1], :].sum(axis=0).astype(float)
     both = (aion_hist.sum(axis=1) > 0) & (true_hist.sum(axis=1) > 0)
@@ -158,7 +158,7 @@ def _truth_scores(
         oracle.append(hour_mean)
     q = np.concatenate(true)
     scores = {
-        "places_compared": float(len(pairs)),
+        "places_compared": len(pairs),
         "direction_js": float(js.mean()) if js is not None else math.nan,
         "flow_correlation": _correlation(np.concatenate(predicted), q),
         "flow_correlation_previous_day": _correlation(np.concatenate(previous), q),
@@ -271,7 +271,7 @@ def _by_coverage(
     return {
         COVERAGE_FIELDS[0]: _correlation(np.where(all_day, aion_where, np.nan), true_where),
         COVERAGE_FIELDS[1]: _correlation(np.where(all_day, np.nan, aion_where), true_where),
-        COVERAGE_FIELDS[2]: float(all_day.sum()),
+        COVERAGE_FIELDS[2]: int(all_day.sum()),
     }
 
 

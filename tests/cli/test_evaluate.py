@@ -338,3 +338,31 @@ def test_a_datasets_file_as_data_names_its_folder(tmp_path: Path, command: str, 
     error, hint = result.stderr.strip().splitlines()
     assert error.startswith(f"error: --data {given} is a file: ")
     assert hint == f"hint: give --data {tmp_path}"
+
+
+def test_office_json_gives_counts_as_integers() -> None:
+    """`evaluate office --format json` gave each scene's counts as floats ("places_compared":
+    128.0, "cells": 59.0): counts of places and cells are whole numbers, so JSON integers."""
+    result = CliRunner().invoke(
+        cli, ["evaluate", "office", "--scenes", "2", "--days", "1", "--format", "json", "-q"]
+    )
+    assert result.exit_code == 0, result.output
+    scene = json.loads(result.stdout)["scenes"][0]
+    counts = {
+        "places_compared": scene["truth"]["places_compared"],
+        "places_seen_all_day": scene["truth"]["places_seen_all_day"],
+        "directions places": scene["directions"]["places"],
+        "Direction/Historical cells": scene["table"]["Direction/Historical"]["cells"],
+    }
+    for name, value in counts.items():
+        assert type(value) is int, (name, value)
+    # places compared with the truth: a subset of the map's places, some of them
+    assert 0 < counts["directions places"] <= counts["places_compared"] <= scene["nodes"]
+    assert 0 <= counts["places_seen_all_day"] <= counts["places_compared"]
+    # the predicted rows average over the evaluated hours: their cells are a mean, named so
+    predicted = scene["table"]["Direction/Predicted"]
+    assert "cells" not in predicted
+    assert isinstance(predicted["mean_cells"], float)
+    assert predicted["mean_cells"] > 0
+    assert not re.search(r'"(places_compared|places_seen_all_day|places|cells)": \d+\.0\b',
+                         result.stdout)
