@@ -169,6 +169,8 @@ def atc(
 
     data = _existing_dir(_data(data_dir, "atc"), "ATC data")
     result = run_atc(data, protocol, _config(config_path), radius, progress=note)
+    for line in result.notes:  # hours without training data (JSON: hours_without_training)
+        note(line)
     rows = result.rows if per_hour else result.summary()
     columns = ((Column("hour", "hour"),) if per_hour else ()) + SCORE_COLUMNS
     emit(fmt, rows, columns, json_payload=result.to_dict(),

@@ -58,6 +58,9 @@ class AtcResult:
     train_detections: int
     rows: list[dict[str, Any]] = field(default_factory=list)
     sizes: dict[str, int] = field(default_factory=dict)
+    hours_without_training: list[int] = field(default_factory=list)
+    """Hours the protocol trains on (random: every hour it tests) with no ``_train`` file."""
+    notes: list[str] = field(default_factory=list)
 
     def summary(self) -> list[dict[str, Any]]:
         """Per model: detection-weighted mean NLL (matched and all), unmatched, chi-square."""
@@ -86,6 +89,8 @@ class AtcResult:
             "per_hour": self.rows,
             "summary": self.summary(),
             "model_bytes": self.sizes,
+            "hours_without_training": self.hours_without_training,
+            "notes": self.notes,
         }
 
 
@@ -158,6 +163,10 @@ def run_atc(
     models = _train_models(train, cfg, radius, say)
     result = AtcResult(protocol, radius, len(train))
     result.sizes = {name: size for name, (_, size) in models.items()}
+    trained = list(tests) if protocol == "random" else [h for h in hours if h <= 16]
+    result.hours_without_training = [h for h in trained if (h, "train") not in files]
+    if result.hours_without_training:
+        result.notes.append(_untrained_note(protocol, result.hours_without_training))
     for hour, test in tests.items():
         headed = int(np.count_nonzero(np.isfinite(test.heading)))  # what the scores count
         unheaded = f", {headed:,} of them with a heading" if headed < len(test) else ""
@@ -187,6 +196,26 @@ def _check_split(
     if tests == 0:
         raise InputError(f"no test hour for the {protocol} protocol in {data_dir} "
                          f"(it holds {held})", hint=needs)
+
+
+def _untrained_note(protocol: str, untrained: list[int]) -> str:
+    """What the scores of the hours without a ``_train`` file are (the real data lacks
+    ``atc-1024-12_train.csv``): the random protocol scores their test people with models that
+    saw nobody of that hour; the chronological one trains on their ``_test`` file alone."""
+    hours = ", ".join(f"{h}:00" for h in untrained)
+    files = ", ".join(f"atc-1024-{h}_train.csv" for h in untrained)
+    one = len(untrained) == 1
+    if protocol == "random":
+        return (
+            f"{hours} {'has' if one else 'have'} no training data ({files} not in the folder): "
+            f"{'its' if one else 'their'} test people are scored by models trained on the "
+            "other hours only"
+        )
+    return (
+        f"{hours} {'has' if one else 'have'} no training file ({files} not in the folder): "
+        f"trained on {'its' if one else 'their'} _test file alone (about a tenth of "
+        f"{'its' if one else 'their'} people)"
+    )
 
 
 def _train_models(

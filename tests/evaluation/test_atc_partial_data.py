@@ -5,6 +5,7 @@ train on failed inside (``internal error: ValueError: zero-size array ...``). Bo
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -64,3 +65,40 @@ def test_the_progress_counts_the_detections_the_table_scores(tmp_path: Path) -> 
     result = run_atc(tmp_path, "random", progress=said.append)
     assert "scoring 9:00 (30 detections, 29 of them with a heading)" in said
     assert {row["detections"] for row in result.rows} == {29}
+
+
+@pytest.mark.parametrize(
+    ("protocol", "files", "untrained", "said"),
+    [
+        ("random", [(9, "train"), (9, "test"), (10, "test")], [10],
+         "10:00 has no training data (atc-1024-10_train.csv not in the folder): its test "
+         "people are scored by models trained on the other hours only"),
+        ("chronological", [(9, "train"), (9, "test"), (10, "test"), (17, "test")], [10],
+         "10:00 has no training file (atc-1024-10_train.csv not in the folder): trained on "
+         "its _test file alone"),
+        ("random", [(9, "train"), (9, "test"), (10, "train"), (10, "test")], [], None),
+    ],
+    ids=["random", "chronological", "all-trained"],
+)
+def test_an_hour_without_training_data_is_named(
+    tmp_path: Path, protocol: str, files: list[tuple[int, str]], untrained: list[int],
+    said: str | None,
+) -> None:
+    """The real data has no atc-1024-12_train.csv: hour 12 was scored (random) as any other,
+    its row in --per-hour and JSON with no word that no model saw anyone of that hour."""
+    for hour, split in files:
+        _atc(tmp_path, hour, split)
+    result = run("evaluate", "atc", "--data", tmp_path, "--protocol", protocol, "--per-hour")
+    assert result.exit_code == 0, result.stderr
+    stderr = " ".join(result.stderr.split())
+    if said:
+        assert said in stderr
+    else:
+        assert "no training" not in stderr
+    doc = run("evaluate", "atc", "--data", tmp_path, "--protocol", protocol, "--format",
+              "json", "-q")
+    payload = json.loads(doc.stdout)
+    assert payload["hours_without_training"] == untrained
+    assert len(payload["notes"]) == len(untrained)
+    if said:
+        assert payload["notes"][0].startswith(said)
