@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.types import F64, I64
+from aion_cli.engine.types import F64, I64, BoolA
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
@@ -60,6 +60,35 @@ def nearest_nodes(points: F64, node_xyz: F64, radius: float, vertical_tolerance:
         return _closest(points, node_xyz, p, j, radius, vertical_tolerance)[0]
     tree = horizontal_tree(node_xyz)
     return _by_tree(tree, points, node_xyz, _widened(radius), radius, vertical_tolerance)
+
+
+def boxes_in_reach(
+    points: F64, low: F64, high: F64, radius: float, vertical_tolerance: float
+) -> BoolA:
+    """Per point, whether some box [``low[j]``, ``high[j]``] (axis-aligned: every position a
+    node had over a time) holds a position within ``radius`` horizontally and
+    ``vertical_tolerance`` vertically of it, i.e. whether the node may have reached it there
+    (:func:`nearest_nodes`'s reach, a box instead of a point)."""
+    n, m = len(points), len(low)
+    out = np.zeros(n, bool)
+    if n == 0 or m == 0:
+        return out
+    blocks: list[tuple[int, I64, I64]] = []
+    if n * m <= _ALL_PAIRS:
+        blocks.append((0, *_all_pairs(n, m)))
+    else:
+        half = float(np.max(np.hypot(high[:, 0] - low[:, 0], high[:, 1] - low[:, 1]))) / 2
+        tree = horizontal_tree((low + high) / 2)
+        for a in range(0, n, _POINTS_PER_BLOCK):
+            blocks.append(
+                (a, *_ball_pairs(tree, points[a : a + _POINTS_PER_BLOCK], _widened(radius + half)))
+            )
+    for a, p, j in blocks:
+        xyz = points[a + p]
+        gap = np.maximum(np.maximum(low[j] - xyz, xyz - high[j]), 0.0)
+        ok = (np.hypot(gap[:, 0], gap[:, 1]) <= radius) & (gap[:, 2] <= vertical_tolerance)
+        out[a + p[ok]] = True
+    return out
 
 
 def _by_tree(

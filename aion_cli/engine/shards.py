@@ -30,9 +30,11 @@ trajectories, a shared graph and one that moves; the places' stability timers ar
 one pass, or the join is refused (:mod:`aion_cli.engine.node_drift`), and so is a shard whose
 graph moved a place to another pooling group (room, or neighbourhood) after one of its days
 was held (that day was pooled by the groups it had then; a day held before the shard's first
-graph, by the earlier map's graph). What a shard cannot know, and so the join approximates:
-a node's stability timer restarts at the shard's first graph (binds in its first
-``stability_s`` go through cells first; the counts end in the node either way).
+graph, by the earlier map's graph), and so is one whose places came within reach of the
+earlier map's cells at checks between their first and last (a graph that moved a place
+nearer: one pass bound those cells there). What a shard cannot know, and so the join
+approximates: a node's stability timer restarts at the shard's first graph (binds in its
+first ``stability_s`` go through cells first; the counts end in the node either way).
 """
 
 from __future__ import annotations
@@ -44,13 +46,13 @@ import numpy as np
 from aion_cli.engine.closing import close_windows, closing_binds, closing_entries
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.merge import add_entries, adopt_redirects, bind_early_cells, destinations
-from aion_cli.engine.nearest import nearest_nodes
+from aion_cli.engine.nearest import boxes_in_reach, nearest_nodes
 from aion_cli.engine.node_drift import join_timers, timers_blocker
 from aion_cli.engine.ownership import stable_nodes
 from aion_cli.engine.temporal.groups import groups_moved
 from aion_cli.engine.temporal.held_days import DeferredDays, HeldDay
 from aion_cli.engine.temporal.pending import PendingDay
-from aion_cli.engine.types import I64, U64
+from aion_cli.engine.types import F64, I64, U64, BoolA
 from aion_cli.engine.windows import iso, window_start_ns
 from aion_cli.errors import ConfigError
 
@@ -193,6 +195,14 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
             "cells held into the places' own cells)",
             "places that bound cells of the map before them and left the scene graph later",
         )
+    if _moved_into_reach(shard, xyz, first_hit):
+        return JoinBlock(
+            "places of the scene graph of these logs moved within reach of cells of the map "
+            "before them after their first ownership check, and one pass binds such a cell "
+            "where the place reached it (the join knows the places' first and last positions "
+            "only)",
+            "places that moved within reach of cells of the map before them",
+        )
     if first_hit.any() and held.first_stable_late:
         return JoinBlock(
             "the scene graph of these logs became stable only after their first day",
@@ -212,6 +222,22 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
         "single pass would have bound them then)",
         "a scene graph that reached cells of the map before them only later on",
     )
+
+
+def _moved_into_reach(shard: MapState, xyz: F64, first_hit: BoolA) -> bool:
+    """Whether a cell of the map before the shard (at ``xyz``) that the shard's first stable
+    places do not reach (``~first_hit``) lies in reach of a position a place of the shard's
+    first graph had before its timer first restarted (the drift box, :mod:`node_drift`): one
+    pass bound it at the check where the place was there, which the join, binding by the
+    first and last positions only, misses (a graph that jitters the place into reach)."""
+    drift = shard.deferred.drift if shard.deferred is not None else None
+    if drift is None or first_hit.all():
+        return False
+    cfg = shard.config
+    reach = boxes_in_reach(
+        xyz[~first_hit], drift.low, drift.high, cfg.bind_radius, cfg.bind_vertical_tolerance
+    )
+    return bool(reach.any())
 
 
 def _left_later(shard: MapState, ids: U64) -> bool:

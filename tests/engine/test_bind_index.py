@@ -299,3 +299,26 @@ def test_many_nodes_of_another_floor_nearer_do_not_hide_the_floors_own(all_pairs
         np.testing.assert_array_equal(nearest_nodes(cell, nodes, 1.0, 0.5), [12])
         got = BindIndex().nearest(np.array([0]), np.array([5]), cell, nodes, 1.0, 0.5)
     np.testing.assert_array_equal(got, [12])
+
+
+# -- reach of boxes (a place's positions over a time) ---------------------------------------
+
+
+@pytest.mark.parametrize(("n", "m"), [(300, 40), (5000, 40)])  # all pairs; the KD-tree path
+def test_boxes_in_reach_is_reach_of_the_nearest_point_of_each_box(n: int, m: int) -> None:
+    """A point is in reach of a box where it is in reach of the box's point nearest it (the
+    point clamped into the box, horizontally and vertically apart); a box of one position
+    reaches what that node reaches (nearest_nodes)."""
+    rng = np.random.default_rng(n)
+    pts = _points(rng, n)
+    low = np.c_[rng.uniform(-4, 4, (m, 2)), rng.choice([0.0, 3.0], m)]
+    high = low + rng.uniform(0, 0.6, (m, 3))
+    clamped = np.clip(pts[:, None, :], low[None], high[None])
+    horizontal = np.hypot(*(clamped - pts[:, None, :])[..., :2].transpose(2, 0, 1))
+    vertical = np.abs(clamped[..., 2] - pts[:, None, 2])
+    expected = ((horizontal <= 1.0) & (vertical <= 1.0)).any(axis=1)
+    got = nearest.boxes_in_reach(pts, low, high, 1.0, 1.0)
+    np.testing.assert_array_equal(got, expected)
+    assert 0 < got.sum() < n
+    points_only = nearest.boxes_in_reach(pts, low, low, 1.0, 1.0)
+    np.testing.assert_array_equal(points_only, nearest_nodes(pts, low, 1.0, 1.0) >= 0)

@@ -195,6 +195,22 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
     assert joined.entries.counts[node].sum() > 0
 
 
+def _jittering(start: int, seed: int) -> list[Step]:
+    """A fixed-sensor log whose graph has place 2 0.2 m nearer (0, 2.8) for two windows
+    (within the stability tolerance: its timer runs on) and then back where it was."""
+    from functools import partial
+
+    from tests.engine.engine_builders import graph
+    from tests.engine.state_logs import NODES
+
+    steps = fixed_sensor_log(start, seed=seed)
+    home, moved = np.array(NODES, float), np.array(NODES, float)
+    moved[2, 1] -= 0.2
+    steps.insert(4, partial(Mapper.add_graph, snapshot=graph(start + 2 * W, list(range(5)), moved)))
+    steps.insert(7, partial(Mapper.add_graph, snapshot=graph(start + 4 * W, list(range(5)), home)))
+    return steps
+
+
 @pytest.mark.parametrize(
     ("logs", "reason"),
     [
@@ -248,6 +264,12 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
             ],
             "left the graph later on",
         ),
+        (  # the later log's place 2 comes 0.2 m nearer cells the earlier log left unbound
+            # for two windows: one pass binds them at its check there, the join knows the
+            # place's first and last positions (out of reach) only
+            [fixed_sensor_log(MORNING, seed=51), _jittering(MORNING + 3 * DAY, 151)],
+            "moved within reach of cells of the map before them",
+        ),
     ],
     ids=[
         "moving-places",
@@ -256,6 +278,7 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
         "entered-at-the-join",
         "graph-at-the-end",
         "place-left-later",
+        "place-jittered-into-reach",
     ],
 )
 def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: str) -> None:
