@@ -146,6 +146,12 @@ def join_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
             "places of the map before these logs left the scene graph during them",
             "places of the map before them that left the scene graph",
         )
+    if _left_later(shard, early_ids):
+        return JoinBlock(
+            "places of the map before these logs left the scene graph during them and came "
+            "back (one pass released what they held there)",
+            "places of the map before them that left the scene graph and came back",
+        )
     cells = np.setdiff1d(early[acc.entries.kind[early] == CELL], bound)
     if held.first_stable is None and _unbound_in_reach(acc, shard, cells, keys):
         return JoinBlock(

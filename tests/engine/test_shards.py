@@ -195,9 +195,10 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
     assert joined.entries.counts[node].sum() > 0
 
 
-def _jittering(start: int, seed: int) -> list[Step]:
+def _jittering(start: int, seed: int, leave: bool = False) -> list[Step]:
     """A fixed-sensor log whose graph has place 2 0.2 m nearer (0, 2.8) for two windows
-    (within the stability tolerance: its timer runs on) and then back where it was."""
+    (within the stability tolerance: its timer runs on), or without it (``leave``), and then
+    back where it was."""
     from functools import partial
 
     from tests.engine.engine_builders import graph
@@ -206,7 +207,9 @@ def _jittering(start: int, seed: int) -> list[Step]:
     steps = fixed_sensor_log(start, seed=seed)
     home, moved = np.array(NODES, float), np.array(NODES, float)
     moved[2, 1] -= 0.2
-    steps.insert(4, partial(Mapper.add_graph, snapshot=graph(start + 2 * W, list(range(5)), moved)))
+    ids = [0, 1, 3, 4] if leave else list(range(5))
+    between = graph(start + 2 * W, ids, home[ids] if leave else moved)
+    steps.insert(4, partial(Mapper.add_graph, snapshot=between))
     steps.insert(7, partial(Mapper.add_graph, snapshot=graph(start + 4 * W, list(range(5)), home)))
     return steps
 
@@ -270,6 +273,11 @@ def _jittering(start: int, seed: int) -> list[Step]:
             [fixed_sensor_log(MORNING, seed=51), _jittering(MORNING + 3 * DAY, 151)],
             "moved within reach of cells of the map before them",
         ),
+        (  # the later log's graph lacks place 2 for two windows: one pass released the
+            # earlier log's entry of it and dropped the redirects to it, the join kept them
+            [fixed_sensor_log(MORNING, seed=50), _jittering(MORNING + 3 * DAY, 150, leave=True)],
+            "left the scene graph during them and came back",
+        ),
     ],
     ids=[
         "moving-places",
@@ -279,6 +287,7 @@ def _jittering(start: int, seed: int) -> list[Step]:
         "graph-at-the-end",
         "place-left-later",
         "place-jittered-into-reach",
+        "place-left-and-came-back",
     ],
 )
 def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: str) -> None:
