@@ -144,6 +144,8 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     cfg = state.config
     stable = stable_nodes(state, t_ns)
     held = state.deferred
+    if held is not None and stable.any():  # a shard: where its stable places reached
+        held.checked_stable(state.nodes.ids[stable], state.nodes.xyz[stable])
     if held is not None and held.first_stable is None:  # a shard, for the join (engine.shards)
         if stable.any():  # the first stable nodes it bound to
             held.remember_stable(state.nodes.ids[stable], state.nodes.xyz[stable])

@@ -203,11 +203,11 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
         )
     if _moved_into_reach(shard, xyz, first_hit):
         return JoinBlock(
-            "places of the scene graph of these logs moved within reach of cells of the map "
-            "before them after their first ownership check, and one pass binds such a cell "
-            "where the place reached it (the join knows the places' first and last positions "
-            "only)",
-            "places that moved within reach of cells of the map before them",
+            "places of the scene graph of these logs came within reach of cells of the map "
+            "before them after their first ownership check (moved there, or new there), and "
+            "one pass binds such a cell where the place reached it (the join knows the places' "
+            "first and last positions only)",
+            "places that came within reach of cells of the map before them",
         )
     if first_hit.any() and held.first_stable_late:
         return JoinBlock(
@@ -233,17 +233,26 @@ def _late_cells_blocker(acc: MapState, shard: MapState, cells: I64) -> JoinBlock
 def _moved_into_reach(shard: MapState, xyz: F64, first_hit: BoolA) -> bool:
     """Whether a cell of the map before the shard (at ``xyz``) that the shard's first stable
     places do not reach (``~first_hit``) lies in reach of a position a place of the shard's
-    first graph had before its timer first restarted (the drift box, :mod:`node_drift`): one
-    pass bound it at the check where the place was there, which the join, binding by the
-    first and last positions only, misses (a graph that jitters the place into reach)."""
-    drift = shard.deferred.drift if shard.deferred is not None else None
-    if drift is None or first_hit.all():
+    first graph had before its timer first restarted (the drift box, :mod:`node_drift`: one
+    pass may have had it stable there, with the earlier map's timer), or one any place had
+    stable at a check of the shard (``DeferredDays.reach``): one pass bound it at the check
+    where the place was there, which the join, binding by the first and last positions only,
+    misses (a graph that jitters a place into reach, or a place that comes and goes)."""
+    held = shard.deferred
+    if held is None or first_hit.all():
         return False
+    boxes = [] if held.drift is None else [(held.drift.low, held.drift.high)]
+    if held.reach is not None:  # every position a place had stable at a check
+        boxes.append(held.reach[1:])
     cfg = shard.config
-    reach = boxes_in_reach(
-        xyz[~first_hit], drift.low, drift.high, cfg.bind_radius, cfg.bind_vertical_tolerance
+    return any(
+        bool(
+            boxes_in_reach(
+                xyz[~first_hit], low, high, cfg.bind_radius, cfg.bind_vertical_tolerance
+            ).any()
+        )
+        for low, high in boxes
     )
-    return bool(reach.any())
 
 
 def _left_later(shard: MapState, ids: U64) -> bool:

@@ -195,10 +195,10 @@ def test_a_graph_new_in_a_later_shard_binds_the_earlier_cells_it_covers() -> Non
     assert joined.entries.counts[node].sum() > 0
 
 
-def _jittering(start: int, seed: int, leave: bool = False) -> list[Step]:
+def _jittering(start: int, seed: int, leave: bool = False, visit: bool = False) -> list[Step]:
     """A fixed-sensor log whose graph has place 2 0.2 m nearer (0, 2.8) for two windows
-    (within the stability tolerance: its timer runs on), or without it (``leave``), and then
-    back where it was."""
+    (within the stability tolerance: its timer runs on), or without it (``leave``), or a
+    sixth place at (1.5, 1.5) (``visit``), and then is as it was."""
     from functools import partial
 
     from tests.engine.engine_builders import graph
@@ -207,8 +207,9 @@ def _jittering(start: int, seed: int, leave: bool = False) -> list[Step]:
     steps = fixed_sensor_log(start, seed=seed)
     home, moved = np.array(NODES, float), np.array(NODES, float)
     moved[2, 1] -= 0.2
-    ids = [0, 1, 3, 4] if leave else list(range(5))
-    between = graph(start + 2 * W, ids, home[ids] if leave else moved)
+    ids = [0, 1, 3, 4] if leave else list(range(6 if visit else 5))
+    xyz = home[ids] if leave else np.r_[home, [[1.5, 1.5, 0.0]]] if visit else moved
+    between = graph(start + 2 * W, ids, xyz)
     steps.insert(4, partial(Mapper.add_graph, snapshot=between))
     steps.insert(7, partial(Mapper.add_graph, snapshot=graph(start + 4 * W, list(range(5)), home)))
     return steps
@@ -271,12 +272,17 @@ def _jittering(start: int, seed: int, leave: bool = False) -> list[Step]:
             # for two windows: one pass binds them at its check there, the join knows the
             # place's first and last positions (out of reach) only
             [fixed_sensor_log(MORNING, seed=51), _jittering(MORNING + 3 * DAY, 151)],
-            "moved within reach of cells of the map before them",
+            "came within reach of cells of the map before them",
         ),
         (  # the later log's graph lacks place 2 for two windows: one pass released the
             # earlier log's entry of it and dropped the redirects to it, the join kept them
             [fixed_sensor_log(MORNING, seed=50), _jittering(MORNING + 3 * DAY, 150, leave=True)],
             "left the scene graph during them and came back",
+        ),
+        (  # a place new in the later log's graph for two windows, amid cells the earlier log
+            # left unbound: one pass bound them to it there and released them when it left
+            [fixed_sensor_log(MORNING, seed=52), _jittering(MORNING + 3 * DAY, 152, visit=True)],
+            "came within reach of cells of the map before them",
         ),
     ],
     ids=[
@@ -288,6 +294,7 @@ def _jittering(start: int, seed: int, leave: bool = False) -> list[Step]:
         "place-left-later",
         "place-jittered-into-reach",
         "place-left-and-came-back",
+        "place-came-and-went",
     ],
 )
 def test_joins_that_would_not_be_exact_say_why(logs: list[list[Step]], reason: str) -> None:
@@ -435,3 +442,23 @@ def test_a_part_map_keeps_that_its_checks_reached_cells_near_places_not_yet_stab
     blocker = join_blocker(run_steps(first).state, reread)
     assert blocker is not None
     assert "stable at none of their ownership checks" in blocker
+
+
+def test_a_part_map_keeps_where_its_stable_places_reached() -> None:
+    """``aion build --part`` then ``aion merge``: the shard of the place-came-and-went case
+    goes through its saved arrays and is still refused (one pass bound the earlier cells to
+    the place that came and went)."""
+    later = _jittering(MORNING + 3 * DAY, 152, visit=True)
+    shard = run_steps(later, Mapper(CFG, start_shard(MapState.empty(CFG)))).state
+    reread = MapState.from_arrays(*shard.to_arrays())
+    assert shard.deferred is not None
+    assert shard.deferred.reach is not None
+    assert reread.deferred is not None
+    assert reread.deferred.reach is not None
+    for kept, saved in zip(reread.deferred.reach, shard.deferred.reach, strict=True):
+        np.testing.assert_array_equal(kept, saved)
+    assert np.isin(shard.nodes.ids, reread.deferred.reach[0]).all()
+    assert reread.deferred.reach[0].size == len(shard.nodes) + 1  # the place that went
+    blocker = join_blocker(run_steps(fixed_sensor_log(MORNING, seed=52)).state, reread)
+    assert blocker is not None
+    assert "came within reach of cells of the map before them" in blocker

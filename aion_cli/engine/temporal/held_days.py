@@ -45,6 +45,10 @@ class DeferredDays:
     #: stable (one pass, with the timers the map before the shard gave them, may have bound
     #: them there)
     unstable_keys: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: every place stable at one of the shard's bind checks (ids sorted) and the box of its
+    #: positions at those checks (low, high): where it may have bound cells the map before
+    #: the shard had (None: no such check yet, and in part maps of older versions)
+    reach: tuple[npt.NDArray[np.uint64], F64, F64] | None = None
     #: whether ownership moved an entry that a held day had live (that day's forecast would
     #: have pooled over the entries as they were then: the join cannot be exact)
     moved_after_hold: bool = False
@@ -87,6 +91,32 @@ class DeferredDays:
             self.first_stable = (ids.copy(), xyz.copy())
             self.first_stable_late = bool(self.days)
 
+    def checked_stable(self, ids: npt.NDArray[np.uint64], xyz: F64) -> None:
+        """A bind check with the places ``ids`` (sorted) stable at ``xyz``: their boxes of
+        :attr:`reach` take these positions in."""
+        if ids.size == 0:
+            return
+        if self.reach is None:
+            self.reach = (ids.copy(), xyz.copy(), xyz.copy())
+            return
+        known, low, high = self.reach
+        if np.array_equal(known, ids):  # the usual check: the same places
+            np.minimum(low, xyz, out=low)
+            np.maximum(high, xyz, out=high)
+            return
+        at = np.minimum(np.searchsorted(known, ids), known.size - 1)
+        old = known[at] == ids
+        low[at[old]] = np.minimum(low[at[old]], xyz[old])
+        high[at[old]] = np.maximum(high[at[old]], xyz[old])
+        if not old.all():
+            new_ids = np.concatenate([known, ids[~old]])
+            order = np.argsort(new_ids, kind="stable")
+            self.reach = (
+                new_ids[order],
+                np.concatenate([low, xyz[~old]])[order],
+                np.concatenate([high, xyz[~old]])[order],
+            )
+
     def reached_unstable(self, keys: I64) -> None:
         """A check before the first stable one had the cells of ``keys`` in reach of places
         not yet stable (see :attr:`unstable_keys`)."""
@@ -123,6 +153,9 @@ class DeferredDays:
             arrays["held_first_graph"] = self.first_graph.copy()
         if self.unstable_keys.size:
             arrays["held_unstable_keys"] = self.unstable_keys.copy()
+        if self.reach is not None:
+            for name, value in zip(("ids", "low", "high"), self.reach, strict=True):
+                arrays[f"held_reach_{name}"] = value.copy()
         if self.first_stable is not None:
             arrays["held_first_stable_ids"] = self.first_stable[0].copy()
             arrays["held_first_stable_xyz"] = self.first_stable[1].copy()
@@ -172,6 +205,15 @@ class DeferredDays:
             if xyz.shape != (ids.size, 3):
                 raise MapCorruptError("held_first_stable_xyz does not match its ids")
             out.first_stable = (ids, xyz)
+        if "held_reach_ids" in arrays:  # older part maps did not keep it
+            ids = np.asarray(arrays["held_reach_ids"], np.uint64).reshape(-1)
+            low = np.asarray(arrays.get("held_reach_low", np.zeros((0, 3))), np.float64)
+            high = np.asarray(arrays.get("held_reach_high", np.zeros((0, 3))), np.float64)
+            if low.shape != (ids.size, 3) or high.shape != (ids.size, 3):
+                raise MapCorruptError("held_reach_low / held_reach_high do not match their ids")
+            if ids.size > 1 and not bool(np.all(ids[1:] > ids[:-1])):
+                raise MapCorruptError("held_reach_ids are not sorted and unique")
+            out.reach = (ids, low, high)
         if meta.get("drift") is not None:
             out.drift = NodeDrift.from_arrays(arrays, meta["drift"], "held_drift_")
         out.groups_changed_after_hold = bool(meta.get("groups_changed_after_hold", False))
