@@ -49,11 +49,12 @@ from aion_cli.engine.merge import add_entries, adopt_redirects, bind_early_cells
 from aion_cli.engine.nearest import boxes_in_reach, nearest_nodes
 from aion_cli.engine.node_drift import join_timers, timers_blocker
 from aion_cli.engine.ownership import stable_nodes
+from aion_cli.engine.spatial_hash import cell_centres
 from aion_cli.engine.temporal.groups import groups_moved
 from aion_cli.engine.temporal.held_days import DeferredDays, HeldDay
 from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.types import F64, I64, U64, BoolA
-from aion_cli.engine.windows import iso, window_start_ns
+from aion_cli.engine.windows import iso, window_index, window_start_ns
 from aion_cli.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -161,7 +162,74 @@ def join_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
             "before them gave them)",
             "a scene graph stable at none of the ownership checks inside their logs",
         )
+    before = _before_graph_blocker(acc, shard)
+    if before is not None:
+        return before
     return _late_cells_blocker(acc, shard, cells)
+
+
+def _before_graph_blocker(acc: MapState, shard: MapState) -> JoinBlock | None:
+    """Why the windows the shard closed before its first scene graph went otherwise in one
+    pass, which closed them with the places of ``acc`` (None: they did not): it bound the
+    shard's cells in reach of those stable then (the shard, once its graph was stable, may
+    bind them elsewhere or not at all), and gave entries to the stable places without one
+    that the robot saw (the shard, to none)."""
+    held = shard.deferred
+    drift = held.drift if held is not None else None
+    if drift is None or len(acc.nodes) == 0 or shard.open_window is None:
+        return None
+    delta = shard.window_ns
+    first, graph_window = _first_window(shard), int(window_index(drift.t0_ns, delta))
+    if first >= graph_window:  # no window closed before the graph
+        return None
+    stable = stable_nodes(acc, int(drift.t0_ns))  # every place stable at one of those checks
+    if not stable.any():
+        return None
+    cfg = shard.config
+    ids, xyz = acc.nodes.ids[stable], acc.nodes.xyz[stable]
+    # the shard's cells with detections in those windows (they were there at those checks),
+    # and the keys it redirected
+    cells = np.intersect1d(_counted_before(shard, graph_window), shard.entries.cell_rows())
+    keys = np.concatenate([shard.entries.key[cells], shard.redirects.keys])
+    hit = nearest_nodes(
+        cell_centres(keys, cfg.cell_size), xyz, cfg.bind_radius, cfg.bind_vertical_tolerance
+    )
+    theirs, found = shard.redirects.lookup(keys[hit >= 0])
+    same_set = np.array_equal(stable, stable_nodes(acc, int(window_start_ns(first + 1, delta))))
+    if hit.max(initial=-1) >= 0 and not (
+        same_set and found.all() and np.array_equal(theirs, ids[hit[hit >= 0]])
+    ):
+        return JoinBlock(
+            "these logs recorded time windows before their first scene graph, in which one "
+            "pass bound their cells to the places of the map before them (the join binds "
+            "them by these logs' own graph)",
+            "cells bound before their first scene graph by the places of the map before them",
+        )
+    waiting = acc.node_entry_rows(ids) < 0
+    windows = shard.observation.covered_windows(first, graph_window, delta)
+    robot = windows[shard.observation.fixed_share(windows, delta, cfg) == 0]
+    if waiting.any() and any(
+        (shard.observation.coverage(xyz[waiting, :2], int(w), delta, cfg) > 0).any()
+        for w in robot.tolist()
+    ):
+        return JoinBlock(
+            "the robot of these logs saw places of the map before them before these logs' "
+            "first scene graph, which one pass gave entries there",
+            "places of the map before them that the robot saw before their first scene graph",
+        )
+    return None
+
+
+def _counted_before(shard: MapState, window: int) -> I64:
+    """The entry rows the shard's held and pending days count detections for in a window
+    before ``window``."""
+    assert shard.deferred is not None
+    rows = [np.zeros(0, np.int64)]
+    for day in [held.pending for held in shard.deferred.days] + [shard.pending]:
+        if day:
+            c = day.consolidated()
+            rows.append(c.cnt_entry[np.asarray(c.windows)[c.cnt_slot] < window])
+    return np.unique(np.concatenate(rows))
 
 
 def _unbound_in_reach(acc: MapState, shard: MapState, cells: I64, redirected: I64) -> bool:
