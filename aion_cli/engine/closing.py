@@ -110,6 +110,21 @@ def close_windows(state: MapState, stop: int) -> None:
         state.close_day()  # log time is in a later day: the pending day is over
 
 
+def _closing_timing(state: MapState, stop: int) -> tuple[I64, I64, I64] | None:
+    """For :func:`closing_binds` and :func:`closing_entries`: the recorded windows
+    :func:`close_windows` up to ``stop`` would close, their end times, and the time from
+    which each node is stable; None when it closes none or the map has no node."""
+    w0 = state.open_window
+    if w0 is None or stop <= w0 or len(state.nodes) == 0:
+        return None
+    recorded = _recorded_windows(state, w0, stop, state.entries.window_rows())
+    if recorded.size == 0:
+        return None
+    ends = window_start_ns(recorded + 1, state.window_ns)
+    ready = state.nodes.stable_since_ns + round(state.config.stability_s * 1e9)
+    return recorded, ends, ready
+
+
 def _recorded_windows(state: MapState, w0: int, stop: int, count_rows: I64) -> I64:
     """The windows closing ``[w0, stop)`` records (step 1 of the module's rules): ``w0`` when
     entries ``count_rows`` have detections in it, and every window a source covers."""
@@ -126,15 +141,11 @@ def closing_binds(state: MapState, stop: int) -> tuple[I64, U64]:
     (the node table does not change during a run, so the stable set only grows: one check
     per time it grows, a few, not one per window)."""
     none = np.zeros(0, np.int64), np.zeros(0, np.uint64)
-    w0 = state.open_window
     cells = state.entries.cell_rows()
-    if w0 is None or stop <= w0 or cells.size == 0 or len(state.nodes) == 0:
+    timing = None if cells.size == 0 else _closing_timing(state, stop)
+    if timing is None:
         return none
-    recorded = _recorded_windows(state, w0, stop, state.entries.window_rows())
-    if recorded.size == 0:
-        return none
-    ends = window_start_ns(recorded + 1, state.window_ns)
-    ready = state.nodes.stable_since_ns + round(state.config.stability_s * 1e9)
+    _, ends, ready = timing
     grows = np.unique(np.searchsorted(ends, ready, side="left"))  # first end each is stable
     cfg = state.config
     out_cells, out_ids = [], []
@@ -162,14 +173,10 @@ def closing_entries(state: MapState, stop: int) -> U64:
     the robot observes them stable in a recorded window and they have none
     (:func:`~aion_cli.engine.ownership.enter_observed_nodes`), with nothing changed."""
     none = np.zeros(0, np.uint64)
-    w0 = state.open_window
-    if w0 is None or stop <= w0 or state.observation.pose_t.size == 0 or len(state.nodes) == 0:
+    timing = None if state.observation.pose_t.size == 0 else _closing_timing(state, stop)
+    if timing is None:
         return none
-    recorded = _recorded_windows(state, w0, stop, state.entries.window_rows())
-    if recorded.size == 0:
-        return none
-    ends = window_start_ns(recorded + 1, state.window_ns)
-    ready = state.nodes.stable_since_ns + round(state.config.stability_s * 1e9)
+    recorded, ends, ready = timing
     first = np.searchsorted(ends, ready, side="left")  # the first window it waits in
     waiting = np.flatnonzero((state.node_entry_rows(state.nodes.ids) < 0) & (first < ends.size))
     if waiting.size == 0:
