@@ -106,7 +106,9 @@ def _never_stable() -> tuple[list[Step], list[Step]]:
         (_swapped, "cells bound to other places than the map before them"),
         (_vanishing, "ownership that changed inside their logs after one of their days had closed"),
         (_drifting, "places that drifted about the stability tolerance"),
-        (_place_added, "a scene graph that reached cells of the map before them only later on"),
+        # a place new in a later graph, near cells left unbound: since the join checks where
+        # each stable place reached (moved there, or new there), it is named for that
+        (_place_added, "places that came within reach of cells of the map before them"),
         (_never_stable, "a scene graph stable at none of the ownership checks inside their logs"),
     ],
     ids=[
