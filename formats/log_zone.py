@@ -13,8 +13,10 @@ So ``aion build`` without ``--tz`` can take the zone the scene's hours follow, a
 
 from __future__ import annotations
 
+import contextlib
 import struct
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from itertools import takewhile
 from pathlib import Path
 
 #: The metadata record and its key.
@@ -71,15 +73,41 @@ def _none(_path: Path) -> None:
 
 
 def _mcap_zone(path: Path) -> str | None:
+    """The zone of an MCAP file's metadata index (its summary); in a file without one (a
+    recorder stopped before the summary) only the records before its first chunk or
+    message are read, where aion's writers put the record (:meth:`LogWriter.add_metadata`
+    is called before the first message): mcap's own fallback reads, and decompresses, the
+    whole file before the build reads it again, and loses the zone at a damaged record."""
+    from mcap.exceptions import McapError
     from mcap.reader import make_reader
+    from mcap.records import Chunk, DataEnd, Message, Metadata
+    from mcap.stream_reader import StreamReader
 
     if not path.is_file():
         return None
     zone = None
     with path.open("rb") as f:
-        for record in make_reader(f).iter_metadata():
-            if record.name == RECORD and record.metadata.get(KEY):
-                zone = record.metadata[KEY]
+        reader = make_reader(f)
+        try:
+            summary = reader.get_summary()
+        except (McapError, ValueError, struct.error):  # a file cut short: no footer
+            summary = None
+        if summary is not None:
+            records: Iterable[object] = reader.iter_metadata()
+        else:
+            f.seek(0)
+            records = takewhile(
+                lambda r: not isinstance(r, (Chunk, Message, DataEnd)),
+                StreamReader(f, emit_chunks=True).records,
+            )
+        with contextlib.suppress(McapError):  # a record cut short ends the search there
+            for record in records:
+                if (
+                    isinstance(record, Metadata)
+                    and record.name == RECORD
+                    and record.metadata.get(KEY)
+                ):
+                    zone = record.metadata[KEY]
     return zone
 
 

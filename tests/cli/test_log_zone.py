@@ -111,3 +111,18 @@ def test_the_python_api_follows_the_declared_zone_too(london: Path, tmp_path: Pa
         other = aion.build(london, tmp_path / "utc.aion", tz="UTC")
     assert other.timezone == "UTC"
     assert any("declares the time zone Europe/London" in str(w.message) for w in caught)
+
+
+def test_an_mcap_cut_before_its_summary_still_declares_its_zone(tmp_path: Path) -> None:
+    """A recorder stopped before the summary (the file cut inside its last chunk): the zone
+    record before the first message is read without reading the rest of the file; before,
+    mcap's fallback read every record and lost the zone at the cut one."""
+    path = tmp_path / "cut.mcap"
+    t0 = 1_780_000_000 * 10**9
+    with LogWriter(path, "mcap") as log:
+        log.add_metadata("aion", {"timezone": "Asia/Tokyo"})
+        for k in range(2000):
+            log.write("/chatter", "std_msgs/msg/String", {"data": f"m{k}" * 50}, t0 + k * 10**6)
+    whole = path.read_bytes()
+    path.write_bytes(whole[: len(whole) // 2])
+    assert declared_zones([path]) == {str(path): "Asia/Tokyo"}
