@@ -7,7 +7,9 @@ come, :mod:`aion_cli.detection_feed`), decoded per topic and type, transformed t
 frame, given headings and fed to the Mapper, which says per row what it dropped (tallied per
 topic, :class:`aion_cli.detection_counts.MapperTally`). Scene graphs are thinned by
 ``--graph-period`` and decoded with their version and layer pinned
-(:mod:`aion_cli.graph_feed`). A continued map refuses data in the windows it has closed.
+(:mod:`aion_cli.graph_feed`); one that comes while linked rows wait for their heading
+(:mod:`aion_cli.engine.heading_hold`) waits behind them, so the Mapper takes rows and graphs
+in the stream's order. A continued map refuses data in the windows it has closed.
 
 :class:`StreamStep` holds these methods of :class:`aion_cli.pipeline._Build`, which inherits
 them: they share the build's state (its report, progress, time rules, graph feed), declared
@@ -16,6 +18,7 @@ here for the type checker.
 
 from __future__ import annotations
 
+from collections import deque
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
@@ -42,7 +45,6 @@ if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions, ShardStart
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.mapper import Mapper
-    from aion_cli.formats.raw import RawMessage
     from aion_cli.formats.tf import TfBuffer
     from aion_cli.graph_feed import GraphFeed
     from aion_cli.log_times import TimeCheck
@@ -137,19 +139,27 @@ class StreamStep:
         )
         stream = chunks(messages, graph_topics, self.opts.batch_size)
         # a linked track's first rows wait in the hold for its first displacement; rows
-        # leave it in order, and all of them before a graph and at the end
+        # leave it in order, all of them at the end. A scene graph that comes while rows are
+        # held waits behind them (decoded, with the number of rows before it) and is applied
+        # once they have left: the Mapper takes rows and graphs in the stream's order, as
+        # without the hold, and the held rows keep the heading that comes after the graph
         hold = HeadingHold()
+        behind: deque[tuple[int, GraphSnapshot]] = deque()
         # duck-typed: decoded_chunks only calls decode()
         for batch, n_messages, graph_msg in decoded_chunks(stream, cast(Any, feeders)):
             if batch is not None:
                 look = feeders.look_of(batch)
-                self._feed(mapper, *hold.push(batch, feeders.topics_of(batch), look))
+                out = hold.push(batch, feeders.topics_of(batch), look)
+                self._leave(mapper, hold, behind, *out, use_agents=use_agents)
                 self.progress.advance(n_messages)
             if graph_msg is not None:
-                self._feed(mapper, *hold.release())
-                self._take_graph(logset, mapper, graph_msg, use_agents)
+                snapshot = self.graphs.decode_or_skip(logset, graph_msg)
+                if snapshot is not None and len(hold):
+                    behind.append((hold.left + len(hold), snapshot))
+                elif snapshot is not None:
+                    self._take_graph(mapper, snapshot, use_agents)
                 self.progress.advance(1)
-        self._feed(mapper, *hold.release())
+        self._leave(mapper, hold, behind, *hold.release(), use_agents=use_agents)
         feeders.count_settled(hold.settled)
         self.graphs.check_skips(stop_if_none=not self.shard)
         self.report.graph_pins = self.graphs.pins
@@ -171,6 +181,33 @@ class StreamStep:
             self.report.observation = fixed_sensor_windows(
                 mapper, logset, self._times, self.report.notes, self.report, self.opts.observed
             )
+
+    def _leave(
+        self,
+        mapper: Mapper,
+        hold: HeadingHold,
+        behind: deque[tuple[int, GraphSnapshot]],
+        batch: DetectionBatch,
+        topics: I64,
+        use_agents: bool,
+    ) -> None:
+        """The rows that left ``hold`` (the last ``len(batch)`` of its :attr:`~aion_cli.
+        engine.heading_hold.HeadingHold.left`) to the Mapper, each graph waiting ``behind``
+        them applied between the rows before it and those after it."""
+        start, done = hold.left - len(batch), 0
+        while behind and behind[0][0] <= hold.left:
+            at, snapshot = behind.popleft()
+            cut = at - start
+            if cut > done:
+                part = np.arange(done, cut)
+                self._feed(mapper, batch.select(part), topics[part])
+            self._take_graph(mapper, snapshot, use_agents)
+            done = max(done, cut)
+        if done == 0:
+            self._feed(mapper, batch, topics)
+        elif done < len(batch):
+            part = np.arange(done, len(batch))
+            self._feed(mapper, batch.select(part), topics[part])
 
     def _feed(self, mapper: Mapper, batch: DetectionBatch, topics: I64) -> None:
         """Detections to the Mapper; what it drops is counted per reason and per topic
@@ -249,14 +286,11 @@ class StreamStep:
         continued = self.opts.continue_from
         return continued.name if continued is not None else self.report.output.name
 
-    def _take_graph(self, logset: Any, mapper: Mapper, msg: RawMessage, use_agents: bool) -> None:
-        """One scene-graph message of the stream (one :func:`graph_schedule` kept): decoded
-        (or its last payload's graph reused, :meth:`aion_cli.graph_feed.GraphFeed.decode`)
-        and applied to the map; damaged ones are skipped
-        (:meth:`aion_cli.graph_feed.GraphFeed.decode_or_skip`)."""
-        snapshot = self.graphs.decode_or_skip(logset, msg)
-        if snapshot is None:
-            return
+    def _take_graph(self, mapper: Mapper, snapshot: GraphSnapshot, use_agents: bool) -> None:
+        """One scene graph of the stream (a message :func:`graph_schedule` kept, decoded or
+        its last payload's graph reused, :meth:`aion_cli.graph_feed.GraphFeed.decode`;
+        damaged ones were skipped, :meth:`aion_cli.graph_feed.GraphFeed.decode_or_skip`)
+        applied to the map."""
         self._check_after_map(np.array([snapshot.t_ns], np.int64), "scene graph")
         mapper.add_graph(snapshot)
         if use_agents:

@@ -15,11 +15,15 @@ Mapper receives exactly the rows, in exactly the order, it would without the hol
 of them one piece later. A waiting row leaves when its track settles (with that heading),
 when the stream's time passes its reference's time plus ``max_gap`` (the reference lapsed:
 no heading, as without the hold) or when the caller releases everything (:meth:`HeadingHold.
-release`: before a scene graph, which the Mapper applies between the rows before and after
-it, and at the end of the stream). Memory stays bounded: the queue starts at its oldest
-waiting row, whose reference lapses ``max_gap`` of stream time later, so it holds at most the
-rows of ``max_gap`` seconds (5 s for linked tracks) plus one piece. Where a track settles
-depends on the rows only, never on how the stream was cut into pieces or decode jobs.
+release`, at the end of the stream). What the caller must put between rows (a scene graph,
+which the Mapper applies between the rows before and after it) waits behind the rows held
+when it came, and goes on once :attr:`HeadingHold.left` counts them all: a graph no longer
+empties the hold, so a track that starts just before it still gets its heading. Memory
+stays bounded: the queue starts at its oldest waiting row, whose reference lapses
+``max_gap`` of stream time later, so it holds at most the rows of ``max_gap`` seconds (5 s
+for linked tracks) plus one piece, and the caller the graphs of those seconds. Where a track
+settles depends on the rows only, never on how the stream was cut into pieces or decode jobs
+or where the graphs came.
 Pure numpy: each push is a few sorts and searches over the queued rows.
 """
 
@@ -88,6 +92,8 @@ class HeadingHold:
         self._label: I64 = np.zeros(0, np.int64)
         self._look = LookAhead.none(0)
         self.settled: dict[int, int] = {}
+        #: rows that have left, in all (where a caller places what it keeps between rows)
+        self.left = 0
 
     def __len__(self) -> int:
         """Rows held."""
@@ -98,6 +104,7 @@ class HeadingHold:
     ) -> tuple[DetectionBatch, I64]:
         """Queue ``batch`` and return the rows (and their labels) that leave now."""
         if len(self._batch) == 0 and not look.waiting.any():
+            self.left += len(batch)
             return batch, label  # nothing waits: the rows pass straight through
         if len(self._batch):
             batch = DetectionBatch.concat([self._batch, batch])
@@ -141,6 +148,7 @@ class HeadingHold:
         self._batch = DetectionBatch(batch.t_ns[rest], batch.xyz[rest], batch.heading[rest],
                                      batch.speed[rest], batch.track_id[rest])
         self._label, self._look = label[rest], look.select(rest)
+        self.left += m
         return out, label[:m]
 
 

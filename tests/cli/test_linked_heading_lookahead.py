@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.heading import HeadingEstimator
 from aion_cli.engine.heading_hold import HeadingHold
 from aion_cli.engine.tracking import link_tracks
@@ -114,3 +115,123 @@ def test_the_hold_stays_bounded_by_the_lapse_of_a_reference() -> None:
     out.append(got.t_ns)
     assert max(held) <= 51  # 5 s at 10 Hz, and the row that lapses them
     assert np.array_equal(np.concatenate(out), t)
+
+
+# ------------------------------------------------------------ scene graphs every 5 s
+
+GRAPH = Path(__file__).resolve().parents[1] / "data" / "dsg" / "apartment_dsg.json"
+#: walkers in the apartment graph's places, one at a time: start (s after T0), duration (s),
+#: origin, heading (rad), speed (m/s). The log writes the graph at T0 and every 5 s; the
+#: second and fourth walkers start 50 ms before a graph (at 1 m/s they wait 0.3 s for their
+#: first displacement), the third and fifth 1.2 s and 1.5 s before one (0.2 m/s: 1.5 s). The
+#: fourth's first row lies in the 10 s window that the graph at 30 s closes.
+WALKERS = (
+    (0.0, 3, (-14.0, -6.0), 0.3, 1.0),
+    (4.95, 4, (-14.0, -3.0), -0.4, 1.0),
+    (13.8, 10, (-8.0, -2.0), 2.5, 0.2),
+    (29.95, 4, (-7.0, -1.5), -2.6, 1.0),
+    (38.5, 10, (-12.0, -6.5), 1.2, 0.2),
+)
+
+
+def _walkers(walkers: tuple[tuple[float, int, tuple[float, float], float, float], ...]
+             = WALKERS) -> DetectionBatch:
+    """The walkers' rows at 10 Hz with their true heading, speed and a track id each."""
+    t, xy, heading, speed, ids = [], [], [], [], []
+    for i, (start_s, duration_s, origin, h, v) in enumerate(walkers):
+        k = np.arange(duration_s * 10)
+        d = v * k / 10
+        t.append(T0 + round(start_s * 10) * S // 10 + k * S // 10)
+        xy.append(np.c_[origin[0] + d * math.cos(h), origin[1] + d * math.sin(h)])
+        heading.append(np.full(len(k), h))
+        speed.append(np.full(len(k), v))
+        ids.append(np.full(len(k), i))
+    xy_all = np.concatenate(xy)
+    return DetectionBatch(np.concatenate(t), np.c_[xy_all, np.zeros(len(xy_all))],
+                          np.concatenate(heading), np.concatenate(speed), np.concatenate(ids))
+
+
+def _idless_log(truth: DetectionBatch, path: Path) -> Path:
+    """``truth`` without ids and headings, as convert --drop-ids writes it, with the graph
+    every 5 s."""
+    n = len(truth)
+    idless = DetectionBatch(truth.t_ns, truth.xyz, np.full(n, np.nan), np.full(n, np.nan),
+                            np.full(n, -1, np.int64))
+    tracks_to_log(idless, path, graph_file=GRAPH, graph_period_s=5.0, msgtype=POSE_ARRAY,
+                  headings=False)
+    return path
+
+
+@pytest.mark.parametrize("batch_size", [4000, 1])
+def test_a_scene_graph_does_not_take_the_heading_of_a_track_that_just_started(
+    tmp_path: Path, batch_size: int
+) -> None:
+    """The build holds a graph that comes while a track's first rows wait behind them: every
+    row gets its heading (before, the hold was emptied before each graph, and the rows
+    waiting then went without one: 27 of 310 here), and the map equals the one built from
+    the same people with their track ids and velocities, where no row waits: the rows land
+    in the same entries and windows and the graphs bind the same cells (only the speed
+    sums differ: the linker's speeds are its own estimates)."""
+    truth = _walkers()
+    n = len(truth)
+    # the known answer: linking the id-less rows offline gives every row its true heading
+    assert np.allclose(link_tracks(truth.t_ns, truth.xyz[:, :2]).heading, truth.heading)
+
+    ids_log = tmp_path / "ids.mcap"
+    tracks_to_log(truth, ids_log, graph_file=GRAPH, graph_period_s=5.0)
+    idless_log = _idless_log(truth, tmp_path / "idless.mcap")
+    config = ModelConfig(window_s=10.0)
+    maps = []
+    for log_path in (ids_log, idless_log):
+        out = tmp_path / f"{log_path.stem}.aion"
+        report = build_map(BuildOptions(logs=(log_path,), output=out, config=config,
+                                        batch_size=batch_size))
+        assert report.graph_messages == 10  # every 5 s of the 48.5 s
+        maps.append(_map_arrays(out))
+    assert report.headings == {"none": 0, "linked": n}
+    with_ids, without = maps
+    assert with_ids.keys() == without.keys()
+    speed = {"entry_speed_n", "entry_speed_sum"}
+    differ = [k for k in with_ids if k not in speed and not (
+        with_ids[k].shape == without[k].shape
+        and np.allclose(with_ids[k], without[k], rtol=0, atol=1e-9, equal_nan=True))]
+    assert differ == []
+    assert without["entry_counts"].sum() == n  # every row in a direction bin
+    assert without["entry_nodir"].sum() == 0
+
+
+def test_workers_and_a_continued_map_build_the_one_pass_map_of_an_id_less_log(
+    tmp_path: Path,
+) -> None:
+    """Graphs wait behind held rows across a quiet moment: a person stands until 13 s before
+    the window at 600 s (his last rows wait for a displacement that never comes, the graphs
+    of the quiet seconds behind them, until the next person lapses them). Two time shards cut
+    there give the one-pass map, and so does the log cut there into two logs, the first
+    built and then continued with the second (``--map``), the one pass over both
+    (``differences``: ints exact, floats to 1e-12)."""
+    from aion_cli.engine.compare import differences
+    from aion_cli.mapquery import load_map
+
+    walkers = tuple((s0, 6, (-14.0 + k % 5, -6.0 + k % 4), 0.5 * k, 1.0 if k % 2 else 0.2)
+                    for k, s0 in enumerate(range(0, 570, 15)))
+    walkers += ((575.0, 12, (-10.0, -4.0), 0.0, 0.0),  # stands till 587 s
+                (600.0, 6, (-12.0, -5.0), 1.0, 0.2), (615.0, 6, (-9.0, -3.0), -2.0, 1.0))
+    truth = _walkers(walkers)
+    log = _idless_log(truth, tmp_path / "idless.mcap")
+    cut = truth.t_ns < T0 + 600 * S
+    first = _idless_log(truth.select(cut), tmp_path / "first.mcap")
+    second = _idless_log(truth.select(~cut), tmp_path / "second.mcap")
+    one, shards, both, continued = (tmp_path / f"{k}.aion" for k in
+                                    ("one", "shards", "both", "continued"))
+    report = build_map(BuildOptions(logs=(log,), output=one, workers=1))
+    parallel = build_map(BuildOptions(logs=(log,), output=shards, workers=2))
+    assert len(parallel.workers) == 2  # cut at 600 s
+    assert report.headings == parallel.headings
+    assert report.headings["none"] == 120  # the person standing, and no one else
+    assert differences(load_map(one, writable=True).state,
+                       load_map(shards, writable=True).state) == []
+    build_map(BuildOptions(logs=(first, second), output=both, workers=1))
+    build_map(BuildOptions(logs=(first,), output=continued))
+    build_map(BuildOptions(logs=(second,), output=continued, continue_from=continued))
+    assert differences(load_map(both, writable=True).state,
+                       load_map(continued, writable=True).state) == []
