@@ -89,7 +89,8 @@ TABLE_LIMIT = 100
 @click.option(
     "--historical",
     is_flag=True,
-    help="What was observed (cumulative counts) instead of a prediction.",
+    help="What was observed (detections per observed window, the raw direction "
+    "proportions) instead of a prediction.",
 )
 @click.option(
     "--node",

@@ -150,6 +150,18 @@ def test_historical_counts_per_window(office: Office) -> None:
     assert rows["p1"]["entropy"] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_historical_help_says_what_it_prints(office: Office) -> None:
+    """``--historical`` printed detections per observed window (p1: 120 detections over two
+    windows, 60) while its help said "cumulative counts" (120): the help says what it prints."""
+    rows = {e["id"]: e for e in run_json("predict", office.map, "--historical", "--format",
+                                           "json")["entries"]}
+    assert rows["p1"]["flow"] == pytest.approx(120 / 2)
+    text = " ".join(run("predict", "--help").output.split())
+    said = text.split("--historical", 1)[1].split("--node", 1)[0]
+    assert "per observed window" in said
+    assert "cumulative" not in said
+
+
 def test_json_document_metadata_and_sorting(office: Office) -> None:
     doc = run_json("predict", office.map, "--time", "2026-11-23T09:30:00+01:00", "--format", "json")
     assert doc["mode"] == "predicted"
