@@ -229,9 +229,15 @@ def select(
             _refuse_other_layers(layer, missing, labels, in_map)
             everyone = {str(i) for i in entry_ids(table, np.arange(len(table.xyz)))}
             suggested = suggest(missing) if suggest is not None else None
+            message = f"node {', '.join(missing)} is not in the map"
             if suggested is not None:
                 hint = suggested
             elif layer in ("places", "cells") and set(missing) <= everyone:
+                # in the map, on the other layer: "not in the map" would send the user to
+                # check an id that is right
+                other = ("a place", "places") if layer == "cells" else ("a hash cell", "hash cells")
+                what = f"is {other[0]}" if len(missing) == 1 else f"are {other[1]}"
+                message = f"{', '.join(missing)} {what} of the map, not on --layer {layer}"
                 hint = f"--layer {layer} leaves {', '.join(missing)} out: ask without --layer"
             elif layer not in ("rooms", "buildings") and all(m[:1] in "RB" for m in missing):
                 # the graph's own rooms and buildings are answered (layer_of_nodes)
@@ -261,7 +267,7 @@ def select(
                     )
                 else:
                     hint = "the map has no entries"
-            raise UnknownNodeError(f"node {', '.join(missing)} is not in the map", hint=hint)
+            raise UnknownNodeError(message, hint=hint)
         index = np.asarray(list(dict.fromkeys(by_id[w] for w in wanted)), dtype=np.int64)
     if at is not None:
         x, y, z = require_point(at, "--at")

@@ -5,9 +5,11 @@ have no time: now a note says so, and the answer is the same);
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
-from tests.cli.conftest import Office, assert_one_line_error, run
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 
 
 def test_historical_notes_that_a_zone_changes_nothing(office: Office) -> None:
@@ -33,3 +35,18 @@ def test_an_unreadable_time_names_its_option(
     out = run("predict", office.map, *args)
     assert out.exit_code == 2
     assert_one_line_error(out.stderr, named)
+
+
+@pytest.mark.parametrize(("layer", "kind", "said"), [("cells", "node", "a place"),
+                                                     ("places", "cell", "a hash cell")])
+def test_an_entry_of_the_other_layer_is_not_called_missing(
+    sample_map: Path, layer: str, kind: str, said: str
+) -> None:
+    """``--node p1 --layer cells`` said "node p1 is not in the map" of a place predict lists
+    without --layer: the user checked an id that was right. It is on the other layer."""
+    listed = run_json("predict", sample_map, "--historical", "--format", "json")["entries"]
+    entry = next(e["id"] for e in listed if e["kind"] == kind)  # in the map: predict lists it
+    out = run("predict", sample_map, "--historical", "--node", entry, "--layer", layer)
+    assert out.exit_code == 2
+    assert_one_line_error(out.stderr, f"{entry} is {said} of the map, not on --layer {layer}")
+    assert "not in the map" not in out.stderr
