@@ -474,8 +474,13 @@ def _span_days(first: int, last: int) -> str:
 
 
 def _duration(ns: int) -> str:
-    """``ns`` rounded for reading: hours, days, weeks or years."""
+    """``ns`` rounded for reading: seconds, minutes, hours, days, weeks or years (under an
+    hour in minutes, under a minute in seconds, at least one: a time 40 s before a map's
+    first detection was "0 hours before" it)."""
     hours = ns / 3.6e12
+    for n, unit in ((max(1, round(ns / 1e9)), "second"), (round(ns / 6e10), "minute")):
+        if n < 60:
+            return f"{n} {unit}{'' if n == 1 else 's'}"
     for below_h, unit_h, unit in ((48, 1, "hour"), (14 * 24, 24, "day"), (730 * 24, 168, "week")):
         if hours < below_h:
             n = round(hours / unit_h)

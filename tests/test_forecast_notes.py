@@ -72,6 +72,13 @@ def test_times_far_from_the_data_are_named() -> None:
     assert before.endswith("repeats the rhythm the map learnt")
     (hour,) = forecast_notes(timed, START - 3600 * 10**9)
     assert hour.startswith("this time is 1 hour before the map's data")
+    # under an hour: "0 hours before" said nothing of a time 20 minutes before the data
+    (minutes,) = forecast_notes(timed, START - 20 * 60 * 10**9)
+    assert minutes.startswith("this time is 20 minutes before the map's data")
+    (seconds,) = forecast_notes(timed, START - 40 * 10**9)
+    assert seconds.startswith("this time is 40 seconds before the map's data")
+    (instant,) = forecast_notes(timed, START - 1)
+    assert instant.startswith("this time is 1 second before the map's data")
     years = forecast_notes(timed, END + 800 * DAY_NS)
     assert "2.2 years after" in years[0]
     # a static map has no rhythm to repeat: only where the time lies
