@@ -7,6 +7,13 @@ on their own line ``y = 2 m * person``, in an area of its own (``x`` from ``200 
 no two maps share a cell. Each map holds about 1,200 cells and its pending day (two hours of
 fixed-sensor windows).
 
+``--kind robot``: map ``k`` is built from one ``aion simulate`` log of the paper's office
+(seed ``k``, one day from midnight of the ``k``-th weekday from Monday 2026-01-05: the
+office is empty at weekends, and a map needs detections; a patrolling robot with Hydra scene
+graphs, six people), so the maps share the office's places (node ids the same: ``--lineage
+auto`` takes them as one session) and their days are disjoint: a fleet of robot maps, about
+150 node entries each.
+
 For each ``N`` in ``--maps`` (default 5, 10, 20, 40) the first ``N`` maps are merged by
 ``aion merge`` in a child process; reported: the child's CPU time (user + system) and peak
 resident memory (``ru_maxrss``) from ``os.wait4``, best of ``--repeats`` (CPU) and the
@@ -14,12 +21,14 @@ largest peak. ``--aion`` picks the command (a checkout's ``.venv/bin/aion`` or `
 aion_cli`` with ``PYTHONPATH`` of another checkout, for before/after figures; runs of the two
 alternated by ``--against``). Logs and maps are written once under ``benchmarks/_work``.
 
-Run: ``python -m benchmarks.bench_fleet_merge [--maps 5 10 20 40] [--against DIR]``.
+Run: ``python -m benchmarks.bench_fleet_merge [--kind cells|robot] [--maps 5 10 20 40]
+[--against DIR]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime as dt
 import json
 import os
 import shlex
@@ -34,6 +43,7 @@ S = 10**9
 DAY0 = 1_767_607_200  # 2026-01-05 10:00 UTC, seconds
 PEOPLE = 20
 FOLDER = WORK / "fleet_merge"
+ROBOT_FOLDER = WORK / "fleet_merge_robot"
 
 
 def _aion(checkout: Path) -> tuple[list[str], dict[str, str]]:
@@ -87,6 +97,28 @@ def fleet_maps(n: int) -> list[Path]:
     return out
 
 
+def robot_maps(n: int) -> list[Path]:
+    """The first ``n`` robot maps (simulated and built once)."""
+    ROBOT_FOLDER.mkdir(parents=True, exist_ok=True)
+    cmd, env = _aion(ROOT)
+    out = []
+    for k in range(n):
+        aion = ROBOT_FOLDER / f"office{k:02d}.aion"
+        out.append(aion)
+        if aion.exists():
+            continue
+        log = aion.with_suffix(".mcap")
+        day = dt.date(2026, 1, 5) + dt.timedelta(days=7 * (k // 5) + k % 5)  # weekdays
+        start = day.isoformat()
+        sim = ["simulate", "-o", str(log), "--days", "1", "--seed", str(k), "--start", start]
+        _run([*cmd, *sim, "-q", "--force"], env)
+        _run([*cmd, "build", str(log), "-o", str(aion), "-q"], env)
+    return out
+
+
+MAKERS = {"cells": fleet_maps, "robot": robot_maps}
+
+
 def merge_cost(checkout: Path, maps: list[Path]) -> tuple[float, int]:
     cmd, env = _aion(checkout)
     with tempfile.TemporaryDirectory() as tmp:
@@ -95,11 +127,15 @@ def merge_cost(checkout: Path, maps: list[Path]) -> tuple[float, int]:
 
 
 def run(
-    maps: tuple[int, ...] = (5, 10, 20, 40), repeats: int = 2, against: Path | None = None
+    maps: tuple[int, ...] = (5, 10, 20, 40),
+    repeats: int = 2,
+    against: Path | None = None,
+    kind: str = "cells",
 ) -> list[dict[str, float | int]]:
     """One row per number of maps: CPU seconds (best of ``repeats``) and peak MB (largest)
-    of ``aion merge`` with this checkout and, alternated with it, ``against``'s."""
-    paths = fleet_maps(max(maps))
+    of ``aion merge`` with this checkout and, alternated with it, ``against``'s; ``kind``:
+    fixed-sensor maps of areas of their own (``cells``) or robot maps of one office."""
+    paths = MAKERS[kind](max(maps))
     checkouts = {"this": ROOT} | ({"against": against} if against is not None else {})
     rows = []
     for n in maps:
@@ -124,8 +160,9 @@ def main() -> None:
     parser.add_argument("--maps", type=int, nargs="+", default=[5, 10, 20, 40])
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--against", type=Path, help="another checkout, run alternately")
+    parser.add_argument("--kind", choices=sorted(MAKERS), default="cells")
     args = parser.parse_args()
-    run(tuple(args.maps), args.repeats, args.against)
+    run(tuple(args.maps), args.repeats, args.against, args.kind)
 
 
 if __name__ == "__main__":

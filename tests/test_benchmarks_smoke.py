@@ -242,3 +242,23 @@ def test_fleet_merge_small() -> None:
     _rows_ok(rows)
     assert rows[0]["maps"] == 2
     assert rows[0]["this_peak_mb"] > 0
+
+
+def test_fleet_merge_robot_small() -> None:
+    """``--kind robot``: two simulated robot maps of the office, with scene graphs of one
+    session (the merge adds their nodes by id), on disjoint days, merged in a child."""
+    from aion_cli.manifest import Manifest
+    from aion_cli.mapquery import load_map_head
+    from benchmarks import bench_fleet_merge
+
+    rows = bench_fleet_merge.run(maps=(2,), repeats=1, kind="robot")
+    _rows_ok(rows)
+    assert rows[0]["maps"] == 2
+    early, late = (load_map_head(p) for p in bench_fleet_merge.robot_maps(2))
+    for head in (early, late):
+        assert head.graph is not None
+        assert head.graph.places.ids.size > 100
+    first, second = (Manifest.from_dict(head.manifest) for head in (early, late))
+    assert first.end_ns is not None
+    assert second.start_ns is not None
+    assert first.end_ns < second.start_ns
