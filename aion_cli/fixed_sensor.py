@@ -81,8 +81,10 @@ def fixed_sensor_windows(
     continued map's reach; a parallel shard's share of the time between the logs:
     :func:`declared_windows`). A window a log starts or ends inside counts for the part of it
     recorded (:func:`recording_bounds`; ``ModelConfig.exposure``), so a four-minute log is
-    four minutes of watching, not ten. Sets the Mapper's windows, adds a note for windows
-    left out, and returns the report's description of the observation."""
+    four minutes of watching, not ten; a window without a message counts for the part the
+    declared spans cover (a span to 12:02: 0.2 of 12:00-12:10). Sets the Mapper's windows,
+    adds a note for windows left out, and returns the report's description of the
+    observation."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
 
@@ -100,6 +102,7 @@ def fixed_sensor_windows(
     read = windows_of(times.span_times, delta)  # the windows of the messages aion reads
     windows = np.union1d(recorded[inside], read)
     spans = _file_spans(logset, times, delta) if declared or report is not None else []
+    added: I64 = np.zeros(0, np.int64)
     if declared:
         extra = declared_windows(declared, spans, delta, fill)
         extra = extra[times.inside_limits(extra * delta)]
@@ -109,12 +112,15 @@ def fixed_sensor_windows(
             report.observed_added = int(added.size)
         windows = np.union1d(windows, extra)
     within = recording_bounds(logset, times, windows, delta, read)
-    if declared:
-        within = (
-            np.concatenate([within[0], [int(lo) for lo, _ in declared]]).astype(np.int64),
-            np.concatenate([within[1], [int(hi) for _, hi in declared]]).astype(np.int64),
-        )
-    mapper.set_fixed_windows(windows, within)
+    lo = np.array([int(a) for a, _ in declared], np.int64)
+    hi = np.array([int(b) for _, b in declared], np.int64)
+    within = (np.concatenate([within[0], lo]), np.concatenate([within[1], hi]))
+    mapper.set_fixed_windows(np.setdiff1d(windows, added, assume_unique=True), within)
+    # a window without a message is observed for the part the spans declare, whatever file
+    # was open around it (a silent tracker's open file is not its recording): a span ending
+    # at 12:02 observed 0.2 of the window 12:00-12:10, as a log that stopped then did
+    # (merge_observed fills the windows between part maps so too)
+    mapper.set_fixed_windows(added, (lo, hi))
     if len(windows) == 0:
         return "fixed sensor (no message recorded)"
     summary = (len(windows), int(windows[0]), int(windows[-1]), delta)

@@ -414,3 +414,27 @@ def test_a_dynamic_chain_without_poses_is_not_called_static(tmp_path: Path) -> N
         "pose (its /tf transforms do not overlap in time): no robot trajectory, so it is taken "
         "as a fixed sensor (see below)"
     ) in report["notes"]
+
+
+def test_a_span_ending_inside_a_window_counts_the_share_it_declares(
+    mornings: Path, tmp_path: Path
+) -> None:
+    """Sessions 08:00-08:20 on four days in one log, a span declared 08:00-12:02 on the
+    first: 24 whole windows to 12:00 and 0.2 of 12:00-12:10, then two windows on each later
+    day, 30.2 windows. The window 12:00-12:10 holds no message and lies inside the log's
+    open file; it counted whole (31 windows), as a span to 12:10 does, while a log that
+    stopped recording at 12:02 counts 0.2 of it."""
+    from aion_cli.mapquery import load_map
+
+    def observed(end: str) -> tuple[float, int]:
+        path = tmp_path / f"{end.replace(':', '')}.aion"
+        report = run_json("build", mornings, "-o", path, "--format", "json",
+                          "--observed", f"2026-11-23 08:00..2026-11-23 {end}")
+        state = load_map(path).state
+        return float(state.windows_observed(state.entries.live_rows(), True).max()), \
+            report["windows"]
+
+    most, windows = observed("12:02")
+    assert most == pytest.approx(24 + 0.2 + 2 * (SESSIONS - 1))
+    assert windows == 30  # 30.2, rounded
+    assert observed("12:10") == (pytest.approx(25 + 2 * (SESSIONS - 1)), 31)
