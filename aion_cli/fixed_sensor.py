@@ -227,8 +227,32 @@ def recording_bounds(
     every file's messages and must not fill the time between two files."""
     from aion_cli.formats.recorded import windows_of
 
-    step = next(delta // k for k in range(EDGE_STEPS, 0, -1) if delta % k == 0)
-    lo_limit, hi_limit = times.limits if times.limits is not None else (None, None)
+    step = edge_step(delta)
+    file_starts, file_ends = file_bounds(logset, windows, delta, times.limits)
+    held = windows_of(times.span_times, delta) if read is None else read
+    runs = np.intersect1d(held, windows)
+    run_starts, run_ends = _message_runs(times.span_times, runs, delta, step)
+    run_starts, run_ends = _beyond_files(run_starts, run_ends, file_starts, file_ends)
+    return (
+        np.concatenate([file_starts, run_starts]),
+        np.concatenate([file_ends, run_ends]),
+    )
+
+
+def edge_step(delta: int) -> int:
+    """The step a log's first and last message are placed to: ``delta / EDGE_STEPS``, or the
+    largest divisor of ``delta`` up to that."""
+    return next(delta // k for k in range(EDGE_STEPS, 0, -1) if delta % k == 0)
+
+
+def file_bounds(
+    logset: Any, windows: I64, delta: int, limits: tuple[int, int] | None = None
+) -> tuple[I64, I64]:
+    """Each log file's recorded time ``[first, last)`` among its messages in ``windows``, to
+    the :func:`edge_step` (the part of :func:`recording_bounds` read from the containers'
+    indexes alone; ``limits``: a time shard's part, which a file reaching past it fills)."""
+    step = edge_step(delta)
+    lo_limit, hi_limit = limits if limits is not None else (None, None)
     starts, ends = [], []
     for _file, slots in logset.recorded_windows_by_recording(step):
         inside = slots[np.isin(slots // (delta // step), windows)]
@@ -241,15 +265,19 @@ def recording_bounds(
             last = max(last, hi_limit)
         starts.append(first)
         ends.append(last)
-    held = windows_of(times.span_times, delta) if read is None else read
-    runs = np.intersect1d(held, windows)
-    run_starts, run_ends = _message_runs(times.span_times, runs, delta, step)
-    file_starts, file_ends = np.array(starts, np.int64), np.array(ends, np.int64)
-    run_starts, run_ends = _beyond_files(run_starts, run_ends, file_starts, file_ends)
-    return (
-        np.concatenate([file_starts, run_starts]),
-        np.concatenate([file_ends, run_ends]),
-    )
+    return np.array(starts, np.int64), np.array(ends, np.int64)
+
+
+def recorded_window_share(logset: Any, windows: I64, delta: int) -> float:
+    """How many windows of ``windows`` (sorted) the logs recorded, each window a log starts or
+    ends inside counted for the part recorded (:func:`file_bounds`), as a build counts a fixed
+    sensor's windows: a four-minute log records 0.4 of one ten-minute window."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.observation import ObservationSource
+
+    source = ObservationSource()
+    source.add_fixed_windows(windows, delta, file_bounds(logset, windows, delta))
+    return float(source.fixed_share(windows, delta, ModelConfig()).sum())
 
 
 def _beyond_files(

@@ -14,14 +14,18 @@ from typing import Any
 
 def fixed_sensor_windows(logset: Any, timezone: str = "UTC") -> dict[str, Any]:
     """How many of the default model's windows between the logs' first and last message
-    hold a message, and at which hours of the day (in ``timezone``, per kind of day): without
-    TF or a scene graph nothing else says what a build observed (it also leaves out stray
-    messages a day away, which this count keeps)."""
+    hold a message, how much of them the logs recorded (``recorded_windows``, and in seconds
+    ``recorded_s``: a window a log starts or ends inside counts for the part recorded, as a
+    build counts it: a 255-second log recorded 0.43 of its one window), and at which hours of
+    the day (in ``timezone``, per kind of day): without TF or a scene graph nothing else says
+    what a build observed (it also leaves out stray messages a day away, which this count
+    keeps)."""
     import numpy as np
 
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.temporal.calendar import Calendar
     from aion_cli.engine.windows import window_centre_ns, window_ns
+    from aion_cli.fixed_sensor import recorded_window_share
     from aion_cli.forecast_notes import observed_hours
 
     config = ModelConfig(timezone=timezone)
@@ -31,5 +35,8 @@ def fixed_sensor_windows(logset: Any, timezone: str = "UTC") -> dict[str, Any]:
     calendar = Calendar(config.timezone, config.profile, config.profile_bin_s)
     bins = np.unique(calendar.profile_bin(window_centre_ns(windows, delta)))
     hours = observed_hours({"observed_bins": bins.tolist()}, config.to_dict(), config.timezone)
+    recorded = recorded_window_share(logset, windows, delta) if windows.size else 0.0
     return {"windows_with_messages": int(windows.size), "span_windows": span,
-            "window_s": config.window_s, "hours_with_messages": hours}
+            "recorded_windows": round(recorded, 2),
+            "recorded_s": round(recorded * config.window_s, 1), "window_s": config.window_s,
+            "hours_with_messages": hours}

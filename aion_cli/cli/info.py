@@ -42,10 +42,11 @@ topics[{topic, type, count, role, encoding, rate_hz, used, why, readable}] (ever
 channels in encodings that are not ROS, such as JSON or protobuf: readable false, type their
 schema's name, encoding the channel's; messages counts the readable ones), roles, dsg_versions,
 will_use{detections, scene_graph, tf}, cannot_read, warnings,
-fixed_sensor{windows_with_messages, span_windows, window_s, hours_with_messages,
-empty_in_first_messages (of the first 20 per detection topic)} (only when
-the logs have no TF, and no scene graph or a first one without robot poses in its agent
-layer: build observes the windows with messages),
+fixed_sensor{windows_with_messages, span_windows, recorded_windows (the windows with messages,
+each a log starts or ends inside counted for the part recorded, as build counts them),
+recorded_s (the same in seconds), window_s, hours_with_messages, empty_in_first_messages (of
+the first 20 per detection topic)} (only when the logs have no TF, and no scene graph or a
+first one without robot poses in its agent layer: build observes the windows with messages),
 frames_without_tf{topic: [frames of its first messages that the log's TF does not connect
 to 'map']} (aion_cli.frame_check: a build would need --map-frame), tf_roots{frame: the frame
 at the top of its TF tree, for those frames that TF knows (the --map-frame to build in when
@@ -358,7 +359,7 @@ def _print(report: dict[str, Any]) -> None:
     print_frame_notes(report)
     fixed = report.get("fixed_sensor")
     if fixed and fixed["span_windows"]:
-        from aion_cli.fixed_sensor import share_text
+        from aion_cli.fixed_sensor_text import share_text, time_text
 
         share = fixed["windows_with_messages"] / fixed["span_windows"]
         why = (
@@ -366,12 +367,23 @@ def _print(report: dict[str, Any]) -> None:
             if use["scene_graph"]
             else "no TF, no scene graph"
         )
+        count = fixed["windows_with_messages"]
         text = (
             f"no robot trajectory ({why}): `aion build` takes the log as a fixed "
-            f"sensor over the {fixed['windows_with_messages']:,} "
-            f"window{'' if fixed['windows_with_messages'] == 1 else 's'} of "
-            f"{fixed['window_s'] / 60:g} min with messages, {share_text(share)} of its span"
+            f"sensor over the {count:,} window{'' if count == 1 else 's'} of "
+            f"{fixed['window_s'] / 60:g} min with messages"
         )
+        recorded, seconds = fixed.get("recorded_windows"), fixed.get("recorded_s")
+        if isinstance(recorded, int | float) and isinstance(seconds, int | float) \
+                and recorded < count:
+            # a log that starts or ends inside a window recorded only that part of it
+            text += (
+                f", {recorded:g} of {'it' if count == 1 else 'them'} recorded "
+                f"({time_text(round(seconds * 1e9))}: a log that starts or ends inside a "
+                "window observes only the part it recorded)"
+            )
+        if fixed["span_windows"] > 1:  # a span inside one window is that window, all of it
+            text += f", {share_text(share)} of its span"
         empty = int(fixed.get("empty_in_first_messages") or 0)
         if share < 0.5 and empty:  # a tracker that publishes empty messages is not silent
             text += (

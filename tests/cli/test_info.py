@@ -48,6 +48,7 @@ def test_a_fixed_sensor_log_says_how_much_of_its_span_holds_messages(tmp_path: P
     write_office_log(log, graph=False, tf=False, later_sessions_s=(86_400, 2 * 86_400))
     doc = run_json("info", log, "--format", "json")
     assert doc["fixed_sensor"] == {"windows_with_messages": 6, "span_windows": 290,
+                                   "recorded_windows": 6.0, "recorded_s": 3600.0,
                                    "window_s": 600.0,
                                    # Monday to Wednesday, 08:00-08:20 UTC
                                    "hours_with_messages": "weekdays 08:00-09:00; weekends "
@@ -65,6 +66,32 @@ def test_a_fixed_sensor_log_says_how_much_of_its_span_holds_messages(tmp_path: P
     write_office_log(one, graph=False, tf=False)
     assert run_json("info", one, "--format", "json")["fixed_sensor"]["span_windows"] == 2
     assert "--observed" not in run("info", one).stderr
+
+
+def test_a_log_shorter_than_a_window_is_not_called_a_whole_window(tmp_path: Path) -> None:
+    """A 255-second fixed-sensor log holds messages in one 10-minute window and recorded
+    about 255/600 of it, which the build counts (a window a log starts or ends inside counts
+    for the part recorded). info said "over the 1 window of 10 min with messages, 100% of its
+    span", as if ten minutes had been watched; it now gives the share recorded, the build's."""
+    from aion_cli.mapquery import load_map
+    from tests.cli.logdata import write_office_log
+
+    log = tmp_path / "short.mcap"
+    write_office_log(log, graph=False, tf=False, duration_s=255)
+    doc = run_json("info", log, "--format", "json")
+    fixed = doc["fixed_sensor"]
+    assert (fixed["windows_with_messages"], fixed["span_windows"]) == (1, 1)
+    # first to last message, the last placed to the end of its 10-second step
+    assert abs(fixed["recorded_windows"] - doc["span_s"] / 600) <= 10 / 600 + 0.005
+    run_json("build", log, "-o", tmp_path / "short.aion", "--format", "json")
+    state = load_map(tmp_path / "short.aion").state
+    built = state.windows_observed(state.entries.live_rows(), True).max()
+    assert fixed["recorded_windows"] == round(float(built), 2)
+    assert fixed["recorded_s"] == round(float(built) * 600, 1)
+    note = " ".join(run("info", log).stderr.split())
+    assert f"over the 1 window of 10 min with messages, {fixed['recorded_windows']:g} of it " \
+        f"recorded ({round(fixed['recorded_s'] / 60, 1):g} min: " in note
+    assert "100%" not in note
 
 
 def test_a_scene_graph_without_robot_poses_and_no_tf_is_a_fixed_sensor(tmp_path: Path) -> None:
