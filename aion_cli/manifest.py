@@ -163,6 +163,23 @@ class Manifest:
         return {i.sha256 for i in self.inputs}
 
 
+def days_scored_text(shown: dict[str, Any]) -> str | None:
+    """The days the map's day-ahead scoring judged (an entry leaves ``static`` only on its
+    scores), as ``aion info MAP`` and ``aion report`` show them, from :meth:`Manifest.shown`:
+    ``"3 (the last, still open to more logs, provisionally)"``; None for a map that does not
+    say (families not counted)."""
+    families = shown.get("families") or {}
+    if "scored_days" not in families:
+        return None
+    days = int(families["scored_days"])
+    last = ""
+    if families.get("last_day_provisional"):  # a query-only map is continued no more
+        last = (" (the last provisionally, as it stood when compacted)"
+                if isinstance(shown.get("query_only"), dict)
+                else " (the last, still open to more logs, provisionally)")
+    return f"{days:,}{last}"
+
+
 def parse_query_only(value: Any) -> dict[str, Any] | None:
     """The ``query_only`` field (``aion compact``) checked: None, or an object whose
     ``left_out`` is a list; :class:`MapCorruptError` otherwise."""

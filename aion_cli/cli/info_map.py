@@ -180,14 +180,11 @@ def print_map(report: dict[str, Any]) -> None:
                  "for each query (aion predict --format json names each entry's family; "
                  "continuing the map with more logs, or rebuilding it, counts them again)"),
         )
-    if "scored_days" in families:
-        days = int(families["scored_days"])
-        last = ""
-        if families.get("last_day_provisional"):  # a query-only map is continued no more
-            last = (" (the last provisionally, as it stood when compacted)"
-                    if isinstance(query_only, dict)
-                    else " (the last, still open to more logs, provisionally)")
-        table.add_row("days scored", f"{days:,}{last}")
+    from aion_cli.manifest import days_scored_text
+
+    scored = days_scored_text(report)
+    if scored is not None:
+        table.add_row("days scored", scored)
     from aion_cli.forecast_notes import observed_hours
 
     hours = observed_hours(families, report.get("config") or {}, report.get("timezone"))

@@ -128,6 +128,7 @@ def _when(t_ns: int | None, zone: Zone) -> str:
 def _holdings(c: ReportContent) -> list[str]:
     """What the map holds: counts, facts, inputs, model families."""
     from aion_cli.engine.config import ModelConfig
+    from aion_cli.manifest import days_scored_text
 
     s = c.shown
     start, end = c.observed.span
@@ -147,6 +148,8 @@ def _holdings(c: ReportContent) -> list[str]:
             f"{_when(c.observed.first_ns, c.zone)} / {_when(c.observed.last_ns, c.zone)}",
         ),
         ("observation", s.get("observation", "-")),
+        # the days the day-ahead scoring judged: an entry leaves static only on them
+        *([("days scored", scored)] if (scored := days_scored_text(s)) is not None else []),
         ("scene graph", s.get("graph_source", "-")),
         *_made_by(s),
         ("map time zone", s.get("timezone") or "not set (queries use the local zone)"),

@@ -241,3 +241,25 @@ def test_the_map_caption_names_no_colour_the_picture_lacks(
     assert "seen from above" in text
     for key in (NO_FLOW_KEY, NO_HEADING_KEY, "teal", "grey"):
         assert key not in text, text
+
+
+def test_the_page_says_how_many_days_were_scored_as_info_does(
+    fixed_map: tuple[Path, LoadedMap], tmp_path: Path
+) -> None:
+    """Two sessions, Sunday and Monday (UTC, the map's zone): the day-ahead scoring judged
+    one day, the Monday (nothing before the Sunday forecasts it), still open to more logs.
+    aion info MAP has a "days scored" row; the report page had none, though those days decide
+    whether an entry can leave static."""
+    import html
+    import re
+
+    from aion_cli.cli.info_map import describe_map
+
+    path, loaded = fixed_map
+    info = describe_map(path)["families"]
+    assert (info["scored_days"], info["last_day_provisional"]) == (1, True)
+    write_report(loaded, path, tmp_path / "r", resolve_zone("UTC"), None)
+    page = html.unescape((tmp_path / "r" / "index.html").read_text())
+    assert re.findall(r"<tr><td>days scored</td><td>(.*?)</td></tr>", page) == [
+        "1 (the last, still open to more logs, provisionally)"
+    ]
