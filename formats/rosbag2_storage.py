@@ -174,15 +174,35 @@ def name_original(error: BaseException, original: Path, inner: Path) -> None:
     )
 
 
+DECOMPRESSED = " of the decompressed data"
+"""Follows a byte offset in a message about a compressed log: the readers count in the
+decompressed copy, which no tool shows the user at that offset in the file on disk."""
+
+_OFFSET = re.compile(r"\bbyte (\d[\d,]*)(?![\d,])(?: of (\d[\d,]*)(?![\d,]))?")
+"""A byte offset in a reader's message: ``at byte 73``, ``ends at byte 1,000 of 2,000``."""
+
+
 def shown_text(text: str, original: Path, inner: Path) -> str:
     """``text`` (an error or a warning about ``inner``, the decompressed temporary copy of
     ``original``) naming the user's file instead: the copy's path as ``original
     (decompressed)``, and a line that starts with the copy's name (``t.mcap: truncated ...``,
-    how the readers' warnings name their file) starting with the original's (``t.mcap.zst:``)."""
+    how the readers' warnings name their file) starting with the original's (``t.mcap.zst:``).
+    Its byte offsets count in the copy, so each says so: ``at byte 73 of the decompressed
+    data``, ``at byte 1,000 of the decompressed data's 2,000`` (once: a text shown already
+    is left as it is)."""
     text = text.replace(str(inner), f"{original} (decompressed)")
     if text.startswith(f"{inner.name}:"):
         text = original.name + text[len(inner.name) :]
+    if DECOMPRESSED not in text and "decompressed data's" not in text:
+        text = _OFFSET.sub(_decompressed_offset, text)
     return text
+
+
+def _decompressed_offset(found: re.Match[str]) -> str:
+    at, size = found.group(1), found.group(2)
+    if size is None:
+        return f"byte {at}{DECOMPRESSED}"
+    return f"byte {at}{DECOMPRESSED}'s {size}"
 
 
 def _unzstd_stream(src: IO[bytes], dst: IO[bytes]) -> None:

@@ -1,9 +1,11 @@
 """Shared by the tests of the .aion map container (``test_mapfile.py``: writing,
 ``test_mapfile_damaged.py``: damaged and hostile maps): the sample arrays (every dtype and
-shape a map holds), the ``written`` map of them, and an array-by-array comparison."""
+shape a map holds), the ``written`` map of them, and an array-by-array comparison; and by the
+tests of logs compressed whole, ``temp_root``: where their decompressed copies go."""
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -43,3 +45,12 @@ def written(tmp_path: Path) -> Path:
     path = tmp_path / "office.aion"
     write_map(path, sample_arrays(), {"config": {"bins": 8}, "counts": {"entries": 5}})
     return path
+
+
+@pytest.fixture
+def temp_root(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """Where the decompressed copies go (tempfile's folder), to see them come and go."""
+    root = tmp_path / "tmp"
+    root.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(root))
+    return root
