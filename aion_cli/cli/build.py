@@ -208,7 +208,9 @@ class _RichProgress:
     default=4000,
     show_default=True,
     type=click.IntRange(min=1),
-    help="Detection messages decoded per chunk.",
+    help="Detection messages decoded per chunk. Another size may add the map's "
+    "floating-point sums in another order, which changes them in their last bits (about "
+    "1e-16 relative), never a prediction by more than 1e-9 (relative).",
 )
 @click.option(
     "--tz",
