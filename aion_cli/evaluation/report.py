@@ -126,6 +126,10 @@ def atc_section(results: dict[str, Any], out_dir: Path) -> list[str]:
         ]
         lines += _table(["model", "detections", "unmatched", "NLL matched", "NLL all", "chi²"],
                         rows)
+        # hours without training data (the real data lacks hour 12's), as aion evaluate atc
+        # notes them
+        for note in result.notes:
+            lines += ["", f"Note: {note}."]
         png = plots.nll_per_hour(result.rows, out_dir / ATC_PNG.format(protocol),
                                  f"ATC, {protocol} protocol")
         lines += ["", f"![NLL per hour]({png.name})", ""]

@@ -110,3 +110,29 @@ def test_a_report_that_fails_in_a_section_leaves_no_folder_behind(tmp_path: Path
     with pytest.raises(InputError, match="the robot detected nobody"):
         write_report(kept, DATA, scenes=1, days=0.2, skip={"atc", "lincoln", "door"})
     assert sorted(p.name for p in kept.iterdir()) == ["notes.txt"]
+
+
+def test_the_atc_section_notes_hours_without_training_data(tmp_path: Path) -> None:
+    """The real ATC folder has no atc-1024-12_train.csv: aion evaluate atc notes that 12:00
+    is scored by models that never saw that hour (text and JSON), the report's ATC section
+    said nothing of it. A folder of hours 11 and 12, the 12:00 training file left out,
+    run as the report runs it."""
+    import shutil
+
+    from aion_cli.evaluation.atc import run_atc
+
+    atc = SHARED_DATA / "atc"
+    if not (atc / "atc-1024-11_train.csv").is_file():
+        pytest.skip("the ATC data (../shared/data/atc) is not here")
+    folder = tmp_path / "atc"
+    folder.mkdir()
+    names = ("atc-1024-11_train.csv", "atc-1024-11_test.csv", "atc-1024-12_test.csv")
+    for name in names:
+        shutil.copy(atc / name, folder / name)
+    result = run_atc(folder, "random")
+    assert result.hours_without_training == [12]
+    text = "\n".join(atc_section({"random": result}, tmp_path))
+    assert (
+        "Note: 12:00 has no training data (atc-1024-12_train.csv not in the folder): its test "
+        "people are scored by models trained on the other hours only."
+    ) in text
