@@ -123,9 +123,16 @@ class ArrowField:
 
 def arrow_block(extent: Extent, panel_width_in: float, cell_size: float) -> float | None:
     """The edge of the blocks the arrows of a panel ``panel_width_in`` inches wide showing
-    ``extent`` merge over, or None where one arrow per entry can be seen."""
-    block = (extent.x1 - extent.x0) / (panel_width_in * ARROWS_PER_INCH)
-    return float(block) if block > MERGE_FROM * cell_size else None
+    ``extent`` merge over, or None where one arrow per entry can be seen.
+
+    The edge is a whole number of cells (the spacing rounded up), so that every block of the
+    cell lattice, anchored at the origin as the blocks are, holds as many cells as the next: a
+    block of 6.2 cells held six rows of cells or seven, and a map walked evenly was drawn in
+    stripes of arrows a third longer every sixth block."""
+    spacing = (extent.x1 - extent.x0) / (panel_width_in * ARROWS_PER_INCH)
+    if not spacing > MERGE_FROM * cell_size:
+        return None
+    return float(np.ceil(spacing / cell_size - 1e-9) * cell_size)
 
 
 def arrow_field(scene: Scene, block: float | None = None, bins: int = 8) -> ArrowField:
