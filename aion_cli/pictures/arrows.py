@@ -121,15 +121,27 @@ class ArrowField:
         )
 
 
-def arrow_block(extent: Extent, panel_width_in: float, cell_size: float) -> float | None:
-    """The edge of the blocks the arrows of a panel ``panel_width_in`` inches wide showing
-    ``extent`` merge over, or None where one arrow per entry can be seen.
+def arrow_block(
+    extent: Extent,
+    panel_width_in: float,
+    cell_size: float,
+    panel_height_in: float | None = None,
+) -> float | None:
+    """The edge of the blocks the arrows of a panel ``panel_width_in`` by ``panel_height_in``
+    inches (None: as high as the map needs) showing ``extent`` merge over, or None where one
+    arrow per entry can be seen. The panel draws x and y on one scale, the metres per inch
+    of the direction that fills it: a map along y (a corridor 200 m long and 2 m wide, drawn
+    nine inches high) was judged by its width alone, so its 400 arrows of 2 m were drawn on
+    a line 23 m an inch long, one over the next, a dotted stripe without a visible arrow.
 
     The edge is a whole number of cells (the spacing rounded up), so that every block of the
     cell lattice, anchored at the origin as the blocks are, holds as many cells as the next: a
     block of 6.2 cells held six rows of cells or seven, and a map walked evenly was drawn in
     stripes of arrows a third longer every sixth block."""
-    spacing = (extent.x1 - extent.x0) / (panel_width_in * ARROWS_PER_INCH)
+    per_inch = (extent.x1 - extent.x0) / panel_width_in
+    if panel_height_in is not None:
+        per_inch = max(per_inch, (extent.y1 - extent.y0) / panel_height_in)
+    spacing = per_inch / ARROWS_PER_INCH
     if not spacing > MERGE_FROM * cell_size:
         return None
     return float(np.ceil(spacing / cell_size - 1e-9) * cell_size)

@@ -90,8 +90,9 @@ from aion_cli.scene import Scene
 F64 = npt.NDArray[np.float64]
 
 ARROW_WIDTH = 0.0035
-"""Arrow shaft width as a fraction of the panel width (one large panel; small multiples
-draw them relatively wider, :data:`PANEL_ARROW_WIDTH`, so they stay visible)."""
+"""Arrow shaft width as a fraction of the panel width (its height for a map taller than
+wide; one large panel; small multiples draw them relatively wider,
+:data:`PANEL_ARROW_WIDTH`, so they stay visible)."""
 PANEL_ARROW_WIDTH = 0.006
 UNDER_MERGED_ALPHA = 0.35
 """The opacity of the cells' squares under arrows merged over blocks."""
@@ -207,7 +208,8 @@ def draw_topdown(
     """Draw ``scene`` top-down into the matplotlib axes ``ax`` (see the module docstring).
     ``flow_scale``: the flow drawn at full arrow length (default: :func:`arrow_scale`'s);
     ``extent``: the window shown (default: the scene's own); ``arrow_width`` (fraction of the
-    panel width), ``dot_size`` (points²) and ``label_size`` (points) for small panels;
+    panel's width, or of its height for a map taller than wide), ``dot_size`` (points²) and
+    ``label_size`` (points) for small panels;
     ``footprint`` / ``rooms``: the mesh already rendered (:func:`mesh_footprint`) and the
     room outlines already computed (:func:`room_outlines`); default: made here; ``arrows``:
     the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry)."""
@@ -268,7 +270,9 @@ def draw_topdown(
             angles="xy",
             scale_units="xy",
             scale=1.0,
-            units="width",
+            # a fraction of the panel's long side: of a map along y, drawn a sliver wide, a
+            # fraction of its width was a shaft under a pixel, arrows nobody could see
+            units="width" if box.aspect <= 1.0 else "height",
             width=arrow_width,
             headwidth=3.5,
             headlength=4.0,
@@ -353,7 +357,7 @@ def topdown_figure(
         )
     extent = scene_extent(scenes, [p for ps in per_panel for p in ps])
     rows, cols, width, height = page_grid(n, extent.aspect, max(len(found), 1))
-    block = arrow_block(extent, width, min(s.cell_size for s in scenes))
+    block = arrow_block(extent, width, min(s.cell_size for s in scenes), height)
     fields = [arrow_field(s, block) for s in scenes]
     if block is None:
         arrows = arrow_scale(scenes)

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aion_cli.pictures.arrows import MERGE_FROM, arrow_block, arrow_field
+from aion_cli.pictures.arrows import ARROWS_PER_INCH, MERGE_FROM, arrow_block, arrow_field
 from aion_cli.pictures.backdrop import Extent
 from aion_cli.pictures.topdown import SINGLE_WIDTH_IN, scene_extent, topdown_figure
 from aion_cli.scene import Scene
@@ -259,3 +259,65 @@ def test_an_even_flow_is_drawn_as_even_arrows() -> None:
     assert len(full) > 100
     assert np.unique(full).tolist() == [round(block / cell) ** 2]
     np.testing.assert_allclose(field.angle, 0.0)
+
+
+def _arrow_gap_px(scene: Scene) -> float:
+    """The median distance (pixels, at the picture's dpi) between the tails of neighbouring
+    arrows drawn in ``scene``'s picture (a block cut by the map's edge has its arrow nearer)."""
+    fig = topdown_figure([scene], ["t"])
+    fig.canvas.draw()
+    (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+    (quiver,) = [c for c in ax.collections if type(c).__name__ == "Quiver"]
+    tails = ax.transData.transform(np.asarray(quiver.get_offsets()))
+    tails = tails[np.lexsort(tails.T[::-1])]
+    return float(np.median(np.hypot(*np.diff(tails, axis=0).T)))
+
+
+def test_a_corridor_along_y_merges_its_arrows_as_one_along_x() -> None:
+    """A corridor of 0.5 m cells 200 m long and 1 m wide, walked along it: drawn along x its
+    arrows merge into blocks a dozen pixels and more apart; drawn along y (the same corridor
+    turned a quarter) the picture judged the spacing by the panel's width alone and drew one
+    2 m arrow per cell, 800 of them one over the next on a line 23 m an inch long (cells
+    three pixels apart), a stripe without a visible arrow. Turned, its arrows are as far
+    apart as along x."""
+    from aion_cli.pictures.topdown import DPI
+
+    cell = 0.5
+    along = np.arange(cell / 2, 200.0, cell)
+    across = np.array([0.25, 0.75])
+    xy = np.array([(a, b) for a in along for b in across])
+    n = len(xy)
+    wide = cells_only_scene(xy, np.ones(n), np.zeros(n), np.full(n, 0.1))
+    tall = cells_only_scene(xy[:, ::-1], np.ones(n), np.full(n, math.pi / 2), np.full(n, 0.1))
+    least = 0.6 * DPI / ARROWS_PER_INCH  # the arrows' spacing, less the panel's ticks and title
+    assert _arrow_gap_px(wide) > least  # the premise
+    assert _arrow_gap_px(tall) > least
+
+
+def test_the_arrows_of_a_map_along_y_are_seen(tmp_path: Any) -> None:
+    """The corridor above, turned along y, is drawn a sliver wide; its arrows' shafts were a
+    fraction of that width, under a pixel, and their heads a pixel: across the corridor the
+    arrows' colour was one pixel wide, a line, where along x their heads are eight pixels
+    wide. Their width is a fraction of the panel's long side: turned, as wide as along x."""
+    from aion_cli.formats.scene_colours import entropy_colors
+    from aion_cli.pictures.render import save_png
+    from tests.pictures.pixels import pixel_of, read_png
+
+    cell = 0.5
+    along = np.arange(cell / 2, 200.0, cell)
+    xy = np.array([(a, b) for a in along for b in (0.25, 0.75)])
+    n = len(xy)
+    colour = entropy_colors(np.array([0.1]))[0]
+    across = []  # the widest the arrows' colour is across the corridor, in pixels
+    for points, angle, axis in ((xy, 0.0, 0), (xy[:, ::-1], math.pi / 2, 1)):
+        scene = cells_only_scene(points, np.ones(n), np.full(n, angle), np.full(n, 0.1))
+        fig = topdown_figure([scene], ["t"])
+        image = read_png(save_png(fig, tmp_path / "m.png"))
+        (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        (r0, c0), (r1, c1) = pixel_of(ax, image, x0, y1), pixel_of(ax, image, x1, y0)
+        arrow = np.abs(image[r0:r1, c0:c1] - colour).max(axis=2) < 0.08
+        across.append(int(arrow.sum(axis=axis).max()))
+    wide, tall = across
+    assert wide >= 6  # the premise: along x, arrowheads
+    assert tall >= wide / 2
