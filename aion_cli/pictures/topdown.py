@@ -310,6 +310,9 @@ def draw_topdown(
     # matplotlib's default keeps two x ticks at least: a map along y, drawn a third of an
     # inch wide, ran "-2.5", "0.0" and "2.5" into one another; one tick where one fits
     ax.xaxis.set_major_locator(MaxNLocator("auto", steps=[1, 2, 2.5, 5, 10], min_n_ticks=1))
+    # the map's own coordinates on the ticks: matplotlib's offset notation drew a corridor at
+    # x = 200 km as "0 ... 30" with "+2e5" in a corner, easily read as the map's x
+    ax.ticklabel_format(axis="both", style="plain", useOffset=False)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     if title is not None:

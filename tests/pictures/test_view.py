@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -177,3 +178,26 @@ def test_what_is_left_out_is_little_and_apart(cells: list[tuple[float, float, fl
     assert (kept[:, 1] >= box.y0).all()
     assert (kept[:, 1] <= box.y1).all()
     assert box.left_out <= len(np.unique(xy[out], axis=0))  # those drawn are not left out
+
+
+def test_the_ticks_give_the_map_s_own_coordinates() -> None:
+    """A corridor 200 km east and 300 km north of the map's origin: matplotlib's offset
+    notation labelled its x ticks 0 ... 30 with "+2e5" in a corner (and y likewise), so the
+    picture read as a corridor at the origin. Every tick's label is its coordinate in the
+    map, and there is no offset text."""
+    along = np.arange(0.25, 30.0, 0.5)
+    xy = np.array([(200_000.0 + x, 300_000.0 + y) for x in along for y in (0.25, 0.75)])
+    n = len(xy)
+    fig = topdown_figure([cells_only_scene(xy, np.ones(n), np.zeros(n), np.full(n, 0.2))], ["t"])
+    fig.canvas.draw()
+    (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+    for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        assert axis.get_offset_text().get_text() == ""
+        ticks = [
+            (float(loc), float(label.get_text().replace("\u2212", "-")))
+            for loc, label in zip(axis.get_majorticklocs(), axis.get_ticklabels(), strict=True)
+            if lo <= loc <= hi
+        ]
+        assert ticks, "no tick in the window"
+        for loc, label in ticks:
+            assert label == pytest.approx(loc), ticks
