@@ -62,24 +62,31 @@ def plan_figure(
             2.2,
         ),
     ]
-    ends = np.asarray(temporal.xyz, dtype=np.float64).reshape(-1, 3)
-    markers = []
-    if len(ends):
-        markers = [
-            Marker(
-                (float(ends[0, 0]), float(ends[0, 1])),
-                f"start {start_label}",
-                "o",
-                START_COLOR,
-                z=float(ends[0, 2]),
-            ),
-            Marker(
-                (float(ends[-1, 0]), float(ends[-1, 1])),
-                f"goal {goal_label}",
-                "*",
-                GOAL_COLOR,
-                200.0,
-                z=float(ends[-1, 2]),
-            ),
-        ]
+    markers = end_markers(temporal.xyz, start_label, goal_label)
     return topdown_figure([scene], [title], paths=[lines], markers=markers, dpi=dpi)
+
+
+def end_markers(xyz: npt.ArrayLike, start_label: str, goal_label: str) -> list[Marker]:
+    """The start (a circle at the first point of the path ``xyz`` f64[p,3]) and goal (a star
+    at its last) markers of a path, labelled ``start <start_label>`` and ``goal
+    <goal_label>``; none for an empty path."""
+    ends = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    if not len(ends):
+        return []
+    return [
+        Marker(
+            (float(ends[0, 0]), float(ends[0, 1])),
+            f"start {start_label}",
+            "o",
+            START_COLOR,
+            z=float(ends[0, 2]),
+        ),
+        Marker(
+            (float(ends[-1, 0]), float(ends[-1, 1])),
+            f"goal {goal_label}",
+            "*",
+            GOAL_COLOR,
+            200.0,
+            z=float(ends[-1, 2]),
+        ),
+    ]

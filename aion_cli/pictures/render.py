@@ -20,7 +20,7 @@ import numpy as np
 from aion_cli.errors import InputError
 from aion_cli.pictures.floors import levels_apart
 from aion_cli.pictures.png_mark import is_aion_png, save_marked_png
-from aion_cli.pictures.topdown import DPI, MAX_PANELS, PathLine, topdown_figure
+from aion_cli.pictures.topdown import DPI, MAX_PANELS, Marker, PathLine, topdown_figure
 
 if TYPE_CHECKING:
     from aion_cli.mapquery import LoadedMap
@@ -178,8 +178,10 @@ def export_png(
     per time, at most :data:`~aion_cli.pictures.topdown.MAX_PANELS`, sharing axes, flow
     scale and colour bar), with the path planned between ``ends`` (from
     ``exports.path_ends``) at each time."""
+    from aion_cli.engine.node_ids import node_label
     from aion_cli.exports import planned_path
     from aion_cli.formats.scene_colours import PATH_GREEN
+    from aion_cli.pictures.plan import end_markers
     from aion_cli.scene import scene_at
 
     check_png_target(out, option)
@@ -198,11 +200,15 @@ def export_png(
         )
     scenes = []
     paths: list[list[PathLine]] = []
+    markers: list[Marker] = []
     for k, t_ns in enumerate(times):
         scenes.append(first if k == 0 and first is not None else scene_at(loaded, t_ns))
         if ends is not None:
             xyz = np.asarray(planned_path(loaded, t_ns, ends), dtype=np.float64)
             paths.append([PathLine(xyz, "planned path", PATH_GREEN)])
+            # which end is which (the path is planned from one to the other, against the
+            # flows it meets): the green line alone did not say
+            markers = markers or end_markers(xyz, node_label(ends[1]), node_label(ends[2]))
         else:
             paths.append([])
         if on_frame is not None:
@@ -210,7 +216,12 @@ def export_png(
     titles = [time_title(times[0], zone)] if len(times) == 1 else _panel_titles(times, zone)
     titles = _mark_unobserved(loaded, times, titles)
     fig = topdown_figure(
-        scenes, titles, suptitle=_series_title(map_label, times, zone), paths=paths, dpi=dpi
+        scenes,
+        titles,
+        suptitle=_series_title(map_label, times, zone),
+        paths=paths,
+        markers=markers,
+        dpi=dpi,
     )
     return save_png(fig, out, option)
 

@@ -125,6 +125,39 @@ def test_too_many_panels_hints_a_larger_step(office: Office, tmp_path: Path) -> 
     assert list(tmp_path.iterdir()) == []
 
 
+def test_an_exported_path_says_where_it_starts_and_ends(office: Office, tmp_path: Path) -> None:
+    """``export --format png --path-from p0 --path-to p4``: the path was a green line with
+    "planned path" in the legend, which end its start and which its goal unsaid (the
+    temporal path is planned one way, against the flows it meets). The goal is a magenta
+    star at the path's end at p4, (4, 2) m, right of and above the path's middle (p0 is at
+    the origin); the start a circle, as ``plan --png`` draws them."""
+    import numpy as np
+    from scipy.ndimage import label
+
+    from aion_cli.pictures.plan import GOAL_COLOR
+
+    out = tmp_path / "path.png"
+    args = ["--time", AT, "--format", "png", "-o", out, "--path-from", "p0", "--path-to", "p4"]
+    assert run("export", office.map, *args).exit_code == 0
+    image = read_png(out)
+
+    def parts(colour: tuple[float, ...]) -> list[np.ndarray]:
+        """The connected patches of ``colour``, largest first, as their pixels' (row,
+        column)."""
+        patches, n = label(np.abs(image - colour).max(axis=2) < 0.1)
+        found = [np.argwhere(patches == k) for k in range(1, n + 1)]
+        return sorted(found, key=len, reverse=True)
+
+    path = parts(PATH_GREEN)[0]  # the path on the map (the legend's line is shorter)
+    stars = parts(GOAL_COLOR)  # the star on the map and the legend's
+    assert stars, "no goal marker"
+    near = [float(np.hypot(*(path - star.mean(axis=0)).T).min()) for star in stars]
+    assert min(near) < 12  # a star on the path
+    centre = stars[int(np.argmin(near))].mean(axis=0)
+    assert centre[1] > path[:, 1].mean()  # right of its middle (x 4 m, the start's 0)
+    assert centre[0] < path[:, 0].mean()  # above it (y 2 m; rows run down)
+
+
 def test_plan_png_shows_both_routes(office: Office, tmp_path: Path) -> None:
     out = tmp_path / "plan.png"
     args: list[str | Path] = [
