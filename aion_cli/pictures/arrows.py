@@ -116,7 +116,8 @@ class ArrowField:
         if self.block is None:
             return ""
         return (
-            f"one arrow per {self.block:.2g} m block (the flow of its places and cells summed, "
+            # the edge as it is, a whole number of cells (two digits said "10" of 10.5 m)
+            f"one arrow per {self.block:.4g} m block (the flow of its places and cells summed, "
             "along the direction most of it takes)"
         )
 

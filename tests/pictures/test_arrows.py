@@ -64,6 +64,14 @@ def test_blocks_are_anchored_at_the_origin() -> None:
     np.testing.assert_array_equal(np.floor(a.xy / 4.0), np.floor(b.xy / 4.0))
 
 
+def test_the_legend_gives_the_block_s_edge() -> None:
+    """A block of 21 cells of 0.5 m is 10.5 m: the legend said "one arrow per 10 m block"
+    (two significant digits)."""
+    xy = np.array([[0.25, 0.25], [20.25, 0.25]])
+    field = arrow_field(cells_only_scene(xy, np.ones(2), np.zeros(2), np.full(2, 0.1)), 10.5)
+    assert "one arrow per 10.5 m block" in field.legend()
+
+
 def test_small_maps_keep_one_arrow_per_entry() -> None:
     office = Extent(-2.0, 42.0, -2.0, 26.0)
     assert arrow_block(office, 8.0, 0.5) is None
@@ -86,7 +94,7 @@ def test_a_dense_map_is_drawn_with_merged_arrows() -> None:
     drawn = int(quiver.N)
     assert drawn == len(arrow_field(scene, block).flow)
     assert drawn <= n / MERGE_FROM**2  # blocks of more than 3 x 3 cells
-    assert f"one arrow per {block:.2g} m block" in fig._supxlabel.get_text()
+    assert f"one arrow per {block:.4g} m block" in fig._supxlabel.get_text()
 
 
 def _nodes_only(xy: np.ndarray, angle: float, entropy: float) -> Scene:
