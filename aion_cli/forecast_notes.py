@@ -14,9 +14,9 @@ Situations that surprise people and look like defects when unexplained:
 * **The time falls on a kind of day the map never saw**: a Saturday, from a map of weekdays
   only. The profiles keep weekdays and weekends apart (``profile = "day_weekend"``, the
   default, or every day of the week with ``"week"``), so a kind of day without data has no
-  hours of its own: its forecast follows the hours and level of the kinds seen
-  (:func:`~aion_cli.engine.temporal.shape_prior.group_shapes`), which a quieter weekend
-  would not show.
+  hours of its own: its forecast follows the hours and level of the kinds seen, the map's,
+  each group's and each place's own (:func:`~aion_cli.engine.temporal.shape_prior.by_hour`),
+  which a quieter weekend would not show.
 * **No log observed the time's hour on any day** (a tracker that recorded 09:00-18:00 only,
   asked about 03:00): the manifest lists the profile bins observed (``families.observed_bins``)
   and the forecast there is extrapolated from the hours observed, not measured. A series

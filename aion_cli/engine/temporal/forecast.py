@@ -37,6 +37,13 @@ and α how much the bins really vary beyond that, both estimated from the map
 * ``profile``: λ(h) with parent rate μ·s[e,h] (per value bin v the same with the bin's share of
   the c pseudo-detections, so the bins sum to λ).
 
+A bin of a kind of day the map never observed (a Saturday of a map of weekdays:
+``PoolStats.unseen``) has no windows at any level, so each level reads its own sums at the same
+hour of the kinds it saw: the map's and the groups' shapes
+(:func:`~aion_cli.engine.temporal.shape_prior.group_shapes`) and an entry's S[e,h] and W[e,h]
+(:meth:`Forecaster._hours`), so a place busy at lunch on weekdays is busy at a Saturday lunch
+too, where it used to take the map's shape there. Bins of kinds seen read as they are.
+
 Directions: p_map,b = (N_map,b + 1) / (N_map + B) (Laplace), p_g,b = (N_g,b + κ p_map,b) /
 (N_g + κ), static h_e,b = (N_e,b + κ p_g,b) / (N_e + κ) with κ = ``direction_prior`` (with
 ``"auto"``: the groups' κ 10, the entries' estimated from the map, ``PoolStats.kappa`` and
@@ -67,7 +74,7 @@ from aion_cli.engine.temporal.pooling import (
     posterior,
     rows_of,
 )
-from aion_cli.engine.temporal.shape_prior import shrunk_rate
+from aion_cli.engine.temporal.shape_prior import by_hour, shrunk_rate
 from aion_cli.engine.types import F64, I64
 
 if TYPE_CHECKING:
@@ -157,8 +164,8 @@ class Forecaster(FremenParts):
         kept = self.pool.kept
         if pooled_at is not None and kept is not None:
             self._profiles = (
-                np.asarray(kept[0][pooled_at], dtype=np.float64),
-                np.asarray(kept[1][pooled_at], dtype=np.float64),
+                self._by_hour(np.asarray(kept[0][pooled_at], dtype=np.float64)),
+                self._by_hour(np.asarray(kept[1][pooled_at], dtype=np.float64)),
             )
             return
         e, h = self.rows.size, self.params.n_profile
@@ -167,26 +174,70 @@ class Forecaster(FremenParts):
             rows = self.rows[a : a + BLOCK]
             windows[a : a + BLOCK] = rows_of(self.state.obs.profile, rows) + self._glob_profile
             total[a : a + BLOCK] = count_sums(rows_of(self.state.cnt_profile, rows), 1)
-        self._profiles = (windows, total)
+        self._profiles = self._by_hour(windows), self._by_hour(total)
+
+    def _by_hour(self, values: F64) -> F64:
+        """Sums per profile bin ``values[E, H]`` with the bins of a kind of day the map never
+        saw summed over the same hour of the kinds it saw (``PoolStats.unseen``)."""
+        return by_hour(values, self.pool.unseen, self.params.calendar.bins_per_day)
+
+    def _hours(self, read: Any, e: I64, h: I64, values: bool = False) -> Any:
+        """``read(e, h)`` — a sum per profile bin at pairs (or a broadcast grid), with a value
+        axis last if ``values`` — where a bin of an unseen kind of day (``PoolStats.unseen``)
+        reads the sum of ``read`` at the same hour of every kind (those of unseen kinds hold
+        no windows, so: of the kinds seen). Bins of kinds seen read as they are, the same
+        array, so their forecasts are unchanged."""
+        out = read(e, h)
+        unseen = self.pool.unseen
+        if unseen is None:
+            return out
+        mask = unseen[h]
+        if not mask.any():
+            return out
+        per_day = self.params.calendar.bins_per_day
+        hour = np.asarray(h) % per_day
+        pooled = np.zeros(np.shape(out))
+        for k in range(self.params.n_profile // per_day):  # 2 or 7 kinds of day
+            pooled += read(e, hour + k * per_day)
+        return np.where(mask[..., None] if values else mask, pooled, out)
 
     def profile_windows_at(self, e: I64, h: I64) -> F64:
         """W[e, h]: the windows in which entry positions ``e`` were observed in profile bins
-        ``h`` (pairs)."""
+        ``h`` (pairs); a bin of a kind of day the map never saw holds the windows of the
+        same hour of the kinds it saw (:meth:`_hours`)."""
         if self._profiles is not None:
             held: F64 = self._profiles[0][e, h]
             return held
+        out: F64 = self._hours(self._windows_at, e, h)
+        return out
+
+    def _windows_at(self, e: I64, h: I64) -> F64:
         out: F64 = self.state.obs.profile[self.rows[e], h] + self._glob_profile[h]
         return out
 
     def profile_total_at(self, e: I64, h: I64) -> F64:
         """S[e, h]: their detections there, all value bins (whole numbers: exact in any
-        order, whatever type the counts are held in)."""
+        order, whatever type the counts are held in); unseen kinds of day as W."""
         if self._profiles is not None:
             held: F64 = self._profiles[1][e, h]
             return held
+        out: F64 = self._hours(self._total_at, e, h)
+        return out
+
+    def _total_at(self, e: I64, h: I64) -> F64:
         # summed over the value axis, the last for pairs and for broadcast (entry, bin) grids
         out: F64 = self.state.cnt_profile[self.rows[e], :, h].sum(axis=-1, dtype=np.float64)
         return out
+
+    def _counts_at(self, e: I64, h: I64, upto: int | None = None) -> Any:
+        """The entry's counts per value bin (the first ``upto``) in profile bin ``h``, pairs;
+        unseen kinds of day as W (then float64)."""
+        rows = self.rows
+
+        def read(e: I64, h: I64) -> Any:
+            return self.state.cnt_profile[rows[e], :upto, h]
+
+        return self._hours(read, e, h, values=True)
 
     def shape_at(self, e: I64, h: I64) -> F64:
         """s[e, h] = r_g[h] / r̄_e: the group's shape, normalised over the entry's windows (1
@@ -247,7 +298,7 @@ class Forecaster(FremenParts):
                 out=np.zeros_like(mu),
                 where=self.rate_total[e][:, None] > 0,
             )
-            own = self.state.cnt_profile[self.rows[e], :, h]
+            own = self._counts_at(e, h)
             den = parent * self.profile_windows_at(e, h) + c
             out = np.divide(
                 parent[:, None] * (own + c * share),
@@ -305,7 +356,7 @@ class Forecaster(FremenParts):
         docstring): the profile bin's counts, or FreMEn's clamped per-bin rates × W[e, h]."""
         b = self.params.bins
         if family == "profile":
-            counts: F64 = self.state.cnt_profile[self.rows[e], :b, h]
+            counts: F64 = self._counts_at(e, h, b)
             return counts
         m = int(family.removeprefix("fremen"))
         terms = self._bin_terms(e, t_s, m, b, min(self.params.max_order, DIRECTION_ORDERS))

@@ -12,12 +12,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.direction_prior import FALLBACK, entry_prior, group_prior
 from aion_cli.engine.temporal.params import TemporalParams
-from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion
+from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion, unseen_bins
 from aion_cli.engine.types import F64, I64
 
 _POOL_BLOCK = 1 << 13
@@ -40,6 +41,11 @@ class PoolStats:
     kappa: float = FALLBACK
     """κ of the entries' direction histograms toward their group's (``direction_prior``: the
     configured number, or estimated from the pooled entries, :mod:`.direction_prior`)."""
+    unseen: npt.NDArray[np.bool_] | None = None
+    """The profile bins of a kind of day the map never observed (no pooled entry had a window
+    in them: a Saturday of a map of weekdays), bool[H], or None: an entry's ``profile`` takes
+    its own counts and windows at the same hour of the kinds seen there
+    (:func:`~aion_cli.engine.temporal.shape_prior.by_hour`), as the map's and groups' shapes do."""
 
     @classmethod
     def of(
@@ -86,7 +92,8 @@ class PoolStats:
             return held, histograms[groups]
 
         kappa = entry_prior(params.config, directed_counts)
-        return cls(shapes, histograms, map_shape, kept, kappa)
+        unseen = unseen_bins(w_g.sum(axis=0), params.calendar.bins_per_day)
+        return cls(shapes, histograms, map_shape, kept, kappa, unseen)
 
 
 def entry_counts(state: TemporalState, rows: I64, block: int = 1 << 10) -> F64:

@@ -55,6 +55,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+import numpy.typing as npt
 
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.types import F64, I64
@@ -128,7 +129,8 @@ def group_shapes(
     a group without detections has the map's shape. ``bins_per_day``: the profile's bins
     per day, when its H bins hold several kinds of day (weekday / weekend, or the days of
     the week): a map bin no window observed takes its hour of the day from the kinds that
-    were (:func:`_unseen_kinds`), not the flat rate."""
+    were (:func:`_unseen_kinds`), not the flat rate, and a group's such bin its own hour of
+    the kinds seen (:func:`by_hour`), not the map's shape."""
     s_map, w_map = s_g.sum(axis=0), w_g.sum(axis=0)
     rho_map = s_map.sum() / w_map.sum() if w_map.sum() > 0 else 0.0
     if rho_map <= 0:
@@ -143,6 +145,9 @@ def group_shapes(
     prior = rho_g[:, None] * r_map[None, :]
     busy = rho_g > 0
     c = prior_strength(s_g[busy], w_g[busy], prior[busy], phi)
+    if bins_per_day is not None:  # a group's unseen bins: its own hours of the kinds seen
+        unseen = unseen_bins(w_map, bins_per_day)
+        s_g, w_g = by_hour(s_g, unseen, bins_per_day), by_hour(w_g, unseen, bins_per_day)
     r_g = np.divide(
         shrunk_rate(s_g, w_g, prior, c) if np.isfinite(c) else prior,
         rho_g[:, None],
@@ -163,18 +168,45 @@ def _unseen_kinds(
     same c). People's routines follow the clock, so an unseen kind of day is forecast with
     the rhythm of the days seen, not as flat as a day without hours (its level stays the
     map's: nothing tells a quieter weekend). A bin whose hour no kind observed stays flat;
-    observed bins are unchanged, so the shape is today's wherever every kind was seen."""
-    kinds = r_map.size // bins_per_day
-    unseen = w_map <= 0
-    if kinds < 2 or r_map.size != kinds * bins_per_day or not unseen.any():
+    observed bins are unchanged, so the shape is today's wherever every kind was seen. The
+    groups' shapes and each entry's ``profile`` pool their own sums the same way
+    (:func:`by_hour`)."""
+    unseen = unseen_bins(w_map, bins_per_day)
+    if unseen is None:
         return r_map
+    kinds = r_map.size // bins_per_day
     s_hour = s_map.reshape(kinds, bins_per_day).sum(axis=0)
     w_hour = w_map.reshape(kinds, bins_per_day).sum(axis=0)
     flat = np.full(bins_per_day, rho_map)
-    by_hour = shrunk_rate(s_hour, w_hour, flat, c) if np.isfinite(c) else flat
+    hourly = shrunk_rate(s_hour, w_hour, flat, c) if np.isfinite(c) else flat
     out = r_map.copy()
     hour = np.flatnonzero(unseen) % bins_per_day
-    out[unseen] = by_hour[hour] / rho_map  # an hour nobody saw: shrunk_rate's flat rate
+    out[unseen] = hourly[hour] / rho_map  # an hour nobody saw: shrunk_rate's flat rate
+    return out
+
+
+def unseen_bins(w_map: F64, bins_per_day: int) -> npt.NDArray[np.bool_] | None:
+    """The profile bins of a kind of day no window observed (``w_map``: the map's windows
+    per bin), bool[H]; None when there are none, or the profile has one kind of day."""
+    kinds = w_map.size // bins_per_day
+    unseen = w_map <= 0
+    if kinds < 2 or w_map.size != kinds * bins_per_day or not unseen.any():
+        return None
+    return unseen
+
+
+def by_hour(values: F64, unseen: npt.NDArray[np.bool_] | None, bins_per_day: int) -> F64:
+    """``values[..., H]`` (sums per profile bin: detections, windows) with each ``unseen``
+    bin replaced by the sum over the kinds of day at the same hour: a kind of day no window
+    observed takes the hours of the kinds that were (:func:`_unseen_kinds`, at every level).
+    The other bins are returned as they are (the same array when there is nothing to do)."""
+    if unseen is None:
+        return values
+    kinds = values.shape[-1] // bins_per_day
+    lead = values.shape[:-1]
+    hours = np.asarray(values, np.float64).reshape(*lead, kinds, bins_per_day).sum(axis=-2)
+    out: F64 = np.array(values, dtype=np.float64)
+    out[..., unseen] = hours[..., np.flatnonzero(unseen) % bins_per_day]
     return out
 
 
