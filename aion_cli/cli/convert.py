@@ -75,7 +75,7 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
 )
 @click.option(
     "--layout",
-    type=click.Choice(LAYOUTS),
+    type=click.Choice(LAYOUTS, case_sensitive=False),
     default="canonical",
     show_default=True,
     help="Column layout of the CSV.",
@@ -104,7 +104,10 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
 @click.option(
     "--message-type",
     "msgtype",
-    type=click.Choice(["spencer_tracking_msgs/msg/TrackedPersons", "geometry_msgs/msg/PoseArray"]),
+    type=click.Choice(
+        ["spencer_tracking_msgs/msg/TrackedPersons", "geometry_msgs/msg/PoseArray"],
+        case_sensitive=False,
+    ),
     default="spencer_tracking_msgs/msg/TrackedPersons",
     show_default=True,
     help="Message type the detections are written as.",
@@ -132,7 +135,7 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
 @click.option(
     "--length-unit",
     "length_unit",
-    type=click.Choice(["auto", "mm", "m"]),
+    type=click.Choice(["auto", "mm", "m"], case_sensitive=False),
     help="thor-magni: unit of x, y, z [default: auto: millimetres when the positions span or "
     "reach more than 200 units from the origin, as the dataset's files do].",
 )

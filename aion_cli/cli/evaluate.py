@@ -138,7 +138,7 @@ SCORE_COLUMNS = (
 )
 @click.option(
     "--protocol",
-    type=click.Choice(["random", "chronological"]),
+    type=click.Choice(["random", "chronological"], case_sensitive=False),
     default="random",
     show_default=True,
     help="random: train on the _train files, test each hour's _test file; chronological: "
@@ -449,7 +449,8 @@ def office(
               help="Simulated office scenes (as evaluate office).")
 @click.option("--days", type=click.FloatRange(0.1, OFFICE_MAX_DAYS), default=2.0, show_default=True,
               help="Simulated days per scene (as evaluate office).")
-@click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "lincoln", "door"]),
+@click.option("--skip", multiple=True, type=click.Choice(["office", "atc", "lincoln", "door"],
+                                                               case_sensitive=False),
               help="Leave a section out (repeatable).")
 @quiet_option
 def report(

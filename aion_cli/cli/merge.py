@@ -55,7 +55,7 @@ stderr also with -q and --format json, as aion build's).
 )
 @click.option(
     "--lineage",
-    type=click.Choice(["auto", "same", "different"]),
+    type=click.Choice(["auto", "same", "different"], case_sensitive=False),
     default="auto",
     show_default=True,
     help="Whether the maps come from one scene-graph session (node ids add by id) or from "

@@ -104,7 +104,7 @@ TABLE_LIMIT = 100
 @click.option("--at", "at", metavar="X,Y[,Z]", help="Only the entry nearest to this point.")
 @click.option(
     "--layer",
-    type=click.Choice(LAYERS),
+    type=click.Choice(LAYERS, case_sensitive=False),
     default="all",
     show_default=True,
     help="Places (nodes), hash cells, or aggregated rooms / buildings.",

@@ -199,14 +199,14 @@ def _event_counts(r: SceneResult) -> str:
 @nav_layer_option
 @click.option(
     "--robot",
-    type=click.Choice(["patrol", "fixed"]),
+    type=click.Choice(["patrol", "fixed"], case_sensitive=False),
     default="patrol",
     show_default=True,
     help="A patrolling robot, or a fixed sensor that sees all (it takes no patrol option).",
 )
 @click.option(
     "--frame",
-    type=click.Choice(["base_link", "map"]),
+    type=click.Choice(["base_link", "map"], case_sensitive=False),
     default=None,
     help="Frame of the detections [default: base_link; map for --robot fixed].",
 )

@@ -89,6 +89,22 @@ def test_frames_and_files_are_named_as_such() -> None:
                 assert _metavar(option, ctx) == metavar, (command, name)
 
 
+def test_every_choice_takes_any_case() -> None:
+    """``--format JSON`` and ``--container MCAP`` were accepted but ``predict --layer Rooms``,
+    ``simulate --robot Fixed`` or ``evaluate --protocol Chronological`` refused: every option
+    of fixed words now takes them in any case (and passes on the word as listed)."""
+    choices = [
+        (command, option) for command, option, _ in _options()
+        if isinstance(option.type, click.Choice)
+    ]
+    assert any(command == "predict" and "--layer" in option.opts for command, option in choices)
+    refused = [
+        (command, option.opts[0]) for command, option in choices
+        if option.type.case_sensitive  # type: ignore[attr-defined]
+    ]
+    assert refused == []
+
+
 def test_readme_commands_can_be_pasted_into_a_shell() -> None:
     """A README example is a shell line: its comment starts with ``#`` (``aion plan ...
     --to "office 1"   room to room`` passed 'room to room, ...' to aion, which refused the

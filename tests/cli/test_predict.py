@@ -162,6 +162,15 @@ def test_historical_help_says_what_it_prints(office: Office) -> None:
     assert "cumulative" not in said
 
 
+def test_a_layer_is_named_in_any_case(office: Office) -> None:
+    """``--format JSON`` was accepted but ``--layer Rooms`` refused (exit 2, "'Rooms' is not
+    one of ..."): it now answers as ``--layer rooms``."""
+    rooms = entries(office, "--time", "2026-11-23T09:30:00+01:00", "--layer", "rooms")
+    assert rooms
+    assert entries(office, "--time", "2026-11-23T09:30:00+01:00", "--layer", "Rooms") == rooms
+    assert entries(office, "--time", "2026-11-23T09:30:00+01:00", "--layer", "ROOMS") == rooms
+
+
 def test_json_document_metadata_and_sorting(office: Office) -> None:
     doc = run_json("predict", office.map, "--time", "2026-11-23T09:30:00+01:00", "--format", "json")
     assert doc["mode"] == "predicted"
