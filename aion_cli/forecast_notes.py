@@ -29,6 +29,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from aion_cli import note_words as words
 from aion_cli.engine.temporal.calendar import DAY_NS
 
 if TYPE_CHECKING:
@@ -165,9 +166,10 @@ def _outside(
     if start <= t_ns <= end + FAR_AFTER_NS:
         return None
     before = t_ns < start
-    first, last = _day(start, zone), _day(max(start, end - 1), zone)  # the span ends before end
+    # the span ends before end
+    first, last = words.day(start, zone), words.day(max(start, end - 1), zone)
     text = (
-        f"this time is {_duration(start - t_ns if before else t_ns - end)} "
+        f"this time is {words.duration(start - t_ns if before else t_ns - end)} "
         f"{'before' if before else 'after'} the map's data "
         f"({first if first == last else f'{first} to {last}'})"
     )
@@ -175,9 +177,6 @@ def _outside(
         return text
     text += ": the forecast repeats the rhythm the map learnt"
     return text if before else text + " and knows nothing of what changed since"
-
-
-_WEEKDAYS = ("Monday", "Tuesday", "Wednesday", "Thursday", "Friday", "Saturday", "Sunday")
 
 
 def unseen_day(manifest: Manifest, t_ns: int) -> str | None:
@@ -211,11 +210,11 @@ def unseen_day(manifest: Manifest, t_ns: int) -> str | None:
         return None
     # a day as the map's clock has it: say which clock where it is not UTC (Friday 20:00 UTC
     # is a Saturday in Tokyo)
-    day_name = _WEEKDAYS[weekday] + (
+    day_name = words.WEEKDAYS[weekday] + (
         f" ({calendar.timezone} time)" if calendar.timezone != "UTC" else ""
     )
     if profile == "week":
-        what = f"no {_WEEKDAYS[weekday]}"
+        what = f"no {words.WEEKDAYS[weekday]}"
         follows = (
             f"its hour-of-week profiles have no {day_name} of their own, so the "
             "forecast follows the hours of the days it saw"
@@ -228,11 +227,11 @@ def unseen_day(manifest: Manifest, t_ns: int) -> str | None:
             f"{day_name} follows the {seen_kind}' rhythm and level"
         )
     if not in_span:
-        return f"the map's data ({_span_days(first, last)}) holds {what}: {follows}"
+        return f"the map's data ({words.span_days(first, last)}) holds {what}: {follows}"
     every = weekday_of(np.arange(first, last + 1))
     held = int(((every if profile == "week" else every >= 5) == kind).sum())
     text = (
-        f"the map observed {what} (its data, {_span_days(first, last)}, holds {held}, but no "
+        f"the map observed {what} (its data, {words.span_days(first, last)}, holds {held}, but no "
         f"log recorded a window of them): {follows}"
     )
     from aion_cli.fixed_sensor import SILENT_HINT, silent_advice
@@ -273,8 +272,8 @@ def series_notes(
     n = len(observed) - sum(observed)
     notes.append(
         f"{n} of the {len(observed)} {noun} fall in hours no log observed on any day "
-        f"({_clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
-        f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): their forecast is "
+        f"({words.clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
+        f"{words.clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): their forecast is "
         "extrapolated from the hours observed, not measured"
     )
     return notes
@@ -396,9 +395,9 @@ def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
     per_day = calendar.bins_per_day
     at = int(calendar.profile_bin(t_ns)) % per_day
     return (
-        f"{_NO_LOG}{_clock(at, calendar.bin_s)}-{_clock(at + 1, calendar.bin_s)} "
+        f"{_NO_LOG}{words.clock(at, calendar.bin_s)}-{words.clock(at + 1, calendar.bin_s)} "
         f"({calendar.timezone}) on any day (the map observed "
-        f"{_clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): the forecast at "
+        f"{words.clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): the forecast at "
         "this hour is extrapolated from the hours observed, not measured"
     )
 
@@ -414,12 +413,12 @@ def observed_hours(
     observed = _observed_bins(families)
     per_day = calendar.bins_per_day
     kinds = {"day": [""], "day_weekend": ["weekdays ", "weekends "]}.get(
-        calendar.profile, [f"{name[:3]} " for name in _WEEKDAYS]
+        calendar.profile, [f"{name[:3]} " for name in words.WEEKDAYS]
     )
     by_kind: dict[str, list[str]] = {}
     for k, label in enumerate(kinds):
         hours = sorted(b - k * per_day for b in observed if b // per_day == k)
-        text = _clock_ranges(hours, calendar.bin_s) if hours else "none"
+        text = words.clock_ranges(hours, calendar.bin_s) if hours else "none"
         by_kind.setdefault(text, []).append(label.strip())
     parts = [
         (", ".join(labels) + " " if any(labels) else "") + text
@@ -443,58 +442,3 @@ def _calendar(config: Mapping[str, Any], timezone: str | None) -> Any:
         )
     except (AionError, TypeError, ValueError):
         return None
-
-
-def _clock(index: int, bin_s: float) -> str:
-    """``HH:MM`` of the start of in-day bin ``index`` (24:00 for the end of the day)."""
-    minutes = round(index * bin_s / 60.0)
-    return f"{minutes // 60:02d}:{minutes % 60:02d}"
-
-
-def _clock_ranges(bins: list[int], bin_s: float) -> str:
-    """``09:00-12:00, 13:00-18:00`` for sorted in-day bins, runs joined."""
-    runs: list[tuple[int, int]] = []
-    for b in bins:
-        if runs and b == runs[-1][1]:
-            runs[-1] = (runs[-1][0], b + 1)
-        else:
-            runs.append((b, b + 1))
-    return ", ".join(f"{_clock(a, bin_s)}-{_clock(b, bin_s)}" for a, b in runs)
-
-
-def _span_days(first: int, last: int) -> str:
-    """``Mon 2026-01-05 to Fri 2026-01-09`` for local day indices."""
-    from datetime import date, timedelta
-
-    def name(d: int) -> str:
-        when = date(1970, 1, 1) + timedelta(days=d)
-        return f"{_WEEKDAYS[when.weekday()][:3]} {when.isoformat()}"
-
-    return name(first) if first == last else f"{name(first)} to {name(last)}"
-
-
-def _duration(ns: int) -> str:
-    """``ns`` rounded for reading: seconds, minutes, hours, days, weeks or years (under an
-    hour in minutes, under a minute in seconds, at least one: a time 40 s before a map's
-    first detection was "0 hours before" it)."""
-    hours = ns / 3.6e12
-    for n, unit in ((max(1, round(ns / 1e9)), "second"), (round(ns / 6e10), "minute")):
-        if n < 60:
-            return f"{n} {unit}{'' if n == 1 else 's'}"
-    for below_h, unit_h, unit in ((48, 1, "hour"), (14 * 24, 24, "day"), (730 * 24, 168, "week")):
-        if hours < below_h:
-            n = round(hours / unit_h)
-            return f"{n} {unit}{'' if n == 1 else 's'}"
-    return f"{hours / (365.25 * 24):.1f} years"
-
-
-def _day(t_ns: int, zone: str | None = None) -> str:
-    """The date of ``t_ns`` in ``zone`` (UTC when None), ``YYYY-MM-DD``."""
-    from aion_cli.errors import AionError
-    from aion_cli.timeparse import format_ns, resolve_zone
-
-    try:
-        resolved = resolve_zone(zone or "UTC")
-    except AionError:  # a damaged manifest's zone: the note still reads, in UTC
-        resolved = resolve_zone("UTC")
-    return format_ns(t_ns, resolved)[:10]
