@@ -63,6 +63,9 @@ def close_windows(state: MapState, stop: int) -> None:
     if w0 is None or stop <= w0:
         return
     delta = window_ns(state.config.window_s)
+    if stop == w0 + 1 and state.observation.pose_t.size == 0:
+        _close_one(state, w0, delta)  # a build's usual step, without a robot
+        return
     count_rows = state.entries.window_rows()
     recorded = _recorded_windows(state, w0, stop, count_rows)
     if recorded.size <= 4:  # a build's usual step: one window, its day remembered
@@ -106,6 +109,37 @@ def close_windows(state: MapState, stop: int) -> None:
         state.pending
         and state.pending.day is not None
         and state.window_day(stop) > state.pending.day
+    ):
+        state.close_day()  # log time is in a later day: the pending day is over
+
+
+def _close_one(state: MapState, w0: int, delta: int) -> None:
+    """:func:`close_windows` of the single window ``w0`` where no robot pose is pending (a
+    build's usual step: one call per window): the same checks, records and state changes in
+    the same order, without the general path's per-call set-up (issue 15). Without poses no
+    node waits for the robot and none is pruned; ``w0`` is recorded when it has detections
+    or a fixed sensor recorded part of it (covered exactly where its share is positive); its
+    first bind check always runs (the general path's first check of a call does too)."""
+    ent = state.entries
+    count_rows = ent.window_rows()
+    share = state.observation.fixed_share_of(w0, delta, state.config)
+    if count_rows.size or share > 0.0:
+        plan = plan_binds(state, int(window_start_ns(w0 + 1, delta)))
+        if plan is not None:
+            apply_binds(state, plan)
+            count_rows = ent.window_rows()  # the counts moved with the cells
+        if share > 0.0:  # every entry observed: nothing but the counts to list
+            counts = np.column_stack([ent.window_counts[count_rows], ent.window_nodir[count_rows]])
+            none = np.zeros(0, np.int64)
+            state.record_window(w0, True, none, count_rows, counts, np.zeros(0), share)
+        else:
+            _record(state, np.array([w0], np.int64), w0, delta, count_rows, np.zeros(0, np.int64))
+    ent.clear_window()
+    state.open_window = w0 + 1
+    if (
+        state.pending
+        and state.pending.day is not None
+        and state.window_day(w0 + 1) > state.pending.day
     ):
         state.close_day()  # log time is in a later day: the pending day is over
 

@@ -195,14 +195,7 @@ class ObservationSource:
         if starts.size == 0 or w.size == 0:
             return np.zeros(w.size)
         if w.size == 1:  # a build closes one window at a time: one search, a scalar walk
-            begin = int(w[0]) * int(delta_ns)
-            stop = begin + int(delta_ns)
-            k = int(np.searchsorted(ends, begin, side="right"))  # first interval ending after
-            covered = 0
-            while k < starts.size and int(starts[k]) < stop:
-                covered += min(int(ends[k]), stop) - max(int(starts[k]), begin)
-                k += 1
-            return np.array([min(covered / int(delta_ns), 1.0)])
+            return np.array([self._share_of(int(w[0]), int(delta_ns))])
         before = self._covered_before()  # covered before interval k
 
         def covered_below(t: I64) -> I64:
@@ -215,6 +208,29 @@ class ObservationSource:
         lo = w * np.int64(delta_ns)
         out: F64 = (covered_below(lo + np.int64(delta_ns)) - covered_below(lo)) / float(delta_ns)
         return np.minimum(out, 1.0)
+
+    def fixed_share_of(self, window: int, delta_ns: int, config: ModelConfig) -> float:
+        """:meth:`fixed_share` of the one window ``window``, as a float (a build's window
+        close asks it of every window it closes)."""
+        starts, _ = self.merged_fixed()
+        if starts.size == 0:
+            return 0.0
+        if not config.exposure:
+            return float(self.fixed_share(np.array([window], np.int64), delta_ns, config)[0])
+        return self._share_of(int(window), int(delta_ns))
+
+    def _share_of(self, window: int, delta_ns: int) -> float:
+        """The share of window ``window`` the merged fixed-sensor intervals cover (with
+        ``exposure``): one search, then a scalar walk over the intervals it meets."""
+        starts, ends = self.merged_fixed()
+        begin = window * delta_ns
+        stop = begin + delta_ns
+        k = int(ends.searchsorted(begin, side="right"))  # the first interval ending after
+        covered = 0
+        while k < starts.size and int(starts[k]) < stop:
+            covered += min(int(ends[k]), stop) - max(int(starts[k]), begin)
+            k += 1
+        return min(covered / delta_ns, 1.0)
 
     def robot_observed(
         self, entry_xy: F64, window: int, delta_ns: int, sensor_range: float
