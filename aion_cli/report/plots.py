@@ -294,9 +294,12 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
     # grid lines at the bins' edges (matplotlib's every 45 degrees cut a 6-bin map's 60-degree
     # bars in two); the labels stay every 45 degrees (the 90 degrees one keeps the title clear)
     edges = np.radians(-180.0 + np.arange(bins) * 360.0 / bins) % (2 * np.pi)
-    for k, row in enumerate(rows):
+    hists = [np.nan_to_num(np.asarray(row.record["histogram"], dtype=np.float64)) for row in rows]
+    # one radial scale for every rose, rings at round shares: without it a rose 50 % one way
+    # looked like one 20 % one way (each filled its own axes)
+    rings = share_rings(max((float(h.max()) for h in hists if h.size), default=0.0))
+    for k, (row, hist) in enumerate(zip(rows, hists, strict=True)):
         ax = fig.add_subplot((n + cols - 1) // cols, cols, k + 1, projection="polar")
-        hist = np.nan_to_num(np.asarray(row.record["histogram"], dtype=np.float64))
         ax.bar(centres, hist, width=2 * np.pi / bins * 0.9, color="#2c6fbb", alpha=0.85)
         if not hist.any():  # an empty rose said nothing: flow without a heading, or none
             flowing = float(row.record.get("flow") or 0.0) > 0
@@ -318,14 +321,33 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
         ax.set_xticks(edges, minor=True)  # the bins' edges: each bar fills one sector
         ax.xaxis.grid(False, which="major")
         ax.xaxis.grid(True, which="minor")
-        ax.set_yticklabels([])
+        ax.set_ylim(0.0, float(rings[-1]))
+        ax.set_yticks(rings)
+        ax.set_yticklabels([f"{100 * r:.0f} %" for r in rings])
+        ax.set_rlabel_position(22.5)
+        for label in ax.get_yticklabels():
+            label.set_bbox({"facecolor": "white", "edgecolor": "none", "alpha": 0.7, "pad": 0.5})
         ax.tick_params(labelsize=7)
         # the room on a line of its own, shortened to the rose's width: on one line a long
         # room name ran into the next rose's title and past the picture's edges
         room = shortened(row.room, ROSE_TITLE_CHARS)
         title = rose_title(row.record) + (f"\n{room}" if room else "")
         ax.set_title(plain(title), fontsize=9)
+    fig.supxlabel("rings: share of the place's headings in that direction (same scale on "
+                  "every rose)", fontsize=8)
     return _save(fig, path)
+
+
+def share_rings(top: float) -> Any:
+    """The rings of a rose whose longest bar is the share ``top`` (0..1): multiples of the
+    smallest round step (1, 2, 5, 10, 20, 25 %) giving at most five rings, the last at or
+    beyond ``top``; one 100 % ring (a full rose) when nothing is above zero."""
+    if not top > 0.0:
+        return np.array([1.0])
+    top = min(top, 1.0)
+    step = next(s for s in (0.01, 0.02, 0.05, 0.1, 0.2, 0.25) if np.ceil(top / s - 1e-9) <= 5)
+    count = int(np.ceil(top / step - 1e-9))
+    return np.round(step * np.arange(1, count + 1), 6)
 
 
 def rose_title(record: dict[str, Any]) -> str:

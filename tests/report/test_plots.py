@@ -227,3 +227,41 @@ def test_a_roses_grid_lines_are_its_bins_edges(tmp_path: Path, drawn: list[Any])
     lines = sorted(round(float(np.degrees(t.get_loc())) % 360, 6) for t in ticks
                    if t.gridline.get_visible())
     assert lines == [0.0, 60.0, 120.0, 180.0, 240.0, 300.0]
+
+
+def test_roses_share_one_radial_scale_labelled_in_shares(tmp_path: Path, drawn: list[Any]) -> None:
+    """The roses' rings had no labels and each rose filled its own axes, so a place where half
+    the headings go one way looked like one where a fifth do. Every rose of the figure has
+    the same rings, labelled in shares: the 50 % bar reaches the ring labelled "50 %", the
+    20 % bar the ring labelled "20 %"."""
+    from aion_cli.report.content import Busiest
+
+    half = [0.5, 0.5, 0, 0, 0, 0, 0, 0]
+    fifth = [0.2] + [0.8 / 7] * 7  # a fifth one way, the rest spread evenly
+    rows = [Busiest({"id": f"p{k}", "kind": "node", "flow": 5.0, "direction_deg": 0.0,
+                     "concentration": 0.5, "histogram": h}, "", "static")
+            for k, h in enumerate((half, fifth))]
+    plots.roses_png(rows, 8, tmp_path / "r.png")
+    fig = drawn[-1]
+    fig.canvas.draw()
+    axes = fig.axes
+    assert axes[0].get_ylim() == axes[1].get_ylim()
+    for ax, share in zip(axes, (0.5, 0.2), strict=True):
+        rings = {t.get_text(): float(r) for t, r in zip(ax.get_yticklabels(), ax.get_yticks(),
+                                                         strict=True)}
+        assert all(t.get_visible() for t in ax.get_yticklabels())
+        tallest = max(p.get_height() for p in ax.patches)
+        assert tallest == pytest.approx(share)
+        assert rings[f"{share * 100:.0f} %"] == pytest.approx(tallest)
+        assert max(rings.values()) <= ax.get_ylim()[1] + 1e-9
+
+
+@pytest.mark.parametrize(("top", "rings"), [
+    (0.5, [0.1, 0.2, 0.3, 0.4, 0.5]),
+    (1.0, [0.2, 0.4, 0.6, 0.8, 1.0]),
+    (0.2, [0.05, 0.1, 0.15, 0.2]),
+    (0.3, [0.1, 0.2, 0.3]),
+    (0.0, [1.0]),
+])
+def test_share_rings_are_round_and_reach_the_longest_bar(top: float, rings: list[float]) -> None:
+    assert plots.share_rings(top).tolist() == pytest.approx(rings)
