@@ -57,12 +57,46 @@ def levels_apart(scenes: Sequence[Scene], most: int) -> list[tuple[float, float]
     return found if 1 < len(found) <= most else []
 
 
-def level_title(level: tuple[float, float]) -> str:
-    """``"level z 4.0 m"`` (``"level z 0.0 to 0.3 m"`` for a spread of heights)."""
-    lo, hi = level
+def level_title(extent: tuple[float, float]) -> str:
+    """``"level z 4.0 m"`` for a level at one height, ``"level z 0.0 to 0.5 m"`` for one
+    spread over heights (:func:`level_extents`: a hash cell's by its bottom and top)."""
+    lo, hi = extent
     if hi - lo < 0.05:
-        return f"level z {lo:.1f} m"
-    return f"level z {lo:.1f} to {hi:.1f} m"
+        return f"level z {_metres(lo)} m"
+    return f"level z {_metres(lo)} to {_metres(hi)} m"
+
+
+def _metres(value: float) -> str:
+    """A height to the centimetre, trailing zeros dropped but one decimal kept: ``0.0``,
+    ``0.5``, ``4.25`` (one decimal read a 0.25 m cell centre "0.2")."""
+    from aion_cli.number_text import fixed
+
+    text = fixed(value, 2).rstrip("0")
+    return text + "0" if text.endswith(".") else text
+
+
+def level_extents(
+    scenes: Sequence[Scene], found: Sequence[tuple[float, float]]
+) -> list[tuple[float, float]]:
+    """Each level's lowest and highest height (m) as what lies on it covers them: places
+    and nodes at their heights, a hash cell from its bottom to its top (its centre ± half
+    the cell size: people detected at z 0 fill the cell 0 to 0.5 m, centred at 0.25)."""
+    bounds = level_bounds(found)
+    parts = [np.zeros((0, 3))]
+    for s in scenes:
+        for a in (s.places_xyz, s.nodes_xyz):
+            z = a[:, 2]
+            parts.append(np.column_stack([z, z, z]))
+        z, half = s.cells_xyz[:, 2], 0.5 * float(s.cell_size)
+        parts.append(np.column_stack([z, z - half, z + half]))
+    rows = np.concatenate(parts)
+    rows = rows[np.isfinite(rows).all(axis=1)]
+    level = _level_of(rows[:, 0], bounds)
+    out = []
+    for k, (lo, hi) in enumerate(found):
+        on = level == k
+        out.append((float(rows[on, 1].min()), float(rows[on, 2].max())) if on.any() else (lo, hi))
+    return out
 
 
 def _level_of(z: F64, bounds: F64) -> npt.NDArray[np.int64]:
@@ -143,15 +177,17 @@ def by_level(
     """One panel per scene and level (:mod:`.floors`), time by time, bottom level first:
     its scene, title (the level's height added), paths and markers on that level."""
     bounds = level_bounds(found)
+    extents = level_extents(scenes, found)
     out: tuple[list[Scene], list[str], list[Sequence[PathLine]], list[list[Marker]]] = (
         [], [], [], []
     )
     for scene, title, lines in zip(scenes, titles, paths, strict=True):
-        for k, level in enumerate(found):
+        for k, extent in enumerate(extents):
             out[0].append(on_level(scene, k, bounds))
             # the level on a line of its own: a time's title and the level's in one line
             # ran into the next panel's
-            out[1].append(f"{title}\n{level_title(level)}" if title else level_title(level))
+            level = level_title(extent)
+            out[1].append(f"{title}\n{level}" if title else level)
             out[2].append([replace(p, xyz=path_on_level(p.xyz, k, bounds)) for p in lines])
             out[3].append([m for m in markers if point_on_level(m.z, k, bounds)])
     return out

@@ -184,3 +184,28 @@ def test_export_png_of_a_map_of_more_levels_than_panels(
     monkeypatch.setattr(render, "_mark_unobserved", lambda loaded, times, titles: titles)
     out = render.export_png(None, "tower.aion", tmp_path / "t.png", [None], None)
     assert out.is_file()
+
+
+@pytest.mark.parametrize(("size", "top"), [(0.5, "0.5"), (0.25, "0.25")])
+def test_a_level_of_hash_cells_is_titled_by_the_heights_its_cells_cover(
+    size: float, top: str
+) -> None:
+    """People detected on floors at z 0 and 4 m fill the hash cells 0 to 0.5 m and 4 to
+    4.5 m (centres 0.25 and 4.25); the panels were titled "level z 0.2 m" and "level z
+    4.2 m" (the centres to one decimal), heights no floor of the data has. They give the
+    cells' bottom and top, the floor's height first."""
+    from aion_cli.engine.spatial_hash import cell_centres, keys_for_points
+
+    seen = np.array([[x, 1.0, z] for z in (0.0, 4.0) for x in (0.0, 1.0, 2.0, 3.0)])
+    centres = cell_centres(np.unique(keys_for_points(seen, size)), size)
+    n = len(centres)
+    scene = replace(
+        _two_floors(), cell_size=size, cells_xyz=centres, cells_flow=np.ones(n),
+        cells_entropy=np.full(n, 0.1), cells_angle=np.zeros(n),
+        node_ids=np.zeros(0, np.uint64), nodes_xyz=np.zeros((0, 3)), node_flow=np.zeros(0),
+        node_entropy=np.zeros(0), node_angle=np.zeros(0), node_concentration=np.zeros(0),
+        places_xyz=np.zeros((0, 3)), edges_xyz=np.zeros((0, 2, 3)),
+        place_room=np.zeros(0, np.int64),
+    )
+    titles = [ax.get_title() for ax in _panels(topdown_figure([scene], [""]))]
+    assert titles == [f"level z 0.0 to {top} m", f"level z 4.0 to 4{top[1:]} m"]
