@@ -2,9 +2,10 @@
 manifest (:func:`fixed_sensor_text`) and read back from a map's manifest
 (:func:`fixed_sensor_share`), and a share of time observed as a percentage.
 
-The times in it read in hours from an hour up (``(72.3 h of a 72.3 h span)``), below that in
-minutes or seconds (``(12 min of a 12 min span)``; ``0.2 h`` had said little of a short log);
-manifests written before, with hours only, still read back.
+It counts windows, never a time: ``fixed sensor over the 2 windows with messages (2 of the 3
+windows of 10 min from the first to the last)``. It had given their time as the log's,
+``(10 min of a 10 min span)`` for a 250-second log in one window; manifests written so
+(in hours, minutes or seconds: ``(72.3 h of a 72.3 h span)``) still read back.
 """
 
 from __future__ import annotations
@@ -47,6 +48,9 @@ def silent_advice(counts: Mapping[str, Any]) -> str:
 _UNIT_S = {"h": 3600.0, "min": 60.0, "s": 1.0}
 
 _SHARE = re.compile(r"\(([\d.,]+) (h|min|s) of a ([\d.,]+) (h|min|s) span\)")
+"""The share as manifests written before gave it, in times (``(0.3 h of a 0.6 h span)``)."""
+_WINDOWS_SHARE = re.compile(r"\(([\d,]+) of the ([\d,]+) windows of [\d.,]+ (?:h|min|s) from ")
+"""The share as :func:`fixed_sensor_text` gives it, in windows."""
 
 
 def share_text(share: float) -> str:
@@ -76,27 +80,37 @@ def fixed_sensor_text(
 ) -> str:
     """The report's description of fixed-sensor observation: ``count`` windows of
     ``delta`` ns with messages (``declared``: or declared by ``--observed``), from window
-    ``first`` to ``last``."""
+    ``first`` to ``last``, in windows (a log of 250 s in one window of 10 min had read
+    ``(10 min of a 10 min span)``)."""
     span = last - first + 1
     why = f"with messages {DECLARED}" if declared else "with messages"
     return (
         f"{FIXED_SENSOR_OVER} the {count:,} window{'' if count == 1 else 's'} {why} "
-        f"({time_text(count * delta)} of a {time_text(span * delta)} span)"
+        f"({count:,} of the {span:,} windows of {time_text(delta)} from the first to the last)"
     )
 
 
 def fixed_sensor_share(observation: str, recording_windows: int | None = None) -> float | None:
     """The share of its time a fixed sensor observed, read from a description that
-    :func:`fixed_sensor_text` wrote (``the N windows ... (A h of a B h span)``, or minutes or
-    seconds: ``(12 min of a 12 min span)``): of its logs' own time when
-    ``recording_windows`` says how long that was (a manifest's
-    ``counts.recording_windows``), else of the span; None for any other description."""
+    :func:`fixed_sensor_text` wrote (``the N windows ... (N of the M windows of 10 min from
+    the first to the last)``, or before, in times: ``(A h of a B h span)``, ``(12 min of a 12 min
+    span)``): of its logs' own time when ``recording_windows`` says how long that was (a
+    manifest's ``counts.recording_windows``), else of the span; None for any other
+    description."""
+    if not observation.startswith(FIXED_SENSOR_OVER):
+        return None
+    in_windows = _WINDOWS_SHARE.search(observation)
     found = _SHARE.search(observation)
-    if not observation.startswith(FIXED_SENSOR_OVER) or found is None:
+    if in_windows is None and found is None:
         return None
     windows = re.search(r"the ([\d,]+) windows?", observation)
     if recording_windows and windows is not None:
         return min(1.0, int(windows.group(1).replace(",", "")) / int(recording_windows))
+    if in_windows is not None:  # this version's text: the windows from the first to the last
+        seen_w, span_w = (int(g.replace(",", "")) for g in in_windows.groups())
+        return seen_w / span_w if span_w > 0 else None
+    if found is None:
+        return None
     seen_n, seen_unit, span_n, span_unit = found.groups()
     seen = float(seen_n.replace(",", "")) * _UNIT_S[seen_unit]
     span = float(span_n.replace(",", "")) * _UNIT_S[span_unit]

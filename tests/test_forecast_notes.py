@@ -368,6 +368,32 @@ def test_a_silent_sensor_is_named_whatever_makes_every_entry_static() -> None:
         assert sum("aion build --observed" in n for n in notes) == 1
 
 
+def test_a_silent_sensor_is_named_from_the_windows_text_and_from_old_maps_texts() -> None:
+    """Maps describe a fixed sensor in windows now ("(168 of the 930 windows of 10 min from
+    the first to the last)"); those written before gave times ("(28.0 h of a 155.0 h
+    span)"). Read back, both say it observed 18 % of its time (168 of 930 windows) and give
+    the advice to declare its spans; the same sensor with spans declared gets none."""
+    from aion_cli.fixed_sensor import fixed_sensor_text
+
+    delta = 600 * 10**9
+    texts = (
+        fixed_sensor_text(168, 0, 929, delta),
+        "fixed sensor over the 168 windows with messages (28.0 h of a 155.0 h span)",
+    )
+    assert texts[0].endswith("(168 of the 930 windows of 10 min from the first to the last)")
+    families = {"flow": {"profile": 4}, "scored_days": 5, "observed_bins": [8, 9]}
+    for text in texts:
+        silent = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+                          families=families, observation=text)
+        (note,) = forecast_notes(silent, MONDAY + 8 * HOUR_NS)
+        assert note.startswith("the map's fixed sensor observed 18% of its logs' time"), text
+        assert note.endswith("declare the spans it was recording with aion build --observed")
+    declared = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
+                        families=families,
+                        observation=fixed_sensor_text(168, 0, 929, delta, declared=True))
+    assert forecast_notes(declared, MONDAY + 8 * HOUR_NS) == []
+
+
 def test_a_sensor_whose_spans_were_declared_is_not_told_to_declare_them() -> None:
     """A fixed sensor recording 08:00-10:00 only, built with those spans declared (its
     description reads 'windows with messages or --observed'): under half of its logs' time

@@ -218,7 +218,7 @@ def test_merged_and_continued_maps_describe_every_log_they_observed(tmp_path: Pa
     whole = tmp_path / "whole.aion"
     assert run("build", *logs, "-o", whole, "--workers", "1", "-q").exit_code == 0
     expected = read_manifest(whole)["observation"]
-    assert expected.startswith("fixed sensor over the 18 windows with messages (3.0 h of a ")
+    assert expected.startswith("fixed sensor over the 18 windows with messages (18 of the ")
     parts = []
     for k, log in enumerate(logs):
         part = tmp_path / f"p{k}.aion"
@@ -249,7 +249,8 @@ def test_a_map_observed_by_a_robot_and_a_fixed_sensor_names_both() -> None:
     assert fixed_sensor_summary(source, delta) == (6, 3, 11, delta)  # windows 3-5, 9-11
     fixed = "fixed sensor over the 1 window with messages (0.2 h of a 0.2 h span)"
     text = map_observation_text([fixed, fixed], source, delta)
-    assert text == "fixed sensor over the 6 windows with messages (1.0 h of a 1.5 h span)"
+    assert text == ("fixed sensor over the 6 windows with messages (6 of the 9 windows of 10 min "
+                    "from the first to the last)")
     robot = "robot trajectory (TF map -> base_link)"
     assert map_observation_text([robot, fixed, robot], source, delta) == f"{robot} + {fixed}"
 
@@ -312,23 +313,29 @@ def test_parts_built_with_observed_spans_merge_into_one_build_of_their_logs(
     assert "the 138 window(s) between them" in gap[0]
 
 
-def test_a_short_fixed_sensor_span_reads_in_minutes_and_old_manifests_still_parse() -> None:
-    """Two 10-minute windows of a 20-minute log read "(0.3 h of a 0.3 h span)"; they now read
-    "(20 min of a 20 min span)", 30 s windows in seconds, and an hour up still in hours. The
-    share read back from a manifest is the same from the old text and the new."""
+def test_a_fixed_sensor_is_described_in_windows_and_old_manifests_still_parse() -> None:
+    """The description counts windows (it gave their time as the log's: a 250-second log read
+    "(10 min of a 10 min span)"), the window's length in minutes, seconds or hours. The share
+    read back from a manifest is the windows' share, from this text and from the texts in
+    times that maps were written with before (hours, minutes)."""
     from aion_cli.fixed_sensor import fixed_sensor_share, fixed_sensor_text
 
     minute = 60 * 10**9
     short = fixed_sensor_text(2, 0, 1, 10 * minute)
-    assert short.endswith("(20 min of a 20 min span)")
-    assert fixed_sensor_text(1, 0, 2, minute // 2).endswith("(30 s of a 1.5 min span)")
-    assert fixed_sensor_text(4, 0, 145, 10 * minute).endswith("(40 min of a 24.3 h span)")
+    assert short.endswith("(2 of the 2 windows of 10 min from the first to the last)")
+    assert fixed_sensor_text(1, 0, 2, minute // 2).endswith("(1 of the 3 windows of 30 s from "
+                                                            "the first to the last)")
+    assert fixed_sensor_text(2, 0, 9, 60 * minute).endswith("(2 of the 10 windows of 1.0 h from "
+                                                            "the first to the last)")
     assert fixed_sensor_share(short) == 1.0
     long = fixed_sensor_text(4, 0, 145, 10 * minute)
-    assert fixed_sensor_share(long) == pytest.approx(40 / (24.3 * 60))
-    old = "fixed sensor over the 2 windows with messages (0.3 h of a 0.6 h span)"
-    assert fixed_sensor_share(old) == 0.5
-    assert fixed_sensor_share(old, recording_windows=8) == 0.25
+    assert long.endswith("(4 of the 146 windows of 10 min from the first to the last)")
+    assert fixed_sensor_share(long) == pytest.approx(4 / 146)
+    assert fixed_sensor_share(long, recording_windows=8) == 0.5
+    for old in ("fixed sensor over the 2 windows with messages (0.3 h of a 0.6 h span)",
+                "fixed sensor over the 2 windows with messages (20 min of a 40 min span)"):
+        assert fixed_sensor_share(old) == 0.5
+        assert fixed_sensor_share(old, recording_windows=8) == 0.25
 
 
 def test_parts_merged_in_two_steps_say_how_to_merge_them_exactly(tmp_path: Path) -> None:

@@ -20,7 +20,10 @@ from tests.cli.logdata import (
     write_office_log,
 )
 
-FIXED_TWO_WINDOWS = "fixed sensor over the 2 windows with messages (20 min of a 20 min span)"
+FIXED_TWO_WINDOWS = (
+    "fixed sensor over the 2 windows with messages (2 of the 2 windows of 10 min from the first "
+    "to the last)"
+)
 
 
 def test_counts_and_provenance(office: Office) -> None:
@@ -63,6 +66,25 @@ def test_a_log_shorter_than_a_window_observed_one(tmp_path: Path) -> None:
     assert re.search(r"observed windows \(most of any entry\)\s*│\s*1\s*│", table.stderr), (
         table.stderr
     )
+
+
+def test_a_log_shorter_than_a_window_is_not_said_to_span_it(tmp_path: Path) -> None:
+    """A fixed sensor's 250-second log, inside one 10-minute window: the build's summary and
+    ``aion info`` said "fixed sensor over the 1 window with messages (10 min of a 10 min
+    span)", four times the log's time; they count the windows: 1 of the 1 window (of 10
+    min) from the first to the last. The manifest keeps the text, which read back says the
+    sensor observed all of its logs' time (no advice to declare spans)."""
+    from aion_cli.formats.mapfile import read_manifest
+
+    log, out = tmp_path / "short.mcap", tmp_path / "short.aion"
+    write_office_log(log, graph=False, tf=False, duration_s=250)
+    report = run_json("build", log, "-o", out, "--format", "json")
+    words = "fixed sensor over the 1 window with messages (1 of the 1 windows of 10 min from "
+    assert report["observation"] == words + "the first to the last)"
+    assert "min span" not in report["observation"]
+    info = run_json("info", out, "--format", "json")
+    assert info["observation"] == report["observation"] == read_manifest(out)["observation"]
+    assert not any("--observed" in note for note in report["notes"])
 
 
 def test_observed_windows_and_windows_with_messages_are_told_apart(tmp_path: Path) -> None:
@@ -262,7 +284,8 @@ def test_observation_from_the_scene_graph_agents_or_fixed(tmp_path: Path) -> Non
     write_office_log(fixed_log, tf=False, duration_s=1800)
     report = run_json("build", fixed_log, "--format", "json")
     assert report["observation"] == (
-        "fixed sensor over the 3 windows with messages (30 min of a 30 min span)"
+        "fixed sensor over the 3 windows with messages (3 of the 3 windows of 10 min from the "
+        "first to the last)"
     )
     assert report["detections"]["used"] == 180 + 180 + 60
     fixed = run_json(
@@ -401,9 +424,10 @@ def test_fixed_sensor_logs_continue_like_building_at_once(tmp_path: Path) -> Non
     write_office_log(day2, tf=False, shift_s=86400)
     both = tmp_path / "both.aion"
     once = run_json("build", day1, day2, "-o", both, "--format", "json")
-    # windows 0-1 and 144-145 hold messages: 4 windows (0.67 h) of a 146-window span (24.33 h)
+    # windows 0-1 and 144-145 hold messages: 4 windows of a 146-window span
     assert once["observation"] == (
-        "fixed sensor over the 4 windows with messages (40 min of a 24.3 h span)"
+        "fixed sensor over the 4 windows with messages (4 of the 146 windows of 10 min from the "
+        "first to the last)"
     )
     step = tmp_path / "step.aion"
     run_json("build", day1, "-o", step, "--format", "json")

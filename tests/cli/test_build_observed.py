@@ -54,7 +54,8 @@ def test_declared_spans_make_silent_windows_observed_empty(
         "--observed", "2026-11-22 00:00..2026-11-28 00:00",
     )
     assert declared["observation"] == (
-        "fixed sensor over the 434 windows with messages or --observed (72.3 h of a 72.3 h span)"
+        "fixed sensor over the 434 windows with messages or --observed (434 of the 434 windows "
+        "of 10 min from the first to the last)"
     )
     assert declared["windows"] == 434
     added = "--observed: 426 window(s) without a message"
@@ -194,7 +195,7 @@ def test_a_continued_map_fills_the_declared_time_since_its_logs_in_parallel_too(
     observations = {read_manifest(p)["observation"] for p in (together, *answers)}
     # 08:00 on the 23rd to 08:20 on the 25th: two days and two windows
     assert observations == {"fixed sensor over the 290 windows with messages or --observed "
-                            "(48.3 h of a 48.3 h span)"}
+                            "(290 of the 290 windows of 10 min from the first to the last)"}
     at = "2026-11-26 03:00"
     flows = [[(e["id"], e["flow"]) for e in run_json(
         "predict", p, "--time", at, "--format", "json")["entries"]] for p in (together, *answers)]
@@ -259,7 +260,7 @@ def test_declared_time_between_two_logs_is_observed(tmp_path: Path) -> None:
     both = run_json("build", morning, evening, "-o", tmp_path / "both.aion", "--format", "json",
                     "--observed", span)
     assert both["observation"].startswith("fixed sensor over the 74 windows with messages or "
-                                          "--observed (12.3 h of a 12.3 h span)")
+                                          "--observed (74 of the 74 windows of 10 min")
     step = tmp_path / "step.aion"
     run_json("build", morning, "-o", step, "--format", "json", "--observed", span)
     continued = run_json("build", evening, "--map", step, "--format", "json", "--observed", span)
@@ -283,7 +284,7 @@ def test_the_time_between_two_logs_is_no_sign_of_a_silent_tracker(tmp_path: Path
     write_office_log(evening, graph=False, tf=False, shift_s=DAY_S // 2)
     both = run_json("build", morning, evening, "-o", tmp_path / "both.aion", "--format", "json")
     assert both["observation"].startswith("fixed sensor over the 4 windows with messages")
-    assert "(40 min of a 12.3 h span)" in both["observation"]
+    assert "(4 of the 74 windows of 10 min" in both["observation"]
     assert not any(note.startswith("the fixed sensor observed") for note in both["notes"])
     # the manifest keeps the logs' own time (2 windows each), summed by continuation and merge
     assert read_manifest(tmp_path / "both.aion")["counts"]["recording_windows"] == 4
