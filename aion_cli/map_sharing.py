@@ -56,14 +56,15 @@ def pickled(fields: dict[str, Any], file: PinnedFile | None) -> dict[str, Any]:
 
 
 def unpickled(state: dict[str, Any]) -> dict[str, Any]:
-    """A map's fields from what :func:`pickled` made: a map's file loaded again
-    (``MapFileError`` when it changed since), with a new lock."""
+    """A map's fields from what :func:`pickled` made: a map's file loaded again as
+    :meth:`aion_cli.api.Map.load` reads it (without the per-entry Fourier sums only learning
+    reads; ``MapFileError`` when it changed since), with a new lock."""
     if "stamp" not in state:
         return {**state, "_lock": new_lock()}
     from aion_cli.mapquery import load_map
 
     file = PinnedFile.reopen(state["file"], state["stamp"])
-    loaded = load_map(file.path)
+    loaded = load_map(file.path, forecast_only=True)
     file.check()  # not changed while read
     fields = {"path": state["path"], "_report": state["report"], "_file": file}
     return {**fields, "_loaded": loaded, "_lock": new_lock()}

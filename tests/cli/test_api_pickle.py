@@ -95,3 +95,21 @@ def test_a_map_loaded_by_a_relative_path_pickles_from_another_folder(
     monkeypatch.chdir(tmp_path / "elsewhere")
     copy = pickle.loads(pickle.dumps(m))
     assert copy.predict(T, tz="UTC").records() == m.predict(T, tz="UTC").records()
+
+
+def test_a_pickled_map_is_read_again_as_map_load_reads_it(
+    sample_map: Path, tmp_path: Path
+) -> None:
+    """The other process reads the map as :meth:`aion.Map.load` does, without the per-entry
+    Fourier sums only learning reads (most of a full map's bytes). Before, it read the map
+    whole: the sums (``cnt_fourier`` entries x flows x periods) were in memory and the
+    forecast components were computed again from them, on every worker of a pool."""
+    path = tmp_path / "office.aion"
+    shutil.copy(sample_map, path)
+    m = aion.Map.load(path)
+    copy = pickle.loads(pickle.dumps(m))
+    assert m.state.components is not None  # what Map.load reads: the forecast components
+    assert m.state.temporal.cnt_fourier.size == 0  # ... and not the sums
+    assert copy.state.components is not None
+    assert copy.state.temporal.cnt_fourier.shape == m.state.temporal.cnt_fourier.shape
+    assert copy.predict(T, tz="UTC").records() == m.predict(T, tz="UTC").records()
