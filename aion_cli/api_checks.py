@@ -209,6 +209,8 @@ def time_value(time: object) -> object:
                 hint=f"UNIX seconds: give {value} * 10**9, or the string \"{value}\"",
             )
         return value
+    if isinstance(time, datetime) and time != time:  # pandas' NaT, a datetime equal to nothing
+        raise InputError(f"not a time: {time!r}", hint="NaT marks a missing time")
     if isinstance(time, str | datetime):
         return time
     raise InputError(
@@ -419,11 +421,11 @@ def methods_checked(cls: _C) -> _C:
 
 
 def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
-    """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` or a
-    ``numpy.datetime64`` (naive: in ``zone``, a name such as ``"Europe/London"``, a ``ZoneInfo``
-    or an aion ``Zone``; default UTC, None: the machine's) or integer nanoseconds (one below
-    10^16, which would lie in 1970's first months, is refused as likely seconds); outside
-    1900 .. 2261 is an ``InputError``."""
+    """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (a pandas
+    ``Timestamp`` to its nanosecond) or a ``numpy.datetime64`` (naive: in ``zone``, a name
+    such as ``"Europe/London"``, a ``ZoneInfo`` or an aion ``Zone``; default UTC, None: the
+    machine's) or integer nanoseconds (one below 10^16, which would lie in 1970's first
+    months, is refused as likely seconds); outside 1900 .. 2261 is an ``InputError``."""
     from aion_cli.timeparse import Zone, check_range, parse_time, resolve_zone
     from aion_cli.timeparse import to_ns as datetime_ns
 
@@ -437,7 +439,9 @@ def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
         return check_range(int(time), f"{time} ns")
     if isinstance(time, datetime):
         moment = time if time.tzinfo is not None else time.replace(tzinfo=zone.tz)
-        return check_range(datetime_ns(moment), moment.isoformat())
+        below_us = getattr(time, "nanosecond", 0)  # a pandas Timestamp's, below its microsecond
+        below_us = below_us if isinstance(below_us, int) else 0
+        return check_range(datetime_ns(moment) + below_us, moment.isoformat())
     if isinstance(time, str):
         return parse_time(time, zone)
     raise InputError(f"not a time: {time!r}", hint="a time string, a datetime or nanoseconds")

@@ -391,6 +391,22 @@ def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
         m.predict(np.datetime64("2300-01-01"))
 
 
+def test_a_pandas_timestamp_is_read_to_the_nanosecond() -> None:
+    """A pandas ``Timestamp`` (a ``datetime`` that holds nanoseconds) keeps them, as a
+    ``numpy.datetime64`` does: before, its nanoseconds were dropped (``...08:40:00.000000123``
+    was ``...08:40:00``). ``pandas.NaT`` (a ``datetime`` too) was "the time 'NaT' is outside the
+    range aion handles"; it is a missing time, as numpy's NaT."""
+    pd = pytest.importorskip("pandas", reason="pandas is not installed (aion does not need it)")
+    utc_ns = 1_768_207_200 * 10**9  # 2026-01-12 08:40 UTC
+    assert aion.to_ns(pd.Timestamp("2026-01-12 08:40:00.000000123")) == utc_ns + 123
+    berlin = pd.Timestamp("2026-01-12 09:40:00.000000123", tz="Europe/Berlin")
+    assert aion.to_ns(berlin) == utc_ns + 123
+    assert aion.to_ns(pd.Timestamp("1969-12-31 23:59:59.999999999")) == -1
+    with pytest.raises(InputError, match="not a time") as caught:
+        aion.to_ns(pd.NaT)
+    assert caught.value.hint == "NaT marks a missing time"
+
+
 def test_numpy_flags_are_read_as_the_flags_they_are(m: aion.Map, tmp_path: Path) -> None:
     """``historical=mask.any()`` (a ``numpy.bool``) was refused, "historical must be True or
     False, got np.True_", though yes-or-no arguments take numpy's (api_checks.flag): numpy 2
