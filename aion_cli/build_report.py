@@ -144,6 +144,21 @@ class BuildReport:
         """The mean speed of the detections with one (m/s); None when none has."""
         return self.speed_micro / 1e6 / self.speed_n if self.speed_n else None
 
+    def __repr__(self) -> str:
+        """What the build did in one line (not its inputs' checksums and per-topic counts,
+        which a notebook would print whole, for every log): the map, the detections used of
+        those read, from how many logs, the entries and windows, and how many notes and
+        warnings (:attr:`notes`, :attr:`warnings`)."""
+        from aion_cli.number_text import counted
+
+        return (
+            f"<BuildReport {self.output}: {self.detections_used:,} of "
+            f"{counted(self.detections_read, 'detection')} used from "
+            f"{counted(len(self.inputs), 'log')}; {counted(self.nodes, 'node')}, "
+            f"{counted(self.cells, 'cell')}, {counted(self.windows, 'window')}; "
+            f"{counted(len(self.notes), 'note')}, {counted(len(self.warnings), 'warning')}>"
+        )
+
     def to_dict(self) -> dict[str, Any]:
         span = (
             None

@@ -59,6 +59,19 @@ class MergeReport:
     warnings: list[str] = field(default_factory=list)
     map_bytes: int = 0
 
+    def __repr__(self) -> str:
+        """What the merge did in one line (not each input's provenance): the map, the maps
+        joined, the lineage, the detections and logs, and how many notes and warnings."""
+        from aion_cli.number_text import counted
+
+        return (
+            f"<MergeReport {self.output}: {counted(len(self.inputs), 'map')} merged, lineage "
+            f"{self.lineage}; {counted(self.detections, 'detection')} from "
+            f"{counted(self.logs, 'log')}; {counted(self.nodes, 'node')}, "
+            f"{counted(self.cells, 'cell')}, {counted(self.windows, 'window')}; "
+            f"{counted(len(self.notes), 'note')}, {counted(len(self.warnings), 'warning')}>"
+        )
+
     def to_dict(self) -> dict[str, Any]:
         span = None
         if self.start_ns is not None and self.end_ns is not None:

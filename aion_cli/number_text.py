@@ -18,6 +18,11 @@ from 08:05 to 08:50 observed 4.5 windows of 10 min, shown rounded half up: 5), n
 windows with messages ``aion info`` counts for a log (every window touched)."""
 
 
+def counted(n: int, noun: str) -> str:
+    """``n`` and ``noun``, plural unless one: ``"1 log"``, ``"1,204 windows"``."""
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"
+
+
 def half_up(value: float) -> int:
     """``value`` rounded to the nearest whole number, a half up (4.5 reads 5, as people
     round; Python's ``round`` takes a half to the even number: 4.5 to 4, 5.5 to 6)."""

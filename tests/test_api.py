@@ -60,6 +60,21 @@ def test_the_example_builds_and_saves_a_map(example: dict[str, Any]) -> None:
     assert built.predict(AT, tz="UTC").records() == m.predict(AT, tz="UTC").records()
 
 
+def test_a_build_report_s_repr_is_one_line(example: dict[str, Any]) -> None:
+    """``built.report`` in a notebook: one line of what the build did, as a table's repr is.
+    Before, the dataclass printed every field, each input's sha256 and per-topic decoding
+    counts among them (3 kB for one log, growing with every log of a fleet)."""
+    report = example["built"].report
+    doc = report.to_dict()  # aion build --format json
+    text = repr(report)
+    assert "\n" not in text
+    assert report.inputs[0]["sha256"] not in text
+    used, read = doc["detections"]["used"], doc["detections"]["read"]
+    assert text.startswith(f"<BuildReport {doc['map']}: {used:,} of {read:,} detections used")
+    assert f"from 1 log; {doc['nodes']:,} nodes, {doc['cells']:,} cells" in text
+    assert f"{doc['windows']:,} windows" in text
+
+
 def test_a_loaded_map_reads_what_queries_read(example: dict[str, Any]) -> None:
     """Map.load reads the map as the query commands do, without the per-entry Fourier sums
     that only learning needs (most of a full map's bytes: a 10^5-entry map took 866 MB

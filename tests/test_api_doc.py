@@ -101,6 +101,14 @@ def test_the_merge_and_compact_examples_run(tmp_path: Path) -> None:
     _two_maps(tmp_path, names)
     scope = run_blocks(tmp_path, "docs/API.md", examples[0], examples[1])
     assert scope["week"].report.lineage == "same"
+    # its repr is one line (before: every input map's path, size and sha256)
+    doc = scope["week"].report.to_dict()
+    assert re.fullmatch(
+        f"<MergeReport week.aion: 2 maps merged, lineage same; {doc['detections']:,} "
+        f"detections from 2 logs; {doc['nodes']:,} nodes?, {doc['cells']:,} cells?, "
+        f"{doc['windows']:,} windows?; {len(doc['notes'])} notes?, 0 warnings>",
+        repr(scope["week"].report),
+    )
     assert (tmp_path / "week-robot.aion").stat().st_size < (tmp_path / "week.aion").stat().st_size
 
 
