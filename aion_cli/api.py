@@ -396,7 +396,7 @@ class Map(Generic[Report]):
             raise InputError(
                 f"{str(out)!r} names a picture", hint="Map.picture(file) writes the PNG"
             )
-        historical = check.historical(time, historical)
+        historical, force = check.historical(time, historical), check.flag(force, "force")
         times: list[int | None]
         zone = None
         if historical:

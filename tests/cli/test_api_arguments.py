@@ -391,6 +391,24 @@ def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
         m.predict(np.datetime64("2300-01-01"))
 
 
+def test_export_s_force_is_a_yes_or_no(m: aion.Map, tmp_path: Path) -> None:
+    """``force`` is checked as ``historical`` is: before, ``force="no"`` (any string is true)
+    replaced a file of aion's that no export into the folder wrote, which ``force=False``
+    refuses."""
+    out, other = tmp_path / "out", tmp_path / "other"
+    m.export(out, time=T, tz="UTC")
+    m.export(other, historical=True)  # entries of another time: other bytes
+    shutil.copy(other / "entries.csv", out / "entries.csv")  # aion's, not written there
+    kept = (out / "entries.csv").read_bytes()
+    with pytest.raises(InputError, match="no export into"):
+        m.export(out, time=T, tz="UTC")
+    with pytest.raises(InputError, match="force must be True or False, got 'no'"):
+        m.export(out, time=T, tz="UTC", force="no")  # type: ignore[arg-type]
+    assert (out / "entries.csv").read_bytes() == kept
+    assert out / "entries.csv" in m.export(out, time=T, tz="UTC", force=np.True_)
+    assert (out / "entries.csv").read_bytes() != kept
+
+
 def test_a_pandas_timestamp_is_read_to_the_nanosecond() -> None:
     """A pandas ``Timestamp`` (a ``datetime`` that holds nanoseconds) keeps them, as a
     ``numpy.datetime64`` does: before, its nanoseconds were dropped (``...08:40:00.000000123``
