@@ -35,43 +35,24 @@ from aion_cli import api_checks as check
 from aion_cli.api_checks import PairOf, PlaceLike, PointLike, StepLike, TimeLike, ZoneLike, to_ns
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
+from aion_cli.api_typing import Made, Report
 from aion_cli.errors import InputError
 from aion_cli.map_sharing import new_lock, one_at_a_time, pickled, unpickled
 from aion_cli.pinned_file import PinnedFile
 
 if TYPE_CHECKING:
-    from aion_cli.build_report import BuildReport
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
     from aion_cli.evaluation.holdout import HoldoutResult
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
-    from aion_cli.merging import MergeReport
     from aion_cli.prediction_series import SeriesTable
-    from aion_cli.query_only import CompactReport
     from aion_cli.timeparse import Zone
-
-if TYPE_CHECKING:  # typing_extensions only for the type checker (TypeVar's default, PEP 696)
-    from typing_extensions import TypeVar
-
-    Report = TypeVar(
-        "Report",
-        bound="BuildReport | MergeReport | CompactReport | None",
-        default="BuildReport | MergeReport | CompactReport | None",
-        covariant=True,
-    )
-else:
-    from typing import TypeVar
-
-    Report = TypeVar("Report", covariant=True)
-
-_Made = TypeVar("_Made", bound="BuildReport | MergeReport | CompactReport | None")
-"""What made a map read by :func:`read_map`: a report, or None."""
 
 __all__ = ["Map", "Plan", "Table", "TimeLike", "as_path", "build", "compact", "merge", "to_ns"]
 
 
-def read_map(path: Path, report: _Made) -> Map[_Made]:
+def read_map(path: Path, report: Made) -> Map[Made]:
     """The map file ``path`` read as the query commands read it (``load_map(...,
     forecast_only=True)``: without the per-entry Fourier sums only learning reads), with the
     ``report`` of what made it: :meth:`Map.load` and the maps :func:`build`, :func:`merge`
