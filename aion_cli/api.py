@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Generic, overload
+from typing import TYPE_CHECKING, Any, Generic, Union, overload
 
 from aion_cli import api_checks as check
 from aion_cli.api_checks import PairOf, PlaceLike, PointLike, StepLike, TimeLike, ZoneLike, to_ns
@@ -38,6 +38,7 @@ from aion_cli.api_results import Plan, Table
 from aion_cli.api_typing import Made, Report
 from aion_cli.errors import InputError
 from aion_cli.map_sharing import new_lock, one_at_a_time, pickled, unpickled
+from aion_cli.map_source import MapSource
 from aion_cli.pinned_file import PinnedFile
 
 if TYPE_CHECKING:
@@ -49,17 +50,18 @@ if TYPE_CHECKING:
     from aion_cli.prediction_series import SeriesTable
     from aion_cli.timeparse import Zone
 
+Loaded = Union["LoadedMap", MapSource]
+"""What a :class:`Map` is made around: a map read (or built in memory), or a file's source."""
+
 __all__ = ["Map", "Plan", "Table", "TimeLike", "as_path", "build", "compact", "merge", "to_ns"]
 
 
 def read_map(path: Path, report: Made) -> Map[Made]:
-    """The map file ``path`` read as the query commands read it (``load_map(...,
-    forecast_only=True)``: without the per-entry Fourier sums only learning reads), with the
-    ``report`` of what made it: :meth:`Map.load` and the maps :func:`build`, :func:`merge`
-    and :func:`compact` return."""
-    from aion_cli.mapquery import load_map
-
-    return Map(load_map(path, forecast_only=True), path, report)
+    """The map file ``path`` as the query commands read it (``load_map(...,
+    forecast_only=True)``: without the per-entry Fourier sums only learning reads; its state
+    on first use, :mod:`aion_cli.map_source`), with the ``report`` of what made it:
+    :meth:`Map.load` and the maps :func:`build`, :func:`merge` and :func:`compact` return."""
+    return Map(MapSource.of_file(path), path, report)
 
 
 @check.methods_checked
@@ -71,22 +73,27 @@ class Map(Generic[Report]):
     :meth:`from_state`; a bare ``Map`` is any of them."""
 
     @overload
-    def __init__(self: Map[None], loaded: LoadedMap, path: Path | None = None) -> None: ...
+    def __init__(self: Map[None], loaded: Loaded, path: Path | None = None) -> None: ...
     @overload
-    def __init__(self, loaded: LoadedMap, path: Path | None, report: Report) -> None: ...
-    def __init__(self, loaded: LoadedMap, path: Path | None = None, report: Any = None) -> None:
+    def __init__(self, loaded: Loaded, path: Path | None, report: Report) -> None: ...
+    def __init__(self, loaded: Loaded, path: Path | None = None, report: Any = None) -> None:
         from aion_cli.mapquery import LoadedMap
 
-        if not isinstance(loaded, LoadedMap):  # Map("office.aion"): a path, not a loaded map
+        if not isinstance(loaded, LoadedMap | MapSource):  # Map("office.aion"): a path
             raise InputError(
                 f"Map() takes a loaded map, got {type(loaded).__name__}",
                 hint="read a file with aion.Map.load(path)",
             )
-        self._loaded = loaded
+        self._source = loaded if isinstance(loaded, MapSource) else MapSource.ready(loaded)
         self.path = path
         self._report = report
         self._file: PinnedFile | None = None if path is None else PinnedFile(path)
         self._lock = new_lock()  # one query at a time (aion_cli.map_sharing)
+
+    @property
+    def _loaded(self) -> LoadedMap:
+        with self._lock:  # a file's state is read on first use (aion_cli.map_source)
+            return self._source.get(self._file)
 
     @property
     def report(self) -> Report:
@@ -96,8 +103,9 @@ class Map(Generic[Report]):
 
     @classmethod
     def load(cls, path: PathLike) -> Map[None]:
-        """Read a map file (checksums and version checked as members are used), as the
-        query commands do: without the per-entry Fourier sums only learning reads
+        """Read a map file's manifest (version checked) now and its state on first use
+        (:mod:`aion_cli.map_source`; each member checksummed as it is read), as the
+        query commands read it: without the per-entry Fourier sums only learning reads
         (``load_map(..., forecast_only=True)``; :mod:`aion_cli.query_only`), so every answer
         is the command line's and a big map takes the memory of its forecasts, not of its
         learning (the sums are most of a full map's bytes)."""
@@ -130,14 +138,14 @@ class Map(Generic[Report]):
         """What the map file says about itself: inputs, time span, counts, zone, families."""
         from aion_cli.manifest import Manifest
 
-        raw = dict(self._loaded.manifest)
+        raw = dict(self._source.manifest)
         raw.setdefault("state", {})
         return Manifest.from_dict(raw)
 
     @property
     def timezone(self) -> str | None:
         """The zone the map was built for (``aion build --tz``), the default of queries."""
-        zone = self._loaded.manifest.get("timezone")
+        zone = self._source.manifest.get("timezone")
         return zone if isinstance(zone, str) else None
 
     def _zone(self, tz: object) -> Zone:

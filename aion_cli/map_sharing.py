@@ -61,10 +61,10 @@ def unpickled(state: dict[str, Any]) -> dict[str, Any]:
     reads; ``MapFileError`` when it changed since), with a new lock."""
     if "stamp" not in state:
         return {**state, "_lock": new_lock()}
-    from aion_cli.mapquery import load_map
+    from aion_cli.map_source import MapSource
 
     file = PinnedFile.reopen(state["file"], state["stamp"])
-    loaded = load_map(file.path, forecast_only=True)
+    source = MapSource.of_file(file.path)  # its state read on first use, as Map.load's
     file.check()  # not changed while read
     fields = {"path": state["path"], "_report": state["report"], "_file": file}
-    return {**fields, "_loaded": loaded, "_lock": new_lock()}
+    return {**fields, "_source": source, "_lock": new_lock()}

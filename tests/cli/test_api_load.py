@@ -1,0 +1,98 @@
+"""``aion.Map.load`` reads a map's manifest at once and its state on first use: what the map
+says of itself (``Map.manifest``, ``Map.timezone``, as ``aion info MAP`` shows it) reads no
+member of the state. Before, ``Map.load`` read and checksummed every member a query reads
+(78 of the sample map, most of its bytes) to answer ``m.timezone``, where ``aion info`` reads
+13. The state read later is the file's that was loaded, as when it was read at once."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+import aion_cli as aion
+from aion_cli.errors import MapFileError
+from aion_cli.formats import mapfile_read
+from tests.cli.conftest import Office, run
+
+T = "2026-01-12 08:40"
+
+
+@pytest.fixture
+def reads(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The names of the map members read (and checksummed) from now on."""
+    names: list[str] = []
+    real = mapfile_read.MapMembers._read
+
+    def counted(self: mapfile_read.MapMembers, name: str, rec: dict[str, object]) -> object:
+        names.append(name)
+        return real(self, name, rec)
+
+    monkeypatch.setattr(mapfile_read.MapMembers, "_read", counted)
+    return names
+
+
+def test_what_a_map_says_of_itself_reads_none_of_its_state(
+    sample_map: Path, reads: list[str]
+) -> None:
+    m = aion.Map.load(sample_map)
+    assert m.timezone == "UTC"
+    assert m.manifest.counts["used"] > 0
+    assert m.path == sample_map
+    assert reads == []  # before: every member a query reads
+    run("predict", sample_map, "--time", T, "--tz", "UTC", "-q")
+    the_cli_reads = sorted(set(reads))
+    reads.clear()
+    assert len(m.predict(T, tz="UTC")) > 0
+    assert sorted(set(reads)) == the_cli_reads  # a query reads what aion predict reads
+    reads.clear()
+    m.plan("p103", "p2", time=T, tz="UTC")
+    assert reads == []  # once
+
+
+def test_a_map_replaced_or_deleted_before_its_first_query_answers_as_loaded(
+    sample_map: Path, office: Office, tmp_path: Path
+) -> None:
+    """The state is read from the file loaded (held open), not from whatever its path names
+    by the first query: aion's writers replace a map atomically, which a loaded map
+    survives."""
+    live = tmp_path / "live.aion"
+    shutil.copy(sample_map, live)
+    expected = aion.Map.load(sample_map).predict(T, tz="UTC").records()
+    m = aion.Map.load(live)
+    os.replace(shutil.copy(office.map, tmp_path / "other.aion"), live)  # another map
+    assert aion.Map.load(live).predict(T, tz="UTC").records() != expected
+    assert m.predict(T, tz="UTC").records() == expected
+    gone = tmp_path / "gone.aion"
+    shutil.copy(sample_map, gone)
+    held = aion.Map.load(gone)
+    gone.unlink()
+    assert held.predict(T, tz="UTC").records() == expected
+    overwritten = tmp_path / "overwritten.aion"
+    shutil.copy(sample_map, overwritten)
+    victim = aion.Map.load(overwritten)
+    shutil.copyfile(office.map, overwritten)  # in place: never read
+    with pytest.raises(MapFileError, match="overwritten in place"):
+        victim.predict(T, tz="UTC")
+
+
+def test_a_map_aion_cannot_read_is_refused_when_loaded(office: Office, tmp_path: Path) -> None:
+    """Reading the state later does not defer what says a map is unreadable: a model state
+    a newer aion wrote is refused by ``Map.load`` itself, as when it read the state at once."""
+    import json
+
+    from aion_cli.errors import MapVersionError
+    from tests.cli.test_info_map_unreadable import _rewrite
+
+    def newer(name: str, data: bytes) -> bytes:
+        if name != "manifest.json":
+            return data
+        manifest = json.loads(data)
+        manifest["state"]["state_version"] += 1
+        return json.dumps(manifest).encode()
+
+    path = _rewrite(office.map, tmp_path / "newer.aion", newer)
+    with pytest.raises(MapVersionError, match="written by a newer aion"):
+        aion.Map.load(path)
