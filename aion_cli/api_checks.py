@@ -209,6 +209,12 @@ def time_value(time: object) -> object:
                 hint=f"UNIX seconds: give {value} * 10**9, or the string \"{value}\"",
             )
         return value
+    if isinstance(time, numbers.Real) and math.isfinite(time):  # time.time(): UNIX seconds
+        raise InputError(
+            f"not a time: {time!r} (a float; integer times are nanoseconds)",
+            hint=f"UNIX seconds: give datetime.fromtimestamp({float(time)!r}, timezone.utc), "
+            f"or round({float(time)!r} * 10**9) nanoseconds",
+        )
     if isinstance(time, datetime) and time != time:  # pandas' NaT, a datetime equal to nothing
         raise InputError(f"not a time: {time!r}", hint="NaT marks a missing time")
     if isinstance(time, str | datetime):

@@ -116,6 +116,24 @@ def test_to_ns_takes_zone_names_and_refuses_seconds_as_nanoseconds() -> None:
         aion.to_ns(12.5)  # type: ignore[arg-type]
 
 
+def test_a_float_time_is_refused_with_what_unix_seconds_are() -> None:
+    """``time.time()`` (a float of UNIX seconds, what a notebook has at hand) was "not a
+    time", with the hint every wrong type had; the hint now gives the call that reads it."""
+    ns = int(datetime(2026, 1, 12, 8, 40, tzinfo=UTC).timestamp()) * 10**9
+    seconds = ns / 10**9 + 0.5
+    for given in (seconds, np.float64(seconds)):
+        with pytest.raises(InputError, match="a float; integer times are nanoseconds") as caught:
+            aion.to_ns(given)  # type: ignore[arg-type]
+        hint = caught.value.hint
+        assert hint is not None
+        first, second = hint.split(": give ", 1)[1].split(", or ")
+        scope = {"datetime": datetime, "timezone": timezone, "np": np}
+        assert aion.to_ns(eval(first, scope)) == ns + 5 * 10**8  # what the hint says works
+        assert aion.to_ns(eval(second.removesuffix(" nanoseconds"), scope)) == ns + 5 * 10**8
+    with pytest.raises(InputError, match=r"not a time: nan$"):
+        aion.to_ns(float("nan"))  # type: ignore[arg-type]
+
+
 @pytest.mark.parametrize(
     ("call", "fragment"),
     [
