@@ -80,11 +80,11 @@ def query_notes(
 ) -> list[str]:
     """What the commands note beside the time a query used (``cli.common.announce_time``),
     for the API's results: which instant ``time``, a wall-clock time a clock change skips or
-    repeats, was read as (when given as text), then the notes of a forecast at ``t_ns`` (of
-    the ``series`` of times it belongs to, ``noun`` naming them)."""
-    from aion_cli.wall_clock import clock_change_note
+    repeats, was read as (text, or a naive ``datetime``: ``wall_clock_note``), then the notes
+    of a forecast at ``t_ns`` (of the ``series`` of times it belongs to, ``noun`` naming them)."""
+    from aion_cli.wall_clock import wall_clock_note
 
-    changed = clock_change_note(time, zone, t_ns) if isinstance(time, str) else None
+    changed = wall_clock_note(time, zone, t_ns)  # a string, a naive datetime (API)
     notes = [] if changed is None else [changed]
     if series:
         return notes + series_notes(manifest, series, t_ns, noun)

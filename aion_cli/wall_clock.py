@@ -5,12 +5,14 @@ jump from 02:00 to 03:00) and is read as 03:30 summer time; ``"2026-10-25 02:30"
 twice and is read as its first occurrence (summer time). :mod:`aion_cli.timeparse` reads
 them so (PEP 495's ``fold=0``); :func:`clock_change_note` says so, where the text was a
 wall-clock time of its zone (not a UNIX time, an ISO time with its own offset, or a
-relative one, which name one instant).
+relative one, which name one instant); :func:`wall_clock_note` also for the Python API's
+naive ``datetime`` (read by its ``fold``).
 """
 
 from __future__ import annotations
 
 from datetime import UTC, datetime
+from typing import Any, cast
 
 from aion_cli.timeparse import (
     TimeFormatError,
@@ -93,3 +95,37 @@ def _wall_clock_of(text: str, zone: Zone, now: datetime | None) -> datetime | No
     if wall_ns == shifted:  # an instant of its own: UNIX, ISO with an offset, relative
         return None
     return from_ns(wall_ns, utc).replace(tzinfo=None)
+
+
+def wall_clock_note(time: object, zone: Zone, t_ns: int) -> str | None:
+    """:func:`clock_change_note` of a time as the Python API takes it: a string, or a naive
+    ``datetime`` or ``numpy.datetime64``, a wall-clock time of ``zone`` as a string without
+    an offset is (README: a naive datetime is such a wall-clock time), read by its ``fold``
+    as PEP 495 has it: 0 (the default) the first of a repeated time and a skipped one as late
+    as the clocks jump, as a string is read; 1 the other. None for an aware ``datetime`` or
+    nanoseconds (one instant each), and away from a clock change."""
+    if isinstance(time, str):
+        return clock_change_note(time, zone, t_ns)
+    if type(time).__name__ == "datetime64":  # numpy's, read as a naive datetime
+        micro = cast(Any, time).astype("datetime64[us]").item()  # NaT: None
+        time = micro if isinstance(micro, datetime) else None
+    if not isinstance(time, datetime) or time.tzinfo is not None:
+        return None
+    if not offset_changes_near(t_ns, zone):
+        return None
+    said = time.isoformat(sep=" ", timespec="minutes")
+    local = from_ns(t_ns, zone)
+    if local.replace(tzinfo=None) != time.replace(tzinfo=None):
+        return (
+            f"{said} does not exist in {zone.name} (a clock change skips it): read as "
+            f"{format_ns(t_ns, zone)}, as "
+            + ("late as the clocks jump" if time.fold == 0 else "early as the clocks jump (fold=1)")
+        )
+    if not repeated_wall_clock(local):
+        return None
+    other = format_ns(to_ns(time.replace(tzinfo=zone.tz, fold=1 - time.fold)), zone)
+    which, rest = ("first", "second") if time.fold == 0 else ("second", "first")
+    return (
+        f"{said} happens twice in {zone.name} (a clock change repeats it): read as the "
+        f"{which}, {format_ns(t_ns, zone)}; the {rest} is {other} (fold={1 - time.fold})"
+    )

@@ -89,3 +89,39 @@ def test_predict_says_how_it_read_a_time_the_spring_change_skips(tmp_path: Path)
     plain = run("predict", path, "--time", "2026-03-29 04:30", "--top", "1")
     assert plain.exit_code == 0, plain.stderr
     assert "does not exist" not in plain.stderr
+
+
+def test_a_naive_datetime_of_a_clock_change_is_noted_as_its_string_is(tmp_path: Path) -> None:
+    """The Python API reads a naive ``datetime`` (or ``numpy.datetime64``) as the wall-clock
+    time a string without an offset is, but only the string's table said which instant a
+    skipped or repeated one was read as: ``m.predict(datetime(2026, 3, 29, 2, 30))`` in
+    Berlin answered at 03:30 summer time without a word. Now its notes say it as the
+    command's stderr does (with the ``fold`` that gives the other instant), instants
+    computed here with zoneinfo."""
+    import numpy as np
+
+    path = tmp_path / "berlin.aion"
+    Map.from_state(corridor(2, lambda day, hour: 4.0).state, timezone="Europe/Berlin").save(path)
+    m = Map.load(path)
+    berlin = ZoneInfo("Europe/Berlin")
+    said = run("predict", path, "--time", "2026-03-29 02:30", "--top", "1").stderr
+    cli_note = next(line for line in said.splitlines() if "does not exist" in line)
+    for given in (datetime(2026, 3, 29, 2, 30), np.datetime64("2026-03-29T02:30")):
+        table = m.predict(given, top=1)
+        assert table.time_ns == to_ns(datetime(2026, 3, 29, 2, 30, tzinfo=berlin))
+        assert table.notes[0] == cli_note  # as late as the clocks jump
+    early = m.predict(datetime(2026, 3, 29, 2, 30, fold=1), top=1)
+    assert early.time_ns == to_ns(datetime(2026, 3, 29, 2, 30, fold=1, tzinfo=berlin))
+    assert early.notes[0].endswith(f"read as {early.time}, as early as the clocks jump (fold=1)")
+    first = datetime(2026, 10, 25, 2, 30, tzinfo=berlin)
+    second = first.replace(fold=1)
+    zone = resolve_zone("Europe/Berlin")
+    later = m.predict(datetime(2026, 10, 25, 2, 30, fold=1), top=1)
+    assert later.time_ns == to_ns(second)
+    assert later.notes[0] == (
+        "2026-10-25 02:30 happens twice in Europe/Berlin (a clock change repeats it): read as "
+        f"the second, {format_ns(to_ns(second), zone)}; the first is "
+        f"{format_ns(to_ns(first), zone)} (fold=0)"
+    )
+    aware = m.predict(datetime(2026, 3, 29, 1, 30, tzinfo=UTC), top=1)  # one instant
+    assert not any("clock change" in n for n in aware.notes)
