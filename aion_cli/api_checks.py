@@ -226,12 +226,20 @@ def time_value(time: object) -> object:
 
 
 def path_text(value: object, what: str) -> str:
-    """A path argument's text: ``str`` or ``os.PathLike``, not empty."""
+    """A path argument's text: ``str`` or ``os.PathLike``, not empty (an ``aion.Map`` given
+    for its file is refused with the way to its file)."""
     if not isinstance(value, str | os.PathLike):
-        raise InputError(
-            f"{what} must be a path (str or pathlib.Path), got {value!r}",
-            hint='e.g. "office.aion" or pathlib.Path("office.aion")',
-        )
+        from aion_cli.api import Map
+
+        if isinstance(value, Map):  # aion.merge([m1, m2], ...): the maps' files are meant
+            given = f"the aion.Map {value.path or 'in memory'}"  # (its repr reads its state)
+            hint = (
+                "give the map's file: its .path" if value.path is not None
+                else "a map in memory has no file: save it first (.save(path) returns the file)"
+            )
+        else:
+            given, hint = repr(value), 'e.g. "office.aion" or pathlib.Path("office.aion")'
+        raise InputError(f"{what} must be a path (str or pathlib.Path), got {given}", hint=hint)
     text = os.fspath(value)
     if isinstance(text, bytes):
         raise InputError(

@@ -427,6 +427,33 @@ def test_export_s_force_is_a_yes_or_no(m: aion.Map, tmp_path: Path) -> None:
     assert (out / "entries.csv").read_bytes() != kept
 
 
+def test_a_map_given_for_its_file_is_told_where_its_file_is(
+    office: Office, tmp_path: Path
+) -> None:
+    """``aion.merge([m1, m2], ...)`` (maps where their files are meant) was "map must be a
+    path ..., got <aion.Map ...>" with the hint ``e.g. "office.aion"``; the hint now says
+    where a map's file is, and that a map in memory has none until saved. The message no
+    longer formats the map's repr, which reads its state."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.mapper import Mapper
+
+    m = aion.Map.load(office.map)
+    for call in (
+        lambda: aion.merge([m, office.map], tmp_path / "week.aion"),
+        lambda: aion.compact(m, tmp_path / "robot.aion"),
+        lambda: aion.build([office.log], output=tmp_path / "b.aion", continue_from=m),
+    ):
+        with pytest.raises(InputError, match=re.escape(f"got the aion.Map {office.map}")) as e:
+            call()
+        assert e.value.hint == "give the map's file: its .path"
+    assert m._source.loaded is None  # the error read none of the map's state
+    memory = aion.Map.from_state(Mapper(ModelConfig()).state, timezone="UTC")
+    with pytest.raises(InputError, match=re.escape("got the aion.Map in memory")) as e:
+        aion.compact(memory, tmp_path / "robot.aion")
+    assert e.value.hint is not None
+    assert "save it first" in e.value.hint
+
+
 def test_a_pandas_timestamp_is_read_to_the_nanosecond() -> None:
     """A pandas ``Timestamp`` (a ``datetime`` that holds nanoseconds) keeps them, as a
     ``numpy.datetime64`` does: before, its nanoseconds were dropped (``...08:40:00.000000123``
