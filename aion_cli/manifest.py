@@ -75,6 +75,28 @@ class Manifest:
     observed_spans: tuple[tuple[int, int], ...] = ()
     container: dict[str, Any] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        """What the map file says of itself in one line (not its model parameters, every
+        input's checksum and every place's label, which a notebook would print whole for
+        ``m.manifest``): its time span, detections used, logs, nodes and cells, zone."""
+        from aion_cli.number_text import counted
+
+        span = "no time span"
+        if self.start_ns is not None and self.end_ns is not None:
+            from aion_cli.timeparse import format_ns, resolve_zone
+
+            zone = resolve_zone(self.timezone or "UTC")
+            span = f"{format_ns(self.start_ns, zone)} .. {format_ns(self.end_ns, zone)}"
+        used, nodes, cells = (
+            int(v) if isinstance(v := self.counts.get(k), int | float) else 0
+            for k in ("used", "nodes", "cells")
+        )
+        return (
+            f"<Manifest: {span}; {counted(used, 'detection')} used from "
+            f"{counted(len(self.inputs), 'log')}; {counted(nodes, 'node')}, "
+            f"{counted(cells, 'cell')}>"
+        )
+
     @property
     def recording_reach(self) -> int | None:
         """The last window a fixed sensor's logs reached over every build (``counts``), None

@@ -114,3 +114,16 @@ def test_a_series_counts_and_yields_its_records_as_a_table_does(m: aion.Map) -> 
     assert len(day) == len(rooms) == len(day.entries)
     assert list(day) == day.records()
     assert sorted(row["id"] for row in day) == sorted(row["id"] for row in rooms)
+
+
+def test_a_manifest_s_repr_is_one_line(m: aion.Map, sample_map: Path) -> None:
+    """``m.manifest`` in a notebook printed the dataclass whole: the model parameters,
+    every input's sha256 and every place's label (4.7 kB for the sample, growing with the
+    places and logs). Now one line, with what ``aion info`` shows first."""
+    counts = run_json("info", sample_map, "--format", "json")["counts"]
+    text = repr(m.manifest)
+    assert "\n" not in text
+    assert m.manifest.inputs[0].sha256 not in text
+    assert text.startswith("<Manifest: 2026-01-05 00:00:00+00:00 .. 2026-01-09 23:59:59")
+    assert f"; {counts['used']:,} detections used from 1 log; " in text
+    assert text.endswith(f"; {counts['nodes']:,} nodes, {counts['cells']:,} cells>")
