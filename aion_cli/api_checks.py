@@ -396,6 +396,25 @@ def refuse_unknown_keywords(where: str, given: Iterable[str], valid: Sequence[st
     )
 
 
+def refuse_extra_positional(
+    where: str, names: Sequence[str], given: int, valid: Sequence[str]
+) -> None:
+    """:class:`UnknownArgumentError` for more positional arguments than ``where`` takes
+    (``names``, ``self`` or ``cls`` among them): which they are, and the keywords the rest are
+    given by (``m.predict("08:40", "UTC")``: ``tz="UTC"``). Python's ``TypeError`` counted
+    ``self`` and named neither."""
+    own = [n for n in names if n not in ("self", "cls")]
+    extra = given - len(names)
+    keywords = [name for name in valid if name not in own]
+    raise UnknownArgumentError(
+        f"{where}() takes {len(own)} positional argument{'' if len(own) == 1 else 's'}"
+        f" ({', '.join(own) or 'none'}) but {len(own) + extra} were given",
+        hint="give the others by keyword: " + ", ".join(f"{k}=" for k in keywords)
+        if keywords
+        else f"{where}() takes nothing else",
+    )
+
+
 def keywords_checked(func: Callable[_P, _R]) -> Callable[_P, _R]:
     """``func`` refusing a keyword it does not take with :func:`refuse_unknown_keywords`
     (Python's bare ``TypeError`` named no keyword it does take; a function that takes
@@ -408,10 +427,13 @@ def keywords_checked(func: Callable[_P, _R]) -> Callable[_P, _R]:
     own = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params)
     kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
     valid = [p.name for p in params if p.kind in kinds and p.name not in ("self", "cls")]
+    positional = [p.name for p in params if p.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD]
 
     @functools.wraps(func)
     def checked(*args: _P.args, **kwargs: _P.kwargs) -> _R:
         try:
+            if len(args) > len(positional):
+                refuse_extra_positional(func.__qualname__, positional, len(args), valid)
             if kwargs and not own:
                 refuse_unknown_keywords(func.__qualname__, kwargs, valid)
             return func(*args, **kwargs)

@@ -50,7 +50,8 @@ class InputError(AionError):
 
 class UnknownArgumentError(InputError, TypeError):
     """A keyword argument a function of the Python API does not take (``aion.build(logs,
-    bogus=1)``): an :class:`InputError` with a hint listing the keywords it does take, as every
+    bogus=1)``), or more positional ones than it takes (``m.predict(time, "UTC")``): an
+    :class:`InputError` with a hint listing the keywords it does take, as every
     refused argument is, and a ``TypeError``, as Python raises for an unknown keyword (code
     that catches ``TypeError`` still does)."""
 

@@ -454,6 +454,30 @@ def test_a_map_given_for_its_file_is_told_where_its_file_is(
     assert "save it first" in e.value.hint
 
 
+def test_a_keyword_given_by_position_is_named(m: aion.Map, tmp_path: Path) -> None:
+    """``m.predict(T, "UTC")`` (``tz`` meant) was Python's bare ``TypeError: Map.predict()
+    takes from 1 to 2 positional arguments but 3 were given``: ``self`` counted, neither the
+    positional argument nor the keywords named, and no ``InputError``, though the API refuses
+    every other wrong argument with one. Now the ``UnknownArgumentError`` (an ``InputError``
+    and still a ``TypeError``) of an unknown keyword, naming them."""
+    from aion_cli.errors import UnknownArgumentError
+
+    with pytest.raises(UnknownArgumentError) as caught:
+        m.predict(T, "UTC")  # type: ignore[misc]
+    assert isinstance(caught.value, InputError)
+    assert isinstance(caught.value, TypeError)
+    assert str(caught.value) == "Map.predict() takes 1 positional argument (time) but 2 were given"
+    assert caught.value.hint == (
+        "give the others by keyword: historical=, tz=, layer=, nodes=, at=, top="
+    )
+    with pytest.raises(InputError, match=r"takes 2 positional arguments \(paths, output\)"):
+        aion.merge([m.path, m.path], tmp_path / "w.aion", "graph.json")  # type: ignore[misc]
+    with pytest.raises(InputError, match=r"Map\.load\(\) takes 1 positional") as caught:
+        aion.Map.load(str(m.path), str(m.path))  # type: ignore[call-arg]
+    assert caught.value.hint == "Map.load() takes nothing else"
+    assert not (tmp_path / "w.aion").exists()
+
+
 def test_a_pandas_timestamp_is_read_to_the_nanosecond() -> None:
     """A pandas ``Timestamp`` (a ``datetime`` that holds nanoseconds) keeps them, as a
     ``numpy.datetime64`` does: before, its nanoseconds were dropped (``...08:40:00.000000123``
