@@ -125,7 +125,12 @@ class Map(Generic[Report]):
 
     @property
     def config(self) -> ModelConfig:
-        """The model parameters the map was built with."""
+        """The model parameters the map was built with (a file's from its manifest, its state
+        not read for them, as ``aion info``)."""
+        from aion_cli.engine.state_checks import parse_state_meta
+
+        if self._source.loaded is None:  # the manifest's, which the state is made with
+            return parse_state_meta(self._source.manifest["state"]).config
         return self._loaded.config
 
     @property

@@ -3,11 +3,11 @@ whose state is read on first use.
 
 ``aion.Map.load(path)`` reads the file's manifest (checked: a map, of a version aion reads,
 with a model state) and holds the file open (:mod:`aion_cli.pinned_file`); the state, most
-of the file, is read when something first needs it (a query, ``Map.state``, ``Map.config``,
-``repr``), as the query commands read it (``load_map(..., forecast_only=True)``). So what
-``aion info MAP`` shows from the manifest (``Map.manifest``, ``Map.timezone``) reads no
-member of the state, where it read all of them (78 members of a sample map, against the
-13 ``aion info`` reads).
+of the file, is read when something first needs it (a query, ``Map.state``, ``repr``), as
+the query commands read it (``load_map(..., forecast_only=True)``). So what ``aion info
+MAP`` shows from the manifest (``Map.manifest``, ``Map.timezone``, ``Map.config``) reads no
+member of the state, where it read all of them (78 members of a sample map, against the 13
+``aion info`` reads).
 
 The state is read from the file the map was loaded from, also once its path names another
 file (aion's writers replace maps atomically) or none: through the descriptor held open.

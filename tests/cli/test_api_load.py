@@ -41,12 +41,14 @@ def test_what_a_map_says_of_itself_reads_none_of_its_state(
     assert m.timezone == "UTC"
     assert m.manifest.counts["used"] > 0
     assert m.path == sample_map
+    config = m.config  # the model parameters, as aion info shows them
     assert reads == []  # before: every member a query reads
     run("predict", sample_map, "--time", T, "--tz", "UTC", "-q")
     the_cli_reads = sorted(set(reads))
     reads.clear()
     assert len(m.predict(T, tz="UTC")) > 0
     assert sorted(set(reads)) == the_cli_reads  # a query reads what aion predict reads
+    assert m.config == config == m.state.config
     reads.clear()
     m.plan("p103", "p2", time=T, tz="UTC")
     assert reads == []  # once
