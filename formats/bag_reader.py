@@ -108,7 +108,7 @@ class BagReader(Reader):
         """What opening the bag found: its index rebuilt from its chunks
         (:mod:`formats.bag_reindex`); the file going on after the index, its last record
         (another bag appended to it, garbage: those bytes are not read)."""
-        from aion_cli.formats.clock_steps import ChunkSpan, step_warning
+        from aion_cli.formats.clock_steps import bag_step_warning
         from aion_cli.formats.log_format import trailing_warning
 
         path = self._file
@@ -116,11 +116,8 @@ class BagReader(Reader):
         found = [*self._gaps] if self._reindexed is None else [self._reindexed]
         if self._index_end is not None and self._index_end < size:
             found.append(trailing_warning(path, self._index_end, size))
-        spans = [
-            ChunkSpan(i.pos, i.start_time, i.end_time, i.connection_counts)
-            for i in self.chunk_infos
-        ]
-        step = step_warning(path.name, spans)  # the clock stepped back while recording
+        # the clock stepped back while recording: between chunks or inside one
+        step = bag_step_warning(path.name, self.chunk_infos, self.indexes)
         return [*found, step] if step is not None else found
 
     def open(self) -> None:

@@ -3,14 +3,15 @@ minutes it covers twice hold messages of two moments, which a build reads togeth
 order. Found per channel (topic) in file order without reading a message payload: between
 chunks from their stated time ranges (MCAP chunk indexes, ROS 1 bag chunk infos), inside an
 MCAP chunk from its MessageIndex records (only chunks that span more than a step: a few bytes
-per message), and in a rosbag2 sqlite3 storage file from its ``timestamp`` column in insertion
-(``id``) order. A log written out of time order (which reads as the same map) looks the same,
-so the warning names both."""
+per message), inside a ROS 1 bag chunk from its index entries in offset order, in an MCAP file
+without a summary while its opening scan reads it (:class:`ScanSteps`), and in a rosbag2
+sqlite3 storage file from its ``timestamp`` column in insertion (``id``) order. A log written
+out of time order (which reads as the same map) looks the same, so the warning names both."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
-from itertools import islice
+from collections.abc import Iterable, Mapping, Sequence
+from itertools import chain, islice
 from operator import itemgetter
 from pathlib import Path
 from typing import IO, Any, NamedTuple
@@ -110,6 +111,88 @@ def inside_mcap_chunks(stream: IO[bytes], size: int, indexes: Sequence[Any]) -> 
     return best
 
 
+def _inside_chunk(times: npt.NDArray[np.uint64], channels: npt.NDArray[Any]) -> Step | None:
+    """The largest step back of one chunk's messages (``times`` and ``channels`` in the order
+    they are in the chunk), per channel; None when there is none (or the chunk spans no
+    more than :data:`BACK_STEP_NS`: then it holds none)."""
+    if times.size < 2 or int(times.max()) - int(times.min()) <= BACK_STEP_NS:
+        return None
+    best: Step | None = None
+    for cid in np.unique(channels):
+        found = _largest_back(times[channels == cid])
+        if found is not None and (best is None or found[0] > best.back_ns):
+            best = Step(*found, inside=True)
+    return best
+
+
+def _larger(a: Step | None, b: Step | None) -> Step | None:
+    return b if a is None or (b is not None and b.back_ns > a.back_ns) else a
+
+
+class ScanSteps:
+    """Steps back in log time met while an MCAP file without a summary is scanned (no chunk
+    index to look at): each chunk's time range and channels (the steps between chunks, as
+    :func:`mcap_step_warning` finds them from chunk indexes), the steps inside each chunk
+    (its messages in the order they are in it), and those between messages outside chunks."""
+
+    def __init__(self) -> None:
+        self._spans: list[ChunkSpan] = []
+        self._inside: Step | None = None
+        self._bare: list[tuple[int, int]] = []  # (log time, channel) outside chunks
+
+    def chunk(self, position: int, times: Sequence[int], channels: Sequence[int]) -> None:
+        """A chunk at ``position`` holding messages of ``times`` on ``channels`` (in the
+        order they are in it)."""
+        if not times:
+            return
+        t = np.asarray(times, np.uint64)
+        c = np.asarray(channels, np.int64)
+        self._spans.append(ChunkSpan(position, int(t.min()), int(t.max()), set(c.tolist())))
+        self._inside = _larger(self._inside, _inside_chunk(t, c))
+
+    def message(self, log_time: int, channel: int) -> None:
+        """A message record outside chunks."""
+        self._bare.append((log_time, channel))
+
+    def warning(self, name: str) -> str | None:
+        """The warning for the log ``name`` of the largest step found; None if none."""
+        between = backward_step(self._spans)
+        best = _larger(Step(*between) if between is not None else None, self._inside)
+        if self._bare:
+            bare = np.array(self._bare, np.uint64)
+            best = _larger(best, _inside_chunk(bare[:, 0], bare[:, 1]))
+        return None if best is None else _warning(name, best)
+
+
+def bag_step_warning(
+    name: str, chunks: Sequence[Any], indexes: Mapping[int, Sequence[Any]]
+) -> str | None:
+    """The warning for the ROS 1 bag ``name`` whose log times step back, between its chunks
+    (``chunks``: its chunk infos) or inside one: per connection, in the order its messages
+    were written (their offsets in the chunk; ``indexes``: each connection's index entries,
+    ``(time, chunk_pos, offset)``). Only the entries of chunks spanning more than
+    :data:`BACK_STEP_NS` are looked at (only those can hold a step); None if none."""
+    spans = [ChunkSpan(i.pos, i.start_time, i.end_time, i.connection_counts) for i in chunks]
+    between = backward_step(spans)
+    best = Step(*between) if between is not None else None
+    wide = np.array(
+        [i.pos for i in chunks if i.end_time - i.start_time > BACK_STEP_NS], np.uint64
+    )
+    for entries in indexes.values() if wide.size else ():
+        if len(entries) < 2:
+            continue
+        flat = np.fromiter(chain.from_iterable(entries), np.uint64, 3 * len(entries))
+        table = flat.reshape(-1, 3)  # time, chunk_pos, offset
+        if wide.size < len(chunks):  # only the wide chunks' entries
+            table = table[np.isin(table[:, 1], wide)]
+        table = table[np.lexsort((table[:, 2], table[:, 1]))]  # by chunk, then offset
+        cuts = np.flatnonzero(np.diff(table[:, 1])) + 1
+        for times in np.split(table[:, 0], cuts):  # one chunk's, in the order written
+            found = _largest_back(times)
+            best = _larger(best, Step(*found, inside=True) if found is not None else None)
+    return None if best is None else _warning(name, best)
+
+
 def mcap_step_warning(path: Path, size: int, indexes: Sequence[Any]) -> str | None:
     """The warning for the MCAP file ``path`` (``size`` bytes) whose chunks (``indexes``,
     mcap ChunkIndex records) step back in log time, between them or inside one; None if
@@ -198,12 +281,6 @@ def storage_step_warnings(storages: Iterable[Any], names: Iterable[str] | None =
         warning = sqlite_step_warning(name, db) if db is not None else None
         out += [warning] if warning is not None else []
     return out
-
-
-def step_warning(name: str, chunks: Sequence[ChunkSpan]) -> str | None:
-    """The warning for the log ``name`` whose ``chunks`` step back in time; None if not."""
-    step = backward_step(chunks)
-    return None if step is None else _warning(name, Step(*step))
 
 
 def _warning(name: str, step: Step) -> str:

@@ -32,6 +32,8 @@ from aion_cli.formats.mcap_records import MAGIC
 if TYPE_CHECKING:
     import numpy.typing as npt
 
+    from aion_cli.formats.clock_steps import ScanSteps
+
 
 _MCAP_MAGIC = MAGIC  # the name the readers import
 _MCAP_READ_ERRORS = (
@@ -60,6 +62,8 @@ class _McapLinearRead(_Source):
     _scanned_times: npt.NDArray[np.uint64] | None
     _scanned_channels: npt.NDArray[np.uint16] | None
     _later_min: npt.NDArray[np.int64] | None
+    _chunk_indexes: list[Any] | None
+    _steps: ScanSteps | None
     _profile: str
     _pending_big: list[tuple[int, int, int]] | None
 
@@ -68,8 +72,12 @@ class _McapLinearRead(_Source):
     def _scan(self) -> tuple[Any, Any, dict[int, int], int, int]:
         """Read the whole file linearly to count messages and keep their log times and
         channels (for :meth:`recorded_windows` and :meth:`index_times`); note where an
-        unreadable record stops the read (truncated or corrupt file)."""
+        unreadable record stops the read (truncated or corrupt file), and where log times
+        step back (:class:`formats.clock_steps.ScanSteps`: the check a summary's chunk
+        indexes give a file that has one)."""
         from mcap.records import Channel, Header, Schema
+
+        from aion_cli.formats.clock_steps import ScanSteps
 
         channels: dict[int, Any] = {}
         schemas: dict[int, Any] = {}
@@ -78,6 +86,7 @@ class _McapLinearRead(_Source):
         channel_ids = array("H")
         group_starts = array("Q")  # earliest log time of each record group holding messages
         start, end, n = 2**63 - 1, 0, 0
+        steps = self._steps = ScanSteps()
         for group in self._linear_groups(None, scanning=True):
             first = 2**64 - 1
             for record in group:
@@ -105,6 +114,10 @@ class _McapLinearRead(_Source):
             # back is bounded by the earliest message of every later group
             starts = np.frombuffer(group_starts, dtype=np.uint64).astype(np.int64)
             self._later_min = np.minimum.accumulate(starts[::-1])[::-1]
+        self._steps = None
+        step = steps.warning(self.path.name)
+        if step is not None and self._chunk_indexes is None:  # else the indexes said it
+            self._warn(step)
         if self._stop_offset is not None:
             self._warn(
                 f"{self.path.name}: truncated or corrupt MCAP: read stopped at byte "
@@ -188,7 +201,7 @@ class _McapLinearRead(_Source):
             head = mr.read_chunk_head(f, offset, self._size)
             buf = mr.read_chunk(f, head, self._limits, _decompress)
             if scanning:
-                return self._chunk_definitions(buf)
+                return self._chunk_definitions(buf, offset)
             selected, big, seen = mr.chunk_messages(buf, wanted, self._limits.max_message_bytes)
         except ValueError as exc:  # ChunkError and the head's ValueError
             self._bad_chunks[offset] = _why(exc)
@@ -198,10 +211,12 @@ class _McapLinearRead(_Source):
         self._oversized(big)
         return selected if seen else None
 
-    def _chunk_definitions(self, buf: bytes) -> list[Any] | None:
+    def _chunk_definitions(self, buf: bytes, offset: int) -> list[Any] | None:
         """Schemas and channels (mcap records) and messages (``(log_time, channel_id, b"")``)
-        of a decompressed chunk, definitions first, messages by log time; None when it holds
-        neither. :class:`formats.limits.ChunkError` for records that do not parse."""
+        of the decompressed chunk at ``offset``, definitions first, messages by log time;
+        None when it holds neither. :class:`formats.limits.ChunkError` for records that do
+        not parse. The messages' log times in the order they are in the chunk go to the
+        scan's clock step check."""
         from mcap.records import Channel, Schema
 
         from aion_cli.formats import mcap_records as mr
@@ -221,6 +236,8 @@ class _McapLinearRead(_Source):
                 kind = Schema if opcode == mr.OP_SCHEMA else Channel
                 items.append(_parse_record(kind, buf[b0:b1]))
         self._oversized(big)
+        if self._steps is not None:
+            self._steps.chunk(offset, [m[0] for m in messages], [m[1] for m in messages])
         messages.sort(key=_first)
         items.extend(messages)
         return items or None
@@ -241,6 +258,8 @@ class _McapLinearRead(_Source):
             self._oversized([(cid, log_time, size)])
             return None
         if scanning:
+            if self._steps is not None:
+                self._steps.message(log_time, cid)
             return [(log_time, cid, b"")]
         if wanted is not None and cid not in wanted:
             return []

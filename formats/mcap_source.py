@@ -105,6 +105,7 @@ class _McapSource(_McapIndexed):
         # with messages out of order in a file read linearly: the earliest log time of each
         # group of records holding messages and of all after it (see _records_linear)
         self._later_min: npt.NDArray[np.int64] | None = None
+        self._steps: clock_steps.ScanSteps | None = None  # while the linear scan runs
         self._profile = ""
         self.channel_topics: dict[int, str] = {}
         # messages over the cap met while opening, said once the channels' topics are known

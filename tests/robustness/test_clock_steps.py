@@ -4,7 +4,8 @@ order, so the people seen then count twice. The build did that without a word; n
 log's reader warns (from the chunk indexes of an MCAP file and the MessageIndex records of its
 chunks, the chunk infos of a ROS 1 bag, the ``timestamp`` column of a rosbag2 sqlite3 file in
 the order its rows were written), in ``aion build`` and ``aion info``. A step inside one MCAP
-chunk and rosbag2 ``.db3`` files were not checked before."""
+chunk and rosbag2 ``.db3`` files were not checked before; nor a step inside one ROS 1 bag chunk,
+nor an MCAP file without a summary (read linearly: no chunk index to look at)."""
 
 from __future__ import annotations
 
@@ -136,3 +137,64 @@ def test_a_rosbag2_storage_file_alone_is_checked_too(tmp_path: Path) -> None:
     (minutes,) = steps_back(info.stderr.splitlines())
     assert minutes == round((STEP_S - 1) / 60, 1)
     assert "alone.db3: its log times go back" in info.stderr
+
+
+def without_summary(log: Path, out: Path) -> Path:
+    """``log`` (an MCAP file) cut where its summary section begins: its chunks and DataEnd
+    record, no summary and no footer (a recorder stopped before it wrote them)."""
+    data = log.read_bytes()
+    # the footer: opcode, length, summary start, summary offset start, CRC; then the magic
+    summary_start = int.from_bytes(data[-8 - 20 : -8 - 12], "little")
+    assert 0 < summary_start < len(data)
+    out.write_bytes(data[:summary_start])
+    return out
+
+
+@pytest.mark.parametrize("chunk_size", [4096, ONE_CHUNK])
+@pytest.mark.parametrize("container", ["mcap", "mcap-ros1"])
+def test_an_mcap_without_a_summary_is_checked_while_it_is_scanned(
+    tmp_path: Path, container: str, chunk_size: int
+) -> None:
+    """An MCAP file without a summary is read linearly (no chunk index to look at): the
+    opening scan checks its messages' log times per channel, between chunks (small chunks:
+    the chunks' time ranges, as a summary's chunk indexes give them) and inside one (the
+    whole log in one chunk: message N/2 is logged 599 s before message N/2 - 1)."""
+    full = write_chunked(tmp_path / "full.mcap", stepped(-STEP_S), container, chunk_size)
+    log = without_summary(full, tmp_path / "cut.mcap")
+    report = build_json(log, "-o", tmp_path / "cut.aion")
+    (minutes,) = steps_back(report["warnings"])
+    # the same warning the file with its summary gets
+    assert steps_back(build_json(full, "-o", tmp_path / "full.aion")["warnings"]) == [minutes]
+    if chunk_size == ONE_CHUNK:
+        assert minutes == round((STEP_S - 1) / 60, 1)
+        (warning,) = [w for w in report["warnings"] if "go back" in w]
+        assert "cut.mcap: its log times go back" in warning
+        assert "a message logged" in warning  # inside a chunk, not between two
+    else:
+        assert 10 - 0.5 <= minutes <= 10
+    info = run("info", log)
+    assert len(steps_back(info.stderr.splitlines())) == 1
+    ordered = write_chunked(tmp_path / "ordered.mcap", stepped(0), container, chunk_size)
+    cut = without_summary(ordered, tmp_path / "ordered-cut.mcap")
+    assert steps_back(build_json(cut, "-o", tmp_path / "o.aion")["warnings"]) == []
+
+
+def test_a_step_inside_one_ros1_bag_chunk_is_a_warning(tmp_path: Path) -> None:
+    """The whole bag in one chunk: its chunk info's time range says nothing of a step inside
+    it; the index entries of the chunk (each message's log time and offset in the chunk: the
+    order they were written) do. Message N/2 is logged 599 s before message N/2 - 1."""
+    log = write_chunked(tmp_path / "one.bag", stepped(-STEP_S), "bag", ONE_CHUNK)
+    from rosbags.rosbag1 import Reader
+
+    with Reader(log) as reader:
+        assert len(reader.chunk_infos) == 1
+    report = build_json(log, "-o", tmp_path / "one.aion")
+    (minutes,) = steps_back(report["warnings"])
+    assert minutes == round((STEP_S - 1) / 60, 1)
+    (warning,) = [w for w in report["warnings"] if "go back" in w]
+    assert "one.bag: its log times go back" in warning
+    assert "a message logged" in warning  # inside a chunk, not between two
+    info = run("info", log)
+    assert len(steps_back(info.stderr.splitlines())) == 1
+    ordered = write_chunked(tmp_path / "ordered.bag", stepped(0), "bag", ONE_CHUNK)
+    assert steps_back(build_json(ordered, "-o", tmp_path / "o.aion")["warnings"]) == []
