@@ -121,6 +121,7 @@ def build(
     continue_from: PathLike | None = None,
     config: ModelConfig | Mapping[str, Any] | None = None,
     graph: PathLike | None = None,
+    lineage: str = "auto",
     tz: ZoneLike | None = None,
     detection_topics: Sequence[str] = (),
     graph_topic: str | None = None,
@@ -151,7 +152,9 @@ def build(
     ``Map.report``; a ``tz`` that differs from it is a warning. ``graph_period``: about one
     scene graph per period of log time (``"5s"``, ``"1m"``, seconds or a ``timedelta``; 0:
     every graph; None: 5 s), as ``--graph-period``; ``dsg_version`` (``"1.1.3"``) and
-    ``batch_size`` as ``--dsg-version`` and ``--batch-size``."""
+    ``batch_size`` as ``--dsg-version`` and ``--batch-size``. ``lineage`` (auto / same /
+    different): whether ``graph`` is of ``continue_from``'s scene-graph session, as
+    ``--lineage``."""
     from aion_cli.api import read_map
     from aion_cli.api_checks import count, flag, text, zone_name
     from aion_cli.build_options import map_frame_of
@@ -185,6 +188,7 @@ def build(
         nav_layer=text(nav_layer, "nav_layer"),
         derive_graph=flag(derive_graph, "derive_graph"),
         continue_from=continued,
+        lineage=text(lineage, "lineage") or "auto",
         timezone=tz,
         workers=count(workers, "workers", minimum=0) or 0,
         scheduler=text(scheduler, "scheduler"),

@@ -73,6 +73,9 @@ class BuildOptions:
     nav_layer: str | None = None  # --nav-layer NAME|KEY (None: MESH_PLACES if any, else PLACES)
     derive_graph: bool = False
     continue_from: Path | None = None
+    #: ``--lineage``: whether ``graph_file`` is of ``continue_from``'s scene-graph session
+    #: (:mod:`aion_cli.build_lineage`)
+    lineage: str = "auto"
     dsg_version: str | None = None
     batch_size: int = 4000
     timezone: str | None = None
@@ -97,6 +100,14 @@ class BuildOptions:
     #: spans may fill beyond the shard's own logs, its share of the time between the groups
     #: of logs (:func:`aion_cli.fixed_sensor.declared_windows`); None: the logs' own
     observed_fill: tuple[int | None, int | None] = (None, None)
+
+    def __post_init__(self) -> None:
+        from aion_cli.build_lineage import LINEAGES
+
+        if self.lineage not in LINEAGES:
+            raise InputError(
+                f"unknown lineage {self.lineage!r}", hint=f"one of {', '.join(LINEAGES)}"
+            )
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""

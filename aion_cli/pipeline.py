@@ -210,6 +210,8 @@ class _Build(StreamStep):
                     f"{opts.map_frame!r}); unless they are, give the logs the TF to "
                     f"{recorded!r} instead, or build them into a map of their own"
                 )
+        elif opts.lineage != "auto":
+            self.report.notes.append(f"--lineage {opts.lineage} ignored: no --map to continue")
         config = self.config()
         hashes = self._distinct_logs().start()
         try:
@@ -224,9 +226,14 @@ class _Build(StreamStep):
     def _load_previous(self, path: Path) -> LoadedMap:
         """The continued map, on the FreMEn clock it goes on with
         (:func:`aion_cli.merge_config.continued_config`)."""
+        from aion_cli.build_lineage import continue_on_graph
         from aion_cli.merge_config import adopt_config, continued_config
 
         loaded = load_map(path, writable=True)
+        opts = self.opts  # another session's graph file: refused, or the map released
+        continue_on_graph(
+            loaded, path.name, opts.graph_file, opts.nav_layer, opts.lineage, self.report.notes
+        )
         config = continued_config(loaded.config, Manifest.from_dict(loaded.manifest))
         if config != loaded.config:
             adopt_config(loaded.state, config)

@@ -173,6 +173,15 @@ class _RichProgress:
     type=AionPath(path_type=Path, dir_okay=False),
     help="Scene graph saved by Hydra (dsg.json, .sparkdsg) instead of the log's.",
 )
+@click.option(
+    "--lineage",
+    type=click.Choice(["auto", "same", "different"]),
+    default="auto",
+    show_default=True,
+    help="With --map and --graph: whether the graph file is of the map's scene-graph session "
+    "(node ids go on by id) or of another (the map's places released to hash cells, then "
+    "re-bound); auto refuses a file whose place ids lie elsewhere.",
+)
 @nav_layer_option
 @graph_period_option
 @click.option(
@@ -262,6 +271,7 @@ def command(
     detections_mapping: Path | None,
     graph_topic: str | None,
     graph_file: Path | None,
+    lineage: str,
     nav_layer: str | None,
     graph_period_ns: int | None,
     derive_graph: bool,
@@ -324,6 +334,7 @@ def command(
         nav_layer=nav_layer,
         derive_graph=derive_graph,
         continue_from=continue_from,
+        lineage=lineage,
         dsg_version=dsg_version,
         batch_size=batch_size,
         timezone=zone_name,

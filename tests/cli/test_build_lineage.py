@@ -1,0 +1,107 @@
+"""``aion build --map MAP --graph FILE`` where FILE is a scene graph of another Hydra session
+(its place ids p0, p1, ... at other places): accepted without a word before, the continued
+map's flows going on by id at unrelated places. Now refused (exit 2, one line and a hint)
+unless ``--lineage`` says which: ``different`` releases the map's places to hash cells and
+re-binds them to the file's by position (as ``aion merge --lineage different``), ``same``
+goes on by id. Known answers from the office log (tests/cli/logdata.py): track 1 stands at
+(2.1, 0.1), next to the office graph's p1 at (2, 0)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli.mapquery import load_map
+from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.logdata import DURATION_S, PLACES, save_graph_file, sym, write_office_log
+
+#: another session's graph: p1 and p5 swap places, as do p3 and p6 and p0 and p2 (p4 stays)
+SWAP = {0: 2, 1: 5, 2: 0, 3: 6, 4: 4, 5: 1, 6: 3}
+OTHER = {k: PLACES[SWAP[k]] for k in PLACES}
+
+
+def place_counts(path: Path) -> dict[int, float]:
+    """Detections held per place index (the k of pk) of the map ``path``."""
+    state = load_map(path).state
+    rows = state.entries.node_rows()
+    ids = state.entries.node_id[rows]
+    return {
+        int(i) - sym("p", 0): float(state.entries.counts[r].sum())
+        for i, r in zip(ids, rows, strict=True)
+        if state.entries.counts[r].sum() > 0
+    }
+
+
+@pytest.fixture(scope="module")
+def continued(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("lineage")
+    first = write_office_log(folder / "a.mcap", graph=False, tf=False)
+    assert first is not None
+    later = folder / "b.mcap"
+    write_office_log(later, graph=False, tf=False, shift_s=2 * DURATION_S)
+    here = save_graph_file(folder / "here.json")
+    other = save_graph_file(folder / "other.json", OTHER)
+    m = folder / "m.aion"
+    run_json("build", folder / "a.mcap", "--graph", here, "-o", m, "--format", "json")
+    return {"map": m, "log": later, "here": here, "other": other, "folder": folder}
+
+
+def test_another_sessions_graph_is_refused(continued: dict[str, Path]) -> None:
+    out = continued["folder"] / "refused.aion"
+    result = run(
+        "build", continued["log"], "--map", continued["map"], "--graph", continued["other"],
+        "-o", out,
+    )  # fmt: skip
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(
+        result.stderr, "other.json is a scene graph of another session than m.aion's",
+        "of the 7 place ids both hold, 1 lie within 1 m",
+    )
+    assert "--lineage different" in result.stderr
+    assert "--lineage same" in result.stderr
+    assert not out.exists()
+
+
+def test_the_maps_own_graph_goes_on(continued: dict[str, Path]) -> None:
+    out = continued["folder"] / "same.aion"
+    report = run_json(
+        "build", continued["log"], "--map", continued["map"], "--graph", continued["here"],
+        "-o", out, "--format", "json",
+    )  # fmt: skip
+    assert report["continued"] is True
+    counts = place_counts(out)
+    assert counts[1] > 0  # track 1 on p1 at (2, 0)
+    assert 5 not in counts  # nobody at (20, 0)
+
+
+def test_lineage_different_rebinds_by_position_and_same_goes_on_by_id(
+    continued: dict[str, Path],
+) -> None:
+    """The same log continued on the map's own graph and on the other session's: with
+    --lineage different every place holds what the same place holds on the map's own graph
+    (track 1's detections on p5, at (2, 0) in the other session); with --lineage same p1 keeps
+    the first log's detections by id, at (20, 0), where nobody walked."""
+    folder = continued["folder"]
+    same_graph = folder / "own.aion"
+    run_json(
+        "build", continued["log"], "--map", continued["map"], "--graph", continued["here"],
+        "-o", same_graph, "--format", "json",
+    )  # fmt: skip
+    expected = {SWAP[k]: n for k, n in place_counts(same_graph).items()}
+    moved = folder / "different.aion"
+    report = run_json(
+        "build", continued["log"], "--map", continued["map"], "--graph", continued["other"],
+        "-o", moved, "--lineage", "different", "--format", "json",
+    )  # fmt: skip
+    assert any("--lineage different: m.aion's" in n for n in report["notes"]), report["notes"]
+    got = place_counts(moved)
+    assert got.keys() == expected.keys()
+    np.testing.assert_allclose([got[k] for k in sorted(got)], [expected[k] for k in sorted(got)])
+    by_id = folder / "by-id.aion"
+    run_json(
+        "build", continued["log"], "--map", continued["map"], "--graph", continued["other"],
+        "-o", by_id, "--lineage", "same", "--format", "json",
+    )  # fmt: skip
+    assert place_counts(by_id).get(1, 0) > 0  # the first log's track 1, now at (20, 0)
