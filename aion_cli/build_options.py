@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -108,6 +109,8 @@ class BuildOptions:
             raise InputError(
                 f"unknown lineage {self.lineage!r}", hint=f"one of {', '.join(LINEAGES)}"
             )
+        if self.scheduler is not None:  # a typo is refused even where no cluster is used
+            check_scheduler_address(self.scheduler)
 
     def output_path(self) -> Path:
         """``-o``, else the continued map, else the first log's name with ``.aion``."""
@@ -122,6 +125,44 @@ class BuildOptions:
             raise InputError(f"no map name follows from the log {first}", hint="give -o MAP.aion")
         base = first.parent / (first.name.rstrip("/") if first.is_dir() else first.stem)
         return base.with_name(base.name + MAP_SUFFIX)
+
+
+#: the schemes of Dask's comm layer (distributed.comm): tcp without one (``host:port``)
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+#: a host name, an IPv4 address, or an IPv6 address in brackets
+_HOST = re.compile(r"[A-Za-z0-9_.-]+|\[[0-9A-Fa-f:.%A-Za-z]+\]")
+
+
+def check_scheduler_address(address: str) -> None:
+    """Refuse a ``--scheduler`` address that is not one (:class:`InputError`): an unknown
+    scheme, no host, no port or one that is no port number. Only its form is checked, with
+    or without Dask installed; whether a scheduler answers there is asked when a build uses
+    it (:mod:`aion_cli.dask_build`)."""
+    scheme, sep, where = address.partition("://")
+    if not sep:
+        scheme, where = "tcp", address
+    why = None
+    host, colon, port = where.rpartition(":")
+    if scheme not in SCHEDULER_SCHEMES:
+        why = f"unknown scheme {scheme!r} (one of {', '.join(SCHEDULER_SCHEMES)})"
+    elif scheme == "inproc":
+        why = None if where else "no address after inproc://"
+    elif not colon:
+        why = "no port"
+    elif not host:
+        why = "no host"
+    elif not _HOST.fullmatch(host):
+        why = f"host {host!r} is not a host name or IP address"
+    elif not port.isdigit():
+        why = f"port {port!r} is not a number"
+    elif not 1 <= int(port) <= 65535:
+        why = f"port {int(port)} is not in 1..65535"
+    if why is not None:
+        raise InputError(
+            f"--scheduler {address} is not a Dask scheduler address: {why}",
+            hint="give the scheduler's address as Dask prints it, e.g. --scheduler "
+            "tcp://10.0.0.5:8786",
+        )
 
 
 def check_not_an_input(out: Path, logs: tuple[Path, ...]) -> None:
