@@ -273,7 +273,7 @@ class HeadingEstimator:
         diff_heading = np.arctan2(dy, dx)
         if self.look_ahead:
             self._look(rows, kr, chain, last_chain, real, ref, root, stale, moved,
-                       diff_heading, T, vnodes, vslot)
+                       diff_heading, dist, dt, T, vnodes, vslot)
 
         # previous heading: the value of the last event before each row (a track's first node
         # is an event; a root is stale, so its own previous heading is NaN anyway)
@@ -311,13 +311,14 @@ class HeadingEstimator:
         self, rows: I64, kr: I64, chain: npt.NDArray[np.bool_], last_chain: I64, real: I64,
         ref: I64,
         root: npt.NDArray[np.bool_], stale: npt.NDArray[np.bool_], moved: npt.NDArray[np.bool_],
-        diff_heading: F64, T: I64, vnodes: I64, vslot: I64,
+        diff_heading: F64, dist: F64, dt: I64, T: I64, vnodes: I64, vslot: I64,
     ) -> None:
         """:attr:`look` of ``rows`` (in node order): a reference *waits* while no heading has
         been taken from it (a track's first row, a stale reset, a remembered reference
         without a heading); the rows it is the reference of wait with it, and the track's
         next reset settles them -- with its displacement's heading when it moved, with none
-        when the reference lapsed (stale)."""
+        when the reference lapsed (stale), and with its speed (``dist / dt``, as a moved
+        row's own)."""
         waits = np.zeros(len(T), dtype=bool)
         waits[real] = stale  # (roots are stale)
         waits[vnodes] = np.isnan(self.heading[vslot])
@@ -329,7 +330,10 @@ class HeadingEstimator:
         look.waiting[rows] = waits[owner]
         look.expire_ns[rows] = T[owner] + self.max_gap_ns
         look.settles[rows] = settles
-        look.heading[rows] = np.where(settles & moved, diff_heading, np.nan)
+        given = settles & moved  # (moved rows are fresh: dt > 0)
+        look.heading[rows] = np.where(given, diff_heading, np.nan)
+        look.speed[rows] = np.nan
+        look.speed[rows[given]] = dist[given] / (dt[given] * 1e-9)
 
     def _next_resets(
         self, T: I64, x: F64, y: F64, node_end: I64, g_start: I64, size: I64

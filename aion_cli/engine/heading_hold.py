@@ -8,7 +8,7 @@ direction of the track's first displacement. With ``look_ahead`` the estimator s
 (:class:`LookAhead`), whether it waits, when its reference lapses, and whether it *settles*
 its track's waiting rows (the displacement that ends the wait, or the lapse, NaN); a
 :class:`HeadingHold` between the decoding and the Mapper holds the waiting rows back and
-gives them the settling heading when it comes.
+gives them the settling heading, and the speed of the same displacement, when it comes.
 
 The hold is a first-in first-out queue of rows: rows leave in the order they came, so the
 Mapper receives exactly the rows, in exactly the order, it would without the hold, only some
@@ -40,21 +40,22 @@ from aion_cli.engine.types import F64, I64, BoolA, DetectionBatch
 class LookAhead:
     """Per row of a batch: ``key`` the track it waits on or settles (-1: none), ``waiting``
     (its heading waits for the track's next displacement), ``expire_ns`` (a waiting row's
-    reference time plus ``max_gap``), ``settles`` (the row ends its track's wait) and
+    reference time plus ``max_gap``), ``settles`` (the row ends its track's wait),
     ``heading`` (a settling row's heading for the waiting rows; NaN: none, the reference
-    lapsed)."""
+    lapsed) and ``speed`` (the speed of the same displacement, m/s)."""
 
     key: I64
     waiting: BoolA
     expire_ns: I64
     settles: BoolA
     heading: F64
+    speed: F64
 
     @classmethod
     def none(cls, n: int) -> LookAhead:
         """``n`` rows that neither wait nor settle."""
         return cls(np.full(n, -1, np.int64), np.zeros(n, bool), np.zeros(n, np.int64),
-                   np.zeros(n, bool), np.full(n, np.nan))
+                   np.zeros(n, bool), np.full(n, np.nan), np.full(n, np.nan))
 
     def __len__(self) -> int:
         return len(self.key)
@@ -62,23 +63,24 @@ class LookAhead:
     def select(self, index: I64 | BoolA | slice) -> LookAhead:
         """The rows ``index`` (indices or a mask), in that order."""
         return LookAhead(self.key[index], self.waiting[index], self.expire_ns[index],
-                         self.settles[index], self.heading[index])
+                         self.settles[index], self.heading[index], self.speed[index])
 
     def put(self, index: I64, other: LookAhead) -> None:
         """Rows ``index`` of this one set to ``other``'s (in place)."""
         self.key[index], self.waiting[index] = other.key, other.waiting
         self.expire_ns[index], self.settles[index] = other.expire_ns, other.settles
-        self.heading[index] = other.heading
+        self.heading[index], self.speed[index] = other.heading, other.speed
 
     def rekeyed(self, label: I64, n_labels: int) -> LookAhead:
         """Keys made unique over several sources (``label`` per row, ``0 .. n_labels - 1``)."""
         key = np.where(self.key >= 0, self.key * n_labels + label, -1)
-        return LookAhead(key, self.waiting, self.expire_ns, self.settles, self.heading)
+        return LookAhead(key, self.waiting, self.expire_ns, self.settles, self.heading,
+                         self.speed)
 
     @staticmethod
     def concat(parts: list[LookAhead]) -> LookAhead:
         return LookAhead(*(np.concatenate([getattr(p, f) for p in parts]) for f in
-                           ("key", "waiting", "expire_ns", "settles", "heading")))
+                           ("key", "waiting", "expire_ns", "settles", "heading", "speed")))
 
 
 class HeadingHold:
@@ -124,21 +126,26 @@ class HeadingHold:
         pos = np.arange(n)
         leave_at = pos.copy()
         heading = batch.heading.copy()
+        speed = batch.speed
         wait = np.flatnonzero(look.waiting)
         if wait.size:
-            at, h = _settling(look, wait, n)
+            at, h, v = _settling(look, wait, n)
             # the reference lapses at the first row the stream's time passes its expiry
             lapse = np.searchsorted(np.maximum.accumulate(batch.t_ns), look.expire_ns[wait],
                                     side="right")
             lapse = np.maximum(lapse, wait)
             got = at <= lapse  # (a settling row is never one past the expiry: it would lapse)
             leave_at[wait] = np.minimum(at, lapse)
-            heading[wait] = np.where(got & (at < n), h, np.nan)
+            given = got & (at < n)
+            heading[wait] = np.where(given, h, np.nan)
+            # the speed of the displacement that gave the heading, as the settling row has
+            speed = speed.copy()
+            speed[wait[given]] = v[given]
         if everything:
             m = n
         else:
             m = int(np.searchsorted(np.maximum.accumulate(leave_at), n))
-        out = DetectionBatch(batch.t_ns[:m], batch.xyz[:m], heading[:m], batch.speed[:m],
+        out = DetectionBatch(batch.t_ns[:m], batch.xyz[:m], heading[:m], speed[:m],
                              batch.track_id[:m])
         given = look.waiting[:m] & ~np.isnan(heading[:m])
         if given.any():
@@ -152,14 +159,15 @@ class HeadingHold:
         return out, label[:m]
 
 
-def _settling(look: LookAhead, wait: I64, n: int) -> tuple[I64, F64]:
+def _settling(look: LookAhead, wait: I64, n: int) -> tuple[I64, F64, F64]:
     """For each waiting row ``wait``: the position of the first later row of its track that
-    settles (``n`` if none yet) and that row's heading."""
+    settles (``n`` if none yet) and that row's heading and speed."""
     settle = np.flatnonzero(look.settles)
     at = np.full(len(wait), n, np.int64)
     h = np.full(len(wait), np.nan)
+    v = np.full(len(wait), np.nan)
     if settle.size == 0:
-        return at, h
+        return at, h, v
     _, rank = np.unique(look.key[np.concatenate([wait, settle])], return_inverse=True)
     w_rank, s_rank = rank[: len(wait)], rank[len(wait):]
     s_code = s_rank * (n + 1) + settle  # (key, position), increasing in both
@@ -170,4 +178,5 @@ def _settling(look: LookAhead, wait: I64, n: int) -> tuple[I64, F64]:
     ok[ok] = s_code[j[ok]] // (n + 1) == w_rank[ok]
     at[ok] = s_pos[j[ok]]
     h[ok] = look.heading[s_pos[j[ok]]]
-    return at, h
+    v[ok] = look.speed[s_pos[j[ok]]]
+    return at, h, v
