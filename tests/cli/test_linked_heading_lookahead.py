@@ -204,6 +204,15 @@ def test_a_scene_graph_does_not_take_the_heading_of_a_track_that_just_started(
     assert without["entry_speed_sum"].sum() == pytest.approx(truth.speed.sum(), rel=1e-12)
 
 
+#: walkers every 15 s, then a person standing until 587 s, and two more walkers from 600 s
+_QUIET_AT_600 = (
+    *((s0, 6, (-14.0 + k % 5, -6.0 + k % 4), 0.5 * k, 1.0 if k % 2 else 0.2)
+      for k, s0 in enumerate(range(0, 570, 15))),
+    (575.0, 12, (-10.0, -4.0), 0.0, 0.0),  # stands till 587 s
+    (600.0, 6, (-12.0, -5.0), 1.0, 0.2), (615.0, 6, (-9.0, -3.0), -2.0, 1.0),
+)
+
+
 def test_workers_and_a_continued_map_build_the_one_pass_map_of_an_id_less_log(
     tmp_path: Path,
 ) -> None:
@@ -216,11 +225,7 @@ def test_workers_and_a_continued_map_build_the_one_pass_map_of_an_id_less_log(
     from aion_cli.engine.compare import differences
     from aion_cli.mapquery import load_map
 
-    walkers = tuple((s0, 6, (-14.0 + k % 5, -6.0 + k % 4), 0.5 * k, 1.0 if k % 2 else 0.2)
-                    for k, s0 in enumerate(range(0, 570, 15)))
-    walkers += ((575.0, 12, (-10.0, -4.0), 0.0, 0.0),  # stands till 587 s
-                (600.0, 6, (-12.0, -5.0), 1.0, 0.2), (615.0, 6, (-9.0, -3.0), -2.0, 1.0))
-    truth = _walkers(walkers)
+    truth = _walkers(_QUIET_AT_600)
     log = _idless_log(truth, tmp_path / "idless.mcap")
     cut = truth.t_ns < T0 + 600 * S
     first = _idless_log(truth.select(cut), tmp_path / "first.mcap")
@@ -239,3 +244,52 @@ def test_workers_and_a_continued_map_build_the_one_pass_map_of_an_id_less_log(
     build_map(BuildOptions(logs=(second,), output=continued, continue_from=continued))
     assert differences(load_map(both, writable=True).state,
                        load_map(continued, writable=True).state) == []
+
+
+def test_two_workers_differ_from_one_only_in_the_last_bits_of_sums_both_shards_add_to(
+    tmp_path: Path,
+) -> None:
+    """Where a parallel build of an id-less log is not byte-identical to one pass, and why:
+    linking, the heading hold and every count are exact across the cut (every array but the
+    float sums equal byte for byte), and a float sum differs only in an entry and direction
+    bin that rows on both sides of the cut add to -- the join adds the shard's sum to the
+    earlier map's at once, where one pass adds term by term (docs/SCALING.md, "Joins")."""
+    truth = _walkers(_QUIET_AT_600)
+    log = _idless_log(truth, tmp_path / "idless.mcap")
+    cut = truth.t_ns < T0 + 600 * S
+    sides = []
+    for name, rows in (("first", cut), ("second", ~cut)):
+        out = tmp_path / f"{name}.aion"
+        build_map(BuildOptions(logs=(_idless_log(truth.select(rows), tmp_path / f"{name}.mcap"),),
+                               output=out, workers=1))
+        sides.append(_map_arrays(out))
+    one, two = tmp_path / "one.aion", tmp_path / "two.aion"
+    build_map(BuildOptions(logs=(log,), output=one, workers=1))
+    assert len(build_map(BuildOptions(logs=(log,), output=two, workers=2)).workers) == 2
+    a, b = _map_arrays(one), _map_arrays(two)
+    sums = ("entry_speed_sum", "entry_heading_cos", "entry_heading_sin")
+    assert a.keys() == b.keys()
+    assert [k for k in a if k not in sums and k.startswith("entry_")
+            and a[k].tobytes() != b[k].tobytes()] == []
+    # the entries and bins that rows of both sides add to: those holding more than either
+    # side's map alone (a cell or a place: one pass may move a side's cell into a place,
+    # which only makes more of them count as both)
+    counts = a["entry_counts"]
+    alone = []
+    for side in sides:
+        where = {(int(kd), int(nd) if kd else int(k)): i for i, (kd, k, nd) in
+                 enumerate(zip(side["entry_kind"], side["entry_key"], side["entry_node_id"],
+                               strict=True))}
+        c = np.zeros_like(counts)
+        for i, (kd, k, nd) in enumerate(zip(a["entry_kind"], a["entry_key"],
+                                            a["entry_node_id"], strict=True)):
+            j = where.get((int(kd), int(nd) if kd else int(k)))
+            if j is not None:
+                c[i] = side["entry_counts"][j]
+        alone.append(c)
+    both = (counts > alone[0]) & (counts > alone[1])
+    assert both.any()  # (a place both shards' walkers pass)
+    assert (~both & (counts > 0)).any()
+    for k in sums:
+        assert np.array_equal(a[k][~both], b[k][~both])  # one side alone: bit for bit
+        assert np.allclose(a[k][both], b[k][both], rtol=0, atol=1e-12)
