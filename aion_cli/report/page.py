@@ -312,7 +312,8 @@ def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
         "The dominant direction of each: the histogram of the directions people walked, as "
         "bars around the place (east = +x, counter-clockwise), the red arrow the dominant "
         "direction (where most people walk, as the table gives it), as long as the flow is "
-        "concentrated (short when people walk both ways)."
+        "concentrated (short when people walk both ways); the rings give the share of the "
+        "place's headings in a direction, on one scale for every rose."
     )
     return [
         "<h2>Busiest places</h2>",

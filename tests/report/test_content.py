@@ -263,3 +263,21 @@ def test_the_page_says_how_many_days_were_scored_as_info_does(
     assert re.findall(r"<tr><td>days scored</td><td>(.*?)</td></tr>", page) == [
         "1 (the last, still open to more logs, provisionally)"
     ]
+
+
+def test_the_roses_caption_says_what_their_rings_are(
+    fixed_map: tuple[Path, LoadedMap], tmp_path: Path
+) -> None:
+    """The roses' rings are labelled in shares of a place's headings, one scale for every
+    rose (report/plots.py); the caption under the picture described the bars and the arrow
+    but not the rings, so a reader of the page alone could not tell what they measure."""
+    import html
+    import re
+
+    path, loaded = fixed_map
+    write_report(loaded, path, tmp_path / "r", resolve_zone("UTC"), None)
+    page = (tmp_path / "r" / "index.html").read_text()
+    (caption,) = re.findall(r'<img src="roses.png"[^>]*>\s*<figcaption>(.*?)</figcaption>', page)
+    text = html.unescape(caption)
+    assert "rings give the share of the place's headings" in text, text
+    assert "one scale for every rose" in text, text
