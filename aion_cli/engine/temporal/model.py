@@ -149,8 +149,12 @@ def observed_bins(
     pending day, the open window: every window they hold was observed by something). A
     forecast in any other bin is extrapolated from the bins observed, not measured."""
     seen = state.glob.profile[0] > 0
-    if rows.size:
-        seen = seen | (state.obs.profile[rows] > 0).any(axis=0)
+    # a row never observed on its own (n = 0) has an empty profile (n is the sum of its
+    # bins, of the same non-negative weights): only the others are read, so a fixed
+    # sensor's map does not touch (or copy) an E x bins array of zeros
+    own = rows[state.obs.n[rows] > 0]
+    if own.size:
+        seen = seen | (state.obs.profile[own] > 0).any(axis=0)
     for part in parts:
         if part.windows.size:
             seen[slot_times(params, part, window_ns)[1]] = True
