@@ -171,6 +171,8 @@ def test_build_small() -> None:
     assert compact["map_bytes"] < size["map_bytes"]  # the Fourier sums left out
     assert compact["vs_full_map"] == pytest.approx(size["map_bytes"] / compact["map_bytes"])
     assert predict["seconds"] > 0
+    assert predict["cpu_s"] > 0  # the children's rusage
+    assert predict["help_cpu_s"] > 0
     assert info["seconds"] > 0
     assert predict_compact["same_answer"]  # the query-only map's top 10 is the map's
     memory = bench_build_scale.run_memory(sizes_gb=(0.002, 0.004))
