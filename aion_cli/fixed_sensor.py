@@ -268,18 +268,6 @@ def file_bounds(
     return np.array(starts, np.int64), np.array(ends, np.int64)
 
 
-def recorded_window_share(logset: Any, windows: I64, delta: int) -> float:
-    """How many windows of ``windows`` (sorted) the logs recorded, each window a log starts or
-    ends inside counted for the part recorded (:func:`file_bounds`), as a build counts a fixed
-    sensor's windows: a four-minute log records 0.4 of one ten-minute window."""
-    from aion_cli.engine.config import ModelConfig
-    from aion_cli.engine.observation import ObservationSource
-
-    source = ObservationSource()
-    source.add_fixed_windows(windows, delta, file_bounds(logset, windows, delta))
-    return float(source.fixed_share(windows, delta, ModelConfig()).sum())
-
-
 def _beyond_files(
     run_starts: I64, run_ends: I64, file_starts: I64, file_ends: I64
 ) -> tuple[I64, I64]:

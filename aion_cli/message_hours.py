@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from aion_cli.engine.types import I64
+
 
 def fixed_sensor_windows(logset: Any, timezone: str = "UTC") -> dict[str, Any]:
     """How many of the default model's windows between the logs' first and last message
@@ -25,7 +27,6 @@ def fixed_sensor_windows(logset: Any, timezone: str = "UTC") -> dict[str, Any]:
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.temporal.calendar import Calendar
     from aion_cli.engine.windows import window_centre_ns, window_ns
-    from aion_cli.fixed_sensor import recorded_window_share
     from aion_cli.forecast_notes import observed_hours
 
     config = ModelConfig(timezone=timezone)
@@ -40,3 +41,17 @@ def fixed_sensor_windows(logset: Any, timezone: str = "UTC") -> dict[str, Any]:
             "recorded_windows": round(recorded, 2),
             "recorded_s": round(recorded * config.window_s, 1), "window_s": config.window_s,
             "hours_with_messages": hours}
+
+
+def recorded_window_share(logset: Any, windows: I64, delta: int) -> float:
+    """How many windows of ``windows`` (sorted) the logs recorded, each window a log starts or
+    ends inside counted for the part recorded (:func:`aion_cli.fixed_sensor.file_bounds`),
+    as a build counts a fixed sensor's windows: a four-minute log records 0.4 of one
+    ten-minute window."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.observation import ObservationSource
+    from aion_cli.fixed_sensor import file_bounds
+
+    source = ObservationSource()
+    source.add_fixed_windows(windows, delta, file_bounds(logset, windows, delta))
+    return float(source.fixed_share(windows, delta, ModelConfig()).sum())
