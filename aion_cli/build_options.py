@@ -97,6 +97,9 @@ class BuildOptions:
     #: ``--observed``: spans ``[lo, hi)`` of log time (ns) a fixed sensor was recording,
     #: beside the windows with messages (a tracker that publishes only when it sees someone)
     observed: tuple[tuple[int, int], ...] = ()
+    #: the spans of ``observed`` the logs record with empty marker messages (``aion convert
+    #: --observed``; :mod:`aion_cli.log_observed`): a window only markers hold has no message
+    observed_marked: tuple[tuple[int, int], ...] = ()
     #: internal (a parallel build's shards): the first and last window the ``--observed``
     #: spans may fill beyond the shard's own logs, its share of the time between the groups
     #: of logs (:func:`aion_cli.fixed_sensor.declared_windows`); None: the logs' own

@@ -179,7 +179,8 @@ class StreamStep:
         # (a time shard without graphs of its own still observes with the logs' agents)
         if use_agents and self.report.graph_messages == 0 and self.time_part is None:
             self.report.observation = fixed_sensor_windows(
-                mapper, logset, self._times, self.report.notes, self.report, self.opts.observed
+                mapper, logset, self._times, self.report.notes, self.report, self.opts.observed,
+                marked=self.opts.observed_marked,
             )
 
     def _leave(

@@ -65,6 +65,7 @@ def fixed_sensor_windows(
     report: Any = None,
     declared: tuple[tuple[int, int], ...] = (),
     fill: tuple[int | None, int | None] = (None, None),
+    marked: tuple[tuple[int, int], ...] = (),
 ) -> str:
     """The observation of a log without a robot trajectory (neither TF nor scene-graph
     agents), from its log times: a fixed sensor observes exactly the windows in which the logs
@@ -82,9 +83,10 @@ def fixed_sensor_windows(
     :func:`declared_windows`). A window a log starts or ends inside counts for the part of it
     recorded (:func:`recording_bounds`; ``ModelConfig.exposure``), so a four-minute log is
     four minutes of watching, not ten; a window without a message counts for the part the
-    declared spans cover (a span to 12:02: 0.2 of 12:00-12:10). Sets the Mapper's windows,
-    adds a note for windows left out, and returns the report's description of the
-    observation."""
+    declared spans cover (a span to 12:02: 0.2 of 12:00-12:10), also a window only the
+    empty markers of the ``marked`` spans hold (``aion convert --observed``:
+    :mod:`aion_cli.log_observed`). Sets the Mapper's windows, adds a note for windows left
+    out, and returns the report's description of the observation."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
 
@@ -99,8 +101,14 @@ def fixed_sensor_windows(
             f"{outside:,} recorded window(s) outside the time of the topics aion uses are "
             f"not taken as observed (first: {iso(first)})"
         )
+    recorded = recorded[inside]
+    if marked:  # the windows only markers hold: as if without a message
+        from aion_cli.log_observed import without_markers
+
+        times, only_marks = without_markers(times, marked, delta)
+        recorded = np.setdiff1d(recorded, only_marks)
     read = windows_of(times.span_times, delta)  # the windows of the messages aion reads
-    windows = np.union1d(recorded[inside], read)
+    windows = np.union1d(recorded, read)
     spans = _file_spans(logset, times, delta) if declared or report is not None else []
     added: I64 = np.zeros(0, np.int64)
     if declared:

@@ -435,6 +435,7 @@ class _Build(StreamStep):
         observe(
             mapper, tf, frames, graph_agents, logset, self._times, self.report,
             self.opts.observed, self._detection_windows, self._observed_fill(),
+            self.opts.observed_marked,
         )
 
     def _observed_fill(self) -> tuple[int | None, int | None]:
@@ -495,4 +496,9 @@ def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> Build
         raise InputError("no log given", hint="aion build LOG... -o MAP")
     if opts.batch_size < 1:
         raise InputError("batch size must be >= 1")
-    return _Build(opts, progress or NoProgress()).run()
+    from aion_cli.log_observed import with_logs_observed
+
+    opts, notes = with_logs_observed(opts)  # the spans aion convert --observed recorded
+    report = _Build(opts, progress or NoProgress()).run()
+    report.notes[:0] = notes
+    return report

@@ -175,11 +175,19 @@ def select_topics(
 
 
 def _zone_topic(info: TopicInfo) -> str | None:
-    """The reason of a ROS 1 bag's time-zone topic (:mod:`formats.log_zone`), None else."""
-    from aion_cli.formats.log_zone import KEY, RECORD, STRING, metadata_topic
+    """The reason of a ROS 1 bag's time-zone or observed-spans topic
+    (:mod:`formats.log_zone`), None else."""
+    from aion_cli.formats.log_zone import KEY, OBSERVED_KEY, RECORD, STRING, metadata_topic
 
-    if info.topic == metadata_topic(RECORD, KEY) and info.msgtype == STRING:
+    if info.msgtype != STRING:
+        return None
+    if info.topic == metadata_topic(RECORD, KEY):
         return "the log's time zone (aion simulate --tz): build follows it without --tz"
+    if info.topic == metadata_topic(RECORD, OBSERVED_KEY):
+        return (
+            "the spans the sensor was observing (aion convert --observed): build takes them "
+            "without --observed"
+        )
     return None
 
 

@@ -1,14 +1,17 @@
-"""The time zone a log declares, written by ``aion simulate --tz`` (``LogWriter.add_metadata``):
+"""What a log declares about itself in aion's metadata (``LogWriter.add_metadata``): the time
+zone ``aion simulate --tz`` / ``aion convert --tz`` write (key ``timezone``) and the spans
+``aion convert --observed`` declares (key ``observed``, :func:`spans_text`):
 
-- an MCAP file: its ``aion`` metadata record, key ``timezone``;
-- a rosbag2 folder: ``custom_data`` ``aion.timezone`` in its ``metadata.yaml`` (the
-  key-value map rosbag2 keeps for its writers' own data);
+- an MCAP file: its ``aion`` metadata record, key ``timezone`` / ``observed``;
+- a rosbag2 folder: ``custom_data`` ``aion.timezone`` / ``aion.observed`` in its
+  ``metadata.yaml`` (the key-value map rosbag2 keeps for its writers' own data);
 - a ROS 1 bag, which has no metadata record: one latched ``std_msgs/String`` message on
-  ``/aion/timezone`` at the log's first time (a topic of its own, as tools that store
-  metadata inside bags do; ``rosbag play`` publishes it once, latched).
+  ``/aion/timezone`` / ``/aion/observed`` at the log's first time (a topic of its own, as tools
+  that store metadata inside bags do; ``rosbag play`` publishes it once, latched).
 
 So ``aion build`` without ``--tz`` can take the zone the scene's hours follow, and warn when
-``--tz`` names another (:mod:`aion_cli.log_zone`).
+``--tz`` names another (:mod:`aion_cli.log_zone`), and without ``--observed`` takes the spans
+a converted log declares (:mod:`aion_cli.log_observed`).
 """
 
 from __future__ import annotations
@@ -22,6 +25,8 @@ from pathlib import Path
 #: The metadata record and its key.
 RECORD = "aion"
 KEY = "timezone"
+OBSERVED_KEY = "observed"
+"""The key of the spans ``aion convert --observed`` declares (:func:`spans_text`)."""
 
 STRING = "std_msgs/msg/String"
 """The type of a ROS 1 bag's metadata topics (:func:`metadata_topic`)."""
@@ -46,33 +51,73 @@ def _from_ros1_string(raw: bytes | memoryview) -> str | None:
     return raw[4 : 4 + n].decode("utf-8", errors="replace") if len(raw) == 4 + n else None
 
 
+def spans_text(spans: Iterable[tuple[int, int]]) -> str:
+    """Half-open spans ``[lo, hi)`` of log time (ns) as the metadata value: ``lo..hi`` joined
+    by ``,`` (integers: exact, whatever zone they were given in)."""
+    return ",".join(f"{int(a)}..{int(b)}" for a, b in spans)
+
+
+def parse_spans_text(text: str) -> tuple[tuple[int, int], ...] | None:
+    """The spans of :func:`spans_text`; None when ``text`` is not such a list (a value some
+    other writer left: as if the log declared none)."""
+    out = []
+    for part in text.split(","):
+        lo, sep, hi = part.strip().partition("..")
+        try:
+            a, b = int(lo), int(hi)
+        except ValueError:
+            return None
+        if not sep or not 0 <= a < b:
+            return None
+        out.append((a, b))
+    return tuple(out) or None
+
+
 def declared_zones(paths: Sequence[Path]) -> dict[str, str]:
     """Per log among ``paths`` (by its path text), the zone it declares (see the module
     docstring); logs without one and logs that cannot be read are left out (the build reads
     them and says what is wrong)."""
+    return declared_values(paths, KEY)
+
+
+def declared_spans(paths: Sequence[Path]) -> dict[str, tuple[tuple[int, int], ...]]:
+    """Per log among ``paths`` (by its path text), the observed spans it declares (``aion
+    convert --observed``: :func:`spans_text`); logs without them, with a value that is not
+    such a list, or that cannot be read are left out."""
+    out = {}
+    for path, text in declared_values(paths, OBSERVED_KEY).items():
+        spans = parse_spans_text(text)
+        if spans is not None:
+            out[path] = spans
+    return out
+
+
+def declared_values(paths: Sequence[Path], key: str) -> dict[str, str]:
+    """Per log among ``paths`` (by its path text), the value of its aion metadata ``key``;
+    logs without one and logs that cannot be read are left out."""
     from aion_cli.formats.log_format import guess_format
 
     out: dict[str, str] = {}
     for path in paths:
         try:
             kind, target = guess_format(path)
-            zone = _reader(kind)(target)
+            value = _reader(kind)(target, key)
         except Exception:  # a damaged log declares nothing: the build reads it and says why
             continue
-        if isinstance(zone, str) and zone:
-            out[str(path)] = zone
+        if isinstance(value, str) and value:
+            out[str(path)] = value
     return out
 
 
-def _reader(kind: str) -> Callable[[Path], str | None]:
+def _reader(kind: str) -> Callable[[Path, str], str | None]:
     return {"mcap": _mcap_zone, "bag": _bag_zone, "rosbag2": _rosbag2_zone}.get(kind, _none)
 
 
-def _none(_path: Path) -> None:
+def _none(_path: Path, _key: str) -> None:
     return None
 
 
-def _mcap_zone(path: Path) -> str | None:
+def _mcap_zone(path: Path, key: str = KEY) -> str | None:
     """The zone of an MCAP file's metadata index (its summary); in a file without one (a
     recorder stopped before the summary) only the records before its first chunk or
     message are read, where aion's writers put the record (:meth:`LogWriter.add_metadata`
@@ -105,16 +150,16 @@ def _mcap_zone(path: Path) -> str | None:
                 if (
                     isinstance(record, Metadata)
                     and record.name == RECORD
-                    and record.metadata.get(KEY)
+                    and record.metadata.get(key)
                 ):
-                    zone = record.metadata[KEY]
+                    zone = record.metadata[key]
     return zone
 
 
-def _bag_zone(path: Path) -> str | None:
+def _bag_zone(path: Path, key: str = KEY) -> str | None:
     from rosbags.rosbag1 import Reader
 
-    topic = metadata_topic(RECORD, KEY)
+    topic = metadata_topic(RECORD, key)
     with Reader(path) as reader:
         found = [
             c for c in reader.connections
@@ -127,7 +172,7 @@ def _bag_zone(path: Path) -> str | None:
     return None
 
 
-def _rosbag2_zone(path: Path) -> str | None:
+def _rosbag2_zone(path: Path, key: str = KEY) -> str | None:
     from ruamel.yaml import YAML  # rosbags' own YAML library
 
     from aion_cli.formats.log_target import _MAX_METADATA_BYTES
@@ -138,5 +183,5 @@ def _rosbag2_zone(path: Path) -> str | None:
         return None
     doc = YAML(typ="safe").load(meta.read_text(encoding="utf-8"))
     custom = doc["rosbag2_bagfile_information"].get("custom_data") or {}
-    zone = custom.get(f"{RECORD}.{KEY}")
+    zone = custom.get(f"{RECORD}.{key}")
     return zone if isinstance(zone, str) else None

@@ -153,7 +153,9 @@ def tracks_to_log(
     The batch may be empty when spans are given (the sensor ran, nobody came).
 
     ``timezone`` (an IANA name): the zone the data's days and hours follow, stored in the log
-    (:mod:`formats.log_zone`) so that ``aion build`` takes it without ``--tz``.
+    (:mod:`formats.log_zone`) so that ``aion build`` takes it without ``--tz``; the
+    ``observed`` spans are stored so too, and ``aion build`` reads them as ``--observed``
+    spans (:mod:`aion_cli.log_observed`), the markers kept for other readers.
 
     Times must lie in ``0 .. 2^63 - 1`` ns (:class:`formats.writers.LogTimeError`, raised
     before anything is written). The messages are built :data:`CHUNK_ROWS` rows at a time
@@ -344,10 +346,11 @@ def _write_tracks(
     rows = groups = 0
     track_ids = np.zeros(0, np.int64)
     with LogWriter(out_path, container, overwrite=overwrite) as writer:
-        if timezone is not None:  # before the first message: a ROS 1 bag's latched topic
-            from aion_cli.formats.log_zone import KEY, RECORD
+        declared = _declared_metadata(timezone, spans)
+        if declared:  # before the first message: a ROS 1 bag's latched topics
+            from aion_cli.formats.log_zone import RECORD
 
-            writer.add_metadata(RECORD, {KEY: timezone})
+            writer.add_metadata(RECORD, declared)
         out = _Messages(
             writer, kind, topic, frame_id, marks, payload, graph_topic, round(graph_period_s * 1e9)
         )
@@ -405,6 +408,18 @@ def _write_tracks(
         far_rows=far.rows,
         far_example=far.example,
     )
+
+
+def _declared_metadata(timezone: str | None, spans: list[tuple[int, int]]) -> dict[str, str]:
+    """What the log declares in aion's metadata (:mod:`formats.log_zone`): the zone, and the
+    observed spans, so that ``aion build`` counts them as ``--observed`` spans (a window
+    only the empty marker messages hold counts for the share the spans cover)."""
+    from aion_cli.formats.log_zone import KEY, OBSERVED_KEY, spans_text
+
+    out = {} if timezone is None else {KEY: timezone}
+    if spans:
+        out[OBSERVED_KEY] = spans_text(spans)
+    return out
 
 
 def _check_chunk(chunk: DetectionBatch, kind: str, held: DetectionBatch | None) -> None:

@@ -259,7 +259,8 @@ class _RichProgress:
     '"2026-01-05 00:00..2026-01-12 00:00": its windows without a message count as observed, '
     "with nobody in them (a tracker that publishes only when it sees someone), from the "
     "first log's first message to the last log's last, the time between logs included. "
-    "Times in --tz, else the continued map's zone, else UTC.",
+    "Times in --tz, else the continued map's zone, else UTC. Without it: the spans the logs "
+    "record (aion convert --observed); given, it replaces them.",
 )
 @quiet_option
 @format_option(choices=("table", "json"))

@@ -146,7 +146,8 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
     multiple=True,
     help="A span the sensor was recording (repeatable), e.g. "
     '"2017-06-09 09:00..2017-06-09 18:30" or "1496999627..1497032025": written as empty '
-    "detection messages every 30 s so the build counts it as observed.",
+    "detection messages every 30 s (as a running tracker publishes) and recorded in the "
+    "log, which aion build takes as its --observed spans.",
 )
 @click.option(
     "--tz",

@@ -51,9 +51,11 @@ frames_without_tf{topic: [frames of its first messages that the log's TF does no
 to 'map']} (aion_cli.frame_check: a build would need --map-frame), tf_roots{frame: the frame
 at the top of its TF tree, for those frames that TF knows (the --map-frame to build in when
 map->odom is missing)},
-mapping_example (without a detection topic: a topic --suggest-mapping writes a mapping for,
-or null), with --verify verified{messages_read} (every message read as a build reads them;
-chunks that cannot be read are warnings naming the messages lost).
+observed_spans{log: [{start_ns, end_ns, start, end}]} (the spans aion convert --observed
+recorded in a log, which aion build takes as --observed spans), mapping_example (without a
+detection topic: a topic --suggest-mapping writes a mapping for, or null), with --verify
+verified{messages_read} (every message read as a build reads them; chunks that cannot be read
+are warnings naming the messages lost).
 For a map (.aion): map, format, version, creator, created, inputs[{path, name, size, sha256}],
 time_span, counts (all builds), last_build, graph_source, observation, families (how many
 entries each temporal model family forecasts, flow and direction), timezone, config, map_frame,
@@ -391,7 +393,7 @@ def _print(report: dict[str, Any]) -> None:
                 f"{empty:,} with nobody in {'it' if empty == 1 else 'them'}, so the tracker is "
                 "not silent when nobody is there"
             )
-        elif share < 0.5:
+        elif share < 0.5 and not report.get("observed_spans"):  # else: the note below
             text += (
                 "; the others are unknown, not empty: if the tracker is silent when nobody "
                 "is there, build with --observed START..END"
@@ -402,4 +404,13 @@ def _print(report: dict[str, Any]) -> None:
                 f"[yellow]note:[/yellow] hours with messages: {safe(fixed['hours_with_messages'])}",
                 soft_wrap=True,
             )
+    for path, spans in (report.get("observed_spans") or {}).items():
+        listed = ", ".join(f"{s['start']} .. {s['end']}" for s in spans)
+        console().print(
+            f"[yellow]note:[/yellow] {safe(Path(path).name)} records the spans the sensor was "
+            f"observing (aion convert --observed): {listed}; `aion build` takes them as "
+            "--observed spans (a window only the log's empty marker messages hold counts for "
+            "the share they cover) unless --observed is given",
+            soft_wrap=True,
+        )
     warn_each(list(report["warnings"]))

@@ -56,6 +56,7 @@ def describe(
             report["verified"] = {"messages_read": read}
         if plan.detections and not plan.tf and _no_graph_robot(firsts):
             report["fixed_sensor"] = fixed_sensor_windows(logset, tz)
+        report["observed_spans"] = _recorded_spans(distinct.logs)
         if plan.detections:
             add_frames(report, logset, plan, mappings, not _no_graph_robot(firsts))
         else:
@@ -78,6 +79,19 @@ def describe(
     if not plan.detections:
         report["mapping_example"] = example
     return report
+
+
+def _recorded_spans(logs: Any) -> dict[str, list[dict[str, Any]]]:
+    """Per log (its path), the observed spans it records (``aion convert --observed``,
+    :func:`formats.log_zone.declared_spans`), which ``aion build`` takes without
+    ``--observed``: start and end in ns and as UTC times."""
+    from aion_cli.engine.windows import iso
+    from aion_cli.formats.log_zone import declared_spans
+
+    return {
+        path: [{"start_ns": a, "end_ns": b, "start": iso(a), "end": iso(b)} for a, b in spans]
+        for path, spans in declared_spans(list(logs)).items()
+    }
 
 
 def _mappings(path: Path | None) -> list[Any]:

@@ -26,10 +26,19 @@ ADVICE = "if its tracker is silent when nobody is there"
 
 
 def _convert(tmp_path: Path, name: str, *spans: str) -> Path:
-    csv, log = tmp_path / f"{name}.csv", tmp_path / f"{name}.mcap"
+    """A tracker's log (a rosbag2 folder) with an empty message every 30 s over ``spans``,
+    written by aion convert --observed without the spans it records (which aion build would
+    take as --observed: a tracker's own log declares none)."""
+    import yaml
+
+    csv, log = tmp_path / f"{name}.csv", tmp_path / name
     csv.write_text(CSV)
     out = run("convert", csv, "-o", log, *spans)
     assert out.exit_code == 0, out.output
+    meta = log / "metadata.yaml"
+    doc = yaml.safe_load(meta.read_text())
+    doc["rosbag2_bagfile_information"]["custom_data"].pop("aion.observed", None)
+    meta.write_text(yaml.safe_dump(doc))
     return log
 
 

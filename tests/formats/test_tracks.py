@@ -355,12 +355,13 @@ def test_observed_stamps_every_interval_and_the_last_instant() -> None:
 
 
 def _log_messages(path: Path) -> tuple[list[int], FrameDetections, npt.NDArray[np.int64]]:
-    """Log times of all messages, the decoded detections (adapter) and windows recorded."""
+    """Log times of the detection topic's messages, the decoded detections (adapter) and
+    windows recorded (a ROS 1 bag's latched /aion/observed metadata topic left out)."""
     from aion_cli.formats.detections import adapter_for
     from aion_cli.formats.logs import open_logs
 
     with open_logs([path]) as logs:
-        msgs = list(logs.messages())
+        msgs = [m for m in logs.messages() if m.topic != "/aion/observed"]
         adapter = adapter_for(msgs[0].msgtype)
         assert adapter is not None
         frames = adapter.decode(msgs)
@@ -397,6 +398,9 @@ def test_tracks_to_log_marks_observed_spans(tmp_path: Path, container: str, msgt
     assert summary.observed_spans == 2
     assert summary.observed_ns == 3600 * S + 3599 * S
     assert (summary.start_ns, summary.end_ns) == (spans[0][0], spans[1][1] - 1)
+    from aion_cli.formats.log_zone import declared_spans
+
+    assert declared_spans([out]) == {str(out): tuple(spans)}  # what aion build reads
     times, frames, windows = _log_messages(out)
     assert len(times) == 3 + len(marks)
     assert times == sorted(times)  # merged in time order

@@ -1,0 +1,89 @@
+"""The observed spans a build takes from its logs (:mod:`formats.log_zone`: the spans ``aion
+convert --observed`` records beside the empty "still observing" messages it writes).
+
+Without ``--observed`` a build counts the spans its logs record as if given by
+``--observed`` (the spans of several logs together), and the empty marker messages at
+:func:`formats.tracks_log.observed_stamps` of those spans as no message: a window only
+markers hold counts for the share the spans cover, as ``build --observed`` counts a window
+without a message, so converting with ``--observed`` and building equals converting without
+it and building with ``--observed``. ``--observed`` given replaces the logs' spans (their
+markers then count as any message does, as in logs converted by older aion or written by
+other tools, which record no spans).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from aion_cli.build_options import BuildOptions
+from aion_cli.engine.types import I64
+from aion_cli.log_times import TimeCheck
+
+Spans = tuple[tuple[int, int], ...]
+
+
+def with_logs_observed(opts: BuildOptions) -> tuple[BuildOptions, list[str]]:
+    """``opts`` with the observed spans its logs record (:func:`logs_observed`), and the
+    notes to give."""
+    observed, marked, notes = logs_observed(opts.observed, opts.logs)
+    return replace(opts, observed=observed, observed_marked=marked), notes
+
+
+def logs_observed(given: Spans, logs: Sequence[Path]) -> tuple[Spans, Spans, list[str]]:
+    """The spans a build declares and, of them, those whose windows the logs mark with empty
+    messages (``given``: ``--observed``, which takes precedence), and the notes to give."""
+    from aion_cli.formats.log_zone import declared_spans
+    from aion_cli.formats.track_types import merge_spans
+
+    recorded = declared_spans(logs)
+    if not recorded:
+        return given, (), []
+    names = ", ".join(Path(p).name for p in recorded)
+    verb = "records" if len(recorded) == 1 else "record"
+    if given:
+        return given, (), [
+            f"--observed replaces the observed spans {names} {verb} (aion convert --observed); "
+            "their empty marker messages count as any message"
+        ]
+    each = tuple(sorted({s for spans in recorded.values() for s in spans}))  # as each log's
+    return tuple(merge_spans(each)), each, [
+        f"{names} {verb} the spans the sensor was observing "
+        "(aion convert --observed): taken as --observed spans, a window only its empty marker "
+        "messages hold counting for the share the spans cover (give --observed to replace them)"
+    ]
+
+
+def unmarked_times(times: I64, marked: Spans) -> I64:
+    """``times`` (log times, any order) without one message at each stamp of the empty
+    marker messages of the ``marked`` spans (each span as its log marked it:
+    :func:`formats.tracks_log.observed_stamps` of it alone, since two logs' touching spans
+    are marked apart; a detection message at a marker's stamp stays), sorted."""
+    from aion_cli.formats.tracks_log import observed_stamps
+
+    t = np.sort(np.asarray(times, np.int64))
+    if not marked or t.size == 0:
+        return t
+    marks = np.unique(np.concatenate([observed_stamps([span]) for span in marked]))
+    marks = marks[(marks >= t[0]) & (marks <= t[-1])]
+    at = np.searchsorted(t, marks, "left")
+    hit = at < t.size
+    hit[hit] = t[at[hit]] == marks[hit]
+    keep = np.ones(t.size, bool)
+    keep[at[hit]] = False
+    out: I64 = t[keep]
+    return out
+
+
+def without_markers(times: TimeCheck, marked: Spans, delta: int) -> tuple[TimeCheck, I64]:
+    """``times`` without the empty marker messages of the ``marked`` spans
+    (:func:`unmarked_times`), and the windows of ``delta`` ns that only markers held."""
+    from aion_cli.formats.recorded import windows_of
+
+    kept = unmarked_times(times.span_times, marked)
+    only = np.setdiff1d(windows_of(times.span_times, delta), windows_of(kept, delta))
+    return replace(times, span_times=kept, _pending=Counter()), only

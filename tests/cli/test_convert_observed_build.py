@@ -1,0 +1,130 @@
+"""``aion convert --observed`` records its spans in the log (MCAP metadata, a ROS 1 bag's
+latched topic, rosbag2 custom_data) beside the empty marker messages, and ``aion build``
+reads them as ``--observed`` spans: converting with the spans and building gives the
+observed windows of converting without them and building with ``--observed``. Before, the
+markers made a window the span only partly covers count whole (27.0 windows against 26.2)."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from tests.cli.conftest import run, run_json
+
+SPAN = "2026-11-23 08:00..2026-11-23 12:02"
+
+
+@pytest.fixture(scope="module")
+def two(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """ATC rows (time s, id, x m, y m, speed, angle): 08:00-08:20 on 2026-11-23 and -24,
+    one person a minute walking for 30 s from 5 s past it; the last row at 08:19:34."""
+    rows, person = [], 1
+    for day in (23, 24):
+        t0 = datetime(2026, 11, day, 8, 0, tzinfo=UTC).timestamp()
+        for minute in range(20):
+            start = t0 + minute * 60 + 5
+            rows += [f"{start + i:.3f},{person},{-10 + i * 0.5:.3f},1.000,0.5,0.0"
+                     for i in range(30)]
+            person += 1
+    path = tmp_path_factory.mktemp("two") / "two.csv"
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def _convert(tracks: Path, log: Path, *args: str) -> None:
+    result = run("convert", tracks, "--layout", "atc", "-o", log, "-q", *args)
+    assert result.exit_code == 0, result.stderr
+
+
+def _observed(path: Path) -> np.ndarray:
+    from aion_cli.mapquery import load_map
+
+    state = load_map(path).state
+    out: np.ndarray = state.windows_observed(state.entries.live_rows(), True)
+    return out
+
+
+def test_converting_with_spans_observes_what_building_with_them_does(
+    two: Path, tmp_path: Path
+) -> None:
+    """The span ends at 12:02 inside 12:00-12:10, which holds only markers: 24 windows to
+    12:00, 0.2 of the next, then 08:00-08:10 on the 24th and 08:10-08:20 to its last message
+    (08:19:34, to the 10 s step: 29/30), 26.17 windows by either route."""
+    marked, plain = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    _convert(two, marked, "--observed", SPAN)
+    _convert(two, plain)
+    a = run_json("build", marked, "-o", tmp_path / "a.aion", "--format", "json")
+    b = run_json("build", plain, "-o", tmp_path / "b.aion", "--observed", SPAN,
+                 "--format", "json")
+    via_convert, via_build = _observed(tmp_path / "a.aion"), _observed(tmp_path / "b.aion")
+    assert via_build.max() == pytest.approx(24 + 0.2 + 1 + 29 / 30)
+    assert via_convert.tobytes() == via_build.tobytes()
+    assert a["windows"] == b["windows"] == 26
+    assert any(n.startswith("a.mcap records the spans the sensor was observing")
+               for n in a["notes"])
+
+
+def test_observed_given_replaces_the_recorded_spans(two: Path, tmp_path: Path) -> None:
+    """--observed takes precedence: the markers then count as messages (as in a log that
+    records no spans), so the window 12:00-12:10 counts whole: 27 - 1/30 windows."""
+    marked = tmp_path / "a.mcap"
+    _convert(two, marked, "--observed", SPAN)
+    built = run_json("build", marked, "-o", tmp_path / "a.aion", "--observed", SPAN,
+                     "--format", "json")
+    assert _observed(tmp_path / "a.aion").max() == pytest.approx(25 + 1 + 29 / 30)
+    assert any(n.startswith("--observed replaces the observed spans a.mcap records")
+               for n in built["notes"])
+
+
+def test_a_log_that_records_no_spans_counts_its_markers_whole(
+    two: Path, tmp_path: Path
+) -> None:
+    """A log converted by older aion (the same rosbag2 folder without the spans): the
+    markers are messages, the window 12:00-12:10 counts whole, as before."""
+    marked = tmp_path / "old"
+    _convert(two, marked, "--observed", SPAN)
+    meta = marked / "metadata.yaml"
+    doc = yaml.safe_load(meta.read_text())
+    custom = doc["rosbag2_bagfile_information"]["custom_data"]
+    assert custom.pop("aion.observed") == "1795420800000000000..1795435320000000000"
+    meta.write_text(yaml.safe_dump(doc))
+    run_json("build", marked, "-o", tmp_path / "old.aion", "--format", "json")
+    assert _observed(tmp_path / "old.aion").max() == pytest.approx(25 + 1 + 29 / 30)
+
+
+@pytest.mark.parametrize("name", ["a.mcap", "a.bag", "a"])
+def test_every_container_records_the_spans(two: Path, tmp_path: Path, name: str) -> None:
+    """MCAP, ROS 1 bag and rosbag2 read back the spans convert was given (two of them, in
+    ns), and aion info LOG lists them."""
+    from aion_cli.formats.log_zone import declared_spans
+
+    log = tmp_path / name
+    _convert(two, log, "--observed", SPAN, "--observed", "2026-11-24 07:31..2026-11-24 07:44")
+    spans = ((1795420800 * 10**9, 1795435320 * 10**9), (1795505460 * 10**9, 1795506240 * 10**9))
+    assert declared_spans([log]) == {str(log): spans}
+    info = run_json("info", log, "--format", "json")
+    assert [(s["start"], s["end"]) for s in info["observed_spans"][str(log)]] == [
+        ("2026-11-23 08:00:00 UTC", "2026-11-23 12:02:00 UTC"),
+        ("2026-11-24 07:31:00 UTC", "2026-11-24 07:44:00 UTC"),
+    ]
+    if name.endswith(".bag"):  # the bag's extra topic is named for what it is
+        topic = next(t for t in info["topics"] if t["topic"] == "/aion/observed")
+        assert topic["why"].startswith("the spans the sensor was observing")
+
+
+def test_the_markers_of_two_logs_with_touching_spans_are_each_log_s() -> None:
+    """Log A marks [0, 100 s) at 0, 30, 60, 90 s and 100 s - 1 ns, log B [100 s, 200 s) at
+    100, 130, ..., 190 s and 200 s - 1 ns; a detection message shares the stamp 30 s. Without
+    the markers one message is left, the detection's (the spans merged into [0, 200 s) would
+    have marked 99.999... s and 100 s as no log did)."""
+    from aion_cli.log_observed import unmarked_times
+
+    s = 10**9
+    a = [0, 30 * s, 60 * s, 90 * s, 100 * s - 1]
+    b = [100 * s, 130 * s, 160 * s, 190 * s, 200 * s - 1]
+    times = np.array([*b, 30 * s, *a], np.int64)  # any order
+    assert unmarked_times(times, ((0, 100 * s), (100 * s, 200 * s))).tolist() == [30 * s]
