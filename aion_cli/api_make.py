@@ -153,8 +153,8 @@ def build(
     scene graph per period of log time (``"5s"``, ``"1m"``, seconds or a ``timedelta``; 0:
     every graph; None: 5 s), as ``--graph-period``; ``dsg_version`` (``"1.1.3"``) and
     ``batch_size`` as ``--dsg-version`` and ``--batch-size``. ``lineage`` (auto / same /
-    different): whether ``graph`` is of ``continue_from``'s scene-graph session, as
-    ``--lineage``."""
+    different): whether ``graph``, else the logs' first scene graph, is of
+    ``continue_from``'s scene-graph session, as ``--lineage``."""
     from aion_cli.api import read_map
     from aion_cli.api_checks import count, flag, text, zone_name
     from aion_cli.build_options import map_frame_of

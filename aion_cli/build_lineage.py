@@ -9,6 +9,11 @@ lie within the bind radius? ``--lineage auto`` refuses a graph that says no; ``s
 the user's word (ids add by id); ``different`` releases MAP's node entries to hash cells
 first (:func:`aion_cli.engine.rebind.release_all`, as ``aion merge --lineage different``
 does), which the build then binds to the file's places as it binds a map of cells only.
+
+Without ``--graph FILE`` the logs' own scene graphs (DsgUpdate messages) are asked the same
+question (:func:`check_log_graph`): the first one the build applies (a sequential build) or
+peeks (the parent of a parallel build, :mod:`aion_cli.parallel_build`), in the one pass;
+``different`` releases MAP's node entries before the stream (:func:`release_for_logs`).
 """
 
 from __future__ import annotations
@@ -20,6 +25,8 @@ from aion_cli.errors import InputError
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from aion_cli.engine.rebind import Agreement
+    from aion_cli.engine.types import GraphSnapshot
     from aion_cli.mapquery import LoadedMap
 
 LINEAGES = ("auto", "same", "different")
@@ -39,9 +46,7 @@ def continue_on_graph(
     finds the file's place ids at other places than the map's (another session)."""
     if lineage not in LINEAGES:
         raise InputError(f"unknown lineage {lineage!r}", hint=f"one of {', '.join(LINEAGES)}")
-    if graph_file is None:
-        if lineage != "auto":
-            notes.append(f"--lineage {lineage} ignored: no --graph FILE to continue the map on")
+    if graph_file is None:  # the logs' own graphs, if any: check_log_graph, release_for_logs
         return
     if lineage == "same" or loaded.graph is None:  # the user's word; a map of cells only
         return
@@ -63,11 +68,58 @@ def continue_on_graph(
     agreement = graph_agreement(loaded.graph, target, tolerance)
     if agreement.shared == 0 or agreement.same:
         return  # ids the file lacks release at the bind, by position
-    raise InputError(
-        f"{graph_file.name} is a scene graph of another session than {name}'s: of the "
+    raise _another_session(f"{graph_file.name} is a scene graph", name, agreement, tolerance)
+
+
+def _another_session(what: str, name: str, agreement: Agreement, tolerance: float) -> InputError:
+    """The refusal of ``what`` (a graph file, the logs' scene graph) of another session than
+    the continued map ``name``'s."""
+    return InputError(
+        f"{what} of another session than {name}'s: of the "
         f"{agreement.shared:,} place ids both hold, {agreement.agreeing:,} lie within "
         f"{tolerance:g} m, so {name}'s flows would go to unrelated places",
         hint="if it is another session, add --lineage different (the map's places are "
-        "released to hash cells and re-bound to the file's); if it is the map's own session "
+        "released to hash cells and re-bound to the graph's); if it is the map's own session "
         "whose places moved, add --lineage same",
     )
+
+
+def release_for_logs(
+    loaded: LoadedMap, name: str, logs_have_graphs: bool, lineage: str, notes: list[str]
+) -> None:
+    """Without ``--graph FILE``: ``--lineage different`` releases every node entry of the
+    continued map ``loaded`` (file ``name``) to hash cells before the logs' scene graphs
+    (``logs_have_graphs``) come, which then bind them by position; a lineage the logs give
+    nothing to decide is noted as ignored."""
+    if lineage == "auto":
+        return
+    if not logs_have_graphs:
+        notes.append(
+            f"--lineage {lineage} ignored: neither --graph FILE nor scene graphs in the logs "
+            "to continue the map on"
+        )
+        return
+    if lineage == "different" and loaded.graph is not None:  # (a map of cells: nothing to)
+        from aion_cli.engine.rebind import release_all
+
+        released = release_all(loaded.state)
+        loaded.graph = None
+        notes.append(
+            f"--lineage different: {name}'s {released:,} node entries were released to hash "
+            "cells, which bind to the logs' scene-graph places as the build goes"
+        )
+
+
+def check_log_graph(
+    map_graph: GraphSnapshot, name: str, first: GraphSnapshot, logs: str, tolerance: float
+) -> None:
+    """``--lineage auto`` without ``--graph FILE``: :class:`InputError` when ``first``, the
+    first scene graph of the logs ``logs`` (their names), holds the place ids of the continued
+    map ``name``'s graph ``map_graph`` at other places (another Hydra session). A graph
+    sharing no place id, or whose shared ids mostly lie within ``tolerance``, goes on."""
+    from aion_cli.engine.rebind import graph_agreement
+
+    agreement = graph_agreement(map_graph, first, tolerance)
+    if agreement.shared == 0 or agreement.same:
+        return
+    raise _another_session(f"the scene graph in {logs} is", name, agreement, tolerance)

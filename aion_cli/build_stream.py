@@ -77,6 +77,39 @@ class StreamStep:
     #: what became of the output when no detection was usable (None: the build's own words,
     #: "no map was written"; a held-out reading writes nothing to begin with)
     unusable_outcome: str | None = None
+    #: the continued map's graph, which the first scene graph the stream applies is checked
+    #: against (``--lineage auto``: :meth:`continue_on_logs`); None once checked, or not to be
+    _lineage_graph: GraphSnapshot | None = None
+
+    def continue_on_logs(self, logset: Any, plan: TopicPlan, peek: bool = False) -> None:
+        """Whether the logs' own scene graphs go on in the continued map's session (without
+        ``--graph FILE``, :mod:`aion_cli.build_lineage`): ``--lineage different`` releases
+        the map's node entries now; ``auto`` checks the first graph when the stream applies
+        it (:meth:`_take_graph`), or, with ``peek`` (a parallel build's parent, whose shards
+        do not see the map), the logs' first graph message now: one message, no extra pass."""
+        from aion_cli.build_lineage import check_log_graph, release_for_logs
+
+        previous, name = self.previous, self._continued_name()
+        if previous is None or self.shard or self.opts.graph_file is not None:
+            return
+        has_graphs = bool(plan.graph)
+        release_for_logs(previous, name, has_graphs, self.opts.lineage, self.report.notes)
+        if self.opts.lineage != "auto" or previous.graph is None or not has_graphs:
+            return
+        if not peek:
+            self._lineage_graph = previous.graph
+            return
+        first = next(iter(logset.messages(plan.names("graph"))), None)
+        snapshot = None if first is None else self.graphs.peek(logset, first)
+        if snapshot is not None:
+            check_log_graph(
+                previous.graph, name, snapshot, self._log_names(), previous.config.bind_radius
+            )
+
+    def _log_names(self) -> str:
+        """This build's logs by name, for a message (the first three)."""
+        names = [p.name for p in self._logs[:3]] + ["..."] * (len(self._logs) > 3)
+        return ", ".join(names)
 
     def _derive(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig, start: int
@@ -240,9 +273,8 @@ class StreamStep:
         from aion_cli.engine.windows import window_ns
 
         delta = window_ns(mapper.state.config.window_s)
-        names = ", ".join([p.name for p in self._logs[:3]] + ["..."] * (len(self._logs) > 3))
         clocks = other_clock_error(
-            names, self._times.start_ns, open_window * delta, int(t_ns[late].min())
+            self._log_names(), self._times.start_ns, open_window * delta, int(t_ns[late].min())
         )
         if clocks is not None:
             raise clocks
@@ -292,6 +324,14 @@ class StreamStep:
         its last payload's graph reused, :meth:`aion_cli.graph_feed.GraphFeed.decode`;
         damaged ones were skipped, :meth:`aion_cli.graph_feed.GraphFeed.decode_or_skip`)
         applied to the map."""
+        if self._lineage_graph is not None and self.previous is not None:
+            from aion_cli.build_lineage import check_log_graph
+
+            before, self._lineage_graph = self._lineage_graph, None  # the first graph only
+            check_log_graph(
+                before, self._continued_name(), snapshot, self._log_names(),
+                self.previous.config.bind_radius,
+            )  # fmt: skip
         self._check_after_map(np.array([snapshot.t_ns], np.int64), "scene graph")
         mapper.add_graph(snapshot)
         if use_agents:

@@ -225,6 +225,18 @@ class GraphFeed:
             return False
         return agents is not None and len(agents) > 0
 
+    def peek(self, logset: Any, msg: RawMessage) -> GraphSnapshot | None:
+        """The scene graph ``msg`` decoded apart from the stream (no version or layer pinned,
+        nothing counted or kept; ``--nav-layer`` and ``--dsg-version`` as given); None when
+        it cannot be decoded."""
+        from aion_cli.formats.dsg import decode_dsg
+
+        payload, t_ns = self.payload(logset, msg)
+        try:
+            return decode_dsg(payload, t_ns, self.dsg_version, self.nav_layer).snapshot
+        except InputError:
+            return None
+
     def first_has_agents(self, logset: Any, first: RawMessage | None) -> bool:
         """Whether ``first``, the first scene graph of the log, carries robot poses (its
         agent layer). Its snapshot is kept for the stream, which then does not decode it

@@ -168,7 +168,7 @@ class ParallelBuild:
             return self.build.learn(self.config).state
         self.groups = [group for group, _, _ in shards]
         self.parts = [part for _, part, _ in shards]
-        seeds, kd_trees, static_tf = _plan_streams(list(logs), opts, shards, spans)
+        seeds, kd_trees, static_tf = _plan_streams(list(logs), self.build, shards, spans)
         fills = self._observed_fills(spans, window)
         tasks = [
             ShardTask(
@@ -327,7 +327,7 @@ class ParallelBuild:
 
 def _plan_streams(
     logs: list[Path],
-    opts: BuildOptions,
+    build: _Build,
     shards: list[tuple[tuple[Path, ...], tuple[int, int] | None, bool]],
     spans: list[tuple[Path, int, int]],
 ) -> tuple[list[dict[str, float]], bool, StaticTf]:
@@ -335,12 +335,15 @@ def _plan_streams(
     (:mod:`aion_cli.shard_yaws`; a shard starts at its part's start, else at its logs' first
     message); whether the build will look nodes or sensor ranges up in KD-trees (it has
     scene graphs or a TF topic); and the static transforms of all the logs, which one pass
-    applies to every log (:func:`aion_cli.tf_feed.read_static_tf`)."""
+    applies to every log (:func:`aion_cli.tf_feed.read_static_tf`). A continued map's lineage
+    is checked against the logs' first scene graph here, where the shards cannot see the map
+    (:meth:`aion_cli.build_stream.StreamStep.continue_on_logs`)."""
     from aion_cli.build_options import build_topics
     from aion_cli.formats.logs import open_logs
     from aion_cli.shard_yaws import shard_seeds, varied_by
     from aion_cli.tf_feed import read_static_tf
 
+    opts = build.opts
     first = {path: start for path, start, _ in spans}
     starts: list[int | None] = []
     for group, part, _ in shards:
@@ -348,6 +351,7 @@ def _plan_streams(
         starts.append(part[0] if part is not None else min(known, default=None))
     with open_logs(logs, opts.log_format) as logset:
         plan = build_topics(logset, opts)
+        build.continue_on_logs(logset, plan, peek=True)
         kd_trees = bool(plan.graph or plan.tf) or opts.graph_file is not None
         static_tf = read_static_tf(logset, plan)
         if all(start is None for start in starts[1:]):

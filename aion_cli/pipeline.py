@@ -305,6 +305,7 @@ class _Build(StreamStep):
                 logset, plan.detections, plan.mappings
             )
             self.report.notes.extend(notes)
+            self.continue_on_logs(logset, plan)  # the logs' graphs: the map's session?
             self.report.detection_decoding = {
                 info.topic: {
                     "type": info.msgtype,

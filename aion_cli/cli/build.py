@@ -178,9 +178,9 @@ class _RichProgress:
     type=click.Choice(["auto", "same", "different"]),
     default="auto",
     show_default=True,
-    help="With --map and --graph: whether the graph file is of the map's scene-graph session "
-    "(node ids go on by id) or of another (the map's places released to hash cells, then "
-    "re-bound); auto refuses a file whose place ids lie elsewhere.",
+    help="With --map: whether --graph FILE, else the logs' first scene graph, is of the map's "
+    "scene-graph session (node ids go on by id) or of another (the map's places released to "
+    "hash cells, then re-bound); auto refuses a graph whose place ids lie elsewhere.",
 )
 @nav_layer_option
 @graph_period_option

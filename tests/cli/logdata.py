@@ -169,12 +169,14 @@ def write_office_log(
     second_topic: str | None = None,
     later_sessions_s: tuple[int, ...] = (),
     agents_since_s: int | None = None,
+    places: dict[int, tuple[float, float, float]] | None = None,
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
     holds. ``later_sessions_s``: the same recording again in the same log, starting that many
     seconds after the first (the log is silent in between). ``agents_since_s``: the agent
     layer's trajectory starts that many seconds after T0 (a Hydra session that began before
-    this log: every graph repeats the poses since then), not at the log's start."""
+    this log: every graph repeats the poses since then), not at the log's start. ``places``:
+    the scene graph's places (None: the office's, :data:`PLACES`)."""
     from aion_cli.formats.writers import LogWriter
 
     n_tracks = n_graph = n_tf = 0
@@ -190,7 +192,7 @@ def write_office_log(
         if agents
         else None
     )
-    graph_obj = build_graph(PLACES, EDGES, ROOMS, poses) if graph else None
+    graph_obj = build_graph(places or PLACES, EDGES, ROOMS, poses) if graph else None
     payload = np.frombuffer(graph_obj.to_binary(False), dtype=np.uint8) if graph else None
     written: list[int] = []
     starts = [t0] + [t0 + later * S for later in later_sessions_s]

@@ -105,3 +105,110 @@ def test_lineage_different_rebinds_by_position_and_same_goes_on_by_id(
         "-o", by_id, "--lineage", "same", "--format", "json",
     )  # fmt: skip
     assert place_counts(by_id).get(1, 0) > 0  # the first log's track 1, now at (20, 0)
+
+
+# --- the logs' own scene graphs (no --graph FILE): the first one the build applies or peeks
+
+#: the map's own session later: p6 moved 0.4 m, a place p7 added
+LATER = {**PLACES, 6: (22.4, 0.0, 0.0), 7: (10.0, 0.0, 0.0)}
+
+
+@pytest.fixture(scope="module")
+def from_logs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A map of the office log with its own scene graphs, and three later logs: another
+    session's graphs (:data:`SWAP`), the same session's with places moved and added, and the
+    office's own (the known answer for ``--lineage different``, mapped by :data:`SWAP`)."""
+    folder = tmp_path_factory.mktemp("lineage-logs")
+    write_office_log(folder / "a.mcap", tf=False)
+    later = {"other": OTHER, "moved": LATER, "own": PLACES}
+    paths = {k: folder / f"b-{k}.mcap" for k in later}
+    for k, places in later.items():
+        write_office_log(paths[k], tf=False, shift_s=2 * DURATION_S, places=places)
+        # a log after it: the two are built in parallel with --workers 2
+        write_office_log(folder / f"c-{k}.mcap", tf=False, shift_s=4 * DURATION_S, places=places)
+    m = folder / "m.aion"
+    run_json("build", folder / "a.mcap", "-o", m, "--workers", "1", "--format", "json")
+    return {"map": m, "folder": folder, **paths}
+
+
+def logs(from_logs: dict[str, Path], kind: str, workers: str) -> list[Path]:
+    """The later log of ``kind``; with two workers, also the one after it (two shards)."""
+    first = from_logs[kind]
+    return [first] if workers == "1" else [first, first.with_name(f"c-{kind}.mcap")]
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_another_sessions_graphs_in_the_log_are_refused(
+    from_logs: dict[str, Path], workers: str
+) -> None:
+    """Sequential (checked when the first graph is applied) and parallel (two logs, two
+    shards: peeked by the parent, whose shards do not see the map) alike."""
+    out = from_logs["folder"] / f"refused-{workers}.aion"
+    result = run(
+        "build", *logs(from_logs, "other", workers), "--map", from_logs["map"], "-o", out,
+        "--workers", workers,
+    )  # fmt: skip
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(
+        result.stderr, "the scene graph in b-other.mcap", "is of another session than m.aion's",
+        "of the 7 place ids both hold, 1 lie within 1 m",
+    )
+    assert "--lineage different" in result.stderr
+    assert "--lineage same" in result.stderr
+    assert not out.exists()
+
+
+def test_the_maps_own_session_in_the_log_goes_on(from_logs: dict[str, Path]) -> None:
+    """A later log of the map's own session (p6 moved 0.4 m, p7 added) is not refused."""
+    out = from_logs["folder"] / "moved.aion"
+    report = run_json(
+        "build", from_logs["moved"], "--map", from_logs["map"], "-o", out, "--format", "json",
+    )  # fmt: skip
+    assert report["continued"] is True
+    assert not any("lineage" in n for n in report["notes"]), report["notes"]
+    counts = place_counts(out)
+    assert counts[1] > 0  # track 1 on p1 at (2, 0)
+    assert 5 not in counts  # nobody at (20, 0)
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_lineage_of_the_logs_graphs_different_rebinds_and_same_goes_on_by_id(
+    from_logs: dict[str, Path], workers: str
+) -> None:
+    """As with --graph FILE: --lineage different gives every place what the same place holds
+    when the later log has the map's own graphs (track 1's detections on p5, at (2, 0) in the
+    other session); --lineage same keeps p1's first-log detections by id, at (20, 0)."""
+    folder = from_logs["folder"]
+    own = folder / f"own-{workers}.aion"
+    parallel = run_json(
+        "build", *logs(from_logs, "own", workers), "--map", from_logs["map"], "-o", own,
+        "--workers", workers, "--format", "json",
+    )  # fmt: skip
+    assert len(parallel["workers"]) == (0 if workers == "1" else 2)  # per shard, in parallel
+    expected = {SWAP[k]: n for k, n in place_counts(own).items()}
+    moved = folder / f"different-{workers}.aion"
+    report = run_json(
+        "build", *logs(from_logs, "other", workers), "--map", from_logs["map"], "-o", moved,
+        "--lineage", "different", "--workers", workers, "--format", "json",
+    )  # fmt: skip
+    assert any("--lineage different: m.aion's" in n for n in report["notes"]), report["notes"]
+    got = place_counts(moved)
+    assert got.keys() == expected.keys()
+    np.testing.assert_allclose([got[k] for k in sorted(got)], [expected[k] for k in sorted(got)])
+    by_id = folder / f"by-id-{workers}.aion"
+    run_json(
+        "build", *logs(from_logs, "other", workers), "--map", from_logs["map"], "-o", by_id,
+        "--lineage", "same", "--workers", workers, "--format", "json",
+    )  # fmt: skip
+    assert place_counts(by_id).get(1, 0) > 0  # the first log's track 1, now at (20, 0)
+
+
+def test_the_api_checks_the_logs_graphs_too(from_logs: dict[str, Path]) -> None:
+    import aion_cli as aion
+    from aion_cli.errors import InputError
+
+    out = from_logs["folder"] / "api.aion"
+    with pytest.raises(InputError, match=r"another session than m\.aion's"):
+        aion.build([from_logs["other"]], out, continue_from=from_logs["map"])
+    aion.build([from_logs["other"]], out, continue_from=from_logs["map"], lineage="same")
+    assert place_counts(out).get(1, 0) > 0
