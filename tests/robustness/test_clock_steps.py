@@ -198,3 +198,65 @@ def test_a_step_inside_one_ros1_bag_chunk_is_a_warning(tmp_path: Path) -> None:
     assert len(steps_back(info.stderr.splitlines())) == 1
     ordered = write_chunked(tmp_path / "ordered.bag", stepped(0), "bag", ONE_CHUNK)
     assert steps_back(build_json(ordered, "-o", tmp_path / "o.aion")["warnings"]) == []
+
+
+def unchunked(log: Path, out: Path) -> Path:
+    """``log`` (an MCAP file) written again by the mcap writer with chunking off: the same
+    messages in the same file order as bare Message records, with a summary (statistics,
+    schemas, channels) but no chunk, so no chunk index to look at."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with log.open("rb") as f, out.open("wb") as g:
+        reader = make_reader(f)
+        writer = Writer(g, use_chunking=False)
+        writer.start(profile=reader.get_header().profile, library="test")
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for schema, channel, msg in reader.iter_messages(log_time_order=False):
+            assert schema is not None
+            if schema.id not in schemas:
+                schemas[schema.id] = writer.register_schema(
+                    schema.name, schema.encoding, schema.data
+                )
+            if channel.id not in channels:
+                channels[channel.id] = writer.register_channel(
+                    channel.topic, channel.message_encoding, schemas[schema.id], channel.metadata
+                )
+            writer.add_message(
+                channels[channel.id], msg.log_time, msg.data, msg.publish_time, msg.sequence
+            )
+        writer.finish()
+    return out
+
+
+@pytest.mark.parametrize("container", ["mcap", "mcap-ros1"])
+def test_an_mcap_with_a_summary_but_no_chunk_is_checked_while_it_is_scanned(
+    tmp_path: Path, container: str
+) -> None:
+    """Bare messages and a summary without chunk indexes (``Writer(use_chunking=False)``):
+    the summary cannot say where the log times go, so the file is scanned and the scan checks
+    its messages in file order (message N/2 is logged 599 s before message N/2 - 1), in build
+    and info alike, as a file without a summary. Pins what the reader does; no code changed."""
+    from mcap.reader import make_reader
+
+    full = write_chunked(tmp_path / "full.mcap", stepped(-STEP_S), container)
+    log = unchunked(full, tmp_path / "bare.mcap")
+    with log.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    assert summary.statistics is not None
+    assert summary.statistics.message_count == N
+    assert summary.chunk_indexes == []
+    report = build_json(log, "-o", tmp_path / "bare.aion")
+    (minutes,) = steps_back(report["warnings"])
+    assert minutes == round((STEP_S - 1) / 60, 1)  # message by message: the step exactly
+    (warning,) = [w for w in report["warnings"] if "go back" in w]
+    assert "bare.mcap: its log times go back" in warning
+    assert report["detections"]["used"] == N
+    info = run("info", log)
+    assert len(steps_back(info.stderr.splitlines())) == 1
+    ordered = unchunked(
+        write_chunked(tmp_path / "ordered.mcap", stepped(0), container), tmp_path / "o-bare.mcap"
+    )
+    assert steps_back(build_json(ordered, "-o", tmp_path / "o.aion")["warnings"]) == []
