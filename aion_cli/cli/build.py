@@ -175,7 +175,7 @@ class _RichProgress:
 )
 @click.option(
     "--lineage",
-    type=click.Choice(["auto", "same", "different"]),
+    type=click.Choice(["auto", "same", "different"], case_sensitive=False),
     default="auto",
     show_default=True,
     help="With --map: whether --graph FILE, else the logs' first scene graph, is of the map's "
