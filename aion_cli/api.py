@@ -488,6 +488,9 @@ class Map(Generic[Report]):
 
     def __repr__(self) -> str:
         where = str(self.path) if self.path is not None else "in memory"
-        entries = len(self.state.entries.live_rows())  # not the table's reserved capacity
+        with self._lock:  # a file's figure from its manifest: its state is not read for it
+            entries = self._source.entry_count()
+        if entries is None:
+            return f"<aion.Map {where}: entries not read yet>"
         return f"<aion.Map {where}: {entries:,} entr{'y' if entries == 1 else 'ies'}>"
 

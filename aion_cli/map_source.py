@@ -3,11 +3,11 @@ whose state is read on first use.
 
 ``aion.Map.load(path)`` reads the file's manifest (checked: a map, of a version aion reads,
 with a model state) and holds the file open (:mod:`aion_cli.pinned_file`); the state, most
-of the file, is read when something first needs it (a query, ``Map.state``, ``repr``), as
-the query commands read it (``load_map(..., forecast_only=True)``). So what ``aion info
-MAP`` shows from the manifest (``Map.manifest``, ``Map.timezone``, ``Map.config``) reads no
-member of the state, where it read all of them (78 members of a sample map, against the 13
-``aion info`` reads).
+of the file, is read when something first needs it (a query, ``Map.state``), as the query
+commands read it (``load_map(..., forecast_only=True)``). So what ``aion info MAP`` shows
+from the manifest (``Map.manifest``, ``Map.timezone``, ``Map.config``, and ``repr(m)``: its
+entry count) reads no member of the state, where it read all of them (78 members of a
+sample map, against the 13 ``aion info`` reads).
 
 The state is read from the file the map was loaded from, also once its path names another
 file (aion's writers replace maps atomically) or none: through the descriptor held open.
@@ -63,6 +63,20 @@ class MapSource:
                 raise MapFileError("a map file's state cannot be read without its file")
             self.loaded = _read(file)
         return self.loaded
+
+    def entry_count(self) -> int | None:
+        """How many entries (cells and nodes) the map holds: the state's live rows once read,
+        else the length of the file's ``entry_kind`` member as its manifest records it (a map
+        file stores its live rows only, :meth:`MapState.to_arrays`); None when it records
+        none."""
+        if self.loaded is not None:  # not the entry table's reserved capacity
+            return len(self.loaded.state.entries.live_rows())
+        members = self.manifest.get("members")
+        record = members.get("entry_kind") if isinstance(members, dict) else None
+        shape = record.get("shape") if isinstance(record, dict) else None
+        if isinstance(shape, list) and len(shape) == 1 and isinstance(shape[0], int):
+            return shape[0]
+        return None
 
 
 def _read(file: PinnedFile) -> LoadedMap:

@@ -54,6 +54,19 @@ def test_what_a_map_says_of_itself_reads_none_of_its_state(
     assert reads == []  # once
 
 
+def test_a_maps_repr_reads_none_of_its_state(sample_map: Path, reads: list[str]) -> None:
+    """``repr(m)`` (a notebook showing the map) counts its entries from the manifest: it read
+    every member a query reads to count the state's live rows. The count is the state's."""
+    m = aion.Map.load(sample_map)
+    text = repr(m)
+    assert reads == []  # before: the whole state
+    assert m._source.loaded is None
+    live = len(m.state.entries.live_rows())  # the state read, as a query reads it
+    assert live > 100
+    assert text == f"<aion.Map {sample_map}: {live:,} entries>"
+    assert repr(m) == text  # the same once the state is read
+
+
 def test_a_map_replaced_or_deleted_before_its_first_query_answers_as_loaded(
     sample_map: Path, office: Office, tmp_path: Path
 ) -> None:
