@@ -147,7 +147,8 @@ def build(
     script that builds with workers needs the usual ``if __name__ == "__main__":`` guard on
     platforms without ``fork``), ``--scheduler`` and ``--part``. ``observed``: ``(start,
     end)`` spans a fixed sensor was recording, as ``--observed`` (times as in
-    ``Map.predict``, naive ones in ``tz``, else UTC). Without ``tz`` a new map follows the
+    ``Map.predict``; naive ones in the zone the map follows: ``tz``, else ``continue_from``'s
+    zone, else the zone the logs declare, else UTC). Without ``tz`` a new map follows the
     zone its logs declare (``aion simulate --tz`` writes it into its logs), with a note in
     ``Map.report``; a ``tz`` that differs from it is a warning. ``graph_period``: about one
     scene graph per period of log time (``"5s"``, ``"1m"``, seconds or a ``timedelta``; 0:
@@ -174,11 +175,12 @@ def build(
         "detections_mapping": detections_mapping,
         "observed": observed,
     }
-    opts = reading_options(logs, reading, tz)
+    map_zone = continued_zone(continued)
+    opts = reading_options(logs, dict(reading, observed=()), tz)  # the logs, for their zone
     # the zone the logs declare (aion simulate --tz), as aion build takes it
-    zone, notes, warnings = build_zone(tz, continued_zone(continued), opts.logs)
-    if zone != tz:
-        tz, opts = zone, reading_options(logs, reading, zone)  # --observed in that zone
+    tz, notes, warnings = build_zone(tz, map_zone, opts.logs)
+    # observed= read in the zone the map follows, as aion build reads --observed
+    opts = reading_options(logs, reading, tz if tz is not None else map_zone)
     opts = replace(
         opts,
         output=_optional_path(output, "output"),

@@ -259,8 +259,8 @@ class _RichProgress:
     '"2026-01-05 00:00..2026-01-12 00:00": its windows without a message count as observed, '
     "with nobody in them (a tracker that publishes only when it sees someone), from the "
     "first log's first message to the last log's last, the time between logs included. "
-    "Times in --tz, else the continued map's zone, else UTC. Without it: the spans the logs "
-    "record (aion convert --observed); given, it replaces them.",
+    "Times in --tz, else the continued map's zone, else the zone the logs declare, else UTC. "
+    "Without it: the spans the logs record (aion convert --observed); given, it replaces them.",
 )
 @quiet_option
 @format_option(choices=("table", "json"))
@@ -363,9 +363,10 @@ def command(
 def observed_spans(
     texts: tuple[str, ...], timezone: str | None, continue_from: Path | None
 ) -> tuple[tuple[int, int], ...]:
-    """``--observed`` spans in ns, read in ``--tz``, else the zone of the map
-    ``continue_from`` (the continued map; ``evaluate holdout``'s map), else UTC (a bad span
-    fails before any log is read)."""
+    """``--observed`` spans in ns, read in ``timezone`` (``--tz``, or for ``aion build`` the
+    zone the logs declare as :func:`aion_cli.log_zone.build_zone` gives it), else the zone of
+    the map ``continue_from`` (the continued map; ``evaluate holdout``'s map), else UTC (a bad
+    span fails before any log is read)."""
     if not texts:
         return ()
     from aion_cli.cli.common import parse_span

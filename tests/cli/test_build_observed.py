@@ -439,3 +439,46 @@ def test_a_span_ending_inside_a_window_counts_the_share_it_declares(
     assert most == pytest.approx(24 + 0.2 + 2 * (SESSIONS - 1))
     assert windows == 30  # 30.2, rounded
     assert observed("12:10") == (pytest.approx(25 + 2 * (SESSIONS - 1)), 31)
+
+
+def test_the_api_reads_naive_spans_in_the_zone_the_map_follows_as_the_cli(
+    tmp_path: Path,
+) -> None:
+    """A map of 2026-11-23 08:00-08:20 UTC built in Asia/Tokyo (UTC+9), continued with the
+    next day's log without ``tz`` and the span 17:00 on the 23rd to 17:30 on the 24th: read in
+    Tokyo (08:00 to 08:30 UTC, as ``build --map --observed`` reads it) it covers the whole
+    time from the map's first message to the new log's last, 08:00 on the 23rd to 08:20 on the
+    24th = 144 + 2 = 146 windows. ``aion.build`` read it in UTC (from 17:00 UTC: 94)."""
+    import aion_cli as aion
+
+    day0, day1 = tmp_path / "day0.mcap", tmp_path / "day1.mcap"
+    write_office_log(day0, graph=False, tf=False)
+    write_office_log(day1, graph=False, tf=False, shift_s=DAY_S)
+    span = ("2026-11-23 17:00", "2026-11-24 17:30")
+    cli, api = tmp_path / "cli.aion", tmp_path / "api.aion"
+    for path in (cli, api):
+        run_json("build", day0, "-o", path, "--format", "json", "--tz", "Asia/Tokyo")
+    run_json("build", day1, "--map", cli, "--format", "json", "--observed", "..".join(span))
+    aion.build(day1, api, continue_from=api, observed=[span])
+    whole = ("fixed sensor over the 146 windows with messages or --observed (146 of the 146 "
+             "windows of 10 min from the first to the last)")
+    assert read_manifest(cli)["observation"] == whole
+    assert read_manifest(api)["observation"] == whole  # before: 94 of the 146
+
+
+def test_the_api_reads_naive_spans_in_the_zone_the_logs_declare(tmp_path: Path) -> None:
+    """A log declaring Asia/Tokyo (``convert --tz``) with one minute at 08:00 UTC on the 23rd
+    and on the 24th: the span 17:00 to 17:30 the next day, naive, is read in Tokyo as
+    ``build --observed`` reads it and covers both days' 08:00 to the last message: 145
+    windows (in UTC it would start nine hours late)."""
+    import aion_cli as aion
+
+    rows = ["t_ns,track_id,x,y,z,heading_rad,speed_mps"]
+    rows += [f"{T0 + day * DAY_S * 10**9 + k * 10**9},{day + 1},{0.1 * k:.1f},0,0,0,1"
+             for day in (0, 1) for k in range(60)]
+    (tmp_path / "t.csv").write_text("\n".join(rows) + "\n")
+    log = tmp_path / "t.mcap"
+    assert run("convert", tmp_path / "t.csv", "-o", log, "--tz", "Asia/Tokyo").exit_code == 0
+    made = aion.build(log, tmp_path / "m.aion", observed=[("2026-11-23 17:00", "2026-11-24 17:30")])
+    assert made.timezone == "Asia/Tokyo"
+    assert made.manifest.observation.startswith("fixed sensor over the 145 windows")
