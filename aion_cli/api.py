@@ -328,7 +328,7 @@ class Map(Generic[Report]):
         snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
         if leave is None:
             routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
-            notes = self._notes(time, zone, t_ns)
+            notes = tuple(self._notes(time, zone, t_ns))
             return replace(Plan.from_routes(routes, zone, snapped), notes=notes)
 
         from aion_cli.api_results import departure_rows
@@ -353,7 +353,7 @@ class Map(Generic[Report]):
             self._loaded, a.node_id, b.node_id, times, speed, nav, observed=observed
         )
         made = Plan.from_routes(plans[best], zone, snapped)
-        notes = self._notes(None, zone, times[best], times, "departures")
+        notes = tuple(self._notes(None, zone, times[best], times, "departures"))
         return replace(made, departures=departure_rows(plans, best, zone, observed), notes=notes)
 
     @one_at_a_time

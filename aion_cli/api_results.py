@@ -111,7 +111,8 @@ class Plan:
     # the arrival times as UNIX nanoseconds (``arrival`` shows them to the millisecond)
     arrival_ns: list[int] = field(default_factory=list)
     # what the forecast at the departure (or the departures) cannot say, as aion plan notes it
-    notes: list[str] = field(default_factory=list)
+    # (a tuple, as a Table's and a series' notes)
+    notes: tuple[str, ...] = ()
 
     @property
     def distance_only(self) -> Plan:

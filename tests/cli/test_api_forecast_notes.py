@@ -114,3 +114,15 @@ def test_query_errors_and_notes_name_the_query_keywords(tmp_path: Path) -> None:
     notes = saved.predict("2026-01-05 10:30").notes
     assert any("its flows are those of historical=True" in n for n in notes), notes
     assert not [n for n in notes if "--" in n], notes
+
+
+def test_a_plans_notes_are_a_tuple_as_a_tables(m: aion.Map) -> None:
+    """``Plan.notes`` was a list where ``Table.notes`` and a series' notes are tuples: a plan's
+    and a table's notes at one time did not compare equal."""
+    table = m.predict(LATER, tz="UTC")
+    plan = m.plan("p0", "p2", time=LATER, tz="UTC")
+    assert len(table.notes) >= 2  # after the map's data, an hour no log observed
+    assert plan.notes == table.notes  # before: a list, never equal to the table's tuple
+    best = m.plan("p0", "p2", leave=(LATER, "2026-12-10 05:00"), step="1h", tz="UTC")
+    assert isinstance(best.notes, tuple)
+    assert isinstance(best.distance_only.notes, tuple)
