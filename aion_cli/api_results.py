@@ -26,7 +26,10 @@ class Table:
 
     ``time_ns`` is None for a historical table; ``entries`` are the records, busiest first,
     with the fields of ``aion predict --format json`` (``id``, ``kind``, ``x`` .. ``flow``,
-    ``histogram``, ``family`` ...)."""
+    ``histogram``, ``family`` ...). Equal tables compare equal (``==``); a table is not
+    hashable (its records are dicts), as a :class:`Plan` and a series are not."""
+
+    __hash__ = None  # type: ignore[assignment]  # not the fields' hash: an empty table's was
 
     map: str
     time_ns: int | None
@@ -90,7 +93,10 @@ class Table:
 class Plan:
     """A planned path (``aion plan``): node labels, length, walking time, temporal cost and
     arrival times; ``distance_only`` is the shortest path beside it, with the temporal cost
-    it would have had."""
+    it would have had. Equal plans compare equal (``==``); a plan is not hashable (its nodes
+    and records are lists and dicts), as a :class:`Table` is not."""
+
+    __hash__ = None  # type: ignore[assignment]
 
     start: str
     goal: str

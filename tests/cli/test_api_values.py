@@ -127,3 +127,22 @@ def test_a_manifest_s_repr_is_one_line(m: aion.Map, sample_map: Path) -> None:
     assert text.startswith("<Manifest: 2026-01-05 00:00:00+00:00 .. 2026-01-09 23:59:59")
     assert f"; {counts['used']:,} detections used from 1 log; " in text
     assert text.endswith(f"; {counts['nodes']:,} nodes, {counts['cells']:,} cells>")
+
+
+def test_results_compare_by_value_and_none_is_hashable(m: aion.Map) -> None:
+    """Tables, plans and series are frozen values whose records are dicts, lists and arrays:
+    equal results compare equal, and ``hash`` refuses every one of them alike, naming its
+    type. Before, a table's and a plan's hash raised ``unhashable type: 'dict'`` / ``'list'``
+    from inside, and a table without entries had a hash."""
+    from dataclasses import replace
+
+    table, plan = m.predict(T, tz="UTC"), m.plan("p103", "p2", time=T, tz="UTC")
+    series = m.predict_series(T, "09:40", "30m", tz="UTC")
+    empty = replace(table, entries=())
+    assert table == m.predict(T, tz="UTC")
+    assert plan == m.plan("p103", "p2", time=T, tz="UTC")
+    assert series == m.predict_series(T, "09:40", "30m", tz="UTC")
+    for value, name in ((table, "Table"), (empty, "Table"), (plan, "Plan"),
+                        (series, "SeriesTable")):
+        with pytest.raises(TypeError, match=f"unhashable type: '{name}'"):
+            hash(value)
