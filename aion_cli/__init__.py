@@ -11,8 +11,24 @@ The Python API (docs/API.md)::
 
 __version__ = "0.1.0"
 
+from typing import TYPE_CHECKING, Any
+
 from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns
 from aion_cli.errors import AionError, AionWarning, InputError
+
+if TYPE_CHECKING:
+    from aion_cli.prediction_series import SeriesTable
+
+
+def __getattr__(name: str) -> Any:
+    """``aion.SeriesTable`` (what ``Map.predict_series`` returns), imported when first asked
+    for: its module brings numpy, which ``import aion_cli`` does not need."""
+    if name == "SeriesTable":
+        from aion_cli.prediction_series import SeriesTable
+
+        return SeriesTable
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "AionError",
@@ -20,6 +36,7 @@ __all__ = [
     "InputError",
     "Map",
     "Plan",
+    "SeriesTable",
     "Table",
     "__version__",
     "build",

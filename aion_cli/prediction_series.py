@@ -109,7 +109,7 @@ class SeriesTable:
         would print whole): its map, size and span."""
         n, k = len(self.entries), len(self.times_ns)
         text = (
-            f"<SeriesTable {self.map or '<memory>'}: {n:,} entr{'y' if n == 1 else 'ies'}"
+            f"<aion.SeriesTable {self.map or '<memory>'}: {n:,} entr{'y' if n == 1 else 'ies'}"
             f" x {k:,} time{'' if k == 1 else 's'}"
         )
         if self.times:

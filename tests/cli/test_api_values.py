@@ -52,10 +52,12 @@ def test_a_series_repr_is_one_line(m: aion.Map) -> None:
     day = m.predict_series("2026-01-12 06:00", "2026-01-12 20:00", "1h", tz="UTC")
     text = repr(day)
     # before: SeriesTable(times_ns=[...], entries=[...], flow=array(...), ...)
-    assert text == (
-        f"<SeriesTable {m.path}: {len(day.entries)} entries x 15 times, "
+    assert text == (  # named as the API names it, as <aion.Table and <aion.Plan (before:
+        # <SeriesTable, which no name of the API is)
+        f"<aion.SeriesTable {m.path}: {len(day.entries)} entries x 15 times, "
         "2026-01-12 06:00:00+00:00 .. 2026-01-12 20:00:00+00:00>"
     )
+    assert type(day) is aion.SeriesTable
 
 
 def test_two_series_of_the_same_prediction_are_equal(m: aion.Map) -> None:
