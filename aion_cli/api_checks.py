@@ -456,6 +456,7 @@ def methods_checked(cls: _C) -> _C:
     return cls
 
 
+@keywords_checked
 def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
     """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (a pandas
     ``Timestamp`` to its nanosecond) or a ``numpy.datetime64`` (naive: in ``zone``, a name

@@ -1,7 +1,8 @@
-"""The Python API at its boundary, for ``aion.build`` and ``aion.merge``: wrong types and values
-of their arguments are one typed ``InputError`` naming the argument (never a ``TypeError`` or
-``AttributeError`` from inside), plausible slips are read as meant (one topic, a config dict,
-a zone as the command names it), and a progress object written as the docs give it is called.
+"""The Python API at its boundary, for ``aion.build``, ``aion.merge`` (and ``aion.to_ns``):
+wrong types and values of their arguments are one typed ``InputError`` naming the argument
+(never a ``TypeError`` or ``AttributeError`` from inside), plausible slips are read as meant
+(one topic, a config dict, a zone as the command names it), and a progress object written as
+the docs give it is called.
 
 Split from tests/cli/test_api_arguments.py (the map's queries, saving a loaded map)."""
 
@@ -132,3 +133,21 @@ def test_a_progress_object_with_start_description_total_unit_is_called(
     later = aion.build(office.log, tmp_path / "part.aion", part=True)
     aion.merge([later.path], tmp_path / "m.aion", progress=merged)  # type: ignore[list-item]
     assert merged.units == ["maps", "maps"]
+
+
+def test_to_ns_refuses_an_extra_argument_as_the_api_does() -> None:
+    """``aion.to_ns(t, "UTC", x)`` was Python's bare ``TypeError: to_ns() takes from 1 to 2
+    positional arguments but 3 were given`` (no ``InputError``), ``to_ns(t, zon=...)`` alike;
+    now the ``UnknownArgumentError`` ``Map.predict`` raises, naming its arguments."""
+    from aion_cli.errors import UnknownArgumentError
+
+    with pytest.raises(UnknownArgumentError) as caught:
+        aion.to_ns(T, "UTC", "Europe/Berlin")  # type: ignore[call-arg]
+    assert isinstance(caught.value, InputError)
+    assert isinstance(caught.value, TypeError)  # code catching TypeError still does
+    assert str(caught.value) == "to_ns() takes 2 positional arguments (time, zone) but 3 were given"
+    with pytest.raises(UnknownArgumentError, match="unexpected keyword argument 'zon'") as caught:
+        aion.to_ns(T, zon="UTC")  # type: ignore[call-arg]
+    assert caught.value.hint == "did you mean zone? to_ns() takes: time, zone"
+    assert aion.to_ns(T, zone="UTC") == 1_768_207_200 * 10**9  # 2026-01-12 08:40 UTC
+
