@@ -131,14 +131,19 @@ def tracks_to_log(
     observed: Iterable[tuple[int, int]] = (),
     headings: bool = True,
     timezone: str | None = None,
+    graph_clock: bool = False,
 ) -> TracksLogSummary:
     """Write ``batch`` as a people-tracking log that ``aion build`` reads like a robot's.
 
     One ``msgtype`` message (spencer ``TrackedPersons`` with velocity from heading and speed,
     or ``PoseArray`` with the heading as yaw) per distinct timestamp, or per ``group_ns`` bin;
     positions are in ``frame_id`` (the map, so no ``/tf`` is needed). With ``graph_file``, a
-    ``hydra_msgs/DsgUpdate`` carrying the whole graph (mesh included) is written at the first
-    stamp and again every ``graph_period_s`` so a reader joining late still gets it.
+    ``hydra_msgs/DsgUpdate`` carrying the whole graph (mesh included) is written with the first
+    detection message and again with the first one at least ``graph_period_s`` later, so a
+    reader joining late still gets it and the graph marks no time the detections do not
+    (:class:`_Messages`; without detections, once at the middle of the longest span);
+    ``graph_clock=True`` writes it every ``graph_period_s`` from the first message whatever
+    the messages, as a robot's Hydra does (a test's robot log).
     Unknown headings / speeds are marked with the spencer "unset" variance. ``headings=False``
     (``PoseArray`` only) writes every pose without an orientation (the all-zero quaternion),
     as an id-less detector publishes them (a leg detector's ``/leg_cluster_positions``): the
@@ -170,7 +175,7 @@ def tracks_to_log(
         chunks, out_path, graph_file=graph_file, container=container, topic=topic,
         msgtype=msgtype, frame_id=frame_id, group_ns=group_ns, graph_topic=graph_topic,
         graph_period_s=graph_period_s, overwrite=overwrite, observed=observed, headings=headings,
-        timezone=timezone,
+        timezone=timezone, nobody=n == 0, graph_clock=graph_clock,
     )
 
 
@@ -219,7 +224,14 @@ def _check_log_times(t_ns: I64, what: str) -> None:
 class _Messages:
     """Writes the messages of a tracks log in time order: detection messages (a group of
     rows each), the empty "still observing" messages at ``marks`` (after a detection message
-    of the same time), and the scene graph every ``period`` ns from the first message."""
+    of the same time), and the scene graph with a detection message: at the first, then at
+    the first one at least ``period`` ns after the graph before (so at each recorded
+    session's start and about every period within it). A graph shares its stamp with a
+    detection message, so it makes no window observed that the detections do not (a graph a
+    robot's log holds means it was recording; one convert adds does not). Without any
+    detection, the graph goes once at ``lone_graph_ns`` (a marker's stamp), if given.
+    ``graph_clock``: every ``period`` ns from the first message instead, whatever the
+    messages, as a robot's Hydra publishes (tests emulate such a log)."""
 
     writer: Any
     kind: str
@@ -231,6 +243,8 @@ class _Messages:
     period: int
     next_mark: int = 0
     seq: int = 0  # detection and mark messages written (their ROS 1 header seq)
+    lone_graph_ns: int | None = None
+    graph_clock: bool = False
     graph_next: int | None = None
     graphs: int = 0
     first_ns: int | None = None
@@ -249,7 +263,7 @@ class _Messages:
         bounds = np.concatenate([[0], splits, [len(data)]]).tolist()
         for t, a, b in zip(stamps.tolist(), bounds[:-1], bounds[1:], strict=True):
             self.marks_before(t)
-            self._before(t)
+            self._before(t, detection=True)
             if self.kind == SPENCER_TRACKED:
                 raw = tracked_persons_bytes(records[a:b], t, self.frame_id, cdr, self.seq)
                 self.writer.write_raw(self.topic, self.kind, raw, t)
@@ -263,7 +277,7 @@ class _Messages:
         end = len(self.marks) if t is None else int(np.searchsorted(self.marks, t, "left"))
         cdr = self.writer.ros_version == 2
         for m in self.marks[self.next_mark : end].tolist():
-            self._before(m)
+            self._before(m, detection=m == self.lone_graph_ns)
             if self.kind == SPENCER_TRACKED:
                 empty = tracked_persons_bytes(_NO_RECORDS[cdr], m, self.frame_id, cdr, self.seq)
                 self.writer.write_raw(self.topic, self.kind, empty, m)
@@ -273,16 +287,18 @@ class _Messages:
             self.seq += 1
         self.next_mark = max(self.next_mark, end)
 
-    def _before(self, t: int) -> None:
-        """Bookkeeping before a message at ``t``: the scene graphs due by then."""
+    def _before(self, t: int, detection: bool) -> None:
+        """Bookkeeping before a message at ``t``: the scene graph, if one is due and the
+        message is a detection message (or the lone graph's marker)."""
         from aion_cli.formats.writers import stamp
 
         if self.first_ns is None:
             self.first_ns = t
             self.graph_next = t if self.payload is not None else None
         self.last_ns = t
-        while self.graph_next is not None and self.graph_next <= t:
-            g = self.graph_next
+        while (detection or self.graph_clock) and self.graph_next is not None \
+                and self.graph_next <= t:
+            g = self.graph_next if self.graph_clock else t
             self.writer.write(
                 self.graph_topic,
                 DSG_UPDATE,
@@ -317,11 +333,16 @@ def _write_tracks(
     observed: Iterable[tuple[int, int]] = (),
     headings: bool = True,
     timezone: str | None = None,
+    nobody: bool = False,
+    graph_clock: bool = False,
 ) -> TracksLogSummary:
     """:func:`tracks_to_log` over time-sorted ``chunks`` (each sorted; a chunk starting
     before the previous one ended raises :class:`_UnsortedError`, the partial log thrown
     away). The rows of a chunk's last message are held back until the next chunk shows it is
-    complete, so the messages are those of the concatenated rows."""
+    complete, so the messages are those of the concatenated rows. ``nobody``: the chunks hold
+    no row (only the ``observed`` spans are marked), so the scene graph goes once, at the
+    middle marker of the longest span (:class:`_Messages`). ``graph_clock``: the graph every
+    ``graph_period_s`` from the first message, as a robot's Hydra publishes it."""
     from aion_cli.formats.dsg_files import graph_payload
     from aion_cli.formats.raw import normalize_msgtype
     from aion_cli.formats.writers import LogWriter, check_stamps
@@ -352,7 +373,8 @@ def _write_tracks(
 
             writer.add_metadata(RECORD, declared)
         out = _Messages(
-            writer, kind, topic, frame_id, marks, payload, graph_topic, round(graph_period_s * 1e9)
+            writer, kind, topic, frame_id, marks, payload, graph_topic, round(graph_period_s * 1e9),
+            lone_graph_ns=_lone_graph_ns(spans) if nobody else None, graph_clock=graph_clock,
         )
         held: DetectionBatch | None = None  # the rows of the last, maybe unfinished, message
         repeats, far = RepeatedRows(), FarRows()
@@ -408,6 +430,16 @@ def _write_tracks(
         far_rows=far.rows,
         far_example=far.example,
     )
+
+
+def _lone_graph_ns(spans: list[tuple[int, int]]) -> int | None:
+    """Where a log without detections takes its scene graph: the middle marker of its
+    longest observed span, in a window the span covers whole unless the span is short."""
+    if not spans:
+        return None
+    longest = max(spans, key=lambda span: span[1] - span[0])
+    stamps = observed_stamps([longest])
+    return int(stamps[len(stamps) // 2])
 
 
 def _declared_metadata(timezone: str | None, spans: list[tuple[int, int]]) -> dict[str, str]:

@@ -91,7 +91,9 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
     "--graph",
     "graph_file",
     type=AionPath(path_type=Path, dir_okay=False),
-    help="Scene graph (dsg.json, .sparkdsg) to publish in the log as well.",
+    help="Scene graph (dsg.json, .sparkdsg) to publish in the log as well: with the first "
+    "detection message and then about once a minute with the detections (never where the log "
+    "has none, so it makes no time observed).",
 )
 @click.option(
     "--container",

@@ -158,7 +158,7 @@ def _idless_log(truth: DetectionBatch, path: Path) -> Path:
     idless = DetectionBatch(truth.t_ns, truth.xyz, np.full(n, np.nan), np.full(n, np.nan),
                             np.full(n, -1, np.int64))
     tracks_to_log(idless, path, graph_file=GRAPH, graph_period_s=5.0, msgtype=POSE_ARRAY,
-                  headings=False)
+                  headings=False, graph_clock=True)
     return path
 
 
@@ -180,7 +180,7 @@ def test_a_scene_graph_does_not_take_the_heading_of_a_track_that_just_started(
     assert np.allclose(link_tracks(truth.t_ns, truth.xyz[:, :2]).heading, truth.heading)
 
     ids_log = tmp_path / "ids.mcap"
-    tracks_to_log(truth, ids_log, graph_file=GRAPH, graph_period_s=5.0)
+    tracks_to_log(truth, ids_log, graph_file=GRAPH, graph_period_s=5.0, graph_clock=True)
     idless_log = _idless_log(truth, tmp_path / "idless.mcap")
     config = ModelConfig(window_s=10.0)
     maps = []
