@@ -23,6 +23,7 @@ import numpy as np
 from aion_cli.build_options import BuildOptions
 from aion_cli.engine.types import I64
 from aion_cli.log_times import TimeCheck
+from aion_cli.manifest import Manifest
 
 Spans = tuple[tuple[int, int], ...]
 
@@ -87,3 +88,17 @@ def without_markers(times: TimeCheck, marked: Spans, delta: int) -> tuple[TimeCh
     kept = unmarked_times(times.span_times, marked)
     only = np.setdiff1d(windows_of(times.span_times, delta), windows_of(kept, delta))
     return replace(times, span_times=kept, _pending=Counter()), only
+
+
+def observed_fill(
+    opts: BuildOptions, previous: Manifest | None
+) -> tuple[int | None, int | None]:
+    """How far ``--observed`` spans may fill beyond a build's logs: a parallel shard's share
+    of the time between the logs (set by its parent in ``opts.observed_fill``), else from the
+    window after a continued map's logs stopped (``previous.recording_reach``), so building A
+    and B at once equals building A and continuing with B."""
+    lo, hi = opts.observed_fill
+    reach = previous.recording_reach if previous is not None else None
+    if lo is None and reach is not None:
+        lo = reach + 1
+    return lo, hi

@@ -69,6 +69,7 @@ from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, StaleIndexError
 from aion_cli.graph_feed import GraphFeed, graph_source
 from aion_cli.graph_schedule import GraphTimes
+from aion_cli.log_observed import observed_fill, with_logs_observed
 from aion_cli.log_times import TopicTimes, overlap_warnings
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
@@ -435,21 +436,10 @@ class _Build(StreamStep):
         frames = (self.opts.map_frame, self.opts.base_frame)
         observe(
             mapper, tf, frames, graph_agents, logset, self._times, self.report,
-            self.opts.observed, self._detection_windows, self._observed_fill(),
+            self.opts.observed, self._detection_windows,
+            observed_fill(self.opts, self.previous_manifest),
             self.opts.observed_marked,
         )
-
-    def _observed_fill(self) -> tuple[int | None, int | None]:
-        """How far ``--observed`` spans may fill beyond this build's logs: a parallel
-        shard's share of the time between the logs (set by its parent), else from the window
-        after a continued map's logs stopped (``recording_reach``), so building A and B at
-        once equals building A and continuing with B."""
-        lo, hi = self.opts.observed_fill
-        previous = self.previous_manifest
-        reach = previous.recording_reach if previous is not None else None
-        if lo is None and reach is not None:
-            lo = reach + 1
-        return lo, hi
 
     def _fixed_graph(
         self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig
@@ -497,8 +487,6 @@ def build_map(opts: BuildOptions, progress: ProgressSink | None = None) -> Build
         raise InputError("no log given", hint="aion build LOG... -o MAP")
     if opts.batch_size < 1:
         raise InputError("batch size must be >= 1")
-    from aion_cli.log_observed import with_logs_observed
-
     opts, notes = with_logs_observed(opts)  # the spans aion convert --observed recorded
     report = _Build(opts, progress or NoProgress()).run()
     report.notes[:0] = notes
