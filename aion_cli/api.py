@@ -19,8 +19,8 @@ as the CLI reports them. The CLI's ``predict``, ``plan`` and ``export`` are form
 the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
 :mod:`aion_cli.exports`), so results are equal to their JSON output.
 
-:class:`Map` is here (:func:`to_ns` in :mod:`aion_cli.api_checks`, with the other readers of
-arguments); the functions that make maps (:func:`build`,
+:class:`Map` is here (:func:`to_ns` in :mod:`aion_cli.api_time`, the readers of arguments in
+:mod:`aion_cli.api_checks`); the functions that make maps (:func:`build`,
 :func:`merge`, :func:`compact`) live in :mod:`aion_cli.api_make` and the query results
 :class:`Table` and :class:`Plan` in :mod:`aion_cli.api_results`; both are re-exported here, so
 ``from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns`` imports the whole
@@ -34,9 +34,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, Union, overload
 
 from aion_cli import api_checks as check
-from aion_cli.api_checks import PairOf, PlaceLike, PointLike, StepLike, TimeLike, ZoneLike, to_ns
+from aion_cli.api_checks import PairOf, PlaceLike, PointLike, StepLike, TimeLike, ZoneLike
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
+from aion_cli.api_time import to_ns
 from aion_cli.api_typing import Made, Report
 from aion_cli.errors import InputError
 from aion_cli.map_sharing import new_lock, one_at_a_time, pickled, unpickled
