@@ -1,0 +1,79 @@
+"""The Python API's time values: steps as ``timedelta`` / ``numpy.timedelta64``, times as
+``numpy.datetime64`` and pandas ``Timestamp`` (to the nanosecond), read as the strings they
+stand for."""
+
+from __future__ import annotations
+
+from datetime import timedelta
+
+import numpy as np
+import pytest
+
+import aion_cli as aion
+from aion_cli.errors import InputError
+from tests.cli.conftest import Office
+
+T = "2026-01-12 08:40"  # the office log's Monday (tests/cli/logdata.py)
+
+
+@pytest.fixture(scope="module")
+def m(office: Office) -> aion.Map:
+    return aion.Map.load(office.map)
+
+
+def test_a_step_may_be_a_timedelta(m: aion.Map) -> None:
+    """A ``timedelta`` step is its seconds (before: "step must be a number", with the hint
+    "an int or a float, not a string", though strings such as "30m" are steps)."""
+    a = m.predict_series(T, "2026-01-12 10:40", timedelta(hours=1), tz="UTC", top=3)
+    b = m.predict_series(T, "2026-01-12 10:40", "1h", tz="UTC", top=3)
+    assert a.to_dict() == b.to_dict()
+    assert len(a.times) == 3
+    p = m.plan("p1", "p2", leave=(T, "2026-01-12 09:10"), step=timedelta(minutes=10), tz="UTC")
+    assert len(p.departures) == 4
+
+
+def test_a_step_may_be_a_numpy_timedelta64(m: aion.Map) -> None:
+    """numpy's ``timedelta64`` is its seconds, as a ``timedelta`` (before: ``TypeError:
+    float() argument must be ... not 'datetime.timedelta'``, as numbers counts it a number)."""
+    a = m.predict_series(T, "2026-01-12 10:40", np.timedelta64(30, "m"), tz="UTC", top=3)
+    b = m.predict_series(T, "2026-01-12 10:40", "30m", tz="UTC", top=3)
+    assert a == b
+    assert len(a.times) == 5
+    p = m.plan("p1", "p2", leave=(T, "2026-01-12 09:10"), step=np.timedelta64(600, "s"), tz="UTC")
+    assert len(p.departures) == 4
+    with pytest.raises(InputError, match="step must be a duration"):
+        m.predict_series(T, "2026-01-12 10:40", np.timedelta64(1, "M"), tz="UTC")
+
+
+def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
+    """numpy's ``datetime64`` (what a numpy array of times holds, without pandas) is its
+    wall-clock time in the zone, as a naive ``datetime`` (before: "not a time")."""
+    utc_ns = 1_768_207_200 * 10**9  # 2026-01-12 08:40 UTC
+    assert aion.to_ns(np.datetime64("2026-01-12T08:40")) == utc_ns
+    assert aion.to_ns(np.datetime64("2026-01-12T08:40:00.000000123")) == utc_ns + 123
+    assert aion.to_ns(np.datetime64("2026-01-12T08:40"), "Europe/Berlin") == utc_ns - 3600 * 10**9
+    table = m.predict(np.datetime64("2026-01-12T08:40"), tz="UTC")
+    assert table.time_ns == utc_ns
+    assert table.records() == m.predict(T, tz="UTC").records()
+    series = m.predict_series(np.datetime64(T), np.datetime64("2026-01-12T10:40"), tz="UTC")
+    assert series.times_ns == [utc_ns + k * 3600 * 10**9 for k in range(3)]
+    with pytest.raises(InputError, match="not a time"):
+        m.predict(np.datetime64("NaT"))
+    with pytest.raises(InputError, match="outside the range"):
+        m.predict(np.datetime64("2300-01-01"))
+
+
+def test_a_pandas_timestamp_is_read_to_the_nanosecond() -> None:
+    """A pandas ``Timestamp`` (a ``datetime`` that holds nanoseconds) keeps them, as a
+    ``numpy.datetime64`` does: before, its nanoseconds were dropped (``...08:40:00.000000123``
+    was ``...08:40:00``). ``pandas.NaT`` (a ``datetime`` too) was "the time 'NaT' is outside the
+    range aion handles"; it is a missing time, as numpy's NaT."""
+    pd = pytest.importorskip("pandas", reason="pandas is not installed (aion does not need it)")
+    utc_ns = 1_768_207_200 * 10**9  # 2026-01-12 08:40 UTC
+    assert aion.to_ns(pd.Timestamp("2026-01-12 08:40:00.000000123")) == utc_ns + 123
+    berlin = pd.Timestamp("2026-01-12 09:40:00.000000123", tz="Europe/Berlin")
+    assert aion.to_ns(berlin) == utc_ns + 123
+    assert aion.to_ns(pd.Timestamp("1969-12-31 23:59:59.999999999")) == -1
+    with pytest.raises(InputError, match="not a time") as caught:
+        aion.to_ns(pd.NaT)
+    assert caught.value.hint == "NaT marks a missing time"
