@@ -6,46 +6,19 @@ markers made a window the span only partly covers count whole (27.0 windows agai
 
 from __future__ import annotations
 
-from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
-from tests.cli.conftest import run, run_json
-
-SPAN = "2026-11-23 08:00..2026-11-23 12:02"
+from tests.cli.atc_sessions import SPAN, convert_atc, observed_windows, write_two_sessions
+from tests.cli.conftest import run_json
 
 
 @pytest.fixture(scope="module")
 def two(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """ATC rows (time s, id, x m, y m, speed, angle): 08:00-08:20 on 2026-11-23 and -24,
-    one person a minute walking for 30 s from 5 s past it; the last row at 08:19:34."""
-    rows, person = [], 1
-    for day in (23, 24):
-        t0 = datetime(2026, 11, day, 8, 0, tzinfo=UTC).timestamp()
-        for minute in range(20):
-            start = t0 + minute * 60 + 5
-            rows += [f"{start + i:.3f},{person},{-10 + i * 0.5:.3f},1.000,0.5,0.0"
-                     for i in range(30)]
-            person += 1
-    path = tmp_path_factory.mktemp("two") / "two.csv"
-    path.write_text("\n".join(rows) + "\n")
-    return path
-
-
-def _convert(tracks: Path, log: Path, *args: str) -> None:
-    result = run("convert", tracks, "--layout", "atc", "-o", log, "-q", *args)
-    assert result.exit_code == 0, result.stderr
-
-
-def _observed(path: Path) -> np.ndarray:
-    from aion_cli.mapquery import load_map
-
-    state = load_map(path).state
-    out: np.ndarray = state.windows_observed(state.entries.live_rows(), True)
-    return out
+    return write_two_sessions(tmp_path_factory.mktemp("two") / "two.csv")
 
 
 def test_converting_with_spans_observes_what_building_with_them_does(
@@ -55,12 +28,13 @@ def test_converting_with_spans_observes_what_building_with_them_does(
     12:00, 0.2 of the next, then 08:00-08:10 on the 24th and 08:10-08:20 to its last message
     (08:19:34, to the 10 s step: 29/30), 26.17 windows by either route."""
     marked, plain = tmp_path / "a.mcap", tmp_path / "b.mcap"
-    _convert(two, marked, "--observed", SPAN)
-    _convert(two, plain)
+    convert_atc(two, marked, "--observed", SPAN)
+    convert_atc(two, plain)
     a = run_json("build", marked, "-o", tmp_path / "a.aion", "--format", "json")
     b = run_json("build", plain, "-o", tmp_path / "b.aion", "--observed", SPAN,
                  "--format", "json")
-    via_convert, via_build = _observed(tmp_path / "a.aion"), _observed(tmp_path / "b.aion")
+    via_convert = observed_windows(tmp_path / "a.aion")
+    via_build = observed_windows(tmp_path / "b.aion")
     assert via_build.max() == pytest.approx(24 + 0.2 + 1 + 29 / 30)
     assert via_convert.tobytes() == via_build.tobytes()
     assert a["windows"] == b["windows"] == 26
@@ -72,10 +46,10 @@ def test_observed_given_replaces_the_recorded_spans(two: Path, tmp_path: Path) -
     """--observed takes precedence: the markers then count as messages (as in a log that
     records no spans), so the window 12:00-12:10 counts whole: 27 - 1/30 windows."""
     marked = tmp_path / "a.mcap"
-    _convert(two, marked, "--observed", SPAN)
+    convert_atc(two, marked, "--observed", SPAN)
     built = run_json("build", marked, "-o", tmp_path / "a.aion", "--observed", SPAN,
                      "--format", "json")
-    assert _observed(tmp_path / "a.aion").max() == pytest.approx(25 + 1 + 29 / 30)
+    assert observed_windows(tmp_path / "a.aion").max() == pytest.approx(25 + 1 + 29 / 30)
     assert any(n.startswith("--observed replaces the observed spans a.mcap records")
                for n in built["notes"])
 
@@ -86,14 +60,14 @@ def test_a_log_that_records_no_spans_counts_its_markers_whole(
     """A log converted by older aion (the same rosbag2 folder without the spans): the
     markers are messages, the window 12:00-12:10 counts whole, as before."""
     marked = tmp_path / "old"
-    _convert(two, marked, "--observed", SPAN)
+    convert_atc(two, marked, "--observed", SPAN)
     meta = marked / "metadata.yaml"
     doc = yaml.safe_load(meta.read_text())
     custom = doc["rosbag2_bagfile_information"]["custom_data"]
     assert custom.pop("aion.observed") == "1795420800000000000..1795435320000000000"
     meta.write_text(yaml.safe_dump(doc))
     run_json("build", marked, "-o", tmp_path / "old.aion", "--format", "json")
-    assert _observed(tmp_path / "old.aion").max() == pytest.approx(25 + 1 + 29 / 30)
+    assert observed_windows(tmp_path / "old.aion").max() == pytest.approx(25 + 1 + 29 / 30)
 
 
 @pytest.mark.parametrize("name", ["a.mcap", "a.bag", "a"])
@@ -103,7 +77,7 @@ def test_every_container_records_the_spans(two: Path, tmp_path: Path, name: str)
     from aion_cli.formats.log_zone import declared_spans
 
     log = tmp_path / name
-    _convert(two, log, "--observed", SPAN, "--observed", "2026-11-24 07:31..2026-11-24 07:44")
+    convert_atc(two, log, "--observed", SPAN, "--observed", "2026-11-24 07:31..2026-11-24 07:44")
     spans = ((1795420800 * 10**9, 1795435320 * 10**9), (1795505460 * 10**9, 1795506240 * 10**9))
     assert declared_spans([log]) == {str(log): spans}
     info = run_json("info", log, "--format", "json")
