@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 
@@ -117,3 +119,32 @@ def check_invariants(state: MapState) -> None:
     assert not ent.heading_sin[free].any(), "a free row keeps heading sums"
     if state.pending:
         assert np.isin(state.pending.entries(), live).all(), "the pending day names a free row"
+
+
+def feed_bursts(
+    m: Any, rng: np.random.Generator, start: int, end: int, gap_s: tuple[int, int]
+) -> dict[str, np.ndarray]:
+    """Feed mapper ``m`` from ``start`` to ``end``: after a gap of ``gap_s`` seconds (drawn),
+    a burst of up to 39 detections (60 % of the time) and a graph whose 12 nodes come, go and
+    move (50 %); then advance to ``end`` and return the state's arrays."""
+    pool = np.c_[rng.uniform(-6, 6, (12, 2)), rng.choice([0.0, 3.0], 12)]
+    present = rng.random(12) < 0.7
+    t = start
+    while t < end - 700 * S:
+        t += int(rng.integers(*gap_s)) * S
+        if rng.random() < 0.6:
+            n = int(rng.integers(1, 40))
+            xyz = np.c_[rng.uniform(-7, 7, (n, 2)), rng.choice([0.0, 3.0], n)]
+            stamps = t + rng.integers(0, 60 * S, n)
+            heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
+            m.add_detections(detections(np.sort(stamps), xyz, heading, rng.uniform(0, 2, n)))
+        if rng.random() < 0.5:
+            flip = rng.random(12) < 0.1
+            present ^= flip
+            pool[rng.random(12) < 0.05, :2] += rng.normal(0, 1.0, 2)
+            idx = np.flatnonzero(present)
+            m.add_graph(graph(t + 61 * S, idx.tolist(), pool[idx]))
+            t += 61 * S
+    m.advance(end)
+    arrays, _meta = m.state.to_arrays()
+    return {k: np.asarray(v) for k, v in arrays.items()}

@@ -27,7 +27,7 @@ from aion_cli.engine.ownership import (
     unentered_stable_nodes,
 )
 from aion_cli.engine.windows import window_centre_ns, window_ns, window_start_ns
-from tests.engine.engine_builders import T0_DAY_END, S, detections, graph
+from tests.engine.engine_builders import T0_DAY_END, S, feed_bursts
 
 
 def _close_windows_before(state: Any, stop: int) -> None:
@@ -97,27 +97,7 @@ def _build(seed: int, source: str, exposure: bool) -> dict[str, np.ndarray]:
     if source == "fixed":
         m.set_fixed_sensor(start, start + 30 * 3600 * S + 77 * S)
         m.set_fixed_sensor(start + 34 * 3600 * S + 250 * S, end)
-    pool = np.c_[rng.uniform(-6, 6, (12, 2)), rng.choice([0.0, 3.0], 12)]
-    present = rng.random(12) < 0.7
-    t = start
-    while t < end - 700 * S:
-        t += int(rng.integers(200, 800)) * S  # mostly the next window: single closes
-        if rng.random() < 0.6:
-            n = int(rng.integers(1, 40))
-            xyz = np.c_[rng.uniform(-7, 7, (n, 2)), rng.choice([0.0, 3.0], n)]
-            stamps = t + rng.integers(0, 60 * S, n)
-            heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
-            m.add_detections(detections(np.sort(stamps), xyz, heading, rng.uniform(0, 2, n)))
-        if rng.random() < 0.5:
-            flip = rng.random(12) < 0.1
-            present ^= flip
-            pool[rng.random(12) < 0.05, :2] += rng.normal(0, 1.0, 2)
-            idx = np.flatnonzero(present)
-            m.add_graph(graph(t + 61 * S, idx.tolist(), pool[idx]))
-            t += 61 * S
-    m.advance(end)
-    arrays, _meta = m.state.to_arrays()
-    return {k: np.asarray(v) for k, v in arrays.items()}
+    return feed_bursts(m, rng, start, end, (200, 800))
 
 
 @pytest.mark.parametrize(

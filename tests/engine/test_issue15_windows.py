@@ -25,7 +25,7 @@ from aion_cli.engine.entries import FREE, EntryStore
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.temporal import scoring
 from aion_cli.engine.types import Trajectory
-from tests.engine.engine_builders import T0_DAY_END, S, detections, graph
+from tests.engine.engine_builders import T0_DAY_END, S, feed_bursts
 
 # -- the open-window row flags --------------------------------------------------------------
 
@@ -177,27 +177,7 @@ def _build(seed: int, robot: bool) -> dict[str, np.ndarray]:
         m.add_trajectory(Trajectory(t, xyz))
     else:
         m.set_fixed_sensor(start, end)
-    pool = np.c_[rng.uniform(-6, 6, (12, 2)), rng.choice([0.0, 3.0], 12)]
-    present = rng.random(12) < 0.7
-    t = start
-    while t < end - 700 * S:
-        t += int(rng.integers(100, 1300)) * S
-        if rng.random() < 0.6:
-            n = int(rng.integers(1, 40))
-            xyz = np.c_[rng.uniform(-7, 7, (n, 2)), rng.choice([0.0, 3.0], n)]
-            stamps = t + rng.integers(0, 60 * S, n)
-            heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
-            m.add_detections(detections(np.sort(stamps), xyz, heading, rng.uniform(0, 2, n)))
-        if rng.random() < 0.5:
-            flip = rng.random(12) < 0.1
-            present ^= flip
-            pool[rng.random(12) < 0.05, :2] += rng.normal(0, 1.0, 2)
-            idx = np.flatnonzero(present)
-            m.add_graph(graph(t + 61 * S, idx.tolist(), pool[idx]))
-            t += 61 * S
-    m.advance(end)
-    arrays, _meta = m.state.to_arrays()
-    return {k: np.asarray(v) for k, v in arrays.items()}
+    return feed_bursts(m, rng, start, end, (100, 1300))
 
 
 def _plain(monkeypatch: pytest.MonkeyPatch) -> None:
