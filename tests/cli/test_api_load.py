@@ -96,18 +96,10 @@ def test_a_map_replaced_or_deleted_before_its_first_query_answers_as_loaded(
 def test_a_map_aion_cannot_read_is_refused_when_loaded(office: Office, tmp_path: Path) -> None:
     """Reading the state later does not defer what says a map is unreadable: a model state
     a newer aion wrote is refused by ``Map.load`` itself, as when it read the state at once."""
-    import json
 
     from aion_cli.errors import MapVersionError
-    from tests.cli.test_info_map_unreadable import _rewrite
+    from tests.cli.test_info_map_unreadable import _rewrite, newer_state
 
-    def newer(name: str, data: bytes) -> bytes:
-        if name != "manifest.json":
-            return data
-        manifest = json.loads(data)
-        manifest["state"]["state_version"] += 1
-        return json.dumps(manifest).encode()
-
-    path = _rewrite(office.map, tmp_path / "newer.aion", newer)
+    path = _rewrite(office.map, tmp_path / "newer.aion", newer_state)
     with pytest.raises(MapVersionError, match="written by a newer aion"):
         aion.Map.load(path)

@@ -20,15 +20,17 @@ def _rewrite(src: Path, dst: Path, edit: Callable[[str, bytes], bytes]) -> Path:
     return dst
 
 
-def test_a_state_a_newer_aion_wrote_says_to_upgrade(office: Office, tmp_path: Path) -> None:
-    def newer(name: str, data: bytes) -> bytes:
-        if name != "manifest.json":
-            return data
-        manifest = json.loads(data)
-        manifest["state"]["state_version"] += 1
-        return json.dumps(manifest).encode()
+def newer_state(name: str, data: bytes) -> bytes:
+    """A map member as a newer aion would write it: the manifest's state version one up."""
+    if name != "manifest.json":
+        return data
+    manifest = json.loads(data)
+    manifest["state"]["state_version"] += 1
+    return json.dumps(manifest).encode()
 
-    path = _rewrite(office.map, tmp_path / "newer.aion", newer)
+
+def test_a_state_a_newer_aion_wrote_says_to_upgrade(office: Office, tmp_path: Path) -> None:
+    path = _rewrite(office.map, tmp_path / "newer.aion", newer_state)
     for args in (("info", path, "--verify"), ("predict", path, "-t", "2026-01-05 08:00")):
         result = run(*args)
         assert result.exit_code == 2, result.stderr
