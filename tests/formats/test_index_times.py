@@ -240,7 +240,9 @@ def test_an_mcap_without_summary_gives_its_times_from_the_opening_scan(tmp_path:
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(full.read_bytes()[: last + 5])  # inside the index records after it
     with open_logs([cut]) as logs:
-        assert "truncated or corrupt MCAP" in logs.warnings[0]  # read linearly
+        # read linearly; the shuffled chunks' overlap (up to 49 s back) is a warning of its own
+        # (formats/clock_steps.py), as it is for the whole file read by its summary
+        assert any("truncated or corrupt MCAP" in w for w in logs.warnings), logs.warnings
         assert_index_is_the_stream(logs, {"/a", "/b"})
         assert_index_is_the_stream(logs, {"/b"})
 
