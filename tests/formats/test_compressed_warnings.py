@@ -20,18 +20,8 @@ def test_warnings_on_a_compressed_file_name_it_not_its_temporary_copy(
     of 1708', in a file of fewer bytes): they now say they count in the decompressed data."""
     import re
 
-    from mcap.writer import Writer
-
     whole = tmp_path / "whole.mcap"
-    with whole.open("wb") as f:
-        w = Writer(f, chunk_size=4096)
-        w.start(profile="ros2")
-        channel = w.register_channel(
-            "/e", "cdr", w.register_schema("std_msgs/msg/Empty", "ros2msg", b"")
-        )
-        for k in range(40):
-            w.add_message(channel, k, b"\x00\x01\x00\x00" + k.to_bytes(4, "little") * 256, k)
-        w.finish()
+    _forty_messages(whole, chunk_size=4096)
     plain = tmp_path / "cut.mcap"
     plain.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
     (tmp_path / "logs").mkdir()
@@ -64,18 +54,8 @@ def test_a_corrupt_chunk_of_a_compressed_log_is_placed_in_the_decompressed_data(
     gives."""
     import re
 
-    from mcap.writer import Writer
-
     plain = tmp_path / "bad.mcap"
-    with plain.open("wb") as f:
-        w = Writer(f, chunk_size=1 << 20)
-        w.start(profile="ros2")
-        channel = w.register_channel(
-            "/e", "cdr", w.register_schema("std_msgs/msg/Empty", "ros2msg", b"")
-        )
-        for k in range(40):
-            w.add_message(channel, k, b"\x00\x01\x00\x00" + k.to_bytes(4, "little") * 256, k)
-        w.finish()
+    _forty_messages(plain, chunk_size=1 << 20)
     data = bytearray(plain.read_bytes())
     for k in range(len(data) // 8, len(data) // 8 + 40):  # inside the one chunk's data
         data[k] ^= 0xFF
@@ -92,3 +72,19 @@ def test_a_corrupt_chunk_of_a_compressed_log_is_placed_in_the_decompressed_data(
                 f"at byte {at} skipped", f"at byte {at} of the decompressed data skipped")
         ]
     assert list(temp_root.iterdir()) == []
+
+
+def _forty_messages(path: Path, chunk_size: int) -> None:
+    """A ROS 2 MCAP of 40 messages of 1 KiB on /e at log times 0..39 ns, in chunks of
+    ``chunk_size`` bytes (4096: one chunk per few messages; 1 MiB: one chunk)."""
+    from mcap.writer import Writer
+
+    with path.open("wb") as f:
+        w = Writer(f, chunk_size=chunk_size)
+        w.start(profile="ros2")
+        channel = w.register_channel(
+            "/e", "cdr", w.register_schema("std_msgs/msg/Empty", "ros2msg", b"")
+        )
+        for k in range(40):
+            w.add_message(channel, k, b"\x00\x01\x00\x00" + k.to_bytes(4, "little") * 256, k)
+        w.finish()
