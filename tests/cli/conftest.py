@@ -48,6 +48,19 @@ def run_json(*args: str | Path) -> Any:
     return json.loads(result.stdout)
 
 
+def build_office_days(folder: Path, days: int = 3) -> Path:
+    """A map of ``days`` daily copies of the office log (``folder/day{k}.mcap``, each a day
+    after the one before), built into ``folder/three.aion``: the middle days are scored
+    against the ones before them, the last stays pending."""
+    logs = []
+    for day in range(days):
+        logs.append(folder / f"day{day}.mcap")
+        write_office_log(logs[-1], shift_s=86400 * day)
+    out = folder / "three.aion"
+    run_json("build", *logs, "-o", out, "--format", "json")
+    return out
+
+
 def run_process(*args: str | Path, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     """Run the installed ``aion`` console script in a subprocess."""
     env = {**os.environ, "TZ": "UTC", "COLUMNS": "200"}

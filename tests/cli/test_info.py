@@ -5,7 +5,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
+from tests.cli.conftest import (
+    Office,
+    assert_one_line_error,
+    build_office_days,
+    run,
+    run_json,
+    run_process,
+)
 
 
 def test_json_lists_topics_roles_and_counts(office: Office) -> None:
@@ -247,14 +254,7 @@ def test_families_after_a_scored_day(tmp_path: Path) -> None:
     the 2 windows the robot watched each of the 5 places in its range (10 entry-windows);
     the last day stays pending and is scored provisionally in its one closed window (its
     second is still open: 5 entry-windows more). Every entry is counted once per kind."""
-    from tests.cli.logdata import write_office_log
-
-    logs = []
-    for day in range(3):
-        logs.append(tmp_path / f"day{day}.mcap")
-        write_office_log(logs[-1], shift_s=86400 * day)
-    out = tmp_path / "three.aion"
-    run_json("build", *logs, "-o", out, "--format", "json")
+    out = build_office_days(tmp_path)
     families = run_json("info", out, "--format", "json")["families"]
     assert families["scored_windows"] == 10.0 + 5.0
     assert families["scored_days"] == 2  # the middle day, and the last provisionally

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.cli.conftest import Office, run, run_json
+from tests.cli.conftest import Office, build_office_days, run, run_json
 from tests.cli.test_predict import entries
 
 AT = "2026-11-23 08:30"
@@ -69,14 +69,7 @@ def test_a_scored_day_keeps_rows_consistent(tmp_path: Path) -> None:
     """Three days of the office log: the middle day is scored against the first (the last
     stays pending), so the dispersion is estimated; intervals stay ordered around the flow and
     the families are the documented names."""
-    from tests.cli.logdata import write_office_log
-
-    logs = []
-    for day in range(3):
-        logs.append(tmp_path / f"day{day}.mcap")
-        write_office_log(logs[-1], shift_s=86400 * day)
-    out = tmp_path / "three.aion"
-    run_json("build", *logs, "-o", out, "--format", "json")
+    out = build_office_days(tmp_path)
     flow_names = {"static", "shape", "profile", *(f"fremen{m}" for m in range(1, 5))}
     direction_names = flow_names - {"shape"}
     doc = run_json("predict", out, "--time", "2026-11-26 08:05", "--format", "json")

@@ -220,7 +220,6 @@ def test_unusable_metadata_yaml_falls_back_to_the_storage_files(tmp_path: Path) 
         assert "indexed in memory from its 1 storage file" in logs.warnings[-1]
 
 
-
 def test_a_metadata_yaml_that_is_no_yaml_is_named_on_one_line(tmp_path: Path) -> None:
     """A metadata.yaml cut inside a list: the YAML parser's error spans four lines (the text
     it quotes and a caret under it), and the warning carried them as they were, which the
