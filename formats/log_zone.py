@@ -95,42 +95,64 @@ def declared_spans(paths: Sequence[Path]) -> dict[str, tuple[tuple[int, int], ..
 def declared_values(paths: Sequence[Path], key: str) -> dict[str, str]:
     """Per log among ``paths`` (by its path text), the value of its aion metadata ``key``;
     logs without one and logs that cannot be read are left out."""
-    from aion_cli.formats.log_format import guess_format
-
     out: dict[str, str] = {}
     for path in paths:
-        try:
-            kind, target = guess_format(path)
-            value = _reader(kind)(target, key)
-        except Exception:  # a damaged log declares nothing: the build reads it and says why
-            continue
-        if isinstance(value, str) and value:
+        value = declared(path).get(key)
+        if value:
             out[str(path)] = value
     return out
 
 
-def _reader(kind: str) -> Callable[[Path, str], str | None]:
-    return {"mcap": _mcap_zone, "bag": _bag_zone, "rosbag2": _rosbag2_zone}.get(kind, _none)
+def declared(path: Path) -> dict[str, str]:
+    """All the aion metadata a log declares (key: value; empty when it declares none or
+    cannot be read: the build reads it and says why). Read once per state of the file read
+    (its device, inode, size and modification time): a build asks for the zone and for the
+    spans, and a ROS 1 bag's index is read to answer either."""
+    from aion_cli.formats.log_format import guess_format
+
+    try:
+        kind, target = guess_format(path)
+        read = _READERS.get(kind)
+        if read is None:
+            return {}
+        source = _source(kind, target)
+        stat = source.stat()
+        identity = (str(source), stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+        if identity not in _SEEN:
+            if len(_SEEN) >= _SEEN_MAX:
+                _SEEN.pop(next(iter(_SEEN)))
+            _SEEN[identity] = read(target)
+        return dict(_SEEN[identity])
+    except Exception:  # a damaged log declares nothing: the build reads it and says why
+        return {}
 
 
-def _none(_path: Path, _key: str) -> None:
-    return None
+_SEEN: dict[tuple[str, int, int, int, int], dict[str, str]] = {}
+_SEEN_MAX = 256
 
 
-def _mcap_zone(path: Path, key: str = KEY) -> str | None:
-    """The zone of an MCAP file's metadata index (its summary); in a file without one (a
-    recorder stopped before the summary) only the records before its first chunk or
-    message are read, where aion's writers put the record (:meth:`LogWriter.add_metadata`
-    is called before the first message): mcap's own fallback reads, and decompresses, the
-    whole file before the build reads it again, and loses the zone at a damaged record."""
+def _source(kind: str, target: Path) -> Path:
+    """The file whose bytes hold ``target``'s metadata: a rosbag2 folder's metadata.yaml."""
+    if kind == "rosbag2":
+        return (target if target.is_dir() else target.parent) / "metadata.yaml"
+    return target
+
+
+def _mcap_metadata(path: Path) -> dict[str, str]:
+    """The keys of an MCAP file's ``aion`` metadata records from its metadata index (its
+    summary; a later record's non-empty value wins); in a file without one (a recorder
+    stopped before the summary) only the records before its first chunk or message are read,
+    where aion's writers put the record (:meth:`LogWriter.add_metadata` is called before the
+    first message): mcap's own fallback reads, and decompresses, the whole file before the
+    build reads it again, and loses the zone at a damaged record."""
     from mcap.exceptions import McapError
     from mcap.reader import make_reader
     from mcap.records import Chunk, DataEnd, Message, Metadata
     from mcap.stream_reader import StreamReader
 
     if not path.is_file():
-        return None
-    zone = None
+        return {}
+    found: dict[str, str] = {}
     with path.open("rb") as f:
         reader = make_reader(f)
         try:
@@ -147,41 +169,51 @@ def _mcap_zone(path: Path, key: str = KEY) -> str | None:
             )
         with contextlib.suppress(McapError):  # a record cut short ends the search there
             for record in records:
-                if (
-                    isinstance(record, Metadata)
-                    and record.name == RECORD
-                    and record.metadata.get(key)
-                ):
-                    zone = record.metadata[key]
-    return zone
+                if isinstance(record, Metadata) and record.name == RECORD:
+                    found.update((k, v) for k, v in record.metadata.items() if v)
+    return found
 
 
-def _bag_zone(path: Path, key: str = KEY) -> str | None:
+def _bag_metadata(path: Path) -> dict[str, str]:
+    """The ``/aion/KEY`` topics of a ROS 1 bag (:func:`metadata_topic`): each one's first
+    ``std_msgs/String`` message."""
     from rosbags.rosbag1 import Reader
 
-    topic = metadata_topic(RECORD, key)
+    prefix = metadata_topic(RECORD, "")
+    found: dict[str, str] = {}
     with Reader(path) as reader:
-        found = [
+        ours = [
             c for c in reader.connections
-            if c.topic == topic and c.msgtype == STRING
+            if c.topic.startswith(prefix) and c.msgtype == STRING
         ]  # fmt: skip
-        if not found:
-            return None  # (no connections given, rosbags reads every message)
-        for _, _, raw in reader.messages(connections=found):
-            return _from_ros1_string(raw)
-    return None
+        if not ours:
+            return found  # (no connections given, rosbags reads every message)
+        for connection, _, raw in reader.messages(connections=ours):
+            # the first message of each topic, as written (an empty one declares nothing)
+            found.setdefault(connection.topic[len(prefix) :], _from_ros1_string(raw) or "")
+    return {key: text for key, text in found.items() if text}
 
 
-def _rosbag2_zone(path: Path, key: str = KEY) -> str | None:
+def _rosbag2_metadata(path: Path) -> dict[str, str]:
+    """The ``aion.KEY`` entries of a rosbag2 folder's ``custom_data``."""
     from ruamel.yaml import YAML  # rosbags' own YAML library
 
     from aion_cli.formats.log_target import _MAX_METADATA_BYTES
 
-    folder = path if path.is_dir() else path.parent
-    meta = folder / "metadata.yaml"
+    meta = _source("rosbag2", path)
     if not meta.is_file() or meta.stat().st_size > _MAX_METADATA_BYTES:
-        return None
+        return {}
     doc = YAML(typ="safe").load(meta.read_text(encoding="utf-8"))
     custom = doc["rosbag2_bagfile_information"].get("custom_data") or {}
-    zone = custom.get(f"{RECORD}.{key}")
-    return zone if isinstance(zone, str) else None
+    prefix = f"{RECORD}."
+    return {
+        k[len(prefix) :]: v for k, v in custom.items()
+        if isinstance(k, str) and k.startswith(prefix) and isinstance(v, str)
+    }  # fmt: skip
+
+
+_READERS: dict[str, Callable[[Path], dict[str, str]]] = {
+    "mcap": _mcap_metadata,
+    "bag": _bag_metadata,
+    "rosbag2": _rosbag2_metadata,
+}
