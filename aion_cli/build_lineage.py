@@ -21,6 +21,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from aion_cli.errors import InputError
+from aion_cli.merge_lineage import check_lineage
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -28,9 +29,6 @@ if TYPE_CHECKING:
     from aion_cli.engine.rebind import Agreement
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.mapquery import LoadedMap
-
-LINEAGES = ("auto", "same", "different")
-
 
 def continue_on_graph(
     loaded: LoadedMap,
@@ -44,8 +42,7 @@ def continue_on_graph(
     place) the ``lineage`` of the continued map ``loaded`` (file ``name``) and the graph file
     ``graph_file`` it is built on; notes go to ``notes``. :class:`InputError` when ``auto``
     finds the file's place ids at other places than the map's (another session)."""
-    if lineage not in LINEAGES:
-        raise InputError(f"unknown lineage {lineage!r}", hint=f"one of {', '.join(LINEAGES)}")
+    check_lineage(lineage)
     if graph_file is None:  # the logs' own graphs, if any: check_log_graph, release_for_logs
         return
     if lineage == "same" or loaded.graph is None:  # the user's word; a map of cells only

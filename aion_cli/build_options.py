@@ -106,12 +106,9 @@ class BuildOptions:
     observed_fill: tuple[int | None, int | None] = (None, None)
 
     def __post_init__(self) -> None:
-        from aion_cli.build_lineage import LINEAGES
+        from aion_cli.merge_lineage import check_lineage
 
-        if self.lineage not in LINEAGES:
-            raise InputError(
-                f"unknown lineage {self.lineage!r}", hint=f"one of {', '.join(LINEAGES)}"
-            )
+        check_lineage(self.lineage)
         if self.scheduler is not None:  # a typo is refused even where no cluster is used
             check_scheduler_address(self.scheduler)
 

@@ -22,9 +22,18 @@ if TYPE_CHECKING:
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.mapquery import MapHead
 
-__all__ = ["LINEAGES", "LineageInput", "choose_lineage"]
+__all__ = ["LINEAGES", "LineageInput", "check_lineage", "choose_lineage"]
 
 LINEAGES = ("auto", "same", "different")
+"""What ``--lineage`` takes, for ``aion merge`` and ``aion build --map`` alike."""
+
+
+def check_lineage(lineage: str) -> None:
+    """:class:`InputError` unless ``lineage`` is one of :data:`LINEAGES`."""
+    from aion_cli.errors import InputError
+
+    if lineage not in LINEAGES:
+        raise InputError(f"unknown lineage {lineage!r}", hint=f"one of {', '.join(LINEAGES)}")
 
 
 class LineageInput(Protocol):

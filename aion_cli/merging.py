@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.errors import InputError
 from aion_cli.manifest import InputLog, Manifest, add_counts
 from aion_cli.merge_config import adopt_config, check_compatible
-from aion_cli.merge_lineage import LINEAGES, choose_lineage
+from aion_cli.merge_lineage import check_lineage, choose_lineage
 from aion_cli.merge_names import naming_map, shared_names
 from aion_cli.merge_report import MergedInput, MergeReport
 
@@ -136,8 +136,7 @@ def merge_map_files(
     sink = progress or NoProgress()
     paths = [Path(p) for p in paths]
     out = Path(out)
-    if lineage not in LINEAGES:
-        raise InputError(f"unknown lineage {lineage!r}", hint=f"one of {', '.join(LINEAGES)}")
+    check_lineage(lineage)
     if not paths:
         raise InputError("a merge needs at least two maps (or one part map)", hint=_HINT)
     _check_paths(paths, out)

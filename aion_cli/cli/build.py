@@ -21,6 +21,7 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.graph_options import graph_period_option, nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, to_json
+from aion_cli.merge_lineage import LINEAGES
 
 EPILOG = """\b
 Examples:
@@ -175,7 +176,7 @@ class _RichProgress:
 )
 @click.option(
     "--lineage",
-    type=click.Choice(["auto", "same", "different"], case_sensitive=False),
+    type=click.Choice(LINEAGES, case_sensitive=False),
     default="auto",
     show_default=True,
     help="With --map: whether --graph FILE, else the logs' first scene graph, is of the map's "

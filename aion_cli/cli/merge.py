@@ -10,6 +10,7 @@ import click
 from aion_cli.cli.common import AionPath, quiet_option
 from aion_cli.cli.graph_options import nav_layer_option
 from aion_cli.cli.output import AionCommand, format_option, map_output_option, to_json
+from aion_cli.merge_lineage import LINEAGES
 
 EPILOG = """\b
 Examples:
@@ -55,7 +56,7 @@ stderr also with -q and --format json, as aion build's).
 )
 @click.option(
     "--lineage",
-    type=click.Choice(["auto", "same", "different"], case_sensitive=False),
+    type=click.Choice(LINEAGES, case_sensitive=False),
     default="auto",
     show_default=True,
     help="Whether the maps come from one scene-graph session (node ids add by id) or from "
