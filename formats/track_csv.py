@@ -76,7 +76,9 @@ _SPECS: dict[str, _Spec] = {
     "canonical": _Spec(
         CANONICAL_COLUMNS, frozenset({0, 1}), frozenset({0, 1, 2, 3, 4}), ",", CANONICAL_HEADER
     ),
-    "atc": _Spec(ATC_COLUMNS, frozenset({1}), frozenset({0, 1, 2, 3}), ",", None),
+    # speed and motion angle finite too: a NaN or inf there was taken silently (an inf angle
+    # with numpy's "invalid value encountered in remainder" on stderr); the datasets have none
+    "atc": _Spec(ATC_COLUMNS, frozenset({1}), frozenset({0, 1, 2, 3, 4, 5}), ",", None),
     "eth": _Spec(ETH_COLUMNS, frozenset({1}), frozenset({0, 1, 2, 3}), None, None),
 }
 

@@ -268,3 +268,28 @@ def test_an_edinburgh_file_cut_inside_its_last_entry_says_so(tmp_path: Path) -> 
         ft.read_tracks(path, "edinburgh")
     assert caught.value.message.endswith("(the file ends inside it)")
     assert f"the {before:,} TRACK entries before it can be read" in (caught.value.hint or "")
+
+
+@pytest.mark.parametrize(
+    ("value", "column", "layout"),
+    [("nan", 5, "atc"), ("inf", 5, "thor"), ("nan", 6, "thor"), ("-inf", 6, "atc")],
+)
+def test_a_speed_or_motion_angle_that_is_not_finite_names_its_line(
+    tmp_path: Path, value: str, column: int, layout: str
+) -> None:
+    """ATC / THÖR speed and motion-angle columns are measured values like x and y: a NaN or
+    an infinity there names its line and column, read whole or streamed a few rows at a time
+    (the line counted from the file's top, not the chunk's). Before, the file was read
+    without a word (an infinite angle with numpy's "invalid value encountered in remainder"
+    on stderr) and its rows written with an unknown direction or speed."""
+    rows = [f"{1351038020 + k},7,{0.5 * k},1.0,1.2,0.1" for k in range(9)]
+    fields = rows[6].split(",")
+    fields[column - 1] = value
+    rows[6] = ",".join(fields)
+    path = _write(tmp_path, "tracks.csv", "\n".join(rows) + "\n")
+    name = track_csv.ATC_COLUMNS[column - 1]
+    where = rf"line 7, column {column} \({name}\): '{re.escape(value)}' is not finite"
+    with pytest.raises(track_types.TracksFormatError, match=where):
+        ft.read_tracks(path, layout)
+    with pytest.raises(track_types.TracksFormatError, match=where):
+        list(track_csv.track_chunks(path, layout, rows=4))
