@@ -59,12 +59,13 @@ def build_zone(
         whose = f"--tz {given}" if given is not None else f"the continued map's zone {map_zone}"
         return given, [], [
             f"{files} declare{'s' if len(declared) == 1 else ''} the time zone {zone} (written "
-            f"by aion simulate --tz), but the map follows {whose}: its local hours are off "
-            "wherever the two zones' clocks differ"
+            f"by aion simulate or convert --tz), but the map follows {whose}: its local hours "
+            "are off wherever the two zones' clocks differ"
         ]
     if zone == "UTC":
         return given, [], []
     return zone, [
         f"{files} declare{'s' if len(declared) == 1 else ''} the time zone {zone} (written by "
-        "aion simulate --tz): the map's days and hours follow it (give --tz to choose another)"
+        "aion simulate or convert --tz): the map's days and hours follow it (give --tz to choose "
+        "another)"
     ], []

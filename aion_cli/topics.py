@@ -182,7 +182,7 @@ def _zone_topic(info: TopicInfo) -> str | None:
     if info.msgtype != STRING:
         return None
     if info.topic == metadata_topic(RECORD, KEY):
-        return "the log's time zone (aion simulate --tz): build follows it without --tz"
+        return "the log's time zone (aion simulate or convert --tz): build follows it without --tz"
     if info.topic == metadata_topic(RECORD, OBSERVED_KEY):
         return (
             "the spans the sensor was observing (aion convert --observed): build takes them "

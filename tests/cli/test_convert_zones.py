@@ -47,3 +47,17 @@ def test_eth_has_no_home_zone_note(tmp_path: Path) -> None:
     result = run("convert", src, "--layout", "eth", "-o", tmp_path / "e.mcap")
     assert result.exit_code == 0, result.stderr
     assert "recorded in" not in result.stderr
+
+
+def test_the_build_of_a_converted_log_says_convert_wrote_its_zone(tmp_path: Path) -> None:
+    """A log made by ``aion convert --tz`` declares its zone; the build's note on it named
+    only ``aion simulate --tz`` as its writer, a command the user never ran."""
+    src = tmp_path / "ucy.txt"
+    src.write_text("0 1 0.0 0.0\n10 1 0.4 0.0\n")
+    log = tmp_path / "ucy.mcap"
+    converted = run("convert", src, "--layout", "ucy", "--start", "2026-01-05 12:00",
+                    "--tz", "Europe/Nicosia", "-o", log)
+    assert converted.exit_code == 0, converted.stderr
+    built = run_json("build", log, "-o", tmp_path / "u.aion", "--format", "json", "-q")
+    (note,) = [n for n in built["notes"] if "declares the time zone Europe/Nicosia" in n]
+    assert "convert --tz" in note
