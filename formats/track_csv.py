@@ -438,12 +438,15 @@ def finite_difference(t_ns: I64, track_id: I64, xy: F64) -> tuple[F64, F64]:
     return difference_tracks(t_ns, track_id, xy)
 
 
-def read_eth(path: str | Path, fps: float = 25.0, start_ns: int = 0) -> DetectionBatch:
-    """ETH/UCY ``frame ped_id x y`` (whitespace separated); ``t = start + frame / fps``."""
+def read_eth(
+    path: str | Path, fps: float = 25.0, start_ns: int = 0, layout: str = "eth"
+) -> DetectionBatch:
+    """ETH/UCY ``frame ped_id x y`` (whitespace separated); ``t = start + frame / fps``.
+    ``layout`` (``eth`` or ``ucy``, the same columns) is the name a refusal gives the file."""
     if not 0 < fps <= 10_000:  # also NaN and inf
         raise TracksFormatError(f"fps must be 0 .. 10,000, got {fps}")
     p = Path(path)
-    a = _plain_columns(p, _SPECS["eth"], "eth")
+    a = _plain_columns(p, _SPECS["eth"], layout)
     t_ns = _seconds_to_ns(a[:, 0] / fps, start_ns, p)
     tid = a[:, 1].astype(np.int64)
     xyz = np.zeros((len(a), 3))

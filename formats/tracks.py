@@ -60,7 +60,7 @@ def read_track_data(
     if key in ("atc", "thor"):
         return TrackData(read_atc(path, start_ns, key))
     if key in ("eth", "ucy"):
-        return TrackData(read_eth(path, 25.0 if fps is None else fps, start_ns))
+        return TrackData(read_eth(path, 25.0 if fps is None else fps, start_ns, key))
     if key == "lincoln":
         return read_lincoln(path, linker)
     if key == "edinburgh":

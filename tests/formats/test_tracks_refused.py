@@ -293,3 +293,14 @@ def test_a_speed_or_motion_angle_that_is_not_finite_names_its_line(
         ft.read_tracks(path, layout)
     with pytest.raises(track_types.TracksFormatError, match=where):
         list(track_csv.track_chunks(path, layout, rows=4))
+
+
+@pytest.mark.parametrize("layout", ["eth", "ucy"])
+def test_a_bad_line_names_the_layout_it_was_read_as(tmp_path: Path, layout: str) -> None:
+    """``--layout ucy`` reads the same columns as eth; a bad line's refusal names the layout
+    the user gave (it said "not a valid eth tracks file" and "eth columns" for ucy)."""
+    path = _write(tmp_path, "students.txt", "0 1 0.5 0.5\n10 1 0.9 abc\n")
+    with pytest.raises(track_types.TracksFormatError) as caught:
+        ft.read_tracks(path, layout)
+    assert f"not a valid {layout} tracks file: line 2, column 4 (y)" in caught.value.message
+    assert caught.value.hint == f"{layout} columns: frame, ped_id, x, y"
