@@ -1,4 +1,6 @@
-"""Whether a tracks table's last line looks cut inside its last number.
+"""Whether a tracks table's last line looks cut inside its last number
+(:func:`cut_last_line`), and which line holds a negative track id (:func:`negative_id_line`):
+scans of the file's lines after it was read.
 
 A copy or an export that did not finish ends inside a line. When the cut leaves a field that
 is no number (``-``, ``1e``) or too few columns, the readers of :mod:`formats.track_csv` refuse
@@ -14,7 +16,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from aion_cli.formats.track_csv import _SPECS, _split
+from aion_cli.formats.track_csv import _SPECS, _data_lines, _split
 
 #: bytes read from the end of the file: the last line and the lines before it
 TAIL_BYTES = 65_536
@@ -80,3 +82,31 @@ def cut_last_line(path: str | Path, layout: str) -> str | None:
         f"{column} {last!r}, {why}: the line looks cut short (a copy or an export that did not "
         "finish) and was read as it is"
     )
+
+
+#: the track id column of each table layout's columns
+_ID_COLUMNS = ("track_id", "person_id", "ped_id")
+
+
+def negative_id_line(path: str | Path, layout: str) -> str | None:
+    """Where the first negative track id of a tracks table of ``layout`` is, ``line 12,
+    column 2 (person_id): '-5'`` (a slow scan, after the log writer refused the id), else None
+    (also for layouts whose ids are no column of the file: Lincoln's are linked, Edinburgh's
+    are its ``Rn`` names)."""
+    key = _SPEC_OF.get(layout.lower())
+    if key is None:
+        return None
+    spec = _SPECS[key]
+    column = next(k for k, name in enumerate(spec.columns) if name in _ID_COLUMNS)
+    for lineno, line in _data_lines(Path(path), spec):
+        fields = _split(line, spec.delimiter)
+        try:
+            negative = float(fields[column]) < 0
+        except (IndexError, ValueError):
+            continue
+        if negative:
+            return (
+                f"line {lineno:,}, column {column + 1} ({spec.columns[column]}): "
+                f"{fields[column][:40]!r}"
+            )
+    return None

@@ -48,6 +48,11 @@ class TracksFormatError(InputError):
     """A tracks file has the wrong layout, non-numeric data, or no rows."""
 
 
+class NegativeTrackIdError(InputError):
+    """A track id below 0 where the message type written needs ids of 0 or more (spencer
+    ``TrackedPersons``); ``aion convert`` names the file's line that holds it."""
+
+
 class NoTrackRowsError(TracksFormatError):
     """A tracks file holds no detection row (empty, a header or comments only): with
     ``--observed`` spans, a sensor that ran while nobody came. ``declared``: the spans the

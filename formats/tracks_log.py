@@ -26,7 +26,13 @@ from aion_cli.formats.track_messages import (
     tracked_person_records,
     tracked_persons_bytes,
 )
-from aion_cli.formats.track_types import FarRows, RepeatedRows, _utc, merge_spans
+from aion_cli.formats.track_types import (
+    FarRows,
+    NegativeTrackIdError,
+    RepeatedRows,
+    _utc,
+    merge_spans,
+)
 from aion_cli.formats.tracks import read_tracks
 
 SPENCER_TRACKED = "spencer_tracking_msgs/msg/TrackedPersons"
@@ -461,7 +467,7 @@ def _check_chunk(chunk: DetectionBatch, kind: str, held: DetectionBatch | None) 
         raise _UnsortedError
     _check_log_times(chunk.t_ns, "the tracks")
     if kind == SPENCER_TRACKED and (chunk.track_id < 0).any():
-        raise InputError(
+        raise NegativeTrackIdError(
             f"TrackedPersons needs track ids of 0 or more, a row has {int(chunk.track_id.min())}",
             hint=f"write the rows without ids: --message-type {POSE_ARRAY}",
         )

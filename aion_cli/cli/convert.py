@@ -184,8 +184,13 @@ def command(
     from aion_cli.formats.track_csv import STREAM_LAYOUTS
     from aion_cli.formats.track_sniff import UNIX_SECONDS_FROM as UNIX_S
     from aion_cli.formats.track_sniff import layout_mismatch
-    from aion_cli.formats.track_tail import cut_last_line
-    from aion_cli.formats.track_types import FAR_M, NoTrackRowsError, merge_spans
+    from aion_cli.formats.track_tail import cut_last_line, negative_id_line
+    from aion_cli.formats.track_types import (
+        FAR_M,
+        NegativeTrackIdError,
+        NoTrackRowsError,
+        merge_spans,
+    )
     from aion_cli.formats.tracks import read_track_data
     from aion_cli.formats.tracks_log import POSE_ARRAY, stream_tracks_to_log, tracks_to_log
     from aion_cli.formats.writers import check_log_target
@@ -243,6 +248,13 @@ def command(
             notes = data.notes
             if layout in FRAME_LAYOUTS:
                 _warn_fast_walkers(data.batch.speed, layout, fps)
+    except NegativeTrackIdError as exc:  # the writer saw the id: name the file's line of it
+        where = negative_id_line(tracks, layout)
+        raise InputError(
+            f"{tracks}: {where}: TrackedPersons needs track ids of 0 or more" if where
+            else f"{tracks}: {exc.message}",
+            hint=exc.hint,
+        ) from exc
     except NoTrackRowsError as exc:
         if not spans and not exc.declared:  # without spans there is nothing to write
             raise

@@ -330,3 +330,30 @@ def test_convert_without_tz_declares_no_zone(tmp_path: Path) -> None:
     log = tmp_path / "utc.mcap"
     assert run("convert", csv, "-o", log).exit_code == 0
     assert declared_zones([log]) == {}
+
+
+@pytest.mark.parametrize(
+    ("layout", "rows", "where"),
+    [
+        ("eth", "0 1 0.0 0.0\n10 1 0.4 0.0\n10 -2 1 1\n", "line 3, column 2 (ped_id): '-2'"),
+        ("atc", "1351038020,1,0,0,1,0\n1351038021,-5,1,0,1,0\n",
+         "line 2, column 2 (person_id): '-5'"),
+        ("canonical", "t_ns,track_id,x,y,z,heading_rad,speed_mps\n1000,3,0,0,0,nan,nan\n"
+         "2000,4,0,0,0,nan,nan\n3000,-1,0,0,0,nan,nan\n", "line 4, column 2 (track_id): '-1'"),
+    ],
+)
+def test_a_negative_track_id_names_the_file_and_its_line(
+    tmp_path: Path, layout: str, rows: str, where: str
+) -> None:
+    """TrackedPersons needs ids of 0 or more: the refusal of a file with a negative one names
+    the file and the line that holds it (it named neither: "TrackedPersons needs track ids of
+    0 or more, a row has -2"), nothing is written, and the hint's PoseArray takes the file."""
+    src = tmp_path / "tracks.txt"
+    src.write_text(rows)
+    out = tmp_path / "t.mcap"
+    result = run("convert", src, "--layout", layout, "-o", out)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, f"{src}: {where}: TrackedPersons needs track ids")
+    assert not out.exists()
+    pose_array = ("--message-type", "geometry_msgs/msg/PoseArray")
+    assert run("convert", src, "--layout", layout, *pose_array, "-o", out).exit_code == 0

@@ -38,7 +38,7 @@ def test_negative_track_ids_name_the_option_that_writes_rows_without_ids(tmp_pat
     src.write_text("1351038020,-5,1,2,0.3,0.1\n1351038021,-5,1.5,2,0.3,0.1\n")
     result = run("convert", src, "--layout", "atc", "-o", tmp_path / "a.mcap")
     assert result.exit_code == 2
-    assert_one_line_error(result.stderr, "a row has -5")
+    assert_one_line_error(result.stderr, "atc.csv: line 1, column 2 (person_id): '-5'")
     assert "hint: write the rows without ids: --message-type geometry_msgs/msg/PoseArray" \
         in result.stderr
     ok = run("convert", src, "--layout", "atc", "-o", tmp_path / "b.mcap",
