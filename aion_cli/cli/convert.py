@@ -339,14 +339,28 @@ def command(
             f"the log carries the zone {zone.name}: aion build {output.name} makes a map whose "
             f"days and hours of the day are {zone.name}'s without --tz"
         )
-    elif tz is None and layout in HOME_ZONES:
+    elif tz is None:
+        _note_utc_times(layout, output, start_text is not None, bool(observed_text))
+
+
+def _note_utc_times(layout: str, output: Path, start: bool, observed: bool) -> None:
+    """Without ``--tz``: a note naming the times read in UTC (``--date``, ``--start``,
+    ``--observed``) and, for a dataset recorded in a known place, its zone and the build that
+    gives local hours; ETH / UCY (recorded in several places) get the first part alone."""
+    from aion_cli.cli.console import note
+
+    given = [name for name, used in (
+        ("--date", layout == "edinburgh"), ("--start", start), ("--observed", observed)) if used]
+    read = (f" {' and '.join(given)} {'was' if len(given) == 1 else 'were'} read in UTC "
+            "(give --tz);") if given else ""
+    if layout in HOME_ZONES:
         place, home = HOME_ZONES[layout]
-        read = " --date was read in UTC (give --tz);" if layout == "edinburgh" else (
-            " --start was read in UTC (give --tz);" if start_text is not None else "")
         note(
             f"{layout}: the dataset was recorded in {place} ({home}):{read} aion build takes "
             f"a map's days and hours in UTC unless told: aion build {output.name} --tz {home}"
         )
+    elif given and layout in RELATIVE_LAYOUTS:
+        note(f"{layout}:{read.rstrip(';')}")
 
 
 #: where each layout's dataset was recorded, and its zone: the hours of the day a map of it

@@ -61,3 +61,26 @@ def test_the_build_of_a_converted_log_says_convert_wrote_its_zone(tmp_path: Path
     built = run_json("build", log, "-o", tmp_path / "u.aion", "--format", "json", "-q")
     (note,) = [n for n in built["notes"] if "declares the time zone Europe/Nicosia" in n]
     assert "convert --tz" in note
+
+
+def test_observed_spans_without_tz_are_said_to_be_read_in_utc(tmp_path: Path) -> None:
+    """ATC's opening hours typed as --observed without --tz are UTC hours, 09:00-21:00 UTC =
+    18:00-06:00 in Osaka: the note named the zone but not that the span was read in UTC, as it
+    does for --start and --date. An ETH / UCY --start without --tz (no home zone) was read in
+    UTC without a word."""
+    src = tmp_path / "atc.csv"
+    src.write_text(ATC)
+    result = run("convert", src, "--layout", "atc", "--observed",
+                 "2012-10-24 00:00..2012-10-24 12:00", "-o", tmp_path / "a.mcap")
+    assert result.exit_code == 0, result.stderr
+    assert "recorded in Osaka (Asia/Tokyo): --observed was read in UTC (give --tz)" \
+        in result.stderr
+    eth = tmp_path / "eth.txt"
+    eth.write_text("0 1 0.0 0.0\n10 1 0.4 0.0\n")
+    started = run("convert", eth, "--layout", "ucy", "--start", "2026-01-05 12:00",
+                  "-o", tmp_path / "u.mcap")
+    assert started.exit_code == 0, started.stderr
+    assert "ucy: --start was read in UTC (give --tz)" in started.stderr
+    zoned = run("convert", eth, "--layout", "ucy", "--start", "2026-01-05 12:00",
+                "--tz", "Europe/Nicosia", "-o", tmp_path / "z.mcap")
+    assert "read in UTC" not in zoned.stderr
