@@ -10,8 +10,9 @@ files is :mod:`formats.tracks`' job; this module only writes.
 
 from __future__ import annotations
 
+from array import array
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -68,6 +69,8 @@ class TracksLogSummary:
     #: rows more than ``track_types.FAR_M`` from the origin, and the first such coordinate
     far_rows: int = 0
     far_example: float = 0.0
+    #: log times of the messages on the detections topic (detections and empty marks)
+    topic_times: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 #: interval of the empty detection messages over an observed span: far below any sane
@@ -255,6 +258,8 @@ class _Messages:
     graphs: int = 0
     first_ns: int | None = None
     last_ns: int | None = None
+    #: 8 bytes a message (array of int64), not a Python int's 36: a streamed file's memory
+    topic_times: array = field(default_factory=lambda: array("q"))
 
     def rows(self, data: DetectionBatch, stamps: I64, splits: I64, first_id: int) -> None:
         """One message per group of ``data`` (time-sorted rows, groups split at ``splits``
@@ -298,6 +303,7 @@ class _Messages:
         message is a detection message (or the lone graph's marker)."""
         from aion_cli.formats.writers import stamp
 
+        self.topic_times.append(t)
         if self.first_ns is None:
             self.first_ns = t
             self.graph_next = t if self.payload is not None else None
@@ -435,6 +441,7 @@ def _write_tracks(
         repeated_elsewhere=repeats.elsewhere,
         far_rows=far.rows,
         far_example=far.example,
+        topic_times=np.frombuffer(out.topic_times, dtype=np.int64).copy(),
     )
 
 

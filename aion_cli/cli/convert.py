@@ -313,6 +313,7 @@ def command(
             "values, or positions not in metres; written as the file has them, but aion build "
             "leaves them out (its spatial hash ends there at the default cell_size)"
         )
+    _warn_stray_times(tracks.name, summary.topic_times, zone)
     if summary.graph_agents_dropped:
         note(
             f"{graph_file}: its agent layer ({summary.graph_agents_dropped:,} robot "
@@ -424,6 +425,25 @@ def _warn_time_unit(name: str, first_ns: int, last_ns: int | None) -> None:
                 f"is nanoseconds since 1970 (multiply it by {factor}); written as the file has it"
             )
             return
+
+
+def _warn_stray_times(name: str, times: Any, zone: Any) -> None:
+    """A warning when a few messages lie more than a day away from the others' times
+    (:func:`aion_cli.log_times.stray_mask`, the rule by which ``aion build`` drops them): a
+    damaged time (an ATC row's ``1351`` cut from ``1351038020``) made the log span decades."""
+    from aion_cli.cli.console import warn
+    from aion_cli.log_times import stray_mask
+    from aion_cli.timeparse import format_ns
+
+    stray = stray_mask(times)
+    if stray.any():
+        n = int(stray.sum())
+        warn(
+            f"{name}: {counted(n, 'message')} of the log {'lies' if n == 1 else 'lie'} more "
+            f"than a day away from the others (first: {format_ns(int(times[stray][0]), zone)}):"
+            " a damaged time in the file? Written as the file has it, but aion build leaves "
+            f"{'it' if n == 1 else 'them'} out (docs/ROBUSTNESS.md, time sanity)"
+        )
 
 
 def _warn_spans_without_detections(

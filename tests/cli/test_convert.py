@@ -357,3 +357,25 @@ def test_a_negative_track_id_names_the_file_and_its_line(
     assert not out.exists()
     pose_array = ("--message-type", "geometry_msgs/msg/PoseArray")
     assert run("convert", src, "--layout", layout, *pose_array, "-o", out).exit_code == 0
+
+
+def test_a_row_with_a_damaged_time_is_warned_of_as_the_build_drops_it(tmp_path: Path) -> None:
+    """An ATC row whose time lost its last digits (``1351`` of ``1351038031``) made a log
+    spanning 1970 to 2012 without a word from convert ("over 1,351,036,709 s"); the build then
+    dropped its message as more than a day away from the others. Convert now warns of it
+    with the same rule, naming its time; the build drops that one message (31 used of 32)."""
+    rows = [f"{1351038020 + k},{k // 8},{0.5 * k},1.0,1.2,0.1" for k in range(32)]
+    rows[11] = "1351," + rows[11].split(",", 1)[1]
+    src = tmp_path / "atc.csv"
+    src.write_text("\n".join(rows) + "\n")
+    log = tmp_path / "atc.mcap"
+    result = run("convert", src, "--layout", "atc", "-o", log)
+    assert result.exit_code == 0, result.stderr
+    assert "warning: atc.csv: 1 message of the log lies more than a day away from the others " \
+        "(first: 1970-01-01 00:22:31+00:00)" in result.stderr
+    built = run_json("build", log, "-o", tmp_path / "a.aion", "--format", "json", "-q")
+    assert built["detections"]["used"] == 31, built
+    assert [w for w in built["warnings"] if "more than a day away" in w], built["warnings"]
+    src.write_text("\n".join(r for k, r in enumerate(rows) if k != 11) + "\n")
+    clean = run("convert", src, "--layout", "atc", "-o", tmp_path / "c.mcap")
+    assert "more than a day away" not in clean.stderr
