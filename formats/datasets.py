@@ -88,6 +88,12 @@ def read_edinburgh(path: str | Path, start_ns: int = 0, fps: float = EDINBURGH_F
         raise NoTrackRowsError(f"{p}: no track rows", hint="the file is empty")
     found = list(_EDINBURGH_TRACK.finditer(text))
     entries = [m.start() for m in re.finditer(r"TRACK\.R", text)]
+    if not found and all(line.lstrip().startswith("%") for line in text.splitlines()
+                         if line.strip()):  # its "% Total number of trajectories" line only
+        raise NoTrackRowsError(
+            f"{p}: no track rows", hint="the file holds % comments, no TRACK entry (a sensor "
+            "that recorded nobody: give its --observed spans)"
+        )
     if not found:
         from aion_cli.formats.track_sniff import other_layout_hint
 

@@ -62,3 +62,26 @@ def test_a_lincoln_header_alone_is_a_log_of_its_declared_span(tmp_path: Path) ->
     assert "the log marks its header's declared span only (nobody came)" in result.stderr
     assert "marked by 241 empty detection messages" in result.stderr
     assert "fixed sensor over the 12 windows" in run("info", log).stderr
+
+
+def test_an_edinburgh_file_of_its_header_comment_alone_is_a_file_without_rows(
+    tmp_path: Path,
+) -> None:
+    """A day of the Edinburgh Forum database on which nobody was tracked holds its header
+    comment only ("% Total number of trajectories in file are 0"): like an empty file, it is
+    "no track rows", and with --observed a log of the spans. (Before: "no TRACK.Rn=[[x y
+    frame];...]; entry" with the hint describing the layout it has, even with --observed.)"""
+    src = tmp_path / "tracks.05Jul.txt"
+    src.write_text("% Total number of trajectories in file are  0 \n\n")
+    log = tmp_path / "night.mcap"
+    date = ("--layout", "edinburgh", "--date", "2026-01-05")
+    refused = run("convert", src, *date, "-o", log)
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "no track rows")
+    assert "--observed" in refused.stderr
+    result = run("convert", src, *date, "-o", log,
+                 "--observed", "2026-01-05 20:00..2026-01-05 22:00")
+    assert result.exit_code == 0, result.stderr
+    assert "the log marks the --observed spans only" in result.stderr
+    assert "marked by 241 empty detection messages" in result.stderr
+    assert "fixed sensor over the 12 windows" in run("info", log).stderr

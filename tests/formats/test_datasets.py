@@ -94,7 +94,8 @@ def test_edinburgh_point_count_mismatch_is_a_note(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "fragment"),
     [
-        ("% nothing here\n", "no TRACK.Rn"),
+        ("% nothing here\n", "no track rows"),  # % comments alone: nobody came
+        ("% header\nnot an entry\n", "no TRACK.Rn"),
         ("Properties.R1=[2 1 2];\nTRACK.R1=[[1 2 3];[4 5]];\n", "TRACK.R1 point 2"),
         ("TRACK.R1=[[1 2 3];[4 x 6]];\n", "TRACK.R1 point 2"),
         ("TRACK.R1=[[1 2 3];[4 5 6.5]];\n", "whole frame"),
