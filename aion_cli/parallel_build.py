@@ -186,10 +186,10 @@ class ParallelBuild:
             folded, results = run_on_cluster(opts.scheduler, tasks, previous, self.build.progress)
         else:
             # imported once here, so the forked workers start with them (scipy.sparse: every
-            # shard absorbs its days with it; scipy.spatial, where scene graphs or a robot
-            # trajectory need KD-trees: every shard binds or observes with them, and the
-            # joins here again; one import before the fork instead of one per worker and one
-            # more here, and none where nothing needs it)
+            # shard absorbs its days with it; scipy.spatial, where scene graphs need KD-trees:
+            # every shard binds with them, and the joins here again; one import before the
+            # fork instead of one per worker and one more here, and none where nothing needs
+            # it: a robot's sensor range is measured without one, engine.sensor_reach)
             import scipy.sparse
 
             if kd_trees:
@@ -333,9 +333,9 @@ def _plan_streams(
 ) -> tuple[list[dict[str, float]], bool, StaticTf]:
     """Per shard, the detection topics whose orientations varied before it
     (:mod:`aion_cli.shard_yaws`; a shard starts at its part's start, else at its logs' first
-    message); whether the build will look nodes or sensor ranges up in KD-trees (it has
-    scene graphs or a TF topic); and the static transforms of all the logs, which one pass
-    applies to every log (:func:`aion_cli.tf_feed.read_static_tf`). A continued map's lineage
+    message); whether the build will look nodes up in KD-trees (it has scene graphs); and
+    the static transforms of all the logs, which one pass applies to every log
+    (:func:`aion_cli.tf_feed.read_static_tf`). A continued map's lineage
     is checked against the logs' first scene graph here, where the shards cannot see the map
     (:meth:`aion_cli.build_stream.StreamStep.continue_on_logs`)."""
     from aion_cli.build_options import build_topics
@@ -352,7 +352,7 @@ def _plan_streams(
     with open_logs(logs, opts.log_format) as logset:
         plan = build_topics(logset, opts)
         build.continue_on_logs(logset, plan, peek=True)
-        kd_trees = bool(plan.graph or plan.tf) or opts.graph_file is not None
+        kd_trees = bool(plan.graph) or opts.graph_file is not None
         static_tf = read_static_tf(logset, plan)
         if all(start is None for start in starts[1:]):
             return [{} for _ in shards], kd_trees, static_tf

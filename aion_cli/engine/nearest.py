@@ -56,7 +56,7 @@ def nearest_nodes(points: F64, node_xyz: F64, radius: float, vertical_tolerance:
     if n == 0 or m == 0:
         return np.full(n, -1, np.int64)
     if n * m <= _ALL_PAIRS:
-        p, j = _all_pairs(n, m)
+        p, j = all_pairs(n, m)
         return _closest(points, node_xyz, p, j, radius, vertical_tolerance)[0]
     tree = horizontal_tree(node_xyz)
     return _by_tree(tree, points, node_xyz, _widened(radius), radius, vertical_tolerance)
@@ -75,7 +75,7 @@ def boxes_in_reach(
         return out
     blocks: list[tuple[int, I64, I64]] = []
     if n * m <= _ALL_PAIRS:
-        blocks.append((0, *_all_pairs(n, m)))
+        blocks.append((0, *all_pairs(n, m)))
     else:
         half = float(np.max(np.hypot(high[:, 0] - low[:, 0], high[:, 1] - low[:, 1]))) / 2
         tree = horizontal_tree((low + high) / 2)
@@ -126,7 +126,7 @@ def _widened(reach: float) -> float:
     return reach * (1.0 + 1e-9) + 1e-12
 
 
-def _all_pairs(n: int, m: int) -> tuple[I64, I64]:
+def all_pairs(n: int, m: int) -> tuple[I64, I64]:
     """Every (point, node) pair of ``n`` points and ``m`` nodes."""
     return np.repeat(np.arange(n, dtype=np.int64), m), np.tile(np.arange(m, dtype=np.int64), n)
 
@@ -341,7 +341,7 @@ class BindIndex:
         nodes = self._nodes
         cap = radius + _SLACK_REACH
         if len(points) * len(nodes) <= _ALL_PAIRS:
-            p, j = _all_pairs(len(points), len(nodes))
+            p, j = all_pairs(len(points), len(nodes))
             found, d = _closest(points, nodes, p, j, radius, vertical_tolerance)
             least = d.reshape(len(points), len(nodes)).min(axis=1)
             # the nodes now: at most ``moved`` nearer to a cell than their references

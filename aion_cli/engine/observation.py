@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aion_cli.engine.sensor_reach import any_within, count_within
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.engine.windows import window_index
 from aion_cli.errors import InputError
@@ -241,15 +242,14 @@ class ObservationSource:
         i0, i1 = np.searchsorted(self.pose_t, [lo, hi])
         if i1 <= i0 or n == 0:
             return np.zeros(n, dtype=bool)
-        poses = np.unique(self.pose_xy[i0:i1], axis=0)
-        from aion_cli.engine.nearest import horizontal_tree
-
-        # the tree's bound is strict (an entry exactly sensor_range away came back inf,
-        # unobserved): query just beyond it, keep "this close" inclusive
-        bound = float(np.nextafter(sensor_range, np.inf))
-        dist, _ = horizontal_tree(poses).query(entry_xy, k=1, distance_upper_bound=bound)
-        mask: BoolA = dist <= sensor_range
-        return mask
+        poses = self.pose_xy[i0:i1]
+        # a pose repeated (a robot standing) adds nothing: each kept once in a row, in one
+        # pass (np.unique's sort of the rows cost more than the rest of the test)
+        moved = np.ones(len(poses), dtype=bool)
+        moved[1:] = (poses[1:] != poses[:-1]).any(axis=1)
+        # an entry exactly sensor_range away is observed (numpy: no KD-tree, whose import
+        # cost a query of a patrolled map more than the rest of it; the same answers)
+        return any_within(entry_xy, poses[moved], sensor_range)
 
     def robot_exposure(
         self,
@@ -281,13 +281,7 @@ class ObservationSource:
         steps = xy[nearest[held]]
         seen = np.zeros(int(observed.sum()))
         if len(steps):
-            from aion_cli.engine.nearest import horizontal_tree
-
-            bound = float(np.nextafter(sensor_range, np.inf))
-            counts = horizontal_tree(steps).query_ball_point(
-                entry_xy[observed, :2], bound, return_length=True
-            )
-            seen = np.asarray(counts, dtype=np.float64) / SUBSTEPS
+            seen = count_within(entry_xy[observed, :2], steps, sensor_range) / SUBSTEPS
         out[observed] = np.clip(seen, floor, 1.0)
         return out
 
