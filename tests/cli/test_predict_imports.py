@@ -1,19 +1,27 @@
 """What ``aion predict`` imports: no scipy module that costs a query most of its time.
 
-Issue 15 asks queries to answer at once. ``scipy.spatial`` costs more than the rest of a
-query (a KD-tree for the robot's coverage of the open window, which a query of a patrolled
-map closes as a build would; ~0.4 s CPU); that coverage is computed with numpy now
-(``engine.sensor_reach``; its answers are tested against the tree's in
-tests/engine/test_sensor_reach.py). scipy.stats is checked too. Each test runs the command
-in a fresh interpreter and lists the modules it had imported when it exited.
+Issue 15 asks queries to answer at once. Two of scipy's modules cost more than the rest of a
+query: ``scipy.spatial`` (a KD-tree for the robot's coverage of the open window, which a
+query of a patrolled map closes as a build would; ~0.4 s CPU) and ``scipy.stats`` (the count
+quantiles of flow_p10 / flow_p90 for more than 1,000 rows; ~0.9 s). Both are computed with
+numpy now (``engine.sensor_reach``, ``engine.temporal.quantiles``; their answers are tested
+against scipy's in tests/engine/test_sensor_reach.py and test_count_quantiles.py). Each test
+runs the command in a fresh interpreter and lists the modules it had imported when it exited.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
+from datetime import UTC, datetime
 from pathlib import Path
+
+import numpy as np
+
+from tests.cli.atc_sessions import convert_atc
+from tests.cli.conftest import run
 
 SLOW = ("scipy.spatial", "scipy.stats")
 
@@ -55,4 +63,35 @@ def test_top_ten_of_a_patrolled_map_imports_no_kd_tree(sample_map: Path) -> None
     assert state.observation.merged_fixed()[0].size == 0  # no fixed sensor covers it
     out, modules = _predict(sample_map, "--top", "10", "-q", "--time", "2026-01-09 12:00")
     assert "predicted flows at" in out, out
+    assert [m for m in SLOW if m in modules] == []
+
+
+def _crowded_tracks(path: Path) -> Path:
+    """ATC rows (time s, id, x, y, speed, angle): 40 people a minute apart, each walking 40 m
+    along a line of its own (y = 2 k m) at 1 m/s, a row a second, on 2026-11-23 from 08:00:
+    1,600 cells of 0.5 m, more than quantiles' old limit of 1,000 rows."""
+    t0 = datetime(2026, 11, 23, 8, 0, tzinfo=UTC).timestamp()
+    rows = [
+        f"{t0 + k * 60 + i:.3f},{k + 1},{-20.0 + i:.3f},{2.0 * k:.3f},1.0,0.0"
+        for k in range(40)
+        for i in range(40)
+    ]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_a_full_json_of_more_than_a_thousand_rows_imports_no_scipy_stats(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "crowd.mcap"
+    convert_atc(_crowded_tracks(tmp_path / "crowd.csv"), log)
+    out = tmp_path / "crowd.aion"
+    result = run("build", log, "-o", out, "-q")
+    assert result.exit_code == 0, result.stderr
+    text, modules = _predict(out, "--format", "json", "-q", "--time", "2026-11-23 08:30")
+    entries = json.loads(text)["entries"]
+    assert len(entries) > 1000
+    p90 = np.array([e["flow_p90"] for e in entries], dtype=float)
+    assert np.isfinite(p90).all()  # the bands are there
+    assert (p90 > 0).any()
     assert [m for m in SLOW if m in modules] == []
