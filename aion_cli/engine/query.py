@@ -33,8 +33,8 @@ from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.hierarchy import aggregate
 from aion_cli.engine.node_ids import node_labels
 from aion_cli.engine.state import MapState
-from aion_cli.engine.temporal.choice import count_quantiles
 from aion_cli.engine.temporal.model import Prediction, Predictor
+from aion_cli.engine.temporal.quantiles import count_quantiles
 from aion_cli.engine.types import F64, U64, GraphSnapshot
 
 ROOM = 2

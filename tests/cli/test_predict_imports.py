@@ -95,3 +95,21 @@ def test_a_full_json_of_more_than_a_thousand_rows_imports_no_scipy_stats(
     assert np.isfinite(p90).all()  # the bands are there
     assert (p90 > 0).any()
     assert [m for m in SLOW if m in modules] == []
+
+
+def test_the_engine_tables_quantiles_import_no_scipy_stats(sample_map: Path) -> None:
+    """``EntryTable.flow_quantile`` (the engine's own bands, docs/CONTRACTS.md) of every
+    entry: the numpy route too, with scipy's numbers (tests/engine/test_query.py)."""
+    code = (
+        "import sys\n"
+        "from aion_cli.engine.query import predict_table\n"
+        "from aion_cli.mapquery import load_map\n"
+        "table = predict_table(load_map(sys.argv[1]).state, 1_767_960_000 * 10**9)\n"
+        "p90 = table.flow_quantile(0.9)\n"
+        "print(len(p90), int((p90 >= 0).sum()), 'scipy.stats' in sys.modules)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code, str(sample_map)], capture_output=True,
+                          text=True, check=True)
+    rows, known, imported = proc.stdout.split()
+    assert int(rows) == int(known) > 100  # every entry's band, none unknown
+    assert imported == "False"
