@@ -12,13 +12,16 @@ does), which the build then binds to the file's places as it binds a map of cell
 
 Without ``--graph FILE`` the logs' own scene graphs (DsgUpdate messages) are asked the same
 question (:func:`check_log_graph`): the first one the build applies (a sequential build) or
-peeks (the parent of a parallel build, :mod:`aion_cli.parallel_build`), in the one pass;
-``different`` releases MAP's node entries before the stream (:func:`release_for_logs`).
+the same one peeked (the parent of a parallel build, :mod:`aion_cli.parallel_build`, whose
+shards do not see MAP: :func:`first_applied_graph`, which skips what the stream skips before
+its first graph: stray and unrepresentable log times, damaged messages); ``different``
+releases MAP's node entries before the stream (:func:`release_for_logs`).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import InputError
 from aion_cli.merge_lineage import check_lineage
@@ -28,6 +31,7 @@ if TYPE_CHECKING:
 
     from aion_cli.engine.rebind import Agreement
     from aion_cli.engine.types import GraphSnapshot
+    from aion_cli.formats.raw import RawMessage
     from aion_cli.mapquery import LoadedMap
 
 def continue_on_graph(
@@ -120,3 +124,33 @@ def check_log_graph(
     if agreement.shared == 0 or agreement.same:
         return
     raise _another_session(f"the scene graph in {logs} is", name, agreement, tolerance)
+
+
+def first_applied_graph(
+    logs: list[Path],
+    log_format: str | None,
+    logset: Any,
+    topics: set[str],
+    peek: Callable[[RawMessage], GraphSnapshot | None],
+) -> GraphSnapshot | None:
+    """The first scene graph on ``topics`` that one pass over ``logs`` (open as ``logset``)
+    applies, decoded by ``peek`` (None: it does not decode): the first message the time rules
+    keep (:mod:`aion_cli.log_times`: a stray log time, a day from the topic's others, or one
+    out of range is dropped; its topic's times read from the indexes, else from the messages,
+    in a set of logs of their own, which vouches for nothing the caller reads) that decodes
+    (a damaged one is skipped, :meth:`aion_cli.graph_feed.GraphFeed.decode_or_skip`). The
+    first graph to come (``--graph-period`` always uses it). None when none is left."""
+    from aion_cli.formats.logs import open_logs
+    from aion_cli.log_times import TopicTimes
+
+    times = TopicTimes(topics)
+    with open_logs(logs, log_format) as own:
+        indexed = own.index_times(topics)
+        if indexed is not None:
+            times.add_stream(indexed)
+        else:
+            for msg in own.messages(topics):
+                times.add(msg.topic, msg.log_time_ns)
+        recordings = list(own.recording_times().values())
+    kept = times.check(topics, recordings).filter(logset.messages(topics))
+    return next((s for s in map(peek, kept) if s is not None), None)

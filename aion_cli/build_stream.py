@@ -86,8 +86,10 @@ class StreamStep:
         ``--graph FILE``, :mod:`aion_cli.build_lineage`): ``--lineage different`` releases
         the map's node entries now; ``auto`` checks the first graph when the stream applies
         it (:meth:`_take_graph`), or, with ``peek`` (a parallel build's parent, whose shards
-        do not see the map), the logs' first graph message now: one message, no extra pass."""
-        from aion_cli.build_lineage import check_log_graph, release_for_logs
+        do not see the map), that graph now (:func:`aion_cli.build_lineage.
+        first_applied_graph`: the graph topics' times from the indexes, no extra pass where
+        they have one)."""
+        from aion_cli.build_lineage import check_log_graph, first_applied_graph, release_for_logs
 
         previous, name = self.previous, self._continued_name()
         if previous is None or self.shard or self.opts.graph_file is not None:
@@ -99,8 +101,10 @@ class StreamStep:
         if not peek:
             self._lineage_graph = previous.graph
             return
-        first = next(iter(logset.messages(plan.names("graph"))), None)
-        snapshot = None if first is None else self.graphs.peek(logset, first)
+        snapshot = first_applied_graph(
+            list(self._logs), self.opts.log_format, logset, plan.names("graph"),
+            lambda msg: self.graphs.peek(logset, msg),
+        )  # fmt: skip
         if snapshot is not None:
             check_log_graph(
                 previous.graph, name, snapshot, self._log_names(), previous.config.bind_radius

@@ -132,6 +132,11 @@ def save_graph_file(
     return path
 
 
+def graph_payload(places: dict[int, tuple[float, float, float]]) -> bytes:
+    """A DsgUpdate payload: the office graph with these places."""
+    return bytes(build_graph(places, EDGES, ROOMS).to_binary(False))
+
+
 def _stamp(t_ns: int) -> dict[str, int]:
     return {"sec": t_ns // S, "nanosec": t_ns % S}
 
@@ -170,13 +175,16 @@ def write_office_log(
     later_sessions_s: tuple[int, ...] = (),
     agents_since_s: int | None = None,
     places: dict[int, tuple[float, float, float]] | None = None,
+    early_graph: tuple[int, bytes] | None = None,
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
     holds. ``later_sessions_s``: the same recording again in the same log, starting that many
     seconds after the first (the log is silent in between). ``agents_since_s``: the agent
     layer's trajectory starts that many seconds after T0 (a Hydra session that began before
     this log: every graph repeats the poses since then), not at the log's start. ``places``:
-    the scene graph's places (None: the office's, :data:`PLACES`)."""
+    the scene graph's places (None: the office's, :data:`PLACES`). ``early_graph``: one more
+    DsgUpdate first, ``(seconds before the log, payload)`` (two days: a stray log time the
+    build drops; :func:`graph_payload` or damaged bytes), not counted in the graph messages."""
     from aion_cli.formats.writers import LogWriter
 
     n_tracks = n_graph = n_tf = 0
@@ -197,6 +205,18 @@ def write_office_log(
     written: list[int] = []
     starts = [t0] + [t0 + later * S for later in later_sessions_s]
     with LogWriter(path, container) as writer:
+        if early_graph is not None:
+            early = t0 - early_graph[0] * S
+            writer.write(
+                "/hydra/backend/dsg",
+                "hydra_msgs/msg/DsgUpdate",
+                {
+                    "header": {"stamp": _stamp(early), "frame_id": "map"},
+                    "layer_contents": np.frombuffer(early_graph[1], np.uint8),
+                    "full_update": True,
+                },
+                early,
+            )
         # one pass over every second of each session, in time order
         for t0, end in ((start, start + duration_s * S) for start in starts):
             for t in range(t0, end, S):

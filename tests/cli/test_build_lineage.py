@@ -15,7 +15,14 @@ import pytest
 
 from aion_cli.mapquery import load_map
 from tests.cli.conftest import assert_one_line_error, run, run_json
-from tests.cli.logdata import DURATION_S, PLACES, save_graph_file, sym, write_office_log
+from tests.cli.logdata import (
+    DURATION_S,
+    PLACES,
+    graph_payload,
+    save_graph_file,
+    sym,
+    write_office_log,
+)
 
 #: another session's graph: p1 and p5 swap places, as do p3 and p6 and p0 and p2 (p4 stays)
 SWAP = {0: 2, 1: 5, 2: 0, 3: 6, 4: 4, 5: 1, 6: 3}
@@ -212,3 +219,40 @@ def test_the_api_checks_the_logs_graphs_too(from_logs: dict[str, Path]) -> None:
         aion.build([from_logs["other"]], out, continue_from=from_logs["map"])
     aion.build([from_logs["other"]], out, continue_from=from_logs["map"], lineage="same")
     assert place_counts(out).get(1, 0) > 0
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+@pytest.mark.parametrize("kind", ["own", "other"])
+def test_a_stray_first_graph_decides_nothing(
+    from_logs: dict[str, Path], kind: str, workers: str
+) -> None:
+    """The later logs' first DsgUpdate is logged two days before the rest (a stray log time,
+    which the build drops) and holds the other session's places. The parent of a parallel
+    build peeked at that message, not at the first graph the build applies: a stray of another
+    session before the map's own graphs refused the build, and a stray of the map's own
+    session before another session's graphs let it through (flows on unrelated places), while
+    the sequential build decided on the graphs it uses. Both decide on those now."""
+    folder = from_logs["folder"]
+    later = folder / f"stray-{kind}.mcap"
+    if not later.exists():
+        stray = graph_payload(OTHER if kind == "own" else PLACES)
+        write_office_log(
+            later, tf=False, shift_s=2 * DURATION_S, places=OTHER if kind == "other" else None,
+            early_graph=(2 * 86_400, stray),
+        )  # fmt: skip
+    out = folder / f"stray-{kind}-{workers}.aion"
+    given = [later] if workers == "1" else [later, folder / f"c-{kind}.mcap"]
+    result = run("build", *given, "--map", from_logs["map"], "-o", out, "--workers", workers)
+    if kind == "other":
+        assert result.exit_code == 2, result.stderr
+        assert_one_line_error(
+            result.stderr, f"the scene graph in stray-{kind}.mcap",
+            "is of another session than m.aion's", "of the 7 place ids both hold, 1 lie within",
+        )  # fmt: skip
+        assert not out.exists()
+        return
+    assert result.exit_code == 0, result.stderr
+    assert "log time more than a day away" in result.stderr  # the stray was dropped
+    counts = place_counts(out)
+    assert counts[1] > 0  # track 1 on p1 at (2, 0)
+    assert 5 not in counts  # nobody at (20, 0)
