@@ -16,7 +16,7 @@ the next snapshot.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -209,44 +209,51 @@ class GraphFeed:
                     )
             yield msg
 
-    def has_agents(self, logset: Any, msg: RawMessage | None) -> bool:
-        """Whether the scene graph ``msg`` carries robot poses, decoded apart from the stream
-        (no version or layer pinned, nothing kept): the observation of a later group of logs
-        (:func:`aion_cli.fixed_sensor.unposed_log_windows`); a graph that cannot be decoded
-        carries none."""
-        from aion_cli.formats.dsg import decode_dsg
-
-        if msg is None:
-            return False
-        payload, t_ns = self.payload(logset, msg)
-        try:
-            agents = decode_dsg(payload, t_ns, self.dsg_version).snapshot.agents
-        except InputError:
-            return False
-        return agents is not None and len(agents) > 0
+    def has_agents(self, logset: Any, messages: Iterable[RawMessage]) -> bool:
+        """Whether the first of the scene graphs ``messages`` that decodes carries robot
+        poses, decoded apart from the stream (no version or layer pinned, nothing kept): the
+        observation of a later group of logs (:func:`aion_cli.fixed_sensor.
+        unposed_log_windows`). A damaged graph is passed over, as the stream skips it; none
+        that decodes carries none."""
+        for msg in messages:
+            snapshot = self._apart(logset, msg, None)
+            if snapshot is not None:
+                return _posed(snapshot)
+        return False
 
     def peek(self, logset: Any, msg: RawMessage) -> GraphSnapshot | None:
         """The scene graph ``msg`` decoded apart from the stream (no version or layer pinned,
         nothing counted or kept; ``--nav-layer`` and ``--dsg-version`` as given); None when
         it cannot be decoded."""
+        return self._apart(logset, msg, self.nav_layer)
+
+    def _apart(self, logset: Any, msg: RawMessage, layer: str | None) -> GraphSnapshot | None:
         from aion_cli.formats.dsg import decode_dsg
 
         payload, t_ns = self.payload(logset, msg)
         try:
-            return decode_dsg(payload, t_ns, self.dsg_version, self.nav_layer).snapshot
+            return decode_dsg(payload, t_ns, self.dsg_version, layer).snapshot
         except InputError:
             return None
 
-    def first_has_agents(self, logset: Any, first: RawMessage | None) -> bool:
-        """Whether ``first``, the first scene graph of the log, carries robot poses (its
-        agent layer). Its snapshot is kept for the stream, which then does not decode it
-        again."""
+    def first_has_agents(self, logset: Any, messages: Iterator[RawMessage]) -> bool:
+        """Whether the log's first scene graph that decodes carries robot poses (its agent
+        layer); ``messages``: the graph messages the stream reads, in its order. The first
+        one's snapshot is kept for the stream, which then does not decode it again. A damaged
+        first graph is skipped, as the stream skips it (which counts it), and the next graphs
+        answer (:meth:`has_agents`); with ``--dsg-version`` its failure stops the build, as it
+        stops the stream. (A damaged first graph used to stop a build without TF.)"""
+        first = next(messages, None)
         if first is None:
             return False
-        snapshot = self.decode(logset, first)
+        try:
+            snapshot = self.decode(logset, first)
+        except MessageDecodeError:
+            if self.pinned_version:
+                raise
+            return self.has_agents(logset, messages)
         self._first = (first.topic, first.log_time_ns, snapshot)
-        agents = snapshot.agents
-        return agents is not None and len(agents) > 0
+        return _posed(snapshot)
 
     def add_agent_poses(self, mapper: Mapper, agents: Trajectory | None) -> None:
         """Feed the robot poses of a snapshot's agent layer that are newer than those fed
@@ -370,6 +377,12 @@ class GraphFeed:
             sec, nanosec = decoded.header.stamp.sec, decoded.header.stamp.nanosec
         t_ns = int(sec) * 1_000_000_000 + int(nanosec) or msg.log_time_ns
         return payload, t_ns
+
+
+def _posed(snapshot: GraphSnapshot) -> bool:
+    """Whether a snapshot's agent layer holds robot poses."""
+    agents = snapshot.agents
+    return agents is not None and len(agents) > 0
 
 
 def _same_bytes(a: memoryview, b: memoryview, block: int = 1 << 18) -> bool:

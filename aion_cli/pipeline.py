@@ -46,6 +46,7 @@ With ``--workers`` several groups of logs are learnt at once and joined into the
 from __future__ import annotations
 
 import copy
+from itertools import takewhile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -426,12 +427,10 @@ class _Build(StreamStep):
             # with ``between``, the first in that span of log time (a later group of logs)
             messages = self._whole_times.filter(logset.messages(plan.names("graph"), between))
             if between is None:
-                return self.graphs.first_has_agents(logset, next(iter(messages), None))
+                return self.graphs.first_has_agents(logset, iter(messages))
             lo, hi = between
-            first = next((m for m in messages if m.log_time_ns >= lo), None)
-            return first is not None and first.log_time_ns < hi and self.graphs.has_agents(
-                logset, first
-            )
+            inside = (m for m in messages if m.log_time_ns >= lo)
+            return self.graphs.has_agents(logset, takewhile(lambda m: m.log_time_ns < hi, inside))
 
         frames = (self.opts.map_frame, self.opts.base_frame)
         observe(

@@ -195,6 +195,27 @@ def test_the_first_graph_is_decoded_once_when_it_gives_the_observation(
     assert_same_map(tmp_path / "fast.aion", tmp_path / "slow.aion")
 
 
+def test_a_damaged_first_graph_without_tf_is_skipped_as_in_the_stream(tmp_path: Path) -> None:
+    """Without TF the first graph's agent layer decides the observation. A damaged first
+    DsgUpdate (logged with the log's first graph) stopped the build with the decode error,
+    though the stream skips a damaged graph (and a log with TF built); now the next graph
+    answers, the damaged one is skipped and noted, and the map is the map of the same log
+    without it."""
+    from tests.cli.logdata import write_office_log
+
+    clean = tmp_path / "clean.mcap"
+    expected = write_office_log(clean, tf=False, agents=True)
+    damaged = tmp_path / "damaged.mcap"
+    write_office_log(damaged, tf=False, agents=True, early_graph=(0, b"\x00damaged" * 8))
+    reference = build_log(clean, tmp_path / "clean.aion")
+    report = build_log(damaged, tmp_path / "damaged.aion")
+    assert report.observation == reference.observation == "scene-graph agent layer"
+    assert report.graph_skipped == 1
+    assert report.graph_messages == expected.graph_messages
+    assert any("1 damaged scene-graph message(s) skipped" in n for n in report.notes)
+    assert_same_map(tmp_path / "damaged.aion", tmp_path / "clean.aion")
+
+
 # -- --graph-period --------------------------------------------------------------------------------
 def test_period_build_equals_a_log_of_only_the_graphs_used(
     stream_log: Path, tmp_path: Path
