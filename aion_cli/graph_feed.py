@@ -27,6 +27,7 @@ from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
 from aion_cli.errors import InputError, MessageDecodeError
 from aion_cli.formats.dsg_delta import GraphReader
 from aion_cli.graph_schedule import graph_schedule
+from aion_cli.topics import FRONTEND_REASON
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
@@ -421,9 +422,14 @@ def graph_source(
         report.graph_layer = str(loaded.nav.layer)
         report.notes.extend(loaded.notes())
         return loaded.snapshot
+    if len(plan.graph) > 1:
+        raise several_graph_topics(plan)
     if plan.graph:
         report.graph_source = "log"
         report.graph_topics = sorted(plan.names("graph"))
+        left = sorted(topic for topic, why in plan.reasons.items() if why == FRONTEND_REASON)
+        if left:
+            report.notes.append(f"{', '.join(left)} left out: {FRONTEND_REASON}")
         if opts.derive_graph:
             report.notes.append("--derive-graph ignored: the log has scene graphs")
         return None
@@ -444,3 +450,15 @@ def graph_source(
         return None
     report.graph_source = "derived from walking people"
     return derive()
+
+
+def several_graph_topics(plan: TopicPlan) -> InputError:
+    """The refusal of a log with several scene-graph streams and no ``--graph-topic``: their
+    graphs would take turns as the map's graph (another place set, frame or session with
+    every message), and the map would keep whichever came last."""
+    names = sorted(plan.names("graph"))
+    return InputError(
+        f"the log has {len(names)} scene-graph topics ({', '.join(names)}): their graphs "
+        "would take turns as the map's graph; nothing was built",
+        hint=f"name the one to build on with --graph-topic (e.g. --graph-topic {names[0]})",
+    )

@@ -163,6 +163,13 @@ def select_topics(
                 hint=_candidate_hint("--graph-topic", dsg, "hydra_msgs/DsgUpdate scene graphs"),
             )
         dsg = [info]
+    elif len(dsg) > 1:  # Hydra's frontend graph beside the backend's: the backend's
+        backend = [t for t in dsg if not _hydra_frontend(t.topic)]
+        if backend:
+            for info in dsg:
+                if _hydra_frontend(info.topic):
+                    plan.reasons[info.topic] = FRONTEND_REASON
+            dsg = backend
     plan.graph = dsg
     plan.tf = [t for t in topics if t.msgtype in TF_TYPES]
     for info in plan.graph:
@@ -172,6 +179,20 @@ def select_topics(
     for info in plan.ignored:
         plan.reasons.setdefault(info.topic, _zone_topic(info) or _skipped_type(info.msgtype))
     return plan
+
+
+FRONTEND_REASON = (
+    "Hydra's frontend scene graph (odom frame, not optimized): the backend's is used "
+    "(--graph-topic to choose)"
+)
+"""The reason of a frontend DsgUpdate topic left out beside a backend one."""
+
+
+def _hydra_frontend(topic: str) -> bool:
+    """Whether ``topic`` is Hydra's frontend DsgUpdate topic (``/hydra/frontend/dsg``,
+    ``/hydra_ros_node/frontend/dsg``, a robot's ``/<robot>/hydra/frontend/dsg``), which
+    Hydra publishes beside the backend's by default (``enable_frontend_output``)."""
+    return "frontend" in topic.split("/")
 
 
 def _zone_topic(info: TopicInfo) -> str | None:

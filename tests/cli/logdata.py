@@ -133,8 +133,11 @@ def save_graph_file(
 
 
 def graph_payload(places: dict[int, tuple[float, float, float]]) -> bytes:
-    """A DsgUpdate payload: the office graph with these places."""
-    return bytes(build_graph(places, EDGES, ROOMS).to_binary(False))
+    """A DsgUpdate payload: the office graph with these places (the edges and rooms of the
+    office between them)."""
+    edges = [(a, b) for a, b in EDGES if a in places and b in places]
+    rooms = {r: kept for r, ms in ROOMS.items() if (kept := tuple(m for m in ms if m in places))}
+    return bytes(build_graph(places, edges, rooms).to_binary(False))
 
 
 def _stamp(t_ns: int) -> dict[str, int]:
@@ -176,6 +179,7 @@ def write_office_log(
     agents_since_s: int | None = None,
     places: dict[int, tuple[float, float, float]] | None = None,
     early_graph: tuple[int, bytes] | None = None,
+    second_graph: tuple[str, dict[int, tuple[float, float, float]]] | None = None,
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
     holds. ``later_sessions_s``: the same recording again in the same log, starting that many
@@ -184,7 +188,9 @@ def write_office_log(
     this log: every graph repeats the poses since then), not at the log's start. ``places``:
     the scene graph's places (None: the office's, :data:`PLACES`). ``early_graph``: one more
     DsgUpdate first, ``(seconds before the log, payload)`` (two days: a stray log time the
-    build drops; :func:`graph_payload` or damaged bytes), not counted in the graph messages."""
+    build drops; :func:`graph_payload` or damaged bytes), not counted in the graph messages.
+    ``second_graph``: a second scene-graph stream, ``(topic, places)``, 30 s after each graph
+    (frame ``odom``; not counted either)."""
     from aion_cli.formats.writers import LogWriter
 
     n_tracks = n_graph = n_tf = 0
@@ -233,6 +239,19 @@ def write_office_log(
                     )
                     n_graph += 1
                     written.append(t)
+                if second_graph is not None and (t - t0) % (60 * S) == 30 * S:
+                    writer.write(
+                        second_graph[0],
+                        "hydra_msgs/msg/DsgUpdate",
+                        {
+                            "header": {"stamp": _stamp(t), "frame_id": "odom"},
+                            "layer_contents": np.frombuffer(
+                                graph_payload(second_graph[1]), np.uint8
+                            ),
+                            "full_update": True,
+                        },
+                        t,
+                    )
                 if tf and (t - t0) % (5 * S) == 0:
                     x, y, z = ROBOT_XYZ
                     writer.write(

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 from tests.cli.logdata import PLACES, save_graph_file, write_office_log
 from tests.cli.test_build import FIXED_TWO_WINDOWS
@@ -102,3 +104,47 @@ def test_a_navigational_layer_without_places_is_a_warning(tmp_path: Path) -> Non
     plain = run_json("build", sample, "-o", tmp_path / "p.aion", "--format", "json")
     assert plain["nodes"] > 0
     assert not any("navigational layer has no places" in w for w in plain["warnings"])
+
+
+#: Hydra's frontend graph: the places it still holds (p0..p3), in the odom frame 1.5 m off
+FRONTEND = {k: (x + 1.5, y, z) for k, (x, y, z) in PLACES.items() if k < 4}
+
+
+def test_hydra_frontend_graph_beside_the_backend_is_left_out(tmp_path: Path) -> None:
+    """Hydra publishes its frontend graph beside the backend's by default. Both streams were
+    used, their graphs taking turns as the map's graph: the map kept the last one, the
+    frontend's 4 places in the odom frame, instead of the backend's 7. Now the backend's is
+    used and a note says the frontend's was left out."""
+    from aion_cli.formats.mapfile import read_map
+
+    log = tmp_path / "hydra.mcap"
+    write_office_log(log, second_graph=("/hydra/frontend/dsg", FRONTEND))
+    out = tmp_path / "hydra.aion"
+    report = run_json("build", log, "-o", out, "--format", "json")
+    assert report["graph"]["topics"] == ["/hydra/backend/dsg"]
+    assert report["nodes"] == len(PLACES)
+    assert any(n.startswith("/hydra/frontend/dsg left out: Hydra's frontend") for n in
+               report["notes"]), report["notes"]
+    arrays, _ = read_map(out)
+    xyz = np.asarray(arrays["graph_places_xyz"])
+    np.testing.assert_allclose(np.sort(xyz[:, 0]), sorted(p[0] for p in PLACES.values()))
+
+
+def test_two_scene_graph_streams_need_graph_topic(tmp_path: Path) -> None:
+    """Two robots' backend graphs (each numbering its places from p0) took turns as the map's
+    graph; now the build is refused until --graph-topic names one."""
+    log = tmp_path / "fleet.mcap"
+    write_office_log(log, second_graph=("/robot2/hydra/backend/dsg", FRONTEND))
+    out = tmp_path / "fleet.aion"
+    result = run("build", log, "-o", out)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(
+        result.stderr,
+        "the log has 2 scene-graph topics (/hydra/backend/dsg, /robot2/hydra/backend/dsg)",
+    )
+    assert "hint: name the one to build on with --graph-topic" in result.stderr
+    assert not out.exists()
+    report = run_json(
+        "build", log, "-o", out, "--graph-topic", "/robot2/hydra/backend/dsg", "--format", "json"
+    )
+    assert report["nodes"] == len(FRONTEND)
