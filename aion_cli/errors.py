@@ -90,6 +90,11 @@ class MessageDecodeError(InputError):
     """A message payload cannot be decoded (wrong type, truncated, unknown version)."""
 
 
+class PartialGraphError(InputError):
+    """A scene-graph message holds part of a graph (a ``hydra_msgs/DsgUpdate`` whose
+    ``full_update`` is false), which would read as a graph without the rest of its nodes."""
+
+
 class TransformError(InputError):
     """A frame transform is missing or outside the recorded time range."""
 

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
-from aion_cli.errors import InputError, MessageDecodeError
+from aion_cli.errors import InputError, MessageDecodeError, PartialGraphError
 from aion_cli.formats.dsg_delta import GraphReader
 from aion_cli.graph_schedule import graph_schedule
 from aion_cli.topics import FRONTEND_REASON
@@ -55,6 +55,10 @@ class GraphOptions(Protocol):
 
 GRAPH_COUNTS_NOTE = "scene graphs: "
 DAMAGED_GRAPHS_NOTE = "damaged scene-graph message(s) skipped"
+PARTIAL_GRAPHS_NOTE = (
+    "partial scene-graph update(s) (full_update false) skipped: aion applies whole graphs "
+    "only, and the graph stays as it was until the next one"
+)
 
 
 def graph_counts_note(r: BuildReport) -> str | None:
@@ -127,9 +131,11 @@ class GraphFeed:
             self._nav_pin = pins[1]
         self._agents_until = np.iinfo(np.int64).min
         self._first_error: MessageDecodeError | None = None
+        self.partial = 0  # partial updates skipped (full_update false)
         self._last: tuple[memoryview, GraphSnapshot] | None = None  # payload, snapshot
         self._first: tuple[str, int, GraphSnapshot] | None = None  # decoded early
         self._fast_layout: dict[tuple[str, str, str], bool] = {}  # (topic, type, encoding)
+        self._flag_used: dict[str, bool] = {}  # per topic: full_update is set (_uses_flag)
         self._reader = GraphReader()  # re-reads only the node records a payload changed
 
     @property
@@ -249,6 +255,8 @@ class GraphFeed:
             return False
         try:
             snapshot = self.decode(logset, first)
+        except PartialGraphError:  # skipped by the stream too
+            return self.has_agents(logset, messages)
         except MessageDecodeError:
             if self.pinned_version:
                 raise
@@ -273,6 +281,9 @@ class GraphFeed:
         pinned by ``--dsg-version`` a failure is the user's to fix and stops the build."""
         try:
             return self.decode(logset, msg)
+        except PartialGraphError:
+            self.partial += 1
+            return None
         except MessageDecodeError as exc:
             if self.pinned_version:
                 raise
@@ -294,6 +305,8 @@ class GraphFeed:
         note = graph_counts_note(r)
         if note is not None:
             r.notes.append(note)
+        if self.partial:
+            r.notes.append(f"{self.partial:,} {PARTIAL_GRAPHS_NOTE}")
         if r.graph_skipped == 0 or self._first_error is None:
             return
         if r.graph_messages == 0 and stop_if_none:
@@ -360,24 +373,34 @@ class GraphFeed:
 
         Read straight from the serialized message (:mod:`formats.dsg_update_fast`) where the
         log defines the type in the layout that reader knows (checked once per topic); the
-        generic decoder reads the other messages, and those the fast reader declines."""
-        from aion_cli.formats.dsg_update_fast import layout_matches, read_dsg_update
+        generic decoder reads the other messages, and those the fast reader declines.
+        :class:`~aion_cli.errors.PartialGraphError` for a partial update (``full_update``
+        false: the nodes that changed, not the graph; Hydra's own receivers refuse them),
+        which read as a whole graph would take every node it does not repeat out of the map;
+        unless the topic's first message has the flag false too (:meth:`_uses_flag`)."""
+        from aion_cli.formats.dsg_update_fast import update_fields
 
-        key = (msg.topic, msg.msgtype, msg.encoding)
-        fast = self._fast_layout.get(key)
-        if fast is None:
-            fast = self._fast_layout[key] = layout_matches(
-                msg.msgtype, msg.encoding, *logset.definition(*key)
+        fields = update_fields(logset, msg, self._fast_layout)
+        t_ns = int(fields.sec) * 1_000_000_000 + int(fields.nanosec) or msg.log_time_ns
+        if not fields.full_update and self._uses_flag(logset, msg.topic):
+            raise PartialGraphError(
+                f"{msg.topic}: a partial scene-graph update (full_update false) at {t_ns} ns"
             )
-        fields = read_dsg_update(msg.data, msg.encoding) if fast else None
-        if fields is not None:
-            sec, nanosec, payload = fields.sec, fields.nanosec, fields.payload
-        else:
-            decoded = logset.decode(msg)
-            payload = np.ascontiguousarray(decoded.layer_contents, dtype=np.uint8).data
-            sec, nanosec = decoded.header.stamp.sec, decoded.header.stamp.nanosec
-        t_ns = int(sec) * 1_000_000_000 + int(nanosec) or msg.log_time_ns
-        return payload, t_ns
+        return fields.payload, t_ns
+
+    def _uses_flag(self, logset: Any, topic: str) -> bool:
+        """Whether ``topic``'s writer sets ``full_update``: its first message (in the logs
+        read) has it true. A stream cannot begin with a partial update (Hydra's receivers read
+        the first message as the whole graph), so a topic whose first message has the flag
+        false comes from a writer that leaves it unset, and its graphs are read whole."""
+        from aion_cli.formats.dsg_update_fast import update_fields
+
+        if topic not in self._flag_used:
+            first = next(iter(logset.messages({topic})), None)
+            self._flag_used[topic] = first is not None and bool(
+                update_fields(logset, first, self._fast_layout).full_update
+            )
+        return self._flag_used[topic]
 
 
 def _posed(snapshot: GraphSnapshot) -> bool:

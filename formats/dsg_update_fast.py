@@ -26,6 +26,7 @@ before. The log's own definition of the type must have this layout
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from aion_cli.formats.raw import normalize_msgtype
 
@@ -35,12 +36,13 @@ DSG_UPDATE = "hydra_msgs/msg/DsgUpdate"
 
 @dataclass(frozen=True)
 class DsgUpdateFields:
-    """What a build reads of a DsgUpdate: the header stamp and the payload (a view of the
-    message's own bytes)."""
+    """What a build reads of a DsgUpdate: the header stamp, the payload (a view of the
+    message's own bytes) and ``full_update`` (whether the payload is the whole graph)."""
 
     sec: int
     nanosec: int
     payload: memoryview
+    full_update: bool = True
 
 
 def _u32(data: memoryview, p: int) -> int:
@@ -73,7 +75,7 @@ def _ros1(data: memoryview) -> DsgUpdateFields:
         p = p + 4 + 8 * _u32(data, p)
     if p + 9 != len(data):  # full_update, sequence_number
         raise ValueError("size mismatch")
-    return DsgUpdateFields(sec, nanosec, data[start : start + n])
+    return DsgUpdateFields(sec, nanosec, data[start : start + n], data[p] != 0)
 
 
 def _cdr(data: memoryview) -> DsgUpdateFields:
@@ -96,11 +98,12 @@ def _cdr(data: memoryview) -> DsgUpdateFields:
         p += 4
         if count:
             p = ((p + 7) & -8) + 8 * count
+    full = p
     p += 1  # full_update
     p = ((p + 7) & -8) + 8  # sequence_number
     if p > len(body) or len(body) - p > 3:
         raise ValueError("size mismatch")
-    return DsgUpdateFields(sec, nanosec, body[start : start + n])
+    return DsgUpdateFields(sec, nanosec, body[start : start + n], body[full] != 0)
 
 
 def read_dsg_update(data: bytes | memoryview, encoding: str) -> DsgUpdateFields | None:
@@ -122,3 +125,26 @@ def layout_matches(msgtype: str, encoding: str, definition: str, idl: bool = Fal
         return False
     ros_version = 1 if encoding == "ros1" else 2
     return msgdefs.same_layout(definition, DSG_UPDATE, ros_version, idl)
+
+
+def update_fields(
+    logset: Any, msg: Any, layouts: dict[tuple[str, str, str], bool]
+) -> DsgUpdateFields:
+    """A DsgUpdate message's stamp, payload and ``full_update``, read straight from its bytes
+    (:func:`read_dsg_update`) where the log defines the type in that layout (checked once per
+    (topic, type, encoding) and kept in ``layouts``), else by the log's generic decoder
+    (``logset.decode``), which also reads the messages the fast reader declines."""
+    import numpy as np
+
+    key = (msg.topic, msg.msgtype, msg.encoding)
+    fast = layouts.get(key)
+    if fast is None:
+        fast = layouts[key] = layout_matches(msg.msgtype, msg.encoding, *logset.definition(*key))
+    fields = read_dsg_update(msg.data, msg.encoding) if fast else None
+    if fields is not None:
+        return fields
+    decoded = logset.decode(msg)
+    payload = np.ascontiguousarray(decoded.layer_contents, dtype=np.uint8).data
+    stamp = decoded.header.stamp
+    full = bool(getattr(decoded, "full_update", True))
+    return DsgUpdateFields(int(stamp.sec), int(stamp.nanosec), payload, full)

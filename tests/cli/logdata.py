@@ -180,6 +180,7 @@ def write_office_log(
     places: dict[int, tuple[float, float, float]] | None = None,
     early_graph: tuple[int, bytes] | None = None,
     second_graph: tuple[str, dict[int, tuple[float, float, float]]] | None = None,
+    partial_places: dict[int, tuple[float, float, float]] | None = None,
 ) -> Expected:
     """Write the office log to ``path`` (``shift_s`` seconds after T0) and return what it
     holds. ``later_sessions_s``: the same recording again in the same log, starting that many
@@ -190,7 +191,8 @@ def write_office_log(
     DsgUpdate first, ``(seconds before the log, payload)`` (two days: a stray log time the
     build drops; :func:`graph_payload` or damaged bytes), not counted in the graph messages.
     ``second_graph``: a second scene-graph stream, ``(topic, places)``, 30 s after each graph
-    (frame ``odom``; not counted either)."""
+    (frame ``odom``; not counted either). ``partial_places``: a partial update of these places
+    (``full_update`` false) on the graph topic 30 s after each graph time (not counted)."""
     from aion_cli.formats.writers import LogWriter
 
     n_tracks = n_graph = n_tf = 0
@@ -239,16 +241,19 @@ def write_office_log(
                     )
                     n_graph += 1
                     written.append(t)
-                if second_graph is not None and (t - t0) % (60 * S) == 30 * S:
+                extra = [(second_graph[0], second_graph[1], "odom", True)] if second_graph else []
+                if partial_places is not None:
+                    extra.append(("/hydra/backend/dsg", partial_places, "map", False))
+                for topic, places_k, frame_k, full in extra:
+                    if (t - t0) % (60 * S) != 30 * S:
+                        continue
                     writer.write(
-                        second_graph[0],
+                        topic,
                         "hydra_msgs/msg/DsgUpdate",
                         {
-                            "header": {"stamp": _stamp(t), "frame_id": "odom"},
-                            "layer_contents": np.frombuffer(
-                                graph_payload(second_graph[1]), np.uint8
-                            ),
-                            "full_update": True,
+                            "header": {"stamp": _stamp(t), "frame_id": frame_k},
+                            "layer_contents": np.frombuffer(graph_payload(places_k), np.uint8),
+                            "full_update": full,
                         },
                         t,
                     )

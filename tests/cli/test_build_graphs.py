@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 from tests.cli.logdata import PLACES, save_graph_file, write_office_log
@@ -148,3 +149,41 @@ def test_two_scene_graph_streams_need_graph_topic(tmp_path: Path) -> None:
         "build", log, "-o", out, "--graph-topic", "/robot2/hydra/backend/dsg", "--format", "json"
     )
     assert report["nodes"] == len(FRONTEND)
+
+
+@pytest.mark.parametrize("container", ["mcap", "bag"])
+def test_partial_scene_graph_updates_are_skipped(tmp_path: Path, container: str) -> None:
+    """A DsgUpdate with full_update false holds the nodes that changed, not the graph. It was
+    applied as a whole graph: every node it did not repeat left the map (the office log with a
+    partial update of p0 and p1 30 s after each full graph ended as a map of 2 places, their
+    flows released to hash cells). Now partial updates are skipped and noted: the map is the
+    map of the same log without them (up to the last bits of sums, which the skipped messages
+    still cut into other pieces). Where the topic's first message has the flag false too,
+    the writer does not set it, and the graphs are read whole."""
+    from aion_cli.formats.mapfile import read_map
+
+    suffix = ".mcap" if container == "mcap" else ".bag"
+    partial = {k: PLACES[k] for k in (0, 1)}
+    log = tmp_path / f"partial{suffix}"
+    write_office_log(log, container, partial_places=partial)
+    plain = tmp_path / f"plain{suffix}"
+    write_office_log(plain, container)
+    args = ("--graph-period", "0", "--format", "json")
+    report = run_json("build", log, "-o", tmp_path / "partial.aion", *args)
+    run_json("build", plain, "-o", tmp_path / "plain.aion", *args)
+    assert report["nodes"] == len(PLACES)
+    assert any(n.startswith("20 partial scene-graph update(s) (full_update false) skipped")
+               for n in report["notes"]), report["notes"]
+    got, _ = read_map(tmp_path / "partial.aion")
+    want, _ = read_map(tmp_path / "plain.aion")
+    assert sorted(got) == sorted(want)
+    for name in want:
+        np.testing.assert_allclose(got[name], want[name], rtol=1e-12, atol=1e-20, err_msg=name)
+
+    # a writer that never sets the flag (the topic's first message has it false too): its
+    # graphs are read whole, as before
+    unset = tmp_path / f"unset{suffix}"
+    write_office_log(unset, container, graph=False, partial_places=partial)
+    report = run_json("build", unset, "-o", tmp_path / "unset.aion", *args)
+    assert report["nodes"] == len(partial)
+    assert not any("partial scene-graph" in n for n in report["notes"]), report["notes"]
