@@ -6,10 +6,11 @@ Each step is the scene of ``aion predict``'s entry table at its time
 ``formats.scene_style.style_scene`` and written by ``formats.scene_mcap``. Entities are named
 by the entry ids of ``aion predict`` (``p12``, ``c<key>``), in the map's entry order, which is
 the same at every step. Sphere sizes share one scale over the whole series
-(:func:`series_flow_scale`): the busiest node of the busiest step is drawn at full size (or a
-high quantile of all steps' flows when it dwarfs them,
-``formats.scene_colours.display_flow_scale``), so a node that grows on the timeline is busier
-then (a PLY / PCD series of folders shares the scale too: ``exports.export_frames``)."""
+(:func:`series_flow_scale`; in a map of hash cells only, the cells' arrow lengths): the busiest
+node of the busiest step is drawn at full size (or a high quantile of all steps' flows when it
+dwarfs them, ``formats.scene_colours.display_flow_scale``), so a node that grows on the
+timeline is busier then (a PLY / PCD series of folders shares the scale too:
+``exports.export_frames``)."""
 
 from __future__ import annotations
 
@@ -113,25 +114,32 @@ def step_scene(
 
 def series_flow_scale(loaded: LoadedMap, times: Sequence[int | None]) -> float | None:
     """The flow drawn at full size in every step of a series: ``display_flow_scale`` of the
-    node flows of the scenes at ``times`` (the busiest, or a high quantile when the busiest
-    dwarfs the rest); None when no node has flow (each step then scales on its own, as a
-    single export does). The predicted steps' node flows come from the predictor's batch
-    path for the node rows only (``prediction_series.entry_flows``: the tables' values,
-    element by element), not from a whole scene per step, which the export then builds once
-    more to draw it; a historical step (None) from its scene."""
-    from aion_cli.engine.entries import NODE
+    flows of what the scenes at ``times`` size by flow (the busiest, or a high quantile when
+    the busiest dwarfs the rest): the nodes' spheres and arrows, or in a scene without nodes
+    (a map of hash cells only) the cells' arrows; None when none has flow (each step then
+    scales on its own, as a single export does). The predicted steps' flows come from the
+    predictor's batch path for those rows only (``prediction_series.entry_flows``: the
+    tables' values, element by element), not from a whole scene per step, which the export
+    then builds once more to draw it; a historical step (None) from its scene."""
+    from aion_cli.engine.entries import CELL, NODE
     from aion_cli.formats.scene_colours import display_flow_scale
     from aion_cli.prediction_series import entry_flows
     from aion_cli.scene import scene_at
 
+    entries = loaded.state.entries
+    graph = loaded.graph
+    # a scene has nodes when an entry is a node or the graph has places (drawn without flow)
+    with_nodes = entries.node_rows().size > 0 or (graph is not None and len(graph.places) > 0)
+    sized = NODE if with_nodes else CELL
     flows = []
     timed = [int(t) for t in times if t is not None]
     if timed:
         rows, _ = loaded.state.predictor()
-        nodes = np.flatnonzero(np.asarray(loaded.state.entries.kind)[rows] == NODE)
-        flows.append(entry_flows(loaded, nodes, timed, None).reshape(-1))
+        drawn = np.flatnonzero(np.asarray(entries.kind)[rows] == sized)
+        flows.append(entry_flows(loaded, drawn, timed, None).reshape(-1))
     if len(timed) < len(times):
-        flows.append(scene_at(loaded, None).node_flow)
+        scene = scene_at(loaded, None)
+        flows.append(scene.node_flow if sized == NODE else scene.cells_flow)
     pooled = np.concatenate(flows) if flows else np.zeros(0)
     if not (np.nan_to_num(pooled) > 0).any():
         return None
