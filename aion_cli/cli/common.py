@@ -28,13 +28,23 @@ STEP_HELP = (
 
 class AionPath(click.Path):
     """``click.Path`` that refuses an empty value: ``Path("")`` is the current folder, so an
-    unset shell variable (``aion build "$LOG"``) would otherwise read or write "here"."""
+    unset shell variable (``aion build "$LOG"``) would otherwise read or write "here"; and
+    ``-``, which aion does not read or write as standard input or output: ``aion compact
+    MAP -o - > robot.aion`` wrote the map to a file named ``-`` and left ``robot.aion``
+    empty, with success."""
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, str) and not value.strip():
             self.fail(
                 "an empty path (an unset shell variable?): name the file or folder "
                 "('.' for the current folder)",
+                param,
+                ctx,
+            )
+        if value == "-":
+            self.fail(
+                "'-' is not standard input or output here: aion reads and writes named files "
+                "and folders; name one ('./-' for a file called '-')",
                 param,
                 ctx,
             )
