@@ -368,19 +368,26 @@ def export_format(fmt: str | None, out: Path) -> str:
     """The format to write: ``fmt`` if given (``--format``), else the one the output's suffix
     names (a .png picture, an .mcap series, a .json / .sparkdsg scene graph, a .ply / .pcd
     scene file: :func:`scene_file`), else ply (a folder). A PLY / PCD export to an output
-    named as another format's file (``--format pcd -o map.png``) and not an existing folder
-    is refused rather than made a folder of that name."""
+    named as another format's file (``--format pcd -o map.png``) or as a table
+    (``-o flows.csv``) and not an existing folder is refused rather than made a folder of
+    that name."""
     from aion_cli.errors import InputError
 
     suffix = out.suffix.lower()
     if fmt is None:
         fmt = FILE_FORMATS.get(suffix, "pcd" if suffix == ".pcd" else "ply")
-    other = {*FILE_FORMATS, ".ply", ".pcd"} - {f".{fmt}"}
+    # a table's name too: -o flows.csv made a folder flows.csv/ of PLY files
+    other = {*FILE_FORMATS, ".ply", ".pcd", ".csv"} - {f".{fmt}"}
     if fmt in SCENE_FORMATS and not out.is_dir() and suffix in other:
+        table = (
+            "; the table alone: aion predict MAP --time T --format csv > FILE.csv"
+            if suffix == ".csv"
+            else ""
+        )
         raise InputError(
             f"{fmt} scenes are written into a folder (the scene as .{fmt} files, entries.csv and "
             f"entries.json) or one .{fmt} file, got {str(out)!r}",
-            hint=f"name a folder (e.g. out/) or a .{fmt} file",
+            hint=f"name a folder (e.g. out/) or a .{fmt} file{table}",
         )
     return fmt
 

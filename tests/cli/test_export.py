@@ -129,8 +129,10 @@ def test_the_format_follows_the_output_suffix(
 
 
 @pytest.mark.parametrize(
-    ("fmt", "name"), [("pcd", "map.png"), ("ply", "scene.pcd"), ("ply", "graph.json")]
-)
+    ("fmt", "name"),
+    [("pcd", "map.png"), ("ply", "scene.pcd"), ("ply", "graph.json"), ("ply", "flows.csv"),
+     ("pcd", "flows.csv")],
+)  # fmt: skip
 def test_a_scene_format_refuses_another_formats_file_name(
     office: Office, tmp_path: Path, fmt: str, name: str
 ) -> None:
@@ -138,6 +140,26 @@ def test_a_scene_format_refuses_another_formats_file_name(
     assert result.exit_code == 2
     assert_one_line_error(result.stderr, "written into a folder", repr(str(tmp_path / name)))
     assert not (tmp_path / name).exists()
+
+
+def test_an_output_named_as_a_table_is_refused_unless_it_is_a_folder(
+    office: Office, tmp_path: Path
+) -> None:
+    """``-o flows.csv`` (no --format) made a folder flows.csv/ holding PLY files, exit 0:
+    a script then reading flows.csv as a table found a folder. It is refused now, naming
+    the command that writes the table alone; an existing folder of that name is written
+    into as before."""
+    out = tmp_path / "flows.csv"
+    result = run("export", office.map, "-o", out, "--time", AT)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "written into a folder", repr(str(out)))
+    assert "--format csv > FILE.csv" in result.stderr
+    assert not out.exists()
+    out.mkdir()
+    result = run("export", office.map, "-o", out, "--time", AT, "-q")
+    assert result.exit_code == 0, result.stderr
+    assert (out / "entries.csv").is_file()
+    assert (out / "scene.ply").is_file()
 
 
 @pytest.mark.parametrize("fmt", ["ply", "pcd"])
