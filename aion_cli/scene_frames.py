@@ -41,11 +41,15 @@ def export_mcap(
     between ``ends`` (``exports.path_ends``) planned at each step; ``on_frame`` after each
     step. ``out`` is checked before anything is computed and appears complete or not at all."""
     from aion_cli.formats.outputs import safe_text
+    from aion_cli.formats.scene_markers import FRAME
     from aion_cli.formats.scene_mcap import SceneMcapWriter, check_scene_target
+    from aion_cli.manifest import Manifest
     from aion_cli.predictions import hour_flags
     from aion_cli.timeparse import format_ns
 
     check_scene_target(out)
+    # the frame the map's positions are in (aion build --map-frame; map by default)
+    frame = Manifest.from_dict(loaded.manifest).map_frame or FRAME
     scale = series_flow_scale(loaded, times)
     steps = [t for t in times if t is not None]
     metadata = {
@@ -55,7 +59,7 @@ def export_mcap(
         "first": format_ns(steps[0], zone) if steps and zone is not None else "",
         "last": format_ns(steps[-1], zone) if steps and zone is not None else "",
         "zone": zone.name if zone is not None else "",
-        "frame": "map",
+        "frame": frame,
         # the steps at an hour no day observed (their flows extrapolated), comma-separated
         "extrapolated": ", ".join(
             format_ns(t, zone)
@@ -63,7 +67,7 @@ def export_mcap(
             if seen is False and zone is not None
         ),
     }
-    with SceneMcapWriter(out, metadata) as writer:
+    with SceneMcapWriter(out, metadata, frame) as writer:
         for t_ns in times:
             style, node_ids, cell_ids = step_scene(loaded, t_ns, ends, scale)
             writer.write_step(_log_time(loaded, t_ns), style, node_ids, cell_ids)

@@ -31,6 +31,7 @@ from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
 from aion_cli.formats.scene_style import SceneStyle
 
 FRAME = "map"
+"""The frame of a map built without ``--map-frame``."""
 WORLD = "world"
 CELL_THICKNESS = 0.02  # x δ: the flat squares of the hash cells
 EDGE_WIDTH = 0.06  # x δ, the PLY edge tubes' diameter
@@ -48,6 +49,9 @@ _POSE_SCALE = struct.Struct("<10d")  # position, orientation (x y z w), scale
 _COLOR_LIFE = struct.Struct("<4fiI?")  # colour, lifetime, frame_locked
 _IDENTITY = (0.0, 0.0, 0.0, 1.0)
 _NO_COLOR = np.zeros((0, 4), np.float32)
+
+Header = tuple[int, int, str]
+"""A marker's ``std_msgs/Header``: stamp (seconds, nanoseconds) and frame."""
 
 
 class _Cdr:
@@ -96,7 +100,7 @@ def _rgba(rgb: npt.ArrayLike) -> npt.NDArray[np.float32]:
 
 def _marker(
     out: _Cdr,
-    stamp: tuple[int, int],
+    header: Header,
     ns: str,
     marker_id: int,
     kind: int,
@@ -108,9 +112,10 @@ def _marker(
     text: str = "",
     action: int = ADD,
 ) -> None:
-    """One ``visualization_msgs/Marker`` in frame ``map`` (no lifetime, not frame-locked)."""
-    out.packed(4, _STAMP, *stamp)
-    out.string(FRAME)
+    """One ``visualization_msgs/Marker`` with ``header`` (its stamp and frame; no lifetime, not
+    frame-locked)."""
+    out.packed(4, _STAMP, *header[:2])
+    out.string(header[2])
     out.string(ns)
     out.packed(4, _KIND, marker_id, kind, action)
     out.packed(8, _POSE_SCALE, *pose, *scale)
@@ -132,7 +137,7 @@ def _marker(
 
 def _texted(
     out: _Cdr,
-    stamp: tuple[int, int],
+    header: Header,
     ns: str,
     kind: int,
     ids: Sequence[int],
@@ -146,9 +151,9 @@ def _texted(
     falls depends only on the offset the marker starts at and the text's length."""
     if not ids:
         return
-    probe = _Cdr()  # the fixed fields, from an 8-aligned start: [stamp .. ns] and [kind]
-    probe.packed(4, _STAMP, *stamp)
-    probe.string(FRAME)
+    probe = _Cdr()  # the fixed fields, from an 8-aligned start: [header .. ns] and [kind]
+    probe.packed(4, _STAMP, *header[:2])
+    probe.string(header[2])
     probe.string(ns)
     probe.align(4)
     head = bytes(probe.buf)
@@ -205,10 +210,15 @@ def _yaw(angle: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
 
 
 def marker_array(
-    t_ns: int, style: SceneStyle, node_ids: Sequence[str], cell_ids: Sequence[str]
+    t_ns: int,
+    style: SceneStyle,
+    node_ids: Sequence[str],
+    cell_ids: Sequence[str],
+    frame: str = FRAME,
 ) -> bytes:
-    """The CDR payload of one step's ``MarkerArray`` (see the module docstring)."""
-    stamp = divmod(int(t_ns), 1_000_000_000)
+    """The CDR payload of one step's ``MarkerArray`` (see the module docstring), its markers
+    in ``frame`` (the map's frame)."""
+    header: Header = (*divmod(int(t_ns), 1_000_000_000), frame)
     delta = style.cell_size
     arrows = np.flatnonzero(np.isfinite(style.arrow_angle) & (style.arrow_length > 0))
     # a scene without nodes: the cells carry the arrows, as the PLY's (none beside nodes)
@@ -231,12 +241,12 @@ def marker_array(
     lists = [part for part in lists if len(part[2])]
     out = _Cdr()
     out.u32(1 + len(node_ids) + len(arrows) + len(cell_arrows) + len(lists))
-    _marker(out, stamp, "", 0, ARROW, action=DELETEALL)
+    _marker(out, header, "", 0, ARROW, action=DELETEALL)
     centre = style.nodes_xyz.tolist()
     colors = style.colors.tolist()
     diameters = (2.0 * style.radii).tolist()
     _texted(
-        out, stamp, "nodes", SPHERE, range(len(node_ids)),
+        out, header, "nodes", SPHERE, range(len(node_ids)),
         [(*centre[i], *_IDENTITY, d, d, d) for i, d in enumerate(diameters)], colors, node_ids,
     )
     width = style.arrow_width
@@ -244,7 +254,7 @@ def marker_array(
     length = style.arrow_length[arrows].tolist()
     which = arrows.tolist()
     _texted(
-        out, stamp, "arrows", ARROW, which,
+        out, header, "arrows", ARROW, which,
         [(*centre[i], *turn[k], length[k], 2.0 * width, 4.0 * width) for k, i in enumerate(which)],
         [colors[i] for i in which], [node_ids[i] for i in which],
     )
@@ -254,7 +264,7 @@ def marker_array(
         length = style.cell_arrow_length[cell_arrows].tolist()
         cells = cell_arrows.tolist()
         _texted(
-            out, stamp, "arrows", ARROW, [len(node_ids) + i for i in cells],
+            out, header, "arrows", ARROW, [len(node_ids) + i for i in cells],
             [(*at[k], *turn[k], length[k], 2.0 * width, 4.0 * width) for k in range(len(cells))],
             style.cell_colors[cell_arrows].tolist(), [cell_ids[i] for i in cells],
         )
@@ -262,17 +272,17 @@ def marker_array(
         if rgba is None:  # the mesh: each triangle corner coloured as its vertex
             rgba = _rgba(mesh.colors)[mesh.faces.reshape(-1)]
         scale = widths.get(ns, (1.0, 1.0, 1.0))
-        _marker(out, stamp, ns, 0, kind, scale=scale, color=color, points=points, colors=rgba)
+        _marker(out, header, ns, 0, kind, scale=scale, color=color, points=points, colors=rgba)
     return out.payload()
 
 
-def tf_static(t_ns: int) -> bytes:
+def tf_static(t_ns: int, frame: str = FRAME) -> bytes:
     """The CDR payload of ``/tf_static``: one ``tf2_msgs/TFMessage`` with the identity
-    transform ``world -> map``."""
+    transform ``world -> frame`` (the map's frame)."""
     out = _Cdr()
     out.u32(1)
     out.packed(4, _STAMP, *divmod(int(t_ns), 1_000_000_000))
     out.string(WORLD)
-    out.string(FRAME)
+    out.string(frame)
     out.packed(8, struct.Struct("<7d"), 0.0, 0.0, 0.0, *_IDENTITY)
     return out.payload()

@@ -22,7 +22,9 @@ timeline scrubs through the day:
   the map's entry order, which is the same at every step of a file.
 - ``/tf_static``: one ``tf2_msgs/msg/TFMessage``, the identity ``world -> map``, so RViz and
   Foxglove know the frame ``map`` every scene is drawn in (its channel carries rosbag2's
-  latched QoS, for ``ros2 bag play``).
+  latched QoS, for ``ros2 bag play``). ``map`` is the map's frame: a map built with
+  ``--map-frame odom`` (or a laser's frame) holds positions in that frame, and its scenes
+  and this transform name it, so the scene lies where a log's TF puts that frame.
 
 Sizes and colours come from :class:`formats.scene_style.SceneStyle` (as for PLY); line widths
 are the diameters of the PLY tubes. The file is written beside the target and renamed into
@@ -132,14 +134,16 @@ def check_scene_target(path: Path) -> None:
 class SceneMcapWriter:
     """Writes the scene MCAP file ``path`` (see the module docstring); a context manager: the
     file appears at ``path`` when the block ends without an exception, and not at all
-    otherwise. ``metadata``: string pairs stored as the file's ``aion`` metadata record."""
+    otherwise. ``metadata``: string pairs stored as the file's ``aion`` metadata record;
+    ``frame``: the map's frame, which every entity and marker is in."""
 
-    def __init__(self, path: Path, metadata: Mapping[str, str]) -> None:
+    def __init__(self, path: Path, metadata: Mapping[str, str], frame: str = FRAME) -> None:
         from mcap.writer import CompressionType, Writer
 
         from aion_cli import __version__
 
         self.path = path
+        self.frame = frame
         try:
             self._staged = Staged(path)
         except OSError as exc:
@@ -190,9 +194,11 @@ class SceneMcapWriter:
             raise ExportError("write_step needs one id per node and per cell")  # a caller bug
         try:
             if self.steps == 0:
-                self._add(TF_STATIC_TOPIC, t_ns, tf_static(t_ns))
-            self._add(SCENE_TOPIC, t_ns, scene_update(t_ns, style, node_ids, cell_ids))
-            self._add(MARKER_TOPIC, t_ns, marker_array(t_ns, style, node_ids, cell_ids))
+                self._add(TF_STATIC_TOPIC, t_ns, tf_static(t_ns, self.frame))
+            scene = scene_update(t_ns, style, node_ids, cell_ids, self.frame)
+            self._add(SCENE_TOPIC, t_ns, scene)
+            markers = marker_array(t_ns, style, node_ids, cell_ids, self.frame)
+            self._add(MARKER_TOPIC, t_ns, markers)
         except OSError as exc:
             raise _write_error(self.path, exc) from exc
         self.steps += 1
@@ -281,9 +287,14 @@ def _arrow(
 
 
 def scene_update(
-    t_ns: int, style: SceneStyle, node_ids: Sequence[str], cell_ids: Sequence[str]
+    t_ns: int,
+    style: SceneStyle,
+    node_ids: Sequence[str],
+    cell_ids: Sequence[str],
+    frame: str = FRAME,
 ) -> bytes:
-    """The serialized ``foxglove.SceneUpdate`` of one step (see the module docstring)."""
+    """The serialized ``foxglove.SceneUpdate`` of one step (see the module docstring), its
+    entities in ``frame`` (the map's frame)."""
     from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
     from foxglove_schemas_protobuf.SceneEntityDeletion_pb2 import SceneEntityDeletion
     from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
@@ -295,7 +306,7 @@ def scene_update(
     delta = style.cell_size
 
     def entity(entity_id: str, meta: Sequence[tuple[str, str]]) -> Any:
-        e = update.entities.add(id=entity_id, frame_id=FRAME)
+        e = update.entities.add(id=entity_id, frame_id=frame)
         e.timestamp.seconds, e.timestamp.nanos = sec, nanos
         for key, value in meta:
             e.metadata.add(key=key, value=value)

@@ -58,8 +58,9 @@ time (at most 24); a map whose floors lie apart in height gets one panel per flo
 --format mcap writes one MCAP file, -o naming it (.mcap), with a step per time logged at
 that time, to scrub through in Foxglove (topic /aion/scene, foxglove.SceneUpdate: one entity
 per entry named by its id, as `aion predict` prints it) or in RViz (/aion/markers,
-visualization_msgs/MarkerArray; /tf_static declares the frame "map"): the same spheres,
-arrows, cells, edges, mesh and path as the PLY scene, sizes on one scale for the whole series.
+visualization_msgs/MarkerArray; /tf_static declares the frame "map", or the --map-frame the
+map was built in): the same spheres, arrows, cells, edges, mesh and path as the PLY scene,
+sizes on one scale for the whole series.
 
 \b
 --format dsg writes the 4D scene graph as a spark_dsg file, -o naming it (.json or .sparkdsg):

@@ -25,7 +25,7 @@ from tests.formats.test_scene_mcap import (
 
 def _reference(
     out: _Cdr,
-    stamp: tuple[int, int],
+    header: tuple[int, int, str],
     ns: str,
     kind: int,
     ids: Sequence[int],
@@ -35,7 +35,7 @@ def _reference(
 ) -> None:
     """The loop marker_array ran before: one _marker call per node or arrow."""
     for marker_id, pose, color, text in zip(ids, poses, colors, texts, strict=True):
-        _marker(out, stamp, ns, marker_id, kind, pose[:7], pose[7:], color, text=text)
+        _marker(out, header, ns, marker_id, kind, pose[:7], pose[7:], color, text=text)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -58,7 +58,8 @@ def test_texted_equals_one_marker_each(seed: int, monkeypatch: pytest.MonkeyPatc
 
 @pytest.mark.parametrize("lead", range(8))
 @pytest.mark.parametrize("kind", [SPHERE, ARROW])
-def test_any_start_offset(lead: int, kind: int) -> None:
+@pytest.mark.parametrize("frame", ["map", "odom", "right_laser"])  # the map's frame
+def test_any_start_offset(lead: int, kind: int, frame: str) -> None:
     texts = ["", "a", "ab", "abc", "abcd", "p12345", "é"]
     poses = [(1.0 * k, 2.0, 3.0, *_IDENTITY, 0.5, 0.25, 0.125) for k in range(len(texts))]
     colors = [(0.1 * k, 0.2, 0.3) for k in range(len(texts))]
@@ -66,6 +67,6 @@ def test_any_start_offset(lead: int, kind: int) -> None:
     fast, slow = _Cdr(), _Cdr()
     fast.buf += bytes(lead)
     slow.buf += bytes(lead)
-    scene_markers._texted(fast, (5, 6), "nodes", kind, ids, poses, colors, texts)
-    _reference(slow, (5, 6), "nodes", kind, ids, poses, colors, texts)
+    scene_markers._texted(fast, (5, 6, frame), "nodes", kind, ids, poses, colors, texts)
+    _reference(slow, (5, 6, frame), "nodes", kind, ids, poses, colors, texts)
     assert fast.buf == slow.buf
