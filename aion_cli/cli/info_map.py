@@ -136,6 +136,8 @@ def print_map(report: dict[str, Any]) -> None:
     layer = report.get("nav_layer")
     graph_text = f"{report.get('graph_source')}" + (f", places from layer {layer}" if layer else "")
     table.add_row("graph", safe(graph_text))
+    if report.get("map_frame"):  # every position of the map is in it (build --map-frame)
+        table.add_row("map frame", safe(report["map_frame"]))
     rooms = report.get("rooms") or []
     if rooms:
         named = [f"{r['name']} ({r['id']})" if r.get("name") else str(r["id"]) for r in rooms]

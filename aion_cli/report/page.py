@@ -151,6 +151,8 @@ def _holdings(c: ReportContent) -> list[str]:
         # the days the day-ahead scoring judged: an entry leaves static only on them
         *([("days scored", scored)] if (scored := days_scored_text(s)) is not None else []),
         ("scene graph", s.get("graph_source", "-")),
+        # the frame of every position on the page (aion build --map-frame)
+        *([("map frame", str(s["map_frame"]))] if s.get("map_frame") else []),
         *_made_by(s),
         ("map time zone", s.get("timezone") or "not set (queries use the local zone)"),
         ("config", ", ".join(f"{k}={v}" for k, v in changed.items()) or "defaults"),

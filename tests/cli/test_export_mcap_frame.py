@@ -46,3 +46,20 @@ def test_the_scene_of_a_map_built_in_a_laser_frame_is_in_that_frame(tmp_path: Pa
         "markers": {FRAME},
         "tf_static": {f"world -> {FRAME}"},
     }
+
+
+def test_info_and_the_report_name_the_map_s_frame(tmp_path: Path) -> None:
+    """Every position ``predict`` and ``export`` give of such a map is in ``right_laser``,
+    but neither ``aion info``'s table nor the report said which frame (only ``info
+    --format json`` had ``map_frame``). Both name it now."""
+    bag = real("logs", "leg_tracker", "positive_2_extracted.bag")
+    out = tmp_path / "legs.aion"
+    assert run("build", bag, "--map-frame", FRAME, "-o", out, "-q").exit_code == 0
+    shown = run("info", out)
+    assert shown.exit_code == 0, shown.stderr
+    rows = [line.split("│")[1:3] for line in shown.stdout.splitlines() if "│" in line]
+    assert ["map frame", FRAME] in [[cell.strip() for cell in row] for row in rows]
+    page = tmp_path / "report"
+    done = run("report", out, "-o", page, "-q")
+    assert done.exit_code == 0, done.stderr
+    assert f"<td>map frame</td><td>{FRAME}</td>" in (page / "index.html").read_text()
