@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from aion_cli.exports import check_out_dir
+from aion_cli.exports import check_out_dir, naming
 from aion_cli.formats.output_lock import output_lock
 from aion_cli.formats.outputs import Staged
 from aion_cli.report.content import ROSES, ReportContent, gather
@@ -59,6 +59,7 @@ def write_report(
     step("read the map")
     with (
         output_lock(out_dir, into=True),  # a second report into OUT is refused meanwhile
+        naming(out_dir),  # a full disk's failed close names no file: OUT is named
         Staged(out_dir, merge=True, recognise=is_report_file) as staged,
     ):
         folder = staged.path
