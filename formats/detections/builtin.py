@@ -158,7 +158,14 @@ class MarkerExtractor:
     so: text labels (``marker_text``) and lines (``marker_line``: paths, outlines) are no
     people; an arrow given by points stands at its first point (its pose is the origin the
     points are drawn from); and a marker at the x, y of an earlier one of the same message
-    and frame is the same person (``marker_same_place``)."""
+    and frame is the same person (``marker_same_place``).
+
+    A namespace whose markers in one MarkerArray are numbered 0, 1, ..., k-1 (in any order,
+    any action) numbers the markers of that message, not people: leg_tracker counts its ids up
+    from 0 in every message (``joint_leg_tracker.py``'s ``marker_id += 1``,
+    ``extract_positive_training_clusters``' ``m.id = i``), so id 0 is whoever comes first
+    and moves from person to person. Such markers get no track id (they are linked into
+    tracks, as a PoseArray's poses are); ids that skip a number are taken as track ids."""
 
     def __init__(self, options: AdapterOptions) -> None:
         self.ns = re.compile(options.marker_ns) if options.marker_ns else None
@@ -174,7 +181,10 @@ class MarkerExtractor:
             seen.add(key)
             rows.add(owner, t, mk.header.frame_id, p, *rest)
 
-        for mk in msg.markers if hasattr(msg, "markers") else (msg,):
+        array = hasattr(msg, "markers")  # a lone Marker's id 0 says nothing of counting
+        markers = msg.markers if array else (msg,)
+        numbered = _numbered_namespaces(markers) if array else set()
+        for mk in markers:
             if mk.action in DELETE_ACTIONS:
                 rows.drop("marker_delete")
                 continue
@@ -194,7 +204,16 @@ class MarkerExtractor:
                 for p in (_rotate(q, pts) + np.asarray(pos)).tolist():
                     add(mk, t, (p[0], p[1], p[2]))
                 continue
-            add(mk, t, pos, NAN_V, q, hash_id(f"{mk.ns}/{mk.id}"))
+            add(mk, t, pos, NAN_V, q, -1 if mk.ns in numbered else hash_id(f"{mk.ns}/{mk.id}"))
+
+
+def _numbered_namespaces(markers: Any) -> set[str]:
+    """The namespaces whose markers in this message have the ids 0, 1, ..., k-1: a count of
+    the message's markers (see :class:`MarkerExtractor`), not track ids."""
+    ids: dict[str, list[int]] = {}
+    for mk in markers:
+        ids.setdefault(mk.ns, []).append(int(mk.id))
+    return {ns for ns, got in ids.items() if sorted(got) == list(range(len(got)))}
 
 
 class ZedExtractor:

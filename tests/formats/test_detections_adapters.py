@@ -254,6 +254,30 @@ def test_markers_of_one_person_count_once(ros: int) -> None:
     np.testing.assert_array_equal(a.xyz, [[1.5, 2.25, 0.0]])
 
 
+@ROS
+def test_markers_numbered_from_zero_in_a_message_are_no_track_ids(ros: int) -> None:
+    """A MarkerArray whose markers of a namespace are numbered 0..k-1 (leg_tracker's
+    ``m.id = i``) counts its markers: no track ids, per namespace; ids that skip a number are
+    track ids, and so is a lone Marker's id 0 (one marker says nothing of counting)."""
+
+    def marker(ns: str, mid: int, x: float, action: int = 0) -> dict[str, Any]:
+        return {"header": header(4, 0, "map"), "ns": ns, "id": mid, "type": 2,
+                "action": action, "pose": pose(x, 0, 0, (0, 0, 0, 0))}  # fmt: skip
+
+    legs = [marker("LEGS", 1, 1.0), marker("LEGS", 0, 2.0), marker("LEGS", 2, 3.0)]
+    tracked = [marker("people", 0, 4.0), marker("people", 2, 5.0)]  # 1 left: ids
+    gone = [marker("gone", 0, 6.0), marker("gone", 1, 0.0, action=2)]  # a DELETE counts too
+    d = decode("visualization_msgs/msg/MarkerArray", {"markers": legs + tracked + gone}, ros)
+    np.testing.assert_array_equal(d.xyz[:, 0], [1, 2, 3, 4, 5, 6])
+    np.testing.assert_array_equal(
+        d.track_id, [-1, -1, -1, hash_id("people/0"), hash_id("people/2"), -1]
+    )
+    one = decode("visualization_msgs/msg/MarkerArray", {"markers": [marker("LEGS", 0, 1.0)]}, ros)
+    np.testing.assert_array_equal(one.track_id, [-1])
+    alone = decode("visualization_msgs/msg/Marker", marker("LEGS", 0, 1.0), ros)
+    np.testing.assert_array_equal(alone.track_id, [hash_id("LEGS/0")])
+
+
 @pytest.mark.parametrize(
     ("msgtype", "ros"),
     [
