@@ -154,13 +154,14 @@ class LogSet:
     def recorded_ns(self, topic: str) -> int:
         """How long the files holding messages of ``topic`` recorded: the union of their
         spans (first to last message), so the time between two logs of other days is left
-        out and two logs of one moment count it once."""
-        return covered_ns(
-            (s.file.start_ns, s.file.end_ns)
-            for s in self._sources
-            if any(t.topic == topic and t.count for t in s.topics.values())
+        out and two logs of one moment count it once; the storage files of one rosbag2 bag
+        are joined first (:meth:`recording_times`: it recorded the time between them too)."""
+        holds = [
+            any(t.topic == topic and t.count for t in s.topics.values())
             or any(c.topic == topic and c.count for c in s.other_channels)
-        )
+            for s in self._sources
+        ]
+        return covered_ns(self._joined(holds).values())
 
     def recorded_total_ns(self) -> int:
         """How long the logs recorded: the union of the spans of :meth:`recording_times` (the
@@ -261,9 +262,13 @@ class LogSet:
         """Per recording (:attr:`recordings`: a path given, the storage files of one bag
         joined), the first and last message time its files' indexes or summaries give;
         recordings without a message are left out."""
+        return self._joined([file.message_count > 0 for file in self.files])
+
+    def _joined(self, kept: list[bool]) -> dict[int, tuple[int, int]]:
+        """Per recording, the first and last message time of its files that are ``kept``."""
         spans: dict[int, tuple[int, int]] = {}
-        for key, file in zip(self._recordings, self.files, strict=True):
-            if file.message_count > 0:
+        for key, file, keep in zip(self._recordings, self.files, kept, strict=True):
+            if keep:
                 lo, hi = spans.get(key, (file.start_ns, file.end_ns))
                 spans[key] = (min(lo, int(file.start_ns)), max(hi, int(file.end_ns)))
         return spans
