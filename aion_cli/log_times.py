@@ -443,14 +443,14 @@ def overlap_warnings(logset: Any, topics: set[str], window_ns: int) -> list[str]
     frame at once; a double count when one log repeats the other (a copy, an excerpt, a file
     merged from others), which aion cannot tell from the times (identical files are already
     read once)."""
-    from aion_cli.engine.windows import iso
+    from aion_cli.number_text import span_text
 
     out = []
     for o in logset.overlaps(topics, window_ns):
-        hours = (o.end_ns - o.start_ns) / 3.6e12
+        shared = span_text((o.end_ns - o.start_ns) / 1e9)  # as info gives spans: "0.3 s"
         out.append(
             f"{o.first.path.name} and {o.second.path.name} both hold {', '.join(o.topics)} "
-            f"from {iso(o.start_ns)} to {iso(o.end_ns)} ({hours:.1f} h): the people both "
+            f"from {iso(o.start_ns)} to {iso(o.end_ns)} ({shared}): the people both "
             "logs saw count twice; if one repeats the other (a copy, an excerpt, a merged "
             "file), build from one of them"
         )

@@ -161,6 +161,7 @@ def test_a_short_log_in_two_containers_is_warned_of(tmp_path: Path) -> None:
     assert report["detections"]["used"] == 2 * once  # what the warning is about
     (warning,) = [w for w in report["warnings"] if "count twice" in w]
     assert warning.startswith("run.mcap and run.bag both hold /tracks from ")
+    assert "(3m59s)" in warning  # 240 messages a second apart
     later = write_log(tmp_path / "later.bag", walk(240, start_s=300), "bag")
     brush = write_log(tmp_path / "brush.bag", walk(240, start_s=200), "bag")  # 40 s shared
     for other in (later, brush):
