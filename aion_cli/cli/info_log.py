@@ -59,6 +59,7 @@ def describe(
         report["observed_spans"] = _recorded_spans(distinct.logs)
         if plan.detections:
             add_frames(report, logset, plan, mappings, not _no_graph_robot(firsts))
+            report["warnings"] += _overlaps(logset, plan.names("detections"))
         else:
             from aion_cli.topics import mapping_example
 
@@ -79,6 +80,16 @@ def describe(
     if not plan.detections:
         report["mapping_example"] = example
     return report
+
+
+def _overlaps(logset: Any, topics: set[str]) -> list[str]:
+    """The warnings ``aion build`` gives of logs that hold a detection topic over the same
+    time (their people count twice), over the default model's windows."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.windows import window_ns
+    from aion_cli.log_times import overlap_warnings
+
+    return overlap_warnings(logset, topics, window_ns(ModelConfig().window_s))
 
 
 def _recorded_spans(logs: Any) -> dict[str, list[dict[str, Any]]]:
