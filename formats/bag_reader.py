@@ -140,6 +140,7 @@ class BagReader(Reader):
             return
         self._check_index()
         self._refuse()
+        self._check_entry_times()
 
     def _check_index(self) -> None:
         """Warn of chunks whose messages the index lists fewer of than their chunk info
@@ -161,6 +162,46 @@ class BagReader(Reader):
                     f"record length?): {missing:,} message{'' if missing == 1 else 's'} "
                     "cannot be found and are not read"
                 )
+
+    def _check_entry_times(self) -> None:
+        """Repair index entries whose time lies outside their chunk info's range while most of
+        the chunk's entries lie inside it: a damaged entry (a flipped byte of an IndexData
+        record put a 2015 message in 1981, and the bag's span with it). The message record
+        in the chunk keeps its own time, which is used instead, with a warning; rosbags
+        stops the read at such an entry. A chunk whose entries mostly lie outside its info
+        keeps them (the info is the damaged one) and so does a chunk that cannot be read."""
+        from aion_cli.formats.mcap_records import iso
+
+        infos = {info.pos: info for info in self.chunk_infos}
+        outside: dict[int, list[tuple[int, int]]] = {}  # chunk -> (connection, entry index)
+        listed: Counter[int] = Counter()
+        for cid, entries in self.indexes.items():
+            for k, e in enumerate(entries):
+                listed[e.chunk_pos] += 1
+                info = infos.get(e.chunk_pos)
+                if info is not None and not info.start_time <= e.time <= info.end_time:
+                    outside.setdefault(e.chunk_pos, []).append((cid, k))
+        changed: set[int] = set()
+        for pos, bad in sorted(outside.items()):
+            if 2 * len(bad) >= listed[pos]:
+                continue
+            try:
+                buf = io.BytesIO(self._chunk_bytes(pos))
+                times = [_record_time(buf, self.indexes[cid][k].offset) for cid, k in bad]
+            except (caps.ChunkError, *_PARSE_ERRORS):
+                continue  # the read skips the chunk, with its own warning
+            cid, k = bad[0]
+            self._gaps.append(
+                f"{self._file.name}: its index gives {len(bad):,} message"
+                f"{'' if len(bad) == 1 else 's'} of the chunk at byte {pos} a time outside the "
+                f"chunk's (first: {iso(self.indexes[cid][k].time)}; a damaged index entry): "
+                f"the message's own time is used ({iso(times[0])})"
+            )
+            for (cid, k), t in zip(bad, times, strict=True):
+                self.indexes[cid][k] = self.indexes[cid][k]._replace(time=t)
+                changed.add(cid)
+        for cid in changed:  # in time order again, as rosbags sorts them (stable)
+            self.indexes[cid].sort(key=_time_of)
 
     def _refuse(self) -> None:
         """Drop the chunks that declare more than the chunk cap or use an unknown compression
@@ -363,6 +404,18 @@ def _message_at(buf: io.BytesIO, offset: int) -> int:
     """The data size of the message data record at ``offset`` of a chunk's records
     (connection records before it are stepped over, as rosbags does); the buffer is left at
     the start of the data."""
+    _message_header(buf, offset)
+    return read_uint32(buf)
+
+
+def _record_time(buf: io.BytesIO, offset: int) -> int:
+    """The log time the message data record at ``offset`` of a chunk's records keeps."""
+    return int(_message_header(buf, offset).get_time("time"))
+
+
+def _message_header(buf: io.BytesIO, offset: int) -> Header:
+    """The header of the message data record at ``offset`` (connection records before it
+    stepped over); the buffer is left at its data length."""
     buf.seek(offset)
     while True:
         header = Header.read(buf)
@@ -372,7 +425,11 @@ def _message_at(buf: io.BytesIO, offset: int) -> int:
         buf.seek(read_uint32(buf), os.SEEK_CUR)
     if op != RecordType.MSGDATA:
         raise ReaderError("expected message data")
-    return read_uint32(buf)
+    return header
+
+
+def _time_of(entry: Any) -> int:
+    return int(entry.time)
 
 
 def _no_decompressor(data: bytes) -> bytes:
