@@ -160,8 +160,11 @@ def decompress(data: bytes | memoryview, compression: str, declared: int, limit:
         raise ChunkError(f"cannot decompress its {compression} data ({exc})") from exc
     if len(out) > bound:
         if declared > 0:
+            failed = _fails_further(compression, data, min(bound + _PROBE, limit) + 1)
             raise ChunkError(
-                f"its {compression} data expands beyond the {declared:,} bytes it declares"
+                f"cannot decompress its {compression} data ({failed})"
+                if failed is not None
+                else f"its {compression} data expands beyond the {declared:,} bytes it declares"
             )
         raise OverLimitError(
             f"it expands beyond the {mib(limit)} limit per chunk "
@@ -174,6 +177,21 @@ def decompress(data: bytes | memoryview, compression: str, declared: int, limit:
             "declares (truncated or damaged)"
         )
     return out
+
+
+#: How far past its declared size a chunk is decompressed to tell damaged data from a wrong
+#: size: damaged bz2 data fails its block's CRC within a block (at most 900 kB out), lz4 and
+#: zstd data at a checksum; data that goes on without an error expands beyond what it says.
+_PROBE = MIB
+
+
+def _fails_further(compression: str, data: bytes | memoryview, most: int) -> str | None:
+    """Why ``data`` cannot be decompressed within ``most`` bytes out, or None if it can."""
+    try:
+        _bounded(compression, data, most)
+    except Exception as exc:  # as in decompress: each library's own error
+        return str(exc)
+    return None
 
 
 def _bounded(compression: str, data: bytes | memoryview, most: int) -> bytes:
