@@ -115,13 +115,9 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
     short = [f.name for f in files if cut_short(f) is not None]
     if short:  # SQLite opens none of it: what it reads of it, without the yaml's figures
         sources = _reindexed_sources(files, folder, limits)
-        figures = storage.metadata_figures(folder)
-        stated = figures.message_count if figures is not None else None
-        read = sum(s.file.message_count for s in sources)
         sources[-1].warnings.append(
             f"{folder}: metadata.yaml not used ({first_few(short, 3)} cut short); indexed in "
-            f"memory from its {_files(sources)}"
-            + (f": {read:,} of the {stated:,} messages metadata.yaml counts" if stated else "")
+            f"memory from its {_files(sources)}{_of_stated(folder, sources)}"
         )
         return sources
     try:
@@ -143,7 +139,7 @@ def _open_path(path: Path, fmt: str | None, limits: ReadLimits) -> list[_Source]
             raise exc from None
         sources[-1].warnings.append(
             f"{folder}: metadata.yaml not used ({exc.message}); indexed in memory from its "
-            f"{_files(sources)}"
+            f"{_files(sources)}{_of_stated(folder, sources)}"
         )
         return sources
     found = source.mcap_storage()
@@ -200,6 +196,17 @@ def _unlisted_left_out(folder: Path, sources: list[_Source]) -> list[_Source]:
             "then indexes them, as `ros2 bag reindex` would)"
         )
     return sources
+
+
+def _of_stated(folder: Path, sources: list[_Source]) -> str:
+    """``: 1,207 of the 2,179 messages metadata.yaml counts`` (what was read of the bag, where
+    its metadata.yaml gives a count), else nothing."""
+    from aion_cli.formats import rosbag2_storage as storage
+
+    figures = storage.metadata_figures(folder)
+    stated = figures.message_count if figures is not None else None
+    read = sum(s.file.message_count for s in sources)
+    return f": {read:,} of the {stated:,} messages metadata.yaml counts" if stated else ""
 
 
 def _files(sources: list[_Source]) -> str:
