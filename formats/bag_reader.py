@@ -190,6 +190,11 @@ class BagReader(Reader):
                 times = [_record_time(buf, self.indexes[cid][k].offset) for cid, k in bad]
             except (caps.ChunkError, *_PARSE_ERRORS):
                 continue  # the read skips the chunk, with its own warning
+            wrong = [(ck, t) for ck, t in zip(bad, times, strict=True)
+                     if t != self.indexes[ck[0]][ck[1]].time]  # fmt: skip
+            if not wrong:
+                continue  # the records agree with the index: the chunk info is off
+            bad, times = [ck for ck, _ in wrong], [t for _, t in wrong]
             cid, k = bad[0]
             self._gaps.append(
                 f"{self._file.name}: its index gives {len(bad):,} message"

@@ -16,6 +16,7 @@ from tests.cli.conftest import map_cells, run_json
 from tests.shared_data import real
 
 INDEX_DATA = 0x04  # ROS 1 bag record op of a chunk's per-connection index
+CHUNK_INFO = 0x06  # ... and of a chunk's info (its start and end time) in the bag's index
 
 
 def _fields(header: bytes) -> dict[bytes, bytes]:
@@ -25,6 +26,18 @@ def _fields(header: bytes) -> dict[bytes, bytes]:
         key, value = header[i + 4 : i + 4 + n].split(b"=", 1)
         out[key] = value
         i += 4 + n
+    return out
+
+
+def _records(data: bytearray) -> list[tuple[int, int, int, dict[bytes, bytes]]]:
+    """(op, header start, data start, header fields) of every record after the magic."""
+    out, pos = [], 13  # after "#ROSBAG V2.0\n"
+    while pos < len(data):
+        (head,) = struct.unpack_from("<I", data, pos)
+        fields = _fields(bytes(data[pos + 4 : pos + 4 + head]))
+        (size,) = struct.unpack_from("<I", data, pos + 4 + head)
+        out.append((fields[b"op"][0], pos + 4, pos + 8 + head, fields))
+        pos += 8 + head + size
     return out
 
 
@@ -71,3 +84,24 @@ def test_an_index_entry_outside_its_chunk_takes_the_message_s_own_time(tmp_path:
     for a, b in zip(map_cells(tmp_path / "repaired.aion"), map_cells(tmp_path / "ok.aion"),
                     strict=True):  # fmt: skip
         np.testing.assert_array_equal(a, b)
+
+
+def test_a_chunk_info_that_starts_late_leaves_the_index_as_it_is(tmp_path: Path) -> None:
+    """The other damage: the chunk info's start time moved 20 ms later, so the chunk's first
+    few index entries (a minority) lie before it. Their message records keep the index's
+    times: nothing is repaired and nothing is said of damaged entries."""
+    original = real("logs", "leg_tracker", "positive_2_extracted.bag")
+    data = bytearray(original.read_bytes())
+    ((_, head, _, fields),) = [r for r in _records(data) if r[0] == CHUNK_INFO]
+    sec, nsec = struct.unpack("<II", fields[b"start_time"])
+    nsec += 20_000_000
+    sec, nsec = sec + nsec // 1_000_000_000, nsec % 1_000_000_000
+    at = bytes(data).index(b"start_time=", head) + len(b"start_time=")
+    data[at : at + 8] = struct.pack("<II", sec, nsec)
+    late = tmp_path / "late.bag"
+    late.write_bytes(bytes(data))
+    want = run_json("info", original, "--format", "json")
+    got = run_json("info", late, "--format", "json")
+    for key in ("start_ns", "end_ns", "messages"):
+        assert got[key] == want[key], key
+    assert not [w for w in got["warnings"] if "damaged index entry" in w]
