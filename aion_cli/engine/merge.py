@@ -16,8 +16,10 @@ map's pending day is scored and absorbed first. Then the earlier map's redirects
 alive in the later graph are kept, moving any later cell at such a key into the node, and the
 cells that hold the earlier map's cells bind to the later map's stable places in reach, as one
 build binds a cell once a place near it turns stable.
-Maps without nodes merge in the earlier map's storage when it is the larger
-(:mod:`aion_cli.engine.merge_cells`): the same map, at the later map's cost.
+A consuming merge (``aion merge``'s fold) is built in the earlier map's storage when it is
+the larger: for maps without nodes by :mod:`aion_cli.engine.merge_cells`, for others by
+:mod:`aion_cli.engine.merge_rows` (the earlier entries the later map can touch merged as
+above, the rest left where they are): the same map, at the later map's cost.
 
 Approximated: (1) a map built from one log alone cannot know the robot-observed empty windows
 of entries that only the other log created (a single pass would record real zeros for them),
@@ -43,6 +45,7 @@ import numpy as np
 from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import ADDITIVE, CELL, NODE
 from aion_cli.engine.merge_cells import cells_only, merge_into_earlier
+from aion_cli.engine.merge_rows import in_earlier_storage, merge_in_earlier
 from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.node_drift import approximate_timers
 from aion_cli.engine.ownership import (
@@ -63,9 +66,10 @@ if TYPE_CHECKING:
 def merge_maps(a: MapState, b: MapState, *, consume: bool = False) -> MapState:
     """A map holding both maps' dynamics. The inputs are not modified unless ``consume``:
     then the result is built in the later one and the earlier one is changed too (a caller
-    that drops both, as ``aion merge`` does, saves the two copies: most of a merge's cost);
-    maps without nodes build it in the earlier one when it is the larger
-    (:mod:`aion_cli.engine.merge_cells`: a fold of many maps then costs each map once)."""
+    that drops both, as ``aion merge`` does, saves the two copies: most of a merge's cost),
+    or in the earlier one when it is the larger (:mod:`aion_cli.engine.merge_cells` for maps
+    without nodes, :mod:`aion_cli.engine.merge_rows` for others: a fold of many maps then
+    costs each map once, not the result so far)."""
     if a.config != b.config:
         raise ConfigError(
             "cannot merge maps built with different model parameters",
@@ -75,10 +79,24 @@ def merge_maps(a: MapState, b: MapState, *, consume: bool = False) -> MapState:
     if consume and earlier.entries.n >= later.entries.n and cells_only(a) and cells_only(b):
         return merge_into_earlier(earlier, later)  # the same map; costs the later one only
     early = earlier if consume else _copy(earlier)
+    close_earlier(early)
+    out = later if consume else _copy(later)
+    if consume and in_earlier_storage(early, out):
+        return merge_in_earlier(early, out)  # the same map; costs the later one only
+    return merge_closed(early, out)
+
+
+def close_earlier(early: MapState) -> None:
+    """Close the earlier map's open window and score its pending day (as the later map's
+    first detection would have in one pass): the first step of every merge."""
     if early.open_window is not None:
         close_windows(early, early.open_window + 1)
     early.close_day()
-    out = later if consume else _copy(later)
+
+
+def merge_closed(early: MapState, out: MapState) -> MapState:
+    """The merge built in the later map ``out`` (changed) once :func:`close_earlier` closed
+    ``early``: every entry of ``early`` added where it belongs in ``out``."""
     merge_timers(out, early)
     src_rows = early.entries.canonical_order()
     dst = destinations(out, early, src_rows)

@@ -105,10 +105,13 @@ def test_the_fold_in_the_earlier_map_is_the_pairwise_fold(kind: str) -> None:
     assert fold.open_window == maps[-1].open_window
 
 
-def test_maps_with_nodes_still_merge_in_the_later_map() -> None:
-    """Nodes (binds, redirects, timers) keep the merge built in the later map."""
+def test_maps_with_nodes_merge_in_the_earlier_map_by_rows() -> None:
+    """Nodes (binds, redirects, timers) keep the cell path out: the merge of the touched rows
+    is built in the later map and put into the earlier one (``engine/merge_rows.py``)."""
     early = run_steps(fixed_sensor_log(T0, seed=1, windows=12)).state
     late = run_steps(fixed_sensor_log(T0 + 2 * DAY, seed=2, windows=3)).state
     assert early.nodes.ids.size
     assert early.entries.n >= late.entries.n  # the fold in the earlier map would be chosen
-    assert merge_maps(early, late, consume=True) is late
+    copied = merge_maps(early, late)
+    assert merge_maps(early, late, consume=True) is early
+    assert_same_state(copied, early)

@@ -341,6 +341,14 @@ class TemporalState:
             fourier_loaded=self.fourier_loaded,
         )
 
+    def put_rows(self, rows: I64, other: TemporalState, src: I64) -> None:
+        """``self[rows] = other[src]`` (observation blocks and accumulators; another map's
+        rows copied in, as they are)."""
+        self.obs.put(rows, other.obs.take(src))
+        for name in _ADDITIVE:
+            getattr(self, name)[rows] = getattr(other, name)[src]
+        self.touch(rows)
+
     def copy(self) -> TemporalState:
         return self.take(np.arange(self.n_rows))
 
