@@ -14,6 +14,14 @@ graphs, six people), so the maps share the office's places (node ids the same: `
 auto`` takes them as one session) and their days are disjoint: a fleet of robot maps, about
 150 node entries each.
 
+``--kind areas``: map ``k`` is built from one ``aion simulate`` log of a patrolling robot
+in an area of its own (:func:`area_graph`: 8 x 8 places 3 m apart from ``x = 100 m * k``,
+numbered from ``p(1000 k)``, as one scene-graph session numbers the places of every area it
+explores; six people, seed ``k``, one day from midnight of the ``k``-th weekday),
+55-56 node entries and 8 to 177 cells each, merged with ``--lineage same`` (``auto``
+calls maps that share no node id different sessions): the result grows with every map, and
+each earlier map's places, gone from the later graph, are released to cells.
+
 For each ``N`` in ``--maps`` (default 5, 10, 20, 40) the first ``N`` maps are merged by
 ``aion merge`` in a child process; reported: the child's CPU time (user + system) and peak
 resident memory (``ru_maxrss``) from ``os.wait4``, best of ``--repeats`` (CPU) and the
@@ -22,7 +30,7 @@ aion_cli`` with ``PYTHONPATH`` of another checkout, for before/after figures; ru
 alternated by ``--against``; both byte-compiled first, :func:`compile_checkout`). Logs and
 maps are written once under ``benchmarks/_work``.
 
-Run: ``python -m benchmarks.bench_fleet_merge [--kind cells|robot] [--maps 5 10 20 40]
+Run: ``python -m benchmarks.bench_fleet_merge [--kind cells|robot|areas] [--maps 5 10 20 40]
 [--against DIR]``.
 """
 
@@ -45,6 +53,9 @@ DAY0 = 1_767_607_200  # 2026-01-05 10:00 UTC, seconds
 PEOPLE = 20
 FOLDER = WORK / "fleet_merge"
 ROBOT_FOLDER = WORK / "fleet_merge_robot"
+AREAS_FOLDER = WORK / "fleet_merge_areas"
+GRID = 8  # an area's places: GRID x GRID, 3 m apart
+ID_STRIDE = 1000  # area k's places from p(1000 k): the simulated session adds places after them
 
 
 def _aion(checkout: Path) -> tuple[list[str], dict[str, str]]:
@@ -130,14 +141,67 @@ def robot_maps(n: int) -> list[Path]:
     return out
 
 
-MAKERS = {"cells": fleet_maps, "robot": robot_maps}
+def area_graph(path: Path, k: int) -> Path:
+    """A Hydra ``dsg.json`` of area ``k``: ``GRID`` x ``GRID`` places 3 m apart from
+    ``x = 100 m * k``, joined to their grid neighbours, numbered from ``p(ID_STRIDE k)``
+    (one scene-graph session numbers the places of every area it explores; the simulated
+    graphs add places of their own with the ids after an area's, which stay below the next
+    area's)."""
+    import numpy as np
+    import spark_dsg
+
+    graph = spark_dsg.DynamicSceneGraph()
+    first = ID_STRIDE * k
+    for i in range(GRID * GRID):
+        attrs = spark_dsg.PlaceNodeAttributes()
+        attrs.position = np.array([100.0 * k + 3.0 * (i % GRID), 3.0 * (i // GRID), 0.0])
+        attrs.real_place = True
+        graph.add_node(spark_dsg.DsgLayers.PLACES, spark_dsg.NodeSymbol("p", first + i), attrs)
+    for i in range(GRID * GRID):
+        for j in (i + 1, i + GRID):
+            if j < GRID * GRID and (j == i + GRID or j % GRID):
+                graph.insert_edge(
+                    spark_dsg.NodeSymbol("p", first + i), spark_dsg.NodeSymbol("p", first + j)
+                )
+    graph.save(str(path), include_mesh=False)
+    return path
 
 
-def merge_cost(checkout: Path, maps: list[Path]) -> tuple[float, int]:
+def area_maps(n: int) -> list[Path]:
+    """The first ``n`` maps of areas of their own (simulated and built once): map ``k`` is
+    built from one ``aion simulate`` log of a patrolling robot in area ``k``
+    (:func:`area_graph`, six people, seed ``k``, one day from midnight of the ``k``-th weekday
+    from Monday 2026-01-05)."""
+    AREAS_FOLDER.mkdir(parents=True, exist_ok=True)
+    cmd, env = _aion(ROOT)
+    out = []
+    for k in range(n):
+        aion = AREAS_FOLDER / f"area{k:02d}.aion"
+        out.append(aion)
+        if aion.exists():
+            continue
+        graph = area_graph(AREAS_FOLDER / f"area{k:02d}.json", k)
+        log = aion.with_suffix(".mcap")
+        day = dt.date(2026, 1, 5) + dt.timedelta(days=7 * (k // 5) + k % 5)  # weekdays
+        sim = ["simulate", "-o", str(log), "--environment", str(graph), "--days", "1"]
+        sim += ["--seed", str(k), "--start", day.isoformat(), "-q", "--force"]
+        _run([*cmd, *sim], env)
+        _run([*cmd, "build", str(log), "-o", str(aion), "-q"], env)
+    return out
+
+
+MAKERS = {"cells": fleet_maps, "robot": robot_maps, "areas": area_maps}
+MERGE_OPTIONS = {"areas": ["--lineage", "same"]}  # auto: maps that share no node id differ
+
+
+def merge_cost(
+    checkout: Path, maps: list[Path], options: list[str] | None = None
+) -> tuple[float, int]:
     cmd, env = _aion(checkout)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "merged.aion"
-        return _run([*cmd, "merge", *map(str, maps), "-o", str(out), "-q"], env)
+        merge = [*cmd, "merge", *map(str, maps), "-o", str(out), "-q", *(options or [])]
+        return _run(merge, env)
 
 
 def run(
@@ -148,7 +212,9 @@ def run(
 ) -> list[dict[str, float | int]]:
     """One row per number of maps: CPU seconds (best of ``repeats``) and peak MB (largest)
     of ``aion merge`` with this checkout and, alternated with it, ``against``'s; ``kind``:
-    fixed-sensor maps of areas of their own (``cells``) or robot maps of one office."""
+    fixed-sensor maps of areas of their own (``cells``), robot maps of one office
+    (``robot``) or robot maps of areas of their own, merged with ``--lineage same``
+    (``areas``)."""
     paths = MAKERS[kind](max(maps))
     checkouts = {"this": ROOT} | ({"against": against} if against is not None else {})
     for checkout in checkouts.values():
@@ -158,7 +224,7 @@ def run(
         best = {name: (float("inf"), 0) for name in checkouts}
         for _ in range(repeats):
             for name, checkout in checkouts.items():
-                cpu, rss = merge_cost(checkout, paths[:n])
+                cpu, rss = merge_cost(checkout, paths[:n], MERGE_OPTIONS.get(kind))
                 best[name] = (min(best[name][0], cpu), max(best[name][1], rss))
         row: dict[str, float | int] = {"maps": n}
         for name, (cpu, rss) in best.items():

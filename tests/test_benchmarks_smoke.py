@@ -267,6 +267,22 @@ def test_fleet_merge_robot_small() -> None:
     assert first.end_ns < second.start_ns
 
 
+def test_fleet_merge_areas_small() -> None:
+    """``--kind areas``: two simulated robot maps of areas of their own, whose places one
+    session numbered on (no node id shared), merged with ``--lineage same`` in a child."""
+    from aion_cli.mapquery import load_map_head
+    from benchmarks import bench_fleet_merge
+
+    rows = bench_fleet_merge.run(maps=(2,), repeats=1, kind="areas")
+    _rows_ok(rows)
+    early, late = (load_map_head(p).graph for p in bench_fleet_merge.area_maps(2))
+    assert early is not None
+    assert late is not None
+    assert early.places.ids.size > 40
+    assert not set(early.places.ids.tolist()) & set(late.places.ids.tolist())
+    assert early.places.xyz[:, 0].max() < late.places.xyz[:, 0].min()
+
+
 def test_fleet_merge_times_compiled_checkouts(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -283,7 +299,9 @@ def test_fleet_merge_times_compiled_checkouts(
         (other / package / "part.py").write_text("X = 1\n")
     compiled: dict[Path, list[str]] = {}
 
-    def merge_cost(checkout: Path, maps: list[Path]) -> tuple[float, int]:
+    def merge_cost(
+        checkout: Path, maps: list[Path], options: list[str] | None = None
+    ) -> tuple[float, int]:
         compiled[checkout] = sorted(p.stem for p in checkout.glob("*/__pycache__/*.pyc"))
         return 1.0, 1
 
