@@ -19,7 +19,9 @@ Situations that surprise people and look like defects when unexplained:
   which a quieter weekend would not show.
 * **No log observed the time's hour on any day** (a tracker that recorded 09:00-18:00 only,
   asked about 03:00): the manifest lists the profile bins observed (``families.observed_bins``)
-  and the forecast there is extrapolated from the hours observed, not measured. A series
+  and the forecast there is extrapolated from the hours observed, not measured: each entry's
+  static rate, its detections over all its observed windows — a mean, so where one hour of the
+  day held most detections (a crowd at 17:00) it lies above the quieter hours' own rates. A series
   names every such hour (:func:`series_notes`); ``predict``'s JSON flags each time
   (:func:`hour_observed`), and ``aion info`` lists the hours observed (:func:`observed_hours`).
 """
@@ -35,6 +37,14 @@ from aion_cli.engine.temporal.calendar import DAY_NS
 if TYPE_CHECKING:
     from aion_cli.manifest import Manifest
     from aion_cli.timeparse import Zone
+
+STATIC_THERE = (
+    "every entry at its static rate, its mean per window over all the hours observed "
+    "(one busy hour raises it above the quiet ones)"
+)
+"""What the forecast at an hour no log observed is (``Predictor``'s extrapolated bins): an
+entry's detections over its observed windows, the same at every such hour, and above the quieter
+hours' own rates where one hour of the day held most of the detections."""
 
 FAR_AFTER_NS = 7 * DAY_NS
 """Beyond this after a map's last data a forecast repeats a rhythm learnt long before; a
@@ -274,7 +284,7 @@ def series_notes(
         f"{n} of the {len(observed)} {noun} fall in hours no log observed on any day "
         f"({words.clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
         f"{words.clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): their forecast is "
-        "extrapolated from the hours observed, not measured"
+        f"extrapolated from the hours observed, not measured: {STATIC_THERE}"
     )
     return notes
 
@@ -398,7 +408,7 @@ def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
         f"{_NO_LOG}{words.clock(at, calendar.bin_s)}-{words.clock(at + 1, calendar.bin_s)} "
         f"({calendar.timezone}) on any day (the map observed "
         f"{words.clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): the forecast at "
-        "this hour is extrapolated from the hours observed, not measured"
+        f"this hour is extrapolated from the hours observed, not measured: {STATIC_THERE}"
     )
 
 

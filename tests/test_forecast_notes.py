@@ -153,7 +153,8 @@ def test_an_hour_no_log_observed_is_named() -> None:
     assert night == (
         "no log observed 03:00-04:00 (UTC) on any day (the map observed 09:00-12:00, "
         "13:00-18:00): the forecast at this hour is extrapolated from the hours observed, "
-        "not measured"
+        "not measured: every entry at its static rate, its mean per window over all the hours "
+        "observed (one busy hour raises it above the quiet ones)"
     )
     (noon,) = forecast_notes(manifest, MONDAY + 12 * HOUR_NS)
     assert noon.startswith("no log observed 12:00-13:00 (UTC)")
@@ -202,7 +203,9 @@ def test_a_series_names_every_hour_no_log_observed() -> None:
     assert series_notes(manifest, times) == [
         "3 of the 7 times fall in hours no log observed on any day (08:00-09:00, "
         "12:00-13:00, 14:00-15:00 UTC; the map observed 09:00-12:00, 13:00-14:00): their "
-        "forecast is extrapolated from the hours observed, not measured"
+        "forecast is extrapolated from the hours observed, not measured: every entry at its "
+        "static rate, its mean per window over all the hours observed (one busy hour raises "
+        "it above the quiet ones)"
     ]
     # the first time's other notes stay; a series within the observed hours adds none
     assert series_notes(manifest, times[1:4]) == []
@@ -335,7 +338,9 @@ def test_a_fixed_sensor_that_observed_under_half_its_time_says_so_at_every_time(
     night = forecast_notes(silent, MONDAY + 3 * HOUR_NS)
     assert night == [sensor, (
         "no log observed 03:00-04:00 (UTC) on any day (the map observed 08:00-10:00): the "
-        "forecast at this hour is extrapolated from the hours observed, not measured"
+        "forecast at this hour is extrapolated from the hours observed, not measured: every "
+        "entry at its static rate, its mean per window over all the hours observed (one busy "
+        "hour raises it above the quiet ones)"
     )]
     robot = Manifest({}, {"profile": "day"}, start_ns=MONDAY, end_ns=MONDAY + 7 * DAY_NS,
                      families=families, observation="tf map->base_link")

@@ -104,7 +104,7 @@ def run_series(
                 f"showing the {shown} busiest of {table.matched:,} entries over the series: use "
                 "--node, --top N, --format csv or --format json for others"
             )
-        _print(table, zone, shown)
+        _print(table, zone, shown, hour_flags(loaded, times))
 
 
 def say_nearest(at: str | None, entry: dict[str, Any] | None) -> None:
@@ -144,7 +144,9 @@ def short_labels(times_ns: list[int], zone: Zone) -> list[str]:
     return clock_labels(times_ns, zone, form)
 
 
-def _print(table: Any, zone: Zone, shown: int) -> None:
+def _print(table: Any, zone: Zone, shown: int, observed: list[bool | None]) -> None:
+    """The series as a table, a time at an hour no log observed (``observed`` False) marked
+    ``extrapolated`` (its forecast is each entry's static rate: the notes say so)."""
     from rich.table import Table
     from rich.text import Text
 
@@ -160,7 +162,9 @@ def _print(table: Any, zone: Zone, shown: int) -> None:
     for entry in table.entries[:shown]:
         head = str(entry["id"]) if not entry.get("name") else f"{entry['name']} ({entry['id']})"
         out.add_column(printable(head), justify="right", no_wrap=True)
-    for j, label in enumerate(short_labels(table.times_ns, zone)):
+    labels = short_labels(table.times_ns, zone)
+    for j, (clock, seen) in enumerate(zip(labels, observed, strict=True)):
+        label = clock if seen is not False else f"{clock} extrapolated"
         cells = [
             small_num(v) if math.isfinite(v) else "–"  # 0.0031, not 0.00; unknown flow
             for v in table.flow[:shown, j].tolist()
