@@ -103,8 +103,10 @@ def write_build(
             f"rest is unknown, not empty): {silent_advice(counts)}"
         )
     if declared and fixed is not None:
-        reach = previous.recording_reach if previous is not None else None
-        outside = outside_logs_note(declared, report.recording_spans, fixed[3], reach)
+        from aion_cli.log_observed import fill_start
+
+        start = fill_start(declared, fixed[3], previous, state.deferred is not None)
+        outside = outside_logs_note(declared, report.recording_spans, fixed[3], start)
         if outside is not None:
             report.notes.append(outside)
     manifest = Manifest(

@@ -78,13 +78,14 @@ def fixed_sensor_windows(
     them). ``declared``: spans ``[lo, hi)`` of log time the user says the sensor was
     recording (``build --observed``, for a tracker that publishes only when it sees someone):
     their windows count too, from the first log's first recorded window to the last log's
-    last, the time between the logs included; ``fill`` widens that range (the window after a
-    continued map's reach; a parallel shard's share of the time between the logs:
-    :func:`declared_windows`). A window a log starts or ends inside counts for the part of it
-    recorded (:func:`recording_bounds`; ``ModelConfig.exposure``), so a four-minute log is
-    four minutes of watching, not ten; a window without a message counts for the part the
-    declared spans cover (a span to 12:02: 0.2 of 12:00-12:10), also a window only the
-    empty markers of the ``marked`` spans hold (``aion convert --observed``:
+    last, the time between the logs included; ``fill`` widens that range (a new map's first
+    declared window, the window after a continued map's reach:
+    :func:`aion_cli.log_observed.fill_start`; a parallel shard's share of the time between
+    the logs: :func:`declared_windows`). A window a log starts or ends inside counts for
+    the part of it recorded (:func:`recording_bounds`; ``ModelConfig.exposure``), so a
+    four-minute log is four minutes of watching, not ten; a window without a message counts
+    for the part the declared spans cover (a span to 12:02: 0.2 of 12:00-12:10), also a
+    window only the empty markers of the ``marked`` spans hold (``aion convert --observed``:
     :mod:`aion_cli.log_observed`). Sets the Mapper's windows, adds a note for windows left
     out, and returns the report's description of the observation."""
     from aion_cli.engine.windows import window_ns
@@ -346,8 +347,8 @@ def observed_note(added: int, delta: int) -> str:
     (``added`` windows of ``delta`` ns)."""
     return (
         f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
-        f"({time_text(added * delta)}), within the logs' time (the first log's first "
-        "message to the last log's last, the time between the logs included)"
+        f"({time_text(added * delta)}), up to the last log's last message (the time "
+        "between the logs included)"
     )
 
 
@@ -355,25 +356,30 @@ def outside_logs_note(
     declared: tuple[tuple[int, int], ...],
     spans: list[tuple[str, int, int]],
     delta: int,
-    after: int | None = None,
+    start: int | None = None,
     then: str = "a log that continues the map fills the time since the map's last message",
 ) -> str | None:
     """The note for the windows of the ``--observed`` spans ``[lo, hi)`` that lie outside the
-    logs' time (``spans``: each file's first and last window, :func:`_file_spans`; ``after``:
-    the last window a continued map's logs reached), which stay unknown
-    (:func:`declared_windows`; ``then``: what follows for the command). None when there are
-    none."""
+    logs' time (``spans``: each file's first and last window, :func:`_file_spans`; ``start``:
+    the first window the spans may fill from, :func:`aion_cli.log_observed.fill_start`),
+    which stay unknown (:func:`declared_windows`; ``then``: what follows for the command).
+    None when there are none."""
     if not declared or not spans:
         return None
     total = sum(b - a + 1 for a, b in _window_runs(declared, delta))
-    fill = (None if after is None else after + 1, None)
-    n = total - declared_windows(declared, spans, delta, fill).size
+    filled = declared_windows(declared, spans, delta, (start, None))
+    n = total - filled.size
     if n == 0:
         return None
+    last = _fill_range(spans, (start, None))[1]
+    after = sum(b - max(a, last + 1) + 1 for a, b in _window_runs(declared, delta) if b > last)
+    where = (
+        "after the last log's last message" if after == n else "outside the logs' time "
+        "(before the first log's first message or after the last log's last)"
+    )
     return (
-        f"{OBSERVED_NOTE}{n:,} declared window(s) ({time_text(n * delta)}) lie outside "
-        "the logs' time (before the first log's first message or after the last log's "
-        f"last) and stay unknown, not empty: {then}"
+        f"{OBSERVED_NOTE}{n:,} declared window(s) ({time_text(n * delta)}) lie {where} and "
+        f"stay unknown, not empty: {then}"
     )
 
 

@@ -167,10 +167,11 @@ def read_held_out(
     fixed_windows = reading.report.fixed_windows
     if opts.observed and fixed_windows is not None:  # as aion build notes them
         from aion_cli.fixed_sensor import outside_logs_note
+        from aion_cli.log_observed import fill_start
 
-        spans = reading.report.recording_spans
+        spans, delta = reading.report.recording_spans, fixed_windows[3]
         outside = outside_logs_note(
-            tuple(opts.observed), spans, fixed_windows[3],
+            tuple(opts.observed), spans, delta, fill_start(opts.observed, delta, None, opts.part),
             then="the hourly activity leaves them out",
         )
         if outside is not None:

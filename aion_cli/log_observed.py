@@ -91,14 +91,31 @@ def without_markers(times: TimeCheck, marked: Spans, delta: int) -> tuple[TimeCh
 
 
 def observed_fill(
-    opts: BuildOptions, previous: Manifest | None
+    opts: BuildOptions, previous: Manifest | None, delta: int
 ) -> tuple[int | None, int | None]:
-    """How far ``--observed`` spans may fill beyond a build's logs: a parallel shard's share
-    of the time between the logs (set by its parent in ``opts.observed_fill``), else from the
-    window after a continued map's logs stopped (``previous.recording_reach``), so building A
-    and B at once equals building A and continuing with B."""
+    """How far ``--observed`` spans may fill beyond a build's logs (windows of ``delta`` ns):
+    a parallel shard's share of the time between the logs (set by its parent in
+    ``opts.observed_fill``), else from :func:`fill_start`, so building A and B at once equals
+    building A and continuing with B."""
     lo, hi = opts.observed_fill
-    reach = previous.recording_reach if previous is not None else None
-    if lo is None and reach is not None:
-        lo = reach + 1
+    if lo is None:
+        lo = fill_start(opts.observed, delta, previous, opts.part)
     return lo, hi
+
+
+def fill_start(
+    declared: Spans, delta: int, previous: Manifest | None, part: bool
+) -> int | None:
+    """The first window the ``declared`` spans may fill from: the window after a continued
+    map's logs stopped (``previous.recording_reach``); for a new map the first declared
+    window, so a span that starts before the first log's first message is observed whole,
+    as in a log ``aion convert --observed`` wrote (its marker messages start the log's time
+    at the span's start); None, from the logs' own first window: a part map (``aion
+    merge`` fills the time before it from its spans, as far as the maps before it reach) and
+    a continued map whose logs' reach is unknown."""
+    if previous is not None:
+        reach = previous.recording_reach
+        return None if reach is None else reach + 1
+    if part or not declared:
+        return None
+    return min(int(lo) for lo, _ in declared) // delta

@@ -18,22 +18,34 @@ if TYPE_CHECKING:
     from aion_cli.manifest import Manifest
 
 
-def fill_declared_gap(acc: MapState, early: Manifest, part: Manifest) -> int | None:
+def fill_declared_gap(acc: MapState, early: Manifest | None, part: Manifest) -> int | None:
     """Declare observed in ``acc`` (the maps before the part, ``early`` the manifest of the
     latest of them) the windows between them and the part (manifest ``part``) that the part's
     ``observed_spans`` cover: how many; None when it has none to fill with (no spans stored,
-    the maps' recording windows unknown, or no window between them)."""
+    the maps' recording windows unknown, or no window between them). ``early`` None: the
+    part is the merge's first map, and its spans' windows before its logs count from the
+    spans' start, as one build of its logs as a new map counts them
+    (:func:`aion_cli.log_observed.fill_start`)."""
     from aion_cli.fixed_sensor import declared_windows
 
     spans = part.observed_spans
-    reach, first = early.recording_reach, part.counts.get("recording_first")
-    if not spans or reach is None or type(first) is not int or first <= reach + 1:
-        return None
     delta = acc.window_ns
-    gap = declared_windows(spans, [("between", reach + 1, first - 1)], delta)
+    first = part.counts.get("recording_first")
+    if not spans or type(first) is not int:
+        return None
+    if early is None:
+        lo: int | None = min(int(a) for a, _ in spans) // delta
+    else:
+        reach = early.recording_reach
+        lo = None if reach is None else reach + 1
+    if lo is None or first <= lo:
+        return None
+    gap = declared_windows(spans, [("between", lo, first - 1)], delta)
     bounds = (
         np.array([lo for lo, _ in spans], np.int64),
         np.array([hi for _, hi in spans], np.int64),
     )
     acc.observation.add_fixed_windows(gap, delta, bounds)
+    if early is None and gap.size and acc.open_window is None:
+        acc.open_window = int(gap[0])  # the join closes them, as a build's first window
     return int(gap.size)

@@ -307,7 +307,7 @@ def _fold(
         if state.deferred is not None:
             base = acc if acc is not None else MapState.empty(state.config)
             before = base.graph
-            filled = fill_declared_gap(base, maps[k - 1].manifest, m.manifest) if k else None
+            filled = fill_declared_gap(base, maps[k - 1].manifest if k else None, m.manifest)
             acc = _join_part(base, state, m.name, report, joins)
             if m.manifest.graph_source.startswith("file "):  # each part added the file anew
                 acc.graph = file_graph_time(acc.graph, before)

@@ -436,7 +436,7 @@ class _Build(StreamStep):
         observe(
             mapper, tf, frames, graph_agents, logset, self._times, self.report,
             self.opts.observed, self._detection_windows,
-            observed_fill(self.opts, self.previous_manifest),
+            observed_fill(self.opts, self.previous_manifest, mapper.state.window_ns),
             self.opts.observed_marked,
         )
 

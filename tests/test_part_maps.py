@@ -287,9 +287,11 @@ def test_parts_built_with_observed_spans_merge_into_one_build_of_their_logs(
     tmp_path: Path,
 ) -> None:
     """One build with ``--observed`` counts the declared time between its logs as observed
-    and empty (Monday 09:00 to Tuesday 08:00: 23 h, 138 windows). Part maps keep their spans
-    (manifest ``observed_spans``), so their merge fills that time too and equals the build;
-    it said the merge could not, and the merged map held 138 observed windows fewer."""
+    and empty (Monday 09:00 to Tuesday 08:00: 23 h, 138 windows), and the span's time before
+    its first log (Monday 00:00 to 08:00: 48 windows). Part maps keep their spans (manifest
+    ``observed_spans``), so their merge fills that time too and equals the build; it said
+    the merge could not, and the merged map held 138 observed windows fewer (then 48 fewer,
+    the first part's time before its logs, when a build began to count it)."""
     logs = []
     for day in (0, 1):
         path = tmp_path / f"fixed{day}.mcap"

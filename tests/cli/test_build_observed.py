@@ -35,9 +35,10 @@ def test_declared_spans_make_silent_windows_observed_empty(
     mornings: Path, tmp_path: Path
 ) -> None:
     """Messages in two 10-minute windows a day (08:00-08:20): 8 windows observed. Declaring
-    the four days observed makes every window from the first message's to the last one's
-    observed: 3 days and 2 windows = 434 windows (the declared span reaches past the log's
-    time on both sides and is clipped to it)."""
+    the days observed makes every window from the span's start (00:00 on the 22nd, 32 h
+    before the first message) to the last message's observed: 32 h, 3 days and 2 windows =
+    626 windows (the span reaches past the log's last message and is clipped there: a log
+    that continues the map fills from it)."""
     silent = run_json("build", mornings, "-o", tmp_path / "a.aion", "--format", "json")
     assert silent["observation"].startswith("fixed sensor over the 8 windows with messages")
     assert silent["windows"] == 8  # the summary counts the open last window as the flows do
@@ -54,11 +55,11 @@ def test_declared_spans_make_silent_windows_observed_empty(
         "--observed", "2026-11-22 00:00..2026-11-28 00:00",
     )
     assert declared["observation"] == (
-        "fixed sensor over the 434 windows with messages or --observed (434 of the 434 windows "
+        "fixed sensor over the 626 windows with messages or --observed (626 of the 626 windows "
         "of 10 min from the first to the last)"
     )
-    assert declared["windows"] == 434
-    added = "--observed: 426 window(s) without a message"
+    assert declared["windows"] == 626
+    added = "--observed: 618 window(s) without a message"
     assert any(note.startswith(added) for note in declared["notes"])
     assert declared["detections"] == silent["detections"]
     assert not any(note.startswith("the fixed sensor observed") for note in declared["notes"])
@@ -109,12 +110,11 @@ def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> N
     assert report["observation"].startswith("fixed sensor over the 8 windows with messages")
     # the span's 31 days of 10-minute windows lie after the log: none observed, all counted
     assert [n for n in report["notes"] if n.startswith("--observed: ")] == [
-        "--observed: 0 window(s) without a message taken as observed (0 s), within the "
-        "logs' time (the first log's first message to the last log's last, the time between "
-        "the logs included)",
-        "--observed: 4,464 declared window(s) (744.0 h) lie outside the logs' time (before the "
-        "first log's first message or after the last log's last) and stay unknown, not "
-        "empty: a log that continues the map fills the time since the map's last message",
+        "--observed: 0 window(s) without a message taken as observed (0 s), up to the last "
+        "log's last message (the time between the logs included)",
+        "--observed: 4,464 declared window(s) (744.0 h) lie after the last log's last message "
+        "and stay unknown, not empty: a log that continues the map fills the time since the "
+        "map's last message",
     ]
 
 
@@ -127,7 +127,7 @@ def test_a_log_with_declared_spans_is_not_cut_into_time_shards(
     )
     assert "--observed: a log is not cut into time shards (its declared spans count from its " \
         "first message to its last): built in sequence" in report["notes"]
-    assert report["observation"].startswith("fixed sensor over the 434 windows")
+    assert report["observation"].startswith("fixed sensor over the 626 windows")
 
 
 def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Path) -> None:
@@ -147,9 +147,9 @@ def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Pa
     two = run_json("build", *logs, "-o", tmp_path / "two.aion", "--format", "json",
                    "--workers", "2", *span)
     assert len(two["workers"]) == 3
-    # the first file's 08:00 to the last one's 12:20: two days and 26 windows, 12 of them
-    # (4 per file) with messages
-    assert one["observation"].startswith("fixed sensor over the 314 windows")
+    # the span's start (00:00 on the 23rd, 8 h before the first file's 08:00) to the last
+    # file's 12:20: two days and 74 windows, 12 of them (4 per file) with messages
+    assert one["observation"].startswith("fixed sensor over the 362 windows")
     assert read_manifest(tmp_path / "two.aion")["observation"] == one["observation"]
     for at in ("2026-11-26 10:00", "2026-11-26 03:00"):
         a = run_json("predict", tmp_path / "one.aion", "--time", at, "--format", "json")
@@ -158,15 +158,14 @@ def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Pa
             [(e["id"], e["flow"]) for e in b["entries"]]
     # one note of the windows the spans added, the three files' summed, as one pass gives it
     # (the workers' build had listed one note per shard); the span's windows after the last
-    # file (12:20 on the 25th to the 27th) stay unknown
+    # file (12:20 on the 25th to the 27th, 35.7 h) stay unknown
     added = [[n for n in r["notes"] if n.startswith("--observed: ")] for r in (one, two)]
     assert added[0] == added[1] == [
-        "--observed: 302 window(s) without a message taken as observed (50.3 h), within the "
-        "logs' time (the first log's first message to the last log's last, the time between "
-        "the logs included)",
-        "--observed: 262 declared window(s) (43.7 h) lie outside the logs' time (before the "
-        "first log's first message or after the last log's last) and stay unknown, not "
-        "empty: a log that continues the map fills the time since the map's last message",
+        "--observed: 350 window(s) without a message taken as observed (58.3 h), up to the "
+        "last log's last message (the time between the logs included)",
+        "--observed: 214 declared window(s) (35.7 h) lie after the last log's last message "
+        "and stay unknown, not empty: a log that continues the map fills the time since the "
+        "map's last message",
     ]
 
 
@@ -193,9 +192,9 @@ def test_a_continued_map_fills_the_declared_time_since_its_logs_in_parallel_too(
         assert len(report["workers"]) == (2 if workers == "2" else 0)  # 2: one per file
         answers.append(step)
     observations = {read_manifest(p)["observation"] for p in (together, *answers)}
-    # 08:00 on the 23rd to 08:20 on the 25th: two days and two windows
-    assert observations == {"fixed sensor over the 290 windows with messages or --observed "
-                            "(290 of the 290 windows of 10 min from the first to the last)"}
+    # the span's 00:00 on the 23rd to 08:20 on the 25th: two days, 8 h and two windows
+    assert observations == {"fixed sensor over the 338 windows with messages or --observed "
+                            "(338 of the 338 windows of 10 min from the first to the last)"}
     at = "2026-11-26 03:00"
     flows = [[(e["id"], e["flow"]) for e in run_json(
         "predict", p, "--time", at, "--format", "json")["entries"]] for p in (together, *answers)]
@@ -242,7 +241,7 @@ def test_the_python_api_takes_the_same_spans(mornings: Path, tmp_path: Path) -> 
 
     made = aion.build(mornings, tmp_path / "api.aion",
                       observed=[("2026-11-22 00:00", "2026-11-28 00:00")])
-    assert made.report.to_dict()["observation"].startswith("fixed sensor over the 434 windows")
+    assert made.report.to_dict()["observation"].startswith("fixed sensor over the 626 windows")
     with pytest.raises(InputError, match="the end is not after the start"):
         aion.build(mornings, tmp_path / "bad.aion", observed=[("2026-11-24", "2026-11-23")])
 
@@ -250,7 +249,8 @@ def test_the_python_api_takes_the_same_spans(mornings: Path, tmp_path: Path) -> 
 def test_declared_time_between_two_logs_is_observed(tmp_path: Path) -> None:
     """Two sessions of the office log twelve hours apart, in two files, and a span declared
     over the day: the twelve hours between the files count as observed (a tracker recorded
-    in daily files, silent between them), 08:00 to 20:20 = 74 windows; building both at once
+    in daily files, silent between them), and the span's eight hours before the first file,
+    00:00 to 20:20 = 122 windows; building both at once
     equals building one and continuing with the other, which fills from where the map's
     logs stopped (its own two windows and the 70 before them)."""
     morning, evening = tmp_path / "morning.mcap", tmp_path / "evening.mcap"
@@ -259,8 +259,8 @@ def test_declared_time_between_two_logs_is_observed(tmp_path: Path) -> None:
     span = "2026-11-23 00:00..2026-11-24 00:00"
     both = run_json("build", morning, evening, "-o", tmp_path / "both.aion", "--format", "json",
                     "--observed", span)
-    assert both["observation"].startswith("fixed sensor over the 74 windows with messages or "
-                                          "--observed (74 of the 74 windows of 10 min")
+    assert both["observation"].startswith("fixed sensor over the 122 windows with messages "
+                                          "or --observed (122 of the 122 windows of 10 min")
     step = tmp_path / "step.aion"
     run_json("build", morning, "-o", step, "--format", "json", "--observed", span)
     continued = run_json("build", evening, "--map", step, "--format", "json", "--observed", span)

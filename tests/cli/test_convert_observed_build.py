@@ -102,3 +102,30 @@ def test_the_markers_of_two_logs_with_touching_spans_are_each_log_s() -> None:
     b = [100 * s, 130 * s, 160 * s, 190 * s, 200 * s - 1]
     times = np.array([*b, 30 * s, *a], np.int64)  # any order
     assert unmarked_times(times, ((0, 100 * s), (100 * s, 200 * s))).tolist() == [30 * s]
+
+
+def test_a_span_before_the_first_detection_is_observed_by_either_route(tmp_path: Path) -> None:
+    """The span starts at 08:00, the first detection is at 08:10:05 and the last at
+    08:29:34: the window 08:00-08:10 holds no detection but is declared, so both routes
+    observe it, then 08:10-08:20 and 08:20-08:30 to the last message (29/30): 2 + 29/30
+    windows. build --observed had left 08:00-08:10 unknown (1 + 29/30), where the
+    converted log, whose markers start at 08:00, observed it."""
+    late = tmp_path / "late.csv"
+    t0 = 1795421400  # 2026-11-23 08:10 UTC
+    late.write_text("".join(
+        f"{t0 + minute * 60 + 5 + i}.000,{minute + 1},{-10 + i * 0.5:.3f},1.000,0.5,0.0\n"
+        for minute in range(20) for i in range(30)
+    ))
+    span = "2026-11-23 08:00..2026-11-23 08:25"
+    marked, plain = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    convert_atc(late, marked, "--observed", span)
+    convert_atc(late, plain)
+    run_json("build", marked, "-o", tmp_path / "a.aion", "--format", "json")
+    b = run_json("build", plain, "-o", tmp_path / "b.aion", "--observed", span,
+                 "--format", "json")
+    via_convert = observed_windows(tmp_path / "a.aion")
+    via_build = observed_windows(tmp_path / "b.aion")
+    assert via_build.max() == pytest.approx(2 + 29 / 30)
+    assert via_convert.tobytes() == via_build.tobytes()
+    assert any(n.startswith("--observed: 1 window(s) without a message") for n in b["notes"])
+    assert not any("lie " in n for n in b["notes"])  # no declared window left unknown
