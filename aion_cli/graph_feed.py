@@ -59,6 +59,9 @@ PARTIAL_GRAPHS_NOTE = (
     "partial scene-graph update(s) (full_update false) skipped: aion applies whole graphs "
     "only, and the graph stays as it was until the next one"
 )
+NO_GRAPH_NOTES = ("no scene graph: ", "--nav-layer ignored: no scene graph is read")
+"""How the notes of a build that reads no scene graph start (a parallel build's parent leaves
+out a shard's when another shard read one)."""
 
 
 def graph_counts_note(r: BuildReport) -> str | None:
@@ -457,7 +460,7 @@ def graph_source(
             report.notes.append("--derive-graph ignored: the log has scene graphs")
         return None
     if opts.nav_layer is not None:
-        report.notes.append("--nav-layer ignored: no scene graph is read")
+        report.notes.append(NO_GRAPH_NOTES[1])
     if continued_graph:
         report.graph_source = "continued map"
         if opts.derive_graph:
@@ -468,7 +471,7 @@ def graph_source(
         return None
     if not opts.derive_graph:
         report.notes.append(
-            "no scene graph: flows are kept on hash cells (try --graph FILE or --derive-graph)"
+            f"{NO_GRAPH_NOTES[0]}flows are kept on hash cells (try --graph FILE or --derive-graph)"
         )
         return None
     report.graph_source = "derived from walking people"

@@ -26,7 +26,12 @@ from aion_cli.fixed_sensor import (
     observed_note,
     unposed_note,
 )
-from aion_cli.graph_feed import DAMAGED_GRAPHS_NOTE, GRAPH_COUNTS_NOTE, graph_counts_note
+from aion_cli.graph_feed import (
+    DAMAGED_GRAPHS_NOTE,
+    GRAPH_COUNTS_NOTE,
+    NO_GRAPH_NOTES,
+    graph_counts_note,
+)
 from aion_cli.stamp_warnings import FAR_STAMPS, OFF_STAMPS, stamp_warnings
 from aion_cli.tf_feed import NO_TRAJECTORY_NOTE, SILENT_NOTE, silent_note
 
@@ -136,6 +141,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         out.graph_layer = out.graph_layer or p.graph_layer
         out.dsg_version = out.dsg_version or p.dsg_version
         out.graph_period_ns = p.graph_period_ns or out.graph_period_ns
+    if out.graph_source != "none":  # a shard read a graph: the map has it, as one pass's
+        out.notes = [n for n in out.notes if not n.startswith(NO_GRAPH_NOTES)]
     added = [p.observed_added for p in parts if p.observed_added is not None]
     if added:
         delta = next((p.fixed_windows[3] for p in parts if p.fixed_windows is not None), 0)

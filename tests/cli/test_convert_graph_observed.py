@@ -62,3 +62,32 @@ def test_a_log_without_detections_still_gets_its_graph(two: Path, tmp_path: Path
     assert out["g"]["nodes"] == 185
     graph_windows = observed_windows(tmp_path / "g.aion")
     assert graph_windows.tobytes() == observed_windows(tmp_path / "p.aion").tobytes()
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_graph_in_another_log_than_the_detections_is_not_said_missing(
+    two: Path, tmp_path: Path, workers: str
+) -> None:
+    """The people on the 23rd and 24th in one log, the graph in a log of a span the day
+    after with nobody in it: the map has the graph's 185 places, with --workers 2 too, and
+    no note says there is no scene graph (the people's shard, which read none, said it).
+    Two logs without a graph keep the note."""
+    people, span = tmp_path / "people.mcap", tmp_path / "span.mcap"
+    convert_atc(two, people)
+    empty = tmp_path / "none.csv"
+    empty.write_text("")
+    convert_atc(empty, span, "--observed", "2026-11-25 08:00..2026-11-25 08:30",
+                "--graph", str(GRAPH))
+    built = run_json("build", people, span, "-o", tmp_path / "m.aion", "--format", "json",
+                     "--workers", workers)
+    assert built["nodes"] == 185
+    assert len(built["workers"]) == (2 if workers == "2" else 0)
+    assert not [n for n in built["notes"] if "no scene graph" in n]
+    plain = tmp_path / "plain.mcap"
+    convert_atc(empty, plain, "--observed", "2026-11-25 08:00..2026-11-25 08:30")
+    without = run_json("build", people, plain, "-o", tmp_path / "p.aion", "--format", "json",
+                       "--workers", workers)
+    assert without["nodes"] == 0
+    assert [n for n in without["notes"] if n.startswith("no scene graph: ")] == [
+        "no scene graph: flows are kept on hash cells (try --graph FILE or --derive-graph)"
+    ]
