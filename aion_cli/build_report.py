@@ -127,6 +127,8 @@ class BuildReport:
     #: --observed: the windows without a message its spans added (None without --observed;
     #: a parallel build adds its shards' up into one note, ``fixed_sensor.observed_note``)
     observed_added: int | None = None
+    #: --observed: where the windows its spans added begin, when before the first message
+    declared_start_ns: int | None = None
     #: a robot trajectory: its windows without a detection message (None without one; a
     #: parallel build adds its shards' up into one note, ``tf_feed.silent_note``)
     silent_windows: tuple[int, int] | None = None  # (windows, window ns)

@@ -90,6 +90,7 @@ def fixed_sensor_windows(
     out, and returns the report's description of the observation."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
+    from aion_cli.log_observed import declared_start_ns
 
     delta = window_ns(mapper.state.config.window_s)
     recorded = logset.recorded_windows(delta)
@@ -119,6 +120,7 @@ def fixed_sensor_windows(
         notes.append(observed_note(added.size, delta))
         if report is not None:  # a parallel build adds its shards' up
             report.observed_added = int(added.size)
+            report.declared_start_ns = declared_start_ns(added, declared, delta)
         windows = np.union1d(windows, extra)
     within = recording_bounds(logset, times, windows, delta, read)
     lo = np.array([int(a) for a, _ in declared], np.int64)

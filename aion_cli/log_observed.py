@@ -119,3 +119,15 @@ def fill_start(
     if part or not declared:
         return None
     return min(int(lo) for lo, _ in declared) // delta
+
+
+def declared_start_ns(added: I64, declared: Spans, delta: int) -> int | None:
+    """Where the windows of ``delta`` ns without a message that the ``declared`` spans made
+    observed (``added``, sorted) begin: the first one's start, or later where the spans
+    start inside it (a span from 07:05 observes 07:00-07:10 from 07:05); None without any.
+    A build's time span starts there when it is before the first message, as a log ``aion
+    convert --observed`` wrote starts at its first marker, the span's start."""
+    if added.size == 0 or not declared:
+        return None
+    begin = int(added[0]) * delta
+    return max(begin, min(int(lo) for lo, hi in declared if int(hi) > begin))

@@ -460,8 +460,11 @@ class _Build(StreamStep):
     def _span(self) -> None:
         """The map's time span: the first and last message the build used (detections, scene
         graphs, dynamic TF; strays and out-of-range times left out), joined with a continued
-        map's."""
-        self.join_span(self._times.start_ns, self._times.end_ns)
+        map's; a span ``--observed`` declared before the first message starts it there."""
+        start, declared = self._times.start_ns, self.report.declared_start_ns
+        if declared is not None and (start is None or declared < start):
+            start = declared
+        self.join_span(start, self._times.end_ns)
 
     def join_span(self, start: int | None, end: int | None) -> None:
         """The report's span: ``start``..``end`` joined with the continued map's."""

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 import yaml
 
+from aion_cli.formats.mapfile import read_manifest
 from tests.cli.atc_sessions import SPAN, convert_atc, observed_windows, write_two_sessions
-from tests.cli.conftest import run_json
+from tests.cli.conftest import run, run_json
 
 
 @pytest.fixture(scope="module")
@@ -129,3 +130,10 @@ def test_a_span_before_the_first_detection_is_observed_by_either_route(tmp_path:
     assert via_convert.tobytes() == via_build.tobytes()
     assert any(n.startswith("--observed: 1 window(s) without a message") for n in b["notes"])
     assert not any("lie " in n for n in b["notes"])  # no declared window left unknown
+    # the map's time starts at the span's start by either route, so an hour it observed is
+    # not said to lie before its data (it started at the first detection, 08:10:05)
+    starts = {read_manifest(tmp_path / f"{m}.aion")["time_span"]["start_ns"] for m in "ab"}
+    assert starts == {1795420800 * 10**9}
+    at = run("predict", tmp_path / "b.aion", "--time", "2026-11-23 08:05")
+    assert at.exit_code == 0
+    assert "before the map's data" not in at.stderr
