@@ -150,7 +150,7 @@ def tracks_to_log(
     ``hydra_msgs/DsgUpdate`` carrying the whole graph (mesh included) is written with the first
     detection message and again with the first one at least ``graph_period_s`` later, so a
     reader joining late still gets it and the graph marks no time the detections do not
-    (:class:`_Messages`; without detections, once at the middle of the longest span);
+    (:class:`_Messages`; without detections, once at the first span's start);
     ``graph_clock=True`` writes it every ``graph_period_s`` from the first message whatever
     the messages, as a robot's Hydra does (a test's robot log).
     Unknown headings / speeds are marked with the spencer "unset" variance. ``headings=False``
@@ -353,7 +353,7 @@ def _write_tracks(
     away). The rows of a chunk's last message are held back until the next chunk shows it is
     complete, so the messages are those of the concatenated rows. ``nobody``: the chunks hold
     no row (only the ``observed`` spans are marked), so the scene graph goes once, at the
-    middle marker of the longest span (:class:`_Messages`). ``graph_clock``: the graph every
+    first marker, the first span's start (:class:`_Messages`). ``graph_clock``: the graph every
     ``graph_period_s`` from the first message, as a robot's Hydra publishes it."""
     from aion_cli.formats.dsg_files import graph_payload
     from aion_cli.formats.raw import normalize_msgtype
@@ -446,13 +446,14 @@ def _write_tracks(
 
 
 def _lone_graph_ns(spans: list[tuple[int, int]]) -> int | None:
-    """Where a log without detections takes its scene graph: the middle marker of its
-    longest observed span, in a window the span covers whole unless the span is short."""
+    """Where a log without detections takes its scene graph: its first marker, the first
+    span's start, which is the log's own start. A build cuts the log's first window at its
+    start as the span does, so the graph adds no observed time there, whatever the window;
+    inside the log a window holding a message counts whole, and the middle of a span short
+    of two windows (it went there) could lie in a window the span covers in part."""
     if not spans:
         return None
-    longest = max(spans, key=lambda span: span[1] - span[0])
-    stamps = observed_stamps([longest])
-    return int(stamps[len(stamps) // 2])
+    return int(observed_stamps(spans)[0])
 
 
 def _declared_metadata(timezone: str | None, spans: list[tuple[int, int]]) -> dict[str, str]:

@@ -46,8 +46,8 @@ def test_the_graph_convert_adds_observes_no_window(
 
 
 def test_a_log_without_detections_still_gets_its_graph(two: Path, tmp_path: Path) -> None:
-    """Nobody came: the log marks the span only; the graph goes once, at the middle marker
-    of the span (a window the span covers whole). Built with a log of detections, the map
+    """Nobody came: the log marks the span only; the graph goes once, at the first marker
+    of the span, the log's start. Built with a log of detections, the map
     has the graph's places and observes what it does without the graph."""
     empty = tmp_path / "none.csv"
     empty.write_text("")
@@ -91,3 +91,28 @@ def test_a_graph_in_another_log_than_the_detections_is_not_said_missing(
     assert [n for n in without["notes"] if n.startswith("no scene graph: ")] == [
         "no scene graph: flows are kept on hash cells (try --graph FILE or --derive-graph)"
     ]
+
+
+def test_the_lone_graph_observes_no_more_of_a_window_than_its_span(
+    two: Path, tmp_path: Path
+) -> None:
+    """Spans 08:05-08:17 and 09:00-09:05 on the 25th, nobody in them, beside the people's
+    log: 08:00-08:10 is observed from 08:05 (0.5), 08:10-08:20 to 08:17 (0.7), 09:00-09:10 to
+    09:05 (0.5), so 1.7 windows over the people's 4 - 1/30. The graph went to the middle
+    marker of the longest span, 08:11, and made 08:10-08:20, a window inside the log, count
+    whole (2.0); at the log's first marker, 08:05, the log's start cuts its window as the
+    span does."""
+    empty = tmp_path / "none.csv"
+    empty.write_text("")
+    people = tmp_path / "people.mcap"
+    convert_atc(two, people)
+    spans = ("--observed", "2026-11-25 08:05..2026-11-25 08:17",
+             "--observed", "2026-11-25 09:00..2026-11-25 09:05")
+    windows = {}
+    for name, extra in (("g", ("--graph", str(GRAPH))), ("p", ())):
+        convert_atc(empty, tmp_path / f"{name}.mcap", *spans, *extra)
+        run_json("build", people, tmp_path / f"{name}.mcap", "-o", tmp_path / f"{name}.aion",
+                 "--format", "json", "--workers", "1")
+        windows[name] = observed_windows(tmp_path / f"{name}.aion")
+    assert windows["p"].max() == pytest.approx(4 - 1 / 30 + 1.7)
+    assert windows["g"].tobytes() == windows["p"].tobytes()
