@@ -308,6 +308,8 @@ def _fold(
             base = acc if acc is not None else MapState.empty(state.config)
             before = base.graph
             filled = fill_declared_gap(base, maps[k - 1].manifest if k else None, m.manifest)
+            if not k and filled:  # the merged map starts where they do, as one build's
+                report.start_ns = int(base.observation.merged_fixed()[0][0])
             acc = _join_part(base, state, m.name, report, joins)
             if m.manifest.graph_source.startswith("file "):  # each part added the file anew
                 acc.graph = file_graph_time(acc.graph, before)
@@ -395,6 +397,7 @@ def _write(
     from aion_cli.mapquery import state_counts
 
     starts = [m.manifest.start_ns for m in maps if m.manifest.start_ns is not None]
+    starts += [] if report.start_ns is None else [report.start_ns]  # the first part's spans'
     ends = [m.manifest.end_ns for m in maps if m.manifest.end_ns is not None]
     report.start_ns = min(starts) if starts else None
     report.end_ns = max(ends) if ends else None

@@ -306,6 +306,9 @@ def test_parts_built_with_observed_spans_merge_into_one_build_of_their_logs(
     whole, merged = load_map(one), load_map(tmp_path / "m.aion")
     assert differences(whole.state, merged.state) == []
     assert merged.manifest["counts"] == whole.manifest["counts"]
+    # both start at the span's start, 00:00 (the merge had started at the first log's 08:00)
+    assert merged.manifest["time_span"]["start_ns"] == whole.manifest["time_span"]["start_ns"]
+    assert whole.manifest["time_span"]["start_ns"] == 1795392000 * 10**9
     # the later part built without --observed has no spans to fill with: the note says so
     assert run("build", logs[1], "--part", "-o", parts[1], "-q").exit_code == 0
     report = json.loads(run("merge", *parts, "-o", tmp_path / "m.aion", "--format", "json").stdout)
