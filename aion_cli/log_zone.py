@@ -69,3 +69,31 @@ def build_zone(
         "aion simulate or convert --tz): the map's days and hours follow it (give --tz to choose "
         "another)"
     ], []
+
+
+def held_out_zone_warnings(map_zone: str, logs: Sequence[Path]) -> list[str]:
+    """A warning per zone the held-out ``logs`` declare that is not the map's (``aion
+    evaluate holdout``): the people in them keep another zone's hours than the map learnt,
+    so its daily rhythm and hour-of-day profile are judged hours off."""
+    from aion_cli.errors import AionError
+    from aion_cli.formats.log_zone import declared_zones
+    from aion_cli.timeparse import resolve_zone
+
+    try:
+        ours = resolve_zone(map_zone).name
+    except AionError:
+        return []
+    others: dict[str, list[str]] = {}
+    for path, text in declared_zones(logs).items():
+        try:
+            zone = resolve_zone(text).name
+        except AionError:
+            continue  # a zone this machine does not know: as if none were declared
+        if zone != ours:
+            others.setdefault(zone, []).append(Path(path).name)
+    return [
+        f"{', '.join(files)} declare{'s' if len(files) == 1 else ''} the time zone {zone} "
+        f"(written by aion simulate or convert --tz), but the map follows {ours}: the scene's "
+        "hours are judged against the map's, off wherever the two zones' clocks differ"
+        for zone, files in sorted(others.items())
+    ]

@@ -27,7 +27,8 @@ per model:
 A test log that overlaps the map's own data in time is scored all the same, with a warning:
 the map has seen those detections (the scores are in-sample); so is one before the map's
 data, with a warning that the map learnt from later logs. One none of whose detections lies
-within ``radius`` of a map entry (another place, or another frame) is scored with a warning.
+within ``radius`` of a map entry (another place, or another frame) is scored with a warning,
+and so is one that declares another time zone than the map's (``aion simulate --tz``).
 """
 
 from __future__ import annotations
@@ -127,6 +128,7 @@ def score_held_out(
 ) -> HoldoutResult:
     """:func:`run_holdout` for a map already loaded (or built in memory)."""
     from aion_cli.held_out import read_held_out
+    from aion_cli.log_zone import held_out_zone_warnings
 
     radius = association_radius(radius)
     say = progress or (lambda _msg: None)
@@ -137,6 +139,7 @@ def score_held_out(
     result.test = _test_summary(held, state)
     result.notes = _notes(held, loaded.manifest, state.config.sensor_range)
     result.warnings = list(held.report.warnings) + _time_warnings(held, loaded.manifest)
+    result.warnings += held_out_zone_warnings(state.config.timezone, opts.logs)
     recorded = loaded.manifest.get("map_frame")
     if isinstance(recorded, str) and recorded != opts.map_frame:  # --map-frame said so
         result.notes.insert(0, (
