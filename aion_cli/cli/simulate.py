@@ -74,7 +74,7 @@ def _summary(results: list[SceneResult]) -> None:
             f"wrote {safe(r.log)}: {m['detections']:,} detections in "
             f"{m['messages']['detections']:,} "
             f"messages, {m['messages']['scene_graph']:,} scene graphs, {m['messages']['tf']:,} "
-            f"TF; {ev}; truth {r.truth_npz.name}",
+            f"TF; {ev}; truth {safe(r.truth_npz)}",
             soft_wrap=True,
         )
         empty = _empty_scene(m)
