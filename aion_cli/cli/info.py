@@ -52,7 +52,9 @@ to 'map']} (aion_cli.frame_check: a build would need --map-frame), tf_roots{fram
 at the top of its TF tree, for those frames that TF knows (the --map-frame to build in when
 map->odom is missing)},
 observed_spans{log: [{start_ns, end_ns, start, end}]} (the spans aion convert --observed
-recorded in a log, which aion build takes as --observed spans), mapping_example (without a
+recorded in a log, which aion build takes as --observed spans), declared_zones{log: zone} (the
+time zone aion simulate or convert --tz wrote into a log, which aion build follows without
+--tz), mapping_example (without a
 detection topic: a topic --suggest-mapping writes a mapping for, or null), with --verify
 verified{messages_read} (every message read as a build reads them; chunks that cannot be read
 are warnings naming the messages lost).
@@ -411,6 +413,13 @@ def _print(report: dict[str, Any]) -> None:
             f"observing (aion convert --observed): {listed}; `aion build` takes them as "
             "--observed spans (a window only the log's empty marker messages hold counts for "
             "the share they cover) unless --observed is given",
+            soft_wrap=True,
+        )
+    for path, zone in (report.get("declared_zones") or {}).items():
+        console().print(
+            f"[yellow]note:[/yellow] {safe(Path(path).name)} declares the time zone "
+            f"{safe(zone)} (aion simulate or convert --tz): `aion build` follows it unless "
+            "--tz is given",
             soft_wrap=True,
         )
     warn_each(list(report["warnings"]))

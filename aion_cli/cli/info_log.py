@@ -28,6 +28,7 @@ def describe(
     read (damaged, CRC failures) are warnings with the messages lost, as a build's are, and
     ``verified.messages_read`` counts the messages read."""
     from aion_cli.build_report import NoProgress
+    from aion_cli.formats.log_zone import declared_zones
     from aion_cli.formats.logs import open_logs
     from aion_cli.formats.summary import summarize
     from aion_cli.message_hours import fixed_sensor_windows
@@ -57,6 +58,7 @@ def describe(
         if plan.detections and not plan.tf and _no_graph_robot(firsts):
             report["fixed_sensor"] = fixed_sensor_windows(logset, tz)
         report["observed_spans"] = _recorded_spans(distinct.logs)
+        report["declared_zones"] = declared_zones(list(distinct.logs))
         if plan.detections:
             add_frames(report, logset, plan, mappings, not _no_graph_robot(firsts))
             report["warnings"] += _overlaps(logset, plan.names("detections"))
