@@ -339,6 +339,18 @@ def holdout(
       aion evaluate holdout site.aion wednesday.mcap
       aion evaluate holdout site.aion wednesday.mcap --format json > wednesday.json
       aion evaluate holdout site.aion wednesday.mcap --png wednesday.png
+
+    Headings: NLL (matched) over the detections within --radius of a map entry, NLL (all)
+    with the unmatched ones scored as a uniform heading (log 2pi = 1.838), chi-square the
+    mean distance between observed and forecast histograms per 1 m cell and window (lower
+    is better; docs/EVALUATION.md defines each). Activity: Spearman of the hours' rates,
+    Poisson deviance and MAE of the hours' counts.
+    JSON keys: test{detections, with_heading, windows, fixed_sensor_windows, robot_windows,
+    window_s, timezone, start_ns, end_ns, observation, detection_topics},
+    headings[{model, detections, matched, unmatched, nll_matched, nll_all, chi_square}],
+    activity[{model, spearman, poisson_deviance, mae}], hours (each hour's start in the
+    map's zone), hourly_series{truth, aion, aion static, hour-of-day profile} (per hour),
+    notes, warnings (null where a figure has no value: the table's -).
     """
     from aion_cli.build_options import BuildOptions, map_frame_of
     from aion_cli.cli.build import observed_spans
