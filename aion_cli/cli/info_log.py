@@ -136,7 +136,26 @@ def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
         refuse_service_events(info.topic, info.msgtype)
         refuse_not_people(logset, info)  # TF, a scene graph, images, point clouds
         store = logset.typestore(info.topic, info.msgtype, info.encoding)
-        return suggest_mapping(info.topic, info.msgtype, store)
+        return suggest_mapping(info.topic, info.msgtype, store, _sample(logset, info.topic))
+
+
+#: messages ``--suggest-mapping`` decodes to tell ids that number a message's items
+_SAMPLE = 20
+
+
+def _sample(logset: Any, topic: str) -> list[Any]:
+    """The topic's first few decoded messages (fewer when some do not decode)."""
+    from itertools import islice
+
+    from aion_cli.errors import InputError
+
+    out = []
+    for raw in islice(logset.messages({topic}), _SAMPLE):
+        try:
+            out.append(logset.decode(raw))
+        except (InputError, ValueError):
+            continue
+    return out
 
 
 @dataclass(frozen=True)

@@ -213,7 +213,13 @@ def _numbered_namespaces(markers: Any) -> set[str]:
     ids: dict[str, list[int]] = {}
     for mk in markers:
         ids.setdefault(mk.ns, []).append(int(mk.id))
-    return {ns for ns, got in ids.items() if sorted(got) == list(range(len(got)))}
+    return {ns for ns, got in ids.items() if is_numbering(got)}
+
+
+def is_numbering(ids: list[int]) -> bool:
+    """Whether the ids of one message (one namespace) are 0, 1, ..., k-1 in any order: they
+    count the message's items, not people (see :class:`MarkerExtractor`)."""
+    return sorted(ids) == list(range(len(ids)))
 
 
 class ZedExtractor:

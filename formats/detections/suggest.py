@@ -17,7 +17,8 @@ named as a candidate:
   (turtlesim's ``Pose``) as ``position = ["x", "y"]``, and a number named like a yaw
   (``theta``, ``yaw``, ``heading``) as ``yaw``;
 - **id**: an integer, string or UUID field named like an id (``track_id``, ``id``, ``uuid``,
-  ``object_id``, ``name``, ...);
+  ``object_id``, ``name``, ...), unless the topic's first messages number their elements
+  0..k-1 with it (:func:`counts_items`, the build's rule for MarkerArray ids);
 - **velocity** as a number per axis: an element's ``vx, vy[, vz]`` (or ``vel_x``, ...) as
   ``velocity = ["vx", "vy"]``, when no vector is named like a velocity;
 - **stamp / frame**: the message's ``header`` (the defaults), a per-item ``header``
@@ -356,10 +357,40 @@ def refuse_service_events(topic: str, msgtype: str) -> None:
         )
 
 
-def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
+def counts_items(sample: list[Any], array: str, id_path: str) -> bool:
+    """Whether ``id_path`` of the ``array`` elements numbers them 0, 1, ..., k-1 in every
+    message of ``sample`` that has elements (per ``ns`` when the elements have one, as
+    the build's MarkerArray reader takes it: :func:`.builtin.is_numbering`): ids that count
+    a message's items rather than name people. False without such a message, or when a
+    path does not read."""
+    from aion_cli.formats.detections.builtin import is_numbering
+    from aion_cli.formats.detections.paths import FieldPath
+
+    get = FieldPath.parse(id_path).get
+    seen = False
+    for msg in sample:
+        groups: dict[str, list[int]] = {}
+        try:
+            for item in getattr(msg, array):
+                value = get(item)
+                if not isinstance(value, int):
+                    return False
+                groups.setdefault(str(getattr(item, "ns", "")), []).append(value)
+        except (ConfigError, AttributeError, TypeError):
+            return False
+        if groups and not all(is_numbering(ids) for ids in groups.values()):
+            return False
+        seen = seen or bool(groups)
+    return seen
+
+
+def suggest_mapping(
+    topic: str, msgtype: str, store: Typestore, sample: list[Any] | None = None
+) -> str:
     """A TOML mapping for ``topic`` carrying ``msgtype`` as ``store`` defines it (see the
     module docstring); :class:`ConfigError` when the type holds nothing usable as a
-    position."""
+    position. ``sample``: a few decoded messages of the topic; when the chosen id numbers
+    the elements of each (:func:`counts_items`), no id is suggested."""
     name = normalize_msgtype(msgtype)
     if name not in store.fielddefs:
         raise ConfigError(f"{topic}: the log has no definition of {name}")
@@ -431,7 +462,12 @@ def suggest_mapping(topic: str, msgtype: str, store: Typestore) -> str:
         lines.append(_line("orientation", found.quat[0], comment))
     else:
         lines.append("# orientation: no candidate")
-    if ids:
+    if ids and array and sample and counts_items(sample, array, ids[0]):
+        lines.append(
+            f"# id: none ({_comment(ids[0])!s} numbers each message's {_comment(array)} "
+            "0..k-1: no track id; detections are linked into tracks)"
+        )
+    elif ids:
         lines.append(_line("id", ids[0], _others(ids[0], ids) or "track id"))
     else:
         lines.append("# id: no candidate (detections are linked into tracks)")

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.cli.conftest import map_cells, run_json
+from tests.cli.conftest import map_cells, run, run_json
 from tests.shared_data import real
 
 MARKERS = "/visualization_marker_array"
@@ -40,3 +40,45 @@ def test_numbered_markers_make_the_map_of_the_poses_they_draw(name: str, tmp_pat
     for a, b in zip(_cells(tmp_path / "markers.aion"), _cells(tmp_path / "poses.aion"),
                     strict=True):  # fmt: skip
         np.testing.assert_array_equal(a, b)
+
+
+def _marker_bag(path: Path, ids: tuple[int, int]) -> Path:
+    """A MarkerArray on /people_markers: two SPHEREs per message with the ids ``ids``, one
+    walking +x from (0, 0), one -x from (10, 5), 0.5 m per second, for 10 seconds."""
+    from aion_cli.formats.writers import LogWriter
+
+    t0 = 1_700_000_400 * 1_000_000_000
+    with LogWriter(path, "bag") as w:
+        for k in range(10):
+            t = t0 + k * 1_000_000_000
+            stamp = {"sec": t // 1_000_000_000, "nanosec": 0}
+            markers = [
+                {"header": {"stamp": stamp, "frame_id": "map"}, "ns": "people", "id": i,
+                 "type": 2, "pose": {"position": {"x": x, "y": y},
+                                     "orientation": {"w": 1.0}}}
+                for i, x, y in ((ids[0], 0.5 * k, 0.0), (ids[1], 10.0 - 0.5 * k, 5.0))
+            ]  # fmt: skip
+            w.write("/people_markers", "visualization_msgs/msg/MarkerArray",
+                    {"markers": markers}, t)  # fmt: skip
+    return path
+
+
+def test_suggest_mapping_offers_no_id_that_numbers_the_markers(tmp_path: Path) -> None:
+    """--suggest-mapping read only the type and offered ``id = "id"  # track id`` for the
+    leg_tracker markers, whose ids the build takes for numbers (0..k-1 in every message);
+    it now looks at the first messages and says why it offers no id. Markers whose ids are
+    no count (4 and 9 in every message) still get the id."""
+    from aion_cli.formats.detections.mapping import load_mapping
+
+    suggested = run("info", real("logs", "leg_tracker", "positive_1_extracted.bag"),
+                    "--suggest-mapping", MARKERS)  # fmt: skip
+    assert suggested.exit_code == 0, suggested.stderr
+    assert not any(line.startswith("id =") for line in suggested.stdout.splitlines())
+    assert "# id: none (id numbers each message's markers 0..k-1" in suggested.stdout
+    mapping = tmp_path / "markers.toml"
+    mapping.write_text(suggested.stdout)
+    assert load_mapping(mapping)[0].topic == MARKERS  # still a loadable mapping
+    for ids, offered in (((0, 1), False), ((4, 9), True)):
+        log = _marker_bag(tmp_path / f"m{ids[0]}.bag", ids)
+        text = run("info", log, "--suggest-mapping", "/people_markers").stdout
+        assert ('id = "id"' in text) is offered, text
