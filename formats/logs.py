@@ -290,12 +290,12 @@ class LogSet:
         there costs a few chunks, not the files up to there."""
         return all(source.skips_by_time() for source in self._sources)
 
-    def index_times(self, topics: Iterable[str]) -> StreamTimes | None:
+    def index_times(self, topics: Iterable[str], vouch: bool = True) -> StreamTimes | None:
         """The log times :meth:`messages` would yield on ``topics``, in its order, read from
         the containers' indexes without the messages (:mod:`formats.stream_times`), or None
         when one file's index cannot say exactly that. Each reader then vouches for the
         chunks whose times came from their index alone: reading one of them later fails with
-        :class:`~aion_cli.errors.StaleIndexError` (a damaged chunk only reading shows)."""
+        :class:`~aion_cli.errors.StaleIndexError` (unless ``vouch`` is False: ``aion info``)."""
         if self._closed:
             raise ValueError("index_times() on a closed LogSet")
         from aion_cli.formats import stream_times
@@ -308,7 +308,7 @@ class LogSet:
                 return None
             parts.append(part)
         found = stream_times.merged(parts)
-        if found is not None:
+        if found is not None and vouch:
             for source, part in zip(self._sources, parts, strict=True):
                 source.vouch(part.chunks)
         return found

@@ -32,6 +32,7 @@ from aion_cli.formats.sqlite_salvage import (
 
 if TYPE_CHECKING:
     from aion_cli.formats.recorded import Windows
+    from aion_cli.formats.stream_times import StreamTimes
 
 
 class _ReindexedSqliteSource(_Source):
@@ -125,6 +126,22 @@ class _ReindexedSqliteSource(_Source):
         if not wanted:
             return iter(())
         return _storage_messages(self, self._storages, wanted, None, between)
+
+    def index_times(self, topics: set[str]) -> StreamTimes | None:
+        """The log times :meth:`messages` would yield on ``topics``, from each storage file's
+        ``timestamp`` column (:func:`formats.stream_times.storage_times`); None when a
+        payload is zstd-compressed (the stream decompresses those and skips one that expands
+        over the cap)."""
+        wanted = _wanted_types(self.topics, topics)
+        for storage in self._storages:
+            found = storage.dbconn.execute(
+                "SELECT 1 FROM messages WHERE substr(data,1,4)=x'28b52ffd' LIMIT 1"
+            ).fetchone()
+            if found is not None:
+                return None
+        from aion_cli.formats.stream_times import storage_times
+
+        return storage_times(self._storages, wanted, self._limits.max_message_bytes)
 
     def skips_by_time(self) -> bool:
         """Its storage files select a time range themselves (sqlite3: a query)."""

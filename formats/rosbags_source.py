@@ -282,21 +282,7 @@ class _RosbagsSource(_Source):
         if not isinstance(storages, list) or self._reader.compression_mode == "message":
             return None
         wanted = _wanted_types(self.topics, topics)
-        parts = []
-        for storage in storages:
-            conns = [
-                c for c in storage.connections if (c.topic, normalize_msgtype(c.msgtype)) in wanted
-            ]
-            if not conns:
-                continue
-            db = getattr(storage, "dbconn", None)
-            if db is None:
-                return None
-            t, ids, sizes = stream_times.sqlite_times(db, [c.id for c in conns])
-            if (sizes > self._limits.max_message_bytes).any():
-                return None
-            parts.append(stream_times.from_channels(t, ids, {c.id: c.topic for c in conns}, _NO))
-        return stream_times.merged(parts) if parts else stream_times.empty()
+        return stream_times.storage_times(storages, wanted, self._limits.max_message_bytes)
 
     def _chunk_room(self, pos: int) -> int:
         """The most bytes the records of the bag chunk at ``pos`` may take."""

@@ -134,6 +134,32 @@ def bag_index(
     return flat[order, 0], cids[order], flat[order, 1]
 
 
+def storage_times(
+    storages: list[Any], wanted: Mapping[tuple[str, str], Any], max_bytes: int
+) -> StreamTimes | None:
+    """The log times of rosbag2 sqlite3 storage readers' (rosbags') messages of the ``wanted``
+    (topic, normalised type) pairs, merged as the rosbag2 sources yield them, from each file's
+    ``timestamp`` column (:func:`sqlite_times`); None for a storage that is no sqlite3 file,
+    or a payload over ``max_bytes``."""
+    from aion_cli.formats.raw import normalize_msgtype
+
+    parts = []
+    for storage in storages:
+        conns = [
+            c for c in storage.connections if (c.topic, normalize_msgtype(c.msgtype)) in wanted
+        ]
+        if not conns:
+            continue
+        db = getattr(storage, "dbconn", None)
+        if db is None:
+            return None
+        t, ids, sizes = sqlite_times(db, [c.id for c in conns])
+        if (sizes > max_bytes).any():
+            return None
+        parts.append(from_channels(t, ids, {c.id: c.topic for c in conns}, frozenset()))
+    return merged(parts) if parts else empty()
+
+
 def sqlite_times(
     connection: Any, topic_ids: Sequence[int]
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:

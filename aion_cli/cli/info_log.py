@@ -42,6 +42,7 @@ def describe(
     with open_logs(distinct.logs, log_format, allow_empty=True) as logset:
         read = sum(1 for _ in logset.messages(None)) if verify else None  # warns as it reads
         summary = summarize(logset, [m.msgtype for m in mappings])
+        _leave_out_strays(summary, logset)
         plan = select_topics(logset.topics, mappings=mappings)
         _check_mappings(logset, plan)
         refine_reasons(logset, plan)  # no mapping offered for a type without a position
@@ -82,6 +83,19 @@ def describe(
     if not plan.detections:
         report["mapping_example"] = example
     return report
+
+
+def _leave_out_strays(summary: Any, logset: Any) -> None:
+    """``summary``'s span without the stray log times ``aion build`` drops, and one warning
+    naming them (:func:`aion_cli.log_span.span_without_strays`)."""
+    from aion_cli.log_span import span_without_strays
+
+    check = span_without_strays(logset)
+    if check is None:
+        return
+    summary.start_ns, summary.end_ns = check.start_ns, check.end_ns
+    summary.recorded_ns = min(summary.recorded_ns, check.end_ns - check.start_ns)
+    summary.warnings.append(check.warning())
 
 
 def _overlaps(logset: Any, topics: set[str]) -> list[str]:

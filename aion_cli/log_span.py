@@ -1,0 +1,67 @@
+"""The time span ``aion info`` shows, without the stray log times ``aion build`` drops.
+
+Why: one message with a damaged log time (a rosbag2 sqlite3 ``timestamp`` 100 days late) made
+``info`` show a log of seconds as 100 days long, without a word, while ``build`` drops that
+message by its time check (:mod:`aion_cli.log_times`: a run of at most ten messages more
+than a day from its topic's others). :func:`span_without_strays` applies the same rule
+(:meth:`~aion_cli.log_times.TopicTimes.check`, over every topic but static transforms, as the
+build's span leaves those out) to the log times the containers' indexes give, so ``info``
+shows the span the build will have and names the strays in one warning.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from aion_cli.engine.types import I64
+from aion_cli.engine.windows import iso
+
+
+@dataclass(frozen=True)
+class SpanCheck:
+    """The first and last kept log time, and the stray log times per topic (sorted)."""
+
+    start_ns: int
+    end_ns: int
+    strays: dict[str, I64]
+
+    def warning(self) -> str:
+        """One line naming every stray (topic, count, first time) and the span shown."""
+        named = "; ".join(
+            f"{t.size:,} on {topic} (first: {iso(int(t[0]))})"
+            for topic, t in sorted(self.strays.items())
+        )
+        return (
+            f"stray log time(s) left out of the span shown ({iso(self.start_ns)} .. "
+            f"{iso(self.end_ns)}): {named}: more than a day away from the topic's other "
+            "messages; aion build drops them (docs/ROBUSTNESS.md, time sanity)"
+        )
+
+
+def span_without_strays(logset: Any) -> SpanCheck | None:
+    """The span of ``logset``'s messages without the strays the build's time check drops,
+    from the log times in the containers' indexes (no message read, nothing vouched for);
+    None when there is no stray, or when an index cannot give the times."""
+    from aion_cli.log_times import TopicTimes, in_range_mask
+
+    topics = {t.topic for t in logset.topics}
+    indexed = logset.index_times(topics, vouch=False) if topics else None
+    if indexed is None:
+        return None
+    span = {t for t in topics if not t.rstrip("/").endswith("tf_static")}
+    times = TopicTimes(topics)
+    times.add_stream(indexed)
+    checked = times.check(span, list(logset.recording_times().values()))
+    if not checked.strays:
+        return None
+    kept = [checked.span_times]
+    for topic in topics - span:  # static transforms: all their (representable) times
+        t = indexed.of(topic)
+        kept.append(t[in_range_mask(t)].astype(np.int64))
+    joined = np.concatenate(kept)
+    if joined.size == 0:
+        return None
+    return SpanCheck(int(joined.min()), int(joined.max()), checked.strays)

@@ -1,0 +1,63 @@
+"""``aion info`` shows the span the build will have: a message whose log time is damaged (a
+run of at most ten messages more than a day from its topic's others, the build's stray rule,
+:mod:`aion_cli.log_times`) is left out of the span shown and named in one warning. Before,
+one sqlite3 ``timestamp`` 100 days late made a 6.4-second bag show as 100 days long, without
+a word, while ``build`` dropped that message."""
+
+from __future__ import annotations
+
+import shutil
+import sqlite3
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import run_json
+from tests.shared_data import real
+
+S = 1_000_000_000
+DAYS_100 = 100 * 86_400 * S
+T0 = 1_700_000_000 * S
+
+
+def test_a_damaged_sqlite3_timestamp_does_not_widen_the_span(tmp_path: Path) -> None:
+    """rosbag2's own reindex test bag (three sqlite3 files, no metadata.yaml), one row's
+    timestamp moved 100 days on: the span is the undamaged bag's, and the stray is named."""
+    source = real("logs", "rosbag2_tests", "rosbag2_py_sqlite3_reindex_test_bags_multiple_files")
+    intact = run_json("info", source, "--format", "json")
+    copy = tmp_path / "bag"
+    shutil.copytree(source, copy)
+    with sqlite3.connect(copy / "multiple_files_1.db3") as db:
+        (stamp,) = db.execute("SELECT timestamp FROM messages WHERE id = 4").fetchone()
+        db.execute("UPDATE messages SET timestamp = ? WHERE id = 4", (stamp + DAYS_100,))
+    damaged = run_json("info", copy, "--format", "json")
+    assert damaged["messages"] == intact["messages"]
+    assert (damaged["start_ns"], damaged["end_ns"], damaged["span_s"]) == (
+        intact["start_ns"], intact["end_ns"], intact["span_s"]
+    )
+    strays = [w for w in damaged["warnings"] if "stray log time" in w]
+    assert len(strays) == 1
+    assert "1 on /chatter" in strays[0]
+    assert len(damaged["warnings"]) == len(intact["warnings"]) + 1
+
+
+@pytest.mark.parametrize("container", ["bag", "mcap", "rosbag2-sqlite3"])
+def test_a_stray_log_time_is_left_out_of_the_span_in_every_container(
+    container: str, tmp_path: Path
+) -> None:
+    """30 messages one a second on /chatter and /people_count, and one /chatter message
+    100 days later: the span is 29 s, the stray named; a second stray-free log is untouched."""
+    from aion_cli.formats.writers import LogWriter
+
+    path = tmp_path / ("log.bag" if container == "bag" else "log.mcap" if container == "mcap"
+                       else "log")  # fmt: skip
+    with LogWriter(path, container) as w:
+        for k in range(30):
+            w.write("/chatter", "std_msgs/msg/String", {"data": f"m{k}"}, T0 + k * S)
+            w.write("/people_count", "std_msgs/msg/Int32", {"data": k}, T0 + k * S)
+        w.write("/chatter", "std_msgs/msg/String", {"data": "late"}, T0 + DAYS_100)
+    info = run_json("info", path, "--format", "json")
+    assert (info["start_ns"], info["end_ns"]) == (T0, T0 + 29 * S)
+    assert info["span_s"] == 29.0
+    (warning,) = [w for w in info["warnings"] if "stray log time" in w]
+    assert "1 on /chatter (first: 2024-02-22 22:13:20 UTC)" in warning, warning
