@@ -41,6 +41,10 @@ class LogFile:
     start_ns: int
     end_ns: int
     message_count: int
+    compression: tuple[str, ...] = ()
+    """How its data is compressed, from its index or summary (no data decompressed): its
+    chunks' compressions (``none``, ``bz2``, ``lz4``, ``zstd``; several when they differ),
+    and a rosbag2 bag's own ``zstd (file)`` / ``zstd (message)``; empty when unknown."""
 
 
 @dataclass
@@ -139,7 +143,9 @@ class _Unpacked(_Source):
             fmt = f.format
             if fmt.startswith("mcap") and ".mcap" in path.name:
                 fmt = "rosbag2-mcap"  # *.mcap.zstd: rosbag2's whole-file compression
-            f = replace(f, path=path, format=fmt, size_bytes=path.stat().st_size)
+            inner_chunks = tuple(c for c in f.compression if c not in ("none", "zstd (file)"))
+            f = replace(f, path=path, format=fmt, size_bytes=path.stat().st_size,
+                        compression=("zstd (file)", *inner_chunks))  # fmt: skip
         self.file = f
 
     def owns(self, source: _Source) -> None:

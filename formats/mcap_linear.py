@@ -63,6 +63,8 @@ class _McapLinearRead(_Source):
     _scanned_channels: npt.NDArray[np.uint16] | None
     _later_min: npt.NDArray[np.int64] | None
     _chunk_indexes: list[Any] | None
+    _chunk_kinds: set[str]
+    _unzstd: bool
     _steps: ScanSteps | None
     _profile: str
     _pending_big: list[tuple[int, int, int]] | None
@@ -199,6 +201,8 @@ class _McapLinearRead(_Source):
             return None
         try:
             head = mr.read_chunk_head(f, offset, self._size)
+            if scanning:
+                self._chunk_kinds.add(head.compression or "none")
             buf = mr.read_chunk(f, head, self._limits, _decompress)
             if scanning:
                 return self._chunk_definitions(buf, offset)
@@ -327,6 +331,21 @@ class _McapLinearRead(_Source):
         return times, channels
 
     # -- warnings --------------------------------------------------------------------------
+
+    def _compression(self) -> tuple[str, ...]:
+        """The chunks' compressions (``zstd``, ``lz4``, ``none``) from the summary's chunk
+        indexes, or from the chunk records a linear scan met (``none`` without a chunk), and
+        ``zstd (message)`` for a rosbag2 bag's compressed payloads."""
+        found = (
+            {c.compression or "none" for c in self._chunk_indexes}
+            if self._chunk_indexes is not None
+            else set(self._chunk_kinds)
+        )
+        if not found:
+            found = {"none"}  # no chunk: an unchunked (or empty) file
+        if self._unzstd:  # chunks of compressed payloads: the payloads' compression says it
+            return (*sorted(found - {"none"}), "zstd (message)")
+        return tuple(sorted(found))
 
     def _check_end(self, f: IO[bytes], start: int) -> None:
         """Warn when the MCAP whose records go on from byte ``start`` (its DataEnd, or its

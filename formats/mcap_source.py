@@ -85,6 +85,7 @@ class _McapSource(_McapIndexed):
         # the mcap library reads the summary section (its errors: McapError)
         self._errors: tuple[type[BaseException], ...] = (McapError, *_MCAP_READ_ERRORS)
         self._chunk_indexes: list[Any] | None = None
+        self._chunk_kinds: set[str] = set()  # chunk compressions a linear scan met
         # read chunk after chunk in time order: indexed chunks that do not overlap in time
         self._by_chunk = False
         # chunks that cannot be read (offset -> why) and their message counts per channel
@@ -211,7 +212,9 @@ class _McapSource(_McapIndexed):
         else:
             fmt = "mcap-ros2"
         total = sum(counts.values())
-        self.file = LogFile(path, fmt, self._size, start if total else 0, end, total)
+        self.file = LogFile(
+            path, fmt, self._size, start if total else 0, end, total, self._compression()
+        )
 
     # -- opening ---------------------------------------------------------------------------
 

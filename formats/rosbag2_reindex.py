@@ -11,6 +11,7 @@ the metadata ``ros2 bag reindex`` would write for them.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Iterator
 from operator import attrgetter
 from pathlib import Path
@@ -113,7 +114,18 @@ class _ReindexedSqliteSource(_Source):
         start = min((f[1] for f in with_messages), default=0)
         end = max((f[2] for f in with_messages), default=0)
         size = sum(o.stat().st_size for o in originals)
-        self.file = LogFile(path, "rosbag2-sqlite3", size, start, end, total)
+        # zstd payloads (a bag recorded with message compression): found by their magic
+        # bytes; None: unknown (a damaged file the query fails on)
+        self._zstd: bool | None = None
+        with contextlib.suppress(Exception):  # apsw / sqlite3 errors on a damaged file
+            self._zstd = any(
+                storage.dbconn.execute(
+                    "SELECT 1 FROM messages WHERE substr(data,1,4)=x'28b52ffd' LIMIT 1"
+                ).fetchone()
+                for storage in self._storages
+            )
+        packed = () if self._zstd is None else ("zstd (message)",) if self._zstd else ("none",)
+        self.file = LogFile(path, "rosbag2-sqlite3", size, start, end, total, packed)
 
     def messages(
         self,
@@ -132,13 +144,9 @@ class _ReindexedSqliteSource(_Source):
         ``timestamp`` column (:func:`formats.stream_times.storage_times`); None when a
         payload is zstd-compressed (the stream decompresses those and skips one that expands
         over the cap)."""
+        if self._zstd is not False:
+            return None
         wanted = _wanted_types(self.topics, topics)
-        for storage in self._storages:
-            found = storage.dbconn.execute(
-                "SELECT 1 FROM messages WHERE substr(data,1,4)=x'28b52ffd' LIMIT 1"
-            ).fetchone()
-            if found is not None:
-                return None
         from aion_cli.formats.stream_times import storage_times
 
         return storage_times(self._storages, wanted, self._limits.max_message_bytes)

@@ -114,7 +114,18 @@ class _RosbagsSource(_Source):
         total = sum(t.count for t in self.topics.values())
         start = start if total else 0
         end = max(end - 1, start) if total else 0  # rosbags' end is exclusive
-        self.file = LogFile(path, fmt_name, size, start, end, total)
+        self.file = LogFile(path, fmt_name, size, start, end, total, self._compression(kind))
+
+    def _compression(self, kind: str) -> tuple[str, ...]:
+        """A bag's chunk compressions (``none``, ``bz2``, ``lz4``), from the chunk headers
+        read at open; a rosbag2 bag's metadata.yaml ``compression_format`` and
+        ``compression_mode`` (``zstd (file)``), or ``none``."""
+        reader = self._reader
+        if kind == "bag":
+            return tuple(sorted({c for c, _ in reader.chunk_meta.values()}))
+        fmt = reader.compression_format
+        mode = str(reader.compression_mode or "file").lower()
+        return (f"{fmt} ({mode})",) if fmt else ("none",)
 
     def _count_storages(self, storages: list[Any], reader: Any) -> tuple[int, int]:
         """Message counts per topic and the time range (end exclusive) of a rosbag2 folder

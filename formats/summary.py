@@ -103,6 +103,8 @@ class FileSummary:
     message_count: int
     start_ns: int
     end_ns: int
+    compression: tuple[str, ...] = ()
+    """:attr:`formats.log_source.LogFile.compression` (empty: unknown)."""
 
     def to_dict(self) -> dict[str, Any]:
         """Its times are None without messages (the readers' 0 is no time: 1970-01-01)."""
@@ -114,6 +116,7 @@ class FileSummary:
             "messages": self.message_count,
             "start_ns": self.start_ns if held else None,
             "end_ns": self.end_ns if held else None,
+            "compression": list(self.compression),
         }
 
 
@@ -138,6 +141,11 @@ class LogSummary:
     def formats(self) -> list[str]:
         """Container formats of the files, each once, in file order."""
         return list(dict.fromkeys(f.format for f in self.files))
+
+    @property
+    def compression(self) -> list[str]:
+        """The files' compressions, each once, in file order."""
+        return list(dict.fromkeys(c for f in self.files for c in f.compression))
 
     @property
     def span_s(self) -> float:
@@ -175,6 +183,7 @@ class LogSummary:
             "formats": self.formats,
             "files": [f.to_dict() for f in self.files],
             "size_bytes": self.size_bytes,
+            "compression": self.compression,
             "start_ns": self.start_ns if held else None,
             "end_ns": self.end_ns if held else None,
             "start": _iso(self.start_ns) if held else None,
@@ -225,7 +234,10 @@ def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSum
     ]  # fmt: skip
     topics.sort(key=lambda t: t.topic)
     files = [
-        FileSummary(str(f.path), f.format, f.size_bytes, f.message_count, f.start_ns, f.end_ns)
+        FileSummary(
+            str(f.path), f.format, f.size_bytes, f.message_count, f.start_ns, f.end_ns,
+            f.compression,
+        )
         for f in logset.files
     ]
     return LogSummary(

@@ -33,9 +33,12 @@ MarkerArray) are used only from topics whose name suggests people; `why` says wh
 is used or skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping
 (not for TF, a scene graph or raw sensor data: the error lists the topics that look like
 detections).
-JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns}],
-size_bytes, start_ns, end_ns, start, end (times null without messages), span_s (first to last
-message, the time between logs included; duration_s is the same), recorded_s (how long the logs
+JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns,
+compression}], size_bytes, compression (each file's: its chunks' none / bz2 / lz4 / zstd, from
+the index or summary, and a rosbag2 bag's zstd (file) / zstd (message); [] unknown), start_ns,
+end_ns, start, end (times null without messages; a stray log time the build drops left out: a
+warning names it), span_s (first to last message, the time between logs included; duration_s
+is the same), recorded_s (how long the logs
 recorded: each log's span, one rosbag2 bag's files joined, overlaps once), recordings (logs with
 messages), messages,
 topics[{topic, type, count, role, encoding, rate_hz, used, why, readable}] (every topic, also
@@ -299,6 +302,7 @@ def _print(report: dict[str, Any]) -> None:
     out.print(
         f"[bold]{names}[/bold]  format: {safe(report['format'] or '?')}  "
         f"size: {human_size(report['size_bytes'])}  "
+        f"compression: {safe(', '.join(report['compression']) or '?')}  "
         f"{times}  "
         f"messages: {messages}",
         soft_wrap=True,

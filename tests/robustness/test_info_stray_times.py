@@ -33,7 +33,9 @@ def test_a_damaged_sqlite3_timestamp_does_not_widen_the_span(tmp_path: Path) -> 
     damaged = run_json("info", copy, "--format", "json")
     assert damaged["messages"] == intact["messages"]
     assert (damaged["start_ns"], damaged["end_ns"], damaged["span_s"]) == (
-        intact["start_ns"], intact["end_ns"], intact["span_s"]
+        intact["start_ns"],
+        intact["end_ns"],
+        intact["span_s"],
     )
     strays = [w for w in damaged["warnings"] if "stray log time" in w]
     assert len(strays) == 1
