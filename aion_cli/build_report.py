@@ -154,7 +154,7 @@ class BuildReport:
         from aion_cli.number_text import counted
 
         return (
-            f"<BuildReport {self.output}: {self.detections_used:,} of "
+            f"<aion.BuildReport {self.output}: {self.detections_used:,} of "
             f"{counted(self.detections_read, 'detection')} used from "
             f"{counted(len(self.inputs), 'log')}; {counted(self.nodes, 'node')}, "
             f"{counted(self.cells, 'cell')}, {counted(self.windows, 'window')}; "

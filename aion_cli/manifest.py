@@ -92,7 +92,7 @@ class Manifest:
             for k in ("used", "nodes", "cells")
         )
         return (
-            f"<Manifest: {span}; {counted(used, 'detection')} used from "
+            f"<aion.Manifest: {span}; {counted(used, 'detection')} used from "
             f"{counted(len(self.inputs), 'log')}; {counted(nodes, 'node')}, "
             f"{counted(cells, 'cell')}>"
         )

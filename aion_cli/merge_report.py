@@ -65,7 +65,7 @@ class MergeReport:
         from aion_cli.number_text import counted
 
         return (
-            f"<MergeReport {self.output}: {counted(len(self.inputs), 'map')} merged, lineage "
+            f"<aion.MergeReport {self.output}: {counted(len(self.inputs), 'map')} merged, lineage "
             f"{self.lineage}; {counted(self.detections, 'detection')} from "
             f"{counted(self.logs, 'log')}; {counted(self.nodes, 'node')}, "
             f"{counted(self.cells, 'cell')}, {counted(self.windows, 'window')}; "

@@ -46,6 +46,18 @@ class CompactReport:
     left_out: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
+    def __repr__(self) -> str:
+        """What the compaction did in one line, in the ``<aion.… >`` form of the other API
+        objects: the map written, from which map, the bytes before and after, the entries."""
+        from aion_cli.number_text import counted
+
+        return (
+            f"<aion.CompactReport {self.output} from {self.source}: {self.source_bytes:,} -> "
+            f"{self.map_bytes:,} bytes; {self.entries:,} "
+            f"entr{'y' if self.entries == 1 else 'ies'}; "
+            f"{counted(len(self.notes), 'note')}>"
+        )
+
     def to_dict(self) -> dict[str, Any]:
         ratio = self.source_bytes / self.map_bytes if self.map_bytes else None
         return {

@@ -70,7 +70,7 @@ def test_a_build_report_s_repr_is_one_line(example: dict[str, Any]) -> None:
     assert "\n" not in text
     assert report.inputs[0]["sha256"] not in text
     used, read = doc["detections"]["used"], doc["detections"]["read"]
-    assert text.startswith(f"<BuildReport {doc['map']}: {used:,} of {read:,} detections used")
+    assert text.startswith(f"<aion.BuildReport {doc['map']}: {used:,} of {read:,} detections used")
     assert f"from 1 log; {doc['nodes']:,} nodes, {doc['cells']:,} cells" in text
     assert f"{doc['windows']:,} windows" in text
 

@@ -104,12 +104,22 @@ def test_the_merge_and_compact_examples_run(tmp_path: Path) -> None:
     # its repr is one line (before: every input map's path, size and sha256)
     doc = scope["week"].report.to_dict()
     assert re.fullmatch(
-        f"<MergeReport week.aion: 2 maps merged, lineage same; {doc['detections']:,} "
+        f"<aion.MergeReport week.aion: 2 maps merged, lineage same; {doc['detections']:,} "
         f"detections from 2 logs; {doc['nodes']:,} nodes?, {doc['cells']:,} cells?, "
         f"{doc['windows']:,} windows?; {len(doc['notes'])} notes?, 0 warnings>",
         repr(scope["week"].report),
     )
     assert (tmp_path / "week-robot.aion").stat().st_size < (tmp_path / "week.aion").stat().st_size
+    # every report reads in the <aion.… > form of a Map's, a Table's and a Plan's repr (before:
+    # <BuildReport …>, <MergeReport …> and the compact report's whole dataclass)
+    compacted = scope["robot"].report.to_dict()
+    assert repr(scope["robot"].report) == (
+        f"<aion.CompactReport week-robot.aion from week.aion: {compacted['source_bytes']:,} "
+        f"-> {compacted['map_bytes']:,} bytes; {compacted['entries']:,} entries; "
+        f"{len(compacted['notes'])} note{'' if len(compacted['notes']) == 1 else 's'}>"
+    )
+    assert repr(scope["robot"]).startswith("<aion.Map ")
+    assert repr(scope["robot"].manifest).startswith("<aion.Manifest: ")
 
 
 def test_the_readme_python_example_runs(tmp_path: Path) -> None:

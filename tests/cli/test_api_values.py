@@ -126,7 +126,7 @@ def test_a_manifest_s_repr_is_one_line(m: aion.Map, sample_map: Path) -> None:
     text = repr(m.manifest)
     assert "\n" not in text
     assert m.manifest.inputs[0].sha256 not in text
-    assert text.startswith("<Manifest: 2026-01-05 00:00:00+00:00 .. 2026-01-09 23:59:59")
+    assert text.startswith("<aion.Manifest: 2026-01-05 00:00:00+00:00 .. 2026-01-09 23:59:59")
     assert f"; {counts['used']:,} detections used from 1 log; " in text
     assert text.endswith(f"; {counts['nodes']:,} nodes, {counts['cells']:,} cells>")
 
