@@ -214,7 +214,8 @@ def draw_topdown(
     room outlines already computed (:func:`room_outlines`); default: made here; ``arrows``:
     the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry)."""
     from matplotlib.collections import LineCollection
-    from matplotlib.ticker import MaxNLocator
+
+    from aion_cli.pictures.ticks import FittingLocator
 
     scale = flow_scale if flow_scale is not None and flow_scale > 0 else arrow_scale([scene]).flow
     box = extent or scene_extent([scene], paths)
@@ -308,8 +309,9 @@ def draw_topdown(
     ax.set_ylim(box.y0, box.y1)
     ax.set_aspect("equal", adjustable="box")
     # matplotlib's default keeps two x ticks at least: a map along y, drawn a third of an
-    # inch wide, ran "-2.5", "0.0" and "2.5" into one another; one tick where one fits
-    ax.xaxis.set_major_locator(MaxNLocator("auto", steps=[1, 2, 2.5, 5, 10], min_n_ticks=1))
+    # inch wide, ran "-2.5", "0.0" and "2.5" into one another: one tick where one fits; and
+    # as many as their labels fit: six-digit UTM-like labels ran together in a series' panels
+    ax.xaxis.set_major_locator(FittingLocator())
     # the map's own coordinates on the ticks: matplotlib's offset notation drew a corridor at
     # x = 200 km as "0 ... 30" with "+2e5" in a corner, easily read as the map's x
     ax.ticklabel_format(axis="both", style="plain", useOffset=False)

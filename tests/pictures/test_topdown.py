@@ -354,3 +354,25 @@ def test_the_x_tick_labels_of_a_narrow_map_do_not_run_together() -> None:
     boxes = sorted((t.get_window_extent() for t in labels), key=lambda b: b.x0)
     for left, right in pairwise(boxes):
         assert left.x1 <= right.x0, [t.get_text() for t in labels]
+
+
+def test_six_digit_x_tick_labels_of_small_panels_do_not_run_together() -> None:
+    """A 100 m square map at UTM-like coordinates (x = 400 000 m), nine times in one picture:
+    each panel's six x tick labels ("400000", "400020", ... "400100") ran into one another.
+    The labels still read the map's own coordinates (no "+4e5" offset), fewer of them."""
+    xs, ys = np.meshgrid(np.arange(0.0, 100.0, 2.0), np.arange(0.0, 100.0, 2.0))
+    xy = np.column_stack([xs.ravel() + 400_000.0, ys.ravel() + 5_000_000.0])
+    scene = cells_only_scene(xy, np.ones(len(xy)))
+    fig = topdown_figure([scene] * 9, ["t"] * 9, dpi=DPI)
+    fig.canvas.draw()
+    boxes = []
+    for ax in [a for a in fig.axes if a.get_title() == "t"]:
+        lo, hi = ax.get_xlim()
+        labels = [t for t in ax.get_xticklabels()
+                  if t.get_visible() and t.get_text() and lo <= t.get_position()[0] <= hi]
+        assert all(float(t.get_text()) >= 400_000 for t in labels)  # the map's own x
+        assert ax.xaxis.get_offset_text().get_text() == ""
+        boxes += [t.get_window_extent() for t in labels]
+    assert boxes
+    for k, box in enumerate(boxes):  # none overlaps another, in its panel or the next
+        assert not any(box.overlaps(other) for other in boxes[k + 1 :])
