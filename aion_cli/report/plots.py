@@ -34,6 +34,8 @@ NO_HEADING_ROSE = "no heading:\npeople standing\nstill or untracked"
 """The text of the rose of an entry with flow but no direction (its histogram is empty)."""
 ROSE_TITLE_CHARS = 34
 """The longest room name a rose's title shows (about the rose's width at 9 points)."""
+RING_LABEL_LIFT_PT = 6.0
+"""How far (points) a rose's outer ring label is moved out, clear of the circle."""
 
 
 def plain(text: object) -> str:
@@ -324,9 +326,13 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
         ax.set_ylim(0.0, float(rings[-1]))
         ax.set_yticks(rings)
         ax.set_yticklabels([f"{100 * r:.0f} %" for r in rings])
-        ax.set_rlabel_position(22.5)
-        for label in ax.get_yticklabels():
+        ax.set_rlabel_position(67.5)
+        labels = ax.get_yticklabels()
+        for label in labels:
             label.set_bbox({"facecolor": "white", "edgecolor": "none", "alpha": 0.7, "pad": 0.5})
+        # the outer ring's label ("100 %") sat on the circle, crossed by it and the bins'
+        # grid lines: lifted clear of it (up and outward, along the labels' 67.5 degrees)
+        labels[-1].set_transform(labels[-1].get_transform() + _outer_lift(fig))
         ax.tick_params(labelsize=7)
         # the room on a line of its own, shortened to the rose's width: on one line a long
         # room name ran into the next rose's title and past the picture's edges
@@ -336,6 +342,16 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
     fig.supxlabel("rings: share of the place's headings in that direction (same scale on "
                   "every rose)", fontsize=8)
     return _save(fig, path)
+
+
+def _outer_lift(fig: Any) -> Any:
+    """The shift (outward along 67.5 degrees) that takes a rose's outer ring label
+    clear of the circle it labels."""
+    from matplotlib.transforms import ScaledTranslation
+
+    lift = RING_LABEL_LIFT_PT / 72.0
+    return ScaledTranslation(lift * np.cos(np.radians(67.5)), lift * np.sin(np.radians(67.5)),
+                             fig.dpi_scale_trans)
 
 
 def share_rings(top: float) -> Any:

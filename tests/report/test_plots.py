@@ -265,3 +265,34 @@ def test_roses_share_one_radial_scale_labelled_in_shares(tmp_path: Path, drawn: 
 ])
 def test_share_rings_are_round_and_reach_the_longest_bar(top: float, rings: list[float]) -> None:
     assert plots.share_rings(top).tolist() == pytest.approx(rings)
+
+
+@pytest.mark.parametrize("bins", [6, 8, 16])
+def test_a_roses_ring_labels_stay_apart_and_the_outer_one_clear_of_the_circle(
+    tmp_path: Path, drawn: list[Any], bins: int
+) -> None:
+    """The ring labels ran along 22.5 degrees, each into the next ("20 %" under "40 %", read
+    as "40" over "%"), and the outer one ("100 %") sat on the circle, crossed by it and the
+    grid lines. They stand one above the next, and the outer label is wholly outside the
+    circle (every corner of its box further from the centre than the circle's radius)."""
+    from aion_cli.report.content import Busiest
+
+    hist = [1.0] + [0.0] * (bins - 1)  # one way: rings 20 % .. 100 %
+    record = {"id": "p1", "kind": "node", "flow": 5.0, "direction_deg": 0.0,
+              "concentration": 1.0, "histogram": hist}
+    plots.roses_png([Busiest(record, "", "static")], bins, tmp_path / "r.png")
+    fig = drawn[-1]
+    fig.canvas.draw()
+    (ax,) = fig.axes
+    renderer = fig.canvas.get_renderer()
+    labels = [t for t in ax.get_yticklabels() if t.get_visible() and t.get_text()]
+    assert [t.get_text() for t in labels] == ["20 %", "40 %", "60 %", "80 %", "100 %"]
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    for k, box in enumerate(boxes):
+        assert not any(box.overlaps(other) for other in boxes[k + 1 :]), labels[k].get_text()
+    centre = ax.transData.transform((0.0, 0.0))
+    radius = np.hypot(*(ax.transData.transform((0.0, ax.get_ylim()[1])) - centre))
+    outer = boxes[-1]
+    corners = np.array([[outer.x0, outer.y0], [outer.x0, outer.y1],
+                        [outer.x1, outer.y0], [outer.x1, outer.y1]])
+    assert np.hypot(*(corners - centre).T).min() > radius
