@@ -9,7 +9,7 @@ Layouts (``../shared/data/README.md``):
 - ``thor``: THÖR, the same columns with time from 0; ``start_ns`` shifts it to an absolute time.
 - ``eth`` / ``ucy``: whitespace-separated ``frame ped_id x y`` (the common ETH/UCY text format:
   25 fps frame numbers, a sample every 10 frames = 2.5 Hz); heading and speed are estimated by
-  differencing each track (central where possible).
+  differencing each track (central where possible) as linked tracks are (:func:`differenced`).
 
 Files are parsed with ``np.loadtxt`` (C speed: ATC's ~500k rows in well under a second). Only
 when that fails is the file re-scanned line by line, to name the first bad line exactly. The
@@ -30,7 +30,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.engine.tracking import difference_tracks
+from aion_cli.engine.tracking import difference_linked, difference_tracks
 from aion_cli.engine.types import F64, I64, DetectionBatch
 from aion_cli.formats.track_types import (
     LAYOUTS,
@@ -455,12 +455,14 @@ def read_eth(
 
 
 def differenced(t_ns: I64, xyz: F64, track_id: I64) -> DetectionBatch:
-    """The time-sorted detections of tracks with headings and speeds by
-    :func:`finite_difference`, where a row repeating an earlier row's time and track id
+    """The time-sorted detections of tracks with headings and speeds by the id-less linker's
+    rule (:func:`aion_cli.engine.tracking.difference_linked`: displacements of at least its
+    ``min_step``, so a person standing in position noise has no heading, as a linked track's
+    has none), where a row repeating an earlier row's time and track id
     (:func:`formats.track_types.repeated_rows`, left out when written) is no neighbour."""
     batch = DetectionBatch.from_arrays(t_ns, xyz, track_id=track_id)
     keep = ~repeated_rows(batch)[0]
-    batch.heading[keep], batch.speed[keep] = finite_difference(
+    batch.heading[keep], batch.speed[keep] = difference_linked(
         t_ns[keep], track_id[keep], xyz[keep, :2]
     )
     return batch.sorted_by_time()

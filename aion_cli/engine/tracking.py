@@ -22,9 +22,11 @@ steps, both pure numpy/scipy:
    walker does not turn into a random direction. A detection with no such point within
    ``heading_span_s`` either way (a standing person) has no heading (NaN); its speed is the
    plain neighbour difference (small, noisy), NaN for a single-detection track.
-   With ``min_step = 0`` this is the plain neighbour difference of ``formats.track_csv``
-   (``finite_difference`` is this function). It lives in :mod:`aion_cli.engine.differencing`
-   and is re-exported here.
+   :func:`difference_linked` is this rule with the linker's parameters, which
+   ``formats.track_csv`` also gives the tracks of files without a direction column. With
+   ``min_step = 0`` it is the plain neighbour difference (``finite_difference`` there).
+   :func:`difference_tracks` lives in :mod:`aion_cli.engine.differencing` and is re-exported
+   here.
 
 Rows whose position is NaN or infinite take no part: ``track_id`` -1, heading and speed NaN.
 Outputs are aligned with the input rows whatever their order.
@@ -146,11 +148,22 @@ def link_tracks(
     rows = rows[np.argsort(t[rows], kind="stable")]
     ts, ps = t[rows], p[rows]
     ids = TrackLinker(cfg).link(ts, ps)  # the build's linker: one association for both
-    h, s = difference_tracks(
-        ts, ids, ps, min_step=cfg.min_step, max_span_ns=round(cfg.heading_span_s * 1e9)
-    )
+    h, s = difference_linked(ts, ids, ps, cfg)
     track_id[rows], heading[rows], speed[rows] = ids, h, s
     return TrackLinks(track_id, heading, speed)
+
+
+def difference_linked(
+    t_ns: I64, track_id: I64, xy: F64, config: LinkerConfig | None = None
+) -> tuple[F64, F64]:
+    """Heading and speed per row by the linker's own rule (:func:`difference_tracks` with
+    ``config``'s ``min_step`` and ``heading_span_s``): what :func:`link_tracks` gives its
+    tracks, and what files with their own track ids but no direction (ETH/UCY, Edinburgh)
+    get, so that a person standing in sensor noise has no heading in either."""
+    cfg = config or LinkerConfig()
+    return difference_tracks(
+        t_ns, track_id, xy, min_step=cfg.min_step, max_span_ns=round(cfg.heading_span_s * 1e9)
+    )
 
 
 def _frames(t_sorted: I64) -> tuple[list[int], list[int], list[int]]:
